@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Set up wbik in ./.venv: system packages (PyKDL, Chromium) where we can install them,
+# then the pinned Python dependencies and the package itself (editable).
+# Idempotent: a second run only checks.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+PY=${PYTHON:-python3.11}
+command -v "$PY" >/dev/null || PY=python3
+
+apt_install() {
+    # PyKDL (orocos KDL's own binding) exists only as a Debian package; Chromium is for the viewer test.
+    local missing=()
+    for pkg in "$@"; do dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg"); done
+    [ ${#missing[@]} -eq 0 ] && return 0
+    if [ "$(id -u)" -eq 0 ] && command -v apt-get >/dev/null; then
+        echo "setup: apt-get install ${missing[*]}"
+        apt-get update -qq >/dev/null
+        DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${missing[@]}" >/dev/null
+    else
+        echo "setup: cannot install ${missing[*]} (needs root and apt-get)." >&2
+        echo "setup: run 'sudo apt-get install ${missing[*]}'; the 'kdl' method and the browser test need them." >&2
+    fi
+}
+apt_install python3-pykdl chromium chromium-driver
+
+if [ ! -x .venv/bin/python ]; then
+    "$PY" -m venv .venv
+fi
+.venv/bin/python -m pip install -q --upgrade pip >/dev/null
+.venv/bin/python -m pip install -q -c requirements.lock -e ".[dev]"
+
+# Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
+# /usr/lib/python3/dist-packages: a shim folder holding only PyKDL, added through a .pth file.
+site=$(.venv/bin/python -c "import sysconfig; print(sysconfig.get_paths()['purelib'])")
+kdl_so=$(ls /usr/lib/python3/dist-packages/PyKDL*.so 2>/dev/null | head -n 1 || true)
+if [ -n "$kdl_so" ]; then
+    mkdir -p .venv/pykdl-shim
+    ln -sf "$kdl_so" .venv/pykdl-shim/
+    echo "$(pwd)/.venv/pykdl-shim" > "$site/wbik-pykdl.pth"
+fi
+.venv/bin/python -c "import wbik; print('setup: wbik', wbik.__version__, 'ready in .venv')"

@@ -1,0 +1,188 @@
+"""Denavit-Hartenberg tables -> URDF text -> Pinocchio model.
+
+Conventions (q is the joint variable, ``theta`` and ``d`` in a row are offsets):
+
+- standard (distal): A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)
+- modified (proximal, Craig): A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)
+
+with theta_i = theta + q for a revolute joint and d_i = d + q for a prismatic one. The chain is
+T = base * A_1 ... A_n * tool. Because Rz(q) commutes with Tz(d) (and Tz(q) with Tz(d)), every
+A_i splits as Pre_i * J(q) * Post_i with the joint motion J about/along z, which is exactly a URDF
+joint whose origin is Post_{i-1} Pre_i and whose axis is z:
+
+- standard: Pre = Rz(theta) Tz(d), Post = Tx(a) Rx(alpha)
+- modified: Pre = Rx(alpha) Tx(a) Rz(theta) Tz(d), Post = I
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import RobotDescriptionError
+
+Convention = Literal["standard", "modified"]
+JointType = Literal["revolute", "prismatic"]
+
+
+def rot_x(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+
+
+def rot_z(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+
+
+def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
+    matrix = np.eye(4)
+    matrix[:3, 3] = (x, y, z)
+    return matrix
+
+
+@dataclass(frozen=True)
+class DHJoint:
+    """One row of a DH table. Lengths in metres, angles in radians."""
+
+    a: float
+    alpha: float
+    d: float
+    theta: float = 0.0
+    type: JointType = "revolute"
+    lower: float = -math.pi
+    upper: float = math.pi
+    velocity: float = 1.0
+    effort: float = 10.0
+    name: str | None = None
+
+    def pre(self, convention: Convention) -> np.ndarray:
+        if convention == "standard":
+            return rot_z(self.theta) @ trans(z=self.d)
+        return rot_x(self.alpha) @ trans(x=self.a) @ rot_z(self.theta) @ trans(z=self.d)
+
+    def post(self, convention: Convention) -> np.ndarray:
+        if convention == "standard":
+            return trans(x=self.a) @ rot_x(self.alpha)
+        return np.eye(4)
+
+    def motion(self, q: float) -> np.ndarray:
+        return rot_z(q) if self.type == "revolute" else trans(z=q)
+
+
+@dataclass
+class DHTable:
+    """A serial chain as a DH table, with optional fixed base and tool transforms (4x4)."""
+
+    joints: Sequence[DHJoint]
+    convention: Convention = "standard"
+    base: np.ndarray = field(default_factory=lambda: np.eye(4))
+    tool: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        if self.convention not in ("standard", "modified"):
+            raise RobotDescriptionError(
+                f"DH convention must be 'standard' or 'modified', got {self.convention!r}")
+        if not self.joints:
+            raise RobotDescriptionError("a DH table needs at least one joint")
+        for index, joint in enumerate(self.joints):
+            if joint.type not in ("revolute", "prismatic"):
+                raise RobotDescriptionError(
+                    f"joint {index}: type must be 'revolute' or 'prismatic', got {joint.type!r}")
+            if not joint.lower <= joint.upper:
+                raise RobotDescriptionError(
+                    f"joint {index}: lower limit {joint.lower} is above upper limit {joint.upper}")
+        self.base = np.asarray(self.base, dtype=float)
+        self.tool = np.asarray(self.tool, dtype=float)
+
+    def joint_names(self, prefix: str = "") -> list[str]:
+        return [joint.name or f"{prefix}joint{i + 1}" for i, joint in enumerate(self.joints)]
+
+    def transform(self, q: Sequence[float]) -> np.ndarray:
+        """Base-to-tool 4x4 for joint values q, multiplied out row by row."""
+        if len(q) != len(self.joints):
+            raise RobotDescriptionError(f"expected {len(self.joints)} joint values, got {len(q)}")
+        total = self.base.copy()
+        for joint, value in zip(self.joints, q, strict=True):
+            total = total @ joint.pre(self.convention) @ joint.motion(value) @ joint.post(self.convention)
+        return total @ self.tool
+
+    def urdf_elements(self, parent_link: str, prefix: str = "", tip_link: str = "tool",
+                      link_mass: float = 0.1) -> str:
+        """URDF <link>/<joint> elements of this chain hanging from ``parent_link``.
+
+        Links are ``{prefix}link1..n`` and the tool link ``{prefix}{tip_link}``, fixed to the last
+        link by ``Post_n * tool``. Use it to assemble trees (several chains on one body).
+        """
+        names = self.joint_names(prefix)
+        parts: list[str] = []
+        carry = self.base
+        parent = parent_link
+        for index, (joint, name) in enumerate(zip(self.joints, names, strict=True)):
+            child = f"{prefix}link{index + 1}"
+            parts.append(link_xml(child, link_mass))
+            parts.append(joint_xml(name, joint.type, parent, child, carry @ joint.pre(self.convention),
+                                   limits=(joint.lower, joint.upper, joint.velocity, joint.effort)))
+            carry = joint.post(self.convention)
+            parent = child
+        tool_link = f"{prefix}{tip_link}"
+        parts.append(link_xml(tool_link, 0.0))
+        parts.append(joint_xml(f"{prefix}{tip_link}_fixed", "fixed", parent, tool_link, carry @ self.tool))
+        return "\n".join(parts)
+
+    def urdf(self, name: str = "dh_robot", base_link: str = "base_link", tip_link: str = "tool",
+             link_mass: float = 0.1) -> str:
+        """A complete URDF document of this chain."""
+        body = link_xml(base_link, 0.0) + "\n" + self.urdf_elements(base_link, "", tip_link, link_mass)
+        return urdf_document(name, body)
+
+    def model(self, base_link: str = "base_link", tip_link: str = "tool") -> pin.Model:
+        """The Pinocchio model of this chain (built from the URDF text)."""
+        return pin.buildModelFromXML(self.urdf(base_link=base_link, tip_link=tip_link))
+
+
+def _fmt(value: float) -> str:
+    return repr(float(value))
+
+
+def origin_xml(transform: np.ndarray) -> str:
+    """<origin> of a 4x4 transform; URDF rpy is R = Rz(yaw) Ry(pitch) Rx(roll), as pin.rpy."""
+    xyz = transform[:3, 3]
+    rpy = pin.rpy.matrixToRpy(transform[:3, :3])
+    return (f'<origin xyz="{_fmt(xyz[0])} {_fmt(xyz[1])} {_fmt(xyz[2])}" '
+            f'rpy="{_fmt(rpy[0])} {_fmt(rpy[1])} {_fmt(rpy[2])}"/>')
+
+
+def link_xml(name: str, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
+             inertia_diagonal: Sequence[float] | None = None) -> str:
+    """A <link>; with mass > 0 it carries an inertial (a small solid by default)."""
+    if mass <= 0.0:
+        return f'<link name="{name}"/>'
+    ixx, iyy, izz = inertia_diagonal or (mass * 1e-4,) * 3
+    return (f'<link name="{name}"><inertial><origin xyz="{_fmt(com[0])} {_fmt(com[1])} {_fmt(com[2])}"/>'
+            f'<mass value="{_fmt(mass)}"/><inertia ixx="{_fmt(ixx)}" ixy="0" ixz="0" iyy="{_fmt(iyy)}" '
+            f'iyz="0" izz="{_fmt(izz)}"/></inertial></link>')
+
+
+def joint_xml(name: str, kind: str, parent: str, child: str, origin: np.ndarray,
+              axis: Sequence[float] = (0.0, 0.0, 1.0),
+              limits: tuple[float, float, float, float] | None = None) -> str:
+    """A <joint>; ``limits`` = (lower, upper, velocity, effort) for revolute/prismatic joints."""
+    xml = [f'<joint name="{name}" type="{kind}">', f'<parent link="{parent}"/>',
+           f'<child link="{child}"/>', origin_xml(origin)]
+    if kind != "fixed":
+        xml.append(f'<axis xyz="{_fmt(axis[0])} {_fmt(axis[1])} {_fmt(axis[2])}"/>')
+        lower, upper, velocity, effort = limits or (-math.pi, math.pi, 1.0, 10.0)
+        xml.append(f'<limit lower="{_fmt(lower)}" upper="{_fmt(upper)}" velocity="{_fmt(velocity)}" '
+                   f'effort="{_fmt(effort)}"/>')
+    xml.append("</joint>")
+    return "".join(xml)
+
+
+def urdf_document(name: str, body: str) -> str:
+    return f'<?xml version="1.0"?>\n<robot name="{name}">\n{body}\n</robot>\n'

@@ -1,0 +1,50 @@
+"""The 3-DOF articulated arm of seed 001 (Newton-Raphson course project).
+
+Standard DH (arm3r.md): a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0). Lengths are
+parameters (default 3, 2, 2 as in the worked example; the seed gives no unit, we read metres).
+The seed has no joint limits; we use +-pi on every joint.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.dh import DHJoint, DHTable
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+
+DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
+
+
+def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
+    l1, l2, l3 = lengths
+    return DHTable([
+        DHJoint(a=0.0, alpha=math.pi / 2, d=l1, name="joint1"),
+        DHJoint(a=l2, alpha=0.0, d=0.0, name="joint2"),
+        DHJoint(a=l3, alpha=0.0, d=0.0, name="joint3"),
+    ])
+
+
+def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
+    lengths = tuple(float(v) for v in lengths)
+    if len(lengths) != 3 or min(lengths) <= 0:
+        from wbik.errors import RobotDescriptionError
+
+        raise RobotDescriptionError(f"arm3r needs three positive link lengths, got {lengths}")
+    table = dh_table(lengths)
+    text = table.urdf(name="arm3r", base_link="base_link", tip_link="tip")
+    chain = ChainSpec("arm", "base_link", "tip", ("joint1", "joint2", "joint3"),
+                      "base to end point (position-only IK: 3 joints, 3 coordinates)")
+    name = "arm3r" if lengths == DEFAULT_LENGTHS else "arm3r-" + "-".join(f"{v:g}" for v in lengths)
+    robot = robot_from_urdf_text(name, text, [chain], nominal=np.full(3, math.pi / 2),
+                                 info={"lengths": lengths, "dh": table})
+    return robot
+
+
+def start_configuration() -> np.ndarray:
+    """The seed's start, theta = (pi/2, pi/2, pi/2), giving P0 = (0, -l3, l1 + l2)."""
+    return np.full(3, math.pi / 2)
+
+
+__all__ = ["DEFAULT_LENGTHS", "build", "dh_table", "start_configuration", "Robot"]

@@ -1,0 +1,46 @@
+"""PhantomX Pincher 4-DOF arm (seed 004), built from its standard DH table.
+
+pincher.md: alpha = (-90, 0, 0, 0) deg, a = (0, 105, 105, 95) mm, d = (137, 0, 0, 0) mm,
+theta offsets (0, -90, 0, 0) deg; the tool frame "noa" adds the fixed rotation
+E = [[0,0,1],[-1,0,0],[0,-1,0]] after link 4. Limits +-150 deg on every joint. SI units here
+(metres, radians); the seed's millimetres and degrees stay at the edges.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.dh import DHJoint, DHTable
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+
+BASE_HEIGHT = 0.137
+LINK = 0.105
+WRIST_TO_TOOL = 0.095
+LIMIT = math.radians(150.0)
+AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
+TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+
+
+def dh_table() -> DHTable:
+    def row(a, alpha, d, theta, name):
+        return DHJoint(a=a, alpha=alpha, d=d, theta=theta, lower=-LIMIT, upper=LIMIT,
+                       velocity=AX12_SPEED, effort=1.5, name=name)
+
+    tool = np.eye(4)
+    tool[:3, :3] = TOOL_ROTATION
+    return DHTable([
+        row(0.0, -math.pi / 2, BASE_HEIGHT, 0.0, "joint1"),
+        row(LINK, 0.0, 0.0, -math.pi / 2, "joint2"),
+        row(LINK, 0.0, 0.0, 0.0, "joint3"),
+        row(WRIST_TO_TOOL, 0.0, 0.0, 0.0, "joint4"),
+    ], tool=tool)
+
+
+def build() -> Robot:
+    text = dh_table().urdf(name="pincher", base_link="base_link", tip_link="noa")
+    chain = ChainSpec("arm", "base_link", "noa", ("joint1", "joint2", "joint3", "joint4"),
+                      "floor base to the 'noa' tool frame (15 mm before the finger tips)")
+    return robot_from_urdf_text("pincher", text, [chain], nominal=np.zeros(4),
+                                info={"dh": dh_table(), "units": "SI inside; the seed uses mm and deg"})

@@ -1,0 +1,269 @@
+"""Robot (a Pinocchio model with named chains) and Chain (one serial chain of it).
+
+A chain is solved on its own reduced model: every joint that is not in the chain is locked at the
+robot's nominal configuration, so a chain's q has exactly one value per chain joint (revolute or
+prismatic). Chain poses and Jacobians are expressed in the chain's base frame, which must not
+move with the chain's joints.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import (
+    InvalidConfigurationError,
+    RobotDescriptionError,
+    UnknownChainError,
+    UnknownFrameError,
+    UnsupportedError,
+)
+
+
+@dataclass(frozen=True)
+class ChainSpec:
+    """Names that define a chain: base frame, tip frame and the joints between them, in order."""
+
+    name: str
+    base_frame: str
+    tip_frame: str
+    joints: tuple[str, ...]
+    description: str = ""
+
+
+class Chain:
+    """One serial chain: q -> pose of ``tip_frame`` in ``base_frame``.
+
+    Attributes: ``model``/``data`` (reduced Pinocchio model), ``lower``/``upper`` (rad or m),
+    ``velocity_limit``, ``nominal`` (the robot's nominal values of these joints) and
+    ``mid_range`` ((lower + upper) / 2, the seed of TRAC-IK's benchmark protocol).
+    """
+
+    def __init__(self, robot: Robot, spec: ChainSpec):
+        self.robot = robot
+        self.spec = spec
+        self.name = spec.name
+        self.base_frame = spec.base_frame
+        self.tip_frame = spec.tip_frame
+        self.joint_names = list(spec.joints)
+        full = robot.model
+        for frame in (spec.base_frame, spec.tip_frame):
+            robot.frame_id(frame)  # raises UnknownFrameError with the known names
+        joint_ids = []
+        for joint in self.joint_names:
+            if not full.existJointName(joint):
+                raise RobotDescriptionError(
+                    f"chain {spec.name!r} names joint {joint!r}, which {robot.name!r} does not have")
+            joint_id = full.getJointId(joint)
+            if full.joints[joint_id].nq != 1 or full.joints[joint_id].nv != 1:
+                raise UnsupportedError(
+                    f"chain {spec.name!r}: joint {joint!r} is not a 1-DOF revolute/prismatic joint")
+            joint_ids.append(joint_id)
+        self.q_index = np.array([full.joints[j].idx_q for j in joint_ids])
+        self.v_index = np.array([full.joints[j].idx_v for j in joint_ids])
+        locked = [j for j in range(1, full.njoints) if j not in joint_ids]
+        self.model = pin.buildReducedModel(full, locked, robot.nominal)
+        self.data = self.model.createData()
+        order = [self.model.getJointId(name) for name in self.joint_names]
+        if order != sorted(order):
+            raise RobotDescriptionError(
+                f"chain {spec.name!r}: list the joints in kinematic order from base to tip")
+        self.base_id = self.model.getFrameId(spec.base_frame)
+        self.tip_id = self.model.getFrameId(spec.tip_frame)
+        if self.model.frames[self.base_id].parentJoint != 0:
+            raise RobotDescriptionError(
+                f"chain {spec.name!r}: base frame {spec.base_frame!r} moves with the chain's joints; "
+                "choose a base frame upstream of the first chain joint")
+        pin.framesForwardKinematics(self.model, self.data, pin.neutral(self.model))
+        self.base_placement = self.data.oMf[self.base_id].copy()
+        self._base_inverse = self.base_placement.inverse()
+        self._base_rotation_t = self.base_placement.rotation.T.copy()
+        self.lower = robot.model.lowerPositionLimit[self.q_index].copy()
+        self.upper = robot.model.upperPositionLimit[self.q_index].copy()
+        self.velocity_limit = robot.model.velocityLimit[self.v_index].copy()
+        self.nominal = robot.nominal[self.q_index].copy()
+        self.mid_range = 0.5 * (self.lower + self.upper)
+        self.is_prismatic = np.array(
+            [full.joints[j].shortname().startswith("JointModelP") for j in joint_ids])
+
+    @property
+    def nq(self) -> int:
+        return len(self.joint_names)
+
+    def __repr__(self) -> str:
+        return (f"Chain({self.robot.name}.{self.name}: {self.base_frame} -> {self.tip_frame}, "
+                f"{self.nq} joints {self.joint_names})")
+
+    def check_q(self, q: Sequence[float]) -> np.ndarray:
+        """q as a float array of the right length with finite values, or InvalidConfigurationError."""
+        try:
+            array = np.asarray(q, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise InvalidConfigurationError(f"joint values must be numbers, got {q!r}") from exc
+        if array.shape != (self.nq,):
+            raise InvalidConfigurationError(
+                f"chain {self.name!r} has {self.nq} joints {self.joint_names}; got {array.size} values")
+        if not np.all(np.isfinite(array)):
+            raise InvalidConfigurationError(f"joint values contain NaN or inf: {array.tolist()}")
+        return array
+
+    def fk(self, q: np.ndarray) -> pin.SE3:
+        """Pose of the tip frame in the base frame."""
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self._base_inverse * self.data.oMf[self.tip_id]
+
+    def fk_jacobian(self, q: np.ndarray) -> tuple[pin.SE3, np.ndarray]:
+        """(tip pose, 6 x n Jacobian [v; w]) in base-frame axes, v taken at the tip origin."""
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        jacobian = pin.getFrameJacobian(self.model, self.data, self.tip_id,
+                                        pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        rotation_t = self._base_rotation_t
+        jacobian = np.vstack((rotation_t @ jacobian[:3], rotation_t @ jacobian[3:]))
+        return self._base_inverse * self.data.oMf[self.tip_id], jacobian
+
+    def in_limits(self, q: np.ndarray, tolerance: float = 1e-9) -> bool:
+        return bool(np.all(q >= self.lower - tolerance) and np.all(q <= self.upper + tolerance))
+
+    def clip(self, q: np.ndarray) -> np.ndarray:
+        return np.clip(q, self.lower, self.upper)
+
+    def random(self, rng: np.random.Generator, count: int | None = None) -> np.ndarray:
+        """Uniform joint values inside the limits: shape (n,) or (count, n)."""
+        shape = (self.nq,) if count is None else (count, self.nq)
+        return rng.uniform(self.lower, self.upper, size=shape)
+
+    def full_configuration(self, q: np.ndarray, reference: np.ndarray | None = None) -> np.ndarray:
+        """The robot's full configuration with this chain at q and the rest at ``reference``."""
+        full = (self.robot.nominal if reference is None else reference).copy()
+        full[self.q_index] = q
+        return full
+
+
+@dataclass
+class Robot:
+    """A Pinocchio model with named chains, limits and a nominal configuration.
+
+    ``info`` holds robot-specific facts (servo IDs, assumptions, sole rectangles, ...).
+    """
+
+    name: str
+    model: pin.Model
+    urdf_text: str
+    chains: dict[str, ChainSpec]
+    nominal: np.ndarray
+    urdf_path: Path | None = None
+    package_dirs: list[str] = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.data = self.model.createData()
+        self.nominal = np.asarray(self.nominal, dtype=float)
+        self._chains: dict[str, Chain] = {}
+        if self.urdf_path is None:
+            self.urdf_path = write_cached_urdf(self.name, self.urdf_text)
+
+    def __repr__(self) -> str:
+        return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
+                f"chains={list(self.chains)})")
+
+    @property
+    def has_floating_base(self) -> bool:
+        return self.model.joints[1].shortname() == "JointModelFreeFlyer" if self.model.njoints > 1 else False
+
+    @cached_property
+    def frame_names(self) -> list[str]:
+        return [frame.name for frame in self.model.frames]
+
+    def frame_id(self, name: str) -> int:
+        if not self.model.existFrame(name):
+            raise UnknownFrameError(name, self.frame_names)
+        return self.model.getFrameId(name)
+
+    def chain(self, name: str | None = None) -> Chain:
+        """The chain called ``name`` (the only chain, if the robot has one and name is None)."""
+        if name is None:
+            if len(self.chains) != 1:
+                raise UnknownChainError("(none given)", list(self.chains),
+                                        hint=f"{self.name} has several chains: pass chain=...")
+            name = next(iter(self.chains))
+        if name not in self.chains:
+            raise UnknownChainError(name, list(self.chains))
+        if name not in self._chains:
+            self._chains[name] = Chain(self, self.chains[name])
+        return self._chains[name]
+
+    def frame_placement(self, q: np.ndarray, frame: str) -> pin.SE3:
+        """World placement of a frame at full configuration q."""
+        frame_id = self.frame_id(frame)
+        pin.framesForwardKinematics(self.model, self.data, q)
+        return self.data.oMf[frame_id].copy()
+
+    def center_of_mass(self, q: np.ndarray) -> np.ndarray:
+        return pin.centerOfMass(self.model, self.data, q).copy()
+
+    @property
+    def mass(self) -> float:
+        return float(sum(inertia.mass for inertia in self.model.inertias))
+
+
+def write_cached_urdf(name: str, text: str) -> Path:
+    """Write URDF text to a content-addressed file (KDL and TRAC-IK read URDF files)."""
+    digest = hashlib.sha1(text.encode()).hexdigest()[:12]
+    folder = Path(tempfile.gettempdir()) / "wbik-urdf"
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"{name}-{digest}.urdf"
+    if not path.exists():
+        temporary = path.with_suffix(".tmp")
+        temporary.write_text(text)
+        temporary.replace(path)
+    return path
+
+
+def model_from_urdf_text(text: str, floating_base: bool = False, source: str = "URDF") -> pin.Model:
+    """Parse URDF text into a Pinocchio model, turning parser failures into RobotDescriptionError."""
+    try:
+        if floating_base:
+            return pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
+        return pin.buildModelFromXML(text)
+    except (RuntimeError, ValueError) as exc:
+        raise RobotDescriptionError(
+            f"{source} does not parse as a URDF: {exc}. Check that it is well-formed XML with one root "
+            "link and that every joint names existing parent and child links") from exc
+
+
+def serial_chain_spec(model: pin.Model, name: str = "default") -> ChainSpec:
+    """Chain from the model's root body to the deepest frame of a single serial chain."""
+    movable = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    if not movable:
+        raise RobotDescriptionError("the model has no 1-DOF joint to make a chain of")
+    last_joint = model.getJointId(movable[-1])
+    frames = [f for f in model.frames if f.parentJoint == last_joint and f.type == pin.FrameType.BODY]
+    tip = frames[-1].name if frames else model.frames[-1].name
+    base = next(f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == 0)
+    return ChainSpec(name, base, tip, tuple(movable), "root body to last link")
+
+
+def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | None = None,
+                         nominal: np.ndarray | None = None, floating_base: bool = False,
+                         urdf_path: Path | None = None, package_dirs: Sequence[str] = (),
+                         info: dict | None = None) -> Robot:
+    """A Robot from URDF text; with no chains given, the single serial chain of the model."""
+    model = model_from_urdf_text(text, floating_base, source=str(urdf_path or name))
+    if nominal is None:
+        nominal = pin.neutral(model)
+        bounded = np.isfinite(model.lowerPositionLimit) & np.isfinite(model.upperPositionLimit)
+        if floating_base:
+            bounded[:7] = False
+        nominal[bounded] = np.clip(nominal[bounded], model.lowerPositionLimit[bounded],
+                                   model.upperPositionLimit[bounded])
+    specs = list(chains) if chains else [serial_chain_spec(model)]
+    return Robot(name, model, text, {spec.name: spec for spec in specs}, nominal,
+                 urdf_path=urdf_path, package_dirs=list(package_dirs), info=dict(info or {}))

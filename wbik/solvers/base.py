@@ -1,0 +1,214 @@
+"""The one solver interface: Solver, IKResult, the shared FK check, and the method registry.
+
+Every method subclasses :class:`Solver` and implements ``_solve(target, q0, deadline)``, returning
+a :class:`Candidate` (joints or None, iterations, reason). The base class validates input, times
+the call, keeps joints inside the limits and decides ``success`` with one FK check shared by all
+methods, so results of different methods compare like with like.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError, UnknownMethodError, UnsupportedError
+from wbik.robot import Chain, Robot
+from wbik.targets import Target, as_target, pose_error
+
+DEFAULT_TIMEOUT_S = 0.005
+"""Default time budget of iterative methods (TRAC-IK's benchmark protocol and MoveIt's KDL default)."""
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """The shared FK check: a solution succeeds when both errors are at or below these."""
+
+    position: float = 1e-6  # metres (norm of the position error)
+    rotation: float = 1e-6  # radians (angle of the rotation error)
+
+
+@dataclass
+class Candidate:
+    """What a method found, before the shared check."""
+
+    q: np.ndarray | None
+    iterations: int = 0
+    reason: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+@dataclass
+class IKResult:
+    """The answer of every method.
+
+    ``q`` is None only when the method produced no joint values at all (e.g. a closed form for an
+    unreachable target); otherwise it is inside the joint limits and the errors are measured on it
+    through FK. ``position_error_xyz`` is reached - target in base-frame axes (m);
+    ``rotation_error_xyz`` is log3(R_target^T R_reached) (rad), zeros for position-only targets.
+    """
+
+    q: np.ndarray | None
+    success: bool
+    reason: str
+    position_error: float
+    rotation_error: float
+    position_error_xyz: np.ndarray
+    rotation_error_xyz: np.ndarray
+    time_s: float
+    iterations: int
+    method: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """JSON-friendly dictionary."""
+        return {
+            "method": self.method,
+            "success": self.success,
+            "reason": self.reason,
+            "q": None if self.q is None else [float(v) for v in self.q],
+            "position_error": self.position_error,
+            "rotation_error": self.rotation_error,
+            "position_error_xyz": [float(v) for v in self.position_error_xyz],
+            "rotation_error_xyz": [float(v) for v in self.rotation_error_xyz],
+            "time_s": self.time_s,
+            "iterations": self.iterations,
+        }
+
+
+def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
+             time_s: float, method: str) -> IKResult:
+    """The shared FK check: clip into the limits, measure the errors, decide success."""
+    nan3 = np.full(3, np.nan)
+    if candidate.q is None:
+        return IKResult(None, False, candidate.reason or "no solution", float("nan"), float("nan"),
+                        nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
+    q = np.asarray(candidate.q, dtype=float)
+    if q.shape != (chain.nq,) or not np.all(np.isfinite(q)):
+        return IKResult(None, False, f"method returned invalid joints {q!r}", float("nan"),
+                        float("nan"), nan3, nan3.copy(), time_s, candidate.iterations, method,
+                        candidate.extra)
+    reason = candidate.reason
+    if not chain.in_limits(q, tolerance=1e-9):
+        reason = reason or "solution outside the joint limits (clipped)"
+    q = chain.clip(q)
+    position_xyz, rotation_xyz = pose_error(chain.fk(q), target)
+    if rotation_xyz is None:
+        rotation_xyz = np.zeros(3)
+    position_norm = float(np.linalg.norm(position_xyz))
+    rotation_norm = float(np.linalg.norm(rotation_xyz))
+    success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
+    if success:
+        reason = ""
+    elif not reason:
+        reason = (f"FK check failed: position error {position_norm:.3g} m, "
+                  f"rotation error {rotation_norm:.3g} rad")
+    return IKResult(q, success, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
+                    time_s, candidate.iterations, method, candidate.extra)
+
+
+class Solver:
+    """Base class of every IK method on one chain of one robot.
+
+    Subclasses set ``name`` and implement ``_solve``; iterative methods should stop at
+    ``deadline`` (a ``time.perf_counter()`` value) and return their best effort with a reason.
+    """
+
+    name = "base"
+    supports_position_only = True
+    supports_pose = True
+
+    def __init__(self, robot: Robot, chain: str | None = None, *,
+                 tolerances: Tolerances | None = None, timeout_s: float = DEFAULT_TIMEOUT_S,
+                 seed: int | None = 0):
+        self.robot = robot
+        self.chain = robot.chain(chain)
+        self.tolerances = tolerances or Tolerances()
+        if not timeout_s > 0:
+            raise ValueError(f"timeout_s must be positive, got {timeout_s}")
+        self.timeout_s = float(timeout_s)
+        self.rng = np.random.default_rng(seed)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.robot.name}.{self.chain.name})"
+
+    # -- the interface ------------------------------------------------------------------------
+    def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
+        """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal)."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        q_start = self.chain.nominal.copy() if q0 is None else self.chain.check_q(q0)
+        start = time.perf_counter()
+        candidate = self._solve(target, q_start, start + self.timeout_s)
+        elapsed = time.perf_counter() - start
+        return evaluate(self.chain, target, candidate, self.tolerances, elapsed, self.name)
+
+    def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None) -> list[IKResult]:
+        """Solve a batch; ``q0s`` is one start for all, one per target, or None."""
+        targets = list(targets)
+        starts = self._batch_starts(q0s, len(targets))
+        return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
+
+    def solve_all(self, target) -> list[IKResult]:
+        """Every distinct solution (closed-form methods only)."""
+        raise UnsupportedError(f"method {self.name!r} finds one solution; use 'analytic' for all branches")
+
+    # -- for subclasses ------------------------------------------------------------------------
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        raise NotImplementedError
+
+    def _check_target_kind(self, target: Target) -> None:
+        if target.is_pose and not self.supports_pose:
+            raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} takes position targets only")
+        if not target.is_pose and not self.supports_position_only:
+            raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} needs a full pose target")
+
+    def _batch_starts(self, q0s, count: int) -> list[np.ndarray | None]:
+        if q0s is None:
+            return [None] * count
+        array = np.asarray(q0s, dtype=float)
+        if array.ndim == 1:
+            return [self.chain.check_q(array)] * count
+        if array.shape[0] != count:
+            raise InvalidConfigurationError(f"{count} targets but {array.shape[0]} start configurations")
+        return [self.chain.check_q(row) for row in array]
+
+
+# -- registry ----------------------------------------------------------------------------------
+_REGISTRY: dict[str, str | Callable[..., Solver]] = {
+    # name -> "module:Class" (imported on first use, so optional dependencies stay optional)
+    "dls": "wbik.solvers.dls:DampedLeastSquares",
+}
+_DESCRIPTIONS: dict[str, str] = {
+    "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",
+}
+
+
+def register(name: str, factory: str | Callable[..., Solver], description: str = "") -> None:
+    """Add a method: ``factory`` is a Solver subclass (or callable) or a "module:Class" path."""
+    _REGISTRY[name] = factory
+    if description:
+        _DESCRIPTIONS[name] = description
+
+
+def methods() -> dict[str, str]:
+    """Registered method names with a one-line description."""
+    return {name: _DESCRIPTIONS.get(name, "") for name in sorted(_REGISTRY)}
+
+
+def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
+    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``."""
+    if isinstance(robot, str):
+        from wbik.models import load
+
+        robot = load(robot)
+    if method not in _REGISTRY:
+        raise UnknownMethodError(method, list(_REGISTRY))
+    factory = _REGISTRY[method]
+    if isinstance(factory, str):
+        module_name, class_name = factory.split(":")
+        factory = getattr(importlib.import_module(module_name), class_name)
+    return factory(robot, chain, **options)

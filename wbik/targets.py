@@ -1,0 +1,97 @@
+"""IK targets and the error between a reached pose and a target.
+
+A target is a position p (3,) and, for a full pose, a rotation R (3, 3), both expressed in the
+chain's base frame, SI units. Errors are
+
+- position: e_p = p_reached - p_target (metres, base-frame axes);
+- rotation: e_R = log3(R_target^T R_reached) (radians, a rotation vector in the target frame,
+  so its components are small-angle errors about the target's own x, y, z axes).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidRotationError, InvalidTargetError
+
+ROTATION_TOLERANCE = 1e-6
+"""How far R^T R may be from identity (max abs entry) and det(R) from 1 for R to count as a rotation."""
+
+
+@dataclass(frozen=True)
+class Target:
+    """A position (3,) and an optional rotation (3, 3). ``rotation is None`` means position only."""
+
+    position: np.ndarray
+    rotation: np.ndarray | None = None
+
+    @property
+    def is_pose(self) -> bool:
+        return self.rotation is not None
+
+    def se3(self) -> pin.SE3:
+        """The target as an SE3 (identity rotation for a position-only target)."""
+        rotation = np.eye(3) if self.rotation is None else self.rotation
+        return pin.SE3(rotation, self.position)
+
+
+def _finite_array(value, shape: tuple[int, ...], what: str) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidTargetError(f"{what} must be numbers, got {value!r}") from exc
+    if array.shape != shape:
+        raise InvalidTargetError(f"{what} must have shape {shape}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise InvalidTargetError(f"{what} contains NaN or inf: {array.tolist()}")
+    return array
+
+
+def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:
+    """Return ``rotation`` as a float array, or raise InvalidRotationError if it is not in SO(3)."""
+    matrix = _finite_array(rotation, (3, 3), "rotation")
+    orthogonality = float(np.max(np.abs(matrix.T @ matrix - np.eye(3))))
+    determinant = float(np.linalg.det(matrix))
+    if orthogonality > tolerance or abs(determinant - 1.0) > tolerance:
+        raise InvalidRotationError(
+            f"not a rotation matrix: max|R^T R - I| = {orthogonality:.3g}, det R = {determinant:.6g}; "
+            "pass an orthonormal matrix with det +1 (e.g. pinocchio.rpy.rpyToMatrix(r, p, y))"
+        )
+    return matrix
+
+
+def as_target(value, rotation=None) -> Target:
+    """Normalise a user target.
+
+    Accepts a :class:`Target`, a ``pinocchio.SE3`` (full pose), a 4x4 homogeneous matrix (full pose),
+    or a 3-vector (position only; ``rotation`` optionally adds an orientation).
+    """
+    if isinstance(value, Target):
+        if rotation is not None:
+            raise InvalidTargetError("give the rotation inside the Target or separately, not both")
+        return Target(_finite_array(value.position, (3,), "position"),
+                      None if value.rotation is None else check_rotation(value.rotation))
+    if isinstance(value, pin.SE3):
+        return Target(_finite_array(value.translation, (3,), "position"),
+                      check_rotation(value.rotation))
+    array = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+    if array is None:
+        raise InvalidTargetError(f"a target must be an SE3, a 4x4 matrix or a 3-vector, got {value!r}")
+    if array.shape == (4, 4):
+        matrix = _finite_array(array, (4, 4), "homogeneous matrix")
+        if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0]):
+            raise InvalidTargetError(f"last row of a homogeneous matrix must be [0, 0, 0, 1], got {matrix[3]}")
+        return Target(matrix[:3, 3].copy(), check_rotation(matrix[:3, :3]))
+    position = _finite_array(value, (3,), "position")
+    return Target(position, None if rotation is None else check_rotation(rotation))
+
+
+def pose_error(reached: pin.SE3, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
+    """(position error xyz, rotation error vector or None for a position-only target)."""
+    position_error = reached.translation - target.position
+    if target.rotation is None:
+        return position_error, None
+    return position_error, pin.log3(target.rotation.T @ reached.rotation)
