@@ -181,9 +181,25 @@ class Solver:
 _REGISTRY: dict[str, str | Callable[..., Solver]] = {
     # name -> "module:Class" (imported on first use, so optional dependencies stay optional)
     "dls": "wbik.solvers.dls:DampedLeastSquares",
+    "analytic": "wbik.solvers.analytic:AnalyticSolver",
+    "newton": "wbik.solvers.newton:NewtonRaphson",
+    "kdl": "wbik.solvers.kdl:KDLSolver",
+    "kdl_restarts": "wbik.solvers.kdl:KDLRestartsSolver",
+    "trac_ik": "wbik.solvers.tracik:TracIKSolver",
+    "bounded_lm": "wbik.solvers.bounded_lm:BoundedLMSolver",
+    "qp": "wbik.solvers.qp:QPSolver",
+    "placo": "wbik.solvers.placo:PlacoSolver",
 }
 _DESCRIPTIONS: dict[str, str] = {
     "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",
+    "analytic": "closed-form IK: every branch, nearest to q0, vectorised batches",
+    "newton": "Newton-Raphson (seed 001): LU where J is square, least squares otherwise",
+    "kdl": "orocos KDL ChainIkSolverPos_NR_JL through PyKDL, one attempt from the seed",
+    "kdl_restarts": "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)",
+    "trac_ik": "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently",
+    "bounded_lm": "ours: joint-limit-bounded Levenberg-Marquardt with vectorised random restarts",
+    "qp": "task-based QP IK (qpsolvers, OSQP default) with joint limits",
+    "placo": "PlaCo's kinematics solver on the same URDF",
 }
 
 

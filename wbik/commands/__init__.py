@@ -1,0 +1,1 @@
+"""Subcommands of the ``wbik`` CLI, one module each (see :mod:`wbik.cli`)."""

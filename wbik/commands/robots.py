@@ -1,0 +1,37 @@
+"""``wbik robots``: the built-in robots and their chains."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser("robots", help="list the built-in robots (and their chains with -v)",
+                                   description="List the built-in robots. With --verbose, load each and "
+                                               "print its chains (base -> tip, joints).")
+    parser.add_argument("-v", "--verbose", action="store_true", help="load each robot and list its chains")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import wbik
+
+    listing = {}
+    for name, description in wbik.robots().items():
+        entry = {"description": description}
+        if args.verbose:
+            robot = wbik.load(name)
+            entry["chains"] = {spec.name: {"base": spec.base_frame, "tip": spec.tip_frame,
+                                           "joints": list(spec.joints)} for spec in robot.chains.values()}
+        listing[name] = entry
+    if args.json:
+        print(json.dumps(listing, indent=2))
+        return 0
+    for name, entry in listing.items():
+        print(f"{name:10s} {entry['description']}")
+        for chain, spec in entry.get("chains", {}).items():
+            print(f"    chain {chain}: {spec['base']} -> {spec['tip']} ({len(spec['joints'])} joints: "
+                  f"{', '.join(spec['joints'])})")
+    return 0

@@ -1,0 +1,56 @@
+"""``wbik solve``: inverse kinematics of one target with one method."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "solve", help="solve IK for one target",
+        description="Solve IK for a position (--xyz) or a pose (--xyz and --rpy) of a chain's tip in its "
+                    "base frame. Prints the joints, the errors (shared FK check) and the time.")
+    parser.add_argument("robot", help="built-in robot name (see 'wbik robots') or a URDF path")
+    parser.add_argument("--chain", help="chain name (default: the robot's only chain)")
+    parser.add_argument("--method", default="dls", help="IK method (see 'wbik methods'); default dls")
+    parser.add_argument("--xyz", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
+                        help="target position (m)")
+    parser.add_argument("--rpy", type=float, nargs=3, metavar=("R", "P", "Y"),
+                        help="target orientation, R = Rz(Y) Ry(P) Rx(R) (rad); omit for position only")
+    parser.add_argument("--q0", type=float, nargs="+", help="start / current joints (default: nominal)")
+    parser.add_argument("--timeout", type=float, default=0.05, help="time budget in s (default 0.05)")
+    parser.add_argument("--all", action="store_true", help="every solution (closed-form methods)")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    import pinocchio as pin
+
+    import wbik
+
+    robot = wbik.load(args.robot)
+    solver = wbik.solver(args.method, robot, chain=args.chain, timeout_s=args.timeout)
+    position = np.array(args.xyz)
+    target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
+              else wbik.Target(position))
+    results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
+    if args.json:
+        payload = [r.as_dict() for r in results]
+        print(json.dumps(payload if args.all else payload[0], indent=2))
+    else:
+        if not results:
+            print("no solution")
+        for result in results:
+            status = "solved" if result.success else f"NOT solved: {result.reason}"
+            print(f"{result.method} on {robot.name}.{solver.chain.name}: {status}")
+            if result.q is not None:
+                for name, value in zip(solver.chain.joint_names, result.q, strict=True):
+                    print(f"  {name:24s} {value: .9f}")
+            print(f"  position error {result.position_error:.3e} m, rotation error "
+                  f"{result.rotation_error:.3e} rad, {result.iterations} iterations, "
+                  f"{result.time_s * 1e3:.3f} ms")
+    return 0 if results and all(r.success for r in results) else 1
