@@ -83,7 +83,7 @@ def as_target(value, rotation=None) -> Target:
     if array.shape == (4, 4):
         matrix = _finite_array(array, (4, 4), "homogeneous matrix")
         if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0]):
-            raise InvalidTargetError(f"last row of a homogeneous matrix must be [0, 0, 0, 1], got {matrix[3]}")
+            raise InvalidTargetError(f"last row of a 4x4 pose must be [0, 0, 0, 1], got {matrix[3]}")
         return Target(matrix[:3, 3].copy(), check_rotation(matrix[:3, :3]))
     position = _finite_array(value, (3,), "position")
     return Target(position, None if rotation is None else check_rotation(rotation))

@@ -48,23 +48,22 @@ class ClosedForm:
         raise NotImplementedError
 
 
-# (robot name, chain name, target kind) -> "module:class"
-CLOSED_FORMS: dict[tuple[str, str, str], str] = {}
+def closed_forms(robot) -> dict[tuple[str, str], str]:
+    """A robot's closed forms: ``robot.info["closed_forms"]`` maps (chain, kind) to "module:Class".
 
-
-def register_closed_form(robot: str, chain: str, kind: str, factory: str) -> None:
-    CLOSED_FORMS[(robot, chain, kind)] = factory
+    Each built-in model declares its own; a user robot can do the same.
+    """
+    return dict(robot.info.get("closed_forms", {}))
 
 
 def _closed_form(chain: Chain, kind: str) -> ClosedForm:
-    robot_key = chain.robot.info.get("analytic_key", chain.robot.name)
-    key = (robot_key, chain.name, kind)
-    if key not in CLOSED_FORMS:
-        available = sorted(f"{r}.{c} ({k})" for r, c, k in CLOSED_FORMS)
+    forms = closed_forms(chain.robot)
+    if (chain.name, kind) not in forms:
+        available = sorted(f"{c} ({k})" for c, k in forms)
         raise UnsupportedError(
-            f"no closed form for {robot_key}.{chain.name} with {kind} targets; available: "
+            f"no closed form for {chain.robot.name}.{chain.name} with {kind} targets; available: "
             f"{', '.join(available) or '(none)'}. Use a numerical method (e.g. 'dls') instead")
-    module_name, class_name = CLOSED_FORMS[key].split(":")
+    module_name, class_name = forms[(chain.name, kind)].split(":")
     return getattr(importlib.import_module(module_name), class_name)(chain)
 
 
