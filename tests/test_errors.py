@@ -1,0 +1,87 @@
+"""Every bad input raises a typed wbik error whose message says what to fix."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+
+
+def test_unknown_robot_lists_the_known_ones():
+    with pytest.raises(wbik.UnknownRobotError, match="pincher") as info:
+        wbik.load("golem4")
+    assert "urdf" in str(info.value).lower()
+
+
+def test_unknown_chain_and_frame():
+    robot = wbik.load("ur5")
+    with pytest.raises(wbik.UnknownChainError, match="arm"):
+        robot.chain("leg")
+    with pytest.raises(wbik.UnknownChainError, match="several chains"):
+        robot.chain()
+    with pytest.raises(wbik.UnknownFrameError, match="tcp"):
+        robot.frame_id("tcpp")
+
+
+def test_unknown_method():
+    with pytest.raises(wbik.UnknownMethodError, match="dls"):
+        wbik.solver("magic", "pincher")
+
+
+@pytest.mark.parametrize("target, error", [
+    (np.array([np.nan, 0.0, 0.2]), wbik.InvalidTargetError),
+    (np.array([np.inf, 0.0, 0.2]), wbik.InvalidTargetError),
+    (np.array([0.1, 0.2]), wbik.InvalidTargetError),
+    (np.zeros((2, 3)), wbik.InvalidTargetError),
+    ("0.1 0.2 0.3", wbik.InvalidTargetError),
+    (np.diag([1.0, 1.0, 1.0, 2.0]), wbik.InvalidTargetError),
+])
+def test_malformed_targets(target, error):
+    with pytest.raises(error):
+        wbik.solver("dls", "pincher").solve(target)
+
+
+def test_not_a_rotation():
+    solver = wbik.solver("dls", "ur5", chain="arm")
+    scaled = np.eye(4)
+    scaled[:3, :3] *= 1.1
+    with pytest.raises(wbik.InvalidRotationError, match="orthonormal"):
+        solver.solve(scaled)
+    mirrored = np.eye(4)
+    mirrored[2, 2] = -1.0
+    with pytest.raises(wbik.InvalidRotationError, match="det"):
+        solver.solve(mirrored)
+    with pytest.raises(wbik.InvalidRotationError):
+        wbik.as_target([0.1, 0.2, 0.3], rotation=np.ones((3, 3)))
+
+
+def test_bad_start_configuration():
+    solver = wbik.solver("dls", "pincher")
+    with pytest.raises(wbik.InvalidConfigurationError, match="4 joints"):
+        solver.solve([0.1, 0.1, 0.2], q0=[0.0, 0.0])
+    with pytest.raises(wbik.InvalidConfigurationError, match="NaN"):
+        solver.solve([0.1, 0.1, 0.2], q0=[0.0, np.nan, 0.0, 0.0])
+
+
+def test_broken_urdf(tmp_path):
+    broken = tmp_path / "broken.urdf"
+    broken.write_text("<robot name='x'><link name='a'/><joint name='j' type='revolute'>")
+    with pytest.raises(wbik.RobotDescriptionError, match="URDF"):
+        wbik.load(broken)
+    with pytest.raises(wbik.RobotDescriptionError, match="does not exist"):
+        wbik.load(tmp_path / "missing.urdf")
+
+
+def test_errors_are_catchable_as_builtin_kinds():
+    with pytest.raises(KeyError):
+        wbik.load("nope")
+    with pytest.raises(ValueError):
+        wbik.as_target([np.nan, 0, 0])
+
+
+def test_se3_target_is_accepted():
+    chain = wbik.load("ur5").chain("arm")
+    target = wbik.as_target(pin.SE3(chain.fk(chain.nominal)))
+    assert target.is_pose and target.rotation.shape == (3, 3)

@@ -1,0 +1,115 @@
+"""The one interface: round trips on every chain, the shared check, limits, bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+from wbik.solvers.base import Candidate, Solver, evaluate
+
+ROBOTS = list(wbik.robots())
+
+
+def all_chains():
+    for name in ROBOTS:
+        robot = wbik.load(name)
+        for chain in robot.chains:
+            yield robot, chain
+
+
+@pytest.mark.parametrize("robot_name", ROBOTS)
+def test_round_trip_on_every_chain(robot_name, rng):
+    """solve(FK(q)) from a start near q recovers a pose that passes the shared check."""
+    robot = wbik.load(robot_name)
+    for chain_name in robot.chains:
+        solver = wbik.solver("dls", robot, chain=chain_name, timeout_s=0.5)
+        chain = solver.chain
+        for _ in range(5):
+            q = chain.random(rng)
+            q0 = chain.clip(q + rng.normal(0.0, 0.05, size=chain.nq))
+            result = solver.solve(chain.fk(q), q0=q0)
+            assert result.success, (robot_name, chain_name, result.reason)
+            assert result.position_error <= 1e-6 and result.rotation_error <= 1e-6
+            assert chain.in_limits(result.q)
+            reached = chain.fk(result.q)
+            assert np.allclose(reached.translation, chain.fk(q).translation, atol=1e-6)
+
+
+def test_position_only_target_ignores_orientation(rng):
+    robot = wbik.load("panda")
+    solver = wbik.solver("dls", robot, chain="arm", timeout_s=0.5)
+    q = solver.chain.random(rng)
+    result = solver.solve(solver.chain.fk(q).translation, q0=solver.chain.clip(q + 0.1))
+    assert result.success and np.allclose(result.rotation_error_xyz, 0.0)
+
+
+def test_result_fields_and_per_axis_errors():
+    robot = wbik.load("ur5")
+    chain = robot.chain("arm")
+    target = chain.fk(chain.nominal) * pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.0]))
+    result = wbik.solver("dls", robot, chain="arm").solve(target)
+    assert result.success and result.iterations == 0 and result.time_s >= 0.0
+    assert result.position_error_xyz.shape == (3,) and result.rotation_error_xyz.shape == (3,)
+    assert set(result.as_dict()) >= {"q", "success", "reason", "position_error", "rotation_error",
+                                       "time_s", "iterations"}
+
+
+def test_shared_check_decides_success_for_every_method():
+    """A candidate 1 mm off fails the default check and passes a looser one."""
+    chain = wbik.load("ur5").chain("arm")
+    q = chain.nominal.copy()
+    target = wbik.as_target(chain.fk(q).translation + np.array([1e-3, 0, 0]))
+    strict = evaluate(chain, target, Candidate(q), wbik.Tolerances(), 0.0, "test")
+    loose = evaluate(chain, target, Candidate(q), wbik.Tolerances(position=2e-3), 0.0, "test")
+    assert not strict.success and "position error" in strict.reason
+    assert loose.success and abs(loose.position_error - 1e-3) < 1e-12
+    assert np.allclose(strict.position_error_xyz, [-1e-3, 0, 0], atol=1e-12)
+
+
+def test_joints_outside_limits_are_never_returned():
+    class Wild(Solver):
+        name = "wild"
+
+        def _solve(self, target, q0, deadline):
+            return Candidate(self.chain.upper + 1.0)
+
+    robot = wbik.load("pincher")
+    result = Wild(robot, "arm").solve(np.array([0.1, 0.1, 0.2]))
+    chain = robot.chain("arm")
+    assert chain.in_limits(result.q) and not result.success and "limits" in result.reason
+
+
+def test_unreachable_target_returns_reason_in_bounded_time():
+    solver = wbik.solver("dls", "pincher", timeout_s=0.02)
+    result = solver.solve(np.array([5.0, 0.0, 0.0]))
+    assert not result.success and result.reason
+    assert result.time_s < 0.5
+
+
+def test_solve_many_matches_solve(rng):
+    robot = wbik.load("ur5")
+    solver = wbik.solver("dls", robot, chain="arm", timeout_s=0.5)
+    chain = solver.chain
+    qs = chain.random(rng, 5)
+    targets = [chain.fk(q) for q in qs]
+    starts = chain.clip(qs + 0.05)
+    batch = solver.solve_many(targets, starts)
+    single = [solver.solve(t, s) for t, s in zip(targets, starts, strict=True)]
+    for a, b in zip(batch, single, strict=True):
+        assert a.success == b.success and np.allclose(a.q, b.q)
+
+
+def test_register_a_user_method():
+    class Nominal(Solver):
+        name = "nominal"
+
+        def _solve(self, target, q0, deadline):
+            return Candidate(self.chain.nominal)
+
+    wbik.register("nominal_test", Nominal, "returns the nominal configuration")
+    assert "nominal_test" in wbik.methods()
+    chain = wbik.load("arm3r").chain()
+    result = wbik.solver("nominal_test", "arm3r").solve(chain.fk(chain.nominal).translation)
+    assert result.success
