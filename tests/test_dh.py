@@ -71,7 +71,8 @@ def test_random_table_standard_and_modified_match_hand_products(rng, trial):
     standard = DHTable([DHJoint(a, al, d, th, k, **limits) for a, al, d, th, k in rows])
     # The same chain in the modified convention: row i takes alpha_{i-1}, a_{i-1} of the standard
     # row before it; the last standard Tx(a_n) Rx(alpha_n) becomes the tool.
-    shifted = [(0.0, 0.0, *rows[0][2:])] + [(rows[i - 1][0], rows[i - 1][1], *rows[i][2:]) for i in range(1, n)]
+    shifted = [(0.0, 0.0, *rows[0][2:])]
+    shifted += [(rows[i - 1][0], rows[i - 1][1], *rows[i][2:]) for i in range(1, n)]
     tool = T(x=rows[-1][0]) @ Rx(rows[-1][1])
     modified = DHTable([DHJoint(a, al, d, th, k, **limits) for a, al, d, th, k in shifted],
                        convention="modified", tool=tool)
