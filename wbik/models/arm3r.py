@@ -38,7 +38,9 @@ def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
                       "base to end point (position-only IK: 3 joints, 3 coordinates)")
     name = "arm3r" if lengths == DEFAULT_LENGTHS else "arm3r-" + "-".join(f"{v:g}" for v in lengths)
     robot = robot_from_urdf_text(name, text, [chain], nominal=np.full(3, math.pi / 2),
-                                 info={"lengths": lengths, "dh": table})
+                                 info={"lengths": lengths, "dh": table,
+                                       "closed_forms": {("arm", "position"):
+                                                        "wbik.solvers.analytic.arm3r:Arm3RPosition"}})
     return robot
 
 

@@ -23,6 +23,13 @@ AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
 TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
+CLOSED_FORMS = {
+    ("arm", "pose"): "wbik.solvers.analytic.pincher:PincherPose",
+    ("arm", "position"): "wbik.solvers.analytic.pincher:PincherPosition",
+}
+"""Closed forms of pincher.md's analytic inverse (position + tool pitch), see that module."""
+
+
 def dh_table() -> DHTable:
     def row(a, alpha, d, theta, name):
         return DHJoint(a=a, alpha=alpha, d=d, theta=theta, lower=-LIMIT, upper=LIMIT,
@@ -43,4 +50,5 @@ def build() -> Robot:
     chain = ChainSpec("arm", "base_link", "noa", ("joint1", "joint2", "joint3", "joint4"),
                       "floor base to the 'noa' tool frame (15 mm before the finger tips)")
     return robot_from_urdf_text("pincher", text, [chain], nominal=np.zeros(4),
-                                info={"dh": dh_table(), "units": "SI inside; the seed uses mm and deg"})
+                                info={"dh": dh_table(), "units": "SI inside; the seed uses mm and deg",
+                                      "closed_forms": CLOSED_FORMS})
