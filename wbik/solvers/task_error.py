@@ -4,13 +4,21 @@ For a full pose target (p*, R*) and tip pose (p, R) in the base frame:
     e = [p* - p ; log3(R* R^T)]   (6,)
 and de/dq ~ J (the 6 x n frame Jacobian in base axes), so a Newton step solves J dq = e.
 For a position target only the first three rows are used.
+
+Besides the Pinocchio-based ``task_error`` (one configuration), this module holds the chain's
+serial structure (``serial_structure``: fixed placements and joint axes, from which KDL chains and
+vectorised kinematics are built) and ``BatchKinematics``, which evaluates e and J for many
+configurations at once with numpy (the batched restarts of ``bounded_lm``).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.targets import Target
 
@@ -35,3 +43,122 @@ def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: 
     if error.size == 6:
         ok = ok and np.linalg.norm(error[3:]) <= 0.5 * rotation_tolerance
     return bool(ok)
+
+
+# -- serial structure --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class SerialStructure:
+    """T(q) = P_0 X_1(q_1) P_1 X_2(q_2) ... X_n(q_n) P_n, everything in the chain's base frame.
+
+    ``placements[k]`` (k = 0..n, 4x4) are the fixed transforms: P_0 from the base frame to joint 1,
+    P_k from joint k to joint k+1, P_n from joint n to the tip frame. X_k is a rotation about (or a
+    translation along) the unit ``axes[k]`` (joint-k frame) by q_k.
+    """
+
+    placements: np.ndarray  # (n + 1, 4, 4)
+    axes: np.ndarray  # (n, 3)
+    prismatic: np.ndarray  # (n,) bool
+
+
+def serial_structure(chain: Chain) -> SerialStructure:
+    """Read the fixed placements and joint axes of a chain's reduced Pinocchio model."""
+    model = chain.model
+    joint_ids = [model.getJointId(name) for name in chain.joint_names]
+    for previous, joint_id in zip([0, *joint_ids[:-1]], joint_ids, strict=True):
+        if model.parents[joint_id] != previous:
+            raise RobotDescriptionError(
+                f"chain {chain.name!r}: joint {model.names[joint_id]!r} does not follow the previous "
+                "chain joint directly; a serial structure needs consecutive joints")
+    tip_frame = model.frames[chain.tip_id]
+    if tip_frame.parentJoint != joint_ids[-1]:
+        raise RobotDescriptionError(
+            f"chain {chain.name!r}: tip frame {chain.tip_frame!r} is not carried by the last chain joint")
+    data = model.createData()
+    pin.forwardKinematics(model, data, pin.neutral(model))
+    axes, prismatic = [], []
+    for joint_id in joint_ids:
+        subspace = np.asarray(data.joints[joint_id].S).reshape(6)
+        linear, angular = subspace[:3], subspace[3:]
+        is_prismatic = np.linalg.norm(angular) < 1e-12
+        axis = linear if is_prismatic else angular
+        axes.append(axis / np.linalg.norm(axis))
+        prismatic.append(is_prismatic)
+    placements = [(chain.base_placement.inverse() * model.jointPlacements[joint_ids[0]]).homogeneous]
+    placements += [model.jointPlacements[j].homogeneous for j in joint_ids[1:]]
+    placements.append(tip_frame.placement.homogeneous)
+    return SerialStructure(np.array(placements), np.array(axes), np.array(prismatic, dtype=bool))
+
+
+class BatchKinematics:
+    """Vectorised tip poses, task errors and Jacobians of a chain for B configurations at once.
+
+    Uses the serial structure: each joint contributes a Rodrigues rotation (or a translation),
+    and the geometric Jacobian column k is [a_k x (p_tip - o_k); a_k] (revolute) or [a_k; 0]
+    (prismatic), with a_k, o_k the joint-k axis and origin in the base frame.
+    """
+
+    def __init__(self, chain: Chain):
+        structure = serial_structure(chain)
+        self.n = chain.nq
+        self.placements = structure.placements
+        self.axes = structure.axes
+        self.prismatic = structure.prismatic
+        axis = self.axes
+        skew = np.zeros((self.n, 3, 3))
+        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+        skew[:, 1, 0], skew[:, 2, 0], skew[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
+        self._skew = skew
+        self._skew2 = skew @ skew
+
+    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(p_tip (B,3), R_tip (B,3,3), joint origins (B,n,3), joint axes (B,n,3)) in the base frame."""
+        batch = q.shape[0]
+        rotation = np.broadcast_to(self.placements[0, :3, :3], (batch, 3, 3))
+        position = np.broadcast_to(self.placements[0, :3, 3], (batch, 3))
+        origins = np.empty((batch, self.n, 3))
+        axes = np.empty((batch, self.n, 3))
+        for k in range(self.n):
+            origins[:, k] = position
+            axes[:, k] = rotation @ self.axes[k]
+            angle = q[:, k]
+            if self.prismatic[k]:
+                position = position + axes[:, k] * angle[:, None]
+            else:
+                local = (np.eye(3) + np.sin(angle)[:, None, None] * self._skew[k]
+                         + (1.0 - np.cos(angle))[:, None, None] * self._skew2[k])
+                rotation = rotation @ local
+            placement = self.placements[k + 1]
+            position = position + rotation @ placement[:3, 3]
+            rotation = rotation @ placement[:3, :3]
+        return position, rotation, origins, axes
+
+    def error_jacobian(self, target: Target, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Task errors (B, m) and Jacobians (B, m, n), m = 6 for a pose and 3 for a position."""
+        position, rotation, origins, axes = self.forward(q)
+        linear = np.cross(axes, position[:, None, :] - origins)
+        linear[:, self.prismatic] = axes[:, self.prismatic]
+        position_error = target.position - position
+        if target.rotation is None:
+            return position_error, np.swapaxes(linear, 1, 2)
+        angular = axes.copy()
+        angular[:, self.prismatic] = 0.0
+        rotation_error = batch_log3(target.rotation @ np.swapaxes(rotation, 1, 2))
+        jacobian = np.concatenate((np.swapaxes(linear, 1, 2), np.swapaxes(angular, 1, 2)), axis=1)
+        return np.concatenate((position_error, rotation_error), axis=1), jacobian
+
+
+def batch_log3(rotations: np.ndarray) -> np.ndarray:
+    """Rotation vectors of (B, 3, 3) rotations (accurate near 0 and near pi)."""
+    trace = rotations[:, 0, 0] + rotations[:, 1, 1] + rotations[:, 2, 2]
+    cos_angle = np.clip(0.5 * (trace - 1.0), -1.0, 1.0)
+    angle = np.arccos(cos_angle)
+    vee = np.stack((rotations[:, 2, 1] - rotations[:, 1, 2], rotations[:, 0, 2] - rotations[:, 2, 0],
+                    rotations[:, 1, 0] - rotations[:, 0, 1]), axis=1)
+    sin_angle = np.sin(angle)
+    small = sin_angle < 1e-6
+    factor = np.where(small, 0.5 + angle**2 / 12.0, angle / (2.0 * np.where(small, 1.0, sin_angle)))
+    result = factor[:, None] * vee
+    near_pi = small & (cos_angle < 0.0)
+    for index in np.flatnonzero(near_pi):
+        result[index] = pin.log3(rotations[index])
+    return result

@@ -1,0 +1,174 @@
+"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the Pinocchio chain.
+
+NR_JL is Newton-Raphson with joint limits: dq from the pseudo-inverse velocity solver
+(ChainIkSolverVel_pinv, SVD), q <- q + dq, clamped into [lower, upper], until every component of
+the twist error is below ``epsilon`` or ``max_iterations`` pass.
+
+- ``kdl``: one attempt from the seed (the Golem-III thesis's and TRAC-IK paper's "KDL").
+- ``kdl_restarts``: MoveIt's KDL plugin: the seed first, then random seeds inside the limits until
+  a solution passes or the time budget is used up.
+
+Position-only targets are unsupported (UnsupportedError): NR_JL always drives the full 6-D twist
+to zero, and KDL's weighted solvers that could drop the orientation rows (ChainIkSolverVel_wdls's
+setWeightTS, ChainIkSolverPos_LMA's weights) take Eigen matrices that crash PyKDL 1.5.1 (Debian,
+built for numpy 1) under this environment's numpy 2 (segmentation fault, checked).
+
+The KDL chain is P_0, then one segment per joint (joint about/along its axis at the segment
+origin, tip = the fixed placement to the next joint or the tip frame); its FK is checked against
+Pinocchio's to 1e-12 when the solver is made.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from wbik.errors import MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.robot import Chain
+from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.task_error import serial_structure
+from wbik.targets import Target, pose_error
+
+INSTALL_HINT = ("PyKDL (orocos KDL's Python binding) is not installed: it is not on PyPI. Install it with "
+                "`sudo apt-get install python3-pykdl`, then `bash scripts/setup.sh` to expose it in the venv")
+FK_AGREEMENT = 1e-12
+"""Largest allowed difference between KDL's and Pinocchio's tip pose (m, and rotation-matrix entries)."""
+
+
+def import_pykdl():
+    """The PyKDL module, or MissingDependencyError saying how to install it."""
+    try:
+        import PyKDL
+    except ImportError as exc:
+        raise MissingDependencyError(INSTALL_HINT) from exc
+    return PyKDL
+
+
+def kdl_frame(kdl, matrix: np.ndarray):
+    """A KDL Frame from a 4x4 homogeneous matrix."""
+    rotation = kdl.Rotation(*(float(v) for v in matrix[:3, :3].reshape(-1)))
+    return kdl.Frame(rotation, kdl.Vector(*(float(v) for v in matrix[:3, 3])))
+
+
+def kdl_chain(chain: Chain):
+    """The chain as a PyKDL.Chain (base frame to tip frame, one movable segment per chain joint)."""
+    kdl = import_pykdl()
+    structure = serial_structure(chain)
+    result = kdl.Chain()
+    result.addSegment(kdl.Segment("base_to_" + chain.joint_names[0], kdl.Joint(kdl.Joint.Fixed),
+                                  kdl_frame(kdl, structure.placements[0])))
+    for k, name in enumerate(chain.joint_names):
+        kind = kdl.Joint.TransAxis if structure.prismatic[k] else kdl.Joint.RotAxis
+        joint = kdl.Joint(name, kdl.Vector(0.0, 0.0, 0.0), kdl.Vector(*structure.axes[k]), kind)
+        result.addSegment(kdl.Segment(name, joint, kdl_frame(kdl, structure.placements[k + 1])))
+    return result
+
+
+def joint_array(kdl, values: np.ndarray):
+    array = kdl.JntArray(len(values))
+    for index, value in enumerate(values):
+        array[index] = float(value)
+    return array
+
+
+def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0) -> float:
+    """Largest difference between KDL and Pinocchio tip poses at random joints; raises if > 1e-12."""
+    kdl = import_pykdl()
+    fk_solver = kdl.ChainFkSolverPos_recursive(kdl_chain_)
+    worst = 0.0
+    frame = kdl.Frame()
+    for q in chain.random(np.random.default_rng(seed), samples):
+        fk_solver.JntToCart(joint_array(kdl, q), frame)
+        expected = chain.fk(q)
+        position = np.array([frame.p[i] for i in range(3)])
+        rotation = np.array([[frame.M[i, j] for j in range(3)] for i in range(3)])
+        worst = max(worst, float(np.abs(position - expected.translation).max()),
+                    float(np.abs(rotation - expected.rotation).max()))
+    if worst > FK_AGREEMENT:
+        raise RobotDescriptionError(
+            f"KDL chain built from {chain!r} disagrees with Pinocchio's FK by {worst:.3g}")
+    return worst
+
+
+class KDLSolver(Solver):
+    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed.
+
+    ``epsilon`` (default: the shared tolerance / sqrt(3), so that KDL's per-component test implies
+    the shared norm test) and ``max_iterations`` (KDL's default 100) are NR_JL's parameters.
+    """
+
+    name = "kdl"
+    supports_position_only = False
+
+    def __init__(self, robot, chain=None, *, max_iterations: int = 100, epsilon: float | None = None,
+                 **options):
+        super().__init__(robot, chain, **options)
+        self.kdl = import_pykdl()
+        self.max_iterations = int(max_iterations)
+        tolerance = min(self.tolerances.position, self.tolerances.rotation)
+        self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
+        kdl = self.kdl
+        self.kdl_chain = kdl_chain(self.chain)
+        self.fk_disagreement = check_fk_agreement(self.chain, self.kdl_chain)
+        self._lower = joint_array(kdl, self.chain.lower)
+        self._upper = joint_array(kdl, self.chain.upper)
+        self._fk_solver = kdl.ChainFkSolverPos_recursive(self.kdl_chain)
+        self._velocity_solver = kdl.ChainIkSolverVel_pinv(self.kdl_chain)
+        self._pose_solver = kdl.ChainIkSolverPos_NR_JL(self.kdl_chain, self._lower, self._upper,
+                                                       self._fk_solver, self._velocity_solver,
+                                                       self.max_iterations, self.epsilon)
+        self._q_out = kdl.JntArray(self.chain.nq)
+
+    def _check_target_kind(self, target: Target) -> None:
+        if not target.is_pose:
+            raise UnsupportedError(
+                f"method {self.name!r} needs a full pose target: KDL NR_JL has no position-only mode "
+                "(and PyKDL's weighted solvers crash under numpy 2); use bounded_lm, dls or newton")
+
+    def _frame(self, target: Target):
+        kdl = self.kdl
+        return kdl.Frame(kdl.Rotation(*target.rotation.reshape(-1).tolist()),
+                         kdl.Vector(*target.position.tolist()))
+
+    def attempt(self, frame, q_seed: np.ndarray) -> tuple[np.ndarray, int]:
+        """One NR_JL run: (joints, KDL return code; 0 = converged)."""
+        code = self._pose_solver.CartToJnt(joint_array(self.kdl, q_seed), frame, self._q_out)
+        return np.array([self._q_out[i] for i in range(self.chain.nq)]), int(code)
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        q, code = self.attempt(self._frame(target), self.chain.clip(q0))
+        reason = "" if code >= 0 else f"KDL NR_JL returned {code} ({self._pose_solver.strError(code)})"
+        return Candidate(q, 1, reason, {"kdl_code": code})
+
+
+class KDLRestartsSolver(KDLSolver):
+    """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline."""
+
+    name = "kdl_restarts"
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        frame = self._frame(target)
+        q_seed = self.chain.clip(q0)
+        attempts = 0
+        best_q, best_error = None, math.inf
+        while True:
+            q, _ = self.attempt(frame, q_seed)
+            attempts += 1
+            position_error, rotation_error = errors(self.chain, target, q)
+            if position_error <= self.tolerances.position and rotation_error <= self.tolerances.rotation:
+                return Candidate(q, attempts, "", {"attempts": attempts})
+            error = position_error + rotation_error
+            if error < best_error:
+                best_q, best_error = q, error
+            if time.perf_counter() >= deadline:
+                return Candidate(best_q, attempts, f"time budget of {self.timeout_s:g} s used up after "
+                                 f"{attempts} KDL attempts", {"attempts": attempts})
+            q_seed = self.chain.random(self.rng)
+
+
+def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:
+    """(position error norm, rotation error norm) of q, as the shared FK check measures them."""
+    position, rotation = pose_error(chain.fk(q), target)
+    return float(np.linalg.norm(position)), 0.0 if rotation is None else float(np.linalg.norm(rotation))

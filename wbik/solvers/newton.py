@@ -1,0 +1,95 @@
+"""Newton-Raphson IK (seed 001), generalised to n revolute/prismatic joints and any target kind.
+
+Iteration (arm3r.md): q_{k+1} = q_k + dq, where J(q_k) dq = e(q_k) and e is the task error of
+:mod:`wbik.solvers.task_error` (3 rows for a position target, 6 for a pose).
+
+- J square (m = n): dq by an LU factorisation with partial pivoting and two triangular solves
+  (the seed's Doolittle LU, made robust by pivoting);
+- J not square, or singular: dq = J^+ e, the least-squares / minimum-norm solution.
+
+The seed iterated until |e| <= eps and so looped forever on unreachable points. Here the loop is
+bounded by ``max_iterations``, the deadline, and a stall test: when the best error has not
+dropped by 0.1 % in ``stall_iterations`` iterations the target is reported as not reached (it is
+out of reach, outside the joint limits, or the iteration is caught at a singularity). Steps
+longer than ``max_step`` (norm, rad or m; None = pure Newton as in the seed) are scaled down.
+Joint limits are kept by clipping each iterate.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg
+
+from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.task_error import converged, task_error
+from wbik.targets import Target
+
+
+def newton_step(jacobian: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """dq with J dq = e: LU where J is square and regular, least squares otherwise."""
+    rows, columns = jacobian.shape
+    if rows == columns:
+        lu, pivots, info = scipy.linalg.lapack.dgetrf(jacobian)
+        diagonal = np.abs(np.diag(lu))
+        if info == 0 and diagonal.min() > 1e-12 * max(diagonal.max(), 1.0):
+            return scipy.linalg.lapack.dgetrs(lu, pivots, error)[0]
+    return np.linalg.lstsq(jacobian, error, rcond=1e-10)[0]
+
+
+class NewtonRaphson(Solver):
+    name = "newton"
+
+    def __init__(self, robot, chain=None, *, max_iterations: int = 100, stall_iterations: int = 10,
+                 max_step: float | None = None, **options):
+        super().__init__(robot, chain, **options)
+        self.max_iterations = int(max_iterations)
+        self.stall_iterations = int(stall_iterations)
+        self.max_step = None if max_step is None else float(max_step)
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        chain = self.chain
+        q = chain.clip(q0)
+        error, jacobian = task_error(chain, target, q)
+        best_q, best_norm, best_iteration = q, float(np.linalg.norm(error)), 0
+        for iteration in range(1, self.max_iterations + 1):
+            if converged(error, self.tolerances.position, self.tolerances.rotation):
+                return Candidate(q, iteration - 1)
+            if time.perf_counter() > deadline:
+                return Candidate(best_q, iteration - 1, f"time budget of {self.timeout_s:g} s used up "
+                                 f"(best task error {best_norm:.3g})")
+            step = newton_step(jacobian, error)
+            if self.max_step is not None:
+                length = float(np.linalg.norm(step))
+                if length > self.max_step:
+                    step *= self.max_step / length
+            q = chain.clip(q + step)
+            error, jacobian = task_error(chain, target, q)
+            norm = float(np.linalg.norm(error))
+            if norm < best_norm * (1.0 - 1e-3):
+                best_iteration = iteration
+            if norm < best_norm:
+                best_q, best_norm = q, norm
+            if iteration - best_iteration >= self.stall_iterations:
+                return Candidate(best_q, iteration, stall_reason(chain, best_q, best_norm, iteration))
+        if converged(error, self.tolerances.position, self.tolerances.rotation):
+            return Candidate(q, self.max_iterations)
+        return Candidate(best_q, self.max_iterations,
+                         f"no convergence in {self.max_iterations} iterations "
+                         f"(best task error {best_norm:.3g})")
+
+
+def stall_reason(chain, q: np.ndarray, error_norm: float, iteration: int) -> str:
+    """Why the iteration stopped making progress, with the evidence."""
+    _, jacobian = chain.fk_jacobian(q)
+    singular_values = np.linalg.svd(jacobian, compute_uv=False)
+    smallest = float(singular_values[min(chain.nq, 6) - 1]) if singular_values.size else 0.0
+    at_limit = [name for name, value, low, high in zip(chain.joint_names, q, chain.lower, chain.upper,
+                                                       strict=True)
+                if value <= low + 1e-9 or value >= high - 1e-9]
+    detail = f"smallest singular value of J {smallest:.2g}"
+    if at_limit:
+        detail += f"; at a joint limit: {', '.join(at_limit)}"
+    return (f"stalled after {iteration} iterations with task error {error_norm:.3g} ({detail}): "
+            "the target is probably out of reach or outside the joint limits")
