@@ -18,6 +18,12 @@ JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
 TOOL_LENGTH = 0.13
 """ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
 
+CLOSED_FORMS = {
+    ("ee", "pose"): "wbik.solvers.analytic.ur5:UR5EndEffector",
+    ("arm", "pose"): "wbik.solvers.analytic.ur5:UR5Tool",
+}
+"""ur_kinematics' closed form (ur5-riveting.md 1.2) on ee_link, and composed with the tool for tcp."""
+
 
 def urdf_text() -> str:
     base = urdf_path("ur_description/urdf/ur5_robot.urdf").read_text()
@@ -35,4 +41,5 @@ def build() -> Robot:
                         -1.5707963267948966, 0.0])
     return robot_from_urdf_text("ur5", urdf_text(), chains, nominal=nominal,
                                 package_dirs=package_dirs(),
-                                info={"tool_length": TOOL_LENGTH, "tool_diameter": 0.005})
+                                info={"tool_length": TOOL_LENGTH, "tool_diameter": 0.005,
+                                      "closed_forms": CLOSED_FORMS})
