@@ -1,0 +1,54 @@
+"""QP backends through qpsolvers, selected by name.
+
+Every QP step solves   min 1/2 x^T H x + c^T x   s.t.  G x <= h,  A x = b,  lb <= x <= ub
+with dense matrices (24 variables for the Bioloid whole body). ``BACKEND_OPTIONS`` sets each
+backend's tolerances tight enough for IK to 1e-6 (OSQP's defaults stop at 1e-3). ``FASTEST`` is
+the backend measured fastest on these small dense problems by ``benchmarks/qp.py``; pass
+``backend="fastest"`` to use it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import qpsolvers
+
+from wbik.errors import MissingDependencyError
+
+DEFAULT = "osqp"
+"""The default the issue asks for (robust first-order solver, sparse by design)."""
+
+FASTEST = "daqp"
+"""Measured fastest per QP step on the Bioloid whole body (benchmarks/qp.py; see its table)."""
+
+BACKEND_OPTIONS: dict[str, dict] = {
+    "osqp": {"eps_abs": 1e-9, "eps_rel": 1e-9, "polishing": False, "max_iter": 50000, "verbose": False},
+    "proxqp": {"eps_abs": 1e-10, "eps_rel": 0.0, "verbose": False},
+    "daqp": {},
+    "quadprog": {},
+}
+
+
+def available() -> list[str]:
+    """Backends installed here that qpsolvers can drive with dense matrices."""
+    return sorted(name for name in qpsolvers.available_solvers if name in BACKEND_OPTIONS)
+
+
+def resolve(name: str) -> str:
+    """A backend name ("fastest" and "default" allowed) checked against what is installed."""
+    resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
+    if resolved not in qpsolvers.available_solvers:
+        raise MissingDependencyError(
+            f"QP backend {name!r} is not installed; available here: {', '.join(available())}. "
+            f"Install it with pip (e.g. 'pip install {resolved}') or pick one of those")
+    return resolved
+
+
+def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
+          A: np.ndarray | None, b: np.ndarray | None, lb: np.ndarray | None,
+          ub: np.ndarray | None) -> np.ndarray | None:
+    """The minimiser, or None when the backend finds no solution (infeasible or failed)."""
+    options = BACKEND_OPTIONS.get(backend, {})
+    try:
+        return qpsolvers.solve_qp(H, c, G, h, A, b, lb, ub, solver=backend, **options)
+    except (ValueError, qpsolvers.SolverError):
+        return None

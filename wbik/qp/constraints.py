@@ -1,0 +1,191 @@
+"""Hard constraints of the QP over the tangent displacement dq (nv).
+
+Three forms, each a small class:
+
+- bounds      lb <= dq <= ub     joint position limits (q + dq inside [q_min, q_max], exact for
+                                  1-DOF joints) and joint velocity limits (|dq| <= v_max dt);
+- equalities  A dq = b           contacts: a frame keeps its pose, J dq = -e (Newton step on e = 0);
+- inequalities G dq <= h         CoM inside the support polygon shrunk by a margin, minimum distance.
+
+``violation(kinematics)`` measures the constraint by forward kinematics at the current q (metres or
+radians, > 0 means violated); the IK loop uses it to verify every configuration it returns.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.tasks import FrameTask
+
+
+class Constraint:
+    """Base class. ``kind`` is "bounds", "equality" or "inequality"."""
+
+    kind = ""
+    name = "constraint"
+
+    def start(self, kinematics: Kinematics) -> None:
+        """Called once when a problem starts from a configuration."""
+
+    def violation(self, kinematics: Kinematics) -> float:
+        return 0.0
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r})"
+
+
+def bounded_joint_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
+    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits."""
+    q_index, v_index = [], []
+    for joint in model.joints[1:]:
+        if joint.nq == 1 and joint.nv == 1:
+            low, high = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            if np.isfinite(low) and np.isfinite(high) and high - low < 1e10:
+                q_index.append(joint.idx_q)
+                v_index.append(joint.idx_v)
+    return np.array(q_index, dtype=int), np.array(v_index, dtype=int)
+
+
+class JointPositionLimits(Constraint):
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step)."""
+
+    kind = "bounds"
+    name = "joint position limits"
+
+    def __init__(self, model: pin.Model):
+        self.q_index, self.v_index = bounded_joint_indices(model)
+        self.lower = model.lowerPositionLimit[self.q_index].copy()
+        self.upper = model.upperPositionLimit[self.q_index].copy()
+
+    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
+        """Tighten ``lower``/``upper`` (nv arrays) in place."""
+        q = kinematics.q[self.q_index]
+        lower[self.v_index] = np.maximum(lower[self.v_index], self.lower - q)
+        upper[self.v_index] = np.minimum(upper[self.v_index], self.upper - q)
+
+    def violation(self, kinematics: Kinematics) -> float:
+        q = kinematics.q[self.q_index]
+        if q.size == 0:
+            return 0.0
+        return float(max(np.max(self.lower - q), np.max(q - self.upper), 0.0))
+
+
+class JointVelocityLimits(Constraint):
+    """|dq_i| <= v_max,i dt on the joints with a positive finite velocity limit."""
+
+    kind = "bounds"
+    name = "joint velocity limits"
+
+    def __init__(self, model: pin.Model, velocity_limit: np.ndarray | None = None):
+        limit = model.velocityLimit.copy() if velocity_limit is None else np.asarray(velocity_limit, float)
+        if limit.shape != (model.nv,):
+            raise ValueError(f"velocity limits need nv = {model.nv} values, got {limit.size}")
+        self.v_index = np.flatnonzero(np.isfinite(limit) & (limit > 0) & (limit < 1e10))
+        self.limit = limit[self.v_index]
+
+    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
+        step = self.limit * dt
+        lower[self.v_index] = np.maximum(lower[self.v_index], -step)
+        upper[self.v_index] = np.minimum(upper[self.v_index], step)
+
+
+class Contact(Constraint):
+    """A frame held at a fixed world pose (a flat foot on the ground): J dq = -e, 6 rows.
+
+    ``placement`` defaults to the frame's pose when the problem starts. ``violation`` is the larger
+    of the position error (m) and rotation error (rad).
+    """
+
+    kind = "equality"
+
+    def __init__(self, frame: str, placement: pin.SE3 | None = None):
+        self.frame = frame
+        self.name = f"contact[{frame}]"
+        self.fixed_placement = placement
+        self._task = FrameTask(frame, placement if placement is not None else pin.SE3.Identity())
+
+    @property
+    def placement(self) -> pin.SE3:
+        return self._task.target
+
+    def start(self, kinematics: Kinematics) -> None:
+        self._task.start(kinematics)
+        if self.fixed_placement is None:
+            self._task.target = kinematics.placement(self._task.frame_id).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return self._task.error(kinematics)
+
+    def equality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        return self._task.jacobian(kinematics), -self._task.error(kinematics)
+
+    def violation(self, kinematics: Kinematics) -> float:
+        error = self._task.error(kinematics)
+        return float(max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])))
+
+
+class CoMInSupportPolygon(Constraint):
+    """The ground projection of the centre of mass stays inside the support polygon shrunk by ``margin``.
+
+    Linearised: N (c_xy + J_com,xy dq) <= d - margin - safety, one row per polygon edge. ``safety``
+    (a few micrometres) absorbs the second-order error of the linearisation, so the FK check of the
+    configuration after the step still holds; the IK loop also halves a step that would break it.
+    ``violation`` = margin - (distance from the CoM projection to the boundary), > 0 if too close.
+    """
+
+    kind = "inequality"
+
+    def __init__(self, polygon: SupportPolygon, margin: float = 0.0, safety: float = 2e-6):
+        if margin < 0:
+            raise ValueError(f"the margin must be >= 0, got {margin}")
+        self.polygon = polygon
+        self.margin = float(margin)
+        self.safety = float(safety)
+        self.name = f"CoM in support polygon (margin {margin * 1e3:g} mm)"
+        self.normals, self.offsets = polygon.halfplanes(self.margin + self.safety)
+
+    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        com = kinematics.com()
+        return (self.normals @ kinematics.com_jacobian()[:2],
+                self.offsets - self.normals @ com[:2])
+
+    def com_margin(self, kinematics: Kinematics) -> float:
+        return self.polygon.margin_of(kinematics.com()[:2])
+
+    def violation(self, kinematics: Kinematics) -> float:
+        return max(self.margin - self.com_margin(kinematics), 0.0)
+
+
+class MinimumDistance(Constraint):
+    """|p_a - p_b| >= distance between two frame origins, linearised along u = (p_a - p_b)/|p_a - p_b|:
+
+        -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance.
+    """
+
+    kind = "inequality"
+
+    def __init__(self, frame_a: str, frame_b: str, distance: float):
+        self.frames = (frame_a, frame_b)
+        self.distance = float(distance)
+        self.name = f"distance({frame_a}, {frame_b}) >= {distance:g} m"
+        self.ids = (-1, -1)
+
+    def start(self, kinematics: Kinematics) -> None:
+        self.ids = (kinematics.frame_id(self.frames[0]), kinematics.frame_id(self.frames[1]))
+
+    def current_distance(self, kinematics: Kinematics) -> tuple[float, np.ndarray]:
+        offset = (kinematics.placement(self.ids[0]).translation
+                  - kinematics.placement(self.ids[1]).translation)
+        return float(np.linalg.norm(offset)), offset
+
+    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        distance, offset = self.current_distance(kinematics)
+        direction = offset / max(distance, 1e-12)
+        relative = kinematics.jacobian(self.ids[0])[:3] - kinematics.jacobian(self.ids[1])[:3]
+        return -(direction @ relative)[None, :], np.array([distance - self.distance])
+
+    def violation(self, kinematics: Kinematics) -> float:
+        return max(self.distance - self.current_distance(kinematics)[0], 0.0)

@@ -1,0 +1,80 @@
+"""Kinematics: one Pinocchio model/data pair evaluated at one configuration, shared by every task.
+
+``update(q)`` runs forward kinematics and the joint Jacobians once; tasks and constraints then read
+frame placements, frame Jacobians and the centre of mass (computed on first use) without
+recomputing. Jacobians are in LOCAL_WORLD_ALIGNED form: rows [v; w] in world axes, v taken at the
+frame origin, so that for a tangent displacement dq, dp = J[:3] dq and the rotation changes by
+exp(J[3:] dq) applied on the left (world axes).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import UnknownFrameError
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+class Kinematics:
+    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities."""
+
+    def __init__(self, model: pin.Model, q: np.ndarray | None = None):
+        self.model = model
+        self.data = model.createData()
+        self.nq = model.nq
+        self.nv = model.nv
+        self.q = pin.neutral(model) if q is None else np.array(q, dtype=float)
+        self._com_ready = False
+        self._frame_ids: dict[str, int] = {}
+        self.update(self.q)
+
+    def frame_id(self, name: str) -> int:
+        frame_id = self._frame_ids.get(name)
+        if frame_id is None:
+            if not self.model.existFrame(name):
+                raise UnknownFrameError(name, [frame.name for frame in self.model.frames])
+            frame_id = self._frame_ids[name] = self.model.getFrameId(name)
+        return frame_id
+
+    def update(self, q: np.ndarray) -> None:
+        """Forward kinematics and joint Jacobians at q (the CoM waits until it is asked for)."""
+        if q is not self.q:
+            self.q[:] = q
+        pin.computeJointJacobians(self.model, self.data, self.q)
+        pin.updateFramePlacements(self.model, self.data)
+        self._com_ready = False
+
+    def placement(self, frame_id: int) -> pin.SE3:
+        """World placement of a frame (a view into data: copy it to keep it)."""
+        return self.data.oMf[frame_id]
+
+    def jacobian(self, frame_id: int) -> np.ndarray:
+        """6 x nv frame Jacobian [v; w] in world axes (LOCAL_WORLD_ALIGNED)."""
+        return pin.getFrameJacobian(self.model, self.data, frame_id, LWA)
+
+    def _update_com(self) -> None:
+        # uses the joint Jacobians already in data (no second forward pass)
+        pin.jacobianCenterOfMass(self.model, self.data, False)
+        self._com_ready = True
+
+    def com(self) -> np.ndarray:
+        """Centre of mass in world coordinates (3,)."""
+        if not self._com_ready:
+            self._update_com()
+        return self.data.com[0]
+
+    def com_jacobian(self) -> np.ndarray:
+        """3 x nv Jacobian of the centre of mass."""
+        if not self._com_ready:
+            self._update_com()
+        return self.data.Jcom
+
+    def integrate(self, dq: np.ndarray) -> np.ndarray:
+        """q (+) dq on the configuration manifold (a new array)."""
+        return pin.integrate(self.model, self.q, dq)
+
+    def difference(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
+        """Tangent vector dq with q_from (+) dq = q_to."""
+        return pin.difference(self.model, q_from, q_to)

@@ -1,0 +1,282 @@
+"""The task-based QP over the tangent displacement dq, one step at a time or iterated to convergence.
+
+One step at configuration q (all tasks of one priority level):
+
+    min_dq  sum_k w_k |J_k dq + g_k e_k|^2 + (mu0 + mu |e|^2) |dq|^2
+    s.t.    A dq = b            (contacts: J_c dq = -e_c)
+            G dq <= h           (CoM in the shrunk support polygon, minimum distances)
+            lb <= dq <= ub      (joint position limits; joint velocity limits x dt; step size)
+
+then q <- q (+) dq. The Levenberg-Marquardt term mu |e|^2 keeps far-away steps short and vanishes
+at the solution, so it does not bias the answer. With several priority levels, level k is solved
+with the achieved task values of levels < k kept (to ``hierarchy_slack``) as extra constraints.
+
+``solve`` iterates steps until every goal task is under its tolerance and every contact holds,
+or the steps stall (best effort: the constrained optimum, errors reported), or the budget ends.
+It verifies the configuration it returns by forward kinematics: contacts, CoM margin, limits.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.qp import backends
+from wbik.qp.constraints import Constraint, JointPositionLimits
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.tasks import Task
+
+
+@dataclass
+class QPSolution:
+    """Outcome of ``IKProblem.solve``.
+
+    ``task_errors``: |e| per task name at q; ``violations``: per constraint, > 0 means violated
+    (contacts in m or rad, CoM in m inside the margin, limits in rad or m); ``com_margins``:
+    distance from the CoM projection to each polygon boundary (m, positive inside).
+    """
+
+    q: np.ndarray
+    success: bool
+    converged: bool
+    feasible: bool
+    iterations: int
+    reason: str
+    time_s: float
+    task_errors: dict[str, float] = field(default_factory=dict)
+    violations: dict[str, float] = field(default_factory=dict)
+    com_margins: dict[str, float] = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        return {"success": self.success, "converged": self.converged, "feasible": self.feasible,
+                "iterations": self.iterations, "reason": self.reason, "time_s": self.time_s,
+                "q": [float(v) for v in self.q], "task_errors": self.task_errors,
+                "violations": self.violations, "com_margins": self.com_margins}
+
+
+class IKProblem:
+    """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
+
+    ``constraint_tolerance`` is what ``solve`` verifies on its answer (1e-6 m for contacts).
+    ``max_step`` bounds every tangent component of one IK step (a trust region, rad or m).
+    """
+
+    def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
+                 *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
+                 max_step: float = 0.2, constraint_tolerance: float = 1e-6,
+                 hierarchy_slack: float = 1e-9):
+        self.model = model
+        self.kinematics = Kinematics(model)
+        self.tasks = list(tasks)
+        self.constraints = list(constraints)
+        self.backend = backends.resolve(backend)
+        self.damping = float(damping)
+        self.lm_damping = float(lm_damping)
+        self.max_step = float(max_step)
+        self.constraint_tolerance = float(constraint_tolerance)
+        self.hierarchy_slack = float(hierarchy_slack)
+        self.nv = model.nv
+        self._limits = [c for c in self.constraints if isinstance(c, JointPositionLimits)]
+        self._lower = np.empty(self.nv)
+        self._upper = np.empty(self.nv)
+        self._started = False
+
+    # -- set-up ---------------------------------------------------------------------------------
+    def add_task(self, task: Task) -> Task:
+        self.tasks.append(task)
+        if self._started:
+            task.start(self.kinematics)
+            self._layout()
+        return task
+
+    def remove_task(self, task: Task) -> None:
+        self.tasks.remove(task)
+        if self._started:
+            self._layout()
+
+    def add_constraint(self, constraint: Constraint) -> Constraint:
+        self.constraints.append(constraint)
+        if isinstance(constraint, JointPositionLimits):
+            self._limits.append(constraint)
+        if self._started:
+            constraint.start(self.kinematics)
+        return constraint
+
+    def start(self, q: np.ndarray) -> None:
+        """Set the configuration and let tasks and constraints resolve frames / capture placements."""
+        q = self.clip(np.asarray(q, dtype=float))
+        self.kinematics.update(q)
+        for item in (*self.tasks, *self.constraints):
+            item.start(self.kinematics)
+        self._layout()
+        self._started = True
+
+    def _layout(self) -> None:
+        """Preallocate the stacked task matrices of every priority level."""
+        self.levels = sorted({task.priority for task in self.tasks}) or [0]
+        self._level_tasks = {level: [t for t in self.tasks if t.priority == level] for level in self.levels}
+        self._stack = {}
+        for level, tasks in self._level_tasks.items():
+            rows = sum(task.dimension for task in tasks)
+            sqrt_weight = np.concatenate([np.sqrt(t.weight) for t in tasks]) if tasks else np.zeros(0)
+            self._stack[level] = (np.zeros((rows, self.nv)), np.zeros(rows), sqrt_weight)
+        self._identity = np.eye(self.nv)
+
+    def clip(self, q: np.ndarray) -> np.ndarray:
+        """q with every bounded 1-DOF joint clipped into its limits."""
+        q = q.copy()
+        for limits in self._limits:
+            q[limits.q_index] = np.clip(q[limits.q_index], limits.lower, limits.upper)
+        return q
+
+    # -- one QP step ----------------------------------------------------------------------------
+    def _assemble_level(self, level: int) -> tuple[np.ndarray, np.ndarray, float]:
+        """(weighted J, weighted gain*e, |e|^2 of goal tasks) for one priority level."""
+        jacobian, error, sqrt_weight = self._stack[level]
+        row = 0
+        goal_cost = 0.0
+        for task in self._level_tasks[level]:
+            stop = row + task.dimension
+            task_error = task.error(self.kinematics)
+            jacobian[row:stop] = task.jacobian(self.kinematics)
+            error[row:stop] = task.gain * task_error
+            if task.goal:
+                goal_cost += float(task_error @ task_error)
+            row = stop
+        return jacobian * sqrt_weight[:, None], error * sqrt_weight, goal_cost
+
+    def _constraint_matrices(self, dt: float):
+        lower, upper = self._lower, self._upper
+        lower.fill(-self.max_step)
+        upper.fill(self.max_step)
+        equalities, inequalities = [], []
+        for constraint in self.constraints:
+            if constraint.kind == "bounds":
+                constraint.bounds(self.kinematics, dt, lower, upper)
+            elif constraint.kind == "equality":
+                equalities.append(constraint.equality(self.kinematics))
+            elif constraint.kind == "inequality":
+                inequalities.append(constraint.inequality(self.kinematics))
+        # a velocity bound may leave no room inside a position bound: keep the box non-empty
+        np.minimum(lower, upper, out=lower)
+        A = np.vstack([a for a, _ in equalities]) if equalities else None
+        b = np.concatenate([b for _, b in equalities]) if equalities else None
+        G = np.vstack([g for g, _ in inequalities]) if inequalities else None
+        h = np.concatenate([h for _, h in inequalities]) if inequalities else None
+        return G, h, A, b, lower.copy(), upper.copy()
+
+    def step(self, q: np.ndarray | None = None, dt: float = 1.0) -> np.ndarray | None:
+        """The QP displacement dq at q (default: the current q), or None if the QP has no solution.
+
+        For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
+        bound |dq| <= v_max dt); for IK, dt = 1 and dq is a Newton-like step.
+        """
+        if not self._started:
+            self.start(self.kinematics.q if q is None else q)
+        elif q is not None:
+            self.kinematics.update(q)
+        G, h, A, b, lower, upper = self._constraint_matrices(dt)
+        dq = None
+        for index, level in enumerate(self.levels):
+            weighted_jacobian, weighted_error, goal_cost = self._assemble_level(level)
+            mu = self.damping + self.lm_damping * goal_cost
+            H = weighted_jacobian.T @ weighted_jacobian
+            H.flat[:: self.nv + 1] += mu
+            c = weighted_jacobian.T @ weighted_error
+            dq = backends.solve(self.backend, H, c, G, h, A, b, lower, upper)
+            if dq is None:
+                return None
+            if index + 1 < len(self.levels):
+                # keep what this level achieved: |J_l dq - J_l dq*| <= slack
+                achieved = weighted_jacobian @ dq
+                rows = np.vstack((weighted_jacobian, -weighted_jacobian))
+                bound = np.r_[achieved + self.hierarchy_slack, -achieved + self.hierarchy_slack]
+                G = rows if G is None else np.vstack((G, rows))
+                h = bound if h is None else np.r_[h, bound]
+        return dq
+
+    # -- iterate to convergence -----------------------------------------------------------------
+    def task_errors(self) -> dict[str, float]:
+        return {task.name: float(np.linalg.norm(task.error(self.kinematics))) for task in self.tasks}
+
+    def violations(self) -> dict[str, float]:
+        return {constraint.name: float(constraint.violation(self.kinematics))
+                for constraint in self.constraints}
+
+    def _goals_met(self) -> bool:
+        return all(np.linalg.norm(task.error(self.kinematics)) <= task.tolerance
+                   for task in self.tasks if task.goal)
+
+    def _equalities_met(self, tolerance: float) -> bool:
+        return all(c.violation(self.kinematics) <= tolerance for c in self.constraints
+                   if c.kind == "equality")
+
+    def _inequalities_hold(self) -> bool:
+        return all(c.violation(self.kinematics) <= 0.0 for c in self.constraints if c.kind == "inequality")
+
+    def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
+              equality_tolerance: float = 1e-10, stall: float = 1e-12) -> QPSolution:
+        """Iterate QP steps from q0 to convergence (see the module docstring)."""
+        start_time = time.perf_counter()
+        self.start(q0)
+        kinematics = self.kinematics
+        q = kinematics.q.copy()
+        reason = ""
+        converged = False
+        iteration = 0
+        for iteration in range(1, max_iterations + 1):
+            if self._goals_met() and self._equalities_met(equality_tolerance):
+                converged = True
+                iteration -= 1
+                break
+            if deadline is not None and time.perf_counter() > deadline:
+                reason = "time budget used up"
+                break
+            dq = self.step(dt=1.0)
+            if dq is None:
+                reason = (f"the QP has no solution ({self.backend}): "
+                          "the constraints conflict at this configuration")
+                break
+            accepted = False
+            for _ in range(8):  # halve a step whose nonlinear inequalities fail by FK
+                trial = self.clip(pin.integrate(self.model, q, dq))
+                kinematics.update(trial)
+                if self._inequalities_hold():
+                    accepted = True
+                    break
+                dq = 0.5 * dq
+            if not accepted:
+                kinematics.update(q)
+                reason = "steps break the inequality constraints even when shortened"
+                break
+            q = kinematics.q.copy()
+            if float(np.max(np.abs(dq))) < stall:
+                converged = self._goals_met() and self._equalities_met(equality_tolerance)
+                if not converged:
+                    reason = "stalled: best effort under the constraints (see the task errors)"
+                break
+        else:
+            converged = self._goals_met() and self._equalities_met(equality_tolerance)
+            if not converged:
+                reason = f"no convergence in {max_iterations} iterations"
+        return self._report(q, converged, iteration, reason, start_time)
+
+    def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,
+                start_time: float) -> QPSolution:
+        self.kinematics.update(q)
+        violations = self.violations()
+        feasible = all(value <= self.constraint_tolerance if isinstance_equality else value <= 1e-9
+                       for value, isinstance_equality in zip(
+                           violations.values(), (c.kind == "equality" for c in self.constraints),
+                           strict=True))
+        if not feasible and not reason:
+            worst = max(violations, key=violations.get)
+            reason = f"constraint {worst!r} violated by {violations[worst]:.3g}"
+        margins = {c.name: float(c.com_margin(self.kinematics)) for c in self.constraints
+                   if hasattr(c, "com_margin")}
+        return QPSolution(q.copy(), converged and feasible, converged, feasible, iterations, reason,
+                          time.perf_counter() - start_time, self.task_errors(), violations, margins)

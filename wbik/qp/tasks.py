@@ -1,0 +1,268 @@
+"""Tasks: the soft objectives of the QP.
+
+A task has an error e(q) (m rows, zero when the task is done) and its Jacobian J = de/dq (m x nv).
+In one QP step over the tangent displacement dq it contributes the cost
+
+    weight * || J dq + gain * e ||^2
+
+so a full step (gain 1) drives the linearised error to zero. ``weight`` is a scalar or one value per
+row; ``priority`` is the level in a strict hierarchy (0 first; equal levels trade off by weight).
+``goal`` tasks decide convergence of the IK loop: their |e| must fall under ``tolerance``; posture
+and regularisation are not goals.
+
+Rotation errors use e_R = log3(R*^T R) (target frame axes, the convention of wbik.targets). With
+R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt), so de_R = Jlog3(M) R^T w, exactly.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.qp.kinematics import Kinematics
+
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def axis_rows(axes: str) -> np.ndarray:
+    """Row indices of a subset of "xyz" (e.g. "xy" -> [0, 1])."""
+    if not axes or any(axis not in _AXES for axis in axes) or len(set(axes)) != len(axes):
+        raise ValueError(f"axes must be a non-empty subset of 'xyz', got {axes!r}")
+    return np.array([_AXES[axis] for axis in axes])
+
+
+class Task:
+    """Base class: subclasses set ``dimension`` and implement ``error`` and ``jacobian``."""
+
+    dimension = 0
+    goal = True
+
+    def __init__(self, weight: float | Sequence[float] = 1.0, gain: float = 1.0, priority: int = 0,
+                 tolerance: float = 1e-7, name: str | None = None):
+        self.weight = np.broadcast_to(np.asarray(weight, dtype=float), (self.dimension,)).copy()
+        if np.any(self.weight < 0):
+            raise ValueError(f"task weights must be >= 0, got {weight}")
+        self.gain = float(gain)
+        self.priority = int(priority)
+        self.tolerance = float(tolerance)
+        self.name = name or type(self).__name__
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, priority={self.priority})"
+
+    def start(self, kinematics: Kinematics) -> None:
+        """Called once when a problem starts from a configuration (resolve frame names here)."""
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        raise NotImplementedError
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        raise NotImplementedError
+
+
+def _rotation_error(target_rotation: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    return pin.log3(target_rotation.T @ rotation)
+
+
+def _rotation_jacobian(target_rotation: np.ndarray, rotation: np.ndarray,
+                       angular_jacobian: np.ndarray) -> np.ndarray:
+    """d log3(R*^T R) / dq for an angular Jacobian in world axes."""
+    return pin.Jlog3(target_rotation.T @ rotation) @ (rotation.T @ angular_jacobian)
+
+
+class _FrameTaskBase(Task):
+    def __init__(self, frame: str, **options):
+        self.frame = frame
+        self.frame_id = -1
+        super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
+
+    def start(self, kinematics: Kinematics) -> None:
+        self.frame_id = kinematics.frame_id(self.frame)
+
+
+class FrameTask(_FrameTaskBase):
+    """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows).
+
+    ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad differ in scale).
+    """
+
+    dimension = 6
+
+    def __init__(self, frame: str, target: pin.SE3, position_weight: float = 1.0,
+                 orientation_weight: float = 1.0, **options):
+        weight = options.pop("weight", 1.0)
+        rows = np.r_[np.full(3, position_weight), np.full(3, orientation_weight)] * weight
+        super().__init__(frame, weight=rows, **options)
+        self.target = target.copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        placement = kinematics.placement(self.frame_id)
+        return np.r_[placement.translation - self.target.translation,
+                     _rotation_error(self.target.rotation, placement.rotation)]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        placement = kinematics.placement(self.frame_id)
+        jacobian = kinematics.jacobian(self.frame_id)
+        jacobian[3:] = _rotation_jacobian(self.target.rotation, placement.rotation, jacobian[3:])
+        return jacobian
+
+
+class PositionTask(_FrameTaskBase):
+    """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
+
+    def __init__(self, frame: str, target: Sequence[float], axes: str = "xyz", **options):
+        self.rows = axis_rows(axes)
+        self.dimension = len(self.rows)
+        super().__init__(frame, **options)
+        self.target = np.asarray(target, dtype=float).reshape(3).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return (kinematics.placement(self.frame_id).translation - self.target)[self.rows]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.jacobian(self.frame_id)[self.rows]
+
+
+class OrientationTask(_FrameTaskBase):
+    """Orientation of a frame in the world: e = log3(R*^T R) (3 rows)."""
+
+    dimension = 3
+
+    def __init__(self, frame: str, target: np.ndarray, **options):
+        super().__init__(frame, **options)
+        self.target = np.asarray(target, dtype=float).reshape(3, 3).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return _rotation_error(self.target, kinematics.placement(self.frame_id).rotation)
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return _rotation_jacobian(self.target, kinematics.placement(self.frame_id).rotation,
+                                  kinematics.jacobian(self.frame_id)[3:])
+
+
+class RelativeFrameTask(_FrameTaskBase):
+    """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)].
+
+    With d = p_frame - p_ref:  dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq  and
+    de_R = Jlog3(M) R_frame^T (J_w,frame - J_w,ref) dq.
+    """
+
+    dimension = 6
+
+    def __init__(self, frame: str, reference_frame: str, target: pin.SE3, position_weight: float = 1.0,
+                 orientation_weight: float = 1.0, **options):
+        weight = options.pop("weight", 1.0)
+        rows = np.r_[np.full(3, position_weight), np.full(3, orientation_weight)] * weight
+        options.setdefault("name", f"RelativeFrameTask[{frame} in {reference_frame}]")
+        super().__init__(frame, weight=rows, **options)
+        self.reference_frame = reference_frame
+        self.reference_id = -1
+        self.target = target.copy()
+
+    def start(self, kinematics: Kinematics) -> None:
+        super().start(kinematics)
+        self.reference_id = kinematics.frame_id(self.reference_frame)
+
+    def relative_placement(self, kinematics: Kinematics) -> pin.SE3:
+        return kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        relative = self.relative_placement(kinematics)
+        return np.r_[relative.translation - self.target.translation,
+                     _rotation_error(self.target.rotation, relative.rotation)]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        frame = kinematics.placement(self.frame_id)
+        reference = kinematics.placement(self.reference_id)
+        frame_jacobian = kinematics.jacobian(self.frame_id)
+        reference_jacobian = kinematics.jacobian(self.reference_id)
+        offset = pin.skew(frame.translation - reference.translation)
+        linear = reference.rotation.T @ (frame_jacobian[:3] - reference_jacobian[:3]
+                                         + offset @ reference_jacobian[3:])
+        relative_rotation = reference.rotation.T @ frame.rotation
+        angular = pin.Jlog3(self.target.rotation.T @ relative_rotation) @ (
+            frame.rotation.T @ (frame_jacobian[3:] - reference_jacobian[3:]))
+        return np.vstack((linear, angular))
+
+
+class ComTask(Task):
+    """Centre of mass in the world, optionally on some axes only: e = (c - c*)[axes]."""
+
+    def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
+        self.rows = axis_rows(axes)
+        self.dimension = len(self.rows)
+        super().__init__(**options)
+        self.target = np.asarray(target, dtype=float).reshape(3).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return (kinematics.com() - self.target)[self.rows]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com_jacobian()[self.rows]
+
+
+def actuated_velocity_indices(model: pin.Model) -> np.ndarray:
+    """Tangent indices of every joint except a floating base (joint 1 with nv = 6)."""
+    first = 6 if model.njoints > 1 and model.joints[1].nv == 6 else 0
+    return np.arange(first, model.nv)
+
+
+class PostureTask(Task):
+    """Joints toward a reference configuration: e = (q (-) q_ref) on the chosen tangent rows.
+
+    The floating base is left out by default (its pose is for the other tasks to decide).
+    """
+
+    goal = False
+
+    def __init__(self, reference: np.ndarray, joints: Sequence[str] | None = None, **options):
+        self.reference = np.asarray(reference, dtype=float).copy()
+        self.joint_names = None if joints is None else list(joints)
+        self.rows = np.zeros(0, dtype=int)
+        self.dimension = 0
+        options.setdefault("weight", 1e-3)
+        self._weight_option = options.pop("weight")
+        super().__init__(**options)
+
+    def start(self, kinematics: Kinematics) -> None:
+        model = kinematics.model
+        if self.reference.shape != (model.nq,):
+            raise ValueError(f"posture reference has {self.reference.size} values, the model nq = {model.nq}")
+        if self.joint_names is None:
+            self.rows = actuated_velocity_indices(model)
+        else:
+            self.rows = np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names])
+        self.dimension = len(self.rows)
+        self.weight = np.broadcast_to(np.asarray(self._weight_option, float), (self.dimension,)).copy()
+        self._jacobian = np.zeros((self.dimension, model.nv))
+        self._jacobian[np.arange(self.dimension), self.rows] = 1.0
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return pin.difference(kinematics.model, self.reference, kinematics.q)[self.rows]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return self._jacobian
+
+
+class RegularizationTask(Task):
+    """Small steps: weight * |dq|^2 (e = 0, J = I). Damps the redundant directions without bias."""
+
+    goal = False
+
+    def __init__(self, weight: float = 1e-6, **options):
+        self._weight_option = weight
+        super().__init__(**options)
+
+    def start(self, kinematics: Kinematics) -> None:
+        self.dimension = kinematics.nv
+        self.weight = np.full(self.dimension, float(self._weight_option))
+        self._jacobian = np.eye(kinematics.nv)
+        self._error = np.zeros(kinematics.nv)
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return self._error
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return self._jacobian
