@@ -1,0 +1,145 @@
+"""``wbik view``: show a robot (or play a scenario file) in meshcat, or export it to HTML/PNG."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+SCENARIO_SUFFIXES = (".yaml", ".yml", ".toml")
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "view", help="show a robot or play a scenario in meshcat (browser), or export it",
+        description="Show ROBOT (built-in name or URDF path) at a configuration, or play the motion "
+                    "of a TASKFILE (tasks/*.yaml). Without --html/--screenshot a local meshcat server "
+                    "starts and its URL is printed; Ctrl-C stops it.",
+        epilog="Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  "
+               "wbik view pincher --html pincher.html;  wbik view bioloid --com --screenshot b.png")
+    parser.add_argument("robot", metavar="ROBOT|TASKFILE",
+                        help="built-in robot (see 'wbik robots'), a .urdf path, or a scenario .yaml")
+    parser.add_argument("--q", type=float, nargs="+",
+                        help="joint values: the chain's with --chain, else the full configuration "
+                             "(or the only chain's)")
+    parser.add_argument("--chain", help="chain that --q, --target and --frames refer to")
+    parser.add_argument("--deg", action="store_true", help="revolute values (and target RPY) in degrees")
+    parser.add_argument("--frames", action="store_true", help="draw the chain's base, joint and tip frames")
+    parser.add_argument("--target", type=float, nargs="+", metavar="V",
+                        help="IK target in the chain's base frame: X Y Z [ROLL PITCH YAW] (m, rad)")
+    parser.add_argument("--com", action="store_true", help="draw the CoM and the support polygon (feet)")
+    parser.add_argument("--style", choices=("auto", "visual", "stick"), default="auto",
+                        help="URDF visuals or a stick model (auto: visuals when the robot has them)")
+    parser.add_argument("--html", type=Path, metavar="PATH",
+                        help="write a self-contained HTML page (opens offline) instead of serving")
+    parser.add_argument("--screenshot", type=Path, metavar="PNG",
+                        help="render a PNG with headless Chromium instead of serving")
+    parser.add_argument("--open", action="store_true", help="open the served page in a web browser")
+    parser.add_argument("--seconds", type=float, default=None,
+                        help="serve this long then stop (default: until Ctrl-C)")
+    parser.set_defaults(run=run)
+
+
+def revolute_mask(model) -> np.ndarray:
+    """True at the q indices of 1-DOF revolute joints (the ones --deg converts)."""
+    mask = np.zeros(model.nq, dtype=bool)
+    for joint in model.joints[1:]:
+        name = joint.shortname()
+        if joint.nq == 1 and (name.startswith("JointModelR") and "Unbounded" not in name):
+            mask[joint.idx_q] = True
+    return mask
+
+
+def build_viewer(args: argparse.Namespace, server: bool):
+    """The Viewer for ``args``: a robot scene, or a scenario's animation."""
+    import pinocchio as pin
+
+    from wbik.errors import InvalidTargetError, UnknownRobotError
+    from wbik.models import load
+    from wbik.viz import Viewer
+
+    source = Path(args.robot)
+    if source.suffix.lower() in SCENARIO_SUFFIXES:
+        from wbik.viz.scenario import scenario_viewer
+
+        return scenario_viewer(source, server=server, style=args.style)
+    try:
+        robot = load(args.robot)
+    except UnknownRobotError as exc:
+        raise UnknownRobotError(args.robot, exc.known, hint="Pass a built-in name ('wbik robots' lists "
+                                "them), the path of a .urdf file, or a scenario file (.yaml)") from None
+    viewer = Viewer(robot, server=server, style=args.style)
+    robot = viewer.robot
+    chain = robot.chain(args.chain) if args.chain else None
+    if args.q is not None:
+        q = np.asarray(args.q, dtype=float)
+        if args.deg:
+            if chain is not None or q.size != robot.model.nq:
+                values_chain = chain or robot.chain()
+                q = values_chain.check_q(q)
+                q = np.where(values_chain.is_prismatic, q, np.radians(q))
+            else:
+                q = np.where(revolute_mask(robot.model), np.radians(q), q)
+        viewer.show(q, chain)
+    if args.frames:
+        viewer.show_frames(chain)
+    if args.target is not None:
+        values = np.asarray(args.target, dtype=float)
+        if values.size not in (3, 6):
+            raise InvalidTargetError(f"--target takes X Y Z or X Y Z ROLL PITCH YAW; got {values.size}")
+        target = values[:3]
+        if values.size == 6:
+            angles = np.radians(values[3:]) if args.deg else values[3:]
+            target = pin.SE3(pin.rpy.rpyToMatrix(*angles), values[:3])
+        viewer.show_target(target, chain or robot.chain())
+    if args.com:
+        support = viewer.show_com_and_polygon()
+        state = "inside" if support.inside else "OUTSIDE"
+        print(f"CoM {np.array2string(support.com, precision=4)} m; its ground projection is {state} the "
+              f"support polygon (margin {support.margin * 1000:.1f} mm)")
+    return viewer
+
+
+def run(args: argparse.Namespace) -> int:
+    offline = args.html is not None or args.screenshot is not None
+    if args.open and offline:
+        print("wbik view: --open serves the scene; it does not go with --html/--screenshot", file=sys.stderr)
+        return 2
+    if offline:
+        viewer = build_viewer(args, server=False)
+        html_path = args.html
+        if html_path is not None:
+            viewer.export_html(html_path)
+            print(f"wrote {html_path} (self-contained: open it in any browser, no server needed)")
+        if args.screenshot is not None:
+            from wbik.viz.browser import find_chromium, render
+
+            find_chromium()  # fail early, with the install hint, before exporting
+            page = html_path or args.screenshot.with_suffix(".html")
+            if html_path is None:
+                viewer.export_html(page)
+            result = render(page, args.screenshot)
+            print(f"wrote {args.screenshot}" + (f" (page errors: {result.errors})" if result.errors else ""))
+        return 0
+    viewer = build_viewer(args, server=True)
+    try:
+        print(f"meshcat viewer for {viewer.title.removeprefix('wbik: ')}: {viewer.url}")
+        if args.open:
+            import webbrowser
+
+            if not webbrowser.open(viewer.url, new=2):
+                print("no web browser found on this machine: open the URL above in a browser that can "
+                      "reach this machine, or write a file with --html scene.html", file=sys.stderr)
+        if args.seconds is None:
+            print("serving; press Ctrl-C to stop", flush=True)
+            while True:
+                time.sleep(3600)
+        time.sleep(max(args.seconds, 0.0))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        viewer.close()
+    return 0

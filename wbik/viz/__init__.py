@@ -1,0 +1,10 @@
+"""Visualisation in meshcat: robots, frames, IK targets, CoM and support polygon, animations.
+
+``Viewer`` draws a scene (with or without a meshcat server); ``Viewer.export_html`` writes it as
+one self-contained HTML page; ``wbik.viz.browser`` renders such a page with headless Chromium.
+"""
+
+from wbik.viz.scene import SceneRecorder, ServerWindow, scene_html
+from wbik.viz.viewer import SupportView, Viewer
+
+__all__ = ["SceneRecorder", "ServerWindow", "SupportView", "Viewer", "scene_html"]

@@ -1,0 +1,386 @@
+"""``Viewer``: a robot in meshcat, with frames, IK targets, CoM and support polygon, animations.
+
+>>> viewer = Viewer("ur5")                 # no server: the scene is kept in this process
+>>> viewer.show(q)                         # full configuration, or one chain's joint values
+>>> viewer.show_target(target, chain="arm")
+>>> viewer.animate(times, qs, trace_frame="tcp")
+>>> viewer.export_html("ur5.html")         # self-contained page, opens offline
+
+``Viewer(robot, server=True)`` also starts a meshcat server on localhost (``viewer.url``); close it
+with ``viewer.close()`` or a ``with`` block. In a notebook the viewer displays itself inline
+(``_repr_html_``, an iframe holding the exported page: no server needed).
+
+Robot geometry is loaded with Pinocchio's MeshcatVisualizer (meshes, primitives, URDF colours);
+robots without visuals are drawn as sticks (see ``wbik.viz.geometry``).
+"""
+
+from __future__ import annotations
+
+import html as html_module
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.robot import Chain, Robot
+from wbik.targets import as_target
+from wbik.viz import geometry as robot_geometry
+from wbik.viz.scene import SceneRecorder, ServerWindow
+
+ROOT = "wbik"
+ROBOT_NODE = f"{ROOT}/robot"
+TARGET_COLOR = 0x22AA44
+REACHED_COLOR = 0x2255DD
+COM_COLOR = 0xCC22CC
+TRACE_COLOR = 0xEEBB00
+INSIDE_COLOR = 0x22AA44
+OUTSIDE_COLOR = 0xDD2222
+
+
+@dataclass(frozen=True)
+class SupportView:
+    """What ``show_com_and_polygon`` drew: CoM (m, world), support polygon (k, 2) in the ground
+    plane (counter-clockwise, at height ``ground_z``), whether the CoM's ground projection is inside,
+    and its signed distance to the polygon's nearest edge (m, positive inside)."""
+
+    com: np.ndarray
+    polygon: np.ndarray
+    ground_z: float
+    inside: bool
+    margin: float
+
+
+def rgb_int(rgba: Sequence[float]) -> int:
+    """Colour as meshcat's 0xRRGGBB integer from RGB(A) floats in [0, 1]."""
+    red, green, blue = (int(round(255 * float(np.clip(c, 0.0, 1.0)))) for c in rgba[:3])
+    return (red << 16) | (green << 8) | blue
+
+
+def convex_hull_2d(points: np.ndarray) -> np.ndarray:
+    """Counter-clockwise convex hull of 2-D points (monotone chain), collinear points dropped."""
+    unique = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
+    if len(unique) < 3:
+        return unique
+
+    def half(sequence):
+        hull: list[np.ndarray] = []
+        for point in sequence:
+            while len(hull) >= 2:
+                a, b = hull[-2], hull[-1]
+                if (b[0] - a[0]) * (point[1] - a[1]) - (b[1] - a[1]) * (point[0] - a[0]) > 1e-12:
+                    break
+                hull.pop()
+            hull.append(point)
+        return hull
+
+    lower, upper = half(unique), half(unique[::-1])
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def polygon_margin(polygon: np.ndarray, point: np.ndarray) -> float:
+    """Signed distance (positive inside) from a 2-D point to a convex counter-clockwise polygon."""
+    if len(polygon) < 3:
+        return -float(np.min(np.linalg.norm(polygon - point, axis=1))) if len(polygon) else -np.inf
+    distances = []
+    for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
+        edge = b - a
+        normal_left = np.array([-edge[1], edge[0]]) / np.linalg.norm(edge)
+        distances.append(float(normal_left @ (point - a)))
+    return min(distances)
+
+
+class Viewer:
+    """A robot scene in meshcat. See the module docstring for the workflow."""
+
+    def __init__(self, robot: Robot | str, server: bool = False, style: str = "auto",
+                 q: np.ndarray | None = None, title: str | None = None):
+        import meshcat
+        from pinocchio.visualize import MeshcatVisualizer
+
+        if isinstance(robot, str):
+            from wbik.models import load
+
+            robot = load(robot)
+        self.robot = robot
+        self.title = title or f"wbik: {robot.name}"
+        self.window = ServerWindow() if server else SceneRecorder()
+        self.meshcat = meshcat.Visualizer(window=self.window)
+        self.geometry, self.style = robot_geometry.visual_model(robot, style)
+        self.extent = robot_geometry.robot_extent(robot)
+        self._pinocchio = MeshcatVisualizer(robot.model, None, self.geometry)
+        self._pinocchio.initViewer(viewer=self.meshcat)
+        self._pinocchio.loadViewerModel(rootNodeName=ROBOT_NODE)
+        self.q = robot.nominal.copy()
+        self.show(self.q if q is None else q)
+        self.look_at()
+
+    # -- life cycle -------------------------------------------------------------------------------
+    @property
+    def url(self) -> str | None:
+        """The meshcat server's local URL (None without a server)."""
+        return getattr(self.window, "web_url", None)
+
+    def close(self) -> None:
+        """Stop the meshcat server if this viewer started one."""
+        if isinstance(self.window, ServerWindow):
+            self.window.close()
+
+    def __enter__(self) -> Viewer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- configurations ---------------------------------------------------------------------------
+    def _chain(self, chain: Chain | str | None) -> Chain | None:
+        if chain is None or isinstance(chain, Chain):
+            return chain
+        return self.robot.chain(chain)
+
+    def full_configuration(self, q: Sequence[float] | None, chain: Chain | str | None = None) -> np.ndarray:
+        """Full q from a full configuration or from one chain's joint values (others as shown now)."""
+        if q is None:
+            return self.q.copy()
+        values = np.asarray(q, dtype=float).reshape(-1)
+        chain = self._chain(chain)
+        if chain is not None:
+            return chain.full_configuration(chain.check_q(values), reference=self.q)
+        if values.shape == (self.robot.model.nq,):
+            if not np.all(np.isfinite(values)):
+                raise InvalidConfigurationError(f"joint values contain NaN or inf: {values.tolist()}")
+            return values.copy()
+        if len(self.robot.chains) == 1:
+            only = self.robot.chain()
+            if values.shape == (only.nq,):
+                return only.full_configuration(only.check_q(values), reference=self.q)
+        raise InvalidConfigurationError(
+            f"{self.robot.name} has nq = {self.robot.model.nq} ({self.robot.model.nq} values for the full "
+            f"configuration); got {values.size} values. For one chain's joints pass chain=NAME "
+            f"(chains: {', '.join(self.robot.chains)})")
+
+    def show(self, q: Sequence[float] | None = None, chain: Chain | str | None = None) -> np.ndarray:
+        """Draw the robot at q (full, or a chain's joints with ``chain``); returns the full q."""
+        self.q = self.full_configuration(q, chain)
+        self._pinocchio.display(self.q)
+        return self.q
+
+    def frame_pose(self, frame: str, q: np.ndarray | None = None) -> pin.SE3:
+        return self.robot.frame_placement(self.q if q is None else q, frame)
+
+    def look_at(self, center: np.ndarray | None = None, distance: float | None = None) -> None:
+        """Point the camera at ``center`` (default: the robot) from ``distance`` (m) away."""
+        if center is None:
+            data = self.robot.model.createData()
+            pin.framesForwardKinematics(self.robot.model, data, self.q)
+            points = np.array([placement.translation for placement in data.oMf])
+            center = 0.5 * (points.min(axis=0) + points.max(axis=0))
+        distance = 2.2 * self.extent if distance is None else distance
+        camera = np.eye(4)
+        camera[:3, 3] = center
+        self.meshcat["/Cameras/default"].set_transform(camera)
+        # the camera sits in a y-up frame: (x, y, z)_three = (x, z, -y)_world, looking at the target
+        direction = np.array([1.0, 0.8, 0.55])
+        position = distance * direction / np.linalg.norm(direction)
+        self.meshcat["/Cameras/default/rotated/<object>"].set_property(
+            "position", [float(position[0]), float(position[2]), float(-position[1])])
+
+    # -- markers ----------------------------------------------------------------------------------
+    def _triad(self, path: str, placement: pin.SE3, scale: float) -> None:
+        """Three cylinders along the frame's x (red), y (green), z (blue) axes."""
+        import meshcat.geometry as mg
+
+        radius = 0.06 * scale
+        # meshcat cylinders run along their local y axis; rotate it onto each frame axis
+        to_axis = {"x": pin.rpy.rpyToMatrix(0.0, 0.0, -np.pi / 2), "y": np.eye(3),
+                   "z": pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0)}
+        colors = {"x": 0xDD2222, "y": 0x22BB22, "z": 0x2244DD}
+        node = self.meshcat[path]
+        for index, axis in enumerate("xyz"):
+            transform = np.eye(4)
+            transform[:3, :3] = to_axis[axis]
+            transform[index, 3] = 0.5 * scale
+            node[axis].set_object(mg.Cylinder(scale, radius), mg.MeshLambertMaterial(color=colors[axis]))
+            node[axis].set_transform(transform)
+        node.set_transform(placement.homogeneous)
+
+    def _sphere(self, path: str, position: np.ndarray, radius: float, color: int,
+                opacity: float = 1.0) -> None:
+        import meshcat.geometry as mg
+
+        material = mg.MeshLambertMaterial(color=color, opacity=opacity, transparent=opacity < 1.0)
+        self.meshcat[path].set_object(mg.Sphere(radius), material)
+        transform = np.eye(4)
+        transform[:3, 3] = position
+        self.meshcat[path].set_transform(transform)
+
+    def _line(self, path: str, points: np.ndarray, color: int, loop: bool = False) -> None:
+        import meshcat.geometry as mg
+
+        geometry = mg.PointsGeometry(np.asarray(points, dtype=np.float32).T)
+        material = mg.LineBasicMaterial(color=color, linewidth=3)
+        line = mg.LineLoop(geometry, material) if loop else mg.Line(geometry, material)
+        self.meshcat[path].set_object(line)
+
+    def clear(self, name: str) -> None:
+        """Remove a marker group: "frames", "target", "reached", "support", "trace"."""
+        self.meshcat[f"{ROOT}/{name}"].delete()
+
+    def show_frames(self, chain: Chain | str | None = None, frames: Sequence[str] = (),
+                    scale: float | None = None) -> list[str]:
+        """Axes of a chain's base, joint and tip frames (and any ``frames``) at the shown q."""
+        chain = self._chain(chain) if chain is not None or len(self.robot.chains) != 1 else self.robot.chain()
+        names = list(frames)
+        if chain is not None:
+            names = [chain.base_frame, *chain.joint_names, chain.tip_frame, *names]
+        scale = 0.12 * self.extent if scale is None else scale
+        self.clear("frames")
+        for name in dict.fromkeys(names):
+            self._triad(f"{ROOT}/frames/{name}", self.frame_pose(name), scale)
+        return list(dict.fromkeys(names))
+
+    def _world_pose(self, pose, chain: Chain | str | None) -> tuple[pin.SE3, bool]:
+        """A target or pose in world coordinates (from the chain's base frame when ``chain`` is given)."""
+        target = as_target(pose)
+        placement = target.se3()
+        chain = self._chain(chain)
+        if chain is not None:
+            placement = self.frame_pose(chain.base_frame) * placement
+        return placement, target.is_pose
+
+    def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
+                    color: int = TARGET_COLOR) -> pin.SE3:
+        """An IK target: a translucent sphere, with axes when it has an orientation.
+
+        ``target`` is anything ``wbik.targets.as_target`` takes, in the chain's base frame when
+        ``chain`` is given, else in the world. Returns the world placement drawn.
+        """
+        placement, is_pose = self._world_pose(target, chain)
+        path = f"{ROOT}/{name}"
+        self.meshcat[path].delete()
+        self._sphere(f"{path}/point", placement.translation, 0.035 * self.extent, color, opacity=0.6)
+        if is_pose:
+            self._triad(f"{path}/axes", placement, 0.15 * self.extent)
+        return placement
+
+    def show_reached(self, pose, chain: Chain | str | None = None) -> pin.SE3:
+        """The pose a solver reached (blue), drawn like a target."""
+        return self.show_target(pose, chain, name="reached", color=REACHED_COLOR)
+
+    def show_ik_result(self, result, target, chain: Chain | str) -> None:
+        """A solver's answer: the robot at ``result.q``, the target and the chain's reached tip pose."""
+        chain = self._chain(chain)
+        if result.q is None:
+            self.show_target(target, chain)
+            return
+        self.show(result.q, chain)
+        self.show_target(target, chain)
+        reached = chain.fk(np.asarray(result.q, dtype=float))
+        self.show_reached(reached if as_target(target).is_pose else reached.translation, chain)
+
+    def show_com_and_polygon(self, q: Sequence[float] | None = None,
+                             feet: Sequence[str] | None = None) -> SupportView:
+        """The centre of mass, its ground projection, and the support polygon of the feet in contact.
+
+        The polygon is the convex hull of the sole rectangles ``robot.info["sole_corners"]``
+        (corners in each sole frame) placed at q; it is green when the CoM projects inside, red
+        otherwise.
+        """
+        corners_by_sole = self.robot.info.get("sole_corners")
+        if not corners_by_sole:
+            raise UnsupportedError(
+                f"{self.robot.name} declares no sole rectangles (robot.info['sole_corners']); "
+                "a support polygon needs feet: try the bioloid")
+        feet = list(corners_by_sole) if feet is None else list(feet)
+        unknown = [foot for foot in feet if foot not in corners_by_sole]
+        if unknown:
+            raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(corners_by_sole)}")
+        if q is not None:
+            self.show(q)
+        world_corners = []
+        for foot in feet:
+            sole = self.frame_pose(foot)
+            local = np.asarray(corners_by_sole[foot], dtype=float).reshape(-1, 3)
+            world_corners.append(local @ sole.rotation.T + sole.translation)
+        corners = np.vstack(world_corners)
+        ground_z = float(np.mean(corners[:, 2]))
+        polygon = convex_hull_2d(corners[:, :2])
+        com = self.robot.center_of_mass(self.q)
+        margin = polygon_margin(polygon, com[:2])
+        inside = margin >= 0.0
+        color = INSIDE_COLOR if inside else OUTSIDE_COLOR
+        path = f"{ROOT}/support"
+        self.meshcat[path].delete()
+        radius = 0.025 * self.extent
+        self._sphere(f"{path}/com", com, radius, COM_COLOR)
+        ground_point = np.array([com[0], com[1], ground_z])
+        self._sphere(f"{path}/com_ground", ground_point, 0.6 * radius, color)
+        self._line(f"{path}/plumb", np.array([com, ground_point]), COM_COLOR)
+        outline = np.column_stack([polygon, np.full(len(polygon), ground_z + 1e-4)])
+        self._line(f"{path}/polygon", outline, color, loop=True)
+        return SupportView(com, polygon, ground_z, bool(inside), float(margin))
+
+    # -- animation --------------------------------------------------------------------------------
+    def animate(self, times: Sequence[float], qs: Sequence[Sequence[float]],
+                chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
+                repetitions: int = 1, play: bool = True) -> np.ndarray | None:
+        """Play a trajectory (q rows, full or of ``chain``) at its own times (s).
+
+        With ``trace_frame``, the frame's path is drawn as a line and a marker rides along it;
+        returns that path (N, 3) in world coordinates, else None.
+        """
+        import meshcat.animation
+
+        times = np.asarray(times, dtype=float).reshape(-1)
+        rows = [self.full_configuration(q, chain) for q in qs]
+        if len(rows) != len(times) or len(rows) == 0:
+            raise InvalidConfigurationError(
+                f"animate needs one configuration per time: got {len(times)} times and {len(rows)} rows")
+        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+            raise InvalidConfigurationError("animation times must be finite and strictly increasing")
+        model, data = self.robot.model, self.robot.model.createData()
+        geometry_data = self.geometry.createData()
+        trace_id = self.robot.frame_id(trace_frame) if trace_frame else None
+        animation = meshcat.animation.Animation(default_framerate=fps)
+        trace = []
+        for time, q in zip(times - times[0], rows, strict=True):
+            pin.forwardKinematics(model, data, q)
+            pin.updateGeometryPlacements(model, data, self.geometry, geometry_data)
+            with animation.at_frame(self.meshcat, float(time * fps)) as frame:
+                for geometry_id, geometry_object in enumerate(self.geometry.geometryObjects):
+                    node = self._pinocchio.getViewerNodeName(geometry_object, pin.GeometryType.VISUAL)
+                    transform = geometry_data.oMg[geometry_id].homogeneous @ np.diag(
+                        [*geometry_object.meshScale, 1.0])
+                    frame[node].set_transform(transform)
+                if trace_id is not None:
+                    pin.updateFramePlacement(model, data, trace_id)
+                    position = data.oMf[trace_id].translation.copy()
+                    trace.append(position)
+                    marker = np.eye(4)
+                    marker[:3, 3] = position
+                    frame[f"{ROOT}/trace/marker"].set_transform(marker)
+        self.show(rows[0])
+        if trace_id is not None:
+            path = np.array(trace)
+            self._line(f"{ROOT}/trace/path", path, TRACE_COLOR)
+            self._sphere(f"{ROOT}/trace/marker", path[0], 0.02 * self.extent, TRACE_COLOR)
+        self.meshcat.set_animation(animation, play=play, repetitions=repetitions)
+        return np.array(trace) if trace_id is not None else None
+
+    # -- export -----------------------------------------------------------------------------------
+    def html(self) -> str:
+        """The scene (and animation) as one self-contained HTML page."""
+        return self.window.html(self.title)
+
+    def export_html(self, path: str | Path) -> Path:
+        """Write the self-contained page to ``path`` (folders created); returns the path."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(self.html(), encoding="utf-8")
+        return path
+
+    def _repr_html_(self) -> str:
+        source = html_module.escape(self.html(), quote=True)
+        return (f'<iframe srcdoc="{source}" style="width: 100%; height: 480px; border: none"></iframe>')
