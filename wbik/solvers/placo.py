@@ -1,0 +1,158 @@
+"""Method ``placo``: the same chain targets solved by PlaCo's kinematics solver (C++), same URDF.
+
+PlaCo loads the robot's URDF (``robot.urdf_path``) with its visual and collision geometry removed,
+since PlaCo resolves every mesh a URDF names and the kinematics do not need them. PlaCo always
+adds a floating base; it is masked (fixed at the robot's nominal base pose), and so is every joint
+outside the chain (held at the robot's nominal), so PlaCo moves exactly the chain's joints. One
+frame task (pose target) or position task (position target) on the tip, joint limits on; each
+``solve(True)`` is one QP step, iterated to the shared tolerance, a stall or the deadline.
+"""
+
+from __future__ import annotations
+
+import time
+import xml.etree.ElementTree as ET
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import MissingDependencyError, RobotDescriptionError
+from wbik.robot import Robot, write_cached_urdf
+from wbik.solvers.base import Candidate, Solver
+from wbik.targets import Target, pose_error
+
+
+def import_placo():
+    try:
+        import placo
+    except ImportError as exc:  # pragma: no cover - placo is a pinned dependency
+        raise MissingDependencyError(
+            "PlaCo is not installed: 'pip install placo==0.10.2' (it needs pin==3.8.0 exactly)") from exc
+    return placo
+
+
+@lru_cache(maxsize=32)
+def _kinematic_urdf(name: str, text: str) -> Path:
+    root = ET.fromstring(text)
+    for link in root.iter("link"):
+        for tag in ("visual", "collision"):
+            for element in link.findall(tag):
+                link.remove(element)
+    return write_cached_urdf(f"{name}-kinematic", ET.tostring(root, encoding="unicode"))
+
+
+def kinematic_urdf_path(robot: Robot) -> Path:
+    """A copy of the robot's URDF without meshes or primitive geometry (kinematics and inertias kept)."""
+    return _kinematic_urdf(robot.name, robot.urdf_text)
+
+
+def placo_robot(robot: Robot, q: np.ndarray | None = None):
+    """A placo.RobotWrapper of the robot at configuration q (default: nominal), base pose included."""
+    placo = import_placo()
+    try:
+        wrapper = placo.RobotWrapper(str(kinematic_urdf_path(robot)), placo.Flags.ignore_collisions)
+    except RuntimeError as exc:
+        raise RobotDescriptionError(f"PlaCo cannot load {robot.name!r}: {exc}") from exc
+    set_placo_configuration(robot, wrapper, robot.nominal if q is None else q)
+    return wrapper
+
+
+def set_placo_configuration(robot: Robot, wrapper, q: np.ndarray) -> None:
+    """Copy a full wbik configuration into PlaCo (joint by joint, by name; base pose if floating)."""
+    model = robot.model
+    if robot.has_floating_base:
+        wrapper.set_T_world_fbase(pin.XYZQUATToSE3(q[:7]).homogeneous)
+    else:
+        wrapper.set_T_world_fbase(np.eye(4))
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        if joint.nq == 1:
+            wrapper.set_joint(model.names[joint_id], float(q[joint.idx_q]))
+    wrapper.update_kinematics()
+
+
+def placo_configuration(robot: Robot, wrapper) -> np.ndarray:
+    """The wbik full configuration of a PlaCo robot state."""
+    q = robot.nominal.copy()
+    model = robot.model
+    if robot.has_floating_base:
+        q[:7] = pin.SE3ToXYZQUAT(pin.SE3(wrapper.get_T_world_fbase()))
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        if joint.nq == 1:
+            q[joint.idx_q] = wrapper.get_joint(model.names[joint_id])
+    return q
+
+
+class PlacoSolver(Solver):
+    name = "placo"
+
+    def __init__(self, robot, chain=None, *, max_iterations: int = 300, regularization: float = 1e-9,
+                 **options):
+        super().__init__(robot, chain, **options)
+        self.max_iterations = int(max_iterations)
+        self.placo = import_placo()
+        self.wrapper = placo_robot(self.robot)
+        self.solver = self.placo.KinematicsSolver(self.wrapper)
+        self.solver.mask_fbase(True)
+        self.solver.enable_joint_limits(True)
+        chain_joints = set(self.chain.joint_names)
+        model = self.robot.model
+        for joint_id in range(1, model.njoints):
+            name = model.names[joint_id]
+            if model.joints[joint_id].nq == 1 and name not in chain_joints:
+                self.solver.mask_dof(name)
+        self.solver.add_regularization_task(regularization)
+        self._task = None
+        self._task_kind = None
+
+    def _set_task(self, target: Target, world_target: np.ndarray) -> None:
+        kind = "pose" if target.is_pose else "position"
+        if self._task is not None and self._task_kind != kind:
+            self.solver.remove_task(self._task)
+            self._task = None
+        if self._task is None:
+            if kind == "pose":
+                self._task = self.solver.add_frame_task(self.chain.tip_frame, world_target)
+            else:
+                self._task = self.solver.add_position_task(self.chain.tip_frame, world_target[:3, 3])
+            self._task.configure("target", "soft", 1.0)
+            self._task_kind = kind
+        elif kind == "pose":
+            self._task.T_world_frame = world_target
+        else:
+            self._task.target_world = world_target[:3, 3]
+
+    def _chain_q(self) -> np.ndarray:
+        return np.array([self.wrapper.get_joint(name) for name in self.chain.joint_names])
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        chain = self.chain
+        set_placo_configuration(self.robot, self.wrapper, chain.full_configuration(q0))
+        base = self.wrapper.get_T_world_frame(chain.base_frame)
+        self._set_task(target, base @ target.se3().homogeneous)
+        tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
+        q = q0.copy()
+        previous = np.inf
+        stalled = 0
+        for iteration in range(1, self.max_iterations + 1):
+            position_error, rotation_error = pose_error(chain.fk(q), target)
+            error = float(np.linalg.norm(position_error)) + (
+                0.0 if rotation_error is None else float(np.linalg.norm(rotation_error)))
+            if error <= tolerance:
+                return Candidate(q, iteration - 1)
+            stalled = stalled + 1 if error > previous - 1e-14 else 0
+            if stalled >= 5:
+                return Candidate(q, iteration - 1, "stalled: PlaCo's steps no longer reduce the error")
+            if time.perf_counter() > deadline:
+                return Candidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+            previous = error
+            try:
+                self.solver.solve(True)
+            except RuntimeError as exc:
+                return Candidate(q, iteration, f"PlaCo's QP failed: {exc}")
+            self.wrapper.update_kinematics()
+            q = self._chain_q()
+        return Candidate(q, self.max_iterations, f"no convergence in {self.max_iterations} iterations")
