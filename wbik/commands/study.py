@@ -1,0 +1,56 @@
+"""``wbik study``: run a comparison study (default: the Golem-III thesis reproduction, 1,000 poses)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "study", help="run a comparison study of IK methods and write its report",
+        description="Run a study file from comparisons/ (default: comparisons/default.yaml, the Golem-III "
+                    "right arm, 1,000 poses, every method): raw rows, summary, Mann-Whitney tests, figures "
+                    "and a Markdown + HTML report in the output folder. An interrupted run resumes where "
+                    "it stopped when run again with the same output folder.")
+    parser.add_argument("file", nargs="?",
+                        help="study file (.yaml or .toml); default comparisons/default.yaml")
+    parser.add_argument("--output", "-o", type=Path, help="output folder (default runs/<study name>/)")
+    parser.add_argument("--jobs", "-j", type=int, default=2, help="parallel workers (default 2)")
+    parser.add_argument("--backend", default="loky", choices=("loky", "sequential", "dask"),
+                        help="joblib backend: loky (local processes, default), sequential, or dask")
+    parser.add_argument("--scheduler",
+                        help="Dask scheduler address (tcp://host:8786); with --backend dask and "
+                             "no address, a local Dask cluster of --jobs workers is started")
+    parser.add_argument("--poses", type=int, help="override the number of poses of every case")
+    parser.add_argument("--methods", help="comma-separated method labels to run (default: all of the study)")
+    parser.add_argument("--robot", help="run the (single-case) study on another robot, e.g. ur5")
+    parser.add_argument("--chain", help="chain of --robot (default: its only chain)")
+    parser.add_argument("--seed", type=int, help="override the study's seed")
+    parser.add_argument("--chunk-size", type=int,
+                        help="poses per chunk (unit of parallel work and of resume)")
+    parser.add_argument("--name", help="rename the study (changes the default output folder)")
+    parser.add_argument("--fresh", action="store_true", help="delete earlier results in the output folder")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--report-only", action="store_true",
+                        help="rebuild the report from the results already in the output folder")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from wbik.study import load_study, run_study
+    from wbik.study.report import write_report
+    from wbik.study.runner import default_output
+
+    study = load_study(args.file).with_overrides(
+        poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
+        robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name)
+    if args.report_only:
+        output = args.output or default_output(study)
+        markdown, html = write_report(study, output)
+    else:
+        output = run_study(study, args.output, jobs=args.jobs, backend=args.backend,
+                           scheduler=args.scheduler, fresh=args.fresh, progress=not args.no_progress)
+        markdown, html = output / "report.md", output / "report.html"
+    print(f"report: {markdown}\n        {html}")
+    return 0

@@ -1,0 +1,393 @@
+"""Study definitions: what to compare, on what, how many times.
+
+A study file (YAML or TOML, in ``comparisons/``) names one or more *cases* (robot, chain, target
+kind) and the *methods* to run on each, with the number of poses, the seed, the time budget and
+the tolerances of the shared FK check. A single-case study may give ``robot``/``chain``/``target``
+at the top level instead of a ``cases`` list. Example::
+
+    name: golem3_thesis
+    robot: golem3
+    chain: right_arm
+    target: pose            # or position
+    poses: 10000
+    seed: 2017
+    timeout_s: 0.005        # default budget of every method
+    tolerances: {position: 1.0e-6, rotation: 1.0e-6}
+    baseline: analytic      # Mann-Whitney reference
+    methods:
+      - analytic
+      - {label: kdl_15s, method: kdl, timeout_s: 15, note: "the thesis's timeout"}
+
+Every mistake raises :class:`StudyDefinitionError` naming the file, the field and what to write.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import tomllib
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import yaml
+
+from wbik.errors import WbikError
+
+COMPARISONS_DIR = Path(__file__).resolve().parents[2] / "comparisons"
+"""The repository's ``comparisons/`` folder (study files; final reports under ``reports/``)."""
+
+DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
+
+TARGET_KINDS = ("pose", "position")
+START_KINDS = ("nominal", "mid_range", "random")
+ANGLE_KEYS = ("alpha", "beta", "gamma")
+THESIS_METRICS = {
+    # key -> (description, unit)
+    "percent_solved": ("poses solved", "%"),
+    "time_median_ms": ("median time, all poses", "ms"),
+    "time_median_solved_ms": ("median time, solved poses", "ms"),
+    "time_mean_ms": ("mean time, all poses", "ms"),
+    "time_min_ms": ("minimum time, all poses", "ms"),
+    "time_max_ms": ("maximum time, all poses", "ms"),
+    "time_mean_unsolved_ms": ("mean time to decide 'no solution'", "ms"),
+    "percent_under_10ms": ("poses answered in under 10 ms", "%"),
+    "percent_under_500ms": ("poses answered in under 0.5 s", "%"),
+}
+_LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
+
+
+class StudyDefinitionError(WbikError, ValueError):
+    """A study file that cannot be run as written; the message names the field to fix."""
+
+
+@dataclass(frozen=True)
+class MethodSpec:
+    """One column of the comparison: a registered method with its options under a label."""
+
+    label: str
+    method: str
+    options: dict = field(default_factory=dict)
+    timeout_s: float | None = None  # None: the study's default
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One robot chain and target kind the methods are compared on."""
+
+    name: str
+    robot: str
+    chain: str | None = None
+    target: str = "pose"
+    robot_params: dict = field(default_factory=dict)
+    poses: int | None = None  # None: the study's
+    angle_names: dict = field(default_factory=dict)  # e.g. thesis names {alpha: yaw, ...}
+    thesis: dict = field(default_factory=dict)  # {"reference": {label: {metric: value}}, "notes": str}
+
+
+@dataclass(frozen=True)
+class Study:
+    name: str
+    cases: tuple[CaseSpec, ...]
+    methods: tuple[MethodSpec, ...]
+    poses: int = 1000
+    seed: int = 0
+    timeout_s: float = 0.005
+    tolerances: dict = field(default_factory=lambda: {"position": 1e-6, "rotation": 1e-6})
+    start: str = "nominal"
+    baseline: str | None = None
+    chunk_size: int = 100
+    description: str = ""
+    notes: str = ""
+    source: str = ""  # the file it came from (not part of the fingerprint)
+
+    def poses_of(self, case: CaseSpec) -> int:
+        return self.poses if case.poses is None else case.poses
+
+    def timeout_of(self, method: MethodSpec) -> float:
+        return self.timeout_s if method.timeout_s is None else method.timeout_s
+
+    def method(self, label: str) -> MethodSpec:
+        for spec in self.methods:
+            if spec.label == label:
+                return spec
+        raise StudyDefinitionError(f"study {self.name!r} has no method labelled {label!r}; "
+                                   f"labels: {', '.join(m.label for m in self.methods)}")
+
+    def as_dict(self) -> dict:
+        """Plain data (JSON-friendly), without ``source``."""
+        data = asdict(self)
+        data.pop("source")
+        return data
+
+    def fingerprint(self) -> str:
+        """Hash of everything that changes the results (descriptions, notes and thesis text aside)."""
+        data = self.as_dict()
+        for key in ("description", "notes"):
+            data.pop(key)
+        for case in data["cases"]:
+            case.pop("thesis")
+            case.pop("angle_names")
+        for method in data["methods"]:
+            method.pop("note")
+        text = json.dumps(data, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def with_overrides(self, *, poses: int | None = None, methods: list[str] | None = None,
+                       robot: str | None = None, chain: str | None = None,
+                       chunk_size: int | None = None, seed: int | None = None,
+                       name: str | None = None) -> Study:
+        """A copy with command-line overrides applied (and validated)."""
+        study = self
+        if methods:
+            unknown = [m for m in methods if m not in {s.label for s in self.methods}]
+            if unknown:
+                raise StudyDefinitionError(
+                    f"--methods names {unknown} which study {self.name!r} does not have; its labels: "
+                    f"{', '.join(s.label for s in self.methods)}")
+            study = replace(study, methods=tuple(s for s in self.methods if s.label in methods))
+            if study.baseline not in methods:
+                study = replace(study, baseline=study.methods[0].label)
+        if robot is not None or chain is not None:
+            if len(study.cases) != 1:
+                raise StudyDefinitionError("--robot/--chain apply to single-case studies only")
+            case = study.cases[0]
+            new_robot = robot or case.robot
+            case = replace(case, robot=new_robot, chain=chain if chain is not None else
+                           (case.chain if robot is None else None),
+                           name=_case_name(new_robot, chain if chain is not None else case.chain,
+                                           case.target) if robot is not None else case.name,
+                           robot_params={} if robot is not None else case.robot_params,
+                           angle_names={} if robot is not None else case.angle_names,
+                           thesis={} if robot is not None else case.thesis)
+            study = replace(study, cases=(case,))
+        if poses is not None:
+            study = replace(study, poses=_positive_int(poses, "--poses", "command line"),
+                            cases=tuple(replace(c, poses=None) for c in study.cases))
+        if chunk_size is not None:
+            study = replace(study, chunk_size=_positive_int(chunk_size, "--chunk-size", "command line"))
+        if seed is not None:
+            study = replace(study, seed=int(seed))
+        if name is not None:
+            study = replace(study, name=_label(name, "--name", "command line"))
+        return study
+
+
+# -- parsing -----------------------------------------------------------------------------------
+def load_study(path: str | Path | None = None) -> Study:
+    """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``); None: the default study."""
+    path = DEFAULT_STUDY if path is None else Path(path)
+    if not path.is_file():
+        available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
+        raise StudyDefinitionError(f"study file {str(path)!r} does not exist; the studies shipped in "
+                                   f"{COMPARISONS_DIR}: {', '.join(available) or '(none)'}")
+    text = path.read_text()
+    try:
+        if path.suffix.lower() == ".toml":
+            data = tomllib.loads(text)
+        else:
+            data = yaml.safe_load(text)
+    except (yaml.YAMLError, tomllib.TOMLDecodeError) as exc:
+        raise StudyDefinitionError(f"{path}: not valid {path.suffix.lstrip('.').upper()}: {exc}") from exc
+    return study_from_dict(data, source=str(path))
+
+
+def study_from_dict(data, source: str = "study") -> Study:
+    """Validate plain data (as read from a file) into a :class:`Study`."""
+    if not isinstance(data, dict):
+        raise StudyDefinitionError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
+                                   f"got {type(data).__name__}")
+    known = {"name", "description", "notes", "robot", "chain", "target", "robot_params", "cases",
+             "methods", "poses", "seed", "timeout_s", "tolerances", "start", "baseline", "chunk_size",
+             "angle_names", "thesis"}
+    _no_unknown(data, known, source, "the study")
+    name = _label(data.get("name", Path(source).stem), "name", source)
+    poses = _positive_int(data.get("poses", 1000), "poses", source)
+    seed = data.get("seed", 0)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise StudyDefinitionError(f"{source}: seed must be a non-negative integer, got {seed!r}")
+    timeout_s = _positive_float(data.get("timeout_s", 0.005), "timeout_s", source)
+    tolerances = data.get("tolerances", {}) or {}
+    if not isinstance(tolerances, dict):
+        raise StudyDefinitionError(f"{source}: tolerances must be a mapping {{position: m, rotation: rad}}")
+    _no_unknown(tolerances, {"position", "rotation"}, source, "tolerances")
+    tolerances = {key: _positive_float(tolerances.get(key, 1e-6), f"tolerances.{key}", source)
+                  for key in ("position", "rotation")}
+    start = data.get("start", "nominal")
+    if start not in START_KINDS:
+        raise StudyDefinitionError(f"{source}: start must be one of {', '.join(START_KINDS)} (the q0 given "
+                                   f"to every method), got {start!r}")
+    chunk_size = _positive_int(data.get("chunk_size", 100), "chunk_size", source)
+    methods = _methods(data.get("methods"), source)
+    cases = _cases(data, source)
+    baseline = data.get("baseline", methods[0].label)
+    if baseline not in {m.label for m in methods}:
+        raise StudyDefinitionError(f"{source}: baseline {baseline!r} is not one of the method labels "
+                                   f"{', '.join(m.label for m in methods)}")
+    for case in cases:
+        for label in case.thesis.get("reference", {}):
+            if label not in {m.label for m in methods}:
+                raise StudyDefinitionError(f"{source}: case {case.name!r}: thesis.reference names method "
+                                           f"{label!r}, which is not a method label of the study")
+    return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
+                 timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
+                 chunk_size=chunk_size, description=str(data.get("description", "") or ""),
+                 notes=str(data.get("notes", "") or ""), source=source)
+
+
+def _methods(raw, source: str) -> list[MethodSpec]:
+    if not isinstance(raw, list) or not raw:
+        raise StudyDefinitionError(f"{source}: methods must be a non-empty list, e.g. [analytic, dls, "
+                                   "{label: kdl_15s, method: kdl, timeout_s: 15}]")
+    from wbik.solvers import methods as registered
+
+    known_methods = registered()
+    specs: list[MethodSpec] = []
+    for index, item in enumerate(raw):
+        where = f"methods[{index}]"
+        if isinstance(item, str):
+            item = {"method": item}
+        if not isinstance(item, dict):
+            raise StudyDefinitionError(f"{source}: {where} must be a method name or a mapping, got {item!r}")
+        _no_unknown(item, {"label", "method", "options", "timeout_s", "note"}, source, where)
+        method = item.get("method")
+        if method not in known_methods:
+            raise StudyDefinitionError(f"{source}: {where}: unknown method {method!r}; registered methods: "
+                                       f"{', '.join(known_methods)}")
+        options = item.get("options", {}) or {}
+        if not isinstance(options, dict):
+            raise StudyDefinitionError(f"{source}: {where}.options must be a mapping of keyword arguments")
+        for reserved in ("timeout_s", "tolerances", "seed"):
+            if reserved in options:
+                raise StudyDefinitionError(f"{source}: {where}.options.{reserved} is set by the study; "
+                                           f"use {where}.timeout_s or the study's tolerances/seed")
+        timeout = item.get("timeout_s")
+        specs.append(MethodSpec(
+            label=_label(item.get("label", method), f"{where}.label", source), method=method,
+            options=dict(options),
+            timeout_s=None if timeout is None else _positive_float(timeout, f"{where}.timeout_s", source),
+            note=str(item.get("note", "") or "")))
+    labels = [s.label for s in specs]
+    duplicates = sorted({label for label in labels if labels.count(label) > 1})
+    if duplicates:
+        raise StudyDefinitionError(f"{source}: method labels must be unique; repeated: {duplicates} "
+                                   "(give each variant its own label:)")
+    return specs
+
+
+def _case_name(robot: str, chain: str | None, target: str) -> str:
+    return "_".join(part for part in (Path(robot).stem, chain, target) if part)
+
+
+def _cases(data: dict, source: str) -> list[CaseSpec]:
+    top_level = {key for key in ("robot", "chain", "target", "robot_params") if key in data}
+    if "cases" in data:
+        if top_level:
+            raise StudyDefinitionError(f"{source}: give either cases: [...] or robot/chain/target at the "
+                                       f"top level, not both (found {sorted(top_level)})")
+        raw = data["cases"]
+        if not isinstance(raw, list) or not raw:
+            raise StudyDefinitionError(f"{source}: cases must be a non-empty list of "
+                                       "{robot, chain, target} mappings")
+        shared = {key: data[key] for key in ("angle_names", "thesis") if key in data}
+        if shared:
+            raise StudyDefinitionError(f"{source}: {sorted(shared)} belong inside each case of cases:")
+    else:
+        if "robot" not in data:
+            raise StudyDefinitionError(f"{source}: say which robot to study (robot: golem3) or list cases:")
+        raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "angle_names",
+                                           "thesis") if key in data}]
+    cases: list[CaseSpec] = []
+    for index, item in enumerate(raw):
+        where = f"cases[{index}]" if "cases" in data else "the study"
+        if not isinstance(item, dict):
+            raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
+        _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "angle_names",
+                           "thesis"}, source, where)
+        robot = item.get("robot")
+        if not isinstance(robot, str) or not robot:
+            raise StudyDefinitionError(f"{source}: {where}.robot must be a robot name or URDF path")
+        chain = item.get("chain")
+        if chain is not None and not isinstance(chain, str):
+            raise StudyDefinitionError(f"{source}: {where}.chain must be a chain name")
+        target = item.get("target", "pose")
+        if target not in TARGET_KINDS:
+            raise StudyDefinitionError(
+                f"{source}: {where}.target must be 'pose' or 'position', got {target!r}")
+        params = item.get("robot_params", {}) or {}
+        if not isinstance(params, dict):
+            raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping")
+        angle_names = item.get("angle_names", {}) or {}
+        if not isinstance(angle_names, dict) or not set(angle_names) <= set(ANGLE_KEYS):
+            raise StudyDefinitionError(
+                f"{source}: {where}.angle_names maps alpha/beta/gamma (R = Rz(gamma) Ry(beta) Rx(alpha)) "
+                f"to display names, e.g. {{alpha: yaw, beta: pitch, gamma: roll}}; got {angle_names!r}")
+        poses = item.get("poses")
+        case = CaseSpec(
+            name=_label(item.get("name", _case_name(robot, chain, target)), f"{where}.name", source),
+            robot=robot, chain=chain, target=target, robot_params=dict(params),
+            poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
+            angle_names={key: _label(value, f"{where}.angle_names.{key}", source)
+                         for key, value in angle_names.items()},
+            thesis=_thesis(item.get("thesis", {}), source, f"{where}.thesis"))
+        cases.append(case)
+    names = [c.name for c in cases]
+    if len(set(names)) != len(names):
+        raise StudyDefinitionError(f"{source}: case names must be unique (give each a name:), got {names}")
+    return cases
+
+
+def _thesis(raw, source: str, where: str) -> dict:
+    if not raw:
+        return {}
+    if not isinstance(raw, dict):
+        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{source, reference, notes}}")
+    _no_unknown(raw, {"source", "reference", "notes"}, source, where)
+    reference = raw.get("reference", {}) or {}
+    if not isinstance(reference, dict):
+        raise StudyDefinitionError(f"{source}: {where}.reference maps method labels to {{metric: value}}")
+    for label, metrics in reference.items():
+        if not isinstance(metrics, dict):
+            raise StudyDefinitionError(f"{source}: {where}.reference.{label} must be a mapping of metrics")
+        unknown = set(metrics) - set(THESIS_METRICS)
+        if unknown:
+            raise StudyDefinitionError(f"{source}: {where}.reference.{label}: unknown metrics "
+                                       f"{sorted(unknown)}; known: {', '.join(THESIS_METRICS)}")
+        for metric, value in metrics.items():
+            if not isinstance(value, int | float) or isinstance(value, bool):
+                raise StudyDefinitionError(f"{source}: {where}.reference.{label}.{metric} must be a number")
+    return {"source": str(raw.get("source", "") or ""), "notes": str(raw.get("notes", "") or ""),
+            "reference": {label: {k: float(v) for k, v in metrics.items()}
+                          for label, metrics in reference.items()}}
+
+
+def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
+    unknown = sorted(set(mapping) - known)
+    if unknown:
+        raise StudyDefinitionError(f"{source}: {where} has unknown field(s) {unknown}; allowed: "
+                                   f"{', '.join(sorted(known))}")
+
+
+def _label(value, field_name: str, source: str) -> str:
+    if not isinstance(value, str) or not _LABEL.match(value):
+        raise StudyDefinitionError(f"{source}: {field_name} must be a name of letters, digits, '_', '-' or "
+                                   f"'.' (it names files), got {value!r}")
+    return value
+
+
+def _positive_int(value, field_name: str, source: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        raise StudyDefinitionError(f"{source}: {field_name} must be a positive integer, got {value!r}")
+    return value
+
+
+def _positive_float(value, field_name: str, source: str) -> float:
+    if isinstance(value, str):  # PyYAML reads 1e-6 (no dot) as a string
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+        raise StudyDefinitionError(f"{source}: {field_name} must be a positive number, got {value!r}")
+    return float(value)

@@ -1,0 +1,339 @@
+"""The study report: tables and figures per case, our numbers beside the thesis's, in Markdown and
+in one self-contained HTML page (figures embedded as base64 PNG).
+
+The report is assembled once as a list of blocks (headings, paragraphs, tables, images) and
+rendered to both formats, so the two always say the same thing. It also writes each case's
+merged ``raw.csv``, ``summary.csv`` and ``significance.csv``.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import json
+import math
+import platform
+from collections import Counter
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+from wbik.study import figures
+from wbik.study import results as store
+from wbik.study.definition import THESIS_METRICS, CaseSpec, Study
+from wbik.study.metrics import axes as case_axes
+from wbik.study.runner import _frozen, _robot, chunk_count
+from wbik.study.statistics import significance, summarize, thesis_metrics
+
+AGREEMENT = {"percent_solved": 2.0}
+"""Absolute difference (percentage points) within which a percentage counts as "agrees"."""
+
+
+@dataclass
+class Block:
+    kind: str  # "h1".."h3", "p", "table", "image", "list"
+    text: str = ""
+    header: list | None = None
+    rows: list | None = None
+    path: Path | None = None
+    items: list | None = None
+
+
+def fmt(value, digits: int = 3) -> str:
+    """A number for a table: 3 significant digits, '-' for missing."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
+    if isinstance(value, int | np.integer):
+        return str(int(value))
+    value = float(value)
+    if math.isnan(value):
+        return "-"
+    if value == 0:
+        return "0"
+    if 1e-3 <= abs(value) < 1e5:
+        return f"{value:.{digits}g}"
+    return f"{value:.{digits - 1}e}"
+
+
+def fmt_p(value: float) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return "0 (< 1e-300)" if value == 0 else f"{value:.2g}"
+
+
+# -- per case ----------------------------------------------------------------------------------
+def case_rows(study: Study, case: CaseSpec, output: Path) -> tuple[dict, dict]:
+    """({label: rows} of the methods with every chunk present, {label: not-applicable message})."""
+    not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
+    rows_by_method = {}
+    for method in study.methods:
+        if method.label in not_applicable:
+            continue
+        rows = store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
+        if rows is not None:
+            rows_by_method[method.label] = rows
+    return rows_by_method, not_applicable
+
+
+def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
+    """Write raw.csv, summary.csv, significance.csv and the figures of one case; return the numbers."""
+    directory = store.case_dir(output, case.name)
+    rows_by_method, not_applicable = case_rows(study, case, output)
+    chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
+    store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
+    summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
+    if summaries:
+        keys = list(next(iter(summaries.values())))
+        _write_csv(directory / "summary.csv", ["method", *keys],
+                   [[label, *(repr(summary[k]) for k in keys)] for label, summary in summaries.items()])
+    baseline = study.baseline if study.baseline in rows_by_method else None
+    tests = significance(baseline, rows_by_method) if baseline else []
+    if tests:
+        keys = list(tests[0])
+        _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
+                                                          for k in keys] for t in tests])
+    error_names = case_axes(case.target, case.angle_names)
+    images = {}
+    if rows_by_method:
+        title = f"{case.robot}.{chain.name} ({case.target})"
+        folder = directory / "figures"
+        images["solved"] = figures.solved_bars(summaries, title, folder / "solved.png")
+        images["errors"] = figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
+                                                  case.angle_names)
+        images["time"] = figures.time_boxplots(rows_by_method, title, folder / "time.png")
+        images["time_histogram"] = figures.time_histogram(rows_by_method, title,
+                                                          folder / "time_histogram.png")
+    return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
+            "summaries": summaries, "tests": tests, "baseline": baseline, "axes": error_names,
+            "images": images}
+
+
+def _case_blocks(study: Study, analysis: dict) -> list[Block]:
+    case: CaseSpec = analysis["case"]
+    chain = analysis["chain"]
+    summaries = analysis["summaries"]
+    rows_by_method = analysis["rows"]
+    blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {case.target} targets"),
+              Block("p", f"{study.poses_of(case)} {case.target} targets from FK of uniform random joints "
+                         f"inside the limits (seed {study.seed}); chain {chain.base_frame} -> "
+                         f"{chain.tip_frame}, {chain.nq} joints ({', '.join(chain.joint_names)}); "
+                         f"every method starts from q0 = {study.start}.")]
+    if analysis["not_applicable"]:
+        blocks.append(Block("p", "Not applicable to this case:"))
+        blocks.append(Block("list", items=[f"{label}: {message}" for label, message
+                                           in analysis["not_applicable"].items()]))
+    missing = [m.label for m in study.methods
+               if m.label not in rows_by_method and m.label not in analysis["not_applicable"]]
+    if missing:
+        blocks.append(Block("p", f"Incomplete (run interrupted; run the study again to resume): "
+                                 f"{', '.join(missing)}."))
+    if not summaries:
+        return blocks
+    blocks.append(Block("h3", "Poses solved and time"))
+    header = ["method", "solved", "% solved", "median ms (solved)", "p95 ms (solved)", "max ms (solved)",
+              "median ms (not solved)", "p95 ms (not solved)", "max ms (not solved)",
+              "mean ms (not solved)", "median iterations", "exceptions"]
+    table = []
+    for label, s in summaries.items():
+        table.append([label, f"{s['solved']}/{s['poses']}", fmt(s["percent_solved"]),
+                      fmt(s["time_solved_median_ms"]), fmt(s["time_solved_p95_ms"]),
+                      fmt(s["time_solved_max_ms"]), fmt(s["time_unsolved_median_ms"]),
+                      fmt(s["time_unsolved_p95_ms"]), fmt(s["time_unsolved_max_ms"]),
+                      fmt(s["time_unsolved_mean_ms"]), fmt(s["iterations_median"]), fmt(s["raised"])])
+    blocks.append(Block("table", header=header, rows=table))
+    reasons = []
+    for label, rows in rows_by_method.items():
+        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
+        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(3):
+            reasons.append([label, reason, count])
+    if reasons:
+        blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
+        blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
+    blocks.append(Block("image", "Poses solved per method", path=analysis["images"]["solved"]))
+    blocks.append(Block("image", "Time per pose", path=analysis["images"]["time"]))
+    blocks.append(Block("image", "Histogram of time per pose", path=analysis["images"]["time_histogram"]))
+
+    blocks.append(Block("h3", "Error per axis (solved poses)"))
+    blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
+                             "target, base axes); rot_* the rotation vector log3(R_target^T R_reached); "
+                             "alpha, beta, gamma the angles of R = Rz(gamma) Ry(beta) Rx(alpha)"
+                             + (" (the thesis calls them " + ", ".join(f"{k} '{v}'" for k, v in
+                                                                        case.angle_names.items()) + ")"
+                                if case.angle_names else "") + "; radians."))
+    labels = list(summaries)
+    for statistic, title in (("abs_median", "median |e|"), ("abs_max", "max |e|"),
+                             ("zero_fraction", "fraction exactly 0")):
+        table = [[f"{title}: {label}", *(fmt(summaries[label].get(f"err_{axis}_{statistic}"))
+                                         for axis in analysis["axes"])] for label in labels]
+        blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
+    blocks.append(Block("image", "Error per axis", path=analysis["images"]["errors"]))
+
+    if analysis["tests"]:
+        blocks.append(Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"))
+        blocks.append(Block("p", "p-values of scipy.stats.mannwhitneyu: per axis on |e| of the solved poses "
+                                 "of each method, and on the time of every pose; * marks p < 0.05."))
+        axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
+        by_method: dict[str, dict] = {}
+        for test in analysis["tests"]:
+            mark = "*" if test["significant"] else ""
+            by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
+        blocks.append(Block("table", header=["method", *axes_tested],
+                            rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
+                                  for label, cells in by_method.items()]))
+    blocks.extend(_thesis_blocks(case, summaries))
+    return blocks
+
+
+def _reason_kind(reason: str) -> str:
+    """A reason without its numbers, so that similar failures are counted together."""
+    words = []
+    for word in reason.split():
+        stripped = word.strip(",.;:()")
+        try:
+            float(stripped)
+            words.append("#")
+        except ValueError:
+            words.append(word)
+    return " ".join(words)[:120] or "(no reason given)"
+
+
+def _thesis_blocks(case: CaseSpec, summaries: dict) -> list[Block]:
+    thesis = case.thesis
+    if not thesis:
+        return []
+    blocks = [Block("h3", "Beside the thesis")]
+    if thesis.get("source"):
+        blocks.append(Block("p", f"Thesis figures from {thesis['source']}."))
+    table = []
+    for label, metrics in thesis.get("reference", {}).items():
+        ours = thesis_metrics(summaries[label]) if label in summaries else {}
+        for metric, value in metrics.items():
+            description, unit = THESIS_METRICS[metric]
+            our = ours.get(metric)
+            table.append([label, f"{description} ({unit})", fmt(value), fmt(our),
+                          _verdict(metric, value, our)])
+    if table:
+        blocks.append(Block("table", header=["method", "metric", "thesis", "ours", "comparison"], rows=table))
+    if thesis.get("notes"):
+        blocks.append(Block("p", "Where and why we differ: " + thesis["notes"].strip()))
+    return blocks
+
+
+def _verdict(metric: str, thesis_value: float, ours: float | None) -> str:
+    if ours is None or not math.isfinite(ours):
+        return "not measured (method not run)"
+    if metric in AGREEMENT or metric.startswith("percent"):
+        difference = ours - thesis_value
+        if abs(difference) <= AGREEMENT.get(metric, 2.0):
+            return f"agrees ({difference:+.1f} points)"
+        return f"differs by {difference:+.1f} points"
+    if thesis_value == 0:
+        return "-"
+    ratio = ours / thesis_value
+    if 0.5 <= ratio <= 2.0:
+        return f"same order (x{ratio:.2g})"
+    return f"{'faster' if ratio < 1 else 'slower'} (x{ratio:.2g})"
+
+
+# -- the whole report --------------------------------------------------------------------------
+def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block]:
+    run = store.read_json(output / "run.json", {}) or {}
+    blocks = [Block("h1", f"Study {study.name}")]
+    if study.description:
+        blocks.append(Block("p", study.description.strip()))
+    facts = [
+        f"definition: {study.source} (fingerprint {study.fingerprint()})",
+        "poses per case: " + ", ".join(f"{c.name} {study.poses_of(c)}" for c in study.cases)
+        + f"; seed {study.seed}",
+        f"shared FK check: position error <= {study.tolerances['position']:g} m and rotation error <= "
+        f"{study.tolerances['rotation']:g} rad",
+        f"default time budget {study.timeout_s:g} s per pose; start q0 = {study.start}",
+        f"last run: {run.get('jobs', '?')} job(s), backend {run.get('backend', '?')}, "
+        f"{fmt(run.get('seconds'))} s for {run.get('computed_tasks', '?')} chunk(s); "
+        f"report written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
+        f"machine: {platform.machine()}, Python {platform.python_version()}",
+    ]
+    blocks.append(Block("list", items=facts))
+    blocks.append(Block("h2", "Methods"))
+    blocks.append(Block("table", header=["label", "method", "time budget (s)", "options", "note"],
+                        rows=[[m.label, m.method, fmt(study.timeout_of(m)),
+                               json.dumps(m.options) if m.options else "", m.note] for m in study.methods]))
+    if study.notes:
+        blocks.append(Block("p", study.notes.strip()))
+    for analysis in analyses:
+        blocks.extend(_case_blocks(study, analysis))
+    return blocks
+
+
+def render_markdown(blocks: list[Block], base: Path) -> str:
+    lines: list[str] = []
+    for block in blocks:
+        if block.kind.startswith("h"):
+            lines += ["#" * int(block.kind[1]) + " " + block.text, ""]
+        elif block.kind == "p":
+            lines += [block.text, ""]
+        elif block.kind == "list":
+            lines += [f"- {item}" for item in block.items] + [""]
+        elif block.kind == "table":
+            lines.append("| " + " | ".join(str(h) for h in block.header) + " |")
+            lines.append("|" + "---|" * len(block.header))
+            for row in block.rows:
+                lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |")
+            lines.append("")
+        elif block.kind == "image":
+            lines += [f"![{block.text}]({block.path.relative_to(base).as_posix()})", ""]
+    return "\n".join(lines)
+
+
+_STYLE = """body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;margin:0.6em 0;font-size:0.85em}td,th{border:1px solid #ccc;padding:3px 7px;
+text-align:right}td:first-child,th:first-child{text-align:left}th{background:#f0f0f0}img{max-width:100%}
+h2{border-bottom:1px solid #ddd;margin-top:2em}"""
+
+
+def render_html(blocks: list[Block], title: str) -> str:
+    parts = [f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+             f"<style>{_STYLE}</style></head><body>"]
+    for block in blocks:
+        if block.kind.startswith("h"):
+            parts.append(f"<{block.kind}>{html.escape(block.text)}</{block.kind}>")
+        elif block.kind == "p":
+            parts.append(f"<p>{html.escape(block.text)}</p>")
+        elif block.kind == "list":
+            parts.append("<ul>" + "".join(f"<li>{html.escape(str(i))}</li>" for i in block.items) + "</ul>")
+        elif block.kind == "table":
+            head = "".join(f"<th>{html.escape(str(h))}</th>" for h in block.header)
+            body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>"
+                           for row in block.rows)
+            parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+        elif block.kind == "image":
+            data = base64.b64encode(block.path.read_bytes()).decode()
+            parts.append(f"<figure><img alt='{html.escape(block.text)}' src='data:image/png;base64,{data}'>"
+                         f"<figcaption>{html.escape(block.text)}</figcaption></figure>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def write_report(study: Study, output: Path) -> tuple[Path, Path]:
+    """Analyse every case and write ``report.md`` and ``report.html`` into ``output``."""
+    output = Path(output)
+    analyses = [analyse_case(study, case, output) for case in study.cases]
+    blocks = build_blocks(study, output, analyses)
+    markdown_path, html_path = output / "report.md", output / "report.html"
+    store.atomic_write_text(markdown_path, render_markdown(blocks, output))
+    store.atomic_write_text(html_path, render_html(blocks, f"wbik study {study.name}"))
+    return markdown_path, html_path

@@ -1,0 +1,140 @@
+"""Where a study's results live on disk, and how they are written and read back.
+
+Layout of an output folder (default ``runs/<study name>/``)::
+
+    study.json                         the definition that was run, with its fingerprint
+    <case>/poses.npz                   q_true, positions, rotations (pose targets), q0
+    <case>/chunks/<method>/chunk_00012.npz   raw rows of poses [12 * chunk_size, 13 * chunk_size)
+    <case>/not_applicable.json         {method label: why it does not apply}
+    <case>/raw.csv                     every row of every method, merged (written at the end)
+    <case>/summary.csv, significance.csv, figures/*.png
+    report.md, report.html
+
+Every file is written to a temporary name in the same folder and renamed into place, so a
+killed run leaves whole chunks or none, and a resumed run only computes the missing chunks.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+ROW_FIELDS = ("pose", "success", "reason", "time_s", "iterations", "position_error", "rotation_error")
+"""Columns of every raw row before the per-axis errors and the joints."""
+
+
+def atomic_write_bytes(path: Path, writer) -> None:
+    """Call ``writer(handle)`` on a temporary file next to ``path``, then rename it into place."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(temporary, "wb") as handle:
+        writer(handle)
+        handle.flush()
+        os.fsync(handle.fileno())
+    temporary.replace(path)
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    atomic_write_bytes(path, lambda handle: handle.write(text.encode()))
+
+
+def write_json(path: Path, data) -> None:
+    atomic_write_text(path, json.dumps(data, indent=2, sort_keys=True, default=str) + "\n")
+
+
+def read_json(path: Path, default=None):
+    return json.loads(path.read_text()) if path.is_file() else default
+
+
+def case_dir(output: Path, case_name: str) -> Path:
+    return output / case_name
+
+
+def chunk_path(output: Path, case_name: str, label: str, chunk: int) -> Path:
+    return case_dir(output, case_name) / "chunks" / label / f"chunk_{chunk:05d}.npz"
+
+
+def write_chunk(path: Path, columns: dict[str, np.ndarray]) -> None:
+    """One chunk of raw rows as a .npz of equal-length columns (strings as unicode arrays)."""
+    atomic_write_bytes(path, lambda handle: np.savez(handle, **columns))
+
+
+def read_chunk(path: Path) -> dict[str, np.ndarray]:
+    with np.load(path, allow_pickle=False) as data:
+        return {key: data[key] for key in data.files}
+
+
+def load_method_rows(output: Path, case_name: str, label: str,
+                     chunk_count: int) -> dict[str, np.ndarray] | None:
+    """The rows of one method, in pose order, from its chunk files; None if any chunk is missing."""
+    parts = []
+    for chunk in range(chunk_count):
+        path = chunk_path(output, case_name, label, chunk)
+        if not path.is_file():
+            return None
+        parts.append(read_chunk(path))
+    return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+
+
+def error_columns(rows: dict[str, np.ndarray]) -> list[str]:
+    return [key for key in rows if key.startswith("err_")]
+
+
+def write_raw_csv(path: Path, rows_by_method: dict[str, dict[str, np.ndarray]],
+                  joint_names: list[str]) -> None:
+    """Every (pose, method) row in one CSV: ROW_FIELDS, method, err_* columns, q_<joint> columns."""
+    if not rows_by_method:
+        atomic_write_text(path, "")
+        return
+    first = next(iter(rows_by_method.values()))
+    errors = error_columns(first)
+    header = ["pose", "method", *ROW_FIELDS[1:], *errors, *(f"q_{name}" for name in joint_names)]
+
+    def write(handle) -> None:
+        import io
+
+        text = io.TextIOWrapper(handle, encoding="utf-8", newline="")
+        writer = csv.writer(text)
+        writer.writerow(header)
+        for label, rows in rows_by_method.items():
+            for i in range(len(rows["pose"])):
+                writer.writerow([int(rows["pose"][i]), label, int(bool(rows["success"][i])),
+                                 str(rows["reason"][i]), repr(float(rows["time_s"][i])),
+                                 int(rows["iterations"][i]), repr(float(rows["position_error"][i])),
+                                 repr(float(rows["rotation_error"][i])),
+                                 *(repr(float(rows[key][i])) for key in errors),
+                                 *(repr(float(v)) for v in rows["q"][i])])
+        text.flush()
+        text.detach()
+
+    atomic_write_bytes(path, write)
+
+
+def read_raw_csv(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """A merged raw.csv back into {method: {column: array}} (for checks and notebooks; no pandas)."""
+    with open(path, newline="", encoding="utf-8") as handle:
+        reader = csv.DictReader(handle)
+        grouped: dict[str, list[dict]] = {}
+        for row in reader:
+            grouped.setdefault(row["method"], []).append(row)
+    result = {}
+    for label, rows in grouped.items():
+        columns: dict[str, np.ndarray] = {}
+        for key in rows[0]:
+            if key == "method":
+                continue
+            values = [row[key] for row in rows]
+            if key == "reason":
+                columns[key] = np.array(values, dtype=str)
+            elif key in ("pose", "iterations"):
+                columns[key] = np.array(values, dtype=int)
+            elif key == "success":
+                columns[key] = np.array(values, dtype=int).astype(bool)
+            else:
+                columns[key] = np.array(values, dtype=float)
+        result[label] = columns
+    return result

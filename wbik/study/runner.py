@@ -1,0 +1,318 @@
+"""Running a study: chunks of poses x methods, in parallel (joblib, or Dask), resumable.
+
+Work is cut into tasks (case, method, chunk of ``chunk_size`` poses). Each task builds its solver
+with a seed derived from (study seed, case, method, chunk), so a task's answer does not depend on
+which worker runs it or in which order: serial, parallel and Dask runs agree (time-bounded methods
+aside, whose budget depends on the machine's load). Workers return the rows; the main process
+writes each chunk atomically as it arrives (see :mod:`wbik.study.results`), so an interrupted run
+loses only the chunks in flight and a new run computes only the missing ones.
+
+A method that does not apply (UnsupportedError, MissingDependencyError, or its module not written
+yet) is probed once per case in the main process and recorded as "not applicable" with the message.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import time
+import traceback
+import zlib
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from wbik.errors import MissingDependencyError, UnsupportedError
+from wbik.study import results as store
+from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
+from wbik.study.metrics import axis_errors
+from wbik.study.sampling import PoseSet, sample_poses
+
+BACKENDS = ("loky", "sequential", "dask")
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """Everything a worker needs to solve one chunk (plain data, cheap to pickle)."""
+
+    case: str
+    robot: str
+    robot_params: tuple
+    chain: str | None
+    angle_names: tuple
+    label: str
+    method: str
+    options: tuple
+    timeout_s: float
+    tolerances: tuple
+    seed: int
+    chunk: int
+    first_pose: int
+    positions: np.ndarray
+    rotations: np.ndarray | None
+    q0: np.ndarray
+
+
+def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
+    """A solver seed that depends only on the study seed and the task's identity."""
+    sequence = np.random.SeedSequence([seed, zlib.crc32(case.encode()), zlib.crc32(label.encode()), chunk])
+    return int(sequence.generate_state(1)[0])
+
+
+@lru_cache(maxsize=8)
+def _robot(name: str, params: tuple):
+    import wbik
+
+    return wbik.load(name, **dict(params))
+
+
+def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
+                timeout_s: float, tolerances: tuple, seed: int):
+    import wbik
+
+    robot = _robot(robot_name, robot_params)
+    return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
+                       tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
+
+
+def not_applicable_reason(exc: BaseException) -> str | None:
+    """The message if ``exc`` means "this method does not apply here", else None."""
+    if isinstance(exc, UnsupportedError | MissingDependencyError):
+        return str(exc)
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").startswith("wbik."):
+        return f"not implemented yet (module {exc.name} is missing)"
+    if isinstance(exc, ImportError):
+        return f"missing dependency: {exc}"
+    return None
+
+
+def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
+    """Solve one chunk with ``solve_many`` (batched methods keep their speed); the raw rows.
+
+    A pose on which the method raises gets success=False and reason "raised ...", and the chunk
+    continues pose by pose; "not applicable" errors are returned as {"not_applicable": [message]}.
+    """
+    from wbik.targets import Target
+
+    try:
+        solver = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
+                             task.timeout_s, task.tolerances, task.seed)
+    except Exception as exc:  # noqa: BLE001 - classified below
+        message = not_applicable_reason(exc)
+        if message is None:
+            raise
+        return {"not_applicable": np.array([message])}
+    count = len(task.positions)
+    targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
+               for i in range(count)]
+    try:
+        answers = solver.solve_many(targets, task.q0)
+    except Exception as exc:  # noqa: BLE001
+        message = not_applicable_reason(exc)
+        if message is not None:
+            return {"not_applicable": np.array([message])}
+        answers = []
+        for target, q0 in zip(targets, task.q0, strict=True):
+            try:
+                answers.append(solver.solve(target, q0))
+            except Exception as pose_exc:  # noqa: BLE001 - recorded in the row, counted in the report
+                answers.append(_raised(solver, pose_exc))
+    nq = solver.chain.nq
+    columns = {
+        "pose": np.arange(task.first_pose, task.first_pose + count),
+        "success": np.array([a.success for a in answers], dtype=bool),
+        "reason": np.array([a.reason for a in answers], dtype=str),
+        "time_s": np.array([a.time_s for a in answers], dtype=float),
+        "iterations": np.array([a.iterations for a in answers], dtype=int),
+        "position_error": np.array([a.position_error for a in answers], dtype=float),
+        "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
+    }
+    columns.update(axis_errors(answers, task.rotations, dict(task.angle_names)))
+    columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
+                            dtype=float).reshape(count, nq)
+    return columns
+
+
+def _raised(solver, exc: BaseException):
+    from wbik.solvers.base import IKResult
+
+    nan3 = np.full(3, np.nan)
+    detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+    return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),
+                    float("nan"), 0, solver.name)
+
+
+# -- preparing ---------------------------------------------------------------------------------
+def default_output(study: Study) -> Path:
+    return Path("runs") / study.name
+
+
+def prepare_output(study: Study, output: Path, fresh: bool) -> None:
+    """Create the folder; refuse to mix results of a different study unless ``fresh``."""
+    record = output / "study.json"
+    previous = store.read_json(record)
+    if previous is not None and previous.get("fingerprint") != study.fingerprint():
+        if not fresh:
+            raise StudyDefinitionError(
+                f"{output} holds results of a different study definition (fingerprint "
+                f"{previous.get('fingerprint')} != {study.fingerprint()}); pass --fresh to delete them, "
+                "or --output to write elsewhere")
+    if fresh and output.exists():
+        shutil.rmtree(output)
+    output.mkdir(parents=True, exist_ok=True)
+    store.write_json(record, {"fingerprint": study.fingerprint(), "source": study.source,
+                              "study": study.as_dict()})
+
+
+def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
+    """The case's poses: read back if already sampled, else sampled from the seed and saved."""
+    path = store.case_dir(output, case.name) / "poses.npz"
+    if path.is_file():
+        return PoseSet.load(path)
+    chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
+    poses = sample_poses(chain, study.poses_of(case), study.seed, case.target, study.start)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    poses.save(path)
+    return poses
+
+
+def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
+    """Why ``method`` does not apply to ``case`` (None if it does): build it, solve the first pose."""
+    task = _task(study, case, method, poses, 0, 0, 1)
+    rows = solve_chunk(task)
+    if "not_applicable" in rows:
+        return str(rows["not_applicable"][0])
+    return None
+
+
+def _frozen(mapping: dict) -> tuple:
+    return tuple(sorted(mapping.items()))
+
+
+def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
+          stop: int) -> ChunkTask:
+    return ChunkTask(
+        case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
+        angle_names=_frozen(case.angle_names), label=method.label, method=method.method,
+        options=_frozen(method.options), timeout_s=study.timeout_of(method),
+        tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
+        seed=chunk_seed(study.seed, case.name, method.label, chunk), chunk=chunk, first_pose=start,
+        positions=poses.positions[start:stop],
+        rotations=None if poses.rotations is None else poses.rotations[start:stop],
+        q0=poses.q0[start:stop])
+
+
+def chunk_count(study: Study, case: CaseSpec) -> int:
+    return -(-study.poses_of(case) // study.chunk_size)
+
+
+def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
+    """(tasks still to run, rows already done, rows in total), probing applicability on the way."""
+    tasks: list[ChunkTask] = []
+    done_rows = total_rows = 0
+    for case in study.cases:
+        poses = case_poses(study, case, output)
+        directory = store.case_dir(output, case.name)
+        not_applicable: dict[str, str] = {}
+        applicable = []
+        for method in study.methods:
+            reason = probe(study, case, method, poses)
+            if reason is None:
+                applicable.append(method)
+            else:
+                not_applicable[method.label] = reason
+                log(f"  {case.name}: {method.label} not applicable: {reason}")
+        store.write_json(directory / "not_applicable.json", not_applicable)
+        for chunk in range(chunk_count(study, case)):
+            start = chunk * study.chunk_size
+            stop = min(start + study.chunk_size, len(poses))
+            for method in applicable:
+                total_rows += stop - start
+                if store.chunk_path(output, case.name, method.label, chunk).is_file():
+                    done_rows += stop - start
+                else:
+                    tasks.append(_task(study, case, method, poses, chunk, start, stop))
+    return tasks, done_rows, total_rows
+
+
+# -- running -----------------------------------------------------------------------------------
+def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | None):
+    """Yield (task, rows) as tasks finish, on the chosen backend."""
+    if backend == "sequential" or (backend == "loky" and jobs == 1):
+        for task in tasks:
+            yield task, solve_chunk(task)
+        return
+    from joblib import Parallel, delayed, parallel_config
+
+    def run(n_jobs: int):
+        parallel = Parallel(n_jobs=n_jobs, return_as="generator_unordered", batch_size=1,
+                            pre_dispatch="2*n_jobs")
+        yield from parallel(delayed(_solve_with_task)(task) for task in tasks)
+
+    if backend == "loky":
+        with parallel_config(backend="loky"):
+            yield from run(jobs)
+        return
+    if backend != "dask":
+        raise StudyDefinitionError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    try:
+        from dask.distributed import Client, LocalCluster
+    except ImportError as exc:
+        raise MissingDependencyError(
+            "the dask backend needs dask[distributed]: .venv/bin/pip install 'dask[distributed]'") from exc
+    cluster = None
+    if scheduler:
+        client = Client(scheduler)
+    else:
+        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    try:
+        with parallel_config(backend="dask"):
+            yield from run(-1)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _solve_with_task(task: ChunkTask) -> tuple[ChunkTask, dict]:
+    return task, solve_chunk(task)
+
+
+def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backend: str = "loky",
+              scheduler: str | None = None, fresh: bool = False, progress: bool = True,
+              report: bool = True, log=None) -> Path:
+    """Run (or resume) ``study`` into ``output`` and write the report; returns the output folder."""
+    if backend not in BACKENDS:
+        raise StudyDefinitionError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
+    if jobs < 1:
+        raise StudyDefinitionError(f"--jobs must be at least 1, got {jobs}")
+    log = log or (lambda message: print(message, file=sys.stderr))
+    output = Path(output) if output is not None else default_output(study)
+    prepare_output(study, output, fresh)
+    log(f"study {study.name!r} -> {output}")
+    tasks, done_rows, total_rows = pending_tasks(study, output, log)
+    if done_rows:
+        log(f"resuming: {done_rows} of {total_rows} rows already computed")
+    started = time.perf_counter()
+    if tasks:
+        from tqdm import tqdm
+
+        with tqdm(total=total_rows, initial=done_rows, unit="solve", disable=not progress,
+                  desc=study.name, smoothing=0.05, dynamic_ncols=True) as bar:
+            for task, rows in _execute(tasks, jobs, backend, scheduler):
+                if "not_applicable" in rows:
+                    raise RuntimeError(f"{task.label} on {task.case} became not applicable mid-run: "
+                                       f"{rows['not_applicable'][0]}")
+                store.write_chunk(store.chunk_path(output, task.case, task.label, task.chunk), rows)
+                bar.update(len(rows["pose"]))
+    elapsed = time.perf_counter() - started
+    store.write_json(output / "run.json", {"jobs": jobs, "backend": backend, "computed_tasks": len(tasks),
+                                           "seconds": elapsed})
+    if report:
+        from wbik.study.report import write_report
+
+        write_report(study, output)
+    return output

@@ -1,0 +1,82 @@
+"""The poses of a study: FK of random joint vectors inside the limits, so every pose has a solution.
+
+Joint vectors are drawn uniformly in [lower, upper] by ``numpy.random.default_rng(seed)``; they
+depend on the seed and the chain only, so a pose study and a position-only study with the same
+seed share the same positions (as in the thesis), and pose i does not depend on how many poses
+are drawn. Start configurations q0 come from a second stream, ``default_rng([seed, 1])``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from wbik.robot import Chain
+from wbik.targets import Target
+
+
+@dataclass
+class PoseSet:
+    """N sampled poses: the joints they came from, the targets and the start configurations."""
+
+    q_true: np.ndarray  # (N, n)
+    positions: np.ndarray  # (N, 3)
+    rotations: np.ndarray | None  # (N, 3, 3), None for position-only targets
+    q0: np.ndarray  # (N, n)
+
+    def __len__(self) -> int:
+        return len(self.q_true)
+
+    def targets(self, start: int = 0, stop: int | None = None) -> list[Target]:
+        stop = len(self) if stop is None else stop
+        if self.rotations is None:
+            return [Target(self.positions[i]) for i in range(start, stop)]
+        return [Target(self.positions[i], self.rotations[i]) for i in range(start, stop)]
+
+    def save(self, path: Path) -> None:
+        """Write atomically (temporary file renamed into place)."""
+        arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
+        if self.rotations is not None:
+            arrays["rotations"] = self.rotations
+        temporary = path.with_name(path.name + ".tmp")
+        with open(temporary, "wb") as handle:
+            np.savez(handle, **arrays)
+        temporary.replace(path)
+
+    @classmethod
+    def load(cls, path: Path) -> PoseSet:
+        with np.load(path) as data:
+            return cls(data["q_true"], data["positions"],
+                       data["rotations"] if "rotations" in data else None, data["q0"])
+
+
+def sample_joints(chain: Chain, count: int, seed: int) -> np.ndarray:
+    """(count, n) joint vectors uniform inside the chain's limits."""
+    return chain.random(np.random.default_rng(seed), count)
+
+
+def start_configurations(chain: Chain, count: int, seed: int, start: str) -> np.ndarray:
+    """(count, n) q0: the chain's nominal, its mid-range, or uniform random inside the limits."""
+    if start == "nominal":
+        return np.tile(chain.nominal, (count, 1))
+    if start == "mid_range":
+        return np.tile(chain.mid_range, (count, 1))
+    if start == "random":
+        return chain.random(np.random.default_rng([seed, 1]), count)
+    raise ValueError(f"unknown start {start!r}: nominal, mid_range or random")
+
+
+def sample_poses(chain: Chain, count: int, seed: int, target: str = "pose",
+                 start: str = "nominal") -> PoseSet:
+    """``count`` reachable targets of kind "pose" or "position" from FK of seeded random joints."""
+    q_true = sample_joints(chain, count, seed)
+    positions = np.empty((count, 3))
+    rotations = np.empty((count, 3, 3))
+    for index, q in enumerate(q_true):
+        placement = chain.fk(q)
+        positions[index] = placement.translation
+        rotations[index] = placement.rotation
+    return PoseSet(q_true, positions, rotations if target == "pose" else None,
+                   start_configurations(chain, count, seed, start))
