@@ -16,8 +16,8 @@ a signed projection); q4 = pi/2 - psi - q2 - q3.
 Three target kinds:
 
 - pose (SE3): q1 = atan2(R[0,1], -R[1,1]) from the noa y axis, psi from the approach axis; 2 branches.
-  A rotation the arm cannot take (y axis not horizontal, or base yaw inconsistent with the position)
-  fails the closed-form FK screen, hence success=False.
+  A pose the arm cannot take (y axis not horizontal, or position off the arm plane of that yaw) has
+  no branch: success=False, "unreachable".
 - position + pitch (the seed's [px, py, pz, theta], :func:`position_pitch_branches`): q1 = atan2(py, px)
   with pitch theta, or q1 + pi with pitch pi - theta (same approach direction, tool rolled by pi);
   2 x 2 branches. :func:`pose_from_position_pitch` turns the seed's 4-vector into the SE3 the arm
@@ -25,8 +25,10 @@ Three target kinds:
 - position only (3-vector), one free parameter, the pitch. Rule: take the pitch psi closest to the
   pitch at q0 (psi0 = pi/2 - (q2 + q3 + q4) of q0) for which a branch exists inside the joint limits;
   for each shoulder side (q1 = atan2(py, px) and q1 + pi) the reachable pitches form an exact arc,
-  so the first candidate is psi0 projected onto the arc; only where none of its branches is inside
-  the limits, a grid of PITCH_GRID pitches across the arc is tried (all targets at once). The
+  so the first candidate is psi0 projected onto the arc; only on a side where none of its branches
+  is inside the limits, a grid of PITCH_GRID pitches across the arc is tried (all targets at once), and the
+  grid pitches with such a branch nearest on either side are moved toward psi0 by bisection up to
+  the edge of the in-limits set. The
   branches at the chosen pitch (both elbows, both sides when equally close) go to the solver,
   which keeps the one nearest to q0.
 """
@@ -43,6 +45,8 @@ from wbik.solvers.analytic.arm3r import AXIS_TOLERANCE, two_link_planar
 
 PITCH_GRID = 48
 """Pitches tried across the reachable arc when the nearest pitch has no branch inside the limits."""
+PITCH_BISECTIONS = 40
+"""Bisection steps from the best grid pitch toward the nearest pitch (arc width / 2^40 resolution)."""
 
 
 def _wrap_angle(angle: np.ndarray) -> np.ndarray:
@@ -123,7 +127,12 @@ class PincherPose(_PincherForm):
         approach = rotations[:, :, 2]
         pitch = np.arctan2(approach[:, 2], approach[:, 0] * c1 + approach[:, 1] * s1)
         signed_reach = positions[:, 0] * c1 + positions[:, 1] * s1
-        return arm_plane_branches(yaw, signed_reach, positions[:, 2], pitch)
+        q_all, valid = arm_plane_branches(yaw, signed_reach, positions[:, 2], pitch)
+        # the arm can only take poses whose y axis is horizontal and whose position is in the arm plane
+        off_plane = np.abs(positions[:, 0] * s1 - positions[:, 1] * c1)
+        tolerance = self.screen_tolerance
+        consistent = (np.abs(rotations[:, 2, 1]) <= tolerance) & (off_plane <= tolerance)
+        return q_all, valid & consistent[:, None]
 
 
 class PincherPosition(_PincherForm):
@@ -161,6 +170,40 @@ class PincherPosition(_PincherForm):
                                            self.chain.upper, self._revolute)
         return wrapped, exact, exact & inside
 
+    def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
+        """Where the nearest pitch has no branch inside the limits. Per side and per direction along the
+        arc, the grid pitch with such a branch closest to the nearest pitch, moved toward it by bisection
+        to the edge of the in-limits set; the better direction wins.
+
+        Pitches are centre + offset, |offset| <= half_width; returns (Q, exact, usable, pitch) per side.
+        """
+        grid = half_width[..., None] * np.linspace(-1.0, 1.0, PITCH_GRID)  # offsets (R, 2, M)
+        _, _, usable_grid = self._candidates(yaws, reaches, heights, centre[..., None] + grid, q0)
+        usable_grid = np.any(usable_grid, axis=-1)
+        gap = grid - nearest_offset[..., None]
+        best_offset = nearest_offset.copy()
+        best_score = np.full(nearest_offset.shape, np.inf)
+        for direction in (-1.0, 1.0):
+            score = np.where(usable_grid & (direction * gap >= 0.0), np.abs(gap), np.inf)
+            pick = np.argmin(score, axis=2)
+            found = np.isfinite(np.min(score, axis=2))
+            good = np.take_along_axis(grid, pick[..., None], axis=2)[..., 0]
+            bad = nearest_offset
+            for _ in range(PITCH_BISECTIONS):
+                middle = 0.5 * (good + bad)
+                pitches = (centre + middle)[..., None]
+                _, _, usable_middle = self._candidates(yaws, reaches, heights, pitches, q0)
+                inside = np.any(usable_middle[:, :, 0], axis=-1) & found
+                good = np.where(inside, middle, good)
+                bad = np.where(inside, bad, middle)
+            score = np.where(found, np.abs(_wrap_angle(centre + good - pitch0)), np.inf)
+            better = score < best_score
+            best_offset = np.where(better, good, best_offset)
+            best_score = np.where(better, score, best_score)
+        pitch = centre + best_offset
+        q_all, exact, usable = self._candidates(yaws, reaches, heights, pitch[..., None], q0)
+        return q_all[:, :, 0], exact[:, :, 0], usable[:, :, 0], pitch
+
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         count = len(positions)
@@ -169,23 +212,21 @@ class PincherPosition(_PincherForm):
         offset = np.clip(_wrap_angle(pitch0 - centre), -half_width, half_width)
         nearest = (centre + offset)[..., None]  # (B, 2, 1)
         q_best, exact, usable = self._candidates(yaws, reaches, positions[:, 2], nearest, q0)
-        q_best, exact, usable = q_best[:, :, 0], exact[:, :, 0].copy(), usable[:, :, 0].copy()
+        q_best, exact, usable = q_best[:, :, 0].copy(), exact[:, :, 0].copy(), usable[:, :, 0].copy()
         chosen = nearest[:, :, 0].copy()
-        retry = ~np.any(usable, axis=(1, 2)) & np.any(reachable, axis=1)
+        # search the sides whose nearest pitch has no branch in the limits, unless the other side already
+        # has one at q0's own pitch (nothing can be nearer)
+        side_ok = np.any(usable, axis=-1)
+        at_pitch0 = side_ok & (np.abs(_wrap_angle(chosen - pitch0)) <= 1e-12)
+        retry_side = ~side_ok & reachable & ~at_pitch0[:, ::-1]
+        retry = np.any(retry_side, axis=1)
         if np.any(retry):
-            grid = np.linspace(-1.0, 1.0, PITCH_GRID)
-            pitches = centre[retry][..., None] + half_width[retry][..., None] * grid  # (R, 2, M)
-            q_grid, exact_grid, usable_grid = self._candidates(
-                yaws[retry], reaches[retry], positions[retry, 2], pitches, q0[retry])
-            score = np.where(np.any(usable_grid, axis=-1),
-                             np.abs(_wrap_angle(pitches - pitch0[retry][..., None])), np.inf)
-            pick = np.argmin(score, axis=2)  # (R, 2): best pitch per side
-            rows = np.arange(len(pick))[:, None]
-            sides = np.arange(2)[None, :]
-            q_best[retry] = q_grid[rows, sides, pick]
-            exact[retry] = exact_grid[rows, sides, pick]
-            usable[retry] = usable_grid[rows, sides, pick]
-            chosen[retry] = pitches[rows, sides, pick]
+            refined = self._search_pitch(yaws[retry], reaches[retry], positions[retry, 2], centre[retry],
+                                         half_width[retry], offset[retry], pitch0[retry], q0[retry])
+            keep = retry_side[retry]
+            for mine, found in zip((q_best, exact, usable, chosen), refined, strict=True):
+                mask = keep.reshape(keep.shape + (1,) * (found.ndim - 2))
+                mine[retry] = np.where(mask, found, mine[retry])
         # keep the side(s) whose pitch is nearest to q0's pitch among those with a usable branch
         score = np.where(np.any(usable, axis=-1), np.abs(_wrap_angle(chosen - pitch0)), np.inf)
         best_side = score <= score.min(axis=1, keepdims=True) + 1e-12
