@@ -1,0 +1,190 @@
+"""Time scaling: the shortest timing of a joint path under joint velocity (and acceleration) limits.
+
+The path is cut into pieces that start and end at rest; each piece gets one time law
+u = s(tau), tau = (t - t_0) / T, over its own knots joined by a C2 cubic spline q(u) (not-a-knot
+ends; a straight line for two knots). Then dq/dt = q'(u) s'(tau) / T and
+d2q/dt2 = (q''(u) s'^2 + q'(u) s'') / T^2 scale as 1/T and 1/T^2, so the minimum duration of a
+piece is T = max(T_v, T_a) with
+
+    T_v = max_tau max_j |q'_j s'| / v_j,   T_a = sqrt(max_tau max_j |q''_j s'^2 + q'_j s''| / a_j).
+
+For a two-knot piece (a line, q' = dq, q'' = 0) this is closed form:
+T = max_j max(|dq_j| peak_s' / v_j, sqrt(|dq_j| peak_|s''| / a_j)). Longer pieces are maximised
+on a dense tau grid refined around its worst cells by a bounded scalar search, so the limit is
+reached (tight) and not exceeded. Modes (for any time law of :mod:`wbik.motion.profiles`):
+
+- ``global``: one piece, the whole path (a uniform scaling of one smooth motion);
+- ``waypoint``: one piece per waypoint segment (rest at each waypoint, corners kept sharp);
+- ``segment``: one piece per knot interval, rest at every knot (what the seeds did: each
+  sub-point is a separate move).
+
+The linear law has unbounded acceleration at its end points, so it takes no acceleration limit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import minimize_scalar
+
+from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.motion.path import JointPath
+from wbik.motion.profiles import TimeLaw, time_law
+
+GRID_POINTS = 4001
+"""Dense tau grid of a multi-knot piece (plus local refinement around its worst cells)."""
+
+
+def _limit_vector(value, count: int, what: str) -> np.ndarray | None:
+    if value is None:
+        return None
+    array = np.broadcast_to(np.asarray(value, dtype=float), (count,)).copy()
+    if not np.all(np.isfinite(array)) or np.any(array <= 0):
+        raise InvalidConfigurationError(f"{what} must be positive and finite per joint, got {array.tolist()}")
+    return array
+
+
+MODES = ("global", "waypoint", "segment")
+
+
+@dataclass
+class Piece:
+    """Knots first..last passed by one time law from rest to rest, starting at ``start`` for ``duration``."""
+
+    first: int
+    last: int
+    start: float
+    duration: float
+    spline: CubicSpline
+
+
+@dataclass
+class TimedPath:
+    """A joint path with a timing: ``evaluate(t)`` gives q, dq/dt, d2q/dt2 at any t in [0, duration]."""
+
+    path: JointPath
+    law: TimeLaw
+    mode: str
+    pieces: list[Piece]
+    knot_times: np.ndarray  # (K,) the time at which each knot is passed
+    duration: float
+    velocity_limit: np.ndarray
+    acceleration_limit: np.ndarray | None = None
+
+    def _locate(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        starts = np.array([piece.start for piece in self.pieces])
+        index = np.clip(np.searchsorted(starts, t, side="right") - 1, 0, len(self.pieces) - 1)
+        durations = np.array([piece.duration for piece in self.pieces])[index]
+        tau = np.where(durations > 0, (t - starts[index]) / np.where(durations > 0, durations, 1.0), 1.0)
+        return index, np.clip(tau, 0.0, 1.0)
+
+    def parameter(self, t) -> np.ndarray:
+        """Path parameter s at times t."""
+        t = np.atleast_1d(np.clip(np.asarray(t, dtype=float), 0.0, self.duration))
+        index, tau = self._locate(t)
+        s = self.path.s
+        first = np.array([s[piece.first] for piece in self.pieces])[index]
+        last = np.array([s[piece.last] for piece in self.pieces])[index]
+        return first + (last - first) * self.law.s(tau)
+
+    def evaluate(self, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(q, dq/dt, d2q/dt2) at times t, each of shape (len(t), n)."""
+        t = np.atleast_1d(np.clip(np.asarray(t, dtype=float), 0.0, self.duration))
+        index, tau = self._locate(t)
+        count = self.path.q.shape[1]
+        q, velocity, acceleration = (np.zeros((len(t), count)) for _ in range(3))
+        for number, piece in enumerate(self.pieces):
+            mask = index == number
+            if not np.any(mask):
+                continue
+            local = tau[mask]
+            u, du, ddu = self.law.s(local), self.law.ds(local), self.law.dds(local)
+            first, second = piece.spline(u, 1), piece.spline(u, 2)
+            q[mask] = piece.spline(u)
+            if piece.duration > 0:
+                velocity[mask] = first * (du / piece.duration)[:, None]
+                acceleration[mask] = (second * (du**2)[:, None] + first * ddu[:, None]) / piece.duration**2
+        return q, velocity, acceleration
+
+
+def _piece_spline(path: JointPath, first: int, last: int) -> CubicSpline:
+    s = path.s[first:last + 1]
+    u = (s - s[0]) / (s[-1] - s[0])
+    return CubicSpline(u, path.q[first:last + 1], axis=0, bc_type="not-a-knot")
+
+
+def _peak(ratio, grid: np.ndarray) -> float:
+    values = ratio(grid)
+    best = float(values.max())
+    for cell in np.argsort(values)[-8:]:
+        low, high = grid[max(cell - 1, 0)], grid[min(cell + 1, len(grid) - 1)]
+        found = minimize_scalar(lambda x: -float(ratio(np.array([x]))[0]), bounds=(low, high),
+                                method="bounded", options={"xatol": 1e-12})
+        best = max(best, -float(found.fun))
+    return best
+
+
+def _piece_duration(spline: CubicSpline, knots: int, law: TimeLaw, velocity: np.ndarray,
+                    acceleration: np.ndarray | None) -> float:
+    if knots == 2:  # a straight line: closed form
+        delta = np.abs(spline(1.0) - spline(0.0))
+        duration = float(np.max(delta * law.peak_velocity / velocity))
+        if acceleration is not None:
+            duration = max(duration, float(np.max(np.sqrt(delta * law.peak_acceleration / acceleration))))
+        return duration
+
+    def velocity_ratio(tau: np.ndarray) -> np.ndarray:
+        return np.max(np.abs(spline(law.s(tau), 1)) * law.ds(tau)[..., None] / velocity, axis=-1)
+
+    def acceleration_ratio(tau: np.ndarray) -> np.ndarray:
+        u = law.s(tau)
+        value = spline(u, 2) * (law.ds(tau) ** 2)[..., None] + spline(u, 1) * law.dds(tau)[..., None]
+        return np.max(np.abs(value) / acceleration, axis=-1)
+
+    grid = np.union1d(np.linspace(0.0, 1.0, GRID_POINTS), law.inverse(spline.x))
+    duration = _peak(velocity_ratio, grid)
+    if acceleration is not None:
+        duration = max(duration, float(np.sqrt(_peak(acceleration_ratio, grid))))
+    return duration
+
+
+def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=None,
+               acceleration_limit=None, mode: str = "global") -> TimedPath:
+    """The minimum-duration timing of ``path`` for ``law`` under the limits.
+
+    ``velocity_limit`` defaults to the chain's URDF limits (rad/s or m/s); a scalar applies to
+    every joint. ``acceleration_limit`` (rad/s^2 or m/s^2) is optional. ``mode``: global,
+    waypoint or segment (see the module notes).
+    """
+    law = time_law(law)
+    chain = path.chain
+    count = chain.nq
+    velocity = _limit_vector(chain.velocity_limit if velocity_limit is None else velocity_limit, count,
+                             "velocity_limit")
+    acceleration = _limit_vector(acceleration_limit, count, "acceleration_limit")
+    if acceleration is not None and not np.isfinite(law.peak_acceleration):
+        raise UnsupportedError("the linear time law jumps in speed at its ends (unbounded acceleration); "
+                               "use 'cubic' or 'quintic' with an acceleration limit")
+    if mode not in MODES:
+        raise InvalidConfigurationError(f"mode must be one of {MODES}, got {mode!r}")
+    last = len(path.s) - 1
+    if last < 1:
+        raise InvalidConfigurationError("a path needs at least two knots to be timed")
+    if mode == "global":
+        breaks = [0, last]
+    elif mode == "segment":
+        breaks = list(range(last + 1))
+    else:
+        breaks = sorted({0, last, *[k for k in path.waypoint_knots if 0 < k < last]})
+    pieces, knot_times, clock = [], np.zeros(last + 1), 0.0
+    for first, end in zip(breaks[:-1], breaks[1:], strict=True):
+        spline = _piece_spline(path, first, end)
+        duration = _piece_duration(spline, end - first + 1, law, velocity, acceleration)
+        knot_times[first:end + 1] = clock + duration * law.inverse(spline.x)
+        pieces.append(Piece(first, end, clock, duration, spline))
+        clock += duration
+    if clock <= 0:
+        raise InvalidConfigurationError("the path does not move: every knot is the same configuration")
+    return TimedPath(path, law, mode, pieces, knot_times, clock, velocity, acceleration)
