@@ -1,0 +1,338 @@
+"""Closed-form IK of the Golem-III arm (golem3.md, thesis ch. 4.1 and 4.2.1), both arms, vectorised.
+
+Right arm, joints t = (m0, m10..m14), gripper centre in torso_link (h, l1.. from the thesis table):
+
+    l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
+    x  = l1 sin t1 + l2 sin(t1+t2) + l3 cos(gamma)
+    y  = -l1 cos t1 - l2 cos(t1+t2) + l3 sin(gamma)
+    z  = h - l4 cos(t4+rho) - l5 cos(t4+t5) + l6 sin(t4+t5)
+    R  = Rz(gamma) Ry(beta) Rx(alpha),  gamma = t1+t2+t3, beta = -t4-t5, alpha = t6
+
+The left arm is the mirror image (see wbik.models.golem3): T_left(m0, q) = M T_right(-m0, q) M with
+M = diag(1, -1, 1), so a left target is mirrored, solved as a right one, and m0 negated back.
+
+Pose IK: alpha is taken with |alpha| <= pi/2 (the other Euler triple has t6 = alpha +- pi, outside the
++-1.5 rad limits), then beta and gamma from R Rx(-alpha) = Rz(gamma) Ry(beta), which stays exact at
+beta = +-pi/2. z fixes cos(t4+rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link
+is a planar 2R problem for (t1, t2) (elbow-left/right). So at most 2 x 2 = 4 real branches; the
+thesis' 2^3 = 8 sign choices come from squaring the t1 equation, and half of them are spurious (its
+FK check drops them). Cosines within ``CLAMP_TOLERANCE`` of +-1 are clamped (the thesis' failures
+near singular poses) and the FK screening decides.
+
+Position IK: t6 = ``yaw`` (it does not move the gripper centre), t1..t5 for the three coordinates,
+two free parameters. For fixed (t1, t2) the rest is closed form: the shoulder point S(t1, t2), then
+l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is a planar 2R problem of the links l4
+and sqrt(l5^2 + l6^2) for (t4, t5). A vectorised grid over the (t1, t2) limit box gives exact
+candidates; a bounded Levenberg-Marquardt on the position (closed-form Jacobian) starts from q0 and
+from the grid points nearest to feasibility and makes the answer robust near the workspace boundary.
+The branch nearest to q0 among all exact, in-limit candidates is returned by the framework.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError
+from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
+from wbik.robot import Chain
+from wbik.solvers.analytic import ClosedForm
+
+CLAMP_TOLERANCE = 1e-9
+"""Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
+WRIST = float(np.hypot(L5, L6))
+"""Length of the elbow-to-gripper-centre vector (l5, l6) in the arm's vertical plane."""
+WRIST_ANGLE = float(np.arctan2(L6, L5))
+"""Its angle from link l5's direction: l5 sin s + l6 cos s = WRIST sin(s + WRIST_ANGLE)."""
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles into [-pi, pi)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _clamped_cosine(value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(value clipped to [-1, 1], real mask allowing CLAMP_TOLERANCE of rounding)."""
+    return np.clip(value, -1.0, 1.0), np.abs(value) <= 1.0 + CLAMP_TOLERANCE
+
+
+def rpy_matrix(gamma: np.ndarray, beta: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Rz(gamma) Ry(beta) Rx(alpha), shape (..., 3, 3)."""
+    cg, sg, cb, sb, ca, sa = (np.cos(gamma), np.sin(gamma), np.cos(beta), np.sin(beta),
+                              np.cos(alpha), np.sin(alpha))
+    return np.stack([
+        np.stack([cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa], axis=-1),
+        np.stack([sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa], axis=-1),
+        np.stack([-sb, cb * sa, cb * ca], axis=-1),
+    ], axis=-2)
+
+
+def right_arm_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form FK of the right arm: q (..., 6) -> positions (..., 3), rotations (..., 3, 3)."""
+    t1, t2, t3, t4, t5, t6 = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    s = t4 + t5
+    gamma = t1 + t2 + t3
+    l3 = L4 * np.sin(t4 + RHO) + L5 * np.sin(s) + L6 * np.cos(s)
+    position = np.stack([
+        L1 * np.sin(t1) + L2 * np.sin(t1 + t2) + l3 * np.cos(gamma),
+        -L1 * np.cos(t1) - L2 * np.cos(t1 + t2) + l3 * np.sin(gamma),
+        H - L4 * np.cos(t4 + RHO) - L5 * np.cos(s) + L6 * np.sin(s),
+    ], axis=-1)
+    return position, rpy_matrix(gamma, -s, t6)
+
+
+def right_arm_position_jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position (..., 3), d position / d (t1..t5) (..., 3, 5)) of the right arm; t6 does not move it."""
+    t1, t2, t3, t4, t5 = np.moveaxis(q[..., :5], -1, 0)
+    s = t4 + t5
+    gamma = t1 + t2 + t3
+    s1, c1, s12, c12 = np.sin(t1), np.cos(t1), np.sin(t1 + t2), np.cos(t1 + t2)
+    sg, cg, ss, cs = np.sin(gamma), np.cos(gamma), np.sin(s), np.cos(s)
+    s4, c4 = np.sin(t4 + RHO), np.cos(t4 + RHO)
+    l3 = L4 * s4 + L5 * ss + L6 * cs
+    position = np.stack([L1 * s1 + L2 * s12 + l3 * cg, -L1 * c1 - L2 * c12 + l3 * sg,
+                         H - L4 * c4 - L5 * cs + L6 * ss], axis=-1)
+    d_l3_t5 = L5 * cs - L6 * ss
+    d_l3_t4 = L4 * c4 + d_l3_t5
+    zero = np.zeros_like(t1)
+    jacobian = np.stack([
+        np.stack([L1 * c1 + L2 * c12 - l3 * sg, L2 * c12 - l3 * sg, -l3 * sg, d_l3_t4 * cg, d_l3_t5 * cg],
+                 axis=-1),
+        np.stack([L1 * s1 + L2 * s12 + l3 * cg, L2 * s12 + l3 * cg, l3 * cg, d_l3_t4 * sg, d_l3_t5 * sg],
+                 axis=-1),
+        np.stack([zero, zero, zero, l3, L5 * ss + L6 * cs], axis=-1),
+    ], axis=-2)
+    return position, jacobian
+
+
+def _planar_2r(u: np.ndarray, v: np.ndarray, first: float, second: float, sign: np.ndarray):
+    """Angles (a, b) with first (cos a, sin a) + second (cos b, sin b) = (u, v); elbow sign ``sign``.
+
+    Returns (a, b, real mask); cos(b - a) is clamped within CLAMP_TOLERANCE.
+    """
+    cosine = (u * u + v * v - first * first - second * second) / (2.0 * first * second)
+    cosine, real = _clamped_cosine(cosine)
+    relative = sign * np.arccos(cosine)
+    a = np.arctan2(v, u) - np.arctan2(second * np.sin(relative), first + second * np.cos(relative))
+    return a, a + relative, real
+
+
+def right_arm_pose_branches(positions: np.ndarray, rotations: np.ndarray,
+                            yaw_limit: float = np.pi / 2) -> tuple[np.ndarray, np.ndarray]:
+    """All real branches of the right arm for poses: Q (B, 4, 6), real (B, 4).
+
+    Branch k = 2 i + j: i picks the sign of sin(t4 + rho) (+, -), j the sign of the planar elbow
+    t2 (+, -). ``yaw_limit``: alpha = t6 is chosen in [-pi/2, pi/2] (see the module docstring).
+    """
+    x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
+    alpha = np.arctan2(rotations[:, 2, 1], rotations[:, 2, 2])
+    alpha = np.where(np.abs(alpha) > yaw_limit, alpha - np.copysign(np.pi, alpha), alpha)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    # R Rx(-alpha) = Rz(gamma) Ry(beta): entries (3,1), (3,3), (1,2), (2,2)
+    beta = np.arctan2(-rotations[:, 2, 0], sa * rotations[:, 2, 1] + ca * rotations[:, 2, 2])
+    gamma = np.arctan2(-(ca * rotations[:, 0, 1] - sa * rotations[:, 0, 2]),
+                       ca * rotations[:, 1, 1] - sa * rotations[:, 1, 2])
+    sb, cb = np.sin(beta), np.cos(beta)
+    cos4, real4 = _clamped_cosine((H - z - L5 * cb - L6 * sb) / L4)
+    sin4 = np.sqrt(1.0 - cos4 * cos4)
+    sign4 = np.array([1.0, 1.0, -1.0, -1.0])
+    sign2 = np.array([1.0, -1.0, 1.0, -1.0])
+    sin4 = sign4 * sin4[:, None]  # (B, 4)
+    t4 = np.arctan2(sin4, cos4[:, None]) - RHO
+    t5 = -beta[:, None] - t4
+    l3 = L4 * sin4 + (L6 * cb - L5 * sb)[:, None]
+    cg, sg = np.cos(gamma)[:, None], np.sin(gamma)[:, None]
+    # (x - l3 cos g, l3 sin g - y) = l1 (sin t1, cos t1) + l2 (sin t12, cos t12): 2R in (u, v) = (., .)
+    t1, t12, real2 = _planar_2r(l3 * sg - y[:, None], x[:, None] - l3 * cg, L1, L2, sign2)
+    t2 = t12 - t1
+    t3 = gamma[:, None] - t12
+    t6 = np.broadcast_to(alpha[:, None], t1.shape)
+    q_all = np.stack([t1, t2, t3, t4, t5, t6], axis=-1)
+    return q_all, real4[:, None] & real2
+
+
+def _position_candidates(positions: np.ndarray, t1: np.ndarray, t2: np.ndarray, yaw: float):
+    """Closed form of t3, t4, t5 for given (t1, t2) (broadcast over (B, G)), 4 branches each.
+
+    Branch k = 2 i + j: i the sign of l3 (+: gripper beyond the t3 axis), j the elbow sign.
+    Returns Q (B, G, 4, 6) (t3..t5 in [-pi, pi)) and the real mask (B, G, 4).
+    """
+    x, y, z = (positions[:, i, None, None] for i in range(3))
+    t1, t2 = t1[..., None], t2[..., None]
+    dx = x - L1 * np.sin(t1) - L2 * np.sin(t1 + t2)
+    dy = y + L1 * np.cos(t1) + L2 * np.cos(t1 + t2)
+    sign3 = np.array([1.0, 1.0, -1.0, -1.0])
+    sign5 = np.array([1.0, -1.0, 1.0, -1.0])
+    l3 = sign3 * np.hypot(dx, dy)
+    gamma = np.arctan2(sign3 * dy, sign3 * dx)
+    # (h - z, l3) = l4 (cos a, sin a) + WRIST (cos b, sin b), a = t4 + rho, b = t4 + t5 + WRIST_ANGLE
+    a, b, real = _planar_2r(np.broadcast_to(H - z, l3.shape), l3, L4, WRIST, sign5)
+    t3 = _wrap(gamma - t1 - t2)
+    t4 = _wrap(a - RHO)
+    t5 = _wrap(b - a - WRIST_ANGLE + RHO)
+    shape = t3.shape
+    q_all = np.stack([np.broadcast_to(t1, shape), np.broadcast_to(t2, shape), t3, t4, t5,
+                      np.full(shape, yaw)], axis=-1)
+    return q_all, real
+
+
+class _Golem3Form(ClosedForm):
+    """Shared by both arms: mirrors left-arm targets and joints onto the right arm's closed form."""
+
+    def __init__(self, chain: Chain):
+        super().__init__(chain)
+        self.mirrored = any(name in chain.joint_names for name in LEFT_JOINTS)
+        if chain.nq != 6 or chain.base_frame != "torso_link":
+            raise InvalidConfigurationError(
+                f"the Golem-III closed form needs a chain from torso_link over (m0, 5 arm joints); "
+                f"{chain.name!r} is {chain.base_frame} -> {chain.tip_frame} with {chain.joint_names}")
+
+    def _mirror_q(self, q: np.ndarray) -> np.ndarray:
+        if not self.mirrored:
+            return q
+        q = np.array(q, dtype=float, copy=True)
+        q[..., 0] = -q[..., 0]
+        return q
+
+    def _mirror_positions(self, positions: np.ndarray) -> np.ndarray:
+        return positions * np.array([1.0, -1.0, 1.0]) if self.mirrored else positions
+
+    def _mirror_rotations(self, rotations: np.ndarray) -> np.ndarray:
+        """M R M with M = diag(1, -1, 1)."""
+        if not self.mirrored:
+            return rotations
+        sign = np.array([[1.0, -1.0, 1.0], [-1.0, 1.0, -1.0], [1.0, -1.0, 1.0]])
+        return rotations * sign
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        position, rotation = right_arm_fk(self._mirror_q(q))
+        return self._mirror_positions(position), self._mirror_rotations(rotation)
+
+
+class Golem3PoseIK(_Golem3Form):
+    """6-DOF pose IK: up to 4 real branches per pose (K = 4), see the module docstring."""
+
+    target_kind = "pose"
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        q_all, real = right_arm_pose_branches(self._mirror_positions(positions),
+                                              self._mirror_rotations(rotations))
+        return self._mirror_q(q_all), real
+
+
+class Golem3PositionIK(_Golem3Form):
+    """Position-only IK with the wrist roll t6 fixed at ``yaw`` (rad, default 0).
+
+    Returns K = ``keep`` nearest exact grid candidates + one bounded-LM result per start (q0 and the
+    ``lm_starts`` grid points nearest to feasibility), all masked by exactness and limits.
+    """
+
+    target_kind = "position"
+    grid_t1 = 9
+    grid_t2 = 13
+    keep = 4
+    lm_starts = 3
+    lm_iterations = 40
+    lm_tolerance = 1e-11
+    chunk = 256
+
+    def __init__(self, chain: Chain, yaw: float = 0.0):
+        super().__init__(chain)
+        self.yaw = yaw
+
+    @property
+    def yaw(self) -> float:
+        return self._yaw
+
+    @yaw.setter
+    def yaw(self, value: float) -> None:
+        value = float(value)
+        lower, upper = self.chain.lower[5], self.chain.upper[5]
+        if not np.isfinite(value) or not lower <= value <= upper:
+            raise InvalidConfigurationError(
+                f"yaw (wrist roll {self.chain.joint_names[5]}) must be inside [{lower}, {upper}] rad, "
+                f"got {value}")
+        self._yaw = value
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        positions = self._mirror_positions(np.asarray(positions, dtype=float))
+        q0 = self._mirror_q(np.asarray(q0, dtype=float))
+        parts = [self._solve_right(positions[i:i + self.chunk], q0[i:i + self.chunk])
+                 for i in range(0, len(positions), self.chunk)]
+        q_all = np.concatenate([p[0] for p in parts])
+        valid = np.concatenate([p[1] for p in parts])
+        return self._mirror_q(q_all), valid
+
+    # -- right arm -------------------------------------------------------------------------------
+    def _limit_excess(self, q: np.ndarray) -> np.ndarray:
+        """Sum over t3..t5 of how far (rad) each is outside its limits."""
+        lower, upper = self.chain.lower[2:5], self.chain.upper[2:5]
+        return np.sum(np.maximum(lower - q[..., 2:5], 0.0) + np.maximum(q[..., 2:5] - upper, 0.0),
+                      axis=-1)
+
+    def _solve_right(self, positions: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        count = len(positions)
+        lower, upper = self.chain.lower, self.chain.upper
+        grid1, grid2 = np.meshgrid(np.linspace(lower[0], upper[0], self.grid_t1),
+                                   np.linspace(lower[1], upper[1], self.grid_t2), indexing="ij")
+        grid1 = np.broadcast_to(grid1.reshape(1, -1), (count, grid1.size))
+        grid2 = np.broadcast_to(grid2.reshape(1, -1), (count, grid2.size))
+        q_grid, real = _position_candidates(positions, grid1, grid2, self.yaw)
+        q_grid = q_grid.reshape(count, -1, 6)
+        real = real.reshape(count, -1)
+        excess = self._limit_excess(q_grid)
+        feasible = real & (excess == 0.0)
+        distance = np.where(feasible, np.linalg.norm(q_grid - q0[:, None, :], axis=-1), np.inf)
+        nearest = np.argsort(distance, axis=1)[:, :self.keep]
+        q_keep = np.take_along_axis(q_grid, nearest[..., None], axis=1)
+        valid_keep = np.take_along_axis(feasible, nearest, axis=1)
+        # starts for the refinement: q0 and the grid points closest to feasible (clipped into limits)
+        badness = np.where(feasible, 0.0, excess + np.where(real, 0.0, 10.0))
+        badness = badness + 1e-3 * np.nan_to_num(distance, posinf=0.0)
+        closest = np.argsort(badness, axis=1)[:, :self.lm_starts]
+        starts = np.concatenate([q0[:, None, :], np.take_along_axis(q_grid, closest[..., None], axis=1)],
+                                axis=1)
+        starts = np.clip(starts, lower, upper)
+        starts[..., 5] = self.yaw
+        q_lm, converged = self._refine(positions, starts)
+        return (np.concatenate([q_keep, q_lm], axis=1),
+                np.concatenate([valid_keep, converged], axis=1))
+
+    def _refine(self, positions: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounded Levenberg-Marquardt on the position, minimum-norm steps, from starts (B, S, 6).
+
+        Step: dq = J^T (J J^T + lambda I)^-1 r with lambda = |r|^2 + 1e-9 (quadratic near a regular
+        solution, damped near singular ones); joints pushed against a limit are frozen for the step.
+        """
+        count, seeds, _ = starts.shape
+        q = starts.reshape(-1, 6).copy()
+        target = np.repeat(positions, seeds, axis=0)
+        lower, upper = self.chain.lower[:5], self.chain.upper[:5]
+        active = np.arange(len(q))
+        error = np.full(len(q), np.inf)
+        for _ in range(self.lm_iterations):
+            reached, jacobian = right_arm_position_jacobian(q[active])
+            residual = target[active] - reached
+            norm = np.linalg.norm(residual, axis=-1)
+            error[active] = norm
+            running = norm > self.lm_tolerance
+            active, residual, jacobian, norm = (active[running], residual[running], jacobian[running],
+                                                norm[running])
+            if not len(active):
+                break
+            joints = q[active, :5]
+            damping = (norm * norm + 1e-9)[:, None, None] * np.eye(3)
+            for _pass in range(2):
+                gram = jacobian @ np.swapaxes(jacobian, 1, 2) + damping
+                step = np.einsum("bji,bj->bi", jacobian, np.linalg.solve(gram, residual[..., None])[..., 0])
+                blocked = ((joints <= lower) & (step < 0.0)) | ((joints >= upper) & (step > 0.0))
+                if not blocked.any():
+                    break
+                jacobian = np.where(blocked[:, None, :], 0.0, jacobian)
+            q[active, :5] = np.clip(joints + step, lower, upper)
+        else:
+            reached, _ = right_arm_position_jacobian(q[active])
+            error[active] = np.linalg.norm(target[active] - reached, axis=-1)
+        converged = error <= 1e-9
+        return q.reshape(count, seeds, 6), converged.reshape(count, seeds)
