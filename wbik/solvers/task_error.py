@@ -162,3 +162,28 @@ def batch_log3(rotations: np.ndarray) -> np.ndarray:
     for index in np.flatnonzero(near_pi):
         result[index] = pin.log3(rotations[index])
     return result
+
+
+class WorldTaskError:
+    """Lean (e, J) of one target for hot loops, in world axes.
+
+    With the base frame's rotation R_b, the base-axes error and Jacobian are blockdiag(R_b^T) times
+    the world-axes ones, so |e|, J^T J and J^T e (all a least-squares step needs) are the same in
+    both; this evaluator skips the rotation and uses one Pinocchio call per evaluation.
+    """
+
+    def __init__(self, chain: Chain, target: Target):
+        self.model, self.data, self.tip_id = chain.model, chain.data, chain.tip_id
+        base = chain.base_placement
+        self.position = base.rotation @ target.position + base.translation
+        self.rotation = None if target.rotation is None else base.rotation @ target.rotation
+        self.frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        jacobian = pin.computeFrameJacobian(self.model, self.data, q, self.tip_id, self.frame)
+        placement = self.data.oMf[self.tip_id]
+        position_error = self.position - placement.translation
+        if self.rotation is None:
+            return position_error, jacobian[:3]
+        rotation_error = pin.log3(self.rotation @ placement.rotation.T)
+        return np.concatenate((position_error, rotation_error)), jacobian

@@ -1,0 +1,79 @@
+"""TRAC-IK through pytracik, on the robot's URDF file and the chain's base/tip link names.
+
+TRAC-IK runs KDL's NR_JL (with random restarts) and an SQP formulation concurrently and returns the
+first solution; its time budget is fixed when the solver object is built, so the object is built
+once per (chain, timeout) and reused. Its joint limits are set to the chain's limits so that both
+sides solve the same problem. ``epsilon`` is TRAC-IK's per-component twist tolerance; by default the
+shared tolerance / sqrt(3), so that TRAC-IK's success implies the shared norm check.
+
+Position-only targets are unsupported: TRAC-IK's position-only mode is its ``bounds`` argument
+(a KDL::Twist of free tolerances), which pytracik 0.0.3 does not expose.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.solvers.base import Candidate, Solver
+from wbik.targets import Target
+
+SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
+
+
+def import_pytracik():
+    try:
+        import pytracik
+    except ImportError as exc:
+        raise MissingDependencyError(
+            "pytracik (TRAC-IK's Python binding) is not installed: `.venv/bin/pip install pytracik==0.0.3` "
+            "or `bash scripts/setup.sh`") from exc
+    return pytracik
+
+
+class TracIKSolver(Solver):
+    """TRAC-IK (pytracik): ``solve_type`` one of Speed (default), Distance, Manip1, Manip2."""
+
+    name = "trac_ik"
+    supports_position_only = False
+
+    def __init__(self, robot, chain=None, *, epsilon: float | None = None, solve_type: str = "Speed",
+                 **options):
+        super().__init__(robot, chain, **options)
+        if solve_type not in SOLVE_TYPES:
+            raise ValueError(f"solve_type must be one of {SOLVE_TYPES}, got {solve_type!r}")
+        self.pytracik = import_pytracik()
+        tolerance = min(self.tolerances.position, self.tolerances.rotation)
+        self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
+        self.solve_type = solve_type
+        chain_ = self.chain
+        urdf_text = robot.urdf_text if robot.urdf_path is None else robot.urdf_path.read_text()
+        self._solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, urdf_text,
+                                             self.timeout_s, self.epsilon,
+                                             getattr(self.pytracik.SolveType, solve_type))
+        joints = self.pytracik.get_num_joints(self._solver)
+        if joints != chain_.nq:
+            raise RobotDescriptionError(
+                f"TRAC-IK finds {joints} movable joints between {chain_.base_frame!r} and "
+                f"{chain_.tip_frame!r} in {robot.urdf_path}, the chain {chain_.name!r} has {chain_.nq} "
+                f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
+                "them in the chain")
+        self.pytracik.set_joint_limits(self._solver, chain_.lower.tolist(), chain_.upper.tolist())
+
+    def _check_target_kind(self, target: Target) -> None:
+        if not target.is_pose:
+            raise UnsupportedError(
+                "method 'trac_ik' needs a full pose target: TRAC-IK's position-only mode (its bounds "
+                "argument) is not exposed by pytracik 0.0.3; use bounded_lm, dls or newton")
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        quaternion = pin.Quaternion(target.rotation)
+        x, y, z = target.position
+        answer = self.pytracik.ik(self._solver, self.chain.clip(q0), x, y, z,
+                                  quaternion.x, quaternion.y, quaternion.z, quaternion.w)
+        if answer[0] < 0:
+            return Candidate(None, 1, f"TRAC-IK found no solution within {self.timeout_s:g} s")
+        return Candidate(np.asarray(answer[1:], dtype=float), 1)
