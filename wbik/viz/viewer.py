@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Chain, Robot
 from wbik.targets import as_target
 from wbik.viz import geometry as robot_geometry
@@ -57,39 +58,6 @@ def rgb_int(rgba: Sequence[float]) -> int:
     """Colour as meshcat's 0xRRGGBB integer from RGB(A) floats in [0, 1]."""
     red, green, blue = (int(round(255 * float(np.clip(c, 0.0, 1.0)))) for c in rgba[:3])
     return (red << 16) | (green << 8) | blue
-
-
-def convex_hull_2d(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull of 2-D points (monotone chain), collinear points dropped."""
-    unique = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
-    if len(unique) < 3:
-        return unique
-
-    def half(sequence):
-        hull: list[np.ndarray] = []
-        for point in sequence:
-            while len(hull) >= 2:
-                a, b = hull[-2], hull[-1]
-                if (b[0] - a[0]) * (point[1] - a[1]) - (b[1] - a[1]) * (point[0] - a[0]) > 1e-12:
-                    break
-                hull.pop()
-            hull.append(point)
-        return hull
-
-    lower, upper = half(unique), half(unique[::-1])
-    return np.array(lower[:-1] + upper[:-1])
-
-
-def polygon_margin(polygon: np.ndarray, point: np.ndarray) -> float:
-    """Signed distance (positive inside) from a 2-D point to a convex counter-clockwise polygon."""
-    if len(polygon) < 3:
-        return -float(np.min(np.linalg.norm(polygon - point, axis=1))) if len(polygon) else -np.inf
-    distances = []
-    for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
-        edge = b - a
-        normal_left = np.array([-edge[1], edge[0]]) / np.linalg.norm(edge)
-        distances.append(float(normal_left @ (point - a)))
-    return min(distances)
 
 
 class Viewer:
@@ -172,12 +140,14 @@ class Viewer:
 
     def look_at(self, center: np.ndarray | None = None, distance: float | None = None) -> None:
         """Point the camera at ``center`` (default: the robot) from ``distance`` (m) away."""
+        data = self.robot.model.createData()
+        pin.framesForwardKinematics(self.robot.model, data, self.q)
+        points = np.array([placement.translation for placement in data.oMf])
+        low, high = points.min(axis=0), points.max(axis=0)
         if center is None:
-            data = self.robot.model.createData()
-            pin.framesForwardKinematics(self.robot.model, data, self.q)
-            points = np.array([placement.translation for placement in data.oMf])
-            center = 0.5 * (points.min(axis=0) + points.max(axis=0))
-        distance = 2.2 * self.extent if distance is None else distance
+            center = 0.5 * (low + high)
+        if distance is None:
+            distance = 2.0 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
         camera = np.eye(4)
         camera[:3, 3] = center
         self.meshcat["/Cameras/default"].set_transform(camera)
@@ -306,9 +276,10 @@ class Viewer:
             world_corners.append(local @ sole.rotation.T + sole.translation)
         corners = np.vstack(world_corners)
         ground_z = float(np.mean(corners[:, 2]))
-        polygon = convex_hull_2d(corners[:, :2])
+        support = SupportPolygon(corners[:, :2])
+        polygon = support.vertices
         com = self.robot.center_of_mass(self.q)
-        margin = polygon_margin(polygon, com[:2])
+        margin = support.margin_of(com[:2])
         inside = margin >= 0.0
         color = INSIDE_COLOR if inside else OUTSIDE_COLOR
         path = f"{ROOT}/support"
