@@ -47,6 +47,12 @@ class ClosedForm:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
         raise NotImplementedError
 
+    def solve_one(self, position: np.ndarray, rotation: np.ndarray | None, q0: np.ndarray):
+        """Optional scalar fast path (plain floats, no array overhead) with the same screening as the
+        vectorised path: (q nearest to q0 or None, number of usable branches). NotImplemented (the
+        default) means: use ``branches`` with a batch of one."""
+        return NotImplemented
+
 
 def closed_forms(robot) -> dict[tuple[str, str], str]:
     """A robot's closed forms: ``robot.info["closed_forms"]`` maps (chain, kind) to "module:Class".
@@ -56,7 +62,7 @@ def closed_forms(robot) -> dict[tuple[str, str], str]:
     return dict(robot.info.get("closed_forms", {}))
 
 
-def _closed_form(chain: Chain, kind: str) -> ClosedForm:
+def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
     forms = closed_forms(chain.robot)
     if (chain.name, kind) not in forms:
         available = sorted(f"{c} ({k})" for c, k in forms)
@@ -64,7 +70,7 @@ def _closed_form(chain: Chain, kind: str) -> ClosedForm:
             f"no closed form for {chain.robot.name}.{chain.name} with {kind} targets; available: "
             f"{', '.join(available) or '(none)'}. Use a numerical method (e.g. 'dls') instead")
     module_name, class_name = forms[(chain.name, kind)].split(":")
-    return getattr(importlib.import_module(module_name), class_name)(chain)
+    return getattr(importlib.import_module(module_name), class_name)(chain, **options)
 
 
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
@@ -93,14 +99,17 @@ class AnalyticSolver(Solver):
 
     name = "analytic"
 
-    def __init__(self, robot, chain=None, **options):
+    def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None, **options):
+        """``closed_form_options``: keyword arguments per target kind for the closed form's
+        constructor, e.g. ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll)."""
         super().__init__(robot, chain, **options)
         self._forms: dict[str, ClosedForm] = {}
+        self.closed_form_options = dict(closed_form_options or {})
         self.revolute = ~self.chain.is_prismatic
 
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
-            self._forms[kind] = _closed_form(self.chain, kind)
+            self._forms[kind] = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
         return self._forms[kind]
 
     def _screen(self, form: ClosedForm, positions, rotations, q0s) -> tuple[np.ndarray, np.ndarray]:
@@ -135,6 +144,14 @@ class AnalyticSolver(Solver):
         return form, positions, rotations
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        fast = self.closed_form("pose" if target.is_pose else "position").solve_one(
+            target.position, target.rotation, q0)
+        if fast is not NotImplemented:
+            q_best, count = fast
+            if q_best is None:
+                return Candidate(None, 1, "unreachable: no closed-form branch inside the joint limits "
+                                          "reaches the target")
+            return Candidate(q_best, 1, extra={"branches": count})
         form, positions, rotations = self._batch([target], q0[None])
         q_all, usable = self._screen(form, positions, rotations, q0[None])
         q_best, found = self._nearest(q_all, usable, q0[None])

@@ -30,6 +30,8 @@ The branch nearest to q0 among all exact, in-limit candidates is returned by the
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
@@ -213,11 +215,105 @@ class Golem3PoseIK(_Golem3Form):
 
     target_kind = "pose"
 
+    def __init__(self, chain: Chain):
+        super().__init__(chain)
+        lower, upper = chain.lower.tolist(), chain.upper.tolist()
+        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
+            lower[0], upper[0] = -upper[0], -lower[0]
+        self._lower_list, self._upper_list = lower, upper
+
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         q_all, real = right_arm_pose_branches(self._mirror_positions(positions),
                                               self._mirror_rotations(rotations))
         return self._mirror_q(q_all), real
+
+
+    def solve_one(self, position: np.ndarray, rotation: np.ndarray,
+                  q0: np.ndarray) -> tuple[np.ndarray | None, int]:
+        """Scalar fast path in plain floats, same screening as the vectorised path of the framework:
+        branches wrapped into the limits nearest to q0, closed-form FK residual <= screen_tolerance,
+        the one nearest to q0. Returns (q or None, number of usable branches)."""
+        x, y, z = (float(v) for v in position)
+        (r11, r12, r13), (r21, r22, r23), (r31, r32, r33) = rotation.tolist()
+        reference = [float(v) for v in q0]
+        if self.mirrored:
+            y, r12, r21, r23, r32 = -y, -r12, -r21, -r23, -r32
+            reference[0] = -reference[0]
+        alpha = math.atan2(r32, r33)
+        if abs(alpha) > math.pi / 2:
+            alpha -= math.copysign(math.pi, alpha)
+        ca, sa = math.cos(alpha), math.sin(alpha)
+        beta = math.atan2(-r31, sa * r32 + ca * r33)
+        gamma = math.atan2(-(ca * r12 - sa * r13), ca * r22 - sa * r23)
+        sb, cb, sg, cg = math.sin(beta), math.cos(beta), math.sin(gamma), math.cos(gamma)
+        cos4 = (H - z - L5 * cb - L6 * sb) / L4
+        if abs(cos4) > 1.0 + CLAMP_TOLERANCE:
+            return None, 0
+        cos4 = min(1.0, max(-1.0, cos4))
+        root4 = math.sqrt(1.0 - cos4 * cos4)
+        lower, upper = self._lower_list, self._upper_list
+        target = (x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33)
+        best, best_distance, usable = None, math.inf, 0
+        for sin4 in (root4, -root4):
+            t4 = math.atan2(sin4, cos4) - RHO
+            l3 = L4 * sin4 + L6 * cb - L5 * sb
+            u, v = l3 * sg - y, x - l3 * cg
+            cos2 = (u * u + v * v - L1 * L1 - L2 * L2) / (2.0 * L1 * L2)
+            if abs(cos2) > 1.0 + CLAMP_TOLERANCE:
+                continue
+            elbow = math.acos(min(1.0, max(-1.0, cos2)))
+            for t2 in (elbow, -elbow):
+                t1 = math.atan2(v, u) - math.atan2(L2 * math.sin(t2), L1 + L2 * math.cos(t2))
+                q = _wrap_scalar((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha), reference, lower, upper)
+                if q is None or _scalar_residual(q, target) > self.screen_tolerance:
+                    continue
+                usable += 1
+                distance = math.fsum((a - b) ** 2 for a, b in zip(q, reference, strict=True))
+                if distance < best_distance:
+                    best, best_distance = q, distance
+        if best is None:
+            return None, 0
+        if self.mirrored:
+            best[0] = -best[0]
+        return np.array(best), usable
+
+
+_SHIFTS = (0.0, 2.0 * math.pi, -2.0 * math.pi, 4.0 * math.pi, -4.0 * math.pi)
+
+
+def _wrap_scalar(q, reference, lower, upper) -> list[float] | None:
+    """wrap_into_limits of the framework for one joint vector of revolute joints, or None if a joint
+    has no 2 pi shift inside its limits."""
+    wrapped = []
+    for value, ref, low, high in zip(q, reference, lower, upper, strict=True):
+        best, best_distance = None, math.inf
+        for shift in _SHIFTS:
+            shifted = value + shift
+            if low - 1e-12 <= shifted <= high + 1e-12 and abs(shifted - ref) < best_distance:
+                best, best_distance = shifted, abs(shifted - ref)
+        if best is None:
+            return None
+        wrapped.append(min(high, max(low, best)))
+    return wrapped
+
+
+def _scalar_residual(q, target) -> float:
+    """max(position error, rotation angle) of the right arm's closed-form FK at q against target."""
+    t1, t2, t3, t4, t5, t6 = q
+    x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33 = target
+    s, gamma = t4 + t5, t1 + t2 + t3
+    ss, cs, sg, cg = math.sin(s), math.cos(s), math.sin(gamma), math.cos(gamma)
+    l3 = L4 * math.sin(t4 + RHO) + L5 * ss + L6 * cs
+    dx = L1 * math.sin(t1) + L2 * math.sin(t1 + t2) + l3 * cg - x
+    dy = -L1 * math.cos(t1) - L2 * math.cos(t1 + t2) + l3 * sg - y
+    dz = H - L4 * math.cos(t4 + RHO) - L5 * cs + L6 * ss - z
+    sb, cb, sa, ca = -ss, cs, math.sin(t6), math.cos(t6)
+    trace = (r11 * cg * cb + r21 * sg * cb - r31 * sb
+             + r12 * (cg * sb * sa - sg * ca) + r22 * (sg * sb * sa + cg * ca) + r32 * cb * sa
+             + r13 * (cg * sb * ca + sg * sa) + r23 * (sg * sb * ca - cg * sa) + r33 * cb * ca)
+    angle = math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0))))
+    return max(math.sqrt(dx * dx + dy * dy + dz * dz), angle)
 
 
 class Golem3PositionIK(_Golem3Form):
