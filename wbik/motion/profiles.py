@@ -78,7 +78,8 @@ class TimeLaw:
             below = self.s(middle) < s
             low = np.where(below, middle, low)
             high = np.where(below, high, middle)
-        return 0.5 * (low + high)
+        tau = 0.5 * (low + high)
+        return np.where(s >= 1.0, 1.0, np.where(s <= 0.0, 0.0, tau))
 
 
 LAWS: dict[str, TimeLaw] = {
