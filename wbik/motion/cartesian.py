@@ -104,12 +104,13 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
                                        refinements):
             new_q = result.q if result.q is not None else q
             index = len(knots_s)
-            if not result.success:
-                reasons[index] = result.reason or "not reached"
+            notes = [] if result.success else [result.reason or "not reached"]
             if _step(q, new_q) > jump_threshold:
                 jumps.append(index)
-                reasons.setdefault(index, f"branch jump: a joint moved {_step(q, new_q):.3g} "
-                                          f"(threshold {jump_threshold:g})")
+                notes.insert(0, f"branch jump: a joint moved {_step(q, new_q):.3g} "
+                                f"(threshold {jump_threshold:g})")
+            if notes:
+                reasons[index] = "; ".join(notes)
             knots_s.append(s_knot)
             knots_q.append(new_q.copy())
             solved.append(bool(result.success))
