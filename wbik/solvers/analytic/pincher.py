@@ -45,8 +45,8 @@ from wbik.solvers.analytic.arm3r import AXIS_TOLERANCE, two_link_planar
 
 PITCH_GRID = 48
 """Pitches tried across the reachable arc when the nearest pitch has no branch inside the limits."""
-PITCH_BISECTIONS = 40
-"""Bisection steps from the best grid pitch toward the nearest pitch (arc width / 2^40 resolution)."""
+PITCH_BISECTIONS = 30
+"""Bisection steps from the best grid pitch toward the nearest pitch (arc width / 2^30 resolution)."""
 
 
 def _wrap_angle(angle: np.ndarray) -> np.ndarray:
@@ -104,9 +104,12 @@ def tool_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     height = BASE_HEIGHT + LINK * (np.cos(q[..., 1]) + np.cos(q23)) + WRIST_TO_TOOL * np.sin(pitch)
     position = np.stack((reach * c1, reach * s1, height), axis=-1)
     cp, sp = np.cos(pitch), np.sin(pitch)
-    approach = np.stack((cp * c1, cp * s1, sp), axis=-1)
-    side = np.stack((s1, -c1, np.zeros_like(c1)), axis=-1)
-    rotation = np.stack((np.cross(side, approach), side, approach), axis=-1)
+    # columns: x = y cross z = (-c1 sp, -s1 sp, cp), y = (s1, -c1, 0), z = approach (c1 cp, s1 cp, sp)
+    rotation = np.stack((
+        np.stack((-c1 * sp, s1, c1 * cp), axis=-1),
+        np.stack((-s1 * sp, -c1, s1 * cp), axis=-1),
+        np.stack((cp, np.zeros_like(c1), sp), axis=-1),
+    ), axis=-2)
     return position, rotation
 
 
