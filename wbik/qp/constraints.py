@@ -189,3 +189,25 @@ class MinimumDistance(Constraint):
 
     def violation(self, kinematics: Kinematics) -> float:
         return max(self.distance - self.current_distance(kinematics)[0], 0.0)
+
+
+class LockedJoints(Constraint):
+    """Named 1-DOF joints keep their value: 0 <= dq_i <= 0 (e.g. the arms alone, without the lift)."""
+
+    kind = "bounds"
+
+    def __init__(self, model: pin.Model, joints: list[str]):
+        from wbik.errors import RobotDescriptionError
+
+        indices = []
+        for name in joints:
+            if not model.existJointName(name):
+                raise RobotDescriptionError(f"cannot lock joint {name!r}: the model has no such joint")
+            joint = model.joints[model.getJointId(name)]
+            indices.extend(range(joint.idx_v, joint.idx_v + joint.nv))
+        self.v_index = np.array(indices, dtype=int)
+        self.name = f"locked joints {', '.join(joints)}"
+
+    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
+        lower[self.v_index] = 0.0
+        upper[self.v_index] = 0.0

@@ -63,12 +63,14 @@ class IKProblem:
 
     ``constraint_tolerance`` is what ``solve`` verifies on its answer (1e-6 m for contacts).
     ``max_step`` bounds every tangent component of one IK step (a trust region, rad or m).
+    ``progress``: five kept steps in a row that lower the merit by less than this fraction end
+    the loop at the best effort.
     """
 
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
                  max_step: float = 0.2, constraint_tolerance: float = 1e-6,
-                 hierarchy_slack: float = 1e-9):
+                 hierarchy_slack: float = 1e-9, progress: float = 1e-6):
         self.model = model
         self.kinematics = Kinematics(model)
         self.tasks = list(tasks)
@@ -79,6 +81,7 @@ class IKProblem:
         self.max_step = float(max_step)
         self.constraint_tolerance = float(constraint_tolerance)
         self.hierarchy_slack = float(hierarchy_slack)
+        self.progress = float(progress)
         self.nv = model.nv
         self._limits = [c for c in self.constraints if isinstance(c, JointPositionLimits)]
         self._lower = np.empty(self.nv)
@@ -149,10 +152,10 @@ class IKProblem:
             row = stop
         return jacobian * sqrt_weight[:, None], error * sqrt_weight, goal_cost
 
-    def _constraint_matrices(self, dt: float):
+    def _constraint_matrices(self, dt: float, max_step: float):
         lower, upper = self._lower, self._upper
-        lower.fill(-self.max_step)
-        upper.fill(self.max_step)
+        lower.fill(-max_step)
+        upper.fill(max_step)
         equalities, inequalities = [], []
         for constraint in self.constraints:
             if constraint.kind == "bounds":
@@ -169,17 +172,21 @@ class IKProblem:
         h = np.concatenate([h for _, h in inequalities]) if inequalities else None
         return G, h, A, b, lower.copy(), upper.copy()
 
-    def step(self, q: np.ndarray | None = None, dt: float = 1.0) -> np.ndarray | None:
+    def step(self, q: np.ndarray | None = None, dt: float = 1.0,
+             max_step: float | None = None) -> np.ndarray | None:
         """The QP displacement dq at q (default: the current q), or None if the QP has no solution.
 
         For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
-        bound |dq| <= v_max dt); for IK, dt = 1 and dq is a Newton-like step.
+        bound |dq| <= v_max dt); for IK, dt = 1 and dq is a Newton-like step. When q breaks an
+        inequality by more than one step can repair, the violated rows ask for half the repair,
+        then a quarter, ..., then only not to get worse.
         """
         if not self._started:
             self.start(self.kinematics.q if q is None else q)
         elif q is not None:
             self.kinematics.update(q)
-        G, h, A, b, lower, upper = self._constraint_matrices(dt)
+        radius = self.max_step if max_step is None else max_step
+        G, h, A, b, lower, upper = self._constraint_matrices(dt, radius)
         dq = None
         for index, level in enumerate(self.levels):
             weighted_jacobian, weighted_error, goal_cost = self._assemble_level(level)
@@ -187,7 +194,7 @@ class IKProblem:
             H = weighted_jacobian.T @ weighted_jacobian
             H.flat[:: self.nv + 1] += mu
             c = weighted_jacobian.T @ weighted_error
-            dq = backends.solve(self.backend, H, c, G, h, A, b, lower, upper)
+            dq = self._solve_relaxed(H, c, G, h, A, b, lower, upper)
             if dq is None:
                 return None
             if index + 1 < len(self.levels):
@@ -198,6 +205,34 @@ class IKProblem:
                 G = rows if G is None else np.vstack((G, rows))
                 h = bound if h is None else np.r_[h, bound]
         return dq
+
+    def _solve_relaxed(self, H, c, G, h, A, b, lower, upper) -> np.ndarray | None:
+        dq = backends.solve(self.backend, H, c, G, h, A, b, lower, upper)
+        if dq is not None or h is None or not np.any(h < 0):
+            return dq
+        relaxed = h.copy()
+        for _ in range(6):
+            relaxed[relaxed < 0] *= 0.5
+            dq = backends.solve(self.backend, H, c, G, relaxed, A, b, lower, upper)
+            if dq is not None:
+                return dq
+        return backends.solve(self.backend, H, c, G, np.maximum(h, 0.0), A, b, lower, upper)
+
+    def project(self, tolerance: float = 1e-12, max_iterations: int = 6) -> bool:
+        """Newton steps onto the contacts from the current q: min |dq|^2 s.t. J_c dq = -e_c and the
+        other constraints. True when every contact holds to ``tolerance`` afterwards."""
+        equalities = [c for c in self.constraints if c.kind == "equality"]
+        if not equalities:
+            return True
+        for _ in range(max_iterations):
+            if all(c.violation(self.kinematics) <= tolerance for c in equalities):
+                return True
+            G, h, A, b, lower, upper = self._constraint_matrices(1.0, self.max_step)
+            dq = self._solve_relaxed(self._identity, np.zeros(self.nv), G, h, A, b, lower, upper)
+            if dq is None:
+                return False
+            self.kinematics.update(self.clip(self.kinematics.integrate(dq)))
+        return all(c.violation(self.kinematics) <= tolerance for c in equalities)
 
     # -- iterate to convergence -----------------------------------------------------------------
     def task_errors(self) -> dict[str, float]:
@@ -215,16 +250,40 @@ class IKProblem:
         return all(c.violation(self.kinematics) <= tolerance for c in self.constraints
                    if c.kind == "equality")
 
-    def _inequalities_hold(self) -> bool:
-        return all(c.violation(self.kinematics) <= 0.0 for c in self.constraints if c.kind == "inequality")
+    def _inequality_violation(self) -> float:
+        return sum(c.violation(self.kinematics) for c in self.constraints if c.kind == "inequality")
+
+    def merit(self) -> float:
+        """Weighted task cost (lower levels scaled down by 1e-6 each); contacts are kept by projection."""
+        cost = 0.0
+        for index, level in enumerate(self.levels):
+            level_cost = 0.0
+            for task in self._level_tasks[level]:
+                error = task.error(self.kinematics)
+                level_cost += float(task.weight @ (error * error))
+            cost += level_cost * 1e-6 ** index
+        return cost
 
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12) -> QPSolution:
-        """Iterate QP steps from q0 to convergence (see the module docstring)."""
+        """Iterate QP steps from q0 to convergence (see the module docstring).
+
+        A trust region (the step box, ``max_step`` at most) makes the loop globally convergent: each
+        step is followed by Newton projections back onto the contacts (so every kept iterate
+        holds them to 1e-11), and is kept only if it lowers the merit (the task cost) and keeps
+        the inequalities by FK (or reduces their violation when q0 breaks them); otherwise the
+        radius shrinks and the QP is solved again. A radius or step under ``stall`` ends the loop
+        at the best effort under the constraints.
+        """
         start_time = time.perf_counter()
         self.start(q0)
         kinematics = self.kinematics
+        self.project(0.1 * equality_tolerance)
         q = kinematics.q.copy()
+        merit = self.merit()
+        inequality_violation = self._inequality_violation()
+        radius = self.max_step
+        slow = 0
         reason = ""
         converged = False
         iteration = 0
@@ -236,33 +295,43 @@ class IKProblem:
             if deadline is not None and time.perf_counter() > deadline:
                 reason = "time budget used up"
                 break
-            dq = self.step(dt=1.0)
+            dq = self.step(dt=1.0, max_step=radius)
             if dq is None:
-                reason = (f"the QP has no solution ({self.backend}): "
-                          "the constraints conflict at this configuration")
+                reason = (f"the QP has no solution ({self.backend}): the constraints conflict at this "
+                          "configuration" if iteration == 1 else
+                          f"best effort: {self.backend} found no further step (radius {radius:.2g})")
                 break
-            accepted = False
-            for _ in range(8):  # halve a step whose nonlinear inequalities fail by FK
-                trial = self.clip(pin.integrate(self.model, q, dq))
-                kinematics.update(trial)
-                if self._inequalities_hold():
-                    accepted = True
+            step_size = float(np.max(np.abs(dq))) if dq.size else 0.0
+            kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
+            projected = self.project(0.1 * equality_tolerance)
+            trial_violation = self._inequality_violation()
+            trial_merit = self.merit()
+            keeps_inequalities = trial_violation <= 0.0 or trial_violation < inequality_violation
+            if projected and keeps_inequalities and trial_merit <= merit + 1e-15:
+                q = kinematics.q.copy()
+                slow = slow + 1 if merit - trial_merit < self.progress * merit else 0
+                merit, inequality_violation = trial_merit, trial_violation
+                if slow >= 5 and not self._goals_met():
+                    reason = "best effort under the constraints: progress stalled (see the task errors)"
                     break
-                dq = 0.5 * dq
-            if not accepted:
+                if step_size >= 0.9 * radius:
+                    radius = min(2.0 * radius, self.max_step)
+                if step_size < stall:
+                    break
+            else:
                 kinematics.update(q)
-                reason = "steps break the inequality constraints even when shortened"
-                break
-            q = kinematics.q.copy()
-            if float(np.max(np.abs(dq))) < stall:
-                converged = self._goals_met() and self._equalities_met(equality_tolerance)
-                if not converged:
-                    reason = "stalled: best effort under the constraints (see the task errors)"
-                break
+                radius = 0.25 * min(radius, step_size)
+                if radius < stall:
+                    break
         else:
+            iteration = max_iterations
+            reason = f"no convergence in {max_iterations} iterations"
+        if not converged:
             converged = self._goals_met() and self._equalities_met(equality_tolerance)
-            if not converged:
-                reason = f"no convergence in {max_iterations} iterations"
+            if converged:
+                reason = ""
+            elif not reason:
+                reason = "stalled: best effort under the constraints (see the task errors)"
         return self._report(q, converged, iteration, reason, start_time)
 
     def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,

@@ -40,7 +40,9 @@ class Task:
     goal = True
 
     def __init__(self, weight: float | Sequence[float] = 1.0, gain: float = 1.0, priority: int = 0,
-                 tolerance: float = 1e-7, name: str | None = None):
+                 tolerance: float = 1e-7, name: str | None = None, goal: bool | None = None):
+        if goal is not None:
+            self.goal = bool(goal)
         self.weight = np.broadcast_to(np.asarray(weight, dtype=float), (self.dimension,)).copy()
         if np.any(self.weight < 0):
             raise ValueError(f"task weights must be >= 0, got {weight}")
