@@ -1,0 +1,349 @@
+"""Closed-form IK of the Bioloid's arms and legs (bioloid.md 2 and 3), vectorised over batches.
+
+Thesis-level functions (angles in radians, any leading batch shape):
+
+- :func:`arm_thesis_angles`: eq. 1-9 with the code's variant of eq. 8 (gamma2 uses -theta5),
+  the variant that is exact (bioloid.md 2.3). Right arm; the left arm is solved on the mirrored
+  target (y -> -y).
+- :func:`leg_thesis_angles`: eq. 10-22, foot -> hip, with eq. 22 read as the code's
+  ``theta11 = -Pitch + beta + gamma/2 - alpha``. The reached hip orientation (in the ankle frame)
+  is ``Rx(-theta17) Ry(Pitch) Rx(theta17 + Roll) Rz(Yaw)``: the pitch acts about the lateral axis
+  of the leg plane (tilted by the ankle roll), which is what the decoupled equations produce.
+- :func:`leg_foot_to_hip`, :func:`leg_hip_to_foot`, :func:`arm_ik`: the same, as joint angles of
+  the URDF chains (conversion in :mod:`wbik.models.bioloid`).
+
+Unreachable targets (|cos gamma| > 1, i.e. hip-ankle distance > 2 Lf, or |c5| > 1 for the arm)
+are reported by a ``reachable`` mask; their angles come from the clamped cosine (the nearest
+stretched limb), never NaN.
+
+Closed forms for the solver framework (declared in ``robot.info["closed_forms"]``):
+:class:`ArmPosition` (4 exact branches: the thesis's elbow and the other, times the base
+servo turned by pi), :class:`LegPose` (ankle pose in the hip frame; 4 branches: the thesis's
+walking knee branch, flexion >= 2 alpha, and the near-straight one, times the two hip Euler
+branches) and :class:`LegPosition` (ankle position; foot kept parallel to the hip as in the
+thesis's IK6ServoLegtoFoot, or at its orientation of q0).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.errors import InvalidTargetError
+from wbik.models.bioloid import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
+from wbik.solvers.analytic import ClosedForm
+
+COSINE_TOLERANCE = 1e-12
+"""|cos| up to 1 + this is clamped to 1 (a target on the workspace boundary) and stays reachable."""
+
+ARM_MIRROR = np.array([1.0, -1.0, -1.0])
+LEG_MIRROR = np.array([-1.0, -1.0, 1.0, 1.0, 1.0, -1.0])
+"""q_left = sign * q_right for mirror-image poses (both sides use the same axis directions)."""
+
+
+# --- small vectorised rotations --------------------------------------------------------------------
+def rot_x(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([one, zero, zero], -1), np.stack([zero, c, -s], -1),
+                     np.stack([zero, s, c], -1)], -2)
+
+
+def rot_y(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([c, zero, s], -1), np.stack([zero, one, zero], -1),
+                     np.stack([-s, zero, c], -1)], -2)
+
+
+def rot_z(angle: np.ndarray) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    return np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1),
+                     np.stack([zero, zero, one], -1)], -2)
+
+
+def _points(p, what: str) -> np.ndarray:
+    array = np.asarray(p, dtype=float)
+    if array.shape[-1:] != (3,):
+        raise InvalidTargetError(f"{what} must have 3 coordinates (shape (..., 3)), got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise InvalidTargetError(f"{what} contains NaN or inf")
+    return array
+
+
+def _side(side: str) -> str:
+    key = str(side).lower()
+    if key in ("r", "right"):
+        return "r"
+    if key in ("l", "left"):
+        return "l"
+    raise InvalidTargetError(f"side must be 'right'/'r' or 'left'/'l', got {side!r}")
+
+
+def _clamped_cosine(cosine: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    reachable = np.abs(cosine) <= 1.0 + COSINE_TOLERANCE
+    return np.clip(cosine, -1.0, 1.0), reachable
+
+
+# --- arm (bioloid.md 2.2-2.3) -----------------------------------------------------------------------
+def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, float, float]:
+    """(L0, L1, L2, L3, L4) in metres; L4 = 0.0745 + tool (code 0.0255 -> 0.100, thesis 0.070)."""
+    return (L0, L1, L2, L3, FOREARM + tool_length)
+
+
+@dataclass(frozen=True)
+class ArmAngles:
+    """Eq. 1-9 intermediates and outputs (radians, metres) for a batch of right-hand targets."""
+
+    theta1: np.ndarray
+    theta3: np.ndarray
+    theta5: np.ndarray
+    t: np.ndarray
+    s: np.ndarray
+    reach: np.ndarray
+    c5: np.ndarray
+    reachable: np.ndarray
+
+
+def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip: bool = False) -> ArmAngles:
+    """Right-arm IK, eq. 1-9 with the code's eq. 8: gamma2 = atan2(L4 sin(-theta5), L3 + L4 cos(-theta5)).
+
+    ``other_elbow`` gives theta5 >= 0 (the other exact branch); ``base_flip`` turns the base by
+    pi (the arm plane points the other way, s measured negative). Both default to the thesis.
+    """
+    l0, l1, l2, l3, l4 = arm_lengths() if lengths is None else lengths
+    p = _points(p_hand, "hand target")
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    theta1 = np.arctan2(z, x)                                   # eq. 1
+    radial = np.hypot(x, z)
+    if base_flip:
+        theta1, radial = theta1 + np.pi, -radial
+    t = -y - l0 - l1                                            # eq. 2
+    s = radial - l2                                             # eq. 3
+    reach = np.hypot(s, t)                                      # eq. 4
+    c5, reachable = _clamped_cosine((reach ** 2 - l3 ** 2 - l4 ** 2) / (2 * l3 * l4))   # eq. 5
+    theta5 = -np.arctan2(np.sqrt(1.0 - c5 ** 2), c5)            # eq. 6
+    if other_elbow:
+        theta5 = -theta5
+    gamma1 = np.arctan2(s, t)                                   # eq. 7
+    gamma2 = np.arctan2(l4 * np.sin(-theta5), l3 + l4 * np.cos(-theta5))   # eq. 8 (code)
+    theta3 = -(gamma1 - gamma2)                                 # eq. 9
+    return ArmAngles(theta1, theta3, theta5, t, s, reach, c5, reachable)
+
+
+def arm_ik(p_hand, side: str = "right", lengths=None) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (thesis branch)."""
+    side = _side(side)
+    p = _points(p_hand, "hand target")
+    if side == "l":
+        p = p * np.array([1.0, -1.0, 1.0])
+    a = arm_thesis_angles(p, lengths)
+    q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
+    return (q * ARM_MIRROR if side == "l" else q), a.reachable
+
+
+def arm_fk(q, side: str = "right", lengths=None) -> tuple[np.ndarray, np.ndarray]:
+    """Hand position (..., 3) and orientation (..., 3, 3) in the chest frame."""
+    l0, l1, l2, l3, l4 = arm_lengths() if lengths is None else lengths
+    q = np.asarray(q, dtype=float)
+    left = _side(side) == "l"
+    if left:
+        q = q * ARM_MIRROR
+    q1, q3, q5 = q[..., 0], q[..., 1], q[..., 2]
+    t = l3 * np.cos(q3) + l4 * np.cos(q3 + q5)
+    s = l3 * np.sin(q3) + l4 * np.sin(q3 + q5)
+    radial = l2 + s
+    p = np.stack([radial * np.cos(q1), -(l0 + l1) - t, radial * np.sin(q1)], -1)
+    rotation = rot_y(-q1) @ rot_z(q3 + q5)
+    if left:
+        mirror = np.diag([1.0, -1.0, 1.0])
+        p = p @ mirror
+        rotation = mirror @ rotation @ mirror
+    return p, rotation
+
+
+# --- leg (bioloid.md 3.2-3.6) ------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LegAngles:
+    """Eq. 10-22 intermediates and outputs (radians) for a batch of hip targets."""
+
+    gamma: np.ndarray
+    beta: np.ndarray
+    theta7: np.ndarray
+    theta9: np.ndarray
+    theta11: np.ndarray
+    theta13: np.ndarray
+    theta15: np.ndarray
+    theta17: np.ndarray
+    reachable: np.ndarray
+
+    @property
+    def ang(self) -> np.ndarray:
+        """The code's ang[] (degrees, unrounded): [th7, th9, 90 - th11, -(180 - th13), 90 - th15, th17]."""
+        d = np.degrees
+        return np.stack([d(self.theta7), d(self.theta9), 90.0 - d(self.theta11), d(self.theta13) - 180.0,
+                         90.0 - d(self.theta15), d(self.theta17)], -1)
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint angles (..., 6) of the leg chain (hip yaw, roll, pitch, knee, ankle pitch, roll)."""
+        return np.stack([-self.theta7, -self.theta9, self.theta11 - np.pi / 2, np.pi - self.theta13,
+                         self.theta15 - np.pi / 2, self.theta17], -1)
+
+
+def leg_thesis_angles(p_hip, yaw=0.0, pitch=0.0, roll=0.0) -> LegAngles:
+    """Foot -> hip IK, eq. 10-22 (eq. 22 with "- alpha"). ``p_hip``: hip point in the ankle frame (m)."""
+    p = _points(p_hip, "hip target")
+    x, y, z = p[..., 0], p[..., 1], p[..., 2]
+    theta17 = np.arctan2(y, z)                                          # eq. 10
+    length = np.linalg.norm(p, axis=-1)                                 # eq. 11
+    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))   # eq. 12-13
+    gamma = np.arctan2(np.sqrt(1.0 - cos_gamma ** 2), cos_gamma)        # eq. 14
+    theta13 = gamma - 2 * ALPHA                                         # eq. 15-16
+    beta = np.arctan2(x, np.hypot(z, y))                                # eq. 17-18
+    theta15 = -(beta - gamma / 2 + ALPHA)                               # eq. 19
+    theta7 = np.broadcast_to(np.asarray(yaw, dtype=float), theta17.shape) * 1.0   # eq. 20
+    theta9 = roll + theta17                                             # eq. 21
+    theta11 = -pitch + beta + gamma / 2 - ALPHA                         # eq. 22 (code)
+    return LegAngles(gamma, beta, theta7, theta9, theta11, theta13, theta15, theta17, reachable)
+
+
+def thesis_hip_rotation(theta17, yaw=0.0, pitch=0.0, roll=0.0) -> np.ndarray:
+    """Hip orientation in the ankle frame reached by eq. 10-22.
+
+    R = Rx(-theta17) Ry(pitch) Rx(theta17 + roll) Rz(yaw).
+    """
+    theta17 = np.asarray(theta17, dtype=float)
+    return rot_x(-theta17) @ rot_y(pitch + 0 * theta17) @ rot_x(theta17 + roll) @ rot_z(yaw + 0 * theta17)
+
+
+def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
+                    side: str = "right") -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (..., 6) putting the hip at ``p_hip`` (ankle frame, m), thesis yaw/pitch/roll (rad).
+
+    Returns (q, reachable). Both legs use the same equations in the robot's own axes (as the
+    thesis's gait does); ``side`` only selects and checks the leg name.
+    """
+    _side(side)
+    angles = leg_thesis_angles(p_hip, yaw, pitch, roll)
+    return angles.q, angles.reachable
+
+
+def leg_hip_to_foot(p_ankle, side: str = "right") -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles placing the ankle at ``p_ankle`` (hip frame, m), foot parallel to the hip.
+
+    The code's IK6ServoLegtoFoot: negate the position and solve foot -> hip with zero orientation.
+    """
+    return leg_foot_to_hip(-_points(p_ankle, "ankle target"), 0.0, 0.0, 0.0, side)
+
+
+THIGH = np.array([-L7, 0.0, -L8])
+"""Hip point -> knee rotor in the thigh frame (rotor L7 behind the leg line)."""
+SHANK = np.array([L7, 0.0, -L8])
+"""Knee rotor -> ankle point in the shank frame."""
+
+
+def leg_fk(q) -> tuple[np.ndarray, np.ndarray]:
+    """Ankle position (..., 3) and rotation (..., 3, 3) in the hip frame (same for both legs)."""
+    q = np.asarray(q, dtype=float)
+    upper = rot_z(q[..., 0]) @ rot_x(q[..., 1])
+    thigh = upper @ rot_y(q[..., 2])
+    shank = thigh @ rot_y(q[..., 3])
+    p = thigh @ THIGH + shank @ SHANK
+    return p, shank @ rot_y(q[..., 4]) @ rot_x(q[..., 5])
+
+
+def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every exact solution for the hip pose (p_hip (B, 3), r_hip (B, 3, 3)) in the ankle frame.
+
+    Returns (Q (B, 4, 6), reachable (B, 4)); branch 0 is the thesis's (walking knee, hip roll
+    cosine > 0). Derivation: hip = -Rx(-q17) Ry(-q15) (SHANK + Ry(-q13) THIGH) gives the ankle
+    roll (leg plane), the knee (triangle of sides Lf, Lf, |p|) and the ankle pitch; then
+    Ry(q13 + q15) Rx(q17) R_hip = Ry(-q11) Rx(-q9) Rz(-q7) is a Y-X-Z Euler decomposition.
+    """
+    x, y, z = p_hip[:, 0], p_hip[:, 1], p_hip[:, 2]
+    q17 = np.arctan2(y, z)
+    beta = np.arctan2(x, np.hypot(y, z))
+    length = np.linalg.norm(p_hip, axis=-1)
+    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
+    gamma = np.arccos(cos_gamma)
+    solutions = []
+    for knee in (np.pi + 2 * ALPHA - gamma, gamma - np.pi + 2 * ALPHA):
+        c = SHANK + rot_y(-knee) @ THIGH
+        q15 = np.arctan2(-c[:, 0], -c[:, 2]) - beta
+        m = rot_y(knee + q15) @ rot_x(q17) @ r_hip
+        cos_b = np.hypot(m[:, 1, 0], m[:, 1, 1])
+        for sign in (1.0, -1.0):
+            b = np.arctan2(-m[:, 1, 2], sign * cos_b)
+            a = np.arctan2(sign * m[:, 0, 2], sign * m[:, 2, 2])
+            c_angle = np.arctan2(sign * m[:, 1, 0], sign * m[:, 1, 1])
+            solutions.append(np.stack([-c_angle, -b, -a, knee, q15, q17], -1))
+    q_all = np.stack(solutions, 1)
+    return q_all, np.repeat(reachable[:, None], len(solutions), axis=1)
+
+
+# --- closed forms for the solver framework --------------------------------------------------------
+def _chain_side(chain) -> str:
+    first = chain.joint_names[0]
+    return "l" if first.startswith("l_") else "r"
+
+
+class ArmPosition(ClosedForm):
+    """Hand position of ``right_arm``/``left_arm`` (chest frame): 4 exact branches, thesis first."""
+
+    target_kind = "position"
+
+    def __init__(self, chain):
+        super().__init__(chain)
+        self.side = _chain_side(chain)
+        self.lengths = tuple(chain.robot.info.get("arm_lengths", arm_lengths()))
+
+    def branches(self, positions, rotations, q0):
+        p = positions * np.array([1.0, -1.0, 1.0]) if self.side == "l" else positions
+        qs, valid = [], []
+        for base_flip in (False, True):
+            for other_elbow in (False, True):
+                a = arm_thesis_angles(p, self.lengths, other_elbow, base_flip)
+                q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
+                qs.append(q * ARM_MIRROR if self.side == "l" else q)
+                valid.append(a.reachable)
+        return np.stack(qs, 1), np.stack(valid, 1)
+
+    def fk(self, q):
+        return arm_fk(q, self.side, self.lengths)
+
+
+class LegPose(ClosedForm):
+    """Ankle pose in the hip frame (``right_leg``/``left_leg``): the foot -> hip problem inverted."""
+
+    target_kind = "pose"
+
+    def branches(self, positions, rotations, q0):
+        r_hip = np.swapaxes(rotations, -1, -2)
+        p_hip = -np.einsum("bij,bj->bi", r_hip, positions)
+        return leg_branches(p_hip, r_hip)
+
+    def fk(self, q):
+        return leg_fk(q)
+
+
+class LegPosition(ClosedForm):
+    """Ankle position in the hip frame: 8 exact branches.
+
+    Branches 0-3 keep the foot parallel to the hip (the thesis's hip -> foot IK, branch 0 its
+    own); branches 4-7 keep the foot orientation it has at q0 (useful when the torso is pitched).
+    """
+
+    target_kind = "position"
+
+    def branches(self, positions, rotations, q0):
+        identity = np.broadcast_to(np.eye(3), (len(positions), 3, 3))
+        q_parallel, ok_parallel = leg_branches(-positions, identity)
+        r_hip = np.swapaxes(leg_fk(q0)[1], -1, -2)
+        q_kept, ok_kept = leg_branches(-np.einsum("bij,bj->bi", r_hip, positions), r_hip)
+        return np.concatenate([q_parallel, q_kept], 1), np.concatenate([ok_parallel, ok_kept], 1)
+
+    def fk(self, q):
+        return leg_fk(q)
