@@ -173,6 +173,17 @@ class PincherPosition(_PincherForm):
                                            self.chain.upper, self._revolute)
         return wrapped, exact, exact & inside
 
+    def _usable(self, yaws, reaches, heights, pitches):
+        """Branch exists and some 2 pi shift of it is inside the limits: (B, 2, M, 2), without wrapping.
+
+        (q - lower) mod 2 pi <= upper - lower  <=>  q + 2 pi k is in [lower, upper] for some integer k.
+        """
+        q_all, exact = arm_plane_branches(yaws[..., None], reaches[..., None], heights[:, None, None],
+                                          pitches)
+        span = self.chain.upper - self.chain.lower + 1e-12
+        inside = np.all(np.mod(q_all - self.chain.lower, 2.0 * np.pi) <= span, axis=-1)
+        return exact & inside
+
     def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
         """Where the nearest pitch has no branch inside the limits. Per side and per direction along the
         arc, the grid pitch with such a branch closest to the nearest pitch, moved toward it by bisection
@@ -181,8 +192,7 @@ class PincherPosition(_PincherForm):
         Pitches are centre + offset, |offset| <= half_width; returns (Q, exact, usable, pitch) per side.
         """
         grid = half_width[..., None] * np.linspace(-1.0, 1.0, PITCH_GRID)  # offsets (R, 2, M)
-        _, _, usable_grid = self._candidates(yaws, reaches, heights, centre[..., None] + grid, q0)
-        usable_grid = np.any(usable_grid, axis=-1)
+        usable_grid = np.any(self._usable(yaws, reaches, heights, centre[..., None] + grid), axis=-1)
         gap = grid - nearest_offset[..., None]
         best_offset = nearest_offset.copy()
         best_score = np.full(nearest_offset.shape, np.inf)
@@ -195,7 +205,7 @@ class PincherPosition(_PincherForm):
             for _ in range(PITCH_BISECTIONS):
                 middle = 0.5 * (good + bad)
                 pitches = (centre + middle)[..., None]
-                _, _, usable_middle = self._candidates(yaws, reaches, heights, pitches, q0)
+                usable_middle = self._usable(yaws, reaches, heights, pitches)
                 inside = np.any(usable_middle[:, :, 0], axis=-1) & found
                 good = np.where(inside, middle, good)
                 bad = np.where(inside, bad, middle)
