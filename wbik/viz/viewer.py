@@ -147,7 +147,7 @@ class Viewer:
         if center is None:
             center = 0.5 * (low + high)
         if distance is None:
-            distance = 2.0 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
+            distance = 1.6 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
         camera = np.eye(4)
         camera[:3, 3] = center
         self.meshcat["/Cameras/default"].set_transform(camera)

@@ -1,0 +1,85 @@
+"""A real browser opens exported pages: no JavaScript errors, and the robot is actually drawn.
+
+Headless Chromium (Debian packages chromium + chromium-driver, installed by scripts/setup.sh)
+renders each page with software WebGL. Screenshots stay in tests/artifacts/ (git-ignored) to look
+at. "Drawn" is measured on pixels: the stick model's orange, or the difference between the same
+scene with and without the robot.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from wbik.errors import MissingDependencyError
+from wbik.viz import Viewer
+from wbik.viz.browser import find_chromium, render
+from wbik.viz.geometry import STICK_COLOR
+
+ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
+
+
+@pytest.fixture(scope="module", autouse=True)
+def chromium() -> str:
+    try:
+        return find_chromium()
+    except MissingDependencyError as exc:
+        pytest.fail(f"the browser tests need Chromium: {exc}")
+
+
+def pixels(path: Path) -> np.ndarray:
+    return np.asarray(Image.open(path).convert("RGB"), dtype=int)
+
+
+def orange_pixels(image: np.ndarray) -> int:
+    """Pixels whose hue is the stick colour's (red well above green well above blue), any shading."""
+    red, green, blue = image[..., 0], image[..., 1], image[..., 2]
+    return int(np.count_nonzero((red > 90) & (red > 1.4 * green) & (green > 1.5 * blue + 10)))
+
+
+def render_checked(viewer: Viewer, name: str):
+    page = viewer.export_html(ARTIFACTS / f"{name}.html")
+    result = render(page, ARTIFACTS / f"{name}.png")
+    assert result.ready, f"the scene script did not finish; console: {result.console}"
+    assert result.errors == [], f"JavaScript errors in {name}: {result.errors}"
+    return pixels(result.screenshot)
+
+
+def test_stick_robot_is_drawn_without_errors():
+    viewer = Viewer("pincher")
+    viewer.show([0.3, 0.6, 0.5, -0.4], chain="arm")
+    viewer.show_frames("arm")
+    image = render_checked(viewer, "pincher")
+    assert STICK_COLOR[0] > STICK_COLOR[1] > STICK_COLOR[2]  # what orange_pixels looks for
+    count = orange_pixels(image)
+    assert count > 1000, f"only {count} robot-coloured pixels: the robot was not drawn"
+    viewer.meshcat["wbik/robot"].set_property("visible", False)
+    hidden = render_checked(viewer, "pincher_hidden")
+    # the orange came from the robot (meshcat's own x axis line is orange too, a few hundred pixels)
+    assert count - orange_pixels(hidden) > 800
+
+
+def test_meshed_robot_with_target_and_animation():
+    viewer = Viewer("ur5")
+    chain = viewer.robot.chain("arm")
+    times = np.linspace(0.0, 1.0, 11)
+    qs = chain.nominal + np.outer(times, [0.6, 0.3, -0.4, 0.2, 0.5, 0.0])
+    viewer.animate(times, qs, chain="arm", trace_frame="tcp", play=False)
+    viewer.show_target(chain.fk(qs[-1]), chain="arm")
+    image = render_checked(viewer, "ur5_animation")
+    viewer.meshcat["wbik/robot"].set_property("visible", False)
+    empty = render_checked(viewer, "ur5_without_robot")
+    changed = np.count_nonzero(np.abs(image - empty).sum(axis=2) > 60)
+    assert changed > 3000, f"only {changed} pixels change when the robot is hidden: meshes not drawn"
+
+
+def test_bioloid_com_and_support_polygon_page():
+    viewer = Viewer("bioloid")
+    viewer.show_com_and_polygon()
+    image = render_checked(viewer, "bioloid_support")
+    # the robot's light-grey boxes: bright, unsaturated pixels, unlike the blue background
+    grey = (image.min(axis=2) > 120) & (image.max(axis=2) - image.min(axis=2) < 25)
+    assert np.count_nonzero(grey) > 3000
