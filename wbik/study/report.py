@@ -133,7 +133,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
                          f"{chain.tip_frame}, {chain.nq} joints ({', '.join(chain.joint_names)}); "
                          f"every method starts from q0 = {study.start}.")]
     if analysis["not_applicable"]:
-        blocks.append(Block("p", "Not applicable to this case:"))
+        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
         blocks.append(Block("list", items=[f"{label}: {message}" for label, message
                                            in analysis["not_applicable"].items()]))
     missing = [m.label for m in study.methods

@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import shutil
 import sys
+import threading
 import time
 import traceback
 import zlib
 from dataclasses import dataclass
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -61,11 +61,21 @@ def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
     return int(sequence.generate_state(1)[0])
 
 
-@lru_cache(maxsize=8)
-def _robot(name: str, params: tuple):
-    import wbik
+_LOCAL = threading.local()
 
-    return wbik.load(name, **dict(params))
+
+def _robot(name: str, params: tuple):
+    """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe, and
+    a Dask worker may run several tasks in threads of one process)."""
+    cache = getattr(_LOCAL, "robots", None)
+    if cache is None:
+        cache = _LOCAL.robots = {}
+    key = (name, params)
+    if key not in cache:
+        import wbik
+
+        cache[key] = wbik.load(name, **dict(params))
+    return cache[key]
 
 
 def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
@@ -179,9 +189,17 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
 
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
-    """Why ``method`` does not apply to ``case`` (None if it does): build it, solve the first pose."""
+    """Why ``method`` does not apply to ``case`` (None if it does): build it, solve the first pose.
+
+    A method whose construction raises anything else is reported as "could not start" with the
+    exception, so one broken method does not stop a study of many.
+    """
     task = _task(study, case, method, poses, 0, 0, 1)
-    rows = solve_chunk(task)
+    try:
+        rows = solve_chunk(task)
+    except Exception as exc:  # noqa: BLE001 - a broken method must not stop the other methods
+        detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+        return f"could not start (a bug to report): {detail}"
     if "not_applicable" in rows:
         return str(rows["not_applicable"][0])
     return None

@@ -1,0 +1,221 @@
+"""Small studies through the CLI and the runner: files, summary vs raw rows, Mann-Whitney vs scipy,
+"not applicable" methods, resume after a kill, serial = parallel (= Dask)."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import stats
+
+import wbik
+from wbik.cli import main
+from wbik.solvers.dls import DampedLeastSquares
+from wbik.study import load_study, run_study
+from wbik.study.results import read_raw_csv
+
+STUDY = """
+name: small
+poses: 200
+seed: 11
+chunk_size: 50
+timeout_s: 1.0
+baseline: analytic
+cases:
+  - {robot: ur5, chain: arm, target: pose}
+  - {robot: arm3r, chain: arm, target: position}
+methods:
+  - analytic
+  - {method: dls, options: {max_iterations: 60}}
+  - kdl
+"""
+
+
+def _write(folder: Path, text: str, name: str = "small.yaml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def serial_run(tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("study")
+    study_file = _write(folder, STUDY)
+    assert main(["study", str(study_file), "-o", str(folder / "out"), "--backend", "sequential",
+                 "--no-progress"]) == 0
+    return folder / "out"
+
+
+def _same_rows(first: dict, second: dict) -> None:
+    assert set(first) == set(second)
+    for label in first:
+        for column, values in first[label].items():
+            if column == "time_s":
+                continue
+            other = second[label][column]
+            if values.dtype.kind == "f":
+                assert np.array_equal(values, other, equal_nan=True), (label, column)
+            else:
+                assert np.array_equal(values, other), (label, column)
+
+
+def test_files_appear(serial_run):
+    for name in ("study.json", "run.json", "report.md", "report.html"):
+        assert (serial_run / name).is_file()
+    for case in ("ur5_arm_pose", "arm3r_arm_position"):
+        for name in ("poses.npz", "raw.csv", "summary.csv", "figures/solved.png", "figures/errors.png",
+                     "figures/time.png", "figures/time_histogram.png"):
+            assert (serial_run / case / name).is_file(), (case, name)
+    html = (serial_run / "report.html").read_text()
+    assert html.count("data:image/png;base64,") == 8  # 4 figures x 2 cases, embedded
+    assert "src='http" not in html and 'src="http' not in html
+
+
+def test_raw_rows_are_complete_and_reproduce_the_errors(serial_run):
+    rows = read_raw_csv(serial_run / "ur5_arm_pose" / "raw.csv")
+    assert set(rows) == {"analytic", "dls", "kdl"}
+    chain = wbik.load("ur5").chain("arm")
+    poses = np.load(serial_run / "ur5_arm_pose" / "poses.npz")
+    dls = rows["dls"]
+    assert np.array_equal(dls["pose"], np.arange(200))
+    for index in np.flatnonzero(dls["success"])[:10]:
+        q = np.array([dls[f"q_{name}"][index] for name in chain.joint_names])
+        reached = chain.fk(q)
+        assert np.allclose(reached.translation - poses["positions"][index],
+                           [dls["err_x"][index], dls["err_y"][index], dls["err_z"][index]], atol=1e-15)
+        assert dls["position_error"][index] <= 1e-6
+
+
+def test_not_applicable_methods_are_reported_not_crashed(serial_run):
+    report = (serial_run / "report.md").read_text()
+    # KDL takes full poses only: on the position-only case it is "not applicable" with the message
+    section = report.split("## Case arm3r_arm_position")[1]
+    assert "Not applicable to this case" in section
+    assert "kdl:" in section
+    assert "kdl" not in read_raw_csv(serial_run / "arm3r_arm_position" / "raw.csv")
+
+
+def _summary(path: Path) -> dict[str, dict[str, float]]:
+    import csv
+
+    with open(path, newline="") as handle:
+        return {row.pop("method"): {k: float(v) for k, v in row.items()} for row in csv.DictReader(handle)}
+
+
+def test_summary_matches_the_raw_rows(serial_run):
+    for case in ("ur5_arm_pose", "arm3r_arm_position"):
+        rows = read_raw_csv(serial_run / case / "raw.csv")
+        summary = _summary(serial_run / case / "summary.csv")
+        assert set(summary) == set(rows)
+        for label, columns in rows.items():
+            solved = columns["success"]
+            line = summary[label]
+            assert line["solved"] == solved.sum()
+            assert line["percent_solved"] == pytest.approx(100 * solved.mean())
+            times = columns["time_s"] * 1e3
+            assert line["time_solved_median_ms"] == pytest.approx(np.median(times[solved]))
+            assert line["time_all_max_ms"] == pytest.approx(times.max())
+            if (~solved).any():
+                assert line["time_unsolved_p95_ms"] == pytest.approx(np.percentile(times[~solved], 95))
+            for axis in ("x", "z") + (("alpha",) if case.endswith("pose") else ()):
+                errors = columns[f"err_{axis}"][solved]
+                assert line[f"err_{axis}_abs_max"] == pytest.approx(np.abs(errors).max())
+                assert line[f"err_{axis}_mean"] == pytest.approx(errors.mean())
+
+
+def test_mann_whitney_p_values_match_scipy_on_the_raw_rows(serial_run):
+    import csv
+
+    rows = read_raw_csv(serial_run / "ur5_arm_pose" / "raw.csv")
+    with open(serial_run / "ur5_arm_pose" / "significance.csv", newline="") as handle:
+        tests = list(csv.DictReader(handle))
+    assert {t["axis"] for t in tests} >= {"x", "y", "z", "rot_x", "alpha", "beta", "gamma", "time"}
+    assert {t["method"] for t in tests} == {"dls", "kdl"}
+    base = rows["analytic"]
+    for test in tests:
+        assert test["baseline"] == "analytic"
+        other, axis = rows[test["method"]], test["axis"]
+        if axis == "time":
+            expected = stats.mannwhitneyu(base["time_s"] * 1e3, other["time_s"] * 1e3)
+        else:
+            expected = stats.mannwhitneyu(np.abs(base[f"err_{axis}"][base["success"]]),
+                                          np.abs(other[f"err_{axis}"][other["success"]]))
+        assert float(test["p_value"]) == pytest.approx(expected.pvalue, rel=1e-12, abs=0)
+        assert float(test["U"]) == expected.statistic
+
+
+def test_serial_and_parallel_runs_agree(serial_run, tmp_path):
+    study_file = _write(tmp_path, STUDY)
+    assert main(["study", str(study_file), "-o", str(tmp_path / "out"), "--jobs", "2", "--no-progress"]) == 0
+    for case in ("ur5_arm_pose", "arm3r_arm_position"):
+        _same_rows(read_raw_csv(serial_run / case / "raw.csv"),
+                   read_raw_csv(tmp_path / "out" / case / "raw.csv"))
+
+
+def test_a_different_study_in_the_same_folder_is_refused(serial_run, tmp_path):
+    study_file = _write(tmp_path, STUDY.replace("seed: 11", "seed: 12"))
+    assert main(["study", str(study_file), "-o", str(serial_run), "--no-progress"]) == 2
+
+
+# -- resume after a kill -------------------------------------------------------------------------
+class SlowDLS(DampedLeastSquares):
+    """DLS that sleeps 20 ms per pose, so a run can be killed half-way."""
+
+    name = "slow_dls"
+
+    def _solve(self, target, q0, deadline):
+        time.sleep(0.02)
+        return super()._solve(target, q0, deadline)
+
+
+RESUME_STUDY = """
+name: resume
+robot: arm3r
+chain: arm
+target: position
+poses: 100
+chunk_size: 10
+timeout_s: 1.0
+methods: [slow_test_dls]
+"""
+
+
+def _run_child(study_file: str, output: str) -> None:
+    run_study(load_study(study_file), Path(output), backend="sequential", progress=False, report=False,
+              log=lambda message: None)
+
+
+def test_a_killed_run_resumes_without_recomputing_finished_chunks(tmp_path):
+    wbik.register("slow_test_dls", SlowDLS, "test only")
+    study_file = _write(tmp_path, RESUME_STUDY, "resume.yaml")
+    output = tmp_path / "out"
+    chunks = output / "arm3r_arm_position" / "chunks" / "slow_test_dls"
+    child = multiprocessing.get_context("fork").Process(target=_run_child,
+                                                        args=(str(study_file), str(output)))
+    child.start()
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(list(chunks.glob("chunk_*.npz"))) < 3:
+        time.sleep(0.02)
+    os.kill(child.pid, signal.SIGKILL)
+    child.join()
+    finished = {path.name: path.stat().st_mtime_ns for path in chunks.glob("chunk_*.npz")}
+    assert 3 <= len(finished) < 10, "the child should have been killed half-way"
+
+    run_study(load_study(study_file), output, backend="sequential", progress=False, log=lambda m: None)
+    after = {path.name: path.stat().st_mtime_ns for path in chunks.glob("chunk_*.npz")}
+    assert len(after) == 10
+    assert all(after[name] == stamp for name, stamp in finished.items())  # not recomputed
+    import json
+
+    assert json.loads((output / "run.json").read_text())["computed_tasks"] == 10 - len(finished)
+    rows = read_raw_csv(output / "arm3r_arm_position" / "raw.csv")["slow_test_dls"]
+    assert np.array_equal(rows["pose"], np.arange(100))
+
+    fresh = tmp_path / "fresh"
+    run_study(load_study(study_file), fresh, backend="sequential", progress=False, log=lambda m: None)
+    _same_rows({"m": rows}, {"m": read_raw_csv(fresh / "arm3r_arm_position" / "raw.csv")["slow_test_dls"]})
