@@ -1,0 +1,240 @@
+"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, and
+the foot board's bus facts.
+
+FSR positions (ASSUMED; the thesis says only "near the corners", FSR1/FSR2 at the back and
+FSR3/FSR4 at the front, bioloid.md 6.1): one FSR at each corner of the sole rectangle of the
+model (``robot.info["sole_corners"]``, 100 x 60 mm in wbik.models.bioloid), ordered
+FSR1 = back left (-x, +y), FSR2 = back right (-x, -y), FSR3 = front left (+x, +y),
+FSR4 = front right (+x, -y), in the sole frame (x forward, y left, z up). The left/right order
+inside a pair is our choice; nothing in the thesis fixes it.
+
+Centre of pressure (the registers "centre of mass X/Y", whose formula the thesis omits):
+c = sum_i F_i p_i / sum_i F_i over the sensor positions p_i.
+
+Static stance loads: the weight W = m g is carried by the FSRs of the soles in contact, as point
+supports. The problem is statically indeterminate (3 equilibrium equations: sum F = W and
+sum F p_xy = W c_xy, with c the CoM projection). Our model: a rigid body on equal linear springs
+with unilateral contact, whose elastic energy sum F_i^2 / (2k) is the minimum over the
+equilibrium loads, i.e. the minimum-norm non-negative solution
+
+    min |F|^2  subject to  A F = (W, W c_x, W c_y),  F >= 0,  A = [1 ...; x_i ...; y_i ...].
+
+It is found exactly by enumerating the sets of unloaded supports (at most 2^8 for two feet).
+With all supports loaded, F = A^T (A A^T)^-1 b, linear in the CoM position; on a rectangle of
+half sizes (a, b) centred at the origin, F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b).
+By construction the CoP of these loads is the CoM projection; a projection outside the support
+polygon has no solution (the stance is not static).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError, RobotDescriptionError
+from wbik.robot import Robot
+
+GRAVITY = 9.81  # m/s^2
+FSR_NAMES = ("FSR1", "FSR2", "FSR3", "FSR4")
+
+# -- FSR geometry and centre of pressure -----------------------------------------------------------
+
+
+def fsr_positions(corners: np.ndarray) -> np.ndarray:
+    """The 4 FSR positions (4, 3) in the sole frame, ordered FSR1..FSR4, from the sole's 4 corners."""
+    corners = np.asarray(corners, dtype=float)
+    if corners.shape != (4, 3):
+        raise RobotDescriptionError(f"a sole needs 4 corners (4, 3), got shape {corners.shape}")
+    back = corners[corners[:, 0] < np.mean(corners[:, 0])]
+    front = corners[corners[:, 0] > np.mean(corners[:, 0])]
+    if len(back) != 2 or len(front) != 2:
+        raise RobotDescriptionError("sole corners must be two at the back (-x) and two at the front (+x)")
+    order = []
+    for pair in (back, front):
+        order.extend(pair[np.argsort(-pair[:, 1])])  # left (+y) first
+    return np.array(order)
+
+
+def robot_fsr_positions(robot: Robot, sole: str) -> np.ndarray:
+    """FSR positions of ``sole`` ('r_sole' or 'l_sole') from ``robot.info['sole_corners']``."""
+    corners = robot.info.get("sole_corners", {})
+    if sole not in corners:
+        raise RobotDescriptionError(
+            f"{robot.name} has no sole_corners for {sole!r}; known: {sorted(corners)}")
+    return fsr_positions(corners[sole])
+
+
+def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndarray | None:
+    """sum F_i p_i / sum F_i (in the frame of ``positions``); None when nothing presses (foot in the air).
+
+    ``loads`` are forces (N) or any quantity proportional to them; they must not be negative."""
+    loads = np.asarray(loads, dtype=float)
+    positions = np.asarray(positions, dtype=float)
+    if loads.ndim != 1 or positions.ndim != 2 or len(loads) != len(positions):
+        raise InvalidConfigurationError(
+            f"need one load per sensor position: {loads.shape} loads, {positions.shape} positions")
+    if not np.all(np.isfinite(loads)) or np.any(loads < 0):
+        raise InvalidConfigurationError(f"FSR loads must be finite and non-negative, got {loads.tolist()}")
+    total = float(loads.sum())
+    if total <= 0.0:
+        return None
+    return loads @ positions / total
+
+
+# -- statics ---------------------------------------------------------------------------------------
+
+
+def support_loads(points_xy: np.ndarray, weight: float, cop_xy: Sequence[float],
+                  tolerance: float = 1e-9) -> np.ndarray:
+    """Minimum-norm non-negative point-support loads carrying ``weight`` with their CoP at ``cop_xy``.
+
+    Raises InvalidConfigurationError when ``cop_xy`` is outside the supports' convex hull."""
+    points = np.asarray(points_xy, dtype=float)[:, :2]
+    if not weight > 0:
+        raise InvalidConfigurationError(f"weight must be positive, got {weight}")
+    count = len(points)
+    matrix = np.vstack((np.ones(count), points[:, 0], points[:, 1]))
+    rhs = weight * np.array([1.0, cop_xy[0], cop_xy[1]])
+    best, best_norm = None, np.inf
+    for size in range(count, 0, -1):
+        for free in itertools.combinations(range(count), size):
+            sub = matrix[:, free]
+            loads_free = sub.T @ np.linalg.pinv(sub @ sub.T) @ rhs
+            if np.any(loads_free < -tolerance * weight):
+                continue
+            if np.linalg.norm(sub @ loads_free - rhs) > tolerance * weight * (1.0 + np.abs(rhs[1:]).max()):
+                continue
+            norm = float(loads_free @ loads_free)
+            if norm < best_norm:
+                best = np.zeros(count)
+                best[list(free)] = np.maximum(loads_free, 0.0)
+                best_norm = norm
+    if best is None:
+        raise InvalidConfigurationError(
+            f"the CoM projection {np.asarray(cop_xy).tolist()} is outside the support polygon: "
+            "no non-negative support loads balance the weight (the stance is not static)")
+    return best
+
+
+@dataclass
+class StanceLoads:
+    """Expected FSR loads of a static stance and the resulting centres of pressure."""
+
+    weight: float  # N
+    com_xy: np.ndarray  # world ground projection of the CoM (m)
+    loads: dict[str, np.ndarray]  # sole -> (4,) N, FSR1..FSR4
+    cop_sole: dict[str, np.ndarray | None]  # sole -> CoP in the sole frame (x, y), m (None if unloaded)
+    cop_world: np.ndarray  # overall CoP on the ground (x, y), m
+
+    def as_dict(self) -> dict:
+        return {"weight_N": self.weight, "com_xy_m": self.com_xy.tolist(),
+                "cop_world_xy_m": self.cop_world.tolist(),
+                "loads_N": {sole: dict(zip(FSR_NAMES, map(float, v), strict=True))
+                            for sole, v in self.loads.items()},
+                "cop_sole_xy_m": {sole: None if v is None else v.tolist()
+                                  for sole, v in self.cop_sole.items()}}
+
+
+def stance_loads(robot: Robot, q: np.ndarray, soles: Sequence[str] = ("r_sole", "l_sole"),
+                 gravity: float = GRAVITY, contact_height: float = 1e-4) -> StanceLoads:
+    """Expected FSR loads when ``robot`` stands still at full configuration q.
+
+    Soles whose origin is within ``contact_height`` of the lowest sole are in contact; each must be
+    flat (z axis vertical within 1e-6). The weight is shared by their FSRs (support_loads)."""
+    placements = {sole: robot.frame_placement(q, sole) for sole in soles}
+    ground = min(p.translation[2] for p in placements.values())
+    contact = [s for s, p in placements.items() if p.translation[2] <= ground + contact_height]
+    for sole in contact:
+        if abs(placements[sole].rotation[2, 2] - 1.0) > 1e-6:
+            raise InvalidConfigurationError(f"{sole} touches the ground but is not flat; static FSR loads "
+                                            "need the soles flat on the floor")
+    local = {sole: robot_fsr_positions(robot, sole) for sole in soles}
+    world = {sole: (placements[sole].rotation @ local[sole].T).T + placements[sole].translation
+             for sole in contact}
+    weight = robot.mass * gravity
+    com_xy = robot.center_of_mass(q)[:2]
+    stacked = np.vstack([world[sole][:, :2] for sole in contact])
+    all_loads = support_loads(stacked, weight, com_xy)
+    loads = {sole: np.zeros(4) for sole in soles}
+    for index, sole in enumerate(contact):
+        loads[sole] = all_loads[4 * index:4 * index + 4]
+    cop_sole = {}
+    for sole in soles:
+        cop = center_of_pressure(loads[sole], local[sole][:, :2])
+        cop_sole[sole] = None if cop is None else cop
+    cop_world = center_of_pressure(all_loads, stacked)
+    return StanceLoads(weight, com_xy, loads, cop_sole, cop_world)
+
+
+# -- the FSR voltage divider and the Sharp sensor ----------------------------------------------------
+
+
+def fsr_divider_voltage(fsr_resistance_ohm, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
+    """ADC voltage of the FSR divider (bioloid.md 6.2): V = supply * R_pd / (R_pd + R_fsr)."""
+    resistance = np.asarray(fsr_resistance_ohm, dtype=float)
+    if np.any(resistance < 0):
+        raise InvalidConfigurationError("an FSR resistance cannot be negative")
+    return supply_v * pulldown_ohm / (pulldown_ohm + resistance)
+
+
+SHARP_GAIN = 3027.4
+SHARP_EXPONENT = 1.2134
+
+
+def sharp_distance_mm(adc_value):
+    """Eq. 23: distance (mm) = (3027.4 / ADC)^1.2134 * 10. Valid 10-80 cm; below 10 cm a reading
+    has a second, nearer meaning (the curve folds back), see bioloid.md 6.2."""
+    adc = np.asarray(adc_value, dtype=float)
+    if np.any(adc <= 0):
+        raise InvalidConfigurationError("Sharp ADC values must be positive (zero means no reflection)")
+    return (SHARP_GAIN / adc) ** SHARP_EXPONENT * 10.0
+
+
+def sharp_adc_value(distance_mm):
+    """Inverse of Eq. 23: ADC = 3027.4 / (distance / 10)^(1 / 1.2134)."""
+    distance = np.asarray(distance_mm, dtype=float)
+    if np.any(distance <= 0):
+        raise InvalidConfigurationError("distances must be positive")
+    return SHARP_GAIN / (distance / 10.0) ** (1.0 / SHARP_EXPONENT)
+
+
+# -- foot board bus (Dynamixel protocol 1.0 framing) -------------------------------------------------
+
+REGISTERS = {"sharp": 0x00, "fsr1": 0x02, "fsr2": 0x04, "fsr3": 0x06, "fsr4": 0x08,
+             "center_x": 0x0A, "center_y": 0x0C}
+"""Table 12: two bytes each, little-endian."""
+READ_INSTRUCTION = 0x02
+
+
+def checksum(body: Sequence[int]) -> int:
+    """Bitwise NOT of the byte sum (headers 0xFF 0xFF excluded), low byte."""
+    return ~sum(int(b) for b in body) & 0xFF
+
+
+def read_request(device_id: int, address: int, size: int = 2) -> bytes:
+    """0xFF 0xFF ID LEN=4 INST=0x02 ADDR SIZE CHECKSUM (Fig. 20)."""
+    body = [device_id, 0x04, READ_INSTRUCTION, address, size]
+    if any(not 0 <= b <= 0xFF for b in body):
+        raise InvalidConfigurationError(f"packet fields must be bytes, got {body}")
+    return bytes([0xFF, 0xFF, *body, checksum(body)])
+
+
+def parse_response(packet: bytes) -> tuple[int, int, int | None]:
+    """(id, error byte, value or None) of a response 0xFF 0xFF ID LEN ERR [LO HI] CHECKSUM (Fig. 21)."""
+    if len(packet) < 6 or packet[0] != 0xFF or packet[1] != 0xFF:
+        raise InvalidConfigurationError(f"not a response packet: {packet.hex(' ')}")
+    length = packet[3]
+    body = packet[2:4 + length - 1]
+    if len(packet) != 4 + length or checksum(body) != packet[-1]:
+        raise InvalidConfigurationError(f"bad length or checksum in {packet.hex(' ')}")
+    parameters = packet[5:-1]
+    value = int.from_bytes(parameters, "little") if parameters else None
+    return packet[2], packet[4], value
+
+
+def send_time_s(byte_count: int, bits_per_word: int = 10, baud: float = 115200.0) -> float:
+    """Eq. 24: time to send = bytes * bits per word / baud rate (s)."""
+    return byte_count * bits_per_word / baud
