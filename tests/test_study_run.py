@@ -219,3 +219,18 @@ def test_a_killed_run_resumes_without_recomputing_finished_chunks(tmp_path):
     fresh = tmp_path / "fresh"
     run_study(load_study(study_file), fresh, backend="sequential", progress=False, log=lambda m: None)
     _same_rows({"m": rows}, {"m": read_raw_csv(fresh / "arm3r_arm_position" / "raw.csv")["slow_test_dls"]})
+
+
+def test_the_dask_backend_on_a_local_cluster_agrees_with_the_serial_run(serial_run, tmp_path):
+    from dask.distributed import LocalCluster
+
+    study_file = _write(tmp_path, STUDY)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main(["study", str(study_file), "-o", str(tmp_path / "out"), "--backend", "dask",
+                     "--scheduler", cluster.scheduler_address, "--no-progress"]) == 0
+    import json
+
+    assert json.loads((tmp_path / "out" / "run.json").read_text())["backend"] == "dask"
+    for case in ("ur5_arm_pose", "arm3r_arm_position"):
+        _same_rows(read_raw_csv(serial_run / case / "raw.csv"),
+                   read_raw_csv(tmp_path / "out" / case / "raw.csv"))
