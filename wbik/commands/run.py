@@ -1,0 +1,32 @@
+"""``wbik run``: run a scenario file (tasks/*.yaml) and print / write its report."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def add_parser(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "run", help="run a scenario file (e.g. tasks/bioloid_balance.yaml)",
+        description="Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). "
+                    "Prints a summary; --output writes the JSON report after every phase.")
+    parser.add_argument("taskfile", help="scenario file (YAML or JSON)")
+    parser.add_argument("--output", "-o", help="write the JSON report here (updated after every phase)")
+    parser.add_argument("--backend", help="override the QP backend (osqp, daqp, quadprog, proxqp, fastest)")
+    parser.add_argument("--json", action="store_true", help="print the JSON report instead of the summary")
+    parser.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from wbik.scenarios import _json_default, format_report, load_scenario, run_scenario
+
+    spec = load_scenario(args.taskfile)
+    if args.backend:
+        spec["backend"] = args.backend
+    report = run_scenario(spec, output=args.output)
+    if args.json:
+        print(json.dumps(report, indent=2, default=_json_default))
+    else:
+        print(format_report(report))
+    return 0 if report.get("passed") else 1

@@ -1,0 +1,302 @@
+"""Scenario files: declarative YAML (or JSON) that a user runs with ``wbik run FILE``.
+
+Every file has a ``kind`` that selects a runner (``RUNNERS``; ``register_runner`` adds one, so
+motion or riveting scenarios plug in later) and usually a ``robot``. The runner returns a report
+(a JSON-friendly dict with ``passed``); ``run_scenario`` can write it after every phase, so an
+interruption loses nothing.
+
+Kind ``wholebody_ik``: a sequence of phases solved by the QP layer, each from the previous
+phase's answer::
+
+    kind: wholebody_ik
+    robot: bioloid
+    backend: daqp                  # any qpsolvers name, "fastest", "default" (OSQP)
+    phases:
+      - name: shift the CoM over the right foot
+        contacts: [r_sole, l_sole]  # soles held fixed (hard equality)
+        support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
+        margin: 0.005               # m, CoM at least this far inside the polygon
+        lock: [mb]                  # joints held at their value (optional)
+        tasks:
+          - {type: com, over: r_sole, axes: xy}
+          - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
+        expect: {success: true}     # or {success: false}: a balanced best effort
+
+Task entries: ``type`` in frame | position | orientation | relative | com | posture |
+regularization; the target is ``target`` (position [x, y, z] m; for frame/orientation also
+``rpy`` [r, p, y] rad), or ``keep: true`` (the pose at the start of the phase), or ``offset``
+([dx, dy, dz] m added to the start pose, world axes), or for com ``over: FRAME`` (above that
+frame's origin). Options: weight, position_weight, orientation_weight, axes, goal, priority,
+tolerance. Every phase's answer is checked independently by FK: contacts (to 1e-6 m / rad),
+CoM margin in the support polygon, joint limits.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import WbikError
+
+CONTACT_TOLERANCE = 1e-6
+"""Contacts must hold to this (m for the position error, rad for the rotation error)."""
+
+
+class ScenarioError(WbikError, ValueError):
+    """A scenario file that cannot be read or names something that does not exist."""
+
+
+RUNNERS: dict[str, Callable[[dict, Callable[[dict], None] | None], dict]] = {}
+
+
+def register_runner(kind: str, runner: Callable[[dict, Callable[[dict], None] | None], dict]) -> None:
+    """``runner(spec, on_progress) -> report``; on_progress(report so far) may be None."""
+    RUNNERS[kind] = runner
+
+
+def load_scenario(path: str | Path) -> dict:
+    """Read a YAML/JSON scenario file into a dict with a known ``kind``."""
+    path = Path(path)
+    if not path.is_file():
+        raise ScenarioError(f"scenario file {str(path)!r} does not exist")
+    text = path.read_text()
+    try:
+        if path.suffix.lower() == ".json":
+            spec = json.loads(text)
+        else:
+            import yaml
+
+            spec = yaml.safe_load(text)
+    except Exception as exc:  # yaml and json raise several types
+        raise ScenarioError(f"{path}: not valid YAML/JSON: {exc}") from exc
+    if not isinstance(spec, dict) or "kind" not in spec:
+        raise ScenarioError(f"{path}: a scenario is a mapping with a 'kind' (one of {sorted(RUNNERS)})")
+    spec.setdefault("name", path.stem)
+    return spec
+
+
+def run_scenario(scenario: str | Path | dict, output: str | Path | None = None) -> dict:
+    """Run a scenario (file or dict); with ``output``, write the JSON report after every phase."""
+    spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
+    kind = spec.get("kind")
+    if kind not in RUNNERS:
+        raise ScenarioError(f"unknown scenario kind {kind!r}; known kinds: {', '.join(sorted(RUNNERS))}")
+
+    def write(report: dict) -> None:
+        if output is not None:
+            path = Path(output)
+            temporary = path.with_suffix(path.suffix + ".tmp")
+            temporary.write_text(json.dumps(report, indent=2, default=_json_default))
+            temporary.replace(path)
+
+    report = RUNNERS[kind](spec, write)
+    write(report)
+    return report
+
+
+def _json_default(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value)}")
+
+
+# -- kind: wholebody_ik --------------------------------------------------------------------------
+def _vector(value, size: int, what: str) -> np.ndarray:
+    array = np.asarray(value, dtype=float).reshape(-1)
+    if array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise ScenarioError(f"{what} must be {size} finite numbers, got {value!r}")
+    return array
+
+
+def _start_placement(robot, q: np.ndarray, frame: str) -> pin.SE3:
+    from wbik.errors import UnknownFrameError
+
+    try:
+        return robot.frame_placement(q, frame)
+    except UnknownFrameError as exc:
+        raise ScenarioError(str(exc)) from exc
+
+
+def _target_placement(robot, q: np.ndarray, entry: dict, frame: str) -> pin.SE3:
+    """World target of a frame-like task entry (keep / offset / target [+ rpy])."""
+    start = _start_placement(robot, q, frame)
+    if "target" in entry:
+        rotation = (pin.rpy.rpyToMatrix(*_vector(entry["rpy"], 3, "rpy")) if "rpy" in entry
+                    else start.rotation)
+        return pin.SE3(rotation, _vector(entry["target"], 3, "target"))
+    placement = start.copy()
+    if "offset" in entry:
+        placement.translation = start.translation + _vector(entry["offset"], 3, "offset")
+    if "rpy" in entry:
+        placement.rotation = pin.rpy.rpyToMatrix(*_vector(entry["rpy"], 3, "rpy"))
+    return placement
+
+
+_TASK_OPTIONS = ("weight", "goal", "priority", "tolerance", "gain", "name")
+
+
+def build_task(robot, q: np.ndarray, entry: dict):
+    """A wbik.qp task from a scenario entry, targets resolved at configuration q."""
+    from wbik.qp import tasks as T
+
+    if not isinstance(entry, dict) or "type" not in entry:
+        raise ScenarioError(f"a task entry needs a 'type', got {entry!r}")
+    kind = entry["type"]
+    options = {key: entry[key] for key in _TASK_OPTIONS if key in entry}
+    frame = entry.get("frame")
+    if kind in ("frame", "position", "orientation", "relative") and not frame:
+        raise ScenarioError(f"task type {kind!r} needs a 'frame'")
+    if kind == "frame":
+        for key in ("position_weight", "orientation_weight"):
+            if key in entry:
+                options[key] = float(entry[key])
+        return T.FrameTask(frame, _target_placement(robot, q, entry, frame), **options)
+    if kind == "position":
+        return T.PositionTask(frame, _target_placement(robot, q, entry, frame).translation,
+                              axes=entry.get("axes", "xyz"), **options)
+    if kind == "orientation":
+        return T.OrientationTask(frame, _target_placement(robot, q, entry, frame).rotation, **options)
+    if kind == "relative":
+        reference = entry.get("reference")
+        if not reference:
+            raise ScenarioError("task type 'relative' needs a 'reference' frame")
+        relative = _start_placement(robot, q, reference).actInv(_start_placement(robot, q, frame))
+        if "target" in entry:
+            rotation = (pin.rpy.rpyToMatrix(*_vector(entry["rpy"], 3, "rpy")) if "rpy" in entry
+                        else relative.rotation)
+            relative = pin.SE3(rotation, _vector(entry["target"], 3, "target"))
+        elif "offset" in entry:
+            relative.translation = relative.translation + _vector(entry["offset"], 3, "offset")
+        return T.RelativeFrameTask(frame, reference, relative, **options)
+    if kind == "com":
+        com = robot.center_of_mass(q)
+        if "target" in entry:
+            target = _vector(entry["target"], 3, "com target")
+        elif "over" in entry:
+            above = _start_placement(robot, q, entry["over"]).translation
+            target = np.array([above[0], above[1], com[2]])
+        else:
+            target = com + _vector(entry.get("offset", [0, 0, 0]), 3, "offset")
+        return T.ComTask(target, axes=entry.get("axes", "xyz"), **options)
+    if kind == "posture":
+        reference = robot.nominal if entry.get("reference", "nominal") == "nominal" else q
+        return T.PostureTask(reference, joints=entry.get("joints"), **options)
+    if kind == "regularization":
+        return T.RegularizationTask(float(entry.get("weight", 1e-6)))
+    raise ScenarioError(f"unknown task type {kind!r}; use frame, position, orientation, relative, com, "
+                        "posture or regularization")
+
+
+def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.SE3],
+                        support: list[str], margin: float) -> dict:
+    """Independent FK checks of one solved configuration: contacts, CoM margin, joint limits."""
+    from wbik.qp.constraints import bounded_joint_indices
+    from wbik.qp.humanoid import support_polygon
+
+    contact_errors = {}
+    for frame, fixed in contact_placements.items():
+        reached = robot.frame_placement(q, frame)
+        contact_errors[frame] = {
+            "position": float(np.linalg.norm(reached.translation - fixed.translation)),
+            "rotation": float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
+    contacts_ok = all(e["position"] <= CONTACT_TOLERANCE and e["rotation"] <= CONTACT_TOLERANCE
+                      for e in contact_errors.values())
+    com = robot.center_of_mass(q)
+    com_margin = None
+    if support:
+        com_margin = support_polygon(robot, q, support).margin_of(com[:2])
+    balance_ok = com_margin is None or com_margin >= margin - 1e-9
+    q_index, _ = bounded_joint_indices(robot.model)
+    lower, upper = robot.model.lowerPositionLimit[q_index], robot.model.upperPositionLimit[q_index]
+    joints = q[q_index]
+    limit_excess = float(max(np.max(lower - joints, initial=0.0), np.max(joints - upper, initial=0.0)))
+    return {"contact_errors": contact_errors, "contacts_ok": contacts_ok, "com": com.tolist(),
+            "com_margin": com_margin, "balance_ok": balance_ok, "limit_excess": limit_excess,
+            "limits_ok": limit_excess <= 1e-9}
+
+
+def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> dict:
+    from wbik.errors import UnknownRobotError
+    from wbik.models import load
+    from wbik.qp.constraints import LockedJoints, MinimumDistance
+    from wbik.qp.humanoid import stance_constraints
+    from wbik.qp.problem import IKProblem
+
+    try:
+        robot = load(spec["robot"])
+    except KeyError as exc:
+        raise ScenarioError("a wholebody_ik scenario needs a 'robot'") from exc
+    except UnknownRobotError as exc:
+        raise ScenarioError(str(exc)) from exc
+    backend = spec.get("backend", "default")
+    q = robot.nominal.copy() if spec.get("start", "nominal") == "nominal" else _vector(
+        spec["start"], robot.model.nq, "start configuration")
+    phases = spec.get("phases")
+    if not phases:
+        raise ScenarioError("a wholebody_ik scenario needs a non-empty list of 'phases'")
+    report = {"name": spec.get("name", ""), "kind": "wholebody_ik", "robot": robot.name,
+              "backend": backend, "phases": [], "passed": True}
+    for index, phase in enumerate(phases):
+        name = phase.get("name", f"phase {index + 1}")
+        contacts = list(phase.get("contacts", []))
+        support = list(phase.get("support", contacts))
+        margin = float(phase.get("margin", spec.get("margin", 0.0)))
+        tasks = [build_task(robot, q, entry) for entry in phase.get("tasks", [])]
+        if not any(task.goal for task in tasks):
+            raise ScenarioError(f"phase {name!r} has no goal task")
+        tasks.append(build_task(robot, q, {"type": "regularization",
+                                           "weight": phase.get("regularization", 1e-6)}))
+        constraints = stance_constraints(robot, q, contacts, support, margin)
+        if phase.get("lock"):
+            constraints.append(LockedJoints(robot.model, list(phase["lock"])))
+        for item in phase.get("min_distance", []):
+            constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
+        contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
+        problem = IKProblem(robot.model, tasks, constraints, backend=backend,
+                            max_step=float(phase.get("max_step", 0.2)))
+        solution = problem.solve(q, max_iterations=int(phase.get("max_iterations", 300)))
+        checks = check_configuration(robot, solution.q, contact_placements, support, margin)
+        expect = phase.get("expect", {"success": True})
+        passed = (checks["contacts_ok"] and checks["balance_ok"] and checks["limits_ok"]
+                  and ("success" not in expect or solution.success == bool(expect["success"])))
+        report["phases"].append({
+            "name": name, "passed": passed, "success": solution.success, "reason": solution.reason,
+            "iterations": solution.iterations, "time_s": solution.time_s,
+            "task_errors": solution.task_errors, "checks": checks, "expect": expect,
+            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()})
+        report["passed"] = report["passed"] and passed
+        if on_progress is not None:
+            on_progress(report)
+        if phase.get("continue_from", "result") == "result":
+            q = solution.q.copy()
+    return report
+
+
+register_runner("wholebody_ik", run_wholebody_ik)
+
+
+def format_report(report: dict) -> str:
+    """A short human-readable summary of a report."""
+    lines = [f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
+             f"{'PASSED' if report.get('passed') else 'FAILED'}"]
+    for phase in report.get("phases", []):
+        checks = phase["checks"]
+        worst_contact = max((max(e.values()) for e in checks["contact_errors"].values()), default=0.0)
+        margin = checks["com_margin"]
+        goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
+                                if not k.startswith("Regularization"))
+        lines.append(
+            f"  [{'ok' if phase['passed'] else 'FAIL'}] {phase['name']}: "
+            f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
+            f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms")
+        lines.append(f"      task errors: {goal_errors}")
+        lines.append(f"      contacts max err {worst_contact:.1e}, CoM margin "
+                     f"{'n/a' if margin is None else f'{margin * 1e3:.3f} mm'} (need "
+                     f"{phase['margin'] * 1e3:g} mm), limits {'ok' if checks['limits_ok'] else 'BROKEN'}")
+    return "\n".join(lines)
