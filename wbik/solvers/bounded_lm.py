@@ -41,7 +41,8 @@ class BoundedLMSolver(Solver):
 
     def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
                  damping: float = 1e-6, batch_size: int = 1, cost_weight: float = 0.01,
-                 decrease: float = 0.5, increase: float = 10.0, progress: float = 0.98, **options):
+                 decrease: float = 0.5, increase: float = 10.0, progress: float = 0.98,
+                 max_step: float | None = None, **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = int(max_iterations)
         self.stall = int(stall)
@@ -49,6 +50,7 @@ class BoundedLMSolver(Solver):
         self.batch_size = max(1, int(batch_size))
         self.cost_weight, self.decrease, self.increase = float(cost_weight), float(decrease), float(increase)
         self.progress = float(progress)
+        self.max_step = None if max_step is None else float(max_step)
         smallest = min(self.tolerances.position, self.tolerances.rotation)
         largest = max(self.tolerances.position, self.tolerances.rotation)
         self._sure_cost = (0.5 * smallest) ** 2  # |e|^2 below this passes both parts of the check
@@ -77,6 +79,7 @@ class BoundedLMSolver(Solver):
         lower, upper, wraps = self.lower, self.upper, self.wraps
         n = self.chain.nq
         diagonal = slice(None, None, n + 1)
+        max_step = self.max_step
         error, jacobian = evaluate(q)
         cost = float(error @ error)
         damping = self.damping
@@ -91,6 +94,10 @@ class BoundedLMSolver(Solver):
             gradient = transpose @ error
             system.flat[diagonal] += self.cost_weight * cost + damping
             step = dposv(system, gradient)[1]
+            if max_step is not None:
+                longest = float(np.abs(step).max())
+                if longest > max_step:
+                    step *= max_step / longest
             trial = q + step
             if (trial < lower).any() or (trial > upper).any():
                 blocked = ((q <= lower) & (step < 0)) | ((q >= upper) & (step > 0))
@@ -157,7 +164,6 @@ class BoundedLMSolver(Solver):
         age = np.zeros(size, dtype=int)
         overall_q, overall_error = q[0].copy(), math.inf
         iterations, attempts = 0, size
-        identity_floor = 1e-6
         while True:
             position_norm = np.linalg.norm(error[:, :3], axis=1)
             done = position_norm <= 0.5 * tolerance_p
@@ -171,9 +177,11 @@ class BoundedLMSolver(Solver):
             iterations += 1
             normal = np.einsum("bmi,bmj->bij", jacobian, jacobian)
             gradient = np.einsum("bmi,bm->bi", jacobian, error)
-            diagonal = np.einsum("bii->bi", normal) + identity_floor
-            system = normal + ((cost + damping)[:, None] * diagonal)[:, :, None] * np.eye(n)
+            system = normal + (self.cost_weight * cost + damping)[:, None, None] * np.eye(n)
             step = np.linalg.solve(system, gradient[..., None])[..., 0]
+            if self.max_step is not None:
+                longest = np.abs(step).max(axis=1)
+                step *= np.minimum(1.0, self.max_step / np.maximum(longest, 1e-300))[:, None]
             blocked = ((q <= self.lower) & (step < 0)) | ((q >= self.upper) & (step > 0))
             blocked &= ~self.wraps
             if blocked.any():
@@ -190,8 +198,9 @@ class BoundedLMSolver(Solver):
             error = np.where(better[:, None], trial_error, error)
             jacobian = np.where(better[:, None, None], trial_jacobian, jacobian)
             cost = np.where(better, trial_cost, cost)
-            damping = np.where(better, np.maximum(damping * 0.5, self.damping), damping * 10.0)
-            progress = cost < 0.98 * best_cost
+            damping = np.where(better, np.maximum(damping * self.decrease, self.damping),
+                               np.maximum(damping, 1e-3) * self.increase)
+            progress = cost < self.progress * best_cost
             best_cost = np.where(progress, cost, best_cost)
             since_progress = np.where(progress, 0, since_progress + 1)
             age += 1
