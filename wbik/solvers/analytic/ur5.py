@@ -42,11 +42,11 @@ LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
 def ee_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form FK base_link -> ee_link (ur_kinematics' ``forward``) of joints (..., 6)."""
     q = np.asarray(q, dtype=float)
-    q1, q2, q3, q4, q5, q6 = (q[..., i] for i in range(6))
-    c1, s1, c2, s2 = np.cos(q1), np.sin(q1), np.cos(q2), np.sin(q2)
-    c5, s5, c6, s6 = np.cos(q5), np.sin(q5), np.cos(q6), np.sin(q6)
-    c23, s23 = np.cos(q2 + q3), np.sin(q2 + q3)
-    c234, s234 = np.cos(q2 + q3 + q4), np.sin(q2 + q3 + q4)
+    q23 = q[..., 1] + q[..., 2]
+    angles = np.stack((q[..., 0], q[..., 1], q[..., 3], q[..., 4], q[..., 5], q23, q23 + q[..., 3]))
+    cosines, sines = np.cos(angles), np.sin(angles)  # one call each: numpy's per-call cost dominates
+    c1, c2, c4, c5, c6, c23, c234 = cosines
+    s1, s2, s4, s5, s6, s23, s234 = sines
     side = s1 * s5 + c234 * c1 * c5  # recurring products
     front = c1 * s5 - c234 * c5 * s1
     rows = (
@@ -58,8 +58,7 @@ def ee_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     position = np.stack((
         D6 * c234 * c1 * s5 - A3 * c23 * c1 - A2 * c1 * c2 - D6 * c5 * s1 - D5 * s234 * c1 - D4 * s1,
         D6 * (c1 * c5 + c234 * s1 * s5) + D4 * c1 - A3 * c23 * s1 - A2 * c2 * s1 - D5 * s234 * s1,
-        D1 + A3 * s23 + A2 * s2 - D5 * (c23 * np.cos(q4) - s23 * np.sin(q4))
-        - D6 * s5 * (c23 * np.sin(q4) + s23 * np.cos(q4)),
+        D1 + A3 * s23 + A2 * s2 - D5 * (c23 * c4 - s23 * s4) - D6 * s5 * (c23 * s4 + s23 * c4),
     ), axis=-1)
     return position, rotation
 
