@@ -269,3 +269,55 @@ def test_cli_view_errors_tell_what_to_do(tmp_path):
     assert "known robots" in done.stderr and "wbik robots" in done.stderr and ".urdf" in done.stderr
     done = run_cli("view", "ur5", "--com", "--html", str(tmp_path / "x.html"))
     assert done.returncode == 2 and "bioloid" in done.stderr
+
+
+def test_play_a_motion_trajectory():
+    from wbik import motion
+
+    robot = wbik.load("arm3r")
+    solver = wbik.solver("dls", robot)
+    path = motion.waypoint_path(solver, np.full(3, np.pi / 2), [(2, -3, 3), (0, -2, 2)], samples=5)
+    trajectory = motion.make_trajectory(motion.time_scale(path, "quintic", velocity_limit=1.0))
+    viewer = Viewer(robot)
+    trace = viewer.play(trajectory)  # traces the trajectory's tip frame
+    np.testing.assert_allclose(trace, [arm3r_tip(q) for q in trajectory.positions], atol=1e-12)
+    np.testing.assert_allclose(trace[-1], [0, -2, 2], atol=1e-5)  # arm3r.md's waypoint P2
+
+
+SCENARIO = """\
+name: shift the CoM, then reach
+kind: wholebody_ik
+robot: bioloid
+backend: daqp
+phases:
+  - name: shift the CoM over the right foot
+    contacts: [r_sole, l_sole]
+    margin: 0.005
+    tasks:
+      - {type: com, over: r_sole, axes: xy}
+  - name: reach forward with the left hand
+    contacts: [r_sole, l_sole]
+    margin: 0.005
+    tasks:
+      - {type: position, frame: l_hand, offset: [0.03, 0.0, 0.02]}
+"""
+
+
+def test_cli_view_plays_a_scenario_file(tmp_path):
+    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
+
+    task = tmp_path / "shift.yaml"
+    task.write_text(SCENARIO)
+    page = tmp_path / "shift.html"
+    done = run_cli("view", str(task), "--html", str(page))
+    assert done.returncode == 0, done.stderr
+    commands = page_commands(page.read_text())
+    animation = next(c for c in commands if c["type"] == "set_animation")["animations"]
+    clips = {entry["path"]: entry["clip"] for entry in animation}
+    marker = clips["/meshcat/wbik/trace/marker"]  # the left hand, the frame the scenario moves
+    keys = next(track for track in marker["tracks"] if track["name"] == ".position")["keys"]
+    assert len(keys) == 2 * SAMPLES_PER_PHASE + 1
+    assert keys[-1]["time"] / marker["fps"] == pytest.approx(2 * PHASE_SECONDS)
+    middle, end = np.array(keys[SAMPLES_PER_PHASE]["value"]), np.array(keys[-1]["value"])
+    np.testing.assert_allclose(end - middle, [0.03, 0.0, 0.02], atol=1e-4)  # the phase-2 offset
+    assert any(c["path"] == "/meshcat/wbik/support/polygon" for c in commands)

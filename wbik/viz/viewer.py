@@ -340,6 +340,27 @@ class Viewer:
         self.meshcat.set_animation(animation, play=play, repetitions=repetitions)
         return np.array(trace) if trace_id is not None else None
 
+    def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
+             repetitions: int = 1) -> np.ndarray | None:
+        """Animate a trajectory object: ``wbik.motion.Trajectory`` or anything with ``times`` and
+        joint rows (``positions``, ``qs`` or ``q``; a chain's joints when it names its ``chain``,
+        else full configurations). The tip frame (``tip_frame``) is traced unless told otherwise."""
+        times = getattr(trajectory, "times", None)
+        rows = next((getattr(trajectory, name) for name in ("positions", "qs", "q")
+                     if getattr(trajectory, name, None) is not None), None)
+        if times is None or rows is None:
+            raise UnsupportedError(
+                f"cannot play a {type(trajectory).__name__}: it needs 'times' and joint rows "
+                "('positions', 'qs' or 'q')")
+        rows = np.asarray(rows, dtype=float)
+        chain = getattr(trajectory, "chain", None)
+        if rows.ndim != 2 or rows.shape[1] == self.robot.model.nq:
+            chain = None
+        elif isinstance(chain, str) and chain not in self.robot.chains:
+            chain = None
+        trace = trace_frame if trace_frame is not None else getattr(trajectory, "tip_frame", None)
+        return self.animate(times, rows, chain=chain, trace_frame=trace, fps=fps, repetitions=repetitions)
+
     # -- export -----------------------------------------------------------------------------------
     def html(self) -> str:
         """The scene (and animation) as one self-contained HTML page."""
