@@ -1,0 +1,238 @@
+"""Bioloid joint angles (rad) <-> Dynamixel AX-12 positions (bioloid.md 1.2, 1.6, 2.4, 3.6).
+
+AX-12 position: 0..1023 units over 0..300 deg, 150 deg (unit 512) = centre. Every servo maps
+linearly: ``servo_deg = offset + direction * degrees(q)``, with q the URDF joint angle of
+:mod:`wbik.models.bioloid`. The table below is the code's conversion (IKAdjust6ServoLeg,
+IKAdjust3ServoArm) composed with the model's joint <-> thesis conversion:
+
+- legs, the code's ``ang[]`` (degrees) = [theta7, theta9, 90 - theta11, theta13 - 180,
+  90 - theta15, theta17] = degrees(-q_yaw, -q_hip_roll, -q_hip_pitch, -q_knee, -q_ankle_pitch,
+  +q_ankle_roll); then, with legDir = +1 (right) / -1 (left): yaw = 150 - legDir 45 + ang0
+  (the +-45 deg horn mounting), hip roll = 150 - ang1, hip pitch = 150 - legDir ang2,
+  knee = 150 + legDir ang3, ankle pitch = 150 + legDir ang4, ankle roll = 150 - ang5;
+- right arm: base = theta1 + 62 (152 - (90 - theta1): a 2 deg trim), shoulder = 150 - theta3,
+  elbow = 150 - theta5, with q = (theta1, -theta3, -theta5);
+- left arm (ASSUMED, the thesis formulates the right arm only): the mirror image of the right
+  arm's servo, 300 - right. The Robotis ready pose (bioloid.md 1.7) is mirror-symmetric under
+  this map to within 0.3 deg.
+
+Limits: the code's servo-degree limits (bioloid.md 1.6); on the left the roll joints are
+mirrored too (the code keeps them unmirrored, a bug listed in bioloid.md 9.6; the code's own
+pipeline :func:`code_leg_servo_degrees` keeps its literal limits). Clamping is reported in
+:class:`ServoCommand`, never silent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError
+
+FULL_SCALE_DEG = 300.0
+FULL_SCALE_UNITS = 1023
+CENTRE_DEG = 150.0
+DEG_PER_UNIT = FULL_SCALE_DEG / FULL_SCALE_UNITS
+
+
+@dataclass(frozen=True)
+class ServoJoint:
+    """One joint's servo: ``servo_deg = offset_deg + direction * degrees(q)``, clamped to [min, max]."""
+
+    joint: str
+    servo_id: int
+    offset_deg: float
+    direction: int
+    min_deg: float
+    max_deg: float
+
+    def servo_degrees(self, q: float) -> float:
+        return self.offset_deg + self.direction * math.degrees(q)
+
+    def joint_angle(self, servo_deg: float) -> float:
+        return math.radians((servo_deg - self.offset_deg) * self.direction)
+
+
+def _servo_table() -> dict[str, ServoJoint]:
+    rows = [
+        # joint, id, offset, direction, min, max (servo degrees)
+        ("r_shoulder_pitch", 1, 62.0, 1, 0.0, 300.0), ("l_shoulder_pitch", 2, 238.0, -1, 0.0, 300.0),
+        ("r_shoulder_roll", 3, 150.0, 1, 60.0, 240.0), ("l_shoulder_roll", 4, 150.0, 1, 60.0, 240.0),
+        ("r_elbow", 5, 150.0, 1, 60.0, 240.0), ("l_elbow", 6, 150.0, 1, 60.0, 240.0),
+        ("r_hip_yaw", 7, 105.0, -1, 55.0, 160.0), ("l_hip_yaw", 8, 195.0, -1, 140.0, 245.0),
+        ("r_hip_roll", 9, 150.0, 1, 100.0, 190.0), ("l_hip_roll", 10, 150.0, 1, 110.0, 200.0),
+        ("r_hip_pitch", 11, 150.0, 1, 50.0, 175.0), ("l_hip_pitch", 12, 150.0, -1, 125.0, 250.0),
+        ("r_knee", 13, 150.0, -1, 46.0, 160.0), ("l_knee", 14, 150.0, 1, 140.0, 254.0),
+        ("r_ankle_pitch", 15, 150.0, -1, 120.0, 210.0), ("l_ankle_pitch", 16, 150.0, 1, 90.0, 180.0),
+        ("r_ankle_roll", 17, 150.0, -1, 110.0, 180.0), ("l_ankle_roll", 18, 150.0, -1, 120.0, 190.0),
+    ]
+    return {row[0]: ServoJoint(*row) for row in rows}
+
+
+SERVOS = _servo_table()
+"""Joint name -> :class:`ServoJoint`, IDs 1..18."""
+BY_ID = {servo.servo_id: servo for servo in SERVOS.values()}
+
+READY_POSE_UNITS = (235, 788, 279, 744, 462, 561, 358, 666, 507, 516, 341, 682, 240, 783, 647, 376, 507, 516)
+"""The code's Robot_ready_pos (bioloid.md 1.7): raw AX-12 units of IDs 1..18."""
+
+LEG_ORDER = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+
+# the code's own leg limits (servo degrees), right and left, as written (rolls not mirrored)
+CODE_LEG_LIMITS = {
+    "r": ((55, 160), (100, 190), (50, 175), (46, 160), (120, 210), (110, 180)),
+    "l": ((140, 245), (100, 190), (125, 250), (140, 254), (90, 180), (110, 180)),
+}
+CODE_LEG_DEFAULTS = {"r": (105, 150, 150, 150, 150, 150), "l": (105, 150, 150, 150, 150, 150)}
+"""What the code writes for a value outside [0, 300]: 150, and 105 for the yaw (also on the left: a bug)."""
+
+
+# --- units <-> degrees <-> radians --------------------------------------------------------------
+def units_to_degrees(units) -> np.ndarray:
+    """AX-12 units (0..1023) -> servo degrees (0..300)."""
+    return np.asarray(units, dtype=float) * DEG_PER_UNIT
+
+
+def degrees_to_units(servo_deg) -> np.ndarray:
+    """Servo degrees -> nearest AX-12 units (int), not clamped."""
+    return np.rint(np.asarray(servo_deg, dtype=float) / DEG_PER_UNIT).astype(int)
+
+
+def c_round(value) -> np.ndarray:
+    """C's round(): halves away from zero (the author's code rounds degrees this way)."""
+    value = np.asarray(value, dtype=float)
+    return (np.sign(value) * np.floor(np.abs(value) + 0.5)).astype(int)
+
+
+@dataclass
+class ServoCommand:
+    """Servo goal positions for a set of joints, with what had to be clamped.
+
+    ``degrees``/``units`` map servo ID -> position after clamping; ``clamped`` maps joint ->
+    (requested, applied) servo degrees; ``out_of_range`` lists joints whose request fell outside
+    the servo's 0..300 deg (the code calls those unreachable).
+    """
+
+    degrees: dict[int, float] = field(default_factory=dict)
+    units: dict[int, int] = field(default_factory=dict)
+    clamped: dict[str, tuple[float, float]] = field(default_factory=dict)
+    out_of_range: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.clamped and not self.out_of_range
+
+
+def _servo(joint: str) -> ServoJoint:
+    if joint not in SERVOS:
+        raise InvalidConfigurationError(f"{joint!r} is not a Bioloid servo joint; known: {', '.join(SERVOS)}")
+    return SERVOS[joint]
+
+
+def to_servo(joint_angles: Mapping[str, float]) -> ServoCommand:
+    """Joint angles (rad, by joint name) -> clamped servo positions, with a report of the clamping."""
+    command = ServoCommand()
+    for joint, q in joint_angles.items():
+        servo = _servo(joint)
+        if not np.isfinite(q):
+            raise InvalidConfigurationError(f"joint {joint!r} has a non-finite angle {q!r}")
+        requested = servo.servo_degrees(float(q))
+        applied = min(max(requested, servo.min_deg), servo.max_deg)
+        if not 0.0 <= requested <= FULL_SCALE_DEG:
+            command.out_of_range.append(joint)
+        if applied != requested:
+            command.clamped[joint] = (requested, applied)
+        command.degrees[servo.servo_id] = applied
+        command.units[servo.servo_id] = int(degrees_to_units(applied))
+    return command
+
+
+def from_servo_units(units: Mapping[int, int] | np.ndarray) -> dict[str, float]:
+    """Servo positions (ID -> units, or an array of 18 units for IDs 1..18) -> joint angles (rad)."""
+    if not isinstance(units, Mapping):
+        values = np.asarray(units)
+        if values.shape != (18,):
+            raise InvalidConfigurationError(f"expected 18 servo positions (IDs 1..18), got {values.shape}")
+        units = {i + 1: int(v) for i, v in enumerate(values)}
+    angles = {}
+    for servo_id, value in units.items():
+        if servo_id not in BY_ID:
+            raise InvalidConfigurationError(f"servo ID {servo_id} is not one of the Bioloid's IDs 1..18")
+        if not 0 <= value <= FULL_SCALE_UNITS:
+            raise InvalidConfigurationError(f"servo {servo_id}: {value} units is outside 0..1023")
+        servo = BY_ID[servo_id]
+        angles[servo.joint] = servo.joint_angle(float(units_to_degrees(value)))
+    return angles
+
+
+def to_servo_units(joint_angles: Mapping[str, float]) -> dict[int, int]:
+    """Shortcut: joint angles (rad) -> clamped servo units by ID (see :func:`to_servo` for the report)."""
+    return to_servo(joint_angles).units
+
+
+# --- the code's ang[] convention and its integer pipelines ------------------------------------------
+def leg_ang_from_q(q) -> np.ndarray:
+    """Leg joint angles (..., 6) rad -> the code's ang[] (degrees): (-q0, -q1, -q2, -q3, -q4, +q5)."""
+    return np.degrees(np.asarray(q, dtype=float)) * np.array([-1, -1, -1, -1, -1, 1.0])
+
+
+def leg_q_from_ang(ang_deg) -> np.ndarray:
+    """The code's ang[] (degrees) -> leg joint angles (rad)."""
+    return np.radians(np.asarray(ang_deg, dtype=float) * np.array([-1, -1, -1, -1, -1, 1.0]))
+
+
+def _side_key(side: str) -> str:
+    key = str(side).lower()
+    if key not in ("r", "l", "right", "left"):
+        raise InvalidConfigurationError(f"side must be 'right' or 'left', got {side!r}")
+    return key[0]
+
+
+def code_leg_servo_degrees(ang_deg, side: str) -> tuple[np.ndarray, list[str]]:
+    """The code's IKAdjust6ServoLeg on integer ang[]: servo degrees (6 ints) and what it changed.
+
+    Returns (servo degrees, notes); a note per joint clamped to the code's limits or reset to the
+    code's default because it fell outside 0..300.
+    """
+    side = _side_key(side)
+    leg_dir = 1 if side == "r" else -1
+    a = c_round(ang_deg)
+    raw = [150 - leg_dir * 45 + a[0], 150 - a[1], 150 - leg_dir * a[2], 150 + leg_dir * a[3],
+           150 + leg_dir * a[4], 150 - a[5]]
+    servo, notes = [], []
+    for name, value, (low, high), default in zip(LEG_ORDER, raw, CODE_LEG_LIMITS[side],
+                                                 CODE_LEG_DEFAULTS[side], strict=True):
+        if not 0 <= value <= 300:
+            notes.append(f"{side}_{name}: {value} outside 0..300, reset to {default}")
+            value = default
+        elif value < low or value > high:
+            clamped = min(max(value, low), high)
+            notes.append(f"{side}_{name}: clamped from {value} to {clamped}")
+            value = clamped
+        servo.append(int(value))
+    return np.array(servo), notes
+
+
+def code_arm_servo_degrees(theta_deg) -> tuple[np.ndarray, list[str]]:
+    """The code's IKAdjust3ServoArm (right arm) on (theta1, theta3, theta5) degrees, with notes.
+
+    base = round(theta1) + 62 (range-checked only: the code never corrects it); shoulder and elbow
+    = 150 - round(theta): outside 0..300 -> 150, then clamped to [60, 240].
+    """
+    t1, t3, t5 = c_round(theta_deg)
+    base = 152 - (90 - t1)
+    notes = [] if 0 <= base <= 300 else [f"base {base} outside 0..300 (the code leaves it)"]
+    out = [int(base)]
+    for name, value in (("shoulder", 150 - t3), ("elbow", 150 - t5)):
+        if not 0 <= value <= 300:
+            notes.append(f"{name}: {value} outside 0..300, reset to 150")
+            value = 150
+        if value < 60 or value > 240:
+            clamped = min(max(value, 60), 240)
+            notes.append(f"{name}: clamped from {value} to {clamped}")
+            value = clamped
+        out.append(int(value))
+    return np.array(out), notes
