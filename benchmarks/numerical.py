@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=2015, help="seed of the random poses")
     parser.add_argument("--option", nargs="*", default=[], metavar="METHOD.KEY=VALUE",
                         help="solver options, e.g. bounded_lm.batch_size=8")
-    parser.add_argument("--output", type=Path, default=Path("comparisons/results/numerical.jsonl"))
+    parser.add_argument("--output", type=Path, default=Path("runs/numerical.jsonl"))
     args = parser.parse_args(argv)
     per_method: dict[str, dict] = {}
     for item in parse_options(args.option).items():
