@@ -41,6 +41,10 @@ from wbik.solvers.analytic import ClosedForm
 
 CLAMP_TOLERANCE = 1e-9
 """Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
+GIMBAL_LOCK = 1e-9
+"""|cos(beta)| below which alpha (t6) is taken from q0: the Euler angles are coupled there."""
+LOCK_SWEEP = 7
+"""Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""
 WRIST = float(np.hypot(L5, L6))
 """Length of the elbow-to-gripper-centre vector (l5, l6) in the arm's vertical plane."""
 WRIST_ANGLE = float(np.arctan2(L6, L5))
@@ -83,26 +87,35 @@ def right_arm_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def right_arm_position_jacobian(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(position (..., 3), d position / d (t1..t5) (..., 3, 5)) of the right arm; t6 does not move it."""
-    t1, t2, t3, t4, t5 = np.moveaxis(q[..., :5], -1, 0)
-    s = t4 + t5
-    gamma = t1 + t2 + t3
-    s1, c1, s12, c12 = np.sin(t1), np.cos(t1), np.sin(t1 + t2), np.cos(t1 + t2)
-    sg, cg, ss, cs = np.sin(gamma), np.cos(gamma), np.sin(s), np.cos(s)
-    s4, c4 = np.sin(t4 + RHO), np.cos(t4 + RHO)
+    """(position (N, 3), d position / d (t1..t5) (N, 3, 5)) of the right arm for q (N, >=5).
+
+    t6 does not move the gripper centre. Written for few ufunc calls (it runs inside the LM loop).
+    """
+    t1, t2, t3, t4, t5 = q[:, 0], q[:, 1], q[:, 2], q[:, 3], q[:, 4]
+    angles = np.stack([t1, t1 + t2, t1 + t2 + t3, t4 + t5, t4 + RHO], axis=1)
+    sines, cosines = np.sin(angles), np.cos(angles)
+    s1, s12, sg, ss, s4 = sines.T
+    c1, c12, cg, cs, c4 = cosines.T
     l3 = L4 * s4 + L5 * ss + L6 * cs
-    position = np.stack([L1 * s1 + L2 * s12 + l3 * cg, -L1 * c1 - L2 * c12 + l3 * sg,
-                         H - L4 * c4 - L5 * cs + L6 * ss], axis=-1)
+    position = np.empty((len(q), 3))
+    position[:, 0] = L1 * s1 + L2 * s12 + l3 * cg
+    position[:, 1] = -L1 * c1 - L2 * c12 + l3 * sg
+    position[:, 2] = H - L4 * c4 - L5 * cs + L6 * ss
     d_l3_t5 = L5 * cs - L6 * ss
     d_l3_t4 = L4 * c4 + d_l3_t5
-    zero = np.zeros_like(t1)
-    jacobian = np.stack([
-        np.stack([L1 * c1 + L2 * c12 - l3 * sg, L2 * c12 - l3 * sg, -l3 * sg, d_l3_t4 * cg, d_l3_t5 * cg],
-                 axis=-1),
-        np.stack([L1 * s1 + L2 * s12 + l3 * cg, L2 * s12 + l3 * cg, l3 * cg, d_l3_t4 * sg, d_l3_t5 * sg],
-                 axis=-1),
-        np.stack([zero, zero, zero, l3, L5 * ss + L6 * cs], axis=-1),
-    ], axis=-2)
+    jacobian = np.zeros((len(q), 3, 5))
+    jacobian[:, 0, 2] = -l3 * sg
+    jacobian[:, 1, 2] = l3 * cg
+    jacobian[:, 0, 1] = L2 * c12 + jacobian[:, 0, 2]
+    jacobian[:, 1, 1] = L2 * s12 + jacobian[:, 1, 2]
+    jacobian[:, 0, 0] = L1 * c1 + jacobian[:, 0, 1]
+    jacobian[:, 1, 0] = L1 * s1 + jacobian[:, 1, 1]
+    jacobian[:, 0, 3] = d_l3_t4 * cg
+    jacobian[:, 1, 3] = d_l3_t4 * sg
+    jacobian[:, 0, 4] = d_l3_t5 * cg
+    jacobian[:, 1, 4] = d_l3_t5 * sg
+    jacobian[:, 2, 3] = l3
+    jacobian[:, 2, 4] = L5 * ss + L6 * cs
     return position, jacobian
 
 
@@ -119,37 +132,59 @@ def _planar_2r(u: np.ndarray, v: np.ndarray, first: float, second: float, sign: 
 
 
 def right_arm_pose_branches(positions: np.ndarray, rotations: np.ndarray,
-                            yaw_limit: float = np.pi / 2) -> tuple[np.ndarray, np.ndarray]:
-    """All real branches of the right arm for poses: Q (B, 4, 6), real (B, 4).
+                            roll_at_lock: np.ndarray | None = None,
+                            roll_sweep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """All real branches of the right arm for poses: Q (B, K, 6), real (B, K), K = 4 (or more, see
+    below).
 
     Branch k = 2 i + j: i picks the sign of sin(t4 + rho) (+, -), j the sign of the planar elbow
-    t2 (+, -). ``yaw_limit``: alpha = t6 is chosen in [-pi/2, pi/2] (see the module docstring).
+    t2 (+, -); alpha = t6 is taken in [-pi/2, pi/2] (see the module docstring). At gimbal lock
+    (cos(beta) < GIMBAL_LOCK, e.g. the gripper pointing straight down) only gamma -+ alpha is fixed
+    and t6 is free: there ``roll_at_lock`` (B,) (e.g. q0's t6) and every value of ``roll_sweep``
+    are tried, giving K = 4 (1 + len(roll_sweep)) when some pose of the batch is locked; the
+    orientation error of a chosen t6 is below GIMBAL_LOCK * |its change|.
     """
-    x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
     alpha = np.arctan2(rotations[:, 2, 1], rotations[:, 2, 2])
-    alpha = np.where(np.abs(alpha) > yaw_limit, alpha - np.copysign(np.pi, alpha), alpha)
+    alpha = np.where(np.abs(alpha) > np.pi / 2, alpha - np.copysign(np.pi, alpha), alpha)[:, None]
+    real_roll = np.ones_like(alpha, dtype=bool)
+    if roll_at_lock is not None:
+        locked = np.hypot(rotations[:, 2, 1], rotations[:, 2, 2]) < GIMBAL_LOCK
+        if locked.any():
+            sweep = np.zeros(0) if roll_sweep is None else np.asarray(roll_sweep, dtype=float)
+            alpha = np.concatenate([np.where(locked[:, None], roll_at_lock[:, None], alpha),
+                                    np.broadcast_to(sweep, (len(alpha), len(sweep)))], axis=1)
+            real_roll = np.concatenate([np.ones((len(alpha), 1), dtype=bool),
+                                        np.broadcast_to(locked[:, None], (len(alpha), len(sweep)))], axis=1)
+    q_all, real = _pose_branches_at_roll(positions, rotations, alpha)
+    real &= real_roll[..., None]
+    count = len(positions)
+    return q_all.reshape(count, -1, 6), real.reshape(count, -1)
+
+
+def _pose_branches_at_roll(positions: np.ndarray, rotations: np.ndarray,
+                           alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 4 branches for rolls alpha (B, A): Q (B, A, 4, 6), real (B, A, 4)."""
+    x, y, z = (positions[:, i, None] for i in range(3))
+    r = rotations[:, :, :, None]  # (B, 3, 3, 1) against alpha (B, A)
     ca, sa = np.cos(alpha), np.sin(alpha)
     # R Rx(-alpha) = Rz(gamma) Ry(beta): entries (3,1), (3,3), (1,2), (2,2)
-    beta = np.arctan2(-rotations[:, 2, 0], sa * rotations[:, 2, 1] + ca * rotations[:, 2, 2])
-    gamma = np.arctan2(-(ca * rotations[:, 0, 1] - sa * rotations[:, 0, 2]),
-                       ca * rotations[:, 1, 1] - sa * rotations[:, 1, 2])
+    beta = np.arctan2(-r[:, 2, 0], sa * r[:, 2, 1] + ca * r[:, 2, 2])
+    gamma = np.arctan2(-(ca * r[:, 0, 1] - sa * r[:, 0, 2]), ca * r[:, 1, 1] - sa * r[:, 1, 2])
     sb, cb = np.sin(beta), np.cos(beta)
     cos4, real4 = _clamped_cosine((H - z - L5 * cb - L6 * sb) / L4)
-    sin4 = np.sqrt(1.0 - cos4 * cos4)
     sign4 = np.array([1.0, 1.0, -1.0, -1.0])
     sign2 = np.array([1.0, -1.0, 1.0, -1.0])
-    sin4 = sign4 * sin4[:, None]  # (B, 4)
-    t4 = np.arctan2(sin4, cos4[:, None]) - RHO
-    t5 = -beta[:, None] - t4
-    l3 = L4 * sin4 + (L6 * cb - L5 * sb)[:, None]
-    cg, sg = np.cos(gamma)[:, None], np.sin(gamma)[:, None]
-    # (x - l3 cos g, l3 sin g - y) = l1 (sin t1, cos t1) + l2 (sin t12, cos t12): 2R in (u, v) = (., .)
-    t1, t12, real2 = _planar_2r(l3 * sg - y[:, None], x[:, None] - l3 * cg, L1, L2, sign2)
+    sin4 = sign4 * np.sqrt(1.0 - cos4 * cos4)[..., None]  # (B, A, 4)
+    t4 = np.arctan2(sin4, cos4[..., None]) - RHO
+    t5 = -beta[..., None] - t4
+    l3 = L4 * sin4 + (L6 * cb - L5 * sb)[..., None]
+    cg, sg = np.cos(gamma)[..., None], np.sin(gamma)[..., None]
+    # (x - l3 cos g, l3 sin g - y) = l1 (sin t1, cos t1) + l2 (sin t12, cos t12): a 2R problem
+    t1, t12, real2 = _planar_2r(l3 * sg - y[..., None], x[..., None] - l3 * cg, L1, L2, sign2)
     t2 = t12 - t1
-    t3 = gamma[:, None] - t12
-    t6 = np.broadcast_to(alpha[:, None], t1.shape)
-    q_all = np.stack([t1, t2, t3, t4, t5, t6], axis=-1)
-    return q_all, real4[:, None] & real2
+    t3 = gamma[..., None] - t12
+    t6 = np.broadcast_to(alpha[..., None], t1.shape)
+    return np.stack([t1, t2, t3, t4, t5, t6], axis=-1), real4[..., None] & real2
 
 
 def _position_candidates(positions: np.ndarray, t1: np.ndarray, t2: np.ndarray, yaw: float):
@@ -187,6 +222,11 @@ class _Golem3Form(ClosedForm):
             raise InvalidConfigurationError(
                 f"the Golem-III closed form needs a chain from torso_link over (m0, 5 arm joints); "
                 f"{chain.name!r} is {chain.base_frame} -> {chain.tip_frame} with {chain.joint_names}")
+        lower, upper = chain.lower.copy(), chain.upper.copy()
+        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
+            lower[0], upper[0] = -chain.upper[0], -chain.lower[0]
+        self.right_lower, self.right_upper = lower, upper
+        self._lower_list, self._upper_list = lower.tolist(), upper.tolist()
 
     def _mirror_q(self, q: np.ndarray) -> np.ndarray:
         if not self.mirrored:
@@ -211,21 +251,22 @@ class _Golem3Form(ClosedForm):
 
 
 class Golem3PoseIK(_Golem3Form):
-    """6-DOF pose IK: up to 4 real branches per pose (K = 4), see the module docstring."""
+    """6-DOF pose IK: up to 4 real branches per pose (K = 4), see the module docstring.
+
+    At gimbal lock (gripper x axis vertical) t6 is free: q0's t6 and ``roll_sweep`` are tried.
+    """
 
     target_kind = "pose"
 
-    def __init__(self, chain: Chain):
-        super().__init__(chain)
-        lower, upper = chain.lower.tolist(), chain.upper.tolist()
-        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
-            lower[0], upper[0] = -upper[0], -lower[0]
-        self._lower_list, self._upper_list = lower, upper
+    @property
+    def roll_sweep(self) -> np.ndarray:
+        return np.linspace(self.right_lower[5], self.right_upper[5], LOCK_SWEEP)
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        roll = np.clip(q0[:, 5], self.right_lower[5], self.right_upper[5])
         q_all, real = right_arm_pose_branches(self._mirror_positions(positions),
-                                              self._mirror_rotations(rotations))
+                                              self._mirror_rotations(rotations), roll, self.roll_sweep)
         return self._mirror_q(q_all), real
 
 
@@ -243,17 +284,36 @@ class Golem3PoseIK(_Golem3Form):
         alpha = math.atan2(r32, r33)
         if abs(alpha) > math.pi / 2:
             alpha -= math.copysign(math.pi, alpha)
+        rolls = [alpha]
+        if math.hypot(r32, r33) < GIMBAL_LOCK:
+            rolls = [min(self._upper_list[5], max(self._lower_list[5], reference[5])),
+                     *self.roll_sweep.tolist()]
+        target = (x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33)
+        best, best_distance, usable = None, math.inf, 0
+        for alpha in rolls:
+            q, distance, count = self._one_roll(alpha, target, reference)
+            usable += count
+            if q is not None and distance < best_distance:
+                best, best_distance = q, distance
+        if best is None:
+            return None, 0
+        if self.mirrored:
+            best[0] = -best[0]
+        return np.array(best), usable
+
+    def _one_roll(self, alpha: float, target: tuple, reference: list[float]):
+        """(best q or None, its squared distance to reference, usable count) for one wrist roll."""
+        x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33 = target
         ca, sa = math.cos(alpha), math.sin(alpha)
         beta = math.atan2(-r31, sa * r32 + ca * r33)
         gamma = math.atan2(-(ca * r12 - sa * r13), ca * r22 - sa * r23)
         sb, cb, sg, cg = math.sin(beta), math.cos(beta), math.sin(gamma), math.cos(gamma)
         cos4 = (H - z - L5 * cb - L6 * sb) / L4
         if abs(cos4) > 1.0 + CLAMP_TOLERANCE:
-            return None, 0
+            return None, math.inf, 0
         cos4 = min(1.0, max(-1.0, cos4))
         root4 = math.sqrt(1.0 - cos4 * cos4)
         lower, upper = self._lower_list, self._upper_list
-        target = (x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33)
         best, best_distance, usable = None, math.inf, 0
         for sin4 in (root4, -root4):
             t4 = math.atan2(sin4, cos4) - RHO
@@ -272,11 +332,7 @@ class Golem3PoseIK(_Golem3Form):
                 distance = math.fsum((a - b) ** 2 for a, b in zip(q, reference, strict=True))
                 if distance < best_distance:
                     best, best_distance = q, distance
-        if best is None:
-            return None, 0
-        if self.mirrored:
-            best[0] = -best[0]
-        return np.array(best), usable
+        return best, best_distance, usable
 
 
 _SHIFTS = (0.0, 2.0 * math.pi, -2.0 * math.pi, 4.0 * math.pi, -4.0 * math.pi)
@@ -335,6 +391,7 @@ class Golem3PositionIK(_Golem3Form):
     def __init__(self, chain: Chain, yaw: float = 0.0):
         super().__init__(chain)
         self.yaw = yaw
+        self._last: tuple | None = None
 
     @property
     def yaw(self) -> float:
@@ -344,7 +401,7 @@ class Golem3PositionIK(_Golem3Form):
     def yaw(self, value: float) -> None:
         value = float(value)
         lower, upper = self.chain.lower[5], self.chain.upper[5]
-        if not np.isfinite(value) or not lower <= value <= upper:
+        if not math.isfinite(value) or not lower <= value <= upper:
             raise InvalidConfigurationError(
                 f"yaw (wrist roll {self.chain.joint_names[5]}) must be inside [{lower}, {upper}] rad, "
                 f"got {value}")
@@ -354,22 +411,38 @@ class Golem3PositionIK(_Golem3Form):
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         positions = self._mirror_positions(np.asarray(positions, dtype=float))
         q0 = self._mirror_q(np.asarray(q0, dtype=float))
+        key = (positions.tobytes(), q0.tobytes(), self.yaw)
+        if self._last is not None and self._last[0] == key:  # the framework asks again for a reason
+            return self._last[1]
         parts = [self._solve_right(positions[i:i + self.chunk], q0[i:i + self.chunk])
                  for i in range(0, len(positions), self.chunk)]
         q_all = np.concatenate([p[0] for p in parts])
         valid = np.concatenate([p[1] for p in parts])
-        return self._mirror_q(q_all), valid
+        result = self._mirror_q(q_all), valid
+        self._last = (key, result)
+        return result
 
     # -- right arm -------------------------------------------------------------------------------
     def _limit_excess(self, q: np.ndarray) -> np.ndarray:
         """Sum over t3..t5 of how far (rad) each is outside its limits."""
-        lower, upper = self.chain.lower[2:5], self.chain.upper[2:5]
+        lower, upper = self.right_lower[2:5], self.right_upper[2:5]
         return np.sum(np.maximum(lower - q[..., 2:5], 0.0) + np.maximum(q[..., 2:5] - upper, 0.0),
                       axis=-1)
 
+    @staticmethod
+    def outside_outer_bound(positions: np.ndarray) -> np.ndarray:
+        """Certainly unreachable (B,): the gripper centre is within l4 + |(l5, l6)| of the t3-t4 axes'
+        crossing (height h, within l1 + l2 of the chest axis), whatever the limits."""
+        vertical = np.abs(H - positions[:, 2])
+        reach = L4 + WRIST
+        horizontal = np.sqrt(np.maximum(reach * reach - vertical * vertical, 0.0)) + L1 + L2
+        return (vertical > reach * (1.0 + 1e-9)) | (
+            np.hypot(positions[:, 0], positions[:, 1]) > horizontal * (1.0 + 1e-9))
+
     def _solve_right(self, positions: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Candidates (B, keep + 1 + lm_starts, 6) and their validity for right-arm positions."""
         count = len(positions)
-        lower, upper = self.chain.lower, self.chain.upper
+        lower, upper = self.right_lower, self.right_upper
         grid1, grid2 = np.meshgrid(np.linspace(lower[0], upper[0], self.grid_t1),
                                    np.linspace(lower[1], upper[1], self.grid_t2), indexing="ij")
         grid1 = np.broadcast_to(grid1.reshape(1, -1), (count, grid1.size))
@@ -383,36 +456,48 @@ class Golem3PositionIK(_Golem3Form):
         nearest = np.argsort(distance, axis=1)[:, :self.keep]
         q_keep = np.take_along_axis(q_grid, nearest[..., None], axis=1)
         valid_keep = np.take_along_axis(feasible, nearest, axis=1)
-        # starts for the refinement: q0 and the grid points closest to feasible (clipped into limits)
-        badness = np.where(feasible, 0.0, excess + np.where(real, 0.0, 10.0))
-        badness = badness + 1e-3 * np.nan_to_num(distance, posinf=0.0)
+        # refinement starts: q0 always; where the grid found nothing, also the grid points closest to
+        # feasible (least limit excess, real branches first), clipped into the limits
+        badness = excess + np.where(real, 0.0, 10.0)
         closest = np.argsort(badness, axis=1)[:, :self.lm_starts]
         starts = np.concatenate([q0[:, None, :], np.take_along_axis(q_grid, closest[..., None], axis=1)],
                                 axis=1)
         starts = np.clip(starts, lower, upper)
         starts[..., 5] = self.yaw
-        q_lm, converged = self._refine(positions, starts)
+        hopeless = self.outside_outer_bound(positions)
+        use = np.ones(starts.shape[:2], dtype=bool)
+        use[:, 1:] = ~feasible.any(axis=1)[:, None]
+        use &= ~hopeless[:, None]
+        q_lm, converged = self._refine(positions, starts, use)
         return (np.concatenate([q_keep, q_lm], axis=1),
-                np.concatenate([valid_keep, converged], axis=1))
+                np.concatenate([valid_keep & ~hopeless[:, None], converged], axis=1))
 
-    def _refine(self, positions: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Bounded Levenberg-Marquardt on the position, minimum-norm steps, from starts (B, S, 6).
+    def _refine(self, positions: np.ndarray, starts: np.ndarray,
+                use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Bounded Levenberg-Marquardt on the position, minimum-norm steps, from starts (B, S, 6)
+        where ``use`` (B, S); returns (joints, converged).
 
         Step: dq = J^T (J J^T + lambda I)^-1 r with lambda = |r|^2 + 1e-9 (quadratic near a regular
         solution, damped near singular ones); joints pushed against a limit are frozen for the step.
+        A start stops when it converges, stalls (less than 1 % progress twice in a row) or after
+        ``lm_iterations``.
         """
         count, seeds, _ = starts.shape
         q = starts.reshape(-1, 6).copy()
         target = np.repeat(positions, seeds, axis=0)
-        lower, upper = self.chain.lower[:5], self.chain.upper[:5]
-        active = np.arange(len(q))
+        lower, upper = self.right_lower[:5], self.right_upper[:5]
+        active = np.flatnonzero(use.reshape(-1))
         error = np.full(len(q), np.inf)
-        for _ in range(self.lm_iterations):
+        stalls = np.zeros(len(q), dtype=int)
+        for _ in range(self.lm_iterations + 1):
             reached, jacobian = right_arm_position_jacobian(q[active])
             residual = target[active] - reached
             norm = np.linalg.norm(residual, axis=-1)
+            stalls[active] = np.where(norm > 0.99 * error[active], stalls[active] + 1, 0)
             error[active] = norm
-            running = norm > self.lm_tolerance
+            running = (norm > self.lm_tolerance) & (stalls[active] < 2)
+            if _ == self.lm_iterations:
+                break
             active, residual, jacobian, norm = (active[running], residual[running], jacobian[running],
                                                 norm[running])
             if not len(active):
@@ -427,8 +512,5 @@ class Golem3PositionIK(_Golem3Form):
                     break
                 jacobian = np.where(blocked[:, None, :], 0.0, jacobian)
             q[active, :5] = np.clip(joints + step, lower, upper)
-        else:
-            reached, _ = right_arm_position_jacobian(q[active])
-            error[active] = np.linalg.norm(target[active] - reached, axis=-1)
         converged = error <= 1e-9
         return q.reshape(count, seeds, 6), converged.reshape(count, seeds)
