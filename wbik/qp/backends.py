@@ -9,8 +9,11 @@ the backend measured fastest on these small dense problems by ``benchmarks/qp.py
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import qpsolvers
+from scipy import sparse
 
 from wbik.errors import MissingDependencyError
 
@@ -49,6 +52,15 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     """The minimiser, or None when the backend finds no solution (infeasible or failed)."""
     options = BACKEND_OPTIONS.get(backend, {})
     try:
+        if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return qpsolvers.solve_qp(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub,
+                                          solver=backend, **options)
         return qpsolvers.solve_qp(H, c, G, h, A, b, lb, ub, solver=backend, **options)
     except (ValueError, qpsolvers.SolverError):
         return None
+
+
+def _csc(matrix: np.ndarray | None):
+    return None if matrix is None else sparse.csc_matrix(matrix)

@@ -10,8 +10,8 @@ frame task (pose target) or position task (position target) on the tip, joint li
 
 from __future__ import annotations
 
+import re
 import time
-import xml.etree.ElementTree as ET
 from functools import lru_cache
 from pathlib import Path
 
@@ -33,14 +33,14 @@ def import_placo():
     return placo
 
 
+_GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?/>|<(visual|collision)\b.*?</\2\s*>", re.DOTALL)
+
+
 @lru_cache(maxsize=32)
 def _kinematic_urdf(name: str, text: str) -> Path:
-    root = ET.fromstring(text)
-    for link in root.iter("link"):
-        for tag in ("visual", "collision"):
-            for element in link.findall(tag):
-                link.remove(element)
-    return write_cached_urdf(f"{name}-kinematic", ET.tostring(root, encoding="unicode"))
+    # a regular expression rather than an XML parser: URDF readers accept some files that a strict
+    # XML parser rejects (e.g. "--" inside comments)
+    return write_cached_urdf(f"{name}-kinematic", _GEOMETRY.sub("", text))
 
 
 def kinematic_urdf_path(robot: Robot) -> Path:
