@@ -228,3 +228,29 @@ def test_round_trip_10000(robot, chain_name, kind):
     worst = max(r.position_error for r in results if r.success)
     assert worst < 1e-9
     assert all(chain.in_limits(r.q) for r in results if r.success)
+
+
+def test_solver_batch_equals_scalar(robot):
+    rng = np.random.default_rng(12)
+    for chain_name, kind in (("right_leg", "pose"), ("left_arm", "position")):
+        chain = robot.chain(chain_name)
+        q = walking_configurations(chain, rng, 20) if "leg" in chain_name else chain.random(rng, 20)
+        targets = [chain.fk(qq) if kind == "pose" else chain.fk(qq).translation for qq in q]
+        solver = wbik.solver("analytic", robot, chain=chain_name)
+        many = solver.solve_many(targets)
+        for target, batched in zip(targets, many, strict=True):
+            single = solver.solve(target)
+            assert single.success and batched.success
+            np.testing.assert_allclose(single.q, batched.q, atol=1e-12)
+
+
+def test_leg_position_keeps_the_foot_orientation_of_q0(robot):
+    """Position targets whose foot is not parallel to the hip: the branch keeping q0's foot orientation."""
+    rng = np.random.default_rng(13)
+    chain = robot.chain("right_leg")
+    solver = wbik.solver("analytic", robot, chain="right_leg")
+    for q in walking_configurations(chain, rng, 20):
+        target = chain.fk(q).translation
+        result = solver.solve(target, q0=q)
+        assert result.success
+        np.testing.assert_allclose(result.q, q, atol=1e-9)
