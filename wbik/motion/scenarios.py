@@ -1,0 +1,252 @@
+"""Scenario runners for motion files (tasks/motion_*.yaml), plugged into :mod:`wbik.scenarios`.
+
+Kinds (each report has ``passed`` and one entry per move in ``moves``):
+
+- ``motion_joint``: joint-space interpolation through ``configurations`` (rad / m).
+- ``motion_cartesian``: straight lines from ``start`` (joints or "nominal") through ``waypoints``
+  (each [x, y, z] or {position, rpy}) with ``method``; ``samples`` per segment.
+- ``pincher_motion``: a teleoperation session, ``moves`` run one after another from the previous
+  end: {jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}},
+  {automatic: {}}.
+- ``golem3_approach``: straight approach from ``start`` (mb, m0, m10..m14) to ``grasp``
+  ({position, rpy} in base_link, or {from_joints: [7 values]}); ``expect: {lift: bool}``.
+- ``bioloid_stance_sensors``: expected FSR loads and CoP of the static stance at ``start``.
+
+Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults quintic,
+global, URDF limits, knot times), ``export: {csv: PATH, json: PATH}`` (the trajectory of the last
+move, JointTrajectory shape), ``tolerance`` (knot tracking, default 1e-6 m / rad) and
+``expect: {success: bool}``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.motion.path import JointPath
+from wbik.motion.timing import time_scale
+from wbik.motion.trajectory import make_trajectory
+from wbik.scenarios import ScenarioError, register_runner
+
+Progress = Callable[[dict], None] | None
+
+
+def _robot(spec: dict):
+    from wbik.errors import UnknownRobotError
+    from wbik.models import load
+
+    if "robot" not in spec:
+        raise ScenarioError(f"a {spec.get('kind')} scenario needs a 'robot'")
+    try:
+        return load(spec["robot"], **spec.get("robot_params", {}))
+    except UnknownRobotError as exc:
+        raise ScenarioError(str(exc)) from exc
+
+
+def _vector(value, size: int | None, what: str) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise ScenarioError(f"{what} must be numbers, got {value!r}") from exc
+    if (size is not None and array.shape != (size,)) or not np.all(np.isfinite(array)):
+        raise ScenarioError(f"{what} must be {size} finite numbers, got {value!r}")
+    return array
+
+
+def _start(spec: dict, chain) -> np.ndarray:
+    start = spec.get("start", "nominal")
+    return chain.nominal.copy() if start == "nominal" else _vector(start, chain.nq, "start")
+
+
+def _pose(entry, what: str):
+    if isinstance(entry, dict):
+        position = _vector(entry.get("position"), 3, f"{what} position")
+        if "rpy" in entry:
+            return pin.SE3(pin.rpy.rpyToMatrix(*_vector(entry["rpy"], 3, f"{what} rpy")), position)
+        return position
+    return _vector(entry, 3, what)
+
+
+def _timed_move(spec: dict, path: JointPath, name: str) -> tuple[dict, object]:
+    """Time the path, sample it, check it; the report entry and the trajectory."""
+    timing = spec.get("timing", {})
+    timed = time_scale(path, timing.get("law", "quintic"), timing.get("velocity_limit"),
+                       timing.get("acceleration_limit"), timing.get("mode", "global"))
+    trajectory = make_trajectory(timed, dt=timing.get("dt"))
+    dense = timed.evaluate(np.linspace(0.0, timed.duration, 20001))[1]
+    velocity_ratio = float(np.max(np.abs(dense) / timed.velocity_limit))
+    tolerance = float(spec.get("tolerance", 1e-6))
+    summary = path.summary()
+    worst = max(summary["max_knot_position_error"] or 0.0, summary["max_knot_rotation_error"] or 0.0)
+    expect_success = bool(spec.get("expect", {}).get("success", True))
+    passed = (path.success == expect_success and velocity_ratio <= 1.0 + 1e-9
+              and (not expect_success or worst <= tolerance))
+    entry = {"name": name, "passed": passed, "path": summary, "info": _plain(path.info),
+             "duration_s": timed.duration, "time_law": timed.law.name, "timing_mode": timed.mode,
+             "max_velocity_over_limit": velocity_ratio,
+             "trajectory_max_position_error": trajectory.max_position_error,
+             "q_end": path.q[-1].tolist()}
+    return entry, trajectory
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _finish(spec: dict, report: dict, trajectory) -> dict:
+    export = spec.get("export", {})
+    if trajectory is not None:
+        if "csv" in export:
+            report["csv"] = str(trajectory.write_csv(Path(export["csv"])))
+        if "json" in export:
+            report["json"] = str(trajectory.write_json(Path(export["json"])))
+    report["passed"] = all(move["passed"] for move in report["moves"])
+    return report
+
+
+def _report(spec: dict, robot) -> dict:
+    return {"name": spec.get("name", ""), "kind": spec["kind"], "robot": robot.name, "moves": [],
+            "passed": True}
+
+
+def run_joint(spec: dict, on_progress: Progress = None) -> dict:
+    from wbik.motion.joint import joint_path
+
+    robot = _robot(spec)
+    chain = robot.chain(spec.get("chain"))
+    configurations = [_vector(q, chain.nq, "configuration") for q in spec.get("configurations", [])]
+    path = joint_path(chain, configurations, int(spec.get("samples", 10)))
+    report = _report(spec, robot)
+    entry, trajectory = _timed_move(spec, path, "joint interpolation")
+    report["moves"].append(entry)
+    return _finish(spec, report, trajectory)
+
+
+def run_cartesian(spec: dict, on_progress: Progress = None) -> dict:
+    from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD, waypoint_path
+    from wbik.solvers.base import solver
+
+    robot = _robot(spec)
+    ik = solver(spec.get("method", "dls"), robot, chain=spec.get("chain"),
+                timeout_s=float(spec.get("timeout_s", 0.05)))
+    waypoints = [_pose(entry, f"waypoint {i + 1}") for i, entry in enumerate(spec.get("waypoints", []))]
+    if not waypoints:
+        raise ScenarioError("a motion_cartesian scenario needs 'waypoints'")
+    path = waypoint_path(ik, _start(spec, ik.chain), waypoints, int(spec.get("samples", 10)),
+                         float(spec.get("jump_threshold", DEFAULT_JUMP_THRESHOLD)))
+    report = _report(spec, robot)
+    entry, trajectory = _timed_move(spec, path, f"{len(waypoints)} Cartesian segments")
+    chain = ik.chain
+    tolerance = float(spec.get("tolerance", 1e-6))
+    reached = []
+    for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
+        wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
+        reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
+    entry["waypoints_reached"] = reached
+    entry["passed"] = entry["passed"] and all(reached)
+    report["moves"].append(entry)
+    return _finish(spec, report, trajectory)
+
+
+def run_pincher(spec: dict, on_progress: Progress = None) -> dict:
+    from wbik.motion import pincher
+    from wbik.solvers.base import solver
+
+    robot = _robot(spec)
+    ik = solver(spec.get("method", "dls"), robot, timeout_s=float(spec.get("timeout_s", 0.05)))
+    chain = ik.chain
+    q = _start(spec, chain)
+    report, trajectory = _report(spec, robot), None
+    for index, move in enumerate(spec.get("moves", [])):
+        if "jog" in move:
+            path = pincher.jog(chain, q, move["jog"], math.radians(float(move.get("delta_deg", 0.0))),
+                               int(move.get("samples", 10)))
+            name = f"jog {move['jog']} by {move.get('delta_deg')} deg"
+        elif "plane_line" in move:
+            line = move["plane_line"]
+            start = _vector(line["start_xy_mm"], 2, "start_xy_mm") / 1000.0
+            goal = _vector(line["goal_xy_mm"], 2, "goal_xy_mm") / 1000.0
+            path = pincher.plane_line(ik, start, goal, int(line.get("samples", 20)), q0=q)
+            name = f"plane line {line['start_xy_mm']} -> {line['goal_xy_mm']} mm"
+        elif "automatic" in move:
+            path = pincher.automatic_path(ik, int((move["automatic"] or {}).get("samples", 10)))
+            name = "automatic cycle"
+        else:
+            raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
+        entry, trajectory = _timed_move({**spec, **move}, path, name)
+        report["moves"].append(entry)
+        q = path.q[-1].copy()
+        if on_progress is not None:
+            on_progress(report)
+    return _finish(spec, report, trajectory)
+
+
+def run_golem3(spec: dict, on_progress: Progress = None) -> dict:
+    from wbik.motion.golem3 import ARM_WITH_LIFT, approach
+
+    robot = _robot(spec)
+    chain = robot.chain(ARM_WITH_LIFT)
+    grasp = spec.get("grasp", {})
+    if "from_joints" in grasp:
+        goal = chain.fk(_vector(grasp["from_joints"], chain.nq, "grasp from_joints"))
+    else:
+        goal = _pose(grasp, "grasp")
+    path = approach(robot, _start(spec, chain), goal, int(spec.get("samples", 20)), spec.get("method", "dls"),
+                    timeout_s=float(spec.get("timeout_s", 0.05)))
+    report = _report(spec, robot)
+    entry, trajectory = _timed_move(spec, path, "approach")
+    expect_lift = spec.get("expect", {}).get("lift")
+    if expect_lift is not None:
+        entry["passed"] = entry["passed"] and (bool(path.info["lift_samples"]) == bool(expect_lift))
+    report["moves"].append(entry)
+    return _finish(spec, report, trajectory)
+
+
+def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
+    from wbik.bioloid.sensors import stance_loads
+
+    robot = _robot(spec)
+    q = robot.nominal.copy() if spec.get("start", "nominal") == "nominal" else _vector(
+        spec["start"], robot.model.nq, "start")
+    stance = stance_loads(robot, q)
+    gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
+    entry = {"name": "static stance", "passed": gap <= float(spec.get("tolerance", 1e-9)),
+             "cop_minus_com_m": gap, **stance.as_dict()}
+    report = _report(spec, robot)
+    report["moves"].append(entry)
+    return _finish(spec, report, None)
+
+
+RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "pincher_motion": run_pincher,
+                "golem3_approach": run_golem3, "bioloid_stance_sensors": run_bioloid_stance}
+for _kind, _runner in RUNNER_KINDS.items():
+    register_runner(_kind, _runner)
+
+
+def format_report(report: dict) -> str:
+    """One line per move."""
+    lines = [f"{report.get('name', '')} ({report['kind']}, {report.get('robot', '')}): "
+             f"{'PASSED' if report['passed'] else 'FAILED'}"]
+    for move in report["moves"]:
+        if "path" in move:
+            path = move["path"]
+            lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: {path['knots']} knots, "
+                         f"max knot error {path['max_knot_position_error']}, jumps {path['jumps']}, "
+                         f"duration {move['duration_s']:.3f} s ({move['time_law']}, {move['timing_mode']}), "
+                         f"peak |v|/limit {move['max_velocity_over_limit']:.6f}")
+        else:
+            lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
+                         f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
+    return "\n".join(lines)
