@@ -103,6 +103,7 @@ def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None
     difference[~np.all(np.isfinite(vector), axis=1)] = np.nan
     for index, axis in enumerate(ANGLE_AXES):
         columns[f"err_{axis}"] = difference[:, index]
+    for index, axis in enumerate(ANGLE_AXES):
         if angle_names and axis in angle_names:
             columns[f"err_{angle_names[axis]}"] = difference[:, index]
     return columns

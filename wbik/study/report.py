@@ -64,7 +64,7 @@ def fmt(value, digits: int = 3) -> str:
 def fmt_p(value: float) -> str:
     if value is None or not math.isfinite(value):
         return "-"
-    return "0 (< 1e-300)" if value == 0 else f"{value:.2g}"
+    return "0" if value == 0 else f"{value:.2g}"  # 0: below the smallest double, as the thesis printed
 
 
 # -- per case ----------------------------------------------------------------------------------
@@ -171,9 +171,11 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
     blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
                              "target, base axes); rot_* the rotation vector log3(R_target^T R_reached); "
                              "alpha, beta, gamma the angles of R = Rz(gamma) Ry(beta) Rx(alpha)"
-                             + (" (the thesis calls them " + ", ".join(f"{k} '{v}'" for k, v in
-                                                                        case.angle_names.items()) + ")"
-                                if case.angle_names else "") + "; radians."))
+                             + (" (repeated under the thesis's names: " + ", ".join(
+                                 f"{k} = {v}" for k, v in case.angle_names.items()) + ")"
+                                if case.angle_names else "") + "; radians. Near beta = +-90 deg (gimbal "
+                             "lock) a tiny rotation can show as large, opposite alpha and gamma errors; the "
+                             "rotation vector has no such artefact."))
     labels = list(summaries)
     for statistic, title in (("abs_median", "median |e|"), ("abs_max", "max |e|"),
                              ("zero_fraction", "fraction exactly 0")):
@@ -224,8 +226,10 @@ def _thesis_blocks(case: CaseSpec, summaries: dict) -> list[Block]:
         for metric, value in metrics.items():
             description, unit = THESIS_METRICS[metric]
             our = ours.get(metric)
-            table.append([label, f"{description} ({unit})", fmt(value), fmt(our),
-                          _verdict(metric, value, our)])
+            verdict = _verdict(metric, value, our)
+            if label in summaries and (our is None or not math.isfinite(our)):
+                verdict = "no such poses in our run"
+            table.append([label, f"{description} ({unit})", fmt(value), fmt(our), verdict])
     if table:
         blocks.append(Block("table", header=["method", "metric", "thesis", "ours", "comparison"], rows=table))
     if thesis.get("notes"):
@@ -263,7 +267,8 @@ def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block
         f"{study.tolerances['rotation']:g} rad",
         f"default time budget {study.timeout_s:g} s per pose; start q0 = {study.start}",
         f"last run: {run.get('jobs', '?')} job(s), backend {run.get('backend', '?')}, "
-        f"{fmt(run.get('seconds'))} s for {run.get('computed_tasks', '?')} chunk(s); "
+        f"{fmt(run.get('seconds'))} s for {run.get('computed_tasks', '?')} chunk(s) "
+        f"({fmt(run.get('total_seconds'))} s of solving over all runs of this folder); "
         f"report written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
         f"machine: {platform.machine()}, Python {platform.python_version()}",
     ]

@@ -327,8 +327,11 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
                 store.write_chunk(store.chunk_path(output, task.case, task.label, task.chunk), rows)
                 bar.update(len(rows["pose"]))
     elapsed = time.perf_counter() - started
-    store.write_json(output / "run.json", {"jobs": jobs, "backend": backend, "computed_tasks": len(tasks),
-                                           "seconds": elapsed})
+    previous = store.read_json(output / "run.json", {}) or {}
+    store.write_json(output / "run.json", {
+        "jobs": jobs, "backend": backend, "computed_tasks": len(tasks), "seconds": elapsed,
+        "total_seconds": elapsed + float(previous.get("total_seconds", 0.0)) if tasks else
+        float(previous.get("total_seconds", elapsed))})
     if report:
         from wbik.study.report import write_report
 
