@@ -254,3 +254,17 @@ def test_leg_position_keeps_the_foot_orientation_of_q0(robot):
         result = solver.solve(target, q0=q)
         assert result.success
         np.testing.assert_allclose(result.q, q, atol=1e-9)
+
+
+def test_leg_position_branches_keeping_the_ankle_joints_are_exact(robot):
+    rng = np.random.default_rng(14)
+    chain = robot.chain("left_leg")
+    q = chain.random(rng, 100)
+    q0 = chain.random(rng, 100)
+    targets = np.array([chain.fk(qq).translation for qq in q])
+    branches, reachable = ik.leg_position_branches_keeping_ankle(targets, q0)
+    assert reachable.all()
+    for i in range(0, 100, 11):
+        for k in range(4):
+            np.testing.assert_allclose(chain.fk(branches[i, k]).translation, targets[i], atol=1e-12)
+            np.testing.assert_allclose(branches[i, k][[0, 4, 5]], q0[i][[0, 4, 5]])

@@ -21,7 +21,7 @@ Closed forms for the solver framework (declared in ``robot.info["closed_forms"]`
 servo turned by pi), :class:`LegPose` (ankle pose in the hip frame; 4 branches: the thesis's
 walking knee branch, flexion >= 2 alpha, and the near-straight one, times the two hip Euler
 branches) and :class:`LegPosition` (ankle position; foot kept parallel to the hip as in the
-thesis's IK6ServoLegtoFoot, or at its orientation of q0).
+thesis's IK6ServoLegtoFoot, or at its orientation of q0, or the ankle joints of q0 kept).
 """
 
 from __future__ import annotations
@@ -329,11 +329,36 @@ class LegPose(ClosedForm):
         return leg_fk(q)
 
 
+def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Solutions for the ankle position (B, 3) in the hip frame with yaw and both ankle joints of q0.
+
+    The ankle point depends on the hip yaw, roll, pitch and the knee only. With the yaw fixed,
+    u = Rz(-q7) p; the hip roll puts u in the leg plane (two signs of the leg's z), the knee
+    comes from the Lf triangle (two branches) and the hip pitch rotates the thigh+shank vector
+    d = THIGH + Ry(q13) SHANK onto the in-plane target. Returns (Q (B, 4, 6), reachable (B, 4)).
+    """
+    u = np.einsum("bji,bj->bi", rot_z(q0[:, 0]), p_ankle)       # Rz(-q7) p
+    length = np.linalg.norm(p_ankle, axis=-1)
+    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
+    gamma = np.arccos(cos_gamma)
+    rho = np.hypot(u[:, 1], u[:, 2])
+    solutions = []
+    for down in (1.0, -1.0):
+        q9 = np.arctan2(down * u[:, 1], -down * u[:, 2])
+        in_plane_z = -down * rho
+        for knee in (np.pi + 2 * ALPHA - gamma, gamma - np.pi + 2 * ALPHA):
+            d = THIGH + rot_y(knee) @ SHANK
+            q11 = np.arctan2(u[:, 0], in_plane_z) - np.arctan2(d[:, 0], d[:, 2])
+            solutions.append(np.stack([q0[:, 0], q9, q11, knee, q0[:, 4], q0[:, 5]], -1))
+    return np.stack(solutions, 1), np.repeat(reachable[:, None], len(solutions), axis=1)
+
+
 class LegPosition(ClosedForm):
-    """Ankle position in the hip frame: 8 exact branches.
+    """Ankle position in the hip frame: 12 exact branches.
 
     Branches 0-3 keep the foot parallel to the hip (the thesis's hip -> foot IK, branch 0 its
-    own); branches 4-7 keep the foot orientation it has at q0 (useful when the torso is pitched).
+    own); 4-7 keep the foot orientation it has at q0 (useful when the torso is pitched); 8-11 keep
+    q0's hip yaw and ankle joints and solve hip roll, hip pitch and knee.
     """
 
     target_kind = "position"
@@ -343,7 +368,9 @@ class LegPosition(ClosedForm):
         q_parallel, ok_parallel = leg_branches(-positions, identity)
         r_hip = np.swapaxes(leg_fk(q0)[1], -1, -2)
         q_kept, ok_kept = leg_branches(-np.einsum("bij,bj->bi", r_hip, positions), r_hip)
-        return np.concatenate([q_parallel, q_kept], 1), np.concatenate([ok_parallel, ok_kept], 1)
+        q_hip, ok_hip = leg_position_branches_keeping_ankle(positions, q0)
+        return (np.concatenate([q_parallel, q_kept, q_hip], 1),
+                np.concatenate([ok_parallel, ok_kept, ok_hip], 1))
 
     def fk(self, q):
         return leg_fk(q)
