@@ -121,8 +121,8 @@ class AnalyticSolver(Solver):
         reached_p, reached_r = form.fk(np.where(usable[..., None], q_all, 0.0))
         residual = np.linalg.norm(reached_p - positions[:, None, :], axis=-1)
         if rotations is not None:
-            relative = np.einsum("bji,bkjl->bkil", rotations, reached_r)
-            cosine = np.clip((np.trace(relative, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+            trace = np.sum(rotations[:, None] * reached_r, axis=(-2, -1))  # trace(R_target^T R_reached)
+            cosine = np.clip((trace - 1.0) / 2.0, -1.0, 1.0)
             residual = np.maximum(residual, np.arccos(cosine))
         usable &= residual <= form.screen_tolerance
         return q_all, usable

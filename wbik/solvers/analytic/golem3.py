@@ -65,24 +65,32 @@ def rpy_matrix(gamma: np.ndarray, beta: np.ndarray, alpha: np.ndarray) -> np.nda
     """Rz(gamma) Ry(beta) Rx(alpha), shape (..., 3, 3)."""
     cg, sg, cb, sb, ca, sa = (np.cos(gamma), np.sin(gamma), np.cos(beta), np.sin(beta),
                               np.cos(alpha), np.sin(alpha))
-    return np.stack([
-        np.stack([cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa], axis=-1),
-        np.stack([sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa], axis=-1),
-        np.stack([-sb, cb * sa, cb * ca], axis=-1),
-    ], axis=-2)
+    matrix = np.empty(np.shape(cg) + (3, 3))
+    sb_sa, sb_ca = sb * sa, sb * ca
+    matrix[..., 0, 0] = cg * cb
+    matrix[..., 0, 1] = cg * sb_sa - sg * ca
+    matrix[..., 0, 2] = cg * sb_ca + sg * sa
+    matrix[..., 1, 0] = sg * cb
+    matrix[..., 1, 1] = sg * sb_sa + cg * ca
+    matrix[..., 1, 2] = sg * sb_ca - cg * sa
+    matrix[..., 2, 0] = -sb
+    matrix[..., 2, 1] = cb * sa
+    matrix[..., 2, 2] = cb * ca
+    return matrix
 
 
 def right_arm_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Closed-form FK of the right arm: q (..., 6) -> positions (..., 3), rotations (..., 3, 3)."""
-    t1, t2, t3, t4, t5, t6 = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    q = np.asarray(q, dtype=float)
+    t1, t2, t3, t4, t5, t6 = (q[..., i] for i in range(6))
     s = t4 + t5
-    gamma = t1 + t2 + t3
+    t12 = t1 + t2
+    gamma = t12 + t3
     l3 = L4 * np.sin(t4 + RHO) + L5 * np.sin(s) + L6 * np.cos(s)
-    position = np.stack([
-        L1 * np.sin(t1) + L2 * np.sin(t1 + t2) + l3 * np.cos(gamma),
-        -L1 * np.cos(t1) - L2 * np.cos(t1 + t2) + l3 * np.sin(gamma),
-        H - L4 * np.cos(t4 + RHO) - L5 * np.cos(s) + L6 * np.sin(s),
-    ], axis=-1)
+    position = np.empty(q.shape[:-1] + (3,))
+    position[..., 0] = L1 * np.sin(t1) + L2 * np.sin(t12) + l3 * np.cos(gamma)
+    position[..., 1] = -L1 * np.cos(t1) - L2 * np.cos(t12) + l3 * np.sin(gamma)
+    position[..., 2] = H - L4 * np.cos(t4 + RHO) - L5 * np.cos(s) + L6 * np.sin(s)
     return position, rpy_matrix(gamma, -s, t6)
 
 
