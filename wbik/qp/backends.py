@@ -51,6 +51,8 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
           ub: np.ndarray | None) -> np.ndarray | None:
     """The minimiser, or None when the backend finds no solution (infeasible or failed)."""
     options = BACKEND_OPTIONS.get(backend, {})
+    if backend == "daqp":
+        return _solve_daqp(H, c, G, h, A, b, lb, ub)
     try:
         if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
             with warnings.catch_warnings():
@@ -64,3 +66,33 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
 
 def _csc(matrix: np.ndarray | None):
     return None if matrix is None else sparse.csc_matrix(matrix)
+
+
+def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray | None:
+    """DAQP called directly (the same call qpsolvers makes, without its checks and conversions).
+
+    DAQP takes one stacked system blower <= [I; G; A] x <= bupper whose first n rows are the
+    simple bounds; ``sense`` marks the equality rows (5)."""
+    import daqp
+
+    n = c.size
+    blocks = [m for m in (G, A) if m is not None]
+    rows = sum(m.shape[0] for m in blocks)
+    general = np.vstack(blocks) if len(blocks) > 1 else (blocks[0] if blocks else np.zeros((0, n)))
+    upper = np.empty(n + rows)
+    lower = np.full(n + rows, -1e30)
+    upper[:n] = 1e30 if ub is None else ub
+    if lb is not None:
+        lower[:n] = lb
+    offset = n
+    if G is not None:
+        upper[offset:offset + G.shape[0]] = h
+        offset += G.shape[0]
+    sense = np.zeros(n + rows, dtype=np.int32)
+    if A is not None:
+        upper[offset:] = b
+        lower[offset:] = b
+        sense[offset:] = 5
+    x, _, exitflag, _ = daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(c),
+                                   np.ascontiguousarray(general), upper, lower, sense)
+    return x if exitflag > 0 else None

@@ -227,6 +227,20 @@ class IKProblem:
         for _ in range(max_iterations):
             if all(c.violation(self.kinematics) <= tolerance for c in equalities):
                 return True
+            # cheap first: the minimum-norm Newton step dq = -J^T (J J^T)^-1 e, kept if it breaks
+            # no bound; otherwise the QP with every constraint
+            rows = [c.equality(self.kinematics) for c in equalities]
+            A = np.vstack([a for a, _ in rows])
+            b = np.concatenate([b for _, b in rows])
+            try:
+                dq = A.T @ np.linalg.solve(A @ A.T, b)
+            except np.linalg.LinAlgError:
+                dq = None
+            if dq is not None:
+                trial = self.kinematics.integrate(dq)
+                if np.array_equal(self.clip(trial), trial):
+                    self.kinematics.update(trial)
+                    continue
             G, h, A, b, lower, upper = self._constraint_matrices(1.0, self.max_step)
             dq = self._solve_relaxed(self._identity, np.zeros(self.nv), G, h, A, b, lower, upper)
             if dq is None:

@@ -98,11 +98,15 @@ class FrameTask(_FrameTaskBase):
         rows = np.r_[np.full(3, position_weight), np.full(3, orientation_weight)] * weight
         super().__init__(frame, weight=rows, **options)
         self.target = target.copy()
+        self._error = np.zeros(6)
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
+        """e (a buffer reused by the next call: copy it to keep it)."""
         placement = kinematics.placement(self.frame_id)
-        return np.r_[placement.translation - self.target.translation,
-                     _rotation_error(self.target.rotation, placement.rotation)]
+        error = self._error
+        np.subtract(placement.translation, self.target.translation, out=error[:3])
+        error[3:] = _rotation_error(self.target.rotation, placement.rotation)
+        return error
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         placement = kinematics.placement(self.frame_id)
@@ -172,8 +176,8 @@ class RelativeFrameTask(_FrameTaskBase):
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         relative = self.relative_placement(kinematics)
-        return np.r_[relative.translation - self.target.translation,
-                     _rotation_error(self.target.rotation, relative.rotation)]
+        return np.concatenate((relative.translation - self.target.translation,
+                               _rotation_error(self.target.rotation, relative.rotation)))
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         frame = kinematics.placement(self.frame_id)
