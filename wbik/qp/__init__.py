@@ -8,6 +8,16 @@
 Modules: ``kinematics`` (model + data at one q), ``tasks``, ``constraints``, ``support_polygon``,
 ``backends`` (qpsolvers names, "fastest"), ``problem`` (the QP and the IK loop), ``humanoid``
 (contact/balance helpers for robots that list sole corners).
+
+Where ours differs from PlaCo (the reference, method ``placo``):
+- Contacts: PlaCo makes a frame task "hard" (an equality row); ours add a Newton projection after
+  every IK step, so each kept iterate holds the contacts to 1e-11, and the answer is verified by FK.
+- Support polygon: both use the linearised CoM rows against the polygon shrunk by the margin;
+  ours add a few micrometres of safety and reject (by FK) a step whose CoM breaks the margin.
+- Priorities: PlaCo has hard/soft; ours have weights plus optional strict levels (a QP per level).
+- The IK loop: a trust region with merit acceptance and best-effort stall detection (PlaCo's
+  solve() is one step; the loop is the caller's). No walk pattern generator here: PlaCo's
+  WalkPatternGenerator / LIPM stay the reference for gait.
 """
 
 from wbik.qp.backends import available as available_backends
