@@ -18,6 +18,7 @@ def test_minimal_study_defaults_and_single_case():
     assert study.timeout_of(study.method("dls")) == 0.005
     assert study.timeout_of(study.method("dls_short")) == 0.5
     assert study.tolerances == {"position": 1e-6, "rotation": 1e-6}
+    assert not study.method("dls").per_pose
 
 
 def test_yaml_and_toml_files_give_the_same_study(tmp_path):
@@ -42,6 +43,7 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
     ({"start": "home"}, "start must be one of"),
     ({"methods": [{"method": "dls", "options": {"timeout_s": 1}}]}, "options.timeout_s is set by the study"),
     ({"name": "a b"}, "name must be a name of letters"),
+    ({"methods": [{"method": "dls", "per_pose": "yes"}]}, "per_pose must be true or false"),
 ])
 def test_mistakes_raise_clear_errors(change, words):
     with pytest.raises(StudyDefinitionError) as caught:

@@ -17,6 +17,7 @@ at the top level instead of a ``cases`` list. Example::
     methods:
       - analytic
       - {label: kdl_15s, method: kdl, timeout_s: 15, note: "the thesis's timeout"}
+      - {label: analytic_per_pose, method: analytic, per_pose: true}   # time of single calls
 
 Every mistake raises :class:`StudyDefinitionError` naming the file, the field and what to write.
 """
@@ -70,6 +71,7 @@ class MethodSpec:
     options: dict = field(default_factory=dict)
     timeout_s: float | None = None  # None: the study's default
     note: str = ""
+    per_pose: bool = False  # True: one solve() per pose instead of a batched solve_many (time per call)
 
 
 @dataclass(frozen=True)
@@ -250,7 +252,7 @@ def _methods(raw, source: str) -> list[MethodSpec]:
             item = {"method": item}
         if not isinstance(item, dict):
             raise StudyDefinitionError(f"{source}: {where} must be a method name or a mapping, got {item!r}")
-        _no_unknown(item, {"label", "method", "options", "timeout_s", "note"}, source, where)
+        _no_unknown(item, {"label", "method", "options", "timeout_s", "note", "per_pose"}, source, where)
         method = item.get("method")
         if method not in known_methods:
             raise StudyDefinitionError(f"{source}: {where}: unknown method {method!r}; registered methods: "
@@ -263,11 +265,14 @@ def _methods(raw, source: str) -> list[MethodSpec]:
                 raise StudyDefinitionError(f"{source}: {where}.options.{reserved} is set by the study; "
                                            f"use {where}.timeout_s or the study's tolerances/seed")
         timeout = item.get("timeout_s")
+        per_pose = item.get("per_pose", False)
+        if not isinstance(per_pose, bool):
+            raise StudyDefinitionError(f"{source}: {where}.per_pose must be true or false")
         specs.append(MethodSpec(
             label=_label(item.get("label", method), f"{where}.label", source), method=method,
             options=dict(options),
             timeout_s=None if timeout is None else _positive_float(timeout, f"{where}.timeout_s", source),
-            note=str(item.get("note", "") or "")))
+            note=str(item.get("note", "") or ""), per_pose=per_pose))
     labels = [s.label for s in specs]
     duplicates = sorted({label for label in labels if labels.count(label) > 1})
     if duplicates:

@@ -48,6 +48,7 @@ class ChunkTask:
     timeout_s: float
     tolerances: tuple
     seed: int
+    per_pose: bool
     chunk: int
     first_pose: int
     positions: np.ndarray
@@ -99,7 +100,8 @@ def not_applicable_reason(exc: BaseException) -> str | None:
 
 
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
-    """Solve one chunk with ``solve_many`` (batched methods keep their speed); the raw rows.
+    """Solve one chunk with ``solve_many`` (batched methods keep their speed; a batched method's
+    time per pose is then the batch's time / size) or, with ``per_pose``, one ``solve`` per pose.
 
     A pose on which the method raises gets success=False and reason "raised ...", and the chunk
     continues pose by pose; "not applicable" errors are returned as {"not_applicable": [message]}.
@@ -118,7 +120,10 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                for i in range(count)]
     try:
-        answers = solver.solve_many(targets, task.q0)
+        if task.per_pose:
+            answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
+        else:
+            answers = solver.solve_many(targets, task.q0)
     except Exception as exc:  # noqa: BLE001
         message = not_applicable_reason(exc)
         if message is not None:
@@ -216,7 +221,8 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         angle_names=_frozen(case.angle_names), label=method.label, method=method.method,
         options=_frozen(method.options), timeout_s=study.timeout_of(method),
         tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
-        seed=chunk_seed(study.seed, case.name, method.label, chunk), chunk=chunk, first_pose=start,
+        seed=chunk_seed(study.seed, case.name, method.label, chunk), per_pose=method.per_pose,
+        chunk=chunk, first_pose=start,
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
         q0=poses.q0[start:stop])
