@@ -51,11 +51,32 @@ class ScenarioError(WbikError, ValueError):
 
 
 RUNNERS: dict[str, Callable[[dict, Callable[[dict], None] | None], dict]] = {}
+FORMATTERS: dict[str, Callable[[dict], str]] = {}
+
+RUNNER_MODULES = ("wbik.motion.scenarios", "wbik.bioloid.scenarios", "wbik.riveting.scenarios")
+"""Modules that register further kinds when imported; imported on first use of a scenario."""
 
 
-def register_runner(kind: str, runner: Callable[[dict, Callable[[dict], None] | None], dict]) -> None:
-    """``runner(spec, on_progress) -> report``; on_progress(report so far) may be None."""
+def register_runner(kind: str, runner: Callable[[dict, Callable[[dict], None] | None], dict],
+                    formatter: Callable[[dict], str] | None = None) -> None:
+    """``runner(spec, on_progress) -> report``; on_progress(report so far) may be None.
+
+    ``formatter(report) -> str`` prints the report for ``wbik run`` (default: the phase summary).
+    """
     RUNNERS[kind] = runner
+    if formatter is not None:
+        FORMATTERS[kind] = formatter
+
+
+def _import_runner_modules() -> None:
+    import importlib
+
+    for module in RUNNER_MODULES:
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:  # a package not written yet is fine; a broken one is not
+            if not exc.name or not (module == exc.name or module.startswith(exc.name + ".")):
+                raise
 
 
 def load_scenario(path: str | Path) -> dict:
@@ -63,6 +84,7 @@ def load_scenario(path: str | Path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise ScenarioError(f"scenario file {str(path)!r} does not exist")
+    _import_runner_modules()
     text = path.read_text()
     try:
         if path.suffix.lower() == ".json":
@@ -82,6 +104,7 @@ def load_scenario(path: str | Path) -> dict:
 def run_scenario(scenario: str | Path | dict, output: str | Path | None = None) -> dict:
     """Run a scenario (file or dict); with ``output``, write the JSON report after every phase."""
     spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
+    _import_runner_modules()
     kind = spec.get("kind")
     if kind not in RUNNERS:
         raise ScenarioError(f"unknown scenario kind {kind!r}; known kinds: {', '.join(sorted(RUNNERS))}")
@@ -282,7 +305,9 @@ register_runner("wholebody_ik", run_wholebody_ik)
 
 
 def format_report(report: dict) -> str:
-    """A short human-readable summary of a report."""
+    """A short human-readable summary of a report (the kind's own formatter when it has one)."""
+    if report.get("kind") in FORMATTERS:
+        return FORMATTERS[report["kind"]](report)
     lines = [f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
              f"{'PASSED' if report.get('passed') else 'FAILED'}"]
     for phase in report.get("phases", []):

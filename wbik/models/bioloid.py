@@ -131,6 +131,8 @@ class _UrdfWriter:
         self.lines: list[str] = []
 
     def comment(self, text: str) -> None:
+        if "--" in text:
+            raise ValueError(f"'--' is not allowed inside an XML comment: {text!r}")
         self.lines.append(f"  <!-- {text} -->")
 
     def link(self, name: str, mass: float = 0.0, com=(0.0, 0.0, 0.0), size=(0.03, 0.03, 0.03),
@@ -186,7 +188,7 @@ def _leg(w: _UrdfWriter, side: str) -> None:
     def limits(joint: str) -> tuple[float, float]:
         return joint_limits_deg(side, joint)
 
-    w.comment(f"---- {'right' if side == 'r' else 'left'} leg ----")
+    w.comment(f"== {'right' if side == 'r' else 'left'} leg ==")
     w.comment(f"ASSUMPTION: hip {HIP_LATERAL * 1000:g} mm sideways and {HIP_DROP * 1000:g} mm below the "
               "pelvis origin (the code's unlabelled L5, L6)")
     w.fixed(p + "hip_mount", "pelvis", p + "hip", (0.0, s * HIP_LATERAL, -HIP_DROP))
@@ -231,8 +233,8 @@ def _arm(w: _UrdfWriter, side: str, tool_length: float) -> None:
         return joint_limits_deg(side, joint)
 
     forearm = FOREARM + tool_length
-    w.comment(f"---- {'right' if side == 'r' else 'left'} arm: L0 {L0} L1 {L1} L2 {L2} L3 {L3} "
-              f"L4 {FOREARM} + tool {tool_length:g} = {forearm:g} m ----")
+    w.comment(f"== {'right' if side == 'r' else 'left'} arm: L0 {L0} L1 {L1} L2 {L2} L3 {L3} "
+              f"L4 {FOREARM} + tool {tool_length:g} = {forearm:g} m ==")
     w.revolute(p + "shoulder_pitch", "chest", p + "shoulder", (0, s * L0, 0), (0, -1, 0),
                limits("shoulder_pitch"),
                "Base servo, L0 from the chest centre; about -y: q = theta1 = atan2(z, x) of the arm plane.")

@@ -231,8 +231,6 @@ def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
 
 RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "pincher_motion": run_pincher,
                 "golem3_approach": run_golem3, "bioloid_stance_sensors": run_bioloid_stance}
-for _kind, _runner in RUNNER_KINDS.items():
-    register_runner(_kind, _runner)
 
 
 def format_report(report: dict) -> str:
@@ -250,3 +248,7 @@ def format_report(report: dict) -> str:
             lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
                          f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
     return "\n".join(lines)
+
+
+for _kind, _runner in RUNNER_KINDS.items():
+    register_runner(_kind, _runner, format_report)
