@@ -12,7 +12,9 @@ A step that raises |e| is rejected and lambda_0 grows ten-fold; an accepted one 
 P is the projection into the limits: a revolute joint whose range spans a full turn is wrapped by
 2 pi instead of clipped; otherwise joints are clipped, and a joint already on a bound whose step
 points outwards is frozen and the step recomputed without it (an active-set, i.e. bounded, step).
-``max_step`` optionally caps the largest joint step.
+``max_step`` optionally caps the largest joint step. Position rows are weighted by
+``position_weight`` (default: 1 / the chain's length scale, at least 1), which puts metres and
+radians on a par on small chains (Pincher, Bioloid legs); the FK check is unchanged.
 
 An attempt ends when the FK check passes (success), when the error stops dropping (``stall``
 iterations with less than 2 % progress: a local minimum or a limit), or after ``max_iterations``.
@@ -49,7 +51,7 @@ class BoundedLMSolver(Solver):
     def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
                  damping: float = 1e-6, batch_size: int = 1, cost_weight: float = 0.01,
                  decrease: float = 0.5, increase: float = 10.0, progress: float = 0.98,
-                 max_step: float | None = None, **options):
+                 max_step: float | None = None, position_weight: float | None = None, **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = int(max_iterations)
         self.stall = int(stall)
@@ -58,8 +60,11 @@ class BoundedLMSolver(Solver):
         self.cost_weight, self.decrease, self.increase = float(cost_weight), float(decrease), float(increase)
         self.progress = float(progress)
         self.max_step = None if max_step is None else float(max_step)
-        smallest = min(self.tolerances.position, self.tolerances.rotation)
-        largest = max(self.tolerances.position, self.tolerances.rotation)
+        self.position_weight = (chain_scale_weight(self.chain) if position_weight is None
+                                else float(position_weight))
+        weighted_position = self.tolerances.position * self.position_weight
+        smallest = min(weighted_position, self.tolerances.rotation)
+        largest = max(weighted_position, self.tolerances.rotation)
         self._sure_cost = (0.5 * smallest) ** 2  # |e|^2 below this passes both parts of the check
         self._maybe_cost = 2.0 * (0.5 * largest) ** 2
         chain_ = self.chain
@@ -87,6 +92,16 @@ class BoundedLMSolver(Solver):
         n = self.chain.nq
         diagonal = slice(None, None, n + 1)
         max_step = self.max_step
+        weight = self.position_weight
+        if weight != 1.0:
+            unweighted = evaluate
+
+            def evaluate(q):
+                error, jacobian = unweighted(q)
+                error[:3] *= weight
+                jacobian[:3] *= weight
+                return error, jacobian
+
         error, jacobian = evaluate(q)
         cost = float(error @ error)
         damping = self.damping
@@ -134,7 +149,8 @@ class BoundedLMSolver(Solver):
         return q, self._passes(error), self.max_iterations, math.sqrt(cost)
 
     def _passes(self, error: np.ndarray) -> bool:
-        return converged(error, self.tolerances.position, self.tolerances.rotation)
+        """The shared check on a (position-weighted) error."""
+        return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         if self.batch_size > 1:
@@ -235,3 +251,14 @@ class BoundedLMSolver(Solver):
                          f"time budget of {self.timeout_s:g} s used up after {attempts} seeds "
                          f"(best task error {overall_error:.3g}); the target may be out of reach",
                          {"attempts": attempts})
+
+
+def chain_scale_weight(chain) -> float:
+    """1 / (the chain's length scale, m), at least 1: puts metres and radians on a par on small arms.
+
+    The length scale is the sum of the distances between consecutive joint origins and the tip.
+    """
+    from wbik.solvers.task_error import serial_structure
+
+    length = float(np.linalg.norm(serial_structure(chain).placements[1:, :3, 3], axis=1).sum())
+    return max(1.0, 1.0 / max(length, 1e-3))
