@@ -12,9 +12,10 @@ The left arm is the mirror image (see wbik.models.golem3): T_left(m0, q) = M T_r
 M = diag(1, -1, 1), so a left target is mirrored, solved as a right one, and m0 negated back.
 
 Pose IK: alpha is taken with |alpha| <= pi/2 (the other Euler triple has t6 = alpha +- pi, outside the
-+-1.5 rad limits), then beta and gamma from R Rx(-alpha) = Rz(gamma) Ry(beta), which stays exact at
-beta = +-pi/2. z fixes cos(t4+rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link
-is a planar 2R problem for (t1, t2) (elbow-left/right). So at most 2 x 2 = 4 real branches; the
++-1.5 rad limits), then beta and gamma from R Rx(-alpha) = Rz(gamma) Ry(beta). At gimbal lock
+(beta = +-pi/2, gripper axis vertical) t6 is free: q0's t6 and a sweep of t6 values are tried.
+z fixes cos(t4+rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link is a planar 2R
+problem for (t1, t2) (elbow-left/right). So at most 2 x 2 = 4 real branches; the
 thesis' 2^3 = 8 sign choices come from squaring the t1 equation, and half of them are spurious (its
 FK check drops them). Cosines within ``CLAMP_TOLERANCE`` of +-1 are clamped (the thesis' failures
 near singular poses) and the FK screening decides.
@@ -23,9 +24,12 @@ Position IK: t6 = ``yaw`` (it does not move the gripper centre), t1..t5 for the 
 two free parameters. For fixed (t1, t2) the rest is closed form: the shoulder point S(t1, t2), then
 l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is a planar 2R problem of the links l4
 and sqrt(l5^2 + l6^2) for (t4, t5). A vectorised grid over the (t1, t2) limit box gives exact
-candidates; a bounded Levenberg-Marquardt on the position (closed-form Jacobian) starts from q0 and
-from the grid points nearest to feasibility and makes the answer robust near the workspace boundary.
-The branch nearest to q0 among all exact, in-limit candidates is returned by the framework.
+candidates; a bounded Levenberg-Marquardt on the position (closed-form Jacobian) starts from q0 and,
+where the grid found nothing, from the grid points nearest to feasibility (robust near the workspace
+boundary). Positions outside a certified outer bound of the workspace are rejected at once; other
+unreachable ones after at most ``lm_iterations`` steps. The framework returns the candidate nearest
+to q0 among the exact, in-limit ones (the LM from q0 gives a nearby solution; grid ones are 0.25 rad
+apart), so "nearest" is among these candidates, not a global optimum over the solution surface.
 """
 
 from __future__ import annotations
@@ -394,6 +398,7 @@ class Golem3PositionIK(_Golem3Form):
     lm_starts = 3
     lm_iterations = 40
     lm_tolerance = 1e-11
+    damping_factor = 0.1
     chunk = 256
 
     def __init__(self, chain: Chain, yaw: float = 0.0):
@@ -485,7 +490,7 @@ class Golem3PositionIK(_Golem3Form):
         """Bounded Levenberg-Marquardt on the position, minimum-norm steps, from starts (B, S, 6)
         where ``use`` (B, S); returns (joints, converged).
 
-        Step: dq = J^T (J J^T + lambda I)^-1 r with lambda = |r|^2 + 1e-9 (quadratic near a regular
+        Step: dq = J^T (J J^T + lambda I)^-1 r, lambda = damping_factor |r|^2 + 1e-9 (quadratic near a regular
         solution, damped near singular ones); joints pushed against a limit are frozen for the step.
         A start stops when it converges, stalls (less than 1 % progress twice in a row) or after
         ``lm_iterations``.
@@ -511,7 +516,7 @@ class Golem3PositionIK(_Golem3Form):
             if not len(active):
                 break
             joints = q[active, :5]
-            damping = (norm * norm + 1e-9)[:, None, None] * np.eye(3)
+            damping = (self.damping_factor * norm * norm + 1e-9)[:, None, None] * np.eye(3)
             for _pass in range(2):
                 gram = jacobian @ np.swapaxes(jacobian, 1, 2) + damping
                 step = np.einsum("bji,bj->bi", jacobian, np.linalg.solve(gram, residual[..., None])[..., 0])
