@@ -131,6 +131,26 @@ def test_singular_poses_are_solved_thanks_to_the_clamp(right):
         assert result.success, (q, result.reason)
 
 
+def test_targets_of_joints_at_their_limits(right, left):
+    """Half the joints exactly at a limit (a robot resting on its stops): rounding puts the inverse a
+    few 1e-12 rad outside, which must not lose the solution."""
+    for solver, seed in ((right, 12), (left, 13)):
+        chain = solver.chain
+        rng = np.random.default_rng(seed)
+        joints = chain.random(rng, 1000)
+        at_limit = rng.random(joints.shape) < 0.5
+        joints = np.where(at_limit, np.where(rng.random(joints.shape) < 0.5, chain.lower, chain.upper),
+                          joints)
+        poses = [chain.fk(q) for q in joints]
+        batch = solver.solve_many(poses)
+        assert all(r.success for r in batch), [r.reason for r in batch if not r.success][:3]
+        for pose, together in list(zip(poses, batch, strict=True))[:200]:
+            np.testing.assert_allclose(solver.solve(pose).q, together.q, atol=1e-9)
+        assert branch_distance_to(solver, joints, poses).max() < 1e-6
+        positions = solver.solve_many([p.translation for p in poses])
+        assert all(r.success for r in positions)
+
+
 def test_position_only_1000(robot, right):
     chain = right.chain
     joints, poses = study(chain, 1000, seed=9)

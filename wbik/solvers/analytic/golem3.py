@@ -45,6 +45,9 @@ from wbik.solvers.analytic import ClosedForm
 
 CLAMP_TOLERANCE = 1e-9
 """Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
+LIMIT_SNAP = 1e-9
+"""Angles this close (rad, modulo 2 pi) outside a limit are set onto it: FK targets of joints at a
+limit come back a few 1e-12 rad outside, and the framework's wrap tolerance is 1e-12."""
 GIMBAL_LOCK = 1e-9
 """|cos(beta)| below which alpha (t6) is taken from q0: the Euler angles are coupled there."""
 LOCK_SWEEP = 7
@@ -58,6 +61,25 @@ WRIST_ANGLE = float(np.arctan2(L6, L5))
 def _wrap(angle: np.ndarray) -> np.ndarray:
     """Angles into [-pi, pi)."""
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def _snap_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """Angles within LIMIT_SNAP outside [lower, upper] (modulo 2 pi) set onto the limit."""
+    below = _wrap(q - lower)
+    above = _wrap(q - upper)
+    q = np.where((below < 0.0) & (below > -LIMIT_SNAP), lower, q)
+    return np.where((above > 0.0) & (above < LIMIT_SNAP), upper, q)
+
+
+def _snap_scalar(value: float, low: float, high: float) -> float:
+    """_snap_to_limits for one angle (same arithmetic)."""
+    below = (value - low + math.pi) % (2.0 * math.pi) - math.pi
+    if -LIMIT_SNAP < below < 0.0:
+        return low
+    above = (value - high + math.pi) % (2.0 * math.pi) - math.pi
+    if 0.0 < above < LIMIT_SNAP:
+        return high
+    return value
 
 
 def _clamped_cosine(value: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -279,6 +301,7 @@ class Golem3PoseIK(_Golem3Form):
         roll = np.clip(q0[:, 5], self.right_lower[5], self.right_upper[5])
         q_all, real = right_arm_pose_branches(self._mirror_positions(positions),
                                               self._mirror_rotations(rotations), roll, self.roll_sweep)
+        q_all = _snap_to_limits(q_all, self.right_lower, self.right_upper)
         return self._mirror_q(q_all), real
 
 
@@ -337,7 +360,9 @@ class Golem3PoseIK(_Golem3Form):
             elbow = math.acos(min(1.0, max(-1.0, cos2)))
             for t2 in (elbow, -elbow):
                 t1 = math.atan2(v, u) - math.atan2(L2 * math.sin(t2), L1 + L2 * math.cos(t2))
-                q = _wrap_scalar((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha), reference, lower, upper)
+                q = [_snap_scalar(v, low, high) for v, low, high in
+                     zip((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha), lower, upper, strict=True)]
+                q = _wrap_scalar(q, reference, lower, upper)
                 if q is None or _scalar_residual(q, target) > self.screen_tolerance:
                     continue
                 usable += 1
