@@ -6,6 +6,7 @@ The expected values are written here from golem3.md, independently of wbik's cod
 from __future__ import annotations
 
 import math
+from xml.etree import ElementTree
 
 import numpy as np
 import pinocchio as pin
@@ -58,6 +59,7 @@ def test_committed_urdf_is_the_generator_output():
 
 
 def test_urdf_file_loads_with_pinocchio_and_has_the_contract_names():
+    ElementTree.parse(URDF_DIR / "golem3.urdf")  # strict XML (e.g. no '--' inside comments)
     model = pin.buildModelFromUrdf(str(URDF_DIR / "golem3.urdf"))
     joints = set(model.names)
     expected = {"mb", "m0", "m1", "m2", "m10", "m11", "m12", "m13", "m14", "m15", "m17",
