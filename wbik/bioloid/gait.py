@@ -1,0 +1,327 @@
+"""The thesis's step forward: gait numbers (bioloid.md 4.4), key points and phases (5.1), and the
+sampled-motion record shared by the faithful and whole-body generators.
+
+Key points are the hip point of a leg relative to that leg's ankle point (the code's
+``linearTrajHip`` frame: x forward, y left, z up; negative x = foot ahead of the hip), in metres:
+
+==================  ====================  ===================  =====================
+name                right leg             left leg             code comment
+==================  ====================  ===================  =====================
+Standing            (xm, 0, zd)           (xm, 0, zd)          standing still
+Middle              (xm, ydIn, zd)        (xm, -ydOut, zd)     hips over the right foot
+UpMiddle            (xu, yu, zu)          (xu, -yu, zu)        foot lifted 40 mm
+DownForward         (xf, ydOut, zd)       (xf, -ydOut, zd)     foot down, 30 mm ahead
+DownBackward        (xb, 0, zd)           (xb, -ydOut, zd)     foot down, 30 mm behind
+==================  ====================  ===================  =====================
+
+The code's ``StepForwardL`` (5 phases, each ``linearTrajHip`` with pitch 20 deg and 5 divisions):
+
+1. R Standing -> MiddleRight, L Standing -> MiddleLeft (both feet down; 10 rpm, then 1 s);
+2. R stays, L MiddleLeft -> UpMiddleLeft (left foot lifted; 40 rpm);
+3. L UpMiddleLeft -> DownForwardLeft (left foot lands 30 mm ahead; then 10 rpm, 2 s);
+4. R MiddleRight -> DownBackwardRight, L DownForwardLeft -> Standing (both down; 2 s);
+5. R DownBackwardRight -> Standing, L stays (the rear foot is dragged, not lifted; 1 s).
+
+``StepForwardR`` is taken as the mirror image (y -> -y, legs swapped): the note details only L.
+Step length: the lifted foot lands |xf| = 30 mm ahead of the other foot and the rear foot is
+dragged the same 30 mm, so one step advances the robot 30 mm and a stride (L + R, each foot's
+successive placements) is 60 mm. Foot clearance zd - zu = 40 mm.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError
+
+SIDES = ("r", "l")
+SOLE = {"r": "r_sole", "l": "l_sole"}
+ANKLE = {"r": "r_ankle", "l": "l_ankle"}
+HIP = {"r": "r_hip", "l": "l_hip"}
+OTHER = {"r": "l", "l": "r"}
+RPM = 2.0 * math.pi / 60.0
+"""rad/s per rpm."""
+
+
+@dataclass(frozen=True)
+class GaitParameters:
+    """The code's gait constants (bioloid.md 4.4; metres, degrees, seconds, rpm)."""
+
+    xf: float = -0.030
+    xb: float = 0.030
+    xm: float = 0.000
+    xu: float = -0.020
+    yu: float = 0.030
+    yd_out: float = 0.033
+    yd_in: float = -0.018
+    zu: float = 0.100
+    zd: float = 0.140
+    hip_pitch_deg: float = 20.0
+    hip_roll_deg: float = 0.0
+    divisions: int = 5
+    division_delay_s: float = 0.100
+    servo_fast_rpm: float = 40.0
+    servo_slow_rpm: float = 10.0
+
+    def __post_init__(self) -> None:
+        if self.divisions < 1:
+            raise InvalidConfigurationError(f"divisions must be >= 1, got {self.divisions}")
+        if not self.zu < self.zd:
+            raise InvalidConfigurationError(
+                f"the lifted hip height zu ({self.zu}) must be below zd ({self.zd})")
+
+    @property
+    def pitch(self) -> float:
+        """Torso pitch (rad)."""
+        return math.radians(self.hip_pitch_deg)
+
+    @property
+    def roll(self) -> float:
+        return math.radians(self.hip_roll_deg)
+
+    @property
+    def lift_height(self) -> float:
+        """Foot clearance zd - zu (m): 0.040."""
+        return self.zd - self.zu
+
+    @property
+    def step_length(self) -> float:
+        """How far the lifted foot lands ahead of the other foot, and the rear foot is dragged (m)."""
+        return self.xm - self.xf
+
+    @property
+    def stride_length(self) -> float:
+        """A left step plus a right step: each foot advances twice the step length (m)."""
+        return 2.0 * self.step_length
+
+    def key_points(self) -> dict[str, np.ndarray]:
+        """The code's key points (bioloid.md 4.4) by the code's names (hip relative to ankle, m)."""
+        points = {
+            "legDownForwardRight": (self.xf, self.yd_out, self.zd),
+            "legDownBackwardRight": (self.xb, 0.0, self.zd),
+            "legDownForwardLeft": (self.xf, -self.yd_out, self.zd),
+            "legDownBackwardLeft": (self.xb, -self.yd_out, self.zd),
+            "legUpMiddleRight": (self.xu, self.yu, self.zu),
+            "legUpMiddleLeft": (self.xu, -self.yu, self.zu),
+            "legDownStanding": (self.xm, 0.0, self.zd),
+            "legDownMiddleRight": (self.xm, self.yd_in, self.zd),
+            "legDownMiddleLeft": (self.xm, -self.yd_out, self.zd),
+        }
+        return {name: np.array(value, dtype=float) for name, value in points.items()}
+
+
+@dataclass(frozen=True)
+class GaitPhase:
+    """One phase of a step: each leg's hip moves on a line between two key points (hip in ankle frame).
+
+    ``down``: soles on the ground; ``lifted``: the sole in the air (or None); ``dragged``: a sole
+    that slides on the ground (the code's phase 5); ``anchor``: the sole taken as fixed when the
+    faithful pose is placed in the world; ``speed_rpm`` and ``pause_s``: the code's servo speed
+    and the sleep after the phase.
+    """
+
+    name: str
+    start: dict[str, np.ndarray]
+    end: dict[str, np.ndarray]
+    labels: dict[str, tuple[str, str]]
+    down: tuple[str, ...]
+    lifted: str | None
+    dragged: str | None
+    anchor: str
+    speed_rpm: float
+    pause_s: float
+
+    def hip_point(self, side: str, fraction: float) -> np.ndarray:
+        """The code's linear interpolation p1 + (p2 - p1) * fraction of one leg's hip."""
+        return self.start[side] + (self.end[side] - self.start[side]) * fraction
+
+
+def _phase(name, right, left, down, lifted, dragged, anchor, speed, pause, points) -> GaitPhase:
+    return GaitPhase(name, {"r": points[right[0]], "l": points[left[0]]},
+                     {"r": points[right[1]], "l": points[left[1]]},
+                     {"r": (right[0], right[1]), "l": (left[0], left[1])},
+                     down, lifted, dragged, anchor, speed, pause)
+
+
+def step_forward_phases(gait: GaitParameters | None = None, first: str = "left") -> list[GaitPhase]:
+    """The 5 phases of StepForwardL (``first="left"``) or its mirror image StepForwardR."""
+    gait = gait or GaitParameters()
+    k = gait.key_points()
+    fast, slow = gait.servo_fast_rpm, gait.servo_slow_rpm
+    phases = [
+        _phase("shift the hips over the right foot", ("legDownStanding", "legDownMiddleRight"),
+               ("legDownStanding", "legDownMiddleLeft"), ("r", "l"), None, None, "r", slow, 1.0, k),
+        _phase("lift the left foot", ("legDownMiddleRight", "legDownMiddleRight"),
+               ("legDownMiddleLeft", "legUpMiddleLeft"), ("r",), "l", None, "r", fast, 0.0, k),
+        _phase("lower the left foot ahead", ("legDownMiddleRight", "legDownMiddleRight"),
+               ("legUpMiddleLeft", "legDownForwardLeft"), ("r",), "l", None, "r", fast, 2.0, k),
+        _phase("move the hips over the front foot", ("legDownMiddleRight", "legDownBackwardRight"),
+               ("legDownForwardLeft", "legDownStanding"), ("r", "l"), None, None, "r", slow, 2.0, k),
+        _phase("drag the rear foot forward", ("legDownBackwardRight", "legDownStanding"),
+               ("legDownStanding", "legDownStanding"), ("r", "l"), None, "r", "l", slow, 1.0, k),
+    ]
+    key = str(first).lower()
+    if key in ("left", "l"):
+        return phases
+    if key in ("right", "r"):
+        return [mirror_phase(phase) for phase in phases]
+    raise InvalidConfigurationError(f"first must be 'left' or 'right', got {first!r}")
+
+
+MIRROR_Y = np.array([1.0, -1.0, 1.0])
+
+
+def mirror_phase(phase: GaitPhase) -> GaitPhase:
+    """The mirror image (y -> -y) of a phase: legs swapped, lateral coordinates negated."""
+    def swap(side: str | None) -> str | None:
+        return None if side is None else OTHER[side]
+
+    def swap_name(name: str) -> str:
+        return name.replace("Right", "@").replace("Left", "Right").replace("@", "Left") + " (mirrored)"
+
+    return GaitPhase(
+        phase.name.replace("right", "@").replace("left", "right").replace("@", "left"),
+        {OTHER[s]: p * MIRROR_Y for s, p in phase.start.items()},
+        {OTHER[s]: p * MIRROR_Y for s, p in phase.end.items()},
+        {OTHER[s]: (swap_name(a), swap_name(b)) for s, (a, b) in phase.labels.items()},
+        tuple(OTHER[s] for s in phase.down), swap(phase.lifted), swap(phase.dragged), OTHER[phase.anchor],
+        phase.speed_rpm, phase.pause_s)
+
+
+@dataclass
+class SampledMotion:
+    """Whole-body configurations at the samples of a behaviour (the phase divisions).
+
+    ``q[k]`` is the full configuration (free-flyer base + 18 joints) at sample k (sample 0 is the
+    start), ``phase[k]`` the index into ``phase_names`` (-1 for the start) and ``support[k]`` the
+    soles on the ground at sample k.
+    """
+
+    name: str
+    robot: object
+    q: np.ndarray
+    phase: np.ndarray
+    phase_names: list[str]
+    support: list[tuple[str, ...]]
+    info: dict = field(default_factory=dict)
+
+    @property
+    def joint_names(self) -> list[str]:
+        model = self.robot.model
+        return [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+
+    def joint_matrix(self) -> np.ndarray:
+        """(K, 18) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
+        model = self.robot.model
+        index = [model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        return self.q[:, index]
+
+    def phase_end_samples(self) -> list[int]:
+        """Index of the last sample of every phase."""
+        ends = [k for k in range(1, len(self.phase)) if k + 1 == len(self.phase)
+                or self.phase[k + 1] != self.phase[k]]
+        return ends
+
+
+class JointSet:
+    """The 18 servo joints of a robot seen as one "chain" for :func:`wbik.motion.time_scale`
+    (which reads only ``nq``, ``velocity_limit`` and ``joint_names``)."""
+
+    def __init__(self, robot, velocity_limit: np.ndarray):
+        model = robot.model
+        self.robot = robot
+        self.name = "servos"
+        self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        self.nq = len(self.joint_names)
+        self.velocity_limit = np.broadcast_to(np.asarray(velocity_limit, dtype=float), (self.nq,)).copy()
+
+
+@dataclass
+class TimedMotion:
+    """A sampled motion with a timing of its servo joints (the floating base is not commanded)."""
+
+    motion: SampledMotion
+    timed: object  # wbik.motion.TimedPath
+    velocity_limit: np.ndarray
+
+    @property
+    def duration(self) -> float:
+        return float(self.timed.duration)
+
+    @property
+    def sample_times(self) -> np.ndarray:
+        """Time at which each sample (knot) is reached."""
+        return np.asarray(self.timed.knot_times, dtype=float)
+
+    def evaluate(self, times) -> tuple[np.ndarray, np.ndarray]:
+        """(joint angles, joint velocities) at the given times, each (len(times), 18)."""
+        q, velocity, _ = self.timed.evaluate(np.asarray(times, dtype=float))
+        return q, velocity
+
+    def peak_velocity_ratio(self, step: float = 1e-3) -> float:
+        """max_t max_j |dq_j/dt| / limit_j on a dense time grid (<= 1 when the limits hold)."""
+        times = np.append(np.arange(0.0, self.duration, step), self.duration)
+        _, velocity = self.evaluate(times)
+        return float(np.max(np.abs(velocity) / self.velocity_limit))
+
+    def servo_table(self, dt: float = 0.02) -> dict:
+        """Servo goal positions (AX-12 units, IDs 1..18) every ``dt`` seconds, with clamping notes."""
+        from wbik.bioloid.servo import to_servo
+
+        if not dt > 0:
+            raise InvalidConfigurationError(f"dt must be positive, got {dt}")
+        times = np.unique(np.append(np.arange(0.0, self.duration, dt), self.duration))
+        q, _ = self.evaluate(times)
+        names = self.motion.joint_names
+        rows, clamped = [], {}
+        for time, angles in zip(times, q, strict=True):
+            command = to_servo(dict(zip(names, angles, strict=True)))
+            rows.append([command.units[servo_id] for servo_id in range(1, 19)])
+            for joint, (requested, applied) in command.clamped.items():
+                clamped.setdefault(joint, []).append((float(time), requested, applied))
+        return {"times_s": times, "ids": list(range(1, 19)), "units": np.array(rows, dtype=int),
+                "clamped": clamped}
+
+    def write_servo_csv(self, path, dt: float = 0.02) -> Path:
+        """CSV: ``time_s, id_1 .. id_18`` (AX-12 units), one row per time step."""
+        table = self.servo_table(dt)
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("w", newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(["time_s", *[f"id_{i}" for i in table["ids"]]])
+            for time, row in zip(table["times_s"], table["units"], strict=True):
+                writer.writerow([f"{time:.4f}", *[int(v) for v in row]])
+        return path
+
+
+def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law: str = "quintic",
+                      mode: str = "waypoint") -> TimedMotion:
+    """Minimum-duration timing of the servo joints through every sample under a speed limit.
+
+    ``speed_rpm``: one limit for every servo (the code's 40 rpm by default; None = the URDF's
+    AX-12 no-load 114 rpm). ``mode="waypoint"`` stops at the end of every phase (as the code does
+    between its phases); the samples inside a phase are passed without stopping (a cubic spline).
+    """
+    from wbik.motion.path import JointPath
+    from wbik.motion.timing import time_scale
+
+    joints = motion.joint_matrix()
+    model = motion.robot.model
+    if speed_rpm is None:
+        index = [model.joints[j].idx_v for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        limit = model.velocityLimit[index]
+    else:
+        if not speed_rpm > 0:
+            raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
+        limit = np.full(joints.shape[1], speed_rpm * RPM)
+    steps = np.linalg.norm(np.diff(joints, axis=0), axis=1)
+    steps = np.maximum(steps, 1e-9)  # a sample that does not move still gets its own parameter value
+    s = np.r_[0.0, np.cumsum(steps)] / np.sum(steps)
+    path = JointPath(JointSet(motion.robot, limit), s, joints, waypoint_knots=motion.phase_end_samples())
+    return TimedMotion(motion, time_scale(path, law, velocity_limit=limit, mode=mode), limit)

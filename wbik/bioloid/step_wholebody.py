@@ -1,0 +1,380 @@
+"""(b) The thesis's step forward as whole-body IK on the QP layer (wbik.qp), one QP solve per sample.
+
+Same phases, key points and 5 divisions as the faithful version (:mod:`wbik.bioloid.step_faithful`),
+but every sample is one configuration of the whole robot (free-flyer base + 18 joints) solved with:
+
+hard (every sample, verified afterwards by FK)
+    - each sole on the ground is a Contact held at its planted pose (6 rows, to 1e-6 m / rad);
+    - a lifted or dragged sole follows its path exactly (a Contact at the path's pose);
+    - the CoM ground projection stays inside the support polygon of the soles on the ground
+      shrunk by ``margin``; at the last sample of a double-support phase that hands over to a
+      single-support one the polygon is already the next stance sole;
+    - joint position limits; the arms are held at their rest angles (as the code does).
+soft (least squares, weights below)
+    - each hip point of a leg on the ground toward its key point (hip relative to that ankle);
+    - the pelvis orientation: pitch 20 deg (and the yaw of the feet);
+    - in a double-support phase that hands over, the CoM toward the next stance sole's centre;
+    - a small posture term toward the nominal (keeps the hip yaw and the redundancy tame).
+
+The swing paths reuse the key points' sagittal numbers with the lateral spacing of the feet kept:
+lifted zd - zu = 40 mm and xm - xu = 20 mm ahead at the top of phase 2, landed xm - xf = 30 mm
+ahead of the stance foot in phase 3; in phase 5 the rear foot comes beside the front foot
+(dragged on the floor as in the code, or lifted by ``rear_lift``).
+
+The generic engine (:func:`solve_phases` over :class:`BodyPhase`) also drives the turn and walk
+behaviours (:mod:`wbik.bioloid.behaviours`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.errors import InvalidConfigurationError
+from wbik.models.bioloid import ARM_JOINTS
+from wbik.qp.constraints import CoMInSupportPolygon, Contact, JointPositionLimits, LockedJoints
+from wbik.qp.problem import IKProblem
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
+from wbik.robot import Robot
+
+CONTACT_TOLERANCE = 1e-6
+"""Contacts and swing paths must hold to this (m, rad) at every sample."""
+HIP_WEIGHT = 1.0
+PELVIS_ORIENTATION_WEIGHT = 0.02
+COM_WEIGHT = 10.0
+POSTURE_WEIGHT = 1e-4
+REPAIR_INSET = 0.0005
+"""A sample that ends with the CoM outside is repaired toward a point this far inside the margin (m)."""
+
+Path = Callable[[float], pin.SE3]
+Point = Callable[[float], np.ndarray]
+
+
+@dataclass
+class BodyPhase:
+    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1.
+
+    ``stance``: sole -> planted world pose (held fixed); ``swing``: sole -> path s -> world pose
+    (followed exactly); ``hips``: hip frame -> s -> world target (soft); ``pelvis_rotation``: s ->
+    world rotation of the pelvis (soft); ``com``: s -> CoM xy target (soft) or None; ``end_support``:
+    soles whose polygon holds the CoM at the last sample (default: the stance soles); ``on_ground``:
+    soles counted as support for the polygon (default: the stance soles).
+    """
+
+    name: str
+    stance: dict[str, pin.SE3]
+    swing: dict[str, Path] = field(default_factory=dict)
+    hips: dict[str, Point] = field(default_factory=dict)
+    pelvis_rotation: Callable[[float], np.ndarray] | None = None
+    com: Point | None = None
+    end_support: tuple[str, ...] | None = None
+    divisions: int = 5
+    speed_rpm: float = 40.0
+    pause_s: float = 0.0
+
+
+def sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon:
+    """Support polygon of the given soles at the given world poses (their corners on the ground)."""
+    points = []
+    for sole, placement in placements.items():
+        corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+        points.append((corners @ placement.rotation.T + placement.translation)[:, :2])
+    return SupportPolygon(np.vstack(points))
+
+
+def ankle_height(robot: Robot) -> float:
+    return float(robot.info["assumptions"]["ankle_height"])
+
+
+def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> np.ndarray:
+    """World position of a hip given its key point (hip relative to the ankle, in the foot's axes)."""
+    ankle = sole_placement.translation + sole_placement.rotation @ np.array([0.0, 0.0, ankle_height(robot)])
+    return ankle + sole_placement.rotation @ key_point
+
+
+def yaw_of(rotation: np.ndarray) -> float:
+    return float(math.atan2(rotation[1, 0], rotation[0, 0]))
+
+
+def pelvis_rotation(yaw: float, pitch: float) -> np.ndarray:
+    """Pelvis orientation: yaw about the world z, then the torso pitch about the turned y axis."""
+    return pin.utils.rotate("z", yaw) @ pin.utils.rotate("y", pitch)
+
+
+def line(start: np.ndarray, end: np.ndarray) -> Point:
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    return lambda s: start + (end - start) * s
+
+
+def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0, via: pin.SE3 | None = None) -> Path:
+    """A swing path from ``start`` to ``end``: straight lines through ``via`` (the code's two phases)
+    or one line plus a vertical bump ``lift * sin(pi s)``; the yaw turns linearly, the sole stays flat."""
+    def pose(a: pin.SE3, b: pin.SE3, s: float) -> pin.SE3:
+        yaw = yaw_of(a.rotation) + s * _wrap(yaw_of(b.rotation) - yaw_of(a.rotation))
+        position = a.translation + s * (b.translation - a.translation)
+        return pin.SE3(pin.utils.rotate("z", yaw), position)
+
+    if via is not None:
+        return lambda s: pose(start, via, 2 * s) if s <= 0.5 else pose(via, end, 2 * s - 1)
+
+    def bumped(s: float) -> pin.SE3:
+        placement = pose(start, end, s)
+        placement.translation = placement.translation + np.array([0.0, 0.0, lift * math.sin(math.pi * s)])
+        return placement
+
+    return bumped
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+@dataclass
+class WholeBodyMotion:
+    """The solved samples with their FK checks (one dict per sample after the start)."""
+
+    motion: SampledMotion
+    checks: list[dict]
+    margin: float
+    phases: list[BodyPhase]
+
+    @property
+    def passed(self) -> bool:
+        return all(c["contacts_ok"] and c["balance_ok"] and c["limits_ok"] for c in self.checks)
+
+    def summary(self) -> dict:
+        checks = self.checks
+        return {
+            "samples": len(checks), "passed": self.passed, "margin_mm": 1e3 * self.margin,
+            "max_contact_error_m": max(c["contact_error_m"] for c in checks),
+            "max_contact_error_rad": max(c["contact_error_rad"] for c in checks),
+            "min_com_margin_mm": 1e3 * min(c["com_margin_m"] for c in checks),
+            "max_limit_excess_rad": max(c["limit_excess_rad"] for c in checks),
+            "max_hip_error_mm": 1e3 * max(c["hip_error_m"] for c in checks),
+            "max_pelvis_orientation_error_deg": max(c["pelvis_error_deg"] for c in checks),
+            "solve_time_s": sum(c["time_s"] for c in checks),
+        }
+
+
+def arm_joints() -> list[str]:
+    return [f"{side}_{name}" for side in SIDES for name in ARM_JOINTS]
+
+
+def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon: SupportPolygon,
+                  margin: float) -> dict:
+    """Independent FK check of one sample: held soles, CoM margin, joint limits."""
+    position_error, rotation_error = 0.0, 0.0
+    for sole, wanted in held.items():
+        reached = robot.frame_placement(q, sole)
+        position_error = max(position_error, float(np.linalg.norm(reached.translation - wanted.translation)))
+        angle = float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation)))
+        rotation_error = max(rotation_error, angle)
+    com_margin = polygon.margin_of(robot.center_of_mass(q)[:2])
+    model = robot.model
+    index = [model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    joints = q[index]
+    excess = float(max(np.max(model.lowerPositionLimit[index] - joints),
+                       np.max(joints - model.upperPositionLimit[index]), 0.0))
+    return {"contact_error_m": position_error, "contact_error_rad": rotation_error,
+            "contacts_ok": position_error <= CONTACT_TOLERANCE and rotation_error <= CONTACT_TOLERANCE,
+            "com_margin_m": com_margin, "balance_ok": com_margin >= margin - 1e-9,
+            "limit_excess_rad": excess, "limits_ok": excess <= 1e-9}
+
+
+def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], margin: float = 0.005,
+                 backend: str = "daqp", name: str = "behaviour", max_iterations: int = 60, retries: int = 3,
+                 on_sample: Callable[[int, dict], None] | None = None) -> WholeBodyMotion:
+    """Solve every sample of every phase from the previous sample's answer and verify it by FK."""
+    if margin < 0:
+        raise InvalidConfigurationError(f"the CoM margin must be >= 0, got {margin}")
+    q = np.asarray(q0, dtype=float).copy()
+    configurations, phase_of, support = [q.copy()], [-1], [tuple(phases[0].stance) if phases else ()]
+    checks: list[dict] = []
+    locked = arm_joints()
+    for index, phase in enumerate(phases):
+        if isinstance(phase.com, ComRamp) and phase.com.start is None:
+            phase.com.bind(robot.center_of_mass(q)[:2])
+        polygon = sole_polygon(robot, phase.stance)
+        end_polygon = polygon if phase.end_support is None else sole_polygon(
+            robot, {sole: phase.stance[sole] for sole in phase.end_support})
+        for division in range(1, phase.divisions + 1):
+            s = division / phase.divisions
+            active = end_polygon if division == phase.divisions else polygon
+            held = dict(phase.stance)
+            held.update({sole: path(s) for sole, path in phase.swing.items()})
+            constraints = [Contact(sole, placement) for sole, placement in held.items()]
+            constraints += [CoMInSupportPolygon(active, margin), JointPositionLimits(robot.model),
+                            LockedJoints(robot.model, locked)]
+            tasks = [PositionTask(frame, target(s), weight=HIP_WEIGHT, tolerance=1e-12, name=f"hip {frame}")
+                     for frame, target in phase.hips.items()]
+            if phase.pelvis_rotation is not None:
+                tasks.append(OrientationTask("pelvis", phase.pelvis_rotation(s),
+                                             weight=PELVIS_ORIENTATION_WEIGHT,
+                                             tolerance=1e-12, name="pelvis orientation"))
+            if phase.com is not None:
+                target = np.r_[phase.com(s), 0.0]
+                tasks.append(ComTask(target, axes="xy", weight=COM_WEIGHT, tolerance=1e-12, name="com"))
+            tasks += [PostureTask(robot.nominal, weight=POSTURE_WEIGHT), RegularizationTask(1e-8)]
+            problem = IKProblem(robot.model, tasks, constraints, backend=backend, max_step=0.1, progress=1e-6)
+            solution = problem.solve(q, max_iterations=max_iterations)
+            check = verify_sample(robot, solution.q, held, active, margin)
+            for _ in range(retries):
+                if check["contacts_ok"] and check["balance_ok"] and check["limits_ok"]:
+                    break
+                # the IK loop keeps a step only if the task cost does not rise, so it cannot pay for
+                # pulling the CoM back inside: do that first with the CoM as the only goal, then
+                # solve again from the feasible point (the loop then stays feasible)
+                inside = nearest_inside(active, robot.center_of_mass(solution.q)[:2], margin + REPAIR_INSET)
+                repair = IKProblem(robot.model, [ComTask(np.r_[inside, 0.0], axes="xy", tolerance=1e-7,
+                                                         name="com repair"), RegularizationTask(1e-8)],
+                                   constraints, backend=backend, max_step=0.1)
+                repaired = repair.solve(solution.q, max_iterations=max_iterations)
+                solution = problem.solve(repaired.q, max_iterations=max_iterations)
+                check = verify_sample(robot, solution.q, held, active, margin)
+            q = solution.q.copy()
+            errors = solution.task_errors
+            check.update({
+                "phase": index, "division": division, "qp_feasible": solution.feasible,
+                "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
+                "hip_error_m": max((errors[f"hip {f}"] for f in phase.hips), default=0.0),
+                "pelvis_error_deg": math.degrees(errors.get("pelvis orientation", 0.0)),
+                "support": sorted(phase.stance)})
+            checks.append(check)
+            if on_sample is not None:
+                on_sample(len(checks), check)
+            configurations.append(q.copy())
+            phase_of.append(index)
+            support.append(tuple(sorted(phase.stance)))
+    motion = SampledMotion(name, robot, np.array(configurations), np.array(phase_of),
+                           [p.name for p in phases], support,
+                           {"generator": "whole-body QP", "margin": margin})
+    return WholeBodyMotion(motion, checks, margin, list(phases))
+
+
+def current_soles(robot: Robot, q: np.ndarray) -> dict[str, pin.SE3]:
+    return {side: robot.frame_placement(q, SOLE[side]) for side in SIDES}
+
+
+def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | None = None,
+                first: str = "left", rear_lift: float = 0.0,
+                ramp_inset: float = 0.008) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """The 5 phases of one step forward starting with the ``first`` foot, from the planted soles
+    ``soles`` ({"r": SE3, "l": SE3}); returns the phases and the soles planted after the step."""
+    gait = gait or GaitParameters()
+    swing_side = "l" if str(first).lower() in ("left", "l") else "r"
+    stance_side = OTHER[swing_side]
+    key = gait.key_points()
+    mirror = np.array([1.0, -1.0, 1.0]) if swing_side == "r" else np.ones(3)
+    # key points of the left step ("Right" = the stance leg, "Left" = the swing leg); the right
+    # step uses their mirror image (y -> -y, legs swapped)
+    kp = {name: point * mirror for name, point in key.items()}
+
+    stance0, swing0 = soles[stance_side], soles[swing_side]
+    heading = yaw_of(stance0.rotation)
+    pitch = gait.pitch
+    rotation = lambda s: pelvis_rotation(heading, pitch)  # noqa: E731
+    forward = stance0.rotation[:, 0]
+    lift = gait.lift_height
+    up = pin.SE3(swing0.rotation, swing0.translation + forward * (gait.xm - gait.xu) + np.array([0, 0, lift]))
+    # land |xf| ahead of the stance foot, keeping the feet's lateral spacing
+    ahead = float(forward @ (stance0.translation - swing0.translation)) + (gait.xm - gait.xf)
+    landed = pin.SE3(swing0.rotation, swing0.translation + forward * ahead)
+    beside = float(forward @ (landed.translation - stance0.translation))
+    rear_end = pin.SE3(stance0.rotation, stance0.translation + forward * beside)
+
+    def hips(side_points: dict[str, tuple[str, str]], stance: dict[str, pin.SE3]) -> dict[str, Point]:
+        targets = {}
+        for side, (a, b) in side_points.items():
+            sole = stance[SOLE[side]]
+            targets[HIP[side]] = line(hip_target(robot, sole, kp[a]), hip_target(robot, sole, kp[b]))
+        return targets
+
+    both = {SOLE[stance_side]: stance0, SOLE[swing_side]: swing0}
+    names = {"r": "right", "l": "left"}
+    sw, st = names[swing_side], names[stance_side]
+    slow, fast = gait.servo_slow_rpm, gait.servo_fast_rpm
+    n = gait.divisions
+    phases = [
+        BodyPhase(f"shift the hips over the {st} foot", dict(both),
+                  hips=hips({stance_side: ("legDownStanding", "legDownMiddleRight"),
+                             swing_side: ("legDownStanding", "legDownMiddleLeft")}, both),
+                  pelvis_rotation=rotation,
+                  com=ComRamp(sole_polygon(robot, {SOLE[stance_side]: stance0}), ramp_inset),
+                  end_support=(SOLE[stance_side],), divisions=n, speed_rpm=slow, pause_s=1.0),
+        BodyPhase(f"lift the {sw} foot", {SOLE[stance_side]: stance0},
+                  swing={SOLE[swing_side]: sole_path(swing0, up)},
+                  hips=hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both),
+                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast),
+        BodyPhase(f"lower the {sw} foot ahead", {SOLE[stance_side]: stance0},
+                  swing={SOLE[swing_side]: sole_path(up, landed)},
+                  hips=hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both),
+                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast, pause_s=2.0),
+    ]
+    after_landing = {SOLE[stance_side]: stance0, SOLE[swing_side]: landed}
+    phases.append(BodyPhase(
+        f"move the hips over the front ({sw}) foot", dict(after_landing),
+        hips=hips({stance_side: ("legDownMiddleRight", "legDownBackwardRight"),
+                   swing_side: ("legDownForwardLeft", "legDownStanding")}, after_landing),
+        pelvis_rotation=rotation, com=ComRamp(sole_polygon(robot, {SOLE[swing_side]: landed}), ramp_inset),
+        end_support=(SOLE[swing_side],),
+        divisions=n, speed_rpm=slow, pause_s=2.0))
+    phases.append(BodyPhase(
+        f"bring the rear ({st}) foot beside the front one", {SOLE[swing_side]: landed},
+        swing={SOLE[stance_side]: sole_path(stance0, rear_end, lift=rear_lift)},
+        hips=hips({swing_side: ("legDownStanding", "legDownStanding")}, after_landing),
+        pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0))
+    return phases, {stance_side: rear_end, swing_side: landed}
+
+
+def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) -> np.ndarray:
+    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y): a 2-variable QP."""
+    from wbik.qp import backends
+
+    normals, offsets = polygon.halfplanes(margin)
+    point = np.asarray(point, dtype=float)[:2]
+    if np.all(normals @ point <= offsets):
+        return point.copy()
+    found = backends.solve("daqp", np.eye(2), -point, normals, offsets, None, None, None, None)
+    if found is None:
+        raise InvalidConfigurationError(f"the support polygon shrunk by {margin} m is empty")
+    return np.asarray(found, dtype=float)
+
+
+class ComRamp:
+    """CoM target s -> start + s (goal - start): ``start`` is the CoM when the phase begins and
+    ``goal`` the nearest point of ``polygon`` shrunk by ``inset`` (or ``goal`` if given).
+
+    The engine binds ``start`` (and the goal) from the configuration at the phase start.
+    """
+
+    def __init__(self, polygon: SupportPolygon | None = None, inset: float = 0.0,
+                 goal: np.ndarray | None = None):
+        self.polygon = polygon
+        self.inset = float(inset)
+        self.goal = None if goal is None else np.asarray(goal, dtype=float)[:2]
+        self.start: np.ndarray | None = None
+
+    def bind(self, com_xy: np.ndarray) -> None:
+        self.start = np.asarray(com_xy, dtype=float)[:2].copy()
+        if self.goal is None:
+            self.goal = nearest_inside(self.polygon, self.start, self.inset)
+
+    def __call__(self, s: float) -> np.ndarray:
+        if self.start is None or self.goal is None:
+            raise InvalidConfigurationError("ComRamp used before the engine bound its start")
+        return self.start + s * (self.goal - self.start)
+
+
+def step_forward_wholebody(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
+                           margin: float = 0.005, q0: np.ndarray | None = None, rear_lift: float = 0.0,
+                           backend: str = "daqp") -> WholeBodyMotion:
+    """One step forward (``first`` foot lifted first) solved sample by sample by the QP layer."""
+    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    phases, _ = step_phases(robot, current_soles(robot, q), gait, first, rear_lift)
+    return solve_phases(robot, q, phases, margin, backend, name=f"step_forward_{first}_wholebody")
