@@ -162,6 +162,26 @@ def test_a_different_study_in_the_same_folder_is_refused(serial_run, tmp_path):
     assert main(["study", str(study_file), "-o", str(serial_run), "--no-progress"]) == 2
 
 
+def test_adding_a_method_reuses_the_chunks_of_the_others(tmp_path):
+    study_file = _write(tmp_path, STUDY.replace("poses: 200", "poses: 60"))
+    output = tmp_path / "out"
+    assert main(["study", str(study_file), "-o", str(output), "--methods", "analytic", "--no-progress",
+                 "--backend", "sequential"]) == 0
+    chunk = output / "ur5_arm_pose" / "chunks" / "analytic" / "chunk_00000.npz"
+    stamp = chunk.stat().st_mtime_ns
+    assert main(["study", str(study_file), "-o", str(output), "--no-progress",
+                 "--backend", "sequential"]) == 0
+    assert chunk.stat().st_mtime_ns == stamp
+    assert set(read_raw_csv(output / "ur5_arm_pose" / "raw.csv")) == {"analytic", "dls", "kdl"}
+    changed = _write(tmp_path, STUDY.replace("poses: 200", "poses: 60").replace("max_iterations: 60",
+                                                                                "max_iterations: 5"))
+    dls_chunk = output / "ur5_arm_pose" / "chunks" / "dls" / "chunk_00000.npz"
+    dls_stamp = dls_chunk.stat().st_mtime_ns
+    assert main(["study", str(changed), "-o", str(output), "--no-progress", "--backend", "sequential"]) == 0
+    assert chunk.stat().st_mtime_ns == stamp and dls_chunk.stat().st_mtime_ns != dls_stamp
+    assert read_raw_csv(output / "ur5_arm_pose" / "raw.csv")["dls"]["iterations"].max() <= 5
+
+
 # -- resume after a kill -------------------------------------------------------------------------
 class SlowDLS(DampedLeastSquares):
     """DLS that sleeps 20 ms per pose, so a run can be killed half-way."""

@@ -124,17 +124,21 @@ class Study:
         return data
 
     def fingerprint(self) -> str:
-        """Hash of everything that changes the results (descriptions, notes and thesis text aside)."""
+        """Hash of what every method's results depend on: cases, poses, seed, start, chunking and
+        tolerances (not the methods, descriptions, notes or thesis figures)."""
         data = self.as_dict()
-        for key in ("description", "notes"):
+        for key in ("description", "notes", "methods", "baseline", "timeout_s"):
             data.pop(key)
         for case in data["cases"]:
             case.pop("thesis")
-            case.pop("angle_names")
-        for method in data["methods"]:
-            method.pop("note")
-        text = json.dumps(data, sort_keys=True, default=str)
-        return hashlib.sha256(text.encode()).hexdigest()[:16]
+        return _digest(data)
+
+    def method_fingerprint(self, method: MethodSpec) -> str:
+        """Hash of what one method's results depend on: the study's fingerprint and the method's spec."""
+        data = asdict(method)
+        data.pop("note")
+        data["timeout_s"] = self.timeout_of(method)
+        return _digest({"study": self.fingerprint(), "method": data})
 
     def with_overrides(self, *, poses: int | None = None, methods: list[str] | None = None,
                        robot: str | None = None, chain: str | None = None,
@@ -174,6 +178,10 @@ class Study:
         if name is not None:
             study = replace(study, name=_label(name, "--name", "command line"))
         return study
+
+
+def _digest(data) -> str:
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
 # -- parsing -----------------------------------------------------------------------------------

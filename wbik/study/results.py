@@ -5,6 +5,7 @@ Layout of an output folder (default ``runs/<study name>/``)::
     study.json                         the definition that was run, with its fingerprint
     <case>/poses.npz                   q_true, positions, rotations (pose targets), q0
     <case>/chunks/<method>/chunk_00012.npz   raw rows of poses [12 * chunk_size, 13 * chunk_size)
+    <case>/chunks/<method>/method.json       the method's definition those chunks were computed with
     <case>/not_applicable.json         {method label: why it does not apply}
     <case>/raw.csv                     every row of every method, merged (written at the end)
     <case>/summary.csv, significance.csv, figures/*.png

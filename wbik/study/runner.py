@@ -5,7 +5,8 @@ with a seed derived from (study seed, case, method, chunk), so a task's answer d
 which worker runs it or in which order: serial, parallel and Dask runs agree (time-bounded methods
 aside, whose budget depends on the machine's load). Workers return the rows; the main process
 writes each chunk atomically as it arrives (see :mod:`wbik.study.results`), so an interrupted run
-loses only the chunks in flight and a new run computes only the missing ones.
+loses only the chunks in flight and a new run computes only the missing ones. Adding or changing a
+method in the study file recomputes that method only (each method's folder records its definition).
 
 A method that does not apply (UnsupportedError, MissingDependencyError, or its module not written
 yet) is probed once per case in the main process and recorded as "not applicable" with the message.
@@ -171,9 +172,10 @@ def prepare_output(study: Study, output: Path, fresh: bool) -> None:
     if previous is not None and previous.get("fingerprint") != study.fingerprint():
         if not fresh:
             raise StudyDefinitionError(
-                f"{output} holds results of a different study definition (fingerprint "
-                f"{previous.get('fingerprint')} != {study.fingerprint()}); pass --fresh to delete them, "
-                "or --output to write elsewhere")
+                f"{output} holds results of a study with other cases, poses, seed, start, chunk size or "
+                f"tolerances (fingerprint {previous.get('fingerprint')} != {study.fingerprint()}); pass "
+                "--fresh to delete them, or --output to write elsewhere. (Adding, removing or changing "
+                "methods is fine: only the changed methods are recomputed.)")
     if fresh and output.exists():
         shutil.rmtree(output)
     output.mkdir(parents=True, exist_ok=True)
@@ -242,6 +244,7 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
         not_applicable: dict[str, str] = {}
         applicable = []
         for method in study.methods:
+            _forget_if_changed(study, case, method, output, log)
             reason = probe(study, case, method, poses)
             if reason is None:
                 applicable.append(method)
@@ -259,6 +262,19 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
                 else:
                     tasks.append(_task(study, case, method, poses, chunk, start, stop))
     return tasks, done_rows, total_rows
+
+
+def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output: Path, log) -> None:
+    """Delete a method's chunks computed under another definition of that method; record the current."""
+    folder = store.case_dir(output, case.name) / "chunks" / method.label
+    record = folder / "method.json"
+    fingerprint = study.method_fingerprint(method)
+    previous = store.read_json(record)
+    if previous is not None and previous.get("fingerprint") != fingerprint:
+        log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
+        shutil.rmtree(folder)
+    store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
+                              "timeout_s": study.timeout_of(method)})
 
 
 # -- running -----------------------------------------------------------------------------------
