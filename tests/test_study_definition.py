@@ -44,6 +44,9 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
     ({"methods": [{"method": "dls", "options": {"timeout_s": 1}}]}, "options.timeout_s is set by the study"),
     ({"name": "a b"}, "name must be a name of letters"),
     ({"methods": [{"method": "dls", "per_pose": "yes"}]}, "per_pose must be true or false"),
+    ({"thesis": {"significance": {"dls": {"x": "zero"}}}}, "significance maps method labels"),
+    ({"thesis": {"reference": {"kdl": {"percent_solved": 72.5}}}}, "name method 'kdl'"),
+    ({"thesis": {"reference": {"dls": {"speed": 1}}}}, "unknown metrics ['speed']"),
 ])
 def test_mistakes_raise_clear_errors(change, words):
     with pytest.raises(StudyDefinitionError) as caught:

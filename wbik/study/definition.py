@@ -236,9 +236,9 @@ def study_from_dict(data, source: str = "study") -> Study:
         raise StudyDefinitionError(f"{source}: baseline {baseline!r} is not one of the method labels "
                                    f"{', '.join(m.label for m in methods)}")
     for case in cases:
-        for label in case.thesis.get("reference", {}):
+        for label in [*case.thesis.get("reference", {}), *case.thesis.get("significance", {})]:
             if label not in {m.label for m in methods}:
-                raise StudyDefinitionError(f"{source}: case {case.name!r}: thesis.reference names method "
+                raise StudyDefinitionError(f"{source}: case {case.name!r}: the thesis figures name method "
                                            f"{label!r}, which is not a method label of the study")
     return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
                  timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
@@ -356,7 +356,7 @@ def _thesis(raw, source: str, where: str) -> dict:
         return {}
     if not isinstance(raw, dict):
         raise StudyDefinitionError(f"{source}: {where} must be a mapping {{source, reference, notes}}")
-    _no_unknown(raw, {"source", "reference", "notes"}, source, where)
+    _no_unknown(raw, {"source", "reference", "significance", "notes"}, source, where)
     reference = raw.get("reference", {}) or {}
     if not isinstance(reference, dict):
         raise StudyDefinitionError(f"{source}: {where}.reference maps method labels to {{metric: value}}")
@@ -370,9 +370,17 @@ def _thesis(raw, source: str, where: str) -> dict:
         for metric, value in metrics.items():
             if not isinstance(value, int | float) or isinstance(value, bool):
                 raise StudyDefinitionError(f"{source}: {where}.reference.{label}.{metric} must be a number")
+    significance = raw.get("significance", {}) or {}
+    if not isinstance(significance, dict) or not all(
+            isinstance(axes, dict) and all(isinstance(p, int | float) and not isinstance(p, bool)
+                                           for p in axes.values()) for axes in significance.values()):
+        raise StudyDefinitionError(f"{source}: {where}.significance maps method labels to {{axis: p-value}}, "
+                                   "e.g. {kdl: {x: 0, thesis_roll: 6.0e-6, time: 0}}")
     return {"source": str(raw.get("source", "") or ""), "notes": str(raw.get("notes", "") or ""),
             "reference": {label: {k: float(v) for k, v in metrics.items()}
-                          for label, metrics in reference.items()}}
+                          for label, metrics in reference.items()},
+            "significance": {label: {axis: float(p) for axis, p in axes.items()}
+                             for label, axes in significance.items()}}
 
 
 def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:

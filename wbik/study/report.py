@@ -196,7 +196,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
         blocks.append(Block("table", header=["method", *axes_tested],
                             rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
                                   for label, cells in by_method.items()]))
-    blocks.extend(_thesis_blocks(case, summaries))
+    blocks.extend(_thesis_blocks(case, summaries, analysis["tests"]))
     return blocks
 
 
@@ -213,7 +213,7 @@ def _reason_kind(reason: str) -> str:
     return " ".join(words)[:120] or "(no reason given)"
 
 
-def _thesis_blocks(case: CaseSpec, summaries: dict) -> list[Block]:
+def _thesis_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> list[Block]:
     thesis = case.thesis
     if not thesis:
         return []
@@ -232,6 +232,20 @@ def _thesis_blocks(case: CaseSpec, summaries: dict) -> list[Block]:
             table.append([label, f"{description} ({unit})", fmt(value), fmt(our), verdict])
     if table:
         blocks.append(Block("table", header=["method", "metric", "thesis", "ours", "comparison"], rows=table))
+    ours = {(t["method"], t["axis"]): t for t in tests}
+    rows = []
+    for label, axes in thesis.get("significance", {}).items():
+        for axis, p_value in axes.items():
+            test = ours.get((label, axis))
+            our_p = test["p_value"] if test else None
+            same = ("-" if our_p is None or not math.isfinite(our_p)
+                    else "yes" if (our_p < 0.05) == (p_value < 0.05) else "no")
+            rows.append([label, axis, fmt_p(p_value), fmt_p(our_p) if our_p is not None else "-", same])
+    if rows:
+        blocks.append(Block("p", "Mann-Whitney p-values against the baseline, the thesis's (Table 5.1) "
+                                 "beside ours; 'same verdict' compares significance at 0.05."))
+        blocks.append(Block("table", header=["method", "axis", "thesis p", "our p", "same verdict"],
+                            rows=rows))
     if thesis.get("notes"):
         blocks.append(Block("p", "Where and why we differ: " + thesis["notes"].strip()))
     return blocks
