@@ -1,0 +1,230 @@
+"""Bioloid behaviours built on the whole-body step: turning in place, walking N steps then turning,
+and replaying the code's Roboplus keyframes (stairs, medium turns).
+
+Whole-body behaviours are phase lists for :func:`wbik.bioloid.step_wholebody.solve_phases`, so every
+sample holds its contacts exactly and keeps the CoM inside the support polygon by the margin.
+
+Turn in place by ``angle`` (positive = left) about the midpoint of the feet: for a left turn the
+CoM goes over the right foot and the left foot turns first, then the CoM goes over the left foot
+and the right foot follows; each sole is turned by ``angle`` about the vertical through the midpoint of
+the soles and put down, the pelvis yaw follows in two halves, and a last double-support phase
+re-centres the CoM between the feet.
+
+Keyframe replay (tasks/data/bioloid_keyframes.yaml, from the author's BioloidPosDef.h): each row
+of servo units becomes joint angles (:func:`wbik.bioloid.servo.from_servo_units`); the robot is
+put with its lower sole flat on the ground and each row reports the other sole's height and tilt
+and the CoM margin over the lower sole (the stair geometry is not in the sources, so no step is
+modelled).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.bioloid.step_faithful import flatten_on_ground, place_on_anchor
+from wbik.bioloid.step_wholebody import (
+    BodyPhase,
+    ComRamp,
+    WholeBodyMotion,
+    current_soles,
+    pelvis_rotation,
+    sole_path,
+    sole_polygon,
+    solve_phases,
+    step_phases,
+    yaw_of,
+)
+from wbik.errors import InvalidConfigurationError
+from wbik.robot import Robot
+
+KEYFRAMES_PATH = Path(__file__).resolve().parents[2] / "tasks" / "data" / "bioloid_keyframes.yaml"
+RAMP_INSET = 0.008
+"""A hand-over moves the CoM to this far inside the next stance sole (m), the hard margin being less."""
+
+
+def _rotated_about(placement: pin.SE3, centre: np.ndarray, angle: float) -> pin.SE3:
+    rotation = pin.utils.rotate("z", angle)
+    offset = placement.translation - centre
+    return pin.SE3(rotation @ placement.rotation, centre + rotation @ offset)
+
+
+def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters,
+                   divisions: int) -> BodyPhase:
+    """Both feet down, the CoM back between the feet (where it is at the nominal stance, turned)."""
+    nominal_soles = current_soles(robot, robot.nominal)
+    nominal_mid = 0.5 * (nominal_soles["r"].translation + nominal_soles["l"].translation)
+    com_offset = robot.center_of_mass(robot.nominal)[:2] - nominal_mid[:2]
+    heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
+    mid = 0.5 * (soles["r"].translation + soles["l"].translation)[:2]
+    goal = mid + pin.utils.rotate("z", heading)[:2, :2] @ com_offset
+    stance = {SOLE[s]: soles[s] for s in SIDES}
+    return BodyPhase("re-centre the CoM between the feet", stance,
+                     pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
+                     com=ComRamp(goal=goal), divisions=divisions, speed_rpm=gait.servo_slow_rpm)
+
+
+def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: GaitParameters | None = None,
+                lift: float | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """Phases turning in place by ``angle`` (rad, positive = left) from the planted ``soles``."""
+    gait = gait or GaitParameters()
+    lift = gait.lift_height if lift is None else float(lift)
+    if abs(angle) > math.radians(60):
+        raise InvalidConfigurationError(f"turn by at most 60 deg at a time, got {math.degrees(angle):.1f}")
+    centre = 0.5 * (soles["r"].translation + soles["l"].translation)
+    centre[2] = 0.0
+    heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
+    first = "l" if angle >= 0 else "r"
+    second = OTHER[first]
+    turned = {side: _rotated_about(soles[side], centre, angle) for side in SIDES}
+    n = gait.divisions
+
+    def yaw_ramp(start: float, end: float):
+        return lambda s: pelvis_rotation(start + s * (end - start), gait.pitch)
+
+    half = heading + 0.5 * angle
+    phases = [
+        BodyPhase(f"shift the CoM over the {'right' if second == 'r' else 'left'} foot",
+                  {SOLE[s]: soles[s] for s in SIDES}, pelvis_rotation=yaw_ramp(heading, heading),
+                  com=ComRamp(sole_polygon(robot, {SOLE[second]: soles[second]}), RAMP_INSET),
+                  end_support=(SOLE[second],), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"turn the {'left' if first == 'l' else 'right'} foot", {SOLE[second]: soles[second]},
+                  swing={SOLE[first]: sole_path(soles[first], turned[first], lift=lift)},
+                  pelvis_rotation=yaw_ramp(heading, half), divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
+        BodyPhase(f"shift the CoM over the {'left' if first == 'l' else 'right'} foot",
+                  {SOLE[second]: soles[second], SOLE[first]: turned[first]},
+                  pelvis_rotation=yaw_ramp(half, half),
+                  com=ComRamp(sole_polygon(robot, {SOLE[first]: turned[first]}), RAMP_INSET),
+                  end_support=(SOLE[first],), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"turn the {'right' if second == 'r' else 'left'} foot", {SOLE[first]: turned[first]},
+                  swing={SOLE[second]: sole_path(soles[second], turned[second], lift=lift)},
+                  pelvis_rotation=yaw_ramp(half, heading + angle), divisions=2 * n,
+                  speed_rpm=gait.servo_fast_rpm),
+    ]
+    phases.append(recentre_phase(robot, turned, gait, n))
+    return phases, turned
+
+
+def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | None = None,
+                  margin: float = 0.005, q0: np.ndarray | None = None,
+                  backend: str = "daqp") -> WholeBodyMotion:
+    """Turn in place by ``angle_deg`` (positive = left) with the whole-body QP."""
+    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    phases, _ = turn_phases(robot, current_soles(robot, q), math.radians(angle_deg), gait)
+    return solve_phases(robot, q, phases, margin, backend, name=f"turn_{angle_deg:g}deg")
+
+
+def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: float = 0.0,
+                gait: GaitParameters | None = None, first: str = "left",
+                rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """``steps`` steps forward alternating feet (``first`` foot first), then a turn (if non-zero),
+    then a re-centring of the CoM."""
+    gait = gait or GaitParameters()
+    if steps < 0:
+        raise InvalidConfigurationError(f"steps must be >= 0, got {steps}")
+    phases: list[BodyPhase] = []
+    side = "left" if str(first).lower() in ("left", "l") else "right"
+    for _ in range(steps):
+        step, soles = step_phases(robot, soles, gait, side, rear_lift)
+        for phase in step:
+            if isinstance(phase.com, ComRamp):
+                phase.com = ComRamp(phase.com.polygon, RAMP_INSET)
+        phases += step
+        side = "right" if side == "left" else "left"
+    if turn_deg:
+        turn, soles = turn_phases(robot, soles, math.radians(turn_deg), gait)
+        phases += turn
+    else:
+        phases.append(recentre_phase(robot, soles, gait, gait.divisions))
+    return phases, soles
+
+
+def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
+         margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
+         backend: str = "daqp") -> WholeBodyMotion:
+    """Walk ``steps`` steps forward, then turn by ``turn_deg`` (positive = left), whole-body QP."""
+    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    phases, _ = walk_phases(robot, current_soles(robot, q), steps, turn_deg, gait, first, rear_lift)
+    return solve_phases(robot, q, phases, margin, backend, name=f"walk_{steps}_turn_{turn_deg:g}")
+
+
+# --- keyframes -------------------------------------------------------------------------------
+def load_keyframes(path: str | Path | None = None) -> dict:
+    """The keyframe file (see tasks/data/bioloid_keyframes.yaml for the format and provenance)."""
+    import yaml
+
+    path = Path(path) if path is not None else KEYFRAMES_PATH
+    if not path.is_file():
+        raise InvalidConfigurationError(f"keyframe file {str(path)!r} does not exist")
+    data = yaml.safe_load(path.read_text())
+    for name, rows in data.get("pages", {}).items():
+        array = np.asarray(rows)
+        if array.ndim != 2 or array.shape[1] != 18 or np.any(array < 0) or np.any(array > 1023):
+            raise InvalidConfigurationError(f"keyframe page {name!r}: rows of 18 units in 0..1023 expected")
+    return data
+
+
+def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(units (K, 18), time per row (K,), page name per row) of one behaviour of the file."""
+    behaviours = data.get("behaviours", {})
+    if behaviour not in behaviours:
+        raise InvalidConfigurationError(
+            f"unknown keyframe behaviour {behaviour!r}; known: {', '.join(behaviours)}")
+    spec = behaviours[behaviour]
+    units, times, pages = [], [], []
+    for page, row_time in zip(spec["pages"], spec["row_time_s"], strict=True):
+        for row in data["pages"][page]:
+            units.append(row)
+            times.append(float(row_time))
+            pages.append(page)
+    return np.asarray(units, dtype=int), np.asarray(times), pages
+
+
+def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:
+    """Joint configurations of a keyframe behaviour and what each row does to the robot.
+
+    Per row: ``lower_sole`` (placed flat on the ground), the other sole's height (m) and tilt (deg)
+    above that ground, the CoM margin (m) over the lower sole alone and over both soles when the
+    other one is within 5 mm of the ground, and the joints beyond the URDF limits.
+    """
+    from wbik.bioloid.servo import from_servo_units
+
+    data = load_keyframes(path)
+    units, row_times, pages = keyframe_rows(data, behaviour)
+    model = robot.model
+    configurations, rows = [], []
+    for index, row in enumerate(units):
+        angles = from_servo_units(row)
+        q = robot.nominal.copy()
+        for joint, value in angles.items():
+            q[model.joints[model.getJointId(joint)].idx_q] = value
+        q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+        heights = {side: robot.frame_placement(q, SOLE[side]).translation[2] for side in SIDES}
+        lower = min(SIDES, key=lambda side: heights[side])
+        ground = flatten_on_ground(robot.frame_placement(q, SOLE[lower]))
+        q = place_on_anchor(robot, q, SOLE[lower], ground)
+        other = robot.frame_placement(q, SOLE[OTHER[lower]])
+        tilt = math.degrees(math.acos(float(np.clip(other.rotation[2, 2], -1.0, 1.0))))
+        com = robot.center_of_mass(q)
+        single = sole_polygon(robot, {SOLE[lower]: ground}).margin_of(com[:2])
+        both = None
+        if abs(other.translation[2]) <= 0.005:
+            both = sole_polygon(robot, {SOLE[lower]: ground, SOLE[OTHER[lower]]: flatten_on_ground(other)}
+                                ).margin_of(com[:2])
+        index_q = [model.joints[j].idx_q for j in range(2, model.njoints)]
+        beyond = [model.names[j] for j, i in zip(range(2, model.njoints), index_q, strict=True)
+                  if not model.lowerPositionLimit[i] - 1e-9 <= q[i] <= model.upperPositionLimit[i] + 1e-9]
+        rows.append({"row": index, "page": pages[index], "lower_sole": SOLE[lower],
+                     "other_sole_height_m": float(other.translation[2]), "other_sole_tilt_deg": tilt,
+                     "com_margin_single_m": single, "com_margin_both_m": both, "beyond_limits": beyond})
+        configurations.append(q)
+    times = np.cumsum(row_times)
+    motion = SampledMotion(f"keyframes_{behaviour}", robot, np.array(configurations), np.arange(len(units)),
+                           [f"{p} row" for p in pages], [(r["lower_sole"],) for r in rows],
+                           {"source": data.get("source"), "times_s": times.tolist()})
+    return {"behaviour": behaviour, "rows": rows, "units": units, "times_s": times, "motion": motion,
+            "source": data.get("source")}
