@@ -50,7 +50,8 @@ def test_solutions_pass_fk_check_and_limits(robot_name, chain_name, rng):
 
 @pytest.mark.parametrize(("robot_name", "chain_name"), [("ur5", "arm"), ("arm3r", "arm"), ("panda", "arm")])
 def test_position_only_targets(robot_name, chain_name, rng):
-    solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name)
+    # every target must be solved: a generous budget keeps this a correctness test on a loaded machine
+    solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name, timeout_s=0.2)
     chain = solver.chain
     for q in chain.random(rng, 20):
         point = chain.fk(q).translation
