@@ -301,12 +301,14 @@ class TimedMotion:
 
 
 def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law: str = "quintic",
-                      mode: str = "waypoint") -> TimedMotion:
+                      mode: str = "segment") -> TimedMotion:
     """Minimum-duration timing of the servo joints through every sample under a speed limit.
 
     ``speed_rpm``: one limit for every servo (the code's 40 rpm by default; None = the URDF's
-    AX-12 no-load 114 rpm). ``mode="waypoint"`` stops at the end of every phase (as the code does
-    between its phases); the samples inside a phase are passed without stopping (a cubic spline).
+    AX-12 no-load 114 rpm). ``mode="segment"`` (default) moves in a straight joint line from sample
+    to sample, rest to rest, like the code's divisions: every point stays inside the joint limits
+    (a box). ``mode="waypoint"`` stops only at phase ends and passes the samples inside a phase on a
+    cubic spline (faster, but the spline may overshoot a joint limit between samples).
     """
     from wbik.motion.path import JointPath
     from wbik.motion.timing import time_scale
