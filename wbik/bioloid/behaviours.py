@@ -203,11 +203,13 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
         for joint, value in angles.items():
             q[model.joints[model.getJointId(joint)].idx_q] = value
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
-        heights = {side: robot.frame_placement(q, SOLE[side]).translation[2] for side in SIDES}
-        lower = min(SIDES, key=lambda side: heights[side])
-        ground = flatten_on_ground(robot.frame_placement(q, SOLE[lower]))
-        q = place_on_anchor(robot, q, SOLE[lower], ground)
-        other = robot.frame_placement(q, SOLE[OTHER[lower]])
+        placed = {}
+        for side in SIDES:  # each sole flat on the ground in turn; keep the one with the other above
+            ground_side = flatten_on_ground(robot.frame_placement(q, SOLE[side]))
+            q_side = place_on_anchor(robot, q, SOLE[side], ground_side)
+            placed[side] = (q_side, ground_side, robot.frame_placement(q_side, SOLE[OTHER[side]]))
+        lower = max(SIDES, key=lambda side: placed[side][2].translation[2])
+        q, ground, other = placed[lower]
         tilt = math.degrees(math.acos(float(np.clip(other.rotation[2, 2], -1.0, 1.0))))
         com = robot.center_of_mass(q)
         single = sole_polygon(robot, {SOLE[lower]: ground}).margin_of(com[:2])

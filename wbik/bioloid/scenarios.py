@@ -98,7 +98,8 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
     if unknown:
         raise ScenarioError(f"unknown generators {sorted(unknown)}; use faithful and/or wholebody")
     if "faithful" in generators:
-        faithful = step_forward_faithful(robot, gait, first, round_degrees=bool(spec.get("round_degrees", False)))
+        rounding = bool(spec.get("round_degrees", False))
+        faithful = step_forward_faithful(robot, gait, first, round_degrees=rounding)
         summary = faithful.summary()
         wanted = float(expect.get("faithful_min_inconsistency_mm", 0.0))
         entry = {"name": f"step forward ({first} first), faithful", "generator": "faithful", **summary,
@@ -110,7 +111,8 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
         if on_progress is not None:
             on_progress(report)
     if "wholebody" in generators:
-        result = step_forward_wholebody(robot, gait, first, margin, rear_lift=float(spec.get("rear_lift", 0.0)),
+        result = step_forward_wholebody(robot, gait, first, margin,
+                                        rear_lift=float(spec.get("rear_lift", 0.0)),
                                         backend=spec.get("backend", "daqp"))
         entry = _timed_entry(spec, result, f"step forward ({first} first), whole-body")
         if "wholebody" in expect:
@@ -151,7 +153,8 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     report = _report(spec, robot)
-    for behaviour in spec.get("behaviours", ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]):
+    default = ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]
+    for behaviour in spec.get("behaviours", default):
         replay = replay_keyframes(robot, behaviour, spec.get("keyframes"))
         motion = replay["motion"]
         names = motion.joint_names
@@ -163,7 +166,8 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
             exact = exact and all(command.units[i] == int(u) for i, u in zip(range(1, 19), units, strict=True)
                                   if i not in clamped_ids)
         rows = replay["rows"]
-        entry = {"name": f"keyframes {behaviour}", "rows": len(rows), "duration_s": float(replay["times_s"][-1]),
+        entry = {"name": f"keyframes {behaviour}", "rows": len(rows),
+                 "duration_s": float(replay["times_s"][-1]),
                  "units_round_trip_exact": bool(exact),
                  "rows_beyond_urdf_limits": sum(bool(r["beyond_limits"]) for r in rows),
                  "rows_beyond_servo_limits": clamped_rows,
@@ -182,7 +186,8 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     report = _report(spec, robot)
-    result = placo_walk(robot, steps=int(spec.get("steps", 4)), step_length=float(spec.get("step_length", 0.03)),
+    result = placo_walk(robot, steps=int(spec.get("steps", 4)),
+                        step_length=float(spec.get("step_length", 0.03)),
                         margin=float(spec.get("margin", 0.005)))
     entry = {"name": "PlaCo walk pattern generator", **result}
     entry["passed"] = bool(result.get("planned", False)) or not spec.get("expect", {}).get("planned", True)
