@@ -1,0 +1,184 @@
+"""Run the riveting task for each planner of a task file and report (dict, text, Markdown).
+
+Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``seed``,
+``max_cycles`` (null: the whole run), ``limits`` {acceleration (rad/s^2), law}, ``insertion``
+{standoff, depth, trigger_s, load_s}, ``noise`` {position_sigma, position_max, angle_sigma_deg},
+``scene`` (see :mod:`wbik.riveting.scene`), ``planners``: a list of {name, planner: thesis | ours,
+planner options...}, ``expect``: {planner name: {min_score, max_collisions, min_rivets}}.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+import wbik
+from wbik.riveting.collision import CollisionModel
+from wbik.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
+from wbik.riveting.moves import Limits
+from wbik.riveting.ours import QPPlanner
+from wbik.riveting.plan import Insertion
+from wbik.riveting.scene import Scene, build_scene
+from wbik.riveting.thesis import ThesisPlanner
+
+PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
+THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}
+"""Table 6 of the thesis (ur5-riveting.md 5)."""
+
+
+class Cell:
+    """Robot, scene, collision model, limits, insertion and rivet_home's joints for one task file."""
+
+    def __init__(self, spec: dict):
+        self.robot = wbik.load(spec.get("robot", "ur5"))
+        self.scene: Scene = build_scene(spec.get("scene"))
+        self.collision = CollisionModel(self.robot, self.scene)
+        self.chain = self.robot.chain("arm")
+        limits = spec.get("limits", {})
+        velocity = limits.get("velocity", self.chain.velocity_limit)
+        self.limits = Limits(np.broadcast_to(np.asarray(velocity, float), (6,)).copy(),
+                             float(limits.get("acceleration", 5.0)), limits.get("law", "quintic"))
+        self.insertion = Insertion(**spec.get("insertion", {}))
+        analytic = wbik.solver("analytic", self.robot, chain="arm")
+        home = analytic.solve(self.scene.rivet_home, self.robot.nominal)
+        if not home.success:
+            raise ValueError(f"rivet_home is not reachable: {home.reason}")
+        self.q_home = home.q
+
+    def planner(self, entry: dict):
+        options = {k: v for k, v in entry.items() if k not in ("name", "planner")}
+        kind = entry.get("planner", "ours")
+        if kind not in PLANNERS:
+            raise ValueError(f"unknown planner {kind!r}; planners: {sorted(PLANNERS)}")
+        planner = PLANNERS[kind](self.robot, self.scene, self.collision, self.limits, self.insertion,
+                                 **options)
+        planner.name = entry.get("name", kind)
+        return planner
+
+
+def run_config(spec: dict, **overrides) -> RunConfig:
+    values = {"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
+              "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {}))}
+    values.update(overrides)
+    return RunConfig(**values)
+
+
+def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
+             keep: dict[str, RunResult] | None = None) -> dict:
+    """Every planner of the task file on the same seeded hole sequence; the report dict."""
+    cell = Cell(spec)
+    config = run_config(spec)
+    report = {"name": spec.get("name", ""), "kind": spec.get("kind", "ur5_riveting"),
+              "robot": cell.robot.name,
+              "settings": {"duration_s": config.duration, "seed": config.seed,
+                           "max_cycles": config.max_cycles,
+                           "acceleration_limit_rad_s2": cell.limits.acceleration,
+                           "velocity_limit_rad_s": cell.limits.velocity.tolist(), "time_law": cell.limits.law,
+                           "insertion": vars(cell.insertion), "noise": vars(config.noise),
+                           "holes": len(cell.scene.holes), "q_home": cell.q_home.tolist()},
+              "thesis_table6": THESIS_RESULT, "runs": {}, "passed": True}
+    for entry in spec.get("planners", [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]):
+        planner = cell.planner(entry)
+
+        def progress(result: RunResult, name=planner.name) -> None:
+            report["runs"][name] = {"summary": result.summary(), "setup": result.setup,
+                                    "cycles": result.cycles}
+            if on_progress is not None:
+                on_progress(report)
+
+        result = simulate(planner, cell.scene, cell.collision, cell.insertion, cell.q_home, config,
+                          on_cycle=progress)
+        if keep is not None:
+            keep[planner.name] = result
+        progress(result)
+    report["checks"] = _expectations(report, spec.get("expect", {}))
+    report["passed"] = all(item["passed"] for item in report["checks"])
+    return report
+
+
+def _expectations(report: dict, expect: dict) -> list[dict]:
+    checks = []
+    for name, wanted in expect.items():
+        summary = report["runs"].get(name, {}).get("summary")
+        if summary is None:
+            checks.append({"planner": name, "what": "ran", "passed": False})
+            continue
+        if "min_score" in wanted:
+            checks.append({"planner": name, "what": f"score >= {wanted['min_score']}",
+                           "value": summary["score"]["total"],
+                           "passed": summary["score"]["total"] >= wanted["min_score"]})
+        if "max_collisions" in wanted:
+            checks.append({"planner": name, "what": f"collisions <= {wanted['max_collisions']}",
+                           "value": summary["collisions"],
+                           "passed": summary["collisions"] <= wanted["max_collisions"]})
+        if "min_rivets" in wanted:
+            checks.append({"planner": name, "what": f"rivets >= {wanted['min_rivets']}",
+                           "value": summary["rivets"], "passed": summary["rivets"] >= wanted["min_rivets"]})
+    return checks
+
+
+def _fmt(value, digits: int = 2) -> str:
+    if value is None:
+        return "-"
+    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+
+
+def comparison_rows(report: dict) -> list[list[str]]:
+    rows = [["planner", "score", "loc/riv/coll", "rivets", "collisions", "loc. error mm / deg",
+             "min tool clearance mm", "min link clearance mm", "mean cycle s", "failed plans"]]
+    for name, run in report["runs"].items():
+        s = run["summary"]
+        sc = s["score"]
+        rows.append([name, f"{sc['total']}/30", f"{sc['localisation']}/{sc['rivets']}/{sc['collisions']}",
+                     str(s["rivets"]), str(s["collisions"]),
+                     f"{_fmt(s['mean_localisation_error_mm'], 4)} / {_fmt(s['mean_axis_error_deg'], 4)}",
+                     _fmt(s["min_clearance_tool_mm"], 3), _fmt(s["min_clearance_links_mm"], 1),
+                     _fmt(s["mean_cycle_time_s"], 2), str(s["failed_plans"])])
+    rows.append(["thesis (Table 6)", "22/30", "10/2/10", "9", "0", "0", "-", "-", "~33 (300/9)", "-"])
+    return rows
+
+
+def format_text(report: dict) -> str:
+    rows = comparison_rows(report)
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    lines = [f"{report['name']} (ur5_riveting): {'PASSED' if report['passed'] else 'FAILED'}"]
+    settings = report["settings"]
+    lines.append(f"  {settings['duration_s']:g} s, seed {settings['seed']}, {settings['holes']} holes, "
+                 f"a_max {settings['acceleration_limit_rad_s2']:g} rad/s^2, v_max URDF, "
+                 f"{settings['time_law']} law")
+    for row in rows:
+        lines.append("  " + "  ".join(cell.ljust(width) for cell, width in zip(row, widths, strict=True)))
+    for name, run in report["runs"].items():
+        s = run["summary"]
+        lines.append(f"  {name}: simulated {s['simulated_time_s']:.1f} s, table clearance "
+                     f"{_fmt(s['min_clearance_table_mm'], 1)} mm, max lateral error "
+                     f"{_fmt(s['max_lateral_error_mm'], 6)} mm, planning {s['planning_time_s']:.1f} s, "
+                     f"wall {s['wall_time_s']:.1f} s")
+    for check in report.get("checks", []):
+        lines.append(f"  [{'ok' if check['passed'] else 'FAIL'}] {check['planner']}: {check['what']} "
+                     f"(got {check.get('value')})")
+    return "\n".join(lines)
+
+
+def format_markdown(report: dict) -> str:
+    rows = comparison_rows(report)
+    lines = [f"# {report['name']}", "", "| " + " | ".join(rows[0]) + " |",
+             "|" + "---|" * len(rows[0])]
+    lines += ["| " + " | ".join(row) + " |" for row in rows[1:]]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(report: dict, folder: str | Path) -> list[Path]:
+    """report.json and report.md in ``folder``."""
+    from wbik.scenarios import _json_default
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    json_path = folder / "report.json"
+    json_path.write_text(json.dumps(report, indent=1, default=_json_default))
+    markdown_path = folder / "report.md"
+    markdown_path.write_text(format_markdown(report))
+    return [json_path, markdown_path]
