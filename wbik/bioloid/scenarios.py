@@ -198,8 +198,6 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
 
 RUNNER_KINDS = {"bioloid_step": run_step, "bioloid_walk": run_walk, "bioloid_turn": run_walk,
                 "bioloid_keyframes": run_keyframes, "bioloid_placo_walk": run_placo_walk}
-for _kind, _runner in RUNNER_KINDS.items():
-    register_runner(_kind, _runner)
 
 
 def format_report(report: dict) -> str:
@@ -219,6 +217,10 @@ def _short(value) -> str:
     if isinstance(value, (list, tuple, np.ndarray)) and len(value) > 6:
         return f"[{len(value)} values]"
     return str(value)
+
+
+for _kind, _runner in RUNNER_KINDS.items():
+    register_runner(_kind, _runner, format_report)
 
 
 def scenario_path(name: str) -> Path:
