@@ -158,7 +158,7 @@ class CollisionModel:
     def _bounding_sphere(shape) -> tuple[np.ndarray, float]:
         """(centre in the geometry frame, radius) of a sphere containing the shape."""
         if isinstance(shape, coal.BVHModelBase):
-            vertices = np.array([shape.vertices(k) for k in range(shape.num_vertices)])
+            vertices = np.asarray(shape.vertices(), dtype=float).reshape(-1, 3)
             center = 0.5 * (vertices.min(axis=0) + vertices.max(axis=0))
             return center, float(np.max(np.linalg.norm(vertices - center, axis=1)))
         if isinstance(shape, coal.Box):
