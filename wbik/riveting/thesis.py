@@ -17,8 +17,9 @@ least from rivet_home, and whose joint lines home -> q_int -> each approach pose
 (checked as densely as the run).
 
 Timing ``thesis``: fixed durations as the client sent them: 1 s to q_int, the 2 s sleep, and
-``move_time`` for every move_to. The seed gives no move_to duration; the default 7 s is our
-calibration so that 300 s gives the thesis's 9 rivets (33 s per cycle, ur5-riveting.md 5).
+``move_time`` for every move_to. The seed gives no move_to duration; the default 5.8 s is our
+calibration so that a cycle lasts 33 s (1 + 2 + 5 x 5.8 + 0.5 + 0.5 s with the return through
+q_int), i.e. 300 s give the thesis's 9 rivets (ur5-riveting.md 5).
 A fixed duration is stretched if the limits need longer. Timing ``optimal``: the same paths at
 minimum time under the limits, without the sleep.
 """
@@ -44,7 +45,7 @@ class ThesisPlanner(Planner):
     name = "thesis"
 
     def __init__(self, *args, timing: str = "thesis", intermediate_distance: float = 0.15,
-                 intermediate_time: float = 1.0, sleep: float = 2.0, move_time: float = 7.0,
+                 intermediate_time: float = 1.0, sleep: float = 2.0, move_time: float = 5.8,
                  return_via: str = "intermediate", **options):
         super().__init__(*args, **options)
         if timing not in ("thesis", "optimal"):
