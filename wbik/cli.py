@@ -9,7 +9,7 @@ import sys
 
 from wbik.errors import WbikError
 
-SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "bench", "view", "run")
+SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run")
 
 
 def build_parser() -> argparse.ArgumentParser:
