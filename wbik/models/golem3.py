@@ -185,6 +185,9 @@ def urdf_text() -> str:
     chest = rows[0]
     parts = [
         HEADER,
+        "<!-- base_footprint: a massless root (KDL and TRAC-IK ignore a root link's inertia) -->",
+        link_xml("base_footprint", 0.0),
+        joint_xml("base_fixed", "fixed", "base_footprint", "base_link", np.eye(4)),
         _inertial_link("base_link", MASSES["base_link"], (0.0, 0.0, 0.3)),
         _inertial_link("torso_link", MASSES["torso_link"], (0.0, 0.0, 0.9)),
         joint_xml("mb", "prismatic", "base_link", "torso_link", np.eye(4), (0.0, 0.0, 1.0),
