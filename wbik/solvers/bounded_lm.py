@@ -36,10 +36,11 @@ import math
 import time
 
 import numpy as np
+import pinocchio as pin
 from scipy.linalg.lapack import dposv
 
 from wbik.solvers.base import Candidate, Solver
-from wbik.solvers.task_error import BatchKinematics, WorldTaskError, converged
+from wbik.solvers.task_error import BatchKinematics, converged
 from wbik.targets import Target
 
 TWO_PI = 2.0 * math.pi
@@ -71,6 +72,8 @@ class BoundedLMSolver(Solver):
         self.lower, self.upper = chain_.lower, chain_.upper
         self.wraps = (~chain_.is_prismatic) & (chain_.upper - chain_.lower >= TWO_PI - 1e-9)
         self._batch = BatchKinematics(chain_) if self.batch_size > 1 else None
+        self._model, self._data = chain_.model, chain_.model.createData()
+        self._identity = np.eye(chain_.nq)
 
     # -- projection into the limits -----------------------------------------------------------
     def project(self, q: np.ndarray) -> np.ndarray:
@@ -85,36 +88,57 @@ class BoundedLMSolver(Solver):
         return np.clip(q, self.lower, self.upper)
 
     # -- one seed ---------------------------------------------------------------------------------
-    def _attempt(self, evaluate: WorldTaskError, q: np.ndarray, deadline: float
+    def _attempt(self, goal: pin.SE3, pose: bool, q: np.ndarray, deadline: float
                  ) -> tuple[np.ndarray, bool, int, float]:
-        """LM from q: (last q, converged?, iterations, |e|)."""
-        lower, upper, wraps = self.lower, self.upper, self.wraps
-        n = self.chain.nq
-        diagonal = slice(None, None, n + 1)
-        max_step = self.max_step
-        weight = self.position_weight
-        if weight != 1.0:
-            unweighted = evaluate
+        """LM from q towards ``goal`` (tip pose in the model's world frame): (last q, converged?,
+        iterations, |e|).
 
-            def evaluate(q):
-                error, jacobian = unweighted(q)
+        Errors and Jacobians are taken in the tip's own axes: e = [R^T (p* - p); log3(R^T R*)] and
+        the LOCAL frame Jacobian. They are the world-axes ones rotated by R^T, so |e|, J^T J and
+        J^T e (all a step needs) are unchanged, and three Pinocchio calls plus one SE3 product give both.
+        Hot loop: no Python-level helpers beyond the error evaluation, small numpy calls only.
+        """
+        model, data, tip = self._model, self._data, self.chain.tip_id
+        joint_jacobians, frame_jacobian = pin.computeJointJacobians, pin.getFrameJacobian
+        placement, log3, local = pin.updateFramePlacement, pin.log3, pin.ReferenceFrame.LOCAL
+        lower, upper, n = self.lower, self.upper, self.chain.nq
+        clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
+        unblocked = np.zeros(n, dtype=bool).tobytes()
+        weight = self.position_weight
+        weighted = weight != 1.0
+        identity = self._identity
+        cost_weight, floor, decrease, increase = self.cost_weight, self.damping, self.decrease, self.increase
+        progress, stall, max_step = self.progress, self.stall, self.max_step
+        sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
+
+        def evaluate(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            joint_jacobians(model, data, q)  # forward kinematics and every joint's Jacobian
+            offset = placement(model, data, tip).actInv(goal).homogeneous
+            jacobian = frame_jacobian(model, data, tip, local)
+            if pose:
+                error = np.empty(6)
+                error[:3] = offset[:3, 3]
+                error[3:] = log3(offset[:3, :3])
+            else:
+                error, jacobian = offset[:3, 3].copy(), jacobian[:3]
+            if weighted:
                 error[:3] *= weight
                 jacobian[:3] *= weight
-                return error, jacobian
+            return error, jacobian
 
         error, jacobian = evaluate(q)
-        cost = float(error @ error)
-        damping = self.damping
+        cost = float(error.dot(error))
+        damping = floor
         best_cost, since_progress = cost, 0
         for iteration in range(1, self.max_iterations + 1):
-            if cost <= self._sure_cost or (cost <= self._maybe_cost and self._passes(error)):
+            if cost <= sure_cost or (cost <= maybe_cost and self._passes(error)):
                 return q, True, iteration - 1, math.sqrt(cost)
             if time.perf_counter() > deadline:
                 break
             transpose = jacobian.T
-            system = transpose @ jacobian
-            gradient = transpose @ error
-            system.flat[diagonal] += self.cost_weight * cost + damping
+            system = transpose.dot(jacobian)
+            system += (cost_weight * cost + damping) * identity
+            gradient = transpose.dot(error)
             _, step, info = dposv(system, gradient)
             if info:  # not numerically positive definite: least squares instead of Cholesky
                 step = np.linalg.lstsq(system, gradient, rcond=None)[0]
@@ -123,28 +147,30 @@ class BoundedLMSolver(Solver):
                 if longest > max_step:
                     step *= max_step / longest
             trial = q + step
-            if (trial < lower).any() or (trial > upper).any():
-                blocked = ((q <= lower) & (step < 0)) | ((q >= upper) & (step > 0))
-                blocked &= ~wraps
-                if blocked.any():
-                    free = ~blocked
+            inside = np.maximum(np.minimum(trial, upper), lower)
+            if inside.tobytes() != trial.tobytes():  # some joint left its range
+                blocked = (q <= lower) & (step < 0)
+                blocked |= (q >= upper) & (step > 0)
+                blocked &= clipped
+                if blocked.tobytes() != unblocked:
+                    free = np.flatnonzero(~blocked)
                     step = np.zeros(n)
-                    if free.any():
-                        step[free] = dposv(system[np.ix_(free, free)], gradient[free])[1]
+                    if free.size:
+                        step[free] = dposv(system[free[:, None], free], gradient[free])[1]
                     trial = q + step
-                trial = self.project(trial)
-            trial_error, trial_jacobian = evaluate(trial)
-            trial_cost = float(trial_error @ trial_error)
+                inside = self.project(trial) if any_wrap else np.maximum(np.minimum(trial, upper), lower)
+            trial_error, trial_jacobian = evaluate(inside)
+            trial_cost = float(trial_error.dot(trial_error))
             if trial_cost < cost:
-                q, error, jacobian, cost = trial, trial_error, trial_jacobian, trial_cost
-                damping = max(damping * self.decrease, self.damping)
+                q, error, jacobian, cost = inside, trial_error, trial_jacobian, trial_cost
+                damping = max(damping * decrease, floor)
             else:
-                damping = max(damping, 1e-3) * self.increase
-            if cost < self.progress * best_cost:
+                damping = max(damping, 1e-3) * increase
+            if cost < progress * best_cost:
                 best_cost, since_progress = cost, 0
             else:
                 since_progress += 1
-                if since_progress >= self.stall:
+                if since_progress >= stall:
                     return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), self.max_iterations, math.sqrt(cost)
 
@@ -155,12 +181,13 @@ class BoundedLMSolver(Solver):
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         if self.batch_size > 1:
             return self._solve_batch(target, q0, deadline)
-        evaluate = WorldTaskError(self.chain, target)
+        goal = self.chain.base_placement * target.se3()
+        pose = target.is_pose
         q_seed = self.project(q0)
         best_q, best_error = q_seed, math.inf
         attempts, iterations = 0, 0
         while True:
-            q, ok, used, error = self._attempt(evaluate, q_seed, deadline)
+            q, ok, used, error = self._attempt(goal, pose, q_seed, deadline)
             attempts += 1
             iterations += used
             if ok:
