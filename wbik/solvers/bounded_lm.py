@@ -40,7 +40,7 @@ import pinocchio as pin
 from scipy.linalg.lapack import dposv
 
 from wbik.solvers.base import Candidate, Solver
-from wbik.solvers.task_error import BatchKinematics, converged
+from wbik.solvers.task_error import converged
 from wbik.targets import Target
 
 TWO_PI = 2.0 * math.pi
@@ -50,9 +50,10 @@ class BoundedLMSolver(Solver):
     name = "bounded_lm"
 
     def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
-                 damping: float = 1e-6, batch_size: int = 1, cost_weight: float = 0.01,
-                 decrease: float = 0.5, increase: float = 10.0, progress: float = 0.98,
-                 max_step: float | None = None, position_weight: float | None = None, **options):
+                 damping: float = 1e-6, batch_size: int = 32, cost_weight: float = 0.01,
+                 decrease: float = 0.5, increase: float = 10.0, progress: float = 0.9,
+                 max_step: float | None = None, position_weight: float | None = None,
+                 candidates: int = 3, single_attempts: int = 5, **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = int(max_iterations)
         self.stall = int(stall)
@@ -60,6 +61,8 @@ class BoundedLMSolver(Solver):
         self.batch_size = max(1, int(batch_size))
         self.cost_weight, self.decrease, self.increase = float(cost_weight), float(decrease), float(increase)
         self.progress = float(progress)
+        self.candidates = max(1, int(candidates))
+        self.single_attempts = max(0, int(single_attempts))
         self.max_step = None if max_step is None else float(max_step)
         self.position_weight = (chain_scale_weight(self.chain) if position_weight is None
                                 else float(position_weight))
@@ -71,9 +74,10 @@ class BoundedLMSolver(Solver):
         chain_ = self.chain
         self.lower, self.upper = chain_.lower, chain_.upper
         self.wraps = (~chain_.is_prismatic) & (chain_.upper - chain_.lower >= TWO_PI - 1e-9)
-        self._batch = BatchKinematics(chain_) if self.batch_size > 1 else None
+        self._vectorised = VectorisedChain(chain_, self.position_weight) if self.batch_size > 1 else None
         self._model, self._data = chain_.model, chain_.model.createData()
         self._identity = np.eye(chain_.nq)
+        self._pool, self._pool_used = np.empty((0, chain_.nq)), 0
 
     # -- projection into the limits -----------------------------------------------------------
     def project(self, q: np.ndarray) -> np.ndarray:
@@ -174,19 +178,47 @@ class BoundedLMSolver(Solver):
                     return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), self.max_iterations, math.sqrt(cost)
 
+    def _next_seed(self, goal: pin.SE3, pose: bool) -> np.ndarray:
+        """A random seed inside the limits: the best of ``candidates`` uniform draws by task error."""
+        if self.candidates <= 1:
+            return self._random(1)[0].copy()
+        seeds = self._random(self.candidates)
+        model, data, tip = self._model, self._data, self.chain.tip_id
+        weight2 = self.position_weight ** 2
+        best, best_cost = seeds[0], math.inf
+        for seed in seeds:
+            pin.forwardKinematics(model, data, seed)
+            offset = pin.updateFramePlacement(model, data, tip).actInv(goal).homogeneous
+            translation = offset[:3, 3]
+            cost = weight2 * float(translation.dot(translation))
+            if pose:
+                rotation = pin.log3(offset[:3, :3])
+                cost += float(rotation.dot(rotation))
+            if cost < best_cost:
+                best, best_cost = seed, cost
+        return best
+
+    def _random(self, count: int) -> np.ndarray:
+        """``count`` uniform seeds inside the limits, drawn from a pool (one generator call per 256)."""
+        if self._pool_used + count > len(self._pool):
+            self._pool, self._pool_used = self.chain.random(self.rng, max(256, count)), 0
+        self._pool_used += count
+        return self._pool[self._pool_used - count:self._pool_used]
+
     def _passes(self, error: np.ndarray) -> bool:
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        if self.batch_size > 1:
-            return self._solve_batch(target, q0, deadline)
         goal = self.chain.base_placement * target.se3()
         pose = target.is_pose
         q_seed = self.project(q0)
         best_q, best_error = q_seed, math.inf
         attempts, iterations = 0, 0
         while True:
+            if self.batch_size > 1 and attempts >= self.single_attempts:
+                return self._solve_batch(target, q_seed if attempts == 0 else None, deadline, attempts,
+                                         iterations, (best_q, best_error))
             q, ok, used, error = self._attempt(goal, pose, q_seed, deadline)
             attempts += 1
             iterations += used
@@ -199,85 +231,211 @@ class BoundedLMSolver(Solver):
                                  f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
                                  f"(best task error {best_error:.3g}); the target may be out of reach",
                                  {"attempts": attempts})
-            q_seed = self.chain.random(self.rng)
+            q_seed = self._next_seed(goal, pose)
 
     # -- many seeds at once ---------------------------------------------------------------------
-    def _solve_batch(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        batch, size = self._batch, self.batch_size
-        n = self.chain.nq
-        tolerance_p, tolerance_r = self.tolerances.position, self.tolerances.rotation
-        q = self.chain.random(self.rng, size)
-        q[0] = self.project(q0)
-        error, jacobian = batch.error_jacobian(target, q)
+    def _solve_batch(self, target: Target, first: np.ndarray | None, deadline: float, attempts: int,
+                     iterations: int, best: tuple[np.ndarray, float]) -> Candidate:
+        """The same LM on ``batch_size`` seeds at once (seed 0 = ``first`` if given, others random).
+
+        A joint is frozen when the clipped step leaves it where it is (on a bound, pushed outwards).
+        A seed that stalls is replaced by a fresh random one in the next trial evaluation (its cost
+        is set to infinity so the fresh point is accepted): a restart costs no extra evaluation.
+        """
+        kinematics, size = self._vectorised, self.batch_size
+        goal_position = target.position
+        goal_rotation = target.rotation
+        lower, upper, identity = self.lower, self.upper, self._identity
+        clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
+        floor, cost_weight, decrease, increase = self.damping, self.cost_weight, self.decrease, self.increase
+        progress_ratio, stall, max_iterations = self.progress, self.stall, self.max_iterations
+        sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
+        q = self._random(size).copy()
+        if first is not None:
+            q[0] = first
+        error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
         cost = np.einsum("bi,bi->b", error, error)
-        damping = np.full(size, self.damping)
-        best_cost = cost.copy()
-        since_progress = np.zeros(size, dtype=int)
-        age = np.zeros(size, dtype=int)
-        overall_q, overall_error = q[0].copy(), math.inf
-        iterations, attempts = 0, size
+        damping = np.full(size, floor)
+        best_cost, since_progress, age = cost.copy(), np.zeros(size), np.zeros(size)
+        fresh = None
+        best_q, best_error = best
+        attempts += size
         while True:
-            position_norm = np.linalg.norm(error[:, :3], axis=1)
-            done = position_norm <= 0.5 * tolerance_p
-            if error.shape[1] == 6:
-                done &= np.linalg.norm(error[:, 3:], axis=1) <= 0.5 * tolerance_r
-            if done.any():
-                winner = int(np.flatnonzero(done)[0])
-                return Candidate(q[winner], iterations, "", {"attempts": attempts})
+            if cost.min() <= maybe_cost:
+                for index in np.flatnonzero(cost <= maybe_cost):
+                    if cost[index] <= sure_cost or self._passes(error[index]):
+                        return Candidate(q[index].copy(), iterations, "", {"attempts": attempts})
             if time.perf_counter() > deadline:
                 break
             iterations += 1
-            normal = np.einsum("bmi,bmj->bij", jacobian, jacobian)
-            gradient = np.einsum("bmi,bm->bi", jacobian, error)
-            system = normal + (self.cost_weight * cost + damping)[:, None, None] * np.eye(n)
-            step = np.linalg.solve(system, gradient[..., None])[..., 0]
-            if self.max_step is not None:
-                longest = np.abs(step).max(axis=1)
-                step *= np.minimum(1.0, self.max_step / np.maximum(longest, 1e-300))[:, None]
-            blocked = ((q <= self.lower) & (step < 0)) | ((q >= self.upper) & (step > 0))
-            blocked &= ~self.wraps
-            if blocked.any():
-                # freeze blocked joints: zero their rows/columns and keep the diagonal
-                keep = ~blocked
-                masked = system * keep[:, :, None] * keep[:, None, :]
-                masked += np.eye(n) * blocked[:, :, None]
-                step = np.linalg.solve(masked, (gradient * keep)[..., None])[..., 0]
-            trial = self.project(q + step)
-            trial_error, trial_jacobian = batch.error_jacobian(target, trial)
+            system = np.matmul(transposed, np.swapaxes(transposed, 1, 2))
+            diagonal = np.einsum("bii->bi", system)
+            diagonal += (cost_weight * cost + damping)[:, None]
+            gradient = np.matmul(transposed, error[:, :, None])
+            step = np.linalg.solve(system, gradient)[..., 0]
+            trial = q + step
+            inside = np.maximum(np.minimum(trial, upper), lower)
+            if inside.tobytes() != trial.tobytes():  # some joints hit a bound
+                blocked = inside == q  # on a bound and pushed outwards
+                if any_wrap:
+                    blocked &= clipped
+                if blocked.any():  # freeze them: keep their diagonal, drop their coupling
+                    keep = ~blocked
+                    masked = system * (keep[:, :, None] & keep[:, None, :])
+                    masked += identity * blocked[:, :, None]
+                    trial = q + np.linalg.solve(masked, gradient * keep[:, :, None])[..., 0]
+                    inside = np.maximum(np.minimum(trial, upper), lower)
+                if any_wrap:
+                    inside = self.project(trial)
+            if fresh is not None:
+                inside[fresh] = self._random(fresh.size)
+                cost[fresh] = math.inf
+            trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
             better = trial_cost < cost
-            q = np.where(better[:, None], trial, q)
+            q = np.where(better[:, None], inside, q)
             error = np.where(better[:, None], trial_error, error)
-            jacobian = np.where(better[:, None, None], trial_jacobian, jacobian)
-            cost = np.where(better, trial_cost, cost)
-            damping = np.where(better, np.maximum(damping * self.decrease, self.damping),
-                               np.maximum(damping, 1e-3) * self.increase)
-            progress = cost < self.progress * best_cost
+            transposed = np.where(better[:, None, None], trial_transposed, transposed)
+            cost = np.minimum(trial_cost, cost)
+            damping = np.where(better, np.maximum(damping * decrease, floor),
+                               np.maximum(damping, 1e-3) * increase)
+            progress = cost < progress_ratio * best_cost
             best_cost = np.where(progress, cost, best_cost)
-            since_progress = np.where(progress, 0, since_progress + 1)
-            age += 1
-            restart = (since_progress >= self.stall) | (age >= self.max_iterations)
-            if restart.any():
-                index = np.flatnonzero(restart)
-                worst_best = int(index[np.argmin(cost[index])])
-                if math.sqrt(cost[worst_best]) < overall_error:
-                    overall_q, overall_error = q[worst_best].copy(), math.sqrt(cost[worst_best])
-                q[index] = self.chain.random(self.rng, index.size)
-                fresh_error, fresh_jacobian = batch.error_jacobian(target, q[index])
-                error[index], jacobian[index] = fresh_error, fresh_jacobian
-                cost[index] = np.einsum("bi,bi->b", fresh_error, fresh_error)
-                best_cost[index] = cost[index]
-                damping[index] = self.damping
-                since_progress[index] = 0
-                age[index] = 0
-                attempts += index.size
-        current_best = int(np.argmin(cost))
-        if math.sqrt(cost[current_best]) < overall_error:
-            overall_q, overall_error = q[current_best].copy(), math.sqrt(cost[current_best])
-        return Candidate(overall_q, iterations,
-                         f"time budget of {self.timeout_s:g} s used up after {attempts} seeds "
-                         f"(best task error {overall_error:.3g}); the target may be out of reach",
+            since_progress = np.where(progress, 0.0, since_progress + 1.0)
+            age += 1.0
+            ended = (since_progress >= stall) | (age >= max_iterations)
+            fresh = None
+            if ended.any():
+                fresh = np.flatnonzero(ended)
+                lowest = int(fresh[np.argmin(cost[fresh])])
+                if math.sqrt(cost[lowest]) < best_error:
+                    best_q, best_error = q[lowest].copy(), math.sqrt(cost[lowest])
+                best_cost[fresh] = math.inf
+                since_progress[fresh] = 0.0
+                age[fresh] = 0.0
+                damping[fresh] = floor
+                attempts += fresh.size
+        lowest = int(np.argmin(cost))
+        if math.sqrt(cost[lowest]) < best_error:
+            best_q, best_error = q[lowest].copy(), math.sqrt(cost[lowest])
+        return Candidate(best_q, iterations,
+                         f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
+                         f"(best task error {best_error:.3g}); the target may be out of reach",
                          {"attempts": attempts})
+
+
+class VectorisedChain:
+    """Task errors and Jacobians of B configurations of a serial chain, in its base frame, with a
+    fixed number of numpy calls (independent of B).
+
+    Each joint frame is first turned so that its axis is z (Q_k e_z = a_k): joint axes and origins
+    are then plain slices of the frames. T(q) = F_1 A_1(q_1) ... A_n(q_n) with F_1 = P_0 Q_1,
+    A_k = Z(q_k) Q_k^T P_k Q_{k+1} (Q_{n+1} = I) and Z(q) = I + f(q) K + g(q) K^2, K the
+    cross-product matrix of e_z, f = sin, g = 1 - cos (revolute); Z(q) = I + q E_z (prismatic, E_z
+    the translation along z, g = 0). So every A_k(q_k) = [1, f, g] [C0; C1; C2]_k comes from one
+    matrix product, followed by n products down the chain. Jacobian column k: [z_k x (p - o_k); z_k]
+    (revolute) or [z_k; 0] (prismatic). Jacobians are returned transposed (B, n, m), position rows
+    (and errors) weighted by ``position_weight``.
+    """
+
+    def __init__(self, chain, position_weight: float = 1.0):
+        from wbik.solvers.task_error import serial_structure
+
+        structure = serial_structure(chain)
+        n = chain.nq
+        turns = [np.eye(4) for _ in range(n + 1)]
+        for k, axis in enumerate(structure.axes):
+            turns[k][:3, :3] = rotation_taking_z_to(axis)
+        placements = structure.placements
+        self.first = placements[0] @ turns[0]
+        cross_z = np.zeros((4, 4))
+        cross_z[0, 1], cross_z[1, 0] = -1.0, 1.0
+        along_z = np.zeros((4, 4))
+        along_z[2, 3] = 1.0
+        # A_k flattened = C0_k + f_k C1_k + g_k C2_k; F_1 is folded into A_1 (its frame is constant)
+        constant = np.zeros((n, 16))
+        linear = np.zeros((2 * n, 16 * n))  # rows: f_1..f_n, g_1..g_n; column block k: joint k
+        for k in range(n):
+            placement = turns[k].T @ placements[k + 1] @ turns[k + 1]
+            before = self.first if k == 0 else np.eye(4)
+            columns = slice(16 * k, 16 * (k + 1))
+            constant[k] = (before @ placement).reshape(16)
+            if structure.prismatic[k]:
+                linear[k, columns] = (before @ along_z @ placement).reshape(16)
+            else:
+                linear[k, columns] = (before @ cross_z @ placement).reshape(16)
+                linear[n + k, columns] = (before @ cross_z @ cross_z @ placement).reshape(16)
+        self.n, self.constant, self.linear = n, constant.reshape(16 * n), linear
+        self.prismatic = structure.prismatic
+        self.any_prismatic = bool(self.prismatic.any())
+        self.weight = float(position_weight)
+        levi_civita = np.zeros((3, 3, 3))
+        for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            levi_civita[i, j, k], levi_civita[i, k, j] = 1.0, -1.0
+        # (a outer b).flat @ this = weight * (a x b)
+        self._cross = self.weight * levi_civita.transpose(1, 2, 0).reshape(9, 3)
+
+    def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
+                 ) -> tuple[np.ndarray, np.ndarray]:
+        """(e (B, m), J^T (B, n, m)), m = 6 for a pose goal and 3 for a position goal (base frame)."""
+        size, n = q.shape
+        coefficients = np.empty((size, 2 * n))
+        np.sin(q, out=coefficients[:, :n])
+        np.cos(q, out=coefficients[:, n:])
+        np.subtract(1.0, coefficients[:, n:], out=coefficients[:, n:])
+        if self.any_prismatic:
+            coefficients[:, :n][:, self.prismatic] = q[:, self.prismatic]
+        steps = (coefficients.dot(self.linear) + self.constant).reshape(size, n, 4, 4)
+        frames = np.empty((size, n + 1, 4, 4))
+        frames[:, 0] = self.first
+        frames[:, 1] = steps[:, 0]
+        for k in range(1, n):
+            np.matmul(frames[:, k], steps[:, k], out=frames[:, k + 1])
+        axes = frames[:, :n, :3, 2]
+        tip = frames[:, n]
+        position = tip[:, :3, 3]
+        lever = position[:, None, :] - frames[:, :n, :3, 3]
+        pose = goal_rotation is not None
+        transposed = np.empty((size, n, 6 if pose else 3))
+        transposed[..., :3] = (axes[..., :, None] * lever[..., None, :]).reshape(size, n, 9) @ self._cross
+        error = np.empty((size, 6 if pose else 3))
+        error[:, :3] = goal_position - position
+        if self.any_prismatic:
+            transposed[:, self.prismatic, :3] = self.weight * axes[:, self.prismatic]
+        if self.weight != 1.0:
+            error[:, :3] *= self.weight
+        if pose:
+            transposed[..., 3:] = axes
+            if self.any_prismatic:
+                transposed[:, self.prismatic, 3:] = 0.0
+            error[:, 3:] = batch_log3(np.matmul(goal_rotation, np.swapaxes(tip[:, :3, :3], 1, 2)))
+        return error, transposed
+
+
+def rotation_taking_z_to(axis: np.ndarray) -> np.ndarray:
+    """A rotation Q with Q e_z = axis (a unit vector)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(helper, axis)
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(axis, x), axis))
+
+
+LOG3_ENTRIES = np.array([7, 2, 3, 5, 6, 1, 0, 4, 8])  # R21 R02 R10, R12 R20 R01, R00 R11 R22
+
+
+def batch_log3(rotations: np.ndarray) -> np.ndarray:
+    """Rotation vectors of (B, 3, 3) rotations: v = vee(R - R^T) = 2 sin(angle) axis and
+    angle = atan2(|v| / 2, (trace - 1) / 2), accurate at every angle but near pi (done by Pinocchio)."""
+    entries = rotations.reshape(-1, 9).take(LOG3_ENTRIES, axis=1)
+    vee = entries[:, :3] - entries[:, 3:6]
+    twice_sine = np.sqrt(np.einsum("bi,bi->b", vee, vee))
+    cosine = 0.5 * (entries[:, 6] + entries[:, 7] + entries[:, 8] - 1.0)
+    angle = np.arctan2(0.5 * twice_sine, cosine)
+    result = vee * (angle / np.maximum(twice_sine, 1e-300))[:, None]  # -> vee / 2 as angle -> 0
+    if twice_sine.min() < 1e-6:
+        for index in np.flatnonzero((twice_sine < 1e-6) & (cosine < 0.0)):  # near pi, vee loses the axis
+            result[index] = pin.log3(rotations[index])
+    return result
 
 
 def chain_scale_weight(chain) -> float:
