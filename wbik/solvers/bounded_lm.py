@@ -53,7 +53,8 @@ class BoundedLMSolver(Solver):
                  damping: float = 1e-6, batch_size: int = 32, cost_weight: float = 0.01,
                  decrease: float = 0.5, increase: float = 10.0, progress: float = 0.9,
                  max_step: float | None = None, position_weight: float | None = None,
-                 candidates: int = 3, single_attempts: int = 5, **options):
+                 candidates: int = 3, single_attempts: int = 5, library_size: int = 2048,
+                 library_share: float = 0.5, **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = int(max_iterations)
         self.stall = int(stall)
@@ -74,7 +75,12 @@ class BoundedLMSolver(Solver):
         chain_ = self.chain
         self.lower, self.upper = chain_.lower, chain_.upper
         self.wraps = (~chain_.is_prismatic) & (chain_.upper - chain_.lower >= TWO_PI - 1e-9)
-        self._vectorised = VectorisedChain(chain_, self.position_weight) if self.batch_size > 1 else None
+        self._vectorised = VectorisedChain(chain_, self.position_weight)
+        self.library_share = float(library_share)
+        self._library_q = chain_.random(self.rng, max(0, int(library_size)))
+        tips = self._vectorised.tip_poses(self._library_q)
+        self._library_p = self.position_weight * tips[:, :3, 3]
+        self._library_r = tips[:, :3, :3].reshape(-1, 9)
         self._model, self._data = chain_.model, chain_.model.createData()
         self._identity = np.eye(chain_.nq)
         self._pool, self._pool_used = np.empty((0, chain_.nq)), 0
@@ -198,6 +204,22 @@ class BoundedLMSolver(Solver):
                 best, best_cost = seed, cost
         return best
 
+    def _neighbours(self, target: Target, count: int) -> np.ndarray:
+        """The ``count`` library configurations whose tip poses are nearest the target, nearest first.
+
+        Distance^2 = w^2 |p* - p_i|^2 + (3 - trace(R*^T R_i)) (the second term is ~ angle^2).
+        """
+        count = min(count, len(self._library_q))
+        if count == 0:
+            return self._library_q[:0]
+        offset = self._library_p - self.position_weight * target.position
+        distance = np.einsum("bi,bi->b", offset, offset)
+        if target.rotation is not None:
+            distance -= self._library_r @ target.rotation.reshape(9)
+        nearest = np.argpartition(distance, count - 1)[:count] if count < len(distance) else \
+            np.arange(len(distance))
+        return self._library_q[nearest[np.argsort(distance[nearest])]]
+
     def _random(self, count: int) -> np.ndarray:
         """``count`` uniform seeds inside the limits, drawn from a pool (one generator call per 256)."""
         if self._pool_used + count > len(self._pool):
@@ -215,10 +237,15 @@ class BoundedLMSolver(Solver):
         q_seed = self.project(q0)
         best_q, best_error = q_seed, math.inf
         attempts, iterations = 0, 0
+        neighbours, used_neighbours = None, 0
         while True:
             if self.batch_size > 1 and attempts >= self.single_attempts:
-                return self._solve_batch(target, q_seed if attempts == 0 else None, deadline, attempts,
-                                         iterations, (best_q, best_error))
+                if attempts == 0:
+                    seeds = q_seed[None]
+                else:
+                    share = int(self.library_share * self.batch_size)
+                    seeds = neighbours[used_neighbours:used_neighbours + share]
+                return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error))
             q, ok, used, error = self._attempt(goal, pose, q_seed, deadline)
             attempts += 1
             iterations += used
@@ -231,12 +258,17 @@ class BoundedLMSolver(Solver):
                                  f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
                                  f"(best task error {best_error:.3g}); the target may be out of reach",
                                  {"attempts": attempts})
-            q_seed = self._next_seed(goal, pose)
+            if neighbours is None:
+                neighbours = self._neighbours(target, self.single_attempts + self.batch_size)
+            if used_neighbours < len(neighbours):
+                q_seed, used_neighbours = neighbours[used_neighbours], used_neighbours + 1
+            else:
+                q_seed = self._next_seed(goal, pose)
 
     # -- many seeds at once ---------------------------------------------------------------------
-    def _solve_batch(self, target: Target, first: np.ndarray | None, deadline: float, attempts: int,
+    def _solve_batch(self, target: Target, seeds: np.ndarray, deadline: float, attempts: int,
                      iterations: int, best: tuple[np.ndarray, float]) -> Candidate:
-        """The same LM on ``batch_size`` seeds at once (seed 0 = ``first`` if given, others random).
+        """The same LM on ``batch_size`` seeds at once: ``seeds`` first, then random ones.
 
         A joint is frozen when the clipped step leaves it where it is (on a bound, pushed outwards).
         A seed that stalls is replaced by a fresh random one in the next trial evaluation (its cost
@@ -251,8 +283,7 @@ class BoundedLMSolver(Solver):
         progress_ratio, stall, max_iterations = self.progress, self.stall, self.max_iterations
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         q = self._random(size).copy()
-        if first is not None:
-            q[0] = first
+        q[:len(seeds)] = seeds[:size]
         error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
         cost = np.einsum("bi,bi->b", error, error)
         damping = np.full(size, floor)
@@ -379,18 +410,7 @@ class VectorisedChain:
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(e (B, m), J^T (B, n, m)), m = 6 for a pose goal and 3 for a position goal (base frame)."""
         size, n = q.shape
-        coefficients = np.empty((size, 2 * n))
-        np.sin(q, out=coefficients[:, :n])
-        np.cos(q, out=coefficients[:, n:])
-        np.subtract(1.0, coefficients[:, n:], out=coefficients[:, n:])
-        if self.any_prismatic:
-            coefficients[:, :n][:, self.prismatic] = q[:, self.prismatic]
-        steps = (coefficients.dot(self.linear) + self.constant).reshape(size, n, 4, 4)
-        frames = np.empty((size, n + 1, 4, 4))
-        frames[:, 0] = self.first
-        frames[:, 1] = steps[:, 0]
-        for k in range(1, n):
-            np.matmul(frames[:, k], steps[:, k], out=frames[:, k + 1])
+        frames = self.frames(q)
         axes = frames[:, :n, :3, 2]
         tip = frames[:, n]
         position = tip[:, :3, 3]
@@ -410,6 +430,27 @@ class VectorisedChain:
                 transposed[:, self.prismatic, 3:] = 0.0
             error[:, 3:] = batch_log3(np.matmul(goal_rotation, np.swapaxes(tip[:, :3, :3], 1, 2)))
         return error, transposed
+
+    def tip_poses(self, q: np.ndarray) -> np.ndarray:
+        """(B, 4, 4) tip poses in the base frame."""
+        return self.frames(q)[:, -1]
+
+    def frames(self, q: np.ndarray) -> np.ndarray:
+        """(B, n + 1, 4, 4): the n joint frames (z = the joint axis) and the tip frame, base frame."""
+        size, n = q.shape
+        coefficients = np.empty((size, 2 * n))
+        np.sin(q, out=coefficients[:, :n])
+        np.cos(q, out=coefficients[:, n:])
+        np.subtract(1.0, coefficients[:, n:], out=coefficients[:, n:])
+        if self.any_prismatic:
+            coefficients[:, :n][:, self.prismatic] = q[:, self.prismatic]
+        steps = (coefficients.dot(self.linear) + self.constant).reshape(size, n, 4, 4)
+        frames = np.empty((size, n + 1, 4, 4))
+        frames[:, 0] = self.first
+        frames[:, 1] = steps[:, 0]
+        for k in range(1, n):
+            np.matmul(frames[:, k], steps[:, k], out=frames[:, k + 1])
+        return frames
 
 
 def rotation_taking_z_to(axis: np.ndarray) -> np.ndarray:
