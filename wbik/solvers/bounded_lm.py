@@ -120,7 +120,6 @@ class BoundedLMSolver(Solver):
         unblocked = np.zeros(n, dtype=bool).tobytes()
         weight = self.position_weight
         weighted = weight != 1.0
-        identity = self._identity
         cost_weight, floor, decrease, increase = self.cost_weight, self.damping, self.decrease, self.increase
         progress, stall, max_step = self.progress, self.stall, self.max_step
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
@@ -138,6 +137,8 @@ class BoundedLMSolver(Solver):
                 jacobian[:3] *= weight
             return error, jacobian
 
+        system = np.empty((n, n))
+        diagonal = system.reshape(-1)[::n + 1]  # a view: J^T J + lambda I is formed in place
         error, jacobian = evaluate(q)
         cost = float(error.dot(error))
         damping = floor
@@ -148,8 +149,8 @@ class BoundedLMSolver(Solver):
             if time.perf_counter() > deadline:
                 break
             transpose = jacobian.T
-            system = transpose.dot(jacobian)
-            system += (cost_weight * cost + damping) * identity
+            np.dot(transpose, jacobian, out=system)
+            diagonal += cost_weight * cost + damping
             gradient = transpose.dot(error)
             _, step, info = dposv(system, gradient)
             if info:  # not numerically positive definite: least squares instead of Cholesky
@@ -161,8 +162,7 @@ class BoundedLMSolver(Solver):
             trial = q + step
             inside = np.maximum(np.minimum(trial, upper), lower)
             if inside.tobytes() != trial.tobytes():  # some joint left its range
-                blocked = (q <= lower) & (step < 0)
-                blocked |= (q >= upper) & (step > 0)
+                blocked = inside == q  # on a bound and pushed outwards
                 blocked &= clipped
                 if blocked.tobytes() != unblocked:
                     free = np.flatnonzero(~blocked)
