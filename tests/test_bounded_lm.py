@@ -1,4 +1,5 @@
-"""Ours (bounded_lm): solutions pass an independent FK check and respect limits on every chain."""
+"""Ours (bounded_lm): solutions pass an independent FK check and respect limits on every chain; its
+vectorised kinematics and seed library agree with Pinocchio's FK and Jacobians."""
 
 from __future__ import annotations
 
@@ -6,10 +7,13 @@ import time
 from functools import cache
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbik
 from wbik.solvers.base import Tolerances
+from wbik.solvers.bounded_lm import VectorisedChain, batch_log3
+from wbik.targets import as_target
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),
           ("panda", "arm")]
@@ -44,8 +48,9 @@ def test_solutions_pass_fk_check_and_limits(robot_name, chain_name, rng):
             assert position <= 1e-5 and rotation <= 1e-5
         else:
             assert result.reason
-    # measured 98.5-100 % on an idle machine (5 ms budget); a loaded machine costs a little
-    assert solved >= 0.9 * 200
+    # measured 99.9-100 % on 1000 poses on an idle machine (5 ms budget, benchmarks/numerical.py);
+    # the margin is for a loaded machine, where fewer iterations fit in 5 ms
+    assert solved >= 0.95 * 200
 
 
 @pytest.mark.parametrize(("robot_name", "chain_name"), [("ur5", "arm"), ("arm3r", "arm"), ("panda", "arm")])
@@ -71,14 +76,73 @@ def test_unreachable_target_ends_in_budget_with_reason():
     assert result.extra["attempts"] >= 2  # it restarted from random seeds
 
 
-def test_batched_seeds_solve(rng):
-    solver = wbik.solver("bounded_lm", robot("ur5"), chain="arm", batch_size=4, timeout_s=0.05)
+@pytest.mark.parametrize(("robot_name", "chain_name"), [("ur5", "arm"), ("golem3", "right_arm_lift"),
+                                                      ("pincher", "arm")])
+def test_batched_seeds_solve(robot_name, chain_name, rng):
+    # single_attempts=0: the vectorised batch does all the work (wrapping joints, a prismatic joint,
+    # a small chain with weighted position rows)
+    solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name, batch_size=8, single_attempts=0,
+                         timeout_s=0.2)
     chain = solver.chain
     for q in chain.random(rng, 10):
         target = chain.fk(q)
         result = solver.solve(target, chain.mid_range)
         assert result.success, result.reason
-        assert independent_errors(chain, result.q, target)[0] <= 1e-6
+        assert chain.in_limits(result.q, tolerance=0.0)
+        position, rotation = independent_errors(chain, result.q, target)
+        assert position <= 1e-6 and rotation <= 1e-6
+        point = solver.solve(target.translation, chain.mid_range)  # position only, batched too
+        assert point.success, point.reason
+        assert np.linalg.norm(chain.fk(point.q).translation - target.translation) <= 1e-6
+
+
+@pytest.mark.parametrize(("robot_name", "chain_name"),
+                         [("ur5", "arm"), ("golem3", "right_arm_lift"), ("bioloid", "right_leg"),
+                          ("panda", "arm"), ("pincher", "arm")])
+def test_vectorised_chain_matches_pinocchio(robot_name, chain_name, rng):
+    chain = robot(robot_name).chain(chain_name)
+    weight = 3.0
+    kinematics = VectorisedChain(chain, weight)
+    q = chain.random(rng, 6)
+    goal = pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3))
+    error, transposed = kinematics.evaluate(q, goal.translation, goal.rotation)
+    point_error, point_transposed = kinematics.evaluate(q, goal.translation, None)
+    tips = kinematics.tip_poses(q)
+    for b in range(len(q)):
+        reached = chain.fk(q[b])  # Pinocchio forward kinematics, in the chain's base frame
+        assert np.allclose(tips[b], reached.homogeneous, atol=1e-12)
+        position_error = goal.translation - reached.translation
+        rotation_error = pin.log3(goal.rotation @ reached.rotation.T)
+        assert np.allclose(error[b], np.concatenate((weight * position_error, rotation_error)), atol=1e-12)
+        assert np.allclose(point_error[b], weight * position_error, atol=1e-12)
+        _, jacobian = chain.fk_jacobian(q[b])  # Pinocchio's frame Jacobian in base axes
+        assert np.allclose(transposed[b].T, np.vstack((weight * jacobian[:3], jacobian[3:])), atol=1e-12)
+        assert np.allclose(point_transposed[b].T, weight * jacobian[:3], atol=1e-12)
+
+
+def test_batch_log3_matches_pinocchio_at_every_angle(rng):
+    vectors = [np.zeros(3), np.array([0.0, 1e-9, 0.0]), np.array([np.pi - 1e-9, 0.0, 0.0]),
+               np.array([0.0, 0.0, np.pi]), np.array([0.3, -2.0, 1.0])]
+    vectors += list(rng.normal(size=(20, 3)))
+    rotations = np.array([pin.exp3(v) for v in vectors])
+    expected = np.array([pin.log3(r) for r in rotations])
+    assert np.allclose(batch_log3(rotations), expected, atol=1e-9)
+
+
+def test_seed_library_neighbours_are_nearest_in_pose(rng):
+    solver = wbik.solver("bounded_lm", robot("panda"), chain="arm", library_size=300)
+    chain = solver.chain
+    target = as_target(chain.fk(chain.random(rng)))
+    neighbours = solver._neighbours(target, 5)
+    weight = solver.position_weight
+
+    def distance(q):  # weighted position distance^2 + (3 - trace(R*^T R)), from the chain's FK
+        reached = chain.fk(q)
+        offset = weight * (reached.translation - target.position)
+        return offset @ offset + 3.0 - np.trace(target.rotation.T @ reached.rotation)
+
+    everything = sorted(distance(q) for q in solver._library_q)
+    assert np.allclose([distance(q) for q in neighbours], everything[:5])
 
 
 def test_full_turn_joints_wrap_instead_of_clip():
