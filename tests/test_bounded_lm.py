@@ -12,7 +12,7 @@ import pytest
 
 import wbik
 from wbik.solvers.base import Tolerances
-from wbik.solvers.bounded_lm import VectorisedChain, batch_log3
+from wbik.solvers.bounded_lm import VectorisedChain, batch_log3, scaled_model
 from wbik.targets import as_target
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),
@@ -158,3 +158,21 @@ def test_full_turn_joints_wrap_instead_of_clip():
     assert np.allclose(chain.fk(projected).homogeneous, chain.fk(q).homogeneous, atol=1e-12)
     pincher = wbik.solver("bounded_lm", robot("pincher"))
     assert np.allclose(pincher.project(np.full(4, 3.0)), pincher.chain.upper)  # +-150 deg: clipped
+
+
+def test_scaled_model_scales_lengths_only(rng):
+    chain = robot("bioloid").chain("right_leg")
+    factor = 6.5
+    scaled = scaled_model(chain.model, factor)
+    data, original = scaled.createData(), chain.model.createData()
+    local = pin.ReferenceFrame.LOCAL
+    for q in chain.random(rng, 5):
+        jacobian = pin.computeFrameJacobian(scaled, data, q, chain.tip_id, local)
+        expected = pin.computeFrameJacobian(chain.model, original, q, chain.tip_id, local)
+        pin.framesForwardKinematics(scaled, data, q)
+        pin.framesForwardKinematics(chain.model, original, q)
+        reached, reference = data.oMf[chain.tip_id], original.oMf[chain.tip_id]
+        assert np.allclose(reached.translation, factor * reference.translation, atol=1e-12)
+        assert np.allclose(reached.rotation, reference.rotation, atol=1e-12)
+        assert np.allclose(jacobian, np.vstack((factor * expected[:3], expected[3:])), atol=1e-12)
+    assert scaled_model(chain.model, 1.0) is chain.model

@@ -94,7 +94,8 @@ class BoundedLMSolver(Solver):
                 else np.zeros((0, 4, 4)))
         self._library_p = self.position_weight * tips[:, :3, 3]
         self._library_r = tips[:, :3, :3].reshape(-1, 9)
-        self._model, self._data = chain_.model, chain_.model.createData()
+        self._model = scaled_model(chain_.model, self.position_weight)
+        self._data = self._model.createData()
         self._identity = np.eye(chain_.nq)
         self._pool, self._pool_used = np.empty((0, chain_.nq)), 0
 
@@ -123,7 +124,9 @@ class BoundedLMSolver(Solver):
         iterations than the straight-line error [R^T (p* - p); log3(R^T R*)], and one call fewer.
         A position target uses e = R^T (p* - p) and the three linear rows. Rotating both by R leaves
         |e|, J^T J and J^T e unchanged, so tip axes serve as well as world axes.
-        Hot loop: no Python-level helpers beyond the error evaluation, small numpy calls only.
+        Position rows are weighted through the model itself (:func:`scaled_model`, lengths x w,
+        goal position x w). Hot loop: no Python-level helpers beyond the error evaluation, small
+        numpy calls only.
         """
         model, data, tip = self._model, self._data, self.chain.tip_id
         joint_jacobians, frame_jacobian = pin.computeJointJacobians, pin.getFrameJacobian
@@ -131,8 +134,6 @@ class BoundedLMSolver(Solver):
         lower, upper, n = self.lower, self.upper, self.chain.nq
         clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
         unblocked = np.zeros(n, dtype=bool).tobytes()
-        weight = self.position_weight
-        weighted = weight != 1.0
         cost_weight, floor, decrease, increase = self.cost_weight, self.damping, self.decrease, self.increase
         progress, stall, max_step = self.progress, self.stall, self.max_step
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
@@ -145,9 +146,6 @@ class BoundedLMSolver(Solver):
                 error = log6(offset).vector
             else:
                 error, jacobian = offset.translation, jacobian[:3]
-            if weighted:
-                error[:3] *= weight
-                jacobian[:3] *= weight
             return error, jacobian
 
         system = np.empty((n, n))
@@ -205,13 +203,12 @@ class BoundedLMSolver(Solver):
             return self._random(1)[0].copy()
         seeds = self._random(self.candidates)
         model, data, tip = self._model, self._data, self.chain.tip_id
-        weight2 = self.position_weight ** 2
         best, best_cost = seeds[0], math.inf
         for seed in seeds:
             pin.forwardKinematics(model, data, seed)
             offset = pin.updateFramePlacement(model, data, tip).actInv(goal).homogeneous
             translation = offset[:3, 3]
-            cost = weight2 * float(translation.dot(translation))
+            cost = float(translation.dot(translation))
             if pose:
                 rotation = pin.log3(offset[:3, :3])
                 cost += float(rotation.dot(rotation))
@@ -248,6 +245,7 @@ class BoundedLMSolver(Solver):
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         goal = self.chain.base_placement * target.se3()
+        goal = pin.SE3(goal.rotation, self.position_weight * goal.translation)  # in the scaled model
         pose = target.is_pose
         q_seed = self.project(q0)
         best_q, best_error = q_seed, math.inf
@@ -492,6 +490,23 @@ def batch_log3(rotations: np.ndarray) -> np.ndarray:
         for index in np.flatnonzero((twice_sine < 1e-6) & (cosine < 0.0)):  # near pi, vee loses the axis
             result[index] = pin.log3(rotations[index])
     return result
+
+
+def scaled_model(model: pin.Model, factor: float) -> pin.Model:
+    """A copy of ``model`` with every length multiplied by ``factor``: its tip positions are factor x
+    the original ones, the linear rows of its Jacobians too, rotations are unchanged. So position
+    rows come out weighted at no cost per iteration."""
+    if factor == 1.0:
+        return model
+    scaled = pin.Model(model)
+    for index in range(scaled.njoints):
+        placement = scaled.jointPlacements[index]
+        scaled.jointPlacements[index] = pin.SE3(placement.rotation, factor * placement.translation)
+    for index in range(len(scaled.frames)):
+        frame = scaled.frames[index]
+        frame.placement = pin.SE3(frame.placement.rotation, factor * frame.placement.translation)
+        scaled.frames[index] = frame
+    return scaled
 
 
 def chain_scale_weight(chain) -> float:
