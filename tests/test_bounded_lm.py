@@ -141,7 +141,7 @@ def test_seed_library_neighbours_are_nearest_in_pose(rng):
         offset = weight * (reached.translation - target.position)
         return offset @ offset + 3.0 - np.trace(target.rotation.T @ reached.rotation)
 
-    everything = sorted(distance(q) for q in solver._library_q)
+    everything = sorted(distance(q) for q in solver._library.q)
     assert np.allclose([distance(q) for q in neighbours], everything[:5])
 
 
