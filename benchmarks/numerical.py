@@ -12,6 +12,7 @@ i.e. position + pitch targets written as poses, which every method takes.
 
     .venv/bin/python benchmarks/numerical.py --poses 2000
     .venv/bin/python benchmarks/numerical.py --chains ur5:arm panda:arm --methods trac_ik bounded_lm
+    .venv/bin/python benchmarks/numerical.py --poses 1000 --methods trac_ik bounded_lm --interleave
 
 Rows are appended to ``--output`` (JSON lines) as each (chain, method) finishes, so an
 interrupted run keeps what it measured.
@@ -40,23 +41,50 @@ def poses_for(chain: wbik.Chain, count: int, seed: int) -> list:
     return [chain.fk(q) for q in chain.random(rng, count)]
 
 
+def make_solver(method: str, robot, chain_name: str, timeout_s: float, tolerance: float, options: dict):
+    return wbik.solver(method, robot, chain=chain_name, timeout_s=timeout_s,
+                       tolerances=Tolerances(tolerance, tolerance), **options)
+
+
+def summarise(method: str, results: list) -> dict:
+    """Success rate and mean / median / p95 time per call of one method's results."""
+    times_ms = np.array([result.time_s for result in results]) * 1e3
+    return {"method": method, "poses": len(results),
+            "success": sum(result.success for result in results) / len(results),
+            "mean_ms": float(times_ms.mean()), "median_ms": float(np.median(times_ms)),
+            "p95_ms": float(np.percentile(times_ms, 95))}
+
+
 def measure(method: str, robot, chain_name: str, poses: list, timeout_s: float, tolerance: float,
             options: dict) -> dict:
-    solver = wbik.solver(method, robot, chain=chain_name, timeout_s=timeout_s,
-                         tolerances=Tolerances(tolerance, tolerance), **options)
+    solver = make_solver(method, robot, chain_name, timeout_s, tolerance, options)
     chain = solver.chain
-    seed = chain.mid_range
-    times, successes, outside = [], 0, 0
+    results = [solver.solve(pose, chain.mid_range) for pose in poses]
+    outside = sum(result.q is not None and not chain.in_limits(result.q) for result in results)
+    return {**summarise(method, results), "outside_limits": outside}
+
+
+def measure_interleaved(methods: list[str], robot, chain_name: str, poses: list, timeout_s: float,
+                        tolerance: float, per_method: dict) -> dict[str, dict]:
+    """Every method on pose 1, then every method on pose 2, ...: on a shared machine all methods see
+    the same load, so their ratio is steadier than with one method after the other."""
+    solvers = {}
+    for method in methods:
+        try:
+            solvers[method] = make_solver(method, robot, chain_name, timeout_s, tolerance,
+                                          per_method.get(method, {}))
+        except (WbikError, ImportError) as exc:
+            print(f"{method:<14}  unavailable: {exc}")
+    results: dict[str, list] = {method: [] for method in solvers}
     for pose in poses:
-        result = solver.solve(pose, seed)
-        times.append(result.time_s)
-        successes += result.success
-        if result.q is not None and not chain.in_limits(result.q):
-            outside += 1
-    times_ms = np.array(times) * 1e3
-    return {"method": method, "poses": len(poses), "success": successes / len(poses),
-            "mean_ms": float(times_ms.mean()), "median_ms": float(np.median(times_ms)),
-            "p95_ms": float(np.percentile(times_ms, 95)), "outside_limits": outside}
+        for method, solver in solvers.items():
+            results[method].append(solver.solve(pose, solver.chain.mid_range))
+    rows = {}
+    for method, solver in solvers.items():
+        outside = sum(result.q is not None and not solver.chain.in_limits(result.q)
+                      for result in results[method])
+        rows[method] = {**summarise(method, results[method]), "outside_limits": outside}
+    return rows
 
 
 def parse_options(pairs: list[str]) -> dict:
@@ -81,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--option", nargs="*", default=[], metavar="METHOD.KEY=VALUE",
                         help="solver options, e.g. bounded_lm.batch_size=8")
     parser.add_argument("--output", type=Path, default=Path("runs/numerical.jsonl"))
+    parser.add_argument("--interleave", action="store_true",
+                        help="solve each pose with every method in turn (same machine load for all)")
     args = parser.parse_args(argv)
     per_method: dict[str, dict] = {}
     for item in parse_options(args.option).items():
@@ -101,24 +131,35 @@ def main(argv: list[str] | None = None) -> int:
               f"tolerance {args.tolerance:g}, seed = mid-range")
         print(f"{'method':<14}{'success %':>10}{'mean ms':>10}{'median ms':>11}{'p95 ms':>9}")
         rows = {}
+        if args.interleave:
+            interleaved = measure_interleaved(args.methods, robot, chain.name, poses, args.timeout_ms / 1e3,
+                                              args.tolerance, per_method)
         for method in args.methods:
-            try:
-                row = measure(method, robot, chain.name, poses, args.timeout_ms / 1e3, args.tolerance,
-                              per_method.get(method, {}))
-            except (WbikError, ImportError) as exc:
-                print(f"{method:<14}  unavailable: {exc}")
-                continue
+            if args.interleave:
+                if method not in interleaved:
+                    continue
+                row = interleaved[method]
+            else:
+                try:
+                    row = measure(method, robot, chain.name, poses, args.timeout_ms / 1e3, args.tolerance,
+                                  per_method.get(method, {}))
+                except (WbikError, ImportError) as exc:
+                    print(f"{method:<14}  unavailable: {exc}")
+                    continue
             rows[method] = row
             print(f"{method:<14}{100 * row['success']:>10.2f}{row['mean_ms']:>10.3f}"
                   f"{row['median_ms']:>11.3f}{row['p95_ms']:>9.3f}"
                   + (f"   ({row['outside_limits']} outside limits!)" if row["outside_limits"] else ""))
             with args.output.open("a") as stream:
                 stream.write(json.dumps({"run": stamp, "chain": spec, "timeout_ms": args.timeout_ms,
-                                         "tolerance": args.tolerance, **row}) + "\n")
+                                         "tolerance": args.tolerance, "interleaved": args.interleave,
+                                         **row}) + "\n")
             sys.stdout.flush()
         if "bounded_lm" in rows and "trac_ik" in rows:
             ours, theirs = rows["bounded_lm"], rows["trac_ik"]
             print(f"bounded_lm / trac_ik: mean time x{ours['mean_ms'] / theirs['mean_ms']:.2f}, "
+                  f"median x{ours['median_ms'] / theirs['median_ms']:.2f}, "
+                  f"p95 x{ours['p95_ms'] / theirs['p95_ms']:.2f}, "
                   f"success {100 * ours['success']:.2f} % vs {100 * theirs['success']:.2f} %")
     return 0
 
