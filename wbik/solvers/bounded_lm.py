@@ -259,9 +259,9 @@ class BoundedLMSolver(Solver):
             if self.batch_size > 1 and attempts >= self.single_attempts:
                 if attempts == 0:
                     seeds = q_seed[None]
-                else:
+                else:  # the next library neighbours (a second, larger query: few solves get here)
                     share = int(self.library_share * self.batch_size)
-                    seeds = neighbours[used_neighbours:used_neighbours + share]
+                    seeds = self._neighbours(target, used_neighbours + share)[used_neighbours:]
                 return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error))
             q, ok, used, error = self._attempt(goal, pose, q_seed, deadline)
             attempts += 1
@@ -275,8 +275,8 @@ class BoundedLMSolver(Solver):
                                  f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
                                  f"(best task error {best_error:.3g}); the target may be out of reach",
                                  {"attempts": attempts})
-            if neighbours is None:
-                neighbours = self._neighbours(target, self.single_attempts + self.batch_size)
+            if neighbours is None:  # enough for the single attempts (a query's cost grows with k)
+                neighbours = self._neighbours(target, self.single_attempts if self.batch_size > 1 else 32)
             if used_neighbours < len(neighbours):
                 q_seed, used_neighbours = neighbours[used_neighbours], used_neighbours + 1
             else:
