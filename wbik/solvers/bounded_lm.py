@@ -61,6 +61,18 @@ TWO_PI = 2.0 * math.pi
 
 
 class BoundedLMSolver(Solver):
+    """Bounded LM with restarts (see the module docstring). Options, besides the base ones:
+
+    max_iterations, stall, progress: end of an attempt (30 iterations; 3 without a 10 % drop);
+    damping, cost_weight, decrease, increase: lambda_0 floor, w, lambda_0 factors on accept/reject;
+    max_step: cap on the largest joint step (rad or m), None = no cap; position_weight: w of the
+    position rows (default 1 / the chain's length, at least 1); single_attempts: one-seed attempts
+    before the vectorised batch (5); batch_size: seeds per batch (32; 1 = one seed at a time for
+    ever); library_size: seed-library entries (8192; 0 = uniform restarts); library_share: share of
+    the first batch taken from the library (0.5); candidates: a uniform restart seed is the best of
+    this many draws by task error (3; used once the library neighbours run out).
+    """
+
     name = "bounded_lm"
 
     def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
@@ -116,8 +128,8 @@ class BoundedLMSolver(Solver):
     # -- one seed ---------------------------------------------------------------------------------
     def _attempt(self, goal: pin.SE3, pose: bool, q: np.ndarray, deadline: float
                  ) -> tuple[np.ndarray, bool, int, float]:
-        """LM from q towards ``goal`` (tip pose in the model's world frame): (last q, converged?,
-        iterations, |e|).
+        """LM from q towards ``goal`` (tip pose in the scaled model's world frame): (last q,
+        converged?, iterations, |e|).
 
         Errors and Jacobians are taken in the tip's own axes with the LOCAL frame Jacobian: for a
         pose, e = log6(T^-1 T*), the twist that carries the tip onto the target along the SE(3)
