@@ -7,7 +7,7 @@ One attempt, from a seed q inside the limits, iterates
 with e, J the task error and Jacobian, w = ``cost_weight`` (0.01) and lambda_0 = ``damping``
 (1e-6). This is Sugihara's error-dependent damping: large far from the target (robust start),
 vanishing near it (Newton-fast end). The system is solved by Cholesky. A step that raises |e| is
-rejected and lambda_0 grows ten-fold; an accepted one halves it. P is the projection into the
+rejected and lambda_0 grows ten-fold; an accepted one multiplies it by 0.3. P is the projection into the
 limits: a revolute joint whose range spans a full turn is wrapped by 2 pi instead of clipped;
 otherwise joints are clipped, and a joint already on a bound whose step points outwards is frozen
 and the step recomputed without it (an active-set, i.e. bounded, step). ``max_step`` optionally
@@ -77,7 +77,7 @@ class BoundedLMSolver(Solver):
 
     def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
                  damping: float = 1e-6, batch_size: int = 32, cost_weight: float = 0.01,
-                 decrease: float = 0.5, increase: float = 10.0, progress: float = 0.9,
+                 decrease: float = 0.3, increase: float = 10.0, progress: float = 0.9,
                  max_step: float | None = None, position_weight: float | None = None,
                  candidates: int = 3, single_attempts: int = 5, library_size: int = 8192,
                  library_share: float = 0.5, **options):
