@@ -51,36 +51,41 @@ def targets_for(chain, kind: str, joints: np.ndarray) -> list:
     return poses if kind == "pose" else [pose.translation.copy() for pose in poses]
 
 
-def measure(robot, chain_name: str, kind: str, poses: int, scalar_poses: int, seed: int) -> dict:
-    """One table row: timings in microseconds per pose, success rates in percent."""
-    solver = wbik.solver("analytic", robot, chain=chain_name)
-    chain = solver.chain
-    joints = chain.random(np.random.default_rng(seed), poses)
-    targets = targets_for(chain, kind, joints)
-    solver.solve(targets[0])  # import and first-call costs out of the timings
+def time_solver(solver, targets: list, scalar_poses: int) -> dict:
+    """Scalar ``solve`` on the first ``scalar_poses`` targets and one ``solve_many`` on all of them.
 
+    Timings in microseconds per pose (wall time), success rates in percent.
+    """
+    solver.solve(targets[0])  # import and first-call costs out of the timings
     scalar_times, scalar_successes = [], []
     for target in targets[:scalar_poses]:
         start = time.perf_counter()
         result = solver.solve(target)
         scalar_times.append(time.perf_counter() - start)
         scalar_successes.append(result.success)
-
     start = time.perf_counter()
     results = solver.solve_many(targets)
     batch_time = time.perf_counter() - start
     micro = 1e6
     return {
-        "robot": robot.name, "chain": chain_name, "kind": kind, "joints": chain.nq,
         "scalar_median_us": float(np.median(scalar_times)) * micro,
         "scalar_p95_us": float(np.percentile(scalar_times, 95)) * micro,
         "scalar_success_pct": 100.0 * float(np.mean(scalar_successes)),
-        "batch_poses": poses,
-        "batch_us_per_pose": batch_time / poses * micro,
+        "batch_poses": len(targets),
+        "batch_us_per_pose": batch_time / len(targets) * micro,
         "closed_form_us_per_pose": results[0].time_s * micro,
         "batch_success_pct": 100.0 * float(np.mean([r.success for r in results])),
         "branches_mean": float(np.mean([r.extra.get("branches", 0) for r in results])),
     }
+
+
+def measure(robot, chain_name: str, kind: str, poses: int, scalar_poses: int, seed: int) -> dict:
+    """One table row for a chain: targets from FK of seeded random joints inside the limits."""
+    solver = wbik.solver("analytic", robot, chain=chain_name)
+    chain = solver.chain
+    targets = targets_for(chain, kind, chain.random(np.random.default_rng(seed), poses))
+    return {"robot": robot.name, "chain": chain_name, "kind": kind, "joints": chain.nq,
+            **time_solver(solver, targets, scalar_poses)}
 
 
 HEADER = (f"{'robot':<10} {'chain':<16} {'kind':<8} {'n':>2} {'solve med us':>12} {'p95 us':>8} "

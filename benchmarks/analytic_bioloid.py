@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -26,6 +27,9 @@ import numpy as np
 
 import wbik
 from wbik.solvers.analytic import bioloid as closed
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from analytic import time_solver  # noqa: E402  (the shared timing loop of benchmarks/analytic.py)
 
 ALPHA = math.atan2(0.0145, 0.075)
 CASES = [("right_leg", "pose"), ("left_leg", "pose"), ("right_leg", "position"), ("left_leg", "position"),
@@ -80,28 +84,9 @@ def measure(robot, chain_name: str, kind: str, poses: int, scalar_poses: int, se
     joints = sample_joints(chain, kind, poses, np.random.default_rng(seed))
     fk = [chain.fk(q) for q in joints]
     targets = fk if kind == "pose" else [pose.translation.copy() for pose in fk]
-    solver.solve(targets[0])
-
-    times, successes = [], []
-    for target in targets[:scalar_poses]:
-        start = time.perf_counter()
-        result = solver.solve(target)
-        times.append(time.perf_counter() - start)
-        successes.append(result.success)
-    start = time.perf_counter()
-    results = solver.solve_many(targets)
-    batch = time.perf_counter() - start
-    micro = 1e6
-    return {
-        "chain": chain_name, "kind": kind, "poses": poses,
-        "scalar_median_us": float(np.median(times)) * micro,
-        "scalar_p95_us": float(np.percentile(times, 95)) * micro,
-        "scalar_success_pct": 100.0 * float(np.mean(successes)),
-        "batch_us_per_pose": batch / poses * micro,
-        "closed_form_us_per_pose": results[0].time_s * micro,
-        "batch_success_pct": 100.0 * float(np.mean([r.success for r in results])),
-        "thesis_function_us_per_pose": bare_thesis_time(chain, kind, joints[:poses]) * micro,
-    }
+    return {"chain": chain_name, "kind": kind, "poses": poses,
+            **time_solver(solver, targets, scalar_poses),
+            "thesis_function_us_per_pose": bare_thesis_time(chain, kind, joints[:poses]) * 1e6}
 
 
 def main(argv=None) -> None:
