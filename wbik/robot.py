@@ -25,6 +25,7 @@ from wbik.errors import (
     UnknownFrameError,
     UnsupportedError,
 )
+from wbik.files import atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -221,9 +222,7 @@ def write_cached_urdf(name: str, text: str) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}-{digest}.urdf"
     if not path.exists():
-        temporary = path.with_suffix(".tmp")
-        temporary.write_text(text)
-        temporary.replace(path)
+        atomic_write_text(path, text)
     return path
 
 

@@ -41,6 +41,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import WbikError
+from wbik.files import atomic_write_text
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
@@ -111,10 +112,7 @@ def run_scenario(scenario: str | Path | dict, output: str | Path | None = None) 
 
     def write(report: dict) -> None:
         if output is not None:
-            path = Path(output)
-            temporary = path.with_suffix(path.suffix + ".tmp")
-            temporary.write_text(json.dumps(report, indent=2, default=_json_default))
-            temporary.replace(path)
+            atomic_write_text(Path(output), json.dumps(report, indent=2, default=_json_default))
 
     report = RUNNERS[kind](spec, write)
     write(report)

@@ -7,8 +7,7 @@ For a position target only the first three rows are used.
 
 Besides the Pinocchio-based ``task_error`` (one configuration), this module holds the chain's
 serial structure (``serial_structure``: fixed placements and joint axes, from which KDL chains and
-vectorised kinematics are built) and ``BatchKinematics``, which evaluates e and J for many
-configurations at once with numpy (the batched restarts of ``bounded_lm``).
+vectorised kinematics are built) and ``batch_log3``, the rotation logarithm of many matrices at once.
 """
 
 from __future__ import annotations
@@ -89,64 +88,6 @@ def serial_structure(chain: Chain) -> SerialStructure:
     return SerialStructure(np.array(placements), np.array(axes), np.array(prismatic, dtype=bool))
 
 
-class BatchKinematics:
-    """Vectorised tip poses, task errors and Jacobians of a chain for B configurations at once.
-
-    Uses the serial structure: each joint contributes a Rodrigues rotation (or a translation),
-    and the geometric Jacobian column k is [a_k x (p_tip - o_k); a_k] (revolute) or [a_k; 0]
-    (prismatic), with a_k, o_k the joint-k axis and origin in the base frame.
-    """
-
-    def __init__(self, chain: Chain):
-        structure = serial_structure(chain)
-        self.n = chain.nq
-        self.placements = structure.placements
-        self.axes = structure.axes
-        self.prismatic = structure.prismatic
-        axis = self.axes
-        skew = np.zeros((self.n, 3, 3))
-        skew[:, 0, 1], skew[:, 0, 2], skew[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
-        skew[:, 1, 0], skew[:, 2, 0], skew[:, 2, 1] = axis[:, 2], -axis[:, 1], axis[:, 0]
-        self._skew = skew
-        self._skew2 = skew @ skew
-
-    def forward(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(p_tip (B,3), R_tip (B,3,3), joint origins (B,n,3), joint axes (B,n,3)) in the base frame."""
-        batch = q.shape[0]
-        rotation = np.broadcast_to(self.placements[0, :3, :3], (batch, 3, 3))
-        position = np.broadcast_to(self.placements[0, :3, 3], (batch, 3))
-        origins = np.empty((batch, self.n, 3))
-        axes = np.empty((batch, self.n, 3))
-        for k in range(self.n):
-            origins[:, k] = position
-            axes[:, k] = rotation @ self.axes[k]
-            angle = q[:, k]
-            if self.prismatic[k]:
-                position = position + axes[:, k] * angle[:, None]
-            else:
-                local = (np.eye(3) + np.sin(angle)[:, None, None] * self._skew[k]
-                         + (1.0 - np.cos(angle))[:, None, None] * self._skew2[k])
-                rotation = rotation @ local
-            placement = self.placements[k + 1]
-            position = position + rotation @ placement[:3, 3]
-            rotation = rotation @ placement[:3, :3]
-        return position, rotation, origins, axes
-
-    def error_jacobian(self, target: Target, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Task errors (B, m) and Jacobians (B, m, n), m = 6 for a pose and 3 for a position."""
-        position, rotation, origins, axes = self.forward(q)
-        linear = np.cross(axes, position[:, None, :] - origins)
-        linear[:, self.prismatic] = axes[:, self.prismatic]
-        position_error = target.position - position
-        if target.rotation is None:
-            return position_error, np.swapaxes(linear, 1, 2)
-        angular = axes.copy()
-        angular[:, self.prismatic] = 0.0
-        rotation_error = batch_log3(target.rotation @ np.swapaxes(rotation, 1, 2))
-        jacobian = np.concatenate((np.swapaxes(linear, 1, 2), np.swapaxes(angular, 1, 2)), axis=1)
-        return np.concatenate((position_error, rotation_error), axis=1), jacobian
-
-
 def batch_log3(rotations: np.ndarray) -> np.ndarray:
     """Rotation vectors of (B, 3, 3) rotations (accurate near 0 and near pi)."""
     trace = rotations[:, 0, 0] + rotations[:, 1, 1] + rotations[:, 2, 2]
@@ -162,28 +103,3 @@ def batch_log3(rotations: np.ndarray) -> np.ndarray:
     for index in np.flatnonzero(near_pi):
         result[index] = pin.log3(rotations[index])
     return result
-
-
-class WorldTaskError:
-    """Lean (e, J) of one target for hot loops, in world axes.
-
-    With the base frame's rotation R_b, the base-axes error and Jacobian are blockdiag(R_b^T) times
-    the world-axes ones, so |e|, J^T J and J^T e (all a least-squares step needs) are the same in
-    both; this evaluator skips the rotation and uses one Pinocchio call per evaluation.
-    """
-
-    def __init__(self, chain: Chain, target: Target):
-        self.model, self.data, self.tip_id = chain.model, chain.data, chain.tip_id
-        base = chain.base_placement
-        self.position = base.rotation @ target.position + base.translation
-        self.rotation = None if target.rotation is None else base.rotation @ target.rotation
-        self.frame = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-
-    def __call__(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        jacobian = pin.computeFrameJacobian(self.model, self.data, q, self.tip_id, self.frame)
-        placement = self.data.oMf[self.tip_id]
-        position_error = self.position - placement.translation
-        if self.rotation is None:
-            return position_error, jacobian[:3]
-        rotation_error = pin.log3(self.rotation @ placement.rotation.T)
-        return np.concatenate((position_error, rotation_error)), jacobian

@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from wbik.files import atomic_write_bytes
 from wbik.study.metrics import axis_label  # noqa: E402
 
 ZERO_FLOOR = 1e-18
@@ -23,11 +24,11 @@ ZERO_FLOOR = 1e-18
 
 
 def _save(figure, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.stem}.tmp.png")
-    figure.savefig(temporary, dpi=110, bbox_inches="tight")
+    def write(handle) -> None:
+        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
+
+    atomic_write_bytes(path, write)
     plt.close(figure)
-    temporary.replace(path)
     return path
 
 

@@ -19,28 +19,14 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
+from wbik.files import atomic_write_bytes, atomic_write_text
+
 ROW_FIELDS = ("pose", "success", "reason", "time_s", "iterations", "position_error", "rotation_error")
 """Columns of every raw row before the per-axis errors and the joints."""
-
-
-def atomic_write_bytes(path: Path, writer) -> None:
-    """Call ``writer(handle)`` on a temporary file next to ``path``, then rename it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(temporary, "wb") as handle:
-        writer(handle)
-        handle.flush()
-        os.fsync(handle.fileno())
-    temporary.replace(path)
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    atomic_write_bytes(path, lambda handle: handle.write(text.encode()))
 
 
 def write_json(path: Path, data) -> None:

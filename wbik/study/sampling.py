@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.files import atomic_write_bytes
 from wbik.robot import Chain
 from wbik.targets import Target
 
@@ -40,10 +41,7 @@ class PoseSet:
         arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
         if self.rotations is not None:
             arrays["rotations"] = self.rotations
-        temporary = path.with_name(path.name + ".tmp")
-        with open(temporary, "wb") as handle:
-            np.savez(handle, **arrays)
-        temporary.replace(path)
+        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
 
     @classmethod
     def load(cls, path: Path) -> PoseSet:
