@@ -5,6 +5,21 @@ n_i = (dy, -dx) / |d| and offset d_i = n_i . v_i, so the inside is {x : N x <= d
 margin m (the Minkowski erosion of a convex polygon by a disc) keeps the normals and lowers every
 offset by m: {x : N x <= d - m}. ``margin_of(x) = min_i (d_i - n_i . x)`` is the distance from an
 inside point to the boundary (negative outside), which is what the balance checks read.
+
+Robustness (the same verdict on every CPU): the hull is qhull's (:class:`scipy.spatial.ConvexHull`),
+and every geometric decision uses one length tolerance scaled to the point set,
+``tol = HULL_RELATIVE_TOLERANCE * size`` (size = the larger side of the points' bounding box):
+
+- a hull vertex closer than ``tol`` to the segment joining its neighbours is dropped (a corner that
+  only rounding noise pushes out of a straight edge, e.g. the inner front corners of two side-by-side
+  soles), and of two vertices closer than ``tol`` one is dropped (no near-zero-length edge with a
+  garbage normal);
+- points whose spread across their main direction is at most ``tol`` (all collinear, or fewer than
+  three distinct points) raise :class:`DegenerateSupportPolygonError`: a line or a point has no
+  interior, so no CoM margin can be given.
+
+Dropping such a vertex moves the boundary by at most ``tol``, so margins are exact to ``tol`` (about
+1e-10 m for a 0.14 m wide pair of soles) whatever the rounding of the corners.
 """
 
 from __future__ import annotations
@@ -12,40 +27,95 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 
 import numpy as np
+from scipy.spatial import ConvexHull, QhullError
 
 from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
 
+HULL_RELATIVE_TOLERANCE = 1e-9
+"""Hull tolerance relative to the size of the point set: vertices that rounding alone separates from
+an edge or from each other (1e-17 m on a 0.1 m sole) are merged; real corners are millimetres apart."""
 
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Counter-clockwise hull vertices of 2D points (Andrew's monotone chain, collinear points dropped)."""
-    unique = np.unique(np.asarray(points, dtype=float).reshape(-1, 2), axis=0)
-    if len(unique) < 3:
-        return unique
 
-    def cross(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+class DegenerateSupportPolygonError(RobotDescriptionError):
+    """Contact points that span no area (fewer than three distinct points, or all on one line)."""
 
-    lower: list[np.ndarray] = []
-    for point in unique:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], point) <= 1e-15:
-            lower.pop()
-        lower.append(point)
-    upper: list[np.ndarray] = []
-    for point in unique[::-1]:
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], point) <= 1e-15:
-            upper.pop()
-        upper.append(point)
-    return np.array(lower[:-1] + upper[:-1])
+
+def _degenerate(points: np.ndarray, why: str) -> DegenerateSupportPolygonError:
+    shown = points[:8].tolist()
+    more = f" (first 8 of {len(points)})" if len(points) > 8 else ""
+    return DegenerateSupportPolygonError(
+        f"a support polygon needs at least three points that are not on one line; {why}. Points{more}: "
+        f"{shown}. Check the sole corners (robot.info['sole_corners']) and which soles are in contact")
+
+
+def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
+    """Drop, one at a time and the least significant first, vertices within ``tolerance`` of the segment
+    joining their neighbours or of the previous vertex (the polygon stays convex and counter-clockwise)."""
+    while len(vertices) >= 3:
+        count = len(vertices)
+        worst, worst_index = np.inf, -1
+        for i in range(count):
+            before, here, after = vertices[i - 1], vertices[i], vertices[(i + 1) % count]
+            chord = float(np.hypot(*(after - before)))
+            gap = float(np.hypot(*(here - before)))
+            # distance of `here` from the chord (before, after); a near-duplicate has gap <= tolerance
+            height = abs(_cross(before, after, here)) / chord if chord > 0.0 else gap
+            deviation = min(height, gap)
+            if deviation < worst:
+                worst, worst_index = deviation, i
+        if worst > tolerance:
+            break
+        del vertices[worst_index]
+    return vertices
+
+
+def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
+    """Counter-clockwise hull vertices (k, 2), k >= 3, of 2D points, starting at the lowest (x, y).
+
+    qhull's hull, then vertices within ``relative_tolerance * size`` of a straight edge or of each other
+    are dropped (see the module docstring). Raises :class:`DegenerateSupportPolygonError` when the points
+    span no area at that tolerance (fewer than three distinct points, all collinear) or are not finite.
+    """
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if not np.all(np.isfinite(points)):
+        raise _degenerate(points, "some coordinates are NaN or inf")
+    if len(points) < 3:
+        raise _degenerate(points, f"got {len(points)} point(s)")
+    size = float(np.max(np.ptp(points, axis=0)))
+    tolerance = relative_tolerance * size
+    if size == 0.0:
+        raise _degenerate(points, "all points coincide")
+    centred = points - points.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
+    if spread <= tolerance:
+        raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
+    try:
+        hull = ConvexHull(points)  # 2-D: vertices counter-clockwise
+    except QhullError as exc:  # not expected above the width test; never let a raw qhull error out
+        raise _degenerate(points, f"qhull could not build their hull ({str(exc).splitlines()[0]})") from exc
+    vertices = _prune([points[i] for i in hull.vertices], tolerance)
+    if len(vertices) < 3:
+        raise _degenerate(points, "their hull is a segment at the tolerance")
+    vertices = np.array(vertices)
+    first = np.lexsort((vertices[:, 1], vertices[:, 0]))[0]
+    return np.roll(vertices, -first, axis=0)
 
 
 class SupportPolygon:
-    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d."""
+    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d.
+
+    Raises :class:`DegenerateSupportPolygonError` (a ``RobotDescriptionError``, hence a ``ValueError``)
+    for points that span no area; see :func:`convex_hull`.
+    """
 
     def __init__(self, points: np.ndarray):
         self.vertices = convex_hull(points)
-        if len(self.vertices) < 3:
-            raise ValueError("a support polygon needs at least three non-collinear points")
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
         lengths = np.linalg.norm(edges, axis=1)
         self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / lengths[:, None]
