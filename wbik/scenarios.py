@@ -20,15 +20,19 @@ phase's answer::
         tasks:
           - {type: com, over: r_sole, axes: xy}
           - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
-        expect: {success: true}     # or {success: false}: a balanced best effort
+        expect: {success: true}     # or {success: false}: a balanced best effort; see PHASE_RULES
 
 Task entries: ``type`` in frame | position | orientation | relative | com | posture |
 regularization; the target is ``target`` (position [x, y, z] m; for frame/orientation also
 ``rpy`` [r, p, y] rad), or ``keep: true`` (the pose at the start of the phase), or ``offset``
 ([dx, dy, dz] m added to the start pose, world axes), or for com ``over: FRAME`` (above that
 frame's origin). Options: weight, position_weight, orientation_weight, axes, goal, priority,
-tolerance. Every phase's answer is checked independently by FK: contacts (to 1e-6 m / rad),
-CoM margin in the support polygon, joint limits.
+tolerance. Every phase's answer is checked independently by FK: contacts, CoM margin in the
+support polygon, joint limits. The phase's ``expect`` block judges these figures (keys in
+``PHASE_RULES``, thresholds SI); unless the block sets them, the phase expects success, contacts held
+to 1e-6 m / rad, the CoM ``margin`` inside the support polygon (when there is one) and no joint
+beyond its limit (1e-9). An ``expect`` value may be ``{threshold, expected_to_fail, why}`` (see
+:mod:`wbik.expectations`).
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import WbikError
+from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.files import atomic_write_text
 
 CONTACT_TOLERANCE = 1e-6
@@ -242,6 +247,34 @@ def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.
             "limits_ok": limit_excess <= 1e-9}
 
 
+PHASE_RULES = {
+    "success": Rule("success", "=="),
+    "contact_error_max_m": Rule("contact_error_m", "<=", "m"),
+    "contact_error_max_rad": Rule("contact_error_rad", "<=", "rad"),
+    "com_margin_min_m": Rule("com_margin_m", ">=", "m"),
+    "limit_excess_max_rad": Rule("limit_excess_rad", "<=", "rad"),
+}
+"""Expectations of a wholebody_ik phase (limit excess is in m for a prismatic joint)."""
+
+
+def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool) -> dict:
+    """The phase's expect block over the defaults (see the module docstring)."""
+    expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
+              "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
+    if has_support:
+        expect["com_margin_min_m"] = margin - 1e-9
+    expect.update(phase_expect or {})
+    return expect
+
+
+def phase_figures(success: bool, checks: dict) -> dict:
+    errors = checks["contact_errors"].values()
+    return {"success": bool(success),
+            "contact_error_m": max((e["position"] for e in errors), default=0.0),
+            "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
+            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"]}
+
+
 def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> dict:
     from wbik.errors import UnknownRobotError
     from wbik.models import load
@@ -283,15 +316,18 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
                             max_step=float(phase.get("max_step", 0.2)))
         solution = problem.solve(q, max_iterations=int(phase.get("max_iterations", 300)))
         checks = check_configuration(robot, solution.q, contact_placements, support, margin)
-        expect = phase.get("expect", {"success": True})
-        passed = (checks["contacts_ok"] and checks["balance_ok"] and checks["limits_ok"]
-                  and ("success" not in expect or solution.success == bool(expect["success"])))
+        expect = phase_expectations(phase.get("expect"), margin, bool(support))
+        expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
+                                f"phase {name!r} expect")
+        passed = verdict(expectations) != "FAILED"
         report["phases"].append({
             "name": name, "passed": passed, "success": solution.success, "reason": solution.reason,
             "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
+            "expectations": expectations,
             "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()})
         report["passed"] = report["passed"] and passed
+        report["verdict"] = verdict(c for p in report["phases"] for c in p["expectations"])
         if on_progress is not None:
             on_progress(report)
         if phase.get("continue_from", "result") == "result":
@@ -307,11 +343,8 @@ def format_report(report: dict) -> str:
     if report.get("kind") in FORMATTERS:
         return FORMATTERS[report["kind"]](report)
     lines = [f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
-             f"{'PASSED' if report.get('passed') else 'FAILED'}"]
+             f"{report_verdict(report)}"]
     for phase in report.get("phases", []):
-        checks = phase["checks"]
-        worst_contact = max((max(e.values()) for e in checks["contact_errors"].values()), default=0.0)
-        margin = checks["com_margin"]
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
         lines.append(
@@ -319,7 +352,12 @@ def format_report(report: dict) -> str:
             f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
             f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms")
         lines.append(f"      task errors: {goal_errors}")
-        lines.append(f"      contacts max err {worst_contact:.1e}, CoM margin "
-                     f"{'n/a' if margin is None else f'{margin * 1e3:.3f} mm'} (need "
-                     f"{phase['margin'] * 1e3:g} mm), limits {'ok' if checks['limits_ok'] else 'BROKEN'}")
+        lines.extend(format_checks(phase.get("expectations", [])))
     return "\n".join(lines)
+
+
+def report_verdict(report: dict) -> str:
+    """PASSED / FAILED / informational of a report (``passed`` False is FAILED whatever the checks)."""
+    if not report.get("passed"):
+        return "FAILED"
+    return report.get("verdict", "PASSED")

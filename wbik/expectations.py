@@ -1,0 +1,120 @@
+"""Expectations of a scenario: each figure that is good or bad, judged against a task-file threshold.
+
+A runner declares the figures it can judge as ``Rule``s keyed by the expectation name a task file
+uses (``com_margin_min_m: 0.005`` means "the figure ``com_margin_m`` must be >= 0.005"); the task
+file's ``expect:`` block gives the thresholds. A value is either the threshold itself or a mapping::
+
+    expect:
+      com_margin_min_m: 0.0
+      clearance_min_m:
+        threshold: 0.0
+        expected_to_fail: true        # the faithful reproduction is known to break it ...
+        why: the thesis's step is not a consistent closed chain   # ... and this says why (required)
+
+``evaluate`` returns one check per expectation: figure, threshold, ok (the figure meets the
+threshold) and passed (ok, or not ok and expected to fail). An expectation marked
+``expected_to_fail`` that is met anyway does not pass (as a strict xfail): the task file's reason is
+then out of date. ``verdict`` gives ``PASSED``, ``FAILED`` or ``informational`` (nothing checked).
+Unknown keys raise :class:`ExpectationError` naming the known ones. Thresholds are SI (m, rad, s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+from wbik.errors import WbikError
+
+__all__ = ["ExpectationError", "Rule", "evaluate", "format_checks", "verdict"]
+
+OPERATORS = {">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b, "==": lambda a, b: a == b}
+
+
+class ExpectationError(WbikError, ValueError):
+    """An ``expect:`` block with an unknown key or an unusable threshold."""
+
+
+@dataclass(frozen=True)
+class Rule:
+    """``figure op threshold`` must hold; ``figure`` names a value in the runner's figures."""
+
+    figure: str
+    op: str  # ">=", "<=" or "=="
+    unit: str = ""
+
+    def __post_init__(self):
+        if self.op not in OPERATORS:
+            raise ValueError(f"unknown operator {self.op!r}; use one of {sorted(OPERATORS)}")
+
+
+def _entry(key: str, value, where: str) -> tuple[object, bool, str]:
+    if isinstance(value, Mapping):
+        unknown = set(value) - {"threshold", "expected_to_fail", "why"}
+        if unknown or "threshold" not in value:
+            raise ExpectationError(
+                f"{where}: expectation {key!r} as a mapping needs 'threshold' and may have "
+                f"'expected_to_fail' and 'why'; got keys {sorted(value)}")
+        expected_to_fail = bool(value.get("expected_to_fail", False))
+        why = str(value.get("why", "") or "")
+        if expected_to_fail and not why.strip():
+            raise ExpectationError(f"{where}: expectation {key!r} is expected_to_fail but gives no 'why'")
+        return value["threshold"], expected_to_fail, why
+    return value, False, ""
+
+
+def evaluate(expect: Mapping | None, figures: Mapping[str, object], rules: Mapping[str, Rule],
+             where: str = "expect") -> list[dict]:
+    """One check per key of ``expect`` (see the module docstring); ``figures`` holds the values."""
+    expect = dict(expect or {})
+    unknown = sorted(set(expect) - set(rules))
+    if unknown:
+        raise ExpectationError(f"{where}: unknown expectation key(s) {unknown}; known keys: {sorted(rules)}")
+    checks = []
+    for key, value in expect.items():
+        rule = rules[key]
+        threshold, expected_to_fail, why = _entry(key, value, where)
+        numeric = isinstance(threshold, (int, float)) and not isinstance(threshold, bool)
+        if not (numeric or (rule.op == "==" and isinstance(threshold, bool))):
+            wanted = "a number or a bool" if rule.op == "==" else "a number"
+            raise ExpectationError(f"{where}: expectation {key!r} needs {wanted} as threshold, "
+                                   f"got {threshold!r}")
+        figure = figures.get(rule.figure)
+        if isinstance(figure, float) and math.isnan(figure):
+            figure = None
+        ok = figure is not None and bool(OPERATORS[rule.op](figure, threshold))
+        checks.append({"name": key, "figure_name": rule.figure, "figure": figure, "op": rule.op,
+                       "threshold": threshold, "unit": rule.unit, "ok": ok,
+                       "expected_to_fail": expected_to_fail, "why": why,
+                       "passed": ok != expected_to_fail})
+    return checks
+
+
+def verdict(checks: Iterable[dict]) -> str:
+    """``FAILED`` if any check did not pass, ``informational`` if there is none, else ``PASSED``."""
+    checks = list(checks)
+    if not checks:
+        return "informational"
+    return "PASSED" if all(check["passed"] for check in checks) else "FAILED"
+
+
+def _value(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
+
+
+def format_checks(checks: Iterable[dict], indent: str = "      ") -> list[str]:
+    """One line per check: figure / threshold / ok, and the reason of an expected failure."""
+    lines = []
+    for check in checks:
+        unit = f" {check['unit']}" if check["unit"] else ""
+        status = "ok" if check["ok"] else "NOT ok"
+        if check["expected_to_fail"]:
+            status += (" (expected to fail: " + check["why"] + ")" if not check["ok"]
+                       else " but expected to fail: FAILED (update the task file)")
+        elif not check["ok"]:
+            status += ": FAILED"
+        lines.append(f"{indent}{check['name']}: {check['figure_name']} {_value(check['figure'])}{unit} / "
+                     f"{check['op']} {_value(check['threshold'])}{unit} / {status}")
+    return lines
