@@ -67,3 +67,33 @@ class MissingDependencyError(WbikError, ImportError):
 
 class UnsupportedError(WbikError, NotImplementedError):
     """The method does not apply to this robot, chain or target kind."""
+
+
+class InvalidOptionError(WbikError, TypeError):
+    """A keyword option (of a solver, a robot builder, ...) that the callee does not accept.
+
+    ``accepted`` lists the options it does accept; the message names them.
+    """
+
+    def __init__(self, message: str, option: str = "", accepted: list[str] | tuple[str, ...] = ()):
+        self.option = option
+        self.accepted = sorted(accepted)
+        super().__init__(message)
+
+
+class InvalidSettingError(WbikError, ValueError):
+    """A setting (tolerance, time budget, seed, ...) of the wrong type or outside its allowed range;
+    the message gives the value and the range."""
+
+
+class InvalidToleranceError(InvalidSettingError):
+    """A tolerance of the shared FK check that is not a positive finite number."""
+
+
+class InvalidBudgetError(InvalidSettingError):
+    """A time or iteration budget (``timeout_s``, ...) that is not a positive finite number."""
+
+
+class UsageError(WbikError, ValueError):
+    """A command-line argument or path that cannot be used as given (e.g. a file where a folder
+    is needed, or nothing to report on)."""

@@ -16,9 +16,16 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidRotationError, InvalidTargetError
+from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6
 """How far R^T R may be from identity (max abs entry) and det(R) from 1 for R to count as a rotation."""
+
+MAX_POSITION = 1e6
+"""Largest target coordinate accepted (m): anything larger is a unit mistake or garbage, not a pose."""
+
+TARGET_FORMS = ("a pinocchio.SE3, a 4x4 homogeneous matrix, a 3-vector position (m) or a "
+                "wbik.Target")
 
 
 @dataclass(frozen=True)
@@ -38,16 +45,8 @@ class Target:
         return pin.SE3(rotation, self.position)
 
 
-def _finite_array(value, shape: tuple[int, ...], what: str) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidTargetError(f"{what} must be numbers, got {value!r}") from exc
-    if array.shape != shape:
-        raise InvalidTargetError(f"{what} must have shape {shape}, got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise InvalidTargetError(f"{what} contains NaN or inf: {array.tolist()}")
-    return array
+def _finite_array(value, shape: tuple[int, ...], what: str, max_abs: float | None = None) -> np.ndarray:
+    return numeric_array(value, what, InvalidTargetError, shape=shape, max_abs=max_abs)
 
 
 def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:
@@ -72,20 +71,25 @@ def as_target(value, rotation=None) -> Target:
     if isinstance(value, Target):
         if rotation is not None:
             raise InvalidTargetError("give the rotation inside the Target or separately, not both")
-        return Target(_finite_array(value.position, (3,), "position"),
+        return Target(_finite_array(value.position, (3,), "position", MAX_POSITION),
                       None if value.rotation is None else check_rotation(value.rotation))
     if isinstance(value, pin.SE3):
-        return Target(_finite_array(value.translation, (3,), "position"),
+        if rotation is not None:
+            raise InvalidTargetError("an SE3 target already has a rotation; do not pass rotation= too")
+        return Target(_finite_array(value.translation, (3,), "position", MAX_POSITION),
                       check_rotation(value.rotation))
-    array = np.asarray(value, dtype=float) if not isinstance(value, str) else None
-    if array is None:
-        raise InvalidTargetError(f"a target must be an SE3, a 4x4 matrix or a 3-vector, got {value!r}")
+    array = numeric_array(value, f"a target ({TARGET_FORMS})", InvalidTargetError)
     if array.shape == (4, 4):
+        if rotation is not None:
+            raise InvalidTargetError("a 4x4 target already has a rotation; do not pass rotation= too")
         matrix = _finite_array(array, (4, 4), "homogeneous matrix")
         if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0]):
             raise InvalidTargetError(f"last row of a 4x4 pose must be [0, 0, 0, 1], got {matrix[3]}")
-        return Target(matrix[:3, 3].copy(), check_rotation(matrix[:3, :3]))
-    position = _finite_array(value, (3,), "position")
+        return Target(_finite_array(matrix[:3, 3], (3,), "position", MAX_POSITION),
+                      check_rotation(matrix[:3, :3]))
+    if array.shape != (3,):
+        raise InvalidTargetError(f"a target must be {TARGET_FORMS}; got an array of shape {array.shape}")
+    position = _finite_array(array, (3,), "position", MAX_POSITION)
     return Target(position, None if rotation is None else check_rotation(rotation))
 
 

@@ -1,0 +1,83 @@
+"""Small validators shared by the public API: each returns the clean value or raises a typed
+:class:`wbik.errors.WbikError` whose message gives the value and what is allowed.
+
+- :func:`check_budget` -- a time budget such as ``timeout_s``: a finite number > 0 (seconds).
+- :func:`check_positive_finite` -- any positive finite setting (tolerances, ...).
+- :func:`numeric_array` -- an array of real numbers (no strings, bools, complex, objects, ragged
+  lists), finite, of a given shape.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+
+from wbik.errors import InvalidBudgetError, InvalidSettingError, WbikError
+
+
+def _real_number(name: str, value, error: type[WbikError], unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise error(f"{name} must be a finite number > 0{unit}, got {value!r} "
+                    f"({type(value).__name__})")
+    return float(value)
+
+
+def check_positive_finite(name: str, value, error: type[WbikError] = InvalidSettingError,
+                          unit: str = "") -> float:
+    """``value`` as a float if it is a real number, finite and > 0; else ``error`` naming ``name``."""
+    suffix = f" ({unit})" if unit else ""
+    number = _real_number(name, value, error, suffix)
+    if not math.isfinite(number) or number <= 0.0:
+        raise error(f"{name} must be a finite number > 0{suffix}, got {value!r}; allowed range: "
+                    "0 < value < inf")
+    return number
+
+
+def check_budget(name: str, value) -> float:
+    """A time budget in seconds (e.g. ``timeout_s``): a finite number > 0, else InvalidBudgetError.
+
+    >>> check_budget("timeout_s", 0.005)
+    0.005
+    """
+    return check_positive_finite(name, value, InvalidBudgetError, unit="s")
+
+
+def numeric_array(value, what: str, error: type[WbikError], shape: tuple[int, ...] | None = None,
+                  max_abs: float | None = None) -> np.ndarray:
+    """``value`` as a float array of real numbers, or ``error`` saying what is wrong.
+
+    Refuses strings, bytes, mappings, None, bools, complex and object values and ragged nested
+    lists (numpy would otherwise coerce or crash on them), NaN/inf, a shape other than ``shape``
+    and entries larger than ``max_abs`` in magnitude.
+    """
+    if value is None or isinstance(value, str | bytes | dict | set | frozenset):
+        raise error(f"{what} must be numbers, got {type(value).__name__} {_short(value)}")
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise error(f"{what} must be a flat list or array of numbers with rows of equal length, got "
+                    f"{_short(value)} ({exc})") from None
+    if raw.dtype.kind not in "iuf":
+        kind = {"b": "booleans", "c": "complex numbers", "O": "Python objects (ragged or mixed)",
+                "U": "strings", "S": "bytes", "M": "datetimes", "m": "timedeltas"}.get(raw.dtype.kind,
+                                                                                      str(raw.dtype))
+        raise error(f"{what} must be real numbers, got {kind}: {_short(value)}")
+    array = raw.astype(float)
+    if shape is not None and array.shape != shape:
+        raise error(f"{what} must have shape {shape}, got shape {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise error(f"{what} contains NaN or inf: {array.tolist()}")
+    if max_abs is not None and array.size and float(np.max(np.abs(array))) > max_abs:
+        raise error(f"{what} has an entry of magnitude {float(np.max(np.abs(array))):.3g}; allowed: "
+                    f"|value| <= {max_abs:g} (SI units: metres, radians)")
+    return array
+
+
+def _short(value, limit: int = 80) -> str:
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - a hostile __repr__ must not hide the real error
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= limit else text[:limit - 3] + "..."
