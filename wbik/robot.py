@@ -26,6 +26,7 @@ from wbik.errors import (
     UnsupportedError,
 )
 from wbik.files import atomic_write_text
+from wbik.validation import numeric_array
 
 
 @dataclass(frozen=True)
@@ -65,7 +66,9 @@ class Chain:
             joint_id = full.getJointId(joint)
             if full.joints[joint_id].nq != 1 or full.joints[joint_id].nv != 1:
                 raise UnsupportedError(
-                    f"chain {spec.name!r}: joint {joint!r} is not a 1-DOF revolute/prismatic joint")
+                    f"chain {spec.name!r}: joint {joint!r} is {_joint_kind(full.joints[joint_id])}, "
+                    "not a 1-DOF revolute/prismatic joint with limits; give it limits in the URDF "
+                    "(type revolute) or leave it out of the chain (it is then locked)")
             joint_ids.append(joint_id)
         self.q_index = np.array([full.joints[j].idx_q for j in joint_ids])
         self.v_index = np.array([full.joints[j].idx_v for j in joint_ids])
@@ -104,15 +107,10 @@ class Chain:
 
     def check_q(self, q: Sequence[float]) -> np.ndarray:
         """q as a float array of the right length with finite values, or InvalidConfigurationError."""
-        try:
-            array = np.asarray(q, dtype=float).reshape(-1)
-        except (TypeError, ValueError) as exc:
-            raise InvalidConfigurationError(f"joint values must be numbers, got {q!r}") from exc
+        array = numeric_array(q, "joint values", InvalidConfigurationError).reshape(-1)
         if array.shape != (self.nq,):
             raise InvalidConfigurationError(
                 f"chain {self.name!r} has {self.nq} joints {self.joint_names}; got {array.size} values")
-        if not np.all(np.isfinite(array)):
-            raise InvalidConfigurationError(f"joint values contain NaN or inf: {array.tolist()}")
         return array
 
     def fk(self, q: np.ndarray) -> pin.SE3:
@@ -195,6 +193,8 @@ class Robot:
                 raise UnknownChainError("(none given)", list(self.chains),
                                         hint=f"{self.name} has several chains: pass chain=...")
             name = next(iter(self.chains))
+        if not isinstance(name, str):
+            raise UnknownChainError(repr(name), list(self.chains), hint="A chain is named by a string")
         if name not in self.chains:
             raise UnknownChainError(name, list(self.chains))
         if name not in self._chains:
@@ -238,8 +238,46 @@ def model_from_urdf_text(text: str, floating_base: bool = False, source: str = "
             "link and that every joint names existing parent and child links") from exc
 
 
+def _joint_kind(joint) -> str:
+    """'continuous' (unbounded revolute), 'a free flyer', ... for messages."""
+    name = joint.shortname()
+    if "Unbounded" in name or name.startswith("JointModelRUB"):
+        return "continuous (an unbounded revolute joint)"
+    kinds = {"JointModelFreeFlyer": "a free-flyer (6-DOF) joint", "JointModelPlanar": "a planar joint",
+             "JointModelSpherical": "a spherical joint"}
+    return kinds.get(name, f"a {name.removeprefix('JointModel')} joint with nq={joint.nq}")
+
+
+def check_model(model: pin.Model, source: str = "URDF") -> None:
+    """Refuse joints no IK method can handle sensibly, naming the joint: lower limit above upper
+    limit, NaN limits, or a zero rotation/translation axis."""
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        name = model.names[joint_id]
+        axis = getattr(joint.extract(), "axis", None)
+        if axis is not None and not np.linalg.norm(axis) > 1e-12:
+            raise RobotDescriptionError(
+                f"{source}: joint {name!r} has a zero axis {np.asarray(axis).tolist()}; give it a "
+                "non-zero <axis xyz=...> (e.g. 0 0 1)")
+        if joint.nq != 1:
+            continue
+        lower = float(model.lowerPositionLimit[joint.idx_q])
+        upper = float(model.upperPositionLimit[joint.idx_q])
+        if np.isnan(lower) or np.isnan(upper) or lower > upper:
+            raise RobotDescriptionError(
+                f"{source}: joint {name!r} has lower limit {lower:g} above upper limit {upper:g}; "
+                "swap them in its <limit lower=... upper=...>")
+
+
 def serial_chain_spec(model: pin.Model, name: str = "default") -> ChainSpec:
     """Chain from the model's root body to the deepest frame of a single serial chain."""
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        if joint.nq != 1 and not (joint_id == 1 and joint.shortname() == "JointModelFreeFlyer"):
+            raise RobotDescriptionError(
+                f"joint {model.names[joint_id]!r} is {_joint_kind(joint)}; the automatic chain takes "
+                "1-DOF joints with limits only: give it limits in the URDF (type revolute with "
+                "<limit lower upper>) or lock it by passing chains=[ChainSpec(...)] without it")
     movable = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
     if not movable:
         raise RobotDescriptionError("the model has no 1-DOF joint to make a chain of")
@@ -256,6 +294,7 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
                          info: dict | None = None) -> Robot:
     """A Robot from URDF text; with no chains given, the single serial chain of the model."""
     model = model_from_urdf_text(text, floating_base, source=str(urdf_path or name))
+    check_model(model, source=str(urdf_path or name))
     if nominal is None:
         nominal = pin.neutral(model)
         bounded = np.isfinite(model.lowerPositionLimit) & np.isfinite(model.upperPositionLimit)

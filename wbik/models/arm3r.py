@@ -27,11 +27,14 @@ def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
 
 
 def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
-    lengths = tuple(float(v) for v in lengths)
-    if len(lengths) != 3 or min(lengths) <= 0:
-        from wbik.errors import RobotDescriptionError
+    from wbik.errors import RobotDescriptionError
+    from wbik.validation import numeric_array
 
-        raise RobotDescriptionError(f"arm3r needs three positive link lengths, got {lengths}")
+    what = "arm3r lengths (three positive link lengths l1, l2, l3 in metres)"
+    values = numeric_array(lengths, what, RobotDescriptionError, shape=(3,), max_abs=1e3)
+    if min(values) <= 0:
+        raise RobotDescriptionError(f"arm3r needs three positive link lengths, got {tuple(values.tolist())}")
+    lengths = tuple(float(v) for v in values)
     table = dh_table(lengths)
     text = table.urdf(name="arm3r", base_link="base_link", tip_link="tip")
     chain = ChainSpec("arm", "base_link", "tip", ("joint1", "joint2", "joint3"),

@@ -332,6 +332,13 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
     ``tool_length``: hand length (m), 0.0255 (code, default) or 0.070 (thesis). ``pitch``: torso
     pitch of the nominal standing pose (rad, default the gait's 20 deg).
     """
+    from wbik.errors import RobotDescriptionError
+    from wbik.validation import check_positive_finite
+
+    tool_length = check_positive_finite("bioloid tool_length", tool_length, RobotDescriptionError, "m")
+    if isinstance(pitch, bool) or not isinstance(pitch, int | float) or not abs(pitch) < math.pi / 2:
+        raise RobotDescriptionError(f"bioloid pitch must be a number of radians in (-pi/2, pi/2), "
+                                    f"got {pitch!r}")
     text = urdf_text(tool_length)
     path: Path | None = URDF_PATH if tool_length == TOOL_CODE and URDF_PATH.exists() else None
     if path is not None and path.read_text() != text:
