@@ -7,7 +7,8 @@ Up to 8 branches = 2 (shoulder q1) x 2 (wrist q5) x 2 (elbow q3):
 
 1. q1 = atan2(-b, a) +- acos(d4 / sqrt(a^2 + b^2)), a = d6 T12 - T13, b = d6 T02 - T03
    (no solution when the wrist-2 centre is within d4 of the base axis);
-2. q5 = +-acos((T03 s1 - T13 c1 - d4) / d6);
+2. q5 = +-acos((T03 s1 - T13 c1 - d4) / d6), computed as +-atan2(|s5|, c5) with
+   |s5| = hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) from the rotation (well conditioned at q5 = 0, pi);
 3. q6 = atan2(-sgn(s5) (T01 s1 - T11 c1), sgn(s5) (T00 s1 - T10 c1)); at the wrist singularity
    (|s5| < 1e-8) q6 is free and we keep q6 of the start configuration q0 (ur_kinematics' q6_des);
 4. (q2, q3) from the planar two-link problem p13 = a2 (c2, s2) + a3 (c23, s23), and
@@ -33,7 +34,9 @@ D4 = 0.10915
 D5 = 0.09465
 D6 = 0.0823
 WRIST_SINGULARITY = 1e-8
-"""|sin q5| below which q6 is free (ur_kinematics' threshold)."""
+"""|sin q5| below which q6 is free (ur_kinematics' threshold). |sin q5| is read from the rotation, where
+rounding moves it by ~1e-16, so the decision has a margin of 1e8 over rounding; keeping q6 of q0 there
+costs at most ~1e-8 rad of orientation, far below the screening tolerance (1e-7)."""
 
 BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
@@ -87,11 +90,19 @@ def ee_branches(positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarra
     q1 = np.arctan2(-b, a)[:, None] + np.stack((offset, -offset), axis=1)
     c1, s1 = np.cos(q1), np.sin(q1)
 
-    # 2. wrist 2: (B, 2, 2)
-    cos5 = (t03[:, None] * s1 - t13[:, None] * c1 - D4) / D6
-    valid5 = np.abs(cos5) <= 1.0 + tolerance
-    angle5 = np.arccos(np.clip(cos5, -1.0, 1.0))
+    # 2. wrist 2: (B, 2, 2). cos q5 from the position (ur_kinematics); |sin q5| from the rotation,
+    # hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) = |s5| |(c6, s6)|, which rounding moves by ~1e-16, whereas
+    # sqrt(1 - cos5^2) turns one ulp of cos5 into 1.5e-8 at q5 = 0 or pi (the singularity decision and
+    # q5 itself would then depend on the CPU's rounding).
+    numerator = t03[:, None] * s1 - t13[:, None] * c1 - D4
+    cos5 = numerator / D6
+    # |cos5| <= 1 up to rounding of the terms of the numerator, relative to their size
+    scale = (np.abs(t03[:, None] * s1) + np.abs(t13[:, None] * c1) + D4) / D6
+    valid5 = np.abs(cos5) <= 1.0 + tolerance * np.maximum(scale, 1.0)
+    sine5 = np.hypot(t00[:, None] * s1 - t10[:, None] * c1, t01[:, None] * s1 - t11[:, None] * c1)
+    angle5 = np.arctan2(sine5, np.clip(cos5, -1.0, 1.0))
     q5 = np.stack((angle5, -angle5), axis=-1)
+    singular = (sine5 < WRIST_SINGULARITY)[..., None]
     c1, s1 = c1[..., None], s1[..., None]
     c5, s5 = np.cos(q5), np.sin(q5)
 
@@ -102,7 +113,7 @@ def ee_branches(positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarra
     sign = np.where(s5 >= 0.0, 1.0, -1.0)
     q6 = np.arctan2(-sign * (per_target(t01) * s1 - per_target(t11) * c1),
                     sign * (per_target(t00) * s1 - per_target(t10) * c1))
-    q6 = np.where(np.abs(s5) < WRIST_SINGULARITY, per_target(q6_free), q6)
+    q6 = np.where(singular, per_target(q6_free), q6)
     c6, s6 = np.cos(q6), np.sin(q6)
 
     # 4. planar shoulder-lift / elbow / wrist 1: (B, 2, 2, 2)
