@@ -9,13 +9,14 @@ methods, so results of different methods compare like with like.
 from __future__ import annotations
 
 import importlib
+import inspect
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError, UnknownMethodError, UnsupportedError
+from wbik.errors import InvalidConfigurationError, InvalidOptionError, UnknownMethodError, UnsupportedError
 from wbik.robot import Chain, Robot
 from wbik.targets import Target, as_target, pose_error
 
@@ -29,6 +30,15 @@ class Tolerances:
 
     position: float = 1e-6  # metres (norm of the position error)
     rotation: float = 1e-6  # radians (angle of the rotation error)
+
+    def __post_init__(self) -> None:
+        from wbik.errors import InvalidToleranceError
+        from wbik.validation import check_positive_finite
+
+        for name, unit in (("position", "m"), ("rotation", "rad")):
+            value = check_positive_finite(f"tolerances.{name}", getattr(self, name), InvalidToleranceError,
+                                          unit)
+            object.__setattr__(self, name, value)
 
 
 @dataclass
@@ -215,16 +225,72 @@ def methods() -> dict[str, str]:
     return {name: _DESCRIPTIONS.get(name, "") for name in sorted(_REGISTRY)}
 
 
-def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
-    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``."""
-    if isinstance(robot, str):
-        from wbik.models import load
-
-        robot = load(robot)
-    if method not in _REGISTRY:
-        raise UnknownMethodError(method, list(_REGISTRY))
+def _factory(method: str) -> Callable[..., Solver]:
+    """The registered class (or callable) of ``method``, imported on first use."""
+    if not isinstance(method, str) or method not in _REGISTRY:
+        raise UnknownMethodError(method if isinstance(method, str) else repr(method), list(_REGISTRY))
     factory = _REGISTRY[method]
     if isinstance(factory, str):
         module_name, class_name = factory.split(":")
         factory = getattr(importlib.import_module(module_name), class_name)
+    return factory
+
+
+def _keyword_options(function, skip: int) -> tuple[set[str], bool]:
+    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
+    names: set[str] = set()
+    more = False
+    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
+        if parameter.kind is parameter.VAR_KEYWORD:
+            more = True
+        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+            names.add(parameter.name)
+    return names, more
+
+
+def solver_options(method: str) -> set[str] | None:
+    """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
+    seed and the method's own), from the constructor signatures along the class hierarchy.
+    None: the factory takes any keyword (a plain callable with **kwargs)."""
+    factory = _factory(method)
+    if not isinstance(factory, type):
+        names, more = _keyword_options(factory, skip=2)
+        return None if more else names
+    accepted: set[str] = set()
+    for klass in factory.__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or klass is object:
+            continue
+        names, more = _keyword_options(init, skip=3)  # self, robot, chain
+        accepted |= names
+        if not more:
+            return accepted
+    return None
+
+
+def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
+    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``.
+
+    Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
+    """
+    factory = _factory(method)
+    accepted = solver_options(method)
+    unknown = sorted(set(options) - accepted) if accepted is not None else []
+    if not unknown:
+        try:  # a plain callable: its own signature decides
+            inspect.signature(factory).bind(robot, chain, **options)
+        except TypeError as exc:
+            unknown = [f"({exc})"]
+    if unknown:
+        known = sorted(accepted or ())
+        raise InvalidOptionError(
+            f"method {method!r} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
+            option=unknown[0], accepted=known)
+    if isinstance(robot, str):
+        from wbik.models import load
+
+        robot = load(robot)
+    elif not isinstance(robot, Robot):
+        raise InvalidOptionError(f"robot must be a wbik.Robot or a robot name, got {type(robot).__name__}",
+                                 option="robot")
     return factory(robot, chain, **options)
