@@ -1,46 +1,80 @@
 """The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py`` with
-``add_parser(subparsers)`` and ``run(args) -> int``; heavy imports stay inside ``run``."""
+``add_parser(subparsers)`` and ``run(args) -> int``; heavy imports stay inside ``run``.
+
+Exit codes (every subcommand):
+
+- 0: solved / done;
+- 1: ran, but not solved (an IK target not reached, a scenario that did not pass);
+- 2: bad input or usage (argparse errors and every :class:`wbik.errors.WbikError`);
+- 3: internal error (any other exception: a bug, please report it).
+
+Classes 1 and 2 print ``wbik: error: <message>`` to stderr and no traceback; ``--debug`` (before or
+after the subcommand) prints the traceback of errors of classes 2 and 3.
+"""
 
 from __future__ import annotations
 
 import argparse
 import importlib
 import sys
+import traceback
 
 from wbik.errors import WbikError
 
 SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run")
 
+EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
 
 def build_parser() -> argparse.ArgumentParser:
+    """The parser with every subcommand; a subcommand module that fails to import is an error."""
     parser = argparse.ArgumentParser(
         prog="wbik",
         description="Whole-body inverse kinematics: every IK method behind one interface, on Pinocchio.",
         epilog="Units: metres and radians unless an option names degrees. "
-               "Run 'wbik COMMAND --help' for each command.")
+               "Run 'wbik COMMAND --help' for each command. Exit codes: 0 done/solved, 1 not solved, "
+               "2 bad input or usage, 3 internal error.")
+    parser.add_argument("--debug", action="store_true",
+                        help="print the traceback of errors (for bug reports)")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
-        try:
-            module = importlib.import_module(f"wbik.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"wbik.commands.{name}":
-                raise
-            continue
+        module = importlib.import_module(f"wbik.commands.{name}")
         module.add_parser(subparsers)
+        # --debug is also accepted after the subcommand; SUPPRESS keeps the global value otherwise
+        subparsers.choices[name].add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                                              help="print the traceback of errors (for bug reports)")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "command", None):
-        parser.print_help()
-        return 2
+    argv = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in argv
     try:
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # argparse: 0 for --help, 2 for a usage error (message printed)
+            return exc.code if isinstance(exc.code, int) else EXIT_USAGE
+        debug = bool(getattr(args, "debug", False))
+        if not getattr(args, "command", None):
+            parser.print_help(sys.stderr)
+            return EXIT_USAGE
         return int(args.run(args) or 0)
     except WbikError as exc:
-        print(f"wbik {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        if debug:
+            traceback.print_exc()
+        print(f"wbik: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("wbik: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - the one place that turns a bug into exit code 3
+        if debug:
+            traceback.print_exc()
+        print(f"wbik: internal error: {type(exc).__name__}: {exc}\n"
+              "This is a bug in wbik, not in your input; run again with --debug for the traceback and "
+              "report it.", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

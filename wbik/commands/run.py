@@ -19,8 +19,14 @@ def add_parser(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from wbik.errors import UsageError
     from wbik.scenarios import _json_default, format_report, load_scenario, run_scenario
 
+    if args.output is not None and Path(args.output).is_dir():
+        raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
+                         "e.g. --output runs/report.json")
     spec = load_scenario(args.taskfile)
     if args.backend:
         spec["backend"] = args.backend
@@ -29,4 +35,4 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(report, indent=2, default=_json_default))
     else:
         print(format_report(report))
-    return 0 if report.get("passed") else 1
+    return 0 if report.get("passed") else 1  # 1: ran, but did not pass

@@ -31,9 +31,11 @@ def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
     import wbik
+    from wbik.validation import check_budget
 
+    timeout = check_budget("--timeout", args.timeout)
     robot = wbik.load(args.robot)
-    solver = wbik.solver(args.method, robot, chain=args.chain, timeout_s=args.timeout)
+    solver = wbik.solver(args.method, robot, chain=args.chain, timeout_s=timeout)
     position = np.array(args.xyz)
     target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
               else wbik.Target(position))
@@ -53,4 +55,4 @@ def run(args: argparse.Namespace) -> int:
             print(f"  position error {result.position_error:.3e} m, rotation error "
                   f"{result.rotation_error:.3e} rad, {result.iterations} iterations, "
                   f"{result.time_s * 1e3:.3f} ms")
-    return 0 if results and all(r.success for r in results) else 1
+    return 0 if results and all(r.success for r in results) else 1  # 1: ran, but not solved

@@ -37,16 +37,37 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(run=run)
 
 
+def check_output_folder(output: Path | None) -> None:
+    """UsageError if ``--output`` names something that cannot be the output folder."""
+    from wbik.errors import UsageError
+
+    if output is not None and output.exists() and not output.is_dir():
+        raise UsageError(f"--output {str(output)!r} is an existing file; the study writes a folder of "
+                         "results there: pass a folder path (new or from an earlier run)")
+
+
 def run(args: argparse.Namespace) -> int:
+    from wbik.errors import UsageError
     from wbik.study import load_study, run_study
     from wbik.study.report import write_report
     from wbik.study.runner import default_output
+
+    check_output_folder(args.output)
+    if args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.report_only and args.fresh:
+        raise UsageError("--report-only reads the results in the output folder; --fresh would delete "
+                         "them: give one or the other")
 
     study = load_study(args.file).with_overrides(
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name)
     if args.report_only:
         output = args.output or default_output(study)
+        check_output_folder(output)
+        if not (output / "study.json").is_file():
+            raise UsageError(f"--report-only: {str(output)!r} holds no results of a study (no study.json); "
+                             f"run 'wbik study' first, or pass --output FOLDER of an earlier run")
         markdown, html = write_report(study, output)
     else:
         output = run_study(study, args.output, jobs=args.jobs, backend=args.backend,

@@ -104,10 +104,16 @@ def build_viewer(args: argparse.Namespace, server: bool):
 
 
 def run(args: argparse.Namespace) -> int:
+    from wbik.errors import UsageError
+
     offline = args.html is not None or args.screenshot is not None
     if args.open and offline:
-        print("wbik view: --open serves the scene; it does not go with --html/--screenshot", file=sys.stderr)
-        return 2
+        raise UsageError("--open serves the scene; it does not go with --html/--screenshot")
+    for option, path in (("--html", args.html), ("--screenshot", args.screenshot)):
+        if path is not None and path.is_dir():
+            raise UsageError(f"{option} {str(path)!r} is a folder; it names the file to write")
+    if args.seconds is not None and not args.seconds >= 0:
+        raise UsageError(f"--seconds must be >= 0, got {args.seconds}")
     if offline:
         viewer = build_viewer(args, server=False)
         html_path = args.html
