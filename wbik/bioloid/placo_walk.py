@@ -9,9 +9,14 @@ rise, the 100 x 60 mm soles and a ZMP margin of ``margin``.
 
 Reported: the planned step lengths (between consecutive footsteps of opposite feet, and per foot),
 the duration, and on a 10 ms grid the margin of the CoM ground projection and of the ZMP in the
-support polygon (feet on the ground at that time, from PlaCo's foot trajectories). PlaCo's
-generator is dynamic: it keeps the ZMP, not the CoM, inside the support, so the CoM may leave the
-polygon in single support, unlike the quasi-static whole-body step.
+support polygon of the feet on the ground at that time: a foot is down when PlaCo's own foot
+trajectory has its sole within ``GROUND_TOLERANCE`` of the floor. (PlaCo's ``support_is_both(t)``
+already answers "single support" at the switch instant, while the leaving foot is still flat on the
+floor and the ZMP is still between the feet: judged against the single sole, that instant showed the
+ZMP 5.4 mm outside.) PlaCo hands no polygon of ours to PlaCo: the footsteps and the ZMP bounds are
+PlaCo's own, from ``foot_length``, ``foot_width`` and ``zmp_margin``. PlaCo's generator is dynamic:
+it keeps the ZMP, not the CoM, inside the support (at its planning time steps), so the CoM may leave
+the polygon in single support, unlike the quasi-static whole-body step.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot, write_cached_urdf
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
+GROUND_TOLERANCE = 1e-6
+"""m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground."""
 
 
 def placo_humanoid_urdf(robot: Robot) -> Path:
@@ -93,9 +100,8 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     omega = math.sqrt(9.80665 / parameters.walk_com_height)  # LIPM: zmp = c - c'' / omega^2
     for t in times:
         feet = {"left": trajectory.get_T_world_left(t), "right": trajectory.get_T_world_right(t)}
-        if trajectory.support_is_both(t):
-            down = list(feet.values())
-        else:
+        down = [f for f in feet.values() if abs(f[2, 3]) <= GROUND_TOLERANCE]
+        if not down:  # never in a walk plan; fall back on PlaCo's support side
             side = "left" if "left" in str(trajectory.support_side(t)).lower() else "right"
             down = [feet[side]]
         polygon = SupportPolygon(np.vstack([_foot_polygon(f, corners) for f in down]))

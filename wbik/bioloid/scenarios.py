@@ -6,19 +6,22 @@ Kinds (each report has ``passed`` and a ``behaviours`` list):
 - ``bioloid_step``: the thesis's step forward. ``generators: [faithful, wholebody]`` (default both),
   ``first: left|right``, ``margin`` (m), ``rear_lift`` (m), ``gait`` (overrides of
   :class:`~wbik.bioloid.gait.GaitParameters`), ``timing: {speed_rpm, law, mode}``,
-  ``export: {servo_csv: PATH, dt: S}``. ``expect``: ``faithful_min_inconsistency_mm`` (the
-  double-support mismatch the faithful version must show), ``wholebody: true`` (every sample
-  verified).
+  ``export: {servo_csv: PATH, dt: S}``. ``expect: {faithful: {...}, wholebody: {...}}`` with the
+  keys of ``FAITHFUL_RULES`` and ``WHOLEBODY_RULES``.
 - ``bioloid_walk``: ``steps`` forward then ``turn_deg`` (0 = none), whole-body; ``bioloid_turn``:
-  ``turn_deg`` in place. Same timing/export keys.
+  ``turn_deg`` in place. Same timing/export keys; ``expect`` has the keys of ``WHOLEBODY_RULES``.
 - ``bioloid_keyframes``: replay ``behaviours`` of the keyframe file ``keyframes`` (default
-  tasks/data/bioloid_keyframes.yaml); passes when every row maps to servo units and back exactly.
+  tasks/data/bioloid_keyframes.yaml); ``expect`` has the keys of ``KEYFRAME_RULES`` for every
+  behaviour, and ``behaviours: {NAME: {...}}`` for one behaviour's own thresholds.
 - ``bioloid_placo_walk``: PlaCo's walk pattern generator on the same URDF (``steps``, ``step_length``,
-  ``margin``); see :mod:`wbik.bioloid.placo_walk`.
+  ``margin``); see :mod:`wbik.bioloid.placo_walk`; ``expect`` has the keys of ``PLACO_WALK_RULES``.
 
-Every whole-body behaviour passes only if each sample holds its contacts to 1e-6 m / rad, keeps
-the CoM inside the support polygon by the margin, stays inside the joint limits, and the timed
-servo trajectory keeps every joint under the speed limit (checked on a 1 ms grid).
+Each figure with a meaning of good or bad is judged by :mod:`wbik.expectations` against the task
+file's threshold (SI: m, rad), and printed as figure / threshold / ok. A whole-body behaviour
+without an ``expect`` block still expects what its generator guarantees: contacts held to 1e-6 m /
+rad, the CoM ``margin`` inside the support polygon, no joint beyond its limit, and the timed servo
+trajectory under the speed limit (checked on a 1 ms grid). A behaviour with nothing to judge is
+reported as informational.
 """
 
 from __future__ import annotations
@@ -29,10 +32,80 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.scenarios import ScenarioError, register_runner
+from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
+from wbik.scenarios import CONTACT_TOLERANCE, ScenarioError, register_runner
 
 Progress = Callable[[dict], None] | None
 VELOCITY_TOLERANCE = 1e-9
+
+FAITHFUL_RULES = {
+    "closed_chain_mismatch_min_m": Rule("max_inconsistency_m", ">=", "m"),
+    "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
+    "clearance_min_m": Rule("min_clearance_m", ">=", "m"),
+    "limit_excess_max_rad": Rule("max_limit_excess_rad", "<=", "rad"),
+    "unreachable_samples_max": Rule("unreachable_samples", "<="),
+}
+"""The faithful step: the double-support mismatch it must show (a closed chain would have none),
+the CoM margin in the planted soles, the lifted sole's lowest corner above the floor, joint limits."""
+
+WHOLEBODY_RULES = {
+    "contact_error_max_m": Rule("max_contact_error_m", "<=", "m"),
+    "contact_error_max_rad": Rule("max_contact_error_rad", "<=", "rad"),
+    "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
+    "limit_excess_max_rad": Rule("max_limit_excess_rad", "<=", "rad"),
+    "velocity_ratio_max": Rule("peak_velocity_over_limit", "<="),
+    "servo_clamp_max_rad": Rule("max_servo_clamp_rad", "<=", "rad"),
+}
+"""A whole-body behaviour: every sample by FK, then the timed servo trajectory."""
+
+KEYFRAME_RULES = {
+    "units_round_trip_exact": Rule("units_round_trip_exact", "=="),
+    "rows_beyond_urdf_limits_max": Rule("rows_beyond_urdf_limits", "<="),
+    "rows_beyond_servo_limits_max": Rule("rows_beyond_servo_limits", "<="),
+    "com_margin_single_min_m": Rule("min_com_margin_single_m", ">=", "m"),
+}
+"""A keyframe replay: servo units map back exactly, rows inside the limits, the static CoM margin
+in the lower sole."""
+
+PLACO_WALK_RULES = {
+    "planned": Rule("planned", "=="),
+    "step_advance_max_m": Rule("max_step_advance_m", "<=", "m"),
+    "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
+    "zmp_margin_min_m": Rule("min_zmp_margin_m", ">=", "m"),
+}
+"""PlaCo's walk: planned, steps no longer than asked, CoM and ZMP margins in the feet on the ground."""
+
+
+def _judge(entry: dict, expect: dict | None, figures: dict, rules: dict, where: str) -> dict:
+    """Evaluate the expectations into the entry: ``expectations``, ``verdict``, ``passed``."""
+    entry["expectations"] = evaluate(expect, figures, rules, where)
+    entry["verdict"] = verdict(entry["expectations"])
+    entry["passed"] = entry["verdict"] != "FAILED"
+    return entry
+
+
+def _add(report: dict, entry: dict) -> None:
+    report["behaviours"].append(entry)
+    report["passed"] = all(e["passed"] for e in report["behaviours"])
+    report["verdict"] = verdict(c for e in report["behaviours"] for c in e["expectations"])
+
+
+def _expect_block(spec: dict, known: set[str]) -> dict:
+    expect = spec.get("expect", {}) or {}
+    if not isinstance(expect, dict):
+        raise ExpectationError(f"{spec['kind']}: 'expect' must be a mapping, got {expect!r}")
+    unknown = set(expect) - known
+    if unknown:
+        raise ExpectationError(f"{spec['kind']}: unknown expectation key(s) {sorted(unknown)}; "
+                               f"known keys: {sorted(known)}")
+    return expect
+
+
+def wholebody_defaults(margin: float) -> dict:
+    """What the whole-body generators guarantee (used under the task file's own thresholds)."""
+    return {"contact_error_max_m": CONTACT_TOLERANCE, "contact_error_max_rad": CONTACT_TOLERANCE,
+            "com_margin_min_m": margin - 1e-9, "limit_excess_max_rad": 1e-9,
+            "velocity_ratio_max": 1.0 + VELOCITY_TOLERANCE}
 
 
 def _robot(spec: dict):
@@ -58,11 +131,11 @@ def _gait(spec: dict):
 
 def _report(spec: dict, robot) -> dict:
     return {"name": spec.get("name", ""), "kind": spec["kind"], "robot": robot.name, "passed": True,
-            "behaviours": []}
+            "verdict": "informational", "behaviours": []}
 
 
-def _timed_entry(spec: dict, result, name: str) -> dict:
-    """Summary, timing and servo export of a whole-body result."""
+def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> dict:
+    """Summary, timing, servo export and expectations of a whole-body result."""
     from wbik.bioloid.gait import time_scale_motion
 
     timing = spec.get("timing", {}) or {}
@@ -79,8 +152,11 @@ def _timed_entry(spec: dict, result, name: str) -> dict:
     entry["servo_rows"] = int(len(table["times_s"]))
     entry["servo_clamped"] = {joint: max(abs(r - a) for _, r, a in items)
                               for joint, items in table["clamped"].items()}
-    entry["passed"] = bool(result.passed and ratio <= 1.0 + VELOCITY_TOLERANCE)
-    return entry
+    entry.pop("passed", None)
+    figures = {**entry, "min_com_margin_m": entry["min_com_margin_mm"] / 1e3,
+               "max_servo_clamp_rad": max(entry["servo_clamped"].values(), default=0.0)}
+    wanted = {**wholebody_defaults(float(spec.get("margin", 0.005))), **(expect or {})}
+    return _judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect")
 
 
 def run_step(spec: dict, on_progress: Progress = None) -> dict:
@@ -91,7 +167,7 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
     gait = _gait(spec)
     first = spec.get("first", "left")
     margin = float(spec.get("margin", 0.005))
-    expect = spec.get("expect", {}) or {}
+    expect = _expect_block(spec, {"faithful", "wholebody"})
     report = _report(spec, robot)
     generators = spec.get("generators", ["faithful", "wholebody"])
     unknown = set(generators) - {"faithful", "wholebody"}
@@ -101,24 +177,23 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
         rounding = bool(spec.get("round_degrees", False))
         faithful = step_forward_faithful(robot, gait, first, round_degrees=rounding)
         summary = faithful.summary()
-        wanted = float(expect.get("faithful_min_inconsistency_mm", 0.0))
         entry = {"name": f"step forward ({first} first), faithful", "generator": "faithful", **summary,
                  "margin_mm": 1e3 * margin,
-                 "samples_under_margin": int(sum(s["com_margin_m"] < margin for s in faithful.samples)),
-                 "passed": summary["max_inconsistency_mm"] >= wanted}
-        report["behaviours"].append(entry)
-        report["passed"] = report["passed"] and entry["passed"]
+                 "samples_under_margin": int(sum(s["com_margin_m"] < margin for s in faithful.samples))}
+        clearance = summary["min_clearance_mm"]
+        figures = {**summary, "max_inconsistency_m": summary["max_inconsistency_mm"] / 1e3,
+                   "min_com_margin_m": summary["min_com_margin_mm"] / 1e3,
+                   "min_clearance_m": None if clearance is None else clearance / 1e3,
+                   "max_limit_excess_rad": float(np.radians(summary["max_limit_excess_deg"]))}
+        _add(report, _judge(entry, expect.get("faithful"), figures, FAITHFUL_RULES, "expect.faithful"))
         if on_progress is not None:
             on_progress(report)
     if "wholebody" in generators:
         result = step_forward_wholebody(robot, gait, first, margin,
                                         rear_lift=float(spec.get("rear_lift", 0.0)),
                                         backend=spec.get("backend", "daqp"))
-        entry = _timed_entry(spec, result, f"step forward ({first} first), whole-body")
-        if "wholebody" in expect:
-            entry["passed"] = entry["passed"] == bool(expect["wholebody"])
-        report["behaviours"].append(entry)
-        report["passed"] = report["passed"] and entry["passed"]
+        _add(report, _timed_entry(spec, result, f"step forward ({first} first), whole-body",
+                                  expect.get("wholebody")))
     return report
 
 
@@ -138,12 +213,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> dict:
         result = walk(robot, steps, angle, gait, margin, first=spec.get("first", "left"),
                       rear_lift=float(spec.get("rear_lift", 0.0)), backend=spec.get("backend", "daqp"))
         name = f"walk {steps} steps, turn {angle:g} deg"
-    entry = _timed_entry(spec, result, name)
+    entry = _timed_entry(spec, result, name, _expect_block(spec, set(WHOLEBODY_RULES)))
     final = result.motion.q[-1]
     entry["final_soles"] = {sole: robot.frame_placement(final, sole).translation.tolist()
                             for sole in ("r_sole", "l_sole")}
-    report["behaviours"].append(entry)
-    report["passed"] = entry["passed"]
+    _add(report, entry)
     return report
 
 
@@ -153,8 +227,14 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     report = _report(spec, robot)
+    expect = dict(_expect_block(spec, set(KEYFRAME_RULES) | {"behaviours"}))
+    own = expect.pop("behaviours", {}) or {}
     default = ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]
-    for behaviour in spec.get("behaviours", default):
+    chosen = spec.get("behaviours", default)
+    if set(own) - set(chosen):
+        raise ExpectationError(f"expect.behaviours names {sorted(set(own) - set(chosen))}, which are not "
+                               f"replayed; replayed: {chosen}")
+    for behaviour in chosen:
         replay = replay_keyframes(robot, behaviour, spec.get("keyframes"))
         motion = replay["motion"]
         names = motion.joint_names
@@ -173,9 +253,10 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
                  "rows_beyond_servo_limits": clamped_rows,
                  "max_other_sole_height_mm": 1e3 * max(r["other_sole_height_m"] for r in rows),
                  "min_com_margin_single_mm": 1e3 * min(r["com_margin_single_m"] for r in rows),
-                 "source": replay["source"], "passed": bool(exact)}
-        report["behaviours"].append(entry)
-        report["passed"] = report["passed"] and entry["passed"]
+                 "source": replay["source"]}
+        figures = {**entry, "min_com_margin_single_m": min(r["com_margin_single_m"] for r in rows)}
+        wanted = {**expect, **(own.get(behaviour) or {})}
+        _add(report, _judge(entry, wanted, figures, KEYFRAME_RULES, f"expect ({behaviour})"))
         if on_progress is not None:
             on_progress(report)
     return report
@@ -190,9 +271,12 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
                         step_length=float(spec.get("step_length", 0.03)),
                         margin=float(spec.get("margin", 0.005)))
     entry = {"name": "PlaCo walk pattern generator", **result}
-    entry["passed"] = bool(result.get("planned", False)) or not spec.get("expect", {}).get("planned", True)
-    report["behaviours"].append(entry)
-    report["passed"] = entry["passed"]
+    figures = {**result}
+    for key in ("max_step_advance", "min_com_margin", "min_zmp_margin"):
+        if f"{key}_mm" in result:
+            figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
+    wanted = {"planned": True, **_expect_block(spec, set(PLACO_WALK_RULES))}
+    _add(report, _judge(entry, wanted, figures, PLACO_WALK_RULES, "expect"))
     return report
 
 
@@ -202,12 +286,17 @@ RUNNER_KINDS = {"bioloid_step": run_step, "bioloid_walk": run_walk, "bioloid_tur
 
 def format_report(report: dict) -> str:
     """One block per behaviour with the figures that matter."""
+    from wbik.scenarios import report_verdict
+
     lines = [f"{report.get('name', '')} ({report['kind']}, {report.get('robot', '')}): "
-             f"{'PASSED' if report['passed'] else 'FAILED'}"]
+             f"{report_verdict(report)}"]
     for entry in report["behaviours"]:
-        keys = [k for k in entry if k not in ("name", "passed", "per_phase", "source", "final_soles")]
+        keys = [k for k in entry if k not in ("name", "passed", "per_phase", "source", "final_soles",
+                                              "expectations", "verdict")]
         figures = ", ".join(f"{k} {_short(entry[k])}" for k in keys)
-        lines.append(f"  [{'ok' if entry['passed'] else 'FAIL'}] {entry['name']}: {figures}")
+        status = {"PASSED": "ok", "FAILED": "FAIL"}.get(entry.get("verdict"), "info")
+        lines.append(f"  [{status}] {entry['name']}: {figures}")
+        lines.extend(format_checks(entry.get("expectations", [])))
     return "\n".join(lines)
 
 
