@@ -168,6 +168,7 @@ class Study:
                            angle_names={} if robot is not None else case.angle_names,
                            thesis={} if robot is not None else case.thesis)
             study = replace(study, cases=(case,))
+            check_schema((), study.cases, "command line")
         if poses is not None:
             study = replace(study, poses=_positive_int(poses, "--poses", "command line"),
                             cases=tuple(replace(c, poses=None) for c in study.cases))
@@ -192,7 +193,11 @@ def load_study(path: str | Path | None = None) -> Study:
         available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
         raise StudyDefinitionError(f"study file {str(path)!r} does not exist; the studies shipped in "
                                    f"{COMPARISONS_DIR}: {', '.join(available) or '(none)'}")
-    text = path.read_text()
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise StudyDefinitionError(f"{path}: not a text file (byte {exc.start} is not UTF-8); a study file "
+                                   "is YAML or TOML text") from None
     try:
         if path.suffix.lower() == ".toml":
             data = tomllib.loads(text)
@@ -231,6 +236,7 @@ def study_from_dict(data, source: str = "study") -> Study:
     chunk_size = _positive_int(data.get("chunk_size", 100), "chunk_size", source)
     methods = _methods(data.get("methods"), source)
     cases = _cases(data, source)
+    check_schema(methods, cases, source)
     baseline = data.get("baseline", methods[0].label)
     if baseline not in {m.label for m in methods}:
         raise StudyDefinitionError(f"{source}: baseline {baseline!r} is not one of the method labels "
@@ -330,7 +336,8 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
                 f"{source}: {where}.target must be 'pose' or 'position', got {target!r}")
         params = item.get("robot_params", {}) or {}
         if not isinstance(params, dict):
-            raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping")
+            raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping of the robot's "
+                                       f"parameters (e.g. {{lengths: [3, 2, 2]}}), got {params!r}")
         angle_names = item.get("angle_names", {}) or {}
         if not isinstance(angle_names, dict) or not set(angle_names) <= set(ANGLE_KEYS):
             raise StudyDefinitionError(
@@ -381,6 +388,40 @@ def _thesis(raw, source: str, where: str) -> dict:
                           for label, metrics in reference.items()},
             "significance": {label: {axis: float(p) for axis, p in axes.items()}
                              for label, axes in significance.items()}}
+
+
+def check_schema(methods, cases, source: str) -> None:
+    """Check what the file names against the code, before any solving: every method's ``options``
+    against its constructor (:func:`wbik.solvers.base.solver_options`), every case's robot (a
+    built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
+    from wbik.models import BUILTIN, builder_parameters
+    from wbik.solvers.base import solver_options
+
+    for index, spec in enumerate(methods):
+        try:
+            accepted = solver_options(spec.method)
+        except ImportError:  # an optional dependency is missing: the runner reports it per method
+            continue
+        if accepted is None:
+            continue
+        allowed = sorted(accepted - {"timeout_s", "tolerances", "seed"})
+        unknown = sorted(set(spec.options) - accepted)
+        if unknown:
+            raise StudyDefinitionError(
+                f"{source}: methods[{index}] ({spec.label}).options has unknown option(s) {unknown} for "
+                f"method {spec.method!r}; its options: {', '.join(allowed) or '(none)'}")
+    for case in cases:
+        path = Path(case.robot).expanduser()
+        if case.robot not in BUILTIN and not path.is_file():
+            raise StudyDefinitionError(
+                f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
+                f"({', '.join(BUILTIN)}) nor an existing URDF file")
+        accepted = builder_parameters(case.robot)
+        unknown = sorted(set(case.robot_params) - accepted)
+        if unknown:
+            raise StudyDefinitionError(
+                f"{source}: case {case.name!r}: robot_params has unknown key(s) {unknown} for robot "
+                f"{case.robot!r}; its parameters: {', '.join(sorted(accepted)) or '(none)'}")
 
 
 def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
