@@ -23,6 +23,15 @@ from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.targets import Target, as_target
 
 TWO_PI = 2.0 * np.pi
+LIMIT_TOLERANCE = 1e-9
+"""Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
+the limit). Inverses of poses whose joints sit exactly at a limit come back a few 1e-12 rad outside, and
+up to ~1e-8 rad near a singular pose where an arccos amplifies rounding; 1e-9 rad moves a 1 m lever by
+1e-9 m, far below the screening tolerance. The old 1e-12 was only ~1e3 ulps of an angle."""
+BRANCH_MERGE = 1e-6
+"""Two branches whose joints differ by less than this (rad, modulo 2 pi) are one solution in
+``solve_all``: at a singular pose (elbow stretched, wrist aligned) two analytic branches coincide, but
+rounding through arccos splits them by up to ~1e-7 rad, machine-dependently."""
 
 
 class ClosedForm:
@@ -85,7 +94,7 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
     shifts = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
     for shift in shifts:
         shifted = np.where(revolute, q + shift, q)
-        ok = (shifted >= lower - 1e-12) & (shifted <= upper + 1e-12)
+        ok = (shifted >= lower - LIMIT_TOLERANCE) & (shifted <= upper + LIMIT_TOLERANCE)
         distance = np.abs(shifted - reference)
         better = ok & (distance < best_distance)
         best = np.where(better, shifted, best)
@@ -192,6 +201,12 @@ class AnalyticSolver(Solver):
             results.append(evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name))
         return results
 
+    def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
+        """Largest joint difference, revolute joints modulo 2 pi."""
+        difference = q - other
+        wrapped = np.abs(np.angle(np.exp(1j * difference)))
+        return float(np.max(np.where(self.revolute, wrapped, np.abs(difference))))
+
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct branch inside the limits that passes the shared FK check."""
         target = as_target(target)
@@ -203,7 +218,7 @@ class AnalyticSolver(Solver):
         elapsed = time.perf_counter() - start
         distinct: list[np.ndarray] = []
         for q in q_all[0][usable[0]]:
-            if not any(np.max(np.abs(q - other)) < 1e-9 for other in distinct):
+            if not any(self._branch_gap(q, other) < BRANCH_MERGE for other in distinct):
                 distinct.append(q)
         results = [evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
                    for q in distinct]

@@ -21,8 +21,10 @@ from wbik.solvers.analytic import ClosedForm
 COSINE_TOLERANCE = 1e-9
 """How far a cosine may leave [-1, 1] (rounding) before the branch counts as non-existent."""
 
-AXIS_TOLERANCE = 1e-12
-"""Horizontal distance (m) below which a target counts as on the base axis (q1 free)."""
+AXIS_RELATIVE_TOLERANCE = 1e-9
+"""Horizontal distance below which a target counts as on the base axis (q1 free), relative to the arm's
+length: FK of a pose on the axis leaves ~1e-16 m of rounding there, and keeping q0's q1 for a target
+r off the axis misses it by at most 2 r (1e-9 of the arm), far below the screening tolerance."""
 
 
 def two_link_planar(x: np.ndarray, y: np.ndarray, first: float | np.ndarray, second: float | np.ndarray,
@@ -58,12 +60,13 @@ class Arm3RPosition(ClosedForm):
     def __init__(self, chain: Chain):
         super().__init__(chain)
         self.l1, self.l2, self.l3 = (float(v) for v in chain.robot.info["lengths"])
+        self.axis_tolerance = AXIS_RELATIVE_TOLERANCE * (abs(self.l2) + abs(self.l3))
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, y, z = positions[:, 0], positions[:, 1], positions[:, 2]
         reach = np.hypot(x, y)
-        yaw = np.where(reach > AXIS_TOLERANCE, np.arctan2(y, x), q0[:, 0])
+        yaw = np.where(reach > self.axis_tolerance, np.arctan2(y, x), q0[:, 0])
         q_all, valid_all = [], []
         for shoulder_yaw, signed_reach in ((yaw, reach), (yaw + np.pi, -reach)):
             q2, q3, valid = two_link_planar(signed_reach, z - self.l1, self.l2, self.l3)

@@ -34,8 +34,12 @@ from wbik.errors import InvalidTargetError
 from wbik.models.bioloid import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
 from wbik.solvers.analytic import ClosedForm
 
-COSINE_TOLERANCE = 1e-12
-"""|cos| up to 1 + this is clamped to 1 (a target on the workspace boundary) and stays reachable."""
+COSINE_TOLERANCE = 1e-9
+"""|cos| up to 1 + this is clamped to 1 (a target on the workspace boundary) and stays reachable, as in
+the other closed forms: a stretched knee or elbow is a branch merge where rounding (or a target 1e-10
+beyond the boundary, ~1e-11 m) must not flip the verdict; the clamped limb misses by at most
+~COSINE_TOLERANCE * L (4e-11 m), which the FK screening accepts. (The leg's hip Euler lock, hip roll
++-pi/2, is outside the +-0.87 rad limits, so its decomposition needs no tolerance.)"""
 
 ARM_MIRROR = np.array([1.0, -1.0, -1.0])
 LEG_MIRROR = np.array([-1.0, -1.0, 1.0, 1.0, 1.0, -1.0])

@@ -41,15 +41,18 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.robot import Chain
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm
 
 CLAMP_TOLERANCE = 1e-9
 """Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
-LIMIT_SNAP = 1e-9
+LIMIT_SNAP = LIMIT_TOLERANCE
 """Angles this close (rad, modulo 2 pi) outside a limit are set onto it: FK targets of joints at a
-limit come back a few 1e-12 rad outside, and the framework's wrap tolerance is 1e-12."""
+limit come back a few 1e-12 rad outside (the framework's wrap tolerance, the same 1e-9 rad)."""
 GIMBAL_LOCK = 1e-9
-"""|cos(beta)| below which alpha (t6) is taken from q0: the Euler angles are coupled there."""
+"""|cos(beta)| below which alpha (t6) is taken from q0: the Euler angles are coupled there. It is read
+as hypot(R32, R33), entries of the target rotation that rounding moves by ~1e-16 (never through an
+arccos), so the decision has a margin of ~1e7 over rounding; the t6 so chosen costs at most
+GIMBAL_LOCK * |its change| of orientation, far below the screening tolerance."""
 LOCK_SWEEP = 7
 """Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""
 WRIST = float(np.hypot(L5, L6))
@@ -383,7 +386,8 @@ def _wrap_scalar(q, reference, lower, upper) -> list[float] | None:
         best, best_distance = None, math.inf
         for shift in _SHIFTS:
             shifted = value + shift
-            if low - 1e-12 <= shifted <= high + 1e-12 and abs(shifted - ref) < best_distance:
+            if (low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE
+                    and abs(shifted - ref) < best_distance):
                 best, best_distance = shifted, abs(shifted - ref)
         if best is None:
             return None
@@ -489,7 +493,7 @@ class Golem3PositionIK(_Golem3Form):
         q_grid = q_grid.reshape(count, -1, 6)
         real = real.reshape(count, -1)
         excess = self._limit_excess(q_grid)
-        feasible = real & (excess == 0.0)
+        feasible = real & (excess <= LIMIT_TOLERANCE)  # the framework clips that much onto the limit
         distance = np.where(feasible, np.linalg.norm(q_grid - q0[:, None, :], axis=-1), np.inf)
         nearest = np.argsort(distance, axis=1)[:, :self.keep]
         q_keep = np.take_along_axis(q_grid, nearest[..., None], axis=1)

@@ -40,13 +40,18 @@ import pinocchio as pin
 
 from wbik.models.pincher import BASE_HEIGHT, LINK, WRIST_TO_TOOL
 from wbik.robot import Chain
-from wbik.solvers.analytic import ClosedForm, wrap_into_limits
-from wbik.solvers.analytic.arm3r import AXIS_TOLERANCE, two_link_planar
+from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm, wrap_into_limits
+from wbik.solvers.analytic.arm3r import AXIS_RELATIVE_TOLERANCE, COSINE_TOLERANCE, two_link_planar
 
 PITCH_GRID = 48
 """Pitches tried across the reachable arc when the nearest pitch has no branch inside the limits."""
 PITCH_BISECTIONS = 30
 """Bisection steps from the best grid pitch toward the nearest pitch (arc width / 2^30 resolution)."""
+AXIS_TOLERANCE = AXIS_RELATIVE_TOLERANCE * (2.0 * LINK + WRIST_TO_TOOL)
+"""Horizontal distance (m) below which a target is on the base axis (q1 of q0 kept), 1e-9 of the arm."""
+PITCH_TIE = 1e-9
+"""Pitches (rad) this close count as equal: q0's own pitch, and both shoulder sides equally near to it
+(the sides' arcs come from atan2(h, r) and atan2(h, -r), equal to pi - each other only up to rounding)."""
 
 
 def _wrap_angle(angle: np.ndarray) -> np.ndarray:
@@ -163,7 +168,7 @@ class PincherPosition(_PincherForm):
         ratio = ((distance ** 2 + WRIST_TO_TOOL ** 2 - 4.0 * LINK ** 2)
                  / (2.0 * WRIST_TO_TOOL * np.maximum(distance, 1e-300)))
         half_width = np.arccos(np.clip(ratio, -1.0, 1.0))
-        return yaws, reaches, centre, half_width, ratio <= 1.0 + 1e-12
+        return yaws, reaches, centre, half_width, ratio <= 1.0 + COSINE_TOLERANCE
 
     def _candidates(self, yaws, reaches, heights, pitches, q0):
         """Branches at pitches (B, 2, M): Q (B, 2, M, 2, 4), exact (..., 2), inside limits (..., 2)."""
@@ -180,8 +185,8 @@ class PincherPosition(_PincherForm):
         """
         q_all, exact = arm_plane_branches(yaws[..., None], reaches[..., None], heights[:, None, None],
                                           pitches)
-        span = self.chain.upper - self.chain.lower + 1e-12
-        inside = np.all(np.mod(q_all - self.chain.lower, 2.0 * np.pi) <= span, axis=-1)
+        span = self.chain.upper - self.chain.lower + 2.0 * LIMIT_TOLERANCE  # as wrap_into_limits
+        inside = np.all(np.mod(q_all - self.chain.lower + LIMIT_TOLERANCE, 2.0 * np.pi) <= span, axis=-1)
         return exact & inside
 
     def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
@@ -230,7 +235,7 @@ class PincherPosition(_PincherForm):
         # search the sides whose nearest pitch has no branch in the limits, unless the other side already
         # has one at q0's own pitch (nothing can be nearer)
         side_ok = np.any(usable, axis=-1)
-        at_pitch0 = side_ok & (np.abs(_wrap_angle(chosen - pitch0)) <= 1e-12)
+        at_pitch0 = side_ok & (np.abs(_wrap_angle(chosen - pitch0)) <= PITCH_TIE)
         retry_side = ~side_ok & reachable & ~at_pitch0[:, ::-1]
         retry = np.any(retry_side, axis=1)
         if np.any(retry):
@@ -242,7 +247,7 @@ class PincherPosition(_PincherForm):
                 mine[retry] = np.where(mask, found, mine[retry])
         # keep the side(s) whose pitch is nearest to q0's pitch among those with a usable branch
         score = np.where(np.any(usable, axis=-1), np.abs(_wrap_angle(chosen - pitch0)), np.inf)
-        best_side = score <= score.min(axis=1, keepdims=True) + 1e-12
+        best_side = score <= score.min(axis=1, keepdims=True) + PITCH_TIE
         valid = np.where(np.any(usable, axis=(1, 2))[:, None, None], usable & best_side[..., None], exact)
         valid &= reachable[..., None]
         return q_best.reshape(count, 4, 4), valid.reshape(count, 4)
