@@ -71,9 +71,22 @@ def test_unreachable_target_ends_in_budget_with_reason():
     result = solver.solve([3.0, 0.0, 0.0])  # UR5 reach is under 1 m
     elapsed = time.perf_counter() - start
     assert not result.success
-    assert "time budget" in result.reason and "out of reach" in result.reason
+    assert "budget" in result.reason and "out of reach" in result.reason
     assert elapsed < 0.01 + 0.05
     assert result.extra["attempts"] >= 2  # it restarted from random seeds
+
+
+def test_iteration_budget_decides_without_a_wall_clock():
+    """With no timeout_s the call spends exactly its iteration budget on an unreachable target, and
+    two calls (or two solvers with the same seed) give the same joints: no dependence on load."""
+    ur5 = robot("ur5")
+    first = wbik.solver("bounded_lm", ur5, chain="arm", max_iterations=400)
+    assert first.timeout_s is None
+    result = first.solve([3.0, 0.0, 0.0])
+    assert not result.success and "iteration budget of 400" in result.reason
+    again = wbik.solver("bounded_lm", ur5, chain="arm", max_iterations=400).solve([3.0, 0.0, 0.0])
+    np.testing.assert_array_equal(result.q, again.q)
+    assert result.iterations == again.iterations and result.extra == again.extra
 
 
 @pytest.mark.parametrize(("robot_name", "chain_name"), [("ur5", "arm"), ("golem3", "right_arm_lift"),

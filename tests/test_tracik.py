@@ -40,8 +40,8 @@ def test_solutions_pass_fk_check_and_limits(robot_name, chain_name, rng):
 
 def test_tracik_limits_are_the_chains():
     solver = wbik.solver("trac_ik", robot("panda"))
-    lower = np.array(solver.pytracik.get_joint_lower_bounds(solver._solver))
-    upper = np.array(solver.pytracik.get_joint_upper_bounds(solver._solver))
+    lower = np.array(solver.pytracik.get_joint_lower_bounds(solver._thread_state()))
+    upper = np.array(solver.pytracik.get_joint_upper_bounds(solver._thread_state()))
     assert np.allclose(lower, solver.chain.lower) and np.allclose(upper, solver.chain.upper)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import tempfile
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -27,6 +28,8 @@ from wbik.errors import (
 )
 from wbik.files import atomic_write_text
 from wbik.validation import numeric_array
+
+_CHAIN_BUILD_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -74,7 +77,7 @@ class Chain:
         self.v_index = np.array([full.joints[j].idx_v for j in joint_ids])
         locked = [j for j in range(1, full.njoints) if j not in joint_ids]
         self.model = pin.buildReducedModel(full, locked, robot.nominal)
-        self.data = self.model.createData()
+        self._local = threading.local()
         order = [self.model.getJointId(name) for name in self.joint_names]
         if order != sorted(order):
             raise RobotDescriptionError(
@@ -96,6 +99,15 @@ class Chain:
         self.mid_range = 0.5 * (self.lower + self.upper)
         self.is_prismatic = np.array(
             [full.joints[j].shortname().startswith("JointModelP") for j in joint_ids])
+
+    @property
+    def data(self) -> pin.Data:
+        """This thread's Pinocchio Data of the chain's model (each thread writes its own)."""
+        try:
+            return self._local.data
+        except AttributeError:
+            data = self._local.data = self.model.createData()
+            return data
 
     @property
     def nq(self) -> int:
@@ -163,7 +175,7 @@ class Robot:
     info: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.data = self.model.createData()
+        self._local = threading.local()
         self.nominal = np.asarray(self.nominal, dtype=float)
         self._chains: dict[str, Chain] = {}
         if self.urdf_path is None:
@@ -172,6 +184,15 @@ class Robot:
     def __repr__(self) -> str:
         return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
                 f"chains={list(self.chains)})")
+
+    @property
+    def data(self) -> pin.Data:
+        """This thread's Pinocchio Data of the full model (each thread writes its own)."""
+        try:
+            return self._local.data
+        except AttributeError:
+            data = self._local.data = self.model.createData()
+            return data
 
     @property
     def has_floating_base(self) -> bool:
@@ -198,7 +219,9 @@ class Robot:
         if name not in self.chains:
             raise UnknownChainError(name, list(self.chains))
         if name not in self._chains:
-            self._chains[name] = Chain(self, self.chains[name])
+            with _CHAIN_BUILD_LOCK:  # one Chain per name, also when threads ask at once
+                if name not in self._chains:
+                    self._chains[name] = Chain(self, self.chains[name])
         return self._chains[name]
 
     def frame_placement(self, q: np.ndarray, frame: str) -> pin.SE3:

@@ -15,10 +15,15 @@ caps the largest joint step. Position rows are weighted by ``position_weight`` (
 chain's length scale, at least 1), which puts metres and radians on a par on small chains
 (Pincher, Bioloid legs); the FK check is unchanged. An attempt ends when the FK check passes
 (success), when the error stops dropping (``stall`` iterations with less than 1 - ``progress``
-relative progress: a local minimum or a limit), or after ``max_iterations``.
+relative progress: a local minimum or a limit), or after ``attempt_iterations``.
 
-Restarts, until the deadline (the result is the first solution that passes, or the best attempt
-with a reason):
+Restarts, until the iteration budget ``max_iterations`` is spent (the result is the first solution
+that passes, or the best attempt with a reason). The budget counts single-seed iterations; one
+iteration of the vectorised batch counts ``BATCH_ITERATION_UNITS`` of them (what it costs relative
+to a single one, measured here). By default the budget is the iterations that cost about 5 ms on
+the reference machine, so the answer depends on the inputs and ``seed`` only, never on the load;
+``timeout_s`` adds a wall clock. Restarts draw from the call's own random stream
+(:meth:`Solver._call_rng`).
 
 1. q0 first (TRAC-IK's protocol seeds every solve with the mid-range configuration).
 2. Then seeds from a per-chain *seed library*: ``library_size`` (8192) uniform configurations and
@@ -58,12 +63,37 @@ from wbik.solvers.task_error import converged
 from wbik.targets import Target
 
 TWO_PI = 2.0 * math.pi
+BATCH_ITERATION_UNITS = 10
+"""Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
+iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
+
+
+@dataclass
+class _CallDraws:
+    """Uniform seeds of one call, drawn lazily (most calls never need one) from its own stream."""
+
+    solver: BoundedLMSolver
+    target: Target
+    q0: np.ndarray
+    pool: np.ndarray | None = None
+    used: int = 0
+    rng: np.random.Generator | None = None
+
+    def take(self, count: int) -> np.ndarray:
+        """``count`` uniform seeds inside the limits (one generator call per 256)."""
+        if self.pool is None or self.used + count > len(self.pool):
+            if self.pool is None:
+                self.rng = self.solver._call_rng(self.target, self.q0)
+            self.pool, self.used = self.solver.chain.random(self.rng, max(256, count)), 0
+        self.used += count
+        return self.pool[self.used - count:self.used]
 
 
 class BoundedLMSolver(Solver):
     """Bounded LM with restarts (see the module docstring). Options, besides the base ones:
 
-    max_iterations, stall, progress: end of an attempt (30 iterations; 3 without a 10 % drop);
+    max_iterations: the budget of a call, in single-seed iterations (default: ~5 ms here);
+    attempt_iterations, stall, progress: end of an attempt (30 iterations; 3 without a 10 % drop);
     damping, cost_weight, decrease, increase: lambda_0 floor, w, lambda_0 factors on accept/reject;
     max_step: cap on the largest joint step (rad or m), None = no cap; position_weight: w of the
     position rows (default 1 / the chain's length, at least 1); single_attempts: one-seed attempts
@@ -74,15 +104,18 @@ class BoundedLMSolver(Solver):
     """
 
     name = "bounded_lm"
+    iteration_cost_s = 20e-6  # one single-seed iteration (FK, Jacobian, Cholesky), measured here (17-25 us)
 
-    def __init__(self, robot, chain=None, *, max_iterations: int = 30, stall: int = 3,
+    def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
+                 attempt_iterations: int = 30, stall: int = 3,
                  damping: float = 1e-6, batch_size: int = 32, cost_weight: float = 0.01,
                  decrease: float = 0.3, increase: float = 10.0, progress: float = 0.9,
                  max_step: float | None = None, position_weight: float | None = None,
                  candidates: int = 3, single_attempts: int = 5, library_size: int = 8192,
                  library_share: float = 0.5, **options):
         super().__init__(robot, chain, **options)
-        self.max_iterations = int(max_iterations)
+        self.max_iterations = self._iteration_budget(max_iterations)
+        self.attempt_iterations = int(attempt_iterations)
         self.stall = int(stall)
         self.damping = float(damping)
         self.batch_size = max(1, int(batch_size))
@@ -109,9 +142,10 @@ class BoundedLMSolver(Solver):
         self._library = seed_library(chain_, max(0, int(library_size)), self.position_weight,
                                      self._vectorised)
         self._model = scaled_model(chain_.model, self.position_weight)
-        self._data = self._model.createData()
         self._identity = np.eye(chain_.nq)
-        self._pool, self._pool_used = np.empty((0, chain_.nq)), 0
+
+    def _new_thread_state(self) -> pin.Data:
+        return self._model.createData()
 
     # -- projection into the limits -----------------------------------------------------------
     def project(self, q: np.ndarray) -> np.ndarray:
@@ -126,10 +160,10 @@ class BoundedLMSolver(Solver):
         return np.clip(q, self.lower, self.upper)
 
     # -- one seed ---------------------------------------------------------------------------------
-    def _attempt(self, goal: pin.SE3, pose: bool, q: np.ndarray, deadline: float
+    def _attempt(self, goal: pin.SE3, pose: bool, q: np.ndarray, deadline: float, budget: int
                  ) -> tuple[np.ndarray, bool, int, float]:
-        """LM from q towards ``goal`` (tip pose in the scaled model's world frame): (last q,
-        converged?, iterations, |e|).
+        """LM from q towards ``goal`` (tip pose in the scaled model's world frame), for at most
+        ``budget`` iterations: (last q, converged?, iterations, |e|).
 
         Errors and Jacobians are taken in the tip's own axes with the LOCAL frame Jacobian: for a
         pose, e = log6(T^-1 T*), the twist that carries the tip onto the target along the SE(3)
@@ -142,7 +176,7 @@ class BoundedLMSolver(Solver):
         goal position x w). Hot loop: no Python-level helpers beyond the error evaluation, small
         numpy calls only.
         """
-        model, data, tip = self._model, self._data, self.chain.tip_id
+        model, data, tip = self._model, self._thread_state(), self.chain.tip_id
         joint_jacobians, frame_jacobian = pin.computeJointJacobians, pin.getFrameJacobian
         placement, log6, local = pin.updateFramePlacement, pin.log6, pin.ReferenceFrame.LOCAL
         lower, upper, n = self.lower, self.upper, self.chain.nq
@@ -168,7 +202,8 @@ class BoundedLMSolver(Solver):
         cost = float(error.dot(error))
         damping = floor
         best_cost, since_progress = cost, 0
-        for iteration in range(1, self.max_iterations + 1):
+        limit = min(self.attempt_iterations, budget)
+        for iteration in range(1, limit + 1):
             if cost <= sure_cost or (cost <= maybe_cost and self._passes(error)):
                 return q, True, iteration - 1, math.sqrt(cost)
             if time.perf_counter() > deadline:
@@ -209,14 +244,14 @@ class BoundedLMSolver(Solver):
                 since_progress += 1
                 if since_progress >= stall:
                     return q, False, iteration, math.sqrt(cost)
-        return q, self._passes(error), self.max_iterations, math.sqrt(cost)
+        return q, self._passes(error), limit, math.sqrt(cost)
 
-    def _next_seed(self, goal: pin.SE3, pose: bool) -> np.ndarray:
+    def _next_seed(self, goal: pin.SE3, pose: bool, draws: _CallDraws) -> np.ndarray:
         """A random seed inside the limits: the best of ``candidates`` uniform draws by task error."""
         if self.candidates <= 1:
-            return self._random(1)[0].copy()
-        seeds = self._random(self.candidates)
-        model, data, tip = self._model, self._data, self.chain.tip_id
+            return draws.take(1)[0].copy()
+        seeds = draws.take(self.candidates)
+        model, data, tip = self._model, self._thread_state(), self.chain.tip_id
         best, best_cost = seeds[0], math.inf
         for seed in seeds:
             pin.forwardKinematics(model, data, seed)
@@ -248,13 +283,6 @@ class BoundedLMSolver(Solver):
             nearest = library.pose_tree.query(point, k=count)[1]
         return library.q[np.atleast_1d(nearest)]
 
-    def _random(self, count: int) -> np.ndarray:
-        """``count`` uniform seeds inside the limits, drawn from a pool (one generator call per 256)."""
-        if self._pool_used + count > len(self._pool):
-            self._pool, self._pool_used = self.chain.random(self.rng, max(256, count)), 0
-        self._pool_used += count
-        return self._pool[self._pool_used - count:self._pool_used]
-
     def _passes(self, error: np.ndarray) -> bool:
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
@@ -267,6 +295,7 @@ class BoundedLMSolver(Solver):
         best_q, best_error = q_seed, math.inf
         attempts, iterations = 0, 0
         neighbours, used_neighbours = None, 0
+        draws = _CallDraws(self, target, q0)
         while True:
             if self.batch_size > 1 and attempts >= self.single_attempts:
                 if attempts == 0:
@@ -274,29 +303,34 @@ class BoundedLMSolver(Solver):
                 else:  # the next library neighbours (a second, larger query: few solves get here)
                     share = int(self.library_share * self.batch_size)
                     seeds = self._neighbours(target, used_neighbours + share)[used_neighbours:]
-                return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error))
-            q, ok, used, error = self._attempt(goal, pose, q_seed, deadline)
+                return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error),
+                                         draws)
+            q, ok, used, error = self._attempt(goal, pose, q_seed, deadline, self.max_iterations - iterations)
             attempts += 1
             iterations += used
             if ok:
                 return Candidate(q, iterations, "", {"attempts": attempts})
             if error < best_error:
                 best_q, best_error = q, error
-            if time.perf_counter() > deadline:
-                return Candidate(best_q, iterations,
-                                 f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
-                                 f"(best task error {best_error:.3g}); the target may be out of reach",
+            if iterations >= self.max_iterations or time.perf_counter() > deadline:
+                return Candidate(best_q, iterations, self._budget_reason(attempts, best_error, deadline),
                                  {"attempts": attempts})
             if neighbours is None:  # enough for the single attempts (a query's cost grows with k)
                 neighbours = self._neighbours(target, self.single_attempts if self.batch_size > 1 else 32)
             if used_neighbours < len(neighbours):
                 q_seed, used_neighbours = neighbours[used_neighbours], used_neighbours + 1
             else:
-                q_seed = self._next_seed(goal, pose)
+                q_seed = self._next_seed(goal, pose, draws)
+
+    def _budget_reason(self, attempts: int, best_error: float, deadline: float) -> str:
+        spent = (f"wall-clock budget of {self.timeout_s:g} s" if time.perf_counter() > deadline
+                 else f"iteration budget of {self.max_iterations}")
+        return (f"{spent} used up after {attempts} attempts (best task error {best_error:.3g}); "
+                "the target may be out of reach")
 
     # -- many seeds at once ---------------------------------------------------------------------
     def _solve_batch(self, target: Target, seeds: np.ndarray, deadline: float, attempts: int,
-                     iterations: int, best: tuple[np.ndarray, float]) -> Candidate:
+                     iterations: int, best: tuple[np.ndarray, float], draws: _CallDraws) -> Candidate:
         """The same LM on ``batch_size`` seeds at once: ``seeds`` first, then random ones.
 
         A joint is frozen when the clipped step leaves it where it is (on a bound, pushed outwards).
@@ -309,9 +343,10 @@ class BoundedLMSolver(Solver):
         lower, upper, identity = self.lower, self.upper, self._identity
         clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
         floor, cost_weight, decrease, increase = self.damping, self.cost_weight, self.decrease, self.increase
-        progress_ratio, stall, max_iterations = self.progress, self.stall, self.max_iterations
+        progress_ratio, stall, max_iterations = self.progress, self.stall, self.attempt_iterations
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
-        q = self._random(size).copy()
+        spent, budget = iterations, self.max_iterations  # budget units: single-seed iterations
+        q = draws.take(size).copy()
         q[:len(seeds)] = seeds[:size]
         error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
         cost = np.einsum("bi,bi->b", error, error)
@@ -325,9 +360,10 @@ class BoundedLMSolver(Solver):
                 for index in np.flatnonzero(cost <= maybe_cost):
                     if cost[index] <= sure_cost or self._passes(error[index]):
                         return Candidate(q[index].copy(), iterations, "", {"attempts": attempts})
-            if time.perf_counter() > deadline:
+            if spent + BATCH_ITERATION_UNITS > budget or time.perf_counter() > deadline:
                 break
             iterations += 1
+            spent += BATCH_ITERATION_UNITS
             system = np.matmul(transposed, np.swapaxes(transposed, 1, 2))
             diagonal = np.einsum("bii->bi", system)
             diagonal += (cost_weight * cost + damping)[:, None]
@@ -348,7 +384,7 @@ class BoundedLMSolver(Solver):
                 if any_wrap:
                     inside = self.project(trial)
             if fresh is not None:
-                inside[fresh] = self._random(fresh.size)
+                inside[fresh] = draws.take(fresh.size)
                 cost[fresh] = math.inf
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
@@ -378,9 +414,7 @@ class BoundedLMSolver(Solver):
         lowest = int(np.argmin(cost))
         if math.sqrt(cost[lowest]) < best_error:
             best_q, best_error = q[lowest].copy(), math.sqrt(cost[lowest])
-        return Candidate(best_q, iterations,
-                         f"time budget of {self.timeout_s:g} s used up after {attempts} attempts "
-                         f"(best task error {best_error:.3g}); the target may be out of reach",
+        return Candidate(best_q, iterations, self._budget_reason(attempts, best_error, deadline),
                          {"attempts": attempts})
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -109,17 +110,19 @@ class KDLSolver(Solver):
         self.max_iterations = int(max_iterations)
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
-        kdl = self.kdl
         self.kdl_chain = kdl_chain(self.chain)
         self.fk_disagreement = check_fk_agreement(self.chain, self.kdl_chain)
-        self._lower = joint_array(kdl, self.chain.lower)
-        self._upper = joint_array(kdl, self.chain.upper)
-        self._fk_solver = kdl.ChainFkSolverPos_recursive(self.kdl_chain)
-        self._velocity_solver = kdl.ChainIkSolverVel_pinv(self.kdl_chain)
-        self._pose_solver = kdl.ChainIkSolverPos_NR_JL(self.kdl_chain, self._lower, self._upper,
-                                                       self._fk_solver, self._velocity_solver,
-                                                       self.max_iterations, self.epsilon)
-        self._q_out = kdl.JntArray(self.chain.nq)
+
+    def _new_thread_state(self) -> SimpleNamespace:
+        """This thread's KDL solvers and output array (KDL's solvers keep working state)."""
+        kdl = self.kdl
+        fk_solver = kdl.ChainFkSolverPos_recursive(self.kdl_chain)
+        velocity_solver = kdl.ChainIkSolverVel_pinv(self.kdl_chain)
+        pose_solver = kdl.ChainIkSolverPos_NR_JL(self.kdl_chain, joint_array(kdl, self.chain.lower),
+                                                 joint_array(kdl, self.chain.upper), fk_solver,
+                                                 velocity_solver, self.max_iterations, self.epsilon)
+        return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
+                               q_out=kdl.JntArray(self.chain.nq))
 
     def _check_target_kind(self, target: Target) -> None:
         if not target.is_pose:
@@ -134,17 +137,24 @@ class KDLSolver(Solver):
 
     def attempt(self, frame, q_seed: np.ndarray) -> tuple[np.ndarray, int]:
         """One NR_JL run: (joints, KDL return code; 0 = converged)."""
-        code = self._pose_solver.CartToJnt(joint_array(self.kdl, q_seed), frame, self._q_out)
-        return np.array([self._q_out[i] for i in range(self.chain.nq)]), int(code)
+        state = self._thread_state()
+        code = state.pose.CartToJnt(joint_array(self.kdl, q_seed), frame, state.q_out)
+        return np.array([state.q_out[i] for i in range(self.chain.nq)]), int(code)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         q, code = self.attempt(self._frame(target), self.chain.clip(q0))
-        reason = "" if code >= 0 else f"KDL NR_JL returned {code} ({self._pose_solver.strError(code)})"
+        reason = ""
+        if code < 0:
+            reason = f"KDL NR_JL returned {code} ({self._thread_state().pose.strError(code)})"
         return Candidate(q, 1, reason, {"kdl_code": code})
 
 
 class KDLRestartsSolver(KDLSolver):
-    """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline."""
+    """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline.
+
+    An attempt is started only when the time left holds one more attempt as long as the longest so
+    far, so the call ends within its budget. Seeds come from the call's own random stream.
+    """
 
     name = "kdl_restarts"
 
@@ -153,8 +163,13 @@ class KDLRestartsSolver(KDLSolver):
         q_seed = self.chain.clip(q0)
         attempts = 0
         best_q, best_error = None, math.inf
+        rng = None
+        longest = 0.0
         while True:
+            started = time.perf_counter()
             q, _ = self.attempt(frame, q_seed)
+            now = time.perf_counter()
+            longest = max(longest, now - started)
             attempts += 1
             position_error, rotation_error = errors(self.chain, target, q)
             if position_error <= self.tolerances.position and rotation_error <= self.tolerances.rotation:
@@ -162,10 +177,12 @@ class KDLRestartsSolver(KDLSolver):
             error = position_error + rotation_error
             if error < best_error:
                 best_q, best_error = q, error
-            if time.perf_counter() >= deadline:
+            if now + longest >= deadline:
                 return Candidate(best_q, attempts, f"time budget of {self.timeout_s:g} s used up after "
                                  f"{attempts} KDL attempts", {"attempts": attempts})
-            q_seed = self.chain.random(self.rng)
+            if rng is None:
+                rng = self._call_rng(target, q0)
+            q_seed = self.chain.random(rng)
 
 
 def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:

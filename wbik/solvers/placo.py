@@ -14,6 +14,7 @@ import re
 import time
 from functools import lru_cache
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -94,45 +95,49 @@ class PlacoSolver(Solver):
         super().__init__(robot, chain, **options)
         self.max_iterations = int(max_iterations)
         self.placo = import_placo()
-        self.wrapper = placo_robot(self.robot)
-        self.solver = self.placo.KinematicsSolver(self.wrapper)
-        self.solver.mask_fbase(True)
-        self.solver.enable_joint_limits(True)
+        self.regularization = float(regularization)
+        self._thread_state()  # build this thread's PlaCo robot and solver now (errors show here)
+
+    def _new_thread_state(self) -> SimpleNamespace:
+        """This thread's PlaCo robot wrapper and solver (they hold the configuration being solved)."""
+        wrapper = placo_robot(self.robot)
+        solver = self.placo.KinematicsSolver(wrapper)
+        solver.mask_fbase(True)
+        solver.enable_joint_limits(True)
         chain_joints = set(self.chain.joint_names)
         model = self.robot.model
         for joint_id in range(1, model.njoints):
             name = model.names[joint_id]
             if model.joints[joint_id].nq == 1 and name not in chain_joints:
-                self.solver.mask_dof(name)
-        self.solver.add_regularization_task(regularization)
-        self._task = None
-        self._task_kind = None
+                solver.mask_dof(name)
+        solver.add_regularization_task(self.regularization)
+        return SimpleNamespace(wrapper=wrapper, solver=solver, task=None, task_kind=None)
 
-    def _set_task(self, target: Target, world_target: np.ndarray) -> None:
+    @staticmethod
+    def _set_task(state: SimpleNamespace, tip_frame: str, target: Target, world_target: np.ndarray) -> None:
         kind = "pose" if target.is_pose else "position"
-        if self._task is not None and self._task_kind != kind:
-            self.solver.remove_task(self._task)
-            self._task = None
-        if self._task is None:
+        if state.task is not None and state.task_kind != kind:
+            state.solver.remove_task(state.task)
+            state.task = None
+        if state.task is None:
             if kind == "pose":
-                self._task = self.solver.add_frame_task(self.chain.tip_frame, world_target)
+                state.task = state.solver.add_frame_task(tip_frame, world_target)
             else:
-                self._task = self.solver.add_position_task(self.chain.tip_frame, world_target[:3, 3])
-            self._task.configure("target", "soft", 1.0)
-            self._task_kind = kind
+                state.task = state.solver.add_position_task(tip_frame, world_target[:3, 3])
+            state.task.configure("target", "soft", 1.0)
+            state.task_kind = kind
         elif kind == "pose":
-            self._task.T_world_frame = world_target
+            state.task.T_world_frame = world_target
         else:
-            self._task.target_world = world_target[:3, 3]
-
-    def _chain_q(self) -> np.ndarray:
-        return np.array([self.wrapper.get_joint(name) for name in self.chain.joint_names])
+            state.task.target_world = world_target[:3, 3]
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         chain = self.chain
-        set_placo_configuration(self.robot, self.wrapper, chain.full_configuration(q0))
-        base = self.wrapper.get_T_world_frame(chain.base_frame)
-        self._set_task(target, base @ target.se3().homogeneous)
+        state = self._thread_state()
+        wrapper = state.wrapper
+        set_placo_configuration(self.robot, wrapper, chain.full_configuration(q0))
+        base = wrapper.get_T_world_frame(chain.base_frame)
+        self._set_task(state, chain.tip_frame, target, base @ target.se3().homogeneous)
         tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
         q = q0.copy()
         previous = np.inf
@@ -150,9 +155,9 @@ class PlacoSolver(Solver):
                 return Candidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
             previous = error
             try:
-                self.solver.solve(True)
+                state.solver.solve(True)
             except RuntimeError as exc:
                 return Candidate(q, iteration, f"PlaCo's QP failed: {exc}")
-            self.wrapper.update_kinematics()
-            q = self._chain_q()
+            wrapper.update_kinematics()
+            q = np.array([wrapper.get_joint(name) for name in chain.joint_names])
         return Candidate(q, self.max_iterations, f"no convergence in {self.max_iterations} iterations")

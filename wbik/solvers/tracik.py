@@ -6,6 +6,10 @@ once per (chain, timeout) and reused. Its joint limits are set to the chain's li
 sides solve the same problem. ``epsilon`` is TRAC-IK's per-component twist tolerance; by default the
 shared tolerance / sqrt(3), so that TRAC-IK's success implies the shared norm check.
 
+TRAC-IK restarts from random seeds of its own (C++ std random state, not seedable from pytracik),
+and its budget is wall-clock time: its answers vary from run to run and with the machine's load,
+whatever ``seed`` says. The study re-runs solves that were starved of the CPU (wbik.study.runner).
+
 Position-only targets are unsupported: TRAC-IK's position-only mode is its ``bounds`` argument
 (a KDL::Twist of free tolerances), which pytracik 0.0.3 does not expose.
 """
@@ -17,7 +21,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.errors import InvalidSettingError, MissingDependencyError, RobotDescriptionError, UnsupportedError
 from wbik.solvers.base import Candidate, Solver
 from wbik.targets import Target
 
@@ -44,24 +48,29 @@ class TracIKSolver(Solver):
                  **options):
         super().__init__(robot, chain, **options)
         if solve_type not in SOLVE_TYPES:
-            raise ValueError(f"solve_type must be one of {SOLVE_TYPES}, got {solve_type!r}")
+            raise InvalidSettingError(f"solve_type must be one of {SOLVE_TYPES}, got {solve_type!r}")
         self.pytracik = import_pytracik()
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.solve_type = solve_type
+        self._urdf_text = robot.urdf_text if robot.urdf_path is None else robot.urdf_path.read_text()
+        self._thread_state()  # build (and check) this thread's TRAC-IK object now
+
+    def _new_thread_state(self):
+        """A TRAC-IK object of this thread's own: one object is not safe to call from two threads."""
         chain_ = self.chain
-        urdf_text = robot.urdf_text if robot.urdf_path is None else robot.urdf_path.read_text()
-        self._solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, urdf_text,
-                                             self.timeout_s, self.epsilon,
-                                             getattr(self.pytracik.SolveType, solve_type))
-        joints = self.pytracik.get_num_joints(self._solver)
+        solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, self._urdf_text,
+                                       self.timeout_s, self.epsilon,
+                                       getattr(self.pytracik.SolveType, self.solve_type))
+        joints = self.pytracik.get_num_joints(solver)
         if joints != chain_.nq:
             raise RobotDescriptionError(
                 f"TRAC-IK finds {joints} movable joints between {chain_.base_frame!r} and "
-                f"{chain_.tip_frame!r} in {robot.urdf_path}, the chain {chain_.name!r} has {chain_.nq} "
+                f"{chain_.tip_frame!r} in {self.robot.urdf_path}, the chain {chain_.name!r} has {chain_.nq} "
                 f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
                 "them in the chain")
-        self.pytracik.set_joint_limits(self._solver, chain_.lower.tolist(), chain_.upper.tolist())
+        self.pytracik.set_joint_limits(solver, chain_.lower.tolist(), chain_.upper.tolist())
+        return solver
 
     def _check_target_kind(self, target: Target) -> None:
         if not target.is_pose:
@@ -72,7 +81,7 @@ class TracIKSolver(Solver):
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         quaternion = pin.Quaternion(target.rotation)
         x, y, z = target.position
-        answer = self.pytracik.ik(self._solver, self.chain.clip(q0), x, y, z,
+        answer = self.pytracik.ik(self._thread_state(), self.chain.clip(q0), x, y, z,
                                   quaternion.x, quaternion.y, quaternion.z, quaternion.w)
         if answer[0] < 0:
             return Candidate(None, 1, f"TRAC-IK found no solution within {self.timeout_s:g} s")

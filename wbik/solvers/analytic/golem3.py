@@ -454,8 +454,9 @@ class Golem3PositionIK(_Golem3Form):
         positions = self._mirror_positions(np.asarray(positions, dtype=float))
         q0 = self._mirror_q(np.asarray(q0, dtype=float))
         key = (positions.tobytes(), q0.tobytes(), self.yaw)
-        if self._last is not None and self._last[0] == key:  # the framework asks again for a reason
-            return self._last[1]
+        last = self._last  # read once: another thread may replace it (the tuple itself is immutable)
+        if last is not None and last[0] == key:  # the framework asks again for a reason
+            return last[1]
         parts = [self._solve_right(positions[i:i + self.chunk], q0[i:i + self.chunk])
                  for i in range(0, len(positions), self.chunk)]
         q_all = np.concatenate([p[0] for p in parts])
