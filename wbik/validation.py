@@ -19,8 +19,8 @@ from wbik.errors import InvalidBudgetError, InvalidSettingError, WbikError
 
 def _real_number(name: str, value, error: type[WbikError], unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise error(f"{name} must be a finite number > 0{unit}, got {value!r} "
-                    f"({type(value).__name__})")
+        raise error(f"{name} must be a finite number > 0{unit}, got {_short(value)} "
+                    f"({type(value).__name__}); allowed range: 0 < value < inf")
     return float(value)
 
 
