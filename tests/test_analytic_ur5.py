@@ -100,6 +100,7 @@ def test_solve_all_lists_every_real_branch_once(solvers, chain_name):
     assert set(counts) <= {2, 4, 6, 8} and counts.count(8) > len(counts) // 4
 
 
+@pytest.mark.numerics
 def test_wrist_singularity_keeps_q6_of_the_start(solvers):
     solver = solvers["ee"]
     q = np.array([0.3, -1.0, 1.2, -0.5, 0.0, 0.8])

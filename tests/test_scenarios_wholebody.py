@@ -44,6 +44,7 @@ def reach_report():
     return run_scenario(TASKS / "bioloid_reach.yaml")
 
 
+@pytest.mark.numerics
 def test_bioloid_balance_file(bioloid):
     report = run_scenario(TASKS / "bioloid_balance.yaml")
     assert report["passed"]
@@ -63,6 +64,7 @@ def test_bioloid_balance_file(bioloid):
     assert in_limits(bioloid, q1) and in_limits(bioloid, q2)
 
 
+@pytest.mark.numerics
 def test_bioloid_reach_on_one_foot(bioloid, reach_report):
     assert reach_report["passed"]
     r_sole = bioloid.frame_placement(bioloid.nominal, "r_sole")
