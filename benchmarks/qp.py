@@ -7,7 +7,10 @@ CoM inside the right sole shrunk by 5 mm (hard); Pink has no support-polygon con
 runs without it (it is inactive at this configuration anyway: the CoM stays > 10 mm inside).
 
 Printed: time per QP step (kinematics update + QP build + solve, at the start configuration) and
-per converged IK (to 1e-6 on the foot task), with ratios to PlaCo and to Pink.
+per converged IK (to 1e-6 on the foot task), with ratios to PlaCo and to Pink, the final CoM margin
+in the right sole by FK against wbik's SupportPolygon, and Pink's and PlaCo's settings. PlaCo gets
+its CoM polygon clockwise, as its CoMPolygonConstraint wants, and configured hard (its default
+priority is soft); ``placo_problem`` builds that problem (tests/test_peer_configuration.py too).
 
 Run: .venv/bin/python benchmarks/qp.py [--repeats 300]
 """
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -66,7 +70,8 @@ def ours(robot, q_start, foot_target, backend, repeats):
     step = best_of(one_step, repeats)
     solution = problem.solve(q_start)
     ik = best_of(lambda: problem.solve(q_start), max(repeats // 10, 5))
-    return step, ik, solution.iterations, solution.success, foot_error(robot, solution.q, foot_target)
+    return (step, ik, solution.iterations, solution.success, foot_error(robot, solution.q, foot_target),
+            com_margin_by_fk(robot, solution.q, support_polygon(robot, q_start, ["r_sole"])))
 
 
 def foot_error(robot, q, target) -> float:
@@ -112,14 +117,50 @@ def pink_run(robot, q_start, foot_target, repeats, solver="daqp"):
 
     q_final, iterations = converge()
     ik = best_of(converge, max(repeats // 10, 5))
-    return step, ik, iterations, foot_error(robot, q_final, foot_target) <= 1e-6, foot_error(
-        robot, q_final, foot_target)
+    return (step, ik, iterations, foot_error(robot, q_final, foot_target) <= 1e-6,
+            foot_error(robot, q_final, foot_target),
+            com_margin_by_fk(robot, q_final, support_polygon(robot, q_start, ["r_sole"])))
 
 
-def placo_run(robot, q_start, foot_target, repeats):
+def signed_area(vertices) -> float:
+    """Shoelace area of a polygon: positive counter-clockwise, negative clockwise."""
+    v = np.asarray(vertices, dtype=float)
+    x, y = v[:, 0], v[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def placo_polygon(polygon, clockwise: bool = True) -> list[np.ndarray]:
+    """The support polygon's vertices as PlaCo's CoMPolygonConstraint wants them: clockwise.
+
+    PlaCo (com_polygon_constraint.h, polygon_constraint.h) takes a *clockwise* polygon: its edge
+    normal (dy, -dx) points inside only then. ``clockwise=False`` gives the counter-clockwise order
+    (what the benchmark handed PlaCo before), which inverts every half-plane.
+    """
+    vertices = [np.array(v, dtype=float) for v in polygon.vertices]
+    if (signed_area(vertices) < 0) != clockwise:
+        vertices = vertices[::-1]
+    return vertices
+
+
+PLACO_SETTINGS = ("PlaCo: KinematicsSolver, joint limits on; r_sole frame task hard; l_sole frame task soft "
+                  "(w 1); pelvis orientation soft (w 0.1); CoM polygon = right sole shrunk 5 mm, "
+                  "clockwise (PlaCo's convention), configured hard; regularisation 1e-6; solve(True) "
+                  "per iteration.")
+PINK_SETTINGS = ("Pink: solve_ik, dt 1, damping 1e-6, r_sole FrameTask as an equality constraint, l_sole "
+                 "FrameTask (costs 1, 1), pelvis FrameTask (position 0, orientation sqrt 0.1), "
+                 "ConfigurationLimit; no CoM polygon (Pink has none).")
+
+
+def placo_problem(robot, q_start, foot_target, clockwise: bool = True, hard: bool = True) -> SimpleNamespace:
+    """The PlaCo problem this benchmark solves (also built by tests/test_peer_configuration.py).
+
+    Returns wrapper, solver, the tasks, the CoM polygon constraint ``com``, the wbik
+    SupportPolygon ``polygon`` of the right sole and the vertices handed to PlaCo. The CoM
+    constraint is made hard with ``configure(name, "hard")`` (PlaCo's default priority is soft).
+    """
     import placo
 
-    from wbik.solvers.placo import placo_robot, set_placo_configuration
+    from wbik.solvers.placo import placo_robot
 
     wrapper = placo_robot(robot, q_start)
     solver = placo.KinematicsSolver(wrapper)
@@ -131,8 +172,24 @@ def placo_run(robot, q_start, foot_target, repeats):
     pelvis = solver.add_orientation_task("pelvis", robot.frame_placement(q_start, "pelvis").rotation)
     pelvis.configure("pelvis", "soft", 0.1)
     polygon = support_polygon(robot, q_start, ["r_sole"])
-    solver.add_com_polygon_constraint([np.array(v) for v in polygon.vertices], MARGIN)
+    vertices = placo_polygon(polygon, clockwise)
+    com = solver.add_com_polygon_constraint(vertices, MARGIN)
+    com.configure("com_polygon", "hard" if hard else "soft", 1.0)
     solver.add_regularization_task(1e-6)
+    return SimpleNamespace(wrapper=wrapper, solver=solver, right=right, left=left, pelvis=pelvis, com=com,
+                           polygon=polygon, vertices=vertices)
+
+
+def com_margin_by_fk(robot, q, polygon) -> float:
+    """CoM ground projection's distance inside our SupportPolygon (m, negative outside), by FK."""
+    return float(polygon.margin_of(robot.center_of_mass(q)[:2]))
+
+
+def placo_run(robot, q_start, foot_target, repeats):
+    from wbik.solvers.placo import placo_configuration, set_placo_configuration
+
+    setup = placo_problem(robot, q_start, foot_target)
+    wrapper, solver, left = setup.wrapper, setup.solver, setup.left
 
     def one_step():
         set_placo_configuration(robot, wrapper, q_start)
@@ -153,12 +210,10 @@ def placo_run(robot, q_start, foot_target, repeats):
         return 200
 
     iterations = converge()
-    from wbik.solvers.placo import placo_configuration
-
     q_final = placo_configuration(robot, wrapper)
     ik = best_of(converge, max(repeats // 10, 5)) - copy_only
     error = foot_error(robot, q_final, foot_target)
-    return step, ik, iterations, error <= 1e-6, error
+    return step, ik, iterations, error <= 1e-6, error, com_margin_by_fk(robot, q_final, setup.polygon)
 
 
 def main() -> None:
@@ -185,13 +240,17 @@ def main() -> None:
     print(f"Bioloid whole body, nv = {robot.model.nv}; right sole hard, CoM in right sole -5 mm "
           f"(not Pink), left foot +40 mm, pelvis orientation, limits. Median of {args.repeats} steps.")
     header = (f"{'solver':24s} {'ms/step':>9s} {'x PlaCo':>8s} {'x Pink':>7s} {'ms/IK':>8s} "
-              f"{'x PlaCo':>8s} {'iters':>6s} {'ok':>4s} {'foot err':>9s}")
+              f"{'x PlaCo':>8s} {'iters':>6s} {'ok':>4s} {'foot err':>9s} {'CoM mm':>7s}")
     print(header)
     print("-" * len(header))
-    for name, step, ik, iterations, ok, error in rows:
+    for name, step, ik, iterations, ok, error, margin in rows:
         print(f"{name:24s} {step * 1e3:9.4f} {step / placo_step:8.1f} {step / pink_step:7.2f} "
               f"{ik * 1e3:8.3f} {ik / placo_ik:8.1f} {iterations:6d} {'yes' if ok else 'no':>4s} "
-              f"{error:9.1e}")
+              f"{error:9.1e} {margin * 1e3:7.3f}")
+    print("CoM mm: the final CoM's margin in the right sole (wbik SupportPolygon, by FK; need >= 5 mm "
+          "except Pink, which has no polygon constraint).")
+    print("Settings.", PINK_SETTINGS)
+    print("Settings.", PLACO_SETTINGS)
     ours_rows = [r for r in rows if r[0].startswith("wbik")]
     fastest = min(ours_rows, key=lambda r: r[1])
     print(f"fastest backend here: {fastest[0]} ({fastest[1] * 1e3:.4f} ms/step, "
