@@ -50,3 +50,54 @@ def test_unknown_robot_is_a_clean_error(capsys):
 def test_console_script_help():
     out = subprocess.run([sys.executable, "-m", "wbik.cli", "--help"], capture_output=True, text=True)
     assert out.returncode == 0 and "solve" in out.stdout and "fk" in out.stdout
+
+
+def test_argparse_errors_exit_2(capsys):
+    code, _, err = run(["solve", "pincher", "--xyz", "a", "b", "c"], capsys)
+    assert code == 2 and "invalid float value" in err
+    code, _, err = run([], capsys)
+    assert code == 2 and "COMMAND" in err
+
+
+def test_bad_input_exits_2_with_one_line_and_debug_adds_the_traceback(capsys):
+    code, _, err = run(["solve", "pincher", "--xyz", "nan", "0", "0"], capsys)
+    assert code == 2 and err.startswith("wbik: error: ") and "Traceback" not in err
+    code, _, err = run(["--debug", "solve", "pincher", "--xyz", "nan", "0", "0"], capsys)
+    assert code == 2 and "Traceback" in err and "InvalidTargetError" in err
+
+
+def test_not_solved_exits_1(capsys):
+    code, out, err = run(["solve", "pincher", "--xyz", "10", "10", "10"], capsys)
+    assert code == 1 and "NOT solved" in out and err == ""
+
+
+def test_internal_error_exits_3(capsys, monkeypatch):
+    import wbik.commands.methods as methods_command
+
+    def broken(args):
+        raise RuntimeError("simulated bug")
+
+    monkeypatch.setattr(methods_command, "run", broken)
+    code, _, err = run(["methods"], capsys)
+    assert code == 3 and "internal error: RuntimeError: simulated bug" in err and "Traceback" not in err
+    code, _, err = run(["methods", "--debug"], capsys)
+    assert code == 3 and "Traceback" in err
+
+
+def test_a_missing_subcommand_module_is_an_error_not_skipped(capsys, monkeypatch):
+    import wbik.cli
+
+    monkeypatch.setattr(wbik.cli, "SUBCOMMANDS", (*wbik.cli.SUBCOMMANDS, "vanished"))
+    code, _, err = run(["robots"], capsys)
+    assert code == 3 and "wbik.commands.vanished" in err
+
+
+def test_output_file_where_a_folder_is_needed(capsys, tmp_path):
+    existing = tmp_path / "results.txt"
+    existing.write_text("not a folder")
+    code, _, err = run(["study", "--output", str(existing)], capsys)
+    assert code == 2 and "existing file" in err
+    code, _, err = run(["study", "--report-only", "--output", str(tmp_path)], capsys)
+    assert code == 2 and "no results" in err
+    code, _, err = run(["run", "tasks/does-not-matter.yaml", "--output", str(tmp_path)], capsys)
+    assert code == 2 and "is a folder" in err

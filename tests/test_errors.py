@@ -85,3 +85,30 @@ def test_se3_target_is_accepted():
     chain = wbik.load("ur5").chain("arm")
     target = wbik.as_target(pin.SE3(chain.fk(chain.nominal)))
     assert target.is_pose and target.rotation.shape == (3, 3)
+
+
+def test_new_errors_keep_the_builtin_kinds():
+    from wbik.errors import (
+        InvalidBudgetError,
+        InvalidOptionError,
+        InvalidSettingError,
+        InvalidToleranceError,
+        UsageError,
+    )
+
+    assert issubclass(InvalidOptionError, TypeError) and issubclass(InvalidOptionError, wbik.WbikError)
+    for error in (InvalidSettingError, InvalidToleranceError, InvalidBudgetError, UsageError):
+        assert issubclass(error, ValueError) and issubclass(error, wbik.WbikError)
+    with pytest.raises(TypeError):
+        wbik.solver("dls", "pincher", misspelled_option=1)
+    with pytest.raises(ValueError):
+        wbik.Tolerances(-1, -1)
+
+
+def test_ragged_and_dict_targets_are_invalid_targets():
+    with pytest.raises(wbik.InvalidTargetError, match="equal length"):
+        wbik.as_target([[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]])
+    with pytest.raises(wbik.InvalidTargetError, match="dict"):
+        wbik.as_target({"x": 1})
+    with pytest.raises(wbik.InvalidTargetError, match="magnitude"):
+        wbik.as_target([1e300, 0, 0])

@@ -52,8 +52,9 @@ def _finite_array(value, shape: tuple[int, ...], what: str, max_abs: float | Non
 def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:
     """Return ``rotation`` as a float array, or raise InvalidRotationError if it is not in SO(3)."""
     matrix = _finite_array(rotation, (3, 3), "rotation")
-    orthogonality = float(np.max(np.abs(matrix.T @ matrix - np.eye(3))))
-    determinant = float(np.linalg.det(matrix))
+    with np.errstate(over="ignore", invalid="ignore"):  # huge entries: inf, still refused below
+        orthogonality = float(np.max(np.abs(matrix.T @ matrix - np.eye(3))))
+        determinant = float(np.linalg.det(matrix))
     if orthogonality > tolerance or abs(determinant - 1.0) > tolerance:
         raise InvalidRotationError(
             f"not a rotation matrix: max|R^T R - I| = {orthogonality:.3g}, det R = {determinant:.6g}; "
