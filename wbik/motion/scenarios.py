@@ -14,8 +14,11 @@ Kinds (each report has ``passed`` and one entry per move in ``moves``):
 
 Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults quintic,
 global, URDF limits, knot times), ``export: {csv: PATH, json: PATH}`` (the trajectory of the last
-move, JointTrajectory shape), ``tolerance`` (knot tracking, default 1e-6 m / rad) and
-``expect: {success: bool}``.
+move, JointTrajectory shape), ``tolerance`` (knot tracking, default 1e-6 m / rad) and ``expect``
+with the keys of ``MOVE_RULES`` (thresholds SI, judged by :mod:`wbik.expectations` for every move
+and printed as figure / threshold / ok). Unless ``expect`` sets them, a move expects success, the
+peak joint speed within the limit (1e-9) and, when it has Cartesian knots, each knot tracked to
+``tolerance``.
 """
 
 from __future__ import annotations
@@ -27,12 +30,36 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
 from wbik.scenarios import ScenarioError, register_runner
 
 Progress = Callable[[dict], None] | None
+
+MOVE_RULES = {
+    "success": Rule("success", "=="),
+    "knot_error_max_m": Rule("max_knot_position_error", "<=", "m"),
+    "knot_error_max_rad": Rule("max_knot_rotation_error", "<=", "rad"),
+    "velocity_ratio_max": Rule("max_velocity_over_limit", "<="),
+    "jumps_max": Rule("jumps", "<="),
+    "waypoints_reached": Rule("waypoints_reached", "=="),
+    "lift": Rule("lift", "=="),
+    "cop_error_max_m": Rule("cop_minus_com_m", "<=", "m"),
+}
+"""Expectations of one move (``jumps``: joint steps above the jump threshold; ``lift``: the Golem-III
+torso lift moved; ``cop_error_max_m``: the stance's centre of pressure off the CoM projection)."""
+
+
+def _judge(spec: dict, entry: dict, figures: dict, defaults: dict) -> dict:
+    """The move's expectations (defaults under the task file's ``expect``) into the entry."""
+    wanted = {**defaults, **(spec.get("expect", {}) or {})}
+    where = f"{spec.get('name') or spec['kind']} expect"
+    entry["expectations"] = evaluate(wanted, figures, MOVE_RULES, where)
+    entry["verdict"] = verdict(entry["expectations"])
+    entry["passed"] = entry["verdict"] != "FAILED"
+    return entry
 
 
 def _robot(spec: dict):
@@ -71,8 +98,9 @@ def _pose(entry, what: str):
     return _vector(entry, 3, what)
 
 
-def _timed_move(spec: dict, path: JointPath, name: str) -> tuple[dict, object]:
-    """Time the path, sample it, check it; the report entry and the trajectory."""
+def _timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
+                extra_defaults: dict | None = None) -> tuple[dict, object]:
+    """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
     timing = spec.get("timing", {})
     timed = time_scale(path, timing.get("law", "quintic"), timing.get("velocity_limit"),
                        timing.get("acceleration_limit"), timing.get("mode", "global"))
@@ -81,16 +109,24 @@ def _timed_move(spec: dict, path: JointPath, name: str) -> tuple[dict, object]:
     velocity_ratio = float(np.max(np.abs(dense) / timed.velocity_limit))
     tolerance = float(spec.get("tolerance", 1e-6))
     summary = path.summary()
-    worst = max(summary["max_knot_position_error"] or 0.0, summary["max_knot_rotation_error"] or 0.0)
-    expect_success = bool(spec.get("expect", {}).get("success", True))
-    passed = (path.success == expect_success and velocity_ratio <= 1.0 + 1e-9
-              and (not expect_success or worst <= tolerance))
-    entry = {"name": name, "passed": passed, "path": summary, "info": _plain(path.info),
+    entry = {"name": name, "path": summary, "info": _plain(path.info),
              "duration_s": timed.duration, "time_law": timed.law.name, "timing_mode": timed.mode,
              "max_velocity_over_limit": velocity_ratio,
              "trajectory_max_position_error": trajectory.max_position_error,
              "q_end": path.q[-1].tolist()}
-    return entry, trajectory
+    figures = {"success": bool(path.success), "max_velocity_over_limit": velocity_ratio,
+               "max_knot_position_error": summary["max_knot_position_error"],
+               "max_knot_rotation_error": summary["max_knot_rotation_error"],
+               "jumps": len(summary["jumps"] or [])}
+    defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
+    if bool((spec.get("expect", {}) or {}).get("success", True)):
+        for key, figure in (("knot_error_max_m", "max_knot_position_error"),
+                            ("knot_error_max_rad", "max_knot_rotation_error")):
+            if figures[figure] is not None:
+                defaults[key] = tolerance
+    figures.update(extra_figures or {})
+    defaults.update(extra_defaults or {})
+    return _judge(spec, entry, figures, defaults), trajectory
 
 
 def _plain(value):
@@ -113,12 +149,13 @@ def _finish(spec: dict, report: dict, trajectory) -> dict:
         if "json" in export:
             report["json"] = str(trajectory.write_json(Path(export["json"])))
     report["passed"] = all(move["passed"] for move in report["moves"])
+    report["verdict"] = verdict(c for move in report["moves"] for c in move["expectations"])
     return report
 
 
 def _report(spec: dict, robot) -> dict:
     return {"name": spec.get("name", ""), "kind": spec["kind"], "robot": robot.name, "moves": [],
-            "passed": True}
+            "passed": True, "verdict": "informational"}
 
 
 def run_joint(spec: dict, on_progress: Progress = None) -> dict:
@@ -147,15 +184,15 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> dict:
     path = waypoint_path(ik, _start(spec, ik.chain), waypoints, int(spec.get("samples", 10)),
                          float(spec.get("jump_threshold", DEFAULT_JUMP_THRESHOLD)))
     report = _report(spec, robot)
-    entry, trajectory = _timed_move(spec, path, f"{len(waypoints)} Cartesian segments")
     chain = ik.chain
     tolerance = float(spec.get("tolerance", 1e-6))
     reached = []
     for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
         wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
         reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
+    entry, trajectory = _timed_move(spec, path, f"{len(waypoints)} Cartesian segments",
+                                    {"waypoints_reached": all(reached)}, {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
-    entry["passed"] = entry["passed"] and all(reached)
     report["moves"].append(entry)
     return _finish(spec, report, trajectory)
 
@@ -206,10 +243,7 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> dict:
     path = approach(robot, _start(spec, chain), goal, int(spec.get("samples", 20)), spec.get("method", "dls"),
                     timeout_s=float(spec.get("timeout_s", 0.05)))
     report = _report(spec, robot)
-    entry, trajectory = _timed_move(spec, path, "approach")
-    expect_lift = spec.get("expect", {}).get("lift")
-    if expect_lift is not None:
-        entry["passed"] = entry["passed"] and (bool(path.info["lift_samples"]) == bool(expect_lift))
+    entry, trajectory = _timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
     report["moves"].append(entry)
     return _finish(spec, report, trajectory)
 
@@ -222,8 +256,8 @@ def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
         spec["start"], robot.model.nq, "start")
     stance = stance_loads(robot, q)
     gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
-    entry = {"name": "static stance", "passed": gap <= float(spec.get("tolerance", 1e-9)),
-             "cop_minus_com_m": gap, **stance.as_dict()}
+    entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
+    _judge(spec, entry, {"cop_minus_com_m": gap}, {"cop_error_max_m": float(spec.get("tolerance", 1e-9))})
     report = _report(spec, robot)
     report["moves"].append(entry)
     return _finish(spec, report, None)
@@ -235,8 +269,10 @@ RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "p
 
 def format_report(report: dict) -> str:
     """One line per move."""
+    from wbik.scenarios import report_verdict
+
     lines = [f"{report.get('name', '')} ({report['kind']}, {report.get('robot', '')}): "
-             f"{'PASSED' if report['passed'] else 'FAILED'}"]
+             f"{report_verdict(report)}"]
     for move in report["moves"]:
         if "path" in move:
             path = move["path"]
@@ -247,6 +283,7 @@ def format_report(report: dict) -> str:
         else:
             lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
                          f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
+        lines.extend(format_checks(move.get("expectations", []), indent="      "))
     return "\n".join(lines)
 
 
