@@ -122,9 +122,14 @@ def test_arm_servo_column(theta, expected):
 def test_ready_pose_maps_to_the_ik_standing_point(robot):
     """Robotis ready pose vs the IK standing pose (0, 0, 0.14), pitch 20 deg (bioloid.md 1.7).
 
-    The note's own numbers give servo (105, 150, 95, 81, 185, 150) against (105, 149, 100, 70, 190,
-    149): every joint within 5.5 deg except the knee, 10.5 deg (70.4 vs 80.9 servo deg).
+    The note calls the IK standing servos (105, 150, 95, 81, 185, 150) "close to" the ready pose
+    (105, 149, 100, 70, 190, 149): whole-degree differences (0, 1, 5, 11, 5, 1), the knee within
+    about 10 deg, every other joint within 5 deg. Tolerance: +1 deg per joint, for rounding both
+    whole-degree values of the note.
     """
+    note_standing = np.array([105, 150, 95, 81, 185, 150], dtype=float)
+    note_ready = np.array([105, 149, 100, 70, 190, 149], dtype=float)
+    allowed = np.abs(note_standing - note_ready) + 1.0
     ready = servo.from_servo_units(servo.READY_POSE_UNITS)
     standing, ok = ik.leg_foot_to_hip(np.array([0.0, 0.0, 0.14]), pitch=math.radians(20.0))
     assert ok
@@ -133,8 +138,7 @@ def test_ready_pose_maps_to_the_ik_standing_point(robot):
         ready_q = np.array([ready[name] for name in names])
         sign = np.array([1, 1, 1, 1, 1, 1.0]) if side == "r" else np.array([-1, -1, 1, 1, 1, -1.0])
         difference = np.degrees(np.abs(ready_q - sign * standing))
-        assert difference[3] == pytest.approx(10.5, abs=0.1)
-        assert np.max(np.delete(difference, 3)) < 5.5
+        assert np.all(difference <= allowed), (difference, allowed)
 
 
 def test_ready_pose_reading_of_the_note(robot):

@@ -59,13 +59,51 @@ def test_pincher_plane_reports_points_beyond_reach():
     assert set(outside) <= set(np.flatnonzero(~path.solved))  # every point past 305 mm fails its IK
 
 
+def _pincher_dh_fk(q):
+    """The note's standard DH table (pincher.md), written out here: TCP position (m), tool rotation."""
+    rows = [(-math.pi / 2, 0.0, 0.137, 0.0), (0.0, 0.105, 0.0, -math.pi / 2), (0.0, 0.105, 0.0, 0.0),
+            (0.0, 0.095, 0.0, 0.0)]
+    transform = np.eye(4)
+    for (alpha, a, d, offset), angle in zip(rows, q, strict=True):
+        theta = angle + offset
+        ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
+        transform = transform @ np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st],
+                                          [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
+    tool = transform[:3, :3] @ np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+    return transform[:3, 3], tool
+
+
+def test_pincher_dh_written_here_matches_the_note():
+    position, rotation = _pincher_dh_fk(np.radians([15.0, 30.0, 45.0, 60.0]))
+    np.testing.assert_allclose(position * 1e3, [213.5636, 57.2242, 187.9335], atol=1e-3)
+    np.testing.assert_allclose(rotation, [[0.6830, 0.2588, 0.6830], [0.1830, -0.9659, 0.1830],
+                                          [0.7071, 0.0, -0.7071]], atol=1e-4)
+
+
 def test_pincher_automatic_cycle_reaches_every_waypoint():
+    """Checked with the note's DH model (not the chain under test): every waypoint reached with the
+    tool pitch it asks for, straight segments between them, joints within +-150 deg (pincher.md)."""
     solver = wbik.solver("dls", wbik.load("pincher"), timeout_s=0.05)
     path = pincher.automatic_path(solver)
     assert path.success, path.summary()
-    chain = solver.chain
-    for knot, point in zip(path.waypoint_knots, pincher.AUTOMATIC_CYCLE[1:], strict=True):
-        assert np.allclose(chain.fk(path.q[knot]).translation, point[:3], atol=1e-6)
+    cycle = np.array(pincher.AUTOMATIC_CYCLE)
+    tips = np.array([_pincher_dh_fk(q)[0] for q in path.q])
+    for knot, point in zip(path.waypoint_knots, cycle[1:], strict=True):
+        position, rotation = _pincher_dh_fk(path.q[knot])
+        assert np.allclose(position, point[:3], atol=1e-6)
+        # tool pitch from the horizontal plane: the approach axis (third column) dips by -pitch
+        pitch = math.asin(float(np.clip(rotation[2, 2], -1.0, 1.0)))
+        assert pitch == pytest.approx(point[3], abs=1e-5)
+    # every knot between two waypoints lies on the straight segment joining them
+    knots = [0, *path.waypoint_knots]
+    for (start, end), (a, b) in zip(zip(knots[:-1], knots[1:], strict=True),
+                                    zip(cycle[:-1, :3], cycle[1:, :3], strict=True), strict=True):
+        direction = (b - a) / np.linalg.norm(b - a)
+        for tip in tips[start:end + 1]:
+            offset = tip - a
+            assert np.linalg.norm(offset - np.dot(offset, direction) * direction) <= 1e-6
+    assert np.all(np.abs(path.q) <= math.radians(150.0) + 1e-9)
+    assert np.allclose(cycle[0], cycle[-1])  # a cycle: it ends where it starts
 
 
 @pytest.fixture(scope="module")
