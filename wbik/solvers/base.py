@@ -8,17 +8,29 @@ methods, so results of different methods compare like with like.
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import inspect
+import math
+import numbers
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError, InvalidOptionError, UnknownMethodError, UnsupportedError
+from wbik.errors import (
+    InvalidBudgetError,
+    InvalidConfigurationError,
+    InvalidOptionError,
+    InvalidSettingError,
+    UnknownMethodError,
+    UnsupportedError,
+)
 from wbik.robot import Chain, Robot
 from wbik.targets import Target, as_target, pose_error
+from wbik.validation import check_budget
 
 DEFAULT_TIMEOUT_S = 0.005
 """Default time budget of iterative methods (TRAC-IK's benchmark protocol and MoveIt's KDL default)."""
@@ -123,27 +135,79 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
 class Solver:
     """Base class of every IK method on one chain of one robot.
 
-    Subclasses set ``name`` and implement ``_solve``; iterative methods should stop at
-    ``deadline`` (a ``time.perf_counter()`` value) and return their best effort with a reason.
+    Subclasses set ``name`` and implement ``_solve``; they should stop at ``deadline`` (a
+    ``time.perf_counter()`` value, ``math.inf`` when there is no wall-clock budget) and return their
+    best effort with a reason.
+
+    Budgets. A method whose loop is ours (``iteration_cost_s`` set) is budgeted in iterations, so its
+    answer does not depend on how busy the machine is: ``max_iterations`` if given, else
+    ceil(``default_budget_s`` / ``iteration_cost_s``), the iterations that cost about that long (5 ms
+    unless the method says otherwise) on the machine the costs were measured on. Such a method has no
+    wall clock unless ``timeout_s`` is given; then both apply, whichever ends first (and its iteration
+    budget, if not given, follows ``timeout_s``). Methods that live in another library (KDL, TRAC-IK,
+    PlaCo) are budgeted by ``timeout_s`` (default ``DEFAULT_TIMEOUT_S``) only.
+
+    Thread safety. Mutable state (Pinocchio Data, a peer library's solver object) is kept per thread
+    (:meth:`_thread_state`); random restarts draw from a generator seeded by ``seed`` and the call's
+    own input (:meth:`_call_rng`), so an answer depends on (seed, target, q0) only: the same in any
+    order and from any thread.
     """
 
     name = "base"
     supports_position_only = True
     supports_pose = True
+    iteration_cost_s: float | None = None
+    """Ours: the time one iteration costs (s), measured on the reference machine (the README says which);
+    it turns a time budget into an iteration budget. None: a wall-clock method."""
+    default_budget_s: float = DEFAULT_TIMEOUT_S
+    """Ours: the time the default iteration budget is equivalent to."""
 
     def __init__(self, robot: Robot, chain: str | None = None, *,
-                 tolerances: Tolerances | None = None, timeout_s: float = DEFAULT_TIMEOUT_S,
+                 tolerances: Tolerances | None = None, timeout_s: float | None = None,
                  seed: int | None = 0):
         self.robot = robot
         self.chain = robot.chain(chain)
+        if tolerances is not None and not isinstance(tolerances, Tolerances):
+            raise InvalidSettingError(
+                f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}")
         self.tolerances = tolerances or Tolerances()
-        if not timeout_s > 0:
-            raise ValueError(f"timeout_s must be positive, got {timeout_s}")
-        self.timeout_s = float(timeout_s)
-        self.rng = np.random.default_rng(seed)
+        if timeout_s is None and self.iteration_cost_s is None:
+            timeout_s = DEFAULT_TIMEOUT_S
+        self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
+        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral)
+                                 or seed < 0):
+            raise InvalidSettingError(f"seed must be an integer >= 0 or None, got {seed!r}")
+        self.seed = None if seed is None else int(seed)
+        self._local = threading.local()
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.robot.name}.{self.chain.name})"
+
+    @classmethod
+    def iterations_for(cls, timeout_s: float) -> int:
+        """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
+        if cls.iteration_cost_s is None:
+            raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
+        return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cls.iteration_cost_s))
+
+    def _iteration_budget(self, max_iterations: int | None) -> int:
+        """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` (default 5 ms)."""
+        if max_iterations is None:
+            return self.iterations_for(self.timeout_s or self.default_budget_s)
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral) \
+                or max_iterations < 1:
+            raise InvalidBudgetError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+        return int(max_iterations)
+
+    @property
+    def budget(self) -> str:
+        """The budget in words, e.g. "200 iterations" or "0.005 s"."""
+        parts = []
+        if self.iteration_cost_s is not None:
+            parts.append(f"{self.max_iterations} iterations")
+        if self.timeout_s is not None:
+            parts.append(f"{self.timeout_s:g} s")
+        return " or ".join(parts)
 
     # -- the interface ------------------------------------------------------------------------
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
@@ -152,7 +216,8 @@ class Solver:
         self._check_target_kind(target)
         q_start = self.chain.nominal.copy() if q0 is None else self.chain.check_q(q0)
         start = time.perf_counter()
-        candidate = self._solve(target, q_start, start + self.timeout_s)
+        deadline = math.inf if self.timeout_s is None else start + self.timeout_s
+        candidate = self._solve(target, q_start, deadline)
         elapsed = time.perf_counter() - start
         return evaluate(self.chain, target, candidate, self.tolerances, elapsed, self.name)
 
@@ -165,6 +230,29 @@ class Solver:
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct solution (closed-form methods only)."""
         raise UnsupportedError(f"method {self.name!r} finds one solution; use 'analytic' for all branches")
+
+    # -- state that must not be shared between threads or calls ---------------------------------
+    def _thread_state(self):
+        """This thread's mutable state (built by :meth:`_new_thread_state` on first use)."""
+        state = getattr(self._local, "state", None)
+        if state is None:
+            state = self._local.state = self._new_thread_state()
+        return state
+
+    def _new_thread_state(self):
+        """Subclasses with mutable working objects (peer solvers, QP problems, buffers) build them here."""
+        return None
+
+    def _call_rng(self, target: Target, q0: np.ndarray) -> np.random.Generator:
+        """The random stream of one call: seeded by (seed, target, q0), so restarts repeat exactly
+        whatever the order of calls or the thread; fresh entropy when ``seed`` is None."""
+        if self.seed is None:
+            return np.random.default_rng()
+        digest = hashlib.blake2b(target.position.tobytes(), digest_size=8)
+        if target.rotation is not None:
+            digest.update(target.rotation.tobytes())
+        digest.update(np.ascontiguousarray(q0, dtype=float).tobytes())
+        return np.random.default_rng([self.seed, int.from_bytes(digest.digest(), "little")])
 
     # -- for subclasses ------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
