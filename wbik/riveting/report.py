@@ -4,7 +4,9 @@ Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``s
 ``max_cycles`` (null: the whole run), ``limits`` {acceleration (rad/s^2), law}, ``insertion``
 {standoff, depth, trigger_s, load_s}, ``noise`` {position_sigma, position_max, angle_sigma_deg},
 ``scene`` (see :mod:`wbik.riveting.scene`), ``planners``: a list of {name, planner: thesis | ours,
-planner options...}, ``expect``: {planner name: {min_score, max_collisions, min_rivets}}.
+planner options...}, ``expect``: {planner name: {key: threshold}} with the keys of ``RIVETING_RULES``
+(judged by :mod:`wbik.expectations`; a threshold may be {threshold, expected_to_fail, why}; unknown
+keys raise).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 import wbik
+from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.riveting.collision import CollisionModel
 from wbik.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
 from wbik.riveting.moves import Limits
@@ -27,6 +30,20 @@ from wbik.riveting.thesis import ThesisPlanner
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
 THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}
 """Table 6 of the thesis (ur5-riveting.md 5)."""
+
+
+RIVETING_RULES = {
+    "min_score": Rule("score", ">="),
+    "max_collisions": Rule("collisions", "<="),
+    "min_rivets": Rule("rivets", ">="),
+    "max_failed_plans": Rule("failed_plans", "<="),
+    "min_clearance_tool_m": Rule("min_clearance_tool_m", ">=", "m"),
+    "min_clearance_links_m": Rule("min_clearance_links_m", ">=", "m"),
+    "min_clearance_table_m": Rule("min_clearance_table_m", ">=", "m"),
+    "max_lateral_error_m": Rule("max_lateral_error_m", "<=", "m"),
+    "max_depth_error_m": Rule("max_depth_error_m", "<=", "m"),
+}
+"""Expectations of one planner's run (Table 5 score, rivets, collisions, clearances, insertion errors)."""
 
 
 class Cell:
@@ -69,6 +86,7 @@ def run_config(spec: dict, **overrides) -> RunConfig:
 def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
              keep: dict[str, RunResult] | None = None) -> dict:
     """Every planner of the task file on the same seeded hole sequence; the report dict."""
+    _check_expect_keys(spec)
     cell = Cell(spec)
     config = run_config(spec)
     report = {"name": spec.get("name", ""), "kind": spec.get("kind", "ur5_riveting"),
@@ -94,30 +112,48 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
         if keep is not None:
             keep[planner.name] = result
         progress(result)
-    report["checks"] = _expectations(report, spec.get("expect", {}))
-    report["passed"] = all(item["passed"] for item in report["checks"])
+    judge(report, spec.get("expect", {}))
     return report
 
 
-def _expectations(report: dict, expect: dict) -> list[dict]:
+def _check_expect_keys(spec: dict) -> None:
+    """Unknown planners or keys in ``expect`` raise before minutes of simulation."""
+    expect = spec.get("expect", {}) or {}
+    planners = [entry.get("name", entry.get("planner", "ours"))
+                for entry in spec.get("planners", [{"name": "thesis"}, {"name": "ours"}])]
+    if not isinstance(expect, dict):
+        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
+    for name, wanted in expect.items():
+        if name not in planners:
+            raise ExpectationError(f"expect names planner {name!r}; the planners are {planners}")
+        unknown = set(wanted or {}) - set(RIVETING_RULES)
+        if unknown:
+            raise ExpectationError(f"expect.{name}: unknown expectation key(s) {sorted(unknown)}; "
+                                   f"known keys: {sorted(RIVETING_RULES)}")
+
+
+def judge(report: dict, expect: dict | None) -> dict:
+    """Check every planner's run against ``expect`` (``checks``, ``verdict``, ``passed``)."""
     checks = []
+    expect = expect or {}
+    if not isinstance(expect, dict):
+        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
     for name, wanted in expect.items():
         summary = report["runs"].get(name, {}).get("summary")
         if summary is None:
-            checks.append({"planner": name, "what": "ran", "passed": False})
-            continue
-        if "min_score" in wanted:
-            checks.append({"planner": name, "what": f"score >= {wanted['min_score']}",
-                           "value": summary["score"]["total"],
-                           "passed": summary["score"]["total"] >= wanted["min_score"]})
-        if "max_collisions" in wanted:
-            checks.append({"planner": name, "what": f"collisions <= {wanted['max_collisions']}",
-                           "value": summary["collisions"],
-                           "passed": summary["collisions"] <= wanted["max_collisions"]})
-        if "min_rivets" in wanted:
-            checks.append({"planner": name, "what": f"rivets >= {wanted['min_rivets']}",
-                           "value": summary["rivets"], "passed": summary["rivets"] >= wanted["min_rivets"]})
-    return checks
+            raise ExpectationError(f"expect names planner {name!r}, which did not run; "
+                                   f"ran: {sorted(report['runs'])}")
+        figures = {**summary, "score": summary["score"]["total"]}
+        for key in ("min_clearance_tool", "min_clearance_links", "min_clearance_table", "max_lateral_error",
+                    "max_depth_error"):
+            value = summary.get(f"{key}_mm")
+            figures[f"{key}_m"] = None if value is None else value / 1e3
+        for check in evaluate(wanted, figures, RIVETING_RULES, f"expect.{name}"):
+            checks.append({"planner": name, **check})
+    report["checks"] = checks
+    report["verdict"] = verdict(checks)
+    report["passed"] = report["verdict"] != "FAILED"
+    return report
 
 
 def _fmt(value, digits: int = 2) -> str:
@@ -144,7 +180,8 @@ def comparison_rows(report: dict) -> list[list[str]]:
 def format_text(report: dict) -> str:
     rows = comparison_rows(report)
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    lines = [f"{report['name']} (ur5_riveting): {'PASSED' if report['passed'] else 'FAILED'}"]
+    status = "FAILED" if not report["passed"] else report.get("verdict", "PASSED")
+    lines = [f"{report['name']} (ur5_riveting): {status}"]
     settings = report["settings"]
     lines.append(f"  {settings['duration_s']:g} s, seed {settings['seed']}, {settings['holes']} holes, "
                  f"a_max {settings['acceleration_limit_rad_s2']:g} rad/s^2, v_max URDF, "
@@ -157,9 +194,9 @@ def format_text(report: dict) -> str:
                      f"{_fmt(s['min_clearance_table_mm'], 1)} mm, max lateral error "
                      f"{_fmt(s['max_lateral_error_mm'], 6)} mm, planning {s['planning_time_s']:.1f} s, "
                      f"wall {s['wall_time_s']:.1f} s")
-    for check in report.get("checks", []):
-        lines.append(f"  [{'ok' if check['passed'] else 'FAIL'}] {check['planner']}: {check['what']} "
-                     f"(got {check.get('value')})")
+    for planner in dict.fromkeys(check["planner"] for check in report.get("checks", [])):
+        lines.append(f"  expectations of {planner}:")
+        lines.extend(format_checks([c for c in report["checks"] if c["planner"] == planner], indent="    "))
     return "\n".join(lines)
 
 

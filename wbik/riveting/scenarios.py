@@ -6,6 +6,7 @@ The report (JSON with ``--output``) holds every planner's summary, Table 5 score
 
 from __future__ import annotations
 
+from wbik.errors import WbikError
 from wbik.riveting.report import format_text, run_task, write_report
 from wbik.scenarios import ScenarioError, register_runner
 
@@ -13,6 +14,8 @@ from wbik.scenarios import ScenarioError, register_runner
 def run_riveting(spec: dict, on_progress=None) -> dict:
     try:
         report = run_task(spec, on_progress)
+    except WbikError:
+        raise
     except (ValueError, TypeError) as exc:
         raise ScenarioError(f"ur5_riveting: {exc}") from exc
     if spec.get("report_folder"):
