@@ -296,7 +296,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "kdl_restarts": "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)",
     "trac_ik": "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently",
     "bounded_lm": "ours: joint-limit-bounded Levenberg-Marquardt with vectorised random restarts",
-    "qp": "task-based QP IK (qpsolvers, OSQP default) with joint limits",
+    "qp": "task-based QP IK (qpsolvers, DAQP default) with joint limits",
     "placo": "PlaCo's kinematics solver on the same URDF",
 }
 

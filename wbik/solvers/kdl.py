@@ -152,8 +152,9 @@ class KDLSolver(Solver):
 class KDLRestartsSolver(KDLSolver):
     """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline.
 
-    An attempt is started only when the time left holds one more attempt as long as the longest so
-    far, so the call ends within its budget. Seeds come from the call's own random stream.
+    An attempt is started only when the time left holds one more attempt of the mean length so far,
+    so the call ends within its budget (give or take part of one attempt, ~0.1-0.3 ms). Seeds come
+    from the call's own random stream.
     """
 
     name = "kdl_restarts"
@@ -164,12 +165,10 @@ class KDLRestartsSolver(KDLSolver):
         attempts = 0
         best_q, best_error = None, math.inf
         rng = None
-        longest = 0.0
+        first = time.perf_counter()
         while True:
-            started = time.perf_counter()
             q, _ = self.attempt(frame, q_seed)
             now = time.perf_counter()
-            longest = max(longest, now - started)
             attempts += 1
             position_error, rotation_error = errors(self.chain, target, q)
             if position_error <= self.tolerances.position and rotation_error <= self.tolerances.rotation:
@@ -177,7 +176,7 @@ class KDLRestartsSolver(KDLSolver):
             error = position_error + rotation_error
             if error < best_error:
                 best_q, best_error = q, error
-            if now + longest >= deadline:
+            if now + (now - first) / attempts >= deadline:
                 return Candidate(best_q, attempts, f"time budget of {self.timeout_s:g} s used up after "
                                  f"{attempts} KDL attempts", {"attempts": attempts})
             if rng is None:

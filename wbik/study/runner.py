@@ -2,11 +2,21 @@
 
 Work is cut into tasks (case, method, chunk of ``chunk_size`` poses). Each task builds its solver
 with a seed derived from (study seed, case, method, chunk), so a task's answer does not depend on
-which worker runs it or in which order: serial, parallel and Dask runs agree (time-bounded methods
-aside, whose budget depends on the machine's load). Workers return the rows; the main process
-writes each chunk atomically as it arrives (see :mod:`wbik.study.results`), so an interrupted run
-loses only the chunks in flight and a new run computes only the missing ones. Adding or changing a
-method in the study file recomputes that method only (each method's folder records its definition).
+which worker runs it or in which order.
+
+Budgets (:func:`solver_budget`). A method whose loop is ours (``Solver.iteration_cost_s``) gets the
+study's time budget as an *iteration* budget, the iterations that cost that long on the reference
+machine, and no wall clock: its rows are the same on any machine and under any load. A method
+budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved pose by pose while
+the process's CPU time is measured beside the wall time; a solve that failed while it got less than
+``STARVED_CPU_SHARE`` of its budget in CPU time (the machine was busy) is run again with its wall
+budget stretched by wall/CPU, up to ``MAX_RERUNS`` times. Each row records its CPU time and its
+re-runs; the report counts them, and ``run.json`` records the machine's load.
+
+Workers return the rows; the main process writes each chunk atomically as it arrives (see
+:mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
+computes only the missing ones. Adding or changing a method in the study file recomputes that method
+only (each method's folder records its definition).
 
 A method that does not apply (UnsupportedError, MissingDependencyError, or its module not written
 yet) is probed once per case in the main process and recorded as "not applicable" with the message.
@@ -14,6 +24,7 @@ yet) is probed once per case in the main process and recorded as "not applicable
 
 from __future__ import annotations
 
+import os
 import shutil
 import sys
 import threading
@@ -32,6 +43,11 @@ from wbik.study.metrics import axis_errors
 from wbik.study.sampling import PoseSet, sample_poses
 
 BACKENDS = ("loky", "sequential", "dask")
+STARVED_CPU_SHARE = 0.8
+"""A failed wall-clock solve that got less CPU time than this share of its budget is run again."""
+MAX_RERUNS = 3
+MAX_STRETCH = 20.0
+"""A re-run's wall budget is at most this many times the study's."""
 
 
 @dataclass(frozen=True)
@@ -46,7 +62,7 @@ class ChunkTask:
     label: str
     method: str
     options: tuple
-    timeout_s: float
+    timeout_s: float | None
     tolerances: tuple
     seed: int
     per_pose: bool
@@ -80,13 +96,52 @@ def _robot(name: str, params: tuple):
     return cache[key]
 
 
+def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` seconds.
+
+    Ours: no wall clock and ``max_iterations`` = the iterations that cost ``timeout_s`` on the
+    reference machine (unless the study gives max_iterations itself). Others: the wall clock.
+    """
+    from wbik.solvers.base import _factory
+
+    factory = _factory(method)
+    if getattr(factory, "iteration_cost_s", None) is None:
+        return timeout_s, options
+    if "max_iterations" in options:
+        return None, options
+    return None, {**options, "max_iterations": factory.iterations_for(timeout_s)}
+
+
 def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
-                timeout_s: float, tolerances: tuple, seed: int):
+                timeout_s: float | None, tolerances: tuple, seed: int):
     import wbik
 
     robot = _robot(robot_name, robot_params)
     return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
                        tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
+
+
+def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
+    """(answer, CPU seconds, re-runs) of a wall-clock solve.
+
+    A solve is *starved* when it failed, ran for at least half its wall budget and got less than
+    STARVED_CPU_SHARE of that wall time as CPU time (process CPU time: TRAC-IK's own threads count).
+    It is then run again with its wall budget stretched to T x wall / CPU, so that it gets about the
+    study's budget T in CPU time, at most MAX_RERUNS times.
+    """
+    reruns, budget, current = 0, task.timeout_s, solver
+    while True:
+        cpu_start = time.process_time()
+        answer = current.solve(target, q0)
+        cpu = time.process_time() - cpu_start
+        wall = answer.time_s
+        starved = not answer.success and wall >= 0.5 * budget and cpu < STARVED_CPU_SHARE * wall
+        if not starved or reruns >= MAX_RERUNS:
+            return answer, cpu, reruns
+        reruns += 1
+        budget = task.timeout_s * min(MAX_STRETCH, max(wall / max(cpu, 1e-9), 1.0 / STARVED_CPU_SHARE))
+        current = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
+                              budget, task.tolerances, task.seed)
 
 
 def not_applicable_reason(exc: BaseException) -> str | None:
@@ -120,8 +175,15 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     count = len(task.positions)
     targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                for i in range(count)]
+    cpu_seconds = np.full(count, np.nan)
+    reruns = np.zeros(count, dtype=int)
     try:
-        if task.per_pose:
+        if task.timeout_s is not None and solver.timeout_s is not None:  # a wall-clock method
+            answers = []
+            for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
+                answer, cpu_seconds[i], reruns[i] = _solve_watching_the_cpu(task, solver, target, q0)
+                answers.append(answer)
+        elif task.per_pose:
             answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
         else:
             answers = solver.solve_many(targets, task.q0)
@@ -145,6 +207,8 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
         "position_error": np.array([a.position_error for a in answers], dtype=float),
         "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
     }
+    columns["cpu_s"] = cpu_seconds
+    columns["reruns"] = reruns
     columns.update(axis_errors(answers, task.rotations, dict(task.angle_names)))
     columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                             dtype=float).reshape(count, nq)
@@ -218,10 +282,11 @@ def _frozen(mapping: dict) -> tuple:
 
 def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
           stop: int) -> ChunkTask:
+    timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
     return ChunkTask(
         case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
         angle_names=_frozen(case.angle_names), label=method.label, method=method.method,
-        options=_frozen(method.options), timeout_s=study.timeout_of(method),
+        options=_frozen(options), timeout_s=timeout_s,
         tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
         seed=chunk_seed(study.seed, case.name, method.label, chunk), per_pose=method.per_pose,
         chunk=chunk, first_pose=start,
@@ -273,8 +338,10 @@ def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output:
     if previous is not None and previous.get("fingerprint") != fingerprint:
         log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
         shutil.rmtree(folder)
+    timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
     store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
-                              "timeout_s": study.timeout_of(method)})
+                              "timeout_s": study.timeout_of(method), "solver_timeout_s": timeout_s,
+                              "solver_options": options})
 
 
 # -- running -----------------------------------------------------------------------------------
@@ -317,6 +384,14 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
             cluster.close()
 
 
+def _load_average() -> list[float] | None:
+    """The system's 1, 5 and 15 minute load averages (None where the OS has none)."""
+    try:
+        return [round(value, 2) for value in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
 def _solve_with_task(task: ChunkTask) -> tuple[ChunkTask, dict]:
     return task, solve_chunk(task)
 
@@ -337,6 +412,7 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
     if done_rows:
         log(f"resuming: {done_rows} of {total_rows} rows already computed")
     started = time.perf_counter()
+    load_before = _load_average()
     if tasks:
         from tqdm import tqdm
 
@@ -352,6 +428,8 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
     previous = store.read_json(output / "run.json", {}) or {}
     store.write_json(output / "run.json", {
         "jobs": jobs, "backend": backend, "computed_tasks": len(tasks), "seconds": elapsed,
+        "cpu_count": os.cpu_count(), "load_average_before": load_before,
+        "load_average_after": _load_average(),
         "total_seconds": elapsed + float(previous.get("total_seconds", 0.0)) if tasks else
         float(previous.get("total_seconds", elapsed))})
     if report:

@@ -47,6 +47,7 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "raised": int(sum(str(r).startswith("raised") for r in rows["reason"])),
         "no_joints": int(np.sum(~np.all(np.isfinite(rows["q"]), axis=1))) if "q" in rows else 0,
         "iterations_median": float(np.median(rows["iterations"])) if count else math.nan,
+        "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
     }
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success), ("unsolved", ~success)):
         for name, value in _time_statistics(times_ms[mask]).items():
