@@ -287,6 +287,7 @@ _REGISTRY: dict[str, str | Callable[..., Solver]] = {
     "bounded_lm": "wbik.solvers.bounded_lm:BoundedLMSolver",
     "qp": "wbik.solvers.qp:QPSolver",
     "placo": "wbik.solvers.placo:PlacoSolver",
+    "eaik": "wbik.solvers.eaik:EAIKSolver",
 }
 _DESCRIPTIONS: dict[str, str] = {
     "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",
@@ -298,6 +299,7 @@ _DESCRIPTIONS: dict[str, str] = {
     "bounded_lm": "ours: joint-limit-bounded Levenberg-Marquardt with vectorised random restarts",
     "qp": "task-based QP IK (qpsolvers, DAQP default) with joint limits",
     "placo": "PlaCo's kinematics solver on the same URDF",
+    "eaik": "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0",
 }
 
 

@@ -1,0 +1,299 @@
+"""Method ``eaik``: EAIK's closed forms (analytic IK by subproblem decomposition) behind the one interface.
+
+EAIK 1.2.2 (``pip install EAIK==1.2.2``; Ostermeier et al., "Automatic Geometric Decomposition for
+Analytical Inverse Kinematics") looks at a 1R..6R chain's joint axes, recognises a kinematic family
+it can decompose into Paden-Kahan subproblems, and returns every closed-form branch of a pose.
+
+Building the EAIK robot. It is built with ``eaik.IK_HP.HPRobot(H, P)`` from the chain's own reduced
+Pinocchio model (:func:`wbik.solvers.task_error.serial_structure`), not from the URDF, so any chain
+works, also one whose other joints are locked: at q = 0 the joint axes ``H`` (n, 3) and the offsets
+``P`` (n + 1, 3) between consecutive joint origins (base -> joint 1, ..., joint n -> tip) are written
+in the chain's base frame. HPRobot's end-effector frame has the base's orientation at q = 0 (its R6T
+is the identity), ours has R0, the tip's orientation at q = 0, so EAIK is asked for
+``T_target @ diag(R0^T, 1)``; with that, EAIK's FK equals our chain FK to 3e-16 on every chain below.
+The structure and EAIK's verdict are computed once per chain (cached); each thread builds its own
+HPRobot (:meth:`Solver._thread_state`).
+
+Choosing a branch. As in ``analytic``: each revolute angle is shifted by multiples of 2 pi into the
+limits, nearest to q0 (:func:`wbik.solvers.analytic.wrap_into_limits`, which matters for the UR5's
++-2 pi joints), branches outside the limits are dropped, and ``solve`` returns the branch with the
+smallest Euclidean joint distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad).
+EAIK's ``is_LS`` flag is not trusted either way (it marks exact branches of 4R chains as
+least-squares); the FK screen decides. ``solve_all`` returns every distinct branch inside the limits
+that passes the shared check; ``solve_many`` makes one ``IK_batched`` call (``batch_threads``
+worker threads, 1 by default) and picks branches exactly as ``solve`` does.
+
+Targets. EAIK solves full poses only (its 1R..5R solvers solve the over-determined pose and flag
+the inexact branches as least-squares); a position-only target raises UnsupportedError on every
+chain. There is no wall-clock budget: a closed form does not iterate.
+
+Which chains EAIK accepts (measured with this module, EAIK 1.2.2):
+
+==========================  =====  ===========================================================
+chain                       DOF    EAIK's verdict (``getKinematicFamily()``)
+==========================  =====  ===========================================================
+ur5.arm, ur5.ee             6R     accepted: 6R-THREE_INNER_PARALLEL
+bioloid.right_leg/left_leg  6R     accepted: 6R-THREE_INNER_PARALLEL
+bioloid.right_arm/left_arm  3R     accepted (poses only): 3R; our studies give them positions
+arm3r.arm                   3R     accepted (poses only): 3R; our studies give it positions
+panda, joint 4, 5, 6 or 7   6R     accepted: 6R-SPHERICAL_SECOND_TWO_INTERSECTING (4 locked),
+locked at the nominal              -SPHERICAL_SECOND_TWO_PARALLEL (5), -SPHERICAL_FIRST_TWO_INTERSECTING
+                                   (6 or 7)
+golem3.right_arm/left_arm   6R     refused: "6R-Unknown Kinematic Class". At q = 0 axes 1-3 (chest
+                                   yaw, shoulder) are parallel and 4-5 parallel, but 5 and 6 are
+                                   skew (0.034 m apart): not a family EAIK decomposes (our thesis
+                                   closed form uses the arm's planar structure instead)
+panda, joint 1, 2 or 3      6R     refused: "6R-Unknown Kinematic Class"
+locked
+panda.arm                   7R     refused: "Currently, only 1-6R robots are solvable with EAIK.
+                                   Consider locking redundant joints."
+golem3.right_arm_lift       P+6R   refused: the torso lift is prismatic; EAIK takes revolute joints
+pincher.arm                 4R     refused by our probe (below): EAIK says 4R-THIRD_FOURTH_INTERSECTING
+                                   but returns q1 = 0 in every branch: 0 of 200 FK poses reproduced
+==========================  =====  ===========================================================
+
+The probe. EAIK's verdict alone is not trusted: a chain it claims must reproduce at least 6 of 8 FK
+poses of seeded random joints (``PROBE_*``), else UnsupportedError. The Pincher is why. Its axes
+(z, then y, y, y, with joints 1 and 2 intersecting) are exact in Pinocchio's model, and EAIK's
+4R solver then meets a degenerate subproblem for q1 (rotating the zero offset between joints 1
+and 2) and returns q1 = 0. Built through ``IK_URDF`` from the same URDF, whose axes carry 2e-16
+of rounding, the same family solves correctly. We do not add noise to dodge EAIK's degenerate path.
+"""
+
+from __future__ import annotations
+
+import numbers
+import threading
+import time
+import weakref
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.errors import InvalidSettingError, MissingDependencyError, UnsupportedError
+from wbik.robot import Chain
+from wbik.solvers.analytic import BRANCH_MERGE, wrap_into_limits
+from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
+from wbik.solvers.task_error import serial_structure
+from wbik.targets import Target, as_target, pose_error
+
+INSTALL = "pip install EAIK==1.2.2"
+SCREEN_TOLERANCE = 1e-7
+"""FK residual (m and rad) above which a branch is not a solution (as ``analytic``'s screen)."""
+PROBE_POSES, PROBE_REQUIRED, PROBE_SEED = 8, 6, 0
+"""A chain EAIK claims is checked once: EAIK must reproduce (to 1e-6) at least PROBE_REQUIRED of
+PROBE_POSES FK poses of seeded random joints inside the limits, else UnsupportedError."""
+
+
+def _import_eaik():
+    """EAIK's HPRobot class, or MissingDependencyError with the install command."""
+    try:
+        from eaik.IK_HP import HPRobot
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"method 'eaik' needs the EAIK package ({exc}); install it with: {INSTALL}") from None
+    return HPRobot
+
+
+@dataclass(frozen=True)
+class EAIKStructure:
+    """A chain in EAIK's terms: axes H (n, 3), offsets P (n + 1, 3), tip rotation R0 at q = 0."""
+
+    H: np.ndarray
+    P: np.ndarray
+    tip_rotation_t: np.ndarray  # R0^T: EAIK's pose = our pose @ diag(R0^T, 1)
+    family: str
+
+
+_STRUCTURES: weakref.WeakKeyDictionary[Chain, EAIKStructure] = weakref.WeakKeyDictionary()
+_STRUCTURES_LOCK = threading.Lock()
+
+
+def eaik_structure(chain: Chain) -> EAIKStructure:
+    """H, P and R0 of ``chain`` with EAIK's verdict, computed once per chain.
+
+    UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
+    """
+    with _STRUCTURES_LOCK:
+        cached = _STRUCTURES.get(chain)
+    if cached is not None:
+        return cached
+    HPRobot = _import_eaik()
+    label = f"{chain.robot.name}.{chain.name}"
+    structure = serial_structure(chain)
+    if structure.prismatic.any():
+        names = [n for n, p in zip(chain.joint_names, structure.prismatic, strict=True) if p]
+        raise UnsupportedError(f"method 'eaik' cannot solve {label}: EAIK takes revolute joints only, "
+                               f"{names} prismatic")
+    transform = structure.placements[0].copy()
+    axes, origins = [], []
+    for k, axis in enumerate(structure.axes):
+        axes.append(transform[:3, :3] @ axis)
+        origins.append(transform[:3, 3].copy())
+        transform = transform @ structure.placements[k + 1]
+    offsets = [origins[0]] + [origins[k] - origins[k - 1] for k in range(1, len(origins))]
+    offsets.append(transform[:3, 3] - origins[-1])
+    H, P = np.array(axes), np.array(offsets)
+    try:
+        robot = HPRobot(H, P)
+    except RuntimeError as exc:
+        raise UnsupportedError(f"method 'eaik' cannot solve {label} ({chain.nq} joints): EAIK says "
+                               f"{str(exc).strip()!r}") from None
+    family = robot.getKinematicFamily()
+    if not robot.hasKnownDecomposition():
+        raise UnsupportedError(f"method 'eaik' cannot solve {label}: EAIK knows no decomposition for "
+                               f"its kinematic family ({family!r})")
+    result = EAIKStructure(H, P, transform[:3, :3].T.copy(), family)
+    reproduced, miss = _probe(chain, robot, result)
+    if reproduced < PROBE_REQUIRED:
+        raise UnsupportedError(
+            f"method 'eaik' cannot solve {label}: EAIK reports a decomposition ({family!r}) but its "
+            f"branches reproduce only {reproduced} of {PROBE_POSES} FK poses of random joints (the nearest "
+            f"branch's 4x4 pose off by up to {miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this "
+            "geometry")
+    with _STRUCTURES_LOCK:
+        _STRUCTURES[chain] = result
+    return result
+
+
+def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
+    """(how many of PROBE_POSES FK poses of seeded random joints EAIK reproduces, worst miss)."""
+    tip = np.eye(4)
+    tip[:3, :3] = structure.tip_rotation_t
+    reproduced, worst = 0, 0.0
+    for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):
+        pose = chain.fk(q).homogeneous
+        branches = np.asarray(robot.IK(pose @ tip).Q, dtype=float).reshape(-1, chain.nq)
+        misses = [np.abs(chain.fk(b).homogeneous - pose).max() for b in branches if np.all(np.isfinite(b))]
+        miss = min(misses, default=np.inf)
+        reproduced += miss <= 1e-6
+        worst = max(worst, miss)
+    return reproduced, worst
+
+
+class EAIKSolver(Solver):
+    """EAIK's closed forms behind the common interface; see the module docstring."""
+
+    name = "eaik"
+    supports_position_only = False
+
+    def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
+        """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
+        super().__init__(robot, chain, **options)
+        if isinstance(batch_threads, bool) or not isinstance(batch_threads, numbers.Integral) \
+                or batch_threads < 1:
+            raise InvalidSettingError(f"batch_threads must be an integer >= 1, got {batch_threads!r}")
+        self.batch_threads = int(batch_threads)
+        self.structure = eaik_structure(self.chain)
+        self.family = self.structure.family
+        self.revolute = ~self.chain.is_prismatic
+        self._tip = np.eye(4)
+        self._tip[:3, :3] = self.structure.tip_rotation_t
+
+    def _new_thread_state(self):
+        """This thread's EAIK robot (built from the cached structure)."""
+        return _import_eaik()(self.structure.H, self.structure.P)
+
+    def _check_target_kind(self, target: Target) -> None:
+        if not target.is_pose:
+            raise UnsupportedError(
+                f"method 'eaik' on {self.robot.name}.{self.chain.name} needs a full pose target: EAIK "
+                "1.2.2 solves full poses only (no position-only mode)")
+
+    # -- EAIK in our frames ---------------------------------------------------------------------
+    def eaik_pose(self, target: Target) -> np.ndarray:
+        """The 4x4 pose to give EAIK for a target of ours (our tip pose @ diag(R0^T, 1))."""
+        pose = np.eye(4)
+        pose[:3, :3] = target.rotation
+        pose[:3, 3] = target.position
+        return pose @ self._tip
+
+    def raw_branches(self, target) -> np.ndarray:
+        """EAIK's branches (K, n) for a target, as EAIK returns them (no wrapping, no screening)."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        return self._branches(self._thread_state().IK(self.eaik_pose(target)))
+
+    def _branches(self, solution) -> np.ndarray:
+        q_all = np.asarray(solution.Q, dtype=float)
+        return q_all.reshape(-1, self.chain.nq)
+
+    def _reaches(self, q: np.ndarray, target: Target) -> bool:
+        position_xyz, rotation_xyz = pose_error(self.chain.fk(q), target)
+        return bool(np.linalg.norm(position_xyz) <= SCREEN_TOLERANCE
+                    and np.linalg.norm(rotation_xyz) <= SCREEN_TOLERANCE)
+
+    def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
+        """The branch nearest q0 (wrapped into the limits) that reaches the target."""
+        if len(q_all) == 0:
+            return Candidate(None, 1, "unreachable: EAIK returns no branch (target outside the workspace)",
+                             extra={"branches": 0})
+        wrapped, in_limits = wrap_into_limits(q_all, q0[None], self.chain.lower, self.chain.upper,
+                                              self.revolute)
+        usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
+        distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
+        for index in np.argsort(distance, kind="stable"):
+            if not usable[index]:
+                break
+            if self._reaches(wrapped[index], target):
+                return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
+        if usable.any():
+            reason = "unreachable: no EAIK branch inside the joint limits reaches the target"
+        elif any(self._reaches(q, target) for q in q_all if np.all(np.isfinite(q))):
+            reason = "every exact EAIK branch is outside the joint limits"
+        else:
+            reason = "unreachable: EAIK returns only least-squares branches (target outside the workspace)"
+        return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+
+    # -- the interface ----------------------------------------------------------------------------
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        solution = self._thread_state().IK(self.eaik_pose(target))
+        return self._pick(self._branches(solution), target, q0)
+
+    def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
+        """One EAIK ``IK_batched`` call for the batch; branches picked as in ``solve``;
+        per-pose time = total / B."""
+        targets = [as_target(t) for t in targets]
+        if not targets:
+            return []
+        for target in targets:
+            self._check_target_kind(target)
+        starts = self._batch_starts(q0s, len(targets))
+        q0_array = [self.chain.nominal.copy() if s is None else s for s in starts]
+        start = time.perf_counter()
+        poses = [self.eaik_pose(target) for target in targets]
+        solutions = self._thread_state().IK_batched(poses, num_worker_threads=self.batch_threads)
+        candidates = [self._pick(self._branches(solution), target, q0)
+                      for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
+        per_pose = (time.perf_counter() - start) / len(targets)
+        for candidate in candidates:
+            candidate.extra["batched"] = True
+        return [evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name)
+                for target, candidate in zip(targets, candidates, strict=True)]
+
+    def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
+        """Largest joint difference, revolute joints modulo 2 pi."""
+        difference = q - other
+        wrapped = np.abs(np.angle(np.exp(1j * difference)))
+        return float(np.max(np.where(self.revolute, wrapped, np.abs(difference))))
+
+    def solve_all(self, target) -> list[IKResult]:
+        """Every distinct EAIK branch inside the limits that passes the shared FK check."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        start = time.perf_counter()
+        q_all = self._branches(self._thread_state().IK(self.eaik_pose(target)))
+        elapsed = time.perf_counter() - start
+        if len(q_all) == 0:
+            return []
+        nominal = self.chain.nominal
+        wrapped, in_limits = wrap_into_limits(q_all, nominal[None], self.chain.lower, self.chain.upper,
+                                              self.revolute)
+        results: list[IKResult] = []
+        for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
+            result = evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
+            if result.success and not any(self._branch_gap(result.q, other.q) < BRANCH_MERGE
+                                          for other in results):
+                results.append(result)
+        return results
