@@ -288,6 +288,8 @@ _REGISTRY: dict[str, str | Callable[..., Solver]] = {
     "qp": "wbik.solvers.qp:QPSolver",
     "placo": "wbik.solvers.placo:PlacoSolver",
     "eaik": "wbik.solvers.eaik:EAIKSolver",
+    "thesis_literal": "wbik.solvers.thesis_golem3:ThesisLiteralSolver",
+    "thesis_sweep": "wbik.solvers.thesis_golem3:ThesisSweepSolver",
 }
 _DESCRIPTIONS: dict[str, str] = {
     "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",
@@ -300,6 +302,8 @@ _DESCRIPTIONS: dict[str, str] = {
     "qp": "task-based QP IK (qpsolvers, DAQP default) with joint limits",
     "placo": "PlaCo's kinematics solver on the same URDF",
     "eaik": "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0",
+    "thesis_literal": "the Golem-III thesis's 6-DOF closed form as written (no clamp), Golem-III arms only",
+    "thesis_sweep": "the Golem-III thesis's position-only roll/pitch sweep of its closed form (Golem-III)",
 }
 
 

@@ -1,0 +1,317 @@
+"""The Golem-III thesis's own solvers, written literally: ``thesis_literal`` and ``thesis_sweep``.
+
+Source: seed ``000_48c793128bbb812d`` (the thesis, ch. 4.1, 4.2, 4.2.1, 4.4 and 5) and its code
+reference [19] (``golem_kinematics/scripts/golem_right_arm_kinematics.py`` of the thesis's
+repository), read for facts only. These are *reproductions*, kept beside our own closed form
+(``analytic``, :mod:`wbik.solvers.analytic.golem3`) so the study can show both.
+
+``thesis_literal``, the 6-DOF closed form (thesis eq. 3.6, 4.2-4.6, 4.9-4.10, 4.23, 4.30-4.32,
+4.36-4.37, with golem3.md's correction t4 -> t4 + rho in eq. 4.2), right arm, target (x, y, z) and
+the thesis's angles (yaw alpha = t6, pitch beta = -t4 - t5, roll gamma = t1 + t2 + t3):
+
+    t6 = alpha
+    cos(t4 + rho) = (h - z - l5 cos(-beta) + l6 sin(-beta)) / l4,  sin(t4 + rho) = +-sqrt(1 - cos^2)
+    t4 = atan2(sin, cos) - rho,  t5 = -beta - t4,  l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
+    xp = x - l3 cos(gamma),  yp = -y + l3 sin(gamma),  a = 2 yp l1,  b = 2 xp l1,
+    c = xp^2 + yp^2 + l1^2 - l2^2
+    cos t1 = (2ac -+ sqrt((2ac)^2 - 4 (a^2 + b^2)(c^2 - b^2))) / (2 (a^2 + b^2)),
+    sin t1 = +-sqrt(1 - cos^2 t1)
+    t1 = atan2(sin t1, cos t1),  t2 = atan2((xp - l1 sin t1) / l2, (yp - l1 cos t1) / l2) - t1,
+    t3 = gamma - t1 - t2
+
+Three square roots, 2^3 = 8 branches, visited in the thesis code's order (sign of sin(t4 + rho),
+then the quadratic's root, then the sign of sin t1). As in the thesis: a negative square-root
+argument discards the branch (no clamp: rounding that makes an argument slightly negative loses the
+branch); every angle is wrapped into [-pi, pi] and a branch with an angle outside the joint limits
+(inclusive, no tolerance) is discarded; each survivor's closed-form FK is compared with the input.
+The thesis's text asks the two to be "identical"; its code accepts |difference| <= 1e-3 (m, rad)
+on x, y, z, yaw and pitch (not roll), ``THESIS_CHECK_TOLERANCE``, which we use. Among the survivors
+the one nearest q0 is returned (thesis ch. 4.4: "the difference between each solution and the
+current position of the motors", the closest; the metric is not stated, we use the Euclidean norm).
+The shared 1e-6 FK check of :mod:`wbik.solvers.base` then decides success, as for every method.
+
+Rounding of inputs: the thesis's text states none, and none is applied. (Its code rounds the
+*returned* joints to 6 decimals and compares FK and input after rounding them to 6 decimals; the
+text does not say so and we do not do it.)
+
+Our targets are rotation matrices, the thesis's inputs were its three angles. We take the triple
+of R = Rz(gamma) Ry(beta) Rx(alpha) with |alpha| <= pi/2 (t6 has limits +-1.5 rad, so the other
+triple, alpha +- pi, is never a solution) and beta, gamma from R Rx(-alpha), so |beta| may exceed
+pi/2 as -t4 - t5 does. At gimbal lock (cos beta = 0) the thesis has no rule and neither do we.
+
+``thesis_sweep``, the position-only search (thesis ch. 4.2.1, "a breadth search of the
+orientation": yaw fixed, roll and pitch swept). The code's sweep: yaw = ``yaw`` (default 0), roll
+in the outer loop and pitch in the inner one, each taking 0, +0.01, -0.01, +0.02, -0.02, ...,
++2.99, -2.99 rad (300 magnitudes, each after 0 with both signs: 599 values; the magnitudes are
+accumulated by repeated addition of 0.01, as in the code), so at most 599 x 599 = 358,801
+closed-form evaluations; the first (roll, pitch) with a solution wins (golem3.md's "up to 300 x
+300 values" counts magnitudes, not signed values). Evaluations are vectorised over blocks of sweep
+points; the first point of the block (in sweep order) with a solution is taken, so the answer and
+the iteration count are those of the one-at-a-time loop.
+
+Left arm: the mirror image (wbik.models.golem3): targets are mirrored, solved as right-arm ones and
+m0 negated back, as the thesis does ("both arms are identical").
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.errors import InvalidSettingError, UnsupportedError
+from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
+from wbik.solvers.base import Candidate, Solver
+from wbik.targets import Target
+
+THESIS_CHECK_TOLERANCE = 1e-3
+"""The thesis code's acceptance of a branch: |FK - input| <= this on x, y, z (m), yaw and pitch (rad)."""
+SWEEP_STEP = 0.01
+"""rad between two swept roll (or pitch) magnitudes (the thesis code's increment)."""
+SWEEP_MAGNITUDES = 300
+"""Magnitudes per axis (0, 0.01, ..., 2.99), each but 0 with both signs: 599 values per axis."""
+SWEEP_POINTS = (2 * SWEEP_MAGNITUDES - 1) ** 2
+"""Closed-form evaluations of the whole sweep: 599 x 599 = 358,801."""
+GOLEM3_CHAINS = ("right_arm", "left_arm")
+NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)
+"""Fate of a branch, in the order the thesis meets them."""
+
+
+def _wrap(angle):
+    """Into [-pi, pi) (the thesis's rad_limit does one 2 pi shift; the same for |angle| < 3 pi)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
+    """The thesis's 8 branches for right-arm targets (broadcast arrays of shape S).
+
+    Returns (Q (S..., 8, 6), fate (S..., 8), arguments (S..., 8, 3)): ``fate`` is one of
+    NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED per branch (the first test a branch
+    fails); ``arguments`` holds the three square-root arguments as computed (1 - cos^2(t4 + rho),
+    the quadratic's discriminant, 1 - cos^2 t1), NaN where an earlier root already failed.
+    Branch k = 4 j1 + 2 j2 + j3: j1 the sign of sin(t4 + rho) (+, -), j2 the root of the quadratic
+    (-, + before the square root), j3 the sign of sin t1 (+, -). ``lower``/``upper``: (6,) limits.
+    """
+    x, y, z, yaw, pitch, roll = (np.asarray(v, dtype=float)[..., None] for v in (x, y, z, yaw, pitch, roll))
+    j1 = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
+    j2 = np.array([-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
+    j3 = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+    t6 = _wrap(yaw) + 0.0 * j1
+    c4 = (H - z - L5 * np.cos(-pitch) + L6 * np.sin(-pitch)) / L4 + 0.0 * j1
+    arg4 = 1.0 - c4 ** 2
+    real = arg4 >= 0.0
+    s4 = j1 * np.sqrt(np.where(real, arg4, 0.0))
+    t4 = _wrap(np.arctan2(s4, c4) - RHO)
+    t5 = _wrap(-pitch - t4)
+    l3 = L4 * np.sin(t4 + RHO) + L5 * np.sin(t4 + t5) + L6 * np.cos(t4 + t5)
+    xp = x - l3 * np.cos(roll)
+    yp = -y + l3 * np.sin(roll)
+    a = 2.0 * yp * L1
+    b = 2.0 * xp * L1
+    c = xp ** 2 + yp ** 2 + L1 ** 2 - L2 ** 2
+    discriminant = (2.0 * a * c) ** 2 - 4.0 * (a ** 2 + b ** 2) * (c ** 2 - b ** 2)
+    discriminant = np.where(real, discriminant, np.nan)
+    real_1 = real & (discriminant >= 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c1 = (2.0 * a * c + j2 * np.sqrt(np.where(real_1, discriminant, 0.0))) / (2.0 * (a ** 2 + b ** 2))
+    arg1 = np.where(real_1, 1.0 - c1 ** 2, np.nan)
+    real_2 = real_1 & (arg1 >= 0.0)
+    s1 = j3 * np.sqrt(np.where(real_2, arg1, 0.0))
+    c1 = np.where(real_2, c1, 1.0)
+    t1 = np.arctan2(s1, c1)
+    t2 = _wrap(np.arctan2((xp - L1 * s1) / L2, (yp - L1 * c1) / L2) - t1)
+    t3 = _wrap(roll - t1 - t2)
+    q = np.stack([t1, t2, t3, t4, t5, t6], axis=-1)
+    inside = np.all((q >= lower) & (q <= upper), axis=-1)
+    # the thesis's check: closed-form FK (eq. 3.3-3.9) against the input, x y z yaw pitch
+    s = t4 + t5
+    gamma = _wrap(t1 + t2 + t3)
+    l3_fk = L4 * np.sin(t4 + RHO) + L5 * np.sin(s) + L6 * np.cos(s)
+    x_fk = L1 * np.sin(t1) + L2 * np.sin(t1 + t2) + l3_fk * np.cos(gamma)
+    y_fk = -L1 * np.cos(t1) - L2 * np.cos(t1 + t2) + l3_fk * np.sin(gamma)
+    z_fk = H - L4 * np.cos(t4 + RHO) - L5 * np.cos(s) + L6 * np.sin(s)
+    differences = (x_fk - x, y_fk - y, z_fk - z, t6 - yaw, _wrap(-s) - pitch)
+    matches = np.all(np.abs(np.stack(differences, axis=-1)) <= THESIS_CHECK_TOLERANCE, axis=-1)
+    fate = np.where(~real_2, NEGATIVE_SQRT,
+                    np.where(~inside, OUTSIDE_LIMITS, np.where(matches, ACCEPTED, CHECK_FAILED)))
+    arguments = np.stack([arg4, discriminant, arg1], axis=-1)
+    return q, fate, arguments
+
+
+def thesis_angles(rotation: np.ndarray) -> tuple[float, float, float]:
+    """(yaw alpha, pitch beta, roll gamma) of R = Rz(gamma) Ry(beta) Rx(alpha), |alpha| <= pi/2."""
+    r = np.asarray(rotation, dtype=float)
+    alpha = math.atan2(r[2, 1], r[2, 2])
+    if abs(alpha) > math.pi / 2:
+        alpha -= math.copysign(math.pi, alpha)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    # R Rx(-alpha) = Rz(gamma) Ry(beta): entries (3,1), (3,3), (1,2), (2,2)
+    beta = math.atan2(-r[2, 0], sa * r[2, 1] + ca * r[2, 2])
+    gamma = math.atan2(-(ca * r[0, 1] - sa * r[0, 2]), ca * r[1, 1] - sa * r[1, 2])
+    return alpha, beta, gamma
+
+
+def sweep_order(magnitudes: int = SWEEP_MAGNITUDES, step: float = SWEEP_STEP) -> np.ndarray:
+    """The thesis's sweep, (N, 2) rows (roll, pitch) in visiting order, N = (2 magnitudes - 1)^2.
+
+    Per axis: 0, +m1, -m1, +m2, -m2, ... with m_k = m_(k-1) + step (floating-point accumulation,
+    as the code); roll is the outer loop, pitch the inner one.
+    """
+    values = [0.0]
+    magnitude = 0.0
+    for _ in range(magnitudes - 1):
+        magnitude = magnitude + step
+        values += [magnitude, -magnitude]
+    axis = np.array(values)
+    roll, pitch = np.meshgrid(axis, axis, indexing="ij")
+    return np.stack([roll.ravel(), pitch.ravel()], axis=1)
+
+
+class _ThesisGolem3(Solver):
+    """Shared: applies to the Golem-III arm chains only; mirroring of the left arm."""
+
+    def __init__(self, robot, chain=None, **options):
+        super().__init__(robot, chain, **options)
+        if self.robot.name != "golem3" or self.chain.name not in GOLEM3_CHAINS:
+            raise UnsupportedError(
+                f"method {self.name!r} is the Golem-III thesis's solver: it applies to golem3's "
+                f"{' and '.join(GOLEM3_CHAINS)} only, not {self.robot.name}.{self.chain.name}")
+        self.mirrored = any(name in self.chain.joint_names for name in LEFT_JOINTS)
+        lower, upper = self.chain.lower.copy(), self.chain.upper.copy()
+        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
+            lower[0], upper[0] = -self.chain.upper[0], -self.chain.lower[0]
+        self.right_lower, self.right_upper = lower, upper
+
+    def _right_target(self, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
+        """Position and rotation in right-arm coordinates (M p, M R M, M = diag(1, -1, 1))."""
+        mirror = np.array([1.0, -1.0, 1.0]) if self.mirrored else np.ones(3)
+        rotation = None if target.rotation is None else target.rotation * np.outer(mirror, mirror)
+        return target.position * mirror, rotation
+
+    def _pick(self, q: np.ndarray, accepted: np.ndarray, q0: np.ndarray) -> np.ndarray:
+        """The accepted branch nearest q0 (right-arm q (K, 6), mask (K,)), in the chain's joints."""
+        reference = q0.copy()
+        if self.mirrored:
+            reference[0] = -reference[0]
+        candidates = q[accepted]
+        best = candidates[np.argmin(np.linalg.norm(candidates - reference, axis=1))].copy()
+        if self.mirrored:
+            best[0] = -best[0]
+        return best
+
+
+def _fates(fate: np.ndarray, arguments: np.ndarray) -> dict:
+    """Counts of the branches' fates and the most negative square-root argument met."""
+    negative = np.where(arguments < 0.0, arguments, np.inf)
+    return {"negative_sqrt": int(np.sum(fate == NEGATIVE_SQRT)),
+            "outside_limits": int(np.sum(fate == OUTSIDE_LIMITS)),
+            "check_failed": int(np.sum(fate == CHECK_FAILED)),
+            "min_negative_sqrt_argument": float(np.min(negative)) if np.isfinite(negative).any() else None}
+
+
+class ThesisLiteralSolver(_ThesisGolem3):
+    """``thesis_literal``: the thesis's 6-DOF closed form as written (see the module docstring)."""
+
+    name = "thesis_literal"
+    supports_position_only = False
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        position, rotation = self._right_target(target)
+        yaw, pitch, roll = thesis_angles(rotation)
+        q, fate, arguments = thesis_branches(*position, yaw, pitch, roll, self.right_lower, self.right_upper)
+        accepted = fate == ACCEPTED
+        extra = {"branches": int(accepted.sum()), **_fates(fate, arguments)}
+        if not accepted.any():
+            reason = (f"no solution (thesis closed form): of 8 branches {extra['negative_sqrt']} had a "
+                      f"negative square-root argument, {extra['outside_limits']} a joint outside the "
+                      f"limits, {extra['check_failed']} failed the thesis's FK check")
+            if extra["min_negative_sqrt_argument"] is not None:
+                reason += f" (most negative argument {extra['min_negative_sqrt_argument']:.3g})"
+            return Candidate(None, 1, reason, extra)
+        return Candidate(self._pick(q, accepted, q0), 1, extra=extra)
+
+    def solve_all(self, target):
+        """Every branch the thesis accepts that also passes the shared FK check (the thesis returned
+        all its accepted branches)."""
+        from wbik.solvers.base import evaluate
+        from wbik.targets import as_target
+
+        target = as_target(target)
+        self._check_target_kind(target)
+        position, rotation = self._right_target(target)
+        q, fate, _ = thesis_branches(*position, *thesis_angles(rotation), self.right_lower, self.right_upper)
+        results = []
+        for branch in q[fate == ACCEPTED]:
+            if self.mirrored:
+                branch = branch.copy()
+                branch[0] = -branch[0]
+            results.append(evaluate(self.chain, target, Candidate(branch, 1), self.tolerances, 0.0,
+                                    self.name))
+        return [result for result in results if result.success]
+
+
+class ThesisSweepSolver(_ThesisGolem3):
+    """``thesis_sweep``: the thesis's position-only search (see the module docstring).
+
+    Options: ``yaw`` (rad, the fixed wrist roll t6, default 0, inside t6's limits);
+    ``max_iterations``: closed-form evaluations (sweep points) allowed, default the whole sweep
+    (``SWEEP_POINTS``, as the thesis ran it); ``timeout_s`` adds a wall clock (checked between blocks).
+    """
+
+    name = "thesis_sweep"
+    supports_pose = False
+    iteration_cost_s = 2e-6
+    """One sweep point (8 branches) evaluated inside a vectorised block, measured on the reference machine."""
+    first_block = 599
+    """Points of the first block (the roll = 0 row); later blocks double up to ``max_block``."""
+    max_block = 16384
+
+    def __init__(self, robot, chain=None, *, yaw: float = 0.0, max_iterations: int | None = None, **options):
+        super().__init__(robot, chain, **options)
+        lower, upper = self.chain.lower[5], self.chain.upper[5]
+        if isinstance(yaw, bool) or not isinstance(yaw, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(float(yaw)) or not lower <= float(yaw) <= upper:
+            raise InvalidSettingError(
+                f"yaw (the fixed wrist roll {self.chain.joint_names[5]}) must be a number inside "
+                f"[{lower}, {upper}] rad, got {yaw!r}")
+        self.yaw = float(yaw)
+        if max_iterations is None and self.timeout_s is None:
+            self.max_iterations = SWEEP_POINTS
+        else:
+            self.max_iterations = min(self._iteration_budget(max_iterations), SWEEP_POINTS)
+        self.order = sweep_order()
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        import time
+
+        (x, y, z), _ = self._right_target(target)
+        start, block = 0, self.first_block
+        extra = {"negative_sqrt": 0, "outside_limits": 0, "check_failed": 0}
+        while start < self.max_iterations:
+            stop = min(start + block, self.max_iterations)
+            roll, pitch = self.order[start:stop, 0], self.order[start:stop, 1]
+            q, fate, _ = thesis_branches(x, y, z, self.yaw, pitch, roll, self.right_lower, self.right_upper)
+            found = np.flatnonzero((fate == ACCEPTED).any(axis=1))
+            if found.size:
+                point = found[0]
+                visited = fate[:point + 1]
+                for key, code in (("negative_sqrt", NEGATIVE_SQRT), ("outside_limits", OUTSIDE_LIMITS),
+                                  ("check_failed", CHECK_FAILED)):
+                    extra[key] += int(np.sum(visited == code))
+                extra.update(roll=float(roll[point]), pitch=float(pitch[point]), yaw=self.yaw)
+                q_best = self._pick(q[point], fate[point] == ACCEPTED, q0)
+                return Candidate(q_best, start + point + 1, extra=extra)
+            for key, code in (("negative_sqrt", NEGATIVE_SQRT), ("outside_limits", OUTSIDE_LIMITS),
+                              ("check_failed", CHECK_FAILED)):
+                extra[key] += int(np.sum(fate == code))
+            start, block = stop, min(2 * block, self.max_block)
+            if start < self.max_iterations and time.perf_counter() > deadline:
+                return Candidate(None, start, f"timeout after {start} of {SWEEP_POINTS} sweep orientations "
+                                              "without a thesis closed-form solution", extra)
+        if self.max_iterations < SWEEP_POINTS:
+            reason = (f"iteration budget spent: none of the first {self.max_iterations} of {SWEEP_POINTS} "
+                      f"sweep orientations has a thesis closed-form solution")
+        else:
+            reason = (f"no solution in the whole sweep ({SWEEP_POINTS} roll-pitch orientations, "
+                      f"yaw {self.yaw:g})")
+        return Candidate(None, self.max_iterations, reason, extra)
