@@ -115,11 +115,11 @@ def eaik_structure(chain: Chain) -> EAIKStructure:
 
     UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
     """
+    HPRobot = _import_eaik()  # first, so a missing EAIK is reported also for a cached chain
     with _STRUCTURES_LOCK:
         cached = _STRUCTURES.get(chain)
     if cached is not None:
         return cached
-    HPRobot = _import_eaik()
     label = f"{chain.robot.name}.{chain.name}"
     structure = serial_structure(chain)
     if structure.prismatic.any():
