@@ -17,11 +17,15 @@ def atomic_write_bytes(path: Path, writer: Callable[[BinaryIO], object]) -> None
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(temporary, "wb") as handle:
-        writer(handle)
-        handle.flush()
-        os.fsync(handle.fileno())
-    temporary.replace(path)
+    try:
+        with open(temporary, "wb") as handle:
+            writer(handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        temporary.replace(path)
+    except BaseException:
+        temporary.unlink(missing_ok=True)  # a failed or interrupted write leaves nothing behind
+        raise
 
 
 def atomic_write_text(path: Path, text: str) -> None:

@@ -68,7 +68,10 @@ def run(args: argparse.Namespace) -> int:
         if not (output / "study.json").is_file():
             raise UsageError(f"--report-only: {str(output)!r} holds no results of a study (no study.json); "
                              f"run 'wbik study' first, or pass --output FOLDER of an earlier run")
-        markdown, html = write_report(study, output)
+        from wbik.study.ownership import FolderLock
+
+        with FolderLock(output):  # not while a run is writing into it
+            markdown, html = write_report(study, output)
     else:
         output = run_study(study, args.output, jobs=args.jobs, backend=args.backend,
                            scheduler=args.scheduler, fresh=args.fresh, progress=not args.no_progress)

@@ -24,8 +24,10 @@ yet) is probed once per case in the main process and recorded as "not applicable
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -40,6 +42,7 @@ from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.study import results as store
 from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
 from wbik.study.metrics import axis_errors
+from wbik.study.ownership import FolderLock
 from wbik.study.sampling import PoseSet, sample_poses
 
 BACKENDS = ("loky", "sequential", "dask")
@@ -229,8 +232,8 @@ def default_output(study: Study) -> Path:
     return Path("runs") / study.name
 
 
-def prepare_output(study: Study, output: Path, fresh: bool) -> None:
-    """Create the folder; refuse to mix results of a different study unless ``fresh``."""
+def prepare_output(study: Study, output: Path, fresh: bool, lock: FolderLock) -> None:
+    """Refuse to mix results of a different study unless ``fresh`` (which empties the folder we hold)."""
     record = output / "study.json"
     previous = store.read_json(record)
     if previous is not None and previous.get("fingerprint") != study.fingerprint():
@@ -240,9 +243,8 @@ def prepare_output(study: Study, output: Path, fresh: bool) -> None:
                 f"tolerances (fingerprint {previous.get('fingerprint')} != {study.fingerprint()}); pass "
                 "--fresh to delete them, or --output to write elsewhere. (Adding, removing or changing "
                 "methods is fine: only the changed methods are recomputed.)")
-    if fresh and output.exists():
-        shutil.rmtree(output)
-    output.mkdir(parents=True, exist_ok=True)
+    if fresh:
+        lock.clear()
     store.write_json(record, {"fingerprint": study.fingerprint(), "source": study.source,
                               "study": study.as_dict()})
 
@@ -359,7 +361,7 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         yield from parallel(delayed(_solve_with_task)(task) for task in tasks)
 
     if backend == "loky":
-        with parallel_config(backend="loky"):
+        with parallel_config(backend="loky", initializer=_exit_with_parent, initargs=(os.getpid(),)):
             yield from run(jobs)
         return
     if backend != "dask":
@@ -392,7 +394,29 @@ def _load_average() -> list[float] | None:
         return None
 
 
+_WATCHDOG: list[threading.Thread] = []
+
+
+def _exit_with_parent(parent: int | None = None) -> None:
+    """In a worker process: a daemon thread that ends the process when its parent (``parent``, the
+    study's main process) dies, even by SIGKILL, which no handler sees: a killed study leaves no
+    worker computing for nobody. A worker that starts after its parent died exits at once."""
+    if _WATCHDOG:
+        return
+    parent = os.getppid() if parent is None else parent
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    thread = threading.Thread(target=watch, name="wbik-parent-watchdog", daemon=True)
+    thread.start()
+    _WATCHDOG.append(thread)
+
+
 def _solve_with_task(task: ChunkTask) -> tuple[ChunkTask, dict]:
+    _exit_with_parent()
     return task, solve_chunk(task)
 
 
@@ -406,7 +430,40 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
         raise StudyDefinitionError(f"--jobs must be at least 1, got {jobs}")
     log = log or (lambda message: print(message, file=sys.stderr))
     output = Path(output) if output is not None else default_output(study)
-    prepare_output(study, output, fresh)
+    with FolderLock(output) as lock:
+        with _terminate_as_interrupt():
+            _run_locked(study, output, lock, jobs=jobs, backend=backend, scheduler=scheduler, fresh=fresh,
+                        progress=progress, log=log)
+        if report:
+            from wbik.study.report import write_report
+
+            write_report(study, output)
+    return output
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """SIGTERM and SIGINT raise KeyboardInterrupt in the main thread while the study runs (SIGINT
+    too, since a shell starts background jobs with it ignored), so joblib aborts and terminates its
+    worker processes (none is left running)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = {number: signal.signal(number, interrupt) for number in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
+def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, backend: str,
+                scheduler: str | None, fresh: bool, progress: bool, log) -> None:
+    prepare_output(study, output, fresh, lock)
     log(f"study {study.name!r} -> {output}")
     tasks, done_rows, total_rows = pending_tasks(study, output, log)
     if done_rows:
@@ -432,8 +489,3 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
         "load_average_after": _load_average(),
         "total_seconds": elapsed + float(previous.get("total_seconds", 0.0)) if tasks else
         float(previous.get("total_seconds", elapsed))})
-    if report:
-        from wbik.study.report import write_report
-
-        write_report(study, output)
-    return output
