@@ -1,0 +1,83 @@
+"""Budgets are honoured and validated.
+
+Every method given a wall-clock budget returns within it + 10 % (or + 1 ms, whichever is larger) on
+a target out of reach, where it has to spend all of it. The median of 5 calls is judged: a call the
+operating system preempted (other tests run beside this one) says nothing about the method's own
+stopping rule; measured overshoot on an idle machine is 0.3-0.8 ms for every method. Our own iterative methods with no wall
+clock spend exactly their iteration budget. Budgets must be finite and positive.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+from wbik.errors import InvalidBudgetError, WbikError
+
+BUDGET_S = 0.02
+WALL_CLOCK_METHODS = ("newton", "dls", "bounded_lm", "qp", "kdl", "kdl_restarts", "trac_ik", "placo")
+OURS = ("newton", "dls", "bounded_lm", "qp")
+
+
+@pytest.fixture(scope="module")
+def ur5():
+    return wbik.load("ur5")
+
+
+def _unreachable() -> pin.SE3:
+    return pin.SE3(np.eye(3), np.array([3.0, 0.0, 0.0]))  # the UR5 reaches under 1 m
+
+
+@pytest.mark.parametrize("method", WALL_CLOCK_METHODS)
+def test_wall_clock_budget_is_honoured_on_an_unreachable_target(method, ur5):
+    options = {"timeout_s": BUDGET_S}
+    if method in OURS:  # make the iteration budget the longer one, so the wall clock decides
+        options["max_iterations"] = 10**6
+    solver = wbik.solver(method, ur5, chain="arm", **options)
+    solver.solve(_unreachable())  # warm up (first-call imports and caches)
+    limit = max(1.1 * BUDGET_S, BUDGET_S + 0.001)
+    times = []
+    for _ in range(5):
+        start = time.perf_counter()
+        result = solver.solve(_unreachable())
+        times.append(time.perf_counter() - start)
+        assert not result.success and result.reason
+    median = float(np.median(times))
+    assert median <= limit, f"{method}: {median * 1e3:.2f} ms for a {BUDGET_S * 1e3:g} ms budget"
+
+
+@pytest.mark.parametrize("method", OURS)
+def test_our_methods_spend_their_iteration_budget_without_a_wall_clock(method, ur5):
+    solver = wbik.solver(method, ur5, chain="arm", max_iterations=40)
+    assert solver.timeout_s is None and solver.budget == "40 iterations"
+    result = solver.solve(_unreachable())
+    assert not result.success
+    assert result.iterations <= 40
+
+
+@pytest.mark.parametrize("method", WALL_CLOCK_METHODS)
+@pytest.mark.parametrize("bad", [0, -1, math.nan, math.inf, "abc", True])
+def test_budgets_must_be_finite_and_positive(method, bad, ur5):
+    with pytest.raises(InvalidBudgetError, match="timeout_s"):
+        wbik.solver(method, ur5, chain="arm", timeout_s=bad)
+
+
+@pytest.mark.parametrize("method", OURS)
+@pytest.mark.parametrize("bad", [0, -5, 2.5, "ten", math.inf])
+def test_iteration_budgets_must_be_positive_integers(method, bad, ur5):
+    with pytest.raises(WbikError, match="max_iterations"):
+        wbik.solver(method, ur5, chain="arm", max_iterations=bad)
+
+
+def test_a_time_budget_maps_to_iterations_by_the_measured_cost():
+    """The study gives our methods the iterations that cost its time budget on the reference machine."""
+    from wbik.solvers.bounded_lm import BoundedLMSolver
+
+    assert BoundedLMSolver.iterations_for(0.005) == math.ceil(0.005 / BoundedLMSolver.iteration_cost_s)
+    with pytest.raises(InvalidBudgetError):
+        BoundedLMSolver.iterations_for(-1.0)
