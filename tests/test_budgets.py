@@ -3,8 +3,9 @@
 Every method given a wall-clock budget returns within it + 10 % (or + 1 ms, whichever is larger) on
 a target out of reach, where it has to spend all of it. The median of 5 calls is judged: a call the
 operating system preempted (other tests run beside this one) says nothing about the method's own
-stopping rule; measured overshoot on an idle machine is 0.3-0.8 ms for every method. Our own iterative methods with no wall
-clock spend exactly their iteration budget. Budgets must be finite and positive.
+stopping rule; measured overshoot on an idle machine is 0.3-0.8 ms for every method. Our own
+iterative methods with no wall clock spend exactly their iteration budget. Budgets must be finite
+and positive.
 """
 
 from __future__ import annotations
