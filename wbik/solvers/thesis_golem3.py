@@ -56,13 +56,14 @@ m0 negated back, as the thesis does ("both arms are identical").
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
-from wbik.solvers.base import Candidate, Solver
-from wbik.targets import Target
+from wbik.solvers.base import Candidate, Solver, evaluate
+from wbik.targets import Target, as_target
 
 THESIS_CHECK_TOLERANCE = 1e-3
 """The thesis code's acceptance of a branch: |FK - input| <= this on x, y, z (m), yaw and pitch (rad)."""
@@ -234,9 +235,6 @@ class ThesisLiteralSolver(_ThesisGolem3):
     def solve_all(self, target):
         """Every branch the thesis accepts that also passes the shared FK check (the thesis returned
         all its accepted branches)."""
-        from wbik.solvers.base import evaluate
-        from wbik.targets import as_target
-
         target = as_target(target)
         self._check_target_kind(target)
         position, rotation = self._right_target(target)
@@ -284,8 +282,6 @@ class ThesisSweepSolver(_ThesisGolem3):
         self.order = sweep_order()
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        import time
-
         (x, y, z), _ = self._right_target(target)
         start, block = 0, self.first_block
         extra = {"negative_sqrt": 0, "outside_limits": 0, "check_failed": 0}
