@@ -1,8 +1,10 @@
 """Scenario files: declarative YAML (or JSON) that a user runs with ``wbik run FILE``.
 
-Every file has a ``kind`` that selects a runner (``RUNNERS``; ``register_runner`` adds one, so
-motion or riveting scenarios plug in later) and usually a ``robot``. The runner returns a report
-(a JSON-friendly dict with ``passed``); ``run_scenario`` can write it after every phase, so an
+Every file has a ``kind`` that selects a runner (``KINDS``: kind -> "module:function", imported on
+first use; ``register_runner`` adds one) and usually a ``robot``. Before anything runs, the file is
+checked against its kind's schema (:mod:`wbik.scenario_schema`: allowed keys, types, ranges and the
+one set of defaults), and the runner reads the checked copy. The runner returns a report (a
+JSON-friendly dict with ``passed``); ``run_scenario`` can write it after every phase, so an
 interruption loses nothing.
 
 Kind ``wholebody_ik``: a sequence of phases solved by the QP layer, each from the previous
@@ -10,12 +12,14 @@ phase's answer::
 
     kind: wholebody_ik
     robot: bioloid
-    backend: daqp                  # any qpsolvers name, "fastest", "default" (OSQP)
+    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
+                                   # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
+    margin: 0.005                  # m, default CoM margin of the phases (default 0.005)
     phases:
       - name: shift the CoM over the right foot
         contacts: [r_sole, l_sole]  # soles held fixed (hard equality)
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
-        margin: 0.005               # m, CoM at least this far inside the polygon
+        margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
         lock: [mb]                  # joints held at their value (optional)
         tasks:
           - {type: com, over: r_sole, axes: xy}
@@ -37,6 +41,7 @@ beyond its limit (1e-9). An ``expect`` value may be ``{threshold, expected_to_fa
 
 from __future__ import annotations
 
+import importlib
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -44,82 +49,144 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import WbikError
+from wbik.errors import MissingDependencyError
 from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.files import atomic_write_text
+from wbik.scenario_schema import ScenarioError, ScenarioFileError, kind_names, register_schema, validate
+
+__all__ = ["KINDS", "ScenarioError", "format_report", "load_scenario", "register_runner", "run_scenario"]
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
 
+Runner = Callable[[dict, Callable[[dict], None] | None], dict]
 
-class ScenarioError(WbikError, ValueError):
-    """A scenario file that cannot be read or names something that does not exist."""
+KINDS: dict[str, str | Runner] = {
+    # kind -> "module:function" (imported on first use; a failed import is an error, never skipped)
+    "wholebody_ik": "wbik.scenarios:run_wholebody_ik",
+    "bioloid_step": "wbik.bioloid.scenarios:run_step",
+    "bioloid_walk": "wbik.bioloid.scenarios:run_walk",
+    "bioloid_turn": "wbik.bioloid.scenarios:run_walk",
+    "bioloid_keyframes": "wbik.bioloid.scenarios:run_keyframes",
+    "bioloid_placo_walk": "wbik.bioloid.scenarios:run_placo_walk",
+    "motion_joint": "wbik.motion.scenarios:run_joint",
+    "motion_cartesian": "wbik.motion.scenarios:run_cartesian",
+    "pincher_motion": "wbik.motion.scenarios:run_pincher",
+    "golem3_approach": "wbik.motion.scenarios:run_golem3",
+    "bioloid_stance_sensors": "wbik.motion.scenarios:run_bioloid_stance",
+    "ur5_riveting": "wbik.riveting.scenarios:run_riveting",
+}
+FORMATTERS: dict[str, str | Callable[[dict], str]] = {
+    # kind -> "module:function" printing its report (default: the phase summary of format_report)
+    **{kind: "wbik.bioloid.scenarios:format_report" for kind in KINDS if kind.startswith("bioloid_")
+       and kind != "bioloid_stance_sensors"},
+    **{kind: "wbik.motion.scenarios:format_report" for kind in
+       ("motion_joint", "motion_cartesian", "pincher_motion", "golem3_approach", "bioloid_stance_sensors")},
+    "ur5_riveting": "wbik.riveting.report:format_text",
+}
+RUNNERS = KINDS  # the former name
 
 
-RUNNERS: dict[str, Callable[[dict, Callable[[dict], None] | None], dict]] = {}
-FORMATTERS: dict[str, Callable[[dict], str]] = {}
-
-RUNNER_MODULES = ("wbik.motion.scenarios", "wbik.bioloid.scenarios", "wbik.riveting.scenarios")
-"""Modules that register further kinds when imported; imported on first use of a scenario."""
-
-
-def register_runner(kind: str, runner: Callable[[dict, Callable[[dict], None] | None], dict],
-                    formatter: Callable[[dict], str] | None = None) -> None:
-    """``runner(spec, on_progress) -> report``; on_progress(report so far) may be None.
+def register_runner(kind: str, runner: str | Runner, formatter: str | Callable[[dict], str] | None = None,
+                    schema: Callable | None = None) -> None:
+    """``runner(spec, on_progress) -> report`` (or "module:function"); on_progress(report so far) may
+    be None. ``schema()`` builds the kind's :class:`wbik.scenario_schema.Map` (needed by a new kind).
 
     ``formatter(report) -> str`` prints the report for ``wbik run`` (default: the phase summary).
     """
-    RUNNERS[kind] = runner
+    KINDS[kind] = runner
     if formatter is not None:
         FORMATTERS[kind] = formatter
+    if schema is not None:
+        register_schema(kind, schema)
 
 
-def _import_runner_modules() -> None:
-    import importlib
+def _registered(table: dict, kind: str, what: str):
+    """The callable registered for ``kind`` in ``table``, importing its module on first use."""
+    entry = table[kind]
+    if not isinstance(entry, str):
+        return entry
+    module_name, function = entry.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"scenario kind {kind!r} is registered with the {what} {entry!r}, but importing {module_name} "
+            f"failed: {exc}. Install what it names (pip install -e . installs wbik's own dependencies)"
+        ) from exc
+    return getattr(module, function)
 
-    for module in RUNNER_MODULES:
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:  # a package not written yet is fine; a broken one is not
-            if not exc.name or not (module == exc.name or module.startswith(exc.name + ".")):
-                raise
+
+def _read(path: Path):
+    """The parsed content of a scenario file, or a ScenarioFileError saying what is wrong with it."""
+    kinds = ", ".join(kind_names())
+    if path.is_dir():
+        raise ScenarioFileError(f"scenario file {str(path)!r} is a directory; pass a YAML/JSON/TOML "
+                                "scenario file, e.g. tasks/bioloid_balance.yaml")
+    if not path.is_file():
+        raise ScenarioFileError(f"scenario file {str(path)!r} does not exist")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioFileError(f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason}); a scenario is "
+                                "a YAML/JSON/TOML text file") from None
+    except OSError as exc:
+        raise ScenarioFileError(f"cannot read scenario file {str(path)!r}: {exc.strerror}") from None
+    if not text.strip():
+        raise ScenarioFileError(f"{path}: the file is empty; a scenario is a mapping with a 'kind' "
+                                f"(one of {kinds})")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".json":
+            return json.loads(text)
+        if suffix == ".toml":
+            import tomllib
+
+            return tomllib.loads(text)
+        import yaml
+
+        return yaml.safe_load(text)
+    except Exception as exc:  # yaml, json and tomllib raise several types
+        raise ScenarioFileError(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
 
 
 def load_scenario(path: str | Path) -> dict:
-    """Read a YAML/JSON scenario file into a dict with a known ``kind``."""
+    """Read a YAML/JSON/TOML scenario file, checked against its kind's schema (errors name the file
+    and the key); the file's own mapping is returned (``name`` defaults to the file's stem)."""
     path = Path(path)
-    if not path.is_file():
-        raise ScenarioError(f"scenario file {str(path)!r} does not exist")
-    _import_runner_modules()
-    text = path.read_text()
-    try:
-        if path.suffix.lower() == ".json":
-            spec = json.loads(text)
-        else:
-            import yaml
-
-            spec = yaml.safe_load(text)
-    except Exception as exc:  # yaml and json raise several types
-        raise ScenarioError(f"{path}: not valid YAML/JSON: {exc}") from exc
-    if not isinstance(spec, dict) or "kind" not in spec:
-        raise ScenarioError(f"{path}: a scenario is a mapping with a 'kind' (one of {sorted(RUNNERS)})")
+    spec = _read(path)
+    if spec is None:
+        raise ScenarioFileError(f"{path}: the file is empty (only comments or null); a scenario is "
+                                f"a mapping with a 'kind' (one of {', '.join(kind_names())})")
+    if not isinstance(spec, dict):
+        raise ScenarioFileError(f"{path}: a scenario is a mapping with a 'kind' (one of "
+                                f"{', '.join(kind_names())}), got a {type(spec).__name__}")
     spec.setdefault("name", path.stem)
+    validate(spec, str(path))
     return spec
 
 
-def run_scenario(scenario: str | Path | dict, output: str | Path | None = None) -> dict:
-    """Run a scenario (file or dict); with ``output``, write the JSON report after every phase."""
-    spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
-    _import_runner_modules()
-    kind = spec.get("kind")
-    if kind not in RUNNERS:
-        raise ScenarioError(f"unknown scenario kind {kind!r}; known kinds: {', '.join(sorted(RUNNERS))}")
+def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
+                 source: str | None = None) -> dict:
+    """Run a scenario (file or dict); with ``output``, write the JSON report after every phase.
+
+    The scenario is checked against its kind's schema first (``source`` names it in errors; default
+    the file, or the dict's name); the runner gets the checked copy with the defaults filled in.
+    """
+    if isinstance(scenario, dict):
+        spec = scenario
+        source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"
+    else:
+        spec = load_scenario(scenario)
+        source = source or str(scenario)
+    checked = validate(spec, source)
+    runner = _registered(KINDS, checked["kind"], "runner")
 
     def write(report: dict) -> None:
         if output is not None:
             atomic_write_text(Path(output), json.dumps(report, indent=2, default=_json_default))
 
-    report = RUNNERS[kind](spec, write)
+    report = runner(checked, write)
     write(report)
     return report
 
@@ -276,47 +343,39 @@ def phase_figures(success: bool, checks: dict) -> dict:
 
 
 def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> dict:
-    from wbik.errors import UnknownRobotError
+    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults)."""
     from wbik.models import load
     from wbik.qp.constraints import LockedJoints, MinimumDistance
     from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
 
-    try:
-        robot = load(spec["robot"])
-    except KeyError as exc:
-        raise ScenarioError("a wholebody_ik scenario needs a 'robot'") from exc
-    except UnknownRobotError as exc:
-        raise ScenarioError(str(exc)) from exc
-    backend = spec.get("backend", "default")
-    q = robot.nominal.copy() if spec.get("start", "nominal") == "nominal" else _vector(
+    robot = load(spec["robot"], **spec["robot_params"])
+    backend = spec["backend"]
+    q = robot.nominal.copy() if spec["start"] == "nominal" else _vector(
         spec["start"], robot.model.nq, "start configuration")
-    phases = spec.get("phases")
-    if not phases:
-        raise ScenarioError("a wholebody_ik scenario needs a non-empty list of 'phases'")
-    report = {"name": spec.get("name", ""), "kind": "wholebody_ik", "robot": robot.name,
+    phases = spec["phases"]
+    report = {"name": spec["name"], "kind": "wholebody_ik", "robot": robot.name,
               "backend": backend, "phases": [], "passed": True}
-    for index, phase in enumerate(phases):
-        name = phase.get("name", f"phase {index + 1}")
-        contacts = list(phase.get("contacts", []))
-        support = list(phase.get("support", contacts))
-        margin = float(phase.get("margin", spec.get("margin", 0.0)))
-        tasks = [build_task(robot, q, entry) for entry in phase.get("tasks", [])]
+    for phase in phases:
+        name = phase["name"]
+        contacts = list(phase["contacts"])
+        support = list(phase["support"])
+        margin = float(phase["margin"])
+        tasks = [build_task(robot, q, entry) for entry in phase["tasks"]]
         if not any(task.goal for task in tasks):
             raise ScenarioError(f"phase {name!r} has no goal task")
-        tasks.append(build_task(robot, q, {"type": "regularization",
-                                           "weight": phase.get("regularization", 1e-6)}))
+        tasks.append(build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]}))
         constraints = stance_constraints(robot, q, contacts, support, margin)
-        if phase.get("lock"):
+        if phase["lock"]:
             constraints.append(LockedJoints(robot.model, list(phase["lock"])))
-        for item in phase.get("min_distance", []):
+        for item in phase["min_distance"]:
             constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
         contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
         problem = IKProblem(robot.model, tasks, constraints, backend=backend,
-                            max_step=float(phase.get("max_step", 0.2)))
-        solution = problem.solve(q, max_iterations=int(phase.get("max_iterations", 300)))
+                            max_step=float(phase["max_step"]))
+        solution = problem.solve(q, max_iterations=int(phase["max_iterations"]))
         checks = check_configuration(robot, solution.q, contact_placements, support, margin)
-        expect = phase_expectations(phase.get("expect"), margin, bool(support))
+        expect = phase_expectations(phase["expect"], margin, bool(support))
         expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
                                 f"phase {name!r} expect")
         passed = verdict(expectations) != "FAILED"
@@ -330,18 +389,15 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
         report["verdict"] = verdict(c for p in report["phases"] for c in p["expectations"])
         if on_progress is not None:
             on_progress(report)
-        if phase.get("continue_from", "result") == "result":
+        if phase["continue_from"] == "result":
             q = solution.q.copy()
     return report
-
-
-register_runner("wholebody_ik", run_wholebody_ik)
 
 
 def format_report(report: dict) -> str:
     """A short human-readable summary of a report (the kind's own formatter when it has one)."""
     if report.get("kind") in FORMATTERS:
-        return FORMATTERS[report["kind"]](report)
+        return _registered(FORMATTERS, report["kind"], "formatter")(report)
     lines = [f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
              f"{report_verdict(report)}"]
     for phase in report.get("phases", []):

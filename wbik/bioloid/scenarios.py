@@ -1,5 +1,6 @@
 """Scenario runners for the Bioloid behaviours (tasks/bioloid_step_*.yaml, tasks/bioloid_walk*.yaml),
-registered with :mod:`wbik.scenarios` when this module is imported.
+registered by name in :data:`wbik.scenarios.KINDS`; their keys, types and defaults are declared
+in :mod:`wbik.scenario_schema`, and every runner reads the checked spec.
 
 Kinds (each report has ``passed`` and a ``behaviours`` list):
 
@@ -27,13 +28,12 @@ reported as informational.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import fields
 from pathlib import Path
 
 import numpy as np
 
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
-from wbik.scenarios import CONTACT_TOLERANCE, ScenarioError, register_runner
+from wbik.scenarios import CONTACT_TOLERANCE
 
 Progress = Callable[[dict], None] | None
 VELOCITY_TOLERANCE = 1e-9
@@ -90,15 +90,9 @@ def _add(report: dict, entry: dict) -> None:
     report["verdict"] = verdict(c for e in report["behaviours"] for c in e["expectations"])
 
 
-def _expect_block(spec: dict, known: set[str]) -> dict:
-    expect = spec.get("expect", {}) or {}
-    if not isinstance(expect, dict):
-        raise ExpectationError(f"{spec['kind']}: 'expect' must be a mapping, got {expect!r}")
-    unknown = set(expect) - known
-    if unknown:
-        raise ExpectationError(f"{spec['kind']}: unknown expectation key(s) {sorted(unknown)}; "
-                               f"known keys: {sorted(known)}")
-    return expect
+def _expect_block(spec: dict) -> dict:
+    """The ``expect`` block (its keys were checked by wbik.scenario_schema), {} when absent."""
+    return spec["expect"] or {}
 
 
 def wholebody_defaults(margin: float) -> dict:
@@ -109,28 +103,19 @@ def wholebody_defaults(margin: float) -> dict:
 
 
 def _robot(spec: dict):
-    from wbik.errors import UnknownRobotError
     from wbik.models import load
 
-    try:
-        return load(spec.get("robot", "bioloid"))
-    except UnknownRobotError as exc:
-        raise ScenarioError(str(exc)) from exc
+    return load(spec["robot"], **spec["robot_params"])
 
 
 def _gait(spec: dict):
     from wbik.bioloid.gait import GaitParameters
 
-    overrides = spec.get("gait", {}) or {}
-    known = {f.name for f in fields(GaitParameters)}
-    unknown = set(overrides) - known
-    if unknown:
-        raise ScenarioError(f"unknown gait parameters {sorted(unknown)}; known: {sorted(known)}")
-    return GaitParameters(**overrides)
+    return GaitParameters(**spec["gait"])  # every field, checked by wbik.scenario_schema
 
 
 def _report(spec: dict, robot) -> dict:
-    return {"name": spec.get("name", ""), "kind": spec["kind"], "robot": robot.name, "passed": True,
+    return {"name": spec["name"], "kind": spec["kind"], "robot": robot.name, "passed": True,
             "verdict": "informational", "behaviours": []}
 
 
@@ -138,24 +123,23 @@ def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> dict:
     """Summary, timing, servo export and expectations of a whole-body result."""
     from wbik.bioloid.gait import time_scale_motion
 
-    timing = spec.get("timing", {}) or {}
-    timed = time_scale_motion(result.motion, timing.get("speed_rpm", 40.0), timing.get("law", "quintic"),
-                              timing.get("mode", "segment"))
+    timing = spec["timing"]
+    timed = time_scale_motion(result.motion, timing["speed_rpm"], timing["law"], timing["mode"])
     ratio = timed.peak_velocity_ratio()
     entry = {"name": name, "generator": "wholebody", **result.summary(), "duration_s": timed.duration,
-             "speed_rpm": timing.get("speed_rpm", 40.0), "peak_velocity_over_limit": ratio}
-    export = spec.get("export", {}) or {}
+             "speed_rpm": timing["speed_rpm"], "peak_velocity_over_limit": ratio}
+    export = spec["export"]
     if export.get("servo_csv"):
-        path = timed.write_servo_csv(export["servo_csv"], float(export.get("dt", 0.02)))
+        path = timed.write_servo_csv(export["servo_csv"], float(export["dt"]))
         entry["servo_csv"] = str(path)
-    table = timed.servo_table(float(export.get("dt", 0.02)))
+    table = timed.servo_table(float(export["dt"]))
     entry["servo_rows"] = int(len(table["times_s"]))
     entry["servo_clamped"] = {joint: max(abs(r - a) for _, r, a in items)
                               for joint, items in table["clamped"].items()}
     entry.pop("passed", None)
     figures = {**entry, "min_com_margin_m": entry["min_com_margin_mm"] / 1e3,
                "max_servo_clamp_rad": max(entry["servo_clamped"].values(), default=0.0)}
-    wanted = {**wholebody_defaults(float(spec.get("margin", 0.005))), **(expect or {})}
+    wanted = {**wholebody_defaults(float(spec["margin"])), **(expect or {})}
     return _judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect")
 
 
@@ -165,16 +149,13 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     gait = _gait(spec)
-    first = spec.get("first", "left")
-    margin = float(spec.get("margin", 0.005))
-    expect = _expect_block(spec, {"faithful", "wholebody"})
+    first = spec["first"]
+    margin = float(spec["margin"])
+    expect = _expect_block(spec)
     report = _report(spec, robot)
-    generators = spec.get("generators", ["faithful", "wholebody"])
-    unknown = set(generators) - {"faithful", "wholebody"}
-    if unknown:
-        raise ScenarioError(f"unknown generators {sorted(unknown)}; use faithful and/or wholebody")
+    generators = spec["generators"]
     if "faithful" in generators:
-        rounding = bool(spec.get("round_degrees", False))
+        rounding = bool(spec["round_degrees"])
         faithful = step_forward_faithful(robot, gait, first, round_degrees=rounding)
         summary = faithful.summary()
         entry = {"name": f"step forward ({first} first), faithful", "generator": "faithful", **summary,
@@ -190,8 +171,7 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
             on_progress(report)
     if "wholebody" in generators:
         result = step_forward_wholebody(robot, gait, first, margin,
-                                        rear_lift=float(spec.get("rear_lift", 0.0)),
-                                        backend=spec.get("backend", "daqp"))
+                                        rear_lift=float(spec["rear_lift"]), backend=spec["backend"])
         _add(report, _timed_entry(spec, result, f"step forward ({first} first), whole-body",
                                   expect.get("wholebody")))
     return report
@@ -202,18 +182,18 @@ def run_walk(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     gait = _gait(spec)
-    margin = float(spec.get("margin", 0.005))
+    margin = float(spec["margin"])
     report = _report(spec, robot)
+    angle = float(spec["turn_deg"])  # the kind's own default: 20 deg turning, 0 walking
     if spec["kind"] == "bioloid_turn":
-        angle = float(spec.get("turn_deg", 20.0))
-        result = turn_in_place(robot, angle, gait, margin, backend=spec.get("backend", "daqp"))
+        result = turn_in_place(robot, angle, gait, margin, backend=spec["backend"])
         name = f"turn in place {angle:g} deg"
     else:
-        steps, angle = int(spec.get("steps", 4)), float(spec.get("turn_deg", 0.0))
-        result = walk(robot, steps, angle, gait, margin, first=spec.get("first", "left"),
-                      rear_lift=float(spec.get("rear_lift", 0.0)), backend=spec.get("backend", "daqp"))
+        steps = int(spec["steps"])
+        result = walk(robot, steps, angle, gait, margin, first=spec["first"],
+                      rear_lift=float(spec["rear_lift"]), backend=spec["backend"])
         name = f"walk {steps} steps, turn {angle:g} deg"
-    entry = _timed_entry(spec, result, name, _expect_block(spec, set(WHOLEBODY_RULES)))
+    entry = _timed_entry(spec, result, name, _expect_block(spec))
     final = result.motion.q[-1]
     entry["final_soles"] = {sole: robot.frame_placement(final, sole).translation.tolist()
                             for sole in ("r_sole", "l_sole")}
@@ -227,15 +207,14 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     report = _report(spec, robot)
-    expect = dict(_expect_block(spec, set(KEYFRAME_RULES) | {"behaviours"}))
+    expect = dict(_expect_block(spec))
     own = expect.pop("behaviours", {}) or {}
-    default = ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]
-    chosen = spec.get("behaviours", default)
+    chosen = spec["behaviours"]
     if set(own) - set(chosen):
         raise ExpectationError(f"expect.behaviours names {sorted(set(own) - set(chosen))}, which are not "
                                f"replayed; replayed: {chosen}")
     for behaviour in chosen:
-        replay = replay_keyframes(robot, behaviour, spec.get("keyframes"))
+        replay = replay_keyframes(robot, behaviour, spec["keyframes"])
         motion = replay["motion"]
         names = motion.joint_names
         exact, clamped_rows = True, 0
@@ -267,21 +246,21 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     report = _report(spec, robot)
-    result = placo_walk(robot, steps=int(spec.get("steps", 4)),
-                        step_length=float(spec.get("step_length", 0.03)),
-                        margin=float(spec.get("margin", 0.005)))
+    result = placo_walk(robot, steps=int(spec["steps"]), step_length=float(spec["step_length"]),
+                        margin=float(spec["margin"]))
     entry = {"name": "PlaCo walk pattern generator", **result}
     figures = {**result}
     for key in ("max_step_advance", "min_com_margin", "min_zmp_margin"):
         if f"{key}_mm" in result:
             figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
-    wanted = {"planned": True, **_expect_block(spec, set(PLACO_WALK_RULES))}
+    wanted = {"planned": True, **_expect_block(spec)}
     _add(report, _judge(entry, wanted, figures, PLACO_WALK_RULES, "expect"))
     return report
 
 
 RUNNER_KINDS = {"bioloid_step": run_step, "bioloid_walk": run_walk, "bioloid_turn": run_walk,
                 "bioloid_keyframes": run_keyframes, "bioloid_placo_walk": run_placo_walk}
+"""The kinds of this module (registered by name in wbik.scenarios.KINDS)."""
 
 
 def format_report(report: dict) -> str:
@@ -306,10 +285,6 @@ def _short(value) -> str:
     if isinstance(value, (list, tuple, np.ndarray)) and len(value) > 6:
         return f"[{len(value)} values]"
     return str(value)
-
-
-for _kind, _runner in RUNNER_KINDS.items():
-    register_runner(_kind, _runner, format_report)
 
 
 def scenario_path(name: str) -> Path:

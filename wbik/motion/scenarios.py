@@ -1,4 +1,6 @@
-"""Scenario runners for motion files (tasks/motion_*.yaml), plugged into :mod:`wbik.scenarios`.
+"""Scenario runners for motion files (tasks/motion_*.yaml), registered by name in
+:data:`wbik.scenarios.KINDS`; their keys, types and defaults are declared in
+:mod:`wbik.scenario_schema`, and every runner reads the checked spec.
 
 Kinds (each report has ``passed`` and one entry per move in ``moves``):
 
@@ -34,7 +36,7 @@ from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
-from wbik.scenarios import ScenarioError, register_runner
+from wbik.scenarios import ScenarioError
 
 Progress = Callable[[dict], None] | None
 
@@ -54,8 +56,8 @@ torso lift moved; ``cop_error_max_m``: the stance's centre of pressure off the C
 
 def _judge(spec: dict, entry: dict, figures: dict, defaults: dict) -> dict:
     """The move's expectations (defaults under the task file's ``expect``) into the entry."""
-    wanted = {**defaults, **(spec.get("expect", {}) or {})}
-    where = f"{spec.get('name') or spec['kind']} expect"
+    wanted = {**defaults, **(spec["expect"] or {})}
+    where = f"{spec['name'] or spec['kind']} expect"
     entry["expectations"] = evaluate(wanted, figures, MOVE_RULES, where)
     entry["verdict"] = verdict(entry["expectations"])
     entry["passed"] = entry["verdict"] != "FAILED"
@@ -63,15 +65,9 @@ def _judge(spec: dict, entry: dict, figures: dict, defaults: dict) -> dict:
 
 
 def _robot(spec: dict):
-    from wbik.errors import UnknownRobotError
     from wbik.models import load
 
-    if "robot" not in spec:
-        raise ScenarioError(f"a {spec.get('kind')} scenario needs a 'robot'")
-    try:
-        return load(spec["robot"], **spec.get("robot_params", {}))
-    except UnknownRobotError as exc:
-        raise ScenarioError(str(exc)) from exc
+    return load(spec["robot"], **spec["robot_params"])
 
 
 def _vector(value, size: int | None, what: str) -> np.ndarray:
@@ -85,7 +81,7 @@ def _vector(value, size: int | None, what: str) -> np.ndarray:
 
 
 def _start(spec: dict, chain) -> np.ndarray:
-    start = spec.get("start", "nominal")
+    start = spec["start"]
     return chain.nominal.copy() if start == "nominal" else _vector(start, chain.nq, "start")
 
 
@@ -101,13 +97,13 @@ def _pose(entry, what: str):
 def _timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
                 extra_defaults: dict | None = None) -> tuple[dict, object]:
     """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
-    timing = spec.get("timing", {})
-    timed = time_scale(path, timing.get("law", "quintic"), timing.get("velocity_limit"),
-                       timing.get("acceleration_limit"), timing.get("mode", "global"))
-    trajectory = make_trajectory(timed, dt=timing.get("dt"))
+    timing = spec["timing"]
+    timed = time_scale(path, timing["law"], timing["velocity_limit"], timing["acceleration_limit"],
+                       timing["mode"])
+    trajectory = make_trajectory(timed, dt=timing["dt"])
     dense = timed.evaluate(np.linspace(0.0, timed.duration, 20001))[1]
     velocity_ratio = float(np.max(np.abs(dense) / timed.velocity_limit))
-    tolerance = float(spec.get("tolerance", 1e-6))
+    tolerance = float(spec["tolerance"])
     summary = path.summary()
     entry = {"name": name, "path": summary, "info": _plain(path.info),
              "duration_s": timed.duration, "time_law": timed.law.name, "timing_mode": timed.mode,
@@ -119,7 +115,7 @@ def _timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | No
                "max_knot_rotation_error": summary["max_knot_rotation_error"],
                "jumps": len(summary["jumps"] or [])}
     defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
-    if bool((spec.get("expect", {}) or {}).get("success", True)):
+    if bool((spec["expect"] or {}).get("success", True)):
         for key, figure in (("knot_error_max_m", "max_knot_position_error"),
                             ("knot_error_max_rad", "max_knot_rotation_error")):
             if figures[figure] is not None:
@@ -142,7 +138,7 @@ def _plain(value):
 
 
 def _finish(spec: dict, report: dict, trajectory) -> dict:
-    export = spec.get("export", {})
+    export = spec.get("export") or {}
     if trajectory is not None:
         if "csv" in export:
             report["csv"] = str(trajectory.write_csv(Path(export["csv"])))
@@ -154,7 +150,7 @@ def _finish(spec: dict, report: dict, trajectory) -> dict:
 
 
 def _report(spec: dict, robot) -> dict:
-    return {"name": spec.get("name", ""), "kind": spec["kind"], "robot": robot.name, "moves": [],
+    return {"name": spec["name"], "kind": spec["kind"], "robot": robot.name, "moves": [],
             "passed": True, "verdict": "informational"}
 
 
@@ -162,9 +158,10 @@ def run_joint(spec: dict, on_progress: Progress = None) -> dict:
     from wbik.motion.joint import joint_path
 
     robot = _robot(spec)
-    chain = robot.chain(spec.get("chain"))
-    configurations = [_vector(q, chain.nq, "configuration") for q in spec.get("configurations", [])]
-    path = joint_path(chain, configurations, int(spec.get("samples", 10)))
+    chain = robot.chain(spec["chain"])
+    configurations = [_vector(q, chain.nq, f"configurations[{index}]")
+                      for index, q in enumerate(spec["configurations"])]
+    path = joint_path(chain, configurations, int(spec["samples"]))
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "joint interpolation")
     report["moves"].append(entry)
@@ -172,20 +169,17 @@ def run_joint(spec: dict, on_progress: Progress = None) -> dict:
 
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> dict:
-    from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD, waypoint_path
+    from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.base import solver
 
     robot = _robot(spec)
-    ik = solver(spec.get("method", "dls"), robot, chain=spec.get("chain"),
-                timeout_s=float(spec.get("timeout_s", 0.05)))
-    waypoints = [_pose(entry, f"waypoint {i + 1}") for i, entry in enumerate(spec.get("waypoints", []))]
-    if not waypoints:
-        raise ScenarioError("a motion_cartesian scenario needs 'waypoints'")
-    path = waypoint_path(ik, _start(spec, ik.chain), waypoints, int(spec.get("samples", 10)),
-                         float(spec.get("jump_threshold", DEFAULT_JUMP_THRESHOLD)))
+    ik = solver(spec["method"], robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))
+    waypoints = [_pose(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
+    path = waypoint_path(ik, _start(spec, ik.chain), waypoints, int(spec["samples"]),
+                         float(spec["jump_threshold"]))
     report = _report(spec, robot)
     chain = ik.chain
-    tolerance = float(spec.get("tolerance", 1e-6))
+    tolerance = float(spec["tolerance"])
     reached = []
     for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
         wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
@@ -202,23 +196,23 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> dict:
     from wbik.solvers.base import solver
 
     robot = _robot(spec)
-    ik = solver(spec.get("method", "dls"), robot, timeout_s=float(spec.get("timeout_s", 0.05)))
+    ik = solver(spec["method"], robot, timeout_s=float(spec["timeout_s"]))
     chain = ik.chain
     q = _start(spec, chain)
     report, trajectory = _report(spec, robot), None
-    for index, move in enumerate(spec.get("moves", [])):
+    for index, move in enumerate(spec["moves"]):
         if "jog" in move:
-            path = pincher.jog(chain, q, move["jog"], math.radians(float(move.get("delta_deg", 0.0))),
-                               int(move.get("samples", 10)))
+            path = pincher.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
+                               int(move["samples"]))
             name = f"jog {move['jog']} by {move.get('delta_deg')} deg"
         elif "plane_line" in move:
             line = move["plane_line"]
             start = _vector(line["start_xy_mm"], 2, "start_xy_mm") / 1000.0
             goal = _vector(line["goal_xy_mm"], 2, "goal_xy_mm") / 1000.0
-            path = pincher.plane_line(ik, start, goal, int(line.get("samples", 20)), q0=q)
+            path = pincher.plane_line(ik, start, goal, int(line["samples"]), q0=q)
             name = f"plane line {line['start_xy_mm']} -> {line['goal_xy_mm']} mm"
         elif "automatic" in move:
-            path = pincher.automatic_path(ik, int((move["automatic"] or {}).get("samples", 10)))
+            path = pincher.automatic_path(ik, int(move["automatic"]["samples"]))
             name = "automatic cycle"
         else:
             raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
@@ -235,13 +229,13 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> dict:
 
     robot = _robot(spec)
     chain = robot.chain(ARM_WITH_LIFT)
-    grasp = spec.get("grasp", {})
+    grasp = spec["grasp"]
     if "from_joints" in grasp:
         goal = chain.fk(_vector(grasp["from_joints"], chain.nq, "grasp from_joints"))
     else:
         goal = _pose(grasp, "grasp")
-    path = approach(robot, _start(spec, chain), goal, int(spec.get("samples", 20)), spec.get("method", "dls"),
-                    timeout_s=float(spec.get("timeout_s", 0.05)))
+    path = approach(robot, _start(spec, chain), goal, int(spec["samples"]), spec["method"],
+                    timeout_s=float(spec["timeout_s"]))
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
     report["moves"].append(entry)
@@ -252,12 +246,12 @@ def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
     from wbik.bioloid.sensors import stance_loads
 
     robot = _robot(spec)
-    q = robot.nominal.copy() if spec.get("start", "nominal") == "nominal" else _vector(
+    q = robot.nominal.copy() if spec["start"] == "nominal" else _vector(
         spec["start"], robot.model.nq, "start")
     stance = stance_loads(robot, q)
     gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
     entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
-    _judge(spec, entry, {"cop_minus_com_m": gap}, {"cop_error_max_m": float(spec.get("tolerance", 1e-9))})
+    _judge(spec, entry, {"cop_minus_com_m": gap}, {"cop_error_max_m": float(spec["tolerance"])})
     report = _report(spec, robot)
     report["moves"].append(entry)
     return _finish(spec, report, None)
@@ -265,6 +259,7 @@ def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
 
 RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "pincher_motion": run_pincher,
                 "golem3_approach": run_golem3, "bioloid_stance_sensors": run_bioloid_stance}
+"""The kinds of this module (registered by name in wbik.scenarios.KINDS)."""
 
 
 def format_report(report: dict) -> str:
@@ -286,6 +281,3 @@ def format_report(report: dict) -> str:
         lines.extend(format_checks(move.get("expectations", []), indent="      "))
     return "\n".join(lines)
 
-
-for _kind, _runner in RUNNER_KINDS.items():
-    register_runner(_kind, _runner, format_report)
