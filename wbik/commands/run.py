@@ -22,15 +22,20 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from wbik.errors import UsageError
+    from wbik.scenario_schema import accepts, kind_names
     from wbik.scenarios import _json_default, format_report, load_scenario, run_scenario
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
                          "e.g. --output runs/report.json")
-    spec = load_scenario(args.taskfile)
+    spec = load_scenario(args.taskfile)  # checked against its kind's schema: errors name the file and key
     if args.backend:
+        if not accepts(spec["kind"], "backend"):
+            takes = [kind for kind in kind_names() if accepts(kind, "backend")]
+            raise UsageError(f"--backend: a {spec['kind']} scenario solves no QP with a file-wide backend; "
+                             f"--backend applies to the kinds {', '.join(takes)}")
         spec["backend"] = args.backend
-    report = run_scenario(spec, output=args.output)
+    report = run_scenario(spec, output=args.output, source=args.taskfile)  # checks the backend too
     if args.json:
         print(json.dumps(report, indent=2, default=_json_default))
     else:

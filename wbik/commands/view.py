@@ -9,7 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-SCENARIO_SUFFIXES = (".yaml", ".yml", ".toml")
+SCENARIO_SUFFIXES = (".yaml", ".yml", ".toml", ".json")
+"""A ROBOT argument with one of these suffixes is a scenario file (read by wbik.scenarios.load_scenario,
+which checks it against its kind's schema before it is run and played)."""
 
 
 def add_parser(subparsers) -> None:
