@@ -77,6 +77,7 @@ def test_one_set_of_defaults():
     phase = wholebody["phases"][0]
     assert phase["margin"] == 0.005 and phase["support"] == ["r_sole", "l_sole"]
     assert wholebody["robot_params"] == step["robot_params"] == {}
+    assert phase["expect"] is None and step["expect"] is None  # runners index every declared key
 
 
 def yaml_load(text: str):

@@ -510,7 +510,7 @@ def _wholebody_schema() -> Map:
                                         "distance": Key(NON_NEGATIVE, required=True)})), []),
         "max_step": Key(POSITIVE, 0.2),
         "max_iterations": Key(Number(gt=0, integer=True, budget=True), 300),
-        "expect": Key(_expect(PHASE_RULES)),
+        "expect": Key(_expect(PHASE_RULES), None),
         "continue_from": Key(Text(("result", "start")), "result"),
     })
 
@@ -564,22 +564,23 @@ def _bioloid_schema(kind: str) -> Map:
                 "generators": Key(ListOf(Text(generators), min_items=1), list(generators)),
                 "round_degrees": Key(Boolean(), False),
                 "expect": Key(_expect({}, faithful=Key(_expect(FAITHFUL_RULES)),
-                                      wholebody=Key(_expect(WHOLEBODY_RULES))))}
+                                      wholebody=Key(_expect(WHOLEBODY_RULES))), None)}
     elif kind == "bioloid_walk":
         keys = {**margin, **gait, **timed, **walking, "steps": Key(Number(ge=1, integer=True), 4),
-                "turn_deg": Key(Number(unit="deg"), 0.0), "expect": Key(_expect(WHOLEBODY_RULES))}
+                "turn_deg": Key(Number(unit="deg"), 0.0), "expect": Key(_expect(WHOLEBODY_RULES), None)}
     elif kind == "bioloid_turn":
         keys = {**margin, **gait, **timed, "turn_deg": Key(Number(unit="deg"), 20.0),
-                "expect": Key(_expect(WHOLEBODY_RULES))}
+                "expect": Key(_expect(WHOLEBODY_RULES), None)}
     elif kind == "bioloid_keyframes":
         keys = {"behaviours": Key(ListOf(Text(what="a behaviour name"), min_items=1),
                                   ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]),
                 "keyframes": Key(Text(what="a keyframe file path", nullable=True), None),
                 "expect": Key(_expect(KEYFRAME_RULES, behaviours=Key(Map(values=_expect(KEYFRAME_RULES),
-                                                                         nullable=True))))}
+                                                                         nullable=True))), None)}
     else:  # bioloid_placo_walk
         keys = {**margin, "steps": Key(Number(ge=1, integer=True), 4),
-                "step_length": Key(Number(gt=0, unit="m"), 0.03), "expect": Key(_expect(PLACO_WALK_RULES))}
+                "step_length": Key(Number(gt=0, unit="m"), 0.03),
+                "expect": Key(_expect(PLACO_WALK_RULES), None)}
     return Map({**common, **keys}, post=_check_robot_params)
 
 
@@ -596,7 +597,7 @@ def _motion_schema(kind: str) -> Map:
               "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
                                 nullable=True), {}),
               "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
-              "expect": Key(_expect(MOVE_RULES))}
+              "expect": Key(_expect(MOVE_RULES), None)}
     solving = {"method": Key(Method(), "dls"), "timeout_s": Key(Number(gt=0, unit="s", budget=True), 0.05),
                "start": Key(START, "nominal")}
     samples = {"samples": Key(Number(ge=1, integer=True), 10)}
@@ -637,7 +638,7 @@ def _motion_schema(kind: str) -> Map:
         keys = {**solving, "samples": Key(Number(ge=1, integer=True), 20), "grasp": Key(grasp, required=True)}
     else:  # bioloid_stance_sensors
         keys = {"start": Key(START, "nominal"), "tolerance": Key(Number(gt=0, unit="m"), 1e-9),
-                "expect": Key(_expect(MOVE_RULES))}
+                "expect": Key(_expect(MOVE_RULES), None)}
         common = {key: common[key] for key in ("kind", "name", "robot", "robot_params")}
     return Map({**common, **keys}, post=_check_robot_params)
 
