@@ -19,6 +19,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.errors import (
     InvalidBudgetError,
@@ -29,7 +30,7 @@ from wbik.errors import (
     UnsupportedError,
 )
 from wbik.robot import Chain, Robot
-from wbik.targets import Target, as_target, pose_error
+from wbik.targets import Target, as_target
 from wbik.validation import check_budget
 
 DEFAULT_TIMEOUT_S = 0.005
@@ -103,32 +104,41 @@ class IKResult:
 
 def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
              time_s: float, method: str) -> IKResult:
-    """The shared FK check: clip into the limits, measure the errors, decide success."""
-    nan3 = np.full(3, np.nan)
+    """The shared FK check: clip into the limits, measure the errors, decide success.
+
+    Written for the per-call path (a few microseconds): plain-float norms, one clip, one FK, one
+    log3; the detailed checks run only when something is off.
+    """
     if candidate.q is None:
-        return IKResult(None, False, candidate.reason or "no solution", float("nan"), float("nan"),
+        nan3 = np.full(3, np.nan)
+        return IKResult(None, False, candidate.reason or "no solution", math.nan, math.nan,
                         nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
     q = np.asarray(candidate.q, dtype=float)
-    if q.shape != (chain.nq,) or not np.all(np.isfinite(q)):
-        return IKResult(None, False, f"method returned invalid joints {q!r}", float("nan"),
-                        float("nan"), nan3, nan3.copy(), time_s, candidate.iterations, method,
-                        candidate.extra)
+    if q.shape != (chain.nq,) or not math.isfinite(float(q.dot(q))):
+        if q.shape != (chain.nq,) or not np.all(np.isfinite(q)):
+            nan3 = np.full(3, np.nan)
+            return IKResult(None, False, f"method returned invalid joints {q!r}", math.nan, math.nan,
+                            nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
     reason = candidate.reason
-    if not chain.in_limits(q, tolerance=1e-9):
-        reason = reason or "solution outside the joint limits (clipped)"
-    q = chain.clip(q)
-    position_xyz, rotation_xyz = pose_error(chain.fk(q), target)
-    if rotation_xyz is None:
+    inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
+    if inside.tobytes() != q.tobytes() and not reason and not chain.in_limits(q, tolerance=1e-9):
+        reason = "solution outside the joint limits (clipped)"
+    reached = chain.fk(inside)
+    position_xyz = reached.translation - target.position
+    if target.rotation is None:
         rotation_xyz = np.zeros(3)
-    position_norm = float(np.linalg.norm(position_xyz))
-    rotation_norm = float(np.linalg.norm(rotation_xyz))
+        rotation_norm = 0.0
+    else:
+        rotation_xyz = pin.log3(target.rotation.T.dot(reached.rotation))
+        rotation_norm = math.sqrt(rotation_xyz.dot(rotation_xyz))
+    position_norm = math.sqrt(position_xyz.dot(position_xyz))
     success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
     if success:
         reason = ""
     elif not reason:
         reason = (f"FK check failed: position error {position_norm:.3g} m, "
                   f"rotation error {rotation_norm:.3g} rad")
-    return IKResult(q, success, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
+    return IKResult(inside, success, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
 
 
@@ -213,13 +223,15 @@ class Solver:
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
         """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal)."""
         target = as_target(target)
-        self._check_target_kind(target)
-        q_start = self.chain.nominal.copy() if q0 is None else self.chain.check_q(q0)
+        if not (self.supports_pose if target.rotation is not None else self.supports_position_only):
+            self._check_target_kind(target)  # raises the detailed UnsupportedError
+        chain = self.chain
+        q_start = chain.nominal.copy() if q0 is None else chain.check_q(q0)
         start = time.perf_counter()
         deadline = math.inf if self.timeout_s is None else start + self.timeout_s
         candidate = self._solve(target, q_start, deadline)
         elapsed = time.perf_counter() - start
-        return evaluate(self.chain, target, candidate, self.tolerances, elapsed, self.name)
+        return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None) -> list[IKResult]:
         """Solve a batch; ``q0s`` is one start for all, one per target, or None."""
