@@ -33,6 +33,21 @@ from wbik.validation import numeric_array
 _CHAIN_BUILD_LOCK = threading.Lock()
 
 
+class PerThreadData:
+    """``owner.data``: this thread's Pinocchio Data of ``owner.model`` (each thread writes its own;
+    the owner keeps a ``threading.local`` in ``_local``)."""
+
+    def __get__(self, owner, owner_type=None) -> pin.Data:
+        if owner is None:
+            return self
+        local = owner._local
+        try:
+            return local.data
+        except AttributeError:
+            data = local.data = owner.model.createData()
+            return data
+
+
 @dataclass(frozen=True)
 class ChainSpec:
     """Names that define a chain: base frame, tip frame and the joints between them, in order."""
@@ -102,14 +117,7 @@ class Chain:
         self.is_prismatic = np.array(
             [full.joints[j].shortname().startswith("JointModelP") for j in joint_ids])
 
-    @property
-    def data(self) -> pin.Data:
-        """This thread's Pinocchio Data of the chain's model (each thread writes its own)."""
-        try:
-            return self._local.data
-        except AttributeError:
-            data = self._local.data = self.model.createData()
-            return data
+    data = PerThreadData()
 
     @property
     def nq(self) -> int:
@@ -193,14 +201,7 @@ class Robot:
         return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
                 f"chains={list(self.chains)})")
 
-    @property
-    def data(self) -> pin.Data:
-        """This thread's Pinocchio Data of the full model (each thread writes its own)."""
-        try:
-            return self._local.data
-        except AttributeError:
-            data = self._local.data = self.model.createData()
-            return data
+    data = PerThreadData()
 
     @property
     def has_floating_base(self) -> bool:

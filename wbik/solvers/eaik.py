@@ -72,6 +72,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.errors import InvalidSettingError, MissingDependencyError, UnsupportedError
+from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.analytic import BRANCH_MERGE, wrap_into_limits
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
@@ -274,9 +275,7 @@ class EAIKSolver(Solver):
 
     def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
         """Largest joint difference, revolute joints modulo 2 pi."""
-        difference = q - other
-        wrapped = np.abs(np.angle(np.exp(1j * difference)))
-        return float(np.max(np.where(self.revolute, wrapped, np.abs(difference))))
+        return joint_gap(q, other, self.revolute)
 
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct EAIK branch inside the limits that passes the shared FK check."""

@@ -18,6 +18,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from wbik.errors import UnsupportedError
+from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.targets import Target, as_target
@@ -203,9 +204,7 @@ class AnalyticSolver(Solver):
 
     def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
         """Largest joint difference, revolute joints modulo 2 pi."""
-        difference = q - other
-        wrapped = np.abs(np.angle(np.exp(1j * difference)))
-        return float(np.max(np.where(self.revolute, wrapped, np.abs(difference))))
+        return joint_gap(q, other, self.revolute)
 
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct branch inside the limits that passes the shared FK check."""
