@@ -7,17 +7,21 @@ display), so the executed copies keep their figures. A failing cell fails the te
 traceback. The executed copies go to tests/artifacts/notebooks/ (git-ignored), also when a cell
 fails. The notebooks assert the seed numbers they reproduce, so an executed notebook is a test too.
 
-The generated notebooks (scripts/make_notebooks.py) must be committed as generated, without outputs.
+The notebooks are plain sources: jupytext percent scripts ``notebooks/NN_name.py`` (cells start at
+``# %%``, markdown cells at ``# %% [markdown]``), linted by ruff like the rest of the code and
+converted to notebooks here with jupytext. No .ipynb (with or without outputs) is committed; open a
+script as a notebook with ``jupytext --to ipynb notebooks/01_quickstart.py`` or Jupyter's jupytext
+extension.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
 import sys
 from pathlib import Path
 
+import jupytext
 import nbclient
 import nbformat
 import pytest
@@ -34,7 +38,7 @@ ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
 
 
 def _notebooks() -> list[Path]:
-    return sorted(NOTEBOOKS.glob("*.ipynb"))
+    return sorted(NOTEBOOKS.glob("[0-9][0-9]_*.py"))
 
 
 @pytest.fixture(scope="module")
@@ -55,14 +59,24 @@ def kernel_specs(tmp_path_factory) -> KernelSpecManager:
 
 def test_there_are_notebooks():
     names = [path.name for path in _notebooks()]
-    for expected in ("01_quickstart.ipynb", "04_pincher.ipynb", "05_newton_path.ipynb"):
+    for expected in ("01_quickstart.py", "04_pincher.py", "05_newton_path.py", "06_ur5_riveting.py"):
         assert expected in names
+
+
+def test_notebooks_are_percent_scripts_without_generated_copies():
+    """Every notebook is a jupytext percent script with code cells; no .ipynb sits beside them."""
+    assert not sorted(NOTEBOOKS.glob("*.ipynb")), "notebooks/ holds .ipynb files: commit the .py sources only"
+    for path in _notebooks():
+        assert path.read_text().startswith("# %%"), f"{path.name}: a percent script starts with a '# %%' cell"
+        notebook = jupytext.read(path)
+        assert any(cell.cell_type == "code" for cell in notebook.cells), path.name
+        assert any(cell.cell_type == "markdown" for cell in notebook.cells), path.name
 
 
 @pytest.mark.parametrize("path", _notebooks(), ids=lambda path: path.stem)
 def test_notebook_runs_top_to_bottom(path: Path, kernel_specs: KernelSpecManager, monkeypatch):
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    notebook = nbformat.read(path, as_version=4)
+    notebook = jupytext.read(path)  # the percent script as an output-free notebook
     manager = KernelManager(kernel_name=KERNEL_NAME, kernel_spec_manager=kernel_specs)
     client = nbclient.NotebookClient(notebook, km=manager, timeout=CELL_TIMEOUT_S, kernel_name=KERNEL_NAME,
                                      resources={"metadata": {"path": str(NOTEBOOKS)}})
@@ -72,28 +86,9 @@ def test_notebook_runs_top_to_bottom(path: Path, kernel_specs: KernelSpecManager
     except CellExecutionError as error:
         pytest.fail(f"{path.name}: a cell failed\n{ANSI_ESCAPE.sub('', str(error))}", pytrace=False)
     finally:
-        nbformat.write(notebook, ARTIFACTS / path.name)
+        nbformat.write(notebook, ARTIFACTS / f"{path.stem}.ipynb")
     code_cells = [cell for cell in notebook.cells if cell.cell_type == "code"]
     assert code_cells and all(cell.get("execution_count") for cell in code_cells)
     errors = [output for cell in code_cells for output in cell.outputs if output.output_type == "error"]
     assert not errors
 
-
-def _generator():
-    spec = importlib.util.spec_from_file_location("make_notebooks", ROOT / "scripts" / "make_notebooks.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_generated_notebooks_are_committed_as_generated_without_outputs():
-    generator = _generator()
-    for name, built in generator.build_all().items():
-        path = NOTEBOOKS / name
-        assert path.exists(), f"{name} missing: run .venv/bin/python scripts/make_notebooks.py"
-        committed = nbformat.read(path, as_version=4)
-        assert [cell.source for cell in committed.cells] == [cell.source for cell in built.cells], (
-            f"{name} differs from scripts/make_notebooks.py: regenerate it")
-        for cell in committed.cells:
-            if cell.cell_type == "code":
-                assert not cell.outputs and cell.execution_count is None, f"{name} is committed with outputs"
