@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-import tempfile
+import os
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -194,8 +194,13 @@ class Robot:
         self._local = threading.local()
         self.nominal = np.asarray(self.nominal, dtype=float)
         self._chains: dict[str, Chain] = {}
+
+    def urdf_file(self) -> Path:
+        """A URDF file of this robot: ``urdf_path``, or else a copy of ``urdf_text`` written to the
+        user's cache folder on first use (for libraries that read files; see :func:`cache_dir`)."""
         if self.urdf_path is None:
             self.urdf_path = write_cached_urdf(self.name, self.urdf_text)
+        return self.urdf_path
 
     def __repr__(self) -> str:
         return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
@@ -247,10 +252,22 @@ class Robot:
         return float(sum(inertia.mass for inertia in self.model.inertias))
 
 
+def cache_dir() -> Path:
+    """wbik's per-user cache folder: ``$WBIK_CACHE_DIR``, else ``$XDG_CACHE_HOME/wbik``, else
+    ``~/.cache/wbik``. Not created here: whoever writes into it creates it on first use."""
+    override = os.environ.get("WBIK_CACHE_DIR")
+    if override:
+        return Path(override).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg).expanduser() if xdg and Path(xdg).is_absolute() else Path.home() / ".cache"
+    return base / "wbik"
+
+
 def write_cached_urdf(name: str, text: str) -> Path:
-    """Write URDF text to a content-addressed file (KDL and TRAC-IK read URDF files)."""
+    """Write URDF text to a content-addressed file in ``cache_dir()/urdf`` (for the libraries that
+    read URDF files, e.g. PlaCo); the folder is created on first use."""
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
-    folder = Path(tempfile.gettempdir()) / "wbik-urdf"
+    folder = cache_dir() / "urdf"
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"{name}-{digest}.urdf"
     if not path.exists():

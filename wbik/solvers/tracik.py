@@ -64,9 +64,10 @@ class TracIKSolver(Solver):
                                        getattr(self.pytracik.SolveType, self.solve_type))
         joints = self.pytracik.get_num_joints(solver)
         if joints != chain_.nq:
+            urdf = self.robot.urdf_path or f"the URDF of {self.robot.name!r}"
             raise RobotDescriptionError(
                 f"TRAC-IK finds {joints} movable joints between {chain_.base_frame!r} and "
-                f"{chain_.tip_frame!r} in {self.robot.urdf_path}, the chain {chain_.name!r} has {chain_.nq} "
+                f"{chain_.tip_frame!r} in {urdf}, the chain {chain_.name!r} has {chain_.nq} "
                 f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
                 "them in the chain")
         self.pytracik.set_joint_limits(solver, chain_.lower.tolist(), chain_.upper.tolist())
