@@ -21,7 +21,7 @@ import traceback
 
 from wbik.errors import WbikError
 
-SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run")
+SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run", "tasks")
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 

@@ -39,10 +39,11 @@ from wbik.bioloid.step_wholebody import (
     step_phases,
     yaw_of,
 )
+from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
 from wbik.robot import Robot
 
-KEYFRAMES_PATH = Path(__file__).resolve().parents[2] / "tasks" / "data" / "bioloid_keyframes.yaml"
+KEYFRAMES_PATH = data_dir("tasks") / "data" / "bioloid_keyframes.yaml"
 RAMP_INSET = 0.008
 """A hand-over moves the CoM to this far inside the next stance sole (m), the hard margin being less."""
 

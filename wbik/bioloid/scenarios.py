@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.data import data_dir
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.scenarios import CONTACT_TOLERANCE
 
@@ -288,5 +289,5 @@ def _short(value) -> str:
 
 
 def scenario_path(name: str) -> Path:
-    """tasks/NAME.yaml of the repository."""
-    return Path(__file__).resolve().parents[2] / "tasks" / f"{name}.yaml"
+    """tasks/NAME.yaml shipped with wbik (the repository's, or the installed package's copy)."""
+    return data_dir("tasks") / f"{name}.yaml"

@@ -8,10 +8,12 @@ import json
 
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
-        "run", help="run a scenario file (e.g. tasks/bioloid_balance.yaml)",
+        "run", help="run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)",
         description="Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). "
-                    "Prints a summary; --output writes the JSON report after every phase.")
-    parser.add_argument("taskfile", help="scenario file (YAML or JSON)")
+                    "Prints a summary; --output writes the JSON report after every phase. A task shipped "
+                    "with wbik is also found by its name (wbik run bioloid_balance); 'wbik tasks' lists "
+                    "them.")
+    parser.add_argument("taskfile", help="scenario file (YAML or JSON), or the name of a shipped task")
     parser.add_argument("--output", "-o", help="write the JSON report here (updated after every phase)")
     parser.add_argument("--backend", help="override the QP backend (osqp, daqp, quadprog, proxqp, fastest)")
     parser.add_argument("--json", action="store_true", help="print the JSON report instead of the summary")
@@ -21,6 +23,7 @@ def add_parser(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from wbik.data import task_path
     from wbik.errors import UsageError
     from wbik.scenario_schema import accepts, kind_names
     from wbik.scenarios import _json_default, format_report, load_scenario, run_scenario
@@ -28,14 +31,15 @@ def run(args: argparse.Namespace) -> int:
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
                          "e.g. --output runs/report.json")
-    spec = load_scenario(args.taskfile)  # checked against its kind's schema: errors name the file and key
+    taskfile = str(task_path(args.taskfile))  # a path as given, else a shipped task of that name
+    spec = load_scenario(taskfile)  # checked against its kind's schema: errors name the file and key
     if args.backend:
         if not accepts(spec["kind"], "backend"):
             takes = [kind for kind in kind_names() if accepts(kind, "backend")]
             raise UsageError(f"--backend: a {spec['kind']} scenario solves no QP with a file-wide backend; "
                              f"--backend applies to the kinds {', '.join(takes)}")
         spec["backend"] = args.backend
-    report = run_scenario(spec, output=args.output, source=args.taskfile)  # checks the backend too
+    report = run_scenario(spec, output=args.output, source=taskfile)  # checks the backend too
     if args.json:
         print(json.dumps(report, indent=2, default=_json_default))
     else:

@@ -14,7 +14,8 @@ def add_parser(subparsers) -> None:
                     "and a Markdown + HTML report in the output folder. An interrupted run resumes where "
                     "it stopped when run again with the same output folder.")
     parser.add_argument("file", nargs="?",
-                        help="study file (.yaml or .toml); default comparisons/default.yaml")
+                        help="study file (.yaml or .toml), or the name of a shipped study "
+                             "(golem3_thesis); default comparisons/default.yaml")
     parser.add_argument("--output", "-o", type=Path, help="output folder (default runs/<study name>/)")
     parser.add_argument("--jobs", "-j", type=int, default=2, help="parallel workers (default 2)")
     parser.add_argument("--backend", default="loky", choices=("loky", "sequential", "dask"),

@@ -10,11 +10,13 @@ import importlib
 import inspect
 from pathlib import Path
 
+from wbik.data import data_dir
 from wbik.errors import InvalidOptionError, RobotDescriptionError, UnknownRobotError
 from wbik.robot import Robot, robot_from_urdf_text
 
-URDF_DIR = Path(__file__).resolve().parents[2] / "urdf"
-"""The repository's ``urdf/`` folder: descriptions written for this project."""
+URDF_DIR = data_dir("urdf")
+"""The ``urdf/`` folder (the repository's, or the installed package's copy): descriptions written for
+this project."""
 
 BUILTIN: dict[str, tuple[str, str]] = {
     # name -> (module, one-line description)

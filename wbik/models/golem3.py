@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.data import data_dir
 from wbik.dh import DHJoint, joint_xml, link_xml, rot_z, trans, urdf_document
 from wbik.robot import ChainSpec, Robot, model_from_urdf_text
 
@@ -69,7 +70,7 @@ LEFT_JOINTS = ("m20", "m21", "m22", "m23", "m24")
 MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
 """Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
 
-URDF_PATH = Path(__file__).resolve().parents[2] / "urdf" / "golem3.urdf"
+URDF_PATH = data_dir("urdf") / "golem3.urdf"
 
 CLOSED_FORMS = {
     ("right_arm", "pose"): "wbik.solvers.analytic.golem3:Golem3PoseIK",

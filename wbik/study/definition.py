@@ -33,10 +33,12 @@ from pathlib import Path
 
 import yaml
 
+from wbik.data import data_dir, study_path
 from wbik.errors import WbikError
 
-COMPARISONS_DIR = Path(__file__).resolve().parents[2] / "comparisons"
-"""The repository's ``comparisons/`` folder (study files; final reports under ``reports/``)."""
+COMPARISONS_DIR = data_dir("comparisons")
+"""The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
+the installed package's copy of its study files."""
 
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
@@ -187,8 +189,11 @@ def _digest(data) -> str:
 
 # -- parsing -----------------------------------------------------------------------------------
 def load_study(path: str | Path | None = None) -> Study:
-    """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``); None: the default study."""
-    path = DEFAULT_STUDY if path is None else Path(path)
+    """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``); None: the default study.
+
+    A name of a shipped study (``golem3_thesis``, or ``comparisons/golem3_thesis.yaml``) that is no
+    file where it is run from is the shipped file (see :func:`wbik.data.study_path`)."""
+    path = DEFAULT_STUDY if path is None else study_path(path)
     if not path.is_file():
         available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
         raise StudyDefinitionError(f"study file {str(path)!r} does not exist; the studies shipped in "

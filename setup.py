@@ -1,0 +1,45 @@
+"""Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
+top-level data folders as package data under ``wbik/data/``: ``urdf/``, ``tasks/`` (with
+``tasks/data/``) and the study files ``comparisons/*.yaml``.
+
+The folders stay at the top level of the repository, where the README documents them;
+:func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
+the source tree. Editable installs copy nothing (they read the top-level folders in place).
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from setuptools import setup
+from setuptools.command.build_py import build_py
+
+ROOT = Path(__file__).resolve().parent
+DATA = {
+    # folder -> glob patterns of the files shipped (comparisons/reports/ is output, not shipped)
+    "urdf": ("*.urdf", "*.xml"),
+    "tasks": ("*.yaml", "*.yml", "*.json", "*.toml", "data/*.yaml"),
+    "comparisons": ("*.yaml", "*.yml", "*.toml"),
+}
+
+
+class BuildPyWithData(build_py):
+    def run(self) -> None:
+        super().run()
+        if getattr(self, "editable_mode", False):
+            return
+        for folder, patterns in DATA.items():
+            target_root = Path(self.build_lib) / "wbik" / "data" / folder
+            shutil.rmtree(target_root, ignore_errors=True)  # no stale copies of removed files
+            for pattern in patterns:
+                for source in sorted((ROOT / folder).glob(pattern)):
+                    if source.is_file():
+                        target = target_root / source.relative_to(ROOT / folder)
+                        target.parent.mkdir(parents=True, exist_ok=True)
+                        shutil.copy2(source, target)
+            if not any(target_root.rglob("*")):
+                raise RuntimeError(f"setup.py: no data files found in {ROOT / folder}")
+
+
+setup(cmdclass={"build_py": BuildPyWithData})
