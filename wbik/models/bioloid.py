@@ -363,3 +363,26 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
     }
     return robot_from_urdf_text("bioloid", text, chain_specs(), nominal=nominal, floating_base=True,
                                 urdf_path=path, info=info)
+
+
+def collision_primitives(robot: Robot | None = None) -> list:
+    """Collision shapes (wbik.collision): the trunk (chest) and pelvis boxes of the URDF's visuals,
+    capsules from joint to joint for the thighs, shanks, upper arms and forearms (to the hand tip),
+    and the foot plate as a box whose bottom is the sole. ASSUMPTION: radii 17 mm (legs, a servo's
+    half width), 15 mm (upper arms), 12.5 mm (forearms)."""
+    from wbik.collision import box, capsule
+
+    shapes = [
+        box("trunk", "chest", (0.07, 0.10, 0.10), (-0.010, 0.0, -0.020)),
+        box("pelvis", "pelvis", (0.05, 0.10, 0.03), (0.0, 0.0, -0.010)),
+    ]
+    for s in ("r", "l"):
+        shapes += [
+            capsule(f"{s}_thigh", f"{s}_thigh", f"{s}_thigh", f"{s}_shank", 0.017),
+            capsule(f"{s}_shank", f"{s}_shank", f"{s}_shank", f"{s}_ankle_pitch_link", 0.017),
+            box(f"{s}_foot", f"{s}_ankle", (SOLE_LENGTH, SOLE_WIDTH, 0.015),
+                (0.0, 0.0, -ANKLE_HEIGHT + 0.0075)),
+            capsule(f"{s}_upper_arm", f"{s}_upper_arm", f"{s}_upper_arm", f"{s}_forearm", 0.015),
+            capsule(f"{s}_forearm", f"{s}_forearm", f"{s}_forearm", f"{s}_hand", 0.0125),
+        ]
+    return shapes

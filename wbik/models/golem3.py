@@ -244,3 +244,26 @@ def build() -> Robot:
                                "m2x limits = m1x limits",
                      "assumptions": "left arm by mirroring; masses, head and finger geometry are guesses",
                  })
+
+
+def collision_primitives(robot: Robot | None = None) -> list:
+    """Collision shapes (wbik.collision): capsules from joint to joint along each arm link, the chest
+    and torso column as capsules, a box for the mobile base, a sphere for the head. ASSUMPTION (the
+    thesis gives no link volumes): radii 0.045..0.06 m on the arms, 0.11 m torso, 0.12 m head."""
+    from wbik.collision import box, capsule, sphere
+
+    shapes = [
+        box("base", "base_link", (0.55, 0.55, 0.35), (0.0, 0.0, 0.175)),
+        capsule("torso", "torso_link", (0.0, 0.0, 0.45), (0.0, 0.0, 1.10), 0.11),
+        capsule("chest", "chest_link", "r_arm_link1", "l_arm_link1", 0.09),
+        sphere("head", "head_link", 0.12, (0.05, 0.0, 0.08)),
+    ]
+    for side in ("r", "l"):
+        link = f"{side}_arm_link"
+        shapes += [
+            capsule(f"{side}_shoulder", f"{link}1", f"{link}1", f"{link}2", 0.06),
+            capsule(f"{side}_upper_arm", f"{link}3", f"{link}3", f"{link}4", 0.055),
+            capsule(f"{side}_forearm", f"{link}4", f"{link}4", f"{link}5", 0.05),
+            capsule(f"{side}_hand", f"{link}5", f"{link}5", f"{side}_eef", 0.045),
+        ]
+    return shapes

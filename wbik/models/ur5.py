@@ -43,3 +43,34 @@ def build() -> Robot:
                                 package_dirs=package_dirs(),
                                 info={"tool_length": TOOL_LENGTH, "tool_diameter": 0.005,
                                       "closed_forms": CLOSED_FORMS})
+
+
+TABLE_SIZE = (1.4, 1.2, 0.05)
+"""The table under the UR5 (m): top at z = 0 (the base's plane), centred 0.3 m ahead of the base,
+as the riveting cell's default table (wbik.riveting.scene)."""
+
+
+def collision_primitives(robot: Robot | None = None) -> list:
+    """Collision shapes (wbik.collision): capsules from joint to joint along the links, the base as a
+    capsule standing on the table, the rivet tool as its 40 mm holder and 5 mm pin. ASSUMPTION: radii
+    (0.06 m base to upper arm, 0.05 forearm, 0.04 wrists) round the example-robot-data meshes."""
+    from wbik.collision import capsule
+
+    return [
+        capsule("base", "base_link", (0.0, 0.0, 0.0), (0.0, 0.0, 0.06), 0.06),
+        capsule("shoulder", "shoulder_link", (0.0, 0.0, -0.03), (0.0, 0.0, 0.06), 0.06),
+        capsule("upper_arm", "upper_arm_link", "upper_arm_link", "forearm_link", 0.06),
+        capsule("forearm", "forearm_link", "forearm_link", "wrist_1_link", 0.05),
+        capsule("wrist_1", "wrist_1_link", "wrist_1_link", "wrist_2_link", 0.04),
+        capsule("wrist_2", "wrist_2_link", "wrist_2_link", "wrist_3_link", 0.04),
+        capsule("wrist_3", "wrist_3_link", "wrist_3_link", "ee_link", 0.04),
+        capsule("tool_holder", "rivet_tool", (0.0, 0.0, 0.0), (0.1, 0.0, 0.0), 0.02),
+        capsule("tool_pin", "rivet_tool", (0.1, 0.0, 0.0), "tcp", 0.0025),
+    ]
+
+
+def collision_obstacles() -> list:
+    """The table under the UR5 (a box, top at z = 0)."""
+    from wbik.collision import Obstacle
+
+    return [Obstacle("table", TABLE_SIZE, (0.3, 0.0, -0.5 * TABLE_SIZE[2]))]

@@ -4,6 +4,7 @@
 >>> problem = IKProblem(robot.model, [FrameTask("r_hand", target)], [JointPositionLimits(robot.model)])
 >>> solution = problem.solve(robot.nominal)        # iterate to convergence (IK)
 >>> dq = problem.step(q, dt=0.01)                   # or one QP step (control), v = dq / dt
+>>> # self-collision / environment: CollisionAvoidance(wbik.collision.robot_collision_model(robot), 0.02)
 
 Modules: ``kinematics`` (model + data at one q), ``tasks``, ``constraints``, ``support_polygon``,
 ``backends`` (qpsolvers names, "fastest"), ``problem`` (the QP and the IK loop), ``humanoid``
@@ -22,6 +23,7 @@ Where ours differs from PlaCo (the reference, method ``placo``):
 
 from wbik.qp.backends import available as available_backends
 from wbik.qp.constraints import (
+    CollisionAvoidance,
     CoMInSupportPolygon,
     Constraint,
     Contact,
@@ -44,7 +46,7 @@ from wbik.qp.tasks import (
 )
 
 __all__ = [
-    "CoMInSupportPolygon", "ComTask", "Constraint", "Contact", "FrameTask", "IKProblem",
+    "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint", "Contact", "FrameTask", "IKProblem",
     "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance", "OrientationTask",
     "PositionTask", "PostureTask", "QPSolution", "RegularizationTask", "RelativeFrameTask",
     "SupportPolygon", "Task", "available_backends", "convex_hull", "feet_support_polygon",

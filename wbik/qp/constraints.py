@@ -211,3 +211,84 @@ class LockedJoints(Constraint):
     def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
         lower[self.v_index] = 0.0
         upper[self.v_index] = 0.0
+
+
+class CollisionAvoidance(Constraint):
+    """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m).
+
+    Rows only for the pairs closer than ``influence_distance`` (m): with the coal distance d, its
+    witness points p_a, p_b and normal n (a -> b), the distance after the step, linearised, must keep
+
+        d + n^T (J_b(p_b) - J_a(p_a)) dq >= safety + padding + (1 - gain) (d - safety - padding),
+
+    i.e.  n^T (J_a - J_b) dq <= gain (d - safety - padding): the velocity-damper form of Pink /
+    mink / PlaCo, a full step (gain 1) may close the whole gap, a smaller gain a fraction of it.
+    ``padding`` (m) absorbs the linearisation's second-order error so the FK check after the step
+    holds; the IK loop halves a step that breaks it. A pair already under ``safety`` asks for half
+    the repair (the QP's relaxation). ``violation`` = safety - (minimum distance over all pairs by FK,
+    coal), > 0 if too close; ``minimum(kinematics)`` gives that pair and distance.
+    """
+
+    kind = "inequality"
+
+    def __init__(self, pairs, safety_distance: float = 0.01, influence_distance: float = 0.1,
+                 gain: float = 1.0, padding: float = 1e-6):
+        from wbik.errors import InvalidSettingError
+        from wbik.validation import check_positive_finite
+
+        self.collision_model = pairs
+        if isinstance(safety_distance, bool) or not isinstance(safety_distance, int | float) \
+                or not np.isfinite(safety_distance) or safety_distance < 0:
+            raise InvalidSettingError("safety_distance must be a finite number >= 0 (m), "
+                                      f"got {safety_distance!r}")
+        self.safety = float(safety_distance)
+        self.influence = check_positive_finite("influence_distance", influence_distance,
+                                               InvalidSettingError, "m")
+        if self.influence <= self.safety:
+            raise InvalidSettingError(f"influence_distance ({self.influence:g} m) must exceed the safety "
+                                      f"distance ({self.safety:g} m)")
+        self.gain = check_positive_finite("gain", gain, InvalidSettingError)
+        if self.gain > 1.0:
+            raise InvalidSettingError(f"gain must be in (0, 1], got {gain!r}")
+        self.padding = float(padding)
+        self.name = f"collision avoidance (safety {self.safety * 1e3:g} mm)"
+        self.geometry_data = pairs.create_data()
+        self._distances = []
+        self._q = None
+
+    def start(self, kinematics: Kinematics) -> None:
+        if kinematics.model.nq != self.collision_model.model.nq or \
+                kinematics.model.nv != self.collision_model.model.nv:
+            from wbik.errors import RobotDescriptionError
+
+            raise RobotDescriptionError(
+                "the collision model was built on another robot model (nq "
+                f"{self.collision_model.model.nq}, problem nq {kinematics.model.nq})")
+        self._q = None
+
+    def distances(self, kinematics: Kinematics) -> list:
+        """Pair distances at the kinematics' q (computed once per configuration)."""
+        if self._q is None or not np.array_equal(self._q, kinematics.q):
+            self._distances = self.collision_model.compute(kinematics.data, self.geometry_data)
+            self._q = kinematics.q.copy()
+        return self._distances
+
+    def minimum(self, kinematics: Kinematics):
+        """The closest pair (a wbik.collision.PairDistance) at the current q, or None."""
+        return min(self.distances(kinematics), key=lambda d: d.distance, default=None)
+
+    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+        rows, bounds = [], []
+        target = self.safety + self.padding
+        for pair in self.distances(kinematics):
+            if pair.distance >= self.influence:
+                continue
+            rows.append(-self.collision_model.distance_gradient(kinematics.data, pair))
+            bounds.append(self.gain * (pair.distance - target))
+        if not rows:  # nothing near: one row that always holds
+            return np.zeros((1, kinematics.nv)), np.ones(1)
+        return np.array(rows), np.array(bounds)
+
+    def violation(self, kinematics: Kinematics) -> float:
+        closest = self.minimum(kinematics)
+        return 0.0 if closest is None else max(self.safety - closest.distance, 0.0)
