@@ -514,9 +514,27 @@ def _wholebody_schema() -> Map:
         "continue_from": Key(Text(("result", "start")), "result"),
     })
 
+    collisions = Map({  # wbik.scenarios.collision_setup; absent: no collision constraint
+        "self_collision": Key(Boolean(), True),
+        "robot_obstacles": Key(Boolean(), True),
+        "boxes": Key(ListOf(Map({"name": Key(Text(), required=True),
+                                 "size": Key(Vector(3, positive=True, unit="m"), required=True),
+                                 "xyz": Key(VECTOR3, [0.0, 0.0, 0.0]),
+                                 "rpy": Key(VECTOR3, [0.0, 0.0, 0.0])}), what="box mappings"), []),
+        "safety_distance": Key(Number(ge=0, unit="m"), 0.01),
+        "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
+    })
+
     def post(spec: dict, path: str, ctx: Context) -> None:
         _check_robot_params(spec, path, ctx)
+        block = spec["collisions"]
+        if block is not None and not block["influence_distance"] > block["safety_distance"]:
+            ctx.fail("collisions.influence_distance", f"must exceed safety_distance "
+                                                      f"({block['safety_distance']:g} m)")
         for index, entry in enumerate(spec["phases"]):
+            if block is None and "collision_distance_min_m" in (entry["expect"] or {}):
+                ctx.fail(f"phases[{index}].expect.collision_distance_min_m",
+                         "needs a top-level 'collisions' block (the pairs whose distance it judges)")
             entry.setdefault("name", f"phase {index + 1}")
             entry.setdefault("support", list(entry["contacts"]))
             if entry.get("margin") is None:
@@ -530,6 +548,7 @@ def _wholebody_schema() -> Map:
                 "backend": Key(Backend(), DEFAULT),
                 "start": Key(START, "nominal"),
                 "margin": Key(Number(unit="m"), 0.005),
+                "collisions": Key(collisions, None),
                 "phases": Key(ListOf(phase, min_items=1, what="phase mappings"), required=True)}, post=post)
 
 

@@ -15,6 +15,13 @@ phase's answer::
     backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
                                    # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
     margin: 0.005                  # m, default CoM margin of the phases (default 0.005)
+    collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
+      self_collision: true         # pairs of the robot's own primitives (default true)
+      robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
+      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8], rpy: [0, 0, 0]}]   # m, rad
+      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01); pairs
+                                   # closer than this at the nominal pose are left out (close by design)
+      influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
     phases:
       - name: shift the CoM over the right foot
         contacts: [r_sole, l_sole]  # soles held fixed (hard equality)
@@ -35,8 +42,9 @@ tolerance. Every phase's answer is checked independently by FK: contacts, CoM ma
 support polygon, joint limits. The phase's ``expect`` block judges these figures (keys in
 ``PHASE_RULES``, thresholds SI); unless the block sets them, the phase expects success, contacts held
 to 1e-6 m / rad, the CoM ``margin`` inside the support polygon (when there is one) and no joint
-beyond its limit (1e-9). An ``expect`` value may be ``{threshold, expected_to_fail, why}`` (see
-:mod:`wbik.expectations`).
+beyond its limit (1e-9), and with ``collisions`` the minimum pair distance (coal, by FK) at least the
+safety distance (``collision_distance_min_m``). An ``expect`` value may be
+``{threshold, expected_to_fail, why}`` (see :mod:`wbik.expectations`).
 """
 
 from __future__ import annotations
@@ -320,18 +328,53 @@ PHASE_RULES = {
     "contact_error_max_rad": Rule("contact_error_rad", "<=", "rad"),
     "com_margin_min_m": Rule("com_margin_m", ">=", "m"),
     "limit_excess_max_rad": Rule("limit_excess_rad", "<=", "rad"),
+    "collision_distance_min_m": Rule("collision_distance_m", ">=", "m"),
 }
 """Expectations of a wholebody_ik phase (limit excess is in m for a prismatic joint)."""
 
 
-def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool) -> dict:
-    """The phase's expect block over the defaults (see the module docstring)."""
+def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
+                       safety: float | None = None) -> dict:
+    """The phase's expect block over the defaults (see the module docstring); with a ``collisions``
+    block (``safety``, m) the minimum pair distance must also stay >= safety (less 1e-9 m)."""
     expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
               "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
     if has_support:
         expect["com_margin_min_m"] = margin - 1e-9
+    if safety is not None:
+        expect["collision_distance_min_m"] = safety - 1e-9
     expect.update(phase_expect or {})
     return expect
+
+
+def collision_setup(robot, collisions: dict | None):
+    """(model for the FK check, the QP constraint) of a checked ``collisions`` block, or (None, None).
+
+    Two CollisionModels of the same table: the check measures every pair by its own FK and coal
+    query, independent of the distances the constraint linearised."""
+    if collisions is None:
+        return None, None
+    from wbik.collision import Obstacle, robot_collision_model
+    from wbik.qp.constraints import CollisionAvoidance
+
+    def build():
+        boxes = [Obstacle(b["name"], tuple(b["size"]), tuple(b["xyz"]), tuple(b["rpy"]))
+                 for b in collisions["boxes"]]
+        # a pair under the safety distance at the nominal pose is close by design: left out
+        return robot_collision_model(robot, self_collision=collisions["self_collision"],
+                                     robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
+                                     contact_distance=collisions["safety_distance"])
+
+    return build(), CollisionAvoidance(build(), collisions["safety_distance"],
+                                       collisions["influence_distance"])
+
+
+def collision_check(model, q: np.ndarray) -> dict:
+    """Minimum signed distance over the checked pairs at q (m, coal by FK) and that pair."""
+    closest = model.minimum(q)
+    if closest is None:
+        return {"min_distance": None, "pair": None, "pairs": 0}
+    return {"min_distance": closest.distance, "pair": [closest.a, closest.b], "pairs": len(model.pairs)}
 
 
 def phase_figures(success: bool, checks: dict) -> dict:
@@ -339,7 +382,8 @@ def phase_figures(success: bool, checks: dict) -> dict:
     return {"success": bool(success),
             "contact_error_m": max((e["position"] for e in errors), default=0.0),
             "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
-            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"]}
+            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
+            "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
 
 
 def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> dict:
@@ -354,6 +398,7 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
     q = robot.nominal.copy() if spec["start"] == "nominal" else _vector(
         spec["start"], robot.model.nq, "start configuration")
     phases = spec["phases"]
+    collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
     report = {"name": spec["name"], "kind": "wholebody_ik", "robot": robot.name,
               "backend": backend, "phases": [], "passed": True}
     for phase in phases:
@@ -370,12 +415,17 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
             constraints.append(LockedJoints(robot.model, list(phase["lock"])))
         for item in phase["min_distance"]:
             constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
+        if collision_constraint is not None:
+            constraints.append(collision_constraint)
         contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
         problem = IKProblem(robot.model, tasks, constraints, backend=backend,
                             max_step=float(phase["max_step"]))
         solution = problem.solve(q, max_iterations=int(phase["max_iterations"]))
         checks = check_configuration(robot, solution.q, contact_placements, support, margin)
-        expect = phase_expectations(phase["expect"], margin, bool(support))
+        if collision_model is not None:
+            checks["collision"] = collision_check(collision_model, solution.q)
+        expect = phase_expectations(phase["expect"], margin, bool(support),
+                                    collision_constraint and collision_constraint.safety)
         expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
                                 f"phase {name!r} expect")
         passed = verdict(expectations) != "FAILED"
