@@ -39,6 +39,10 @@ COM_COLOR = 0xCC22CC
 TRACE_COLOR = 0xEEBB00
 INSIDE_COLOR = 0x22AA44
 OUTSIDE_COLOR = 0xDD2222
+CONTACT_COLOR = 0x2288EE
+POLYGON_TOLERANCE = 0.005
+"""m: an animation's support polygon is drawn anew when its soles change or move more than this
+(samples interpolated between solved keyframes let a held sole drift a little)."""
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,17 @@ class SupportView:
     ground_z: float
     inside: bool
     margin: float
+
+
+@dataclass(frozen=True)
+class AnimationView:
+    """What ``play_animation`` drew: the number of samples, the traced frame's path (N, 3) or None,
+    and the CoM margin in the support polygon at each sample (m; NaN with no sole down), or None
+    without support overlays."""
+
+    frames: int
+    trace: np.ndarray | None
+    com_margins: np.ndarray | None
 
 
 def rgb_int(rgba: Sequence[float]) -> int:
@@ -302,8 +317,6 @@ class Viewer:
         With ``trace_frame``, the frame's path is drawn as a line and a marker rides along it;
         returns that path (N, 3) in world coordinates, else None.
         """
-        import meshcat.animation
-
         times = np.asarray(times, dtype=float).reshape(-1)
         rows = [self.full_configuration(q, chain) for q in qs]
         if len(rows) != len(times) or len(rows) == 0:
@@ -311,20 +324,29 @@ class Viewer:
                 f"animate needs one configuration per time: got {len(times)} times and {len(rows)} rows")
         if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError("animation times must be finite and strictly increasing")
+        animation, trace = self._robot_keyframes(times, rows, trace_frame, fps)
+        self.meshcat.set_animation(animation, play=play, repetitions=repetitions)
+        return trace
+
+    def _robot_keyframes(self, times: np.ndarray, rows: Sequence[np.ndarray], trace_frame: str | None,
+                         fps: float):
+        """A meshcat Animation moving every robot geometry (and the trace marker); the trace or None."""
+        import meshcat.animation
+
         model, data = self.robot.model, self.robot.model.createData()
         geometry_data = self.geometry.createData()
         trace_id = self.robot.frame_id(trace_frame) if trace_frame else None
         animation = meshcat.animation.Animation(default_framerate=fps)
+        nodes = [(geometry_id, self._pinocchio.getViewerNodeName(geometry_object, pin.GeometryType.VISUAL),
+                  np.diag([*geometry_object.meshScale, 1.0]))
+                 for geometry_id, geometry_object in enumerate(self.geometry.geometryObjects)]
         trace = []
         for time, q in zip(times - times[0], rows, strict=True):
             pin.forwardKinematics(model, data, q)
             pin.updateGeometryPlacements(model, data, self.geometry, geometry_data)
             with animation.at_frame(self.meshcat, float(time * fps)) as frame:
-                for geometry_id, geometry_object in enumerate(self.geometry.geometryObjects):
-                    node = self._pinocchio.getViewerNodeName(geometry_object, pin.GeometryType.VISUAL)
-                    transform = geometry_data.oMg[geometry_id].homogeneous @ np.diag(
-                        [*geometry_object.meshScale, 1.0])
-                    frame[node].set_transform(transform)
+                for geometry_id, node, scale in nodes:
+                    frame[node].set_transform(geometry_data.oMg[geometry_id].homogeneous @ scale)
                 if trace_id is not None:
                     pin.updateFramePlacement(model, data, trace_id)
                     position = data.oMf[trace_id].translation.copy()
@@ -333,12 +355,146 @@ class Viewer:
                     marker[:3, 3] = position
                     frame[f"{ROOT}/trace/marker"].set_transform(marker)
         self.show(rows[0])
-        if trace_id is not None:
-            path = np.array(trace)
-            self._line(f"{ROOT}/trace/path", path, TRACE_COLOR)
-            self._sphere(f"{ROOT}/trace/marker", path[0], 0.02 * self.extent, TRACE_COLOR)
-        self.meshcat.set_animation(animation, play=play, repetitions=repetitions)
-        return np.array(trace) if trace_id is not None else None
+        if trace_id is None:
+            return animation, None
+        path = np.array(trace)
+        self._line(f"{ROOT}/trace/path", path, TRACE_COLOR)
+        self._sphere(f"{ROOT}/trace/marker", path[0], 0.02 * self.extent, TRACE_COLOR)
+        return animation, path
+
+    def play_animation(self, animation, fps: float = 30.0, repetitions: int = 1,
+                       play: bool = True) -> AnimationView:
+        """Play a :class:`wbik.viz.animation.Animation` with its overlays: the traced frame, the
+        CoM with its ground projection (green inside the support polygon, red outside) and the
+        polygon of the soles on the ground at each sample, and markers on the frames in contact.
+
+        A one-sample animation is shown still (with its overlays). Returns what was drawn.
+        """
+        if animation.robot.model.nq != self.robot.model.nq:
+            raise InvalidConfigurationError(
+                f"the animation is of {animation.robot.name} (nq = {animation.robot.model.nq}); this "
+                f"viewer shows {self.robot.name} (nq = {self.robot.model.nq})")
+        rows = list(animation.configurations)
+        overlays = animation.overlays
+        still = animation.frames == 1
+        times = animation.times if not still else np.array([0.0, 1.0 / fps])
+        if still:
+            rows = rows * 2
+        clip, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
+        keys = [float(t * fps) for t in times - times[0]]
+        margins = None
+        if overlays.support is not None and self.robot.info.get("sole_corners"):
+            support = overlays.support * (2 if still else 1)
+            margins = self._support_keyframes(clip, keys, rows, support)
+        if overlays.contacts is not None:
+            self._contact_keyframes(clip, keys, rows, overlays.contacts * (2 if still else 1))
+        self.show(rows[0])
+        self.meshcat.set_animation(clip, play=play and not still, repetitions=repetitions)
+        return AnimationView(animation.frames, trace, margins)
+
+    @staticmethod
+    def _visibility(clip, path_node, keys: list[float], visible: Sequence[bool]) -> None:
+        """Boolean ``visible`` keys where the value changes (three.js holds a boolean until the next key)."""
+        for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
+            if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
+                with clip.at_frame(path_node, key) as frame:
+                    frame.set_property("visible", "boolean", bool(value))
+
+    def _support_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
+                           support: Sequence[tuple[str, ...]]) -> np.ndarray:
+        """CoM, its ground projection and one support polygon per stretch of samples on the same
+        soles at the same places (shown only during its stretch); the CoM margins (m, NaN in the air)."""
+        corners_by_sole = self.robot.info["sole_corners"]
+        model, data = self.robot.model, self.robot.model.createData()
+        path = f"{ROOT}/support"
+        self.meshcat[path].delete()
+        radius = 0.025 * self.extent
+        polygons, segment_of, margins, coms, grounds = [], [], [], [], []
+        for q, feet in zip(rows, support, strict=True):
+            com = pin.centerOfMass(model, data, q).copy()
+            pin.framesForwardKinematics(model, data, q)
+            feet = [foot for foot in feet if foot in corners_by_sole]
+            if not feet:
+                segment_of.append(-1)
+                margins.append(np.nan)
+                coms.append(com)
+                grounds.append(grounds[-1] if grounds else 0.0)
+                continue
+            corners = np.vstack([np.asarray(corners_by_sole[foot], dtype=float).reshape(-1, 3)
+                                 @ data.oMf[model.getFrameId(foot)].rotation.T
+                                 + data.oMf[model.getFrameId(foot)].translation for foot in feet])
+            polygon = SupportPolygon(corners[:, :2])
+            ground_z = float(np.mean(corners[:, 2]))
+            if not polygons or not self._same_polygon(polygons[-1], tuple(feet), polygon.vertices, ground_z):
+                polygons.append((tuple(feet), polygon.vertices, ground_z, []))
+            polygons[-1][3].append(polygon.margin_of(com[:2]))
+            segment_of.append(len(polygons) - 1)
+            margins.append(polygon.margin_of(com[:2]))
+            coms.append(com)
+            grounds.append(ground_z)
+        margins = np.array(margins, dtype=float)
+        inside = [bool(m >= 0.0) for m in margins]  # NaN (no sole down) counts as outside
+        first = next((i for i, s in enumerate(segment_of) if s >= 0), 0)
+        self._sphere(f"{path}/com", coms[0], radius, COM_COLOR)
+        for name, color in (("com_ground_inside", INSIDE_COLOR), ("com_ground_outside", OUTSIDE_COLOR)):
+            self._sphere(f"{path}/{name}", np.array([*coms[first][:2], grounds[first]]), 0.6 * radius, color)
+        for index, (_, vertices, ground_z, segment_margins) in enumerate(polygons):
+            color = INSIDE_COLOR if min(segment_margins) >= 0.0 else OUTSIDE_COLOR
+            outline = np.column_stack([vertices, np.full(len(vertices), ground_z + 1e-4)])
+            self._line(f"{path}/polygon_{index}", outline, color, loop=True)
+            self.meshcat[f"{path}/polygon_{index}"].set_property("visible", segment_of[0] == index)
+            self._visibility(clip, self.meshcat[f"{path}/polygon_{index}"], keys,
+                             [s == index for s in segment_of])
+        for key, com, ground_z in zip(keys, coms, grounds, strict=True):
+            marker, ground = np.eye(4), np.eye(4)
+            marker[:3, 3] = com
+            ground[:3, 3] = [com[0], com[1], ground_z]
+            with clip.at_frame(self.meshcat, key) as frame:
+                frame[f"{path}/com"].set_transform(marker)
+                frame[f"{path}/com_ground_inside"].set_transform(ground)
+                frame[f"{path}/com_ground_outside"].set_transform(ground)
+        self.meshcat[f"{path}/com_ground_inside"].set_property("visible", inside[0])
+        self.meshcat[f"{path}/com_ground_outside"].set_property("visible", not inside[0])
+        self._visibility(clip, self.meshcat[f"{path}/com_ground_inside"], keys, inside)
+        self._visibility(clip, self.meshcat[f"{path}/com_ground_outside"], keys, [not v for v in inside])
+        return margins
+
+    @staticmethod
+    def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
+                      tolerance: float = POLYGON_TOLERANCE) -> bool:
+        """The same soles at the same places (to ``tolerance`` m) as the ``previous`` stretch."""
+        old_feet, old_vertices, old_z, _ = previous
+        if old_feet != feet or abs(old_z - ground_z) > tolerance:
+            return False
+        # every vertex of each polygon near the other's outline (a hull of nearly aligned soles may
+        # have two more vertices, on the edges of the aligned one)
+        old_polygon, polygon = SupportPolygon(old_vertices), SupportPolygon(vertices)
+        return (all(abs(old_polygon.margin_of(v)) <= tolerance for v in vertices)
+                and all(abs(polygon.margin_of(v)) <= tolerance for v in old_vertices))
+
+    def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
+                           contacts: Sequence[tuple[str, ...]]) -> None:
+        """A marker on each frame while it is held in contact."""
+        model, data = self.robot.model, self.robot.model.createData()
+        path = f"{ROOT}/contacts"
+        self.meshcat[path].delete()
+        frames = list(dict.fromkeys(name for held in contacts for name in held))
+        ids = {name: self.robot.frame_id(name) for name in frames}
+        positions = {name: [] for name in frames}
+        for q in rows:
+            pin.framesForwardKinematics(model, data, q)
+            for name in frames:
+                positions[name].append(data.oMf[ids[name]].translation.copy())
+        for name in frames:
+            node = f"{path}/{name}"
+            self._sphere(node, positions[name][0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
+            self.meshcat[node].set_property("visible", name in contacts[0])
+            for key, position in zip(keys, positions[name], strict=True):
+                marker = np.eye(4)
+                marker[:3, 3] = position
+                with clip.at_frame(self.meshcat, key) as frame:
+                    frame[node].set_transform(marker)
+            self._visibility(clip, self.meshcat[node], keys, [name in held for held in contacts])
 
     def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
              repetitions: int = 1) -> np.ndarray | None:

@@ -1,0 +1,182 @@
+"""``Animation``: what a scenario runner hands to the viewer besides its report.
+
+A robot (the runner's own ``wbik.robot.Robot``, so ``robot_params`` hold), sample ``times`` (s,
+strictly increasing, a single sample is a still picture), the full configuration of the robot at
+each sample, and what to draw along (:class:`Overlays`): a traced frame, the soles on the ground at
+each sample (the viewer draws the CoM, its ground projection and the support polygon of those
+soles) and the frames held in contact at each sample (markers).
+
+The viewer (:meth:`wbik.viz.viewer.Viewer.play_animation`) plays it as meshcat keyframes; three.js
+interpolates between samples, so a runner gives its knots, not a dense grid. Helpers build one from
+a chain's joint rows (:meth:`Animation.from_chain`), from keyframes interpolated on the
+configuration manifold (:meth:`Animation.from_keyframes`), join several (:meth:`Animation.then`)
+and thin a long one (:meth:`Animation.subsampled`, :meth:`Animation.limited`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError
+
+Feet = tuple[str, ...]
+
+
+def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
+    if value is None:
+        return None
+    rows = tuple(tuple(str(name) for name in entry) for entry in value)
+    if len(rows) != count:
+        raise InvalidConfigurationError(f"animation {what}: one entry per sample expected ({count}), "
+                                        f"got {len(rows)}")
+    return rows
+
+
+@dataclass(frozen=True)
+class Overlays:
+    """What is drawn with the robot: ``trace_frame`` (its path as a line, a marker riding along);
+    ``support`` (soles on the ground per sample: CoM, ground projection, support polygon);
+    ``contacts`` (frames held in contact per sample: markers)."""
+
+    trace_frame: str | None = None
+    support: tuple[Feet, ...] | None = None
+    contacts: tuple[Feet, ...] | None = None
+
+
+@dataclass(frozen=True)
+class Animation:
+    """Full configurations of ``robot`` at ``times`` (s), with :class:`Overlays`."""
+
+    robot: object
+    times: np.ndarray
+    configurations: np.ndarray
+    overlays: Overlays = field(default_factory=Overlays)
+    name: str = ""
+
+    def __post_init__(self) -> None:
+        times = np.asarray(self.times, dtype=float).reshape(-1)
+        rows = np.asarray(self.configurations, dtype=float)
+        nq = self.robot.model.nq
+        if rows.ndim != 2 or rows.shape != (len(times), nq):
+            raise InvalidConfigurationError(
+                f"animation {self.name!r}: {len(times)} times need {len(times)} configurations of "
+                f"{nq} values ({self.robot.name}); got an array of shape {rows.shape}")
+        if len(times) == 0:
+            raise InvalidConfigurationError(f"animation {self.name!r} has no samples")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(rows))):
+            raise InvalidConfigurationError(
+                f"animation {self.name!r}: times and configurations must be finite")
+        if np.any(np.diff(times) <= 0):
+            raise InvalidConfigurationError(f"animation {self.name!r}: times must be strictly increasing")
+        overlays = self.overlays
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "configurations", rows)
+        object.__setattr__(self, "overlays", replace(
+            overlays, support=_per_sample(overlays.support, len(times), "support"),
+            contacts=_per_sample(overlays.contacts, len(times), "contacts")))
+
+    @property
+    def frames(self) -> int:
+        """Number of samples."""
+        return len(self.times)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+    # -- building ---------------------------------------------------------------------------------
+    @classmethod
+    def from_chain(cls, robot, chain, times, rows, reference: np.ndarray | None = None,
+                   overlays: Overlays | None = None, name: str = "") -> Animation:
+        """Joint rows of one chain (others at ``reference``, default the nominal configuration)."""
+        chain = robot.chain(chain) if isinstance(chain, str) or chain is None else chain
+        reference = robot.nominal if reference is None else np.asarray(reference, dtype=float)
+        rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        full = [chain.full_configuration(row, reference=reference) for row in rows]
+        return cls(robot, times, np.array(full), overlays or Overlays(trace_frame=chain.tip_frame), name)
+
+    @classmethod
+    def from_keyframes(cls, robot, start: np.ndarray, keyframes: Sequence[np.ndarray],
+                       seconds: float = 1.0, samples: int = 30, support: Sequence[Feet] | None = None,
+                       contacts: Sequence[Feet] | None = None, trace_frame: str | None = None,
+                       name: str = "") -> Animation:
+        """From ``start`` through each keyframe, ``seconds`` each with ``samples`` samples,
+        interpolated on the configuration manifold (``pinocchio.interpolate``: a floating base
+        turns properly). ``support`` / ``contacts``: one entry per keyframe (the start takes the
+        first keyframe's)."""
+        if samples < 1 or not seconds > 0:
+            raise InvalidConfigurationError(f"keyframe animation needs samples >= 1 and seconds > 0, "
+                                            f"got {samples} and {seconds}")
+        if not len(keyframes):
+            support = contacts = None
+        times, rows, feet, held = [0.0], [np.asarray(start, dtype=float)], [], []
+        previous = rows[0]
+        for index, q in enumerate(keyframes):
+            q = np.asarray(q, dtype=float)
+            for step in range(1, samples + 1):
+                alpha = step / samples
+                rows.append(pin.interpolate(robot.model, previous, q, alpha))
+                times.append((index + alpha) * seconds)
+            feet.extend([support[index]] * samples if support is not None else [])
+            held.extend([contacts[index]] * samples if contacts is not None else [])
+            previous = q
+        if support is not None and len(support):
+            feet.insert(0, support[0])
+        if contacts is not None and len(contacts):
+            held.insert(0, contacts[0])
+        overlays = Overlays(trace_frame, tuple(feet) if support is not None else None,
+                            tuple(held) if contacts is not None else None)
+        return cls(robot, np.array(times), np.array(rows), overlays, name)
+
+    # -- combining and thinning -------------------------------------------------------------------
+    def then(self, other: Animation, pause: float = 0.5) -> Animation:
+        """This animation, then ``other`` starting ``pause`` s after this one ends."""
+        if other.robot.model.nq != self.robot.model.nq or other.robot.name != self.robot.name:
+            raise InvalidConfigurationError(
+                f"cannot join animations of {self.robot.name} and {other.robot.name}")
+        if not pause > 0:
+            raise InvalidConfigurationError(f"pause between animations must be > 0 s, got {pause}")
+        times = np.concatenate([self.times, other.times - other.times[0] + self.times[-1] + pause])
+
+        def joined(a, b, count_a, count_b):
+            if a is None and b is None:
+                return None
+            return (a or ((),) * count_a) + (b or ((),) * count_b)
+
+        mine, theirs = self.overlays, other.overlays
+        overlays = Overlays(mine.trace_frame or theirs.trace_frame,
+                            joined(mine.support, theirs.support, self.frames, other.frames),
+                            joined(mine.contacts, theirs.contacts, self.frames, other.frames))
+        name = " + ".join(n for n in (self.name, other.name) if n)
+        return Animation(self.robot, times, np.vstack([self.configurations, other.configurations]),
+                         overlays, name)
+
+    def subsampled(self, every: int) -> Animation:
+        """Every ``every``-th sample (the last one kept)."""
+        if int(every) != every or every < 1:
+            raise InvalidConfigurationError(f"subsample step must be a positive integer, got {every}")
+        index = np.arange(0, self.frames, int(every))
+        if index[-1] != self.frames - 1:
+            index = np.append(index, self.frames - 1)
+        return self._take(index)
+
+    def limited(self, max_frames: int) -> Animation:
+        """At most ``max_frames`` samples (evenly thinned; unchanged when already short enough)."""
+        if max_frames < 2:
+            raise InvalidConfigurationError(f"an animation needs at least 2 frames, got max {max_frames}")
+        if self.frames <= max_frames:
+            return self
+        return self.subsampled(math.ceil((self.frames - 1) / (max_frames - 1)))
+
+    def _take(self, index: np.ndarray) -> Animation:
+        def pick(rows):
+            return None if rows is None else tuple(rows[i] for i in index)
+
+        overlays = replace(self.overlays, support=pick(self.overlays.support),
+                           contacts=pick(self.overlays.contacts))
+        return Animation(self.robot, self.times[index], self.configurations[index], overlays, self.name)
