@@ -62,12 +62,13 @@ from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.files import atomic_write_text
 from wbik.scenario_schema import ScenarioError, ScenarioFileError, kind_names, register_schema, validate
 
-__all__ = ["KINDS", "ScenarioError", "format_report", "load_scenario", "register_runner", "run_scenario"]
+__all__ = ["KINDS", "ScenarioError", "format_report", "load_scenario", "register_runner", "run_scenario",
+           "run_scenario_animated"]
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
 
-Runner = Callable[[dict, Callable[[dict], None] | None], dict]
+Runner = Callable[[dict, Callable[[dict], None] | None], "dict | tuple[dict, object]"]
 
 KINDS: dict[str, str | Runner] = {
     # kind -> "module:function" (imported on first use; a failed import is an error, never skipped)
@@ -97,8 +98,10 @@ RUNNERS = KINDS  # the former name
 
 def register_runner(kind: str, runner: str | Runner, formatter: str | Callable[[dict], str] | None = None,
                     schema: Callable | None = None) -> None:
-    """``runner(spec, on_progress) -> report`` (or "module:function"); on_progress(report so far) may
-    be None. ``schema()`` builds the kind's :class:`wbik.scenario_schema.Map` (needed by a new kind).
+    """``runner(spec, on_progress) -> (report, animation)`` or ``-> report`` (or "module:function");
+    on_progress(report so far) may be None; the animation (:class:`wbik.viz.animation.Animation`)
+    is what ``wbik view`` plays. ``schema()`` builds the kind's :class:`wbik.scenario_schema.Map`
+    (needed by a new kind).
 
     ``formatter(report) -> str`` prints the report for ``wbik run`` (default: the phase summary).
     """
@@ -181,6 +184,14 @@ def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
     The scenario is checked against its kind's schema first (``source`` names it in errors; default
     the file, or the dict's name); the runner gets the checked copy with the defaults filled in.
     """
+    return run_scenario_animated(scenario, output, source)[0]
+
+
+def run_scenario_animated(scenario: str | Path | dict, output: str | Path | None = None,
+                          source: str | None = None) -> tuple[dict, object | None]:
+    """:func:`run_scenario`, and the runner's animation (:class:`wbik.viz.animation.Animation`, what
+    ``wbik view TASKFILE`` plays; None from a runner that returns a report only). The report names
+    the animation's sample count in ``animation_frames``."""
     if isinstance(scenario, dict):
         spec = scenario
         source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"
@@ -194,9 +205,12 @@ def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
         if output is not None:
             atomic_write_text(Path(output), json.dumps(report, indent=2, default=_json_default))
 
-    report = runner(checked, write)
+    result = runner(checked, write)  # (report, animation), or a report alone (register_runner)
+    report, animation = result if isinstance(result, tuple) else (result, None)
+    if animation is not None:
+        report["animation_frames"] = animation.frames
     write(report)
-    return report
+    return report, animation
 
 
 def _json_default(value):
@@ -386,8 +400,9 @@ def phase_figures(success: bool, checks: dict) -> dict:
             "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
 
 
-def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> dict:
-    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults)."""
+def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = None) -> tuple[dict, object]:
+    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
+    the report and the animation from the start through every phase's answer."""
     from wbik.models import load
     from wbik.qp.constraints import LockedJoints, MinimumDistance
     from wbik.qp.humanoid import stance_constraints
@@ -397,6 +412,7 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
     backend = spec["backend"]
     q = robot.nominal.copy() if spec["start"] == "nominal" else _vector(
         spec["start"], robot.model.nq, "start configuration")
+    start = q.copy()
     phases = spec["phases"]
     collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
     report = {"name": spec["name"], "kind": "wholebody_ik", "robot": robot.name,
@@ -441,7 +457,19 @@ def run_wholebody_ik(spec: dict, on_progress: Callable[[dict], None] | None = No
             on_progress(report)
         if phase["continue_from"] == "result":
             q = solution.q.copy()
-    return report
+    return report, wholebody_animation(robot, spec, start, report["phases"])
+
+
+def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
+    """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
+    each phase's support soles and contacts; the first frame a phase task moves is traced."""
+    from wbik.viz.animation import Animation
+    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE, moved_frame
+
+    return Animation.from_keyframes(
+        robot, start, [np.asarray(p["q"], dtype=float) for p in phases], PHASE_SECONDS, SAMPLES_PER_PHASE,
+        support=[tuple(p["support"]) for p in phases], contacts=[tuple(p["contacts"]) for p in phases],
+        trace_frame=moved_frame(spec), name=spec["name"])
 
 
 def format_report(report: dict) -> str:
