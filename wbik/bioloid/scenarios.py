@@ -17,6 +17,11 @@ Kinds (each report has ``passed`` and a ``behaviours`` list):
 - ``bioloid_placo_walk``: PlaCo's walk pattern generator on the same URDF (``steps``, ``step_length``,
   ``margin``); see :mod:`wbik.bioloid.placo_walk`; ``expect`` has the keys of ``PLACO_WALK_RULES``.
 
+Each runner returns its report and a :class:`wbik.viz.animation.Animation` (what ``wbik view``
+plays): the whole-body samples at their timed knot times (40 rpm), the faithful step's samples
+``FAITHFUL_SAMPLE_S`` apart, the keyframe rows at their own times, PlaCo's walk on its 50 ms grid;
+the soles on the ground at each sample are its support and contacts.
+
 Each figure with a meaning of good or bad is judged by :mod:`wbik.expectations` against the task
 file's threshold (SI: m, rad), and printed as figure / threshold / ok. A whole-body behaviour
 without an ``expect`` block still expects what its generator guarantees: contacts held to 1e-6 m /
@@ -38,6 +43,8 @@ from wbik.scenarios import CONTACT_TOLERANCE
 
 Progress = Callable[[dict], None] | None
 VELOCITY_TOLERANCE = 1e-9
+FAITHFUL_SAMPLE_S = 0.2
+"""s between two samples of the faithful step's animation (the faithful generator is not timed)."""
 
 FAITHFUL_RULES = {
     "closed_chain_mismatch_min_m": Rule("max_inconsistency_m", ">=", "m"),
@@ -120,8 +127,19 @@ def _report(spec: dict, robot) -> dict:
             "verdict": "informational", "behaviours": []}
 
 
-def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> dict:
-    """Summary, timing, servo export and expectations of a whole-body result."""
+def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
+    """A sampled motion (wbik.bioloid.gait.SampledMotion) at ``times``: its soles on the ground are
+    the support and the contacts of every sample."""
+    from wbik.viz.animation import Animation, Overlays
+
+    support = tuple(tuple(feet) for feet in motion.support)
+    return Animation(motion.robot, np.asarray(times, dtype=float), motion.q,
+                     Overlays(trace_frame, support, support), name)
+
+
+def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[dict, object]:
+    """Summary, timing, servo export and expectations of a whole-body result; the entry and the
+    animation of its samples at their knot times."""
     from wbik.bioloid.gait import time_scale_motion
 
     timing = spec["timing"]
@@ -141,10 +159,11 @@ def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> dict:
     figures = {**entry, "min_com_margin_m": entry["min_com_margin_mm"] / 1e3,
                "max_servo_clamp_rad": max(entry["servo_clamped"].values(), default=0.0)}
     wanted = {**wholebody_defaults(float(spec["margin"])), **(expect or {})}
-    return _judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect")
+    animation = _motion_animation(result.motion, timed.sample_times, name, trace_frame="pelvis")
+    return _judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect"), animation
 
 
-def run_step(spec: dict, on_progress: Progress = None) -> dict:
+def run_step(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.bioloid.step_faithful import step_forward_faithful
     from wbik.bioloid.step_wholebody import step_forward_wholebody
 
@@ -155,6 +174,7 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
     expect = _expect_block(spec)
     report = _report(spec, robot)
     generators = spec["generators"]
+    animations = []
     if "faithful" in generators:
         rounding = bool(spec["round_degrees"])
         faithful = step_forward_faithful(robot, gait, first, round_degrees=rounding)
@@ -168,17 +188,32 @@ def run_step(spec: dict, on_progress: Progress = None) -> dict:
                    "min_clearance_m": None if clearance is None else clearance / 1e3,
                    "max_limit_excess_rad": float(np.radians(summary["max_limit_excess_deg"]))}
         _add(report, _judge(entry, expect.get("faithful"), figures, FAITHFUL_RULES, "expect.faithful"))
+        samples = len(faithful.motion.q)
+        animations.append(_motion_animation(faithful.motion, FAITHFUL_SAMPLE_S * np.arange(samples),
+                                            entry["name"], trace_frame="pelvis"))
         if on_progress is not None:
             on_progress(report)
     if "wholebody" in generators:
         result = step_forward_wholebody(robot, gait, first, margin,
                                         rear_lift=float(spec["rear_lift"]), backend=spec["backend"])
-        _add(report, _timed_entry(spec, result, f"step forward ({first} first), whole-body",
-                                  expect.get("wholebody")))
-    return report
+        entry, animation = _timed_entry(spec, result, f"step forward ({first} first), whole-body",
+                                        expect.get("wholebody"))
+        _add(report, entry)
+        animations.append(animation)
+    return report, _joined(animations)
 
 
-def run_walk(spec: dict, on_progress: Progress = None) -> dict:
+def _joined(animations: list):
+    """The animations one after the other (None when there is none)."""
+    if not animations:
+        return None
+    joined = animations[0]
+    for animation in animations[1:]:
+        joined = joined.then(animation)
+    return joined
+
+
+def run_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.bioloid.behaviours import turn_in_place, walk
 
     robot = _robot(spec)
@@ -194,15 +229,15 @@ def run_walk(spec: dict, on_progress: Progress = None) -> dict:
         result = walk(robot, steps, angle, gait, margin, first=spec["first"],
                       rear_lift=float(spec["rear_lift"]), backend=spec["backend"])
         name = f"walk {steps} steps, turn {angle:g} deg"
-    entry = _timed_entry(spec, result, name, _expect_block(spec))
+    entry, animation = _timed_entry(spec, result, name, _expect_block(spec))
     final = result.motion.q[-1]
     entry["final_soles"] = {sole: robot.frame_placement(final, sole).translation.tolist()
                             for sole in ("r_sole", "l_sole")}
     _add(report, entry)
-    return report
+    return report, animation
 
 
-def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
+def run_keyframes(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.bioloid.behaviours import replay_keyframes
     from wbik.bioloid.servo import to_servo
 
@@ -214,9 +249,11 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
     if set(own) - set(chosen):
         raise ExpectationError(f"expect.behaviours names {sorted(set(own) - set(chosen))}, which are not "
                                f"replayed; replayed: {chosen}")
+    animations = []
     for behaviour in chosen:
         replay = replay_keyframes(robot, behaviour, spec["keyframes"])
         motion = replay["motion"]
+        animations.append(_motion_animation(motion, replay["times_s"], f"keyframes {behaviour}"))
         names = motion.joint_names
         exact, clamped_rows = True, 0
         for units, angles in zip(replay["units"], motion.joint_matrix(), strict=True):
@@ -239,11 +276,12 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> dict:
         _add(report, _judge(entry, wanted, figures, KEYFRAME_RULES, f"expect ({behaviour})"))
         if on_progress is not None:
             on_progress(report)
-    return report
+    return report, _joined(animations)
 
 
-def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
+def run_placo_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.bioloid.placo_walk import placo_walk
+    from wbik.viz.placo_walk import placo_walk_animation
 
     robot = _robot(spec)
     report = _report(spec, robot)
@@ -256,7 +294,12 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> dict:
             figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
     wanted = {"planned": True, **_expect_block(spec)}
     _add(report, _judge(entry, wanted, figures, PLACO_WALK_RULES, "expect"))
-    return report
+    animation = None
+    if result.get("planned"):
+        animation = placo_walk_animation(robot, steps=int(spec["steps"]),
+                                         step_length=float(spec["step_length"]), margin=float(spec["margin"]),
+                                         footstep_x=result["footstep_x_m"])
+    return report, animation
 
 
 RUNNER_KINDS = {"bioloid_step": run_step, "bioloid_walk": run_walk, "bioloid_turn": run_walk,

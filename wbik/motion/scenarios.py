@@ -21,6 +21,10 @@ with the keys of ``MOVE_RULES`` (thresholds SI, judged by :mod:`wbik.expectation
 and printed as figure / threshold / ok). Unless ``expect`` sets them, a move expects success, the
 peak joint speed within the limit (1e-9) and, when it has Cartesian knots, each knot tracked to
 ``tolerance``.
+
+Each runner returns its report and a :class:`wbik.viz.animation.Animation` (what ``wbik view``
+plays): every move's timed trajectory (the chain's joints in the full configuration, the tip traced),
+the moves one after the other; the foot-sensor stance is one still sample on both soles.
 """
 
 from __future__ import annotations
@@ -149,12 +153,22 @@ def _finish(spec: dict, report: dict, trajectory) -> dict:
     return report
 
 
+def _animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
+    """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
+    from wbik.viz.animation import Animation
+
+    times = np.asarray(trajectory.times, dtype=float)
+    keep = np.r_[True, np.diff(times) > 0]
+    return Animation.from_chain(robot, chain, times[keep], np.asarray(trajectory.positions)[keep],
+                                reference=reference, name=name)
+
+
 def _report(spec: dict, robot) -> dict:
     return {"name": spec["name"], "kind": spec["kind"], "robot": robot.name, "moves": [],
             "passed": True, "verdict": "informational"}
 
 
-def run_joint(spec: dict, on_progress: Progress = None) -> dict:
+def run_joint(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.motion.joint import joint_path
 
     robot = _robot(spec)
@@ -165,10 +179,10 @@ def run_joint(spec: dict, on_progress: Progress = None) -> dict:
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "joint interpolation")
     report["moves"].append(entry)
-    return _finish(spec, report, trajectory)
+    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, entry["name"])
 
 
-def run_cartesian(spec: dict, on_progress: Progress = None) -> dict:
+def run_cartesian(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.base import solver
 
@@ -188,10 +202,10 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> dict:
                                     {"waypoints_reached": all(reached)}, {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
     report["moves"].append(entry)
-    return _finish(spec, report, trajectory)
+    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, entry["name"])
 
 
-def run_pincher(spec: dict, on_progress: Progress = None) -> dict:
+def run_pincher(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.motion import pincher
     from wbik.solvers.base import solver
 
@@ -199,7 +213,7 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> dict:
     ik = solver(spec["method"], robot, timeout_s=float(spec["timeout_s"]))
     chain = ik.chain
     q = _start(spec, chain)
-    report, trajectory = _report(spec, robot), None
+    report, trajectory, animation = _report(spec, robot), None, None
     for index, move in enumerate(spec["moves"]):
         if "jog" in move:
             path = pincher.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
@@ -218,13 +232,15 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> dict:
             raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
         entry, trajectory = _timed_move({**spec, **move}, path, name)
         report["moves"].append(entry)
+        move_animation = _animation(robot, chain, trajectory, name)
+        animation = move_animation if animation is None else animation.then(move_animation, pause=0.25)
         q = path.q[-1].copy()
         if on_progress is not None:
             on_progress(report)
-    return _finish(spec, report, trajectory)
+    return _finish(spec, report, trajectory), animation
 
 
-def run_golem3(spec: dict, on_progress: Progress = None) -> dict:
+def run_golem3(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.motion.golem3 import ARM_WITH_LIFT, approach
 
     robot = _robot(spec)
@@ -239,10 +255,10 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> dict:
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
     report["moves"].append(entry)
-    return _finish(spec, report, trajectory)
+    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, "approach")
 
 
-def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
+def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     from wbik.bioloid.sensors import stance_loads
 
     robot = _robot(spec)
@@ -254,7 +270,11 @@ def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> dict:
     _judge(spec, entry, {"cop_minus_com_m": gap}, {"cop_error_max_m": float(spec["tolerance"])})
     report = _report(spec, robot)
     report["moves"].append(entry)
-    return _finish(spec, report, None)
+    from wbik.viz.animation import Animation, Overlays
+
+    soles = (("r_sole", "l_sole"),)
+    return _finish(spec, report, None), Animation(robot, [0.0], q[None], Overlays(None, soles, soles),
+                                                  "static stance")
 
 
 RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "pincher_motion": run_pincher,

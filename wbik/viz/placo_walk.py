@@ -1,0 +1,94 @@
+"""The animation of PlaCo's walk (``bioloid_placo_walk``): PlaCo's own whole-body IK on its plan.
+
+:func:`wbik.bioloid.placo_walk.placo_walk` measures PlaCo's plan (footsteps, CoM and ZMP) but keeps
+no robot configuration. Here the same plan is made again with the same parameters (every value is
+read from ``placo_walk``'s module or restated below, and the footsteps are compared with the ones
+the report holds: a mismatch raises) and PlaCo's ``WalkTasks`` (feet on PlaCo's foot trajectories,
+CoM on its CoM trajectory, trunk pitched) are solved by PlaCo's kinematics solver every
+``SAMPLE_S`` seconds. The soles on the ground (PlaCo's foot trajectory within
+``GROUND_TOLERANCE`` of the floor) are the support of each sample.
+
+PlaCo's solver treats every walk task as soft, and the plan's 40 mm foot rise at the standing CoM
+height is not always within reach of the Bioloid's legs: measured on tasks/bioloid_walk_placo.yaml,
+the stance sole leaves the floor by up to 33 mm for a few samples of the second and fourth single
+supports (from 2.05 s and 3.25 s). The animation shows PlaCo's plan as PlaCo's IK follows it; the
+report's figures are PlaCo's plan itself (wbik.bioloid.placo_walk), not this IK.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError
+
+SAMPLE_S = 0.05
+"""s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)."""
+SETTLE_ITERATIONS = 50
+"""Solver iterations at t = 0 to bring the standing robot into PlaCo's walking posture."""
+ITERATIONS = 10
+"""Solver iterations per later sample (each starts from the previous sample)."""
+
+
+def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
+                         single_support_s: float = 0.5, footstep_x: list[float] | None = None):
+    """PlaCo's walk of ``steps`` steps as a :class:`wbik.viz.animation.Animation` (see the module
+    docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
+    from wbik.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf
+    from wbik.solvers.placo import import_placo, placo_configuration, set_placo_configuration
+    from wbik.viz.animation import Animation, Overlays
+
+    placo = import_placo()
+    humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
+    set_placo_configuration(robot, humanoid, robot.nominal)
+    humanoid.update_kinematics()
+    sole_size = robot.info["assumptions"]["sole_size"]
+    # the parameters of wbik.bioloid.placo_walk.placo_walk
+    parameters = placo.HumanoidParameters()
+    parameters.single_support_duration = single_support_s
+    parameters.single_support_timesteps = 10
+    parameters.double_support_ratio = 0.2
+    parameters.startend_double_support_ratio = 1.5
+    parameters.planned_timesteps = 48
+    parameters.walk_com_height = float(robot.center_of_mass(robot.nominal)[2])
+    parameters.walk_foot_height = 0.04
+    parameters.walk_trunk_pitch = math.radians(20.0)
+    parameters.walk_foot_rise_ratio = 0.2
+    parameters.foot_length, parameters.foot_width = float(sole_size[0]), float(sole_size[1])
+    parameters.feet_spacing = 2 * float(robot.info["assumptions"]["hip_lateral"])
+    parameters.zmp_margin = margin
+    parameters.walk_max_dx_forward = step_length
+    left, right = humanoid.get_T_world_left(), humanoid.get_T_world_right()
+    goal_left, goal_right = left.copy(), right.copy()
+    goal_left[0, 3] += steps * step_length
+    goal_right[0, 3] += steps * step_length
+    planner = placo.FootstepsPlannerNaive(parameters)
+    planner.configure(goal_left, goal_right)
+    footsteps = planner.plan(placo.HumanoidRobot_Side.left, left, right)
+    planned_x = [float(step.frame[0, 3]) for step in footsteps]
+    if footstep_x is not None and (len(planned_x) != len(footstep_x)
+                                   or not np.allclose(planned_x, footstep_x, atol=1e-9)):
+        raise InvalidConfigurationError(
+            f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
+            "wbik.viz.placo_walk no longer mirrors wbik.bioloid.placo_walk")
+    supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
+    trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, humanoid.com_world(), 0.0)
+
+    solver = humanoid.make_solver()
+    tasks = placo.WalkTasks()
+    tasks.initialize_tasks(solver, humanoid)
+    times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
+    rows, support = [], []
+    for index, t in enumerate(times):
+        tasks.update_tasks_from_trajectory(trajectory, float(t))
+        for _ in range(SETTLE_ITERATIONS if index == 0 else ITERATIONS):
+            humanoid.update_kinematics()
+            solver.solve(True)
+        humanoid.update_kinematics()
+        rows.append(placo_configuration(robot, humanoid))
+        feet = (("l_sole", trajectory.get_T_world_left(float(t))),
+                ("r_sole", trajectory.get_T_world_right(float(t))))
+        support.append(tuple(sole for sole, pose in feet if abs(pose[2, 3]) <= GROUND_TOLERANCE))
+    return Animation(robot, times, np.array(rows), Overlays("pelvis", tuple(support), tuple(support)),
+                     "PlaCo walk pattern generator")
