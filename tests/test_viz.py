@@ -320,4 +320,52 @@ def test_cli_view_plays_a_scenario_file(tmp_path):
     assert keys[-1]["time"] / marker["fps"] == pytest.approx(2 * PHASE_SECONDS)
     middle, end = np.array(keys[SAMPLES_PER_PHASE]["value"]), np.array(keys[-1]["value"])
     np.testing.assert_allclose(end - middle, [0.03, 0.0, 0.02], atol=1e-4)  # the phase-2 offset
-    assert any(c["path"] == "/meshcat/wbik/support/polygon" for c in commands)
+    # the support polygon of each phase: both soles, then (same soles, same places) no new one
+    assert any(c["path"] == "/meshcat/wbik/support/polygon_0" for c in commands)
+    assert not any(c["path"] == "/meshcat/wbik/support/polygon_1" for c in commands)
+    assert "/meshcat/wbik/support/com" in clips and "/meshcat/wbik/contacts/r_sole" in clips
+
+
+def test_animation_checks_its_samples_and_thins_joins_them():
+    from wbik.viz.animation import Animation, Overlays
+
+    robot = wbik.load("arm3r")
+    rows = np.tile(robot.nominal, (5, 1))
+    with pytest.raises(InvalidConfigurationError, match="shape"):
+        Animation(robot, [0.0, 1.0], rows)
+    with pytest.raises(InvalidConfigurationError, match="increasing"):
+        Animation(robot, [0.0, 1.0, 1.0, 2.0, 3.0], rows)
+    with pytest.raises(InvalidConfigurationError, match="one entry per sample"):
+        Animation(robot, np.arange(5.0), rows, Overlays(support=[()] * 4))
+    animation = Animation(robot, np.arange(5.0), rows, Overlays(contacts=[("tip",)] * 5))
+    thin = animation.subsampled(3)
+    assert list(thin.times) == [0.0, 3.0, 4.0] and len(thin.overlays.contacts) == 3
+    assert animation.limited(3).frames == 3 and animation.limited(10) is animation
+    joined = animation.then(thin, pause=0.5)
+    assert list(joined.times[4:]) == [4.0, 4.5, 7.5, 8.5]
+
+
+def test_played_walk_shows_the_support_of_each_sample():
+    """Bioloid standing, first on both soles then (as far as the overlay says) on the right one: two
+    polygons, each visible only during its own samples, the CoM's ground marker turns red."""
+    from wbik.viz.animation import Animation, Overlays
+
+    robot = wbik.load("bioloid")
+    rows = np.array([robot.nominal] * 3)  # the robot stands still; only the soles called down change
+    support = [("r_sole", "l_sole"), ("r_sole", "l_sole"), ("r_sole",)]
+    viewer = Viewer(robot)
+    drawn = viewer.play_animation(Animation(robot, [0.0, 1.0, 2.0], rows, Overlays(None, support, support)),
+                                  fps=10)
+    # the CoM is between the feet: inside both soles' polygon, outside the right sole's
+    assert drawn.frames == 3 and drawn.com_margins[0] > 0.0 > drawn.com_margins[2]
+    clips = {entry["path"]: entry["clip"] for entry in
+             umsgpack.unpackb(viewer.window.root.animation)["animations"]}
+
+    def visible(path):
+        track = next(t for t in clips[f"/meshcat/wbik/{path}"]["tracks"] if t["name"] == ".visible")
+        return [(key["time"], key["value"]) for key in track["keys"]]
+
+    assert visible("support/polygon_0") == [(0.0, True), (20.0, False)]
+    assert visible("support/polygon_1") == [(0.0, False), (20.0, True)]
+    assert visible("support/com_ground_outside") == [(0.0, False), (20.0, True)]
+    assert visible("contacts/l_sole") == [(0.0, True), (20.0, False)]
