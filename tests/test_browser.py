@@ -83,3 +83,23 @@ def test_bioloid_com_and_support_polygon_page():
     # the robot's light-grey boxes: bright, unsaturated pixels, unlike the blue background
     grey = (image.min(axis=2) > 120) & (image.max(axis=2) - image.min(axis=2) < 25)
     assert np.count_nonzero(grey) > 3000
+
+
+def test_walk_scenario_page_draws_the_robot():
+    """``wbik view tasks/bioloid_walk_turn.yaml --html``: the walk's page loads without errors and
+    shows the Bioloid (the screenshot stays in tests/artifacts/bioloid_walk_turn.png)."""
+    from wbik.scenarios import load_scenario
+    from wbik.viz.scenario import animation_viewer, scenario_animation
+
+    task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_walk_turn.yaml"
+    spec = load_scenario(task)
+    spec["export"]["servo_csv"] = str(ARTIFACTS / "bioloid_walk_turn_servos.csv")  # not runs/
+    _, animation = scenario_animation(task, spec)
+    viewer = animation_viewer(animation)
+    assert animation.frames > 100
+    image = render_checked(viewer, "bioloid_walk_turn")
+    grey = (image.min(axis=2) > 120) & (image.max(axis=2) - image.min(axis=2) < 25)
+    viewer.meshcat["wbik/robot"].set_property("visible", False)
+    empty = render_checked(viewer, "bioloid_walk_turn_without_robot")
+    grey_empty = (empty.min(axis=2) > 120) & (empty.max(axis=2) - empty.min(axis=2) < 25)
+    assert np.count_nonzero(grey) - np.count_nonzero(grey_empty) > 3000, "the walking robot was not drawn"
