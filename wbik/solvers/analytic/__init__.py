@@ -12,6 +12,7 @@ The returned joints still go through the shared Pinocchio FK check of :mod:`wbik
 from __future__ import annotations
 
 import importlib
+import math
 import time
 from collections.abc import Iterable
 
@@ -102,6 +103,33 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
         best_distance = np.where(better, distance, best_distance)
         in_limits |= ok
     return np.clip(best, lower, upper), np.all(in_limits, axis=-1)
+
+
+_SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
+
+
+def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
+    """:func:`wrap_into_limits` for one vector of revolute angles in plain floats (scalar fast paths):
+    the 2 pi shift of each angle inside its limits nearest to ``reference``, set onto the limit when
+    within LIMIT_TOLERANCE of it; None if some angle has no shift inside its limits."""
+    wrapped = []
+    for value, ref, low, high in zip(q, reference, lower, upper, strict=True):
+        turns = round((ref - value) / TWO_PI)  # the shift nearest ref; the usual answer
+        if -2 <= turns <= 2:
+            shifted = value + turns * TWO_PI
+            if low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE:
+                wrapped.append(min(high, max(low, shifted)))
+                continue
+        best, best_distance = None, math.inf
+        for shift in _SHIFTS:
+            shifted = value + shift
+            if (low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE
+                    and abs(shifted - ref) < best_distance):
+                best, best_distance = shifted, abs(shifted - ref)
+        if best is None:
+            return None
+        wrapped.append(min(high, max(low, best)))
+    return wrapped
 
 
 class AnalyticSolver(Solver):

@@ -41,7 +41,7 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.robot import Chain
-from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm
+from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm, wrap_one_into_limits
 
 CLAMP_TOLERANCE = 1e-9
 """Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
@@ -365,7 +365,7 @@ class Golem3PoseIK(_Golem3Form):
                 t1 = math.atan2(v, u) - math.atan2(L2 * math.sin(t2), L1 + L2 * math.cos(t2))
                 q = [_snap_scalar(v, low, high) for v, low, high in
                      zip((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha), lower, upper, strict=True)]
-                q = _wrap_scalar(q, reference, lower, upper)
+                q = wrap_one_into_limits(q, reference, lower, upper)
                 if q is None or _scalar_residual(q, target) > self.screen_tolerance:
                     continue
                 usable += 1
@@ -373,26 +373,6 @@ class Golem3PoseIK(_Golem3Form):
                 if distance < best_distance:
                     best, best_distance = q, distance
         return best, best_distance, usable
-
-
-_SHIFTS = (0.0, 2.0 * math.pi, -2.0 * math.pi, 4.0 * math.pi, -4.0 * math.pi)
-
-
-def _wrap_scalar(q, reference, lower, upper) -> list[float] | None:
-    """wrap_into_limits of the framework for one joint vector of revolute joints, or None if a joint
-    has no 2 pi shift inside its limits."""
-    wrapped = []
-    for value, ref, low, high in zip(q, reference, lower, upper, strict=True):
-        best, best_distance = None, math.inf
-        for shift in _SHIFTS:
-            shifted = value + shift
-            if (low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE
-                    and abs(shifted - ref) < best_distance):
-                best, best_distance = shifted, abs(shifted - ref)
-        if best is None:
-            return None
-        wrapped.append(min(high, max(low, best)))
-    return wrapped
 
 
 def _scalar_residual(q, target) -> float:

@@ -21,10 +21,12 @@ Angles come out in (-pi, pi]; the framework wraps them into the +-2 pi limits ne
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbik.robot import Chain
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic import TWO_PI, ClosedForm, wrap_one_into_limits
 from wbik.solvers.analytic.arm3r import COSINE_TOLERANCE, two_link_planar
 
 D1 = 0.089159
@@ -141,10 +143,80 @@ def ee_branches(positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarra
     return q_all.reshape(count, 8, 6), valid.reshape(count, 8)
 
 
+def ee_fk_scalar(q) -> tuple[tuple[float, float, float], tuple[float, ...]]:
+    """:func:`ee_fk` of one joint vector in plain floats: (position, rotation row by row (9,))."""
+    q1, q2, q3, q4, q5, q6 = q
+    q23 = q2 + q3
+    q234 = q23 + q4
+    c1, s1, c2, s2 = math.cos(q1), math.sin(q1), math.cos(q2), math.sin(q2)
+    c4, s4, c5, s5 = math.cos(q4), math.sin(q4), math.cos(q5), math.sin(q5)
+    c6, s6, c23, s23 = math.cos(q6), math.sin(q6), math.cos(q23), math.sin(q23)
+    c234, s234 = math.cos(q234), math.sin(q234)
+    side = s1 * s5 + c234 * c1 * c5
+    front = c1 * s5 - c234 * c5 * s1
+    rotation = (c234 * c1 * s5 - c5 * s1, c6 * side - s234 * c1 * s6, -s6 * side - s234 * c1 * c6,
+                c1 * c5 + c234 * s1 * s5, -c6 * front - s234 * s1 * s6, s6 * front - s234 * c6 * s1,
+                -s234 * s5, -c234 * s6 - s234 * c5 * c6, s234 * c5 * s6 - c234 * c6)
+    position = (D6 * c234 * c1 * s5 - A3 * c23 * c1 - A2 * c1 * c2 - D6 * c5 * s1 - D5 * s234 * c1 - D4 * s1,
+                D6 * (c1 * c5 + c234 * s1 * s5) + D4 * c1 - A3 * c23 * s1 - A2 * c2 * s1 - D5 * s234 * s1,
+                D1 + A3 * s23 + A2 * s2 - D5 * (c23 * c4 - s23 * s4) - D6 * s5 * (c23 * s4 + s23 * c4))
+    return position, rotation
+
+
+def ee_branches_scalar(position, rotation, q6_free: float, tolerance: float = COSINE_TOLERANCE):
+    """:func:`ee_branches` for one pose in plain floats: the 8 (joints, exists) in the same order."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation
+    # into the DH convention: B R E^T with B = diag(-1, -1, 1) and E^T's columns -e1, -e2, e0
+    t00, t01, t02, t10, t11, t12 = r01, r02, -r00, r11, r12, -r10
+    t20, t21, t22 = -r21, -r22, r20
+    t03, t13, t23 = -position[0], -position[1], position[2]
+    a, b = D6 * t12 - t13, D6 * t02 - t03
+    ratio = D4 / max(math.sqrt(a * a + b * b), 1e-300)
+    exists1 = ratio <= 1.0 + tolerance
+    offset = math.acos(min(1.0, max(-1.0, ratio)))
+    shoulder = math.atan2(-b, a)
+    branches = []
+    for q1 in (shoulder + offset, shoulder - offset):
+        c1, s1 = math.cos(q1), math.sin(q1)
+        cos5 = (t03 * s1 - t13 * c1 - D4) / D6
+        scale = (abs(t03 * s1) + abs(t13 * c1) + D4) / D6
+        exists5 = abs(cos5) <= 1.0 + tolerance * max(scale, 1.0)
+        u, v = t00 * s1 - t10 * c1, t01 * s1 - t11 * c1
+        sine5 = math.hypot(u, v)
+        angle5 = math.atan2(sine5, min(1.0, max(-1.0, cos5)))
+        singular = sine5 < WRIST_SINGULARITY
+        r0, r1, r2 = t00 * c1 + t10 * s1, t01 * c1 + t11 * s1, t02 * c1 + t12 * s1
+        for q5 in (angle5, -angle5):
+            c5, s5 = math.cos(q5), math.sin(q5)
+            sign = 1.0 if s5 >= 0.0 else -1.0
+            q6 = q6_free if singular else math.atan2(-sign * v, sign * u)
+            c6, s6 = math.cos(q6), math.sin(q6)
+            x04x = -s5 * r2 - c5 * (s6 * r1 - c6 * r0)
+            x04y = c5 * (t20 * c6 - t21 * s6) - t22 * s5
+            px = D5 * (s6 * r0 + c6 * r1) - D6 * r2 + t03 * c1 + t13 * s1
+            py = t23 - D1 - D6 * t22 + D5 * (t21 * c6 + t20 * s6)
+            cosine = (px * px + py * py - A2 * A2 - A3 * A3) / (2.0 * A2 * A3)
+            exists3 = abs(cosine) <= 1.0 + tolerance
+            cosine = min(1.0, max(-1.0, cosine))
+            sine = math.sqrt(1.0 - cosine * cosine)
+            reach = math.atan2(py, px)
+            for elbow_sine in (sine, -sine):
+                q3 = math.atan2(elbow_sine, cosine)
+                q2 = reach - math.atan2(A3 * elbow_sine, A2 + A3 * cosine)
+                c23, s23 = math.cos(q2 + q3), math.sin(q2 + q3)
+                q4 = math.atan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23)
+                branches.append(([q1, q2, q3, q4, q5, q6], exists1 and exists5 and exists3))
+    return branches
+
+
 class UR5EndEffector(ClosedForm):
     """Chain ``ee`` (base_link -> ee_link), full poses, 8 branches."""
 
     target_kind = "pose"
+
+    def __init__(self, chain: Chain):
+        super().__init__(chain)
+        self._lower, self._upper = chain.lower.tolist(), chain.upper.tolist()
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -152,6 +224,50 @@ class UR5EndEffector(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return ee_fk(q)
+
+    # -- scalar fast path (the framework's screening, in plain floats) ---------------------------
+    def _to_ee(self, position, rotation):
+        """The target of the ee_link frame (identity here; the tool chain composes its transform)."""
+        return position, rotation
+
+    def _fk_scalar(self, q):
+        return ee_fk_scalar(q)
+
+    def solve_one(self, position: np.ndarray, rotation: np.ndarray, q0: np.ndarray):
+        """Same answer as the vectorised path (every branch wrapped into the limits nearest q0,
+        closed-form FK residual <= screen_tolerance, the one nearest q0) at a fraction of its cost,
+        by branch and bound: a branch's distance to q0 is at least the sum of its joints' distances
+        to q0 modulo 2 pi (``math.remainder``), so branches are taken in that order and wrapped and
+        screened only until no remaining branch can be nearer than the best found.
+        Returns (q or None, number of real branches)."""
+        target_p = position.tolist()
+        target_r = rotation.tolist()
+        ee_p, ee_r = self._to_ee(target_p, target_r)
+        reference = q0.tolist()
+        remainder = math.remainder
+        bounded = []
+        for joints, exists in ee_branches_scalar(ee_p, ee_r, reference[5]):
+            if exists:
+                bound = sum(remainder(a - b, TWO_PI) ** 2 for a, b in zip(joints, reference, strict=True))
+                bounded.append((bound, joints))
+        bounded.sort(key=lambda item: item[0])  # stable: ties keep the branch order
+        flat_r = [value for row in target_r for value in row]
+        best, best_distance = None, math.inf
+        for bound, joints in bounded:
+            if bound >= best_distance:
+                break
+            q = wrap_one_into_limits(joints, reference, self._lower, self._upper)
+            if q is None or not all(math.isfinite(value) for value in q):
+                continue
+            distance = sum((a - b) ** 2 for a, b in zip(q, reference, strict=True))
+            if distance >= best_distance:
+                continue
+            reached_p, reached_r = self._fk_scalar(q)
+            trace = sum(a * b for a, b in zip(flat_r, reached_r, strict=True))
+            angle = math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0))))
+            if max(math.dist(reached_p, target_p), angle) <= self.screen_tolerance:
+                best, best_distance = q, distance
+        return (None if best is None else np.array(best)), len(bounded)
 
 
 class UR5Tool(UR5EndEffector):
@@ -163,6 +279,7 @@ class UR5Tool(UR5EndEffector):
         tool = ee_chain.fk(ee_chain.nominal).inverse() * chain.fk(chain.nominal)
         self.tool_rotation = tool.rotation.copy()
         self.tool_translation = tool.translation.copy()
+        self._tool_r, self._tool_p = self.tool_rotation.tolist(), self.tool_translation.tolist()
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -173,3 +290,20 @@ class UR5Tool(UR5EndEffector):
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         position, rotation = ee_fk(q)
         return position + rotation @ self.tool_translation, rotation @ self.tool_rotation
+
+    def _to_ee(self, position, rotation):
+        """T_ee = T_tcp X^-1: R_ee = R R_X^T, p_ee = p - R_ee p_X (plain floats)."""
+        tool_r, tool_p = self._tool_r, self._tool_p
+        ee_r = [[sum(row[k] * tool_r[j][k] for k in range(3)) for j in range(3)] for row in rotation]
+        ee_p = [position[i] - sum(ee_r[i][k] * tool_p[k] for k in range(3)) for i in range(3)]
+        return ee_p, ee_r
+
+    def _fk_scalar(self, q):
+        """FK_tcp = FK_ee X: p + R p_X, R R_X (plain floats, R row by row)."""
+        (px, py, pz), r = ee_fk_scalar(q)
+        tool_r, tool_p = self._tool_r, self._tool_p
+        rows = (r[0:3], r[3:6], r[6:9])
+        position = tuple(p + sum(row[k] * tool_p[k] for k in range(3))
+                         for p, row in zip((px, py, pz), rows, strict=True))
+        rotation = tuple(sum(row[k] * tool_r[k][j] for k in range(3)) for row in rows for j in range(3))
+        return position, rotation
