@@ -23,6 +23,7 @@ from wbik.models import load, robots
 from wbik.robot import Chain, ChainSpec, Robot
 from wbik.solvers import IKResult, Solver, Tolerances, methods, register, solver
 from wbik.targets import Target, as_target
+from wbik.wholebody import WholeBody, WholeBodyResult, check_wholebody, wholebody_methods, wholebody_solver
 
 __version__ = "0.1.0"
 
@@ -32,4 +33,5 @@ __all__ = [
     "Target", "Tolerances", "UnknownChainError", "UnknownFrameError", "UnknownMethodError",
     "UnknownRobotError", "UnsupportedError", "WbikError", "as_target", "load", "methods",
     "register", "robots", "solver",
+    "WholeBody", "WholeBodyResult", "check_wholebody", "wholebody_methods", "wholebody_solver",
 ]

@@ -1,0 +1,263 @@
+"""Seeded samplers of whole-body cases, for the whole-body study (``target: wholebody``).
+
+``sample_case(name, seed, index)`` draws case ``index`` of family ``name`` from
+``numpy.random.default_rng([seed, crc32(name), index])``: a case depends only on (name, seed,
+index), not on how many are drawn or by which worker. Each returns a :class:`WholeBodyCase`: the
+problem, the start q0 and an ``anchor`` point (the main target, for the study's poses file).
+
+Bioloid (floating base, 24 DOF; soles 100 x 60 mm; margin 5 mm):
+
+- ``bioloid_com_shift``: both soles held, the CoM (xy) to a uniform point of the two-sole polygon
+  shrunk by 10 mm; the pelvis keeps its orientation (soft).
+- ``bioloid_foot_lift``: standing on one foot (the CoM already over it, both soles on the ground,
+  solved once by our QP from the nominal), the other sole to a target 10-50 mm up, +-30 mm
+  forward, 0-20 mm outward, yaw +-0.2 rad; stance sole held, support = stance sole.
+- ``bioloid_reach_two_feet``: both soles held, one hand (random side) to the position of that hand
+  at a uniform random arm configuration from the nominal (reachable by the arm alone; the CoM may
+  then need the body to move).
+- ``bioloid_reach_one_foot``: standing on one foot with the other lifted 20 mm (solved once), one
+  hand to a random arm configuration's position; the lifted sole keeps its pose (soft).
+
+Golem-III (fixed base):
+
+- ``golem3_two_grippers``: both grippers (r_eef, l_eef) to the positions they have at a uniform
+  random configuration of all joints (the torso lift mb and the chest yaw m0 shared), from the
+  nominal; joint position limits only (the lift's 5 mm/s velocity limit would make every IK step
+  5 mm long at most).
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import UnknownNameError
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask
+from wbik.robot import Robot
+from wbik.wholebody.problem import WholeBody
+
+MARGIN = 0.005
+
+
+@dataclass
+class WholeBodyCase:
+    problem: WholeBody
+    q0: np.ndarray
+    anchor: np.ndarray  # (3,) the main target point (m, world)
+    q_true: np.ndarray | None = None  # the configuration the targets came from, when there is one
+
+
+@lru_cache(maxsize=8)
+def _robot(name: str) -> Robot:
+    import wbik
+
+    return wbik.load(name)
+
+
+def _rng(name: str, seed: int, index: int) -> np.random.Generator:
+    return np.random.default_rng([int(seed), zlib.crc32(name.encode()), int(index)])
+
+
+def _sole(side: str) -> str:
+    return f"{side}_sole"
+
+
+def _other(side: str) -> str:
+    return "l" if side == "r" else "r"
+
+
+def _pelvis_keep(robot: Robot, q: np.ndarray, weight: float = 0.1) -> OrientationTask:
+    return OrientationTask("pelvis", robot.frame_placement(q, "pelvis").rotation, weight=weight, goal=False)
+
+
+@lru_cache(maxsize=4)
+def standing_on(side: str, lift: float = 0.0) -> np.ndarray:
+    """The Bioloid standing on sole ``side`` ("r" or "l"): the CoM over that sole's centre with both
+    soles held, then (``lift`` > 0) the other sole lifted by ``lift`` m; solved by our QP (DAQP)."""
+    from wbik.qp.humanoid import stance_constraints
+    from wbik.qp.problem import IKProblem
+    from wbik.qp.tasks import RegularizationTask
+
+    robot = _robot("bioloid")
+    q = robot.nominal.copy()
+    over = robot.frame_placement(q, _sole(side)).translation
+    problem = IKProblem(
+        robot.model,
+        [ComTask([over[0], over[1], 0.0], axes="xy"), _pelvis_keep(robot, q), RegularizationTask(1e-6)],
+        stance_constraints(robot, q, ["r_sole", "l_sole"], margin=MARGIN),
+        backend="daqp",
+    )
+    solution = problem.solve(q)
+    if not solution.success:  # pragma: no cover - a model change would show here
+        raise RuntimeError(f"cannot stand the Bioloid on {side}: {solution.reason}")
+    q = solution.q
+    if lift > 0:
+        swing = robot.frame_placement(q, _sole(_other(side)))
+        swing.translation = swing.translation + np.array([0.0, 0.0, lift])
+        problem = IKProblem(
+            robot.model,
+            [FrameTask(_sole(_other(side)), swing), _pelvis_keep(robot, q), RegularizationTask(1e-6)],
+            stance_constraints(robot, q, [_sole(side)], margin=MARGIN),
+            backend="daqp",
+        )
+        solution = problem.solve(q)
+        if not solution.success:  # pragma: no cover
+            raise RuntimeError(f"cannot lift the Bioloid's {_other(side)} sole: {solution.reason}")
+        q = solution.q
+    q = q.copy()
+    q.setflags(write=False)
+    return q
+
+
+def _random_arm_target(robot: Robot, q: np.ndarray, rng: np.random.Generator, side: str) -> np.ndarray:
+    chain = robot.chain("right_arm" if side == "r" else "left_arm")
+    moved = q.copy()
+    moved[chain.q_index] = chain.random(rng)
+    return robot.frame_placement(moved, f"{side}_hand").translation.copy()
+
+
+def bioloid_com_shift(seed: int, index: int) -> WholeBodyCase:
+    robot = _robot("bioloid")
+    rng = _rng("bioloid_com_shift", seed, index)
+    q0 = robot.nominal.copy()
+    problem_support = ["r_sole", "l_sole"]
+    from wbik.qp.humanoid import support_polygon
+
+    polygon = support_polygon(robot, q0, problem_support)
+    low, high = polygon.vertices.min(axis=0), polygon.vertices.max(axis=0)
+    while True:
+        point = rng.uniform(low, high)
+        if polygon.margin_of(point) >= 2 * MARGIN:
+            break
+    com = robot.center_of_mass(q0)
+    target = np.array([point[0], point[1], com[2]])
+    problem = WholeBody(
+        robot,
+        [ComTask(target, axes="xy", name="com"), _pelvis_keep(robot, q0)],
+        contacts=problem_support,
+        support=problem_support,
+        margin=MARGIN,
+        name=f"bioloid_com_shift[{index}]",
+    )
+    return WholeBodyCase(problem, q0, target)
+
+
+def bioloid_foot_lift(seed: int, index: int) -> WholeBodyCase:
+    robot = _robot("bioloid")
+    rng = _rng("bioloid_foot_lift", seed, index)
+    side = "r" if rng.random() < 0.5 else "l"
+    swing = _other(side)
+    q0 = standing_on(side).copy()
+    start = robot.frame_placement(q0, _sole(swing))
+    outward = 1.0 if swing == "l" else -1.0  # +y is the left
+    offset = np.array([rng.uniform(-0.03, 0.03), outward * rng.uniform(0.0, 0.02), rng.uniform(0.01, 0.05)])
+    target = pin.SE3(
+        pin.utils.rotate("z", float(rng.uniform(-0.2, 0.2))) @ start.rotation, start.translation + offset
+    )
+    problem = WholeBody(
+        robot,
+        [FrameTask(_sole(swing), target, name=f"{swing}_sole"), _pelvis_keep(robot, q0)],
+        contacts=[_sole(side)],
+        support=[_sole(side)],
+        margin=MARGIN,
+        name=f"bioloid_foot_lift[{index}]",
+    )
+    return WholeBodyCase(problem, q0, target.translation.copy())
+
+
+def bioloid_reach_two_feet(seed: int, index: int) -> WholeBodyCase:
+    robot = _robot("bioloid")
+    rng = _rng("bioloid_reach_two_feet", seed, index)
+    hand = "r" if rng.random() < 0.5 else "l"
+    q0 = robot.nominal.copy()
+    target = _random_arm_target(robot, q0, rng, hand)
+    problem = WholeBody(
+        robot,
+        [PositionTask(f"{hand}_hand", target, name=f"{hand}_hand"), _pelvis_keep(robot, q0)],
+        contacts=["r_sole", "l_sole"],
+        support=["r_sole", "l_sole"],
+        margin=MARGIN,
+        name=f"bioloid_reach_two_feet[{index}]",
+    )
+    return WholeBodyCase(problem, q0, target)
+
+
+def bioloid_reach_one_foot(seed: int, index: int) -> WholeBodyCase:
+    robot = _robot("bioloid")
+    rng = _rng("bioloid_reach_one_foot", seed, index)
+    side = "r" if rng.random() < 0.5 else "l"
+    hand = "r" if rng.random() < 0.5 else "l"
+    q0 = standing_on(side, 0.02).copy()
+    target = _random_arm_target(robot, q0, rng, hand)
+    swing = _sole(_other(side))
+    problem = WholeBody(
+        robot,
+        [
+            PositionTask(f"{hand}_hand", target, name=f"{hand}_hand"),
+            FrameTask(swing, robot.frame_placement(q0, swing), weight=0.01, goal=False),
+            _pelvis_keep(robot, q0, 0.01),
+        ],
+        contacts=[_sole(side)],
+        support=[_sole(side)],
+        margin=MARGIN,
+        name=f"bioloid_reach_one_foot[{index}]",
+    )
+    return WholeBodyCase(problem, q0, target)
+
+
+def golem3_two_grippers(seed: int, index: int) -> WholeBodyCase:
+    robot = _robot("golem3")
+    rng = _rng("golem3_two_grippers", seed, index)
+    model = robot.model
+    q_true = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+    right = robot.frame_placement(q_true, "r_eef").translation.copy()
+    left = robot.frame_placement(q_true, "l_eef").translation.copy()
+    problem = WholeBody(
+        robot,
+        [PositionTask("r_eef", right, name="r_eef"), PositionTask("l_eef", left, name="l_eef")],
+        contacts=[],
+        support=[],
+        limits="position",
+        name=f"golem3_two_grippers[{index}]",
+    )
+    return WholeBodyCase(problem, robot.nominal.copy(), right, q_true)
+
+
+SCENARIOS: dict[str, tuple[str, Callable[[int, int], WholeBodyCase]]] = {
+    "bioloid_com_shift": ("bioloid", bioloid_com_shift),
+    "bioloid_foot_lift": ("bioloid", bioloid_foot_lift),
+    "bioloid_reach_two_feet": ("bioloid", bioloid_reach_two_feet),
+    "bioloid_reach_one_foot": ("bioloid", bioloid_reach_one_foot),
+    "golem3_two_grippers": ("golem3", golem3_two_grippers),
+}
+"""Sampler name -> (robot, sampler(seed, index))."""
+
+DESCRIPTIONS = {
+    "bioloid_com_shift": "both soles held; the CoM (xy) to a uniform point of the two-sole polygon shrunk by "
+    "10 mm; pelvis orientation kept (soft); CoM margin 5 mm in the two-sole polygon",
+    "bioloid_foot_lift": "standing on one foot (CoM over it); the other sole to a target 10-50 mm up, "
+    "+-30 mm forward, 0-20 mm outward, yaw +-0.2 rad; stance sole held; CoM margin 5 mm in it",
+    "bioloid_reach_two_feet": "both soles held; one hand to the position it has at a uniform random arm "
+    "configuration; CoM margin 5 mm in the two-sole polygon",
+    "bioloid_reach_one_foot": "on one foot, the other lifted 20 mm (soft keep); one hand to a random arm "
+    "configuration's position; CoM margin 5 mm in the stance sole",
+    "golem3_two_grippers": "both grippers to their positions at a uniform random configuration of every "
+    "joint (lift mb and chest yaw m0 shared); joint position limits; fixed base",
+}
+
+
+def scenario_robot(name: str) -> str:
+    if name not in SCENARIOS:
+        raise UnknownNameError(name, list(SCENARIOS), hint="a whole-body case sampler")
+    return SCENARIOS[name][0]
+
+
+def sample_case(name: str, seed: int, index: int) -> WholeBodyCase:
+    """Case ``index`` of sampler ``name`` for ``seed`` (see the module docstring)."""
+    scenario_robot(name)
+    return SCENARIOS[name][1](seed, index)

@@ -1,0 +1,836 @@
+"""Whole-body methods behind one interface: ``wholebody_solver(method, robot).solve(problem, q0)``.
+
+Every method builds its own formulation of a :class:`~wbik.wholebody.problem.WholeBody`, lists in
+``unsupported`` what it cannot express (it then solves the problem without it, and says so), and
+its answer is judged by the one shared check, :func:`~wbik.wholebody.problem.check_wholebody`.
+
+Methods:
+
+- ``qp``: our task QP (:class:`wbik.qp.IKProblem`), contacts as equalities, the CoM in the shrunk
+  support polygon as hard rows, limits as bounds; ``backend=`` any installed qpsolvers backend.
+- ``placo``: PlaCo's KinematicsSolver: its own frame / position / orientation / CoM / joints tasks
+  (soft, with our weights), contacts as hard frame tasks, its CoM polygon constraint with the
+  polygon clockwise (PlaCo's convention) and configured hard (as benchmarks/qp.py does), joint
+  limits; one ``solve(True)`` per iteration of our loop.
+- ``pink``: pin-pink 4.4: FrameTask (also for position-only and orientation-only tasks, the other
+  half at cost 0), ComTask, PostureTask, contacts as Pink equality constraints, ConfigurationLimit
+  (and VelocityLimit); Pink has no hard CoM-in-polygon constraint, so it solves without one:
+  every pink result with a support polygon lists it in ``unsupported``.
+- ``thesis_legs`` (Bioloid only): the thesis's way: each leg's closed form (foot -> hip, the
+  LegPose closed form of wbik.solvers.analytic.bioloid) from its planted or targeted sole to the
+  hip, with the hip shifted horizontally until the CoM is over the target (a CoM task's target,
+  else where the CoM started), pelvis orientation and height kept, arms kept. Other tasks are
+  listed in ``unsupported``.
+
+Budgets: every loop here is ours, so every method is budgeted in iterations (``max_iterations``,
+default the iterations that cost ``default_budget_s`` on the reference machine at
+``iteration_cost_s`` each); ``timeout_s`` adds a wall clock. Thread safety: per-thread state
+(:meth:`WholeBodySolver._thread_state`), task copies per call.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import math
+import numbers
+import threading
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import (
+    InvalidBudgetError,
+    InvalidOptionError,
+    InvalidSettingError,
+    UnknownMethodError,
+    UnsupportedError,
+)
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.tasks import (
+    ComTask,
+    FrameTask,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    RelativeFrameTask,
+    Task,
+)
+from wbik.robot import Robot
+from wbik.solvers.base import Tolerances
+from wbik.validation import check_budget
+from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
+
+NO_POLYGON = "support polygon as a hard CoM constraint"
+"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported`` (Pink)."""
+
+
+@dataclass
+class WholeBodyCandidate:
+    q: np.ndarray | None
+    iterations: int = 0
+    reason: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+class WholeBodySolver:
+    """Base class of the whole-body methods (see the module docstring for budgets)."""
+
+    name = "base"
+    iteration_cost_s: float = 1e-3
+    default_budget_s: float = 0.1
+
+    def __init__(
+        self,
+        robot: Robot,
+        *,
+        tolerances: Tolerances | None = None,
+        max_iterations: int | None = None,
+        timeout_s: float | None = None,
+        seed: int | None = 0,
+    ):
+        if not isinstance(robot, Robot):
+            raise InvalidOptionError(
+                f"robot must be a wbik.Robot, got {type(robot).__name__}", option="robot"
+            )
+        self.robot = robot
+        if tolerances is not None and not isinstance(tolerances, Tolerances):
+            raise InvalidSettingError(
+                f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}"
+            )
+        self.tolerances = tolerances or Tolerances()
+        self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
+        if max_iterations is None:
+            self.max_iterations = self.iterations_for(self.timeout_s or self.default_budget_s)
+        elif (
+            isinstance(max_iterations, bool)
+            or not isinstance(max_iterations, numbers.Integral)
+            or max_iterations < 1
+        ):
+            raise InvalidBudgetError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+        else:
+            self.max_iterations = int(max_iterations)
+        if seed is not None and (
+            isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0
+        ):
+            raise InvalidSettingError(f"seed must be an integer >= 0 or None, got {seed!r}")
+        self.seed = seed
+        self._local = threading.local()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.robot.name}, {self.max_iterations} iterations)"
+
+    @classmethod
+    def iterations_for(cls, timeout_s: float) -> int:
+        """The iteration budget that costs about ``timeout_s`` on the reference machine."""
+        return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cls.iteration_cost_s))
+
+    def _thread_state(self):
+        state = getattr(self._local, "state", None)
+        if state is None:
+            state = self._local.state = self._new_thread_state()
+        return state
+
+    def _new_thread_state(self):
+        return None
+
+    # -- the interface ------------------------------------------------------------------------------
+    def unsupported(self, problem: WholeBody) -> list[str]:
+        """What of ``problem`` this method cannot express (solved without it)."""
+        return []
+
+    def solve(self, problem: WholeBody, q0=None) -> WholeBodyResult:
+        """Solve ``problem`` from q0 (default the robot's nominal); judged by the shared check."""
+        if not isinstance(problem, WholeBody):
+            raise InvalidSettingError(f"solve() takes a wbik.WholeBody problem, got {type(problem).__name__}")
+        if problem.robot.name != self.robot.name or problem.robot.model.nq != self.robot.model.nq:
+            raise InvalidSettingError(
+                f"the problem is on {problem.robot.name!r}, this solver on {self.robot.name!r}"
+            )
+        q_start = problem.check_q(self.robot.nominal if q0 is None else q0)
+        placements = problem.contact_placements(q_start)
+        polygon = problem.support_polygon(q_start)
+        unsupported = self.unsupported(problem)
+        start = time.perf_counter()
+        deadline = math.inf if self.timeout_s is None else start + self.timeout_s
+        candidate = self._solve(problem, q_start, placements, polygon, deadline)
+        elapsed = time.perf_counter() - start
+        return check_wholebody(
+            problem,
+            candidate.q,
+            self.tolerances,
+            contact_placements=placements,
+            method=self.name,
+            time_s=elapsed,
+            iterations=candidate.iterations,
+            reason=candidate.reason,
+            unsupported=unsupported,
+            extra=candidate.extra,
+        )
+
+    def _solve(self, problem, q0, placements, polygon, deadline) -> WholeBodyCandidate:
+        raise NotImplementedError
+
+    # -- for loops around a peer's single QP step ----------------------------------------------------
+    def _goal_tolerance(self) -> tuple[float, float]:
+        return 0.5 * self.tolerances.position, 0.5 * self.tolerances.rotation
+
+    def _converged(
+        self, monitor: Kinematics, tasks: list[Task], placements: dict, polygon, margin: float, q: np.ndarray
+    ) -> bool:
+        """Goals and contacts within half the check's tolerances (and the CoM margin, with a polygon)."""
+        monitor.update(q)
+        position_tolerance, rotation_tolerance = self._goal_tolerance()
+        for task in tasks:
+            if not task.goal:
+                continue
+            position, rotation = task_error_parts(task, monitor)
+            if (position is not None and position > position_tolerance) or (
+                rotation is not None and rotation > rotation_tolerance
+            ):
+                return False
+        for frame, held in placements.items():
+            reached = monitor.placement(monitor.frame_id(frame))
+            if (
+                np.linalg.norm(reached.translation - held.translation) > position_tolerance
+                or np.linalg.norm(pin.log3(held.rotation.T @ reached.rotation)) > rotation_tolerance
+            ):
+                return False
+        return polygon is None or polygon.margin_of(monitor.com()[:2]) >= margin
+
+
+# -- qp -------------------------------------------------------------------------------------------------
+class QPWholeBody(WholeBodySolver):
+    """Our task QP (wbik.qp.IKProblem) on the whole model."""
+
+    name = "qp"
+    iteration_cost_s = 800e-6  # a DAQP step, projection, FK checks; Bioloid nv 24: measured 0.8-1.5 ms
+    default_budget_s = 0.08
+
+    def __init__(
+        self,
+        robot,
+        *,
+        backend: str = "default",
+        max_step: float = 0.2,
+        lm_damping: float = 1e-3,
+        regularization: float = 1e-6,
+        **options,
+    ):
+        from wbik.qp import backends
+
+        super().__init__(robot, **options)
+        self.backend = backends.resolve(backend)
+        self.max_step, self.lm_damping, self.regularization = (
+            float(max_step),
+            float(lm_damping),
+            float(regularization),
+        )
+
+    def _solve(self, problem, q0, placements, polygon, deadline):
+        from wbik.qp.constraints import (
+            CoMInSupportPolygon,
+            Contact,
+            JointPositionLimits,
+            JointVelocityLimits,
+            MinimumDistance,
+        )
+        from wbik.qp.problem import IKProblem
+
+        model = self.robot.model
+        tasks = problem.copied_tasks()
+        tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
+        for task in tasks:
+            if task.goal:
+                task.tolerance = min(task.tolerance, tolerance)
+        tasks.append(RegularizationTask(self.regularization))
+        constraints = [Contact(frame, placement) for frame, placement in placements.items()]
+        if polygon is not None:
+            constraints.append(CoMInSupportPolygon(polygon, problem.margin))
+        if problem.limits != "none":
+            constraints.append(JointPositionLimits(model))
+        if problem.limits == "position+velocity":
+            constraints.append(JointVelocityLimits(model, model.velocityLimit * problem.step_dt))
+        constraints += [MinimumDistance(c.frame_a, c.frame_b, c.distance) for c in problem.collisions]
+        ik = IKProblem(
+            model,
+            tasks,
+            constraints,
+            backend=self.backend,
+            max_step=self.max_step,
+            lm_damping=self.lm_damping,
+        )
+        solution = ik.solve(
+            q0, max_iterations=self.max_iterations, deadline=None if deadline == math.inf else deadline
+        )
+        return WholeBodyCandidate(
+            solution.q,
+            solution.iterations,
+            solution.reason,
+            {"backend": self.backend, "converged": solution.converged},
+        )
+
+
+# -- placo ----------------------------------------------------------------------------------------------
+def clockwise(polygon) -> list[np.ndarray]:
+    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them (wbik stores them
+    counter-clockwise); the same rule as benchmarks/qp.py ``placo_polygon``."""
+    vertices = [np.array(v, dtype=float) for v in polygon.vertices]
+    x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
+    area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    return vertices[::-1] if area > 0 else vertices
+
+
+def _weights(task: Task) -> tuple[float, float]:
+    """(position weight, orientation weight) of a task, from its per-row weights."""
+    weight = np.asarray(task.weight, dtype=float)
+    if isinstance(task, FrameTask | RelativeFrameTask):
+        return float(np.max(weight[:3])), float(np.max(weight[3:]))
+    return (float(np.max(weight)) if weight.size else 1.0), 0.0
+
+
+class PlacoWholeBody(WholeBodySolver):
+    """PlaCo's KinematicsSolver with its own tasks, hard contacts and hard clockwise CoM polygon."""
+
+    name = "placo"
+    iteration_cost_s = 300e-6  # solve(True), read-back, convergence FK; Bioloid: measured 0.25-0.3 ms
+    default_budget_s = 0.08
+
+    def __init__(self, robot, *, regularization: float = 1e-6, **options):
+        from wbik.solvers.placo import import_placo
+
+        super().__init__(robot, **options)
+        self.placo = import_placo()
+        self.regularization = float(regularization)
+        self._thread_state()  # this thread's PlaCo robot now (errors show here, its cost is not a solve's)
+
+    def unsupported(self, problem):
+        missing = []
+        if problem.collisions:
+            missing.append("minimum distances between frames (collisions)")
+        if len({task.priority for task in problem.tasks}) > 1:
+            missing.append("strict priority levels (PlaCo: hard or soft only; all tasks soft)")
+        for task in problem.tasks:
+            if isinstance(task, PostureTask) and task.joint_names is not None:
+                continue
+            if not isinstance(
+                task,
+                FrameTask
+                | PositionTask
+                | OrientationTask
+                | RelativeFrameTask
+                | ComTask
+                | PostureTask
+                | RegularizationTask,
+            ):
+                missing.append(f"task {task.name} ({type(task).__name__})")
+        return missing
+
+    def _new_thread_state(self):
+        """This thread's PlaCo robot (loading the URDF costs milliseconds; a solver is built per call)."""
+        from wbik.solvers.placo import placo_robot
+
+        return placo_robot(self.robot)
+
+    def _solve(self, problem, q0, placements, polygon, deadline):
+        from wbik.solvers.placo import placo_configuration, set_placo_configuration
+
+        robot, placo = self.robot, self.placo
+        wrapper = self._thread_state()
+        set_placo_configuration(robot, wrapper, q0)
+        solver = placo.KinematicsSolver(wrapper)
+        if not robot.has_floating_base:
+            solver.mask_fbase(True)
+        if problem.limits != "none":
+            solver.enable_joint_limits(True)
+        if problem.limits == "position+velocity":
+            solver.dt = problem.step_dt
+            solver.enable_velocity_limits(True)
+        for index, (frame, placement) in enumerate(placements.items()):
+            task = solver.add_frame_task(frame, placement.homogeneous)
+            task.configure(f"contact_{index}", "hard", 1.0, 1.0)
+        tasks = problem.copied_tasks()
+        kinematics = Kinematics(robot.model, q0)
+        for index, task in enumerate(tasks):
+            task.start(kinematics)
+            self._add_task(solver, wrapper, task, index, q0)
+        if polygon is not None:
+            constraint = solver.add_com_polygon_constraint(clockwise(polygon), problem.margin)
+            constraint.configure("com_polygon", "hard", 1.0)
+        solver.add_regularization_task(self.regularization)
+        q = q0.copy()
+        for iteration in range(1, self.max_iterations + 1):
+            if self._converged(kinematics, tasks, placements, polygon, problem.margin, q):
+                return WholeBodyCandidate(q, iteration - 1)
+            if time.perf_counter() > deadline:
+                return WholeBodyCandidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+            try:
+                solver.solve(True)
+            except RuntimeError as exc:
+                return WholeBodyCandidate(q, iteration, f"PlaCo's QP failed: {exc}")
+            wrapper.update_kinematics()
+            previous, q = q, placo_configuration(robot, wrapper)
+            if float(np.max(np.abs(pin.difference(robot.model, previous, q)))) < 1e-12:
+                return WholeBodyCandidate(q, iteration, "stalled: PlaCo's steps no longer move the robot")
+        if self._converged(kinematics, tasks, placements, polygon, problem.margin, q):
+            return WholeBodyCandidate(q, self.max_iterations)
+        return WholeBodyCandidate(
+            q, self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+        )
+
+    def _add_task(self, solver, wrapper, task: Task, index: int, q0: np.ndarray) -> None:
+        label = f"task_{index}"
+        position_weight, orientation_weight = _weights(task)
+        if isinstance(task, FrameTask):
+            placo_task = solver.add_frame_task(task.frame, task.target.homogeneous)
+            placo_task.configure(label, "soft", position_weight, orientation_weight)
+        elif isinstance(task, RelativeFrameTask):
+            placo_task = solver.add_relative_frame_task(
+                task.reference_frame, task.frame, task.target.homogeneous
+            )
+            placo_task.configure(label, "soft", position_weight, orientation_weight)
+        elif isinstance(task, PositionTask):
+            placo_task = solver.add_position_task(task.frame, self._full_position(task, q0))
+            placo_task.mask.set_axises("".join("xyz"[i] for i in task.rows))
+            placo_task.configure(label, "soft", position_weight)
+        elif isinstance(task, OrientationTask):
+            placo_task = solver.add_orientation_task(task.frame, task.target)
+            placo_task.configure(label, "soft", position_weight)
+        elif isinstance(task, ComTask):
+            target = task.target.copy()
+            placo_task = solver.add_com_task(target)
+            placo_task.mask.set_axises("".join("xyz"[i] for i in task.rows))
+            placo_task.configure(label, "soft", position_weight)
+        elif isinstance(task, PostureTask):
+            model = self.robot.model
+            names = task.joint_names or [
+                model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1
+            ]
+            joints = {
+                name: float(task.reference[model.joints[model.getJointId(name)].idx_q]) for name in names
+            }
+            placo_task = solver.add_joints_task()
+            placo_task.set_joints(joints)
+            placo_task.configure(label, "soft", float(np.max(task.weight)) if task.weight.size else 1e-3)
+        elif isinstance(task, RegularizationTask):
+            solver.add_regularization_task(float(np.max(task.weight)) if task.weight.size else 1e-6)
+
+    def _full_position(self, task: PositionTask, q0: np.ndarray) -> np.ndarray:
+        target = self.robot.frame_placement(q0, task.frame).translation.copy()
+        target[task.rows] = task.target[task.rows]
+        return target
+
+
+# -- pink -----------------------------------------------------------------------------------------------
+class PinkWholeBody(WholeBodySolver):
+    """pin-pink's differential IK, iterated by our loop (dt = 1 per step)."""
+
+    name = "pink"
+    iteration_cost_s = 500e-6  # solve_ik, integration, convergence FK; Bioloid: measured 0.35-0.66 ms
+    default_budget_s = 0.12
+
+    def __init__(self, robot, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
+        super().__init__(robot, **options)
+        try:
+            import pink  # noqa: F401
+        except ImportError as exc:
+            from wbik.errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                "Pink is not installed: 'pip install pin-pink==4.4.0' (the dev extra)"
+            ) from exc
+        self.qp_solver = str(qp_solver)
+        self.damping = float(damping)
+
+    def unsupported(self, problem):
+        missing = []
+        if problem.support:
+            missing.append(
+                f"{NO_POLYGON} (Pink 4.4 has none; solved without it, the CoM margin is only checked)"
+            )
+        if problem.collisions:
+            missing.append("minimum distances between frames (collisions)")
+        if len({task.priority for task in problem.tasks}) > 1:
+            missing.append("strict priority levels (Pink: weighted costs only)")
+        for task in problem.tasks:
+            if isinstance(task, PostureTask) and task.joint_names is not None:
+                missing.append(f"task {task.name}: posture on some joints only (Pink's is on all joints)")
+            elif not isinstance(
+                task,
+                FrameTask
+                | PositionTask
+                | OrientationTask
+                | RelativeFrameTask
+                | ComTask
+                | PostureTask
+                | RegularizationTask,
+            ):
+                missing.append(f"task {task.name} ({type(task).__name__})")
+        return missing
+
+    def _pink_tasks(self, problem, tasks, kinematics):
+        from pink import tasks as P
+
+        built = []
+        damping = self.damping
+        for task in tasks:
+            position_weight, orientation_weight = _weights(task)
+            if isinstance(task, FrameTask):
+                pink_task = P.FrameTask(
+                    task.frame,
+                    position_cost=math.sqrt(position_weight),
+                    orientation_cost=math.sqrt(orientation_weight),
+                )
+                pink_task.set_target(task.target)
+            elif isinstance(task, RelativeFrameTask):
+                pink_task = P.RelativeFrameTask(
+                    task.frame,
+                    task.reference_frame,
+                    position_cost=math.sqrt(position_weight),
+                    orientation_cost=math.sqrt(orientation_weight),
+                )
+                pink_task.set_target(task.target)
+            elif isinstance(task, PositionTask):
+                cost = np.zeros(3)
+                cost[task.rows] = math.sqrt(position_weight)
+                start = kinematics.placement(kinematics.frame_id(task.frame))
+                translation = start.translation.copy()
+                translation[task.rows] = task.target[task.rows]
+                pink_task = P.FrameTask(task.frame, position_cost=cost, orientation_cost=0.0)
+                pink_task.set_target(pin.SE3(start.rotation.copy(), translation))
+            elif isinstance(task, OrientationTask):
+                start = kinematics.placement(kinematics.frame_id(task.frame))
+                pink_task = P.FrameTask(
+                    task.frame, position_cost=0.0, orientation_cost=math.sqrt(position_weight)
+                )
+                pink_task.set_target(pin.SE3(task.target, start.translation.copy()))
+            elif isinstance(task, ComTask):
+                cost = np.zeros(3)
+                cost[task.rows] = math.sqrt(position_weight)
+                pink_task = P.ComTask(cost=cost)
+                target = kinematics.com().copy()
+                target[task.rows] = task.target[task.rows]
+                pink_task.set_target(target)
+            elif isinstance(task, PostureTask):
+                pink_task = P.PostureTask(
+                    cost=math.sqrt(float(np.max(task.weight)) if task.weight.size else 1e-3)
+                )
+                pink_task.set_target(task.reference)
+            elif isinstance(task, RegularizationTask):
+                damping = max(damping, float(np.max(task.weight)) if task.weight.size else 0.0)
+                continue
+            else:
+                continue
+            built.append(pink_task)
+        return built, damping
+
+    def _solve(self, problem, q0, placements, polygon, deadline):
+        import pink
+        from pink import tasks as P
+        from pink.limits import ConfigurationLimit, VelocityLimit
+
+        model = self.robot.model
+        data = model.createData()
+        tasks = problem.copied_tasks()
+        kinematics = Kinematics(model, q0)
+        for task in tasks:
+            task.start(kinematics)
+        pink_tasks, damping = self._pink_tasks(problem, tasks, kinematics)
+        constraints = []
+        for frame, placement in placements.items():
+            contact = P.FrameTask(frame, position_cost=1.0, orientation_cost=1.0)
+            contact.set_target(placement)
+            constraints.append(contact)
+        limits = []
+        if problem.limits != "none":
+            limits.append(ConfigurationLimit(model))
+        if problem.limits == "position+velocity":
+            limits.append(VelocityLimit(model))
+        configuration = pink.Configuration(model, data, q0.copy())
+        q = q0.copy()
+        # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
+        for iteration in range(1, self.max_iterations + 1):
+            if self._converged(kinematics, tasks, placements, None, problem.margin, q):
+                return WholeBodyCandidate(q, iteration - 1)
+            if time.perf_counter() > deadline:
+                return WholeBodyCandidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+            try:
+                velocity = pink.solve_ik(
+                    configuration,
+                    pink_tasks,
+                    problem.step_dt,
+                    solver=self.qp_solver,
+                    damping=damping,
+                    limits=limits,
+                    constraints=constraints or None,
+                    safety_break=False,
+                )
+            except Exception as exc:  # noqa: BLE001 - Pink raises its own NoSolutionFound and others
+                return WholeBodyCandidate(q, iteration, f"Pink found no step: {type(exc).__name__}: {exc}")
+            previous = q
+            q = configuration.integrate(velocity, problem.step_dt)
+            configuration.update(q)
+            if float(np.max(np.abs(velocity))) * problem.step_dt < 1e-12:
+                return WholeBodyCandidate(q, iteration, "stalled: Pink's steps no longer move the robot")
+            del previous
+        if self._converged(kinematics, tasks, placements, None, problem.margin, q):
+            return WholeBodyCandidate(q, self.max_iterations)
+        return WholeBodyCandidate(
+            q, self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+        )
+
+
+# -- thesis_legs (Bioloid) ---------------------------------------------------------------------------------
+LEGS = {"r": ("right_leg", "r_sole", "r_hip"), "l": ("left_leg", "l_sole", "l_hip")}
+
+
+class ThesisLegs(WholeBodySolver):
+    """The Bioloid thesis's way: closed-form legs from the feet, the hip shifted over the CoM target."""
+
+    name = "thesis_legs"
+    iteration_cost_s = 1e-3  # one hip placement: two closed-form legs, FK, CoM (measured 1.2 ms)
+    default_budget_s = 0.01
+    finite_step = 1e-4
+    """Hip shift (m) of the one finite-difference CoM Jacobian."""
+
+    def __init__(self, robot, **options):
+        super().__init__(robot, **options)
+        if (
+            set(robot.chains) < {"right_leg", "left_leg"}
+            or not robot.has_floating_base
+            or "sole_corners" not in robot.info
+            or robot.name != "bioloid"
+        ):
+            raise UnsupportedError(
+                f"method 'thesis_legs' is the Bioloid thesis's closed-form legs; it does not "
+                f"apply to {robot.name!r}"
+            )
+        self._thread_state()  # the two closed-form leg solvers now, not in the first solve
+
+    def _new_thread_state(self):
+        from wbik.solvers.base import solver
+
+        return {
+            side: solver("analytic", self.robot, chain=chain, tolerances=self.tolerances)
+            for side, (chain, _, _) in LEGS.items()
+        }
+
+    def _sole_targets(self, problem: WholeBody, q0: np.ndarray, placements: dict) -> dict[str, pin.SE3]:
+        targets = {}
+        for side, (_, sole, _) in LEGS.items():
+            if sole in placements:
+                targets[side] = placements[sole]
+        for task in problem.tasks:
+            if not task.goal or getattr(task, "frame", None) not in ("r_sole", "l_sole"):
+                continue
+            side = task.frame[0]
+            if side in targets:
+                continue
+            if isinstance(task, FrameTask):
+                targets[side] = task.target.copy()
+            elif isinstance(task, PositionTask) and len(task.rows) == 3:
+                targets[side] = pin.SE3(
+                    self.robot.frame_placement(q0, task.frame).rotation, task.target.copy()
+                )
+        return targets
+
+    def _expressed(self, problem: WholeBody, task: Task, q0: np.ndarray) -> bool:
+        if isinstance(task, ComTask):
+            return set(task.rows) <= {0, 1}
+        if isinstance(task, FrameTask) and task.frame in ("r_sole", "l_sole"):
+            return task.frame not in problem.contacts
+        if isinstance(task, PositionTask) and task.frame in ("r_sole", "l_sole"):
+            return len(task.rows) == 3 and task.frame not in problem.contacts
+        if isinstance(task, OrientationTask) and task.frame == "pelvis":  # the pelvis keeps its start
+            start = self.robot.frame_placement(q0, "pelvis").rotation
+            return float(np.linalg.norm(pin.log3(task.target.T @ start))) <= 1e-12
+        return False
+
+    def unsupported(self, problem):
+        q0 = self.robot.nominal
+        missing = []
+        for task in problem.tasks:
+            if isinstance(task, RegularizationTask):
+                continue
+            if isinstance(task, OrientationTask) and task.frame == "pelvis":
+                continue  # judged against the actual q0 in _solve
+            if not self._expressed(problem, task, q0):
+                kind = "goal task" if task.goal else "soft task"
+                missing.append(f"{kind} {task.name} (the closed-form legs place soles and the CoM only)")
+        for frame in problem.contacts:
+            if frame not in ("r_sole", "l_sole"):
+                missing.append(f"contact {frame} (only soles)")
+        if problem.support:
+            missing.append(
+                f"{NO_POLYGON} (the CoM is placed at one point: the CoM task's target, else "
+                "where it started; the check measures the margin)"
+            )
+        if problem.collisions:
+            missing.append("minimum distances between frames (collisions)")
+        return missing
+
+    def _solve(self, problem, q0, placements, polygon, deadline):
+        robot = self.robot
+        legs = self._thread_state()
+        targets = self._sole_targets(problem, q0, placements)
+        com_target = None
+        for task in problem.tasks:
+            if isinstance(task, ComTask) and task.goal:
+                com_target = task.target[:2].copy()
+        if com_target is None and polygon is not None:
+            com_target = robot.center_of_mass(q0)[:2].copy()
+        for task in problem.tasks:
+            if (
+                isinstance(task, OrientationTask)
+                and task.frame == "pelvis"
+                and task.goal
+                and not self._expressed(problem, task, q0)
+            ):
+                return WholeBodyCandidate(
+                    q0.copy(),
+                    0,
+                    f"cannot express goal task {task.name}: the closed-form legs keep the pelvis orientation",
+                )
+        cannot = [task.name for task in problem.tasks if task.goal and not self._expressed(problem, task, q0)]
+        ankle_in_sole = {
+            side: robot.frame_placement(q0, sole).actInv(robot.frame_placement(q0, chain_tip(robot, chain)))
+            for side, (chain, sole, _) in LEGS.items()
+        }
+        base = pin.XYZQUATToSE3(q0[:7])
+        indices = {side: robot.chain(chain).q_index for side, (chain, _, _) in LEGS.items()}
+
+        def place(shift: np.ndarray) -> tuple[np.ndarray | None, str]:
+            q = q0.copy()
+            placed = base.copy()
+            placed.translation = base.translation + np.array([shift[0], shift[1], 0.0])
+            q[:7] = pin.SE3ToXYZQUAT(placed)
+            for side, sole_target in targets.items():
+                chain, _, hip = LEGS[side]
+                hip_placement = robot.frame_placement(q, hip)
+                ankle_target = hip_placement.actInv(sole_target * ankle_in_sole[side])
+                answer = legs[side].solve(ankle_target, q0[indices[side]])
+                if answer.q is None or not answer.success:
+                    return (
+                        None,
+                        f"{chain}: the foot target is out of the closed form's reach ({answer.reason})",
+                    )
+                q[indices[side]] = answer.q
+            return q, ""
+
+        shift = np.zeros(2)
+        q, reason = place(shift)
+        iterations = 1
+        if q is None:
+            return WholeBodyCandidate(None, iterations, reason)
+        if com_target is not None:
+            tolerance = 0.5 * self.tolerances.position
+            jacobian = None
+            while True:
+                error = robot.center_of_mass(q)[:2] - com_target
+                if float(np.linalg.norm(error)) <= tolerance:
+                    break
+                if iterations >= self.max_iterations:
+                    off = float(np.linalg.norm(error))
+                    reason = f"no convergence in {self.max_iterations} iterations (CoM {off:.3g} m off)"
+                    break
+                if time.perf_counter() > deadline:
+                    reason = f"time budget of {self.timeout_s:g} s used up"
+                    break
+                if jacobian is None:  # dCoM/dshift by finite differences, once (it barely changes)
+                    columns = []
+                    for axis in range(2):
+                        probe = shift.copy()
+                        probe[axis] += self.finite_step
+                        moved, why = place(probe)
+                        iterations += 1
+                        if moved is None:
+                            return WholeBodyCandidate(q, iterations, why)
+                        columns.append(
+                            (robot.center_of_mass(moved)[:2] - com_target - error) / self.finite_step
+                        )
+                    jacobian = np.column_stack(columns)
+                shift = shift - np.linalg.solve(jacobian, error)
+                trial, why = place(shift)
+                iterations += 1
+                if trial is None:
+                    return WholeBodyCandidate(
+                        q, iterations, f"the hip shift needed for the CoM target: {why}"
+                    )
+                q = trial
+        if cannot:
+            reason = f"cannot express goal task(s) {', '.join(cannot)}" + (f"; {reason}" if reason else "")
+        return WholeBodyCandidate(q, iterations, reason, {"cannot_express": cannot})
+
+
+def chain_tip(robot: Robot, chain: str) -> str:
+    return robot.chain(chain).tip_frame
+
+
+# -- registry ---------------------------------------------------------------------------------------------
+_REGISTRY: dict[str, str] = {
+    "qp": "wbik.wholebody.solvers:QPWholeBody",
+    "placo": "wbik.wholebody.solvers:PlacoWholeBody",
+    "pink": "wbik.wholebody.solvers:PinkWholeBody",
+    "thesis_legs": "wbik.wholebody.solvers:ThesisLegs",
+}
+_DESCRIPTIONS = {
+    "qp": "our task QP (wbik.qp.IKProblem): hard contacts, hard CoM polygon, limits; backend= any installed",
+    "placo": "PlaCo 0.10 KinematicsSolver: its tasks, hard contacts, hard clockwise CoM polygon, limits",
+    "pink": "pin-pink 4.4: frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
+    "thesis_legs": "Bioloid thesis: closed-form legs from the feet, hip shifted until the CoM is on target",
+}
+
+
+def wholebody_methods() -> dict[str, str]:
+    """Whole-body method names with a one-line description."""
+    return dict(sorted(_DESCRIPTIONS.items()))
+
+
+def _factory(method: str) -> type[WholeBodySolver]:
+    if not isinstance(method, str) or method not in _REGISTRY:
+        raise UnknownMethodError(method if isinstance(method, str) else repr(method), list(_REGISTRY))
+    module_name, class_name = _REGISTRY[method].split(":")
+    return getattr(importlib.import_module(module_name), class_name)
+
+
+def wholebody_solver_options(method: str) -> set[str]:
+    """Keyword options ``wholebody_solver(method, robot, **options)`` accepts."""
+    accepted: set[str] = set()
+    for klass in _factory(method).__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or klass is object:
+            continue
+        for parameter in list(inspect.signature(init).parameters.values())[2:]:
+            if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+                accepted.add(parameter.name)
+    return accepted
+
+
+def wholebody_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+    """(timeout_s, options) for a study budget of ``timeout_s`` s: every whole-body loop is ours, so
+    the budget becomes ``max_iterations`` (unless given) and no wall clock."""
+    if "max_iterations" in options:
+        return None, dict(options)
+    return None, {**options, "max_iterations": _factory(method).iterations_for(timeout_s)}
+
+
+def wholebody_solver(method: str, robot: Robot | str, **options) -> WholeBodySolver:
+    """Make a whole-body solver: ``wbik.wholebody_solver("qp", wbik.load("bioloid"), backend="daqp")``."""
+    factory = _factory(method)
+    accepted = wholebody_solver_options(method)
+    unknown = sorted(set(options) - accepted)
+    if unknown:
+        raise InvalidOptionError(
+            f"whole-body method {method!r} has no option {unknown[0]!r}; its options: "
+            f"{', '.join(sorted(accepted))}",
+            option=unknown[0],
+            accepted=sorted(accepted),
+        )
+    if isinstance(robot, str):
+        from wbik.models import load
+
+        robot = load(robot)
+    return factory(robot, **options)
