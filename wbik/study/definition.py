@@ -42,7 +42,8 @@ the installed package's copy of its study files."""
 
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
-TARGET_KINDS = ("pose", "position")
+TARGET_KINDS = ("pose", "position", "wholebody")
+"""wholebody: whole-body cases drawn by the sampler named in ``scenario:`` (wbik.study.wholebody)."""
 START_KINDS = ("nominal", "mid_range", "random")
 ANGLE_KEYS = ("alpha", "beta", "gamma")
 THESIS_METRICS = {
@@ -88,6 +89,7 @@ class CaseSpec:
     poses: int | None = None  # None: the study's
     angle_names: dict = field(default_factory=dict)  # e.g. thesis names {alpha: yaw, ...}
     thesis: dict = field(default_factory=dict)  # {"reference": {label: {metric: value}}, "notes": str}
+    scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.scenarios)
 
 
 @dataclass(frozen=True)
@@ -133,6 +135,8 @@ class Study:
             data.pop(key)
         for case in data["cases"]:
             case.pop("thesis")
+            if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
+                case.pop("scenario", None)
         return _digest(data)
 
     def method_fingerprint(self, method: MethodSpec) -> str:
@@ -220,7 +224,7 @@ def study_from_dict(data, source: str = "study") -> Study:
                                    f"got {type(data).__name__}")
     known = {"name", "description", "notes", "robot", "chain", "target", "robot_params", "cases",
              "methods", "poses", "seed", "timeout_s", "tolerances", "start", "baseline", "chunk_size",
-             "angle_names", "thesis"}
+             "angle_names", "thesis", "scenario"}
     _no_unknown(data, known, source, "the study")
     name = _label(data.get("name", Path(source).stem), "name", source)
     poses = _positive_int(data.get("poses", 1000), "poses", source)
@@ -262,8 +266,9 @@ def _methods(raw, source: str) -> list[MethodSpec]:
         raise StudyDefinitionError(f"{source}: methods must be a non-empty list, e.g. [analytic, dls, "
                                    "{label: kdl_15s, method: kdl, timeout_s: 15}]")
     from wbik.solvers import methods as registered
+    from wbik.wholebody.solvers import wholebody_methods
 
-    known_methods = registered()
+    known_methods = {**registered(), **wholebody_methods()}  # whole-body methods for wholebody cases
     specs: list[MethodSpec] = []
     for index, item in enumerate(raw):
         where = f"methods[{index}]"
@@ -305,7 +310,7 @@ def _case_name(robot: str, chain: str | None, target: str) -> str:
 
 
 def _cases(data: dict, source: str) -> list[CaseSpec]:
-    top_level = {key for key in ("robot", "chain", "target", "robot_params") if key in data}
+    top_level = {key for key in ("robot", "chain", "target", "robot_params", "scenario") if key in data}
     if "cases" in data:
         if top_level:
             raise StudyDefinitionError(f"{source}: give either cases: [...] or robot/chain/target at the "
@@ -318,17 +323,19 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         if shared:
             raise StudyDefinitionError(f"{source}: {sorted(shared)} belong inside each case of cases:")
     else:
-        if "robot" not in data:
+        if "robot" not in data and "scenario" not in data:
             raise StudyDefinitionError(f"{source}: say which robot to study (robot: golem3) or list cases:")
         raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "angle_names",
-                                           "thesis") if key in data}]
+                                           "thesis", "scenario") if key in data}]
     cases: list[CaseSpec] = []
     for index, item in enumerate(raw):
         where = f"cases[{index}]" if "cases" in data else "the study"
         if not isinstance(item, dict):
             raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
         _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "angle_names",
-                           "thesis"}, source, where)
+                           "thesis", "scenario"}, source, where)
+        if item.get("target") == "wholebody" or "scenario" in item:
+            item = _wholebody_case(item, source, where)
         robot = item.get("robot")
         if not isinstance(robot, str) or not robot:
             raise StudyDefinitionError(f"{source}: {where}.robot must be a robot name or URDF path")
@@ -338,7 +345,7 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         target = item.get("target", "pose")
         if target not in TARGET_KINDS:
             raise StudyDefinitionError(
-                f"{source}: {where}.target must be 'pose' or 'position', got {target!r}")
+                f"{source}: {where}.target must be 'pose', 'position' or 'wholebody', got {target!r}")
         params = item.get("robot_params", {}) or {}
         if not isinstance(params, dict):
             raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping of the robot's "
@@ -355,12 +362,34 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
             angle_names={key: _label(value, f"{where}.angle_names.{key}", source)
                          for key, value in angle_names.items()},
-            thesis=_thesis(item.get("thesis", {}), source, f"{where}.thesis"))
+            thesis=_thesis(item.get("thesis", {}), source, f"{where}.thesis"),
+            scenario=item.get("scenario"))
         cases.append(case)
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
         raise StudyDefinitionError(f"{source}: case names must be unique (give each a name:), got {names}")
     return cases
+
+
+def _wholebody_case(item: dict, source: str, where: str) -> dict:
+    """A whole-body case entry checked, with its robot and name filled from the sampler."""
+    from wbik.wholebody.scenarios import SCENARIOS
+
+    if item.get("target", "wholebody") != "wholebody":
+        raise StudyDefinitionError(f"{source}: {where}: scenario: is for target: wholebody cases, got target "
+                                   f"{item.get('target')!r}")
+    scenario = item.get("scenario")
+    if scenario not in SCENARIOS:
+        raise StudyDefinitionError(f"{source}: {where}.scenario must name a whole-body case sampler: "
+                                   f"{', '.join(SCENARIOS)}; got {scenario!r}")
+    robot = SCENARIOS[scenario][0]
+    if item.get("robot", robot) != robot:
+        raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
+                                   f"{item['robot']!r} (leave robot: out)")
+    for key in ("chain", "robot_params", "angle_names", "thesis"):
+        if item.get(key):
+            raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
+    return {**item, "target": "wholebody", "robot": robot, "name": item.get("name", scenario)}
 
 
 def _thesis(raw, source: str, where: str) -> dict:
@@ -400,11 +429,17 @@ def check_schema(methods, cases, source: str) -> None:
     against its constructor (:func:`wbik.solvers.base.solver_options`), every case's robot (a
     built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
     from wbik.models import BUILTIN, builder_parameters
+    from wbik.solvers.base import _REGISTRY as CHAIN_METHODS
     from wbik.solvers.base import solver_options
+    from wbik.wholebody.solvers import wholebody_solver_options
 
+    wholebody = bool(cases) and all(case.target == "wholebody" for case in cases)
     for index, spec in enumerate(methods):
         try:
-            accepted = solver_options(spec.method)
+            if wholebody or spec.method not in CHAIN_METHODS:  # whole-body methods check their own options
+                accepted = wholebody_solver_options(spec.method) | {"timeout_s", "tolerances", "seed"}
+            else:
+                accepted = solver_options(spec.method)
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
         if accepted is None:

@@ -92,6 +92,10 @@ def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
 
 def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
     """Write raw.csv, summary.csv, significance.csv and the figures of one case; return the numbers."""
+    if case.target == "wholebody":
+        from wbik.study.wholebody import analyse_case as analyse_wholebody
+
+        return analyse_wholebody(study, case, output)
     directory = store.case_dir(output, case.name)
     rows_by_method, not_applicable = case_rows(study, case, output)
     chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
@@ -124,6 +128,10 @@ def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
 
 
 def _case_blocks(study: Study, analysis: dict) -> list[Block]:
+    if analysis.get("wholebody"):
+        from wbik.study.wholebody import case_blocks
+
+        return case_blocks(study, analysis)
     case: CaseSpec = analysis["case"]
     chain = analysis["chain"]
     summaries = analysis["summaries"]
@@ -282,7 +290,12 @@ def _budget_text(study: Study, method) -> str:
 
     seconds = study.timeout_of(method)
     try:
-        timeout_s, options = solver_budget(method.method, seconds, method.options)
+        if study.cases and all(case.target == "wholebody" for case in study.cases):
+            from wbik.study.wholebody import budget as wholebody_budget
+
+            timeout_s, options = wholebody_budget(method.method, seconds, method.options)
+        else:
+            timeout_s, options = solver_budget(method.method, seconds, method.options)
     except WbikError:
         return f"{seconds:g} s"
     if timeout_s is None:
@@ -313,16 +326,21 @@ def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block
     blocks.append(Block("table", header=["label", "method", "budget", "options", "note"],
                         rows=[[m.label, m.method, _budget_text(study, m),
                                json.dumps(m.options) if m.options else "", m.note] for m in study.methods]))
-    blocks.append(Block("p", "Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
-                             "study's time budget as an iteration budget (the iterations that cost that "
-                             "long on the reference machine) and no wall clock, so their rows are the "
-                             "same on any machine and under any load. KDL, TRAC-IK and PlaCo are "
-                             "budgeted by wall-clock time inside their libraries; TRAC-IK also restarts "
-                             "from random seeds of its own, so its rows vary from run to run."))
+    if not all(case.target == "wholebody" for case in study.cases):  # whole-body budgets: STUDY_NOTE
+        blocks.append(Block("p", "Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
+                                 "study's time budget as an iteration budget (the iterations that cost that "
+                                 "long on the reference machine) and no wall clock, so their rows are the "
+                                 "same on any machine and under any load. KDL, TRAC-IK and PlaCo are "
+                                 "budgeted by wall-clock time inside their libraries; TRAC-IK also restarts "
+                                 "from random seeds of its own, so its rows vary from run to run."))
     load = run.get("load_average_before"), run.get("load_average_after")
     if any(value is not None for value in load):
         blocks.append(Block("p", f"Machine load (1/5/15-minute load averages) before the last run: "
                                  f"{load[0]}, after: {load[1]}, on {run.get('cpu_count', '?')} CPUs."))
+    if any(case.target == "wholebody" for case in study.cases):
+        from wbik.study.wholebody import STUDY_NOTE
+
+        blocks.append(Block("p", STUDY_NOTE))
     if study.notes:
         blocks.append(Block("p", study.notes.strip()))
     for analysis in analyses:

@@ -74,6 +74,8 @@ class ChunkTask:
     positions: np.ndarray
     rotations: np.ndarray | None
     q0: np.ndarray
+    scenario: str | None = None  # whole-body cases: the sampler that rebuilds them (wbik.study.wholebody)
+    scenario_seed: int = 0
 
 
 def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
@@ -165,6 +167,10 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     A pose on which the method raises gets success=False and reason "raised ...", and the chunk
     continues pose by pose; "not applicable" errors are returned as {"not_applicable": [message]}.
     """
+    if task.scenario is not None:  # a whole-body chunk
+        from wbik.study.wholebody import solve_wholebody_chunk
+
+        return solve_wholebody_chunk(task)
     from wbik.targets import Target
 
     try:
@@ -254,8 +260,13 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
     path = store.case_dir(output, case.name) / "poses.npz"
     if path.is_file():
         return PoseSet.load(path)
-    chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
-    poses = sample_poses(chain, study.poses_of(case), study.seed, case.target, study.start)
+    if case.target == "wholebody":
+        from wbik.study.wholebody import sample_poses as sample_wholebody
+
+        poses = sample_wholebody(case.scenario, study.poses_of(case), study.seed)
+    else:
+        chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
+        poses = sample_poses(chain, study.poses_of(case), study.seed, case.target, study.start)
     path.parent.mkdir(parents=True, exist_ok=True)
     poses.save(path)
     return poses
@@ -284,6 +295,10 @@ def _frozen(mapping: dict) -> tuple:
 
 def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
           stop: int) -> ChunkTask:
+    if case.target == "wholebody":
+        from wbik.study.wholebody import make_task
+
+        return make_task(study, case, method, poses, chunk, start, stop)
     timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
     return ChunkTask(
         case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
@@ -340,7 +355,12 @@ def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output:
     if previous is not None and previous.get("fingerprint") != fingerprint:
         log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
         shutil.rmtree(folder)
-    timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
+    if case.target == "wholebody":
+        from wbik.study.wholebody import budget as wholebody_budget
+
+        timeout_s, options = wholebody_budget(method.method, study.timeout_of(method), method.options)
+    else:
+        timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
     store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
                               "timeout_s": study.timeout_of(method), "solver_timeout_s": timeout_s,
                               "solver_options": options})

@@ -1,0 +1,590 @@
+"""Whole-body cases in the study (``target: wholebody``, ``scenario: <sampler>``).
+
+The runner's chunking, resume, folder ownership and report machinery are reused; this module holds
+what differs for whole-body cases:
+
+- sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.scenarios`,
+  stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
+  a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
+- solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
+  q0)`` per case, budgets in iterations (:func:`wbik.wholebody.solvers.wholebody_budget`); a method
+  that cannot express a goal task of the family (thesis_legs on a hand reach) is "not applicable";
+- rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
+  what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
+  Mann-Whitney tests and error figures;
+- the report section of a whole-body case (:func:`case_blocks`).
+"""
+
+from __future__ import annotations
+
+import math
+import traceback
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from wbik.study import results as store
+from wbik.study.sampling import PoseSet
+
+WHOLEBODY = "wholebody"
+
+
+def is_wholebody(case) -> bool:
+    return getattr(case, "target", None) == WHOLEBODY
+
+
+def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
+    """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
+    from wbik.wholebody.scenarios import sample_case
+
+    cases = [sample_case(scenario, seed, index) for index in range(count)]
+    nq = cases[0].q0.size
+    q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
+    return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
+
+
+def method_options(method: str) -> set[str]:
+    from wbik.wholebody.solvers import wholebody_solver_options
+
+    return wholebody_solver_options(method)
+
+
+def budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+    from wbik.wholebody.solvers import wholebody_budget
+
+    return wholebody_budget(method, timeout_s, options)
+
+
+def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop: int):
+    """The runner's ChunkTask of a whole-body chunk (the sampler and seed rebuild its cases)."""
+    from wbik.study.runner import ChunkTask, _frozen, chunk_seed
+
+    timeout_s, options = budget(method.method, study.timeout_of(method), method.options)
+    return ChunkTask(
+        case=case.name,
+        robot=case.robot,
+        robot_params=_frozen(case.robot_params),
+        chain=None,
+        angle_names=(),
+        label=method.label,
+        method=method.method,
+        options=_frozen(options),
+        timeout_s=timeout_s,
+        tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
+        seed=chunk_seed(study.seed, case.name, method.label, chunk),
+        per_pose=True,
+        chunk=chunk,
+        first_pose=start,
+        positions=poses.positions[start:stop],
+        rotations=None,
+        q0=poses.q0[start:stop],
+        scenario=case.scenario,
+        scenario_seed=study.seed,
+    )
+
+
+def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
+    """Solve the cases of one whole-body chunk; {"not_applicable": [why]} when the method does not apply."""
+    import wbik
+    from wbik.study.runner import _robot, not_applicable_reason
+    from wbik.wholebody.scenarios import sample_case
+    from wbik.wholebody.solvers import wholebody_solver
+
+    robot = _robot(task.robot, task.robot_params)
+    try:
+        solver = wholebody_solver(
+            task.method,
+            robot,
+            tolerances=wbik.Tolerances(*task.tolerances),
+            timeout_s=task.timeout_s,
+            seed=task.seed,
+            **dict(task.options),
+        )
+    except Exception as exc:  # noqa: BLE001 - classified below
+        message = not_applicable_reason(exc)
+        if message is None:
+            raise
+        return {"not_applicable": np.array([message])}
+    count = len(task.positions)
+    answers = []
+    for offset in range(count):
+        index = task.first_pose + offset
+        case = sample_case(task.scenario, task.scenario_seed, index)
+        try:
+            answer = solver.solve(case.problem, task.q0[offset])
+        except Exception as exc:  # noqa: BLE001
+            message = not_applicable_reason(exc)
+            if message is not None:
+                return {"not_applicable": np.array([message])}
+            detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+            answers.append(("raised", detail))
+            continue
+        cannot = answer.extra.get("cannot_express") if answer.extra else None
+        if cannot:
+            return {
+                "not_applicable": np.array(
+                    [
+                        f"cannot express the goal task(s) {', '.join(cannot)} of "
+                        f"{task.scenario} ({answer.method} places the soles and the CoM only)"
+                    ]
+                )
+            }
+        answers.append(answer)
+    nq = robot.model.nq
+    rows = {
+        key: []
+        for key in (
+            "success",
+            "reason",
+            "time_s",
+            "iterations",
+            "task_error",
+            "task_position_error",
+            "task_rotation_error",
+            "contact_drift",
+            "com_margin",
+            "limit_excess",
+            "collision_clearance",
+            "unsupported",
+        )
+    }
+    q_rows = []
+    for answer in answers:
+        if isinstance(answer, tuple):
+            values = (False, f"raised {answer[1]}", math.nan, 0, *([math.nan] * 7), "")
+            q_rows.append(np.full(nq, np.nan))
+        else:
+            values = (
+                answer.success,
+                answer.reason,
+                answer.time_s,
+                answer.iterations,
+                answer.task_error,
+                max(answer.task_position_errors.values(), default=0.0) if answer.q is not None else math.nan,
+                max(answer.task_rotation_errors.values(), default=0.0) if answer.q is not None else math.nan,
+                answer.contact_drift,
+                answer.com_margin,
+                answer.limit_excess,
+                answer.collision_clearance,
+                "; ".join(answer.unsupported),
+            )
+            q_rows.append(np.full(nq, np.nan) if answer.q is None else answer.q)
+        for key, value in zip(rows, values, strict=True):
+            rows[key].append(value)
+    columns = {
+        "pose": np.arange(task.first_pose, task.first_pose + count),
+        "success": np.array(rows["success"], dtype=bool),
+        "reason": np.array(rows["reason"], dtype=str),
+        "time_s": np.array(rows["time_s"], dtype=float),
+        "iterations": np.array(rows["iterations"], dtype=int),
+    }
+    for key in (
+        "task_error",
+        "task_position_error",
+        "task_rotation_error",
+        "contact_drift",
+        "com_margin",
+        "limit_excess",
+        "collision_clearance",
+    ):
+        columns[key] = np.array(rows[key], dtype=float)
+    columns["unsupported"] = np.array(rows["unsupported"], dtype=str)
+    columns["cpu_s"] = np.full(count, np.nan)
+    columns["reruns"] = np.zeros(count, dtype=int)
+    columns["err_task"] = columns["task_error"]
+    columns["err_contact"] = columns["contact_drift"]
+    columns["q"] = np.array(q_rows, dtype=float).reshape(count, nq)
+    return columns
+
+
+# -- report ---------------------------------------------------------------------------------------------
+ROW_COLUMNS = (
+    "pose",
+    "method",
+    "success",
+    "reason",
+    "time_s",
+    "iterations",
+    "task_error",
+    "task_position_error",
+    "task_rotation_error",
+    "contact_drift",
+    "com_margin",
+    "limit_excess",
+    "collision_clearance",
+    "unsupported",
+)
+
+
+def write_raw_csv(path: Path, rows_by_method: dict, joint_names: list[str]) -> None:
+    import csv
+    import io
+
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow([*ROW_COLUMNS, *(f"q_{name}" for name in joint_names)])
+    for label, rows in rows_by_method.items():
+        for i in range(len(rows["pose"])):
+            writer.writerow(
+                [
+                    int(rows["pose"][i]),
+                    label,
+                    int(bool(rows["success"][i])),
+                    str(rows["reason"][i]),
+                    *(repr(float(rows[key][i])) for key in ROW_COLUMNS[4:5]),
+                    int(rows["iterations"][i]),
+                    *(repr(float(rows[key][i])) for key in ROW_COLUMNS[6:13]),
+                    str(rows["unsupported"][i]),
+                    *(repr(float(v)) for v in rows["q"][i]),
+                ]
+            )
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+def summarize(rows: dict, margin: float) -> dict:
+    """The usual summary (solved, times, err_task / err_contact over solved cases) plus the whole-body
+    figures over all calls and over solved cases."""
+    from wbik.study.statistics import summarize as base_summary
+
+    summary = base_summary(rows)
+    success = rows["success"].astype(bool)
+
+    def stat(values, function):
+        values = values[np.isfinite(values)]
+        return float(function(values)) if values.size else math.nan
+
+    for group, mask in (("all", np.ones(success.size, dtype=bool)), ("solved", success)):
+        summary[f"task_error_{group}_median"] = stat(rows["task_error"][mask], np.median)
+        summary[f"task_error_{group}_max"] = stat(rows["task_error"][mask], np.max)
+        summary[f"contact_drift_{group}_median"] = stat(rows["contact_drift"][mask], np.median)
+        summary[f"contact_drift_{group}_max"] = stat(rows["contact_drift"][mask], np.max)
+        summary[f"com_margin_{group}_median"] = stat(rows["com_margin"][mask], np.median)
+        summary[f"com_margin_{group}_min"] = stat(rows["com_margin"][mask], np.min)
+        summary[f"limit_excess_{group}_max"] = stat(rows["limit_excess"][mask], np.max)
+    margins = rows["com_margin"]
+    finite = np.isfinite(margins)
+    summary["percent_com_margin_kept_all"] = (
+        100.0 * float(np.mean(margins[finite] >= margin - 1e-9)) if finite.any() else math.nan
+    )
+    summary["unsupported"] = "; ".join(sorted({str(u) for u in rows["unsupported"] if str(u)}))
+    return summary
+
+
+def com_margin_test(baseline: str, rows_by_method: dict) -> list[dict]:
+    """Mann-Whitney U of the CoM margin (all calls) of each method against the baseline."""
+    from wbik.study.statistics import ALPHA, mann_whitney
+
+    if baseline not in rows_by_method:
+        return []
+    a = rows_by_method[baseline]["com_margin"]
+    tests = []
+    for label, rows in rows_by_method.items():
+        if label == baseline or not np.isfinite(a).any():
+            continue
+        b = rows["com_margin"]
+        statistic, pvalue = mann_whitney(a, b)
+        fa, fb = a[np.isfinite(a)], b[np.isfinite(b)]
+        tests.append(
+            {
+                "method": label,
+                "baseline": baseline,
+                "axis": "com_margin_all_calls",
+                "n_baseline": int(fa.size),
+                "n_method": int(fb.size),
+                "median_baseline": float(np.median(fa)) if fa.size else math.nan,
+                "median_method": float(np.median(fb)) if fb.size else math.nan,
+                "U": statistic,
+                "p_value": pvalue,
+                "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False,
+            }
+        )
+    return tests
+
+
+def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    from wbik.study import figures
+
+    labels = list(rows_by_method)
+    figure, axes = plt.subplots(figsize=(max(6.0, 1.1 * len(labels) + 2), 4.0))
+    data = []
+    for label in labels:
+        values = rows_by_method[label]["com_margin"] * 1e3
+        values = values[np.isfinite(values)]
+        data.append(values if values.size else np.array([np.nan]))
+    axes.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+    axes.axhline(
+        margin * 1e3, color="tab:red", linestyle="--", linewidth=1, label=f"required {margin * 1e3:g} mm"
+    )
+    axes.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
+    axes.set_ylabel("CoM margin in the support polygon (mm)")
+    axes.set_title(f"{title}: CoM margin by FK, all calls")
+    axes.legend(fontsize=8)
+    return figures._save(figure, path)
+
+
+def analyse_case(study, case, output: Path) -> dict:
+    """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
+    from wbik.study import figures
+    from wbik.study.report import _write_csv, case_rows
+    from wbik.study.runner import _frozen, _robot
+    from wbik.study.statistics import significance
+    from wbik.wholebody.scenarios import sample_case
+
+    directory = store.case_dir(output, case.name)
+    rows_by_method, not_applicable = case_rows(study, case, output)
+    robot = _robot(case.robot, _frozen(case.robot_params))
+    model = robot.model
+    joint_names = [model.names[j] for j in range(1, model.njoints) for _ in range(model.joints[j].nq)]
+    if robot.has_floating_base:
+        joint_names = [
+            "base_x",
+            "base_y",
+            "base_z",
+            "base_qx",
+            "base_qy",
+            "base_qz",
+            "base_qw",
+            *joint_names[7:],
+        ]
+    write_raw_csv(directory / "raw.csv", rows_by_method, joint_names)
+    margin = sample_case(case.scenario, study.seed, 0).problem.margin
+    summaries = {label: summarize(rows, margin) for label, rows in rows_by_method.items()}
+    if summaries:
+        keys = list(next(iter(summaries.values())))
+        _write_csv(
+            directory / "summary.csv",
+            ["method", *keys],
+            [
+                [label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
+                for label, s in summaries.items()
+            ],
+        )
+    baseline = study.baseline if study.baseline in rows_by_method else None
+    tests = (
+        (significance(baseline, rows_by_method) + com_margin_test(baseline, rows_by_method))
+        if baseline
+        else []
+    )
+    if tests:
+        keys = list(tests[0])
+        _write_csv(
+            directory / "significance.csv",
+            keys,
+            [[repr(t[k]) if isinstance(t[k], float) else t[k] for k in keys] for t in tests],
+        )
+    images = {}
+    if rows_by_method:
+        title = f"{case.robot} {case.scenario}"
+        folder = directory / "figures"
+        images["solved"] = figures.solved_bars(summaries, title, folder / "solved.png")
+        images["errors"] = figures.error_boxplots(
+            rows_by_method, ["task", "contact"], title, folder / "errors.png"
+        )
+        images["time"] = figures.time_boxplots(rows_by_method, title, folder / "time.png")
+        images["time_histogram"] = figures.time_histogram(
+            rows_by_method, title, folder / "time_histogram.png"
+        )
+        if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
+            images["com_margin"] = com_margin_boxplots(
+                rows_by_method, margin, title, folder / "com_margin.png"
+            )
+    return {
+        "case": case,
+        "wholebody": True,
+        "rows": rows_by_method,
+        "not_applicable": not_applicable,
+        "summaries": summaries,
+        "tests": tests,
+        "baseline": baseline,
+        "margin": margin,
+        "images": images,
+        "robot": robot,
+    }
+
+
+def case_blocks(study, analysis: dict) -> list:
+    from wbik.study.report import Block, _reason_kind, fmt, fmt_p
+    from wbik.wholebody.scenarios import DESCRIPTIONS
+
+    case = analysis["case"]
+    summaries, rows_by_method = analysis["summaries"], analysis["rows"]
+    margin = analysis["margin"]
+    blocks = [
+        Block("h2", f"Case {case.name}: {case.robot}, whole body ({case.scenario})"),
+        Block(
+            "p",
+            f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
+            f"(seed {study.seed}): {DESCRIPTIONS.get(case.scenario, '')}. Every answer is judged by "
+            "the one shared whole-body check (wbik.wholebody.check_wholebody): goal task errors by "
+            f"FK within {study.tolerances['position']:g} m / {study.tolerances['rotation']:g} rad, "
+            "contact drift within the same, CoM margin by FK against the support polygon of the "
+            "support soles at the answer, joint limits.",
+        ),
+    ]
+    if analysis["not_applicable"]:
+        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
+        blocks.append(
+            Block(
+                "list", items=[f"{label}: {message}" for label, message in analysis["not_applicable"].items()]
+            )
+        )
+    missing = [
+        m.label
+        for m in study.methods
+        if m.label not in rows_by_method and m.label not in analysis["not_applicable"]
+    ]
+    if missing:
+        blocks.append(
+            Block("p", f"Incomplete (run interrupted; run the study again to resume): {', '.join(missing)}.")
+        )
+    if not summaries:
+        return blocks
+    marked = {label: s["unsupported"] for label, s in summaries.items() if s["unsupported"]}
+    blocks.append(Block("h3", "Cases solved, task error, contact drift, CoM margin"))
+    header = [
+        "method",
+        "solved",
+        "% solved",
+        "median task error (all calls)",
+        "median task error (solved)",
+        "max task error (solved)",
+        "max contact drift (all calls)",
+        "max contact drift (solved)",
+        "median CoM margin mm (all calls)",
+        "min CoM margin mm (all calls)",
+        f"% calls with CoM margin >= {margin * 1e3:g} mm",
+        "max limit excess (all calls)",
+        "solved without",
+    ]
+    table = []
+    for label, s in summaries.items():
+        table.append(
+            [
+                label,
+                f"{s['solved']}/{s['poses']}",
+                fmt(s["percent_solved"]),
+                fmt(s["task_error_all_median"]),
+                fmt(s["task_error_solved_median"]),
+                fmt(s["task_error_solved_max"]),
+                fmt(s["contact_drift_all_max"]),
+                fmt(s["contact_drift_solved_max"]),
+                fmt(s["com_margin_all_median"] * 1e3),
+                fmt(s["com_margin_all_min"] * 1e3),
+                fmt(s["percent_com_margin_kept_all"]),
+                fmt(s["limit_excess_all_max"]),
+                "no hard polygon"
+                if "hard CoM constraint" in s["unsupported"]
+                else ("see below" if s["unsupported"] else "-"),
+            ]
+        )
+    blocks.append(Block("table", header=header, rows=table))
+    blocks.append(
+        Block(
+            "p",
+            "Task errors in m or rad (the larger of a task's position and rotation errors, the "
+            "largest over the goal tasks); contact drift in m or rad; CoM margin: distance of "
+            "the CoM's ground projection inside the support polygon (negative outside), NaN "
+            "('-') without a support polygon. 'All calls' counts every case, 'solved' only "
+            "those the shared check passed.",
+        )
+    )
+    if marked:
+        blocks.append(
+            Block(
+                "p",
+                "What each method could not express (it solved the problem without it; the check "
+                "still judges everything):",
+            )
+        )
+        blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
+    blocks.append(Block("h3", "Time"))
+    table = [
+        [
+            label,
+            fmt(s["time_all_median_ms"]),
+            fmt(s["time_solved_median_ms"]),
+            fmt(s["time_solved_p95_ms"]),
+            fmt(s["time_unsolved_median_ms"]),
+            fmt(s["time_unsolved_max_ms"]),
+            fmt(s["iterations_median"]),
+            fmt(s["raised"]),
+        ]
+        for label, s in summaries.items()
+    ]
+    blocks.append(
+        Block(
+            "table",
+            header=[
+                "method",
+                "median ms (all calls)",
+                "median ms (solved)",
+                "p95 ms (solved)",
+                "median ms (not solved)",
+                "max ms (not solved)",
+                "median iterations (all calls)",
+                "exceptions",
+            ],
+            rows=table,
+        )
+    )
+    reasons = []
+    for label, rows in rows_by_method.items():
+        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
+        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(3):
+            reasons.append([label, reason, count])
+    if reasons:
+        blocks.append(
+            Block(
+                "p",
+                "Most frequent reasons for 'not solved' (as the methods and the check gave them; "
+                "causes are not measured here):",
+            )
+        )
+        blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
+    for key, caption in (
+        ("solved", "Cases solved per method"),
+        ("errors", "Task error and contact drift (solved)"),
+        ("com_margin", "CoM margin per method (all calls)"),
+        ("time", "Time per case"),
+        ("time_histogram", "Histogram of time per case"),
+    ):
+        if key in analysis["images"]:
+            blocks.append(Block("image", caption, path=analysis["images"][key]))
+    if analysis["tests"]:
+        blocks.append(Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"))
+        blocks.append(
+            Block(
+                "p",
+                "p-values of scipy.stats.mannwhitneyu: task error and contact drift on the "
+                "solved cases of each method, time on every case, CoM margin on every case; "
+                "* marks p < 0.05.",
+            )
+        )
+        axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
+        by_method: dict[str, dict] = {}
+        for test in analysis["tests"]:
+            mark = "*" if test["significant"] else ""
+            by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
+        blocks.append(
+            Block(
+                "table",
+                header=["method", *axes_tested],
+                rows=[
+                    [label, *(cells.get(axis, "-") for axis in axes_tested)]
+                    for label, cells in by_method.items()
+                ],
+            )
+        )
+    return blocks
+
+
+STUDY_NOTE = (
+    "Whole-body cases: every method here runs a loop of ours (our QP; PlaCo's and Pink's single QP "
+    "steps iterated by our loop; the closed-form legs' hip shift), so every method is budgeted in "
+    "iterations: the study's time budget divided by the method's measured cost per iteration "
+    "(wbik.wholebody.solvers, iteration_cost_s), no wall clock; the rows are the same on any "
+    "machine (times aside)."
+)
