@@ -305,6 +305,23 @@ def test_bad_study_files(tmp_path, body, words):
     assert_typed(info.value, "hostile.yaml", *words)
 
 
+@pytest.mark.parametrize("method, words", [
+    ("{method: dls, options: {max_iterations: -1}}", ("dls", "max_iterations", ">= 1")),
+    ("{method: qp, options: {backend: gurobi}}", ("qp", "gurobi", "not installed", "daqp")),
+])
+def test_bad_option_values_stop_the_study_before_solving(tmp_path, method, words):
+    """A bad-valued option or an uninstalled QP backend is an error in the file, not 'not applicable'."""
+    from wbik.study import load_study, run_study
+    from wbik.study.definition import StudyDefinitionError
+
+    path = tmp_path / "hostile.yaml"
+    path.write_text(f"robot: arm3r\ntarget: position\nposes: 5\nmethods: [analytic, {method}]\n")
+    with pytest.raises(StudyDefinitionError) as info:
+        run_study(load_study(path), tmp_path / "out", jobs=1, progress=False)
+    assert_typed(info.value, "hostile.yaml", *words)
+    assert not list((tmp_path / "out").rglob("chunk_*.npz"))  # nothing was solved
+
+
 def test_binary_study_file(tmp_path):
     from wbik.study import load_study
 

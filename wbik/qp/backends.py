@@ -22,6 +22,10 @@ from scipy import sparse
 
 from wbik.errors import MissingDependencyError
 
+
+class BackendUnavailableError(MissingDependencyError):
+    """A QP backend that was asked for by name is not installed (or is no QP solver at all)."""
+
 FASTEST = "daqp"
 """Measured fastest per QP step on the Bioloid whole body (benchmarks/qp.py; see its table)."""
 
@@ -45,7 +49,7 @@ def resolve(name: str) -> str:
     """A backend name ("fastest" and "default" allowed) checked against what is installed."""
     resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
     if resolved not in qpsolvers.available_solvers:
-        raise MissingDependencyError(
+        raise BackendUnavailableError(
             f"QP backend {name!r} is not installed; available here: {', '.join(available())}. "
             f"Install it with pip (e.g. 'pip install {resolved}') or pick one of those")
     return resolved

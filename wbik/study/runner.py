@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError, WbikError
 from wbik.study import results as store
 from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
 from wbik.study.metrics import axis_errors
@@ -150,7 +150,12 @@ def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
 
 
 def not_applicable_reason(exc: BaseException) -> str | None:
-    """The message if ``exc`` means "this method does not apply here", else None."""
+    """The message if ``exc`` means "this method does not apply here", else None. A QP backend the
+    study file names but that is not installed is not that: it is an error in the file."""
+    from wbik.qp.backends import BackendUnavailableError
+
+    if isinstance(exc, BackendUnavailableError):
+        return None
     if isinstance(exc, UnsupportedError | MissingDependencyError):
         return str(exc)
     if isinstance(exc, ModuleNotFoundError) and (exc.name or "").startswith("wbik."):
@@ -281,6 +286,10 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
     task = _task(study, case, method, poses, 0, 0, 1)
     try:
         rows = solve_chunk(task)
+    except WbikError as exc:  # the study file asks for something wrong: say so before any solving
+        raise StudyDefinitionError(
+            f"{study.source}: method {method.label!r} on case {case.name!r} cannot be built as written: "
+            f"{exc}") from exc
     except Exception as exc:  # noqa: BLE001 - a broken method must not stop the other methods
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return f"could not start (a bug to report): {detail}"
