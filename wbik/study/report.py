@@ -25,9 +25,9 @@ import numpy as np
 from wbik.errors import WbikError
 from wbik.study import figures
 from wbik.study import results as store
+from wbik.study.context import _frozen, _robot, chunk_count
 from wbik.study.definition import THESIS_METRICS, CaseSpec, Study
 from wbik.study.metrics import axes as case_axes
-from wbik.study.runner import _frozen, _robot, chunk_count
 from wbik.study.statistics import significance, summarize, thesis_metrics
 
 AGREEMENT = {"percent_solved": 2.0}
@@ -286,7 +286,7 @@ def _verdict(metric: str, thesis_value: float, ours: float | None) -> str:
 # -- the whole report --------------------------------------------------------------------------
 def _budget_text(study: Study, method) -> str:
     """The budget a method was built with: "N iterations (~T s)" for ours, "T s wall clock" else."""
-    from wbik.study.runner import solver_budget
+    from wbik.study.context import solver_budget
 
     seconds = study.timeout_of(method)
     try:

@@ -40,6 +40,7 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError, UnsupportedError, WbikError
 from wbik.study import results as store
+from wbik.study.context import _frozen, _robot, chunk_count, solver_budget  # also re-exported
 from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
 from wbik.study.metrics import axis_errors
 from wbik.study.ownership import FolderLock
@@ -82,39 +83,6 @@ def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
     """A solver seed that depends only on the study seed and the task's identity."""
     sequence = np.random.SeedSequence([seed, zlib.crc32(case.encode()), zlib.crc32(label.encode()), chunk])
     return int(sequence.generate_state(1)[0])
-
-
-_LOCAL = threading.local()
-
-
-def _robot(name: str, params: tuple):
-    """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe, and
-    a Dask worker may run several tasks in threads of one process)."""
-    cache = getattr(_LOCAL, "robots", None)
-    if cache is None:
-        cache = _LOCAL.robots = {}
-    key = (name, params)
-    if key not in cache:
-        import wbik
-
-        cache[key] = wbik.load(name, **dict(params))
-    return cache[key]
-
-
-def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` seconds.
-
-    Ours: no wall clock and ``max_iterations`` = the iterations that cost ``timeout_s`` on the
-    reference machine (unless the study gives max_iterations itself). Others: the wall clock.
-    """
-    from wbik.solvers.base import _factory
-
-    factory = _factory(method)
-    if getattr(factory, "iteration_cost_s", None) is None:
-        return timeout_s, options
-    if "max_iterations" in options:
-        return None, options
-    return None, {**options, "max_iterations": factory.iterations_for(timeout_s)}
 
 
 def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
@@ -298,10 +266,6 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
     return None
 
 
-def _frozen(mapping: dict) -> tuple:
-    return tuple(sorted(mapping.items()))
-
-
 def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
           stop: int) -> ChunkTask:
     if case.target == "wholebody":
@@ -319,10 +283,6 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
         q0=poses.q0[start:stop])
-
-
-def chunk_count(study: Study, case: CaseSpec) -> int:
-    return -(-study.poses_of(case) // study.chunk_size)
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:

@@ -1,0 +1,54 @@
+"""What the study's runner and report both need: the robot a task runs on, a method's solver budget,
+how many chunks a case has, and the plain-data form of a mapping.
+
+This module sits below :mod:`wbik.study.runner` and :mod:`wbik.study.report` (both import it; it
+imports neither), so the report does not depend on the runner. The runner re-exports these names.
+"""
+
+from __future__ import annotations
+
+import threading
+
+from wbik.study.definition import CaseSpec, Study
+
+_LOCAL = threading.local()
+
+
+def _frozen(mapping: dict) -> tuple:
+    """A mapping as a sorted tuple of items (hashable, cheap to pickle, the same in every process)."""
+    return tuple(sorted(mapping.items()))
+
+
+def _robot(name: str, params: tuple):
+    """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe, and
+    a Dask worker may run several tasks in threads of one process)."""
+    cache = getattr(_LOCAL, "robots", None)
+    if cache is None:
+        cache = _LOCAL.robots = {}
+    key = (name, params)
+    if key not in cache:
+        import wbik
+
+        cache[key] = wbik.load(name, **dict(params))
+    return cache[key]
+
+
+def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` seconds.
+
+    Ours: no wall clock and ``max_iterations`` = the iterations that cost ``timeout_s`` on the
+    reference machine (unless the study gives max_iterations itself). Others: the wall clock.
+    """
+    from wbik.solvers.base import _factory
+
+    factory = _factory(method)
+    if getattr(factory, "iteration_cost_s", None) is None:
+        return timeout_s, options
+    if "max_iterations" in options:
+        return None, options
+    return None, {**options, "max_iterations": factory.iterations_for(timeout_s)}
+
+
+def chunk_count(study: Study, case: CaseSpec) -> int:
+    """How many chunks of ``study.chunk_size`` poses the case is cut into."""
+    return -(-study.poses_of(case) // study.chunk_size)
