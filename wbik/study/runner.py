@@ -77,6 +77,11 @@ class ChunkTask:
     q0: np.ndarray
     scenario: str | None = None  # whole-body cases: the sampler that rebuilds them (wbik.study.wholebody)
     scenario_seed: int = 0
+    registered: tuple | None = None
+    """(name, factory) of a method registered at run time (``wbik.register``; not a built-in
+    "wbik.…:Class" path): worker processes have their own registry, so the task carries it and
+    :func:`solve_chunk` registers it there (loky and Dask pickle with cloudpickle, so a class defined
+    in the user's script travels by value)."""
 
 
 def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
@@ -140,6 +145,10 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     A pose on which the method raises gets success=False and reason "raised ...", and the chunk
     continues pose by pose; "not applicable" errors are returned as {"not_applicable": [message]}.
     """
+    if task.registered is not None:  # a method registered in the study's main process
+        from wbik.solvers.base import register
+
+        register(*task.registered)
     if task.scenario is not None:  # a whole-body chunk
         from wbik.study.wholebody import solve_wholebody_chunk
 
@@ -272,7 +281,11 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         from wbik.study.wholebody import make_task
 
         return make_task(study, case, method, poses, chunk, start, stop)
+    from wbik.solvers.base import _REGISTRY
+
     timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
+    factory = _REGISTRY[method.method]
+    built_in = isinstance(factory, str) and factory.startswith("wbik.")
     return ChunkTask(
         case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
         angle_names=_frozen(case.angle_names), label=method.label, method=method.method,
@@ -282,7 +295,7 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         chunk=chunk, first_pose=start,
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
-        q0=poses.q0[start:stop])
+        q0=poses.q0[start:stop], registered=None if built_in else (method.method, factory))
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
