@@ -74,7 +74,3 @@ class Kinematics:
     def integrate(self, dq: np.ndarray) -> np.ndarray:
         """q (+) dq on the configuration manifold (a new array)."""
         return pin.integrate(self.model, self.q, dq)
-
-    def difference(self, q_from: np.ndarray, q_to: np.ndarray) -> np.ndarray:
-        """Tangent vector dq with q_from (+) dq = q_to."""
-        return pin.difference(self.model, q_from, q_to)

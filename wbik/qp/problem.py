@@ -89,26 +89,6 @@ class IKProblem:
         self._started = False
 
     # -- set-up ---------------------------------------------------------------------------------
-    def add_task(self, task: Task) -> Task:
-        self.tasks.append(task)
-        if self._started:
-            task.start(self.kinematics)
-            self._layout()
-        return task
-
-    def remove_task(self, task: Task) -> None:
-        self.tasks.remove(task)
-        if self._started:
-            self._layout()
-
-    def add_constraint(self, constraint: Constraint) -> Constraint:
-        self.constraints.append(constraint)
-        if isinstance(constraint, JointPositionLimits):
-            self._limits.append(constraint)
-        if self._started:
-            constraint.start(self.kinematics)
-        return constraint
-
     def start(self, q: np.ndarray) -> None:
         """Set the configuration and let tasks and constraints resolve frames / capture placements."""
         q = self.clip(np.asarray(q, dtype=float))

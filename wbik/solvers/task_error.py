@@ -7,7 +7,8 @@ For a position target only the first three rows are used.
 
 Besides the Pinocchio-based ``task_error`` (one configuration), this module holds the chain's
 serial structure (``serial_structure``: fixed placements and joint axes, from which KDL chains and
-vectorised kinematics are built) and ``batch_log3``, the rotation logarithm of many matrices at once.
+vectorised kinematics are built). The rotation logarithm of many matrices at once is
+:func:`wbik.solvers.bounded_lm.batch_log3`.
 """
 
 from __future__ import annotations
@@ -86,20 +87,3 @@ def serial_structure(chain: Chain) -> SerialStructure:
     placements += [model.jointPlacements[j].homogeneous for j in joint_ids[1:]]
     placements.append(tip_frame.placement.homogeneous)
     return SerialStructure(np.array(placements), np.array(axes), np.array(prismatic, dtype=bool))
-
-
-def batch_log3(rotations: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (B, 3, 3) rotations (accurate near 0 and near pi)."""
-    trace = rotations[:, 0, 0] + rotations[:, 1, 1] + rotations[:, 2, 2]
-    cos_angle = np.clip(0.5 * (trace - 1.0), -1.0, 1.0)
-    angle = np.arccos(cos_angle)
-    vee = np.stack((rotations[:, 2, 1] - rotations[:, 1, 2], rotations[:, 0, 2] - rotations[:, 2, 0],
-                    rotations[:, 1, 0] - rotations[:, 0, 1]), axis=1)
-    sin_angle = np.sin(angle)
-    small = sin_angle < 1e-6
-    factor = np.where(small, 0.5 + angle**2 / 12.0, angle / (2.0 * np.where(small, 1.0, sin_angle)))
-    result = factor[:, None] * vee
-    near_pi = small & (cos_angle < 0.0)
-    for index in np.flatnonzero(near_pi):
-        result[index] = pin.log3(rotations[index])
-    return result

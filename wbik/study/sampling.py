@@ -15,7 +15,6 @@ import numpy as np
 
 from wbik.files import atomic_write_bytes
 from wbik.robot import Chain
-from wbik.targets import Target
 
 
 @dataclass
@@ -29,12 +28,6 @@ class PoseSet:
 
     def __len__(self) -> int:
         return len(self.q_true)
-
-    def targets(self, start: int = 0, stop: int | None = None) -> list[Target]:
-        stop = len(self) if stop is None else stop
-        if self.rotations is None:
-            return [Target(self.positions[i]) for i in range(start, stop)]
-        return [Target(self.positions[i], self.rotations[i]) for i in range(start, stop)]
 
     def save(self, path: Path) -> None:
         """Write atomically (temporary file renamed into place)."""
