@@ -1,0 +1,228 @@
+"""The import layers of wbik, read from the source with ``ast`` (nothing is imported).
+
+Layers, from the bottom (see docs/architecture.md):
+
+- core: errors, validation, geometry, files, targets, robot, dh, models, data, solvers, qp, motion,
+  collision, wholebody, study, viz, scenario_schema, expectations (and the ``wbik`` facade);
+- applications: ``wbik.bioloid`` and ``wbik.riveting``, which use the core;
+- entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
+
+Each import is classified as *top-level* (runs when the module is imported: module body, class
+bodies, ``try``/``if`` at module level), *function-level* (runs when a function is called: the lazy
+imports that keep optional dependencies optional) or *typing* (under ``if TYPE_CHECKING:``, never
+at run time). Registry strings ("module:Class", imported with importlib on first use) are not
+imports here: they are the intended way for the core to name code it must not depend on.
+
+Checked: (a) no cycle among top-level imports; (b) the core imports no application at top level,
+and at function level only at the places listed below with their reason (so the debt is written
+down, and a new place or a paid-off one fails the test until this list says so); (c) only the entry
+points import the entry points; (d) the study's report does not import the study's runner (they
+share :mod:`wbik.study.context`).
+"""
+
+from __future__ import annotations
+
+import ast
+from collections import defaultdict
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
+
+CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.robot",
+        "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study",
+        "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations")
+APPLICATIONS = ("wbik.bioloid", "wbik.riveting")
+ENTRY_POINTS = ("wbik.cli", "wbik.commands")
+
+TOP_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
+    # (core module, application module): reason. None today.
+}
+FUNCTION_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
+    ("wbik.scenario_schema", "wbik.bioloid.gait"):
+        "the Bioloid scenario kinds' schemas take their defaults from GaitParameters; the schemas of "
+        "the applications' kinds belong next to their runners (bioloid/scenarios.py)",
+    ("wbik.scenario_schema", "wbik.bioloid.scenarios"):
+        "the Bioloid kinds' expectation rules (KEYFRAME_RULES, ...) live with their runners",
+    ("wbik.scenario_schema", "wbik.riveting.cycle"):
+        "the riveting kind's schema takes its defaults from RunConfig / NoiseModel",
+    ("wbik.scenario_schema", "wbik.riveting.plan"): "the riveting schema checks Insertion's fields",
+    ("wbik.scenario_schema", "wbik.riveting.report"): "the riveting kind's expectation rules",
+    ("wbik.motion.scenarios", "wbik.bioloid.sensors"):
+        "the bioloid_stance_sensors kind is run by the generic motion runners; it belongs in "
+        "bioloid/scenarios.py",
+    ("wbik.viz.placo_walk", "wbik.bioloid.placo_walk"):
+        "the viewer's PlaCo walk animation re-plans the Bioloid walk; a Bioloid view, kept in viz/",
+}
+
+
+@dataclass(frozen=True)
+class Import:
+    source: str
+    target: str
+    level: str  # "top", "function" or "typing"
+    line: int
+
+
+def _modules() -> dict[str, tuple[Path, bool]]:
+    """Module name -> (file, is a package's __init__)."""
+    modules = {}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        parts = list(path.relative_to(PACKAGE.parent).with_suffix("").parts)
+        is_package = parts[-1] == "__init__"
+        if is_package:
+            parts = parts[:-1]
+        modules[".".join(parts)] = (path, is_package)
+    return modules
+
+
+def _imports_of(name: str, path: Path, is_package: bool, known: set[str]) -> list[Import]:
+    found: list[Import] = []
+
+    def add(target: str, level: str, line: int) -> None:
+        if target in known:
+            found.append(Import(name, target, level, line))
+
+    def absolute(node: ast.ImportFrom) -> str:
+        if not node.level:
+            return node.module or ""
+        base = name.split(".") if is_package else name.split(".")[:-1]
+        base = base[:len(base) - (node.level - 1)]
+        return ".".join(base + ([node.module] if node.module else []))
+
+    def visit(nodes, level: str) -> None:
+        for child in nodes:
+            if isinstance(child, ast.FunctionDef | ast.AsyncFunctionDef | ast.Lambda):
+                visit(ast.iter_child_nodes(child), "function")
+                continue
+            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                visit(child.body, "typing")
+                visit(child.orelse, level)
+                continue
+            if isinstance(child, ast.Import):
+                for alias in child.names:
+                    add(alias.name, level, child.lineno)
+            elif isinstance(child, ast.ImportFrom):
+                module = absolute(child)
+                for alias in child.names:  # "from wbik.study import results" imports the module
+                    submodule = f"{module}.{alias.name}"
+                    add(submodule if submodule in known else module, level, child.lineno)
+            visit(ast.iter_child_nodes(child), level)
+
+    visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)).body, "top")
+    return found
+
+
+@cache
+def _graph() -> tuple[Import, ...]:
+    modules = _modules()
+    known = set(modules)
+    return tuple(dict.fromkeys(  # one entry per (source, target, level, line)
+        item for name, (path, is_package) in modules.items()
+        for item in _imports_of(name, path, is_package, known) if item.target != name))
+
+
+def _within(module: str, prefixes: tuple[str, ...]) -> bool:
+    return any(module == prefix or module.startswith(prefix + ".") for prefix in prefixes)
+
+
+def _cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+
+    def connect(node: str) -> None:
+        index[node] = low[node] = len(index)
+        stack.append(node)
+        on_stack.add(node)
+        for successor in sorted(edges.get(node, ())):
+            if successor not in index:
+                connect(successor)
+                low[node] = min(low[node], low[successor])
+            elif successor in on_stack:
+                low[node] = min(low[node], index[successor])
+        if low[node] == index[node]:
+            component = []
+            while True:
+                member = stack.pop()
+                on_stack.discard(member)
+                component.append(member)
+                if member == node:
+                    break
+            if len(component) > 1:
+                components.append(sorted(component))
+
+    for node in sorted(edges):
+        if node not in index:
+            connect(node)
+    return components
+
+
+def _where(items) -> str:
+    return "\n".join(f"  {item.source} -> {item.target} (line {item.line}, {item.level})" for item in items)
+
+
+def test_the_parser_sees_the_package():
+    """Guards the other tests against passing on an empty graph."""
+    graph = _graph()
+    assert len(_modules()) > 100
+    assert Import("wbik.study.runner", "wbik.study.context", "top", 0) in {
+        Import(i.source, i.target, i.level, 0) for i in graph}
+    assert any(i.level == "function" for i in graph) and any(i.level == "top" for i in graph)
+    assert all(item.target.startswith("wbik") for item in graph)
+
+
+def test_no_cycle_among_top_level_imports():
+    edges: dict[str, set[str]] = defaultdict(set)
+    for item in _graph():
+        if item.level == "top":
+            edges[item.source].add(item.target)
+    cycles = _cycles(edges)
+    details = [_where(i for i in _graph() if i.level == "top" and i.source in c and i.target in c)
+               for c in cycles]
+    assert not cycles, "modules importing each other at top level:\n" + "\n\n".join(details)
+
+
+def _core_to_applications(level: str) -> dict[tuple[str, str], list[Import]]:
+    found: dict[tuple[str, str], list[Import]] = defaultdict(list)
+    for item in _graph():
+        if item.level == level and _within(item.source, CORE) and _within(item.target, APPLICATIONS):
+            found[item.source, item.target].append(item)
+    return found
+
+
+def test_the_core_does_not_import_the_applications_at_top_level():
+    found = _core_to_applications("top")
+    new = {pair: items for pair, items in found.items() if pair not in TOP_LEVEL_EXCEPTIONS}
+    assert not new, ("the core imports an application at top level (move the code into the "
+                     "application, or name it by a registry string):\n"
+                     + _where(item for items in new.values() for item in items))
+    paid = set(TOP_LEVEL_EXCEPTIONS) - set(found)
+    assert not paid, f"no longer imported, remove from TOP_LEVEL_EXCEPTIONS: {sorted(paid)}"
+
+
+def test_the_core_imports_the_applications_only_at_the_listed_function_level_places():
+    found = _core_to_applications("function")
+    new = {pair: items for pair, items in found.items() if pair not in FUNCTION_LEVEL_EXCEPTIONS}
+    assert not new, ("a new function-level import of an application from the core; avoid it, or list "
+                     "it in FUNCTION_LEVEL_EXCEPTIONS with its reason:\n"
+                     + _where(item for items in new.values() for item in items))
+    paid = set(FUNCTION_LEVEL_EXCEPTIONS) - set(found)
+    assert not paid, f"no longer imported, remove from FUNCTION_LEVEL_EXCEPTIONS: {sorted(paid)}"
+
+
+def test_only_the_entry_points_import_the_entry_points():
+    wrong = [item for item in _graph() if item.level != "typing" and _within(item.target, ENTRY_POINTS)
+             and not _within(item.source, ENTRY_POINTS)]
+    assert not wrong, "the command line is the top layer; nothing below imports it:\n" + _where(wrong)
+
+
+def test_the_study_report_does_not_import_the_runner():
+    wrong = [item for item in _graph()
+             if item.source == "wbik.study.report" and item.target == "wbik.study.runner"]
+    assert not wrong, ("the report reads results; what it shares with the runner lives in "
+                       "wbik.study.context:\n" + _where(wrong))
