@@ -201,6 +201,116 @@ def sharp_adc_value(distance_mm):
     return SHARP_GAIN / (distance / 10.0) ** (1.0 / SHARP_EXPONENT)
 
 
+# -- simulated readings: the Sharp's folded curve, its mount, the FSR's force law, the board's filter --
+
+SHARP_PEAK_MM = 60.0
+"""ASSUMED: true distance (mm) where the Sharp's output peaks. The thesis says only that below
+10 cm the voltage falls sharply, so one voltage has two distances (bioloid.md 6.2, Fig. 18)."""
+SHARP_RANGE_MM = 800.0
+"""Rated range 10-80 cm (bioloid.md 6.1); nothing nearer along the beam reads as this distance."""
+SHARP_MOUNT_XYZ = (0.05, 0.0, 0.012)
+"""ASSUMED: the Sharp's beam origin in the sole frame (m): at the toe (the front edge of the
+100 mm sole), centred, 12 mm above the sole, beam along the sole's +x (horizontal). The thesis
+says only that it is screwed to the front of the foot (bioloid.md 6.1)."""
+
+
+def sharp_adc_folded(true_distance_mm):
+    """ADC value for an object at ``true_distance_mm`` on the beam: Eq. 23 inverted at and beyond
+    ``SHARP_PEAK_MM``; below it the output falls linearly to 0 at 0 mm (our model of the fold);
+    beyond ``SHARP_RANGE_MM`` (or no object: inf) the value at the range limit."""
+    distance = np.asarray(true_distance_mm, dtype=float)
+    if np.any(distance < 0) or np.any(np.isnan(distance)):
+        raise InvalidConfigurationError("Sharp distances must be >= 0 (inf: nothing on the beam)")
+    clipped = np.minimum(distance, SHARP_RANGE_MM)
+    far = sharp_adc_value(np.maximum(clipped, SHARP_PEAK_MM))
+    near = sharp_adc_value(SHARP_PEAK_MM) * clipped / SHARP_PEAK_MM
+    return np.where(clipped >= SHARP_PEAK_MM, far, near)
+
+
+def sharp_reading_mm(true_distance_mm):
+    """What the foot board reports (Eq. 23 applied to the folded ADC value), mm. It falls with the
+    distance down to ``SHARP_PEAK_MM`` and rises again nearer: the state machine's 0-10 cm reading.
+    An object touching the sensor (ADC 0) reads as the range limit."""
+    adc = np.asarray(sharp_adc_folded(true_distance_mm), dtype=float)
+    safe = np.where(adc > 0, adc, sharp_adc_value(SHARP_RANGE_MM))
+    return sharp_distance_mm(safe)
+
+
+def sharp_ray(robot: Robot, q: np.ndarray, sole: str) -> tuple[np.ndarray, np.ndarray]:
+    """World origin and unit direction of the Sharp beam of the foot whose sole frame is ``sole``."""
+    placement = robot.frame_placement(q, sole)
+    origin = placement.translation + placement.rotation @ np.asarray(SHARP_MOUNT_XYZ, dtype=float)
+    return origin, placement.rotation[:, 0].copy()
+
+
+FSR_ONE_NEWTON_OHM = 10e3
+"""ASSUMED force law of the 7 mm FSRs: conductance proportional to force, R = 10 kOhm * (1 N / F)
+(the order of magnitude of the FSR-400 series; the thesis gives no curve). With the 10 kOhm
+pull-down and 5 V (bioloid.md 6.2) the reading is 5000 mV * F / (F + 1 N)."""
+
+
+def fsr_reading_mv(force_n, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
+    """The FSR divider voltage in mV for a force (N); 0 N (open sensor) reads 0 mV.
+
+    ASSUMED unit: the readings compared with PSThreshold = 1000 are taken as mV (the thesis plots
+    voltage; the units are not stated, bioloid.md 6.5)."""
+    force = np.asarray(force_n, dtype=float)
+    if np.any(force < 0) or not np.all(np.isfinite(force)):
+        raise InvalidConfigurationError("FSR forces must be finite and >= 0")
+    resistance = FSR_ONE_NEWTON_OHM / np.maximum(force, 1e-300)
+    return np.where(force > 0, 1e3 * fsr_divider_voltage(resistance, supply_v, pulldown_ohm), 0.0)
+
+
+class MovingAverage:
+    """The board's noise filter: the mean of the last ``window`` samples (3, bioloid.md 6.2);
+    fewer samples give the mean of those seen. Works on scalars or arrays (e.g. 4 FSRs)."""
+
+    def __init__(self, window: int = 3):
+        if int(window) != window or window < 1:
+            raise InvalidConfigurationError(f"moving-average window must be a positive integer, got {window}")
+        self.window = int(window)
+        self.samples: list[np.ndarray] = []
+
+    def add(self, value) -> np.ndarray:
+        """Add one sample; returns the filtered value."""
+        self.samples.append(np.asarray(value, dtype=float).copy())
+        del self.samples[:-self.window]
+        return self.value
+
+    @property
+    def value(self) -> np.ndarray:
+        if not self.samples:
+            raise InvalidConfigurationError("the moving average has no sample yet")
+        return np.mean(self.samples, axis=0)
+
+
+PS_THRESHOLD = 1000.0
+"""PSThreshold (bioloid.md 5.6): a front FSR reads "no pressure" strictly below it."""
+PS_READS = 2
+"""Two consecutive low reads of both front sensors mean a step down (bioloid.md 6.5)."""
+
+
+class StepDownDetector:
+    """Step-down detection of one foot: FSR3 and FSR4 (the front pair) both < ``PS_THRESHOLD`` on
+    ``PS_READS`` consecutive reads; any read with a front sensor at or above it starts over."""
+
+    def __init__(self, threshold: float = PS_THRESHOLD, reads: int = PS_READS):
+        self.threshold = float(threshold)
+        self.reads = int(reads)
+        self.count = 0
+
+    def update(self, fsr3: float, fsr4: float) -> bool:
+        """One read of the filtered front sensors; True once the step down is detected."""
+        if fsr3 < self.threshold and fsr4 < self.threshold:
+            self.count += 1
+        else:
+            self.count = 0
+        return self.count >= self.reads
+
+    def reset(self) -> None:
+        self.count = 0
+
+
 # -- foot board bus (Dynamixel protocol 1.0 framing) -------------------------------------------------
 
 REGISTERS = {"sharp": 0x00, "fsr1": 0x02, "fsr2": 0x04, "fsr3": 0x06, "fsr4": 0x08,
