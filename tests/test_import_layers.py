@@ -2,8 +2,9 @@
 
 Layers, from the bottom (see docs/architecture.md):
 
-- core: errors, validation, geometry, files, targets, robot, dh, models, data, solvers, qp, motion,
-  collision, wholebody, study, viz, scenario_schema, expectations (and the ``wbik`` facade);
+- core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
+  data); kinematics (dh, robot, models, collision); solving (solvers, qp, wholebody, and the ``wbik``
+  facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
 - applications: ``wbik.bioloid`` and ``wbik.riveting``, which use the core;
 - entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
 
@@ -15,9 +16,10 @@ imports here: they are the intended way for the core to name code it must not de
 
 Checked: (a) no cycle among top-level imports; (b) the core imports no application at top level,
 and at function level only at the places listed below with their reason (so the debt is written
-down, and a new place or a paid-off one fails the test until this list says so); (c) only the entry
-points import the entry points; (d) the study's report does not import the study's runner (they
-share :mod:`wbik.study.context`).
+down, and a new place or a paid-off one fails the test until this list says so); (c) inside the
+core, imports go down ``LAYERS`` (up only at the listed places); (d) only the entry points import
+the entry points; (e) the study's report does not import the study's runner (they share
+:mod:`wbik.study.context`).
 """
 
 from __future__ import annotations
@@ -32,9 +34,24 @@ PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
 CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.robot",
         "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study",
-        "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations")
+        "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations",
+        "wbik.scenarios")
 APPLICATIONS = ("wbik.bioloid", "wbik.riveting")
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
+LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
+    ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.data"),
+    ("wbik.dh", "wbik.robot", "wbik.models", "wbik.collision"),
+    ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
+    ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenario_schema",
+     "wbik.scenarios"),
+)
+FACADE_LAYER = 2  # ``wbik/__init__.py`` re-exports models, solvers and wholebody
+UPWARD_EXCEPTIONS: dict[tuple[str, str], str] = {
+    # (module, module of a higher core layer it imports in a function): reason
+    ("wbik.wholebody.problem", "wbik.scenarios"):
+        "WholeBody.from_dict parses task entries with scenarios.build_task; the task-entry parser "
+        "belongs in qp/ or wholebody/",
+}
 
 TOP_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
     # (core module, application module): reason. None today.
@@ -213,6 +230,30 @@ def test_the_core_imports_the_applications_only_at_the_listed_function_level_pla
                      + _where(item for items in new.values() for item in items))
     paid = set(FUNCTION_LEVEL_EXCEPTIONS) - set(found)
     assert not paid, f"no longer imported, remove from FUNCTION_LEVEL_EXCEPTIONS: {sorted(paid)}"
+
+
+def _layer(module: str) -> int | None:
+    if module == "wbik":
+        return FACADE_LAYER
+    for number, prefixes in enumerate(LAYERS):
+        if _within(module, prefixes):
+            return number
+    return None
+
+
+def test_the_core_layers_cover_the_core_and_imports_go_down_them():
+    assert not [m for m in _modules() if _within(m, CORE) and _layer(m) is None]
+    found: dict[tuple[str, str], list[Import]] = defaultdict(list)
+    for item in _graph():
+        source, target = _layer(item.source), _layer(item.target)
+        if item.level != "typing" and None not in (source, target) and target > source:
+            found[item.source, item.target].append(item)
+    new = {pair: items for pair, items in found.items() if pair not in UPWARD_EXCEPTIONS}
+    assert not new, ("a core module imports a higher core layer (see LAYERS and docs/architecture.md); "
+                     "move the code down, or list it in UPWARD_EXCEPTIONS with its reason:\n"
+                     + _where(item for items in new.values() for item in items))
+    paid = set(UPWARD_EXCEPTIONS) - set(found)
+    assert not paid, f"no longer imported, remove from UPWARD_EXCEPTIONS: {sorted(paid)}"
 
 
 def test_only_the_entry_points_import_the_entry_points():
