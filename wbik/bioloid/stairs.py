@@ -1,0 +1,553 @@
+"""A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5).
+
+Staircase (ours: the sources give no stair geometry, bioloid.md 9.2). ``steps`` solid steps of
+``height`` (default 30 mm) and ``depth`` (default 160 mm) whose first riser is at x = ``start_x``,
+the last tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, faces along +x.
+Why these numbers: the sole is 100 mm long, so a tread must take the foot (100 mm) plus the heel
+overhang past the edge (10 mm) plus room to walk up to the next riser (50 mm); 30 mm is what the
+model's legs climb in one step (a 120 mm forward reach onto a tread 30 mm higher, single support,
+every joint inside its limits, the CoM inside the stance sole with the 5 mm margin; see the stair
+task's figures). The Sharp beam, 12 mm above the sole, sees a 30 mm riser.
+
+Sensors, from the robot's pose at every sample (the whole-body samples are the board's samples):
+
+- Sharp: the beam (:func:`wbik.bioloid.sensors.sharp_ray`) is ray-cast on the step boxes; the true
+  distance goes through the folded curve (:func:`wbik.bioloid.sensors.sharp_reading_mm`), so the
+  reading falls while the foot nears the riser and rises again within about 34 mm of it.
+- FSRs: the soles in contact (every corner on the surface under it, flat) carry the weight by
+  :func:`wbik.bioloid.sensors.support_loads` at the CoM projection; a sole in the air reads 0. The
+  force law :func:`wbik.bioloid.sensors.fsr_reading_mv` gives mV; each foot board keeps the moving
+  average of the last 3 samples (:class:`~wbik.bioloid.sensors.MovingAverage`), and the state
+  machine reads the filtered values.
+
+The state machine (:class:`StairStateMachine`, the code's logic of bioloid.md 5.6 and 6.5): the
+robot walks with the half steps, alternating WalkSR1, WalkSR2, WalkSL1, WalkSL2, and reads both
+feet's sensors after every half step (each time a foot is put down):
+
+- both Sharp readings < 100 (SharpProximityThreshold): the proximity flag is set;
+- either reading > 120 (SharpInFrontThreshold) and (the flag or stairCont > 0) and stairCont < 3:
+  up to 3 re-reads, diff = right - left: > 15 (SharpDifferenceThreshold) RightTurnMedium, < -15
+  LeftTurnMedium, else no turn (so at most 3 turns); then StairReady, UpStair, stairCont + 1;
+- only once stairCont >= 3: a foot whose FSR3 and FSR4 both read < 1000 (PSThreshold) on 2
+  consecutive reads means a step down: BackS* first when that foot is the forward one, then DownStair.
+
+Where we differ from the code, and why:
+
+- a trigger after a WalkS*1 (one foot 30 mm ahead) first completes the pair with WalkS*2: with the
+  feet staggered the two readings differ by the stagger, not by the heading, and the turn test
+  would fire on every approach (the code's Roboplus half steps are not in our sources);
+- StairReady is generated, not replayed: two half steps bring the toes to ``READY_GAP`` (5 mm) from
+  the riser; UpStair is generated too (:func:`climb_phases`): CoM over one foot, that foot's
+  partner lifted ``STEP_CLEARANCE`` above the next tread, carried over the edge and put down with
+  its heel ``HEEL_OVERHANG`` past it, CoM over the upper foot, the other foot brought up beside it,
+  CoM between the feet; every sample is a whole-body QP solve (contacts held on their treads, CoM in
+  the shrunk support polygon, limits), verified by FK. The replayed UpStair/DownStair keyframes
+  (tasks/data/bioloid_keyframes.yaml) leave our joint limits in 6 rows each and assume a step we do
+  not know; ours stay inside the limits by construction and follow the modelled step;
+- the code's extra LeftTurnMedium every 4th iteration (heading drift of the real robot, not in the
+  text) is left out: the simulated walk does not drift; the proximity flag is cleared after a climb;
+- DownStair is not generated (the simulated staircase is climbed only): the detection and its
+  decisions (BackS*, DownStair) are implemented and tested on hand-made readings;
+- RightTurnMedium / LeftTurnMedium (Roboplus presets, angle not in the sources) are the whole-body
+  turn in place by ``TURN_MEDIUM_DEG`` (ours).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.bioloid import sensors
+from wbik.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.bioloid.half_steps import HALF_STEP_LIFT, RAMP_INSET, along, half_step_phases, recentre_goal
+from wbik.bioloid.step_wholebody import (
+    BodyPhase,
+    ComRamp,
+    current_soles,
+    pelvis_rotation,
+    sole_polygon,
+    solve_phases,
+    yaw_of,
+)
+from wbik.errors import InvalidConfigurationError, WbikError
+from wbik.robot import Robot
+
+SHARP_PROXIMITY_THRESHOLD = 100.0
+SHARP_IN_FRONT_THRESHOLD = 120.0
+SHARP_DIFFERENCE_THRESHOLD = 15.0
+MAX_CLIMBS = 3
+"""The code climbs while stairCont < 3 and looks for a step down once stairCont >= 3."""
+MAX_TURNS = 3
+"""At most 3 turns before climbing (bioloid.md 5.6)."""
+STEP_QTY = 100
+"""The code's loop count (stepQty): the simulation stops after this many decisions."""
+TURN_MEDIUM_DEG = 10.0
+"""Our angle of RightTurnMedium / LeftTurnMedium (the Roboplus presets' angle is not in the sources)."""
+READY_GAP = 0.005
+"""m, StairReady brings the toes this close to the riser."""
+HEEL_OVERHANG = 0.010
+"""m, UpStair puts the heel this far past the step's edge."""
+STEP_CLEARANCE = 0.015
+"""m, UpStair lifts the sole this far above the next tread before carrying it over the edge."""
+SURFACE_TOLERANCE = 1e-6
+"""m, a sole corner this close to the surface under it touches it."""
+
+
+class StairError(WbikError):
+    """The simulated robot cannot go on: a foot would hit a riser, or the stairs are not climbed."""
+
+
+# -- geometry ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Staircase:
+    """``steps`` solid steps (see the module docstring); SI units."""
+
+    steps: int = 3
+    height: float = 0.030
+    depth: float = 0.160
+    start_x: float = 0.160
+    top_depth: float = 0.300
+    width: float = 0.600
+
+    def __post_init__(self) -> None:
+        if int(self.steps) != self.steps or self.steps < 1:
+            raise InvalidConfigurationError(f"a staircase needs >= 1 step, got {self.steps}")
+        for name in ("height", "depth", "top_depth", "width"):
+            if not getattr(self, name) > 0:
+                raise InvalidConfigurationError(f"staircase {name} must be > 0, got {getattr(self, name)}")
+        if self.depth < 0.1 + HEEL_OVERHANG + READY_GAP:
+            raise InvalidConfigurationError(f"a tread of {self.depth} m cannot take the 100 mm sole past the "
+                                            "heel overhang")
+
+    def edge_x(self, step: int) -> float:
+        """x of the riser (and nose edge) of step ``step`` (1-based)."""
+        return self.start_x + (step - 1) * self.depth
+
+    def tread_z(self, step: int) -> float:
+        """Height of tread ``step`` (0 = the floor)."""
+        return step * self.height
+
+    @property
+    def end_x(self) -> float:
+        return self.start_x + (self.steps - 1) * self.depth + self.top_depth
+
+    def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(lower corner, upper corner) of each step's solid box, step 1 first."""
+        half = 0.5 * self.width
+        return [(np.array([self.edge_x(i), -half, 0.0]), np.array([self.end_x, half, self.tread_z(i)]))
+                for i in range(1, self.steps + 1)]
+
+    def step_at(self, x: float) -> int:
+        """The step whose tread is under x (0: the floor before the stairs; past the end: the floor)."""
+        if x < self.start_x or x >= self.end_x:
+            return 0
+        return min(self.steps, int(math.floor((x - self.start_x) / self.depth)) + 1)
+
+    def surface_z(self, x: float) -> float:
+        return self.tread_z(self.step_at(x))
+
+    def surface_name(self, x: float) -> str:
+        step = self.step_at(x)
+        return "floor" if step == 0 else f"tread {step}"
+
+    def raycast(self, origin: np.ndarray, direction: np.ndarray) -> float:
+        """Distance (m) along the unit ``direction`` to the first step face hit, inf if none."""
+        best = math.inf
+        for low, high in self.boxes():
+            hit = _ray_box(np.asarray(origin, float), np.asarray(direction, float), low, high)
+            best = min(best, hit)
+        return best
+
+    def edge_distance(self, corners: np.ndarray) -> float:
+        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge of a step.
+
+        The edges run along y across the stair; the sole is horizontal, so the distance is
+        hypot(height difference, gap in x between the edge and the sole's x range)."""
+        corners = np.asarray(corners, dtype=float)
+        z = float(np.mean(corners[:, 2]))
+        low, high = float(corners[:, 0].min()), float(corners[:, 0].max())
+        best = math.inf
+        for step in range(1, self.steps + 1):
+            x_edge, z_edge = self.edge_x(step), self.tread_z(step)
+            gap = max(0.0, low - x_edge, x_edge - high)
+            best = min(best, math.hypot(gap, z - z_edge))
+        return best
+
+    def penetration(self, corners: np.ndarray) -> float:
+        """How deep (m, >= 0) the lowest sole corner is below the surface under it."""
+        return max(0.0, max(self.surface_z(c[0]) - c[2] for c in np.asarray(corners, dtype=float)))
+
+    def touching(self, corners: np.ndarray, tolerance: float = SURFACE_TOLERANCE) -> str | None:
+        """The surface a sole lies on (every corner on the surface under it, one surface), or None."""
+        corners = np.asarray(corners, dtype=float)
+        names = {self.surface_name(c[0]) for c in corners}
+        if len(names) != 1:
+            return None
+        if all(abs(c[2] - self.surface_z(c[0])) <= tolerance for c in corners):
+            return names.pop()
+        return None
+
+
+def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: np.ndarray) -> float:
+    """Slab test: distance to the box along the ray (inf when missed or behind; 0 when inside)."""
+    near, far = -math.inf, math.inf
+    for axis in range(3):
+        if abs(direction[axis]) < 1e-12:
+            if not low[axis] <= origin[axis] <= high[axis]:
+                return math.inf
+            continue
+        t1 = (low[axis] - origin[axis]) / direction[axis]
+        t2 = (high[axis] - origin[axis]) / direction[axis]
+        near, far = max(near, min(t1, t2)), min(far, max(t1, t2))
+    if near > far or far < 0:
+        return math.inf
+    return max(near, 0.0)
+
+
+def sole_corners_world(robot: Robot, q: np.ndarray, sole: str) -> np.ndarray:
+    placement = robot.frame_placement(q, sole)
+    corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+    return corners @ placement.rotation.T + placement.translation
+
+
+# -- the state machine ------------------------------------------------------------------------------
+@dataclass
+class Decision:
+    """What the state machine does after a read: ``action`` in walk | up | back_then_down | down;
+    ``foot`` is the foot that detected a step down."""
+
+    action: str
+    foot: str | None = None
+
+
+@dataclass
+class StairStateMachine:
+    """The code's decisions (bioloid.md 5.6); thresholds compared strictly as listed there."""
+
+    climbs: int = MAX_CLIMBS
+    stair_count: int = 0  # stairCont, 0 once the start button is released
+    proximity: bool = False
+    turns_made: int = 0
+    down: dict = field(default_factory=lambda: {side: sensors.StepDownDetector() for side in SIDES})
+
+    def after_placement(self, sharp: dict[str, float], front_fsr: dict[str, Sequence[float]],
+                        forward_foot: str | None = None) -> Decision:
+        """One read after a half step: ``sharp`` {"r", "l"} readings (mm), ``front_fsr`` {"r", "l"}
+        filtered (FSR3, FSR4) readings, ``forward_foot`` the foot in front (None: side by side)."""
+        right, left = float(sharp["r"]), float(sharp["l"])
+        if right < SHARP_PROXIMITY_THRESHOLD and left < SHARP_PROXIMITY_THRESHOLD:
+            self.proximity = True
+        if ((right > SHARP_IN_FRONT_THRESHOLD or left > SHARP_IN_FRONT_THRESHOLD)
+                and (self.proximity or self.stair_count > 0) and self.stair_count < self.climbs):
+            return Decision("up")
+        if self.stair_count >= self.climbs:
+            for side in SIDES:
+                if self.down[side].update(*front_fsr[side]):
+                    return Decision("back_then_down" if forward_foot == side else "down", side)
+        return Decision("walk")
+
+    @staticmethod
+    def turn(sharp: dict[str, float]) -> str | None:
+        """diff = right - left: > 15 'right' (RightTurnMedium), < -15 'left', else None."""
+        diff = float(sharp["r"]) - float(sharp["l"])
+        if diff > SHARP_DIFFERENCE_THRESHOLD:
+            return "right"
+        if diff < -SHARP_DIFFERENCE_THRESHOLD:
+            return "left"
+        return None
+
+    def climbed(self) -> None:
+        self.stair_count += 1
+        self.proximity = False
+        self.turns_made = 0
+
+
+# -- paths and the climb ---------------------------------------------------------------------------
+def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
+    """s in [0, 1] -> the pose at fraction s of the polyline's length through the poses' positions
+    (rotation of the first pose: the sole stays flat with its yaw)."""
+    points = np.array([p.translation for p in poses])
+    lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    total = float(lengths.sum())
+    if total <= 0:
+        raise InvalidConfigurationError("a swing path needs some length")
+    cumulative = np.concatenate([[0.0], np.cumsum(lengths)])
+    rotation = poses[0].rotation.copy()
+
+    def pose(s: float) -> pin.SE3:
+        distance = min(max(s, 0.0), 1.0) * total
+        index = min(int(np.searchsorted(cumulative, distance, side="right")) - 1, len(lengths) - 1)
+        fraction = 0.0 if lengths[index] == 0 else (distance - cumulative[index]) / lengths[index]
+        return pin.SE3(rotation, points[index] + fraction * (points[index + 1] - points[index]))
+
+    return pose
+
+
+def _moved(placement: pin.SE3, x: float | None = None, z: float | None = None) -> pin.SE3:
+    translation = placement.translation.copy()
+    if x is not None:
+        translation[0] = x
+    if z is not None:
+        translation[2] = z
+    return pin.SE3(placement.rotation.copy(), translation)
+
+
+def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
+                 gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """UpStair onto step ``step`` (1-based), ``first`` ("r"/"l") foot first, from feet side by side
+    on the tread below with their toes before the riser; returns the phases and the new soles."""
+    gait = gait or GaitParameters()
+    second = OTHER[first]
+    z_up = stairs.tread_z(step)
+    landing_x = stairs.edge_x(step) + HEEL_OVERHANG + 0.05
+    over = z_up + STEP_CLEARANCE
+    n = gait.divisions
+    heading = yaw_of(soles[second].rotation)
+    rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
+    start_first, start_second = soles[first], soles[second]
+    land_first = _moved(start_first, x=landing_x, z=z_up)
+    land_second = _moved(start_second, x=landing_x, z=z_up)
+    names = {"r": "right", "l": "left"}
+
+    def path(start: pin.SE3, end: pin.SE3):
+        return polyline_path([start, _moved(start, z=over), _moved(end, z=over), end])
+
+    both = {SOLE[s]: soles[s] for s in SIDES}
+    split = {SOLE[second]: start_second, SOLE[first]: land_first}
+    up = {first: land_first, second: land_second}
+    phases = [
+        BodyPhase(f"UpStair {step}: CoM over the {names[second]} foot", dict(both), pelvis_rotation=rotation,
+                  com=ComRamp(sole_polygon(robot, {SOLE[second]: start_second}), RAMP_INSET),
+                  end_support=(SOLE[second],), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"UpStair {step}: {names[first]} foot onto tread {step}", {SOLE[second]: start_second},
+                  swing={SOLE[first]: path(start_first, land_first)}, pelvis_rotation=rotation,
+                  divisions=3 * n, speed_rpm=gait.servo_fast_rpm),
+        BodyPhase(f"UpStair {step}: CoM over the {names[first]} foot", dict(split), pelvis_rotation=rotation,
+                  com=ComRamp(sole_polygon(robot, {SOLE[first]: land_first}), RAMP_INSET),
+                  end_support=(SOLE[first],), divisions=2 * n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"UpStair {step}: {names[second]} foot onto tread {step}", {SOLE[first]: land_first},
+                  swing={SOLE[second]: path(start_second, land_second)}, pelvis_rotation=rotation,
+                  divisions=3 * n, speed_rpm=gait.servo_fast_rpm),
+        BodyPhase(f"UpStair {step}: CoM between the feet", {SOLE[s]: up[s] for s in SIDES},
+                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, up)), divisions=n,
+                  speed_rpm=gait.servo_slow_rpm),
+    ]
+    return phases, up
+
+
+def toe_gap(stairs: Staircase, sole: pin.SE3) -> float:
+    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one)."""
+    toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
+    for step in range(1, stairs.steps + 1):
+        if stairs.edge_x(step) >= toes - 1e-9:
+            return stairs.edge_x(step) - toes
+    return math.inf
+
+
+# -- the simulation ---------------------------------------------------------------------------------
+@dataclass
+class StairRun:
+    """A simulated run: the motion, one record per sample, the states visited and the reads."""
+
+    motion: SampledMotion
+    samples: list[dict]
+    states: list[str]
+    reads: list[dict]
+    climbed: int
+    stairs: Staircase
+    margin: float
+
+    @property
+    def reached_top(self) -> bool:
+        return self.climbed == self.stairs.steps
+
+    def summary(self) -> dict:
+        swing = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
+        solved = [s for s in self.samples if s["state"] != "start"]
+        return {
+            "samples": len(solved), "steps": self.stairs.steps, "climbed": self.climbed,
+            "reached_top": self.reached_top, "states_visited": list(dict.fromkeys(self.states)),
+            "behaviours_run": len(self.states),
+            "max_contact_error_m": max(s["contact_error_m"] for s in solved),
+            "max_contact_error_rad": max(s["contact_error_rad"] for s in solved),
+            "min_com_margin_m": min(s["com_margin_m"] for s in solved),
+            "max_limit_excess_rad": max(s["limit_excess_rad"] for s in solved),
+            "min_clearance_m": min(swing) if swing else None,
+            "max_penetration_m": max(s["penetration_m"] for s in self.samples),
+            "reads": len(self.reads),
+        }
+
+
+class _Simulator:
+    def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
+                 climbs: int, q0: np.ndarray):
+        self.robot, self.stairs, self.gait, self.margin, self.backend = robot, stairs, gait, margin, backend
+        self.machine = StairStateMachine(climbs=climbs)
+        self.q = q0.copy()
+        self.boards = {side: sensors.MovingAverage(3) for side in SIDES}
+        self.configurations = [q0.copy()]
+        self.phase_of, self.phase_names, self.support = [-1], [], [tuple(SOLE[s] for s in SIDES)]
+        self.samples: list[dict] = []
+        self.states: list[str] = []
+        self.reads: list[dict] = []
+        self._record(q0, "start", None, {"contacts_ok": True, "contact_error_m": 0.0,
+                                         "contact_error_rad": 0.0, "limit_excess_rad": 0.0,
+                                         "com_margin_m": sole_polygon(robot, {SOLE[s]: robot.frame_placement(
+                                             q0, SOLE[s]) for s in SIDES}).margin_of(
+                                             robot.center_of_mass(q0)[:2])}, ())
+
+    def soles(self) -> dict[str, pin.SE3]:
+        return current_soles(self.robot, self.q)
+
+    def _record(self, q: np.ndarray, state: str, phase: str | None, check: dict,
+                swing: Sequence[str]) -> None:
+        robot, stairs = self.robot, self.stairs
+        corners = {side: sole_corners_world(robot, q, SOLE[side]) for side in SIDES}
+        surfaces = {side: stairs.touching(corners[side]) for side in SIDES}
+        sharp_true = {side: 1e3 * stairs.raycast(*sensors.sharp_ray(robot, q, SOLE[side])) for side in SIDES}
+        sharp = {side: float(sensors.sharp_reading_mm(sharp_true[side])) for side in SIDES}
+        contact = [side for side in SIDES if surfaces[side] is not None]
+        forces = {side: np.zeros(4) for side in SIDES}
+        if contact:
+            points = np.vstack([(sensors.robot_fsr_positions(robot, SOLE[side])
+                                 @ robot.frame_placement(q, SOLE[side]).rotation.T
+                                 + robot.frame_placement(q, SOLE[side]).translation) for side in contact])
+            loads = sensors.support_loads(points, robot.mass * sensors.GRAVITY, robot.center_of_mass(q)[:2])
+            for index, side in enumerate(contact):
+                forces[side] = loads[4 * index:4 * index + 4]
+        fsr = {side: self.boards[side].add(sensors.fsr_reading_mv(forces[side])) for side in SIDES}
+        swing_sole = [s for s in SIDES if SOLE[s] in swing]
+        clearance = min((stairs.edge_distance(corners[s]) for s in swing_sole), default=None)
+        self.samples.append({
+            "state": state, "phase": phase, "support": sorted(surfaces[s] and SOLE[s] for s in contact),
+            "surfaces": {SOLE[s]: surfaces[s] for s in SIDES},
+            "sharp_mm": {SOLE[s]: sharp[s] for s in SIDES},
+            "sharp_true_mm": {SOLE[s]: sharp_true[s] for s in SIDES},
+            "fsr_mv": {SOLE[s]: fsr[s].tolist() for s in SIDES},
+            "com_margin_m": check["com_margin_m"], "clearance_m": clearance,
+            "penetration_m": max(stairs.penetration(corners[s]) for s in SIDES),
+            "contact_error_m": check["contact_error_m"], "contact_error_rad": check["contact_error_rad"],
+            "limit_excess_rad": check["limit_excess_rad"],
+            "swing": [SOLE[s] for s in swing_sole]})
+
+    def run(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
+        """Solve a behaviour's phases and record every sample; check the new footholds."""
+        for side, placement in soles_after.items():
+            corners = np.asarray(self.robot.info["sole_corners"][SOLE[side]]) @ placement.rotation.T \
+                + placement.translation
+            if self.stairs.touching(corners, 1e-9) is None:
+                raise StairError(f"{state} would put the {SOLE[side]} off a surface (across an edge or "
+                                 f"into a riser) at x = {placement.translation[0]:.3f} m")
+        self.states.append(state)
+        result = solve_phases(self.robot, self.q, phases, self.margin, self.backend, name=state)
+        offset = len(self.phase_names)
+        self.phase_names += [p.name for p in phases]
+        for k, check in enumerate(result.checks):
+            q = result.motion.q[k + 1]
+            phase = phases[check["phase"]]
+            self._record(q, state, phase.name, check, tuple(phase.swing))
+            self.configurations.append(q.copy())
+            self.phase_of.append(offset + check["phase"])
+            self.support.append(tuple(sorted(phase.stance)))
+        self.q = result.motion.q[-1].copy()
+
+    def read(self, after: str) -> dict:
+        last = self.samples[-1]
+        soles = self.soles()
+        ahead = along(soles, "r")
+        forward = None if abs(ahead) < 1e-4 else ("r" if ahead > 0 else "l")
+        entry = {"after": after, "sharp_mm": {s: last["sharp_mm"][SOLE[s]] for s in SIDES},
+                 "front_fsr_mv": {s: last["fsr_mv"][SOLE[s]][2:] for s in SIDES}, "forward_foot": forward,
+                 "stair_count": self.machine.stair_count, "proximity": self.machine.proximity}
+        self.reads.append(entry)
+        return entry
+
+    def half(self, name: str, length: float | None = None) -> None:
+        phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length, HALF_STEP_LIFT)
+        self.run(name, phases, after)
+
+    def motion(self) -> SampledMotion:
+        return SampledMotion("bioloid_stairs", self.robot, np.array(self.configurations),
+                             np.array(self.phase_of), self.phase_names, self.support,
+                             {"generator": "whole-body QP", "margin": self.margin})
+
+
+WALK_CYCLE = ("WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2")
+PAIR_END = {"WalkSR1": "WalkSR2", "WalkSL1": "WalkSL2"}
+
+
+def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitParameters | None = None,
+                    margin: float = 0.005, climbs: int | None = None, q0: np.ndarray | None = None,
+                    max_decisions: int = STEP_QTY, backend: str = "daqp",
+                    on_behaviour: Callable[[str], None] | None = None) -> StairRun:
+    """Walk toward the staircase with the half steps, sensing after each, and climb it as the state
+    machine decides; stops when the top is reached (``climbs`` climbs, default the number of steps)
+    or after ``max_decisions`` reads. Raises StairError when a foot would hit a riser."""
+    stairs = stairs or Staircase()
+    gait = gait or GaitParameters()
+    climbs = stairs.steps if climbs is None else int(climbs)
+    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    sim = _Simulator(robot, stairs, gait, margin, backend, climbs, q)
+    cycle = 0
+    for _ in range(max_decisions):
+        if sim.machine.stair_count >= climbs:
+            break
+        name = WALK_CYCLE[cycle % 4]
+        cycle += 1
+        sim.half(name)
+        if on_behaviour is not None:
+            on_behaviour(name)
+        decision = sim.machine.after_placement(**_machine_inputs(sim.read(name)))
+        if decision.action in ("down", "back_then_down"):
+            sim.states.append("BackS" + decision.foot.upper() if decision.action == "back_then_down"
+                              else "DownStair")
+            break  # DownStair is not generated (see the module docstring)
+        if decision.action != "up":
+            continue
+        if name in PAIR_END:  # our addition: the feet side by side before the re-reads
+            sim.half(PAIR_END[name])
+            cycle += 1
+            sim.read(PAIR_END[name])
+        for _turn in range(MAX_TURNS):
+            entry = sim.read("re-read")
+            side = StairStateMachine.turn(entry["sharp_mm"])
+            if side is None:
+                break
+            from wbik.bioloid.behaviours import turn_phases
+
+            angle = math.radians(TURN_MEDIUM_DEG) * (1 if side == "left" else -1)
+            phases, after = turn_phases(robot, sim.soles(), angle, gait)
+            sim.run("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
+            sim.machine.turns_made += 1
+        _stair_ready(sim, cycle)
+        step = sim.machine.stair_count + 1
+        first = "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
+        phases, after = climb_phases(robot, sim.soles(), stairs, step, first, gait)
+        sim.run("UpStair", phases, after)
+        sim.machine.climbed()
+        sim.read("UpStair")
+        if on_behaviour is not None:
+            on_behaviour(f"UpStair {step}")
+    return StairRun(sim.motion(), sim.samples, sim.states, sim.reads, sim.machine.stair_count, stairs, margin)
+
+
+def _machine_inputs(entry: dict) -> dict:
+    return {"sharp": entry["sharp_mm"], "front_fsr": entry["front_fsr_mv"],
+            "forward_foot": entry["forward_foot"]}
+
+
+def _stair_ready(sim: _Simulator, cycle: int) -> None:
+    """Our StairReady: both feet forward (two half steps) until the toes are READY_GAP from the riser."""
+    soles = sim.soles()
+    gap = min(toe_gap(sim.stairs, soles[s]) for s in SIDES)
+    if not math.isfinite(gap):
+        raise StairError("StairReady: no riser ahead of the feet")
+    if gap > READY_GAP + 1e-4:
+        first = "R" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "L"
+        sim.states.append("StairReady")
+        sim.half(f"WalkS{first}1", length=gap - READY_GAP)
+        sim.half(f"WalkS{first}2")
