@@ -563,6 +563,7 @@ def _bioloid_schema(kind: str) -> Map:
         FAITHFUL_RULES,
         KEYFRAME_RULES,
         PLACO_WALK_RULES,
+        STAIR_RULES,
         WHOLEBODY_RULES,
     )
     from wbik.qp.backends import DEFAULT
@@ -596,6 +597,23 @@ def _bioloid_schema(kind: str) -> Map:
                 "keyframes": Key(Text(what="a keyframe file path", nullable=True), None),
                 "expect": Key(_expect(KEYFRAME_RULES, behaviours=Key(Map(values=_expect(KEYFRAME_RULES),
                                                                          nullable=True))), None)}
+    elif kind == "bioloid_half_steps":
+        from wbik.bioloid.half_steps import HALF_STEP_LIFT, HALF_STEPS
+
+        keys = {**margin, **gait, **timed,
+                "sequence": Key(ListOf(Text(tuple(HALF_STEPS)), min_items=1),
+                                ["WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2", "WalkSR1", "BackSR", "WalkSL1",
+                                 "BackSL"]),
+                "length": Key(Number(gt=0, nullable=True, unit="m"), None),
+                "lift": Key(Number(ge=0, unit="m"), HALF_STEP_LIFT),
+                "expect": Key(_expect(WHOLEBODY_RULES), None)}
+    elif kind == "bioloid_stairs":
+        from wbik.bioloid.stairs import Staircase
+
+        keys = {**margin, **gait, **timed,
+                "stairs": Key(Map(_from_dataclass(Staircase).keys, nullable=True), {}),
+                "climbs": Key(Number(ge=1, integer=True, nullable=True), None),
+                "expect": Key(_expect(STAIR_RULES), None)}
     else:  # bioloid_placo_walk
         keys = {**margin, "steps": Key(Number(ge=1, integer=True), 4),
                 "step_length": Key(Number(gt=0, unit="m"), 0.03),
@@ -726,7 +744,8 @@ def _riveting_schema() -> Map:
 KIND_SCHEMAS: dict[str, Callable[[], Map]] = {
     "wholebody_ik": _wholebody_schema,
     **{kind: (lambda kind=kind: _bioloid_schema(kind)) for kind in
-       ("bioloid_step", "bioloid_walk", "bioloid_turn", "bioloid_keyframes", "bioloid_placo_walk")},
+       ("bioloid_step", "bioloid_walk", "bioloid_turn", "bioloid_keyframes", "bioloid_placo_walk",
+        "bioloid_half_steps", "bioloid_stairs")},
     **{kind: (lambda kind=kind: _motion_schema(kind)) for kind in
        ("motion_joint", "motion_cartesian", "pincher_motion", "golem3_approach", "bioloid_stance_sensors")},
     "ur5_riveting": _riveting_schema,

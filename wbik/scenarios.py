@@ -78,6 +78,8 @@ KINDS: dict[str, str | Runner] = {
     "bioloid_turn": "wbik.bioloid.scenarios:run_walk",
     "bioloid_keyframes": "wbik.bioloid.scenarios:run_keyframes",
     "bioloid_placo_walk": "wbik.bioloid.scenarios:run_placo_walk",
+    "bioloid_half_steps": "wbik.bioloid.scenarios:run_half_steps",
+    "bioloid_stairs": "wbik.bioloid.scenarios:run_stairs",
     "motion_joint": "wbik.motion.scenarios:run_joint",
     "motion_cartesian": "wbik.motion.scenarios:run_cartesian",
     "pincher_motion": "wbik.motion.scenarios:run_pincher",

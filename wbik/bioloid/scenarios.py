@@ -334,3 +334,85 @@ def _short(value) -> str:
 def scenario_path(name: str) -> Path:
     """tasks/NAME.yaml shipped with wbik (the repository's, or the installed package's copy)."""
     return data_dir("tasks") / f"{name}.yaml"
+
+
+# -- half steps and stairs (wbik.bioloid.half_steps, wbik.bioloid.stairs) -------------------------------
+
+STAIR_RULES = {
+    "reached_top": Rule("reached_top", "=="),
+    "contact_error_max_m": Rule("max_contact_error_m", "<=", "m"),
+    "contact_error_max_rad": Rule("max_contact_error_rad", "<=", "rad"),
+    "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
+    "limit_excess_max_rad": Rule("max_limit_excess_rad", "<=", "rad"),
+    "clearance_min_m": Rule("min_clearance_m", ">=", "m"),
+    "penetration_max_m": Rule("max_penetration_m", "<=", "m"),
+}
+"""The stair run: the top reached, and at every sample by FK contacts held, the CoM margin, joint
+limits, the swing sole's distance to the step edges, no sole corner below the surface under it."""
+
+
+def run_half_steps(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+    """Kind ``bioloid_half_steps``: the half steps of ``sequence`` one after the other, each judged
+    like a whole-body behaviour (``expect`` with the keys of ``WHOLEBODY_RULES``, for each)."""
+    from wbik.bioloid.half_steps import half_step_phases
+    from wbik.bioloid.step_wholebody import current_soles, solve_phases
+
+    robot = _robot(spec)
+    gait = _gait(spec)
+    margin = float(spec["margin"])
+    report = _report(spec, robot)
+    q = robot.nominal.copy()
+    animations = []
+    for name in spec["sequence"]:
+        phases, _ = half_step_phases(robot, current_soles(robot, q), name, gait, spec["length"],
+                                     float(spec["lift"]))
+        result = solve_phases(robot, q, phases, margin, spec["backend"], name=name)
+        entry, animation = _timed_entry(spec, result, name, _expect_block(spec))
+        final = result.motion.q[-1]
+        entry["final_soles"] = {sole: robot.frame_placement(final, sole).translation.tolist()
+                                for sole in ("r_sole", "l_sole")}
+        _add(report, entry)
+        animations.append(animation)
+        q = final.copy()
+        if on_progress is not None:
+            on_progress(report)
+    return report, _joined(animations)
+
+
+def run_stairs(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+    """Kind ``bioloid_stairs``: the sensor-driven stair behaviour on a simulated staircase
+    (``stairs``: the fields of :class:`wbik.bioloid.stairs.Staircase`), see
+    :func:`wbik.bioloid.stairs.simulate_stairs`. The entry has the states visited, the reads the
+    state machine decided on, and one record per sample (state, Sharp and filtered FSR readings,
+    CoM margin, swing-sole clearance to the step edges); ``expect`` has the keys of ``STAIR_RULES``.
+    The animation has the samples at their timed knot times; the staircase itself is not drawn
+    (the animation carries no scene geometry)."""
+    from wbik.bioloid.gait import time_scale_motion
+    from wbik.bioloid.stairs import Staircase, simulate_stairs
+
+    robot = _robot(spec)
+    gait = _gait(spec)
+    margin = float(spec["margin"])
+    report = _report(spec, robot)
+    stairs = Staircase(**spec["stairs"])
+    run = simulate_stairs(robot, stairs, gait, margin, spec["climbs"], backend=spec["backend"])
+    summary = run.summary()
+    timing = spec["timing"]
+    timed = time_scale_motion(run.motion, timing["speed_rpm"], timing["law"], timing["mode"])
+    size = f"{stairs.height * 1e3:g} mm x {stairs.depth * 1e3:g} mm"
+    entry = {"name": f"stairs: {stairs.steps} steps of {size}",
+             **summary, "margin_m": margin, "duration_s": timed.duration,
+             "staircase": {"steps": stairs.steps, "height_m": stairs.height, "depth_m": stairs.depth,
+                           "start_x_m": stairs.start_x, "top_depth_m": stairs.top_depth,
+                           "width_m": stairs.width},
+             "states": run.states, "reads": run.reads, "per_sample": run.samples}
+    figures = dict(summary)
+    wanted = {"reached_top": True, "contact_error_max_m": CONTACT_TOLERANCE,
+              "contact_error_max_rad": CONTACT_TOLERANCE, "com_margin_min_m": margin - 1e-9,
+              "limit_excess_max_rad": 1e-9, **_expect_block(spec)}
+    _add(report, _judge(entry, wanted, figures, STAIR_RULES, "expect"))
+    animation = _motion_animation(run.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
+    return report, animation
+
+
+RUNNER_KINDS.update({"bioloid_half_steps": run_half_steps, "bioloid_stairs": run_stairs})

@@ -426,7 +426,8 @@ class _Simulator:
             "state": state, "phase": phase, "support": sorted(surfaces[s] and SOLE[s] for s in contact),
             "surfaces": {SOLE[s]: surfaces[s] for s in SIDES},
             "sharp_mm": {SOLE[s]: sharp[s] for s in SIDES},
-            "sharp_true_mm": {SOLE[s]: sharp_true[s] for s in SIDES},
+            "sharp_true_mm": {SOLE[s]: sharp_true[s] if math.isfinite(sharp_true[s]) else None
+                              for s in SIDES},
             "fsr_mv": {SOLE[s]: fsr[s].tolist() for s in SIDES},
             "com_margin_m": check["com_margin_m"], "clearance_m": clearance,
             "penetration_m": max(stairs.penetration(corners[s]) for s in SIDES),
