@@ -169,6 +169,26 @@ class CollisionModel:
             return np.zeros(3), float(shape.radius)
         raise TypeError(f"no bounding sphere for {type(shape).__name__}")
 
+    def joint_reach(self) -> np.ndarray:
+        """R (nq,): for each joint, a bound (m) on the distance from its axis of any point of the robot
+        geometry it moves, in any configuration (sum of the joint offsets down the chain plus the
+        geometry's bounding sphere). Turning joint j by dq_j moves no point by more than |dq_j| R_j,
+        so a joint change dq moves every point by at most sum_j |dq_j| R_j (turn the joints one at a
+        time): a clearance d at q stays >= d - sum_j |dq_j| R_j (distances are 1-Lipschitz)."""
+        model = self.model
+        reach = np.zeros(model.nq)
+        for index in self.robot_geometries:
+            obj = self.geometry.geometryObjects[index]
+            center, radius = self._spheres[index]
+            joint = obj.parentJoint
+            distance = float(np.linalg.norm(obj.placement.act(center))) + radius
+            while joint > 0:
+                q_index = model.joints[joint].idx_q
+                reach[q_index] = max(reach[q_index], distance)
+                distance += float(np.linalg.norm(model.jointPlacements[joint].translation))
+                joint = model.parents[joint]
+        return reach
+
     def hole_boxes(self, hole: Hole) -> list:
         if hole.index not in self._hole_models:
             self._hole_models[hole.index] = hole_model(self.scene, hole)

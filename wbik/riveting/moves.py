@@ -28,13 +28,24 @@ class Move:
     hold: np.ndarray | None = None
     fine: bool = False  # sample finely (the tool near or in the hole)
     info: dict | None = None
+    offset: float = 0.0
+    """Where this move starts on ``timed`` (s): a part of one blended motion (no stop between parts)."""
+    reverse: bool = False
+    """Run ``timed`` backward (the same path home; time laws are symmetric, so the limits still hold)."""
 
     def evaluate(self, t: np.ndarray) -> np.ndarray:
         """Joint rows at local times t in [0, duration]."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if self.timed is None:
             return np.repeat(self.hold[None], len(t), axis=0)
-        return self.timed.evaluate(t)[0]
+        return self.timed.evaluate(self.local_times(t))[0]
+
+    def local_times(self, t: np.ndarray) -> np.ndarray:
+        """Times on ``timed`` of the move's local times t."""
+        local = np.atleast_1d(np.asarray(t, dtype=float)) + self.offset
+        if self.reverse:
+            local = self.timed.duration - local
+        return np.clip(local, 0.0, self.timed.duration)
 
     @property
     def start(self) -> np.ndarray:
@@ -85,6 +96,23 @@ def timed_move(name: str, chain: Chain, knots: np.ndarray, limits: Limits,
         timed = stretch(timed, duration)
     return Move(name, timed.duration, timed=timed, fine=fine,
                 info={**(info or {}), "minimum_duration_s": minimum})
+
+
+def split(timed_parts: Move, at: float, names: tuple[str, str], fine: tuple[bool, bool]) -> list[Move]:
+    """One timed motion cut at time ``at`` (s) into two moves that follow each other without a stop
+    (e.g. the approach and the insertion of one blended motion)."""
+    timed = timed_parts.timed
+    first = Move(names[0], float(at), timed=timed, fine=fine[0], info=timed_parts.info)
+    second = Move(names[1], float(timed.duration - at), timed=timed, fine=fine[1], info=timed_parts.info,
+                  offset=float(at))
+    return [first, second]
+
+
+def backward(move: Move, name: str, fine: bool = False) -> Move:
+    """``move`` run backward (its path from end to start, same duration)."""
+    timed = move.timed
+    return Move(name, move.duration, timed=timed, fine=fine, info=move.info,
+                offset=float(timed.duration - move.offset - move.duration), reverse=not move.reverse)
 
 
 def dwell(name: str, q: np.ndarray, duration: float) -> Move:

@@ -56,6 +56,9 @@ class CyclePlan:
     success: bool = True
     reason: str = ""
     planning_time_s: float = 0.0
+    """Measured wall time of the planning (s): reported, never charged (it depends on the load)."""
+    planning_cost_s: float = 0.0
+    """Planning time charged to the run (s): counted operations x calibrated costs (wbik.riveting.cost)."""
     info: dict = field(default_factory=dict)
 
     @property

@@ -1,0 +1,99 @@
+"""The EuRoC client's state machine (ur5-riveting.md 6.4): seven states and their transitions.
+
+The thesis's client (Annex B) is a ``State`` enum with seven values and one ``update_<state>()``
+per state; the seed lists the transitions and the action taken on each:
+
+    STARTING            -> GOING_RIVET_HOME     target_frame == /rivet_home: move_to(rivet_home), load_rivet
+    GOING_RIVET_HOME    -> DETECTING_HOLE_POSE  target_frame == /hole_guess: detecting_hole_guess(), (thesis:
+                                                joint move to q_int, sleep 2 s)
+    DETECTING_HOLE_POSE -> DETECTING_HOLE_POSE  no hole / no plan (q_int == -1): retry
+    DETECTING_HOLE_POSE -> GOING_HOLE_GUESS     flag set: move_to(location_pose_aux), the approach pose
+    GOING_HOLE_GUESS    -> MOVING_INTO_HOLE     move_to(rivet_aux), the inserted pose
+    MOVING_INTO_HOLE    -> RIVETING             trigger_rivet(); rivet counter + 1
+    RIVETING            -> MOVING_OUT_FROM_HOLE move_to(location_pose_aux)
+    MOVING_OUT_FROM_HOLE-> GOING_RIVET_HOME     move_to(rivet_home), then reload (load_rivet)
+
+The cycle runner (:mod:`wbik.riveting.cycle`) enters each state before the moves that belong to it
+(:func:`state_of_move`) and records every visit with its simulated time; any other transition
+raises :class:`StateTransitionError`.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+from wbik.errors import WbikError
+
+
+class State(IntEnum):
+    STARTING = 1
+    GOING_RIVET_HOME = 2
+    DETECTING_HOLE_POSE = 3
+    GOING_HOLE_GUESS = 4
+    MOVING_INTO_HOLE = 5
+    RIVETING = 6
+    MOVING_OUT_FROM_HOLE = 7
+
+
+TRANSITIONS: dict[State, tuple[State, ...]] = {
+    State.STARTING: (State.GOING_RIVET_HOME,),
+    State.GOING_RIVET_HOME: (State.DETECTING_HOLE_POSE,),
+    State.DETECTING_HOLE_POSE: (State.DETECTING_HOLE_POSE, State.GOING_HOLE_GUESS),
+    State.GOING_HOLE_GUESS: (State.MOVING_INTO_HOLE,),
+    State.MOVING_INTO_HOLE: (State.RIVETING,),
+    State.RIVETING: (State.MOVING_OUT_FROM_HOLE,),
+    State.MOVING_OUT_FROM_HOLE: (State.GOING_RIVET_HOME,),
+}
+"""Allowed successors of each state (the seed's transitions; the self-loop is the retry)."""
+
+
+class StateTransitionError(WbikError, RuntimeError):
+    """A transition the EuRoC state machine does not have."""
+
+
+MOVE_STATES = {
+    "to rivet_home": State.GOING_RIVET_HOME,
+    "back to intermediate": State.GOING_RIVET_HOME,
+    "load_rivet": State.GOING_RIVET_HOME,
+    "plan": State.DETECTING_HOLE_POSE,
+    "to intermediate": State.DETECTING_HOLE_POSE,
+    "sleep": State.DETECTING_HOLE_POSE,
+    "approach": State.GOING_HOLE_GUESS,
+    "insert": State.MOVING_INTO_HOLE,
+    "trigger_rivet": State.RIVETING,
+    "retract": State.MOVING_OUT_FROM_HOLE,
+}
+"""The state each move of a cycle belongs to, by the move's name (numbered parts: 'approach 2')."""
+
+
+def state_of_move(name: str) -> State:
+    """The state a move named ``name`` runs in ('approach 2' is an approach, ...)."""
+    base = name.rstrip("0123456789 ")
+    if base not in MOVE_STATES:
+        raise StateTransitionError(f"move {name!r} belongs to no state; known moves: {sorted(MOVE_STATES)}")
+    return MOVE_STATES[base]
+
+
+class TaskStateMachine:
+    """The current state, checked transitions and the visits [(time s, state name)]."""
+
+    def __init__(self, time: float = 0.0):
+        self.state = State.STARTING
+        self.visits: list[tuple[float, str]] = [(float(time), self.state.name)]
+
+    def go(self, state: State, time: float) -> None:
+        """Enter ``state`` at simulated ``time`` (s); staying in the same state is no new visit,
+        except DETECTING_HOLE_POSE's retry."""
+        if state == self.state and state != State.DETECTING_HOLE_POSE:
+            return
+        if state not in TRANSITIONS[self.state]:
+            raise StateTransitionError(f"no transition {self.state.name} -> {state.name}; from "
+                                       f"{self.state.name} the seed allows "
+                                       f"{[s.name for s in TRANSITIONS[self.state]]}")
+        self.state = state
+        self.visits.append((float(time), state.name))
+
+    def counts(self) -> dict[str, int]:
+        """Visits per state, in the enum's order."""
+        names = [name for _, name in self.visits]
+        return {state.name: names.count(state.name) for state in State}
