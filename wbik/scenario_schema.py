@@ -598,8 +598,9 @@ def _bioloid_schema(kind: str) -> Map:
                 "expect": Key(_expect(KEYFRAME_RULES, behaviours=Key(Map(values=_expect(KEYFRAME_RULES),
                                                                          nullable=True))), None)}
     elif kind == "bioloid_half_steps":
-        from wbik.bioloid.half_steps import HALF_STEP_LIFT, HALF_STEPS
+        from wbik.bioloid.scenarios import half_step_schema_sources
 
+        HALF_STEPS, HALF_STEP_LIFT = half_step_schema_sources()
         keys = {**margin, **gait, **timed,
                 "sequence": Key(ListOf(Text(tuple(HALF_STEPS)), min_items=1),
                                 ["WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2", "WalkSR1", "BackSR", "WalkSL1",
@@ -608,8 +609,9 @@ def _bioloid_schema(kind: str) -> Map:
                 "lift": Key(Number(ge=0, unit="m"), HALF_STEP_LIFT),
                 "expect": Key(_expect(WHOLEBODY_RULES), None)}
     elif kind == "bioloid_stairs":
-        from wbik.bioloid.stairs import Staircase
+        from wbik.bioloid.scenarios import stair_schema_sources
 
+        Staircase = stair_schema_sources()
         keys = {**margin, **gait, **timed,
                 "stairs": Key(Map(_from_dataclass(Staircase).keys, nullable=True), {}),
                 "climbs": Key(Number(ge=1, integer=True, nullable=True), None),

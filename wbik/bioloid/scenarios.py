@@ -415,4 +415,18 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     return report, animation
 
 
+def half_step_schema_sources() -> tuple[dict, float]:
+    """(HALF_STEPS, HALF_STEP_LIFT) for wbik.scenario_schema (which imports only this module)."""
+    from wbik.bioloid.half_steps import HALF_STEP_LIFT, HALF_STEPS
+
+    return HALF_STEPS, HALF_STEP_LIFT
+
+
+def stair_schema_sources() -> type:
+    """The Staircase dataclass, whose fields and defaults are the ``stairs`` keys of the schema."""
+    from wbik.bioloid.stairs import Staircase
+
+    return Staircase
+
+
 RUNNER_KINDS.update({"bioloid_half_steps": run_half_steps, "bioloid_stairs": run_stairs})
