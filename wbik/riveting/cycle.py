@@ -23,7 +23,17 @@ Collision check: every move is sampled so that consecutive samples are at most 2
 and 0.01 rad of any joint apart (0.2 mm of tcp motion when the tool is at the hole: insert and
 retract), and every sample is measured with coal distance queries (see ``collision``). A collision
 is a contact event: a geometry's distance to the workpiece going from > 0 to <= 0.
-Planning happens between moves in zero simulated time (its wall time is reported).
+
+Planning is charged to the run (``charge_planning``, default on): each hole is planned online,
+after hole_guess is known, while the robot waits at rivet_home; a ``plan`` dwell of the plan's
+deterministic cost (:mod:`wbik.riveting.cost`: counted operations x calibrated unit costs) is
+added to the clock. The measured wall time of the planning is reported beside it, not charged.
+
+The EuRoC client's state machine (:mod:`wbik.riveting.task_states`) drives the run: STARTING ->
+GOING_RIVET_HOME (first move, load_rivet) -> DETECTING_HOLE_POSE (identify the hole, plan; the
+thesis's move to q_int and sleep) -> GOING_HOLE_GUESS -> MOVING_INTO_HOLE -> RIVETING ->
+MOVING_OUT_FROM_HOLE -> GOING_RIVET_HOME (return, load_rivet) -> DETECTING_HOLE_POSE ...; every
+move is run in its state (illegal transitions raise) and the visits are recorded with their times.
 """
 
 from __future__ import annotations
@@ -40,6 +50,7 @@ from wbik.riveting.moves import Move, dwell, sample_times
 from wbik.riveting.plan import TRIGGER, Insertion, Planner, tcp_errors
 from wbik.riveting.scene import Hole, Scene
 from wbik.riveting.scoring import score
+from wbik.riveting.task_states import State, TaskStateMachine, state_of_move
 
 
 @dataclass(frozen=True)
@@ -72,6 +83,7 @@ class RunConfig:
     lateral_tolerance: float = 3e-4
     angle_tolerance_deg: float = 1.0
     keep_trajectory: bool = True
+    charge_planning: bool = True
 
 
 @dataclass
@@ -97,6 +109,8 @@ class RunResult:
     timeline: list[tuple[float, Move]]
     wall_time_s: float
     first_move: dict
+    states: TaskStateMachine = field(default_factory=TaskStateMachine)
+    all_riveted_s: float | None = None
 
     def summary(self) -> dict:
         cycles = [c for c in self.cycles if c.get("trigger_time_s") is not None]
@@ -131,6 +145,10 @@ class RunResult:
             "simulated_time_s": self.end_time,
             "failed_plans": sum(1 for c in self.cycles if not c.get("success")),
             "planning_time_s": float(sum(c.get("planning_time_s", 0.0) for c in self.cycles)),
+            "planning_cost_s": float(sum(c.get("planning_cost_s", 0.0) for c in self.cycles)),
+            "planning_charged_s": float(sum(c.get("planning_charged_s", 0.0) for c in self.cycles)),
+            "all_holes_riveted_s": self.all_riveted_s,
+            "states_visited": self.states.counts(),
             "wall_time_s": self.wall_time_s,
         }
 
@@ -171,6 +189,8 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
     previous: dict[str, float] = {}
     timeline: list[tuple[float, Move]] = []
     clock = 0.0
+    states = TaskStateMachine(0.0)
+    states.go(State.GOING_RIVET_HOME, clock)  # target_frame == /rivet_home
     first = planner.go_home(planner.robot.nominal.copy(), q_home)
     first_checks = [check_move(move, chain, collision, previous) for move in first]
     for move in first:
@@ -178,33 +198,57 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
         clock += move.duration
     first_collisions = sum(c.collisions for c in first_checks)
     result = RunResult(planner.name, [], setup, 0, first_collisions, clock, timeline, 0.0,
-                       {"duration_s": clock, "collisions": first_collisions})
+                       {"duration_s": clock, "collisions": first_collisions}, states)
     remaining = list(scene.holes)
+    loaded = False
     while clock < config.duration and remaining:
         if config.max_cycles is not None and len(result.cycles) >= config.max_cycles:
             break
         cycle_start = clock
+        visits_before = len(states.visits)
+        moves: list[Move] = []
+        if not loaded:  # GOING_RIVET_HOME ends at rivet_home with load_rivet
+            moves.append(dwell("load_rivet", q_home, insertion.load_s))
+            loaded = True
         true_hole = remaining[int(rng.integers(len(remaining)))]
         guess = config.noise.guess(true_hole, rng)
         identified = scene.nearest_hole(guess.translation)
         plan = planner.plan(identified, q_home)
+        charged = plan.planning_cost_s if config.charge_planning else 0.0
         record = {"hole": true_hole.name, "face": true_hole.face, "identified": identified.name,
                   "guess_offset_mm": float(np.linalg.norm(guess.translation - true_hole.position) * 1e3),
                   "start_time_s": cycle_start, "success": plan.success, "reason": plan.reason,
-                  "planning_time_s": plan.planning_time_s, **{k: v for k, v in plan.info.items()}}
+                  "planning_time_s": plan.planning_time_s, "planning_cost_s": plan.planning_cost_s,
+                  "planning_charged_s": charged, **{k: v for k, v in plan.info.items()}}
         remaining.remove(true_hole)
-        if not plan.success:
-            result.cycles.append(record)
-            continue
-        moves = [dwell("load_rivet", q_home, insertion.load_s), *plan.moves]
+        if charged > 0.0:
+            moves.append(dwell("plan", q_home, charged))
+        if plan.success:
+            moves += plan.moves
         checks, trigger_time, q_trigger = [], None, None
+        detected = False
         for move in moves:
+            if move.name != "load_rivet" and not detected:
+                # target_frame == /hole_guess: detecting_hole_guess() (a retry after a failed plan)
+                states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
+                detected = True
+            states.go(state_of_move(move.name), clock)
             checks.append(check_move(move, chain, collision, previous))
             if move.name == TRIGGER:
                 trigger_time, q_trigger = clock, move.hold
             if config.keep_trajectory:
                 timeline.append((clock, move))
             clock += move.duration
+        if not detected:
+            states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
+        if states.state == State.GOING_RIVET_HOME:
+            loaded = False  # back at rivet_home: load_rivet before the next hole
+        if not plan.success:
+            record.update({"cycle_time_s": clock - cycle_start,
+                           "states": [name for _, name in states.visits[visits_before:]]})
+            result.cycles.append(record)
+            result.end_time = min(clock, config.duration)
+            continue
         collisions = sum(check.collisions for check in checks)
         wanted = insertion.inserted_pose(true_hole)
         position, lateral, along, angle = tcp_errors(chain, q_trigger, wanted)
@@ -220,6 +264,7 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
             "tool_min_m": min(c.tool_min for c in checks), "link_min_m": min(c.link_min for c in checks),
             "table_min_m": min(c.table_min for c in checks), "samples": sum(c.samples for c in checks),
             "moves": {move.name: round(move.duration, 4) for move in moves},
+            "states": [name for _, name in states.visits[visits_before:]],
             "counted": bool(correct)})
         result.cycles.append(record)
         result.rivets += int(correct)
@@ -228,6 +273,8 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
         result.wall_time_s = time.perf_counter() - started
         if on_cycle is not None:
             on_cycle(result)
+    if not remaining and all(c.get("counted") for c in result.cycles) and clock <= config.duration:
+        result.all_riveted_s = clock
     result.end_time = min(clock, config.duration) if remaining else clock
     result.wall_time_s = time.perf_counter() - started
     return result

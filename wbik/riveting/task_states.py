@@ -81,10 +81,10 @@ class TaskStateMachine:
         self.state = State.STARTING
         self.visits: list[tuple[float, str]] = [(float(time), self.state.name)]
 
-    def go(self, state: State, time: float) -> None:
+    def go(self, state: State, time: float, retry: bool = False) -> None:
         """Enter ``state`` at simulated ``time`` (s); staying in the same state is no new visit,
-        except DETECTING_HOLE_POSE's retry."""
-        if state == self.state and state != State.DETECTING_HOLE_POSE:
+        unless ``retry`` (DETECTING_HOLE_POSE's self-transition after a failed detection or plan)."""
+        if state == self.state and not retry:
             return
         if state not in TRANSITIONS[self.state]:
             raise StateTransitionError(f"no transition {self.state.name} -> {state.name}; from "

@@ -30,6 +30,7 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
+from wbik.riveting.cost import PlanningCost
 from wbik.riveting.moves import Move, dwell, sample_times, timed_move
 from wbik.riveting.plan import TRIGGER, CyclePlan, Planner
 from wbik.riveting.scene import FACE_NORMALS, Hole
@@ -143,7 +144,8 @@ class ThesisPlanner(Planner):
         q_int = self.intermediate[hole.face]
         pair = self._hole_configurations(hole, q_int, self.roll[hole.face])
         if pair is None:
-            return CyclePlan(hole, success=False, reason=f"closed-form IK has no solution for {hole.name}")
+            return CyclePlan(hole, success=False, reason=f"closed-form IK has no solution for {hole.name}",
+                             planning_cost_s=PlanningCost({"ik": 2}).seconds)
         q_approach, q_inserted = pair
         move_time = self.move_time
         moves = [self._move("to intermediate", q_home, q_int, self.intermediate_time)]
@@ -158,7 +160,8 @@ class ThesisPlanner(Planner):
                       self._move("to rivet_home", q_int, q_home, move_time)]
         else:
             moves.append(self._move("to rivet_home", q_approach, q_home, move_time))
-        return CyclePlan(hole, moves, info={"roll_rad": self.roll[hole.face]})
+        cost = PlanningCost({"ik": 2})  # the approach and the inserted pose, closed form
+        return CyclePlan(hole, moves, planning_cost_s=cost.seconds, info={"roll_rad": self.roll[hole.face]})
 
 
 def _nearest_turn(q: np.ndarray, reference: np.ndarray, chain) -> np.ndarray:
