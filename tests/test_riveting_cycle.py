@@ -130,3 +130,25 @@ def test_pin_stays_in_its_hole_during_insertion(cell):
         offset = chain.fk(q).translation - hole.position
         lateral = np.linalg.norm(offset - (offset @ hole.axis) * hole.axis)
         assert lateral < 1e-4
+
+
+@pytest.mark.parametrize("name", ["h14", "h16", "h27"])
+def test_formerly_unreachable_holes_have_a_clear_route(cell, name):
+    """h14, h15, h16, h20, h21, h27 had no route before (the joint line came within 4.6 mm of the
+    workpiece and the QP found no retreat point); three of them, checked as densely as the run."""
+    from wbik.riveting.cycle import check_move
+
+    robot, scene, collision, chain, limits, q_home = cell
+    planner = QPPlanner(robot, scene, collision, limits, Insertion())
+    plan = planner.plan(scene.hole(name), q_home)
+    assert plan.success, plan.reason
+    assert plan.planning_cost_s > 0 and plan.info["planning_counts"]["clearance"] > 0
+    assert np.allclose(plan.moves[0].start, q_home) and np.allclose(plan.moves[-1].end, q_home)
+    previous = {}
+    for move in plan.moves:
+        check = check_move(move, chain, collision, previous)
+        assert check.collisions == 0
+        if move.name.startswith(("approach", "to rivet_home")):
+            assert min(check.tool_min, check.link_min, check.table_min) > 0.002  # the certified 2 mm
+    for first, second in zip(plan.moves[:-1], plan.moves[1:], strict=True):
+        assert np.allclose(first.end, second.start, atol=1e-9)  # no jump between moves

@@ -1,32 +1,40 @@
 """Our way: approach configurations over the 5-D task's free roll, routes chosen by time and
 clearance, the QP layer (wbik.qp) as the fallback route.
 
-Per hole, from rivet_home (q_home):
+Per hole, from rivet_home (q_home), deterministic (no random sampling):
 
 1. approach configurations: the tool axis is a 5-D task (the roll about the axis is free), sampled
    at ``rolls`` (12) rolls; at each, every closed-form branch of the 6-D approach pose, wrapped
-   nearest rivet_home, kept when it is ``minimum_clearance`` (10 mm) clear of workpiece and table.
-2. routes to each: the joint line home -> approach, or a blended path (one C2 spline timed as a
-   single rest-to-rest move, no stop at the via point) home -> retreat -> approach, the retreat
-   configuration being the same branch and roll ``retreats`` (40, 80, 150 mm) further out on the
-   hole axis, so the tool comes in along the axis. Every (configuration, route) pair is ranked by
-   a cheap time estimate (the sum of its two-knot line times); best first, each is timed exactly
-   and checked densely (same sampling as the run) until one keeps ``line_clearance`` (5 mm) from
-   workpiece and table. The retract and return replay it backward.
+   nearest rivet_home; one is used only if it is ``minimum_clearance`` (10 mm) clear of workpiece
+   and table.
+2. routes to each: the joint line home -> approach, or one C2 spline home -> retreat -> approach
+   timed as a single rest-to-rest move (no stop at the via point), the retreat configuration being
+   the same roll and branch ``retreats`` (15, 30, 60 mm) further out on the hole axis, so the tool
+   comes in along the axis. Every (configuration, route) pair is ranked by a closed-form time
+   estimate (the sum of its two-knot line times); best first, each is timed exactly and walked
+   from its end with a certified step (:meth:`QPPlanner._path_clearance`: every sample keeps
+   ``line_clearance``, 5 mm, and the joint-reach bound guarantees 2 mm between samples) until one
+   is clear. The retract and the return run the same motion backward.
 3. insertion: knots every ``knot_spacing`` (1 mm) on the hole axis from the approach pose to the
-   inserted pose, the same roll and branch by closed form (exact on the axis at every knot), checked
-   for the links' clearance (the pin enters the hole); the spline through them stays on the axis
-   between knots too (checked densely by the cycle).
-4. fallback (never needed in the default cell): the QP trust-region path of the 5-D task under the
+   inserted pose, the same roll and branch by closed form (exact on the axis at every knot).
+   When it is faster, the route and the insertion are one blended motion (no stop at the approach
+   pose; on the default cell the top face's joint lines), cut at the approach knot into the
+   ``approach`` and ``insert`` moves; the links keep ``line_clearance`` along it, and the pin's fit
+   in the hole is the run's fine check.
+4. fallback (not needed on the default cell): the QP trust-region path of the 5-D task under the
    workpiece clearance constraint from rivet_home to the best approach configuration.
 
-Why the old planner failed 6 holes (h14, h15, h16, h20, h21, h27; measured on h14, h20): the
-joint line home -> approach came within 4.6-4.7 mm of the workpiece (< 5 mm), and the QP found no
-retreat configuration 150 mm out on the axis from the approach configuration ("progress stalled"),
-so no route was tried through it. The closed-form retreat of the same branch always exists there.
+Why the previous planner failed 6 holes (h14, h15, h16, h20, h21, h27; measured on h14 and h20):
+its joint line home -> approach came within 4.67 and 4.60 mm of the workpiece (< the 5 mm line
+clearance; the approach configuration itself was 20 mm clear, so neither its IK branch nor the
+10 mm margin was the cause), and its QP found no retreat configuration 150 mm out on the axis
+from the approach configuration ("progress stalled"), so no route was tried through one. The
+closed-form retreat of the same branch exists. On h16 (measured) the retreat routes of the best
+rolls sweep the upper arm 9 mm into the workpiece; h16 and h21 take a slower joint line of
+another roll (1.85 s each way, against 1.3-1.6 s for the other side holes).
 
-Planning cost is counted (:mod:`wbik.riveting.cost`): every IK, clearance query, timing and path
-sample, deterministic for a given hole; the cycle charges it to the run's clock.
+Planning cost is counted (:mod:`wbik.riveting.cost`): every IK, clearance query, timing and grid
+point, deterministic for a given hole; the cycle charges it to the run's clock.
 Every move is timed at minimum time under the velocity and acceleration limits (quintic law).
 """
 
@@ -79,7 +87,7 @@ class QPPlanner(Planner):
 
     def __init__(self, *args, minimum_clearance: float = 0.01, line_clearance: float = 0.005,
                  knot_spacing: float = 0.001, max_step: float = 0.05, backend: str = "daqp",
-                 rolls: int = 12, retreats=(0.04, 0.08), **options):
+                 rolls: int = 12, retreats=(0.015, 0.03, 0.06), **options):
         super().__init__(*args, **options)
         self.minimum_clearance = float(minimum_clearance)
         self.line_clearance = float(line_clearance)
