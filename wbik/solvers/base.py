@@ -171,6 +171,8 @@ class Solver:
     it turns a time budget into an iteration budget. None: a wall-clock method."""
     default_budget_s: float = DEFAULT_TIMEOUT_S
     """Ours: the time the default iteration budget is equivalent to."""
+    budgeted: bool = True
+    """False for closed forms: a fixed amount of work per call, no budget of any kind applies."""
 
     def __init__(self, robot: Robot, chain: str | None = None, *,
                  tolerances: Tolerances | None = None, timeout_s: float | None = None,

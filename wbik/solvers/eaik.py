@@ -177,6 +177,7 @@ class EAIKSolver(Solver):
     """EAIK's closed forms behind the common interface; see the module docstring."""
 
     name = "eaik"
+    budgeted = False
     supports_position_only = False
 
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):

@@ -215,6 +215,7 @@ class ThesisLiteralSolver(_ThesisGolem3):
     """``thesis_literal``: the thesis's 6-DOF closed form as written (see the module docstring)."""
 
     name = "thesis_literal"
+    budgeted = False
     supports_position_only = False
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:

@@ -298,6 +298,13 @@ def _budget_text(study: Study, method) -> str:
             timeout_s, options = solver_budget(method.method, seconds, method.options)
     except WbikError:
         return f"{seconds:g} s"
+    from wbik.solvers.base import _factory
+
+    try:
+        if getattr(_factory(method.method), "budgeted", True) is False:
+            return "none (closed form)"
+    except WbikError:
+        pass
     if timeout_s is None:
         return f"{options['max_iterations']} iterations (~{seconds:g} s)"
     return f"{seconds:g} s wall clock"

@@ -169,7 +169,7 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     cpu_seconds = np.full(count, np.nan)
     reruns = np.zeros(count, dtype=int)
     try:
-        if task.timeout_s is not None and solver.timeout_s is not None:  # a wall-clock method
+        if task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted:
             answers = []
             for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
                 answer, cpu_seconds[i], reruns[i] = _solve_watching_the_cpu(task, solver, target, q0)

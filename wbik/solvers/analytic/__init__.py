@@ -136,6 +136,7 @@ class AnalyticSolver(Solver):
     """Closed-form IK behind the common interface; see the module docstring."""
 
     name = "analytic"
+    budgeted = False
 
     def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None, **options):
         """``closed_form_options``: keyword arguments per target kind for the closed form's
