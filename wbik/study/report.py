@@ -306,6 +306,8 @@ def _budget_text(study: Study, method) -> str:
     except WbikError:
         pass
     if timeout_s is None:
+        if "max_iterations" in method.options:
+            return f"{options['max_iterations']} iterations (set in the file)"
         return f"{options['max_iterations']} iterations (~{seconds:g} s)"
     return f"{seconds:g} s wall clock"
 
