@@ -49,18 +49,11 @@ def _foot_polygon(transform: np.ndarray, corners: np.ndarray) -> np.ndarray:
     return (corners @ transform[:3, :3].T + transform[:3, 3])[:, :2]
 
 
-def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
-               single_support_s: float = 0.5, dt: float = 0.01) -> dict:
-    """Plan a straight walk with PlaCo and measure it (see the module docstring)."""
-    from wbik.solvers.placo import import_placo, set_placo_configuration
-
-    placo = import_placo()
-    try:
-        humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
-    except RuntimeError as exc:
-        return {"planned": False, "reason": f"PlaCo cannot load the humanoid: {exc}"}
-    set_placo_configuration(robot, humanoid, robot.nominal)
-    humanoid.update_kinematics()
+def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float, margin: float,
+                   single_support_s: float):
+    """PlaCo's walk parameters for the Bioloid and its naive footstep plan of ``steps`` steps straight
+    ahead from the standing ``humanoid``: (parameters, footsteps). Shared by the walk's report and
+    its animation (wbik.viz.placo_walk), so both see the same plan."""
     sole_size = robot.info["assumptions"]["sole_size"]
     parameters = placo.HumanoidParameters()
     parameters.single_support_duration = single_support_s
@@ -82,7 +75,23 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     goal_right[0, 3] += steps * step_length
     planner = placo.FootstepsPlannerNaive(parameters)
     planner.configure(goal_left, goal_right)
-    footsteps = planner.plan(placo.HumanoidRobot_Side.left, left, right)
+    return parameters, planner.plan(placo.HumanoidRobot_Side.left, left, right)
+
+
+def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
+               single_support_s: float = 0.5, dt: float = 0.01) -> dict:
+    """Plan a straight walk with PlaCo and measure it (see the module docstring)."""
+    from wbik.solvers.placo import import_placo, set_placo_configuration
+
+    placo = import_placo()
+    try:
+        humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
+    except RuntimeError as exc:
+        return {"planned": False, "reason": f"PlaCo cannot load the humanoid: {exc}"}
+    set_placo_configuration(robot, humanoid, robot.nominal)
+    humanoid.update_kinematics()
+    parameters, footsteps = plan_footsteps(placo, robot, humanoid, steps, step_length, margin,
+                                           single_support_s)
     supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
     generator = placo.WalkPatternGenerator(humanoid, parameters)
     trajectory = generator.plan(supports, humanoid.com_world(), 0.0)

@@ -17,8 +17,6 @@ report's figures are PlaCo's plan itself (wbik.bioloid.placo_walk), not this IK.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
@@ -35,7 +33,7 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
     """PlaCo's walk of ``steps`` steps as a :class:`wbik.viz.animation.Animation` (see the module
     docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
-    from wbik.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf
+    from wbik.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf, plan_footsteps
     from wbik.solvers.placo import import_placo, placo_configuration, set_placo_configuration
     from wbik.viz.animation import Animation, Overlays
 
@@ -43,29 +41,8 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
     humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
     set_placo_configuration(robot, humanoid, robot.nominal)
     humanoid.update_kinematics()
-    sole_size = robot.info["assumptions"]["sole_size"]
-    # the parameters of wbik.bioloid.placo_walk.placo_walk
-    parameters = placo.HumanoidParameters()
-    parameters.single_support_duration = single_support_s
-    parameters.single_support_timesteps = 10
-    parameters.double_support_ratio = 0.2
-    parameters.startend_double_support_ratio = 1.5
-    parameters.planned_timesteps = 48
-    parameters.walk_com_height = float(robot.center_of_mass(robot.nominal)[2])
-    parameters.walk_foot_height = 0.04
-    parameters.walk_trunk_pitch = math.radians(20.0)
-    parameters.walk_foot_rise_ratio = 0.2
-    parameters.foot_length, parameters.foot_width = float(sole_size[0]), float(sole_size[1])
-    parameters.feet_spacing = 2 * float(robot.info["assumptions"]["hip_lateral"])
-    parameters.zmp_margin = margin
-    parameters.walk_max_dx_forward = step_length
-    left, right = humanoid.get_T_world_left(), humanoid.get_T_world_right()
-    goal_left, goal_right = left.copy(), right.copy()
-    goal_left[0, 3] += steps * step_length
-    goal_right[0, 3] += steps * step_length
-    planner = placo.FootstepsPlannerNaive(parameters)
-    planner.configure(goal_left, goal_right)
-    footsteps = planner.plan(placo.HumanoidRobot_Side.left, left, right)
+    parameters, footsteps = plan_footsteps(placo, robot, humanoid, steps, step_length, margin,
+                                           single_support_s)
     planned_x = [float(step.frame[0, 3]) for step in footsteps]
     if footstep_x is not None and (len(planned_x) != len(footstep_x)
                                    or not np.allclose(planned_x, footstep_x, atol=1e-9)):
