@@ -142,7 +142,25 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                     time_s, candidate.iterations, method, candidate.extra)
 
 
-class Solver:
+class PerThreadState:
+    """Mutable working objects kept per thread: :meth:`_thread_state` builds this thread's with
+    :meth:`_new_thread_state` on first use. The owner sets ``self._local = threading.local()``."""
+
+    _local: threading.local
+
+    def _thread_state(self):
+        """This thread's mutable state (built by :meth:`_new_thread_state` on first use)."""
+        state = getattr(self._local, "state", None)
+        if state is None:
+            state = self._local.state = self._new_thread_state()
+        return state
+
+    def _new_thread_state(self):
+        """Subclasses with mutable working objects (peer solvers, QP problems, buffers) build them here."""
+        return None
+
+
+class Solver(PerThreadState):
     """Base class of every IK method on one chain of one robot.
 
     Subclasses set ``name`` and implement ``_solve``; they should stop at ``deadline`` (a
@@ -245,18 +263,7 @@ class Solver:
         """Every distinct solution (closed-form methods only)."""
         raise UnsupportedError(f"method {self.name!r} finds one solution; use 'analytic' for all branches")
 
-    # -- state that must not be shared between threads or calls ---------------------------------
-    def _thread_state(self):
-        """This thread's mutable state (built by :meth:`_new_thread_state` on first use)."""
-        state = getattr(self._local, "state", None)
-        if state is None:
-            state = self._local.state = self._new_thread_state()
-        return state
-
-    def _new_thread_state(self):
-        """Subclasses with mutable working objects (peer solvers, QP problems, buffers) build them here."""
-        return None
-
+    # -- state that must not be shared between calls ---------------------------------------------
     def _call_rng(self, target: Target, q0: np.ndarray) -> np.random.Generator:
         """The random stream of one call: seeded by (seed, target, q0), so restarts repeat exactly
         whatever the order of calls or the thread; fresh entropy when ``seed`` is None."""

@@ -60,7 +60,7 @@ from wbik.qp.tasks import (
     Task,
 )
 from wbik.robot import Robot
-from wbik.solvers.base import Tolerances
+from wbik.solvers.base import PerThreadState, Tolerances
 from wbik.validation import check_budget
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
 
@@ -76,7 +76,7 @@ class WholeBodyCandidate:
     extra: dict = field(default_factory=dict)
 
 
-class WholeBodySolver:
+class WholeBodySolver(PerThreadState):
     """Base class of the whole-body methods (see the module docstring for budgets)."""
 
     name = "base"
@@ -127,15 +127,6 @@ class WholeBodySolver:
     def iterations_for(cls, timeout_s: float) -> int:
         """The iteration budget that costs about ``timeout_s`` on the reference machine."""
         return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cls.iteration_cost_s))
-
-    def _thread_state(self):
-        state = getattr(self._local, "state", None)
-        if state is None:
-            state = self._local.state = self._new_thread_state()
-        return state
-
-    def _new_thread_state(self):
-        return None
 
     # -- the interface ------------------------------------------------------------------------------
     def unsupported(self, problem: WholeBody) -> list[str]:
