@@ -8,10 +8,10 @@ Budgets (:func:`solver_budget`). A method whose loop is ours (``Solver.iteration
 study's time budget as an *iteration* budget, the iterations that cost that long on the reference
 machine, and no wall clock: its rows are the same on any machine and under any load. A method
 budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved pose by pose while
-the process's CPU time is measured beside the wall time; a solve that failed while it got less than
-``STARVED_CPU_SHARE`` of its budget in CPU time (the machine was busy) is run again with its wall
-budget stretched by wall/CPU, up to ``MAX_RERUNS`` times. Each row records its CPU time and its
-re-runs; the report counts them, and ``run.json`` records the machine's load.
+the process's CPU time is measured beside the wall time; a solve that got less than
+``STARVED_CPU_SHARE`` of its wall time as CPU (the machine was busy) is run again, its answer
+discarded, with its wall budget stretched by wall/CPU, up to ``MAX_RERUNS`` times. Each row records
+its CPU time and its re-runs; the report counts them, and ``run.json`` records the machine's load.
 
 Workers return the rows; the main process writes each chunk atomically as it arrives (see
 :mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
@@ -48,7 +48,9 @@ from wbik.study.sampling import PoseSet, sample_poses
 
 BACKENDS = ("loky", "sequential", "dask")
 STARVED_CPU_SHARE = 0.8
-"""A failed wall-clock solve that got less CPU time than this share of its budget is run again."""
+"""A wall-clock solve that got less CPU time than this share of its wall time is run again."""
+STARVED_MIN_WALL_S = 0.001
+"""Solves shorter than this are not judged (a short preemption says little, and they ended early)."""
 MAX_RERUNS = 3
 MAX_STRETCH = 20.0
 """A re-run's wall budget is at most this many times the study's."""
@@ -100,20 +102,24 @@ def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method:
 
 
 def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
-    """(answer, CPU seconds, re-runs) of a wall-clock solve.
+    """(answer, CPU seconds, re-runs) of a wall-clock solve whose budget is T = ``task.timeout_s``.
 
-    A solve is *starved* when it failed, ran for at least half its wall budget and got less than
-    STARVED_CPU_SHARE of that wall time as CPU time (process CPU time: TRAC-IK's own threads count).
-    It is then run again with its wall budget stretched to T x wall / CPU, so that it gets about the
-    study's budget T in CPU time, at most MAX_RERUNS times.
+    A solve is *starved* when it ran for at least STARVED_MIN_WALL_S and the process got less than
+    STARVED_CPU_SHARE of that wall time as CPU time (process CPU time: TRAC-IK's own threads count):
+    the machine was busy. Its answer is then discarded, whatever it was, and the solve is run again
+    with its wall budget stretched by the wall/CPU ratio just observed (at most MAX_STRETCH x T), so
+    that it gets about T of CPU, up to MAX_RERUNS times. Keeping only answers of solves that had the
+    CPU keeps the success rate that of an idle machine: re-running only the failures would give a
+    method with random restarts of its own (TRAC-IK) a second draw, and re-running them for the
+    missing CPU alone would replay a seeded method's first restarts.
     """
-    reruns, budget, current = 0, task.timeout_s, solver
+    reruns, current = 0, solver
     while True:
         cpu_start = time.process_time()
         answer = current.solve(target, q0)
         cpu = time.process_time() - cpu_start
         wall = answer.time_s
-        starved = not answer.success and wall >= 0.5 * budget and cpu < STARVED_CPU_SHARE * wall
+        starved = wall >= STARVED_MIN_WALL_S and cpu < STARVED_CPU_SHARE * wall
         if not starved or reruns >= MAX_RERUNS:
             return answer, cpu, reruns
         reruns += 1
