@@ -41,7 +41,7 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.robot import Chain
-from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm, wrap_one_into_limits
+from wbik.solvers.analytic import LIMIT_TOLERANCE, TWO_PI, ClosedForm, wrap_one_into_limits
 
 CLAMP_TOLERANCE = 1e-9
 """Cosines up to this much beyond +-1 (rounding near singular poses) are clamped, not rejected."""
@@ -340,7 +340,7 @@ class Golem3PoseIK(_Golem3Form):
         return np.array(best), usable
 
     def _one_roll(self, alpha: float, target: tuple, reference: list[float]):
-        """(best q or None, its squared distance to reference, usable count) for one wrist roll."""
+        """(best q or None, its squared distance to reference, real branch count) for one wrist roll."""
         x, y, z, r11, r12, r13, r21, r22, r23, r31, r32, r33 = target
         ca, sa = math.cos(alpha), math.sin(alpha)
         beta = math.atan2(-r31, sa * r32 + ca * r33)
@@ -351,8 +351,7 @@ class Golem3PoseIK(_Golem3Form):
             return None, math.inf, 0
         cos4 = min(1.0, max(-1.0, cos4))
         root4 = math.sqrt(1.0 - cos4 * cos4)
-        lower, upper = self._lower_list, self._upper_list
-        best, best_distance, usable = None, math.inf, 0
+        raw = []
         for sin4 in (root4, -root4):
             t4 = math.atan2(sin4, cos4) - RHO
             l3 = L4 * sin4 + L6 * cb - L5 * sb
@@ -363,16 +362,26 @@ class Golem3PoseIK(_Golem3Form):
             elbow = math.acos(min(1.0, max(-1.0, cos2)))
             for t2 in (elbow, -elbow):
                 t1 = math.atan2(v, u) - math.atan2(L2 * math.sin(t2), L1 + L2 * math.cos(t2))
-                q = [_snap_scalar(v, low, high) for v, low, high in
-                     zip((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha), lower, upper, strict=True)]
-                q = wrap_one_into_limits(q, reference, lower, upper)
-                if q is None or _scalar_residual(q, target) > self.screen_tolerance:
-                    continue
-                usable += 1
-                distance = math.fsum((a - b) ** 2 for a, b in zip(q, reference, strict=True))
-                if distance < best_distance:
-                    best, best_distance = q, distance
-        return best, best_distance, usable
+                raw.append((t1, t2, gamma - t1 - t2, t4, -beta - t4, alpha))
+        # branch and bound: a branch's distance to the reference is at least the sum of its angles'
+        # distances modulo 2 pi (less the snap onto a limit, <= LIMIT_SNAP per joint), so branches are
+        # taken in that order and snapped, wrapped and screened only while one could still be nearer
+        remainder, slack = math.remainder, 6.0 * (2.0 * math.pi * LIMIT_SNAP + LIMIT_SNAP ** 2)
+        bounded = sorted(((sum(remainder(a - b, TWO_PI) ** 2 for a, b in zip(q, reference, strict=True))
+                           - slack, q) for q in raw), key=lambda item: item[0])
+        lower, upper = self._lower_list, self._upper_list
+        best, best_distance = None, math.inf
+        for bound, raw_q in bounded:
+            if bound >= best_distance:
+                break
+            q = [_snap_scalar(v, low, high) for v, low, high in zip(raw_q, lower, upper, strict=True)]
+            q = wrap_one_into_limits(q, reference, lower, upper)
+            if q is None or _scalar_residual(q, target) > self.screen_tolerance:
+                continue
+            distance = math.fsum((a - b) ** 2 for a, b in zip(q, reference, strict=True))
+            if distance < best_distance:
+                best, best_distance = q, distance
+        return best, best_distance, len(raw)
 
 
 def _scalar_residual(q, target) -> float:
