@@ -29,6 +29,26 @@ from wbik.study.sampling import PoseSet
 
 WHOLEBODY = "wholebody"
 
+# The columns of a whole-body row in raw.csv (then q); a chunk's rows hold ROW_COLUMNS[2:].
+ROW_COLUMNS = (
+    "pose",
+    "method",
+    "success",
+    "reason",
+    "time_s",
+    "iterations",
+    "task_error",
+    "task_position_error",
+    "task_rotation_error",
+    "contact_drift",
+    "com_margin",
+    "limit_excess",
+    "collision_clearance",
+    "unsupported",
+)
+# The float columns among them (task_error .. collision_clearance).
+FLOAT_COLUMNS = ROW_COLUMNS[6:13]
+
 
 def is_wholebody(case) -> bool:
     return getattr(case, "target", None) == WHOLEBODY
@@ -132,23 +152,7 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
             }
         answers.append(answer)
     nq = robot.model.nq
-    rows = {
-        key: []
-        for key in (
-            "success",
-            "reason",
-            "time_s",
-            "iterations",
-            "task_error",
-            "task_position_error",
-            "task_rotation_error",
-            "contact_drift",
-            "com_margin",
-            "limit_excess",
-            "collision_clearance",
-            "unsupported",
-        )
-    }
+    rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
     q_rows = []
     for answer in answers:
         if isinstance(answer, tuple):
@@ -179,15 +183,7 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
         "time_s": np.array(rows["time_s"], dtype=float),
         "iterations": np.array(rows["iterations"], dtype=int),
     }
-    for key in (
-        "task_error",
-        "task_position_error",
-        "task_rotation_error",
-        "contact_drift",
-        "com_margin",
-        "limit_excess",
-        "collision_clearance",
-    ):
+    for key in FLOAT_COLUMNS:
         columns[key] = np.array(rows[key], dtype=float)
     columns["unsupported"] = np.array(rows["unsupported"], dtype=str)
     columns["cpu_s"] = np.full(count, np.nan)
@@ -199,22 +195,6 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
 
 
 # -- report ---------------------------------------------------------------------------------------------
-ROW_COLUMNS = (
-    "pose",
-    "method",
-    "success",
-    "reason",
-    "time_s",
-    "iterations",
-    "task_error",
-    "task_position_error",
-    "task_rotation_error",
-    "contact_drift",
-    "com_margin",
-    "limit_excess",
-    "collision_clearance",
-    "unsupported",
-)
 
 
 def write_raw_csv(path: Path, rows_by_method: dict, joint_names: list[str]) -> None:
@@ -234,7 +214,7 @@ def write_raw_csv(path: Path, rows_by_method: dict, joint_names: list[str]) -> N
                     str(rows["reason"][i]),
                     *(repr(float(rows[key][i])) for key in ROW_COLUMNS[4:5]),
                     int(rows["iterations"][i]),
-                    *(repr(float(rows[key][i])) for key in ROW_COLUMNS[6:13]),
+                    *(repr(float(rows[key][i])) for key in FLOAT_COLUMNS),
                     str(rows["unsupported"][i]),
                     *(repr(float(v)) for v in rows["q"][i]),
                 ]
