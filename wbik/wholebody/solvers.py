@@ -36,6 +36,7 @@ import math
 import numbers
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -192,6 +193,53 @@ class WholeBodySolver(PerThreadState):
                 return False
         return polygon is None or polygon.margin_of(monitor.com()[:2]) >= margin
 
+    def _peer_loop(
+        self,
+        q: np.ndarray,
+        step: Callable[[np.ndarray], tuple[np.ndarray, str]],
+        converged: Callable[[np.ndarray], bool],
+        deadline: float,
+    ) -> WholeBodyCandidate:
+        """Our loop around a peer's single QP step: stop when ``converged(q)``, when the time budget is
+        used up, or when ``step(q)`` (the next q and a reason to stop, "" to go on) gives a reason;
+        else after ``max_iterations`` steps."""
+        for iteration in range(1, self.max_iterations + 1):
+            if converged(q):
+                return WholeBodyCandidate(q, iteration - 1)
+            if time.perf_counter() > deadline:
+                return WholeBodyCandidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+            q, reason = step(q)
+            if reason:
+                return WholeBodyCandidate(q, iteration, reason)
+        if converged(q):
+            return WholeBodyCandidate(q, self.max_iterations)
+        return WholeBodyCandidate(
+            q, self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+        )
+
+
+PEER_TASKS = (
+    FrameTask,
+    PositionTask,
+    OrientationTask,
+    RelativeFrameTask,
+    ComTask,
+    PostureTask,
+    RegularizationTask,
+)
+"""The task types PlaCo's and Pink's translations build (others are listed in ``unsupported``)."""
+
+
+def _peer_unsupported(problem: WholeBody, priorities: str) -> list[str]:
+    """What PlaCo and Pink both cannot express: collisions, strict priority levels (``priorities``
+    says what the peer has instead)."""
+    missing = []
+    if problem.collisions:
+        missing.append("minimum distances between frames (collisions)")
+    if len({task.priority for task in problem.tasks}) > 1:
+        missing.append(f"strict priority levels ({priorities})")
+    return missing
+
 
 # -- qp -------------------------------------------------------------------------------------------------
 class QPWholeBody(WholeBodySolver):
@@ -299,24 +347,9 @@ class PlacoWholeBody(WholeBodySolver):
         self._thread_state()  # this thread's PlaCo robot now (errors show here, its cost is not a solve's)
 
     def unsupported(self, problem):
-        missing = []
-        if problem.collisions:
-            missing.append("minimum distances between frames (collisions)")
-        if len({task.priority for task in problem.tasks}) > 1:
-            missing.append("strict priority levels (PlaCo: hard or soft only; all tasks soft)")
+        missing = _peer_unsupported(problem, "PlaCo: hard or soft only; all tasks soft")
         for task in problem.tasks:
-            if isinstance(task, PostureTask) and task.joint_names is not None:
-                continue
-            if not isinstance(
-                task,
-                FrameTask
-                | PositionTask
-                | OrientationTask
-                | RelativeFrameTask
-                | ComTask
-                | PostureTask
-                | RegularizationTask,
-            ):
+            if not isinstance(task, PEER_TASKS):
                 missing.append(f"task {task.name} ({type(task).__name__})")
         return missing
 
@@ -352,24 +385,23 @@ class PlacoWholeBody(WholeBodySolver):
             constraint = solver.add_com_polygon_constraint(clockwise(polygon), problem.margin)
             constraint.configure("com_polygon", "hard", 1.0)
         solver.add_regularization_task(self.regularization)
-        q = q0.copy()
-        for iteration in range(1, self.max_iterations + 1):
-            if self._converged(kinematics, tasks, placements, polygon, problem.margin, q):
-                return WholeBodyCandidate(q, iteration - 1)
-            if time.perf_counter() > deadline:
-                return WholeBodyCandidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+
+        def step(q: np.ndarray) -> tuple[np.ndarray, str]:
             try:
                 solver.solve(True)
             except RuntimeError as exc:
-                return WholeBodyCandidate(q, iteration, f"PlaCo's QP failed: {exc}")
+                return q, f"PlaCo's QP failed: {exc}"
             wrapper.update_kinematics()
             previous, q = q, placo_configuration(robot, wrapper)
             if float(np.max(np.abs(pin.difference(robot.model, previous, q)))) < 1e-12:
-                return WholeBodyCandidate(q, iteration, "stalled: PlaCo's steps no longer move the robot")
-        if self._converged(kinematics, tasks, placements, polygon, problem.margin, q):
-            return WholeBodyCandidate(q, self.max_iterations)
-        return WholeBodyCandidate(
-            q, self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+                return q, "stalled: PlaCo's steps no longer move the robot"
+            return q, ""
+
+        return self._peer_loop(
+            q0.copy(),
+            step,
+            lambda q: self._converged(kinematics, tasks, placements, polygon, problem.margin, q),
+            deadline,
         )
 
     def _add_task(self, solver, wrapper, task: Task, index: int, q0: np.ndarray) -> None:
@@ -442,23 +474,11 @@ class PinkWholeBody(WholeBodySolver):
             missing.append(
                 f"{NO_POLYGON} (Pink 4.4 has none; solved without it, the CoM margin is only checked)"
             )
-        if problem.collisions:
-            missing.append("minimum distances between frames (collisions)")
-        if len({task.priority for task in problem.tasks}) > 1:
-            missing.append("strict priority levels (Pink: weighted costs only)")
+        missing += _peer_unsupported(problem, "Pink: weighted costs only")
         for task in problem.tasks:
             if isinstance(task, PostureTask) and task.joint_names is not None:
                 missing.append(f"task {task.name}: posture on some joints only (Pink's is on all joints)")
-            elif not isinstance(
-                task,
-                FrameTask
-                | PositionTask
-                | OrientationTask
-                | RelativeFrameTask
-                | ComTask
-                | PostureTask
-                | RegularizationTask,
-            ):
+            elif not isinstance(task, PEER_TASKS):
                 missing.append(f"task {task.name} ({type(task).__name__})")
         return missing
 
@@ -541,13 +561,8 @@ class PinkWholeBody(WholeBodySolver):
         if problem.limits == "position+velocity":
             limits.append(VelocityLimit(model))
         configuration = pink.Configuration(model, data, q0.copy())
-        q = q0.copy()
-        # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
-        for iteration in range(1, self.max_iterations + 1):
-            if self._converged(kinematics, tasks, placements, None, problem.margin, q):
-                return WholeBodyCandidate(q, iteration - 1)
-            if time.perf_counter() > deadline:
-                return WholeBodyCandidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+
+        def step(q: np.ndarray) -> tuple[np.ndarray, str]:
             try:
                 velocity = pink.solve_ik(
                     configuration,
@@ -560,17 +575,19 @@ class PinkWholeBody(WholeBodySolver):
                     safety_break=False,
                 )
             except Exception as exc:  # noqa: BLE001 - Pink raises its own NoSolutionFound and others
-                return WholeBodyCandidate(q, iteration, f"Pink found no step: {type(exc).__name__}: {exc}")
-            previous = q
+                return q, f"Pink found no step: {type(exc).__name__}: {exc}"
             q = configuration.integrate(velocity, problem.step_dt)
             configuration.update(q)
             if float(np.max(np.abs(velocity))) * problem.step_dt < 1e-12:
-                return WholeBodyCandidate(q, iteration, "stalled: Pink's steps no longer move the robot")
-            del previous
-        if self._converged(kinematics, tasks, placements, None, problem.margin, q):
-            return WholeBodyCandidate(q, self.max_iterations)
-        return WholeBodyCandidate(
-            q, self.max_iterations, f"no convergence in {self.max_iterations} iterations"
+                return q, "stalled: Pink's steps no longer move the robot"
+            return q, ""
+
+        # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
+        return self._peer_loop(
+            q0.copy(),
+            step,
+            lambda q: self._converged(kinematics, tasks, placements, None, problem.margin, q),
+            deadline,
         )
 
 
