@@ -309,6 +309,32 @@ def _limit_excess(robot: Robot, q: np.ndarray) -> float:
     return float(max(np.max(lower - joints), np.max(joints - upper), 0.0))
 
 
+def _without_joints(
+    problem: WholeBody,
+    reason: str,
+    time_s: float,
+    iterations: int,
+    method: str,
+    unsupported: list[str],
+    extra: dict,
+) -> WholeBodyResult:
+    """The failed result of an answer without usable joints: every error and margin NaN."""
+    return WholeBodyResult(
+        None,
+        False,
+        reason,
+        {name: math.nan for name, _ in problem.goal_tasks},
+        math.nan,
+        math.nan,
+        math.nan,
+        time_s,
+        iterations,
+        method,
+        unsupported,
+        extra=extra,
+    )
+
+
 def check_wholebody(
     problem: WholeBody,
     q,
@@ -332,38 +358,13 @@ def check_wholebody(
     unsupported = list(unsupported)
     extra = dict(extra or {})
     if q is None:
-        nan_errors = {name: math.nan for name, _ in problem.goal_tasks}
-        return WholeBodyResult(
-            None,
-            False,
-            reason or "no configuration",
-            nan_errors,
-            math.nan,
-            math.nan,
-            math.nan,
-            time_s,
-            iterations,
-            method,
-            unsupported,
-            math.nan,
-            extra=extra,
+        return _without_joints(
+            problem, reason or "no configuration", time_s, iterations, method, unsupported, extra
         )
     q = np.asarray(q, dtype=float).reshape(-1)
     if q.shape != (problem.robot.model.nq,) or not np.all(np.isfinite(q)):
-        nan_errors = {name: math.nan for name, _ in problem.goal_tasks}
-        return WholeBodyResult(
-            None,
-            False,
-            f"method returned invalid joints {q!r}",
-            nan_errors,
-            math.nan,
-            math.nan,
-            math.nan,
-            time_s,
-            iterations,
-            method,
-            unsupported,
-            extra=extra,
+        return _without_joints(
+            problem, f"method returned invalid joints {q!r}", time_s, iterations, method, unsupported, extra
         )
     if problem.robot.has_floating_base:  # a unit quaternion, whatever the method returned
         q = q.copy()
