@@ -320,17 +320,17 @@ def _without_joints(
 ) -> WholeBodyResult:
     """The failed result of an answer without usable joints: every error and margin NaN."""
     return WholeBodyResult(
-        None,
-        False,
-        reason,
-        {name: math.nan for name, _ in problem.goal_tasks},
-        math.nan,
-        math.nan,
-        math.nan,
-        time_s,
-        iterations,
-        method,
-        unsupported,
+        q=None,
+        success=False,
+        reason=reason,
+        task_errors={name: math.nan for name, _ in problem.goal_tasks},
+        contact_drift=math.nan,
+        com_margin=math.nan,
+        limit_excess=math.nan,
+        time_s=time_s,
+        iterations=iterations,
+        method=method,
+        unsupported=unsupported,
         extra=extra,
     )
 

@@ -195,14 +195,19 @@ class WholeBodySolver(PerThreadState):
 
     def _peer_loop(
         self,
-        q: np.ndarray,
         step: Callable[[np.ndarray], tuple[np.ndarray, str]],
-        converged: Callable[[np.ndarray], bool],
+        q: np.ndarray,
         deadline: float,
+        *converged_on,
     ) -> WholeBodyCandidate:
-        """Our loop around a peer's single QP step: stop when ``converged(q)``, when the time budget is
+        """Our loop around a peer's single QP step from q: stop when :meth:`_converged` (given
+        ``converged_on``: monitor, tasks, placements, polygon, margin) holds, when the time budget is
         used up, or when ``step(q)`` (the next q and a reason to stop, "" to go on) gives a reason;
         else after ``max_iterations`` steps."""
+
+        def converged(q: np.ndarray) -> bool:
+            return self._converged(*converged_on, q)
+
         for iteration in range(1, self.max_iterations + 1):
             if converged(q):
                 return WholeBodyCandidate(q, iteration - 1)
@@ -397,12 +402,8 @@ class PlacoWholeBody(WholeBodySolver):
                 return q, "stalled: PlaCo's steps no longer move the robot"
             return q, ""
 
-        return self._peer_loop(
-            q0.copy(),
-            step,
-            lambda q: self._converged(kinematics, tasks, placements, polygon, problem.margin, q),
-            deadline,
-        )
+        margin = problem.margin
+        return self._peer_loop(step, q0.copy(), deadline, kinematics, tasks, placements, polygon, margin)
 
     def _add_task(self, solver, wrapper, task: Task, index: int, q0: np.ndarray) -> None:
         label = f"task_{index}"
@@ -583,12 +584,7 @@ class PinkWholeBody(WholeBodySolver):
             return q, ""
 
         # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
-        return self._peer_loop(
-            q0.copy(),
-            step,
-            lambda q: self._converged(kinematics, tasks, placements, None, problem.margin, q),
-            deadline,
-        )
+        return self._peer_loop(step, q0.copy(), deadline, kinematics, tasks, placements, None, problem.margin)
 
 
 # -- thesis_legs (Bioloid) ---------------------------------------------------------------------------------
