@@ -274,10 +274,6 @@ class EAIKSolver(Solver):
         return [evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name)
                 for target, candidate in zip(targets, candidates, strict=True)]
 
-    def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
-        """Largest joint difference, revolute joints modulo 2 pi."""
-        return joint_gap(q, other, self.revolute)
-
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct EAIK branch inside the limits that passes the shared FK check."""
         target = as_target(target)
@@ -293,7 +289,7 @@ class EAIKSolver(Solver):
         results: list[IKResult] = []
         for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
             result = evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
-            if result.success and not any(self._branch_gap(result.q, other.q) < BRANCH_MERGE
+            if result.success and not any(joint_gap(result.q, other.q, self.revolute) < BRANCH_MERGE
                                           for other in results):
                 results.append(result)
         return results

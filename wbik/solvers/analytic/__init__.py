@@ -231,10 +231,6 @@ class AnalyticSolver(Solver):
             results.append(evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name))
         return results
 
-    def _branch_gap(self, q: np.ndarray, other: np.ndarray) -> float:
-        """Largest joint difference, revolute joints modulo 2 pi."""
-        return joint_gap(q, other, self.revolute)
-
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct branch inside the limits that passes the shared FK check."""
         target = as_target(target)
@@ -246,7 +242,7 @@ class AnalyticSolver(Solver):
         elapsed = time.perf_counter() - start
         distinct: list[np.ndarray] = []
         for q in q_all[0][usable[0]]:
-            if not any(self._branch_gap(q, other) < BRANCH_MERGE for other in distinct):
+            if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):
                 distinct.append(q)
         results = [evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
                    for q in distinct]
