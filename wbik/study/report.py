@@ -171,11 +171,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
                              "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that failed "
                              "while the machine gave them less than 80 % of their budget in CPU time "
                              "and were run again with a stretched wall budget (wbik.study.runner)."))
-    reasons = []
-    for label, rows in rows_by_method.items():
-        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
-        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(3):
-            reasons.append([label, reason, count])
+    reasons = frequent_reasons(rows_by_method)
     if reasons:
         blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
         blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
@@ -214,6 +210,16 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
                                   for label, cells in by_method.items()]))
     blocks.extend(_thesis_blocks(case, summaries, analysis["tests"]))
     return blocks
+
+
+def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
+    """[method, reason kind, count] of the ``most`` most frequent reasons for 'not solved' per method."""
+    reasons = []
+    for label, rows in rows_by_method.items():
+        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
+        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(most):
+            reasons.append([label, reason, count])
+    return reasons
 
 
 def _reason_kind(reason: str) -> str:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import math
 import traceback
-from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -386,7 +385,7 @@ def analyse_case(study, case, output: Path) -> dict:
 
 
 def case_blocks(study, analysis: dict) -> list:
-    from wbik.study.report import Block, _reason_kind, fmt, fmt_p
+    from wbik.study.report import Block, fmt, fmt_p, frequent_reasons
     from wbik.wholebody.scenarios import DESCRIPTIONS
 
     case = analysis["case"]
@@ -510,11 +509,7 @@ def case_blocks(study, analysis: dict) -> list:
             rows=table,
         )
     )
-    reasons = []
-    for label, rows in rows_by_method.items():
-        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
-        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(3):
-            reasons.append([label, reason, count])
+    reasons = frequent_reasons(rows_by_method)
     if reasons:
         blocks.append(
             Block(
