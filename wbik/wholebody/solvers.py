@@ -37,7 +37,6 @@ import numbers
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -61,7 +60,7 @@ from wbik.qp.tasks import (
     Task,
 )
 from wbik.robot import Robot
-from wbik.solvers.base import PerThreadState, Tolerances
+from wbik.solvers.base import Candidate, PerThreadState, Tolerances
 from wbik.validation import check_budget
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
 
@@ -69,12 +68,8 @@ NO_POLYGON = "support polygon as a hard CoM constraint"
 """What a method without a hard CoM-in-polygon constraint lists in ``unsupported`` (Pink)."""
 
 
-@dataclass
-class WholeBodyCandidate:
-    q: np.ndarray | None
-    iterations: int = 0
-    reason: str = ""
-    extra: dict = field(default_factory=dict)
+WholeBodyCandidate = Candidate
+"""What a whole-body method found, before the shared check (the chain solvers' Candidate)."""
 
 
 class WholeBodySolver(PerThreadState):
