@@ -44,10 +44,10 @@ from wbik.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
     WholeBodyMotion,
+    com_over_phase,
     current_soles,
     pelvis_rotation,
     sole_path,
-    sole_polygon,
     solve_phases,
     yaw_of,
 )
@@ -126,9 +126,9 @@ def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: G
     n = gait.divisions
     verb = "forward" if DIRECTION[name] > 0 else "back"
     phases = [
-        BodyPhase(f"{name}: CoM over the {NAMES[stays]} foot", dict(both), pelvis_rotation=rotation,
-                  com=ComRamp(sole_polygon(robot, {SOLE[stays]: other}), RAMP_INSET),
-                  end_support=(SOLE[stays],), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        com_over_phase(robot, f"{name}: CoM over the {NAMES[stays]} foot", dict(both), stays, other,
+                       RAMP_INSET,
+                       pelvis_rotation=rotation, divisions=n, speed_rpm=gait.servo_slow_rpm),
         BodyPhase(f"{name}: {NAMES[moved]} foot {verb}", {SOLE[stays]: other},
                   swing={SOLE[moved]: sole_path(start, end, lift=lift)}, pelvis_rotation=rotation,
                   divisions=2 * n, speed_rpm=gait.servo_fast_rpm),

@@ -67,6 +67,7 @@ from wbik.bioloid.half_steps import HALF_STEP_LIFT, RAMP_INSET, along, half_step
 from wbik.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
+    com_over_phase,
     current_soles,
     pelvis_rotation,
     sole_polygon,
@@ -320,15 +321,15 @@ def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
     split = {SOLE[second]: start_second, SOLE[first]: land_first}
     up = {first: land_first, second: land_second}
     phases = [
-        BodyPhase(f"UpStair {step}: CoM over the {names[second]} foot", dict(both), pelvis_rotation=rotation,
-                  com=ComRamp(sole_polygon(robot, {SOLE[second]: start_second}), RAMP_INSET),
-                  end_support=(SOLE[second],), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        com_over_phase(robot, f"UpStair {step}: CoM over the {names[second]} foot", dict(both), second,
+                       start_second, RAMP_INSET, pelvis_rotation=rotation, divisions=n,
+                       speed_rpm=gait.servo_slow_rpm),
         BodyPhase(f"UpStair {step}: {names[first]} foot onto tread {step}", {SOLE[second]: start_second},
                   swing={SOLE[first]: path(start_first, land_first)}, pelvis_rotation=rotation,
                   divisions=3 * n, speed_rpm=gait.servo_fast_rpm),
-        BodyPhase(f"UpStair {step}: CoM over the {names[first]} foot", dict(split), pelvis_rotation=rotation,
-                  com=ComRamp(sole_polygon(robot, {SOLE[first]: land_first}), RAMP_INSET),
-                  end_support=(SOLE[first],), divisions=2 * n, speed_rpm=gait.servo_slow_rpm),
+        com_over_phase(robot, f"UpStair {step}: CoM over the {names[first]} foot", dict(split), first,
+                       land_first, RAMP_INSET, pelvis_rotation=rotation, divisions=2 * n,
+                       speed_rpm=gait.servo_slow_rpm),
         BodyPhase(f"UpStair {step}: {names[second]} foot onto tread {step}", {SOLE[first]: land_first},
                   swing={SOLE[second]: path(start_second, land_second)}, pelvis_rotation=rotation,
                   divisions=3 * n, speed_rpm=gait.servo_fast_rpm),

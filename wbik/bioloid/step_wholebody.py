@@ -301,12 +301,11 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
     slow, fast = gait.servo_slow_rpm, gait.servo_fast_rpm
     n = gait.divisions
     phases = [
-        BodyPhase(f"shift the hips over the {st} foot", dict(both),
-                  hips=hips({stance_side: ("legDownStanding", "legDownMiddleRight"),
-                             swing_side: ("legDownStanding", "legDownMiddleLeft")}, both),
-                  pelvis_rotation=rotation,
-                  com=ComRamp(sole_polygon(robot, {SOLE[stance_side]: stance0}), ramp_inset),
-                  end_support=(SOLE[stance_side],), divisions=n, speed_rpm=slow, pause_s=1.0),
+        com_over_phase(robot, f"shift the hips over the {st} foot", dict(both), stance_side, stance0,
+                       ramp_inset,
+                       hips=hips({stance_side: ("legDownStanding", "legDownMiddleRight"),
+                                  swing_side: ("legDownStanding", "legDownMiddleLeft")}, both),
+                       pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0),
         BodyPhase(f"lift the {sw} foot", {SOLE[stance_side]: stance0},
                   swing={SOLE[swing_side]: sole_path(swing0, up)},
                   hips=hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both),
@@ -317,13 +316,12 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
                   pelvis_rotation=rotation, divisions=n, speed_rpm=fast, pause_s=2.0),
     ]
     after_landing = {SOLE[stance_side]: stance0, SOLE[swing_side]: landed}
-    phases.append(BodyPhase(
-        f"move the hips over the front ({sw}) foot", dict(after_landing),
+    phases.append(com_over_phase(
+        robot, f"move the hips over the front ({sw}) foot", dict(after_landing), swing_side, landed,
+        ramp_inset,
         hips=hips({stance_side: ("legDownMiddleRight", "legDownBackwardRight"),
                    swing_side: ("legDownForwardLeft", "legDownStanding")}, after_landing),
-        pelvis_rotation=rotation, com=ComRamp(sole_polygon(robot, {SOLE[swing_side]: landed}), ramp_inset),
-        end_support=(SOLE[swing_side],),
-        divisions=n, speed_rpm=slow, pause_s=2.0))
+        pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=2.0))
     phases.append(BodyPhase(
         f"bring the rear ({st}) foot beside the front one", {SOLE[swing_side]: landed},
         swing={SOLE[stance_side]: sole_path(stance0, rear_end, lift=rear_lift)},
@@ -369,6 +367,14 @@ class ComRamp:
         if self.start is None or self.goal is None:
             raise InvalidConfigurationError("ComRamp used before the engine bound its start")
         return self.start + s * (self.goal - self.start)
+
+
+def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: str, placement: pin.SE3,
+                   inset: float, **options) -> BodyPhase:
+    """A phase that ramps the CoM into the ``side`` sole's polygon (that sole at ``placement``) shrunk
+    by ``inset`` and ends supported by that sole alone; ``options``: the other BodyPhase fields."""
+    return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, {SOLE[side]: placement}), inset),
+                     end_support=(SOLE[side],), **options)
 
 
 def step_forward_wholebody(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
