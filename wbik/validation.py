@@ -44,6 +44,13 @@ def check_budget(name: str, value) -> float:
     return check_positive_finite(name, value, InvalidBudgetError, unit="s")
 
 
+def check_seed(seed) -> int | None:
+    """``seed`` (an integer >= 0, bools refused, or None) unchanged; InvalidSettingError otherwise."""
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0):
+        raise InvalidSettingError(f"seed must be an integer >= 0 or None, got {seed!r}")
+    return seed
+
+
 def numeric_array(value, what: str, error: type[WbikError], shape: tuple[int, ...] | None = None,
                   max_abs: float | None = None) -> np.ndarray:
     """``value`` as a float array of real numbers, or ``error`` saying what is wrong.

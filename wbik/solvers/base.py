@@ -31,7 +31,7 @@ from wbik.errors import (
 )
 from wbik.robot import Chain, Robot
 from wbik.targets import Target, as_target
-from wbik.validation import check_budget
+from wbik.validation import check_budget, check_seed
 
 DEFAULT_TIMEOUT_S = 0.005
 """Default time budget of iterative methods (TRAC-IK's benchmark protocol and MoveIt's KDL default)."""
@@ -204,10 +204,7 @@ class Solver(PerThreadState):
         if timeout_s is None and self.iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, numbers.Integral)
-                                 or seed < 0):
-            raise InvalidSettingError(f"seed must be an integer >= 0 or None, got {seed!r}")
-        self.seed = None if seed is None else int(seed)
+        self.seed = None if check_seed(seed) is None else int(seed)
         self._local = threading.local()
 
     def __repr__(self) -> str:

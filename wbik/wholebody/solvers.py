@@ -61,7 +61,7 @@ from wbik.qp.tasks import (
 )
 from wbik.robot import Robot
 from wbik.solvers.base import Candidate, PerThreadState, Tolerances
-from wbik.validation import check_budget
+from wbik.validation import check_budget, check_seed
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
 
 NO_POLYGON = "support polygon as a hard CoM constraint"
@@ -109,11 +109,7 @@ class WholeBodySolver(PerThreadState):
             raise InvalidBudgetError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
         else:
             self.max_iterations = int(max_iterations)
-        if seed is not None and (
-            isinstance(seed, bool) or not isinstance(seed, numbers.Integral) or seed < 0
-        ):
-            raise InvalidSettingError(f"seed must be an integer >= 0 or None, got {seed!r}")
-        self.seed = seed
+        self.seed = check_seed(seed)
         self._local = threading.local()
 
     def __repr__(self) -> str:
