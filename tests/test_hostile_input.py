@@ -404,7 +404,13 @@ def _random_malformed(rng: np.random.Generator):
 def test_fuzz_targets_and_starts():
     """Thousands of random malformed inputs: each is either a valid target or a typed WbikError."""
     rng = np.random.default_rng(20260501)
-    solvers = [solver_for(method, "ur5", "arm") for method in METHODS]
+    solvers = []
+    for method in METHODS:
+        try:
+            solvers.append(solver_for(method, "ur5", "arm"))
+        except UnsupportedError:  # e.g. the Golem-III thesis's own solvers: refused, typed
+            pass
+    assert len(solvers) >= len(METHODS) - 3
     chain = ROBOTS["ur5"].chain("arm")
     accepted = rejected = 0
     for index in range(20000):
