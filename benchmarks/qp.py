@@ -27,6 +27,7 @@ import pinocchio as pin
 import wbik
 from wbik.qp import ComTask, FrameTask, IKProblem, OrientationTask, RegularizationTask, available_backends
 from wbik.qp.humanoid import stance_constraints, support_polygon
+from wbik.qp.problem import PHASES
 
 MARGIN = 0.005
 LIFT = np.array([0.0, 0.0, 0.04])
@@ -55,23 +56,68 @@ def best_of(function, repeats: int) -> float:
     return float(np.median(times))
 
 
-def ours(robot, q_start, foot_target, backend, repeats):
+def our_problem(robot, q_start, foot_target, backend="daqp") -> IKProblem:
     pelvis = robot.frame_placement(q_start, "pelvis").rotation
-    problem = IKProblem(robot.model, [FrameTask("l_sole", foot_target),
-                                      OrientationTask("pelvis", pelvis, weight=0.1, goal=False),
-                                      RegularizationTask(1e-6)],
-                        stance_constraints(robot, q_start, ["r_sole"], margin=MARGIN), backend=backend)
+    return IKProblem(robot.model, [FrameTask("l_sole", foot_target),
+                                   OrientationTask("pelvis", pelvis, weight=0.1, goal=False),
+                                   RegularizationTask(1e-6)],
+                     stance_constraints(robot, q_start, ["r_sole"], margin=MARGIN), backend=backend)
+
+
+def ours(robot, q_start, foot_target, backend, repeats):
+    problem = our_problem(robot, q_start, foot_target, backend)
     problem.start(q_start)
 
     def one_step():
-        problem.kinematics.update(q_start)
-        problem.step(dt=1.0)
+        problem.step(q_start, dt=1.0)
 
     step = best_of(one_step, repeats)
     solution = problem.solve(q_start)
     ik = best_of(lambda: problem.solve(q_start), max(repeats // 10, 5))
     return (step, ik, solution.iterations, solution.success, foot_error(robot, solution.q, foot_target),
             com_margin_by_fk(robot, solution.q, support_polygon(robot, q_start, ["r_sole"])))
+
+
+def phase_table(robot, q_start, foot_target, repeats: int) -> None:
+    """Where the time goes (DAQP): one QP step by phase (IKProblem.step's ``profile``), and one
+    converged IK split into its QP steps (by phase), the contact projections and the rest (merit,
+    task errors, FK checks, integration, the final report)."""
+    problem = our_problem(robot, q_start, foot_target)
+    problem.start(q_start)
+    steps = {}
+    for _ in range(repeats):
+        problem.step(q_start, dt=1.0, profile=steps)
+    solve_steps, other = {}, {"projection": 0.0}
+    step, project = problem.step, problem.project
+
+    def timed_step(*args, **kwargs):
+        return step(*args, profile=solve_steps, **kwargs)
+
+    def timed_project(*args, **kwargs):
+        start = time.perf_counter()
+        result = project(*args, **kwargs)
+        other["projection"] += time.perf_counter() - start
+        return result
+
+    problem.step, problem.project = timed_step, timed_project
+    solves = max(repeats // 10, 5)
+    total = 0.0
+    for _ in range(solves):
+        start = time.perf_counter()
+        solution = problem.solve(q_start)
+        total += time.perf_counter() - start
+    del problem.step, problem.project
+    other["checks, merit, rest"] = total - sum(solve_steps.values()) - other["projection"]
+    print(f"Where the time goes (wbik.qp [daqp], us; mean of {repeats} steps and {solves} IK solves of "
+          f"{solution.iterations} iterations):")
+    print(f"{'phase':22s} {'per step':>9s} {'share':>6s} {'per IK':>9s} {'share':>6s}")
+    step_total = sum(steps.values())
+    for phase in (*PHASES, "projection", "checks, merit, rest"):
+        per_step = steps.get(phase, 0.0) / repeats
+        per_ik = (solve_steps.get(phase, 0.0) + other.get(phase, 0.0)) / solves
+        print(f"{phase:22s} {per_step * 1e6:9.1f} {per_step / (step_total / repeats):6.0%} "
+              f"{per_ik * 1e6:9.1f} {per_ik / (total / solves):6.0%}")
+    print(f"{'total':22s} {step_total / repeats * 1e6:9.1f} {'':6s} {total / solves * 1e6:9.1f}")
 
 
 def foot_error(robot, q, target) -> float:
@@ -253,6 +299,7 @@ def main() -> None:
     print("Settings.", PLACO_SETTINGS)
     ours_rows = [r for r in rows if r[0].startswith("wbik")]
     fastest = min(ours_rows, key=lambda r: r[1])
+    phase_table(robot, q_start, foot_target, args.repeats)
     print(f"fastest backend here: {fastest[0]} ({fastest[1] * 1e3:.4f} ms/step, "
           f"{1.0 / fastest[1]:.0f} Hz); use backend='fastest' (wbik.qp.backends.FASTEST)")
 

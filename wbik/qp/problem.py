@@ -58,6 +58,17 @@ class QPSolution:
                 "violations": self.violations, "com_margins": self.com_margins}
 
 
+PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
+"""Phases of ``IKProblem.step`` timed by its ``profile`` argument: FK, joint Jacobians and CoM;
+constraint rows and bounds (G, h, A, b, lb, ub); task rows (weighted J and e); H and c; the backend."""
+
+
+def _lap(profile: dict[str, float], phase: str, since: float) -> float:
+    now = time.perf_counter()
+    profile[phase] = profile.get(phase, 0.0) + now - since
+    return now
+
+
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
 
@@ -152,29 +163,46 @@ class IKProblem:
         h = np.concatenate([h for _, h in inequalities]) if inequalities else None
         return G, h, A, b, lower.copy(), upper.copy()
 
-    def step(self, q: np.ndarray | None = None, dt: float = 1.0,
-             max_step: float | None = None) -> np.ndarray | None:
+    def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
+             profile: dict[str, float] | None = None) -> np.ndarray | None:
         """The QP displacement dq at q (default: the current q), or None if the QP has no solution.
 
         For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
         bound |dq| <= v_max dt); for IK, dt = 1 and dq is a Newton-like step. When q breaks an
         inequality by more than one step can repair, the violated rows ask for half the repair,
         then a quarter, ..., then only not to get worse.
+
+        ``profile``: a dict to which the seconds spent in each phase are added (``PHASES``); the
+        clock is read only when it is given.
         """
+        clock = time.perf_counter if profile is not None else None
+        tick = clock() if clock else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q)
         elif q is not None:
             self.kinematics.update(q)
+        if clock:
+            # the CoM (lazy) is computed here too, so that "constraints" only builds rows
+            self.kinematics.com()
+            tick = _lap(profile, "kinematics", tick)
         radius = self.max_step if max_step is None else max_step
         G, h, A, b, lower, upper = self._constraint_matrices(dt, radius)
+        if clock:
+            tick = _lap(profile, "constraints", tick)
         dq = None
         for index, level in enumerate(self.levels):
             weighted_jacobian, weighted_error, goal_cost = self._assemble_level(level)
+            if clock:
+                tick = _lap(profile, "tasks", tick)
             mu = self.damping + self.lm_damping * goal_cost
             H = weighted_jacobian.T @ weighted_jacobian
             H.flat[:: self.nv + 1] += mu
             c = weighted_jacobian.T @ weighted_error
+            if clock:
+                tick = _lap(profile, "assemble", tick)
             dq = self._solve_relaxed(H, c, G, h, A, b, lower, upper)
+            if clock:
+                tick = _lap(profile, "qp", tick)
             if dq is None:
                 return None
             if index + 1 < len(self.levels):
@@ -184,6 +212,8 @@ class IKProblem:
                 bound = np.r_[achieved + self.hierarchy_slack, -achieved + self.hierarchy_slack]
                 G = rows if G is None else np.vstack((G, rows))
                 h = bound if h is None else np.r_[h, bound]
+                if clock:
+                    tick = _lap(profile, "assemble", tick)
         return dq
 
     def _solve_relaxed(self, H, c, G, h, A, b, lower, upper) -> np.ndarray | None:
