@@ -73,6 +73,91 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
         return None
 
 
+class StackedConstraints:
+    """lb <= x <= ub, G x <= h and A x = b kept the way DAQP takes them, in buffers reused from
+    one QP to the next: ``lower <= [I; M] x <= upper`` whose first n entries are the simple bounds,
+    then one row of the general matrix M per constraint row (inequalities and equalities in any
+    order, equalities marked by ``sense`` 5 and lower = upper). The buffers grow when needed.
+    """
+
+    def __init__(self, n: int, capacity: int = 16):
+        self.n = n
+        self.rows = 0
+        self._matrix = np.zeros((capacity, n))
+        self._upper = np.zeros(n + capacity)
+        self._lower = np.zeros(n + capacity)
+        self._sense = np.zeros(n + capacity, dtype=np.int32)
+
+    def _grow(self, capacity: int) -> None:
+        """Larger buffers, keeping the rows already added."""
+        used = self.n + self.rows
+        matrix, upper, lower, sense = self._matrix, self._upper, self._lower, self._sense
+        self.__init__(self.n, capacity)
+        self.rows = used - self.n
+        self._matrix[:self.rows] = matrix[:self.rows]
+        self._upper[:used], self._lower[:used], self._sense[:used] = upper[:used], lower[:used], sense[:used]
+
+    def clear(self, radius: float) -> tuple[np.ndarray, np.ndarray]:
+        """No general rows, the box |x_i| <= radius; returns (lb, ub) views to tighten in place."""
+        self.rows = 0
+        self._lower[:self.n] = -radius
+        self._upper[:self.n] = radius
+        return self._lower[:self.n], self._upper[:self.n]
+
+    def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
+        """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""
+        count = matrix.shape[0]
+        if self.rows + count > self._matrix.shape[0]:
+            self._grow(2 * (self.rows + count))
+        start, stop = self.rows, self.rows + count
+        self._matrix[start:stop] = matrix
+        self._upper[self.n + start:self.n + stop] = upper
+        self._lower[self.n + start:self.n + stop] = upper if equality else -1e30
+        self._sense[self.n + start:self.n + stop] = 5 if equality else 0
+        self.rows = stop
+
+    # views of the rows in use
+    @property
+    def matrix(self) -> np.ndarray:
+        return self._matrix[:self.rows]
+
+    @property
+    def upper(self) -> np.ndarray:
+        return self._upper[:self.n + self.rows]
+
+    @property
+    def lower(self) -> np.ndarray:
+        return self._lower[:self.n + self.rows]
+
+    @property
+    def sense(self) -> np.ndarray:
+        return self._sense[:self.n + self.rows]
+
+    def inequality_rows(self) -> np.ndarray:
+        """Indices into ``upper`` of the inequality rows (their h)."""
+        return self.n + np.flatnonzero(self._sense[self.n:self.n + self.rows] == 0)
+
+    def split(self):
+        """(G, h, A, b, lb, ub) as separate arrays (None when empty), for the other backends."""
+        equality = self._sense[self.n:self.n + self.rows] == 5
+        matrix, upper = self.matrix, self._upper[self.n:self.n + self.rows]
+        G, h = (matrix[~equality], upper[~equality]) if np.any(~equality) else (None, None)
+        A, b = (matrix[equality], upper[equality]) if np.any(equality) else (None, None)
+        return G, h, A, b, self._lower[:self.n].copy(), self._upper[:self.n].copy()
+
+
+def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray,
+                  constraints: StackedConstraints) -> np.ndarray | None:
+    """``solve`` with the constraints already stacked: DAQP takes the buffers as they are."""
+    if backend != "daqp":
+        return solve(backend, H, c, *constraints.split())
+    import daqp
+
+    x, _, exitflag, _ = daqp.solve(H, c, constraints.matrix, constraints.upper, constraints.lower,
+                                   constraints.sense)
+    return x if exitflag > 0 else None
+
+
 def _csc(matrix: np.ndarray | None):
     return None if matrix is None else sparse.csc_matrix(matrix)
 

@@ -95,8 +95,7 @@ class IKProblem:
         self.progress = float(progress)
         self.nv = model.nv
         self._limits = [c for c in self.constraints if isinstance(c, JointPositionLimits)]
-        self._lower = np.empty(self.nv)
-        self._upper = np.empty(self.nv)
+        self._constraints = backends.StackedConstraints(self.nv)
         self._started = False
 
     # -- set-up ---------------------------------------------------------------------------------
@@ -143,25 +142,20 @@ class IKProblem:
             row = stop
         return jacobian * sqrt_weight[:, None], error * sqrt_weight, goal_cost
 
-    def _constraint_matrices(self, dt: float, max_step: float):
-        lower, upper = self._lower, self._upper
-        lower.fill(-max_step)
-        upper.fill(max_step)
-        equalities, inequalities = [], []
+    def _constraint_matrices(self, dt: float, max_step: float) -> backends.StackedConstraints:
+        """Every constraint's rows and bounds at the current q, in the reused buffers."""
+        stack = self._constraints
+        lower, upper = stack.clear(max_step)
         for constraint in self.constraints:
             if constraint.kind == "bounds":
                 constraint.bounds(self.kinematics, dt, lower, upper)
             elif constraint.kind == "equality":
-                equalities.append(constraint.equality(self.kinematics))
+                stack.add(*constraint.equality(self.kinematics), equality=True)
             elif constraint.kind == "inequality":
-                inequalities.append(constraint.inequality(self.kinematics))
+                stack.add(*constraint.inequality(self.kinematics))
         # a velocity bound may leave no room inside a position bound: keep the box non-empty
         np.minimum(lower, upper, out=lower)
-        A = np.vstack([a for a, _ in equalities]) if equalities else None
-        b = np.concatenate([b for _, b in equalities]) if equalities else None
-        G = np.vstack([g for g, _ in inequalities]) if inequalities else None
-        h = np.concatenate([h for _, h in inequalities]) if inequalities else None
-        return G, h, A, b, lower.copy(), upper.copy()
+        return stack
 
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None) -> np.ndarray | None:
@@ -186,7 +180,7 @@ class IKProblem:
             self.kinematics.com()
             tick = _lap(profile, "kinematics", tick)
         radius = self.max_step if max_step is None else max_step
-        G, h, A, b, lower, upper = self._constraint_matrices(dt, radius)
+        constraints = self._constraint_matrices(dt, radius)
         if clock:
             tick = _lap(profile, "constraints", tick)
         dq = None
@@ -200,7 +194,7 @@ class IKProblem:
             c = weighted_jacobian.T @ weighted_error
             if clock:
                 tick = _lap(profile, "assemble", tick)
-            dq = self._solve_relaxed(H, c, G, h, A, b, lower, upper)
+            dq = self._solve_relaxed(H, c, constraints)
             if clock:
                 tick = _lap(profile, "qp", tick)
             if dq is None:
@@ -208,25 +202,34 @@ class IKProblem:
             if index + 1 < len(self.levels):
                 # keep what this level achieved: |J_l dq - J_l dq*| <= slack
                 achieved = weighted_jacobian @ dq
-                rows = np.vstack((weighted_jacobian, -weighted_jacobian))
-                bound = np.r_[achieved + self.hierarchy_slack, -achieved + self.hierarchy_slack]
-                G = rows if G is None else np.vstack((G, rows))
-                h = bound if h is None else np.r_[h, bound]
+                constraints.add(weighted_jacobian, achieved + self.hierarchy_slack)
+                constraints.add(-weighted_jacobian, -achieved + self.hierarchy_slack)
                 if clock:
                     tick = _lap(profile, "assemble", tick)
         return dq
 
-    def _solve_relaxed(self, H, c, G, h, A, b, lower, upper) -> np.ndarray | None:
-        dq = backends.solve(self.backend, H, c, G, h, A, b, lower, upper)
-        if dq is not None or h is None or not np.any(h < 0):
+    def _solve_relaxed(self, H: np.ndarray, c: np.ndarray,
+                       constraints: backends.StackedConstraints) -> np.ndarray | None:
+        dq = backends.solve_stacked(self.backend, H, c, constraints)
+        if dq is not None:
             return dq
+        rows = constraints.inequality_rows()
+        upper = constraints.upper
+        h = upper[rows]
+        if not np.any(h < 0):
+            return None
         relaxed = h.copy()
-        for _ in range(6):
-            relaxed[relaxed < 0] *= 0.5
-            dq = backends.solve(self.backend, H, c, G, relaxed, A, b, lower, upper)
-            if dq is not None:
-                return dq
-        return backends.solve(self.backend, H, c, G, np.maximum(h, 0.0), A, b, lower, upper)
+        try:
+            for _ in range(6):
+                relaxed[relaxed < 0] *= 0.5
+                upper[rows] = relaxed
+                dq = backends.solve_stacked(self.backend, H, c, constraints)
+                if dq is not None:
+                    return dq
+            upper[rows] = np.maximum(h, 0.0)
+            return backends.solve_stacked(self.backend, H, c, constraints)
+        finally:
+            upper[rows] = h
 
     def project(self, tolerance: float = 1e-12, max_iterations: int = 6) -> bool:
         """Newton steps onto the contacts from the current q: min |dq|^2 s.t. J_c dq = -e_c and the
@@ -251,8 +254,8 @@ class IKProblem:
                 if np.array_equal(self.clip(trial), trial):
                     self.kinematics.update(trial)
                     continue
-            G, h, A, b, lower, upper = self._constraint_matrices(1.0, self.max_step)
-            dq = self._solve_relaxed(self._identity, np.zeros(self.nv), G, h, A, b, lower, upper)
+            constraints = self._constraint_matrices(1.0, self.max_step)
+            dq = self._solve_relaxed(self._identity, np.zeros(self.nv), constraints)
             if dq is None:
                 return False
             self.kinematics.update(self.clip(self.kinematics.integrate(dq)))
