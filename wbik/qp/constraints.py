@@ -115,12 +115,17 @@ class Contact(Constraint):
         self._task.start(kinematics)
         if self.fixed_placement is None:
             self._task.target = kinematics.placement(self._task.frame_id).copy()
+        self._jacobian = np.zeros((6, kinematics.nv))
+        self._rhs = np.zeros(6)
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._task.error(kinematics)
 
     def equality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        return self._task.jacobian(kinematics), -self._task.error(kinematics)
+        """(J, -e) (buffers reused by the next call: copy them to keep them)."""
+        self._task.fill(kinematics, self._jacobian, self._rhs)
+        np.negative(self._rhs, out=self._rhs)
+        return self._jacobian, self._rhs
 
     def violation(self, kinematics: Kinematics) -> float:
         error = self._task.error(kinematics)

@@ -113,8 +113,12 @@ class IKProblem:
         self.levels = sorted({task.priority for task in self.tasks}) or [0]
         self._level_tasks = {level: [t for t in self.tasks if t.priority == level] for level in self.levels}
         self._stack = {}
+        self._level_rows = {}
         for level, tasks in self._level_tasks.items():
             rows = sum(task.dimension for task in tasks)
+            stops = np.cumsum([task.dimension for task in tasks], dtype=int)
+            self._level_rows[level] = [(task, slice(int(stop) - task.dimension, int(stop)))
+                                       for task, stop in zip(tasks, stops, strict=True)]
             sqrt_weight = np.concatenate([np.sqrt(t.weight) for t in tasks]) if tasks else np.zeros(0)
             self._stack[level] = (np.zeros((rows, self.nv)), np.zeros(rows), sqrt_weight)
         self._identity = np.eye(self.nv)
@@ -128,19 +132,20 @@ class IKProblem:
 
     # -- one QP step ----------------------------------------------------------------------------
     def _assemble_level(self, level: int) -> tuple[np.ndarray, np.ndarray, float]:
-        """(weighted J, weighted gain*e, |e|^2 of goal tasks) for one priority level."""
+        """(weighted J, weighted gain*e, |e|^2 of goal tasks) for one priority level (views of
+        buffers that the next call overwrites)."""
         jacobian, error, sqrt_weight = self._stack[level]
-        row = 0
         goal_cost = 0.0
-        for task in self._level_tasks[level]:
-            stop = row + task.dimension
-            task_error = task.error(self.kinematics)
-            jacobian[row:stop] = task.jacobian(self.kinematics)
-            error[row:stop] = task.gain * task_error
+        for task, rows in self._level_rows[level]:
+            task_error = error[rows]
+            task.fill(self.kinematics, jacobian[rows], task_error)
             if task.goal:
                 goal_cost += float(task_error @ task_error)
-            row = stop
-        return jacobian * sqrt_weight[:, None], error * sqrt_weight, goal_cost
+            if task.gain != 1.0:
+                task_error *= task.gain
+        jacobian *= sqrt_weight[:, None]
+        error *= sqrt_weight
+        return jacobian, error, goal_cost
 
     def _constraint_matrices(self, dt: float, max_step: float) -> backends.StackedConstraints:
         """Every constraint's rows and bounds at the current q, in the reused buffers."""

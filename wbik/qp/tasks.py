@@ -63,6 +63,20 @@ class Task:
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         raise NotImplementedError
 
+    def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
+        """Write J and e into the given rows (a task may compute them together, sharing terms)."""
+        jacobian[:] = self.jacobian(kinematics)
+        error[:] = self.error(kinematics)
+
+
+def _fill_rotation(target_rotation: np.ndarray, rotation: np.ndarray, jacobian: np.ndarray,
+                   error: np.ndarray) -> None:
+    """e_R = log3(R*^T R) into ``error`` and its Jacobian into ``jacobian``, which holds the
+    angular Jacobian in world axes on entry (the two share M = R*^T R)."""
+    relative = target_rotation.T @ rotation
+    error[:] = pin.log3(relative)
+    jacobian[:] = (pin.Jlog3(relative) @ rotation.T) @ jacobian
+
 
 def _rotation_error(target_rotation: np.ndarray, rotation: np.ndarray) -> np.ndarray:
     return pin.log3(target_rotation.T @ rotation)
@@ -114,6 +128,13 @@ class FrameTask(_FrameTaskBase):
         jacobian[3:] = _rotation_jacobian(self.target.rotation, placement.rotation, jacobian[3:])
         return jacobian
 
+    def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
+        placement = kinematics.placement(self.frame_id)
+        target = self.target
+        np.subtract(placement.translation, target.translation, out=error[:3])
+        jacobian[:] = kinematics.jacobian(self.frame_id)
+        _fill_rotation(target.rotation, placement.rotation, jacobian[3:], error[3:])
+
 
 class PositionTask(_FrameTaskBase):
     """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
@@ -146,6 +167,10 @@ class OrientationTask(_FrameTaskBase):
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         return _rotation_jacobian(self.target, kinematics.placement(self.frame_id).rotation,
                                   kinematics.jacobian(self.frame_id)[3:])
+
+    def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
+        jacobian[:] = kinematics.jacobian(self.frame_id)[3:]
+        _fill_rotation(self.target, kinematics.placement(self.frame_id).rotation, jacobian, error)
 
 
 class RelativeFrameTask(_FrameTaskBase):
