@@ -13,6 +13,8 @@ radians, > 0 means violated); the IK loop uses it to verify every configuration 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -129,7 +131,8 @@ class Contact(Constraint):
 
     def violation(self, kinematics: Kinematics) -> float:
         error = self._task.error(kinematics)
-        return float(max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])))
+        squared = error * error
+        return math.sqrt(max(float(squared[:3].sum()), float(squared[3:].sum())))
 
 
 class CoMInSupportPolygon(Constraint):

@@ -18,6 +18,7 @@ It verifies the configuration it returns by forward kinematics: contacts, CoM ma
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -275,8 +276,7 @@ class IKProblem:
                 for constraint in self.constraints}
 
     def _goals_met(self) -> bool:
-        return all(np.linalg.norm(task.error(self.kinematics)) <= task.tolerance
-                   for task in self.tasks if task.goal)
+        return self._merit_and_goals()[1]
 
     def _equalities_met(self, tolerance: float) -> bool:
         return all(c.violation(self.kinematics) <= tolerance for c in self.constraints
@@ -287,14 +287,22 @@ class IKProblem:
 
     def merit(self) -> float:
         """Weighted task cost (lower levels scaled down by 1e-6 each); contacts are kept by projection."""
+        return self._merit_and_goals()[0]
+
+    def _merit_and_goals(self) -> tuple[float, bool]:
+        """(merit, every goal task under its tolerance), from one evaluation of each task error."""
         cost = 0.0
+        goals_met = True
         for index, level in enumerate(self.levels):
             level_cost = 0.0
             for task in self._level_tasks[level]:
                 error = task.error(self.kinematics)
-                level_cost += float(task.weight @ (error * error))
+                squared = error * error
+                level_cost += float(task.weight @ squared)
+                if goals_met and task.goal:
+                    goals_met = math.sqrt(float(squared.sum())) <= task.tolerance
             cost += level_cost * 1e-6 ** index
-        return cost
+        return cost, goals_met
 
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12) -> QPSolution:
@@ -310,9 +318,11 @@ class IKProblem:
         start_time = time.perf_counter()
         self.start(q0)
         kinematics = self.kinematics
-        self.project(0.1 * equality_tolerance)
+        # the merit, the goals and the contacts of the kept iterate q (a projection that succeeds
+        # holds the contacts to 0.1 * equality_tolerance)
+        contacts_held = self.project(0.1 * equality_tolerance)
         q = kinematics.q.copy()
-        merit = self.merit()
+        merit, goals_met = self._merit_and_goals()
         inequality_violation = self._inequality_violation()
         radius = self.max_step
         slow = 0
@@ -320,7 +330,7 @@ class IKProblem:
         converged = False
         iteration = 0
         for iteration in range(1, max_iterations + 1):
-            if self._goals_met() and self._equalities_met(equality_tolerance):
+            if goals_met and (contacts_held or self._equalities_met(equality_tolerance)):
                 converged = True
                 iteration -= 1
                 break
@@ -337,13 +347,14 @@ class IKProblem:
             kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
             projected = self.project(0.1 * equality_tolerance)
             trial_violation = self._inequality_violation()
-            trial_merit = self.merit()
+            trial_merit, trial_goals_met = self._merit_and_goals()
             keeps_inequalities = trial_violation <= 0.0 or trial_violation < inequality_violation
             if projected and keeps_inequalities and trial_merit <= merit + 1e-15:
                 q = kinematics.q.copy()
                 slow = slow + 1 if merit - trial_merit < self.progress * merit else 0
                 merit, inequality_violation = trial_merit, trial_violation
-                if slow >= 5 and not self._goals_met():
+                goals_met, contacts_held = trial_goals_met, True
+                if slow >= 5 and not goals_met:
                     reason = "best effort under the constraints: progress stalled (see the task errors)"
                     break
                 if step_size >= 0.9 * radius:
