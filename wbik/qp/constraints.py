@@ -119,19 +119,27 @@ class Contact(Constraint):
             self._task.target = kinematics.placement(self._task.frame_id).copy()
         self._jacobian = np.zeros((6, kinematics.nv))
         self._rhs = np.zeros(6)
+        self._version = -1
+
+    def _rows(self, kinematics: Kinematics) -> None:
+        """J and -e at the kinematics' configuration, computed once per configuration (the
+        placement is fixed once started, so nothing else can change them)."""
+        if self._version != kinematics.version:
+            self._task.fill(kinematics, self._jacobian, self._rhs)
+            np.negative(self._rhs, out=self._rhs)
+            self._version = kinematics.version
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._task.error(kinematics)
 
     def equality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """(J, -e) (buffers reused by the next call: copy them to keep them)."""
-        self._task.fill(kinematics, self._jacobian, self._rhs)
-        np.negative(self._rhs, out=self._rhs)
+        """(J, -e) (buffers reused at the next configuration: copy them to keep them)."""
+        self._rows(kinematics)
         return self._jacobian, self._rhs
 
     def violation(self, kinematics: Kinematics) -> float:
-        error = self._task.error(kinematics)
-        squared = error * error
+        self._rows(kinematics)
+        squared = self._rhs * self._rhs
         return math.sqrt(max(float(squared[:3].sum()), float(squared[3:].sum())))
 
 

@@ -9,16 +9,23 @@ exp(J[3:] dq) applied on the left (world axes).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import UnknownFrameError
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_VERSIONS = itertools.count()
 
 
 class Kinematics:
-    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities."""
+    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities.
+
+    ``version`` changes with every ``update`` and is unique across all instances: a constraint may
+    cache what it computed at one configuration under it.
+    """
 
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model
@@ -45,6 +52,7 @@ class Kinematics:
         pin.computeJointJacobians(self.model, self.data, self.q)
         pin.updateFramePlacements(self.model, self.data)
         self._com_ready = False
+        self.version = next(_VERSIONS)
 
     def placement(self, frame_id: int) -> pin.SE3:
         """World placement of a frame (a view into data: copy it to keep it)."""

@@ -249,8 +249,11 @@ class IKProblem:
             # cheap first: the minimum-norm Newton step dq = -J^T (J J^T)^-1 e, kept if it breaks
             # no bound; otherwise the QP with every constraint
             rows = [c.equality(self.kinematics) for c in equalities]
-            A = np.vstack([a for a, _ in rows])
-            b = np.concatenate([b for _, b in rows])
+            if len(rows) == 1:
+                A, b = rows[0]
+            else:
+                A = np.vstack([a for a, _ in rows])
+                b = np.concatenate([b for _, b in rows])
             try:
                 dq = A.T @ np.linalg.solve(A @ A.T, b)
             except np.linalg.LinAlgError:
