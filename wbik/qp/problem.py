@@ -131,6 +131,14 @@ class IKProblem:
             q[limits.q_index] = np.clip(q[limits.q_index], limits.lower, limits.upper)
         return q
 
+    def _within_limits(self, q: np.ndarray) -> bool:
+        """``clip(q)`` would leave q as it is."""
+        for limits in self._limits:
+            values = q[limits.q_index]
+            if (values < limits.lower).any() or (values > limits.upper).any():
+                return False
+        return True
+
     # -- one QP step ----------------------------------------------------------------------------
     def _assemble_level(self, level: int) -> tuple[np.ndarray, np.ndarray, float]:
         """(weighted J, weighted gain*e, |e|^2 of goal tasks) for one priority level (views of
@@ -260,7 +268,7 @@ class IKProblem:
                 dq = None
             if dq is not None:
                 trial = self.kinematics.integrate(dq)
-                if np.array_equal(self.clip(trial), trial):
+                if self._within_limits(trial):
                     self.kinematics.update(trial)
                     continue
             constraints = self._constraint_matrices(1.0, self.max_step)
@@ -272,7 +280,8 @@ class IKProblem:
 
     # -- iterate to convergence -----------------------------------------------------------------
     def task_errors(self) -> dict[str, float]:
-        return {task.name: float(np.linalg.norm(task.error(self.kinematics))) for task in self.tasks}
+        return {task.name: math.sqrt(float(error @ error))
+                for task in self.tasks for error in (task.error(self.kinematics),)}
 
     def violations(self) -> dict[str, float]:
         return {constraint.name: float(constraint.violation(self.kinematics))
@@ -346,7 +355,7 @@ class IKProblem:
                           "configuration" if iteration == 1 else
                           f"best effort: {self.backend} found no further step (radius {radius:.2g})")
                 break
-            step_size = float(np.max(np.abs(dq))) if dq.size else 0.0
+            step_size = float(np.abs(dq).max()) if dq.size else 0.0
             kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
             projected = self.project(0.1 * equality_tolerance)
             trial_violation = self._inequality_violation()

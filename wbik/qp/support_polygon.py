@@ -130,7 +130,7 @@ class SupportPolygon:
 
     def margin_of(self, point: np.ndarray) -> float:
         """Distance from ``point`` (x, y) to the boundary, positive inside, negative outside."""
-        return float(np.min(self.offsets - self.normals @ np.asarray(point, dtype=float)[:2]))
+        return float((self.offsets - self.normals @ np.asarray(point, dtype=float)[:2]).min())
 
     def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
         return self.margin_of(point) >= margin
