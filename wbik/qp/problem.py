@@ -391,7 +391,8 @@ class IKProblem:
 
     def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,
                 start_time: float) -> QPSolution:
-        self.kinematics.update(q)
+        if not np.array_equal(q, self.kinematics.q):  # (an update would recompute the same rows)
+            self.kinematics.update(q)
         violations = self.violations()
         feasible = all(value <= self.constraint_tolerance if isinstance_equality else value <= 1e-9
                        for value, isinstance_equality in zip(
