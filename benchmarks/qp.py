@@ -12,6 +12,12 @@ in the right sole by FK against wbik's SupportPolygon, and Pink's and PlaCo's se
 its CoM polygon clockwise, as its CoMPolygonConstraint wants, and configured hard (its default
 priority is soft); ``placo_problem`` builds that problem (tests/test_peer_configuration.py too).
 
+Then where our step's time goes: a table of the phases of ``IKProblem.step`` (kinematics,
+constraint rows, task rows, H and c, the DAQP call; its ``profile`` argument) per step and per
+converged IK, where the IK adds the contact projections and the rest of the loop (merit, checks,
+integration, report). ``cProfile`` on ``problem.step`` / ``problem.solve`` gives the same picture
+by function.
+
 Run: .venv/bin/python benchmarks/qp.py [--repeats 300]
 """
 
