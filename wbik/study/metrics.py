@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 from wbik.solvers.base import IKResult
 
 POSITION_AXES = ("x", "y", "z")
@@ -61,11 +62,6 @@ def euler_zyx(rotations: np.ndarray) -> np.ndarray:
     beta = np.arctan2(-r31, np.hypot(r11, r21))
     alpha = np.arctan2(rotations[..., 2, 1], rotations[..., 2, 2])
     return np.stack((alpha, beta, gamma), axis=-1)
-
-
-def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped to (-pi, pi]."""
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
 
 
 def exp3(vectors: np.ndarray) -> np.ndarray:

@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbik.geometry import wrap_to_pi
 from wbik.models.pincher import BASE_HEIGHT, LINK, WRIST_TO_TOOL
 from wbik.robot import Chain
 from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm, wrap_into_limits
@@ -52,11 +53,6 @@ AXIS_TOLERANCE = AXIS_RELATIVE_TOLERANCE * (2.0 * LINK + WRIST_TO_TOOL)
 PITCH_TIE = 1e-9
 """Pitches (rad) this close count as equal: q0's own pitch, and both shoulder sides equally near to it
 (the sides' arcs come from atan2(h, r) and atan2(h, -r), equal to pi - each other only up to rounding)."""
-
-
-def _wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angle in (-pi, pi]."""
-    return np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
 
 
 def arm_plane_branches(yaw: np.ndarray, signed_reach: np.ndarray, height: np.ndarray,
@@ -214,7 +210,7 @@ class PincherPosition(_PincherForm):
                 inside = np.any(usable_middle[:, :, 0], axis=-1) & found
                 good = np.where(inside, middle, good)
                 bad = np.where(inside, bad, middle)
-            score = np.where(found, np.abs(_wrap_angle(centre + good - pitch0)), np.inf)
+            score = np.where(found, np.abs(wrap_to_pi(centre + good - pitch0)), np.inf)
             better = score < best_score
             best_offset = np.where(better, good, best_offset)
             best_score = np.where(better, score, best_score)
@@ -227,7 +223,7 @@ class PincherPosition(_PincherForm):
         count = len(positions)
         yaws, reaches, centre, half_width, reachable = self._sides(positions, q0)
         pitch0 = (np.pi / 2 - q0[:, 1:].sum(axis=1))[:, None]
-        offset = np.clip(_wrap_angle(pitch0 - centre), -half_width, half_width)
+        offset = np.clip(wrap_to_pi(pitch0 - centre), -half_width, half_width)
         nearest = (centre + offset)[..., None]  # (B, 2, 1)
         q_best, exact, usable = self._candidates(yaws, reaches, positions[:, 2], nearest, q0)
         q_best, exact, usable = q_best[:, :, 0].copy(), exact[:, :, 0].copy(), usable[:, :, 0].copy()
@@ -235,7 +231,7 @@ class PincherPosition(_PincherForm):
         # search the sides whose nearest pitch has no branch in the limits, unless the other side already
         # has one at q0's own pitch (nothing can be nearer)
         side_ok = np.any(usable, axis=-1)
-        at_pitch0 = side_ok & (np.abs(_wrap_angle(chosen - pitch0)) <= PITCH_TIE)
+        at_pitch0 = side_ok & (np.abs(wrap_to_pi(chosen - pitch0)) <= PITCH_TIE)
         retry_side = ~side_ok & reachable & ~at_pitch0[:, ::-1]
         retry = np.any(retry_side, axis=1)
         if np.any(retry):
@@ -246,7 +242,7 @@ class PincherPosition(_PincherForm):
                 mask = keep.reshape(keep.shape + (1,) * (found.ndim - 2))
                 mine[retry] = np.where(mask, found, mine[retry])
         # keep the side(s) whose pitch is nearest to q0's pitch among those with a usable branch
-        score = np.where(np.any(usable, axis=-1), np.abs(_wrap_angle(chosen - pitch0)), np.inf)
+        score = np.where(np.any(usable, axis=-1), np.abs(wrap_to_pi(chosen - pitch0)), np.inf)
         best_side = score <= score.min(axis=1, keepdims=True) + PITCH_TIE
         valid = np.where(np.any(usable, axis=(1, 2))[:, None, None], usable & best_side[..., None], exact)
         valid &= reachable[..., None]
