@@ -11,8 +11,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
+from wbik.geometry import batch_log3
 from wbik.solvers.base import Tolerances
-from wbik.solvers.bounded_lm import VectorisedChain, batch_log3, scaled_model
+from wbik.solvers.bounded_lm import VectorisedChain, scaled_model
 from wbik.targets import as_target
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbik.geometry import batch_exp3 as exp3
 from wbik.solvers.base import IKResult
-from wbik.study.metrics import THESIS_ANGLE_NAMES, axis_errors, euler_zyx, exp3, wrap_angle
+from wbik.study.metrics import THESIS_ANGLE_NAMES, axis_errors, euler_zyx, wrap_angle
 
 
 def _rz(a):

@@ -24,6 +24,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
+from wbik import geometry
 from wbik.errors import RobotDescriptionError
 
 Convention = Literal["standard", "modified"]
@@ -31,13 +32,17 @@ JointType = Literal["revolute", "prismatic"]
 
 
 def rot_x(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1.0]])
+    """4x4 homogeneous rotation about x."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = geometry.rot_x(angle)
+    return matrix
 
 
 def rot_z(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    """4x4 homogeneous rotation about z."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = geometry.rot_z(angle)
+    return matrix
 
 
 def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:

@@ -1,13 +1,28 @@
-"""Small geometry shared by the solvers: angle wrapping and distances between joint vectors.
+"""The geometry kernel: rotations, angle wrapping, rotation logarithm/exponential and the pose error.
 
-One rule for wrapping: ``wrap_to_pi(a)`` is the angle a - 2 pi k in (-pi, pi].
+Conventions (one per quantity, used by every solver, the QP tasks, the study and motion):
+
+- **Angles** wrap with one rule: ``wrap_to_pi(a)`` is a - 2 pi k in (-pi, pi].
+- **Rotations** are 3x3 matrices acting on column vectors; ``rot_x/rot_y/rot_z`` take scalars or
+  arrays of angles and return (..., 3, 3).
+- **Pose error** of a reached pose (R, p) against a target (R*, p*), both in the same base frame::
+
+      e = [p - p* ; log3(R*^T R)]            (6,), metres then radians
+
+  position part in base axes, rotation part a rotation vector in the *target's* axes; the sign is
+  "reached relative to target", so a solver drives e to 0 with a step dq = -J_e^+ e. Its
+  derivative: de_p/dq = J_v (base axes) and de_R/dq = Jlog3(R*^T R) R^T J_w for a frame Jacobian
+  whose angular rows J_w are in base axes (``rotation_error_jacobian``). Position-only targets use
+  the first three rows. ``|e_R|`` is the rotation angle between R and R* (``rotation_angle``).
 """
 
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 
 
+# --- angles ------------------------------------------------------------------------------------------
 def wrap_to_pi(angle):
     """a - 2 pi k in (-pi, pi] (element-wise on arrays)."""
     return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
@@ -17,3 +32,85 @@ def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
     """Largest joint difference |q_i - other_i|, revolute joints taken modulo 2 pi."""
     difference = np.asarray(q, dtype=float) - other
     return float(np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference))))
+
+
+# --- elementary rotations ----------------------------------------------------------------------------
+def _rotation(angle, rows) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    values = {"c": c, "s": s, "-s": -s, "1": one, "0": zero}
+    return np.stack([np.stack([values[entry] for entry in row], -1) for row in rows], -2)
+
+
+def rot_x(angle) -> np.ndarray:
+    """Rotation about x by ``angle`` (scalar -> (3, 3), array (...) -> (..., 3, 3))."""
+    return _rotation(angle, (("1", "0", "0"), ("0", "c", "-s"), ("0", "s", "c")))
+
+
+def rot_y(angle) -> np.ndarray:
+    """Rotation about y by ``angle``."""
+    return _rotation(angle, (("c", "0", "s"), ("0", "1", "0"), ("-s", "0", "c")))
+
+
+def rot_z(angle) -> np.ndarray:
+    """Rotation about z by ``angle``."""
+    return _rotation(angle, (("c", "-s", "0"), ("s", "c", "0"), ("0", "0", "1")))
+
+
+# --- logarithm and exponential of rotations ----------------------------------------------------------
+_LOG3_ENTRIES = np.array([7, 2, 3, 5, 6, 1, 0, 4, 8])  # R21 R02 R10, R12 R20 R01, R00 R11 R22
+
+
+def batch_log3(rotations: np.ndarray) -> np.ndarray:
+    """Rotation vectors (B, 3) of (B, 3, 3) rotations: v = vee(R - R^T) = 2 sin(angle) axis and
+    angle = atan2(|v| / 2, (trace - 1) / 2), accurate at every angle but near pi (done by Pinocchio)."""
+    entries = rotations.reshape(-1, 9).take(_LOG3_ENTRIES, axis=1)
+    vee = entries[:, :3] - entries[:, 3:6]
+    twice_sine = np.sqrt(np.einsum("bi,bi->b", vee, vee))
+    cosine = 0.5 * (entries[:, 6] + entries[:, 7] + entries[:, 8] - 1.0)
+    angle = np.arctan2(0.5 * twice_sine, cosine)
+    result = vee * (angle / np.maximum(twice_sine, 1e-300))[:, None]  # -> vee / 2 as angle -> 0
+    if twice_sine.min(initial=np.inf) < 1e-6:
+        for index in np.flatnonzero((twice_sine < 1e-6) & (cosine < 0.0)):  # near pi, vee loses the axis
+            result[index] = pin.log3(rotations[index])
+    return result
+
+
+def batch_exp3(vectors: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (Rodrigues' formula)."""
+    angle = np.linalg.norm(vectors, axis=-1)[..., None, None]
+    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
+    zero = np.zeros_like(x)
+    skew = np.stack((np.stack((zero, -z, y), -1), np.stack((z, zero, -x), -1),
+                     np.stack((-y, x, zero), -1)), -2)
+    small = angle < 1e-8
+    safe = np.where(small, 1.0, angle)
+    first = np.where(small, 1.0 - angle ** 2 / 6.0, np.sin(safe) / safe)
+    second = np.where(small, 0.5 - angle ** 2 / 24.0, (1.0 - np.cos(safe)) / safe ** 2)
+    return np.eye(3) + first * skew + second * (skew @ skew)
+
+
+# --- the pose error ----------------------------------------------------------------------------------
+def rotation_error(reached: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached."""
+    return pin.log3(target.T @ reached)
+
+
+def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:
+    """|log3(R*^T R)|: the angle (rad, in [0, pi]) between two rotations."""
+    return float(np.linalg.norm(pin.log3(target.T @ reached)))
+
+
+def pose_error(reached_rotation: np.ndarray, reached_position: np.ndarray,
+               target_rotation: np.ndarray | None, target_position: np.ndarray) -> np.ndarray:
+    """e = [p - p*; log3(R*^T R)] (6,), or p - p* (3,) when the target has no rotation."""
+    position = reached_position - target_position
+    if target_rotation is None:
+        return position
+    return np.concatenate((position, pin.log3(target_rotation.T @ reached_rotation)))
+
+
+def rotation_error_jacobian(reached: np.ndarray, target: np.ndarray,
+                            angular_jacobian: np.ndarray) -> np.ndarray:
+    """d log3(R*^T R) / dq = Jlog3(R*^T R) R^T J_w for angular rows J_w in base axes."""
+    return pin.Jlog3(target.T @ reached) @ (reached.T @ angular_jacobian)

@@ -58,6 +58,7 @@ from scipy.linalg.lapack import dposv
 from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
+from wbik.geometry import batch_log3
 from wbik.solvers.base import Candidate, Solver
 from wbik.solvers.task_error import converged
 from wbik.targets import Target
@@ -522,24 +523,6 @@ def rotation_taking_z_to(axis: np.ndarray) -> np.ndarray:
     x = np.cross(helper, axis)
     x /= np.linalg.norm(x)
     return np.column_stack((x, np.cross(axis, x), axis))
-
-
-LOG3_ENTRIES = np.array([7, 2, 3, 5, 6, 1, 0, 4, 8])  # R21 R02 R10, R12 R20 R01, R00 R11 R22
-
-
-def batch_log3(rotations: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (B, 3, 3) rotations: v = vee(R - R^T) = 2 sin(angle) axis and
-    angle = atan2(|v| / 2, (trace - 1) / 2), accurate at every angle but near pi (done by Pinocchio)."""
-    entries = rotations.reshape(-1, 9).take(LOG3_ENTRIES, axis=1)
-    vee = entries[:, :3] - entries[:, 3:6]
-    twice_sine = np.sqrt(np.einsum("bi,bi->b", vee, vee))
-    cosine = 0.5 * (entries[:, 6] + entries[:, 7] + entries[:, 8] - 1.0)
-    angle = np.arctan2(0.5 * twice_sine, cosine)
-    result = vee * (angle / np.maximum(twice_sine, 1e-300))[:, None]  # -> vee / 2 as angle -> 0
-    if twice_sine.min() < 1e-6:
-        for index in np.flatnonzero((twice_sine < 1e-6) & (cosine < 0.0)):  # near pi, vee loses the axis
-            result[index] = pin.log3(rotations[index])
-    return result
 
 
 @dataclass(frozen=True)

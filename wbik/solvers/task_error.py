@@ -8,7 +8,7 @@ For a position target only the first three rows are used.
 Besides the Pinocchio-based ``task_error`` (one configuration), this module holds the chain's
 serial structure (``serial_structure``: fixed placements and joint axes, from which KDL chains and
 vectorised kinematics are built). The rotation logarithm of many matrices at once is
-:func:`wbik.solvers.bounded_lm.batch_log3`.
+:func:`wbik.geometry.batch_log3`.
 """
 
 from __future__ import annotations

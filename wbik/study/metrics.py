@@ -19,6 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from wbik.geometry import batch_exp3
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 from wbik.solvers.base import IKResult
 
@@ -64,20 +65,6 @@ def euler_zyx(rotations: np.ndarray) -> np.ndarray:
     return np.stack((alpha, beta, gamma), axis=-1)
 
 
-def exp3(vectors: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) (Rodrigues' formula)."""
-    angle = np.linalg.norm(vectors, axis=-1)[..., None, None]
-    x, y, z = vectors[..., 0], vectors[..., 1], vectors[..., 2]
-    zero = np.zeros_like(x)
-    skew = np.stack((np.stack((zero, -z, y), -1), np.stack((z, zero, -x), -1),
-                     np.stack((-y, x, zero), -1)), -2)
-    small = angle < 1e-8
-    safe = np.where(small, 1.0, angle)
-    first = np.where(small, 1.0 - angle ** 2 / 6.0, np.sin(safe) / safe)
-    second = np.where(small, 0.5 - angle ** 2 / 24.0, (1.0 - np.cos(safe)) / safe ** 2)
-    return np.eye(3) + first * skew + second * (skew @ skew)
-
-
 def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None,
                 angle_names: dict | None = None) -> dict[str, np.ndarray]:
     """Per-axis error columns ``err_<axis>`` for a batch of answers (NaN where no joints came back).
@@ -94,7 +81,7 @@ def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None
     vector = np.array([r.rotation_error_xyz for r in results], dtype=float).reshape(count, 3)
     for index, axis in enumerate(ROTATION_VECTOR_AXES):
         columns[f"err_{axis}"] = vector[:, index]
-    reached = target_rotations @ exp3(np.nan_to_num(vector))
+    reached = target_rotations @ batch_exp3(np.nan_to_num(vector))
     difference = wrap_angle(euler_zyx(reached) - euler_zyx(target_rotations))
     difference[~np.all(np.isfinite(vector), axis=1)] = np.nan
     for index, axis in enumerate(ANGLE_AXES):

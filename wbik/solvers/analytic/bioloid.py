@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.errors import InvalidTargetError
+from wbik.geometry import rot_x, rot_y, rot_z
 from wbik.models.bioloid import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
 from wbik.solvers.analytic import ClosedForm
 
@@ -44,28 +45,6 @@ beyond the boundary, ~1e-11 m) must not flip the verdict; the clamped limb misse
 ARM_MIRROR = np.array([1.0, -1.0, -1.0])
 LEG_MIRROR = np.array([-1.0, -1.0, 1.0, 1.0, 1.0, -1.0])
 """q_left = sign * q_right for mirror-image poses (both sides use the same axis directions)."""
-
-
-# --- small vectorised rotations --------------------------------------------------------------------
-def rot_x(angle: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    one, zero = np.ones_like(c), np.zeros_like(c)
-    return np.stack([np.stack([one, zero, zero], -1), np.stack([zero, c, -s], -1),
-                     np.stack([zero, s, c], -1)], -2)
-
-
-def rot_y(angle: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    one, zero = np.ones_like(c), np.zeros_like(c)
-    return np.stack([np.stack([c, zero, s], -1), np.stack([zero, one, zero], -1),
-                     np.stack([-s, zero, c], -1)], -2)
-
-
-def rot_z(angle: np.ndarray) -> np.ndarray:
-    c, s = np.cos(angle), np.sin(angle)
-    one, zero = np.ones_like(c), np.zeros_like(c)
-    return np.stack([np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1),
-                     np.stack([zero, zero, one], -1)], -2)
 
 
 def _points(p, what: str) -> np.ndarray:
