@@ -1,0 +1,133 @@
+"""The one Levenberg-Marquardt policy: its scalar and batched forms make the same decisions, and its
+steps are the damped least-squares steps written out here with plain numpy."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
+
+POLICIES = [LevenbergMarquardt(), LevenbergMarquardt(max_step=0.2),
+            LevenbergMarquardt(cost_weight=0.0, floor=1e-12, start=1e-3, increase=4.0, reject_floor=0.0,
+                               stall=0, max_damping=1e6)]
+
+
+def _case(rng, n: int, size: int):
+    """Random residual Jacobians, errors and configurations, about a third of them on a bound."""
+    lower, upper = -np.ones(n), np.ones(n)
+    wraps = np.zeros(n, dtype=bool)
+    wraps[0] = True
+    lower[0], upper[0] = -np.pi, np.pi
+    bounds = JointBounds(lower, upper, wraps)
+    jacobian = rng.normal(size=(size, 6, n))
+    error = rng.normal(size=(size, 6))
+    q = rng.uniform(lower, upper, size=(size, n))
+    on_bound = rng.random((size, n)) < 0.3
+    q = np.where(on_bound, np.where(rng.random((size, n)) < 0.5, lower, upper), q)
+    cost = np.einsum("bi,bi->b", error, error)
+    base = 10.0 ** rng.uniform(-3, 1, size=size)  # J^T J of 7 joints is singular: keep it conditioned
+    return bounds, jacobian, error, q, cost, base
+
+
+def _reference_trial(policy: LevenbergMarquardt, jacobian, error, cost, base, q, bounds
+                     ) -> tuple[np.ndarray, bool]:
+    """The policy's trial written out: damped step, cap, freeze clipped joints pushed outwards, project."""
+    n = q.size
+    system = jacobian.T @ jacobian + (policy.cost_weight * cost + base) * np.eye(n)
+    gradient = jacobian.T @ error
+    step = -np.linalg.solve(system, gradient)
+
+    def cap(step):
+        if policy.max_step is not None and np.abs(step).max() > policy.max_step:
+            return step * policy.max_step / np.abs(step).max()
+        return step
+
+    step = cap(step)
+    froze = False
+    if np.any((q + step < bounds.lower) | (q + step > bounds.upper)):
+        blocked = ~bounds.wraps & (((q <= bounds.lower) & (step < 0)) | ((q >= bounds.upper) & (step > 0)))
+        if blocked.any():
+            froze = True
+            free = ~blocked
+            step = np.zeros(n)
+            step[free] = -np.linalg.solve(system[np.ix_(free, free)], gradient[free])
+            step = cap(step)
+    trial = q + step
+    wrapped = trial.copy()
+    for k in np.flatnonzero(bounds.wraps):
+        if not bounds.lower[k] <= wrapped[k] <= bounds.upper[k]:
+            wrapped[k] = bounds.lower[k] + np.mod(wrapped[k] - bounds.lower[k], 2 * np.pi)
+    return np.clip(wrapped, bounds.lower, bounds.upper), froze
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+@pytest.mark.parametrize("n", [4, 6, 7])
+def test_scalar_and_batched_trials_agree_with_the_written_out_step(policy, n, rng):
+    bounds, jacobian, error, q, cost, base = _case(rng, n, 64)
+    gram = np.einsum("bmi,bmj->bij", jacobian, jacobian)
+    gradient = np.einsum("bmi,bm->bi", jacobian, error)
+    batched = policy.trial_batch(gram.copy(), gradient, cost, base, q, bounds)
+    froze = 0
+    for b in range(len(q)):
+        expected, froze_here = _reference_trial(policy, jacobian[b], error[b], cost[b], base[b], q[b], bounds)
+        scalar = policy.trial(gram[b].copy(), gradient[b], float(cost[b]), float(base[b]), q[b], bounds)
+        np.testing.assert_allclose(scalar, expected, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(batched[b], expected, rtol=0, atol=1e-12)
+        froze += froze_here
+        assert np.all(batched[b] >= bounds.lower) and np.all(batched[b] <= bounds.upper)
+    assert froze > 0  # the case exercises bound freezing
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_scalar_and_batched_damping_and_stall_decisions_agree(policy, rng):
+    size = 200
+    accepted = rng.random(size) < 0.5
+    base = 10.0 ** rng.uniform(-8, 7, size=size)
+    batched = policy.next_damping_batch(accepted, base)
+    saturated = policy.saturated_batch(base)
+    for b in range(size):
+        expected = (max(policy.decrease * base[b], policy.floor) if accepted[b]
+                    else policy.increase * max(base[b], policy.reject_floor))
+        assert policy.next_damping(bool(accepted[b]), float(base[b])) == expected == batched[b]
+        assert policy.saturated(float(base[b])) == saturated[b] == \
+            (policy.max_damping is not None and base[b] > policy.max_damping)
+    # stall: run both forms along the same random cost sequences
+    runs, length = 50, 12
+    costs = np.cumprod(rng.uniform(0.7, 1.05, size=(runs, length)), axis=1)
+    best, since = np.full(runs, np.inf), np.zeros(runs, dtype=int)
+    for b in range(runs):
+        scalar_best, scalar_since, stalled_at = np.inf, 0, None
+        for k in range(length):
+            scalar_best, scalar_since, stalled = policy.track(costs[b, k], scalar_best, scalar_since)
+            if stalled and stalled_at is None:
+                stalled_at = k
+        costs_b = costs[b]
+        expected_best, count, expected_stall = np.inf, 0, None
+        for k in range(length):  # the rule in words: progress = below progress x the best so far
+            if costs_b[k] < policy.progress * expected_best:
+                expected_best, count = costs_b[k], 0
+            else:
+                count += 1
+                if policy.stall and count >= policy.stall and expected_stall is None:
+                    expected_stall = k
+        assert stalled_at == expected_stall and scalar_best == expected_best
+    stalled_batch = np.full(runs, -1)
+    for k in range(length):
+        best, since, stalled = policy.track_batch(costs[:, k], best, since)
+        stalled_batch = np.where((stalled_batch < 0) & stalled, k, stalled_batch)
+    for b in range(runs):
+        scalar_best, scalar_since, first = np.inf, 0, -1
+        for k in range(length):
+            scalar_best, scalar_since, stalled = policy.track(costs[b, k], scalar_best, scalar_since)
+            if stalled and first < 0:
+                first = k
+        assert first == stalled_batch[b]
+
+
+def test_projection_wraps_full_turns_and_clips_the_rest():
+    bounds = JointBounds(np.array([-np.pi, -1.0]), np.array([np.pi, 1.0]), np.array([True, False]))
+    projected = bounds.project(np.array([np.pi + 0.5, 1.5]))
+    np.testing.assert_allclose(projected, [-np.pi + 0.5, 1.0], atol=1e-15)
+    both = bounds.project(np.array([[np.pi + 0.5, 1.5], [0.2, -3.0]]))
+    np.testing.assert_allclose(both, [[-np.pi + 0.5, 1.0], [0.2, -1.0]], atol=1e-15)

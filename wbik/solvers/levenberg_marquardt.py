@@ -1,0 +1,215 @@
+"""The one Levenberg-Marquardt policy of wbik's iterative methods: damping law, accept/reject update,
+bound freezing and stall detection, for one configuration and for a batch.
+
+For a residual e(q) (the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], or any
+other least-squares residual) with Jacobian J, one step solves
+
+    (J^T J + lambda I) dq = -J^T e,        lambda = w |e|^2 + mu                    (damping law)
+
+with w = ``cost_weight`` and mu the *base damping*, which starts at ``floor``: Sugihara's
+error-dependent damping, large far from the target (robust start), vanishing near it (Newton-fast
+end). The caller forms the Gram matrix G = J^T J and the gradient g = J^T e however it likes (from
+J or from J^T; the minimum-norm form J^T (J J^T + lambda I)^-1 e is the same step).
+
+- **Step cap**: with ``max_step`` set, a step whose largest joint change exceeds it is scaled down.
+- **Bounds** (:class:`JointBounds`): the trial q + dq is projected into the limits (full-turn
+  revolute joints wrapped by 2 pi, the others clipped). A clipped joint already on a bound whose
+  step points outwards is *frozen*: the step is recomputed once without it (its row and column of
+  the damped system dropped), so the free joints get the best step the bound leaves them. This is a
+  one-pass active set; it is only evaluated when the trial leaves the limits.
+- **Accept/reject**: a trial is accepted when its cost |e|^2 is lower. Then mu <- max(decrease mu,
+  floor); on a rejection mu <- increase max(mu, reject_floor) (a rejected step jumps the damping
+  to at least ``increase * reject_floor`` at once: a tiny mu would only creep up).
+- **Stall**: the best cost of a run must fall below ``progress`` x its previous best at least once
+  every ``stall`` iterations; otherwise the run has stalled (a local minimum, a limit, or a target
+  out of reach). With ``max_damping`` set, a base damping above it is a stall too (the step has
+  shrunk to nothing); ``stall=0`` turns the progress test off.
+
+Scalar methods take floats and (n,) arrays; their ``*_batch`` twins take (B,) and (B, n) arrays and
+make the same decisions element by element (``tests/test_levenberg_marquardt.py`` checks it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg.lapack import dposv
+
+TWO_PI = 2.0 * math.pi
+
+
+class JointBounds:
+    """Joint limits and the projection into them: full-turn revolute joints (``wraps``) are wrapped
+    by 2 pi into their range, the others clipped. Immutable after construction (shared by threads)."""
+
+    def __init__(self, lower: np.ndarray, upper: np.ndarray, wraps: np.ndarray | None = None):
+        self.lower = np.asarray(lower, dtype=float).copy()
+        self.upper = np.asarray(upper, dtype=float).copy()
+        self.wraps = (np.zeros(self.lower.shape, dtype=bool) if wraps is None
+                      else np.asarray(wraps, dtype=bool).copy())
+        self.clipped = ~self.wraps
+        self.any_wrap = bool(self.wraps.any())
+        for array in (self.lower, self.upper, self.wraps, self.clipped):
+            array.flags.writeable = False
+
+    @classmethod
+    def of_chain(cls, chain) -> JointBounds:
+        """A chain's limits; revolute joints whose range spans a full turn wrap."""
+        wraps = (~chain.is_prismatic) & (chain.upper - chain.lower >= TWO_PI - 1e-9)
+        return cls(chain.lower, chain.upper, wraps)
+
+    def project(self, q: np.ndarray) -> np.ndarray:
+        """q (n,) or (B, n) inside the limits: wrapped full-turn joints, clipped others (a new array)."""
+        if self.any_wrap:
+            q = q.copy()
+            wrapped = q[..., self.wraps]
+            low = self.lower[self.wraps]
+            outside = (wrapped < low) | (wrapped > self.upper[self.wraps])
+            q[..., self.wraps] = np.where(outside, low + np.mod(wrapped - low, TWO_PI), wrapped)
+        return np.minimum(np.maximum(q, self.lower), self.upper)
+
+    def blocked(self, q: np.ndarray, step: np.ndarray) -> np.ndarray:
+        """Clipped joints on a bound whose step points outwards (n,) or (B, n): the ones to freeze."""
+        return (((q <= self.lower) & (step < 0.0)) | ((q >= self.upper) & (step > 0.0))) & self.clipped
+
+
+@dataclass(frozen=True)
+class LevenbergMarquardt:
+    """The policy's numbers (see the module docstring); the methods apply them.
+
+    cost_weight: w of lambda = w |e|^2 + mu; floor: the least (and first) base damping mu;
+    decrease, increase: mu's factors on an accepted / rejected step; reject_floor: mu is raised to
+    at least this before a rejection multiplies it; progress, stall: a run stalls when its best cost
+    has not fallen below ``progress`` x the previous best in ``stall`` iterations (0: never);
+    max_damping: a base damping above this is a stall (None: no such test); max_step: cap on the
+    largest joint step (rad or m; None: no cap); start: the first base damping (None: ``floor``).
+    """
+
+    cost_weight: float = 0.01
+    floor: float = 1e-6
+    decrease: float = 0.3
+    increase: float = 10.0
+    reject_floor: float = 1e-3
+    progress: float = 0.9
+    stall: int = 3
+    max_damping: float | None = None
+    max_step: float | None = None
+    start: float | None = None
+
+    @property
+    def first_damping(self) -> float:
+        """The base damping mu a run starts with."""
+        return self.floor if self.start is None else self.start
+
+    # -- the damping law --------------------------------------------------------------------------
+    def damping(self, cost, base):
+        """lambda = w |e|^2 + mu (floats or arrays)."""
+        return self.cost_weight * cost + base
+
+    # -- one configuration ------------------------------------------------------------------------
+    def trial(self, gram: np.ndarray, gradient: np.ndarray, cost: float, base: float, q: np.ndarray,
+              bounds: JointBounds) -> np.ndarray:
+        """The next trial configuration, inside the limits: damped step, cap, projection and bound
+        freezing. ``gram`` (J^T J, (n, n)) is overwritten by the damped system."""
+        n = q.shape[0]
+        gram.reshape(-1)[::n + 1] += self.cost_weight * cost + base
+        step = _solve(gram, gradient)
+        step = self._capped(step)
+        trial = q - step
+        inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        if inside.tobytes() != trial.tobytes():  # some joint left its range (or needs wrapping)
+            blocked = bounds.blocked(q, -step)
+            if blocked.any():
+                free = np.flatnonzero(~blocked)
+                step = np.zeros(n)
+                if free.size:
+                    step[free] = _solve(gram[free[:, None], free], gradient[free])
+                trial = q - self._capped(step)
+            inside = bounds.project(trial) if bounds.any_wrap \
+                else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        return inside
+
+    def _capped(self, step: np.ndarray) -> np.ndarray:
+        if self.max_step is not None:
+            longest = float(np.abs(step).max())
+            if longest > self.max_step:
+                return step * (self.max_step / longest)
+        return step
+
+    def next_damping(self, accepted: bool, base: float) -> float:
+        """mu after a step: max(decrease mu, floor) when accepted, increase max(mu, reject_floor) if not."""
+        if accepted:
+            return max(base * self.decrease, self.floor)
+        return max(base, self.reject_floor) * self.increase
+
+    def track(self, cost: float, best: float, since: int) -> tuple[float, int, bool]:
+        """Stall detection after an iteration: (best cost, iterations since progress, stalled?)."""
+        if cost < self.progress * best:
+            return cost, 0, False
+        since += 1
+        return best, since, 0 < self.stall <= since
+
+    def saturated(self, base: float) -> bool:
+        """The base damping has grown past ``max_damping``: steps are too small to go anywhere."""
+        return self.max_damping is not None and base > self.max_damping
+
+    # -- a batch of configurations, element by element the same decisions --------------------------
+    def trial_batch(self, gram: np.ndarray, gradient: np.ndarray, cost: np.ndarray, base: np.ndarray,
+                    q: np.ndarray, bounds: JointBounds) -> np.ndarray:
+        """:meth:`trial` for (B, n, n) Gram matrices (overwritten), (B, n) gradients and q, (B,) costs
+        and base dampings. A frozen joint keeps its diagonal and loses its coupling, with a zero
+        right-hand side: its step is 0 and the free joints solve the reduced system."""
+        diagonal = np.einsum("bii->bi", gram)
+        diagonal += self.damping(cost, base)[:, None]
+        step = self._capped_batch(np.linalg.solve(gram, gradient[..., None])[..., 0])
+        trial = q - step
+        inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        if inside.tobytes() != trial.tobytes():
+            blocked = bounds.blocked(q, -step)
+            if blocked.any():
+                keep = ~blocked
+                masked = gram * (keep[:, :, None] & keep[:, None, :])
+                masked += np.eye(q.shape[1]) * blocked[:, :, None]
+                step = np.linalg.solve(masked, (gradient * keep)[..., None])[..., 0]
+                trial = q - self._capped_batch(step)
+            inside = bounds.project(trial) if bounds.any_wrap \
+                else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        return inside
+
+    def _capped_batch(self, step: np.ndarray) -> np.ndarray:
+        if self.max_step is not None:
+            longest = np.abs(step).max(axis=1)
+            scale = np.where(longest > self.max_step, self.max_step / np.maximum(longest, 1e-300), 1.0)
+            return step * scale[:, None]
+        return step
+
+    def next_damping_batch(self, accepted: np.ndarray, base: np.ndarray) -> np.ndarray:
+        """:meth:`next_damping` element by element."""
+        return np.where(accepted, np.maximum(base * self.decrease, self.floor),
+                        np.maximum(base, self.reject_floor) * self.increase)
+
+    def track_batch(self, cost: np.ndarray, best: np.ndarray, since: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`track` element by element: (best costs, iterations since progress, stalled)."""
+        progressed = cost < self.progress * best
+        best = np.where(progressed, cost, best)
+        since = np.where(progressed, 0, since + 1)
+        stalled = (since >= self.stall) if self.stall > 0 else np.zeros(cost.shape, dtype=bool)
+        return best, since, stalled
+
+    def saturated_batch(self, base: np.ndarray) -> np.ndarray:
+        """:meth:`saturated` element by element."""
+        if self.max_damping is None:
+            return np.zeros(base.shape, dtype=bool)
+        return base > self.max_damping
+
+
+def _solve(system: np.ndarray, right: np.ndarray) -> np.ndarray:
+    """x with system x = right for a symmetric positive definite system (Cholesky); least squares
+    when it is not numerically positive definite."""
+    _, solution, info = dposv(system, right)
+    if info:
+        return np.linalg.lstsq(system, right, rcond=None)[0]
+    return solution
