@@ -148,36 +148,6 @@ def half_step(robot: Robot, name: str, q0: np.ndarray | None = None, gait: GaitP
     return solve_phases(robot, q, phases, margin, backend, name=name)
 
 
-def walk_sr1(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """WalkSR1: the right foot forward."""
-    return half_step(robot, "WalkSR1", q0, **options)
-
-
-def walk_sr2(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """WalkSR2: the left foot from behind next to the right one."""
-    return half_step(robot, "WalkSR2", q0, **options)
-
-
-def back_sr(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """BackSR: the right foot from in front back next to the left one."""
-    return half_step(robot, "BackSR", q0, **options)
-
-
-def walk_sl1(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """WalkSL1: the left foot forward."""
-    return half_step(robot, "WalkSL1", q0, **options)
-
-
-def walk_sl2(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """WalkSL2: the right foot from behind next to the left one."""
-    return half_step(robot, "WalkSL2", q0, **options)
-
-
-def back_sl(robot: Robot, q0: np.ndarray | None = None, **options) -> WholeBodyMotion:
-    """BackSL: the left foot from in front back next to the right one."""
-    return half_step(robot, "BackSL", q0, **options)
-
-
 def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = None,
                        gait: GaitParameters | None = None, margin: float = 0.005,
                        length: float | None = None, lift: float = HALF_STEP_LIFT,

@@ -168,11 +168,6 @@ def from_servo_units(units: Mapping[int, int] | np.ndarray) -> dict[str, float]:
     return angles
 
 
-def to_servo_units(joint_angles: Mapping[str, float]) -> dict[int, int]:
-    """Shortcut: joint angles (rad) -> clamped servo units by ID (see :func:`to_servo` for the report)."""
-    return to_servo(joint_angles).units
-
-
 # --- the code's ang[] convention and its integer pipelines ------------------------------------------
 def leg_ang_from_q(q) -> np.ndarray:
     """Leg joint angles (..., 6) rad -> the code's ang[] (degrees): (-q0, -q1, -q2, -q3, -q4, +q5)."""

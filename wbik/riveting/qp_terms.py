@@ -59,12 +59,6 @@ class ToolAxisTask(Task):
         rows = np.vstack((np.cross(axis, target_rotation[:, 0]), np.cross(axis, target_rotation[:, 1])))
         return np.vstack((jacobian[:3], rows @ jacobian[3:]))
 
-    @staticmethod
-    def axis_alignment(kinematics_or_rotation, target: pin.SE3) -> float:
-        """cos of the angle between the tcp z axis and the target's z axis."""
-        return float(kinematics_or_rotation[:, 2] @ target.rotation[:, 2])
-
-
 class WorkpieceClearance(Constraint):
     """Every robot geometry at least ``minimum`` (m) from the workpiece (linearised, see module notes).
 

@@ -105,10 +105,6 @@ class Scene:
     def holes_of(self, face: str) -> list[Hole]:
         return [hole for hole in self.holes if hole.face == face]
 
-    def face_center(self, face: str) -> np.ndarray:
-        """Centre of a face of the workpiece box (world)."""
-        return self.workpiece_center + FACE_NORMALS[face] * (self.workpiece_half @ np.abs(FACE_NORMALS[face]))
-
     def nearest_hole(self, position: np.ndarray) -> Hole:
         """The hole whose opening is nearest to ``position`` (the thesis's identification, position only)."""
         distances = [np.linalg.norm(hole.position - position) for hole in self.holes]

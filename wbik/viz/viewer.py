@@ -69,12 +69,6 @@ class AnimationView:
     com_margins: np.ndarray | None
 
 
-def rgb_int(rgba: Sequence[float]) -> int:
-    """Colour as meshcat's 0xRRGGBB integer from RGB(A) floats in [0, 1]."""
-    red, green, blue = (int(round(255 * float(np.clip(c, 0.0, 1.0)))) for c in rgba[:3])
-    return (red << 16) | (green << 8) | blue
-
-
 class Viewer:
     """A robot scene in meshcat. See the module docstring for the workflow."""
 
