@@ -1,9 +1,19 @@
-"""The stacked constraint buffers handed to DAQP as they are agree with the general backend call."""
+"""The stacked constraint buffers handed to DAQP as they are agree with the general backend call;
+the reused DAQP workspaces (warm-started) agree with cold solves; no solution raises a typed error."""
 
 import numpy as np
 import pytest
 
+from wbik.errors import NoQPSolutionError
 from wbik.qp import available_backends, backends
+
+
+def solved(function, *args):
+    """The minimiser, or None when the call raises NoQPSolutionError."""
+    try:
+        return function(*args)
+    except NoQPSolutionError:
+        return None
 
 
 def random_qp(rng, n=12, inequalities=9, equalities=3):
@@ -33,8 +43,8 @@ def stacked(G, h, A, b, lb, ub, capacity=2):
 def test_stacked_daqp_agrees_with_the_general_call(seed):
     rng = np.random.default_rng(seed)
     H, c, G, h, A, b, lb, ub = random_qp(rng)
-    general = backends.solve("daqp", H, c, G, h, A, b, lb, ub)
-    fast = backends.solve_stacked("daqp", H, c, stacked(G, h, A, b, lb, ub))
+    general = solved(backends.solve, "daqp", H, c, G, h, A, b, lb, ub)
+    fast = solved(backends.solve_stacked, "daqp", H, c, stacked(G, h, A, b, lb, ub))
     assert (general is None) == (fast is None)
     if general is not None:
         np.testing.assert_allclose(fast, general, rtol=0, atol=1e-10)
@@ -53,7 +63,45 @@ def test_split_gives_every_backend_the_same_problem(backend):
         np.testing.assert_array_equal(b2, b)
         np.testing.assert_array_equal(lb2, lb)
         np.testing.assert_array_equal(ub2, ub)
-        reference = backends.solve("daqp", H, c, G, h, A, b, lb, ub)
-        other = backends.solve_stacked(backend, H, c, stack)
+        reference = solved(backends.solve, "daqp", H, c, G, h, A, b, lb, ub)
+        other = solved(backends.solve_stacked, backend, H, c, stack)
         if reference is not None and other is not None:
             np.testing.assert_allclose(other, reference, atol=1e-5)
+
+
+def test_a_reused_workspace_agrees_with_cold_solves_on_a_sequence_of_qps():
+    """One layout, data changing from QP to QP (as along an IK loop), infeasible ones in between: the
+    warm-started workspace gives the cold solve's minimiser, and raises where the cold solve does."""
+    rng = np.random.default_rng(11)
+    workspace = backends.DaqpWorkspace()
+    H, c, G, h, A, b, lb, ub = random_qp(rng)
+    compared = failed = 0
+    for index in range(60):
+        H2 = H + 0.05 * index * np.eye(H.shape[0])
+        c2 = c + rng.normal(scale=0.3, size=c.size)
+        G2 = G + rng.normal(scale=0.05, size=G.shape)
+        h2 = h + rng.normal(scale=0.3, size=h.size)
+        if index % 7 == 3:  # two opposite rows that cannot both hold
+            G2[1], h2[1] = -G2[0], -h2[0] - 1.0
+        stack = stacked(G2, h2, A, b, lb, ub, capacity=G.shape[0] + A.shape[0])
+        cold = solved(backends.solve, "daqp", H2, c2, G2, h2, A, b, lb, ub)
+        warm = solved(backends.solve_stacked, "daqp", H2, c2, stack, workspace)
+        assert (cold is None) == (warm is None), index
+        if cold is None:
+            failed += 1
+        else:
+            np.testing.assert_allclose(warm, cold, rtol=0, atol=1e-9)
+            compared += 1
+    assert compared >= 40 and failed >= 8
+
+
+@pytest.mark.parametrize("backend", available_backends())
+def test_no_solution_raises_with_the_backends_status(backend):
+    H, c = np.eye(2), np.zeros(2)
+    G, h = np.array([[1.0, 0.0], [-1.0, 0.0]]), np.array([-1.0, -1.0])  # x <= -1 and x >= 1
+    with pytest.raises(NoQPSolutionError) as caught:
+        backends.solve(backend, H, c, G, h, None, None, None, None)
+    assert caught.value.backend == backend
+    assert caught.value.status is not None
+    if backend == "daqp":
+        assert caught.value.status == -1 and "infeasible" in str(caught.value)

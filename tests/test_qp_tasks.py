@@ -62,6 +62,33 @@ def test_task_jacobian_matches_finite_differences(biped, make_task):
         assert np.max(np.abs(analytic - numeric)) < 1e-6
 
 
+@pytest.mark.parametrize("frame_task", [True, False])
+def test_fill_writes_the_geometry_kernels_pose_error_and_its_jacobian(biped, frame_task):
+    """The step's fused rows: e from wbik.geometry.pose_error on an independent FK, J against
+    central finite differences of that error."""
+    from wbik.geometry import pose_error
+
+    model = biped.model
+    target = pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 1.0), np.array([0.1, -0.1, 0.3]))
+    task = FrameTask("r_hand", target) if frame_task else OrientationTask("r_hand", target.rotation)
+    for seed in (4, 5, 6):
+        q = random_q(model, seed)
+        kinematics = Kinematics(model, q)
+        task.start(kinematics)
+        jacobian, error = np.zeros((task.dimension, model.nv)), np.zeros(task.dimension)
+        task.fill(kinematics, jacobian, error)
+        reached = biped.frame_placement(q, "r_hand")
+        expected = pose_error(reached.rotation, reached.translation, target.rotation, target.translation)
+        np.testing.assert_allclose(error, expected if frame_task else expected[3:], rtol=0, atol=1e-12)
+
+        def geometry_error(k, rotation=target.rotation, translation=target.translation):
+            placement = k.placement(k.frame_id("r_hand"))
+            full = pose_error(placement.rotation, placement.translation, rotation, translation)
+            return full if frame_task else full[3:]
+
+        assert np.max(np.abs(jacobian - numeric_jacobian(model, q, geometry_error))) < 1e-6
+
+
 def test_com_polygon_and_distance_rows_match_finite_differences(biped):
     model = biped.model
     q = random_q(model, 3)

@@ -97,3 +97,17 @@ class InvalidBudgetError(InvalidSettingError):
 class UsageError(WbikError, ValueError):
     """A command-line argument or path that cannot be used as given (e.g. a file where a folder
     is needed, or nothing to report on)."""
+
+
+class NoQPSolutionError(WbikError, RuntimeError):
+    """One QP step found no displacement: its hard constraints conflict at this configuration (or the
+    backend failed). ``backend`` names the QP solver and ``status`` keeps its own exit status.
+
+    Raised by a single QP step (:mod:`wbik.qp.backends`, ``IKProblem.step``); ``IKProblem.solve``
+    turns it into a failed solution with the reason, so an IK call still returns, never raises it.
+    """
+
+    def __init__(self, message: str, backend: str = "", status: object = None):
+        self.backend = backend
+        self.status = status
+        super().__init__(message)

@@ -4,11 +4,15 @@
 >>> problem = IKProblem(robot.model, [FrameTask("r_hand", target)], [JointPositionLimits(robot.model)])
 >>> solution = problem.solve(robot.nominal)        # iterate to convergence (IK)
 >>> dq = problem.step(q, dt=0.01)                   # or one QP step (control), v = dq / dt
+>>> # (a step whose constraints conflict raises wbik.errors.NoQPSolutionError with the backend's status)
 >>> # self-collision / environment: CollisionAvoidance(wbik.collision.robot_collision_model(robot), 0.02)
 
-Modules: ``kinematics`` (model + data at one q), ``tasks``, ``constraints``, ``support_polygon``,
-``backends`` (qpsolvers names, "fastest"), ``problem`` (the QP and the IK loop), ``humanoid``
-(contact/balance helpers for robots that list sole corners).
+Modules: ``kinematics`` (model + data at one q), ``tasks``, ``rows`` (the typed rows a constraint
+contributes: EqualityRows, InequalityRows, BoundRows), ``constraints`` (each derives from
+BoundConstraint, EqualityConstraint or InequalityConstraint and returns its rows), ``support_polygon``,
+``backends`` (qpsolvers names, "fastest"; DAQP on reused buffers), ``step`` (one QP step),
+``problem`` (the IK loop: IKProblem), ``humanoid`` (contact/balance helpers for robots that list
+sole corners).
 
 Where ours differs from PlaCo (the reference, method ``placo``):
 - Contacts: PlaCo makes a frame task "hard" (an equality row); ours add a Newton projection after
@@ -23,16 +27,20 @@ Where ours differs from PlaCo (the reference, method ``placo``):
 
 from wbik.qp.backends import available as available_backends
 from wbik.qp.constraints import (
+    BoundConstraint,
     CollisionAvoidance,
     CoMInSupportPolygon,
     Constraint,
     Contact,
+    EqualityConstraint,
+    InequalityConstraint,
     JointPositionLimits,
     JointVelocityLimits,
     MinimumDistance,
 )
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.problem import IKProblem, QPSolution
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows
 from wbik.qp.support_polygon import SupportPolygon, convex_hull, feet_support_polygon
 from wbik.qp.tasks import (
     ComTask,
@@ -46,8 +54,10 @@ from wbik.qp.tasks import (
 )
 
 __all__ = [
-    "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint", "Contact", "FrameTask", "IKProblem",
-    "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance", "OrientationTask",
-    "PositionTask", "PostureTask", "QPSolution", "RegularizationTask", "RelativeFrameTask",
-    "SupportPolygon", "Task", "available_backends", "convex_hull", "feet_support_polygon",
+    "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint",
+    "Contact", "EqualityConstraint", "EqualityRows", "FrameTask", "IKProblem", "InequalityConstraint",
+    "InequalityRows", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance",
+    "OrientationTask", "PositionTask", "PostureTask", "QPSolution", "RegularizationTask",
+    "RelativeFrameTask", "SupportPolygon", "Task", "available_backends", "convex_hull",
+    "feet_support_polygon",
 ]

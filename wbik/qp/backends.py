@@ -1,10 +1,13 @@
-"""QP backends through qpsolvers, selected by name.
+"""QP backends through qpsolvers, selected by name; DAQP called directly on reused buffers.
 
 Every QP step solves   min 1/2 x^T H x + c^T x   s.t.  G x <= h,  A x = b,  lb <= x <= ub
 with dense matrices (24 variables for the Bioloid whole body). ``BACKEND_OPTIONS`` sets each
 backend's tolerances tight enough for IK to 1e-6 (OSQP's defaults stop at 1e-3). ``FASTEST`` is
 the backend measured fastest on these small dense problems by ``benchmarks/qp.py``, and the
 default; OSQP stays one name away (``backend="osqp"``).
+
+A backend that finds no minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status
+(DAQP's exit flag and its meaning, or qpsolvers' message); nothing returns None.
 
 Measured here (Golem-III right arm, 150 reachable poses from the nominal start, ``wbik.solver("qp")``
 with 1000 iterations allowed): DAQP 70 % solved at 2.3 ms per call (148 us per step), quadprog 70 %
@@ -20,7 +23,7 @@ import numpy as np
 import qpsolvers
 from scipy import sparse
 
-from wbik.errors import MissingDependencyError
+from wbik.errors import MissingDependencyError, NoQPSolutionError
 
 
 class BackendUnavailableError(MissingDependencyError):
@@ -39,6 +42,10 @@ BACKEND_OPTIONS: dict[str, dict] = {
     "quadprog": {},
 }
 
+DAQP_EXIT_FLAGS = {1: "optimal", 2: "soft optimal", -1: "infeasible", -2: "cycling", -3: "unbounded",
+                   -4: "iteration limit", -5: "nonconvex", -6: "initial working set overdetermined"}
+"""DAQP's exit flags (> 0: solved)."""
+
 
 def available() -> list[str]:
     """Backends installed here that qpsolvers can drive with dense matrices."""
@@ -55,22 +62,32 @@ def resolve(name: str) -> str:
     return resolved
 
 
+def _daqp_failure(exitflag: int) -> NoQPSolutionError:
+    meaning = DAQP_EXIT_FLAGS.get(exitflag, "failed")
+    return NoQPSolutionError(f"daqp found no solution (exit flag {exitflag}: {meaning})", "daqp", exitflag)
+
+
 def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
           A: np.ndarray | None, b: np.ndarray | None, lb: np.ndarray | None,
-          ub: np.ndarray | None) -> np.ndarray | None:
-    """The minimiser, or None when the backend finds no solution (infeasible or failed)."""
-    options = BACKEND_OPTIONS.get(backend, {})
+          ub: np.ndarray | None) -> np.ndarray:
+    """The minimiser; raises NoQPSolutionError (with the backend's status) when there is none."""
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
+    options = BACKEND_OPTIONS.get(backend, {})
     try:
         if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
+            problem = qpsolvers.Problem(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                return qpsolvers.solve_qp(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub,
-                                          solver=backend, **options)
-        return qpsolvers.solve_qp(H, c, G, h, A, b, lb, ub, solver=backend, **options)
-    except (ValueError, qpsolvers.SolverError):
-        return None
+                solution = qpsolvers.solve_problem(problem, solver=backend, **options)
+        else:
+            solution = qpsolvers.solve_problem(qpsolvers.Problem(H, c, G, h, A, b, lb, ub), solver=backend,
+                                               **options)
+    except (ValueError, qpsolvers.SolverError) as exc:
+        raise NoQPSolutionError(f"{backend} failed: {exc}", backend, str(exc)) from exc
+    if not solution.found or solution.x is None:
+        raise NoQPSolutionError(f"{backend} found no solution", backend, "not found")
+    return solution.x
 
 
 class StackedConstraints:
@@ -103,6 +120,17 @@ class StackedConstraints:
         self._lower[:self.n] = -radius
         self._upper[:self.n] = radius
         return self._lower[:self.n], self._upper[:self.n]
+
+    def tighten(self, index: np.ndarray | slice, lower, upper) -> None:
+        """lb[index] <- max(lb[index], lower), ub[index] <- min(ub[index], upper)."""
+        bounds = self._lower[:self.n]
+        bounds[index] = np.maximum(bounds[index], lower)
+        bounds = self._upper[:self.n]
+        bounds[index] = np.minimum(bounds[index], upper)
+
+    def close_box(self) -> None:
+        """Keep every lb <= ub (a velocity bound may leave no room inside a position bound)."""
+        np.minimum(self._lower[:self.n], self._upper[:self.n], out=self._lower[:self.n])
 
     def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
         """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""
@@ -146,47 +174,75 @@ class StackedConstraints:
         return G, h, A, b, self._lower[:self.n].copy(), self._upper[:self.n].copy()
 
 
-def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray,
-                  constraints: StackedConstraints) -> np.ndarray | None:
-    """``solve`` with the constraints already stacked: DAQP takes the buffers as they are."""
-    if backend != "daqp":
-        return solve(backend, H, c, *constraints.split())
+class DaqpWorkspace:
+    """DAQP workspaces reused from one QP to the next (``daqp.Model``: no set-up allocations, and the
+    previous active set as the warm start), one per constraint layout (the ``sense`` pattern:
+    row count and which rows are equalities). The QP is strictly convex, so the minimiser does not
+    depend on the start; tests/test_qp_backends.py checks it against a cold ``daqp.solve``.
+    """
+
+    def __init__(self):
+        self._models: dict[bytes, object] = {}
+
+    def solve(self, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
+        import daqp
+
+        if constraints.rows == 0:  # (daqp.Model.update cannot take an empty general matrix)
+            return _cold_daqp(H, c, constraints)
+        sense = constraints.sense
+        key = sense.tobytes()
+        model = self._models.get(key)
+        if model is None:
+            model = daqp.Model()
+            if model.setup(H, c, constraints.matrix, constraints.upper, constraints.lower, sense)[0] < 0:
+                return _cold_daqp(H, c, constraints)
+            self._models[key] = model
+        elif model.update(H, c, constraints.matrix, constraints.upper, constraints.lower) < 0:
+            del self._models[key]
+            return _cold_daqp(H, c, constraints)
+        x, _, exitflag, _ = model.solve()
+        if exitflag > 0:
+            return x
+        del self._models[key]  # a failed solve: start the next QP of this layout afresh
+        return _cold_daqp(H, c, constraints)
+
+
+def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
     import daqp
 
     x, _, exitflag, _ = daqp.solve(H, c, constraints.matrix, constraints.upper, constraints.lower,
                                    constraints.sense)
-    return x if exitflag > 0 else None
+    if exitflag > 0:
+        return x
+    raise _daqp_failure(exitflag)
+
+
+def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
+                  workspace: DaqpWorkspace | None = None) -> np.ndarray:
+    """``solve`` with the constraints already stacked: DAQP takes the buffers as they are (in
+    ``workspace`` when given). Raises NoQPSolutionError when there is no minimiser."""
+    if backend != "daqp":
+        return solve(backend, H, c, *constraints.split())
+    if workspace is not None:
+        return workspace.solve(H, c, constraints)
+    return _cold_daqp(H, c, constraints)
 
 
 def _csc(matrix: np.ndarray | None):
     return None if matrix is None else sparse.csc_matrix(matrix)
 
 
-def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray | None:
-    """DAQP called directly (the same call qpsolvers makes, without its checks and conversions).
-
-    DAQP takes one stacked system blower <= [I; G; A] x <= bupper whose first n rows are the
-    simple bounds; ``sense`` marks the equality rows (5)."""
-    import daqp
-
+def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray:
+    """DAQP called directly (the same call qpsolvers makes, without its checks and conversions)."""
     n = c.size
-    blocks = [m for m in (G, A) if m is not None]
-    rows = sum(m.shape[0] for m in blocks)
-    general = np.vstack(blocks) if len(blocks) > 1 else (blocks[0] if blocks else np.zeros((0, n)))
-    upper = np.empty(n + rows)
-    lower = np.full(n + rows, -1e30)
-    upper[:n] = 1e30 if ub is None else ub
+    stack = StackedConstraints(n, sum(m.shape[0] for m in (G, A) if m is not None) or 1)
+    lower, upper = stack.clear(1e30)
     if lb is not None:
-        lower[:n] = lb
-    offset = n
+        lower[:] = lb
+    if ub is not None:
+        upper[:] = ub
     if G is not None:
-        upper[offset:offset + G.shape[0]] = h
-        offset += G.shape[0]
-    sense = np.zeros(n + rows, dtype=np.int32)
+        stack.add(G, h)
     if A is not None:
-        upper[offset:] = b
-        lower[offset:] = b
-        sense[offset:] = 5
-    x, _, exitflag, _ = daqp.solve(np.ascontiguousarray(H), np.ascontiguousarray(c),
-                                   np.ascontiguousarray(general), upper, lower, sense)
-    return x if exitflag > 0 else None
+        stack.add(A, b, equality=True)
+    return _cold_daqp(np.ascontiguousarray(H), np.ascontiguousarray(c), stack)

@@ -1,14 +1,19 @@
 """Hard constraints of the QP over the tangent displacement dq (nv).
 
-Three forms, each a small class:
+Each constraint derives from one of three typed bases and implements the one method of that base,
+which returns its rows (:mod:`wbik.qp.rows`) at the kinematics' configuration:
 
-- bounds      lb <= dq <= ub     joint position limits (q + dq inside [q_min, q_max], exact for
-                                  1-DOF joints) and joint velocity limits (|dq| <= v_max dt);
-- equalities  A dq = b           contacts: a frame keeps its pose, J dq = -e (Newton step on e = 0);
-- inequalities G dq <= h         CoM inside the support polygon shrunk by a margin, minimum distance.
+- ``BoundConstraint.bounds(k, dt)``      -> BoundRows       lower <= dq[index] <= upper: joint
+  position limits (q + dq inside [q_min, q_max], exact for 1-DOF joints), joint velocity limits
+  (|dq| <= v_max dt), locked joints;
+- ``EqualityConstraint.equality(k)``     -> EqualityRows    A dq = b: contacts (a frame keeps its
+  pose, J dq = -e: a Newton step on e = 0);
+- ``InequalityConstraint.inequality(k)`` -> InequalityRows  G dq <= h: CoM inside the support
+  polygon shrunk by a margin, minimum distances, collision avoidance.
 
-``violation(kinematics)`` measures the constraint by forward kinematics at the current q (metres or
-radians, > 0 means violated); the IK loop uses it to verify every configuration it returns.
+``rows(k, dt)`` is what the QP step calls (each base forwards it to its method). ``violation(k)``
+measures the constraint by forward kinematics at the current q (metres or radians, > 0 means
+violated); the IK loop uses it to verify every configuration it returns.
 """
 
 from __future__ import annotations
@@ -19,24 +24,65 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, Rows, as_index
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import FrameTask
 
 
 class Constraint:
-    """Base class. ``kind`` is "bounds", "equality" or "inequality"."""
+    """Base class: derive from BoundConstraint, EqualityConstraint or InequalityConstraint."""
 
-    kind = ""
     name = "constraint"
 
     def start(self, kinematics: Kinematics) -> None:
         """Called once when a problem starts from a configuration."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> Rows:
+        """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities).
+
+        A class written against the old contract (``kind = "inequality"`` and ``inequality()``
+        returning (G, h)) is read as an inequality: wbik.riveting.qp_terms.WorkpieceClearance
+        still is (debt: it should derive from InequalityConstraint)."""
+        if getattr(self, "kind", "") == "inequality":
+            return InequalityRows(*self.inequality(kinematics))
+        raise NotImplementedError(f"{type(self).__name__} must derive from BoundConstraint, "
+                                  "EqualityConstraint or InequalityConstraint and implement its method")
 
     def violation(self, kinematics: Kinematics) -> float:
         return 0.0
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
+
+
+class BoundConstraint(Constraint):
+    """lower <= dq[index] <= upper."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        return self.bounds(kinematics, dt)
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        raise NotImplementedError
+
+
+class EqualityConstraint(Constraint):
+    """A dq = b; the IK loop also projects its iterates onto these (Newton steps on e = 0)."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> EqualityRows:
+        return self.equality(kinematics)
+
+    def equality(self, kinematics: Kinematics) -> EqualityRows:
+        raise NotImplementedError
+
+
+class InequalityConstraint(Constraint):
+    """G dq <= h."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> InequalityRows:
+        return self.inequality(kinematics)
+
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
+        raise NotImplementedError
 
 
 def bounded_joint_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
@@ -51,22 +97,30 @@ def bounded_joint_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
     return np.array(q_index, dtype=int), np.array(v_index, dtype=int)
 
 
-class JointPositionLimits(Constraint):
+class JointPositionLimits(BoundConstraint):
     """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step)."""
 
-    kind = "bounds"
     name = "joint position limits"
 
     def __init__(self, model: pin.Model):
         self.q_index, self.v_index = bounded_joint_indices(model)
         self.lower = model.lowerPositionLimit[self.q_index].copy()
         self.upper = model.upperPositionLimit[self.q_index].copy()
+        self._q_rows, self._v_rows = as_index(self.q_index), as_index(self.v_index)
 
-    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
-        """Tighten ``lower``/``upper`` (nv arrays) in place."""
-        q = kinematics.q[self.q_index]
-        lower[self.v_index] = np.maximum(lower[self.v_index], self.lower - q)
-        upper[self.v_index] = np.minimum(upper[self.v_index], self.upper - q)
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        q = kinematics.q[self._q_rows]
+        return BoundRows(self._v_rows, self.lower - q, self.upper - q)
+
+    def clip(self, q: np.ndarray) -> None:
+        """Clip q (nq) into the limits, in place."""
+        rows = self._q_rows
+        q[rows] = np.clip(q[rows], self.lower, self.upper)
+
+    def holds(self, q: np.ndarray) -> bool:
+        """q (nq) is inside the limits (``clip`` would leave it as it is)."""
+        values = q[self._q_rows]
+        return not ((values < self.lower).any() or (values > self.upper).any())
 
     def violation(self, kinematics: Kinematics) -> float:
         q = kinematics.q[self.q_index]
@@ -75,10 +129,9 @@ class JointPositionLimits(Constraint):
         return float(max(np.max(self.lower - q), np.max(q - self.upper), 0.0))
 
 
-class JointVelocityLimits(Constraint):
+class JointVelocityLimits(BoundConstraint):
     """|dq_i| <= v_max,i dt on the joints with a positive finite velocity limit."""
 
-    kind = "bounds"
     name = "joint velocity limits"
 
     def __init__(self, model: pin.Model, velocity_limit: np.ndarray | None = None):
@@ -88,20 +141,17 @@ class JointVelocityLimits(Constraint):
         self.v_index = np.flatnonzero(np.isfinite(limit) & (limit > 0) & (limit < 1e10))
         self.limit = limit[self.v_index]
 
-    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         step = self.limit * dt
-        lower[self.v_index] = np.maximum(lower[self.v_index], -step)
-        upper[self.v_index] = np.minimum(upper[self.v_index], step)
+        return BoundRows(self.v_index, -step, step)
 
 
-class Contact(Constraint):
+class Contact(EqualityConstraint):
     """A frame held at a fixed world pose (a flat foot on the ground): J dq = -e, 6 rows.
 
     ``placement`` defaults to the frame's pose when the problem starts. ``violation`` is the larger
     of the position error (m) and rotation error (rad).
     """
-
-    kind = "equality"
 
     def __init__(self, frame: str, placement: pin.SE3 | None = None):
         self.frame = frame
@@ -132,10 +182,10 @@ class Contact(Constraint):
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._task.error(kinematics)
 
-    def equality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        """(J, -e) (buffers reused at the next configuration: copy them to keep them)."""
+    def equality(self, kinematics: Kinematics) -> EqualityRows:
+        """J dq = -e (buffers reused at the next configuration: copy them to keep them)."""
         self._rows(kinematics)
-        return self._jacobian, self._rhs
+        return EqualityRows(self._jacobian, self._rhs)
 
     def violation(self, kinematics: Kinematics) -> float:
         self._rows(kinematics)
@@ -143,7 +193,7 @@ class Contact(Constraint):
         return math.sqrt(max(float(squared[:3].sum()), float(squared[3:].sum())))
 
 
-class CoMInSupportPolygon(Constraint):
+class CoMInSupportPolygon(InequalityConstraint):
     """The ground projection of the centre of mass stays inside the support polygon shrunk by ``margin``.
 
     Linearised: N (c_xy + J_com,xy dq) <= d - margin - safety, one row per polygon edge. ``safety``
@@ -151,8 +201,6 @@ class CoMInSupportPolygon(Constraint):
     configuration after the step still holds; the IK loop also halves a step that would break it.
     ``violation`` = margin - (distance from the CoM projection to the boundary), > 0 if too close.
     """
-
-    kind = "inequality"
 
     def __init__(self, polygon: SupportPolygon, margin: float = 0.0, safety: float = 2e-6):
         if margin < 0:
@@ -163,10 +211,10 @@ class CoMInSupportPolygon(Constraint):
         self.name = f"CoM in support polygon (margin {margin * 1e3:g} mm)"
         self.normals, self.offsets = polygon.halfplanes(self.margin + self.safety)
 
-    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
-        com = kinematics.com()
-        return (self.normals @ kinematics.com_jacobian()[:2],
-                self.offsets - self.normals @ com[:2])
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
+        normals = self.normals
+        return InequalityRows(normals @ kinematics.com_jacobian()[:2],
+                              self.offsets - normals @ kinematics.com()[:2])
 
     def com_margin(self, kinematics: Kinematics) -> float:
         return self.polygon.margin_of(kinematics.com()[:2])
@@ -175,13 +223,11 @@ class CoMInSupportPolygon(Constraint):
         return max(self.margin - self.com_margin(kinematics), 0.0)
 
 
-class MinimumDistance(Constraint):
+class MinimumDistance(InequalityConstraint):
     """|p_a - p_b| >= distance between two frame origins, linearised along u = (p_a - p_b)/|p_a - p_b|:
 
         -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance.
     """
-
-    kind = "inequality"
 
     def __init__(self, frame_a: str, frame_b: str, distance: float):
         self.frames = (frame_a, frame_b)
@@ -197,20 +243,18 @@ class MinimumDistance(Constraint):
                   - kinematics.placement(self.ids[1]).translation)
         return float(np.linalg.norm(offset)), offset
 
-    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
         distance, offset = self.current_distance(kinematics)
         direction = offset / max(distance, 1e-12)
         relative = kinematics.jacobian(self.ids[0])[:3] - kinematics.jacobian(self.ids[1])[:3]
-        return -(direction @ relative)[None, :], np.array([distance - self.distance])
+        return InequalityRows(-(direction @ relative)[None, :], np.array([distance - self.distance]))
 
     def violation(self, kinematics: Kinematics) -> float:
         return max(self.distance - self.current_distance(kinematics)[0], 0.0)
 
 
-class LockedJoints(Constraint):
+class LockedJoints(BoundConstraint):
     """Named 1-DOF joints keep their value: 0 <= dq_i <= 0 (e.g. the arms alone, without the lift)."""
-
-    kind = "bounds"
 
     def __init__(self, model: pin.Model, joints: list[str]):
         from wbik.errors import RobotDescriptionError
@@ -224,12 +268,11 @@ class LockedJoints(Constraint):
         self.v_index = np.array(indices, dtype=int)
         self.name = f"locked joints {', '.join(joints)}"
 
-    def bounds(self, kinematics: Kinematics, dt: float, lower: np.ndarray, upper: np.ndarray) -> None:
-        lower[self.v_index] = 0.0
-        upper[self.v_index] = 0.0
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        return BoundRows(self.v_index, 0.0, 0.0)
 
 
-class CollisionAvoidance(Constraint):
+class CollisionAvoidance(InequalityConstraint):
     """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m).
 
     Rows only for the pairs closer than ``influence_distance`` (m): with the coal distance d, its
@@ -244,8 +287,6 @@ class CollisionAvoidance(Constraint):
     the repair (the QP's relaxation). ``violation`` = safety - (minimum distance over all pairs by FK,
     coal), > 0 if too close; ``minimum(kinematics)`` gives that pair and distance.
     """
-
-    kind = "inequality"
 
     def __init__(self, pairs, safety_distance: float = 0.01, influence_distance: float = 0.1,
                  gain: float = 1.0, padding: float = 1e-6):
@@ -293,7 +334,7 @@ class CollisionAvoidance(Constraint):
         """The closest pair (a wbik.collision.PairDistance) at the current q, or None."""
         return min(self.distances(kinematics), key=lambda d: d.distance, default=None)
 
-    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
         rows, bounds = [], []
         target = self.safety + self.padding
         for pair in self.distances(kinematics):
@@ -302,8 +343,8 @@ class CollisionAvoidance(Constraint):
             rows.append(-self.collision_model.distance_gradient(kinematics.data, pair))
             bounds.append(self.gain * (pair.distance - target))
         if not rows:  # nothing near: one row that always holds
-            return np.zeros((1, kinematics.nv)), np.ones(1)
-        return np.array(rows), np.array(bounds)
+            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
+        return InequalityRows(np.array(rows), np.array(bounds))
 
     def violation(self, kinematics: Kinematics) -> float:
         closest = self.minimum(kinematics)

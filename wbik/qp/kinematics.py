@@ -4,7 +4,8 @@
 frame placements, frame Jacobians and the centre of mass (computed on first use) without
 recomputing. Jacobians are in LOCAL_WORLD_ALIGNED form: rows [v; w] in world axes, v taken at the
 frame origin, so that for a tangent displacement dq, dp = J[:3] dq and the rotation changes by
-exp(J[3:] dq) applied on the left (world axes).
+exp(J[3:] dq) applied on the left (world axes); ``local_jacobian`` gives the LOCAL form, whose
+angular rows are R^T w (frame axes).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import pinocchio as pin
 from wbik.errors import UnknownFrameError
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+LOCAL = pin.ReferenceFrame.LOCAL
 _VERSIONS = itertools.count()
 
 
@@ -30,6 +32,7 @@ class Kinematics:
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model
         self.data = model.createData()
+        self._placements = self.data.oMf  # the vector itself: indexing it is cheaper than data.oMf[i]
         self.nq = model.nq
         self.nv = model.nv
         self.q = pin.neutral(model) if q is None else np.array(q, dtype=float)
@@ -56,11 +59,15 @@ class Kinematics:
 
     def placement(self, frame_id: int) -> pin.SE3:
         """World placement of a frame (a view into data: copy it to keep it)."""
-        return self.data.oMf[frame_id]
+        return self._placements[frame_id]
 
     def jacobian(self, frame_id: int) -> np.ndarray:
         """6 x nv frame Jacobian [v; w] in world axes (LOCAL_WORLD_ALIGNED)."""
         return pin.getFrameJacobian(self.model, self.data, frame_id, LWA)
+
+    def local_jacobian(self, frame_id: int) -> np.ndarray:
+        """6 x nv frame Jacobian in the frame's own axes (LOCAL): rows [R^T v; R^T w]."""
+        return pin.getFrameJacobian(self.model, self.data, frame_id, LOCAL)
 
     def _update_com(self) -> None:
         # uses the joint Jacobians already in data (no second forward pass)

@@ -10,8 +10,11 @@ row; ``priority`` is the level in a strict hierarchy (0 first; equal levels trad
 ``goal`` tasks decide convergence of the IK loop: their |e| must fall under ``tolerance``; posture
 and regularisation are not goals.
 
-Rotation errors use e_R = log3(R*^T R) (target frame axes, the convention of wbik.targets). With
-R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt), so de_R = Jlog3(M) R^T w, exactly.
+Rotation errors are the geometry kernel's (:mod:`wbik.geometry`): e_R = log3(R*^T R) in the target's
+axes (``rotation_error``) with de_R/dq = Jlog3(M) R^T J_w, M = R*^T R (``rotation_error_jacobian``;
+exact: with R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt)). ``error`` and ``jacobian`` call them;
+``fill``, the QP step's path, writes both into the step's rows sharing M, and takes R^T J_w from
+the LOCAL frame Jacobian (tests/test_qp_tasks.py checks that ``fill`` agrees with the geometry).
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from wbik.geometry import rotation_error, rotation_error_jacobian
 from wbik.qp.kinematics import Kinematics
 
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -69,23 +73,13 @@ class Task:
         error[:] = self.error(kinematics)
 
 
-def _fill_rotation(target_rotation: np.ndarray, rotation: np.ndarray, jacobian: np.ndarray,
-                   error: np.ndarray) -> None:
-    """e_R = log3(R*^T R) into ``error`` and its Jacobian into ``jacobian``, which holds the
-    angular Jacobian in world axes on entry (the two share M = R*^T R)."""
-    relative = target_rotation.T @ rotation
+def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, target: np.ndarray,
+                   jacobian: np.ndarray, error: np.ndarray) -> None:
+    """``rotation_error(R, R*)`` into ``error`` and ``rotation_error_jacobian`` into ``jacobian`` (3
+    rows of a C-contiguous buffer), sharing M = R*^T R; R^T J_w is the LOCAL Jacobian's angular part."""
+    relative = target.T @ rotation
     error[:] = pin.log3(relative)
-    jacobian[:] = (pin.Jlog3(relative) @ rotation.T) @ jacobian
-
-
-def _rotation_error(target_rotation: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    return pin.log3(target_rotation.T @ rotation)
-
-
-def _rotation_jacobian(target_rotation: np.ndarray, rotation: np.ndarray,
-                       angular_jacobian: np.ndarray) -> np.ndarray:
-    """d log3(R*^T R) / dq for an angular Jacobian in world axes."""
-    return pin.Jlog3(target_rotation.T @ rotation) @ (rotation.T @ angular_jacobian)
+    np.dot(pin.Jlog3(relative), kinematics.local_jacobian(frame_id)[3:], out=jacobian)
 
 
 class _FrameTaskBase(Task):
@@ -119,21 +113,21 @@ class FrameTask(_FrameTaskBase):
         placement = kinematics.placement(self.frame_id)
         error = self._error
         np.subtract(placement.translation, self.target.translation, out=error[:3])
-        error[3:] = _rotation_error(self.target.rotation, placement.rotation)
+        error[3:] = rotation_error(placement.rotation, self.target.rotation)
         return error
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         placement = kinematics.placement(self.frame_id)
         jacobian = kinematics.jacobian(self.frame_id)
-        jacobian[3:] = _rotation_jacobian(self.target.rotation, placement.rotation, jacobian[3:])
+        jacobian[3:] = rotation_error_jacobian(placement.rotation, self.target.rotation, jacobian[3:])
         return jacobian
 
     def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
-        placement = kinematics.placement(self.frame_id)
-        target = self.target
+        frame_id, target = self.frame_id, self.target
+        placement = kinematics.placement(frame_id)
         np.subtract(placement.translation, target.translation, out=error[:3])
-        jacobian[:] = kinematics.jacobian(self.frame_id)
-        _fill_rotation(target.rotation, placement.rotation, jacobian[3:], error[3:])
+        jacobian[:3] = kinematics.jacobian(frame_id)[:3]
+        _fill_rotation(kinematics, frame_id, placement.rotation, target.rotation, jacobian[3:], error[3:])
 
 
 class PositionTask(_FrameTaskBase):
@@ -162,15 +156,16 @@ class OrientationTask(_FrameTaskBase):
         self.target = np.asarray(target, dtype=float).reshape(3, 3).copy()
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
-        return _rotation_error(self.target, kinematics.placement(self.frame_id).rotation)
+        return rotation_error(kinematics.placement(self.frame_id).rotation, self.target)
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return _rotation_jacobian(self.target, kinematics.placement(self.frame_id).rotation,
-                                  kinematics.jacobian(self.frame_id)[3:])
+        return rotation_error_jacobian(kinematics.placement(self.frame_id).rotation, self.target,
+                                       kinematics.jacobian(self.frame_id)[3:])
 
     def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
-        jacobian[:] = kinematics.jacobian(self.frame_id)[3:]
-        _fill_rotation(self.target, kinematics.placement(self.frame_id).rotation, jacobian, error)
+        frame_id = self.frame_id
+        _fill_rotation(kinematics, frame_id, kinematics.placement(frame_id).rotation, self.target, jacobian,
+                       error)
 
 
 class RelativeFrameTask(_FrameTaskBase):
@@ -202,7 +197,7 @@ class RelativeFrameTask(_FrameTaskBase):
     def error(self, kinematics: Kinematics) -> np.ndarray:
         relative = self.relative_placement(kinematics)
         return np.concatenate((relative.translation - self.target.translation,
-                               _rotation_error(self.target.rotation, relative.rotation)))
+                               rotation_error(relative.rotation, self.target.rotation)))
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         frame = kinematics.placement(self.frame_id)
@@ -212,9 +207,11 @@ class RelativeFrameTask(_FrameTaskBase):
         offset = pin.skew(frame.translation - reference.translation)
         linear = reference.rotation.T @ (frame_jacobian[:3] - reference_jacobian[:3]
                                          + offset @ reference_jacobian[3:])
+        # R_rel' = R_ref^T exp([w_f - w_ref]) R_frame (to first order), so the rotation part is
+        # rotation_error_jacobian of R_rel with the relative angular rows in the reference's axes
         relative_rotation = reference.rotation.T @ frame.rotation
-        angular = pin.Jlog3(self.target.rotation.T @ relative_rotation) @ (
-            frame.rotation.T @ (frame_jacobian[3:] - reference_jacobian[3:]))
+        relative_angular = reference.rotation.T @ (frame_jacobian[3:] - reference_jacobian[3:])
+        angular = rotation_error_jacobian(relative_rotation, self.target.rotation, relative_angular)
         return np.vstack((linear, angular))
 
 

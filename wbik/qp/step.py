@@ -1,0 +1,173 @@
+"""One QP step at the kinematics' configuration q (all tasks of one priority level):
+
+    min_dq  sum_k w_k |J_k dq + g_k e_k|^2 + (mu0 + mu |e|^2) |dq|^2
+    s.t.    the constraints' rows (wbik.qp.rows): A dq = b, G dq <= h, lower <= dq <= upper,
+            and the box |dq_i| <= radius (the IK loop's trust region)
+
+The Levenberg-Marquardt term mu |e|^2 (e: the level's goal tasks) keeps far-away steps short and
+vanishes at the solution, so it does not bias the answer. With several priority levels, level k is
+solved with the achieved task values of levels < k kept (to ``hierarchy_slack``) as extra rows.
+When q breaks an inequality by more than one step can repair, the violated rows ask for half the
+repair, then a quarter, ..., then only not to get worse. No solution raises NoQPSolutionError.
+
+The task rows of every level are filled once per configuration (``fill_tasks``, keyed by the
+kinematics' version): the IK loop reads its merit from the same errors (``level_errors``).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from wbik.errors import NoQPSolutionError
+from wbik.qp import backends
+from wbik.qp.constraints import Constraint
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.tasks import Task
+
+PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
+"""Phases of a step timed by its ``profile`` argument: FK, joint Jacobians and CoM; constraint rows
+and bounds (G, h, A, b, lb, ub); task rows (J and e); weighted H and c; the backend."""
+
+
+def lap(profile: dict[str, float], phase: str, since: float) -> float:
+    """Add the time since ``since`` to ``profile[phase]``; returns now."""
+    now = time.perf_counter()
+    profile[phase] = profile.get(phase, 0.0) + now - since
+    return now
+
+
+class Level:
+    """The tasks of one priority level and their stacked rows: J (m x nv) and e (m), unweighted,
+    with the row scales sqrt(w) (for J) and gain sqrt(w) (for e)."""
+
+    def __init__(self, tasks: list[Task], nv: int):
+        self.tasks = tasks
+        stops = np.cumsum([task.dimension for task in tasks], dtype=int)
+        self.rows = [slice(int(stop) - task.dimension, int(stop))
+                     for task, stop in zip(tasks, stops, strict=True)]
+        count = int(stops[-1]) if tasks else 0
+        self.jacobian, self.error = np.zeros((count, nv)), np.zeros(count)
+        self.weight = np.concatenate([task.weight for task in tasks]) if tasks else np.zeros(0)
+        self.row_scale = np.sqrt(self.weight)
+        self.error_scale = self.row_scale * np.concatenate(
+            [np.full(task.dimension, task.gain) for task in tasks]) if tasks else np.zeros(0)
+        self.goals = [(task, rows) for task, rows in zip(tasks, self.rows, strict=True) if task.goal]
+
+    def fill(self, kinematics: Kinematics) -> None:
+        for task, rows in zip(self.tasks, self.rows, strict=True):
+            task.fill(kinematics, self.jacobian[rows], self.error[rows])
+
+    def goal_cost(self) -> float:
+        """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2)."""
+        cost = 0.0
+        for _, rows in self.goals:
+            error = self.error[rows]
+            cost += float(error.dot(error))
+        return cost
+
+
+class QPStep:
+    """The QP of one step over tasks and constraints on one Kinematics (see the module docstring)."""
+
+    def __init__(self, kinematics: Kinematics, tasks: Sequence[Task], constraints: Sequence[Constraint],
+                 backend: str, damping: float, lm_damping: float, hierarchy_slack: float):
+        self.kinematics = kinematics
+        self.tasks = list(tasks)
+        self.constraints = list(constraints)
+        self.backend = backend
+        self.damping, self.lm_damping, self.hierarchy_slack = damping, lm_damping, hierarchy_slack
+        self.nv = kinematics.nv
+        self.stack = backends.StackedConstraints(self.nv)
+        self.workspace = backends.DaqpWorkspace() if backend == "daqp" else None
+        self.levels: list[Level] = []
+        self._filled = -1
+
+    def start(self) -> None:
+        """Lay out every priority level's rows (tasks know their dimension once started)."""
+        priorities = sorted({task.priority for task in self.tasks}) or [0]
+        self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
+        self._filled = -1
+
+    def fill_tasks(self) -> None:
+        """Every level's J and e at the kinematics' q (once per configuration)."""
+        if self._filled != self.kinematics.version:
+            for level in self.levels:
+                level.fill(self.kinematics)
+            self._filled = self.kinematics.version
+
+    def refresh(self) -> None:
+        """Fill the task rows again at the next step (a task's target may have changed)."""
+        self._filled = -1
+
+    def build_constraints(self, dt: float, radius: float) -> backends.StackedConstraints:
+        """Every constraint's rows at the current q, stacked into the reused buffers."""
+        stack = self.stack
+        stack.clear(radius)
+        kinematics = self.kinematics
+        for constraint in self.constraints:
+            constraint.rows(kinematics, dt).add_to(stack)
+        stack.close_box()
+        return stack
+
+    def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None) -> np.ndarray:
+        """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution."""
+        clock = time.perf_counter if profile is not None else None
+        tick = clock() if clock else 0.0
+        stack = self.build_constraints(dt, radius)
+        if clock:
+            tick = lap(profile, "constraints", tick)
+        self.fill_tasks()
+        if clock:
+            tick = lap(profile, "tasks", tick)
+        dq = None
+        for index, level in enumerate(self.levels):
+            weighted_jacobian = level.jacobian * level.row_scale[:, None]
+            H = weighted_jacobian.T @ weighted_jacobian
+            H.flat[:: self.nv + 1] += self.damping + self.lm_damping * level.goal_cost()
+            c = weighted_jacobian.T @ (level.error * level.error_scale)
+            if clock:
+                tick = lap(profile, "assemble", tick)
+            dq = self._solve_relaxed(H, c, stack)
+            if clock:
+                tick = lap(profile, "qp", tick)
+            if index + 1 < len(self.levels):
+                # keep what this level achieved: |J_l dq - J_l dq*| <= slack
+                achieved = weighted_jacobian @ dq
+                stack.add(weighted_jacobian, achieved + self.hierarchy_slack)
+                stack.add(-weighted_jacobian, -achieved + self.hierarchy_slack)
+        return dq
+
+    def _solve(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
+        return backends.solve_stacked(self.backend, H, c, stack, self.workspace)
+
+    def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
+        """The QP; if it has no solution and q breaks inequality rows (h < 0), the same QP with
+        those rows asking for half the repair, a quarter, ..., 1/64, then only not to get worse."""
+        try:
+            return self._solve(H, c, stack)
+        except NoQPSolutionError:
+            rows = stack.inequality_rows()
+            upper = stack.upper
+            h = upper[rows]
+            if not np.any(h < 0):
+                raise
+        relaxed = h.copy()
+        try:
+            for _ in range(6):
+                relaxed[relaxed < 0] *= 0.5
+                upper[rows] = relaxed
+                try:
+                    return self._solve(H, c, stack)
+                except NoQPSolutionError:
+                    pass
+            upper[rows] = np.maximum(h, 0.0)
+            return self._solve(H, c, stack)
+        finally:
+            upper[rows] = h
+
+    def minimum_norm(self, stack: backends.StackedConstraints) -> np.ndarray:
+        """min |dq|^2 under the stacked rows (the projection's QP)."""
+        return self._solve_relaxed(np.eye(self.nv), np.zeros(self.nv), stack)
