@@ -57,18 +57,6 @@ TOP_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
     # (core module, application module): reason. None today.
 }
 FUNCTION_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
-    ("wbik.scenario_schema", "wbik.bioloid.gait"):
-        "the Bioloid scenario kinds' schemas take their defaults from GaitParameters; the schemas of "
-        "the applications' kinds belong next to their runners (bioloid/scenarios.py)",
-    ("wbik.scenario_schema", "wbik.bioloid.scenarios"):
-        "the Bioloid kinds' expectation rules (KEYFRAME_RULES, ...) live with their runners",
-    ("wbik.scenario_schema", "wbik.riveting.cycle"):
-        "the riveting kind's schema takes its defaults from RunConfig / NoiseModel",
-    ("wbik.scenario_schema", "wbik.riveting.plan"): "the riveting schema checks Insertion's fields",
-    ("wbik.scenario_schema", "wbik.riveting.report"): "the riveting kind's expectation rules",
-    ("wbik.motion.scenarios", "wbik.bioloid.sensors"):
-        "the bioloid_stance_sensors kind is run by the generic motion runners; it belongs in "
-        "bioloid/scenarios.py",
     ("wbik.viz.placo_walk", "wbik.bioloid.placo_walk"):
         "the viewer's PlaCo walk animation re-plans the Bioloid walk; a Bioloid view, kept in viz/",
 }

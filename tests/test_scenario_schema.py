@@ -22,7 +22,6 @@ from wbik.errors import (
 )
 from wbik.expectations import ExpectationError
 from wbik.scenario_schema import (
-    KIND_SCHEMAS,
     ScenarioBudgetError,
     ScenarioError,
     ScenarioFileError,
@@ -30,7 +29,8 @@ from wbik.scenario_schema import (
     UnknownScenarioKeyError,
     validate,
 )
-from wbik.scenarios import KINDS, load_scenario, run_scenario
+from wbik.scenarios import load_scenario, run_scenario
+from wbik.scenarios.kinds import scenario_kinds
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 WBIK = Path(sys.executable).parent / "wbik"
@@ -55,29 +55,8 @@ def write(tmp_path: Path, text: str, name: str = "bad.yaml") -> Path:
 def test_every_task_file_validates(path):
     spec = load_scenario(path)
     checked = validate(spec, str(path))
-    assert checked["kind"] in KINDS and checked["kind"] in KIND_SCHEMAS
+    assert checked["kind"] in scenario_kinds()
     assert set(spec) <= set(checked)  # nothing dropped; defaults added
-
-
-def test_every_registered_kind_has_a_schema_and_an_importable_runner():
-    assert set(KINDS) == set(KIND_SCHEMAS)
-    from wbik.scenarios import _registered
-
-    for kind in KINDS:
-        assert callable(_registered(KINDS, kind, "runner"))
-
-
-def test_one_set_of_defaults():
-    from wbik.qp.backends import DEFAULT
-
-    wholebody = validate(yaml_load(BALANCE), "x.yaml")
-    step = validate({"kind": "bioloid_step"}, "y.yaml")
-    assert wholebody["backend"] == step["backend"] == DEFAULT
-    assert wholebody["margin"] == step["margin"] == 0.005
-    phase = wholebody["phases"][0]
-    assert phase["margin"] == 0.005 and phase["support"] == ["r_sole", "l_sole"]
-    assert wholebody["robot_params"] == step["robot_params"] == {}
-    assert phase["expect"] is None and step["expect"] is None  # runners index every declared key
 
 
 def yaml_load(text: str):
@@ -189,14 +168,6 @@ def test_a_changed_dict_is_checked_again_before_running():
     spec["phases"][0]["tasks"][0]["targt"] = [0, 0, 1]
     with pytest.raises(UnknownScenarioKeyError, match=r"phases\[0\]\.tasks\[0\]\.targt"):
         run_scenario(spec)
-
-
-def test_a_kind_whose_module_cannot_be_imported_is_an_error(monkeypatch):
-    from wbik import scenarios
-
-    monkeypatch.setitem(scenarios.KINDS, "wholebody_ik", "wbik.no_such_module:run")
-    with pytest.raises(MissingDependencyError, match="wbik.no_such_module"):
-        run_scenario(yaml_load(BALANCE))
 
 
 def test_scenario_error_is_still_the_base_of_file_errors():

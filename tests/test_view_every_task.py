@@ -1,4 +1,4 @@
-"""Every scenario file in tasks/ can be watched: its runner returns an animation, and the exported
+"""Every scenario file in tasks/ can be watched: its runner's report carries an animation, and the exported
 HTML page holds the robot's meshes and one animation key per sample for every robot geometry.
 
 Outputs the runners would write (servo tables, trajectories, riveting reports) are sent to tmp_path.
@@ -98,7 +98,7 @@ def check_support(animation, commands: list[dict]) -> None:
 def test_every_task_file_is_watchable(path, tmp_path):
     spec = quiet_spec(path, tmp_path)
     report, animation, viewer, commands, size = watch(path, spec, tmp_path)
-    assert report["animation_frames"] == animation.frames
+    assert report.animation is animation and report.as_dict()["animation_frames"] == animation.frames
     if spec["kind"] == "bioloid_stance_sensors":
         assert animation.frames == 1
     else:
@@ -127,6 +127,6 @@ def test_riveting_short_variant_is_watchable(tmp_path):
 def test_riveting_task_file_is_watchable(tmp_path):
     spec = quiet_spec(RIVETING, tmp_path)
     report, animation, viewer, commands, size = watch(RIVETING, spec, tmp_path)
-    assert report["passed"]  # the verdict of the task file is unchanged by the animation
+    assert report.passed  # the verdict of the task file is unchanged by the animation
     assert 100 < animation.frames <= 401
     check_page(animation, viewer, commands, size)

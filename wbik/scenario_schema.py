@@ -1,9 +1,25 @@
-"""The schema of scenario files (tasks/*.yaml): every kind's keys, their types, ranges and defaults.
+"""The schema language of scenario files (tasks/*.yaml): keys, types, ranges, defaults, and checking.
 
+Each scenario kind declares its schema next to its runner (a :class:`Map` built by the kind's
+``schema`` function, see :class:`wbik.scenarios.kinds.ScenarioKind`) from the nodes below.
 ``validate(spec, source)`` checks a scenario mapping against its kind's schema before anything
 runs and returns a copy with the defaults filled in; every runner reads that copy (``spec["margin"]``,
-never ``spec.get("margin", ...)``), so each default is written once, here (or, for the riveting
-cell's dataclasses, scene and planners, in the class the key feeds, which the schema reads).
+never ``spec.get("margin", ...)``), so each default is written once: in the schema, or in the
+function, dataclass or class the key feeds, which the schema reads (:func:`default_of`,
+:func:`from_dataclass`).
+
+One set of defaults for the keys several kinds share (the builders below give them):
+
+- ``robot_params`` (:func:`common_keys`): ``{}``; every kind loads its robot with them, or refuses
+  the key by name (ur5_riveting);
+- ``backend`` (:func:`backend_key`): :data:`wbik.qp.backends.DEFAULT`, for every kind that solves
+  a whole-body QP (and the riveting ``ours`` planner);
+- ``margin`` (:func:`margin_key`): :data:`COM_MARGIN` = 0.005 m, the CoM margin of every kind that
+  keeps a robot balanced;
+- ``expect``: null (each kind's own default expectations; see its runner);
+- ``start``: "nominal"; ``timing.law``: "quintic". ``timing.mode`` differs on purpose: "global"
+  for motion kinds (:func:`wbik.motion.timing.time_scale`), "segment" for the Bioloid's servo
+  timing, rest at every sample like the seed code (:func:`wbik.bioloid.gait.time_scale_motion`).
 
 What is refused, always naming the file and the key's path (``phases[1].tasks[0].frame``):
 
@@ -18,15 +34,13 @@ What is refused, always naming the file and the key's path (``phases[1].tasks[0]
   method (:class:`~wbik.errors.UnknownMethodError`), a QP backend that is unknown
   (:class:`ScenarioValueError`) or not installed (:class:`~wbik.errors.MissingDependencyError`,
   checked with :func:`wbik.qp.backends.resolve`).
-
-Kinds and their keys are in ``KIND_SCHEMAS`` (built on first use, since some read constants of the
-runner modules); ``register_schema`` adds one for a plugged-in kind.
 """
 
 from __future__ import annotations
 
 import copy
 import difflib
+import inspect
 import math
 import numbers
 from collections.abc import Callable, Mapping
@@ -42,9 +56,9 @@ from wbik.errors import (
 )
 from wbik.expectations import ExpectationError
 
-__all__ = ["ScenarioBudgetError", "ScenarioError", "ScenarioFileError", "ScenarioValueError",
-           "UnknownExpectationKeyError", "UnknownScenarioKeyError", "accepts", "kind_names",
-           "register_schema", "schema_of", "validate"]
+__all__ = ["COM_MARGIN", "Key", "Map", "ScenarioBudgetError", "ScenarioError", "ScenarioFileError",
+           "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError", "backend_key",
+           "common_keys", "default_of", "expect_block", "from_dataclass", "margin_key", "validate"]
 
 
 # -- errors -----------------------------------------------------------------------------------------
@@ -102,7 +116,8 @@ def _got(value) -> str:
     return f"got {_short(value)} ({type(value).__name__})"
 
 
-def _guess(word, choices) -> str:
+def guess(word, choices) -> str:
+    """' (did you mean X?)' for the closest of ``choices``, or ''."""
     close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
 
@@ -161,7 +176,7 @@ class Text(Node):
             self.wrong(value, path, ctx)
         choices = self.choices
         if choices and value not in choices:
-            ctx.fail(path, f"{value!r} is not allowed{_guess(value, choices)}; allowed: "
+            ctx.fail(path, f"{value!r} is not allowed{guess(value, choices)}; allowed: "
                            f"{', '.join(map(str, choices))}")
         return value
 
@@ -237,7 +252,8 @@ class ListOf(Node):
 
 
 class Either(Node):
-    """The first option that accepts the value; else an error listing every option."""
+    """The first option that accepts the value; else the refusal of the one mapping option the value
+    shares keys with (it names the key), or an error listing every option."""
 
     def __init__(self, *options: Node):
         self.options = options
@@ -247,11 +263,17 @@ class Either(Node):
         return " or ".join(option.expected for option in self.options)
 
     def check(self, value, path, ctx):
+        refusals = []
         for option in self.options:
             try:
                 return option.check(value, path, ctx)
-            except ScenarioValueError:
-                continue
+            except (ScenarioValueError, UnknownScenarioKeyError) as exc:
+                refusals.append((option, exc))
+        if isinstance(value, Mapping):
+            maps = [(option, exc) for option, exc in refusals if isinstance(option, Map)]
+            sharing = [exc for option, exc in maps if set(option.keys) & set(value)]
+            if len(sharing) == 1 or len(maps) == 1:
+                raise (sharing or [maps[0][1]])[0]
         self.wrong(value, path, ctx)
 
 
@@ -311,7 +333,7 @@ class Map(Node):
             else:
                 known = sorted(self.keys)
                 raise self.unknown_error(
-                    f"{ctx.source}: unknown key {where!r}{_guess(key, known)}; known keys "
+                    f"{ctx.source}: unknown key {where!r}{guess(key, known)}; known keys "
                     f"{'at ' + repr(path) if path else 'at the top level'}: {', '.join(known) or '(none)'}",
                     where, known)
         for key, rule in self.keys.items():
@@ -349,7 +371,7 @@ class Variants(Node):
                 ctx.fail(path, f"must be {self.what}; it needs a {self.tag} (one of {choices}), "
                                f"got keys {sorted(map(str, value))}")
             where = _join(path, self.tag) if self.tag in value else path
-            ctx.fail(where, f"{self.tag} {_short(name)} is not allowed{_guess(name, self.variants)}; "
+            ctx.fail(where, f"{self.tag} {_short(name)} is not allowed{guess(name, self.variants)}; "
                             f"allowed: {choices}")
         return self.variants[name].check(value, path, ctx)
 
@@ -375,7 +397,7 @@ class Robot(Text):
         if value not in BUILTIN and Path(value).suffix.lower() not in (".urdf", ".xml") \
                 and not Path(value).expanduser().exists():
             raise UnknownRobotError(value, list(BUILTIN),
-                                    hint=f"{ctx.source}: {path}{_guess(value, BUILTIN)}. Pass a built-in "
+                                    hint=f"{ctx.source}: {path}{guess(value, BUILTIN)}. Pass a built-in "
                                          "name ('wbik robots' lists them) or a .urdf path")
         return value
 
@@ -392,7 +414,7 @@ class Backend(Text):
         super().check(value, path, ctx)
         known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
         if value not in known:
-            ctx.fail(path, f"unknown QP backend {value!r}{_guess(value, known)}; known: {', '.join(known)} "
+            ctx.fail(path, f"unknown QP backend {value!r}{guess(value, known)}; known: {', '.join(known)} "
                            f"(installed here: {', '.join(available())})")
         try:
             resolve(value)
@@ -412,11 +434,24 @@ class Method(Text):
 
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else _short(value), list(methods()),
-                                     hint=f"{ctx.source}: {path}{_guess(value, methods())}")
+                                     hint=f"{ctx.source}: {path}{guess(value, methods())}")
         return value
 
 
-def _check_robot_params(spec: dict, path: str, ctx: Context) -> None:
+
+# -- building blocks the kinds' schemas share --------------------------------------------------------
+COM_MARGIN = 0.005
+"""m, the default CoM margin inside the support polygon of every kind that keeps a robot balanced."""
+
+POSITIVE = Number(gt=0)
+NON_NEGATIVE = Number(ge=0)
+VECTOR3 = Vector(3)
+START = Either(Text(("nominal",)), Vector())
+FRAME = Text(what="a frame name")
+FRAMES = ListOf(FRAME, what="frame names")
+
+
+def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
     """The robot's builder must take every key of ``robot_params`` (wbik.models.check_parameters)."""
     from wbik.models import check_parameters
 
@@ -429,26 +464,48 @@ def _check_robot_params(spec: dict, path: str, ctx: Context) -> None:
                                      accepted=exc.accepted) from None
 
 
-def _time_laws() -> tuple[str, ...]:
+def common_keys(robot: Key, **more: Key) -> dict[str, Key]:
+    """The keys of every kind: ``kind``, ``name`` (default ''), ``robot`` and ``robot_params``
+    (default {}: the parameters of the robot's builder; pair the Map with ``post=check_robot_params``),
+    and ``more``."""
+    return {"kind": Key(Text(), required=True), "name": Key(Text(), ""), "robot": robot,
+            "robot_params": Key(Map(values=Anything()), {}), **more}
+
+
+def backend_key() -> Key:
+    """``backend``: an installed QP backend, default :data:`wbik.qp.backends.DEFAULT`."""
+    from wbik.qp.backends import DEFAULT
+
+    return Key(Backend(), DEFAULT)
+
+
+def margin_key() -> Key:
+    """``margin``: the CoM margin (m), default :data:`COM_MARGIN`."""
+    return Key(Number(unit="m"), COM_MARGIN)
+
+
+def time_laws() -> tuple[str, ...]:
+    """The time-law names a ``timing.law`` takes (wbik.motion.profiles)."""
     from wbik.motion.profiles import ALIASES, LAWS
 
     return (*LAWS, *ALIASES)
 
 
-def _timing_modes() -> tuple[str, ...]:
+def timing_modes() -> tuple[str, ...]:
+    """The ``timing.mode`` words (wbik.motion.timing.MODES)."""
     from wbik.motion.timing import MODES
 
     return MODES
 
 
-def _expect(rules: Mapping, nullable: bool = True, **more: Key) -> Map:
+def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:
     """An ``expect`` block: the rules' keys (values judged by wbik.expectations) and ``more``."""
     value = Anything("a threshold or {threshold, expected_to_fail, why}")
     return Map({**{key: Key(value) for key in rules}, **more}, nullable=nullable,
                unknown_error=UnknownExpectationKeyError)
 
 
-def _from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
+def from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
     """A mapping of a dataclass's fields, each with the dataclass's own default (one set of defaults)."""
     nodes = nodes or {}
     keys = {}
@@ -459,339 +516,31 @@ def _from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
     return Map(keys)
 
 
-# -- the kinds --------------------------------------------------------------------------------------
-POSITIVE = Number(gt=0)
-NON_NEGATIVE = Number(ge=0)
-VECTOR3 = Vector(3)
-START = Either(Text(("nominal",)), Vector())
-FRAME = Text(what="a frame name")
-FRAMES = ListOf(FRAME, what="frame names")
-
-TASK_OPTIONS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Either(NON_NEGATIVE, Vector())),
-                "goal": Key(Boolean()), "priority": Key(Number(integer=True)),
-                "tolerance": Key(POSITIVE), "gain": Key(POSITIVE)}
-"""Keys every wholebody_ik task type takes (the options of wbik.qp.tasks.Task)."""
+def default_of(function: Callable, parameter: str):
+    """The default value of ``function``'s ``parameter``: a schema key whose value is passed there
+    takes the function's own default instead of a second copy of it."""
+    default = inspect.signature(function).parameters[parameter].default
+    if default is inspect.Parameter.empty:
+        raise TypeError(f"{function.__qualname__}({parameter}) has no default")
+    return default
 
 
-def _task(*names: str, required: tuple[str, ...] = (), **nodes: Node) -> Map:
-    common = {"frame": FRAME, "target": VECTOR3, "rpy": VECTOR3, "offset": VECTOR3, "keep": Boolean(),
-              "axes": Text(what="a subset of 'xyz' (e.g. xy)"), "reference": FRAME,
-              "position_weight": NON_NEGATIVE, "orientation_weight": NON_NEGATIVE, "over": FRAME}
-    keys = {name: Key(nodes.get(name, common.get(name)), required=name in required) for name in names}
-    return Map({**TASK_OPTIONS, **keys})
-
-
-def _wholebody_schema() -> Map:
-    from wbik.qp.backends import DEFAULT
-    from wbik.scenarios import PHASE_RULES
-
-    tasks = {
-        "frame": _task("frame", "target", "rpy", "offset", "keep", "position_weight", "orientation_weight",
-                       required=("frame",)),
-        "position": _task("frame", "target", "offset", "keep", "axes", required=("frame",)),
-        "orientation": _task("frame", "rpy", "keep", required=("frame",)),
-        "relative": _task("frame", "reference", "target", "rpy", "offset", "keep",
-                          required=("frame", "reference")),
-        "com": _task("target", "over", "offset", "keep", "axes"),
-        "posture": _task("reference", "joints", reference=Text(("nominal", "start")),
-                         joints=ListOf(Text(what="a joint name"), what="joint names")),
-        "regularization": Map({"type": Key(Text()), "weight": Key(POSITIVE)}),
-    }
-    task = Variants(lambda entry: entry.get("type"), tasks, "a task mapping with a 'type'", "type")
-    phase = Map({
-        "name": Key(Text()),
-        "contacts": Key(FRAMES, []),
-        "support": Key(FRAMES),                      # default: the contacts
-        "margin": Key(Number(unit="m")),             # default: the scenario's margin
-        "lock": Key(ListOf(Text(what="a joint name"), what="joint names"), []),
-        "tasks": Key(ListOf(task, min_items=1, what="task mappings"), required=True),
-        "regularization": Key(POSITIVE, 1e-6),
-        "min_distance": Key(ListOf(Map({"frames": Key(ListOf(FRAME, min_items=2), required=True),
-                                        "distance": Key(NON_NEGATIVE, required=True)})), []),
-        "max_step": Key(POSITIVE, 0.2),
-        "max_iterations": Key(Number(gt=0, integer=True, budget=True), 300),
-        "expect": Key(_expect(PHASE_RULES), None),
-        "continue_from": Key(Text(("result", "start")), "result"),
-    })
-
-    collisions = Map({  # wbik.scenarios.collision_setup; absent: no collision constraint
-        "self_collision": Key(Boolean(), True),
-        "robot_obstacles": Key(Boolean(), True),
-        "boxes": Key(ListOf(Map({"name": Key(Text(), required=True),
-                                 "size": Key(Vector(3, positive=True, unit="m"), required=True),
-                                 "xyz": Key(VECTOR3, [0.0, 0.0, 0.0]),
-                                 "rpy": Key(VECTOR3, [0.0, 0.0, 0.0])}), what="box mappings"), []),
-        "safety_distance": Key(Number(ge=0, unit="m"), 0.01),
-        "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
-    })
-
-    def post(spec: dict, path: str, ctx: Context) -> None:
-        _check_robot_params(spec, path, ctx)
-        block = spec["collisions"]
-        if block is not None and not block["influence_distance"] > block["safety_distance"]:
-            ctx.fail("collisions.influence_distance", f"must exceed safety_distance "
-                                                      f"({block['safety_distance']:g} m)")
-        for index, entry in enumerate(spec["phases"]):
-            if block is None and "collision_distance_min_m" in (entry["expect"] or {}):
-                ctx.fail(f"phases[{index}].expect.collision_distance_min_m",
-                         "needs a top-level 'collisions' block (the pairs whose distance it judges)")
-            entry.setdefault("name", f"phase {index + 1}")
-            entry.setdefault("support", list(entry["contacts"]))
-            if entry.get("margin") is None:
-                entry["margin"] = spec["margin"]
-            for item_index, item in enumerate(entry["min_distance"]):
-                if len(item["frames"]) != 2:
-                    ctx.fail(f"phases[{index}].min_distance[{item_index}].frames",
-                             "must name exactly 2 frames")
-
-    return Map({**_common(robot=Key(Robot(), required=True)),
-                "backend": Key(Backend(), DEFAULT),
-                "start": Key(START, "nominal"),
-                "margin": Key(Number(unit="m"), 0.005),
-                "collisions": Key(collisions, None),
-                "phases": Key(ListOf(phase, min_items=1, what="phase mappings"), required=True)}, post=post)
-
-
-def _common(**more: Key) -> dict[str, Key]:
-    return {"kind": Key(Text(), required=True), "name": Key(Text(), ""),
-            "robot_params": Key(Map(values=Anything()), {}), **more}
-
-
-def _bioloid_schema(kind: str) -> Map:
-    from wbik.bioloid.gait import GaitParameters
-    from wbik.bioloid.scenarios import (
-        FAITHFUL_RULES,
-        KEYFRAME_RULES,
-        PLACO_WALK_RULES,
-        STAIR_RULES,
-        WHOLEBODY_RULES,
-    )
-    from wbik.qp.backends import DEFAULT
-
-    common = _common(robot=Key(Robot(only=("bioloid",)), "bioloid"))
-    margin = {"margin": Key(Number(unit="m"), 0.005)}
-    gait = {"gait": Key(Map(_from_dataclass(GaitParameters).keys, nullable=True), {})}
-    timed = {"timing": Key(Map({"speed_rpm": Key(Number(gt=0, nullable=True, unit="rpm"), 40.0),
-                                "law": Key(Text(_time_laws), "quintic"),
-                                "mode": Key(Text(_timing_modes), "segment")}, nullable=True), {}),
-             "export": Key(Map({"servo_csv": Key(Text(what="a file path", nullable=True)),
-                                "dt": Key(Number(gt=0, unit="s"), 0.02)}, nullable=True), {}),
-             "backend": Key(Backend(), DEFAULT)}
-    walking = {"first": Key(Text(("left", "right")), "left"), "rear_lift": Key(Number(ge=0, unit="m"), 0.0)}
-    generators = ("faithful", "wholebody")
-    if kind == "bioloid_step":
-        keys = {**margin, **gait, **timed, **walking,
-                "generators": Key(ListOf(Text(generators), min_items=1), list(generators)),
-                "round_degrees": Key(Boolean(), False),
-                "expect": Key(_expect({}, faithful=Key(_expect(FAITHFUL_RULES)),
-                                      wholebody=Key(_expect(WHOLEBODY_RULES))), None)}
-    elif kind == "bioloid_walk":
-        keys = {**margin, **gait, **timed, **walking, "steps": Key(Number(ge=1, integer=True), 4),
-                "turn_deg": Key(Number(unit="deg"), 0.0), "expect": Key(_expect(WHOLEBODY_RULES), None)}
-    elif kind == "bioloid_turn":
-        keys = {**margin, **gait, **timed, "turn_deg": Key(Number(unit="deg"), 20.0),
-                "expect": Key(_expect(WHOLEBODY_RULES), None)}
-    elif kind == "bioloid_keyframes":
-        keys = {"behaviours": Key(ListOf(Text(what="a behaviour name"), min_items=1),
-                                  ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]),
-                "keyframes": Key(Text(what="a keyframe file path", nullable=True), None),
-                "expect": Key(_expect(KEYFRAME_RULES, behaviours=Key(Map(values=_expect(KEYFRAME_RULES),
-                                                                         nullable=True))), None)}
-    elif kind == "bioloid_half_steps":
-        from wbik.bioloid.scenarios import half_step_schema_sources
-
-        HALF_STEPS, HALF_STEP_LIFT = half_step_schema_sources()
-        keys = {**margin, **gait, **timed,
-                "sequence": Key(ListOf(Text(tuple(HALF_STEPS)), min_items=1),
-                                ["WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2", "WalkSR1", "BackSR", "WalkSL1",
-                                 "BackSL"]),
-                "length": Key(Number(gt=0, nullable=True, unit="m"), None),
-                "lift": Key(Number(ge=0, unit="m"), HALF_STEP_LIFT),
-                "expect": Key(_expect(WHOLEBODY_RULES), None)}
-    elif kind == "bioloid_stairs":
-        from wbik.bioloid.scenarios import stair_schema_sources
-
-        Staircase = stair_schema_sources()
-        keys = {**margin, **gait, **timed,
-                "stairs": Key(Map(_from_dataclass(Staircase).keys, nullable=True), {}),
-                "climbs": Key(Number(ge=1, integer=True, nullable=True), None),
-                "expect": Key(_expect(STAIR_RULES), None)}
-    else:  # bioloid_placo_walk
-        keys = {**margin, "steps": Key(Number(ge=1, integer=True), 4),
-                "step_length": Key(Number(gt=0, unit="m"), 0.03),
-                "expect": Key(_expect(PLACO_WALK_RULES), None)}
-    return Map({**common, **keys}, post=_check_robot_params)
-
-
-def _motion_schema(kind: str) -> Map:
-    from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD
-    from wbik.motion.scenarios import MOVE_RULES
-
-    limit = Either(Number(gt=0, nullable=True), Vector(positive=True))
-    timing = Map({"law": Key(Text(_time_laws), "quintic"), "mode": Key(Text(_timing_modes), "global"),
-                  "velocity_limit": Key(limit, None), "acceleration_limit": Key(limit, None),
-                  "dt": Key(Number(gt=0, nullable=True, unit="s"), None)}, nullable=True)
-    common = {**_common(robot=Key(Robot(), required=True)),
-              "timing": Key(timing, {}),
-              "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
-                                nullable=True), {}),
-              "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
-              "expect": Key(_expect(MOVE_RULES), None)}
-    solving = {"method": Key(Method(), "dls"), "timeout_s": Key(Number(gt=0, unit="s", budget=True), 0.05),
-               "start": Key(START, "nominal")}
-    samples = {"samples": Key(Number(ge=1, integer=True), 10)}
-    if kind == "motion_joint":
-        keys = {**samples, "chain": Key(Text(what="a chain name", nullable=True), None),
-                "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
-    elif kind == "motion_cartesian":
-        waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving, **samples, "chain": Key(Text(what="a chain name", nullable=True), None),
-                "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
-                                 required=True),
-                "jump_threshold": Key(Number(gt=0, unit="rad"), DEFAULT_JUMP_THRESHOLD)}
-    elif kind == "pincher_motion":
-        # a move's own timing / tolerance / expect override the scenario's (no defaults here)
-        own = {"timing": Key(timing), "tolerance": Key(common["tolerance"].node),
-               "expect": Key(_expect(MOVE_RULES))}
-        moves = {
-            "jog": Map({"jog": Key(Either(Text(what="a joint name"), Number(integer=True))),
-                        "delta_deg": Key(Number(unit="deg"), 0.0), **samples, **own}),
-            "plane_line": Map({"plane_line": Key(Map({"start_xy_mm": Key(Vector(2), required=True),
-                                                      "goal_xy_mm": Key(Vector(2), required=True),
-                                                      "samples": Key(Number(ge=1, integer=True), 20)}),
-                                                 required=True), **own}),
-            "automatic": Map({"automatic": Key(Map({"samples": Key(Number(ge=1, integer=True), 10)},
-                                                   nullable=True), required=True), **own}),
-        }
-
-        def move_kind(move: Mapping) -> str | None:
-            found = [name for name in moves if name in move]
-            return found[0] if len(found) == 1 else (None if not found else "+".join(found))
-
-        move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
-                                          "{automatic: {}}", "move")
-        keys = {**solving, "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
-    elif kind == "golem3_approach":
-        grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
-                       Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving, "samples": Key(Number(ge=1, integer=True), 20), "grasp": Key(grasp, required=True)}
-    else:  # bioloid_stance_sensors
-        keys = {"start": Key(START, "nominal"), "tolerance": Key(Number(gt=0, unit="m"), 1e-9),
-                "expect": Key(_expect(MOVE_RULES), None)}
-        common = {key: common[key] for key in ("kind", "name", "robot", "robot_params")}
-    return Map({**common, **keys}, post=_check_robot_params)
-
-
-def _riveting_schema() -> Map:
-    from wbik.riveting.cycle import NoiseModel, RunConfig
-    from wbik.riveting.plan import Insertion
-    from wbik.riveting.report import RIVETING_RULES
-
-    run = {item.name: item.default for item in fields(RunConfig)}
-    position = Map({"position": Key(VECTOR3), "rpy": Key(VECTOR3)})
-    rows = ListOf(Map({"x": Key(Vector(), required=True), "y": Key(Number(unit="m")),
-                       "z": Key(Number(unit="m"))}), min_items=1)
-    face = Map({"rows": Key(rows, required=True)})
-    scene = Map({  # missing keys take wbik.riveting.scene.DEFAULT_SCENE
-        "table": Key(Map({"top_z": Key(Number(unit="m")), "center": Key(Vector(2)),
-                          "size": Key(Vector(3, positive=True))})),
-        "workpiece": Key(Map({"center": Key(Vector(2)), "size": Key(Vector(3, positive=True))})),
-        "hole_diameter": Key(Number(gt=0, unit="m")), "hole_depth": Key(Number(gt=0, unit="m")),
-        "faces": Key(Map({"top": Key(face), "right": Key(face), "left": Key(face)})),
-        "rivet_home": Key(position)}, nullable=True)
-    named = {"name": Key(Text())}
-    noise = {"position_sigma": NON_NEGATIVE, "position_max": POSITIVE, "angle_sigma_deg": NON_NEGATIVE}
-    planners = {  # options and their defaults are the planner classes' (wbik.riveting.thesis / .ours)
-        "thesis": Map({**named, "planner": Key(Text()), "timing": Key(Text(("thesis", "optimal"))),
-                       "intermediate_distance": Key(Number(gt=0, unit="m")),
-                       "intermediate_time": Key(Number(gt=0, unit="s")), "sleep": Key(Number(ge=0, unit="s")),
-                       "move_time": Key(Number(gt=0, unit="s")),
-                       "return_via": Key(Text(("direct", "intermediate")))}),
-        "ours": Map({**named, "planner": Key(Text()), "minimum_clearance": Key(Number(ge=0, unit="m")),
-                     "line_clearance": Key(Number(ge=0, unit="m")),
-                     "knot_spacing": Key(Number(gt=0, unit="m")),
-                     "max_step": Key(Number(gt=0, unit="rad")), "backend": Key(Backend())}),
-    }
-    planner = Variants(lambda entry: entry.get("planner", "ours"), planners,
-                       "a planner mapping {name, planner: thesis | ours, options...}", "planner")
-
-    def post(spec: dict, path: str, ctx: Context) -> None:
-        names = [entry.get("name", entry.get("planner", "ours")) for entry in spec["planners"]]
-        for name in spec.get("expect") or {}:
-            if name not in names:
-                raise UnknownExpectationKeyError(
-                    f"{ctx.source}: unknown key 'expect.{name}'{_guess(name, names)}: expect names the "
-                    f"planners of 'planners', which are {', '.join(names)}", f"expect.{name}", names)
-
-    return Map({
-        **_common(robot=Key(Robot(only=("ur5",)), "ur5")),
-        "robot_params": Key(Refused("ur5_riveting does not take robot_params: its cell is built for the "
-                                    "built-in UR5 with the rivet tool; remove the key")),
-        "duration_s": Key(Number(gt=0, unit="s", budget=True), run["duration"]),
-        "seed": Key(Number(ge=0, integer=True), run["seed"]),
-        "max_cycles": Key(Number(ge=1, integer=True, nullable=True), run["max_cycles"]),
-        "report_folder": Key(Text(what="a folder path", nullable=True), None),
-        "limits": Key(Map({"velocity": Key(Either(POSITIVE, Vector(6, positive=True))),
-                           "acceleration": Key(Number(gt=0, unit="rad/s^2"), 5.0),
-                           "law": Key(Text(_time_laws), "quintic")}, nullable=True), {}),
-        "insertion": Key(Map(_from_dataclass(Insertion, {"depth": POSITIVE}).keys, nullable=True), {}),
-        "noise": Key(Map(_from_dataclass(NoiseModel, noise).keys, nullable=True), {}),
-        "scene": Key(scene),
-        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"),
-                        [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]),
-        "expect": Key(Map(values=_expect(RIVETING_RULES), nullable=True), {}),
-    }, post=post)
-
-
-KIND_SCHEMAS: dict[str, Callable[[], Map]] = {
-    "wholebody_ik": _wholebody_schema,
-    **{kind: (lambda kind=kind: _bioloid_schema(kind)) for kind in
-       ("bioloid_step", "bioloid_walk", "bioloid_turn", "bioloid_keyframes", "bioloid_placo_walk",
-        "bioloid_half_steps", "bioloid_stairs")},
-    **{kind: (lambda kind=kind: _motion_schema(kind)) for kind in
-       ("motion_joint", "motion_cartesian", "pincher_motion", "golem3_approach", "bioloid_stance_sensors")},
-    "ur5_riveting": _riveting_schema,
-}
-"""Kind name -> a function building its schema (called once, on first use)."""
-
-_BUILT: dict[str, Map] = {}
-
-
-def register_schema(kind: str, build: Callable[[], Map]) -> None:
-    """The schema of a plugged-in kind (see wbik.scenarios.register_runner)."""
-    KIND_SCHEMAS[kind] = build
-    _BUILT.pop(kind, None)
-
-
-def kind_names() -> list[str]:
-    return sorted(KIND_SCHEMAS)
-
-
-def schema_of(kind: str) -> Map:
-    if kind not in _BUILT:
-        _BUILT[kind] = KIND_SCHEMAS[kind]()
-    return _BUILT[kind]
-
-
-def accepts(kind: str, key: str) -> bool:
-    """Whether a scenario of ``kind`` takes the top-level ``key``."""
-    return kind in KIND_SCHEMAS and key in schema_of(kind).keys \
-        and not isinstance(schema_of(kind).keys[key].node, Refused)
-
-
+# -- checking a scenario ---------------------------------------------------------------------------
 def validate(spec, source: str = "scenario") -> dict:
     """``spec`` checked against its kind's schema: a new dict with every default filled in.
 
-    ``source`` (the file) starts every error message. See the module docstring for what is refused.
+    ``source`` (the file) starts every error message. See the module docstring for what is refused;
+    the kind is looked up in :mod:`wbik.scenarios.kinds` (which imports the kinds' modules).
     """
-    ctx = Context(source)
+    from wbik.scenarios.kinds import kind_names, scenario_kind
+
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "
                                 f"{', '.join(kind_names())}), {_got(spec)}")
     if "kind" not in spec:
         raise ScenarioValueError(f"{source}: the top level needs a 'kind', one of {', '.join(kind_names())}")
     kind = spec["kind"]
-    if not isinstance(kind, str) or kind not in KIND_SCHEMAS:
+    if not isinstance(kind, str) or kind not in kind_names():
         raise ScenarioValueError(f"{source}: kind: unknown scenario kind {_short(kind)}"
-                                 f"{_guess(kind, KIND_SCHEMAS)}; known kinds: {', '.join(kind_names())}")
-    return schema_of(kind).check(spec, "", ctx)
+                                 f"{guess(kind, kind_names())}; known kinds: {', '.join(kind_names())}")
+    return scenario_kind(kind).schema_map.check(spec, "", Context(source))

@@ -1,8 +1,8 @@
-"""Scenario runners for the Bioloid behaviours (tasks/bioloid_step_*.yaml, tasks/bioloid_walk*.yaml),
-registered by name in :data:`wbik.scenarios.KINDS`; their keys, types and defaults are declared
-in :mod:`wbik.scenario_schema`, and every runner reads the checked spec.
+"""Scenario kinds of the Bioloid behaviours (tasks/bioloid_*.yaml, tasks/motion_bioloid_foot_sensors.yaml):
+their schemas, runners and printed report, registered in ``SCENARIO_KINDS`` (see
+:mod:`wbik.scenarios.kinds`); every runner reads the spec checked against its kind's schema.
 
-Kinds (each report has ``passed`` and a ``behaviours`` list):
+Kinds (each report's figures have a ``behaviours`` list; the stance's a ``moves`` list):
 
 - ``bioloid_step``: the thesis's step forward. ``generators: [faithful, wholebody]`` (default both),
   ``first: left|right``, ``margin`` (m), ``rear_lift`` (m), ``gait`` (overrides of
@@ -16,11 +16,23 @@ Kinds (each report has ``passed`` and a ``behaviours`` list):
   behaviour, and ``behaviours: {NAME: {...}}`` for one behaviour's own thresholds.
 - ``bioloid_placo_walk``: PlaCo's walk pattern generator on the same URDF (``steps``, ``step_length``,
   ``margin``); see :mod:`wbik.bioloid.placo_walk`; ``expect`` has the keys of ``PLACO_WALK_RULES``.
+- ``bioloid_half_steps``: the half steps of ``sequence``; ``bioloid_stairs``: the sensor-driven
+  stair climb (``stairs``: the fields of :class:`~wbik.bioloid.stairs.Staircase`).
+- ``bioloid_stance_sensors``: expected FSR loads and centre of pressure of the static stance at
+  ``start``; ``expect`` has the key of ``STANCE_RULES`` (default: CoP on the CoM projection to
+  ``tolerance``).
 
-Each runner returns its report and a :class:`wbik.viz.animation.Animation` (what ``wbik view``
-plays): the whole-body samples at their timed knot times (40 rpm), the faithful step's samples
-``FAITHFUL_SAMPLE_S`` apart, the keyframe rows at their own times, PlaCo's walk on its 50 ms grid;
-the soles on the ground at each sample are its support and contacts.
+Defaults are the ones of the functions the keys feed (:func:`wbik.scenario_schema.default_of`):
+``timing`` those of :func:`~wbik.bioloid.gait.time_scale_motion` (40 rpm, quintic, "segment": rest
+at every sample like the seed code), ``steps``/``turn_deg``/``first``/``rear_lift`` those of
+:func:`~wbik.bioloid.behaviours.walk` and :func:`~wbik.bioloid.behaviours.turn_in_place`, and so on;
+``margin`` and ``backend`` are the scenario-wide ones (:func:`wbik.scenario_schema.margin_key`,
+:func:`~wbik.scenario_schema.backend_key`).
+
+Each runner's report carries a :class:`wbik.viz.animation.Animation` (what ``wbik view`` plays):
+the whole-body samples at their timed knot times (40 rpm), the faithful step's samples
+``FAITHFUL_SAMPLE_S`` apart, the keyframe rows at their own times, PlaCo's walk on its 50 ms grid,
+the stance as one still sample; the soles on the ground at each sample are its support and contacts.
 
 Each figure with a meaning of good or bad is judged by :mod:`wbik.expectations` against the task
 file's threshold (SI: m, rad), and printed as figure / threshold / ok. A whole-body behaviour
@@ -32,16 +44,34 @@ reported as informational.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from wbik.data import data_dir
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
-from wbik.scenarios import CONTACT_TOLERANCE
+from wbik.scenario_schema import (
+    START,
+    Boolean,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    Robot,
+    Text,
+    backend_key,
+    check_robot_params,
+    common_keys,
+    default_of,
+    expect_block,
+    from_dataclass,
+    margin_key,
+    time_laws,
+    timing_modes,
+)
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 
-Progress = Callable[[dict], None] | None
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2
 """s between two samples of the faithful step's animation (the faithful generator is not timed)."""
@@ -92,10 +122,8 @@ def _judge(entry: dict, expect: dict | None, figures: dict, rules: dict, where: 
     return entry
 
 
-def _add(report: dict, entry: dict) -> None:
-    report["behaviours"].append(entry)
-    report["passed"] = all(e["passed"] for e in report["behaviours"])
-    report["verdict"] = verdict(c for e in report["behaviours"] for c in e["expectations"])
+def _add(report: ScenarioReport, entry: dict) -> None:
+    report.add_entry("behaviours", entry)
 
 
 def _expect_block(spec: dict) -> dict:
@@ -122,9 +150,8 @@ def _gait(spec: dict):
     return GaitParameters(**spec["gait"])  # every field, checked by wbik.scenario_schema
 
 
-def _report(spec: dict, robot) -> dict:
-    return {"name": spec["name"], "kind": spec["kind"], "robot": robot.name, "passed": True,
-            "verdict": "informational", "behaviours": []}
+def _report(spec: dict, robot) -> ScenarioReport:
+    return ScenarioReport(spec["name"], spec["kind"], robot.name, {"behaviours": []})
 
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
@@ -163,7 +190,7 @@ def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[di
     return _judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect"), animation
 
 
-def run_step(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_step(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.bioloid.step_faithful import step_forward_faithful
     from wbik.bioloid.step_wholebody import step_forward_wholebody
 
@@ -200,7 +227,8 @@ def run_step(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
                                         expect.get("wholebody"))
         _add(report, entry)
         animations.append(animation)
-    return report, _joined(animations)
+    report.animation = _joined(animations)
+    return report
 
 
 def _joined(animations: list):
@@ -213,7 +241,7 @@ def _joined(animations: list):
     return joined
 
 
-def run_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.bioloid.behaviours import turn_in_place, walk
 
     robot = _robot(spec)
@@ -234,10 +262,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     entry["final_soles"] = {sole: robot.frame_placement(final, sole).translation.tolist()
                             for sole in ("r_sole", "l_sole")}
     _add(report, entry)
-    return report, animation
+    report.animation = animation
+    return report
 
 
-def run_keyframes(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.bioloid.behaviours import replay_keyframes
     from wbik.bioloid.servo import to_servo
 
@@ -276,10 +305,11 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> tuple[dict, objec
         _add(report, _judge(entry, wanted, figures, KEYFRAME_RULES, f"expect ({behaviour})"))
         if on_progress is not None:
             on_progress(report)
-    return report, _joined(animations)
+    report.animation = _joined(animations)
+    return report
 
 
-def run_placo_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.bioloid.placo_walk import placo_walk
     from wbik.viz.placo_walk import placo_walk_animation
 
@@ -294,25 +324,16 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> tuple[dict, obje
             figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
     wanted = {"planned": True, **_expect_block(spec)}
     _add(report, _judge(entry, wanted, figures, PLACO_WALK_RULES, "expect"))
-    animation = None
     if result.get("planned"):
-        animation = placo_walk_animation(robot, steps=int(spec["steps"]),
-                                         step_length=float(spec["step_length"]), margin=float(spec["margin"]),
-                                         footstep_x=result["footstep_x_m"])
-    return report, animation
-
-
-RUNNER_KINDS = {"bioloid_step": run_step, "bioloid_walk": run_walk, "bioloid_turn": run_walk,
-                "bioloid_keyframes": run_keyframes, "bioloid_placo_walk": run_placo_walk}
-"""The kinds of this module (registered by name in wbik.scenarios.KINDS)."""
+        report.animation = placo_walk_animation(
+            robot, steps=int(spec["steps"]), step_length=float(spec["step_length"]),
+            margin=float(spec["margin"]), footstep_x=result["footstep_x_m"])
+    return report
 
 
 def format_report(report: dict) -> str:
     """One block per behaviour with the figures that matter."""
-    from wbik.scenarios import report_verdict
-
-    lines = [f"{report.get('name', '')} ({report['kind']}, {report.get('robot', '')}): "
-             f"{report_verdict(report)}"]
+    lines = [report_header(report)]
     for entry in report["behaviours"]:
         keys = [k for k in entry if k not in ("name", "passed", "per_phase", "source", "final_soles",
                                               "expectations", "verdict")]
@@ -351,7 +372,7 @@ STAIR_RULES = {
 limits, the swing sole's distance to the step edges, no sole corner below the surface under it."""
 
 
-def run_half_steps(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_half_steps``: the half steps of ``sequence`` one after the other, each judged
     like a whole-body behaviour (``expect`` with the keys of ``WHOLEBODY_RULES``, for each)."""
     from wbik.bioloid.half_steps import half_step_phases
@@ -376,10 +397,11 @@ def run_half_steps(spec: dict, on_progress: Progress = None) -> tuple[dict, obje
         q = final.copy()
         if on_progress is not None:
             on_progress(report)
-    return report, _joined(animations)
+    report.animation = _joined(animations)
+    return report
 
 
-def run_stairs(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_stairs``: the sensor-driven stair behaviour on a simulated staircase
     (``stairs``: the fields of :class:`wbik.bioloid.stairs.Staircase`), see
     :func:`wbik.bioloid.stairs.simulate_stairs`. The entry has the states visited, the reads the
@@ -411,22 +433,135 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
               "contact_error_max_rad": CONTACT_TOLERANCE, "com_margin_min_m": margin - 1e-9,
               "limit_excess_max_rad": 1e-9, **_expect_block(spec)}
     _add(report, _judge(entry, wanted, figures, STAIR_RULES, "expect"))
-    animation = _motion_animation(run.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
-    return report, animation
+    report.animation = _motion_animation(run.motion, timed.sample_times, "bioloid stairs",
+                                         trace_frame="pelvis")
+    return report
 
 
-def half_step_schema_sources() -> tuple[dict, float]:
-    """(HALF_STEPS, HALF_STEP_LIFT) for wbik.scenario_schema (which imports only this module)."""
-    from wbik.bioloid.half_steps import HALF_STEP_LIFT, HALF_STEPS
-
-    return HALF_STEPS, HALF_STEP_LIFT
+# -- the static stance's foot sensors (wbik.bioloid.sensors) ------------------------------------------
+STANCE_RULES = {"cop_error_max_m": Rule("cop_minus_com_m", "<=", "m")}
+"""The stance: its centre of pressure on the CoM's ground projection (statics: exact)."""
 
 
-def stair_schema_sources() -> type:
-    """The Staircase dataclass, whose fields and defaults are the ``stairs`` keys of the schema."""
-    from wbik.bioloid.stairs import Staircase
+def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """Kind ``bioloid_stance_sensors``: the FSR loads and CoP of the static stance at ``start`` (one
+    entry in ``moves``); the animation is that stance, one still sample on both soles."""
+    from wbik.bioloid.sensors import stance_loads
+    from wbik.viz.animation import Animation, Overlays
 
-    return Staircase
+    robot = _robot(spec)
+    q = robot.nominal.copy() if spec["start"] == "nominal" else np.asarray(spec["start"], dtype=float)
+    if q.shape != (robot.model.nq,):
+        from wbik.scenario_schema import ScenarioError
+
+        raise ScenarioError(f"start must be {robot.model.nq} finite numbers, got {spec['start']!r}")
+    stance = stance_loads(robot, q)
+    gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
+    entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
+    wanted = {"cop_error_max_m": float(spec["tolerance"]), **_expect_block(spec)}
+    _judge(entry, wanted, {"cop_minus_com_m": gap}, STANCE_RULES, f"{spec['name'] or spec['kind']} expect")
+    report = ScenarioReport(spec["name"], spec["kind"], robot.name, {"moves": []})
+    report.add_entry("moves", entry)
+    soles = (("r_sole", "l_sole"),)
+    report.animation = Animation(robot, [0.0], q[None], Overlays(None, soles, soles), "static stance")
+    return report
 
 
-RUNNER_KINDS.update({"bioloid_half_steps": run_half_steps, "bioloid_stairs": run_stairs})
+def format_stance(report: dict) -> str:
+    """The stance's CoP - CoM gap and its check."""
+    lines = [report_header(report)]
+    for move in report["moves"]:
+        lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
+                     f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
+        lines.extend(format_checks(move.get("expectations", []), indent="      "))
+    return "\n".join(lines)
+
+
+# -- the schemas -----------------------------------------------------------------------------------
+def bioloid_schema(kind: str) -> Map:
+    """The keys of a Bioloid kind's file (see the module docstring)."""
+    from wbik.bioloid.behaviours import turn_in_place, walk
+    from wbik.bioloid.gait import GaitParameters, TimedMotion, time_scale_motion
+    from wbik.bioloid.half_steps import HALF_STEPS, half_step_phases
+    from wbik.bioloid.placo_walk import placo_walk
+    from wbik.bioloid.stairs import Staircase, simulate_stairs
+    from wbik.bioloid.step_faithful import step_forward_faithful
+
+    common = common_keys(robot=Key(Robot(only=("bioloid",)), "bioloid"))
+    margin = {"margin": margin_key()}
+    gait = {"gait": Key(Map(from_dataclass(GaitParameters).keys, nullable=True), {})}
+    timed = {"timing": Key(Map({"speed_rpm": Key(Number(gt=0, nullable=True, unit="rpm"),
+                                                 default_of(time_scale_motion, "speed_rpm")),
+                                "law": Key(Text(time_laws), default_of(time_scale_motion, "law")),
+                                "mode": Key(Text(timing_modes), default_of(time_scale_motion, "mode"))},
+                               nullable=True), {}),
+             "export": Key(Map({"servo_csv": Key(Text(what="a file path", nullable=True)),
+                                "dt": Key(Number(gt=0, unit="s"), default_of(TimedMotion.servo_table, "dt"))},
+                               nullable=True), {}),
+             "backend": backend_key()}
+    walking = {"first": Key(Text(("left", "right")), default_of(walk, "first")),
+               "rear_lift": Key(Number(ge=0, unit="m"), default_of(walk, "rear_lift"))}
+    generators = ("faithful", "wholebody")
+    if kind == "bioloid_step":
+        keys = {**margin, **gait, **timed, **walking,
+                "generators": Key(ListOf(Text(generators), min_items=1), list(generators)),
+                "round_degrees": Key(Boolean(), default_of(step_forward_faithful, "round_degrees")),
+                "expect": Key(expect_block({}, faithful=Key(expect_block(FAITHFUL_RULES)),
+                                           wholebody=Key(expect_block(WHOLEBODY_RULES))), None)}
+    elif kind == "bioloid_walk":
+        keys = {**margin, **gait, **timed, **walking,
+                "steps": Key(Number(ge=1, integer=True), default_of(walk, "steps")),
+                "turn_deg": Key(Number(unit="deg"), default_of(walk, "turn_deg")),
+                "expect": Key(expect_block(WHOLEBODY_RULES), None)}
+    elif kind == "bioloid_turn":
+        keys = {**margin, **gait, **timed,
+                "turn_deg": Key(Number(unit="deg"), default_of(turn_in_place, "angle_deg")),
+                "expect": Key(expect_block(WHOLEBODY_RULES), None)}
+    elif kind == "bioloid_keyframes":
+        keys = {"behaviours": Key(ListOf(Text(what="a behaviour name"), min_items=1),
+                                  ["up_stair", "down_stair", "right_turn_medium", "left_turn_medium"]),
+                "keyframes": Key(Text(what="a keyframe file path", nullable=True), None),
+                "expect": Key(expect_block(KEYFRAME_RULES, behaviours=Key(
+                    Map(values=expect_block(KEYFRAME_RULES), nullable=True))), None)}
+    elif kind == "bioloid_half_steps":
+        keys = {**margin, **gait, **timed,
+                "sequence": Key(ListOf(Text(tuple(HALF_STEPS)), min_items=1),
+                                ["WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2", "WalkSR1", "BackSR", "WalkSL1",
+                                 "BackSL"]),
+                "length": Key(Number(gt=0, nullable=True, unit="m"), default_of(half_step_phases, "length")),
+                "lift": Key(Number(ge=0, unit="m"), default_of(half_step_phases, "lift")),
+                "expect": Key(expect_block(WHOLEBODY_RULES), None)}
+    elif kind == "bioloid_stairs":
+        keys = {**margin, **gait, **timed,
+                "stairs": Key(Map(from_dataclass(Staircase).keys, nullable=True), {}),
+                "climbs": Key(Number(ge=1, integer=True, nullable=True),
+                              default_of(simulate_stairs, "climbs")),
+                "expect": Key(expect_block(STAIR_RULES), None)}
+    elif kind == "bioloid_placo_walk":
+        keys = {**margin, "steps": Key(Number(ge=1, integer=True), default_of(placo_walk, "steps")),
+                "step_length": Key(Number(gt=0, unit="m"), default_of(placo_walk, "step_length")),
+                "expect": Key(expect_block(PLACO_WALK_RULES), None)}
+    elif kind == "bioloid_stance_sensors":
+        common = common_keys(robot=Key(Robot(), required=True))
+        keys = {"start": Key(START, "nominal"), "tolerance": Key(Number(gt=0, unit="m"), 1e-9),
+                "expect": Key(expect_block(STANCE_RULES), None)}
+    else:
+        raise ValueError(f"not a Bioloid kind: {kind!r}")
+    return Map({**common, **keys}, post=check_robot_params)
+
+
+def _kind(name: str, run, summary: str, format=format_report) -> ScenarioKind:
+    return ScenarioKind(name, run, lambda: bioloid_schema(name), format, summary)
+
+
+SCENARIO_KINDS = (
+    _kind("bioloid_step", run_step, "the thesis's step forward: faithful and/or whole-body"),
+    _kind("bioloid_walk", run_walk, "whole-body walk of N steps, then an optional turn"),
+    _kind("bioloid_turn", run_walk, "whole-body turn in place"),
+    _kind("bioloid_keyframes", run_keyframes, "replay of the seed's keyframe behaviours"),
+    _kind("bioloid_placo_walk", run_placo_walk, "PlaCo's walk pattern generator on the same URDF"),
+    _kind("bioloid_half_steps", run_half_steps, "a sequence of the seed's half steps, whole-body"),
+    _kind("bioloid_stairs", run_stairs, "the sensor-driven stair climb on a simulated staircase"),
+    _kind("bioloid_stance_sensors", run_stance_sensors, "FSR loads and centre of pressure of a static stance",
+          format_stance),
+)

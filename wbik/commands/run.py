@@ -15,7 +15,8 @@ def add_parser(subparsers) -> None:
                     "them.")
     parser.add_argument("taskfile", help="scenario file (YAML or JSON), or the name of a shipped task")
     parser.add_argument("--output", "-o", help="write the JSON report here (updated after every phase)")
-    parser.add_argument("--backend", help="override the QP backend (osqp, daqp, quadprog, proxqp, fastest)")
+    parser.add_argument("--backend", help="override the QP backend (osqp, daqp, quadprog, proxqp, fastest, "
+                                           "default)")
     parser.add_argument("--json", action="store_true", help="print the JSON report instead of the summary")
     parser.set_defaults(run=run)
 
@@ -25,8 +26,8 @@ def run(args: argparse.Namespace) -> int:
 
     from wbik.data import task_path
     from wbik.errors import UsageError
-    from wbik.scenario_schema import accepts, kind_names
-    from wbik.scenarios import _json_default, format_report, load_scenario, run_scenario
+    from wbik.scenarios import format_report, load_scenario, run_scenario_report
+    from wbik.scenarios.kinds import json_default, scenario_kind, scenario_kinds
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
@@ -34,14 +35,14 @@ def run(args: argparse.Namespace) -> int:
     taskfile = str(task_path(args.taskfile))  # a path as given, else a shipped task of that name
     spec = load_scenario(taskfile)  # checked against its kind's schema: errors name the file and key
     if args.backend:
-        if not accepts(spec["kind"], "backend"):
-            takes = [kind for kind in kind_names() if accepts(kind, "backend")]
+        if not scenario_kind(spec["kind"]).takes("backend"):
+            takes = sorted(name for name, kind in scenario_kinds().items() if kind.takes("backend"))
             raise UsageError(f"--backend: a {spec['kind']} scenario solves no QP with a file-wide backend; "
                              f"--backend applies to the kinds {', '.join(takes)}")
         spec["backend"] = args.backend
-    report = run_scenario(spec, output=args.output, source=taskfile)  # checks the backend too
+    report = run_scenario_report(spec, output=args.output, source=taskfile)  # checks the backend too
     if args.json:
-        print(json.dumps(report, indent=2, default=_json_default))
+        print(json.dumps(report.as_dict(), indent=2, default=json_default))
     else:
         print(format_report(report))
-    return 0 if report.get("passed") else 1  # 1: ran, but did not pass
+    return 0 if report.passed else 1  # 1: ran, but did not pass

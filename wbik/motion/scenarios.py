@@ -1,8 +1,8 @@
-"""Scenario runners for motion files (tasks/motion_*.yaml), registered by name in
-:data:`wbik.scenarios.KINDS`; their keys, types and defaults are declared in
-:mod:`wbik.scenario_schema`, and every runner reads the checked spec.
+"""Scenario kinds of robot motions (tasks/motion_*.yaml): their schemas, runners and printed report,
+registered in ``SCENARIO_KINDS`` (see :mod:`wbik.scenarios.kinds`); every runner reads the spec
+checked against its kind's schema.
 
-Kinds (each report has ``passed`` and one entry per move in ``moves``):
+Kinds (each report's figures have one entry per move in ``moves``):
 
 - ``motion_joint``: joint-space interpolation through ``configurations`` (rad / m).
 - ``motion_cartesian``: straight lines from ``start`` (joints or "nominal") through ``waypoints``
@@ -12,25 +12,25 @@ Kinds (each report has ``passed`` and one entry per move in ``moves``):
   {automatic: {}}.
 - ``golem3_approach``: straight approach from ``start`` (mb, m0, m10..m14) to ``grasp``
   ({position, rpy} in base_link, or {from_joints: [7 values]}); ``expect: {lift: bool}``.
-- ``bioloid_stance_sensors``: expected FSR loads and CoP of the static stance at ``start``.
 
-Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults quintic,
-global, URDF limits, knot times), ``export: {csv: PATH, json: PATH}`` (the trajectory of the last
-move, JointTrajectory shape), ``tolerance`` (knot tracking, default 1e-6 m / rad) and ``expect``
-with the keys of ``MOVE_RULES`` (thresholds SI, judged by :mod:`wbik.expectations` for every move
-and printed as figure / threshold / ok). Unless ``expect`` sets them, a move expects success, the
-peak joint speed within the limit (1e-9) and, when it has Cartesian knots, each knot tracked to
-``tolerance``.
+Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults those of
+:func:`wbik.motion.timing.time_scale`: quintic, global; URDF limits, knot times), ``export: {csv:
+PATH, json: PATH}`` (the trajectory of the last move, JointTrajectory shape), ``tolerance`` (knot
+tracking, default 1e-6 m / rad) and ``expect`` with the keys of ``MOVE_RULES`` (thresholds SI,
+judged by :mod:`wbik.expectations` for every move and printed as figure / threshold / ok). Unless
+``expect`` sets them, a move expects success, the peak joint speed within the limit (1e-9) and,
+when it has Cartesian knots, each knot tracked to ``tolerance``. ``samples`` defaults are those of
+the path builders (:func:`wbik.motion.joint.joint_path`, ...).
 
-Each runner returns its report and a :class:`wbik.viz.animation.Animation` (what ``wbik view``
-plays): every move's timed trajectory (the chain's joints in the full configuration, the tip traced),
-the moves one after the other; the foot-sensor stance is one still sample on both soles.
+Each runner's report carries a :class:`wbik.viz.animation.Animation` (what ``wbik view`` plays):
+every move's timed trajectory (the chain's joints in the full configuration, the tip traced), the
+moves one after the other.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -40,9 +40,28 @@ from wbik.expectations import Rule, evaluate, format_checks, verdict
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
-from wbik.scenarios import ScenarioError
-
-Progress = Callable[[dict], None] | None
+from wbik.scenario_schema import (
+    START,
+    VECTOR3,
+    Either,
+    Key,
+    ListOf,
+    Map,
+    Method,
+    Number,
+    Robot,
+    ScenarioError,
+    Text,
+    Variants,
+    Vector,
+    check_robot_params,
+    common_keys,
+    default_of,
+    expect_block,
+    time_laws,
+    timing_modes,
+)
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
 
 MOVE_RULES = {
     "success": Rule("success", "=="),
@@ -52,17 +71,17 @@ MOVE_RULES = {
     "jumps_max": Rule("jumps", "<="),
     "waypoints_reached": Rule("waypoints_reached", "=="),
     "lift": Rule("lift", "=="),
-    "cop_error_max_m": Rule("cop_minus_com_m", "<=", "m"),
 }
 """Expectations of one move (``jumps``: joint steps above the jump threshold; ``lift``: the Golem-III
-torso lift moved; ``cop_error_max_m``: the stance's centre of pressure off the CoM projection)."""
+torso lift moved)."""
 
 
-def _judge(spec: dict, entry: dict, figures: dict, defaults: dict) -> dict:
-    """The move's expectations (defaults under the task file's ``expect``) into the entry."""
+def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: dict = MOVE_RULES) -> dict:
+    """The move's expectations (``defaults`` under the task file's ``expect``) into the entry:
+    ``expectations``, ``verdict``, ``passed``."""
     wanted = {**defaults, **(spec["expect"] or {})}
     where = f"{spec['name'] or spec['kind']} expect"
-    entry["expectations"] = evaluate(wanted, figures, MOVE_RULES, where)
+    entry["expectations"] = evaluate(wanted, figures, rules, where)
     entry["verdict"] = verdict(entry["expectations"])
     entry["passed"] = entry["verdict"] != "FAILED"
     return entry
@@ -126,7 +145,7 @@ def _timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | No
                 defaults[key] = tolerance
     figures.update(extra_figures or {})
     defaults.update(extra_defaults or {})
-    return _judge(spec, entry, figures, defaults), trajectory
+    return judge_move(spec, entry, figures, defaults), trajectory
 
 
 def _plain(value):
@@ -141,15 +160,14 @@ def _plain(value):
     return value
 
 
-def _finish(spec: dict, report: dict, trajectory) -> dict:
-    export = spec.get("export") or {}
-    if trajectory is not None:
-        if "csv" in export:
-            report["csv"] = str(trajectory.write_csv(Path(export["csv"])))
-        if "json" in export:
-            report["json"] = str(trajectory.write_json(Path(export["json"])))
-    report["passed"] = all(move["passed"] for move in report["moves"])
-    report["verdict"] = verdict(c for move in report["moves"] for c in move["expectations"])
+def _export(spec: dict, report: ScenarioReport, trajectory, animation) -> ScenarioReport:
+    """The last move's trajectory written where ``export`` says (paths in the figures); the animation."""
+    export = spec["export"]
+    if "csv" in export:
+        report.figures["csv"] = str(trajectory.write_csv(Path(export["csv"])))
+    if "json" in export:
+        report.figures["json"] = str(trajectory.write_json(Path(export["json"])))
+    report.animation = animation
     return report
 
 
@@ -163,12 +181,11 @@ def _animation(robot, chain, trajectory, name: str, reference: np.ndarray | None
                                 reference=reference, name=name)
 
 
-def _report(spec: dict, robot) -> dict:
-    return {"name": spec["name"], "kind": spec["kind"], "robot": robot.name, "moves": [],
-            "passed": True, "verdict": "informational"}
+def _report(spec: dict, robot) -> ScenarioReport:
+    return ScenarioReport(spec["name"], spec["kind"], robot.name, {"moves": []})
 
 
-def run_joint(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.joint import joint_path
 
     robot = _robot(spec)
@@ -178,11 +195,11 @@ def run_joint(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
     path = joint_path(chain, configurations, int(spec["samples"]))
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "joint interpolation")
-    report["moves"].append(entry)
-    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, entry["name"])
+    report.add_entry("moves", entry)
+    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, entry["name"]))
 
 
-def run_cartesian(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.base import solver
 
@@ -201,11 +218,11 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> tuple[dict, objec
     entry, trajectory = _timed_move(spec, path, f"{len(waypoints)} Cartesian segments",
                                     {"waypoints_reached": all(reached)}, {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
-    report["moves"].append(entry)
-    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, entry["name"])
+    report.add_entry("moves", entry)
+    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, entry["name"]))
 
 
-def run_pincher(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion import pincher
     from wbik.solvers.base import solver
 
@@ -231,16 +248,16 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> tuple[dict, object]
         else:
             raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
         entry, trajectory = _timed_move({**spec, **move}, path, name)
-        report["moves"].append(entry)
+        report.add_entry("moves", entry)
         move_animation = _animation(robot, chain, trajectory, name)
         animation = move_animation if animation is None else animation.then(move_animation, pause=0.25)
         q = path.q[-1].copy()
         if on_progress is not None:
             on_progress(report)
-    return _finish(spec, report, trajectory), animation
+    return _export(spec, report, trajectory, animation)
 
 
-def run_golem3(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
+def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.golem3 import ARM_WITH_LIFT, approach
 
     robot = _robot(spec)
@@ -254,50 +271,97 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
                     timeout_s=float(spec["timeout_s"]))
     report = _report(spec, robot)
     entry, trajectory = _timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
-    report["moves"].append(entry)
-    return _finish(spec, report, trajectory), _animation(robot, chain, trajectory, "approach")
-
-
-def run_bioloid_stance(spec: dict, on_progress: Progress = None) -> tuple[dict, object]:
-    from wbik.bioloid.sensors import stance_loads
-
-    robot = _robot(spec)
-    q = robot.nominal.copy() if spec["start"] == "nominal" else _vector(
-        spec["start"], robot.model.nq, "start")
-    stance = stance_loads(robot, q)
-    gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
-    entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
-    _judge(spec, entry, {"cop_minus_com_m": gap}, {"cop_error_max_m": float(spec["tolerance"])})
-    report = _report(spec, robot)
-    report["moves"].append(entry)
-    from wbik.viz.animation import Animation, Overlays
-
-    soles = (("r_sole", "l_sole"),)
-    return _finish(spec, report, None), Animation(robot, [0.0], q[None], Overlays(None, soles, soles),
-                                                  "static stance")
-
-
-RUNNER_KINDS = {"motion_joint": run_joint, "motion_cartesian": run_cartesian, "pincher_motion": run_pincher,
-                "golem3_approach": run_golem3, "bioloid_stance_sensors": run_bioloid_stance}
-"""The kinds of this module (registered by name in wbik.scenarios.KINDS)."""
+    report.add_entry("moves", entry)
+    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, "approach"))
 
 
 def format_report(report: dict) -> str:
-    """One line per move."""
-    from wbik.scenarios import report_verdict
-
-    lines = [f"{report.get('name', '')} ({report['kind']}, {report.get('robot', '')}): "
-             f"{report_verdict(report)}"]
+    """One line per move (knots, knot error, jumps, duration, peak speed) and its checks."""
+    lines = [report_header(report)]
     for move in report["moves"]:
-        if "path" in move:
-            path = move["path"]
-            lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: {path['knots']} knots, "
-                         f"max knot error {path['max_knot_position_error']}, jumps {path['jumps']}, "
-                         f"duration {move['duration_s']:.3f} s ({move['time_law']}, {move['timing_mode']}), "
-                         f"peak |v|/limit {move['max_velocity_over_limit']:.6f}")
-        else:
-            lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
-                         f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
+        path = move["path"]
+        lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: {path['knots']} knots, "
+                     f"max knot error {path['max_knot_position_error']}, jumps {path['jumps']}, "
+                     f"duration {move['duration_s']:.3f} s ({move['time_law']}, {move['timing_mode']}), "
+                     f"peak |v|/limit {move['max_velocity_over_limit']:.6f}")
         lines.extend(format_checks(move.get("expectations", []), indent="      "))
     return "\n".join(lines)
 
+
+
+# -- the schemas -----------------------------------------------------------------------------------
+def motion_schema(kind: str) -> Map:
+    """The keys of a motion kind's file (see the module docstring); defaults of ``samples``,
+    ``timing`` and ``jump_threshold`` are those of the functions they feed."""
+    from wbik.motion import golem3, pincher
+    from wbik.motion.cartesian import waypoint_path
+    from wbik.motion.joint import joint_path
+
+    limit = Either(Number(gt=0, nullable=True), Vector(positive=True))
+    timing = Map({"law": Key(Text(time_laws), default_of(time_scale, "law")),
+                  "mode": Key(Text(timing_modes), default_of(time_scale, "mode")),
+                  "velocity_limit": Key(limit, None), "acceleration_limit": Key(limit, None),
+                  "dt": Key(Number(gt=0, nullable=True, unit="s"), None)}, nullable=True)
+    common = {**common_keys(robot=Key(Robot(), required=True)),
+              "timing": Key(timing, {}),
+              "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
+                                nullable=True), {}),
+              "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
+              "expect": Key(expect_block(MOVE_RULES), None)}
+    solving = {"method": Key(Method(), "dls"), "timeout_s": Key(Number(gt=0, unit="s", budget=True), 0.05),
+               "start": Key(START, "nominal")}
+
+    def samples(function) -> dict[str, Key]:
+        return {"samples": Key(Number(ge=1, integer=True), default_of(function, "samples"))}
+
+    if kind == "motion_joint":
+        keys = {**samples(joint_path), "chain": Key(Text(what="a chain name", nullable=True), None),
+                "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
+    elif kind == "motion_cartesian":
+        waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
+        keys = {**solving, **samples(waypoint_path),
+                "chain": Key(Text(what="a chain name", nullable=True), None),
+                "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
+                                 required=True),
+                "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}
+    elif kind == "pincher_motion":
+        # a move's own timing / tolerance / expect override the scenario's (no defaults here)
+        own = {"timing": Key(timing), "tolerance": Key(common["tolerance"].node),
+               "expect": Key(expect_block(MOVE_RULES))}
+        moves = {
+            "jog": Map({"jog": Key(Either(Text(what="a joint name"), Number(integer=True))),
+                        "delta_deg": Key(Number(unit="deg"), 0.0), **samples(pincher.jog), **own}),
+            "plane_line": Map({"plane_line": Key(Map({"start_xy_mm": Key(Vector(2), required=True),
+                                                      "goal_xy_mm": Key(Vector(2), required=True),
+                                                      **samples(pincher.plane_line)}), required=True),
+                               **own}),
+            "automatic": Map({"automatic": Key(Map(samples(pincher.automatic_path), nullable=True),
+                                               required=True), **own}),
+        }
+
+        def move_kind(move: Mapping) -> str | None:
+            found = [name for name in moves if name in move]
+            return found[0] if len(found) == 1 else (None if not found else "+".join(found))
+
+        move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
+                                          "{automatic: {}}", "move")
+        keys = {**solving, "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
+    elif kind == "golem3_approach":
+        grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
+                       Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
+        keys = {**solving, **samples(golem3.approach), "grasp": Key(grasp, required=True)}
+    else:
+        raise ValueError(f"not a motion kind: {kind!r}")
+    return Map({**common, **keys}, post=check_robot_params)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("motion_joint", run_joint, lambda: motion_schema("motion_joint"), format_report,
+                 "joint-space interpolation through configurations"),
+    ScenarioKind("motion_cartesian", run_cartesian, lambda: motion_schema("motion_cartesian"), format_report,
+                 "straight Cartesian lines through waypoints"),
+    ScenarioKind("pincher_motion", run_pincher, lambda: motion_schema("pincher_motion"), format_report,
+                 "a Pincher teleoperation session (jog, plane line, automatic cycle)"),
+    ScenarioKind("golem3_approach", run_golem3, lambda: motion_schema("golem3_approach"), format_report,
+                 "Golem-III straight grasp approach, torso lift when needed"),
+)

@@ -1,23 +1,56 @@
-"""Scenario kind ``ur5_riveting`` for ``wbik run tasks/ur5_riveting.yaml`` (see wbik.riveting.report).
+"""Scenario kind ``ur5_riveting`` for ``wbik run tasks/ur5_riveting.yaml``: its schema, runner and
+printed report (:func:`wbik.riveting.report.format_text`), registered in ``SCENARIO_KINDS`` (see
+:mod:`wbik.scenarios.kinds`).
 
-The report (JSON with ``--output``) holds every planner's summary, Table 5 score and cycles;
-``report_folder`` in the task file also writes report.json and report.md there. The task file's
-keys, types and defaults are declared in :mod:`wbik.scenario_schema`; the runner gets the checked
-spec (registered by name in :data:`wbik.scenarios.KINDS`).
+The report's figures hold every planner's summary, Table 5 score and cycles (``runs``), the
+settings and the expectations' ``checks``; ``report_folder`` in the task file also writes
+report.json and report.md there. The defaults of ``duration_s``, ``seed``, ``max_cycles``,
+``insertion`` and ``noise`` are the riveting dataclasses' own (RunConfig, Insertion, NoiseModel);
+a planner's options default to its class's, but for ``backend`` (the scenario-wide QP backend,
+:func:`wbik.scenario_schema.backend_key`); missing ``scene`` keys take
+:data:`wbik.riveting.scene.DEFAULT_SCENE`.
 
-Besides the report the runner returns a light :class:`wbik.viz.animation.Animation` (what
-``wbik view`` plays; the three 300 s runs at this rate would add some 9,000 samples, ~12 MB): the
-first planner's first ``ANIMATION_SECONDS`` (going home and the first cycle, which takes 33 s with
-the thesis timing) sampled every ``ANIMATION_SAMPLE_S``, the tool tip traced.
+The report's animation is light (what ``wbik view`` plays; the three 300 s runs at this rate would
+add some 9,000 samples, ~12 MB): the first planner's first ``ANIMATION_SECONDS`` (going home and
+the first cycle, which takes 33 s with the thesis timing) sampled every ``ANIMATION_SAMPLE_S``, the
+tool tip traced.
 """
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from wbik.errors import WbikError
-from wbik.riveting.report import format_text, run_task, write_report
-from wbik.scenarios import ScenarioError
+from wbik.riveting.report import RIVETING_RULES, format_text, run_task, write_report
+from wbik.scenario_schema import (
+    NON_NEGATIVE,
+    POSITIVE,
+    VECTOR3,
+    Context,
+    Either,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    Refused,
+    Robot,
+    ScenarioError,
+    Text,
+    UnknownExpectationKeyError,
+    Variants,
+    Vector,
+    backend_key,
+    common_keys,
+    expect_block,
+    from_dataclass,
+    guess,
+    time_laws,
+)
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+
+__all__ = ["SCENARIO_KINDS", "format_text", "riveting_animation", "riveting_schema", "run_riveting"]
 
 ANIMATION_SECONDS = 40.0
 """s of the first planner's run that the animation shows."""
@@ -25,24 +58,30 @@ ANIMATION_SAMPLE_S = 0.1
 """s between two samples of the animation."""
 
 
-def run_riveting(spec: dict, on_progress=None) -> tuple[dict, object]:
-    """Every planner of a checked spec (defaults filled in by wbik.scenario_schema); the report and
-    the animation of the first planner's first cycle."""
+def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """Every planner of a checked spec; the report with the animation of the first planner's first
+    cycle."""
     kept = {}
+
+    def progress(partial: dict) -> None:
+        if on_progress is not None:
+            on_progress(ScenarioReport.from_dict(partial))
+
     try:
-        report = run_task(spec, on_progress, keep=kept)
+        result = run_task(spec, progress, keep=kept)
     except WbikError:
         raise
     except (ValueError, TypeError) as exc:
         raise ScenarioError(f"ur5_riveting: {exc}") from exc
     if spec["report_folder"]:
-        write_report(report, spec["report_folder"])
-    if not kept:
-        return report, None
-    from wbik.models import load
+        write_report(result, spec["report_folder"])
+    report = ScenarioReport.from_dict(result)
+    if kept:
+        from wbik.models import load
 
-    robot = load(spec["robot"])  # the robot of wbik.riveting.report.Cell, arm chain "arm"
-    return report, riveting_animation(robot.chain("arm"), next(iter(kept.values())))
+        robot = load(spec["robot"])  # the robot of wbik.riveting.report.Cell, arm chain "arm"
+        report.animation = riveting_animation(robot.chain("arm"), next(iter(kept.values())))
+    return report
 
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
@@ -64,4 +103,68 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
     return Animation.from_chain(chain.robot, chain, times, np.array(rows), name=f"riveting, {result.planner}")
 
 
-__all__ = ["format_text", "run_riveting"]
+def riveting_schema() -> Map:
+    """The keys of a ur5_riveting file (see the module docstring and wbik.riveting.report)."""
+    from wbik.riveting.cycle import NoiseModel, RunConfig
+    from wbik.riveting.plan import Insertion
+
+    run = {item.name: item.default for item in fields(RunConfig)}
+    position = Map({"position": Key(VECTOR3), "rpy": Key(VECTOR3)})
+    rows = ListOf(Map({"x": Key(Vector(), required=True), "y": Key(Number(unit="m")),
+                       "z": Key(Number(unit="m"))}), min_items=1)
+    face = Map({"rows": Key(rows, required=True)})
+    scene = Map({  # missing keys take wbik.riveting.scene.DEFAULT_SCENE
+        "table": Key(Map({"top_z": Key(Number(unit="m")), "center": Key(Vector(2)),
+                          "size": Key(Vector(3, positive=True))})),
+        "workpiece": Key(Map({"center": Key(Vector(2)), "size": Key(Vector(3, positive=True))})),
+        "hole_diameter": Key(Number(gt=0, unit="m")), "hole_depth": Key(Number(gt=0, unit="m")),
+        "faces": Key(Map({"top": Key(face), "right": Key(face), "left": Key(face)})),
+        "rivet_home": Key(position)}, nullable=True)
+    named = {"name": Key(Text())}
+    noise = {"position_sigma": NON_NEGATIVE, "position_max": POSITIVE, "angle_sigma_deg": NON_NEGATIVE}
+    planners = {  # options and their defaults are the planner classes' (wbik.riveting.thesis / .ours)
+        "thesis": Map({**named, "planner": Key(Text()), "timing": Key(Text(("thesis", "optimal"))),
+                       "intermediate_distance": Key(Number(gt=0, unit="m")),
+                       "intermediate_time": Key(Number(gt=0, unit="s")), "sleep": Key(Number(ge=0, unit="s")),
+                       "move_time": Key(Number(gt=0, unit="s")),
+                       "return_via": Key(Text(("direct", "intermediate")))}),
+        "ours": Map({**named, "planner": Key(Text()), "minimum_clearance": Key(Number(ge=0, unit="m")),
+                     "line_clearance": Key(Number(ge=0, unit="m")),
+                     "knot_spacing": Key(Number(gt=0, unit="m")),
+                     "max_step": Key(Number(gt=0, unit="rad")), "backend": backend_key()}),
+    }
+    planner = Variants(lambda entry: entry.get("planner", "ours"), planners,
+                       "a planner mapping {name, planner: thesis | ours, options...}", "planner")
+
+    def post(spec: dict, path: str, ctx: Context) -> None:
+        names = [entry.get("name", entry.get("planner", "ours")) for entry in spec["planners"]]
+        for name in spec.get("expect") or {}:
+            if name not in names:
+                raise UnknownExpectationKeyError(
+                    f"{ctx.source}: unknown key 'expect.{name}'{guess(name, names)}: expect names the "
+                    f"planners of 'planners', which are {', '.join(names)}", f"expect.{name}", names)
+
+    return Map({
+        **common_keys(robot=Key(Robot(only=("ur5",)), "ur5")),
+        "robot_params": Key(Refused("ur5_riveting does not take robot_params: its cell is built for the "
+                                    "built-in UR5 with the rivet tool; remove the key")),
+        "duration_s": Key(Number(gt=0, unit="s", budget=True), run["duration"]),
+        "seed": Key(Number(ge=0, integer=True), run["seed"]),
+        "max_cycles": Key(Number(ge=1, integer=True, nullable=True), run["max_cycles"]),
+        "report_folder": Key(Text(what="a folder path", nullable=True), None),
+        "limits": Key(Map({"velocity": Key(Either(POSITIVE, Vector(6, positive=True))),
+                           "acceleration": Key(Number(gt=0, unit="rad/s^2"), 5.0),
+                           "law": Key(Text(time_laws), "quintic")}, nullable=True), {}),
+        "insertion": Key(Map(from_dataclass(Insertion, {"depth": POSITIVE}).keys, nullable=True), {}),
+        "noise": Key(Map(from_dataclass(NoiseModel, noise).keys, nullable=True), {}),
+        "scene": Key(scene),
+        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"),
+                        [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]),
+        "expect": Key(Map(values=expect_block(RIVETING_RULES), nullable=True), None),
+    }, post=post)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("ur5_riveting", run_riveting, riveting_schema, format_text,
+                 "the UR5 riveting cell: every planner for the task's simulated time, Table 5 score"),
+)

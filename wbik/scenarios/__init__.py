@@ -1,0 +1,136 @@
+"""Scenario files: declarative YAML (or JSON, TOML) that a user runs with ``wbik run FILE``.
+
+Every file has a ``kind`` and usually a ``robot``. A kind (:class:`ScenarioKind`, registered in
+:mod:`wbik.scenarios.kinds`) is declared next to its runner with its schema and its printed report:
+``wholebody_ik`` in :mod:`wbik.scenarios.wholebody`, the motion kinds in
+:mod:`wbik.motion.scenarios`, the Bioloid behaviours in :mod:`wbik.bioloid.scenarios`, the UR5
+riveting cell in :mod:`wbik.riveting.scenarios`.
+
+Before anything runs, the file is checked against its kind's schema (:mod:`wbik.scenario_schema`:
+allowed keys, types, ranges and the one set of defaults), and the runner reads the checked copy.
+The runner returns a :class:`ScenarioReport` (the figures, the expectations' verdict, the animation
+``wbik view`` plays); :func:`run_scenario_report` returns it, :func:`run_scenario` its JSON form,
+and with ``output`` either writes the JSON after every phase, so an interruption loses nothing.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from wbik.files import atomic_write_text
+from wbik.qp.task_entries import build_task  # noqa: F401  wbik.wholebody.problem still imports it from here
+from wbik.scenario_schema import ScenarioError, ScenarioFileError, validate
+from wbik.scenarios.kinds import (
+    ScenarioKind,
+    ScenarioReport,
+    json_default,
+    kind_names,
+    register_kind,
+    register_module,
+    report_verdict,
+    scenario_kind,
+)
+from wbik.scenarios.kinds import json_default as _json_default  # noqa: F401  imported by wbik.riveting.report
+
+__all__ = ["ScenarioError", "ScenarioKind", "ScenarioReport", "format_report", "load_scenario",
+           "register_kind", "register_module", "report_verdict", "run_scenario", "run_scenario_animated",
+           "run_scenario_report"]
+
+
+def _read(path: Path):
+    """The parsed content of a scenario file, or a ScenarioFileError saying what is wrong with it."""
+    if path.is_dir():
+        raise ScenarioFileError(f"scenario file {str(path)!r} is a directory; pass a YAML/JSON/TOML "
+                                "scenario file, e.g. tasks/bioloid_balance.yaml")
+    if not path.is_file():
+        raise ScenarioFileError(f"scenario file {str(path)!r} does not exist")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioFileError(f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason}); a scenario is "
+                                "a YAML/JSON/TOML text file") from None
+    except OSError as exc:
+        raise ScenarioFileError(f"cannot read scenario file {str(path)!r}: {exc.strerror}") from None
+    if not text.strip():
+        raise ScenarioFileError(f"{path}: the file is empty; a scenario is a mapping with a 'kind' "
+                                f"(one of {', '.join(kind_names())})")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".json":
+            return json.loads(text)
+        if suffix == ".toml":
+            import tomllib
+
+            return tomllib.loads(text)
+        import yaml
+
+        return yaml.safe_load(text)
+    except Exception as exc:  # yaml, json and tomllib raise several types
+        raise ScenarioFileError(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
+
+
+def load_scenario(path: str | Path) -> dict:
+    """Read a YAML/JSON/TOML scenario file, checked against its kind's schema (errors name the file
+    and the key); the file's own mapping is returned (``name`` defaults to the file's stem)."""
+    path = Path(path)
+    spec = _read(path)
+    if spec is None:
+        raise ScenarioFileError(f"{path}: the file is empty (only comments or null); a scenario is "
+                                f"a mapping with a 'kind' (one of {', '.join(kind_names())})")
+    if not isinstance(spec, dict):
+        raise ScenarioFileError(f"{path}: a scenario is a mapping with a 'kind' (one of "
+                                f"{', '.join(kind_names())}), got a {type(spec).__name__}")
+    spec.setdefault("name", path.stem)
+    validate(spec, str(path))
+    return spec
+
+
+def run_scenario_report(scenario: str | Path | dict, output: str | Path | None = None,
+                        source: str | None = None) -> ScenarioReport:
+    """Run a scenario (file or dict): its kind's :class:`ScenarioReport`.
+
+    The scenario is checked against its kind's schema first (``source`` names it in errors; default
+    the file, or the dict's name); the runner gets the checked copy with the defaults filled in.
+    With ``output``, the JSON report (:meth:`ScenarioReport.as_dict`) is written after every phase.
+    """
+    if isinstance(scenario, dict):
+        spec = scenario
+        source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"
+    else:
+        spec = load_scenario(scenario)
+        source = source or str(scenario)
+    checked = validate(spec, source)
+    kind = scenario_kind(checked["kind"])
+
+    def write(report: ScenarioReport) -> None:
+        if output is not None:
+            atomic_write_text(Path(output), json.dumps(report.as_dict(), indent=2, default=json_default))
+
+    report = kind.run(checked, write)
+    if not isinstance(report, ScenarioReport):
+        raise TypeError(f"the runner of scenario kind {kind.name!r} returned a {type(report).__name__}, "
+                        "not a ScenarioReport")
+    write(report)
+    return report
+
+
+def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
+                 source: str | None = None) -> dict:
+    """:func:`run_scenario_report` as the JSON report (a dict with ``passed``, ``verdict`` and the
+    kind's figures)."""
+    return run_scenario_report(scenario, output, source).as_dict()
+
+
+def run_scenario_animated(scenario: str | Path | dict, output: str | Path | None = None,
+                          source: str | None = None) -> tuple[dict, object | None]:
+    """(the JSON report, the animation) of :func:`run_scenario_report`, for callers that unpack
+    both; new code reads the typed report's ``animation``."""
+    report = run_scenario_report(scenario, output, source)
+    return report.as_dict(), report.animation
+
+
+def format_report(report: ScenarioReport | dict) -> str:
+    """The report as ``wbik run`` prints it (its kind's formatter; a dict is a JSON report)."""
+    data = report.as_dict() if isinstance(report, ScenarioReport) else report
+    return scenario_kind(data["kind"]).format_report(data)

@@ -1,0 +1,252 @@
+"""Scenario kinds: what a kind is (:class:`ScenarioKind`), what its runner returns
+(:class:`ScenarioReport`) and where kinds are registered.
+
+A kind is declared where its runner lives, in that module's ``SCENARIO_KINDS`` tuple::
+
+    SCENARIO_KINDS = (
+        ScenarioKind("motion_joint", run_joint, schema=lambda: motion_schema("motion_joint"),
+                     format=format_report, summary="joint-space interpolation"),
+        ...
+    )
+
+The modules holding kinds are listed by name in ``KIND_MODULES`` (imported on first use, so the
+core names the applications' modules without importing them). Every one of them is imported when
+the kinds are first needed; a module that fails to import, has no ``SCENARIO_KINDS``, or declares
+a kind another module declares too is an error naming the module, never skipped. User code adds a
+kind with :func:`register_kind`, or a module of kinds with :func:`register_module`.
+
+A runner ``run(spec, on_progress) -> ScenarioReport`` gets the spec checked against the kind's
+schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
+``on_progress(report so far)`` after each phase; ``wbik run --output`` writes the report then.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.errors import MissingDependencyError, WbikError
+from wbik.expectations import verdict
+
+if TYPE_CHECKING:
+    from wbik.scenario_schema import Map
+    from wbik.viz.animation import Animation
+
+__all__ = ["KIND_MODULES", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError", "ScenarioReport",
+           "json_default", "kind_names", "register_kind", "register_module", "report_header",
+           "report_verdict", "scenario_kind", "scenario_kinds"]
+
+KIND_MODULES: list[str] = [
+    "wbik.scenarios.wholebody",  # wholebody_ik
+    "wbik.motion.scenarios",  # motion_joint, motion_cartesian, pincher_motion, golem3_approach
+    "wbik.bioloid.scenarios",  # bioloid_step, _walk, _turn, _keyframes, _placo_walk, _half_steps, _stairs,
+    #                            bioloid_stance_sensors
+    "wbik.riveting.scenarios",  # ur5_riveting
+]
+"""The modules whose ``SCENARIO_KINDS`` are registered (a new module of kinds: one line here)."""
+
+VERDICTS = ("PASSED", "FAILED", "informational")
+
+
+class ScenarioKindError(WbikError):
+    """A kind registered twice, or a module of kinds that declares none."""
+
+
+class ScenarioKindImportError(ScenarioKindError, MissingDependencyError):
+    """A module of scenario kinds that cannot be imported."""
+
+
+# -- the report ------------------------------------------------------------------------------------
+@dataclass
+class ScenarioReport:
+    """What a kind's runner returns.
+
+    ``figures``: what the kind measured, JSON-friendly (a wholebody_ik run's ``phases``, a motion's
+    ``moves``, a Bioloid run's ``behaviours``, ...; each judged entry holds its ``expectations``
+    checks, see :mod:`wbik.expectations`). ``verdict``: the expectations' verdict over every check,
+    PASSED, FAILED or informational (nothing judged). ``animation``: what ``wbik view`` plays
+    (:class:`wbik.viz.animation.Animation`), None when the run has nothing to show.
+    """
+
+    name: str
+    kind: str
+    robot: str
+    figures: dict = field(default_factory=dict)
+    verdict: str = "informational"
+    animation: Animation | None = None
+
+    def __post_init__(self) -> None:
+        if self.verdict not in VERDICTS:
+            raise ValueError(f"a scenario verdict is one of {VERDICTS}, got {self.verdict!r}")
+
+    @property
+    def passed(self) -> bool:
+        """The scenario did not fail (PASSED or informational)."""
+        return self.verdict != "FAILED"
+
+    def add_entry(self, key: str, entry: dict) -> dict:
+        """Append a judged entry (with its ``expectations``) to ``figures[key]``; the verdict is then
+        the one over every entry of that list."""
+        entries = self.figures.setdefault(key, [])
+        entries.append(entry)
+        self.verdict = verdict(check for item in entries for check in item["expectations"])
+        return entry
+
+    def as_dict(self) -> dict:
+        """The JSON report: name, kind, robot, the figures, passed, verdict and, with an animation,
+        its sample count ``animation_frames``."""
+        report = {"name": self.name, "kind": self.kind, "robot": self.robot, **self.figures,
+                  "passed": self.passed, "verdict": self.verdict}
+        if self.animation is not None:
+            report["animation_frames"] = self.animation.frames
+        return report
+
+    @classmethod
+    def from_dict(cls, report: dict, animation: Animation | None = None) -> ScenarioReport:
+        """From a JSON report (name, kind, robot, passed, verdict and the figures): for runners that
+        build the dict themselves. ``passed`` false is FAILED whatever ``verdict`` says."""
+        figures = {k: v for k, v in report.items()
+                   if k not in ("name", "kind", "robot", "passed", "verdict", "animation_frames")}
+        outcome = "FAILED" if not report.get("passed", True) else report.get("verdict", "informational")
+        return cls(str(report.get("name", "")), str(report.get("kind", "")), str(report.get("robot", "")),
+                   figures, outcome, animation)
+
+
+def report_verdict(report: dict | ScenarioReport) -> str:
+    """PASSED / FAILED / informational of a report (a JSON report's ``passed`` false is FAILED)."""
+    if isinstance(report, ScenarioReport):
+        return report.verdict
+    if not report.get("passed"):
+        return "FAILED"
+    return report.get("verdict", "PASSED")
+
+
+def json_default(value):
+    """``json.dumps(..., default=json_default)``: NumPy arrays and scalars as plain values."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value)}")
+
+
+# -- the kinds -------------------------------------------------------------------------------------
+Progress = Callable[[ScenarioReport], None] | None
+Runner = Callable[[dict, Progress], ScenarioReport]
+
+
+def report_header(report: dict) -> str:
+    """The first line of a printed report: ``name (kind, robot): VERDICT``."""
+    return (f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
+            f"{report_verdict(report)}")
+
+
+@dataclass(frozen=True)
+class ScenarioKind:
+    """A scenario kind: its ``name`` (the files' ``kind:``), its runner ``run(spec, on_progress) ->
+    ScenarioReport``, ``schema()`` building its :class:`wbik.scenario_schema.Map` (called once, on
+    first use), ``format(JSON report) -> str`` printing the report for ``wbik run`` (default: the
+    header line) and a one-line ``summary``."""
+
+    name: str
+    run: Runner
+    schema: Callable[[], Map]
+    format: Callable[[dict], str] | None = None
+    summary: str = ""
+
+    @cached_property
+    def schema_map(self) -> Map:
+        """The kind's schema (built on first use)."""
+        return self.schema()
+
+    def takes(self, key: str) -> bool:
+        """Whether the kind's files take the top-level ``key``."""
+        from wbik.scenario_schema import Refused
+
+        rule = self.schema_map.keys.get(key)
+        return rule is not None and not isinstance(rule.node, Refused)
+
+    def format_report(self, report: dict) -> str:
+        return self.format(report) if self.format is not None else report_header(report)
+
+
+_KINDS: dict[str, ScenarioKind] = {}
+_LOADED: set[str] = set()
+_LOCK = threading.RLock()
+
+
+def _load(module_name: str) -> None:
+    """Register the ``SCENARIO_KINDS`` of one module (imported here; errors name the module)."""
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ScenarioKindImportError(
+            f"the scenario kinds of {module_name} (listed in wbik.scenarios.kinds.KIND_MODULES) cannot be "
+            f"registered: importing it failed: {exc}. Install what it names (pip install -e . installs "
+            "wbik's own dependencies), or remove the module from KIND_MODULES") from exc
+    kinds = getattr(module, "SCENARIO_KINDS", None)
+    if not isinstance(kinds, tuple | list) or not all(isinstance(kind, ScenarioKind) for kind in kinds):
+        raise ScenarioKindError(f"{module_name} is listed in wbik.scenarios.kinds.KIND_MODULES but has no "
+                                "SCENARIO_KINDS tuple of ScenarioKind")
+    for kind in kinds:
+        _add(kind, module_name)
+
+
+def _add(kind: ScenarioKind, where: str, replace: bool = False) -> None:
+    known = _KINDS.get(kind.name)
+    if known is not None and known is not kind and not replace:
+        raise ScenarioKindError(f"scenario kind {kind.name!r} of {where} is already registered "
+                                f"(runner {known.run.__module__}.{known.run.__qualname__})")
+    _KINDS[kind.name] = kind
+
+
+def scenario_kinds() -> dict[str, ScenarioKind]:
+    """Every registered kind by name (the modules of ``KIND_MODULES`` imported on first use)."""
+    with _LOCK:
+        for module_name in list(KIND_MODULES):
+            if module_name not in _LOADED:
+                _load(module_name)
+                _LOADED.add(module_name)
+        return dict(_KINDS)
+
+
+def kind_names() -> list[str]:
+    return sorted(scenario_kinds())
+
+
+def scenario_kind(name: str) -> ScenarioKind:
+    """The kind called ``name`` (a ScenarioValueError listing the kinds if there is none)."""
+    kinds = scenario_kinds()
+    if name not in kinds:
+        from wbik.scenario_schema import ScenarioValueError, guess
+
+        raise ScenarioValueError(f"unknown scenario kind {name!r}{guess(name, kinds)}; known kinds: "
+                                 f"{', '.join(sorted(kinds))}")
+    return kinds[name]
+
+
+def register_kind(kind: ScenarioKind, replace: bool = False) -> None:
+    """Add a kind from user code (``replace`` an existing one of that name only when asked)."""
+    if not isinstance(kind, ScenarioKind):
+        raise ScenarioKindError(f"register_kind takes a ScenarioKind, got {type(kind).__name__}")
+    scenario_kinds()  # the built-in kinds first, so a clash is found now
+    with _LOCK:
+        _add(kind, "register_kind", replace)
+
+
+def register_module(module_name: str) -> None:
+    """Add a module of kinds (its ``SCENARIO_KINDS``) by name; it is imported now (an error if it
+    cannot be, and then it is not added)."""
+    scenario_kinds()
+    with _LOCK:
+        if module_name not in _LOADED:
+            _load(module_name)
+            _LOADED.add(module_name)
+        if module_name not in KIND_MODULES:
+            KIND_MODULES.append(module_name)

@@ -1,0 +1,379 @@
+"""Scenario kind ``wholebody_ik``: a sequence of phases solved by the QP layer, each from the
+previous phase's answer (its schema, runner and printed report)::
+
+    kind: wholebody_ik
+    robot: bioloid
+    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
+                                   # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
+    margin: 0.005                  # m, default CoM margin of the phases (default COM_MARGIN, 0.005)
+    collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
+      self_collision: true         # pairs of the robot's own primitives (default true)
+      robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
+      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8], rpy: [0, 0, 0]}]   # m, rad
+      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01); pairs
+                                   # closer than this at the nominal pose are left out (close by design)
+      influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
+    phases:
+      - name: shift the CoM over the right foot
+        contacts: [r_sole, l_sole]  # soles held fixed (hard equality)
+        support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
+        margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
+        lock: [mb]                  # joints held at their value (optional)
+        tasks:
+          - {type: com, over: r_sole, axes: xy}
+          - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
+        expect: {success: true}     # or {success: false}: a balanced best effort; see PHASE_RULES
+
+Task entries are those of :mod:`wbik.qp.task_entries` (``type`` frame | position | orientation |
+relative | com | posture | regularization; ``target``, ``rpy``, ``keep``, ``offset``, ``over``;
+options weight, position_weight, orientation_weight, axes, goal, priority, tolerance). Every phase's
+answer is checked independently by FK: contacts, CoM margin in the support polygon, joint limits.
+The phase's ``expect`` block judges these figures (keys in ``PHASE_RULES``, thresholds SI); unless
+the block sets them, the phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin``
+inside the support polygon (when there is one) and no joint beyond its limit (1e-9), and with
+``collisions`` the minimum pair distance (coal, by FK) at least the safety distance
+(``collision_distance_min_m``). An ``expect`` value may be ``{threshold, expected_to_fail, why}``
+(see :mod:`wbik.expectations`).
+
+The report's figures: ``backend`` and one entry per phase in ``phases``; the animation goes from
+the start through every phase's answer.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.expectations import Rule, evaluate, format_checks, verdict
+from wbik.qp.task_entries import REGULARIZATION_WEIGHT, TaskEntryError, build_task
+from wbik.scenario_schema import (
+    FRAME,
+    FRAMES,
+    NON_NEGATIVE,
+    POSITIVE,
+    START,
+    VECTOR3,
+    Boolean,
+    Context,
+    Either,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    Robot,
+    ScenarioError,
+    ScenarioValueError,
+    Text,
+    Variants,
+    Vector,
+    backend_key,
+    check_robot_params,
+    common_keys,
+    expect_block,
+    margin_key,
+)
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
+
+__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
+           "run_wholebody_ik", "wholebody_schema"]
+
+CONTACT_TOLERANCE = 1e-6
+"""Contacts must hold to this (m for the position error, rad for the rotation error)."""
+
+PHASE_RULES = {
+    "success": Rule("success", "=="),
+    "contact_error_max_m": Rule("contact_error_m", "<=", "m"),
+    "contact_error_max_rad": Rule("contact_error_rad", "<=", "rad"),
+    "com_margin_min_m": Rule("com_margin_m", ">=", "m"),
+    "limit_excess_max_rad": Rule("limit_excess_rad", "<=", "rad"),
+    "collision_distance_min_m": Rule("collision_distance_m", ">=", "m"),
+}
+"""Expectations of a wholebody_ik phase (limit excess is in m for a prismatic joint)."""
+
+
+# -- the schema ------------------------------------------------------------------------------------
+TASK_OPTION_KEYS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Either(NON_NEGATIVE, Vector())),
+                    "goal": Key(Boolean()), "priority": Key(Number(integer=True)),
+                    "tolerance": Key(POSITIVE), "gain": Key(POSITIVE)}
+"""Keys every task type takes (the options of wbik.qp.tasks.Task, see wbik.qp.task_entries)."""
+
+
+def _task(*names: str, required: tuple[str, ...] = (), **nodes) -> Map:
+    common = {"frame": FRAME, "target": VECTOR3, "rpy": VECTOR3, "offset": VECTOR3, "keep": Boolean(),
+              "axes": Text(what="a subset of 'xyz' (e.g. xy)"), "reference": FRAME,
+              "position_weight": NON_NEGATIVE, "orientation_weight": NON_NEGATIVE, "over": FRAME}
+    keys = {name: Key(nodes.get(name, common.get(name)), required=name in required) for name in names}
+    return Map({**TASK_OPTION_KEYS, **keys})
+
+
+def wholebody_schema() -> Map:
+    """The keys of a wholebody_ik file (see the module docstring)."""
+    tasks = {
+        "frame": _task("frame", "target", "rpy", "offset", "keep", "position_weight", "orientation_weight",
+                       required=("frame",)),
+        "position": _task("frame", "target", "offset", "keep", "axes", required=("frame",)),
+        "orientation": _task("frame", "rpy", "keep", required=("frame",)),
+        "relative": _task("frame", "reference", "target", "rpy", "offset", "keep",
+                          required=("frame", "reference")),
+        "com": _task("target", "over", "offset", "keep", "axes"),
+        "posture": _task("reference", "joints", reference=Text(("nominal", "start")),
+                         joints=ListOf(Text(what="a joint name"), what="joint names")),
+        "regularization": Map({"type": Key(Text()), "weight": Key(POSITIVE)}),
+    }
+    task = Variants(lambda entry: entry.get("type"), tasks, "a task mapping with a 'type'", "type")
+    phase = Map({
+        "name": Key(Text()),
+        "contacts": Key(FRAMES, []),
+        "support": Key(FRAMES),                      # default: the contacts
+        "margin": Key(Number(unit="m")),             # default: the scenario's margin
+        "lock": Key(ListOf(Text(what="a joint name"), what="joint names"), []),
+        "tasks": Key(ListOf(task, min_items=1, what="task mappings"), required=True),
+        "regularization": Key(POSITIVE, REGULARIZATION_WEIGHT),
+        "min_distance": Key(ListOf(Map({"frames": Key(ListOf(FRAME, min_items=2), required=True),
+                                        "distance": Key(NON_NEGATIVE, required=True)})), []),
+        "max_step": Key(POSITIVE, 0.2),
+        "max_iterations": Key(Number(gt=0, integer=True, budget=True), 300),
+        "expect": Key(expect_block(PHASE_RULES), None),
+        "continue_from": Key(Text(("result", "start")), "result"),
+    })
+    collisions = Map({  # collision_setup; absent: no collision constraint
+        "self_collision": Key(Boolean(), True),
+        "robot_obstacles": Key(Boolean(), True),
+        "boxes": Key(ListOf(Map({"name": Key(Text(), required=True),
+                                 "size": Key(Vector(3, positive=True, unit="m"), required=True),
+                                 "xyz": Key(VECTOR3, [0.0, 0.0, 0.0]),
+                                 "rpy": Key(VECTOR3, [0.0, 0.0, 0.0])}), what="box mappings"), []),
+        "safety_distance": Key(Number(ge=0, unit="m"), 0.01),
+        "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
+    })
+
+    def post(spec: dict, path: str, ctx: Context) -> None:
+        check_robot_params(spec, path, ctx)
+        block = spec["collisions"]
+        if block is not None and not block["influence_distance"] > block["safety_distance"]:
+            ctx.fail("collisions.influence_distance", f"must exceed safety_distance "
+                                                      f"({block['safety_distance']:g} m)")
+        for index, entry in enumerate(spec["phases"]):
+            if block is None and "collision_distance_min_m" in (entry["expect"] or {}):
+                ctx.fail(f"phases[{index}].expect.collision_distance_min_m",
+                         "needs a top-level 'collisions' block (the pairs whose distance it judges)")
+            entry.setdefault("name", f"phase {index + 1}")
+            entry.setdefault("support", list(entry["contacts"]))
+            if entry.get("margin") is None:
+                entry["margin"] = spec["margin"]
+            for item_index, item in enumerate(entry["min_distance"]):
+                if len(item["frames"]) != 2:
+                    ctx.fail(f"phases[{index}].min_distance[{item_index}].frames",
+                             "must name exactly 2 frames")
+
+    return Map({**common_keys(robot=Key(Robot(), required=True)),
+                "backend": backend_key(),
+                "start": Key(START, "nominal"),
+                "margin": margin_key(),
+                "collisions": Key(collisions, None),
+                "phases": Key(ListOf(phase, min_items=1, what="phase mappings"), required=True)}, post=post)
+
+
+# -- the checks of one phase -----------------------------------------------------------------------
+def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.SE3],
+                        support: list[str], margin: float) -> dict:
+    """Independent FK checks of one solved configuration: contacts, CoM margin, joint limits."""
+    from wbik.qp.constraints import bounded_joint_indices
+    from wbik.qp.humanoid import support_polygon
+
+    contact_errors = {}
+    for frame, fixed in contact_placements.items():
+        reached = robot.frame_placement(q, frame)
+        contact_errors[frame] = {
+            "position": float(np.linalg.norm(reached.translation - fixed.translation)),
+            "rotation": float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
+    contacts_ok = all(e["position"] <= CONTACT_TOLERANCE and e["rotation"] <= CONTACT_TOLERANCE
+                      for e in contact_errors.values())
+    com = robot.center_of_mass(q)
+    com_margin = None
+    if support:
+        com_margin = support_polygon(robot, q, support).margin_of(com[:2])
+    balance_ok = com_margin is None or com_margin >= margin - 1e-9
+    q_index, _ = bounded_joint_indices(robot.model)
+    lower, upper = robot.model.lowerPositionLimit[q_index], robot.model.upperPositionLimit[q_index]
+    joints = q[q_index]
+    limit_excess = float(max(np.max(lower - joints, initial=0.0), np.max(joints - upper, initial=0.0)))
+    return {"contact_errors": contact_errors, "contacts_ok": contacts_ok, "com": com.tolist(),
+            "com_margin": com_margin, "balance_ok": balance_ok, "limit_excess": limit_excess,
+            "limits_ok": limit_excess <= 1e-9}
+
+
+def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
+                       safety: float | None = None) -> dict:
+    """The phase's expect block over the defaults (see the module docstring); with a ``collisions``
+    block (``safety``, m) the minimum pair distance must also stay >= safety (less 1e-9 m)."""
+    expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
+              "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
+    if has_support:
+        expect["com_margin_min_m"] = margin - 1e-9
+    if safety is not None:
+        expect["collision_distance_min_m"] = safety - 1e-9
+    expect.update(phase_expect or {})
+    return expect
+
+
+def collision_setup(robot, collisions: dict | None):
+    """(model for the FK check, the QP constraint) of a checked ``collisions`` block, or (None, None).
+
+    Two CollisionModels of the same table: the check measures every pair by its own FK and coal
+    query, independent of the distances the constraint linearised."""
+    if collisions is None:
+        return None, None
+    from wbik.collision import Obstacle, robot_collision_model
+    from wbik.qp.constraints import CollisionAvoidance
+
+    def build():
+        boxes = [Obstacle(b["name"], tuple(b["size"]), tuple(b["xyz"]), tuple(b["rpy"]))
+                 for b in collisions["boxes"]]
+        # a pair under the safety distance at the nominal pose is close by design: left out
+        return robot_collision_model(robot, self_collision=collisions["self_collision"],
+                                     robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
+                                     contact_distance=collisions["safety_distance"])
+
+    return build(), CollisionAvoidance(build(), collisions["safety_distance"],
+                                       collisions["influence_distance"])
+
+
+def collision_check(model, q: np.ndarray) -> dict:
+    """Minimum signed distance over the checked pairs at q (m, coal by FK) and that pair."""
+    closest = model.minimum(q)
+    if closest is None:
+        return {"min_distance": None, "pair": None, "pairs": 0}
+    return {"min_distance": closest.distance, "pair": [closest.a, closest.b], "pairs": len(model.pairs)}
+
+
+def phase_figures(success: bool, checks: dict) -> dict:
+    """The judged figures of a phase (the ``figure`` names of PHASE_RULES)."""
+    errors = checks["contact_errors"].values()
+    return {"success": bool(success),
+            "contact_error_m": max((e["position"] for e in errors), default=0.0),
+            "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
+            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
+            "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
+
+
+# -- the runner ------------------------------------------------------------------------------------
+def _start(robot, spec: dict) -> np.ndarray:
+    if spec["start"] == "nominal":
+        return robot.nominal.copy()
+    start = np.asarray(spec["start"], dtype=float)
+    if start.shape != (robot.model.nq,):
+        raise ScenarioError(f"start configuration must be {robot.model.nq} finite numbers, "
+                            f"got {spec['start']!r}")
+    return start
+
+
+def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
+    """The phase's tasks (targets at q) and its regularisation; a bad entry names the phase."""
+    tasks = []
+    for number, entry in enumerate(phase["tasks"]):
+        try:
+            tasks.append(build_task(robot, q, entry))
+        except TaskEntryError as exc:
+            raise ScenarioValueError(f"phases[{index}].tasks[{number}]: {exc}") from exc
+    if not any(task.goal for task in tasks):
+        raise ScenarioError(f"phase {phase['name']!r} has no goal task")
+    tasks.append(build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]}))
+    return tasks
+
+
+def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
+    the report and the animation from the start through every phase's answer."""
+    from wbik.models import load
+    from wbik.qp.constraints import LockedJoints, MinimumDistance
+    from wbik.qp.humanoid import stance_constraints
+    from wbik.qp.problem import IKProblem
+
+    robot = load(spec["robot"], **spec["robot_params"])
+    backend = spec["backend"]
+    q = _start(robot, spec)
+    start = q.copy()
+    collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
+    report = ScenarioReport(spec["name"], "wholebody_ik", robot.name, {"backend": backend, "phases": []})
+    for index, phase in enumerate(spec["phases"]):
+        name = phase["name"]
+        contacts = list(phase["contacts"])
+        support = list(phase["support"])
+        margin = float(phase["margin"])
+        tasks = _phase_tasks(robot, q, phase, index)
+        constraints = stance_constraints(robot, q, contacts, support, margin)
+        if phase["lock"]:
+            constraints.append(LockedJoints(robot.model, list(phase["lock"])))
+        for item in phase["min_distance"]:
+            constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
+        if collision_constraint is not None:
+            constraints.append(collision_constraint)
+        contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
+        problem = IKProblem(robot.model, tasks, constraints, backend=backend,
+                            max_step=float(phase["max_step"]))
+        solution = problem.solve(q, max_iterations=int(phase["max_iterations"]))
+        checks = check_configuration(robot, solution.q, contact_placements, support, margin)
+        if collision_model is not None:
+            checks["collision"] = collision_check(collision_model, solution.q)
+        expect = phase_expectations(phase["expect"], margin, bool(support),
+                                    collision_constraint and collision_constraint.safety)
+        expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
+                                f"phase {name!r} expect")
+        report.add_entry("phases", {
+            "name": name, "passed": verdict(expectations) != "FAILED", "success": solution.success,
+            "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
+            "task_errors": solution.task_errors, "checks": checks, "expect": expect,
+            "expectations": expectations,
+            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()})
+        if on_progress is not None:
+            on_progress(report)
+        if phase["continue_from"] == "result":
+            q = solution.q.copy()
+    report.animation = wholebody_animation(robot, spec, start, report.figures["phases"])
+    return report
+
+
+def moved_frame(spec: dict) -> str | None:
+    """The first frame a phase task moves (frame/position tasks that do not keep their pose)."""
+    for phase in spec.get("phases", []):
+        contacts = set(phase.get("contacts", []))
+        for task in phase.get("tasks", []):
+            frame = task.get("frame")
+            if task.get("type") in ("frame", "position") and frame and frame not in contacts \
+                    and not task.get("keep"):
+                return frame
+    return None
+
+
+def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
+    """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
+    each phase's support soles and contacts; the first frame a phase task moves is traced."""
+    from wbik.viz.animation import Animation
+    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
+
+    return Animation.from_keyframes(
+        robot, start, [np.asarray(p["q"], dtype=float) for p in phases], PHASE_SECONDS, SAMPLES_PER_PHASE,
+        support=[tuple(p["support"]) for p in phases], contacts=[tuple(p["contacts"]) for p in phases],
+        trace_frame=moved_frame(spec), name=spec["name"])
+
+
+def format_report(report: dict) -> str:
+    """The phase summary: solved or best effort, iterations, time, goal task errors, the checks."""
+    lines = [report_header(report)]
+    for phase in report.get("phases", []):
+        goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
+                                if not k.startswith("Regularization"))
+        lines.append(
+            f"  [{'ok' if phase['passed'] else 'FAIL'}] {phase['name']}: "
+            f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
+            f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms")
+        lines.append(f"      task errors: {goal_errors}")
+        lines.extend(format_checks(phase.get("expectations", [])))
+    return "\n".join(lines)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("wholebody_ik", run_wholebody_ik, wholebody_schema, format_report,
+                 "phases of whole-body IK (QP), each checked by FK"),
+)
