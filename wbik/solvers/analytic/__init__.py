@@ -1,12 +1,30 @@
 """Method ``analytic``: closed-form IK, every branch, vectorised over batches of targets.
 
-A closed form is a :class:`ClosedForm` registered for (robot, chain, target kind). It maps a batch
-of B targets to K candidate branches per target, ``Q`` (B, K, n), with a mask ``valid`` (B, K)
-of branches that exist (real square roots / cosines in [-1, 1], with a small clamp tolerance), and
-provides its own vectorised FK so branches can be screened without a Python loop.
-:class:`AnalyticSolver` then wraps revolute angles into the limits (nearest to q0), drops branches
-outside the limits or whose closed-form FK misses the target, and picks the branch nearest to q0.
-The returned joints still go through the shared Pinocchio FK check of :mod:`wbik.solvers.base`.
+The closed forms are layered as IK-Geo layers its solvers:
+
+1. **subproblems** (:mod:`.subproblems`): planar 2R, clamped cosines, shared by every family;
+2. **kinematic families**: :mod:`.ur_type` (UR-type 6R, axes 2-4 parallel), :mod:`.yaw_planar` (a
+   base yaw carrying a planar arm: the 3R arm, the Pincher), :mod:`.stacked_planar` (a horizontal
+   planar 3R carrying a vertical planar 2R and a roll: the Golem-III arm);
+3. **one binding per robot** (:mod:`.arm3r`, :mod:`.bioloid`, :mod:`.golem3`, :mod:`.pincher`,
+   :mod:`.ur5`): the robot's geometry and which family solves which chain.
+
+This module is the framework over them. A closed form is a :class:`ClosedForm` registered for
+(robot, chain, target kind). It maps a batch of B targets to K candidate branches per target, ``Q``
+(B, K, n), with a mask ``real`` (B, K) of branches that exist (real square roots / cosines in [-1, 1],
+with a small clamp tolerance), and provides its own vectorised FK. :class:`AnalyticSolver` wraps
+revolute angles into the limits (nearest to q0), drops branches outside the limits or whose
+closed-form FK misses the target by more than ``screen_tolerance`` (the *screen*), and picks the
+branch nearest to q0; the reason of a failure comes from the same masks (no real branch / none
+inside the limits / none reaches the target), nothing is computed twice.
+
+Scalar fast path: a closed form may also enumerate the branches of one target in plain floats
+(``branches_one``, ``fk_one``); ``solve`` and ``solve_all`` then avoid NumPy's per-call cost. The
+choice is the same rule (:func:`nearest_branch`), and tests check that both paths agree.
+
+The result goes through the shared check of :mod:`wbik.solvers.base` (``solve``, ``solve_all``) or
+its batched twin :func:`wbik.solvers.analytic.batch.evaluate_batch` (``solve_many``): the same rule
+(clip, position and rotation error, tolerances), with the closed form's FK in place of Pinocchio's.
 """
 
 from __future__ import annotations
@@ -15,6 +33,7 @@ import importlib
 import math
 import time
 from collections.abc import Iterable
+from operator import itemgetter, mul
 
 import numpy as np
 
@@ -24,7 +43,7 @@ from wbik.robot import Chain
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.targets import Target, as_target
 
-TWO_PI = 2.0 * np.pi
+TWO_PI = 2.0 * math.pi
 LIMIT_TOLERANCE = 1e-9
 """Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
 the limit). Inverses of poses whose joints sit exactly at a limit come back a few 1e-12 rad outside, and
@@ -34,10 +53,16 @@ BRANCH_MERGE = 1e-6
 """Two branches whose joints differ by less than this (rad, modulo 2 pi) are one solution in
 ``solve_all``: at a singular pose (elbow stretched, wrist aligned) two analytic branches coincide, but
 rounding through arccos splits them by up to ~1e-7 rad, machine-dependently."""
+BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
+"""Per joint, how much setting a wrapped angle onto its limit (<= LIMIT_TOLERANCE) can lower its squared
+distance to the reference below the bound remainder(q - r, 2 pi)^2 (|remainder| <= pi)."""
+_SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
+_BOUND = itemgetter(0)
 
 
 class ClosedForm:
-    """Base class of closed-form solvers for one chain. Subclasses implement ``branches`` and ``fk``.
+    """Base class of closed-form solvers for one chain. Subclasses implement ``branches`` and ``fk``,
+    and optionally the scalar fast path ``branches_one`` and ``fk_one``.
 
     ``target_kind`` is "pose" (position and rotation) or "position".
     """
@@ -51,18 +76,81 @@ class ClosedForm:
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Q (B, K, n), valid (B, K)) for positions (B, 3), rotations (B, 3, 3) or None."""
+        """(Q (B, K, n), real (B, K)) for positions (B, 3), rotations (B, 3, 3) or None, starts q0 (B, n)."""
         raise NotImplementedError
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
         raise NotImplementedError
 
-    def solve_one(self, position: np.ndarray, rotation: np.ndarray | None, q0: np.ndarray):
-        """Optional scalar fast path (plain floats, no array overhead) with the same screening as the
-        vectorised path: (q nearest to q0 or None, number of usable branches). NotImplemented (the
-        default) means: use ``branches`` with a batch of one."""
-        return NotImplemented
+    has_scalar_path = False
+    """True when the subclass implements ``branches_one`` and ``fk_one`` (revolute joints only)."""
+
+    def branches_one(self, position: list[float], rotation: list[float] | None,
+                     reference: list[float]) -> list[tuple[float, list[float]]]:
+        """Scalar fast path: the real branches of one target in plain floats, in the order of
+        ``branches``, each as (bound, q) with bound <= sum_i remainder(q_i - r_i, 2 pi)^2, a lower bound
+        of its squared distance to ``reference`` once wrapped (:func:`nearest_branch`). ``rotation`` is
+        the target rotation row by row (9 floats) or None."""
+        raise NotImplementedError
+
+    def fk_one(self, q: list[float]) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """:meth:`fk` of one joint vector in plain floats: (position (3), rotation row by row (9))."""
+        raise NotImplementedError
+
+
+class ToolClosedForm(ClosedForm):
+    """A chain ending at a tool rigidly fixed to the tip of a chain with a closed form (the *flange*):
+    T_tool = T_flange X with X read from the model, so T_flange = T_tool X^-1 and FK_tool = FK_flange X.
+
+    Subclasses name ``flange_form`` (the flange's ClosedForm class) and ``flange_chain`` (its chain,
+    over the same joints).
+    """
+
+    flange_form: type[ClosedForm]
+    flange_chain: str
+
+    def __init__(self, chain: Chain):
+        super().__init__(chain)
+        flange_chain = chain.robot.chain(self.flange_chain)
+        self.flange = self.flange_form(flange_chain)
+        self.target_kind = self.flange.target_kind
+        self.has_scalar_path = self.flange.has_scalar_path
+        tool = flange_chain.fk(flange_chain.nominal).inverse() * chain.fk(chain.nominal)
+        self.tool_rotation = tool.rotation.copy()
+        self.tool_translation = tool.translation.copy()
+        self._tool_r, self._tool_p = self.tool_rotation.tolist(), self.tool_translation.tolist()
+
+    def branches(self, positions, rotations, q0):
+        flange_rotations = rotations @ self.tool_rotation.T
+        flange_positions = positions - flange_rotations @ self.tool_translation
+        return self.flange.branches(flange_positions, flange_rotations, q0)
+
+    def fk(self, q):
+        position, rotation = self.flange.fk(q)
+        return position + rotation @ self.tool_translation, rotation @ self.tool_rotation
+
+    def branches_one(self, position, rotation, reference):
+        """R_flange = R R_X^T, p_flange = p - R_flange p_X (plain floats)."""
+        tool_rows = self._tool_r
+        flange_r = tuple(row[0] * tool[0] + row[1] * tool[1] + row[2] * tool[2]
+                         for row in (rotation[0:3], rotation[3:6], rotation[6:9]) for tool in tool_rows)
+        px, py, pz = self._tool_p
+        flange_p = tuple(p - (flange_r[i] * px + flange_r[i + 1] * py + flange_r[i + 2] * pz)
+                         for p, i in zip(position, (0, 3, 6), strict=True))
+        return self.flange.branches_one(flange_p, flange_r, reference)
+
+    def fk_one(self, q):
+        """FK_tool = FK_flange X: p + R p_X, R R_X (plain floats, R row by row)."""
+        position, rotation = self.flange.fk_one(q)
+        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = self._tool_r
+        px, py, pz = self._tool_p
+        rows = (rotation[0:3], rotation[3:6], rotation[6:9])
+        return (tuple(p + r0 * px + r1 * py + r2 * pz
+                      for p, (r0, r1, r2) in zip(position, rows, strict=True)),
+                tuple(value for r0, r1, r2 in rows for value in (r0 * a0 + r1 * b0 + r2 * c0,
+                                                                  r0 * a1 + r1 * b1 + r2 * c1,
+                                                                  r0 * a2 + r1 * b2 + r2 * c2)))
 
 
 def closed_forms(robot) -> dict[tuple[str, str], str]:
@@ -84,28 +172,37 @@ def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
     return getattr(importlib.import_module(module_name), class_name)(chain, **options)
 
 
+# --- wrapping into the limits --------------------------------------------------------------------
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                      revolute: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Shift revolute angles by multiples of 2 pi to lie in [lower, upper], nearest to ``reference``.
 
-    Returns (wrapped q, in-limits mask over the last axis). Works on any leading batch shape.
+    Returns (wrapped q, in-limits mask over the last axis). Works on any leading batch shape. Shifts
+    0, 2 pi, -2 pi, 4 pi, -4 pi are tried in that order; on a tie the first wins.
     """
-    best = q.copy()
-    best_distance = np.full(q.shape, np.inf)
-    in_limits = np.zeros(q.shape, dtype=bool)
-    shifts = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
-    for shift in shifts:
-        shifted = np.where(revolute, q + shift, q)
-        ok = (shifted >= lower - LIMIT_TOLERANCE) & (shifted <= upper + LIMIT_TOLERANCE)
-        distance = np.abs(shifted - reference)
-        better = ok & (distance < best_distance)
-        best = np.where(better, shifted, best)
-        best_distance = np.where(better, distance, best_distance)
+    best = np.array(q, dtype=float, copy=True)
+    best_distance = np.full(best.shape, np.inf)
+    in_limits = np.zeros(best.shape, dtype=bool)
+    low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
+    all_revolute = bool(np.all(revolute))
+    shifted = np.empty_like(best)
+    distance = np.empty_like(best)
+    ok = np.empty(best.shape, dtype=bool)
+    better = np.empty(best.shape, dtype=bool)
+    for shift in _SHIFTS:
+        np.add(q, shift, out=shifted)
+        if not all_revolute:
+            np.copyto(shifted, q, where=~revolute)
+        np.greater_equal(shifted, low, out=ok)
+        ok &= shifted <= high
+        np.subtract(shifted, reference, out=distance)
+        np.abs(distance, out=distance)
+        np.less(distance, best_distance, out=better)
+        better &= ok
+        np.copyto(best, shifted, where=better)
+        np.copyto(best_distance, distance, where=better)
         in_limits |= ok
-    return np.clip(best, lower, upper), np.all(in_limits, axis=-1)
-
-
-_SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
+    return np.clip(best, lower, upper, out=best), np.all(in_limits, axis=-1)
 
 
 def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
@@ -132,6 +229,57 @@ def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
     return wrapped
 
 
+# --- the choice of a branch, in plain floats ----------------------------------------------------
+def screen_residual(reached: tuple, position: list[float], rotation: list[float] | None) -> float:
+    """max(|p - p*|, angle(R*^T R)) of a reached (position, rotation row by row) against the target:
+    the screen of :class:`AnalyticSolver` in plain floats (trace(R*^T R) = sum_ij R*_ij R_ij)."""
+    reached_p, reached_r = reached
+    error = math.dist(reached_p, position)
+    if rotation is None:
+        return error
+    trace = sum(map(mul, reached_r, rotation))
+    return max(error, math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))))
+
+
+def nearest_branch(form: ClosedForm, bounded: list[tuple[float, list[float]]], position: list[float],
+                   rotation: list[float] | None, reference: list[float], lower: list[float],
+                   upper: list[float]) -> tuple[list[float] | None, bool]:
+    """The branch :class:`AnalyticSolver` picks, in plain floats: each branch wrapped into the limits
+    nearest to ``reference``, kept when its closed-form FK passes the screen, the nearest kept one.
+
+    Branch and bound: a branch's squared distance to the reference once wrapped is at least its
+    ``bound`` less ``BOUND_SLACK`` per joint, so the branches are taken in the order of their bounds
+    and wrapped and screened only while one could still be nearer than the best so far.
+    Returns (q or None, whether some branch has a shift inside the limits; meaningful for None).
+    """
+    bounded.sort(key=_BOUND)  # stable: ties keep the branch order
+    slack = len(reference) * BOUND_SLACK
+    best, best_distance, inside = None, math.inf, False
+    tolerance = form.screen_tolerance
+    for bound, raw in bounded:
+        if bound - slack >= best_distance:
+            break
+        if not bound < math.inf:  # NaN or inf joints (bounds are sums of their remainders)
+            continue
+        q = wrap_one_into_limits(raw, reference, lower, upper)
+        if q is None:
+            continue
+        inside = True
+        distance = math.dist(q, reference) ** 2
+        if distance < best_distance and screen_residual(form.fk_one(q), position, rotation) <= tolerance:
+            best, best_distance = q, distance
+    return best, inside
+
+
+def no_solution_reason(real: bool, in_limits: bool) -> str:
+    """Why no branch was returned, from what the choice already knows."""
+    if not real:
+        return "unreachable: no real closed-form branch (target outside the workspace)"
+    if not in_limits:
+        return "every real branch is outside the joint limits"
+    return "unreachable: no closed-form branch inside the joint limits reaches the target"
+
+
 class AnalyticSolver(Solver):
     """Closed-form IK behind the common interface; see the module docstring."""
 
@@ -145,33 +293,66 @@ class AnalyticSolver(Solver):
         self._forms: dict[str, ClosedForm] = {}
         self.closed_form_options = dict(closed_form_options or {})
         self.revolute = ~self.chain.is_prismatic
+        self._lower, self._upper = self.chain.lower.tolist(), self.chain.upper.tolist()
 
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
             self._forms[kind] = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
         return self._forms[kind]
 
-    def _screen(self, form: ClosedForm, positions, rotations, q0s) -> tuple[np.ndarray, np.ndarray]:
-        """All branches for a batch: wrapped joints (B, K, n) and usable mask (B, K)."""
-        q_all, valid = form.branches(positions, rotations, q0s)
+    # -- vectorised ---------------------------------------------------------------------------
+    def _wrapped(self, form: ClosedForm, positions, rotations, q0s):
+        """Every branch of a batch wrapped into the limits: (Q (B, K, n), real (B, K), usable (B, K))
+        with usable = real, inside the limits and finite (not yet screened)."""
+        q_all, real = form.branches(positions, rotations, q0s)
         q_all, in_limits = wrap_into_limits(q_all, q0s[:, None, :], self.chain.lower, self.chain.upper,
                                             self.revolute)
-        usable = valid & in_limits & np.all(np.isfinite(q_all), axis=-1)
-        reached_p, reached_r = form.fk(np.where(usable[..., None], q_all, 0.0))
-        residual = np.linalg.norm(reached_p - positions[:, None, :], axis=-1)
-        if rotations is not None:
-            trace = np.sum(rotations[:, None] * reached_r, axis=(-2, -1))  # trace(R_target^T R_reached)
-            cosine = np.clip((trace - 1.0) / 2.0, -1.0, 1.0)
-            residual = np.maximum(residual, np.arccos(cosine))
-        usable &= residual <= form.screen_tolerance
-        return q_all, usable
+        return q_all, real, real & in_limits & np.all(np.isfinite(q_all), axis=-1)
 
     @staticmethod
-    def _nearest(q_all: np.ndarray, usable: np.ndarray, q0s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        distance = np.linalg.norm(q_all - q0s[:, None, :], axis=-1)
-        distance = np.where(usable, distance, np.inf)
-        best = np.argmin(distance, axis=1)
-        return q_all[np.arange(len(best)), best], np.any(usable, axis=1)
+    def _residual(form: ClosedForm, q: np.ndarray, positions, rotations) -> np.ndarray:
+        """Closed-form FK residual max(|p - p*|, angle(R*^T R)) of joints q (..., n) against targets."""
+        reached_p, reached_r = form.fk(q)
+        residual = np.linalg.norm(reached_p - positions, axis=-1)
+        if rotations is not None:
+            trace = np.sum(rotations * reached_r, axis=(-2, -1))  # trace(R_target^T R_reached)
+            residual = np.maximum(residual, np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)))
+        return residual
+
+    def _choose(self, form: ClosedForm, positions, rotations, q0s):
+        """The nearest screened branch per target: (q (B, n), found (B,), real (B, K), usable (B, K)).
+
+        Same answer as screening every branch and taking the nearest (ties: the first branch), but only
+        the nearest usable branch of each target is screened, then the next where it fails.
+        """
+        q_all, real, usable = self._wrapped(form, positions, rotations, q0s)
+        count = len(q_all)
+        distance = np.where(usable, np.linalg.norm(q_all - q0s[:, None, :], axis=-1), np.inf)
+        order = np.argsort(distance, axis=1, kind="stable")
+        chosen = np.zeros(q0s.shape)
+        found = np.zeros(count, dtype=bool)
+        pending = np.arange(count)
+        for rank in range(order.shape[1]):
+            branch = order[pending, rank]
+            pending = pending[usable[pending, branch]]
+            if not len(pending):
+                break
+            branch = order[pending, rank]
+            candidates = q_all[pending, branch]
+            residual = self._residual(form, candidates, positions[pending],
+                                      None if rotations is None else rotations[pending])
+            passed = residual <= form.screen_tolerance
+            chosen[pending[passed]] = candidates[passed]
+            found[pending[passed]] = True
+            pending = pending[~passed]
+        return chosen, found, real, usable
+
+    @staticmethod
+    def _reasons(found, real, usable) -> list[str]:
+        """The failure reason of each target from the choice's masks ("" where found)."""
+        any_real, any_usable = real.any(axis=1).tolist(), usable.any(axis=1).tolist()
+        return ["" if ok else no_solution_reason(r, u)
+                for ok, r, u in zip(found.tolist(), any_real, any_usable, strict=True)]
 
     def _batch(self, targets: list[Target], q0s: np.ndarray):
         kinds = {"pose" if t.is_pose else "position" for t in targets}
@@ -182,68 +363,94 @@ class AnalyticSolver(Solver):
         rotations = np.array([t.rotation for t in targets]) if form.target_kind == "pose" else None
         return form, positions, rotations
 
+    # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        fast = self.closed_form("pose" if target.is_pose else "position").solve_one(
-            target.position, target.rotation, q0)
-        if fast is not NotImplemented:
-            q_best, count = fast
-            if q_best is None:
-                return Candidate(None, 1, "unreachable: no closed-form branch inside the joint limits "
-                                          "reaches the target")
-            return Candidate(q_best, 1, extra={"branches": count})
-        form, positions, rotations = self._batch([target], q0[None])
-        q_all, usable = self._screen(form, positions, rotations, q0[None])
-        q_best, found = self._nearest(q_all, usable, q0[None])
+        form = self.closed_form("pose" if target.is_pose else "position")
+        if form.has_scalar_path:
+            position = target.position.tolist()
+            rotation = None if form.target_kind == "position" else target.rotation.ravel().tolist()
+            reference = q0.tolist()
+            bounded = form.branches_one(position, rotation, reference)
+            q, inside = nearest_branch(form, bounded, position, rotation, reference, self._lower, self._upper)
+            if q is None:
+                return Candidate(None, 1, no_solution_reason(bool(bounded), inside))
+            return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
+        positions = target.position[None]
+        rotations = None if form.target_kind == "position" else target.rotation[None]
+        q, found, real, usable = self._choose(form, positions, rotations, q0[None])
         if not found[0]:
-            return Candidate(None, 1, self._no_solution_reason(form, positions, rotations, q0))
-        return Candidate(q_best[0], 1, extra={"branches": int(usable.sum())})
-
-    def _no_solution_reason(self, form, positions, rotations, q0) -> str:
-        q_all, valid = form.branches(positions, rotations, q0[None])
-        if not valid.any():
-            return "unreachable: no real closed-form branch (target outside the workspace)"
-        return "every real branch is outside the joint limits"
+            return Candidate(None, 1, no_solution_reason(bool(real.any()), bool(usable.any())))
+        return Candidate(q[0], 1, extra={"branches": int(real.sum())})
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """Vectorised: one closed-form evaluation for the whole batch; per-pose time = total / B."""
-        targets = [as_target(t) for t in targets]
-        if not targets:
+        """Vectorised: one closed-form evaluation and one batched FK check for the whole batch;
+        per-pose time = closed-form time / B (the check is not counted, as in ``solve``)."""
+        from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
+
+        positions, rotations = batch_targets(targets, self)
+        count = len(positions)
+        if not count:
             return []
-        for target in targets:
-            self._check_target_kind(target)
-        starts = self._batch_starts(q0s, len(targets))
-        q0_array = np.array([self.chain.nominal if s is None else s for s in starts])
+        q0_array = self._start_array(q0s, count)
+        form = self.closed_form("position" if rotations is None else "pose")
         start = time.perf_counter()
-        form, positions, rotations = self._batch(targets, q0_array)
-        q_all, usable = self._screen(form, positions, rotations, q0_array)
-        q_best, found = self._nearest(q_all, usable, q0_array)
-        per_pose = (time.perf_counter() - start) / len(targets)
-        results = []
-        for index, target in enumerate(targets):
-            if found[index]:
-                candidate = Candidate(q_best[index], 1, extra={"branches": int(usable[index].sum()),
-                                                               "batched": True})
-            else:
-                reason = self._no_solution_reason(form, positions[index:index + 1],
-                                                  None if rotations is None else rotations[index:index + 1],
-                                                  q0_array[index])
-                candidate = Candidate(None, 1, reason, extra={"batched": True})
-            results.append(evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name))
-        return results
+        form_rotations = rotations if form.target_kind == "pose" else None
+        q, found, real, usable = self._choose(form, positions, form_rotations, q0_array)
+        per_pose = (time.perf_counter() - start) / count
+        extras = [{"branches": branches, "batched": True} for branches in real.sum(axis=1).tolist()]
+        return evaluate_batch(self.chain, form, positions, rotations, q, found,
+                              self._reasons(found, real, usable), self.tolerances, per_pose, self.name,
+                              extras)
+
+    def _start_array(self, q0s, count: int) -> np.ndarray:
+        """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""
+        if q0s is None:
+            return np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy()
+        starts = self._batch_starts(q0s, count)
+        return np.array(starts)
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch inside the limits that passes the shared FK check."""
+        """Every distinct branch inside the limits that passes the shared FK check (wrapped nearest to
+        the chain's nominal configuration, in branch order)."""
         target = as_target(target)
         self._check_target_kind(target)
-        q0 = self.chain.nominal[None]
+        form = self.closed_form("pose" if target.is_pose else "position")
+        nominal = self.chain.nominal
         start = time.perf_counter()
-        form, positions, rotations = self._batch([target], q0)
-        q_all, usable = self._screen(form, positions, rotations, q0)
+        if form.has_scalar_path:
+            distinct = self._distinct_one(form, target, nominal)
+        else:
+            positions = target.position[None]
+            rotations = None if form.target_kind == "position" else target.rotation[None]
+            q_all, _, usable = self._wrapped(form, positions, rotations, nominal[None])
+            q_all = q_all[0][usable[0]]
+            passed = self._residual(form, q_all, positions, rotations) <= form.screen_tolerance
+            distinct = []
+            for q in q_all[passed]:
+                if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):
+                    distinct.append(q)
         elapsed = time.perf_counter() - start
-        distinct: list[np.ndarray] = []
-        for q in q_all[0][usable[0]]:
-            if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):
-                distinct.append(q)
         results = [evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
                    for q in distinct]
         return [r for r in results if r.success]
+
+    def _distinct_one(self, form: ClosedForm, target: Target, nominal: np.ndarray) -> list[np.ndarray]:
+        """Every branch wrapped into the limits nearest to ``nominal`` that passes the screen and is not
+        within BRANCH_MERGE of an earlier one, in branch order (the scalar path of :meth:`solve_all`)."""
+        position = target.position.tolist()
+        rotation = None if form.target_kind == "position" else target.rotation.ravel().tolist()
+        reference = nominal.tolist()
+        screened: list[list[float]] = []
+        for _, raw in form.branches_one(position, rotation, reference):
+            q = wrap_one_into_limits(raw, reference, self._lower, self._upper)
+            if (q is not None and not any(_same_branch(q, other) for other in screened)
+                    and screen_residual(form.fk_one(q), position, rotation) <= form.screen_tolerance):
+                screened.append(q)
+        return [np.array(q) for q in screened]
+
+
+def _same_branch(q: list[float], other: list[float]) -> bool:
+    """Every revolute angle within BRANCH_MERGE of the other's modulo 2 pi (geometry.joint_gap's rule,
+    in plain floats, stopping at the first joint that differs)."""
+    remainder = math.remainder
+    return all(abs(remainder(a - b, TWO_PI)) < BRANCH_MERGE for a, b in zip(q, other, strict=True))

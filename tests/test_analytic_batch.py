@@ -1,0 +1,165 @@
+"""The closed forms' fast paths agree with the general ones they stand in for.
+
+- every closed form's vectorised FK (and scalar ``fk_one``) equals Pinocchio's FK: the batched check of
+  ``solve_many`` measures errors with it;
+- ``evaluate_batch`` decides exactly as the shared per-call check ``wbik.solvers.base.evaluate``;
+- ``batch_targets`` accepts what ``as_target`` accepts and raises what it raises;
+- the vectorised choice (screen the nearest branch first) returns the branch of screening every branch
+  and taking the nearest, written out here as the reference.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+from wbik.solvers.analytic import AnalyticSolver, closed_forms
+from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
+from wbik.solvers.base import Candidate, evaluate
+from wbik.targets import Target, as_target
+
+ROBOTS = ("arm3r", "bioloid", "golem3", "pincher", "ur5")
+FORMS = [(robot, chain, kind) for robot in ROBOTS for chain, kind in sorted(closed_forms(wbik.load(robot)))]
+FK_AGREEMENT = 1e-10
+"""Closed-form FK against Pinocchio's (m, and rotation entries): the UR5's differ by up to 4e-12 (the
+URDF's offsets are rounded differently from ur_kinematics' DH numbers), the others by ~1e-16. The
+batched check's errors differ from the per-call check's by at most this much."""
+
+
+@pytest.fixture(scope="module")
+def solvers():
+    robots = {name: wbik.load(name) for name in ROBOTS}
+    return {(robot, chain): wbik.solver("analytic", robots[robot], chain=chain)
+            for robot, chain, _ in FORMS}
+
+
+@pytest.mark.parametrize(("robot", "chain_name", "kind"), FORMS)
+def test_closed_form_fk_equals_pinocchio(solvers, robot, chain_name, kind):
+    """Position (and, for pose forms, rotation) of the closed-form FK against Pinocchio's, 500 joints."""
+    solver = solvers[(robot, chain_name)]
+    chain, form = solver.chain, solver.closed_form(kind)
+    joints = chain.random(np.random.default_rng(7), 500)
+    if kind == "position" and robot == "golem3":
+        joints[:, 5] = form.yaw  # the position form fixes the wrist roll
+    positions, rotations = form.fk(joints)
+    for q, position, rotation in zip(joints, positions, rotations, strict=True):
+        pose = chain.fk(q)
+        np.testing.assert_allclose(position, pose.translation, rtol=0, atol=FK_AGREEMENT)
+        if kind == "pose":
+            np.testing.assert_allclose(rotation, pose.rotation, rtol=0, atol=FK_AGREEMENT)
+    if form.has_scalar_path:
+        for q, position, rotation in zip(joints[:100], positions[:100], rotations[:100], strict=True):
+            scalar_p, scalar_r = form.fk_one(q.tolist())
+            np.testing.assert_allclose(scalar_p, position, rtol=0, atol=1e-14)
+            np.testing.assert_allclose(np.reshape(scalar_r, (3, 3)), rotation, rtol=0, atol=1e-14)
+
+
+def _per_call(chain, targets, q, found, reasons, tolerances):
+    return [evaluate(chain, target, Candidate(q[i] if found[i] else None, 1, reasons[i]), tolerances, 0.5,
+                     "analytic") for i, target in enumerate(targets)]
+
+
+CHECKED = [("ur5", "arm", "pose"), ("golem3", "left_arm", "pose"), ("arm3r", "arm", "position"),
+           ("bioloid", "right_leg", "position")]
+
+
+@pytest.mark.parametrize(("robot", "chain_name", "kind"), CHECKED)
+@pytest.mark.parametrize("tolerance", [1e-6, 1e-3])
+def test_evaluate_batch_decides_as_evaluate(solvers, robot, chain_name, kind, tolerance):
+    """Targets reached exactly, missed by 1e-7..1e-2 (either side of the tolerance), joints outside the
+    limits (clipped) and targets without joints: same success, reason, joints and errors."""
+    solver = solvers[(robot, chain_name)]
+    chain, form = solver.chain, solver.closed_form(kind)
+    rng = np.random.default_rng(3)
+    count = 400
+    joints = chain.random(rng, count)
+    if kind == "position" and robot == "golem3":
+        joints[:, 5] = form.yaw
+    poses = [chain.fk(q) for q in joints]
+    miss = np.exp(rng.uniform(np.log(1e-7), np.log(1e-2), count)) * (rng.random(count) < 0.6)
+    q = joints + miss[:, None] * rng.normal(size=joints.shape)
+    outside = rng.random(count) < 0.1
+    q[outside, 0] = chain.upper[0] + rng.uniform(1e-10, 1e-2, outside.sum())
+    found = rng.random(count) < 0.9
+    reasons = ["" if f else "unreachable: test" for f in found]
+    targets = [as_target(p) if kind == "pose" else as_target(p.translation) for p in poses]
+    positions = np.array([t.position for t in targets])
+    rotations = np.array([t.rotation for t in targets]) if kind == "pose" else None
+    tolerances = wbik.Tolerances(tolerance, tolerance)
+    batch = evaluate_batch(chain, form, positions, rotations, np.where(found[:, None], q, 0.0), found,
+                           reasons, tolerances, 0.5, "analytic", [{} for _ in range(count)])
+    single = _per_call(chain, targets, q, found, reasons, tolerances)
+    assert 0 < sum(r.success for r in single) < count
+    for mine, theirs in zip(batch, single, strict=True):
+        assert mine.success == theirs.success
+        assert (mine.q is None) == (theirs.q is None)
+        if theirs.q is None:
+            assert mine.reason == theirs.reason
+            continue
+        np.testing.assert_array_equal(mine.q, theirs.q)
+        for mine_xyz, theirs_xyz in ((mine.position_error_xyz, theirs.position_error_xyz),
+                                     (mine.rotation_error_xyz, theirs.rotation_error_xyz)):
+            np.testing.assert_allclose(mine_xyz, theirs_xyz, rtol=0, atol=FK_AGREEMENT)
+        assert abs(mine.position_error - theirs.position_error) <= FK_AGREEMENT
+        assert abs(mine.rotation_error - theirs.rotation_error) <= FK_AGREEMENT
+        if "FK check failed" in theirs.reason:  # the figures in the text are 3 digits
+            assert mine.reason.startswith("FK check failed")
+        else:
+            assert mine.reason == theirs.reason
+
+
+def test_batch_targets_accepts_and_refuses_as_as_target(solvers):
+    solver = solvers[("ur5", "ee")]
+    chain = solver.chain
+    poses = [chain.fk(q) for q in chain.random(np.random.default_rng(4), 50)]
+    positions, rotations = batch_targets(poses, solver)
+    np.testing.assert_array_equal(positions, [p.translation for p in poses])
+    np.testing.assert_array_equal(rotations, [p.rotation for p in poses])
+    mixed_forms = [poses[0], poses[1].homogeneous, Target(poses[2].translation, poses[2].rotation)]
+    positions, rotations = batch_targets(mixed_forms, solver)
+    np.testing.assert_array_equal(positions, [p.translation for p in poses[:3]])
+    bad = [pin.SE3(poses[0].rotation * 1.01, poses[0].translation),
+           pin.SE3(poses[0].rotation, np.array([np.nan, 0.0, 0.0])),
+           pin.SE3(poses[0].rotation, np.array([2e6, 0.0, 0.0])),
+           pin.SE3(-poses[0].rotation, poses[0].translation)]
+    for target in bad:
+        with pytest.raises(wbik.WbikError) as expected:
+            as_target(target)
+        with pytest.raises(type(expected.value)) as raised:
+            batch_targets([*poses[:3], target], solver)
+        assert str(raised.value) == str(expected.value)
+    with pytest.raises(wbik.UnsupportedError, match="only full poses or only positions"):
+        wbik.solver("analytic", wbik.load("golem3"), chain="right_arm").solve_many(
+            [chain.fk(chain.nominal), [0.4, -0.3, 1.0]])
+    assert batch_targets([], solver)[0].shape == (0, 3)
+
+
+def _reference_choice(solver: AnalyticSolver, form, positions, rotations, q0s):
+    """Screen every usable branch, take the nearest screened one (the first on a tie)."""
+    q_all, real, usable = solver._wrapped(form, positions, rotations, q0s)
+    screened = usable & (solver._residual(form, q_all, positions[:, None],
+                                          None if rotations is None else rotations[:, None])
+                         <= form.screen_tolerance)
+    distance = np.where(screened, np.linalg.norm(q_all - q0s[:, None], axis=-1), np.inf)
+    best = np.argmin(distance, axis=1)
+    return q_all[np.arange(len(best)), best], screened.any(axis=1)
+
+
+@pytest.mark.parametrize(("robot", "chain_name", "kind"), FORMS)
+def test_nearest_first_screening_equals_screening_every_branch(solvers, robot, chain_name, kind):
+    solver = solvers[(robot, chain_name)]
+    chain, form = solver.chain, solver.closed_form(kind)
+    rng = np.random.default_rng(11)
+    count = 60 if (robot, kind) == ("golem3", "position") else 300
+    joints = chain.random(rng, count)
+    poses = [chain.fk(q) for q in joints]
+    poses += [pin.SE3(p.rotation, p.translation * 1.3) for p in poses[:count // 5]]  # some unreachable
+    positions = np.array([p.translation for p in poses])
+    rotations = np.array([p.rotation for p in poses]) if kind == "pose" else None
+    q0s = chain.random(rng, len(poses))
+    chosen, found, _, _ = solver._choose(form, positions, rotations, q0s)
+    expected, expected_found = _reference_choice(solver, form, positions, rotations, q0s)
+    np.testing.assert_array_equal(found, expected_found)
+    np.testing.assert_array_equal(chosen[found], expected[found])

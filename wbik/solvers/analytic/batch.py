@@ -1,0 +1,114 @@
+"""Batched twins of the per-call interface for ``analytic``'s ``solve_many``: target conversion and the
+shared FK check, one NumPy pass per batch instead of one Python call per target.
+
+- :func:`batch_targets`: a batch of ``pinocchio.SE3`` targets checked as :func:`wbik.targets.as_target`
+  checks one (finite position within ``MAX_POSITION``, R^T R = I and det R = 1 within
+  ``ROTATION_TOLERANCE``), vectorised; anything else, or any target that fails, goes through
+  ``as_target`` one by one, so bad input raises exactly the error it raises in ``solve``.
+- :func:`evaluate_batch`: :func:`wbik.solvers.base.evaluate`'s rule (clip into the limits, position
+  error p - p*, rotation error log3(R*^T R), success when both norms are within the tolerances, the
+  same reasons) for a batch, with the closed form's vectorised FK in place of Pinocchio's.
+  ``tests/test_analytic_batch.py`` checks both against their per-call originals, and every closed
+  form's FK against Pinocchio.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import UnsupportedError
+from wbik.geometry import batch_log3
+from wbik.robot import Chain
+from wbik.solvers.base import IKResult, Tolerances
+from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, as_target
+
+CLIP_TOLERANCE = 1e-9
+"""As the shared check: a joint this far outside its limits is clipped without a reason."""
+
+
+def _valid_se3(matrices: np.ndarray) -> bool:
+    """Every 4x4 pose passes as_target's checks of an SE3 (position bound, orthonormal, det +1)."""
+    positions, rotations = matrices[:, :3, 3], matrices[:, :3, :3]
+    if not np.all(np.abs(positions) <= MAX_POSITION):  # NaN fails
+        return False
+    gram = np.einsum("bki,bkj->bij", rotations, rotations)
+    gram[:, [0, 1, 2], [0, 1, 2]] -= 1.0
+    if not np.all(np.abs(gram) <= ROTATION_TOLERANCE):
+        return False
+    return bool(np.all(np.abs(np.linalg.det(rotations) - 1.0) <= ROTATION_TOLERANCE))
+
+
+def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
+    """(positions (B, 3), rotations (B, 3, 3) or None for positions) of a batch of user targets.
+
+    Raises what ``as_target`` raises for a bad target, ``solver._check_target_kind``'s error for a
+    kind the solver does not take, and UnsupportedError for a batch mixing poses and positions.
+    """
+    values = list(values)
+    if not values:
+        return np.zeros((0, 3)), None
+    if all(type(value) is pin.SE3 for value in values):
+        matrices = np.array([value.homogeneous for value in values])
+        if _valid_se3(matrices):
+            solver._check_target_kind(as_target(values[0]))
+            return matrices[:, :3, 3].copy(), matrices[:, :3, :3].copy()
+    targets = [as_target(value) for value in values]
+    for target in targets:
+        solver._check_target_kind(target)
+    if len({target.is_pose for target in targets}) != 1:
+        raise UnsupportedError("a batch must hold only full poses or only positions")
+    positions = np.array([target.position for target in targets])
+    if not targets[0].is_pose:
+        return positions, None
+    return positions, np.array([target.rotation for target in targets])
+
+
+def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
+                   found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
+                   method: str, extras: list[dict]) -> list[IKResult]:
+    """:func:`wbik.solvers.base.evaluate` for a batch: one IKResult per target.
+
+    ``q`` (B, n) holds the joints where ``found`` (B,), ``reasons`` the method's reason per target (the
+    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with.
+    """
+    count = len(positions)
+    q = np.asarray(q, dtype=float)
+    finite = np.all(np.isfinite(q), axis=1)
+    inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
+    clipped = np.any(inside != q, axis=1) & ~(np.all(q >= chain.lower - CLIP_TOLERANCE, axis=1)
+                                               & np.all(q <= chain.upper + CLIP_TOLERANCE, axis=1))
+    reached_p, reached_r = form.fk(np.where(finite[:, None], inside, 0.0))
+    position_xyz = reached_p - positions
+    position_norm = np.sqrt(np.einsum("bi,bi->b", position_xyz, position_xyz))
+    if rotations is None:
+        rotation_xyz = np.zeros((count, 3))
+        rotation_norm = np.zeros(count)
+    else:
+        rotation_xyz = batch_log3(np.einsum("bji,bjk->bik", rotations, reached_r))
+        rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
+    success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
+    results = []
+    rows = zip(found.tolist(), finite.tolist(), clipped.tolist(), success.tolist(), position_norm.tolist(),
+               rotation_norm.tolist(), inside, position_xyz, rotation_xyz, q, reasons, extras, strict=True)
+    for was_found, is_finite, was_clipped, ok, p_norm, r_norm, joints, p_xyz, r_xyz, raw, reason, extra \
+            in rows:
+        if not was_found:
+            results.append(IKResult(None, False, reason or "no solution", math.nan, math.nan,
+                                    np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra))
+        elif not is_finite:
+            results.append(IKResult(None, False, f"method returned invalid joints {raw!r}", math.nan,
+                                    math.nan, np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method,
+                                    extra))
+        else:
+            if ok:
+                reason = ""
+            elif not reason:
+                reason = ("solution outside the joint limits (clipped)" if was_clipped else
+                          f"FK check failed: position error {p_norm:.3g} m, rotation error {r_norm:.3g} rad")
+            results.append(IKResult(joints, ok, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
+                                    extra))
+    return results

@@ -1,0 +1,86 @@
+"""Subproblems shared by the closed forms: the bottom layer of IK-Geo's layering.
+
+IK-Geo (Elias and Wen, "IK-Geo: Unified robot inverse kinematics using subproblem decomposition")
+and EAIK solve every arm they know by reducing it to a few small geometric problems with all their
+solutions. Ours are layered the same way: these subproblems -> kinematic families
+(:mod:`~wbik.solvers.analytic.ur_type`, :mod:`~wbik.solvers.analytic.yaw_planar`,
+:mod:`~wbik.solvers.analytic.stacked_planar`) -> one small binding per robot.
+
+- :func:`clamped_cosine` / :func:`clamped_acos`: a cosine computed from lengths (law of cosines, a
+  ratio of a distance to an offset) is a real angle only inside [-1, 1]; rounding puts a target on
+  the workspace boundary slightly outside, so the verdict allows ``COSINE_TOLERANCE`` (scaled by the
+  size of the terms the cosine came from) and the value is clipped.
+- :func:`planar_2r`: a planar two-link arm reaching a point, both elbow branches (the law of cosines
+  and one atan2), and :func:`planar_2r_one`, the same for one point in plain floats (scalar fast
+  paths; ``tests/test_analytic_subproblems.py`` checks that both agree).
+
+Every function takes arrays of any leading batch shape (the scalar twin excepted).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+COSINE_TOLERANCE = 1e-9
+"""How far a cosine may leave [-1, 1] (rounding) before its angle counts as not real. A target on the
+workspace boundary (a stretched elbow, an offset at full reach) comes back up to a few 1e-16 outside
+after rounding, or 1e-10 beyond the boundary for a target itself rounded; clamping it moves the limb
+by at most COSINE_TOLERANCE * its length (<= 1e-9 m per metre), far below the screening tolerance."""
+
+
+def clamped_cosine(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tuple[np.ndarray, np.ndarray]:
+    """(value clipped into [-1, 1], real mask): real where |value| <= 1 + tolerance * max(scale, 1).
+
+    ``scale`` (broadcasts with ``value``; None = 1): the size of the terms the cosine was computed from
+    relative to its denominator, e.g. (|a| + |b| + c) / d for (a - b - c) / d, since rounding of a
+    difference of large terms is relative to the terms, not to the difference.
+    """
+    value = np.asarray(value, dtype=float)
+    bound = 1.0 + tolerance if scale is None else 1.0 + tolerance * np.maximum(scale, 1.0)
+    return np.clip(value, -1.0, 1.0), np.abs(value) <= bound
+
+
+def clamped_acos(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tuple[np.ndarray, np.ndarray]:
+    """(arccos of the clamped cosine in [0, pi], real mask) (see :func:`clamped_cosine`)."""
+    cosine, real = clamped_cosine(value, tolerance, scale)
+    return np.arccos(cosine), real
+
+
+def planar_2r(x, y, first, second, tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray,
+                                                                                      np.ndarray]:
+    """Both elbow branches of a planar two-link arm reaching (x, y).
+
+    The arm is x = a c1 + b c12, y = a s1 + b s12 (a = ``first``, b = ``second``; lengths may be
+    negative as in the UR DH table). Law of cosines: c2 = (x^2 + y^2 - a^2 - b^2) / (2 a b),
+    q2 = atan2(+-sqrt(1 - c2^2), c2), q1 = atan2(y, x) - atan2(b s2, a + b c2).
+
+    Returns (angle1 (..., 2), angle2 (..., 2), real (...)): the last axis is the elbow branch
+    (q2 >= 0 first); ``real`` is False where |c2| > 1 + tolerance (the point is out of reach).
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    cosine, real = clamped_cosine((x * x + y * y - first * first - second * second) / (2.0 * first * second),
+                                  tolerance)
+    sine = np.sqrt(1.0 - cosine * cosine)
+    sines = np.stack((sine, -sine), axis=-1)
+    cosines = cosine[..., None]
+    angle2 = np.arctan2(sines, cosines)
+    angle1 = np.arctan2(y, x)[..., None] - np.arctan2(second * sines, first + second * cosines)
+    return angle1, angle2, real
+
+
+def planar_2r_one(x: float, y: float, first: float, second: float,
+                  tolerance: float = COSINE_TOLERANCE) -> tuple[tuple[float, float], ...]:
+    """:func:`planar_2r` for one point in plain floats: ((angle1, angle2) elbow up, then elbow down),
+    or () when the point is out of reach. Same arithmetic as the vectorised version."""
+    cosine = (x * x + y * y - first * first - second * second) / (2.0 * first * second)
+    if not abs(cosine) <= 1.0 + tolerance:
+        return ()
+    cosine = min(1.0, max(-1.0, cosine))
+    sine = math.sqrt(1.0 - cosine * cosine)
+    reach = math.atan2(y, x)
+    atan2 = math.atan2
+    return ((reach - atan2(second * sine, first + second * cosine), atan2(sine, cosine)),
+            (reach - atan2(-second * sine, first + second * cosine), atan2(-sine, cosine)))
