@@ -1,7 +1,8 @@
 """IK targets and the error between a reached pose and a target.
 
 A target is a position p (3,) and, for a full pose, a rotation R (3, 3), both expressed in the
-chain's base frame, SI units. Errors are
+chain's base frame, SI units. Errors follow the one convention of :mod:`wbik.geometry`
+(``geometry.pose_error``):
 
 - position: e_p = p_reached - p_target (metres, base-frame axes);
 - rotation: e_R = log3(R_target^T R_reached) (radians, a rotation vector in the target frame,
@@ -16,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidRotationError, InvalidTargetError
+from wbik.geometry import rotation_error
 from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6
@@ -67,9 +69,9 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
     """The common case, an SE3 with a finite position and a rotation, checked in plain floats (about
     2 us; the general path's small numpy calls cost ~40 us). None when anything is off, so that
     the general path raises the detailed error."""
-    rotation = value.rotation
+    rotation, translation = value.rotation, value.translation  # views into the SE3: copied below
     (a, b, c), (d, e, f), (g, h, i) = rotation.tolist()
-    x, y, z = value.translation.tolist()
+    x, y, z = translation.tolist()
     if not (abs(x) <= MAX_POSITION and abs(y) <= MAX_POSITION and abs(z) <= MAX_POSITION):
         return None  # NaN fails every comparison
     tolerance = ROTATION_TOLERANCE
@@ -81,7 +83,7 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
     determinant = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
     if not abs(determinant - 1.0) <= tolerance:
         return None
-    return Target(value.translation.copy(), rotation.copy())
+    return Target(translation.copy(), rotation.copy())
 
 
 def as_target(value, rotation=None) -> Target:
@@ -120,8 +122,9 @@ def as_target(value, rotation=None) -> Target:
 
 
 def pose_error(reached: pin.SE3, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
-    """(position error xyz, rotation error vector or None for a position-only target)."""
+    """(e_p, e_R) of ``geometry.pose_error`` split in two: position error xyz, and the rotation
+    error vector or None for a position-only target."""
     position_error = reached.translation - target.position
     if target.rotation is None:
         return position_error, None
-    return position_error, pin.log3(target.rotation.T @ reached.rotation)
+    return position_error, rotation_error(reached.rotation, target.rotation)

@@ -19,7 +19,6 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import pinocchio as pin
 
 from wbik.errors import (
     InvalidBudgetError,
@@ -29,6 +28,7 @@ from wbik.errors import (
     UnknownMethodError,
     UnsupportedError,
 )
+from wbik.geometry import rotation_error
 from wbik.robot import Chain, Robot
 from wbik.targets import Target, as_target
 from wbik.validation import check_budget, check_seed
@@ -106,14 +106,18 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
              time_s: float, method: str) -> IKResult:
     """The shared FK check: clip into the limits, measure the errors, decide success.
 
-    Written for the per-call path (a few microseconds): plain-float norms, one clip, one FK, one
-    log3; the detailed checks run only when something is off.
+    The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
+    e_R = log3(R*^T R) (``geometry.rotation_error``, target axes). Written for the per-call path (a
+    few microseconds): plain-float norms, one clip, one FK, one log3; the detailed checks run only
+    when something is off.
     """
-    if candidate.q is None:
+    q = candidate.q
+    if q is None:
         nan3 = np.full(3, np.nan)
         return IKResult(None, False, candidate.reason or "no solution", math.nan, math.nan,
                         nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
-    q = np.asarray(candidate.q, dtype=float)
+    if type(q) is not np.ndarray or q.dtype != np.float64:
+        q = np.asarray(q, dtype=float)
     if q.shape != (chain.nq,) or not math.isfinite(float(q.dot(q))):
         if q.shape != (chain.nq,) or not np.all(np.isfinite(q)):
             nan3 = np.full(3, np.nan)
@@ -125,13 +129,13 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
         reason = "solution outside the joint limits (clipped)"
     reached = chain.fk(inside)
     position_xyz = reached.translation - target.position
+    position_norm = math.hypot(*position_xyz.tolist())
     if target.rotation is None:
         rotation_xyz = np.zeros(3)
         rotation_norm = 0.0
     else:
-        rotation_xyz = pin.log3(target.rotation.T.dot(reached.rotation))
-        rotation_norm = math.sqrt(rotation_xyz.dot(rotation_xyz))
-    position_norm = math.sqrt(position_xyz.dot(position_xyz))
+        rotation_xyz = rotation_error(reached.rotation, target.rotation)
+        rotation_norm = math.hypot(*rotation_xyz.tolist())
     success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
     if success:
         reason = ""

@@ -1,21 +1,30 @@
 """Ours: joint-limit-bounded Levenberg-Marquardt with restarts (``bounded_lm``).
 
-One attempt, from a seed q inside the limits, iterates
+One attempt, from a seed q inside the limits, iterates the policy of
+:mod:`wbik.solvers.levenberg_marquardt` (the same for the one-seed and the batched path):
 
-    (J^T J + lambda_k I) dq = J^T e,     lambda_k = w |e|^2 + lambda_0,     q <- P(q + dq)
+    (J^T J + lambda I) dq = -J^T e,     lambda = w |e|^2 + mu,     q <- P(q + dq)
 
-with e, J the task error and Jacobian, w = ``cost_weight`` (0.01) and lambda_0 = ``damping``
-(1e-6). This is Sugihara's error-dependent damping: large far from the target (robust start),
-vanishing near it (Newton-fast end). The system is solved by Cholesky. A step that raises |e| is
-rejected and lambda_0 grows ten-fold; an accepted one multiplies it by 0.3. P is the projection into the
-limits: a revolute joint whose range spans a full turn is wrapped by 2 pi instead of clipped;
-otherwise joints are clipped, and a joint already on a bound whose step points outwards is frozen
-and the step recomputed without it (an active-set, i.e. bounded, step). ``max_step`` optionally
-caps the largest joint step. Position rows are weighted by ``position_weight`` (default: 1 / the
-chain's length scale, at least 1), which puts metres and radians on a par on small chains
-(Pincher, Bioloid legs); the FK check is unchanged. An attempt ends when the FK check passes
-(success), when the error stops dropping (``stall`` iterations with less than 1 - ``progress``
-relative progress: a local minimum or a limit), or after ``attempt_iterations``.
+with w = ``cost_weight`` (0.01) and mu the base damping (floor ``damping``, 1e-6; x0.3 after an
+accepted step, x10 after a rejected one): Sugihara's error-dependent damping, large far from the
+target (robust start), vanishing near it (Newton-fast end). A step that does not lower |e| is
+rejected. P wraps full-turn revolute joints by 2 pi and clips the others; a clipped joint on a
+bound whose step points outwards is frozen and the step recomputed without it (a bounded step).
+``max_step`` optionally caps the largest joint step.
+
+The residual e is the pose-error convention of :mod:`wbik.geometry` in its SE(3) form (documented
+in :mod:`wbik.solvers.task_error`): e = log6(T*^-1 T), whose rotation part is log3(R*^T R) and
+whose translation part is R*^T (p - p*) bent along the screw motion, with the tip-axes (LOCAL) frame
+Jacobian; a position target uses e = p - p* with the linear rows of the Jacobian (base axes).
+Measured against the straight form [p - p*; log3(R*^T R)] with its exact Jacobian (attempts from
+the mid-range seed, 1000 poses per chain): success 77.6 / 67.9 / 79.3 / 97.6 / 82.4 % against
+77.7 / 64.7 / 71.1 / 96.3 / 77.1 % on UR5 / Golem-III / Pincher / Bioloid leg / Panda, and
+-0.4 to +0.8 fewer iterations per solved attempt; from a near seed the two are the same.
+Position rows are weighted by ``position_weight`` (default: 1 / the chain's length scale, at least
+1), which puts metres and radians on a par on small chains (Pincher, Bioloid legs); the FK check is
+unchanged. An attempt ends when the FK check passes (success), when the error stops dropping
+(``stall`` iterations with less than 1 - ``progress`` relative progress: a local minimum or a
+limit), or after ``attempt_iterations``.
 
 Restarts, until the iteration budget ``max_iterations`` is spent (the result is the first solution
 that passes, or the best attempt with a reason). The budget counts single-seed iterations; one
@@ -30,19 +39,16 @@ the reference machine, so the answer depends on the inputs and ``seed`` only, ne
    k-d trees over their tip poses, built once per chain and cached (:func:`seed_library`, ~40 ms).
    A restart takes the library configurations whose tip pose is nearest the target (weighted
    position distance^2 + 3 - trace(R*^T R_i)), nearest first: they start in the right region of the
-   workspace, so an attempt from them succeeds more often and sooner than from a uniform seed
-   (measured: mean time -20 to -40 % on Golem3, Pincher, Panda with 2048 entries; 8192 entries
-   take Golem3 a further -20 %; the tree query costs ~30 us whatever the size).
+   workspace, so an attempt from them succeeds more often and sooner than from a uniform seed.
 3. After ``single_attempts`` one-seed attempts, ``batch_size`` seeds advance together, vectorised
-   over the batch (:class:`VectorisedChain`: errors and Jacobians of all seeds in a fixed number of
-   numpy calls); the first ``library_share`` of them are the next library neighbours, the others
+   over the batch (:class:`VectorisedChain`: residuals and Jacobians of all seeds in a fixed number
+   of numpy calls); the first ``library_share`` of them are the next library neighbours, the others
    uniform. A seed that stalls is replaced by a fresh uniform one. A batch iteration costs about
    as much as 10-15 single ones but advances 32 seeds, which is what solves the rare targets whose
    solution lies in a small basin (joints near their limits).
 
-A single-seed iteration costs ~10 us (three Pinocchio calls and a dozen small numpy calls: the
-loop avoids Python helpers and temporary arrays). Defaults were tuned under TRAC-IK's protocol
-with ``benchmarks/numerical.py`` on the UR5, Golem3, Pincher, Bioloid and Panda chains.
+Defaults were tuned under TRAC-IK's protocol with ``benchmarks/numerical.py`` on the UR5, Golem3,
+Pincher, Bioloid and Panda chains.
 """
 
 from __future__ import annotations
@@ -54,16 +60,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dposv
 from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
-from wbik.geometry import batch_log3
 from wbik.solvers.base import Candidate, Solver
-from wbik.solvers.task_error import converged
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
+from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target
 
-TWO_PI = 2.0 * math.pi
 BATCH_ITERATION_UNITS = 10
 """Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
 iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
@@ -95,13 +99,14 @@ class BoundedLMSolver(Solver):
 
     max_iterations: the budget of a call, in single-seed iterations (default: ~5 ms here);
     attempt_iterations, stall, progress: end of an attempt (30 iterations; 3 without a 10 % drop);
-    damping, cost_weight, decrease, increase: lambda_0 floor, w, lambda_0 factors on accept/reject;
-    max_step: cap on the largest joint step (rad or m), None = no cap; position_weight: w of the
-    position rows (default 1 / the chain's length, at least 1); single_attempts: one-seed attempts
-    before the vectorised batch (5); batch_size: seeds per batch (32; 1 = one seed at a time for
-    ever); library_size: seed-library entries (8192; 0 = uniform restarts); library_share: share of
-    the first batch taken from the library (0.5); candidates: a uniform restart seed is the best of
-    this many draws by task error (3; used once the library neighbours run out).
+    damping, cost_weight, decrease, increase: mu floor, w, mu factors on accept/reject (the
+    policy, :class:`LevenbergMarquardt`); max_step: cap on the largest joint step (rad or m), None =
+    no cap; position_weight: w of the position rows (default 1 / the chain's length, at least 1);
+    single_attempts: one-seed attempts before the vectorised batch (5); batch_size: seeds per batch
+    (32; 1 = one seed at a time for ever); library_size: seed-library entries (8192; 0 = uniform
+    restarts); library_share: share of the first batch taken from the library (0.5); candidates: a
+    uniform restart seed is the best of this many draws by task error (3; used once the library
+    neighbours run out).
     """
 
     name = "bounded_lm"
@@ -117,14 +122,13 @@ class BoundedLMSolver(Solver):
         super().__init__(robot, chain, **options)
         self.max_iterations = self._iteration_budget(max_iterations)
         self.attempt_iterations = int(attempt_iterations)
-        self.stall = int(stall)
-        self.damping = float(damping)
+        self.policy = LevenbergMarquardt(
+            cost_weight=float(cost_weight), floor=float(damping), decrease=float(decrease),
+            increase=float(increase), progress=float(progress), stall=int(stall),
+            max_step=None if max_step is None else float(max_step))
         self.batch_size = max(1, int(batch_size))
-        self.cost_weight, self.decrease, self.increase = float(cost_weight), float(decrease), float(increase)
-        self.progress = float(progress)
         self.candidates = max(1, int(candidates))
         self.single_attempts = max(0, int(single_attempts))
-        self.max_step = None if max_step is None else float(max_step)
         self.position_weight = (chain_scale_weight(self.chain) if position_weight is None
                                 else float(position_weight))
         weighted_position = self.tolerances.position * self.position_weight
@@ -133,8 +137,7 @@ class BoundedLMSolver(Solver):
         self._sure_cost = (0.5 * smallest) ** 2  # |e|^2 below this passes both parts of the check
         self._maybe_cost = 2.0 * (0.5 * largest) ** 2
         chain_ = self.chain
-        self.lower, self.upper = chain_.lower, chain_.upper
-        self.wraps = (~chain_.is_prismatic) & (chain_.upper - chain_.lower >= TWO_PI - 1e-9)
+        self.bounds = JointBounds.of_chain(chain_)
         self.library_share = float(library_share)
         try:
             self._vectorised = VectorisedChain(chain_, self.position_weight)
@@ -143,125 +146,90 @@ class BoundedLMSolver(Solver):
         self._library = seed_library(chain_, max(0, int(library_size)), self.position_weight,
                                      self._vectorised)
         self._model = scaled_model(chain_.model, self.position_weight)
-        self._identity = np.eye(chain_.nq)
+        # the scaled model scales placements; a prismatic joint's travel is scaled through q itself
+        scales_travel = chain_.is_prismatic.any() and self.position_weight != 1.0
+        self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
+                             else None)
 
     def _new_thread_state(self) -> pin.Data:
         return self._model.createData()
 
-    # -- projection into the limits -----------------------------------------------------------
     def project(self, q: np.ndarray) -> np.ndarray:
         """Wrap full-turn revolute joints by 2 pi into their range, clip the others."""
-        if self.wraps.any():
-            q = q.copy()
-            wrapped = q[..., self.wraps]
-            low = self.lower[self.wraps]
-            outside = (wrapped < low) | (wrapped > self.upper[self.wraps])
-            wrapped = np.where(outside, low + np.mod(wrapped - low, TWO_PI), wrapped)
-            q[..., self.wraps] = wrapped
-        return np.clip(q, self.lower, self.upper)
+        return self.bounds.project(q)
+
+    # -- the residual of one configuration ----------------------------------------------------------
+    def _goal(self, target: Target) -> pin.SE3:
+        """T*^-1: the inverse of the target in the scaled model's world frame (lengths x w)."""
+        goal = self.chain.base_placement * target.se3()
+        return pin.SE3(goal.rotation, self.position_weight * goal.translation).inverse()
+
+    def _residual(self, goal_inverse: pin.SE3, pose: bool, with_jacobian: bool = True):
+        """The residual and Jacobian at a configuration, as a function q -> (e, J) (J None when not
+        asked for). Pose: e = log6(T*^-1 T) with the tip-axes (LOCAL) Jacobian; position: e = p - p*
+        with the linear rows of the world-aligned Jacobian. Lengths are scaled by w (the scaled model
+        at D q, D = w on prismatic joints, 1 on revolute ones; Jacobian J D). Uses this thread's Data."""
+        model, data, tip, scale = self._model, self._thread_state(), self.chain.tip_id, self._joint_scale
+        kinematics = pin.computeJointJacobians if with_jacobian else pin.forwardKinematics
+        placement, frame_jacobian, log6 = pin.updateFramePlacement, pin.getFrameJacobian, pin.log6
+        frame = pin.ReferenceFrame.LOCAL if pose else pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+        goal_position = goal_inverse.inverse().translation
+
+        def residual(q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+            kinematics(model, data, q if scale is None else q * scale)  # FK (and joint Jacobians)
+            reached = placement(model, data, tip)
+            error = log6(goal_inverse * reached).vector if pose else reached.translation - goal_position
+            if not with_jacobian:
+                return error, None
+            jacobian = frame_jacobian(model, data, tip, frame)
+            if scale is not None:
+                jacobian = jacobian * scale
+            return error, jacobian if pose else jacobian[:3]
+
+        return residual
 
     # -- one seed ---------------------------------------------------------------------------------
-    def _attempt(self, goal: pin.SE3, pose: bool, q: np.ndarray, deadline: float, budget: int
+    def _attempt(self, goal_inverse: pin.SE3, pose: bool, q: np.ndarray, deadline: float, budget: int
                  ) -> tuple[np.ndarray, bool, int, float]:
-        """LM from q towards ``goal`` (tip pose in the scaled model's world frame), for at most
-        ``budget`` iterations: (last q, converged?, iterations, |e|).
-
-        Errors and Jacobians are taken in the tip's own axes with the LOCAL frame Jacobian: for a
-        pose, e = log6(T^-1 T*), the twist that carries the tip onto the target along the SE(3)
-        geodesic (its rotation part is log3(R^T R*); its translation part tends to R^T (p* - p) as the
-        rotation error vanishes, so the convergence test is the same). Measured: 5-10 % fewer
-        iterations than the straight-line error [R^T (p* - p); log3(R^T R*)], and one call fewer.
-        A position target uses e = R^T (p* - p) and the three linear rows. Rotating both by R leaves
-        |e|, J^T J and J^T e unchanged, so tip axes serve as well as world axes.
-        Position rows are weighted through the model itself (:func:`scaled_model`, lengths x w,
-        goal position x w). Hot loop: no Python-level helpers beyond the error evaluation, small
-        numpy calls only.
-        """
-        model, data, tip = self._model, self._thread_state(), self.chain.tip_id
-        joint_jacobians, frame_jacobian = pin.computeJointJacobians, pin.getFrameJacobian
-        placement, log6, local = pin.updateFramePlacement, pin.log6, pin.ReferenceFrame.LOCAL
-        lower, upper, n = self.lower, self.upper, self.chain.nq
-        clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
-        unblocked = np.zeros(n, dtype=bool).tobytes()
-        cost_weight, floor, decrease, increase = self.cost_weight, self.damping, self.decrease, self.increase
-        progress, stall, max_step = self.progress, self.stall, self.max_step
+        """LM from q towards the target for at most ``budget`` iterations: (last q, converged?,
+        iterations, |e|). Hot loop: the policy's calls and small numpy calls only."""
+        evaluate = self._residual(goal_inverse, pose)
+        policy, bounds = self.policy, self.bounds
+        trial_of, next_damping, track = policy.trial, policy.next_damping, policy.track
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
-
-        def evaluate(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            joint_jacobians(model, data, q)  # forward kinematics and every joint's Jacobian
-            offset = placement(model, data, tip).actInv(goal)
-            jacobian = frame_jacobian(model, data, tip, local)
-            if pose:
-                error = log6(offset).vector
-            else:
-                error, jacobian = offset.translation, jacobian[:3]
-            return error, jacobian
-
-        system = np.empty((n, n))
-        diagonal = system.reshape(-1)[::n + 1]  # a view: J^T J + lambda I is formed in place
+        clock = deadline < math.inf
         error, jacobian = evaluate(q)
         cost = float(error.dot(error))
-        damping = floor
+        damping = policy.first_damping
         best_cost, since_progress = cost, 0
         limit = min(self.attempt_iterations, budget)
         for iteration in range(1, limit + 1):
             if cost <= sure_cost or (cost <= maybe_cost and self._passes(error)):
                 return q, True, iteration - 1, math.sqrt(cost)
-            if time.perf_counter() > deadline:
+            if clock and time.perf_counter() > deadline:
                 break
-            transpose = jacobian.T
-            np.dot(transpose, jacobian, out=system)
-            diagonal += cost_weight * cost + damping
-            gradient = transpose.dot(error)
-            _, step, info = dposv(system, gradient)
-            if info:  # not numerically positive definite: least squares instead of Cholesky
-                step = np.linalg.lstsq(system, gradient, rcond=None)[0]
-            if max_step is not None:
-                longest = float(np.abs(step).max())
-                if longest > max_step:
-                    step *= max_step / longest
-            trial = q + step
-            inside = np.maximum(np.minimum(trial, upper), lower)
-            if inside.tobytes() != trial.tobytes():  # some joint left its range
-                blocked = inside == q  # on a bound and pushed outwards
-                blocked &= clipped
-                if blocked.tobytes() != unblocked:
-                    free = np.flatnonzero(~blocked)
-                    step = np.zeros(n)
-                    if free.size:
-                        step[free] = dposv(system[free[:, None], free], gradient[free])[1]
-                    trial = q + step
-                inside = self.project(trial) if any_wrap else np.maximum(np.minimum(trial, upper), lower)
+            inside = trial_of(jacobian, error, cost, damping, q, bounds)
             trial_error, trial_jacobian = evaluate(inside)
             trial_cost = float(trial_error.dot(trial_error))
-            if trial_cost < cost:
+            accepted = trial_cost < cost
+            if accepted:
                 q, error, jacobian, cost = inside, trial_error, trial_jacobian, trial_cost
-                damping = max(damping * decrease, floor)
-            else:
-                damping = max(damping, 1e-3) * increase
-            if cost < progress * best_cost:
-                best_cost, since_progress = cost, 0
-            else:
-                since_progress += 1
-                if since_progress >= stall:
-                    return q, False, iteration, math.sqrt(cost)
+            damping = next_damping(accepted, damping)
+            best_cost, since_progress, stalled = track(cost, best_cost, since_progress)
+            if stalled:
+                return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), limit, math.sqrt(cost)
 
-    def _next_seed(self, goal: pin.SE3, pose: bool, draws: _CallDraws) -> np.ndarray:
-        """A random seed inside the limits: the best of ``candidates`` uniform draws by task error."""
+    def _next_seed(self, goal_inverse: pin.SE3, pose: bool, draws: _CallDraws) -> np.ndarray:
+        """A random seed inside the limits: the best of ``candidates`` uniform draws by |e|."""
         if self.candidates <= 1:
             return draws.take(1)[0].copy()
         seeds = draws.take(self.candidates)
-        model, data, tip = self._model, self._thread_state(), self.chain.tip_id
+        evaluate = self._residual(goal_inverse, pose, with_jacobian=False)
         best, best_cost = seeds[0], math.inf
         for seed in seeds:
-            pin.forwardKinematics(model, data, seed)
-            offset = pin.updateFramePlacement(model, data, tip).actInv(goal).homogeneous
-            translation = offset[:3, 3]
-            cost = float(translation.dot(translation))
-            if pose:
-                rotation = pin.log3(offset[:3, :3])
-                cost += float(rotation.dot(rotation))
+            error = evaluate(seed)[0]
+            cost = float(error.dot(error))
             if cost < best_cost:
                 best, best_cost = seed, cost
         return best
@@ -289,10 +257,9 @@ class BoundedLMSolver(Solver):
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        goal = self.chain.base_placement * target.se3()
-        goal = pin.SE3(goal.rotation, self.position_weight * goal.translation)  # in the scaled model
+        goal_inverse = self._goal(target)
         pose = target.is_pose
-        q_seed = self.project(q0)
+        q_seed = self.bounds.project(q0)
         best_q, best_error = q_seed, math.inf
         attempts, iterations = 0, 0
         neighbours, used_neighbours = None, 0
@@ -306,7 +273,8 @@ class BoundedLMSolver(Solver):
                     seeds = self._neighbours(target, used_neighbours + share)[used_neighbours:]
                 return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error),
                                          draws)
-            q, ok, used, error = self._attempt(goal, pose, q_seed, deadline, self.max_iterations - iterations)
+            q, ok, used, error = self._attempt(goal_inverse, pose, q_seed, deadline,
+                                               self.max_iterations - iterations)
             attempts += 1
             iterations += used
             if ok:
@@ -321,7 +289,7 @@ class BoundedLMSolver(Solver):
             if used_neighbours < len(neighbours):
                 q_seed, used_neighbours = neighbours[used_neighbours], used_neighbours + 1
             else:
-                q_seed = self._next_seed(goal, pose, draws)
+                q_seed = self._next_seed(goal_inverse, pose, draws)
 
     def _budget_reason(self, attempts: int, best_error: float, deadline: float) -> str:
         spent = (f"wall-clock budget of {self.timeout_s:g} s" if time.perf_counter() > deadline
@@ -332,27 +300,25 @@ class BoundedLMSolver(Solver):
     # -- many seeds at once ---------------------------------------------------------------------
     def _solve_batch(self, target: Target, seeds: np.ndarray, deadline: float, attempts: int,
                      iterations: int, best: tuple[np.ndarray, float], draws: _CallDraws) -> Candidate:
-        """The same LM on ``batch_size`` seeds at once: ``seeds`` first, then random ones.
+        """The same LM (the same residual, the same policy) on ``batch_size`` seeds at once:
+        ``seeds`` first, then random ones.
 
-        A joint is frozen when the clipped step leaves it where it is (on a bound, pushed outwards).
-        A seed that stalls is replaced by a fresh random one in the next trial evaluation (its cost
-        is set to infinity so the fresh point is accepted): a restart costs no extra evaluation.
+        A seed that stalls, or has run ``attempt_iterations``, is replaced by a fresh random one in the
+        next trial evaluation (its cost is set to infinity so the fresh point is accepted): a restart
+        costs no extra evaluation.
         """
         kinematics, size = self._vectorised, self.batch_size
         goal_position = target.position
         goal_rotation = target.rotation
-        lower, upper, identity = self.lower, self.upper, self._identity
-        clipped, any_wrap = ~self.wraps, bool(self.wraps.any())
-        floor, cost_weight, decrease, increase = self.damping, self.cost_weight, self.decrease, self.increase
-        progress_ratio, stall, max_iterations = self.progress, self.stall, self.attempt_iterations
+        policy, bounds = self.policy, self.bounds
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         spent, budget = iterations, self.max_iterations  # budget units: single-seed iterations
         q = draws.take(size).copy()
         q[:len(seeds)] = seeds[:size]
         error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
         cost = np.einsum("bi,bi->b", error, error)
-        damping = np.full(size, floor)
-        best_cost, since_progress, age = cost.copy(), np.zeros(size), np.zeros(size)
+        damping = np.full(size, policy.first_damping)
+        best_cost, since_progress, age = cost.copy(), np.zeros(size, dtype=int), np.zeros(size, dtype=int)
         fresh = None
         best_q, best_error = best
         attempts += size
@@ -365,42 +331,21 @@ class BoundedLMSolver(Solver):
                 break
             iterations += 1
             spent += BATCH_ITERATION_UNITS
-            system = np.matmul(transposed, np.swapaxes(transposed, 1, 2))
-            diagonal = np.einsum("bii->bi", system)
-            diagonal += (cost_weight * cost + damping)[:, None]
-            gradient = np.matmul(transposed, error[:, :, None])
-            step = np.linalg.solve(system, gradient)[..., 0]
-            trial = q + step
-            inside = np.maximum(np.minimum(trial, upper), lower)
-            if inside.tobytes() != trial.tobytes():  # some joints hit a bound
-                blocked = inside == q  # on a bound and pushed outwards
-                if any_wrap:
-                    blocked &= clipped
-                if blocked.any():  # freeze them: keep their diagonal, drop their coupling
-                    keep = ~blocked
-                    masked = system * (keep[:, :, None] & keep[:, None, :])
-                    masked += identity * blocked[:, :, None]
-                    trial = q + np.linalg.solve(masked, gradient * keep[:, :, None])[..., 0]
-                    inside = np.maximum(np.minimum(trial, upper), lower)
-                if any_wrap:
-                    inside = self.project(trial)
+            inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
             if fresh is not None:
                 inside[fresh] = draws.take(fresh.size)
                 cost[fresh] = math.inf
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
-            better = trial_cost < cost
-            q = np.where(better[:, None], inside, q)
-            error = np.where(better[:, None], trial_error, error)
-            transposed = np.where(better[:, None, None], trial_transposed, transposed)
+            accepted = trial_cost < cost
+            q = np.where(accepted[:, None], inside, q)
+            error = np.where(accepted[:, None], trial_error, error)
+            transposed = np.where(accepted[:, None, None], trial_transposed, transposed)
             cost = np.minimum(trial_cost, cost)
-            damping = np.where(better, np.maximum(damping * decrease, floor),
-                               np.maximum(damping, 1e-3) * increase)
-            progress = cost < progress_ratio * best_cost
-            best_cost = np.where(progress, cost, best_cost)
-            since_progress = np.where(progress, 0.0, since_progress + 1.0)
-            age += 1.0
-            ended = (since_progress >= stall) | (age >= max_iterations)
+            damping = policy.next_damping_batch(accepted, damping)
+            best_cost, since_progress, stalled = policy.track_batch(cost, best_cost, since_progress)
+            age += 1
+            ended = stalled | (age >= self.attempt_iterations)
             fresh = None
             if ended.any():
                 fresh = np.flatnonzero(ended)
@@ -408,9 +353,9 @@ class BoundedLMSolver(Solver):
                 if math.sqrt(cost[lowest]) < best_error:
                     best_q, best_error = q[lowest].copy(), math.sqrt(cost[lowest])
                 best_cost[fresh] = math.inf
-                since_progress[fresh] = 0.0
-                age[fresh] = 0.0
-                damping[fresh] = floor
+                since_progress[fresh] = 0
+                age[fresh] = 0
+                damping[fresh] = policy.first_damping
                 attempts += fresh.size
         lowest = int(np.argmin(cost))
         if math.sqrt(cost[lowest]) < best_error:
@@ -420,17 +365,17 @@ class BoundedLMSolver(Solver):
 
 
 class VectorisedChain:
-    """Task errors and Jacobians of B configurations of a serial chain, in its base frame, with a
-    fixed number of numpy calls (independent of B).
+    """Task residuals and Jacobians of B configurations of a serial chain, with a fixed number of
+    numpy calls (independent of B): the same residual as the one-seed path.
 
     Each joint frame is first turned so that its axis is z (Q_k e_z = a_k): joint axes and origins
     are then plain slices of the frames. T(q) = F_1 A_1(q_1) ... A_n(q_n) with F_1 = P_0 Q_1,
     A_k = Z(q_k) Q_k^T P_k Q_{k+1} (Q_{n+1} = I) and Z(q) = I + f(q) K + g(q) K^2, K the
     cross-product matrix of e_z, f = sin, g = 1 - cos (revolute); Z(q) = I + q E_z (prismatic, E_z
     the translation along z, g = 0). So every A_k(q_k) = [1, f, g] [C0; C1; C2]_k comes from one
-    matrix product, followed by n products down the chain. Jacobian column k: [z_k x (p - o_k); z_k]
-    (revolute) or [z_k; 0] (prismatic). Jacobians are returned transposed (B, n, m), position rows
-    (and errors) weighted by ``position_weight``.
+    matrix product, followed by n products down the chain. Jacobian column k in base axes:
+    [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic). Jacobians are returned transposed
+    (B, n, m), position rows (and errors) weighted by ``position_weight``.
     """
 
     def __init__(self, chain, position_weight: float = 1.0):
@@ -472,7 +417,9 @@ class VectorisedChain:
 
     def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """(e (B, m), J^T (B, n, m)), m = 6 for a pose goal and 3 for a position goal (base frame)."""
+        """(e (B, m), J^T (B, n, m)) against a goal in the base frame. Pose (m = 6): e = log6(T*^-1 T)
+        (weighted lengths) with the Jacobian in tip axes; position (m = 3): e = w (p - p*) with the
+        linear rows in base axes."""
         size, n = q.shape
         frames = self.frames(q)
         axes = frames[:, :n, :3, 2]
@@ -482,18 +429,21 @@ class VectorisedChain:
         pose = goal_rotation is not None
         transposed = np.empty((size, n, 6 if pose else 3))
         transposed[..., :3] = (axes[..., :, None] * lever[..., None, :]).reshape(size, n, 9) @ self._cross
-        error = np.empty((size, 6 if pose else 3))
-        error[:, :3] = goal_position - position
         if self.any_prismatic:
             transposed[:, self.prismatic, :3] = self.weight * axes[:, self.prismatic]
-        if self.weight != 1.0:
-            error[:, :3] *= self.weight
-        if pose:
-            transposed[..., 3:] = axes
-            if self.any_prismatic:
-                transposed[:, self.prismatic, 3:] = 0.0
-            error[:, 3:] = batch_log3(np.matmul(goal_rotation, np.swapaxes(tip[:, :3, :3], 1, 2)))
-        return error, transposed
+        if not pose:
+            error = position - goal_position
+            if self.weight != 1.0:
+                error *= self.weight
+            return error, transposed
+        transposed[..., 3:] = axes
+        if self.any_prismatic:
+            transposed[:, self.prismatic, 3:] = 0.0
+        rotation = tip[:, :3, :3]
+        # tip axes: each Jacobian column c becomes R^T c, i.e. each row of J^T is multiplied by R
+        transposed = np.matmul(transposed.reshape(size, 2 * n, 3), rotation).reshape(size, n, 6)
+        return batch_se3_error(rotation, self.weight * position, goal_rotation,
+                               self.weight * goal_position), transposed
 
     def tip_poses(self, q: np.ndarray) -> np.ndarray:
         """(B, 4, 4) tip poses in the base frame."""

@@ -1,10 +1,15 @@
 """Damped least squares (Levenberg-Marquardt) with adaptive damping.
 
-Step: dq = J^T (J J^T + lambda I)^-1 e, then q <- clip(q + dq). A step that lowers |e| is kept
-and lambda shrinks; one that does not is rejected and lambda grows. Joint limits are kept by
-clipping (projection). Stops on the shared tolerance, a stall, the iteration budget
-(``max_iterations``; by default the iterations that cost about 5 ms here) or, when ``timeout_s`` is
-given, the deadline.
+Step: dq = -J^T (J J^T + lambda I)^-1 e (the same as -(J^T J + lambda I)^-1 J^T e), then the trial
+q + dq is kept inside the limits (clipped; a joint on a bound pushed outwards is frozen for the
+step). e is the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], with its exact
+Jacobian (:func:`wbik.solvers.task_error.task_error`). A step that lowers |e| is kept and lambda
+shrinks (x0.3, down to 1e-12); one that does not is rejected and lambda grows (x4). Step, bounds and
+updates are the one Levenberg-Marquardt policy of :mod:`wbik.solvers.levenberg_marquardt`, with
+this method's numbers: a constant damping (no error-dependent term) starting at ``damping``.
+Stops on the shared tolerance, a stall (lambda above 1e6: the steps no longer go anywhere), the
+iteration budget (``max_iterations``; by default the iterations that cost about 5 ms here) or,
+when ``timeout_s`` is given, the deadline.
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import time
 import numpy as np
 
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 from wbik.solvers.task_error import converged, task_error
 from wbik.targets import Target
 
@@ -27,29 +33,30 @@ class DampedLeastSquares(Solver):
         super().__init__(robot, chain, **options)
         self.max_iterations = self._iteration_budget(max_iterations)
         self.initial_damping = float(damping)
+        self.policy = LevenbergMarquardt(cost_weight=0.0, floor=1e-12, start=self.initial_damping,
+                                         decrease=0.3, increase=4.0, reject_floor=0.0, stall=0,
+                                         max_damping=1e6)
+        self.bounds = JointBounds(self.chain.lower, self.chain.upper)  # clipped, never wrapped
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        chain = self.chain
+        chain, policy, bounds = self.chain, self.policy, self.bounds
         q = chain.clip(q0)
         error, jacobian = task_error(chain, target, q)
         cost = float(error @ error)
-        damping = self.initial_damping
-        identity = np.eye(error.size)
+        damping = policy.first_damping
         for iteration in range(1, self.max_iterations + 1):
             if converged(error, self.tolerances.position, self.tolerances.rotation):
                 return Candidate(q, iteration - 1)
             if time.perf_counter() > deadline:
                 return Candidate(q, iteration - 1, f"wall-clock budget of {self.timeout_s:g} s used up")
-            step = jacobian.T @ np.linalg.solve(jacobian @ jacobian.T + damping * identity, error)
-            trial = chain.clip(q + step)
+            trial = policy.trial(jacobian, error, cost, damping, q, bounds)
             trial_error, trial_jacobian = task_error(chain, target, trial)
             trial_cost = float(trial_error @ trial_error)
-            if trial_cost < cost:
+            accepted = trial_cost < cost
+            if accepted:
                 q, error, jacobian, cost = trial, trial_error, trial_jacobian, trial_cost
-                damping = max(damping * 0.3, 1e-12)
-            else:
-                damping *= 4.0
-                if damping > 1e6:
-                    return Candidate(q, iteration, "stalled in a local minimum (damping saturated)")
+            damping = policy.next_damping(accepted, damping)
+            if policy.saturated(damping):
+                return Candidate(q, iteration, "stalled in a local minimum (damping saturated)")
         return Candidate(q, self.max_iterations,
                          f"iteration budget used up: no convergence in {self.max_iterations} iterations")

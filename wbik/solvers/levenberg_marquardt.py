@@ -1,22 +1,24 @@
 """The one Levenberg-Marquardt policy of wbik's iterative methods: damping law, accept/reject update,
 bound freezing and stall detection, for one configuration and for a batch.
 
-For a residual e(q) (the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], or any
-other least-squares residual) with Jacobian J, one step solves
+For a residual e(q) (the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], its SE(3)
+form, or any other least-squares residual) with Jacobian J (m x n), one step is
 
-    (J^T J + lambda I) dq = -J^T e,        lambda = w |e|^2 + mu                    (damping law)
+    dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e,   lambda = w |e|^2 + mu
+                                                                                   (damping law)
 
-with w = ``cost_weight`` and mu the *base damping*, which starts at ``floor``: Sugihara's
-error-dependent damping, large far from the target (robust start), vanishing near it (Newton-fast
-end). The caller forms the Gram matrix G = J^T J and the gradient g = J^T e however it likes (from
-J or from J^T; the minimum-norm form J^T (J J^T + lambda I)^-1 e is the same step).
+with w = ``cost_weight`` and mu the *base damping*, which starts at ``start`` (default ``floor``):
+Sugihara's error-dependent damping, large far from the target (robust start), vanishing near it
+(Newton-fast end). The smaller of the two equal systems is solved (n x n normal equations when
+n <= m, the m x m minimum-norm form otherwise, which stays well conditioned under a tiny damping on
+a redundant chain), by Cholesky.
 
 - **Step cap**: with ``max_step`` set, a step whose largest joint change exceeds it is scaled down.
 - **Bounds** (:class:`JointBounds`): the trial q + dq is projected into the limits (full-turn
   revolute joints wrapped by 2 pi, the others clipped). A clipped joint already on a bound whose
-  step points outwards is *frozen*: the step is recomputed once without it (its row and column of
-  the damped system dropped), so the free joints get the best step the bound leaves them. This is a
-  one-pass active set; it is only evaluated when the trial leaves the limits.
+  step points outwards is *frozen*: the step is recomputed once without it (its column of J
+  dropped), so the free joints get the best step the bound leaves them. This is a one-pass active
+  set; it is only evaluated when the trial leaves the limits.
 - **Accept/reject**: a trial is accepted when its cost |e|^2 is lower. Then mu <- max(decrease mu,
   floor); on a rejection mu <- increase max(mu, reject_floor) (a rejected step jumps the damping
   to at least ``increase * reject_floor`` at once: a tiny mu would only creep up).
@@ -109,24 +111,22 @@ class LevenbergMarquardt:
         return self.cost_weight * cost + base
 
     # -- one configuration ------------------------------------------------------------------------
-    def trial(self, gram: np.ndarray, gradient: np.ndarray, cost: float, base: float, q: np.ndarray,
+    def trial(self, jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
               bounds: JointBounds) -> np.ndarray:
-        """The next trial configuration, inside the limits: damped step, cap, projection and bound
-        freezing. ``gram`` (J^T J, (n, n)) is overwritten by the damped system."""
-        n = q.shape[0]
-        gram.reshape(-1)[::n + 1] += self.cost_weight * cost + base
-        step = _solve(gram, gradient)
-        step = self._capped(step)
-        trial = q - step
+        """The next trial configuration, inside the limits, from J (m, n) and e (m,) at q (n,) with
+        cost |e|^2 and base damping mu: damped step, cap, projection and bound freezing."""
+        damping = self.cost_weight * cost + base
+        step = self._capped(_damped_step(jacobian, error, damping))
+        trial = q + step
         inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         if inside.tobytes() != trial.tobytes():  # some joint left its range (or needs wrapping)
-            blocked = bounds.blocked(q, -step)
+            blocked = bounds.blocked(q, step)
             if blocked.any():
                 free = np.flatnonzero(~blocked)
-                step = np.zeros(n)
+                step = np.zeros(q.shape[0])
                 if free.size:
-                    step[free] = _solve(gram[free[:, None], free], gradient[free])
-                trial = q - self._capped(step)
+                    step[free] = _damped_step(jacobian[:, free], error, damping)
+                trial = q + self._capped(step)
             inside = bounds.project(trial) if bounds.any_wrap \
                 else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         return inside
@@ -156,24 +156,19 @@ class LevenbergMarquardt:
         return self.max_damping is not None and base > self.max_damping
 
     # -- a batch of configurations, element by element the same decisions --------------------------
-    def trial_batch(self, gram: np.ndarray, gradient: np.ndarray, cost: np.ndarray, base: np.ndarray,
+    def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
                     q: np.ndarray, bounds: JointBounds) -> np.ndarray:
-        """:meth:`trial` for (B, n, n) Gram matrices (overwritten), (B, n) gradients and q, (B,) costs
-        and base dampings. A frozen joint keeps its diagonal and loses its coupling, with a zero
-        right-hand side: its step is 0 and the free joints solve the reduced system."""
-        diagonal = np.einsum("bii->bi", gram)
-        diagonal += self.damping(cost, base)[:, None]
-        step = self._capped_batch(np.linalg.solve(gram, gradient[..., None])[..., 0])
-        trial = q - step
+        """:meth:`trial` for J (B, m, n), e (B, m), costs and base dampings (B,) and q (B, n). A frozen
+        joint's column of J is zeroed: its step is 0 and the free joints solve the reduced system."""
+        damping = self.damping(cost, base)
+        step = self._capped_batch(_damped_steps(jacobian, error, damping))
+        trial = q + step
         inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         if inside.tobytes() != trial.tobytes():
-            blocked = bounds.blocked(q, -step)
+            blocked = bounds.blocked(q, step)
             if blocked.any():
-                keep = ~blocked
-                masked = gram * (keep[:, :, None] & keep[:, None, :])
-                masked += np.eye(q.shape[1]) * blocked[:, :, None]
-                step = np.linalg.solve(masked, (gradient * keep)[..., None])[..., 0]
-                trial = q - self._capped_batch(step)
+                step = _damped_steps(jacobian * ~blocked[:, None, :], error, damping)
+                trial = q + self._capped_batch(step)
             inside = bounds.project(trial) if bounds.any_wrap \
                 else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         return inside
@@ -204,6 +199,35 @@ class LevenbergMarquardt:
         if self.max_damping is None:
             return np.zeros(base.shape, dtype=bool)
         return base > self.max_damping
+
+
+def _damped_step(jacobian: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
+    """-(J^T J + lambda I)^-1 J^T e by the smaller system (Cholesky; least squares if it fails)."""
+    rows, columns = jacobian.shape
+    transpose = jacobian.T
+    if columns <= rows:
+        system = transpose.dot(jacobian)
+        system.reshape(-1)[::columns + 1] += damping
+        return -_solve(system, transpose.dot(error))
+    system = jacobian.dot(transpose)
+    system.reshape(-1)[::rows + 1] += damping
+    return -transpose.dot(_solve(system, error))
+
+
+def _damped_steps(jacobian: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
+    """:func:`_damped_step` for J (B, m, n), e (B, m) and lambda (B,)."""
+    rows, columns = jacobian.shape[1:]
+    transpose = np.swapaxes(jacobian, 1, 2)
+    if columns <= rows:
+        system = np.matmul(transpose, jacobian)
+        right = np.matmul(transpose, error[:, :, None])
+    else:
+        system = np.matmul(jacobian, transpose)
+        right = error[:, :, None]
+    diagonal = np.einsum("bii->bi", system)
+    diagonal += damping[:, None]
+    solution = np.linalg.solve(system, right)
+    return -(solution if columns <= rows else np.matmul(transpose, solution))[..., 0]
 
 
 def _solve(system: np.ndarray, right: np.ndarray) -> np.ndarray:

@@ -1,11 +1,12 @@
 """Newton-Raphson IK (seed 001), generalised to n revolute/prismatic joints and any target kind.
 
-Iteration (arm3r.md): q_{k+1} = q_k + dq, where J(q_k) dq = e(q_k) and e is the task error of
-:mod:`wbik.solvers.task_error` (3 rows for a position target, 6 for a pose).
+Iteration (arm3r.md): q_{k+1} = q_k - x, where J(q_k) x = e(q_k), e the pose error of
+:mod:`wbik.geometry` (e = [p - p*; log3(R*^T R)], reached relative to target; 3 rows for a position
+target, 6 for a pose) and J its exact Jacobian (:func:`wbik.solvers.task_error.task_error`).
 
-- J square (m = n): dq by an LU factorisation with partial pivoting and two triangular solves
+- J square (m = n): x by an LU factorisation with partial pivoting and two triangular solves
   (the seed's Doolittle LU, made robust by pivoting);
-- J not square, or singular: dq = J^+ e, the least-squares / minimum-norm solution.
+- J not square, or singular: x = J^+ e, the least-squares / minimum-norm solution.
 
 The seed iterated until |e| <= eps and so looped forever on unreachable points. Here the loop is
 bounded by ``max_iterations`` (by default the iterations that cost about 5 ms here), the
@@ -29,7 +30,7 @@ from wbik.targets import Target
 
 
 def newton_step(jacobian: np.ndarray, error: np.ndarray) -> np.ndarray:
-    """dq with J dq = e: LU where J is square and regular, least squares otherwise."""
+    """x with J x = e (the step is dq = -x): LU where J is square and regular, least squares otherwise."""
     rows, columns = jacobian.shape
     if rows == columns:
         lu, pivots, info = scipy.linalg.lapack.dgetrf(jacobian)
@@ -66,7 +67,7 @@ class NewtonRaphson(Solver):
                 length = float(np.linalg.norm(step))
                 if length > self.max_step:
                     step *= self.max_step / length
-            q = chain.clip(q + step)
+            q = chain.clip(q - step)
             error, jacobian = task_error(chain, target, q)
             norm = float(np.linalg.norm(error))
             if norm < best_norm * (1.0 - 1e-3):

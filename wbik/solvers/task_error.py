@@ -1,14 +1,33 @@
-"""The task error e(q) and its Jacobian, shared by the iterative methods.
+"""The task error e(q) of the iterative methods and its Jacobian: the pose-error convention of
+:mod:`wbik.geometry`, in its two forms.
 
-For a full pose target (p*, R*) and tip pose (p, R) in the base frame:
-    e = [p* - p ; log3(R* R^T)]   (6,)
-and de/dq ~ J (the 6 x n frame Jacobian in base axes), so a Newton step solves J dq = e.
-For a position target only the first three rows are used.
+**The convention** (``geometry.pose_error``): for a target (R*, p*) and the reached tip pose (R, p),
+both in the chain's base frame,
 
-Besides the Pinocchio-based ``task_error`` (one configuration), this module holds the chain's
-serial structure (``serial_structure``: fixed placements and joint axes, from which KDL chains and
-vectorised kinematics are built). The rotation logarithm of many matrices at once is
-:func:`wbik.geometry.batch_log3`.
+    e = [p - p* ; log3(R*^T R)]                                                    (6,)
+
+position in base axes, rotation vector in the target's axes, sign "reached relative to target";
+its Jacobian is [J_v ; Jlog3(R*^T R) R^T J_w] (``geometry.rotation_error_jacobian``), and a method
+drives e to 0 with steps dq = -J_e^+ e. A position target keeps the first three rows. ``dls`` and
+``newton`` iterate on this form (:func:`task_error`).
+
+**Its SE(3) form** (:func:`se3_error`, :func:`batch_se3_error`): the same relative transform
+X = T*^-1 T = (R*^T R, R*^T (p - p*)) taken through the SE(3) logarithm,
+
+    e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ; phi],     phi = log3(R*^T R),
+
+V(phi)^-1 = I - [phi]x / 2 + (1 - (theta / 2) cot(theta / 2)) / theta^2 [phi]x^2, theta = |phi|.
+Its rotation part *is* the convention's; its translation part is the convention's position error
+in target axes, R*^T (p - p*), bent along the screw motion: the two differ by the factor
+V(phi)^-1 = I + O(theta), so they vanish together and the tolerance test reads the same. Its
+Jacobian is Jlog6(X) J_tip, J_tip the frame Jacobian in tip axes (Pinocchio's LOCAL); near a
+solution Jlog6 -> I, and ``bounded_lm`` uses J_tip. ``bounded_lm`` iterates on this form: measured
+under TRAC-IK's protocol (figures in its docstring), LM from a far seed succeeds more often and in
+fewer iterations on it than on the straight form (the screw couples rotation into translation the
+way the arm moves).
+
+Besides the errors, this module holds the chain's serial structure (``serial_structure``: fixed
+placements and joint axes, from which KDL chains and vectorised kinematics are built).
 """
 
 from __future__ import annotations
@@ -19,22 +38,59 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
+from wbik.geometry import batch_log3, pose_error, rotation_error_jacobian
 from wbik.robot import Chain
 from wbik.targets import Target
 
 
 def task_error(chain: Chain, target: Target, q: np.ndarray, with_jacobian: bool = True
                ) -> tuple[np.ndarray, np.ndarray | None]:
-    """(e, J) at q; J is None when ``with_jacobian`` is False."""
+    """(e, de/dq) at q in the convention's form; the Jacobian is None when ``with_jacobian`` is False."""
     if with_jacobian:
         pose, jacobian = chain.fk_jacobian(q)
     else:
         pose, jacobian = chain.fk(q), None
-    position_error = target.position - pose.translation
+    rotation = pose.rotation
+    error = pose_error(rotation, pose.translation, target.rotation, target.position)
+    if jacobian is None:
+        return error, None
     if target.rotation is None:
-        return position_error, None if jacobian is None else jacobian[:3]
-    rotation_error = pin.log3(target.rotation @ pose.rotation.T)
-    return np.concatenate((position_error, rotation_error)), jacobian
+        return error, jacobian[:3]
+    jacobian[3:] = rotation_error_jacobian(rotation, target.rotation, jacobian[3:])
+    return error, jacobian
+
+
+def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
+    """The SE(3) form log6(T*^-1 T) (6,), given T*^-1 (computed once per call by the caller)."""
+    return pin.log6(target_inverse * reached).vector
+
+
+def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
+                    target_position: np.ndarray) -> np.ndarray:
+    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R*, p*)."""
+    relative = np.matmul(target_rotation.T, rotation)
+    phi = batch_log3(relative)
+    offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row
+    theta2 = np.einsum("bi,bi->b", phi, phi)
+    theta = np.sqrt(theta2)
+    small = theta < 1e-3
+    half = 0.5 * np.where(small, 1.0, theta)
+    # (1 - (theta / 2) cot(theta / 2)) / theta^2, its series 1/12 + theta^2/720 near 0
+    coefficient = np.where(small, 1.0 / 12.0 + theta2 / 720.0,
+                           (1.0 - half / np.tan(half)) / np.where(small, 1.0, theta2))
+    once = _cross(phi, offset)
+    twice = _cross(phi, once)
+    result = np.empty((len(phi), 6))
+    result[:, :3] = offset - 0.5 * once + coefficient[:, None] * twice
+    result[:, 3:] = phi
+    return result
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of (B, 3) arrays (np.cross's checks cost more than the arithmetic)."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=1)
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
