@@ -44,15 +44,103 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
     ({"methods": [{"method": "dls", "options": {"timeout_s": 1}}]}, "options.timeout_s is set by the study"),
     ({"name": "a b"}, "name must be a name of letters"),
     ({"methods": [{"method": "dls", "per_pose": "yes"}]}, "per_pose must be true or false"),
-    ({"thesis": {"significance": {"dls": {"x": "zero"}}}}, "significance maps method labels"),
-    ({"thesis": {"reference": {"kdl": {"percent_solved": 72.5}}}}, "name method 'kdl'"),
-    ({"thesis": {"reference": {"dls": {"speed": 1}}}}, "unknown metrics ['speed']"),
+    ({"reference": {"significance": {"dls": {"x": "zero"}}}}, "significance.dls.x must be a number"),
+    ({"reference": {"significance": {"dls": {"x": 1.5}}}}, "between 0 and 1"),
+    ({"reference": {"significance": {"dls": {"yaw": 0.1}}}}, "significance.dls has unknown field(s) ['yaw']"),
+    ({"reference": {"significance": ["dls"]}}, "significance maps method labels"),
+    ({"reference": {"figures": {"kdl": {"percent_solved": 72.5}}}}, "name method 'kdl'"),
+    ({"reference": {"figures": {"dls": {"speed": 1}}}}, "figures.dls has unknown field(s) ['speed']"),
+    ({"reference": {"figures": {"dls": {"percent_solve": 1}}}}, "(did you mean 'percent_solved'?)"),
+    ({"reference": {"figure": {}}}, "unknown field(s) ['figure'] (did you mean 'figures'?)"),
+    ({"reference": {"figures": {"dls_shrot": {"percent_solved": 1}}}}, "(did you mean 'dls_short'?)"),
+    ({"reference": "the thesis"}, "reference must be a mapping"),
+    ({"reference": {"name": 3}}, "reference.name must be text"),
+    ({"reference": {"angles": {"sequence": "zyx", "names": {"x": "yaw"}}}}, "apply to pose targets only"),
+    ({"refrence": {}}, "unknown field(s) ['refrence'] (did you mean 'reference'?)"),
+    ({"thesis": {}, "angle_names": {}}, "unknown field(s) ['angle_names', 'thesis']"),
+    ({"methods": ["bounded_ml"]}, "unknown method 'bounded_ml' (did you mean 'bounded_lm'?)"),
 ])
 def test_mistakes_raise_clear_errors(change, words):
     with pytest.raises(StudyDefinitionError) as caught:
         study_from_dict({**MINIMAL, **change}, source="bad.yaml")
     assert words in str(caught.value)
     assert "bad.yaml" in str(caught.value)
+
+
+POSE = {**MINIMAL, "robot": "ur5", "chain": "arm", "target": "pose"}
+
+
+@pytest.mark.parametrize("angles, words", [
+    ({"sequence": "zyz", "names": {"x": "a"}}, "sequence must be one of xyz, xzy, yxz, yzx, zxy, zyx"),
+    ({"sequence": "xzy"}, "names must name at least one angle"),
+    ({"sequence": "zyx", "names": {"w": "a"}}, "names has unknown field(s) ['w']"),
+    ({"sequence": "zyx", "names": {"x": "alpha"}}, "'alpha' is already an error column"),
+    ({"sequence": "zyx", "names": {"x": "yaw", "y": "yaw"}}, "'yaw' is already an error column"),
+    ({"sequence": "zyx", "names": {"x": "a b"}}, "names.x must be a name"),
+    ({"sequenc": "zyx", "names": {"x": "a"}}, "(did you mean 'sequence'?)"),
+])
+def test_reference_angles_are_checked(angles, words):
+    with pytest.raises(StudyDefinitionError) as caught:
+        study_from_dict({**POSE, "reference": {"angles": angles}}, source="bad.yaml")
+    assert words in str(caught.value) and "bad.yaml" in str(caught.value)
+
+
+def test_reference_block_is_read_into_typed_fields():
+    study = study_from_dict({**POSE, "reference": {
+        "name": "paper", "source": "Table 2", "significance_source": "Table 3",
+        "angles": {"sequence": "xyz", "names": {"z": "psi", "x": "phi"}},
+        "figures": {"dls": {"percent_solved": 90, "time_median_ms": "1e-3"}},
+        "significance": {"dls_short": {"phi": 0.01, "time": 0}}}})
+    reference = study.cases[0].reference
+    assert (reference.name, reference.title, reference.source) == ("paper", "Paper", "Table 2")
+    assert reference.angles.sequence == "xyz"
+    assert reference.angles.names == (("x", "phi"), ("z", "psi"))  # x, y, z order whatever the file's
+    assert reference.figures == {"dls": {"percent_solved": 90.0, "time_median_ms": 1e-3}}
+    assert reference.significance == {"dls_short": {"phi": 0.01, "time": 0.0}}
+    assert reference.labels == ["dls", "dls_short"]
+    assert study.with_overrides(robot="panda").cases[0].reference is None  # another robot: no reference
+
+
+def test_a_reference_in_a_multi_case_study_belongs_to_its_case():
+    cases = {"methods": ["dls"], "cases": [{"robot": "ur5", "chain": "arm"}]}
+    with pytest.raises(StudyDefinitionError, match="reference: belongs inside each case"):
+        study_from_dict({**cases, "reference": {"name": "paper"}})
+    inside = study_from_dict({"methods": ["dls"], "cases": [{"robot": "ur5", "chain": "arm",
+                                                               "reference": {"name": "paper"}}]})
+    assert inside.cases[0].reference.name == "paper"
+
+
+def test_the_default_study_carries_its_reference_block():
+    """The figures and the angle names come from comparisons/default.yaml: the thesis's 94 % / 72.5 %
+    solved and 1.95 ms / 200 ms medians (golem3.md), its Table 5.1 p-values, its yaw/pitch/roll."""
+    reference = load_study().cases[0].reference
+    assert reference.name == "thesis"
+    assert reference.figures["analytic"]["percent_solved"] == 94.0
+    assert reference.figures["kdl"] == {"percent_solved": 72.5, "time_median_ms": 200.0}
+    assert reference.figures["analytic_per_pose"]["time_median_ms"] == 1.95
+    assert reference.significance["kdl"]["thesis_roll"] == 6.0e-6
+    assert reference.significance_source == "Table 5.1"
+    assert reference.angles.sequence == "zyx"
+    assert dict(reference.angles.names) == {"x": "thesis_yaw", "y": "thesis_pitch", "z": "thesis_roll"}
+
+
+def test_fingerprints_of_the_shipped_studies_did_not_change_with_the_reference_block():
+    """Results folders of the shipped studies still resume: their fingerprints are the ones computed
+    by the code before the reference block (angle_names + thesis fields), commit 9cf44be."""
+    expected = {"default": "bb3092c5f08d4759", "golem3_position": "357168c7ef854492",
+                "golem3_thesis": "33715208d3503b8b", "robots": "30eecfe5aa1f0a9f",
+                "wholebody": "892485349d4ab669"}
+    for name, fingerprint in expected.items():
+        assert load_study(COMPARISONS_DIR / f"{name}.yaml").fingerprint() == fingerprint, name
+
+
+def test_the_angle_convention_is_part_of_the_fingerprint():
+    names = {"x": "phi", "y": "theta", "z": "psi"}
+    zyx = study_from_dict({**POSE, "reference": {"angles": {"sequence": "zyx", "names": names}}})
+    xyz = study_from_dict({**POSE, "reference": {"angles": {"sequence": "xyz", "names": names}}})
+    figures_only = study_from_dict({**POSE, "reference": {"figures": {"dls": {"percent_solved": 1}}}})
+    assert len({zyx.fingerprint(), xyz.fingerprint(), study_from_dict(POSE).fingerprint()}) == 3
+    assert figures_only.fingerprint() == study_from_dict(POSE).fingerprint()  # figures change no result
 
 
 def test_missing_file_lists_the_shipped_studies(tmp_path):
@@ -85,3 +173,17 @@ def test_overrides_change_the_fingerprint_and_validate():
     assert moved.cases[0].name == "ur5_arm_position"
     with pytest.raises(StudyDefinitionError, match="--methods names"):
         study.with_overrides(methods=["kdl"])
+
+
+def test_the_study_code_names_no_seed_robot_and_no_thesis():
+    """The study is generic: robots, reference figures and angle names come from the study files."""
+    import re
+    from pathlib import Path
+
+    import wbik.study
+
+    pattern = re.compile(r"golem|bioloid|pincher|ur5|thesis", re.IGNORECASE)
+    found = [f"{path.name}:{number}: {line.strip()}"
+             for path in sorted(Path(wbik.study.__file__).parent.glob("*.py"))
+             for number, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    assert not found, found

@@ -27,7 +27,20 @@ chunk_size: 50
 timeout_s: 1.0
 baseline: analytic
 cases:
-  - {robot: ur5, chain: arm, target: pose}
+  - robot: ur5
+    chain: arm
+    target: pose
+    reference:
+      name: paper
+      source: "a made-up Table 2"
+      angles: {sequence: zyx, names: {x: paper_yaw, z: paper_roll}}
+      figures:
+        analytic: {percent_solved: 99.0, time_median_ms: 1000.0}
+        kdl: {percent_solved: 10.0}
+      significance_source: "Table 3"
+      significance:
+        kdl: {x: 0.5, paper_roll: 0.001, time: 0}
+      notes: "Invented figures."
   - {robot: arm3r, chain: arm, target: position}
 methods:
   - analytic
@@ -98,6 +111,32 @@ def test_not_applicable_methods_are_reported_not_crashed(serial_run):
     assert "Not applicable to this case" in section
     assert "kdl:" in section
     assert "kdl" not in read_raw_csv(serial_run / "arm3r_arm_position" / "raw.csv")
+
+
+def test_the_report_sets_our_figures_beside_the_study_file_s_reference(serial_run):
+    report = (serial_run / "report.md").read_text()
+    section = report.split("### Beside the paper")[1].split("## Case arm3r_arm_position")[0]
+    summary = _summary(serial_run / "ur5_arm_pose" / "summary.csv")
+    lines = section.splitlines()
+    assert lines[2] == "Paper figures from a made-up Table 2."
+    assert "| method | metric | paper | ours | comparison |" in lines
+    solved = summary["analytic"]["percent_solved"]
+    difference = solved - 99.0  # within 2 points: "agrees"
+    words = (f"agrees ({difference:+.1f} points)" if abs(difference) <= 2
+             else f"differs by {difference:+.1f} points")
+    assert f"| analytic | poses solved (%) | 99 | {solved:.3g} | {words} |" in lines
+    ratio = summary["analytic"]["time_all_median_ms"] / 1000.0
+    assert any(line.startswith("| analytic | median time, all poses (ms) | 1e+03 |")
+               and line.endswith(f"| faster (x{ratio:.2g}) |") for line in lines)
+    assert ("Mann-Whitney p-values against the baseline, the paper's (Table 3) beside ours; 'same verdict' "
+            "compares significance at 0.05.") in lines
+    assert "| method | axis | paper p | our p | same verdict |" in lines
+    assert any(line.startswith("| kdl | paper_roll | 0.001 |") for line in lines)
+    assert "Where and why we differ: Invented figures." in lines
+    assert "(repeated under the paper's names: alpha = paper_yaw, gamma = paper_roll)" in report
+    assert {"err_paper_yaw_abs_max", "err_paper_roll_abs_max"} <= set(summary["analytic"])
+    assert "err_paper_pitch_abs_max" not in summary["analytic"]
+    assert "Beside the" not in report.split("## Case arm3r_arm_position")[1]  # no reference there
 
 
 def _summary(path: Path) -> dict[str, dict[str, float]]:

@@ -1,4 +1,4 @@
-"""``wbik study``: run a comparison study (default: the Golem-III thesis reproduction, 1,000 poses)."""
+"""``wbik study``: run a comparison study (default: comparisons/default.yaml)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,14 @@ from pathlib import Path
 def add_parser(subparsers) -> None:
     parser = subparsers.add_parser(
         "study", help="run a comparison study of IK methods and write its report",
-        description="Run a study file from comparisons/ (default: comparisons/default.yaml, the Golem-III "
-                    "right arm, 1,000 poses, every method): raw rows, summary, Mann-Whitney tests, figures "
-                    "and a Markdown + HTML report in the output folder. An interrupted run resumes where "
-                    "it stopped when run again with the same output folder.")
+        description="Run a study file from comparisons/ (default: comparisons/default.yaml; a file's "
+                    "description: says what it compares, its reference: block the published figures it "
+                    "is set beside): raw rows, summary, Mann-Whitney tests, figures and a Markdown + HTML "
+                    "report in the output folder. An interrupted run resumes where it stopped when run "
+                    "again with the same output folder.")
     parser.add_argument("file", nargs="?",
                         help="study file (.yaml or .toml), or the name of a shipped study "
-                             "(golem3_thesis); default comparisons/default.yaml")
+                             "(e.g. robots); default comparisons/default.yaml")
     parser.add_argument("--output", "-o", type=Path, help="output folder (default runs/<study name>/)")
     parser.add_argument("--jobs", "-j", type=int, default=2, help="parallel workers (default 2)")
     parser.add_argument("--backend", default="loky", choices=("loky", "sequential", "dask"),

@@ -5,27 +5,33 @@ kind) and the *methods* to run on each, with the number of poses, the seed, the 
 the tolerances of the shared FK check. A single-case study may give ``robot``/``chain``/``target``
 at the top level instead of a ``cases`` list. Example::
 
-    name: golem3_thesis
-    robot: golem3
-    chain: right_arm
+    name: panda_pose
+    robot: panda            # a built-in robot or a URDF path
+    chain: arm
     target: pose            # or position
     poses: 10000
     seed: 2017
     timeout_s: 0.005        # default budget of every method
     tolerances: {position: 1.0e-6, rotation: 1.0e-6}
-    baseline: analytic      # Mann-Whitney reference
+    baseline: bounded_lm    # Mann-Whitney reference
     methods:
-      - analytic
-      - {label: kdl_15s, method: kdl, timeout_s: 15, note: "the thesis's timeout"}
-      - {label: analytic_per_pose, method: analytic, per_pose: true}   # time of single calls
+      - bounded_lm
+      - {label: kdl_15s, method: kdl, timeout_s: 15, note: "a published run's timeout"}
+      - {label: dls_per_pose, method: dls, per_pose: true}   # time of single calls
+    reference:              # published figures to set beside ours (wbik.study.reference)
+      name: paper
+      source: "a paper's Table 2"
+      figures: {kdl_15s: {percent_solved: 72.5, time_median_ms: 200}}
 
 Every mistake raises :class:`StudyDefinitionError` naming the file, the field and what to write.
 """
 
 from __future__ import annotations
 
+import difflib
 import hashlib
 import json
+import math
 import re
 import tomllib
 from dataclasses import asdict, dataclass, field, replace
@@ -35,6 +41,16 @@ import yaml
 
 from wbik.data import data_dir, study_path
 from wbik.errors import WbikError
+from wbik.study.metrics import (
+    ANGLE_AXES,
+    POSITION_AXES,
+    ROTATION_VECTOR_AXES,
+    STUDY_SEQUENCE,
+    TAIT_BRYAN_SEQUENCES,
+    AngleConvention,
+)
+from wbik.study.metrics import axes as error_axes
+from wbik.study.reference import REFERENCE_METRICS, Reference
 
 COMPARISONS_DIR = data_dir("comparisons")
 """The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
@@ -45,19 +61,7 @@ DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 TARGET_KINDS = ("pose", "position", "wholebody")
 """wholebody: whole-body cases drawn by the sampler named in ``scenario:`` (wbik.study.wholebody)."""
 START_KINDS = ("nominal", "mid_range", "random")
-ANGLE_KEYS = ("alpha", "beta", "gamma")
-THESIS_METRICS = {
-    # key -> (description, unit)
-    "percent_solved": ("poses solved", "%"),
-    "time_median_ms": ("median time, all poses", "ms"),
-    "time_median_solved_ms": ("median time, solved poses", "ms"),
-    "time_mean_ms": ("mean time, all poses", "ms"),
-    "time_min_ms": ("minimum time, all poses", "ms"),
-    "time_max_ms": ("maximum time, all poses", "ms"),
-    "time_mean_unsolved_ms": ("mean time to decide 'no solution'", "ms"),
-    "percent_under_10ms": ("poses answered in under 10 ms", "%"),
-    "percent_under_500ms": ("poses answered in under 0.5 s", "%"),
-}
+REFERENCE_KEYS = {"name", "source", "angles", "figures", "significance", "significance_source", "notes"}
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
@@ -87,8 +91,7 @@ class CaseSpec:
     target: str = "pose"
     robot_params: dict = field(default_factory=dict)
     poses: int | None = None  # None: the study's
-    angle_names: dict = field(default_factory=dict)  # e.g. thesis names {alpha: yaw, ...}
-    thesis: dict = field(default_factory=dict)  # {"reference": {label: {metric: value}}, "notes": str}
+    reference: Reference | None = None  # published figures to compare with, and their angle names
     scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.scenarios)
 
 
@@ -128,13 +131,17 @@ class Study:
         return data
 
     def fingerprint(self) -> str:
-        """Hash of what every method's results depend on: cases, poses, seed, start, chunking and
-        tolerances (not the methods, descriptions, notes or thesis figures)."""
+        """Hash of what every method's results depend on: cases, poses, seed, start, chunking,
+        tolerances and the reference's angle columns (not the methods, descriptions, notes or the
+        reference's figures). The angle columns enter as ``angle_names``, keyed by the study's own
+        angles when the reference's sequence is the study's (the form of files written before the
+        reference block, whose results folders therefore still resume)."""
         data = self.as_dict()
         for key in ("description", "notes", "methods", "baseline", "timeout_s"):
             data.pop(key)
-        for case in data["cases"]:
-            case.pop("thesis")
+        for spec, case in zip(self.cases, data["cases"], strict=True):
+            case.pop("reference")
+            case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
             if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
                 case.pop("scenario", None)
         return _digest(data)
@@ -171,8 +178,7 @@ class Study:
                            name=_case_name(new_robot, chain if chain is not None else case.chain,
                                            case.target) if robot is not None else case.name,
                            robot_params={} if robot is not None else case.robot_params,
-                           angle_names={} if robot is not None else case.angle_names,
-                           thesis={} if robot is not None else case.thesis)
+                           reference=None if robot is not None else case.reference)
             study = replace(study, cases=(case,))
             check_schema((), study.cases, "command line")
         if poses is not None:
@@ -187,6 +193,14 @@ class Study:
         return study
 
 
+def _fingerprint_angles(angles: AngleConvention | None) -> dict:
+    if angles is None:
+        return {}
+    if angles.sequence == STUDY_SEQUENCE:
+        return {angles.study_angle(axis): name for axis, name in angles.names}
+    return {"sequence": angles.sequence, **dict(angles.names)}
+
+
 def _digest(data) -> str:
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
@@ -195,7 +209,7 @@ def _digest(data) -> str:
 def load_study(path: str | Path | None = None) -> Study:
     """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``); None: the default study.
 
-    A name of a shipped study (``golem3_thesis``, or ``comparisons/golem3_thesis.yaml``) that is no
+    A name of a shipped study (``default``, or ``comparisons/default.yaml``) that is no
     file where it is run from is the shipped file (see :func:`wbik.data.study_path`)."""
     path = DEFAULT_STUDY if path is None else study_path(path)
     if not path.is_file():
@@ -224,7 +238,7 @@ def study_from_dict(data, source: str = "study") -> Study:
                                    f"got {type(data).__name__}")
     known = {"name", "description", "notes", "robot", "chain", "target", "robot_params", "cases",
              "methods", "poses", "seed", "timeout_s", "tolerances", "start", "baseline", "chunk_size",
-             "angle_names", "thesis", "scenario"}
+             "reference", "scenario"}
     _no_unknown(data, known, source, "the study")
     name = _label(data.get("name", Path(source).stem), "name", source)
     poses = _positive_int(data.get("poses", 1000), "poses", source)
@@ -249,12 +263,15 @@ def study_from_dict(data, source: str = "study") -> Study:
     baseline = data.get("baseline", methods[0].label)
     if baseline not in {m.label for m in methods}:
         raise StudyDefinitionError(f"{source}: baseline {baseline!r} is not one of the method labels "
-                                   f"{', '.join(m.label for m in methods)}")
+                                   f"{', '.join(m.label for m in methods)}"
+                                   f"{_did_you_mean(baseline, [m.label for m in methods])}")
+    labels = [m.label for m in methods]
     for case in cases:
-        for label in [*case.thesis.get("reference", {}), *case.thesis.get("significance", {})]:
-            if label not in {m.label for m in methods}:
-                raise StudyDefinitionError(f"{source}: case {case.name!r}: the thesis figures name method "
-                                           f"{label!r}, which is not a method label of the study")
+        for label in case.reference.labels if case.reference else ():
+            if label not in labels:
+                raise StudyDefinitionError(f"{source}: case {case.name!r}: the reference figures name method "
+                                           f"{label!r}, which is not a method label of the study "
+                                           f"({', '.join(labels)}){_did_you_mean(label, labels)}")
     return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
                  timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
                  chunk_size=chunk_size, description=str(data.get("description", "") or ""),
@@ -279,7 +296,8 @@ def _methods(raw, source: str) -> list[MethodSpec]:
         _no_unknown(item, {"label", "method", "options", "timeout_s", "note", "per_pose"}, source, where)
         method = item.get("method")
         if method not in known_methods:
-            raise StudyDefinitionError(f"{source}: {where}: unknown method {method!r}; registered methods: "
+            raise StudyDefinitionError(f"{source}: {where}: unknown method {method!r}"
+                                       f"{_did_you_mean(method, known_methods)}; registered methods: "
                                        f"{', '.join(known_methods)}")
         options = item.get("options", {}) or {}
         if not isinstance(options, dict):
@@ -319,21 +337,22 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         if not isinstance(raw, list) or not raw:
             raise StudyDefinitionError(f"{source}: cases must be a non-empty list of "
                                        "{robot, chain, target} mappings")
-        shared = {key: data[key] for key in ("angle_names", "thesis") if key in data}
-        if shared:
-            raise StudyDefinitionError(f"{source}: {sorted(shared)} belong inside each case of cases:")
+        if "reference" in data:
+            raise StudyDefinitionError(f"{source}: reference: belongs inside each case of cases: (the "
+                                       "figures and angle names are a case's)")
     else:
         if "robot" not in data and "scenario" not in data:
-            raise StudyDefinitionError(f"{source}: say which robot to study (robot: golem3) or list cases:")
-        raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "angle_names",
-                                           "thesis", "scenario") if key in data}]
+            raise StudyDefinitionError(f"{source}: say which robot to study (robot: NAME or a URDF path) "
+                                       "or list cases:")
+        raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "reference",
+                                           "scenario") if key in data}]
     cases: list[CaseSpec] = []
     for index, item in enumerate(raw):
         where = f"cases[{index}]" if "cases" in data else "the study"
         if not isinstance(item, dict):
             raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
-        _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "angle_names",
-                           "thesis", "scenario"}, source, where)
+        _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "reference",
+                           "scenario"}, source, where)
         if item.get("target") == "wholebody" or "scenario" in item:
             item = _wholebody_case(item, source, where)
         robot = item.get("robot")
@@ -350,19 +369,12 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         if not isinstance(params, dict):
             raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping of the robot's "
                                        f"parameters (e.g. {{lengths: [3, 2, 2]}}), got {params!r}")
-        angle_names = item.get("angle_names", {}) or {}
-        if not isinstance(angle_names, dict) or not set(angle_names) <= set(ANGLE_KEYS):
-            raise StudyDefinitionError(
-                f"{source}: {where}.angle_names maps alpha/beta/gamma (R = Rz(gamma) Ry(beta) Rx(alpha)) "
-                f"to display names, e.g. {{alpha: yaw, beta: pitch, gamma: roll}}; got {angle_names!r}")
         poses = item.get("poses")
         case = CaseSpec(
             name=_label(item.get("name", _case_name(robot, chain, target)), f"{where}.name", source),
             robot=robot, chain=chain, target=target, robot_params=dict(params),
             poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
-            angle_names={key: _label(value, f"{where}.angle_names.{key}", source)
-                         for key, value in angle_names.items()},
-            thesis=_thesis(item.get("thesis", {}), source, f"{where}.thesis"),
+            reference=_reference(item.get("reference"), target, source, f"{where}.reference"),
             scenario=item.get("scenario"))
         cases.append(case)
     names = [c.name for c in cases]
@@ -386,42 +398,111 @@ def _wholebody_case(item: dict, source: str, where: str) -> dict:
     if item.get("robot", robot) != robot:
         raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
                                    f"{item['robot']!r} (leave robot: out)")
-    for key in ("chain", "robot_params", "angle_names", "thesis"):
+    for key in ("chain", "robot_params", "reference"):
         if item.get(key):
             raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
     return {**item, "target": "wholebody", "robot": robot, "name": item.get("name", scenario)}
 
 
-def _thesis(raw, source: str, where: str) -> dict:
-    if not raw:
-        return {}
+def _reference(raw, target: str, source: str, where: str) -> Reference | None:
+    """A case's ``reference:`` block checked (see wbik.study.reference), None when absent."""
+    if raw is None or raw == {}:
+        return None
     if not isinstance(raw, dict):
-        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{source, reference, notes}}")
-    _no_unknown(raw, {"source", "reference", "significance", "notes"}, source, where)
-    reference = raw.get("reference", {}) or {}
-    if not isinstance(reference, dict):
-        raise StudyDefinitionError(f"{source}: {where}.reference maps method labels to {{metric: value}}")
-    for label, metrics in reference.items():
-        if not isinstance(metrics, dict):
-            raise StudyDefinitionError(f"{source}: {where}.reference.{label} must be a mapping of metrics")
-        unknown = set(metrics) - set(THESIS_METRICS)
-        if unknown:
-            raise StudyDefinitionError(f"{source}: {where}.reference.{label}: unknown metrics "
-                                       f"{sorted(unknown)}; known: {', '.join(THESIS_METRICS)}")
-        for metric, value in metrics.items():
-            if not isinstance(value, int | float) or isinstance(value, bool):
-                raise StudyDefinitionError(f"{source}: {where}.reference.{label}.{metric} must be a number")
-    significance = raw.get("significance", {}) or {}
-    if not isinstance(significance, dict) or not all(
-            isinstance(axes, dict) and all(isinstance(p, int | float) and not isinstance(p, bool)
-                                           for p in axes.values()) for axes in significance.values()):
-        raise StudyDefinitionError(f"{source}: {where}.significance maps method labels to {{axis: p-value}}, "
-                                   "e.g. {kdl: {x: 0, thesis_roll: 6.0e-6, time: 0}}")
-    return {"source": str(raw.get("source", "") or ""), "notes": str(raw.get("notes", "") or ""),
-            "reference": {label: {k: float(v) for k, v in metrics.items()}
-                          for label, metrics in reference.items()},
-            "significance": {label: {axis: float(p) for axis, p in axes.items()}
-                             for label, axes in significance.items()}}
+        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{name, source, angles, figures, "
+                                   f"significance, significance_source, notes}}, got {raw!r}")
+    _no_unknown(raw, REFERENCE_KEYS, source, where)
+    texts = {key: raw.get(key, "") if raw.get(key) is not None else "" for key in
+             ("name", "source", "significance_source", "notes")}
+    for key, value in texts.items():
+        if not isinstance(value, str):
+            raise StudyDefinitionError(f"{source}: {where}.{key} must be text, got {value!r}")
+    name = texts["name"].strip() or "reference"
+    angles = _angles(raw.get("angles"), target, source, f"{where}.angles")
+    figures = _mapping(raw.get("figures"), source, f"{where}.figures",
+                       "maps method labels to {metric: value}, e.g. {kdl: {percent_solved: 72.5}}")
+    checked_figures = {}
+    for label, metrics in figures.items():
+        metrics = _mapping(metrics, source, f"{where}.figures.{label}",
+                           f"maps metrics ({', '.join(REFERENCE_METRICS)}) to numbers")
+        _no_unknown(metrics, set(REFERENCE_METRICS), source, f"{where}.figures.{label}")
+        checked_figures[str(label)] = {metric: _number(value, f"{where}.figures.{label}.{metric}", source)
+                                       for metric, value in metrics.items()}
+    axes = [*error_axes(target, angles), "time"]
+    significance = _mapping(raw.get("significance"), source, f"{where}.significance",
+                            "maps method labels to {axis: p-value}, e.g. {kdl: {x: 0, time: 1.0e-3}}")
+    checked_significance = {}
+    for label, p_values in significance.items():
+        p_values = _mapping(p_values, source, f"{where}.significance.{label}",
+                            f"maps error axes ({', '.join(axes)}) to p-values")
+        _no_unknown(p_values, set(axes), source, f"{where}.significance.{label}")
+        checked = {}
+        for axis, value in p_values.items():
+            p_value = _number(value, f"{where}.significance.{label}.{axis}", source)
+            if not 0.0 <= p_value <= 1.0:
+                raise StudyDefinitionError(f"{source}: {where}.significance.{label}.{axis} is a p-value, "
+                                           f"between 0 and 1; got {value!r}")
+            checked[axis] = p_value
+        checked_significance[str(label)] = checked
+    return Reference(name=name, source=texts["source"], angles=angles, figures=checked_figures,
+                     significance=checked_significance, significance_source=texts["significance_source"],
+                     notes=texts["notes"])
+
+
+def _angles(raw, target: str, source: str, where: str) -> AngleConvention | None:
+    """``reference.angles``: {sequence: one of TAIT_BRYAN_SEQUENCES, names: {axis: column name}}."""
+    if raw is None:
+        return None
+    example = "e.g. {sequence: zyx, names: {x: yaw, y: pitch, z: roll}} for R = Rz(roll) Ry(pitch) Rx(yaw)"
+    if not isinstance(raw, dict):
+        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{sequence, names}}, {example}")
+    _no_unknown(raw, {"sequence", "names"}, source, where)
+    if target != "pose":
+        raise StudyDefinitionError(f"{source}: {where}: Euler angles apply to pose targets only, this case's "
+                                   f"target is {target!r} (leave angles: out)")
+    sequence = raw.get("sequence")
+    if sequence not in TAIT_BRYAN_SEQUENCES:
+        raise StudyDefinitionError(
+            f"{source}: {where}.sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)} (R = R_i R_j R_k "
+            f"for 'ijk'), got {sequence!r}{_did_you_mean(sequence, TAIT_BRYAN_SEQUENCES)}; {example}")
+    names = _mapping(raw.get("names"), source, f"{where}.names",
+                     f"maps axes (x, y, z) to column names, {example}")
+    if not names:
+        raise StudyDefinitionError(f"{source}: {where}.names must name at least one angle, {example}")
+    _no_unknown(names, set(POSITION_AXES), source, f"{where}.names")
+    taken = {*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES}
+    columns: list[tuple[str, str]] = []
+    for axis in POSITION_AXES:
+        if axis not in names:
+            continue
+        column = _label(names[axis], f"{where}.names.{axis}", source)
+        if column in taken:
+            raise StudyDefinitionError(f"{source}: {where}.names.{axis}: {column!r} is already an error "
+                                       f"column ({', '.join(sorted(taken))}); choose another name")
+        taken.add(column)
+        columns.append((axis, column))
+    return AngleConvention(sequence=sequence, names=tuple(columns))
+
+
+def _mapping(value, source: str, where: str, what: str) -> dict:
+    """``value`` if a mapping ({} for None), else a StudyDefinitionError saying what it maps."""
+    if value is None:
+        return {}
+    if not isinstance(value, dict):
+        raise StudyDefinitionError(f"{source}: {where} {what}; got {value!r}")
+    return value
+
+
+def _number(value, field_name: str, source: str) -> float:
+    """A finite number (PyYAML's string '1e-3' included), else a StudyDefinitionError."""
+    if isinstance(value, str):
+        try:
+            value = float(value)
+        except ValueError:
+            pass
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise StudyDefinitionError(f"{source}: {field_name} must be a number, got {value!r}")
+    return float(value)
 
 
 def check_schema(methods, cases, source: str) -> None:
@@ -465,10 +546,29 @@ def check_schema(methods, cases, source: str) -> None:
 
 
 def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
-    unknown = sorted(set(mapping) - known)
+    unknown = sorted(set(mapping) - known, key=str)
     if unknown:
-        raise StudyDefinitionError(f"{source}: {where} has unknown field(s) {unknown}; allowed: "
+        guesses = [(key, _closest(key, known)) for key in unknown]
+        guesses = [(key, guess) for key, guess in guesses if guess is not None]
+        if len(unknown) == 1 and guesses:
+            hint = f" (did you mean {guesses[0][1]!r}?)"
+        elif guesses:
+            hint = " (did you mean " + ", ".join(f"{guess!r} for {key!r}" for key, guess in guesses) + "?)"
+        else:
+            hint = ""
+        raise StudyDefinitionError(f"{source}: {where} has unknown field(s) {unknown}{hint}; allowed: "
                                    f"{', '.join(sorted(known))}")
+
+
+def _closest(word, choices) -> str | None:
+    """The choice closest to ``word`` (difflib's ratio >= 0.6), None if none is."""
+    close = difflib.get_close_matches(str(word), [str(choice) for choice in choices], n=1)
+    return close[0] if close else None
+
+
+def _did_you_mean(word, choices) -> str:
+    guess = _closest(word, choices)
+    return f" (did you mean {guess!r}?)" if guess is not None else ""
 
 
 def _label(value, field_name: str, source: str) -> str:

@@ -1,9 +1,9 @@
-"""The thesis's figures, drawn with matplotlib's Agg backend (no display needed).
+"""The study's figures, drawn with matplotlib's Agg backend (no display needed).
 
 - bars of the poses solved per method;
 - box plots of |error| per axis over solved poses (log scale; exact zeros drawn at a floor);
 - box plots of time per method, solved and unsolved poses side by side (log scale);
-- a histogram of time per method (log bins), the figure of the thesis's position-only study.
+- a histogram of time per method (log bins).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from wbik.files import atomic_write_bytes
-from wbik.study.metrics import axis_label  # noqa: E402
+from wbik.study.metrics import AngleConvention, axis_label  # noqa: E402
 
 ZERO_FLOOR = 1e-18
 """Where exact zeros are drawn on logarithmic error axes."""
@@ -51,7 +51,7 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 
 
 def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
-                   angle_names: dict | None = None) -> Path:
+                   angles: AngleConvention | None = None) -> Path:
     columns = 3
     lines = -(-len(axes_names) // columns)
     labels = list(rows_by_method)
@@ -67,7 +67,7 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
         subplot.boxplot(data, showfliers=True, flierprops={"markersize": 2})
         subplot.set_yscale("log")
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
-        subplot.set_title(f"|error| {axis_label(axis, angle_names)}", fontsize=9)
+        subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)
     for index in range(len(axes_names), lines * columns):
         grid[index // columns][index % columns].set_visible(False)
     figure.suptitle(f"{title} (solved poses; exact zeros drawn at {ZERO_FLOOR:g})", fontsize=10)

@@ -1,33 +1,50 @@
-"""Per-axis errors of IK answers, and the angle names of the Golem-III thesis.
+"""Per-axis errors of IK answers, in the study's own angles and in a reference's Euler angles.
 
 For a target (p*, R*) and the pose (p, R) reached by FK of a method's joints:
 
 - ``err_x, err_y, err_z`` = p - p* (m, base-frame axes);
 - ``err_rot_x, err_rot_y, err_rot_z`` = log3(R*^T R) (rad, rotation vector in the target frame);
-- ``err_alpha, err_beta, err_gamma``: differences of the angles of R = Rz(gamma) Ry(beta) Rx(alpha),
-  wrapped to (-pi, pi], with gamma = atan2(r21, r11), beta = atan2(-r31, sqrt(r11^2 + r21^2)),
-  alpha = atan2(r32, r33). Near beta = +-pi/2 (gimbal lock) these split one rotation between alpha
-  and gamma arbitrarily; the rotation vector does not.
+- ``err_alpha, err_beta, err_gamma``: differences of the study's own angles of
+  R = Rz(gamma) Ry(beta) Rx(alpha), wrapped to (-pi, pi];
+- ``err_<name>``: the same for the Tait-Bryan angles of a study file's ``reference.angles``
+  (:class:`AngleConvention`): a sequence of three distinct axes, e.g. "zyx" for
+  R = Rz(a_z) Ry(a_y) Rx(a_x), and a column name for the angle about each axis.
 
-The Golem-III thesis names alpha (about the tool's x axis) "yaw", beta "pitch" and gamma (about z)
-"roll", the reverse of the usual words; a case's ``angle_names`` adds columns under such names.
+Tait-Bryan angles of R = R_i(a_i) R_j(a_j) R_k(a_k) (sequence "ijk", axes i, j, k distinct): with
+d = +1 when (i, j, k) is an even permutation of (z, y, x) and -1 otherwise,
+
+    a_i = d atan2(r_jk, r_kk),   a_j = d atan2(-r_ik, hypot(r_kk, r_jk)),   a_k = d atan2(r_ij, r_ii)
+
+(relabelling the axes i, j, k as z, y, x by a permutation matrix P gives P R P^T =
+Rz(d a_i) Ry(d a_j) Rx(d a_k), since P R_a(t) P^T = R_Pa(det(P) t)). For "zyx": gamma = atan2(r21, r11),
+beta = atan2(-r31, sqrt(r11^2 + r21^2)), alpha = atan2(r32, r33). Near a_j = +-pi/2 (gimbal lock)
+these split one rotation between a_i and a_k arbitrarily; the rotation vector does not.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from wbik.errors import InvalidSettingError
 from wbik.geometry import batch_exp3
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
-from wbik.solvers.base import IKResult
+
+if TYPE_CHECKING:
+    from wbik.solvers.base import IKResult
 
 POSITION_AXES = ("x", "y", "z")
 ROTATION_VECTOR_AXES = ("rot_x", "rot_y", "rot_z")
 ANGLE_AXES = ("alpha", "beta", "gamma")
-THESIS_ANGLE_NAMES = {"alpha": "thesis_yaw", "beta": "thesis_pitch", "gamma": "thesis_roll"}
-"""Golem-III thesis naming of the Rz(gamma) Ry(beta) Rx(alpha) angles (see the module docstring)."""
+"""The study's own angles, about x, y and z: R = Rz(gamma) Ry(beta) Rx(alpha)."""
+STUDY_SEQUENCE = "zyx"
+"""The sequence of the study's own angles (see ANGLE_AXES)."""
+TAIT_BRYAN_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
+"""The Euler-angle sequences a reference may use: R = R_i R_j R_k for the sequence "ijk"."""
+_AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
 AXIS_DESCRIPTIONS = {
     "x": "x (m)", "y": "y (m)", "z": "z (m)",
@@ -37,39 +54,76 @@ AXIS_DESCRIPTIONS = {
 }
 
 
-def axes(target_kind: str, angle_names: dict | None = None) -> list[str]:
+@dataclass(frozen=True)
+class AngleConvention:
+    """A reference's Euler angles: R = R_i(a_i) R_j(a_j) R_k(a_k) for ``sequence`` "ijk" (one of
+    TAIT_BRYAN_SEQUENCES), and ``names``, (axis, column name) pairs in x, y, z order, for the angles
+    whose errors become columns ``err_<name>``."""
+
+    sequence: str
+    names: tuple[tuple[str, str], ...]
+
+    @property
+    def columns(self) -> list[str]:
+        """The column names (without ``err_``), in x, y, z order."""
+        return [name for _, name in self.names]
+
+    def describe(self) -> str:
+        """The product the angles are read from, e.g. "R = Rz(roll) Ry(pitch) Rx(yaw)"."""
+        named = dict(self.names)
+        return "R = " + " ".join(f"R{axis}({named.get(axis, '.')})" for axis in self.sequence)
+
+    def study_angle(self, axis: str) -> str | None:
+        """The study's own angle (alpha, beta, gamma) equal to the reference's angle about ``axis``:
+        the same angle when the sequence is the study's, else None."""
+        return ANGLE_AXES[_AXIS_INDEX[axis]] if self.sequence == STUDY_SEQUENCE else None
+
+
+def tait_bryan_angles(rotations: np.ndarray, sequence: str = STUDY_SEQUENCE) -> np.ndarray:
+    """(..., 3) angles about x, y, z of R = R_i(a_i) R_j(a_j) R_k(a_k), ``sequence`` "ijk", for
+    rotations (..., 3, 3) (formulas in the module docstring; "zyx" gives (alpha, beta, gamma))."""
+    if sequence not in TAIT_BRYAN_SEQUENCES:
+        raise InvalidSettingError(f"sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)}, "
+                                  f"got {sequence!r}")
+    i, j, k = (_AXIS_INDEX[axis] for axis in sequence)
+    sign = 1.0 if sequence in ("zyx", "yxz", "xzy") else -1.0  # even permutations of (z, y, x)
+    r = rotations
+    outer = np.arctan2(r[..., j, k], r[..., k, k])
+    middle = np.arctan2(-r[..., i, k], np.hypot(r[..., k, k], r[..., j, k]))
+    inner = np.arctan2(r[..., i, j], r[..., i, i])
+    angles = np.empty(np.shape(r)[:-2] + (3,))
+    angles[..., i], angles[..., j], angles[..., k] = outer, middle, inner
+    return angles if sign > 0 else -angles
+
+
+def axes(target_kind: str, angles: AngleConvention | None = None) -> list[str]:
     """Error axes of a case, in column order (without the ``err_`` prefix)."""
     names = list(POSITION_AXES)
     if target_kind == "pose":
         names += list(ROTATION_VECTOR_AXES) + list(ANGLE_AXES)
-        names += [angle_names[key] for key in ANGLE_AXES if angle_names and key in angle_names]
+        names += angles.columns if angles else []
     return names
 
 
-def axis_label(axis: str, angle_names: dict | None = None) -> str:
-    """Human label of an error axis, e.g. "alpha, about x (rad); thesis 'yaw'"."""
+def axis_label(axis: str, angles: AngleConvention | None = None) -> str:
+    """Human label of an error axis, e.g. "alpha, about x (rad)" or "yaw (= alpha, rad)"."""
     if axis in AXIS_DESCRIPTIONS:
         return AXIS_DESCRIPTIONS[axis]
-    for key, name in (angle_names or {}).items():
+    for about, name in angles.names if angles else ():
         if name == axis:
-            return f"{name} (= {key}, rad)"
+            same = angles.study_angle(about)
+            if same:
+                return f"{name} (= {same}, rad)"
+            return f"{name} (about {about} in {angles.describe()}, rad)"
     return axis
 
 
-def euler_zyx(rotations: np.ndarray) -> np.ndarray:
-    """(..., 3) angles (alpha, beta, gamma) with R = Rz(gamma) Ry(beta) Rx(alpha), for R (..., 3, 3)."""
-    r11, r21, r31 = rotations[..., 0, 0], rotations[..., 1, 0], rotations[..., 2, 0]
-    gamma = np.arctan2(r21, r11)
-    beta = np.arctan2(-r31, np.hypot(r11, r21))
-    alpha = np.arctan2(rotations[..., 2, 1], rotations[..., 2, 2])
-    return np.stack((alpha, beta, gamma), axis=-1)
-
-
 def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None,
-                angle_names: dict | None = None) -> dict[str, np.ndarray]:
+                angles: AngleConvention | None = None) -> dict[str, np.ndarray]:
     """Per-axis error columns ``err_<axis>`` for a batch of answers (NaN where no joints came back).
 
-    ``target_rotations`` (B, 3, 3) for pose targets, None for position-only ones.
+    ``target_rotations`` (B, 3, 3) for pose targets, None for position-only ones; ``angles`` a
+    reference's Euler angles to add as columns.
     """
     count = len(results)
     columns: dict[str, np.ndarray] = {}
@@ -82,11 +136,19 @@ def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None
     for index, axis in enumerate(ROTATION_VECTOR_AXES):
         columns[f"err_{axis}"] = vector[:, index]
     reached = target_rotations @ batch_exp3(np.nan_to_num(vector))
-    difference = wrap_angle(euler_zyx(reached) - euler_zyx(target_rotations))
-    difference[~np.all(np.isfinite(vector), axis=1)] = np.nan
+    missing = ~np.all(np.isfinite(vector), axis=1)
+
+    def differences(sequence: str) -> np.ndarray:
+        difference = wrap_angle(tait_bryan_angles(reached, sequence) - tait_bryan_angles(target_rotations,
+                                                                                         sequence))
+        difference[missing] = np.nan
+        return difference
+
+    own = differences(STUDY_SEQUENCE)
     for index, axis in enumerate(ANGLE_AXES):
-        columns[f"err_{axis}"] = difference[:, index]
-    for index, axis in enumerate(ANGLE_AXES):
-        if angle_names and axis in angle_names:
-            columns[f"err_{angle_names[axis]}"] = difference[:, index]
+        columns[f"err_{axis}"] = own[:, index]
+    if angles:
+        theirs = own if angles.sequence == STUDY_SEQUENCE else differences(angles.sequence)
+        for axis, name in angles.names:
+            columns[f"err_{name}"] = theirs[:, _AXIS_INDEX[axis]]
     return columns

@@ -1,5 +1,6 @@
-"""The study report: tables and figures per case, our numbers beside the thesis's, in Markdown and
-in one self-contained HTML page (figures embedded as base64 PNG).
+"""The study report: tables and figures per case, our numbers beside a reference's (the study
+file's ``reference:`` block), in Markdown and in one self-contained HTML page (figures embedded as
+base64 PNG).
 
 The report is assembled once as a list of blocks (headings, paragraphs, tables, images) and
 rendered to both formats, so the two always say the same thing. It also writes each case's
@@ -26,12 +27,11 @@ from wbik.errors import WbikError
 from wbik.study import figures
 from wbik.study import results as store
 from wbik.study.context import _frozen, _robot, chunk_count
-from wbik.study.definition import THESIS_METRICS, CaseSpec, Study
+from wbik.study.definition import CaseSpec, Study
+from wbik.study.metrics import STUDY_SEQUENCE
 from wbik.study.metrics import axes as case_axes
-from wbik.study.statistics import significance, summarize, thesis_metrics
-
-AGREEMENT = {"percent_solved": 2.0}
-"""Absolute difference (percentage points) within which a percentage counts as "agrees"."""
+from wbik.study.reference import REFERENCE_METRICS, our_figures, same_significance, verdict
+from wbik.study.statistics import ALPHA, significance, summarize
 
 
 @dataclass
@@ -65,7 +65,7 @@ def fmt(value, digits: int = 3) -> str:
 def fmt_p(value: float) -> str:
     if value is None or not math.isfinite(value):
         return "-"
-    return "0" if value == 0 else f"{value:.2g}"  # 0: below the smallest double, as the thesis printed
+    return "0" if value == 0 else f"{value:.2g}"  # 0: below the smallest double, as published tables print it
 
 
 # -- per case ----------------------------------------------------------------------------------
@@ -111,14 +111,15 @@ def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
         keys = list(tests[0])
         _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
                                                           for k in keys] for t in tests])
-    error_names = case_axes(case.target, case.angle_names)
+    angles = case.reference.angles if case.reference else None
+    error_names = case_axes(case.target, angles)
     images = {}
     if rows_by_method:
         title = f"{case.robot}.{chain.name} ({case.target})"
         folder = directory / "figures"
         images["solved"] = figures.solved_bars(summaries, title, folder / "solved.png")
         images["errors"] = figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
-                                                  case.angle_names)
+                                                  angles)
         images["time"] = figures.time_boxplots(rows_by_method, title, folder / "time.png")
         images["time_histogram"] = figures.time_histogram(rows_by_method, title,
                                                           folder / "time_histogram.png")
@@ -183,9 +184,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
     blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
                              "target, base axes); rot_* the rotation vector log3(R_target^T R_reached); "
                              "alpha, beta, gamma the angles of R = Rz(gamma) Ry(beta) Rx(alpha)"
-                             + (" (repeated under the thesis's names: " + ", ".join(
-                                 f"{k} = {v}" for k, v in case.angle_names.items()) + ")"
-                                if case.angle_names else "") + "; radians. Near beta = +-90 deg (gimbal "
+                             + _reference_angles_text(case) + "; radians. Near beta = +-90 deg (gimbal "
                              "lock) a tiny rotation can show as large, opposite alpha and gamma errors; the "
                              "rotation vector has no such artefact."))
     labels = list(summaries)
@@ -208,8 +207,19 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
         blocks.append(Block("table", header=["method", *axes_tested],
                             rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
                                   for label, cells in by_method.items()]))
-    blocks.extend(_thesis_blocks(case, summaries, analysis["tests"]))
+    blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
     return blocks
+
+
+def _reference_angles_text(case: CaseSpec) -> str:
+    """Where the reference's angle columns come from, for the per-axis error paragraph."""
+    angles = case.reference.angles if case.reference else None
+    if not angles:
+        return ""
+    if angles.sequence == STUDY_SEQUENCE:
+        return (f" (repeated under the {case.reference.name}'s names: "
+                + ", ".join(f"{angles.study_angle(axis)} = {name}" for axis, name in angles.names) + ")")
+    return f"; {', '.join(angles.columns)} the {case.reference.name}'s angles of {angles.describe()}"
 
 
 def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
@@ -235,58 +245,44 @@ def _reason_kind(reason: str) -> str:
     return " ".join(words)[:120] or "(no reason given)"
 
 
-def _thesis_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> list[Block]:
-    thesis = case.thesis
-    if not thesis:
+def _reference_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> list[Block]:
+    """Our figures and p-values beside the reference's (the case's ``reference:`` block)."""
+    reference = case.reference
+    if reference is None:
         return []
-    blocks = [Block("h3", "Beside the thesis")]
-    if thesis.get("source"):
-        blocks.append(Block("p", f"Thesis figures from {thesis['source']}."))
+    name = reference.name
+    blocks = [Block("h3", f"Beside the {name}")]
+    if reference.source:
+        blocks.append(Block("p", f"{reference.title} figures from {reference.source}."))
     table = []
-    for label, metrics in thesis.get("reference", {}).items():
-        ours = thesis_metrics(summaries[label]) if label in summaries else {}
+    for label, metrics in reference.figures.items():
+        ours = our_figures(summaries[label]) if label in summaries else {}
         for metric, value in metrics.items():
-            description, unit = THESIS_METRICS[metric]
+            described = REFERENCE_METRICS[metric]
             our = ours.get(metric)
-            verdict = _verdict(metric, value, our)
+            judged = verdict(metric, value, our)
             if label in summaries and (our is None or not math.isfinite(our)):
-                verdict = "no such poses in our run"
-            table.append([label, f"{description} ({unit})", fmt(value), fmt(our), verdict])
+                judged = "no such poses in our run"
+            table.append([label, f"{described.description} ({described.unit})", fmt(value), fmt(our), judged])
     if table:
-        blocks.append(Block("table", header=["method", "metric", "thesis", "ours", "comparison"], rows=table))
+        blocks.append(Block("table", header=["method", "metric", name, "ours", "comparison"], rows=table))
     ours = {(t["method"], t["axis"]): t for t in tests}
     rows = []
-    for label, axes in thesis.get("significance", {}).items():
+    for label, axes in reference.significance.items():
         for axis, p_value in axes.items():
             test = ours.get((label, axis))
             our_p = test["p_value"] if test else None
-            same = ("-" if our_p is None or not math.isfinite(our_p)
-                    else "yes" if (our_p < 0.05) == (p_value < 0.05) else "no")
-            rows.append([label, axis, fmt_p(p_value), fmt_p(our_p) if our_p is not None else "-", same])
+            rows.append([label, axis, fmt_p(p_value), fmt_p(our_p) if our_p is not None else "-",
+                         same_significance(p_value, our_p)])
     if rows:
-        blocks.append(Block("p", "Mann-Whitney p-values against the baseline, the thesis's (Table 5.1) "
-                                 "beside ours; 'same verdict' compares significance at 0.05."))
-        blocks.append(Block("table", header=["method", "axis", "thesis p", "our p", "same verdict"],
+        where = f" ({reference.significance_source})" if reference.significance_source else ""
+        blocks.append(Block("p", f"Mann-Whitney p-values against the baseline, the {name}'s{where} "
+                                 f"beside ours; 'same verdict' compares significance at {ALPHA:g}."))
+        blocks.append(Block("table", header=["method", "axis", f"{name} p", "our p", "same verdict"],
                             rows=rows))
-    if thesis.get("notes"):
-        blocks.append(Block("p", "Where and why we differ: " + thesis["notes"].strip()))
+    if reference.notes:
+        blocks.append(Block("p", "Where and why we differ: " + reference.notes.strip()))
     return blocks
-
-
-def _verdict(metric: str, thesis_value: float, ours: float | None) -> str:
-    if ours is None or not math.isfinite(ours):
-        return "not measured (method not run)"
-    if metric in AGREEMENT or metric.startswith("percent"):
-        difference = ours - thesis_value
-        if abs(difference) <= AGREEMENT.get(metric, 2.0):
-            return f"agrees ({difference:+.1f} points)"
-        return f"differs by {difference:+.1f} points"
-    if thesis_value == 0:
-        return "-"
-    ratio = ours / thesis_value
-    if 0.5 <= ratio <= 2.0:
-        return f"same order (x{ratio:.2g})"
-    return f"{'faster' if ratio < 1 else 'slower'} (x{ratio:.2g})"
 
 
 # -- the whole report --------------------------------------------------------------------------

@@ -42,7 +42,7 @@ from wbik.errors import MissingDependencyError, UnsupportedError, WbikError
 from wbik.study import results as store
 from wbik.study.context import _frozen, _robot, chunk_count, solver_budget  # also re-exported
 from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
-from wbik.study.metrics import axis_errors
+from wbik.study.metrics import AngleConvention, axis_errors
 from wbik.study.ownership import FolderLock
 from wbik.study.sampling import PoseSet, sample_poses
 
@@ -64,7 +64,7 @@ class ChunkTask:
     robot: str
     robot_params: tuple
     chain: str | None
-    angle_names: tuple
+    angles: AngleConvention | None  # the reference's Euler angles: extra error columns
     label: str
     method: str
     options: tuple
@@ -206,7 +206,7 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     }
     columns["cpu_s"] = cpu_seconds
     columns["reruns"] = reruns
-    columns.update(axis_errors(answers, task.rotations, dict(task.angle_names)))
+    columns.update(axis_errors(answers, task.rotations, task.angles))
     columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                             dtype=float).reshape(count, nq)
     return columns
@@ -294,7 +294,7 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
     built_in = isinstance(factory, str) and factory.startswith("wbik.")
     return ChunkTask(
         case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
-        angle_names=_frozen(case.angle_names), label=method.label, method=method.method,
+        angles=case.reference.angles if case.reference else None, label=method.label, method=method.method,
         options=_frozen(options), timeout_s=timeout_s,
         tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
         seed=chunk_seed(study.seed, case.name, method.label, chunk), per_pose=method.per_pose,

@@ -2,7 +2,7 @@
 
 Joint vectors are drawn uniformly in [lower, upper] by ``numpy.random.default_rng(seed)``; they
 depend on the seed and the chain only, so a pose study and a position-only study with the same
-seed share the same positions (as in the thesis), and pose i does not depend on how many poses
+seed share the same positions, and pose i does not depend on how many poses
 are drawn. Start configurations q0 come from a second stream, ``default_rng([seed, 1])``.
 """
 

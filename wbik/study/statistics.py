@@ -1,10 +1,10 @@
 """Summary tables and significance tests over a study's raw rows (numpy and scipy only).
 
 Per method: poses solved; time (ms) mean / median / p95 / min / max over all, solved and unsolved
-poses separately (the thesis reports the time to decide "no solution"); per error axis over the
+poses separately (the time to decide "no solution" is a figure of its own); per error axis over the
 *solved* poses: mean signed error, median / p95 / max of |e| and the fraction of exact zeros.
 
-Significance (thesis Table 5.1): the two-sided Mann-Whitney U test
+Significance: the two-sided Mann-Whitney U test
 (``scipy.stats.mannwhitneyu(a, b, alternative="two-sided")``) of each method against the baseline,
 per error axis on |e| of the solved poses of each, and on the time of all poses.
 """
@@ -67,21 +67,6 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
         summary[f"err_{axis}_abs_max"] = math.nan if empty else float(np.max(magnitude))
         summary[f"err_{axis}_zero_fraction"] = math.nan if empty else float(np.mean(magnitude == 0.0))
     return summary
-
-
-def thesis_metrics(summary: dict[str, float]) -> dict[str, float]:
-    """Our values of the metrics a study file may quote from the thesis (see definition.THESIS_METRICS)."""
-    return {
-        "percent_solved": summary["percent_solved"],
-        "time_median_ms": summary["time_all_median_ms"],
-        "time_median_solved_ms": summary["time_solved_median_ms"],
-        "time_mean_ms": summary["time_all_mean_ms"],
-        "time_min_ms": summary["time_all_min_ms"],
-        "time_max_ms": summary["time_all_max_ms"],
-        "time_mean_unsolved_ms": summary["time_unsolved_mean_ms"],
-        "percent_under_10ms": summary["percent_under_10ms"],
-        "percent_under_500ms": summary["percent_under_500ms"],
-    }
 
 
 def mann_whitney(first: np.ndarray, second: np.ndarray) -> tuple[float, float]:

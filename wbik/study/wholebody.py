@@ -8,7 +8,8 @@ what differs for whole-body cases:
   a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
 - solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
   q0)`` per case, budgets in iterations (:func:`wbik.wholebody.solvers.wholebody_budget`); a method
-  that cannot express a goal task of the family (thesis_legs on a hand reach) is "not applicable";
+  that cannot express a goal task of the family (its answer lists it in ``cannot_express``) is "not
+  applicable";
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
   what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
   Mann-Whitney tests and error figures;
@@ -85,7 +86,7 @@ def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop:
         robot=case.robot,
         robot_params=_frozen(case.robot_params),
         chain=None,
-        angle_names=(),
+        angles=None,
         label=method.label,
         method=method.method,
         options=_frozen(options),
