@@ -89,7 +89,36 @@ def test_a_missing_subcommand_module_is_an_error_not_skipped(capsys, monkeypatch
 
     monkeypatch.setattr(wbik.cli, "SUBCOMMANDS", (*wbik.cli.SUBCOMMANDS, "vanished"))
     code, _, err = run(["robots"], capsys)
-    assert code == 3 and "wbik.commands.vanished" in err
+    assert code == 3 and "wbik.commands.vanished does not exist" in err and "SUBCOMMANDS" in err
+
+
+def test_a_subcommand_module_without_add_parser_is_an_error(capsys, monkeypatch):
+    import sys
+    import types
+
+    import wbik.cli
+
+    monkeypatch.setitem(sys.modules, "wbik.commands.hollow", types.ModuleType("wbik.commands.hollow"))
+    monkeypatch.setattr(wbik.cli, "SUBCOMMANDS", (*wbik.cli.SUBCOMMANDS, "hollow"))
+    code, _, err = run(["robots"], capsys)
+    assert code == 3 and "wbik.commands.hollow has no add_parser" in err
+
+
+def test_run_prints_the_kind_report_and_exits_by_its_verdict(capsys, tmp_path):
+    from pathlib import Path
+
+    tasks = Path(__file__).resolve().parents[1] / "tasks"
+    code, out, _ = run(["run", str(tasks / "motion_bioloid_foot_sensors.yaml")], capsys)
+    assert code == 0
+    assert out.splitlines()[0] == "motion_bioloid_foot_sensors (bioloid_stance_sensors, bioloid): PASSED"
+    assert "CoP - CoM" in out and "cop_error_max_m" in out
+    failing = tmp_path / "stance.yaml"
+    failing.write_text((tasks / "motion_bioloid_foot_sensors.yaml").read_text().replace(
+        "cop_error_max_m: 1.0e-9", "cop_error_max_m: {threshold: -1.0, expected_to_fail: false}"))
+    code, out, _ = run(["run", str(failing), "--json"], capsys)
+    report = json.loads(out)
+    assert code == 1 and report["passed"] is False and report["verdict"] == "FAILED"
+    assert report["moves"][0]["expectations"][0]["threshold"] == -1.0
 
 
 def test_output_file_where_a_folder_is_needed(capsys, tmp_path):

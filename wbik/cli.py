@@ -26,6 +26,24 @@ SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run", "task
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 
+def subcommand_module(name: str):
+    """``wbik.commands.<name>``, which must exist and have ``add_parser`` (a listed subcommand whose
+    module is missing is an error, never skipped: exit code 3, the install is broken)."""
+    module_name = f"wbik.commands.{name}"
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name != module_name:
+            raise
+        raise ImportError(f"subcommand {name!r} is listed in wbik.cli.SUBCOMMANDS but its module "
+                          f"{module_name} does not exist; reinstall wbik (pip install -e .)",
+                          name=module_name) from None
+    if not callable(getattr(module, "add_parser", None)):
+        raise ImportError(f"{module_name} has no add_parser(subparsers); every subcommand module needs it "
+                          "(see wbik.cli)", name=module_name)
+    return module
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The parser with every subcommand; a subcommand module that fails to import is an error."""
     parser = argparse.ArgumentParser(
@@ -38,8 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="print the traceback of errors (for bug reports)")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
-        module = importlib.import_module(f"wbik.commands.{name}")
-        module.add_parser(subparsers)
+        subcommand_module(name).add_parser(subparsers)
         # --debug is also accepted after the subcommand; SUPPRESS keeps the global value otherwise
         subparsers.choices[name].add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                                               help="print the traceback of errors (for bug reports)")
