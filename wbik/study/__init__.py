@@ -1,8 +1,11 @@
-"""The comparison study (the Golem-III thesis's custom-vs-KDL study, across methods and robots).
+"""The comparison study: IK methods on the same random reachable targets of any robot, judged by one
+FK check, beside the figures of a published reference when the study file gives them.
 
 ``definition`` (study files), ``sampling`` (poses), ``runner`` (chunks, joblib/Dask, resume),
-``results`` (files on disk), ``metrics`` (per-axis errors), ``statistics`` (summary, Mann-Whitney),
-``figures`` and ``report`` (Markdown + self-contained HTML).
+``applicability`` (which methods apply to a case), ``results`` (files on disk), ``metrics``
+(per-axis errors, Euler angles), ``statistics`` (summary, Mann-Whitney), ``reference`` (the figures
+a study compares with), ``figures`` and ``report`` (Markdown + self-contained HTML), ``wholebody``
+(whole-body cases).
 
 >>> from wbik.study import load_study, run_study
 >>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP

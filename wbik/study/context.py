@@ -1,8 +1,10 @@
-"""What the study's runner and report both need: the robot a task runs on, a method's solver budget,
-how many chunks a case has, and the plain-data form of a mapping.
+"""What the study's runner, applicability check and report share: the robot a task runs on, the
+solver of a method, a method's solver budget, how many chunks a case has, and the plain-data form of
+a mapping.
 
-This module sits below :mod:`wbik.study.runner` and :mod:`wbik.study.report` (both import it; it
-imports neither), so the report does not depend on the runner. The runner re-exports these names.
+This module sits below :mod:`wbik.study.runner`, :mod:`wbik.study.applicability` and
+:mod:`wbik.study.report` (they import it; it imports none of them), so the report does not depend on
+the runner. The runner re-exports these names.
 """
 
 from __future__ import annotations
@@ -31,6 +33,16 @@ def _robot(name: str, params: tuple):
 
         cache[key] = wbik.load(name, **dict(params))
     return cache[key]
+
+
+def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
+                timeout_s: float | None, tolerances: tuple, seed: int):
+    """The chain solver ``method`` on the (per-thread cached) robot, built as the study builds it."""
+    import wbik
+
+    robot = _robot(robot_name, robot_params)
+    return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
+                       tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
 
 
 def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:

@@ -18,8 +18,9 @@ Workers return the rows; the main process writes each chunk atomically as it arr
 computes only the missing ones. Adding or changing a method in the study file recomputes that method
 only (each method's folder records its definition).
 
-A method that does not apply (UnsupportedError, MissingDependencyError, or its module not written
-yet) is probed once per case in the main process and recorded as "not applicable" with the message.
+Whether a method applies to a case is decided once per case in the main process, before solving,
+by the typed checks of :mod:`wbik.study.applicability`; a method that does not is recorded as "not
+applicable" with its message and gets no tasks.
 """
 
 from __future__ import annotations
@@ -38,9 +39,10 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, UnsupportedError, WbikError
+from wbik.errors import MissingDependencyError, WbikError
 from wbik.study import results as store
-from wbik.study.context import _frozen, _robot, chunk_count, solver_budget  # also re-exported
+from wbik.study.applicability import not_applicable
+from wbik.study.context import _frozen, _robot, chunk_count, make_solver, solver_budget  # also re-exported
 from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
 from wbik.study.metrics import AngleConvention, axis_errors
 from wbik.study.ownership import FolderLock
@@ -92,15 +94,6 @@ def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
     return int(sequence.generate_state(1)[0])
 
 
-def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
-                timeout_s: float | None, tolerances: tuple, seed: int):
-    import wbik
-
-    robot = _robot(robot_name, robot_params)
-    return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
-                       tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
-
-
 def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
     """(answer, CPU seconds, re-runs) of a wall-clock solve whose budget is T = ``task.timeout_s``.
 
@@ -128,28 +121,12 @@ def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
                               budget, task.tolerances, task.seed)
 
 
-def not_applicable_reason(exc: BaseException) -> str | None:
-    """The message if ``exc`` means "this method does not apply here", else None. A QP backend the
-    study file names but that is not installed is not that: it is an error in the file."""
-    from wbik.qp.backends import BackendUnavailableError
-
-    if isinstance(exc, BackendUnavailableError):
-        return None
-    if isinstance(exc, UnsupportedError | MissingDependencyError):
-        return str(exc)
-    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").startswith("wbik."):
-        return f"not implemented yet (module {exc.name} is missing)"
-    if isinstance(exc, ImportError):
-        return f"missing dependency: {exc}"
-    return None
-
-
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     """Solve one chunk with ``solve_many`` (batched methods keep their speed; a batched method's
     time per pose is then the batch's time / size) or, with ``per_pose``, one ``solve`` per pose.
 
     A pose on which the method raises gets success=False and reason "raised ...", and the chunk
-    continues pose by pose; "not applicable" errors are returned as {"not_applicable": [message]}.
+    continues pose by pose. Whether the method applies was decided before (:func:`probe`).
     """
     if task.registered is not None:  # a method registered in the study's main process
         from wbik.solvers.base import register
@@ -161,14 +138,8 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
         return solve_wholebody_chunk(task)
     from wbik.targets import Target
 
-    try:
-        solver = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                             task.timeout_s, task.tolerances, task.seed)
-    except Exception as exc:  # noqa: BLE001 - classified below
-        message = not_applicable_reason(exc)
-        if message is None:
-            raise
-        return {"not_applicable": np.array([message])}
+    solver = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
+                         task.timeout_s, task.tolerances, task.seed)
     count = len(task.positions)
     targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                for i in range(count)]
@@ -184,10 +155,7 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
             answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
         else:
             answers = solver.solve_many(targets, task.q0)
-    except Exception as exc:  # noqa: BLE001
-        message = not_applicable_reason(exc)
-        if message is not None:
-            return {"not_applicable": np.array([message])}
+    except Exception:  # noqa: BLE001 - solved again pose by pose, each failure recorded in its row
         answers = []
         for target, q0 in zip(targets, task.q0, strict=True):
             try:
@@ -261,14 +229,16 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
 
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
-    """Why ``method`` does not apply to ``case`` (None if it does): build it, solve the first pose.
+    """Why ``method`` does not apply to ``case`` (None if it does), by the typed checks of
+    :func:`wbik.study.applicability.not_applicable` on the case's first pose.
 
-    A method whose construction raises anything else is reported as "could not start" with the
+    A method whose construction raises a WbikError that is no refusal stops the study (the file asks
+    for something wrong); one that raises anything else is reported as "could not start" with the
     exception, so one broken method does not stop a study of many.
     """
     task = _task(study, case, method, poses, 0, 0, 1)
     try:
-        rows = solve_chunk(task)
+        return not_applicable(task)
     except WbikError as exc:  # the study file asks for something wrong: say so before any solving
         raise StudyDefinitionError(
             f"{study.source}: method {method.label!r} on case {case.name!r} cannot be built as written: "
@@ -276,9 +246,6 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
     except Exception as exc:  # noqa: BLE001 - a broken method must not stop the other methods
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return f"could not start (a bug to report): {detail}"
-    if "not_applicable" in rows:
-        return str(rows["not_applicable"][0])
-    return None
 
 
 def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
@@ -484,9 +451,6 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
         with tqdm(total=total_rows, initial=done_rows, unit="solve", disable=not progress,
                   desc=study.name, smoothing=0.05, dynamic_ncols=True) as bar:
             for task, rows in _execute(tasks, jobs, backend, scheduler):
-                if "not_applicable" in rows:
-                    raise RuntimeError(f"{task.label} on {task.case} became not applicable mid-run: "
-                                       f"{rows['not_applicable'][0]}")
                 store.write_chunk(store.chunk_path(output, task.case, task.label, task.chunk), rows)
                 bar.update(len(rows["pose"]))
     elapsed = time.perf_counter() - started

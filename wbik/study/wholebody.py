@@ -9,7 +9,7 @@ what differs for whole-body cases:
 - solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
   q0)`` per case, budgets in iterations (:func:`wbik.wholebody.solvers.wholebody_budget`); a method
   that cannot express a goal task of the family (its answer lists it in ``cannot_express``) is "not
-  applicable";
+  applicable" (:mod:`wbik.study.applicability`);
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
   what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
   Mann-Whitney tests and error figures;
@@ -105,27 +105,21 @@ def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop:
 
 
 def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
-    """Solve the cases of one whole-body chunk; {"not_applicable": [why]} when the method does not apply."""
+    """Solve the cases of one whole-body chunk (the method applies: the runner's probe decided it)."""
     import wbik
-    from wbik.study.runner import _robot, not_applicable_reason
+    from wbik.study.runner import _robot
     from wbik.wholebody.scenarios import sample_case
     from wbik.wholebody.solvers import wholebody_solver
 
     robot = _robot(task.robot, task.robot_params)
-    try:
-        solver = wholebody_solver(
-            task.method,
-            robot,
-            tolerances=wbik.Tolerances(*task.tolerances),
-            timeout_s=task.timeout_s,
-            seed=task.seed,
-            **dict(task.options),
-        )
-    except Exception as exc:  # noqa: BLE001 - classified below
-        message = not_applicable_reason(exc)
-        if message is None:
-            raise
-        return {"not_applicable": np.array([message])}
+    solver = wholebody_solver(
+        task.method,
+        robot,
+        tolerances=wbik.Tolerances(*task.tolerances),
+        timeout_s=task.timeout_s,
+        seed=task.seed,
+        **dict(task.options),
+    )
     count = len(task.positions)
     answers = []
     for offset in range(count):
@@ -133,23 +127,10 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
         case = sample_case(task.scenario, task.scenario_seed, index)
         try:
             answer = solver.solve(case.problem, task.q0[offset])
-        except Exception as exc:  # noqa: BLE001
-            message = not_applicable_reason(exc)
-            if message is not None:
-                return {"not_applicable": np.array([message])}
+        except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
             detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
             answers.append(("raised", detail))
             continue
-        cannot = answer.extra.get("cannot_express") if answer.extra else None
-        if cannot:
-            return {
-                "not_applicable": np.array(
-                    [
-                        f"cannot express the goal task(s) {', '.join(cannot)} of "
-                        f"{task.scenario} ({answer.method} places the soles and the CoM only)"
-                    ]
-                )
-            }
         answers.append(answer)
     nq = robot.model.nq
     rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
