@@ -224,6 +224,7 @@ CHEAP_BIOLOID = {
     "bioloid_half_steps": {"sequence": ["WalkSR1"]},
     "bioloid_stance_sensors": {},
     "bioloid_placo_walk": {"steps": 1},
+    "bioloid_stairs": {"climbs": 1, "stairs": {"steps": 1}},
 }
 
 

@@ -542,7 +542,7 @@ def bioloid_schema(kind: str) -> Map:
                 "step_length": Key(Number(gt=0, unit="m"), default_of(placo_walk, "step_length")),
                 "expect": Key(expect_block(PLACO_WALK_RULES), None)}
     elif kind == "bioloid_stance_sensors":
-        common = common_keys(robot=Key(Robot(), required=True))
+        common = common_keys(robot=Key(Robot(), "bioloid"))  # any robot with sole corners
         keys = {"start": Key(START, "nominal"), "tolerance": Key(Number(gt=0, unit="m"), 1e-9),
                 "expect": Key(expect_block(STANCE_RULES), None)}
     else:

@@ -235,7 +235,7 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         if "jog" in move:
             path = pincher.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
                                int(move["samples"]))
-            name = f"jog {move['jog']} by {move.get('delta_deg')} deg"
+            name = f"jog {move['jog']} by {move['delta_deg']} deg"
         elif "plane_line" in move:
             line = move["plane_line"]
             start = _vector(line["start_xy_mm"], 2, "start_xy_mm") / 1000.0
