@@ -13,8 +13,11 @@ from wbik.qp.humanoid import stance_constraints
 from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows
 
 
-def reference_step(problem: IKProblem, q: np.ndarray, dt: float = 1.0) -> np.ndarray | None:
-    """One QP step, one priority level, written out plainly (no relaxation); None: no solution."""
+def reference_step(problem: IKProblem, q: np.ndarray, dt: float = 1.0, tasks=None,
+                   extra=None) -> np.ndarray | None:
+    """One QP step over ``tasks`` (default: all, as one level), written out plainly (no relaxation);
+    ``extra``: more inequality rows (G, h). None: no solution."""
+    tasks = problem.tasks if tasks is None else tasks
     kinematics = problem.kinematics
     kinematics.update(q)
     lower, upper = np.full(problem.nv, -problem.max_step), np.full(problem.nv, problem.max_step)
@@ -30,8 +33,10 @@ def reference_step(problem: IKProblem, q: np.ndarray, dt: float = 1.0) -> np.nda
             assert isinstance(rows, InequalityRows)
             inequalities.append((rows.G.copy(), rows.h.copy()))
     np.minimum(lower, upper, out=lower)
+    if extra is not None:
+        inequalities.append(extra)
     rows, errors, weights, goal_cost = [], [], [], 0.0
-    for task in problem.tasks:
+    for task in tasks:
         error = np.array(task.error(kinematics))
         rows.append(np.array(task.jacobian(kinematics)))
         errors.append(task.gain * error)
@@ -48,6 +53,10 @@ def reference_step(problem: IKProblem, q: np.ndarray, dt: float = 1.0) -> np.nda
         return backends.solve("daqp", H, c, G, h, A, b, lower, upper)
     except NoQPSolutionError:
         return None
+
+
+def weighted_rows(problem: IKProblem, tasks) -> np.ndarray:
+    return np.vstack([np.sqrt(task.weight)[:, None] * task.jacobian(problem.kinematics) for task in tasks])
 
 
 @pytest.fixture(scope="module")
@@ -99,3 +108,27 @@ def test_fused_task_rows_agree_with_error_and_jacobian(bioloid):
             task.fill(problem.kinematics, jacobian, error)
             np.testing.assert_allclose(error, task.error(problem.kinematics), rtol=0, atol=1e-12)
             np.testing.assert_allclose(jacobian, task.jacobian(problem.kinematics), rtol=0, atol=1e-12)
+
+
+def test_a_two_level_step_agrees_with_the_plain_hierarchy(bioloid):
+    """Level 0 (a foot task and the regularisation, whose J = I rows go onto H's diagonal) solved
+    first; level 1 (posture) keeps level 0's achieved rows, regularisation rows included, to the
+    slack: the same dq as two plain QPs with every row stacked."""
+    rng = np.random.default_rng(5)
+    q0 = bioloid.nominal
+    target = bioloid.frame_placement(q0, "l_sole")
+    target.translation = target.translation + np.array([0.0, 0.01, 0.02])
+    first = [FrameTask("l_sole", target), RegularizationTask(1e-4)]
+    second = [PostureTask(q0, weight=1.0, priority=1)]
+    problem = IKProblem(bioloid.model, first + second,
+                        stance_constraints(bioloid, q0, ["r_sole"], margin=0.0),
+                        hierarchy_slack=1e-6)
+    problem.start(q0)
+    for _ in range(5):
+        q = problem.clip(pin.integrate(bioloid.model, q0, rng.normal(scale=0.03, size=bioloid.model.nv)))
+        dq0 = reference_step(problem, q, tasks=first)
+        kept = weighted_rows(problem, first)
+        achieved = kept @ dq0
+        expected = reference_step(problem, q, tasks=second,
+                                  extra=(np.vstack((kept, -kept)), np.r_[achieved + 1e-6, -achieved + 1e-6]))
+        np.testing.assert_allclose(problem.step(q), expected, rtol=0, atol=1e-8)

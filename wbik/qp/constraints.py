@@ -115,7 +115,7 @@ class JointPositionLimits(BoundConstraint):
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
         rows = self._q_rows
-        q[rows] = np.clip(q[rows], self.lower, self.upper)
+        q[rows] = np.minimum(np.maximum(q[rows], self.lower), self.upper)
 
     def holds(self, q: np.ndarray) -> bool:
         """q (nq) is inside the limits (``clip`` would leave it as it is)."""

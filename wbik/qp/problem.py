@@ -3,9 +3,10 @@
 ``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates steps
 until every goal task is under its tolerance and every contact holds, or the steps stall (best
 effort: the constrained optimum, errors reported), or the budget ends. A trust region (the step
-box, ``max_step`` at most) with merit acceptance makes the loop globally convergent; after each step,
-Newton projections bring the contacts back (:meth:`IKProblem.project`). The configuration returned
-is verified by forward kinematics: contacts, CoM margin, limits.
+box, ``max_step`` at most) with merit acceptance makes the loop globally convergent; Newton
+projections bring the contacts back where a step's own contact rows are not enough
+(:meth:`IKProblem.project`). The configuration returned is verified by forward kinematics:
+contacts, CoM margin, limits.
 """
 
 from __future__ import annotations
@@ -170,8 +171,8 @@ class IKProblem:
     def task_errors(self) -> dict[str, float]:
         """|e| per task name at the current q."""
         self._step.fill_tasks()
-        return {task.name: math.sqrt(float(level.error[rows].dot(level.error[rows])))
-                for level in self._step.levels for task, rows in zip(level.tasks, level.rows, strict=True)}
+        return {task.name: level.error_norm(index)
+                for level in self._step.levels for index, task in enumerate(level.tasks)}
 
     def violations(self) -> dict[str, float]:
         return {constraint.name: float(constraint.violation(self.kinematics))
@@ -200,38 +201,61 @@ class IKProblem:
         return sum(c.violation(self.kinematics) for c in self._inequalities)
 
     # -- iterate to convergence -----------------------------------------------------------------
-    def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
-              equality_tolerance: float = 1e-10, stall: float = 1e-12) -> QPSolution:
-        """Iterate QP steps from q0 to convergence (see the module docstring).
+    def _trial(self, merit: float, violation: float) -> tuple[bool, float, bool, float]:
+        """(kept, merit, goals met, inequality violation) of the configuration the kinematics stand
+        at: kept when it does not raise the merit and keeps the inequalities by FK (or reduces
+        their violation when the kept iterate breaks them)."""
+        trial_merit, goals_met = self._merit_and_goals()
+        trial_violation = self._inequality_violation()
+        keeps_inequalities = trial_violation <= 0.0 or trial_violation < violation
+        return keeps_inequalities and trial_merit <= merit + 1e-15, trial_merit, goals_met, trial_violation
 
-        Each step is followed by Newton projections back onto the contacts (so every kept iterate
-        holds them to 0.1 ``equality_tolerance``), and is kept only if it lowers the merit (the task
-        cost) and keeps the inequalities by FK (or reduces their violation when q0 breaks them);
-        otherwise the radius shrinks and the QP is solved again. A radius or step under ``stall``
+    def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
+              equality_tolerance: float = 1e-10, stall: float = 1e-12,
+              profile: dict[str, float] | None = None) -> QPSolution:
+        """Iterate QP steps from q0 to convergence: every goal task under its tolerance and every
+        contact within ``equality_tolerance``.
+
+        A trust region (the step box, ``max_step`` at most) makes the loop globally convergent: a
+        step is kept only if it does not raise the merit (the task cost) and keeps the inequalities
+        by FK (or reduces their violation when q0 breaks them); otherwise the radius shrinks and the
+        QP is solved again. The contacts are rows of every step (J dq = -e), so their drift is of
+        second order in the step and the next step removes it, as in PlaCo; Newton projections
+        (:meth:`project`, to 0.1 ``equality_tolerance``) bring them back where that is not enough:
+        from q0, for a step the merit test rejects while the contacts drift, when the goals are met
+        before the contacts, and on the configuration returned. A radius or step under ``stall``
         ends the loop at the best effort under the constraints.
+
+        ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the
+        projections ("projection") are added.
         """
         start_time = time.perf_counter()
         self.start(q0)
         kinematics = self.kinematics
-        contacts_held = self.project(0.1 * equality_tolerance)
+        tolerance = 0.1 * equality_tolerance
+        self._project_timed(tolerance, profile)
         q = kinematics.q.copy()
         merit, goals_met = self._merit_and_goals()
-        inequality_violation = self._inequality_violation()
-        radius = self.max_step
-        slow = 0
-        reason = ""
-        converged = False
-        iteration = 0
+        violation = self._inequality_violation()
+        radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
         for iteration in range(1, max_iterations + 1):
-            if goals_met and (contacts_held or self._equalities_met(equality_tolerance)):
-                converged = True
-                iteration -= 1
-                break
+            if goals_met:
+                if self._equalities_met(equality_tolerance):
+                    converged = True
+                    iteration -= 1
+                    break
+                if self._project_timed(tolerance, profile):  # the goals hold, the contacts still drift
+                    q = kinematics.q.copy()
+                    merit, goals_met = self._merit_and_goals()
+                    violation = self._inequality_violation()
+                    if goals_met:
+                        converged = True
+                        break
             if deadline is not None and time.perf_counter() > deadline:
                 reason = "time budget used up"
                 break
             try:
-                dq = self._step.solve(1.0, radius)
+                dq = self._step.solve(1.0, radius, profile)
             except NoQPSolutionError as exc:
                 reason = (f"the QP has no solution ({exc}): the constraints conflict at this configuration"
                           if iteration == 1 else
@@ -239,15 +263,13 @@ class IKProblem:
                 break
             step_size = float(np.abs(dq).max()) if dq.size else 0.0
             kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
-            projected = self.project(0.1 * equality_tolerance)
-            trial_violation = self._inequality_violation()
-            trial_merit, trial_goals_met = self._merit_and_goals()
-            keeps_inequalities = trial_violation <= 0.0 or trial_violation < inequality_violation
-            if projected and keeps_inequalities and trial_merit <= merit + 1e-15:
+            kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)
+            if not kept and not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
+                kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)
+            if kept:
                 q = kinematics.q.copy()
                 slow = slow + 1 if merit - trial_merit < self.progress * merit else 0
-                merit, inequality_violation = trial_merit, trial_violation
-                goals_met, contacts_held = trial_goals_met, True
+                merit, violation, goals_met = trial_merit, trial_violation, trial_goals_met
                 if slow >= 5 and not goals_met:
                     reason = "best effort under the constraints: progress stalled (see the task errors)"
                     break
@@ -264,12 +286,24 @@ class IKProblem:
             iteration = max_iterations
             reason = f"no convergence in {max_iterations} iterations"
         if not converged:
+            if not np.array_equal(q, kinematics.q):
+                kinematics.update(q)
+            if not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
+                q = kinematics.q.copy()  # the answer holds the contacts, as every converged one does
             converged = self._merit_and_goals()[1] and self._equalities_met(equality_tolerance)
             if converged:
                 reason = ""
             elif not reason:
                 reason = "stalled: best effort under the constraints (see the task errors)"
         return self._report(q, converged, iteration, reason, start_time)
+
+    def _project_timed(self, tolerance: float, profile: dict[str, float] | None) -> bool:
+        if profile is None:
+            return self.project(tolerance)
+        tick = time.perf_counter()
+        held = self.project(tolerance)
+        lap(profile, "projection", tick)
+        return held
 
     def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,
                 start_time: float) -> QPSolution:

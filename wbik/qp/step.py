@@ -40,25 +40,39 @@ def lap(profile: dict[str, float], phase: str, since: float) -> float:
 
 
 class Level:
-    """The tasks of one priority level and their stacked rows: J (m x nv) and e (m), unweighted,
-    with the row scales sqrt(w) (for J) and gain sqrt(w) (for e)."""
+    """The tasks of one priority level: the stacked rows J (m x nv) and e (m) of the tasks that have
+    rows, unweighted, with the row scales sqrt(w) (for J) and gain sqrt(w) (for e); and the summed
+    ``constant_diagonal`` of the tasks whose rows are J = I, e = 0 (regularisation), which go onto
+    H's diagonal instead of nv rows each."""
 
     def __init__(self, tasks: list[Task], nv: int):
         self.tasks = tasks
-        stops = np.cumsum([task.dimension for task in tasks], dtype=int)
-        self.rows = [slice(int(stop) - task.dimension, int(stop))
-                     for task, stop in zip(tasks, stops, strict=True)]
-        count = int(stops[-1]) if tasks else 0
-        self.jacobian, self.error = np.zeros((count, nv)), np.zeros(count)
-        self.weight = np.concatenate([task.weight for task in tasks]) if tasks else np.zeros(0)
-        self.row_scale = np.sqrt(self.weight)
-        self.error_scale = self.row_scale * np.concatenate(
-            [np.full(task.dimension, task.gain) for task in tasks]) if tasks else np.zeros(0)
-        self.goals = [(task, rows) for task, rows in zip(tasks, self.rows, strict=True) if task.goal]
+        self.diagonal = np.zeros(nv)
+        self.slices: list[slice | None] = []
+        stacked, stop = [], 0
+        for task in tasks:
+            diagonal = task.constant_diagonal()
+            if diagonal is not None:
+                self.diagonal += diagonal
+                self.slices.append(None)
+            else:
+                self.slices.append(slice(stop, stop + task.dimension))
+                stacked.append(task)
+                stop += task.dimension
+        self.stacked = [(task, rows) for task, rows in zip(tasks, self.slices, strict=True)
+                        if rows is not None]
+        self.goals = [(task, rows) for task, rows in self.stacked if task.goal]
+        self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
+        self.weighted = np.zeros((stop, nv))
+        self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
+        self.row_scale = np.sqrt(self.weight)[:, None]
+        self.error_scale = self.row_scale[:, 0] * np.concatenate(
+            [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
 
     def fill(self, kinematics: Kinematics) -> None:
-        for task, rows in zip(self.tasks, self.rows, strict=True):
-            task.fill(kinematics, self.jacobian[rows], self.error[rows])
+        jacobian, error = self.jacobian, self.error
+        for task, rows in self.stacked:
+            task.fill(kinematics, jacobian[rows], error[rows])
 
     def goal_cost(self) -> float:
         """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2)."""
@@ -67,6 +81,21 @@ class Level:
             error = self.error[rows]
             cost += float(error.dot(error))
         return cost
+
+    def error_norm(self, index: int) -> float:
+        """|e| of ``tasks[index]`` at the last fill (0 for a regularisation)."""
+        rows = self.slices[index]
+        return 0.0 if rows is None else float(np.sqrt(self.error[rows].dot(self.error[rows])))
+
+    def weighted_rows(self) -> np.ndarray:
+        """sqrt(w) J, in a reused buffer."""
+        return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
+
+
+def layout_key(tasks: Sequence[Task]) -> tuple:
+    """What the levels' layout depends on (a problem solved again keeps its layout)."""
+    return tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
+                  task.constant_diagonal() is None) for task in tasks)
 
 
 class QPStep:
@@ -83,12 +112,16 @@ class QPStep:
         self.stack = backends.StackedConstraints(self.nv)
         self.workspace = backends.DaqpWorkspace() if backend == "daqp" else None
         self.levels: list[Level] = []
+        self._layout: tuple | None = None
         self._filled = -1
 
     def start(self) -> None:
         """Lay out every priority level's rows (tasks know their dimension once started)."""
-        priorities = sorted({task.priority for task in self.tasks}) or [0]
-        self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
+        key = layout_key(self.tasks)
+        if key != self._layout:
+            priorities = sorted({task.priority for task in self.tasks}) or [0]
+            self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
+            self._layout = key
         self._filled = -1
 
     def fill_tasks(self) -> None:
@@ -124,20 +157,22 @@ class QPStep:
             tick = lap(profile, "tasks", tick)
         dq = None
         for index, level in enumerate(self.levels):
-            weighted_jacobian = level.jacobian * level.row_scale[:, None]
-            H = weighted_jacobian.T @ weighted_jacobian
-            H.flat[:: self.nv + 1] += self.damping + self.lm_damping * level.goal_cost()
-            c = weighted_jacobian.T @ (level.error * level.error_scale)
+            weighted = level.weighted_rows()
+            H = np.dot(weighted.T, weighted)
+            H.ravel()[:: self.nv + 1] += level.diagonal + (self.damping + self.lm_damping * level.goal_cost())
+            c = np.dot(weighted.T, level.error * level.error_scale)
             if clock:
                 tick = lap(profile, "assemble", tick)
             dq = self._solve_relaxed(H, c, stack)
             if clock:
                 tick = lap(profile, "qp", tick)
             if index + 1 < len(self.levels):
-                # keep what this level achieved: |J_l dq - J_l dq*| <= slack
-                achieved = weighted_jacobian @ dq
-                stack.add(weighted_jacobian, achieved + self.hierarchy_slack)
-                stack.add(-weighted_jacobian, -achieved + self.hierarchy_slack)
+                # keep what this level achieved: |J_l dq - J_l dq*| <= slack (the regularisation's
+                # rows sqrt(w) I included)
+                kept = np.vstack((weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
+                achieved = kept @ dq
+                stack.add(kept, achieved + self.hierarchy_slack)
+                stack.add(-kept, -achieved + self.hierarchy_slack)
         return dq
 
     def _solve(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:

@@ -72,6 +72,11 @@ class Task:
         jacobian[:] = self.jacobian(kinematics)
         error[:] = self.error(kinematics)
 
+    def constant_diagonal(self) -> np.ndarray | None:
+        """The weights, for a task whose rows are always J = I and e = 0: its cost w |dq|^2 is then
+        the diagonal w of the QP's H, added there instead of stacked as nv rows. None otherwise."""
+        return None
+
 
 def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, target: np.ndarray,
                    jacobian: np.ndarray, error: np.ndarray) -> None:
@@ -294,3 +299,6 @@ class RegularizationTask(Task):
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
         return self._jacobian
+
+    def constant_diagonal(self) -> np.ndarray:
+        return self.weight
