@@ -210,13 +210,13 @@ def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
     the 2 pi shift of each angle inside its limits nearest to ``reference``, set onto the limit when
     within LIMIT_TOLERANCE of it; None if some angle has no shift inside its limits."""
     wrapped = []
+    append = wrapped.append
     for value, ref, low, high in zip(q, reference, lower, upper, strict=True):
         turns = round((ref - value) / TWO_PI)  # the shift nearest ref; the usual answer
-        if -2 <= turns <= 2:
-            shifted = value + turns * TWO_PI
-            if low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE:
-                wrapped.append(min(high, max(low, shifted)))
-                continue
+        shifted = value + turns * TWO_PI
+        if -2 <= turns <= 2 and low - LIMIT_TOLERANCE <= shifted <= high + LIMIT_TOLERANCE:
+            append(high if shifted > high else low if shifted < low else shifted)
+            continue
         best, best_distance = None, math.inf
         for shift in _SHIFTS:
             shifted = value + shift
@@ -225,7 +225,7 @@ def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
                 best, best_distance = shifted, abs(shifted - ref)
         if best is None:
             return None
-        wrapped.append(min(high, max(low, best)))
+        append(min(high, max(low, best)))
     return wrapped
 
 
@@ -365,19 +365,23 @@ class AnalyticSolver(Solver):
 
     # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        form = self.closed_form("pose" if target.is_pose else "position")
+        rotation = target.rotation
+        kind = "position" if rotation is None else "pose"
+        form = self._forms.get(kind) or self.closed_form(kind)
+        if form.target_kind == "position":
+            rotation = None
         if form.has_scalar_path:
             position = target.position.tolist()
-            rotation = None if form.target_kind == "position" else target.rotation.ravel().tolist()
+            if rotation is not None:
+                rotation = rotation.ravel().tolist()
             reference = q0.tolist()
             bounded = form.branches_one(position, rotation, reference)
             q, inside = nearest_branch(form, bounded, position, rotation, reference, self._lower, self._upper)
             if q is None:
                 return Candidate(None, 1, no_solution_reason(bool(bounded), inside))
             return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
-        positions = target.position[None]
-        rotations = None if form.target_kind == "position" else target.rotation[None]
-        q, found, real, usable = self._choose(form, positions, rotations, q0[None])
+        q, found, real, usable = self._choose(form, target.position[None],
+                                              None if rotation is None else rotation[None], q0[None])
         if not found[0]:
             return Candidate(None, 1, no_solution_reason(bool(real.any()), bool(usable.any())))
         return Candidate(q[0], 1, extra={"branches": int(real.sum())})

@@ -1,0 +1,235 @@
+"""Family: a horizontal planar 3R carrying a vertical planar 2R and a roll (the Golem-III arm), every branch.
+
+Axes 1-3 are vertical and parallel (IK-Geo's "three parallel" first axes), axes 4-5 horizontal and
+parallel, axis 6 rolls about the forearm. With joints t = (t1..t6) and a :class:`StackedPlanarGeometry`
+(links l1, l2 in the horizontal plane, l4 and the forearm offset (l5, l6) in the vertical one, the
+height h of the horizontal plane and the angle rho of link l4), the gripper centre and rotation are
+(golem3.md, thesis ch. 4.1)::
+
+    l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
+    x  = l1 sin t1 + l2 sin(t1+t2) + l3 cos(gamma)
+    y  = -l1 cos t1 - l2 cos(t1+t2) + l3 sin(gamma)
+    z  = h - l4 cos(t4+rho) - l5 cos(t4+t5) + l6 sin(t4+t5)
+    R  = Rz(gamma) Ry(beta) Rx(alpha),  gamma = t1+t2+t3, beta = -t4-t5, alpha = t6
+
+Pose IK: alpha is taken with |alpha| <= pi/2 (the other Euler triple has t6 = alpha +- pi, outside a
++-pi/2 roll range), then beta and gamma from R Rx(-alpha) = Rz(gamma) Ry(beta). At gimbal lock
+(beta = +-pi/2, gripper axis vertical) t6 is free: the start's t6 and a sweep of t6 values are tried.
+z fixes cos(t4+rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link is the planar 2R
+subproblem for (t1, t2) (elbow-left/right). So at most 2 x 2 = 4 real branches per roll; the thesis'
+2^3 = 8 sign choices come from squaring the t1 equation, and half of them are spurious. Cosines within
+``COSINE_TOLERANCE`` of +-1 are clamped (the thesis' failures near singular poses) and the FK screen
+decides.
+
+Position IK: t6 = ``yaw`` (it does not move the gripper centre), t1..t5 for the three coordinates,
+two free parameters. For fixed (t1, t2) the rest is closed form (:func:`position_candidates`): the
+shoulder point S(t1, t2), l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is the planar 2R
+subproblem of the links l4 and sqrt(l5^2 + l6^2) for (t4, t5). The binding searches (t1, t2).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.geometry import rot_x, rot_y, rot_z, wrap_to_pi
+from wbik.solvers.analytic import TWO_PI
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r, planar_2r_one
+
+GIMBAL_LOCK = 1e-9
+"""|cos(beta)| below which alpha (t6) is free: the Euler angles are coupled there. It is read as
+hypot(R32, R33), entries of the target rotation that rounding moves by ~1e-16 (never through an
+arccos), so the decision has a margin of ~1e7 over rounding; the t6 so chosen costs at most
+GIMBAL_LOCK * |its change| of orientation, far below the screening tolerance."""
+
+
+@dataclass(frozen=True)
+class StackedPlanarGeometry:
+    """Lengths (m) and the angle rho (rad) of the arm (see the module docstring)."""
+
+    l1: float
+    l2: float
+    l4: float
+    l5: float
+    l6: float
+    h: float
+    rho: float
+
+    @property
+    def forearm(self) -> float:
+        """|(l5, l6)|: the elbow-to-gripper-centre vector in the arm's vertical plane."""
+        return math.hypot(self.l5, self.l6)
+
+    @property
+    def forearm_angle(self) -> float:
+        """Its angle from link l5's direction: l5 sin s + l6 cos s = forearm sin(s + forearm_angle)."""
+        return math.atan2(self.l6, self.l5)
+
+
+def fk(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Closed-form FK: joints (..., 6) -> positions (..., 3), rotations (..., 3, 3)."""
+    q = np.asarray(q, dtype=float)
+    t1, t2, t3, t4, t5, t6 = (q[..., i] for i in range(6))
+    s = t4 + t5
+    t12 = t1 + t2
+    gamma = t12 + t3
+    l3 = g.l4 * np.sin(t4 + g.rho) + g.l5 * np.sin(s) + g.l6 * np.cos(s)
+    position = np.empty(q.shape[:-1] + (3,))
+    position[..., 0] = g.l1 * np.sin(t1) + g.l2 * np.sin(t12) + l3 * np.cos(gamma)
+    position[..., 1] = -g.l1 * np.cos(t1) - g.l2 * np.cos(t12) + l3 * np.sin(gamma)
+    position[..., 2] = g.h - g.l4 * np.cos(t4 + g.rho) - g.l5 * np.cos(s) + g.l6 * np.sin(s)
+    return position, rot_z(gamma) @ rot_y(-s) @ rot_x(t6)
+
+
+def fk_one(g: StackedPlanarGeometry, q) -> tuple[tuple[float, float, float], tuple[float, ...]]:
+    """:func:`fk` of one joint vector in plain floats: (position, rotation row by row (9,))."""
+    t1, t2, t3, t4, t5, t6 = q
+    s, t12 = t4 + t5, t1 + t2
+    gamma = t12 + t3
+    sin, cos = math.sin, math.cos
+    ss, cs, sg, cg, sa, ca = sin(s), cos(s), sin(gamma), cos(gamma), sin(t6), cos(t6)
+    l3 = g.l4 * sin(t4 + g.rho) + g.l5 * ss + g.l6 * cs
+    position = (g.l1 * sin(t1) + g.l2 * sin(t12) + l3 * cg,
+                -g.l1 * cos(t1) - g.l2 * cos(t12) + l3 * sg,
+                g.h - g.l4 * cos(t4 + g.rho) - g.l5 * cs + g.l6 * ss)
+    sb, cb = -ss, cs  # beta = -s
+    return position, (cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
+                      sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
+                      -sb, cb * sa, cb * ca)
+
+
+def position_jacobian(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(position (N, 3), d position / d (t1..t5) (N, 3, 5)) for q (N, >=5); t6 does not move the
+    gripper centre. Written for few ufunc calls (it runs inside the refinement loop)."""
+    t1, t2, t3, t4, t5 = q[:, 0], q[:, 1], q[:, 2], q[:, 3], q[:, 4]
+    angles = np.stack([t1, t1 + t2, t1 + t2 + t3, t4 + t5, t4 + g.rho], axis=1)
+    sines, cosines = np.sin(angles), np.cos(angles)
+    s1, s12, sg, ss, s4 = sines.T
+    c1, c12, cg, cs, c4 = cosines.T
+    l3 = g.l4 * s4 + g.l5 * ss + g.l6 * cs
+    position = np.empty((len(q), 3))
+    position[:, 0] = g.l1 * s1 + g.l2 * s12 + l3 * cg
+    position[:, 1] = -g.l1 * c1 - g.l2 * c12 + l3 * sg
+    position[:, 2] = g.h - g.l4 * c4 - g.l5 * cs + g.l6 * ss
+    d_l3_t5 = g.l5 * cs - g.l6 * ss
+    d_l3_t4 = g.l4 * c4 + d_l3_t5
+    jacobian = np.zeros((len(q), 3, 5))
+    jacobian[:, 0, 2] = -l3 * sg
+    jacobian[:, 1, 2] = l3 * cg
+    jacobian[:, 0, 1] = g.l2 * c12 + jacobian[:, 0, 2]
+    jacobian[:, 1, 1] = g.l2 * s12 + jacobian[:, 1, 2]
+    jacobian[:, 0, 0] = g.l1 * c1 + jacobian[:, 0, 1]
+    jacobian[:, 1, 0] = g.l1 * s1 + jacobian[:, 1, 1]
+    jacobian[:, 0, 3] = d_l3_t4 * cg
+    jacobian[:, 1, 3] = d_l3_t4 * sg
+    jacobian[:, 0, 4] = d_l3_t5 * cg
+    jacobian[:, 1, 4] = d_l3_t5 * sg
+    jacobian[:, 2, 3] = l3
+    jacobian[:, 2, 4] = g.l5 * ss + g.l6 * cs
+    return position, jacobian
+
+
+def wrist_roll(rotations: np.ndarray) -> np.ndarray:
+    """alpha = t6 of R = Rz Ry Rx(alpha) with |alpha| <= pi/2, (B,)."""
+    alpha = np.arctan2(rotations[:, 2, 1], rotations[:, 2, 2])
+    return np.where(np.abs(alpha) > np.pi / 2, alpha - np.copysign(np.pi, alpha), alpha)
+
+
+def gimbal_locked(rotations: np.ndarray) -> np.ndarray:
+    """(B,) targets whose gripper axis is vertical (cos(beta) < GIMBAL_LOCK): t6 is free there."""
+    return np.hypot(rotations[:, 2, 1], rotations[:, 2, 2]) < GIMBAL_LOCK
+
+
+def pose_branches(g: StackedPlanarGeometry, positions: np.ndarray, rotations: np.ndarray,
+                  alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 4 branches for rolls alpha (B, A): Q (B, A, 4, 6), real (B, A, 4).
+
+    Branch k = 2 i + j: i picks the sign of sin(t4 + rho) (+, -), j the planar elbow t2 (+, -).
+    """
+    x, y, z = (positions[:, i, None] for i in range(3))
+    r = rotations[:, :, :, None]  # (B, 3, 3, 1) against alpha (B, A)
+    ca, sa = np.cos(alpha), np.sin(alpha)
+    # R Rx(-alpha) = Rz(gamma) Ry(beta): entries (3,1), (3,3), (1,2), (2,2)
+    beta = np.arctan2(-r[:, 2, 0], sa * r[:, 2, 1] + ca * r[:, 2, 2])
+    gamma = np.arctan2(-(ca * r[:, 0, 1] - sa * r[:, 0, 2]), ca * r[:, 1, 1] - sa * r[:, 1, 2])
+    sb, cb = np.sin(beta), np.cos(beta)
+    cos4, real4 = clamped_cosine((g.h - z - g.l5 * cb - g.l6 * sb) / g.l4)
+    sin4 = np.sqrt(1.0 - cos4 * cos4)[..., None] * np.array([1.0, -1.0])  # (B, A, 2)
+    t4 = np.arctan2(sin4, cos4[..., None]) - g.rho
+    l3 = g.l4 * sin4 + (g.l6 * cb - g.l5 * sb)[..., None]
+    cg, sg = np.cos(gamma)[..., None], np.sin(gamma)[..., None]
+    # (l3 sin g - y, x - l3 cos g) = l1 (cos t1, sin t1) + l2 (cos t12, sin t12): planar 2R
+    t1, t2, real2 = planar_2r(l3 * sg - y[..., None], x[..., None] - l3 * cg, g.l1, g.l2)
+    shape = t1.shape  # (B, A, 2, 2)
+    t3 = gamma[..., None, None] - (t1 + t2)
+    t4 = np.broadcast_to(t4[..., None], shape)
+    t5 = -beta[..., None, None] - t4
+    t6 = np.broadcast_to(alpha[..., None, None], shape)
+    q_all = np.stack([t1, t2, t3, t4, t5, t6], axis=-1).reshape(shape[:2] + (4, 6))
+    real = np.broadcast_to(real4[..., None, None] & real2[..., None], shape).reshape(shape[:2] + (4,))
+    return q_all, real
+
+
+def pose_branches_one(g: StackedPlanarGeometry, position, rotation, rolls,
+                      reference) -> list[tuple[float, list[float]]]:
+    """:func:`pose_branches` for one pose and the rolls ``rolls`` in plain floats: the real branches
+    in the same order (roll by roll), each as (bound, q) with bound = sum_i remainder(q_i - r_i, 2 pi)^2
+    summed along the tree of roll, sin(t4 + rho) sign and elbow choices."""
+    x, y, z = position
+    _, r12, r13, _, r22, r23, r31, r32, r33 = rotation
+    ref1, ref2, ref3, ref4, ref5, ref6 = reference
+    atan2, cos, sin, remainder = math.atan2, math.cos, math.sin, math.remainder
+    l1, l2, l4, l5, l6, h, rho = g.l1, g.l2, g.l4, g.l5, g.l6, g.h, g.rho
+    branches = []
+    for alpha in rolls:
+        ca, sa = cos(alpha), sin(alpha)
+        beta = atan2(-r31, sa * r32 + ca * r33)
+        gamma = atan2(-(ca * r12 - sa * r13), ca * r22 - sa * r23)
+        sb, cb, sg, cg = sin(beta), cos(beta), sin(gamma), cos(gamma)
+        cos4 = (h - z - l5 * cb - l6 * sb) / l4
+        if not abs(cos4) <= 1.0 + COSINE_TOLERANCE:
+            continue
+        cos4 = min(1.0, max(-1.0, cos4))
+        root4 = math.sqrt(1.0 - cos4 * cos4)
+        e6 = remainder(alpha - ref6, TWO_PI)
+        for sin4 in (root4, -root4):
+            t4 = atan2(sin4, cos4) - rho
+            t5 = -beta - t4
+            e4, e5 = remainder(t4 - ref4, TWO_PI), remainder(t5 - ref5, TWO_PI)
+            bound = e4 * e4 + e5 * e5 + e6 * e6
+            l3 = l4 * sin4 + l6 * cb - l5 * sb
+            for t1, t2 in planar_2r_one(l3 * sg - y, x - l3 * cg, l1, l2):
+                t3 = gamma - (t1 + t2)
+                e1, e2 = remainder(t1 - ref1, TWO_PI), remainder(t2 - ref2, TWO_PI)
+                e3 = remainder(t3 - ref3, TWO_PI)
+                branches.append((bound + e1 * e1 + e2 * e2 + e3 * e3, [t1, t2, t3, t4, t5, alpha]))
+    return branches
+
+
+def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.ndarray, t2: np.ndarray,
+                        yaw: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closed form of t3, t4, t5 for given (t1, t2) (broadcast over (B, G)), 4 branches each.
+
+    Branch k = 2 i + j: i the sign of l3 (+: gripper beyond the t3 axis), j the planar elbow sign.
+    Returns Q (B, G, 4, 6) (t3..t5 in (-pi, pi]) and the real mask (B, G, 4).
+    """
+    x, y, z = (positions[:, i, None, None] for i in range(3))
+    t1, t2 = t1[..., None], t2[..., None]
+    dx = x - g.l1 * np.sin(t1) - g.l2 * np.sin(t1 + t2)
+    dy = y + g.l1 * np.cos(t1) + g.l2 * np.cos(t1 + t2)
+    sign3 = np.array([1.0, -1.0])
+    l3 = sign3 * np.hypot(dx, dy)  # (B, G, 2)
+    gamma = np.arctan2(sign3 * dy, sign3 * dx)
+    # (h - z, l3) = l4 (cos a, sin a) + forearm (cos(a + b), sin(a + b)), a = t4 + rho,
+    # a + b = t4 + t5 + forearm_angle
+    a, b, real = planar_2r(np.broadcast_to(g.h - z, l3.shape), l3, g.l4, g.forearm)
+    shape = a.shape  # (B, G, 2, 2)
+    t3 = np.broadcast_to(wrap_to_pi(gamma - t1 - t2)[..., None], shape)
+    t4 = wrap_to_pi(a - g.rho)
+    t5 = wrap_to_pi(b - g.forearm_angle + g.rho)
+    q_all = np.stack([np.broadcast_to(t1[..., None], shape), np.broadcast_to(t2[..., None], shape), t3, t4,
+                      t5, np.full(shape, yaw)], axis=-1)
+    real = np.broadcast_to(real[..., None], shape)
+    return q_all.reshape(shape[:2] + (4, 6)), real.reshape(shape[:2] + (4,))
