@@ -9,7 +9,6 @@ import pytest
 
 import wbik
 from wbik.models.arm3r import DEFAULT_LENGTHS, start_configuration
-from wbik.solvers.analytic.arm3r import two_link_planar
 
 ROUND_TRIP_POSES = 10_000
 LENGTH_SETS = [DEFAULT_LENGTHS, tuple(np.random.default_rng(3).uniform(0.3, 3.0, 3).round(6)),
@@ -34,16 +33,6 @@ def test_seed_start_point_and_waypoints():
         assert len(results) == 4  # 2 shoulder x 2 elbow branches, all inside +-pi
         for result in results:
             np.testing.assert_allclose(solver.chain.fk(result.q).translation, point, atol=1e-9)
-
-
-def test_two_link_planar_by_hand():
-    """a = 2, b = 2 reaching (2, 2): elbow +-90 deg, first angle 0 or 90 deg (a square's corners)."""
-    first, second, valid = two_link_planar(np.array(2.0), np.array(2.0), 2.0, 2.0)
-    assert valid
-    np.testing.assert_allclose(np.degrees(second), [90.0, -90.0], atol=1e-12)
-    np.testing.assert_allclose(np.degrees(first), [0.0, 90.0], atol=1e-12)
-    _, _, valid = two_link_planar(np.array(4.1), np.array(0.0), 2.0, 2.0)
-    assert not valid
 
 
 @pytest.mark.parametrize("lengths", LENGTH_SETS)
