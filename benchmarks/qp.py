@@ -6,19 +6,31 @@ orientation (soft, weight 0.1), small regularisation, joint limits. Ours and Pla
 CoM inside the right sole shrunk by 5 mm (hard); Pink has no support-polygon constraint, so it
 runs without it (it is inactive at this configuration anyway: the CoM stays > 10 mm inside).
 
-Printed: time per QP step (kinematics update + QP build + solve, at the start configuration) and
-per converged IK (to 1e-6 on the foot task), with ratios to PlaCo and to Pink, the final CoM margin
-in the right sole by FK against wbik's SupportPolygon, and Pink's and PlaCo's settings. PlaCo gets
-its CoM polygon clockwise, as its CoMPolygonConstraint wants, and configured hard (its default
-priority is soft); ``placo_problem`` builds that problem (tests/test_peer_configuration.py too).
+Printed: time per QP step and per converged IK, with ratios to PlaCo and to Pink, the final foot
+error, contact drift and CoM margin in the right sole by FK (wbik's SupportPolygon), and Pink's and
+PlaCo's settings. PlaCo gets its CoM polygon clockwise, as its CoMPolygonConstraint wants, and
+configured hard (its default priority is soft); ``placo_problem`` builds that problem
+(tests/test_peer_configuration.py too).
 
-Then where our step's time goes: a table of the phases of ``IKProblem.step`` (kinematics,
-constraint rows, task rows, H and c, the DAQP call; its ``profile`` argument) per step and per
-converged IK, where the IK adds the contact projections and the rest of the loop (merit, checks,
-integration, report). ``cProfile`` on ``problem.step`` / ``problem.solve`` gives the same picture
-by function.
+What a figure counts, for every solver alike:
+- a QP step: the kinematics at the start configuration (FK, Jacobians, CoM) + building the QP +
+  solving it (ours: ``IKProblem.step(q)``; PlaCo: ``update_kinematics()`` + ``solve(False)``; Pink:
+  ``Configuration.update(q)`` + ``solve_ik``);
+- a converged IK: from the start configuration until the foot error is <= 1e-6 m and 1e-6 rad
+  (the same final accuracy for all: our foot task's tolerance is 1e-6 on |e|, which bounds both;
+  PlaCo's and Pink's loops test both norms after every step), our answer verified by FK
+  (contacts within 1e-10, CoM margin, limits) inside the timed call.
+Timing: the contenders are interleaved, ``rounds`` times; each round takes the median of
+``repeats`` calls; the figure is the best round (the machine is shared: best-of-N limits the load's
+effect on the ratios, which is what carries over to another machine).
 
-Run: .venv/bin/python benchmarks/qp.py [--repeats 300]
+Then where our time goes: a table of the phases (kinematics, constraint rows, task rows, H and c,
+the DAQP call; ``profile`` of IKProblem.step and IKProblem.solve) per step and per converged IK,
+where the IK adds the contact projections and the rest of the loop (merit, checks, integration,
+report). ``cProfile`` on ``problem.step`` / ``problem.solve`` gives the same picture by function.
+
+Run: .venv/bin/python benchmarks/qp.py [--repeats 300] [--rounds 5]
+``ratios(quick)`` gives the issue's goals as Ratio figures for benchmarks/all.py.
 """
 
 from __future__ import annotations
@@ -26,6 +38,7 @@ from __future__ import annotations
 import argparse
 import time
 from types import SimpleNamespace
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -37,6 +50,10 @@ from wbik.qp.problem import PHASES
 
 MARGIN = 0.005
 LIFT = np.array([0.0, 0.0, 0.04])
+ACCURACY = 1e-6
+"""The converged IK's final foot accuracy (m and rad), the same for every solver."""
+STEP_RATE = 5000.0
+"""The issue's floor on our QP steps per second (Hz)."""
 
 
 def stand_on_right_foot(robot) -> np.ndarray:
@@ -52,7 +69,7 @@ def stand_on_right_foot(robot) -> np.ndarray:
     return solution.q
 
 
-def best_of(function, repeats: int) -> float:
+def median_time(function, repeats: int) -> float:
     """Median time of one call (s) over ``repeats`` calls."""
     times = np.empty(repeats)
     for i in range(repeats):
@@ -62,68 +79,21 @@ def best_of(function, repeats: int) -> float:
     return float(np.median(times))
 
 
+def interleaved(contenders: dict, repeats: dict, rounds: int) -> dict[str, float]:
+    """Best over ``rounds`` of each contender's median time, the contenders taking turns."""
+    best = {name: float("inf") for name in contenders}
+    for _ in range(rounds):
+        for name, function in contenders.items():
+            best[name] = min(best[name], median_time(function, repeats[name]))
+    return best
+
+
 def our_problem(robot, q_start, foot_target, backend="daqp") -> IKProblem:
     pelvis = robot.frame_placement(q_start, "pelvis").rotation
-    return IKProblem(robot.model, [FrameTask("l_sole", foot_target),
+    return IKProblem(robot.model, [FrameTask("l_sole", foot_target, tolerance=ACCURACY),
                                    OrientationTask("pelvis", pelvis, weight=0.1, goal=False),
                                    RegularizationTask(1e-6)],
                      stance_constraints(robot, q_start, ["r_sole"], margin=MARGIN), backend=backend)
-
-
-def ours(robot, q_start, foot_target, backend, repeats):
-    problem = our_problem(robot, q_start, foot_target, backend)
-    problem.start(q_start)
-
-    def one_step():
-        problem.step(q_start, dt=1.0)
-
-    step = best_of(one_step, repeats)
-    solution = problem.solve(q_start)
-    ik = best_of(lambda: problem.solve(q_start), max(repeats // 10, 5))
-    return (step, ik, solution.iterations, solution.success, foot_error(robot, solution.q, foot_target),
-            com_margin_by_fk(robot, solution.q, support_polygon(robot, q_start, ["r_sole"])))
-
-
-def phase_table(robot, q_start, foot_target, repeats: int) -> None:
-    """Where the time goes (DAQP): one QP step by phase (IKProblem.step's ``profile``), and one
-    converged IK split into its QP steps (by phase), the contact projections and the rest (merit,
-    task errors, FK checks, integration, the final report)."""
-    problem = our_problem(robot, q_start, foot_target)
-    problem.start(q_start)
-    steps = {}
-    for _ in range(repeats):
-        problem.step(q_start, dt=1.0, profile=steps)
-    solve_steps, other = {}, {"projection": 0.0}
-    step, project = problem.step, problem.project
-
-    def timed_step(*args, **kwargs):
-        return step(*args, profile=solve_steps, **kwargs)
-
-    def timed_project(*args, **kwargs):
-        start = time.perf_counter()
-        result = project(*args, **kwargs)
-        other["projection"] += time.perf_counter() - start
-        return result
-
-    problem.step, problem.project = timed_step, timed_project
-    solves = max(repeats // 10, 5)
-    total = 0.0
-    for _ in range(solves):
-        start = time.perf_counter()
-        solution = problem.solve(q_start)
-        total += time.perf_counter() - start
-    del problem.step, problem.project
-    other["checks, merit, rest"] = total - sum(solve_steps.values()) - other["projection"]
-    print(f"Where the time goes (wbik.qp [daqp], us; mean of {repeats} steps and {solves} IK solves of "
-          f"{solution.iterations} iterations):")
-    print(f"{'phase':22s} {'per step':>9s} {'share':>6s} {'per IK':>9s} {'share':>6s}")
-    step_total = sum(steps.values())
-    for phase in (*PHASES, "projection", "checks, merit, rest"):
-        per_step = steps.get(phase, 0.0) / repeats
-        per_ik = (solve_steps.get(phase, 0.0) + other.get(phase, 0.0)) / solves
-        print(f"{phase:22s} {per_step * 1e6:9.1f} {per_step / (step_total / repeats):6.0%} "
-              f"{per_ik * 1e6:9.1f} {per_ik / (total / solves):6.0%}")
-    print(f"{'total':22s} {step_total / repeats * 1e6:9.1f} {'':6s} {total / solves * 1e6:9.1f}")
 
 
 def foot_error(robot, q, target) -> float:
@@ -132,7 +102,51 @@ def foot_error(robot, q, target) -> float:
                      np.linalg.norm(pin.log3(target.rotation.T @ reached.rotation))))
 
 
-def pink_run(robot, q_start, foot_target, repeats, solver="daqp"):
+def contact_drift(robot, q, q_start) -> float:
+    """How far the right sole moved from its start pose (max of m and rad), by FK."""
+    held, reached = robot.frame_placement(q_start, "r_sole"), robot.frame_placement(q, "r_sole")
+    return float(max(np.linalg.norm(reached.translation - held.translation),
+                     np.linalg.norm(pin.log3(held.rotation.T @ reached.rotation))))
+
+
+class Contender(SimpleNamespace):
+    """One solver on the benchmark: ``name``, ``step()``, ``converge()`` (a converged IK from the
+    start; returns its iterations) and ``answer()`` (the q of the last converge, read outside the
+    timing); PlaCo's also ``copy_s(repeats)``, the configuration copy its converge includes."""
+
+    def __init__(self, name: str, step, converge, answer):
+        super().__init__(name=name, step=step, converge=converge, answer=answer)
+
+
+class Row(NamedTuple):
+    name: str
+    step_s: float
+    ik_s: float
+    iterations: int
+    foot_error: float
+    drift: float
+    com_margin: float
+
+    @property
+    def ok(self) -> bool:
+        return self.foot_error <= ACCURACY
+
+
+def ours(robot, q_start, foot_target, backend: str) -> Contender:
+    problem = our_problem(robot, q_start, foot_target, backend)
+    problem.start(q_start)
+
+    last = {}
+
+    def converge():
+        last["solution"] = solution = problem.solve(q_start)
+        return solution.iterations
+
+    return Contender(f"wbik.qp [{backend}]", lambda: problem.step(q_start, dt=1.0), converge,
+                     lambda: last["solution"].q)
+
+
+def pink_contender(robot, q_start, foot_target, solver="daqp") -> Contender:
     import pink
     from pink.limits import ConfigurationLimit
     from pink.tasks import FrameTask as PinkFrameTask
@@ -148,30 +162,25 @@ def pink_run(robot, q_start, foot_target, repeats, solver="daqp"):
     left.set_target(foot_target)
     limits = [ConfigurationLimit(model)]
 
-    def one_step(configuration=configuration):
+    def one_step():
         configuration.update(q_start)
         pink.solve_ik(configuration, [left, pelvis], 1.0, solver=solver, damping=1e-6,
                       constraints=[right], limits=limits, safety_break=False)
 
-    step = best_of(one_step, repeats)
+    last = {}
 
     def converge():
-        q = q_start.copy()
-        config = pink.Configuration(model, data, q)
+        config = pink.Configuration(model, data, q_start.copy())
         for iteration in range(1, 201):
             v = pink.solve_ik(config, [left, pelvis], 1.0, solver=solver, damping=1e-6,
                               constraints=[right], limits=limits, safety_break=False)
-            q = pin.integrate(model, config.q, v)
+            last["q"] = q = pin.integrate(model, config.q, v)
             config.update(q)
-            if foot_error(robot, q, foot_target) <= 1e-6:
-                return q, iteration
-        return q, 200
+            if foot_error(robot, q, foot_target) <= ACCURACY:
+                return iteration
+        return 200
 
-    q_final, iterations = converge()
-    ik = best_of(converge, max(repeats // 10, 5))
-    return (step, ik, iterations, foot_error(robot, q_final, foot_target) <= 1e-6,
-            foot_error(robot, q_final, foot_target),
-            com_margin_by_fk(robot, q_final, support_polygon(robot, q_start, ["r_sole"])))
+    return Contender(f"Pink 4.4 [{solver}]", one_step, converge, lambda: last["q"])
 
 
 def signed_area(vertices) -> float:
@@ -237,77 +246,164 @@ def com_margin_by_fk(robot, q, polygon) -> float:
     return float(polygon.margin_of(robot.center_of_mass(q)[:2]))
 
 
-def placo_run(robot, q_start, foot_target, repeats):
+def placo_contender(robot, q_start, foot_target) -> Contender:
     from wbik.solvers.placo import placo_configuration, set_placo_configuration
 
     setup = placo_problem(robot, q_start, foot_target)
     wrapper, solver, left = setup.wrapper, setup.solver, setup.left
+    set_placo_configuration(robot, wrapper, q_start)
 
-    def one_step():
-        set_placo_configuration(robot, wrapper, q_start)
+    def one_step():  # solve(False) leaves the configuration where it is
+        wrapper.update_kinematics()
         solver.solve(False)
 
-    # the configuration copy (by joint name, from Python) is not PlaCo's cost: time it apart
-    copy_only = best_of(lambda: set_placo_configuration(robot, wrapper, q_start), repeats)
-    step = best_of(one_step, repeats) - copy_only
-
     def converge():
+        # the configuration copy (by joint name, from Python) is not PlaCo's cost: it is undone
+        # here and timed apart by the caller (copy_s)
         set_placo_configuration(robot, wrapper, q_start)
         for iteration in range(1, 201):
             solver.solve(True)
             wrapper.update_kinematics()
-            if np.linalg.norm(left.position().error()) <= 1e-6 and np.linalg.norm(
-                    left.orientation().error()) <= 1e-6:
+            if np.linalg.norm(left.position().error()) <= ACCURACY and np.linalg.norm(
+                    left.orientation().error()) <= ACCURACY:
                 return iteration
         return 200
 
-    iterations = converge()
-    q_final = placo_configuration(robot, wrapper)
-    ik = best_of(converge, max(repeats // 10, 5)) - copy_only
-    error = foot_error(robot, q_final, foot_target)
-    return step, ik, iterations, error <= 1e-6, error, com_margin_by_fk(robot, q_final, setup.polygon)
+    contender = Contender("PlaCo 0.10.2 (C++)", one_step, converge,
+                          lambda: placo_configuration(robot, wrapper))
+    contender.copy_s = lambda repeats: median_time(lambda: set_placo_configuration(robot, wrapper, q_start),
+                                                    repeats)
+    return contender
+
+
+def measure(robot, q_start, foot_target, contenders: list[Contender], repeats: int, rounds: int) -> list[Row]:
+    """Every contender's step and converged IK, interleaved, with its answer checked by FK."""
+    polygon = support_polygon(robot, q_start, ["r_sole"])
+    answers = {c.name: (c.converge(), c.answer()) for c in contenders}  # (warms every contender up)
+    calls = {f"{c.name} step": c.step for c in contenders}
+    calls.update({f"{c.name} ik": (lambda c=c: c.converge()) for c in contenders})
+    counts = {name: repeats if name.endswith("step") else max(repeats // 10, 5) for name in calls}
+    times = interleaved(calls, counts, rounds)
+    rows = []
+    for contender in contenders:
+        ik = times[f"{contender.name} ik"]
+        if hasattr(contender, "copy_s"):
+            ik -= contender.copy_s(max(repeats // 10, 5))
+        iterations, q = answers[contender.name]
+        rows.append(Row(contender.name, times[f"{contender.name} step"], ik, iterations,
+                        foot_error(robot, q, foot_target), contact_drift(robot, q, q_start),
+                        com_margin_by_fk(robot, q, polygon)))
+    return rows
+
+
+def phase_table(robot, q_start, foot_target, repeats: int) -> None:
+    """Where our time goes (DAQP): one QP step by phase (IKProblem.step's ``profile``), and one
+    converged IK (IKProblem.solve's ``profile``) split into its steps' phases (kinematics: the
+    update after each step; tasks: the rows the merit test and the next step share), the contact
+    projections and the rest (start, merit and checks by FK, integration, the final report)."""
+    problem = our_problem(robot, q_start, foot_target)
+    problem.start(q_start)
+    steps: dict[str, float] = {}
+    for _ in range(repeats):
+        problem.step(q_start, dt=1.0, profile=steps)
+    solves = max(repeats // 10, 5)
+    inside: dict[str, float] = {}
+    total = 0.0
+    for _ in range(solves):
+        start = time.perf_counter()
+        solution = problem.solve(q_start, profile=inside)
+        total += time.perf_counter() - start
+    inside["checks, merit, rest"] = total - sum(inside.values())
+    print(f"Where the time goes (wbik.qp [daqp], us; mean of {repeats} steps and {solves} IK solves of "
+          f"{solution.iterations} iterations):")
+    print(f"{'phase':22s} {'per step':>9s} {'share':>6s} {'per IK':>9s} {'share':>6s}")
+    step_total = sum(steps.values())
+    for phase in (*PHASES, "projection", "checks, merit, rest"):
+        per_step = steps.get(phase, 0.0) / repeats
+        per_ik = inside.get(phase, 0.0) / solves
+        print(f"{phase:22s} {per_step * 1e6:9.1f} {per_step / (step_total / repeats):6.0%} "
+              f"{per_ik * 1e6:9.1f} {per_ik / (total / solves):6.0%}")
+    print(f"{'total':22s} {step_total / repeats * 1e6:9.1f} {'':6s} {total / solves * 1e6:9.1f}")
+
+
+def bench_setup():
+    robot = wbik.load("bioloid")
+    q_start = stand_on_right_foot(robot)
+    foot_target = robot.frame_placement(q_start, "l_sole")
+    foot_target.translation = foot_target.translation + LIFT
+    return robot, q_start, foot_target
+
+
+def ratios(quick: bool = False) -> list:
+    """The issue's whole-body QP goals (issue 16 item 5) as ratios to PlaCo and Pink (DAQP),
+    measured in this process: ours with DAQP, interleaved, best of several rounds."""
+    from ratios import Ratio
+
+    robot, q_start, foot_target = bench_setup()
+    repeats, rounds = (300, 5) if quick else (1000, 9)
+    rows = {row.name.split(" ")[0]: row for row in measure(
+        robot, q_start, foot_target, [ours(robot, q_start, foot_target, "daqp"),
+                                      pink_contender(robot, q_start, foot_target, "daqp"),
+                                      placo_contender(robot, q_start, foot_target)], repeats, rounds)}
+    us, pink, placo = rows["wbik.qp"], rows["Pink"], rows["PlaCo"]
+    how = (f"Bioloid on one foot, nv 24; best of {rounds} interleaved rounds of the median of "
+           f"{repeats} steps / {max(repeats // 10, 5)} IK solves")
+    ik_note = (f"{how}; to foot error <= 1e-6 m and rad for all (ours {us.iterations} iterations, "
+               f"{us.foot_error:.1e}; PlaCo {placo.iterations}, {placo.foot_error:.1e}; "
+               f"Pink {pink.iterations}, {pink.foot_error:.1e})")
+    return [
+        Ratio("whole-body QP step <= 2x PlaCo", "wbik.qp step [daqp]", us.step_s, "PlaCo step", placo.step_s,
+              "s/step", 2.0, note=how + "; PlaCo's polygon hard and clockwise; kinematics included for both"),
+        Ratio("whole-body QP step faster than Pink (DAQP)", "wbik.qp step [daqp]", us.step_s,
+              "Pink step [daqp]", pink.step_s, "s/step", 1.0, note=how + "; Pink has no CoM polygon"),
+        Ratio("converged whole-body IK <= 3x PlaCo", "wbik.qp IK [daqp]", us.ik_s, "PlaCo IK", placo.ik_s,
+              "s/solve", 3.0, note=ik_note),
+        Ratio("converged whole-body IK faster than Pink (DAQP)", "wbik.qp IK [daqp]", us.ik_s,
+              "Pink IK [daqp]", pink.ik_s, "s/solve", 1.0, note=ik_note),
+        Ratio("whole-body QP at least 5 kHz per step", "wbik.qp steps per second", 1.0 / us.step_s,
+              "the goal's 5 kHz", STEP_RATE, "Hz", 1.0, better="higher", note=how),
+    ]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=300)
+    parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
-    robot = wbik.load("bioloid")
-    q_start = stand_on_right_foot(robot)
-    foot_target = robot.frame_placement(q_start, "l_sole")
-    foot_target.translation = foot_target.translation + LIFT
-    rows = []
-    for backend in available_backends():
-        rows.append((f"wbik.qp [{backend}]", *ours(robot, q_start, foot_target, backend, args.repeats)))
+    robot, q_start, foot_target = bench_setup()
+    contenders = [ours(robot, q_start, foot_target, backend) for backend in available_backends()]
     for backend in ("daqp", "osqp"):
         try:
-            result = pink_run(robot, q_start, foot_target, args.repeats, backend)
-            rows.append((f"Pink 4.4 [{backend}]", *result))
+            contenders.append(pink_contender(robot, q_start, foot_target, backend))
         except Exception as exc:  # report, keep the table
             print(f"Pink [{backend}] failed: {exc}")
-    rows.append(("PlaCo 0.10.2 (C++)", *placo_run(robot, q_start, foot_target, args.repeats)))
-    placo_step, placo_ik = rows[-1][1], rows[-1][2]
-    pink_rows = [r for r in rows if r[0].startswith("Pink") and "daqp" in r[0]]
-    pink_step = pink_rows[0][1] if pink_rows else float("nan")
+    contenders.append(placo_contender(robot, q_start, foot_target))
+    rows = measure(robot, q_start, foot_target, contenders, args.repeats, args.rounds)
+    placo, pink = rows[-1], next((r for r in rows if r.name == "Pink 4.4 [daqp]"), None)
+    pink_step = pink.step_s if pink else float("nan")
+    pink_ik = pink.ik_s if pink else float("nan")
     print(f"Bioloid whole body, nv = {robot.model.nv}; right sole hard, CoM in right sole -5 mm "
-          f"(not Pink), left foot +40 mm, pelvis orientation, limits. Median of {args.repeats} steps.")
+          f"(not Pink), left foot +40 mm, pelvis orientation, limits. Best of {args.rounds} interleaved "
+          f"rounds of the median of {args.repeats} steps / {max(args.repeats // 10, 5)} IK solves.")
     header = (f"{'solver':24s} {'ms/step':>9s} {'x PlaCo':>8s} {'x Pink':>7s} {'ms/IK':>8s} "
-              f"{'x PlaCo':>8s} {'iters':>6s} {'ok':>4s} {'foot err':>9s} {'CoM mm':>7s}")
+              f"{'x PlaCo':>8s} {'x Pink':>7s} {'iters':>6s} {'ok':>4s} {'foot err':>9s} {'drift':>8s} "
+              f"{'CoM mm':>7s}")
     print(header)
     print("-" * len(header))
-    for name, step, ik, iterations, ok, error, margin in rows:
-        print(f"{name:24s} {step * 1e3:9.4f} {step / placo_step:8.1f} {step / pink_step:7.2f} "
-              f"{ik * 1e3:8.3f} {ik / placo_ik:8.1f} {iterations:6d} {'yes' if ok else 'no':>4s} "
-              f"{error:9.1e} {margin * 1e3:7.3f}")
-    print("CoM mm: the final CoM's margin in the right sole (wbik SupportPolygon, by FK; need >= 5 mm "
-          "except Pink, which has no polygon constraint).")
+    for row in rows:
+        print(f"{row.name:24s} {row.step_s * 1e3:9.4f} {row.step_s / placo.step_s:8.1f} "
+              f"{row.step_s / pink_step:7.2f} {row.ik_s * 1e3:8.3f} {row.ik_s / placo.ik_s:8.1f} "
+              f"{row.ik_s / pink_ik:7.2f} {row.iterations:6d} {'yes' if row.ok else 'no':>4s} "
+              f"{row.foot_error:9.1e} {row.drift:8.1e} {row.com_margin * 1e3:7.3f}")
+    print(f"ok: foot error <= {ACCURACY:g} m and rad (the same stopping accuracy for all). drift: the right "
+          "sole's contact error by FK (m or rad). CoM mm: the final CoM's margin in the right sole (wbik "
+          "SupportPolygon, by FK; need >= 5 mm except Pink, which has no polygon constraint).")
     print("Settings.", PINK_SETTINGS)
     print("Settings.", PLACO_SETTINGS)
-    ours_rows = [r for r in rows if r[0].startswith("wbik")]
-    fastest = min(ours_rows, key=lambda r: r[1])
+    fastest = min((r for r in rows if r.name.startswith("wbik")), key=lambda r: r.step_s)
     phase_table(robot, q_start, foot_target, args.repeats)
-    print(f"fastest backend here: {fastest[0]} ({fastest[1] * 1e3:.4f} ms/step, "
-          f"{1.0 / fastest[1]:.0f} Hz); use backend='fastest' (wbik.qp.backends.FASTEST)")
+    print(f"fastest backend here: {fastest.name} ({fastest.step_s * 1e3:.4f} ms/step, "
+          f"{1.0 / fastest.step_s:.0f} Hz); use backend='fastest' (wbik.qp.backends.FASTEST)")
 
 
 if __name__ == "__main__":

@@ -82,3 +82,23 @@ def test_as_index_makes_consecutive_indices_a_slice():
     assert as_index(np.array([3, 4, 5])) == slice(3, 6)
     np.testing.assert_array_equal(as_index(np.array([3, 5])), [3, 5])
     assert as_index(np.array([], dtype=int)).size == 0
+
+
+def test_com_margin_follows_the_configuration_and_matches_the_polygon(biped):
+    """The CoM constraint keeps N c_xy per configuration for its rows and its margin: after every
+    update the margin is SupportPolygon.margin_of of the CoM computed by Pinocchio apart."""
+    import pinocchio as pin
+
+    model = biped.model
+    polygon = SupportPolygon(np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]]))
+    constraint = CoMInSupportPolygon(polygon, 0.01)
+    kinematics = Kinematics(model, biped.nominal)
+    rng = np.random.default_rng(2)
+    for _ in range(5):
+        q = pin.integrate(model, biped.nominal, rng.normal(scale=0.2, size=model.nv))
+        kinematics.update(q)
+        com = pin.centerOfMass(model, model.createData(), q)
+        assert constraint.com_margin(kinematics) == pytest.approx(polygon.margin_of(com[:2]), abs=1e-15)
+        G, h = constraint.rows(kinematics, 1.0)
+        np.testing.assert_allclose(h, polygon.offsets - 0.01 - constraint.safety - polygon.normals @ com[:2],
+                                   rtol=0, atol=1e-15)

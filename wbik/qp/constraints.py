@@ -210,14 +210,23 @@ class CoMInSupportPolygon(InequalityConstraint):
         self.safety = float(safety)
         self.name = f"CoM in support polygon (margin {margin * 1e3:g} mm)"
         self.normals, self.offsets = polygon.halfplanes(self.margin + self.safety)
+        self._version, self._projected = -1, np.zeros(len(self.offsets))
+
+    def projected(self, kinematics: Kinematics) -> np.ndarray:
+        """N c_xy at the kinematics' q (once per configuration: the rows and the margin share it)."""
+        if self._version != kinematics.version:
+            self._projected = self.normals @ kinematics.com()[:2]
+            self._version = kinematics.version
+        return self._projected
 
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
-        normals = self.normals
-        return InequalityRows(normals @ kinematics.com_jacobian()[:2],
-                              self.offsets - normals @ kinematics.com()[:2])
+        return InequalityRows(self.normals @ kinematics.com_jacobian()[:2],
+                              self.offsets - self.projected(kinematics))
 
     def com_margin(self, kinematics: Kinematics) -> float:
-        return self.polygon.margin_of(kinematics.com()[:2])
+        """Distance from the CoM projection to the polygon's boundary (m, positive inside):
+        SupportPolygon.margin_of, from the shared N c_xy."""
+        return float((self.polygon.offsets - self.projected(kinematics)).min())
 
     def violation(self, kinematics: Kinematics) -> float:
         return max(self.margin - self.com_margin(kinematics), 0.0)

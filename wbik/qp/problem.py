@@ -262,7 +262,12 @@ class IKProblem:
                           f"best effort: {self.backend} found no further step (radius {radius:.2g})")
                 break
             step_size = float(np.abs(dq).max()) if dq.size else 0.0
+            tick = time.perf_counter() if profile is not None else 0.0
             kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
+            if profile is not None:  # the next step's task rows, filled here for the merit
+                tick = lap(profile, "kinematics", tick)
+                self._step.fill_tasks()
+                lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)
             if not kept and not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
                 kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)

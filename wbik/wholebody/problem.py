@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError, InvalidSettingError
+from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RelativeFrameTask, Task
 from wbik.robot import Robot
@@ -401,7 +402,7 @@ def check_wholebody(
     for frame, held in (contact_placements or {}).items():
         reached = kinematics.placement(kinematics.frame_id(frame))
         position = float(np.linalg.norm(reached.translation - held.translation))
-        rotation = float(np.linalg.norm(pin.log3(held.rotation.T @ reached.rotation)))
+        rotation = rotation_angle(reached.rotation, held.rotation)
         drift = max(drift, position, rotation)
         if position > tolerances.position or rotation > tolerances.rotation:
             failures.append(f"contact {frame} drifted {position:.3g} m, {rotation:.3g} rad")

@@ -48,6 +48,7 @@ from wbik.errors import (
     UnknownMethodError,
     UnsupportedError,
 )
+from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import (
     ComTask,
@@ -179,7 +180,7 @@ class WholeBodySolver(PerThreadState):
             reached = monitor.placement(monitor.frame_id(frame))
             if (
                 np.linalg.norm(reached.translation - held.translation) > position_tolerance
-                or np.linalg.norm(pin.log3(held.rotation.T @ reached.rotation)) > rotation_tolerance
+                or rotation_angle(reached.rotation, held.rotation) > rotation_tolerance
             ):
                 return False
         return polygon is None or polygon.margin_of(monitor.com()[:2]) >= margin
@@ -641,7 +642,7 @@ class ThesisLegs(WholeBodySolver):
             return len(task.rows) == 3 and task.frame not in problem.contacts
         if isinstance(task, OrientationTask) and task.frame == "pelvis":  # the pelvis keeps its start
             start = self.robot.frame_placement(q0, "pelvis").rotation
-            return float(np.linalg.norm(pin.log3(task.target.T @ start))) <= 1e-12
+            return rotation_angle(start, task.target) <= 1e-12
         return False
 
     def unsupported(self, problem):
