@@ -46,7 +46,7 @@ def test_planar_2r_reaches_the_point_and_agrees_with_its_scalar_twin():
 
 
 def test_stretched_elbow_within_the_tolerance_is_clamped():
-    """A point COSINE_TOLERANCE / 2 beyond full reach (relative) is real and gives the stretched arm."""
+    """A point whose elbow cosine is 1 + COSINE_TOLERANCE / 2 is real and gives the stretched arm."""
     reach = 4.0 * (1.0 + COSINE_TOLERANCE / 8)
     angle1, angle2, real = planar_2r(np.array(reach), np.array(0.0), 2.0, 2.0)
     assert real

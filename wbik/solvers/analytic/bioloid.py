@@ -14,7 +14,10 @@ Thesis-level functions (angles in radians, any leading batch shape):
 
 Unreachable targets (|cos gamma| > 1, i.e. hip-ankle distance > 2 Lf, or |c5| > 1 for the arm)
 are reported by a ``reachable`` mask; their angles come from the clamped cosine (the nearest
-stretched limb), never NaN.
+stretched limb), never NaN. Cosines within the shared ``COSINE_TOLERANCE`` of +-1 are clamped and
+stay reachable (:func:`wbik.solvers.analytic.subproblems.clamped_cosine`): a stretched knee or elbow
+is a branch merge where rounding must not flip the verdict. (The leg's hip Euler lock, hip roll
++-pi/2, is outside the +-0.87 rad limits, so its decomposition needs no tolerance.)
 
 Closed forms for the solver framework (declared in ``robot.info["closed_forms"]``):
 :class:`ArmPosition` (4 exact branches: the thesis's elbow and the other, times the base
@@ -34,13 +37,7 @@ from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x, rot_y, rot_z
 from wbik.models.bioloid import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
 from wbik.solvers.analytic import ClosedForm
-
-COSINE_TOLERANCE = 1e-9
-"""|cos| up to 1 + this is clamped to 1 (a target on the workspace boundary) and stays reachable, as in
-the other closed forms: a stretched knee or elbow is a branch merge where rounding (or a target 1e-10
-beyond the boundary, ~1e-11 m) must not flip the verdict; the clamped limb misses by at most
-~COSINE_TOLERANCE * L (4e-11 m), which the FK screening accepts. (The leg's hip Euler lock, hip roll
-+-pi/2, is outside the +-0.87 rad limits, so its decomposition needs no tolerance.)"""
+from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
 
 ARM_MIRROR = np.array([1.0, -1.0, -1.0])
 LEG_MIRROR = np.array([-1.0, -1.0, 1.0, 1.0, 1.0, -1.0])
@@ -63,11 +60,6 @@ def _side(side: str) -> str:
     if key in ("l", "left"):
         return "l"
     raise InvalidTargetError(f"side must be 'right'/'r' or 'left'/'l', got {side!r}")
-
-
-def _clamped_cosine(cosine: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    reachable = np.abs(cosine) <= 1.0 + COSINE_TOLERANCE
-    return np.clip(cosine, -1.0, 1.0), reachable
 
 
 # --- arm (bioloid.md 2.2-2.3) -----------------------------------------------------------------------
@@ -106,7 +98,7 @@ def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip
     t = -y - l0 - l1                                            # eq. 2
     s = radial - l2                                             # eq. 3
     reach = np.hypot(s, t)                                      # eq. 4
-    c5, reachable = _clamped_cosine((reach ** 2 - l3 ** 2 - l4 ** 2) / (2 * l3 * l4))   # eq. 5
+    c5, reachable = clamped_cosine((reach ** 2 - l3 ** 2 - l4 ** 2) / (2 * l3 * l4))   # eq. 5
     theta5 = -np.arctan2(np.sqrt(1.0 - c5 ** 2), c5)            # eq. 6
     if other_elbow:
         theta5 = -theta5
@@ -182,7 +174,7 @@ def leg_thesis_angles(p_hip, yaw=0.0, pitch=0.0, roll=0.0) -> LegAngles:
     x, y, z = p[..., 0], p[..., 1], p[..., 2]
     theta17 = np.arctan2(y, z)                                          # eq. 10
     length = np.linalg.norm(p, axis=-1)                                 # eq. 11
-    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))   # eq. 12-13
+    cos_gamma, reachable = clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))   # eq. 12-13
     gamma = np.arctan2(np.sqrt(1.0 - cos_gamma ** 2), cos_gamma)        # eq. 14
     theta13 = gamma - 2 * ALPHA                                         # eq. 15-16
     beta = np.arctan2(x, np.hypot(z, y))                                # eq. 17-18
@@ -250,8 +242,7 @@ def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.n
     q17 = np.arctan2(y, z)
     beta = np.arctan2(x, np.hypot(y, z))
     length = np.linalg.norm(p_hip, axis=-1)
-    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
-    gamma = np.arccos(cos_gamma)
+    gamma, reachable = clamped_acos((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
     solutions = []
     for knee in (np.pi + 2 * ALPHA - gamma, gamma - np.pi + 2 * ALPHA):
         c = SHANK + rot_y(-knee) @ THIGH
@@ -322,8 +313,7 @@ def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> 
     """
     u = np.einsum("bji,bj->bi", rot_z(q0[:, 0]), p_ankle)       # Rz(-q7) p
     length = np.linalg.norm(p_ankle, axis=-1)
-    cos_gamma, reachable = _clamped_cosine((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
-    gamma = np.arccos(cos_gamma)
+    gamma, reachable = clamped_acos((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
     rho = np.hypot(u[:, 1], u[:, 2])
     solutions = []
     for down in (1.0, -1.0):
