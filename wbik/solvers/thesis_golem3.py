@@ -22,8 +22,10 @@ the thesis's angles (yaw alpha = t6, pitch beta = -t4 - t5, roll gamma = t1 + t2
 Three square roots, 2^3 = 8 branches, visited in the thesis code's order (sign of sin(t4 + rho),
 then the quadratic's root, then the sign of sin t1). As in the thesis: a negative square-root
 argument discards the branch (no clamp: rounding that makes an argument slightly negative loses the
-branch); every angle is wrapped into [-pi, pi] and a branch with an angle outside the joint limits
-(inclusive, no tolerance) is discarded; each survivor's closed-form FK is compared with the input.
+branch); every angle is wrapped into (-pi, pi] (geometry.wrap_to_pi; the thesis says [-pi, pi]; no
+limit reaches pi, so the boundary decides nothing) and a branch with an angle outside the joint
+limits (inclusive, no tolerance) is discarded; each survivor's closed-form FK is compared with the
+input.
 The thesis's text asks the two to be "identical"; its code accepts |difference| <= 1e-3 (m, rad)
 on x, y, z, yaw and pitch (not roll), ``THESIS_CHECK_TOLERANCE``, which we use. Among the survivors
 the one nearest q0 is returned (thesis ch. 4.4: "the difference between each solution and the
@@ -61,6 +63,7 @@ import time
 import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
+from wbik.geometry import wrap_to_pi
 from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.solvers.base import Candidate, Solver, evaluate
 from wbik.targets import Target, as_target
@@ -78,11 +81,6 @@ NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)
 """Fate of a branch, in the order the thesis meets them."""
 
 
-def _wrap(angle):
-    """Into [-pi, pi) (the thesis's rad_limit does one 2 pi shift; the same for |angle| < 3 pi)."""
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
-
-
 def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
     """The thesis's 8 branches for right-arm targets (broadcast arrays of shape S).
 
@@ -98,13 +96,13 @@ def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
     j1 = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
     j2 = np.array([-1.0, -1.0, 1.0, 1.0, -1.0, -1.0, 1.0, 1.0])
     j3 = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
-    t6 = _wrap(yaw) + 0.0 * j1
+    t6 = wrap_to_pi(yaw) + 0.0 * j1
     c4 = (H - z - L5 * np.cos(-pitch) + L6 * np.sin(-pitch)) / L4 + 0.0 * j1
     arg4 = 1.0 - c4 ** 2
     real = arg4 >= 0.0
     s4 = j1 * np.sqrt(np.where(real, arg4, 0.0))
-    t4 = _wrap(np.arctan2(s4, c4) - RHO)
-    t5 = _wrap(-pitch - t4)
+    t4 = wrap_to_pi(np.arctan2(s4, c4) - RHO)
+    t5 = wrap_to_pi(-pitch - t4)
     l3 = L4 * np.sin(t4 + RHO) + L5 * np.sin(t4 + t5) + L6 * np.cos(t4 + t5)
     xp = x - l3 * np.cos(roll)
     yp = -y + l3 * np.sin(roll)
@@ -121,18 +119,18 @@ def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
     s1 = j3 * np.sqrt(np.where(real_2, arg1, 0.0))
     c1 = np.where(real_2, c1, 1.0)
     t1 = np.arctan2(s1, c1)
-    t2 = _wrap(np.arctan2((xp - L1 * s1) / L2, (yp - L1 * c1) / L2) - t1)
-    t3 = _wrap(roll - t1 - t2)
+    t2 = wrap_to_pi(np.arctan2((xp - L1 * s1) / L2, (yp - L1 * c1) / L2) - t1)
+    t3 = wrap_to_pi(roll - t1 - t2)
     q = np.stack([t1, t2, t3, t4, t5, t6], axis=-1)
     inside = np.all((q >= lower) & (q <= upper), axis=-1)
     # the thesis's check: closed-form FK (eq. 3.3-3.9) against the input, x y z yaw pitch
     s = t4 + t5
-    gamma = _wrap(t1 + t2 + t3)
+    gamma = wrap_to_pi(t1 + t2 + t3)
     l3_fk = L4 * np.sin(t4 + RHO) + L5 * np.sin(s) + L6 * np.cos(s)
     x_fk = L1 * np.sin(t1) + L2 * np.sin(t1 + t2) + l3_fk * np.cos(gamma)
     y_fk = -L1 * np.cos(t1) - L2 * np.cos(t1 + t2) + l3_fk * np.sin(gamma)
     z_fk = H - L4 * np.cos(t4 + RHO) - L5 * np.cos(s) + L6 * np.sin(s)
-    differences = (x_fk - x, y_fk - y, z_fk - z, t6 - yaw, _wrap(-s) - pitch)
+    differences = (x_fk - x, y_fk - y, z_fk - z, t6 - yaw, wrap_to_pi(-s) - pitch)
     matches = np.all(np.abs(np.stack(differences, axis=-1)) <= THESIS_CHECK_TOLERANCE, axis=-1)
     fate = np.where(~real_2, NEGATIVE_SQRT,
                     np.where(~inside, OUTSIDE_LIMITS, np.where(matches, ACCEPTED, CHECK_FAILED)))
