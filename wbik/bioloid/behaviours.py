@@ -42,6 +42,7 @@ from wbik.bioloid.step_wholebody import (
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 KEYFRAMES_PATH = data_dir("tasks") / "data" / "bioloid_keyframes.yaml"
@@ -112,7 +113,7 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
 
 def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | None = None,
                   margin: float = 0.005, q0: np.ndarray | None = None,
-                  backend: str = "daqp") -> WholeBodyMotion:
+                  backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Turn in place by ``angle_deg`` (positive = left) with the whole-body QP."""
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     phases, _ = turn_phases(robot, current_soles(robot, q), math.radians(angle_deg), gait)
@@ -146,7 +147,7 @@ def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: f
 
 def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
          margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
-         backend: str = "daqp") -> WholeBodyMotion:
+         backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Walk ``steps`` steps forward, then turn by ``turn_deg`` (positive = left), whole-body QP."""
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     phases, _ = walk_phases(robot, current_soles(robot, q), steps, turn_deg, gait, first, rear_lift)

@@ -52,6 +52,7 @@ from wbik.bioloid.step_wholebody import (
     yaw_of,
 )
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 HALF_STEP_LIFT = 0.015
@@ -141,7 +142,7 @@ def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: G
 
 def half_step(robot: Robot, name: str, q0: np.ndarray | None = None, gait: GaitParameters | None = None,
               margin: float = 0.005, length: float | None = None, lift: float = HALF_STEP_LIFT,
-              backend: str = "daqp") -> WholeBodyMotion:
+              backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Solve the half step ``name`` from ``q0`` (default the nominal stance) sample by sample."""
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     phases, _ = half_step_phases(robot, current_soles(robot, q), name, gait, length, lift)
@@ -151,7 +152,7 @@ def half_step(robot: Robot, name: str, q0: np.ndarray | None = None, gait: GaitP
 def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = None,
                        gait: GaitParameters | None = None, margin: float = 0.005,
                        length: float | None = None, lift: float = HALF_STEP_LIFT,
-                       backend: str = "daqp") -> WholeBodyMotion:
+                       backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Several half steps one after the other (each from where the previous one left the feet)."""
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     soles = current_soles(robot, q)

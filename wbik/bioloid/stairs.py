@@ -75,6 +75,7 @@ from wbik.bioloid.step_wholebody import (
     yaw_of,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 SHARP_PROXIMITY_THRESHOLD = 100.0
@@ -484,7 +485,7 @@ PAIR_END = {"WalkSR1": "WalkSR2", "WalkSL1": "WalkSL2"}
 
 def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitParameters | None = None,
                     margin: float = 0.005, climbs: int | None = None, q0: np.ndarray | None = None,
-                    max_decisions: int = STEP_QTY, backend: str = "daqp",
+                    max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND,
                     on_behaviour: Callable[[str], None] | None = None) -> StairRun:
     """Walk toward the staircase with the half steps, sensing after each, and climb it as the state
     machine decides; stops when the top is reached (``climbs`` climbs, default the number of steps)

@@ -37,6 +37,7 @@ import pinocchio as pin
 from wbik.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
 from wbik.errors import InvalidConfigurationError
 from wbik.models.bioloid import ARM_JOINTS
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import CoMInSupportPolygon, Contact, JointPositionLimits, LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
@@ -188,7 +189,8 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
 
 
 def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], margin: float = 0.005,
-                 backend: str = "daqp", name: str = "behaviour", max_iterations: int = 60, retries: int = 3,
+                 backend: str = DEFAULT_BACKEND, name: str = "behaviour", max_iterations: int = 60,
+                 retries: int = 3,
                  on_sample: Callable[[int, dict], None] | None = None) -> WholeBodyMotion:
     """Solve every sample of every phase from the previous sample's answer and verify it by FK."""
     if margin < 0:
@@ -379,7 +381,7 @@ def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: st
 
 def step_forward_wholebody(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
                            margin: float = 0.005, q0: np.ndarray | None = None, rear_lift: float = 0.0,
-                           backend: str = "daqp") -> WholeBodyMotion:
+                           backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """One step forward (``first`` foot lifted first) solved sample by sample by the QP layer."""
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     phases, _ = step_phases(robot, current_soles(robot, q), gait, first, rear_lift)

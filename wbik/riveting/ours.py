@@ -48,6 +48,7 @@ import pinocchio as pin
 
 import wbik
 from wbik.motion.profiles import time_law
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
@@ -86,7 +87,7 @@ class QPPlanner(Planner):
     name = "ours"
 
     def __init__(self, *args, minimum_clearance: float = 0.01, line_clearance: float = 0.005,
-                 knot_spacing: float = 0.001, max_step: float = 0.05, backend: str = "daqp",
+                 knot_spacing: float = 0.001, max_step: float = 0.05, backend: str = DEFAULT_BACKEND,
                  rolls: int = 12, retreats=(0.015, 0.03, 0.06), **options):
         super().__init__(*args, **options)
         self.minimum_clearance = float(minimum_clearance)
