@@ -147,3 +147,26 @@ def test_biped_shift_lift_and_balanced_best_effort(biped):
     com = biped.center_of_mass(third.q)
     assert abs(com[0]) <= 0.045 + 1e-9 and abs(com[1] + 0.05) <= 0.025 + 1e-9
     assert support_polygon(biped, third.q, ["r_sole"]).margin_of(com) >= 0.005 - 1e-9
+
+
+def test_a_step_without_solution_raises_and_the_loop_reports_the_solvers_status(panda):
+    """Every joint locked and a contact held 5 cm from where the hand is: J dq = -e cannot hold
+    with dq = 0, so the step raises NoQPSolutionError with DAQP's exit flag (here -6: the equalities
+    and the locked bounds overdetermine the working set) and solve() returns a failed solution whose
+    reason says so (instead of a silent None)."""
+    from wbik.errors import NoQPSolutionError
+    from wbik.qp.constraints import Contact, LockedJoints
+
+    model = panda.model
+    held = panda.frame_placement(panda.nominal, "panda_hand_tcp")
+    held.translation = held.translation + np.array([0.05, 0.0, 0.0])
+    joints = [name for name in model.names[1:] if model.joints[model.getJointId(name)].nv == 1]
+    problem = IKProblem(model, [PositionTask("panda_hand_tcp", held.translation)],
+                        [Contact("panda_hand_tcp", held), LockedJoints(model, joints)], backend="daqp")
+    with pytest.raises(NoQPSolutionError) as caught:
+        problem.step(panda.nominal)
+    assert caught.value.backend == "daqp" and caught.value.status < 0
+    assert f"exit flag {caught.value.status}" in str(caught.value)
+    solution = problem.solve(panda.nominal)
+    assert not solution.success and not solution.converged
+    assert "no solution" in solution.reason and f"exit flag {caught.value.status}" in solution.reason

@@ -15,8 +15,10 @@ BoundConstraint, EqualityConstraint or InequalityConstraint and returns its rows
 sole corners).
 
 Where ours differs from PlaCo (the reference, method ``placo``):
-- Contacts: PlaCo makes a frame task "hard" (an equality row); ours add a Newton projection after
-  every IK step, so each kept iterate holds the contacts to 1e-11, and the answer is verified by FK.
+- Contacts: both make them equality rows of every step (PlaCo: a "hard" frame task), so a step's
+  contact drift is of second order and the next step removes it; ours add Newton projections where
+  that is not enough (from q0, a rejected step, goals met first, a best-effort answer), converge
+  only with every contact within 1e-10, and verify the answer by FK.
 - Support polygon: both use the linearised CoM rows against the polygon shrunk by the margin;
   ours add a few micrometres of safety and reject (by FK) a step whose CoM breaks the margin.
 - Priorities: PlaCo has hard/soft; ours have weights plus optional strict levels (a QP per level).

@@ -117,11 +117,6 @@ class JointPositionLimits(BoundConstraint):
         rows = self._q_rows
         q[rows] = np.minimum(np.maximum(q[rows], self.lower), self.upper)
 
-    def holds(self, q: np.ndarray) -> bool:
-        """q (nq) is inside the limits (``clip`` would leave it as it is)."""
-        values = q[self._q_rows]
-        return not ((values < self.lower).any() or (values > self.upper).any())
-
     def violation(self, kinematics: Kinematics) -> float:
         q = kinematics.q[self.q_index]
         if q.size == 0:

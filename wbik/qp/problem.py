@@ -22,6 +22,7 @@ import pinocchio as pin
 from wbik.errors import NoQPSolutionError
 from wbik.qp import backends
 from wbik.qp.constraints import (
+    BoundConstraint,
     CoMInSupportPolygon,
     Constraint,
     EqualityConstraint,
@@ -89,6 +90,8 @@ class IKProblem:
         self.nv = model.nv
         self._limits = [c for c in self.constraints if isinstance(c, JointPositionLimits)]
         self._equalities = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
+        self._bounds = [c for c in self.constraints if isinstance(c, BoundConstraint)]
+        self._box = backends.StackedConstraints(self.nv, capacity=1)
         self._inequalities = [c for c in self.constraints if isinstance(c, InequalityConstraint)
                               or getattr(c, "kind", "") == "inequality"]  # (see Constraint.rows)
         self._step = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
@@ -112,9 +115,13 @@ class IKProblem:
             limits.clip(q)
         return q
 
-    def _within_limits(self, q: np.ndarray) -> bool:
-        """``clip(q)`` would leave q as it is."""
-        return all(limits.holds(q) for limits in self._limits)
+    def _within_bounds(self, dq: np.ndarray) -> bool:
+        """dq keeps every bound constraint's rows at the current q (dt = 1)."""
+        box = self._box
+        lower, upper = box.clear(np.inf)
+        for constraint in self._bounds:
+            constraint.rows(self.kinematics, 1.0).add_to(box)
+        return not ((dq < lower).any() or (dq > upper).any())
 
     # -- one QP step ----------------------------------------------------------------------------
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
@@ -148,17 +155,17 @@ class IKProblem:
         for _ in range(max_iterations):
             if self._equalities_met(tolerance):
                 return True
-            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it breaks
-            # no bound; otherwise the QP with every constraint
+            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps
+            # every bound (limits, locked joints, velocities); otherwise the QP with every constraint
             rows = [c.equality(kinematics) for c in equalities]
             A, b = rows[0] if len(rows) == 1 else (np.vstack([r.A for r in rows]),
                                                      np.concatenate([r.b for r in rows]))
             try:
-                trial = kinematics.integrate(A.T @ np.linalg.solve(A @ A.T, b))
+                dq = A.T @ np.linalg.solve(A @ A.T, b)
             except np.linalg.LinAlgError:
-                trial = None
-            if trial is not None and self._within_limits(trial):
-                kinematics.update(trial)
+                dq = None
+            if dq is not None and self._within_bounds(dq):
+                kinematics.update(kinematics.integrate(dq))
                 continue
             try:
                 dq = self._step.minimum_norm(self._step.build_constraints(1.0, self.max_step))
