@@ -41,7 +41,7 @@ class Constraint:
         """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities).
 
         A class written against the old contract (``kind = "inequality"`` and ``inequality()``
-        returning (G, h)) is read as an inequality: wbik.riveting.qp_terms.WorkpieceClearance
+        returning (G, h)) is read as an inequality: wbik.apps.riveting.qp_terms.WorkpieceClearance
         still is (debt: it should derive from InequalityConstraint)."""
         if getattr(self, "kind", "") == "inequality":
             return InequalityRows(*self.inequality(kinematics))
