@@ -62,7 +62,7 @@ def test_rows_write_themselves_into_the_stack():
 
 
 def test_a_constraint_with_the_old_kind_contract_is_read_as_an_inequality(biped):
-    class Legacy(Constraint):  # as wbik.riveting.qp_terms.WorkpieceClearance is written
+    class Legacy(Constraint):  # as wbik.apps.riveting.qp_terms.WorkpieceClearance is written
         kind = "inequality"
 
         def inequality(self, kinematics):
