@@ -115,8 +115,8 @@ viewer
 # a 40 mm foot clearance (zd - zu) and a 30 mm step (xm - xf).
 
 # %%
-from wbik.bioloid.gait import GaitParameters
-from wbik.bioloid.step_wholebody import step_forward_wholebody
+from wbik.apps.bioloid.gait import GaitParameters
+from wbik.apps.bioloid.step_wholebody import step_forward_wholebody
 
 step = step_forward_wholebody(robot, margin=0.005)
 motion = step.motion

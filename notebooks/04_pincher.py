@@ -16,7 +16,7 @@ import numpy as np
 
 import wbik
 from wbik import motion
-from wbik.motion import pincher
+from wbik.apps.pincher import teleoperation as pincher
 from wbik.solvers.analytic.pincher import pose_from_position_pitch
 
 robot = wbik.load("pincher")

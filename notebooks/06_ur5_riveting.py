@@ -10,8 +10,8 @@ import meshcat.geometry as mg
 import numpy as np
 import yaml
 
-from wbik.riveting.cycle import simulate
-from wbik.riveting.report import Cell, run_config
+from wbik.apps.riveting.cycle import simulate
+from wbik.apps.riveting.report import Cell, run_config
 from wbik.viz import Viewer
 
 spec = yaml.safe_load(open("../tasks/ur5_riveting.yaml"))

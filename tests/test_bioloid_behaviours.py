@@ -11,8 +11,8 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.bioloid.behaviours import keyframe_rows, load_keyframes, replay_keyframes, turn_in_place, walk
-from wbik.bioloid.gait import time_scale_motion
+from wbik.apps.bioloid.behaviours import keyframe_rows, load_keyframes, replay_keyframes, turn_in_place, walk
+from wbik.apps.bioloid.gait import time_scale_motion
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 READY_POSE = [235, 788, 279, 744, 462, 561, 358, 666, 507, 516, 341, 682, 240, 783, 647, 376, 507, 516]
@@ -113,7 +113,7 @@ def test_keyframe_replay_puts_the_lower_sole_on_the_ground(robot):
 def test_scenario_files_run_and_pass(name, tmp_path):
     import yaml
 
-    import wbik.bioloid.scenarios  # noqa: F401  registers the kinds
+    import wbik.apps.bioloid.scenarios  # noqa: F401  registers the kinds
     from wbik.scenarios import load_scenario, run_scenario
 
     spec = load_scenario(TASKS / f"{name}.yaml")
@@ -132,7 +132,7 @@ def test_scenario_files_run_and_pass(name, tmp_path):
 @pytest.mark.heavy
 @pytest.mark.parametrize("name", ["bioloid_walk_turn", "bioloid_walk_placo"])
 def test_heavy_scenario_files_run(name, tmp_path):
-    import wbik.bioloid.scenarios  # noqa: F401
+    import wbik.apps.bioloid.scenarios  # noqa: F401
     from wbik.scenarios import load_scenario, run_scenario
 
     spec = load_scenario(TASKS / f"{name}.yaml")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.bioloid import sensors
+from wbik.apps.bioloid import sensors
 from wbik.errors import InvalidConfigurationError
 
 # a 100 x 60 mm sole: half sizes a = 0.05, b = 0.03

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wbik.bioloid import servo
+from wbik.apps.bioloid import servo
 from wbik.errors import InvalidConfigurationError
 from wbik.models import load
 from wbik.solvers.analytic import bioloid as ik

@@ -12,8 +12,8 @@ import yaml
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.bioloid import half_steps, sensors, stairs
-from wbik.bioloid.stairs import Staircase, StairStateMachine
+from wbik.apps.bioloid import half_steps, sensors, stairs
+from wbik.apps.bioloid.stairs import Staircase, StairStateMachine
 from wbik.errors import InvalidConfigurationError, WbikError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"

@@ -5,7 +5,7 @@ Layers, from the bottom (see docs/architecture.md):
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
   data); kinematics (dh, robot, models, collision); solving (solvers, qp, wholebody, and the ``wbik``
   facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
-- applications: ``wbik.bioloid`` and ``wbik.riveting``, which use the core;
+- applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core;
 - entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
 
 Each import is classified as *top-level* (runs when the module is imported: module body, class
@@ -36,7 +36,7 @@ CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.t
         "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study",
         "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations",
         "wbik.scenarios")
-APPLICATIONS = ("wbik.bioloid", "wbik.riveting")
+APPLICATIONS = ("wbik.apps",)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.data"),
@@ -57,8 +57,7 @@ TOP_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
     # (core module, application module): reason. None today.
 }
 FUNCTION_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
-    ("wbik.viz.placo_walk", "wbik.bioloid.placo_walk"):
-        "the viewer's PlaCo walk animation re-plans the Bioloid walk; a Bioloid view, kept in viz/",
+    # (core module, application module): reason. None today.
 }
 
 

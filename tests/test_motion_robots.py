@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.motion import pincher
-from wbik.motion.golem3 import approach
+from wbik.apps.golem3.approach import approach
+from wbik.apps.pincher import teleoperation as pincher
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 

@@ -5,13 +5,13 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.riveting.collision import CollisionModel
-from wbik.riveting.cycle import NoiseModel, RunConfig, simulate
-from wbik.riveting.moves import Limits
-from wbik.riveting.ours import QPPlanner
-from wbik.riveting.plan import Insertion
-from wbik.riveting.scene import build_scene
-from wbik.riveting.thesis import ThesisPlanner
+from wbik.apps.riveting.collision import CollisionModel
+from wbik.apps.riveting.cycle import NoiseModel, RunConfig, simulate
+from wbik.apps.riveting.moves import Limits
+from wbik.apps.riveting.ours import QPPlanner
+from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.scene import build_scene
+from wbik.apps.riveting.thesis import ThesisPlanner
 
 
 @pytest.fixture(scope="module")
@@ -136,7 +136,7 @@ def test_pin_stays_in_its_hole_during_insertion(cell):
 def test_formerly_unreachable_holes_have_a_clear_route(cell, name):
     """h14, h15, h16, h20, h21, h27 had no route before (the joint line came within 4.6 mm of the
     workpiece and the QP found no retreat point); three of them, checked as densely as the run."""
-    from wbik.riveting.cycle import check_move
+    from wbik.apps.riveting.cycle import check_move
 
     robot, scene, collision, chain, limits, q_home = cell
     planner = QPPlanner(robot, scene, collision, limits, Insertion())

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from wbik.riveting.report import run_task
+from wbik.apps.riveting.report import run_task
 
 TASK = Path(__file__).resolve().parents[1] / "tasks" / "ur5_riveting.yaml"
 CYCLE_STATES = ["DETECTING_HOLE_POSE", "GOING_HOLE_GUESS", "MOVING_INTO_HOLE", "RIVETING",

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from wbik.riveting.scoring import band, localisation_points, rivet_points, score
+from wbik.apps.riveting.scoring import band, localisation_points, rivet_points, score
 
 
 @pytest.mark.parametrize(("mm", "deg", "points"), [

@@ -4,15 +4,15 @@ import numpy as np
 import pytest
 
 import wbik
+from wbik.apps.riveting.collision import CollisionModel
+from wbik.apps.riveting.cost import UNIT_COST_S, PlanningCost
+from wbik.apps.riveting.cycle import RunConfig, simulate
+from wbik.apps.riveting.moves import Limits
+from wbik.apps.riveting.ours import QPPlanner
+from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.scene import build_scene
+from wbik.apps.riveting.task_states import State, StateTransitionError, TaskStateMachine, state_of_move
 from wbik.errors import WbikError
-from wbik.riveting.collision import CollisionModel
-from wbik.riveting.cost import UNIT_COST_S, PlanningCost
-from wbik.riveting.cycle import RunConfig, simulate
-from wbik.riveting.moves import Limits
-from wbik.riveting.ours import QPPlanner
-from wbik.riveting.plan import Insertion
-from wbik.riveting.scene import build_scene
-from wbik.riveting.task_states import State, StateTransitionError, TaskStateMachine, state_of_move
 
 CYCLE = [State.DETECTING_HOLE_POSE, State.GOING_HOLE_GUESS, State.MOVING_INTO_HOLE, State.RIVETING,
          State.MOVING_OUT_FROM_HOLE, State.GOING_RIVET_HOME]

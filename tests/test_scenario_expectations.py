@@ -107,7 +107,7 @@ def test_motion_fails_on_a_tightened_knot_tolerance():
 
 
 def test_riveting_expectations_judge_a_run_and_check_keys_before_simulating():
-    from wbik.riveting.report import _check_expect_keys, judge
+    from wbik.apps.riveting.report import _check_expect_keys, judge
 
     summary = {"score": {"total": 22}, "collisions": 0, "rivets": 9, "failed_plans": 0,
                "min_clearance_links_mm": 12.0}

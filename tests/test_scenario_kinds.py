@@ -44,11 +44,13 @@ from wbik.scenarios import kinds as registry
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 EXPECTED_KINDS = {
     "wbik.scenarios.wholebody": {"wholebody_ik"},
-    "wbik.motion.scenarios": {"motion_joint", "motion_cartesian", "pincher_motion", "golem3_approach"},
-    "wbik.bioloid.scenarios": {"bioloid_step", "bioloid_walk", "bioloid_turn", "bioloid_keyframes",
-                               "bioloid_placo_walk", "bioloid_half_steps", "bioloid_stairs",
-                               "bioloid_stance_sensors"},
-    "wbik.riveting.scenarios": {"ur5_riveting"},
+    "wbik.motion.scenarios": {"motion_joint", "motion_cartesian"},
+    "wbik.apps.pincher.scenarios": {"pincher_motion"},
+    "wbik.apps.golem3.scenarios": {"golem3_approach"},
+    "wbik.apps.bioloid.scenarios": {"bioloid_step", "bioloid_walk", "bioloid_turn", "bioloid_keyframes",
+                                    "bioloid_placo_walk", "bioloid_half_steps", "bioloid_stairs",
+                                    "bioloid_stance_sensors"},
+    "wbik.apps.riveting.scenarios": {"ur5_riveting"},
 }
 
 

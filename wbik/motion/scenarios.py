@@ -29,8 +29,6 @@ moves one after the other.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -52,7 +50,6 @@ from wbik.scenario_schema import (
     Robot,
     ScenarioError,
     Text,
-    Variants,
     Vector,
     check_robot_params,
     common_keys,
@@ -87,13 +84,13 @@ def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: di
     return entry
 
 
-def _robot(spec: dict):
+def robot_of(spec: dict):
     from wbik.models import load
 
     return load(spec["robot"], **spec["robot_params"])
 
 
-def _vector(value, size: int | None, what: str) -> np.ndarray:
+def vector_of(value, size: int | None, what: str) -> np.ndarray:
     try:
         array = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError) as exc:
@@ -103,21 +100,21 @@ def _vector(value, size: int | None, what: str) -> np.ndarray:
     return array
 
 
-def _start(spec: dict, chain) -> np.ndarray:
+def start_of(spec: dict, chain) -> np.ndarray:
     start = spec["start"]
-    return chain.nominal.copy() if start == "nominal" else _vector(start, chain.nq, "start")
+    return chain.nominal.copy() if start == "nominal" else vector_of(start, chain.nq, "start")
 
 
-def _pose(entry, what: str):
+def pose_of(entry, what: str):
     if isinstance(entry, dict):
-        position = _vector(entry.get("position"), 3, f"{what} position")
+        position = vector_of(entry.get("position"), 3, f"{what} position")
         if "rpy" in entry:
-            return pin.SE3(pin.rpy.rpyToMatrix(*_vector(entry["rpy"], 3, f"{what} rpy")), position)
+            return pin.SE3(pin.rpy.rpyToMatrix(*vector_of(entry["rpy"], 3, f"{what} rpy")), position)
         return position
-    return _vector(entry, 3, what)
+    return vector_of(entry, 3, what)
 
 
-def _timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
+def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
                 extra_defaults: dict | None = None) -> tuple[dict, object]:
     """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
     timing = spec["timing"]
@@ -160,7 +157,7 @@ def _plain(value):
     return value
 
 
-def _export(spec: dict, report: ScenarioReport, trajectory, animation) -> ScenarioReport:
+def export_move(spec: dict, report: ScenarioReport, trajectory, animation) -> ScenarioReport:
     """The last move's trajectory written where ``export`` says (paths in the figures); the animation."""
     export = spec["export"]
     if "csv" in export:
@@ -171,7 +168,7 @@ def _export(spec: dict, report: ScenarioReport, trajectory, animation) -> Scenar
     return report
 
 
-def _animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
+def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
     """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
     from wbik.viz.animation import Animation
 
@@ -181,98 +178,45 @@ def _animation(robot, chain, trajectory, name: str, reference: np.ndarray | None
                                 reference=reference, name=name)
 
 
-def _report(spec: dict, robot) -> ScenarioReport:
+def new_report(spec: dict, robot) -> ScenarioReport:
     return ScenarioReport(spec["name"], spec["kind"], robot.name, {"moves": []})
 
 
 def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.joint import joint_path
 
-    robot = _robot(spec)
+    robot = robot_of(spec)
     chain = robot.chain(spec["chain"])
-    configurations = [_vector(q, chain.nq, f"configurations[{index}]")
+    configurations = [vector_of(q, chain.nq, f"configurations[{index}]")
                       for index, q in enumerate(spec["configurations"])]
     path = joint_path(chain, configurations, int(spec["samples"]))
-    report = _report(spec, robot)
-    entry, trajectory = _timed_move(spec, path, "joint interpolation")
+    report = new_report(spec, robot)
+    entry, trajectory = timed_move(spec, path, "joint interpolation")
     report.add_entry("moves", entry)
-    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, entry["name"]))
+    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, entry["name"]))
 
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.base import solver
 
-    robot = _robot(spec)
+    robot = robot_of(spec)
     ik = solver(spec["method"], robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))
-    waypoints = [_pose(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
-    path = waypoint_path(ik, _start(spec, ik.chain), waypoints, int(spec["samples"]),
+    waypoints = [pose_of(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
+    path = waypoint_path(ik, start_of(spec, ik.chain), waypoints, int(spec["samples"]),
                          float(spec["jump_threshold"]))
-    report = _report(spec, robot)
+    report = new_report(spec, robot)
     chain = ik.chain
     tolerance = float(spec["tolerance"])
     reached = []
     for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
         wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
         reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
-    entry, trajectory = _timed_move(spec, path, f"{len(waypoints)} Cartesian segments",
+    entry, trajectory = timed_move(spec, path, f"{len(waypoints)} Cartesian segments",
                                     {"waypoints_reached": all(reached)}, {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
     report.add_entry("moves", entry)
-    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, entry["name"]))
-
-
-def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion import pincher
-    from wbik.solvers.base import solver
-
-    robot = _robot(spec)
-    ik = solver(spec["method"], robot, timeout_s=float(spec["timeout_s"]))
-    chain = ik.chain
-    q = _start(spec, chain)
-    report, trajectory, animation = _report(spec, robot), None, None
-    for index, move in enumerate(spec["moves"]):
-        if "jog" in move:
-            path = pincher.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
-                               int(move["samples"]))
-            name = f"jog {move['jog']} by {move['delta_deg']} deg"
-        elif "plane_line" in move:
-            line = move["plane_line"]
-            start = _vector(line["start_xy_mm"], 2, "start_xy_mm") / 1000.0
-            goal = _vector(line["goal_xy_mm"], 2, "goal_xy_mm") / 1000.0
-            path = pincher.plane_line(ik, start, goal, int(line["samples"]), q0=q)
-            name = f"plane line {line['start_xy_mm']} -> {line['goal_xy_mm']} mm"
-        elif "automatic" in move:
-            path = pincher.automatic_path(ik, int(move["automatic"]["samples"]))
-            name = "automatic cycle"
-        else:
-            raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
-        entry, trajectory = _timed_move({**spec, **move}, path, name)
-        report.add_entry("moves", entry)
-        move_animation = _animation(robot, chain, trajectory, name)
-        animation = move_animation if animation is None else animation.then(move_animation, pause=0.25)
-        q = path.q[-1].copy()
-        if on_progress is not None:
-            on_progress(report)
-    return _export(spec, report, trajectory, animation)
-
-
-def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion.golem3 import ARM_WITH_LIFT, approach
-
-    robot = _robot(spec)
-    chain = robot.chain(ARM_WITH_LIFT)
-    grasp = spec["grasp"]
-    if "from_joints" in grasp:
-        goal = chain.fk(_vector(grasp["from_joints"], chain.nq, "grasp from_joints"))
-    else:
-        goal = _pose(grasp, "grasp")
-    path = approach(robot, _start(spec, chain), goal, int(spec["samples"]), spec["method"],
-                    timeout_s=float(spec["timeout_s"]))
-    report = _report(spec, robot)
-    entry, trajectory = _timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
-    report.add_entry("moves", entry)
-    return _export(spec, report, trajectory, _animation(robot, chain, trajectory, "approach"))
+    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, entry["name"]))
 
 
 def format_report(report: dict) -> str:
@@ -290,69 +234,54 @@ def format_report(report: dict) -> str:
 
 
 # -- the schemas -----------------------------------------------------------------------------------
+def timing_node() -> Map:
+    """``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults of time_scale)."""
+    limit = Either(Number(gt=0, nullable=True), Vector(positive=True))
+    return Map({"law": Key(Text(time_laws), default_of(time_scale, "law")),
+                "mode": Key(Text(timing_modes), default_of(time_scale, "mode")),
+                "velocity_limit": Key(limit, None), "acceleration_limit": Key(limit, None),
+                "dt": Key(Number(gt=0, nullable=True, unit="s"), None)}, nullable=True)
+
+
+def common_motion_keys() -> dict[str, Key]:
+    """Keys every motion kind has: robot, timing, export, tolerance, expect (+ the shared ones)."""
+    return {**common_keys(robot=Key(Robot(), required=True)),
+            "timing": Key(timing_node(), {}),
+            "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
+                              nullable=True), {}),
+            "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
+            "expect": Key(expect_block(MOVE_RULES), None)}
+
+
+def solving_keys() -> dict[str, Key]:
+    """Keys of the kinds that solve IK: method, timeout_s, start."""
+    return {"method": Key(Method(), "dls"), "timeout_s": Key(Number(gt=0, unit="s", budget=True), 0.05),
+            "start": Key(START, "nominal")}
+
+
+def samples_key(function) -> dict[str, Key]:
+    """``samples`` with the default of the path builder it feeds."""
+    return {"samples": Key(Number(ge=1, integer=True), default_of(function, "samples"))}
+
+
 def motion_schema(kind: str) -> Map:
-    """The keys of a motion kind's file (see the module docstring); defaults of ``samples``,
-    ``timing`` and ``jump_threshold`` are those of the functions they feed."""
-    from wbik.motion import golem3, pincher
+    """The keys of a generic motion kind's file (see the module docstring)."""
     from wbik.motion.cartesian import waypoint_path
     from wbik.motion.joint import joint_path
 
-    limit = Either(Number(gt=0, nullable=True), Vector(positive=True))
-    timing = Map({"law": Key(Text(time_laws), default_of(time_scale, "law")),
-                  "mode": Key(Text(timing_modes), default_of(time_scale, "mode")),
-                  "velocity_limit": Key(limit, None), "acceleration_limit": Key(limit, None),
-                  "dt": Key(Number(gt=0, nullable=True, unit="s"), None)}, nullable=True)
-    common = {**common_keys(robot=Key(Robot(), required=True)),
-              "timing": Key(timing, {}),
-              "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
-                                nullable=True), {}),
-              "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
-              "expect": Key(expect_block(MOVE_RULES), None)}
-    solving = {"method": Key(Method(), "dls"), "timeout_s": Key(Number(gt=0, unit="s", budget=True), 0.05),
-               "start": Key(START, "nominal")}
-
-    def samples(function) -> dict[str, Key]:
-        return {"samples": Key(Number(ge=1, integer=True), default_of(function, "samples"))}
-
     if kind == "motion_joint":
-        keys = {**samples(joint_path), "chain": Key(Text(what="a chain name", nullable=True), None),
+        keys = {**samples_key(joint_path), "chain": Key(Text(what="a chain name", nullable=True), None),
                 "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
     elif kind == "motion_cartesian":
         waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving, **samples(waypoint_path),
+        keys = {**solving_keys(), **samples_key(waypoint_path),
                 "chain": Key(Text(what="a chain name", nullable=True), None),
                 "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
                                  required=True),
                 "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}
-    elif kind == "pincher_motion":
-        # a move's own timing / tolerance / expect override the scenario's (no defaults here)
-        own = {"timing": Key(timing), "tolerance": Key(common["tolerance"].node),
-               "expect": Key(expect_block(MOVE_RULES))}
-        moves = {
-            "jog": Map({"jog": Key(Either(Text(what="a joint name"), Number(integer=True))),
-                        "delta_deg": Key(Number(unit="deg"), 0.0), **samples(pincher.jog), **own}),
-            "plane_line": Map({"plane_line": Key(Map({"start_xy_mm": Key(Vector(2), required=True),
-                                                      "goal_xy_mm": Key(Vector(2), required=True),
-                                                      **samples(pincher.plane_line)}), required=True),
-                               **own}),
-            "automatic": Map({"automatic": Key(Map(samples(pincher.automatic_path), nullable=True),
-                                               required=True), **own}),
-        }
-
-        def move_kind(move: Mapping) -> str | None:
-            found = [name for name in moves if name in move]
-            return found[0] if len(found) == 1 else (None if not found else "+".join(found))
-
-        move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
-                                          "{automatic: {}}", "move")
-        keys = {**solving, "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
-    elif kind == "golem3_approach":
-        grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
-                       Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving, **samples(golem3.approach), "grasp": Key(grasp, required=True)}
     else:
         raise ValueError(f"not a motion kind: {kind!r}")
-    return Map({**common, **keys}, post=check_robot_params)
+    return Map({**common_motion_keys(), **keys}, post=check_robot_params)
 
 
 SCENARIO_KINDS = (
@@ -360,8 +289,4 @@ SCENARIO_KINDS = (
                  "joint-space interpolation through configurations"),
     ScenarioKind("motion_cartesian", run_cartesian, lambda: motion_schema("motion_cartesian"), format_report,
                  "straight Cartesian lines through waypoints"),
-    ScenarioKind("pincher_motion", run_pincher, lambda: motion_schema("pincher_motion"), format_report,
-                 "a Pincher teleoperation session (jog, plane line, automatic cycle)"),
-    ScenarioKind("golem3_approach", run_golem3, lambda: motion_schema("golem3_approach"), format_report,
-                 "Golem-III straight grasp approach, torso lift when needed"),
 )

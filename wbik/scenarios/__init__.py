@@ -3,8 +3,8 @@
 Every file has a ``kind`` and usually a ``robot``. A kind (:class:`ScenarioKind`, registered in
 :mod:`wbik.scenarios.kinds`) is declared next to its runner with its schema and its printed report:
 ``wholebody_ik`` in :mod:`wbik.scenarios.wholebody`, the motion kinds in
-:mod:`wbik.motion.scenarios`, the Bioloid behaviours in :mod:`wbik.bioloid.scenarios`, the UR5
-riveting cell in :mod:`wbik.riveting.scenarios`.
+:mod:`wbik.motion.scenarios`, the Bioloid behaviours in :mod:`wbik.apps.bioloid.scenarios`, the UR5
+riveting cell in :mod:`wbik.apps.riveting.scenarios`.
 
 Before anything runs, the file is checked against its kind's schema (:mod:`wbik.scenario_schema`:
 allowed keys, types, ranges and the one set of defaults), and the runner reads the checked copy.
@@ -31,7 +31,7 @@ from wbik.scenarios.kinds import (
     report_verdict,
     scenario_kind,
 )
-from wbik.scenarios.kinds import json_default as _json_default  # noqa: F401  imported by wbik.riveting.report
+from wbik.scenarios.kinds import json_default as _json_default  # noqa: F401  imported by wbik.apps.riveting.report
 
 __all__ = ["ScenarioError", "ScenarioKind", "ScenarioReport", "format_report", "load_scenario",
            "register_kind", "register_module", "report_verdict", "run_scenario", "run_scenario_animated",

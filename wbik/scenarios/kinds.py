@@ -44,10 +44,12 @@ __all__ = ["KIND_MODULES", "ScenarioKind", "ScenarioKindError", "ScenarioKindImp
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
-    "wbik.motion.scenarios",  # motion_joint, motion_cartesian, pincher_motion, golem3_approach
-    "wbik.bioloid.scenarios",  # bioloid_step, _walk, _turn, _keyframes, _placo_walk, _half_steps, _stairs,
-    #                            bioloid_stance_sensors
-    "wbik.riveting.scenarios",  # ur5_riveting
+    "wbik.motion.scenarios",  # motion_joint, motion_cartesian
+    "wbik.apps.pincher.scenarios",  # pincher_motion
+    "wbik.apps.golem3.scenarios",  # golem3_approach
+    "wbik.apps.bioloid.scenarios",  # bioloid_step, _walk, _turn, _keyframes, _placo_walk, _half_steps,
+    #                                 _stairs, bioloid_stance_sensors
+    "wbik.apps.riveting.scenarios",  # ur5_riveting
 ]
 """The modules whose ``SCENARIO_KINDS`` are registered (a new module of kinds: one line here)."""
 

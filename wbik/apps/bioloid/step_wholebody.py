@@ -1,6 +1,6 @@
 """(b) The thesis's step forward as whole-body IK on the QP layer (wbik.qp), one QP solve per sample.
 
-Same phases, key points and 5 divisions as the faithful version (:mod:`wbik.bioloid.step_faithful`),
+Same phases, key points and 5 divisions as the faithful version (:mod:`wbik.apps.bioloid.step_faithful`),
 but every sample is one configuration of the whole robot (free-flyer base + 18 joints) solved with:
 
 hard (every sample, verified afterwards by FK)
@@ -22,7 +22,7 @@ ahead of the stance foot in phase 3; in phase 5 the rear foot comes beside the f
 (dragged on the floor as in the code, or lifted by ``rear_lift``).
 
 The generic engine (:func:`solve_phases` over :class:`BodyPhase`) also drives the turn and walk
-behaviours (:mod:`wbik.bioloid.behaviours`).
+behaviours (:mod:`wbik.apps.bioloid.behaviours`).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.apps.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
 from wbik.errors import InvalidConfigurationError
 from wbik.models.bioloid import ARM_JOINTS
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND

@@ -15,7 +15,7 @@ BackSL     left        mirror of BackSR
 =========  ==========  =========================================================================
 
 We do not replay the matrices (they are not in our sources). Each half step is generated here
-with the same engine as the whole-body step (:func:`wbik.bioloid.step_wholebody.solve_phases`),
+with the same engine as the whole-body step (:func:`wbik.apps.bioloid.step_wholebody.solve_phases`),
 in three phases:
 
 1. both feet down: the CoM moves over the foot that stays (hand-over to its sole alone);
@@ -39,8 +39,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.bioloid.gait import OTHER, SOLE, GaitParameters
-from wbik.bioloid.step_wholebody import (
+from wbik.apps.bioloid.gait import OTHER, SOLE, GaitParameters
+from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
     WholeBodyMotion,

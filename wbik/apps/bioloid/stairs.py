@@ -11,13 +11,13 @@ task's figures). The Sharp beam, 12 mm above the sole, sees a 30 mm riser.
 
 Sensors, from the robot's pose at every sample (the whole-body samples are the board's samples):
 
-- Sharp: the beam (:func:`wbik.bioloid.sensors.sharp_ray`) is ray-cast on the step boxes; the true
-  distance goes through the folded curve (:func:`wbik.bioloid.sensors.sharp_reading_mm`), so the
+- Sharp: the beam (:func:`wbik.apps.bioloid.sensors.sharp_ray`) is ray-cast on the step boxes; the true
+  distance goes through the folded curve (:func:`wbik.apps.bioloid.sensors.sharp_reading_mm`), so the
   reading falls while the foot nears the riser and rises again within about 34 mm of it.
 - FSRs: the soles in contact (every corner on the surface under it, flat) carry the weight by
-  :func:`wbik.bioloid.sensors.support_loads` at the CoM projection; a sole in the air reads 0. The
-  force law :func:`wbik.bioloid.sensors.fsr_reading_mv` gives mV; each foot board keeps the moving
-  average of the last 3 samples (:class:`~wbik.bioloid.sensors.MovingAverage`), and the state
+  :func:`wbik.apps.bioloid.sensors.support_loads` at the CoM projection; a sole in the air reads 0. The
+  force law :func:`wbik.apps.bioloid.sensors.fsr_reading_mv` gives mV; each foot board keeps the moving
+  average of the last 3 samples (:class:`~wbik.apps.bioloid.sensors.MovingAverage`), and the state
   machine reads the filtered values.
 
 The state machine (:class:`StairStateMachine`, the code's logic of bioloid.md 5.6 and 6.5): the
@@ -61,10 +61,10 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.bioloid import sensors
-from wbik.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
-from wbik.bioloid.half_steps import HALF_STEP_LIFT, RAMP_INSET, along, half_step_phases, recentre_goal
-from wbik.bioloid.step_wholebody import (
+from wbik.apps.bioloid import sensors
+from wbik.apps.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.apps.bioloid.half_steps import HALF_STEP_LIFT, RAMP_INSET, along, half_step_phases, recentre_goal
+from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
     com_over_phase,
@@ -520,7 +520,7 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             side = StairStateMachine.turn(entry["sharp_mm"])
             if side is None:
                 break
-            from wbik.bioloid.behaviours import turn_phases
+            from wbik.apps.bioloid.behaviours import turn_phases
 
             angle = math.radians(TURN_MEDIUM_DEG) * (1 if side == "left" else -1)
             phases, after = turn_phases(robot, sim.soles(), angle, gait)

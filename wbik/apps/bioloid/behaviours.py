@@ -1,7 +1,7 @@
 """Bioloid behaviours built on the whole-body step: turning in place, walking N steps then turning,
 and replaying the code's Roboplus keyframes (stairs, medium turns).
 
-Whole-body behaviours are phase lists for :func:`wbik.bioloid.step_wholebody.solve_phases`, so every
+Whole-body behaviours are phase lists for :func:`wbik.apps.bioloid.step_wholebody.solve_phases`, so every
 sample holds its contacts exactly and keeps the CoM inside the support polygon by the margin.
 
 Turn in place by ``angle`` (positive = left) about the midpoint of the feet: for a left turn the
@@ -11,7 +11,7 @@ the soles and put down, the pelvis yaw follows in two halves, and a last double-
 re-centres the CoM between the feet.
 
 Keyframe replay (tasks/data/bioloid_keyframes.yaml, from the author's BioloidPosDef.h): each row
-of servo units becomes joint angles (:func:`wbik.bioloid.servo.from_servo_units`); the robot is
+of servo units becomes joint angles (:func:`wbik.apps.bioloid.servo.from_servo_units`); the robot is
 put with its lower sole flat on the ground and each row reports the other sole's height and tilt
 and the CoM margin over the lower sole (the stair geometry is not in the sources, so no step is
 modelled).
@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
-from wbik.bioloid.step_faithful import flatten_on_ground, place_on_anchor
-from wbik.bioloid.step_wholebody import (
+from wbik.apps.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
+from wbik.apps.bioloid.step_faithful import flatten_on_ground, place_on_anchor
+from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
     WholeBodyMotion,
@@ -193,7 +193,7 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
     above that ground, the CoM margin (m) over the lower sole alone and over both soles when the
     other one is within 5 mm of the ground, and the joints beyond the URDF limits.
     """
-    from wbik.bioloid.servo import from_servo_units
+    from wbik.apps.bioloid.servo import from_servo_units
 
     data = load_keyframes(path)
     units, row_times, pages = keyframe_rows(data, behaviour)

@@ -23,10 +23,10 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbik.apps.riveting.collision import CollisionModel
 from wbik.qp.constraints import Constraint
 from wbik.qp.kinematics import LWA, Kinematics
 from wbik.qp.tasks import Task
-from wbik.riveting.collision import CollisionModel
 
 
 class ToolAxisTask(Task):

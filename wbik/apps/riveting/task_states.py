@@ -13,7 +13,7 @@ per state; the seed lists the transitions and the action taken on each:
     RIVETING            -> MOVING_OUT_FROM_HOLE move_to(location_pose_aux)
     MOVING_OUT_FROM_HOLE-> GOING_RIVET_HOME     move_to(rivet_home), then reload (load_rivet)
 
-The cycle runner (:mod:`wbik.riveting.cycle`) enters each state before the moves that belong to it
+The cycle runner (:mod:`wbik.apps.riveting.cycle`) enters each state before the moves that belong to it
 (:func:`state_of_move`) and records every visit with its simulated time; any other transition
 raises :class:`StateTransitionError`.
 """

@@ -1,6 +1,6 @@
 """The animation of PlaCo's walk (``bioloid_placo_walk``): PlaCo's own whole-body IK on its plan.
 
-:func:`wbik.bioloid.placo_walk.placo_walk` measures PlaCo's plan (footsteps, CoM and ZMP) but keeps
+:func:`wbik.apps.bioloid.placo_walk.placo_walk` measures PlaCo's plan (footsteps, CoM and ZMP) but keeps
 no robot configuration. Here the same plan is made again with the same parameters (every value is
 read from ``placo_walk``'s module or restated below, and the footsteps are compared with the ones
 the report holds: a mismatch raises) and PlaCo's ``WalkTasks`` (feet on PlaCo's foot trajectories,
@@ -12,7 +12,7 @@ PlaCo's solver treats every walk task as soft, and the plan's 40 mm foot rise at
 height is not always within reach of the Bioloid's legs: measured on tasks/bioloid_walk_placo.yaml,
 the stance sole leaves the floor by up to 33 mm for a few samples of the second and fourth single
 supports (from 2.05 s and 3.25 s). The animation shows PlaCo's plan as PlaCo's IK follows it; the
-report's figures are PlaCo's plan itself (wbik.bioloid.placo_walk), not this IK.
+report's figures are PlaCo's plan itself (wbik.apps.bioloid.placo_walk), not this IK.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
     """PlaCo's walk of ``steps`` steps as a :class:`wbik.viz.animation.Animation` (see the module
     docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
-    from wbik.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf, plan_footsteps
+    from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf, plan_footsteps
     from wbik.solvers.placo import import_placo, placo_configuration, set_placo_configuration
     from wbik.viz.animation import Animation, Overlays
 
@@ -48,7 +48,7 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                                    or not np.allclose(planned_x, footstep_x, atol=1e-9)):
         raise InvalidConfigurationError(
             f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
-            "wbik.viz.placo_walk no longer mirrors wbik.bioloid.placo_walk")
+            "wbik.apps.bioloid.placo_view no longer mirrors wbik.apps.bioloid.placo_walk")
     supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
     trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, humanoid.com_world(), 0.0)
 

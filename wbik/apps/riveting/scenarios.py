@@ -1,5 +1,5 @@
 """Scenario kind ``ur5_riveting`` for ``wbik run tasks/ur5_riveting.yaml``: its schema, runner and
-printed report (:func:`wbik.riveting.report.format_text`), registered in ``SCENARIO_KINDS`` (see
+printed report (:func:`wbik.apps.riveting.report.format_text`), registered in ``SCENARIO_KINDS`` (see
 :mod:`wbik.scenarios.kinds`).
 
 The report's figures hold every planner's summary, Table 5 score and cycles (``runs``), the
@@ -8,7 +8,7 @@ report.json and report.md there. The defaults of ``duration_s``, ``seed``, ``max
 ``insertion`` and ``noise`` are the riveting dataclasses' own (RunConfig, Insertion, NoiseModel);
 a planner's options default to its class's, but for ``backend`` (the scenario-wide QP backend,
 :func:`wbik.scenario_schema.backend_key`); missing ``scene`` keys take
-:data:`wbik.riveting.scene.DEFAULT_SCENE`.
+:data:`wbik.apps.riveting.scene.DEFAULT_SCENE`.
 
 The report's animation is light (what ``wbik view`` plays; the three 300 s runs at this rate would
 add some 9,000 samples, ~12 MB): the first planner's first ``ANIMATION_SECONDS`` (going home and
@@ -22,8 +22,8 @@ from dataclasses import fields
 
 import numpy as np
 
+from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
 from wbik.errors import WbikError
-from wbik.riveting.report import RIVETING_RULES, format_text, run_task, write_report
 from wbik.scenario_schema import (
     NON_NEGATIVE,
     POSITIVE,
@@ -79,14 +79,14 @@ def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     if kept:
         from wbik.models import load
 
-        robot = load(spec["robot"])  # the robot of wbik.riveting.report.Cell, arm chain "arm"
+        robot = load(spec["robot"])  # the robot of wbik.apps.riveting.report.Cell, arm chain "arm"
         report.animation = riveting_animation(robot.chain("arm"), next(iter(kept.values())))
     return report
 
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
                        sample_s: float = ANIMATION_SAMPLE_S):
-    """The first ``seconds`` of a planner's run (a wbik.riveting.cycle.RunResult, whose timeline holds
+    """The first ``seconds`` of a planner's run (a wbik.apps.riveting.cycle.RunResult, whose timeline holds
     the moves with their start times) every ``sample_s``, the chain's tip traced."""
     from wbik.viz.animation import Animation
 
@@ -104,16 +104,16 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
 
 
 def riveting_schema() -> Map:
-    """The keys of a ur5_riveting file (see the module docstring and wbik.riveting.report)."""
-    from wbik.riveting.cycle import NoiseModel, RunConfig
-    from wbik.riveting.plan import Insertion
+    """The keys of a ur5_riveting file (see the module docstring and wbik.apps.riveting.report)."""
+    from wbik.apps.riveting.cycle import NoiseModel, RunConfig
+    from wbik.apps.riveting.plan import Insertion
 
     run = {item.name: item.default for item in fields(RunConfig)}
     position = Map({"position": Key(VECTOR3), "rpy": Key(VECTOR3)})
     rows = ListOf(Map({"x": Key(Vector(), required=True), "y": Key(Number(unit="m")),
                        "z": Key(Number(unit="m"))}), min_items=1)
     face = Map({"rows": Key(rows, required=True)})
-    scene = Map({  # missing keys take wbik.riveting.scene.DEFAULT_SCENE
+    scene = Map({  # missing keys take wbik.apps.riveting.scene.DEFAULT_SCENE
         "table": Key(Map({"top_z": Key(Number(unit="m")), "center": Key(Vector(2)),
                           "size": Key(Vector(3, positive=True))})),
         "workpiece": Key(Map({"center": Key(Vector(2)), "size": Key(Vector(3, positive=True))})),
@@ -122,7 +122,7 @@ def riveting_schema() -> Map:
         "rivet_home": Key(position)}, nullable=True)
     named = {"name": Key(Text())}
     noise = {"position_sigma": NON_NEGATIVE, "position_max": POSITIVE, "angle_sigma_deg": NON_NEGATIVE}
-    planners = {  # options and their defaults are the planner classes' (wbik.riveting.thesis / .ours)
+    planners = {  # options and their defaults are the planner classes' (wbik.apps.riveting.thesis / .ours)
         "thesis": Map({**named, "planner": Key(Text()), "timing": Key(Text(("thesis", "optimal"))),
                        "intermediate_distance": Key(Number(gt=0, unit="m")),
                        "intermediate_time": Key(Number(gt=0, unit="s")), "sleep": Key(Number(ge=0, unit="s")),

@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.riveting.collision import CollisionModel
-from wbik.riveting.moves import Limits, Move
-from wbik.riveting.scene import Hole, Scene
+from wbik.apps.riveting.collision import CollisionModel
+from wbik.apps.riveting.moves import Limits, Move
+from wbik.apps.riveting.scene import Hole, Scene
 from wbik.robot import Robot
 
 TRIGGER = "trigger_rivet"
@@ -58,7 +58,7 @@ class CyclePlan:
     planning_time_s: float = 0.0
     """Measured wall time of the planning (s): reported, never charged (it depends on the load)."""
     planning_cost_s: float = 0.0
-    """Planning time charged to the run (s): counted operations x calibrated costs (wbik.riveting.cost)."""
+    """Planning time charged to the run (s): counted operations x calibrated costs (apps.riveting.cost)."""
     info: dict = field(default_factory=dict)
 
     @property
@@ -90,7 +90,7 @@ class Planner:
         raise NotImplementedError
 
     def go_home(self, q_from: np.ndarray, q_home: np.ndarray) -> list[Move]:
-        from wbik.riveting.moves import timed_move
+        from wbik.apps.riveting.moves import timed_move
 
         return [timed_move("to rivet_home", self.chain, np.array([q_from, q_home]), self.limits)]
 

@@ -21,7 +21,7 @@ measured medians of 0.58 ms (ik), 0.47 ms (clearance), 0.74 ms (line_timing), 13
 are these rounded up. ``line_estimate`` and ``qp_iteration`` are estimates, not measured (the QP
 fallback is not used on the default cell). The model leaves out the Python work between
 operations: on the full default run it charged 13.25 s of planning where the wall time measured
-15.8 s. Rerun ``python -m wbik.riveting.cost`` to see this machine's figures.
+15.8 s. Rerun ``python -m wbik.apps.riveting.cost`` to see this machine's figures.
 """
 
 from __future__ import annotations
@@ -81,10 +81,10 @@ def calibrate(repeats: int = 200) -> dict[str, float]:
     import pinocchio as pin
 
     import wbik
-    from wbik.riveting.collision import CollisionModel
-    from wbik.riveting.moves import Limits, sample_times, timed_move
-    from wbik.riveting.plan import Insertion
-    from wbik.riveting.scene import build_scene
+    from wbik.apps.riveting.collision import CollisionModel
+    from wbik.apps.riveting.moves import Limits, sample_times, timed_move
+    from wbik.apps.riveting.plan import Insertion
+    from wbik.apps.riveting.scene import build_scene
 
     robot = wbik.load("ur5")
     scene = build_scene()

@@ -6,7 +6,7 @@ Kinds (each report's figures have a ``behaviours`` list; the stance's a ``moves`
 
 - ``bioloid_step``: the thesis's step forward. ``generators: [faithful, wholebody]`` (default both),
   ``first: left|right``, ``margin`` (m), ``rear_lift`` (m), ``gait`` (overrides of
-  :class:`~wbik.bioloid.gait.GaitParameters`), ``timing: {speed_rpm, law, mode}``,
+  :class:`~wbik.apps.bioloid.gait.GaitParameters`), ``timing: {speed_rpm, law, mode}``,
   ``export: {servo_csv: PATH, dt: S}``. ``expect: {faithful: {...}, wholebody: {...}}`` with the
   keys of ``FAITHFUL_RULES`` and ``WHOLEBODY_RULES``.
 - ``bioloid_walk``: ``steps`` forward then ``turn_deg`` (0 = none), whole-body; ``bioloid_turn``:
@@ -15,17 +15,17 @@ Kinds (each report's figures have a ``behaviours`` list; the stance's a ``moves`
   tasks/data/bioloid_keyframes.yaml); ``expect`` has the keys of ``KEYFRAME_RULES`` for every
   behaviour, and ``behaviours: {NAME: {...}}`` for one behaviour's own thresholds.
 - ``bioloid_placo_walk``: PlaCo's walk pattern generator on the same URDF (``steps``, ``step_length``,
-  ``margin``); see :mod:`wbik.bioloid.placo_walk`; ``expect`` has the keys of ``PLACO_WALK_RULES``.
+  ``margin``); see :mod:`wbik.apps.bioloid.placo_walk`; ``expect`` has the keys of ``PLACO_WALK_RULES``.
 - ``bioloid_half_steps``: the half steps of ``sequence``; ``bioloid_stairs``: the sensor-driven
-  stair climb (``stairs``: the fields of :class:`~wbik.bioloid.stairs.Staircase`).
+  stair climb (``stairs``: the fields of :class:`~wbik.apps.bioloid.stairs.Staircase`).
 - ``bioloid_stance_sensors``: expected FSR loads and centre of pressure of the static stance at
   ``start``; ``expect`` has the key of ``STANCE_RULES`` (default: CoP on the CoM projection to
   ``tolerance``).
 
 Defaults are the ones of the functions the keys feed (:func:`wbik.scenario_schema.default_of`):
-``timing`` those of :func:`~wbik.bioloid.gait.time_scale_motion` (40 rpm, quintic, "segment": rest
+``timing`` those of :func:`~wbik.apps.bioloid.gait.time_scale_motion` (40 rpm, quintic, "segment": rest
 at every sample like the seed code), ``steps``/``turn_deg``/``first``/``rear_lift`` those of
-:func:`~wbik.bioloid.behaviours.walk` and :func:`~wbik.bioloid.behaviours.turn_in_place`, and so on;
+:func:`~wbik.apps.bioloid.behaviours.walk` and :func:`~wbik.apps.bioloid.behaviours.turn_in_place`, and so on;
 ``margin`` and ``backend`` are the scenario-wide ones (:func:`wbik.scenario_schema.margin_key`,
 :func:`~wbik.scenario_schema.backend_key`).
 
@@ -145,7 +145,7 @@ def _robot(spec: dict):
 
 
 def _gait(spec: dict):
-    from wbik.bioloid.gait import GaitParameters
+    from wbik.apps.bioloid.gait import GaitParameters
 
     return GaitParameters(**spec["gait"])  # every field, checked by wbik.scenario_schema
 
@@ -155,7 +155,7 @@ def _report(spec: dict, robot) -> ScenarioReport:
 
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
-    """A sampled motion (wbik.bioloid.gait.SampledMotion) at ``times``: its soles on the ground are
+    """A sampled motion (wbik.apps.bioloid.gait.SampledMotion) at ``times``: its soles on the ground are
     the support and the contacts of every sample."""
     from wbik.viz.animation import Animation, Overlays
 
@@ -167,7 +167,7 @@ def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
 def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[dict, object]:
     """Summary, timing, servo export and expectations of a whole-body result; the entry and the
     animation of its samples at their knot times."""
-    from wbik.bioloid.gait import time_scale_motion
+    from wbik.apps.bioloid.gait import time_scale_motion
 
     timing = spec["timing"]
     timed = time_scale_motion(result.motion, timing["speed_rpm"], timing["law"], timing["mode"])
@@ -191,8 +191,8 @@ def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[di
 
 
 def run_step(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.bioloid.step_faithful import step_forward_faithful
-    from wbik.bioloid.step_wholebody import step_forward_wholebody
+    from wbik.apps.bioloid.step_faithful import step_forward_faithful
+    from wbik.apps.bioloid.step_wholebody import step_forward_wholebody
 
     robot = _robot(spec)
     gait = _gait(spec)
@@ -242,7 +242,7 @@ def _joined(animations: list):
 
 
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.bioloid.behaviours import turn_in_place, walk
+    from wbik.apps.bioloid.behaviours import turn_in_place, walk
 
     robot = _robot(spec)
     gait = _gait(spec)
@@ -267,8 +267,8 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.bioloid.behaviours import replay_keyframes
-    from wbik.bioloid.servo import to_servo
+    from wbik.apps.bioloid.behaviours import replay_keyframes
+    from wbik.apps.bioloid.servo import to_servo
 
     robot = _robot(spec)
     report = _report(spec, robot)
@@ -310,8 +310,8 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.bioloid.placo_walk import placo_walk
-    from wbik.viz.placo_walk import placo_walk_animation
+    from wbik.apps.bioloid.placo_view import placo_walk_animation
+    from wbik.apps.bioloid.placo_walk import placo_walk
 
     robot = _robot(spec)
     report = _report(spec, robot)
@@ -357,7 +357,7 @@ def scenario_path(name: str) -> Path:
     return data_dir("tasks") / f"{name}.yaml"
 
 
-# -- half steps and stairs (wbik.bioloid.half_steps, wbik.bioloid.stairs) -------------------------------
+# -- half steps and stairs (wbik.apps.bioloid.half_steps, wbik.apps.bioloid.stairs) ------------------
 
 STAIR_RULES = {
     "reached_top": Rule("reached_top", "=="),
@@ -375,8 +375,8 @@ limits, the swing sole's distance to the step edges, no sole corner below the su
 def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_half_steps``: the half steps of ``sequence`` one after the other, each judged
     like a whole-body behaviour (``expect`` with the keys of ``WHOLEBODY_RULES``, for each)."""
-    from wbik.bioloid.half_steps import half_step_phases
-    from wbik.bioloid.step_wholebody import current_soles, solve_phases
+    from wbik.apps.bioloid.half_steps import half_step_phases
+    from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases
 
     robot = _robot(spec)
     gait = _gait(spec)
@@ -403,14 +403,14 @@ def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_stairs``: the sensor-driven stair behaviour on a simulated staircase
-    (``stairs``: the fields of :class:`wbik.bioloid.stairs.Staircase`), see
-    :func:`wbik.bioloid.stairs.simulate_stairs`. The entry has the states visited, the reads the
+    (``stairs``: the fields of :class:`wbik.apps.bioloid.stairs.Staircase`), see
+    :func:`wbik.apps.bioloid.stairs.simulate_stairs`. The entry has the states visited, the reads the
     state machine decided on, and one record per sample (state, Sharp and filtered FSR readings,
     CoM margin, swing-sole clearance to the step edges); ``expect`` has the keys of ``STAIR_RULES``.
     The animation has the samples at their timed knot times; the staircase itself is not drawn
     (the animation carries no scene geometry)."""
-    from wbik.bioloid.gait import time_scale_motion
-    from wbik.bioloid.stairs import Staircase, simulate_stairs
+    from wbik.apps.bioloid.gait import time_scale_motion
+    from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
 
     robot = _robot(spec)
     gait = _gait(spec)
@@ -438,7 +438,7 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     return report
 
 
-# -- the static stance's foot sensors (wbik.bioloid.sensors) ------------------------------------------
+# -- the static stance's foot sensors (wbik.apps.bioloid.sensors) ------------------------------------------
 STANCE_RULES = {"cop_error_max_m": Rule("cop_minus_com_m", "<=", "m")}
 """The stance: its centre of pressure on the CoM's ground projection (statics: exact)."""
 
@@ -446,7 +446,7 @@ STANCE_RULES = {"cop_error_max_m": Rule("cop_minus_com_m", "<=", "m")}
 def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_stance_sensors``: the FSR loads and CoP of the static stance at ``start`` (one
     entry in ``moves``); the animation is that stance, one still sample on both soles."""
-    from wbik.bioloid.sensors import stance_loads
+    from wbik.apps.bioloid.sensors import stance_loads
     from wbik.viz.animation import Animation, Overlays
 
     robot = _robot(spec)
@@ -480,12 +480,12 @@ def format_stance(report: dict) -> str:
 # -- the schemas -----------------------------------------------------------------------------------
 def bioloid_schema(kind: str) -> Map:
     """The keys of a Bioloid kind's file (see the module docstring)."""
-    from wbik.bioloid.behaviours import turn_in_place, walk
-    from wbik.bioloid.gait import GaitParameters, TimedMotion, time_scale_motion
-    from wbik.bioloid.half_steps import HALF_STEPS, half_step_phases
-    from wbik.bioloid.placo_walk import placo_walk
-    from wbik.bioloid.stairs import Staircase, simulate_stairs
-    from wbik.bioloid.step_faithful import step_forward_faithful
+    from wbik.apps.bioloid.behaviours import turn_in_place, walk
+    from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, time_scale_motion
+    from wbik.apps.bioloid.half_steps import HALF_STEPS, half_step_phases
+    from wbik.apps.bioloid.placo_walk import placo_walk
+    from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
+    from wbik.apps.bioloid.step_faithful import step_forward_faithful
 
     common = common_keys(robot=Key(Robot(only=("bioloid",)), "bioloid"))
     margin = {"margin": margin_key()}

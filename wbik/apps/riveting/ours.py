@@ -33,7 +33,7 @@ closed-form retreat of the same branch exists. On h16 (measured) the retreat rou
 rolls sweep the upper arm 9 mm into the workpiece; h16 and h21 take a slower joint line of
 another roll (1.85 s each way, against 1.3-1.6 s for the other side holes).
 
-Planning cost is counted (:mod:`wbik.riveting.cost`): every IK, clearance query, timing and grid
+Planning cost is counted (:mod:`wbik.apps.riveting.cost`): every IK, clearance query, timing and grid
 point, deterministic for a given hole; the cycle charges it to the run's clock.
 Every move is timed at minimum time under the velocity and acceleration limits (quintic law).
 """
@@ -47,16 +47,16 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
+from wbik.apps.riveting.cost import CountingCollision, PlanningCost
+from wbik.apps.riveting.moves import Move, backward, dwell, split, timed_move
+from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
+from wbik.apps.riveting.qp_terms import ToolAxisTask, WorkpieceClearance
+from wbik.apps.riveting.scene import Hole
 from wbik.motion.profiles import time_law
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
-from wbik.riveting.cost import CountingCollision, PlanningCost
-from wbik.riveting.moves import Move, backward, dwell, split, timed_move
-from wbik.riveting.plan import TRIGGER, CyclePlan, Planner
-from wbik.riveting.qp_terms import ToolAxisTask, WorkpieceClearance
-from wbik.riveting.scene import Hole
 from wbik.solvers.analytic import wrap_into_limits
 
 TASK_TOLERANCE = 1e-8

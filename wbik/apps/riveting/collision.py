@@ -34,7 +34,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from wbik.riveting.scene import Hole, Scene
+from wbik.apps.riveting.scene import Hole, Scene
 from wbik.robot import Robot
 
 TILE_HALF = 0.008

@@ -12,7 +12,7 @@ opening and its z axis pointing INTO the hole (minus the face's outward normal);
 as in the thesis's code (top first, then right, then left).
 
 Holes are blind cylinders of ``hole_diameter`` (6 mm: 0.5 mm of radial clearance around the 5 mm
-tool) and ``hole_depth`` (10 mm >= the 6 mm insertion). See :mod:`wbik.riveting.collision` for how
+tool) and ``hole_depth`` (10 mm >= the 6 mm insertion). See :mod:`wbik.apps.riveting.collision` for how
 they are modelled for distance queries.
 """
 

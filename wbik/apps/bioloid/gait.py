@@ -271,7 +271,7 @@ class TimedMotion:
 
     def servo_table(self, dt: float = 0.02) -> dict:
         """Servo goal positions (AX-12 units, IDs 1..18) every ``dt`` seconds, with clamping notes."""
-        from wbik.bioloid.servo import to_servo
+        from wbik.apps.bioloid.servo import to_servo
 
         if not dt > 0:
             raise InvalidConfigurationError(f"dt must be positive, got {dt}")

@@ -3,7 +3,7 @@
 Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``seed``,
 ``max_cycles`` (null: the whole run), ``limits`` {acceleration (rad/s^2), law}, ``insertion``
 {standoff, depth, trigger_s, load_s}, ``noise`` {position_sigma, position_max, angle_sigma_deg},
-``scene`` (see :mod:`wbik.riveting.scene`), ``planners``: a list of {name, planner: thesis | ours,
+``scene`` (see :mod:`wbik.apps.riveting.scene`), ``planners``: a list of {name, planner: thesis | ours,
 planner options...}, ``expect``: {planner name: {key: threshold}} with the keys of ``RIVETING_RULES``
 (judged by :mod:`wbik.expectations`; a threshold may be {threshold, expected_to_fail, why}; unknown
 keys raise).
@@ -18,14 +18,14 @@ from pathlib import Path
 import numpy as np
 
 import wbik
+from wbik.apps.riveting.collision import CollisionModel
+from wbik.apps.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
+from wbik.apps.riveting.moves import Limits
+from wbik.apps.riveting.ours import QPPlanner
+from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.scene import Scene, build_scene
+from wbik.apps.riveting.thesis import ThesisPlanner
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
-from wbik.riveting.collision import CollisionModel
-from wbik.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
-from wbik.riveting.moves import Limits
-from wbik.riveting.ours import QPPlanner
-from wbik.riveting.plan import Insertion
-from wbik.riveting.scene import Scene, build_scene
-from wbik.riveting.thesis import ThesisPlanner
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
 THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}

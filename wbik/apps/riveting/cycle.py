@@ -26,10 +26,10 @@ is a contact event: a geometry's distance to the workpiece going from > 0 to <= 
 
 Planning is charged to the run (``charge_planning``, default on): each hole is planned online,
 after hole_guess is known, while the robot waits at rivet_home; a ``plan`` dwell of the plan's
-deterministic cost (:mod:`wbik.riveting.cost`: counted operations x calibrated unit costs) is
+deterministic cost (:mod:`wbik.apps.riveting.cost`: counted operations x calibrated unit costs) is
 added to the clock. The measured wall time of the planning is reported beside it, not charged.
 
-The EuRoC client's state machine (:mod:`wbik.riveting.task_states`) drives the run: STARTING ->
+The EuRoC client's state machine (:mod:`wbik.apps.riveting.task_states`) drives the run: STARTING ->
 GOING_RIVET_HOME (first move, load_rivet) -> DETECTING_HOLE_POSE (identify the hole, plan; the
 thesis's move to q_int and sleep) -> GOING_HOLE_GUESS -> MOVING_INTO_HOLE -> RIVETING ->
 MOVING_OUT_FROM_HOLE -> GOING_RIVET_HOME (return, load_rivet) -> DETECTING_HOLE_POSE ...; every
@@ -45,12 +45,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.riveting.collision import TOOL_GEOMETRIES, CollisionModel
-from wbik.riveting.moves import Move, dwell, sample_times
-from wbik.riveting.plan import TRIGGER, Insertion, Planner, tcp_errors
-from wbik.riveting.scene import Hole, Scene
-from wbik.riveting.scoring import score
-from wbik.riveting.task_states import State, TaskStateMachine, state_of_move
+from wbik.apps.riveting.collision import TOOL_GEOMETRIES, CollisionModel
+from wbik.apps.riveting.moves import Move, dwell, sample_times
+from wbik.apps.riveting.plan import TRIGGER, Insertion, Planner, tcp_errors
+from wbik.apps.riveting.scene import Hole, Scene
+from wbik.apps.riveting.scoring import score
+from wbik.apps.riveting.task_states import State, TaskStateMachine, state_of_move
 
 
 @dataclass(frozen=True)

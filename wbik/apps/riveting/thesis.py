@@ -30,10 +30,10 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
-from wbik.riveting.cost import PlanningCost
-from wbik.riveting.moves import Move, dwell, sample_times, timed_move
-from wbik.riveting.plan import TRIGGER, CyclePlan, Planner
-from wbik.riveting.scene import FACE_NORMALS, Hole
+from wbik.apps.riveting.cost import PlanningCost
+from wbik.apps.riveting.moves import Move, dwell, sample_times, timed_move
+from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
+from wbik.apps.riveting.scene import FACE_NORMALS, Hole
 
 ROLL_CANDIDATES = 12
 TEACH_CLEARANCE = 0.015

@@ -53,7 +53,7 @@ def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float
                    single_support_s: float):
     """PlaCo's walk parameters for the Bioloid and its naive footstep plan of ``steps`` steps straight
     ahead from the standing ``humanoid``: (parameters, footsteps). Shared by the walk's report and
-    its animation (wbik.viz.placo_walk), so both see the same plan."""
+    its animation (wbik.apps.bioloid.placo_view), so both see the same plan."""
     sole_size = robot.info["assumptions"]["sole_size"]
     parameters = placo.HumanoidParameters()
     parameters.single_support_duration = single_support_s

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.bioloid.gait import ANKLE, HIP, SIDES, SOLE, GaitParameters, SampledMotion, step_forward_phases
-from wbik.bioloid.servo import leg_ang_from_q, leg_q_from_ang
+from wbik.apps.bioloid.gait import ANKLE, HIP, SIDES, SOLE, GaitParameters, SampledMotion, step_forward_phases
+from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang
 from wbik.models.bioloid import LEG_JOINTS
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot

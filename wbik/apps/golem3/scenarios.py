@@ -1,0 +1,58 @@
+"""The ``golem3_approach`` scenario kind: a straight grasp approach of the Golem-III right arm.
+
+From ``start`` (mb, m0, m10..m14) to ``grasp`` ({position, rpy} in base_link, or {from_joints:
+[7 values]}), the torso lift moved only when the arm alone cannot follow the line
+(:func:`wbik.apps.golem3.approach.approach`); ``expect: {lift: bool}`` besides the generic motion
+expectations of :mod:`wbik.motion.scenarios`.
+"""
+
+from __future__ import annotations
+
+from wbik.apps.golem3.approach import ARM_WITH_LIFT, approach
+from wbik.motion.scenarios import (
+    common_motion_keys,
+    export_move,
+    format_report,
+    move_animation,
+    new_report,
+    pose_of,
+    robot_of,
+    samples_key,
+    solving_keys,
+    start_of,
+    timed_move,
+    vector_of,
+)
+from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, check_robot_params
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+
+
+def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """One move: the approach, timed and judged like any motion (``lift`` among its figures)."""
+    robot = robot_of(spec)
+    chain = robot.chain(ARM_WITH_LIFT)
+    grasp = spec["grasp"]
+    if "from_joints" in grasp:
+        goal = chain.fk(vector_of(grasp["from_joints"], chain.nq, "grasp from_joints"))
+    else:
+        goal = pose_of(grasp, "grasp")
+    path = approach(robot, start_of(spec, chain), goal, int(spec["samples"]), spec["method"],
+                    timeout_s=float(spec["timeout_s"]))
+    report = new_report(spec, robot)
+    entry, trajectory = timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
+    report.add_entry("moves", entry)
+    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, "approach"))
+
+
+def approach_schema() -> Map:
+    """The keys of a ``golem3_approach`` file; ``samples`` defaults to approach()'s."""
+    grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
+                   Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
+    keys = {**solving_keys(), **samples_key(approach), "grasp": Key(grasp, required=True)}
+    return Map({**common_motion_keys(), **keys}, post=check_robot_params)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("golem3_approach", run_golem3, approach_schema, format_report,
+                 "Golem-III straight grasp approach, torso lift when needed"),
+)

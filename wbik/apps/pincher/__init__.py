@@ -1,0 +1,2 @@
+"""PhantomX Pincher application: teleoperation moves (jog, plane line, automatic cycle) and
+their scenario kind."""

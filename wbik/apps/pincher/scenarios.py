@@ -1,0 +1,110 @@
+"""The ``pincher_motion`` scenario kind: a PhantomX Pincher teleoperation session.
+
+``moves`` run one after another from the previous end: {jog: JOINT, delta_deg: D},
+{plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}}, {automatic: {}}; a move's own ``timing``,
+``tolerance`` and ``expect`` override the scenario's. Common keys, timing and expectations are
+those of the generic motion kinds (:mod:`wbik.motion.scenarios`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+from wbik.apps.pincher import teleoperation
+from wbik.motion.scenarios import (
+    MOVE_RULES,
+    common_motion_keys,
+    export_move,
+    format_report,
+    move_animation,
+    new_report,
+    robot_of,
+    samples_key,
+    solving_keys,
+    start_of,
+    timed_move,
+    timing_node,
+    vector_of,
+)
+from wbik.scenario_schema import (
+    Either,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    ScenarioError,
+    Text,
+    Variants,
+    Vector,
+    check_robot_params,
+    expect_block,
+)
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+
+
+def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """Each move from where the previous one ended; one entry per move, the moves' animations chained."""
+    from wbik.solvers.base import solver
+
+    robot = robot_of(spec)
+    ik = solver(spec["method"], robot, timeout_s=float(spec["timeout_s"]))
+    chain = ik.chain
+    q = start_of(spec, chain)
+    report, trajectory, animation = new_report(spec, robot), None, None
+    for index, move in enumerate(spec["moves"]):
+        if "jog" in move:
+            path = teleoperation.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
+                                     int(move["samples"]))
+            name = f"jog {move['jog']} by {move['delta_deg']} deg"
+        elif "plane_line" in move:
+            line = move["plane_line"]
+            start = vector_of(line["start_xy_mm"], 2, "start_xy_mm") / 1000.0
+            goal = vector_of(line["goal_xy_mm"], 2, "goal_xy_mm") / 1000.0
+            path = teleoperation.plane_line(ik, start, goal, int(line["samples"]), q0=q)
+            name = f"plane line {line['start_xy_mm']} -> {line['goal_xy_mm']} mm"
+        elif "automatic" in move:
+            path = teleoperation.automatic_path(ik, int(move["automatic"]["samples"]))
+            name = "automatic cycle"
+        else:
+            raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
+        entry, trajectory = timed_move({**spec, **move}, path, name)
+        report.add_entry("moves", entry)
+        animation_of_move = move_animation(robot, chain, trajectory, name)
+        animation = animation_of_move if animation is None else animation.then(animation_of_move, pause=0.25)
+        q = path.q[-1].copy()
+        if on_progress is not None:
+            on_progress(report)
+    return export_move(spec, report, trajectory, animation)
+
+
+def pincher_schema() -> Map:
+    """The keys of a ``pincher_motion`` file; ``samples`` defaults are those of the move builders."""
+    common = common_motion_keys()
+    own = {"timing": Key(timing_node()), "tolerance": Key(common["tolerance"].node),
+           "expect": Key(expect_block(MOVE_RULES))}
+    moves = {
+        "jog": Map({"jog": Key(Either(Text(what="a joint name"), Number(integer=True))),
+                    "delta_deg": Key(Number(unit="deg"), 0.0), **samples_key(teleoperation.jog), **own}),
+        "plane_line": Map({"plane_line": Key(Map({"start_xy_mm": Key(Vector(2), required=True),
+                                                  "goal_xy_mm": Key(Vector(2), required=True),
+                                                  **samples_key(teleoperation.plane_line)}), required=True),
+                           **own}),
+        "automatic": Map({"automatic": Key(Map(samples_key(teleoperation.automatic_path), nullable=True),
+                                           required=True), **own}),
+    }
+
+    def move_kind(move: Mapping) -> str | None:
+        found = [name for name in moves if name in move]
+        return found[0] if len(found) == 1 else (None if not found else "+".join(found))
+
+    move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
+                                      "{automatic: {}}", "move")
+    keys = {**solving_keys(), "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
+    return Map({**common, **keys}, post=check_robot_params)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("pincher_motion", run_pincher, pincher_schema, format_report,
+                 "a Pincher teleoperation session (jog, plane line, automatic cycle)"),
+)
