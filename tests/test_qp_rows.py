@@ -61,21 +61,20 @@ def test_rows_write_themselves_into_the_stack():
     np.testing.assert_array_equal(b, [0.5])
 
 
-def test_a_constraint_with_the_old_kind_contract_is_read_as_an_inequality(biped):
-    class Legacy(Constraint):  # as wbik.apps.riveting.qp_terms.WorkpieceClearance is written
-        kind = "inequality"
-
-        def inequality(self, kinematics):
-            return np.ones((1, kinematics.nv)), np.array([0.25])
-
-    rows = Legacy().rows(Kinematics(biped.model, biped.nominal), 1.0)
-    assert isinstance(rows, InequalityRows) and rows.h[0] == 0.25
-
+def test_a_constraint_that_declares_no_row_type_is_an_error(biped):
     class Untyped(Constraint):
         pass
 
     with pytest.raises(NotImplementedError, match="InequalityConstraint"):
         Untyped().rows(Kinematics(biped.model, biped.nominal), 1.0)
+
+
+def test_the_riveting_clearance_contributes_typed_inequality_rows():
+    from wbik.apps.riveting.qp_terms import WorkpieceClearance
+    from wbik.qp.constraints import InequalityConstraint
+
+    assert issubclass(WorkpieceClearance, InequalityConstraint)
+    assert not hasattr(WorkpieceClearance, "kind")
 
 
 def test_as_index_makes_consecutive_indices_a_slice():

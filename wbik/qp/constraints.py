@@ -38,13 +38,7 @@ class Constraint:
         """Called once when a problem starts from a configuration."""
 
     def rows(self, kinematics: Kinematics, dt: float) -> Rows:
-        """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities).
-
-        A class written against the old contract (``kind = "inequality"`` and ``inequality()``
-        returning (G, h)) is read as an inequality: wbik.apps.riveting.qp_terms.WorkpieceClearance
-        still is (debt: it should derive from InequalityConstraint)."""
-        if getattr(self, "kind", "") == "inequality":
-            return InequalityRows(*self.inequality(kinematics))
+        """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""
         raise NotImplementedError(f"{type(self).__name__} must derive from BoundConstraint, "
                                   "EqualityConstraint or InequalityConstraint and implement its method")
 

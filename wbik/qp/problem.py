@@ -92,8 +92,7 @@ class IKProblem:
         self._equalities = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
         self._bounds = [c for c in self.constraints if isinstance(c, BoundConstraint)]
         self._box = backends.StackedConstraints(self.nv, capacity=1)
-        self._inequalities = [c for c in self.constraints if isinstance(c, InequalityConstraint)
-                              or getattr(c, "kind", "") == "inequality"]  # (see Constraint.rows)
+        self._inequalities = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
         self._step = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
                             self.lm_damping, self.hierarchy_slack)
         self._started = False

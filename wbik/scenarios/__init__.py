@@ -19,7 +19,6 @@ import json
 from pathlib import Path
 
 from wbik.files import atomic_write_text
-from wbik.qp.task_entries import build_task  # noqa: F401  wbik.wholebody.problem still imports it from here
 from wbik.scenario_schema import ScenarioError, ScenarioFileError, validate
 from wbik.scenarios.kinds import (
     ScenarioKind,

@@ -173,7 +173,7 @@ class WholeBody:
         relative | com | posture | regularization, with target / keep / offset / over), ``contacts``,
         ``support``, ``margin``, ``limits``, ``collisions`` ([{frames: [a, b], distance: m}]), ``name``.
         """
-        from wbik.scenarios import build_task
+        from wbik.qp.task_entries import build_task
 
         if not isinstance(data, Mapping):
             raise InvalidSettingError(

@@ -35,7 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
-from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.models.bioloid import ARM_JOINTS
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import CoMInSupportPolygon, Contact, JointPositionLimits, LockedJoints
@@ -340,9 +340,10 @@ def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) ->
     point = np.asarray(point, dtype=float)[:2]
     if np.all(normals @ point <= offsets):
         return point.copy()
-    found = backends.solve("daqp", np.eye(2), -point, normals, offsets, None, None, None, None)
-    if found is None:
-        raise InvalidConfigurationError(f"the support polygon shrunk by {margin} m is empty")
+    try:
+        found = backends.solve(DEFAULT_BACKEND, np.eye(2), -point, normals, offsets, None, None, None, None)
+    except NoQPSolutionError as error:
+        raise InvalidConfigurationError(f"the support polygon shrunk by {margin} m is empty") from error
     return np.asarray(found, dtype=float)
 
 

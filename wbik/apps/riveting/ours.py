@@ -52,6 +52,7 @@ from wbik.apps.riveting.moves import Move, backward, dwell, split, timed_move
 from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
 from wbik.apps.riveting.qp_terms import ToolAxisTask, WorkpieceClearance
 from wbik.apps.riveting.scene import Hole
+from wbik.errors import NoQPSolutionError
 from wbik.motion.profiles import time_law
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import JointPositionLimits
@@ -253,8 +254,9 @@ class QPPlanner(Planner):
         knots = [q.copy()]
         for _ in range(400):
             self.cost.add("qp_iteration")
-            dq = problem.step(q, max_step=self.max_step)
-            if dq is None:
+            try:
+                dq = problem.step(q, max_step=self.max_step)
+            except NoQPSolutionError:
                 return None
             q = problem.clip(pin.integrate(self.model, q, dq))
             knots.append(q.copy())

@@ -24,8 +24,9 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.qp.constraints import Constraint
+from wbik.qp.constraints import InequalityConstraint
 from wbik.qp.kinematics import LWA, Kinematics
+from wbik.qp.rows import InequalityRows
 from wbik.qp.tasks import Task
 
 
@@ -59,13 +60,12 @@ class ToolAxisTask(Task):
         rows = np.vstack((np.cross(axis, target_rotation[:, 0]), np.cross(axis, target_rotation[:, 1])))
         return np.vstack((jacobian[:3], rows @ jacobian[3:]))
 
-class WorkpieceClearance(Constraint):
+
+class WorkpieceClearance(InequalityConstraint):
     """Every robot geometry at least ``minimum`` (m) from the workpiece (linearised, see module notes).
 
     ``skip``: geometry names left out (the pin while it goes into its hole).
     """
-
-    kind = "inequality"
 
     def __init__(self, collision: CollisionModel, minimum: float, skip: tuple[str, ...] = (),
                  activation: float = 0.05, safety: float = 5e-4):
@@ -80,7 +80,7 @@ class WorkpieceClearance(Constraint):
         clearance = self.collision.clearance(kinematics.q, table=False, skip=self.skip)
         return [d for d in clearance.workpiece if d.exact and d.distance < self.activation]
 
-    def inequality(self, kinematics: Kinematics) -> tuple[np.ndarray, np.ndarray]:
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
         rows, bounds = [], []
         model, data = kinematics.model, kinematics.data
         for item in self._distances(kinematics):
@@ -90,8 +90,8 @@ class WorkpieceClearance(Constraint):
             rows.append(-(item.direction @ point_jacobian))
             bounds.append(item.distance - self.minimum - self.safety)
         if not rows:
-            return np.zeros((1, kinematics.nv)), np.ones(1)
-        return np.array(rows), np.array(bounds)
+            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
+        return InequalityRows(np.array(rows), np.array(bounds))
 
     def violation(self, kinematics: Kinematics) -> float:
         distances = [d.distance for d in self._distances(kinematics)]

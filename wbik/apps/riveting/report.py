@@ -219,12 +219,12 @@ def format_markdown(report: dict) -> str:
 
 def write_report(report: dict, folder: str | Path) -> list[Path]:
     """report.json and report.md in ``folder``."""
-    from wbik.scenarios import _json_default
+    from wbik.scenarios.kinds import json_default
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     json_path = folder / "report.json"
-    json_path.write_text(json.dumps(report, indent=1, default=_json_default))
+    json_path.write_text(json.dumps(report, indent=1, default=json_default))
     markdown_path = folder / "report.md"
     markdown_path.write_text(format_markdown(report))
     return [json_path, markdown_path]
