@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -174,11 +175,25 @@ class Chain:
         return full
 
 
+def _sole_corners(sole, corners) -> np.ndarray:
+    """(k, 3) finite corners of a sole rectangle (k >= 3), or RobotDescriptionError."""
+    array = np.asarray(corners, dtype=float)
+    if array.ndim != 2 or array.shape[1] != 3 or array.shape[0] < 3 or not np.all(np.isfinite(array)):
+        raise RobotDescriptionError(f"sole {sole!r}: corners must be >= 3 finite points (k, 3) in the sole "
+                                    f"frame, got {np.shape(corners)}")
+    array.setflags(write=False)
+    return array
+
+
 @dataclass
 class Robot:
-    """A Pinocchio model with named chains, limits and a nominal configuration.
+    """A Pinocchio model with named chains, limits and a nominal configuration, and its typed facts.
 
-    ``info`` holds robot-specific facts (servo IDs, assumptions, sole rectangles, ...).
+    ``soles``: sole frame -> (k, 3) corners of its contact rectangle in that frame (m), the feet a
+    support polygon is made of (empty for a robot without feet). ``closed_forms``: (chain, target
+    kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``:
+    the robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions),
+    or None.
     """
 
     name: str
@@ -188,11 +203,18 @@ class Robot:
     nominal: np.ndarray
     urdf_path: Path | None = None
     package_dirs: list[str] = field(default_factory=list)
-    info: dict = field(default_factory=dict)
+    soles: dict[str, np.ndarray] = field(default_factory=dict)
+    closed_forms: dict[tuple[str, str], str] = field(default_factory=dict)
+    facts: Any = None
+    info: dict = field(default_factory=dict)  # TRANSITIONAL: read into soles / closed_forms below
 
     def __post_init__(self) -> None:
         self._local = threading.local()
         self.nominal = np.asarray(self.nominal, dtype=float)
+        self.soles = dict(self.soles) or dict(self.info.get("sole_corners", {}))
+        self.closed_forms = dict(self.closed_forms) or dict(self.info.get("closed_forms", {}))
+        self.soles = {str(sole): _sole_corners(sole, corners) for sole, corners in dict(self.soles).items()}
+        self.closed_forms = dict(self.closed_forms)
         self._chains: dict[str, Chain] = {}
 
     def urdf_file(self) -> Path:
@@ -340,7 +362,8 @@ def serial_chain_spec(model: pin.Model, name: str = "default") -> ChainSpec:
 def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | None = None,
                          nominal: np.ndarray | None = None, floating_base: bool = False,
                          urdf_path: Path | None = None, package_dirs: Sequence[str] = (),
-                         info: dict | None = None) -> Robot:
+                         soles: dict | None = None, closed_forms: dict | None = None,
+                         facts: Any = None, info: dict | None = None) -> Robot:
     """A Robot from URDF text; with no chains given, the single serial chain of the model."""
     model = model_from_urdf_text(text, floating_base, source=str(urdf_path or name))
     check_model(model, source=str(urdf_path or name))
@@ -353,4 +376,5 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
                                    model.upperPositionLimit[bounded])
     specs = list(chains) if chains else [serial_chain_spec(model)]
     return Robot(name, model, text, {spec.name: spec for spec in specs}, nominal,
-                 urdf_path=urdf_path, package_dirs=list(package_dirs), info=dict(info or {}))
+                 urdf_path=urdf_path, package_dirs=list(package_dirs), soles=dict(soles or {}),
+                 closed_forms=dict(closed_forms or {}), facts=facts, info=dict(info or {}))

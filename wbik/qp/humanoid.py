@@ -1,6 +1,6 @@
 """Humanoid helpers on top of the generic QP layer: stances (feet in contact), balance checks.
 
-A robot that can stand lists its sole rectangles in ``robot.info["sole_corners"]`` ({sole frame:
+A robot that can stand lists its sole rectangles in ``robot.soles`` ({sole frame:
 (k, 3) corners in that frame}). A stance is the set of soles in contact: each becomes a hard
 Contact (the sole keeps its pose) and the support polygon is the convex hull of their corners on
 the ground, shrunk by the safety margin, as a hard CoM constraint.
@@ -20,10 +20,10 @@ from wbik.robot import Robot
 
 
 def sole_corners(robot: Robot) -> dict[str, np.ndarray]:
-    corners = robot.info.get("sole_corners")
+    corners = robot.soles
     if not corners:
         raise RobotDescriptionError(
-            f"{robot.name!r} lists no sole corners (robot.info['sole_corners']); balance needs them")
+            f"{robot.name!r} lists no sole corners (robot.soles); balance needs them")
     return corners
 
 

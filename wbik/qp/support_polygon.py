@@ -46,7 +46,7 @@ def _degenerate(points: np.ndarray, why: str) -> DegenerateSupportPolygonError:
     more = f" (first 8 of {len(points)})" if len(points) > 8 else ""
     return DegenerateSupportPolygonError(
         f"a support polygon needs at least three points that are not on one line; {why}. Points{more}: "
-        f"{shown}. Check the sole corners (robot.info['sole_corners']) and which soles are in contact")
+        f"{shown}. Check the sole corners (robot.soles) and which soles are in contact")
 
 
 def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:

@@ -25,7 +25,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError, UnsupportedError
-from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.support_polygon import SupportPolygon, contact_points
 from wbik.robot import Chain, Robot
 from wbik.targets import as_target
 from wbik.viz import geometry as robot_geometry
@@ -263,14 +264,14 @@ class Viewer:
                              feet: Sequence[str] | None = None) -> SupportView:
         """The centre of mass, its ground projection, and the support polygon of the feet in contact.
 
-        The polygon is the convex hull of the sole rectangles ``robot.info["sole_corners"]``
+        The polygon is the convex hull of the sole rectangles ``robot.soles``
         (corners in each sole frame) placed at q; it is green when the CoM projects inside, red
         otherwise.
         """
-        corners_by_sole = self.robot.info.get("sole_corners")
+        corners_by_sole = self.robot.soles
         if not corners_by_sole:
             raise UnsupportedError(
-                f"{self.robot.name} declares no sole rectangles (robot.info['sole_corners']); "
+                f"{self.robot.name} declares no sole rectangles (robot.soles); "
                 "a support polygon needs feet: try the bioloid")
         feet = list(corners_by_sole) if feet is None else list(feet)
         unknown = [foot for foot in feet if foot not in corners_by_sole]
@@ -278,12 +279,7 @@ class Viewer:
             raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(corners_by_sole)}")
         if q is not None:
             self.show(q)
-        world_corners = []
-        for foot in feet:
-            sole = self.frame_pose(foot)
-            local = np.asarray(corners_by_sole[foot], dtype=float).reshape(-1, 3)
-            world_corners.append(local @ sole.rotation.T + sole.translation)
-        corners = np.vstack(world_corners)
+        corners = contact_points(Kinematics(self.robot.model, self.q), corners_by_sole, feet)
         ground_z = float(np.mean(corners[:, 2]))
         support = SupportPolygon(corners[:, :2])
         polygon = support.vertices
@@ -377,7 +373,7 @@ class Viewer:
         clip, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
         keys = [float(t * fps) for t in times - times[0]]
         margins = None
-        if overlays.support is not None and self.robot.info.get("sole_corners"):
+        if overlays.support is not None and self.robot.soles:
             support = overlays.support * (2 if still else 1)
             margins = self._support_keyframes(clip, keys, rows, support)
         if overlays.contacts is not None:
@@ -398,15 +394,15 @@ class Viewer:
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:
         """CoM, its ground projection and one support polygon per stretch of samples on the same
         soles at the same places (shown only during its stretch); the CoM margins (m, NaN in the air)."""
-        corners_by_sole = self.robot.info["sole_corners"]
-        model, data = self.robot.model, self.robot.model.createData()
+        corners_by_sole = self.robot.soles
+        kinematics = Kinematics(self.robot.model)
         path = f"{ROOT}/support"
         self.meshcat[path].delete()
         radius = 0.025 * self.extent
         polygons, segment_of, margins, coms, grounds = [], [], [], [], []
         for q, feet in zip(rows, support, strict=True):
-            com = pin.centerOfMass(model, data, q).copy()
-            pin.framesForwardKinematics(model, data, q)
+            kinematics.update(q)
+            com = kinematics.com().copy()
             feet = [foot for foot in feet if foot in corners_by_sole]
             if not feet:
                 segment_of.append(-1)
@@ -414,9 +410,7 @@ class Viewer:
                 coms.append(com)
                 grounds.append(grounds[-1] if grounds else 0.0)
                 continue
-            corners = np.vstack([np.asarray(corners_by_sole[foot], dtype=float).reshape(-1, 3)
-                                 @ data.oMf[model.getFrameId(foot)].rotation.T
-                                 + data.oMf[model.getFrameId(foot)].translation for foot in feet])
+            corners = contact_points(kinematics, corners_by_sole, feet)
             polygon = SupportPolygon(corners[:, :2])
             ground_z = float(np.mean(corners[:, 2]))
             if not polygons or not self._same_polygon(polygons[-1], tuple(feet), polygon.vertices, ground_z):

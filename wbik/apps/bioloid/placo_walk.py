@@ -103,7 +103,7 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     for side in set(sides):
         positions = [x for x, s in zip(xs, sides, strict=True) if s == side]
         per_foot[side] = [b - a for a, b in zip(positions[:-1], positions[1:], strict=True) if b - a > 1e-9]
-    corners = np.asarray(robot.info["sole_corners"]["l_sole"], dtype=float)
+    corners = np.asarray(robot.soles["l_sole"], dtype=float)
     com_margins, zmp_margins, single = [], [], []
     times = np.arange(0.0, trajectory.t_end, dt)
     omega = math.sqrt(9.80665 / parameters.walk_com_height)  # LIPM: zmp = c - c'' / omega^2

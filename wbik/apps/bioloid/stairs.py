@@ -212,7 +212,7 @@ def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: n
 
 def sole_corners_world(robot: Robot, q: np.ndarray, sole: str) -> np.ndarray:
     placement = robot.frame_placement(q, sole)
-    corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+    corners = np.asarray(robot.soles[sole], dtype=float)
     return corners @ placement.rotation.T + placement.translation
 
 
@@ -440,7 +440,7 @@ class _Simulator:
     def run(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
         """Solve a behaviour's phases and record every sample; check the new footholds."""
         for side, placement in soles_after.items():
-            corners = np.asarray(self.robot.info["sole_corners"][SOLE[side]]) @ placement.rotation.T \
+            corners = np.asarray(self.robot.soles[SOLE[side]]) @ placement.rotation.T \
                 + placement.translation
             if self.stairs.touching(corners, 1e-9) is None:
                 raise StairError(f"{state} would put the {SOLE[side]} off a surface (across an edge or "

@@ -61,7 +61,7 @@ def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: p
 
 
 def _corners_world(robot: Robot, sole: str, placement: pin.SE3) -> np.ndarray:
-    corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+    corners = np.asarray(robot.soles[sole], dtype=float)
     return corners @ placement.rotation.T + placement.translation
 
 

@@ -84,7 +84,7 @@ def sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon
     """Support polygon of the given soles at the given world poses (their corners on the ground)."""
     points = []
     for sole, placement in placements.items():
-        corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+        corners = np.asarray(robot.soles[sole], dtype=float)
         points.append((corners @ placement.rotation.T + placement.translation)[:, :2])
     return SupportPolygon(np.vstack(points))
 
