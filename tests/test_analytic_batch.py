@@ -139,9 +139,9 @@ def test_batch_targets_accepts_and_refuses_as_as_target(solvers):
 def _reference_choice(solver: AnalyticSolver, form, positions, rotations, q0s):
     """Screen every usable branch, take the nearest screened one (the first on a tie)."""
     q_all, real, usable = solver._wrapped(form, positions, rotations, q0s)
-    screened = usable & (solver._residual(form, q_all, positions[:, None],
-                                          None if rotations is None else rotations[:, None])
-                         <= form.screen_tolerance)
+    targets_r = None if rotations is None else rotations[:, None]
+    residual = solver._screen(form, q_all, positions[:, None], targets_r)[0]
+    screened = usable & (residual <= form.screen_tolerance)
     distance = np.where(screened, np.linalg.norm(q_all - q0s[:, None], axis=-1), np.inf)
     best = np.argmin(distance, axis=1)
     return q_all[np.arange(len(best)), best], screened.any(axis=1)
@@ -159,7 +159,13 @@ def test_nearest_first_screening_equals_screening_every_branch(solvers, robot, c
     positions = np.array([p.translation for p in poses])
     rotations = np.array([p.rotation for p in poses]) if kind == "pose" else None
     q0s = chain.random(rng, len(poses))
-    chosen, found, _, _ = solver._choose(form, positions, rotations, q0s)
+    choice = solver._choose(form, positions, rotations, q0s)
     expected, expected_found = _reference_choice(solver, form, positions, rotations, q0s)
+    found = choice.found
     np.testing.assert_array_equal(found, expected_found)
-    np.testing.assert_array_equal(chosen[found], expected[found])
+    np.testing.assert_array_equal(choice.q[found], expected[found])
+    # the FK kept for the batched check is the chosen joints' FK
+    reached_p, reached_r = form.fk(choice.q[found])
+    np.testing.assert_allclose(choice.reached_p[found], reached_p, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(choice.reached_r[found], reached_r, rtol=0, atol=1e-15)
+

@@ -34,6 +34,7 @@ import math
 import time
 from collections.abc import Iterable
 from operator import itemgetter, mul
+from typing import NamedTuple
 
 import numpy as np
 
@@ -178,23 +179,29 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
     """Shift revolute angles by multiples of 2 pi to lie in [lower, upper], nearest to ``reference``.
 
     Returns (wrapped q, in-limits mask over the last axis). Works on any leading batch shape. Shifts
-    0, 2 pi, -2 pi, 4 pi, -4 pi are tried in that order; on a tie the first wins.
+    0, 2 pi, -2 pi, 4 pi, -4 pi are tried in that order; among those inside the limits (within
+    LIMIT_TOLERANCE) the nearest to the reference is kept (the first on a tie) and set into the limits;
+    angles with no such shift stay as they are (in-limits mask False).
     """
-    best = np.array(q, dtype=float, copy=True)
+    q = np.asarray(q, dtype=float)
+    best = q.copy()
     best_distance = np.full(best.shape, np.inf)
     in_limits = np.zeros(best.shape, dtype=bool)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
-    all_revolute = bool(np.all(revolute))
+    fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)
     shifted = np.empty_like(best)
     distance = np.empty_like(best)
     ok = np.empty(best.shape, dtype=bool)
     better = np.empty(best.shape, dtype=bool)
     for shift in _SHIFTS:
         np.add(q, shift, out=shifted)
-        if not all_revolute:
-            np.copyto(shifted, q, where=~revolute)
+        if fixed is not None:
+            np.copyto(shifted, q, where=fixed)
         np.greater_equal(shifted, low, out=ok)
-        ok &= shifted <= high
+        np.less_equal(shifted, high, out=better)
+        ok &= better
+        if shift and not ok.any():  # no angle can take this shift
+            continue
         np.subtract(shifted, reference, out=distance)
         np.abs(distance, out=distance)
         np.less(distance, best_distance, out=better)
@@ -280,6 +287,20 @@ def no_solution_reason(real: bool, in_limits: bool) -> str:
     return "unreachable: no closed-form branch inside the joint limits reaches the target"
 
 
+class Choice(NamedTuple):
+    """What the vectorised choice knows per target: the joints ``q`` (B, n) where ``found`` (B,), the
+    masks ``real`` and ``usable`` (real, in the limits, finite) over the branches (B, K) for the
+    failure reason, and the closed-form FK of the chosen joints (``reached_p`` (B, 3), ``reached_r``
+    (B, 3, 3); zeros where not found) for the batched check."""
+
+    q: np.ndarray
+    found: np.ndarray
+    real: np.ndarray
+    usable: np.ndarray
+    reached_p: np.ndarray
+    reached_r: np.ndarray
+
+
 class AnalyticSolver(Solver):
     """Closed-form IK behind the common interface; see the module docstring."""
 
@@ -310,17 +331,18 @@ class AnalyticSolver(Solver):
         return q_all, real, real & in_limits & np.all(np.isfinite(q_all), axis=-1)
 
     @staticmethod
-    def _residual(form: ClosedForm, q: np.ndarray, positions, rotations) -> np.ndarray:
-        """Closed-form FK residual max(|p - p*|, angle(R*^T R)) of joints q (..., n) against targets."""
+    def _screen(form: ClosedForm, q: np.ndarray, positions, rotations):
+        """Closed-form FK of joints q (..., n) and its residual max(|p - p*|, angle(R*^T R)) against the
+        targets: (residual, reached positions, reached rotations)."""
         reached_p, reached_r = form.fk(q)
         residual = np.linalg.norm(reached_p - positions, axis=-1)
         if rotations is not None:
             trace = np.sum(rotations * reached_r, axis=(-2, -1))  # trace(R_target^T R_reached)
             residual = np.maximum(residual, np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)))
-        return residual
+        return residual, reached_p, reached_r
 
-    def _choose(self, form: ClosedForm, positions, rotations, q0s):
-        """The nearest screened branch per target: (q (B, n), found (B,), real (B, K), usable (B, K)).
+    def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
+        """The nearest screened branch per target (see :class:`Choice`).
 
         Same answer as screening every branch and taking the nearest (ties: the first branch), but only
         the nearest usable branch of each target is screened, then the next where it fails.
@@ -331,6 +353,7 @@ class AnalyticSolver(Solver):
         order = np.argsort(distance, axis=1, kind="stable")
         chosen = np.zeros(q0s.shape)
         found = np.zeros(count, dtype=bool)
+        reached_p, reached_r = np.zeros((count, 3)), np.zeros((count, 3, 3))
         pending = np.arange(count)
         for rank in range(order.shape[1]):
             branch = order[pending, rank]
@@ -339,29 +362,21 @@ class AnalyticSolver(Solver):
                 break
             branch = order[pending, rank]
             candidates = q_all[pending, branch]
-            residual = self._residual(form, candidates, positions[pending],
-                                      None if rotations is None else rotations[pending])
+            residual, candidate_p, candidate_r = self._screen(
+                form, candidates, positions[pending], None if rotations is None else rotations[pending])
             passed = residual <= form.screen_tolerance
-            chosen[pending[passed]] = candidates[passed]
-            found[pending[passed]] = True
+            done = pending[passed]
+            chosen[done], found[done] = candidates[passed], True
+            reached_p[done], reached_r[done] = candidate_p[passed], candidate_r[passed]
             pending = pending[~passed]
-        return chosen, found, real, usable
+        return Choice(chosen, found, real, usable, reached_p, reached_r)
 
     @staticmethod
-    def _reasons(found, real, usable) -> list[str]:
+    def _reasons(choice: Choice) -> list[str]:
         """The failure reason of each target from the choice's masks ("" where found)."""
-        any_real, any_usable = real.any(axis=1).tolist(), usable.any(axis=1).tolist()
+        any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
         return ["" if ok else no_solution_reason(r, u)
-                for ok, r, u in zip(found.tolist(), any_real, any_usable, strict=True)]
-
-    def _batch(self, targets: list[Target], q0s: np.ndarray):
-        kinds = {"pose" if t.is_pose else "position" for t in targets}
-        if len(kinds) != 1:
-            raise UnsupportedError("a batch must hold only full poses or only positions")
-        form = self.closed_form(kinds.pop())
-        positions = np.array([t.position for t in targets])
-        rotations = np.array([t.rotation for t in targets]) if form.target_kind == "pose" else None
-        return form, positions, rotations
+                for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
 
     # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
@@ -380,11 +395,11 @@ class AnalyticSolver(Solver):
             if q is None:
                 return Candidate(None, 1, no_solution_reason(bool(bounded), inside))
             return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
-        q, found, real, usable = self._choose(form, target.position[None],
-                                              None if rotation is None else rotation[None], q0[None])
-        if not found[0]:
-            return Candidate(None, 1, no_solution_reason(bool(real.any()), bool(usable.any())))
-        return Candidate(q[0], 1, extra={"branches": int(real.sum())})
+        choice = self._choose(form, target.position[None], None if rotation is None else rotation[None],
+                              q0[None])
+        if not choice.found[0]:
+            return Candidate(None, 1, no_solution_reason(bool(choice.real.any()), bool(choice.usable.any())))
+        return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """Vectorised: one closed-form evaluation and one batched FK check for the whole batch;
@@ -399,12 +414,12 @@ class AnalyticSolver(Solver):
         form = self.closed_form("position" if rotations is None else "pose")
         start = time.perf_counter()
         form_rotations = rotations if form.target_kind == "pose" else None
-        q, found, real, usable = self._choose(form, positions, form_rotations, q0_array)
+        choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
-        extras = [{"branches": branches, "batched": True} for branches in real.sum(axis=1).tolist()]
-        return evaluate_batch(self.chain, form, positions, rotations, q, found,
-                              self._reasons(found, real, usable), self.tolerances, per_pose, self.name,
-                              extras)
+        extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
+        return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found,
+                              self._reasons(choice), self.tolerances, per_pose, self.name, extras,
+                              reached=(choice.reached_p, choice.reached_r))
 
     def _start_array(self, q0s, count: int) -> np.ndarray:
         """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""
@@ -428,7 +443,7 @@ class AnalyticSolver(Solver):
             rotations = None if form.target_kind == "position" else target.rotation[None]
             q_all, _, usable = self._wrapped(form, positions, rotations, nominal[None])
             q_all = q_all[0][usable[0]]
-            passed = self._residual(form, q_all, positions, rotations) <= form.screen_tolerance
+            passed = self._screen(form, q_all, positions, rotations)[0] <= form.screen_tolerance
             distinct = []
             for q in q_all[passed]:
                 if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):

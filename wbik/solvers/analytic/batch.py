@@ -69,11 +69,13 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
 
 def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
                    found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
-                   method: str, extras: list[dict]) -> list[IKResult]:
+                   method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None
+                   ) -> list[IKResult]:
     """:func:`wbik.solvers.base.evaluate` for a batch: one IKResult per target.
 
     ``q`` (B, n) holds the joints where ``found`` (B,), ``reasons`` the method's reason per target (the
-    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with.
+    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with;
+    ``reached``, when given, is ``form.fk(q)`` already computed (used where q is inside the limits).
     """
     count = len(positions)
     q = np.asarray(q, dtype=float)
@@ -81,7 +83,9 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
     inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
     clipped = np.any(inside != q, axis=1) & ~(np.all(q >= chain.lower - CLIP_TOLERANCE, axis=1)
                                                & np.all(q <= chain.upper + CLIP_TOLERANCE, axis=1))
-    reached_p, reached_r = form.fk(np.where(finite[:, None], inside, 0.0))
+    if reached is None or not np.array_equal(inside[finite], q[finite]):
+        reached = form.fk(np.where(finite[:, None], inside, 0.0))
+    reached_p, reached_r = reached
     position_xyz = reached_p - positions
     position_norm = np.sqrt(np.einsum("bi,bi->b", position_xyz, position_xyz))
     if rotations is None:
@@ -92,23 +96,24 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
         rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
     results = []
-    rows = zip(found.tolist(), finite.tolist(), clipped.tolist(), success.tolist(), position_norm.tolist(),
-               rotation_norm.tolist(), inside, position_xyz, rotation_xyz, q, reasons, extras, strict=True)
-    for was_found, is_finite, was_clipped, ok, p_norm, r_norm, joints, p_xyz, r_xyz, raw, reason, extra \
-            in rows:
-        if not was_found:
+    solved = (success & found & finite).tolist()
+    rows = zip(solved, found.tolist(), finite.tolist(), position_norm.tolist(), rotation_norm.tolist(),
+               inside, position_xyz, rotation_xyz, reasons, extras, strict=True)
+    for index, (ok, was_found, is_finite, p_norm, r_norm, joints, p_xyz, r_xyz, reason, extra) \
+            in enumerate(rows):
+        if ok:  # the common case first
+            results.append(IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra))
+        elif not was_found:
             results.append(IKResult(None, False, reason or "no solution", math.nan, math.nan,
                                     np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra))
         elif not is_finite:
-            results.append(IKResult(None, False, f"method returned invalid joints {raw!r}", math.nan,
+            results.append(IKResult(None, False, f"method returned invalid joints {q[index]!r}", math.nan,
                                     math.nan, np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method,
                                     extra))
         else:
-            if ok:
-                reason = ""
-            elif not reason:
-                reason = ("solution outside the joint limits (clipped)" if was_clipped else
+            if not reason:
+                reason = ("solution outside the joint limits (clipped)" if clipped[index] else
                           f"FK check failed: position error {p_norm:.3g} m, rotation error {r_norm:.3g} rad")
-            results.append(IKResult(joints, ok, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
+            results.append(IKResult(joints, False, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
                                     extra))
     return results
