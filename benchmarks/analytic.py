@@ -7,7 +7,7 @@ nominal configuration.
 
 Columns: scalar ``solve`` wall time per pose (median and 95th percentile, over --scalar-poses targets),
 ``solve_many`` wall time per pose on --poses targets (the whole call, including the shared Pinocchio FK
-check of every result) and the closed-form part alone, success rates of both, mean branches found.
+check of every result) and the closed-form part alone, success rates of both, mean real branches per target.
 
     .venv/bin/python benchmarks/analytic.py                  # all robots, 10,000 poses
     .venv/bin/python benchmarks/analytic.py --poses 2000 --robots ur5 pincher --output analytic.jsonl
@@ -106,7 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"analytic closed forms: {arguments.poses} poses per chain for solve_many, "
           f"{min(arguments.scalar_poses, arguments.poses)} timed one by one; seed {arguments.seed}")
     print("solve: scalar wall time per pose; many: solve_many wall time per pose (with the shared FK "
-          "check); cf: its closed-form part; branches: mean in-limit branches per target")
+          "check); cf: its closed-form part; branches: mean real closed-form branches per target (before "
+          "limits and screening)")
     print(HEADER)
     print("-" * len(HEADER))
     skipped = []
