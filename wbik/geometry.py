@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import InvalidSettingError
+
 
 # --- angles ------------------------------------------------------------------------------------------
 def wrap_to_pi(angle):
@@ -55,6 +57,30 @@ def rot_y(angle) -> np.ndarray:
 def rot_z(angle) -> np.ndarray:
     """Rotation about z by ``angle``."""
     return _rotation(angle, (("c", "-s", "0"), ("s", "c", "0"), ("0", "0", "1")))
+
+
+# --- Euler angles -------------------------------------------------------------------------------------
+TAIT_BRYAN_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
+"""Euler-angle sequences with three distinct axes: R = R_i R_j R_k for the sequence "ijk"."""
+
+
+def tait_bryan_angles(rotations: np.ndarray, sequence: str = "zyx") -> np.ndarray:
+    """(..., 3) angles about x, y, z of R = R_i(a_i) R_j(a_j) R_k(a_k), ``sequence`` "ijk", for
+    rotations (..., 3, 3): outer = atan2(R_jk, R_kk), middle = atan2(-R_ik, hypot(R_kk, R_jk)),
+    inner = atan2(R_ij, R_ii) for the even permutations of (z, y, x), all three negated for the odd
+    ones ("zyx": R = Rz(gamma) Ry(beta) Rx(alpha) gives (alpha, beta, gamma))."""
+    if sequence not in TAIT_BRYAN_SEQUENCES:
+        raise InvalidSettingError(f"sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)}, "
+                                  f"got {sequence!r}")
+    i, j, k = ("xyz".index(axis) for axis in sequence)
+    sign = 1.0 if sequence in ("zyx", "yxz", "xzy") else -1.0  # even permutations of (z, y, x)
+    r = rotations
+    outer = np.arctan2(r[..., j, k], r[..., k, k])
+    middle = np.arctan2(-r[..., i, k], np.hypot(r[..., k, k], r[..., j, k]))
+    inner = np.arctan2(r[..., i, j], r[..., i, i])
+    angles = np.empty(np.shape(r)[:-2] + (3,))
+    angles[..., i], angles[..., j], angles[..., k] = outer, middle, inner
+    return angles if sign > 0 else -angles
 
 
 # --- logarithm and exponential of rotations ----------------------------------------------------------

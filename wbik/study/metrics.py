@@ -29,8 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError
-from wbik.geometry import batch_exp3
+from wbik.geometry import TAIT_BRYAN_SEQUENCES, batch_exp3, tait_bryan_angles  # noqa: F401  (re-exported)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 
 if TYPE_CHECKING:
@@ -42,8 +41,6 @@ ANGLE_AXES = ("alpha", "beta", "gamma")
 """The study's own angles, about x, y and z: R = Rz(gamma) Ry(beta) Rx(alpha)."""
 STUDY_SEQUENCE = "zyx"
 """The sequence of the study's own angles (see ANGLE_AXES)."""
-TAIT_BRYAN_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
-"""The Euler-angle sequences a reference may use: R = R_i R_j R_k for the sequence "ijk"."""
 _AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
 AXIS_DESCRIPTIONS = {
@@ -77,23 +74,6 @@ class AngleConvention:
         """The study's own angle (alpha, beta, gamma) equal to the reference's angle about ``axis``:
         the same angle when the sequence is the study's, else None."""
         return ANGLE_AXES[_AXIS_INDEX[axis]] if self.sequence == STUDY_SEQUENCE else None
-
-
-def tait_bryan_angles(rotations: np.ndarray, sequence: str = STUDY_SEQUENCE) -> np.ndarray:
-    """(..., 3) angles about x, y, z of R = R_i(a_i) R_j(a_j) R_k(a_k), ``sequence`` "ijk", for
-    rotations (..., 3, 3) (formulas in the module docstring; "zyx" gives (alpha, beta, gamma))."""
-    if sequence not in TAIT_BRYAN_SEQUENCES:
-        raise InvalidSettingError(f"sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)}, "
-                                  f"got {sequence!r}")
-    i, j, k = (_AXIS_INDEX[axis] for axis in sequence)
-    sign = 1.0 if sequence in ("zyx", "yxz", "xzy") else -1.0  # even permutations of (z, y, x)
-    r = rotations
-    outer = np.arctan2(r[..., j, k], r[..., k, k])
-    middle = np.arctan2(-r[..., i, k], np.hypot(r[..., k, k], r[..., j, k]))
-    inner = np.arctan2(r[..., i, j], r[..., i, i])
-    angles = np.empty(np.shape(r)[:-2] + (3,))
-    angles[..., i], angles[..., j], angles[..., k] = outer, middle, inner
-    return angles if sign > 0 else -angles
 
 
 def axes(target_kind: str, angles: AngleConvention | None = None) -> list[str]:
