@@ -52,6 +52,12 @@ pincher.arm                 4R     refused by our probe (below): EAIK says 4R-TH
                                    but returns q1 = 0 in every branch: 0 of 200 FK poses reproduced
 ==========================  =====  ===========================================================
 
+So of the built-in robots' chains (every one is in the table; re-checked with this module) EAIK
+refuses the Golem-III arms (a kinematic class it has no decomposition for), the Golem-III arm with the
+torso lift (a prismatic joint), the 7R Panda (redundant; lock a joint) and the Pincher (its 4R solver
+is wrong on exact axes, see the probe); the 3R arms it accepts solve full poses only, while the
+studies give those chains positions.
+
 The probe. EAIK's verdict alone is not trusted: a chain it claims must reproduce at least 6 of 8 FK
 poses of seeded random joints (``PROBE_*``), else UnsupportedError. The Pincher is why. Its axes
 (z, then y, y, y, with joints 1 and 2 intersecting) are exact in Pinocchio's model, and EAIK's
