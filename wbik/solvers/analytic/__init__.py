@@ -6,8 +6,10 @@ The closed forms are layered as IK-Geo layers its solvers:
 2. **kinematic families**: :mod:`.ur_type` (UR-type 6R, axes 2-4 parallel), :mod:`.yaw_planar` (a
    base yaw carrying a planar arm: the 3R arm, the Pincher), :mod:`.stacked_planar` (a horizontal
    planar 3R carrying a vertical planar 2R and a roll: the Golem-III arm);
-3. **one binding per robot** (:mod:`.arm3r`, :mod:`.bioloid`, :mod:`.golem3`, :mod:`.pincher`,
-   :mod:`.ur5`): the robot's geometry and which family solves which chain.
+3. **one binding per robot** (:mod:`.arm3r`, :mod:`.golem3`, :mod:`.pincher`, :mod:`.ur5`): the
+   robot's geometry and which family solves which chain. :mod:`.bioloid` is the exception: it keeps
+   the thesis's own decomposition of the arm and the leg (equation by equation, used by the Bioloid
+   application) on the shared subproblems.
 
 This module is the framework over them. A closed form is a :class:`ClosedForm` registered for
 (robot, chain, target kind). It maps a batch of B targets to K candidate branches per target, ``Q``
@@ -38,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
@@ -114,6 +116,11 @@ class ToolClosedForm(ClosedForm):
     def __init__(self, chain: Chain):
         super().__init__(chain)
         flange_chain = chain.robot.chain(self.flange_chain)
+        if flange_chain.joint_names != chain.joint_names or flange_chain.base_frame != chain.base_frame:
+            raise InvalidConfigurationError(
+                f"{chain.name!r} ({chain.base_frame} -> {chain.tip_frame} over {chain.joint_names}) is not "
+                f"{flange_chain.name!r} ({flange_chain.base_frame} -> {flange_chain.tip_frame} over "
+                f"{flange_chain.joint_names}) with a tool: a tool closed form needs the same base and joints")
         self.flange = self.flange_form(flange_chain)
         self.target_kind = self.flange.target_kind
         self.has_scalar_path = self.flange.has_scalar_path
