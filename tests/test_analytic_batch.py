@@ -169,3 +169,29 @@ def test_nearest_first_screening_equals_screening_every_branch(solvers, robot, c
     np.testing.assert_allclose(choice.reached_p[found], reached_p, rtol=0, atol=1e-15)
     np.testing.assert_allclose(choice.reached_r[found], reached_r, rtol=0, atol=1e-15)
 
+
+
+@pytest.mark.parametrize(("robot", "chain_name"), [("ur5", "ee"), ("ur5", "arm"), ("golem3", "right_arm"),
+                                                   ("golem3", "left_arm")])
+def test_scalar_solve_all_equals_the_vectorised_one(solvers, robot, chain_name):
+    """solve_all's scalar path (branches_one, wrap_one_into_limits, the float screen and merge) against
+    the vectorised path of the same closed form, including gimbal-locked and singular poses."""
+    solver = solvers[(robot, chain_name)]
+    chain, form = solver.chain, solver.closed_form("pose")
+    joints = chain.random(np.random.default_rng(21), 150)
+    joints[:10, 4] = 0.0  # UR5 wrist singularity (q5 = 0)
+    if robot == "golem3":
+        joints[10:20, 4] = np.pi / 2 - joints[10:20, 3]  # gimbal lock: beta = -pi/2
+    poses = [chain.fk(q) for q in joints]
+    scalar = [solver.solve_all(pose) for pose in poses]
+    assert form.has_scalar_path
+    form.has_scalar_path = False
+    try:
+        vectorised = [solver.solve_all(pose) for pose in poses]
+    finally:
+        form.has_scalar_path = True
+    assert sum(len(results) > 0 for results in scalar) >= 140
+    for mine, theirs in zip(scalar, vectorised, strict=True):
+        assert len(mine) == len(theirs)
+        for a, b in zip(mine, theirs, strict=True):
+            np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
