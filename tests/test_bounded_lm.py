@@ -128,12 +128,15 @@ def test_vectorised_chain_matches_pinocchio(robot_name, chain_name, rng):
     for b in range(len(q)):
         reached = chain.fk(q[b])  # Pinocchio forward kinematics, in the chain's base frame
         assert np.allclose(tips[b], reached.homogeneous, atol=1e-12)
-        # pose: the SE(3) form log6(T*^-1 T) of the lengths-scaled poses, Jacobian in tip axes
+        # pose: the SE(3) form log6(T*^-1 T) of the lengths-scaled poses and the Jacobian in tip axes,
+        # both turned by the tip rotation R into base axes (which leaves every LM step unchanged)
         scaled_goal = pin.SE3(goal.rotation, weight * goal.translation)
         scaled_reached = pin.SE3(reached.rotation, weight * reached.translation)
-        assert np.allclose(error[b], pin.log6(scaled_goal.inverse() * scaled_reached).vector, atol=1e-12)
+        turn = np.kron(np.eye(2), reached.rotation)
+        expected = turn @ pin.log6(scaled_goal.inverse() * scaled_reached).vector
+        assert np.allclose(error[b], expected, atol=1e-12)
         local = pin.computeFrameJacobian(scaled, data, travel * q[b], chain.tip_id, pin.ReferenceFrame.LOCAL)
-        assert np.allclose(transposed[b].T, local * travel, atol=1e-12)
+        assert np.allclose(transposed[b].T, turn @ (local * travel), atol=1e-12)
         # position: w (p - p*) with the linear rows in base axes
         assert np.allclose(point_error[b], weight * (reached.translation - goal.translation), atol=1e-12)
         _, jacobian = chain.fk_jacobian(q[b])  # Pinocchio's frame Jacobian in base axes
@@ -153,7 +156,7 @@ def test_seed_library_neighbours_are_nearest_in_pose(rng):
     solver = wbik.solver("bounded_lm", robot("panda"), chain="arm", library_size=300)
     chain = solver.chain
     target = as_target(chain.fk(chain.random(rng)))
-    neighbours = solver._neighbours(target, 5)
+    neighbours, distances = solver._neighbours(target, 5)
     weight = solver.position_weight
 
     def distance(q):  # weighted position distance^2 + (3 - trace(R*^T R)), from the chain's FK
@@ -163,6 +166,7 @@ def test_seed_library_neighbours_are_nearest_in_pose(rng):
 
     everything = sorted(distance(q) for q in solver._library.q)
     assert np.allclose([distance(q) for q in neighbours], everything[:5])
+    assert np.allclose(distances, everything[:5])
 
 
 def test_full_turn_joints_wrap_instead_of_clip():

@@ -67,10 +67,13 @@ def test_scalar_and_batched_trials_agree_with_the_written_out_step(policy, n, rn
     bounds, jacobian, error, q, cost, base = _case(rng, n, 64)
     batched = policy.trial_batch(jacobian, error, cost, base, q, bounds)
     froze = 0
+    workspace = policy.workspace(6, n)
     for b in range(len(q)):
         expected, froze_here = _reference_trial(policy, jacobian[b], error[b], cost[b], base[b], q[b], bounds)
         scalar = policy.trial(jacobian[b], error[b], float(cost[b]), float(base[b]), q[b], bounds)
         np.testing.assert_allclose(scalar, expected, rtol=0, atol=1e-12)
+        reused = policy.trial(jacobian[b], error[b], float(cost[b]), float(base[b]), q[b], bounds, workspace)
+        np.testing.assert_allclose(reused, scalar, rtol=0, atol=1e-12)  # a run's buffers: the same trial
         np.testing.assert_allclose(batched[b], expected, rtol=0, atol=1e-12)
         froze += froze_here
         assert np.all(batched[b] >= bounds.lower) and np.all(batched[b] <= bounds.upper)
@@ -79,48 +82,42 @@ def test_scalar_and_batched_trials_agree_with_the_written_out_step(policy, n, rn
 
 @pytest.mark.parametrize("policy", POLICIES)
 def test_scalar_and_batched_damping_and_stall_decisions_agree(policy, rng):
-    size = 200
-    accepted = rng.random(size) < 0.5
-    base = 10.0 ** rng.uniform(-8, 7, size=size)
-    batched = policy.next_damping_batch(accepted, base)
-    saturated = policy.saturated_batch(base)
-    for b in range(size):
-        expected = (max(policy.decrease * base[b], policy.floor) if accepted[b]
-                    else policy.increase * max(base[b], policy.reject_floor))
-        assert policy.next_damping(bool(accepted[b]), float(base[b])) == expected == batched[b]
-        assert policy.saturated(float(base[b])) == saturated[b] == \
-            (policy.max_damping is not None and base[b] > policy.max_damping)
-    # stall: run both forms along the same random cost sequences
-    runs, length = 50, 12
+    """Along random runs (random accept/reject, random costs), the scalar update and its batched twin
+    give the same dampings and stall at the same iteration as the rule written out here."""
+    runs, length = 60, 14
+    accepted = rng.random((runs, length)) < 0.5
     costs = np.cumprod(rng.uniform(0.7, 1.05, size=(runs, length)), axis=1)
-    best, since = np.full(runs, np.inf), np.zeros(runs, dtype=int)
+    start = 10.0 ** rng.uniform(-8, 5, size=runs)
+    base, best, since = start.copy(), np.full(runs, np.inf), np.zeros(runs, dtype=int)
+    batch_stall = np.full(runs, -1)
+    batch_bases = []
+    for k in range(length):
+        base, best, since, stalled = policy.update_batch(accepted[:, k], base, costs[:, k], best, since)
+        batch_stall = np.where((batch_stall < 0) & stalled, k, batch_stall)
+        batch_bases.append(base.copy())
+    stalls = 0
     for b in range(runs):
-        scalar_best, scalar_since, stalled_at = np.inf, 0, None
+        scalar_base, scalar_best, scalar_since, scalar_stall = float(start[b]), np.inf, 0, -1
+        expected_base, expected_best, count, expected_stall = float(start[b]), np.inf, 0, -1
         for k in range(length):
-            scalar_best, scalar_since, stalled = policy.track(costs[b, k], scalar_best, scalar_since)
-            if stalled and stalled_at is None:
-                stalled_at = k
-        costs_b = costs[b]
-        expected_best, count, expected_stall = np.inf, 0, None
-        for k in range(length):  # the rule in words: progress = below progress x the best so far
-            if costs_b[k] < policy.progress * expected_best:
-                expected_best, count = costs_b[k], 0
+            scalar_base, scalar_best, scalar_since, stalled = policy.update(
+                bool(accepted[b, k]), scalar_base, float(costs[b, k]), scalar_best, scalar_since)
+            if stalled and scalar_stall < 0:
+                scalar_stall = k
+            # the rule in words
+            expected_base = (max(policy.decrease * expected_base, policy.floor) if accepted[b, k]
+                             else policy.increase * max(expected_base, policy.reject_floor))
+            if costs[b, k] < policy.progress * expected_best:
+                expected_best, count = costs[b, k], 0
             else:
                 count += 1
-                if policy.stall and count >= policy.stall and expected_stall is None:
-                    expected_stall = k
-        assert stalled_at == expected_stall and scalar_best == expected_best
-    stalled_batch = np.full(runs, -1)
-    for k in range(length):
-        best, since, stalled = policy.track_batch(costs[:, k], best, since)
-        stalled_batch = np.where((stalled_batch < 0) & stalled, k, stalled_batch)
-    for b in range(runs):
-        scalar_best, scalar_since, first = np.inf, 0, -1
-        for k in range(length):
-            scalar_best, scalar_since, stalled = policy.track(costs[b, k], scalar_best, scalar_since)
-            if stalled and first < 0:
-                first = k
-        assert first == stalled_batch[b]
+            saturated = policy.max_damping is not None and expected_base > policy.max_damping
+            if expected_stall < 0 and ((policy.stall and count >= policy.stall) or saturated):
+                expected_stall = k
+            assert scalar_base == expected_base == batch_bases[k][b]
+        assert scalar_stall == expected_stall == batch_stall[b]
+        stalls += expected_stall >= 0
+    assert 0 < stalls < runs  # the runs exercise both outcomes
 
 
 def test_projection_wraps_full_turns_and_clips_the_rest():

@@ -34,12 +34,16 @@ the reference machine, so the answer depends on the inputs and ``seed`` only, ne
 ``timeout_s`` adds a wall clock. Restarts draw from the call's own random stream
 (:meth:`Solver._call_rng`).
 
-1. q0 first (TRAC-IK's protocol seeds every solve with the mid-range configuration).
-2. Then seeds from a per-chain *seed library*: ``library_size`` (8192) uniform configurations and
-   k-d trees over their tip poses, built once per chain and cached (:func:`seed_library`, ~40 ms).
-   A restart takes the library configurations whose tip pose is nearest the target (weighted
-   position distance^2 + 3 - trace(R*^T R_i)), nearest first: they start in the right region of the
-   workspace, so an attempt from them succeeds more often and sooner than from a uniform seed.
+1. q0 and the nearest entry of a per-chain *seed table* (``table_size`` 1024 configurations, uniform
+   inside the limits shrunk by ``table_margin`` = 10 % of each range at both ends; searched by brute
+   force in a few microseconds, :class:`SeedTable`), the nearer first: the entry when its distance^2
+   is under ``table_first`` (0.1) x |e(q0)|^2 (q0 an uninformed guess, as TRAC-IK's protocol's
+   mid-range seed), q0 otherwise (tracking, warm starts).
+2. Then the entries of a per-chain *seed library* (``library_size`` 8192 uniform configurations,
+   k-d trees over their tip poses, :func:`seed_library`, ~40 ms once per chain) whose tip pose is
+   nearest the target (weighted position distance^2 + 3 - trace(R*^T R_i)), nearest first: they
+   start in the right region of the workspace, so an attempt from them succeeds more often and
+   sooner than from a uniform seed. Table and library are built once per chain and cached.
 3. After ``single_attempts`` one-seed attempts, ``batch_size`` seeds advance together, vectorised
    over the batch (:class:`VectorisedChain`: residuals and Jacobians of all seeds in a fixed number
    of numpy calls); the first ``library_share`` of them are the next library neighbours, the others
@@ -68,6 +72,7 @@ from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target
 
+_LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 BATCH_ITERATION_UNITS = 10
 """Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
 iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
@@ -102,14 +107,20 @@ class BoundedLMSolver(Solver):
     damping, cost_weight, decrease, increase: mu floor, w, mu factors on accept/reject (the
     policy, :class:`LevenbergMarquardt`); max_step: cap on the largest joint step (rad or m), None =
     no cap; position_weight: w of the position rows (default 1 / the chain's length, at least 1);
-    single_attempts: one-seed attempts before the vectorised batch (5); batch_size: seeds per batch
+    single_attempts: one-seed attempts before the vectorised batch (8); batch_size: seeds per batch
     (32; 1 = one seed at a time for ever); library_size: seed-library entries (8192; 0 = uniform
     restarts); library_share: share of the first batch taken from the library (0.5); candidates: a
     uniform restart seed is the best of this many draws by task error (3; used once the library
-    neighbours run out).
+    neighbours run out); table_size, table_margin: the seed table's entries (1024; 0 = none) and the
+    share of each joint range they keep off the limits (0.1).
     """
 
     name = "bounded_lm"
+    table_first = 0.1
+    """The seed-table entry goes before q0 when its distance^2 is under this x |e(q0)|^2. Measured from
+    the mid-range seed: where the entry is that much nearer (77-94 % of poses) an attempt from it
+    succeeds as often or more (UR5 81 vs 77 %, Golem-III 76 vs 68, Pincher 96 vs 81, Panda 84 vs 83,
+    Bioloid leg 96 vs 97) in 0.6-2.9 fewer iterations; where it is less near, the two are even."""
     iteration_cost_s = 20e-6  # one single-seed iteration (FK, Jacobian, Cholesky), measured here (17-25 us)
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
@@ -117,8 +128,9 @@ class BoundedLMSolver(Solver):
                  damping: float = 1e-6, batch_size: int = 32, cost_weight: float = 0.01,
                  decrease: float = 0.3, increase: float = 10.0, progress: float = 0.9,
                  max_step: float | None = None, position_weight: float | None = None,
-                 candidates: int = 3, single_attempts: int = 5, library_size: int = 8192,
-                 library_share: float = 0.5, **options):
+                 candidates: int = 3, single_attempts: int = 8, library_size: int = 8192,
+                 library_share: float = 0.5, table_size: int = 1024, table_margin: float = 0.1,
+                 **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = self._iteration_budget(max_iterations)
         self.attempt_iterations = int(attempt_iterations)
@@ -142,9 +154,11 @@ class BoundedLMSolver(Solver):
         try:
             self._vectorised = VectorisedChain(chain_, self.position_weight)
         except RobotDescriptionError:  # not a plain serial chain: one seed at a time, uniform restarts
-            self._vectorised, self.batch_size, library_size = None, 1, 0
+            self._vectorised, self.batch_size, library_size, table_size = None, 1, 0, 0
         self._library = seed_library(chain_, max(0, int(library_size)), self.position_weight,
                                      self._vectorised)
+        self._table = seed_table(chain_, max(0, int(table_size)), self.position_weight, self._vectorised,
+                                 float(table_margin))
         self._model = scaled_model(chain_.model, self.position_weight)
         # the scaled model scales placements; a prismatic joint's travel is scaled through q itself
         scales_travel = chain_.is_prismatic.any() and self.position_weight != 1.0
@@ -172,8 +186,17 @@ class BoundedLMSolver(Solver):
         model, data, tip, scale = self._model, self._thread_state(), self.chain.tip_id, self._joint_scale
         kinematics = pin.computeJointJacobians if with_jacobian else pin.forwardKinematics
         placement, frame_jacobian, log6 = pin.updateFramePlacement, pin.getFrameJacobian, pin.log6
-        frame = pin.ReferenceFrame.LOCAL if pose else pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
-        goal_position = goal_inverse.inverse().translation
+        frame = _LOCAL if pose else _WORLD_ALIGNED
+
+        if pose and with_jacobian and scale is None:  # the hot case: no test inside
+            def residual(q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+                kinematics(model, data, q)  # forward kinematics and every joint's Jacobian
+                error = log6(goal_inverse * placement(model, data, tip)).vector
+                return error, frame_jacobian(model, data, tip, frame)
+
+            return residual
+
+        goal_position = None if pose else goal_inverse.inverse().translation
 
         def residual(q: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
             kinematics(model, data, q if scale is None else q * scale)  # FK (and joint Jacobians)
@@ -195,10 +218,11 @@ class BoundedLMSolver(Solver):
         iterations, |e|). Hot loop: the policy's calls and small numpy calls only."""
         evaluate = self._residual(goal_inverse, pose)
         policy, bounds = self.policy, self.bounds
-        trial_of, next_damping, track = policy.trial, policy.next_damping, policy.track
+        trial_of, update = policy.trial, policy.update
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         clock = deadline < math.inf
         error, jacobian = evaluate(q)
+        workspace = policy.workspace(*jacobian.shape)
         cost = float(error.dot(error))
         damping = policy.first_damping
         best_cost, since_progress = cost, 0
@@ -208,14 +232,14 @@ class BoundedLMSolver(Solver):
                 return q, True, iteration - 1, math.sqrt(cost)
             if clock and time.perf_counter() > deadline:
                 break
-            inside = trial_of(jacobian, error, cost, damping, q, bounds)
+            inside = trial_of(jacobian, error, cost, damping, q, bounds, workspace)
             trial_error, trial_jacobian = evaluate(inside)
             trial_cost = float(trial_error.dot(trial_error))
             accepted = trial_cost < cost
             if accepted:
                 q, error, jacobian, cost = inside, trial_error, trial_jacobian, trial_cost
-            damping = next_damping(accepted, damping)
-            best_cost, since_progress, stalled = track(cost, best_cost, since_progress)
+            damping, best_cost, since_progress, stalled = update(accepted, damping, cost, best_cost,
+                                                                 since_progress)
             if stalled:
                 return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), limit, math.sqrt(cost)
@@ -234,45 +258,61 @@ class BoundedLMSolver(Solver):
                 best, best_cost = seed, cost
         return best
 
-    def _neighbours(self, target: Target, count: int) -> np.ndarray:
-        """The ``count`` library configurations whose tip poses are nearest the target, nearest first.
+    def _neighbours(self, target: Target, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """The ``count`` library configurations whose tip poses are nearest the target, nearest first,
+        and their distances^2.
 
-        Distance^2 = w^2 |p* - p_i|^2 + (3 - trace(R*^T R_i)) (the second term is ~ angle^2), found
-        with a k-d tree, whose query time hardly grows with the library.
+        Distance^2 = w^2 |p* - p_i|^2 + (3 - trace(R*^T R_i)) (the second term is ~ angle^2, so the
+        distance^2 compares with a residual's |e|^2), found with a k-d tree, whose query time hardly
+        grows with the library.
         """
         library = self._library
         count = min(count, len(library.q))
         if count == 0:
-            return library.q[:0]
+            return library.q[:0], np.zeros(0)
         position = self.position_weight * target.position
         if target.rotation is None:
-            nearest = library.position_tree.query(position, k=count)[1]
+            distance, nearest = library.position_tree.query(position, k=count)
         else:
             point = np.concatenate((position, target.rotation.reshape(9) / math.sqrt(2)))
-            nearest = library.pose_tree.query(point, k=count)[1]
-        return library.q[np.atleast_1d(nearest)]
+            distance, nearest = library.pose_tree.query(point, k=count)
+        return library.q[np.atleast_1d(nearest)], np.atleast_1d(distance) ** 2
 
     def _passes(self, error: np.ndarray) -> bool:
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
+    def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray
+                     ) -> list[np.ndarray]:
+        """The first two seeds: q0 and the seed-table entry nearest the target, the entry first when
+        its distance^2 is under ``table_first`` x |e(q0)|^2 (q0 is an uninformed guess such as
+        TRAC-IK's mid-range seed), q0 first otherwise (tracking, warm starts)."""
+        if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
+            return [q_start]
+        entry, distance2 = self._table.search(target, self.position_weight).nearest()
+        reached = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
+        first = distance2 < self.table_first * float(reached.dot(reached))
+        return [entry, q_start] if first else [q_start, entry]
+
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         goal_inverse = self._goal(target)
         pose = target.is_pose
-        q_seed = self.bounds.project(q0)
-        best_q, best_error = q_seed, math.inf
-        attempts, iterations = 0, 0
-        neighbours, used_neighbours = None, 0
+        q_start = self.bounds.project(q0)
+        seeds = self._first_seeds(target, goal_inverse, pose, q_start)
+        best_q, best_error = q_start, math.inf
+        attempts, iterations, taken = 0, 0, 0  # taken: library entries handed out so far
         draws = _CallDraws(self, target, q0)
         while True:
             if self.batch_size > 1 and attempts >= self.single_attempts:
-                if attempts == 0:
-                    seeds = q_seed[None]
-                else:  # the next library neighbours (a second, larger query: few solves get here)
-                    share = int(self.library_share * self.batch_size)
-                    seeds = self._neighbours(target, used_neighbours + share)[used_neighbours:]
-                return self._solve_batch(target, seeds, deadline, attempts, iterations, (best_q, best_error),
-                                         draws)
+                batch_seeds = q_start[None] if attempts == 0 else \
+                    self._neighbours(target, taken + int(self.library_share * self.batch_size))[0][taken:]
+                return self._solve_batch(target, batch_seeds, deadline, attempts, iterations,
+                                         (best_q, best_error), draws)
+            if not seeds and taken == 0:  # then the library's nearest entries (a k-d tree query)
+                count = max(1, self.single_attempts - attempts) if self.batch_size > 1 else 32
+                seeds = list(self._neighbours(target, count)[0])
+                taken = len(seeds)
+            q_seed = seeds.pop(0) if seeds else self._next_seed(goal_inverse, pose, draws)
             q, ok, used, error = self._attempt(goal_inverse, pose, q_seed, deadline,
                                                self.max_iterations - iterations)
             attempts += 1
@@ -284,12 +324,6 @@ class BoundedLMSolver(Solver):
             if iterations >= self.max_iterations or time.perf_counter() > deadline:
                 return Candidate(best_q, iterations, self._budget_reason(attempts, best_error, deadline),
                                  {"attempts": attempts})
-            if neighbours is None:  # enough for the single attempts (a query's cost grows with k)
-                neighbours = self._neighbours(target, self.single_attempts if self.batch_size > 1 else 32)
-            if used_neighbours < len(neighbours):
-                q_seed, used_neighbours = neighbours[used_neighbours], used_neighbours + 1
-            else:
-                q_seed = self._next_seed(goal_inverse, pose, draws)
 
     def _budget_reason(self, attempts: int, best_error: float, deadline: float) -> str:
         spent = (f"wall-clock budget of {self.timeout_s:g} s" if time.perf_counter() > deadline
@@ -342,8 +376,8 @@ class BoundedLMSolver(Solver):
             error = np.where(accepted[:, None], trial_error, error)
             transposed = np.where(accepted[:, None, None], trial_transposed, transposed)
             cost = np.minimum(trial_cost, cost)
-            damping = policy.next_damping_batch(accepted, damping)
-            best_cost, since_progress, stalled = policy.track_batch(cost, best_cost, since_progress)
+            damping, best_cost, since_progress, stalled = policy.update_batch(accepted, damping, cost,
+                                                                              best_cost, since_progress)
             age += 1
             ended = stalled | (age >= self.attempt_iterations)
             fresh = None
@@ -418,8 +452,8 @@ class VectorisedChain:
     def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
                  ) -> tuple[np.ndarray, np.ndarray]:
         """(e (B, m), J^T (B, n, m)) against a goal in the base frame. Pose (m = 6): e = log6(T*^-1 T)
-        (weighted lengths) with the Jacobian in tip axes; position (m = 3): e = w (p - p*) with the
-        linear rows in base axes."""
+        (weighted lengths) with the Jacobian in tip axes, both given turned into base axes (R e, R J);
+        position (m = 3): e = w (p - p*) with the linear rows in base axes."""
         size, n = q.shape
         frames = self.frames(q)
         axes = frames[:, :n, :3, 2]
@@ -440,10 +474,11 @@ class VectorisedChain:
         if self.any_prismatic:
             transposed[:, self.prismatic, 3:] = 0.0
         rotation = tip[:, :3, :3]
-        # tip axes: each Jacobian column c becomes R^T c, i.e. each row of J^T is multiplied by R
-        transposed = np.matmul(transposed.reshape(size, 2 * n, 3), rotation).reshape(size, n, 6)
-        return batch_se3_error(rotation, self.weight * position, goal_rotation,
-                               self.weight * goal_position), transposed
+        error = batch_se3_error(rotation, self.weight * position, goal_rotation, self.weight * goal_position)
+        # the tip-axes Jacobian is R^T J: instead of turning J, turn both 3-blocks of e by R (the
+        # same |e|, J^T J and J^T e, so the same steps, one small product cheaper)
+        error = np.matmul(error.reshape(size, 2, 3), np.swapaxes(rotation, 1, 2)).reshape(size, 6)
+        return error, transposed
 
     def tip_poses(self, q: np.ndarray) -> np.ndarray:
         """(B, 4, 4) tip poses in the base frame."""
@@ -493,7 +528,7 @@ def seed_library(chain, size: int, weight: float, kinematics: VectorisedChain | 
     """The chain's seed library of ``size`` uniform configurations (a fixed random stream, so the
     same for every solver), built once per (chain, size, weight) and cached."""
     cache = _LIBRARIES.setdefault(chain, {})
-    key = (size, weight)
+    key = ("library", size, weight)
     if key not in cache:
         q = chain.random(np.random.default_rng(size), size)
         tips = kinematics.tip_poses(q) if size and kinematics is not None else np.zeros((0, 4, 4))
@@ -501,6 +536,70 @@ def seed_library(chain, size: int, weight: float, kinematics: VectorisedChain | 
         rotations = tips[:, :3, :3].reshape(-1, 9) / math.sqrt(2)
         cache[key] = SeedLibrary(q[:len(tips)], cKDTree(np.hstack((positions, rotations)).reshape(-1, 12)),
                                  cKDTree(positions.reshape(-1, 3)))
+    return cache[key]
+
+
+@dataclass(frozen=True)
+class SeedTable:
+    """A small set of configurations q (N, n) searched by brute force (one matrix-vector product,
+    a few microseconds: a k-d tree query costs 20-50 us here, mostly call overhead).
+
+    With the weighted tip positions p_i and rotations R_i, the distance^2 of an entry to a target
+    (p*, R*) is w^2 |p* - p_i|^2 + 3 - trace(R*^T R_i) = offset_i - features_i . [w p*, vec R*]
+    + w^2 |p*|^2 + 3, with features_i = [2 w p_i, vec R_i] and offset_i = w^2 |p_i|^2."""
+
+    q: np.ndarray
+    features: np.ndarray  # (N, 12)
+    position_features: np.ndarray  # (N, 3): 2 w p_i, contiguous
+    offsets: np.ndarray  # (N,)
+
+    def search(self, target: Target, weight: float) -> TableSearch:
+        """The entries' distances^2 to a target (pose distance, or position only), to draw the
+        nearest from (:class:`TableSearch`)."""
+        position = weight * target.position
+        if target.rotation is None:
+            scores = self.offsets - self.position_features.dot(position)
+            constant = float(position.dot(position))
+        else:
+            scores = self.offsets - self.features.dot(np.concatenate((position, target.rotation.reshape(9))))
+            constant = float(position.dot(position)) + 3.0
+        return TableSearch(self.q, scores, constant)
+
+
+@dataclass
+class TableSearch:
+    """The distances of a seed table's entries to one target: the nearest by argmin (~1 us), the
+    next ones only when asked for."""
+
+    q: np.ndarray
+    scores: np.ndarray  # distance^2 - constant
+    constant: float
+
+    def nearest(self) -> tuple[np.ndarray, float]:
+        """The nearest entry and its distance^2."""
+        index = int(np.argmin(self.scores))
+        return self.q[index], float(self.scores[index]) + self.constant
+
+
+def seed_table(chain, size: int, weight: float, kinematics: VectorisedChain | None,
+               margin: float) -> SeedTable:
+    """The chain's seed table: ``size`` configurations uniform inside the limits shrunk by ``margin``
+    x the range at both ends (full-turn joints: the whole turn), a fixed random stream, built once
+    per (chain, size, weight, margin) and cached. The margin: an attempt from an entry near a limit
+    fails more often (nearest-entry attempts solved, margin 0 / 0.1 / 0.2: Panda 76 / 87 / 92 %,
+    Pincher 94 / 98 / 93 %, Golem-III 80 / 82 / 76 %)."""
+    cache = _LIBRARIES.setdefault(chain, {})
+    key = ("table", size, weight, margin)
+    if key not in cache:
+        bounds = JointBounds.of_chain(chain)
+        inset = np.where(bounds.wraps, 0.0, margin * (chain.upper - chain.lower))
+        q = np.random.default_rng([size, 1]).uniform(chain.lower + inset, chain.upper - inset,
+                                                     size=(size, chain.nq))
+        tips = kinematics.tip_poses(q) if size and kinematics is not None else np.zeros((0, 4, 4))
+        positions = weight * tips[:, :3, 3]
+        features = np.hstack((2.0 * positions, tips[:, :3, :3].reshape(-1, 9))).reshape(-1, 12)
+        cache[key] = SeedTable(q[:len(tips)], features, np.ascontiguousarray(features[:, :3]),
+                               np.einsum("bi,bi->b", positions, positions))
     return cache[key]
 
 

@@ -43,20 +43,21 @@ class DampedLeastSquares(Solver):
         q = chain.clip(q0)
         error, jacobian = task_error(chain, target, q)
         cost = float(error @ error)
-        damping = policy.first_damping
+        damping, best, since = policy.first_damping, cost, 0
+        workspace = policy.workspace(*jacobian.shape)
         for iteration in range(1, self.max_iterations + 1):
             if converged(error, self.tolerances.position, self.tolerances.rotation):
                 return Candidate(q, iteration - 1)
             if time.perf_counter() > deadline:
                 return Candidate(q, iteration - 1, f"wall-clock budget of {self.timeout_s:g} s used up")
-            trial = policy.trial(jacobian, error, cost, damping, q, bounds)
+            trial = policy.trial(jacobian, error, cost, damping, q, bounds, workspace)
             trial_error, trial_jacobian = task_error(chain, target, trial)
             trial_cost = float(trial_error @ trial_error)
             accepted = trial_cost < cost
             if accepted:
                 q, error, jacobian, cost = trial, trial_error, trial_jacobian, trial_cost
-            damping = policy.next_damping(accepted, damping)
-            if policy.saturated(damping):
+            damping, best, since, stalled = policy.update(accepted, damping, cost, best, since)
+            if stalled:  # no progress test here (stall=0): only the damping can saturate
                 return Candidate(q, iteration, "stalled in a local minimum (damping saturated)")
         return Candidate(q, self.max_iterations,
                          f"iteration budget used up: no convergence in {self.max_iterations} iterations")

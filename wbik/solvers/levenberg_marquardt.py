@@ -25,7 +25,8 @@ a redundant chain), by Cholesky.
 - **Stall**: the best cost of a run must fall below ``progress`` x its previous best at least once
   every ``stall`` iterations; otherwise the run has stalled (a local minimum, a limit, or a target
   out of reach). With ``max_damping`` set, a base damping above it is a stall too (the step has
-  shrunk to nothing); ``stall=0`` turns the progress test off.
+  shrunk to nothing); ``stall=0`` turns the progress test off. :meth:`LevenbergMarquardt.update`
+  applies the accept/reject update and the stall test after each trial.
 
 Scalar methods take floats and (n,) arrays; their ``*_batch`` twins take (B,) and (B, n) arrays and
 make the same decisions element by element (``tests/test_levenberg_marquardt.py`` checks it).
@@ -64,17 +65,21 @@ class JointBounds:
 
     def project(self, q: np.ndarray) -> np.ndarray:
         """q (n,) or (B, n) inside the limits: wrapped full-turn joints, clipped others (a new array)."""
+        lower, upper = self.lower, self.upper
+        inside = np.minimum(np.maximum(q, lower), upper)
         if self.any_wrap:
-            q = q.copy()
-            wrapped = q[..., self.wraps]
-            low = self.lower[self.wraps]
-            outside = (wrapped < low) | (wrapped > self.upper[self.wraps])
-            q[..., self.wraps] = np.where(outside, low + np.mod(wrapped - low, TWO_PI), wrapped)
-        return np.minimum(np.maximum(q, self.lower), self.upper)
+            outside = (inside != q) & self.wraps
+            if outside.any():  # lower + (q - lower mod 2 pi) is in [lower, lower + 2 pi): clip its top
+                inside = np.minimum(np.where(outside, lower + np.mod(q - lower, TWO_PI), inside), upper)
+        return inside
 
-    def blocked(self, q: np.ndarray, step: np.ndarray) -> np.ndarray:
-        """Clipped joints on a bound whose step points outwards (n,) or (B, n): the ones to freeze."""
-        return (((q <= self.lower) & (step < 0.0)) | ((q >= self.upper) & (step > 0.0))) & self.clipped
+    def blocked(self, q: np.ndarray, clipped_trial: np.ndarray) -> np.ndarray:
+        """Clipped joints on a bound whose step points outwards, (n,) or (B, n): the ones to freeze.
+        ``clipped_trial`` is q + dq clipped into the limits, so they are the joints it leaves at q."""
+        blocked = clipped_trial == q
+        if self.any_wrap:
+            blocked &= self.clipped
+        return blocked
 
 
 @dataclass(frozen=True)
@@ -112,21 +117,24 @@ class LevenbergMarquardt:
 
     # -- one configuration ------------------------------------------------------------------------
     def trial(self, jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
-              bounds: JointBounds) -> np.ndarray:
+              bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
         """The next trial configuration, inside the limits, from J (m, n) and e (m,) at q (n,) with
-        cost |e|^2 and base damping mu: damped step, cap, projection and bound freezing."""
+        cost |e|^2 and base damping mu: damped step, cap, projection and bound freezing.
+        ``workspace`` (:meth:`workspace`, one per run and thread) saves the system's allocation."""
         damping = self.cost_weight * cost + base
-        step = self._capped(_damped_step(jacobian, error, damping))
-        trial = q + step
+        descent = _descent(jacobian, error, damping, workspace)  # dq = -descent
+        if self.max_step is not None:
+            descent = self._capped(descent)
+        trial = q - descent
         inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         if inside.tobytes() != trial.tobytes():  # some joint left its range (or needs wrapping)
-            blocked = bounds.blocked(q, step)
+            blocked = bounds.blocked(q, inside)
             if blocked.any():
                 free = np.flatnonzero(~blocked)
-                step = np.zeros(q.shape[0])
+                descent = np.zeros(q.shape[0])
                 if free.size:
-                    step[free] = _damped_step(jacobian[:, free], error, damping)
-                trial = q + self._capped(step)
+                    descent[free] = _frozen_descent(jacobian, error, damping, free, workspace)
+                trial = q - self._capped(descent)
             inside = bounds.project(trial) if bounds.any_wrap \
                 else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         return inside
@@ -138,22 +146,28 @@ class LevenbergMarquardt:
                 return step * (self.max_step / longest)
         return step
 
-    def next_damping(self, accepted: bool, base: float) -> float:
-        """mu after a step: max(decrease mu, floor) when accepted, increase max(mu, reject_floor) if not."""
+    @staticmethod
+    def workspace(rows: int, columns: int) -> Workspace:
+        """Buffers for :meth:`trial` on J of shape (rows, columns): one per run, never shared."""
+        return Workspace(min(rows, columns))
+
+    def update(self, accepted: bool, base: float, cost: float, best: float, since: int
+               ) -> tuple[float, float, int, bool]:
+        """After a trial: (base damping, best cost, iterations since progress, stalled?).
+
+        mu <- max(decrease mu, floor) when the trial was accepted, increase max(mu, reject_floor)
+        if not; progress is a cost below ``progress`` x the best so far; the run has stalled after
+        ``stall`` iterations without progress, or when mu exceeds ``max_damping``."""
         if accepted:
-            return max(base * self.decrease, self.floor)
-        return max(base, self.reject_floor) * self.increase
-
-    def track(self, cost: float, best: float, since: int) -> tuple[float, int, bool]:
-        """Stall detection after an iteration: (best cost, iterations since progress, stalled?)."""
+            base = max(base * self.decrease, self.floor)
+        else:
+            base = max(base, self.reject_floor) * self.increase
         if cost < self.progress * best:
-            return cost, 0, False
-        since += 1
-        return best, since, 0 < self.stall <= since
-
-    def saturated(self, base: float) -> bool:
-        """The base damping has grown past ``max_damping``: steps are too small to go anywhere."""
-        return self.max_damping is not None and base > self.max_damping
+            best, since = cost, 0
+        else:
+            since += 1
+        return base, best, since, (0 < self.stall <= since) or (
+            self.max_damping is not None and base > self.max_damping)
 
     # -- a batch of configurations, element by element the same decisions --------------------------
     def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
@@ -165,10 +179,12 @@ class LevenbergMarquardt:
         trial = q + step
         inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         if inside.tobytes() != trial.tobytes():
-            blocked = bounds.blocked(q, step)
-            if blocked.any():
-                step = _damped_steps(jacobian * ~blocked[:, None, :], error, damping)
-                trial = q + self._capped_batch(step)
+            blocked = bounds.blocked(q, inside)
+            rows = np.flatnonzero(blocked.any(axis=1))
+            if rows.size:  # re-solve those rows only, their frozen columns zeroed
+                step[rows] = self._capped_batch(_damped_steps(jacobian[rows] * ~blocked[rows, None, :],
+                                                              error[rows], damping[rows]))
+                trial = q + step
             inside = bounds.project(trial) if bounds.any_wrap \
                 else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
         return inside
@@ -180,42 +196,75 @@ class LevenbergMarquardt:
             return step * scale[:, None]
         return step
 
-    def next_damping_batch(self, accepted: np.ndarray, base: np.ndarray) -> np.ndarray:
-        """:meth:`next_damping` element by element."""
-        return np.where(accepted, np.maximum(base * self.decrease, self.floor),
+    def update_batch(self, accepted: np.ndarray, base: np.ndarray, cost: np.ndarray, best: np.ndarray,
+                     since: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`update` element by element."""
+        base = np.where(accepted, np.maximum(base * self.decrease, self.floor),
                         np.maximum(base, self.reject_floor) * self.increase)
-
-    def track_batch(self, cost: np.ndarray, best: np.ndarray, since: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`track` element by element: (best costs, iterations since progress, stalled)."""
         progressed = cost < self.progress * best
         best = np.where(progressed, cost, best)
         since = np.where(progressed, 0, since + 1)
         stalled = (since >= self.stall) if self.stall > 0 else np.zeros(cost.shape, dtype=bool)
-        return best, since, stalled
-
-    def saturated_batch(self, base: np.ndarray) -> np.ndarray:
-        """:meth:`saturated` element by element."""
-        if self.max_damping is None:
-            return np.zeros(base.shape, dtype=bool)
-        return base > self.max_damping
+        if self.max_damping is not None:
+            stalled |= base > self.max_damping
+        return base, best, since, stalled
 
 
-def _damped_step(jacobian: np.ndarray, error: np.ndarray, damping: float) -> np.ndarray:
-    """-(J^T J + lambda I)^-1 J^T e by the smaller system (Cholesky; least squares if it fails)."""
+class Workspace:
+    """The damped system's buffer, a view of its diagonal and the last right-hand side (for one run
+    in one thread)."""
+
+    def __init__(self, size: int):
+        self.system = np.empty((size, size))
+        self.diagonal = self.system.reshape(-1)[::size + 1]
+        self.right = np.empty(size)
+
+
+def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
+             workspace: Workspace | None = None) -> np.ndarray:
+    """(J^T J + lambda I)^-1 J^T e = J^T (J J^T + lambda I)^-1 e (the step is its negative), by the
+    smaller system (Cholesky; least squares if it fails)."""
     rows, columns = jacobian.shape
     transpose = jacobian.T
-    if columns <= rows:
-        system = transpose.dot(jacobian)
-        system.reshape(-1)[::columns + 1] += damping
-        return -_solve(system, transpose.dot(error))
-    system = jacobian.dot(transpose)
-    system.reshape(-1)[::rows + 1] += damping
-    return -transpose.dot(_solve(system, error))
+    small = columns <= rows
+    if workspace is None:
+        system = transpose.dot(jacobian) if small else jacobian.dot(transpose)
+        system.reshape(-1)[::system.shape[0] + 1] += damping
+    else:
+        system = workspace.system
+        if small:
+            np.dot(transpose, jacobian, out=system)
+        else:
+            np.dot(jacobian, transpose, out=system)
+        workspace.diagonal += damping
+    if small:
+        right = transpose.dot(error)
+        if workspace is not None:
+            workspace.right = right
+    else:
+        right = error
+    _, solution, info = dposv(system, right)
+    if info:  # not numerically positive definite: least squares
+        solution = np.linalg.lstsq(system, right, rcond=None)[0]
+    return solution if small else transpose.dot(solution)
+
+
+def _frozen_descent(jacobian: np.ndarray, error: np.ndarray, damping: float, free: np.ndarray,
+                    workspace: Workspace | None) -> np.ndarray:
+    """:func:`_descent` on the ``free`` joints only (J's other columns dropped). The normal equations
+    of a run are the last system's free rows and columns: taken from the workspace, not recomputed."""
+    rows, columns = jacobian.shape
+    if workspace is None or columns > rows:
+        return _descent(jacobian[:, free], error, damping)
+    system, right = workspace.system[np.ix_(free, free)], workspace.right[free]
+    _, solution, info = dposv(system, right)
+    if info:
+        solution = np.linalg.lstsq(system, right, rcond=None)[0]
+    return solution
 
 
 def _damped_steps(jacobian: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:
-    """:func:`_damped_step` for J (B, m, n), e (B, m) and lambda (B,)."""
+    """The steps -:func:`_descent` for J (B, m, n), e (B, m) and lambda (B,)."""
     rows, columns = jacobian.shape[1:]
     transpose = np.swapaxes(jacobian, 1, 2)
     if columns <= rows:
@@ -228,12 +277,3 @@ def _damped_steps(jacobian: np.ndarray, error: np.ndarray, damping: np.ndarray) 
     diagonal += damping[:, None]
     solution = np.linalg.solve(system, right)
     return -(solution if columns <= rows else np.matmul(transpose, solution))[..., 0]
-
-
-def _solve(system: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """x with system x = right for a symmetric positive definite system (Cholesky); least squares
-    when it is not numerically positive definite."""
-    _, solution, info = dposv(system, right)
-    if info:
-        return np.linalg.lstsq(system, right, rcond=None)[0]
-    return solution

@@ -67,30 +67,38 @@ def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
 
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
-    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R*, p*)."""
-    relative = np.matmul(target_rotation.T, rotation)
-    phi = batch_log3(relative)
+    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R*, p*).
+
+    With t = R*^T (p - p*) and phi x (phi x t) = phi (phi . t) - theta^2 t:
+    V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2 + c (phi . t) phi,
+    c = (1 - (theta / 2) cot(theta / 2)) / theta^2.
+    """
+    phi = batch_log3(np.matmul(target_rotation.T, rotation))
     offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row
     theta2 = np.einsum("bi,bi->b", phi, phi)
-    theta = np.sqrt(theta2)
-    small = theta < 1e-3
-    half = 0.5 * np.where(small, 1.0, theta)
-    # (1 - (theta / 2) cot(theta / 2)) / theta^2, its series 1/12 + theta^2/720 near 0
+    half = 0.5 * np.sqrt(theta2)
+    small = theta2 < 1e-6
+    safe = np.where(small, 1.0, half)
+    # c and its series 1/12 + theta^2/720 near 0 (where the closed form loses its digits)
     coefficient = np.where(small, 1.0 / 12.0 + theta2 / 720.0,
-                           (1.0 - half / np.tan(half)) / np.where(small, 1.0, theta2))
-    once = _cross(phi, offset)
-    twice = _cross(phi, once)
+                           (1.0 - safe / np.tan(safe)) / (4.0 * safe * safe))
+    along = coefficient * np.einsum("bi,bi->b", phi, offset)
+    cross = (phi[:, :, None] * offset[:, None, :]).reshape(-1, 9) @ _LEVI_CIVITA
     result = np.empty((len(phi), 6))
-    result[:, :3] = offset - 0.5 * once + coefficient[:, None] * twice
+    result[:, :3] = offset * (1.0 - coefficient * theta2)[:, None] - 0.5 * cross + along[:, None] * phi
     result[:, 3:] = phi
     return result
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross products of (B, 3) arrays (np.cross's checks cost more than the arithmetic)."""
-    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
-    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
-    return np.stack((a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0), axis=1)
+def _levi_civita() -> np.ndarray:
+    """E (9, 3) with (a outer b).flat @ E = a x b."""
+    symbol = np.zeros((3, 3, 3))
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        symbol[i, j, k], symbol[i, k, j] = 1.0, -1.0
+    return symbol.transpose(1, 2, 0).reshape(9, 3)
+
+
+_LEVI_CIVITA = _levi_civita()
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
