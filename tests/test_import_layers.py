@@ -3,8 +3,8 @@
 Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
-  data); kinematics (dh, robot, models, collision); solving (solvers, qp, wholebody, and the ``wbik``
-  facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
+  registry, data); kinematics (dh, robot, models, collision); solving (solvers, qp, wholebody, and
+  the ``wbik`` facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
 - applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core;
 - entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
 
@@ -32,14 +32,15 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
-CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.robot",
-        "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study",
-        "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations",
-        "wbik.scenarios")
+CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
+        "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
+        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
+        "wbik.expectations", "wbik.scenarios")
 APPLICATIONS = ("wbik.apps",)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
-    ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.data"),
+    ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
+     "wbik.data"),
     ("wbik.dh", "wbik.robot", "wbik.models", "wbik.collision"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
     ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenario_schema",

@@ -1,0 +1,145 @@
+"""Registries of named things that modules declare: the core lists the modules by name, each module
+declares what it provides.
+
+A :class:`DeclaredRegistry` holds entries of one type (anything with a ``name``: a whole-body case
+sampler, a whole-body method, ...). The modules listed in its ``modules`` list ("package.module"
+strings) are imported on first use, so the core names an application's module without importing
+it, and each declares its entries in a module-level tuple (the registry's ``attribute``, e.g.
+``WHOLEBODY_CASES``)::
+
+    WHOLEBODY_CASES = (CaseSampler("walk_com_shift", "my_biped", com_shift, "the CoM to ..."),)
+
+Every listed module is imported when the entries are first needed; one that fails to import, has
+no such tuple, or declares a name that another module declares too is an error naming the module
+(:class:`RegistryError`), never skipped. User code adds an entry with
+:meth:`DeclaredRegistry.register`, or a module of entries with :meth:`DeclaredRegistry.register_module`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+from collections.abc import Callable
+from typing import Generic, Protocol, TypeVar
+
+from wbik.errors import UnknownNameError, WbikError
+
+__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError"]
+
+
+class RegistryError(WbikError):
+    """A name declared twice, or a listed module that declares no entries of the registry's type."""
+
+
+class RegistryImportError(RegistryError):
+    """A module listed in a registry that cannot be imported."""
+
+
+class Named(Protocol):
+    name: str
+
+
+Entry = TypeVar("Entry", bound=Named)
+
+
+class DeclaredRegistry(Generic[Entry]):
+    """Entries of ``entry_type`` declared by the modules in ``modules`` (see the module docstring).
+
+    ``what``: what an entry is, for messages ("whole-body case sampler"). ``attribute``: the tuple
+    each listed module declares. ``listed_in``: where ``modules`` is defined, for messages.
+    ``unknown``: the error for a name nobody declares, given (name, known names).
+    """
+
+    def __init__(
+        self,
+        what: str,
+        attribute: str,
+        modules: list[str],
+        listed_in: str,
+        entry_type: type[Entry],
+        unknown: Callable[[str, list[str]], WbikError] | None = None,
+    ):
+        self.what, self.attribute, self.modules, self.listed_in = what, attribute, modules, listed_in
+        self.entry_type = entry_type
+        self.unknown = unknown or (lambda name, known: UnknownNameError(name, known,
+                                                                        hint=f"(the registered {what}s)"))
+        self._entries: dict[str, Entry] = {}
+        self._origins: dict[str, str] = {}
+        self._loaded: set[str] = set()
+        self._lock = threading.RLock()
+
+    def fresh(self, modules: list[str] | None = None) -> DeclaredRegistry[Entry]:
+        """A registry like this one with nothing loaded, listing ``modules`` (default: a copy of this
+        one's list); for tests and for trying a list of modules without touching this registry."""
+        return DeclaredRegistry(self.what, self.attribute, list(self.modules if modules is None else modules),
+                                self.listed_in, self.entry_type, self.unknown)
+
+    def entries(self) -> dict[str, Entry]:
+        """Every entry by name (the listed modules imported on first use)."""
+        with self._lock:
+            for module_name in list(self.modules):
+                self._load_once(module_name)
+            return dict(self._entries)
+
+    def get(self, name: str) -> Entry:
+        """The entry called ``name`` (the registry's ``unknown`` error, listing the names, if none)."""
+        entries = self.entries()
+        if not isinstance(name, str) or name not in entries:
+            raise self.unknown(name if isinstance(name, str) else repr(name), sorted(entries))
+        return entries[name]
+
+    def register(self, entry: Entry, replace: bool = False) -> None:
+        """Add ``entry`` from user code (``replace`` an entry of the same name only when asked)."""
+        if not isinstance(entry, self.entry_type):
+            raise RegistryError(f"a {self.what} is registered as a {self.entry_type.__name__}, got "
+                                f"{type(entry).__name__}")
+        self.entries()  # the declared entries first, so a clash is found now
+        with self._lock:
+            self._add(entry, "register()", replace)
+
+    def register_module(self, module_name: str) -> None:
+        """Add the entries a module declares, by the module's name; it is imported now (an error if
+        it cannot be, and then nothing is added)."""
+        self.entries()
+        with self._lock:
+            self._load_once(module_name)
+            if module_name not in self.modules:
+                self.modules.append(module_name)
+
+    # -- loading -----------------------------------------------------------------------------------
+    def _load_once(self, module_name: str) -> None:
+        if module_name in self._loaded:
+            return
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError as exc:
+            raise RegistryImportError(
+                f"the {self.what}s of {module_name} (listed in {self.listed_in}) cannot be registered: "
+                f"importing it failed: {exc}. Install what it names (pip install -e . installs wbik's "
+                f"own dependencies), or remove the module from that list") from exc
+        declared = getattr(module, self.attribute, None)
+        if not isinstance(declared, tuple | list) or not all(isinstance(item, self.entry_type)
+                                                               for item in declared):
+            raise RegistryError(f"{module_name} is listed in {self.listed_in} but has no {self.attribute} "
+                                f"tuple of {self.entry_type.__name__}")
+        names = [entry.name for entry in declared]
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if twice:
+            raise RegistryError(f"{module_name} declares the {self.what}(s) {', '.join(twice)} twice")
+        for entry in declared:  # all or nothing: check every name before adding any
+            self._check_new(entry, module_name)
+        for entry in declared:
+            self._add(entry, module_name)
+        self._loaded.add(module_name)
+
+    def _check_new(self, entry: Entry, where: str) -> None:
+        known = self._entries.get(entry.name)
+        if known is not None and known is not entry:
+            raise RegistryError(f"{self.what} {entry.name!r} of {where} is already registered "
+                                f"(by {self._origins[entry.name]})")
+
+    def _add(self, entry: Entry, where: str, replace: bool = False) -> None:
+        if not replace:
+            self._check_new(entry, where)
+        self._entries[entry.name] = entry
+        self._origins[entry.name] = where
