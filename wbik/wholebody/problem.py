@@ -57,7 +57,7 @@ class WholeBody:
     """A whole-body IK problem on one robot (see the module docstring).
 
     ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (held there).
-    ``support``: soles whose corners (``robot.info["sole_corners"]``) make the support polygon;
+    ``support``: soles whose corners (``robot.soles``) make the support polygon;
     default the contacts that have sole corners; ``[]`` for none. ``limits``: "position",
     "position+velocity" (each IK step also bounded by v_max * ``step_dt``) or "none".
     ``collisions``: minimum distances, as :class:`MinimumDistance` or (frame_a, frame_b, m).
@@ -99,7 +99,7 @@ class WholeBody:
             }
         else:
             self.contacts = {str(frame): None for frame in contacts}
-        corners = robot.info.get("sole_corners") or {}
+        corners = robot.soles
         if support is None:
             support = [frame for frame in self.contacts if frame in corners]
         if isinstance(support, str):
@@ -113,7 +113,7 @@ class WholeBody:
 
             raise RobotDescriptionError(
                 f"support frames {missing} have no sole corners on {robot.name!r} "
-                f"(robot.info['sole_corners'] lists {sorted(corners)})"
+                f"(robot.soles lists {sorted(corners)})"
             )
         if (
             isinstance(margin, bool)
@@ -217,7 +217,7 @@ class WholeBody:
         from wbik.qp.support_polygon import feet_support_polygon
 
         return feet_support_polygon(
-            Kinematics(self.robot.model, q), self.robot.info["sole_corners"], self.support
+            Kinematics(self.robot.model, q), self.robot.soles, self.support
         )
 
     def check_q(self, q, what: str = "q0") -> np.ndarray:
