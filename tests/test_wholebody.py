@@ -37,7 +37,7 @@ def sole_points(robot, q, soles) -> np.ndarray:
     points = []
     for sole in soles:
         placement = robot.frame_placement(q, sole)
-        corners = np.asarray(robot.info["sole_corners"][sole], dtype=float)
+        corners = np.asarray(robot.soles[sole], dtype=float)
         points.append((corners @ placement.rotation.T + placement.translation)[:, :2])
     return np.vstack(points)
 
@@ -146,7 +146,9 @@ def test_each_method_solves_a_bioloid_com_shift(bioloid, method):
     left = bioloid.frame_placement(q0, "l_sole").translation
     target = right[:2] + 0.3 * (left[:2] - right[:2])  # 30 % of the way from the right sole to the left
     problem = com_shift_problem(bioloid, target)
-    result = wholebody_solver(method, bioloid).solve(problem, q0)
+    solver = wholebody_solver(method, bioloid)
+    assert solver.cannot_express(problem, q0) is None
+    result = solver.solve(problem, q0)
     assert result.method == method
     assert result.success, result.reason
     com = bioloid.center_of_mass(result.q)
@@ -178,7 +180,10 @@ def test_thesis_legs_refuses_the_golem_and_lists_a_hand_task(bioloid, golem):
     q0 = bioloid.nominal
     hand = bioloid.frame_placement(q0, "r_hand").translation + np.array([0.02, 0.0, 0.0])
     problem = WholeBody(bioloid, [PositionTask("r_hand", hand, name="r_hand")], contacts=["r_sole", "l_sole"])
-    result = wholebody_solver("thesis_legs", bioloid).solve(problem, q0)
+    solver = wholebody_solver("thesis_legs", bioloid)
+    assert solver.cannot_express(problem, q0) == ("cannot express the goal task(s) r_hand (thesis_legs "
+                                                  "places the soles and the CoM only)")
+    result = solver.solve(problem, q0)
     assert not result.success
     assert any("r_hand" in item for item in result.unsupported)
     assert result.extra["cannot_express"] == ["r_hand"]
@@ -186,13 +191,15 @@ def test_thesis_legs_refuses_the_golem_and_lists_a_hand_task(bioloid, golem):
 
 
 def test_thesis_legs_lifts_a_foot_with_the_closed_form(bioloid):
-    from wbik.wholebody.scenarios import standing_on
+    from wbik.apps.bioloid.wholebody_cases import standing_on
 
     q0 = standing_on("r")
     target = bioloid.frame_placement(q0, "l_sole")
     target.translation = target.translation + np.array([0.01, 0.0, 0.015])
     problem = WholeBody(bioloid, [FrameTask("l_sole", target, name="l_sole")], contacts=["r_sole"])
-    result = wholebody_solver("thesis_legs", bioloid).solve(problem, q0)
+    solver = wholebody_solver("thesis_legs", bioloid)
+    assert solver.cannot_express(problem, q0) is None  # a sole and the CoM: what the legs place
+    result = solver.solve(problem, q0)
     assert result.success, result.reason
     reached = bioloid.frame_placement(result.q, "l_sole")
     assert np.linalg.norm(reached.translation - target.translation) <= 1e-6
@@ -201,7 +208,7 @@ def test_thesis_legs_lifts_a_foot_with_the_closed_form(bioloid):
 
 
 def test_pink_results_carry_the_no_hard_polygon_mark_and_are_judged_by_the_same_check(bioloid):
-    from wbik.wholebody.scenarios import sample_case
+    from wbik.wholebody.cases import sample_case
 
     case = sample_case("bioloid_reach_two_feet", 1, 0)
     result = wholebody_solver("pink", bioloid).solve(case.problem, case.q0)
@@ -212,9 +219,9 @@ def test_pink_results_carry_the_no_hard_polygon_mark_and_are_judged_by_the_same_
 
 
 def test_samplers_are_deterministic_per_index():
-    from wbik.wholebody.scenarios import SCENARIOS, sample_case
+    from wbik.wholebody.cases import case_samplers, sample_case
 
-    for name in SCENARIOS:
+    for name in case_samplers():
         first, again = sample_case(name, 11, 3), sample_case(name, 11, 3)
         assert np.array_equal(first.anchor, again.anchor) and np.array_equal(first.q0, again.q0)
         assert not np.array_equal(first.anchor, sample_case(name, 11, 4).anchor)
@@ -241,7 +248,8 @@ def test_whole_body_study_runs_and_reports(tmp_path):
         assert labels == expected
         assert (output / case / "significance.csv").is_file()
         assert (output / case / "figures" / "com_margin.png").is_file()
-    assert "thesis_legs" in read_json(output / "bioloid_reach_two_feet" / "not_applicable.json")
+    reason = read_json(output / "bioloid_reach_two_feet" / "not_applicable.json")["thesis_legs"]
+    assert reason.startswith("cannot express the goal task(s) ") and "_hand (thesis_legs places" in reason
     assert "no hard polygon" in report  # pink's mark in the table
     # resume: a second run computes nothing
     run_study(study, output, jobs=1, backend="sequential", progress=False, log=lambda m: None)

@@ -10,8 +10,8 @@ A method is *not applicable* to a case, with its own message, when
    ``solver.check_target_kind(kind)`` ("pose" or "position") raises UnsupportedError. A solver
    without that query is asked the typed way it can answer today: its UnsupportedError on the case's
    first target (``Solver.solve`` raises it for a target kind or a chain the method cannot take);
-3. a whole-body method answers the case's first problem with goal tasks it cannot express
-   (``answer.extra["cannot_express"]``, the whole-body result's field for that).
+3. a whole-body method's query ``solver.cannot_express(problem, q0)`` on the case's first problem
+   gives the reason it cannot take it (goal tasks it has no way to state); the text is the method's.
 
 Nothing else means "not applicable": other errors while building propagate to the runner (a
 :class:`~wbik.errors.WbikError` is a mistake in the study file, anything else a bug), and an error
@@ -53,7 +53,7 @@ def _build(task: ChunkTask):
         return make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
                            task.timeout_s, task.tolerances, task.seed)
     import wbik
-    from wbik.wholebody.solvers import wholebody_solver
+    from wbik.wholebody.methods import wholebody_solver
 
     return wholebody_solver(task.method, _robot(task.robot, task.robot_params),
                             tolerances=wbik.Tolerances(*task.tolerances), timeout_s=task.timeout_s,
@@ -80,18 +80,8 @@ def _target_kind_refusal(task: ChunkTask, solver) -> str | None:
 
 
 def _wholebody_refusal(task: ChunkTask, solver) -> str | None:
-    """The goal tasks of the case's first problem the method cannot express (module docstring, 3)."""
-    from wbik.wholebody.scenarios import sample_case
+    """The method's own reason it cannot express the case's first problem (module docstring, 3)."""
+    from wbik.wholebody.cases import sample_case
 
     case = sample_case(task.scenario, task.scenario_seed, task.first_pose)
-    try:
-        answer = solver.solve(case.problem, task.q0[0])
-    except UnsupportedError as exc:
-        return str(exc)
-    except Exception:  # noqa: BLE001 - a failing solve is not a refusal: the chunk records it in its row
-        return None
-    cannot = answer.extra.get("cannot_express") if answer.extra else None
-    if cannot:
-        return (f"cannot express the goal task(s) {', '.join(cannot)} of {task.scenario} "
-                f"({answer.method} places the soles and the CoM only)")
-    return None
+    return solver.cannot_express(case.problem, task.q0[0])

@@ -92,7 +92,7 @@ class CaseSpec:
     robot_params: dict = field(default_factory=dict)
     poses: int | None = None  # None: the study's
     reference: Reference | None = None  # published figures to compare with, and their angle names
-    scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.scenarios)
+    scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.cases)
 
 
 @dataclass(frozen=True)
@@ -283,7 +283,7 @@ def _methods(raw, source: str) -> list[MethodSpec]:
         raise StudyDefinitionError(f"{source}: methods must be a non-empty list, e.g. [analytic, dls, "
                                    "{label: kdl_15s, method: kdl, timeout_s: 15}]")
     from wbik.solvers import methods as registered
-    from wbik.wholebody.solvers import wholebody_methods
+    from wbik.wholebody.methods import wholebody_methods
 
     known_methods = {**registered(), **wholebody_methods()}  # whole-body methods for wholebody cases
     specs: list[MethodSpec] = []
@@ -385,16 +385,18 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
 
 def _wholebody_case(item: dict, source: str, where: str) -> dict:
     """A whole-body case entry checked, with its robot and name filled from the sampler."""
-    from wbik.wholebody.scenarios import SCENARIOS
+    from wbik.wholebody.cases import case_samplers
 
     if item.get("target", "wholebody") != "wholebody":
         raise StudyDefinitionError(f"{source}: {where}: scenario: is for target: wholebody cases, got target "
                                    f"{item.get('target')!r}")
+    samplers = case_samplers()
     scenario = item.get("scenario")
-    if scenario not in SCENARIOS:
+    if not isinstance(scenario, str) or scenario not in samplers:
         raise StudyDefinitionError(f"{source}: {where}.scenario must name a whole-body case sampler: "
-                                   f"{', '.join(SCENARIOS)}; got {scenario!r}")
-    robot = SCENARIOS[scenario][0]
+                                   f"{', '.join(samplers)}; got {scenario!r}"
+                                   f"{_did_you_mean(scenario, samplers)}")
+    robot = samplers[scenario].robot
     if item.get("robot", robot) != robot:
         raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
                                    f"{item['robot']!r} (leave robot: out)")
@@ -512,7 +514,7 @@ def check_schema(methods, cases, source: str) -> None:
     from wbik.models import BUILTIN, builder_parameters
     from wbik.solvers.base import _REGISTRY as CHAIN_METHODS
     from wbik.solvers.base import solver_options
-    from wbik.wholebody.solvers import wholebody_solver_options
+    from wbik.wholebody.methods import wholebody_solver_options
 
     wholebody = bool(cases) and all(case.target == "wholebody" for case in cases)
     for index, spec in enumerate(methods):

@@ -3,12 +3,12 @@
 The runner's chunking, resume, folder ownership and report machinery are reused; this module holds
 what differs for whole-body cases:
 
-- sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.scenarios`,
+- sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.cases`,
   stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
   a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
 - solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
-  q0)`` per case, budgets in iterations (:func:`wbik.wholebody.solvers.wholebody_budget`); a method
-  that cannot express a goal task of the family (its answer lists it in ``cannot_express``) is "not
+  q0)`` per case, budgets in iterations (:func:`wbik.wholebody.methods.wholebody_budget`); a method
+  that cannot express the family's first problem (its ``cannot_express`` query says why) is "not
   applicable" (:mod:`wbik.study.applicability`);
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
   what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
@@ -56,7 +56,7 @@ def is_wholebody(case) -> bool:
 
 def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
     """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
-    from wbik.wholebody.scenarios import sample_case
+    from wbik.wholebody.cases import sample_case
 
     cases = [sample_case(scenario, seed, index) for index in range(count)]
     nq = cases[0].q0.size
@@ -65,13 +65,13 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
 
 
 def method_options(method: str) -> set[str]:
-    from wbik.wholebody.solvers import wholebody_solver_options
+    from wbik.wholebody.methods import wholebody_solver_options
 
     return wholebody_solver_options(method)
 
 
 def budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    from wbik.wholebody.solvers import wholebody_budget
+    from wbik.wholebody.methods import wholebody_budget
 
     return wholebody_budget(method, timeout_s, options)
 
@@ -108,8 +108,8 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
     """Solve the cases of one whole-body chunk (the method applies: the runner's probe decided it)."""
     import wbik
     from wbik.study.runner import _robot
-    from wbik.wholebody.scenarios import sample_case
-    from wbik.wholebody.solvers import wholebody_solver
+    from wbik.wholebody.cases import sample_case
+    from wbik.wholebody.methods import wholebody_solver
 
     robot = _robot(task.robot, task.robot_params)
     solver = wholebody_solver(
@@ -292,7 +292,7 @@ def analyse_case(study, case, output: Path) -> dict:
     from wbik.study.report import _write_csv, case_rows
     from wbik.study.runner import _frozen, _robot
     from wbik.study.statistics import significance
-    from wbik.wholebody.scenarios import sample_case
+    from wbik.wholebody.cases import sample_case
 
     directory = store.case_dir(output, case.name)
     rows_by_method, not_applicable = case_rows(study, case, output)
@@ -368,7 +368,7 @@ def analyse_case(study, case, output: Path) -> dict:
 
 def case_blocks(study, analysis: dict) -> list:
     from wbik.study.report import Block, fmt, fmt_p, frequent_reasons
-    from wbik.wholebody.scenarios import DESCRIPTIONS
+    from wbik.wholebody.cases import case_sampler
 
     case = analysis["case"]
     summaries, rows_by_method = analysis["summaries"], analysis["rows"]
@@ -378,7 +378,7 @@ def case_blocks(study, analysis: dict) -> list:
         Block(
             "p",
             f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
-            f"(seed {study.seed}): {DESCRIPTIONS.get(case.scenario, '')}. Every answer is judged by "
+            f"(seed {study.seed}): {case_sampler(case.scenario).description}. Every answer is judged by "
             "the one shared whole-body check (wbik.wholebody.check_wholebody): goal task errors by "
             f"FK within {study.tolerances['position']:g} m / {study.tolerances['rotation']:g} rad, "
             "contact drift within the same, CoM margin by FK against the support polygon of the "
@@ -539,9 +539,9 @@ def case_blocks(study, analysis: dict) -> list:
 
 
 STUDY_NOTE = (
-    "Whole-body cases: every method here runs a loop of ours (our QP; PlaCo's and Pink's single QP "
-    "steps iterated by our loop; the closed-form legs' hip shift), so every method is budgeted in "
-    "iterations: the study's time budget divided by the method's measured cost per iteration "
-    "(wbik.wholebody.solvers, iteration_cost_s), no wall clock; the rows are the same on any "
-    "machine (times aside)."
+    "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
+    "iterated by our loop, or a method's own iteration), so every method is budgeted in iterations: "
+    "the study's time budget divided by the method's measured cost per iteration (its "
+    "iteration_cost_s, wbik.wholebody.solvers.WholeBodySolver), no wall clock; the rows are the same "
+    "on any machine (times aside)."
 )

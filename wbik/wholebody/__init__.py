@@ -2,31 +2,38 @@
 
 >>> import wbik
 >>> from wbik.qp import ComTask
->>> robot = wbik.load("bioloid")
+>>> robot = wbik.load(NAME)  # a robot with soles (robot.soles), e.g. a biped
 >>> problem = wbik.WholeBody(robot, tasks=[ComTask([0.0, -0.03, 0.0], axes="xy")],
-...                          contacts=["r_sole", "l_sole"], support=["r_sole", "l_sole"], margin=0.005)
+...                          contacts=SOLES, support=SOLES, margin=0.005)  # SOLES: its sole frames
 >>> result = wbik.wholebody_solver("qp", robot).solve(problem, robot.nominal)
 >>> result.success, result.com_margin, result.unsupported  # doctest: +SKIP
 
 Modules: ``problem`` (:class:`WholeBody`, :class:`WholeBodyResult`, :func:`check_wholebody`),
-``solvers`` (qp, placo, pink, thesis_legs and the registry), ``scenarios`` (the study's seeded
-case samplers).
+``solvers`` (the solver interface and the generic methods qp, placo, pink), ``methods`` (the
+method registry: modules listed by name, each declaring its methods), ``cases`` (the study's
+seeded case samplers, registered the same way).
 """
 
-from wbik.wholebody.problem import MinimumDistance, WholeBody, WholeBodyResult, check_wholebody
-from wbik.wholebody.solvers import (
-    WholeBodySolver,
+from wbik.wholebody.methods import (
+    WholeBodyMethod,
+    register_wholebody_method,
+    register_wholebody_module,
     wholebody_methods,
     wholebody_solver,
     wholebody_solver_options,
 )
+from wbik.wholebody.problem import MinimumDistance, WholeBody, WholeBodyResult, check_wholebody
+from wbik.wholebody.solvers import WholeBodySolver
 
 __all__ = [
     "MinimumDistance",
     "WholeBody",
+    "WholeBodyMethod",
     "WholeBodyResult",
     "WholeBodySolver",
     "check_wholebody",
+    "register_wholebody_method",
+    "register_wholebody_module",
     "wholebody_methods",
     "wholebody_solver",
     "wholebody_solver_options",

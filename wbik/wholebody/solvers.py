@@ -1,4 +1,5 @@
-"""Whole-body methods behind one interface: ``wholebody_solver(method, robot).solve(problem, q0)``.
+"""The whole-body solver interface and the generic methods: ``wholebody_solver(method,
+robot).solve(problem, q0)`` (the registry is :mod:`wbik.wholebody.methods`).
 
 Every method builds its own formulation of a :class:`~wbik.wholebody.problem.WholeBody`, lists in
 ``unsupported`` what it cannot express (it then solves the problem without it, and says so), and
@@ -16,11 +17,10 @@ Methods:
   half at cost 0), ComTask, PostureTask, contacts as Pink equality constraints, ConfigurationLimit
   (and VelocityLimit); Pink has no hard CoM-in-polygon constraint, so it solves without one:
   every pink result with a support polygon lists it in ``unsupported``.
-- ``thesis_legs`` (Bioloid only): the thesis's way: each leg's closed form (foot -> hip, the
-  LegPose closed form of wbik.solvers.analytic.bioloid) from its planted or targeted sole to the
-  hip, with the hip shifted horizontally until the CoM is over the target (a CoM task's target,
-  else where the CoM started), pelvis orientation and height kept, arms kept. Other tasks are
-  listed in ``unsupported``.
+
+Methods of applications are declared in their own modules (:mod:`wbik.wholebody.methods` lists
+them); a method that can only express some goal tasks says so through
+:meth:`WholeBodySolver.cannot_express`.
 
 Budgets: every loop here is ours, so every method is budgeted in iterations (``max_iterations``,
 default the iterations that cost ``default_budget_s`` on the reference machine at
@@ -30,8 +30,6 @@ default the iterations that cost ``default_budget_s`` on the reference machine a
 
 from __future__ import annotations
 
-import importlib
-import inspect
 import math
 import numbers
 import threading
@@ -41,13 +39,7 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import (
-    InvalidBudgetError,
-    InvalidOptionError,
-    InvalidSettingError,
-    UnknownMethodError,
-    UnsupportedError,
-)
+from wbik.errors import InvalidBudgetError, InvalidOptionError, InvalidSettingError
 from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import (
@@ -63,10 +55,12 @@ from wbik.qp.tasks import (
 from wbik.robot import Robot
 from wbik.solvers.base import Candidate, PerThreadState, Tolerances
 from wbik.validation import check_budget, check_seed
+from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
 
 NO_POLYGON = "support polygon as a hard CoM constraint"
-"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported`` (Pink)."""
+"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported`` (Pink, and
+application methods that place the CoM at one point)."""
 
 
 WholeBodyCandidate = Candidate
@@ -125,6 +119,13 @@ class WholeBodySolver(PerThreadState):
     def unsupported(self, problem: WholeBody) -> list[str]:
         """What of ``problem`` this method cannot express (solved without it)."""
         return []
+
+    def cannot_express(self, problem: WholeBody, q0=None) -> str | None:
+        """Why ``problem`` (from q0, default the nominal) is outside what this method can solve at
+        all - goal tasks it has no way to state - or None when it can take the problem (what it
+        leaves out is then listed by :meth:`unsupported`). The study marks such a method "not
+        applicable" to the case with this text. The generic methods take every problem."""
+        return None
 
     def solve(self, problem: WholeBody, q0=None) -> WholeBodyResult:
         """Solve ``problem`` from q0 (default the robot's nominal); judged by the shared check."""
@@ -243,7 +244,7 @@ class QPWholeBody(WholeBodySolver):
     """Our task QP (wbik.qp.IKProblem) on the whole model."""
 
     name = "qp"
-    iteration_cost_s = 800e-6  # a DAQP step, projection, FK checks; Bioloid nv 24: measured 0.8-1.5 ms
+    iteration_cost_s = 800e-6  # DAQP step, projection, FK checks; a biped with nv 24: measured 0.8-1.5 ms
     default_budget_s = 0.08
 
     def __init__(
@@ -332,7 +333,7 @@ class PlacoWholeBody(WholeBodySolver):
     """PlaCo's KinematicsSolver with its own tasks, hard contacts and hard clockwise CoM polygon."""
 
     name = "placo"
-    iteration_cost_s = 300e-6  # solve(True), read-back, convergence FK; Bioloid: measured 0.25-0.3 ms
+    iteration_cost_s = 300e-6  # solve(True), read-back, convergence FK; the same biped: measured 0.25-0.3 ms
     default_budget_s = 0.08
 
     def __init__(self, robot, *, regularization: float = 1e-6, **options):
@@ -445,7 +446,7 @@ class PinkWholeBody(WholeBodySolver):
     """pin-pink's differential IK, iterated by our loop (dt = 1 per step)."""
 
     name = "pink"
-    iteration_cost_s = 500e-6  # solve_ik, integration, convergence FK; Bioloid: measured 0.35-0.66 ms
+    iteration_cost_s = 500e-6  # solve_ik, integration, convergence FK; the same biped: measured 0.35-0.66 ms
     default_budget_s = 0.12
 
     def __init__(self, robot, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
@@ -579,254 +580,18 @@ class PinkWholeBody(WholeBodySolver):
         return self._peer_loop(step, q0.copy(), deadline, kinematics, tasks, placements, None, problem.margin)
 
 
-# -- thesis_legs (Bioloid) ---------------------------------------------------------------------------------
-LEGS = {"r": ("right_leg", "r_sole", "r_hip"), "l": ("left_leg", "l_sole", "l_hip")}
-
-
-class ThesisLegs(WholeBodySolver):
-    """The Bioloid thesis's way: closed-form legs from the feet, the hip shifted over the CoM target."""
-
-    name = "thesis_legs"
-    iteration_cost_s = 1e-3  # one hip placement: two closed-form legs, FK, CoM (measured 1.2 ms)
-    default_budget_s = 0.01
-    finite_step = 1e-4
-    """Hip shift (m) of the one finite-difference CoM Jacobian."""
-
-    def __init__(self, robot, **options):
-        super().__init__(robot, **options)
-        if (
-            set(robot.chains) < {"right_leg", "left_leg"}
-            or not robot.has_floating_base
-            or "sole_corners" not in robot.info
-            or robot.name != "bioloid"
-        ):
-            raise UnsupportedError(
-                f"method 'thesis_legs' is the Bioloid thesis's closed-form legs; it does not "
-                f"apply to {robot.name!r}"
-            )
-        self._thread_state()  # the two closed-form leg solvers now, not in the first solve
-
-    def _new_thread_state(self):
-        from wbik.solvers.base import solver
-
-        return {
-            side: solver("analytic", self.robot, chain=chain, tolerances=self.tolerances)
-            for side, (chain, _, _) in LEGS.items()
-        }
-
-    def _sole_targets(self, problem: WholeBody, q0: np.ndarray, placements: dict) -> dict[str, pin.SE3]:
-        targets = {}
-        for side, (_, sole, _) in LEGS.items():
-            if sole in placements:
-                targets[side] = placements[sole]
-        for task in problem.tasks:
-            if not task.goal or getattr(task, "frame", None) not in ("r_sole", "l_sole"):
-                continue
-            side = task.frame[0]
-            if side in targets:
-                continue
-            if isinstance(task, FrameTask):
-                targets[side] = task.target.copy()
-            elif isinstance(task, PositionTask) and len(task.rows) == 3:
-                targets[side] = pin.SE3(
-                    self.robot.frame_placement(q0, task.frame).rotation, task.target.copy()
-                )
-        return targets
-
-    def _expressed(self, problem: WholeBody, task: Task, q0: np.ndarray) -> bool:
-        if isinstance(task, ComTask):
-            return set(task.rows) <= {0, 1}
-        if isinstance(task, FrameTask) and task.frame in ("r_sole", "l_sole"):
-            return task.frame not in problem.contacts
-        if isinstance(task, PositionTask) and task.frame in ("r_sole", "l_sole"):
-            return len(task.rows) == 3 and task.frame not in problem.contacts
-        if isinstance(task, OrientationTask) and task.frame == "pelvis":  # the pelvis keeps its start
-            start = self.robot.frame_placement(q0, "pelvis").rotation
-            return rotation_angle(start, task.target) <= 1e-12
-        return False
-
-    def unsupported(self, problem):
-        q0 = self.robot.nominal
-        missing = []
-        for task in problem.tasks:
-            if isinstance(task, RegularizationTask):
-                continue
-            if isinstance(task, OrientationTask) and task.frame == "pelvis":
-                continue  # judged against the actual q0 in _solve
-            if not self._expressed(problem, task, q0):
-                kind = "goal task" if task.goal else "soft task"
-                missing.append(f"{kind} {task.name} (the closed-form legs place soles and the CoM only)")
-        for frame in problem.contacts:
-            if frame not in ("r_sole", "l_sole"):
-                missing.append(f"contact {frame} (only soles)")
-        if problem.support:
-            missing.append(
-                f"{NO_POLYGON} (the CoM is placed at one point: the CoM task's target, else "
-                "where it started; the check measures the margin)"
-            )
-        if problem.collisions:
-            missing.append("minimum distances between frames (collisions)")
-        return missing
-
-    def _solve(self, problem, q0, placements, polygon, deadline):
-        robot = self.robot
-        legs = self._thread_state()
-        targets = self._sole_targets(problem, q0, placements)
-        com_target = None
-        for task in problem.tasks:
-            if isinstance(task, ComTask) and task.goal:
-                com_target = task.target[:2].copy()
-        if com_target is None and polygon is not None:
-            com_target = robot.center_of_mass(q0)[:2].copy()
-        for task in problem.tasks:
-            if (
-                isinstance(task, OrientationTask)
-                and task.frame == "pelvis"
-                and task.goal
-                and not self._expressed(problem, task, q0)
-            ):
-                return WholeBodyCandidate(
-                    q0.copy(),
-                    0,
-                    f"cannot express goal task {task.name}: the closed-form legs keep the pelvis orientation",
-                )
-        cannot = [task.name for task in problem.tasks if task.goal and not self._expressed(problem, task, q0)]
-        ankle_in_sole = {
-            side: robot.frame_placement(q0, sole).actInv(robot.frame_placement(q0, chain_tip(robot, chain)))
-            for side, (chain, sole, _) in LEGS.items()
-        }
-        base = pin.XYZQUATToSE3(q0[:7])
-        indices = {side: robot.chain(chain).q_index for side, (chain, _, _) in LEGS.items()}
-
-        def place(shift: np.ndarray) -> tuple[np.ndarray | None, str]:
-            q = q0.copy()
-            placed = base.copy()
-            placed.translation = base.translation + np.array([shift[0], shift[1], 0.0])
-            q[:7] = pin.SE3ToXYZQUAT(placed)
-            for side, sole_target in targets.items():
-                chain, _, hip = LEGS[side]
-                hip_placement = robot.frame_placement(q, hip)
-                ankle_target = hip_placement.actInv(sole_target * ankle_in_sole[side])
-                answer = legs[side].solve(ankle_target, q0[indices[side]])
-                if answer.q is None or not answer.success:
-                    return (
-                        None,
-                        f"{chain}: the foot target is out of the closed form's reach ({answer.reason})",
-                    )
-                q[indices[side]] = answer.q
-            return q, ""
-
-        shift = np.zeros(2)
-        q, reason = place(shift)
-        iterations = 1
-        if q is None:
-            return WholeBodyCandidate(None, iterations, reason)
-        if com_target is not None:
-            tolerance = 0.5 * self.tolerances.position
-            jacobian = None
-            while True:
-                error = robot.center_of_mass(q)[:2] - com_target
-                if float(np.linalg.norm(error)) <= tolerance:
-                    break
-                if iterations >= self.max_iterations:
-                    off = float(np.linalg.norm(error))
-                    reason = f"no convergence in {self.max_iterations} iterations (CoM {off:.3g} m off)"
-                    break
-                if time.perf_counter() > deadline:
-                    reason = f"time budget of {self.timeout_s:g} s used up"
-                    break
-                if jacobian is None:  # dCoM/dshift by finite differences, once (it barely changes)
-                    columns = []
-                    for axis in range(2):
-                        probe = shift.copy()
-                        probe[axis] += self.finite_step
-                        moved, why = place(probe)
-                        iterations += 1
-                        if moved is None:
-                            return WholeBodyCandidate(q, iterations, why)
-                        columns.append(
-                            (robot.center_of_mass(moved)[:2] - com_target - error) / self.finite_step
-                        )
-                    jacobian = np.column_stack(columns)
-                shift = shift - np.linalg.solve(jacobian, error)
-                trial, why = place(shift)
-                iterations += 1
-                if trial is None:
-                    return WholeBodyCandidate(
-                        q, iterations, f"the hip shift needed for the CoM target: {why}"
-                    )
-                q = trial
-        if cannot:
-            reason = f"cannot express goal task(s) {', '.join(cannot)}" + (f"; {reason}" if reason else "")
-        return WholeBodyCandidate(q, iterations, reason, {"cannot_express": cannot})
-
-
-def chain_tip(robot: Robot, chain: str) -> str:
-    return robot.chain(chain).tip_frame
-
-
-# -- registry ---------------------------------------------------------------------------------------------
-_REGISTRY: dict[str, str] = {
-    "qp": "wbik.wholebody.solvers:QPWholeBody",
-    "placo": "wbik.wholebody.solvers:PlacoWholeBody",
-    "pink": "wbik.wholebody.solvers:PinkWholeBody",
-    "thesis_legs": "wbik.wholebody.solvers:ThesisLegs",
-}
-_DESCRIPTIONS = {
-    "qp": "our task QP (wbik.qp.IKProblem): hard contacts, hard CoM polygon, limits; backend= any installed",
-    "placo": "PlaCo 0.10 KinematicsSolver: its tasks, hard contacts, hard clockwise CoM polygon, limits",
-    "pink": "pin-pink 4.4: frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
-    "thesis_legs": "Bioloid thesis: closed-form legs from the feet, hip shifted until the CoM is on target",
-}
-
-
-def wholebody_methods() -> dict[str, str]:
-    """Whole-body method names with a one-line description."""
-    return dict(sorted(_DESCRIPTIONS.items()))
-
-
-def _factory(method: str) -> type[WholeBodySolver]:
-    if not isinstance(method, str) or method not in _REGISTRY:
-        raise UnknownMethodError(method if isinstance(method, str) else repr(method), list(_REGISTRY))
-    module_name, class_name = _REGISTRY[method].split(":")
-    return getattr(importlib.import_module(module_name), class_name)
-
-
-def wholebody_solver_options(method: str) -> set[str]:
-    """Keyword options ``wholebody_solver(method, robot, **options)`` accepts."""
-    accepted: set[str] = set()
-    for klass in _factory(method).__mro__:
-        init = vars(klass).get("__init__")
-        if init is None or klass is object:
-            continue
-        for parameter in list(inspect.signature(init).parameters.values())[2:]:
-            if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-                accepted.add(parameter.name)
-    return accepted
-
-
-def wholebody_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    """(timeout_s, options) for a study budget of ``timeout_s`` s: every whole-body loop is ours, so
-    the budget becomes ``max_iterations`` (unless given) and no wall clock."""
-    if "max_iterations" in options:
-        return None, dict(options)
-    return None, {**options, "max_iterations": _factory(method).iterations_for(timeout_s)}
-
-
-def wholebody_solver(method: str, robot: Robot | str, **options) -> WholeBodySolver:
-    """Make a whole-body solver: ``wbik.wholebody_solver("qp", wbik.load("bioloid"), backend="daqp")``."""
-    factory = _factory(method)
-    accepted = wholebody_solver_options(method)
-    unknown = sorted(set(options) - accepted)
-    if unknown:
-        raise InvalidOptionError(
-            f"whole-body method {method!r} has no option {unknown[0]!r}; its options: "
-            f"{', '.join(sorted(accepted))}",
-            option=unknown[0],
-            accepted=sorted(accepted),
-        )
-    if isinstance(robot, str):
-        from wbik.models import load
-
-        robot = load(robot)
-    return factory(robot, **options)
+WHOLEBODY_METHODS = (
+    WholeBodyMethod(
+        "qp", QPWholeBody,
+        "our task QP (wbik.qp.IKProblem): hard contacts, hard CoM polygon, limits; backend= any installed",
+    ),
+    WholeBodyMethod(
+        "placo", PlacoWholeBody,
+        "PlaCo 0.10 KinematicsSolver: its tasks, hard contacts, hard clockwise CoM polygon, limits",
+    ),
+    WholeBodyMethod(
+        "pink", PinkWholeBody,
+        "pin-pink 4.4: frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
+    ),
+)
+"""The generic whole-body methods (registered through wbik.wholebody.methods.METHOD_MODULES)."""

@@ -1,11 +1,7 @@
-"""Seeded samplers of whole-body cases, for the whole-body study (``target: wholebody``).
+"""The Bioloid's seeded whole-body cases for the whole-body study (registered in
+:data:`wbik.wholebody.cases.CASE_MODULES`; the stream rule is :func:`wbik.wholebody.cases.case_rng`).
 
-``sample_case(name, seed, index)`` draws case ``index`` of family ``name`` from
-``numpy.random.default_rng([seed, crc32(name), index])``: a case depends only on (name, seed,
-index), not on how many are drawn or by which worker. Each returns a :class:`WholeBodyCase`: the
-problem, the start q0 and an ``anchor`` point (the main target, for the study's poses file).
-
-Bioloid (floating base, 24 DOF; soles 100 x 60 mm; margin 5 mm):
+Floating base, 24 DOF; soles 100 x 60 mm; CoM margin 5 mm:
 
 - ``bioloid_com_shift``: both soles held, the CoM (xy) to a uniform point of the two-sole polygon
   shrunk by 10 mm; the pelvis keeps its orientation (soft).
@@ -17,50 +13,23 @@ Bioloid (floating base, 24 DOF; soles 100 x 60 mm; margin 5 mm):
   then need the body to move).
 - ``bioloid_reach_one_foot``: standing on one foot with the other lifted 20 mm (solved once), one
   hand to a random arm configuration's position; the lifted sole keeps its pose (soft).
-
-Golem-III (fixed base):
-
-- ``golem3_two_grippers``: both grippers (r_eef, l_eef) to the positions they have at a uniform
-  random configuration of all joints (the torso lift mb and the chest yaw m0 shared), from the
-  nominal; joint position limits only (the lift's 5 mm/s velocity limit would make every IK step
-  5 mm long at most).
 """
 
 from __future__ import annotations
 
-import zlib
-from collections.abc import Callable
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import UnknownNameError
 from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask
 from wbik.robot import Robot
+from wbik.wholebody.cases import CaseSampler, WholeBodyCase, cached_robot
 from wbik.wholebody.problem import WholeBody
 
+ROBOT = "bioloid"
 MARGIN = 0.005
-
-
-@dataclass
-class WholeBodyCase:
-    problem: WholeBody
-    q0: np.ndarray
-    anchor: np.ndarray  # (3,) the main target point (m, world)
-    q_true: np.ndarray | None = None  # the configuration the targets came from, when there is one
-
-
-@lru_cache(maxsize=8)
-def _robot(name: str) -> Robot:
-    import wbik
-
-    return wbik.load(name)
-
-
-def _rng(name: str, seed: int, index: int) -> np.random.Generator:
-    return np.random.default_rng([int(seed), zlib.crc32(name.encode()), int(index)])
+"""The CoM margin (m) every Bioloid case asks for."""
 
 
 def _sole(side: str) -> str:
@@ -78,12 +47,13 @@ def _pelvis_keep(robot: Robot, q: np.ndarray, weight: float = 0.1) -> Orientatio
 @lru_cache(maxsize=4)
 def standing_on(side: str, lift: float = 0.0) -> np.ndarray:
     """The Bioloid standing on sole ``side`` ("r" or "l"): the CoM over that sole's centre with both
-    soles held, then (``lift`` > 0) the other sole lifted by ``lift`` m; solved by our QP (DAQP)."""
+    soles held, then (``lift`` > 0) the other sole lifted by ``lift`` m; solved by our QP (DAQP).
+    Read-only (cached)."""
     from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
     from wbik.qp.tasks import RegularizationTask
 
-    robot = _robot("bioloid")
+    robot = cached_robot(ROBOT)
     q = robot.nominal.copy()
     over = robot.frame_placement(q, _sole(side)).translation
     problem = IKProblem(
@@ -121,14 +91,13 @@ def _random_arm_target(robot: Robot, q: np.ndarray, rng: np.random.Generator, si
     return robot.frame_placement(moved, f"{side}_hand").translation.copy()
 
 
-def bioloid_com_shift(seed: int, index: int) -> WholeBodyCase:
-    robot = _robot("bioloid")
-    rng = _rng("bioloid_com_shift", seed, index)
-    q0 = robot.nominal.copy()
-    problem_support = ["r_sole", "l_sole"]
+def com_shift(rng: np.random.Generator, index: int) -> WholeBodyCase:
     from wbik.qp.humanoid import support_polygon
 
-    polygon = support_polygon(robot, q0, problem_support)
+    robot = cached_robot(ROBOT)
+    q0 = robot.nominal.copy()
+    soles = ["r_sole", "l_sole"]
+    polygon = support_polygon(robot, q0, soles)
     low, high = polygon.vertices.min(axis=0), polygon.vertices.max(axis=0)
     while True:
         point = rng.uniform(low, high)
@@ -139,17 +108,16 @@ def bioloid_com_shift(seed: int, index: int) -> WholeBodyCase:
     problem = WholeBody(
         robot,
         [ComTask(target, axes="xy", name="com"), _pelvis_keep(robot, q0)],
-        contacts=problem_support,
-        support=problem_support,
+        contacts=soles,
+        support=soles,
         margin=MARGIN,
         name=f"bioloid_com_shift[{index}]",
     )
     return WholeBodyCase(problem, q0, target)
 
 
-def bioloid_foot_lift(seed: int, index: int) -> WholeBodyCase:
-    robot = _robot("bioloid")
-    rng = _rng("bioloid_foot_lift", seed, index)
+def foot_lift(rng: np.random.Generator, index: int) -> WholeBodyCase:
+    robot = cached_robot(ROBOT)
     side = "r" if rng.random() < 0.5 else "l"
     swing = _other(side)
     q0 = standing_on(side).copy()
@@ -170,9 +138,8 @@ def bioloid_foot_lift(seed: int, index: int) -> WholeBodyCase:
     return WholeBodyCase(problem, q0, target.translation.copy())
 
 
-def bioloid_reach_two_feet(seed: int, index: int) -> WholeBodyCase:
-    robot = _robot("bioloid")
-    rng = _rng("bioloid_reach_two_feet", seed, index)
+def reach_two_feet(rng: np.random.Generator, index: int) -> WholeBodyCase:
+    robot = cached_robot(ROBOT)
     hand = "r" if rng.random() < 0.5 else "l"
     q0 = robot.nominal.copy()
     target = _random_arm_target(robot, q0, rng, hand)
@@ -187,9 +154,8 @@ def bioloid_reach_two_feet(seed: int, index: int) -> WholeBodyCase:
     return WholeBodyCase(problem, q0, target)
 
 
-def bioloid_reach_one_foot(seed: int, index: int) -> WholeBodyCase:
-    robot = _robot("bioloid")
-    rng = _rng("bioloid_reach_one_foot", seed, index)
+def reach_one_foot(rng: np.random.Generator, index: int) -> WholeBodyCase:
+    robot = cached_robot(ROBOT)
     side = "r" if rng.random() < 0.5 else "l"
     hand = "r" if rng.random() < 0.5 else "l"
     q0 = standing_on(side, 0.02).copy()
@@ -210,54 +176,26 @@ def bioloid_reach_one_foot(seed: int, index: int) -> WholeBodyCase:
     return WholeBodyCase(problem, q0, target)
 
 
-def golem3_two_grippers(seed: int, index: int) -> WholeBodyCase:
-    robot = _robot("golem3")
-    rng = _rng("golem3_two_grippers", seed, index)
-    model = robot.model
-    q_true = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
-    right = robot.frame_placement(q_true, "r_eef").translation.copy()
-    left = robot.frame_placement(q_true, "l_eef").translation.copy()
-    problem = WholeBody(
-        robot,
-        [PositionTask("r_eef", right, name="r_eef"), PositionTask("l_eef", left, name="l_eef")],
-        contacts=[],
-        support=[],
-        limits="position",
-        name=f"golem3_two_grippers[{index}]",
-    )
-    return WholeBodyCase(problem, robot.nominal.copy(), right, q_true)
-
-
-SCENARIOS: dict[str, tuple[str, Callable[[int, int], WholeBodyCase]]] = {
-    "bioloid_com_shift": ("bioloid", bioloid_com_shift),
-    "bioloid_foot_lift": ("bioloid", bioloid_foot_lift),
-    "bioloid_reach_two_feet": ("bioloid", bioloid_reach_two_feet),
-    "bioloid_reach_one_foot": ("bioloid", bioloid_reach_one_foot),
-    "golem3_two_grippers": ("golem3", golem3_two_grippers),
-}
-"""Sampler name -> (robot, sampler(seed, index))."""
-
-DESCRIPTIONS = {
-    "bioloid_com_shift": "both soles held; the CoM (xy) to a uniform point of the two-sole polygon shrunk by "
-    "10 mm; pelvis orientation kept (soft); CoM margin 5 mm in the two-sole polygon",
-    "bioloid_foot_lift": "standing on one foot (CoM over it); the other sole to a target 10-50 mm up, "
-    "+-30 mm forward, 0-20 mm outward, yaw +-0.2 rad; stance sole held; CoM margin 5 mm in it",
-    "bioloid_reach_two_feet": "both soles held; one hand to the position it has at a uniform random arm "
-    "configuration; CoM margin 5 mm in the two-sole polygon",
-    "bioloid_reach_one_foot": "on one foot, the other lifted 20 mm (soft keep); one hand to a random arm "
-    "configuration's position; CoM margin 5 mm in the stance sole",
-    "golem3_two_grippers": "both grippers to their positions at a uniform random configuration of every "
-    "joint (lift mb and chest yaw m0 shared); joint position limits; fixed base",
-}
-
-
-def scenario_robot(name: str) -> str:
-    if name not in SCENARIOS:
-        raise UnknownNameError(name, list(SCENARIOS), hint="a whole-body case sampler")
-    return SCENARIOS[name][0]
-
-
-def sample_case(name: str, seed: int, index: int) -> WholeBodyCase:
-    """Case ``index`` of sampler ``name`` for ``seed`` (see the module docstring)."""
-    scenario_robot(name)
-    return SCENARIOS[name][1](seed, index)
+WHOLEBODY_CASES = (
+    CaseSampler(
+        "bioloid_com_shift", ROBOT, com_shift,
+        "both soles held; the CoM (xy) to a uniform point of the two-sole polygon shrunk by 10 mm; pelvis "
+        "orientation kept (soft); CoM margin 5 mm in the two-sole polygon",
+    ),
+    CaseSampler(
+        "bioloid_foot_lift", ROBOT, foot_lift,
+        "standing on one foot (CoM over it); the other sole to a target 10-50 mm up, +-30 mm forward, "
+        "0-20 mm outward, yaw +-0.2 rad; stance sole held; CoM margin 5 mm in it",
+    ),
+    CaseSampler(
+        "bioloid_reach_two_feet", ROBOT, reach_two_feet,
+        "both soles held; one hand to the position it has at a uniform random arm configuration; CoM margin "
+        "5 mm in the two-sole polygon",
+    ),
+    CaseSampler(
+        "bioloid_reach_one_foot", ROBOT, reach_one_foot,
+        "on one foot, the other lifted 20 mm (soft keep); one hand to a random arm configuration's position; "
+        "CoM margin 5 mm in the stance sole",
+    ),
+)
+"""The Bioloid's whole-body case samplers."""

@@ -1,0 +1,179 @@
+"""The whole-body registries (case samplers, methods): modules listed by name in the core, each module
+declares what it provides; a module that fails to import or clashes is an error naming it, user code
+registers its own; and the whole-body core names no seed robot."""
+
+from __future__ import annotations
+
+import re
+import textwrap
+import zlib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import wbik.wholebody
+from wbik.qp.tasks import PositionTask
+from wbik.registry import RegistryError, RegistryImportError
+from wbik.wholebody import cases, methods
+from wbik.wholebody.cases import CaseSampler, WholeBodyCase, case_samplers, register_sampler, sample_case
+from wbik.wholebody.methods import WholeBodyMethod, register_wholebody_method, wholebody_solver
+from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.solvers import QPWholeBody
+
+SEED_ROBOTS = re.compile(r"golem|bioloid|pincher|ur5|arm3r|thesis", re.IGNORECASE)
+REGISTRY_STRING = re.compile(r"[\"']wbik\.apps(\.\w+)+(:\w+)?[\"']")
+"""A module of an application named by a registry string (the one way the core may name one)."""
+
+
+@pytest.fixture
+def modules(tmp_path, monkeypatch):
+    """Write modules into an importable folder: ``modules(name=source, ...)``."""
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def write(**sources: str) -> None:
+        for name, source in sources.items():
+            (tmp_path / f"{name}.py").write_text(textwrap.dedent(source))
+
+    return write
+
+
+def _sampler_module(name: str) -> str:
+    return f"""
+        from wbik.wholebody.cases import CaseSampler
+        WHOLEBODY_CASES = (CaseSampler({name!r}, "ur5", print),)
+    """
+
+
+# -- case samplers ----------------------------------------------------------------------------------------
+def test_the_shipped_samplers_come_from_their_applications():
+    samplers = case_samplers()
+    assert list(samplers) == ["bioloid_com_shift", "bioloid_foot_lift", "bioloid_reach_two_feet",
+                              "bioloid_reach_one_foot", "golem3_two_grippers"]
+    assert {name: s.sample.__module__ for name, s in samplers.items()} == {
+        **{name: "wbik.apps.bioloid.wholebody_cases" for name in list(samplers)[:4]},
+        "golem3_two_grippers": "wbik.apps.golem3.wholebody_cases"}
+    assert all(s.description for s in samplers.values())
+
+
+def test_a_listed_sampler_module_that_fails_to_import_is_an_error_naming_it(modules, monkeypatch):
+    modules(wbik_test_broken_cases="import wbik_test_no_such_dependency  # noqa: F401\n")
+    fresh = cases._SAMPLERS.fresh([*cases.CASE_MODULES, "wbik_test_broken_cases"])
+    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    with pytest.raises(RegistryImportError, match="wbik_test_broken_cases") as error:
+        sample_case("bioloid_com_shift", 1, 0)  # never skipped, even for a sampler of another module
+    assert "wbik_test_no_such_dependency" in str(error.value) and "CASE_MODULES" in str(error.value)
+    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
+    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    with pytest.raises(RegistryImportError, match="wbik_test_not_a_module"):
+        cases.register_sampler_module("wbik_test_not_a_module")
+    assert fresh.modules == cases.CASE_MODULES  # not added
+    assert "bioloid_com_shift" in case_samplers()
+
+
+def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(modules, monkeypatch):
+    modules(wbik_test_no_cases="X = 1\n", wbik_test_taken=_sampler_module("bioloid_com_shift"),
+            wbik_test_twice="""
+                from wbik.wholebody.cases import CaseSampler
+                WHOLEBODY_CASES = (CaseSampler("twice", "ur5", print), CaseSampler("twice", "ur5", print))
+            """)
+    for module, message in [("wbik_test_no_cases", "has no WHOLEBODY_CASES tuple of CaseSampler"),
+                            ("wbik_test_taken", "'bioloid_com_shift' of wbik_test_taken is already "
+                                                "registered \\(by wbik.apps.bioloid.wholebody_cases\\)"),
+                            ("wbik_test_twice", "declares the whole-body case sampler\\(s\\) twice twice")]:
+        fresh = cases._SAMPLERS.fresh([*cases.CASE_MODULES, module])
+        monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+        with pytest.raises(RegistryError, match=message):
+            case_samplers()
+
+
+def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(monkeypatch, tmp_path):
+    """A sampler on the UR5 (no application of the core's): its stream is default_rng([seed,
+    crc32(name), index]) whoever draws the case; the study runs it like a shipped one."""
+    from wbik.models import load
+
+    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
+    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    robot = load("ur5")
+    drawn = []
+
+    def tool_reach(rng: np.random.Generator, index: int) -> WholeBodyCase:
+        q_true = robot.chain("arm").random(rng)
+        drawn.append(q_true)
+        target = robot.frame_placement(q_true, "tcp").translation.copy()
+        problem = WholeBody(robot, [PositionTask("tcp", target, name="tcp")], limits="position",
+                            name=f"tool_reach[{index}]")
+        return WholeBodyCase(problem, robot.nominal.copy(), target, q_true)
+
+    sampler = CaseSampler("tool_reach", "ur5", tool_reach, "the tool to a random reachable point")
+    register_sampler(sampler)
+    case = sample_case("tool_reach", 7, 3)
+    expected = robot.chain("arm").random(np.random.default_rng([7, zlib.crc32(b"tool_reach"), 3]))
+    assert np.array_equal(case.q_true, expected) and case.problem.name == "tool_reach[3]"
+    with pytest.raises(RegistryError, match="'tool_reach' of register\\(\\) is already registered"):
+        register_sampler(CaseSampler("tool_reach", "ur5", tool_reach))
+    register_sampler(sampler, replace=True)
+    with pytest.raises(RegistryError, match="registered as a CaseSampler"):
+        register_sampler(tool_reach)
+    with pytest.raises(wbik.errors.UnknownNameError, match="tool_reach"):
+        sample_case("tool_rech", 7, 3)
+
+    import csv
+
+    from wbik.study import run_study, study_from_dict
+
+    study = study_from_dict({"name": "user_sampler", "seed": 7, "poses": 2, "timeout_s": 0.05,
+                             "cases": [{"target": "wholebody", "scenario": "tool_reach"}],
+                             "methods": ["qp", "thesis_legs"]}, source="test")
+    assert study.cases[0].robot == "ur5"
+    output = run_study(study, tmp_path / "out", backend="sequential", progress=False,
+                       log=lambda message: None)
+    rows = list(csv.DictReader((output / "tool_reach" / "raw.csv").open()))
+    assert [(row["method"], row["pose"]) for row in rows] == [("qp", "0"), ("qp", "1")]
+    assert "does not apply to 'ur5'" in (output / "tool_reach" / "not_applicable.json").read_text()
+
+
+# -- methods ----------------------------------------------------------------------------------------------
+def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(monkeypatch):
+    assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.apps.bioloid.thesis_legs"]
+    assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "thesis_legs"}
+    fresh = methods._METHODS.fresh()
+    monkeypatch.setattr(methods, "_METHODS", fresh)
+
+    class Mine(QPWholeBody):
+        name = "mine"
+
+    register_wholebody_method(WholeBodyMethod("mine", Mine, "ours, renamed"))
+    assert wbik.wholebody.wholebody_methods()["mine"] == "ours, renamed"
+    from wbik.models import load
+
+    assert isinstance(wholebody_solver("mine", load("ur5"), backend="daqp"), Mine)
+    with pytest.raises(RegistryError, match="'qp' of register\\(\\) is already registered"):
+        register_wholebody_method(WholeBodyMethod("qp", Mine))
+    with pytest.raises(RegistryError, match="must be a WholeBodySolver subclass"):
+        WholeBodyMethod("bad", print)
+    with pytest.raises(wbik.errors.UnknownMethodError, match="known methods: mine, pink, placo, qp"):
+        wholebody_solver("qp2", load("ur5"))
+
+
+def test_a_listed_method_module_that_fails_to_import_is_an_error_naming_it(modules, monkeypatch):
+    modules(wbik_test_broken_methods="raise ImportError('libfoo is missing')\n")
+    fresh = methods._METHODS.fresh([*methods.METHOD_MODULES, "wbik_test_broken_methods"])
+    monkeypatch.setattr(methods, "_METHODS", fresh)
+    with pytest.raises(RegistryImportError, match="wbik_test_broken_methods.*libfoo is missing"):
+        wbik.wholebody.wholebody_methods()
+
+
+# -- the core knows no seed robot ----------------------------------------------------------------------------
+def test_the_whole_body_core_names_no_seed_robot():
+    """wbik/wholebody/ is generic: robots, their samplers and their methods live in the applications,
+    named here only by registry strings ("wbik.apps.<app>.<module>")."""
+    folder = Path(wbik.wholebody.__file__).parent
+    found = [f"{path.name}:{number}: {line.strip()}"
+             for path in sorted(folder.glob("*.py"))
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if SEED_ROBOTS.search(REGISTRY_STRING.sub("", line))]
+    assert not found, found
+    # the rule can fail: a robot name outside a registry string is found, the registry string is not
+    assert SEED_ROBOTS.search(REGISTRY_STRING.sub("", '"wbik.apps.bioloid.cases",  # the bioloid'))
+    assert not SEED_ROBOTS.search(REGISTRY_STRING.sub("", '    "wbik.apps.bioloid.thesis_legs",'))

@@ -1,0 +1,105 @@
+"""Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``).
+
+A *case sampler* (:class:`CaseSampler`) draws case ``index`` of its family from a random stream
+that this module makes: ``numpy.random.default_rng([seed, crc32(name), index])``
+(:func:`case_rng`), so a case depends only on (sampler name, seed, index), not on how many are
+drawn or by which worker. It returns a :class:`WholeBodyCase`: the problem, the start q0, an
+``anchor`` point (the main target, for the study's poses file) and, when the targets came from
+one, the configuration ``q_true``.
+
+Samplers are declared where the robot's application lives, in that module's ``WHOLEBODY_CASES``
+tuple; the modules holding them are listed by name in :data:`CASE_MODULES` (imported on first use,
+see :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or
+declares a name another declares too is an error naming it). User code adds a sampler with
+:func:`register_sampler`, or a module of them with :func:`register_sampler_module`.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from wbik.registry import DeclaredRegistry
+from wbik.robot import Robot
+from wbik.wholebody.problem import WholeBody
+
+__all__ = ["CASE_MODULES", "CaseSampler", "WholeBodyCase", "case_rng", "case_sampler", "case_samplers",
+           "cached_robot", "register_sampler", "register_sampler_module", "sample_case"]
+
+CASE_MODULES: list[str] = [
+    "wbik.apps.bioloid.wholebody_cases",
+    "wbik.apps.golem3.wholebody_cases",
+]
+"""The modules whose ``WHOLEBODY_CASES`` are registered (a new module of samplers: one line here)."""
+
+
+@dataclass
+class WholeBodyCase:
+    """One seeded case: ``problem`` solved from ``q0``; ``anchor`` (3,) the main target point (m,
+    world); ``q_true`` the configuration the targets came from, when there is one."""
+
+    problem: WholeBody
+    q0: np.ndarray
+    anchor: np.ndarray
+    q_true: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class CaseSampler:
+    """A family of seeded cases: its ``name`` (the study file's ``scenario:``), the ``robot`` it is
+    on (a name :func:`wbik.load` takes), ``sample(rng, index) -> WholeBodyCase`` drawing case
+    ``index`` from the stream :func:`case_rng` gives it, and a one-sentence ``description`` (the
+    study report prints it)."""
+
+    name: str
+    robot: str
+    sample: Callable[[np.random.Generator, int], WholeBodyCase]
+    description: str = ""
+
+
+_SAMPLERS: DeclaredRegistry[CaseSampler] = DeclaredRegistry(
+    "whole-body case sampler", "WHOLEBODY_CASES", CASE_MODULES, "wbik.wholebody.cases.CASE_MODULES",
+    CaseSampler,
+)
+
+
+def case_rng(name: str, seed: int, index: int) -> np.random.Generator:
+    """The random stream of case ``index`` of sampler ``name`` for ``seed``."""
+    return np.random.default_rng([int(seed), zlib.crc32(name.encode()), int(index)])
+
+
+@lru_cache(maxsize=8)
+def cached_robot(name: str) -> Robot:
+    """The built-in robot ``name``, loaded once per process (samplers build many cases on it)."""
+    from wbik.models import load
+
+    return load(name)
+
+
+def case_samplers() -> dict[str, CaseSampler]:
+    """Every registered sampler by name."""
+    return _SAMPLERS.entries()
+
+
+def case_sampler(name: str) -> CaseSampler:
+    """The sampler called ``name`` (an UnknownNameError listing the samplers if there is none)."""
+    return _SAMPLERS.get(name)
+
+
+def sample_case(name: str, seed: int, index: int) -> WholeBodyCase:
+    """Case ``index`` of sampler ``name`` for ``seed`` (see the module docstring)."""
+    return case_sampler(name).sample(case_rng(name, seed, index), int(index))
+
+
+def register_sampler(sampler: CaseSampler, replace: bool = False) -> None:
+    """Add a sampler from user code (``replace`` one of the same name only when asked)."""
+    _SAMPLERS.register(sampler, replace)
+
+
+def register_sampler_module(module_name: str) -> None:
+    """Add the ``WHOLEBODY_CASES`` of a module, by its name (imported now)."""
+    _SAMPLERS.register_module(module_name)

@@ -1,0 +1,117 @@
+"""The whole-body method registry: ``wholebody_solver(method, robot, **options)``.
+
+A method is declared where its class lives, in that module's ``WHOLEBODY_METHODS`` tuple of
+:class:`WholeBodyMethod` (name, :class:`~wbik.wholebody.solvers.WholeBodySolver` subclass, one-line
+description); the modules holding methods are listed by name in :data:`METHOD_MODULES` (imported on
+first use, see :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares
+none, or declares a name another declares too is an error naming it). User code adds a method with
+:func:`register_wholebody_method`, or a module of them with :func:`register_wholebody_module`.
+
+The methods' own optional libraries (PlaCo, Pink) are imported when a solver is built, not when
+its module is, so listing a method costs no optional dependency.
+"""
+
+from __future__ import annotations
+
+import inspect
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from wbik.errors import InvalidOptionError, UnknownMethodError
+from wbik.registry import DeclaredRegistry, RegistryError
+from wbik.robot import Robot
+
+if TYPE_CHECKING:
+    from wbik.wholebody.solvers import WholeBodySolver
+
+__all__ = ["METHOD_MODULES", "WholeBodyMethod", "register_wholebody_method", "register_wholebody_module",
+           "wholebody_budget", "wholebody_methods", "wholebody_solver", "wholebody_solver_options"]
+
+METHOD_MODULES: list[str] = [
+    "wbik.wholebody.solvers",  # qp, placo, pink
+    "wbik.apps.bioloid.thesis_legs",
+]
+"""The modules whose ``WHOLEBODY_METHODS`` are registered (a new module of methods: one line here)."""
+
+
+@dataclass(frozen=True)
+class WholeBodyMethod:
+    """A whole-body method: its ``name`` (``wholebody_solver(name, ...)``, a study's ``method:``),
+    its ``factory`` (a WholeBodySolver subclass: ``factory(robot, **options)``) and a one-line
+    ``description``."""
+
+    name: str
+    factory: type[WholeBodySolver]
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        from wbik.wholebody.solvers import WholeBodySolver
+
+        if not (isinstance(self.factory, type) and issubclass(self.factory, WholeBodySolver)):
+            raise RegistryError(f"whole-body method {self.name!r}: the factory must be a WholeBodySolver "
+                                f"subclass, got {self.factory!r}")
+
+
+_METHODS: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
+    "whole-body method", "WHOLEBODY_METHODS", METHOD_MODULES, "wbik.wholebody.methods.METHOD_MODULES",
+    WholeBodyMethod, unknown=lambda name, known: UnknownMethodError(name, known),
+)
+
+
+def wholebody_methods() -> dict[str, str]:
+    """Whole-body method names with a one-line description."""
+    return {name: method.description for name, method in sorted(_METHODS.entries().items())}
+
+
+def register_wholebody_method(method: WholeBodyMethod, replace: bool = False) -> None:
+    """Add a method from user code (``replace`` one of the same name only when asked)."""
+    _METHODS.register(method, replace)
+
+
+def register_wholebody_module(module_name: str) -> None:
+    """Add the ``WHOLEBODY_METHODS`` of a module, by its name (imported now)."""
+    _METHODS.register_module(module_name)
+
+
+def _factory(method: str) -> type[WholeBodySolver]:
+    return _METHODS.get(method).factory
+
+
+def wholebody_solver_options(method: str) -> set[str]:
+    """Keyword options ``wholebody_solver(method, robot, **options)`` accepts."""
+    accepted: set[str] = set()
+    for klass in _factory(method).__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or klass is object:
+            continue
+        for parameter in list(inspect.signature(init).parameters.values())[2:]:
+            if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+                accepted.add(parameter.name)
+    return accepted
+
+
+def wholebody_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+    """(timeout_s, options) for a study budget of ``timeout_s`` s: every whole-body loop is ours, so
+    the budget becomes ``max_iterations`` (unless given) and no wall clock."""
+    if "max_iterations" in options:
+        return None, dict(options)
+    return None, {**options, "max_iterations": _factory(method).iterations_for(timeout_s)}
+
+
+def wholebody_solver(method: str, robot: Robot | str, **options) -> WholeBodySolver:
+    """Make a whole-body solver: ``wbik.wholebody_solver("qp", wbik.load(name), backend="daqp")``."""
+    factory = _factory(method)
+    accepted = wholebody_solver_options(method)
+    unknown = sorted(set(options) - accepted)
+    if unknown:
+        raise InvalidOptionError(
+            f"whole-body method {method!r} has no option {unknown[0]!r}; its options: "
+            f"{', '.join(sorted(accepted))}",
+            option=unknown[0],
+            accepted=sorted(accepted),
+        )
+    if isinstance(robot, str):
+        from wbik.models import load
+
+        robot = load(robot)
+    return factory(robot, **options)
