@@ -113,3 +113,18 @@ def test_register_a_user_method():
     chain = wbik.load("arm3r").chain()
     result = wbik.solver("nominal_test", "arm3r").solve(chain.fk(chain.nominal).translation)
     assert result.success
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_joints_from_a_method_are_refused(bad):
+    """The shared check turns NaN or infinite joints into a failed result without joints (clipping
+    an infinite value into the limits must not pass it off as a solution)."""
+    chain = wbik.load("ur5").chain("arm")
+    q = chain.nominal.copy()
+    target = wbik.as_target(chain.fk(q))
+    q[2] = bad
+    result = evaluate(chain, target, Candidate(q), wbik.Tolerances(), 0.0, "test")
+    assert result.q is None and not result.success and "invalid joints" in result.reason
+    assert np.isnan(result.position_error) and np.isnan(result.rotation_error)
+    short = evaluate(chain, target, Candidate(q[:3]), wbik.Tolerances(), 0.0, "test")
+    assert short.q is None and "invalid joints" in short.reason

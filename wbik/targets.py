@@ -72,16 +72,16 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
     rotation, translation = value.rotation, value.translation  # views into the SE3: copied below
     (a, b, c), (d, e, f), (g, h, i) = rotation.tolist()
     x, y, z = translation.tolist()
-    if not (abs(x) <= MAX_POSITION and abs(y) <= MAX_POSITION and abs(z) <= MAX_POSITION):
+    bound, tolerance = MAX_POSITION, ROTATION_TOLERANCE  # chained comparisons: no abs() calls
+    if not (-bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound):
         return None  # NaN fails every comparison
-    tolerance = ROTATION_TOLERANCE
+    low, high = 1.0 - tolerance, 1.0 + tolerance
     # R^T R = I: unit columns, orthogonal columns; det R = +1
-    if not (abs(a * a + d * d + g * g - 1.0) <= tolerance and abs(b * b + e * e + h * h - 1.0) <= tolerance
-            and abs(c * c + f * f + i * i - 1.0) <= tolerance and abs(a * b + d * e + g * h) <= tolerance
-            and abs(a * c + d * f + g * i) <= tolerance and abs(b * c + e * f + h * i) <= tolerance):
-        return None
-    determinant = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    if not abs(determinant - 1.0) <= tolerance:
+    if not (low <= a * a + d * d + g * g <= high and low <= b * b + e * e + h * h <= high
+            and low <= c * c + f * f + i * i <= high and -tolerance <= a * b + d * e + g * h <= tolerance
+            and -tolerance <= a * c + d * f + g * i <= tolerance
+            and -tolerance <= b * c + e * f + h * i <= tolerance
+            and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high):
         return None
     return Target(translation.copy(), rotation.copy())
 

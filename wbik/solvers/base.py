@@ -118,15 +118,15 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                         nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
     if type(q) is not np.ndarray or q.dtype != np.float64:
         q = np.asarray(q, dtype=float)
-    if q.shape != (chain.nq,) or not math.isfinite(float(q.dot(q))):
-        if q.shape != (chain.nq,) or not np.all(np.isfinite(q)):
-            nan3 = np.full(3, np.nan)
-            return IKResult(None, False, f"method returned invalid joints {q!r}", math.nan, math.nan,
-                            nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
+    if q.shape != chain.lower.shape:
+        return _invalid_joints(q, time_s, candidate, method)
     reason = candidate.reason
     inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
-    if inside.tobytes() != q.tobytes() and not reason and not chain.in_limits(q, tolerance=1e-9):
-        reason = "solution outside the joint limits (clipped)"
+    if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
+        if not np.all(np.isfinite(q)):
+            return _invalid_joints(q, time_s, candidate, method)
+        if not reason and not chain.in_limits(q, tolerance=1e-9):
+            reason = "solution outside the joint limits (clipped)"
     reached = chain.fk(inside)
     position_xyz = reached.translation - target.position
     position_norm = math.hypot(*position_xyz.tolist())
@@ -136,6 +136,8 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     else:
         rotation_xyz = rotation_error(reached.rotation, target.rotation)
         rotation_norm = math.hypot(*rotation_xyz.tolist())
+    if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
+        return _invalid_joints(q, time_s, candidate, method)
     success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
     if success:
         reason = ""
@@ -144,6 +146,12 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                   f"rotation error {rotation_norm:.3g} rad")
     return IKResult(inside, success, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
+
+
+def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:
+    nan3 = np.full(3, np.nan)
+    return IKResult(None, False, f"method returned invalid joints {q!r}", math.nan, math.nan,
+                    nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
 
 
 class PerThreadState:

@@ -73,6 +73,8 @@ from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target
 
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_IDENTITY = np.eye(3)
+_IDENTITY.flags.writeable = False
 BATCH_ITERATION_UNITS = 10
 """Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
 iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
@@ -160,6 +162,7 @@ class BoundedLMSolver(Solver):
         self._table = seed_table(chain_, max(0, int(table_size)), self.position_weight, self._vectorised,
                                  float(table_margin))
         self._model = scaled_model(chain_.model, self.position_weight)
+        self._base = None if chain_.base_placement.isIdentity() else chain_.base_placement
         # the scaled model scales placements; a prismatic joint's travel is scaled through q itself
         scales_travel = chain_.is_prismatic.any() and self.position_weight != 1.0
         self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
@@ -175,8 +178,14 @@ class BoundedLMSolver(Solver):
     # -- the residual of one configuration ----------------------------------------------------------
     def _goal(self, target: Target) -> pin.SE3:
         """T*^-1: the inverse of the target in the scaled model's world frame (lengths x w)."""
-        goal = self.chain.base_placement * target.se3()
-        return pin.SE3(goal.rotation, self.position_weight * goal.translation).inverse()
+        position = self.position_weight * target.position
+        if self._base is not None:  # the chain's base frame is not the model's world frame
+            goal = self._base * target.se3()
+            position = self.position_weight * goal.translation
+            rotation_t = goal.rotation.T
+        else:
+            rotation_t = _IDENTITY if target.rotation is None else target.rotation.T
+        return pin.SE3(rotation_t, -rotation_t.dot(position))
 
     def _residual(self, goal_inverse: pin.SE3, pose: bool, with_jacobian: bool = True):
         """The residual and Jacobian at a configuration, as a function q -> (e, J) (J None when not
@@ -212,16 +221,17 @@ class BoundedLMSolver(Solver):
         return residual
 
     # -- one seed ---------------------------------------------------------------------------------
-    def _attempt(self, goal_inverse: pin.SE3, pose: bool, q: np.ndarray, deadline: float, budget: int
-                 ) -> tuple[np.ndarray, bool, int, float]:
+    def _attempt(self, goal_inverse: pin.SE3, pose: bool, q: np.ndarray, deadline: float, budget: int,
+                 start: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, bool, int, float]:
         """LM from q towards the target for at most ``budget`` iterations: (last q, converged?,
-        iterations, |e|). Hot loop: the policy's calls and small numpy calls only."""
+        iterations, |e|). ``start``: (e, J) at q when already known. Hot loop: the policy's calls
+        and small numpy calls only."""
         evaluate = self._residual(goal_inverse, pose)
         policy, bounds = self.policy, self.bounds
         trial_of, update = policy.trial, policy.update
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         clock = deadline < math.inf
-        error, jacobian = evaluate(q)
+        error, jacobian = evaluate(q) if start is None else start
         workspace = policy.workspace(*jacobian.shape)
         cost = float(error.dot(error))
         damping = policy.first_damping
@@ -283,38 +293,44 @@ class BoundedLMSolver(Solver):
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
     def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray
-                     ) -> list[np.ndarray]:
-        """The first two seeds: q0 and the seed-table entry nearest the target, the entry first when
-        its distance^2 is under ``table_first`` x |e(q0)|^2 (q0 is an uninformed guess such as
-        TRAC-IK's mid-range seed), q0 first otherwise (tracking, warm starts)."""
-        if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
-            return [q_start]
+                     ) -> tuple[list[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+        """The first two seeds and (e, J) at q0: q0 and the seed-table entry nearest the target, the
+        entry first when its distance^2 is under ``table_first`` x |e(q0)|^2 (q0 an uninformed guess
+        such as TRAC-IK's mid-range seed), q0 first otherwise (tracking, warm starts; q0 alone when
+        it already passes the check)."""
+        state = self._residual(goal_inverse, pose)(q_start)
+        cost = float(state[0].dot(state[0]))
+        if self._table.q.shape[0] == 0 or self.single_attempts <= 1 or cost <= self._sure_cost:
+            return [q_start], state
         entry, distance2 = self._table.search(target, self.position_weight).nearest()
-        reached = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
-        first = distance2 < self.table_first * float(reached.dot(reached))
-        return [entry, q_start] if first else [q_start, entry]
+        return ([entry, q_start] if distance2 < self.table_first * cost else [q_start, entry]), state
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         goal_inverse = self._goal(target)
         pose = target.is_pose
         q_start = self.bounds.project(q0)
-        seeds = self._first_seeds(target, goal_inverse, pose, q_start)
+        seeds, start = self._first_seeds(target, goal_inverse, pose, q_start)
         best_q, best_error = q_start, math.inf
         attempts, iterations, taken = 0, 0, 0  # taken: library entries handed out so far
-        draws = _CallDraws(self, target, q0)
+        draws = None  # the call's random seeds, drawn only if needed
         while True:
             if self.batch_size > 1 and attempts >= self.single_attempts:
                 batch_seeds = q_start[None] if attempts == 0 else \
                     self._neighbours(target, taken + int(self.library_share * self.batch_size))[0][taken:]
                 return self._solve_batch(target, batch_seeds, deadline, attempts, iterations,
-                                         (best_q, best_error), draws)
+                                         (best_q, best_error), draws or _CallDraws(self, target, q0))
             if not seeds and taken == 0:  # then the library's nearest entries (a k-d tree query)
                 count = max(1, self.single_attempts - attempts) if self.batch_size > 1 else 32
                 seeds = list(self._neighbours(target, count)[0])
                 taken = len(seeds)
-            q_seed = seeds.pop(0) if seeds else self._next_seed(goal_inverse, pose, draws)
+            if seeds:
+                q_seed = seeds.pop(0)
+            else:
+                draws = draws or _CallDraws(self, target, q0)
+                q_seed = self._next_seed(goal_inverse, pose, draws)
             q, ok, used, error = self._attempt(goal_inverse, pose, q_seed, deadline,
-                                               self.max_iterations - iterations)
+                                               self.max_iterations - iterations,
+                                               start if q_seed is q_start else None)
             attempts += 1
             iterations += used
             if ok:
