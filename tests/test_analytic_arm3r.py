@@ -6,6 +6,7 @@ import time
 
 import numpy as np
 import pytest
+from closed_form_checks import angle_difference
 
 import wbik
 from wbik.models.arm3r import DEFAULT_LENGTHS, start_configuration
@@ -13,10 +14,6 @@ from wbik.models.arm3r import DEFAULT_LENGTHS, start_configuration
 ROUND_TRIP_POSES = 10_000
 LENGTH_SETS = [DEFAULT_LENGTHS, tuple(np.random.default_rng(3).uniform(0.3, 3.0, 3).round(6)),
                tuple(np.random.default_rng(5).uniform(0.3, 3.0, 3).round(6))]
-
-
-def angle_difference(a, b):
-    return np.abs(np.angle(np.exp(1j * (np.asarray(a) - np.asarray(b)))))
 
 
 def make_solver(lengths):

@@ -8,6 +8,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
+from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
 from wbik.solvers.analytic import wrap_into_limits
@@ -32,10 +33,6 @@ def samples(solver):
     chain = solver.chain
     joints = chain.random(np.random.default_rng(4004), ROUND_TRIP_POSES)
     return joints, [chain.fk(q) for q in joints]
-
-
-def angle_difference(a, b):
-    return np.abs(np.angle(np.exp(1j * (np.asarray(a) - np.asarray(b)))))
 
 
 def test_seed_example_position_and_pitch():
@@ -81,20 +78,7 @@ def test_closed_form_fk_equals_pinocchio(solver, samples):
 
 def test_pose_round_trip_10000(solver, samples):
     joints, poses = samples
-    chain = solver.chain
-    results = solver.solve_many(poses)
-    successes = np.array([r.success for r in results])
-    assert successes.mean() >= 0.9999
-    for result in results:
-        if result.success:
-            assert chain.in_limits(result.q)
-            assert result.position_error <= 1e-6 and result.rotation_error <= 1e-6
-    # the branch set contains the original joints (up to 2 pi)
-    form = solver.closed_form("pose")
-    branches, valid = form.branches(np.array([p.translation for p in poses]),
-                                    np.array([p.rotation for p in poses]), np.zeros_like(joints))
-    match = np.all(angle_difference(branches, joints[:, None, :]) < 1e-7, axis=-1) & valid
-    assert match.any(axis=1).mean() >= 0.999
+    assert_pose_round_trip(solver, joints, poses, branch_starts=np.zeros_like(joints))
 
 
 def test_position_round_trip_10000(solver, samples):

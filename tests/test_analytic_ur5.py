@@ -7,6 +7,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
+from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
 from wbik.solvers.analytic.ur5 import ee_fk
@@ -23,10 +24,6 @@ def robot():
 @pytest.fixture(scope="module")
 def solvers(robot):
     return {name: wbik.solver("analytic", robot, chain=name) for name in CHAINS}
-
-
-def angle_difference(a, b):
-    return np.abs(np.angle(np.exp(1j * (np.asarray(a) - np.asarray(b)))))
 
 
 def test_zero_configuration_by_hand(solvers):
@@ -59,17 +56,7 @@ def test_round_trip_10000(solvers, chain_name):
     chain = solver.chain
     joints = chain.random(np.random.default_rng(5005), ROUND_TRIP_POSES)
     poses = [chain.fk(q) for q in joints]
-    results = solver.solve_many(poses)
-    assert np.mean([r.success for r in results]) >= 0.9999
-    for result in results:
-        if result.success:
-            assert chain.in_limits(result.q)
-            assert result.position_error <= 1e-6 and result.rotation_error <= 1e-6
-    form = solver.closed_form("pose")
-    branches, valid = form.branches(np.array([p.translation for p in poses]),
-                                    np.array([p.rotation for p in poses]), joints)
-    match = np.all(angle_difference(branches, joints[:, None, :]) < 1e-7, axis=-1) & valid
-    assert match.any(axis=1).mean() >= 0.999
+    assert_pose_round_trip(solver, joints, poses, branch_starts=joints)
     # started at the original joints, the nearest branch is the original (same 2 pi representation)
     again = solver.solve_many(poses[:1000], joints[:1000])
     recovered = [np.allclose(r.q, q, atol=1e-6) for r, q in zip(again, joints[:1000], strict=True)]
