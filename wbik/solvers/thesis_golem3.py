@@ -64,7 +64,8 @@ import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import wrap_to_pi
-from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
+from wbik.models.golem3 import L1, L2, L4, L5, L6, RHO, H
+from wbik.solvers.analytic.golem3 import mirror_positions, mirror_rotations, right_arm_coordinates
 from wbik.solvers.base import Candidate, Solver, evaluate
 from wbik.targets import Target, as_target
 
@@ -176,17 +177,14 @@ class _ThesisGolem3(Solver):
             raise UnsupportedError(
                 f"method {self.name!r} is the Golem-III thesis's solver: it applies to golem3's "
                 f"{' and '.join(GOLEM3_CHAINS)} only, not {self.robot.name}.{self.chain.name}")
-        self.mirrored = any(name in self.chain.joint_names for name in LEFT_JOINTS)
-        lower, upper = self.chain.lower.copy(), self.chain.upper.copy()
-        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
-            lower[0], upper[0] = -self.chain.upper[0], -self.chain.lower[0]
-        self.right_lower, self.right_upper = lower, upper
+        self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(self.chain)
 
     def _right_target(self, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
         """Position and rotation in right-arm coordinates (M p, M R M, M = diag(1, -1, 1))."""
-        mirror = np.array([1.0, -1.0, 1.0]) if self.mirrored else np.ones(3)
-        rotation = None if target.rotation is None else target.rotation * np.outer(mirror, mirror)
-        return target.position * mirror, rotation
+        if not self.mirrored:
+            return target.position, target.rotation
+        rotation = None if target.rotation is None else mirror_rotations(target.rotation)
+        return mirror_positions(target.position), rotation
 
     def _pick(self, q: np.ndarray, accepted: np.ndarray, q0: np.ndarray) -> np.ndarray:
         """The accepted branch nearest q0 (right-arm q (K, 6), mask (K,)), in the chain's joints."""

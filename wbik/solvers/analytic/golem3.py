@@ -37,20 +37,36 @@ _MIRROR_P = np.array([1.0, -1.0, 1.0])
 _MIRROR_R = np.outer(_MIRROR_P, _MIRROR_P)  # M R M, entry-wise
 
 
+def right_arm_coordinates(chain: Chain) -> tuple[bool, np.ndarray, np.ndarray]:
+    """(mirrored, lower, upper): whether ``chain`` is the left arm, solved as the mirror image of the
+    right one, and its limits in right-arm coordinates (m0 -> -m0 on the left)."""
+    mirrored = any(name in chain.joint_names for name in LEFT_JOINTS)
+    lower, upper = chain.lower.copy(), chain.upper.copy()
+    if mirrored:
+        lower[0], upper[0] = -chain.upper[0], -chain.lower[0]
+    return mirrored, lower, upper
+
+
+def mirror_positions(positions: np.ndarray) -> np.ndarray:
+    """M p with M = diag(1, -1, 1) (positions (..., 3))."""
+    return positions * _MIRROR_P
+
+
+def mirror_rotations(rotations: np.ndarray) -> np.ndarray:
+    """M R M with M = diag(1, -1, 1) (rotations (..., 3, 3))."""
+    return rotations * _MIRROR_R
+
+
 class _Golem3Form(ClosedForm):
     """Shared by both arms: mirrors left-arm targets and joints onto the right arm's closed form."""
 
     def __init__(self, chain: Chain):
         super().__init__(chain)
-        self.mirrored = any(name in chain.joint_names for name in LEFT_JOINTS)
         if chain.nq != 6 or chain.base_frame != "torso_link":
             raise InvalidConfigurationError(
                 f"the Golem-III closed form needs a chain from torso_link over (m0, 5 arm joints); "
                 f"{chain.name!r} is {chain.base_frame} -> {chain.tip_frame} with {chain.joint_names}")
-        lower, upper = chain.lower.copy(), chain.upper.copy()
-        if self.mirrored:  # limits in right-arm coordinates: m0 -> -m0
-            lower[0], upper[0] = -chain.upper[0], -chain.lower[0]
-        self.right_lower, self.right_upper = lower, upper
+        self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(chain)
 
     def _mirror_q(self, q: np.ndarray) -> np.ndarray:
         if not self.mirrored:
@@ -60,11 +76,10 @@ class _Golem3Form(ClosedForm):
         return q
 
     def _mirror_positions(self, positions: np.ndarray) -> np.ndarray:
-        return positions * _MIRROR_P if self.mirrored else positions
+        return mirror_positions(positions) if self.mirrored else positions
 
     def _mirror_rotations(self, rotations: np.ndarray) -> np.ndarray:
-        """M R M with M = diag(1, -1, 1)."""
-        return rotations * _MIRROR_R if self.mirrored else rotations
+        return mirror_rotations(rotations) if self.mirrored else rotations
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         position, rotation = family.fk(GOLEM3, self._mirror_q(q))
