@@ -59,9 +59,7 @@ def fresh_registry(monkeypatch):
     """An empty registry over the given module list (the real one is restored afterwards)."""
 
     def make(modules: list[str]) -> None:
-        monkeypatch.setattr(registry, "KIND_MODULES", list(modules))
-        monkeypatch.setattr(registry, "_KINDS", {})
-        monkeypatch.setattr(registry, "_LOADED", set())
+        monkeypatch.setattr(registry, "_REGISTRY", registry._REGISTRY.fresh(modules))
 
     return make
 
@@ -263,3 +261,26 @@ def test_riveting_refuses_robot_params_by_name(tmp_path):
     path.write_text("kind: ur5_riveting\nrobot_params: {x: 1}\n")
     with pytest.raises(ScenarioValueError, match="ur5_riveting does not take robot_params"):
         load_scenario(path)
+
+
+def test_kinds_use_the_one_declared_registry_and_its_errors_are_registry_errors(fresh_registry, tmp_path,
+                                                                                   monkeypatch):
+    from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+
+    assert isinstance(registry._REGISTRY, DeclaredRegistry)
+    assert registry._REGISTRY.modules is registry.KIND_MODULES  # register_module appends to the listed ones
+    assert issubclass(registry.ScenarioKindError, RegistryError)
+    assert issubclass(registry.ScenarioKindImportError, RegistryImportError)
+    fresh_registry(["wbik.scenarios.wholebody"])
+    with pytest.raises(registry.ScenarioKindError, match="registered as a ScenarioKind, got function"):
+        register_kind(lambda spec, progress: None)
+    # a user module of kinds: added by name, with its kinds; one that repeats a kind adds nothing
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "wbik_test_user_kinds.py").write_text(
+        "from wbik.scenario_schema import Map\nfrom wbik.scenarios.kinds import ScenarioKind\n"
+        "SCENARIO_KINDS = (ScenarioKind('user_a', print, Map), ScenarioKind('user_a', print, Map))\n")
+    twice = "wbik_test_user_kinds declares the scenario kind.*user_a"
+    with pytest.raises(registry.ScenarioKindError, match=twice):
+        registry.register_module("wbik_test_user_kinds")
+    assert "user_a" not in registry.kind_names()
+    assert "wbik_test_user_kinds" not in registry._REGISTRY.modules

@@ -11,8 +11,14 @@ it, and each declares its entries in a module-level tuple (the registry's ``attr
 
 Every listed module is imported when the entries are first needed; one that fails to import, has
 no such tuple, or declares a name that another module declares too is an error naming the module
-(:class:`RegistryError`), never skipped. User code adds an entry with
-:meth:`DeclaredRegistry.register`, or a module of entries with :meth:`DeclaredRegistry.register_module`.
+(:class:`RegistryError`, or the registry's own subclass of it), never skipped. User code adds an
+entry with :meth:`DeclaredRegistry.register`, or a module of entries with
+:meth:`DeclaredRegistry.register_module`.
+
+A registry lives in one process. A fresh process (a study's worker) imports the listed modules
+again but knows nothing user code added; :meth:`DeclaredRegistry.added_at_run_time` says which
+entries those are, so whoever sends work to another process carries them with it, and the worker
+registers them there (``register(entry, replace=True)``).
 """
 
 from __future__ import annotations
@@ -46,8 +52,12 @@ class DeclaredRegistry(Generic[Entry]):
     """Entries of ``entry_type`` declared by the modules in ``modules`` (see the module docstring).
 
     ``what``: what an entry is, for messages ("whole-body case sampler"). ``attribute``: the tuple
-    each listed module declares. ``listed_in``: where ``modules`` is defined, for messages.
-    ``unknown``: the error for a name nobody declares, given (name, known names).
+    each listed module declares. ``modules``: the listed modules (the list itself is kept, so
+    :meth:`register_module` appends to the caller's list). ``listed_in``: where ``modules`` is
+    defined, for messages. ``unknown``: the error for a name nobody declares, given (name, known
+    names). ``error`` / ``import_error``: the error types raised for a clash or a module declaring
+    nothing / for a listed module that cannot be imported (a registry's own subclasses, so callers
+    can catch its errors alone).
     """
 
     def __init__(
@@ -58,11 +68,14 @@ class DeclaredRegistry(Generic[Entry]):
         listed_in: str,
         entry_type: type[Entry],
         unknown: Callable[[str, list[str]], WbikError] | None = None,
+        error: type[RegistryError] = RegistryError,
+        import_error: type[RegistryImportError] = RegistryImportError,
     ):
         self.what, self.attribute, self.modules, self.listed_in = what, attribute, modules, listed_in
-        self.entry_type = entry_type
+        self.entry_type, self.error, self.import_error = entry_type, error, import_error
         self.unknown = unknown or (lambda name, known: UnknownNameError(name, known,
                                                                         hint=f"(the registered {what}s)"))
+        self._declared_by_default = frozenset(modules)  # what a fresh process imports
         self._entries: dict[str, Entry] = {}
         self._origins: dict[str, str] = {}
         self._loaded: set[str] = set()
@@ -72,7 +85,7 @@ class DeclaredRegistry(Generic[Entry]):
         """A registry like this one with nothing loaded, listing ``modules`` (default: a copy of this
         one's list); for tests and for trying a list of modules without touching this registry."""
         return DeclaredRegistry(self.what, self.attribute, list(self.modules if modules is None else modules),
-                                self.listed_in, self.entry_type, self.unknown)
+                                self.listed_in, self.entry_type, self.unknown, self.error, self.import_error)
 
     def entries(self) -> dict[str, Entry]:
         """Every entry by name (the listed modules imported on first use)."""
@@ -88,10 +101,21 @@ class DeclaredRegistry(Generic[Entry]):
             raise self.unknown(name if isinstance(name, str) else repr(name), sorted(entries))
         return entries[name]
 
+    def added_at_run_time(self, name: str) -> Entry | None:
+        """The entry ``name`` when user code added it (:meth:`register`, or :meth:`register_module`
+        of a module the list did not hold when this registry was made): a fresh process does not
+        have it, so work sent there carries it. None for an entry a listed module declares, and for
+        a name nobody registered."""
+        entries = self.entries()
+        with self._lock:
+            if name not in entries or self._origins[name] in self._declared_by_default:
+                return None
+            return entries[name]
+
     def register(self, entry: Entry, replace: bool = False) -> None:
         """Add ``entry`` from user code (``replace`` an entry of the same name only when asked)."""
         if not isinstance(entry, self.entry_type):
-            raise RegistryError(f"a {self.what} is registered as a {self.entry_type.__name__}, got "
+            raise self.error(f"a {self.what} is registered as a {self.entry_type.__name__}, got "
                                 f"{type(entry).__name__}")
         self.entries()  # the declared entries first, so a clash is found now
         with self._lock:
@@ -113,19 +137,19 @@ class DeclaredRegistry(Generic[Entry]):
         try:
             module = importlib.import_module(module_name)
         except ImportError as exc:
-            raise RegistryImportError(
+            raise self.import_error(
                 f"the {self.what}s of {module_name} (listed in {self.listed_in}) cannot be registered: "
                 f"importing it failed: {exc}. Install what it names (pip install -e . installs wbik's "
                 f"own dependencies), or remove the module from that list") from exc
         declared = getattr(module, self.attribute, None)
         if not isinstance(declared, tuple | list) or not all(isinstance(item, self.entry_type)
                                                                for item in declared):
-            raise RegistryError(f"{module_name} is listed in {self.listed_in} but has no {self.attribute} "
+            raise self.error(f"{module_name} is listed in {self.listed_in} but has no {self.attribute} "
                                 f"tuple of {self.entry_type.__name__}")
         names = [entry.name for entry in declared]
         twice = sorted({name for name in names if names.count(name) > 1})
         if twice:
-            raise RegistryError(f"{module_name} declares the {self.what}(s) {', '.join(twice)} twice")
+            raise self.error(f"{module_name} declares the {self.what}(s) {', '.join(twice)} twice")
         for entry in declared:  # all or nothing: check every name before adding any
             self._check_new(entry, module_name)
         for entry in declared:
@@ -135,7 +159,7 @@ class DeclaredRegistry(Generic[Entry]):
     def _check_new(self, entry: Entry, where: str) -> None:
         known = self._entries.get(entry.name)
         if known is not None and known is not entry:
-            raise RegistryError(f"{self.what} {entry.name!r} of {where} is already registered "
+            raise self.error(f"{self.what} {entry.name!r} of {where} is already registered "
                                 f"(by {self._origins[entry.name]})")
 
     def _add(self, entry: Entry, where: str, replace: bool = False) -> None:

@@ -13,7 +13,8 @@ The modules holding kinds are listed by name in ``KIND_MODULES`` (imported on fi
 core names the applications' modules without importing them). Every one of them is imported when
 the kinds are first needed; a module that fails to import, has no ``SCENARIO_KINDS``, or declares
 a kind another module declares too is an error naming the module, never skipped. User code adds a
-kind with :func:`register_kind`, or a module of kinds with :func:`register_module`.
+kind with :func:`register_kind`, or a module of kinds with :func:`register_module` (the one
+registry pattern of :class:`wbik.registry.DeclaredRegistry`).
 
 A runner ``run(spec, on_progress) -> ScenarioReport`` gets the spec checked against the kind's
 schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
@@ -22,8 +23,6 @@ schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
 
 from __future__ import annotations
 
-import importlib
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -33,6 +32,7 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError, WbikError
 from wbik.expectations import verdict
+from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
 if TYPE_CHECKING:
     from wbik.scenario_schema import Map
@@ -56,11 +56,11 @@ KIND_MODULES: list[str] = [
 VERDICTS = ("PASSED", "FAILED", "informational")
 
 
-class ScenarioKindError(WbikError):
+class ScenarioKindError(RegistryError):
     """A kind registered twice, or a module of kinds that declares none."""
 
 
-class ScenarioKindImportError(ScenarioKindError, MissingDependencyError):
+class ScenarioKindImportError(ScenarioKindError, RegistryImportError, MissingDependencyError):
     """A module of scenario kinds that cannot be imported."""
 
 
@@ -178,44 +178,22 @@ class ScenarioKind:
         return self.format(report) if self.format is not None else report_header(report)
 
 
-_KINDS: dict[str, ScenarioKind] = {}
-_LOADED: set[str] = set()
-_LOCK = threading.RLock()
+def _unknown_kind(name: str, known: list[str]) -> WbikError:
+    from wbik.scenario_schema import ScenarioValueError, guess
+
+    return ScenarioValueError(f"unknown scenario kind {name!r}{guess(name, known)}; known kinds: "
+                              f"{', '.join(known)}")
 
 
-def _load(module_name: str) -> None:
-    """Register the ``SCENARIO_KINDS`` of one module (imported here; errors name the module)."""
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise ScenarioKindImportError(
-            f"the scenario kinds of {module_name} (listed in wbik.scenarios.kinds.KIND_MODULES) cannot be "
-            f"registered: importing it failed: {exc}. Install what it names (pip install -e . installs "
-            "wbik's own dependencies), or remove the module from KIND_MODULES") from exc
-    kinds = getattr(module, "SCENARIO_KINDS", None)
-    if not isinstance(kinds, tuple | list) or not all(isinstance(kind, ScenarioKind) for kind in kinds):
-        raise ScenarioKindError(f"{module_name} is listed in wbik.scenarios.kinds.KIND_MODULES but has no "
-                                "SCENARIO_KINDS tuple of ScenarioKind")
-    for kind in kinds:
-        _add(kind, module_name)
-
-
-def _add(kind: ScenarioKind, where: str, replace: bool = False) -> None:
-    known = _KINDS.get(kind.name)
-    if known is not None and known is not kind and not replace:
-        raise ScenarioKindError(f"scenario kind {kind.name!r} of {where} is already registered "
-                                f"(runner {known.run.__module__}.{known.run.__qualname__})")
-    _KINDS[kind.name] = kind
+_REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
+    "scenario kind", "SCENARIO_KINDS", KIND_MODULES, "wbik.scenarios.kinds.KIND_MODULES", ScenarioKind,
+    unknown=_unknown_kind, error=ScenarioKindError, import_error=ScenarioKindImportError,
+)
 
 
 def scenario_kinds() -> dict[str, ScenarioKind]:
     """Every registered kind by name (the modules of ``KIND_MODULES`` imported on first use)."""
-    with _LOCK:
-        for module_name in list(KIND_MODULES):
-            if module_name not in _LOADED:
-                _load(module_name)
-                _LOADED.add(module_name)
-        return dict(_KINDS)
+    return _REGISTRY.entries()
 
 
 def kind_names() -> list[str]:
@@ -224,31 +202,15 @@ def kind_names() -> list[str]:
 
 def scenario_kind(name: str) -> ScenarioKind:
     """The kind called ``name`` (a ScenarioValueError listing the kinds if there is none)."""
-    kinds = scenario_kinds()
-    if name not in kinds:
-        from wbik.scenario_schema import ScenarioValueError, guess
-
-        raise ScenarioValueError(f"unknown scenario kind {name!r}{guess(name, kinds)}; known kinds: "
-                                 f"{', '.join(sorted(kinds))}")
-    return kinds[name]
+    return _REGISTRY.get(name)
 
 
 def register_kind(kind: ScenarioKind, replace: bool = False) -> None:
     """Add a kind from user code (``replace`` an existing one of that name only when asked)."""
-    if not isinstance(kind, ScenarioKind):
-        raise ScenarioKindError(f"register_kind takes a ScenarioKind, got {type(kind).__name__}")
-    scenario_kinds()  # the built-in kinds first, so a clash is found now
-    with _LOCK:
-        _add(kind, "register_kind", replace)
+    _REGISTRY.register(kind, replace)
 
 
 def register_module(module_name: str) -> None:
     """Add a module of kinds (its ``SCENARIO_KINDS``) by name; it is imported now (an error if it
     cannot be, and then it is not added)."""
-    scenario_kinds()
-    with _LOCK:
-        if module_name not in _LOADED:
-            _load(module_name)
-            _LOADED.add(module_name)
-        if module_name not in KIND_MODULES:
-            KIND_MODULES.append(module_name)
+    _REGISTRY.register_module(module_name)
