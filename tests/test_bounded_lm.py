@@ -225,7 +225,8 @@ def test_one_seed_and_batched_paths_take_the_same_steps(robot_name, chain_name, 
             target = as_target(reached if kind == "pose" else reached.translation)
             goal_inverse = solver._goal(target)
             for k in range(1, 16):
-                q_one, ok, used, _ = solver._attempt(goal_inverse, target.is_pose, q_start.copy(), np.inf, k)
+                q_one, ok, used, _ = solver._attempt(solver._residual(goal_inverse, target.is_pose),
+                                                     q_start.copy(), np.inf, k)
                 solver.max_iterations = k * BATCH_ITERATION_UNITS
                 draws = _CallDraws(solver, target, q_start)
                 batch = solver._solve_batch(target, q_start[None], np.inf, 0, 0, (q_start, np.inf), draws)

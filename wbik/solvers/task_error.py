@@ -32,6 +32,7 @@ placements and joint axes, from which KDL chains and vectorised kinematics are b
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,11 +103,12 @@ _LEVI_CIVITA = _levi_civita()
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
-    """The iterate passes the shared check (with a small safety factor)."""
-    ok = np.linalg.norm(error[:3]) <= 0.5 * position_tolerance
-    if error.size == 6:
-        ok = ok and np.linalg.norm(error[3:]) <= 0.5 * rotation_tolerance
-    return bool(ok)
+    """The iterate passes the shared check (with a small safety factor): |e_p| and |e_R| at most
+    half their tolerances (plain-float norms: this runs inside the iterative loops)."""
+    values = error.tolist()
+    if math.hypot(*values[:3]) > 0.5 * position_tolerance:
+        return False
+    return len(values) < 6 or math.hypot(*values[3:]) <= 0.5 * rotation_tolerance
 
 
 # -- serial structure --------------------------------------------------------------------------
