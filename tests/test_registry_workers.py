@@ -12,6 +12,7 @@ import os
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 import wbik
 from wbik.solvers.base import _DESCRIPTIONS, _REGISTRY
@@ -63,3 +64,112 @@ def test_a_registered_method_runs_in_loky_workers_and_reaches_the_report(tmp_pat
     assert str(os.getpid()) not in workers  # solved in the worker processes, not here
     assert mine["success"].mean() > 0.5  # a working method, not rows of errors
     assert NAME in (output / "report.md").read_text()
+
+
+# -- whole-body samplers and methods registered from user code -------------------------------------------
+SAMPLER = "user_tool_reach_in_workers"
+METHOD = "user_qp_in_workers"
+
+WHOLEBODY_STUDY = f"""
+name: registered_wholebody
+seed: 5
+poses: 12
+chunk_size: 3
+timeout_s: 0.05
+cases:
+  - {{target: wholebody, scenario: {SAMPLER}}}
+methods: [{METHOD}, qp]
+"""
+
+
+def tool_reach(rng: np.random.Generator, index: int):
+    """A user's sampler on the UR5: the tool to the point of a random arm configuration."""
+    from wbik.qp.tasks import PositionTask
+    from wbik.wholebody.cases import WholeBodyCase, cached_robot
+    from wbik.wholebody.problem import WholeBody
+
+    robot = cached_robot("ur5")
+    q_true = robot.chain("arm").random(rng)
+    target = robot.frame_placement(q_true, "tcp").translation.copy()
+    problem = WholeBody(robot, [PositionTask("tcp", target, name="tcp")], limits="position",
+                        name=f"{SAMPLER}[{index}]")
+    return WholeBodyCase(problem, robot.nominal.copy(), target, q_true)
+
+
+def _user_qp():
+    from wbik.wholebody.solvers import QPWholeBody
+
+    class UserQP(QPWholeBody):
+        """A user's whole-body method: our QP, whose rows say which process solved them."""
+
+        name = METHOD
+
+        def solve(self, problem, q0=None):
+            answer = super().solve(problem, q0)
+            return replace(answer, reason=f"{answer.reason} pid={os.getpid()}")
+
+    return UserQP
+
+
+def _raw_rows(output) -> dict[str, list[dict]]:
+    import csv
+
+    rows: dict[str, list[dict]] = {}
+    for row in csv.DictReader((output / SAMPLER / "raw.csv").open()):
+        rows.setdefault(row["method"], []).append(row)
+    return rows
+
+
+def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path, monkeypatch):
+    """Registered inside the test (into fresh registries of this process), so a worker knows them
+    only from the task; solved with 2 loky workers, the rows equal a sequential run's in this
+    process, and a task without its entries fails in a fresh process."""
+    from joblib.externals.loky import ProcessPoolExecutor
+
+    from wbik.errors import UnknownNameError
+    from wbik.study import study_from_dict
+    from wbik.study.runner import pending_tasks, solve_chunk
+    from wbik.wholebody import cases, methods
+
+    monkeypatch.setattr(cases, "_SAMPLERS", cases._SAMPLERS.fresh())
+    monkeypatch.setattr(methods, "_METHODS", methods._METHODS.fresh())
+    sampler = cases.CaseSampler(SAMPLER, "ur5", tool_reach, "test only: the UR5's tool to a random point")
+    method = methods.WholeBodyMethod(METHOD, _user_qp(), "test only: our QP defined in a test")
+    cases.register_sampler(sampler)
+    methods.register_wholebody_method(method)
+    assert cases.sampler_added_at_run_time(SAMPLER) is sampler
+    assert methods.method_added_at_run_time(METHOD) is method
+    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None  # a listed module's: not carried
+    assert methods.method_added_at_run_time("qp") is None
+
+    import yaml
+
+    study = study_from_dict(yaml.safe_load(WHOLEBODY_STUDY), source="test")
+    parallel = run_study(study, tmp_path / "loky", jobs=2, backend="loky", progress=False,
+                         log=lambda message: None)
+    sequential = run_study(study, tmp_path / "sequential", backend="sequential", progress=False,
+                           log=lambda message: None)
+    rows, expected = _raw_rows(parallel), _raw_rows(sequential)
+    assert set(rows) == {METHOD, "qp"}
+    assert [row["pose"] for row in rows[METHOD]] == [str(i) for i in range(12)]
+    workers = {row["reason"].rsplit("pid=", 1)[1] for row in rows[METHOD]}
+    assert str(os.getpid()) not in workers  # solved in the worker processes, not here
+    assert all(row["reason"].endswith(f"pid={os.getpid()}") for row in expected[METHOD])
+    for label in (METHOD, "qp"):  # the same cases and answers wherever they were solved
+        assert [row["success"] for row in rows[label]] == [row["success"] for row in expected[label]]
+        q = [[float(v) for k, v in row.items() if k.startswith("q_")] for row in rows[label]]
+        q_expected = [[float(v) for k, v in row.items() if k.startswith("q_")] for row in expected[label]]
+        np.testing.assert_array_equal(q, q_expected)
+    assert sum(row["success"] == "1" for row in rows[METHOD]) >= 6  # a working method, not rows of errors
+    assert METHOD in (parallel / "report.md").read_text()
+
+    # without the entries it carries, a task fails in a fresh process: the carrying is what works
+    tasks, _, _ = pending_tasks(study, tmp_path / "again", log=lambda message: None)
+    task = next(t for t in tasks if t.method == METHOD)
+    assert {type(entry).__name__ for entry in task.wholebody_entries} == {"CaseSampler", "WholeBodyMethod"}
+    assert next(t for t in tasks if t.method == "qp").wholebody_entries == (sampler,)
+    with ProcessPoolExecutor(max_workers=1) as fresh_process:
+        for carried, missing in (((), METHOD), ((method,), SAMPLER)):  # the solver is built first
+            with pytest.raises(UnknownNameError, match=missing):
+                fresh_process.submit(solve_chunk, replace(task, wholebody_entries=carried)).result()
+        assert len(fresh_process.submit(solve_chunk, task).result()["pose"]) == 3  # the same process

@@ -177,3 +177,27 @@ def test_the_whole_body_core_names_no_seed_robot():
     # the rule can fail: a robot name outside a registry string is found, the registry string is not
     assert SEED_ROBOTS.search(REGISTRY_STRING.sub("", '"wbik.apps.bioloid.cases",  # the bioloid'))
     assert not SEED_ROBOTS.search(REGISTRY_STRING.sub("", '    "wbik.apps.bioloid.thesis_legs",'))
+
+
+# -- what a fresh process lacks ----------------------------------------------------------------------------
+def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, monkeypatch):
+    """A fresh process imports the modules listed when the registry was made: entries of register()
+    and of a module added by register_module() (or appended to the list later) are carried, the
+    listed modules' are not, nor is a name nobody registered."""
+    modules(wbik_test_user_cases=_sampler_module("user_module_sampler"),
+            wbik_test_appended_cases=_sampler_module("appended_sampler"))
+    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
+    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    mine = CaseSampler("mine", "ur5", print)
+    register_sampler(mine)
+    cases.register_sampler_module("wbik_test_user_cases")
+    fresh.modules.append("wbik_test_appended_cases")
+    assert cases.sampler_added_at_run_time("mine") is mine
+    assert cases.sampler_added_at_run_time("user_module_sampler") is case_samplers()["user_module_sampler"]
+    assert cases.sampler_added_at_run_time("appended_sampler") is case_samplers()["appended_sampler"]
+    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None
+    assert cases.sampler_added_at_run_time("nobody") is None
+    # a listed module's entry replaced from user code is the user's now, and carried
+    replacement = CaseSampler("bioloid_com_shift", "ur5", print)
+    register_sampler(replacement, replace=True)
+    assert cases.sampler_added_at_run_time("bioloid_com_shift") is replacement

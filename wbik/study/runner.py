@@ -86,6 +86,12 @@ class ChunkTask:
     "wbik.…:Class" path): worker processes have their own registry, so the task carries it and
     :func:`solve_chunk` registers it there (loky and Dask pickle with cloudpickle, so a class defined
     in the user's script travels by value)."""
+    wholebody_entries: tuple = ()
+    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and whole-body method
+    (:class:`wbik.wholebody.methods.WholeBodyMethod`) of a whole-body chunk that user code registered
+    at run time (``register_sampler``, ``register_wholebody_method``): carried to the worker, which
+    registers them before solving (:func:`wbik.study.wholebody.solve_wholebody_chunk`); empty when
+    the listed modules declare both."""
 
 
 def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:

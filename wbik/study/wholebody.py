@@ -7,9 +7,11 @@ what differs for whole-body cases:
   stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
   a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
 - solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
-  q0)`` per case, budgets in iterations (:func:`wbik.wholebody.methods.wholebody_budget`); a method
-  that cannot express the family's first problem (its ``cannot_express`` query says why) is "not
-  applicable" (:mod:`wbik.study.applicability`);
+  q0)`` per case (a sampler or method user code registered travels with the task and is registered
+  in the worker first, see :func:`run_time_entries`), budgets in iterations
+  (:func:`wbik.wholebody.methods.wholebody_budget`); a method that cannot express the family's
+  first problem (its ``cannot_express`` query says why) is "not applicable"
+  (:mod:`wbik.study.applicability`);
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
   what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
   Mann-Whitney tests and error figures;
@@ -76,6 +78,31 @@ def budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, 
     return wholebody_budget(method, timeout_s, options)
 
 
+def run_time_entries(scenario: str, method: str) -> tuple:
+    """The sampler ``scenario`` and the whole-body method ``method`` among those user code registered
+    at run time (a worker process lacks them; the listed modules' own are left out)."""
+    from wbik.wholebody.cases import sampler_added_at_run_time
+    from wbik.wholebody.methods import method_added_at_run_time
+
+    entries = (sampler_added_at_run_time(scenario), method_added_at_run_time(method))
+    return tuple(entry for entry in entries if entry is not None)
+
+
+def register_run_time_entries(entries: tuple) -> None:
+    """Register, in this process, the samplers and methods a task carries (replacing a namesake: a
+    reused worker may hold an earlier study's)."""
+    from wbik.wholebody.cases import CaseSampler, register_sampler
+    from wbik.wholebody.methods import WholeBodyMethod, register_wholebody_method
+
+    for entry in entries:
+        if isinstance(entry, CaseSampler):
+            register_sampler(entry, replace=True)
+        elif isinstance(entry, WholeBodyMethod):
+            register_wholebody_method(entry, replace=True)
+        else:
+            raise TypeError(f"a whole-body task carries samplers and methods, got {type(entry).__name__}")
+
+
 def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop: int):
     """The runner's ChunkTask of a whole-body chunk (the sampler and seed rebuild its cases)."""
     from wbik.study.runner import ChunkTask, _frozen, chunk_seed
@@ -101,6 +128,7 @@ def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop:
         q0=poses.q0[start:stop],
         scenario=case.scenario,
         scenario_seed=study.seed,
+        wholebody_entries=run_time_entries(case.scenario, method.method),
     )
 
 
@@ -111,6 +139,7 @@ def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
     from wbik.wholebody.cases import sample_case
     from wbik.wholebody.methods import wholebody_solver
 
+    register_run_time_entries(task.wholebody_entries)
     robot = _robot(task.robot, task.robot_params)
     solver = wholebody_solver(
         task.method,

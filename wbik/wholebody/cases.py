@@ -28,7 +28,8 @@ from wbik.robot import Robot
 from wbik.wholebody.problem import WholeBody
 
 __all__ = ["CASE_MODULES", "CaseSampler", "WholeBodyCase", "case_rng", "case_sampler", "case_samplers",
-           "cached_robot", "register_sampler", "register_sampler_module", "sample_case"]
+           "cached_robot", "register_sampler", "register_sampler_module", "sample_case",
+           "sampler_added_at_run_time"]
 
 CASE_MODULES: list[str] = [
     "wbik.apps.bioloid.wholebody_cases",
@@ -103,3 +104,9 @@ def register_sampler(sampler: CaseSampler, replace: bool = False) -> None:
 def register_sampler_module(module_name: str) -> None:
     """Add the ``WHOLEBODY_CASES`` of a module, by its name (imported now)."""
     _SAMPLERS.register_module(module_name)
+
+
+def sampler_added_at_run_time(name: str) -> CaseSampler | None:
+    """The sampler ``name`` when user code added it (a fresh process, such as a study worker, does
+    not have it: the study's task carries it there); None for one a module of CASE_MODULES declares."""
+    return _SAMPLERS.added_at_run_time(name)

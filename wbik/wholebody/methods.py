@@ -24,8 +24,9 @@ from wbik.robot import Robot
 if TYPE_CHECKING:
     from wbik.wholebody.solvers import WholeBodySolver
 
-__all__ = ["METHOD_MODULES", "WholeBodyMethod", "register_wholebody_method", "register_wholebody_module",
-           "wholebody_budget", "wholebody_methods", "wholebody_solver", "wholebody_solver_options"]
+__all__ = ["METHOD_MODULES", "WholeBodyMethod", "method_added_at_run_time", "register_wholebody_method",
+           "register_wholebody_module", "wholebody_budget", "wholebody_methods", "wholebody_solver",
+           "wholebody_solver_options"]
 
 METHOD_MODULES: list[str] = [
     "wbik.wholebody.solvers",  # qp, placo, pink
@@ -71,6 +72,12 @@ def register_wholebody_method(method: WholeBodyMethod, replace: bool = False) ->
 def register_wholebody_module(module_name: str) -> None:
     """Add the ``WHOLEBODY_METHODS`` of a module, by its name (imported now)."""
     _METHODS.register_module(module_name)
+
+
+def method_added_at_run_time(name: str) -> WholeBodyMethod | None:
+    """The method ``name`` when user code added it (a fresh process, such as a study worker, does
+    not have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
+    return _METHODS.added_at_run_time(name)
 
 
 def _factory(method: str) -> type[WholeBodySolver]:
