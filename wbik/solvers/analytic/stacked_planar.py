@@ -24,7 +24,8 @@ decides.
 Position IK: t6 = ``yaw`` (it does not move the gripper centre), t1..t5 for the three coordinates,
 two free parameters. For fixed (t1, t2) the rest is closed form (:func:`position_candidates`): the
 shoulder point S(t1, t2), l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is the planar 2R
-subproblem of the links l4 and sqrt(l5^2 + l6^2) for (t4, t5). The binding searches (t1, t2).
+subproblem of the links l4 and sqrt(l5^2 + l6^2) for (t4, t5); :class:`PositionSearch` searches
+(t1, t2).
 """
 
 from __future__ import annotations
@@ -35,8 +36,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.geometry import rot_x, rot_y, rot_z, wrap_to_pi
-from wbik.solvers.analytic import TWO_PI
+from wbik.solvers.analytic import LIMIT_TOLERANCE, TWO_PI
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r, planar_2r_one
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 
 GIMBAL_LOCK = 1e-9
 """|cos(beta)| below which alpha (t6) is free: the Euler angles are coupled there. It is read as
@@ -233,3 +235,132 @@ def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.
                       t5, np.full(shape, yaw)], axis=-1)
     real = np.broadcast_to(real[..., None], shape)
     return q_all.reshape(shape[:2] + (4, 6)), real.reshape(shape[:2] + (4,))
+
+
+class PositionSearch:
+    """Position IK with t6 fixed (two free parameters) over the limit box of (t1, t2): a vectorised grid
+    of ``grid_t1`` x ``grid_t2`` values gives exact candidates through :func:`position_candidates` (the
+    ``keep`` nearest to q0 are returned); a bounded Levenberg-Marquardt on the position (closed-form
+    Jacobian, the project's one LM policy) starts from q0 and, where the grid found nothing, from the
+    ``lm_starts`` grid points nearest to feasibility (robust near the workspace boundary). Positions
+    outside a certified outer bound of the workspace are rejected at once; other unreachable ones after
+    at most ``lm_iterations`` trials. The solver returns the candidate nearest to q0 among the exact,
+    in-limit ones (the LM from q0 gives a nearby solution; grid ones are ~0.25 rad apart), so "nearest"
+    is among these candidates, not a global optimum over the solution surface.
+    """
+
+    grid_t1 = 9
+    grid_t2 = 13
+    keep = 4
+    lm_starts = 3
+    lm_iterations = 40
+    lm_tolerance = 1e-11
+    lm_stall = 8
+    """Trials without |e| falling below 0.99 of its best after which a start is given up: rejected trials
+    count, and near the workspace boundary progress is slow (with 2, 2 of 10,000 reachable Golem-III
+    positions were given up; the accept-every-step LM this replaced needed no margin)."""
+    damping_factor = 0.1
+
+    def __init__(self, geometry: StackedPlanarGeometry, lower: np.ndarray, upper: np.ndarray):
+        """``lower``, ``upper``: the limits (6,) of t1..t6."""
+        self.geometry = geometry
+        self.lower, self.upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+        self._policy = LevenbergMarquardt(cost_weight=self.damping_factor, floor=1e-9, progress=0.99 ** 2,
+                                          stall=self.lm_stall)
+        self._bounds = JointBounds(self.lower[:5], self.upper[:5])
+
+    def _limit_excess(self, q: np.ndarray) -> np.ndarray:
+        """Sum over t3..t5 of how far (rad) each is outside its limits."""
+        lower, upper = self.lower[2:5], self.upper[2:5]
+        return np.sum(np.maximum(lower - q[..., 2:5], 0.0) + np.maximum(q[..., 2:5] - upper, 0.0),
+                      axis=-1)
+
+    def outside_outer_bound(self, positions: np.ndarray) -> np.ndarray:
+        """Certainly unreachable (B,): the gripper centre is within l4 + |(l5, l6)| of the t3-t4 axes'
+        crossing (height h, within l1 + l2 of the chest axis), whatever the limits."""
+        g = self.geometry
+        vertical = np.abs(g.h - positions[:, 2])
+        reach = g.l4 + g.forearm
+        horizontal = np.sqrt(np.maximum(reach * reach - vertical * vertical, 0.0)) + g.l1 + g.l2
+        return (vertical > reach * (1.0 + 1e-9)) | (
+            np.hypot(positions[:, 0], positions[:, 1]) > horizontal * (1.0 + 1e-9))
+
+    def candidates(self, positions: np.ndarray, q0: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
+        """Candidates (B, keep + 1 + lm_starts, 6) with t6 = ``yaw`` and their validity (exact, inside
+        the limits up to LIMIT_TOLERANCE for the grid ones, converged for the refined ones)."""
+        count = len(positions)
+        lower, upper = self.lower, self.upper
+        grid1, grid2 = np.meshgrid(np.linspace(lower[0], upper[0], self.grid_t1),
+                                   np.linspace(lower[1], upper[1], self.grid_t2), indexing="ij")
+        grid1 = np.broadcast_to(grid1.reshape(1, -1), (count, grid1.size))
+        grid2 = np.broadcast_to(grid2.reshape(1, -1), (count, grid2.size))
+        q_grid, real = position_candidates(self.geometry, positions, grid1, grid2, yaw)
+        q_grid = q_grid.reshape(count, -1, 6)
+        real = real.reshape(count, -1)
+        excess = self._limit_excess(q_grid)
+        feasible = real & (excess <= LIMIT_TOLERANCE)  # the framework clips that much onto the limit
+        distance = np.where(feasible, np.linalg.norm(q_grid - q0[:, None, :], axis=-1), np.inf)
+        nearest = np.argsort(distance, axis=1)[:, :self.keep]
+        q_keep = np.take_along_axis(q_grid, nearest[..., None], axis=1)
+        valid_keep = np.take_along_axis(feasible, nearest, axis=1)
+        # refinement starts: q0 always; where the grid found nothing, also the grid points closest to
+        # feasible (least limit excess, real branches first), clipped into the limits
+        badness = excess + np.where(real, 0.0, 10.0)
+        closest = np.argsort(badness, axis=1)[:, :self.lm_starts]
+        starts = np.concatenate([q0[:, None, :], np.take_along_axis(q_grid, closest[..., None], axis=1)],
+                                axis=1)
+        starts = np.clip(starts, lower, upper)
+        starts[..., 5] = yaw
+        hopeless = self.outside_outer_bound(positions)
+        use = np.ones(starts.shape[:2], dtype=bool)
+        use[:, 1:] = ~feasible.any(axis=1)[:, None]
+        use &= ~hopeless[:, None]
+        q_lm, converged = self._refine(positions, starts, use)
+        return (np.concatenate([q_keep, q_lm], axis=1),
+                np.concatenate([valid_keep & ~hopeless[:, None], converged], axis=1))
+
+    def _refine(self, positions: np.ndarray, starts: np.ndarray,
+                use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Levenberg-Marquardt on the position error e = p(q) - p* over t1..t5, from starts (B, S, 6)
+        where ``use`` (B, S); returns (joints, converged to 1e-9 m).
+
+        The project's one LM policy (:mod:`wbik.solvers.levenberg_marquardt`): damping
+        lambda = damping_factor |e|^2 + mu (quadratic near a regular solution, damped near singular
+        ones), a trial accepted when it lowers |e|, joints pushed against a limit frozen for the step.
+        A start stops when it converges (|e| <= lm_tolerance), stalls (|e| not below 0.99 of its best
+        in ``lm_stall`` trials) or after ``lm_iterations`` trials.
+        """
+        count, seeds, _ = starts.shape
+        q = starts.reshape(-1, 6).copy()
+        target = np.repeat(positions, seeds, axis=0)
+        policy, bounds = self._policy, self._bounds
+        active = np.flatnonzero(use.reshape(-1))
+        reached, jacobian = position_jacobian(self.geometry, q[active])
+        error = reached - target[active]
+        cost = np.einsum("bi,bi->b", error, error)
+        damping = np.full(len(active), policy.first_damping)
+        best, since = cost.copy(), np.zeros(len(active), dtype=int)
+        stalled = np.zeros(len(active), dtype=bool)
+        final_cost = np.full(len(q), np.inf)
+        final_cost[active] = cost
+        for _ in range(self.lm_iterations):
+            running = (cost > self.lm_tolerance ** 2) & ~stalled
+            if not running.all():
+                active, error, jacobian, cost, damping, best, since = (
+                    array[running] for array in (active, error, jacobian, cost, damping, best, since))
+            if not len(active):
+                break
+            joints = q[active, :5]
+            trial = policy.trial_batch(jacobian, error, cost, damping, joints, bounds)
+            trial_reached, trial_jacobian = position_jacobian(self.geometry, trial)
+            trial_error = trial_reached - target[active]
+            trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
+            accepted = trial_cost < cost
+            q[active, :5] = np.where(accepted[:, None], trial, joints)
+            error = np.where(accepted[:, None], trial_error, error)
+            jacobian = np.where(accepted[:, None, None], trial_jacobian, jacobian)
+            cost = np.minimum(trial_cost, cost)
+            damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
+            final_cost[active] = cost
+        converged = final_cost <= 1e-18  # |e| <= 1e-9 m
+        return q.reshape(count, seeds, 6), converged.reshape(count, seeds)
