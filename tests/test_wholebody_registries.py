@@ -201,3 +201,26 @@ def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, monk
     replacement = CaseSampler("bioloid_com_shift", "ur5", print)
     register_sampler(replacement, replace=True)
     assert cases.sampler_added_at_run_time("bioloid_com_shift") is replacement
+
+
+def test_the_facade_registers_samplers_and_methods_next_to_register(monkeypatch):
+    """wbik.register_sampler / wbik.register_wholebody_method are the registries' own functions,
+    and what they register is what the whole-body API and the study find."""
+    import wbik
+
+    monkeypatch.setattr(cases, "_SAMPLERS", cases._SAMPLERS.fresh())
+    monkeypatch.setattr(methods, "_METHODS", methods._METHODS.fresh())
+    assert wbik.register_sampler is cases.register_sampler and wbik.CaseSampler is CaseSampler
+    assert wbik.register_wholebody_method is methods.register_wholebody_method
+    assert wbik.WholeBodyMethod is WholeBodyMethod and wbik.WholeBodyCase is WholeBodyCase
+    assert {"register", "register_sampler", "register_wholebody_method"} <= set(wbik.__all__)
+
+    class Facade(QPWholeBody):
+        name = "facade_qp"
+
+    wbik.register_wholebody_method(wbik.WholeBodyMethod("facade_qp", Facade, "via the facade"))
+    wbik.register_sampler(wbik.CaseSampler("facade_cases", "ur5", print, "via the facade"))
+    assert wbik.wholebody_methods()["facade_qp"] == "via the facade"
+    assert isinstance(wbik.wholebody_solver("facade_qp", "ur5"), Facade)
+    assert case_samplers()["facade_cases"].description == "via the facade"
+    assert methods.method_added_at_run_time("facade_qp") is not None  # carried to study workers
