@@ -236,3 +236,38 @@ def test_one_seed_and_batched_paths_take_the_same_steps(robot_name, chain_name, 
                     break
     assert compared >= 20
     assert worst <= tolerance
+
+
+@pytest.mark.parametrize(("robot_name", "chain_name"), [("ur5", "arm"), ("golem3", "right_arm_lift"),
+                                                      ("pincher", "arm")])
+def test_solve_many_vectorised_answers_pass_the_check_and_repeat(robot_name, chain_name, rng):
+    """solve_many runs every target as one row of a vectorised LM: its answers pass an independent FK
+    check inside the limits, pose and position targets mixed, and a second run gives the same joints."""
+    solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name, tolerances=PROTOCOL)
+    chain = solver.chain
+    reached = [chain.fk(q) for q in chain.random(rng, 60)]
+    targets = [pose if k % 3 else pose.translation for k, pose in enumerate(reached)]
+    results = solver.solve_many(targets, chain.mid_range)
+    again = solver.solve_many(targets, chain.mid_range)
+    solved = 0
+    for target, pose, result, repeat in zip(targets, reached, results, again, strict=True):
+        assert result.q is not None and chain.in_limits(result.q, tolerance=0.0)
+        np.testing.assert_array_equal(result.q, repeat.q)
+        if result.success:
+            solved += 1
+            if isinstance(target, pin.SE3):
+                position, rotation = independent_errors(chain, result.q, pose)
+                assert position <= 1e-5 and rotation <= 1e-5
+            else:
+                assert np.linalg.norm(chain.fk(result.q).translation - pose.translation) <= 1e-5
+    assert solved >= 0.95 * len(targets)
+
+
+def test_solve_many_with_a_wall_clock_solves_one_target_at_a_time(rng):
+    solver = wbik.solver("bounded_lm", robot("ur5"), chain="arm", timeout_s=0.05)
+    chain = solver.chain
+    targets = [chain.fk(q) for q in chain.random(rng, 5)]
+    many = solver.solve_many(targets, chain.mid_range)
+    one = [solver.solve(target, chain.mid_range) for target in targets]
+    for a, b in zip(many, one, strict=True):
+        assert a.success == b.success and np.allclose(a.q, b.q)

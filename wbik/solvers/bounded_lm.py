@@ -61,6 +61,7 @@ from __future__ import annotations
 import math
 import time
 import weakref
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,10 +69,10 @@ import pinocchio as pin
 from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
-from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, Workspace
 from wbik.solvers.task_error import batch_se3_error, converged
-from wbik.targets import Target
+from wbik.targets import Target, as_target
 
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _IDENTITY = np.eye(3)
@@ -369,6 +370,161 @@ class BoundedLMSolver(Solver):
         return (f"{spent} used up after {attempts} attempts (best task error {best_error:.3g}); "
                 "the target may be out of reach")
 
+    # -- many targets at once -------------------------------------------------------------------
+    def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
+        """Solve a batch. With iteration budgets only (no ``timeout_s``: a wall clock per pose has no
+        meaning inside a vectorised run), vectorised over the targets (:meth:`_solve_rows`): every
+        target runs the same LM policy on the same residual from the same seeds as :meth:`solve`
+        (the seed-table entry or q0 first, then the library's nearest entries), one row per target,
+        all rows advancing together; a target the vectorised rounds leave unsolved is solved by
+        :meth:`solve` itself. Each answer passes the shared FK check; it may be another solution
+        than :meth:`solve` finds for the same target. ``time_s`` of a vectorised answer is the
+        run's time shared equally among its targets."""
+        targets = list(targets)
+        starts = self._batch_starts(q0s, len(targets))
+        if self.timeout_s is not None or self._vectorised is None or len(targets) < 2:
+            return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
+        converted = [as_target(target) for target in targets]
+        for target in converted:
+            if not (self.supports_pose if target.is_pose else self.supports_position_only):
+                self._check_target_kind(target)
+        q_starts = np.array([self.chain.nominal if q0 is None else q0 for q0 in starts])
+        results: list[IKResult | None] = [None] * len(targets)
+        for pose in (True, False):
+            rows = [index for index, target in enumerate(converted) if target.is_pose == pose]
+            if rows:
+                self._solve_rows([converted[index] for index in rows], q_starts[rows], results, rows)
+        return results
+
+    def _passes_rows(self, error: np.ndarray) -> np.ndarray:
+        """:meth:`_passes` row by row (B, m) -> (B,)."""
+        position = np.einsum("bi,bi->b", error[:, :3], error[:, :3])
+        ok = position <= (0.5 * self.tolerances.position * self.position_weight) ** 2
+        if error.shape[1] == 6:
+            ok &= np.einsum("bi,bi->b", error[:, 3:], error[:, 3:]) <= (0.5 * self.tolerances.rotation) ** 2
+        return ok
+
+    def _solve_rows(self, targets: list[Target], q0: np.ndarray, results: list, slots: list[int]) -> None:
+        """Targets of one kind, one row each, advanced together; answers written to results[slots].
+
+        Row r runs attempts from its seeds in :meth:`solve`'s order, ``single_attempts`` of them:
+        q0 and its seed-table entry, the nearer first (``table_first``), then the library's nearest
+        entries (found for all rows that need them in one k-d tree query), q0 after the first of
+        them when the table entry went first. An attempt ends as in :meth:`_attempt` (converged,
+        stalled, ``attempt_iterations``); a row whose seeds or iteration budget run out is left to
+        :meth:`solve`."""
+        started = time.perf_counter()
+        count, pose = len(targets), targets[0].is_pose
+        kinematics, policy, bounds = self._vectorised, self.policy, self.bounds
+        positions = np.array([target.position for target in targets])
+        rotations = np.array([target.rotation for target in targets]) if pose else None
+        q0 = bounds.project(q0)
+        error0, _ = kinematics.evaluate(q0, positions, rotations)
+        cost0 = np.einsum("bi,bi->b", error0, error0)
+        entries, distances2 = self._table.nearest_rows(positions, rotations, self.position_weight)
+        table_first = distances2 < self.table_first * cost0 if len(entries) else np.zeros(count, dtype=bool)
+        first = np.where(table_first[:, None], entries, q0) if len(entries) else q0
+        # seeds after the first: built on a row's first failure (library entries: one query for all)
+        queue: dict[int, list[np.ndarray]] = {}
+        attempts = np.ones(count, dtype=int)
+        spent = np.zeros(count, dtype=int)
+        solution = np.full((count, q0.shape[1]), np.nan)
+        failed = np.zeros(count, dtype=bool)
+        # state of the active rows (rows: their indices)
+        rows = np.arange(count)
+        q = first.copy()
+        error, transposed = kinematics.evaluate(q, positions, rotations)
+        cost = np.einsum("bi,bi->b", error, error)
+        damping = np.full(count, policy.first_damping)
+        best, since, age = cost.copy(), np.zeros(count, dtype=int), np.zeros(count, dtype=int)
+        while rows.size:
+            done = self._passes_rows(error)
+            over = spent[rows] >= self.max_iterations
+            if done.any() or over.any():
+                solution[rows[done]] = q[done]
+                failed[rows[over & ~done]] = True
+                keep = ~(done | over)
+                rows, q, error, transposed, cost, damping, best, since, age = (
+                    array[keep] for array in (rows, q, error, transposed, cost, damping, best, since, age))
+                if not rows.size:
+                    break
+            goal_positions = positions[rows]
+            goal_rotations = None if rotations is None else rotations[rows]
+            inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
+            trial_error, trial_transposed = kinematics.evaluate(inside, goal_positions, goal_rotations)
+            trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
+            accepted = trial_cost < cost
+            q = np.where(accepted[:, None], inside, q)
+            error = np.where(accepted[:, None], trial_error, error)
+            transposed = np.where(accepted[:, None, None], trial_transposed, transposed)
+            cost = np.minimum(trial_cost, cost)
+            damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
+            spent[rows] += 1
+            age += 1
+            ended = np.flatnonzero((stalled | (age >= self.attempt_iterations)) & ~self._passes_rows(error))
+            if not ended.size:
+                continue
+            self._queue_seeds(queue, rows[ended], q0, entries, table_first, positions, rotations)
+            restart, exhausted = [], []
+            for local in ended:
+                seeds = queue[rows[local]]
+                (restart if seeds else exhausted).append(local)
+            if exhausted:
+                failed[rows[exhausted]] = True
+                keep = np.ones(rows.size, dtype=bool)
+                keep[exhausted] = False
+                restart = [int(np.count_nonzero(keep[:local])) for local in restart]
+                rows, q, error, transposed, cost, damping, best, since, age = (
+                    array[keep] for array in (rows, q, error, transposed, cost, damping, best, since, age))
+            if restart:
+                restart = np.array(restart)
+                renewed = rows[restart]
+                q[restart] = [queue[row].pop(0) for row in renewed]
+                attempts[renewed] += 1
+                fresh_error, fresh_transposed = kinematics.evaluate(
+                    q[restart], positions[renewed], None if rotations is None else rotations[renewed])
+                error[restart], transposed[restart] = fresh_error, fresh_transposed
+                cost[restart] = np.einsum("bi,bi->b", fresh_error, fresh_error)
+                best[restart], since[restart], age[restart] = cost[restart], 0, 0
+                damping[restart] = policy.first_damping
+        share = (time.perf_counter() - started) / count
+        chain, tolerances = self.chain, self.tolerances
+        for index, slot in enumerate(slots):
+            if failed[index]:
+                results[slot] = self.solve(targets[index], q0[index])
+            else:
+                results[slot] = evaluate(chain, targets[index],
+                                         Candidate(solution[index], int(spent[index]), "",
+                                                   {"attempts": int(attempts[index])}),
+                                         tolerances, share, self.name)
+
+    def _queue_seeds(self, queue: dict, rows: np.ndarray, q0: np.ndarray, entries: np.ndarray,
+                     table_first: np.ndarray, positions: np.ndarray, rotations: np.ndarray | None) -> None:
+        """The seeds after the first of rows failing for the first time: :meth:`solve`'s order."""
+        new = [int(row) for row in rows if int(row) not in queue]
+        if not new:
+            return
+        count = max(1, self.single_attempts - 2)
+        library = self._library
+        if len(library.q):
+            points = self.position_weight * positions[new]
+            if rotations is not None:
+                points = np.hstack((points, rotations[new].reshape(-1, 9) / math.sqrt(2)))
+                nearest = library.pose_tree.query(points, k=count)[1]
+            else:
+                nearest = library.position_tree.query(points, k=count)[1]
+            neighbours = library.q[np.asarray(nearest).reshape(len(new), -1)]
+        else:
+            neighbours = np.zeros((len(new), 0, q0.shape[1]))
+        for row, near in zip(new, neighbours, strict=True):
+            near = list(near)
+            if not len(entries):
+                queue[row] = near
+            elif table_first[row]:  # the entry went first: the library's nearest, q0, the others
+                queue[row] = near[:1] + [q0[row]] + near[1:]
+            else:  # q0 went first: the table entry, then the library
+                queue[row] = [entries[row]] + near
+
     # -- many seeds at once ---------------------------------------------------------------------
     def _solve_batch(self, target: Target, seeds: np.ndarray, deadline: float, attempts: int,
                      iterations: int, best: tuple[np.ndarray, float], draws: _CallDraws) -> Candidate:
@@ -489,9 +645,10 @@ class VectorisedChain:
 
     def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """(e (B, m), J^T (B, n, m)) against a goal in the base frame. Pose (m = 6): e = log6(T*^-1 T)
-        (weighted lengths) with the Jacobian in tip axes, both given turned into base axes (R e, R J);
-        position (m = 3): e = w (p - p*) with the linear rows in base axes."""
+        """(e (B, m), J^T (B, n, m)) against one goal in the base frame (p* (3,), R* (3, 3)) or one
+        goal per row (p* (B, 3), R* (B, 3, 3)). Pose (m = 6): e = log6(T*^-1 T) (weighted lengths)
+        with the Jacobian in tip axes, both given turned into base axes (R e, R J); position (m = 3):
+        e = w (p - p*) with the linear rows in base axes."""
         size, n = q.shape
         frames = self.frames(q)
         axes = frames[:, :n, :3, 2]
@@ -590,6 +747,24 @@ class SeedTable:
     features: np.ndarray  # (N, 12)
     position_features: np.ndarray  # (N, 3): 2 w p_i, contiguous
     offsets: np.ndarray  # (N,)
+
+    def nearest_rows(self, positions: np.ndarray, rotations: np.ndarray | None, weight: float,
+                     chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
+        """The entry nearest each of B targets (positions (B, 3), rotations (B, 3, 3) or None) and
+        its distance^2: (q (B, n), (B,)), by one matrix product per ``chunk`` targets."""
+        if not len(self.q):
+            return self.q[:0], np.zeros(0)
+        weighted = weight * positions
+        queries = weighted if rotations is None else np.hstack((weighted, rotations.reshape(-1, 9)))
+        features = self.position_features if rotations is None else self.features
+        constant = np.einsum("bi,bi->b", weighted, weighted) + (0.0 if rotations is None else 3.0)
+        best = np.empty(len(positions), dtype=int)
+        for begin in range(0, len(positions), chunk):  # scores (chunk, N): row-wise argmin, in cache
+            scores = queries[begin:begin + chunk].dot(features.T)
+            np.subtract(self.offsets, scores, out=scores)
+            best[begin:begin + chunk] = np.argmin(scores, axis=1)
+        distances2 = (self.offsets[best] - np.einsum("bi,bi->b", features[best], queries)) + constant
+        return self.q[best], distances2
 
     def search(self, target: Target, weight: float) -> TableSearch:
         """The entries' distances^2 to a target (pose distance, or position only), to draw the

@@ -68,14 +68,19 @@ def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
 
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
-    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R*, p*).
+    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R* (3, 3),
+    p* (3,)) or one target each (R* (B, 3, 3), p* (B, 3)).
 
     With t = R*^T (p - p*) and phi x (phi x t) = phi (phi . t) - theta^2 t:
     V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2 + c (phi . t) phi,
     c = (1 - (theta / 2) cot(theta / 2)) / theta^2.
     """
-    phi = batch_log3(np.matmul(target_rotation.T, rotation))
-    offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row
+    if target_rotation.ndim == 2:
+        phi = batch_log3(np.matmul(target_rotation.T, rotation))
+        offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row
+    else:
+        phi = batch_log3(np.matmul(np.swapaxes(target_rotation, 1, 2), rotation))
+        offset = np.einsum("bi,bij->bj", translation - target_position, target_rotation)
     theta2 = np.einsum("bi,bi->b", phi, phi)
     half = 0.5 * np.sqrt(theta2)
     small = theta2 < 1e-6
