@@ -16,6 +16,11 @@ i.e. position + pitch targets written as poses, which every method takes.
 
 Rows are appended to ``--output`` (JSON lines) as each (chain, method) finishes, so an
 interrupted run keeps what it measured.
+
+``ratios(quick)`` (for ``benchmarks/all.py``): per chain, bounded_lm's mean time and success rate
+against TRAC-IK's in the same interleaved run (issue 16: success >= TRAC-IK's at <= 0.5x its mean
+time), and the throughput of bounded_lm's vectorised ``solve_many`` on 10,000 UR5 and Panda poses
+(one core) beside published GPU figures (informational).
 """
 
 from __future__ import annotations
@@ -31,6 +36,9 @@ import numpy as np
 import wbik
 from wbik.errors import WbikError
 from wbik.solvers.base import Tolerances
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ratios import Ratio  # noqa: E402
 
 DEFAULT_CHAINS = ["ur5:arm", "golem3:right_arm", "pincher:arm", "bioloid:right_leg", "panda:arm"]
 DEFAULT_METHODS = ["newton", "dls", "kdl", "kdl_restarts", "trac_ik", "bounded_lm"]
@@ -85,6 +93,65 @@ def measure_interleaved(methods: list[str], robot, chain_name: str, poses: list,
                       for result in results[method])
         rows[method] = {**summarise(method, results[method]), "outside_limits": outside}
     return rows
+
+
+PROTOCOL = {"timeout_s": 0.005, "tolerance": 1e-5, "seed": 2015}
+GPU_ANCHORS = (("pyroki on an RTX 4090 (published)", 70_000.0), ("cuRobo (published)", 38_000.0))
+"""Published batched-IK throughputs on a GPU, poses/s, for scale (not measured here)."""
+
+
+def solve_many_throughput(robot_name: str, chain_name: str, count: int,
+                          seed: int = 2015) -> tuple[float, float]:
+    """(poses/s, success) of bounded_lm's vectorised solve_many on ``count`` FK poses, mid-range seed,
+    tolerance 1e-5, iteration budget only. Poses per second of wall clock or of the process's CPU
+    time, whichever is fewer: "one core" even if BLAS spreads a product over threads."""
+    robot = wbik.load(robot_name)
+    solver = wbik.solver("bounded_lm", robot, chain=chain_name, tolerances=Tolerances(1e-5, 1e-5))
+    chain = solver.chain
+    poses = poses_for(chain, count, seed)
+    solver.solve_many(poses[:50], chain.mid_range)  # warm: seed table, library, first calls
+    started, cpu = time.perf_counter(), time.process_time()
+    results = solver.solve_many(poses, chain.mid_range)
+    elapsed = max(time.perf_counter() - started, time.process_time() - cpu)
+    return count / elapsed, sum(result.success for result in results) / count
+
+
+def ratios(quick: bool = False) -> list[Ratio]:
+    """bounded_lm against TRAC-IK under its protocol on the five chains (interleaved, the same poses),
+    and solve_many's throughput beside GPU anchors; see the module docstring."""
+    poses = 200 if quick else 2000
+    found: list[Ratio] = []
+    note = (f"TRAC-IK protocol: {poses} FK poses, tolerance 1e-5, 5 ms, mid-range seed, interleaved "
+            "pose by pose; mean over all calls (solved or not)")
+    for spec in DEFAULT_CHAINS:
+        robot_name, _, chain_name = spec.partition(":")
+        try:
+            robot = wbik.load(robot_name)
+            chain = robot.chain(chain_name)
+        except (WbikError, ImportError):
+            continue
+        rows = measure_interleaved(["trac_ik", "bounded_lm"], robot, chain.name,
+                                   poses_for(chain, poses, PROTOCOL["seed"]), PROTOCOL["timeout_s"],
+                                   PROTOCOL["tolerance"], {})
+        if "trac_ik" not in rows:  # pytracik missing: no peer, no ratio
+            continue
+        ours, theirs = rows["bounded_lm"], rows["trac_ik"]
+        found.append(Ratio(f"bounded_lm mean time <= 0.5x TRAC-IK ({spec})", "bounded_lm",
+                           ours["mean_ms"] * 1e-3, "TRAC-IK (pytracik), same run",
+                           theirs["mean_ms"] * 1e-3, "s/call", 0.5, "lower", note))
+        found.append(Ratio(f"bounded_lm success >= TRAC-IK ({spec})", "bounded_lm", ours["success"],
+                           "TRAC-IK (pytracik), same run", max(theirs["success"], 1e-9), "fraction", 1.0,
+                           "higher", note))
+    count = 1000 if quick else 10_000
+    for robot_name, chain_name in (("ur5", "arm"), ("panda", "arm")):
+        rate, success = solve_many_throughput(robot_name, chain_name, count)
+        for label, anchor in GPU_ANCHORS:
+            found.append(Ratio(f"solve_many throughput, {robot_name} (one core vs a GPU)",
+                               f"bounded_lm.solve_many, one CPU core ({100 * success:.2f} % solved)", rate,
+                               label, anchor, "poses/s", None, "higher",
+                               f"{count} FK poses, tolerance 1e-5, mid-range seed; wall clock or CPU "
+                               "time, the longer"))
+    return found
 
 
 def parse_options(pairs: list[str]) -> dict:
