@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 import wbik
-from wbik.solvers.analytic import bioloid as closed
+from wbik.robot_packages.bioloid import closed_form as closed
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from analytic import time_solver  # noqa: E402  (the shared timing loop of benchmarks/analytic.py)

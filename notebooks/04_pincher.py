@@ -17,7 +17,7 @@ import numpy as np
 import wbik
 from wbik import motion
 from wbik.apps.pincher import teleoperation as pincher
-from wbik.solvers.analytic.pincher import pose_from_position_pitch
+from wbik.robot_packages.pincher.closed_form import pose_from_position_pitch
 
 robot = wbik.load("pincher")
 chain = robot.chain("arm")

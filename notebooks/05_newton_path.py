@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import wbik
-from wbik.models import arm3r
+from wbik.robot_packages.arm3r import model as arm3r
 from wbik.solvers.newton import newton_step
 from wbik.solvers.path import follow_path
 

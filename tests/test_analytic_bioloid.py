@@ -14,8 +14,9 @@ import pytest
 
 import wbik
 from wbik.errors import InvalidTargetError
-from wbik.models import bioloid, load
-from wbik.solvers.analytic import bioloid as ik
+from wbik.models import load
+from wbik.robot_packages.bioloid import closed_form as ik
+from wbik.robot_packages.bioloid import model as bioloid
 
 TWO_LF = 2 * math.hypot(0.0145, 0.075)
 ALPHA = math.atan2(0.0145, 0.075)

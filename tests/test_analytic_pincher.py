@@ -11,13 +11,13 @@ import pytest
 from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
-from wbik.solvers.analytic import wrap_into_limits
-from wbik.solvers.analytic.pincher import (
+from wbik.robot_packages.pincher.closed_form import (
     arm_plane_branches,
     pose_from_position_pitch,
     position_pitch_branches,
     tool_fk,
 )
+from wbik.solvers.analytic import wrap_into_limits
 
 ROUND_TRIP_POSES = 10_000
 

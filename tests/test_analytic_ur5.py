@@ -10,7 +10,7 @@ import pytest
 from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
-from wbik.solvers.analytic.ur5 import ee_fk
+from wbik.robot_packages.ur5.closed_form import ee_fk
 
 ROUND_TRIP_POSES = 10_000
 CHAINS = ["ee", "arm"]

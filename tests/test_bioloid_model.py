@@ -1,7 +1,7 @@
 """Bioloid model: naming contract, the seed's geometry through FK, masses, mirror symmetry.
 
 Expected numbers come from bioloid.md (tables of 1.5, 1.6, 2.6 and 3.8), not from the solvers.
-The thesis -> joint conversion used here is the one documented in wbik/models/bioloid.py:
+The thesis -> joint conversion used here is the one documented in wbik/robot_packages/bioloid/model.py:
 arm q = (theta1, -theta3, -theta5); leg q = (-theta7, -theta9, theta11 - 90, 180 - theta13,
 theta15 - 90, theta17) in degrees.
 """
@@ -14,7 +14,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbik.models import URDF_DIR, bioloid, load
+from wbik.models import URDF_DIR, load
+from wbik.robot_packages.bioloid import model as bioloid
 
 MIRROR = np.diag([1.0, -1.0, 1.0])
 

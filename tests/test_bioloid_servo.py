@@ -10,7 +10,7 @@ import pytest
 from wbik.apps.bioloid import servo
 from wbik.errors import InvalidConfigurationError
 from wbik.models import load
-from wbik.solvers.analytic import bioloid as ik
+from wbik.robot_packages.bioloid import closed_form as ik
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,8 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.models import URDF_DIR, golem3
+from wbik.models import URDF_DIR
+from wbik.robot_packages.golem3 import model as golem3
 
 # golem3.md, thesis Table 3.1 and the robot's joint limits
 L1, L2, L4, L5, L6, H = 0.1225, 0.212, 0.256, 0.034, 0.4, 1.283
@@ -55,7 +56,8 @@ def robot():
 
 def test_committed_urdf_is_the_generator_output():
     assert (URDF_DIR / "golem3.urdf").read_text() == golem3.urdf_text(), \
-        "urdf/golem3.urdf is stale: run python -c 'from wbik.models import golem3; golem3.write_urdf()'"
+        ("urdf/golem3.urdf is stale: run python -c "
+         "'from wbik.robot_packages.golem3 import model; model.write_urdf()'")
 
 
 def test_urdf_file_loads_with_pinocchio_and_has_the_contract_names():

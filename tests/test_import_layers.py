@@ -5,7 +5,10 @@ Layers, from the bottom (see docs/architecture.md):
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
   registry, data); kinematics (dh, robot, models, collision); solving (solvers, qp, wholebody, and
   the ``wbik`` facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
-- applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core;
+- robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
+  the core; the core names them only by registry strings;
+- applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core and the
+  robot packages;
 - entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
 
 Each import is classified as *top-level* (runs when the module is imported: module body, class
@@ -36,7 +39,8 @@ CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.t
         "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
         "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
         "wbik.expectations", "wbik.scenarios")
-APPLICATIONS = ("wbik.apps",)
+ROBOT_PACKAGES = ("wbik.robot_packages",)
+APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
@@ -215,6 +219,17 @@ def test_the_core_imports_the_applications_only_at_the_listed_function_level_pla
                      + _where(item for items in new.values() for item in items))
     paid = set(FUNCTION_LEVEL_EXCEPTIONS) - set(found)
     assert not paid, f"no longer imported, remove from FUNCTION_LEVEL_EXCEPTIONS: {sorted(paid)}"
+
+
+def test_every_module_is_core_robot_package_application_or_entry_point():
+    stray = [m for m in _modules() if m != "wbik" and not _within(m, CORE + APPLICATIONS + ENTRY_POINTS)]
+    assert not stray, f"modules outside every layer (add them to a layer above): {stray}"
+
+
+def test_robot_packages_do_not_import_the_applications():
+    wrong = [item for item in _graph() if item.level != "typing" and _within(item.source, ROBOT_PACKAGES)
+             and _within(item.target, ("wbik.apps",))]
+    assert not wrong, "a robot package imports an application:\n" + _where(wrong)
 
 
 def _layer(module: str) -> int | None:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.models import arm3r
+from wbik.robot_packages.arm3r import model as arm3r
 from wbik.solvers.newton import newton_step
 from wbik.solvers.path import follow_path
 

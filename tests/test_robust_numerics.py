@@ -33,7 +33,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.models.bioloid import ALPHA
 from wbik.qp.humanoid import sole_corners
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import (
@@ -41,6 +40,7 @@ from wbik.qp.support_polygon import (
     SupportPolygon,
     contact_points,
 )
+from wbik.robot_packages.bioloid.model import ALPHA
 from wbik.solvers.analytic import wrap_into_limits
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -11,9 +11,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
+from wbik.apps.golem3.thesis_solvers import SWEEP_POINTS, sweep_order
 from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.solvers.base import Candidate, evaluate
-from wbik.solvers.thesis_golem3 import SWEEP_POINTS, sweep_order
 
 RHO = math.radians(13.43)  # golem3.md, DH table: rho = 13.43 deg
 

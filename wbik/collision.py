@@ -2,9 +2,10 @@
 
 A robot's collision shapes are a small table of :class:`Primitive` (capsule, box or sphere on a
 frame), kept where the robot's facts live: ``collision_primitives()`` in its model module
-(wbik/models/golem3.py, bioloid.py, ur5.py), with ``collision_obstacles()`` for fixed things of its
-cell (the UR5's table). :class:`CollisionModel` turns the table into a ``pinocchio.GeometryModel``
-of ``coal.Capsule`` / ``coal.Box`` / ``coal.Sphere`` objects, each attached to its frame's joint, plus
+(wbik/robot_packages/<robot>/model.py: golem3, bioloid, ur5), with ``collision_obstacles()`` for
+fixed things of its cell (the UR5's table). :class:`CollisionModel` turns the table into a
+``pinocchio.GeometryModel`` of ``coal.Capsule`` / ``coal.Box`` / ``coal.Sphere`` objects, each attached
+to its frame's joint, plus
 world-fixed :class:`Obstacle` boxes on the universe joint, and chooses the pairs to check:
 
 - never two geometries on the same joint (they cannot move relative to each other), nor two
@@ -24,7 +25,6 @@ with J_x(p) the linear Jacobian of the point p moving with geometry x's joint (w
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
@@ -290,12 +290,13 @@ class CollisionModel:
 
 
 def _model_module(robot):
-    from wbik.models import BUILTIN
+    from wbik.models import robot_entries
 
-    if robot.name not in BUILTIN:
+    entry = robot_entries().get(robot.name)
+    if entry is None:
         raise UnsupportedError(f"robot {robot.name!r} has no collision primitives; pass a list of "
                                "wbik.collision.Primitive to CollisionModel")
-    return importlib.import_module(BUILTIN[robot.name][0])
+    return entry.module()
 
 
 def robot_collision_model(robot, *, self_collision: bool = True, robot_obstacles: bool = True,

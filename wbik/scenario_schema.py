@@ -387,17 +387,18 @@ class Robot(Text):
     def check(self, value, path, ctx):
         from pathlib import Path
 
-        from wbik.models import BUILTIN
+        from wbik.models import robot_entries
 
+        known = list(robot_entries())
         if not isinstance(value, str):
-            raise UnknownRobotError(_short(value), list(BUILTIN), hint=f"{ctx.source}: {path} must be a "
+            raise UnknownRobotError(_short(value), known, hint=f"{ctx.source}: {path} must be a "
                                     "robot name (a string) or the path of a .urdf file")
         if self.only and value not in self.only:
             ctx.fail(path, f"robot {value!r} cannot run this kind; it runs on {', '.join(self.only)}")
-        if value not in BUILTIN and Path(value).suffix.lower() not in (".urdf", ".xml") \
+        if value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
                 and not Path(value).expanduser().exists():
-            raise UnknownRobotError(value, list(BUILTIN),
-                                    hint=f"{ctx.source}: {path}{guess(value, BUILTIN)}. Pass a built-in "
+            raise UnknownRobotError(value, known,
+                                    hint=f"{ctx.source}: {path}{guess(value, known)}. Pass a built-in "
                                          "name ('wbik robots' lists them) or a .urdf path")
         return value
 

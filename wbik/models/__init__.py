@@ -1,42 +1,63 @@
-"""Built-in robots and ``load``.
+"""Robots by name, and ``load``.
 
-Each built-in robot is a module here with ``build(**params) -> Robot``. ``load`` also takes a
-path to any URDF file (one serial chain is found automatically, or pass ``chains=``).
+The robots wbik knows by name are declared by robot packages, not written here: each module listed
+in ``ROBOT_MODULES`` declares ``ROBOTS``, a tuple of :class:`RobotEntry` (name, the module holding
+``build(**params) -> Robot``, a description); ``wbik/robot_packages/__init__.py`` declares the built-in
+ones (the seed robots and the Panda). User code adds one with :func:`register_robot`. ``load`` also
+takes a path to any URDF file (one serial chain is found automatically, or pass ``chains=``).
 """
 
 from __future__ import annotations
 
 import importlib
 import inspect
+from dataclasses import dataclass
 from pathlib import Path
 
 from wbik.data import data_dir
 from wbik.errors import InvalidOptionError, RobotDescriptionError, UnknownRobotError
+from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot, robot_from_urdf_text
 
 URDF_DIR = data_dir("urdf")
 """The ``urdf/`` folder (the repository's, or the installed package's copy): descriptions written for
 this project."""
 
-BUILTIN: dict[str, tuple[str, str]] = {
-    # name -> (module, one-line description)
-    "golem3": ("wbik.models.golem3", "Golem-III service robot upper body: torso lift, chest yaw, "
-                                     "two 5-joint arms, grippers, head (thesis DH, seed 000)"),
-    "pincher": ("wbik.models.pincher", "PhantomX Pincher 4-DOF arm, tool frame 'noa' (seed 004)"),
-    "bioloid": ("wbik.models.bioloid", "Bioloid Premium Type A humanoid, 18 servos on a floating "
-                                       "base (seed 003)"),
-    "arm3r": ("wbik.models.arm3r", "3-DOF articulated arm of the Newton-Raphson project, lengths as "
-                                   "parameters (seed 001)"),
-    "ur5": ("wbik.models.ur5", "Universal Robots UR5 (example-robot-data) with the riveting tool's "
-                               "'tcp' frame (seed 002)"),
-    "panda": ("wbik.models.panda", "Franka Emika Panda 7-DOF arm (example-robot-data), a redundant "
-                                   "reference chain"),
-}
+
+@dataclass(frozen=True)
+class RobotEntry:
+    """A robot known by name: ``model`` is the module with ``build(**params) -> Robot`` (imported on
+    first use; it may also define ``collision_primitives(robot)`` and ``collision_obstacles()``)."""
+
+    name: str
+    model: str
+    description: str
+
+    def module(self):
+        return importlib.import_module(self.model)
+
+
+ROBOT_MODULES: list[str] = ["wbik.robot_packages"]
+"""The modules whose ``ROBOTS`` are registered (a new robot package: one entry in its ``ROBOTS``)."""
+
+_ROBOTS: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
+    "robot", "ROBOTS", ROBOT_MODULES, "wbik.models.ROBOT_MODULES", RobotEntry,
+    unknown=lambda name, known: UnknownRobotError(name, known, hint="or pass the path of a .urdf file"))
+
+
+def robot_entries() -> dict[str, RobotEntry]:
+    """Every robot known by name."""
+    return _ROBOTS.entries()
+
+
+def register_robot(name: str, model: str, description: str = "", replace: bool = False) -> None:
+    """Make ``load(name)`` call ``build`` of the module ``model`` ("package.module")."""
+    _ROBOTS.register(RobotEntry(name, model, description), replace=replace)
 
 
 def robots() -> dict[str, str]:
-    """Built-in robot names with a one-line description."""
-    return {name: description for name, (_, description) in BUILTIN.items()}
+    """Robot names with a one-line description."""
+    return {name: entry.description for name, entry in robot_entries().items()}
 
 
 URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "info")
@@ -46,8 +67,8 @@ URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "in
 def builder_parameters(name_or_path: str | Path) -> set[str]:
     """The keyword parameters ``load(name_or_path, **params)`` accepts (robot_params of a study)."""
     key = str(name_or_path)
-    if key in BUILTIN:
-        builder = importlib.import_module(BUILTIN[key][0]).build
+    if key in robot_entries():
+        builder = robot_entries()[key].module().build
         return {p.name for p in inspect.signature(builder).parameters.values()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     return set(URDF_PARAMS)
@@ -71,13 +92,12 @@ def load(name_or_path: str | Path, **params) -> Robot:
     each builder checks its values (RobotDescriptionError).
     """
     if not isinstance(name_or_path, str | Path):
-        raise UnknownRobotError(repr(name_or_path), list(BUILTIN),
+        raise UnknownRobotError(repr(name_or_path), list(robot_entries()),
                                 hint="pass a robot name (a string) or the path of a .urdf file")
     key = str(name_or_path)
-    if key in BUILTIN:
+    if key in robot_entries():
         check_parameters(key, params)
-        module = importlib.import_module(BUILTIN[key][0])
-        return module.build(**params)
+        return robot_entries()[key].module().build(**params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
         if path.is_dir():
@@ -95,4 +115,4 @@ def load(name_or_path: str | Path, **params) -> Robot:
             raise RobotDescriptionError(f"cannot read URDF file {str(path)!r}: {exc.strerror}") from None
         return robot_from_urdf_text(params.pop("name", path.stem), text,
                                     urdf_path=path.resolve(), **params)
-    raise UnknownRobotError(key, list(BUILTIN), hint="or pass the path of a .urdf file")
+    raise UnknownRobotError(key, list(robot_entries()), hint="or pass the path of a .urdf file")

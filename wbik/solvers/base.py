@@ -318,8 +318,8 @@ _REGISTRY: dict[str, str | Callable[..., Solver]] = {
     "qp": "wbik.solvers.qp:QPSolver",
     "placo": "wbik.solvers.placo:PlacoSolver",
     "eaik": "wbik.solvers.eaik:EAIKSolver",
-    "thesis_literal": "wbik.solvers.thesis_golem3:ThesisLiteralSolver",
-    "thesis_sweep": "wbik.solvers.thesis_golem3:ThesisSweepSolver",
+    "thesis_literal": "wbik.apps.golem3.thesis_solvers:ThesisLiteralSolver",
+    "thesis_sweep": "wbik.apps.golem3.thesis_solvers:ThesisSweepSolver",
 }
 _DESCRIPTIONS: dict[str, str] = {
     "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",

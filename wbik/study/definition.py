@@ -511,7 +511,7 @@ def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
     against its constructor (:func:`wbik.solvers.base.solver_options`), every case's robot (a
     built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
-    from wbik.models import BUILTIN, builder_parameters
+    from wbik.models import builder_parameters, robot_entries
     from wbik.solvers.base import _REGISTRY as CHAIN_METHODS
     from wbik.solvers.base import solver_options
     from wbik.wholebody.methods import wholebody_solver_options
@@ -535,10 +535,10 @@ def check_schema(methods, cases, source: str) -> None:
                 f"method {spec.method!r}; its options: {', '.join(allowed) or '(none)'}")
     for case in cases:
         path = Path(case.robot).expanduser()
-        if case.robot not in BUILTIN and not path.is_file():
+        if case.robot not in robot_entries() and not path.is_file():
             raise StudyDefinitionError(
                 f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
-                f"({', '.join(BUILTIN)}) nor an existing URDF file")
+                f"({', '.join(robot_entries())}) nor an existing URDF file")
         accepted = builder_parameters(case.robot)
         unknown = sorted(set(case.robot_params) - accepted)
         if unknown:

@@ -3,7 +3,7 @@ the foot board's bus facts.
 
 FSR positions (ASSUMED; the thesis says only "near the corners", FSR1/FSR2 at the back and
 FSR3/FSR4 at the front, bioloid.md 6.1): one FSR at each corner of the sole rectangle of the
-model (``robot.soles``, 100 x 60 mm in wbik.models.bioloid), ordered
+model (``robot.soles``, 100 x 60 mm in wbik.robot_packages.bioloid.model), ordered
 FSR1 = back left (-x, +y), FSR2 = back right (-x, -y), FSR3 = front left (+x, +y),
 FSR4 = front right (+x, -y), in the sole frame (x forward, y left, z up). The left/right order
 inside a pair is our choice; nothing in the thesis fixes it.

@@ -2,7 +2,7 @@
 
 AX-12 position: 0..1023 units over 0..300 deg, 150 deg (unit 512) = centre. Every servo maps
 linearly: ``servo_deg = offset + direction * degrees(q)``, with q the URDF joint angle of
-:mod:`wbik.models.bioloid`. The table below is the code's conversion (IKAdjust6ServoLeg,
+:mod:`wbik.robot_packages.bioloid.model`. The table below is the code's conversion (IKAdjust6ServoLeg,
 IKAdjust3ServoArm) composed with the model's joint <-> thesis conversion:
 
 - legs, the code's ``ang[]`` (degrees) = [theta7, theta9, 90 - theta11, theta13 - 180,

@@ -28,10 +28,10 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.gait import ANKLE, HIP, SIDES, SOLE, GaitParameters, SampledMotion, step_forward_phases
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang
-from wbik.models.bioloid import LEG_JOINTS
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
-from wbik.solvers.analytic.bioloid import leg_foot_to_hip
+from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
+from wbik.robot_packages.bioloid.model import LEG_JOINTS
 
 __all__ = ["ANKLE", "HIP", "FaithfulStep", "flatten_on_ground", "leg_q_indices", "place_on_anchor",
            "step_forward_faithful"]

@@ -36,13 +36,13 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
-from wbik.models.bioloid import ARM_JOINTS
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import CoMInSupportPolygon, Contact, JointPositionLimits, LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
+from wbik.robot_packages.bioloid.model import ARM_JOINTS
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts and swing paths must hold to this (m, rad) at every sample."""

@@ -1,7 +1,7 @@
 """``thesis_legs``: the Bioloid thesis's whole-body method, registered in the whole-body method
 registry (:data:`wbik.wholebody.methods.METHOD_MODULES`).
 
-Each leg's closed form (foot -> hip, the LegPose closed form of wbik.solvers.analytic.bioloid) from
+Each leg's closed form (foot -> hip, the LegPose closed form of wbik.robot_packages.bioloid.closed_form) from
 its planted or targeted sole to the hip, with the hip shifted horizontally until the CoM is over
 the target (a CoM task's target, else where the CoM started), pelvis orientation and height kept,
 arms kept. The hip shift is a Newton iteration on the CoM error e(s) = c_xy(s) - c*, with the 2x2

@@ -1,7 +1,7 @@
 """Golem-III binding (golem3.md, thesis ch. 4.1 and 4.2.1): both arms, the stacked-planar family
 (:mod:`wbik.solvers.analytic.stacked_planar`) with the thesis's geometry.
 
-The left arm is the mirror image of the right one (see wbik.models.golem3): T_left(m0, q) =
+The left arm is the mirror image of the right one (see wbik.robot_packages.golem3.model): T_left(m0, q) =
 M T_right(-m0, q) M with M = diag(1, -1, 1), so a left target is mirrored, solved as a right one,
 and m0 negated back.
 
@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
-from wbik.models.golem3 import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.robot import Chain
+from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic import stacked_planar as family
 

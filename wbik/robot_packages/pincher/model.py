@@ -24,8 +24,8 @@ TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
 CLOSED_FORMS = {
-    ("arm", "pose"): "wbik.solvers.analytic.pincher:PincherPose",
-    ("arm", "position"): "wbik.solvers.analytic.pincher:PincherPosition",
+    ("arm", "pose"): "wbik.robot_packages.pincher.closed_form:PincherPose",
+    ("arm", "position"): "wbik.robot_packages.pincher.closed_form:PincherPosition",
 }
 """Closed forms of pincher.md's analytic inverse (position + tool pitch), see that module."""
 

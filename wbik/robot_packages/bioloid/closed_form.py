@@ -10,7 +10,7 @@ Thesis-level functions (angles in radians, any leading batch shape):
   is ``Rx(-theta17) Ry(Pitch) Rx(theta17 + Roll) Rz(Yaw)``: the pitch acts about the lateral axis
   of the leg plane (tilted by the ankle roll), which is what the decoupled equations produce.
 - :func:`leg_foot_to_hip`, :func:`leg_hip_to_foot`, :func:`arm_ik`: the same, as joint angles of
-  the URDF chains (conversion in :mod:`wbik.models.bioloid`).
+  the URDF chains (conversion in :mod:`wbik.robot_packages.bioloid.model`).
 
 Unreachable targets (|cos gamma| > 1, i.e. hip-ankle distance > 2 Lf, or |c5| > 1 for the arm)
 are reported by a ``reachable`` mask; their angles come from the clamped cosine (the nearest
@@ -35,7 +35,7 @@ import numpy as np
 
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x, rot_y, rot_z
-from wbik.models.bioloid import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
+from wbik.robot_packages.bioloid.model import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
 

@@ -19,8 +19,8 @@ TOOL_LENGTH = 0.13
 """ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
 
 CLOSED_FORMS = {
-    ("ee", "pose"): "wbik.solvers.analytic.ur5:UR5EndEffector",
-    ("arm", "pose"): "wbik.solvers.analytic.ur5:UR5Tool",
+    ("ee", "pose"): "wbik.robot_packages.ur5.closed_form:UR5EndEffector",
+    ("arm", "pose"): "wbik.robot_packages.ur5.closed_form:UR5Tool",
 }
 """ur_kinematics' closed form (ur5-riveting.md 1.2) on ee_link, and composed with the tool for tcp."""
 

@@ -3,7 +3,7 @@
 Source: seed ``000_48c793128bbb812d`` (the thesis, ch. 4.1, 4.2, 4.2.1, 4.4 and 5) and its code
 reference [19] (``golem_kinematics/scripts/golem_right_arm_kinematics.py`` of the thesis's
 repository), read for facts only. These are *reproductions*, kept beside our own closed form
-(``analytic``, :mod:`wbik.solvers.analytic.golem3`) so the study can show both.
+(``analytic``, :mod:`wbik.robot_packages.golem3.closed_form`) so the study can show both.
 
 ``thesis_literal``, the 6-DOF closed form (thesis eq. 3.6, 4.2-4.6, 4.9-4.10, 4.23, 4.30-4.32,
 4.36-4.37, with golem3.md's correction t4 -> t4 + rho in eq. 4.2), right arm, target (x, y, z) and
@@ -51,8 +51,8 @@ closed-form evaluations; the first (roll, pitch) with a solution wins (golem3.md
 points; the first point of the block (in sweep order) with a solution is taken, so the answer and
 the iteration count are those of the one-at-a-time loop.
 
-Left arm: the mirror image (wbik.models.golem3): targets are mirrored, solved as right-arm ones and
-m0 negated back, as the thesis does ("both arms are identical").
+Left arm: the mirror image (wbik.robot_packages.golem3.model): targets are mirrored, solved as
+right-arm ones and m0 negated back, as the thesis does ("both arms are identical").
 """
 
 from __future__ import annotations
@@ -64,8 +64,8 @@ import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import wrap_to_pi
-from wbik.models.golem3 import L1, L2, L4, L5, L6, RHO, H
-from wbik.solvers.analytic.golem3 import mirror_positions, mirror_rotations, right_arm_coordinates
+from wbik.robot_packages.golem3.closed_form import mirror_positions, mirror_rotations, right_arm_coordinates
+from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, RHO, H
 from wbik.solvers.base import Candidate, Solver, evaluate
 from wbik.targets import Target, as_target
 

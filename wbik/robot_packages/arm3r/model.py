@@ -43,7 +43,7 @@ def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
     robot = robot_from_urdf_text(name, text, [chain], nominal=np.full(3, math.pi / 2),
                                  info={"lengths": lengths, "dh": table,
                                        "closed_forms": {("arm", "position"):
-                                                        "wbik.solvers.analytic.arm3r:Arm3RPosition"}})
+                                                        "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}})
     return robot
 
 

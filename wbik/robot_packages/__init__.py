@@ -1,0 +1,26 @@
+"""The robot packages shipped with wbik: one package per robot with its model (``model.py``:
+``build(**params) -> Robot``, its URDF written or loaded there, collision primitives) and, where one
+exists, its closed-form binding (``closed_form.py``, named in the robot's ``closed_forms``).
+
+``ROBOTS`` declares them to the robot registry (:mod:`wbik.models`); a new robot package is one
+line here.
+"""
+
+from wbik.models import RobotEntry
+
+PACKAGE = "wbik.robot_packages"
+
+ROBOTS = (
+    RobotEntry("golem3", f"{PACKAGE}.golem3.model", "Golem-III service robot upper body: torso lift, "
+               "chest yaw, two 5-joint arms, grippers, head (thesis DH, seed 000)"),
+    RobotEntry("pincher", f"{PACKAGE}.pincher.model", "PhantomX Pincher 4-DOF arm, tool frame 'noa' "
+               "(seed 004)"),
+    RobotEntry("bioloid", f"{PACKAGE}.bioloid.model", "Bioloid Premium Type A humanoid, 18 servos on a "
+               "floating base (seed 003)"),
+    RobotEntry("arm3r", f"{PACKAGE}.arm3r.model", "3-DOF articulated arm of the Newton-Raphson project, "
+               "lengths as parameters (seed 001)"),
+    RobotEntry("ur5", f"{PACKAGE}.ur5.model", "Universal Robots UR5 (example-robot-data) with the "
+               "riveting tool's 'tcp' frame (seed 002)"),
+    RobotEntry("panda", f"{PACKAGE}.panda.model", "Franka Emika Panda 7-DOF arm (example-robot-data), "
+               "a redundant reference chain"),
+)
