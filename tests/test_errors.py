@@ -112,3 +112,17 @@ def test_ragged_and_dict_targets_are_invalid_targets():
         wbik.as_target({"x": 1})
     with pytest.raises(wbik.InvalidTargetError, match="magnitude"):
         wbik.as_target([1e300, 0, 0])
+
+
+def test_errors_keep_their_message_and_fields_across_processes():
+    """A study worker's error reaches the main process by pickle: message and fields survive."""
+    import pickle
+
+    from wbik.errors import InvalidOptionError, NoQPSolutionError, UnknownMethodError
+
+    for error in (UnknownMethodError("x", ["dls", "qp"], hint="see wbik methods"),
+                  InvalidOptionError("bad option 'y'", option="y", accepted=["a", "b"]),
+                  NoQPSolutionError("no solution", backend="daqp", status=-6)):
+        copy = pickle.loads(pickle.dumps(error))
+        assert type(copy) is type(error) and str(copy) == str(error)
+        assert vars(copy) == vars(error)

@@ -19,6 +19,7 @@ class UnknownNameError(WbikError, KeyError):
     def __init__(self, name: str, known: list[str] | tuple[str, ...] = (), hint: str = ""):
         self.name = name
         self.known = sorted(known)
+        self.hint = hint
         known_text = ", ".join(self.known) if self.known else "(none)"
         message = f"unknown {self.kind} {name!r}; known {self.kind}s: {known_text}"
         if hint:
@@ -27,6 +28,9 @@ class UnknownNameError(WbikError, KeyError):
 
     def __str__(self) -> str:  # KeyError would quote the message
         return self.args[0]
+
+    def __reduce__(self):  # rebuilt from its fields in another process (a study worker's error)
+        return type(self), (self.name, self.known, self.hint)
 
 
 class UnknownRobotError(UnknownNameError):
@@ -79,6 +83,9 @@ class InvalidOptionError(WbikError, TypeError):
         self.option = option
         self.accepted = sorted(accepted)
         super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.option, self.accepted)
 
 
 class InvalidSettingError(WbikError, ValueError):
