@@ -118,10 +118,11 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                         nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
     if type(q) is not np.ndarray or q.dtype != np.float64:
         q = np.asarray(q, dtype=float)
-    if q.shape != chain.lower.shape:
+    lower, upper = chain.lower, chain.upper
+    if q.shape != lower.shape:
         return _invalid_joints(q, time_s, candidate, method)
     reason = candidate.reason
-    inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
+    inside = np.minimum(np.maximum(q, lower), upper)
     if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
         if not np.all(np.isfinite(q)):
             return _invalid_joints(q, time_s, candidate, method)
@@ -130,21 +131,20 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     reached = chain.fk(inside)
     position_xyz = reached.translation - target.position
     position_norm = math.hypot(*position_xyz.tolist())
-    if target.rotation is None:
-        rotation_xyz = np.zeros(3)
-        rotation_norm = 0.0
+    target_rotation = target.rotation
+    if target_rotation is None:
+        rotation_xyz, rotation_norm = np.zeros(3), 0.0
     else:
-        rotation_xyz = rotation_error(reached.rotation, target.rotation)
+        rotation_xyz = rotation_error(reached.rotation, target_rotation)
         rotation_norm = math.hypot(*rotation_xyz.tolist())
+    if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
+        return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
+                        time_s, candidate.iterations, method, candidate.extra)
     if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
         return _invalid_joints(q, time_s, candidate, method)
-    success = position_norm <= tolerances.position and rotation_norm <= tolerances.rotation
-    if success:
-        reason = ""
-    elif not reason:
-        reason = (f"FK check failed: position error {position_norm:.3g} m, "
-                  f"rotation error {rotation_norm:.3g} rad")
-    return IKResult(inside, success, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
+    reason = reason or (f"FK check failed: position error {position_norm:.3g} m, "
+                        f"rotation error {rotation_norm:.3g} rad")
+    return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
 
 
