@@ -17,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.geometry import rotation_error
 from wbik.solvers.base import IKResult, Solver
 from wbik.targets import Target, as_target
 
@@ -44,7 +45,7 @@ def interpolate(start: Target, end: Target, fraction: float) -> Target:
     if end.rotation is None:
         return Target(position)
     start_rotation = end.rotation if start.rotation is None else start.rotation
-    step = pin.log3(start_rotation.T @ end.rotation)
+    step = rotation_error(end.rotation, start_rotation)  # log3(R_a^T R_b): the end seen from the start
     return Target(position, start_rotation @ pin.exp3(fraction * step))
 
 
