@@ -1,7 +1,7 @@
 """Benchmark of every closed form of every built-in robot: scalar and batched solve time, success rate.
 
 Robots and chains are discovered, not listed: every robot of ``wbik.robots()`` that loads, and every
-(chain, kind) its ``robot.info["closed_forms"]`` declares. Targets are FK poses (or positions, for
+(chain, kind) its ``robot.closed_forms`` declares. Targets are FK poses (or positions, for
 position closed forms) of random joints inside the limits (seeded); every solve starts from the chain's
 nominal configuration.
 

@@ -24,7 +24,7 @@ ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / 
 ARTIFACTS = ROOT / "tests" / "artifacts" / "notebooks"
 
 robot = wbik.load("bioloid")
-SOLE = robot.info["sole_corners"]          # 4 corners per sole, in the sole frame (m)
+SOLE = robot.soles                         # 4 corners per sole, in the sole frame (m)
 HALF_LENGTH, HALF_WIDTH = np.abs(SOLE["r_sole"][:, :2]).max(axis=0)
 print("chains:", list(robot.chains), "| nq =", robot.model.nq, "(free flyer 7 + 18 joints)")
 print(f"sole {2 * HALF_LENGTH * 1e3:.0f} x {2 * HALF_WIDTH * 1e3:.0f} mm")

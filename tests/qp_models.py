@@ -76,7 +76,7 @@ def build_biped():
                         tuple(f"r_{j}" for j in ("hip_yaw", "hip_roll", "hip_pitch", "knee",
                                                  "ankle_pitch", "ankle_roll")))]
     robot = robot_from_urdf_text("biped", text, chains, floating_base=True,
-                                 info={"sole_corners": {"r_sole": sole_corners(), "l_sole": sole_corners()}})
+                                 soles={"r_sole": sole_corners(), "l_sole": sole_corners()})
     q = robot.nominal.copy()
     bend = 0.4
     for side in ("r", "l"):

@@ -67,7 +67,7 @@ def test_arm_batch_equals_scalar_and_all_branches_are_exact(robot):
         np.testing.assert_array_equal(q_one, q_batch[i])
     for flip in (False, True):
         for elbow in (False, True):
-            a = ik.arm_thesis_angles(targets, bioloid.build().info["arm_lengths"], elbow, flip)
+            a = ik.arm_thesis_angles(targets, bioloid.build().facts.arm_lengths, elbow, flip)
             q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
             assert a.reachable.any()
             for i in np.flatnonzero(a.reachable)[::7]:

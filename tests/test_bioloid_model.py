@@ -50,7 +50,7 @@ def test_naming_contract(robot):
                     "r_elbow": 5, "l_elbow": 6, "r_hip_yaw": 7, "l_hip_yaw": 8, "r_hip_roll": 9,
                     "l_hip_roll": 10, "r_hip_pitch": 11, "l_hip_pitch": 12, "r_knee": 13, "l_knee": 14,
                     "r_ankle_pitch": 15, "l_ankle_pitch": 16, "r_ankle_roll": 17, "l_ankle_roll": 18}
-    assert robot.info["servo_ids"] == expected_ids
+    assert robot.facts.servo_ids == expected_ids
     assert robot.model.nq == 7 + 18
     for joint, servo in expected_ids.items():
         assert robot.model.existJointName(joint)
@@ -60,7 +60,7 @@ def test_naming_contract(robot):
     assert (robot.chain("left_leg").base_frame, robot.chain("left_leg").tip_frame) == ("l_hip", "l_ankle")
     assert robot.chain("right_arm").joint_names == ["r_shoulder_pitch", "r_shoulder_roll", "r_elbow"]
     assert (robot.chain("left_arm").base_frame, robot.chain("left_arm").tip_frame) == ("chest", "l_hand")
-    corners = robot.info["sole_corners"]
+    corners = robot.soles
     assert set(corners) == {"r_sole", "l_sole"}
     assert corners["r_sole"].shape == (4, 3) and np.all(corners["r_sole"][:, 2] == 0.0)
     assert "ASSUMPTION" in robot.urdf_text
@@ -174,7 +174,7 @@ def thesis_tool_robot():
 def test_arm_table_angles_reach_the_tabulated_targets(robot, thesis_tool_robot, row):
     forearm, target, theta1, theta3, theta5 = row
     model = robot if forearm == 0.1 else thesis_tool_robot
-    assert model.info["arm_lengths"][4] == pytest.approx(forearm)
+    assert model.facts.arm_lengths[4] == pytest.approx(forearm)
     q = np.radians([theta1, -theta3, -theta5])
     np.testing.assert_allclose(model.chain("right_arm").fk(q).translation, target, atol=2e-5)
     mirrored = np.radians([theta1, theta3, theta5])

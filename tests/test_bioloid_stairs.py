@@ -33,7 +33,7 @@ def hull_margin(robot, q, soles) -> float:
     points = []
     for sole in soles:
         placement = robot.frame_placement(q, sole)
-        corners = np.asarray(robot.info["sole_corners"][sole]) @ placement.rotation.T + placement.translation
+        corners = np.asarray(robot.soles[sole]) @ placement.rotation.T + placement.translation
         points.append(corners[:, :2])
     hull = ConvexHull(np.vstack(points))
     com = robot.center_of_mass(q)[:2]

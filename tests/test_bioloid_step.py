@@ -199,7 +199,7 @@ def test_servo_table_starts_at_the_notes_standing_servos(wholebody):
 def test_right_first_step_is_the_mirror_image(robot, wholebody):
     right = step_forward_wholebody(robot, first="right")
     model = robot.model
-    mirror = robot.info["mirror_sign"]
+    mirror = robot.facts.mirror_sign
     for k in (5, 10, 20, 25):
         for side, other in (("r", "l"), ("l", "r")):
             for joint in ("hip_roll", "knee", "ankle_pitch", "hip_yaw"):

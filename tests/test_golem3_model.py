@@ -102,7 +102,7 @@ def test_chains_nominal_and_closed_forms(robot):
     assert robot.nominal[model.joints[model.getJointId("mb")].idx_q] == 0.0
     assert np.all(robot.nominal >= model.lowerPositionLimit)
     assert np.all(robot.nominal <= model.upperPositionLimit)
-    forms = robot.info["closed_forms"]
+    forms = robot.closed_forms
     for chain in ("right_arm", "left_arm"):
         assert {(chain, "pose"), (chain, "position")} <= set(forms)
 

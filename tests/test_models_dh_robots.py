@@ -70,7 +70,7 @@ def test_ur5_tcp_frame_is_the_tool_tip():
     # tcp = ee_link moved 0.13 m along its x axis (the flange normal), z axis along that direction.
     assert np.allclose(tcp.translation, ee.translation + 0.13 * ee.rotation[:, 0], atol=1e-12)
     assert np.allclose(tcp.rotation[:, 2], ee.rotation[:, 0], atol=1e-12)
-    assert robot.info["tool_diameter"] == 0.005
+    assert robot.facts.tool_diameter == 0.005
 
 
 def test_builtin_list_and_descriptions():

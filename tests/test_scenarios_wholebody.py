@@ -23,7 +23,7 @@ def sole_margin(robot, q, sole):
     frame the margin is min(0.05 - |x|, 0.03 - |y|) for the Bioloid's 100 x 60 mm soles."""
     placement = robot.frame_placement(q, sole)
     local = placement.rotation.T @ (robot.center_of_mass(q) - placement.translation)
-    half = np.max(np.abs(robot.info["sole_corners"][sole]), axis=0)
+    half = np.max(np.abs(robot.soles[sole]), axis=0)
     return min(half[0] - abs(local[0]), half[1] - abs(local[1]))
 
 

@@ -86,7 +86,7 @@ def check_page(animation, viewer, commands: list[dict], size: int) -> None:
 
 def check_support(animation, commands: list[dict]) -> None:
     """A robot with soles draws the CoM and one support polygon per stretch on the same soles."""
-    if animation.overlays.support is None or not animation.robot.info.get("sole_corners"):
+    if animation.overlays.support is None or not animation.robot.soles:
         return
     paths = {c["path"] for c in commands if c["type"] == "set_object"}
     assert "/meshcat/wbik/support/com" in paths

@@ -176,7 +176,7 @@ def test_bioloid_com_and_support_polygon():
     viewer = Viewer("bioloid")
     robot = viewer.robot
     # by hand: each sole rectangle's corners moved to its sole frame at the nominal stance
-    corners = {name: np.asarray(c) for name, c in robot.info["sole_corners"].items()}
+    corners = {name: np.asarray(c) for name, c in robot.soles.items()}
     sole_xy = {name: robot.frame_placement(robot.nominal, name).translation[:2] for name in corners}
     both = np.vstack([corners[n][:, :2] + sole_xy[n] for n in corners])
     support = viewer.show_com_and_polygon()

@@ -8,15 +8,16 @@ move with the chain's joints.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 import os
 import threading
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import pinocchio as pin
@@ -176,24 +177,35 @@ class Chain:
 
 
 def _sole_corners(sole, corners) -> np.ndarray:
-    """(k, 3) finite corners of a sole rectangle (k >= 3), or RobotDescriptionError."""
-    array = np.asarray(corners, dtype=float)
+    """(k, 3) finite corners of a sole rectangle (k >= 3), read-only, or RobotDescriptionError."""
+    try:
+        array = np.array(corners, dtype=float)
+    except (TypeError, ValueError):
+        array = np.empty(0)
     if array.ndim != 2 or array.shape[1] != 3 or array.shape[0] < 3 or not np.all(np.isfinite(array)):
         raise RobotDescriptionError(f"sole {sole!r}: corners must be >= 3 finite points (k, 3) in the sole "
-                                    f"frame, got {np.shape(corners)}")
+                                    f"frame (m), got {np.shape(array) if array.size else repr(corners)}")
     array.setflags(write=False)
     return array
+
+
+def _is_frozen_dataclass(value) -> bool:
+    return (dataclasses.is_dataclass(value) and not isinstance(value, type)
+            and type(value).__dataclass_params__.frozen)
+
+
+FactsT = TypeVar("FactsT")
 
 
 @dataclass
 class Robot:
     """A Pinocchio model with named chains, limits and a nominal configuration, and its typed facts.
 
-    ``soles``: sole frame -> (k, 3) corners of its contact rectangle in that frame (m), the feet a
-    support polygon is made of (empty for a robot without feet). ``closed_forms``: (chain, target
-    kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``:
-    the robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions),
-    or None.
+    ``soles``: sole frame -> (k, 3) corners of its contact rectangle in that frame (m, read-only), the
+    feet a support polygon is made of (empty for a robot without feet). ``closed_forms``: (chain, target
+    kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``: the
+    robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions), or None;
+    a reader that needs one robot's facts asks :meth:`require_facts`.
     """
 
     name: str
@@ -206,16 +218,59 @@ class Robot:
     soles: dict[str, np.ndarray] = field(default_factory=dict)
     closed_forms: dict[tuple[str, str], str] = field(default_factory=dict)
     facts: Any = None
-    info: dict = field(default_factory=dict)  # TRANSITIONAL: read into soles / closed_forms below
 
     def __post_init__(self) -> None:
         self._local = threading.local()
         self.nominal = np.asarray(self.nominal, dtype=float)
-        self.soles = dict(self.soles) or dict(self.info.get("sole_corners", {}))
-        self.closed_forms = dict(self.closed_forms) or dict(self.info.get("closed_forms", {}))
-        self.soles = {str(sole): _sole_corners(sole, corners) for sole, corners in dict(self.soles).items()}
-        self.closed_forms = dict(self.closed_forms)
+        self.soles = self._checked_soles(self.soles)
+        self.closed_forms = self._checked_closed_forms(self.closed_forms)
+        if self.facts is not None and not _is_frozen_dataclass(self.facts):
+            raise RobotDescriptionError(
+                f"robot {self.name!r}: facts must be an instance of a frozen dataclass (the robot "
+                f"package's typed facts) or None, got {type(self.facts).__name__}")
         self._chains: dict[str, Chain] = {}
+
+    def _checked_soles(self, soles) -> dict[str, np.ndarray]:
+        """{sole frame: read-only (k, 3) corners}, every sole a frame of the model."""
+        if not isinstance(soles, Mapping):
+            raise RobotDescriptionError(
+                f"robot {self.name!r}: soles must map a sole frame to its (k, 3) corners, got "
+                f"{type(soles).__name__}")
+        checked = {}
+        for sole, corners in soles.items():
+            if not isinstance(sole, str) or not self.model.existFrame(sole):
+                raise RobotDescriptionError(
+                    f"robot {self.name!r}: sole {sole!r} is not a frame of the model; soles are named by "
+                    f"their frames, e.g. {self.frame_names[-1]!r}")
+            checked[sole] = _sole_corners(sole, corners)
+        return checked
+
+    def _checked_closed_forms(self, closed_forms) -> dict[tuple[str, str], str]:
+        """{(chain, kind): "module:Class"} with every chain one of ``chains``."""
+        if not isinstance(closed_forms, Mapping):
+            raise RobotDescriptionError(
+                f"robot {self.name!r}: closed_forms must map (chain, target kind) to \"module:Class\", got "
+                f"{type(closed_forms).__name__}")
+        for key, where in closed_forms.items():
+            if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key)
+                    and key[0] in self.chains):
+                raise RobotDescriptionError(
+                    f"robot {self.name!r}: closed form key {key!r} is not (chain, target kind) with a chain "
+                    f"of {sorted(self.chains)}; e.g. ('arm', 'pose')")
+            if not (isinstance(where, str) and where.count(":") == 1 and all(where.split(":"))):
+                raise RobotDescriptionError(f"robot {self.name!r}: closed form of {key!r} must be named "
+                                            f"\"module:Class\", got {where!r}")
+        return dict(closed_forms)
+
+    def require_facts(self, kind: type[FactsT], needed_by: str) -> FactsT:
+        """``facts`` if it is a ``kind`` (the facts of one robot package), else RobotDescriptionError
+        saying that ``needed_by`` needs them."""
+        if isinstance(self.facts, kind):
+            return self.facts
+        has = "no facts" if self.facts is None else f"facts of type {type(self.facts).__name__}"
+        raise RobotDescriptionError(
+            f"{needed_by} needs a robot with {kind.__name__}; robot {self.name!r} has {has}. Load the robot "
+            f"through its package (wbik.load(name)) or pass facts={kind.__name__}(...)")
 
     def urdf_file(self) -> Path:
         """A URDF file of this robot: ``urdf_path``, or else a copy of ``urdf_text`` written to the
@@ -355,16 +410,25 @@ def serial_chain_spec(model: pin.Model, name: str = "default") -> ChainSpec:
     last_joint = model.getJointId(movable[-1])
     frames = [f for f in model.frames if f.parentJoint == last_joint and f.type == pin.FrameType.BODY]
     tip = frames[-1].name if frames else model.frames[-1].name
-    base = next(f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == 0)
+    root = 1 if model.joints[1].shortname() == "JointModelFreeFlyer" else 0  # the chain locks a free flyer
+    bodies = [f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == root]
+    base = bodies[0] if bodies else None
+    if base is None:
+        raise RobotDescriptionError("the model has no root body to start a chain from; pass "
+                                    "chains=[ChainSpec(name, base_frame, tip_frame, joints)]")
     return ChainSpec(name, base, tip, tuple(movable), "root body to last link")
 
 
 def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | None = None,
                          nominal: np.ndarray | None = None, floating_base: bool = False,
                          urdf_path: Path | None = None, package_dirs: Sequence[str] = (),
-                         soles: dict | None = None, closed_forms: dict | None = None,
-                         facts: Any = None, info: dict | None = None) -> Robot:
-    """A Robot from URDF text; with no chains given, the single serial chain of the model."""
+                         soles: Mapping | None = None, closed_forms: Mapping | None = None,
+                         facts: Any = None) -> Robot:
+    """A Robot from URDF text; with no chains given, the single serial chain of the model.
+
+    ``soles``, ``closed_forms``, ``facts``: see :class:`Robot` (e.g. ``soles={"r_sole": corners, ...}``
+    gives a humanoid its support polygon).
+    """
     model = model_from_urdf_text(text, floating_base, source=str(urdf_path or name))
     check_model(model, source=str(urdf_path or name))
     if nominal is None:
@@ -376,5 +440,5 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
                                    model.upperPositionLimit[bounded])
     specs = list(chains) if chains else [serial_chain_spec(model)]
     return Robot(name, model, text, {spec.name: spec for spec in specs}, nominal,
-                 urdf_path=urdf_path, package_dirs=list(package_dirs), soles=dict(soles or {}),
-                 closed_forms=dict(closed_forms or {}), facts=facts, info=dict(info or {}))
+                 urdf_path=urdf_path, package_dirs=list(package_dirs), soles={} if soles is None else soles,
+                 closed_forms={} if closed_forms is None else closed_forms, facts=facts)

@@ -60,8 +60,9 @@ def robots() -> dict[str, str]:
     return {name: entry.description for name, entry in robot_entries().items()}
 
 
-URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "info")
-"""Keyword options ``load`` takes with a URDF path (see :func:`wbik.robot.robot_from_urdf_text`)."""
+URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "soles", "closed_forms", "facts")
+"""Keyword options ``load`` takes with a URDF path (see :func:`wbik.robot.robot_from_urdf_text` and
+:class:`wbik.robot.Robot`)."""
 
 
 def builder_parameters(name_or_path: str | Path) -> set[str]:
@@ -88,8 +89,11 @@ def load(name_or_path: str | Path, **params) -> Robot:
     """A built-in robot by name (``params`` go to its builder) or a Robot from a URDF file path.
 
     For a URDF path, optional ``params``: ``chains`` (list of ChainSpec), ``floating_base``,
-    ``nominal``, ``name``. Unknown parameters raise InvalidOptionError listing the known ones;
-    each builder checks its values (RobotDescriptionError).
+    ``nominal``, ``name``, ``package_dirs``, ``soles`` ({sole frame: (k, 3) corners in that frame, m}:
+    the feet of a support polygon), ``closed_forms`` ({(chain, target kind): "module:Class"}) and
+    ``facts`` (a frozen dataclass a closed form may need, e.g. ``Arm3RFacts``). Unknown parameters
+    raise InvalidOptionError listing the known ones; each builder checks its values
+    (RobotDescriptionError).
     """
     if not isinstance(name_or_path, str | Path):
         raise UnknownRobotError(repr(name_or_path), list(robot_entries()),

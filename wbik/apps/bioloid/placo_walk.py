@@ -28,6 +28,7 @@ import numpy as np
 
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot, write_cached_urdf
+from wbik.robot_packages.bioloid.model import BioloidFacts
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
 GROUND_TOLERANCE = 1e-6
@@ -54,7 +55,7 @@ def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float
     """PlaCo's walk parameters for the Bioloid and its naive footstep plan of ``steps`` steps straight
     ahead from the standing ``humanoid``: (parameters, footsteps). Shared by the walk's report and
     its animation (wbik.apps.bioloid.placo_view), so both see the same plan."""
-    sole_size = robot.info["assumptions"]["sole_size"]
+    facts = robot.require_facts(BioloidFacts, "PlaCo's Bioloid walk")
     parameters = placo.HumanoidParameters()
     parameters.single_support_duration = single_support_s
     parameters.single_support_timesteps = 10
@@ -65,8 +66,8 @@ def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float
     parameters.walk_foot_height = 0.04
     parameters.walk_trunk_pitch = math.radians(20.0)
     parameters.walk_foot_rise_ratio = 0.2
-    parameters.foot_length, parameters.foot_width = float(sole_size[0]), float(sole_size[1])
-    parameters.feet_spacing = 2 * float(robot.info["assumptions"]["hip_lateral"])
+    parameters.foot_length, parameters.foot_width = facts.sole_size
+    parameters.feet_spacing = 2 * facts.hip_lateral
     parameters.zmp_margin = margin
     parameters.walk_max_dx_forward = step_length
     left, right = humanoid.get_T_world_left(), humanoid.get_T_world_right()

@@ -269,6 +269,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.apps.bioloid.behaviours import replay_keyframes
     from wbik.apps.bioloid.servo import to_servo
+    from wbik.robot_packages.bioloid.model import BioloidFacts
 
     robot = _robot(spec)
     report = _report(spec, robot)
@@ -284,10 +285,11 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         motion = replay["motion"]
         animations.append(_motion_animation(motion, replay["times_s"], f"keyframes {behaviour}"))
         names = motion.joint_names
+        servo_ids = motion.robot.require_facts(BioloidFacts, "the keyframe replay").servo_ids
         exact, clamped_rows = True, 0
         for units, angles in zip(replay["units"], motion.joint_matrix(), strict=True):
             command = to_servo(dict(zip(names, angles, strict=True)))
-            clamped_ids = {motion.robot.info["servo_ids"][joint] for joint in command.clamped}
+            clamped_ids = {servo_ids[joint] for joint in command.clamped}
             clamped_rows += bool(clamped_ids)
             exact = exact and all(command.units[i] == int(u) for i, u in zip(range(1, 19), units, strict=True)
                                   if i not in clamped_ids)

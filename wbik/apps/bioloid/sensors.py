@@ -63,7 +63,7 @@ def robot_fsr_positions(robot: Robot, sole: str) -> np.ndarray:
     corners = robot.soles
     if sole not in corners:
         raise RobotDescriptionError(
-            f"{robot.name} has no sole_corners for {sole!r}; known: {sorted(corners)}")
+            f"{robot.name} has no sole {sole!r} in robot.soles; known: {sorted(corners)}")
     return fsr_positions(corners[sole])
 
 

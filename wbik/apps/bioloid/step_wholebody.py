@@ -42,7 +42,7 @@ from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
-from wbik.robot_packages.bioloid.model import ARM_JOINTS
+from wbik.robot_packages.bioloid.model import ARM_JOINTS, BioloidFacts
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts and swing paths must hold to this (m, rad) at every sample."""
@@ -90,7 +90,8 @@ def sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon
 
 
 def ankle_height(robot: Robot) -> float:
-    return float(robot.info["assumptions"]["ankle_height"])
+    """Ankle axes -> sole (m): the Bioloid model's assumption (its BioloidFacts)."""
+    return robot.require_facts(BioloidFacts, "the Bioloid whole-body step").ankle_height
 
 
 def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> np.ndarray:

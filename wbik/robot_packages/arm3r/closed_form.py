@@ -1,10 +1,11 @@
 """3-DOF articulated arm binding (seed 001, arm3r.md; chain ``arm``: base_link -> tip): the yaw + planar
 2R member of the yaw-planar family (:mod:`wbik.solvers.analytic.yaw_planar`), position targets, with
-the lengths (l1, l2, l3) the robot was built with."""
+the lengths (l1, l2, l3) the robot was built with (its :class:`Arm3RFacts`)."""
 
 from __future__ import annotations
 
 from wbik.robot import Chain
+from wbik.robot_packages.arm3r.model import Arm3RFacts
 from wbik.solvers.analytic.yaw_planar import Yaw2RGeometry, Yaw2RPosition
 
 
@@ -13,4 +14,5 @@ class Arm3RPosition(Yaw2RPosition):
 
     @staticmethod
     def geometry_of(chain: Chain) -> Yaw2RGeometry:
-        return Yaw2RGeometry(*(float(v) for v in chain.robot.info["lengths"]))
+        facts = chain.robot.require_facts(Arm3RFacts, "the arm3r closed form")
+        return Yaw2RGeometry(*(float(v) for v in facts.lengths))

@@ -8,6 +8,7 @@ The seed has no joint limits; we use +-pi on every joint.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -15,6 +16,19 @@ from wbik.dh import DHJoint, DHTable
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
+
+CLOSED_FORMS = {("arm", "position"): "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}
+"""The yaw + planar 2R position closed form (see that module)."""
+
+
+@dataclass(frozen=True)
+class Arm3RFacts:
+    """What an arm3r robot was built with (``robot.facts``; the closed form reads ``lengths``)."""
+
+    lengths: tuple[float, float, float]
+    """(l1, l2, l3) in metres: base height d1 and the two link lengths a2, a3."""
+    dh: DHTable
+    """The standard DH table the URDF is written from (SI)."""
 
 
 def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
@@ -40,11 +54,8 @@ def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
     chain = ChainSpec("arm", "base_link", "tip", ("joint1", "joint2", "joint3"),
                       "base to end point (position-only IK: 3 joints, 3 coordinates)")
     name = "arm3r" if lengths == DEFAULT_LENGTHS else "arm3r-" + "-".join(f"{v:g}" for v in lengths)
-    robot = robot_from_urdf_text(name, text, [chain], nominal=np.full(3, math.pi / 2),
-                                 info={"lengths": lengths, "dh": table,
-                                       "closed_forms": {("arm", "position"):
-                                                        "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}})
-    return robot
+    return robot_from_urdf_text(name, text, [chain], nominal=np.full(3, math.pi / 2),
+                                closed_forms=CLOSED_FORMS, facts=Arm3RFacts(lengths, table))
 
 
 def start_configuration() -> np.ndarray:
@@ -52,4 +63,4 @@ def start_configuration() -> np.ndarray:
     return np.full(3, math.pi / 2)
 
 
-__all__ = ["DEFAULT_LENGTHS", "build", "dh_table", "start_configuration", "Robot"]
+__all__ = ["DEFAULT_LENGTHS", "Arm3RFacts", "build", "dh_table", "start_configuration", "Robot"]

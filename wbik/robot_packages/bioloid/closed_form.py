@@ -19,7 +19,7 @@ stay reachable (:func:`wbik.solvers.analytic.subproblems.clamped_cosine`): a str
 is a branch merge where rounding must not flip the verdict. (The leg's hip Euler lock, hip roll
 +-pi/2, is outside the +-0.87 rad limits, so its decomposition needs no tolerance.)
 
-Closed forms for the solver framework (declared in ``robot.info["closed_forms"]``):
+Closed forms for the solver framework (declared in ``robot.closed_forms``):
 :class:`ArmPosition` (4 exact branches: the thesis's elbow and the other, times the base
 servo turned by pi), :class:`LegPose` (ankle pose in the hip frame; 4 branches: the thesis's
 walking knee branch, flexion >= 2 alpha, and the near-straight one, times the two hip Euler
@@ -35,7 +35,7 @@ import numpy as np
 
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x, rot_y, rot_z
-from wbik.robot_packages.bioloid.model import ALPHA, FOREARM, L0, L1, L2, L3, L7, L8, LF, TOOL_CODE
+from wbik.robot_packages.bioloid.model import ALPHA, L7, L8, LF, BioloidFacts, arm_lengths
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
 
@@ -63,11 +63,6 @@ def _side(side: str) -> str:
 
 
 # --- arm (bioloid.md 2.2-2.3) -----------------------------------------------------------------------
-def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, float, float]:
-    """(L0, L1, L2, L3, L4) in metres; L4 = 0.0745 + tool (code 0.0255 -> 0.100, thesis 0.070)."""
-    return (L0, L1, L2, L3, FOREARM + tool_length)
-
-
 @dataclass(frozen=True)
 class ArmAngles:
     """Eq. 1-9 intermediates and outputs (radians, metres) for a batch of right-hand targets."""
@@ -272,7 +267,7 @@ class ArmPosition(ClosedForm):
     def __init__(self, chain):
         super().__init__(chain)
         self.side = _chain_side(chain)
-        self.lengths = tuple(chain.robot.info.get("arm_lengths", arm_lengths()))
+        self.lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
 
     def branches(self, positions, rotations, q0):
         p = positions * np.array([1.0, -1.0, 1.0]) if self.side == "l" else positions

@@ -37,6 +37,7 @@ q1 in [-62, 238] deg.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -321,9 +322,47 @@ ARM_REST_Q = np.radians([88.0, -40.0, 90.0])
 
 
 def sole_corners() -> dict[str, np.ndarray]:
+    """{sole frame: its (4, 3) corners in that frame (m)}: the SOLE_LENGTH x SOLE_WIDTH rectangle."""
     a, b = SOLE_LENGTH / 2, SOLE_WIDTH / 2
     corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
     return {"r_sole": corners.copy(), "l_sole": corners.copy()}
+
+
+def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, float, float]:
+    """(L0, L1, L2, L3, L4) in metres; L4 = 0.0745 + tool (code 0.0255 -> 0.100, thesis 0.070)."""
+    return (L0, L1, L2, L3, FOREARM + tool_length)
+
+
+@dataclass(frozen=True)
+class BioloidFacts:
+    """What a Bioloid robot was built with and what it assumes (``robot.facts``; SI: m, rad).
+
+    Masses (an assumption): AX-12A 54.6 g per servo plus estimated brackets, battery and controller
+    (see the URDF's comments). The seed itself writes degrees and servo units.
+    """
+
+    servo_ids: dict[str, int]
+    """Joint -> Dynamixel ID (1..18) of the seed's wiring (read: do not change)."""
+    mirror_sign: dict[str, float]
+    """Joint without side (e.g. "knee") -> sign s with q_left = s q_right for the mirror image (y -> -y)."""
+    arm_lengths: tuple[float, float, float, float, float]
+    """(L0, L1, L2, L3, L4) of the arm closed form (m); L4 = 0.0745 + tool_length."""
+    tool_length: float
+    """Hand/tool length the robot was built with (m): 0.0255 (the code's) or 0.070 (the thesis's)."""
+    standing_hip_height: float
+    """Hip above ankle in the nominal standing pose (m), the code's zd."""
+    standing_pitch: float
+    """Torso pitch of the nominal standing pose (rad)."""
+    hip_lateral: float
+    """ASSUMPTION: pelvis centre -> hip, sideways (m); the feet are 2 hip_lateral apart."""
+    hip_drop: float
+    """ASSUMPTION: pelvis origin -> hip roll/pitch intersection, downward (m)."""
+    ankle_height: float
+    """ASSUMPTION: ankle axes -> sole (m)."""
+    chest_height: float
+    """ASSUMPTION: pelvis origin -> chest centre (the arm frame), upward (m)."""
+    sole_size: tuple[float, float]
+    """ASSUMPTION: (length along x, width along y) of each sole rectangle (m), centred under the ankle."""
 
 
 def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robot:
@@ -345,24 +384,13 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
         path = None
     model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
     nominal = _nominal(model, pitch, ARM_REST_Q)
-    info = {
-        "servo_ids": dict(SERVO_IDS),
-        "sole_corners": sole_corners(),
-        "closed_forms": dict(CLOSED_FORMS),
-        "arm_lengths": (L0, L1, L2, L3, FOREARM + tool_length),
-        "leg_lengths": (L7, L8),
-        "tool_length": tool_length,
-        "standing": {"hip_height": STANDING_HIP_HEIGHT, "pitch": pitch},
-        "mirror_sign": dict(MIRROR_SIGN),
-        "assumptions": {
-            "hip_lateral": HIP_LATERAL, "hip_drop": HIP_DROP, "ankle_height": ANKLE_HEIGHT,
-            "chest_height": CHEST_HEIGHT, "sole_size": (SOLE_LENGTH, SOLE_WIDTH),
-            "masses": "AX-12A 54.6 g per servo plus estimated brackets, battery, controller",
-        },
-        "units": "SI inside; the seed uses degrees and servo units",
-    }
+    facts = BioloidFacts(
+        servo_ids=dict(SERVO_IDS), mirror_sign=dict(MIRROR_SIGN), arm_lengths=arm_lengths(tool_length),
+        tool_length=tool_length, standing_hip_height=STANDING_HIP_HEIGHT, standing_pitch=float(pitch),
+        hip_lateral=HIP_LATERAL, hip_drop=HIP_DROP, ankle_height=ANKLE_HEIGHT, chest_height=CHEST_HEIGHT,
+        sole_size=(SOLE_LENGTH, SOLE_WIDTH))
     return robot_from_urdf_text("bioloid", text, chain_specs(), nominal=nominal, floating_base=True,
-                                urdf_path=path, info=info)
+                                urdf_path=path, soles=sole_corners(), closed_forms=CLOSED_FORMS, facts=facts)
 
 
 def collision_primitives(robot: Robot | None = None) -> list:

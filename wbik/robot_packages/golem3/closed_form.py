@@ -18,16 +18,20 @@ import numpy as np
 
 from wbik.errors import InvalidConfigurationError
 from wbik.robot import Chain
-from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, LEFT_JOINTS, RHO, H
+from wbik.robot_packages.golem3.model import LEFT_JOINTS, Golem3Facts
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic import stacked_planar as family
 
-GOLEM3 = family.StackedPlanarGeometry(l1=L1, l2=L2, l4=L4, l5=L5, l6=L6, h=H, rho=RHO)
-"""The thesis's geometry (golem3.md)."""
 LOCK_SWEEP = 7
 """Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""
 _MIRROR_P = np.array([1.0, -1.0, 1.0])
 _MIRROR_R = np.outer(_MIRROR_P, _MIRROR_P)  # M R M, entry-wise
+
+
+def arm_geometry(facts: Golem3Facts) -> family.StackedPlanarGeometry:
+    """The family's geometry of the robot's arm: the thesis's numbers (golem3.md) of its facts."""
+    return family.StackedPlanarGeometry(l1=facts.l1, l2=facts.l2, l4=facts.l4, l5=facts.l5, l6=facts.l6,
+                                        h=facts.h, rho=facts.rho)
 
 
 def right_arm_coordinates(chain: Chain) -> tuple[bool, np.ndarray, np.ndarray]:
@@ -60,6 +64,7 @@ class _Golem3Form(ClosedForm):
                 f"the Golem-III closed form needs a chain from torso_link over (m0, 5 arm joints); "
                 f"{chain.name!r} is {chain.base_frame} -> {chain.tip_frame} with {chain.joint_names}")
         self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(chain)
+        self.geometry = arm_geometry(chain.robot.require_facts(Golem3Facts, "the Golem-III closed form"))
 
     def _mirror_q(self, q: np.ndarray) -> np.ndarray:
         if not self.mirrored:
@@ -75,7 +80,7 @@ class _Golem3Form(ClosedForm):
         return mirror_rotations(rotations) if self.mirrored else rotations
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        position, rotation = family.fk(GOLEM3, self._mirror_q(q))
+        position, rotation = family.fk(self.geometry, self._mirror_q(q))
         return self._mirror_positions(position), self._mirror_rotations(rotation)
 
 
@@ -105,7 +110,7 @@ class Golem3PoseIK(_Golem3Form):
             alpha = np.concatenate([np.where(locked[:, None], roll[:, None], alpha),
                                     np.broadcast_to(self.roll_sweep, (count, sweep))], axis=1)
             real_roll = np.concatenate([real_roll, np.broadcast_to(locked[:, None], (count, sweep))], axis=1)
-        q_all, real = family.pose_branches(GOLEM3, positions, rotations, alpha)
+        q_all, real = family.pose_branches(self.geometry, positions, rotations, alpha)
         real = real & real_roll[..., None]
         count = len(positions)
         return self._mirror_q(q_all.reshape(count, -1, 6)), real.reshape(count, -1)
@@ -124,8 +129,8 @@ class Golem3PoseIK(_Golem3Form):
         if math.hypot(r32, r33) < family.GIMBAL_LOCK:
             low, high = self._roll_limits
             rolls = [min(high, max(low, reference[5])), *self._sweep_list]
-        branches = family.pose_branches_one(GOLEM3, (x, y, z), (r11, r12, r13, r21, r22, r23, r31, r32, r33),
-                                            rolls, reference)
+        branches = family.pose_branches_one(self.geometry, (x, y, z),
+                                            (r11, r12, r13, r21, r22, r23, r31, r32, r33), rolls, reference)
         if self.mirrored:
             for _, q in branches:
                 q[0] = -q[0]
@@ -133,8 +138,9 @@ class Golem3PoseIK(_Golem3Form):
 
     def fk_one(self, q):
         if not self.mirrored:
-            return family.fk_one(GOLEM3, q)
-        (x, y, z), (r11, r12, r13, r21, r22, r23, r31, r32, r33) = family.fk_one(GOLEM3, [-q[0], *q[1:]])
+            return family.fk_one(self.geometry, q)
+        (x, y, z), (r11, r12, r13, r21, r22, r23, r31, r32, r33) = family.fk_one(self.geometry,
+                                                                                 [-q[0], *q[1:]])
         return (x, -y, z), (r11, -r12, r13, -r21, r22, -r23, r31, -r32, r33)
 
 
@@ -149,7 +155,7 @@ class Golem3PositionIK(_Golem3Form):
     def __init__(self, chain: Chain, yaw: float = 0.0):
         super().__init__(chain)
         self.yaw = yaw
-        self.search = family.PositionSearch(GOLEM3, self.right_lower, self.right_upper)
+        self.search = family.PositionSearch(self.geometry, self.right_lower, self.right_upper)
 
     @property
     def yaw(self) -> float:

@@ -35,6 +35,7 @@ and the left arm joints m20..m24 have the right arm's limits.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,31 @@ MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
 """Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
 
 URDF_PATH = data_dir("urdf") / "golem3.urdf"
+
+
+@dataclass(frozen=True)
+class Golem3Facts:
+    """The thesis's right-arm DH numbers (golem3.md), ``robot.facts``; the closed form reads them.
+
+    ASSUMPTIONS documented here and in the module docstring: the left arm is the mirror image of the
+    right one, T_left(m0, q) = M T_right(-m0, q) M with M = diag(1, -1, 1) in torso_link, and its
+    joints m2x have the limits of m1x; masses, head and finger geometry are guesses.
+    """
+
+    l1: float
+    """Row 1 a: chest yaw axis -> shoulder (m)."""
+    l2: float
+    """Row 2 a (m)."""
+    l4: float
+    """Row 4 a: upper arm (m)."""
+    l5: float
+    """Row 5 a: elbow offset (m)."""
+    l6: float
+    """Row 6 d: forearm, wrist roll axis to the gripper centre (m)."""
+    h: float
+    """Row 1 d: base height of the shoulder plane (m)."""
+    rho: float
+    """Elbow angle offset (rad), 13.43 deg."""
 
 CLOSED_FORMS = {
     ("right_arm", "pose"): "wbik.robot_packages.golem3.closed_form:Golem3PoseIK",
@@ -237,14 +263,9 @@ def build() -> Robot:
         for name, value in zip(joint_names, NOMINAL_ARM, strict=True):
             nominal[model.joints[model.getJointId(name)].idx_q] = value
     urdf_path = URDF_PATH if URDF_PATH.is_file() and URDF_PATH.read_text() == text else None
+    facts = Golem3Facts(l1=L1, l2=L2, l4=L4, l5=L5, l6=L6, h=H, rho=RHO)
     return Robot("golem3", model, text, {spec.name: spec for spec in chains}, nominal, urdf_path=urdf_path,
-                 info={
-                     "closed_forms": CLOSED_FORMS,
-                     "dh": {"l1": L1, "l2": L2, "l4": L4, "l5": L5, "l6": L6, "h": H, "rho": RHO},
-                     "mirror": "left = M right(-m0) M, M = diag(1, -1, 1) in torso_link; "
-                               "m2x limits = m1x limits",
-                     "assumptions": "left arm by mirroring; masses, head and finger geometry are guesses",
-                 })
+                 closed_forms=CLOSED_FORMS, facts=facts)
 
 
 def collision_primitives(robot: Robot | None = None) -> list:

@@ -9,6 +9,7 @@ E = [[0,0,1],[-1,0,0],[0,-1,0]] after link 4. Limits +-150 deg on every joint. S
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -45,10 +46,19 @@ def dh_table() -> DHTable:
     ], tool=tool)
 
 
+@dataclass(frozen=True)
+class PincherFacts:
+    """The Pincher's defining table (``robot.facts``); the closed form uses the same numbers
+    (BASE_HEIGHT, LINK, WRIST_TO_TOOL above)."""
+
+    dh: DHTable
+    """pincher.md's standard DH table in SI (m, rad; the seed writes mm and degrees), tool "noa" included."""
+
+
 def build() -> Robot:
-    text = dh_table().urdf(name="pincher", base_link="base_link", tip_link="noa")
+    table = dh_table()
+    text = table.urdf(name="pincher", base_link="base_link", tip_link="noa")
     chain = ChainSpec("arm", "base_link", "noa", ("joint1", "joint2", "joint3", "joint4"),
                       "floor base to the 'noa' tool frame (15 mm before the finger tips)")
     return robot_from_urdf_text("pincher", text, [chain], nominal=np.zeros(4),
-                                info={"dh": dh_table(), "units": "SI inside; the seed uses mm and deg",
-                                      "closed_forms": CLOSED_FORMS})
+                                closed_forms=CLOSED_FORMS, facts=PincherFacts(table))

@@ -7,6 +7,8 @@ elbow +-pi).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from wbik.models import URDF_DIR
@@ -17,12 +19,24 @@ JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
 TOOL_LENGTH = 0.13
 """ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
+TOOL_DIAMETER = 0.005
+"""Diameter of the rivet tool's pin (m): the 5 mm cylinder (assumed)."""
 
 CLOSED_FORMS = {
     ("ee", "pose"): "wbik.robot_packages.ur5.closed_form:UR5EndEffector",
     ("arm", "pose"): "wbik.robot_packages.ur5.closed_form:UR5Tool",
 }
 """ur_kinematics' closed form (ur5-riveting.md 1.2) on ee_link, and composed with the tool for tcp."""
+
+
+@dataclass(frozen=True)
+class UR5Facts:
+    """The riveting tool the UR5 carries (``robot.facts``; assumptions, ur5-riveting.md)."""
+
+    tool_length: float
+    """ee_link -> tcp along the flange normal (m)."""
+    tool_diameter: float
+    """Diameter of the tool's pin (m)."""
 
 
 def urdf_text() -> str:
@@ -41,8 +55,7 @@ def build() -> Robot:
                         -1.5707963267948966, 0.0])
     return robot_from_urdf_text("ur5", urdf_text(), chains, nominal=nominal,
                                 package_dirs=package_dirs(),
-                                info={"tool_length": TOOL_LENGTH, "tool_diameter": 0.005,
-                                      "closed_forms": CLOSED_FORMS})
+                                closed_forms=CLOSED_FORMS, facts=UR5Facts(TOOL_LENGTH, TOOL_DIAMETER))
 
 
 TABLE_SIZE = (1.4, 1.2, 0.05)
@@ -65,7 +78,7 @@ def collision_primitives(robot: Robot | None = None) -> list:
         capsule("wrist_2", "wrist_2_link", "wrist_2_link", "wrist_3_link", 0.04),
         capsule("wrist_3", "wrist_3_link", "wrist_3_link", "ee_link", 0.04),
         capsule("tool_holder", "rivet_tool", (0.0, 0.0, 0.0), (0.1, 0.0, 0.0), 0.02),
-        capsule("tool_pin", "rivet_tool", (0.1, 0.0, 0.0), "tcp", 0.0025),
+        capsule("tool_pin", "rivet_tool", (0.1, 0.0, 0.0), "tcp", 0.5 * TOOL_DIAMETER),
     ]
 
 

@@ -162,11 +162,11 @@ class ToolClosedForm(ClosedForm):
 
 
 def closed_forms(robot) -> dict[tuple[str, str], str]:
-    """A robot's closed forms: ``robot.info["closed_forms"]`` maps (chain, kind) to "module:Class".
+    """A robot's closed forms: ``robot.closed_forms`` maps (chain, kind) to "module:Class".
 
-    Each built-in model declares its own; a user robot can do the same.
+    Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``.
     """
-    return dict(robot.info.get("closed_forms", {}))
+    return dict(robot.closed_forms)
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
