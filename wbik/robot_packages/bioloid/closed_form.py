@@ -35,12 +35,22 @@ import numpy as np
 
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x, rot_y, rot_z
-from wbik.robot_packages.bioloid.model import ALPHA, L7, L8, LF, BioloidFacts, arm_lengths
+from wbik.robot_packages.bioloid.model import (
+    ALPHA,
+    ARM_JOINTS,
+    L7,
+    L8,
+    LEG_JOINTS,
+    LF,
+    MIRROR_SIGN,
+    BioloidFacts,
+    arm_lengths,
+)
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
 
-ARM_MIRROR = np.array([1.0, -1.0, -1.0])
-LEG_MIRROR = np.array([-1.0, -1.0, 1.0, 1.0, 1.0, -1.0])
+ARM_MIRROR = np.array([MIRROR_SIGN[joint] for joint in ARM_JOINTS])
+LEG_MIRROR = np.array([MIRROR_SIGN[joint] for joint in LEG_JOINTS])
 """q_left = sign * q_right for mirror-image poses (both sides use the same axis directions)."""
 
 
