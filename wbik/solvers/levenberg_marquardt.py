@@ -40,6 +40,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dposv
 
+from wbik.solvers.base import clip_to_limits
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -66,7 +68,7 @@ class JointBounds:
     def project(self, q: np.ndarray) -> np.ndarray:
         """q (n,) or (B, n) inside the limits: wrapped full-turn joints, clipped others (a new array)."""
         lower, upper = self.lower, self.upper
-        inside = np.minimum(np.maximum(q, lower), upper)
+        inside = clip_to_limits(q, lower, upper)
         if self.any_wrap:
             outside = (inside != q) & self.wraps
             if outside.any():  # lower + (q - lower mod 2 pi) is in [lower, lower + 2 pi): clip its top
@@ -126,7 +128,7 @@ class LevenbergMarquardt:
         if self.max_step is not None:
             descent = self._capped(descent)
         trial = q - descent
-        inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        inside = clip_to_limits(trial, bounds.lower, bounds.upper)
         if inside.tobytes() != trial.tobytes():  # some joint left its range (or needs wrapping)
             blocked = bounds.blocked(q, inside)
             if blocked.any():
@@ -136,7 +138,7 @@ class LevenbergMarquardt:
                     descent[free] = _frozen_descent(jacobian, error, damping, free, workspace)
                 trial = q - self._capped(descent)
             inside = bounds.project(trial) if bounds.any_wrap \
-                else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+                else clip_to_limits(trial, bounds.lower, bounds.upper)
         return inside
 
     def _capped(self, step: np.ndarray) -> np.ndarray:
@@ -177,7 +179,7 @@ class LevenbergMarquardt:
         damping = self.damping(cost, base)
         step = self._capped_batch(_damped_steps(jacobian, error, damping))
         trial = q + step
-        inside = np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+        inside = clip_to_limits(trial, bounds.lower, bounds.upper)
         if inside.tobytes() != trial.tobytes():
             blocked = bounds.blocked(q, inside)
             rows = np.flatnonzero(blocked.any(axis=1))
@@ -186,7 +188,7 @@ class LevenbergMarquardt:
                                                               error[rows], damping[rows]))
                 trial = q + step
             inside = bounds.project(trial) if bounds.any_wrap \
-                else np.minimum(np.maximum(trial, bounds.lower), bounds.upper)
+                else clip_to_limits(trial, bounds.lower, bounds.upper)
         return inside
 
     def _capped_batch(self, step: np.ndarray) -> np.ndarray:
