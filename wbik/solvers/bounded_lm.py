@@ -87,6 +87,8 @@ from wbik.targets import Target, as_target
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
+FIRST_QUERY = 3
+"""Library entries asked for by a call's first k-d tree query (the rest, if needed, by a second)."""
 BATCH_ITERATION_UNITS = 10
 """Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
 iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
@@ -344,7 +346,7 @@ class BoundedLMSolver(Solver):
         q_start = self.bounds.project(q0)
         seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start)
         best_q, best_error = q_start, math.inf
-        attempts, iterations, taken = 0, 0, 0  # taken: library entries handed out so far
+        attempts, iterations, taken, queries = 0, 0, 0, 0  # taken: library entries handed out so far
         draws = None  # the call's random seeds, drawn only if needed
         while True:
             if self.batch_size > 1 and attempts >= self.single_attempts:
@@ -352,12 +354,15 @@ class BoundedLMSolver(Solver):
                     self._neighbours(target, taken + int(self.library_share * self.batch_size))[0][taken:]
                 return self._solve_batch(target, batch_seeds, deadline, attempts, iterations,
                                          (best_q, best_error), draws or _CallDraws(self, target, q0))
-            if not seeds and taken == 0:  # then the library's nearest entries (a k-d tree query)
+            if not seeds and queries < 2:  # then the library's nearest entries (k-d tree queries: the
+                # first for a few, as most calls need one or two and a query's cost grows with k)
                 count = max(1, self.single_attempts - attempts - q0_later) if self.batch_size > 1 else 32
-                seeds = list(self._neighbours(target, count)[0])
-                taken = len(seeds)
+                count = min(count, FIRST_QUERY) if queries == 0 else count
+                seeds = list(self._neighbours(target, taken + count)[0][taken:])
+                taken, queries = taken + len(seeds), queries + 1
                 if q0_later:
                     seeds.insert(1, q_start)
+                    q0_later = False
             if seeds:
                 q_seed = seeds.pop(0)
             else:
