@@ -258,7 +258,7 @@ def _frozen_descent(jacobian: np.ndarray, error: np.ndarray, damping: float, fre
     rows, columns = jacobian.shape
     if workspace is None or columns > rows:
         return _descent(jacobian[:, free], error, damping)
-    system, right = workspace.system[np.ix_(free, free)], workspace.right[free]
+    system, right = workspace.system[free[:, None], free], workspace.right[free]
     _, solution, info = dposv(system, right)
     if info:
         solution = np.linalg.lstsq(system, right, rcond=None)[0]
