@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from wbik.errors import WbikError
 
-__all__ = ["ExpectationError", "Rule", "evaluate", "format_checks", "verdict"]
+__all__ = ["ExpectationError", "Rule", "evaluate", "format_checks", "judge", "verdict"]
 
 OPERATORS = {">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b, "==": lambda a, b: a == b}
 
@@ -96,6 +96,16 @@ def verdict(checks: Iterable[dict]) -> str:
     if not checks:
         return "informational"
     return "PASSED" if all(check["passed"] for check in checks) else "FAILED"
+
+
+def judge(entry: dict, expect: Mapping | None, figures: Mapping[str, object], rules: Mapping[str, Rule],
+          where: str = "expect") -> dict:
+    """Evaluate ``expect`` into a report entry: its ``expectations`` (the checks), ``verdict`` and
+    ``passed`` (not FAILED); the entry is returned."""
+    entry["expectations"] = evaluate(expect, figures, rules, where)
+    entry["verdict"] = verdict(entry["expectations"])
+    entry["passed"] = entry["verdict"] != "FAILED"
+    return entry
 
 
 def _value(value) -> str:

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule, evaluate, format_checks, verdict
+from wbik.expectations import Rule, format_checks, judge
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
@@ -77,11 +77,7 @@ def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: di
     """The move's expectations (``defaults`` under the task file's ``expect``) into the entry:
     ``expectations``, ``verdict``, ``passed``."""
     wanted = {**defaults, **(spec["expect"] or {})}
-    where = f"{spec['name'] or spec['kind']} expect"
-    entry["expectations"] = evaluate(wanted, figures, rules, where)
-    entry["verdict"] = verdict(entry["expectations"])
-    entry["passed"] = entry["verdict"] != "FAILED"
-    return entry
+    return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect")
 
 
 def robot_of(spec: dict):
