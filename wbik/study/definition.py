@@ -421,34 +421,38 @@ def _reference(raw, target: str, source: str, where: str) -> Reference | None:
             raise StudyDefinitionError(f"{source}: {where}.{key} must be text, got {value!r}")
     name = texts["name"].strip() or "reference"
     angles = _angles(raw.get("angles"), target, source, f"{where}.angles")
-    figures = _mapping(raw.get("figures"), source, f"{where}.figures",
-                       "maps method labels to {metric: value}, e.g. {kdl: {percent_solved: 72.5}}")
-    checked_figures = {}
-    for label, metrics in figures.items():
-        metrics = _mapping(metrics, source, f"{where}.figures.{label}",
-                           f"maps metrics ({', '.join(REFERENCE_METRICS)}) to numbers")
-        _no_unknown(metrics, set(REFERENCE_METRICS), source, f"{where}.figures.{label}")
-        checked_figures[str(label)] = {metric: _number(value, f"{where}.figures.{label}.{metric}", source)
-                                       for metric, value in metrics.items()}
+    figures = _table(raw.get("figures"), source, f"{where}.figures",
+                     "maps method labels to {metric: value}, e.g. {kdl: {percent_solved: 72.5}}",
+                     "metrics", REFERENCE_METRICS, "numbers", _number)
     axes = [*error_axes(target, angles), "time"]
-    significance = _mapping(raw.get("significance"), source, f"{where}.significance",
-                            "maps method labels to {axis: p-value}, e.g. {kdl: {x: 0, time: 1.0e-3}}")
-    checked_significance = {}
-    for label, p_values in significance.items():
-        p_values = _mapping(p_values, source, f"{where}.significance.{label}",
-                            f"maps error axes ({', '.join(axes)}) to p-values")
-        _no_unknown(p_values, set(axes), source, f"{where}.significance.{label}")
-        checked = {}
-        for axis, value in p_values.items():
-            p_value = _number(value, f"{where}.significance.{label}.{axis}", source)
-            if not 0.0 <= p_value <= 1.0:
-                raise StudyDefinitionError(f"{source}: {where}.significance.{label}.{axis} is a p-value, "
-                                           f"between 0 and 1; got {value!r}")
-            checked[axis] = p_value
-        checked_significance[str(label)] = checked
-    return Reference(name=name, source=texts["source"], angles=angles, figures=checked_figures,
-                     significance=checked_significance, significance_source=texts["significance_source"],
+    significance = _table(raw.get("significance"), source, f"{where}.significance",
+                          "maps method labels to {axis: p-value}, e.g. {kdl: {x: 0, time: 1.0e-3}}",
+                          "error axes", axes, "p-values", _p_value)
+    return Reference(name=name, source=texts["source"], angles=angles, figures=figures,
+                     significance=significance, significance_source=texts["significance_source"],
                      notes=texts["notes"])
+
+
+def _table(raw, source: str, where: str, what: str, row_keys_are: str, row_keys, values_are: str,
+           value) -> dict[str, dict[str, float]]:
+    """A ``{label: {key: number}}`` block checked: ``what`` says what it maps; each row maps keys
+    among ``row_keys`` (``row_keys_are``, e.g. "metrics") to ``values_are``, each one checked by
+    ``value(item, field_name, source)``."""
+    checked = {}
+    for label, row in _mapping(raw, source, where, what).items():
+        row_where = f"{where}.{label}"
+        row = _mapping(row, source, row_where, f"maps {row_keys_are} ({', '.join(row_keys)}) to {values_are}")
+        _no_unknown(row, set(row_keys), source, row_where)
+        checked[str(label)] = {key: value(item, f"{row_where}.{key}", source) for key, item in row.items()}
+    return checked
+
+
+def _p_value(value, field_name: str, source: str) -> float:
+    """A number between 0 and 1, else a StudyDefinitionError."""
+    p_value = _number(value, field_name, source)
+    if not 0.0 <= p_value <= 1.0:
+        raise StudyDefinitionError(f"{source}: {field_name} is a p-value, between 0 and 1; got {value!r}")
+    return p_value
 
 
 def _angles(raw, target: str, source: str, where: str) -> AngleConvention | None:
