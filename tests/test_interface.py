@@ -128,3 +128,14 @@ def test_non_finite_joints_from_a_method_are_refused(bad):
     assert np.isnan(result.position_error) and np.isnan(result.rotation_error)
     short = evaluate(chain, target, Candidate(q[:3]), wbik.Tolerances(), 0.0, "test")
     assert short.q is None and "invalid joints" in short.reason
+
+
+def test_a_target_from_an_se3_owns_its_values():
+    """as_target copies the SE3: changing the SE3 afterwards leaves the target as it was."""
+    pose = pin.SE3(pin.exp3(np.array([0.1, -0.2, 0.3])), np.array([0.4, 0.5, 0.6]))
+    expected = pose.homogeneous.copy()
+    target = wbik.as_target(pose)
+    pose.translation = np.zeros(3)
+    pose.rotation = np.eye(3)
+    assert np.array_equal(target.position, expected[:3, 3])
+    assert np.array_equal(target.rotation, expected[:3, :3])

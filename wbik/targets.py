@@ -68,10 +68,10 @@ def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarra
 def _plain_se3_target(value: pin.SE3) -> Target | None:
     """The common case, an SE3 with a finite position and a rotation, checked in plain floats (about
     2 us; the general path's small numpy calls cost ~40 us). None when anything is off, so that
-    the general path raises the detailed error."""
-    rotation, translation = value.rotation, value.translation  # views into the SE3: copied below
-    (a, b, c), (d, e, f), (g, h, i) = rotation.tolist()
-    x, y, z = translation.tolist()
+    the general path raises the detailed error. The target's position and rotation are views of one
+    private 4x4 copy (not of the SE3: changing the SE3 later leaves the target as it was)."""
+    matrix = value.homogeneous  # a private copy: the target's arrays are views of it
+    (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = matrix.tolist()
     bound, tolerance = MAX_POSITION, ROTATION_TOLERANCE  # chained comparisons: no abs() calls
     if not (-bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound):
         return None  # NaN fails every comparison
@@ -83,7 +83,7 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
             and -tolerance <= b * c + e * f + h * i <= tolerance
             and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high):
         return None
-    return Target(translation.copy(), rotation.copy())
+    return Target(matrix[:3, 3], matrix[:3, :3])
 
 
 def as_target(value, rotation=None) -> Target:
