@@ -90,6 +90,33 @@ def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
     store.atomic_write_text(path, buffer.getvalue())
 
 
+def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[dict]) -> None:
+    """A case's summary.csv (a row per method: every summary figure, ``repr`` of numbers) and, with
+    tests, its significance.csv (a row per Mann-Whitney test)."""
+    if summaries:
+        keys = list(next(iter(summaries.values())))
+        _write_csv(directory / "summary.csv", ["method", *keys],
+                   [[label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
+                    for label, s in summaries.items()])
+    if tests:
+        keys = list(tests[0])
+        _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
+                                                          for k in keys] for t in tests])
+
+
+def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
+                 angles=None) -> dict[str, Path]:
+    """The figures of every case (none without rows): poses solved, errors per axis of the solved
+    poses (``error_names``; ``angles`` the reference's angle convention), time and its histogram."""
+    if not rows_by_method:
+        return {}
+    return {"solved": figures.solved_bars(summaries, title, folder / "solved.png"),
+            "errors": figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
+                                             angles),
+            "time": figures.time_boxplots(rows_by_method, title, folder / "time.png"),
+            "time_histogram": figures.time_histogram(rows_by_method, title, folder / "time_histogram.png")}
+
+
 def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
     """Write raw.csv, summary.csv, significance.csv and the figures of one case; return the numbers."""
     if case.target == "wholebody":
@@ -101,28 +128,13 @@ def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
     chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
     store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
     summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
-    if summaries:
-        keys = list(next(iter(summaries.values())))
-        _write_csv(directory / "summary.csv", ["method", *keys],
-                   [[label, *(repr(summary[k]) for k in keys)] for label, summary in summaries.items()])
     baseline = study.baseline if study.baseline in rows_by_method else None
     tests = significance(baseline, rows_by_method) if baseline else []
-    if tests:
-        keys = list(tests[0])
-        _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
-                                                          for k in keys] for t in tests])
+    write_case_tables(directory, summaries, tests)
     angles = case.reference.angles if case.reference else None
     error_names = case_axes(case.target, angles)
-    images = {}
-    if rows_by_method:
-        title = f"{case.robot}.{chain.name} ({case.target})"
-        folder = directory / "figures"
-        images["solved"] = figures.solved_bars(summaries, title, folder / "solved.png")
-        images["errors"] = figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
-                                                  angles)
-        images["time"] = figures.time_boxplots(rows_by_method, title, folder / "time.png")
-        images["time_histogram"] = figures.time_histogram(rows_by_method, title,
-                                                          folder / "time_histogram.png")
+    images = case_figures(rows_by_method, summaries, f"{case.robot}.{chain.name} ({case.target})",
+                          directory / "figures", error_names, angles)
     return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
             "summaries": summaries, "tests": tests, "baseline": baseline, "axes": error_names,
             "images": images}
@@ -142,31 +154,25 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
                          f"inside the limits (seed {study.seed}); chain {chain.base_frame} -> "
                          f"{chain.tip_frame}, {chain.nq} joints ({', '.join(chain.joint_names)}); "
                          f"every method starts from q0 = {study.start}.")]
-    if analysis["not_applicable"]:
-        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
-        blocks.append(Block("list", items=[f"{label}: {message}" for label, message
-                                           in analysis["not_applicable"].items()]))
-    missing = [m.label for m in study.methods
-               if m.label not in rows_by_method and m.label not in analysis["not_applicable"]]
-    if missing:
-        blocks.append(Block("p", f"Incomplete (run interrupted; run the study again to resume): "
-                                 f"{', '.join(missing)}."))
+    blocks.extend(status_blocks(study, analysis))
     if not summaries:
         return blocks
     blocks.append(Block("h3", "Poses solved and time"))
-    header = ["method", "solved", "% solved", "median ms (all calls)", "median ms (solved)",
-              "p95 ms (solved)", "max ms (solved)", "median ms (not solved)", "p95 ms (not solved)",
-              "max ms (not solved)", "mean ms (not solved)", "median iterations", "exceptions",
-              "re-run (CPU starved)"]
-    table = []
-    for label, s in summaries.items():
-        table.append([label, f"{s['solved']}/{s['poses']}", fmt(s["percent_solved"]),
-                      fmt(s["time_all_median_ms"]), fmt(s["time_solved_median_ms"]),
-                      fmt(s["time_solved_p95_ms"]), fmt(s["time_solved_max_ms"]),
-                      fmt(s["time_unsolved_median_ms"]), fmt(s["time_unsolved_p95_ms"]),
-                      fmt(s["time_unsolved_max_ms"]), fmt(s["time_unsolved_mean_ms"]),
-                      fmt(s["iterations_median"]), fmt(s["raised"]), fmt(s.get("rerun", 0))])
-    blocks.append(Block("table", header=header, rows=table))
+    blocks.append(summary_table(summaries, [
+        ("solved", lambda s: f"{s['solved']}/{s['poses']}"),
+        ("% solved", "percent_solved"),
+        ("median ms (all calls)", "time_all_median_ms"),
+        ("median ms (solved)", "time_solved_median_ms"),
+        ("p95 ms (solved)", "time_solved_p95_ms"),
+        ("max ms (solved)", "time_solved_max_ms"),
+        ("median ms (not solved)", "time_unsolved_median_ms"),
+        ("p95 ms (not solved)", "time_unsolved_p95_ms"),
+        ("max ms (not solved)", "time_unsolved_max_ms"),
+        ("mean ms (not solved)", "time_unsolved_mean_ms"),
+        ("median iterations", "iterations_median"),
+        ("exceptions", "raised"),
+        ("re-run (CPU starved)", lambda s: s.get("rerun", 0)),
+    ]))
     blocks.append(Block("p", "Times are per call of the method alone. \"All calls\" counts every pose; "
                              "\"solved\" and \"not solved\" split them by the shared FK check. "
                              "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that failed "
@@ -195,20 +201,55 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
         blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
     blocks.append(Block("image", "Error per axis", path=analysis["images"]["errors"]))
 
-    if analysis["tests"]:
-        blocks.append(Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"))
-        blocks.append(Block("p", "p-values of scipy.stats.mannwhitneyu: per axis on |e| of the solved poses "
-                                 "of each method, and on the time of every pose; * marks p < 0.05."))
-        axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
-        by_method: dict[str, dict] = {}
-        for test in analysis["tests"]:
-            mark = "*" if test["significant"] else ""
-            by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
-        blocks.append(Block("table", header=["method", *axes_tested],
-                            rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
-                                  for label, cells in by_method.items()]))
+    blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, and "
+                                                "on the time of every pose"))
     blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
     return blocks
+
+
+def summary_table(summaries: dict[str, dict], columns) -> Block:
+    """A table with a row per method: its label, then a cell per column ``(header, key)``:
+    ``fmt(summary[key])``, or ``(header, function)``: ``function(summary)`` (text as it is, a number
+    through ``fmt``)."""
+    def cell(summary: dict, column) -> str:
+        value = column(summary) if callable(column) else summary[column]
+        return value if isinstance(value, str) else fmt(value)
+
+    return Block("table", header=["method", *(header for header, _ in columns)],
+                 rows=[[label, *(cell(summary, column) for _, column in columns)]
+                       for label, summary in summaries.items()])
+
+
+def status_blocks(study: Study, analysis: dict) -> list[Block]:
+    """The methods not applicable to the case (with why), and those whose rows are incomplete."""
+    blocks = []
+    not_applicable, rows_by_method = analysis["not_applicable"], analysis["rows"]
+    if not_applicable:
+        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
+        blocks.append(Block("list", items=[f"{label}: {why}" for label, why in not_applicable.items()]))
+    missing = [m.label for m in study.methods
+               if m.label not in rows_by_method and m.label not in not_applicable]
+    if missing:
+        blocks.append(Block("p", f"Incomplete (run interrupted; run the study again to resume): "
+                                 f"{', '.join(missing)}."))
+    return blocks
+
+
+def significance_blocks(analysis: dict, samples: str) -> list[Block]:
+    """The Mann-Whitney p-values against the baseline, a row per method (``samples``: what each
+    test compares); none without tests."""
+    if not analysis["tests"]:
+        return []
+    by_method: dict[str, dict] = {}
+    for test in analysis["tests"]:
+        mark = "*" if test["significant"] else ""
+        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
+    axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
+    return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"),
+            Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; * marks p < 0.05."),
+            Block("table", header=["method", *axes_tested],
+                  rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
+                        for label, cells in by_method.items()])]
 
 
 def _reference_angles_text(case: CaseSpec) -> str:

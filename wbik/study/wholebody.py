@@ -317,8 +317,7 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
 
 def analyse_case(study, case, output: Path) -> dict:
     """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
-    from wbik.study import figures
-    from wbik.study.report import _write_csv, case_rows
+    from wbik.study.report import case_figures, case_rows, write_case_tables
     from wbik.study.runner import _frozen, _robot
     from wbik.study.statistics import significance
     from wbik.wholebody.cases import sample_case
@@ -342,41 +341,16 @@ def analyse_case(study, case, output: Path) -> dict:
     write_raw_csv(directory / "raw.csv", rows_by_method, joint_names)
     margin = sample_case(case.scenario, study.seed, 0).problem.margin
     summaries = {label: summarize(rows, margin) for label, rows in rows_by_method.items()}
-    if summaries:
-        keys = list(next(iter(summaries.values())))
-        _write_csv(
-            directory / "summary.csv",
-            ["method", *keys],
-            [
-                [label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
-                for label, s in summaries.items()
-            ],
-        )
     baseline = study.baseline if study.baseline in rows_by_method else None
     tests = (
         (significance(baseline, rows_by_method) + com_margin_test(baseline, rows_by_method))
         if baseline
         else []
     )
-    if tests:
-        keys = list(tests[0])
-        _write_csv(
-            directory / "significance.csv",
-            keys,
-            [[repr(t[k]) if isinstance(t[k], float) else t[k] for k in keys] for t in tests],
-        )
-    images = {}
+    write_case_tables(directory, summaries, tests)
+    title, folder = f"{case.robot} {case.scenario}", directory / "figures"
+    images = case_figures(rows_by_method, summaries, title, folder, ["task", "contact"])
     if rows_by_method:
-        title = f"{case.robot} {case.scenario}"
-        folder = directory / "figures"
-        images["solved"] = figures.solved_bars(summaries, title, folder / "solved.png")
-        images["errors"] = figures.error_boxplots(
-            rows_by_method, ["task", "contact"], title, folder / "errors.png"
-        )
-        images["time"] = figures.time_boxplots(rows_by_method, title, folder / "time.png")
-        images["time_histogram"] = figures.time_histogram(
-            rows_by_method, title, folder / "time_histogram.png"
-        )
         if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
             images["com_margin"] = com_margin_boxplots(
                 rows_by_method, margin, title, folder / "com_margin.png"
@@ -396,7 +370,7 @@ def analyse_case(study, case, output: Path) -> dict:
 
 
 def case_blocks(study, analysis: dict) -> list:
-    from wbik.study.report import Block, fmt, fmt_p, frequent_reasons
+    from wbik.study.report import Block, frequent_reasons, significance_blocks, status_blocks, summary_table
     from wbik.wholebody.cases import case_sampler
 
     case = analysis["case"]
@@ -413,64 +387,26 @@ def case_blocks(study, analysis: dict) -> list:
             "contact drift within the same, CoM margin by FK against the support polygon of the "
             "support soles at the answer, joint limits.",
         ),
+        *status_blocks(study, analysis),
     ]
-    if analysis["not_applicable"]:
-        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
-        blocks.append(
-            Block(
-                "list", items=[f"{label}: {message}" for label, message in analysis["not_applicable"].items()]
-            )
-        )
-    missing = [
-        m.label
-        for m in study.methods
-        if m.label not in rows_by_method and m.label not in analysis["not_applicable"]
-    ]
-    if missing:
-        blocks.append(
-            Block("p", f"Incomplete (run interrupted; run the study again to resume): {', '.join(missing)}.")
-        )
     if not summaries:
         return blocks
     marked = {label: s["unsupported"] for label, s in summaries.items() if s["unsupported"]}
     blocks.append(Block("h3", "Cases solved, task error, contact drift, CoM margin"))
-    header = [
-        "method",
-        "solved",
-        "% solved",
-        "median task error (all calls)",
-        "median task error (solved)",
-        "max task error (solved)",
-        "max contact drift (all calls)",
-        "max contact drift (solved)",
-        "median CoM margin mm (all calls)",
-        "min CoM margin mm (all calls)",
-        f"% calls with CoM margin >= {margin * 1e3:g} mm",
-        "max limit excess (all calls)",
-        "solved without",
-    ]
-    table = []
-    for label, s in summaries.items():
-        table.append(
-            [
-                label,
-                f"{s['solved']}/{s['poses']}",
-                fmt(s["percent_solved"]),
-                fmt(s["task_error_all_median"]),
-                fmt(s["task_error_solved_median"]),
-                fmt(s["task_error_solved_max"]),
-                fmt(s["contact_drift_all_max"]),
-                fmt(s["contact_drift_solved_max"]),
-                fmt(s["com_margin_all_median"] * 1e3),
-                fmt(s["com_margin_all_min"] * 1e3),
-                fmt(s["percent_com_margin_kept_all"]),
-                fmt(s["limit_excess_all_max"]),
-                "no hard polygon"
-                if "hard CoM constraint" in s["unsupported"]
-                else ("see below" if s["unsupported"] else "-"),
-            ]
-        )
-    blocks.append(Block("table", header=header, rows=table))
+    blocks.append(summary_table(summaries, [
+        ("solved", lambda s: f"{s['solved']}/{s['poses']}"),
+        ("% solved", "percent_solved"),
+        ("median task error (all calls)", "task_error_all_median"),
+        ("median task error (solved)", "task_error_solved_median"),
+        ("max task error (solved)", "task_error_solved_max"),
+        ("max contact drift (all calls)", "contact_drift_all_max"),
+        ("max contact drift (solved)", "contact_drift_solved_max"),
+        ("median CoM margin mm (all calls)", lambda s: s["com_margin_all_median"] * 1e3),
+        ("min CoM margin mm (all calls)", lambda s: s["com_margin_all_min"] * 1e3),
+        (f"% calls with CoM margin >= {margin * 1e3:g} mm", "percent_com_margin_kept_all"),
+        ("max limit excess (all calls)", "limit_excess_all_max"),
+        ("solved without", _solved_without),
+    ]))
     blocks.append(
         Block(
             "p",
@@ -491,35 +427,15 @@ def case_blocks(study, analysis: dict) -> list:
         )
         blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
     blocks.append(Block("h3", "Time"))
-    table = [
-        [
-            label,
-            fmt(s["time_all_median_ms"]),
-            fmt(s["time_solved_median_ms"]),
-            fmt(s["time_solved_p95_ms"]),
-            fmt(s["time_unsolved_median_ms"]),
-            fmt(s["time_unsolved_max_ms"]),
-            fmt(s["iterations_median"]),
-            fmt(s["raised"]),
-        ]
-        for label, s in summaries.items()
-    ]
-    blocks.append(
-        Block(
-            "table",
-            header=[
-                "method",
-                "median ms (all calls)",
-                "median ms (solved)",
-                "p95 ms (solved)",
-                "median ms (not solved)",
-                "max ms (not solved)",
-                "median iterations (all calls)",
-                "exceptions",
-            ],
-            rows=table,
-        )
-    )
+    blocks.append(summary_table(summaries, [
+        ("median ms (all calls)", "time_all_median_ms"),
+        ("median ms (solved)", "time_solved_median_ms"),
+        ("p95 ms (solved)", "time_solved_p95_ms"),
+        ("median ms (not solved)", "time_unsolved_median_ms"),
+        ("max ms (not solved)", "time_unsolved_max_ms"),
+        ("median iterations (all calls)", "iterations_median"),
+        ("exceptions", "raised"),
+    ]))
     reasons = frequent_reasons(rows_by_method)
     if reasons:
         blocks.append(
@@ -539,32 +455,16 @@ def case_blocks(study, analysis: dict) -> list:
     ):
         if key in analysis["images"]:
             blocks.append(Block("image", caption, path=analysis["images"][key]))
-    if analysis["tests"]:
-        blocks.append(Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"))
-        blocks.append(
-            Block(
-                "p",
-                "p-values of scipy.stats.mannwhitneyu: task error and contact drift on the "
-                "solved cases of each method, time on every case, CoM margin on every case; "
-                "* marks p < 0.05.",
-            )
-        )
-        axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
-        by_method: dict[str, dict] = {}
-        for test in analysis["tests"]:
-            mark = "*" if test["significant"] else ""
-            by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
-        blocks.append(
-            Block(
-                "table",
-                header=["method", *axes_tested],
-                rows=[
-                    [label, *(cells.get(axis, "-") for axis in axes_tested)]
-                    for label, cells in by_method.items()
-                ],
-            )
-        )
+    blocks.extend(significance_blocks(analysis, "task error and contact drift on the solved cases of each "
+                                                "method, time on every case, CoM margin on every case"))
     return blocks
+
+
+def _solved_without(summary: dict) -> str:
+    """The 'solved without' cell: what the method could not express."""
+    if "hard CoM constraint" in summary["unsupported"]:
+        return "no hard polygon"
+    return "see below" if summary["unsupported"] else "-"
 
 
 STUDY_NOTE = (
