@@ -8,6 +8,7 @@ carrying it, the workers would raise UnknownMethodError.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import replace
 
@@ -120,7 +121,7 @@ def _raw_rows(output) -> dict[str, list[dict]]:
     return rows
 
 
-def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path, monkeypatch):
+def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path, request):
     """Registered inside the test (into fresh registries of this process), so a worker knows them
     only from the task; solved with 2 loky workers, the rows equal a sequential run's in this
     process, and a task without its entries fails in a fresh process."""
@@ -131,8 +132,10 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
     from wbik.study.runner import pending_tasks, solve_chunk
     from wbik.wholebody import cases, methods
 
-    monkeypatch.setattr(cases, "_SAMPLERS", cases._SAMPLERS.fresh())
-    monkeypatch.setattr(methods, "_METHODS", methods._METHODS.fresh())
+    isolated = contextlib.ExitStack()
+    request.addfinalizer(isolated.close)
+    isolated.enter_context(cases._SAMPLERS.isolated())
+    isolated.enter_context(methods._METHODS.isolated())
     sampler = cases.CaseSampler(SAMPLER, "ur5", tool_reach, "test only: the UR5's tool to a random point")
     method = methods.WholeBodyMethod(METHOD, _user_qp(), "test only: our QP defined in a test")
     cases.register_sampler(sampler)

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 
@@ -55,13 +56,11 @@ EXPECTED_KINDS = {
 
 
 @pytest.fixture
-def fresh_registry(monkeypatch):
-    """An empty registry over the given module list (the real one is restored afterwards)."""
-
-    def make(modules: list[str]) -> None:
-        monkeypatch.setattr(registry, "_REGISTRY", registry._REGISTRY.fresh(modules))
-
-    return make
+def fresh_registry():
+    """The registry emptied, over the given module list, until the test ends (what it held is
+    restored afterwards: DeclaredRegistry.isolated)."""
+    with contextlib.ExitStack() as stack:
+        yield lambda modules: stack.enter_context(registry._REGISTRY.isolated(modules))
 
 
 # -- registration ------------------------------------------------------------------------------------

@@ -4,6 +4,7 @@ registers its own; and the whole-body core names no seed robot."""
 
 from __future__ import annotations
 
+import contextlib
 import re
 import textwrap
 import zlib
@@ -38,6 +39,14 @@ def modules(tmp_path, monkeypatch):
     return write
 
 
+@pytest.fixture
+def isolate():
+    """``isolate(registry, modules=None)``: the registry with nothing loaded, listing ``modules``,
+    until the test ends (DeclaredRegistry.isolated); returns it."""
+    with contextlib.ExitStack() as stack:
+        yield lambda registry, modules=None: stack.enter_context(registry.isolated(modules))
+
+
 def _sampler_module(name: str) -> str:
     return f"""
         from wbik.wholebody.cases import CaseSampler
@@ -56,22 +65,20 @@ def test_the_shipped_samplers_come_from_their_applications():
     assert all(s.description for s in samplers.values())
 
 
-def test_a_listed_sampler_module_that_fails_to_import_is_an_error_naming_it(modules, monkeypatch):
+def test_a_listed_sampler_module_that_fails_to_import_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_broken_cases="import wbik_test_no_such_dependency  # noqa: F401\n")
-    fresh = cases._SAMPLERS.fresh([*cases.CASE_MODULES, "wbik_test_broken_cases"])
-    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    fresh = isolate(cases._SAMPLERS, [*cases.CASE_MODULES, "wbik_test_broken_cases"])
     with pytest.raises(RegistryImportError, match="wbik_test_broken_cases") as error:
         sample_case("bioloid_com_shift", 1, 0)  # never skipped, even for a sampler of another module
     assert "wbik_test_no_such_dependency" in str(error.value) and "CASE_MODULES" in str(error.value)
-    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
-    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    fresh = isolate(cases._SAMPLERS, cases.CASE_MODULES)
     with pytest.raises(RegistryImportError, match="wbik_test_not_a_module"):
         cases.register_sampler_module("wbik_test_not_a_module")
     assert fresh.modules == cases.CASE_MODULES  # not added
     assert "bioloid_com_shift" in case_samplers()
 
 
-def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(modules, monkeypatch):
+def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_no_cases="X = 1\n", wbik_test_taken=_sampler_module("bioloid_com_shift"),
             wbik_test_twice="""
                 from wbik.wholebody.cases import CaseSampler
@@ -81,19 +88,17 @@ def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(mo
                             ("wbik_test_taken", "'bioloid_com_shift' of wbik_test_taken is already "
                                                 "registered \\(by wbik.apps.bioloid.wholebody_cases\\)"),
                             ("wbik_test_twice", "declares the whole-body case sampler\\(s\\) twice twice")]:
-        fresh = cases._SAMPLERS.fresh([*cases.CASE_MODULES, module])
-        monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+        isolate(cases._SAMPLERS, [*cases.CASE_MODULES, module])
         with pytest.raises(RegistryError, match=message):
             case_samplers()
 
 
-def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(monkeypatch, tmp_path):
+def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(isolate, tmp_path):
     """A sampler on the UR5 (no application of the core's): its stream is default_rng([seed,
     crc32(name), index]) whoever draws the case; the study runs it like a shipped one."""
     from wbik.models import load
 
-    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
-    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    isolate(cases._SAMPLERS, cases.CASE_MODULES)
     robot = load("ur5")
     drawn = []
 
@@ -134,11 +139,10 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(m
 
 
 # -- methods ----------------------------------------------------------------------------------------------
-def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(monkeypatch):
+def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate):
     assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.apps.bioloid.thesis_legs"]
     assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "thesis_legs"}
-    fresh = methods._METHODS.fresh()
-    monkeypatch.setattr(methods, "_METHODS", fresh)
+    isolate(methods._METHODS)
 
     class Mine(QPWholeBody):
         name = "mine"
@@ -156,10 +160,9 @@ def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(monkeyp
         wholebody_solver("qp2", load("ur5"))
 
 
-def test_a_listed_method_module_that_fails_to_import_is_an_error_naming_it(modules, monkeypatch):
+def test_a_listed_method_module_that_fails_to_import_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_broken_methods="raise ImportError('libfoo is missing')\n")
-    fresh = methods._METHODS.fresh([*methods.METHOD_MODULES, "wbik_test_broken_methods"])
-    monkeypatch.setattr(methods, "_METHODS", fresh)
+    isolate(methods._METHODS, [*methods.METHOD_MODULES, "wbik_test_broken_methods"])
     with pytest.raises(RegistryImportError, match="wbik_test_broken_methods.*libfoo is missing"):
         wbik.wholebody.wholebody_methods()
 
@@ -180,14 +183,13 @@ def test_the_whole_body_core_names_no_seed_robot():
 
 
 # -- what a fresh process lacks ----------------------------------------------------------------------------
-def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, monkeypatch):
+def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, isolate):
     """A fresh process imports the modules listed when the registry was made: entries of register()
     and of a module added by register_module() (or appended to the list later) are carried, the
     listed modules' are not, nor is a name nobody registered."""
     modules(wbik_test_user_cases=_sampler_module("user_module_sampler"),
             wbik_test_appended_cases=_sampler_module("appended_sampler"))
-    fresh = cases._SAMPLERS.fresh(cases.CASE_MODULES)
-    monkeypatch.setattr(cases, "_SAMPLERS", fresh)
+    fresh = isolate(cases._SAMPLERS, cases.CASE_MODULES)
     mine = CaseSampler("mine", "ur5", print)
     register_sampler(mine)
     cases.register_sampler_module("wbik_test_user_cases")
@@ -203,13 +205,13 @@ def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, monk
     assert cases.sampler_added_at_run_time("bioloid_com_shift") is replacement
 
 
-def test_the_facade_registers_samplers_and_methods_next_to_register(monkeypatch):
+def test_the_facade_registers_samplers_and_methods_next_to_register(isolate):
     """wbik.register_sampler / wbik.register_wholebody_method are the registries' own functions,
     and what they register is what the whole-body API and the study find."""
     import wbik
 
-    monkeypatch.setattr(cases, "_SAMPLERS", cases._SAMPLERS.fresh())
-    monkeypatch.setattr(methods, "_METHODS", methods._METHODS.fresh())
+    isolate(cases._SAMPLERS)
+    isolate(methods._METHODS)
     assert wbik.register_sampler is cases.register_sampler and wbik.CaseSampler is CaseSampler
     assert wbik.register_wholebody_method is methods.register_wholebody_method
     assert wbik.WholeBodyMethod is WholeBodyMethod and wbik.WholeBodyCase is WholeBodyCase
@@ -224,3 +226,17 @@ def test_the_facade_registers_samplers_and_methods_next_to_register(monkeypatch)
     assert isinstance(wbik.wholebody_solver("facade_qp", "ur5"), Facade)
     assert case_samplers()["facade_cases"].description == "via the facade"
     assert methods.method_added_at_run_time("facade_qp") is not None  # carried to study workers
+
+
+def test_an_isolated_registry_gives_back_what_it_held():
+    """DeclaredRegistry.isolated: inside, nothing loaded and only the given modules; the module's
+    functions (bound to the registry) see that; afterwards the entries, list and origins are back."""
+    before = dict(case_samplers())
+    mine = CaseSampler("isolated_only", "ur5", print)
+    with cases._SAMPLERS.isolated([]) as isolated:
+        assert isolated is cases._SAMPLERS and case_samplers() == {} and isolated.modules == []
+        register_sampler(mine)
+        assert case_samplers() == {"isolated_only": mine}
+    assert case_samplers() == before and "isolated_only" not in case_samplers()
+    assert cases._SAMPLERS.modules is cases.CASE_MODULES
+    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None

@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import importlib
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Generic, Protocol, TypeVar
 
 from wbik.errors import UnknownNameError, WbikError
@@ -86,6 +87,24 @@ class DeclaredRegistry(Generic[Entry]):
         one's list); for tests and for trying a list of modules without touching this registry."""
         return DeclaredRegistry(self.what, self.attribute, list(self.modules if modules is None else modules),
                                 self.listed_in, self.entry_type, self.unknown, self.error, self.import_error)
+
+    @contextmanager
+    def isolated(self, modules: list[str] | None = None) -> Iterator[DeclaredRegistry[Entry]]:
+        """This registry with nothing loaded, listing ``modules`` (default: a copy of its list), for
+        the time of the block; what it held is back afterwards. For tests and for trying a list of
+        modules: the functions made from its methods (``register_sampler = _SAMPLERS.register``)
+        see the isolated state."""
+        with self._lock:
+            saved = (self.modules, self._declared_by_default, self._entries, self._origins, self._loaded)
+            self.modules = list(self.modules if modules is None else modules)
+            self._declared_by_default = frozenset(self.modules)
+            self._entries, self._origins, self._loaded = {}, {}, set()
+        try:
+            yield self
+        finally:
+            with self._lock:
+                (self.modules, self._declared_by_default, self._entries, self._origins,
+                 self._loaded) = saved
 
     def entries(self) -> dict[str, Entry]:
         """Every entry by name (the listed modules imported on first use)."""

@@ -191,26 +191,16 @@ _REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
 )
 
 
-def scenario_kinds() -> dict[str, ScenarioKind]:
-    """Every registered kind by name (the modules of ``KIND_MODULES`` imported on first use)."""
-    return _REGISTRY.entries()
+scenario_kinds = _REGISTRY.entries
+"""Every registered kind by name (the modules of ``KIND_MODULES`` imported on first use)."""
+scenario_kind = _REGISTRY.get
+"""The kind called ``name`` (a ScenarioValueError listing the kinds if there is none)."""
+register_kind = _REGISTRY.register
+"""Add a kind from user code (``replace`` an existing one of that name only when asked)."""
+register_module = _REGISTRY.register_module
+"""Add a module of kinds (its ``SCENARIO_KINDS``) by name; it is imported now (an error if it cannot
+be, and then it is not added)."""
 
 
 def kind_names() -> list[str]:
     return sorted(scenario_kinds())
-
-
-def scenario_kind(name: str) -> ScenarioKind:
-    """The kind called ``name`` (a ScenarioValueError listing the kinds if there is none)."""
-    return _REGISTRY.get(name)
-
-
-def register_kind(kind: ScenarioKind, replace: bool = False) -> None:
-    """Add a kind from user code (``replace`` an existing one of that name only when asked)."""
-    _REGISTRY.register(kind, replace)
-
-
-def register_module(module_name: str) -> None:
-    """Add a module of kinds (its ``SCENARIO_KINDS``) by name; it is imported now (an error if it
-    cannot be, and then it is not added)."""
-    _REGISTRY.register_module(module_name)

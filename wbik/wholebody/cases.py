@@ -81,32 +81,19 @@ def cached_robot(name: str) -> Robot:
     return load(name)
 
 
-def case_samplers() -> dict[str, CaseSampler]:
-    """Every registered sampler by name."""
-    return _SAMPLERS.entries()
-
-
-def case_sampler(name: str) -> CaseSampler:
-    """The sampler called ``name`` (an UnknownNameError listing the samplers if there is none)."""
-    return _SAMPLERS.get(name)
+case_samplers = _SAMPLERS.entries
+"""Every registered sampler by name."""
+case_sampler = _SAMPLERS.get
+"""The sampler called ``name`` (an UnknownNameError listing the samplers if there is none)."""
+register_sampler = _SAMPLERS.register
+"""Add a sampler from user code (``replace`` one of the same name only when asked)."""
+register_sampler_module = _SAMPLERS.register_module
+"""Add the ``WHOLEBODY_CASES`` of a module, by its name (imported now)."""
+sampler_added_at_run_time = _SAMPLERS.added_at_run_time
+"""The sampler ``name`` when user code added it (a fresh process, such as a study worker, does not
+have it: the study's task carries it there); None for one a module of CASE_MODULES declares."""
 
 
 def sample_case(name: str, seed: int, index: int) -> WholeBodyCase:
     """Case ``index`` of sampler ``name`` for ``seed`` (see the module docstring)."""
     return case_sampler(name).sample(case_rng(name, seed, index), int(index))
-
-
-def register_sampler(sampler: CaseSampler, replace: bool = False) -> None:
-    """Add a sampler from user code (``replace`` one of the same name only when asked)."""
-    _SAMPLERS.register(sampler, replace)
-
-
-def register_sampler_module(module_name: str) -> None:
-    """Add the ``WHOLEBODY_CASES`` of a module, by its name (imported now)."""
-    _SAMPLERS.register_module(module_name)
-
-
-def sampler_added_at_run_time(name: str) -> CaseSampler | None:
-    """The sampler ``name`` when user code added it (a fresh process, such as a study worker, does
-    not have it: the study's task carries it there); None for one a module of CASE_MODULES declares."""
-    return _SAMPLERS.added_at_run_time(name)

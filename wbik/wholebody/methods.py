@@ -64,20 +64,13 @@ def wholebody_methods() -> dict[str, str]:
     return {name: method.description for name, method in sorted(_METHODS.entries().items())}
 
 
-def register_wholebody_method(method: WholeBodyMethod, replace: bool = False) -> None:
-    """Add a method from user code (``replace`` one of the same name only when asked)."""
-    _METHODS.register(method, replace)
-
-
-def register_wholebody_module(module_name: str) -> None:
-    """Add the ``WHOLEBODY_METHODS`` of a module, by its name (imported now)."""
-    _METHODS.register_module(module_name)
-
-
-def method_added_at_run_time(name: str) -> WholeBodyMethod | None:
-    """The method ``name`` when user code added it (a fresh process, such as a study worker, does
-    not have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
-    return _METHODS.added_at_run_time(name)
+register_wholebody_method = _METHODS.register
+"""Add a method from user code (``replace`` one of the same name only when asked)."""
+register_wholebody_module = _METHODS.register_module
+"""Add the ``WHOLEBODY_METHODS`` of a module, by its name (imported now)."""
+method_added_at_run_time = _METHODS.added_at_run_time
+"""The method ``name`` when user code added it (a fresh process, such as a study worker, does not
+have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
 
 
 def _factory(method: str) -> type[WholeBodySolver]:
