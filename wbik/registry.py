@@ -82,12 +82,6 @@ class DeclaredRegistry(Generic[Entry]):
         self._loaded: set[str] = set()
         self._lock = threading.RLock()
 
-    def fresh(self, modules: list[str] | None = None) -> DeclaredRegistry[Entry]:
-        """A registry like this one with nothing loaded, listing ``modules`` (default: a copy of this
-        one's list); for tests and for trying a list of modules without touching this registry."""
-        return DeclaredRegistry(self.what, self.attribute, list(self.modules if modules is None else modules),
-                                self.listed_in, self.entry_type, self.unknown, self.error, self.import_error)
-
     @contextmanager
     def isolated(self, modules: list[str] | None = None) -> Iterator[DeclaredRegistry[Entry]]:
         """This registry with nothing loaded, listing ``modules`` (default: a copy of its list), for
