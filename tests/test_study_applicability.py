@@ -109,3 +109,32 @@ def test_a_method_that_raises_while_solving_applies_and_its_rows_say_what_it_rai
     assert all(str(reason).startswith("raised RuntimeError: a bug in the method")
                for reason in rows["reason"])
     assert "fails_every_solve: could not start" not in (run / "report.md").read_text()
+
+
+@pytest.mark.parametrize("robot_name, chain_name", [("ur5", "arm"), ("arm3r", "arm")])
+def test_check_target_kind_refuses_exactly_what_solve_refuses(robot_name, chain_name):
+    """The capability query the study asks agrees with solve() on both target kinds, for every
+    method that can be built on the chain."""
+    import wbik
+    from wbik.errors import MissingDependencyError, UnsupportedError
+
+    robot = wbik.load(robot_name)
+    chain = robot.chain(chain_name)
+    pose = chain.fk(chain.nominal)
+    for method in set(wbik.methods()) - set(METHODS):  # the built-in ones (this module registers others)
+        try:
+            solver = wbik.solver(method, robot, chain=chain_name, timeout_s=0.005)
+        except (UnsupportedError, MissingDependencyError):
+            continue
+        for kind, target in (("pose", pose), ("position", pose.translation)):
+            try:
+                solver.check_target_kind(kind)
+                refused_by_query = None
+            except UnsupportedError as error:
+                refused_by_query = str(error)
+            try:
+                solver.solve(target)
+                refused_by_solve = None
+            except UnsupportedError as error:
+                refused_by_solve = str(error)
+            assert refused_by_query == refused_by_solve, (method, kind)

@@ -301,11 +301,16 @@ class Solver(PerThreadState):
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         raise NotImplementedError
 
-    def _check_target_kind(self, target: Target) -> None:
-        if target.is_pose and not self.supports_pose:
+    def check_target_kind(self, kind: str) -> None:
+        """UnsupportedError, saying why, if this solver cannot take ``kind`` ("pose" or "position")
+        targets on its chain (the study asks this before solving a case)."""
+        if kind == "pose" and not self.supports_pose:
             raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} takes position targets only")
-        if not target.is_pose and not self.supports_position_only:
+        if kind == "position" and not self.supports_position_only:
             raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} needs a full pose target")
+
+    def _check_target_kind(self, target: Target) -> None:
+        self.check_target_kind("pose" if target.is_pose else "position")
 
     def _batch_starts(self, q0s, count: int) -> list[np.ndarray | None]:
         if q0s is None:

@@ -203,8 +203,8 @@ class EAIKSolver(Solver):
         """This thread's EAIK robot (built from the cached structure)."""
         return _import_eaik()(self.structure.H, self.structure.P)
 
-    def _check_target_kind(self, target: Target) -> None:
-        if not target.is_pose:
+    def check_target_kind(self, kind: str) -> None:
+        if kind != "pose":
             raise UnsupportedError(
                 f"method 'eaik' on {self.robot.name}.{self.chain.name} needs a full pose target: EAIK "
                 "1.2.2 solves full poses only (no position-only mode)")

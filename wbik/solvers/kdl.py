@@ -124,8 +124,8 @@ class KDLSolver(Solver):
         return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
                                q_out=kdl.JntArray(self.chain.nq))
 
-    def _check_target_kind(self, target: Target) -> None:
-        if not target.is_pose:
+    def check_target_kind(self, kind: str) -> None:
+        if kind != "pose":
             raise UnsupportedError(
                 f"method {self.name!r} needs a full pose target: KDL NR_JL has no position-only mode "
                 "(and PyKDL's weighted solvers crash under numpy 2); use bounded_lm, dls or newton")

@@ -73,8 +73,8 @@ class TracIKSolver(Solver):
         self.pytracik.set_joint_limits(solver, chain_.lower.tolist(), chain_.upper.tolist())
         return solver
 
-    def _check_target_kind(self, target: Target) -> None:
-        if not target.is_pose:
+    def check_target_kind(self, kind: str) -> None:
+        if kind != "pose":
             raise UnsupportedError(
                 "method 'trac_ik' needs a full pose target: TRAC-IK's position-only mode (its bounds "
                 "argument) is not exposed by pytracik 0.0.3; use bounded_lm, dls or newton")

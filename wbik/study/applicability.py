@@ -7,9 +7,9 @@ A method is *not applicable* to a case, with its own message, when
    installed). A :class:`~wbik.qp.backends.BackendUnavailableError` is not that: a QP backend the
    study file names but that is not installed is a mistake in the file, and propagates;
 2. a chain method refuses the case's target kind: its capability query
-   ``solver.check_target_kind(kind)`` ("pose" or "position") raises UnsupportedError. A solver
-   without that query is asked the typed way it can answer today: its UnsupportedError on the case's
-   first target (``Solver.solve`` raises it for a target kind or a chain the method cannot take);
+   ``solver.check_target_kind(kind)`` ("pose" or "position") raises UnsupportedError (every
+   :class:`~wbik.solvers.base.Solver` has it; ``analytic`` also refuses a kind its robot declares no
+   closed form of);
 3. a whole-body method's query ``solver.cannot_express(problem, q0)`` on the case's first problem
    gives the reason it cannot take it (goal tasks it has no way to state); the text is the method's.
 
@@ -62,20 +62,10 @@ def _build(task: ChunkTask):
 
 def _target_kind_refusal(task: ChunkTask, solver) -> str | None:
     """The solver's refusal of the case's target kind (see the module docstring, 2)."""
-    kind = "position" if task.rotations is None else "pose"
-    query = getattr(solver, "check_target_kind", None)
     try:
-        if callable(query):
-            query(kind)
-        else:  # typed fallback while Solver has no capability query: its refusal of the first target
-            from wbik.targets import Target
-
-            solver.solve(Target(task.positions[0], None if task.rotations is None else task.rotations[0]),
-                         task.q0[0])
+        solver.check_target_kind("position" if task.rotations is None else "pose")
     except UnsupportedError as exc:
         return str(exc)
-    except Exception:  # noqa: BLE001 - a failing solve is not a refusal: the chunk records it in its row
-        return None
     return None
 
 

@@ -323,6 +323,11 @@ class AnalyticSolver(Solver):
         self.revolute = ~self.chain.is_prismatic
         self._lower, self._upper = self.chain.lower.tolist(), self.chain.upper.tolist()
 
+    def check_target_kind(self, kind: str) -> None:
+        """Also an UnsupportedError when the robot declares no closed form of this kind for the chain."""
+        super().check_target_kind(kind)
+        self.closed_form(kind)
+
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
             self._forms[kind] = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
