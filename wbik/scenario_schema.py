@@ -153,11 +153,17 @@ class Boolean(Node):
 
 
 class Text(Node):
+    """A string, one of ``choices`` when given (a tuple, or a function giving it); ``what`` says what
+    it is in messages (a subclass's class attribute, unless given)."""
+
+    what: str = "a string"
+
     def __init__(self, choices: tuple | Callable[[], tuple] | None = None, nullable: bool = False,
-                 what: str = "a string"):
+                 what: str | None = None):
         self._choices = choices
         self.nullable = nullable
-        self.what = what
+        if what is not None:
+            self.what = what
 
     @property
     def choices(self) -> tuple | None:
@@ -380,8 +386,10 @@ class Variants(Node):
 class Robot(Text):
     """A built-in robot name or a .urdf path; ``only`` restricts a kind to some robots."""
 
+    what = "a built-in robot name or the path of a .urdf file"
+
     def __init__(self, only: tuple[str, ...] | None = None):
-        super().__init__(what="a built-in robot name or the path of a .urdf file")
+        super().__init__()
         self.only = only
 
     def check(self, value, path, ctx):
@@ -406,8 +414,7 @@ class Robot(Text):
 class Backend(Text):
     """A QP backend name: a known one ('fastest', 'default' or BACKEND_OPTIONS) that is installed."""
 
-    def __init__(self):
-        super().__init__(what="a QP backend name")
+    what = "a QP backend name"
 
     def check(self, value, path, ctx):
         from wbik.qp.backends import BACKEND_OPTIONS, available, resolve
@@ -427,8 +434,7 @@ class Backend(Text):
 class Method(Text):
     """A registered IK method (``wbik methods``)."""
 
-    def __init__(self):
-        super().__init__(what="an IK method name ('wbik methods' lists them)")
+    what = "an IK method name ('wbik methods' lists them)"
 
     def check(self, value, path, ctx):
         from wbik.solvers.base import methods
