@@ -159,8 +159,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
         return blocks
     blocks.append(Block("h3", "Poses solved and time"))
     blocks.append(summary_table(summaries, [
-        ("solved", lambda s: f"{s['solved']}/{s['poses']}"),
-        ("% solved", "percent_solved"),
+        *SOLVED_COLUMNS,
         ("median ms (all calls)", "time_all_median_ms"),
         ("median ms (solved)", "time_solved_median_ms"),
         ("p95 ms (solved)", "time_solved_p95_ms"),
@@ -205,6 +204,10 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
                                                 "on the time of every pose"))
     blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
     return blocks
+
+
+SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved")]
+"""The first columns of every case's table (:func:`summary_table`): solved of all, and in %."""
 
 
 def summary_table(summaries: dict[str, dict], columns) -> Block:

@@ -370,7 +370,14 @@ def analyse_case(study, case, output: Path) -> dict:
 
 
 def case_blocks(study, analysis: dict) -> list:
-    from wbik.study.report import Block, frequent_reasons, significance_blocks, status_blocks, summary_table
+    from wbik.study.report import (
+        SOLVED_COLUMNS,
+        Block,
+        frequent_reasons,
+        significance_blocks,
+        status_blocks,
+        summary_table,
+    )
     from wbik.wholebody.cases import case_sampler
 
     case = analysis["case"]
@@ -394,8 +401,7 @@ def case_blocks(study, analysis: dict) -> list:
     marked = {label: s["unsupported"] for label, s in summaries.items() if s["unsupported"]}
     blocks.append(Block("h3", "Cases solved, task error, contact drift, CoM margin"))
     blocks.append(summary_table(summaries, [
-        ("solved", lambda s: f"{s['solved']}/{s['poses']}"),
-        ("% solved", "percent_solved"),
+        *SOLVED_COLUMNS,
         ("median task error (all calls)", "task_error_all_median"),
         ("median task error (solved)", "task_error_solved_median"),
         ("max task error (solved)", "task_error_solved_max"),

@@ -91,11 +91,17 @@ FAITHFUL_RULES = {
 """The faithful step: the double-support mismatch it must show (a closed chain would have none),
 the CoM margin in the planted soles, the lifted sole's lowest corner above the floor, joint limits."""
 
-WHOLEBODY_RULES = {
+SAMPLE_RULES = {
     "contact_error_max_m": Rule("max_contact_error_m", "<=", "m"),
     "contact_error_max_rad": Rule("max_contact_error_rad", "<=", "rad"),
     "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
     "limit_excess_max_rad": Rule("max_limit_excess_rad", "<=", "rad"),
+}
+"""Every sample of a whole-body behaviour by FK: contacts held, the CoM margin, joint limits (the
+figures :func:`sample_guarantees` bounds by default)."""
+
+WHOLEBODY_RULES = {
+    **SAMPLE_RULES,
     "velocity_ratio_max": Rule("peak_velocity_over_limit", "<="),
     "servo_clamp_max_rad": Rule("max_servo_clamp_rad", "<=", "rad"),
 }
@@ -383,10 +389,7 @@ def scenario_path(name: str) -> Path:
 
 STAIR_RULES = {
     "reached_top": Rule("reached_top", "=="),
-    "contact_error_max_m": Rule("max_contact_error_m", "<=", "m"),
-    "contact_error_max_rad": Rule("max_contact_error_rad", "<=", "rad"),
-    "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
-    "limit_excess_max_rad": Rule("max_limit_excess_rad", "<=", "rad"),
+    **SAMPLE_RULES,
     "clearance_min_m": Rule("min_clearance_m", ">=", "m"),
     "penetration_max_m": Rule("max_penetration_m", "<=", "m"),
 }
