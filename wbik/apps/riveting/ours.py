@@ -327,20 +327,17 @@ class QPPlanner(Planner):
             approach, insert = blended
             moves = [approach, insert, dwell(TRIGGER, insertion[-1], self.insertion.trigger_s),
                      backward(insert, "retract", fine=True), backward(approach, "to rivet_home")]
-            info.update({"route": f"blended {'joint line' if route.retreat == 0.0 else 'via retreat'} "
-                                  f"{route.retreat * 1e3:g} mm + insertion",
-                         "roll_rad": route.roll, "line_clearance_m": worst,
-                         "planning_counts": dict(self.cost.counts)})
-            return CyclePlan(hole, moves, planning_time_s=time.perf_counter() - started,
-                             planning_cost_s=self.cost.seconds, info=info)
-        moves = [approach,
-                 self._timed("insert", insertion, fine=True),
-                 dwell(TRIGGER, insertion[-1], self.insertion.trigger_s),
-                 self._timed("retract", insertion[::-1], fine=True),
-                 self._timed("to rivet_home", approach_knots_back(approach, route, name))]
-        unblended = "joint line" if route.retreat == 0.0 else f"via retreat {route.retreat * 1e3:g} mm"
-        info.update({"route": name if name != "route search" else unblended,
-                     "roll_rad": route.roll, "line_clearance_m": worst,
+            described = (f"blended {'joint line' if route.retreat == 0.0 else 'via retreat'} "
+                         f"{route.retreat * 1e3:g} mm + insertion")
+        else:
+            moves = [approach,
+                     self._timed("insert", insertion, fine=True),
+                     dwell(TRIGGER, insertion[-1], self.insertion.trigger_s),
+                     self._timed("retract", insertion[::-1], fine=True),
+                     self._timed("to rivet_home", approach_knots_back(approach, route, name))]
+            unblended = "joint line" if route.retreat == 0.0 else f"via retreat {route.retreat * 1e3:g} mm"
+            described = name if name != "route search" else unblended
+        info.update({"route": described, "roll_rad": route.roll, "line_clearance_m": worst,
                      "planning_counts": dict(self.cost.counts)})
         return CyclePlan(hole, moves, planning_time_s=time.perf_counter() - started,
                          planning_cost_s=self.cost.seconds, info=info)
