@@ -49,11 +49,15 @@ def kinematic_urdf_path(robot: Robot) -> Path:
     return _kinematic_urdf(robot.name, robot.urdf_text)
 
 
-def placo_robot(robot: Robot, q: np.ndarray | None = None):
-    """A placo.RobotWrapper of the robot at configuration q (default: nominal), base pose included."""
+def placo_robot(robot: Robot, q: np.ndarray | None = None, humanoid_urdf: Path | None = None):
+    """A PlaCo model of the robot at configuration q (default: nominal), base pose included: a
+    placo.RobotWrapper of its kinematic URDF, or with ``humanoid_urdf`` a placo.HumanoidRobot of that
+    URDF (the robot's, with the frames PlaCo's humanoid looks for)."""
     placo = import_placo()
+    model, path = ((placo.RobotWrapper, kinematic_urdf_path(robot)) if humanoid_urdf is None
+                   else (placo.HumanoidRobot, humanoid_urdf))
     try:
-        wrapper = placo.RobotWrapper(str(kinematic_urdf_path(robot)), placo.Flags.ignore_collisions)
+        wrapper = model(str(path), placo.Flags.ignore_collisions)
     except RuntimeError as exc:
         raise RobotDescriptionError(f"PlaCo cannot load {robot.name!r}: {exc}") from exc
     set_placo_configuration(robot, wrapper, robot.nominal if q is None else q)

@@ -33,27 +33,19 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
     """PlaCo's walk of ``steps`` steps as a :class:`wbik.viz.animation.Animation` (see the module
     docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
-    from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE, placo_humanoid_urdf, plan_footsteps
-    from wbik.solvers.placo import import_placo, placo_configuration, set_placo_configuration
+    from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE, plan_walk
+    from wbik.solvers.placo import import_placo, placo_configuration
     from wbik.viz.animation import Animation, Overlays
 
-    placo = import_placo()
-    humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
-    set_placo_configuration(robot, humanoid, robot.nominal)
-    humanoid.update_kinematics()
-    parameters, footsteps = plan_footsteps(placo, robot, humanoid, steps, step_length, margin,
-                                           single_support_s)
+    humanoid, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
     planned_x = [float(step.frame[0, 3]) for step in footsteps]
     if footstep_x is not None and (len(planned_x) != len(footstep_x)
                                    or not np.allclose(planned_x, footstep_x, atol=1e-9)):
         raise InvalidConfigurationError(
             f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
             "wbik.apps.bioloid.placo_view no longer mirrors wbik.apps.bioloid.placo_walk")
-    supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
-    trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, humanoid.com_world(), 0.0)
-
     solver = humanoid.make_solver()
-    tasks = placo.WalkTasks()
+    tasks = import_placo().WalkTasks()
     tasks.initialize_tasks(solver, humanoid)
     times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
     rows, support = [], []

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.errors import RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot, write_cached_urdf
 from wbik.robot_packages.bioloid.model import BioloidFacts
@@ -50,11 +51,16 @@ def _foot_polygon(transform: np.ndarray, corners: np.ndarray) -> np.ndarray:
     return (corners @ transform[:3, :3].T + transform[:3, 3])[:, :2]
 
 
-def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float, margin: float,
-                   single_support_s: float):
-    """PlaCo's walk parameters for the Bioloid and its naive footstep plan of ``steps`` steps straight
-    ahead from the standing ``humanoid``: (parameters, footsteps). Shared by the walk's report and
-    its animation (wbik.apps.bioloid.placo_view), so both see the same plan."""
+def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
+    """PlaCo's humanoid standing at the nominal configuration, PlaCo's walk parameters for the
+    Bioloid, its naive footstep plan of ``steps`` steps straight ahead and the walk pattern
+    generator's trajectory: (humanoid, parameters, footsteps, trajectory). Shared by the walk's
+    report and its animation (wbik.apps.bioloid.placo_view), so both see the same plan; a
+    RobotDescriptionError when PlaCo cannot load the humanoid."""
+    from wbik.solvers.placo import import_placo, placo_robot
+
+    placo = import_placo()
+    humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
     facts = robot.require_facts(BioloidFacts, "PlaCo's Bioloid walk")
     parameters = placo.HumanoidParameters()
     parameters.single_support_duration = single_support_s
@@ -76,26 +82,19 @@ def plan_footsteps(placo, robot: Robot, humanoid, steps: int, step_length: float
     goal_right[0, 3] += steps * step_length
     planner = placo.FootstepsPlannerNaive(parameters)
     planner.configure(goal_left, goal_right)
-    return parameters, planner.plan(placo.HumanoidRobot_Side.left, left, right)
+    footsteps = planner.plan(placo.HumanoidRobot_Side.left, left, right)
+    supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
+    trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, humanoid.com_world(), 0.0)
+    return humanoid, parameters, footsteps, trajectory
 
 
 def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
                single_support_s: float = 0.5, dt: float = 0.01) -> dict:
     """Plan a straight walk with PlaCo and measure it (see the module docstring)."""
-    from wbik.solvers.placo import import_placo, set_placo_configuration
-
-    placo = import_placo()
     try:
-        humanoid = placo.HumanoidRobot(str(placo_humanoid_urdf(robot)), placo.Flags.ignore_collisions)
-    except RuntimeError as exc:
+        _, parameters, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
+    except RobotDescriptionError as exc:
         return {"planned": False, "reason": f"PlaCo cannot load the humanoid: {exc}"}
-    set_placo_configuration(robot, humanoid, robot.nominal)
-    humanoid.update_kinematics()
-    parameters, footsteps = plan_footsteps(placo, robot, humanoid, steps, step_length, margin,
-                                           single_support_s)
-    supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
-    generator = placo.WalkPatternGenerator(humanoid, parameters)
-    trajectory = generator.plan(supports, humanoid.com_world(), 0.0)
 
     xs = [float(step.frame[0, 3]) for step in footsteps]
     sides = [str(step.side) for step in footsteps]
