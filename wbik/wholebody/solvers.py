@@ -326,7 +326,18 @@ def _weights(task: Task) -> tuple[float, float]:
     weight = np.asarray(task.weight, dtype=float)
     if isinstance(task, FrameTask | RelativeFrameTask):
         return float(np.max(weight[:3])), float(np.max(weight[3:]))
-    return (float(np.max(weight)) if weight.size else 1.0), 0.0
+    return _largest_weight(task, 1.0), 0.0
+
+
+def _largest_weight(task: Task, default: float) -> float:
+    """The largest of a task's per-row weights (``default`` for a task without rows)."""
+    weight = np.asarray(task.weight, dtype=float)
+    return float(np.max(weight)) if weight.size else default
+
+
+def _axes(task: Task) -> str:
+    """The axes a position or CoM task holds, as PlaCo's masks name them ("xz", ...)."""
+    return "".join("xyz"[i] for i in task.rows)
 
 
 class PlacoWholeBody(WholeBodySolver):
@@ -401,17 +412,17 @@ class PlacoWholeBody(WholeBodySolver):
     def _add_task(self, solver, wrapper, task: Task, index: int, q0: np.ndarray) -> None:
         label = f"task_{index}"
         position_weight, orientation_weight = _weights(task)
-        if isinstance(task, FrameTask):
-            placo_task = solver.add_frame_task(task.frame, task.target.homogeneous)
-            placo_task.configure(label, "soft", position_weight, orientation_weight)
-        elif isinstance(task, RelativeFrameTask):
-            placo_task = solver.add_relative_frame_task(
-                task.reference_frame, task.frame, task.target.homogeneous
-            )
+        if isinstance(task, FrameTask | RelativeFrameTask):
+            if isinstance(task, FrameTask):
+                placo_task = solver.add_frame_task(task.frame, task.target.homogeneous)
+            else:
+                placo_task = solver.add_relative_frame_task(
+                    task.reference_frame, task.frame, task.target.homogeneous
+                )
             placo_task.configure(label, "soft", position_weight, orientation_weight)
         elif isinstance(task, PositionTask):
             placo_task = solver.add_position_task(task.frame, self._full_position(task, q0))
-            placo_task.mask.set_axises("".join("xyz"[i] for i in task.rows))
+            placo_task.mask.set_axises(_axes(task))
             placo_task.configure(label, "soft", position_weight)
         elif isinstance(task, OrientationTask):
             placo_task = solver.add_orientation_task(task.frame, task.target)
@@ -419,7 +430,7 @@ class PlacoWholeBody(WholeBodySolver):
         elif isinstance(task, ComTask):
             target = task.target.copy()
             placo_task = solver.add_com_task(target)
-            placo_task.mask.set_axises("".join("xyz"[i] for i in task.rows))
+            placo_task.mask.set_axises(_axes(task))
             placo_task.configure(label, "soft", position_weight)
         elif isinstance(task, PostureTask):
             model = self.robot.model
@@ -431,9 +442,9 @@ class PlacoWholeBody(WholeBodySolver):
             }
             placo_task = solver.add_joints_task()
             placo_task.set_joints(joints)
-            placo_task.configure(label, "soft", float(np.max(task.weight)) if task.weight.size else 1e-3)
+            placo_task.configure(label, "soft", _largest_weight(task, 1e-3))
         elif isinstance(task, RegularizationTask):
-            solver.add_regularization_task(float(np.max(task.weight)) if task.weight.size else 1e-6)
+            solver.add_regularization_task(_largest_weight(task, 1e-6))
 
     def _full_position(self, task: PositionTask, q0: np.ndarray) -> np.ndarray:
         target = self.robot.frame_placement(q0, task.frame).translation.copy()
@@ -483,20 +494,13 @@ class PinkWholeBody(WholeBodySolver):
         damping = self.damping
         for task in tasks:
             position_weight, orientation_weight = _weights(task)
-            if isinstance(task, FrameTask):
-                pink_task = P.FrameTask(
-                    task.frame,
-                    position_cost=math.sqrt(position_weight),
-                    orientation_cost=math.sqrt(orientation_weight),
-                )
-                pink_task.set_target(task.target)
-            elif isinstance(task, RelativeFrameTask):
-                pink_task = P.RelativeFrameTask(
-                    task.frame,
-                    task.reference_frame,
-                    position_cost=math.sqrt(position_weight),
-                    orientation_cost=math.sqrt(orientation_weight),
-                )
+            if isinstance(task, FrameTask | RelativeFrameTask):
+                costs = {"position_cost": math.sqrt(position_weight),
+                         "orientation_cost": math.sqrt(orientation_weight)}
+                if isinstance(task, FrameTask):
+                    pink_task = P.FrameTask(task.frame, **costs)
+                else:
+                    pink_task = P.RelativeFrameTask(task.frame, task.reference_frame, **costs)
                 pink_task.set_target(task.target)
             elif isinstance(task, PositionTask):
                 cost = np.zeros(3)
@@ -520,12 +524,10 @@ class PinkWholeBody(WholeBodySolver):
                 target[task.rows] = task.target[task.rows]
                 pink_task.set_target(target)
             elif isinstance(task, PostureTask):
-                pink_task = P.PostureTask(
-                    cost=math.sqrt(float(np.max(task.weight)) if task.weight.size else 1e-3)
-                )
+                pink_task = P.PostureTask(cost=math.sqrt(_largest_weight(task, 1e-3)))
                 pink_task.set_target(task.reference)
             elif isinstance(task, RegularizationTask):
-                damping = max(damping, float(np.max(task.weight)) if task.weight.size else 0.0)
+                damping = max(damping, _largest_weight(task, 0.0))
                 continue
             else:
                 continue
