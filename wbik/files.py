@@ -1,4 +1,5 @@
-"""Durable file writes: write next to the destination, then rename into place.
+"""Durable file writes: write next to the destination, then rename into place; and the plain
+values JSON files take (:func:`json_plain`).
 
 A reader (or a resumed run) sees either the old file or the complete new one, never a partial
 write. The temporary name carries the process id, so parallel workers do not collide.
@@ -6,10 +7,30 @@ write. The temporary name carries the process id, so parallel workers do not col
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
+
+import numpy as np
+
+
+def json_plain(value, finite: bool = False):
+    """``value`` with NumPy arrays and scalars made plain Python (lists, float, int, bool), tuples
+    made lists and mapping keys strings, at any depth; with ``finite``, NaN and infinities become
+    None (strict JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {str(k): json_plain(v, finite) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_plain(v, finite) for v in value]
+    if isinstance(value, np.ndarray):
+        return json_plain(value.tolist(), finite)
+    if isinstance(value, np.generic):
+        value = value.item()
+    if finite and isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 def atomic_write_bytes(path: Path, writer: Callable[[BinaryIO], object]) -> None:

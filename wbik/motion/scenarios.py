@@ -35,6 +35,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.expectations import Rule, format_checks, judge
+from wbik.files import json_plain
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
@@ -121,7 +122,7 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
     velocity_ratio = float(np.max(np.abs(dense) / timed.velocity_limit))
     tolerance = float(spec["tolerance"])
     summary = path.summary()
-    entry = {"name": name, "path": summary, "info": _plain(path.info),
+    entry = {"name": name, "path": summary, "info": json_plain(path.info),
              "duration_s": timed.duration, "time_law": timed.law.name, "timing_mode": timed.mode,
              "max_velocity_over_limit": velocity_ratio,
              "trajectory_max_position_error": trajectory.max_position_error,
@@ -139,18 +140,6 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
     figures.update(extra_figures or {})
     defaults.update(extra_defaults or {})
     return judge_move(spec, entry, figures, defaults), trajectory
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def export_move(spec: dict, report: ScenarioReport, trajectory, animation) -> ScenarioReport:

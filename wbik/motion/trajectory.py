@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
+from wbik.files import json_plain
 from wbik.motion.path import tracking_errors
 from wbik.motion.timing import TimedPath
 
@@ -85,7 +86,7 @@ class Trajectory:
                 "tip_positions_m": self.tip_positions.tolist(),
                 "position_errors_m": [None if np.isnan(e) else float(e) for e in self.position_errors],
                 "rotation_errors_rad": [None if np.isnan(e) else float(e) for e in self.rotation_errors],
-                "summary": _json_safe(self.summary()),
+                "summary": json_plain(self.summary(), finite=True),
             },
         }
 
@@ -113,22 +114,6 @@ class Trajectory:
                                  *[f"{v:.12g}" for v in self.accelerations[index]],
                                  *[f"{v:.12g}" for v in self.tip_positions[index]], *errors])
         return path
-
-
-def _json_safe(value):
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if isinstance(value, (np.floating, float)):
-        return None if not np.isfinite(value) else float(value)
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, np.ndarray):
-        return _json_safe(value.tolist())
-    return value
 
 
 def make_trajectory(timed: TimedPath, dt: float | None = None, times=None) -> Trajectory:

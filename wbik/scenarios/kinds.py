@@ -32,6 +32,7 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError, WbikError
 from wbik.expectations import verdict
+from wbik.files import json_plain
 from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
 if TYPE_CHECKING:
@@ -131,10 +132,8 @@ def report_verdict(report: dict | ScenarioReport) -> str:
 
 def json_default(value):
     """``json.dumps(..., default=json_default)``: NumPy arrays and scalars as plain values."""
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
+    if isinstance(value, np.ndarray | np.generic):
+        return json_plain(value)
     raise TypeError(f"not JSON serialisable: {type(value)}")
 
 

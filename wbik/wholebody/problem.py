@@ -31,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError, InvalidSettingError
+from wbik.files import json_plain
 from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RelativeFrameTask, Task
@@ -270,21 +271,13 @@ class WholeBodyResult:
         """True when the method expressed the whole problem (nothing in ``unsupported``)."""
         return not self.unsupported
 
+    JSON_FIELDS = ("method", "success", "reason", "q", "task_errors", "contact_drift", "com_margin",
+                   "limit_excess", "collision_clearance", "time_s", "iterations", "unsupported")
+    """The fields :meth:`as_dict` gives."""
+
     def as_dict(self) -> dict:
-        return {
-            "method": self.method,
-            "success": self.success,
-            "reason": self.reason,
-            "q": None if self.q is None else [float(v) for v in self.q],
-            "task_errors": dict(self.task_errors),
-            "contact_drift": self.contact_drift,
-            "com_margin": self.com_margin,
-            "limit_excess": self.limit_excess,
-            "collision_clearance": self.collision_clearance,
-            "time_s": self.time_s,
-            "iterations": self.iterations,
-            "unsupported": list(self.unsupported),
-        }
+        """JSON-friendly dictionary of the ``JSON_FIELDS``."""
+        return json_plain({name: getattr(self, name) for name in self.JSON_FIELDS})
 
 
 def task_error_parts(task: Task, kinematics: Kinematics) -> tuple[float | None, float | None]:
