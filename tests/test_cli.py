@@ -92,7 +92,7 @@ def test_a_missing_subcommand_module_is_an_error_not_skipped(capsys, monkeypatch
     assert code == 3 and "wbik.commands.vanished does not exist" in err and "SUBCOMMANDS" in err
 
 
-def test_a_subcommand_module_without_add_parser_is_an_error(capsys, monkeypatch):
+def test_a_subcommand_module_without_its_declarations_is_an_error(capsys, monkeypatch):
     import sys
     import types
 
@@ -101,7 +101,7 @@ def test_a_subcommand_module_without_add_parser_is_an_error(capsys, monkeypatch)
     monkeypatch.setitem(sys.modules, "wbik.commands.hollow", types.ModuleType("wbik.commands.hollow"))
     monkeypatch.setattr(wbik.cli, "SUBCOMMANDS", (*wbik.cli.SUBCOMMANDS, "hollow"))
     code, _, err = run(["robots"], capsys)
-    assert code == 3 and "wbik.commands.hollow has no add_parser" in err
+    assert code == 3 and "wbik.commands.hollow has no HELP, DESCRIPTION, run(args)" in err
 
 
 def test_run_prints_the_kind_report_and_exits_by_its_verdict(capsys, tmp_path):

@@ -1,5 +1,7 @@
-"""The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py`` with
-``add_parser(subparsers)`` and ``run(args) -> int``; heavy imports stay inside ``run``.
+"""The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py``, which declares
+``HELP`` (its line in ``wbik --help``), ``DESCRIPTION`` (``wbik NAME --help``), optionally ``EPILOG``
+and ``add_arguments(parser)``, and ``run(args) -> int``; heavy imports stay inside ``run``. The
+parser of each subcommand (with ``--debug`` and its ``run``) is made here.
 
 Exit codes (every subcommand):
 
@@ -27,8 +29,9 @@ EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 
 def subcommand_module(name: str):
-    """``wbik.commands.<name>``, which must exist and have ``add_parser`` (a listed subcommand whose
-    module is missing is an error, never skipped: exit code 3, the install is broken)."""
+    """``wbik.commands.<name>``, which must exist and declare ``HELP``, ``DESCRIPTION`` and ``run`` (a
+    listed subcommand whose module is missing is an error, never skipped: exit code 3, the install is
+    broken)."""
     module_name = f"wbik.commands.{name}"
     try:
         module = importlib.import_module(module_name)
@@ -38,8 +41,11 @@ def subcommand_module(name: str):
         raise ImportError(f"subcommand {name!r} is listed in wbik.cli.SUBCOMMANDS but its module "
                           f"{module_name} does not exist; reinstall wbik (pip install -e .)",
                           name=module_name) from None
-    if not callable(getattr(module, "add_parser", None)):
-        raise ImportError(f"{module_name} has no add_parser(subparsers); every subcommand module needs it "
+    missing = [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
+                                     ("DESCRIPTION", isinstance(getattr(module, "DESCRIPTION", None), str)),
+                                     ("run(args)", callable(getattr(module, "run", None)))) if not ok]
+    if missing:
+        raise ImportError(f"{module_name} has no {', '.join(missing)}; every subcommand module needs them "
                           "(see wbik.cli)", name=module_name)
     return module
 
@@ -56,10 +62,15 @@ def build_parser() -> argparse.ArgumentParser:
                         help="print the traceback of errors (for bug reports)")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
-        subcommand_module(name).add_parser(subparsers)
+        module = subcommand_module(name)
+        command = subparsers.add_parser(name, help=module.HELP, description=module.DESCRIPTION,
+                                        epilog=getattr(module, "EPILOG", None))
+        if hasattr(module, "add_arguments"):
+            module.add_arguments(command)
         # --debug is also accepted after the subcommand; SUPPRESS keeps the global value otherwise
-        subparsers.choices[name].add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                                              help="print the traceback of errors (for bug reports)")
+        command.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                             help="print the traceback of errors (for bug reports)")
+        command.set_defaults(run=module.run)
     return parser
 
 

@@ -7,17 +7,17 @@ import json
 
 import numpy as np
 
+from wbik.commands import add_json_argument, add_robot_arguments
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "fk", help="forward kinematics of a chain",
-        description="Pose of a chain's tip frame in its base frame for the given joint values.")
-    parser.add_argument("robot", help="built-in robot name (see 'wbik robots') or a URDF path")
-    parser.add_argument("--chain", help="chain name (default: the robot's only chain)")
+HELP = "forward kinematics of a chain"
+DESCRIPTION = "Pose of a chain's tip frame in its base frame for the given joint values."
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_robot_arguments(parser)
     parser.add_argument("--q", type=float, nargs="+", required=True, help="joint values, chain order")
     parser.add_argument("--deg", action="store_true", help="revolute joint values are in degrees")
-    parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.set_defaults(run=run)
+    add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:

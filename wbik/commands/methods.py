@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser("methods", help="list the IK methods", description="List the IK methods "
-                                   "that 'wbik solve --method' and study files accept.")
-    parser.set_defaults(run=run)
+HELP = "list the IK methods"
+DESCRIPTION = "List the IK methods that 'wbik solve --method' and study files accept."
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,14 +5,16 @@ from __future__ import annotations
 import argparse
 import json
 
+from wbik.commands import add_json_argument
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser("robots", help="list the built-in robots (and their chains with -v)",
-                                   description="List the built-in robots. With --verbose, load each and "
-                                               "print its chains (base -> tip, joints).")
+HELP = "list the built-in robots (and their chains with -v)"
+DESCRIPTION = ("List the built-in robots. With --verbose, load each and print its chains (base -> tip, "
+               "joints).")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-v", "--verbose", action="store_true", help="load each robot and list its chains")
-    parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.set_defaults(run=run)
+    add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,20 +5,18 @@ from __future__ import annotations
 import argparse
 import json
 
+HELP = "run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)"
+DESCRIPTION = ("Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). Prints a "
+               "summary; --output writes the JSON report after every phase. A task shipped with wbik is "
+               "also found by its name (wbik run bioloid_balance); 'wbik tasks' lists them.")
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "run", help="run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)",
-        description="Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). "
-                    "Prints a summary; --output writes the JSON report after every phase. A task shipped "
-                    "with wbik is also found by its name (wbik run bioloid_balance); 'wbik tasks' lists "
-                    "them.")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("taskfile", help="scenario file (YAML or JSON), or the name of a shipped task")
     parser.add_argument("--output", "-o", help="write the JSON report here (updated after every phase)")
     parser.add_argument("--backend", help="override the QP backend (osqp, daqp, quadprog, proxqp, fastest, "
                                            "default)")
     parser.add_argument("--json", action="store_true", help="print the JSON report instead of the summary")
-    parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:

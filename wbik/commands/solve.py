@@ -7,14 +7,15 @@ import json
 
 import numpy as np
 
+from wbik.commands import add_json_argument, add_robot_arguments
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "solve", help="solve IK for one target",
-        description="Solve IK for a position (--xyz) or a pose (--xyz and --rpy) of a chain's tip in its "
-                    "base frame. Prints the joints, the errors (shared FK check) and the time.")
-    parser.add_argument("robot", help="built-in robot name (see 'wbik robots') or a URDF path")
-    parser.add_argument("--chain", help="chain name (default: the robot's only chain)")
+HELP = "solve IK for one target"
+DESCRIPTION = ("Solve IK for a position (--xyz) or a pose (--xyz and --rpy) of a chain's tip in its base "
+               "frame. Prints the joints, the errors (shared FK check) and the time.")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    add_robot_arguments(parser)
     parser.add_argument("--method", default="dls", help="IK method (see 'wbik methods'); default dls")
     parser.add_argument("--xyz", type=float, nargs=3, required=True, metavar=("X", "Y", "Z"),
                         help="target position (m)")
@@ -23,8 +24,7 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--q0", type=float, nargs="+", help="start / current joints (default: nominal)")
     parser.add_argument("--timeout", type=float, default=0.05, help="time budget in s (default 0.05)")
     parser.add_argument("--all", action="store_true", help="every solution (closed-form methods)")
-    parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.set_defaults(run=run)
+    add_json_argument(parser)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,15 +5,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+HELP = "run a comparison study of IK methods and write its report"
+DESCRIPTION = ("Run a study file from comparisons/ (default: comparisons/default.yaml; a file's "
+               "description: says what it compares, its reference: block the published figures it is set "
+               "beside): raw rows, summary, Mann-Whitney tests, figures and a Markdown + HTML report in the "
+               "output folder. An interrupted run resumes where it stopped when run again with the same "
+               "output folder.")
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "study", help="run a comparison study of IK methods and write its report",
-        description="Run a study file from comparisons/ (default: comparisons/default.yaml; a file's "
-                    "description: says what it compares, its reference: block the published figures it "
-                    "is set beside): raw rows, summary, Mann-Whitney tests, figures and a Markdown + HTML "
-                    "report in the output folder. An interrupted run resumes where it stopped when run "
-                    "again with the same output folder.")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", nargs="?",
                         help="study file (.yaml or .toml), or the name of a shipped study "
                              "(e.g. robots); default comparisons/default.yaml")
@@ -36,7 +36,6 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--report-only", action="store_true",
                         help="rebuild the report from the results already in the output folder")
-    parser.set_defaults(run=run)
 
 
 def check_output_folder(output: Path | None) -> None:

@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+HELP = "list the scenario files shipped with wbik (run one with 'wbik run NAME')"
+DESCRIPTION = ("List the scenario files shipped with wbik: name, kind and path. 'wbik run NAME' runs one "
+               "from any folder; copy its file to change it.")
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "tasks", help="list the scenario files shipped with wbik (run one with 'wbik run NAME')",
-        description="List the scenario files shipped with wbik: name, kind and path. 'wbik run NAME' runs "
-                    "one from any folder; copy its file to change it.")
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--paths", action="store_true", help="print only the file paths, one a line")
-    parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,14 +14,15 @@ SCENARIO_SUFFIXES = (".yaml", ".yml", ".toml", ".json")
 which checks it against its kind's schema before it is run and played)."""
 
 
-def add_parser(subparsers) -> None:
-    parser = subparsers.add_parser(
-        "view", help="show a robot or play a scenario in meshcat (browser), or export it",
-        description="Show ROBOT (built-in name or URDF path) at a configuration, or play the motion "
-                    "of a TASKFILE (tasks/*.yaml). Without --html/--screenshot a local meshcat server "
-                    "starts and its URL is printed; Ctrl-C stops it.",
-        epilog="Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  "
-               "wbik view pincher --html pincher.html;  wbik view bioloid --com --screenshot b.png")
+HELP = "show a robot or play a scenario in meshcat (browser), or export it"
+DESCRIPTION = ("Show ROBOT (built-in name or URDF path) at a configuration, or play the motion of a TASKFILE "
+               "(tasks/*.yaml). Without --html/--screenshot a local meshcat server starts and its URL is "
+               "printed; Ctrl-C stops it.")
+EPILOG = ("Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  wbik view pincher --html "
+          "pincher.html;  wbik view bioloid --com --screenshot b.png")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("robot", metavar="ROBOT|TASKFILE",
                         help="built-in robot (see 'wbik robots'), a .urdf path, or a scenario .yaml")
     parser.add_argument("--q", type=float, nargs="+",
@@ -42,7 +43,6 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--open", action="store_true", help="open the served page in a web browser")
     parser.add_argument("--seconds", type=float, default=None,
                         help="serve this long then stop (default: until Ctrl-C)")
-    parser.set_defaults(run=run)
 
 
 def revolute_mask(model) -> np.ndarray:
