@@ -59,7 +59,7 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header
 
 MOVE_RULES = {
     "success": Rule("success", "=="),
@@ -79,12 +79,6 @@ def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: di
     ``expectations``, ``verdict``, ``passed``."""
     wanted = {**defaults, **(spec["expect"] or {})}
     return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect")
-
-
-def robot_of(spec: dict):
-    from wbik.models import load
-
-    return load(spec["robot"], **spec["robot_params"])
 
 
 def vector_of(value, size: int | None, what: str) -> np.ndarray:
@@ -142,17 +136,6 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
     return judge_move(spec, entry, figures, defaults), trajectory
 
 
-def export_move(spec: dict, report: ScenarioReport, trajectory, animation) -> ScenarioReport:
-    """The last move's trajectory written where ``export`` says (paths in the figures); the animation."""
-    export = spec["export"]
-    if "csv" in export:
-        report.figures["csv"] = str(trajectory.write_csv(Path(export["csv"])))
-    if "json" in export:
-        report.figures["json"] = str(trajectory.write_json(Path(export["json"])))
-    report.animation = animation
-    return report
-
-
 def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
     """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
     from wbik.viz.animation import Animation
@@ -163,45 +146,62 @@ def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | 
                                 reference=reference, name=name)
 
 
-def new_report(spec: dict, robot) -> ScenarioReport:
-    return ScenarioReport(spec["name"], spec["kind"], robot.name, {"moves": []})
+class MoveRun(KindRun):
+    """A motion run in progress: the report's ``moves``, each timed and judged (:func:`timed_move`),
+    their animations 0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
+
+    def __init__(self, spec: dict, on_progress: Progress = None):
+        super().__init__(spec, "moves", on_progress, pause=0.25)
+        self.trajectory = None
+
+    def move(self, chain, path: JointPath, name: str, extra_figures: dict | None = None,
+             extra_defaults: dict | None = None, spec: dict | None = None) -> dict:
+        """Time, judge and add one move of ``chain`` (``spec``: the move's own keys over the
+        scenario's); the entry."""
+        entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults)
+        return self.add(entry, move_animation(self.robot, chain, self.trajectory, name))
+
+    def finished(self) -> ScenarioReport:
+        """The report; the last move's trajectory written where ``export`` says (paths in the
+        figures)."""
+        export = self.spec["export"]
+        if "csv" in export:
+            self.report.figures["csv"] = str(self.trajectory.write_csv(Path(export["csv"])))
+        if "json" in export:
+            self.report.figures["json"] = str(self.trajectory.write_json(Path(export["json"])))
+        return super().finished()
 
 
 def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.joint import joint_path
 
-    robot = robot_of(spec)
-    chain = robot.chain(spec["chain"])
+    run = MoveRun(spec, on_progress)
+    chain = run.robot.chain(spec["chain"])
     configurations = [vector_of(q, chain.nq, f"configurations[{index}]")
                       for index, q in enumerate(spec["configurations"])]
-    path = joint_path(chain, configurations, int(spec["samples"]))
-    report = new_report(spec, robot)
-    entry, trajectory = timed_move(spec, path, "joint interpolation")
-    report.add_entry("moves", entry)
-    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, entry["name"]))
+    run.move(chain, joint_path(chain, configurations, int(spec["samples"])), "joint interpolation")
+    return run.finished()
 
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.base import solver
 
-    robot = robot_of(spec)
-    ik = solver(spec["method"], robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))
+    run = MoveRun(spec, on_progress)
+    ik = solver(spec["method"], run.robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))
     waypoints = [pose_of(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
     path = waypoint_path(ik, start_of(spec, ik.chain), waypoints, int(spec["samples"]),
                          float(spec["jump_threshold"]))
-    report = new_report(spec, robot)
     chain = ik.chain
     tolerance = float(spec["tolerance"])
     reached = []
     for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
         wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
         reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
-    entry, trajectory = timed_move(spec, path, f"{len(waypoints)} Cartesian segments",
-                                    {"waypoints_reached": all(reached)}, {"waypoints_reached": True})
+    entry = run.move(chain, path, f"{len(waypoints)} Cartesian segments", {"waypoints_reached": all(reached)},
+                     {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
-    report.add_entry("moves", entry)
-    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, entry["name"]))
+    return run.finished()
 
 
 def format_report(report: dict) -> str:

@@ -36,12 +36,13 @@ from wbik.files import json_plain
 from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
 if TYPE_CHECKING:
+    from wbik.robot import Robot
     from wbik.scenario_schema import Map
     from wbik.viz.animation import Animation
 
-__all__ = ["KIND_MODULES", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError", "ScenarioReport",
-           "json_default", "kind_names", "register_kind", "register_module", "report_header",
-           "report_verdict", "scenario_kind", "scenario_kinds"]
+__all__ = ["KIND_MODULES", "KindRun", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
+           "ScenarioReport", "json_default", "kind_names", "register_kind", "register_module",
+           "report_header", "report_verdict", "robot_of", "scenario_kind", "scenario_kinds"]
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
@@ -140,6 +141,41 @@ def json_default(value):
 # -- the kinds -------------------------------------------------------------------------------------
 Progress = Callable[[ScenarioReport], None] | None
 Runner = Callable[[dict, Progress], ScenarioReport]
+
+
+def robot_of(spec: dict) -> Robot:
+    """The robot a checked spec names, built with its ``robot_params``."""
+    from wbik.models import load
+
+    return load(spec["robot"], **spec["robot_params"])
+
+
+class KindRun:
+    """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` list it
+    fills, and the animations of the entries, played one after the other ``pause`` s apart."""
+
+    def __init__(self, spec: dict, key: str, on_progress: Progress = None, pause: float = 0.5):
+        self.spec, self.key, self.on_progress, self.pause = spec, key, on_progress, pause
+        self.robot = robot_of(spec)
+        self.report = ScenarioReport(spec["name"], spec["kind"], self.robot.name, {key: []})
+        self.animations: list[Animation] = []
+
+    def add(self, entry: dict, animation: Animation | None = None) -> dict:
+        """Append a judged entry (and its animation), then report progress; the entry."""
+        self.report.add_entry(self.key, entry)
+        if animation is not None:
+            self.animations.append(animation)
+        if self.on_progress is not None:
+            self.on_progress(self.report)
+        return entry
+
+    def finished(self) -> ScenarioReport:
+        """The report, with the entries' animations one after the other (None without any)."""
+        joined = self.animations[0] if self.animations else None
+        for animation in self.animations[1:]:
+            joined = joined.then(animation, pause=self.pause)
+        self.report.animation = joined
+        return self.report
 
 
 def report_header(report: dict) -> str:

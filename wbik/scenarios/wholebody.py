@@ -72,7 +72,7 @@ from wbik.scenario_schema import (
     expect_block,
     margin_key,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header, robot_of
 
 __all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
            "run_wholebody_ik", "wholebody_schema"]
@@ -285,12 +285,11 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
     the report and the animation from the start through every phase's answer."""
-    from wbik.models import load
     from wbik.qp.constraints import LockedJoints, MinimumDistance
     from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
 
-    robot = load(spec["robot"], **spec["robot_params"])
+    robot = robot_of(spec)
     backend = spec["backend"]
     q = _start(robot, spec)
     start = q.copy()

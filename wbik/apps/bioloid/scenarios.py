@@ -44,9 +44,7 @@ reported as informational.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -71,11 +69,8 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header, robot_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
-
-if TYPE_CHECKING:
-    from wbik.robot import Robot as RobotModel
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2
@@ -139,27 +134,12 @@ def wholebody_defaults(margin: float) -> dict:
     return {**sample_guarantees(margin), "velocity_ratio_max": 1.0 + VELOCITY_TOLERANCE}
 
 
-def _robot(spec: dict):
-    from wbik.models import load
+class _Behaviours(KindRun):
+    """A Bioloid run in progress: the report's ``behaviours``, and the spec's gait, margin and
+    ``expect`` block."""
 
-    return load(spec["robot"], **spec["robot_params"])
-
-
-@dataclass
-class _Behaviours:
-    """A Bioloid run in progress: the spec, its robot, the report whose ``behaviours`` it fills and
-    the animations of those behaviours (played one after the other)."""
-
-    spec: dict
-    on_progress: Progress = None
-    robot: RobotModel = field(init=False)
-    report: ScenarioReport = field(init=False)
-    animations: list = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        spec = self.spec
-        self.robot = _robot(spec)
-        self.report = ScenarioReport(spec["name"], spec["kind"], self.robot.name, {"behaviours": []})
+    def __init__(self, spec: dict, on_progress: Progress = None):
+        super().__init__(spec, "behaviours", on_progress)
 
     @property
     def gait(self):
@@ -176,19 +156,6 @@ class _Behaviours:
     def expect(self) -> dict:
         """The ``expect`` block (its keys were checked by wbik.scenario_schema), {} when absent."""
         return self.spec["expect"] or {}
-
-    def add(self, entry: dict, animation=None) -> None:
-        """Append a judged entry (and its animation), then report progress."""
-        self.report.add_entry("behaviours", entry)
-        if animation is not None:
-            self.animations.append(animation)
-        if self.on_progress is not None:
-            self.on_progress(self.report)
-
-    def finished(self) -> ScenarioReport:
-        """The report, with the animations one after the other (None when there is none)."""
-        self.report.animation = _joined(self.animations)
-        return self.report
 
 
 def _timed(spec: dict, motion):
@@ -266,16 +233,6 @@ def run_step(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         run.add(*_timed_entry(spec, result, f"step forward ({first} first), whole-body",
                               run.expect.get("wholebody")))
     return run.finished()
-
-
-def _joined(animations: list):
-    """The animations one after the other (None when there is none)."""
-    if not animations:
-        return None
-    joined = animations[0]
-    for animation in animations[1:]:
-        joined = joined.then(animation)
-    return joined
 
 
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
@@ -457,7 +414,7 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
     from wbik.apps.bioloid.sensors import stance_loads
     from wbik.viz.animation import Animation, Overlays
 
-    robot = _robot(spec)
+    robot = robot_of(spec)
     q = robot.nominal.copy() if spec["start"] == "nominal" else np.asarray(spec["start"], dtype=float)
     if q.shape != (robot.model.nq,):
         from wbik.scenario_schema import ScenarioError

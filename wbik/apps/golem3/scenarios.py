@@ -10,17 +10,13 @@ from __future__ import annotations
 
 from wbik.apps.golem3.approach import ARM_WITH_LIFT, approach
 from wbik.motion.scenarios import (
+    MoveRun,
     common_motion_keys,
-    export_move,
     format_report,
-    move_animation,
-    new_report,
     pose_of,
-    robot_of,
     samples_key,
     solving_keys,
     start_of,
-    timed_move,
     vector_of,
 )
 from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, check_robot_params
@@ -29,19 +25,17 @@ from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
 
 def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """One move: the approach, timed and judged like any motion (``lift`` among its figures)."""
-    robot = robot_of(spec)
-    chain = robot.chain(ARM_WITH_LIFT)
+    run = MoveRun(spec, on_progress)
+    chain = run.robot.chain(ARM_WITH_LIFT)
     grasp = spec["grasp"]
     if "from_joints" in grasp:
         goal = chain.fk(vector_of(grasp["from_joints"], chain.nq, "grasp from_joints"))
     else:
         goal = pose_of(grasp, "grasp")
-    path = approach(robot, start_of(spec, chain), goal, int(spec["samples"]), spec["method"],
+    path = approach(run.robot, start_of(spec, chain), goal, int(spec["samples"]), spec["method"],
                     timeout_s=float(spec["timeout_s"]))
-    report = new_report(spec, robot)
-    entry, trajectory = timed_move(spec, path, "approach", {"lift": bool(path.info["lift_samples"])})
-    report.add_entry("moves", entry)
-    return export_move(spec, report, trajectory, move_animation(robot, chain, trajectory, "approach"))
+    run.move(chain, path, "approach", {"lift": bool(path.info["lift_samples"])})
+    return run.finished()
 
 
 def approach_schema() -> Map:

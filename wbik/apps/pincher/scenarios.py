@@ -14,16 +14,12 @@ from collections.abc import Mapping
 from wbik.apps.pincher import teleoperation
 from wbik.motion.scenarios import (
     MOVE_RULES,
+    MoveRun,
     common_motion_keys,
-    export_move,
     format_report,
-    move_animation,
-    new_report,
-    robot_of,
     samples_key,
     solving_keys,
     start_of,
-    timed_move,
     timing_node,
     vector_of,
 )
@@ -47,11 +43,10 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Each move from where the previous one ended; one entry per move, the moves' animations chained."""
     from wbik.solvers.base import solver
 
-    robot = robot_of(spec)
-    ik = solver(spec["method"], robot, timeout_s=float(spec["timeout_s"]))
+    run = MoveRun(spec, on_progress)
+    ik = solver(spec["method"], run.robot, timeout_s=float(spec["timeout_s"]))
     chain = ik.chain
     q = start_of(spec, chain)
-    report, trajectory, animation = new_report(spec, robot), None, None
     for index, move in enumerate(spec["moves"]):
         if "jog" in move:
             path = teleoperation.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
@@ -68,14 +63,9 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
             name = "automatic cycle"
         else:
             raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
-        entry, trajectory = timed_move({**spec, **move}, path, name)
-        report.add_entry("moves", entry)
-        animation_of_move = move_animation(robot, chain, trajectory, name)
-        animation = animation_of_move if animation is None else animation.then(animation_of_move, pause=0.25)
+        run.move(chain, path, name, spec={**spec, **move})
         q = path.q[-1].copy()
-        if on_progress is not None:
-            on_progress(report)
-    return export_move(spec, report, trajectory, animation)
+    return run.finished()
 
 
 def pincher_schema() -> Map:
