@@ -1,0 +1,54 @@
+"""The one benchmark command runs from a fresh clone and reports every speed goal of issue 16.
+
+Speed is not asserted here (it depends on the machine): the test checks that ``benchmarks/all.py
+--quick`` runs, that each goal has a row with finite figures measured in the same run, and that the
+verdict follows from the ratio and the goal's bound.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+GOALS = {  # a phrase of each goal's row -> rows expected
+    "interface overhead <= 10 us": 5,
+    "UR5 closed-form solve <= 2x EAIK": 1,
+    "UR5 closed-form solve_all <= 3x EAIK": 1,
+    "UR5 closed-form solve_many": 1,
+    "Golem-III closed-form solve <= 25 us": 1,
+    "bounded_lm mean time <= 0.5x TRAC-IK": 5,
+    "bounded_lm success >= TRAC-IK": 5,
+    "solve_many throughput": 4,
+    "whole-body QP step <= 2x PlaCo": 1,
+    "whole-body QP step faster than Pink": 1,
+    "converged whole-body IK <= 3x PlaCo": 1,
+    "converged whole-body IK faster than Pink": 1,
+    "at least 5 kHz per step": 1,
+}
+
+
+def test_all_benchmarks_report_every_goal_as_a_ratio(tmp_path):
+    output = tmp_path / "bench.json"
+    completed = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "all.py"), "--quick", "--json",
+                                str(output)], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert completed.returncode == 0, completed.stderr[-3000:]
+    document = json.loads(output.read_text())
+    assert document["machine"]["cores"] >= 1 and document["quick"] is True
+    rows = document["ratios"]
+    for phrase, count in GOALS.items():
+        found = [row for row in rows if phrase in row["goal"]]
+        assert len(found) == count, (phrase, [row["goal"] for row in found])
+    for row in rows:
+        assert math.isfinite(row["ours"]) and math.isfinite(row["peer"]) and row["peer"] > 0, row
+        assert math.isclose(row["ratio"], row["ours"] / row["peer"]), row
+        if row["limit"] is None:
+            assert row["met"] is None, row
+        else:
+            lower = row["better"] == "lower"
+            met = row["ratio"] <= row["limit"] if lower else row["ratio"] >= row["limit"]
+            assert row["met"] == met, row
+    assert "goals met" in completed.stdout and "machine:" in completed.stdout
