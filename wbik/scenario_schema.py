@@ -58,7 +58,8 @@ from wbik.expectations import ExpectationError
 
 __all__ = ["COM_MARGIN", "Key", "Map", "ScenarioBudgetError", "ScenarioError", "ScenarioFileError",
            "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError", "backend_key",
-           "common_keys", "default_of", "expect_block", "from_dataclass", "margin_key", "validate"]
+           "common_keys", "default_of", "expect_block", "from_dataclass", "kind_schema", "margin_key",
+           "validate"]
 
 
 # -- errors -----------------------------------------------------------------------------------------
@@ -473,10 +474,17 @@ def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
 
 def common_keys(robot: Key, **more: Key) -> dict[str, Key]:
     """The keys of every kind: ``kind``, ``name`` (default ''), ``robot`` and ``robot_params``
-    (default {}: the parameters of the robot's builder; pair the Map with ``post=check_robot_params``),
-    and ``more``."""
+    (default {}: the parameters of the robot's builder; :func:`kind_schema` checks them, or pair the
+    Map with ``post=check_robot_params``), and ``more``."""
     return {"kind": Key(Text(), required=True), "name": Key(Text(), ""), "robot": robot,
             "robot_params": Key(Map(values=Anything()), {}), **more}
+
+
+def kind_schema(common: dict[str, Key], keys: dict[str, Key]) -> Map:
+    """A kind's schema: the ``common`` keys (:func:`common_keys`, with those its family shares) and
+    the kind's own ``keys``; ``robot_params`` checked against the robot's builder
+    (:func:`check_robot_params`)."""
+    return Map({**common, **keys}, post=check_robot_params)
 
 
 def backend_key() -> Key:

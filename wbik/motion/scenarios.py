@@ -52,10 +52,10 @@ from wbik.scenario_schema import (
     ScenarioError,
     Text,
     Vector,
-    check_robot_params,
     common_keys,
     default_of,
     expect_block,
+    kind_schema,
     time_laws,
     timing_modes,
 )
@@ -266,7 +266,7 @@ def motion_schema(kind: str) -> Map:
                 "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}
     else:
         raise ValueError(f"not a motion kind: {kind!r}")
-    return Map({**common_motion_keys(), **keys}, post=check_robot_params)
+    return kind_schema(common_motion_keys(), keys)
 
 
 SCENARIO_KINDS = (

@@ -60,11 +60,11 @@ from wbik.scenario_schema import (
     Robot,
     Text,
     backend_key,
-    check_robot_params,
     common_keys,
     default_of,
     expect_block,
     from_dataclass,
+    kind_schema,
     margin_key,
     time_laws,
     timing_modes,
@@ -512,7 +512,7 @@ def bioloid_schema(kind: str) -> Map:
                 "expect": Key(expect_block(STANCE_RULES), None)}
     else:
         raise ValueError(f"not a Bioloid kind: {kind!r}")
-    return Map({**common, **keys}, post=check_robot_params)
+    return kind_schema(common, keys)
 
 
 def _kind(name: str, run, summary: str, format=format_report) -> ScenarioKind:

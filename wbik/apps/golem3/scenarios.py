@@ -19,7 +19,7 @@ from wbik.motion.scenarios import (
     start_of,
     vector_of,
 )
-from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, check_robot_params
+from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, kind_schema
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
 
 
@@ -43,7 +43,7 @@ def approach_schema() -> Map:
     grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
                    Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
     keys = {**solving_keys(), **samples_key(approach), "grasp": Key(grasp, required=True)}
-    return Map({**common_motion_keys(), **keys}, post=check_robot_params)
+    return kind_schema(common_motion_keys(), keys)
 
 
 SCENARIO_KINDS = (

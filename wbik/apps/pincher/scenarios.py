@@ -33,8 +33,8 @@ from wbik.scenario_schema import (
     Text,
     Variants,
     Vector,
-    check_robot_params,
     expect_block,
+    kind_schema,
 )
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
 
@@ -91,7 +91,7 @@ def pincher_schema() -> Map:
     move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
                                       "{automatic: {}}", "move")
     keys = {**solving_keys(), "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
-    return Map({**common, **keys}, post=check_robot_params)
+    return kind_schema(common, keys)
 
 
 SCENARIO_KINDS = (
