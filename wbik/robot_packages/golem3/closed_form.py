@@ -28,12 +28,6 @@ _MIRROR_P = np.array([1.0, -1.0, 1.0])
 _MIRROR_R = np.outer(_MIRROR_P, _MIRROR_P)  # M R M, entry-wise
 
 
-def arm_geometry(facts: Golem3Facts) -> family.StackedPlanarGeometry:
-    """The family's geometry of the robot's arm: the thesis's numbers (golem3.md) of its facts."""
-    return family.StackedPlanarGeometry(l1=facts.l1, l2=facts.l2, l4=facts.l4, l5=facts.l5, l6=facts.l6,
-                                        h=facts.h, rho=facts.rho)
-
-
 def right_arm_coordinates(chain: Chain) -> tuple[bool, np.ndarray, np.ndarray]:
     """(mirrored, lower, upper): whether ``chain`` is the left arm, solved as the mirror image of the
     right one, and its limits in right-arm coordinates (m0 -> -m0 on the left)."""
@@ -64,7 +58,7 @@ class _Golem3Form(ClosedForm):
                 f"the Golem-III closed form needs a chain from torso_link over (m0, 5 arm joints); "
                 f"{chain.name!r} is {chain.base_frame} -> {chain.tip_frame} with {chain.joint_names}")
         self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(chain)
-        self.geometry = arm_geometry(chain.robot.require_facts(Golem3Facts, "the Golem-III closed form"))
+        self.geometry = chain.robot.require_facts(Golem3Facts, "the Golem-III closed form").arm
 
     def _mirror_q(self, q: np.ndarray) -> np.ndarray:
         if not self.mirrored:

@@ -43,6 +43,7 @@ import numpy as np
 from wbik.data import data_dir
 from wbik.dh import DHJoint, joint_xml, link_xml, rot_z, trans, urdf_document
 from wbik.robot import ChainSpec, Robot, model_from_urdf_text
+from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 
 # -- thesis geometry (golem3.md) ----------------------------------------------------------------
 L1 = 0.1225
@@ -83,20 +84,11 @@ class Golem3Facts:
     joints m2x have the limits of m1x; masses, head and finger geometry are guesses.
     """
 
-    l1: float
-    """Row 1 a: chest yaw axis -> shoulder (m)."""
-    l2: float
-    """Row 2 a (m)."""
-    l4: float
-    """Row 4 a: upper arm (m)."""
-    l5: float
-    """Row 5 a: elbow offset (m)."""
-    l6: float
-    """Row 6 d: forearm, wrist roll axis to the gripper centre (m)."""
-    h: float
-    """Row 1 d: base height of the shoulder plane (m)."""
-    rho: float
-    """Elbow angle offset (rad), 13.43 deg."""
+    arm: StackedPlanarGeometry
+    """The arm as the stacked-planar closed form takes it: l1 = row 1 a (chest yaw axis -> shoulder),
+    l2 = row 2 a, l4 = row 4 a (upper arm), l5 = row 5 a (elbow offset), l6 = row 6 d (forearm, wrist
+    roll axis to the gripper centre), h = row 1 d (base height of the shoulder plane), all in m, and
+    rho the elbow angle offset (rad, 13.43 deg)."""
 
 CLOSED_FORMS = {
     ("right_arm", "pose"): "wbik.robot_packages.golem3.closed_form:Golem3PoseIK",
@@ -263,7 +255,7 @@ def build() -> Robot:
         for name, value in zip(joint_names, NOMINAL_ARM, strict=True):
             nominal[model.joints[model.getJointId(name)].idx_q] = value
     urdf_path = URDF_PATH if URDF_PATH.is_file() and URDF_PATH.read_text() == text else None
-    facts = Golem3Facts(l1=L1, l2=L2, l4=L4, l5=L5, l6=L6, h=H, rho=RHO)
+    facts = Golem3Facts(StackedPlanarGeometry(l1=L1, l2=L2, l4=L4, l5=L5, l6=L6, h=H, rho=RHO))
     return Robot("golem3", model, text, {spec.name: spec for spec in chains}, nominal, urdf_path=urdf_path,
                  closed_forms=CLOSED_FORMS, facts=facts)
 
