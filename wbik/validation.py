@@ -82,6 +82,18 @@ def numeric_array(value, what: str, error: type[WbikError], shape: tuple[int, ..
     return array
 
 
+def finite_vector(value, size: int, what: str, error: type[WbikError]) -> np.ndarray:
+    """``value`` flattened into a float vector of ``size`` finite numbers, else ``error``: "``what``
+    must be ``size`` finite numbers"."""
+    try:
+        array = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        array = None
+    if array is None or array.shape != (size,) or not np.all(np.isfinite(array)):
+        raise error(f"{what} must be {size} finite numbers, got {_short(value)}")
+    return array
+
+
 def _short(value, limit: int = 80) -> str:
     try:
         text = repr(value)

@@ -60,6 +60,7 @@ from wbik.scenario_schema import (
     timing_modes,
 )
 from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.validation import finite_vector
 
 MOVE_RULES = {
     "success": Rule("success", "=="),
@@ -81,14 +82,9 @@ def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: di
     return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect")
 
 
-def vector_of(value, size: int | None, what: str) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise ScenarioError(f"{what} must be numbers, got {value!r}") from exc
-    if (size is not None and array.shape != (size,)) or not np.all(np.isfinite(array)):
-        raise ScenarioError(f"{what} must be {size} finite numbers, got {value!r}")
-    return array
+def vector_of(value, size: int, what: str) -> np.ndarray:
+    """``value`` as ``size`` finite numbers, else a ScenarioError."""
+    return finite_vector(value, size, what, ScenarioError)
 
 
 def start_of(spec: dict, chain) -> np.ndarray:

@@ -32,6 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidSettingError, UnknownFrameError
+from wbik.validation import finite_vector
 
 __all__ = ["TASK_OPTIONS", "TASK_TYPES", "TaskEntryError", "build_task"]
 
@@ -47,10 +48,7 @@ class TaskEntryError(InvalidSettingError):
 
 
 def _vector(value, size: int, what: str) -> np.ndarray:
-    array = np.asarray(value, dtype=float).reshape(-1)
-    if array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise TaskEntryError(f"{what} must be {size} finite numbers, got {value!r}")
-    return array
+    return finite_vector(value, size, what, TaskEntryError)
 
 
 def _rotation(entry: Mapping) -> np.ndarray:

@@ -24,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.validation import finite_vector
 
 FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 0.0]),
                 "left": np.array([0.0, 1.0, 0.0])}
@@ -117,10 +118,7 @@ class Scene:
 
 
 def _vector(value, size: int, what: str) -> np.ndarray:
-    array = np.asarray(value, dtype=float).reshape(-1)
-    if array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise InvalidConfigurationError(f"scene: {what} must be {size} finite numbers, got {value!r}")
-    return array
+    return finite_vector(value, size, f"scene: {what}", InvalidConfigurationError)
 
 
 def _merged(spec: dict | None) -> dict:
