@@ -58,6 +58,7 @@ from wbik.scenario_schema import (
     Map,
     Number,
     Robot,
+    ScenarioError,
     Text,
     backend_key,
     common_keys,
@@ -71,6 +72,7 @@ from wbik.scenario_schema import (
 )
 from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header, robot_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
+from wbik.validation import finite_vector
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2
@@ -415,11 +417,8 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
     from wbik.viz.animation import Animation, Overlays
 
     robot = robot_of(spec)
-    q = robot.nominal.copy() if spec["start"] == "nominal" else np.asarray(spec["start"], dtype=float)
-    if q.shape != (robot.model.nq,):
-        from wbik.scenario_schema import ScenarioError
-
-        raise ScenarioError(f"start must be {robot.model.nq} finite numbers, got {spec['start']!r}")
+    start, nq = spec["start"], robot.model.nq
+    q = robot.nominal.copy() if start == "nominal" else finite_vector(start, nq, "start", ScenarioError)
     stance = stance_loads(robot, q)
     gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
     entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
