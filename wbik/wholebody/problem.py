@@ -374,14 +374,14 @@ def check_wholebody(
         position, rotation = task_error_parts(task, kinematics)
         parts = [value for value in (position, rotation) if value is not None]
         task_errors[name] = max(parts)
-        if position is not None:
-            position_errors[name] = position
-            if position > tolerances.position:
-                failures.append(f"task {name} position error {position:.3g} m")
-        if rotation is not None:
-            rotation_errors[name] = rotation
-            if rotation > tolerances.rotation:
-                failures.append(f"task {name} rotation error {rotation:.3g} rad")
+        for part, error, errors, tolerance, unit in (
+            ("position", position, position_errors, tolerances.position, "m"),
+            ("rotation", rotation, rotation_errors, tolerances.rotation, "rad"),
+        ):
+            if error is not None:
+                errors[name] = error
+                if error > tolerance:
+                    failures.append(f"task {name} {part} error {error:.3g} {unit}")
     if contact_placements is None and problem.contacts:
         if all(p is not None for p in problem.contacts.values()):
             contact_placements = problem.contact_placements(q)  # every placement is given
