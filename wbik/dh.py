@@ -31,24 +31,28 @@ Convention = Literal["standard", "modified"]
 JointType = Literal["revolute", "prismatic"]
 
 
+def homogeneous(rotation: np.ndarray | None = None, translation=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """The 4x4 homogeneous transform [R p; 0 1] (R the identity when not given)."""
+    matrix = np.eye(4)
+    if rotation is not None:
+        matrix[:3, :3] = rotation
+    matrix[:3, 3] = translation
+    return matrix
+
+
 def rot_x(angle: float) -> np.ndarray:
     """4x4 homogeneous rotation about x."""
-    matrix = np.eye(4)
-    matrix[:3, :3] = geometry.rot_x(angle)
-    return matrix
+    return homogeneous(geometry.rot_x(angle))
 
 
 def rot_z(angle: float) -> np.ndarray:
     """4x4 homogeneous rotation about z."""
-    matrix = np.eye(4)
-    matrix[:3, :3] = geometry.rot_z(angle)
-    return matrix
+    return homogeneous(geometry.rot_z(angle))
 
 
 def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
-    matrix = np.eye(4)
-    matrix[:3, 3] = (x, y, z)
-    return matrix
+    """4x4 homogeneous translation."""
+    return homogeneous(translation=(x, y, z))
 
 
 @dataclass(frozen=True)
