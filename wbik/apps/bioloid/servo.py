@@ -197,18 +197,24 @@ def code_leg_servo_degrees(ang_deg, side: str) -> tuple[np.ndarray, list[str]]:
     a = c_round(ang_deg)
     raw = [150 - leg_dir * 45 + a[0], 150 - a[1], 150 - leg_dir * a[2], 150 + leg_dir * a[3],
            150 + leg_dir * a[4], 150 - a[5]]
-    servo, notes = [], []
-    for name, value, (low, high), default in zip(LEG_ORDER, raw, CODE_LEG_LIMITS[side],
-                                                 CODE_LEG_DEFAULTS[side], strict=True):
-        if not 0 <= value <= 300:
-            notes.append(f"{side}_{name}: {value} outside 0..300, reset to {default}")
-            value = default
-        elif value < low or value > high:
-            clamped = min(max(value, low), high)
-            notes.append(f"{side}_{name}: clamped from {value} to {clamped}")
-            value = clamped
-        servo.append(int(value))
+    notes: list[str] = []
+    servo = [_code_corrected(f"{side}_{name}", value, low, high, default, notes)
+             for name, value, (low, high), default in zip(LEG_ORDER, raw, CODE_LEG_LIMITS[side],
+                                                          CODE_LEG_DEFAULTS[side], strict=True)]
     return np.array(servo), notes
+
+
+def _code_corrected(name: str, value, low, high, default, notes: list[str]) -> int:
+    """A servo value as the author's code corrects it: outside 0..300 reset to ``default``, else
+    clamped to [low, high]; each correction noted."""
+    if not 0 <= value <= 300:
+        notes.append(f"{name}: {value} outside 0..300, reset to {default}")
+        return int(default)
+    if value < low or value > high:
+        clamped = min(max(value, low), high)
+        notes.append(f"{name}: clamped from {value} to {clamped}")
+        value = clamped
+    return int(value)
 
 
 def code_arm_servo_degrees(theta_deg) -> tuple[np.ndarray, list[str]]:
@@ -220,14 +226,6 @@ def code_arm_servo_degrees(theta_deg) -> tuple[np.ndarray, list[str]]:
     t1, t3, t5 = c_round(theta_deg)
     base = 152 - (90 - t1)
     notes = [] if 0 <= base <= 300 else [f"base {base} outside 0..300 (the code leaves it)"]
-    out = [int(base)]
-    for name, value in (("shoulder", 150 - t3), ("elbow", 150 - t5)):
-        if not 0 <= value <= 300:
-            notes.append(f"{name}: {value} outside 0..300, reset to 150")
-            value = 150
-        if value < 60 or value > 240:
-            clamped = min(max(value, 60), 240)
-            notes.append(f"{name}: clamped from {value} to {clamped}")
-            value = clamped
-        out.append(int(value))
+    out = [int(base), *(_code_corrected(name, value, 60, 240, 150, notes)
+                        for name, value in (("shoulder", 150 - t3), ("elbow", 150 - t5)))]
     return np.array(out), notes
