@@ -318,22 +318,24 @@ def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
     def path(start: pin.SE3, end: pin.SE3):
         return polyline_path([start, _moved(start, z=over), _moved(end, z=over), end])
 
-    both = {SOLE[s]: soles[s] for s in SIDES}
-    split = {SOLE[second]: start_second, SOLE[first]: land_first}
+    def com_over(foot: str, contacts: dict[str, pin.SE3], divisions: int) -> BodyPhase:
+        """The CoM shifted over ``foot`` (the soles of ``contacts`` held), slow servos."""
+        return com_over_phase(robot, f"UpStair {step}: CoM over the {names[foot]} foot", dict(contacts), foot,
+                              contacts[SOLE[foot]], RAMP_INSET, pelvis_rotation=rotation, divisions=divisions,
+                              speed_rpm=gait.servo_slow_rpm)
+
+    def onto_tread(foot: str, start: pin.SE3, land: pin.SE3, standing: pin.SE3) -> BodyPhase:
+        """``foot`` swung from ``start`` over the nosing onto ``land``, the other one ``standing``."""
+        return BodyPhase(f"UpStair {step}: {names[foot]} foot onto tread {step}",
+                         {SOLE[OTHER[foot]]: standing}, swing={SOLE[foot]: path(start, land)},
+                         pelvis_rotation=rotation, divisions=3 * n, speed_rpm=gait.servo_fast_rpm)
+
     up = {first: land_first, second: land_second}
     phases = [
-        com_over_phase(robot, f"UpStair {step}: CoM over the {names[second]} foot", dict(both), second,
-                       start_second, RAMP_INSET, pelvis_rotation=rotation, divisions=n,
-                       speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"UpStair {step}: {names[first]} foot onto tread {step}", {SOLE[second]: start_second},
-                  swing={SOLE[first]: path(start_first, land_first)}, pelvis_rotation=rotation,
-                  divisions=3 * n, speed_rpm=gait.servo_fast_rpm),
-        com_over_phase(robot, f"UpStair {step}: CoM over the {names[first]} foot", dict(split), first,
-                       land_first, RAMP_INSET, pelvis_rotation=rotation, divisions=2 * n,
-                       speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"UpStair {step}: {names[second]} foot onto tread {step}", {SOLE[first]: land_first},
-                  swing={SOLE[second]: path(start_second, land_second)}, pelvis_rotation=rotation,
-                  divisions=3 * n, speed_rpm=gait.servo_fast_rpm),
+        com_over(second, {SOLE[s]: soles[s] for s in SIDES}, n),
+        onto_tread(first, start_first, land_first, start_second),
+        com_over(first, {SOLE[second]: start_second, SOLE[first]: land_first}, 2 * n),
+        onto_tread(second, start_second, land_second, land_first),
         BodyPhase(f"UpStair {step}: CoM between the feet", {SOLE[s]: up[s] for s in SIDES},
                   pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, up)), divisions=n,
                   speed_rpm=gait.servo_slow_rpm),
