@@ -54,34 +54,40 @@ def standing_on(side: str, lift: float = 0.0) -> np.ndarray:
     from wbik.qp.tasks import RegularizationTask
 
     robot = cached_robot(ROBOT)
-    q = robot.nominal.copy()
-    over = robot.frame_placement(q, _sole(side)).translation
-    problem = IKProblem(
-        robot.model,
-        [ComTask([over[0], over[1], 0.0], axes="xy"), _pelvis_keep(robot, q), RegularizationTask(1e-6)],
-        stance_constraints(robot, q, ["r_sole", "l_sole"], margin=MARGIN),
-        backend="daqp",
-    )
-    solution = problem.solve(q)
-    if not solution.success:  # pragma: no cover - a model change would show here
-        raise RuntimeError(f"cannot stand the Bioloid on {side}: {solution.reason}")
-    q = solution.q
-    if lift > 0:
-        swing = robot.frame_placement(q, _sole(_other(side)))
-        swing.translation = swing.translation + np.array([0.0, 0.0, lift])
+
+    def solved(q: np.ndarray, task, soles: list[str], what: str) -> np.ndarray:
+        """``task`` reached from ``q`` with the pelvis kept and ``soles`` held under the CoM."""
         problem = IKProblem(
             robot.model,
-            [FrameTask(_sole(_other(side)), swing), _pelvis_keep(robot, q), RegularizationTask(1e-6)],
-            stance_constraints(robot, q, [_sole(side)], margin=MARGIN),
+            [task, _pelvis_keep(robot, q), RegularizationTask(1e-6)],
+            stance_constraints(robot, q, soles, margin=MARGIN),
             backend="daqp",
         )
         solution = problem.solve(q)
-        if not solution.success:  # pragma: no cover
-            raise RuntimeError(f"cannot lift the Bioloid's {_other(side)} sole: {solution.reason}")
-        q = solution.q
+        if not solution.success:  # pragma: no cover - a model change would show here
+            raise RuntimeError(f"cannot {what}: {solution.reason}")
+        return solution.q
+
+    q = robot.nominal.copy()
+    over = robot.frame_placement(q, _sole(side)).translation
+    q = solved(q, ComTask([over[0], over[1], 0.0], axes="xy"), ["r_sole", "l_sole"],
+               f"stand the Bioloid on {side}")
+    if lift > 0:
+        swing = robot.frame_placement(q, _sole(_other(side)))
+        swing.translation = swing.translation + np.array([0.0, 0.0, lift])
+        q = solved(q, FrameTask(_sole(_other(side)), swing), [_sole(side)],
+                   f"lift the Bioloid's {_other(side)} sole")
     q = q.copy()
     q.setflags(write=False)
     return q
+
+
+def _standing_problem(robot: Robot, q0: np.ndarray, tasks: list, soles: list[str], name: str,
+                      pelvis_weight: float = 0.1) -> WholeBody:
+    """A Bioloid case: ``tasks``, then the pelvis orientation kept (soft, ``pelvis_weight``);
+    ``soles`` held and supporting the CoM with ``MARGIN``."""
+    return WholeBody(robot, [*tasks, _pelvis_keep(robot, q0, pelvis_weight)], contacts=soles, support=soles,
+                     margin=MARGIN, name=name)
 
 
 def _random_arm_target(robot: Robot, q: np.ndarray, rng: np.random.Generator, side: str) -> np.ndarray:
@@ -105,14 +111,8 @@ def com_shift(rng: np.random.Generator, index: int) -> WholeBodyCase:
             break
     com = robot.center_of_mass(q0)
     target = np.array([point[0], point[1], com[2]])
-    problem = WholeBody(
-        robot,
-        [ComTask(target, axes="xy", name="com"), _pelvis_keep(robot, q0)],
-        contacts=soles,
-        support=soles,
-        margin=MARGIN,
-        name=f"bioloid_com_shift[{index}]",
-    )
+    problem = _standing_problem(robot, q0, [ComTask(target, axes="xy", name="com")], soles,
+                                f"bioloid_com_shift[{index}]")
     return WholeBodyCase(problem, q0, target)
 
 
@@ -127,14 +127,8 @@ def foot_lift(rng: np.random.Generator, index: int) -> WholeBodyCase:
     target = pin.SE3(
         pin.utils.rotate("z", float(rng.uniform(-0.2, 0.2))) @ start.rotation, start.translation + offset
     )
-    problem = WholeBody(
-        robot,
-        [FrameTask(_sole(swing), target, name=f"{swing}_sole"), _pelvis_keep(robot, q0)],
-        contacts=[_sole(side)],
-        support=[_sole(side)],
-        margin=MARGIN,
-        name=f"bioloid_foot_lift[{index}]",
-    )
+    problem = _standing_problem(robot, q0, [FrameTask(_sole(swing), target, name=f"{swing}_sole")],
+                                [_sole(side)], f"bioloid_foot_lift[{index}]")
     return WholeBodyCase(problem, q0, target.translation.copy())
 
 
@@ -143,14 +137,8 @@ def reach_two_feet(rng: np.random.Generator, index: int) -> WholeBodyCase:
     hand = "r" if rng.random() < 0.5 else "l"
     q0 = robot.nominal.copy()
     target = _random_arm_target(robot, q0, rng, hand)
-    problem = WholeBody(
-        robot,
-        [PositionTask(f"{hand}_hand", target, name=f"{hand}_hand"), _pelvis_keep(robot, q0)],
-        contacts=["r_sole", "l_sole"],
-        support=["r_sole", "l_sole"],
-        margin=MARGIN,
-        name=f"bioloid_reach_two_feet[{index}]",
-    )
+    problem = _standing_problem(robot, q0, [PositionTask(f"{hand}_hand", target, name=f"{hand}_hand")],
+                                ["r_sole", "l_sole"], f"bioloid_reach_two_feet[{index}]")
     return WholeBodyCase(problem, q0, target)
 
 
@@ -161,18 +149,10 @@ def reach_one_foot(rng: np.random.Generator, index: int) -> WholeBodyCase:
     q0 = standing_on(side, 0.02).copy()
     target = _random_arm_target(robot, q0, rng, hand)
     swing = _sole(_other(side))
-    problem = WholeBody(
-        robot,
-        [
-            PositionTask(f"{hand}_hand", target, name=f"{hand}_hand"),
-            FrameTask(swing, robot.frame_placement(q0, swing), weight=0.01, goal=False),
-            _pelvis_keep(robot, q0, 0.01),
-        ],
-        contacts=[_sole(side)],
-        support=[_sole(side)],
-        margin=MARGIN,
-        name=f"bioloid_reach_one_foot[{index}]",
-    )
+    tasks = [PositionTask(f"{hand}_hand", target, name=f"{hand}_hand"),
+             FrameTask(swing, robot.frame_placement(q0, swing), weight=0.01, goal=False)]
+    problem = _standing_problem(robot, q0, tasks, [_sole(side)], f"bioloid_reach_one_foot[{index}]",
+                                pelvis_weight=0.01)
     return WholeBodyCase(problem, q0, target)
 
 
