@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule, format_checks, judge
+from wbik.expectations import Rule, judge
 from wbik.files import json_plain
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
@@ -59,7 +59,7 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries
 from wbik.validation import finite_vector
 
 MOVE_RULES = {
@@ -202,15 +202,14 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def format_report(report: dict) -> str:
     """One line per move (knots, knot error, jumps, duration, peak speed) and its checks."""
-    lines = [report_header(report)]
-    for move in report["moves"]:
+    def describe(move: dict) -> str:
         path = move["path"]
-        lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: {path['knots']} knots, "
-                     f"max knot error {path['max_knot_position_error']}, jumps {path['jumps']}, "
-                     f"duration {move['duration_s']:.3f} s ({move['time_law']}, {move['timing_mode']}), "
-                     f"peak |v|/limit {move['max_velocity_over_limit']:.6f}")
-        lines.extend(format_checks(move.get("expectations", []), indent="      "))
-    return "\n".join(lines)
+        return (f"{path['knots']} knots, max knot error {path['max_knot_position_error']}, "
+                f"jumps {path['jumps']}, duration {move['duration_s']:.3f} s "
+                f"({move['time_law']}, {move['timing_mode']}), "
+                f"peak |v|/limit {move['max_velocity_over_limit']:.6f}")
+
+    return format_entries(report, "moves", describe)
 
 
 

@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wbik.errors import MissingDependencyError, WbikError
-from wbik.expectations import verdict
+from wbik.expectations import format_checks, verdict
 from wbik.files import json_plain
 from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
@@ -41,8 +41,9 @@ if TYPE_CHECKING:
     from wbik.viz.animation import Animation
 
 __all__ = ["KIND_MODULES", "KindRun", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
-           "ScenarioReport", "json_default", "kind_names", "register_kind", "register_module",
-           "report_header", "report_verdict", "robot_of", "scenario_kind", "scenario_kinds"]
+           "ScenarioReport", "format_entries", "json_default", "kind_names", "register_kind",
+           "register_module", "report_header", "report_verdict", "robot_of", "scenario_kind",
+           "scenario_kinds"]
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
@@ -182,6 +183,18 @@ def report_header(report: dict) -> str:
     """The first line of a printed report: ``name (kind, robot): VERDICT``."""
     return (f"{report.get('name', '')} ({report.get('kind')}, {report.get('robot', '')}): "
             f"{report_verdict(report)}")
+
+
+def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> str:
+    """A printed report: its header line, then for each entry of ``report[key]`` the line ``[ok]``,
+    ``[FAIL]`` or ``[info]`` (nothing judged) ``NAME: describe(entry)`` (which may hold more lines)
+    and the entry's checks."""
+    lines = [report_header(report)]
+    for entry in report.get(key, []):
+        status = "info" if entry.get("verdict") == "informational" else ("ok" if entry["passed"] else "FAIL")
+        lines.append(f"  [{status}] {entry['name']}: {describe(entry)}")
+        lines.extend(format_checks(entry.get("expectations", [])))
+    return "\n".join(lines)
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule, evaluate, format_checks, verdict
+from wbik.expectations import Rule, evaluate, verdict
 from wbik.qp.task_entries import REGULARIZATION_WEIGHT, TaskEntryError, build_task
 from wbik.scenario_schema import (
     FRAME,
@@ -72,7 +72,7 @@ from wbik.scenario_schema import (
     expect_block,
     margin_key,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, report_header, robot_of
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, format_entries, robot_of
 
 __all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
            "run_wholebody_ik", "wholebody_schema"]
@@ -359,17 +359,13 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
 
 def format_report(report: dict) -> str:
     """The phase summary: solved or best effort, iterations, time, goal task errors, the checks."""
-    lines = [report_header(report)]
-    for phase in report.get("phases", []):
+    def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
-        lines.append(
-            f"  [{'ok' if phase['passed'] else 'FAIL'}] {phase['name']}: "
-            f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
-            f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms")
-        lines.append(f"      task errors: {goal_errors}")
-        lines.extend(format_checks(phase.get("expectations", [])))
-    return "\n".join(lines)
+        return (f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
+                f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
+
+    return format_entries(report, "phases", describe)
 
 
 SCENARIO_KINDS = (

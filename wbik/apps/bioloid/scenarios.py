@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from wbik.data import data_dir
-from wbik.expectations import ExpectationError, Rule, format_checks, judge
+from wbik.expectations import ExpectationError, Rule, judge
 from wbik.scenario_schema import (
     START,
     Boolean,
@@ -70,7 +70,7 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, report_header, robot_of
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, robot_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 from wbik.validation import finite_vector
 
@@ -319,16 +319,10 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def format_report(report: dict) -> str:
-    """One block per behaviour with the figures that matter."""
-    lines = [report_header(report)]
-    for entry in report["behaviours"]:
-        keys = [k for k in entry if k not in ("name", "passed", "per_phase", "source", "final_soles",
-                                              "expectations", "verdict")]
-        figures = ", ".join(f"{k} {_short(entry[k])}" for k in keys)
-        status = {"PASSED": "ok", "FAILED": "FAIL"}.get(entry.get("verdict"), "info")
-        lines.append(f"  [{status}] {entry['name']}: {figures}")
-        lines.extend(format_checks(entry.get("expectations", [])))
-    return "\n".join(lines)
+    """One line per behaviour with the figures that matter, and its checks."""
+    hidden = ("name", "passed", "per_phase", "source", "final_soles", "expectations", "verdict")
+    return format_entries(report, "behaviours", lambda entry: ", ".join(
+        f"{k} {_short(v)}" for k, v in entry.items() if k not in hidden))
 
 
 def _short(value) -> str:
@@ -433,12 +427,7 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
 
 def format_stance(report: dict) -> str:
     """The stance's CoP - CoM gap and its check."""
-    lines = [report_header(report)]
-    for move in report["moves"]:
-        lines.append(f"  [{'ok' if move['passed'] else 'FAIL'}] {move['name']}: "
-                     f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
-        lines.extend(format_checks(move.get("expectations", []), indent="      "))
-    return "\n".join(lines)
+    return format_entries(report, "moves", lambda move: f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
 
 
 # -- the schemas -----------------------------------------------------------------------------------
