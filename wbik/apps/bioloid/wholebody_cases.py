@@ -40,6 +40,11 @@ def _other(side: str) -> str:
     return "l" if side == "r" else "r"
 
 
+def _random_side(rng: np.random.Generator) -> str:
+    """"r" or "l", evenly (one draw of the case's stream)."""
+    return "r" if rng.random() < 0.5 else "l"
+
+
 def _pelvis_keep(robot: Robot, q: np.ndarray, weight: float = 0.1) -> OrientationTask:
     return OrientationTask("pelvis", robot.frame_placement(q, "pelvis").rotation, weight=weight, goal=False)
 
@@ -118,7 +123,7 @@ def com_shift(rng: np.random.Generator, index: int) -> WholeBodyCase:
 
 def foot_lift(rng: np.random.Generator, index: int) -> WholeBodyCase:
     robot = cached_robot(ROBOT)
-    side = "r" if rng.random() < 0.5 else "l"
+    side = _random_side(rng)
     swing = _other(side)
     q0 = standing_on(side).copy()
     start = robot.frame_placement(q0, _sole(swing))
@@ -134,7 +139,7 @@ def foot_lift(rng: np.random.Generator, index: int) -> WholeBodyCase:
 
 def reach_two_feet(rng: np.random.Generator, index: int) -> WholeBodyCase:
     robot = cached_robot(ROBOT)
-    hand = "r" if rng.random() < 0.5 else "l"
+    hand = _random_side(rng)
     q0 = robot.nominal.copy()
     target = _random_arm_target(robot, q0, rng, hand)
     problem = _standing_problem(robot, q0, [PositionTask(f"{hand}_hand", target, name=f"{hand}_hand")],
@@ -144,8 +149,8 @@ def reach_two_feet(rng: np.random.Generator, index: int) -> WholeBodyCase:
 
 def reach_one_foot(rng: np.random.Generator, index: int) -> WholeBodyCase:
     robot = cached_robot(ROBOT)
-    side = "r" if rng.random() < 0.5 else "l"
-    hand = "r" if rng.random() < 0.5 else "l"
+    side = _random_side(rng)
+    hand = _random_side(rng)
     q0 = standing_on(side, 0.02).copy()
     target = _random_arm_target(robot, q0, rng, hand)
     swing = _sole(_other(side))
