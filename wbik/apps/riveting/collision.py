@@ -242,35 +242,36 @@ class CollisionModel:
             np.array([0.0, 0.0, self.geometry.geometryObjects[self.pin_index].geometry.halfLength]))
         return self.scene.nearest_hole(tcp)
 
-    def clearance(self, q: np.ndarray | None = None, table: bool = True,
-                  skip: tuple[str, ...] = ()) -> Clearance:
-        """Distances at q (or at the last ``update``); ``skip`` leaves geometries out (by name)."""
-        if q is not None:
-            self.update(q)
-        center, half = self.scene.workpiece_center, self.scene.workpiece_half
-        envelope = [(self.envelope, self._envelope_transform)]
-        workpiece = []
+    def _distances(self, center: np.ndarray, half: np.ndarray, skip, obstacles) -> list[GeometryDistance]:
+        """Each robot geometry (but those named in ``skip``) against the box (``center``, ``half``):
+        its sphere bound when that is above ``exact_below``, else the exact distance to
+        ``obstacles(index)``."""
+        distances = []
         for index in self.robot_geometries:
             name = self.names[index]
             if name in skip:
                 continue
             bound = self._bound(index, center, half)
-            if bound > self.exact_below:
-                workpiece.append(GeometryDistance(name, bound, False))
-            elif index == self.pin_index:
-                workpiece.append(self._exact(index, self.hole_boxes(self.pin_hole())))
-            else:
-                workpiece.append(self._exact(index, envelope))
+            distances.append(GeometryDistance(name, bound, False) if bound > self.exact_below
+                             else self._exact(index, obstacles(index)))
+        return distances
+
+    def clearance(self, q: np.ndarray | None = None, table: bool = True,
+                  skip: tuple[str, ...] = ()) -> Clearance:
+        """Distances at q (or at the last ``update``); ``skip`` leaves geometries out (by name)."""
+        if q is not None:
+            self.update(q)
+        envelope = [(self.envelope, self._envelope_transform)]
+
+        def workpiece_obstacles(index: int) -> list:
+            """The pin against the boxes around its hole (the hole is cut out), the rest the envelope."""
+            return self.hole_boxes(self.pin_hole()) if index == self.pin_index else envelope
+
+        workpiece = self._distances(self.scene.workpiece_center, self.scene.workpiece_half, skip,
+                                    workpiece_obstacles)
         table_distances = []
         if table:
-            table_center, table_half = self.table_pose.translation, 0.5 * self.scene.table_size
-            for index in self.robot_geometries:
-                name = self.names[index]
-                if name in TABLE_IGNORED or name in skip:
-                    continue
-                bound = self._bound(index, table_center, table_half)
-                if bound > self.exact_below:
-                    table_distances.append(GeometryDistance(name, bound, False))
-                else:
-                    table_distances.append(self._exact(index, [(self.table, self._table_transform)]))
+            table_obstacle = [(self.table, self._table_transform)]
+            table_distances = self._distances(self.table_pose.translation, 0.5 * self.scene.table_size,
+                                              (*TABLE_IGNORED, *skip), lambda index: table_obstacle)
         return Clearance(workpiece, table_distances)
