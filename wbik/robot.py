@@ -230,12 +230,15 @@ class Robot:
                 f"package's typed facts) or None, got {type(self.facts).__name__}")
         self._chains: dict[str, Chain] = {}
 
+    def _mapping(self, value, what: str) -> Mapping:
+        """``value`` if it is a mapping, else a RobotDescriptionError: "robot NAME: ``what``, got TYPE"."""
+        if not isinstance(value, Mapping):
+            raise RobotDescriptionError(f"robot {self.name!r}: {what}, got {type(value).__name__}")
+        return value
+
     def _checked_soles(self, soles) -> dict[str, np.ndarray]:
         """{sole frame: read-only (k, 3) corners}, every sole a frame of the model."""
-        if not isinstance(soles, Mapping):
-            raise RobotDescriptionError(
-                f"robot {self.name!r}: soles must map a sole frame to its (k, 3) corners, got "
-                f"{type(soles).__name__}")
+        soles = self._mapping(soles, "soles must map a sole frame to its (k, 3) corners")
         checked = {}
         for sole, corners in soles.items():
             if not isinstance(sole, str) or not self.model.existFrame(sole):
@@ -247,10 +250,8 @@ class Robot:
 
     def _checked_closed_forms(self, closed_forms) -> dict[tuple[str, str], str]:
         """{(chain, kind): "module:Class"} with every chain one of ``chains``."""
-        if not isinstance(closed_forms, Mapping):
-            raise RobotDescriptionError(
-                f"robot {self.name!r}: closed_forms must map (chain, target kind) to \"module:Class\", got "
-                f"{type(closed_forms).__name__}")
+        closed_forms = self._mapping(closed_forms,
+                                     'closed_forms must map (chain, target kind) to "module:Class"')
         for key, where in closed_forms.items():
             if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key)
                     and key[0] in self.chains):
