@@ -3,6 +3,7 @@
 
 - :func:`check_budget` -- a time budget such as ``timeout_s``: a finite number > 0 (seconds).
 - :func:`check_positive_finite` -- any positive finite setting (tolerances, ...).
+- :func:`check_count` -- a count such as ``max_iterations``: an integer >= 1 (bools refused).
 - :func:`numeric_array` -- an array of real numbers (no strings, bools, complex, objects, ragged
   lists), finite, of a given shape.
 """
@@ -42,6 +43,13 @@ def check_budget(name: str, value) -> float:
     0.005
     """
     return check_positive_finite(name, value, InvalidBudgetError, unit="s")
+
+
+def check_count(name: str, value, error: type[WbikError] = InvalidSettingError) -> int:
+    """``value`` as an int if it is an integer >= 1 (bools refused); else ``error`` naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+        raise error(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
 
 
 def check_seed(seed) -> int | None:

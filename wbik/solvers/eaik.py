@@ -68,7 +68,6 @@ of rounding, the same family solves correctly. We do not add noise to dodge EAIK
 
 from __future__ import annotations
 
-import numbers
 import threading
 import time
 import weakref
@@ -77,13 +76,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError, MissingDependencyError, UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.analytic import BRANCH_MERGE, wrap_into_limits
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, as_target, pose_error
+from wbik.validation import check_count
 
 INSTALL = "pip install EAIK==1.2.2"
 SCREEN_TOLERANCE = 1e-7
@@ -189,10 +189,7 @@ class EAIKSolver(Solver):
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
         super().__init__(robot, chain, **options)
-        if isinstance(batch_threads, bool) or not isinstance(batch_threads, numbers.Integral) \
-                or batch_threads < 1:
-            raise InvalidSettingError(f"batch_threads must be an integer >= 1, got {batch_threads!r}")
-        self.batch_threads = int(batch_threads)
+        self.batch_threads = check_count("batch_threads", batch_threads)
         self.structure = eaik_structure(self.chain)
         self.family = self.structure.family
         self.revolute = ~self.chain.is_prismatic

@@ -31,7 +31,6 @@ default the iterations that cost ``default_budget_s`` on the reference machine a
 from __future__ import annotations
 
 import math
-import numbers
 import threading
 import time
 from collections.abc import Callable
@@ -54,7 +53,7 @@ from wbik.qp.tasks import (
 )
 from wbik.robot import Robot
 from wbik.solvers.base import Candidate, PerThreadState, Tolerances
-from wbik.validation import check_budget, check_seed
+from wbik.validation import check_budget, check_count, check_seed
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
 
@@ -96,14 +95,8 @@ class WholeBodySolver(PerThreadState):
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
         if max_iterations is None:
             self.max_iterations = self.iterations_for(self.timeout_s or self.default_budget_s)
-        elif (
-            isinstance(max_iterations, bool)
-            or not isinstance(max_iterations, numbers.Integral)
-            or max_iterations < 1
-        ):
-            raise InvalidBudgetError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
         else:
-            self.max_iterations = int(max_iterations)
+            self.max_iterations = check_count("max_iterations", max_iterations, InvalidBudgetError)
         self.seed = check_seed(seed)
         self._local = threading.local()
 
