@@ -126,3 +126,18 @@ def test_projection_wraps_full_turns_and_clips_the_rest():
     np.testing.assert_allclose(projected, [-np.pi + 0.5, 1.0], atol=1e-15)
     both = bounds.project(np.array([[np.pi + 0.5, 1.5], [0.2, -3.0]]))
     np.testing.assert_allclose(both, [[-np.pi + 0.5, 1.0], [0.2, -1.0]], atol=1e-15)
+
+
+def test_keep_better_takes_the_trial_row_by_row_where_it_lowers_the_cost():
+    from wbik.solvers.levenberg_marquardt import keep_better
+
+    cost = np.array([1.0, 2.0, 3.0])
+    trial_cost = np.array([0.5, 2.0, 4.0])  # better, equal (kept: not lower), worse
+    q, trial_q = np.zeros((3, 2)), np.ones((3, 2))
+    jacobian, trial_jacobian = np.zeros((3, 2, 2)), np.ones((3, 2, 2))
+    accepted, new_cost, (kept_q, kept_jacobian) = keep_better(trial_cost, cost, (trial_q, q),
+                                                              (trial_jacobian, jacobian))
+    assert accepted.tolist() == [True, False, False]
+    assert new_cost.tolist() == [0.5, 2.0, 3.0]
+    assert kept_q.tolist() == [[1, 1], [0, 0], [0, 0]]
+    assert kept_jacobian[0].sum() == 4 and kept_jacobian[1:].sum() == 0

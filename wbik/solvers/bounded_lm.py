@@ -80,7 +80,7 @@ from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
-from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, Workspace
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, Workspace, keep_better
 from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target, as_target
 
@@ -468,11 +468,8 @@ class BoundedLMSolver(Solver):
             inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_positions, goal_rotations)
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
-            accepted = trial_cost < cost
-            q = np.where(accepted[:, None], inside, q)
-            error = np.where(accepted[:, None], trial_error, error)
-            transposed = np.where(accepted[:, None, None], trial_transposed, transposed)
-            cost = np.minimum(trial_cost, cost)
+            accepted, cost, (q, error, transposed) = keep_better(
+                trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
             spent[rows] += 1
             age += 1
@@ -580,11 +577,8 @@ class BoundedLMSolver(Solver):
                 cost[fresh] = math.inf
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
-            accepted = trial_cost < cost
-            q = np.where(accepted[:, None], inside, q)
-            error = np.where(accepted[:, None], trial_error, error)
-            transposed = np.where(accepted[:, None, None], trial_transposed, transposed)
-            cost = np.minimum(trial_cost, cost)
+            accepted, cost, (q, error, transposed) = keep_better(
+                trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
             damping, best_cost, since_progress, stalled = policy.update_batch(accepted, damping, cost,
                                                                               best_cost, since_progress)
             age += 1

@@ -212,6 +212,18 @@ class LevenbergMarquardt:
         return base, best, since, stalled
 
 
+def keep_better(trial_cost: np.ndarray, cost: np.ndarray, *pairs: tuple[np.ndarray, np.ndarray]
+                ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
+    """The batched accept step: for each row, the trial where it lowers the cost, else the current.
+
+    ``pairs`` are (trial, current) arrays with the batch on their first axis. Returns (accepted (B,),
+    the new cost, the kept arrays in the order given)."""
+    accepted = trial_cost < cost
+    kept = [np.where(accepted.reshape((-1,) + (1,) * (trial.ndim - 1)), trial, current)
+            for trial, current in pairs]
+    return accepted, np.minimum(trial_cost, cost), kept
+
+
 class Workspace:
     """The damped system's buffer, a view of its diagonal and the last right-hand side (for one run
     in one thread)."""

@@ -38,7 +38,7 @@ import numpy as np
 from wbik.geometry import rot_x, rot_y, rot_z, wrap_to_pi
 from wbik.solvers.analytic import LIMIT_TOLERANCE, TWO_PI
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r, planar_2r_one
-from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, keep_better
 
 GIMBAL_LOCK = 1e-9
 """|cos(beta)| below which alpha (t6) is free: the Euler angles are coupled there. It is read as
@@ -355,11 +355,8 @@ class PositionSearch:
             trial_reached, trial_jacobian = position_jacobian(self.geometry, trial)
             trial_error = trial_reached - target[active]
             trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
-            accepted = trial_cost < cost
-            q[active, :5] = np.where(accepted[:, None], trial, joints)
-            error = np.where(accepted[:, None], trial_error, error)
-            jacobian = np.where(accepted[:, None, None], trial_jacobian, jacobian)
-            cost = np.minimum(trial_cost, cost)
+            accepted, cost, (q[active, :5], error, jacobian) = keep_better(
+                trial_cost, cost, (trial, joints), (trial_error, error), (trial_jacobian, jacobian))
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
             final_cost[active] = cost
         converged = final_cost <= 1e-18  # |e| <= 1e-9 m
