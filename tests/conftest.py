@@ -9,3 +9,20 @@ import pytest
 @pytest.fixture
 def rng() -> np.random.Generator:
     return np.random.default_rng(20261121)
+
+
+@pytest.fixture(scope="session")
+def riveting_cell():
+    """The UR5 riveting cell: (robot, scene, collision model, arm chain, joint limits, q at rivet home)."""
+    import wbik
+    from wbik.apps.riveting.collision import CollisionModel
+    from wbik.apps.riveting.moves import Limits
+    from wbik.apps.riveting.scene import build_scene
+
+    robot = wbik.load("ur5")
+    scene = build_scene()
+    collision = CollisionModel(robot, scene)
+    chain = robot.chain("arm")
+    limits = Limits(chain.velocity_limit, 5.0)
+    q_home = wbik.solver("analytic", robot, chain="arm").solve(scene.rivet_home, robot.nominal).q
+    return robot, scene, collision, chain, limits, q_home

@@ -5,24 +5,15 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.apps.riveting.collision import CollisionModel
 from wbik.apps.riveting.cycle import NoiseModel, RunConfig, simulate
-from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.scene import build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
 
 
 @pytest.fixture(scope="module")
-def cell():
-    robot = wbik.load("ur5")
-    scene = build_scene()
-    collision = CollisionModel(robot, scene)
-    chain = robot.chain("arm")
-    limits = Limits(chain.velocity_limit, 5.0)
-    q_home = wbik.solver("analytic", robot, chain="arm").solve(scene.rivet_home, robot.nominal).q
-    return robot, scene, collision, chain, limits, q_home
+def cell(riveting_cell):
+    return riveting_cell
 
 
 def test_scene_has_33_holes_with_axes_into_the_workpiece(cell):

@@ -3,14 +3,10 @@
 import numpy as np
 import pytest
 
-import wbik
-from wbik.apps.riveting.collision import CollisionModel
 from wbik.apps.riveting.cost import UNIT_COST_S, PlanningCost
 from wbik.apps.riveting.cycle import RunConfig, simulate
-from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.scene import build_scene
 from wbik.apps.riveting.task_states import State, StateTransitionError, TaskStateMachine, state_of_move
 from wbik.errors import WbikError
 
@@ -70,13 +66,8 @@ def test_planning_cost_is_counts_times_unit_costs():
 
 
 @pytest.fixture(scope="module")
-def cell():
-    robot = wbik.load("ur5")
-    scene = build_scene()
-    collision = CollisionModel(robot, scene)
-    chain = robot.chain("arm")
-    limits = Limits(chain.velocity_limit, 5.0)
-    q_home = wbik.solver("analytic", robot, chain="arm").solve(scene.rivet_home, robot.nominal).q
+def cell(riveting_cell):
+    robot, scene, collision, _, limits, q_home = riveting_cell
     return robot, scene, collision, limits, q_home
 
 
