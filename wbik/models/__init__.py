@@ -67,9 +67,9 @@ URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "so
 
 def builder_parameters(name_or_path: str | Path) -> set[str]:
     """The keyword parameters ``load(name_or_path, **params)`` accepts (robot_params of a study)."""
-    key = str(name_or_path)
-    if key in robot_entries():
-        builder = robot_entries()[key].module().build
+    entry = robot_entries().get(str(name_or_path))
+    if entry is not None:
+        builder = entry.module().build
         return {p.name for p in inspect.signature(builder).parameters.values()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     return set(URDF_PARAMS)
@@ -99,9 +99,10 @@ def load(name_or_path: str | Path, **params) -> Robot:
         raise UnknownRobotError(repr(name_or_path), list(robot_entries()),
                                 hint="pass a robot name (a string) or the path of a .urdf file")
     key = str(name_or_path)
-    if key in robot_entries():
+    entry = robot_entries().get(key)
+    if entry is not None:
         check_parameters(key, params)
-        return robot_entries()[key].module().build(**params)
+        return entry.module().build(**params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
         if path.is_dir():

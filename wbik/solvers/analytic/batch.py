@@ -45,7 +45,7 @@ def _valid_se3(matrices: np.ndarray) -> bool:
 def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
     """(positions (B, 3), rotations (B, 3, 3) or None for positions) of a batch of user targets.
 
-    Raises what ``as_target`` raises for a bad target, ``solver._check_target_kind``'s error for a
+    Raises what ``as_target`` raises for a bad target, ``solver.check_target_kind``'s error for a
     kind the solver does not take, and UnsupportedError for a batch mixing poses and positions.
     """
     values = list(values)
@@ -54,11 +54,11 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
     if all(type(value) is pin.SE3 for value in values):
         matrices = np.array([value.homogeneous for value in values])
         if _valid_se3(matrices):
-            solver._check_target_kind(as_target(values[0]))
+            solver.check_target_kind("pose")
             return matrices[:, :3, 3].copy(), matrices[:, :3, :3].copy()
     targets = [as_target(value) for value in values]
-    for target in targets:
-        solver._check_target_kind(target)
+    for kind in dict.fromkeys("pose" if target.is_pose else "position" for target in targets):
+        solver.check_target_kind(kind)  # once per kind, in the order the batch first holds them
     if len({target.is_pose for target in targets}) != 1:
         raise UnsupportedError("a batch must hold only full poses or only positions")
     positions = np.array([target.position for target in targets])
