@@ -39,6 +39,18 @@ except ImportError:  # pragma: no cover - another numpy layout
     _clip_ufunc = None
 
 
+CLIPPED_REASON = "solution outside the joint limits (clipped)"
+
+
+def fk_check_reason(position_norm: float, rotation_norm: float) -> str:
+    """Why the shared FK check failed a candidate inside the limits."""
+    return f"FK check failed: position error {position_norm:.3g} m, rotation error {rotation_norm:.3g} rad"
+
+
+def invalid_joints_reason(q) -> str:
+    return f"method returned invalid joints {q!r}"
+
+
 def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """min(max(q, lower), upper) element-wise (a new array; NaN stays NaN), in one ufunc call."""
     if _clip_ufunc is None:
@@ -140,7 +152,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
         if not np.all(np.isfinite(q)):
             return _invalid_joints(q, time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
-            reason = "solution outside the joint limits (clipped)"
+            reason = CLIPPED_REASON
     reached = chain.fk(inside)
     position_xyz = reached.translation - target.position
     position_norm = math.hypot(*position_xyz.tolist())
@@ -155,15 +167,14 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                         time_s, candidate.iterations, method, candidate.extra)
     if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
         return _invalid_joints(q, time_s, candidate, method)
-    reason = reason or (f"FK check failed: position error {position_norm:.3g} m, "
-                        f"rotation error {rotation_norm:.3g} rad")
+    reason = reason or fk_check_reason(position_norm, rotation_norm)
     return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
 
 
 def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:
     nan3 = np.full(3, np.nan)
-    return IKResult(None, False, f"method returned invalid joints {q!r}", math.nan, math.nan,
+    return IKResult(None, False, invalid_joints_reason(q), math.nan, math.nan,
                     nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
 
 

@@ -36,7 +36,7 @@ from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RelativeFrameTask, Task
 from wbik.robot import Robot
-from wbik.solvers.base import Tolerances
+from wbik.solvers.base import Tolerances, invalid_joints_reason
 
 LIMITS = ("position", "position+velocity", "none")
 LIMIT_SLACK = 1e-9
@@ -358,7 +358,7 @@ def check_wholebody(
     q = np.asarray(q, dtype=float).reshape(-1)
     if q.shape != (problem.robot.model.nq,) or not np.all(np.isfinite(q)):
         return _without_joints(
-            problem, f"method returned invalid joints {q!r}", time_s, iterations, method, unsupported, extra
+            problem, invalid_joints_reason(q), time_s, iterations, method, unsupported, extra
         )
     if problem.robot.has_floating_base:  # a unit quaternion, whatever the method returned
         q = q.copy()

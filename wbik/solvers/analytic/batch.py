@@ -23,7 +23,14 @@ import pinocchio as pin
 from wbik.errors import UnsupportedError
 from wbik.geometry import batch_log3
 from wbik.robot import Chain
-from wbik.solvers.base import IKResult, Tolerances
+from wbik.solvers.base import (
+    CLIPPED_REASON,
+    IKResult,
+    Tolerances,
+    clip_to_limits,
+    fk_check_reason,
+    invalid_joints_reason,
+)
 from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, as_target
 
 CLIP_TOLERANCE = 1e-9
@@ -80,7 +87,7 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
     count = len(positions)
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
-    inside = np.minimum(np.maximum(q, chain.lower), chain.upper)
+    inside = clip_to_limits(q, chain.lower, chain.upper)
     clipped = np.any(inside != q, axis=1) & ~(np.all(q >= chain.lower - CLIP_TOLERANCE, axis=1)
                                                & np.all(q <= chain.upper + CLIP_TOLERANCE, axis=1))
     if reached is None or not np.array_equal(inside[finite], q[finite]):
@@ -107,13 +114,12 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
             results.append(IKResult(None, False, reason or "no solution", math.nan, math.nan,
                                     np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra))
         elif not is_finite:
-            results.append(IKResult(None, False, f"method returned invalid joints {q[index]!r}", math.nan,
+            results.append(IKResult(None, False, invalid_joints_reason(q[index]), math.nan,
                                     math.nan, np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method,
                                     extra))
         else:
             if not reason:
-                reason = ("solution outside the joint limits (clipped)" if clipped[index] else
-                          f"FK check failed: position error {p_norm:.3g} m, rotation error {r_norm:.3g} rad")
+                reason = CLIPPED_REASON if clipped[index] else fk_check_reason(p_norm, r_norm)
             results.append(IKResult(joints, False, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
                                     extra))
     return results
