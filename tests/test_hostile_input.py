@@ -26,7 +26,8 @@ from wbik.errors import (
     UnsupportedError,
     WbikError,
 )
-from wbik.solvers.base import Tolerances, methods, solver_options
+from wbik.solvers.base import Tolerances
+from wbik.solvers.method_registry import methods, solver_options
 from wbik.validation import check_budget
 
 BARE = (ValueError, TypeError, KeyError, IndexError, AttributeError, RuntimeError)

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.solvers.base import _DESCRIPTIONS, _REGISTRY
 from wbik.solvers.dls import DampedLeastSquares
+from wbik.solvers.method_registry import _METHODS
 from wbik.study import load_study, run_study
 from wbik.study.results import read_raw_csv
 
@@ -48,15 +48,12 @@ class UserDLS(DampedLeastSquares):
 
 
 def test_a_registered_method_runs_in_loky_workers_and_reaches_the_report(tmp_path):
-    wbik.register(NAME, UserDLS, "test only: DLS defined in a test module")
-    try:
+    with _METHODS.isolated():  # the test's method is gone afterwards
+        wbik.register(NAME, UserDLS, "test only: DLS defined in a test module")
         study_file = tmp_path / "registered.yaml"
         study_file.write_text(STUDY)
         output = run_study(load_study(study_file), tmp_path / "out", jobs=2, backend="loky",
                            progress=False, log=lambda message: None)
-    finally:
-        _REGISTRY.pop(NAME, None)
-        _DESCRIPTIONS.pop(NAME, None)
     rows = read_raw_csv(output / "arm3r_arm_position" / "raw.csv")
     assert set(rows) == {NAME, "dls"}
     mine = rows[NAME]

@@ -8,8 +8,8 @@ import json
 import pytest
 
 from wbik.errors import MissingDependencyError, UnsupportedError
-from wbik.solvers.base import _DESCRIPTIONS, _REGISTRY, register
 from wbik.solvers.dls import DampedLeastSquares
+from wbik.solvers.method_registry import _METHODS, register
 from wbik.study import run_study, study_from_dict
 from wbik.study.results import read_raw_csv
 
@@ -60,9 +60,9 @@ METHODS = {"position_only_by_query": PositionOnlyByQuery, "any_kind_by_query": A
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    for name, factory in METHODS.items():
-        register(name, factory, "test only")
-    try:
+    with _METHODS.isolated():  # the test's methods are gone afterwards
+        for name, factory in METHODS.items():
+            register(name, factory, "test only")
         study = study_from_dict({
             "name": "applicability", "robot": "ur5", "chain": "arm", "target": "pose", "poses": 6,
             "chunk_size": 3, "timeout_s": 1.0,
@@ -71,10 +71,6 @@ def run(tmp_path_factory):
         output = run_study(study, tmp_path_factory.mktemp("study") / "out", backend="sequential",
                            progress=False, log=lambda message: None)
         yield output
-    finally:
-        for name in METHODS:
-            _REGISTRY.pop(name, None)
-            _DESCRIPTIONS.pop(name, None)
 
 
 def _not_applicable(output) -> dict[str, str]:

@@ -1,4 +1,5 @@
-"""The one solver interface: Solver, IKResult, the shared FK check, and the method registry.
+"""The one solver interface: Solver, IKResult and the shared FK check (the method registry is
+:mod:`wbik.solvers.method_registry`).
 
 Every method subclasses :class:`Solver` and implements ``_solve(target, q0, deadline)``, returning
 a :class:`Candidate` (joints or None, iterations, reason). The base class validates input, times
@@ -9,13 +10,11 @@ methods, so results of different methods compare like with like.
 from __future__ import annotations
 
 import hashlib
-import importlib
-import inspect
 import math
 import numbers
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,9 +22,7 @@ import numpy as np
 from wbik.errors import (
     InvalidBudgetError,
     InvalidConfigurationError,
-    InvalidOptionError,
     InvalidSettingError,
-    UnknownMethodError,
     UnsupportedError,
 )
 from wbik.geometry import rotation_error
@@ -334,120 +331,9 @@ class Solver(PerThreadState):
         return [self.chain.check_q(row) for row in array]
 
 
-# -- registry ----------------------------------------------------------------------------------
-_REGISTRY: dict[str, str | Callable[..., Solver]] = {
-    # name -> "module:Class" (imported on first use, so optional dependencies stay optional)
-    "dls": "wbik.solvers.dls:DampedLeastSquares",
-    "analytic": "wbik.solvers.analytic:AnalyticSolver",
-    "newton": "wbik.solvers.newton:NewtonRaphson",
-    "kdl": "wbik.solvers.kdl:KDLSolver",
-    "kdl_restarts": "wbik.solvers.kdl:KDLRestartsSolver",
-    "trac_ik": "wbik.solvers.tracik:TracIKSolver",
-    "bounded_lm": "wbik.solvers.bounded_lm:BoundedLMSolver",
-    "qp": "wbik.solvers.qp:QPSolver",
-    "placo": "wbik.solvers.placo:PlacoSolver",
-    "eaik": "wbik.solvers.eaik:EAIKSolver",
-    "thesis_literal": "wbik.apps.golem3.thesis_solvers:ThesisLiteralSolver",
-    "thesis_sweep": "wbik.apps.golem3.thesis_solvers:ThesisSweepSolver",
-}
-_DESCRIPTIONS: dict[str, str] = {
-    "dls": "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)",
-    "analytic": "closed-form IK: every branch, nearest to q0, vectorised batches",
-    "newton": "Newton-Raphson (seed 001): LU where J is square, least squares otherwise",
-    "kdl": "orocos KDL ChainIkSolverPos_NR_JL through PyKDL, one attempt from the seed",
-    "kdl_restarts": "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)",
-    "trac_ik": "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently",
-    "bounded_lm": "ours: joint-limit-bounded Levenberg-Marquardt with vectorised random restarts",
-    "qp": "task-based QP IK (qpsolvers, DAQP default) with joint limits",
-    "placo": "PlaCo's kinematics solver on the same URDF",
-    "eaik": "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0",
-    "thesis_literal": "the Golem-III thesis's 6-DOF closed form as written (no clamp), Golem-III arms only",
-    "thesis_sweep": "the Golem-III thesis's position-only roll/pitch sweep of its closed form (Golem-III)",
-}
+def __getattr__(name: str):  # TEMPORARY: moved to wbik.solvers.method_registry
+    if name in ("register", "methods", "solver", "solver_options", "_factory"):
+        from wbik.solvers import method_registry as _m
 
-
-def register(name: str, factory: str | Callable[..., Solver], description: str = "") -> None:
-    """Add a method: ``factory`` is a Solver subclass (or callable) or a "module:Class" path."""
-    _REGISTRY[name] = factory
-    if description:
-        _DESCRIPTIONS[name] = description
-
-
-def methods() -> dict[str, str]:
-    """Registered method names with a one-line description."""
-    return {name: _DESCRIPTIONS.get(name, "") for name in sorted(_REGISTRY)}
-
-
-def _factory(method: str) -> Callable[..., Solver]:
-    """The registered class (or callable) of ``method``, imported on first use."""
-    if not isinstance(method, str) or method not in _REGISTRY:
-        raise UnknownMethodError(method if isinstance(method, str) else repr(method), list(_REGISTRY))
-    factory = _REGISTRY[method]
-    if isinstance(factory, str):
-        module_name, class_name = factory.split(":")
-        factory = getattr(importlib.import_module(module_name), class_name)
-    return factory
-
-
-def _keyword_options(function, skip: int) -> tuple[set[str], bool]:
-    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
-    names: set[str] = set()
-    more = False
-    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
-        if parameter.kind is parameter.VAR_KEYWORD:
-            more = True
-        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-            names.add(parameter.name)
-    return names, more
-
-
-def solver_options(method: str) -> set[str] | None:
-    """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
-    seed and the method's own), from the constructor signatures along the class hierarchy.
-    None: the factory takes any keyword (a plain callable with **kwargs)."""
-    factory = _factory(method)
-    if not isinstance(factory, type):
-        names, more = _keyword_options(factory, skip=2)
-        return None if more else names
-    accepted: set[str] = set()
-    for klass in factory.__mro__:
-        init = vars(klass).get("__init__")
-        if init is None or klass is object:
-            continue
-        names, more = _keyword_options(init, skip=3)  # self, robot, chain
-        accepted |= names
-        if not more:
-            return accepted
-    return None
-
-
-def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
-    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``.
-
-    Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
-    """
-    factory = _factory(method)
-    accepted = solver_options(method)
-    unknown = sorted(set(options) - accepted) if accepted is not None else []
-    if not unknown:
-        try:  # a plain callable: its own signature decides
-            inspect.signature(factory).bind(robot, chain, **options)
-        except TypeError as exc:
-            unknown = [f"({exc})"]
-    if unknown:
-        known = sorted(accepted or ())
-        raise InvalidOptionError(
-            f"method {method!r} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
-            option=unknown[0], accepted=known)
-    if options.get("timeout_s") is not None:  # a typed error before any model is built
-        from wbik.validation import check_budget
-
-        options["timeout_s"] = check_budget("timeout_s", options["timeout_s"])
-    if isinstance(robot, str):
-        from wbik.models import load
-
-        robot = load(robot)
-    elif not isinstance(robot, Robot):
-        raise InvalidOptionError(f"robot must be a wbik.Robot or a robot name, got {type(robot).__name__}",
-                                 option="robot")
-    return factory(robot, chain, **options)
+        return getattr(_m, "method_factory" if name == "_factory" else name)
+    raise AttributeError(name)

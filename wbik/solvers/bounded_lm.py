@@ -81,6 +81,7 @@ from scipy.spatial import cKDTree
 from wbik.errors import RobotDescriptionError
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
 from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, Workspace, keep_better
+from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target, as_target
 
@@ -851,3 +852,10 @@ def chain_scale_weight(chain) -> float:
 
     length = float(np.linalg.norm(serial_structure(chain).placements[1:, :3, 3], axis=1).sum())
     return max(1.0, 1.0 / max(length, 1e-3))
+
+
+IK_METHODS = (
+    IKMethod("bounded_lm", BoundedLMSolver,
+             "ours: joint-limit-bounded Levenberg-Marquardt with vectorised random restarts"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

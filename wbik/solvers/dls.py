@@ -20,6 +20,7 @@ import numpy as np
 
 from wbik.solvers.base import Candidate, Solver
 from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
+from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import converged, task_error
 from wbik.targets import Target
 
@@ -61,3 +62,10 @@ class DampedLeastSquares(Solver):
                 return Candidate(q, iteration, "stalled in a local minimum (damping saturated)")
         return Candidate(q, self.max_iterations,
                          f"iteration budget used up: no convergence in {self.max_iterations} iterations")
+
+
+IK_METHODS = (
+    IKMethod("dls", DampedLeastSquares,
+             "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -81,6 +81,7 @@ from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.analytic import BRANCH_MERGE, wrap_into_limits
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
+from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, as_target, pose_error
 from wbik.validation import check_count
@@ -296,3 +297,10 @@ class EAIKSolver(Solver):
                                           for other in results):
                 results.append(result)
         return results
+
+
+IK_METHODS = (
+    IKMethod("eaik", EAIKSolver,
+             "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -29,6 +29,7 @@ import numpy as np
 from wbik.errors import MissingDependencyError, RobotDescriptionError, UnsupportedError
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, pose_error
 
@@ -188,3 +189,12 @@ def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:
     """(position error norm, rotation error norm) of q, as the shared FK check measures them."""
     position, rotation = pose_error(chain.fk(q), target)
     return float(np.linalg.norm(position)), 0.0 if rotation is None else float(np.linalg.norm(rotation))
+
+
+IK_METHODS = (
+    IKMethod("kdl", KDLSolver,
+             "orocos KDL ChainIkSolverPos_NR_JL through PyKDL, one attempt from the seed"),
+    IKMethod("kdl_restarts", KDLRestartsSolver,
+             "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

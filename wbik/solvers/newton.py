@@ -25,6 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import converged, task_error
 from wbik.targets import Target
 
@@ -96,3 +97,10 @@ def stall_reason(chain, q: np.ndarray, error_norm: float, iteration: int) -> str
         detail += f"; at a joint limit: {', '.join(at_limit)}"
     return (f"stalled after {iteration} iterations with task error {error_norm:.3g} ({detail}): "
             "the target is probably out of reach or outside the joint limits")
+
+
+IK_METHODS = (
+    IKMethod("newton", NewtonRaphson,
+             "Newton-Raphson (seed 001): LU where J is square, least squares otherwise"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

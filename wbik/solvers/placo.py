@@ -22,6 +22,7 @@ import pinocchio as pin
 from wbik.errors import MissingDependencyError, RobotDescriptionError
 from wbik.robot import Robot, write_cached_urdf
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target, pose_error
 
 
@@ -165,3 +166,10 @@ class PlacoSolver(Solver):
             wrapper.update_kinematics()
             q = np.array([wrapper.get_joint(name) for name in chain.joint_names])
         return Candidate(q, self.max_iterations, f"no convergence in {self.max_iterations} iterations")
+
+
+IK_METHODS = (
+    IKMethod("placo", PlacoSolver,
+             "PlaCo's kinematics solver on the same URDF"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -22,6 +22,7 @@ from wbik.qp.constraints import JointPositionLimits, JointVelocityLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 
 
@@ -63,3 +64,10 @@ class QPSolver(Solver):
                                  deadline=None if deadline == float("inf") else deadline)
         return Candidate(solution.q, solution.iterations, solution.reason,
                          {"backend": self.backend, "converged": solution.converged})
+
+
+IK_METHODS = (
+    IKMethod("qp", QPSolver,
+             "task-based QP IK (qpsolvers, DAQP default) with joint limits"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

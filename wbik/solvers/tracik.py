@@ -23,6 +23,7 @@ import pinocchio as pin
 
 from wbik.errors import InvalidSettingError, MissingDependencyError, RobotDescriptionError, UnsupportedError
 from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 
 SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
@@ -87,3 +88,10 @@ class TracIKSolver(Solver):
         if answer[0] < 0:
             return Candidate(None, 1, f"TRAC-IK found no solution within {self.timeout_s:g} s")
         return Candidate(np.asarray(answer[1:], dtype=float), 1)
+
+
+IK_METHODS = (
+    IKMethod("trac_ik", TracIKSolver,
+             "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -51,9 +51,9 @@ def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float |
     Ours: no wall clock and ``max_iterations`` = the iterations that cost ``timeout_s`` on the
     reference machine (unless the study gives max_iterations itself). Others: the wall clock.
     """
-    from wbik.solvers.base import _factory
+    from wbik.solvers.method_registry import method_factory
 
-    factory = _factory(method)
+    factory = method_factory(method)
     if getattr(factory, "iteration_cost_s", None) is None:
         return timeout_s, options
     if "max_iterations" in options:

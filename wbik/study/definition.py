@@ -513,17 +513,17 @@ def _number(value, field_name: str, source: str) -> float:
 
 def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
-    against its constructor (:func:`wbik.solvers.base.solver_options`), every case's robot (a
+    against its constructor (:func:`wbik.solvers.method_registry.solver_options`), every case's robot (a
     built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
     from wbik.models import builder_parameters, robot_entries
-    from wbik.solvers.base import _REGISTRY as CHAIN_METHODS
-    from wbik.solvers.base import solver_options
+    from wbik.solvers.method_registry import methods as chain_methods
+    from wbik.solvers.method_registry import solver_options
     from wbik.wholebody.methods import wholebody_solver_options
 
     wholebody = bool(cases) and all(case.target == "wholebody" for case in cases)
     for index, spec in enumerate(methods):
         try:
-            if wholebody or spec.method not in CHAIN_METHODS:  # whole-body methods check their own options
+            if wholebody or spec.method not in chain_methods():  # whole-body methods check their own options
                 accepted = wholebody_solver_options(spec.method) | {"timeout_s", "tolerances", "seed"}
             else:
                 accepted = solver_options(spec.method)

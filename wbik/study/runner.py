@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from wbik.errors import MissingDependencyError, WbikError
+from wbik.solvers.method_registry import IKMethod
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
 from wbik.study.context import _frozen, _robot, chunk_count, make_solver, solver_budget  # also re-exported
@@ -81,9 +82,9 @@ class ChunkTask:
     q0: np.ndarray
     scenario: str | None = None  # whole-body cases: the sampler that rebuilds them (wbik.study.wholebody)
     scenario_seed: int = 0
-    registered: tuple | None = None
-    """(name, factory) of a method registered at run time (``wbik.register``; not a built-in
-    "wbik.…:Class" path): worker processes have their own registry, so the task carries it and
+    registered: IKMethod | None = None
+    """The IK method when user code registered it at run time (``wbik.register``; None for one a
+    module of METHOD_MODULES declares): worker processes have their own registry, so the task carries it and
     :func:`solve_chunk` registers it there (loky and Dask pickle with cloudpickle, so a class defined
     in the user's script travels by value)."""
     wholebody_entries: tuple = ()
@@ -135,9 +136,9 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     continues pose by pose. Whether the method applies was decided before (:func:`probe`).
     """
     if task.registered is not None:  # a method registered in the study's main process
-        from wbik.solvers.base import register
+        from wbik.solvers.method_registry import register_method
 
-        register(*task.registered)
+        register_method(task.registered, replace=True)
     if task.scenario is not None:  # a whole-body chunk
         from wbik.study.wholebody import solve_wholebody_chunk
 
@@ -260,11 +261,9 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         from wbik.study.wholebody import make_task
 
         return make_task(study, case, method, poses, chunk, start, stop)
-    from wbik.solvers.base import _REGISTRY
+    from wbik.solvers.method_registry import method_added_at_run_time
 
     timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
-    factory = _REGISTRY[method.method]
-    built_in = isinstance(factory, str) and factory.startswith("wbik.")
     return ChunkTask(
         case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
         angles=case.reference.angles if case.reference else None, label=method.label, method=method.method,
@@ -274,7 +273,7 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         chunk=chunk, first_pose=start,
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
-        q0=poses.q0[start:stop], registered=None if built_in else (method.method, factory))
+        q0=poses.q0[start:stop], registered=method_added_at_run_time(method.method))
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:

@@ -67,6 +67,7 @@ from wbik.geometry import wrap_to_pi
 from wbik.robot_packages.golem3.closed_form import mirror_positions, mirror_rotations, right_arm_coordinates
 from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, RHO, H
 from wbik.solvers.base import Candidate, Solver, evaluate
+from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target, as_target
 
 THESIS_CHECK_TOLERANCE = 1e-3
@@ -310,3 +311,12 @@ class ThesisSweepSolver(_ThesisGolem3):
             reason = (f"no solution in the whole sweep ({SWEEP_POINTS} roll-pitch orientations, "
                       f"yaw {self.yaw:g})")
         return Candidate(None, self.max_iterations, reason, extra)
+
+
+IK_METHODS = (
+    IKMethod("thesis_literal", ThesisLiteralSolver,
+             "the Golem-III thesis's 6-DOF closed form as written (no clamp), Golem-III arms only"),
+    IKMethod("thesis_sweep", ThesisSweepSolver,
+             "the Golem-III thesis's position-only roll/pitch sweep of its closed form (Golem-III)"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

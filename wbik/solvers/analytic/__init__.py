@@ -44,6 +44,7 @@ from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
+from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target, as_target
 
 TWO_PI = 2.0 * math.pi
@@ -485,3 +486,10 @@ def _same_branch(q: list[float], other: list[float]) -> bool:
     in plain floats, stopping at the first joint that differs)."""
     remainder = math.remainder
     return all(abs(remainder(a - b, TWO_PI)) < BRANCH_MERGE for a, b in zip(q, other, strict=True))
+
+
+IK_METHODS = (
+    IKMethod("analytic", AnalyticSolver,
+             "closed-form IK: every branch, nearest to q0, vectorised batches"),
+)
+"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

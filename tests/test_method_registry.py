@@ -1,0 +1,93 @@
+"""The IK method registry: every method is declared by the module holding it (IK_METHODS), the core
+lists the modules; user code adds methods with wbik.register."""
+
+import importlib
+import sys
+import types
+
+import pytest
+
+import wbik
+from wbik.errors import UnknownMethodError
+from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+from wbik.solvers import method_registry
+from wbik.solvers.base import Solver
+from wbik.solvers.dls import DampedLeastSquares
+from wbik.solvers.method_registry import _METHODS, METHOD_MODULES, IKMethod, register, register_method
+
+
+@pytest.fixture
+def isolated():
+    with _METHODS.isolated() as registry:
+        yield registry
+
+
+def test_every_listed_module_declares_its_methods_and_each_name_once():
+    assert isinstance(_METHODS, DeclaredRegistry) and _METHODS.modules is METHOD_MODULES
+    declared = {}
+    for module_name in METHOD_MODULES:
+        for entry in importlib.import_module(module_name).IK_METHODS:
+            assert entry.name not in declared, f"{entry.name} declared by {declared.get(entry.name)} too"
+            declared[entry.name] = module_name
+            assert entry.description, f"{entry.name} has no description"
+    assert set(declared) == set(wbik.methods())
+    # the methods the README and the default study name are all there
+    assert {"analytic", "newton", "dls", "bounded_lm", "qp", "kdl", "kdl_restarts", "trac_ik", "placo",
+            "eaik", "thesis_literal", "thesis_sweep"} <= set(declared)
+
+
+def test_a_user_method_is_added_replaced_on_re_registration_and_travels_as_an_entry(isolated):
+    class Mine(DampedLeastSquares):
+        pass
+
+    register("mine_test", Mine, "first")
+    register("mine_test", Mine, "again")  # re-running a notebook cell
+    assert wbik.methods()["mine_test"] == "again"
+    entry = method_registry.method_added_at_run_time("mine_test")
+    assert entry == IKMethod("mine_test", Mine, "again")
+    assert method_registry.method_added_at_run_time("dls") is None  # a fresh process has it anyway
+    assert isinstance(wbik.solver("mine_test", "arm3r"), Mine)
+
+
+def test_a_built_in_method_is_not_shadowed_by_accident(isolated):
+    with pytest.raises(RegistryError, match="wbik.solvers.dls"):
+        register("dls", DampedLeastSquares)
+
+    class Louder(DampedLeastSquares):
+        pass
+
+    register_method(IKMethod("dls", Louder, "on purpose"), replace=True)
+    assert isinstance(wbik.solver("dls", "arm3r"), Louder)
+
+
+def test_a_factory_path_is_imported_at_registration(isolated):
+    register("by_path_test", "wbik.solvers.dls:DampedLeastSquares")
+    assert isinstance(wbik.solver("by_path_test", "arm3r"), DampedLeastSquares)
+    with pytest.raises(RegistryError, match="cannot import"):
+        register("bad_path_test", "wbik.solvers.no_such_module:Solver")
+    with pytest.raises(RegistryError, match="must be a Solver subclass or a callable"):
+        IKMethod("not_callable", 42)
+
+
+def test_listed_modules_that_fail_are_errors_naming_them(isolated, monkeypatch):
+    bare = types.ModuleType("wbik_test_no_methods")
+    monkeypatch.setitem(sys.modules, bare.__name__, bare)
+    with _METHODS.isolated([*METHOD_MODULES, bare.__name__]):
+        with pytest.raises(RegistryError, match="wbik_test_no_methods .*IK_METHODS"):
+            wbik.methods()
+    with _METHODS.isolated([*METHOD_MODULES, "wbik_test_not_importable"]):
+        with pytest.raises(RegistryImportError, match="wbik_test_not_importable"):
+            wbik.methods()
+    twice = types.ModuleType("wbik_test_twice")
+    twice.IK_METHODS = (IKMethod("dls", DampedLeastSquares),)
+    monkeypatch.setitem(sys.modules, twice.__name__, twice)
+    with _METHODS.isolated([*METHOD_MODULES, twice.__name__]):
+        with pytest.raises(RegistryError, match="'dls' of wbik_test_twice is already registered"):
+            wbik.methods()
+
+
+def test_an_unknown_method_lists_the_known_ones():
+    with pytest.raises(UnknownMethodError) as info:
+        wbik.solver("no_such_method", "arm3r")
+    assert "bounded_lm" in str(info.value)
+    assert issubclass(DampedLeastSquares, Solver)

@@ -1,0 +1,166 @@
+"""The IK method registry: ``solver(method, robot, chain, **options)``.
+
+A method is declared where its class lives, in that module's ``IK_METHODS`` tuple of
+:class:`IKMethod` (name, :class:`~wbik.solvers.base.Solver` subclass, one-line description); the
+modules holding methods are listed by name in :data:`METHOD_MODULES` and imported on first use (see
+:class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or declares
+a name another declares too is an error naming it). User code adds a method with :func:`register`
+(``wbik.register(name, MySolver)``) or a module of them with :func:`register_method_module`.
+
+A method's own optional library (PyKDL, pytracik, PlaCo, EAIK) is imported when a solver is built,
+not when its module is, so listing a method costs no optional dependency.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from wbik.errors import InvalidOptionError, UnknownMethodError
+from wbik.registry import DeclaredRegistry, RegistryError
+from wbik.robot import Robot
+from wbik.solvers.base import Solver
+
+__all__ = ["IKMethod", "METHOD_MODULES", "method_added_at_run_time", "method_factory", "methods", "register",
+           "register_method", "register_method_module", "solver", "solver_options"]
+
+METHOD_MODULES: list[str] = [
+    "wbik.solvers.analytic",
+    "wbik.solvers.newton",
+    "wbik.solvers.dls",
+    "wbik.solvers.bounded_lm",
+    "wbik.solvers.qp",
+    "wbik.solvers.kdl",  # kdl, kdl_restarts
+    "wbik.solvers.tracik",
+    "wbik.solvers.placo",
+    "wbik.solvers.eaik",
+    "wbik.apps.golem3.thesis_solvers",  # thesis_literal, thesis_sweep
+]
+"""The modules whose ``IK_METHODS`` are registered (a new module of methods: one line here)."""
+
+SolverFactory = Callable[..., Solver]
+"""A Solver subclass, or any callable ``factory(robot, chain, **options) -> Solver``."""
+
+
+@dataclass(frozen=True)
+class IKMethod:
+    """An IK method: its ``name`` (``solver(name, ...)``, a study's ``method:``), its ``factory``
+    (``factory(robot, chain, **options)``, usually a Solver subclass) and a one-line ``description``."""
+
+    name: str
+    factory: SolverFactory
+    description: str = ""
+
+    def __post_init__(self) -> None:
+        if not callable(self.factory):
+            raise RegistryError(f"IK method {self.name!r}: the factory must be a Solver subclass or a "
+                                f"callable, got {self.factory!r}")
+
+
+_METHODS: DeclaredRegistry[IKMethod] = DeclaredRegistry(
+    "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
+    unknown=lambda name, known: UnknownMethodError(name, known),
+)
+
+register_method = _METHODS.register
+"""Add an :class:`IKMethod` from user code (``replace`` one of the same name only when asked)."""
+register_method_module = _METHODS.register_module
+"""Add the ``IK_METHODS`` of a module, by its name (imported now)."""
+method_added_at_run_time = _METHODS.added_at_run_time
+"""The method ``name`` when user code added it (a fresh process, such as a study worker, does not
+have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
+
+
+def register(name: str, factory: SolverFactory | str, description: str = "") -> None:
+    """Add a method from user code: ``factory`` is a Solver subclass, a callable
+    ``factory(robot, chain, **options)`` or a "package.module:Class" path (imported now).
+
+    Registering a name again replaces what user code registered under it (re-running a notebook
+    cell works); a method a wbik module declares is not replaced this way (use
+    ``register_method(IKMethod(...), replace=True)`` to shadow one on purpose)."""
+    if isinstance(factory, str):
+        module_name, _, attribute = factory.partition(":")
+        try:
+            factory = getattr(importlib.import_module(module_name), attribute)
+        except (ImportError, AttributeError, ValueError) as exc:
+            raise RegistryError(f"IK method {name!r}: cannot import {factory!r} "
+                                f"(expected 'package.module:Class'): {exc}") from exc
+    _METHODS.register(IKMethod(name, factory, description),
+                      replace=method_added_at_run_time(name) is not None)
+
+
+def methods() -> dict[str, str]:
+    """Registered method names with a one-line description."""
+    return {name: method.description for name, method in sorted(_METHODS.entries().items())}
+
+
+def method_factory(method: str) -> SolverFactory:
+    """The factory (usually the Solver subclass) of ``method``; UnknownMethodError listing the known
+    methods if nobody registered it."""
+    return _METHODS.get(method).factory
+
+
+def _keyword_options(function, skip: int) -> tuple[set[str], bool]:
+    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
+    names: set[str] = set()
+    more = False
+    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
+        if parameter.kind is parameter.VAR_KEYWORD:
+            more = True
+        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+            names.add(parameter.name)
+    return names, more
+
+
+def solver_options(method: str) -> set[str] | None:
+    """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
+    seed and the method's own), from the constructor signatures along the class hierarchy.
+    None: the factory takes any keyword (a plain callable with **kwargs)."""
+    factory = method_factory(method)
+    if not isinstance(factory, type):
+        names, more = _keyword_options(factory, skip=2)
+        return None if more else names
+    accepted: set[str] = set()
+    for klass in factory.__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or klass is object:
+            continue
+        names, more = _keyword_options(init, skip=3)  # self, robot, chain
+        accepted |= names
+        if not more:
+            return accepted
+    return None
+
+
+def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
+    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``.
+
+    Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
+    """
+    factory = method_factory(method)
+    accepted = solver_options(method)
+    unknown = sorted(set(options) - accepted) if accepted is not None else []
+    if not unknown:
+        try:  # a plain callable: its own signature decides
+            inspect.signature(factory).bind(robot, chain, **options)
+        except TypeError as exc:
+            unknown = [f"({exc})"]
+    if unknown:
+        known = sorted(accepted or ())
+        raise InvalidOptionError(
+            f"method {method!r} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
+            option=unknown[0], accepted=known)
+    if options.get("timeout_s") is not None:  # a typed error before any model is built
+        from wbik.validation import check_budget
+
+        options["timeout_s"] = check_budget("timeout_s", options["timeout_s"])
+    if isinstance(robot, str):
+        from wbik.models import load
+
+        robot = load(robot)
+    elif not isinstance(robot, Robot):
+        raise InvalidOptionError(f"robot must be a wbik.Robot or a robot name, got {type(robot).__name__}",
+                                 option="robot")
+    return factory(robot, chain, **options)
