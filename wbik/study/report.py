@@ -160,9 +160,7 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
     blocks.append(Block("h3", "Poses solved and time"))
     blocks.append(summary_table(summaries, [
         *SOLVED_COLUMNS,
-        ("median ms (all calls)", "time_all_median_ms"),
-        ("median ms (solved)", "time_solved_median_ms"),
-        ("p95 ms (solved)", "time_solved_p95_ms"),
+        *TIME_COLUMNS,
         ("max ms (solved)", "time_solved_max_ms"),
         ("median ms (not solved)", "time_unsolved_median_ms"),
         ("p95 ms (not solved)", "time_unsolved_p95_ms"),
@@ -208,6 +206,12 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
 
 SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved")]
 """The first columns of every case's table (:func:`summary_table`): solved of all, and in %."""
+
+TIME_COLUMNS = [("median ms (all calls)", "time_all_median_ms"),
+                ("median ms (solved)", "time_solved_median_ms"),
+                ("p95 ms (solved)", "time_solved_p95_ms")]
+"""The first time columns of every case's table: the median time of all calls, then the median and
+95th percentile of the solved ones (ms per call)."""
 
 
 def summary_table(summaries: dict[str, dict], columns) -> Block:

@@ -372,6 +372,7 @@ def analyse_case(study, case, output: Path) -> dict:
 def case_blocks(study, analysis: dict) -> list:
     from wbik.study.report import (
         SOLVED_COLUMNS,
+        TIME_COLUMNS,
         Block,
         frequent_reasons,
         significance_blocks,
@@ -434,9 +435,7 @@ def case_blocks(study, analysis: dict) -> list:
         blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
     blocks.append(Block("h3", "Time"))
     blocks.append(summary_table(summaries, [
-        ("median ms (all calls)", "time_all_median_ms"),
-        ("median ms (solved)", "time_solved_median_ms"),
-        ("p95 ms (solved)", "time_solved_p95_ms"),
+        *TIME_COLUMNS,
         ("median ms (not solved)", "time_unsolved_median_ms"),
         ("max ms (not solved)", "time_unsolved_max_ms"),
         ("median iterations (all calls)", "iterations_median"),
