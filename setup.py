@@ -1,6 +1,7 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
-top-level data folders as package data under ``wbik/data/``: ``urdf/``, ``tasks/`` (with
-``tasks/data/``) and the study files ``comparisons/*.yaml``.
+top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
+the study files ``comparisons/*.yaml``. (The robots' URDFs are package data of their robot packages,
+``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
 
 The folders stay at the top level of the repository, where the README documents them;
 :func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
@@ -18,7 +19,6 @@ from setuptools.command.build_py import build_py
 ROOT = Path(__file__).resolve().parent
 DATA = {
     # folder -> glob patterns of the files shipped (comparisons/reports/ is output, not shipped)
-    "urdf": ("*.urdf", "*.xml"),
     "tasks": ("*.yaml", "*.yml", "*.json", "*.toml", "data/*.yaml"),
     "comparisons": ("*.yaml", "*.yml", "*.toml"),
 }

@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbik.models import URDF_DIR, load
+from wbik.models import load
 from wbik.robot_packages.bioloid import model as bioloid
 
 MIRROR = np.diag([1.0, -1.0, 1.0])
@@ -37,7 +37,7 @@ def leg_q(theta7, theta9, theta11, theta13, theta15, theta17) -> np.ndarray:
 
 
 def test_committed_urdf_is_the_generator_output():
-    assert (URDF_DIR / "bioloid.urdf").read_text() == bioloid.urdf_text()
+    assert bioloid.URDF_PATH.read_text() == bioloid.urdf_text()
 
 
 def test_naming_contract(robot):

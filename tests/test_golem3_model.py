@@ -13,7 +13,6 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.models import URDF_DIR
 from wbik.robot_packages.golem3 import model as golem3
 
 # golem3.md, thesis Table 3.1 and the robot's joint limits
@@ -55,14 +54,14 @@ def robot():
 
 
 def test_committed_urdf_is_the_generator_output():
-    assert (URDF_DIR / "golem3.urdf").read_text() == golem3.urdf_text(), \
-        ("urdf/golem3.urdf is stale: run python -c "
+    assert golem3.URDF_PATH.read_text() == golem3.urdf_text(), \
+        (f"{golem3.URDF_PATH} is stale: run python -c "
          "'from wbik.robot_packages.golem3 import model; model.write_urdf()'")
 
 
 def test_urdf_file_loads_with_pinocchio_and_has_the_contract_names():
-    ElementTree.parse(URDF_DIR / "golem3.urdf")  # strict XML (e.g. no '--' inside comments)
-    model = pin.buildModelFromUrdf(str(URDF_DIR / "golem3.urdf"))
+    ElementTree.parse(golem3.URDF_PATH)  # strict XML (e.g. no '--' inside comments)
+    model = pin.buildModelFromUrdf(str(golem3.URDF_PATH))
     joints = set(model.names)
     expected = {"mb", "m0", "m1", "m2", "m10", "m11", "m12", "m13", "m14", "m15", "m17",
                 "m20", "m21", "m22", "m23", "m24", "m25", "m27"}

@@ -6,8 +6,9 @@ interpreter without pip; a ``.pth`` there adds the test venv's site-packages *af
 own, so the dependencies are reused while ``import wbik`` finds the installed copy first (the
 editable install's finder is consulted only after the path). The commands run from ``tmp_path``
 with the new venv's ``wbik`` script, so neither the source tree nor the cwd can supply data: the
-URDFs, tasks and study files must come from the wheel (``wbik/data/``). The URDF cache goes to
-``WBIK_CACHE_DIR``, and a run that uses no PlaCo writes nothing there.
+tasks and study files must come from the wheel (``wbik/data/``), the robots' URDFs from its robot
+packages (``wbik/robot_packages/<robot>/``). The URDF cache goes to ``WBIK_CACHE_DIR``, and a run
+that uses no PlaCo writes nothing there.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "urdf", "tasks")
+BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks")
 TIMEOUT_S = 600
 
 
@@ -75,9 +76,14 @@ def installed(tmp_path_factory) -> dict:
 
 
 def test_the_installed_copy_is_imported_and_carries_its_data(installed):
-    script = ("import wbik, wbik.data as d, wbik.models as m, wbik.study.definition as s; "
-              "print(wbik.__file__); print(d.data_dir('urdf')); print(m.URDF_DIR); print(s.DEFAULT_STUDY); "
-              "print(sorted(d.shipped_tasks())); robot = wbik.load('golem3'); print(robot.urdf_path); "
+    script = ("import wbik, wbik.data as d, wbik.study.definition as s; "
+              "from wbik.robot_packages.arm3r import model as arm3r; "
+              "from wbik.robot_packages.pincher import model as pincher; "
+              "from wbik.robot_packages.ur5 import model as ur5; "
+              "print(wbik.__file__); print(d.data_dir('tasks')); print(d.data_dir('comparisons')); "
+              "print(s.DEFAULT_STUDY); print(sorted(d.shipped_tasks())); "
+              "print(wbik.load('golem3').urdf_path); print(wbik.load('bioloid').urdf_path); "
+              "print(arm3r.URDF_PATH); print(pincher.URDF_PATH); print(ur5.TOOL_URDF_PATH); "
               "wbik.load('arm3r'); wbik.load('pincher')")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
@@ -87,7 +93,14 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
         assert Path(line).is_relative_to(package / "data"), line
         assert Path(line).exists(), line
     assert "bioloid_balance" in lines[4] and "ur5_riveting" in lines[4]
-    assert Path(lines[5]) == package / "data" / "urdf" / "golem3.urdf"
+    # the URDFs are package data of their robot packages
+    robots = package / "robot_packages"
+    expected = [robots / "golem3" / "golem3.urdf", robots / "bioloid" / "bioloid.urdf",
+                robots / "arm3r" / "arm3r.urdf", robots / "pincher" / "pincher.urdf",
+                robots / "ur5" / "ur5_rivet_tool.urdf.xml"]
+    assert [Path(line) for line in lines[5:10]] == expected
+    assert all(path.is_file() for path in expected)
+    assert not (package / "data" / "urdf").exists()
     assert not installed["cache"].exists(), "creating a Robot wrote into the URDF cache"
 
 

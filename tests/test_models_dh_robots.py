@@ -55,9 +55,9 @@ def test_arm3r_start_point_and_closed_form(rng):
 
 
 def test_committed_urdf_files_are_the_dh_tables():
-    for name, text in exported().items():
-        committed = (wbik.models.URDF_DIR / name).read_text()
-        assert committed == text, f"urdf/{name} is stale: run scripts/export_urdf.py"
+    for path, text in exported().items():
+        committed = path.read_text()
+        assert committed == text, f"{path} is stale: run scripts/export_urdf.py"
         model = pin.buildModelFromXML(committed)
         assert model.nq in (3, 4)
 

@@ -13,9 +13,10 @@ import pytest
 
 import wbik
 from wbik.errors import InvalidOptionError, RobotDescriptionError
-from wbik.models import URDF_DIR
 from wbik.qp.humanoid import support_polygon
+from wbik.robot_packages.arm3r.model import URDF_PATH as ARM3R_URDF
 from wbik.robot_packages.arm3r.model import Arm3RFacts, dh_table
+from wbik.robot_packages.bioloid.model import URDF_PATH as BIOLOID_URDF
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
 HALF = np.array([0.05, 0.03])  # half the 100 x 60 mm sole rectangle, written here by hand
@@ -24,7 +25,7 @@ ARM3R_FORM = {("default", "position"): "wbik.robot_packages.arm3r.closed_form:Ar
 
 
 def test_urdf_humanoid_loaded_with_soles_gets_a_support_polygon():
-    robot = wbik.load(URDF_DIR / "bioloid.urdf", floating_base=True,
+    robot = wbik.load(BIOLOID_URDF, floating_base=True,
                       soles={"r_sole": CORNERS, "l_sole": CORNERS})
     q = robot.nominal  # neutral: base at the origin, every joint 0, both soles level
     centres = {sole: robot.frame_placement(q, sole) for sole in ("r_sole", "l_sole")}
@@ -42,11 +43,11 @@ def test_urdf_humanoid_loaded_with_soles_gets_a_support_polygon():
     np.testing.assert_allclose(one_foot.vertices.max(axis=0), left + HALF, atol=1e-12)
     assert one_foot.margin_of(left) == pytest.approx(HALF[1])
     with pytest.raises(RobotDescriptionError, match="robot.soles"):
-        support_polygon(wbik.load(URDF_DIR / "bioloid.urdf", floating_base=True), q, ["r_sole"])
+        support_polygon(wbik.load(BIOLOID_URDF, floating_base=True), q, ["r_sole"])
 
 
 def test_urdf_soles_are_read_only_and_checked():
-    robot = wbik.load(URDF_DIR / "bioloid.urdf", floating_base=True, soles={"r_sole": CORNERS})
+    robot = wbik.load(BIOLOID_URDF, floating_base=True, soles={"r_sole": CORNERS})
     with pytest.raises(ValueError, match="read-only"):
         robot.soles["r_sole"][0, 0] = 1.0
     for soles, words in (({"r_foot": CORNERS}, ("'r_foot'", "not a frame")),
@@ -55,19 +56,19 @@ def test_urdf_soles_are_read_only_and_checked():
                          ({"r_sole": "square"}, ("'r_sole'", "(k, 3)")),
                          ([CORNERS], ("soles must map",))):
         with pytest.raises(RobotDescriptionError) as info:
-            wbik.load(URDF_DIR / "bioloid.urdf", floating_base=True, soles=soles)
+            wbik.load(BIOLOID_URDF, floating_base=True, soles=soles)
         for word in words:
             assert word in str(info.value)
 
 
 def test_urdf_closed_form_needs_its_facts():
     target = np.array([1.0, 2.0, 4.0])
-    bare = wbik.load(URDF_DIR / "arm3r.urdf", closed_forms=ARM3R_FORM)
+    bare = wbik.load(ARM3R_URDF, closed_forms=ARM3R_FORM)
     with pytest.raises(RobotDescriptionError) as info:
         wbik.solver("analytic", bare).solve(target, q0=np.full(3, 1.5))
     assert "Arm3RFacts" in str(info.value) and "arm3r closed form" in str(info.value)
     lengths = (3.0, 2.0, 2.0)
-    robot = wbik.load(URDF_DIR / "arm3r.urdf", closed_forms=ARM3R_FORM, facts=Arm3RFacts(lengths, dh_table()))
+    robot = wbik.load(ARM3R_URDF, closed_forms=ARM3R_FORM, facts=Arm3RFacts(lengths, dh_table()))
     result = wbik.solver("analytic", robot).solve(target, q0=np.full(3, 1.5))
     assert result.success
     # by hand: standard DH with a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0)
@@ -79,7 +80,7 @@ def test_urdf_closed_form_needs_its_facts():
 
 
 def test_closed_forms_and_facts_are_checked():
-    path = URDF_DIR / "arm3r.urdf"
+    path = ARM3R_URDF
     for forms, words in (({("arm", "position"): "m:C"}, ("'arm'", "chain of ['default']")),
                          ({"default": "m:C"}, ("(chain, target kind)",)),
                          ({("default", "position"): "module.Class"}, ("module:Class",)),

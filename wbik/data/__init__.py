@@ -1,5 +1,6 @@
-"""The data files wbik ships: URDFs (``urdf/``), scenario files (``tasks/``, keyframes in
-``tasks/data/``) and study definitions (``comparisons/*.yaml``).
+"""The data files wbik ships: scenario files (``tasks/``, keyframes in ``tasks/data/``) and study
+definitions (``comparisons/*.yaml``). (The robots' URDFs are not here: each is package data of its
+robot package.)
 
 In the source tree (and an editable install) they are the repository's top-level folders, where the
 README documents them. A built wheel carries a copy of each at ``wbik/data/<folder>/`` (setup.py
@@ -12,13 +13,13 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-FOLDERS = ("urdf", "tasks", "comparisons")
+FOLDERS = ("tasks", "comparisons")
 SCENARIO_SUFFIXES = (".yaml", ".yml", ".json", ".toml")
 STUDY_SUFFIXES = (".yaml", ".yml", ".toml")
 
 
 def data_dir(folder: str) -> Path:
-    """The folder ``urdf``, ``tasks`` or ``comparisons``: the installed copy, else the source tree's."""
+    """The folder ``tasks`` or ``comparisons``: the installed copy, else the source tree's."""
     if folder not in FOLDERS:
         raise ValueError(f"unknown data folder {folder!r}; one of {', '.join(FOLDERS)}")
     packaged = files(__name__) / folder

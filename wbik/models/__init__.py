@@ -14,14 +14,9 @@ import inspect
 from dataclasses import dataclass
 from pathlib import Path
 
-from wbik.data import data_dir
 from wbik.errors import InvalidOptionError, RobotDescriptionError, UnknownRobotError
 from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot, robot_from_urdf_text
-
-URDF_DIR = data_dir("urdf")
-"""The ``urdf/`` folder (the repository's, or the installed package's copy): descriptions written for
-this project."""
 
 
 @dataclass(frozen=True)

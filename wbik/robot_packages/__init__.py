@@ -1,10 +1,18 @@
 """The robot packages shipped with wbik: one package per robot with its model (``model.py``:
-``build(**params) -> Robot``, its URDF written or loaded there, collision primitives) and, where one
+``build(**params) -> Robot``, which writes or loads its URDF; collision primitives), its URDF file as
+package data next to it (e.g. ``golem3/golem3.urdf``, found with :func:`package_file`) and, where one
 exists, its closed-form binding (``closed_form.py``, named in the robot's ``closed_forms``).
 
 ``ROBOTS`` declares them to the robot registry (:mod:`wbik.models`); a new robot package is one
-line here.
+line here. pyproject.toml ships every ``*.urdf`` and ``*.urdf.xml`` of a robot package in the wheel.
 """
+
+from __future__ import annotations
+
+import atexit
+from contextlib import ExitStack
+from importlib.resources import as_file, files
+from pathlib import Path
 
 from wbik.models import RobotEntry
 
@@ -24,3 +32,17 @@ ROBOTS = (
     RobotEntry("panda", f"{PACKAGE}.panda.model", "Franka Emika Panda 7-DOF arm (example-robot-data), "
                "a redundant reference chain"),
 )
+
+_EXTRACTED = ExitStack()
+atexit.register(_EXTRACTED.close)
+
+
+def package_file(package: str, name: str) -> Path:
+    """The file ``name`` shipped in the package ``package`` (e.g. ``__package__`` of a robot's
+    model.py), found with :mod:`importlib.resources`: the file itself where the package lies on a
+    file system (the source tree, an editable install, an installed wheel; there the file need not
+    exist yet, scripts/export_urdf.py writes it), else a copy extracted for the life of the process."""
+    resource = files(package) / name
+    if isinstance(resource, Path):
+        return resource
+    return _EXTRACTED.enter_context(as_file(resource))

@@ -3,6 +3,9 @@
 Standard DH (arm3r.md): a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0). Lengths are
 parameters (default 3, 2, 2 as in the worked example; the seed gives no unit, we read metres).
 The seed has no joint limits; we use +-pi on every joint.
+
+:func:`build` writes the URDF text from the table; scripts/export_urdf.py writes the default lengths'
+table into this package's ``arm3r.urdf`` (:data:`URDF_PATH`), for tools that read a file.
 """
 
 from __future__ import annotations
@@ -14,8 +17,11 @@ import numpy as np
 
 from wbik.dh import DHJoint, DHTable
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages import package_file
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
+URDF_PATH = package_file(__package__, "arm3r.urdf")
+"""The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
 
 CLOSED_FORMS = {("arm", "position"): "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}
 """The yaw + planar 2R position closed form (see that module)."""

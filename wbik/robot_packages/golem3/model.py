@@ -40,9 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.data import data_dir
 from wbik.dh import DHJoint, joint_xml, link_xml, rot_z, trans, urdf_document
 from wbik.robot import ChainSpec, Robot, model_from_urdf_text
+from wbik.robot_packages import package_file
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 
 # -- thesis geometry (golem3.md) ----------------------------------------------------------------
@@ -72,7 +72,8 @@ LEFT_JOINTS = ("m20", "m21", "m22", "m23", "m24")
 MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
 """Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
 
-URDF_PATH = data_dir("urdf") / "golem3.urdf"
+URDF_PATH = package_file(__package__, "golem3.urdf")
+"""The committed URDF (package data next to this module), written by :func:`write_urdf`."""
 
 
 @dataclass(frozen=True)
@@ -200,7 +201,7 @@ HEADER = """<!--
 
 
 def urdf_text() -> str:
-    """The whole upper body as URDF text (what urdf/golem3.urdf holds)."""
+    """The whole upper body as URDF text (what the committed golem3.urdf, :data:`URDF_PATH`, holds)."""
     rows = arm_dh_rows()
     chest = rows[0]
     parts = [
@@ -230,7 +231,7 @@ def urdf_text() -> str:
 
 
 def write_urdf(path: Path = URDF_PATH) -> Path:
-    """Regenerate the committed urdf/golem3.urdf."""
+    """Regenerate the committed golem3.urdf (:data:`URDF_PATH`)."""
     path.write_text(urdf_text())
     return path
 

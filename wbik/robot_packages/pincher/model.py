@@ -4,6 +4,9 @@ pincher.md: alpha = (-90, 0, 0, 0) deg, a = (0, 105, 105, 95) mm, d = (137, 0, 0
 theta offsets (0, -90, 0, 0) deg; the tool frame "noa" adds the fixed rotation
 E = [[0,0,1],[-1,0,0],[0,-1,0]] after link 4. Limits +-150 deg on every joint. SI units here
 (metres, radians); the seed's millimetres and degrees stay at the edges.
+
+:func:`build` writes the URDF text from the table; scripts/export_urdf.py writes the same table into
+this package's ``pincher.urdf`` (:data:`URDF_PATH`), for tools that read a file.
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ import numpy as np
 
 from wbik.dh import DHJoint, DHTable
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages import package_file
 
 BASE_HEIGHT = 0.137
 LINK = 0.105
@@ -22,6 +26,8 @@ WRIST_TO_TOOL = 0.095
 LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
 TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+URDF_PATH = package_file(__package__, "pincher.urdf")
+"""The committed URDF of :func:`dh_table` (package data next to this module; scripts/export_urdf.py)."""
 
 
 CLOSED_FORMS = {

@@ -1,4 +1,4 @@
-"""UR5 from example-robot-data with the riveting tool (urdf/ur5_rivet_tool.urdf.xml) appended.
+"""UR5 from example-robot-data with the riveting tool (this package's ur5_rivet_tool.urdf.xml) appended.
 
 Chains: ``arm`` (base_link -> tcp, the riveting task's frame) and ``ee`` (base_link -> ee_link,
 the frame ur_kinematics' closed form solves for). Limits are example-robot-data's (+-2 pi,
@@ -11,9 +11,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.models import URDF_DIR
 from wbik.models.erd import package_dirs, urdf_path
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages import package_file
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
@@ -21,6 +21,8 @@ TOOL_LENGTH = 0.13
 """ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
 TOOL_DIAMETER = 0.005
 """Diameter of the rivet tool's pin (m): the 5 mm cylinder (assumed)."""
+TOOL_URDF_PATH = package_file(__package__, "ur5_rivet_tool.urdf.xml")
+"""The riveting tool's links and joints (a URDF fragment), appended to example-robot-data's UR5."""
 
 CLOSED_FORMS = {
     ("ee", "pose"): "wbik.robot_packages.ur5.closed_form:UR5EndEffector",
@@ -41,7 +43,7 @@ class UR5Facts:
 
 def urdf_text() -> str:
     base = urdf_path("ur_description/urdf/ur5_robot.urdf").read_text()
-    tool = (URDF_DIR / "ur5_rivet_tool.urdf.xml").read_text()
+    tool = TOOL_URDF_PATH.read_text()
     head, tail = base.rsplit("</robot>", 1)
     return head + tool + "\n</robot>" + tail
 
