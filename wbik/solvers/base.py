@@ -217,6 +217,9 @@ class Solver(PerThreadState):
     name = "base"
     supports_position_only = True
     supports_pose = True
+    pose_only_because = ""
+    """Why a method that takes full poses only (``supports_position_only = False``) does: the end of
+    its refusal message (what it lacks, what to use instead)."""
     iteration_cost_s: float | None = None
     """Ours: the time one iteration costs (s), measured on the reference machine (the README says which);
     it turns a time budget into an iteration budget. None: a wall-clock method."""
@@ -315,7 +318,9 @@ class Solver(PerThreadState):
         if kind == "pose" and not self.supports_pose:
             raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} takes position targets only")
         if kind == "position" and not self.supports_position_only:
-            raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} needs a full pose target")
+            because = f": {self.pose_only_because}" if self.pose_only_because else ""
+            raise UnsupportedError(
+                f"method {self.name!r} on {self.chain.name!r} needs a full pose target{because}")
 
     def _check_target_kind(self, target: Target) -> None:
         self.check_target_kind("pose" if target.is_pose else "position")

@@ -186,6 +186,7 @@ class EAIKSolver(Solver):
     name = "eaik"
     budgeted = False
     supports_position_only = False
+    pose_only_because = "EAIK 1.2.2 solves full poses only (no position-only mode)"
 
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
@@ -200,12 +201,6 @@ class EAIKSolver(Solver):
     def _new_thread_state(self):
         """This thread's EAIK robot (built from the cached structure)."""
         return _import_eaik()(self.structure.H, self.structure.P)
-
-    def check_target_kind(self, kind: str) -> None:
-        if kind != "pose":
-            raise UnsupportedError(
-                f"method 'eaik' on {self.robot.name}.{self.chain.name} needs a full pose target: EAIK "
-                "1.2.2 solves full poses only (no position-only mode)")
 
     # -- EAIK in our frames ---------------------------------------------------------------------
     def eaik_pose(self, target: Target) -> np.ndarray:

@@ -26,7 +26,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.errors import MissingDependencyError, RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate, Solver
 from wbik.solvers.method_registry import IKMethod
@@ -103,6 +103,8 @@ class KDLSolver(Solver):
 
     name = "kdl"
     supports_position_only = False
+    pose_only_because = ("KDL NR_JL has no position-only mode (and PyKDL's weighted solvers crash under "
+                         "numpy 2); use bounded_lm, dls or newton")
 
     def __init__(self, robot, chain=None, *, max_iterations: int = 100, epsilon: float | None = None,
                  **options):
@@ -124,12 +126,6 @@ class KDLSolver(Solver):
                                                  velocity_solver, self.max_iterations, self.epsilon)
         return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
                                q_out=kdl.JntArray(self.chain.nq))
-
-    def check_target_kind(self, kind: str) -> None:
-        if kind != "pose":
-            raise UnsupportedError(
-                f"method {self.name!r} needs a full pose target: KDL NR_JL has no position-only mode "
-                "(and PyKDL's weighted solvers crash under numpy 2); use bounded_lm, dls or newton")
 
     def _frame(self, target: Target):
         kdl = self.kdl

@@ -21,7 +21,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidSettingError, MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.errors import InvalidSettingError, MissingDependencyError, RobotDescriptionError
 from wbik.solvers.base import Candidate, Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
@@ -44,6 +44,8 @@ class TracIKSolver(Solver):
 
     name = "trac_ik"
     supports_position_only = False
+    pose_only_because = ("TRAC-IK's position-only mode (its bounds argument) is not exposed by pytracik "
+                         "0.0.3; use bounded_lm, dls or newton")
 
     def __init__(self, robot, chain=None, *, epsilon: float | None = None, solve_type: str = "Speed",
                  **options):
@@ -73,12 +75,6 @@ class TracIKSolver(Solver):
                 "them in the chain")
         self.pytracik.set_joint_limits(solver, chain_.lower.tolist(), chain_.upper.tolist())
         return solver
-
-    def check_target_kind(self, kind: str) -> None:
-        if kind != "pose":
-            raise UnsupportedError(
-                "method 'trac_ik' needs a full pose target: TRAC-IK's position-only mode (its bounds "
-                "argument) is not exposed by pytracik 0.0.3; use bounded_lm, dls or newton")
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         quaternion = pin.Quaternion(target.rotation)
