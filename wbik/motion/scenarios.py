@@ -59,7 +59,7 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.validation import finite_vector
 
 MOVE_RULES = {
@@ -85,11 +85,6 @@ def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: di
 def vector_of(value, size: int, what: str) -> np.ndarray:
     """``value`` as ``size`` finite numbers, else a ScenarioError."""
     return finite_vector(value, size, what, ScenarioError)
-
-
-def start_of(spec: dict, chain) -> np.ndarray:
-    start = spec["start"]
-    return chain.nominal.copy() if start == "nominal" else vector_of(start, chain.nq, "start")
 
 
 def pose_of(entry, what: str):

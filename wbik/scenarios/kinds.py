@@ -43,7 +43,7 @@ if TYPE_CHECKING:
 __all__ = ["KIND_MODULES", "KindRun", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
            "ScenarioReport", "format_entries", "json_default", "kind_names", "register_kind",
            "register_module", "report_header", "report_verdict", "robot_of", "scenario_kind",
-           "scenario_kinds"]
+           "scenario_kinds", "start_of"]
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
@@ -151,14 +151,29 @@ def robot_of(spec: dict) -> Robot:
     return load(spec["robot"], **spec["robot_params"])
 
 
+def start_of(spec: dict, owner) -> np.ndarray:
+    """The configuration a checked spec's ``start`` names: "nominal" (a copy of ``owner.nominal``,
+    ``owner`` a robot or one of its chains) or as many finite numbers, else a ScenarioError."""
+    from wbik.scenario_schema import ScenarioError
+    from wbik.validation import finite_vector
+
+    start, nominal = spec["start"], owner.nominal
+    if start == "nominal":
+        return nominal.copy()
+    return finite_vector(start, nominal.size, "start", ScenarioError)
+
+
 class KindRun:
     """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` list it
-    fills, and the animations of the entries, played one after the other ``pause`` s apart."""
+    fills (after the run-wide ``figures``, if any), and the animations of the entries, played one
+    after the other ``pause`` s apart."""
 
-    def __init__(self, spec: dict, key: str, on_progress: Progress = None, pause: float = 0.5):
+    def __init__(self, spec: dict, key: str, on_progress: Progress = None, pause: float = 0.5,
+                 figures: dict | None = None):
         self.spec, self.key, self.on_progress, self.pause = spec, key, on_progress, pause
         self.robot = robot_of(spec)
-        self.report = ScenarioReport(spec["name"], spec["kind"], self.robot.name, {key: []})
+        self.report = ScenarioReport(spec["name"], spec["kind"], self.robot.name,
+                                     {**(figures or {}), key: []})
         self.animations: list[Animation] = []
 
     def add(self, entry: dict, animation: Animation | None = None) -> dict:

@@ -16,11 +16,10 @@ from wbik.motion.scenarios import (
     pose_of,
     samples_key,
     solving_keys,
-    start_of,
     vector_of,
 )
 from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, kind_schema
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
 
 
 def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:

@@ -19,7 +19,6 @@ from wbik.motion.scenarios import (
     format_report,
     samples_key,
     solving_keys,
-    start_of,
     timing_node,
     vector_of,
 )
@@ -36,7 +35,7 @@ from wbik.scenario_schema import (
     expect_block,
     kind_schema,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
 
 
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
