@@ -72,7 +72,7 @@ from wbik.scenario_schema import (
     expect_block,
     margin_key,
 )
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, format_entries, robot_of
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 
 __all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
            "run_wholebody_ik", "wholebody_schema"]
@@ -258,16 +258,6 @@ def phase_figures(success: bool, checks: dict) -> dict:
 
 
 # -- the runner ------------------------------------------------------------------------------------
-def _start(robot, spec: dict) -> np.ndarray:
-    if spec["start"] == "nominal":
-        return robot.nominal.copy()
-    start = np.asarray(spec["start"], dtype=float)
-    if start.shape != (robot.model.nq,):
-        raise ScenarioError(f"start configuration must be {robot.model.nq} finite numbers, "
-                            f"got {spec['start']!r}")
-    return start
-
-
 def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
     """The phase's tasks (targets at q) and its regularisation; a bad entry names the phase."""
     tasks = []
@@ -289,12 +279,12 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
     from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
 
-    robot = robot_of(spec)
     backend = spec["backend"]
-    q = _start(robot, spec)
+    run = KindRun(spec, "phases", on_progress, figures={"backend": backend})
+    robot = run.robot
+    q = start_of(spec, robot)
     start = q.copy()
     collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
-    report = ScenarioReport(spec["name"], "wholebody_ik", robot.name, {"backend": backend, "phases": []})
     for index, phase in enumerate(spec["phases"]):
         name = phase["name"]
         contacts = list(phase["contacts"])
@@ -319,16 +309,15 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
                                     collision_constraint and collision_constraint.safety)
         expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
                                 f"phase {name!r} expect")
-        report.add_entry("phases", {
+        run.add({
             "name": name, "passed": verdict(expectations) != "FAILED", "success": solution.success,
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
             "expectations": expectations,
             "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()})
-        if on_progress is not None:
-            on_progress(report)
         if phase["continue_from"] == "result":
             q = solution.q.copy()
+    report = run.finished()  # one animation through every phase's answer, not one per phase
     report.animation = wholebody_animation(robot, spec, start, report.figures["phases"])
     return report
 

@@ -58,7 +58,6 @@ from wbik.scenario_schema import (
     Map,
     Number,
     Robot,
-    ScenarioError,
     Text,
     backend_key,
     common_keys,
@@ -70,9 +69,8 @@ from wbik.scenario_schema import (
     time_laws,
     timing_modes,
 )
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, robot_of
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
-from wbik.validation import finite_vector
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2
@@ -410,19 +408,17 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
     from wbik.apps.bioloid.sensors import stance_loads
     from wbik.viz.animation import Animation, Overlays
 
-    robot = robot_of(spec)
-    start, nq = spec["start"], robot.model.nq
-    q = robot.nominal.copy() if start == "nominal" else finite_vector(start, nq, "start", ScenarioError)
+    run = KindRun(spec, "moves", on_progress)
+    robot = run.robot
+    q = start_of(spec, robot)
     stance = stance_loads(robot, q)
     gap = float(np.linalg.norm(stance.cop_world - stance.com_xy))
     entry = {"name": "static stance", "cop_minus_com_m": gap, **stance.as_dict()}
     wanted = {"cop_error_max_m": float(spec["tolerance"]), **(spec["expect"] or {})}
     judge(entry, wanted, {"cop_minus_com_m": gap}, STANCE_RULES, f"{spec['name'] or spec['kind']} expect")
-    report = ScenarioReport(spec["name"], spec["kind"], robot.name, {"moves": []})
-    report.add_entry("moves", entry)
     soles = (("r_sole", "l_sole"),)
-    report.animation = Animation(robot, [0.0], q[None], Overlays(None, soles, soles), "static stance")
-    return report
+    run.add(entry, Animation(robot, [0.0], q[None], Overlays(None, soles, soles), "static stance"))
+    return run.finished()
 
 
 def format_stance(report: dict) -> str:
