@@ -451,8 +451,8 @@ class BoundedLMSolver(Solver):
         q = first.copy()
         error, transposed = kinematics.evaluate(q, positions, rotations)
         cost = np.einsum("bi,bi->b", error, error)
-        damping = np.full(count, policy.first_damping)
-        best, since, age = cost.copy(), np.zeros(count, dtype=int), np.zeros(count, dtype=int)
+        damping, best, since = policy.start_batch(cost)
+        age = np.zeros(count, dtype=int)
         while rows.size:
             done = self._passes_rows(error)
             over = spent[rows] >= self.max_iterations
@@ -558,8 +558,8 @@ class BoundedLMSolver(Solver):
         q[:len(seeds)] = seeds[:size]
         error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
         cost = np.einsum("bi,bi->b", error, error)
-        damping = np.full(size, policy.first_damping)
-        best_cost, since_progress, age = cost.copy(), np.zeros(size, dtype=int), np.zeros(size, dtype=int)
+        damping, best_cost, since_progress = policy.start_batch(cost)
+        age = np.zeros(size, dtype=int)
         fresh = None
         best_q, best_error = best
         attempts += size

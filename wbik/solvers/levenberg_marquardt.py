@@ -137,8 +137,7 @@ class LevenbergMarquardt:
                 if free.size:
                     descent[free] = _frozen_descent(jacobian, error, damping, free, workspace)
                 trial = q - self._capped(descent)
-            inside = bounds.project(trial) if bounds.any_wrap \
-                else clip_to_limits(trial, bounds.lower, bounds.upper)
+            inside = bounds.project(trial)
         return inside
 
     def _capped(self, step: np.ndarray) -> np.ndarray:
@@ -172,6 +171,10 @@ class LevenbergMarquardt:
             self.max_damping is not None and base > self.max_damping)
 
     # -- a batch of configurations, element by element the same decisions --------------------------
+    def start_batch(self, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(base dampings, best costs, iterations since progress) of fresh runs from costs (B,)."""
+        return np.full(cost.shape, self.first_damping), cost.copy(), np.zeros(cost.shape, dtype=int)
+
     def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
                     q: np.ndarray, bounds: JointBounds) -> np.ndarray:
         """:meth:`trial` for J (B, m, n), e (B, m), costs and base dampings (B,) and q (B, n). A frozen
@@ -187,8 +190,7 @@ class LevenbergMarquardt:
                 step[rows] = self._capped_batch(_damped_steps(jacobian[rows] * ~blocked[rows, None, :],
                                                               error[rows], damping[rows]))
                 trial = q + step
-            inside = bounds.project(trial) if bounds.any_wrap \
-                else clip_to_limits(trial, bounds.lower, bounds.upper)
+            inside = bounds.project(trial)
         return inside
 
     def _capped_batch(self, step: np.ndarray) -> np.ndarray:
