@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import numbers
 import threading
 import time
 from collections.abc import Iterable, Sequence
@@ -28,7 +27,7 @@ from wbik.errors import (
 from wbik.geometry import rotation_error
 from wbik.robot import Chain, Robot
 from wbik.targets import Target, as_target
-from wbik.validation import check_budget, check_seed
+from wbik.validation import check_budget, check_count, check_seed
 
 try:  # numpy's clip ufunc: np.clip wraps it in Python at 3-4x its cost on a few joints
     from numpy._core.umath import clip as _clip_ufunc
@@ -74,6 +73,22 @@ class Tolerances:
             value = check_positive_finite(f"tolerances.{name}", getattr(self, name), InvalidToleranceError,
                                           unit)
             object.__setattr__(self, name, value)
+
+
+def checked_tolerances(tolerances: Tolerances | None) -> Tolerances:
+    """``tolerances``, or the default Tolerances() for None; InvalidSettingError for anything else."""
+    if tolerances is None:
+        return Tolerances()
+    if not isinstance(tolerances, Tolerances):
+        raise InvalidSettingError(
+            f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}")
+    return tolerances
+
+
+def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
+    """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
+    (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
+    return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
 
 
 @dataclass
@@ -233,10 +248,7 @@ class Solver(PerThreadState):
                  seed: int | None = 0):
         self.robot = robot
         self.chain = robot.chain(chain)
-        if tolerances is not None and not isinstance(tolerances, Tolerances):
-            raise InvalidSettingError(
-                f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}")
-        self.tolerances = tolerances or Tolerances()
+        self.tolerances = checked_tolerances(tolerances)
         if timeout_s is None and self.iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
@@ -251,16 +263,13 @@ class Solver(PerThreadState):
         """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
         if cls.iteration_cost_s is None:
             raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
-        return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cls.iteration_cost_s))
+        return iterations_costing(timeout_s, cls.iteration_cost_s)
 
     def _iteration_budget(self, max_iterations: int | None) -> int:
         """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` (default 5 ms)."""
         if max_iterations is None:
             return self.iterations_for(self.timeout_s or self.default_budget_s)
-        if isinstance(max_iterations, bool) or not isinstance(max_iterations, numbers.Integral) \
-                or max_iterations < 1:
-            raise InvalidBudgetError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
-        return int(max_iterations)
+        return check_count("max_iterations", max_iterations, InvalidBudgetError)
 
     @property
     def budget(self) -> str:

@@ -52,7 +52,7 @@ from wbik.qp.tasks import (
     Task,
 )
 from wbik.robot import Robot
-from wbik.solvers.base import Candidate, PerThreadState, Tolerances
+from wbik.solvers.base import Candidate, PerThreadState, Tolerances, checked_tolerances, iterations_costing
 from wbik.validation import check_budget, check_count, check_seed
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
@@ -87,11 +87,7 @@ class WholeBodySolver(PerThreadState):
                 f"robot must be a wbik.Robot, got {type(robot).__name__}", option="robot"
             )
         self.robot = robot
-        if tolerances is not None and not isinstance(tolerances, Tolerances):
-            raise InvalidSettingError(
-                f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}"
-            )
-        self.tolerances = tolerances or Tolerances()
+        self.tolerances = checked_tolerances(tolerances)
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
         if max_iterations is None:
             self.max_iterations = self.iterations_for(self.timeout_s or self.default_budget_s)
@@ -106,7 +102,7 @@ class WholeBodySolver(PerThreadState):
     @classmethod
     def iterations_for(cls, timeout_s: float) -> int:
         """The iteration budget that costs about ``timeout_s`` on the reference machine."""
-        return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cls.iteration_cost_s))
+        return iterations_costing(timeout_s, cls.iteration_cost_s)
 
     # -- the interface ------------------------------------------------------------------------------
     def unsupported(self, problem: WholeBody) -> list[str]:
