@@ -107,6 +107,10 @@ class DeclaredRegistry(Generic[Entry]):
                 self._load_once(module_name)
             return dict(self._entries)
 
+    def descriptions(self) -> dict[str, str]:
+        """Every entry's one-line ``description`` ("" for none), by name in alphabetical order."""
+        return {name: getattr(entry, "description", "") for name, entry in sorted(self.entries().items())}
+
     def get(self, name: str) -> Entry:
         """The entry called ``name`` (the registry's ``unknown`` error, listing the names, if none)."""
         entries = self.entries()

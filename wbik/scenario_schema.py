@@ -438,7 +438,7 @@ class Method(Text):
     what = "an IK method name ('wbik methods' lists them)"
 
     def check(self, value, path, ctx):
-        from wbik.solvers.base import methods
+        from wbik.solvers.method_registry import methods
 
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else _short(value), list(methods()),

@@ -176,7 +176,7 @@ def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.cartesian import waypoint_path
-    from wbik.solvers.base import solver
+    from wbik.solvers.method_registry import solver
 
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))

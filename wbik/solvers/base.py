@@ -343,11 +343,3 @@ class Solver(PerThreadState):
         if array.shape[0] != count:
             raise InvalidConfigurationError(f"{count} targets but {array.shape[0]} start configurations")
         return [self.chain.check_q(row) for row in array]
-
-
-def __getattr__(name: str):  # TEMPORARY: moved to wbik.solvers.method_registry
-    if name in ("register", "methods", "solver", "solver_options", "_factory"):
-        from wbik.solvers import method_registry as _m
-
-        return getattr(_m, "method_factory" if name == "_factory" else name)
-    raise AttributeError(name)

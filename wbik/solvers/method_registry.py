@@ -93,7 +93,7 @@ def register(name: str, factory: SolverFactory | str, description: str = "") -> 
 
 def methods() -> dict[str, str]:
     """Registered method names with a one-line description."""
-    return {name: method.description for name, method in sorted(_METHODS.entries().items())}
+    return _METHODS.descriptions()
 
 
 def method_factory(method: str) -> SolverFactory:

@@ -348,10 +348,10 @@ def _budget_text(study: Study, method) -> str:
             timeout_s, options = solver_budget(method.method, seconds, method.options)
     except WbikError:
         return f"{seconds:g} s"
-    from wbik.solvers.base import _factory
+    from wbik.solvers.method_registry import method_factory
 
     try:
-        if getattr(_factory(method.method), "budgeted", True) is False:
+        if getattr(method_factory(method.method), "budgeted", True) is False:
             return "none (closed form)"
     except WbikError:
         pass

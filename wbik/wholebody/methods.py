@@ -61,7 +61,7 @@ _METHODS: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
 
 def wholebody_methods() -> dict[str, str]:
     """Whole-body method names with a one-line description."""
-    return {name: method.description for name, method in sorted(_METHODS.entries().items())}
+    return _METHODS.descriptions()
 
 
 register_wholebody_method = _METHODS.register

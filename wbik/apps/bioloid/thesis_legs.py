@@ -48,7 +48,7 @@ class ThesisLegs(WholeBodySolver):
         self._thread_state()  # the two closed-form leg solvers now, not in the first solve
 
     def _new_thread_state(self):
-        from wbik.solvers.base import solver
+        from wbik.solvers.method_registry import solver
 
         return {
             side: solver("analytic", self.robot, chain=chain, tolerances=self.tolerances)

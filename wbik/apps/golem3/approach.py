@@ -20,7 +20,7 @@ from wbik.errors import InvalidConfigurationError
 from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD, PolylineReference
 from wbik.motion.path import JointPath
 from wbik.robot import Robot
-from wbik.solvers.base import solver as make_solver
+from wbik.solvers.method_registry import solver as make_solver
 from wbik.targets import Target, as_target
 
 ARM, ARM_WITH_LIFT = "right_arm", "right_arm_lift"
