@@ -91,3 +91,35 @@ def test_an_unknown_method_lists_the_known_ones():
         wbik.solver("no_such_method", "arm3r")
     assert "bounded_lm" in str(info.value)
     assert issubclass(DampedLeastSquares, Solver)
+
+
+def test_factory_options_follow_the_class_hierarchy_as_far_as_options_are_handed_on():
+    from wbik.errors import InvalidOptionError
+    from wbik.registry import check_options, factory_options
+
+    class Base:
+        def __init__(self, robot, chain=None, *, timeout_s=None, seed=None):
+            pass
+
+    class HandsOn(Base):
+        def __init__(self, robot, chain=None, *, gain=1.0, **options):
+            super().__init__(robot, chain, **options)
+
+    class Stops(Base):
+        def __init__(self, robot, chain=None, *, gain=1.0):
+            super().__init__(robot, chain)
+
+    assert factory_options(HandsOn, leading=2) == {"gain", "timeout_s", "seed"}
+    assert factory_options(Stops, leading=2) == {"gain"}
+    assert factory_options(lambda robot, chain, *, x=1: None, leading=2) == {"x"}
+    assert factory_options(lambda robot, chain, **anything: None, leading=2) is None
+    check_options("method 'm'", {"gain": 2}, {"gain"})
+    with pytest.raises(InvalidOptionError, match="method 'm' has no option 'gian'; its options: gain") as info:
+        check_options("method 'm'", {"gian": 2}, {"gain"})
+    assert info.value.option == "gian"
+    # a callable's own signature decides what the option list cannot say
+    with _METHODS.isolated():
+        register("needs_x_test", lambda robot, chain, *, x: DampedLeastSquares(robot, chain))
+        with pytest.raises(InvalidOptionError, match="cannot take these options"):
+            wbik.solver("needs_x_test", "arm3r")
+        assert isinstance(wbik.solver("needs_x_test", "arm3r", x=1), DampedLeastSquares)

@@ -24,14 +24,15 @@ registers them there (``register(entry, replace=True)``).
 from __future__ import annotations
 
 import importlib
+import inspect
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from typing import Generic, Protocol, TypeVar
 
-from wbik.errors import UnknownNameError, WbikError
+from wbik.errors import InvalidOptionError, UnknownNameError, WbikError
 
-__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError"]
+__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "check_options", "factory_options"]
 
 
 class RegistryError(WbikError):
@@ -184,3 +185,47 @@ class DeclaredRegistry(Generic[Entry]):
             self._check_new(entry, where)
         self._entries[entry.name] = entry
         self._origins[entry.name] = where
+
+
+# -- the options a registered factory takes ----------------------------------------------------------
+def _keyword_parameters(function, skip: int) -> tuple[set[str], bool]:
+    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
+    names: set[str] = set()
+    more = False
+    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
+        if parameter.kind is parameter.VAR_KEYWORD:
+            more = True
+        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+            names.add(parameter.name)
+    return names, more
+
+
+def factory_options(factory: Callable, leading: int) -> set[str] | None:
+    """The keyword options ``factory(*leading arguments, **options)`` accepts: for a class, the
+    keyword parameters of ``__init__`` along the class hierarchy, as far as each ``__init__`` hands
+    its ``**options`` on; for a plain callable, its own. None: any keyword goes (``**kwargs`` at the
+    end of the chain)."""
+    if not isinstance(factory, type):
+        names, more = _keyword_parameters(factory, skip=leading)
+        return None if more else names
+    accepted: set[str] = set()
+    for klass in factory.__mro__:
+        init = vars(klass).get("__init__")
+        if init is None or klass is object:
+            continue
+        names, more = _keyword_parameters(init, skip=leading + 1)  # self too
+        accepted |= names
+        if not more:
+            return accepted
+    return None
+
+
+def check_options(what: str, options: Iterable[str], accepted: set[str] | None) -> None:
+    """InvalidOptionError naming the first of ``options`` that ``accepted`` lacks (None: all go) and
+    listing the accepted ones; ``what`` names the factory ("method 'dls'")."""
+    unknown = [] if accepted is None else sorted(set(options) - accepted)
+    if unknown:
+        known = sorted(accepted)
+        raise InvalidOptionError(
+            f"{what} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
+            option=unknown[0], accepted=known)

@@ -19,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from wbik.errors import InvalidOptionError, UnknownMethodError
-from wbik.registry import DeclaredRegistry, RegistryError
+from wbik.registry import DeclaredRegistry, RegistryError, check_options, factory_options
 from wbik.robot import Robot
 from wbik.solvers.base import Solver
 
@@ -102,36 +102,11 @@ def method_factory(method: str) -> SolverFactory:
     return _METHODS.get(method).factory
 
 
-def _keyword_options(function, skip: int) -> tuple[set[str], bool]:
-    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
-    names: set[str] = set()
-    more = False
-    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
-        if parameter.kind is parameter.VAR_KEYWORD:
-            more = True
-        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-            names.add(parameter.name)
-    return names, more
-
-
 def solver_options(method: str) -> set[str] | None:
     """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
     seed and the method's own), from the constructor signatures along the class hierarchy.
     None: the factory takes any keyword (a plain callable with **kwargs)."""
-    factory = method_factory(method)
-    if not isinstance(factory, type):
-        names, more = _keyword_options(factory, skip=2)
-        return None if more else names
-    accepted: set[str] = set()
-    for klass in factory.__mro__:
-        init = vars(klass).get("__init__")
-        if init is None or klass is object:
-            continue
-        names, more = _keyword_options(init, skip=3)  # self, robot, chain
-        accepted |= names
-        if not more:
-            return accepted
-    return None
+    return factory_options(method_factory(method), leading=2)  # robot, chain
 
 
 def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
@@ -141,17 +116,13 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, **options)
     """
     factory = method_factory(method)
     accepted = solver_options(method)
-    unknown = sorted(set(options) - accepted) if accepted is not None else []
-    if not unknown:
-        try:  # a plain callable: its own signature decides
+    check_options(f"method {method!r}", options, accepted)
+    if not isinstance(factory, type):
+        try:  # a plain callable: its own signature decides the rest (required options, **kwargs)
             inspect.signature(factory).bind(robot, chain, **options)
         except TypeError as exc:
-            unknown = [f"({exc})"]
-    if unknown:
-        known = sorted(accepted or ())
-        raise InvalidOptionError(
-            f"method {method!r} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
-            option=unknown[0], accepted=known)
+            raise InvalidOptionError(f"method {method!r} cannot take these options: {exc}", option=f"({exc})",
+                                     accepted=sorted(accepted or ())) from exc
     if options.get("timeout_s") is not None:  # a typed error before any model is built
         from wbik.validation import check_budget
 

@@ -13,12 +13,11 @@ its module is, so listing a method costs no optional dependency.
 
 from __future__ import annotations
 
-import inspect
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from wbik.errors import InvalidOptionError, UnknownMethodError
-from wbik.registry import DeclaredRegistry, RegistryError
+from wbik.errors import UnknownMethodError
+from wbik.registry import DeclaredRegistry, RegistryError, check_options, factory_options
 from wbik.robot import Robot
 
 if TYPE_CHECKING:
@@ -79,15 +78,7 @@ def _factory(method: str) -> type[WholeBodySolver]:
 
 def wholebody_solver_options(method: str) -> set[str]:
     """Keyword options ``wholebody_solver(method, robot, **options)`` accepts."""
-    accepted: set[str] = set()
-    for klass in _factory(method).__mro__:
-        init = vars(klass).get("__init__")
-        if init is None or klass is object:
-            continue
-        for parameter in list(inspect.signature(init).parameters.values())[2:]:
-            if parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-                accepted.add(parameter.name)
-    return accepted
+    return factory_options(_factory(method), leading=1) or set()  # robot
 
 
 def wholebody_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
@@ -101,15 +92,7 @@ def wholebody_budget(method: str, timeout_s: float, options: dict) -> tuple[floa
 def wholebody_solver(method: str, robot: Robot | str, **options) -> WholeBodySolver:
     """Make a whole-body solver: ``wbik.wholebody_solver("qp", wbik.load(name), backend="daqp")``."""
     factory = _factory(method)
-    accepted = wholebody_solver_options(method)
-    unknown = sorted(set(options) - accepted)
-    if unknown:
-        raise InvalidOptionError(
-            f"whole-body method {method!r} has no option {unknown[0]!r}; its options: "
-            f"{', '.join(sorted(accepted))}",
-            option=unknown[0],
-            accepted=sorted(accepted),
-        )
+    check_options(f"whole-body method {method!r}", options, wholebody_solver_options(method))
     if isinstance(robot, str):
         from wbik.models import load
 
