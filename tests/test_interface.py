@@ -8,6 +8,7 @@ import pytest
 
 import wbik
 from wbik.solvers.base import Candidate, Solver, evaluate
+from wbik.solvers.method_registry import _METHODS
 
 ROBOTS = list(wbik.robots())
 
@@ -108,11 +109,13 @@ def test_register_a_user_method():
         def _solve(self, target, q0, deadline):
             return Candidate(self.chain.nominal)
 
-    wbik.register("nominal_test", Nominal, "returns the nominal configuration")
-    assert "nominal_test" in wbik.methods()
-    chain = wbik.load("arm3r").chain()
-    result = wbik.solver("nominal_test", "arm3r").solve(chain.fk(chain.nominal).translation)
-    assert result.success
+    with _METHODS.isolated():  # gone afterwards
+        wbik.register("nominal_test", Nominal, "returns the nominal configuration")
+        assert "nominal_test" in wbik.methods()
+        chain = wbik.load("arm3r").chain()
+        result = wbik.solver("nominal_test", "arm3r").solve(chain.fk(chain.nominal).translation)
+        assert result.success
+    assert "nominal_test" not in wbik.methods()
 
 
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])

@@ -22,7 +22,7 @@ def isolated():
         yield registry
 
 
-def test_every_listed_module_declares_its_methods_and_each_name_once():
+def test_every_listed_module_declares_its_methods_and_each_name_once(isolated):  # no test's additions
     assert isinstance(_METHODS, DeclaredRegistry) and _METHODS.modules is METHOD_MODULES
     declared = {}
     for module_name in METHOD_MODULES:
