@@ -115,7 +115,7 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, **options)
     Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
     """
     factory = method_factory(method)
-    accepted = solver_options(method)
+    accepted = factory_options(factory, leading=2)  # as solver_options(method), the factory looked up once
     check_options(f"method {method!r}", options, accepted)
     if not isinstance(factory, type):
         try:  # a plain callable: its own signature decides the rest (required options, **kwargs)
