@@ -126,3 +126,11 @@ def test_errors_keep_their_message_and_fields_across_processes():
         copy = pickle.loads(pickle.dumps(error))
         assert type(copy) is type(error) and str(copy) == str(error)
         assert vars(copy) == vars(error)
+
+
+def test_did_you_mean_names_the_closest_choice_or_nothing():
+    from wbik.errors import closest_name, did_you_mean
+
+    assert closest_name("bounded_ml", ["dls", "bounded_lm", "newton"]) == "bounded_lm"
+    assert did_you_mean("bounded_ml", ["dls", "bounded_lm"]) == " (did you mean 'bounded_lm'?)"
+    assert closest_name("zzzz", ["dls", "kdl"]) is None and did_you_mean("zzzz", ["dls", "kdl"]) == ""

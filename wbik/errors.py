@@ -6,9 +6,24 @@ These exceptions are for input a caller must fix.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 
 class WbikError(Exception):
     """Base class of every error wbik raises on purpose."""
+
+
+def closest_name(word, choices: Iterable) -> str | None:
+    """The choice closest to ``word`` (difflib's ratio >= 0.6), None if none is."""
+    close = difflib.get_close_matches(str(word), [str(choice) for choice in choices], n=1)
+    return close[0] if close else None
+
+
+def did_you_mean(word, choices: Iterable) -> str:
+    """' (did you mean X?)' for the closest of ``choices``, or '': the tail of an unknown-name message."""
+    close = closest_name(word, choices)
+    return f" (did you mean {close!r}?)" if close is not None else ""
 
 
 class UnknownNameError(WbikError, KeyError):

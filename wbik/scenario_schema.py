@@ -39,7 +39,6 @@ What is refused, always naming the file and the key's path (``phases[1].tasks[0]
 from __future__ import annotations
 
 import copy
-import difflib
 import inspect
 import math
 import numbers
@@ -53,6 +52,7 @@ from wbik.errors import (
     UnknownMethodError,
     UnknownRobotError,
     WbikError,
+    did_you_mean,
 )
 from wbik.expectations import ExpectationError
 
@@ -117,12 +117,6 @@ def _got(value) -> str:
     return f"got {_short(value)} ({type(value).__name__})"
 
 
-def guess(word, choices) -> str:
-    """' (did you mean X?)' for the closest of ``choices``, or ''."""
-    close = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1)
-    return f" (did you mean {close[0]!r}?)" if close else ""
-
-
 def _is_number(value) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
@@ -183,7 +177,7 @@ class Text(Node):
             self.wrong(value, path, ctx)
         choices = self.choices
         if choices and value not in choices:
-            ctx.fail(path, f"{value!r} is not allowed{guess(value, choices)}; allowed: "
+            ctx.fail(path, f"{value!r} is not allowed{did_you_mean(value, choices)}; allowed: "
                            f"{', '.join(map(str, choices))}")
         return value
 
@@ -340,7 +334,7 @@ class Map(Node):
             else:
                 known = sorted(self.keys)
                 raise self.unknown_error(
-                    f"{ctx.source}: unknown key {where!r}{guess(key, known)}; known keys "
+                    f"{ctx.source}: unknown key {where!r}{did_you_mean(key, known)}; known keys "
                     f"{'at ' + repr(path) if path else 'at the top level'}: {', '.join(known) or '(none)'}",
                     where, known)
         for key, rule in self.keys.items():
@@ -378,7 +372,7 @@ class Variants(Node):
                 ctx.fail(path, f"must be {self.what}; it needs a {self.tag} (one of {choices}), "
                                f"got keys {sorted(map(str, value))}")
             where = _join(path, self.tag) if self.tag in value else path
-            ctx.fail(where, f"{self.tag} {_short(name)} is not allowed{guess(name, self.variants)}; "
+            ctx.fail(where, f"{self.tag} {_short(name)} is not allowed{did_you_mean(name, self.variants)}; "
                             f"allowed: {choices}")
         return self.variants[name].check(value, path, ctx)
 
@@ -407,7 +401,7 @@ class Robot(Text):
         if value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
                 and not Path(value).expanduser().exists():
             raise UnknownRobotError(value, known,
-                                    hint=f"{ctx.source}: {path}{guess(value, known)}. Pass a built-in "
+                                    hint=f"{ctx.source}: {path}{did_you_mean(value, known)}. Pass a built-in "
                                          "name ('wbik robots' lists them) or a .urdf path")
         return value
 
@@ -423,8 +417,8 @@ class Backend(Text):
         super().check(value, path, ctx)
         known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
         if value not in known:
-            ctx.fail(path, f"unknown QP backend {value!r}{guess(value, known)}; known: {', '.join(known)} "
-                           f"(installed here: {', '.join(available())})")
+            ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
+                           f"{', '.join(known)} (installed here: {', '.join(available())})")
         try:
             resolve(value)
         except MissingDependencyError as exc:
@@ -442,7 +436,7 @@ class Method(Text):
 
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else _short(value), list(methods()),
-                                     hint=f"{ctx.source}: {path}{guess(value, methods())}")
+                                     hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
         return value
 
 
@@ -556,6 +550,7 @@ def validate(spec, source: str = "scenario") -> dict:
         raise ScenarioValueError(f"{source}: the top level needs a 'kind', one of {', '.join(kind_names())}")
     kind = spec["kind"]
     if not isinstance(kind, str) or kind not in kind_names():
+        known = kind_names()
         raise ScenarioValueError(f"{source}: kind: unknown scenario kind {_short(kind)}"
-                                 f"{guess(kind, kind_names())}; known kinds: {', '.join(kind_names())}")
+                                 f"{did_you_mean(kind, known)}; known kinds: {', '.join(known)}")
     return scenario_kind(kind).schema_map.check(spec, "", Context(source))

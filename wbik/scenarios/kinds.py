@@ -242,9 +242,10 @@ class ScenarioKind:
 
 
 def _unknown_kind(name: str, known: list[str]) -> WbikError:
-    from wbik.scenario_schema import ScenarioValueError, guess
+    from wbik.errors import did_you_mean
+    from wbik.scenario_schema import ScenarioValueError
 
-    return ScenarioValueError(f"unknown scenario kind {name!r}{guess(name, known)}; known kinds: "
+    return ScenarioValueError(f"unknown scenario kind {name!r}{did_you_mean(name, known)}; known kinds: "
                               f"{', '.join(known)}")
 
 

@@ -28,7 +28,6 @@ Every mistake raises :class:`StudyDefinitionError` naming the file, the field an
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import json
 import math
@@ -40,7 +39,7 @@ from pathlib import Path
 import yaml
 
 from wbik.data import data_dir, study_path
-from wbik.errors import WbikError
+from wbik.errors import WbikError, closest_name, did_you_mean
 from wbik.study.metrics import (
     ANGLE_AXES,
     POSITION_AXES,
@@ -261,17 +260,12 @@ def study_from_dict(data, source: str = "study") -> Study:
     cases = _cases(data, source)
     check_schema(methods, cases, source)
     baseline = data.get("baseline", methods[0].label)
-    if baseline not in {m.label for m in methods}:
-        raise StudyDefinitionError(f"{source}: baseline {baseline!r} is not one of the method labels "
-                                   f"{', '.join(m.label for m in methods)}"
-                                   f"{_did_you_mean(baseline, [m.label for m in methods])}")
     labels = [m.label for m in methods]
+    _require_known(baseline, labels, f"{source}: baseline {baseline!r} is not one of the method labels")
     for case in cases:
         for label in case.reference.labels if case.reference else ():
-            if label not in labels:
-                raise StudyDefinitionError(f"{source}: case {case.name!r}: the reference figures name method "
-                                           f"{label!r}, which is not a method label of the study "
-                                           f"({', '.join(labels)}){_did_you_mean(label, labels)}")
+            _require_known(label, labels, f"{source}: case {case.name!r}: the reference figures name method "
+                                          f"{label!r}, which is not a method label of the study")
     return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
                  timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
                  chunk_size=chunk_size, description=str(data.get("description", "") or ""),
@@ -295,10 +289,7 @@ def _methods(raw, source: str) -> list[MethodSpec]:
             raise StudyDefinitionError(f"{source}: {where} must be a method name or a mapping, got {item!r}")
         _no_unknown(item, {"label", "method", "options", "timeout_s", "note", "per_pose"}, source, where)
         method = item.get("method")
-        if method not in known_methods:
-            raise StudyDefinitionError(f"{source}: {where}: unknown method {method!r}"
-                                       f"{_did_you_mean(method, known_methods)}; registered methods: "
-                                       f"{', '.join(known_methods)}")
+        _require_known(method, known_methods, f"{source}: {where}: unknown method {method!r}")
         options = item.get("options", {}) or {}
         if not isinstance(options, dict):
             raise StudyDefinitionError(f"{source}: {where}.options must be a mapping of keyword arguments")
@@ -392,10 +383,8 @@ def _wholebody_case(item: dict, source: str, where: str) -> dict:
                                    f"{item.get('target')!r}")
     samplers = case_samplers()
     scenario = item.get("scenario")
-    if not isinstance(scenario, str) or scenario not in samplers:
-        raise StudyDefinitionError(f"{source}: {where}.scenario must name a whole-body case sampler: "
-                                   f"{', '.join(samplers)}; got {scenario!r}"
-                                   f"{_did_you_mean(scenario, samplers)}")
+    _require_known(scenario, samplers, f"{source}: {where}.scenario {scenario!r} is not a whole-body case "
+                                       "sampler")
     robot = samplers[scenario].robot
     if item.get("robot", robot) != robot:
         raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
@@ -470,7 +459,7 @@ def _angles(raw, target: str, source: str, where: str) -> AngleConvention | None
     if sequence not in TAIT_BRYAN_SEQUENCES:
         raise StudyDefinitionError(
             f"{source}: {where}.sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)} (R = R_i R_j R_k "
-            f"for 'ijk'), got {sequence!r}{_did_you_mean(sequence, TAIT_BRYAN_SEQUENCES)}; {example}")
+            f"for 'ijk'), got {sequence!r}{did_you_mean(sequence, TAIT_BRYAN_SEQUENCES)}; {example}")
     names = _mapping(raw.get("names"), source, f"{where}.names",
                      f"maps axes (x, y, z) to column names, {example}")
     if not names:
@@ -554,7 +543,7 @@ def check_schema(methods, cases, source: str) -> None:
 def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
     unknown = sorted(set(mapping) - known, key=str)
     if unknown:
-        guesses = [(key, _closest(key, known)) for key in unknown]
+        guesses = [(key, closest_name(key, known)) for key in unknown]
         guesses = [(key, guess) for key, guess in guesses if guess is not None]
         if len(unknown) == 1 and guesses:
             hint = f" (did you mean {guesses[0][1]!r}?)"
@@ -566,15 +555,10 @@ def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None
                                    f"{', '.join(sorted(known))}")
 
 
-def _closest(word, choices) -> str | None:
-    """The choice closest to ``word`` (difflib's ratio >= 0.6), None if none is."""
-    close = difflib.get_close_matches(str(word), [str(choice) for choice in choices], n=1)
-    return close[0] if close else None
-
-
-def _did_you_mean(word, choices) -> str:
-    guess = _closest(word, choices)
-    return f" (did you mean {guess!r}?)" if guess is not None else ""
+def _require_known(name, known, message: str) -> None:
+    """A StudyDefinitionError ``message`` + did-you-mean + the known names when ``name`` is not one."""
+    if not isinstance(name, str) or name not in known:
+        raise StudyDefinitionError(f"{message}{did_you_mean(name, known)}; known: {', '.join(known)}")
 
 
 def _label(value, field_name: str, source: str) -> str:

@@ -23,7 +23,7 @@ from dataclasses import fields
 import numpy as np
 
 from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
-from wbik.errors import WbikError
+from wbik.errors import WbikError, did_you_mean
 from wbik.scenario_schema import (
     NON_NEGATIVE,
     POSITIVE,
@@ -45,7 +45,6 @@ from wbik.scenario_schema import (
     common_keys,
     expect_block,
     from_dataclass,
-    guess,
     time_laws,
 )
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
@@ -141,7 +140,7 @@ def riveting_schema() -> Map:
         for name in spec.get("expect") or {}:
             if name not in names:
                 raise UnknownExpectationKeyError(
-                    f"{ctx.source}: unknown key 'expect.{name}'{guess(name, names)}: expect names the "
+                    f"{ctx.source}: unknown key 'expect.{name}'{did_you_mean(name, names)}: expect names the "
                     f"planners of 'planners', which are {', '.join(names)}", f"expect.{name}", names)
 
     return Map({
