@@ -80,7 +80,13 @@ from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
 from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
-from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, Workspace, keep_better
+from wbik.solvers.levenberg_marquardt import (
+    JointBounds,
+    LevenbergMarquardt,
+    Workspace,
+    batch_cost,
+    keep_better,
+)
 from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import batch_se3_error, converged
 from wbik.targets import Target, as_target
@@ -436,7 +442,7 @@ class BoundedLMSolver(Solver):
         rotations = np.array([target.rotation for target in targets]) if pose else None
         q0 = bounds.project(q0)
         error0, _ = kinematics.evaluate(q0, positions, rotations)
-        cost0 = np.einsum("bi,bi->b", error0, error0)
+        cost0 = batch_cost(error0)
         entries, distances2 = self._table.nearest_rows(positions, rotations, self.position_weight)
         table_first = distances2 < self.table_first * cost0 if len(entries) else np.zeros(count, dtype=bool)
         first = np.where(table_first[:, None], entries, q0) if len(entries) else q0
@@ -450,8 +456,7 @@ class BoundedLMSolver(Solver):
         rows = np.arange(count)
         q = first.copy()
         error, transposed = kinematics.evaluate(q, positions, rotations)
-        cost = np.einsum("bi,bi->b", error, error)
-        damping, best, since = policy.start_batch(cost)
+        cost, damping, best, since = policy.start_batch(error)
         age = np.zeros(count, dtype=int)
         while rows.size:
             done = self._passes_rows(error)
@@ -468,7 +473,7 @@ class BoundedLMSolver(Solver):
             goal_rotations = None if rotations is None else rotations[rows]
             inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_positions, goal_rotations)
-            trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
+            trial_cost = batch_cost(trial_error)
             accepted, cost, (q, error, transposed) = keep_better(
                 trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
@@ -497,7 +502,7 @@ class BoundedLMSolver(Solver):
                 fresh_error, fresh_transposed = kinematics.evaluate(
                     q[restart], positions[renewed], None if rotations is None else rotations[renewed])
                 error[restart], transposed[restart] = fresh_error, fresh_transposed
-                cost[restart] = np.einsum("bi,bi->b", fresh_error, fresh_error)
+                cost[restart] = batch_cost(fresh_error)
                 best[restart], since[restart], age[restart] = cost[restart], 0, 0
                 damping[restart] = policy.first_damping
         share = (time.perf_counter() - started) / count
@@ -557,8 +562,7 @@ class BoundedLMSolver(Solver):
         q = draws.take(size).copy()
         q[:len(seeds)] = seeds[:size]
         error, transposed = kinematics.evaluate(q, goal_position, goal_rotation)
-        cost = np.einsum("bi,bi->b", error, error)
-        damping, best_cost, since_progress = policy.start_batch(cost)
+        cost, damping, best_cost, since_progress = policy.start_batch(error)
         age = np.zeros(size, dtype=int)
         fresh = None
         best_q, best_error = best
@@ -577,7 +581,7 @@ class BoundedLMSolver(Solver):
                 inside[fresh] = draws.take(fresh.size)
                 cost[fresh] = math.inf
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
-            trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
+            trial_cost = batch_cost(trial_error)
             accepted, cost, (q, error, transposed) = keep_better(
                 trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
             damping, best_cost, since_progress, stalled = policy.update_batch(accepted, damping, cost,

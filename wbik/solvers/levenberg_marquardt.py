@@ -171,9 +171,11 @@ class LevenbergMarquardt:
             self.max_damping is not None and base > self.max_damping)
 
     # -- a batch of configurations, element by element the same decisions --------------------------
-    def start_batch(self, cost: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(base dampings, best costs, iterations since progress) of fresh runs from costs (B,)."""
-        return np.full(cost.shape, self.first_damping), cost.copy(), np.zeros(cost.shape, dtype=int)
+    def start_batch(self, error: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(costs, base dampings, best costs, iterations since progress) of fresh runs from their
+        errors (B, m)."""
+        cost = batch_cost(error)
+        return cost, np.full(cost.shape, self.first_damping), cost.copy(), np.zeros(cost.shape, dtype=int)
 
     def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
                     q: np.ndarray, bounds: JointBounds) -> np.ndarray:
@@ -212,6 +214,11 @@ class LevenbergMarquardt:
         if self.max_damping is not None:
             stalled |= base > self.max_damping
         return base, best, since, stalled
+
+
+def batch_cost(error: np.ndarray) -> np.ndarray:
+    """The cost |e|^2 of each row of errors (B, m)."""
+    return np.einsum("bi,bi->b", error, error)
 
 
 def keep_better(trial_cost: np.ndarray, cost: np.ndarray, *pairs: tuple[np.ndarray, np.ndarray]
