@@ -101,7 +101,7 @@ def test_a_subcommand_module_without_its_declarations_is_an_error(capsys, monkey
     monkeypatch.setitem(sys.modules, "wbik.commands.hollow", types.ModuleType("wbik.commands.hollow"))
     monkeypatch.setattr(wbik.cli, "SUBCOMMANDS", (*wbik.cli.SUBCOMMANDS, "hollow"))
     code, _, err = run(["robots"], capsys)
-    assert code == 3 and "wbik.commands.hollow has no HELP, DESCRIPTION, run(args)" in err
+    assert code == 3 and "wbik.commands.hollow has no HELP, docstring, run(args)" in err
 
 
 def test_run_prints_the_kind_report_and_exits_by_its_verdict(capsys, tmp_path):

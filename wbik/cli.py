@@ -1,7 +1,7 @@
 """The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py``, which declares
-``HELP`` (its line in ``wbik --help``), ``DESCRIPTION`` (``wbik NAME --help``), optionally ``EPILOG``
-and ``add_arguments(parser)``, and ``run(args) -> int``; heavy imports stay inside ``run``. The
-parser of each subcommand (with ``--debug`` and its ``run``) is made here.
+``HELP`` (its line in ``wbik --help``), a module docstring (the description ``wbik NAME --help``
+prints), optionally ``EPILOG`` and ``add_arguments(parser)``, and ``run(args) -> int``; heavy imports
+stay inside ``run``. The parser of each subcommand (with ``--debug`` and its ``run``) is made here.
 
 Exit codes (every subcommand):
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import sys
 import traceback
 
@@ -29,7 +30,7 @@ EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 
 def subcommand_module(name: str):
-    """``wbik.commands.<name>``, which must exist and declare ``HELP``, ``DESCRIPTION`` and ``run`` (a
+    """``wbik.commands.<name>``, which must exist and have ``HELP``, a docstring and ``run`` (a
     listed subcommand whose module is missing is an error, never skipped: exit code 3, the install is
     broken)."""
     module_name = f"wbik.commands.{name}"
@@ -42,7 +43,7 @@ def subcommand_module(name: str):
                           f"{module_name} does not exist; reinstall wbik (pip install -e .)",
                           name=module_name) from None
     missing = [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
-                                     ("DESCRIPTION", isinstance(getattr(module, "DESCRIPTION", None), str)),
+                                     ("docstring", bool(module.__doc__)),
                                      ("run(args)", callable(getattr(module, "run", None)))) if not ok]
     if missing:
         raise ImportError(f"{module_name} has no {', '.join(missing)}; every subcommand module needs them "
@@ -63,7 +64,7 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         module = subcommand_module(name)
-        command = subparsers.add_parser(name, help=module.HELP, description=module.DESCRIPTION,
+        command = subparsers.add_parser(name, help=module.HELP, description=inspect.cleandoc(module.__doc__),
                                         epilog=getattr(module, "EPILOG", None))
         if hasattr(module, "add_arguments"):
             module.add_arguments(command)

@@ -1,4 +1,4 @@
-"""``wbik fk``: forward kinematics of a chain."""
+"""Pose of a chain's tip frame in its base frame for the given joint values."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ import numpy as np
 from wbik.commands import add_json_argument, add_robot_arguments
 
 HELP = "forward kinematics of a chain"
-DESCRIPTION = "Pose of a chain's tip frame in its base frame for the given joint values."
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,11 +1,10 @@
-"""``wbik methods``: the registered IK methods."""
+"""List the IK methods that 'wbik solve --method' and study files accept."""
 
 from __future__ import annotations
 
 import argparse
 
 HELP = "list the IK methods"
-DESCRIPTION = "List the IK methods that 'wbik solve --method' and study files accept."
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,4 +1,4 @@
-"""``wbik robots``: the built-in robots and their chains."""
+"""List the built-in robots. With --verbose, load each and print its chains (base -> tip, joints)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,6 @@ import json
 from wbik.commands import add_json_argument
 
 HELP = "list the built-in robots (and their chains with -v)"
-DESCRIPTION = ("List the built-in robots. With --verbose, load each and print its chains (base -> tip, "
-               "joints).")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,4 +1,6 @@
-"""``wbik run``: run a scenario file (tasks/*.yaml) and print / write its report."""
+"""Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). Prints a summary;
+--output writes the JSON report after every phase. A task shipped with wbik is also found by its name
+(wbik run bioloid_balance); 'wbik tasks' lists them."""
 
 from __future__ import annotations
 
@@ -6,9 +8,6 @@ import argparse
 import json
 
 HELP = "run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)"
-DESCRIPTION = ("Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). Prints a "
-               "summary; --output writes the JSON report after every phase. A task shipped with wbik is "
-               "also found by its name (wbik run bioloid_balance); 'wbik tasks' lists them.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

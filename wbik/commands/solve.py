@@ -1,4 +1,5 @@
-"""``wbik solve``: inverse kinematics of one target with one method."""
+"""Solve IK for a position (--xyz) or a pose (--xyz and --rpy) of a chain's tip in its base frame. Prints
+the joints, the errors (shared FK check) and the time."""
 
 from __future__ import annotations
 
@@ -10,8 +11,6 @@ import numpy as np
 from wbik.commands import add_json_argument, add_robot_arguments
 
 HELP = "solve IK for one target"
-DESCRIPTION = ("Solve IK for a position (--xyz) or a pose (--xyz and --rpy) of a chain's tip in its base "
-               "frame. Prints the joints, the errors (shared FK check) and the time.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -1,4 +1,7 @@
-"""``wbik study``: run a comparison study (default: comparisons/default.yaml)."""
+"""Run a study file from comparisons/ (default: comparisons/default.yaml; a file's description: says what
+it compares, its reference: block the published figures it is set beside): raw rows, summary,
+Mann-Whitney tests, figures and a Markdown + HTML report in the output folder. An interrupted run
+resumes where it stopped when run again with the same output folder."""
 
 from __future__ import annotations
 
@@ -6,11 +9,6 @@ import argparse
 from pathlib import Path
 
 HELP = "run a comparison study of IK methods and write its report"
-DESCRIPTION = ("Run a study file from comparisons/ (default: comparisons/default.yaml; a file's "
-               "description: says what it compares, its reference: block the published figures it is set "
-               "beside): raw rows, summary, Mann-Whitney tests, figures and a Markdown + HTML report in the "
-               "output folder. An interrupted run resumes where it stopped when run again with the same "
-               "output folder.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

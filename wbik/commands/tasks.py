@@ -1,12 +1,11 @@
-"""``wbik tasks``: the scenario files shipped with wbik (``wbik run NAME`` runs one)."""
+"""List the scenario files shipped with wbik: name, kind and path. 'wbik run NAME' runs one from any
+folder; copy its file to change it."""
 
 from __future__ import annotations
 
 import argparse
 
 HELP = "list the scenario files shipped with wbik (run one with 'wbik run NAME')"
-DESCRIPTION = ("List the scenario files shipped with wbik: name, kind and path. 'wbik run NAME' runs one "
-               "from any folder; copy its file to change it.")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

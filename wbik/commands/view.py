@@ -1,4 +1,6 @@
-"""``wbik view``: show a robot (or play a scenario file) in meshcat, or export it to HTML/PNG."""
+"""Show ROBOT (built-in name or URDF path) at a configuration, or play the motion of a TASKFILE
+(tasks/*.yaml). Without --html/--screenshot a local meshcat server starts and its URL is printed; Ctrl-C
+stops it."""
 
 from __future__ import annotations
 
@@ -15,9 +17,6 @@ which checks it against its kind's schema before it is run and played)."""
 
 
 HELP = "show a robot or play a scenario in meshcat (browser), or export it"
-DESCRIPTION = ("Show ROBOT (built-in name or URDF path) at a configuration, or play the motion of a TASKFILE "
-               "(tasks/*.yaml). Without --html/--screenshot a local meshcat server starts and its URL is "
-               "printed; Ctrl-C stops it.")
 EPILOG = ("Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  wbik view pincher --html "
           "pincher.html;  wbik view bioloid --com --screenshot b.png")
 
