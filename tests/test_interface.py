@@ -8,7 +8,7 @@ import pytest
 
 import wbik
 from wbik.solvers.base import Candidate, Solver, evaluate
-from wbik.solvers.method_registry import _METHODS
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 
 ROBOTS = list(wbik.robots())
 
@@ -109,7 +109,7 @@ def test_register_a_user_method():
         def _solve(self, target, q0, deadline):
             return Candidate(self.chain.nominal)
 
-    with _METHODS.isolated():  # gone afterwards
+    with IK_METHOD_REGISTRY.isolated():  # gone afterwards
         wbik.register("nominal_test", Nominal, "returns the nominal configuration")
         assert "nominal_test" in wbik.methods()
         chain = wbik.load("arm3r").chain()

@@ -13,24 +13,31 @@ from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 from wbik.solvers import method_registry
 from wbik.solvers.base import Solver
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.solvers.method_registry import _METHODS, METHOD_MODULES, IKMethod, register, register_method
+from wbik.solvers.method_registry import (
+    IK_METHOD_REGISTRY,
+    METHOD_MODULES,
+    IKMethod,
+    register,
+    register_method,
+)
 
 
 @pytest.fixture
 def isolated():
-    with _METHODS.isolated() as registry:
+    with IK_METHOD_REGISTRY.isolated() as registry:
         yield registry
 
 
 def test_every_listed_module_declares_its_methods_and_each_name_once():
-    assert isinstance(_METHODS, DeclaredRegistry) and _METHODS.modules is METHOD_MODULES
+    assert isinstance(IK_METHOD_REGISTRY, DeclaredRegistry) and IK_METHOD_REGISTRY.modules is METHOD_MODULES
     declared = {}
     for module_name in METHOD_MODULES:
         for entry in importlib.import_module(module_name).IK_METHODS:
             assert entry.name not in declared, f"{entry.name} declared by {declared.get(entry.name)} too"
             declared[entry.name] = module_name
             assert entry.description, f"{entry.name} has no description"
-    built_in = {name for name in wbik.methods() if method_registry.method_added_at_run_time(name) is None}
+    added = method_registry.IK_METHOD_REGISTRY.added_at_run_time
+    built_in = {name for name in wbik.methods() if added(name) is None}
     assert set(declared) == built_in  # (other tests may have added methods of their own)
     # the methods the README and the default study name are all there
     assert {"analytic", "newton", "dls", "bounded_lm", "qp", "kdl", "kdl_restarts", "trac_ik", "placo",
@@ -44,9 +51,9 @@ def test_a_user_method_is_added_replaced_on_re_registration_and_travels_as_an_en
     register("mine_test", Mine, "first")
     register("mine_test", Mine, "again")  # re-running a notebook cell
     assert wbik.methods()["mine_test"] == "again"
-    entry = method_registry.method_added_at_run_time("mine_test")
+    entry = method_registry.IK_METHOD_REGISTRY.added_at_run_time("mine_test")
     assert entry == IKMethod("mine_test", Mine, "again")
-    assert method_registry.method_added_at_run_time("dls") is None  # a fresh process has it anyway
+    assert method_registry.IK_METHOD_REGISTRY.added_at_run_time("dls") is None  # a fresh process has it
     assert isinstance(wbik.solver("mine_test", "arm3r"), Mine)
 
 
@@ -73,16 +80,16 @@ def test_a_factory_path_is_imported_at_registration(isolated):
 def test_listed_modules_that_fail_are_errors_naming_them(isolated, monkeypatch):
     bare = types.ModuleType("wbik_test_no_methods")
     monkeypatch.setitem(sys.modules, bare.__name__, bare)
-    with _METHODS.isolated([*METHOD_MODULES, bare.__name__]):
+    with IK_METHOD_REGISTRY.isolated([*METHOD_MODULES, bare.__name__]):
         with pytest.raises(RegistryError, match="wbik_test_no_methods .*IK_METHODS"):
             wbik.methods()
-    with _METHODS.isolated([*METHOD_MODULES, "wbik_test_not_importable"]):
+    with IK_METHOD_REGISTRY.isolated([*METHOD_MODULES, "wbik_test_not_importable"]):
         with pytest.raises(RegistryImportError, match="wbik_test_not_importable"):
             wbik.methods()
     twice = types.ModuleType("wbik_test_twice")
     twice.IK_METHODS = (IKMethod("dls", DampedLeastSquares),)
     monkeypatch.setitem(sys.modules, twice.__name__, twice)
-    with _METHODS.isolated([*METHOD_MODULES, twice.__name__]):
+    with IK_METHOD_REGISTRY.isolated([*METHOD_MODULES, twice.__name__]):
         with pytest.raises(RegistryError, match="'dls' of wbik_test_twice is already registered"):
             wbik.methods()
 
@@ -119,7 +126,7 @@ def test_factory_options_follow_the_class_hierarchy_as_far_as_options_are_handed
         check_options("method 'm'", {"gian": 2}, {"gain"})
     assert info.value.option == "gian"
     # a callable's own signature decides what the option list cannot say
-    with _METHODS.isolated():
+    with IK_METHOD_REGISTRY.isolated():
         register("needs_x_test", lambda robot, chain, *, x: DampedLeastSquares(robot, chain))
         with pytest.raises(InvalidOptionError, match="cannot take these options"):
             wbik.solver("needs_x_test", "arm3r")

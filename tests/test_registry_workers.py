@@ -17,7 +17,7 @@ import pytest
 
 import wbik
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.solvers.method_registry import _METHODS
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 from wbik.study import load_study, run_study
 from wbik.study.results import read_raw_csv
 
@@ -48,7 +48,7 @@ class UserDLS(DampedLeastSquares):
 
 
 def test_a_registered_method_runs_in_loky_workers_and_reaches_the_report(tmp_path):
-    with _METHODS.isolated():  # the test's method is gone afterwards
+    with IK_METHOD_REGISTRY.isolated():  # the test's method is gone afterwards
         wbik.register(NAME, UserDLS, "test only: DLS defined in a test module")
         study_file = tmp_path / "registered.yaml"
         study_file.write_text(STUDY)
@@ -131,16 +131,16 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
 
     isolated = contextlib.ExitStack()
     request.addfinalizer(isolated.close)
-    isolated.enter_context(cases._SAMPLERS.isolated())
-    isolated.enter_context(methods._METHODS.isolated())
+    isolated.enter_context(cases.CASE_REGISTRY.isolated())
+    isolated.enter_context(methods.WHOLEBODY_METHOD_REGISTRY.isolated())
     sampler = cases.CaseSampler(SAMPLER, "ur5", tool_reach, "test only: the UR5's tool to a random point")
     method = methods.WholeBodyMethod(METHOD, _user_qp(), "test only: our QP defined in a test")
     cases.register_sampler(sampler)
     methods.register_wholebody_method(method)
-    assert cases.sampler_added_at_run_time(SAMPLER) is sampler
-    assert methods.method_added_at_run_time(METHOD) is method
-    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None  # a listed module's: not carried
-    assert methods.method_added_at_run_time("qp") is None
+    assert cases.CASE_REGISTRY.added_at_run_time(SAMPLER) is sampler
+    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time(METHOD) is method
+    assert cases.CASE_REGISTRY.added_at_run_time("bioloid_com_shift") is None  # a listed one: not carried
+    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time("qp") is None
 
     import yaml
 

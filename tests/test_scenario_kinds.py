@@ -60,7 +60,7 @@ def fresh_registry():
     """The registry emptied, over the given module list, until the test ends (what it held is
     restored afterwards: DeclaredRegistry.isolated)."""
     with contextlib.ExitStack() as stack:
-        yield lambda modules: stack.enter_context(registry._REGISTRY.isolated(modules))
+        yield lambda modules: stack.enter_context(registry.KIND_REGISTRY.isolated(modules))
 
 
 # -- registration ------------------------------------------------------------------------------------
@@ -68,7 +68,7 @@ def test_each_module_registers_its_own_kinds_with_schema_and_runner_side_by_side
     import importlib
 
     assert registry.KIND_MODULES == list(EXPECTED_KINDS)
-    kinds = registry.scenario_kinds()
+    kinds = registry.KIND_REGISTRY.entries()
     assert set(kinds) == set().union(*EXPECTED_KINDS.values())
     for module_name, names in EXPECTED_KINDS.items():
         declared = importlib.import_module(module_name).SCENARIO_KINDS
@@ -99,7 +99,7 @@ def test_a_module_without_kinds_or_a_kind_declared_twice_is_an_error(fresh_regis
     with pytest.raises(registry.ScenarioKindError, match="'wholebody_ik'.*already registered"):
         register_kind(twin)
     with pytest.raises(ScenarioValueError, match="unknown scenario kind 'wholebody_ic'.*did you mean"):
-        registry.scenario_kind("wholebody_ic")
+        registry.KIND_REGISTRY.get("wholebody_ic")
 
 
 def test_a_kind_registered_from_user_code_runs_with_its_schema_and_default_format(fresh_registry):
@@ -159,7 +159,7 @@ def test_report_verdicts_and_the_json_round_trip():
 def test_one_set_of_defaults_for_the_keys_kinds_share():
     from wbik.qp.backends import DEFAULT
 
-    kinds = registry.scenario_kinds()
+    kinds = registry.KIND_REGISTRY.entries()
     backends = {name: kind.schema_map.keys["backend"].default for name, kind in kinds.items()
                 if "backend" in kind.schema_map.keys}
     assert set(backends) == {"wholebody_ik", "bioloid_step", "bioloid_walk", "bioloid_turn",
@@ -266,8 +266,8 @@ def test_kinds_use_the_one_declared_registry_and_its_errors_are_registry_errors(
                                                                                    monkeypatch):
     from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
-    assert isinstance(registry._REGISTRY, DeclaredRegistry)
-    assert registry._REGISTRY.modules is registry.KIND_MODULES  # register_module appends to the listed ones
+    assert isinstance(registry.KIND_REGISTRY, DeclaredRegistry)
+    assert registry.KIND_REGISTRY.modules is registry.KIND_MODULES  # register_module appends to them
     assert issubclass(registry.ScenarioKindError, RegistryError)
     assert issubclass(registry.ScenarioKindImportError, RegistryImportError)
     fresh_registry(["wbik.scenarios.wholebody"])
@@ -280,6 +280,6 @@ def test_kinds_use_the_one_declared_registry_and_its_errors_are_registry_errors(
         "SCENARIO_KINDS = (ScenarioKind('user_a', print, Map), ScenarioKind('user_a', print, Map))\n")
     twice = "wbik_test_user_kinds declares the scenario kind.*user_a"
     with pytest.raises(registry.ScenarioKindError, match=twice):
-        registry.register_module("wbik_test_user_kinds")
+        registry.KIND_REGISTRY.register_module("wbik_test_user_kinds")
     assert "user_a" not in registry.kind_names()
-    assert "wbik_test_user_kinds" not in registry._REGISTRY.modules
+    assert "wbik_test_user_kinds" not in registry.KIND_REGISTRY.modules

@@ -30,7 +30,7 @@ from wbik.scenario_schema import (
     validate,
 )
 from wbik.scenarios import load_scenario, run_scenario
-from wbik.scenarios.kinds import scenario_kinds
+from wbik.scenarios.kinds import KIND_REGISTRY
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 WBIK = Path(sys.executable).parent / "wbik"
@@ -55,7 +55,7 @@ def write(tmp_path: Path, text: str, name: str = "bad.yaml") -> Path:
 def test_every_task_file_validates(path):
     spec = load_scenario(path)
     checked = validate(spec, str(path))
-    assert checked["kind"] in scenario_kinds()
+    assert checked["kind"] in KIND_REGISTRY.entries()
     assert set(spec) <= set(checked)  # nothing dropped; defaults added
 
 

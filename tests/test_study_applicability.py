@@ -9,7 +9,7 @@ import pytest
 
 from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.solvers.method_registry import _METHODS, register
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY, register
 from wbik.study import run_study, study_from_dict
 from wbik.study.results import read_raw_csv
 
@@ -60,7 +60,7 @@ METHODS = {"position_only_by_query": PositionOnlyByQuery, "any_kind_by_query": A
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
-    with _METHODS.isolated():  # the test's methods are gone afterwards
+    with IK_METHOD_REGISTRY.isolated():  # the test's methods are gone afterwards
         for name, factory in METHODS.items():
             register(name, factory, "test only")
         study = study_from_dict({

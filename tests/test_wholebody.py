@@ -219,9 +219,9 @@ def test_pink_results_carry_the_no_hard_polygon_mark_and_are_judged_by_the_same_
 
 
 def test_samplers_are_deterministic_per_index():
-    from wbik.wholebody.cases import case_samplers, sample_case
+    from wbik.wholebody.cases import CASE_REGISTRY, sample_case
 
-    for name in case_samplers():
+    for name in CASE_REGISTRY.entries():
         first, again = sample_case(name, 11, 3), sample_case(name, 11, 3)
         assert np.array_equal(first.anchor, again.anchor) and np.array_equal(first.q0, again.q0)
         assert not np.array_equal(first.anchor, sample_case(name, 11, 4).anchor)

@@ -17,7 +17,7 @@ import wbik.wholebody
 from wbik.qp.tasks import PositionTask
 from wbik.registry import RegistryError, RegistryImportError
 from wbik.wholebody import cases, methods
-from wbik.wholebody.cases import CaseSampler, WholeBodyCase, case_samplers, register_sampler, sample_case
+from wbik.wholebody.cases import CASE_REGISTRY, CaseSampler, WholeBodyCase, register_sampler, sample_case
 from wbik.wholebody.methods import WholeBodyMethod, register_wholebody_method, wholebody_solver
 from wbik.wholebody.problem import WholeBody
 from wbik.wholebody.solvers import QPWholeBody
@@ -56,7 +56,7 @@ def _sampler_module(name: str) -> str:
 
 # -- case samplers ----------------------------------------------------------------------------------------
 def test_the_shipped_samplers_come_from_their_applications():
-    samplers = case_samplers()
+    samplers = CASE_REGISTRY.entries()
     assert list(samplers) == ["bioloid_com_shift", "bioloid_foot_lift", "bioloid_reach_two_feet",
                               "bioloid_reach_one_foot", "golem3_two_grippers"]
     assert {name: s.sample.__module__ for name, s in samplers.items()} == {
@@ -67,15 +67,15 @@ def test_the_shipped_samplers_come_from_their_applications():
 
 def test_a_listed_sampler_module_that_fails_to_import_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_broken_cases="import wbik_test_no_such_dependency  # noqa: F401\n")
-    fresh = isolate(cases._SAMPLERS, [*cases.CASE_MODULES, "wbik_test_broken_cases"])
+    fresh = isolate(cases.CASE_REGISTRY, [*cases.CASE_MODULES, "wbik_test_broken_cases"])
     with pytest.raises(RegistryImportError, match="wbik_test_broken_cases") as error:
         sample_case("bioloid_com_shift", 1, 0)  # never skipped, even for a sampler of another module
     assert "wbik_test_no_such_dependency" in str(error.value) and "CASE_MODULES" in str(error.value)
-    fresh = isolate(cases._SAMPLERS, cases.CASE_MODULES)
+    fresh = isolate(cases.CASE_REGISTRY, cases.CASE_MODULES)
     with pytest.raises(RegistryImportError, match="wbik_test_not_a_module"):
-        cases.register_sampler_module("wbik_test_not_a_module")
+        cases.CASE_REGISTRY.register_module("wbik_test_not_a_module")
     assert fresh.modules == cases.CASE_MODULES  # not added
-    assert "bioloid_com_shift" in case_samplers()
+    assert "bioloid_com_shift" in CASE_REGISTRY.entries()
 
 
 def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(modules, isolate):
@@ -88,9 +88,9 @@ def test_a_module_without_samplers_or_with_a_taken_name_is_an_error_naming_it(mo
                             ("wbik_test_taken", "'bioloid_com_shift' of wbik_test_taken is already "
                                                 "registered \\(by wbik.apps.bioloid.wholebody_cases\\)"),
                             ("wbik_test_twice", "declares the whole-body case sampler\\(s\\) twice twice")]:
-        isolate(cases._SAMPLERS, [*cases.CASE_MODULES, module])
+        isolate(cases.CASE_REGISTRY, [*cases.CASE_MODULES, module])
         with pytest.raises(RegistryError, match=message):
-            case_samplers()
+            CASE_REGISTRY.entries()
 
 
 def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(isolate, tmp_path):
@@ -98,7 +98,7 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
     crc32(name), index]) whoever draws the case; the study runs it like a shipped one."""
     from wbik.models import load
 
-    isolate(cases._SAMPLERS, cases.CASE_MODULES)
+    isolate(cases.CASE_REGISTRY, cases.CASE_MODULES)
     robot = load("ur5")
     drawn = []
 
@@ -142,7 +142,7 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate):
     assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.apps.bioloid.thesis_legs"]
     assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "thesis_legs"}
-    isolate(methods._METHODS)
+    isolate(methods.WHOLEBODY_METHOD_REGISTRY)
 
     class Mine(QPWholeBody):
         name = "mine"
@@ -162,7 +162,7 @@ def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate
 
 def test_a_listed_method_module_that_fails_to_import_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_broken_methods="raise ImportError('libfoo is missing')\n")
-    isolate(methods._METHODS, [*methods.METHOD_MODULES, "wbik_test_broken_methods"])
+    isolate(methods.WHOLEBODY_METHOD_REGISTRY, [*methods.METHOD_MODULES, "wbik_test_broken_methods"])
     with pytest.raises(RegistryImportError, match="wbik_test_broken_methods.*libfoo is missing"):
         wbik.wholebody.wholebody_methods()
 
@@ -189,20 +189,20 @@ def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, isol
     listed modules' are not, nor is a name nobody registered."""
     modules(wbik_test_user_cases=_sampler_module("user_module_sampler"),
             wbik_test_appended_cases=_sampler_module("appended_sampler"))
-    fresh = isolate(cases._SAMPLERS, cases.CASE_MODULES)
+    fresh = isolate(cases.CASE_REGISTRY, cases.CASE_MODULES)
     mine = CaseSampler("mine", "ur5", print)
     register_sampler(mine)
-    cases.register_sampler_module("wbik_test_user_cases")
+    cases.CASE_REGISTRY.register_module("wbik_test_user_cases")
     fresh.modules.append("wbik_test_appended_cases")
-    assert cases.sampler_added_at_run_time("mine") is mine
-    assert cases.sampler_added_at_run_time("user_module_sampler") is case_samplers()["user_module_sampler"]
-    assert cases.sampler_added_at_run_time("appended_sampler") is case_samplers()["appended_sampler"]
-    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None
-    assert cases.sampler_added_at_run_time("nobody") is None
+    assert cases.CASE_REGISTRY.added_at_run_time("mine") is mine
+    for name in ("user_module_sampler", "appended_sampler"):
+        assert cases.CASE_REGISTRY.added_at_run_time(name) is CASE_REGISTRY.entries()[name]
+    assert cases.CASE_REGISTRY.added_at_run_time("bioloid_com_shift") is None
+    assert cases.CASE_REGISTRY.added_at_run_time("nobody") is None
     # a listed module's entry replaced from user code is the user's now, and carried
     replacement = CaseSampler("bioloid_com_shift", "ur5", print)
     register_sampler(replacement, replace=True)
-    assert cases.sampler_added_at_run_time("bioloid_com_shift") is replacement
+    assert cases.CASE_REGISTRY.added_at_run_time("bioloid_com_shift") is replacement
 
 
 def test_the_facade_registers_samplers_and_methods_next_to_register(isolate):
@@ -210,8 +210,8 @@ def test_the_facade_registers_samplers_and_methods_next_to_register(isolate):
     and what they register is what the whole-body API and the study find."""
     import wbik
 
-    isolate(cases._SAMPLERS)
-    isolate(methods._METHODS)
+    isolate(cases.CASE_REGISTRY)
+    isolate(methods.WHOLEBODY_METHOD_REGISTRY)
     assert wbik.register_sampler is cases.register_sampler and wbik.CaseSampler is CaseSampler
     assert wbik.register_wholebody_method is methods.register_wholebody_method
     assert wbik.WholeBodyMethod is WholeBodyMethod and wbik.WholeBodyCase is WholeBodyCase
@@ -224,19 +224,19 @@ def test_the_facade_registers_samplers_and_methods_next_to_register(isolate):
     wbik.register_sampler(wbik.CaseSampler("facade_cases", "ur5", print, "via the facade"))
     assert wbik.wholebody_methods()["facade_qp"] == "via the facade"
     assert isinstance(wbik.wholebody_solver("facade_qp", "ur5"), Facade)
-    assert case_samplers()["facade_cases"].description == "via the facade"
-    assert methods.method_added_at_run_time("facade_qp") is not None  # carried to study workers
+    assert CASE_REGISTRY.entries()["facade_cases"].description == "via the facade"
+    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time("facade_qp") is not None  # to workers
 
 
 def test_an_isolated_registry_gives_back_what_it_held():
     """DeclaredRegistry.isolated: inside, nothing loaded and only the given modules; the module's
     functions (bound to the registry) see that; afterwards the entries, list and origins are back."""
-    before = dict(case_samplers())
+    before = dict(CASE_REGISTRY.entries())
     mine = CaseSampler("isolated_only", "ur5", print)
-    with cases._SAMPLERS.isolated([]) as isolated:
-        assert isolated is cases._SAMPLERS and case_samplers() == {} and isolated.modules == []
+    with cases.CASE_REGISTRY.isolated([]) as isolated:
+        assert isolated is cases.CASE_REGISTRY and CASE_REGISTRY.entries() == {} and isolated.modules == []
         register_sampler(mine)
-        assert case_samplers() == {"isolated_only": mine}
-    assert case_samplers() == before and "isolated_only" not in case_samplers()
-    assert cases._SAMPLERS.modules is cases.CASE_MODULES
-    assert cases.sampler_added_at_run_time("bioloid_com_shift") is None
+        assert CASE_REGISTRY.entries() == {"isolated_only": mine}
+    assert CASE_REGISTRY.entries() == before and "isolated_only" not in CASE_REGISTRY.entries()
+    assert cases.CASE_REGISTRY.modules is cases.CASE_MODULES
+    assert cases.CASE_REGISTRY.added_at_run_time("bioloid_com_shift") is None

@@ -541,7 +541,7 @@ def validate(spec, source: str = "scenario") -> dict:
     ``source`` (the file) starts every error message. See the module docstring for what is refused;
     the kind is looked up in :mod:`wbik.scenarios.kinds` (which imports the kinds' modules).
     """
-    from wbik.scenarios.kinds import kind_names, scenario_kind
+    from wbik.scenarios.kinds import KIND_REGISTRY, kind_names
 
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "
@@ -553,4 +553,4 @@ def validate(spec, source: str = "scenario") -> dict:
         known = kind_names()
         raise ScenarioValueError(f"{source}: kind: unknown scenario kind {_short(kind)}"
                                  f"{did_you_mean(kind, known)}; known kinds: {', '.join(known)}")
-    return scenario_kind(kind).schema_map.check(spec, "", Context(source))
+    return KIND_REGISTRY.get(kind).schema_map.check(spec, "", Context(source))

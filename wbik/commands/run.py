@@ -24,7 +24,7 @@ def run(args: argparse.Namespace) -> int:
     from wbik.data import task_path
     from wbik.errors import UsageError
     from wbik.scenarios import format_report, load_scenario, run_scenario_report
-    from wbik.scenarios.kinds import json_default, scenario_kind, scenario_kinds
+    from wbik.scenarios.kinds import KIND_REGISTRY, json_default
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
@@ -32,8 +32,8 @@ def run(args: argparse.Namespace) -> int:
     taskfile = str(task_path(args.taskfile))  # a path as given, else a shipped task of that name
     spec = load_scenario(taskfile)  # checked against its kind's schema: errors name the file and key
     if args.backend:
-        if not scenario_kind(spec["kind"]).takes("backend"):
-            takes = sorted(name for name, kind in scenario_kinds().items() if kind.takes("backend"))
+        if not KIND_REGISTRY.get(spec["kind"]).takes("backend"):
+            takes = sorted(name for name, kind in KIND_REGISTRY.entries().items() if kind.takes("backend"))
             raise UsageError(f"--backend: a {spec['kind']} scenario solves no QP with a file-wide backend; "
                              f"--backend applies to the kinds {', '.join(takes)}")
         spec["backend"] = args.backend

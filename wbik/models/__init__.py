@@ -35,19 +35,19 @@ class RobotEntry:
 ROBOT_MODULES: list[str] = ["wbik.robot_packages"]
 """The modules whose ``ROBOTS`` are registered (a new robot package: one entry in its ``ROBOTS``)."""
 
-_ROBOTS: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
+ROBOT_REGISTRY: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
     "robot", "ROBOTS", ROBOT_MODULES, "wbik.models.ROBOT_MODULES", RobotEntry,
     unknown=lambda name, known: UnknownRobotError(name, known, hint="or pass the path of a .urdf file"))
 
 
 def robot_entries() -> dict[str, RobotEntry]:
     """Every robot known by name."""
-    return _ROBOTS.entries()
+    return ROBOT_REGISTRY.entries()
 
 
 def register_robot(name: str, model: str, description: str = "", replace: bool = False) -> None:
     """Make ``load(name)`` call ``build`` of the module ``model`` ("package.module")."""
-    _ROBOTS.register(RobotEntry(name, model, description), replace=replace)
+    ROBOT_REGISTRY.register(RobotEntry(name, model, description), replace=replace)
 
 
 def robots() -> dict[str, str]:

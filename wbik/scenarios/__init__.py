@@ -21,19 +21,18 @@ from pathlib import Path
 from wbik.files import atomic_write_text
 from wbik.scenario_schema import ScenarioError, ScenarioFileError, validate
 from wbik.scenarios.kinds import (
+    KIND_REGISTRY,
     ScenarioKind,
     ScenarioReport,
     json_default,
     kind_names,
     register_kind,
-    register_module,
     report_verdict,
-    scenario_kind,
 )
 from wbik.scenarios.kinds import json_default as _json_default  # noqa: F401  imported by wbik.apps.riveting.report
 
-__all__ = ["ScenarioError", "ScenarioKind", "ScenarioReport", "format_report", "load_scenario",
-           "register_kind", "register_module", "report_verdict", "run_scenario", "run_scenario_animated",
+__all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "format_report",
+           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_animated",
            "run_scenario_report"]
 
 
@@ -100,7 +99,7 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
         spec = load_scenario(scenario)
         source = source or str(scenario)
     checked = validate(spec, source)
-    kind = scenario_kind(checked["kind"])
+    kind = KIND_REGISTRY.get(checked["kind"])
 
     def write(report: ScenarioReport) -> None:
         if output is not None:
@@ -132,4 +131,4 @@ def run_scenario_animated(scenario: str | Path | dict, output: str | Path | None
 def format_report(report: ScenarioReport | dict) -> str:
     """The report as ``wbik run`` prints it (its kind's formatter; a dict is a JSON report)."""
     data = report.as_dict() if isinstance(report, ScenarioReport) else report
-    return scenario_kind(data["kind"]).format_report(data)
+    return KIND_REGISTRY.get(data["kind"]).format_report(data)

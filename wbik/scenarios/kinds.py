@@ -13,8 +13,9 @@ The modules holding kinds are listed by name in ``KIND_MODULES`` (imported on fi
 core names the applications' modules without importing them). Every one of them is imported when
 the kinds are first needed; a module that fails to import, has no ``SCENARIO_KINDS``, or declares
 a kind another module declares too is an error naming the module, never skipped. User code adds a
-kind with :func:`register_kind`, or a module of kinds with :func:`register_module` (the one
-registry pattern of :class:`wbik.registry.DeclaredRegistry`).
+kind with :func:`register_kind`; :data:`KIND_REGISTRY` is the registry itself (``entries()``,
+``get(name)``, ``register_module(name)``: the one registry pattern of
+:class:`wbik.registry.DeclaredRegistry`).
 
 A runner ``run(spec, on_progress) -> ScenarioReport`` gets the spec checked against the kind's
 schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
@@ -40,10 +41,9 @@ if TYPE_CHECKING:
     from wbik.scenario_schema import Map
     from wbik.viz.animation import Animation
 
-__all__ = ["KIND_MODULES", "KindRun", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
-           "ScenarioReport", "format_entries", "json_default", "kind_names", "register_kind",
-           "register_module", "report_header", "report_verdict", "robot_of", "scenario_kind",
-           "scenario_kinds", "start_of"]
+__all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioKind", "ScenarioKindError",
+           "ScenarioKindImportError", "ScenarioReport", "format_entries", "json_default", "kind_names",
+           "register_kind", "report_header", "report_verdict", "robot_of", "start_of"]
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
@@ -249,22 +249,15 @@ def _unknown_kind(name: str, known: list[str]) -> WbikError:
                               f"{', '.join(known)}")
 
 
-_REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
+KIND_REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
     "scenario kind", "SCENARIO_KINDS", KIND_MODULES, "wbik.scenarios.kinds.KIND_MODULES", ScenarioKind,
     unknown=_unknown_kind, error=ScenarioKindError, import_error=ScenarioKindImportError,
 )
 
 
-scenario_kinds = _REGISTRY.entries
-"""Every registered kind by name (the modules of ``KIND_MODULES`` imported on first use)."""
-scenario_kind = _REGISTRY.get
-"""The kind called ``name`` (a ScenarioValueError listing the kinds if there is none)."""
-register_kind = _REGISTRY.register
+register_kind = KIND_REGISTRY.register
 """Add a kind from user code (``replace`` an existing one of that name only when asked)."""
-register_module = _REGISTRY.register_module
-"""Add a module of kinds (its ``SCENARIO_KINDS``) by name; it is imported now (an error if it cannot
-be, and then it is not added)."""
 
 
 def kind_names() -> list[str]:
-    return sorted(scenario_kinds())
+    return sorted(KIND_REGISTRY.entries())

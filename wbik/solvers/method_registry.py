@@ -5,7 +5,8 @@ A method is declared where its class lives, in that module's ``IK_METHODS`` tupl
 modules holding methods are listed by name in :data:`METHOD_MODULES` and imported on first use (see
 :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or declares
 a name another declares too is an error naming it). User code adds a method with :func:`register`
-(``wbik.register(name, MySolver)``) or a module of them with :func:`register_method_module`.
+(``wbik.register(name, MySolver)``); :data:`IK_METHOD_REGISTRY` is the registry itself (a module of
+methods: ``IK_METHOD_REGISTRY.register_module(name)``).
 
 A method's own optional library (PyKDL, pytracik, PlaCo, EAIK) is imported when a solver is built,
 not when its module is, so listing a method costs no optional dependency.
@@ -23,8 +24,8 @@ from wbik.registry import DeclaredRegistry, RegistryError, check_options, factor
 from wbik.robot import Robot
 from wbik.solvers.base import Solver
 
-__all__ = ["IKMethod", "METHOD_MODULES", "method_added_at_run_time", "method_factory", "methods", "register",
-           "register_method", "register_method_module", "solver", "solver_options"]
+__all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "method_factory", "methods", "register",
+           "register_method", "solver", "solver_options"]
 
 METHOD_MODULES: list[str] = [
     "wbik.solvers.analytic",
@@ -59,18 +60,13 @@ class IKMethod:
                                 f"callable, got {self.factory!r}")
 
 
-_METHODS: DeclaredRegistry[IKMethod] = DeclaredRegistry(
+IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
     unknown=lambda name, known: UnknownMethodError(name, known),
 )
 
-register_method = _METHODS.register
+register_method = IK_METHOD_REGISTRY.register
 """Add an :class:`IKMethod` from user code (``replace`` one of the same name only when asked)."""
-register_method_module = _METHODS.register_module
-"""Add the ``IK_METHODS`` of a module, by its name (imported now)."""
-method_added_at_run_time = _METHODS.added_at_run_time
-"""The method ``name`` when user code added it (a fresh process, such as a study worker, does not
-have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
 
 
 def register(name: str, factory: SolverFactory | str, description: str = "") -> None:
@@ -87,19 +83,19 @@ def register(name: str, factory: SolverFactory | str, description: str = "") -> 
         except (ImportError, AttributeError, ValueError) as exc:
             raise RegistryError(f"IK method {name!r}: cannot import {factory!r} "
                                 f"(expected 'package.module:Class'): {exc}") from exc
-    _METHODS.register(IKMethod(name, factory, description),
-                      replace=method_added_at_run_time(name) is not None)
+    IK_METHOD_REGISTRY.register(IKMethod(name, factory, description),
+                      replace=IK_METHOD_REGISTRY.added_at_run_time(name) is not None)
 
 
 def methods() -> dict[str, str]:
     """Registered method names with a one-line description."""
-    return _METHODS.descriptions()
+    return IK_METHOD_REGISTRY.descriptions()
 
 
 def method_factory(method: str) -> SolverFactory:
     """The factory (usually the Solver subclass) of ``method``; UnknownMethodError listing the known
     methods if nobody registered it."""
-    return _METHODS.get(method).factory
+    return IK_METHOD_REGISTRY.get(method).factory
 
 
 def solver_options(method: str) -> set[str] | None:

@@ -376,12 +376,12 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
 
 def _wholebody_case(item: dict, source: str, where: str) -> dict:
     """A whole-body case entry checked, with its robot and name filled from the sampler."""
-    from wbik.wholebody.cases import case_samplers
+    from wbik.wholebody.cases import CASE_REGISTRY
 
     if item.get("target", "wholebody") != "wholebody":
         raise StudyDefinitionError(f"{source}: {where}: scenario: is for target: wholebody cases, got target "
                                    f"{item.get('target')!r}")
-    samplers = case_samplers()
+    samplers = CASE_REGISTRY.entries()
     scenario = item.get("scenario")
     _require_known(scenario, samplers, f"{source}: {where}.scenario {scenario!r} is not a whole-body case "
                                        "sampler")

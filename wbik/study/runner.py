@@ -261,7 +261,7 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         from wbik.study.wholebody import make_task
 
         return make_task(study, case, method, poses, chunk, start, stop)
-    from wbik.solvers.method_registry import method_added_at_run_time
+    from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 
     timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
     return ChunkTask(
@@ -273,7 +273,7 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         chunk=chunk, first_pose=start,
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
-        q0=poses.q0[start:stop], registered=method_added_at_run_time(method.method))
+        q0=poses.q0[start:stop], registered=IK_METHOD_REGISTRY.added_at_run_time(method.method))
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:

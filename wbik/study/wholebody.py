@@ -81,10 +81,10 @@ def budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, 
 def run_time_entries(scenario: str, method: str) -> tuple:
     """The sampler ``scenario`` and the whole-body method ``method`` among those user code registered
     at run time (a worker process lacks them; the listed modules' own are left out)."""
-    from wbik.wholebody.cases import sampler_added_at_run_time
-    from wbik.wholebody.methods import method_added_at_run_time
+    from wbik.wholebody.cases import CASE_REGISTRY
+    from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
 
-    entries = (sampler_added_at_run_time(scenario), method_added_at_run_time(method))
+    entries = (CASE_REGISTRY.added_at_run_time(scenario), WHOLEBODY_METHOD_REGISTRY.added_at_run_time(method))
     return tuple(entry for entry in entries if entry is not None)
 
 
@@ -379,7 +379,7 @@ def case_blocks(study, analysis: dict) -> list:
         status_blocks,
         summary_table,
     )
-    from wbik.wholebody.cases import case_sampler
+    from wbik.wholebody.cases import CASE_REGISTRY
 
     case = analysis["case"]
     summaries, rows_by_method = analysis["summaries"], analysis["rows"]
@@ -389,7 +389,7 @@ def case_blocks(study, analysis: dict) -> list:
         Block(
             "p",
             f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
-            f"(seed {study.seed}): {case_sampler(case.scenario).description}. Every answer is judged by "
+            f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is judged by "
             "the one shared whole-body check (wbik.wholebody.check_wholebody): goal task errors by "
             f"FK within {study.tolerances['position']:g} m / {study.tolerances['rotation']:g} rad, "
             "contact drift within the same, CoM margin by FK against the support polygon of the "

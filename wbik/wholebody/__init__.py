@@ -15,9 +15,9 @@ seeded case samplers, registered the same way).
 """
 
 from wbik.wholebody.methods import (
+    WHOLEBODY_METHOD_REGISTRY,
     WholeBodyMethod,
     register_wholebody_method,
-    register_wholebody_module,
     wholebody_methods,
     wholebody_solver,
     wholebody_solver_options,
@@ -26,6 +26,7 @@ from wbik.wholebody.problem import MinimumDistance, WholeBody, WholeBodyResult, 
 from wbik.wholebody.solvers import WholeBodySolver
 
 __all__ = [
+    "WHOLEBODY_METHOD_REGISTRY",
     "MinimumDistance",
     "WholeBody",
     "WholeBodyMethod",
@@ -33,7 +34,6 @@ __all__ = [
     "WholeBodySolver",
     "check_wholebody",
     "register_wholebody_method",
-    "register_wholebody_module",
     "wholebody_methods",
     "wholebody_solver",
     "wholebody_solver_options",

@@ -11,7 +11,8 @@ Samplers are declared where the robot's application lives, in that module's ``WH
 tuple; the modules holding them are listed by name in :data:`CASE_MODULES` (imported on first use,
 see :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or
 declares a name another declares too is an error naming it). User code adds a sampler with
-:func:`register_sampler`, or a module of them with :func:`register_sampler_module`.
+:func:`register_sampler`; :data:`CASE_REGISTRY` is the registry itself (``entries()``, ``get(name)``,
+``register_module(name)``, ``added_at_run_time(name)``), with the same methods as every other.
 """
 
 from __future__ import annotations
@@ -27,9 +28,8 @@ from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot
 from wbik.wholebody.problem import WholeBody
 
-__all__ = ["CASE_MODULES", "CaseSampler", "WholeBodyCase", "case_rng", "case_sampler", "case_samplers",
-           "cached_robot", "register_sampler", "register_sampler_module", "sample_case",
-           "sampler_added_at_run_time"]
+__all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cached_robot", "case_rng",
+           "register_sampler", "sample_case"]
 
 CASE_MODULES: list[str] = [
     "wbik.apps.bioloid.wholebody_cases",
@@ -62,7 +62,7 @@ class CaseSampler:
     description: str = ""
 
 
-_SAMPLERS: DeclaredRegistry[CaseSampler] = DeclaredRegistry(
+CASE_REGISTRY: DeclaredRegistry[CaseSampler] = DeclaredRegistry(
     "whole-body case sampler", "WHOLEBODY_CASES", CASE_MODULES, "wbik.wholebody.cases.CASE_MODULES",
     CaseSampler,
 )
@@ -81,19 +81,10 @@ def cached_robot(name: str) -> Robot:
     return load(name)
 
 
-case_samplers = _SAMPLERS.entries
-"""Every registered sampler by name."""
-case_sampler = _SAMPLERS.get
-"""The sampler called ``name`` (an UnknownNameError listing the samplers if there is none)."""
-register_sampler = _SAMPLERS.register
+register_sampler = CASE_REGISTRY.register
 """Add a sampler from user code (``replace`` one of the same name only when asked)."""
-register_sampler_module = _SAMPLERS.register_module
-"""Add the ``WHOLEBODY_CASES`` of a module, by its name (imported now)."""
-sampler_added_at_run_time = _SAMPLERS.added_at_run_time
-"""The sampler ``name`` when user code added it (a fresh process, such as a study worker, does not
-have it: the study's task carries it there); None for one a module of CASE_MODULES declares."""
 
 
 def sample_case(name: str, seed: int, index: int) -> WholeBodyCase:
     """Case ``index`` of sampler ``name`` for ``seed`` (see the module docstring)."""
-    return case_sampler(name).sample(case_rng(name, seed, index), int(index))
+    return CASE_REGISTRY.get(name).sample(case_rng(name, seed, index), int(index))

@@ -5,7 +5,8 @@ A method is declared where its class lives, in that module's ``WHOLEBODY_METHODS
 description); the modules holding methods are listed by name in :data:`METHOD_MODULES` (imported on
 first use, see :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares
 none, or declares a name another declares too is an error naming it). User code adds a method with
-:func:`register_wholebody_method`, or a module of them with :func:`register_wholebody_module`.
+:func:`register_wholebody_method`; :data:`WHOLEBODY_METHOD_REGISTRY` is the registry itself (a module
+of methods: ``WHOLEBODY_METHOD_REGISTRY.register_module(name)``).
 
 The methods' own optional libraries (PlaCo, Pink) are imported when a solver is built, not when
 its module is, so listing a method costs no optional dependency.
@@ -23,9 +24,8 @@ from wbik.robot import Robot
 if TYPE_CHECKING:
     from wbik.wholebody.solvers import WholeBodySolver
 
-__all__ = ["METHOD_MODULES", "WholeBodyMethod", "method_added_at_run_time", "register_wholebody_method",
-           "register_wholebody_module", "wholebody_budget", "wholebody_methods", "wholebody_solver",
-           "wholebody_solver_options"]
+__all__ = ["METHOD_MODULES", "WHOLEBODY_METHOD_REGISTRY", "WholeBodyMethod", "register_wholebody_method",
+           "wholebody_budget", "wholebody_methods", "wholebody_solver", "wholebody_solver_options"]
 
 METHOD_MODULES: list[str] = [
     "wbik.wholebody.solvers",  # qp, placo, pink
@@ -52,7 +52,7 @@ class WholeBodyMethod:
                                 f"subclass, got {self.factory!r}")
 
 
-_METHODS: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
+WHOLEBODY_METHOD_REGISTRY: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
     "whole-body method", "WHOLEBODY_METHODS", METHOD_MODULES, "wbik.wholebody.methods.METHOD_MODULES",
     WholeBodyMethod, unknown=lambda name, known: UnknownMethodError(name, known),
 )
@@ -60,20 +60,15 @@ _METHODS: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
 
 def wholebody_methods() -> dict[str, str]:
     """Whole-body method names with a one-line description."""
-    return _METHODS.descriptions()
+    return WHOLEBODY_METHOD_REGISTRY.descriptions()
 
 
-register_wholebody_method = _METHODS.register
+register_wholebody_method = WHOLEBODY_METHOD_REGISTRY.register
 """Add a method from user code (``replace`` one of the same name only when asked)."""
-register_wholebody_module = _METHODS.register_module
-"""Add the ``WHOLEBODY_METHODS`` of a module, by its name (imported now)."""
-method_added_at_run_time = _METHODS.added_at_run_time
-"""The method ``name`` when user code added it (a fresh process, such as a study worker, does not
-have it: the study's task carries it there); None for one a module of METHOD_MODULES declares."""
 
 
 def _factory(method: str) -> type[WholeBodySolver]:
-    return _METHODS.get(method).factory
+    return WHOLEBODY_METHOD_REGISTRY.get(method).factory
 
 
 def wholebody_solver_options(method: str) -> set[str]:
