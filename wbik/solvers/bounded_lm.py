@@ -473,9 +473,9 @@ class BoundedLMSolver(Solver):
             goal_rotations = None if rotations is None else rotations[rows]
             inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_positions, goal_rotations)
-            trial_cost = batch_cost(trial_error)
             accepted, cost, (q, error, transposed) = keep_better(
-                trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
+                batch_cost(trial_error), cost, (inside, q), (trial_error, error),
+                (trial_transposed, transposed))
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
             spent[rows] += 1
             age += 1
@@ -581,9 +581,9 @@ class BoundedLMSolver(Solver):
                 inside[fresh] = draws.take(fresh.size)
                 cost[fresh] = math.inf
             trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
-            trial_cost = batch_cost(trial_error)
             accepted, cost, (q, error, transposed) = keep_better(
-                trial_cost, cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
+                batch_cost(trial_error), cost, (inside, q), (trial_error, error),
+                (trial_transposed, transposed))
             damping, best_cost, since_progress, stalled = policy.update_batch(accepted, damping, cost,
                                                                               best_cost, since_progress)
             age += 1

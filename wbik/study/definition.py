@@ -490,11 +490,7 @@ def _mapping(value, source: str, where: str, what: str) -> dict:
 
 def _number(value, field_name: str, source: str) -> float:
     """A finite number (PyYAML's string '1e-3' included), else a StudyDefinitionError."""
-    if isinstance(value, str):
-        try:
-            value = float(value)
-        except ValueError:
-            pass
+    value = _yaml_number(value)
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise StudyDefinitionError(f"{source}: {field_name} must be a number, got {value!r}")
     return float(value)
@@ -574,12 +570,18 @@ def _positive_int(value, field_name: str, source: str) -> int:
     return value
 
 
-def _positive_float(value, field_name: str, source: str) -> float:
-    if isinstance(value, str):  # PyYAML reads 1e-6 (no dot) as a string
+def _yaml_number(value):
+    """``value`` as a float when it is a string holding one (PyYAML reads 1e-6, no dot, as a string)."""
+    if isinstance(value, str):
         try:
-            value = float(value)
+            return float(value)
         except ValueError:
             pass
+    return value
+
+
+def _positive_float(value, field_name: str, source: str) -> float:
+    value = _yaml_number(value)
     if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
         raise StudyDefinitionError(f"{source}: {field_name} must be a positive number, got {value!r}")
     return float(value)
