@@ -63,3 +63,11 @@ def test_aliases_and_unknown_name():
     assert time_law("minimum_jerk") is LAWS["quintic"]
     with pytest.raises(WbikError, match="known time laws"):
         time_law("trapezoid")
+
+
+def test_the_laws_are_the_polynomials_of_the_module_docstring():
+    tau = np.linspace(0.0, 1.0, 101)
+    np.testing.assert_allclose(LAWS["linear"].s(tau), tau, atol=1e-15)
+    np.testing.assert_allclose(LAWS["cubic"].s(tau), 3 * tau**2 - 2 * tau**3, atol=1e-15)
+    np.testing.assert_allclose(LAWS["quintic"].s(tau), 10 * tau**3 - 15 * tau**4 + 6 * tau**5, atol=1e-14)
+    np.testing.assert_allclose(LAWS["quintic"].dds(tau), 60 * tau * (1 - tau) * (1 - 2 * tau), atol=1e-13)

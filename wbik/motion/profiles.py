@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.polynomial.polynomial import polyder, polyval
 
 from wbik.errors import UnknownNameError
 
@@ -29,43 +30,30 @@ class UnknownTimeLawError(UnknownNameError):
 
 @dataclass(frozen=True)
 class TimeLaw:
-    """A monotonic s(tau) with s(0) = 0, s(1) = 1, its derivatives and their peaks."""
+    """A monotonic polynomial s(tau) = sum_k c_k tau^k with s(0) = 0, s(1) = 1, its derivatives and
+    their peaks."""
 
     name: str
     peak_velocity: float  # max s'(tau) over [0, 1]
     peak_acceleration: float  # max |s''(tau)| over [0, 1]; inf for the linear law
+    coefficients: tuple[float, ...]  # c_0, c_1, ... (increasing powers)
 
     def s(self, tau):
-        tau = np.clip(tau, 0.0, 1.0)
-        if self.name == "linear":
-            return tau * 1.0
-        if self.name == "cubic":
-            return tau * tau * (3.0 - 2.0 * tau)
-        return tau**3 * (10.0 + tau * (-15.0 + 6.0 * tau))
+        return polyval(np.clip(tau, 0.0, 1.0), self.coefficients)
 
     def ds(self, tau):
         """s'(tau); zero outside [0, 1] (the trajectory rests before and after)."""
-        tau = np.asarray(tau, dtype=float)
-        inside = (tau >= 0.0) & (tau <= 1.0)
-        if self.name == "linear":
-            value = np.ones_like(tau)
-        elif self.name == "cubic":
-            value = 6.0 * tau * (1.0 - tau)
-        else:
-            value = 30.0 * tau**2 * (1.0 - tau) ** 2
-        return np.where(inside, value, 0.0)
+        return self._derivative(tau, 1)
 
     def dds(self, tau):
         """s''(tau) (zero for the linear law away from its end points)."""
+        return self._derivative(tau, 2)
+
+    def _derivative(self, tau, order: int):
+        """d^order s / dtau^order inside [0, 1], zero outside."""
         tau = np.asarray(tau, dtype=float)
-        inside = (tau >= 0.0) & (tau <= 1.0)
-        if self.name == "linear":
-            value = np.zeros_like(tau)
-        elif self.name == "cubic":
-            value = 6.0 - 12.0 * tau
-        else:
-            value = 60.0 * tau * (1.0 - tau) * (1.0 - 2.0 * tau)
-        return np.where(inside, value, 0.0)
+        value = polyval(tau, polyder(self.coefficients, order)) + np.zeros_like(tau)
+        return np.where((tau >= 0.0) & (tau <= 1.0), value, 0.0)
 
     def inverse(self, s) -> np.ndarray:
         """tau with s(tau) = s, by bisection (every law is monotonic)."""
@@ -83,9 +71,9 @@ class TimeLaw:
 
 
 LAWS: dict[str, TimeLaw] = {
-    "linear": TimeLaw("linear", 1.0, math.inf),
-    "cubic": TimeLaw("cubic", 1.5, 6.0),
-    "quintic": TimeLaw("quintic", 15.0 / 8.0, 10.0 / math.sqrt(3.0)),
+    "linear": TimeLaw("linear", 1.0, math.inf, (0.0, 1.0)),
+    "cubic": TimeLaw("cubic", 1.5, 6.0, (0.0, 0.0, 3.0, -2.0)),
+    "quintic": TimeLaw("quintic", 15.0 / 8.0, 10.0 / math.sqrt(3.0), (0.0, 0.0, 0.0, 10.0, -15.0, 6.0)),
 }
 ALIASES = {"minimum_jerk": "quintic", "min_jerk": "quintic"}
 
