@@ -104,6 +104,7 @@ class StackedConstraints:
         self._upper = np.zeros(n + capacity)
         self._lower = np.zeros(n + capacity)
         self._sense = np.zeros(n + capacity, dtype=np.int32)
+        self._lb, self._ub = self._lower[:n], self._upper[:n]  # views of the simple bounds
 
     def _grow(self, capacity: int) -> None:
         """Larger buffers, keeping the rows already added."""
@@ -117,20 +118,24 @@ class StackedConstraints:
     def clear(self, radius: float) -> tuple[np.ndarray, np.ndarray]:
         """No general rows, the box |x_i| <= radius; returns (lb, ub) views to tighten in place."""
         self.rows = 0
-        self._lower[:self.n] = -radius
-        self._upper[:self.n] = radius
-        return self._lower[:self.n], self._upper[:self.n]
+        self._lb.fill(-radius)
+        self._ub.fill(radius)
+        return self._lb, self._ub
 
     def tighten(self, index: np.ndarray | slice, lower, upper) -> None:
         """lb[index] <- max(lb[index], lower), ub[index] <- min(ub[index], upper)."""
-        bounds = self._lower[:self.n]
-        bounds[index] = np.maximum(bounds[index], lower)
-        bounds = self._upper[:self.n]
-        bounds[index] = np.minimum(bounds[index], upper)
+        lb, ub = self._lb, self._ub
+        if isinstance(index, slice):  # views: tightened in place
+            lb, ub = lb[index], ub[index]
+            np.maximum(lb, lower, out=lb)
+            np.minimum(ub, upper, out=ub)
+        else:
+            lb[index] = np.maximum(lb[index], lower)
+            ub[index] = np.minimum(ub[index], upper)
 
     def close_box(self) -> None:
         """Keep every lb <= ub (a velocity bound may leave no room inside a position bound)."""
-        np.minimum(self._lower[:self.n], self._upper[:self.n], out=self._lower[:self.n])
+        np.minimum(self._lb, self._ub, out=self._lb)
 
     def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
         """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""

@@ -109,13 +109,18 @@ class JointPositionLimits(BoundConstraint):
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
         rows = self._q_rows
-        q[rows] = np.minimum(np.maximum(q[rows], self.lower), self.upper)
+        if isinstance(rows, slice):  # a view: clipped in place
+            view = q[rows]
+            np.maximum(view, self.lower, out=view)
+            np.minimum(view, self.upper, out=view)
+        else:
+            q[rows] = np.minimum(np.maximum(q[rows], self.lower), self.upper)
 
     def violation(self, kinematics: Kinematics) -> float:
-        q = kinematics.q[self.q_index]
+        q = kinematics.q[self._q_rows]
         if q.size == 0:
             return 0.0
-        return float(max(np.max(self.lower - q), np.max(q - self.upper), 0.0))
+        return float(max((self.lower - q).max(), (q - self.upper).max(), 0.0))
 
 
 class JointVelocityLimits(BoundConstraint):
@@ -204,12 +209,12 @@ class CoMInSupportPolygon(InequalityConstraint):
     def projected(self, kinematics: Kinematics) -> np.ndarray:
         """N c_xy at the kinematics' q (once per configuration: the rows and the margin share it)."""
         if self._version != kinematics.version:
-            self._projected = self.normals @ kinematics.com()[:2]
+            self._projected = self.normals.dot(kinematics.com()[:2])
             self._version = kinematics.version
         return self._projected
 
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
-        return InequalityRows(self.normals @ kinematics.com_jacobian()[:2],
+        return InequalityRows(self.normals.dot(kinematics.com_jacobian()[:2]),
                               self.offsets - self.projected(kinematics))
 
     def com_margin(self, kinematics: Kinematics) -> float:

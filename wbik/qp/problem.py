@@ -109,10 +109,17 @@ class IKProblem:
 
     def clip(self, q: np.ndarray) -> np.ndarray:
         """q with every bounded 1-DOF joint clipped into its limits (a copy)."""
-        q = q.copy()
+        return self._clipped(q.copy())
+
+    def _clipped(self, q: np.ndarray) -> np.ndarray:
+        """``clip`` in place (for a q of our own, such as pin.integrate's answer); returns q."""
         for limits in self._limits:
             limits.clip(q)
         return q
+
+    def _stands_at(self, q: np.ndarray) -> bool:
+        """The kinematics stand at q (a configuration of this model: no np.array_equal shape checks)."""
+        return bool((q == self.kinematics.q).all())
 
     def _within_bounds(self, dq: np.ndarray) -> bool:
         """dq keeps every bound constraint's rows at the current q (dt = 1)."""
@@ -201,10 +208,16 @@ class IKProblem:
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
-        return all(c.violation(self.kinematics) <= tolerance for c in self._equalities)
+        for constraint in self._equalities:
+            if constraint.violation(self.kinematics) > tolerance:
+                return False
+        return True
 
     def _inequality_violation(self) -> float:
-        return sum(c.violation(self.kinematics) for c in self._inequalities)
+        total = 0
+        for constraint in self._inequalities:
+            total += constraint.violation(self.kinematics)
+        return total
 
     # -- iterate to convergence -----------------------------------------------------------------
     def _trial(self, merit: float, violation: float) -> tuple[bool, float, bool, float]:
@@ -269,7 +282,7 @@ class IKProblem:
                 break
             step_size = float(np.abs(dq).max()) if dq.size else 0.0
             tick = time.perf_counter() if profile is not None else 0.0
-            kinematics.update(self.clip(pin.integrate(self.model, q, dq)))
+            kinematics.update(self._clipped(pin.integrate(self.model, q, dq)))
             if profile is not None:  # the next step's task rows, filled here for the merit
                 tick = lap(profile, "kinematics", tick)
                 self._step.fill_tasks()
@@ -297,7 +310,7 @@ class IKProblem:
             iteration = max_iterations
             reason = f"no convergence in {max_iterations} iterations"
         if not converged:
-            if not np.array_equal(q, kinematics.q):
+            if not self._stands_at(q):
                 kinematics.update(q)
             if not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
                 q = kinematics.q.copy()  # the answer holds the contacts, as every converged one does
@@ -318,7 +331,7 @@ class IKProblem:
 
     def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,
                 start_time: float) -> QPSolution:
-        if not np.array_equal(q, self.kinematics.q):  # (an update would recompute the same rows)
+        if not self._stands_at(q):  # (an update would recompute the same rows)
             self.kinematics.update(q)
         values = [float(constraint.violation(self.kinematics)) for constraint in self.constraints]
         violations = {c.name: value for c, value in zip(self.constraints, values, strict=True)}

@@ -16,6 +16,7 @@ kinematics' version): the IK loop reads its merit from the same errors (``level_
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Sequence
 
@@ -64,6 +65,9 @@ class Level:
         self.goals = [(task, rows) for task, rows in self.stacked if task.goal]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
         self.weighted = np.zeros((stop, nv))
+        # H and c of the level's QP, refilled in place at every step (``quadratic``)
+        self.hessian, self.gradient, self._scaled_error = np.zeros((nv, nv)), np.zeros(nv), np.zeros(stop)
+        self._hessian_diagonal = self.hessian.ravel()[:: nv + 1]  # a view of H's diagonal
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
         self.error_scale = self.row_scale[:, 0] * np.concatenate(
@@ -85,11 +89,22 @@ class Level:
     def error_norm(self, index: int) -> float:
         """|e| of ``tasks[index]`` at the last fill (0 for a regularisation)."""
         rows = self.slices[index]
-        return 0.0 if rows is None else float(np.sqrt(self.error[rows].dot(self.error[rows])))
+        return 0.0 if rows is None else math.sqrt(self.error[rows].dot(self.error[rows]))
 
     def weighted_rows(self) -> np.ndarray:
         """sqrt(w) J, in a reused buffer."""
         return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
+
+    def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
+        """The level's H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping) and
+        c = (sqrt(w) J)^T (g sqrt(w) e), in buffers reused from step to step (``damping``: the
+        scalar added to every diagonal entry). ``weighted`` holds sqrt(w) J afterwards."""
+        weighted = self.weighted_rows()
+        H = weighted.T.dot(weighted, out=self.hessian)
+        self._hessian_diagonal += self.diagonal + damping
+        scaled_error = np.multiply(self.error, self.error_scale, out=self._scaled_error)
+        c = weighted.T.dot(scaled_error, out=self.gradient)
+        return H, c
 
 
 def layout_key(tasks: Sequence[Task]) -> tuple:
@@ -157,10 +172,7 @@ class QPStep:
             tick = lap(profile, "tasks", tick)
         dq = None
         for index, level in enumerate(self.levels):
-            weighted = level.weighted_rows()
-            H = np.dot(weighted.T, weighted)
-            H.ravel()[:: self.nv + 1] += level.diagonal + (self.damping + self.lm_damping * level.goal_cost())
-            c = np.dot(weighted.T, level.error * level.error_scale)
+            H, c = level.quadratic(self.damping + self.lm_damping * level.goal_cost())
             if clock:
                 tick = lap(profile, "assemble", tick)
             dq = self._solve_relaxed(H, c, stack)
@@ -169,7 +181,7 @@ class QPStep:
             if index + 1 < len(self.levels):
                 # keep what this level achieved: |J_l dq - J_l dq*| <= slack (the regularisation's
                 # rows sqrt(w) I included)
-                kept = np.vstack((weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
+                kept = np.vstack((level.weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
                 achieved = kept @ dq
                 stack.add(kept, achieved + self.hierarchy_slack)
                 stack.add(-kept, -achieved + self.hierarchy_slack)

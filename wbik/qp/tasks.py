@@ -82,9 +82,10 @@ def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, 
                    jacobian: np.ndarray, error: np.ndarray) -> None:
     """``rotation_error(R, R*)`` into ``error`` and ``rotation_error_jacobian`` into ``jacobian`` (3
     rows of a C-contiguous buffer), sharing M = R*^T R; R^T J_w is the LOCAL Jacobian's angular part."""
-    relative = target.T @ rotation
+    # (ndarray.dot rather than @ or np.dot: the same product, with less call overhead on 3 x 3)
+    relative = target.T.dot(rotation)
     error[:] = pin.log3(relative)
-    np.dot(pin.Jlog3(relative), kinematics.local_jacobian(frame_id)[3:], out=jacobian)
+    pin.Jlog3(relative).dot(kinematics.local_jacobian(frame_id)[3:], out=jacobian)
 
 
 class _FrameTaskBase(Task):
@@ -130,7 +131,7 @@ class FrameTask(_FrameTaskBase):
     def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
         frame_id, target = self.frame_id, self.target
         placement = kinematics.placement(frame_id)
-        np.subtract(placement.translation, target.translation, out=error[:3])
+        error[:3] = placement.translation - target.translation
         jacobian[:3] = kinematics.jacobian(frame_id)[:3]
         _fill_rotation(kinematics, frame_id, placement.rotation, target.rotation, jacobian[3:], error[3:])
 
