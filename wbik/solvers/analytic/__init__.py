@@ -83,6 +83,14 @@ class ClosedForm:
         """(Q (B, K, n), real (B, K)) for positions (B, 3), rotations (B, 3, 3) or None, starts q0 (B, n)."""
         raise NotImplementedError
 
+    def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
+                          q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`branches` joint-major and batch-last, the layout of ``solve_many``'s choice:
+        (Q (n, K, B), real (K, B)). This default transposes ``branches``; a family whose intermediates
+        are batch-last (:mod:`.ur_type`) computes it directly and derives ``branches`` from it."""
+        q_all, real = self.branches(positions, rotations, q0)
+        return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
+
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
         raise NotImplementedError
@@ -130,10 +138,16 @@ class ToolClosedForm(ClosedForm):
         self.tool_translation = tool.translation.copy()
         self._tool_r, self._tool_p = self.tool_rotation.tolist(), self.tool_translation.tolist()
 
-    def branches(self, positions, rotations, q0):
+    def _flange_targets(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(flange positions, flange rotations) of tool targets: R X_R^T, p - R X_R^T X_p."""
         flange_rotations = rotations @ self.tool_rotation.T
-        flange_positions = positions - flange_rotations @ self.tool_translation
-        return self.flange.branches(flange_positions, flange_rotations, q0)
+        return positions - flange_rotations @ self.tool_translation, flange_rotations
+
+    def branches(self, positions, rotations, q0):
+        return self.flange.branches(*self._flange_targets(positions, rotations), q0)
+
+    def branches_by_joint(self, positions, rotations, q0):
+        return self.flange.branches_by_joint(*self._flange_targets(positions, rotations), q0)
 
     def fk(self, q):
         position, rotation = self.flange.fk(q)
@@ -182,42 +196,80 @@ def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
 
 
 # --- wrapping into the limits --------------------------------------------------------------------
+NEAREST_MARGIN = 1e-9
+"""Below pi by this much (rad), the distance of the shift nearest the reference proves that every other
+2 pi shift is farther (beyond pi + NEAREST_MARGIN), whatever the rounding of the distances (~1e-15 rad
+for angles inside limits of a few turns): :func:`wrap_into_limits` takes that shift without trying the
+others. Nearer ties go through the five shifts."""
+_NEAREST_BOUND = math.pi - NEAREST_MARGIN
+
+
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                     revolute: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                     revolute: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
     """Shift revolute angles by multiples of 2 pi to lie in [lower, upper], nearest to ``reference``.
 
-    Returns (wrapped q, in-limits mask over the last axis). Works on any leading batch shape. Shifts
-    0, 2 pi, -2 pi, 4 pi, -4 pi are tried in that order; among those inside the limits (within
-    LIMIT_TOLERANCE) the nearest to the reference is kept (the first on a tie) and set into the limits;
-    angles with no such shift stay as they are (in-limits mask False).
+    Returns (wrapped q, in-limits mask over the joint ``axis``). Works on any batch shape: the
+    reference broadcasts to q's, and so do ``lower``, ``upper`` and ``revolute`` (shaped along the
+    joint axis, e.g. (n, 1, 1) for q (n, K, B) and axis 0). Shifts 0, 2 pi, -2 pi, 4 pi, -4 pi are
+    tried in that order; among those inside the limits (within LIMIT_TOLERANCE) the nearest to the
+    reference is kept (the first on a tie) and set into the limits; angles with no such shift stay as
+    they are (in-limits mask False).
+
+    Each angle first takes the shift nearest the reference, round((reference - q) / 2 pi) turns; where
+    that is one of the five, inside the limits and nearer than pi - NEAREST_MARGIN, it is the rule's
+    answer (every other shift is farther than pi). The other angles (the nearest shift outside the
+    limits or beyond 4 pi, a near tie, NaN) go through :func:`_wrap_by_shifts`, the rule itself.
     """
     q = np.asarray(q, dtype=float)
-    best = q.copy()
-    best_distance = np.full(best.shape, np.inf)
-    in_limits = np.zeros(best.shape, dtype=bool)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
     fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)
-    shifted = np.empty_like(best)
-    distance = np.empty_like(best)
-    ok = np.empty(best.shape, dtype=bool)
-    better = np.empty(best.shape, dtype=bool)
+    wrapped = np.subtract(reference, q, out=np.empty_like(q))  # -> turns -> shift -> wrapped q
+    wrapped *= 1.0 / TWO_PI
+    np.rint(wrapped, out=wrapped)
+    np.clip(wrapped, -2.0, 2.0, out=wrapped)
+    wrapped *= TWO_PI  # exactly the shift constants; + 0.0 turns -0.0 into the rule's q + 0.0
+    wrapped += 0.0
+    wrapped += q
+    if fixed is not None:
+        np.copyto(wrapped, q, where=fixed)
+    distance = np.subtract(wrapped, reference)
+    np.abs(distance, out=distance)
+    if fixed is not None:
+        np.copyto(distance, 0.0, where=fixed)  # a prismatic joint has one "shift"
+    inside = np.less_equal(distance, _NEAREST_BOUND)
+    check = np.greater_equal(wrapped, low)
+    inside &= check
+    inside &= np.less_equal(wrapped, high, out=check)
+    if not inside.all():  # the others: every shift, in order
+        slow = ~inside
+        wrapped[slow], inside[slow] = _wrap_by_shifts(
+            *(np.broadcast_to(values, q.shape)[slow] for values in (q, reference, low, high)),
+            None if fixed is None else np.broadcast_to(fixed, q.shape)[slow])
+    return np.clip(wrapped, lower, upper, out=wrapped), np.all(inside, axis=axis)
+
+
+def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high: np.ndarray,
+                    fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`wrap_into_limits`'s rule for angles (m,) with their reference, bounds [low, high] (the
+    limits widened by LIMIT_TOLERANCE) and prismatic mask (None: all revolute): every shift in the
+    rule's order, the nearest inside kept (the first on a tie). Returns (wrapped q, not yet set into the
+    limits; whether some shift is inside)."""
+    best = q.copy()
+    best_distance = np.full(q.shape, np.inf)
+    in_limits = np.zeros(q.shape, dtype=bool)
     for shift in _SHIFTS:
-        np.add(q, shift, out=shifted)
+        shifted = q + shift
         if fixed is not None:
             np.copyto(shifted, q, where=fixed)
-        np.greater_equal(shifted, low, out=ok)
-        np.less_equal(shifted, high, out=better)
-        ok &= better
+        ok = (shifted >= low) & (shifted <= high)
         if shift and not ok.any():  # no angle can take this shift
             continue
-        np.subtract(shifted, reference, out=distance)
-        np.abs(distance, out=distance)
-        np.less(distance, best_distance, out=better)
-        better &= ok
+        distance = np.abs(shifted - reference)
+        better = (distance < best_distance) & ok
         np.copyto(best, shifted, where=better)
         np.copyto(best_distance, distance, where=better)
         in_limits |= ok
-    return np.clip(best, lower, upper, out=best), np.all(in_limits, axis=-1)
+    return best, in_limits
 
 
 def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
@@ -323,6 +375,11 @@ class AnalyticSolver(Solver):
         self.closed_form_options = dict(closed_form_options or {})
         self.revolute = ~self.chain.is_prismatic
         self._lower, self._upper = self.chain.lower.tolist(), self.chain.upper.tolist()
+        self._limits_by_joint = (self.chain.lower[:, None, None], self.chain.upper[:, None, None],
+                                 self.revolute[:, None, None])
+        """(lower, upper, revolute), each (n, 1, 1): the limits of a joint-major (n, K, B) batch."""
+        self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())
+        """Then a branch inside the limits is finite (no isfinite pass)."""
 
     def check_target_kind(self, kind: str) -> None:
         """Also an UnsupportedError when the robot declares no closed form of this kind for the chain."""
@@ -335,13 +392,21 @@ class AnalyticSolver(Solver):
         return self._forms[kind]
 
     # -- vectorised ---------------------------------------------------------------------------
+    def _wrapped_by_joint(self, form: ClosedForm, positions, rotations, q0s):
+        """Every branch of a batch wrapped into the limits, joint-major and batch-last: (Q (n, K, B),
+        real (K, B), usable (K, B)) with usable = real, inside the limits and finite (not yet screened)."""
+        q_all, real = form.branches_by_joint(positions, rotations, q0s)
+        lower, upper, revolute = self._limits_by_joint
+        q_all, in_limits = wrap_into_limits(q_all, _by_joint(q0s), lower, upper, revolute, axis=0)
+        usable = real & in_limits
+        if not self._finite_limits:
+            usable &= np.all(np.isfinite(q_all), axis=0)
+        return q_all, real, usable
+
     def _wrapped(self, form: ClosedForm, positions, rotations, q0s):
-        """Every branch of a batch wrapped into the limits: (Q (B, K, n), real (B, K), usable (B, K))
-        with usable = real, inside the limits and finite (not yet screened)."""
-        q_all, real = form.branches(positions, rotations, q0s)
-        q_all, in_limits = wrap_into_limits(q_all, q0s[:, None, :], self.chain.lower, self.chain.upper,
-                                            self.revolute)
-        return q_all, real, real & in_limits & np.all(np.isfinite(q_all), axis=-1)
+        """:meth:`_wrapped_by_joint` target by target: (Q (B, K, n), real (B, K), usable (B, K))."""
+        q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
+        return q_all.transpose(2, 1, 0), real.T, usable.T
 
     @staticmethod
     def _screen(form: ClosedForm, q: np.ndarray, positions, rotations):
@@ -358,31 +423,36 @@ class AnalyticSolver(Solver):
         """The nearest screened branch per target (see :class:`Choice`).
 
         Same answer as screening every branch and taking the nearest (ties: the first branch), but only
-        the nearest usable branch of each target is screened, then the next where it fails.
+        the nearest usable branch of each target is screened, then the next where it fails (the branches
+        are sorted only for those targets).
         """
-        q_all, real, usable = self._wrapped(form, positions, rotations, q0s)
-        count = len(q_all)
-        distance = np.where(usable, np.linalg.norm(q_all - q0s[:, None, :], axis=-1), np.inf)
-        order = np.argsort(distance, axis=1, kind="stable")
+        q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
+        count, branches = len(q0s), q_all.shape[1]
+        squares = q_all - _by_joint(q0s)
+        squares *= squares
+        distance = np.sqrt(np.add.reduce(squares, axis=0))  # |q - q0| per branch (K, B)
+        distance[~usable] = np.inf
         chosen = np.zeros(q0s.shape)
         found = np.zeros(count, dtype=bool)
         reached_p, reached_r = np.zeros((count, 3)), np.zeros((count, 3, 3))
         pending = np.arange(count)
-        for rank in range(order.shape[1]):
-            branch = order[pending, rank]
-            pending = pending[usable[pending, branch]]
+        order = np.argmin(distance, axis=0)[None] if branches else np.zeros((0, count), dtype=int)
+        for rank in range(branches):  # order[rank, i]: the rank-th nearest branch of target pending[i]
+            if rank == 1:  # the nearest branch of these targets missed the screen (rare)
+                order = np.argsort(distance[:, pending], axis=0, kind="stable")
+            keep = usable[order[rank], pending]
+            pending, order = pending[keep], order[:, keep]
             if not len(pending):
                 break
-            branch = order[pending, rank]
-            candidates = q_all[pending, branch]
+            candidates = q_all[:, order[rank], pending].T
             residual, candidate_p, candidate_r = self._screen(
                 form, candidates, positions[pending], None if rotations is None else rotations[pending])
             passed = residual <= form.screen_tolerance
             done = pending[passed]
             chosen[done], found[done] = candidates[passed], True
             reached_p[done], reached_r[done] = candidate_p[passed], candidate_r[passed]
-            pending = pending[~passed]
-        return Choice(chosen, found, real, usable, reached_p, reached_r)
+            pending, order = pending[~passed], order[:, ~passed]
+        return Choice(chosen, found, real.T, usable.T, reached_p, reached_r)
 
     @staticmethod
     def _reasons(choice: Choice) -> list[str]:
@@ -479,6 +549,11 @@ class AnalyticSolver(Solver):
                     and screen_residual(form.fk_one(q), position, rotation) <= form.screen_tolerance):
                 screened.append(q)
         return [np.array(q) for q in screened]
+
+
+def _by_joint(q: np.ndarray) -> np.ndarray:
+    """Joints (B, n) as the reference of a joint-major batch: (n, 1, B), contiguous along B."""
+    return np.ascontiguousarray(q.T)[:, None, :]
 
 
 def _same_branch(q: list[float], other: list[float]) -> bool:

@@ -48,26 +48,27 @@ def clamped_acos(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tupl
     return np.arccos(cosine), real
 
 
-def planar_2r(x, y, first, second, tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray,
-                                                                                      np.ndarray]:
+def planar_2r(x, y, first, second, tolerance: float = COSINE_TOLERANCE,
+              axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Both elbow branches of a planar two-link arm reaching (x, y).
 
     The arm is x = a c1 + b c12, y = a s1 + b s12 (a = ``first``, b = ``second``; lengths may be
     negative as in the UR DH table). Law of cosines: c2 = (x^2 + y^2 - a^2 - b^2) / (2 a b),
     q2 = atan2(+-sqrt(1 - c2^2), c2), q1 = atan2(y, x) - atan2(b s2, a + b c2).
 
-    Returns (angle1 (..., 2), angle2 (..., 2), real (...)): the last axis is the elbow branch
-    (q2 >= 0 first); ``real`` is False where |c2| > 1 + tolerance (the point is out of reach).
+    Returns (angle1, angle2, real): ``axis`` of the angles (of x's shape plus one) is the elbow branch
+    (q2 >= 0 first; the last axis by default, -2 for batch-last layouts); ``real`` (x's shape) is
+    False where |c2| > 1 + tolerance (the point is out of reach).
     """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     cosine, real = clamped_cosine((x * x + y * y - first * first - second * second) / (2.0 * first * second),
                                   tolerance)
     sine = np.sqrt(1.0 - cosine * cosine)
-    sines = np.stack((sine, -sine), axis=-1)
-    cosines = cosine[..., None]
+    sines = np.stack((sine, -sine), axis=axis)
+    cosines = np.expand_dims(cosine, axis)
     angle2 = np.arctan2(sines, cosines)
-    angle1 = np.arctan2(y, x)[..., None] - np.arctan2(second * sines, first + second * cosines)
+    angle1 = np.expand_dims(np.arctan2(y, x), axis) - np.arctan2(second * sines, first + second * cosines)
     return angle1, angle2, real
 
 

@@ -106,74 +106,78 @@ def fk_one(geometry: URGeometry, q) -> tuple[tuple[float, float, float], tuple[f
     return position, rotation
 
 
-def branches(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
-             tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
-    """All 8 branches for base_link -> ee_link poses: (Q (B, 8, 6), real (B, 8)).
+def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
+                      tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+    """All 8 branches for base_link -> ee_link poses, joint-major and batch-last: (Q (6, 8, B), real (8, B)).
 
     Branch order: q1 (+, -) x q5 (+, -) x q3 (+, -). ``q6_free`` (B,) is used at the wrist singularity.
+    Every intermediate keeps the batch on its last axis, (choices..., B), so that NumPy broadcasts a
+    per-target value over the branches along whole rows (broadcasting over a short last axis costs
+    ~5x more per element).
     """
     d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
-    # into the DH convention: rotation B R E^T, position B p
-    rot = np.einsum("ij,bjk,lk->bil", BASE_TO_LINK0, rotations, LINK6_TO_EE)
-    pos = positions @ BASE_TO_LINK0.T
-    t00, t01, t02 = rot[:, 0, 0], rot[:, 0, 1], rot[:, 0, 2]
-    t10, t11, t12 = rot[:, 1, 0], rot[:, 1, 1], rot[:, 1, 2]
-    t20, t21, t22 = rot[:, 2, 0], rot[:, 2, 1], rot[:, 2, 2]
-    t03, t13, t23 = pos[:, 0], pos[:, 1], pos[:, 2]
+    count = len(positions)
+    r = np.ascontiguousarray(rotations.reshape(count, 9).T)  # r[3 i + j] = R_ij, each (B,)
+    p = np.ascontiguousarray(positions.T)
+    # into the DH convention: B R E^T with B = diag(-1, -1, 1) and E^T's columns -e1, -e2, e0; B p
+    t00, t01, t02, t10, t11, t12 = r[1], r[2], -r[0], r[4], r[5], -r[3]
+    t20, t21, t22 = -r[7], -r[8], r[6]
+    t03, t13, t23 = -p[0], -p[1], p[2]
 
-    # 1. shoulder: (B, 2)
+    # 1. shoulder: (2, B)
     a = d6 * t12 - t13
     b = d6 * t02 - t03
     offset, real1 = clamped_acos(d4 / np.maximum(np.sqrt(a * a + b * b), 1e-300), tolerance)
-    q1 = np.arctan2(-b, a)[:, None] + np.stack((offset, -offset), axis=1)
+    q1 = np.arctan2(-b, a) + np.stack((offset, -offset))
     c1, s1 = np.cos(q1), np.sin(q1)
 
-    # 2. wrist 2: (B, 2, 2). cos q5 from the position (ur_kinematics); |sin q5| from the rotation,
+    # 2. wrist 2: (2, 2, B). cos q5 from the position (ur_kinematics); |sin q5| from the rotation,
     # hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) = |s5| |(c6, s6)|, which rounding moves by ~1e-16, whereas
     # sqrt(1 - cos5^2) turns one ulp of cos5 into 1.5e-8 at q5 = 0 or pi (the singularity decision and
     # q5 itself would then depend on the CPU's rounding). |cos5| <= 1 up to rounding of the terms of
     # its numerator, relative to their size.
-    cos5, real5 = clamped_cosine((t03[:, None] * s1 - t13[:, None] * c1 - d4) / d6, tolerance,
-                                 (np.abs(t03[:, None] * s1) + np.abs(t13[:, None] * c1) + d4) / d6)
-    sine5 = np.hypot(t00[:, None] * s1 - t10[:, None] * c1, t01[:, None] * s1 - t11[:, None] * c1)
+    t03_s1, t13_c1 = t03 * s1, t13 * c1
+    cos5, real5 = clamped_cosine((t03_s1 - t13_c1 - d4) / d6, tolerance,
+                                 (np.abs(t03_s1) + np.abs(t13_c1) + d4) / d6)
+    u, v = t00 * s1 - t10 * c1, t01 * s1 - t11 * c1
+    sine5 = np.hypot(u, v)
     angle5 = np.arctan2(sine5, cos5)
-    q5 = np.stack((angle5, -angle5), axis=-1)
-    singular = (sine5 < WRIST_SINGULARITY)[..., None]
-    c1, s1 = c1[..., None], s1[..., None]
+    q5 = np.stack((angle5, -angle5), axis=1)
     c5, s5 = np.cos(q5), np.sin(q5)
+    c1, s1, u, v = c1[:, None], s1[:, None], u[:, None], v[:, None]
 
-    # 3. wrist 3: (B, 2, 2)
-    def per_target(values):
-        return values[:, None, None]
-
+    # 3. wrist 3: (2, 2, B)
     sign = np.where(s5 >= 0.0, 1.0, -1.0)
-    q6 = np.arctan2(-sign * (per_target(t01) * s1 - per_target(t11) * c1),
-                    sign * (per_target(t00) * s1 - per_target(t10) * c1))
-    q6 = np.where(singular, per_target(q6_free), q6)
+    q6 = np.arctan2(-sign * v, sign * u)
+    q6 = np.where((sine5 < WRIST_SINGULARITY)[:, None], q6_free, q6)
     c6, s6 = np.cos(q6), np.sin(q6)
 
-    # 4. planar shoulder-lift / elbow / wrist 1: (B, 2, 2, 2)
-    r0 = per_target(t00) * c1 + per_target(t10) * s1
-    r1 = per_target(t01) * c1 + per_target(t11) * s1
-    r2 = per_target(t02) * c1 + per_target(t12) * s1
+    # 4. planar shoulder-lift / elbow / wrist 1: (2, 2, 2, B), the elbow on the third axis
+    r0 = t00 * c1 + t10 * s1
+    r1 = t01 * c1 + t11 * s1
+    r2 = t02 * c1 + t12 * s1
     x04x = -s5 * r2 - c5 * (s6 * r1 - c6 * r0)
-    x04y = c5 * (per_target(t20) * c6 - per_target(t21) * s6) - per_target(t22) * s5
-    p13x = d5 * (s6 * r0 + c6 * r1) - d6 * r2 + per_target(t03) * c1 + per_target(t13) * s1
-    p13y = per_target(t23) - d1 - d6 * per_target(t22) + d5 * (per_target(t21) * c6 + per_target(t20) * s6)
-    q2, q3, real3 = planar_2r(p13x, p13y, a2, a3, tolerance)
-    q23 = q2 + q3
+    x04y = c5 * (t20 * c6 - t21 * s6) - t22 * s5
+    p13x = d5 * (s6 * r0 + c6 * r1) - d6 * r2 + t03 * c1 + t13 * s1
+    p13y = t23 - d1 - d6 * t22 + d5 * (t21 * c6 + t20 * s6)
+    q_all = np.empty((6, 2, 2, 2, count))
+    q_all[1], q_all[2], real3 = planar_2r(p13x, p13y, a2, a3, tolerance, axis=-2)
+    q23 = q_all[1] + q_all[2]
     c23, s23 = np.cos(q23), np.sin(q23)
-    x04x, x04y = x04x[..., None], x04y[..., None]
-    q4 = np.arctan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23)
+    x04x, x04y = x04x[:, :, None], x04y[:, :, None]
+    np.arctan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23, out=q_all[3])
+    q_all[0] = q1[:, None, None]
+    q_all[4] = q5[:, :, None]
+    q_all[5] = q6[:, :, None]
+    real = (real1 & real5[:, None] & real3)[:, :, None]  # (2, 2, 1, B): both elbows alike
+    return q_all.reshape(6, 8, count), np.broadcast_to(real, (2, 2, 2, count)).reshape(8, count)
 
-    shape = q2.shape
-    q_all = np.stack((
-        np.broadcast_to(q1[:, :, None, None], shape), q2, q3, q4,
-        np.broadcast_to(q5[..., None], shape), np.broadcast_to(q6[..., None], shape),
-    ), axis=-1)
-    real = real1[:, None, None, None] & real5[:, :, None, None] & real3[..., None]
-    count = len(positions)
-    return q_all.reshape(count, 8, 6), np.broadcast_to(real, shape).reshape(count, 8)
+
+def branches(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
+             tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`branches_by_joint` laid out target by target: (Q (B, 8, 6), real (B, 8))."""
+    q_all, real = branches_by_joint(geometry, positions, rotations, q6_free, tolerance)
+    return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
 
 
 def branches_one(geometry: URGeometry, position, rotation, reference,
@@ -245,6 +249,10 @@ class URArm(ClosedForm):
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return branches(self.geometry, positions, rotations, q0[:, 5])
+
+    def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
+                          q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return branches_by_joint(self.geometry, positions, rotations, q0[:, 5])
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return fk(self.geometry, q)
