@@ -183,8 +183,9 @@ class Contact(EqualityConstraint):
 
     def violation(self, kinematics: Kinematics) -> float:
         self._rows(kinematics)
-        squared = self._rhs * self._rhs
-        return math.sqrt(max(float(squared[:3].sum()), float(squared[3:].sum())))
+        # in Python floats: the same sums of squares as numpy's, without six small-array calls
+        x, y, z, rx, ry, rz = self._rhs.tolist()
+        return math.sqrt(max(x * x + y * y + z * z, rx * rx + ry * ry + rz * rz))
 
 
 class CoMInSupportPolygon(InequalityConstraint):

@@ -202,9 +202,9 @@ class IKProblem:
         for index, level in enumerate(self._step.levels):
             error = level.error
             cost += float(level.weight.dot(error * error)) * 1e-6 ** index
-            for task, rows in level.goals:
+            for task, goal_error in level.goal_errors:
                 if goals_met:
-                    goals_met = math.sqrt(float(error[rows].dot(error[rows]))) <= task.tolerance
+                    goals_met = math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
@@ -333,15 +333,18 @@ class IKProblem:
                 start_time: float) -> QPSolution:
         if not self._stands_at(q):  # (an update would recompute the same rows)
             self.kinematics.update(q)
-        values = [float(constraint.violation(self.kinematics)) for constraint in self.constraints]
-        violations = {c.name: value for c, value in zip(self.constraints, values, strict=True)}
-        feasible = all(value <= (self.constraint_tolerance if isinstance(constraint, EqualityConstraint)
-                                 else 1e-9)
-                       for constraint, value in zip(self.constraints, values, strict=True))
+        kinematics = self.kinematics
+        violations, margins, feasible = {}, {}, True
+        for constraint in self.constraints:  # (one pass: violation, feasibility, CoM margin)
+            value = violations[constraint.name] = float(constraint.violation(kinematics))
+            if isinstance(constraint, EqualityConstraint):
+                feasible = feasible and value <= self.constraint_tolerance
+            else:
+                feasible = feasible and value <= 1e-9
+                if isinstance(constraint, CoMInSupportPolygon):
+                    margins[constraint.name] = float(constraint.com_margin(kinematics))
         if not feasible and not reason:
             worst = max(violations, key=violations.get)
             reason = f"constraint {worst!r} violated by {violations[worst]:.3g}"
-        margins = {c.name: float(c.com_margin(self.kinematics)) for c in self.constraints
-                   if isinstance(c, CoMInSupportPolygon)}
         return QPSolution(q.copy(), converged and feasible, converged, feasible, iterations, reason,
                           time.perf_counter() - start_time, self.task_errors(), violations, margins)

@@ -68,21 +68,22 @@ class Level:
         # H and c of the level's QP, refilled in place at every step (``quadratic``)
         self.hessian, self.gradient, self._scaled_error = np.zeros((nv, nv)), np.zeros(nv), np.zeros(stop)
         self._hessian_diagonal = self.hessian.ravel()[:: nv + 1]  # a view of H's diagonal
+        # each task's rows and each goal's error as views of the buffers (no slicing per fill)
+        self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in self.stacked]
+        self.goal_errors = [(task, self.error[rows]) for task, rows in self.goals]
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
         self.error_scale = self.row_scale[:, 0] * np.concatenate(
             [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
 
     def fill(self, kinematics: Kinematics) -> None:
-        jacobian, error = self.jacobian, self.error
-        for task, rows in self.stacked:
-            task.fill(kinematics, jacobian[rows], error[rows])
+        for task, jacobian, error in self._task_rows:
+            task.fill(kinematics, jacobian, error)
 
     def goal_cost(self) -> float:
         """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2)."""
         cost = 0.0
-        for _, rows in self.goals:
-            error = self.error[rows]
+        for _, error in self.goal_errors:
             cost += float(error.dot(error))
         return cost
 
