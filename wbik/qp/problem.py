@@ -33,7 +33,13 @@ from wbik.qp.kinematics import Kinematics
 from wbik.qp.step import PHASES, QPStep, lap
 from wbik.qp.tasks import Task
 
-__all__ = ["PHASES", "IKProblem", "QPSolution"]
+__all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]
+
+SOLVE_PHASES = ("start", "projection", "checks", "report")
+"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: setting q0 up (clip,
+kinematics, tasks' and constraints' start), the Newton projections onto the contacts, the merit and
+constraint checks of each trial configuration by FK, the final report (violations, margins, task
+errors)."""
 
 
 @dataclass
@@ -220,13 +226,17 @@ class IKProblem:
         return total
 
     # -- iterate to convergence -----------------------------------------------------------------
-    def _trial(self, merit: float, violation: float) -> tuple[bool, float, bool, float]:
+    def _trial(self, merit: float, violation: float,
+               profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
         """(kept, merit, goals met, inequality violation) of the configuration the kinematics stand
         at: kept when it does not raise the merit and keeps the inequalities by FK (or reduces
         their violation when the kept iterate breaks them)."""
+        tick = time.perf_counter() if profile is not None else 0.0
         trial_merit, goals_met = self._merit_and_goals()
         trial_violation = self._inequality_violation()
         keeps_inequalities = trial_violation <= 0.0 or trial_violation < violation
+        if profile is not None:
+            lap(profile, "checks", tick)
         return keeps_inequalities and trial_merit <= merit + 1e-15, trial_merit, goals_met, trial_violation
 
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
@@ -245,25 +255,30 @@ class IKProblem:
         before the contacts, and on the configuration returned. A radius or step under ``stall``
         ends the loop at the best effort under the constraints.
 
-        ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the
-        projections ("projection") are added.
+        ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the loop's
+        own phases (``SOLVE_PHASES``) are added.
         """
         start_time = time.perf_counter()
         self.start(q0)
+        if profile is not None:
+            lap(profile, "start", start_time)
         kinematics = self.kinematics
         tolerance = 0.1 * equality_tolerance
-        self._project_timed(tolerance, profile)
+        self._timed(profile, "projection", self.project, tolerance)
         q = kinematics.q.copy()
-        merit, goals_met = self._merit_and_goals()
-        violation = self._inequality_violation()
+        if profile is not None:  # the first step's task rows, filled here for the merit
+            self._timed(profile, "tasks", self._step.fill_tasks)
+        merit, goals_met = self._timed(profile, "checks", self._merit_and_goals)
+        violation = self._timed(profile, "checks", self._inequality_violation)
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
         for iteration in range(1, max_iterations + 1):
             if goals_met:
-                if self._equalities_met(equality_tolerance):
+                if self._timed(profile, "checks", self._equalities_met, equality_tolerance):
                     converged = True
                     iteration -= 1
                     break
-                if self._project_timed(tolerance, profile):  # the goals hold, the contacts still drift
+                # the goals hold, the contacts still drift
+                if self._timed(profile, "projection", self.project, tolerance):
                     q = kinematics.q.copy()
                     merit, goals_met = self._merit_and_goals()
                     violation = self._inequality_violation()
@@ -287,9 +302,10 @@ class IKProblem:
                 tick = lap(profile, "kinematics", tick)
                 self._step.fill_tasks()
                 lap(profile, "tasks", tick)
-            kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)
-            if not kept and not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
-                kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation)
+            kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
+            if not kept and not self._equalities_met(tolerance) and self._timed(profile, "projection",
+                                                                                self.project, tolerance):
+                kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if kept:
                 q = kinematics.q.copy()
                 slow = slow + 1 if merit - trial_merit < self.progress * merit else 0
@@ -312,25 +328,29 @@ class IKProblem:
         if not converged:
             if not self._stands_at(q):
                 kinematics.update(q)
-            if not self._equalities_met(tolerance) and self._project_timed(tolerance, profile):
+            if not self._equalities_met(tolerance) and self._timed(profile, "projection", self.project,
+                                                                   tolerance):
                 q = kinematics.q.copy()  # the answer holds the contacts, as every converged one does
             converged = self._merit_and_goals()[1] and self._equalities_met(equality_tolerance)
             if converged:
                 reason = ""
             elif not reason:
                 reason = "stalled: best effort under the constraints (see the task errors)"
-        return self._report(q, converged, iteration, reason, start_time)
+        return self._report(q, converged, iteration, reason, start_time, profile)
 
-    def _project_timed(self, tolerance: float, profile: dict[str, float] | None) -> bool:
+    @staticmethod
+    def _timed(profile: dict[str, float] | None, phase: str, function, *arguments):
+        """``function(*arguments)``, its time added to ``profile[phase]`` when profiling."""
         if profile is None:
-            return self.project(tolerance)
+            return function(*arguments)
         tick = time.perf_counter()
-        held = self.project(tolerance)
-        lap(profile, "projection", tick)
-        return held
+        result = function(*arguments)
+        lap(profile, phase, tick)
+        return result
 
-    def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str,
-                start_time: float) -> QPSolution:
+    def _report(self, q: np.ndarray, converged: bool, iterations: int, reason: str, start_time: float,
+                profile: dict[str, float] | None = None) -> QPSolution:
+        tick = time.perf_counter() if profile is not None else 0.0
         if not self._stands_at(q):  # (an update would recompute the same rows)
             self.kinematics.update(q)
         kinematics = self.kinematics
@@ -346,5 +366,8 @@ class IKProblem:
         if not feasible and not reason:
             worst = max(violations, key=violations.get)
             reason = f"constraint {worst!r} violated by {violations[worst]:.3g}"
+        task_errors = self.task_errors()
+        if profile is not None:
+            lap(profile, "report", tick)
         return QPSolution(q.copy(), converged and feasible, converged, feasible, iterations, reason,
-                          time.perf_counter() - start_time, self.task_errors(), violations, margins)
+                          time.perf_counter() - start_time, task_errors, violations, margins)
