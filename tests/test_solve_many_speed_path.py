@@ -5,7 +5,10 @@
   (:func:`wbik.solvers.analytic._wrap_by_shifts`, the rule) on every angle, including near ties,
   angles on and just outside a limit, -0.0, NaN, inf and prismatic joints, in either layout;
 - the UR family's batch-last branches (``branches_by_joint``) equal its scalar twin's, and
-  ``solve_many`` equals ``solve`` on singular, axis-aligned and unreachable UR5 poses.
+  ``solve_many`` equals ``solve`` on singular, axis-aligned and unreachable UR5 poses;
+- the choice, which screens the nearest branch of every target at once and sorts only where it
+  missed, equals screening every branch;
+- ``batch_targets``'s vectorised SE3 check accepts exactly what ``as_target``'s fast path accepts.
 """
 
 from __future__ import annotations
@@ -17,7 +20,14 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import LIMIT_TOLERANCE, TWO_PI, _wrap_by_shifts, ur_type, wrap_into_limits
+from wbik.solvers.analytic import (
+    LIMIT_TOLERANCE,
+    TWO_PI,
+    ClosedForm,
+    _wrap_by_shifts,
+    ur_type,
+    wrap_into_limits,
+)
 from wbik.solvers.analytic.subproblems import planar_2r
 
 
@@ -214,3 +224,73 @@ def test_ur5_solve_many_equals_solve_on_hard_poses(ur5, chain_name):
         if single.q is not None:
             np.testing.assert_allclose(many.q, single.q, rtol=0, atol=_agreement(index))
     assert sum(r.success for r in batched) >= 270
+
+
+class _MissingNearest(ClosedForm):
+    """A UR5 closed form whose first four branches are off by 1e-3 rad in every joint for every other
+    target: there the nearest branch often misses the screen, and the choice must go on to the next."""
+
+    def __init__(self, form: ClosedForm):
+        super().__init__(form.chain)
+        self.form = form
+
+    def branches(self, positions, rotations, q0):
+        q_all, real = self.form.branches(positions, rotations, q0)
+        q_all = q_all.copy()
+        q_all[::2, :4] += 1e-3
+        return q_all, real
+
+    def fk(self, q):
+        return self.form.fk(q)
+
+
+def test_choice_goes_on_to_the_next_branch_where_the_nearest_misses(ur5):
+    """The choice screens only the nearest branch of every target, then sorts and screens further only
+    where it missed: the same joints as screening every branch and taking the nearest."""
+    solver = ur5["ee"]
+    form = _MissingNearest(solver.closed_form("pose"))
+    joints, positions, rotations = _ur5_poses(solver.chain, 400, 25)
+    starts = joints + np.random.default_rng(26).normal(0.0, 0.3, joints.shape)
+    starts = np.clip(starts, solver.chain.lower, solver.chain.upper)
+    choice = solver._choose(form, positions, rotations, starts)
+    q_all, _, usable = solver._wrapped(form, positions, rotations, starts)
+    residual = solver._screen(form, q_all, positions[:, None], rotations[:, None])[0]
+    screened = usable & (residual <= form.screen_tolerance)
+    distance = np.where(screened, np.linalg.norm(q_all - starts[:, None], axis=-1), np.inf)
+    best = np.argmin(distance, axis=1)
+    nearest_missed = np.argmin(np.where(usable, np.linalg.norm(q_all - starts[:, None], axis=-1), np.inf),
+                               axis=1) < 4
+    assert (nearest_missed[::2] & screened[::2].any(axis=1)).sum() > 50  # the retry path is taken
+    np.testing.assert_array_equal(choice.found, screened.any(axis=1))
+    found = choice.found
+    np.testing.assert_array_equal(choice.q[found], q_all[np.flatnonzero(found), best[found]])
+    reached_p, reached_r = form.fk(choice.q[found])
+    np.testing.assert_array_equal(choice.reached_p[found], reached_p)
+    np.testing.assert_array_equal(choice.reached_r[found], reached_r)
+    assert not choice.q[~found].any() and not choice.reached_p[~found].any()
+
+
+def test_batch_targets_accepts_what_the_fast_se3_check_accepts(ur5):
+    """The vectorised SE3 check decides target by target as ``as_target``'s fast path: rotations and
+    positions just inside and just outside each bound (unit columns, orthogonality, det, position)."""
+    from wbik.solvers.analytic.batch import _valid_se3
+    from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, _plain_se3_target
+
+    chain = ur5["ee"].chain
+    rng = np.random.default_rng(27)
+    poses = [chain.fk(q) for q in chain.random(rng, 40)]
+    skew = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    cases = []
+    for pose in poses:
+        for factor in (0.4, 0.5, 0.6):  # unit columns / orthogonality / det around the tolerance
+            cases.append(pin.SE3(pose.rotation * (1.0 + factor * ROTATION_TOLERANCE), pose.translation))
+            cases.append(pin.SE3(pose.rotation + 2.0 * factor * ROTATION_TOLERANCE * skew, pose.translation))
+        for offset in (-1.0, 0.0, 1e-6):
+            cases.append(pin.SE3(pose.rotation, np.array([MAX_POSITION + offset, 0.0, 0.0])))
+    cases.append(pin.SE3(-poses[0].rotation, poses[0].translation))
+    cases.append(pin.SE3(poses[0].rotation, np.array([np.nan, 0.0, 0.0])))
+    for case in cases:
+        assert _valid_se3(case.homogeneous[None]) == (_plain_se3_target(case) is not None)
+    accepted = [case for case in cases if _plain_se3_target(case) is not None]
+    assert 0 < len(accepted) < len(cases)
+    assert _valid_se3(np.array([case.homogeneous for case in accepted]))

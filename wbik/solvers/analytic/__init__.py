@@ -422,36 +422,41 @@ class AnalyticSolver(Solver):
     def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
         """The nearest screened branch per target (see :class:`Choice`).
 
-        Same answer as screening every branch and taking the nearest (ties: the first branch), but only
-        the nearest usable branch of each target is screened, then the next where it fails (the branches
-        are sorted only for those targets).
+        Same answer as screening every branch and taking the nearest (ties: the first branch), but the
+        nearest branch of every target is screened at once (its FK is kept for the batched check), and
+        only the targets where it misses have their branches sorted and the next ones screened (rare).
         """
         q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
-        count, branches = len(q0s), q_all.shape[1]
         squares = q_all - _by_joint(q0s)
         squares *= squares
         distance = np.sqrt(np.add.reduce(squares, axis=0))  # |q - q0| per branch (K, B)
         distance[~usable] = np.inf
-        chosen = np.zeros(q0s.shape)
-        found = np.zeros(count, dtype=bool)
-        reached_p, reached_r = np.zeros((count, 3)), np.zeros((count, 3, 3))
-        pending = np.arange(count)
-        order = np.argmin(distance, axis=0)[None] if branches else np.zeros((0, count), dtype=int)
-        for rank in range(branches):  # order[rank, i]: the rank-th nearest branch of target pending[i]
-            if rank == 1:  # the nearest branch of these targets missed the screen (rare)
-                order = np.argsort(distance[:, pending], axis=0, kind="stable")
-            keep = usable[order[rank], pending]
-            pending, order = pending[keep], order[:, keep]
-            if not len(pending):
-                break
-            candidates = q_all[:, order[rank], pending].T
-            residual, candidate_p, candidate_r = self._screen(
-                form, candidates, positions[pending], None if rotations is None else rotations[pending])
-            passed = residual <= form.screen_tolerance
-            done = pending[passed]
-            chosen[done], found[done] = candidates[passed], True
-            reached_p[done], reached_r[done] = candidate_p[passed], candidate_r[passed]
-            pending, order = pending[~passed], order[:, ~passed]
+        targets = np.arange(len(q0s))
+        nearest = np.argmin(distance, axis=0)  # the first nearest, as a stable sort's first
+        chosen = q_all[:, nearest, targets].T.copy()
+        with np.errstate(invalid="ignore"):  # a target without a usable branch may bring NaN joints
+            residual, reached_p, reached_r = self._screen(form, chosen, positions, rotations)
+        found = usable[nearest, targets]
+        screened = residual <= form.screen_tolerance
+        retry = np.flatnonzero(found & ~screened)
+        found &= screened
+        if not found.all():
+            missed = ~found
+            chosen[missed], reached_p[missed], reached_r[missed] = 0.0, 0.0, 0.0
+            order = np.argsort(distance[:, retry], axis=0, kind="stable")  # order[rank, i]: of retry[i]
+            for rank in range(1, len(order)):
+                keep = usable[order[rank], retry]
+                retry, order = retry[keep], order[:, keep]
+                if not len(retry):
+                    break
+                candidates = q_all[:, order[rank], retry].T
+                residual, candidate_p, candidate_r = self._screen(
+                    form, candidates, positions[retry], None if rotations is None else rotations[retry])
+                passed = residual <= form.screen_tolerance
+                done = retry[passed]
+                chosen[done], found[done] = candidates[passed], True
+                reached_p[done], reached_r[done] = candidate_p[passed], candidate_r[passed]
+                retry, order = retry[~passed], order[:, ~passed]
         return Choice(chosen, found, real.T, usable.T, reached_p, reached_r)
 
     @staticmethod

@@ -3,8 +3,9 @@ shared FK check, one NumPy pass per batch instead of one Python call per target.
 
 - :func:`batch_targets`: a batch of ``pinocchio.SE3`` targets checked as :func:`wbik.targets.as_target`
   checks one (finite position within ``MAX_POSITION``, R^T R = I and det R = 1 within
-  ``ROTATION_TOLERANCE``), vectorised; anything else, or any target that fails, goes through
-  ``as_target`` one by one, so bad input raises exactly the error it raises in ``solve``.
+  ``ROTATION_TOLERANCE``, with its fast path's arithmetic), vectorised; anything else, or any target
+  that fails, goes through ``as_target`` one by one, so bad input raises exactly the error it raises
+  in ``solve``.
 - :func:`evaluate_batch`: :func:`wbik.solvers.base.evaluate`'s rule (clip into the limits, position
   error p - p*, rotation error log3(R*^T R), success when both norms are within the tolerances, the
   same reasons) for a batch, with the closed form's vectorised FK in place of Pinocchio's.
@@ -38,15 +39,21 @@ CLIP_TOLERANCE = 1e-9
 
 
 def _valid_se3(matrices: np.ndarray) -> bool:
-    """Every 4x4 pose passes as_target's checks of an SE3 (position bound, orthonormal, det +1)."""
-    positions, rotations = matrices[:, :3, 3], matrices[:, :3, :3]
-    if not np.all(np.abs(positions) <= MAX_POSITION):  # NaN fails
-        return False
-    gram = np.einsum("bki,bkj->bij", rotations, rotations)
-    gram[:, [0, 1, 2], [0, 1, 2]] -= 1.0
-    if not np.all(np.abs(gram) <= ROTATION_TOLERANCE):
-        return False
-    return bool(np.all(np.abs(np.linalg.det(rotations) - 1.0) <= ROTATION_TOLERANCE))
+    """Every 4x4 pose passes as_target's check of an SE3 (``wbik.targets._plain_se3_target``: position
+    bound, unit and orthogonal columns, det +1), with its arithmetic term by term, one target per
+    column: the batch accepts exactly the targets that ``as_target`` accepts on its fast path."""
+    (a, b, c, x, d, e, f, y, g, h, i, z) = matrices.reshape(-1, 16)[:, :12].T
+    bound, tolerance = MAX_POSITION, ROTATION_TOLERANCE
+    low, high = 1.0 - tolerance, 1.0 + tolerance
+
+    def within(values: np.ndarray, lowest: float, highest: float) -> bool:
+        return bool(np.all((lowest <= values) & (values <= highest)))  # NaN fails
+
+    unit = np.stack((a * a + d * d + g * g, b * b + e * e + h * h, c * c + f * f + i * i))
+    orthogonal = np.stack((a * b + d * e + g * h, a * c + d * f + g * i, b * c + e * f + h * i))
+    determinant = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return (within(np.stack((x, y, z)), -bound, bound) and within(unit, low, high)
+            and within(orthogonal, -tolerance, tolerance) and within(determinant, low, high))
 
 
 def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
@@ -74,6 +81,12 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
     return positions, np.array([target.rotation for target in targets])
 
 
+def _clipped(q: np.ndarray, inside: np.ndarray, chain: Chain) -> bool:
+    """The shared check's rule: clipping moved q, by more than CLIP_TOLERANCE outside the limits."""
+    return bool(np.any(inside != q) and not (np.all(q >= chain.lower - CLIP_TOLERANCE)
+                                             and np.all(q <= chain.upper + CLIP_TOLERANCE)))
+
+
 def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
                    found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
                    method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None
@@ -88,9 +101,7 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
     inside = clip_to_limits(q, chain.lower, chain.upper)
-    clipped = np.any(inside != q, axis=1) & ~(np.all(q >= chain.lower - CLIP_TOLERANCE, axis=1)
-                                               & np.all(q <= chain.upper + CLIP_TOLERANCE, axis=1))
-    if reached is None or not np.array_equal(inside[finite], q[finite]):
+    if reached is None or not np.array_equal(inside, q, equal_nan=True):
         reached = form.fk(np.where(finite[:, None], inside, 0.0))
     reached_p, reached_r = reached
     position_xyz = reached_p - positions
@@ -118,8 +129,10 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
                                     math.nan, np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method,
                                     extra))
         else:
-            if not reason:
-                reason = CLIPPED_REASON if clipped[index] else fk_check_reason(p_norm, r_norm)
+            if not reason and _clipped(q[index], joints, chain):
+                reason = CLIPPED_REASON
+            elif not reason:
+                reason = fk_check_reason(p_norm, r_norm)
             results.append(IKResult(joints, False, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
                                     extra))
     return results
