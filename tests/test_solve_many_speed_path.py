@@ -4,7 +4,8 @@
   that shift provably wins; bit for bit, it equals trying the five shifts in order
   (:func:`wbik.solvers.analytic._wrap_by_shifts`, the rule) on every angle, including near ties,
   angles on and just outside a limit, -0.0, NaN, inf and prismatic joints, in either layout;
-- the UR family's batch-last branches (``branches_by_joint``) equal its scalar twin's, and
+- the UR family's batch-last branches (``branches_by_joint``, q4 from the elbow's direction without
+  trigonometry) equal its scalar twin's, and
   ``solve_many`` equals ``solve`` on singular, axis-aligned and unreachable UR5 poses;
 - the choice, which screens the nearest branch of every target at once and sorts only where it
   missed, equals screening every branch;
@@ -28,7 +29,7 @@ from wbik.solvers.analytic import (
     ur_type,
     wrap_into_limits,
 )
-from wbik.solvers.analytic.subproblems import planar_2r
+from wbik.solvers.analytic.subproblems import planar_2r, planar_2r_elbow
 
 
 def _rule(q, reference, lower, upper, revolute):
@@ -143,11 +144,11 @@ def _ur5_poses(chain, count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np
     return joints, positions, np.array([p.rotation for p in poses])
 
 
-def _agreement(index: int) -> float:
-    """How closely the batch and scalar paths agree on pose ``index`` of :func:`_ur5_poses`: at a
-    stretched elbow (40..59) the elbow angle, sqrt(1 - c^2) of its cosine c ~ 1, turns NumPy's and
-    math's different last bits of c into ~1e-10 rad (both paths pass the FK check)."""
-    return 1e-7 if 40 <= index < 60 else 1e-12
+def _agreement(joints: np.ndarray) -> float:
+    """How closely the batch and scalar paths agree on the pose of ``joints``: at a stretched elbow
+    (sin q3 ~ 0) the elbow angle, sqrt(1 - c^2) of its cosine c ~ 1, turns the paths' different last
+    bits of c into ~1e-10 rad (both pass the FK check); elsewhere they agree to rounding."""
+    return 1e-7 if abs(math.sin(joints[2])) < 1e-6 else 1e-12
 
 
 def test_ur_branches_by_joint_equal_the_scalar_branches(ur5):
@@ -163,7 +164,7 @@ def test_ur_branches_by_joint_equal_the_scalar_branches(ur5):
         assert real[:, index].sum() == len(scalar)
         batched = q_all[:, real[:, index], index].T
         np.testing.assert_allclose(batched, np.reshape([q for _, q in scalar], (-1, 6)), rtol=0,
-                                   atol=_agreement(index))
+                                   atol=_agreement(joints[index]))
     by_target, real_by_target = form.branches(positions, rotations, starts)
     np.testing.assert_array_equal(by_target, q_all.transpose(2, 1, 0))
     np.testing.assert_array_equal(real_by_target, real.T)
@@ -222,7 +223,7 @@ def test_ur5_solve_many_equals_solve_on_hard_poses(ur5, chain_name):
         assert single.success == many.success
         assert single.reason.split(":")[0] == many.reason.split(":")[0]
         if single.q is not None:
-            np.testing.assert_allclose(many.q, single.q, rtol=0, atol=_agreement(index))
+            np.testing.assert_allclose(many.q, single.q, rtol=0, atol=_agreement(joints[index]))
     assert sum(r.success for r in batched) >= 270
 
 
@@ -294,3 +295,21 @@ def test_batch_targets_accepts_what_the_fast_se3_check_accepts(ur5):
     accepted = [case for case in cases if _plain_se3_target(case) is not None]
     assert 0 < len(accepted) < len(cases)
     assert _valid_se3(np.array([case.homogeneous for case in accepted]))
+
+
+def test_planar_2r_elbow_gives_the_second_link_direction():
+    """(x + i y)((b + a c2) + i a s2) points along q1 + q2 (what the UR family's q4 uses instead of
+    cos and sin of q1 + q2), with a positive length, on both elbow branches."""
+    rng = np.random.default_rng(28)
+    first, second = -0.425, -0.39225
+    x, y = rng.uniform(-0.8, 0.8, (2, 400))
+    angle1, angle2, real, cosines, sines = planar_2r_elbow(x, y, first, second)
+    np.testing.assert_array_equal(np.stack(planar_2r(x, y, first, second)[:2]), np.stack((angle1, angle2)))
+    along, across = second + first * cosines, first * sines
+    direction = (x[:, None] * along - y[:, None] * across, y[:, None] * along + x[:, None] * across)
+    length = np.hypot(*direction)
+    assert np.all(length[real] > 0.0)
+    total = angle1 + angle2
+    np.testing.assert_allclose(direction[0][real] / length[real], np.cos(total)[real], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(direction[1][real] / length[real], np.sin(total)[real], rtol=0, atol=1e-14)
+    assert 0 < real.sum() < real.size

@@ -60,6 +60,15 @@ def planar_2r(x, y, first, second, tolerance: float = COSINE_TOLERANCE,
     (q2 >= 0 first; the last axis by default, -2 for batch-last layouts); ``real`` (x's shape) is
     False where |c2| > 1 + tolerance (the point is out of reach).
     """
+    return planar_2r_elbow(x, y, first, second, tolerance, axis)[:3]
+
+
+def planar_2r_elbow(x, y, first, second, tolerance: float = COSINE_TOLERANCE,
+                    axis: int = -1) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`planar_2r` and the elbow's (cos q2, sin q2) it came from: (angle1, angle2, real, cosine
+    (x's shape, expanded on ``axis``), sines (the angles' shape)), for a caller that needs the second
+    link's direction q1 + q2 without trigonometry: e^{i(q1 + q2)} is (x + i y)((b + a c2) + i a s2) over
+    a positive length."""
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     cosine, real = clamped_cosine((x * x + y * y - first * first - second * second) / (2.0 * first * second),
@@ -69,7 +78,7 @@ def planar_2r(x, y, first, second, tolerance: float = COSINE_TOLERANCE,
     cosines = np.expand_dims(cosine, axis)
     angle2 = np.arctan2(sines, cosines)
     angle1 = np.expand_dims(np.arctan2(y, x), axis) - np.arctan2(second * sines, first + second * cosines)
-    return angle1, angle2, real
+    return angle1, angle2, real, cosines, sines
 
 
 def planar_2r_one(x: float, y: float, first: float, second: float,

@@ -33,7 +33,7 @@ from wbik.solvers.analytic.subproblems import (
     COSINE_TOLERANCE,
     clamped_acos,
     clamped_cosine,
-    planar_2r,
+    planar_2r_elbow,
     planar_2r_one,
 )
 
@@ -135,7 +135,8 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     # hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) = |s5| |(c6, s6)|, which rounding moves by ~1e-16, whereas
     # sqrt(1 - cos5^2) turns one ulp of cos5 into 1.5e-8 at q5 = 0 or pi (the singularity decision and
     # q5 itself would then depend on the CPU's rounding). |cos5| <= 1 up to rounding of the terms of
-    # its numerator, relative to their size.
+    # its numerator, relative to their size. q5 = +-atan2(|sin q5|, cos q5), so (cos, sin) of q5 are
+    # (cos5, +-|sin q5|) over their length (they enter only q4; no trigonometry).
     t03_s1, t13_c1 = t03 * s1, t13 * c1
     cos5, real5 = clamped_cosine((t03_s1 - t13_c1 - d4) / d6, tolerance,
                                  (np.abs(t03_s1) + np.abs(t13_c1) + d4) / d6)
@@ -143,7 +144,9 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     sine5 = np.hypot(u, v)
     angle5 = np.arctan2(sine5, cos5)
     q5 = np.stack((angle5, -angle5), axis=1)
-    c5, s5 = np.cos(q5), np.sin(q5)
+    length5 = np.maximum(np.sqrt(sine5 * sine5 + cos5 * cos5), 1e-300)
+    c5 = (cos5 / length5)[:, None]
+    s5 = np.stack((sine5, -sine5), axis=1) / length5[:, None]
     c1, s1, u, v = c1[:, None], s1[:, None], u[:, None], v[:, None]
 
     # 3. wrist 3: (2, 2, B)
@@ -152,7 +155,8 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     q6 = np.where((sine5 < WRIST_SINGULARITY)[:, None], q6_free, q6)
     c6, s6 = np.cos(q6), np.sin(q6)
 
-    # 4. planar shoulder-lift / elbow / wrist 1: (2, 2, 2, B), the elbow on the third axis
+    # 4. planar shoulder-lift / elbow / wrist 1: (2, 2, 2, B), the elbow on the third axis; q4 from the
+    # direction of q2 + q3, which the elbow gives up to a positive length (planar_2r_elbow)
     r0 = t00 * c1 + t10 * s1
     r1 = t01 * c1 + t11 * s1
     r2 = t02 * c1 + t12 * s1
@@ -161,9 +165,11 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     p13x = d5 * (s6 * r0 + c6 * r1) - d6 * r2 + t03 * c1 + t13 * s1
     p13y = t23 - d1 - d6 * t22 + d5 * (t21 * c6 + t20 * s6)
     q_all = np.empty((6, 2, 2, 2, count))
-    q_all[1], q_all[2], real3 = planar_2r(p13x, p13y, a2, a3, tolerance, axis=-2)
-    q23 = q_all[1] + q_all[2]
-    c23, s23 = np.cos(q23), np.sin(q23)
+    q_all[1], q_all[2], real3, cos3, sin3 = planar_2r_elbow(p13x, p13y, a2, a3, tolerance, axis=-2)
+    p13x, p13y = p13x[:, :, None], p13y[:, :, None]
+    along, across = a3 + a2 * cos3, a2 * sin3
+    c23 = p13x * along - p13y * across  # (cos, sin) of q2 + q3 times a positive length
+    s23 = p13y * along + p13x * across
     x04x, x04y = x04x[:, :, None], x04y[:, :, None]
     np.arctan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23, out=q_all[3])
     q_all[0] = q1[:, None, None]
