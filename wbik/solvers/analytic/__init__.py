@@ -241,10 +241,11 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
     inside &= check
     inside &= np.less_equal(wrapped, high, out=check)
     if not inside.all():  # the others: every shift, in order
-        slow = ~inside
-        wrapped[slow], inside[slow] = _wrap_by_shifts(
-            *(np.broadcast_to(values, q.shape)[slow] for values in (q, reference, low, high)),
-            None if fixed is None else np.broadcast_to(fixed, q.shape)[slow])
+        slow = np.flatnonzero(~inside)  # flat indices: cheaper than a boolean mask per array
+        slow_wrapped, slow_inside = _wrap_by_shifts(
+            *(np.broadcast_to(values, q.shape).flat[slow] for values in (q, reference, low, high)),
+            None if fixed is None else np.broadcast_to(fixed, q.shape).flat[slow])
+        wrapped.flat[slow], inside.flat[slow] = slow_wrapped, slow_inside
     return np.clip(wrapped, lower, upper, out=wrapped), np.all(inside, axis=axis)
 
 

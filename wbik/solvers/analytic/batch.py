@@ -113,26 +113,23 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
         rotation_xyz = batch_log3(np.einsum("bji,bjk->bik", rotations, reached_r))
         rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
-    results = []
-    solved = (success & found & finite).tolist()
-    rows = zip(solved, found.tolist(), finite.tolist(), position_norm.tolist(), rotation_norm.tolist(),
-               inside, position_xyz, rotation_xyz, reasons, extras, strict=True)
-    for index, (ok, was_found, is_finite, p_norm, r_norm, joints, p_xyz, r_xyz, reason, extra) \
-            in enumerate(rows):
-        if ok:  # the common case first
-            results.append(IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra))
-        elif not was_found:
-            results.append(IKResult(None, False, reason or "no solution", math.nan, math.nan,
-                                    np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra))
-        elif not is_finite:
-            results.append(IKResult(None, False, invalid_joints_reason(q[index]), math.nan,
-                                    math.nan, np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method,
-                                    extra))
+    p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
+    results = [IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra)
+               for joints, p_norm, r_norm, p_xyz, r_xyz, extra
+               in zip(inside, p_norms, r_norms, position_xyz, rotation_xyz, extras, strict=True)]
+    for index in np.flatnonzero(~(success & found & finite)).tolist():  # the rows not solved (rare)
+        reason, extra = reasons[index], extras[index]
+        if not found[index]:
+            results[index] = IKResult(None, False, reason or "no solution", math.nan, math.nan,
+                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
+        elif not finite[index]:
+            results[index] = IKResult(None, False, invalid_joints_reason(q[index]), math.nan, math.nan,
+                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
         else:
-            if not reason and _clipped(q[index], joints, chain):
+            if not reason and _clipped(q[index], inside[index], chain):
                 reason = CLIPPED_REASON
             elif not reason:
-                reason = fk_check_reason(p_norm, r_norm)
-            results.append(IKResult(joints, False, reason, p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method,
-                                    extra))
+                reason = fk_check_reason(p_norms[index], r_norms[index])
+            results[index] = IKResult(inside[index], False, reason, p_norms[index], r_norms[index],
+                                      position_xyz[index], rotation_xyz[index], time_s, 1, method, extra)
     return results
