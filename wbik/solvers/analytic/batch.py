@@ -81,6 +81,13 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
     return positions, np.array([target.rotation for target in targets])
 
 
+def _transpose_times(first: np.ndarray, second: np.ndarray) -> np.ndarray:
+    """first^T second per target, (B, 3, 3) each: the three products summed in order, as
+    einsum("bji,bjk->bik") sums them (the same bits, in half its time for 3 x 3 matrices)."""
+    return (first[:, 0, :, None] * second[:, 0, None, :] + first[:, 1, :, None] * second[:, 1, None, :]
+            + first[:, 2, :, None] * second[:, 2, None, :])
+
+
 def _clipped(q: np.ndarray, inside: np.ndarray, chain: Chain) -> bool:
     """The shared check's rule: clipping moved q, by more than CLIP_TOLERANCE outside the limits."""
     return bool(np.any(inside != q) and not (np.all(q >= chain.lower - CLIP_TOLERANCE)
@@ -110,7 +117,7 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
         rotation_xyz = np.zeros((count, 3))
         rotation_norm = np.zeros(count)
     else:
-        rotation_xyz = batch_log3(np.einsum("bji,bjk->bik", rotations, reached_r))
+        rotation_xyz = batch_log3(_transpose_times(rotations, reached_r))
         rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
     p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
