@@ -13,9 +13,12 @@
 from pathlib import Path
 
 import numpy as np
-from IPython.display import Image, Markdown, display
+from IPython.display import Image
+from IPython.display import Markdown
+from IPython.display import display
 
-from wbik.study import load_study, run_study
+from wbik.study import load_study
+from wbik.study import run_study
 from wbik.study.reference import our_figures
 from wbik.study.report import case_rows
 from wbik.study.statistics import summarize

@@ -15,10 +15,14 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import AnalyticSolver, closed_forms
-from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
-from wbik.solvers.base import Candidate, evaluate
-from wbik.targets import Target, as_target
+from wbik.solvers.analytic import AnalyticSolver
+from wbik.solvers.analytic import closed_forms
+from wbik.solvers.analytic.batch import batch_targets
+from wbik.solvers.analytic.batch import evaluate_batch
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import evaluate
+from wbik.targets import Target
+from wbik.targets import as_target
 
 ROBOTS = ("arm3r", "bioloid", "golem3", "pincher", "ur5")
 FORMS = [(robot, chain, kind) for robot in ROBOTS for chain, kind in sorted(closed_forms(wbik.load(robot)))]

@@ -12,9 +12,13 @@ import yaml
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.apps.bioloid import half_steps, sensors, stairs
-from wbik.apps.bioloid.stairs import Staircase, StairStateMachine
-from wbik.errors import InvalidConfigurationError, WbikError
+from wbik.apps.bioloid import half_steps
+from wbik.apps.bioloid import sensors
+from wbik.apps.bioloid import stairs
+from wbik.apps.bioloid.stairs import Staircase
+from wbik.apps.bioloid.stairs import StairStateMachine
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import WbikError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 
@@ -213,7 +217,8 @@ def test_step_down_only_after_three_climbs_and_two_low_reads():
 
 # -- the stair run ----------------------------------------------------------------------------------
 def test_stair_scenario_reaches_the_top():
-    from wbik.scenarios import load_scenario, run_scenario_animated
+    from wbik.scenarios import load_scenario
+    from wbik.scenarios import run_scenario_animated
 
     spec = load_scenario(TASKS / "bioloid_stairs.yaml")
     report, animation = run_scenario_animated(spec, source="tasks/bioloid_stairs.yaml")
@@ -252,7 +257,8 @@ def test_a_foot_into_a_riser_is_refused(robot):
 
 
 def test_schema_refuses_unknown_stair_keys():
-    from wbik.scenario_schema import UnknownScenarioKeyError, validate
+    from wbik.scenario_schema import UnknownScenarioKeyError
+    from wbik.scenario_schema import validate
 
     with pytest.raises(UnknownScenarioKeyError):
         validate({"kind": "bioloid_stairs", "stairs": {"steps": 2, "riser": 0.03}}, "test")

@@ -13,7 +13,8 @@ import pytest
 import wbik
 from wbik.geometry import batch_log3
 from wbik.solvers.base import Tolerances
-from wbik.solvers.bounded_lm import VectorisedChain, scaled_model
+from wbik.solvers.bounded_lm import VectorisedChain
+from wbik.solvers.bounded_lm import scaled_model
 from wbik.targets import as_target
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),
@@ -213,7 +214,8 @@ def test_one_seed_and_batched_paths_take_the_same_steps(robot_name, chain_name, 
     Measured differences: 3e-14 (UR5), 1e-13 (Pincher, Panda), 1e-12 (Bioloid leg, position rows
     weighted x6.5), 2e-11 (Golem-III with its lift, weighted x3: a 7-joint system, rounding amplified
     by the small damping near the solution)."""
-    from wbik.solvers.bounded_lm import BATCH_ITERATION_UNITS, _CallDraws
+    from wbik.solvers.bounded_lm import BATCH_ITERATION_UNITS
+    from wbik.solvers.bounded_lm import _CallDraws
 
     solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name, batch_size=1,
                          position_weight=weight, tolerances=Tolerances(1e-9, 1e-9))

@@ -16,7 +16,8 @@ from PIL import Image
 
 from wbik.errors import MissingDependencyError
 from wbik.viz import Viewer
-from wbik.viz.browser import find_chromium, render
+from wbik.viz.browser import find_chromium
+from wbik.viz.browser import render
 from wbik.viz.geometry import STICK_COLOR
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -89,7 +90,8 @@ def test_walk_scenario_page_draws_the_robot():
     """``wbik view tasks/bioloid_walk_turn.yaml --html``: the walk's page loads without errors and
     shows the Bioloid (the screenshot stays in tests/artifacts/bioloid_walk_turn.png)."""
     from wbik.scenarios import load_scenario
-    from wbik.viz.scenario import animation_viewer, scenario_animation
+    from wbik.viz.scenario import animation_viewer
+    from wbik.viz.scenario import scenario_animation
 
     task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_walk_turn.yaml"
     spec = load_scenario(task)

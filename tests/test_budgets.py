@@ -18,7 +18,8 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.errors import InvalidBudgetError, WbikError
+from wbik.errors import InvalidBudgetError
+from wbik.errors import WbikError
 
 BUDGET_S = 0.02
 WALL_CLOCK_METHODS = ("newton", "dls", "bounded_lm", "qp", "kdl", "kdl_restarts", "trac_ik", "placo")

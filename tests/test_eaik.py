@@ -13,7 +13,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.errors import InvalidSettingError, MissingDependencyError, UnsupportedError
+from wbik.errors import InvalidSettingError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
 from wbik.targets import Target
 
 POSES = 200

@@ -16,18 +16,17 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.errors import (
-    InvalidBudgetError,
-    InvalidConfigurationError,
-    InvalidOptionError,
-    InvalidTargetError,
-    InvalidToleranceError,
-    RobotDescriptionError,
-    UnsupportedError,
-    WbikError,
-)
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidOptionError
+from wbik.errors import InvalidTargetError
+from wbik.errors import InvalidToleranceError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnsupportedError
+from wbik.errors import WbikError
 from wbik.solvers.base import Tolerances
-from wbik.solvers.method_registry import methods, solver_options
+from wbik.solvers.method_registry import methods
+from wbik.solvers.method_registry import solver_options
 from wbik.validation import check_budget
 
 BARE = (ValueError, TypeError, KeyError, IndexError, AttributeError, RuntimeError)
@@ -314,7 +313,8 @@ def test_bad_study_files(tmp_path, body, words):
 ])
 def test_bad_option_values_stop_the_study_before_solving(tmp_path, method, words):
     """A bad-valued option or an uninstalled QP backend is an error in the file, not 'not applicable'."""
-    from wbik.study import load_study, run_study
+    from wbik.study import load_study
+    from wbik.study import run_study
     from wbik.study.definition import StudyDefinitionError
 
     path = tmp_path / "hostile.yaml"

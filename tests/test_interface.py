@@ -7,7 +7,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.base import Candidate, Solver, evaluate
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
+from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 
 ROBOTS = list(wbik.robots())

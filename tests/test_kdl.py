@@ -13,7 +13,8 @@ import PyKDL  # part of the pinned environment (scripts/setup.sh)
 import pytest
 
 import wbik
-from wbik.errors import MissingDependencyError, UnsupportedError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
 from wbik.solvers import kdl as kdl_module
 from wbik.solvers.base import Tolerances
 

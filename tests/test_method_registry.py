@@ -9,17 +9,17 @@ import pytest
 
 import wbik
 from wbik.errors import UnknownMethodError
-from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+from wbik.registry import DeclaredRegistry
+from wbik.registry import RegistryError
+from wbik.registry import RegistryImportError
 from wbik.solvers import method_registry
 from wbik.solvers.base import Solver
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.solvers.method_registry import (
-    IK_METHOD_REGISTRY,
-    METHOD_MODULES,
-    IKMethod,
-    register,
-    register_method,
-)
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+from wbik.solvers.method_registry import METHOD_MODULES
+from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method_registry import register
+from wbik.solvers.method_registry import register_method
 
 
 @pytest.fixture
@@ -103,7 +103,8 @@ def test_an_unknown_method_lists_the_known_ones():
 
 def test_factory_options_follow_the_class_hierarchy_as_far_as_options_are_handed_on():
     from wbik.errors import InvalidOptionError
-    from wbik.registry import check_options, factory_options
+    from wbik.registry import check_options
+    from wbik.registry import factory_options
 
     class Base:
         def __init__(self, robot, chain=None, *, timeout_s=None, seed=None):

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from wbik.errors import NoQPSolutionError
-from wbik.qp import available_backends, backends
+from wbik.qp import available_backends
+from wbik.qp import backends
 
 
 def solved(function, *args):

@@ -9,11 +9,17 @@ import pinocchio as pin
 import pytest
 from qp_models import build_biped
 
-from wbik.qp import FrameTask, IKProblem, OrientationTask, RegularizationTask, backends
-from wbik.qp.constraints import Contact, JointPositionLimits
+from wbik.qp import FrameTask
+from wbik.qp import IKProblem
+from wbik.qp import OrientationTask
+from wbik.qp import RegularizationTask
+from wbik.qp import backends
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.humanoid import stance_constraints
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.problem import PHASES, SOLVE_PHASES
+from wbik.qp.problem import PHASES
+from wbik.qp.problem import SOLVE_PHASES
 from wbik.qp.step import Level
 
 

@@ -6,20 +6,19 @@ import pytest
 from qp_models import build_biped
 
 import wbik
-from wbik.qp import (
-    ComTask,
-    FrameTask,
-    IKProblem,
-    JointPositionLimits,
-    JointVelocityLimits,
-    MinimumDistance,
-    OrientationTask,
-    PositionTask,
-    PostureTask,
-    RegularizationTask,
-    available_backends,
-)
-from wbik.qp.humanoid import stance_constraints, support_polygon
+from wbik.qp import ComTask
+from wbik.qp import FrameTask
+from wbik.qp import IKProblem
+from wbik.qp import JointPositionLimits
+from wbik.qp import JointVelocityLimits
+from wbik.qp import MinimumDistance
+from wbik.qp import OrientationTask
+from wbik.qp import PositionTask
+from wbik.qp import PostureTask
+from wbik.qp import RegularizationTask
+from wbik.qp import available_backends
+from wbik.qp.humanoid import stance_constraints
+from wbik.qp.humanoid import support_polygon
 
 
 @pytest.fixture(scope="module")
@@ -155,7 +154,8 @@ def test_a_step_without_solution_raises_and_the_loop_reports_the_solvers_status(
     and the locked bounds overdetermine the working set) and solve() returns a failed solution whose
     reason says so (instead of a silent None)."""
     from wbik.errors import NoQPSolutionError
-    from wbik.qp.constraints import Contact, LockedJoints
+    from wbik.qp.constraints import Contact
+    from wbik.qp.constraints import LockedJoints
 
     model = panda.model
     held = panda.frame_placement(panda.nominal, "panda_hand_tcp")

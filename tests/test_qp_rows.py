@@ -6,16 +6,17 @@ import pytest
 from qp_models import build_biped
 
 from wbik.qp import backends
-from wbik.qp.constraints import (
-    CoMInSupportPolygon,
-    Constraint,
-    Contact,
-    JointPositionLimits,
-    JointVelocityLimits,
-    MinimumDistance,
-)
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Constraint
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import JointVelocityLimits
+from wbik.qp.constraints import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, as_index
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import EqualityRows
+from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import as_index
 from wbik.qp.support_polygon import SupportPolygon
 
 

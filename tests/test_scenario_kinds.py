@@ -20,27 +20,23 @@ import pytest
 
 import wbik
 from wbik.errors import MissingDependencyError
-from wbik.scenario_schema import (
-    Key,
-    Map,
-    Number,
-    Refused,
-    Robot,
-    ScenarioValueError,
-    UnknownScenarioKeyError,
-    common_keys,
-    validate,
-)
-from wbik.scenarios import (
-    ScenarioKind,
-    ScenarioReport,
-    format_report,
-    load_scenario,
-    register_kind,
-    run_scenario,
-    run_scenario_report,
-)
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Refused
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import ScenarioValueError
+from wbik.scenario_schema import UnknownScenarioKeyError
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import validate
+from wbik.scenarios import ScenarioKind
+from wbik.scenarios import ScenarioReport
+from wbik.scenarios import format_report
 from wbik.scenarios import kinds as registry
+from wbik.scenarios import load_scenario
+from wbik.scenarios import register_kind
+from wbik.scenarios import run_scenario
+from wbik.scenarios import run_scenario_report
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 EXPECTED_KINDS = {
@@ -264,7 +260,9 @@ def test_riveting_refuses_robot_params_by_name(tmp_path):
 
 def test_kinds_use_the_one_declared_registry_and_its_errors_are_registry_errors(fresh_registry, tmp_path,
                                                                                    monkeypatch):
-    from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+    from wbik.registry import DeclaredRegistry
+    from wbik.registry import RegistryError
+    from wbik.registry import RegistryImportError
 
     assert isinstance(registry.KIND_REGISTRY, DeclaredRegistry)
     assert registry.KIND_REGISTRY.modules is registry.KIND_MODULES  # register_module appends to them

@@ -12,24 +12,21 @@ from pathlib import Path
 
 import pytest
 
-from wbik.errors import (
-    InvalidBudgetError,
-    InvalidOptionError,
-    MissingDependencyError,
-    UnknownMethodError,
-    UnknownRobotError,
-    WbikError,
-)
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidOptionError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnknownMethodError
+from wbik.errors import UnknownRobotError
+from wbik.errors import WbikError
 from wbik.expectations import ExpectationError
-from wbik.scenario_schema import (
-    ScenarioBudgetError,
-    ScenarioError,
-    ScenarioFileError,
-    ScenarioValueError,
-    UnknownScenarioKeyError,
-    validate,
-)
-from wbik.scenarios import load_scenario, run_scenario
+from wbik.scenario_schema import ScenarioBudgetError
+from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import ScenarioFileError
+from wbik.scenario_schema import ScenarioValueError
+from wbik.scenario_schema import UnknownScenarioKeyError
+from wbik.scenario_schema import validate
+from wbik.scenarios import load_scenario
+from wbik.scenarios import run_scenario
 from wbik.scenarios.kinds import KIND_REGISTRY
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from wbik.study.definition import COMPARISONS_DIR, StudyDefinitionError, load_study, study_from_dict
+from wbik.study.definition import COMPARISONS_DIR
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.definition import load_study
+from wbik.study.definition import study_from_dict
 
 MINIMAL = {"name": "tiny", "robot": "arm3r", "chain": "arm", "target": "position", "poses": 10,
            "methods": ["dls", {"label": "dls_short", "method": "dls", "timeout_s": 0.5,

@@ -16,7 +16,8 @@ from scipy import stats
 import wbik
 from wbik.cli import main
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.study import load_study, run_study
+from wbik.study import load_study
+from wbik.study import run_study
 from wbik.study.results import read_raw_csv
 
 STUDY = """

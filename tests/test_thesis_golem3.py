@@ -11,9 +11,13 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.apps.golem3.thesis_solvers import SWEEP_POINTS, sweep_order
-from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
-from wbik.solvers.base import Candidate, evaluate
+from wbik.apps.golem3.thesis_solvers import SWEEP_POINTS
+from wbik.apps.golem3.thesis_solvers import sweep_order
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnsupportedError
+from wbik.errors import WbikError
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import evaluate
 
 RHO = math.radians(13.43)  # golem3.md, DH table: rho = 13.43 deg
 

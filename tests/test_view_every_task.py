@@ -20,7 +20,8 @@ import pytest
 import umsgpack
 
 from wbik.scenarios import load_scenario
-from wbik.viz.scenario import animation_viewer, scenario_animation
+from wbik.viz.scenario import animation_viewer
+from wbik.viz.scenario import scenario_animation
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 TASK_FILES = sorted(TASKS.glob("*.yaml"))

@@ -15,10 +15,18 @@ import pytest
 
 import wbik.wholebody
 from wbik.qp.tasks import PositionTask
-from wbik.registry import RegistryError, RegistryImportError
-from wbik.wholebody import cases, methods
-from wbik.wholebody.cases import CASE_REGISTRY, CaseSampler, WholeBodyCase, register_sampler, sample_case
-from wbik.wholebody.methods import WholeBodyMethod, register_wholebody_method, wholebody_solver
+from wbik.registry import RegistryError
+from wbik.registry import RegistryImportError
+from wbik.wholebody import cases
+from wbik.wholebody import methods
+from wbik.wholebody.cases import CASE_REGISTRY
+from wbik.wholebody.cases import CaseSampler
+from wbik.wholebody.cases import WholeBodyCase
+from wbik.wholebody.cases import register_sampler
+from wbik.wholebody.cases import sample_case
+from wbik.wholebody.methods import WholeBodyMethod
+from wbik.wholebody.methods import register_wholebody_method
+from wbik.wholebody.methods import wholebody_solver
 from wbik.wholebody.problem import WholeBody
 from wbik.wholebody.solvers import QPWholeBody
 
@@ -125,7 +133,8 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 
     import csv
 
-    from wbik.study import run_study, study_from_dict
+    from wbik.study import run_study
+    from wbik.study import study_from_dict
 
     study = study_from_dict({"name": "user_sampler", "seed": 7, "poses": 2, "timeout_s": 0.05,
                              "cases": [{"target": "wholebody", "scenario": "tool_reach"}],

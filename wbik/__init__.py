@@ -12,33 +12,40 @@ parallel study's worker processes. (Scenario kinds: ``wbik.scenarios.register_ki
 this package's facade.)
 """
 
-from wbik.errors import (
-    InvalidConfigurationError,
-    InvalidRotationError,
-    InvalidTargetError,
-    MissingDependencyError,
-    RobotDescriptionError,
-    UnknownChainError,
-    UnknownFrameError,
-    UnknownMethodError,
-    UnknownRobotError,
-    UnsupportedError,
-    WbikError,
-)
-from wbik.models import load, robots
-from wbik.robot import Chain, ChainSpec, Robot
-from wbik.solvers import IKResult, Solver, Tolerances, methods, register, solver
-from wbik.targets import Target, as_target
-from wbik.wholebody import (
-    WholeBody,
-    WholeBodyMethod,
-    WholeBodyResult,
-    check_wholebody,
-    register_wholebody_method,
-    wholebody_methods,
-    wholebody_solver,
-)
-from wbik.wholebody.cases import CaseSampler, WholeBodyCase, register_sampler
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidRotationError
+from wbik.errors import InvalidTargetError
+from wbik.errors import MissingDependencyError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownChainError
+from wbik.errors import UnknownFrameError
+from wbik.errors import UnknownMethodError
+from wbik.errors import UnknownRobotError
+from wbik.errors import UnsupportedError
+from wbik.errors import WbikError
+from wbik.models import load
+from wbik.models import robots
+from wbik.robot import Chain
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.solvers import IKResult
+from wbik.solvers import Solver
+from wbik.solvers import Tolerances
+from wbik.solvers import methods
+from wbik.solvers import register
+from wbik.solvers import solver
+from wbik.targets import Target
+from wbik.targets import as_target
+from wbik.wholebody import WholeBody
+from wbik.wholebody import WholeBodyMethod
+from wbik.wholebody import WholeBodyResult
+from wbik.wholebody import check_wholebody
+from wbik.wholebody import register_wholebody_method
+from wbik.wholebody import wholebody_methods
+from wbik.wholebody import wholebody_solver
+from wbik.wholebody.cases import CaseSampler
+from wbik.wholebody.cases import WholeBodyCase
+from wbik.wholebody.cases import register_sampler
 
 __version__ = "0.1.0"
 

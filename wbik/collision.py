@@ -25,14 +25,17 @@ with J_x(p) the linear Jacobian of the point p moving with geometry x's joint (w
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import RobotDescriptionError, UnknownFrameError, UnsupportedError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownFrameError
+from wbik.errors import UnsupportedError
 
 __all__ = ["CollisionModel", "Obstacle", "PairDistance", "Primitive", "box", "capsule",
            "robot_collision_model", "sphere"]

@@ -21,7 +21,8 @@ Unknown keys raise :class:`ExpectationError` naming the known ones. Thresholds a
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from wbik.errors import WbikError

@@ -26,11 +26,17 @@ from __future__ import annotations
 import importlib
 import inspect
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable
+from collections.abc import Iterable
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Generic, Protocol, TypeVar
+from typing import Generic
+from typing import Protocol
+from typing import TypeVar
 
-from wbik.errors import InvalidOptionError, UnknownNameError, WbikError
+from wbik.errors import InvalidOptionError
+from wbik.errors import UnknownNameError
+from wbik.errors import WbikError
 
 __all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "check_options", "factory_options"]
 

@@ -13,22 +13,23 @@ import hashlib
 import math
 import os
 import threading
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from collections.abc import Sequence
+from dataclasses import dataclass
+from dataclasses import field
 from functools import cached_property
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
+from typing import TypeVar
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import (
-    InvalidConfigurationError,
-    RobotDescriptionError,
-    UnknownChainError,
-    UnknownFrameError,
-    UnsupportedError,
-)
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownChainError
+from wbik.errors import UnknownFrameError
+from wbik.errors import UnsupportedError
 from wbik.files import atomic_write_text
 from wbik.validation import numeric_array
 

@@ -42,18 +42,19 @@ import copy
 import inspect
 import math
 import numbers
-from collections.abc import Callable, Mapping
-from dataclasses import MISSING, dataclass, fields
+from collections.abc import Callable
+from collections.abc import Mapping
+from dataclasses import MISSING
+from dataclasses import dataclass
+from dataclasses import fields
 
-from wbik.errors import (
-    InvalidBudgetError,
-    InvalidOptionError,
-    MissingDependencyError,
-    UnknownMethodError,
-    UnknownRobotError,
-    WbikError,
-    did_you_mean,
-)
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidOptionError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnknownMethodError
+from wbik.errors import UnknownRobotError
+from wbik.errors import WbikError
+from wbik.errors import did_you_mean
 from wbik.expectations import ExpectationError
 
 __all__ = ["COM_MARGIN", "Key", "Map", "ScenarioBudgetError", "ScenarioError", "ScenarioFileError",
@@ -412,7 +413,9 @@ class Backend(Text):
     what = "a QP backend name"
 
     def check(self, value, path, ctx):
-        from wbik.qp.backends import BACKEND_OPTIONS, available, resolve
+        from wbik.qp.backends import BACKEND_OPTIONS
+        from wbik.qp.backends import available
+        from wbik.qp.backends import resolve
 
         super().check(value, path, ctx)
         known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
@@ -495,7 +498,8 @@ def margin_key() -> Key:
 
 def time_laws() -> tuple[str, ...]:
     """The time-law names a ``timing.law`` takes (wbik.motion.profiles)."""
-    from wbik.motion.profiles import ALIASES, LAWS
+    from wbik.motion.profiles import ALIASES
+    from wbik.motion.profiles import LAWS
 
     return (*LAWS, *ALIASES)
 
@@ -541,7 +545,8 @@ def validate(spec, source: str = "scenario") -> dict:
     ``source`` (the file) starts every error message. See the module docstring for what is refused;
     the kind is looked up in :mod:`wbik.scenarios.kinds` (which imports the kinds' modules).
     """
-    from wbik.scenarios.kinds import KIND_REGISTRY, kind_names
+    from wbik.scenarios.kinds import KIND_REGISTRY
+    from wbik.scenarios.kinds import kind_names
 
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "

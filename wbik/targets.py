@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidRotationError, InvalidTargetError
+from wbik.errors import InvalidRotationError
+from wbik.errors import InvalidTargetError
 from wbik.geometry import rotation_error
 from wbik.validation import numeric_array
 

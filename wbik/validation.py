@@ -15,7 +15,9 @@ import numbers
 
 import numpy as np
 
-from wbik.errors import InvalidBudgetError, InvalidSettingError, WbikError
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidSettingError
+from wbik.errors import WbikError
 
 
 def _real_number(name: str, value, error: type[WbikError], unit: str) -> float:

@@ -7,7 +7,8 @@ import json
 
 import numpy as np
 
-from wbik.commands import add_json_argument, add_robot_arguments
+from wbik.commands import add_json_argument
+from wbik.commands import add_robot_arguments
 
 HELP = "forward kinematics of a chain"
 

@@ -14,9 +14,12 @@ import inspect
 from dataclasses import dataclass
 from pathlib import Path
 
-from wbik.errors import InvalidOptionError, RobotDescriptionError, UnknownRobotError
+from wbik.errors import InvalidOptionError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownRobotError
 from wbik.registry import DeclaredRegistry
-from wbik.robot import Robot, robot_from_urdf_text
+from wbik.robot import Robot
+from wbik.robot import robot_from_urdf_text
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,8 @@ achieved tip path of a timed trajectory can be compared with it (the tracking er
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 from typing import Protocol
 
 import numpy as np

@@ -34,32 +34,36 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule, judge
+from wbik.expectations import Rule
+from wbik.expectations import judge
 from wbik.files import json_plain
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
-from wbik.scenario_schema import (
-    START,
-    VECTOR3,
-    Either,
-    Key,
-    ListOf,
-    Map,
-    Method,
-    Number,
-    Robot,
-    ScenarioError,
-    Text,
-    Vector,
-    common_keys,
-    default_of,
-    expect_block,
-    kind_schema,
-    time_laws,
-    timing_modes,
-)
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
+from wbik.scenario_schema import START
+from wbik.scenario_schema import VECTOR3
+from wbik.scenario_schema import Either
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Method
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import Vector
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import default_of
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import kind_schema
+from wbik.scenario_schema import time_laws
+from wbik.scenario_schema import timing_modes
+from wbik.scenarios.kinds import KindRun
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import format_entries
+from wbik.scenarios.kinds import start_of
 from wbik.validation import finite_vector
 
 MOVE_RULES = {

@@ -29,9 +29,11 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import UnsupportedError
 from wbik.motion.path import JointPath
-from wbik.motion.profiles import TimeLaw, time_law
+from wbik.motion.profiles import TimeLaw
+from wbik.motion.profiles import time_law
 
 GRID_POINTS = 4001
 """Dense tau grid of a multi-knot piece (plus local refinement around its worst cells)."""

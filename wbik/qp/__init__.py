@@ -28,32 +28,33 @@ Where ours differs from PlaCo (the reference, method ``placo``):
 """
 
 from wbik.qp.backends import available as available_backends
-from wbik.qp.constraints import (
-    BoundConstraint,
-    CollisionAvoidance,
-    CoMInSupportPolygon,
-    Constraint,
-    Contact,
-    EqualityConstraint,
-    InequalityConstraint,
-    JointPositionLimits,
-    JointVelocityLimits,
-    MinimumDistance,
-)
+from wbik.qp.constraints import BoundConstraint
+from wbik.qp.constraints import CollisionAvoidance
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Constraint
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import EqualityConstraint
+from wbik.qp.constraints import InequalityConstraint
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import JointVelocityLimits
+from wbik.qp.constraints import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.problem import IKProblem, QPSolution
-from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows
-from wbik.qp.support_polygon import SupportPolygon, convex_hull, feet_support_polygon
-from wbik.qp.tasks import (
-    ComTask,
-    FrameTask,
-    OrientationTask,
-    PositionTask,
-    PostureTask,
-    RegularizationTask,
-    RelativeFrameTask,
-    Task,
-)
+from wbik.qp.problem import IKProblem
+from wbik.qp.problem import QPSolution
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import EqualityRows
+from wbik.qp.rows import InequalityRows
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.support_polygon import convex_hull
+from wbik.qp.support_polygon import feet_support_polygon
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import RelativeFrameTask
+from wbik.qp.tasks import Task
 
 __all__ = [
     "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint",

@@ -23,7 +23,8 @@ import numpy as np
 import qpsolvers
 from scipy import sparse
 
-from wbik.errors import MissingDependencyError, NoQPSolutionError
+from wbik.errors import MissingDependencyError
+from wbik.errors import NoQPSolutionError
 
 
 class BackendUnavailableError(MissingDependencyError):

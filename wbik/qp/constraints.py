@@ -24,7 +24,11 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, Rows, as_index
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import EqualityRows
+from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import Rows
+from wbik.qp.rows import as_index
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import FrameTask
 

@@ -13,9 +13,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from wbik.errors import RobotDescriptionError
-from wbik.qp.constraints import CoMInSupportPolygon, Constraint, Contact, JointPositionLimits
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Constraint
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.support_polygon import SupportPolygon, feet_support_polygon
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.support_polygon import feet_support_polygon
 from wbik.robot import Robot
 
 

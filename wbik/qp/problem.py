@@ -14,23 +14,24 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import NoQPSolutionError
 from wbik.qp import backends
-from wbik.qp.constraints import (
-    BoundConstraint,
-    CoMInSupportPolygon,
-    Constraint,
-    EqualityConstraint,
-    InequalityConstraint,
-    JointPositionLimits,
-)
+from wbik.qp.constraints import BoundConstraint
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Constraint
+from wbik.qp.constraints import EqualityConstraint
+from wbik.qp.constraints import InequalityConstraint
+from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.step import PHASES, QPStep, lap
+from wbik.qp.step import PHASES
+from wbik.qp.step import QPStep
+from wbik.qp.step import lap
 from wbik.qp.tasks import Task
 
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]

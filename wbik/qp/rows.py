@@ -13,7 +13,8 @@ The arrays may be buffers a constraint reuses at its next configuration; ``add_t
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING
+from typing import NamedTuple
 
 import numpy as np
 

@@ -24,10 +24,12 @@ Dropping such a vertex moves the boundary by at most ``tol``, so margins are exa
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
+from collections.abc import Mapping
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull
+from scipy.spatial import QhullError
 
 from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics

@@ -31,7 +31,8 @@ from collections.abc import Mapping
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidSettingError, UnknownFrameError
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnknownFrameError
 from wbik.validation import finite_vector
 
 __all__ = ["TASK_OPTIONS", "TASK_TYPES", "TaskEntryError", "build_task"]

@@ -24,7 +24,8 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
-from wbik.geometry import rotation_error, rotation_error_jacobian
+from wbik.geometry import rotation_error
+from wbik.geometry import rotation_error_jacobian
 from wbik.qp.kinematics import Kinematics
 
 _AXES = {"x": 0, "y": 1, "z": 2}

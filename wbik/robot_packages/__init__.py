@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import atexit
 from contextlib import ExitStack
-from importlib.resources import as_file, files
+from importlib.resources import as_file
+from importlib.resources import files
 from pathlib import Path
 
 from wbik.models import RobotEntry

@@ -25,16 +25,21 @@ schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, WbikError
-from wbik.expectations import format_checks, verdict
+from wbik.errors import MissingDependencyError
+from wbik.errors import WbikError
+from wbik.expectations import format_checks
+from wbik.expectations import verdict
 from wbik.files import json_plain
-from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+from wbik.registry import DeclaredRegistry
+from wbik.registry import RegistryError
+from wbik.registry import RegistryImportError
 
 if TYPE_CHECKING:
     from wbik.robot import Robot

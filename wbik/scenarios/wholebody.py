@@ -44,35 +44,42 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule, evaluate, verdict
-from wbik.qp.task_entries import REGULARIZATION_WEIGHT, TaskEntryError, build_task
-from wbik.scenario_schema import (
-    FRAME,
-    FRAMES,
-    NON_NEGATIVE,
-    POSITIVE,
-    START,
-    VECTOR3,
-    Boolean,
-    Context,
-    Either,
-    Key,
-    ListOf,
-    Map,
-    Number,
-    Robot,
-    ScenarioError,
-    ScenarioValueError,
-    Text,
-    Variants,
-    Vector,
-    backend_key,
-    check_robot_params,
-    common_keys,
-    expect_block,
-    margin_key,
-)
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
+from wbik.expectations import Rule
+from wbik.expectations import evaluate
+from wbik.expectations import verdict
+from wbik.qp.task_entries import REGULARIZATION_WEIGHT
+from wbik.qp.task_entries import TaskEntryError
+from wbik.qp.task_entries import build_task
+from wbik.scenario_schema import FRAME
+from wbik.scenario_schema import FRAMES
+from wbik.scenario_schema import NON_NEGATIVE
+from wbik.scenario_schema import POSITIVE
+from wbik.scenario_schema import START
+from wbik.scenario_schema import VECTOR3
+from wbik.scenario_schema import Boolean
+from wbik.scenario_schema import Context
+from wbik.scenario_schema import Either
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import ScenarioValueError
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import Variants
+from wbik.scenario_schema import Vector
+from wbik.scenario_schema import backend_key
+from wbik.scenario_schema import check_robot_params
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import margin_key
+from wbik.scenarios.kinds import KindRun
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import format_entries
+from wbik.scenarios.kinds import start_of
 
 __all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
            "run_wholebody_ik", "wholebody_schema"]
@@ -224,7 +231,8 @@ def collision_setup(robot, collisions: dict | None):
     query, independent of the distances the constraint linearised."""
     if collisions is None:
         return None, None
-    from wbik.collision import Obstacle, robot_collision_model
+    from wbik.collision import Obstacle
+    from wbik.collision import robot_collision_model
     from wbik.qp.constraints import CollisionAvoidance
 
     def build():
@@ -275,7 +283,8 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
     the report and the animation from the start through every phase's answer."""
-    from wbik.qp.constraints import LockedJoints, MinimumDistance
+    from wbik.qp.constraints import LockedJoints
+    from wbik.qp.constraints import MinimumDistance
     from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
 
@@ -338,7 +347,8 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
     """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
     each phase's support soles and contacts; the first frame a phase task moves is traced."""
     from wbik.viz.animation import Animation
-    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
+    from wbik.viz.scenario import PHASE_SECONDS
+    from wbik.viz.scenario import SAMPLES_PER_PHASE
 
     return Animation.from_keyframes(
         robot, start, [np.asarray(p["q"], dtype=float) for p in phases], PHASE_SECONDS, SAMPLES_PER_PHASE,

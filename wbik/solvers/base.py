@@ -13,21 +13,25 @@ import hashlib
 import math
 import threading
 import time
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterable
+from collections.abc import Sequence
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 
-from wbik.errors import (
-    InvalidBudgetError,
-    InvalidConfigurationError,
-    InvalidSettingError,
-    UnsupportedError,
-)
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnsupportedError
 from wbik.geometry import rotation_error
-from wbik.robot import Chain, Robot
-from wbik.targets import Target, as_target
-from wbik.validation import check_budget, check_count, check_seed
+from wbik.robot import Chain
+from wbik.robot import Robot
+from wbik.targets import Target
+from wbik.targets import as_target
+from wbik.validation import check_budget
+from wbik.validation import check_count
+from wbik.validation import check_seed
 
 try:  # numpy's clip ufunc: np.clip wraps it in Python at 3-4x its cost on a few joints
     from numpy._core.umath import clip as _clip_ufunc

@@ -79,17 +79,20 @@ import pinocchio as pin
 from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
-from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
-from wbik.solvers.levenberg_marquardt import (
-    JointBounds,
-    LevenbergMarquardt,
-    Workspace,
-    batch_cost,
-    keep_better,
-)
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import IKResult
+from wbik.solvers.base import Solver
+from wbik.solvers.base import evaluate
+from wbik.solvers.levenberg_marquardt import JointBounds
+from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import Workspace
+from wbik.solvers.levenberg_marquardt import batch_cost
+from wbik.solvers.levenberg_marquardt import keep_better
 from wbik.solvers.method_registry import IKMethod
-from wbik.solvers.task_error import batch_se3_error, converged
-from wbik.targets import Target, as_target
+from wbik.solvers.task_error import batch_se3_error
+from wbik.solvers.task_error import converged
+from wbik.targets import Target
+from wbik.targets import as_target
 
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _IDENTITY = np.eye(3)

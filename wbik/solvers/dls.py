@@ -18,10 +18,13 @@ import time
 
 import numpy as np
 
-from wbik.solvers.base import Candidate, Solver
-from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
+from wbik.solvers.levenberg_marquardt import JointBounds
+from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
 from wbik.solvers.method_registry import IKMethod
-from wbik.solvers.task_error import converged, task_error
+from wbik.solvers.task_error import converged
+from wbik.solvers.task_error import task_error
 from wbik.targets import Target
 
 

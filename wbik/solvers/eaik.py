@@ -76,14 +76,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, UnsupportedError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.analytic import BRANCH_MERGE, wrap_into_limits
-from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
+from wbik.solvers.analytic import BRANCH_MERGE
+from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import IKResult
+from wbik.solvers.base import Solver
+from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import serial_structure
-from wbik.targets import Target, as_target, pose_error
+from wbik.targets import Target
+from wbik.targets import as_target
+from wbik.targets import pose_error
 from wbik.validation import check_count
 
 INSTALL = "pip install EAIK==1.2.2"

@@ -26,12 +26,15 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, RobotDescriptionError
+from wbik.errors import MissingDependencyError
+from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
-from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import serial_structure
-from wbik.targets import Target, pose_error
+from wbik.targets import Target
+from wbik.targets import pose_error
 
 INSTALL_HINT = ("PyKDL (orocos KDL's Python binding) is not installed: it is not on PyPI. Install it with "
                 "`sudo apt-get install python3-pykdl`, then `bash scripts/setup.sh` to expose it in the venv")

@@ -19,8 +19,12 @@ import inspect
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from wbik.errors import InvalidOptionError, UnknownMethodError
-from wbik.registry import DeclaredRegistry, RegistryError, check_options, factory_options
+from wbik.errors import InvalidOptionError
+from wbik.errors import UnknownMethodError
+from wbik.registry import DeclaredRegistry
+from wbik.registry import RegistryError
+from wbik.registry import check_options
+from wbik.registry import factory_options
 from wbik.robot import Robot
 from wbik.solvers.base import Solver
 

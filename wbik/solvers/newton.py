@@ -24,9 +24,11 @@ import time
 import numpy as np
 import scipy.linalg
 
-from wbik.solvers.base import Candidate, Solver
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
-from wbik.solvers.task_error import converged, task_error
+from wbik.solvers.task_error import converged
+from wbik.solvers.task_error import task_error
 from wbik.targets import Target
 
 

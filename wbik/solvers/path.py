@@ -11,15 +11,18 @@ the path records why and carries on from the last good joints towards the next w
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import rotation_error
-from wbik.solvers.base import IKResult, Solver
-from wbik.targets import Target, as_target
+from wbik.solvers.base import IKResult
+from wbik.solvers.base import Solver
+from wbik.targets import Target
+from wbik.targets import as_target
 
 
 @dataclass

@@ -19,11 +19,15 @@ from types import SimpleNamespace
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError, RobotDescriptionError
-from wbik.robot import Robot, write_cached_urdf
-from wbik.solvers.base import Candidate, Solver
+from wbik.errors import MissingDependencyError
+from wbik.errors import RobotDescriptionError
+from wbik.robot import Robot
+from wbik.robot import write_cached_urdf
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
-from wbik.targets import Target, pose_error
+from wbik.targets import Target
+from wbik.targets import pose_error
 
 
 def import_placo():

@@ -18,10 +18,14 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.qp import backends
-from wbik.qp.constraints import JointPositionLimits, JointVelocityLimits
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import JointVelocityLimits
 from wbik.qp.problem import IKProblem
-from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
-from wbik.solvers.base import Candidate, Solver
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 

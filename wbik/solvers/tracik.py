@@ -21,8 +21,11 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidSettingError, MissingDependencyError, RobotDescriptionError
-from wbik.solvers.base import Candidate, Solver
+from wbik.errors import InvalidSettingError
+from wbik.errors import MissingDependencyError
+from wbik.errors import RobotDescriptionError
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 

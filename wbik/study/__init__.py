@@ -11,14 +11,12 @@ a study compares with), ``figures`` and ``report`` (Markdown + self-contained HT
 >>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP
 """
 
-from wbik.study.definition import (
-           CaseSpec,
-           MethodSpec,
-           Study,
-           StudyDefinitionError,
-           load_study,
-           study_from_dict,
-)
+from wbik.study.definition import CaseSpec
+from wbik.study.definition import MethodSpec
+from wbik.study.definition import Study
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.definition import load_study
+from wbik.study.definition import study_from_dict
 from wbik.study.runner import run_study
 
 __all__ = ["CaseSpec", "MethodSpec", "Study", "StudyDefinitionError", "load_study", "run_study",

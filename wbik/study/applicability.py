@@ -22,8 +22,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from wbik.errors import MissingDependencyError, UnsupportedError
-from wbik.study.context import _robot, make_solver
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
+from wbik.study.context import _robot
+from wbik.study.context import make_solver
 
 if TYPE_CHECKING:
     from wbik.study.runner import ChunkTask

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import threading
 
-from wbik.study.definition import CaseSpec, Study
+from wbik.study.definition import CaseSpec
+from wbik.study.definition import Study
 
 _LOCAL = threading.local()
 

@@ -33,23 +33,28 @@ import json
 import math
 import re
 import tomllib
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import replace
 from pathlib import Path
 
 import yaml
 
-from wbik.data import data_dir, study_path
-from wbik.errors import WbikError, closest_name, did_you_mean
-from wbik.study.metrics import (
-    ANGLE_AXES,
-    POSITION_AXES,
-    ROTATION_VECTOR_AXES,
-    STUDY_SEQUENCE,
-    TAIT_BRYAN_SEQUENCES,
-    AngleConvention,
-)
+from wbik.data import data_dir
+from wbik.data import study_path
+from wbik.errors import WbikError
+from wbik.errors import closest_name
+from wbik.errors import did_you_mean
+from wbik.study.metrics import ANGLE_AXES
+from wbik.study.metrics import POSITION_AXES
+from wbik.study.metrics import ROTATION_VECTOR_AXES
+from wbik.study.metrics import STUDY_SEQUENCE
+from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
+from wbik.study.metrics import AngleConvention
 from wbik.study.metrics import axes as error_axes
-from wbik.study.reference import REFERENCE_METRICS, Reference
+from wbik.study.reference import REFERENCE_METRICS
+from wbik.study.reference import Reference
 
 COMPARISONS_DIR = data_dir("comparisons")
 """The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
@@ -500,7 +505,8 @@ def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
     against its constructor (:func:`wbik.solvers.method_registry.solver_options`), every case's robot (a
     built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
-    from wbik.models import builder_parameters, robot_entries
+    from wbik.models import builder_parameters
+    from wbik.models import robot_entries
     from wbik.solvers.method_registry import methods as chain_methods
     from wbik.solvers.method_registry import solver_options
     from wbik.wholebody.methods import wholebody_solver_options

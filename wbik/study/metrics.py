@@ -29,7 +29,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.geometry import TAIT_BRYAN_SEQUENCES, batch_exp3, tait_bryan_angles  # noqa: F401  (re-exported)
+from wbik.geometry import TAIT_BRYAN_SEQUENCES  # noqa: F401  (re-exported)
+from wbik.geometry import batch_exp3  # noqa: F401  (re-exported)
+from wbik.geometry import tait_bryan_angles  # noqa: F401  (re-exported)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 
 if TYPE_CHECKING:

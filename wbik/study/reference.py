@@ -25,7 +25,8 @@ above, ``wbik.study.statistics.ALPHA``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 from wbik.study.metrics import AngleConvention
 from wbik.study.statistics import ALPHA

@@ -18,7 +18,8 @@ import math
 import platform
 from collections import Counter
 from dataclasses import dataclass
-from datetime import UTC, datetime
+from datetime import UTC
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -26,12 +27,20 @@ import numpy as np
 from wbik.errors import WbikError
 from wbik.study import figures
 from wbik.study import results as store
-from wbik.study.context import _frozen, _robot, chunk_count
-from wbik.study.definition import CaseSpec, Study
+from wbik.study.context import _frozen
+from wbik.study.context import _robot
+from wbik.study.context import chunk_count
+from wbik.study.definition import CaseSpec
+from wbik.study.definition import Study
 from wbik.study.metrics import STUDY_SEQUENCE
 from wbik.study.metrics import axes as case_axes
-from wbik.study.reference import REFERENCE_METRICS, our_figures, same_significance, verdict
-from wbik.study.statistics import ALPHA, significance, summarize
+from wbik.study.reference import REFERENCE_METRICS
+from wbik.study.reference import our_figures
+from wbik.study.reference import same_significance
+from wbik.study.reference import verdict
+from wbik.study.statistics import ALPHA
+from wbik.study.statistics import significance
+from wbik.study.statistics import summarize
 
 
 @dataclass

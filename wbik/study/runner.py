@@ -39,15 +39,25 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError, WbikError
+from wbik.errors import MissingDependencyError
+from wbik.errors import WbikError
 from wbik.solvers.method_registry import IKMethod
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
-from wbik.study.context import _frozen, _robot, chunk_count, make_solver, solver_budget  # also re-exported
-from wbik.study.definition import CaseSpec, MethodSpec, Study, StudyDefinitionError
-from wbik.study.metrics import AngleConvention, axis_errors
+from wbik.study.context import _frozen  # also re-exported
+from wbik.study.context import _robot  # also re-exported
+from wbik.study.context import chunk_count  # also re-exported
+from wbik.study.context import make_solver  # also re-exported
+from wbik.study.context import solver_budget  # also re-exported
+from wbik.study.definition import CaseSpec
+from wbik.study.definition import MethodSpec
+from wbik.study.definition import Study
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.metrics import AngleConvention
+from wbik.study.metrics import axis_errors
 from wbik.study.ownership import FolderLock
-from wbik.study.sampling import PoseSet, sample_poses
+from wbik.study.sampling import PoseSet
+from wbik.study.sampling import sample_poses
 
 BACKENDS = ("loky", "sequential", "dask")
 STARVED_CPU_SHARE = 0.8
@@ -333,7 +343,9 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         for task in tasks:
             yield task, solve_chunk(task)
         return
-    from joblib import Parallel, delayed, parallel_config
+    from joblib import Parallel
+    from joblib import delayed
+    from joblib import parallel_config
 
     def run(n_jobs: int):
         parallel = Parallel(n_jobs=n_jobs, return_as="generator_unordered", batch_size=1,
@@ -347,7 +359,8 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
     if backend != "dask":
         raise StudyDefinitionError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     try:
-        from dask.distributed import Client, LocalCluster
+        from dask.distributed import Client
+        from dask.distributed import LocalCluster
     except ImportError as exc:
         raise MissingDependencyError(
             "the dask backend needs dask[distributed]: .venv/bin/pip install 'dask[distributed]'") from exc

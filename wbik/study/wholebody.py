@@ -91,8 +91,10 @@ def run_time_entries(scenario: str, method: str) -> tuple:
 def register_run_time_entries(entries: tuple) -> None:
     """Register, in this process, the samplers and methods a task carries (replacing a namesake: a
     reused worker may hold an earlier study's)."""
-    from wbik.wholebody.cases import CaseSampler, register_sampler
-    from wbik.wholebody.methods import WholeBodyMethod, register_wholebody_method
+    from wbik.wholebody.cases import CaseSampler
+    from wbik.wholebody.cases import register_sampler
+    from wbik.wholebody.methods import WholeBodyMethod
+    from wbik.wholebody.methods import register_wholebody_method
 
     for entry in entries:
         if isinstance(entry, CaseSampler):
@@ -105,7 +107,9 @@ def register_run_time_entries(entries: tuple) -> None:
 
 def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop: int):
     """The runner's ChunkTask of a whole-body chunk (the sampler and seed rebuild its cases)."""
-    from wbik.study.runner import ChunkTask, _frozen, chunk_seed
+    from wbik.study.runner import ChunkTask
+    from wbik.study.runner import _frozen
+    from wbik.study.runner import chunk_seed
 
     timeout_s, options = budget(method.method, study.timeout_of(method), method.options)
     return ChunkTask(
@@ -263,7 +267,8 @@ def summarize(rows: dict, margin: float) -> dict:
 
 def com_margin_test(baseline: str, rows_by_method: dict) -> list[dict]:
     """Mann-Whitney U of the CoM margin (all calls) of each method against the baseline."""
-    from wbik.study.statistics import ALPHA, mann_whitney
+    from wbik.study.statistics import ALPHA
+    from wbik.study.statistics import mann_whitney
 
     if baseline not in rows_by_method:
         return []
@@ -317,8 +322,11 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
 
 def analyse_case(study, case, output: Path) -> dict:
     """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
-    from wbik.study.report import case_figures, case_rows, write_case_tables
-    from wbik.study.runner import _frozen, _robot
+    from wbik.study.report import case_figures
+    from wbik.study.report import case_rows
+    from wbik.study.report import write_case_tables
+    from wbik.study.runner import _frozen
+    from wbik.study.runner import _robot
     from wbik.study.statistics import significance
     from wbik.wholebody.cases import sample_case
 
@@ -370,15 +378,13 @@ def analyse_case(study, case, output: Path) -> dict:
 
 
 def case_blocks(study, analysis: dict) -> list:
-    from wbik.study.report import (
-        SOLVED_COLUMNS,
-        TIME_COLUMNS,
-        Block,
-        frequent_reasons,
-        significance_blocks,
-        status_blocks,
-        summary_table,
-    )
+    from wbik.study.report import SOLVED_COLUMNS
+    from wbik.study.report import TIME_COLUMNS
+    from wbik.study.report import Block
+    from wbik.study.report import frequent_reasons
+    from wbik.study.report import significance_blocks
+    from wbik.study.report import status_blocks
+    from wbik.study.report import summary_table
     from wbik.wholebody.cases import CASE_REGISTRY
 
     case = analysis["case"]

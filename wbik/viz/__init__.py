@@ -4,7 +4,10 @@
 one self-contained HTML page; ``wbik.viz.browser`` renders such a page with headless Chromium.
 """
 
-from wbik.viz.scene import SceneRecorder, ServerWindow, scene_html
-from wbik.viz.viewer import SupportView, Viewer
+from wbik.viz.scene import SceneRecorder
+from wbik.viz.scene import ServerWindow
+from wbik.viz.scene import scene_html
+from wbik.viz.viewer import SupportView
+from wbik.viz.viewer import Viewer
 
 __all__ = ["SceneRecorder", "ServerWindow", "SupportView", "Viewer", "scene_html"]

@@ -24,13 +24,17 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import UnsupportedError
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.support_polygon import SupportPolygon, contact_points
-from wbik.robot import Chain, Robot
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.support_polygon import contact_points
+from wbik.robot import Chain
+from wbik.robot import Robot
 from wbik.targets import as_target
 from wbik.viz import geometry as robot_geometry
-from wbik.viz.scene import SceneRecorder, ServerWindow
+from wbik.viz.scene import SceneRecorder
+from wbik.viz.scene import ServerWindow
 
 ROOT = "wbik"
 ROBOT_NODE = f"{ROOT}/robot"

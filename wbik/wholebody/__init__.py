@@ -14,15 +14,16 @@ method registry: modules listed by name, each declaring its methods), ``cases`` 
 seeded case samplers, registered the same way).
 """
 
-from wbik.wholebody.methods import (
-    WHOLEBODY_METHOD_REGISTRY,
-    WholeBodyMethod,
-    register_wholebody_method,
-    wholebody_methods,
-    wholebody_solver,
-    wholebody_solver_options,
-)
-from wbik.wholebody.problem import MinimumDistance, WholeBody, WholeBodyResult, check_wholebody
+from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
+from wbik.wholebody.methods import WholeBodyMethod
+from wbik.wholebody.methods import register_wholebody_method
+from wbik.wholebody.methods import wholebody_methods
+from wbik.wholebody.methods import wholebody_solver
+from wbik.wholebody.methods import wholebody_solver_options
+from wbik.wholebody.problem import MinimumDistance
+from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.problem import WholeBodyResult
+from wbik.wholebody.problem import check_wholebody
 from wbik.wholebody.solvers import WholeBodySolver
 
 __all__ = [

@@ -18,7 +18,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from wbik.errors import UnknownMethodError
-from wbik.registry import DeclaredRegistry, RegistryError, check_options, factory_options
+from wbik.registry import DeclaredRegistry
+from wbik.registry import RegistryError
+from wbik.registry import check_options
+from wbik.registry import factory_options
 from wbik.robot import Robot
 
 if TYPE_CHECKING:

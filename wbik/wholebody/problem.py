@@ -24,19 +24,28 @@ from __future__ import annotations
 import copy
 import math
 import numbers
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from collections.abc import Sequence
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidConfigurationError, InvalidSettingError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidSettingError
 from wbik.files import json_plain
 from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RelativeFrameTask, Task
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import RelativeFrameTask
+from wbik.qp.tasks import Task
 from wbik.robot import Robot
-from wbik.solvers.base import Tolerances, invalid_joints_reason
+from wbik.solvers.base import Tolerances
+from wbik.solvers.base import invalid_joints_reason
 
 LIMITS = ("position", "position+velocity", "none")
 LIMIT_SLACK = 1e-9

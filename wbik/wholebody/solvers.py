@@ -38,24 +38,33 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidBudgetError, InvalidOptionError, InvalidSettingError
+from wbik.errors import InvalidBudgetError
+from wbik.errors import InvalidOptionError
+from wbik.errors import InvalidSettingError
 from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.tasks import (
-    ComTask,
-    FrameTask,
-    OrientationTask,
-    PositionTask,
-    PostureTask,
-    RegularizationTask,
-    RelativeFrameTask,
-    Task,
-)
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import RelativeFrameTask
+from wbik.qp.tasks import Task
 from wbik.robot import Robot
-from wbik.solvers.base import Candidate, PerThreadState, Tolerances, checked_tolerances, iterations_costing
-from wbik.validation import check_budget, check_count, check_seed
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import PerThreadState
+from wbik.solvers.base import Tolerances
+from wbik.solvers.base import checked_tolerances
+from wbik.solvers.base import iterations_costing
+from wbik.validation import check_budget
+from wbik.validation import check_count
+from wbik.validation import check_seed
 from wbik.wholebody.methods import WholeBodyMethod
-from wbik.wholebody.problem import WholeBody, WholeBodyResult, check_wholebody, task_error_parts
+from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.problem import WholeBodyResult
+from wbik.wholebody.problem import check_wholebody
+from wbik.wholebody.problem import task_error_parts
 
 NO_POLYGON = "support polygon as a hard CoM constraint"
 """What a method without a hard CoM-in-polygon constraint lists in ``unsupported`` (Pink, and
@@ -257,13 +266,11 @@ class QPWholeBody(WholeBodySolver):
         )
 
     def _solve(self, problem, q0, placements, polygon, deadline):
-        from wbik.qp.constraints import (
-            CoMInSupportPolygon,
-            Contact,
-            JointPositionLimits,
-            JointVelocityLimits,
-            MinimumDistance,
-        )
+        from wbik.qp.constraints import CoMInSupportPolygon
+        from wbik.qp.constraints import Contact
+        from wbik.qp.constraints import JointPositionLimits
+        from wbik.qp.constraints import JointVelocityLimits
+        from wbik.qp.constraints import MinimumDistance
         from wbik.qp.problem import IKProblem
 
         model = self.robot.model
@@ -358,7 +365,8 @@ class PlacoWholeBody(WholeBodySolver):
         return placo_robot(self.robot)
 
     def _solve(self, problem, q0, placements, polygon, deadline):
-        from wbik.solvers.placo import placo_configuration, set_placo_configuration
+        from wbik.solvers.placo import placo_configuration
+        from wbik.solvers.placo import set_placo_configuration
 
         robot, placo = self.robot, self.placo
         wrapper = self._thread_state()
@@ -526,7 +534,8 @@ class PinkWholeBody(WholeBodySolver):
     def _solve(self, problem, q0, placements, polygon, deadline):
         import pink
         from pink import tasks as P
-        from pink.limits import ConfigurationLimit, VelocityLimit
+        from pink.limits import ConfigurationLimit
+        from pink.limits import VelocityLimit
 
         model = self.robot.model
         data = model.createData()

@@ -39,18 +39,18 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import OTHER, SOLE, GaitParameters
-from wbik.apps.bioloid.step_wholebody import (
-    BodyPhase,
-    ComRamp,
-    WholeBodyMotion,
-    com_over_phase,
-    current_soles,
-    pelvis_rotation,
-    sole_path,
-    solve_phases,
-    yaw_of,
-)
+from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SOLE
+from wbik.apps.bioloid.gait import GaitParameters
+from wbik.apps.bioloid.step_wholebody import BodyPhase
+from wbik.apps.bioloid.step_wholebody import ComRamp
+from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
+from wbik.apps.bioloid.step_wholebody import com_over_phase
+from wbik.apps.bioloid.step_wholebody import current_soles
+from wbik.apps.bioloid.step_wholebody import pelvis_rotation
+from wbik.apps.bioloid.step_wholebody import sole_path
+from wbik.apps.bioloid.step_wholebody import solve_phases
+from wbik.apps.bioloid.step_wholebody import yaw_of
 from wbik.errors import InvalidConfigurationError
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot

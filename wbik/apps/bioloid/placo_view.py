@@ -33,9 +33,12 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
     """PlaCo's walk of ``steps`` steps as a :class:`wbik.viz.animation.Animation` (see the module
     docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
-    from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE, plan_walk
-    from wbik.solvers.placo import import_placo, placo_configuration
-    from wbik.viz.animation import Animation, Overlays
+    from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE
+    from wbik.apps.bioloid.placo_walk import plan_walk
+    from wbik.solvers.placo import import_placo
+    from wbik.solvers.placo import placo_configuration
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
 
     humanoid, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
     planned_x = [float(step.frame[0, 3]) for step in footsteps]

@@ -28,7 +28,8 @@ import numpy as np
 
 from wbik.errors import RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.robot import Robot, write_cached_urdf
+from wbik.robot import Robot
+from wbik.robot import write_cached_urdf
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
@@ -57,7 +58,8 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
     generator's trajectory: (humanoid, parameters, footsteps, trajectory). Shared by the walk's
     report and its animation (wbik.apps.bioloid.placo_view), so both see the same plan; a
     RobotDescriptionError when PlaCo cannot load the humanoid."""
-    from wbik.solvers.placo import import_placo, placo_robot
+    from wbik.solvers.placo import import_placo
+    from wbik.solvers.placo import placo_robot
 
     placo = import_placo()
     humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))

@@ -49,27 +49,32 @@ from pathlib import Path
 import numpy as np
 
 from wbik.data import data_dir
-from wbik.expectations import ExpectationError, Rule, judge
-from wbik.scenario_schema import (
-    START,
-    Boolean,
-    Key,
-    ListOf,
-    Map,
-    Number,
-    Robot,
-    Text,
-    backend_key,
-    common_keys,
-    default_of,
-    expect_block,
-    from_dataclass,
-    kind_schema,
-    margin_key,
-    time_laws,
-    timing_modes,
-)
-from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
+from wbik.expectations import ExpectationError
+from wbik.expectations import Rule
+from wbik.expectations import judge
+from wbik.scenario_schema import START
+from wbik.scenario_schema import Boolean
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import backend_key
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import default_of
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import from_dataclass
+from wbik.scenario_schema import kind_schema
+from wbik.scenario_schema import margin_key
+from wbik.scenario_schema import time_laws
+from wbik.scenario_schema import timing_modes
+from wbik.scenarios.kinds import KindRun
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import format_entries
+from wbik.scenarios.kinds import start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 
 VELOCITY_TOLERANCE = 1e-9
@@ -175,7 +180,8 @@ def _final_soles(robot, q: np.ndarray) -> dict:
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
     """A sampled motion (wbik.apps.bioloid.gait.SampledMotion) at ``times``: its soles on the ground are
     the support and the contacts of every sample."""
-    from wbik.viz.animation import Animation, Overlays
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
 
     support = tuple(tuple(feet) for feet in motion.support)
     return Animation(motion.robot, np.asarray(times, dtype=float), motion.q,
@@ -236,7 +242,8 @@ def run_step(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.apps.bioloid.behaviours import turn_in_place, walk
+    from wbik.apps.bioloid.behaviours import turn_in_place
+    from wbik.apps.bioloid.behaviours import walk
 
     run = _Behaviours(spec, on_progress)
     angle = float(spec["turn_deg"])  # the kind's own default: 20 deg turning, 0 walking
@@ -352,7 +359,8 @@ def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Kind ``bioloid_half_steps``: the half steps of ``sequence`` one after the other, each judged
     like a whole-body behaviour (``expect`` with the keys of ``WHOLEBODY_RULES``, for each)."""
     from wbik.apps.bioloid.half_steps import half_step_phases
-    from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases
+    from wbik.apps.bioloid.step_wholebody import current_soles
+    from wbik.apps.bioloid.step_wholebody import solve_phases
 
     run = _Behaviours(spec, on_progress)
     robot, gait = run.robot, run.gait
@@ -376,7 +384,8 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     CoM margin, swing-sole clearance to the step edges); ``expect`` has the keys of ``STAIR_RULES``.
     The animation has the samples at their timed knot times; the staircase itself is not drawn
     (the animation carries no scene geometry)."""
-    from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
+    from wbik.apps.bioloid.stairs import Staircase
+    from wbik.apps.bioloid.stairs import simulate_stairs
 
     run = _Behaviours(spec, on_progress)
     margin = run.margin
@@ -406,7 +415,8 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
     """Kind ``bioloid_stance_sensors``: the FSR loads and CoP of the static stance at ``start`` (one
     entry in ``moves``); the animation is that stance, one still sample on both soles."""
     from wbik.apps.bioloid.sensors import stance_loads
-    from wbik.viz.animation import Animation, Overlays
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
 
     run = KindRun(spec, "moves", on_progress)
     robot = run.robot
@@ -429,11 +439,16 @@ def format_stance(report: dict) -> str:
 # -- the schemas -----------------------------------------------------------------------------------
 def bioloid_schema(kind: str) -> Map:
     """The keys of a Bioloid kind's file (see the module docstring)."""
-    from wbik.apps.bioloid.behaviours import turn_in_place, walk
-    from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, time_scale_motion
-    from wbik.apps.bioloid.half_steps import HALF_STEPS, half_step_phases
+    from wbik.apps.bioloid.behaviours import turn_in_place
+    from wbik.apps.bioloid.behaviours import walk
+    from wbik.apps.bioloid.gait import GaitParameters
+    from wbik.apps.bioloid.gait import TimedMotion
+    from wbik.apps.bioloid.gait import time_scale_motion
+    from wbik.apps.bioloid.half_steps import HALF_STEPS
+    from wbik.apps.bioloid.half_steps import half_step_phases
     from wbik.apps.bioloid.placo_walk import placo_walk
-    from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
+    from wbik.apps.bioloid.stairs import Staircase
+    from wbik.apps.bioloid.stairs import simulate_stairs
     from wbik.apps.bioloid.step_faithful import step_forward_faithful
 
     common = common_keys(robot=Key(Robot(only=("bioloid",)), "bioloid"))

@@ -55,26 +55,35 @@ Where we differ from the code, and why:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from collections.abc import Sequence
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.apps.bioloid import sensors
-from wbik.apps.bioloid.gait import OTHER, SIDES, SOLE, GaitParameters, SampledMotion
-from wbik.apps.bioloid.half_steps import HALF_STEP_LIFT, RAMP_INSET, along, half_step_phases, recentre_goal
-from wbik.apps.bioloid.step_wholebody import (
-    BodyPhase,
-    ComRamp,
-    com_over_phase,
-    current_soles,
-    pelvis_rotation,
-    sole_polygon,
-    solve_phases,
-    yaw_of,
-)
-from wbik.errors import InvalidConfigurationError, WbikError
+from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDES
+from wbik.apps.bioloid.gait import SOLE
+from wbik.apps.bioloid.gait import GaitParameters
+from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.half_steps import HALF_STEP_LIFT
+from wbik.apps.bioloid.half_steps import RAMP_INSET
+from wbik.apps.bioloid.half_steps import along
+from wbik.apps.bioloid.half_steps import half_step_phases
+from wbik.apps.bioloid.half_steps import recentre_goal
+from wbik.apps.bioloid.step_wholebody import BodyPhase
+from wbik.apps.bioloid.step_wholebody import ComRamp
+from wbik.apps.bioloid.step_wholebody import com_over_phase
+from wbik.apps.bioloid.step_wholebody import current_soles
+from wbik.apps.bioloid.step_wholebody import pelvis_rotation
+from wbik.apps.bioloid.step_wholebody import sole_polygon
+from wbik.apps.bioloid.step_wholebody import solve_phases
+from wbik.apps.bioloid.step_wholebody import yaw_of
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import WbikError
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

@@ -21,13 +21,21 @@ leg's angles put it. Measured per sample (bioloid.md 4.5):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import ANKLE, HIP, SIDES, SOLE, GaitParameters, SampledMotion, step_forward_phases
-from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang
+from wbik.apps.bioloid.gait import ANKLE
+from wbik.apps.bioloid.gait import HIP
+from wbik.apps.bioloid.gait import SIDES
+from wbik.apps.bioloid.gait import SOLE
+from wbik.apps.bioloid.gait import GaitParameters
+from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.gait import step_forward_phases
+from wbik.apps.bioloid.servo import leg_ang_from_q
+from wbik.apps.bioloid.servo import leg_q_from_ang
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip

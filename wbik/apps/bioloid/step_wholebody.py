@@ -28,21 +28,37 @@ behaviours (:mod:`wbik.apps.bioloid.behaviours`).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from collections.abc import Sequence
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import HIP, OTHER, SIDES, SOLE, GaitParameters, SampledMotion
-from wbik.errors import InvalidConfigurationError, NoQPSolutionError
+from wbik.apps.bioloid.gait import HIP
+from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDES
+from wbik.apps.bioloid.gait import SOLE
+from wbik.apps.bioloid.gait import GaitParameters
+from wbik.apps.bioloid.gait import SampledMotion
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import NoQPSolutionError
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraints import CoMInSupportPolygon, Contact, JointPositionLimits, LockedJoints
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
 from wbik.robot import Robot
-from wbik.robot_packages.bioloid.model import ARM_JOINTS, BioloidFacts
+from wbik.robot_packages.bioloid.model import ARM_JOINTS
+from wbik.robot_packages.bioloid.model import BioloidFacts
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts and swing paths must hold to this (m, rad) at every sample."""

@@ -19,11 +19,18 @@ import pinocchio as pin
 
 from wbik.errors import UnsupportedError
 from wbik.geometry import rotation_angle
-from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RegularizationTask, Task
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import Task
 from wbik.robot import Robot
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody
-from wbik.wholebody.solvers import NO_POLYGON, WholeBodyCandidate, WholeBodySolver
+from wbik.wholebody.solvers import NO_POLYGON
+from wbik.wholebody.solvers import WholeBodyCandidate
+from wbik.wholebody.solvers import WholeBodySolver
 
 LEGS = {"r": ("right_leg", "r_sole", "r_hip"), "l": ("left_leg", "l_sole", "l_hip")}
 

@@ -22,9 +22,14 @@ from functools import lru_cache
 import numpy as np
 import pinocchio as pin
 
-from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
 from wbik.robot import Robot
-from wbik.wholebody.cases import CaseSampler, WholeBodyCase, cached_robot
+from wbik.wholebody.cases import CaseSampler
+from wbik.wholebody.cases import WholeBodyCase
+from wbik.wholebody.cases import cached_robot
 from wbik.wholebody.problem import WholeBody
 
 ROBOT = "bioloid"

@@ -8,18 +8,25 @@ expectations of :mod:`wbik.motion.scenarios`.
 
 from __future__ import annotations
 
-from wbik.apps.golem3.approach import ARM_WITH_LIFT, approach
-from wbik.motion.scenarios import (
-    MoveRun,
-    common_motion_keys,
-    format_report,
-    pose_of,
-    samples_key,
-    solving_keys,
-    vector_of,
-)
-from wbik.scenario_schema import VECTOR3, Either, Key, Map, Vector, kind_schema
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
+from wbik.apps.golem3.approach import ARM_WITH_LIFT
+from wbik.apps.golem3.approach import approach
+from wbik.motion.scenarios import MoveRun
+from wbik.motion.scenarios import common_motion_keys
+from wbik.motion.scenarios import format_report
+from wbik.motion.scenarios import pose_of
+from wbik.motion.scenarios import samples_key
+from wbik.motion.scenarios import solving_keys
+from wbik.motion.scenarios import vector_of
+from wbik.scenario_schema import VECTOR3
+from wbik.scenario_schema import Either
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Vector
+from wbik.scenario_schema import kind_schema
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import start_of
 
 
 def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:

@@ -62,13 +62,25 @@ import time
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError, UnsupportedError
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnsupportedError
 from wbik.geometry import wrap_to_pi
-from wbik.robot_packages.golem3.closed_form import mirror_positions, mirror_rotations, right_arm_coordinates
-from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, RHO, H
-from wbik.solvers.base import Candidate, Solver, evaluate
+from wbik.robot_packages.golem3.closed_form import mirror_positions
+from wbik.robot_packages.golem3.closed_form import mirror_rotations
+from wbik.robot_packages.golem3.closed_form import right_arm_coordinates
+from wbik.robot_packages.golem3.model import L1
+from wbik.robot_packages.golem3.model import L2
+from wbik.robot_packages.golem3.model import L4
+from wbik.robot_packages.golem3.model import L5
+from wbik.robot_packages.golem3.model import L6
+from wbik.robot_packages.golem3.model import RHO
+from wbik.robot_packages.golem3.model import H
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import Solver
+from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IKMethod
-from wbik.targets import Target, as_target
+from wbik.targets import Target
+from wbik.targets import as_target
 
 THESIS_CHECK_TOLERANCE = 1e-3
 """The thesis code's acceptance of a branch: |FK - input| <= this on x, y, z (m), yaw and pitch (rad)."""

@@ -12,30 +12,29 @@ import math
 from collections.abc import Mapping
 
 from wbik.apps.pincher import teleoperation
-from wbik.motion.scenarios import (
-    MOVE_RULES,
-    MoveRun,
-    common_motion_keys,
-    format_report,
-    samples_key,
-    solving_keys,
-    timing_node,
-    vector_of,
-)
-from wbik.scenario_schema import (
-    Either,
-    Key,
-    ListOf,
-    Map,
-    Number,
-    ScenarioError,
-    Text,
-    Variants,
-    Vector,
-    expect_block,
-    kind_schema,
-)
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
+from wbik.motion.scenarios import MOVE_RULES
+from wbik.motion.scenarios import MoveRun
+from wbik.motion.scenarios import common_motion_keys
+from wbik.motion.scenarios import format_report
+from wbik.motion.scenarios import samples_key
+from wbik.motion.scenarios import solving_keys
+from wbik.motion.scenarios import timing_node
+from wbik.motion.scenarios import vector_of
+from wbik.scenario_schema import Either
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import Variants
+from wbik.scenario_schema import Vector
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import kind_schema
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import start_of
 
 
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:

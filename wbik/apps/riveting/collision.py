@@ -29,13 +29,15 @@ bounds (flagged).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.riveting.scene import Hole, Scene
+from wbik.apps.riveting.scene import Hole
+from wbik.apps.riveting.scene import Scene
 from wbik.robot import Robot
 
 TILE_HALF = 0.008

@@ -27,7 +27,8 @@ operations: on the full default run it charged 13.25 s of planning where the wal
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 
@@ -82,7 +83,9 @@ def calibrate(repeats: int = 200) -> dict[str, float]:
 
     import wbik
     from wbik.apps.riveting.collision import CollisionModel
-    from wbik.apps.riveting.moves import Limits, sample_times, timed_move
+    from wbik.apps.riveting.moves import Limits
+    from wbik.apps.riveting.moves import sample_times
+    from wbik.apps.riveting.moves import timed_move
     from wbik.apps.riveting.plan import Insertion
     from wbik.apps.riveting.scene import build_scene
 

@@ -9,12 +9,15 @@ A dwell holds one configuration (load_rivet, trigger_rivet, the thesis's sleep).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from dataclasses import replace
 
 import numpy as np
 
 from wbik.motion.path import JointPath
-from wbik.motion.timing import Piece, TimedPath, time_scale
+from wbik.motion.timing import Piece
+from wbik.motion.timing import TimedPath
+from wbik.motion.timing import time_scale
 from wbik.robot import Chain
 
 

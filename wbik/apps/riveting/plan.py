@@ -11,14 +11,17 @@ metres outside the opening. The seed gives neither number; ours: standoff 20 mm,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.apps.riveting.moves import Limits, Move
-from wbik.apps.riveting.scene import Hole, Scene
+from wbik.apps.riveting.moves import Limits
+from wbik.apps.riveting.moves import Move
+from wbik.apps.riveting.scene import Hole
+from wbik.apps.riveting.scene import Scene
 from wbik.robot import Robot
 
 TRIGGER = "trigger_rivet"

@@ -19,13 +19,21 @@ import numpy as np
 
 import wbik
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.apps.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
+from wbik.apps.riveting.cycle import NoiseModel
+from wbik.apps.riveting.cycle import RunConfig
+from wbik.apps.riveting.cycle import RunResult
+from wbik.apps.riveting.cycle import simulate
 from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.scene import Scene, build_scene
+from wbik.apps.riveting.scene import Scene
+from wbik.apps.riveting.scene import build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
-from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
+from wbik.expectations import ExpectationError
+from wbik.expectations import Rule
+from wbik.expectations import evaluate
+from wbik.expectations import format_checks
+from wbik.expectations import verdict
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
 THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}

@@ -22,32 +22,36 @@ from dataclasses import fields
 
 import numpy as np
 
-from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
-from wbik.errors import WbikError, did_you_mean
-from wbik.scenario_schema import (
-    NON_NEGATIVE,
-    POSITIVE,
-    VECTOR3,
-    Context,
-    Either,
-    Key,
-    ListOf,
-    Map,
-    Number,
-    Refused,
-    Robot,
-    ScenarioError,
-    Text,
-    UnknownExpectationKeyError,
-    Variants,
-    Vector,
-    backend_key,
-    common_keys,
-    expect_block,
-    from_dataclass,
-    time_laws,
-)
-from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport
+from wbik.apps.riveting.report import RIVETING_RULES
+from wbik.apps.riveting.report import format_text
+from wbik.apps.riveting.report import run_task
+from wbik.apps.riveting.report import write_report
+from wbik.errors import WbikError
+from wbik.errors import did_you_mean
+from wbik.scenario_schema import NON_NEGATIVE
+from wbik.scenario_schema import POSITIVE
+from wbik.scenario_schema import VECTOR3
+from wbik.scenario_schema import Context
+from wbik.scenario_schema import Either
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Refused
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import UnknownExpectationKeyError
+from wbik.scenario_schema import Variants
+from wbik.scenario_schema import Vector
+from wbik.scenario_schema import backend_key
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import from_dataclass
+from wbik.scenario_schema import time_laws
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
 
 __all__ = ["SCENARIO_KINDS", "format_text", "riveting_animation", "riveting_schema", "run_riveting"]
 
@@ -104,7 +108,8 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
 
 def riveting_schema() -> Map:
     """The keys of a ur5_riveting file (see the module docstring and wbik.apps.riveting.report)."""
-    from wbik.apps.riveting.cycle import NoiseModel, RunConfig
+    from wbik.apps.riveting.cycle import NoiseModel
+    from wbik.apps.riveting.cycle import RunConfig
     from wbik.apps.riveting.plan import Insertion
 
     run = {item.name: item.default for item in fields(RunConfig)}

@@ -18,7 +18,8 @@ they are modelled for distance queries.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field
 
 import numpy as np
 import pinocchio as pin

@@ -25,7 +25,8 @@ A wrongly identified hole therefore shows up as an error of a hole spacing or mo
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
+from dataclasses import dataclass
 
 import numpy as np
 

@@ -31,9 +31,15 @@ import pinocchio as pin
 
 import wbik
 from wbik.apps.riveting.cost import PlanningCost
-from wbik.apps.riveting.moves import Move, dwell, sample_times, timed_move
-from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
-from wbik.apps.riveting.scene import FACE_NORMALS, Hole
+from wbik.apps.riveting.moves import Move
+from wbik.apps.riveting.moves import dwell
+from wbik.apps.riveting.moves import sample_times
+from wbik.apps.riveting.moves import timed_move
+from wbik.apps.riveting.plan import TRIGGER
+from wbik.apps.riveting.plan import CyclePlan
+from wbik.apps.riveting.plan import Planner
+from wbik.apps.riveting.scene import FACE_NORMALS
+from wbik.apps.riveting.scene import Hole
 
 ROLL_CANDIDATES = 12
 TEACH_CLEARANCE = 0.015

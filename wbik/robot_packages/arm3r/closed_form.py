@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from wbik.robot import Chain
 from wbik.robot_packages.arm3r.model import Arm3RFacts
-from wbik.solvers.analytic.yaw_planar import Yaw2RGeometry, Yaw2RPosition
+from wbik.solvers.analytic.yaw_planar import Yaw2RGeometry
+from wbik.solvers.analytic.yaw_planar import Yaw2RPosition
 
 
 class Arm3RPosition(Yaw2RPosition):

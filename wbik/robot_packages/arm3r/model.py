@@ -15,8 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.dh import DHJoint, DHTable
-from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.dh import DHJoint
+from wbik.dh import DHTable
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages import package_file
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)

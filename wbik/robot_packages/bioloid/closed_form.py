@@ -34,20 +34,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.errors import InvalidTargetError
-from wbik.geometry import rot_x, rot_y, rot_z
-from wbik.robot_packages.bioloid.model import (
-    ALPHA,
-    ARM_JOINTS,
-    L7,
-    L8,
-    LEG_JOINTS,
-    LF,
-    MIRROR_SIGN,
-    BioloidFacts,
-    arm_lengths,
-)
+from wbik.geometry import rot_x
+from wbik.geometry import rot_y
+from wbik.geometry import rot_z
+from wbik.robot_packages.bioloid.model import ALPHA
+from wbik.robot_packages.bioloid.model import ARM_JOINTS
+from wbik.robot_packages.bioloid.model import L7
+from wbik.robot_packages.bioloid.model import L8
+from wbik.robot_packages.bioloid.model import LEG_JOINTS
+from wbik.robot_packages.bioloid.model import LF
+from wbik.robot_packages.bioloid.model import MIRROR_SIGN
+from wbik.robot_packages.bioloid.model import BioloidFacts
+from wbik.robot_packages.bioloid.model import arm_lengths
 from wbik.solvers.analytic import ClosedForm
-from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
+from wbik.solvers.analytic.subproblems import clamped_acos
+from wbik.solvers.analytic.subproblems import clamped_cosine
 
 ARM_MIRROR = np.array([MIRROR_SIGN[joint] for joint in ARM_JOINTS])
 LEG_MIRROR = np.array([MIRROR_SIGN[joint] for joint in LEG_JOINTS])

@@ -44,7 +44,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages import package_file
 
 # --- lengths from the seed (m) -------------------------------------------------------------------
@@ -399,7 +401,8 @@ def collision_primitives(robot: Robot | None = None) -> list:
     capsules from joint to joint for the thighs, shanks, upper arms and forearms (to the hand tip),
     and the foot plate as a box whose bottom is the sole. ASSUMPTION: radii 17 mm (legs, a servo's
     half width), 15 mm (upper arms), 12.5 mm (forearms)."""
-    from wbik.collision import box, capsule
+    from wbik.collision import box
+    from wbik.collision import capsule
 
     shapes = [
         box("trunk", "chest", (0.07, 0.10, 0.10), (-0.010, 0.0, -0.020)),

@@ -18,7 +18,8 @@ import numpy as np
 
 from wbik.errors import InvalidConfigurationError
 from wbik.robot import Chain
-from wbik.robot_packages.golem3.model import LEFT_JOINTS, Golem3Facts
+from wbik.robot_packages.golem3.model import LEFT_JOINTS
+from wbik.robot_packages.golem3.model import Golem3Facts
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic import stacked_planar as family
 

@@ -40,8 +40,15 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.dh import DHJoint, joint_xml, link_xml, rot_z, trans, urdf_document
-from wbik.robot import ChainSpec, Robot, model_from_urdf_text
+from wbik.dh import DHJoint
+from wbik.dh import joint_xml
+from wbik.dh import link_xml
+from wbik.dh import rot_z
+from wbik.dh import trans
+from wbik.dh import urdf_document
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.robot import model_from_urdf_text
 from wbik.robot_packages import package_file
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 
@@ -265,7 +272,9 @@ def collision_primitives(robot: Robot | None = None) -> list:
     """Collision shapes (wbik.collision): capsules from joint to joint along each arm link, the chest
     and torso column as capsules, a box for the mobile base, a sphere for the head. ASSUMPTION (the
     thesis gives no link volumes): radii 0.045..0.06 m on the arms, 0.11 m torso, 0.12 m head."""
-    from wbik.collision import box, capsule, sphere
+    from wbik.collision import box
+    from wbik.collision import capsule
+    from wbik.collision import sphere
 
     shapes = [
         box("base", "base_link", (0.55, 0.55, 0.35), (0.0, 0.0, 0.175)),

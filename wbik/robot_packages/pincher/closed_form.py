@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.robot_packages.pincher.model import BASE_HEIGHT, LINK, WRIST_TO_TOOL
+from wbik.robot_packages.pincher.model import BASE_HEIGHT
+from wbik.robot_packages.pincher.model import LINK
+from wbik.robot_packages.pincher.model import WRIST_TO_TOOL
 from wbik.solvers.analytic import yaw_planar as family
 
 PINCHER = family.PitchArmGeometry(h=BASE_HEIGHT, a=LINK, b=LINK, t=WRIST_TO_TOOL)

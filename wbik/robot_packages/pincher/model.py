@@ -16,8 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.dh import DHJoint, DHTable
-from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.dh import DHJoint
+from wbik.dh import DHTable
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages import package_file
 
 BASE_HEIGHT = 0.137

@@ -11,8 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.models.erd import package_dirs, urdf_path
-from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.models.erd import package_dirs
+from wbik.models.erd import urdf_path
+from wbik.robot import ChainSpec
+from wbik.robot import Robot
+from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages import package_file
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",

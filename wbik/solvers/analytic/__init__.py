@@ -35,17 +35,23 @@ import importlib
 import math
 import time
 from collections.abc import Iterable
-from operator import itemgetter, mul
+from operator import itemgetter
+from operator import mul
 from typing import NamedTuple
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.errors import InvalidConfigurationError
+from wbik.errors import UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.base import Candidate, IKResult, Solver, evaluate
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import IKResult
+from wbik.solvers.base import Solver
+from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IKMethod
-from wbik.targets import Target, as_target
+from wbik.targets import Target
+from wbik.targets import as_target
 
 TWO_PI = 2.0 * math.pi
 LIMIT_TOLERANCE = 1e-9
@@ -493,7 +499,8 @@ class AnalyticSolver(Solver):
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """Vectorised: one closed-form evaluation and one batched FK check for the whole batch;
         per-pose time = closed-form time / B (the check is not counted, as in ``solve``)."""
-        from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
+        from wbik.solvers.analytic.batch import batch_targets
+        from wbik.solvers.analytic.batch import evaluate_batch
 
         positions, rotations = batch_targets(targets, self)
         count = len(positions)

@@ -24,15 +24,15 @@ import pinocchio as pin
 from wbik.errors import UnsupportedError
 from wbik.geometry import batch_log3
 from wbik.robot import Chain
-from wbik.solvers.base import (
-    CLIPPED_REASON,
-    IKResult,
-    Tolerances,
-    clip_to_limits,
-    fk_check_reason,
-    invalid_joints_reason,
-)
-from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, as_target
+from wbik.solvers.base import CLIPPED_REASON
+from wbik.solvers.base import IKResult
+from wbik.solvers.base import Tolerances
+from wbik.solvers.base import clip_to_limits
+from wbik.solvers.base import fk_check_reason
+from wbik.solvers.base import invalid_joints_reason
+from wbik.targets import MAX_POSITION
+from wbik.targets import ROTATION_TOLERANCE
+from wbik.targets import as_target
 
 CLIP_TOLERANCE = 1e-9
 """As the shared check: a joint this far outside its limits is clipped without a reason."""

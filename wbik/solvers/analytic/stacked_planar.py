@@ -35,10 +35,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.geometry import rot_x, rot_y, rot_z, wrap_to_pi
-from wbik.solvers.analytic import LIMIT_TOLERANCE, TWO_PI
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r, planar_2r_one
-from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, keep_better
+from wbik.geometry import rot_x
+from wbik.geometry import rot_y
+from wbik.geometry import rot_z
+from wbik.geometry import wrap_to_pi
+from wbik.solvers.analytic import LIMIT_TOLERANCE
+from wbik.solvers.analytic import TWO_PI
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
+from wbik.solvers.analytic.subproblems import clamped_cosine
+from wbik.solvers.analytic.subproblems import planar_2r
+from wbik.solvers.analytic.subproblems import planar_2r_one
+from wbik.solvers.levenberg_marquardt import JointBounds
+from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import keep_better
 
 GIMBAL_LOCK = 1e-9
 """|cos(beta)| below which alpha (t6) is free: the Euler angles are coupled there. It is read as

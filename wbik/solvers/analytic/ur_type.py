@@ -28,14 +28,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.solvers.analytic import TWO_PI, ClosedForm
-from wbik.solvers.analytic.subproblems import (
-    COSINE_TOLERANCE,
-    clamped_acos,
-    clamped_cosine,
-    planar_2r_elbow,
-    planar_2r_one,
-)
+from wbik.solvers.analytic import TWO_PI
+from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
+from wbik.solvers.analytic.subproblems import clamped_acos
+from wbik.solvers.analytic.subproblems import clamped_cosine
+from wbik.solvers.analytic.subproblems import planar_2r_elbow
+from wbik.solvers.analytic.subproblems import planar_2r_one
 
 WRIST_SINGULARITY = 1e-8
 """|sin q5| below which q6 is free (ur_kinematics' threshold). |sin q5| is read from the rotation, where

@@ -25,8 +25,12 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
-from wbik.solvers.analytic import LIMIT_TOLERANCE, ClosedForm, wrap_into_limits
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_acos, planar_2r
+from wbik.solvers.analytic import LIMIT_TOLERANCE
+from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
+from wbik.solvers.analytic.subproblems import clamped_acos
+from wbik.solvers.analytic.subproblems import planar_2r
 
 AXIS_RELATIVE_TOLERANCE = 1e-9
 """Horizontal distance below which a target counts as on the base axis (q1 free), relative to the arm's
