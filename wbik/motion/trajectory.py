@@ -46,6 +46,7 @@ class Trajectory:
 
     @property
     def duration(self) -> float:
+        """Seconds from the first point to the last."""
         return float(self.times[-1] - self.times[0])
 
     @property

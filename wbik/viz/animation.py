@@ -89,6 +89,7 @@ class Animation:
 
     @property
     def duration(self) -> float:
+        """Seconds from the first sample to the last (0 for a still picture)."""
         return float(self.times[-1] - self.times[0])
 
     # -- building ---------------------------------------------------------------------------------

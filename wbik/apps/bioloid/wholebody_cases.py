@@ -154,8 +154,7 @@ def reach_two_feet(rng: np.random.Generator, index: int) -> WholeBodyCase:
 
 def reach_one_foot(rng: np.random.Generator, index: int) -> WholeBodyCase:
     robot = cached_robot(ROBOT)
-    side = _random_side(rng)
-    hand = _random_side(rng)
+    side, hand = _random_side(rng), _random_side(rng)  # stance side, then the reaching hand
     q0 = standing_on(side, 0.02).copy()
     target = _random_arm_target(robot, q0, rng, hand)
     swing = _sole(_other(side))
