@@ -96,10 +96,10 @@ class Scene:
         return 0.5 * self.workpiece_size
 
     def hole(self, name: str) -> Hole:
-        for hole in self.holes:
-            if hole.name == name:
-                return hole
-        raise InvalidConfigurationError(f"no hole {name!r}; holes are h0..h{len(self.holes) - 1}")
+        found = next((hole for hole in self.holes if hole.name == name), None)
+        if found is None:
+            raise InvalidConfigurationError(f"no hole {name!r}; holes are h0..h{len(self.holes) - 1}")
+        return found
 
     def faces(self) -> list[str]:
         return list(dict.fromkeys(hole.face for hole in self.holes))
