@@ -170,11 +170,8 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
     blocks.append(summary_table(summaries, [
         *SOLVED_COLUMNS,
         *TIME_COLUMNS,
-        ("max ms (solved)", "time_solved_max_ms"),
-        ("median ms (not solved)", "time_unsolved_median_ms"),
-        ("p95 ms (not solved)", "time_unsolved_p95_ms"),
-        ("max ms (not solved)", "time_unsolved_max_ms"),
-        ("mean ms (not solved)", "time_unsolved_mean_ms"),
+        *time_columns("solved", "max"),
+        *time_columns("unsolved", "median", "p95", "max", "mean"),
         ("median iterations", "iterations_median"),
         ("exceptions", "raised"),
         ("re-run (CPU starved)", lambda s: s.get("rerun", 0)),
@@ -216,9 +213,17 @@ def _case_blocks(study: Study, analysis: dict) -> list[Block]:
 SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved")]
 """The first columns of every case's table (:func:`summary_table`): solved of all, and in %."""
 
-TIME_COLUMNS = [("median ms (all calls)", "time_all_median_ms"),
-                ("median ms (solved)", "time_solved_median_ms"),
-                ("p95 ms (solved)", "time_solved_p95_ms")]
+_CALLS = {"all": "all calls", "solved": "solved", "unsolved": "not solved"}
+
+
+def time_columns(calls: str, *statistics: str) -> list[tuple[str, str]]:
+    """Columns of the time per call (ms) of ``calls`` ("all", "solved" or "unsolved"), one per
+    statistic of its summary ("median", "p95", "max", "mean"): ``("p95 ms (not solved)",
+    "time_unsolved_p95_ms")``."""
+    return [(f"{statistic} ms ({_CALLS[calls]})", f"time_{calls}_{statistic}_ms") for statistic in statistics]
+
+
+TIME_COLUMNS = [*time_columns("all", "median"), *time_columns("solved", "median", "p95")]
 """The first time columns of every case's table: the median time of all calls, then the median and
 95th percentile of the solved ones (ms per call)."""
 

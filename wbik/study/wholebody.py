@@ -385,6 +385,7 @@ def case_blocks(study, analysis: dict) -> list:
     from wbik.study.report import significance_blocks
     from wbik.study.report import status_blocks
     from wbik.study.report import summary_table
+    from wbik.study.report import time_columns
     from wbik.wholebody.cases import CASE_REGISTRY
 
     case = analysis["case"]
@@ -442,8 +443,7 @@ def case_blocks(study, analysis: dict) -> list:
     blocks.append(Block("h3", "Time"))
     blocks.append(summary_table(summaries, [
         *TIME_COLUMNS,
-        ("median ms (not solved)", "time_unsolved_median_ms"),
-        ("max ms (not solved)", "time_unsolved_max_ms"),
+        *time_columns("unsolved", "median", "max"),
         ("median iterations (all calls)", "iterations_median"),
         ("exceptions", "raised"),
     ]))
