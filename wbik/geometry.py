@@ -18,6 +18,8 @@ Conventions (one per quantity, used by every solver, the QP tasks, the study and
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -34,6 +36,18 @@ def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
     """Largest joint difference |q_i - other_i|, revolute joints taken modulo 2 pi."""
     difference = np.asarray(q, dtype=float) - other
     return float(np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference))))
+
+
+_TWO_PI = 2.0 * math.pi
+
+
+def add_wrapped_squares(total: float, a: float, a_ref: float, b: float, b_ref: float, c: float,
+                        c_ref: float) -> float:
+    """total + e_a^2 + e_b^2 + e_c^2, added in that order, e_x = remainder(x - x_ref, 2 pi) (plain
+    floats): three joints' share of a closed-form branch's squared distance to a reference."""
+    remainder, turn = math.remainder, _TWO_PI
+    e_a, e_b, e_c = remainder(a - a_ref, turn), remainder(b - b_ref, turn), remainder(c - c_ref, turn)
+    return total + e_a * e_a + e_b * e_b + e_c * e_c
 
 
 # --- elementary rotations ----------------------------------------------------------------------------

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.geometry import add_wrapped_squares
 from wbik.geometry import rot_x
 from wbik.geometry import rot_y
 from wbik.geometry import rot_z
@@ -213,9 +214,8 @@ def pose_branches_one(g: StackedPlanarGeometry, position, rotation, rolls,
             l3 = l4 * sin4 + l6 * cb - l5 * sb
             for t1, t2 in planar_2r_one(l3 * sg - y, x - l3 * cg, l1, l2):
                 t3 = gamma - (t1 + t2)
-                e1, e2 = remainder(t1 - ref1, TWO_PI), remainder(t2 - ref2, TWO_PI)
-                e3 = remainder(t3 - ref3, TWO_PI)
-                branches.append((bound + e1 * e1 + e2 * e2 + e3 * e3, [t1, t2, t3, t4, t5, alpha]))
+                branches.append((add_wrapped_squares(bound, t1, ref1, t2, ref2, t3, ref3),
+                                 [t1, t2, t3, t4, t5, alpha]))
     return branches
 
 

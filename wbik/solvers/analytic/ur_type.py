@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.geometry import add_wrapped_squares
 from wbik.solvers.analytic import TWO_PI
 from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
@@ -237,9 +238,8 @@ def branches_one(geometry: URGeometry, position, rotation, reference,
                 q23 = q2 + q3
                 c23, s23 = cos(q23), sin(q23)
                 q4 = atan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23)
-                e2, e3 = remainder(q2 - ref2, TWO_PI), remainder(q3 - ref3, TWO_PI)
-                e4 = remainder(q4 - ref4, TWO_PI)
-                branches.append((bound5 + e2 * e2 + e3 * e3 + e4 * e4, [q1, q2, q3, q4, q5, q6]))
+                branches.append((add_wrapped_squares(bound5, q2, ref2, q3, ref3, q4, ref4),
+                                 [q1, q2, q3, q4, q5, q6]))
     return branches
 
 
