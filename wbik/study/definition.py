@@ -511,23 +511,20 @@ def check_schema(methods, cases, source: str) -> None:
     from wbik.solvers.method_registry import solver_options
     from wbik.wholebody.methods import wholebody_solver_options
 
+    study_settings = {"timeout_s", "tolerances", "seed"}  # every method takes these from the study
     wholebody = bool(cases) and all(case.target == "wholebody" for case in cases)
     for index, spec in enumerate(methods):
         try:
             if wholebody or spec.method not in chain_methods():  # whole-body methods check their own options
-                accepted = wholebody_solver_options(spec.method) | {"timeout_s", "tolerances", "seed"}
+                accepted = wholebody_solver_options(spec.method) | study_settings
             else:
                 accepted = solver_options(spec.method)
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
-        if accepted is None:
-            continue
-        allowed = sorted(accepted - {"timeout_s", "tolerances", "seed"})
-        unknown = sorted(set(spec.options) - accepted)
-        if unknown:
-            raise StudyDefinitionError(
-                f"{source}: methods[{index}] ({spec.label}).options has unknown option(s) {unknown} for "
-                f"method {spec.method!r}; its options: {', '.join(allowed) or '(none)'}")
+        if accepted is not None:
+            _no_unknown_keys(spec.options, accepted, accepted - study_settings,
+                             f"{source}: methods[{index}] ({spec.label}).options has unknown option(s)",
+                             f"method {spec.method!r}; its options")
     for case in cases:
         path = Path(case.robot).expanduser()
         if case.robot not in robot_entries() and not path.is_file():
@@ -535,11 +532,17 @@ def check_schema(methods, cases, source: str) -> None:
                 f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
                 f"({', '.join(robot_entries())}) nor an existing URDF file")
         accepted = builder_parameters(case.robot)
-        unknown = sorted(set(case.robot_params) - accepted)
-        if unknown:
-            raise StudyDefinitionError(
-                f"{source}: case {case.name!r}: robot_params has unknown key(s) {unknown} for robot "
-                f"{case.robot!r}; its parameters: {', '.join(sorted(accepted)) or '(none)'}")
+        _no_unknown_keys(case.robot_params, accepted, accepted,
+                         f"{source}: case {case.name!r}: robot_params has unknown key(s)",
+                         f"robot {case.robot!r}; its parameters")
+
+
+def _no_unknown_keys(given, accepted: set[str], listed: set[str], what: str, whose: str) -> None:
+    """A StudyDefinitionError when ``given`` has keys ``accepted`` lacks: "{what} [the keys] for
+    {whose}: [``listed``, sorted]"."""
+    unknown = sorted(set(given) - accepted)
+    if unknown:
+        raise StudyDefinitionError(f"{what} {unknown} for {whose}: {', '.join(sorted(listed)) or '(none)'}")
 
 
 def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
