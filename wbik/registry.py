@@ -62,10 +62,11 @@ class DeclaredRegistry(Generic[Entry]):
     ``what``: what an entry is, for messages ("whole-body case sampler"). ``attribute``: the tuple
     each listed module declares. ``modules``: the listed modules (the list itself is kept, so
     :meth:`register_module` appends to the caller's list). ``listed_in``: where ``modules`` is
-    defined, for messages. ``unknown``: the error for a name nobody declares, given (name, known
-    names). ``error`` / ``import_error``: the error types raised for a clash or a module declaring
-    nothing / for a listed module that cannot be imported (a registry's own subclasses, so callers
-    can catch its errors alone).
+    defined, for messages. ``unknown``: the error for a name nobody declares, made from (name, known
+    names): an :class:`~wbik.errors.UnknownNameError` subclass, or a function. ``error`` /
+    ``import_error``: the error types raised for a clash or a module declaring nothing / for a
+    listed module that cannot be imported (a registry's own subclasses, so callers can catch its
+    errors alone).
     """
 
     def __init__(

@@ -66,7 +66,7 @@ class IKMethod:
 
 IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
-    unknown=lambda name, known: UnknownMethodError(name, known),
+    unknown=UnknownMethodError,
 )
 
 register_method = IK_METHOD_REGISTRY.register

@@ -57,7 +57,7 @@ class WholeBodyMethod:
 
 WHOLEBODY_METHOD_REGISTRY: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
     "whole-body method", "WHOLEBODY_METHODS", METHOD_MODULES, "wbik.wholebody.methods.METHOD_MODULES",
-    WholeBodyMethod, unknown=lambda name, known: UnknownMethodError(name, known),
+    WholeBodyMethod, unknown=UnknownMethodError,
 )
 
 
