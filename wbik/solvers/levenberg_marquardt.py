@@ -141,11 +141,16 @@ class LevenbergMarquardt:
         return inside
 
     def _capped(self, step: np.ndarray) -> np.ndarray:
-        if self.max_step is not None:
+        """A step (n,), or each row of steps (B, n), scaled down to a largest joint change of at most
+        ``max_step``. One step is tested as a float (numpy's per-call cost is most of the time here)."""
+        if self.max_step is None:
+            return step
+        if step.ndim == 1:
             longest = float(np.abs(step).max())
-            if longest > self.max_step:
-                return step * (self.max_step / longest)
-        return step
+            return step * (self.max_step / longest) if longest > self.max_step else step
+        longest = np.abs(step).max(axis=1)
+        scale = np.where(longest > self.max_step, self.max_step / np.maximum(longest, 1e-300), 1.0)
+        return step * scale[:, None]
 
     @staticmethod
     def workspace(rows: int, columns: int) -> Workspace:
@@ -182,25 +187,18 @@ class LevenbergMarquardt:
         """:meth:`trial` for J (B, m, n), e (B, m), costs and base dampings (B,) and q (B, n). A frozen
         joint's column of J is zeroed: its step is 0 and the free joints solve the reduced system."""
         damping = self.damping(cost, base)
-        step = self._capped_batch(_damped_steps(jacobian, error, damping))
+        step = self._capped(_damped_steps(jacobian, error, damping))
         trial = q + step
         inside = clip_to_limits(trial, bounds.lower, bounds.upper)
         if inside.tobytes() != trial.tobytes():
             blocked = bounds.blocked(q, inside)
             rows = np.flatnonzero(blocked.any(axis=1))
             if rows.size:  # re-solve those rows only, their frozen columns zeroed
-                step[rows] = self._capped_batch(_damped_steps(jacobian[rows] * ~blocked[rows, None, :],
-                                                              error[rows], damping[rows]))
+                step[rows] = self._capped(_damped_steps(jacobian[rows] * ~blocked[rows, None, :],
+                                                        error[rows], damping[rows]))
                 trial = q + step
             inside = bounds.project(trial)
         return inside
-
-    def _capped_batch(self, step: np.ndarray) -> np.ndarray:
-        if self.max_step is not None:
-            longest = np.abs(step).max(axis=1)
-            scale = np.where(longest > self.max_step, self.max_step / np.maximum(longest, 1e-300), 1.0)
-            return step * scale[:, None]
-        return step
 
     def update_batch(self, accepted: np.ndarray, base: np.ndarray, cost: np.ndarray, best: np.ndarray,
                      since: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
