@@ -429,6 +429,17 @@ class BoundedLMSolver(Solver):
             ok &= np.einsum("bi,bi->b", error[:, 3:], error[:, 3:]) <= (0.5 * self.tolerances.rotation) ** 2
         return ok
 
+    def _keep_better_trials(self, inside: np.ndarray, goal_position: np.ndarray,
+                            goal_rotation: np.ndarray | None, cost: np.ndarray, q: np.ndarray,
+                            error: np.ndarray, transposed: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The batched paths' accept step: the trials ``inside`` (B, n) evaluated on the vectorised
+        residual, each row keeping the trial where it lowers the cost (:func:`keep_better`). Returns
+        (accepted (B,), cost, q, error, J^T) after the step."""
+        trial_error, trial_transposed = self._vectorised.evaluate(inside, goal_position, goal_rotation)
+        accepted, cost, (q, error, transposed) = keep_better(
+            batch_cost(trial_error), cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
+        return accepted, cost, q, error, transposed
+
     def _solve_rows(self, targets: list[Target], q0: np.ndarray, results: list, slots: list[int]) -> None:
         """Targets of one kind, one row each, advanced together; answers written to results[slots].
 
@@ -475,10 +486,8 @@ class BoundedLMSolver(Solver):
             goal_positions = positions[rows]
             goal_rotations = None if rotations is None else rotations[rows]
             inside = policy.trial_batch(np.swapaxes(transposed, 1, 2), error, cost, damping, q, bounds)
-            trial_error, trial_transposed = kinematics.evaluate(inside, goal_positions, goal_rotations)
-            accepted, cost, (q, error, transposed) = keep_better(
-                batch_cost(trial_error), cost, (inside, q), (trial_error, error),
-                (trial_transposed, transposed))
+            accepted, cost, q, error, transposed = self._keep_better_trials(
+                inside, goal_positions, goal_rotations, cost, q, error, transposed)
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
             spent[rows] += 1
             age += 1
@@ -583,10 +592,8 @@ class BoundedLMSolver(Solver):
             if fresh is not None:
                 inside[fresh] = draws.take(fresh.size)
                 cost[fresh] = math.inf
-            trial_error, trial_transposed = kinematics.evaluate(inside, goal_position, goal_rotation)
-            accepted, cost, (q, error, transposed) = keep_better(
-                batch_cost(trial_error), cost, (inside, q), (trial_error, error),
-                (trial_transposed, transposed))
+            accepted, cost, q, error, transposed = self._keep_better_trials(
+                inside, goal_position, goal_rotation, cost, q, error, transposed)
             damping, best_cost, since_progress, stalled = policy.update_batch(accepted, damping, cost,
                                                                               best_cost, since_progress)
             age += 1
