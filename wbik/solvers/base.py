@@ -212,7 +212,32 @@ class PerThreadState:
         return None
 
 
-class Solver(PerThreadState):
+class IterationBudget:
+    """The iteration budget of a method whose loop is ours (``iteration_cost_s`` set): ``max_iterations``
+    if given, else the iterations that cost about ``timeout_s`` (or ``default_budget_s`` without one)
+    on the machine the costs were measured on. The owner sets ``name`` and ``timeout_s``."""
+
+    iteration_cost_s: float | None = None
+    """Ours: the time one iteration costs (s), measured on the reference machine (the README says which);
+    it turns a time budget into an iteration budget. None: a wall-clock method."""
+    default_budget_s: float = DEFAULT_TIMEOUT_S
+    """Ours: the time the default iteration budget is equivalent to."""
+
+    @classmethod
+    def iterations_for(cls, timeout_s: float) -> int:
+        """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
+        if cls.iteration_cost_s is None:
+            raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
+        return iterations_costing(timeout_s, cls.iteration_cost_s)
+
+    def _iteration_budget(self, max_iterations: int | None) -> int:
+        """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or ``default_budget_s``."""
+        if max_iterations is None:
+            return self.iterations_for(self.timeout_s or self.default_budget_s)
+        return check_count("max_iterations", max_iterations, InvalidBudgetError)
+
+
+class Solver(PerThreadState, IterationBudget):
     """Base class of every IK method on one chain of one robot.
 
     Subclasses set ``name`` and implement ``_solve``; they should stop at ``deadline`` (a
@@ -239,11 +264,6 @@ class Solver(PerThreadState):
     pose_only_because = ""
     """Why a method that takes full poses only (``supports_position_only = False``) does: the end of
     its refusal message (what it lacks, what to use instead)."""
-    iteration_cost_s: float | None = None
-    """Ours: the time one iteration costs (s), measured on the reference machine (the README says which);
-    it turns a time budget into an iteration budget. None: a wall-clock method."""
-    default_budget_s: float = DEFAULT_TIMEOUT_S
-    """Ours: the time the default iteration budget is equivalent to."""
     budgeted: bool = True
     """False for closed forms: a fixed amount of work per call, no budget of any kind applies."""
 
@@ -261,19 +281,6 @@ class Solver(PerThreadState):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.robot.name}.{self.chain.name})"
-
-    @classmethod
-    def iterations_for(cls, timeout_s: float) -> int:
-        """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
-        if cls.iteration_cost_s is None:
-            raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
-        return iterations_costing(timeout_s, cls.iteration_cost_s)
-
-    def _iteration_budget(self, max_iterations: int | None) -> int:
-        """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` (default 5 ms)."""
-        if max_iterations is None:
-            return self.iterations_for(self.timeout_s or self.default_budget_s)
-        return check_count("max_iterations", max_iterations, InvalidBudgetError)
 
     @property
     def budget(self) -> str:

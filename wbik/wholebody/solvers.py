@@ -38,7 +38,6 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidBudgetError
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.geometry import rotation_angle
@@ -53,12 +52,11 @@ from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
 from wbik.solvers.base import Candidate
+from wbik.solvers.base import IterationBudget
 from wbik.solvers.base import PerThreadState
 from wbik.solvers.base import Tolerances
 from wbik.solvers.base import checked_tolerances
-from wbik.solvers.base import iterations_costing
 from wbik.validation import check_budget
-from wbik.validation import check_count
 from wbik.validation import check_seed
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody
@@ -75,7 +73,7 @@ WholeBodyCandidate = Candidate
 """What a whole-body method found, before the shared check (the chain solvers' Candidate)."""
 
 
-class WholeBodySolver(PerThreadState):
+class WholeBodySolver(PerThreadState, IterationBudget):
     """Base class of the whole-body methods (see the module docstring for budgets)."""
 
     name = "base"
@@ -98,20 +96,12 @@ class WholeBodySolver(PerThreadState):
         self.robot = robot
         self.tolerances = checked_tolerances(tolerances)
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
-        if max_iterations is None:
-            self.max_iterations = self.iterations_for(self.timeout_s or self.default_budget_s)
-        else:
-            self.max_iterations = check_count("max_iterations", max_iterations, InvalidBudgetError)
+        self.max_iterations = self._iteration_budget(max_iterations)
         self.seed = check_seed(seed)
         self._local = threading.local()
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.robot.name}, {self.max_iterations} iterations)"
-
-    @classmethod
-    def iterations_for(cls, timeout_s: float) -> int:
-        """The iteration budget that costs about ``timeout_s`` on the reference machine."""
-        return iterations_costing(timeout_s, cls.iteration_cost_s)
 
     # -- the interface ------------------------------------------------------------------------------
     def unsupported(self, problem: WholeBody) -> list[str]:
