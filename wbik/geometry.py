@@ -38,14 +38,15 @@ def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
     return float(np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference))))
 
 
-_TWO_PI = 2.0 * math.pi
+TWO_PI = 2.0 * math.pi
+"""One turn (rad): the period every wrap of a revolute joint uses."""
 
 
 def add_wrapped_squares(total: float, a: float, a_ref: float, b: float, b_ref: float, c: float,
                         c_ref: float) -> float:
     """total + e_a^2 + e_b^2 + e_c^2, added in that order, e_x = remainder(x - x_ref, 2 pi) (plain
     floats): three joints' share of a closed-form branch's squared distance to a reference."""
-    remainder, turn = math.remainder, _TWO_PI
+    remainder, turn = math.remainder, TWO_PI
     e_a, e_b, e_c = remainder(a - a_ref, turn), remainder(b - b_ref, turn), remainder(c - c_ref, turn)
     return total + e_a * e_a + e_b * e_b + e_c * e_c
 

@@ -19,19 +19,22 @@ from wbik.models import RobotEntry
 
 PACKAGE = "wbik.robot_packages"
 
+
+def _shipped(name: str, description: str) -> RobotEntry:
+    """The entry of the robot package ``name`` of this folder: its builder is ``<name>/model.py``."""
+    return RobotEntry(name, f"{PACKAGE}.{name}.model", description)
+
+
 ROBOTS = (
-    RobotEntry("golem3", f"{PACKAGE}.golem3.model", "Golem-III service robot upper body: torso lift, "
-               "chest yaw, two 5-joint arms, grippers, head (thesis DH, seed 000)"),
-    RobotEntry("pincher", f"{PACKAGE}.pincher.model", "PhantomX Pincher 4-DOF arm, tool frame 'noa' "
-               "(seed 004)"),
-    RobotEntry("bioloid", f"{PACKAGE}.bioloid.model", "Bioloid Premium Type A humanoid, 18 servos on a "
-               "floating base (seed 003)"),
-    RobotEntry("arm3r", f"{PACKAGE}.arm3r.model", "3-DOF articulated arm of the Newton-Raphson project, "
-               "lengths as parameters (seed 001)"),
-    RobotEntry("ur5", f"{PACKAGE}.ur5.model", "Universal Robots UR5 (example-robot-data) with the "
-               "riveting tool's 'tcp' frame (seed 002)"),
-    RobotEntry("panda", f"{PACKAGE}.panda.model", "Franka Emika Panda 7-DOF arm (example-robot-data), "
-               "a redundant reference chain"),
+    _shipped("golem3", "Golem-III service robot upper body: torso lift, chest yaw, two 5-joint arms, "
+             "grippers, head (thesis DH, seed 000)"),
+    _shipped("pincher", "PhantomX Pincher 4-DOF arm, tool frame 'noa' (seed 004)"),
+    _shipped("bioloid", "Bioloid Premium Type A humanoid, 18 servos on a floating base (seed 003)"),
+    _shipped("arm3r", "3-DOF articulated arm of the Newton-Raphson project, lengths as parameters "
+             "(seed 001)"),
+    _shipped("ur5", "Universal Robots UR5 (example-robot-data) with the riveting tool's 'tcp' frame "
+             "(seed 002)"),
+    _shipped("panda", "Franka Emika Panda 7-DOF arm (example-robot-data), a redundant reference chain"),
 )
 
 _EXTRACTED = ExitStack()

@@ -34,15 +34,13 @@ make the same decisions element by element (``tests/test_levenberg_marquardt.py`
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg.lapack import dposv
 
+from wbik.geometry import TWO_PI
 from wbik.solvers.base import clip_to_limits
-
-TWO_PI = 2.0 * math.pi
 
 
 class JointBounds:

@@ -44,6 +44,7 @@ from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import NoQPSolutionError
+from wbik.geometry import wrap_to_pi
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import CoMInSupportPolygon
 from wbik.qp.constraints import Contact
@@ -134,7 +135,7 @@ def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0, via: pin.SE3 | No
     """A swing path from ``start`` to ``end``: straight lines through ``via`` (the code's two phases)
     or one line plus a vertical bump ``lift * sin(pi s)``; the yaw turns linearly, the sole stays flat."""
     def pose(a: pin.SE3, b: pin.SE3, s: float) -> pin.SE3:
-        yaw = yaw_of(a.rotation) + s * _wrap(yaw_of(b.rotation) - yaw_of(a.rotation))
+        yaw = yaw_of(a.rotation) + s * float(wrap_to_pi(yaw_of(b.rotation) - yaw_of(a.rotation)))
         position = a.translation + s * (b.translation - a.translation)
         return pin.SE3(pin.utils.rotate("z", yaw), position)
 
@@ -147,10 +148,6 @@ def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0, via: pin.SE3 | No
         return placement
 
     return bumped
-
-
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 @dataclass

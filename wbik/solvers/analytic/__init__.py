@@ -43,6 +43,7 @@ import numpy as np
 
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import UnsupportedError
+from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.base import Candidate
@@ -53,7 +54,6 @@ from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
 
-TWO_PI = 2.0 * math.pi
 LIMIT_TOLERANCE = 1e-9
 """Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
 the limit). Inverses of poses whose joints sit exactly at a limit come back a few 1e-12 rad outside, and
