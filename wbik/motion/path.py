@@ -12,6 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
+from wbik.geometry import rotation_angle
 from wbik.robot import Chain
 from wbik.targets import Target
 
@@ -93,8 +94,7 @@ def tracking_errors(chain: Chain, reference: TaskReference, s: np.ndarray, q: np
         if wanted.rotation is None:
             rotation_errors[index] = 0.0
         else:
-            cos_angle = 0.5 * (np.trace(wanted.rotation.T @ reached.rotation) - 1.0)
-            rotation_errors[index] = float(np.arccos(np.clip(cos_angle, -1.0, 1.0)))
+            rotation_errors[index] = rotation_angle(reached.rotation, wanted.rotation)
     return position_errors, rotation_errors
 
 
