@@ -133,13 +133,14 @@ def batch_exp3(vectors: np.ndarray) -> np.ndarray:
 
 # --- the pose error ----------------------------------------------------------------------------------
 def rotation_error(reached: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached."""
-    return pin.log3(target.T @ reached)
+    """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached.
+    (``ndarray.dot``, not ``@``: the same 3 x 3 product at ~0.4 us instead of ~1 us, on every solve.)"""
+    return pin.log3(target.T.dot(reached))
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:
     """|log3(R*^T R)|: the angle (rad, in [0, pi]) between two rotations."""
-    return float(np.linalg.norm(pin.log3(target.T @ reached)))
+    return math.hypot(*pin.log3(target.T.dot(reached)).tolist())
 
 
 def pose_error(reached_rotation: np.ndarray, reached_position: np.ndarray,
@@ -148,10 +149,10 @@ def pose_error(reached_rotation: np.ndarray, reached_position: np.ndarray,
     position = reached_position - target_position
     if target_rotation is None:
         return position
-    return np.concatenate((position, pin.log3(target_rotation.T @ reached_rotation)))
+    return np.concatenate((position, pin.log3(target_rotation.T.dot(reached_rotation))))
 
 
 def rotation_error_jacobian(reached: np.ndarray, target: np.ndarray,
                             angular_jacobian: np.ndarray) -> np.ndarray:
     """d log3(R*^T R) / dq = Jlog3(R*^T R) R^T J_w for angular rows J_w in base axes."""
-    return pin.Jlog3(target.T @ reached) @ (reached.T @ angular_jacobian)
+    return pin.Jlog3(target.T.dot(reached)).dot(reached.T.dot(angular_jacobian))
