@@ -2,7 +2,7 @@
 check and the IKResult, measured with a trivial method (it returns its start) and printed beside
 one Pinocchio FK of the same chain, timed in the same process.
 
-    .venv/bin/python benchmarks/interface_overhead.py [--calls 20000]
+    .venv/bin/python benchmarks/interface_overhead.py [--calls 5000] [--rounds 15]
 
 ``ratios(quick)`` (for ``benchmarks/all.py``): per chain, the overhead against the issue's bound of
 10 us per call (issue 16: "interface overhead <= 10 us per call"), and, informational, against one
@@ -42,52 +42,71 @@ class Trivial(Solver):
         return Candidate(q0, 0)
 
 
-def best_of(function, calls: int) -> float:
-    """Seconds per call, best of 5 repeats (the least disturbed by other work on the machine)."""
-    return min(timeit.repeat(function, number=calls, repeat=5)) / calls
+ROUNDS = 15
+"""Interleaved rounds: every chain's three loops run once per round, and each keeps its best round. This
+machine has slow phases of a second or more (a loop then takes up to 1.5x as long); five loops in a row
+could all fall inside one, while fifteen rounds spread over all chains rarely do."""
 
 
-def measure(robot_name: str, chain_name: str, calls: int) -> tuple[float, float, float]:
-    """(solve, method, one FK) in seconds per call, best of 5 loops of ``calls``, for the trivial
-    method on the chain's mid-range pose (so the shared check passes)."""
-    robot = wbik.load(robot_name)
-    chain = robot.chain(chain_name)
-    solver = Trivial(robot, chain_name)
-    q = chain.mid_range.copy()
-    target = chain.fk(q)
-    target_kind = wbik.as_target(target)
-    solve = best_of(lambda: solver.solve(target, q), calls)
-    method = best_of(lambda: solver._solve(target_kind, q, np.inf), calls)
-    fk = best_of(lambda: pin.framesForwardKinematics(chain.model, chain.data, q), calls)
-    return solve, method, fk
+class Loops:
+    """One chain's three timed loops: ``solve`` (the trivial method through the interface), ``method``
+    (the trivial method alone) and ``fk`` (one Pinocchio framesForwardKinematics), each on the chain's
+    mid-range pose (so the shared check passes)."""
+
+    def __init__(self, robot_name: str, chain_name: str):
+        robot = wbik.load(robot_name)
+        chain = robot.chain(chain_name)
+        solver = Trivial(robot, chain_name)
+        q = chain.mid_range.copy()
+        target = chain.fk(q)
+        target_kind = wbik.as_target(target)
+        self.name = f"{robot_name}.{chain_name}"
+        self.loops = {"solve": lambda: solver.solve(target, q),
+                      "method": lambda: solver._solve(target_kind, q, np.inf),
+                      "fk": lambda: pin.framesForwardKinematics(chain.model, chain.data, q)}
+
+
+def measure(calls: int, rounds: int = ROUNDS) -> dict[str, dict[str, float]]:
+    """{chain: {"solve", "method", "fk": seconds per call}}: each loop's best over ``rounds``
+    interleaved rounds of ``calls`` calls (every loop of every chain once per round)."""
+    chains = [Loops(robot_name, chain_name) for robot_name, chain_name in CHAINS]
+    best = {chain.name: dict.fromkeys(chain.loops, np.inf) for chain in chains}
+    for _ in range(rounds):
+        for chain in chains:
+            for label, loop in chain.loops.items():
+                seconds = timeit.timeit(loop, number=calls) / calls
+                best[chain.name][label] = min(best[chain.name][label], seconds)
+    return best
 
 
 def ratios(quick: bool = False) -> list[Ratio]:
     """The overhead (solve - method) per chain against the 10 us bound and, informational, one FK."""
-    calls = 2000 if quick else 20000
-    note = f"trivial method, best of 5 loops of {calls} calls"
+    calls, rounds = (2000, 5) if quick else (5000, ROUNDS)
+    note = f"trivial method, best of {rounds} interleaved rounds of {calls} calls"
     found = []
-    for robot_name, chain_name in CHAINS:
-        solve, method, fk = measure(robot_name, chain_name, calls)
-        overhead, name = solve - method, f"{robot_name}.{chain_name}"
+    for name, times in measure(calls, rounds).items():
+        overhead = times["solve"] - times["method"]
         found.append(Ratio(f"interface overhead <= 10 us per call ({name})", "solve - method", overhead,
                            "the issue's bound", BOUND_S, "s/call", 1.0, "lower", note))
         found.append(Ratio(f"interface overhead / one FK ({name})", "solve - method", overhead,
-                           "one Pinocchio framesForwardKinematics", fk, "s/call", None, "lower", note))
+                           "one Pinocchio framesForwardKinematics", times["fk"], "s/call", None, "lower",
+                           note))
     return found
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--calls", type=int, default=20000)
+    parser.add_argument("--calls", type=int, default=5000, help="calls per loop and round")
+    parser.add_argument("--rounds", type=int, default=ROUNDS,
+                        help="interleaved rounds; each loop keeps its best")
     args = parser.parse_args()
     print(f"{'chain':22s} {'solve (us)':>11s} {'method (us)':>12s} {'overhead (us)':>14s} "
           f"{'one FK (us)':>12s} {'overhead / FK':>14s}")
-    for robot_name, chain_name in CHAINS:
-        solve, method, fk = measure(robot_name, chain_name, args.calls)
+    for name, times in measure(args.calls, args.rounds).items():
+        solve, method, fk = times["solve"], times["method"], times["fk"]
         overhead = solve - method
-        print(f"{robot_name + '.' + chain_name:22s} {solve * 1e6:11.2f} {method * 1e6:12.2f} "
+        print(f"{name:22s} {solve * 1e6:11.2f} {method * 1e6:12.2f} "
               f"{overhead * 1e6:14.2f} {fk * 1e6:12.2f} {overhead / fk:14.1f}")
     print("overhead = solve - method: as_target (SE3 checked in plain floats), start joints, timing, "
           "clip into the limits, one FK, log3, the shared check and the IKResult.")
