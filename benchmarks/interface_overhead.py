@@ -44,7 +44,7 @@ class Trivial(Solver):
 
 ROUNDS = 15
 """Interleaved rounds: every chain's three loops run once per round, and each keeps its best round. This
-machine has slow phases of a second or more (a loop then takes up to 1.5x as long); five loops in a row
+machine has slow phases of a second or more (a loop then took up to 1.6x as long); five loops in a row
 could all fall inside one, while fifteen rounds spread over all chains rarely do."""
 
 
