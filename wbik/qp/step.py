@@ -60,17 +60,16 @@ class Level:
                 self.slices.append(slice(stop, stop + task.dimension))
                 stacked.append(task)
                 stop += task.dimension
-        self.stacked = [(task, rows) for task, rows in zip(tasks, self.slices, strict=True)
+        stacked_rows = [(task, rows) for task, rows in zip(tasks, self.slices, strict=True)
                         if rows is not None]
-        self.goals = [(task, rows) for task, rows in self.stacked if task.goal]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
         self.weighted = np.zeros((stop, nv))
         # H and c of the level's QP, refilled in place at every step (``quadratic``)
         self.hessian, self.gradient, self._scaled_error = np.zeros((nv, nv)), np.zeros(nv), np.zeros(stop)
         self._hessian_diagonal = self.hessian.ravel()[:: nv + 1]  # a view of H's diagonal
         # each task's rows and each goal's error as views of the buffers (no slicing per fill)
-        self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in self.stacked]
-        self.goal_errors = [(task, self.error[rows]) for task, rows in self.goals]
+        self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in stacked_rows]
+        self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
         self.error_scale = self.row_scale[:, 0] * np.concatenate(

@@ -34,9 +34,6 @@ from wbik.targets import MAX_POSITION
 from wbik.targets import ROTATION_TOLERANCE
 from wbik.targets import as_target
 
-CLIP_TOLERANCE = 1e-9
-"""As the shared check: a joint this far outside its limits is clipped without a reason."""
-
 
 def _valid_se3(matrices: np.ndarray) -> bool:
     """Every 4x4 pose passes as_target's check of an SE3 (``wbik.targets._plain_se3_target``: position
@@ -88,12 +85,6 @@ def _transpose_times(first: np.ndarray, second: np.ndarray) -> np.ndarray:
             + first[:, 2, :, None] * second[:, 2, None, :])
 
 
-def _clipped(q: np.ndarray, inside: np.ndarray, chain: Chain) -> bool:
-    """The shared check's rule: clipping moved q, by more than CLIP_TOLERANCE outside the limits."""
-    return bool(np.any(inside != q) and not (np.all(q >= chain.lower - CLIP_TOLERANCE)
-                                             and np.all(q <= chain.upper + CLIP_TOLERANCE)))
-
-
 def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
                    found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
                    method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None
@@ -133,7 +124,7 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
             results[index] = IKResult(None, False, invalid_joints_reason(q[index]), math.nan, math.nan,
                                       np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
         else:
-            if not reason and _clipped(q[index], inside[index], chain):
+            if not reason and not chain.in_limits(q[index], tolerance=1e-9):  # the shared check's rule
                 reason = CLIPPED_REASON
             elif not reason:
                 reason = fk_check_reason(p_norms[index], r_norms[index])

@@ -48,6 +48,7 @@ from wbik.solvers.analytic.subproblems import planar_2r
 from wbik.solvers.analytic.subproblems import planar_2r_one
 from wbik.solvers.levenberg_marquardt import JointBounds
 from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import batch_cost
 from wbik.solvers.levenberg_marquardt import keep_better
 
 GIMBAL_LOCK = 1e-9
@@ -346,9 +347,7 @@ class PositionSearch:
         active = np.flatnonzero(use.reshape(-1))
         reached, jacobian = position_jacobian(self.geometry, q[active])
         error = reached - target[active]
-        cost = np.einsum("bi,bi->b", error, error)
-        damping = np.full(len(active), policy.first_damping)
-        best, since = cost.copy(), np.zeros(len(active), dtype=int)
+        cost, damping, best, since = policy.start_batch(error)
         stalled = np.zeros(len(active), dtype=bool)
         final_cost = np.full(len(q), np.inf)
         final_cost[active] = cost
@@ -363,9 +362,9 @@ class PositionSearch:
             trial = policy.trial_batch(jacobian, error, cost, damping, joints, bounds)
             trial_reached, trial_jacobian = position_jacobian(self.geometry, trial)
             trial_error = trial_reached - target[active]
-            trial_cost = np.einsum("bi,bi->b", trial_error, trial_error)
             accepted, cost, (q[active, :5], error, jacobian) = keep_better(
-                trial_cost, cost, (trial, joints), (trial_error, error), (trial_jacobian, jacobian))
+                batch_cost(trial_error), cost, (trial, joints), (trial_error, error),
+                (trial_jacobian, jacobian))
             damping, best, since, stalled = policy.update_batch(accepted, damping, cost, best, since)
             final_cost[active] = cost
         converged = final_cost <= 1e-18  # |e| <= 1e-9 m
