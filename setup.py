@@ -1,6 +1,9 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
-the study files ``comparisons/*.yaml``. (The robots' URDFs are package data of their robot packages,
+the study files ``comparisons/*.yaml``; and it builds the optional C extension
+``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's scalar path,
+:mod:`wbik.solvers.analytic.ur_kernel`). Without a C compiler the build goes on without it and the
+Python path runs. (The robots' URDFs are package data of their robot packages,
 ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
 
 The folders stay at the top level of the repository, where the README documents them;
@@ -13,6 +16,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+from setuptools import Extension
 from setuptools import setup
 from setuptools.command.build_py import build_py
 
@@ -42,4 +46,13 @@ class BuildPyWithData(build_py):
                 raise RuntimeError(f"setup.py: no data files found in {ROOT / folder}")
 
 
-setup(cmdclass={"build_py": BuildPyWithData})
+UR_KERNEL = Extension(
+    "wbik.solvers.analytic._ur_kernel",
+    ["wbik/solvers/analytic/_ur_kernel.c"],
+    # the Python path's bits: no fused multiply-add, no reassociation (the C file says why)
+    extra_compile_args=["-O2", "-ffp-contract=off", "-fno-fast-math"],
+    libraries=["m"],
+    optional=True,
+)
+
+setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[UR_KERNEL])

@@ -45,7 +45,8 @@ def installed(tmp_path_factory) -> dict:
     for name in BUILD_INPUTS:
         origin = ROOT / name
         if origin.is_dir():
-            shutil.copytree(origin, source / name, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+            shutil.copytree(origin, source / name,
+                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
         else:
             shutil.copy2(origin, source / name)
     (source / "comparisons").mkdir()
@@ -84,7 +85,8 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
               "print(s.DEFAULT_STUDY); print(sorted(d.shipped_tasks())); "
               "print(wbik.load('golem3').urdf_path); print(wbik.load('bioloid').urdf_path); "
               "print(arm3r.URDF_PATH); print(pincher.URDF_PATH); print(ur5.TOOL_URDF_PATH); "
-              "wbik.load('arm3r'); wbik.load('pincher')")
+              "wbik.load('arm3r'); wbik.load('pincher'); "
+              "from wbik.solvers.analytic import ur_kernel as k; print(k.built(), k._ur_kernel.__file__)")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
     package = installed["purelib"] / "wbik"
@@ -102,6 +104,8 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
     assert all(path.is_file() for path in expected)
     assert not (package / "data" / "urdf").exists()
     assert not installed["cache"].exists(), "creating a Robot wrote into the URDF cache"
+    built, kernel_file = lines[10].split()  # the wheel compiled the UR kernel (the copy had no .so)
+    assert built == "True" and Path(kernel_file).is_relative_to(package), lines[10]
 
 
 def test_wbik_tasks_then_run_a_shipped_task_by_name(installed):

@@ -116,6 +116,15 @@ class ClosedForm:
         """:meth:`fk` of one joint vector in plain floats: (position (3), rotation row by row (9))."""
         raise NotImplementedError
 
+    kernel = None
+    """The compiled twin of the scalar path (``nearest`` and ``distinct``, e.g. :class:`.ur_kernel.URKernel`)
+    or None: ``solve`` and ``solve_all`` call it in place of ``branches_one`` and the Python choice."""
+
+    def compiled_kernel(self, tool: tuple[np.ndarray, np.ndarray] | None = None):
+        """A compiled scalar path of this form on its chain, composed with a fixed tool (rotation,
+        translation) when given; None where the form has none (the default) or it is not built."""
+        return None
+
 
 class ToolClosedForm(ClosedForm):
     """A chain ending at a tool rigidly fixed to the tip of a chain with a closed form (the *flange*):
@@ -143,6 +152,7 @@ class ToolClosedForm(ClosedForm):
         self.tool_rotation = tool.rotation.copy()
         self.tool_translation = tool.translation.copy()
         self._tool_r, self._tool_p = self.tool_rotation.tolist(), self.tool_translation.tolist()
+        self.kernel = self.flange.compiled_kernel((self.tool_rotation, self.tool_translation))
 
     def _flange_targets(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flange positions, flange rotations) of tool targets: R X_R^T, p - R X_R^T X_p."""
@@ -307,12 +317,22 @@ def wrap_one_into_limits(q, reference, lower, upper) -> list[float] | None:
 def screen_residual(reached: tuple, position: list[float], rotation: list[float] | None) -> float:
     """max(|p - p*|, angle(R*^T R)) of a reached (position, rotation row by row) against the target:
     the screen of :class:`AnalyticSolver` in plain floats (trace(R*^T R) = sum_ij R*_ij R_ij)."""
-    reached_p, reached_r = reached
-    error = math.dist(reached_p, position)
+    (px, py, pz), reached_r = reached
+    dx, dy, dz = px - position[0], py - position[1], pz - position[2]
+    error = math.sqrt(dx * dx + dy * dy + dz * dz)
     if rotation is None:
         return error
     trace = sum(map(mul, reached_r, rotation))
     return max(error, math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))))
+
+
+def squared_distance(q: list[float], reference: list[float]) -> float:
+    """sum_i (q_i - r_i)^2, added in joint order (plain floats; the compiled kernels add alike)."""
+    total = 0.0
+    for value, ref in zip(q, reference, strict=True):
+        difference = value - ref
+        total += difference * difference
+    return total
 
 
 def nearest_branch(form: ClosedForm, bounded: list[tuple[float, list[float]]], position: list[float],
@@ -339,7 +359,7 @@ def nearest_branch(form: ClosedForm, bounded: list[tuple[float, list[float]]], p
         if q is None:
             continue
         inside = True
-        distance = math.dist(q, reference) ** 2
+        distance = squared_distance(q, reference)
         if distance < best_distance and screen_residual(form.fk_one(q), position, rotation) <= tolerance:
             best, best_distance = q, distance
     return best, inside
@@ -480,6 +500,12 @@ class AnalyticSolver(Solver):
         form = self._forms.get(kind) or self.closed_form(kind)
         if form.target_kind == "position":
             rotation = None
+        kernel = form.kernel
+        if kernel is not None:
+            q, status = kernel.nearest(target.position, rotation, q0)
+            if q is None:
+                return Candidate(None, 1, no_solution_reason(status != 0, status == -2))
+            return Candidate(q, 1, extra={"branches": status})
         if form.has_scalar_path:
             position = target.position.tolist()
             if rotation is not None:
@@ -532,7 +558,9 @@ class AnalyticSolver(Solver):
         form = self.closed_form("pose" if target.is_pose else "position")
         nominal = self.chain.nominal
         start = time.perf_counter()
-        if form.has_scalar_path:
+        if form.kernel is not None:
+            distinct = list(form.kernel.distinct(target.position, target.rotation, nominal))
+        elif form.has_scalar_path:
             distinct = self._distinct_one(form, target, nominal)
         else:
             positions = target.position[None]

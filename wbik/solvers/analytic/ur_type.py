@@ -36,6 +36,7 @@ from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
 from wbik.solvers.analytic.subproblems import planar_2r_one
+from wbik.solvers.analytic.ur_kernel import ur_kernel
 
 WRIST_SINGULARITY = 1e-8
 """|sin q5| below which q6 is free (ur_kinematics' threshold). |sin q5| is read from the rotation, where
@@ -216,7 +217,7 @@ def branches_one(geometry: URGeometry, position, rotation, reference,
         if not abs(cos5) <= 1.0 + tolerance * max((abs(t03 * s1) + abs(t13 * c1) + d4) / d6, 1.0):
             continue
         u, v = t00 * s1 - t10 * c1, t01 * s1 - t11 * c1
-        sine5 = math.hypot(u, v)
+        sine5 = math.sqrt(u * u + v * v)  # not math.hypot (CPython's own algorithm): the kernel's arithmetic
         angle5 = atan2(sine5, min(1.0, max(-1.0, cos5)))
         singular = sine5 < WRIST_SINGULARITY
         r0, r1, r2 = t00 * c1 + t10 * s1, t01 * c1 + t11 * s1, t02 * c1 + t12 * s1
@@ -251,6 +252,10 @@ class URArm(ClosedForm):
     has_scalar_path = True
     geometry: URGeometry
 
+    def __init__(self, chain):
+        super().__init__(chain)
+        self.kernel = self.compiled_kernel()
+
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return branches(self.geometry, positions, rotations, q0[:, 5])
@@ -267,3 +272,6 @@ class URArm(ClosedForm):
 
     def fk_one(self, q):
         return fk_one(self.geometry, q)
+
+    def compiled_kernel(self, tool=None):
+        return ur_kernel(self.geometry, self.chain, tool)

@@ -1,0 +1,179 @@
+"""The compiled scalar path of the UR-type closed form (``_ur_kernel.c``) against the Python path.
+
+Both must return the same bits: the same branch chosen, the same joints, the same failure status, the
+same distinct branches for ``solve_all``, on random poses, at the wrist singularity, with the elbow
+stretched, at the joint limits, and under tiny relative perturbations (hypothesis). The extension is
+built by the README's set-up (``pip install -e .``); where a C compiler exists it must be there.
+"""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+
+import wbik
+from wbik.solvers.analytic import nearest_branch
+from wbik.solvers.analytic import no_solution_reason
+from wbik.solvers.analytic import ur_kernel
+from wbik.targets import as_target
+
+CHAINS = ["ee", "arm"]
+"""UR5 chains: ``ee`` is the family's own frame, ``arm`` adds the riveting tool (the kernel's tool)."""
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return wbik.load("ur5")
+
+
+@pytest.fixture(scope="module")
+def solvers(robot):
+    """Analytic solvers with their closed forms built with the kernel (even in a WBIK_PURE_PYTHON=1 run)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
+        solvers = {name: wbik.solver("analytic", robot, chain=name) for name in CHAINS}
+        for solver in solvers.values():
+            solver.closed_form("pose")
+    return solvers
+
+
+def test_the_extension_is_built_where_a_compiler_exists(solvers):
+    """The set-up builds it; without a compiler wbik runs the Python path (and this says so)."""
+    has_compiler = any(shutil.which(name) for name in ("cc", "gcc", "clang"))
+    assert ur_kernel.built() == has_compiler
+    assert all((solver.closed_form("pose").kernel is not None) == has_compiler for solver in solvers.values())
+
+
+def python_nearest(solver, target, q0):
+    """The Python path of ``AnalyticSolver._solve``: (joints or None, the failure reason or "")."""
+    form = solver.closed_form("pose")
+    position, rotation, reference = target.position.tolist(), target.rotation.ravel().tolist(), q0.tolist()
+    bounded = form.branches_one(position, rotation, reference)
+    q, inside = nearest_branch(form, bounded, position, rotation, reference, solver._lower, solver._upper)
+    return q, ("" if q is not None else no_solution_reason(bool(bounded), inside))
+
+
+def compiled_nearest(solver, target, q0):
+    """The kernel, as ``AnalyticSolver._solve`` reads it: (joints or None, the failure reason or "")."""
+    q, status = solver.closed_form("pose").kernel.nearest(target.position, target.rotation, q0)
+    return (None if q is None else q.tolist()), ("" if q is not None else
+                                                 no_solution_reason(status != 0, status == -2))
+
+
+def assert_same_bits(solver, target, q0):
+    expected, expected_reason = python_nearest(solver, target, q0)
+    got, got_reason = compiled_nearest(solver, target, q0)
+    assert got_reason == expected_reason
+    if expected is not None:
+        assert np.array(got).tobytes() == np.array(expected).tobytes(), (got, expected)
+    form = solver.closed_form("pose")
+    expected_all = solver._distinct_one(form, target, q0)
+    got_all = form.kernel.distinct(target.position, target.rotation, q0)
+    assert len(got_all) == len(expected_all)
+    for row, q in zip(got_all, expected_all, strict=True):
+        assert row.tobytes() == q.tobytes()
+
+
+def special_joints(chain, rng: np.random.Generator, count: int) -> np.ndarray:
+    """Random joints with every third at the wrist singularity (q5 = 0 or pi), every fifth with the
+    elbow stretched (q3 = 0) and every seventh with a joint on its limit."""
+    joints = chain.random(rng, count)
+    joints[::3, 4] = rng.choice([0.0, np.pi, -np.pi], size=len(joints[::3]))
+    joints[::5, 2] = 0.0
+    for row in range(0, count, 7):
+        joint = rng.integers(6)
+        joints[row, joint] = chain.lower[joint] if rng.random() < 0.5 else chain.upper[joint]
+    return joints
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_kernel_returns_the_python_paths_bits(solvers, chain_name):
+    solver = solvers[chain_name]
+    chain = solver.chain
+    rng = np.random.default_rng(2026)
+    joints = special_joints(chain, rng, 1500)
+    starts = chain.random(rng, len(joints))
+    starts[::2] = chain.nominal  # solve's default start
+    for q, q0 in zip(joints, starts, strict=True):
+        assert_same_bits(solver, as_target(chain.fk(q)), q0)
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_kernel_agrees_on_unreachable_targets(solvers, chain_name):
+    """Failures: too far, and inside the cylinder around the base axis the wrist cannot enter."""
+    solver = solvers[chain_name]
+    chain = solver.chain
+    reachable = chain.fk(chain.mid_range)
+    rotation = reachable.rotation
+    reasons = set()
+    for position in ([3.0, 0.0, 0.5], [0.0, 0.0, 0.3], [0.01, 0.02, 0.9], reachable.translation):
+        target = as_target(wbik.Target(np.array(position), rotation))
+        assert_same_bits(solver, target, chain.nominal)
+        reasons.add(compiled_nearest(solver, target, chain.nominal)[1])
+    assert reasons == {"", no_solution_reason(False, False)}  # the reachable pose solved, the rest not
+
+
+@pytest.mark.numerics
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), noise=st.floats(-1e-12, 1e-12), chain_name=st.sampled_from(CHAINS))
+def test_kernel_bits_under_tiny_relative_noise(solvers, seed, noise, chain_name):
+    """A singular pose (wrist aligned, elbow stretched) nudged by a relative 1e-12: both paths still
+    take every decision alike (the singularity, the cosine clamps, the limits, the screen)."""
+    solver = solvers[chain_name]
+    chain = solver.chain
+    rng = np.random.default_rng(seed)
+    q = chain.random(rng)
+    q[4], q[2] = 0.0, 0.0
+    pose = chain.fk(q)
+    position = pose.translation * (1.0 + noise)
+    target = as_target(wbik.Target(position, pose.rotation))
+    assert_same_bits(solver, target, chain.random(rng))
+
+
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_kernel_fk_is_the_python_fk(solvers, chain_name):
+    form = solvers[chain_name].closed_form("pose")
+    for q in solvers[chain_name].chain.random(np.random.default_rng(8), 200):
+        position, rotation = form.fk_one(q.tolist())
+        got_position, got_rotation = form.kernel.fk(q)
+        assert np.array(got_position).tobytes() == np.array(position).tobytes()
+        assert np.array(got_rotation).tobytes() == np.array(rotation).tobytes()
+
+
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_pure_python_switch_gives_the_same_results(robot, monkeypatch, chain_name):
+    """WBIK_PURE_PYTHON=1 turns the kernel off; solve and solve_all answer the same."""
+    monkeypatch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
+    compiled = wbik.solver("analytic", robot, chain=chain_name)
+    compiled.closed_form("pose")  # built (with its kernel) before the switch
+    monkeypatch.setenv(ur_kernel.PURE_PYTHON_VARIABLE, "1")
+    python = wbik.solver("analytic", robot, chain=chain_name)
+    assert python.closed_form("pose").kernel is None
+    assert compiled.closed_form("pose").kernel is not None
+    chain = compiled.chain
+    for q in chain.random(np.random.default_rng(31), 100):
+        target = chain.fk(q)
+        ours, theirs = compiled.solve(target), python.solve(target)
+        assert (ours.success, ours.reason) == (theirs.success, theirs.reason)
+        assert ours.q.tobytes() == theirs.q.tobytes()
+        assert ours.extra == theirs.extra
+        assert [r.q.tobytes() for r in compiled.solve_all(target)] == \
+            [r.q.tobytes() for r in python.solve_all(target)]
+
+
+def test_bad_buffers_are_refused_with_a_type_error(solvers):
+    kernel = solvers["ee"].closed_form("pose").kernel
+    target = as_target(solvers["ee"].chain.fk(solvers["ee"].chain.nominal))
+    with pytest.raises(TypeError, match="rotation"):
+        kernel.nearest(target.position, np.eye(2), np.zeros(6))
+    with pytest.raises(TypeError, match="reference"):
+        kernel.nearest(target.position, target.rotation, np.zeros(6, dtype=np.float32))
+    with pytest.raises(TypeError):
+        kernel.nearest(target.position, target.rotation, None)

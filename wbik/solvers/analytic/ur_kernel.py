@@ -1,0 +1,90 @@
+"""The compiled scalar path of the UR-type closed form (the C extension ``_ur_kernel``).
+
+``solve`` and ``solve_all`` of ``analytic`` on a UR-type chain spend almost all their time in the scalar
+path: enumerating up to 8 branches in plain floats (:func:`.ur_type.branches_one`), wrapping them into
+the limits and screening them with the closed-form FK (:func:`wbik.solvers.analytic.nearest_branch`).
+``_ur_kernel.c`` is the same code in C, expression by expression, and returns the same bits (tests
+compare both paths on random, boundary and singular poses). The interface and the shared FK check
+(Pinocchio) stay in Python.
+
+The extension is built by ``pip install`` (``setup.py``, an optional extension). Without it, or with
+the environment variable ``WBIK_PURE_PYTHON=1`` when a closed form is built, the Python path runs.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from wbik.robot import Chain
+
+try:
+    from wbik.solvers.analytic import _ur_kernel
+except ImportError:  # not built (no C compiler at install time): the Python path
+    _ur_kernel = None
+
+PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
+"""Set to 1 to use the Python scalar path even where the extension is built (read when a closed form
+is built)."""
+
+
+def built() -> bool:
+    """Whether the extension was built at install time."""
+    return _ur_kernel is not None
+
+
+def compiled() -> bool:
+    """Whether closed forms built now use the extension: built, and not turned off by
+    ``WBIK_PURE_PYTHON=1``."""
+    return built() and os.environ.get(PURE_PYTHON_VARIABLE, "") != "1"
+
+
+class URKernel:
+    """The compiled scalar path of one UR-type chain: its DH numbers, the tolerances of the Python path,
+    the chain's limits and an optional fixed tool (ee -> tool rotation and translation), packed into
+    the parameter vector ``_ur_kernel.c`` reads (its ``enum`` gives the layout)."""
+
+    def __init__(self, geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None = None):
+        from wbik.solvers.analytic import BOUND_SLACK
+        from wbik.solvers.analytic import BRANCH_MERGE
+        from wbik.solvers.analytic import LIMIT_TOLERANCE
+        from wbik.solvers.analytic import ClosedForm
+        from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
+        from wbik.solvers.analytic.ur_type import WRIST_SINGULARITY
+
+        tool_rotation, tool_translation = (np.eye(3), np.zeros(3)) if tool is None else tool
+        params = np.concatenate((
+            [geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6],
+            [COSINE_TOLERANCE, WRIST_SINGULARITY, LIMIT_TOLERANCE, ClosedForm.screen_tolerance, BOUND_SLACK,
+             BRANCH_MERGE, 0.0 if tool is None else 1.0],
+            np.asarray(tool_rotation, dtype=float).ravel(), np.asarray(tool_translation, dtype=float),
+            chain.lower, chain.upper))
+        if len(params) != _ur_kernel.PARAMETER_COUNT:  # the C enum and this list changed apart
+            raise RuntimeError(f"ur_kernel: {len(params)} parameters, _ur_kernel.c reads "
+                               f"{_ur_kernel.PARAMETER_COUNT}; rebuild with pip install -e .")
+        params.flags.writeable = False
+        self.params = params
+
+    def nearest(self, position: np.ndarray, rotation: np.ndarray,
+                reference: np.ndarray) -> tuple[np.ndarray | None, int]:
+        """(the branch ``AnalyticSolver`` picks or None, status): the status is the number of real
+        branches when one is picked, else 0 (no real branch), -1 (none inside the limits) or -2 (none
+        passes the screen)."""
+        out = np.empty(6)
+        status = _ur_kernel.nearest(self.params, position, rotation, reference, out)
+        return (out if status > 0 else None), status
+
+    def distinct(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray) -> np.ndarray:
+        """The distinct screened branches wrapped nearest to ``reference``, in branch order (k, 6)."""
+        out = np.empty((8, 6))
+        return out[:_ur_kernel.distinct(self.params, position, rotation, reference, out)]
+
+    def fk(self, q: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        """The kernel's FK (position, rotation row by row), tool included: for the agreement tests."""
+        return _ur_kernel.fk(self.params, np.asarray(q, dtype=float))
+
+
+def ur_kernel(geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None = None) -> URKernel | None:
+    """A :class:`URKernel` for the chain, or None where the extension is not built or turned off."""
+    return URKernel(geometry, chain, tool) if compiled() else None
