@@ -20,6 +20,8 @@ import wbik
 from wbik.solvers.analytic import nearest_branch
 from wbik.solvers.analytic import no_solution_reason
 from wbik.solvers.analytic import ur_kernel
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import evaluate
 from wbik.targets import as_target
 
 CHAINS = ["ee", "arm"]
@@ -73,7 +75,7 @@ def assert_same_bits(solver, target, q0):
         assert np.array(got).tobytes() == np.array(expected).tobytes(), (got, expected)
     form = solver.closed_form("pose")
     expected_all = solver._distinct_one(form, target, q0)
-    got_all = form.kernel.distinct(target.position, target.rotation, q0)
+    got_all, _ = form.kernel.distinct(target.position, target.rotation, q0)
     assert len(got_all) == len(expected_all)
     for row, q in zip(got_all, expected_all, strict=True):
         assert row.tobytes() == q.tobytes()
@@ -177,3 +179,25 @@ def test_bad_buffers_are_refused_with_a_type_error(solvers):
         kernel.nearest(target.position, target.rotation, np.zeros(6, dtype=np.float32))
     with pytest.raises(TypeError):
         kernel.nearest(target.position, target.rotation, None)
+
+
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_solve_all_errors_are_the_shared_checks(solvers, chain_name):
+    """solve_all's kernel check (closed-form FK, batch_log3's formula) against the shared check
+    (Pinocchio FK and log3) on every branch it returns:
+    the same verdict, errors within 1e-10 (the closed-form FK against Pinocchio's)."""
+    solver = solvers[chain_name]
+    chain = solver.chain
+    count = 0
+    for q in special_joints(chain, np.random.default_rng(77), 300):
+        target = as_target(chain.fk(q))
+        for result in solver.solve_all(target):
+            shared = evaluate(chain, target, Candidate(result.q.copy(), 1), solver.tolerances, 0.0, "")
+            assert shared.success and result.success
+            for ours, theirs in ((result.position_error_xyz, shared.position_error_xyz),
+                                 (result.rotation_error_xyz, shared.rotation_error_xyz)):
+                np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10)  # as the FK test
+            assert abs(result.position_error - shared.position_error) <= 1e-10
+            assert abs(result.rotation_error - shared.rotation_error) <= 1e-10
+            count += 1
+    assert count >= 300 * 4  # UR5 poses have 4 to 8 distinct branches inside its +-2 pi limits

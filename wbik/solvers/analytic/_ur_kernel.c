@@ -362,14 +362,40 @@ static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     return PyLong_FromLong(count);
 }
 
-/* distinct(params, position, rotation, reference, out) -> int
+/* The batched check's errors of one reached pose against the target (wbik.solvers.analytic.batch.
+ * evaluate_batch, geometry.batch_log3): position error p - p*, rotation error log3(R*^T R) as
+ * vee(M - M^T) angle / |vee(M - M^T)| with angle = atan2(|vee| / 2, (trace M - 1) / 2), and both norms:
+ * errors = (ex, ey, ez, rx, ry, rz, |e_p|, |e_R|). The formula loses the axis only near a half turn, and
+ * the branches checked here passed the screen (rotation error <= screen tolerance, 1e-7 rad). */
+static void pose_errors(const double reached_p[3], const double reached_r[9], const double position[3],
+                        const double rotation[9], double errors[8])
+{
+    double m[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            m[3 * i + j] = rotation[i] * reached_r[j] + rotation[3 + i] * reached_r[3 + j]
+                           + rotation[6 + i] * reached_r[6 + j];
+    double vee[3] = {m[7] - m[5], m[2] - m[6], m[3] - m[1]};
+    double twice_sine = sqrt(vee[0] * vee[0] + vee[1] * vee[1] + vee[2] * vee[2]);
+    double cosine = 0.5 * (m[0] + m[4] + m[8] - 1.0);
+    double scale = atan2(0.5 * twice_sine, cosine) / PY_MAX(twice_sine, 1e-300);
+    for (int i = 0; i < 3; i++) {
+        errors[i] = reached_p[i] - position[i];
+        errors[3 + i] = vee[i] * scale;
+    }
+    errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
+    errors[7] = sqrt(errors[3] * errors[3] + errors[4] * errors[4] + errors[5] * errors[5]);
+}
+
+/* distinct(params, position, rotation, reference, out, errors) -> int
  * AnalyticSolver._distinct_one: in branch order, every branch wrapped into the limits nearest to the
  * reference that is not within BRANCH_MERGE (modulo 2 pi, every joint) of an earlier kept one and
- * passes the screen. Writes them into the first rows of out (8, 6); returns how many. */
+ * passes the screen. Writes them into the first rows of out (8, 6), and their errors (pose_errors,
+ * with the closed-form FK, tool included) into the rows of errors (8, 8); returns how many. */
 static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    if (read_arguments(args, nargs, 5, params, position, rotation, reference) < 0)
+    if (read_arguments(args, nargs, 6, params, position, rotation, reference) < 0)
         return NULL;
     double flange_p[3], flange_r[9];
     flange_target(params, position, rotation, flange_p, flange_r);
@@ -392,7 +418,14 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
         if (!duplicate && screen_residual(params, q, position, rotation) <= tolerance)
             kept_count++;
     }
-    if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "out") < 0)
+    double errors[MAX_BRANCHES * 8] = {0.0};
+    for (int k = 0; k < kept_count; k++) {
+        double reached_p[3], reached_r[9];
+        fk_one(params, kept + k * JOINTS, reached_p, reached_r);
+        pose_errors(reached_p, reached_r, position, rotation, errors + 8 * k);
+    }
+    if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "out") < 0
+        || write_doubles(args[5], errors, MAX_BRANCHES * 8, "errors") < 0)
         return NULL;
     return PyLong_FromLong(kept_count);
 }
@@ -417,7 +450,7 @@ static PyMethodDef methods[] = {
     {"nearest", (PyCFunction)(void (*)(void))nearest, METH_FASTCALL,
      "nearest(params, position, rotation, reference, out) -> int: the chosen branch into out"},
     {"distinct", (PyCFunction)(void (*)(void))distinct, METH_FASTCALL,
-     "distinct(params, position, rotation, reference, out) -> int: the distinct screened branches"},
+     "distinct(params, position, rotation, reference, out, errors) -> int: the distinct screened branches"},
     {"fk", (PyCFunction)(void (*)(void))fk, METH_FASTCALL, "fk(params, q) -> (position, rotation)"},
     {NULL, NULL, 0, NULL}};
 

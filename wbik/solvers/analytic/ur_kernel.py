@@ -75,10 +75,15 @@ class URKernel:
         status = _ur_kernel.nearest(self.params, position, rotation, reference, out)
         return (out if status > 0 else None), status
 
-    def distinct(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """The distinct screened branches wrapped nearest to ``reference``, in branch order (k, 6)."""
-        out = np.empty((8, 6))
-        return out[:_ur_kernel.distinct(self.params, position, rotation, reference, out)]
+    def distinct(self, position: np.ndarray, rotation: np.ndarray,
+                 reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The distinct screened branches wrapped nearest to ``reference``, in branch order (k, 6), and
+        the batched check's errors of each with the closed-form FK (k, 8): position error xyz, rotation
+        error log3(R*^T R) xyz (``geometry.batch_log3``'s formula; the screen keeps the rotation error
+        below 1e-7 rad, far from the half turn where it would lose the axis), and their norms."""
+        out, errors = np.empty((8, 6)), np.empty((8, 8))
+        count = _ur_kernel.distinct(self.params, position, rotation, reference, out, errors)
+        return out[:count], errors[:count]
 
     def fk(self, q: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """The kernel's FK (position, rotation row by row), tool included: for the agreement tests."""
