@@ -1,10 +1,10 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
-the study files ``comparisons/*.yaml``; and it builds the optional C extension
-``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's scalar path,
-:mod:`wbik.solvers.analytic.ur_kernel`). Without a C compiler the build goes on without it and the
-Python path runs. (The robots' URDFs are package data of their robot packages,
-``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
+the study files ``comparisons/*.yaml``; and it builds the optional C extensions of
+:mod:`wbik.compiled` (``wbik._se3_check``, the fast-path test of a pose target, and
+``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path). Without a C compiler the
+build goes on without them and their Python twins run. (The robots' URDFs are package data of their
+robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
 
 The folders stay at the top level of the repository, where the README documents them;
 :func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
@@ -46,13 +46,16 @@ class BuildPyWithData(build_py):
                 raise RuntimeError(f"setup.py: no data files found in {ROOT / folder}")
 
 
+COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
+"""The Python twins' bits: no fused multiply-add, no reassociation (the C files say why)."""
+SE3_CHECK = Extension("wbik._se3_check", ["wbik/_se3_check.c"], extra_compile_args=COMPILE_ARGS,
+                      optional=True)
 UR_KERNEL = Extension(
     "wbik.solvers.analytic._ur_kernel",
     ["wbik/solvers/analytic/_ur_kernel.c"],
-    # the Python path's bits: no fused multiply-add, no reassociation (the C file says why)
-    extra_compile_args=["-O2", "-ffp-contract=off", "-fno-fast-math"],
+    extra_compile_args=COMPILE_ARGS,
     libraries=["m"],
     optional=True,
 )
 
-setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[UR_KERNEL])
+setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[SE3_CHECK, UR_KERNEL])

@@ -36,7 +36,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
 CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
-        "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
+        "wbik.compiled", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
         "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
         "wbik.expectations", "wbik.scenarios")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
@@ -44,7 +44,7 @@ APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
-     "wbik.data"),
+     "wbik.data", "wbik.compiled"),
     ("wbik.dh", "wbik.robot", "wbik.models", "wbik.collision"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
     ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenario_schema",

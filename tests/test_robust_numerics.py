@@ -45,7 +45,7 @@ from wbik.solvers.analytic import wrap_into_limits
 ROOT = Path(__file__).resolve().parents[1]
 CHILD = "WBIK_NUMERICS_CHILD"
 NUMERICS_FILES = ["tests/test_robust_numerics.py", "tests/test_scenarios_wholebody.py",
-                  "tests/test_analytic_ur5.py"]
+                  "tests/test_analytic_ur5.py", "tests/test_ur_kernel.py", "tests/test_compiled.py"]
 SETTINGS = settings(deadline=None, max_examples=50, derandomize=True, database=None)
 RHO = math.radians(13.43)  # golem3.md
 MARGIN_TOLERANCE = 1e-9

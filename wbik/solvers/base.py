@@ -105,7 +105,7 @@ class Candidate:
     extra: dict = field(default_factory=dict)
 
 
-@dataclass
+@dataclass(slots=True)
 class IKResult:
     """The answer of every method.
 

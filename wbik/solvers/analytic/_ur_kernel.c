@@ -221,12 +221,10 @@ static int wrap_one_into_limits(const double *params, const double q[JOINTS], co
     return 1;
 }
 
-/* screen_residual(fk_one(q), position, rotation): max(|p - p*|, angle(R*^T R)). */
-static double screen_residual(const double *params, const double q[JOINTS], const double position[3],
-                              const double rotation[9])
+/* screen_residual(reached, position, rotation): max(|p - p*|, angle(R*^T R)) of a reached pose. */
+static double residual(const double reached_p[3], const double reached_r[9], const double position[3],
+                       const double rotation[9])
 {
-    double reached_p[3], reached_r[9];
-    fk_one(params, q, reached_p, reached_r);
     double dx = reached_p[0] - position[0], dy = reached_p[1] - position[1], dz = reached_p[2] - position[2];
     double error = sqrt(dx * dx + dy * dy + dz * dz);
     double trace = 0.0;
@@ -234,6 +232,15 @@ static double screen_residual(const double *params, const double q[JOINTS], cons
         trace += reached_r[k] * rotation[k];
     double angle = acos(PY_MIN(1.0, PY_MAX(-1.0, 0.5 * (trace - 1.0))));
     return PY_MAX(error, angle);
+}
+
+/* screen_residual(fk_one(q), position, rotation) */
+static double screen_residual(const double *params, const double q[JOINTS], const double position[3],
+                              const double rotation[9])
+{
+    double reached_p[3], reached_r[9];
+    fk_one(params, q, reached_p, reached_r);
+    return residual(reached_p, reached_r, position, rotation);
 }
 
 static double squared_distance(const double a[JOINTS], const double b[JOINTS])
@@ -401,7 +408,7 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
     flange_target(params, position, rotation, flange_p, flange_r);
     Branch branches[MAX_BRANCHES];
     int count = branches_one(params, flange_p, flange_r, reference, branches);
-    double kept[MAX_BRANCHES * JOINTS] = {0.0};
+    double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
     int kept_count = 0;
     double merge = params[P_BRANCH_MERGE], tolerance = params[P_SCREEN_TOLERANCE];
     for (int k = 0; k < count; k++) {
@@ -415,14 +422,14 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
                 same = fabs(remainder(q[i] - kept[other * JOINTS + i], TWO_PI)) < merge;
             duplicate = same;
         }
-        if (!duplicate && screen_residual(params, q, position, rotation) <= tolerance)
-            kept_count++;
-    }
-    double errors[MAX_BRANCHES * 8] = {0.0};
-    for (int k = 0; k < kept_count; k++) {
+        if (duplicate)
+            continue;
         double reached_p[3], reached_r[9];
-        fk_one(params, kept + k * JOINTS, reached_p, reached_r);
-        pose_errors(reached_p, reached_r, position, rotation, errors + 8 * k);
+        fk_one(params, q, reached_p, reached_r);
+        if (residual(reached_p, reached_r, position, rotation) <= tolerance) {
+            pose_errors(reached_p, reached_r, position, rotation, errors + 8 * kept_count);
+            kept_count++;
+        }
     }
     if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "out") < 0
         || write_doubles(args[5], errors, MAX_BRANCHES * 8, "errors") < 0)

@@ -8,26 +8,22 @@ compare both paths on random, boundary and singular poses). The interface and th
 (Pinocchio) stay in Python.
 
 The extension is built by ``pip install`` (``setup.py``, an optional extension). Without it, or with
-the environment variable ``WBIK_PURE_PYTHON=1`` when a closed form is built, the Python path runs.
+the environment variable ``WBIK_PURE_PYTHON=1`` (:mod:`wbik.compiled`) when a closed form is built, the
+Python path runs.
 """
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
+from wbik.compiled import PURE_PYTHON_VARIABLE  # noqa: F401 - re-exported: the switch, for this kernel's users
+from wbik.compiled import pure_python
 from wbik.robot import Chain
 
 try:
     from wbik.solvers.analytic import _ur_kernel
 except ImportError:  # not built (no C compiler at install time): the Python path
     _ur_kernel = None
-
-PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
-"""Set to 1 to use the Python scalar path even where the extension is built (read when a closed form
-is built)."""
-
 
 def built() -> bool:
     """Whether the extension was built at install time."""
@@ -37,7 +33,7 @@ def built() -> bool:
 def compiled() -> bool:
     """Whether closed forms built now use the extension: built, and not turned off by
     ``WBIK_PURE_PYTHON=1``."""
-    return built() and os.environ.get(PURE_PYTHON_VARIABLE, "") != "1"
+    return built() and not pure_python()
 
 
 class URKernel:

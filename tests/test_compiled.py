@@ -1,0 +1,109 @@
+"""The compiled kernels of :mod:`wbik.compiled`: built by the set-up where a C compiler exists, switched
+off by ``WBIK_PURE_PYTHON=1``, and the SE3 fast-path test giving the Python test's verdict on every
+matrix (the UR kernel's own agreement tests are in tests/test_ur_kernel.py)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given
+from hypothesis import settings
+from hypothesis import strategies as st
+
+from wbik import targets
+from wbik.compiled import PURE_PYTHON_VARIABLE
+from wbik.solvers.analytic import ur_kernel
+from wbik.targets import MAX_POSITION
+from wbik.targets import ROTATION_TOLERANCE
+
+HAS_COMPILER = any(shutil.which(name) for name in ("cc", "gcc", "clang"))
+COMPILED_TWIN = pytest.mark.skipif(not HAS_COMPILER, reason="no C compiler here: no compiled twin to compare "
+                                   "(the first test checks that it is built wherever one exists)")
+
+
+def test_both_extensions_are_built_where_a_compiler_exists():
+    """The README's set-up (pip install -e .) builds them; without a compiler the Python twins run."""
+    assert ur_kernel.built() == HAS_COMPILER
+    assert (targets._compiled_accepts_plain_se3 is not None) == HAS_COMPILER
+    if HAS_COMPILER:
+        assert targets._accepts_plain_se3 is targets._compiled_accepts_plain_se3
+
+
+def test_pure_python_switch_picks_the_python_twins():
+    script = ("from wbik import targets; from wbik.solvers.analytic import ur_kernel; import wbik; "
+              "print(targets._accepts_plain_se3 is targets._python_accepts_plain_se3, ur_kernel.compiled(), "
+              "wbik.solver('analytic', wbik.load('ur5'), 'ee').closed_form('pose').kernel)")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
+                         env={**os.environ, PURE_PYTHON_VARIABLE: "1"}).stdout.split()
+    assert out == ["True", "False", "None"]
+
+
+def both_verdicts(matrix: np.ndarray) -> tuple[bool, bool]:
+    matrix = np.ascontiguousarray(matrix, dtype=float)
+    return (targets._python_accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE),
+            targets._compiled_accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE))
+
+
+def random_pose(rng: np.random.Generator) -> np.ndarray:
+    return pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3)).homogeneous
+
+
+@COMPILED_TWIN
+@pytest.mark.numerics
+def test_se3_check_verdicts_at_every_bound():
+    """Rotations scaled, sheared and flipped around each tolerance, positions around the bound, NaN and
+    inf: the compiled test and the Python test agree on every matrix, and both verdicts occur."""
+    rng = np.random.default_rng(4)
+    skew = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    verdicts = set()
+    for _ in range(200):
+        pose = random_pose(rng)
+        cases = []
+        for factor in np.linspace(0.3, 0.7, 9):
+            scaled, sheared = pose.copy(), pose.copy()
+            scaled[:3, :3] *= 1.0 + factor * ROTATION_TOLERANCE
+            sheared[:3, :3] += 2.0 * factor * ROTATION_TOLERANCE * skew
+            cases += [scaled, sheared]
+        for value in (MAX_POSITION - 1.0, MAX_POSITION, MAX_POSITION * (1 + 1e-15), np.nan, np.inf):
+            moved = pose.copy()
+            moved[rng.integers(3), 3] = value * rng.choice([-1.0, 1.0])
+            cases.append(moved)
+        flipped = pose.copy()
+        flipped[:3, :3] *= -1.0
+        cases.append(flipped)
+        for case in cases:
+            python, compiled = both_verdicts(case)
+            assert python == compiled
+            verdicts.add(python)
+    assert verdicts == {True, False}
+
+
+@COMPILED_TWIN
+@pytest.mark.numerics
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), exponent=st.floats(-16.0, -5.0))
+def test_se3_check_verdicts_under_relative_noise(seed, exponent):
+    """A pose with every entry nudged by a relative 10^exponent (around the 1e-6 tolerance and far
+    below it): both tests decide alike."""
+    rng = np.random.default_rng(seed)
+    pose = random_pose(rng)
+    pose[:3] *= 1.0 + 10.0 ** exponent * rng.uniform(-1.0, 1.0, (3, 4))
+    python, compiled = both_verdicts(pose)
+    assert python == compiled
+
+
+@COMPILED_TWIN
+def test_se3_check_reads_strided_matrices_and_refuses_other_buffers():
+    pose = random_pose(np.random.default_rng(9))
+    fortran = np.asfortranarray(pose)
+    assert targets._compiled_accepts_plain_se3(fortran, MAX_POSITION, ROTATION_TOLERANCE)
+    with pytest.raises(TypeError, match="4, 4"):
+        targets._compiled_accepts_plain_se3(pose[:3], MAX_POSITION, ROTATION_TOLERANCE)
+    with pytest.raises(TypeError, match="4, 4"):
+        targets._compiled_accepts_plain_se3(pose.astype(np.float32), MAX_POSITION, ROTATION_TOLERANCE)
