@@ -197,3 +197,33 @@ def test_solve_all_errors_are_the_shared_checks(solvers, chain_name):
             assert abs(result.rotation_error - shared.rotation_error) <= 1e-10
             count += 1
     assert count >= 300 * 4  # UR5 poses have 4 to 8 distinct branches inside its +-2 pi limits
+
+
+@pytest.mark.numerics
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_solve_many_is_solve_bit_for_bit(solvers, chain_name):
+    """With the kernel, solve_many makes solve's choice for every target (same joints, same reasons,
+    unreachable targets among them, one start per target), and its check (closed-form FK) agrees with
+    solve's (Pinocchio): same verdict, errors within 1e-10."""
+    solver = solvers[chain_name]
+    chain = solver.chain
+    rng = np.random.default_rng(404)
+    poses = [chain.fk(q) for q in special_joints(chain, rng, 400)]
+    rotation = poses[0].rotation
+    poses[5::50] = [wbik.Target(np.array([3.0, 0.0, 0.5]), rotation)] * len(poses[5::50])  # out of reach
+    starts = chain.random(rng, len(poses))
+    batch = solver.solve_many(poses, starts)
+    # the unreachable ones fail; so do some exact wrist singularities whose start's q6 leaves the
+    # wrist centre out of reach (the family keeps q6 of the start there), in both paths alike
+    assert len(poses[5::50]) <= sum(not r.success for r in batch) < len(poses) // 10
+    for pose, q0, many in zip(poses, starts, batch, strict=True):
+        one = solver.solve(pose, q0)
+        assert (many.success, many.reason) == (one.success, one.reason)
+        assert many.extra == {**one.extra, "batched": True} or not one.success
+        if one.q is None:
+            assert many.q is None and np.isnan(many.position_error)
+            continue
+        assert many.q.tobytes() == one.q.tobytes()
+        for ours, theirs in ((many.position_error_xyz, one.position_error_xyz),
+                             (many.rotation_error_xyz, one.rotation_error_xyz)):
+            np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10)

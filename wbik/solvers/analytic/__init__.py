@@ -50,6 +50,7 @@ from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
+from wbik.solvers.base import fk_check_reason
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
@@ -524,7 +525,8 @@ class AnalyticSolver(Solver):
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """Vectorised: one closed-form evaluation and one batched FK check for the whole batch;
-        per-pose time = closed-form time / B (the check is not counted, as in ``solve``)."""
+        per-pose time = closed-form time / B (the check is not counted, as in ``solve``). With a
+        compiled kernel: one kernel call for the batch, the same choice as ``solve`` (same bits)."""
         from wbik.solvers.analytic.batch import batch_targets
         from wbik.solvers.analytic.batch import evaluate_batch
 
@@ -534,14 +536,42 @@ class AnalyticSolver(Solver):
             return []
         q0_array = self._start_array(q0s, count)
         form = self.closed_form("position" if rotations is None else "pose")
-        start = time.perf_counter()
         form_rotations = rotations if form.target_kind == "pose" else None
+        if form.kernel is not None and form_rotations is not None:
+            return self._many_compiled(form, positions, rotations, q0_array)
+        start = time.perf_counter()
         choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
         extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
         return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found,
                               self._reasons(choice), self.tolerances, per_pose, self.name, extras,
                               reached=(choice.reached_p, choice.reached_r))
+
+    def _many_compiled(self, form: ClosedForm, positions: np.ndarray, rotations: np.ndarray,
+                       q0_array: np.ndarray) -> list[IKResult]:
+        """:meth:`solve_many` through the kernel: every target's choice and its errors (closed-form FK,
+        :func:`.batch.evaluate_batch`'s rule: the joints are inside the limits already) in one call.
+        ``time_s`` is the kernel's time per pose, its check included."""
+        start = time.perf_counter()
+        joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
+        per_pose = (time.perf_counter() - start) / len(positions)
+        position_tolerance, rotation_tolerance = self.tolerances.position, self.tolerances.rotation
+        name, nan = self.name, math.nan
+        results = []
+        append = results.append
+        for q, p_xyz, r_xyz, (p_norm, r_norm), (branches, outcome) in zip(  # noqa: B905 - all (B, ...)
+                joints, errors[:, :3], errors[:, 3:6], errors[:, 6:].tolist(), info.tolist()):
+            extra = {"branches": int(branches), "batched": True}
+            if outcome != 1:
+                reason = no_solution_reason(outcome != 0, outcome == -2)
+                append(IKResult(None, False, reason, nan, nan, np.full(3, nan), np.full(3, nan), per_pose, 1,
+                                name, extra))
+            elif p_norm <= position_tolerance and r_norm <= rotation_tolerance:
+                append(IKResult(q, True, "", p_norm, r_norm, p_xyz, r_xyz, per_pose, 1, name, extra))
+            else:
+                append(IKResult(q, False, fk_check_reason(p_norm, r_norm), p_norm, r_norm, p_xyz, r_xyz,
+                                per_pose, 1, name, extra))
+        return results
 
     def _start_array(self, q0s, count: int) -> np.ndarray:
         """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""

@@ -221,7 +221,8 @@ static int wrap_one_into_limits(const double *params, const double q[JOINTS], co
     return 1;
 }
 
-/* screen_residual(reached, position, rotation): max(|p - p*|, angle(R*^T R)) of a reached pose. */
+/* screen_residual(reached, position, rotation): max(|p - p*|, angle(R*^T R)) of a reached pose
+ * (the caller computes reached = fk_one(q) and may keep it for the check). */
 static double residual(const double reached_p[3], const double reached_r[9], const double position[3],
                        const double rotation[9])
 {
@@ -232,15 +233,6 @@ static double residual(const double reached_p[3], const double reached_r[9], con
         trace += reached_r[k] * rotation[k];
     double angle = acos(PY_MIN(1.0, PY_MAX(-1.0, 0.5 * (trace - 1.0))));
     return PY_MAX(error, angle);
-}
-
-/* screen_residual(fk_one(q), position, rotation) */
-static double screen_residual(const double *params, const double q[JOINTS], const double position[3],
-                              const double rotation[9])
-{
-    double reached_p[3], reached_r[9];
-    fk_one(params, q, reached_p, reached_r);
-    return residual(reached_p, reached_r, position, rotation);
 }
 
 static double squared_distance(const double a[JOINTS], const double b[JOINTS])
@@ -318,57 +310,6 @@ static int read_arguments(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t ex
     return 0;
 }
 
-/* nearest(params, position, rotation, reference, out) -> int
- * The branch AnalyticSolver._solve picks (nearest_branch over branches_one), written into out (6,).
- * Returns the number of real branches when one is found; otherwise 0 (no real branch), -1 (real
- * branches, none inside the limits) or -2 (some inside the limits, none passes the screen). */
-static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    if (read_arguments(args, nargs, 5, params, position, rotation, reference) < 0)
-        return NULL;
-    double flange_p[3], flange_r[9];
-    flange_target(params, position, rotation, flange_p, flange_r);
-    Branch branches[MAX_BRANCHES];
-    int count = branches_one(params, flange_p, flange_r, reference, branches);
-    /* bounded.sort(key=bound): stable insertion sort of the branch indices */
-    int order[MAX_BRANCHES];
-    for (int i = 0; i < count; i++) {
-        int j = i;
-        while (j > 0 && branches[order[j - 1]].bound > branches[i].bound) {
-            order[j] = order[j - 1];
-            j--;
-        }
-        order[j] = i;
-    }
-    double slack = (double)JOINTS * params[P_BOUND_SLACK];
-    double best[JOINTS], best_distance = INFINITY;
-    int found = 0, inside = 0;
-    double tolerance = params[P_SCREEN_TOLERANCE];
-    for (int k = 0; k < count; k++) {
-        const Branch *branch = &branches[order[k]];
-        if (branch->bound - slack >= best_distance)
-            break;
-        if (!(branch->bound < INFINITY))
-            continue;
-        double q[JOINTS];
-        if (!wrap_one_into_limits(params, branch->q, reference, q))
-            continue;
-        inside = 1;
-        double distance = squared_distance(q, reference);
-        if (distance < best_distance && screen_residual(params, q, position, rotation) <= tolerance) {
-            memcpy(best, q, sizeof best);
-            best_distance = distance;
-            found = 1;
-        }
-    }
-    if (!found)
-        return PyLong_FromLong(count == 0 ? 0 : inside ? -2 : -1);
-    if (write_doubles(args[4], best, JOINTS, "out") < 0)
-        return NULL;
-    return PyLong_FromLong(count);
-}
-
 /* The batched check's errors of one reached pose against the target (wbik.solvers.analytic.batch.
  * evaluate_batch, geometry.batch_log3): position error p - p*, rotation error log3(R*^T R) as
  * vee(M - M^T) angle / |vee(M - M^T)| with angle = atan2(|vee| / 2, (trace M - 1) / 2), and both norms:
@@ -392,6 +333,146 @@ static void pose_errors(const double reached_p[3], const double reached_r[9], co
     }
     errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
     errors[7] = sqrt(errors[3] * errors[3] + errors[4] * errors[4] + errors[5] * errors[5]);
+}
+
+/* The branch AnalyticSolver._solve picks (nearest_branch over branches_one): written into best (6,),
+ * with the batched check's errors of its closed-form FK into errors (8,) unless errors is NULL.
+ * Returns 1 when one is picked, else 0 (no real branch), -1 (real branches, none inside the limits) or
+ * -2 (some inside the limits, none passes the screen); *real_count gets the number of real branches. */
+static int choose(const double *params, const double position[3], const double rotation[9],
+                  const double reference[JOINTS], double best[JOINTS], double *errors, int *real_count)
+{
+    double flange_p[3], flange_r[9];
+    flange_target(params, position, rotation, flange_p, flange_r);
+    Branch branches[MAX_BRANCHES];
+    int count = branches_one(params, flange_p, flange_r, reference, branches);
+    *real_count = count;
+    /* bounded.sort(key=bound): stable insertion sort of the branch indices */
+    int order[MAX_BRANCHES];
+    for (int i = 0; i < count; i++) {
+        int j = i;
+        while (j > 0 && branches[order[j - 1]].bound > branches[i].bound) {
+            order[j] = order[j - 1];
+            j--;
+        }
+        order[j] = i;
+    }
+    double slack = (double)JOINTS * params[P_BOUND_SLACK];
+    double best_distance = INFINITY, best_p[3], best_r[9];
+    int found = 0, inside = 0;
+    double tolerance = params[P_SCREEN_TOLERANCE];
+    for (int k = 0; k < count; k++) {
+        const Branch *branch = &branches[order[k]];
+        if (branch->bound - slack >= best_distance)
+            break;
+        if (!(branch->bound < INFINITY))
+            continue;
+        double q[JOINTS];
+        if (!wrap_one_into_limits(params, branch->q, reference, q))
+            continue;
+        inside = 1;
+        double distance = squared_distance(q, reference);
+        if (!(distance < best_distance))
+            continue;
+        double reached_p[3], reached_r[9];
+        fk_one(params, q, reached_p, reached_r);
+        if (residual(reached_p, reached_r, position, rotation) <= tolerance) {
+            memcpy(best, q, JOINTS * sizeof(double));
+            memcpy(best_p, reached_p, sizeof best_p);
+            memcpy(best_r, reached_r, sizeof best_r);
+            best_distance = distance;
+            found = 1;
+        }
+    }
+    if (!found)
+        return count == 0 ? 0 : inside ? -2 : -1;
+    if (errors != NULL)
+        pose_errors(best_p, best_r, position, rotation, errors);
+    return 1;
+}
+
+/* nearest(params, position, rotation, reference, out) -> int
+ * choose() for one target, the joints written into out (6,). Returns the number of real branches when
+ * one is picked, else choose()'s failure code (0, -1 or -2). */
+static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double params[P_COUNT], position[3], rotation[9], reference[JOINTS], best[JOINTS];
+    if (read_arguments(args, nargs, 5, params, position, rotation, reference) < 0)
+        return NULL;
+    int count;
+    int outcome = choose(params, position, rotation, reference, best, NULL, &count);
+    if (outcome != 1)
+        return PyLong_FromLong(outcome);
+    if (write_doubles(args[4], best, JOINTS, "out") < 0)
+        return NULL;
+    return PyLong_FromLong(count);
+}
+
+/* A C-contiguous float64 buffer of exactly `count` values (writable if asked). */
+static int contiguous(PyObject *object, Py_buffer *view, Py_ssize_t count, int writable, const char *what)
+{
+    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(object, view, flags) < 0)
+        return -1;
+    if (view->itemsize != 8 || view->len != count * 8 || view->format == NULL || strcmp(view->format, "d") != 0) {
+        PyBuffer_Release(view);
+        PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous float64 array of %zd values", what, count);
+        return -1;
+    }
+    return 0;
+}
+
+/* nearest_many(params, positions, rotations, references, q, errors, info) -> None
+ * choose() for B targets: positions (B, 3), rotations (B, 3, 3), references (B, 6), all C-contiguous
+ * float64; writes the joints into q (B, 6) (zeros where none is picked), the errors into errors (B, 8)
+ * (zeros likewise) and (real branch count, outcome) into info (B, 2). The GIL is released meanwhile. */
+static PyObject *nearest_many(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7) {
+        PyErr_Format(PyExc_TypeError, "expected 7 arguments, got %zd", nargs);
+        return NULL;
+    }
+    double params[P_COUNT];
+    if (read_doubles(args[0], params, P_COUNT, "params") < 0)
+        return NULL;
+    Py_buffer views[6];
+    static const char *names[6] = {"positions", "rotations", "references", "q", "errors", "info"};
+    static const Py_ssize_t widths[6] = {3, 9, JOINTS, JOINTS, 8, 2};
+    Py_buffer first;
+    if (PyObject_GetBuffer(args[1], &first, PyBUF_ND) < 0)
+        return NULL;
+    Py_ssize_t batch = first.ndim >= 1 ? first.shape[0] : -1;
+    PyBuffer_Release(&first);
+    if (batch < 0) {
+        PyErr_SetString(PyExc_TypeError, "positions: expected an array of shape (B, 3)");
+        return NULL;
+    }
+    int held = 0;
+    for (; held < 6; held++)
+        if (contiguous(args[1 + held], &views[held], batch * widths[held], held >= 3, names[held]) < 0)
+            break;
+    if (held == 6) {
+        const double *positions = views[0].buf, *rotations = views[1].buf, *references = views[2].buf;
+        double *q = views[3].buf, *errors = views[4].buf, *info = views[5].buf;
+        Py_BEGIN_ALLOW_THREADS
+        for (Py_ssize_t b = 0; b < batch; b++) {
+            int count;
+            int outcome = choose(params, positions + 3 * b, rotations + 9 * b, references + JOINTS * b,
+                                 q + JOINTS * b, errors + 8 * b, &count);
+            if (outcome != 1) {
+                memset(q + JOINTS * b, 0, JOINTS * sizeof(double));
+                memset(errors + 8 * b, 0, 8 * sizeof(double));
+            }
+            info[2 * b] = count;
+            info[2 * b + 1] = outcome;
+        }
+        Py_END_ALLOW_THREADS
+    }
+    for (int i = 0; i < held; i++)
+        PyBuffer_Release(&views[i]);
+    if (held < 6)
+        return NULL;
+    Py_RETURN_NONE;
 }
 
 /* distinct(params, position, rotation, reference, out, errors) -> int
@@ -456,6 +537,8 @@ static PyObject *fk(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 static PyMethodDef methods[] = {
     {"nearest", (PyCFunction)(void (*)(void))nearest, METH_FASTCALL,
      "nearest(params, position, rotation, reference, out) -> int: the chosen branch into out"},
+    {"nearest_many", (PyCFunction)(void (*)(void))nearest_many, METH_FASTCALL,
+     "nearest_many(params, positions, rotations, references, q, errors, info): nearest for a batch"},
     {"distinct", (PyCFunction)(void (*)(void))distinct, METH_FASTCALL,
      "distinct(params, position, rotation, reference, out, errors) -> int: the distinct screened branches"},
     {"fk", (PyCFunction)(void (*)(void))fk, METH_FASTCALL, "fk(params, q) -> (position, rotation)"},

@@ -71,6 +71,20 @@ class URKernel:
         status = _ur_kernel.nearest(self.params, position, rotation, reference, out)
         return (out if status > 0 else None), status
 
+    def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
+                     references: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`nearest` for a batch (B, 3), (B, 3, 3), (B, 6), in one call without the GIL: (joints
+        (B, 6), the batched check's errors of each with the closed-form FK (B, 8) as in :meth:`distinct`,
+        (real branch count, outcome) (B, 2) with outcome 1 where a branch is picked, else the failure
+        codes of :meth:`nearest`). Rows not picked hold zeros."""
+        count = len(positions)
+        q, errors, info = np.empty((count, 6)), np.empty((count, 8)), np.empty((count, 2))
+        contiguous = np.ascontiguousarray
+        _ur_kernel.nearest_many(self.params, contiguous(positions, dtype=float),
+                                contiguous(rotations, dtype=float), contiguous(references, dtype=float),
+                                q, errors, info)
+        return q, errors, info
+
     def distinct(self, position: np.ndarray, rotation: np.ndarray,
                  reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The distinct screened branches wrapped nearest to ``reference``, in branch order (k, 6), and
