@@ -11,7 +11,9 @@ machine busy with other work distorts them less and alike:
 * EAIK raw batched: one ``IK_batched`` call with one worker thread.
 * analytic solve / solve_all / solve_many: our UR5 closed form through ``wbik.solver("analytic")``,
   everything included (target conversion, wrapping into the limits, choice of the nearest branch, the
-  shared FK check of each returned result; batched in solve_many).
+  FK check of each returned result: Pinocchio's shared check in solve; the batched rule with the closed
+  form's FK in solve_many, and in solve_all where the compiled kernel runs). The notes say whether the
+  compiled UR kernel ran (``WBIK_PURE_PYTHON=1`` times the Python path).
 * eaik solve / solve_all / solve_many: EAIK through ``wbik.solver("eaik")``, the same inclusions.
 
 A last row times the Golem-III ``right_arm`` analytic ``solve`` (EAIK has no decomposition for it),
@@ -30,6 +32,7 @@ from collections.abc import Callable
 import numpy as np
 
 import wbik
+from wbik.solvers.analytic import ur_kernel
 
 GOLEM_GOAL_S = 25e-6
 """Issue 16: Golem-III ``solve`` at most 25 us wall per call (a fixed bound, not a peer)."""
@@ -114,16 +117,19 @@ def ratios(quick: bool = False) -> list:
     count, rounds = (300, 3) if quick else (2000, 5)
     rows, _ = measure(count, rounds, seed=0)
     peer = rows["EAIK raw IK (all branches)"][0]
+    path = ("UR scalar path: compiled kernel (_ur_kernel.c)" if ur_kernel.compiled()
+            else "UR scalar path: pure Python (kernel not built or WBIK_PURE_PYTHON=1)")
     how = (f"UR5 ee, {count} FK poses from the nominal start, best of {rounds} interleaved rounds; "
-           f"ours wall time with everything (conversion, limits, choice, shared FK check); EAIK raw: "
-           f"HPRobot.IK on every pose, all branches, no limits, no choice, no check")
+           f"ours wall time with everything (conversion, limits, choice, FK check); EAIK raw: "
+           f"HPRobot.IK on every pose, all branches, no limits, no choice, no check; {path}")
     return [
         Ratio("UR5 closed-form solve <= 2x EAIK all branches", "analytic solve (UR5)",
               rows["analytic solve"][0], "EAIK raw IK (all branches)", peer, "s/pose", 2.0,
               note=f"{how}; {rows['analytic solve'][1]}"),
         Ratio("UR5 closed-form solve_all <= 3x EAIK all branches", "analytic solve_all (UR5)",
               rows["analytic solve_all"][0], "EAIK raw IK (all branches)", peer, "s/pose", 3.0,
-              note=f"{how}; {rows['analytic solve_all'][1]}, each an IKResult through the shared check"),
+              note=f"{how}; {rows['analytic solve_all'][1]}, each an IKResult, checked with the closed "
+                   f"form's FK as in solve_many where the kernel runs (solve: Pinocchio's)"),
         Ratio("UR5 closed-form solve_many per pose faster than EAIK per call", "analytic solve_many (UR5)",
               rows["analytic solve_many"][0], "EAIK raw IK (all branches)", peer, "s/pose", 1.0,
               note=f"{how}; one solve_many call for all poses, {rows['analytic solve_many'][1]}"),

@@ -95,7 +95,7 @@ def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
     return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
 
 
-@dataclass
+@dataclass(slots=True)
 class Candidate:
     """What a method found, before the shared check."""
 

@@ -503,8 +503,9 @@ class AnalyticSolver(Solver):
             rotation = None
         kernel = form.kernel
         if kernel is not None:
-            q, status = kernel.nearest(target.position, rotation, q0)
-            if q is None:
+            q = np.empty(len(q0))
+            status = kernel.nearest_into(target.position, rotation, q0, q)
+            if status <= 0:
                 return Candidate(None, 1, no_solution_reason(status != 0, status == -2))
             return Candidate(q, 1, extra={"branches": status})
         if form.has_scalar_path:

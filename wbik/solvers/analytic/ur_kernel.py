@@ -14,6 +14,8 @@ Python path runs.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from wbik.compiled import PURE_PYTHON_VARIABLE  # noqa: F401 - re-exported: the switch, for this kernel's users
@@ -61,6 +63,9 @@ class URKernel:
                                f"{_ur_kernel.PARAMETER_COUNT}; rebuild with pip install -e .")
         params.flags.writeable = False
         self.params = params
+        self.nearest_into = functools.partial(_ur_kernel.nearest, params)
+        """nearest_into(position, rotation, reference, out) -> status: :meth:`nearest` writing into
+        ``out`` (6,) (the per-call path of ``solve``: no wrapper frame, no tuple)."""
 
     def nearest(self, position: np.ndarray, rotation: np.ndarray,
                 reference: np.ndarray) -> tuple[np.ndarray | None, int]:
@@ -68,7 +73,7 @@ class URKernel:
         branches when one is picked, else 0 (no real branch), -1 (none inside the limits) or -2 (none
         passes the screen)."""
         out = np.empty(6)
-        status = _ur_kernel.nearest(self.params, position, rotation, reference, out)
+        status = self.nearest_into(position, rotation, reference, out)
         return (out if status > 0 else None), status
 
     def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
