@@ -39,4 +39,8 @@ if [ -n "$kdl_so" ]; then
     ln -sf "$kdl_so" .venv/pykdl-shim/
     echo "$(pwd)/.venv/pykdl-shim" > "$site/wbik-pykdl.pth"
 fi
+if ! .venv/bin/python -c "from wbik.solvers.analytic import ur_kernel; raise SystemExit(not ur_kernel.built())"; then
+    echo "setup: the optional C kernels were not built (no C compiler or Python headers): wbik runs their" >&2
+    echo "setup: pure-Python twins (slower, same answers); install gcc and python3-dev, then run this again." >&2
+fi
 .venv/bin/python -c "import wbik; print('setup: wbik', wbik.__version__, 'ready in .venv')"
