@@ -1,7 +1,7 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
 the study files ``comparisons/*.yaml``; and it builds the optional C extensions of
-:mod:`wbik.compiled` (``wbik._se3_check``, the fast-path test of a pose target, and
+:mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic, and
 ``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path). Without a C compiler the
 build goes on without them and their Python twins run. (The robots' URDFs are package data of their
 robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
@@ -48,8 +48,8 @@ class BuildPyWithData(build_py):
 
 COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
 """The Python twins' bits: no fused multiply-add, no reassociation (the C files say why)."""
-SE3_CHECK = Extension("wbik._se3_check", ["wbik/_se3_check.c"], extra_compile_args=COMPILE_ARGS,
-                      optional=True)
+POSE_KERNEL = Extension("wbik._pose_kernel", ["wbik/_pose_kernel.c"], extra_compile_args=COMPILE_ARGS,
+                        optional=True)
 UR_KERNEL = Extension(
     "wbik.solvers.analytic._ur_kernel",
     ["wbik/solvers/analytic/_ur_kernel.c"],
@@ -58,4 +58,4 @@ UR_KERNEL = Extension(
     optional=True,
 )
 
-setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[SE3_CHECK, UR_KERNEL])
+setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[POSE_KERNEL, UR_KERNEL])

@@ -1,6 +1,7 @@
 """The compiled kernels of :mod:`wbik.compiled`: built by the set-up where a C compiler exists, switched
-off by ``WBIK_PURE_PYTHON=1``, and the SE3 fast-path test giving the Python test's verdict on every
-matrix (the UR kernel's own agreement tests are in tests/test_ur_kernel.py)."""
+off by ``WBIK_PURE_PYTHON=1``; the SE3 fast-path test giving the Python test's verdict on every matrix,
+and the shared check's arithmetic the Python twin's bits (the UR kernel's own agreement tests are in
+tests/test_ur_kernel.py)."""
 
 from __future__ import annotations
 
@@ -37,6 +38,11 @@ def test_both_extensions_are_built_where_a_compiler_exists():
     Python twins run (and the set-up says so)."""
     assert ur_kernel.built() == HAS_COMPILER
     assert (targets._compiled_accepts_plain_se3 is not None) == HAS_COMPILER
+    from wbik import geometry
+
+    assert (geometry._compiled_error_parts is not None) == HAS_COMPILER
+    assert geometry.error_parts is (geometry._python_error_parts if pure_python() or not HAS_COMPILER
+                                    else geometry._compiled_error_parts)
     expected = targets._python_accepts_plain_se3 if pure_python() or not HAS_COMPILER else \
         targets._compiled_accepts_plain_se3
     assert targets._accepts_plain_se3 is expected  # WBIK_PURE_PYTHON=1 (a whole-suite run) picks Python
@@ -114,3 +120,44 @@ def test_se3_check_reads_strided_matrices_and_refuses_other_buffers():
         targets._compiled_accepts_plain_se3(pose[:3], MAX_POSITION, ROTATION_TOLERANCE)
     with pytest.raises(TypeError, match="4, 4"):
         targets._compiled_accepts_plain_se3(pose.astype(np.float32), MAX_POSITION, ROTATION_TOLERANCE)
+
+
+@COMPILED_TWIN
+@pytest.mark.numerics
+def test_error_parts_twins_give_the_same_bits():
+    """The shared check's arithmetic (p - p*, |p - p*|, R*^T R): compiled and Python twins agree bit for
+    bit on random and nearly equal poses, with and without a target rotation; and log3 of R*^T R is
+    geometry.rotation_error's e_R (numpy's product, to rounding)."""
+    from wbik import geometry
+
+    rng = np.random.default_rng(12)
+    for index in range(500):
+        reached = pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3))
+        near = reached * pin.exp6(pin.Motion(10.0 ** rng.uniform(-15, -3) * rng.normal(size=6)))
+        target = near if index % 2 else pin.SE3(pin.exp3(rng.normal(size=3)), rng.uniform(-2.0, 2.0, 3))
+        rotation = None if index % 5 == 0 else target.rotation
+        outputs = []
+        for twin in (geometry._python_error_parts, geometry._compiled_error_parts):
+            position_error, relative = np.empty(3), np.zeros((3, 3))
+            norm = twin(reached.homogeneous, target.translation, rotation, position_error, relative)
+            outputs.append((np.float64(norm).tobytes(), position_error.tobytes(), relative.tobytes()))
+        assert outputs[0] == outputs[1]
+        if rotation is not None:
+            ours = pin.log3(np.frombuffer(outputs[0][2]).reshape(3, 3))
+            # log3 near a half turn turns 1e-16 in the product into ~1e-12 in the axis: a looser bound
+            # for the random (far) targets, a tight one for the near ones, as in a converged check
+            np.testing.assert_allclose(ours, geometry.rotation_error(reached.rotation, rotation), rtol=0,
+                                       atol=1e-14 if index % 2 else 1e-10)
+
+
+@COMPILED_TWIN
+def test_error_parts_refuses_wrong_buffers():
+    from wbik import geometry
+
+    pose = random_pose(np.random.default_rng(3))
+    with pytest.raises(TypeError, match="position"):
+        geometry._compiled_error_parts(pose, np.zeros(4), None, np.empty(3), None)
+    with pytest.raises(TypeError, match="relative"):
+        geometry._compiled_error_parts(pose, np.zeros(3), np.eye(3), np.empty(3), np.empty(3))
+    with pytest.raises(TypeError, match="position_error"):
+        geometry._compiled_error_parts(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), None)

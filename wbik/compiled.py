@@ -2,7 +2,8 @@
 
 Two optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
 per-call Python arithmetic with the same arithmetic in C (same bits, tests compare both):
-``wbik._se3_check`` (the fast-path test of :func:`wbik.targets.as_target`) and
+``wbik._pose_kernel`` (the fast-path test of :func:`wbik.targets.as_target` and the arithmetic of the
+shared FK check, :func:`wbik.geometry.error_parts`) and
 ``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's scalar path). Without them, or with
 ``WBIK_PURE_PYTHON=1`` in the environment, the Python twins run.
 """

@@ -23,6 +23,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbik.compiled import pure_python
 from wbik.errors import InvalidSettingError
 
 
@@ -136,6 +137,37 @@ def rotation_error(reached: np.ndarray, target: np.ndarray) -> np.ndarray:
     """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached.
     (``ndarray.dot``, not ``@``: the same 3 x 3 product at ~0.4 us instead of ~1 us, on every solve.)"""
     return pin.log3(target.T.dot(reached))
+
+
+def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
+                        position_error: np.ndarray, relative: np.ndarray | None) -> float:
+    """The shared check's arithmetic in plain floats: p - p* into ``position_error`` (3,) and, for a
+    rotation, R*^T R into ``relative`` (3, 3) (sum over k of R*_ki R_kj, k in order), from the reached
+    pose's 4x4 homogeneous matrix; returns |p - p*| = sqrt(x^2 + y^2 + z^2). Its compiled twin is
+    ``wbik._pose_kernel.error_parts``: the same bits, on every CPU (a BLAS product's rounding is not)."""
+    (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
+    px, py, pz = position.tolist()
+    ex, ey, ez = x - px, y - py, z - pz
+    position_error[0], position_error[1], position_error[2] = ex, ey, ez
+    if rotation is not None:
+        (t00, t01, t02), (t10, t11, t12), (t20, t21, t22) = rotation.tolist()
+        relative[:] = ((t00 * r00 + t10 * r10 + t20 * r20, t00 * r01 + t10 * r11 + t20 * r21,
+                        t00 * r02 + t10 * r12 + t20 * r22),
+                       (t01 * r00 + t11 * r10 + t21 * r20, t01 * r01 + t11 * r11 + t21 * r21,
+                        t01 * r02 + t11 * r12 + t21 * r22),
+                       (t02 * r00 + t12 * r10 + t22 * r20, t02 * r01 + t12 * r11 + t22 * r21,
+                        t02 * r02 + t12 * r12 + t22 * r22))
+    return math.sqrt(ex * ex + ey * ey + ez * ez)
+
+
+try:  # the compiled twin (wbik.compiled)
+    from wbik._pose_kernel import error_parts as _compiled_error_parts
+except ImportError:  # not built: the Python twin
+    _compiled_error_parts = None
+error_parts = (_python_error_parts if _compiled_error_parts is None or pure_python()
+               else _compiled_error_parts)
+"""error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared FK check's
+arithmetic (:func:`_python_error_parts`, compiled where built); log3 of ``relative`` is e_R."""
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:

@@ -81,7 +81,7 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
 
 def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float) -> bool:
     """The fast-path test of a 4x4 pose in plain floats: position within ``bound``; unit, orthogonal
-    columns and det +1 within ``tolerance`` (``wbik._se3_check.plain_se3`` is its compiled twin)."""
+    columns and det +1 within ``tolerance`` (``wbik._pose_kernel.plain_se3`` is its compiled twin)."""
     (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = matrix.tolist()
     # chained comparisons: no abs() calls
     if not (-bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound):
@@ -96,7 +96,7 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
 
 
 try:  # the compiled twin (wbik.compiled): the same test in C, ~1 us less per call
-    from wbik._se3_check import plain_se3 as _compiled_accepts_plain_se3
+    from wbik._pose_kernel import plain_se3 as _compiled_accepts_plain_se3
 except ImportError:  # not built: the Python test
     _compiled_accepts_plain_se3 = None
 _accepts_plain_se3 = (_python_accepts_plain_se3 if _compiled_accepts_plain_se3 is None or pure_python()

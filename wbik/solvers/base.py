@@ -19,12 +19,13 @@ from dataclasses import dataclass
 from dataclasses import field
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.errors import InvalidBudgetError
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
-from wbik.geometry import rotation_error
+from wbik.geometry import error_parts
 from wbik.robot import Chain
 from wbik.robot import Robot
 from wbik.targets import Target
@@ -148,9 +149,10 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     """The shared FK check: clip into the limits, measure the errors, decide success.
 
     The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
-    e_R = log3(R*^T R) (``geometry.rotation_error``, target axes). Written for the per-call path (a
-    few microseconds): plain-float norms, one clip, one FK, one log3; the detailed checks run only
-    when something is off.
+    e_R = log3(R*^T R) (target axes; ``geometry.error_parts`` gives p - p*, its norm and R*^T R,
+    Pinocchio the log3). Written for the per-call path (a few microseconds): one clip, one FK, one
+    call for the arithmetic (compiled where built), one log3; the detailed checks run only when
+    something is off.
     """
     q = candidate.q
     if q is None:
@@ -169,14 +171,15 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
             return _invalid_joints(q, time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
             reason = CLIPPED_REASON
-    reached = chain.fk(inside)
-    position_xyz = reached.translation - target.position
-    position_norm = math.hypot(*position_xyz.tolist())
     target_rotation = target.rotation
-    if target_rotation is None:
+    position_xyz = np.empty(3)
+    relative = None if target_rotation is None else np.empty((3, 3))
+    position_norm = error_parts(chain.fk(inside).homogeneous, target.position, target_rotation,
+                                position_xyz, relative)
+    if relative is None:
         rotation_xyz, rotation_norm = np.zeros(3), 0.0
     else:
-        rotation_xyz = rotation_error(reached.rotation, target_rotation)
+        rotation_xyz = pin.log3(relative)  # e_R = log3(R*^T R): geometry.rotation_error's
         rotation_norm = math.hypot(*rotation_xyz.tolist())
     if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
         return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
