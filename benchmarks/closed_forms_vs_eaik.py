@@ -34,6 +34,10 @@ import numpy as np
 import wbik
 from wbik.solvers.analytic import ur_kernel
 
+ROUNDS = 9
+"""Interleaved rounds (as benchmarks/qp.py). With 5, one run in a slow phase of this machine read the UR5
+solve 45 % slower but EAIK's call only 17 % slower (13.6 and 6.1 us, against 9.4 and 5.2 us in the run
+before): a phase can cover all five rounds of a row, and it does not slow Python and C alike."""
 GOLEM_GOAL_S = 25e-6
 """Issue 16: Golem-III ``solve`` at most 25 us wall per call (a fixed bound, not a peer)."""
 
@@ -41,7 +45,7 @@ GOLEM_GOAL_S = 25e-6
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--poses", type=int, default=2000, help="UR5 poses (and Golem-III poses)")
-    parser.add_argument("--rounds", type=int, default=5, help="interleaved rounds; each row keeps its best")
+    parser.add_argument("--rounds", type=int, default=ROUNDS, help="interleaved rounds; each keeps its best")
     parser.add_argument("--seed", type=int, default=0, help="random seed of the sampled joints")
     arguments = parser.parse_args(argv)
     if arguments.poses < 1 or arguments.rounds < 1:
@@ -114,7 +118,7 @@ def ratios(quick: bool = False) -> list:
     all-branch time per pose in the same run, and Golem-III ``solve`` against the fixed 25 us goal."""
     from ratios import Ratio
 
-    count, rounds = (300, 3) if quick else (2000, 5)
+    count, rounds = (300, 3) if quick else (2000, ROUNDS)
     rows, _ = measure(count, rounds, seed=0)
     peer = rows["EAIK raw IK (all branches)"][0]
     path = ("UR scalar path: compiled kernel (_ur_kernel.c)" if ur_kernel.compiled()

@@ -227,3 +227,50 @@ def test_solve_many_is_solve_bit_for_bit(solvers, chain_name):
         for ours, theirs in ((many.position_error_xyz, one.position_error_xyz),
                              (many.rotation_error_xyz, one.rotation_error_xyz)):
             np.testing.assert_allclose(ours, theirs, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("chain_name", CHAINS)
+def test_solve_all_results_built_by_the_kernel(solvers, chain_name):
+    """The kernel's IKResults are those of its distinct branches and errors: every field, in order; a
+    tolerance below the errors drops exactly the branches above it; nothing leaks over many calls."""
+    import gc
+    import sys
+
+    from wbik.solvers.base import IKResult
+    from wbik.solvers.base import Tolerances
+
+    solver = solvers[chain_name]
+    chain = solver.chain
+    kernel = solver.closed_form("pose").kernel
+    for q in special_joints(chain, np.random.default_rng(5), 60):
+        target = as_target(chain.fk(q))
+        results = solver.solve_all(target)
+        joints, errors = kernel.distinct(target.position, target.rotation, chain.nominal)
+        assert len(results) == len(joints)
+        for result, row, error in zip(results, joints, errors, strict=True):
+            assert type(result) is IKResult
+            assert (result.success, result.reason, result.iterations, result.method, result.extra) == \
+                (True, "", 1, "analytic", {})
+            assert result.q.tobytes() == row.tobytes()
+            assert result.position_error_xyz.tobytes() == error[:3].tobytes()
+            assert result.rotation_error_xyz.tobytes() == error[3:6].tobytes()
+            assert (result.position_error, result.rotation_error) == (error[6], error[7])
+            assert 0.0 < result.time_s < 0.01
+        cut = float(np.median(errors[:, 7])) if len(errors) > 1 else 0.0
+        if cut > 0.0:
+            with pytest.MonkeyPatch.context() as patch:
+                patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
+                strict = wbik.solver("analytic", solver.robot, chain=chain_name,
+                                     tolerances=Tolerances(position=1e-6, rotation=cut))
+                strict.closed_form("pose")
+            expected = [row.tobytes() for row, error in zip(joints, errors, strict=True) if error[7] <= cut]
+            assert [r.q.tobytes() for r in strict.solve_all(target)] == expected
+    target = as_target(chain.fk(chain.mid_range))
+    solver.solve_all(target)
+    gc.collect()
+    before = (sys.getrefcount(IKResult), sys.getrefcount(True), len(gc.get_objects()))
+    for _ in range(2000):
+        solver.solve_all(target)
+    gc.collect()
+    after = (sys.getrefcount(IKResult), sys.getrefcount(True), len(gc.get_objects()))
+    assert after[:2] == before[:2] and after[2] - before[2] < 100

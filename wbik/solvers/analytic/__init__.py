@@ -584,13 +584,15 @@ class AnalyticSolver(Solver):
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct branch inside the limits that passes the shared FK check (wrapped nearest to
         the chain's nominal configuration, in branch order). With a compiled kernel the check is the
-        batched one of ``solve_many`` (the same rule, with the closed form's FK), done in the kernel."""
+        batched one of ``solve_many`` (the same rule, with the closed form's FK; the branches are inside
+        the limits already, nothing to clip) and the kernel builds the results: their arrays are row
+        views of three buffers, ``time_s`` the kernel's time with its check."""
         target = as_target(target)
         self._check_target_kind(target)
         form = self.closed_form("pose" if target.is_pose else "position")
         nominal = self.chain.nominal
-        if form.kernel is not None:
-            return self._all_compiled(form, target, nominal)
+        if form.kernel is not None:  # the kernel builds the results (the same rule, see the docstring)
+            return form.kernel.results(target.position, target.rotation, nominal, self.name, self.tolerances)
         start = time.perf_counter()
         if form.has_scalar_path:
             distinct = self._distinct_one(form, target, nominal)
@@ -608,23 +610,6 @@ class AnalyticSolver(Solver):
         results = [evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
                    for q in distinct]
         return [r for r in results if r.success]
-
-    def _all_compiled(self, form: ClosedForm, target: Target, nominal: np.ndarray) -> list[IKResult]:
-        """:meth:`solve_all` through the kernel: its distinct branches and their errors (closed-form FK,
-        :func:`.batch.evaluate_batch`'s rule), kept where both norms are within the tolerances (the
-        branches are inside the limits already: nothing to clip). ``time_s`` is the kernel's time, its
-        check included."""
-        start = time.perf_counter()
-        joints, errors = form.kernel.distinct(target.position, target.rotation, nominal)
-        elapsed = time.perf_counter() - start
-        position_tolerance, rotation_tolerance = self.tolerances.position, self.tolerances.rotation
-        name = self.name
-        # zip over whole-array column slices: one view per row each (cheaper than slicing every row);
-        # every argument has the k rows of the kernel's answer
-        return [IKResult(q, True, "", p_norm, r_norm, p_xyz, r_xyz, elapsed, 1, name, {})
-                for q, p_xyz, r_xyz, (p_norm, r_norm)
-                in zip(joints, errors[:, :3], errors[:, 3:6], errors[:, 6:].tolist())  # noqa: B905
-                if p_norm <= position_tolerance and r_norm <= rotation_tolerance]
 
     def _distinct_one(self, form: ClosedForm, target: Target, nominal: np.ndarray) -> list[np.ndarray]:
         """Every branch wrapped into the limits nearest to ``nominal`` that passes the screen and is not

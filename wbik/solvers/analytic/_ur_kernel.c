@@ -13,6 +13,7 @@
 #include <Python.h>
 #include <math.h>
 #include <string.h>
+#include <time.h>
 
 #define TWO_PI (2.0 * 3.141592653589793)
 /* Python's max(a, b) and min(a, b) of two floats: the first unless the second compares larger (smaller),
@@ -475,21 +476,18 @@ static PyObject *nearest_many(PyObject *self, PyObject *const *args, Py_ssize_t 
     Py_RETURN_NONE;
 }
 
-/* distinct(params, position, rotation, reference, out, errors) -> int
- * AnalyticSolver._distinct_one: in branch order, every branch wrapped into the limits nearest to the
+/* AnalyticSolver._distinct_one: in branch order, every branch wrapped into the limits nearest to the
  * reference that is not within BRANCH_MERGE (modulo 2 pi, every joint) of an earlier kept one and
- * passes the screen. Writes them into the first rows of out (8, 6), and their errors (pose_errors,
- * with the closed-form FK, tool included) into the rows of errors (8, 8); returns how many. */
-static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+ * passes the screen, into the first rows of kept (8, 6), with their errors (pose_errors, with the
+ * closed-form FK, tool included) into the rows of errors (8, 8); returns how many. */
+static int distinct_branches(const double *params, const double position[3], const double rotation[9],
+                             const double reference[JOINTS], double kept[MAX_BRANCHES * JOINTS],
+                             double errors[MAX_BRANCHES * 8])
 {
-    double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    if (read_arguments(args, nargs, 6, params, position, rotation, reference) < 0)
-        return NULL;
     double flange_p[3], flange_r[9];
     flange_target(params, position, rotation, flange_p, flange_r);
     Branch branches[MAX_BRANCHES];
     int count = branches_one(params, flange_p, flange_r, reference, branches);
-    double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
     int kept_count = 0;
     double merge = params[P_BRANCH_MERGE], tolerance = params[P_SCREEN_TOLERANCE];
     for (int k = 0; k < count; k++) {
@@ -512,10 +510,104 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
             kept_count++;
         }
     }
+    return kept_count;
+}
+
+/* distinct(params, position, rotation, reference, out, errors) -> int
+ * distinct_branches(), written into out (8, 6) and errors (8, 8) (zeros past the kept rows). */
+static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
+    if (read_arguments(args, nargs, 6, params, position, rotation, reference) < 0)
+        return NULL;
+    double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
+    int kept_count = distinct_branches(params, position, rotation, reference, kept, errors);
     if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "out") < 0
         || write_doubles(args[5], errors, MAX_BRANCHES * 8, "errors") < 0)
         return NULL;
     return PyLong_FromLong(kept_count);
+}
+
+/* The result of one kept branch: result_type(q, True, "", |e_p|, |e_R|, e_p, e_R, time_s, 1, method, {}),
+ * the arrays as row views of q_rows, p_rows and r_rows (wbik.solvers.base.IKResult's positional order). */
+static PyObject *one_result(PyObject *result_type, PyObject *q_rows, PyObject *p_rows, PyObject *r_rows,
+                            Py_ssize_t row, const double *errors, PyObject *time_s, PyObject *method)
+{
+    PyObject *items[11] = {NULL};
+    PyObject *result = NULL;
+    items[0] = PySequence_GetItem(q_rows, row);
+    items[1] = Py_NewRef(Py_True);
+    items[2] = PyUnicode_FromStringAndSize("", 0);
+    items[3] = PyFloat_FromDouble(errors[6]);
+    items[4] = PyFloat_FromDouble(errors[7]);
+    items[5] = PySequence_GetItem(p_rows, row);
+    items[6] = PySequence_GetItem(r_rows, row);
+    items[7] = Py_NewRef(time_s);
+    items[8] = PyLong_FromLong(1);
+    items[9] = Py_NewRef(method);
+    items[10] = PyDict_New();
+    int complete = 1;
+    for (int i = 0; i < 11; i++)
+        complete = complete && items[i] != NULL;
+    if (complete)
+        result = PyObject_Vectorcall(result_type, items, 11, NULL);
+    for (int i = 0; i < 11; i++)
+        Py_XDECREF(items[i]);
+    return result;
+}
+
+/* distinct_results(params, position, rotation, reference, q_rows, p_rows, r_rows, result_type, method,
+ *                  position_tolerance, rotation_tolerance) -> list
+ * AnalyticSolver.solve_all through the kernel: distinct_branches(), then one result (one_result) per
+ * branch whose errors are within both tolerances, in branch order. The joints and errors are written
+ * into q_rows (8, 6), p_rows (8, 3) and r_rows (8, 3), whose rows the results view. time_s is the time
+ * of distinct_branches() (CLOCK_MONOTONIC, as time.perf_counter on Linux). */
+static PyObject *distinct_results(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
+    if (read_arguments(args, nargs, 11, params, position, rotation, reference) < 0)
+        return NULL;
+    double position_tolerance = PyFloat_AsDouble(args[9]), rotation_tolerance = PyFloat_AsDouble(args[10]);
+    if (PyErr_Occurred())
+        return NULL;
+    struct timespec started, finished;
+    clock_gettime(CLOCK_MONOTONIC, &started);
+    double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
+    int kept_count = distinct_branches(params, position, rotation, reference, kept, errors);
+    clock_gettime(CLOCK_MONOTONIC, &finished);
+    double p_rows[MAX_BRANCHES * 3] = {0.0}, r_rows[MAX_BRANCHES * 3] = {0.0};
+    for (int k = 0; k < kept_count; k++)
+        for (int i = 0; i < 3; i++) {
+            p_rows[3 * k + i] = errors[8 * k + i];
+            r_rows[3 * k + i] = errors[8 * k + 3 + i];
+        }
+    if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "q_rows") < 0
+        || write_doubles(args[5], p_rows, MAX_BRANCHES * 3, "p_rows") < 0
+        || write_doubles(args[6], r_rows, MAX_BRANCHES * 3, "r_rows") < 0)
+        return NULL;
+    PyObject *time_s = PyFloat_FromDouble((double)(finished.tv_sec - started.tv_sec)
+                                          + 1e-9 * (double)(finished.tv_nsec - started.tv_nsec));
+    PyObject *results = PyList_New(0);
+    if (time_s == NULL || results == NULL) {
+        Py_XDECREF(time_s);
+        Py_XDECREF(results);
+        return NULL;
+    }
+    for (int k = 0; k < kept_count; k++) {
+        const double *row = errors + 8 * k;
+        if (!(row[6] <= position_tolerance && row[7] <= rotation_tolerance))
+            continue;
+        PyObject *result = one_result(args[7], args[4], args[5], args[6], k, row, time_s, args[8]);
+        if (result == NULL || PyList_Append(results, result) < 0) {
+            Py_XDECREF(result);
+            Py_DECREF(results);
+            Py_DECREF(time_s);
+            return NULL;
+        }
+        Py_DECREF(result);
+    }
+    Py_DECREF(time_s);
+    return results;
 }
 
 /* fk(params, q) -> (position (3 floats), rotation row by row (9 floats)): for the agreement tests. */
@@ -541,6 +633,9 @@ static PyMethodDef methods[] = {
      "nearest_many(params, positions, rotations, references, q, errors, info): nearest for a batch"},
     {"distinct", (PyCFunction)(void (*)(void))distinct, METH_FASTCALL,
      "distinct(params, position, rotation, reference, out, errors) -> int: the distinct screened branches"},
+    {"distinct_results", (PyCFunction)(void (*)(void))distinct_results, METH_FASTCALL,
+     "distinct_results(params, position, rotation, reference, q_rows, p_rows, r_rows, result_type, method, "
+     "position_tolerance, rotation_tolerance) -> list: solve_all's results"},
     {"fk", (PyCFunction)(void (*)(void))fk, METH_FASTCALL, "fk(params, q) -> (position, rotation)"},
     {NULL, NULL, 0, NULL}};
 

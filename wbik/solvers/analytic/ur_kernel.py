@@ -100,6 +100,17 @@ class URKernel:
         count = _ur_kernel.distinct(self.params, position, rotation, reference, out, errors)
         return out[:count], errors[:count]
 
+    def results(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray, method: str,
+                tolerances) -> list:
+        """``solve_all``'s answer built by the kernel: one ``IKResult`` per :meth:`distinct` branch whose
+        errors are within ``tolerances`` (success, no reason, its arrays row views of three buffers,
+        ``time_s`` the kernel's time for the branches and their check)."""
+        from wbik.solvers.base import IKResult
+
+        return _ur_kernel.distinct_results(self.params, position, rotation, reference, np.empty((8, 6)),
+                                           np.empty((8, 3)), np.empty((8, 3)), IKResult, method,
+                                           tolerances.position, tolerances.rotation)
+
     def fk(self, q: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:
         """The kernel's FK (position, rotation row by row), tool included: for the agreement tests."""
         return _ur_kernel.fk(self.params, np.asarray(q, dtype=float))
