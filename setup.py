@@ -46,13 +46,15 @@ class BuildPyWithData(build_py):
                 raise RuntimeError(f"setup.py: no data files found in {ROOT / folder}")
 
 
-COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math"]
-"""The Python twins' bits: no fused multiply-add, no reassociation (the C files say why)."""
-POSE_KERNEL = Extension("wbik._pose_kernel", ["wbik/_pose_kernel.c"], extra_compile_args=COMPILE_ARGS,
-                        optional=True)
+COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fno-builtin-sin", "-fno-builtin-cos"]
+"""The Python twins' bits: no fused multiply-add, no reassociation, and libm's own sin and cos (not a
+merged sincos), as CPython's math module calls them (the C files say why)."""
+POSE_KERNEL = Extension("wbik._pose_kernel", ["wbik/_pose_kernel.c"], depends=["wbik/_kernel_buffers.h"],
+                        extra_compile_args=COMPILE_ARGS, optional=True)
 UR_KERNEL = Extension(
     "wbik.solvers.analytic._ur_kernel",
     ["wbik/solvers/analytic/_ur_kernel.c"],
+    depends=["wbik/_kernel_buffers.h"],
     extra_compile_args=COMPILE_ARGS,
     libraries=["m"],
     optional=True,

@@ -41,6 +41,7 @@ if [ -n "$kdl_so" ]; then
 fi
 if ! .venv/bin/python -c "from wbik.solvers.analytic import ur_kernel; raise SystemExit(not ur_kernel.built())"; then
     echo "setup: the optional C kernels were not built (no C compiler or Python headers): wbik runs their" >&2
-    echo "setup: pure-Python twins (slower, same answers); install gcc and python3-dev, then run this again." >&2
+    echo "setup: pure-Python twins (slower; solve gives the same bits); install gcc and python3-dev, then" >&2
+    echo "setup: run this again." >&2
 fi
 .venv/bin/python -c "import wbik; print('setup: wbik', wbik.__version__, 'ready in .venv')"

@@ -199,3 +199,26 @@ def test_scalar_solve_all_equals_the_vectorised_one(solvers, robot, chain_name):
         assert len(mine) == len(theirs)
         for a, b in zip(mine, theirs, strict=True):
             np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)
+
+
+def test_a_closed_form_whose_fk_is_not_the_models_is_refused(monkeypatch):
+    """solve_many (and solve_all through a kernel) check with the closed form's FK, so a form whose FK is
+    not the model's must not be used: 1 um on the UR5's d4 is refused when the form is built."""
+    from dataclasses import replace
+
+    import wbik.solvers.analytic as analytic
+    from wbik.errors import RobotDescriptionError
+    from wbik.robot_packages.ur5.closed_form import UR5
+    from wbik.robot_packages.ur5.closed_form import UR5EndEffector
+
+    class Shifted(UR5EndEffector):
+        geometry = replace(UR5, d4=UR5.d4 + 1e-6)
+
+    chain = wbik.load("ur5").chain("ee")
+    analytic.check_fk_against_model(UR5EndEffector(chain))  # the shipped one agrees
+    with pytest.raises(RobotDescriptionError, match=r"differs from the robot model.s by (9\.\d+e-07|1e-06)"):
+        analytic.check_fk_against_model(Shifted(chain))
+    monkeypatch.setattr(analytic, "_closed_form", lambda chain, kind, **options: Shifted(chain))
+    solver = wbik.solver("analytic", wbik.load("ur5"), "ee")
+    with pytest.raises(RobotDescriptionError, match="Shifted of ur5.ee is not this chain"):
+        solver.solve_many([chain.fk(chain.nominal)])

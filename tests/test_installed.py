@@ -26,6 +26,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks")
 TIMEOUT_S = 600
+HAS_COMPILER = any(shutil.which(name) for name in ("cc", "gcc", "clang")) and \
+    (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
+"""What building the C kernels needs (as tests/test_compiled.py)."""
 
 
 def _run(command: list, cwd: Path, env: dict, timeout: float = TIMEOUT_S) -> subprocess.CompletedProcess:
@@ -86,7 +89,8 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
               "print(wbik.load('golem3').urdf_path); print(wbik.load('bioloid').urdf_path); "
               "print(arm3r.URDF_PATH); print(pincher.URDF_PATH); print(ur5.TOOL_URDF_PATH); "
               "wbik.load('arm3r'); wbik.load('pincher'); "
-              "from wbik.solvers.analytic import ur_kernel as k; print(k.built(), k._ur_kernel.__file__)")
+              "from wbik.solvers.analytic import ur_kernel as k; "
+              "print(k.built(), getattr(k._ur_kernel, '__file__', ''))")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
     package = installed["purelib"] / "wbik"
@@ -104,8 +108,11 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
     assert all(path.is_file() for path in expected)
     assert not (package / "data" / "urdf").exists()
     assert not installed["cache"].exists(), "creating a Robot wrote into the URDF cache"
-    built, kernel_file = lines[10].split()  # the wheel compiled the UR kernel (the copy had no .so)
-    assert built == "True" and Path(kernel_file).is_relative_to(package), lines[10]
+    if HAS_COMPILER:  # the wheel compiled the UR kernel (the copy had no .so)
+        built, kernel_file = lines[10].split()
+        assert built == "True" and Path(kernel_file).is_relative_to(package), lines[10]
+    else:
+        assert lines[10].startswith("False"), lines[10]
 
 
 def test_wbik_tasks_then_run_a_shipped_task_by_name(installed):

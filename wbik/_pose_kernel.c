@@ -9,57 +9,8 @@
  * The same products and sums in the same order as the Python twins (built with -ffp-contract=off), so
  * both give the same bits; tests/test_compiled.py compares them. wbik.compiled switches between them.
  */
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
+#include "_kernel_buffers.h"
 #include <math.h>
-#include <string.h>
-
-/* Copy a float64 buffer of the given shape (any strides) into out, in C order; TypeError otherwise. */
-static int read_matrix(PyObject *object, Py_ssize_t rows, Py_ssize_t columns, double *out, const char *what)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_RECORDS_RO) < 0)
-        return -1;
-    int ok = view.itemsize == 8 && view.format != NULL && strcmp(view.format, "d") == 0
-             && ((columns == 0 && view.ndim == 1 && view.shape[0] == rows)
-                 || (columns > 0 && view.ndim == 2 && view.shape[0] == rows && view.shape[1] == columns));
-    if (!ok) {
-        PyBuffer_Release(&view);
-        if (columns == 0)
-            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd,) float64 array", what, rows);
-        else
-            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd, %zd) float64 array", what, rows, columns);
-        return -1;
-    }
-    const char *base = (const char *)view.buf;
-    if (columns == 0) {
-        for (Py_ssize_t i = 0; i < rows; i++)
-            memcpy(out + i, base + i * view.strides[0], sizeof(double));
-    } else {
-        for (Py_ssize_t i = 0; i < rows; i++)
-            for (Py_ssize_t j = 0; j < columns; j++)
-                memcpy(out + i * columns + j, base + i * view.strides[0] + j * view.strides[1], sizeof(double));
-    }
-    PyBuffer_Release(&view);
-    return 0;
-}
-
-/* Write count doubles into a writable C-contiguous float64 buffer of exactly that many values. */
-static int write_values(PyObject *object, const double *values, Py_ssize_t count, const char *what)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
-        return -1;
-    if (view.itemsize != 8 || view.len != count * 8 || view.format == NULL || strcmp(view.format, "d") != 0) {
-        PyBuffer_Release(&view);
-        PyErr_Format(PyExc_TypeError, "%s: expected a writable contiguous float64 array of %zd values", what,
-                     count);
-        return -1;
-    }
-    memcpy(view.buf, values, count * sizeof(double));
-    PyBuffer_Release(&view);
-    return 0;
-}
 
 /* error_parts(reached, position, rotation, position_error, relative) -> float
  * reached: the reached pose's 4x4 homogeneous matrix; position (3,) and rotation (3, 3) or None: the
@@ -72,21 +23,21 @@ static PyObject *error_parts(PyObject *self, PyObject *const *args, Py_ssize_t n
         return NULL;
     }
     double reached[16], position[3], error[3];
-    if (read_matrix(args[0], 4, 4, reached, "reached") < 0 || read_matrix(args[1], 3, 0, position, "position") < 0)
+    if (read_shaped(args[0], 4, 4, reached, "reached") < 0 || read_shaped(args[1], 3, 0, position, "position") < 0)
         return NULL;
     for (int i = 0; i < 3; i++)
         error[i] = reached[4 * i + 3] - position[i];
-    if (write_values(args[3], error, 3, "position_error") < 0)
+    if (write_doubles(args[3], error, 3, "position_error") < 0)
         return NULL;
     if (args[2] != Py_None) {
         double target[9], relative[9];
-        if (read_matrix(args[2], 3, 3, target, "rotation") < 0)
+        if (read_shaped(args[2], 3, 3, target, "rotation") < 0)
             return NULL;
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
                 relative[3 * i + j] = target[i] * reached[j] + target[3 + i] * reached[4 + j]
                                       + target[6 + i] * reached[8 + j];
-        if (write_values(args[4], relative, 9, "relative") < 0)
+        if (write_doubles(args[4], relative, 9, "relative") < 0)
             return NULL;
     }
     return PyFloat_FromDouble(sqrt(error[0] * error[0] + error[1] * error[1] + error[2] * error[2]));
@@ -99,24 +50,15 @@ static PyObject *plain_se3(PyObject *self, PyObject *const *args, Py_ssize_t nar
         PyErr_Format(PyExc_TypeError, "plain_se3 expects 3 arguments, got %zd", nargs);
         return NULL;
     }
-    double bound = PyFloat_AsDouble(args[1]), tolerance = PyFloat_AsDouble(args[2]);
-    if (PyErr_Occurred())
+    double bound = PyFloat_AsDouble(args[1]);
+    if (bound == -1.0 && PyErr_Occurred())
         return NULL;
-    Py_buffer view;
-    if (PyObject_GetBuffer(args[0], &view, PyBUF_RECORDS_RO) < 0)
+    double tolerance = PyFloat_AsDouble(args[2]);
+    if (tolerance == -1.0 && PyErr_Occurred())
         return NULL;
-    if (view.ndim != 2 || view.shape[0] != 4 || view.shape[1] != 4 || view.itemsize != 8 || view.format == NULL
-        || strcmp(view.format, "d") != 0) {
-        PyBuffer_Release(&view);
-        PyErr_SetString(PyExc_TypeError, "plain_se3: expected a (4, 4) float64 array");
+    double m[16];
+    if (read_shaped(args[0], 4, 4, m, "plain_se3: matrix") < 0)
         return NULL;
-    }
-    double m[12];
-    const char *base = (const char *)view.buf;
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 4; j++)
-            memcpy(m + 4 * i + j, base + i * view.strides[0] + j * view.strides[1], sizeof(double));
-    PyBuffer_Release(&view);
     const double a = m[0], b = m[1], c = m[2], x = m[3];
     const double d = m[4], e = m[5], f = m[6], y = m[7];
     const double g = m[8], h = m[9], i = m[10], z = m[11];

@@ -18,5 +18,5 @@ PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 
 def pure_python() -> bool:
     """Whether ``WBIK_PURE_PYTHON=1`` asks for the Python twins (read when a kernel is picked: at import
-    of :mod:`wbik.targets`, when a closed form is built)."""
+    of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed form is built)."""
     return os.environ.get(PURE_PYTHON_VARIABLE, "") == "1"

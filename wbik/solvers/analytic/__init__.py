@@ -24,9 +24,14 @@ Scalar fast path: a closed form may also enumerate the branches of one target in
 (``branches_one``, ``fk_one``); ``solve`` and ``solve_all`` then avoid NumPy's per-call cost. The
 choice is the same rule (:func:`nearest_branch`), and tests check that both paths agree.
 
-The result goes through the shared check of :mod:`wbik.solvers.base` (``solve``, ``solve_all``) or
-its batched twin :func:`wbik.solvers.analytic.batch.evaluate_batch` (``solve_many``): the same rule
-(clip, position and rotation error, tolerances), with the closed form's FK in place of Pinocchio's.
+The result goes through the shared check of :mod:`wbik.solvers.base` (``solve``, and ``solve_all`` on
+the Python path) or its batched twin :func:`wbik.solvers.analytic.batch.evaluate_batch` (``solve_many``):
+the same rule (clip, position and rotation error, tolerances), with the closed form's FK in place of
+Pinocchio's, which :func:`check_fk_against_model` holds to the model's when the form is built.
+
+Compiled kernel: a family may provide one (``ClosedForm.kernel``; the UR-type family's is
+:mod:`.ur_kernel`), the scalar path in C with the same bits, used by ``solve``, ``solve_many`` and
+``solve_all`` (see their docstrings) unless ``WBIK_PURE_PYTHON=1`` (:mod:`wbik.compiled`).
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from typing import NamedTuple
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
+from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
@@ -118,12 +124,16 @@ class ClosedForm:
         raise NotImplementedError
 
     kernel = None
-    """The compiled twin of the scalar path (``nearest`` and ``distinct``, e.g. :class:`.ur_kernel.URKernel`)
-    or None: ``solve`` and ``solve_all`` call it in place of ``branches_one`` and the Python choice."""
+    """The compiled twin of the scalar path (:class:`.ur_kernel.URKernel`) or None: ``solve`` calls its
+    ``nearest_into`` in place of ``branches_one`` and the Python choice (same bits), ``solve_many`` its
+    ``nearest_many`` and ``solve_all`` its ``results`` (the same choice and branches, checked with the
+    closed form's FK as ``solve_many`` always checks)."""
 
-    def compiled_kernel(self, tool: tuple[np.ndarray, np.ndarray] | None = None):
+    def compiled_kernel(self, tool: tuple[np.ndarray, np.ndarray] | None = None,
+                        screen_tolerance: float | None = None):
         """A compiled scalar path of this form on its chain, composed with a fixed tool (rotation,
-        translation) when given; None where the form has none (the default) or it is not built."""
+        translation) when given, screening at ``screen_tolerance`` (default: this form's); None where
+        the form has none (the default) or it is not built."""
         return None
 
 
@@ -153,7 +163,8 @@ class ToolClosedForm(ClosedForm):
         self.tool_rotation = tool.rotation.copy()
         self.tool_translation = tool.translation.copy()
         self._tool_r, self._tool_p = self.tool_rotation.tolist(), self.tool_translation.tolist()
-        self.kernel = self.flange.compiled_kernel((self.tool_rotation, self.tool_translation))
+        self.kernel = self.flange.compiled_kernel((self.tool_rotation, self.tool_translation),
+                                                  self.screen_tolerance)
 
     def _flange_targets(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flange positions, flange rotations) of tool targets: R X_R^T, p - R X_R^T X_p."""
@@ -199,6 +210,36 @@ def closed_forms(robot) -> dict[tuple[str, str], str]:
     Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``.
     """
     return dict(robot.closed_forms)
+
+
+MODEL_AGREEMENT = 1e-9
+"""Largest difference (m, and rotation-matrix entries) allowed between a closed form's FK and the robot
+model's (Pinocchio) when the form is built. ``solve_many``, and ``solve_all`` through a compiled kernel,
+check their answers with the closed form's FK; held to the model here, that check is the shared one's to
+within 1e-9, three orders of magnitude below its tolerances (1e-6). The shipped forms differ by 1.2e-11
+at most (the UR5's DH numbers against its URDF)."""
+MODEL_SAMPLES = 16
+"""Joint vectors the agreement is checked on (seeded, inside the limits; [-pi, pi] where one is infinite)."""
+
+
+def check_fk_against_model(form: ClosedForm) -> None:
+    """RobotDescriptionError unless the form's FK is the chain's model FK (Pinocchio) within
+    MODEL_AGREEMENT on MODEL_SAMPLES seeded joint vectors (a form whose geometry is not the model's,
+    e.g. a UR-type binding given another arm's DH numbers)."""
+    chain = form.chain
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)
+    upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
+    joints = np.random.default_rng(0).uniform(lower, upper, (MODEL_SAMPLES, chain.nq))
+    positions, rotations = form.fk(joints)
+    for q, position, rotation in zip(joints, positions, rotations, strict=True):
+        pose = chain.fk(q)
+        gap = max(float(np.abs(pose.translation - position).max()),
+                  float(np.abs(pose.rotation - rotation).max()))
+        if not gap <= MODEL_AGREEMENT:
+            raise RobotDescriptionError(
+                f"the closed form {type(form).__name__} of {chain.robot.name}.{chain.name} is not this "
+                f"chain: its FK differs from the robot model's by {gap:.3g} (m or rotation entries) at q = "
+                f"{np.round(q, 6).tolist()}; give it the model's geometry (e.g. the DH numbers of this arm)")
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
@@ -366,6 +407,12 @@ def nearest_branch(form: ClosedForm, bounded: list[tuple[float, list[float]]], p
     return best, inside
 
 
+def kernel_failure_reason(outcome: int) -> str:
+    """:func:`no_solution_reason` of a compiled kernel's failure code: 0 (no real branch), -1 (real
+    branches, none inside the limits) or -2 (some inside the limits, none passes the screen)."""
+    return no_solution_reason(outcome != 0, outcome == -2)
+
+
 def no_solution_reason(real: bool, in_limits: bool) -> str:
     """Why no branch was returned, from what the choice already knows."""
     if not real:
@@ -416,7 +463,9 @@ class AnalyticSolver(Solver):
 
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
-            self._forms[kind] = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
+            form = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
+            check_fk_against_model(form)
+            self._forms[kind] = form
         return self._forms[kind]
 
     # -- vectorised ---------------------------------------------------------------------------
@@ -506,7 +555,7 @@ class AnalyticSolver(Solver):
             q = np.empty(len(q0))
             status = kernel.nearest_into(target.position, rotation, q0, q)
             if status <= 0:
-                return Candidate(None, 1, no_solution_reason(status != 0, status == -2))
+                return Candidate(None, 1, kernel_failure_reason(status))
             return Candidate(q, 1, extra={"branches": status})
         if form.has_scalar_path:
             position = target.position.tolist()
@@ -525,9 +574,10 @@ class AnalyticSolver(Solver):
         return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """Vectorised: one closed-form evaluation and one batched FK check for the whole batch;
-        per-pose time = closed-form time / B (the check is not counted, as in ``solve``). With a
-        compiled kernel: one kernel call for the batch, the same choice as ``solve`` (same bits)."""
+        """Vectorised: one closed-form evaluation and one batched FK check (the closed form's FK, held to
+        the model by :func:`check_fk_against_model`) for the whole batch; per-pose time = closed-form
+        time / B (the check is not counted, as in ``solve``). With a compiled kernel: one kernel call
+        for the batch, the same choice as ``solve`` (same bits), its time per pose with the check."""
         from wbik.solvers.analytic.batch import batch_targets
         from wbik.solvers.analytic.batch import evaluate_batch
 
@@ -564,7 +614,7 @@ class AnalyticSolver(Solver):
                 joints, errors[:, :3], errors[:, 3:6], errors[:, 6:].tolist(), info.tolist()):
             extra = {"branches": int(branches), "batched": True}
             if outcome != 1:
-                reason = no_solution_reason(outcome != 0, outcome == -2)
+                reason = kernel_failure_reason(outcome)
                 append(IKResult(None, False, reason, nan, nan, np.full(3, nan), np.full(3, nan), per_pose, 1,
                                 name, extra))
             elif p_norm <= position_tolerance and r_norm <= rotation_tolerance:
@@ -582,11 +632,12 @@ class AnalyticSolver(Solver):
         return np.array(starts)
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch inside the limits that passes the shared FK check (wrapped nearest to
-        the chain's nominal configuration, in branch order). With a compiled kernel the check is the
-        batched one of ``solve_many`` (the same rule, with the closed form's FK; the branches are inside
-        the limits already, nothing to clip) and the kernel builds the results: their arrays are row
-        views of three buffers, ``time_s`` the kernel's time with its check."""
+        """Every distinct branch inside the limits that passes the FK check (wrapped nearest to the
+        chain's nominal configuration, in branch order): the shared check (Pinocchio) on the Python
+        path; with a compiled kernel the batched rule of ``solve_many`` (the closed form's FK, held to
+        the model by :func:`check_fk_against_model`; the branches are inside the limits already,
+        nothing to clip), and the kernel builds the results: their arrays are row views of three
+        buffers, ``time_s`` the kernel's time with its check."""
         target = as_target(target)
         self._check_target_kind(target)
         form = self.closed_form("pose" if target.is_pose else "position")

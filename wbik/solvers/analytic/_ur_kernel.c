@@ -4,15 +4,20 @@
  *
  * Every expression is the Python one, operation by operation and in the same order, so that the two
  * paths return the same bits: IEEE arithmetic is exact-rounded, the transcendental functions are the
- * libm ones CPython's math module calls (remainder is exact in both), and the build turns off FMA
- * contraction (-ffp-contract=off). tests/test_ur_kernel.py compares both paths bit for bit.
+ * libm ones CPython's math module calls (remainder is exact in both; setup.py keeps GCC from merging
+ * sin and cos into sincos with -fno-builtin-sin/-cos), nearbyint rounds half to even as Python's
+ * round() in the default rounding mode, the build turns off FMA contraction (-ffp-contract=off), and
+ * the Python twin's sums are plain left-to-right additions (Python 3.11's sum(); 3.12's compensated
+ * sum would differ). tests/test_ur_kernel.py compares both paths bit for bit.
+ *
+ * Beyond the twin: nearest_many (solve_many) and distinct_results (solve_all) also check the chosen
+ * branches with the closed-form FK (pose_errors: the batched rule of solve_many), which URArm holds to
+ * the robot model (Pinocchio) when it is built; distinct_results builds the IKResults.
  *
  * The Python module is wbik.solvers.analytic._ur_kernel; wbik.solvers.analytic.ur_kernel wraps it.
  */
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
+#include "../../_kernel_buffers.h"
 #include <math.h>
-#include <string.h>
 #include <time.h>
 
 #define TWO_PI (2.0 * 3.141592653589793)
@@ -247,55 +252,6 @@ static double squared_distance(const double a[JOINTS], const double b[JOINTS])
 }
 
 /* --- argument handling ------------------------------------------------------------------------------ */
-/* Copy a float64 buffer of exactly `count` elements (any shape and strides, C order) into `out`. */
-static int read_doubles(PyObject *object, double *out, Py_ssize_t count, const char *what)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_RECORDS_RO) < 0)
-        return -1;
-    int ok = view.itemsize == 8 && view.format != NULL
-             && (strcmp(view.format, "d") == 0 || strcmp(view.format, "=d") == 0);
-    Py_ssize_t total = 1;
-    for (int axis = 0; axis < view.ndim; axis++)
-        total *= view.shape[axis];
-    if (!ok || total != count || view.ndim > 2) {
-        PyBuffer_Release(&view);
-        PyErr_Format(PyExc_TypeError, "%s: expected %zd float64 values", what, count);
-        return -1;
-    }
-    const char *base = (const char *)view.buf;
-    if (view.ndim == 0) {
-        memcpy(out, base, 8);
-    } else if (view.ndim == 1) {
-        for (Py_ssize_t i = 0; i < count; i++)
-            memcpy(out + i, base + i * view.strides[0], 8);
-    } else {
-        Py_ssize_t columns = view.shape[1];
-        for (Py_ssize_t i = 0; i < view.shape[0]; i++)
-            for (Py_ssize_t j = 0; j < columns; j++)
-                memcpy(out + i * columns + j, base + i * view.strides[0] + j * view.strides[1], 8);
-    }
-    PyBuffer_Release(&view);
-    return 0;
-}
-
-/* Write `count` doubles into a writable, C-contiguous float64 buffer of exactly that many elements. */
-static int write_doubles(PyObject *object, const double *values, Py_ssize_t count, const char *what)
-{
-    Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_WRITABLE | PyBUF_C_CONTIGUOUS | PyBUF_FORMAT) < 0)
-        return -1;
-    if (view.itemsize != 8 || view.len != count * 8 || view.format == NULL || strchr(view.format, 'd') == NULL) {
-        PyBuffer_Release(&view);
-        PyErr_Format(PyExc_TypeError, "%s: expected a writable contiguous float64 array of %zd values", what,
-                     count);
-        return -1;
-    }
-    memcpy(view.buf, values, count * sizeof(double));
-    PyBuffer_Release(&view);
-    return 0;
-}
-
 /* (params, position, rotation, reference): the common arguments, read into C arrays. */
 static int read_arguments(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t expected, double params[P_COUNT],
                           double position[3], double rotation[9], double reference[JOINTS])
@@ -409,20 +365,6 @@ static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs
     return PyLong_FromLong(count);
 }
 
-/* A C-contiguous float64 buffer of exactly `count` values (writable if asked). */
-static int contiguous(PyObject *object, Py_buffer *view, Py_ssize_t count, int writable, const char *what)
-{
-    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
-    if (PyObject_GetBuffer(object, view, flags) < 0)
-        return -1;
-    if (view->itemsize != 8 || view->len != count * 8 || view->format == NULL || strcmp(view->format, "d") != 0) {
-        PyBuffer_Release(view);
-        PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous float64 array of %zd values", what, count);
-        return -1;
-    }
-    return 0;
-}
-
 /* nearest_many(params, positions, rotations, references, q, errors, info) -> None
  * choose() for B targets: positions (B, 3), rotations (B, 3, 3), references (B, 6), all C-contiguous
  * float64; writes the joints into q (B, 6) (zeros where none is picked), the errors into errors (B, 8)
@@ -450,7 +392,7 @@ static PyObject *nearest_many(PyObject *self, PyObject *const *args, Py_ssize_t 
     }
     int held = 0;
     for (; held < 6; held++)
-        if (contiguous(args[1 + held], &views[held], batch * widths[held], held >= 3, names[held]) < 0)
+        if (contiguous_view(args[1 + held], &views[held], batch * widths[held], held >= 3, names[held]) < 0)
             break;
     if (held == 6) {
         const double *positions = views[0].buf, *rotations = views[1].buf, *references = views[2].buf;
@@ -514,7 +456,8 @@ static int distinct_branches(const double *params, const double position[3], con
 }
 
 /* distinct(params, position, rotation, reference, out, errors) -> int
- * distinct_branches(), written into out (8, 6) and errors (8, 8) (zeros past the kept rows). */
+ * distinct_branches(), written into out (8, 6) and errors (8, 8); returns how many rows are kept (the
+ * rows after them hold no answer: errors zeros, out zeros or a rejected branch). */
 static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
@@ -529,28 +472,27 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
 }
 
 /* The result of one kept branch: result_type(q, True, "", |e_p|, |e_R|, e_p, e_R, time_s, 1, method, {}),
- * the arrays as row views of q_rows, p_rows and r_rows (wbik.solvers.base.IKResult's positional order). */
+ * the arrays as row views of q_rows, p_rows and r_rows (wbik.solvers.base.IKResult's positional order);
+ * NULL with the error set if any step fails. */
 static PyObject *one_result(PyObject *result_type, PyObject *q_rows, PyObject *p_rows, PyObject *r_rows,
                             Py_ssize_t row, const double *errors, PyObject *time_s, PyObject *method)
 {
     PyObject *items[11] = {NULL};
     PyObject *result = NULL;
-    items[0] = PySequence_GetItem(q_rows, row);
+    if ((items[0] = PySequence_GetItem(q_rows, row)) == NULL
+        || (items[2] = PyUnicode_FromStringAndSize("", 0)) == NULL
+        || (items[3] = PyFloat_FromDouble(errors[6])) == NULL
+        || (items[4] = PyFloat_FromDouble(errors[7])) == NULL
+        || (items[5] = PySequence_GetItem(p_rows, row)) == NULL
+        || (items[6] = PySequence_GetItem(r_rows, row)) == NULL
+        || (items[8] = PyLong_FromLong(1)) == NULL
+        || (items[10] = PyDict_New()) == NULL)
+        goto done;
     items[1] = Py_NewRef(Py_True);
-    items[2] = PyUnicode_FromStringAndSize("", 0);
-    items[3] = PyFloat_FromDouble(errors[6]);
-    items[4] = PyFloat_FromDouble(errors[7]);
-    items[5] = PySequence_GetItem(p_rows, row);
-    items[6] = PySequence_GetItem(r_rows, row);
     items[7] = Py_NewRef(time_s);
-    items[8] = PyLong_FromLong(1);
     items[9] = Py_NewRef(method);
-    items[10] = PyDict_New();
-    int complete = 1;
-    for (int i = 0; i < 11; i++)
-        complete = complete && items[i] != NULL;
-    if (complete)
-        result = PyObject_Vectorcall(result_type, items, 11, NULL);
+    result = PyObject_Vectorcall(result_type, items, 11, NULL);
+done:
     for (int i = 0; i < 11; i++)
         Py_XDECREF(items[i]);
     return result;
@@ -567,8 +509,11 @@ static PyObject *distinct_results(PyObject *self, PyObject *const *args, Py_ssiz
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
     if (read_arguments(args, nargs, 11, params, position, rotation, reference) < 0)
         return NULL;
-    double position_tolerance = PyFloat_AsDouble(args[9]), rotation_tolerance = PyFloat_AsDouble(args[10]);
-    if (PyErr_Occurred())
+    double position_tolerance = PyFloat_AsDouble(args[9]);
+    if (position_tolerance == -1.0 && PyErr_Occurred())
+        return NULL;
+    double rotation_tolerance = PyFloat_AsDouble(args[10]);
+    if (rotation_tolerance == -1.0 && PyErr_Occurred())
         return NULL;
     struct timespec started, finished;
     clock_gettime(CLOCK_MONOTONIC, &started);

@@ -1,11 +1,15 @@
 """The compiled scalar path of the UR-type closed form (the C extension ``_ur_kernel``).
 
-``solve`` and ``solve_all`` of ``analytic`` on a UR-type chain spend almost all their time in the scalar
+``solve`` and ``solve_all`` of ``analytic`` on a UR-type chain spent almost all their time in the scalar
 path: enumerating up to 8 branches in plain floats (:func:`.ur_type.branches_one`), wrapping them into
 the limits and screening them with the closed-form FK (:func:`wbik.solvers.analytic.nearest_branch`).
 ``_ur_kernel.c`` is the same code in C, expression by expression, and returns the same bits (tests
-compare both paths on random, boundary and singular poses). The interface and the shared FK check
-(Pinocchio) stay in Python.
+compare both paths on random, boundary and singular poses). ``solve`` keeps the shared FK check
+(Pinocchio) in Python; ``solve_many`` (:meth:`URKernel.nearest_many`) and ``solve_all``
+(:meth:`URKernel.results`) also check in C with the closed-form FK, the batched rule ``solve_many``
+always used (the form's FK is held to the model's when it is built), and ``results`` builds the
+IKResults. Without the kernel, ``solve_many`` takes the NumPy batch path, whose joints differ from the
+scalar path's by up to ~1e-10 rad at a stretched elbow.
 
 The extension is built by ``pip install`` (``setup.py``, an optional extension). Without it, or with
 the environment variable ``WBIK_PURE_PYTHON=1`` (:mod:`wbik.compiled`) when a closed form is built, the
@@ -43,18 +47,18 @@ class URKernel:
     the chain's limits and an optional fixed tool (ee -> tool rotation and translation), packed into
     the parameter vector ``_ur_kernel.c`` reads (its ``enum`` gives the layout)."""
 
-    def __init__(self, geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None = None):
+    def __init__(self, geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
+                 screen_tolerance: float):
         from wbik.solvers.analytic import BOUND_SLACK
         from wbik.solvers.analytic import BRANCH_MERGE
         from wbik.solvers.analytic import LIMIT_TOLERANCE
-        from wbik.solvers.analytic import ClosedForm
         from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
         from wbik.solvers.analytic.ur_type import WRIST_SINGULARITY
 
         tool_rotation, tool_translation = (np.eye(3), np.zeros(3)) if tool is None else tool
         params = np.concatenate((
             [geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6],
-            [COSINE_TOLERANCE, WRIST_SINGULARITY, LIMIT_TOLERANCE, ClosedForm.screen_tolerance, BOUND_SLACK,
+            [COSINE_TOLERANCE, WRIST_SINGULARITY, LIMIT_TOLERANCE, screen_tolerance, BOUND_SLACK,
              BRANCH_MERGE, 0.0 if tool is None else 1.0],
             np.asarray(tool_rotation, dtype=float).ravel(), np.asarray(tool_translation, dtype=float),
             chain.lower, chain.upper))
@@ -116,6 +120,7 @@ class URKernel:
         return _ur_kernel.fk(self.params, np.asarray(q, dtype=float))
 
 
-def ur_kernel(geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None = None) -> URKernel | None:
+def ur_kernel(geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
+              screen_tolerance: float) -> URKernel | None:
     """A :class:`URKernel` for the chain, or None where the extension is not built or turned off."""
-    return URKernel(geometry, chain, tool) if compiled() else None
+    return URKernel(geometry, chain, tool, screen_tolerance) if compiled() else None

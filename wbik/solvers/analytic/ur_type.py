@@ -273,5 +273,6 @@ class URArm(ClosedForm):
     def fk_one(self, q):
         return fk_one(self.geometry, q)
 
-    def compiled_kernel(self, tool=None):
-        return ur_kernel(self.geometry, self.chain, tool)
+    def compiled_kernel(self, tool=None, screen_tolerance=None):
+        tolerance = self.screen_tolerance if screen_tolerance is None else screen_tolerance
+        return ur_kernel(self.geometry, self.chain, tool, tolerance)
