@@ -31,13 +31,9 @@ CHAINS = ["ee", "arm"]
 
 
 @pytest.fixture(scope="module")
-def robot():
-    return wbik.load("ur5")
-
-
-@pytest.fixture(scope="module")
-def solvers(robot):
+def solvers():
     """Analytic solvers with their closed forms built with the kernel (even in a WBIK_PURE_PYTHON=1 run)."""
+    robot = wbik.load("ur5")
     with pytest.MonkeyPatch.context() as patch:
         patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
         solvers = {name: wbik.solver("analytic", robot, chain=name) for name in CHAINS}
@@ -150,8 +146,9 @@ def test_kernel_fk_is_the_python_fk(solvers, chain_name):
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
-def test_pure_python_switch_gives_the_same_results(robot, monkeypatch, chain_name):
+def test_pure_python_switch_gives_the_same_results(solvers, monkeypatch, chain_name):
     """WBIK_PURE_PYTHON=1 turns the kernel off; solve and solve_all answer the same."""
+    robot = solvers[chain_name].robot
     monkeypatch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
     compiled = wbik.solver("analytic", robot, chain=chain_name)
     compiled.closed_form("pose")  # built (with its kernel) before the switch
