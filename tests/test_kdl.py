@@ -106,10 +106,18 @@ def test_solutions_pass_fk_check_and_limits(robot_name, chain_name, rng):
 
 
 def test_restarts_honour_the_budget():
-    solver = wbik.solver("kdl_restarts", robot("ur5"), chain="arm", timeout_s=0.01)
+    """Out of reach: several attempts, then the budget's reason, within the budget. The budget is ten of
+    this machine's attempts right now (at least 10 ms): under load one attempt took 7.7 ms, and a fixed
+    10 ms then held a single attempt."""
+    unreachable = pin.SE3(np.eye(3), np.array([3.0, 3.0, 3.0]))  # UR5 reach is under 1 m
+    single = wbik.solver("kdl", robot("ur5"), chain="arm")
     start = time.perf_counter()
-    result = solver.solve(pin.SE3(np.eye(3), np.array([3.0, 3.0, 3.0])))  # UR5 reach is under 1 m
-    assert time.perf_counter() - start < 0.01 + 0.05
+    single.solve(unreachable)
+    budget = max(0.01, 10.0 * (time.perf_counter() - start))
+    solver = wbik.solver("kdl_restarts", robot("ur5"), chain="arm", timeout_s=budget)
+    start = time.perf_counter()
+    result = solver.solve(unreachable)
+    assert time.perf_counter() - start < budget + 0.05
     assert not result.success and "time budget" in result.reason and result.extra["attempts"] >= 2
 
 
