@@ -639,8 +639,11 @@ class AnalyticSolver(Solver):
         nothing to clip), and the kernel builds the results: their arrays are row views of three
         buffers, ``time_s`` the kernel's time with its check."""
         target = as_target(target)
-        self._check_target_kind(target)
-        form = self.closed_form("pose" if target.is_pose else "position")
+        kind = "position" if target.rotation is None else "pose"
+        form = self._forms.get(kind)
+        if form is None:  # first call of this kind: the detailed checks, then the form is cached
+            self.check_target_kind(kind)
+            form = self.closed_form(kind)
         nominal = self.chain.nominal
         if form.kernel is not None:  # the kernel builds the results (the same rule, see the docstring)
             return form.kernel.results(target.position, target.rotation, nominal, self.name, self.tolerances)

@@ -25,6 +25,7 @@ import numpy as np
 from wbik.compiled import PURE_PYTHON_VARIABLE  # noqa: F401 - re-exported: the switch, for this kernel's users
 from wbik.compiled import pure_python
 from wbik.robot import Chain
+from wbik.solvers.base import IKResult
 
 try:
     from wbik.solvers.analytic import _ur_kernel
@@ -109,8 +110,6 @@ class URKernel:
         """``solve_all``'s answer built by the kernel: one ``IKResult`` per :meth:`distinct` branch whose
         errors are within ``tolerances`` (success, no reason, its arrays row views of three buffers,
         ``time_s`` the kernel's time for the branches and their check)."""
-        from wbik.solvers.base import IKResult
-
         return _ur_kernel.distinct_results(self.params, position, rotation, reference, np.empty((8, 6)),
                                            np.empty((8, 3)), np.empty((8, 3)), IKResult, method,
                                            tolerances.position, tolerances.rotation)
