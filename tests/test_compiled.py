@@ -6,11 +6,8 @@ tests/test_ur_kernel.py)."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-import sysconfig
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -21,14 +18,13 @@ from hypothesis import strategies as st
 
 from wbik import targets
 from wbik.compiled import PURE_PYTHON_VARIABLE
+from wbik.compiled import can_build
 from wbik.compiled import pure_python
 from wbik.solvers.analytic import ur_kernel
 from wbik.targets import MAX_POSITION
 from wbik.targets import ROTATION_TOLERANCE
 
-HAS_COMPILER = any(shutil.which(name) for name in ("cc", "gcc", "clang")) and \
-    (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
-"""What building the extensions needs: a C compiler and the Python headers."""
+HAS_COMPILER = can_build()
 COMPILED_TWIN = pytest.mark.skipif(not HAS_COMPILER, reason="no C compiler here: no compiled twin to compare "
                                    "(the first test checks that it is built wherever one exists)")
 
@@ -118,8 +114,12 @@ def test_se3_check_reads_strided_matrices_and_refuses_other_buffers():
     assert targets._compiled_accepts_plain_se3(fortran, MAX_POSITION, ROTATION_TOLERANCE)
     with pytest.raises(TypeError, match="4, 4"):
         targets._compiled_accepts_plain_se3(pose[:3], MAX_POSITION, ROTATION_TOLERANCE)
-    with pytest.raises(TypeError, match="4, 4"):
+    with pytest.raises(TypeError, match="matrix: expected a float64 array"):
         targets._compiled_accepts_plain_se3(pose.astype(np.float32), MAX_POSITION, ROTATION_TOLERANCE)
+    with pytest.raises(TypeError, match="matrix: expected a float64 array, got list"):
+        targets._compiled_accepts_plain_se3(pose.tolist(), MAX_POSITION, ROTATION_TOLERANCE)
+    with pytest.raises(TypeError, match="tolerance: expected a float, got str"):
+        targets._compiled_accepts_plain_se3(pose, MAX_POSITION, "1e-6")
 
 
 @COMPILED_TWIN
@@ -161,3 +161,9 @@ def test_error_parts_refuses_wrong_buffers():
         geometry._compiled_error_parts(pose, np.zeros(3), np.eye(3), np.empty(3), np.empty(3))
     with pytest.raises(TypeError, match="position_error"):
         geometry._compiled_error_parts(pose, np.zeros(3), None, np.empty(3, dtype=np.float32), None)
+    with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
+        geometry._compiled_error_parts(pose, np.zeros(3), None, np.empty(6)[::2], None)
+    read_only = np.empty(3)
+    read_only.flags.writeable = False
+    with pytest.raises(TypeError, match="position_error: expected a writable C-contiguous array"):
+        geometry._compiled_error_parts(pose, np.zeros(3), None, read_only, None)

@@ -23,12 +23,13 @@ from pathlib import Path
 
 import pytest
 
+from wbik.compiled import can_build
+
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks")
 TIMEOUT_S = 600
-HAS_COMPILER = any(shutil.which(name) for name in ("cc", "gcc", "clang")) and \
-    (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
-"""What building the C kernels needs (as tests/test_compiled.py)."""
+HAS_COMPILER = can_build()
+"""Whether the wheel can build the C kernels."""
 
 
 def _run(command: list, cwd: Path, env: dict, timeout: float = TIMEOUT_S) -> subprocess.CompletedProcess:

@@ -1,6 +1,7 @@
-/* Buffer helpers shared by wbik's C kernels (_pose_kernel.c, solvers/analytic/_ur_kernel.c): float64
- * arrays in (copied into C arrays, any strides) and out (written into C-contiguous arrays), each refusing
- * anything else with a TypeError that names the argument. Header-only: every kernel is one file. */
+/* Argument helpers shared by wbik's C kernels (_pose_kernel.c, solvers/analytic/_ur_kernel.c): float64
+ * arrays in (copied into C arrays, any strides) and out (written into C-contiguous writable arrays),
+ * floats, and the argument count. Anything else raises a TypeError naming the argument. Header-only
+ * (static inline: a kernel that uses a helper gets it, the others no "unused" warning). */
 #ifndef WBIK_KERNEL_BUFFERS_H
 #define WBIK_KERNEL_BUFFERS_H
 
@@ -8,80 +9,109 @@
 #include <Python.h>
 #include <string.h>
 
-/* A native float64 buffer (format "d" or "=d": not a byte-swapped one). */
-static int is_float64(const Py_buffer *view)
+/* TypeError unless exactly `expected` positional arguments were given. */
+static inline int check_count(const char *function, Py_ssize_t nargs, Py_ssize_t expected)
 {
-    return view->itemsize == 8 && view->format != NULL
-           && (strcmp(view->format, "d") == 0 || strcmp(view->format, "=d") == 0);
+    if (nargs == expected)
+        return 0;
+    PyErr_Format(PyExc_TypeError, "%s expects %zd arguments, got %zd", function, expected, nargs);
+    return -1;
 }
 
-/* Copy a float64 array of 0 to 2 dimensions holding exactly `count` values, in C order, into out. */
-static int read_doubles(PyObject *object, double *out, Py_ssize_t count, const char *what)
+/* A Python float (or anything with __float__) as a double; TypeError naming the argument otherwise. */
+static inline int read_float(PyObject *object, double *out, const char *what)
+{
+    *out = PyFloat_AsDouble(object);
+    if (*out == -1.0 && PyErr_Occurred()) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a float, got %s", what, Py_TYPE(object)->tp_name);
+        return -1;
+    }
+    return 0;
+}
+
+/* A strided view of a native float64 array (format "d" or "=d"), writable and C-contiguous if asked;
+ * TypeError naming the argument for anything else (the view is then released). */
+static inline int float64_view(PyObject *object, Py_buffer *view, int writable, const char *what)
+{
+    if (!PyObject_CheckBuffer(object)) {
+        PyErr_Format(PyExc_TypeError, "%s: expected a float64 array, got %s", what, Py_TYPE(object)->tp_name);
+        return -1;
+    }
+    if (PyObject_GetBuffer(object, view, PyBUF_RECORDS_RO) < 0)
+        return -1;
+    const char *problem = NULL;
+    if (view->itemsize != 8 || view->format == NULL
+        || (strcmp(view->format, "d") != 0 && strcmp(view->format, "=d") != 0))
+        problem = "a float64 array";
+    else if (writable && (view->readonly || !PyBuffer_IsContiguous(view, 'C')))
+        problem = "a writable C-contiguous array";
+    if (problem == NULL)
+        return 0;
+    PyBuffer_Release(view);
+    PyErr_Format(PyExc_TypeError, "%s: expected %s", what, problem);
+    return -1;
+}
+
+/* Copy a float64 array into out, in C order: exactly `count` values of any shape when columns < 0,
+ * else exactly the shape (count,) (columns == 0) or (count, columns). */
+static inline int read_doubles(PyObject *object, double *out, Py_ssize_t count, Py_ssize_t columns,
+                               const char *what)
 {
     Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_RECORDS_RO) < 0)
+    if (float64_view(object, &view, 0, what) < 0)
         return -1;
+    if (view.ndim > 2) {
+        PyBuffer_Release(&view);
+        PyErr_Format(PyExc_TypeError, "%s: expected an array of at most 2 dimensions", what);
+        return -1;
+    }
     Py_ssize_t total = 1;
     for (int axis = 0; axis < view.ndim; axis++)
         total *= view.shape[axis];
-    if (!is_float64(&view) || total != count || view.ndim > 2) {
+    int fits = columns < 0 ? total == (Py_ssize_t)count
+               : columns == 0 ? view.ndim == 1 && view.shape[0] == count
+                              : view.ndim == 2 && view.shape[0] == count && view.shape[1] == columns;
+    if (!fits) {
         PyBuffer_Release(&view);
-        PyErr_Format(PyExc_TypeError, "%s: expected %zd float64 values", what, count);
+        if (columns < 0)
+            PyErr_Format(PyExc_TypeError, "%s: expected %zd float64 values", what, count);
+        else if (columns == 0)
+            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd,) float64 array", what, count);
+        else
+            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd, %zd) float64 array", what, count, columns);
         return -1;
     }
     const char *base = (const char *)view.buf;
     if (view.ndim == 0) {
         memcpy(out, base, sizeof(double));
     } else if (view.ndim == 1) {
-        for (Py_ssize_t i = 0; i < count; i++)
+        for (Py_ssize_t i = 0; i < view.shape[0]; i++)
             memcpy(out + i, base + i * view.strides[0], sizeof(double));
     } else {
-        Py_ssize_t columns = view.shape[1];
+        Py_ssize_t width = view.shape[1];
         for (Py_ssize_t i = 0; i < view.shape[0]; i++)
-            for (Py_ssize_t j = 0; j < columns; j++)
-                memcpy(out + i * columns + j, base + i * view.strides[0] + j * view.strides[1], sizeof(double));
+            for (Py_ssize_t j = 0; j < width; j++)
+                memcpy(out + i * width + j, base + i * view.strides[0] + j * view.strides[1], sizeof(double));
     }
     PyBuffer_Release(&view);
     return 0;
 }
 
-/* read_doubles() of an array of exactly the shape (rows,) (columns == 0) or (rows, columns). */
-static int read_shaped(PyObject *object, Py_ssize_t rows, Py_ssize_t columns, double *out, const char *what)
+/* A writable C-contiguous float64 view of exactly `count` values; release it when done. */
+static inline int contiguous_view(PyObject *object, Py_buffer *view, Py_ssize_t count, int writable,
+                                  const char *what)
 {
-    Py_buffer view;
-    if (PyObject_GetBuffer(object, &view, PyBUF_RECORDS_RO) < 0)
+    if (float64_view(object, view, writable, what) < 0)
         return -1;
-    int shaped = is_float64(&view) && (columns == 0 ? view.ndim == 1 && view.shape[0] == rows
-                                                    : view.ndim == 2 && view.shape[0] == rows
-                                                          && view.shape[1] == columns);
-    PyBuffer_Release(&view);
-    if (!shaped) {
-        if (columns == 0)
-            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd,) float64 array", what, rows);
-        else
-            PyErr_Format(PyExc_TypeError, "%s: expected a (%zd, %zd) float64 array", what, rows, columns);
-        return -1;
-    }
-    return read_doubles(object, out, columns == 0 ? rows : rows * columns, what);
-}
-
-/* A C-contiguous float64 view of exactly `count` values (writable if asked); release it when done. */
-static int contiguous_view(PyObject *object, Py_buffer *view, Py_ssize_t count, int writable, const char *what)
-{
-    int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
-    if (PyObject_GetBuffer(object, view, flags) < 0)
-        return -1;
-    if (!is_float64(view) || view->len != count * (Py_ssize_t)sizeof(double)) {
-        PyBuffer_Release(view);
-        PyErr_Format(PyExc_TypeError, "%s: expected a %sC-contiguous float64 array of %zd values", what,
-                     writable ? "writable " : "", count);
-        return -1;
-    }
-    return 0;
+    if (view->len == count * (Py_ssize_t)sizeof(double) && PyBuffer_IsContiguous(view, 'C'))
+        return 0;
+    PyBuffer_Release(view);
+    PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous float64 array of %zd values", what, count);
+    return -1;
 }
 
 /* Write `count` values into a writable C-contiguous float64 array of exactly that many. */
-static int write_doubles(PyObject *object, const double *values, Py_ssize_t count, const char *what)
+static inline int write_doubles(PyObject *object, const double *values, Py_ssize_t count, const char *what)
 {
     Py_buffer view;
     if (contiguous_view(object, &view, count, 1, what) < 0)

@@ -18,12 +18,10 @@
  * (sum over k of R*_ki R_kj, k in order); returns |p - p*| = sqrt(x^2 + y^2 + z^2). */
 static PyObject *error_parts(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 5) {
-        PyErr_Format(PyExc_TypeError, "error_parts expects 5 arguments, got %zd", nargs);
+    if (check_count("error_parts", nargs, 5) < 0)
         return NULL;
-    }
     double reached[16], position[3], error[3];
-    if (read_shaped(args[0], 4, 4, reached, "reached") < 0 || read_shaped(args[1], 3, 0, position, "position") < 0)
+    if (read_doubles(args[0], reached, 4, 4, "reached") < 0 || read_doubles(args[1], position, 3, 0, "position") < 0)
         return NULL;
     for (int i = 0; i < 3; i++)
         error[i] = reached[4 * i + 3] - position[i];
@@ -31,7 +29,7 @@ static PyObject *error_parts(PyObject *self, PyObject *const *args, Py_ssize_t n
         return NULL;
     if (args[2] != Py_None) {
         double target[9], relative[9];
-        if (read_shaped(args[2], 3, 3, target, "rotation") < 0)
+        if (read_doubles(args[2], target, 3, 3, "rotation") < 0)
             return NULL;
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
@@ -46,18 +44,9 @@ static PyObject *error_parts(PyObject *self, PyObject *const *args, Py_ssize_t n
 /* plain_se3(matrix, bound, tolerance) -> bool, for a float64 buffer of shape (4, 4) (any strides). */
 static PyObject *plain_se3(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 3) {
-        PyErr_Format(PyExc_TypeError, "plain_se3 expects 3 arguments, got %zd", nargs);
-        return NULL;
-    }
-    double bound = PyFloat_AsDouble(args[1]);
-    if (bound == -1.0 && PyErr_Occurred())
-        return NULL;
-    double tolerance = PyFloat_AsDouble(args[2]);
-    if (tolerance == -1.0 && PyErr_Occurred())
-        return NULL;
-    double m[16];
-    if (read_shaped(args[0], 4, 4, m, "plain_se3: matrix") < 0)
+    double bound, tolerance, m[16];
+    if (check_count("plain_se3", nargs, 3) < 0 || read_float(args[1], &bound, "bound") < 0
+        || read_float(args[2], &tolerance, "tolerance") < 0 || read_doubles(args[0], m, 4, 4, "matrix") < 0)
         return NULL;
     const double a = m[0], b = m[1], c = m[2], x = m[3];
     const double d = m[4], e = m[5], f = m[6], y = m[7];

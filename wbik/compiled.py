@@ -11,9 +11,18 @@ shared FK check, :func:`wbik.geometry.error_parts`) and
 from __future__ import annotations
 
 import os
+import shutil
+import sysconfig
+from pathlib import Path
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 """Set to 1 to run the Python twins even where the extensions are built."""
+
+
+def can_build() -> bool:
+    """Whether this machine has what building the extensions needs: a C compiler and Python.h."""
+    has_compiler = any(shutil.which(name) for name in ("cc", "gcc", "clang"))
+    return has_compiler and (Path(sysconfig.get_paths()["include"]) / "Python.h").is_file()
 
 
 def pure_python() -> bool:

@@ -27,7 +27,7 @@ choice is the same rule (:func:`nearest_branch`), and tests check that both path
 The result goes through the shared check of :mod:`wbik.solvers.base` (``solve``, and ``solve_all`` on
 the Python path) or its batched twin :func:`wbik.solvers.analytic.batch.evaluate_batch` (``solve_many``):
 the same rule (clip, position and rotation error, tolerances), with the closed form's FK in place of
-Pinocchio's, which :func:`check_fk_against_model` holds to the model's when the form is built.
+Pinocchio's, which :mod:`.model_agreement` holds to the model's when the form is built.
 
 Compiled kernel: a family may provide one (``ClosedForm.kernel``; the UR-type family's is
 :mod:`.ur_kernel`), the scalar path in C with the same bits, used by ``solve``, ``solve_many`` and
@@ -47,11 +47,11 @@ from typing import NamedTuple
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
-from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
+from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
@@ -210,36 +210,6 @@ def closed_forms(robot) -> dict[tuple[str, str], str]:
     Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``.
     """
     return dict(robot.closed_forms)
-
-
-MODEL_AGREEMENT = 1e-9
-"""Largest difference (m, and rotation-matrix entries) allowed between a closed form's FK and the robot
-model's (Pinocchio) when the form is built. ``solve_many``, and ``solve_all`` through a compiled kernel,
-check their answers with the closed form's FK; held to the model here, that check is the shared one's to
-within 1e-9, three orders of magnitude below its tolerances (1e-6). The shipped forms differ by 1.2e-11
-at most (the UR5's DH numbers against its URDF)."""
-MODEL_SAMPLES = 16
-"""Joint vectors the agreement is checked on (seeded, inside the limits; [-pi, pi] where one is infinite)."""
-
-
-def check_fk_against_model(form: ClosedForm) -> None:
-    """RobotDescriptionError unless the form's FK is the chain's model FK (Pinocchio) within
-    MODEL_AGREEMENT on MODEL_SAMPLES seeded joint vectors (a form whose geometry is not the model's,
-    e.g. a UR-type binding given another arm's DH numbers)."""
-    chain = form.chain
-    lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)
-    upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
-    joints = np.random.default_rng(0).uniform(lower, upper, (MODEL_SAMPLES, chain.nq))
-    positions, rotations = form.fk(joints)
-    for q, position, rotation in zip(joints, positions, rotations, strict=True):
-        pose = chain.fk(q)
-        gap = max(float(np.abs(pose.translation - position).max()),
-                  float(np.abs(pose.rotation - rotation).max()))
-        if not gap <= MODEL_AGREEMENT:
-            raise RobotDescriptionError(
-                f"the closed form {type(form).__name__} of {chain.robot.name}.{chain.name} is not this "
-                f"chain: its FK differs from the robot model's by {gap:.3g} (m or rotation entries) at q = "
-                f"{np.round(q, 6).tolist()}; give it the model's geometry (e.g. the DH numbers of this arm)")
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
@@ -461,10 +431,20 @@ class AnalyticSolver(Solver):
         super().check_target_kind(kind)
         self.closed_form(kind)
 
+    def _form_of(self, target: Target) -> ClosedForm:
+        """The closed form of the target's kind: cached after the kind's first call, which runs the
+        detailed checks (:meth:`check_target_kind`; ``solve`` has run the interface's already)."""
+        kind = "position" if target.rotation is None else "pose"
+        form = self._forms.get(kind)
+        if form is None:
+            self.check_target_kind(kind)
+            form = self.closed_form(kind)
+        return form
+
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
             form = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
-            check_fk_against_model(form)
+            check_fk_against_model(form, positions_only=form.target_kind == "position")
             self._forms[kind] = form
         return self._forms[kind]
 
@@ -546,8 +526,7 @@ class AnalyticSolver(Solver):
     # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         rotation = target.rotation
-        kind = "position" if rotation is None else "pose"
-        form = self._forms.get(kind) or self.closed_form(kind)
+        form = self._form_of(target)
         if form.target_kind == "position":
             rotation = None
         kernel = form.kernel
@@ -575,7 +554,7 @@ class AnalyticSolver(Solver):
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """Vectorised: one closed-form evaluation and one batched FK check (the closed form's FK, held to
-        the model by :func:`check_fk_against_model`) for the whole batch; per-pose time = closed-form
+        the model by :mod:`.model_agreement`) for the whole batch; per-pose time = closed-form
         time / B (the check is not counted, as in ``solve``). With a compiled kernel: one kernel call
         for the batch, the same choice as ``solve`` (same bits), its time per pose with the check."""
         from wbik.solvers.analytic.batch import batch_targets
@@ -635,15 +614,11 @@ class AnalyticSolver(Solver):
         """Every distinct branch inside the limits that passes the FK check (wrapped nearest to the
         chain's nominal configuration, in branch order): the shared check (Pinocchio) on the Python
         path; with a compiled kernel the batched rule of ``solve_many`` (the closed form's FK, held to
-        the model by :func:`check_fk_against_model`; the branches are inside the limits already,
+        the model by :mod:`.model_agreement`; the branches are inside the limits already,
         nothing to clip), and the kernel builds the results: their arrays are row views of three
         buffers, ``time_s`` the kernel's time with its check."""
         target = as_target(target)
-        kind = "position" if target.rotation is None else "pose"
-        form = self._forms.get(kind)
-        if form is None:  # first call of this kind: the detailed checks, then the form is cached
-            self.check_target_kind(kind)
-            form = self.closed_form(kind)
+        form = self._form_of(target)
         nominal = self.chain.nominal
         if form.kernel is not None:  # the kernel builds the results (the same rule, see the docstring)
             return form.kernel.results(target.position, target.rotation, nominal, self.name, self.tolerances)

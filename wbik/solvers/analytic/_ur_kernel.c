@@ -11,8 +11,9 @@
  * sum would differ). tests/test_ur_kernel.py compares both paths bit for bit.
  *
  * Beyond the twin: nearest_many (solve_many) and distinct_results (solve_all) also check the chosen
- * branches with the closed-form FK (pose_errors: the batched rule of solve_many), which URArm holds to
- * the robot model (Pinocchio) when it is built; distinct_results builds the IKResults.
+ * branches with the closed-form FK (pose_errors: the batched rule of solve_many), which the analytic
+ * solver holds to the robot model (Pinocchio) when it builds the form (check_fk_against_model);
+ * distinct_results builds the IKResults.
  *
  * The Python module is wbik.solvers.analytic._ur_kernel; wbik.solvers.analytic.ur_kernel wraps it.
  */
@@ -253,16 +254,13 @@ static double squared_distance(const double a[JOINTS], const double b[JOINTS])
 
 /* --- argument handling ------------------------------------------------------------------------------ */
 /* (params, position, rotation, reference): the common arguments, read into C arrays. */
-static int read_arguments(PyObject *const *args, Py_ssize_t nargs, Py_ssize_t expected, double params[P_COUNT],
-                          double position[3], double rotation[9], double reference[JOINTS])
+static int read_arguments(const char *function, PyObject *const *args, Py_ssize_t nargs, Py_ssize_t expected,
+                          double params[P_COUNT], double position[3], double rotation[9], double reference[JOINTS])
 {
-    if (nargs != expected) {
-        PyErr_Format(PyExc_TypeError, "expected %zd arguments, got %zd", expected, nargs);
-        return -1;
-    }
-    if (read_doubles(args[0], params, P_COUNT, "params") < 0 || read_doubles(args[1], position, 3, "position") < 0
-        || read_doubles(args[2], rotation, 9, "rotation") < 0
-        || read_doubles(args[3], reference, JOINTS, "reference") < 0)
+    if (check_count(function, nargs, expected) < 0 || read_doubles(args[0], params, P_COUNT, -1, "params") < 0
+        || read_doubles(args[1], position, 3, -1, "position") < 0
+        || read_doubles(args[2], rotation, 9, -1, "rotation") < 0
+        || read_doubles(args[3], reference, JOINTS, -1, "reference") < 0)
         return -1;
     return 0;
 }
@@ -354,7 +352,7 @@ static int choose(const double *params, const double position[3], const double r
 static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS], best[JOINTS];
-    if (read_arguments(args, nargs, 5, params, position, rotation, reference) < 0)
+    if (read_arguments("nearest", args, nargs, 5, params, position, rotation, reference) < 0)
         return NULL;
     int count;
     int outcome = choose(params, position, rotation, reference, best, NULL, &count);
@@ -371,12 +369,8 @@ static PyObject *nearest(PyObject *self, PyObject *const *args, Py_ssize_t nargs
  * (zeros likewise) and (real branch count, outcome) into info (B, 2). The GIL is released meanwhile. */
 static PyObject *nearest_many(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 7) {
-        PyErr_Format(PyExc_TypeError, "expected 7 arguments, got %zd", nargs);
-        return NULL;
-    }
     double params[P_COUNT];
-    if (read_doubles(args[0], params, P_COUNT, "params") < 0)
+    if (check_count("nearest_many", nargs, 7) < 0 || read_doubles(args[0], params, P_COUNT, -1, "params") < 0)
         return NULL;
     Py_buffer views[6];
     static const char *names[6] = {"positions", "rotations", "references", "q", "errors", "info"};
@@ -461,7 +455,7 @@ static int distinct_branches(const double *params, const double position[3], con
 static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    if (read_arguments(args, nargs, 6, params, position, rotation, reference) < 0)
+    if (read_arguments("distinct", args, nargs, 6, params, position, rotation, reference) < 0)
         return NULL;
     double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
     int kept_count = distinct_branches(params, position, rotation, reference, kept, errors);
@@ -507,13 +501,10 @@ done:
 static PyObject *distinct_results(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    if (read_arguments(args, nargs, 11, params, position, rotation, reference) < 0)
-        return NULL;
-    double position_tolerance = PyFloat_AsDouble(args[9]);
-    if (position_tolerance == -1.0 && PyErr_Occurred())
-        return NULL;
-    double rotation_tolerance = PyFloat_AsDouble(args[10]);
-    if (rotation_tolerance == -1.0 && PyErr_Occurred())
+    double position_tolerance, rotation_tolerance;
+    if (read_arguments("distinct_results", args, nargs, 11, params, position, rotation, reference) < 0
+        || read_float(args[9], &position_tolerance, "position_tolerance") < 0
+        || read_float(args[10], &rotation_tolerance, "rotation_tolerance") < 0)
         return NULL;
     struct timespec started, finished;
     clock_gettime(CLOCK_MONOTONIC, &started);
@@ -559,11 +550,8 @@ static PyObject *distinct_results(PyObject *self, PyObject *const *args, Py_ssiz
 static PyObject *fk(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     double params[P_COUNT], q[JOINTS], position[3], rotation[9];
-    if (nargs != 2) {
-        PyErr_Format(PyExc_TypeError, "expected 2 arguments, got %zd", nargs);
-        return NULL;
-    }
-    if (read_doubles(args[0], params, P_COUNT, "params") < 0 || read_doubles(args[1], q, JOINTS, "q") < 0)
+    if (check_count("fk", nargs, 2) < 0 || read_doubles(args[0], params, P_COUNT, -1, "params") < 0
+        || read_doubles(args[1], q, JOINTS, -1, "q") < 0)
         return NULL;
     fk_one(params, q, position, rotation);
     return Py_BuildValue("(ddd)(ddddddddd)", position[0], position[1], position[2], rotation[0], rotation[1],

@@ -19,6 +19,7 @@ Python path runs.
 from __future__ import annotations
 
 import functools
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +27,10 @@ from wbik.compiled import PURE_PYTHON_VARIABLE  # noqa: F401 - re-exported: the 
 from wbik.compiled import pure_python
 from wbik.robot import Chain
 from wbik.solvers.base import IKResult
+from wbik.solvers.base import Tolerances
+
+if TYPE_CHECKING:
+    from wbik.solvers.analytic.ur_type import URGeometry
 
 try:
     from wbik.solvers.analytic import _ur_kernel
@@ -48,7 +53,7 @@ class URKernel:
     the chain's limits and an optional fixed tool (ee -> tool rotation and translation), packed into
     the parameter vector ``_ur_kernel.c`` reads (its ``enum`` gives the layout)."""
 
-    def __init__(self, geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
+    def __init__(self, geometry: URGeometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
                  screen_tolerance: float):
         from wbik.solvers.analytic import BOUND_SLACK
         from wbik.solvers.analytic import BRANCH_MERGE
@@ -106,7 +111,7 @@ class URKernel:
         return out[:count], errors[:count]
 
     def results(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray, method: str,
-                tolerances) -> list:
+                tolerances: Tolerances) -> list[IKResult]:
         """``solve_all``'s answer built by the kernel: one ``IKResult`` per :meth:`distinct` branch whose
         errors are within ``tolerances`` (success, no reason, its arrays row views of three buffers,
         ``time_s`` the kernel's time for the branches and their check)."""
@@ -119,7 +124,7 @@ class URKernel:
         return _ur_kernel.fk(self.params, np.asarray(q, dtype=float))
 
 
-def ur_kernel(geometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
+def ur_kernel(geometry: URGeometry, chain: Chain, tool: tuple[np.ndarray, np.ndarray] | None,
               screen_tolerance: float) -> URKernel | None:
     """A :class:`URKernel` for the chain, or None where the extension is not built or turned off."""
     return URKernel(geometry, chain, tool, screen_tolerance) if compiled() else None

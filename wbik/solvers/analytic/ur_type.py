@@ -36,6 +36,7 @@ from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
 from wbik.solvers.analytic.subproblems import planar_2r_one
+from wbik.solvers.analytic.ur_kernel import URKernel
 from wbik.solvers.analytic.ur_kernel import ur_kernel
 
 WRIST_SINGULARITY = 1e-8
@@ -273,6 +274,7 @@ class URArm(ClosedForm):
     def fk_one(self, q):
         return fk_one(self.geometry, q)
 
-    def compiled_kernel(self, tool=None, screen_tolerance=None):
+    def compiled_kernel(self, tool: tuple[np.ndarray, np.ndarray] | None = None,
+                        screen_tolerance: float | None = None) -> URKernel | None:
         tolerance = self.screen_tolerance if screen_tolerance is None else screen_tolerance
         return ur_kernel(self.geometry, self.chain, tool, tolerance)
