@@ -56,7 +56,6 @@ from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
-from wbik.solvers.base import fk_check_reason
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
@@ -582,26 +581,17 @@ class AnalyticSolver(Solver):
         """:meth:`solve_many` through the kernel: every target's choice and its errors (closed-form FK,
         :func:`.batch.evaluate_batch`'s rule: the joints are inside the limits already) in one call.
         ``time_s`` is the kernel's time per pose, its check included."""
+        from wbik.solvers.analytic.batch import evaluate_batch
+
         start = time.perf_counter()
         joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
         per_pose = (time.perf_counter() - start) / len(positions)
-        position_tolerance, rotation_tolerance = self.tolerances.position, self.tolerances.rotation
-        name, nan = self.name, math.nan
-        results = []
-        append = results.append
-        for q, p_xyz, r_xyz, (p_norm, r_norm), (branches, outcome) in zip(  # noqa: B905 - all (B, ...)
-                joints, errors[:, :3], errors[:, 3:6], errors[:, 6:].tolist(), info.tolist()):
-            extra = {"branches": int(branches), "batched": True}
-            if outcome != 1:
-                reason = kernel_failure_reason(outcome)
-                append(IKResult(None, False, reason, nan, nan, np.full(3, nan), np.full(3, nan), per_pose, 1,
-                                name, extra))
-            elif p_norm <= position_tolerance and r_norm <= rotation_tolerance:
-                append(IKResult(q, True, "", p_norm, r_norm, p_xyz, r_xyz, per_pose, 1, name, extra))
-            else:
-                append(IKResult(q, False, fk_check_reason(p_norm, r_norm), p_norm, r_norm, p_xyz, r_xyz,
-                                per_pose, 1, name, extra))
-        return results
+        branches, outcomes = info.T.astype(int).tolist()
+        reasons = ["" if outcome == 1 else kernel_failure_reason(outcome) for outcome in outcomes]
+        extras = [{"branches": count, "batched": True} for count in branches]
+        measured = (errors[:, :3], errors[:, 3:6], errors[:, 6], errors[:, 7])
+        return evaluate_batch(self.chain, form, positions, rotations, joints, info[:, 1] == 1, reasons,
+                              self.tolerances, per_pose, self.name, extras, measured=measured)
 
     def _start_array(self, q0s, count: int) -> np.ndarray:
         """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""

@@ -85,31 +85,45 @@ def _transpose_times(first: np.ndarray, second: np.ndarray) -> np.ndarray:
             + first[:, 2, :, None] * second[:, 2, None, :])
 
 
-def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
-                   found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
-                   method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None
-                   ) -> list[IKResult]:
-    """:func:`wbik.solvers.base.evaluate` for a batch: one IKResult per target.
-
-    ``q`` (B, n) holds the joints where ``found`` (B,), ``reasons`` the method's reason per target (the
-    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with;
-    ``reached``, when given, is ``form.fk(q)`` already computed (used where q is inside the limits).
-    """
-    count = len(positions)
-    q = np.asarray(q, dtype=float)
-    finite = np.all(np.isfinite(q), axis=1)
-    inside = clip_to_limits(q, chain.lower, chain.upper)
+def _measure(form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray, inside: np.ndarray,
+             finite: np.ndarray, reached: tuple[np.ndarray, np.ndarray] | None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`evaluate_batch`'s errors with the closed form's FK: (position error (B, 3), rotation error
+    (B, 3), their norms), ``reached`` reused where q is inside the limits."""
     if reached is None or not np.array_equal(inside, q, equal_nan=True):
         reached = form.fk(np.where(finite[:, None], inside, 0.0))
     reached_p, reached_r = reached
     position_xyz = reached_p - positions
     position_norm = np.sqrt(np.einsum("bi,bi->b", position_xyz, position_xyz))
     if rotations is None:
-        rotation_xyz = np.zeros((count, 3))
-        rotation_norm = np.zeros(count)
+        count = len(positions)
+        return position_xyz, np.zeros((count, 3)), position_norm, np.zeros(count)
+    rotation_xyz = batch_log3(_transpose_times(rotations, reached_r))
+    rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
+    return position_xyz, rotation_xyz, position_norm, rotation_norm
+
+
+def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray,
+                   found: np.ndarray, reasons: list[str], tolerances: Tolerances, time_s: float,
+                   method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None,
+                   measured: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+                   ) -> list[IKResult]:
+    """:func:`wbik.solvers.base.evaluate` for a batch: one IKResult per target.
+
+    ``q`` (B, n) holds the joints where ``found`` (B,), ``reasons`` the method's reason per target (the
+    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with;
+    ``reached``, when given, is ``form.fk(q)`` already computed (used where q is inside the limits);
+    ``measured``, when given, are the errors of q (inside the limits) already measured by this rule
+    (position error (B, 3), rotation error (B, 3), their norms (B,), (B,)): a compiled kernel's.
+    """
+    q = np.asarray(q, dtype=float)
+    finite = np.all(np.isfinite(q), axis=1)
+    inside = clip_to_limits(q, chain.lower, chain.upper)
+    if measured is not None:
+        position_xyz, rotation_xyz, position_norm, rotation_norm = measured
     else:
-        rotation_xyz = batch_log3(_transpose_times(rotations, reached_r))
-        rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
+        position_xyz, rotation_xyz, position_norm, rotation_norm = _measure(
+            form, positions, rotations, q, inside, finite, reached)
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
     p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
     results = [IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra)
