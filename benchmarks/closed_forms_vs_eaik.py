@@ -59,16 +59,21 @@ def fk_poses(chain, count: int, seed: int) -> list:
 
 def interleaved(rows: dict[str, tuple[Callable[[], object], int]],
                 rounds: int) -> dict[str, tuple[float, object]]:
-    """Each row's best wall time per item over ``rounds`` rounds, every row run once per round:
+    """Each row's best wall time per item over ``rounds`` interleaved rounds (``best_of_rounds``):
     {label: (seconds per item, the last run's output)} for rows {label: (run, items)}."""
-    best = {label: (np.inf, None) for label in rows}
-    for _ in range(rounds):
-        for label, (run, items) in rows.items():
+    from ratios import best_of_rounds
+
+    outputs: dict[str, object] = {}
+
+    def timed(label: str, run: Callable[[], object], items: int) -> Callable[[], float]:
+        def seconds_per_item() -> float:
             start = time.perf_counter()
-            output = run()
-            seconds = (time.perf_counter() - start) / items
-            best[label] = (min(best[label][0], seconds), output)
-    return best
+            outputs[label] = run()
+            return (time.perf_counter() - start) / items
+        return seconds_per_item
+
+    best = best_of_rounds({label: timed(label, run, items) for label, (run, items) in rows.items()}, rounds)
+    return {label: (best[label], outputs[label]) for label in rows}
 
 
 def measure(count: int, rounds: int, seed: int) -> tuple[dict[str, tuple[float, str, str]], int]:

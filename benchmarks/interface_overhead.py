@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 import timeit
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,7 @@ from wbik.solvers.base import Solver
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import Ratio  # noqa: E402
+from ratios import best_of_rounds  # noqa: E402
 
 BOUND_S = 10e-6
 """The issue's bound on the interface overhead per call."""
@@ -70,13 +72,13 @@ def measure(calls: int, rounds: int = ROUNDS) -> dict[str, dict[str, float]]:
     """{chain: {"solve", "method", "fk": seconds per call}}: each loop's best over ``rounds``
     interleaved rounds of ``calls`` calls (every loop of every chain once per round)."""
     chains = [Loops(robot_name, chain_name) for robot_name, chain_name in CHAINS]
-    best = {chain.name: dict.fromkeys(chain.loops, np.inf) for chain in chains}
-    for _ in range(rounds):
-        for chain in chains:
-            for label, loop in chain.loops.items():
-                seconds = timeit.timeit(loop, number=calls) / calls
-                best[chain.name][label] = min(best[chain.name][label], seconds)
-    return best
+
+    def per_call(loop) -> Callable[[], float]:
+        return lambda: timeit.timeit(loop, number=calls) / calls
+
+    best = best_of_rounds({(chain.name, label): per_call(loop) for chain in chains
+                           for label, loop in chain.loops.items()}, rounds)
+    return {chain.name: {label: best[(chain.name, label)] for label in chain.loops} for chain in chains}
 
 
 def ratios(quick: bool = False) -> list[Ratio]:

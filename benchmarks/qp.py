@@ -90,11 +90,10 @@ def median_time(function, repeats: int) -> float:
 
 def interleaved(contenders: dict, repeats: dict, rounds: int) -> dict[str, float]:
     """Best over ``rounds`` of each contender's median time, the contenders taking turns."""
-    best = {name: float("inf") for name in contenders}
-    for _ in range(rounds):
-        for name, function in contenders.items():
-            best[name] = min(best[name], median_time(function, repeats[name]))
-    return best
+    from ratios import best_of_rounds
+
+    return best_of_rounds({name: (lambda name=name, function=function: median_time(function, repeats[name]))
+                           for name, function in contenders.items()}, rounds)
 
 
 def our_problem(robot, q_start, foot_target, backend="daqp") -> IKProblem:

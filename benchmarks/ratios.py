@@ -9,9 +9,22 @@ is better (times) or from below when larger is better (success rates, throughput
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from collections.abc import Hashable
 from dataclasses import dataclass
 
 UNITS = ("s/call", "s/pose", "s/step", "s/solve", "fraction", "poses/s", "Hz")
+
+
+def best_of_rounds(measurements: dict[Hashable, Callable[[], float]], rounds: int) -> dict[Hashable, float]:
+    """Each measurement's smallest value over ``rounds`` rounds, every measurement taken once per round:
+    interleaved, so that a slow phase of the machine (a second or more here) falls on all of them
+    alike instead of on every run of one."""
+    best = dict.fromkeys(measurements, math.inf)
+    for _ in range(rounds):
+        for label, measure in measurements.items():
+            best[label] = min(best[label], measure())
+    return best
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ shared FK check, :func:`wbik.geometry.error_parts`) and
 
 from __future__ import annotations
 
+import importlib
 import os
 import shutil
 import sysconfig
@@ -17,6 +18,20 @@ from pathlib import Path
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 """Set to 1 to run the Python twins even where the extensions are built."""
+
+
+def compiled_twin(module: str, name: str):
+    """The function ``name`` of the extension ``module``, or None where it is not built."""
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError:
+        return None
+
+
+def chosen(python, compiled):
+    """The twin to run: ``compiled`` unless it is None (not built) or ``WBIK_PURE_PYTHON=1`` asks for
+    ``python``."""
+    return python if compiled is None or pure_python() else compiled
 
 
 def can_build() -> bool:

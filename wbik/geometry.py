@@ -23,7 +23,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.compiled import pure_python
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.errors import InvalidSettingError
 
 
@@ -160,12 +161,8 @@ def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
-try:  # the compiled twin (wbik.compiled)
-    from wbik._pose_kernel import error_parts as _compiled_error_parts
-except ImportError:  # not built: the Python twin
-    _compiled_error_parts = None
-error_parts = (_python_error_parts if _compiled_error_parts is None or pure_python()
-               else _compiled_error_parts)
+_compiled_error_parts = compiled_twin("wbik._pose_kernel", "error_parts")
+error_parts = chosen(_python_error_parts, _compiled_error_parts)
 """error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared FK check's
 arithmetic (:func:`_python_error_parts`, compiled where built); log3 of ``relative`` is e_R."""
 

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.compiled import pure_python
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.errors import InvalidRotationError
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rotation_error
@@ -95,12 +96,9 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
             and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high)
 
 
-try:  # the compiled twin (wbik.compiled): the same test in C, ~1 us less per call
-    from wbik._pose_kernel import plain_se3 as _compiled_accepts_plain_se3
-except ImportError:  # not built: the Python test
-    _compiled_accepts_plain_se3 = None
-_accepts_plain_se3 = (_python_accepts_plain_se3 if _compiled_accepts_plain_se3 is None or pure_python()
-                      else _compiled_accepts_plain_se3)
+# the compiled twin (wbik.compiled): the same test in C, ~1 us less per call
+_compiled_accepts_plain_se3 = compiled_twin("wbik._pose_kernel", "plain_se3")
+_accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3)
 
 
 def as_target(value, rotation=None) -> Target:

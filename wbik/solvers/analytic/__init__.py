@@ -436,14 +436,14 @@ class AnalyticSolver(Solver):
         kind = "position" if target.rotation is None else "pose"
         form = self._forms.get(kind)
         if form is None:
-            self.check_target_kind(kind)
-            form = self.closed_form(kind)
+            self.check_target_kind(kind)  # builds and caches the form
+            form = self._forms[kind]
         return form
 
     def closed_form(self, kind: str) -> ClosedForm:
         if kind not in self._forms:
             form = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
-            check_fk_against_model(form, positions_only=form.target_kind == "position")
+            check_fk_against_model(form)
             self._forms[kind] = form
         return self._forms[kind]
 

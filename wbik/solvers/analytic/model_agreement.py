@@ -23,10 +23,11 @@ MODEL_SAMPLES = 16
 """Joint vectors the agreement is checked on (seeded, inside the limits; [-pi, pi] where one is infinite)."""
 
 
-def check_fk_against_model(form, positions_only: bool = False) -> None:
+def check_fk_against_model(form) -> None:
     """RobotDescriptionError unless ``form.fk`` is the chain's model FK within MODEL_AGREEMENT on
     MODEL_SAMPLES seeded joint vectors; positions only for a form of position targets (its check reads
     no rotation)."""
+    positions_only = form.target_kind == "position"
     chain = form.chain
     lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)
     upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
