@@ -1,8 +1,9 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
 the study files ``comparisons/*.yaml``; and it builds the optional C extensions of
-:mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic, and
-``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path). Without a C compiler the
+:mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic,
+``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path, and ``wbik.qp._rows_kernel``,
+the QP step's frame-task rows and quadratic). Without a C compiler the
 build goes on without them and their Python twins run. (The robots' URDFs are package data of their
 robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
 
@@ -60,4 +61,8 @@ UR_KERNEL = Extension(
     optional=True,
 )
 
-setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[POSE_KERNEL, UR_KERNEL])
+ROWS_KERNEL = Extension("wbik.qp._rows_kernel", ["wbik/qp/_rows_kernel.c"],
+                        depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
+                        optional=True)
+
+setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[POSE_KERNEL, UR_KERNEL, ROWS_KERNEL])

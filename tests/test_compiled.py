@@ -29,7 +29,7 @@ COMPILED_TWIN = pytest.mark.skipif(not HAS_COMPILER, reason="no C compiler here:
                                    "(the first test checks that it is built wherever one exists)")
 
 
-def test_both_extensions_are_built_where_a_compiler_exists():
+def test_the_extensions_are_built_where_a_compiler_exists():
     """The README's set-up (pip install -e .) builds them; without a compiler or the Python headers the
     Python twins run (and the set-up says so)."""
     assert ur_kernel.built() == HAS_COMPILER
@@ -37,6 +37,10 @@ def test_both_extensions_are_built_where_a_compiler_exists():
     from wbik import geometry
 
     assert (geometry._compiled_error_parts is not None) == HAS_COMPILER
+    from wbik.qp import step
+    from wbik.qp import tasks
+
+    assert (tasks._FRAME_ROWS is not None) == HAS_COMPILER and (step._QUADRATIC is not None) == HAS_COMPILER
     assert geometry.error_parts is (geometry._python_error_parts if pure_python() or not HAS_COMPILER
                                     else geometry._compiled_error_parts)
     expected = targets._python_accepts_plain_se3 if pure_python() or not HAS_COMPILER else \

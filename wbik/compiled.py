@@ -1,11 +1,12 @@
 """The switch between wbik's compiled kernels and their Python twins.
 
-Two optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
-per-call Python arithmetic with the same arithmetic in C (same bits, tests compare both):
-``wbik._pose_kernel`` (the fast-path test of :func:`wbik.targets.as_target` and the arithmetic of the
-shared FK check, :func:`wbik.geometry.error_parts`) and
-``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's scalar path). Without them, or with
-``WBIK_PURE_PYTHON=1`` in the environment, the Python twins run.
+Three optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
+per-call Python arithmetic with the same arithmetic in C: ``wbik._pose_kernel`` (the fast-path test of
+:func:`wbik.targets.as_target` and the arithmetic of the shared FK check,
+:func:`wbik.geometry.error_parts`) and ``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's
+scalar path), both giving their twins' bits; and ``wbik.qp._rows_kernel`` (the QP step's frame-task rows
+and each level's H and c), agreeing with its twins (Pinocchio, NumPy) to 1e-12. Tests compare every
+pair. Without them, or with ``WBIK_PURE_PYTHON=1`` in the environment, the Python twins run.
 """
 
 from __future__ import annotations
@@ -42,5 +43,6 @@ def can_build() -> bool:
 
 def pure_python() -> bool:
     """Whether ``WBIK_PURE_PYTHON=1`` asks for the Python twins (read when a kernel is picked: at import
-    of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed form is built)."""
+    of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed form is built, when a QP problem
+    starts)."""
     return os.environ.get(PURE_PYTHON_VARIABLE, "") == "1"

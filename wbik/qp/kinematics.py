@@ -33,11 +33,15 @@ class Kinematics:
         self.model = model
         self.data = model.createData()
         self._placements = self.data.oMf  # the vector itself: indexing it is cheaper than data.oMf[i]
+        self.joint_jacobians = self.data.J
+        """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin (filled by
+        ``update``; the view stays valid, Pinocchio never reallocates it)."""
         self.nq = model.nq
         self.nv = model.nv
         self.q = pin.neutral(model) if q is None else np.array(q, dtype=float)
         self._com_ready = False
         self._frame_ids: dict[str, int] = {}
+        self._support_columns: dict[int, np.ndarray] = {}
         self.update(self.q)
 
     def frame_id(self, name: str) -> int:
@@ -60,6 +64,19 @@ class Kinematics:
     def placement(self, frame_id: int) -> pin.SE3:
         """World placement of a frame (a view into data: copy it to keep it)."""
         return self._placements[frame_id]
+
+    def support_columns(self, frame_id: int) -> np.ndarray:
+        """Tangent indices (int64) of the joints that move a frame: its parent joint and the joints
+        before it (the frame Jacobian's other columns are zero). Computed once per frame."""
+        columns = self._support_columns.get(frame_id)
+        if columns is None:
+            model = self.model
+            joints = [model.joints[joint] for joint in model.supports[model.frames[frame_id].parentJoint][1:]]
+            indices = (index for joint in joints for index in range(joint.idx_v, joint.idx_v + joint.nv))
+            columns = np.array(sorted(indices), dtype=np.int64)
+            columns.flags.writeable = False
+            self._support_columns[frame_id] = columns
+        return columns
 
     def jacobian(self, frame_id: int) -> np.ndarray:
         """6 x nv frame Jacobian [v; w] in world axes (LOCAL_WORLD_ALIGNED)."""

@@ -22,11 +22,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.errors import NoQPSolutionError
 from wbik.qp import backends
 from wbik.qp.constraints import Constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import Task
+
+_QUADRATIC = compiled_twin("wbik.qp._rows_kernel", "quadratic")
+"""The compiled twin of Level.quadratic's products (None where it is not built)."""
 
 PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
 """Phases of a step timed by its ``profile`` argument: FK, joint Jacobians and CoM; constraint rows
@@ -72,6 +77,8 @@ class Level:
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
+        self._row_scale = self.row_scale[:, 0].copy()
+        self._compiled_quadratic = chosen(None, _QUADRATIC)
         self.error_scale = self.row_scale[:, 0] * np.concatenate(
             [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
 
@@ -99,6 +106,10 @@ class Level:
         """The level's H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping) and
         c = (sqrt(w) J)^T (g sqrt(w) e), in buffers reused from step to step (``damping``: the
         scalar added to every diagonal entry). ``weighted`` holds sqrt(w) J afterwards."""
+        if self._compiled_quadratic is not None:
+            self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
+                                     self.diagonal, damping, self.weighted, self.hessian, self.gradient)
+            return self.hessian, self.gradient
         weighted = self.weighted_rows()
         H = weighted.T.dot(weighted, out=self.hessian)
         self._hessian_diagonal += self.diagonal + damping

@@ -20,15 +20,20 @@ the LOCAL frame Jacobian (tests/test_qp_tasks.py checks that ``fill`` agrees wit
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 
 import numpy as np
 import pinocchio as pin
 
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.geometry import rotation_error
 from wbik.geometry import rotation_error_jacobian
 from wbik.qp.kinematics import Kinematics
 
 _AXES = {"x": 0, "y": 1, "z": 2}
+_FRAME_ROWS = compiled_twin("wbik.qp._rows_kernel", "frame_rows")
+"""The compiled twin of FrameTask.fill and OrientationTask.fill (None where it is not built)."""
 
 
 def axis_rows(axes: str) -> np.ndarray:
@@ -93,10 +98,20 @@ class _FrameTaskBase(Task):
     def __init__(self, frame: str, **options):
         self.frame = frame
         self.frame_id = -1
+        self._compiled_rows, self._compiled_for = None, None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def start(self, kinematics: Kinematics) -> None:
         self.frame_id = kinematics.frame_id(self.frame)
+        self._compiled_rows, self._compiled_for = None, None
+        kernel = chosen(None, _FRAME_ROWS)
+        if kernel is not None and self.dimension in (3, 6):
+            # the kernel reads the frame's placement and data.J through views that follow every update
+            placement = kinematics.placement(self.frame_id)
+            self._compiled_rows = partial(kernel, self.dimension, kinematics.joint_jacobians,
+                                          kinematics.support_columns(self.frame_id), placement.translation,
+                                          placement.rotation)
+            self._compiled_for = kinematics
 
 
 class FrameTask(_FrameTaskBase):
@@ -115,6 +130,17 @@ class FrameTask(_FrameTaskBase):
         self.target = target.copy()
         self._error = np.zeros(6)
 
+    @property
+    def target(self) -> pin.SE3:
+        """The target pose (kept as given: changing it in place moves the target)."""
+        return self._target
+
+    @target.setter
+    def target(self, value: pin.SE3) -> None:
+        self._target = value
+        # views of the pose's own memory, for the compiled rows
+        self._target_translation, self._target_rotation = value.translation, value.rotation
+
     def error(self, kinematics: Kinematics) -> np.ndarray:
         """e (a buffer reused by the next call: copy it to keep it)."""
         placement = kinematics.placement(self.frame_id)
@@ -130,6 +156,9 @@ class FrameTask(_FrameTaskBase):
         return jacobian
 
     def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
+        if kinematics is self._compiled_for and self._compiled_rows(
+                self._target_translation, self._target_rotation, jacobian, error):
+            return  # (False near a half turn: the Python twin below)
         frame_id, target = self.frame_id, self.target
         placement = kinematics.placement(frame_id)
         error[:3] = placement.translation - target.translation
@@ -170,6 +199,8 @@ class OrientationTask(_FrameTaskBase):
                                        kinematics.jacobian(self.frame_id)[3:])
 
     def fill(self, kinematics: Kinematics, jacobian: np.ndarray, error: np.ndarray) -> None:
+        if kinematics is self._compiled_for and self._compiled_rows(None, self.target, jacobian, error):
+            return  # (False near a half turn: the Python twin below)
         frame_id = self.frame_id
         _fill_rotation(kinematics, frame_id, kinematics.placement(frame_id).rotation, self.target, jacobian,
                        error)

@@ -1,0 +1,296 @@
+/* Compiled twins of the QP step's per-step arithmetic (the Python module wbik.qp._rows_kernel):
+ *
+ * - frame_rows: a frame task's rows at one configuration, from the joint Jacobians Pinocchio keeps in
+ *   its data (data.J, world axes at the world origin) and the frame's placement: the position rows
+ *   J_v - [p]x J_w (LOCAL_WORLD_ALIGNED, as pin.getFrameJacobian) with e = p - p*, and the rotation rows
+ *   Jlog3(M) R^T J_w with e = log3(M), M = R*^T R. The Python twin (wbik.qp.tasks) calls Pinocchio's
+ *   getFrameJacobian, log3 and Jlog3; log3 and Jlog3 here follow Pinocchio's formulas (spatial/log.hxx:
+ *   the rotation renormalised, the same Taylor switches), so both agree to rounding
+ *   (tests/test_rows_kernel.py: to 1e-12). Rotation errors within 0.1 rad of a half turn are left to the
+ *   Python twin (frame_rows returns False and writes nothing): there the axis comes from a small
+ *   antisymmetric part, rounding is amplified by ~1/(pi - theta), and Pinocchio's own diagonal formula
+ *   takes over within ~3.5e-3 rad; Pinocchio then decides alone.
+ * - quadratic: one priority level's H = W^T W + diag(d + damping) and c = W^T (s_e * e), W = s_r * J,
+ *   the products the Python twin (wbik.qp.step.Level.quadratic) leaves to NumPy/BLAS, summed here
+ *   row by row in a fixed order (so the result does not depend on the BLAS build).
+ */
+#include "../_kernel_buffers.h"
+#include <float.h>
+#include <math.h>
+
+#define HALF_TURN_MARGIN 0.1 /* rad: closer to a half turn, Pinocchio computes log3 (see above) */
+
+/* log3 of a rotation (row-major), as pinocchio::log3; 0 (nothing done) within HALF_TURN_MARGIN of a
+ * half turn. */
+static int rotation_log(const double R[9], double log[3], double *theta_out)
+{
+    const double eps = DBL_EPSILON;
+    const double prec = pow(eps, 1.0 / 3.0);
+    /* renormalise: columns 0 and 1 to unit length, column 2 = c0 x c1, column 0 = c1 x c2 */
+    double c0[3] = {R[0], R[3], R[6]}, c1[3] = {R[1], R[4], R[7]}, c2[3];
+    double n0 = sqrt(c0[0] * c0[0] + c0[1] * c0[1] + c0[2] * c0[2]);
+    double n1 = sqrt(c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]);
+    for (int i = 0; i < 3; i++) {
+        c0[i] /= n0;
+        c1[i] /= n1;
+    }
+    c2[0] = c0[1] * c1[2] - c0[2] * c1[1];
+    c2[1] = c0[2] * c1[0] - c0[0] * c1[2];
+    c2[2] = c0[0] * c1[1] - c0[1] * c1[0];
+    c0[0] = c1[1] * c2[2] - c1[2] * c2[1];
+    c0[1] = c1[2] * c2[0] - c1[0] * c2[2];
+    c0[2] = c1[0] * c2[1] - c1[1] * c2[0];
+    /* Rn(i, j) = c_j[i] */
+    const double trace = c0[0] + c1[1] + c2[2];
+    const double cos_value = (trace - 1.0) / 2.0;
+    if (!(cos_value >= -cos(HALF_TURN_MARGIN)))
+        return 0;
+    /* (Pinocchio's third branch, pi - sqrt(2 (1 + cos)), lies inside the margin) */
+    const double theta = trace <= 3.0 - prec ? acos(cos_value) : sqrt(2.0 * (1.0 - cos_value) + eps * eps);
+    const double a0 = 0.5 * (c1[2] - c2[1]), a1 = 0.5 * (c2[0] - c0[2]), a2 = 0.5 * (c0[1] - c1[0]);
+    const double squared = a0 * a0 + a1 * a1 + a2 * a2;
+    const double t = theta >= prec ? theta / sin(theta) : 1.0 + squared / 6.0 + squared * squared * 3.0 / 40.0;
+    log[0] = t * a0;
+    log[1] = t * a1;
+    log[2] = t * a2;
+    *theta_out = theta;
+    return 1;
+}
+
+/* Jlog3 (row-major) at (theta, log), as pinocchio::Jlog3. */
+static void rotation_log_jacobian(double theta, const double log[3], double J[9])
+{
+    const double prec = pow(DBL_EPSILON, 1.0 / 4.0);
+    const double st = sin(theta), ct = cos(theta);
+    const double st_1mct = st / (1.0 - ct);
+    const double alpha = theta < prec ? 1.0 / 12.0 + theta * theta / 720.0
+                                      : 1.0 / (theta * theta) - st_1mct / (2.0 * theta);
+    const double diagonal = theta < prec ? 0.5 * (2.0 - theta * theta / 6.0) : 0.5 * (theta * st_1mct);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            J[3 * i + j] = alpha * log[i] * log[j];
+    for (int i = 0; i < 3; i++)
+        J[4 * i] += diagonal;
+    const double v0 = 0.5 * log[0], v1 = 0.5 * log[1], v2 = 0.5 * log[2];
+    J[1] -= v2;
+    J[2] += v1;
+    J[3] += v2;
+    J[5] -= v0;
+    J[6] -= v1;
+    J[7] += v0;
+}
+
+/* An int64 index array's view (np.intp on 64-bit platforms); TypeError naming the argument otherwise. */
+static int index_view(PyObject *object, Py_buffer *view, const char *what)
+{
+    if (PyObject_GetBuffer(object, view, PyBUF_RECORDS_RO) < 0)
+        return -1;
+    if (view->ndim == 1 && view->itemsize == 8 && view->format != NULL
+        && (strcmp(view->format, "l") == 0 || strcmp(view->format, "q") == 0) && PyBuffer_IsContiguous(view, 'C'))
+        return 0;
+    PyBuffer_Release(view);
+    PyErr_Format(PyExc_TypeError, "%s: expected a contiguous 1-D int64 array", what);
+    return -1;
+}
+
+/* frame_rows(rows, joint_jacobians, columns, translation, rotation, target_translation, target_rotation,
+ *            jacobian, error) -> bool
+ * rows: 6 (pose: position rows, then rotation rows) or 3 (rotation rows only); joint_jacobians: (6, nv),
+ * any strides (data.J); columns: the int64 indices of the columns in the frame's support (the others are
+ * zero); translation (3,) and rotation (3, 3): the frame's world placement; target_translation (3,) (or
+ * None when rows is 3) and target_rotation (3, 3): the target; jacobian: (rows, nv) and error (rows,),
+ * writable, C-contiguous. False (nothing written) near a half turn. */
+static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("frame_rows", nargs, 9) < 0)
+        return NULL;
+    long rows = PyLong_AsLong(args[0]);
+    if (rows == -1 && PyErr_Occurred())
+        return NULL;
+    if (rows != 6 && rows != 3) {
+        PyErr_Format(PyExc_ValueError, "rows: expected 6 (pose) or 3 (orientation), got %ld", rows);
+        return NULL;
+    }
+    double p[9], R[9], target_p[3] = {0.0, 0.0, 0.0}, target_R[9];
+    if (read_doubles(args[3], p, 3, 0, "translation") < 0 || read_doubles(args[4], R, 3, 3, "rotation") < 0
+        || read_doubles(args[6], target_R, 3, 3, "target_rotation") < 0)
+        return NULL;
+    if (rows == 6 && read_doubles(args[5], target_p, 3, 0, "target_translation") < 0)
+        return NULL;
+    /* M = R*^T R, its log and Jlog3; K = Jlog3(M) R^T takes world angular velocities to the error's rates */
+    double M[9], log[3], theta, Jlog[9], K[9];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            M[3 * i + j] = target_R[i] * R[j] + target_R[3 + i] * R[3 + j] + target_R[6 + i] * R[6 + j];
+    if (!rotation_log(M, log, &theta))
+        Py_RETURN_FALSE;
+    rotation_log_jacobian(theta, log, Jlog);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            K[3 * i + j] = Jlog[3 * i] * R[3 * j] + Jlog[3 * i + 1] * R[3 * j + 1] + Jlog[3 * i + 2] * R[3 * j + 2];
+
+    Py_buffer world, columns, jacobian, error;
+    if (float64_view(args[1], &world, 0, "joint_jacobians") < 0)
+        return NULL;
+    if (world.ndim != 2 || world.shape[0] != 6) {
+        PyBuffer_Release(&world);
+        PyErr_SetString(PyExc_TypeError, "joint_jacobians: expected a (6, nv) float64 array");
+        return NULL;
+    }
+    const Py_ssize_t nv = world.shape[1];
+    if (index_view(args[2], &columns, "columns") < 0) {
+        PyBuffer_Release(&world);
+        return NULL;
+    }
+    if (contiguous_view(args[7], &jacobian, rows * nv, 1, "jacobian") < 0) {
+        PyBuffer_Release(&world);
+        PyBuffer_Release(&columns);
+        return NULL;
+    }
+    if (contiguous_view(args[8], &error, rows, 1, "error") < 0) {
+        PyBuffer_Release(&world);
+        PyBuffer_Release(&columns);
+        PyBuffer_Release(&jacobian);
+        return NULL;
+    }
+    const int64_t *indices = (const int64_t *)columns.buf;
+    const Py_ssize_t count = columns.shape[0];
+    int bad = 0;
+    for (Py_ssize_t k = 0; k < count; k++)
+        bad |= indices[k] < 0 || indices[k] >= nv;
+    if (bad) {
+        PyBuffer_Release(&world);
+        PyBuffer_Release(&columns);
+        PyBuffer_Release(&jacobian);
+        PyBuffer_Release(&error);
+        PyErr_Format(PyExc_IndexError, "columns: an index is outside 0..%zd", nv - 1);
+        return NULL;
+    }
+    double *out = (double *)jacobian.buf, *e = (double *)error.buf;
+    memset(out, 0, rows * nv * sizeof(double));
+    double *rotation_rows = rows == 6 ? out + 3 * nv : out;
+    const char *base = (const char *)world.buf;
+    const Py_ssize_t row_stride = world.strides[0], column_stride = world.strides[1];
+    for (Py_ssize_t k = 0; k < count; k++) {
+        const Py_ssize_t j = (Py_ssize_t)indices[k];
+        double v[6];
+        for (int r = 0; r < 6; r++)
+            memcpy(v + r, base + r * row_stride + j * column_stride, sizeof(double));
+        const double *w = v + 3;
+        if (rows == 6) {
+            out[j] = v[0] - (p[1] * w[2] - p[2] * w[1]);
+            out[nv + j] = v[1] - (p[2] * w[0] - p[0] * w[2]);
+            out[2 * nv + j] = v[2] - (p[0] * w[1] - p[1] * w[0]);
+        }
+        for (int i = 0; i < 3; i++)
+            rotation_rows[i * nv + j] = K[3 * i] * w[0] + K[3 * i + 1] * w[1] + K[3 * i + 2] * w[2];
+    }
+    double *rotation_error = e;
+    if (rows == 6) {
+        for (int i = 0; i < 3; i++)
+            e[i] = p[i] - target_p[i];
+        rotation_error = e + 3;
+    }
+    for (int i = 0; i < 3; i++)
+        rotation_error[i] = log[i];
+    PyBuffer_Release(&world);
+    PyBuffer_Release(&columns);
+    PyBuffer_Release(&jacobian);
+    PyBuffer_Release(&error);
+    Py_RETURN_TRUE;
+}
+
+/* quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient)
+ * jacobian (m, nv); row_scale, error, error_scale (m,); diagonal (nv,); writes W = row_scale * J into
+ * weighted (m, nv), H = W^T W + diag(diagonal + damping) into hessian (nv, nv) and c = W^T (error_scale *
+ * error) into gradient (nv,). Inputs any strides; outputs writable and C-contiguous. */
+static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("quadratic", nargs, 9) < 0)
+        return NULL;
+    double damping;
+    if (read_float(args[5], &damping, "damping") < 0)
+        return NULL;
+    Py_buffer hessian, weighted, gradient;
+    if (float64_view(args[7], &hessian, 1, "hessian") < 0)
+        return NULL;
+    if (hessian.ndim != 2 || hessian.shape[0] != hessian.shape[1]) {
+        PyBuffer_Release(&hessian);
+        PyErr_SetString(PyExc_TypeError, "hessian: expected a square (nv, nv) array");
+        return NULL;
+    }
+    const Py_ssize_t nv = hessian.shape[0];
+    if (float64_view(args[6], &weighted, 1, "weighted") < 0) {
+        PyBuffer_Release(&hessian);
+        return NULL;
+    }
+    const Py_ssize_t m = weighted.ndim == 2 && weighted.shape[1] == nv ? weighted.shape[0] : -1;
+    if (m < 0 || contiguous_view(args[8], &gradient, nv, 1, "gradient") < 0) {
+        if (m < 0)
+            PyErr_Format(PyExc_TypeError, "weighted: expected an (m, %zd) array", nv);
+        PyBuffer_Release(&hessian);
+        PyBuffer_Release(&weighted);
+        return NULL;
+    }
+    double *W = (double *)weighted.buf, *H = (double *)hessian.buf, *c = (double *)gradient.buf;
+    double *scales = PyMem_Malloc((3 * m + nv + 1) * sizeof(double));
+    if (scales == NULL) {
+        PyBuffer_Release(&hessian);
+        PyBuffer_Release(&weighted);
+        PyBuffer_Release(&gradient);
+        return PyErr_NoMemory();
+    }
+    double *row_scale = scales, *e = scales + m, *error_scale = scales + 2 * m, *diagonal = scales + 3 * m;
+    int failed = read_doubles(args[0], W, m, nv, "jacobian") < 0 || read_doubles(args[1], row_scale, m, 0, "row_scale") < 0
+                 || read_doubles(args[2], e, m, 0, "error") < 0
+                 || read_doubles(args[3], error_scale, m, 0, "error_scale") < 0
+                 || read_doubles(args[4], diagonal, nv, 0, "diagonal") < 0;
+    if (!failed) {
+        for (Py_ssize_t i = 0; i < m; i++) {
+            for (Py_ssize_t a = 0; a < nv; a++)
+                W[i * nv + a] *= row_scale[i];
+            e[i] *= error_scale[i];
+        }
+        memset(H, 0, nv * nv * sizeof(double));
+        memset(c, 0, nv * sizeof(double));
+        for (Py_ssize_t i = 0; i < m; i++) {
+            const double *row = W + i * nv;
+            for (Py_ssize_t a = 0; a < nv; a++) {
+                const double wa = row[a];
+                if (wa == 0.0)
+                    continue;
+                double *h = H + a * nv;
+                for (Py_ssize_t b = a; b < nv; b++)
+                    h[b] += wa * row[b];
+                c[a] += wa * e[i];
+            }
+        }
+        for (Py_ssize_t a = 0; a < nv; a++) {
+            H[a * nv + a] += diagonal[a] + damping;
+            for (Py_ssize_t b = a + 1; b < nv; b++)
+                H[b * nv + a] = H[a * nv + b];
+        }
+    }
+    PyMem_Free(scales);
+    PyBuffer_Release(&hessian);
+    PyBuffer_Release(&weighted);
+    PyBuffer_Release(&gradient);
+    if (failed)
+        return NULL;
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef methods[] = {
+    {"frame_rows", (PyCFunction)(void (*)(void))frame_rows, METH_FASTCALL,
+     "frame_rows(rows, joint_jacobians, columns, translation, rotation, target_translation, target_rotation, "
+     "jacobian, error) -> bool: a frame task's rows (False near a half turn: nothing written)"},
+    {"quadratic", (PyCFunction)(void (*)(void))quadratic, METH_FASTCALL,
+     "quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient): "
+     "one level's H and c"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_rows_kernel",
+                                    "Compiled twins of the QP step's rows and quadratic (wbik.compiled).", -1,
+                                    methods};
+
+PyMODINIT_FUNC PyInit__rows_kernel(void) { return PyModule_Create(&module); }
