@@ -106,3 +106,24 @@ def test_no_solution_raises_with_the_backends_status(backend):
     assert caught.value.status is not None
     if backend == "daqp":
         assert caught.value.status == -1 and "infeasible" in str(caught.value)
+
+
+def test_a_repeated_layout_keeps_its_marks_and_a_changed_one_rewrites_them():
+    """The stack keeps the sense and the inequalities' lower bounds where a step adds the same kinds of
+    rows as the last one; every sequence of adds, growing the buffers on the way, must still give what
+    a fresh stack gives."""
+    rng = np.random.default_rng(5)
+    n = 4
+    reused = backends.StackedConstraints(n, capacity=1)
+    sequences = [[(2, True), (3, False)], [(2, True), (3, False)], [(3, False), (2, True)],
+                 [(3, False), (2, True), (1, False)], [(3, False)], [(1, True), (4, True), (2, False)]]
+    for sequence in sequences:
+        fresh = backends.StackedConstraints(n, capacity=1)
+        reused.clear(1.0)
+        fresh.clear(1.0)
+        for count, equality in sequence:
+            matrix, upper = rng.normal(size=(count, n)), rng.normal(size=count)
+            reused.add(matrix, upper, equality)
+            fresh.add(matrix, upper, equality)
+        for name in ("matrix", "upper", "lower", "sense"):
+            assert np.array_equal(getattr(reused, name), getattr(fresh, name)), (sequence, name)

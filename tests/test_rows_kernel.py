@@ -202,3 +202,32 @@ def test_the_qp_ik_gives_the_same_answer_with_either_twin(bioloid, monkeypatch):
     assert compiled.success and python.success
     assert compiled.iterations == python.iterations
     assert np.abs(compiled.q - python.q).max() <= 1e-9
+
+
+def test_the_stack_copies_give_numpys_bits():
+    """StackedConstraints.add and .tighten through the kernel against their NumPy twins: strided rows,
+    NaN bounds (NumPy's maximum/minimum let a NaN win), int arrays (the kernel refuses them, NumPy
+    converts them)."""
+    from wbik.qp.backends import StackedConstraints
+
+    rng = np.random.default_rng(11)
+    compiled, python = StackedConstraints(5, capacity=1), StackedConstraints(5, capacity=1)
+    assert compiled._stack_rows is not None and compiled._tighten_slice is not None
+    python._stack_rows = python._tighten_slice = None
+    for _ in range(3):
+        wide = rng.normal(size=(4, 10))
+        lower, upper = rng.normal(size=5) - 1.0, rng.normal(size=5) + 1.0
+        lower[1], upper[3] = np.nan, np.nan
+        additions = [(wide[:, ::2], wide[0, ::2][:4], True),
+                     (rng.normal(size=(2, 5)), rng.normal(size=2), False),
+                     (np.array([[1, 2, 3, 4, 5]]), np.array([7]), False),
+                     (np.asfortranarray(rng.normal(size=(3, 5))), np.ones(3), True)]
+        for stack in (compiled, python):
+            stack.clear(0.5)
+            stack.tighten(slice(0, 5), lower, upper)
+            stack.tighten(slice(1, 3), lower[:2] * 0.1, upper[:2] * 0.1)
+            stack.tighten(np.array([4]), -0.2, 0.2)
+            for matrix, bounds, equality in additions:
+                stack.add(matrix, bounds, equality)
+        for name in ("matrix", "upper", "lower", "sense"):
+            assert np.array_equal(getattr(compiled, name), getattr(python, name), equal_nan=name != "sense")

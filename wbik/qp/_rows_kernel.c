@@ -13,6 +13,8 @@
  * - quadratic: one priority level's H = W^T W + diag(d + damping) and c = W^T (s_e * e), W = s_r * J,
  *   the products the Python twin (wbik.qp.step.Level.quadratic) leaves to NumPy/BLAS, summed here
  *   row by row in a fixed order (so the result does not depend on the BLAS build).
+ * - stack_rows and tighten_slice: StackedConstraints.add's and .tighten's copies, max and min (the same
+ *   bits as their NumPy twins), each one call instead of several slice assignments.
  */
 #include "../_kernel_buffers.h"
 #include <float.h>
@@ -280,6 +282,134 @@ static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nar
     Py_RETURN_NONE;
 }
 
+/* stack_rows(matrix, upper, lower, start, n, rows, bounds, equality)
+ * Copies rows (k, n) (any strides) into matrix[start:start + k] and bounds (k,) into upper[n + start:] (and
+ * lower[n + start:] when equality); matrix (capacity, n), upper and lower (n + capacity,): C-contiguous and
+ * writable, with room for the rows. */
+static PyObject *stack_rows(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("stack_rows", nargs, 8) < 0)
+        return NULL;
+    Py_ssize_t start = PyNumber_AsSsize_t(args[3], PyExc_OverflowError);
+    Py_ssize_t n = start == -1 && PyErr_Occurred() ? -1 : PyNumber_AsSsize_t(args[4], PyExc_OverflowError);
+    int equality = PyObject_IsTrue(args[7]);
+    if ((start == -1 || n == -1 || equality < 0) && PyErr_Occurred())
+        return NULL;
+    Py_buffer matrix, upper, lower, rows, bounds;
+    if (float64_view(args[0], &matrix, 1, "matrix") < 0)
+        return NULL;
+    if (float64_view(args[1], &upper, 1, "upper") < 0) {
+        PyBuffer_Release(&matrix);
+        return NULL;
+    }
+    if (float64_view(args[2], &lower, 1, "lower") < 0) {
+        PyBuffer_Release(&matrix);
+        PyBuffer_Release(&upper);
+        return NULL;
+    }
+    if (float64_view(args[5], &rows, 0, "rows") < 0) {
+        PyBuffer_Release(&matrix);
+        PyBuffer_Release(&upper);
+        PyBuffer_Release(&lower);
+        return NULL;
+    }
+    if (float64_view(args[6], &bounds, 0, "bounds") < 0) {
+        PyBuffer_Release(&matrix);
+        PyBuffer_Release(&upper);
+        PyBuffer_Release(&lower);
+        PyBuffer_Release(&rows);
+        return NULL;
+    }
+    const Py_ssize_t count = rows.ndim == 2 ? rows.shape[0] : -1;
+    const Py_ssize_t capacity = matrix.len / (Py_ssize_t)sizeof(double) / (n > 0 ? n : 1);
+    const char *problem = NULL;
+    if (count < 0 || rows.shape[1] != n)
+        problem = "rows: expected a (k, n) float64 array";
+    else if (bounds.ndim != 1 || bounds.shape[0] != count)
+        problem = "bounds: expected a (k,) float64 array";
+    else if (n <= 0 || start < 0 || matrix.ndim != 2 || matrix.shape[1] != n || start + count > capacity
+             || upper.len / (Py_ssize_t)sizeof(double) < n + start + count
+             || lower.len / (Py_ssize_t)sizeof(double) < n + start + count)
+        problem = "matrix, upper, lower: no room for the rows";
+    if (problem == NULL) {
+        double *M = (double *)matrix.buf, *u = (double *)upper.buf + n + start, *l = (double *)lower.buf + n + start;
+        const char *source = (const char *)rows.buf, *values = (const char *)bounds.buf;
+        for (Py_ssize_t i = 0; i < count; i++) {
+            double *row = M + (start + i) * n;
+            for (Py_ssize_t j = 0; j < n; j++)
+                memcpy(row + j, source + i * rows.strides[0] + j * rows.strides[1], sizeof(double));
+            memcpy(u + i, values + i * bounds.strides[0], sizeof(double));
+            if (equality)
+                l[i] = u[i];
+        }
+    }
+    PyBuffer_Release(&matrix);
+    PyBuffer_Release(&upper);
+    PyBuffer_Release(&lower);
+    PyBuffer_Release(&rows);
+    PyBuffer_Release(&bounds);
+    if (problem != NULL) {
+        PyErr_SetString(PyExc_TypeError, problem);
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
+/* tighten_slice(lb, ub, start, lower, upper): lb[start + i] = max(lb[start + i], lower[i]) and
+ * ub[start + i] = min(ub[start + i], upper[i]) (NumPy's maximum and minimum: a NaN wins) for i < k, the
+ * length of lower and upper ((k,), any strides); lb and ub C-contiguous and writable. */
+static PyObject *tighten_slice(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (check_count("tighten_slice", nargs, 5) < 0)
+        return NULL;
+    Py_ssize_t start = PyNumber_AsSsize_t(args[2], PyExc_OverflowError);
+    if (start == -1 && PyErr_Occurred())
+        return NULL;
+    Py_buffer lb, ub, lower, upper;
+    if (float64_view(args[0], &lb, 1, "lb") < 0)
+        return NULL;
+    if (float64_view(args[1], &ub, 1, "ub") < 0) {
+        PyBuffer_Release(&lb);
+        return NULL;
+    }
+    if (float64_view(args[3], &lower, 0, "lower") < 0) {
+        PyBuffer_Release(&lb);
+        PyBuffer_Release(&ub);
+        return NULL;
+    }
+    if (float64_view(args[4], &upper, 0, "upper") < 0) {
+        PyBuffer_Release(&lb);
+        PyBuffer_Release(&ub);
+        PyBuffer_Release(&lower);
+        return NULL;
+    }
+    const Py_ssize_t count = lower.ndim == 1 ? lower.shape[0] : -1;
+    const Py_ssize_t size = lb.len / (Py_ssize_t)sizeof(double);
+    int fits = count >= 0 && upper.ndim == 1 && upper.shape[0] == count && start >= 0 && start + count <= size
+               && ub.len == lb.len;
+    if (fits) {
+        double *low = (double *)lb.buf + start, *high = (double *)ub.buf + start;
+        const char *l = (const char *)lower.buf, *u = (const char *)upper.buf;
+        for (Py_ssize_t i = 0; i < count; i++) {
+            double a, b;
+            memcpy(&a, l + i * lower.strides[0], sizeof(double));
+            memcpy(&b, u + i * upper.strides[0], sizeof(double));
+            /* NumPy's maximum/minimum propagate a NaN from either side */
+            low[i] = isnan(low[i]) || isnan(a) ? (isnan(low[i]) ? low[i] : a) : (a > low[i] ? a : low[i]);
+            high[i] = isnan(high[i]) || isnan(b) ? (isnan(high[i]) ? high[i] : b) : (b < high[i] ? b : high[i]);
+        }
+    }
+    PyBuffer_Release(&lb);
+    PyBuffer_Release(&ub);
+    PyBuffer_Release(&lower);
+    PyBuffer_Release(&upper);
+    if (!fits) {
+        PyErr_SetString(PyExc_TypeError, "lower, upper: expected two (k,) float64 arrays that fit lb and ub");
+        return NULL;
+    }
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef methods[] = {
     {"frame_rows", (PyCFunction)(void (*)(void))frame_rows, METH_FASTCALL,
      "frame_rows(rows, joint_jacobians, columns, translation, rotation, target_translation, target_rotation, "
@@ -287,6 +417,10 @@ static PyMethodDef methods[] = {
     {"quadratic", (PyCFunction)(void (*)(void))quadratic, METH_FASTCALL,
      "quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient): "
      "one level's H and c"},
+    {"stack_rows", (PyCFunction)(void (*)(void))stack_rows, METH_FASTCALL,
+     "stack_rows(matrix, upper, lower, start, n, rows, bounds, equality): StackedConstraints.add's copies"},
+    {"tighten_slice", (PyCFunction)(void (*)(void))tighten_slice, METH_FASTCALL,
+     "tighten_slice(lb, ub, start, lower, upper): StackedConstraints.tighten on a slice"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_rows_kernel",

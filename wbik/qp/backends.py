@@ -23,8 +23,13 @@ import numpy as np
 import qpsolvers
 from scipy import sparse
 
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.errors import MissingDependencyError
 from wbik.errors import NoQPSolutionError
+
+_STACK_ROWS = compiled_twin("wbik.qp._rows_kernel", "stack_rows")
+_TIGHTEN_SLICE = compiled_twin("wbik.qp._rows_kernel", "tighten_slice")
 
 
 class BackendUnavailableError(MissingDependencyError):
@@ -96,11 +101,20 @@ class StackedConstraints:
     one QP to the next: ``lower <= [I; M] x <= upper`` whose first n entries are the simple bounds,
     then one row of the general matrix M per constraint row (inequalities and equalities in any
     order, equalities marked by ``sense`` 5 and lower = upper). The buffers grow when needed.
+
+    The QP of one step after another adds the same kinds of rows in the same order: each ``add`` is
+    recorded (``_layout``: first row, count, equality), and where it repeats the record at its place,
+    the sense and the inequalities' lower bounds already written there are kept.
     """
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
         self.rows = 0
+        self._adds = 0
+        # the compiled twins of add's copies and of tighten on a slice (None: NumPy's)
+        self._stack_rows = chosen(None, _STACK_ROWS) if n > 0 else None
+        self._tighten_slice = chosen(None, _TIGHTEN_SLICE)
+        self._layout: list[tuple[int, int, bool]] = []
         self._matrix = np.zeros((capacity, n))
         self._upper = np.zeros(n + capacity)
         self._lower = np.zeros(n + capacity)
@@ -111,14 +125,16 @@ class StackedConstraints:
         """Larger buffers, keeping the rows already added."""
         used = self.n + self.rows
         matrix, upper, lower, sense = self._matrix, self._upper, self._lower, self._sense
+        layout, adds = self._layout, self._adds
         self.__init__(self.n, capacity)
+        self._layout, self._adds = layout, adds
         self.rows = used - self.n
         self._matrix[:self.rows] = matrix[:self.rows]
         self._upper[:used], self._lower[:used], self._sense[:used] = upper[:used], lower[:used], sense[:used]
 
     def clear(self, radius: float) -> tuple[np.ndarray, np.ndarray]:
         """No general rows, the box |x_i| <= radius; returns (lb, ub) views to tighten in place."""
-        self.rows = 0
+        self.rows = self._adds = 0
         self._lb.fill(-radius)
         self._ub.fill(radius)
         return self._lb, self._ub
@@ -127,6 +143,12 @@ class StackedConstraints:
         """lb[index] <- max(lb[index], lower), ub[index] <- min(ub[index], upper)."""
         lb, ub = self._lb, self._ub
         if isinstance(index, slice):  # views: tightened in place
+            start, stop = index.start or 0, index.stop
+            if self._tighten_slice is not None and index.step is None and stop is not None and 0 <= start \
+                    and stop <= self.n and type(lower) is np.ndarray and type(upper) is np.ndarray \
+                    and lower.shape == upper.shape == (stop - start,):
+                self._tighten_slice(lb, ub, start, lower, upper)
+                return
             lb, ub = lb[index], ub[index]
             np.maximum(lb, lower, out=lb)
             np.minimum(ub, upper, out=ub)
@@ -144,10 +166,24 @@ class StackedConstraints:
         if self.rows + count > self._matrix.shape[0]:
             self._grow(2 * (self.rows + count))
         start, stop = self.rows, self.rows + count
-        self._matrix[start:stop] = matrix
-        self._upper[self.n + start:self.n + stop] = upper
-        self._lower[self.n + start:self.n + stop] = upper if equality else -1e30
-        self._sense[self.n + start:self.n + stop] = 5 if equality else 0
+        first, last = self.n + start, self.n + stop
+        try:
+            if self._stack_rows is None:
+                raise TypeError
+            self._stack_rows(self._matrix, self._upper, self._lower, start, self.n, matrix, upper, equality)
+        except TypeError:  # (no kernel, or not float64 arrays of these shapes: NumPy broadcasts them)
+            self._matrix[start:stop] = matrix
+            self._upper[first:last] = upper
+            if equality:
+                self._lower[first:last] = upper
+        mark, layout, index = (start, count, equality), self._layout, self._adds
+        if index >= len(layout) or layout[index] != mark:  # not the last QP's rows here: mark them
+            del layout[index:]
+            layout.append(mark)
+            if not equality:
+                self._lower[first:last] = -1e30
+            self._sense[first:last] = 5 if equality else 0
+        self._adds = index + 1
         self.rows = stop
 
     # views of the rows in use

@@ -165,8 +165,9 @@ class Contact(EqualityConstraint):
         self._task.start(kinematics)
         if self.fixed_placement is None:
             self._task.target = kinematics.placement(self._task.frame_id).copy()
-        self._jacobian = np.zeros((6, kinematics.nv))
-        self._rhs = np.zeros(6)
+        if getattr(self, "_jacobian", np.zeros((0, 0))).shape != (6, kinematics.nv):
+            self._jacobian = np.zeros((6, kinematics.nv))
+            self._rhs = np.zeros(6)
         self._version = -1
 
     def _rows(self, kinematics: Kinematics) -> None:

@@ -95,20 +95,28 @@ def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, 
 
 
 class _FrameTaskBase(Task):
+    kernel_rows: int | None = None
+    """The compiled rows' kind (6: pose, 3: orientation) for a task whose ``fill`` calls them."""
+
     def __init__(self, frame: str, **options):
         self.frame = frame
         self.frame_id = -1
         self._compiled_rows, self._compiled_for = None, None
+        # picked once, as a closed form picks its kernel (WBIK_PURE_PYTHON=1 is read here)
+        self._kernel = chosen(None, _FRAME_ROWS) if self.kernel_rows is not None else None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def start(self, kinematics: Kinematics) -> None:
-        self.frame_id = kinematics.frame_id(self.frame)
+        frame_id = kinematics.frame_id(self.frame)
+        kernel = self._kernel
+        if frame_id == self.frame_id and kinematics is self._compiled_for:
+            return  # started on these kinematics before: the views still follow them
+        self.frame_id = frame_id
         self._compiled_rows, self._compiled_for = None, None
-        kernel = chosen(None, _FRAME_ROWS)
-        if kernel is not None and self.dimension in (3, 6):
+        if kernel is not None:
             # the kernel reads the frame's placement and data.J through views that follow every update
             placement = kinematics.placement(self.frame_id)
-            self._compiled_rows = partial(kernel, self.dimension, kinematics.joint_jacobians,
+            self._compiled_rows = partial(kernel, self.kernel_rows, kinematics.joint_jacobians,
                                           kinematics.support_columns(self.frame_id), placement.translation,
                                           placement.rotation)
             self._compiled_for = kinematics
@@ -121,6 +129,7 @@ class FrameTask(_FrameTaskBase):
     """
 
     dimension = 6
+    kernel_rows = 6
 
     def __init__(self, frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
@@ -186,6 +195,7 @@ class OrientationTask(_FrameTaskBase):
     """Orientation of a frame in the world: e = log3(R*^T R) (3 rows)."""
 
     dimension = 3
+    kernel_rows = 3
 
     def __init__(self, frame: str, target: np.ndarray, **options):
         super().__init__(frame, **options)
@@ -322,6 +332,8 @@ class RegularizationTask(Task):
         super().__init__(**options)
 
     def start(self, kinematics: Kinematics) -> None:
+        if self.dimension == kinematics.nv and self.weight[0] == float(self._weight_option):
+            return  # (started before on a model of this size: the same rows)
         self.dimension = kinematics.nv
         self.weight = np.full(self.dimension, float(self._weight_option))
         self._jacobian = np.eye(kinematics.nv)
