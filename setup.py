@@ -2,10 +2,10 @@
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
 the study files ``comparisons/*.yaml``; and it builds the optional C extensions of
 :mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic,
-``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path, and ``wbik.qp._rows_kernel``,
-the QP step's frame-task rows and quadratic). Without a C compiler the
-build goes on without them and their Python twins run. (The robots' URDFs are package data of their
-robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
+``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path, ``wbik.qp._rows_kernel``,
+the QP step's frame-task rows and quadratic, and ``wbik.solvers._lm_kernel``, bounded_lm's trial step).
+Without a C compiler the build goes on without them and their Python twins run. (The robots' URDFs are
+package data of their robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
 
 The folders stay at the top level of the repository, where the README documents them;
 :func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
@@ -65,4 +65,9 @@ ROWS_KERNEL = Extension("wbik.qp._rows_kernel", ["wbik/qp/_rows_kernel.c"],
                         depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
                         optional=True)
 
-setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=[POSE_KERNEL, UR_KERNEL, ROWS_KERNEL])
+LM_KERNEL = Extension("wbik.solvers._lm_kernel", ["wbik/solvers/_lm_kernel.c"],
+                      depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
+                      optional=True)
+
+setup(cmdclass={"build_py": BuildPyWithData},
+      ext_modules=[POSE_KERNEL, UR_KERNEL, ROWS_KERNEL, LM_KERNEL])

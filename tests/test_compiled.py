@@ -41,6 +41,9 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     from wbik.qp import tasks
 
     assert (tasks._FRAME_ROWS is not None) == HAS_COMPILER and (step._QUADRATIC is not None) == HAS_COMPILER
+    from wbik.solvers import levenberg_marquardt
+
+    assert (levenberg_marquardt._LM_TRIAL is not None) == HAS_COMPILER
     assert geometry.error_parts is (geometry._python_error_parts if pure_python() or not HAS_COMPILER
                                     else geometry._compiled_error_parts)
     expected = targets._python_accepts_plain_se3 if pure_python() or not HAS_COMPILER else \

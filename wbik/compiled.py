@@ -1,12 +1,14 @@
 """The switch between wbik's compiled kernels and their Python twins.
 
-Three optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
+Four optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
 per-call Python arithmetic with the same arithmetic in C: ``wbik._pose_kernel`` (the fast-path test of
 :func:`wbik.targets.as_target` and the arithmetic of the shared FK check,
 :func:`wbik.geometry.error_parts`) and ``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's
-scalar path), both giving their twins' bits; and ``wbik.qp._rows_kernel`` (the QP step's frame-task rows
-and each level's H and c), agreeing with its twins (Pinocchio, NumPy) to 1e-12. Tests compare every
-pair. Without them, or with ``WBIK_PURE_PYTHON=1`` in the environment, the Python twins run.
+scalar path), both giving their twins' bits; ``wbik.qp._rows_kernel`` (the QP step's frame-task rows,
+each level's H and c, the constraint stack's copies) and ``wbik.solvers._lm_kernel`` (one bounded
+Levenberg-Marquardt trial of ``bounded_lm``), agreeing with their twins (Pinocchio, NumPy, LAPACK),
+which sum in their own orders, to rounding. Tests compare every pair. Without them, or with
+``WBIK_PURE_PYTHON=1`` in the environment, the Python twins run.
 """
 
 from __future__ import annotations
@@ -44,5 +46,5 @@ def can_build() -> bool:
 def pure_python() -> bool:
     """Whether ``WBIK_PURE_PYTHON=1`` asks for the Python twins (read when a kernel is picked: at import
     of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed form is built, when a QP frame
-    task or priority level is made)."""
+    task or priority level is made, when a ``bounded_lm`` solver is made)."""
     return os.environ.get(PURE_PYTHON_VARIABLE, "") == "1"

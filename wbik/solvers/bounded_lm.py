@@ -61,9 +61,10 @@ the reference machine, so the answer depends on the inputs and ``seed`` only, ne
 per target (:meth:`BoundedLMSolver._solve_rows`).
 
 Defaults were tuned under TRAC-IK's protocol with ``benchmarks/numerical.py`` on the UR5, Golem3,
-Pincher, Bioloid and Panda chains. A one-seed iteration costs 8-10 us here (three Pinocchio calls,
-the policy's damped solve and a dozen small numpy calls); a call's fixed cost (goal, seed table,
-first residual) is ~15 us besides the interface's.
+Pincher, Bioloid and Panda chains. A one-seed iteration costs 8-10 us here with the Python trial
+(three Pinocchio calls, the policy's damped solve and a dozen small numpy calls), about 30 % less with
+the compiled one (:meth:`LevenbergMarquardt.trial_function`, the same decisions); a call's fixed cost
+(goal, seed table, first residual) is ~15 us besides the interface's.
 """
 
 from __future__ import annotations
@@ -155,7 +156,10 @@ class BoundedLMSolver(Solver):
     the mid-range seed: where the entry is that much nearer (77-94 % of poses) an attempt from it
     succeeds as often or more (UR5 81 vs 77 %, Golem-III 76 vs 68, Pincher 96 vs 81, Panda 84 vs 83,
     Bioloid leg 96 vs 97) in 0.6-2.9 fewer iterations; where it is less near, the two are even."""
-    iteration_cost_s = 20e-6  # one single-seed iteration (FK, Jacobian, Cholesky), measured here (17-25 us)
+    iteration_cost_s = 20e-6
+    """The budget's unit: one single-seed iteration (FK, Jacobian, Cholesky) as measured here before the
+    compiled trial (17-25 us); kept when the trial moved to C, so the default budget stays the same
+    number of iterations (the same answers on every machine, compiled or not)."""
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
                  attempt_iterations: int = 30, stall: int = 3,
@@ -184,6 +188,7 @@ class BoundedLMSolver(Solver):
         self._maybe_cost = 2.0 * (0.5 * largest) ** 2
         chain_ = self.chain
         self.bounds = JointBounds.of_chain(chain_)
+        self._trial = self.policy.trial_function(self.bounds)
         self.library_share = float(library_share)
         try:
             self._vectorised = VectorisedChain(chain_, self.position_weight)
@@ -266,7 +271,7 @@ class BoundedLMSolver(Solver):
         :meth:`_residual`): (last q, converged?, iterations, |e|). Hot loop: the policy's calls and
         small numpy calls only."""
         policy, bounds = self.policy, self.bounds
-        trial_of, update = policy.trial, policy.update
+        trial_of, update = self._trial, policy.update
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         clock = deadline < math.inf
         error, jacobian = evaluate(q)

@@ -39,8 +39,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dposv
 
+from wbik.compiled import chosen
+from wbik.compiled import compiled_twin
 from wbik.geometry import TWO_PI
 from wbik.solvers.base import clip_to_limits
+
+_LM_TRIAL = compiled_twin("wbik.solvers._lm_kernel", "lm_trial")
+"""The compiled twin of :meth:`LevenbergMarquardt.trial` (None where it is not built)."""
 
 
 class JointBounds:
@@ -54,6 +59,7 @@ class JointBounds:
                       else np.asarray(wraps, dtype=bool).copy())
         self.clipped = ~self.wraps
         self.any_wrap = bool(self.wraps.any())
+        self.wrap_mask = self.wraps.astype(float) if self.any_wrap else None  # (the compiled trial's form)
         for array in (self.lower, self.upper, self.wraps, self.clipped):
             array.flags.writeable = False
 
@@ -137,6 +143,28 @@ class LevenbergMarquardt:
                 trial = q - self._capped(descent)
             inside = bounds.project(trial)
         return inside
+
+    def trial_function(self, bounds: JointBounds):
+        """:meth:`trial` for one set of bounds, through the compiled twin where it is built (and not
+        switched off by ``WBIK_PURE_PYTHON=1``, read here): the same decisions with the sums in C, so it
+        agrees with :meth:`trial` to rounding (tests/test_lm_kernel.py); where its Cholesky fails it
+        hands the trial to :meth:`trial` (least squares)."""
+        kernel = chosen(None, _LM_TRIAL)
+        if kernel is None:
+            return self.trial
+        lower, upper, wraps = bounds.lower, bounds.upper, bounds.wrap_mask
+        max_step = -1.0 if self.max_step is None else self.max_step  # (the kernel's "no cap")
+        cost_weight, python_trial = self.cost_weight, self.trial
+        size = lower.shape[0]
+
+        def trial(jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
+                  bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
+            inside = np.empty(size)
+            if kernel(jacobian, error, cost_weight * cost + base, q, lower, upper, wraps, max_step, inside):
+                return inside
+            return python_trial(jacobian, error, cost, base, q, bounds, workspace)
+
+        return trial
 
     def _capped(self, step: np.ndarray) -> np.ndarray:
         """A step (n,), or each row of steps (B, n), scaled down to a largest joint change of at most
