@@ -127,3 +127,17 @@ def test_a_repeated_layout_keeps_its_marks_and_a_changed_one_rewrites_them():
             fresh.add(matrix, upper, equality)
         for name in ("matrix", "upper", "lower", "sense"):
             assert np.array_equal(getattr(reused, name), getattr(fresh, name)), (sequence, name)
+
+
+def test_the_views_in_use_follow_rows_and_layout():
+    """``in_use`` (what the DAQP workspace hands DAQP) is made again when the rows or their kinds change,
+    and equals the properties every time."""
+    stack = backends.StackedConstraints(3, capacity=1)
+    for sequence in ([(2, True)], [(2, True)], [(2, False)], [(2, False), (1, True)], [(2, False)]):
+        stack.clear(1.0)
+        for count, equality in sequence:
+            stack.add(np.ones((count, 3)), np.full(count, 0.5), equality)
+        matrix, upper, lower, sense, key = stack.in_use()
+        assert np.array_equal(matrix, stack.matrix) and np.array_equal(upper, stack.upper)
+        assert np.array_equal(lower, stack.lower) and np.array_equal(sense, stack.sense)
+        assert key == stack.sense.tobytes()

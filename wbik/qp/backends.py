@@ -115,6 +115,7 @@ class StackedConstraints:
         self._stack_rows = chosen(None, _STACK_ROWS) if n > 0 else None
         self._tighten_slice = chosen(None, _TIGHTEN_SLICE)
         self._layout: list[tuple[int, int, bool]] = []
+        self._views: tuple | None = None  # (rows, matrix, upper, lower, sense, key) while the layout holds
         self._matrix = np.zeros((capacity, n))
         self._upper = np.zeros(n + capacity)
         self._lower = np.zeros(n + capacity)
@@ -126,7 +127,7 @@ class StackedConstraints:
         used = self.n + self.rows
         matrix, upper, lower, sense = self._matrix, self._upper, self._lower, self._sense
         layout, adds = self._layout, self._adds
-        self.__init__(self.n, capacity)
+        self.__init__(self.n, capacity)  # (new buffers: no views kept)
         self._layout, self._adds = layout, adds
         self.rows = used - self.n
         self._matrix[:self.rows] = matrix[:self.rows]
@@ -183,8 +184,20 @@ class StackedConstraints:
             if not equality:
                 self._lower[first:last] = -1e30
             self._sense[first:last] = 5 if equality else 0
+            self._views = None
         self._adds = index + 1
         self.rows = stop
+
+    def in_use(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bytes]:
+        """(matrix, upper, lower, sense) of the rows in use and the layout's key (the sense's bytes),
+        made again only when the rows or their kinds changed since the last call."""
+        views = self._views
+        if views is None or views[0] != self.rows:
+            n, rows = self.n, self.rows
+            sense = self._sense[:n + rows]
+            views = self._views = (rows, self._matrix[:rows], self._upper[:n + rows], self._lower[:n + rows],
+                                   sense, sense.tobytes())
+        return views[1:]
 
     # views of the rows in use
     @property
@@ -224,22 +237,22 @@ class DaqpWorkspace:
     """
 
     def __init__(self):
-        self._models: dict[bytes, object] = {}
-
-    def solve(self, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
         import daqp
 
+        self._models: dict[bytes, object] = {}
+        self._new_model = daqp.Model
+
+    def solve(self, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
         if constraints.rows == 0:  # (daqp.Model.update cannot take an empty general matrix)
             return _cold_daqp(H, c, constraints)
-        sense = constraints.sense
-        key = sense.tobytes()
+        matrix, upper, lower, sense, key = constraints.in_use()
         model = self._models.get(key)
         if model is None:
-            model = daqp.Model()
-            if model.setup(H, c, constraints.matrix, constraints.upper, constraints.lower, sense)[0] < 0:
+            model = self._new_model()
+            if model.setup(H, c, matrix, upper, lower, sense)[0] < 0:
                 return _cold_daqp(H, c, constraints)
             self._models[key] = model
-        elif model.update(H, c, constraints.matrix, constraints.upper, constraints.lower) < 0:
+        elif model.update(H, c, matrix, upper, lower) < 0:
             del self._models[key]
             return _cold_daqp(H, c, constraints)
         x, _, exitflag, _ = model.solve()

@@ -199,6 +199,8 @@ class QPStep:
         return dq
 
     def _solve(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
+        if self.workspace is not None:  # (DAQP's reused workspaces, one call layer fewer)
+            return self.workspace.solve(H, c, stack)
         return backends.solve_stacked(self.backend, H, c, stack, self.workspace)
 
     def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
