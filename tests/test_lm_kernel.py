@@ -25,6 +25,12 @@ pytestmark = pytest.mark.skipif(lm._LM_TRIAL is None,
 AGREE = 1e-12
 
 
+@pytest.fixture(autouse=True)
+def compiled_twins(monkeypatch):
+    """The compiled twins picked even in a WBIK_PURE_PYTHON=1 run of the suite (the comparison needs them)."""
+    monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
+
+
 def tolerance(jacobian, error, damping, q, bounds, theirs):
     """1e-12, or more where the damped systems solved (all joints; the free ones when some froze) are
     ill-conditioned: both sides' rounding is amplified by the condition number."""

@@ -32,6 +32,12 @@ pytestmark = pytest.mark.skipif(qp_tasks._FRAME_ROWS is None,
 AGREE = 1e-12
 
 
+@pytest.fixture(autouse=True)
+def compiled_twins(monkeypatch):
+    """The compiled twins picked even in a WBIK_PURE_PYTHON=1 run of the suite (the comparison needs them)."""
+    monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
+
+
 @pytest.fixture(scope="module")
 def bioloid():
     return wbik.load("bioloid")
