@@ -26,3 +26,12 @@ def riveting_cell():
     limits = Limits(chain.velocity_limit, 5.0)
     q_home = wbik.solver("analytic", robot, chain="arm").solve(scene.rivet_home, robot.nominal).q
     return robot, scene, collision, chain, limits, q_home
+
+
+@pytest.fixture
+def compiled_twins(monkeypatch):
+    """The compiled kernels picked even in a ``WBIK_PURE_PYTHON=1`` run of the suite (for the tests that
+    compare them with their Python twins: tests/compiled_twins.py)."""
+    from wbik.compiled import PURE_PYTHON_VARIABLE
+
+    monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)

@@ -1,16 +1,19 @@
 """The compiled Levenberg-Marquardt trial (``wbik/solvers/_lm_kernel.c``) against its Python twin
 (:meth:`LevenbergMarquardt.trial`: NumPy's products, LAPACK's Cholesky).
 
-The kernel sums in index order, BLAS and LAPACK in their own: the trials agree to rounding (1e-12 here),
-and ``bounded_lm`` under either makes the same decisions: the same verdicts and iteration counts on the
-TRAC-IK protocol's poses (measured on 2,000 poses of each of the five chains: identical, answers within
-8e-12 rad).
+The kernel sums in index order, BLAS and LAPACK in their own: the trials agree to rounding (1e-12 here,
+more for ill-conditioned systems), and ``bounded_lm`` under either makes the same decisions on the
+TRAC-IK protocol's poses (measured on 2,000 poses of each of the five chains: identical verdicts and
+iteration counts, answers within 8e-12 rad). The solver test below allows one pose in 150 to differ: a
+decision on the last bit (an accepted step, a converged check) may fall either side on another CPU, whose
+BLAS rounds differently.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from compiled_twins import compared_with_its_twin
 
 import wbik
 from wbik.compiled import PURE_PYTHON_VARIABLE
@@ -19,16 +22,8 @@ from wbik.solvers.base import Tolerances
 from wbik.solvers.levenberg_marquardt import JointBounds
 from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
 
-pytestmark = pytest.mark.skipif(lm._LM_TRIAL is None,
-                                reason="the C extension is not built here (no compiler or Python headers): "
-                                       "test_compiled checks that it is built wherever it can be")
+pytestmark = compared_with_its_twin(lm._LM_TRIAL)
 AGREE = 1e-12
-
-
-@pytest.fixture(autouse=True)
-def compiled_twins(monkeypatch):
-    """The compiled twins picked even in a WBIK_PURE_PYTHON=1 run of the suite (the comparison needs them)."""
-    monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
 
 
 def tolerance(jacobian, error, damping, q, bounds, theirs):
@@ -80,7 +75,8 @@ def test_trials_agree_with_the_python_twin(rows, joints, max_step):
         assert np.abs(ours - theirs).max() <= allowed, (q, error)
         assert np.all((lower <= ours) & (ours <= upper))
         frozen += bool(np.any((ours == q) & on_bound))
-    assert frozen > 10  # the frozen-joint path was taken
+    if max_step != 0.0:  # (a zero cap leaves every joint where it is)
+        assert frozen > 10  # the frozen-joint path was taken
 
 
 def test_a_failed_cholesky_hands_the_trial_to_the_python_twin():
@@ -112,7 +108,7 @@ def test_bad_buffers_are_refused_with_the_argument_named():
         arguments[index] = bad
         with pytest.raises(TypeError, match=name):
             trial(*arguments)
-    assert trial(np.zeros((65, 3)), np.zeros(65), 1e-3, *good[3:]) is False  # too large: the Python twin
+    assert trial(np.zeros((33, 3)), np.zeros(33), 1e-3, *good[3:]) is False  # too large: the Python twin
 
 
 @pytest.mark.parametrize("spec", ["ur5:arm", "golem3:right_arm", "pincher:arm", "bioloid:right_leg",
@@ -126,8 +122,26 @@ def test_bounded_lm_decides_alike_with_either_twin(spec, monkeypatch):
     assert compiled._trial != compiled.policy.trial and python._trial == python.policy.trial
     chain = compiled.chain
     mid = (chain.lower + chain.upper) / 2
+    different = 0
     for q in chain.random(np.random.default_rng(9), 150):
         target = chain.fk(q)
         ours, theirs = compiled.solve(target, mid), python.solve(target, mid)
-        assert (ours.success, ours.iterations) == (theirs.success, theirs.iterations)
-        assert np.abs(ours.q - theirs.q).max() <= 1e-9
+        if (ours.success, ours.iterations) != (theirs.success, theirs.iterations):
+            different += 1
+        else:
+            assert np.abs(ours.q - theirs.q).max() <= 1e-9
+    assert different <= 1  # (none here; see the module docstring)
+
+
+def test_other_bounds_or_large_systems_take_the_python_twin():
+    policy, bounds = LevenbergMarquardt(), JointBounds(-np.ones(3), np.ones(3))
+    trial = policy.trial_function(bounds)
+    other = JointBounds(-0.1 * np.ones(3), 0.1 * np.ones(3))
+    jacobian, error, q = np.eye(3), np.array([0.5, -0.5, 0.2]), np.zeros(3)
+    assert np.array_equal(trial(jacobian, error, 0.54, 1e-6, q, other),
+                          policy.trial(jacobian, error, 0.54, 1e-6, q, other))
+    wide_bounds = JointBounds(-np.ones(40), np.ones(40))
+    jacobian, error = np.eye(6, 40), np.full(6, 0.1)  # 40 joints: over the kernel's 32
+    wide = policy.trial_function(wide_bounds)
+    assert np.array_equal(wide(jacobian, error, 0.06, 1e-6, np.zeros(40), wide_bounds),
+                          policy.trial(jacobian, error, 0.06, 1e-6, np.zeros(40), wide_bounds))

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from compiled_twins import compared_with_its_twin
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
@@ -26,16 +27,8 @@ from wbik.qp import tasks as qp_tasks
 from wbik.qp.humanoid import stance_constraints
 from wbik.qp.kinematics import Kinematics
 
-pytestmark = pytest.mark.skipif(qp_tasks._FRAME_ROWS is None,
-                                reason="the C extension is not built here (no compiler or Python headers): "
-                                       "test_compiled checks that it is built wherever it can be")
+pytestmark = compared_with_its_twin(qp_tasks._FRAME_ROWS)
 AGREE = 1e-12
-
-
-@pytest.fixture(autouse=True)
-def compiled_twins(monkeypatch):
-    """The compiled twins picked even in a WBIK_PURE_PYTHON=1 run of the suite (the comparison needs them)."""
-    monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
 
 
 @pytest.fixture(scope="module")
@@ -206,8 +199,9 @@ def test_the_qp_ik_gives_the_same_answer_with_either_twin(bioloid, monkeypatch):
     assert python_problem.tasks[0]._compiled_rows is None
     assert python_problem._step.levels[0]._compiled_quadratic is None
     assert compiled.success and python.success
-    assert compiled.iterations == python.iterations
-    assert np.abs(compiled.q - python.q).max() <= 1e-9
+    # (identical here; a last-bit decision may differ on another CPU: an iteration more, the same tolerance)
+    assert abs(compiled.iterations - python.iterations) <= 1
+    assert np.abs(compiled.q - python.q).max() <= 1e-6
 
 
 def test_the_stack_copies_give_numpys_bits():
@@ -224,6 +218,8 @@ def test_the_stack_copies_give_numpys_bits():
         wide = rng.normal(size=(4, 10))
         lower, upper = rng.normal(size=5) - 1.0, rng.normal(size=5) + 1.0
         lower[1], upper[3] = np.nan, np.nan
+        lower[2], upper[4] = -0.5, 0.5  # equal to the box: NumPy keeps its second operand's zero sign...
+        lower[0], upper[0] = 0.0, -0.0  # ...which matters between +0 and -0
         additions = [(wide[:, ::2], wide[0, ::2][:4], True),
                      (rng.normal(size=(2, 5)), rng.normal(size=2), False),
                      (np.array([[1, 2, 3, 4, 5]]), np.array([7]), False),
@@ -233,7 +229,38 @@ def test_the_stack_copies_give_numpys_bits():
             stack.tighten(slice(0, 5), lower, upper)
             stack.tighten(slice(1, 3), lower[:2] * 0.1, upper[:2] * 0.1)
             stack.tighten(np.array([4]), -0.2, 0.2)
+            stack.tighten(slice(3, 5), np.array([-1, 0]), np.array([1, 2]))  # int bounds: NumPy converts
             for matrix, bounds, equality in additions:
                 stack.add(matrix, bounds, equality)
-        for name in ("matrix", "upper", "lower", "sense"):
-            assert np.array_equal(getattr(compiled, name), getattr(python, name), equal_nan=name != "sense")
+        for name in ("matrix", "upper", "lower", "sense"):  # (bytes: signed zeros and NaNs alike)
+            assert getattr(compiled, name).tobytes() == getattr(python, name).tobytes(), name
+
+
+def test_copies_and_restarts_follow_their_own_kinematics(bioloid):
+    """A deep copy (wbik.wholebody copies its tasks; a copied problem too) holds no views of the
+    original's data; a task restarted on other kinematics, or on another frame, reads those."""
+    import copy
+
+    problem, q0 = balance_problem(bioloid)
+    problem.start(q0)
+    rng = np.random.default_rng(4)
+    for clone in (copy.deepcopy(problem), copy.deepcopy(copy.deepcopy(problem))):
+        clone.start(q0)
+        q = q0.copy()
+        q[7:] += rng.uniform(-0.3, 0.3, q.size - 7)
+        clone.kinematics.update(q)
+        task = clone.tasks[0]
+        assert task._compiled_for is clone.kinematics
+        task.target.translation = task.target.translation + 0.01  # in place, on the copy's own target
+        ours, theirs = compiled_fill(task, clone.kinematics, 6), python_fill(task, clone.kinematics, 6)
+        assert np.abs(ours[0] - theirs[0]).max() <= AGREE and np.abs(ours[1] - theirs[1]).max() <= AGREE
+    task = FrameTask("l_sole", pin.SE3.Identity())
+    first, second = Kinematics(bioloid.model, q0), Kinematics(bioloid.model, q)
+    task.start(first)
+    task.start(second)
+    assert task._compiled_for is second
+    task.frame = "r_sole"
+    task.start(second)
+    ours, theirs = compiled_fill(task, second, 6), python_fill(task, second, 6)
+    assert np.abs(ours[0] - theirs[0]).max() <= AGREE and np.abs(ours[1] - theirs[1]).max() <= AGREE
+    assert np.allclose(theirs[1][:3], second.placement(second.frame_id("r_sole")).translation)

@@ -1,4 +1,5 @@
-/* Argument helpers shared by wbik's C kernels (_pose_kernel.c, solvers/analytic/_ur_kernel.c): float64
+/* Argument helpers shared by wbik's C kernels (_pose_kernel.c, solvers/analytic/_ur_kernel.c,
+ * qp/_rows_kernel.c, solvers/_lm_kernel.c): float64
  * arrays in (copied into C arrays, any strides) and out (written into C-contiguous writable arrays),
  * floats, and the argument count. Anything else raises a TypeError naming the argument. Header-only
  * (static inline: a kernel that uses a helper gets it, the others no "unused" warning). */
@@ -108,6 +109,13 @@ static inline int contiguous_view(PyObject *object, Py_buffer *view, Py_ssize_t 
     PyBuffer_Release(view);
     PyErr_Format(PyExc_TypeError, "%s: expected a C-contiguous float64 array of %zd values", what, count);
     return -1;
+}
+
+/* Release the first `count` of a kernel's views (the one way out of a kernel holding several). */
+static inline void release_views(Py_buffer *views, int count)
+{
+    for (int i = 0; i < count; i++)
+        PyBuffer_Release(&views[i]);
 }
 
 /* Write `count` values into a writable C-contiguous float64 array of exactly that many. */

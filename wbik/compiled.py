@@ -46,5 +46,5 @@ def can_build() -> bool:
 def pure_python() -> bool:
     """Whether ``WBIK_PURE_PYTHON=1`` asks for the Python twins (read when a kernel is picked: at import
     of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed form is built, when a QP frame
-    task or priority level is made, when a ``bounded_lm`` solver is made)."""
+    task, priority level or constraint stack is made, when a ``bounded_lm`` solver is made)."""
     return os.environ.get(PURE_PYTHON_VARIABLE, "") == "1"

@@ -13,8 +13,8 @@
  * - quadratic: one priority level's H = W^T W + diag(d + damping) and c = W^T (s_e * e), W = s_r * J,
  *   the products the Python twin (wbik.qp.step.Level.quadratic) leaves to NumPy/BLAS, summed here
  *   row by row in a fixed order (so the result does not depend on the BLAS build).
- * - stack_rows and tighten_slice: StackedConstraints.add's and .tighten's copies, max and min (the same
- *   bits as their NumPy twins), each one call instead of several slice assignments.
+ * - stack_rows and tighten_slice: StackedConstraints.add's and .tighten's copies, max and min (NumPy's
+ *   bits, signed zeros and NaN included), each one call instead of several slice assignments.
  */
 #include "../_kernel_buffers.h"
 #include <float.h>
@@ -131,55 +131,46 @@ static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
         for (int j = 0; j < 3; j++)
             K[3 * i + j] = Jlog[3 * i] * R[3 * j] + Jlog[3 * i + 1] * R[3 * j + 1] + Jlog[3 * i + 2] * R[3 * j + 2];
 
-    Py_buffer world, columns, jacobian, error;
-    if (float64_view(args[1], &world, 0, "joint_jacobians") < 0)
-        return NULL;
-    if (world.ndim != 2 || world.shape[0] != 6) {
-        PyBuffer_Release(&world);
+    Py_buffer views[4]; /* joint_jacobians, columns, jacobian, error */
+    int held = 0;
+    PyObject *result = NULL;
+    if (float64_view(args[1], &views[held], 0, "joint_jacobians") < 0)
+        goto done;
+    held++;
+    const Py_buffer *world = &views[0];
+    if (world->ndim != 2 || world->shape[0] != 6) {
         PyErr_SetString(PyExc_TypeError, "joint_jacobians: expected a (6, nv) float64 array");
-        return NULL;
+        goto done;
     }
-    const Py_ssize_t nv = world.shape[1];
-    if (index_view(args[2], &columns, "columns") < 0) {
-        PyBuffer_Release(&world);
-        return NULL;
-    }
-    if (contiguous_view(args[7], &jacobian, rows * nv, 1, "jacobian") < 0) {
-        PyBuffer_Release(&world);
-        PyBuffer_Release(&columns);
-        return NULL;
-    }
-    if (contiguous_view(args[8], &error, rows, 1, "error") < 0) {
-        PyBuffer_Release(&world);
-        PyBuffer_Release(&columns);
-        PyBuffer_Release(&jacobian);
-        return NULL;
-    }
-    const int64_t *indices = (const int64_t *)columns.buf;
-    const Py_ssize_t count = columns.shape[0];
-    int bad = 0;
+    const Py_ssize_t nv = world->shape[1];
+    if (index_view(args[2], &views[held], "columns") < 0)
+        goto done;
+    held++;
+    if (contiguous_view(args[7], &views[held], rows * nv, 1, "jacobian") < 0)
+        goto done;
+    held++;
+    if (contiguous_view(args[8], &views[held], rows, 1, "error") < 0)
+        goto done;
+    held++;
+    const int64_t *indices = (const int64_t *)views[1].buf;
+    const Py_ssize_t count = views[1].shape[0];
     for (Py_ssize_t k = 0; k < count; k++)
-        bad |= indices[k] < 0 || indices[k] >= nv;
-    if (bad) {
-        PyBuffer_Release(&world);
-        PyBuffer_Release(&columns);
-        PyBuffer_Release(&jacobian);
-        PyBuffer_Release(&error);
-        PyErr_Format(PyExc_IndexError, "columns: an index is outside 0..%zd", nv - 1);
-        return NULL;
-    }
-    double *out = (double *)jacobian.buf, *e = (double *)error.buf;
+        if (indices[k] < 0 || indices[k] >= nv) {
+            PyErr_Format(PyExc_IndexError, "columns: an index is outside 0..%zd", nv - 1);
+            goto done;
+        }
+    double *out = (double *)views[2].buf, *e = (double *)views[3].buf;
     memset(out, 0, rows * nv * sizeof(double));
     double *rotation_rows = rows == 6 ? out + 3 * nv : out;
-    const char *base = (const char *)world.buf;
-    const Py_ssize_t row_stride = world.strides[0], column_stride = world.strides[1];
+    const char *base = (const char *)world->buf;
+    const Py_ssize_t row_stride = world->strides[0], column_stride = world->strides[1];
     for (Py_ssize_t k = 0; k < count; k++) {
         const Py_ssize_t j = (Py_ssize_t)indices[k];
         double v[6];
         for (int r = 0; r < 6; r++)
             memcpy(v + r, base + r * row_stride + j * column_stride, sizeof(double));
         const double *w = v + 3;
-        if (rows == 6) {
+        if (rows == 6) { /* LOCAL_WORLD_ALIGNED: the linear velocity at p, v - p x w */
             out[j] = v[0] - (p[1] * w[2] - p[2] * w[1]);
             out[nv + j] = v[1] - (p[2] * w[0] - p[0] * w[2]);
             out[2 * nv + j] = v[2] - (p[0] * w[1] - p[1] * w[0]);
@@ -195,11 +186,10 @@ static PyObject *frame_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
     }
     for (int i = 0; i < 3; i++)
         rotation_error[i] = log[i];
-    PyBuffer_Release(&world);
-    PyBuffer_Release(&columns);
-    PyBuffer_Release(&jacobian);
-    PyBuffer_Release(&error);
-    Py_RETURN_TRUE;
+    result = Py_NewRef(Py_True);
+done:
+    release_views(views, held);
+    return result;
 }
 
 /* quadratic(jacobian, row_scale, error, error_scale, diagonal, damping, weighted, hessian, gradient)
@@ -213,73 +203,71 @@ static PyObject *quadratic(PyObject *self, PyObject *const *args, Py_ssize_t nar
     double damping;
     if (read_float(args[5], &damping, "damping") < 0)
         return NULL;
-    Py_buffer hessian, weighted, gradient;
-    if (float64_view(args[7], &hessian, 1, "hessian") < 0)
-        return NULL;
-    if (hessian.ndim != 2 || hessian.shape[0] != hessian.shape[1]) {
-        PyBuffer_Release(&hessian);
+    Py_buffer views[3]; /* hessian, weighted, gradient */
+    int held = 0;
+    PyObject *result = NULL;
+    double *scales = NULL;
+    if (float64_view(args[7], &views[held], 1, "hessian") < 0)
+        goto done;
+    held++;
+    if (views[0].ndim != 2 || views[0].shape[0] != views[0].shape[1]) {
         PyErr_SetString(PyExc_TypeError, "hessian: expected a square (nv, nv) array");
-        return NULL;
+        goto done;
     }
-    const Py_ssize_t nv = hessian.shape[0];
-    if (float64_view(args[6], &weighted, 1, "weighted") < 0) {
-        PyBuffer_Release(&hessian);
-        return NULL;
+    const Py_ssize_t nv = views[0].shape[0];
+    if (float64_view(args[6], &views[held], 1, "weighted") < 0)
+        goto done;
+    held++;
+    const Py_ssize_t m = views[1].ndim == 2 && views[1].shape[1] == nv ? views[1].shape[0] : -1;
+    if (m < 0) {
+        PyErr_Format(PyExc_TypeError, "weighted: expected an (m, %zd) array", nv);
+        goto done;
     }
-    const Py_ssize_t m = weighted.ndim == 2 && weighted.shape[1] == nv ? weighted.shape[0] : -1;
-    if (m < 0 || contiguous_view(args[8], &gradient, nv, 1, "gradient") < 0) {
-        if (m < 0)
-            PyErr_Format(PyExc_TypeError, "weighted: expected an (m, %zd) array", nv);
-        PyBuffer_Release(&hessian);
-        PyBuffer_Release(&weighted);
-        return NULL;
-    }
-    double *W = (double *)weighted.buf, *H = (double *)hessian.buf, *c = (double *)gradient.buf;
-    double *scales = PyMem_Malloc((3 * m + nv + 1) * sizeof(double));
+    if (contiguous_view(args[8], &views[held], nv, 1, "gradient") < 0)
+        goto done;
+    held++;
+    double *H = (double *)views[0].buf, *W = (double *)views[1].buf, *c = (double *)views[2].buf;
+    scales = PyMem_Malloc((3 * m + nv + 1) * sizeof(double));
     if (scales == NULL) {
-        PyBuffer_Release(&hessian);
-        PyBuffer_Release(&weighted);
-        PyBuffer_Release(&gradient);
-        return PyErr_NoMemory();
+        PyErr_NoMemory();
+        goto done;
     }
     double *row_scale = scales, *e = scales + m, *error_scale = scales + 2 * m, *diagonal = scales + 3 * m;
-    int failed = read_doubles(args[0], W, m, nv, "jacobian") < 0 || read_doubles(args[1], row_scale, m, 0, "row_scale") < 0
-                 || read_doubles(args[2], e, m, 0, "error") < 0
-                 || read_doubles(args[3], error_scale, m, 0, "error_scale") < 0
-                 || read_doubles(args[4], diagonal, nv, 0, "diagonal") < 0;
-    if (!failed) {
-        for (Py_ssize_t i = 0; i < m; i++) {
-            for (Py_ssize_t a = 0; a < nv; a++)
-                W[i * nv + a] *= row_scale[i];
-            e[i] *= error_scale[i];
-        }
-        memset(H, 0, nv * nv * sizeof(double));
-        memset(c, 0, nv * sizeof(double));
-        for (Py_ssize_t i = 0; i < m; i++) {
-            const double *row = W + i * nv;
-            for (Py_ssize_t a = 0; a < nv; a++) {
-                const double wa = row[a];
-                if (wa == 0.0)
-                    continue;
-                double *h = H + a * nv;
-                for (Py_ssize_t b = a; b < nv; b++)
-                    h[b] += wa * row[b];
-                c[a] += wa * e[i];
-            }
-        }
+    if (read_doubles(args[0], W, m, nv, "jacobian") < 0 || read_doubles(args[1], row_scale, m, 0, "row_scale") < 0
+        || read_doubles(args[2], e, m, 0, "error") < 0 || read_doubles(args[3], error_scale, m, 0, "error_scale") < 0
+        || read_doubles(args[4], diagonal, nv, 0, "diagonal") < 0)
+        goto done;
+    for (Py_ssize_t i = 0; i < m; i++) {
+        for (Py_ssize_t a = 0; a < nv; a++)
+            W[i * nv + a] *= row_scale[i];
+        e[i] *= error_scale[i];
+    }
+    memset(H, 0, nv * nv * sizeof(double));
+    memset(c, 0, nv * sizeof(double));
+    /* the upper triangle row by row, skipping exact zeros (the columns a task's chain does not move): a
+     * NaN in J still reaches H and c, at no more entries than NumPy's 0 x NaN would put it */
+    for (Py_ssize_t i = 0; i < m; i++) {
+        const double *row = W + i * nv;
         for (Py_ssize_t a = 0; a < nv; a++) {
-            H[a * nv + a] += diagonal[a] + damping;
-            for (Py_ssize_t b = a + 1; b < nv; b++)
-                H[b * nv + a] = H[a * nv + b];
+            const double wa = row[a];
+            if (wa == 0.0)
+                continue;
+            double *h = H + a * nv;
+            for (Py_ssize_t b = a; b < nv; b++)
+                h[b] += wa * row[b];
+            c[a] += wa * e[i];
         }
     }
+    for (Py_ssize_t a = 0; a < nv; a++) {
+        H[a * nv + a] += diagonal[a] + damping;
+        for (Py_ssize_t b = a + 1; b < nv; b++)
+            H[b * nv + a] = H[a * nv + b];
+    }
+    result = Py_NewRef(Py_None);
+done:
     PyMem_Free(scales);
-    PyBuffer_Release(&hessian);
-    PyBuffer_Release(&weighted);
-    PyBuffer_Release(&gradient);
-    if (failed)
-        return NULL;
-    Py_RETURN_NONE;
+    release_views(views, held);
+    return result;
 }
 
 /* stack_rows(matrix, upper, lower, start, n, rows, bounds, equality)
@@ -295,64 +283,45 @@ static PyObject *stack_rows(PyObject *self, PyObject *const *args, Py_ssize_t na
     int equality = PyObject_IsTrue(args[7]);
     if ((start == -1 || n == -1 || equality < 0) && PyErr_Occurred())
         return NULL;
-    Py_buffer matrix, upper, lower, rows, bounds;
-    if (float64_view(args[0], &matrix, 1, "matrix") < 0)
-        return NULL;
-    if (float64_view(args[1], &upper, 1, "upper") < 0) {
-        PyBuffer_Release(&matrix);
-        return NULL;
-    }
-    if (float64_view(args[2], &lower, 1, "lower") < 0) {
-        PyBuffer_Release(&matrix);
-        PyBuffer_Release(&upper);
-        return NULL;
-    }
-    if (float64_view(args[5], &rows, 0, "rows") < 0) {
-        PyBuffer_Release(&matrix);
-        PyBuffer_Release(&upper);
-        PyBuffer_Release(&lower);
-        return NULL;
-    }
-    if (float64_view(args[6], &bounds, 0, "bounds") < 0) {
-        PyBuffer_Release(&matrix);
-        PyBuffer_Release(&upper);
-        PyBuffer_Release(&lower);
-        PyBuffer_Release(&rows);
-        return NULL;
-    }
-    const Py_ssize_t count = rows.ndim == 2 ? rows.shape[0] : -1;
-    const Py_ssize_t capacity = matrix.len / (Py_ssize_t)sizeof(double) / (n > 0 ? n : 1);
+    static const char *names[5] = {"matrix", "upper", "lower", "rows", "bounds"};
+    static const int argument[5] = {0, 1, 2, 5, 6}, writable[5] = {1, 1, 1, 0, 0};
+    Py_buffer views[5];
+    int held = 0;
+    PyObject *result = NULL;
+    for (; held < 5; held++)
+        if (float64_view(args[argument[held]], &views[held], writable[held], names[held]) < 0)
+            goto done;
+    const Py_buffer *matrix = &views[0], *upper = &views[1], *lower = &views[2], *rows = &views[3],
+                    *bounds = &views[4];
+    const Py_ssize_t count = rows->ndim == 2 ? rows->shape[0] : -1;
+    const Py_ssize_t capacity = matrix->len / (Py_ssize_t)sizeof(double) / (n > 0 ? n : 1);
     const char *problem = NULL;
-    if (count < 0 || rows.shape[1] != n)
+    if (count < 0 || rows->shape[1] != n)
         problem = "rows: expected a (k, n) float64 array";
-    else if (bounds.ndim != 1 || bounds.shape[0] != count)
+    else if (bounds->ndim != 1 || bounds->shape[0] != count)
         problem = "bounds: expected a (k,) float64 array";
-    else if (n <= 0 || start < 0 || matrix.ndim != 2 || matrix.shape[1] != n || start + count > capacity
-             || upper.len / (Py_ssize_t)sizeof(double) < n + start + count
-             || lower.len / (Py_ssize_t)sizeof(double) < n + start + count)
+    else if (n <= 0 || start < 0 || matrix->ndim != 2 || matrix->shape[1] != n || start > capacity - count
+             || upper->len / (Py_ssize_t)sizeof(double) - n - count < start
+             || lower->len / (Py_ssize_t)sizeof(double) - n - count < start)
         problem = "matrix, upper, lower: no room for the rows";
-    if (problem == NULL) {
-        double *M = (double *)matrix.buf, *u = (double *)upper.buf + n + start, *l = (double *)lower.buf + n + start;
-        const char *source = (const char *)rows.buf, *values = (const char *)bounds.buf;
-        for (Py_ssize_t i = 0; i < count; i++) {
-            double *row = M + (start + i) * n;
-            for (Py_ssize_t j = 0; j < n; j++)
-                memcpy(row + j, source + i * rows.strides[0] + j * rows.strides[1], sizeof(double));
-            memcpy(u + i, values + i * bounds.strides[0], sizeof(double));
-            if (equality)
-                l[i] = u[i];
-        }
-    }
-    PyBuffer_Release(&matrix);
-    PyBuffer_Release(&upper);
-    PyBuffer_Release(&lower);
-    PyBuffer_Release(&rows);
-    PyBuffer_Release(&bounds);
     if (problem != NULL) {
         PyErr_SetString(PyExc_TypeError, problem);
-        return NULL;
+        goto done;
     }
-    Py_RETURN_NONE;
+    double *M = (double *)matrix->buf, *u = (double *)upper->buf + n + start, *l = (double *)lower->buf + n + start;
+    const char *source = (const char *)rows->buf, *values = (const char *)bounds->buf;
+    for (Py_ssize_t i = 0; i < count; i++) {
+        double *row = M + (start + i) * n;
+        for (Py_ssize_t j = 0; j < n; j++)
+            memcpy(row + j, source + i * rows->strides[0] + j * rows->strides[1], sizeof(double));
+        memcpy(u + i, values + i * bounds->strides[0], sizeof(double));
+        if (equality)
+            l[i] = u[i];
+    }
+    result = Py_NewRef(Py_None);
+done:
+    release_views(views, held);
+    return result;
 }
 
 /* tighten_slice(lb, ub, start, lower, upper): lb[start + i] = max(lb[start + i], lower[i]) and
@@ -365,49 +334,37 @@ static PyObject *tighten_slice(PyObject *self, PyObject *const *args, Py_ssize_t
     Py_ssize_t start = PyNumber_AsSsize_t(args[2], PyExc_OverflowError);
     if (start == -1 && PyErr_Occurred())
         return NULL;
-    Py_buffer lb, ub, lower, upper;
-    if (float64_view(args[0], &lb, 1, "lb") < 0)
-        return NULL;
-    if (float64_view(args[1], &ub, 1, "ub") < 0) {
-        PyBuffer_Release(&lb);
-        return NULL;
-    }
-    if (float64_view(args[3], &lower, 0, "lower") < 0) {
-        PyBuffer_Release(&lb);
-        PyBuffer_Release(&ub);
-        return NULL;
-    }
-    if (float64_view(args[4], &upper, 0, "upper") < 0) {
-        PyBuffer_Release(&lb);
-        PyBuffer_Release(&ub);
-        PyBuffer_Release(&lower);
-        return NULL;
-    }
-    const Py_ssize_t count = lower.ndim == 1 ? lower.shape[0] : -1;
-    const Py_ssize_t size = lb.len / (Py_ssize_t)sizeof(double);
-    int fits = count >= 0 && upper.ndim == 1 && upper.shape[0] == count && start >= 0 && start + count <= size
-               && ub.len == lb.len;
-    if (fits) {
-        double *low = (double *)lb.buf + start, *high = (double *)ub.buf + start;
-        const char *l = (const char *)lower.buf, *u = (const char *)upper.buf;
-        for (Py_ssize_t i = 0; i < count; i++) {
-            double a, b;
-            memcpy(&a, l + i * lower.strides[0], sizeof(double));
-            memcpy(&b, u + i * upper.strides[0], sizeof(double));
-            /* NumPy's maximum/minimum propagate a NaN from either side */
-            low[i] = isnan(low[i]) || isnan(a) ? (isnan(low[i]) ? low[i] : a) : (a > low[i] ? a : low[i]);
-            high[i] = isnan(high[i]) || isnan(b) ? (isnan(high[i]) ? high[i] : b) : (b < high[i] ? b : high[i]);
-        }
-    }
-    PyBuffer_Release(&lb);
-    PyBuffer_Release(&ub);
-    PyBuffer_Release(&lower);
-    PyBuffer_Release(&upper);
-    if (!fits) {
+    static const char *names[4] = {"lb", "ub", "lower", "upper"};
+    static const int argument[4] = {0, 1, 3, 4}, writable[4] = {1, 1, 0, 0};
+    Py_buffer views[4];
+    int held = 0;
+    PyObject *result = NULL;
+    for (; held < 4; held++)
+        if (float64_view(args[argument[held]], &views[held], writable[held], names[held]) < 0)
+            goto done;
+    const Py_buffer *lb = &views[0], *ub = &views[1], *lower = &views[2], *upper = &views[3];
+    const Py_ssize_t count = lower->ndim == 1 ? lower->shape[0] : -1;
+    const Py_ssize_t size = lb->len / (Py_ssize_t)sizeof(double);
+    if (!(count >= 0 && upper->ndim == 1 && upper->shape[0] == count && start >= 0 && start <= size - count
+          && ub->len == lb->len)) {
         PyErr_SetString(PyExc_TypeError, "lower, upper: expected two (k,) float64 arrays that fit lb and ub");
-        return NULL;
+        goto done;
     }
-    Py_RETURN_NONE;
+    double *low = (double *)lb->buf + start, *high = (double *)ub->buf + start;
+    const char *l = (const char *)lower->buf, *u = (const char *)upper->buf;
+    for (Py_ssize_t i = 0; i < count; i++) {
+        double a, b;
+        memcpy(&a, l + i * lower->strides[0], sizeof(double));
+        memcpy(&b, u + i * upper->strides[0], sizeof(double));
+        /* NumPy's maximum/minimum: a NaN from either side wins, and between equal values (+0 and -0) the
+         * second operand */
+        low[i] = isnan(low[i]) || isnan(a) ? (isnan(low[i]) ? low[i] : a) : (a >= low[i] ? a : low[i]);
+        high[i] = isnan(high[i]) || isnan(b) ? (isnan(high[i]) ? high[i] : b) : (b <= high[i] ? b : high[i]);
+    }
+    result = Py_NewRef(Py_None);
+done:
+    release_views(views, held);
+    return result;
 }
 
 static PyMethodDef methods[] = {

@@ -126,9 +126,9 @@ class StackedConstraints:
         """Larger buffers, keeping the rows already added."""
         used = self.n + self.rows
         matrix, upper, lower, sense = self._matrix, self._upper, self._lower, self._sense
-        layout, adds = self._layout, self._adds
+        kept = {name: getattr(self, name) for name in ("_layout", "_adds", "_stack_rows", "_tighten_slice")}
         self.__init__(self.n, capacity)  # (new buffers: no views kept)
-        self._layout, self._adds = layout, adds
+        self.__dict__.update(kept)
         self.rows = used - self.n
         self._matrix[:self.rows] = matrix[:self.rows]
         self._upper[:used], self._lower[:used], self._sense[:used] = upper[:used], lower[:used], sense[:used]
@@ -148,8 +148,11 @@ class StackedConstraints:
             if self._tighten_slice is not None and index.step is None and stop is not None and 0 <= start \
                     and stop <= self.n and type(lower) is np.ndarray and type(upper) is np.ndarray \
                     and lower.shape == upper.shape == (stop - start,):
-                self._tighten_slice(lb, ub, start, lower, upper)
-                return
+                try:
+                    self._tighten_slice(lb, ub, start, lower, upper)
+                    return
+                except TypeError:  # (not float64: NumPy converts them)
+                    pass
             lb, ub = lb[index], ub[index]
             np.maximum(lb, lower, out=lb)
             np.minimum(ub, upper, out=ub)

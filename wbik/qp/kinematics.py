@@ -32,10 +32,7 @@ class Kinematics:
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model
         self.data = model.createData()
-        self._placements = self.data.oMf  # the vector itself: indexing it is cheaper than data.oMf[i]
-        self.joint_jacobians = self.data.J
-        """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin (filled by
-        ``update``; the view stays valid, Pinocchio never reallocates it)."""
+        self._views()
         self.nq = model.nq
         self.nv = model.nv
         self.q = pin.neutral(model) if q is None else np.array(q, dtype=float)
@@ -43,6 +40,23 @@ class Kinematics:
         self._frame_ids: dict[str, int] = {}
         self._support_columns: dict[int, np.ndarray] = {}
         self.update(self.q)
+
+    def _views(self) -> None:
+        """Views into ``data`` (made again by ``__setstate__``: a copy or an unpickled Kinematics has a new
+        data, and a copied view would no longer follow it)."""
+        self._placements = self.data.oMf  # the vector itself: indexing it is cheaper than data.oMf[i]
+        self.joint_jacobians = self.data.J
+        """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin (filled by
+        ``update``; Pinocchio never reallocates it)."""
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_placements"], state["joint_jacobians"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._views()
 
     def frame_id(self, name: str) -> int:
         frame_id = self._frame_ids.get(name)

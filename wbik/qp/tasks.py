@@ -106,6 +106,21 @@ class _FrameTaskBase(Task):
         self._kernel = chosen(None, _FRAME_ROWS) if self.kernel_rows is not None else None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
+    def __getstate__(self) -> dict:
+        """Without the compiled rows (they hold views of one Kinematics' data: a copy would hold copies
+        of them, frozen) nor views of the target; ``__setstate__`` makes the latter again, ``start``
+        the former."""
+        state = dict(self.__dict__)
+        for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
+            state.pop(name, None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._compiled_rows, self._compiled_for = None, None
+        if "_target" in state:
+            self.target = self._target  # (views of the copied target)
+
     def start(self, kinematics: Kinematics) -> None:
         frame_id = kinematics.frame_id(self.frame)
         kernel = self._kernel
@@ -141,7 +156,7 @@ class FrameTask(_FrameTaskBase):
 
     @property
     def target(self) -> pin.SE3:
-        """The target pose (kept as given: changing it in place moves the target)."""
+        """The target pose (kept as given, not copied: changing it in place moves the target)."""
         return self._target
 
     @target.setter
@@ -332,12 +347,11 @@ class RegularizationTask(Task):
         super().__init__(**options)
 
     def start(self, kinematics: Kinematics) -> None:
-        if self.dimension == kinematics.nv and self.weight[0] == float(self._weight_option):
-            return  # (started before on a model of this size: the same rows)
-        self.dimension = kinematics.nv
-        self.weight = np.full(self.dimension, float(self._weight_option))
-        self._jacobian = np.eye(kinematics.nv)
-        self._error = np.zeros(kinematics.nv)
+        self.weight = np.full(kinematics.nv, float(self._weight_option))
+        if self.dimension != kinematics.nv:  # (rows made once per model size)
+            self.dimension = kinematics.nv
+            self._jacobian = np.eye(kinematics.nv)
+            self._error = np.zeros(kinematics.nv)
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._error

@@ -16,11 +16,11 @@
 #include <math.h>
 #include <stdlib.h>
 
-#define MAX_SIZE 64 /* joints or residual rows; larger problems take the Python twin */
+#define MAX_SIZE 32 /* joints or residual rows; larger problems take the Python twin (a few kB of stack) */
 #define TWO_PI 6.283185307179586
 
-/* Solve (A + damping I) x = b for a symmetric size x size A (row-major, overwritten by its Cholesky
- * factor L, lower), in place in b. 0 when a pivot is not positive (or NaN). */
+/* Solve A x = b for a symmetric size x size A (row-major, overwritten by its Cholesky factor L, lower),
+ * in place in b. 0 when a pivot is not positive (or NaN). */
 static int cholesky_solve(double *A, int size, double *b)
 {
     for (int j = 0; j < size; j++) {

@@ -60,8 +60,9 @@ class JointBounds:
         self.clipped = ~self.wraps
         self.any_wrap = bool(self.wraps.any())
         self.wrap_mask = self.wraps.astype(float) if self.any_wrap else None  # (the compiled trial's form)
-        for array in (self.lower, self.upper, self.wraps, self.clipped):
-            array.flags.writeable = False
+        for array in (self.lower, self.upper, self.wraps, self.clipped, self.wrap_mask):
+            if array is not None:
+                array.flags.writeable = False
 
     @classmethod
     def of_chain(cls, chain) -> JointBounds:
@@ -147,20 +148,22 @@ class LevenbergMarquardt:
     def trial_function(self, bounds: JointBounds):
         """:meth:`trial` for one set of bounds, through the compiled twin where it is built (and not
         switched off by ``WBIK_PURE_PYTHON=1``, read here): the same decisions with the sums in C, so it
-        agrees with :meth:`trial` to rounding (tests/test_lm_kernel.py); where its Cholesky fails it
-        hands the trial to :meth:`trial` (least squares)."""
+        agrees with :meth:`trial` to rounding (tests/test_lm_kernel.py). It hands the trial to
+        :meth:`trial` where its Cholesky fails (least squares), for systems over 32 rows or joints, and
+        for other bounds than these."""
         kernel = chosen(None, _LM_TRIAL)
         if kernel is None:
             return self.trial
-        lower, upper, wraps = bounds.lower, bounds.upper, bounds.wrap_mask
+        captured, lower, upper, wraps = bounds, bounds.lower, bounds.upper, bounds.wrap_mask
         max_step = -1.0 if self.max_step is None else self.max_step  # (the kernel's "no cap")
         cost_weight, python_trial = self.cost_weight, self.trial
         size = lower.shape[0]
 
         def trial(jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
                   bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
-            inside = np.empty(size)
-            if kernel(jacobian, error, cost_weight * cost + base, q, lower, upper, wraps, max_step, inside):
+            inside, damping = np.empty(size), cost_weight * cost + base
+            if bounds is captured and kernel(jacobian, error, damping, q, lower, upper, wraps, max_step,
+                                             inside):
                 return inside
             return python_trial(jacobian, error, cost, base, q, bounds, workspace)
 
