@@ -91,7 +91,11 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
               "print(arm3r.URDF_PATH); print(pincher.URDF_PATH); print(ur5.TOOL_URDF_PATH); "
               "wbik.load('arm3r'); wbik.load('pincher'); "
               "from wbik.solvers.analytic import ur_kernel as k; "
-              "print(k.built(), getattr(k._ur_kernel, '__file__', ''))")
+              "print(k.built(), getattr(k._ur_kernel, '__file__', '')); "
+              "from wbik.compiled import compiled_twin as t; "
+              "print(*[getattr(__import__(m, fromlist=['_']), '__file__', '') if t(m, f) else 'missing' "
+              "for m, f in [('wbik._pose_kernel', 'plain_se3'), ('wbik.qp._rows_kernel', 'frame_rows'), "
+              "('wbik.solvers._lm_kernel', 'lm_trial')]])")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
     package = installed["purelib"] / "wbik"
@@ -109,11 +113,12 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
     assert all(path.is_file() for path in expected)
     assert not (package / "data" / "urdf").exists()
     assert not installed["cache"].exists(), "creating a Robot wrote into the URDF cache"
-    if HAS_COMPILER:  # the wheel compiled the UR kernel (the copy had no .so)
+    if HAS_COMPILER:  # the wheel compiled every kernel (the copy had no .so)
         built, kernel_file = lines[10].split()
         assert built == "True" and Path(kernel_file).is_relative_to(package), lines[10]
+        assert all(Path(other).is_relative_to(package) for other in lines[11].split()), lines[11]
     else:
-        assert lines[10].startswith("False"), lines[10]
+        assert lines[10].startswith("False") and lines[11].split() == ["missing"] * 3, lines[10:]
 
 
 def test_wbik_tasks_then_run_a_shipped_task_by_name(installed):
