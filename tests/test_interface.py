@@ -144,3 +144,31 @@ def test_a_target_from_an_se3_owns_its_values():
     pose.rotation = np.eye(3)
     assert np.array_equal(target.position, expected[:3, 3])
     assert np.array_equal(target.rotation, expected[:3, :3])
+
+
+def test_a_4x4_matrix_takes_the_fast_path_with_the_general_paths_verdict():
+    """A float64 4x4 pose gives the Target the general path gives (an SE3 of it), owns its values, and
+    anything the fast test does not accept (a near-[0, 0, 0, 1] last row, a bent rotation, NaN, float32,
+    a far position) still gets the general path's answer or error."""
+    from wbik.errors import InvalidTargetError
+
+    rng = np.random.default_rng(12)
+    for _ in range(50):
+        pose = pin.SE3(pin.exp3(rng.uniform(-3.0, 3.0, 3)), rng.uniform(-2.0, 2.0, 3))
+        matrix = pose.homogeneous.copy()
+        target = wbik.as_target(matrix)
+        assert np.array_equal(target.position, pose.translation)
+        assert np.array_equal(target.rotation, pose.rotation)
+        matrix[:3, 3] = 0.0
+        assert np.array_equal(target.position, pose.translation)  # a copy, not a view of the input
+    good = pin.SE3(pin.exp3(np.array([0.2, 0.1, -0.4])), np.array([0.3, 0.0, 0.5])).homogeneous
+    near_row = good.copy()
+    near_row[3, 2] = 1e-12  # allclose to [0, 0, 0, 1]: the general path accepts it
+    assert np.array_equal(wbik.as_target(near_row).rotation, good[:3, :3])
+    assert np.array_equal(wbik.as_target(good.astype(np.float32)).position, good[:3, 3].astype(np.float32))
+    for change in ({(0, 0): good[0, 0] + 1e-3}, {(1, 3): np.nan}, {(2, 3): 2e6}, {(3, 0): 0.5}):
+        bad = good.copy()
+        for index, value in change.items():
+            bad[index] = value
+        with pytest.raises(InvalidTargetError):
+            wbik.as_target(bad)
