@@ -172,3 +172,31 @@ def test_a_4x4_matrix_takes_the_fast_path_with_the_general_paths_verdict():
             bad[index] = value
         with pytest.raises(InvalidTargetError):
             wbik.as_target(bad)
+
+
+def test_positions_and_targets_take_the_fast_path_with_the_general_paths_verdict():
+    """A float64 3-vector or a Target (pose or position) gives what the general path gives for the same
+    values as lists, as a copy; what the fast test leaves out gets the general path's answer or error."""
+    from wbik.errors import InvalidTargetError
+    from wbik.targets import MAX_POSITION
+
+    rng = np.random.default_rng(13)
+    for _ in range(50):
+        pose = pin.SE3(pin.exp3(rng.uniform(-3.0, 3.0, 3)), rng.uniform(-2.0, 2.0, 3))
+        general = wbik.as_target(pose.translation.tolist(), rotation=pose.rotation.tolist())
+        for given in (wbik.Target(pose.translation.copy(), pose.rotation.copy()), pose.translation.copy()):
+            target = wbik.as_target(given)
+            assert np.array_equal(target.position, general.position)
+            if isinstance(given, wbik.Target):
+                assert np.array_equal(target.rotation, general.rotation)
+                assert target.position is not given.position and target.rotation is not given.rotation
+            else:
+                assert target.rotation is None and target.position is not given
+    edge = np.array([MAX_POSITION, -MAX_POSITION, 0.0])
+    assert np.array_equal(wbik.as_target(edge).position, wbik.as_target(edge.tolist()).position)
+    for bad in (np.array([np.nan, 0.0, 0.0]), np.array([np.inf, 0.0, 0.0]), np.array([2e6, 0.0, 0.0]),
+                wbik.Target(np.zeros(3), np.eye(3) * 1.01),
+                wbik.Target(np.array([0.0, np.nan, 0.0]), np.eye(3))):
+        with pytest.raises(InvalidTargetError):
+            wbik.as_target(bad)
+    assert wbik.as_target(np.array([1, 2, 3])).position.dtype == np.float64  # ints: the general path

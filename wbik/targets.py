@@ -80,13 +80,39 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
     return None
 
 
-def _plain_matrix_target(value: np.ndarray) -> Target | None:
-    """The same fast path for a float64 4x4 homogeneous matrix whose last row is exactly [0, 0, 0, 1]
-    (the general path took ~45 us for it); the target's arrays are views of a private copy. None for
-    anything else: the general path decides (and says what is wrong)."""
-    if value.shape != (4, 4) or value.dtype != np.float64 or value[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
+def _plain_array_target(value: np.ndarray) -> Target | None:
+    """The same fast path for a float64 array: a 3-vector within the bound (the general path took
+    ~10 us), or a 4x4 homogeneous matrix whose last row is exactly [0, 0, 0, 1] (~45 us); the target's
+    arrays are views of a private copy. None for anything else: the general path decides (and says
+    what is wrong)."""
+    if value.dtype != np.float64:
+        return None
+    if value.shape == (3,):
+        bound = MAX_POSITION
+        x, y, z = value.tolist()
+        inside = -bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound  # (False for NaN)
+        return Target(value.copy()) if inside else None
+    if value.shape != (4, 4) or value[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
         return None
     matrix = value.copy()
+    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
+        return Target(matrix[:3, 3], matrix[:3, :3])
+    return None
+
+
+def _plain_given_target(value: Target) -> Target | None:
+    """A Target checked again on the fast path (the general path's rotation check took ~20 us): a copy
+    of it when its float64 arrays pass the plain-float test, None otherwise."""
+    position, rotation = value.position, value.rotation
+    if type(position) is not np.ndarray:
+        return None
+    if rotation is None:
+        return _plain_array_target(position)
+    if type(rotation) is not np.ndarray or position.shape != (3,) or rotation.shape != (3, 3) \
+            or position.dtype != np.float64 or rotation.dtype != np.float64:
+        return None
+    matrix = np.zeros((4, 4))
+    matrix[:3, :3], matrix[:3, 3], matrix[3, 3] = rotation, position, 1.0
     if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
         return Target(matrix[:3, 3], matrix[:3, :3])
     return None
@@ -122,7 +148,8 @@ def as_target(value, rotation=None) -> Target:
     if rotation is None:
         kind = type(value)
         plain = _plain_se3_target(value) if kind is pin.SE3 else \
-            _plain_matrix_target(value) if kind is np.ndarray else None
+            _plain_array_target(value) if kind is np.ndarray else \
+            _plain_given_target(value) if kind is Target else None
         if plain is not None:
             return plain
     if isinstance(value, Target):
