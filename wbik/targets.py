@@ -68,6 +68,14 @@ def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarra
     return matrix
 
 
+def _checked_pose(matrix: np.ndarray) -> Target | None:
+    """A Target whose arrays are views of ``matrix`` (a private 4x4 copy) when it passes the plain-float
+    pose test, else None (the fast paths' one test)."""
+    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
+        return Target(matrix[:3, 3], matrix[:3, :3])
+    return None
+
+
 def _plain_se3_target(value: pin.SE3) -> Target | None:
     """The common case, an SE3 with a finite position and a rotation, checked in plain floats (about
     2 us, 1 us with the compiled test; the general path's small numpy calls cost ~40 us). None when
@@ -75,9 +83,7 @@ def _plain_se3_target(value: pin.SE3) -> Target | None:
     rotation are views of one private 4x4 copy (not of the SE3: changing the SE3 later leaves the
     target as it was)."""
     matrix = value.homogeneous  # a private copy: the target's arrays are views of it
-    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
-        return Target(matrix[:3, 3], matrix[:3, :3])
-    return None
+    return _checked_pose(matrix)
 
 
 def _plain_array_target(value: np.ndarray) -> Target | None:
@@ -95,9 +101,7 @@ def _plain_array_target(value: np.ndarray) -> Target | None:
     if value.shape != (4, 4) or value[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
         return None
     matrix = value.copy()
-    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
-        return Target(matrix[:3, 3], matrix[:3, :3])
-    return None
+    return _checked_pose(matrix)
 
 
 def _plain_given_target(value: Target) -> Target | None:
@@ -113,9 +117,7 @@ def _plain_given_target(value: Target) -> Target | None:
         return None
     matrix = np.zeros((4, 4))
     matrix[:3, :3], matrix[:3, 3], matrix[3, 3] = rotation, position, 1.0
-    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
-        return Target(matrix[:3, 3], matrix[:3, :3])
-    return None
+    return _checked_pose(matrix)
 
 
 def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float) -> bool:

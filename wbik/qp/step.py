@@ -77,7 +77,7 @@ class Level:
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
-        self._row_scale = self.row_scale[:, 0].copy()
+        self._row_scale = self.row_scale[:, 0]  # (a contiguous view: the kernel's 1-D form)
         self._compiled_quadratic = chosen(None, _QUADRATIC)
         self.error_scale = self.row_scale[:, 0] * np.concatenate(
             [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
