@@ -251,8 +251,7 @@ def _elbow(kind: str = "revolute", axis: str = "0 0 1", limit: str = 'lower="-1"
     (_elbow(limit='lower="1" upper="-1"'), ("'elbow'", "lower limit", "above upper")),
     (_elbow(axis="0 0 0"), ("'elbow'", "zero axis")),
     (_elbow(kind="prismatic", axis="0 0 0"), ("'elbow'", "zero axis")),
-    (_elbow(kind="continuous", limit=""), ("'elbow'", "continuous", "limits")),
-], ids=["lower-above-upper", "zero-axis", "zero-axis-prismatic", "continuous"])
+], ids=["lower-above-upper", "zero-axis", "zero-axis-prismatic"])
 def test_bad_robot_descriptions_are_caught_at_load(tmp_path, joint, words):
     path = tmp_path / "hostile.urdf"
     path.write_text(_urdf(joint))
@@ -261,15 +260,13 @@ def test_bad_robot_descriptions_are_caught_at_load(tmp_path, joint, words):
     assert_typed(info.value, *words)
 
 
-def test_continuous_joint_in_an_explicit_chain_is_refused_by_name(tmp_path):
+def test_a_continuous_joint_without_limit_element_loads_as_one_angle_in_one_turn(tmp_path):
     path = tmp_path / "continuous.urdf"
     path.write_text(_urdf(_elbow(kind="continuous", limit="")))
-    spec = wbik.ChainSpec("arm", "base", "tip", ("elbow", "wrist"))
-    robot = wbik.load(path, chains=[spec])
-    with pytest.raises(UnsupportedError) as info:
-        robot.chain("arm")
-    assert_typed(info.value, "'elbow'", "continuous")
-    # locking it (leaving it out of the chain) works
+    chain = wbik.load(path, chains=[wbik.ChainSpec("arm", "base", "tip", ("elbow", "wrist"))]).chain("arm")
+    assert chain.nq == 2 and chain.continuous.tolist() == [True, False]
+    assert chain.lower[0] == -np.pi and chain.upper[0] == np.pi
+    # locking it (leaving it out of the chain) still works
     locked = wbik.load(path, chains=[wbik.ChainSpec("wrist", "l1", "tip", ("wrist",))])
     assert locked.chain("wrist").nq == 1
 

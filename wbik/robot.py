@@ -31,6 +31,12 @@ from wbik.errors import UnknownChainError
 from wbik.errors import UnknownFrameError
 from wbik.errors import UnsupportedError
 from wbik.files import atomic_write_text
+from wbik.geometry import wrap_to_pi
+from wbik.kinematic_tree import chain_path
+from wbik.kinematic_tree import leaf_frames
+from wbik.urdf import Mimic
+from wbik.urdf import angles_of
+from wbik.urdf import parse_urdf
 from wbik.validation import numeric_array
 
 _CHAIN_BUILD_LOCK = threading.Lock()
@@ -53,12 +59,15 @@ class PerThreadData:
 
 @dataclass(frozen=True)
 class ChainSpec:
-    """Names that define a chain: base frame, tip frame and the joints between them, in order."""
+    """Names that define a chain: base frame, tip frame and the joints between them, in order.
+
+    With no joints, the chain takes every joint between base and tip (:func:`wbik.kinematic_tree.chain_path`:
+    mimic joints on the way are locked), as KDL, TRAC-IK and MoveIt do."""
 
     name: str
     base_frame: str
     tip_frame: str
-    joints: tuple[str, ...]
+    joints: tuple[str, ...] = ()
     description: str = ""
 
 
@@ -68,6 +77,12 @@ class Chain:
     Attributes: ``model``/``data`` (reduced Pinocchio model), ``lower``/``upper`` (rad or m),
     ``velocity_limit``, ``nominal`` (the robot's nominal values of these joints) and
     ``mid_range`` ((lower + upper) / 2, the seed of TRAC-IK's benchmark protocol).
+
+    Continuous joints (``continuous``, a mask) have the range [-pi, pi]: random configurations are drawn
+    in it and answers are wrapped into it (:meth:`clip`), while the methods that can leave them
+    unbounded do (``unbounded_lower``/``unbounded_upper``: the limits with -inf/inf there).
+    ``locked_mimic``: joints between base and tip that follow another joint (URDF ``<mimic>``), locked
+    at the nominal configuration.
     """
 
     def __init__(self, robot: Robot, spec: ChainSpec):
@@ -76,10 +91,15 @@ class Chain:
         self.name = spec.name
         self.base_frame = spec.base_frame
         self.tip_frame = spec.tip_frame
-        self.joint_names = list(spec.joints)
         full = robot.model
         for frame in (spec.base_frame, spec.tip_frame):
             robot.frame_id(frame)  # raises UnknownFrameError with the known names
+        self.locked_mimic: tuple[str, ...] = ()
+        if spec.joints:
+            self.joint_names = list(spec.joints)
+        else:
+            path = chain_path(full, spec.base_frame, spec.tip_frame, robot.mimic)
+            self.joint_names, self.locked_mimic = list(path.joints), path.locked_mimic
         joint_ids = []
         for joint in self.joint_names:
             if not full.existJointName(joint):
@@ -89,8 +109,8 @@ class Chain:
             if full.joints[joint_id].nq != 1 or full.joints[joint_id].nv != 1:
                 raise UnsupportedError(
                     f"chain {spec.name!r}: joint {joint!r} is {_joint_kind(full.joints[joint_id])}, "
-                    "not a 1-DOF revolute/prismatic joint with limits; give it limits in the URDF "
-                    "(type revolute) or leave it out of the chain (it is then locked)")
+                    "not a 1-DOF revolute, continuous or prismatic joint; leave it out of the chain "
+                    "(it is then locked)")
             joint_ids.append(joint_id)
         self.q_index = np.array([full.joints[j].idx_q for j in joint_ids])
         self.v_index = np.array([full.joints[j].idx_v for j in joint_ids])
@@ -119,6 +139,12 @@ class Chain:
         self.mid_range = 0.5 * (self.lower + self.upper)
         self.is_prismatic = np.array(
             [full.joints[j].shortname().startswith("JointModelP") for j in joint_ids])
+        self.continuous = np.array([name in robot.continuous_joints for name in self.joint_names], dtype=bool)
+        self.any_continuous = bool(self.continuous.any())
+        self.unbounded_lower = np.where(self.continuous, -np.inf, self.lower)
+        self.unbounded_upper = np.where(self.continuous, np.inf, self.upper)
+        for array in (self.continuous, self.unbounded_lower, self.unbounded_upper):
+            array.flags.writeable = False
 
     data = PerThreadData()
 
@@ -163,7 +189,14 @@ class Chain:
         return bool(np.all(q >= self.lower - tolerance) and np.all(q <= self.upper + tolerance))
 
     def clip(self, q: np.ndarray) -> np.ndarray:
-        return np.clip(q, self.lower, self.upper)
+        """q (n,) or (B, n) in range: continuous joints wrapped into (-pi, pi], the others clipped."""
+        return np.clip(self.wrap_continuous(q), self.lower, self.upper)
+
+    def wrap_continuous(self, q: np.ndarray) -> np.ndarray:
+        """q with its continuous joints wrapped into (-pi, pi] (q itself if the chain has none)."""
+        if not self.any_continuous:
+            return q
+        return np.where(self.continuous, wrap_to_pi(q), q)
 
     def random(self, rng: np.random.Generator, count: int | None = None) -> np.ndarray:
         """Uniform joint values inside the limits: shape (n,) or (count, n)."""
@@ -206,7 +239,10 @@ class Robot:
     feet a support polygon is made of (empty for a robot without feet). ``closed_forms``: (chain, target
     kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``: the
     robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions), or None;
-    a reader that needs one robot's facts asks :meth:`require_facts`.
+    a reader that needs one robot's facts asks :meth:`require_facts`. ``continuous_joints``: the URDF's
+    continuous joints (revolute in ``model``, range [-pi, pi]); ``mimic``: {follower joint: Mimic};
+    ``renamed_frames``: {new name: URDF name} of frames renamed to keep names unique
+    (:mod:`wbik.urdf`).
     """
 
     name: str
@@ -219,6 +255,9 @@ class Robot:
     soles: dict[str, np.ndarray] = field(default_factory=dict)
     closed_forms: dict[tuple[str, str], str] = field(default_factory=dict)
     facts: Any = None
+    continuous_joints: tuple[str, ...] = ()
+    mimic: dict[str, Mimic] = field(default_factory=dict)
+    renamed_frames: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._local = threading.local()
@@ -304,8 +343,10 @@ class Robot:
         """The chain called ``name`` (the only chain, if the robot has one and name is None)."""
         if name is None:
             if len(self.chains) != 1:
-                raise UnknownChainError("(none given)", list(self.chains),
-                                        hint=f"{self.name} has several chains: pass chain=...")
+                hint = (f"{self.name} has several chains: pass chain=..." if self.chains else
+                        f"{self.name} is a tree with no chain declared: name one by its base and tip, "
+                        f"robot.chain_between(base, tip) (tips: {', '.join(leaf_frames(self.model)[:8])})")
+                raise UnknownChainError("(none given)", list(self.chains), hint=hint)
             name = next(iter(self.chains))
         if not isinstance(name, str):
             raise UnknownChainError(repr(name), list(self.chains), hint="A chain is named by a string")
@@ -316,6 +357,23 @@ class Robot:
                 if name not in self._chains:
                     self._chains[name] = Chain(self, self.chains[name])
         return self._chains[name]
+
+    def chain_between(self, base: str, tip: str, name: str | None = None) -> Chain:
+        """The chain from frame ``base`` to frame ``tip`` with every joint between them (mimic joints
+        locked), as KDL, TRAC-IK and MoveIt take a chain; registered under ``name`` (default
+        "BASE_to_TIP") so that ``chain(name)`` finds it again."""
+        name = f"{base}_to_{tip}" if name is None else name
+        spec = ChainSpec(name, base, tip, description=f"{base} to {tip}, joints found between them")
+        known = self.chains.get(name)
+        if known is not None and (known.base_frame, known.tip_frame) != (base, tip):
+            raise RobotDescriptionError(f"robot {self.name!r} already has a chain {name!r} from "
+                                        f"{known.base_frame!r} to {known.tip_frame!r}; pass another name")
+        if known is None:
+            chain = Chain(self, spec)  # errors (unknown frames, base not upstream) before registering
+            with _CHAIN_BUILD_LOCK:
+                self.chains[name] = spec
+                self._chains.setdefault(name, chain)
+        return self.chain(name)
 
     def frame_placement(self, q: np.ndarray, frame: str) -> pin.SE3:
         """World placement of a frame at full configuration q."""
@@ -355,15 +413,9 @@ def write_cached_urdf(name: str, text: str) -> Path:
 
 
 def model_from_urdf_text(text: str, floating_base: bool = False, source: str = "URDF") -> pin.Model:
-    """Parse URDF text into a Pinocchio model, turning parser failures into RobotDescriptionError."""
-    try:
-        if floating_base:
-            return pin.buildModelFromXML(text, pin.JointModelFreeFlyer())
-        return pin.buildModelFromXML(text)
-    except (RuntimeError, ValueError) as exc:
-        raise RobotDescriptionError(
-            f"{source} does not parse as a URDF: {exc}. Check that it is well-formed XML with one root "
-            "link and that every joint names existing parent and child links") from exc
+    """Parse URDF text into wbik's Pinocchio model (one angle per revolute joint, continuous joints
+    included; unique frame names: :func:`wbik.urdf.parse_urdf`), parser failures as RobotDescriptionError."""
+    return parse_urdf(text, floating_base, source).model
 
 
 def _joint_kind(joint) -> str:
@@ -397,16 +449,22 @@ def check_model(model: pin.Model, source: str = "URDF") -> None:
                 "swap them in its <limit lower=... upper=...>")
 
 
-def serial_chain_spec(model: pin.Model, name: str = "default") -> ChainSpec:
-    """Chain from the model's root body to the deepest frame of a single serial chain."""
+def serial_chain_spec(model: pin.Model, name: str = "default", mimic: Mapping = ()) -> ChainSpec | None:
+    """Chain from the model's root body to the deepest frame of a single serial chain; None for a tree
+    (a joint carrying two others: name its chains by base and tip) or a model without a 1-DOF joint
+    after the base."""
+    root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
+    children = [model.parents[j] for j in range(root + 1, model.njoints) if model.names[j] not in mimic]
+    if len(children) != len(set(children)):
+        return None
     for joint_id in range(1, model.njoints):
         joint = model.joints[joint_id]
         if joint.nq != 1 and not (joint_id == 1 and joint.shortname() == "JointModelFreeFlyer"):
             raise RobotDescriptionError(
                 f"joint {model.names[joint_id]!r} is {_joint_kind(joint)}; the automatic chain takes "
-                "1-DOF joints with limits only: give it limits in the URDF (type revolute with "
-                "<limit lower upper>) or lock it by passing chains=[ChainSpec(...)] without it")
-    movable = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+                "1-DOF joints only: lock it by passing chains=[ChainSpec(...)] without it")
+    movable = [model.names[j] for j in range(1, model.njoints)
+               if model.joints[j].nq == 1 and model.names[j] not in mimic]
     if not movable:
         raise RobotDescriptionError("the model has no 1-DOF joint to make a chain of")
     last_joint = model.getJointId(movable[-1])
@@ -426,13 +484,25 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
                          urdf_path: Path | None = None, package_dirs: Sequence[str] = (),
                          soles: Mapping | None = None, closed_forms: Mapping | None = None,
                          facts: Any = None) -> Robot:
-    """A Robot from URDF text; with no chains given, the single serial chain of the model.
+    """A Robot from URDF text; with no chains given, the single serial chain of the model (none for a
+    tree: name chains with :meth:`Robot.chain_between`).
 
+    ``nominal`` is a configuration of wbik's model (one angle per continuous joint) or of Pinocchio's
+    own parse of the URDF (cos, sin per continuous joint), e.g. a reference posture read from an SRDF.
     ``soles``, ``closed_forms``, ``facts``: see :class:`Robot` (e.g. ``soles={"r_sole": corners, ...}``
     gives a humanoid its support polygon).
     """
-    model = model_from_urdf_text(text, floating_base, source=str(urdf_path or name))
-    check_model(model, source=str(urdf_path or name))
+    source = str(urdf_path or name)
+    parsed = parse_urdf(text, floating_base, source=source)
+    model = parsed.model
+    check_model(model, source=source)
+    if nominal is not None:
+        nominal = np.asarray(nominal, dtype=float).reshape(-1)
+        if nominal.shape == (parsed.source_model.nq,) and parsed.source_model.nq != model.nq:
+            nominal = angles_of(parsed.source_model, model, nominal)
+        elif nominal.shape != (model.nq,):
+            raise RobotDescriptionError(f"{source}: nominal has {nominal.size} values, the model has nq = "
+                                        f"{model.nq}")
     if nominal is None:
         nominal = pin.neutral(model)
         bounded = np.isfinite(model.lowerPositionLimit) & np.isfinite(model.upperPositionLimit)
@@ -440,7 +510,8 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
             bounded[:7] = False
         nominal[bounded] = np.clip(nominal[bounded], model.lowerPositionLimit[bounded],
                                    model.upperPositionLimit[bounded])
-    specs = list(chains) if chains else [serial_chain_spec(model)]
-    return Robot(name, model, text, {spec.name: spec for spec in specs}, nominal,
+    specs = list(chains) if chains else [serial_chain_spec(model, mimic=parsed.mimic)]
+    return Robot(name, model, text, {spec.name: spec for spec in specs if spec is not None}, nominal,
                  urdf_path=urdf_path, package_dirs=list(package_dirs), soles={} if soles is None else soles,
-                 closed_forms={} if closed_forms is None else closed_forms, facts=facts)
+                 closed_forms={} if closed_forms is None else closed_forms, facts=facts,
+                 continuous_joints=parsed.continuous, mimic=parsed.mimic, renamed_frames=parsed.renamed)

@@ -380,9 +380,10 @@ class Variants(Node):
 
 # -- names checked against what exists --------------------------------------------------------------
 class Robot(Text):
-    """A built-in robot name or a .urdf path; ``only`` restricts a kind to some robots."""
+    """A built-in robot name, ``example-robot-data:NAME`` or a .urdf path; ``only`` restricts a kind to
+    some robots."""
 
-    what = "a built-in robot name or the path of a .urdf file"
+    what = "a built-in robot name, example-robot-data:NAME or the path of a .urdf file"
 
     def __init__(self, only: tuple[str, ...] | None = None):
         super().__init__()
@@ -392,6 +393,8 @@ class Robot(Text):
         from pathlib import Path
 
         from wbik.models import robot_entries
+        from wbik.models.erd import example_robot_name
+        from wbik.models.erd import example_robot_names
 
         known = list(robot_entries())
         if not isinstance(value, str):
@@ -399,11 +402,19 @@ class Robot(Text):
                                     "robot name (a string) or the path of a .urdf file")
         if self.only and value not in self.only:
             ctx.fail(path, f"robot {value!r} cannot run this kind; it runs on {', '.join(self.only)}")
+        example = example_robot_name(value)
+        if example is not None:
+            names = example_robot_names()
+            if example not in names:
+                raise UnknownRobotError(value, [f"example-robot-data:{name}" for name in names],
+                                        hint=f"{ctx.source}: {path}{did_you_mean(example, names)}")
+            return value
         if value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
                 and not Path(value).expanduser().exists():
             raise UnknownRobotError(value, known,
                                     hint=f"{ctx.source}: {path}{did_you_mean(value, known)}. Pass a built-in "
-                                         "name ('wbik robots' lists them) or a .urdf path")
+                                         "name ('wbik robots' lists them), example-robot-data:NAME or a "
+                                         ".urdf path")
         return value
 
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from wbik.commands import add_json_argument
 from wbik.commands import add_robot_arguments
+from wbik.commands import load_robot_chain
 
 HELP = "forward kinematics of a chain"
 
@@ -23,9 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
-    import wbik
 
-    chain = wbik.load(args.robot).chain(args.chain)
+    chain = load_robot_chain(args)[1]
     q = chain.check_q(args.q)
     if args.deg:
         q = np.where(chain.is_prismatic, q, np.radians(q))

@@ -10,6 +10,7 @@ import numpy as np
 
 from wbik.commands import add_json_argument
 from wbik.commands import add_robot_arguments
+from wbik.commands import load_robot_chain
 
 HELP = "solve IK for one target"
 
@@ -34,8 +35,8 @@ def run(args: argparse.Namespace) -> int:
     from wbik.validation import check_budget
 
     timeout = check_budget("--timeout", args.timeout)
-    robot = wbik.load(args.robot)
-    solver = wbik.solver(args.method, robot, chain=args.chain, timeout_s=timeout)
+    robot, chain = load_robot_chain(args)
+    solver = wbik.solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)
     target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
               else wbik.Target(position))

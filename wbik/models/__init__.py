@@ -17,6 +17,7 @@ from pathlib import Path
 from wbik.errors import InvalidOptionError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownRobotError
+from wbik.models import erd
 from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
@@ -83,8 +84,24 @@ def check_parameters(name_or_path: str | Path, params: dict) -> None:
                 f"{', '.join(sorted(accepted)) or '(none)'}", option=str(key), accepted=sorted(accepted))
 
 
+def load_example_robot(name: str, **params) -> Robot:
+    """A robot example-robot-data ships (``load("example-robot-data:NAME")``): its URDF, floating base as
+    its loader has it, its SRDF reference posture (e.g. Talos half-sitting, Solo12 standing) as the
+    nominal configuration, meshes resolved for the viewer; ``params`` as for a URDF path."""
+    example = erd.example_robot(name)
+    check_parameters(example.urdf, params)
+    text = example.urdf.read_text(encoding="utf-8")
+    params.setdefault("floating_base", example.floating_base)
+    if "nominal" not in params and params["floating_base"] == example.floating_base:
+        params["nominal"] = erd.reference_posture(example, text)
+    params.setdefault("package_dirs", erd.package_dirs())
+    return robot_from_urdf_text(params.pop("name", name), text, urdf_path=example.urdf.resolve(), **params)
+
+
 def load(name_or_path: str | Path, **params) -> Robot:
-    """A built-in robot by name (``params`` go to its builder) or a Robot from a URDF file path.
+    """A built-in robot by name (``params`` go to its builder), a robot example-robot-data ships
+    (``"example-robot-data:talos"`` or ``"erd:talos"``: :func:`load_example_robot`) or a Robot from a
+    URDF file path.
 
     For a URDF path, optional ``params``: ``chains`` (list of ChainSpec), ``floating_base``,
     ``nominal``, ``name``, ``package_dirs``, ``soles`` ({sole frame: (k, 3) corners in that frame, m}:
@@ -101,6 +118,9 @@ def load(name_or_path: str | Path, **params) -> Robot:
     if entry is not None:
         check_parameters(key, params)
         return entry.module().build(**params)
+    example = erd.example_robot_name(key) if isinstance(name_or_path, str) else None
+    if example is not None:
+        return load_example_robot(example, **params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
         if path.is_dir():

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+import pinocchio as pin
+
 from wbik.errors import MissingDependencyError
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownRobotError
 
 
 def robots_dir() -> Path:
@@ -32,3 +38,75 @@ def package_dirs() -> list[str]:
     # meshes are named package://example-robot-data/robots/...; the parent of share/ resolves them
     share = robots_dir().parents[1]
     return [str(share), str(robots_dir().parent)]
+
+
+PREFIXES = ("example-robot-data:", "erd:")
+"""``wbik.load("example-robot-data:talos")`` (or ``"erd:talos"``) loads a robot example-robot-data ships."""
+
+
+def example_robot_name(name: str) -> str | None:
+    """The example-robot-data robot named by ``name`` ("example-robot-data:NAME" or "erd:NAME"), or None."""
+    for prefix in PREFIXES:
+        if name.startswith(prefix):
+            return name[len(prefix):]
+    return None
+
+
+def _loaders() -> dict:
+    try:
+        from example_robot_data.robots_loader import ROBOTS
+    except ImportError as exc:  # pragma: no cover - a pinned dependency
+        raise MissingDependencyError(
+            "example-robot-data is not installed; run 'bash scripts/setup.sh'") from exc
+    return ROBOTS
+
+
+def example_robot_names() -> list[str]:
+    """Every robot example-robot-data 4.3.0 ships a loader for (URDF and SDF)."""
+    return sorted(_loaders())
+
+
+@dataclass(frozen=True)
+class ExampleRobot:
+    """Where one example-robot-data robot's files are, and how its loader builds it (without loading
+    its meshes): URDF path, SRDF path (or None), floating base, reference posture's name."""
+
+    name: str
+    urdf: Path
+    srdf: Path | None
+    floating_base: bool
+    reference_posture: str | None
+
+
+def example_robot(name: str) -> ExampleRobot:
+    """The files of example-robot-data's robot ``name``; UnknownRobotError naming the known ones."""
+    loaders = _loaders()
+    if name not in loaders:
+        raise UnknownRobotError(f"example-robot-data:{name}",
+                                [f"example-robot-data:{known}" for known in sorted(loaders)])
+    loader = loaders[name]
+    if not loader.urdf_filename:
+        raise RobotDescriptionError(
+            f"example-robot-data's {name!r} is described in SDF ({loader.sdf_filename}); wbik loads URDF "
+            "files only")
+    relative = Path(loader.path) / loader.urdf_subpath / loader.urdf_filename
+    urdf = robots_dir() / relative
+    if not urdf.is_file():
+        raise MissingDependencyError(f"example-robot-data has no {relative}; reinstall it (4.3.0)")
+    srdf = (robots_dir() / loader.path / loader.srdf_subpath / loader.srdf_filename
+            if loader.srdf_filename else None)
+    return ExampleRobot(name, urdf, srdf if srdf is not None and srdf.is_file() else None,
+                        bool(loader.free_flyer), loader.ref_posture if srdf is not None else None)
+
+
+def reference_posture(robot: ExampleRobot, text: str) -> np.ndarray | None:
+    """The robot's reference posture from its SRDF (what example-robot-data's loader calls ``q0``), as
+    a configuration of Pinocchio's own parse of the URDF; None without an SRDF or that posture."""
+    if robot.srdf is None or robot.reference_posture is None:
+        return None
+    model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if robot.floating_base else \
+        pin.buildModelFromXML(text)
+    pin.loadReferenceConfigurations(model, str(robot.srdf), False)
+    if robot.reference_posture not in model.referenceConfigurations:
+        return None
+    return pin.normalize(model, model.referenceConfigurations[robot.reference_posture].copy())

@@ -50,6 +50,7 @@ from wbik.scenario_schema import Method
 from wbik.scenario_schema import Number
 from wbik.scenario_schema import Robot
 from wbik.scenario_schema import ScenarioError
+from wbik.scenario_schema import ScenarioValueError
 from wbik.scenario_schema import Text
 from wbik.scenario_schema import Vector
 from wbik.scenario_schema import common_keys
@@ -167,11 +168,31 @@ class MoveRun(KindRun):
         return super().finished()
 
 
+def chain_of(robot, spec: dict):
+    """The file's chain: ``chain`` by name, or the joints between ``base`` and ``tip`` frames."""
+    base, tip = spec.get("base"), spec.get("tip")
+    if (base is None) != (tip is None):
+        raise ScenarioValueError(f"{'tip' if tip is None else 'base'}: missing; a chain named by its frames "
+                                 "needs both base: and tip:")
+    if base is None:
+        return robot.chain(spec["chain"])
+    if spec.get("chain") is not None:
+        raise ScenarioValueError("chain: give either chain: or base: and tip:, not both")
+    return robot.chain_between(base, tip)
+
+
+def chain_keys() -> dict[str, Key]:
+    """``chain`` by name, or ``base`` and ``tip`` frames (the joints between them)."""
+    return {"chain": Key(Text(what="a chain name", nullable=True), None),
+            "base": Key(Text(what="the chain's base frame", nullable=True), None),
+            "tip": Key(Text(what="the chain's tip frame", nullable=True), None)}
+
+
 def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.joint import joint_path
 
     run = MoveRun(spec, on_progress)
-    chain = run.robot.chain(spec["chain"])
+    chain = chain_of(run.robot, spec)
     configurations = [vector_of(q, chain.nq, f"configurations[{index}]")
                       for index, q in enumerate(spec["configurations"])]
     run.move(chain, joint_path(chain, configurations, int(spec["samples"])), "joint interpolation")
@@ -183,7 +204,8 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.solvers.method_registry import solver
 
     run = MoveRun(spec, on_progress)
-    ik = solver(spec["method"], run.robot, chain=spec["chain"], timeout_s=float(spec["timeout_s"]))
+    ik = solver(spec["method"], run.robot, chain=chain_of(run.robot, spec).name,
+                timeout_s=float(spec["timeout_s"]))
     waypoints = [pose_of(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
     path = waypoint_path(ik, start_of(spec, ik.chain), waypoints, int(spec["samples"]),
                          float(spec["jump_threshold"]))
@@ -249,12 +271,12 @@ def motion_schema(kind: str) -> Map:
     from wbik.motion.joint import joint_path
 
     if kind == "motion_joint":
-        keys = {**samples_key(joint_path), "chain": Key(Text(what="a chain name", nullable=True), None),
+        keys = {**samples_key(joint_path), **chain_keys(),
                 "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
     elif kind == "motion_cartesian":
         waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
         keys = {**solving_keys(), **samples_key(waypoint_path),
-                "chain": Key(Text(what="a chain name", nullable=True), None),
+                **chain_keys(),
                 "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
                                  required=True),
                 "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}

@@ -19,6 +19,7 @@ violated); the IK loop uses it to verify every configuration it returns.
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 
 import numpy as np
 import pinocchio as pin
@@ -83,11 +84,12 @@ class InequalityConstraint(Constraint):
         raise NotImplementedError
 
 
-def bounded_joint_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
-    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits."""
+def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits, but for the
+    joints named in ``unbounded``."""
     q_index, v_index = [], []
-    for joint in model.joints[1:]:
-        if joint.nq == 1 and joint.nv == 1:
+    for joint_id, joint in enumerate(model.joints):
+        if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded:
             low, high = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
             if np.isfinite(low) and np.isfinite(high) and high - low < 1e10:
                 q_index.append(joint.idx_q)
@@ -96,12 +98,15 @@ def bounded_joint_indices(model: pin.Model) -> tuple[np.ndarray, np.ndarray]:
 
 
 class JointPositionLimits(BoundConstraint):
-    """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step)."""
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step).
+
+    ``unbounded``: names of joints left without position bounds (continuous joints, whose answers are
+    wrapped instead)."""
 
     name = "joint position limits"
 
-    def __init__(self, model: pin.Model):
-        self.q_index, self.v_index = bounded_joint_indices(model)
+    def __init__(self, model: pin.Model, unbounded: Collection[str] = ()):
+        self.q_index, self.v_index = bounded_joint_indices(model, unbounded)
         self.lower = model.lowerPositionLimit[self.q_index].copy()
         self.upper = model.upperPositionLimit[self.q_index].copy()
         self._q_rows, self._v_rows = as_index(self.q_index), as_index(self.v_index)

@@ -165,6 +165,8 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     if q.shape != lower.shape:
         return _invalid_joints(q, time_s, candidate, method)
     reason = candidate.reason
+    if chain.any_continuous:  # an angle of a continuous joint is in range modulo 2 pi
+        q = chain.wrap_continuous(q)
     inside = clip_to_limits(q, lower, upper)
     if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
         if not np.all(np.isfinite(q)):

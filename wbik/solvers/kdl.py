@@ -124,8 +124,8 @@ class KDLSolver(Solver):
         kdl = self.kdl
         fk_solver = kdl.ChainFkSolverPos_recursive(self.kdl_chain)
         velocity_solver = kdl.ChainIkSolverVel_pinv(self.kdl_chain)
-        pose_solver = kdl.ChainIkSolverPos_NR_JL(self.kdl_chain, joint_array(kdl, self.chain.lower),
-                                                 joint_array(kdl, self.chain.upper), fk_solver,
+        pose_solver = kdl.ChainIkSolverPos_NR_JL(self.kdl_chain, joint_array(kdl, self.chain.unbounded_lower),
+                                                 joint_array(kdl, self.chain.unbounded_upper), fk_solver,
                                                  velocity_solver, self.max_iterations, self.epsilon)
         return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
                                q_out=kdl.JntArray(self.chain.nq))

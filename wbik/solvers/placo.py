@@ -28,6 +28,7 @@ from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import pose_error
+from wbik.urdf import continuous_as_revolute
 
 
 def import_placo():
@@ -39,6 +40,8 @@ def import_placo():
     return placo
 
 
+PLACO_CONTINUOUS_LIMIT = 100.0
+"""Limits (rad) PlaCo gets for a continuous joint: wide enough never to bind in a solve (16 turns)."""
 _GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?/>|<(visual|collision)\b.*?</\2\s*>", re.DOTALL)
 
 
@@ -46,7 +49,10 @@ _GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?/>|<(visual|collision)\b.*?<
 def _kinematic_urdf(name: str, text: str) -> Path:
     # a regular expression rather than an XML parser: URDF readers accept some files that a strict
     # XML parser rejects (e.g. "--" inside comments)
-    return write_cached_urdf(f"{name}-kinematic", _GEOMETRY.sub("", text))
+    # continuous joints as revolute ones with wide limits: one angle each, as in wbik's model (PlaCo would
+    # store cos, sin); the answers are wrapped by the shared check
+    text = continuous_as_revolute(_GEOMETRY.sub("", text), PLACO_CONTINUOUS_LIMIT)
+    return write_cached_urdf(f"{name}-kinematic", text)
 
 
 def kinematic_urdf_path(robot: Robot) -> Path:

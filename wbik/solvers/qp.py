@@ -2,9 +2,9 @@
 
 The chain's reduced model carries one FrameTask (pose target) or PositionTask (position target)
 on the tip, expressed in the world of that model: T_world = T_world_base * T_target. Hard
-constraints: the joint position limits (and, with ``velocity_dt``, the velocity limits x dt per
-step). Steps iterate until the shared tolerance, a stall, the iteration budget or (when
-``timeout_s`` is given) the deadline.
+constraints: the joint position limits (none on continuous joints: the answer is wrapped) and, with
+``velocity_dt``, the velocity limits x dt per step. Steps iterate until the shared tolerance, a stall,
+the iteration budget or (when ``timeout_s`` is given) the deadline.
 
 Options: ``backend`` (a qpsolvers name, "fastest" or "default"; default DAQP, the fastest measured
 here: see wbik.qp.backends), ``max_iterations`` (default: the iterations that cost about 30 ms here;
@@ -47,7 +47,9 @@ class QPSolver(Solver):
     def _new_thread_state(self) -> dict:
         """Each thread's own tasks and problems (a problem holds its Pinocchio Data and iterate)."""
         model = self.chain.model
-        constraints = [JointPositionLimits(model)]
+        continuous = [name for name, wraps in zip(self.chain.joint_names, self.chain.continuous, strict=True)
+                      if wraps]
+        constraints = [JointPositionLimits(model, unbounded=continuous)]  # continuous joints: wrapped
         if self.velocity_dt is not None:
             constraints.append(JointVelocityLimits(model))
         task_tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)

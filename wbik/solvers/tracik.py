@@ -76,7 +76,12 @@ class TracIKSolver(Solver):
                 f"{chain_.tip_frame!r} in {urdf}, the chain {chain_.name!r} has {chain_.nq} "
                 f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
                 "them in the chain")
-        self.pytracik.set_joint_limits(solver, chain_.lower.tolist(), chain_.upper.tolist())
+        # TRAC-IK takes a revolute joint as continuous when its bounds reach float's extremes (as it
+        # reads a URDF continuous joint); the others keep the chain's limits
+        extreme = float(np.finfo(np.float32).max)
+        lower = np.where(chain_.continuous, -extreme, chain_.lower)
+        upper = np.where(chain_.continuous, extreme, chain_.upper)
+        self.pytracik.set_joint_limits(solver, lower.tolist(), upper.tolist())
         return solver
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:

@@ -53,7 +53,7 @@ def not_applicable(task: ChunkTask) -> str | None:
 def _build(task: ChunkTask):
     if task.scenario is None:
         return make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                           task.timeout_s, task.tolerances, task.seed)
+                           task.timeout_s, task.tolerances, task.seed, task.base, task.tip)
     import wbik
     from wbik.wholebody.methods import wholebody_solver
 

@@ -36,12 +36,23 @@ def _robot(name: str, params: tuple):
     return cache[key]
 
 
+def case_chain(robot_name: str, robot_params: tuple, chain: str | None, base: str | None = None,
+               tip: str | None = None):
+    """The chain of a case on the (per-thread cached) robot: by name, or between ``base`` and ``tip``
+    (registered under ``chain``)."""
+    robot = _robot(robot_name, robot_params)
+    return robot.chain_between(base, tip, name=chain) if base is not None else robot.chain(chain)
+
+
 def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
-                timeout_s: float | None, tolerances: tuple, seed: int):
+                timeout_s: float | None, tolerances: tuple, seed: int, base: str | None = None,
+                tip: str | None = None):
     """The chain solver ``method`` on the (per-thread cached) robot, built as the study builds it."""
     import wbik
 
     robot = _robot(robot_name, robot_params)
+    if base is not None:
+        chain = case_chain(robot_name, robot_params, chain, base, tip).name
     return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
                        tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
 

@@ -97,6 +97,8 @@ class CaseSpec:
     poses: int | None = None  # None: the study's
     reference: Reference | None = None  # published figures to compare with, and their angle names
     scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.cases)
+    base: str | None = None  # a chain named by its base and tip frames (``chain`` is then its name)
+    tip: str | None = None
 
 
 @dataclass(frozen=True)
@@ -148,6 +150,9 @@ class Study:
             case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
             if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
                 case.pop("scenario", None)
+            for key in ("base", "tip"):  # chains by name: the same fingerprint as before base/tip
+                if case.get(key) is None:
+                    case.pop(key, None)
         return _digest(data)
 
     def method_fingerprint(self, method: MethodSpec) -> str:
@@ -242,7 +247,7 @@ def study_from_dict(data, source: str = "study") -> Study:
                                    f"got {type(data).__name__}")
     known = {"name", "description", "notes", "robot", "chain", "target", "robot_params", "cases",
              "methods", "poses", "seed", "timeout_s", "tolerances", "start", "baseline", "chunk_size",
-             "reference", "scenario"}
+             "reference", "scenario", "base", "tip"}
     _no_unknown(data, known, source, "the study")
     name = _label(data.get("name", Path(source).stem), "name", source)
     poses = _positive_int(data.get("poses", 1000), "poses", source)
@@ -320,11 +325,15 @@ def _methods(raw, source: str) -> list[MethodSpec]:
 
 
 def _case_name(robot: str, chain: str | None, target: str) -> str:
-    return "_".join(part for part in (Path(robot).stem, chain, target) if part)
+    from wbik.models.erd import example_robot_name
+
+    robot = example_robot_name(robot) or Path(robot).stem
+    return "_".join(part for part in (robot, chain, target) if part)
 
 
 def _cases(data: dict, source: str) -> list[CaseSpec]:
-    top_level = {key for key in ("robot", "chain", "target", "robot_params", "scenario") if key in data}
+    top_level = {key for key in ("robot", "chain", "target", "robot_params", "scenario", "base", "tip")
+                 if key in data}
     if "cases" in data:
         if top_level:
             raise StudyDefinitionError(f"{source}: give either cases: [...] or robot/chain/target at the "
@@ -341,14 +350,14 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             raise StudyDefinitionError(f"{source}: say which robot to study (robot: NAME or a URDF path) "
                                        "or list cases:")
         raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "reference",
-                                           "scenario") if key in data}]
+                                           "scenario", "base", "tip") if key in data}]
     cases: list[CaseSpec] = []
     for index, item in enumerate(raw):
         where = f"cases[{index}]" if "cases" in data else "the study"
         if not isinstance(item, dict):
             raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
         _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "reference",
-                           "scenario"}, source, where)
+                           "scenario", "base", "tip"}, source, where)
         if item.get("target") == "wholebody" or "scenario" in item:
             item = _wholebody_case(item, source, where)
         robot = item.get("robot")
@@ -357,6 +366,9 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         chain = item.get("chain")
         if chain is not None and not isinstance(chain, str):
             raise StudyDefinitionError(f"{source}: {where}.chain must be a chain name")
+        base, tip = _chain_frames(item, source, where)
+        if base is not None and chain is None:
+            chain = f"{base}_to_{tip}"
         target = item.get("target", "pose")
         if target not in TARGET_KINDS:
             raise StudyDefinitionError(
@@ -371,12 +383,27 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             robot=robot, chain=chain, target=target, robot_params=dict(params),
             poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
             reference=_reference(item.get("reference"), target, source, f"{where}.reference"),
-            scenario=item.get("scenario"))
+            scenario=item.get("scenario"), base=base, tip=tip)
         cases.append(case)
     names = [c.name for c in cases]
     if len(set(names)) != len(names):
         raise StudyDefinitionError(f"{source}: case names must be unique (give each a name:), got {names}")
     return cases
+
+
+def _chain_frames(item: dict, source: str, where: str) -> tuple[str | None, str | None]:
+    """A case's ``base``/``tip`` (a chain named by its frames, as KDL and TRAC-IK take it): both or
+    neither, frame names."""
+    base, tip = item.get("base"), item.get("tip")
+    if base is None and tip is None:
+        return None, None
+    if base is None or tip is None:
+        raise StudyDefinitionError(f"{source}: {where}: give both base: and tip: (the chain's frames), got "
+                                   f"only {'base' if tip is None else 'tip'}")
+    for key, value in (("base", base), ("tip", tip)):
+        if not isinstance(value, str) or not value:
+            raise StudyDefinitionError(f"{source}: {where}.{key} must be a frame name, got {value!r}")
+    return base, tip
 
 
 def _wholebody_case(item: dict, source: str, where: str) -> dict:
@@ -394,7 +421,7 @@ def _wholebody_case(item: dict, source: str, where: str) -> dict:
     if item.get("robot", robot) != robot:
         raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
                                    f"{item['robot']!r} (leave robot: out)")
-    for key in ("chain", "robot_params", "reference"):
+    for key in ("chain", "robot_params", "reference", "base", "tip"):
         if item.get(key):
             raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
     return {**item, "target": "wholebody", "robot": robot, "name": item.get("name", scenario)}
@@ -507,6 +534,8 @@ def check_schema(methods, cases, source: str) -> None:
     built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
     from wbik.models import builder_parameters
     from wbik.models import robot_entries
+    from wbik.models.erd import example_robot_name
+    from wbik.models.erd import example_robot_names
     from wbik.solvers.method_registry import methods as chain_methods
     from wbik.solvers.method_registry import solver_options
     from wbik.wholebody.methods import wholebody_solver_options
@@ -527,10 +556,15 @@ def check_schema(methods, cases, source: str) -> None:
                              f"method {spec.method!r}; its options")
     for case in cases:
         path = Path(case.robot).expanduser()
-        if case.robot not in robot_entries() and not path.is_file():
+        example = example_robot_name(case.robot)
+        if example is not None and example not in example_robot_names():
+            raise StudyDefinitionError(
+                f"{source}: case {case.name!r}: example-robot-data has no robot {example!r}"
+                f"{did_you_mean(example, example_robot_names())}")
+        if example is None and case.robot not in robot_entries() and not path.is_file():
             raise StudyDefinitionError(
                 f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
-                f"({', '.join(robot_entries())}) nor an existing URDF file")
+                f"({', '.join(robot_entries())}), example-robot-data:NAME nor an existing URDF file")
         accepted = builder_parameters(case.robot)
         _no_unknown_keys(case.robot_params, accepted, accepted,
                          f"{source}: case {case.name!r}: robot_params has unknown key(s)",

@@ -28,7 +28,7 @@ from wbik.errors import WbikError
 from wbik.study import figures
 from wbik.study import results as store
 from wbik.study.context import _frozen
-from wbik.study.context import _robot
+from wbik.study.context import case_chain
 from wbik.study.context import chunk_count
 from wbik.study.definition import CaseSpec
 from wbik.study.definition import Study
@@ -134,7 +134,7 @@ def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
         return analyse_wholebody(study, case, output)
     directory = store.case_dir(output, case.name)
     rows_by_method, not_applicable = case_rows(study, case, output)
-    chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
+    chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
     store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
     summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
     baseline = study.baseline if study.baseline in rows_by_method else None

@@ -45,7 +45,8 @@ from wbik.solvers.method_registry import IKMethod
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
 from wbik.study.context import _frozen  # also re-exported
-from wbik.study.context import _robot  # also re-exported
+from wbik.study.context import _robot  # noqa: F401 - also re-exported
+from wbik.study.context import case_chain
 from wbik.study.context import chunk_count  # also re-exported
 from wbik.study.context import make_solver  # also re-exported
 from wbik.study.context import solver_budget  # also re-exported
@@ -103,6 +104,8 @@ class ChunkTask:
     at run time (``register_sampler``, ``register_wholebody_method``): carried to the worker, which
     registers them before solving (:func:`wbik.study.wholebody.solve_wholebody_chunk`); empty when
     the listed modules declare both."""
+    base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
+    tip: str | None = None
 
 
 def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
@@ -135,7 +138,7 @@ def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
         reruns += 1
         budget = task.timeout_s * min(MAX_STRETCH, max(wall / max(cpu, 1e-9), 1.0 / STARVED_CPU_SHARE))
         current = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                              budget, task.tolerances, task.seed)
+                              budget, task.tolerances, task.seed, task.base, task.tip)
 
 
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
@@ -156,7 +159,7 @@ def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     from wbik.targets import Target
 
     solver = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                         task.timeout_s, task.tolerances, task.seed)
+                         task.timeout_s, task.tolerances, task.seed, task.base, task.tip)
     count = len(task.positions)
     targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                for i in range(count)]
@@ -238,7 +241,7 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
         poses = sample_wholebody(case.scenario, study.poses_of(case), study.seed)
     else:
-        chain = _robot(case.robot, _frozen(case.robot_params)).chain(case.chain)
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
         poses = sample_poses(chain, study.poses_of(case), study.seed, case.target, study.start)
     path.parent.mkdir(parents=True, exist_ok=True)
     poses.save(path)
@@ -283,7 +286,8 @@ def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chun
         chunk=chunk, first_pose=start,
         positions=poses.positions[start:stop],
         rotations=None if poses.rotations is None else poses.rotations[start:stop],
-        q0=poses.q0[start:stop], registered=IK_METHOD_REGISTRY.added_at_run_time(method.method))
+        q0=poses.q0[start:stop], registered=IK_METHOD_REGISTRY.added_at_run_time(method.method),
+        base=case.base, tip=case.tip)
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:

@@ -1,0 +1,88 @@
+"""The joints between two frames of a Pinocchio model's kinematic tree, as KDL, TRAC-IK and MoveIt find a
+chain from a base link and a tip link.
+
+In a Pinocchio model every frame hangs from one joint (``parentJoint``; 0 is the universe) and every
+joint from its parent (``model.parents``), so the joints that move a tip frame are the ancestors of its
+joint. A chain from ``base`` to ``tip`` is the part of that line below the base's joint: the base must
+not move with the chain (it lies upstream of the tip), or the chain's poses would be measured in a
+moving frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import pinocchio as pin
+
+from wbik.errors import RobotDescriptionError
+from wbik.errors import UnknownFrameError
+
+
+@dataclass(frozen=True)
+class ChainPath:
+    """The joints of a chain between two frames, base to tip, and what was left out of it.
+
+    ``joints``: the 1-DOF joints that move the tip relative to the base; ``locked_mimic``: joints on
+    that line that follow another joint (URDF ``<mimic>``), locked at the nominal configuration.
+    """
+
+    joints: tuple[str, ...]
+    locked_mimic: tuple[str, ...] = ()
+
+
+def frame_index(model: pin.Model, name: str) -> int:
+    """The id of the frame called ``name``, or UnknownFrameError listing the model's frames."""
+    if not isinstance(name, str) or not model.existFrame(name):
+        raise UnknownFrameError(str(name), [frame.name for frame in model.frames])
+    return model.getFrameId(name)
+
+
+def ancestors(model: pin.Model, joint_id: int) -> list[int]:
+    """``joint_id`` and the joints above it up to (not including) the universe, tip first."""
+    line = []
+    while joint_id != 0:
+        line.append(joint_id)
+        joint_id = model.parents[joint_id]
+    return line
+
+
+def leaf_frames(model: pin.Model) -> list[str]:
+    """Body frames of joints that carry no other joint (hands, feet, tools, fingertips), in model order:
+    the tips a user most likely wants a chain to."""
+    parents = set(model.parents[1:])
+    return [frame.name for frame in model.frames if frame.type == pin.FrameType.BODY
+            and frame.parentJoint not in parents and frame.parentJoint != 0]
+
+
+def chain_path(model: pin.Model, base: str, tip: str, mimic: Mapping[str, object] = ()) -> ChainPath:
+    """The joints moving ``tip`` relative to ``base`` (base to tip), mimic followers locked.
+
+    RobotDescriptionError when the base moves with the chain (it is not upstream of the tip), when no
+    joint lies between them, or when a joint on the way is not a 1-DOF revolute or prismatic joint (a
+    floating base: choose a base frame on the robot)."""
+    base_joint = model.frames[frame_index(model, base)].parentJoint
+    tip_joint = model.frames[frame_index(model, tip)].parentJoint
+    line = ancestors(model, tip_joint)
+    if base_joint != 0 and base_joint not in line:
+        upstream = [model.frames[f].name for f in range(len(model.frames))
+                    if model.frames[f].type == pin.FrameType.BODY
+                    and model.frames[f].parentJoint in [0, *line]][:6]
+        raise RobotDescriptionError(
+            f"frame {base!r} is not upstream of {tip!r}: a chain's base must not move with its joints. "
+            f"Frames upstream of {tip!r} include {upstream}")
+    below_base = line[:line.index(base_joint)] if base_joint in line else line
+    joints, locked = [], []
+    for joint_id in reversed(below_base):
+        name = model.names[joint_id]
+        joint = model.joints[joint_id]
+        if joint.nq != 1 or joint.nv != 1:
+            kind = joint.shortname().removeprefix("JointModel")
+            raise RobotDescriptionError(
+                f"joint {name!r} ({kind}, {joint.nv} DOF) lies between {base!r} and {tip!r}; a chain takes "
+                "1-DOF revolute and prismatic joints only. Choose a base frame below it (for a floating "
+                "base: a frame on the robot, e.g. its base link)")
+        (locked if name in mimic else joints).append(name)
+    if not joints:
+        raise RobotDescriptionError(f"no movable joint lies between {base!r} and {tip!r}")
+    return ChainPath(tuple(joints), tuple(locked))

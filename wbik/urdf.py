@@ -1,0 +1,243 @@
+"""From URDF text to the Pinocchio model wbik works on: one angle per revolute joint, unique frame names.
+
+Pinocchio parses a URDF ``continuous`` joint as an unbounded revolute joint with two configuration
+values (cos theta, sin theta) and one velocity. wbik speaks angles everywhere (a chain's q has one value
+per joint, tables and files give angles), so :func:`angle_model` rebuilds the parsed model with each
+unbounded revolute joint replaced by the bounded revolute joint about the same axis, limited to
+``[-pi, pi]`` (one turn: the range random configurations are drawn from and answers are wrapped into).
+The joint's name, placement, inertia, effort and velocity limits are kept, and so are the joint ids,
+frame ids, nv and every velocity-indexed quantity; only nq shrinks by one per such joint. The names of
+the continuous joints are returned beside the model, since the rebuilt model no longer tells them
+apart from a revolute joint limited to one turn: methods that can (KDL, TRAC-IK, the QP, bounded LM)
+then treat them as unbounded and wrap their answers.
+
+A URDF may give a joint and a link the same name (the Unitree Z1's ``gripperStator``). Pinocchio keeps
+both frames, and its frame look-ups by name (``buildReducedModel`` among them) then refuse the name.
+The link keeps it (a frame named in a chain or a task is a link, as in KDL, TRAC-IK and MoveIt); the
+other frames of that name get the suffix of their kind (``gripperStator_joint``), and the renames are
+returned so a loader can say so.
+
+``mimic`` joints (a gripper's second finger following the first) are parsed by Pinocchio as
+independent joints; :func:`mimic_joints` reads which joint follows which from the URDF text, so chains
+can lock them and say so by name.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from dataclasses import field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import RobotDescriptionError
+
+CONTINUOUS_LIMIT = math.pi
+"""A continuous joint's range in wbik's model is [-CONTINUOUS_LIMIT, CONTINUOUS_LIMIT] (rad): one turn."""
+
+_BOUNDED_OF = {
+    "JointModelRUBX": pin.JointModelRX,
+    "JointModelRUBY": pin.JointModelRY,
+    "JointModelRUBZ": pin.JointModelRZ,
+}
+_SUFFIX = {
+    pin.FrameType.JOINT: "joint",
+    pin.FrameType.FIXED_JOINT: "joint",
+    pin.FrameType.OP_FRAME: "frame",
+    pin.FrameType.SENSOR: "sensor",
+}
+
+
+@dataclass(frozen=True)
+class Mimic:
+    """A URDF ``<mimic>``: ``follower = multiplier * leader + offset``."""
+
+    follower: str
+    leader: str
+    multiplier: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass
+class ParsedModel:
+    """A URDF parsed into wbik's model, with what the parse changed.
+
+    ``continuous``: names of the URDF's continuous joints (revolute in ``model``, limited to one
+    turn); ``renamed``: {new frame name: old name} of frames renamed to keep names unique;
+    ``mimic``: {follower joint: Mimic}.
+    """
+
+    model: pin.Model
+    continuous: tuple[str, ...] = ()
+    renamed: dict[str, str] = field(default_factory=dict)
+    mimic: dict[str, Mimic] = field(default_factory=dict)
+    source_model: pin.Model | None = None
+    """The faithful parse (continuous joints as cos, sin), for configurations given in its form."""
+
+
+def is_unbounded_revolute(joint) -> bool:
+    """Whether a Pinocchio joint model is an unbounded revolute joint (nq = 2: cos, sin; nv = 1)."""
+    name = joint.shortname()
+    return name in _BOUNDED_OF or name == "JointModelRevoluteUnboundedUnaligned"
+
+
+def _bounded_revolute(joint):
+    """The bounded revolute joint model about the same axis as an unbounded one."""
+    name = joint.shortname()
+    if name in _BOUNDED_OF:
+        return _BOUNDED_OF[name]()
+    return pin.JointModelRevoluteUnaligned(np.asarray(joint.extract().axis, dtype=float))
+
+
+def _unique_frame_names(model: pin.Model) -> list[str]:
+    """Each frame's name in ``model``, the non-link frames of a shared name renamed by their kind."""
+    names = [frame.name for frame in model.frames]
+    by_name: dict[str, list[int]] = {}
+    for index, name in enumerate(names):
+        by_name.setdefault(name, []).append(index)
+    taken = set(names)
+    for name, indices in by_name.items():
+        if len(indices) == 1:
+            continue
+        bodies = [i for i in indices if model.frames[i].type == pin.FrameType.BODY]
+        if len(bodies) > 1:
+            raise RobotDescriptionError(f"two links are named {name!r}; give each link its own name")
+        keeper = bodies[0] if bodies else indices[0]
+        for index in indices:
+            if index == keeper:
+                continue
+            suffix = _SUFFIX.get(model.frames[index].type, "frame")
+            new, count = f"{name}_{suffix}", 2
+            while new in taken:
+                new, count = f"{name}_{suffix}{count}", count + 1
+            taken.add(new)
+            names[index] = new
+    return names
+
+
+def angle_model(model: pin.Model) -> ParsedModel:
+    """``model`` with one angle per revolute joint and unique frame names (see the module docstring).
+
+    Returns the model itself when nothing needs changing."""
+    unbounded = [j for j in range(1, model.njoints) if is_unbounded_revolute(model.joints[j])]
+    names = _unique_frame_names(model)
+    renamed = {new: frame.name for new, frame in zip(names, model.frames, strict=True) if new != frame.name}
+    if not unbounded and not renamed:
+        return ParsedModel(model, source_model=model)
+    rebuilt = pin.Model()
+    rebuilt.name = model.name
+    rebuilt.gravity = model.gravity
+    for joint_id in range(1, model.njoints):
+        joint = model.joints[joint_id]
+        q_slice = slice(joint.idx_q, joint.idx_q + joint.nq)
+        v_slice = slice(joint.idx_v, joint.idx_v + joint.nv)
+        if joint_id in unbounded:
+            new_joint = _bounded_revolute(joint)
+            lower, upper = np.array([-CONTINUOUS_LIMIT]), np.array([CONTINUOUS_LIMIT])
+        else:
+            new_joint = joint
+            lower, upper = model.lowerPositionLimit[q_slice], model.upperPositionLimit[q_slice]
+        new_id = rebuilt.addJoint(model.parents[joint_id], new_joint, model.jointPlacements[joint_id],
+                                  model.names[joint_id], model.effortLimit[v_slice],
+                                  model.velocityLimit[v_slice], lower, upper,
+                                  model.friction[v_slice], model.damping[v_slice])
+        if new_id != joint_id:  # pragma: no cover - parents precede children in a Pinocchio model
+            raise RobotDescriptionError(f"joint {model.names[joint_id]!r}: the rebuilt model reorders joints")
+        rebuilt.inertias[new_id] = model.inertias[joint_id]
+    for index in range(1, len(model.frames)):
+        frame = pin.Frame(model.frames[index])
+        frame.name = names[index]
+        rebuilt.addFrame(frame, False)  # the bodies' inertias are already in the joints' inertias
+    for quantity in ("armature", "rotorInertia", "rotorGearRatio"):
+        setattr(rebuilt, quantity, getattr(model, quantity).copy())
+    continuous = tuple(model.names[j] for j in unbounded)
+    return ParsedModel(rebuilt, continuous, renamed, source_model=model)
+
+
+def angles_of(parsed: pin.Model, angles: pin.Model, q: np.ndarray) -> np.ndarray:
+    """A configuration of the parsed model (cos, sin per continuous joint) as one of its angle model."""
+    out = pin.neutral(angles)
+    for joint_id in range(1, parsed.njoints):
+        joint, target = parsed.joints[joint_id], angles.joints[joint_id]
+        values = q[joint.idx_q:joint.idx_q + joint.nq]
+        if is_unbounded_revolute(joint):
+            out[target.idx_q] = math.atan2(values[1], values[0])
+        else:
+            out[target.idx_q:target.idx_q + target.nq] = values
+    return out
+
+
+_JOINT_BLOCK = re.compile(r"<joint\b([^>]*?)>(.*?)</joint\s*>", re.DOTALL)
+_ATTRIBUTE = re.compile(r"""\b(\w+)\s*=\s*(["'])(.*?)\2""", re.DOTALL)
+_MIMIC = re.compile(r"<mimic\b([^>]*?)/?>", re.DOTALL)
+
+
+def mimic_joints(text: str) -> dict[str, Mimic]:
+    """{follower: Mimic} of every ``<joint>`` of URDF text with a ``<mimic joint=...>`` element.
+
+    Read with regular expressions, as PlaCo's geometry stripping is: URDF readers accept files a strict
+    XML parser refuses (e.g. ``--`` inside comments)."""
+    text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    mimics = {}
+    for attributes, body in _JOINT_BLOCK.findall(text):
+        found = _MIMIC.search(body)
+        if found is None:
+            continue
+        own = {key: value for key, _, value in _ATTRIBUTE.findall(attributes)}
+        mimic = {key: value for key, _, value in _ATTRIBUTE.findall(found.group(1))}
+        if "name" not in own or "joint" not in mimic:
+            continue
+        try:
+            multiplier = float(mimic.get("multiplier", 1.0))
+            offset = float(mimic.get("offset", 0.0))
+        except ValueError as exc:
+            raise RobotDescriptionError(
+                f"joint {own['name']!r}: <mimic> multiplier and offset must be numbers ({exc})") from None
+        mimics[own["name"]] = Mimic(own["name"], mimic["joint"], multiplier, offset)
+    return mimics
+
+
+def parse_urdf(text: str, floating_base: bool = False, source: str = "URDF") -> ParsedModel:
+    """Parse URDF text into wbik's model (:func:`angle_model`) with its mimic joints; parser failures
+    become RobotDescriptionError."""
+    try:
+        model = (pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if floating_base
+                 else pin.buildModelFromXML(text))
+    except (RuntimeError, ValueError) as exc:
+        raise RobotDescriptionError(
+            f"{source} does not parse as a URDF: {exc}. Check that it is well-formed XML with one root "
+            "link and that every joint names existing parent and child links") from exc
+    parsed = angle_model(model)
+    parsed.mimic = {name: mimic for name, mimic in mimic_joints(text).items()
+                    if parsed.model.existJointName(name)}
+    parsed.source_model = model
+    return parsed
+
+
+_TYPE_CONTINUOUS = re.compile(r"""\btype\s*=\s*(["'])continuous\1""")
+_LIMIT = re.compile(r"<limit\b([^>]*?)(/?)>", re.DOTALL)
+_BOUND_ATTRIBUTE = re.compile(r"""\s(lower|upper)\s*=\s*(["']).*?\2""", re.DOTALL)
+
+
+def continuous_as_revolute(text: str, limit: float) -> str:
+    """URDF text with every continuous joint made revolute with limits [-limit, limit] (its effort and
+    velocity limits kept): for libraries that read the URDF themselves but would store a continuous
+    joint as (cos, sin), so that a joint's position stays one angle there too."""
+
+    def one_joint(match: re.Match) -> str:
+        attributes, body = match.group(1), match.group(2)
+        if not _TYPE_CONTINUOUS.search(attributes):
+            return match.group(0)
+        attributes = _TYPE_CONTINUOUS.sub('type="revolute"', attributes)
+        bounds = f' lower="{-limit!r}" upper="{limit!r}"'
+        found = _LIMIT.search(body)
+        if found is None:
+            body = f'<limit{bounds} effort="0" velocity="0"/>{body}'
+        else:
+            kept = _BOUND_ATTRIBUTE.sub("", found.group(1))
+            body = f"{body[:found.start()]}<limit{bounds}{kept}{found.group(2)}>{body[found.end():]}"
+        return f"<joint{attributes}>{body}</joint>"
+
+    return _JOINT_BLOCK.sub(one_joint, text)
