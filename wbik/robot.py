@@ -27,9 +27,11 @@ import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import RobotDescriptionError
+from wbik.errors import SoleError
 from wbik.errors import UnknownChainError
 from wbik.errors import UnknownFrameError
 from wbik.errors import UnsupportedError
+from wbik.errors import did_you_mean
 from wbik.files import atomic_write_text
 from wbik.geometry import wrap_to_pi
 from wbik.kinematic_tree import chain_path
@@ -37,6 +39,7 @@ from wbik.kinematic_tree import leaf_frames
 from wbik.urdf import Mimic
 from wbik.urdf import angles_of
 from wbik.urdf import parse_urdf
+from wbik.urdf import reduced_model
 from wbik.validation import numeric_array
 
 _CHAIN_BUILD_LOCK = threading.Lock()
@@ -115,7 +118,7 @@ class Chain:
         self.q_index = np.array([full.joints[j].idx_q for j in joint_ids])
         self.v_index = np.array([full.joints[j].idx_v for j in joint_ids])
         locked = [j for j in range(1, full.njoints) if j not in joint_ids]
-        self.model = pin.buildReducedModel(full, locked, robot.nominal)
+        self.model = reduced_model(full, locked, robot.nominal)
         self._local = threading.local()
         order = [self.model.getJointId(name) for name in self.joint_names]
         if order != sorted(order):
@@ -282,9 +285,10 @@ class Robot:
         checked = {}
         for sole, corners in soles.items():
             if not isinstance(sole, str) or not self.model.existFrame(sole):
-                raise RobotDescriptionError(
-                    f"robot {self.name!r}: sole {sole!r} is not a frame of the model; soles are named by "
-                    f"their frames, e.g. {self.frame_names[-1]!r}")
+                raise SoleError(
+                    f"robot {self.name!r}: sole {sole!r} is not a frame of the model"
+                    f"{did_you_mean(sole, self.frame_names)}; soles are named by their frames, e.g. "
+                    f"{self.frame_names[-1]!r}", str(sole))
             checked[sole] = _sole_corners(sole, corners)
         return checked
 
@@ -465,8 +469,8 @@ def serial_chain_spec(model: pin.Model, name: str = "default", mimic: Mapping = 
                 "1-DOF joints only: lock it by passing chains=[ChainSpec(...)] without it")
     movable = [model.names[j] for j in range(1, model.njoints)
                if model.joints[j].nq == 1 and model.names[j] not in mimic]
-    if not movable:
-        raise RobotDescriptionError("the model has no 1-DOF joint to make a chain of")
+    if not movable:  # a drone, say: a robot with no chain
+        return None
     last_joint = model.getJointId(movable[-1])
     frames = [f for f in model.frames if f.parentJoint == last_joint and f.type == pin.FrameType.BODY]
     tip = frames[-1].name if frames else model.frames[-1].name

@@ -241,3 +241,64 @@ def continuous_as_revolute(text: str, limit: float) -> str:
         return f"<joint{attributes}>{body}</joint>"
 
     return _JOINT_BLOCK.sub(one_joint, text)
+
+
+_LINK_BLOCK = re.compile(r"<link\b([^>]*?)(/>|>(.*?)</link\s*>)", re.DOTALL)
+_CHILD = re.compile(r"""<child\b[^>]*?\blink\s*=\s*(["'])(.*?)\1""", re.DOTALL)
+MASSLESS_ROOT = "wbik_massless_root"
+
+
+def with_massless_root(text: str) -> str:
+    """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a new massless
+    root link: KDL's URDF parser (used by TRAC-IK) ignores a root link's inertia and warns about it on
+    every parse, and suggests this very change. Kinematics and every other link are unchanged."""
+    uncommented = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    children = {match.group(2) for match in _CHILD.finditer(uncommented)}
+    for match in _LINK_BLOCK.finditer(uncommented):
+        attributes = {key: value for key, _, value in _ATTRIBUTE.findall(match.group(1))}
+        name = attributes.get("name")
+        if name is None or name in children:
+            continue
+        if "<inertial" not in (match.group(3) or ""):
+            return text
+        root = (f'<link name="{MASSLESS_ROOT}"/><joint name="{MASSLESS_ROOT}_joint" type="fixed">'
+                f'<parent link="{MASSLESS_ROOT}"/><child link="{name}"/></joint>')
+        first_link = re.search(r"<link\b", text)
+        return text[:first_link.start()] + root + text[first_link.start():]
+    return text
+
+
+def reduced_model(model: pin.Model, locked: list[int], q: np.ndarray) -> pin.Model:
+    """``pin.buildReducedModel(model, locked, q)``, also where a movable joint has the name of a link.
+
+    Locking a joint turns it into a fixed-joint frame named after the joint, and Pinocchio 3.8 then
+    looks frames up by that name: a link of the same name (ANYmal C's knee ``RH_KFE``) makes the name
+    ambiguous and the call fails. Such joints (and their joint frames) are renamed for the call; in the
+    result, kept joints get their names back and their frames, fixed or not, are ``NAME_joint``, as
+    :func:`angle_model` names them."""
+    frame_names = {frame.name for frame in model.frames}
+    clashing = {joint_id: model.names[joint_id] for joint_id in range(1, model.njoints)
+                if model.names[joint_id] in frame_names
+                and model.frames[model.getFrameId(model.names[joint_id])].parentJoint != joint_id}
+    if not clashing:
+        return pin.buildReducedModel(model, locked, q)
+    work = pin.Model(model)
+    temporary = {}
+    for joint_id, name in clashing.items():
+        work.names[joint_id] = temporary_name = f"{name}__wbik_renamed_joint"
+        temporary[temporary_name] = name
+    for index, frame in enumerate(work.frames):  # Pinocchio finds a joint frame's joint by its name
+        if frame.type == pin.FrameType.JOINT and frame.parentJoint in clashing:
+            renamed = pin.Frame(frame)
+            renamed.name = work.names[frame.parentJoint]
+            work.frames[index] = renamed
+    reduced = pin.buildReducedModel(work, locked, q)
+    for joint_id in range(1, reduced.njoints):
+        if reduced.names[joint_id] in temporary:
+            reduced.names[joint_id] = temporary[reduced.names[joint_id]]
+    for index, frame in enumerate(reduced.frames):
+        if frame.name in temporary:
+            renamed = pin.Frame(frame)
+            renamed.name = f"{temporary[frame.name]}_joint"
+            reduced.frames[index] = renamed
+    return reduced

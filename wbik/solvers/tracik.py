@@ -28,6 +28,7 @@ from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
+from wbik.urdf import with_massless_root
 
 SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
 
@@ -59,7 +60,8 @@ class TracIKSolver(Solver):
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.solve_type = solve_type
-        self._urdf_text = robot.urdf_text if robot.urdf_path is None else robot.urdf_path.read_text()
+        self._urdf_text = with_massless_root(
+            robot.urdf_text if robot.urdf_path is None else robot.urdf_path.read_text())
         self._thread_state()  # build (and check) this thread's TRAC-IK object now
 
     def _new_thread_state(self):
