@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import numbers
 import threading
 from collections.abc import Callable
 from collections.abc import Iterable
@@ -236,3 +237,67 @@ def check_options(what: str, options: Iterable[str], accepted: set[str] | None) 
         raise InvalidOptionError(
             f"{what} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
             option=unknown[0], accepted=known)
+
+
+def _option_parameters(factory: Callable, leading: int) -> dict[str, inspect.Parameter]:
+    """{keyword option: its parameter} of ``factory`` (for a class: along the hierarchy, as
+    :func:`factory_options` walks it; the first ``__init__`` naming an option wins)."""
+    functions = ([factory] if not isinstance(factory, type) else
+                 [vars(klass)["__init__"] for klass in factory.__mro__
+                  if klass is not object and "__init__" in vars(klass)])
+    found: dict[str, inspect.Parameter] = {}
+    for function in functions:
+        skip = leading + (0 if not isinstance(factory, type) else 1)
+        parameters = list(inspect.signature(function).parameters.values())
+        for index, parameter in enumerate(parameters):
+            if index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
+                found.setdefault(parameter.name, parameter)
+        if not any(p.kind is p.VAR_KEYWORD for p in parameters):
+            break
+    return found
+
+
+def _expected_kind(parameter: inspect.Parameter) -> str | None:
+    """'bool', 'int', 'float' or 'str' from an option's default (or, for a None default, its
+    annotation: ``int | None`` and the like), None when neither says."""
+    default = parameter.default
+    for kind, types in (("bool", bool), ("int", int), ("float", float), ("str", str)):
+        if type(default) is types:
+            return kind
+    if default is None and isinstance(parameter.annotation, str):
+        alternatives = {part.strip() for part in parameter.annotation.split("|")} - {"None"}
+        if len(alternatives) == 1 and next(iter(alternatives)) in ("bool", "int", "float", "str"):
+            return next(iter(alternatives))
+    return None
+
+
+def _has_kind(value, kind: str) -> bool:
+    if kind == "bool":
+        return isinstance(value, bool)
+    if isinstance(value, bool):
+        return False
+    if kind == "int":
+        return isinstance(value, numbers.Integral)
+    if kind == "float":
+        return isinstance(value, numbers.Real)
+    return isinstance(value, str)
+
+
+_KIND_WORDS = {"bool": "true or false", "int": "an integer", "float": "a number", "str": "a string"}
+
+
+def check_option_types(what: str, factory: Callable, options: dict, leading: int) -> None:
+    """InvalidSettingError naming the first option whose value is not of the kind its default (or its
+    ``X | None`` annotation) says: an integer, a number, true/false or a string (None where the default
+    is None). Options whose kind the signature does not tell pass unchecked; the factory checks the
+    values themselves (ranges)."""
+    from wbik.errors import InvalidSettingError
+
+    parameters = _option_parameters(factory, leading)
+    for name, value in options.items():
+        parameter = parameters.get(name)
+        if parameter is None or (value is None and parameter.default is None):
+            continue
+        kind = _expected_kind(parameter)
+        if kind is not None and not _has_kind(value, kind):
+            raise InvalidSettingError(f"{what}: option {name!r} must be {_KIND_WORDS[kind]}, got {value!r}")

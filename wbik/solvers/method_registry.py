@@ -23,6 +23,7 @@ from wbik.errors import InvalidOptionError
 from wbik.errors import UnknownMethodError
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
+from wbik.registry import check_option_types
 from wbik.registry import check_options
 from wbik.registry import factory_options
 from wbik.robot import Robot
@@ -117,6 +118,9 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, **options)
     factory = method_factory(method)
     accepted = factory_options(factory, leading=2)  # as solver_options(method), the factory looked up once
     check_options(f"method {method!r}", options, accepted)
+    own_checks = {"timeout_s", "tolerances", "seed"}  # checked below and by Solver, with their own words
+    check_option_types(f"method {method!r}", factory,
+                       {key: value for key, value in options.items() if key not in own_checks}, leading=2)
     if not isinstance(factory, type):
         try:  # a plain callable: its own signature decides the rest (required options, **kwargs)
             inspect.signature(factory).bind(robot, chain, **options)
