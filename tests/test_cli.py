@@ -130,3 +130,12 @@ def test_output_file_where_a_folder_is_needed(capsys, tmp_path):
     assert code == 2 and "no results" in err
     code, _, err = run(["run", "tasks/does-not-matter.yaml", "--output", str(tmp_path)], capsys)
     assert code == 2 and "is a folder" in err
+
+
+def test_a_reader_that_leaves_early_is_no_internal_error():
+    process = subprocess.Popen([sys.executable, "-m", "wbik.cli", "methods"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE)
+    process.stdout.close()  # the reader is gone before wbik writes (as `wbik methods | head -0`)
+    code = process.wait(timeout=120)
+    error = process.stderr.read().decode()
+    assert code == 141 and "internal error" not in error, (code, error)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import inspect
+import os
 import sys
 import traceback
 
@@ -75,6 +76,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+EXIT_BROKEN_PIPE = 141
+"""Exit status when standard output's reader went away (128 + SIGPIPE, what a shell reports)."""
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     debug = "--debug" in argv
@@ -97,6 +102,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("wbik: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader left (``wbik ... | head``): stop quietly, as a killed pipe does
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # Python's final flush would fail again
+        return EXIT_BROKEN_PIPE
     except Exception as exc:  # noqa: BLE001 - the one place that turns a bug into exit code 3
         if debug:
             traceback.print_exc()

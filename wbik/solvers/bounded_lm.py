@@ -629,7 +629,7 @@ class VectorisedChain:
     are then plain slices of the frames. T(q) = F_1 A_1(q_1) ... A_n(q_n) with F_1 = P_0 Q_1,
     A_k = Z(q_k) Q_k^T P_k Q_{k+1} (Q_{n+1} = I) and Z(q) = I + f(q) K + g(q) K^2, K the
     cross-product matrix of e_z, f = sin, g = 1 - cos (revolute); Z(q) = I + q E_z (prismatic, E_z
-    the translation along z, g = 0). So every A_k(q_k) = [1, f, g] [C0; C1; C2]_k comes from one
+    the translation along z, g = 0). So every ``A_k(q_k) = [1, f, g] [C0; C1; C2]_k`` comes from one
     matrix product, followed by n products down the chain. Jacobian column k in base axes:
     [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic). Jacobians are returned transposed
     (B, n, m), position rows (and errors) weighted by ``position_weight``.
