@@ -1,11 +1,11 @@
 """Packaging hook (everything else is in pyproject.toml): a built wheel carries the repository's
-top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``) and
-the study files ``comparisons/*.yaml``; and it builds the optional C extensions of
+top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``), the
+study files ``comparisons/*.yaml`` and the project's robot descriptions ``urdf/``; and it builds the
+optional C extensions of
 :mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic,
 ``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path, ``wbik.qp._rows_kernel``,
 the QP step's frame-task rows and quadratic, and ``wbik.solvers._lm_kernel``, bounded_lm's trial step).
-Without a C compiler the build goes on without them and their Python twins run. (The robots' URDFs are
-package data of their robot packages, ``wbik/robot_packages/<robot>/``, declared in pyproject.toml.)
+Without a C compiler the build goes on without them and their Python twins run.
 
 The folders stay at the top level of the repository, where the README documents them;
 :func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
@@ -26,6 +26,7 @@ DATA = {
     # folder -> glob patterns of the files shipped (comparisons/reports/ is output, not shipped)
     "tasks": ("*.yaml", "*.yml", "*.json", "*.toml", "data/*.yaml"),
     "comparisons": ("*.yaml", "*.yml", "*.toml"),
+    "urdf": ("*.urdf", "*.urdf.xml"),
 }
 
 

@@ -1,5 +1,5 @@
-"""Write the URDF files of the robots built from DH tables into their robot packages (run after
-changing a table): wbik/robot_packages/pincher/pincher.urdf and wbik/robot_packages/arm3r/arm3r.urdf.
+"""Write the URDF files of the robots built from DH tables into urdf/ (run after
+changing a table): urdf/pincher.urdf and urdf/arm3r.urdf.
 
     .venv/bin/python scripts/export_urdf.py
 """

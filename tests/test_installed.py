@@ -6,8 +6,8 @@ interpreter without pip; a ``.pth`` there adds the test venv's site-packages *af
 own, so the dependencies are reused while ``import wbik`` finds the installed copy first (the
 editable install's finder is consulted only after the path). The commands run from ``tmp_path``
 with the new venv's ``wbik`` script, so neither the source tree nor the cwd can supply data: the
-tasks and study files must come from the wheel (``wbik/data/``), the robots' URDFs from its robot
-packages (``wbik/robot_packages/<robot>/``). The URDF cache goes to ``WBIK_CACHE_DIR``, and a run
+tasks, study files and the robots' URDFs must come from the wheel (``wbik/data/``: ``tasks/``,
+``comparisons/``, ``urdf/``). The URDF cache goes to ``WBIK_CACHE_DIR``, and a run
 that uses no PlaCo writes nothing there.
 """
 
@@ -26,7 +26,7 @@ import pytest
 from wbik.compiled import can_build
 
 ROOT = Path(__file__).resolve().parents[1]
-BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks")
+BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks", "urdf")
 TIMEOUT_S = 600
 HAS_COMPILER = can_build()
 """Whether the wheel can build the C kernels."""
@@ -59,8 +59,10 @@ def installed(tmp_path_factory) -> dict:
     env = {key: value for key, value in os.environ.items() if key not in ("PYTHONPATH", "VIRTUAL_ENV")}
     env.update(PIP_DISABLE_PIP_VERSION_CHECK="1", WBIK_CACHE_DIR=str(work / "cache"), MPLBACKEND="Agg")
     wheels = work / "wheels"
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", ".", "-w", wheels], cwd=source, env=env)
+    build = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", ".", "-w", wheels], cwd=source,
+                 env=env)
     wheel = next(wheels.glob("wbik-*.whl"))
+    build_output = build.stdout + build.stderr
 
     venv = work / "venv"
     _run([sys.executable, "-m", "venv", "--without-pip", venv], cwd=work, env=env)
@@ -77,7 +79,7 @@ def installed(tmp_path_factory) -> dict:
     run_dir = work / "run"
     run_dir.mkdir()
     return {"env": env, "python": python, "wbik": venv / "bin" / "wbik", "purelib": purelib,
-            "cwd": run_dir, "cache": work / "cache"}
+            "cwd": run_dir, "cache": work / "cache", "build_output": build_output}
 
 
 def test_the_installed_copy_is_imported_and_carries_its_data(installed):
@@ -104,14 +106,13 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
         assert Path(line).is_relative_to(package / "data"), line
         assert Path(line).exists(), line
     assert "bioloid_balance" in lines[4] and "ur5_riveting" in lines[4]
-    # the URDFs are package data of their robot packages
-    robots = package / "robot_packages"
-    expected = [robots / "golem3" / "golem3.urdf", robots / "bioloid" / "bioloid.urdf",
-                robots / "arm3r" / "arm3r.urdf", robots / "pincher" / "pincher.urdf",
-                robots / "ur5" / "ur5_rivet_tool.urdf.xml"]
+    # the project's robot descriptions are the wheel's copy of the top-level urdf/
+    urdf = package / "data" / "urdf"
+    expected = [urdf / "golem3.urdf", urdf / "bioloid.urdf", urdf / "arm3r.urdf", urdf / "pincher.urdf",
+                urdf / "ur5_rivet_tool.urdf.xml"]
     assert [Path(line) for line in lines[5:10]] == expected
     assert all(path.is_file() for path in expected)
-    assert not (package / "data" / "urdf").exists()
+    assert not list((package / "robot_packages").rglob("*.urdf*")), "robot packages keep code only"
     assert not installed["cache"].exists(), "creating a Robot wrote into the URDF cache"
     if HAS_COMPILER:  # the wheel compiled every kernel (the copy had no .so)
         built, kernel_file = lines[10].split()
@@ -177,3 +178,10 @@ def test_robots_write_no_urdf_until_a_library_asks_for_a_file(monkeypatch, tmp_p
     path = robot.urdf_file()  # what PlaCo's loader (a file reader) gets
     assert path.parent == tmp_path / "cache" / "urdf" and path.read_text() == robot.urdf_text
     assert robot.urdf_file() == path == write_cached_urdf(robot.name, robot.urdf_text)
+
+
+def test_building_the_wheel_warns_of_nothing_in_our_metadata(installed):
+    output = installed["build_output"]
+    assert "Compiling" in output or "running build" in output, output[-2000:]  # the verbose log was read
+    for warning in ("SetuptoolsDeprecationWarning", "project.license", "License classifiers"):
+        assert warning not in output, output[output.find(warning) - 500:output.find(warning) + 500]

@@ -1,6 +1,7 @@
-"""The data files wbik ships: scenario files (``tasks/``, keyframes in ``tasks/data/``) and study
-definitions (``comparisons/*.yaml``). (The robots' URDFs are not here: each is package data of its
-robot package.)
+"""The data files wbik ships: scenario files (``tasks/``, keyframes in ``tasks/data/``), study
+definitions (``comparisons/*.yaml``) and the robot descriptions written for this project (``urdf/``:
+Golem-III, Pincher, Bioloid, arm3r and the UR5's riveting tool; robot packages keep the code that
+builds and reads them).
 
 In the source tree (and an editable install) they are the repository's top-level folders, where the
 README documents them. A built wheel carries a copy of each at ``wbik/data/<folder>/`` (setup.py
@@ -13,13 +14,13 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-FOLDERS = ("tasks", "comparisons")
+FOLDERS = ("tasks", "comparisons", "urdf")
 SCENARIO_SUFFIXES = (".yaml", ".yml", ".json", ".toml")
 STUDY_SUFFIXES = (".yaml", ".yml", ".toml")
 
 
 def data_dir(folder: str) -> Path:
-    """The folder ``tasks`` or ``comparisons``: the installed copy, else the source tree's."""
+    """The folder ``tasks``, ``comparisons`` or ``urdf``: the installed copy, else the source tree's."""
     if folder not in FOLDERS:
         raise ValueError(f"unknown data folder {folder!r}; one of {', '.join(FOLDERS)}")
     packaged = files(__name__) / folder
@@ -67,3 +68,9 @@ def study_path(name_or_path: str | Path) -> Path:
     """A study file: an existing path as given, else the shipped study of that name (or file name, or
     ``comparisons/NAME.yaml`` path); otherwise the path as given (the caller reports it missing)."""
     return _resolve(name_or_path, shipped_studies(), "comparisons")
+
+
+def description_file(name: str) -> Path:
+    """A robot description shipped in ``urdf/`` (e.g. ``golem3.urdf``); for the generated ones
+    (Golem-III, Bioloid) the file need not exist yet: ``scripts/export_urdf.py`` writes it."""
+    return data_dir("urdf") / name

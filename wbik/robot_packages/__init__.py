@@ -1,19 +1,14 @@
 """The robot packages shipped with wbik: one package per robot with its model (``model.py``:
-``build(**params) -> Robot``, which writes or loads its URDF; collision primitives), its URDF file as
-package data next to it (e.g. ``golem3/golem3.urdf``, found with :func:`package_file`) and, where one
-exists, its closed-form binding (``closed_form.py``, named in the robot's ``closed_forms``).
+``build(**params) -> Robot``, which writes or loads its URDF; collision primitives) and, where one
+exists, its closed-form binding (``closed_form.py``, named in the robot's ``closed_forms``). The robot
+descriptions written for this project lie in the repository's top-level ``urdf/`` (shipped in the
+wheel; :func:`wbik.data.description_file` finds them).
 
 ``ROBOTS`` declares them to the robot registry (:mod:`wbik.models`); a new robot package is one
-line here. pyproject.toml ships every ``*.urdf`` and ``*.urdf.xml`` of a robot package in the wheel.
+line here.
 """
 
 from __future__ import annotations
-
-import atexit
-from contextlib import ExitStack
-from importlib.resources import as_file
-from importlib.resources import files
-from pathlib import Path
 
 from wbik.models import RobotEntry
 
@@ -36,17 +31,3 @@ ROBOTS = (
              "(seed 002)"),
     _shipped("panda", "Franka Emika Panda 7-DOF arm (example-robot-data), a redundant reference chain"),
 )
-
-_EXTRACTED = ExitStack()
-atexit.register(_EXTRACTED.close)
-
-
-def package_file(package: str, name: str) -> Path:
-    """The file ``name`` shipped in the package ``package`` (e.g. ``__package__`` of a robot's
-    model.py), found with :mod:`importlib.resources`: the file itself where the package lies on a
-    file system (the source tree, an editable install, an installed wheel; there the file need not
-    exist yet, scripts/export_urdf.py writes it), else a copy extracted for the life of the process."""
-    resource = files(package) / name
-    if isinstance(resource, Path):
-        return resource
-    return _EXTRACTED.enter_context(as_file(resource))

@@ -1,7 +1,7 @@
 """Collision model of the cell (Pinocchio GeometryModel + coal) and the distance queries.
 
 Robot: the UR5's collision meshes from example-robot-data (coal BVH models) and the tool's
-primitives (wbik/robot_packages/ur5/ur5_rivet_tool.urdf.xml: the 40 mm holder, the 5 mm pin
+primitives (urdf/ur5_rivet_tool.urdf.xml: the 40 mm holder, the 5 mm pin
 whose tip is the tcp).
 Cell: the workpiece and the table are GeometryObjects fixed to the universe joint of the same
 GeometryModel (so a viewer or ``pin.computeDistances`` sees them too).

@@ -15,15 +15,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import DHTable
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages import package_file
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
-URDF_PATH = package_file(__package__, "arm3r.urdf")
+URDF_PATH = description_file("arm3r.urdf")
 """The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
 
 CLOSED_FORMS = {("arm", "position"): "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}

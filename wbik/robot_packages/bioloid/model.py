@@ -44,10 +44,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from wbik.data import description_file
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages import package_file
 
 # --- lengths from the seed (m) -------------------------------------------------------------------
 L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675
@@ -277,7 +277,7 @@ def urdf_text(tool_length: float = TOOL_CODE) -> str:
     return "\n".join(w.lines) + "\n"
 
 
-URDF_PATH = package_file(__package__, "bioloid.urdf")
+URDF_PATH = description_file("bioloid.urdf")
 
 
 def chain_specs() -> list[ChainSpec]:

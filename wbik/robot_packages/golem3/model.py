@@ -40,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import joint_xml
 from wbik.dh import link_xml
@@ -49,7 +50,6 @@ from wbik.dh import urdf_document
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import model_from_urdf_text
-from wbik.robot_packages import package_file
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 
 # -- thesis geometry (golem3.md) ----------------------------------------------------------------
@@ -79,7 +79,7 @@ LEFT_JOINTS = ("m20", "m21", "m22", "m23", "m24")
 MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
 """Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
 
-URDF_PATH = package_file(__package__, "golem3.urdf")
+URDF_PATH = description_file("golem3.urdf")
 """The committed URDF (package data next to this module), written by :func:`write_urdf`."""
 
 

@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import DHTable
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages import package_file
 
 BASE_HEIGHT = 0.137
 LINK = 0.105
@@ -29,7 +29,7 @@ WRIST_TO_TOOL = 0.095
 LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
 TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
-URDF_PATH = package_file(__package__, "pincher.urdf")
+URDF_PATH = description_file("pincher.urdf")
 """The committed URDF of :func:`dh_table` (package data next to this module; scripts/export_urdf.py)."""
 
 

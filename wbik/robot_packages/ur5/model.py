@@ -11,12 +11,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.data import description_file
 from wbik.models.erd import package_dirs
 from wbik.models.erd import urdf_path
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages import package_file
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
@@ -24,7 +24,7 @@ TOOL_LENGTH = 0.13
 """ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
 TOOL_DIAMETER = 0.005
 """Diameter of the rivet tool's pin (m): the 5 mm cylinder (assumed)."""
-TOOL_URDF_PATH = package_file(__package__, "ur5_rivet_tool.urdf.xml")
+TOOL_URDF_PATH = description_file("ur5_rivet_tool.urdf.xml")
 """The riveting tool's links and joints (a URDF fragment), appended to example-robot-data's UR5."""
 
 CLOSED_FORMS = {
