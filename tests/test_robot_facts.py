@@ -6,6 +6,7 @@ readers that need one robot's facts get a typed error on any other robot.
 
 from __future__ import annotations
 
+import pickle
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,7 @@ import pytest
 import wbik
 from wbik.errors import InvalidOptionError
 from wbik.errors import RobotDescriptionError
+from wbik.errors import SoleError
 from wbik.qp.humanoid import support_polygon
 from wbik.robot_packages.arm3r.model import URDF_PATH as ARM3R_URDF
 from wbik.robot_packages.arm3r.model import Arm3RFacts
@@ -52,8 +54,9 @@ def test_urdf_soles_are_read_only_and_checked():
     robot = wbik.load(BIOLOID_URDF, floating_base=True, soles={"r_sole": CORNERS})
     with pytest.raises(ValueError, match="read-only"):
         robot.soles["r_sole"][0, 0] = 1.0
-    for soles, words in (({"r_foot": CORNERS}, ("'r_foot'", "not a frame")),
-                         ({"r_sole": CORNERS[:2]}, ("'r_sole'", ">= 3")),
+    for soles, words in (({"r_sol": CORNERS}, ("'r_sol'", "not a frame", "did you mean 'r_sole'")),
+                         ({"r_sole": []}, ("'r_sole'", "k >= 1")),
+                         ({"r_sole": [[0.0, 0.0]]}, ("'r_sole'", "(k, 3)")),
                          ({"r_sole": [[0.0, 0.0, np.nan]] * 4}, ("finite",)),
                          ({"r_sole": "square"}, ("'r_sole'", "(k, 3)")),
                          ([CORNERS], ("soles must map",))):
@@ -61,6 +64,18 @@ def test_urdf_soles_are_read_only_and_checked():
             wbik.load(BIOLOID_URDF, floating_base=True, soles=soles)
         for word in words:
             assert word in str(info.value)
+        if isinstance(soles, dict):  # the sole is named on the typed error, also after pickling
+            assert isinstance(info.value, SoleError) and info.value.sole == next(iter(soles))
+            copy = pickle.loads(pickle.dumps(info.value))
+            assert (type(copy), str(copy), copy.sole) == (SoleError, str(info.value), info.value.sole)
+
+
+def test_soles_may_be_points_and_edges():
+    """A point foot ([x, y, z] or [[x, y, z]]) and an edge (2 points) are soles like a rectangle."""
+    robot = wbik.load(BIOLOID_URDF, floating_base=True,
+                      soles={"r_sole": [0.01, 0.0, 0.0], "l_sole": CORNERS[:2]})
+    assert robot.soles["r_sole"].shape == (1, 3) and robot.soles["l_sole"].shape == (2, 3)
+    np.testing.assert_array_equal(robot.soles["r_sole"], [[0.01, 0.0, 0.0]])
 
 
 def test_urdf_closed_form_needs_its_facts():

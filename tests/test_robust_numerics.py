@@ -8,7 +8,9 @@ output of the code under test. Tolerances:
 
 - support polygon margins within 1e-9 m of the hand value (noise <= 1e-10 of a 0.14 m polygon moves
   the boundary by <= 1.4e-11 m, the hull tolerance by <= 1.4e-10 m), the vertex count exactly the
-  hand count, degenerate sets always raising DegenerateSupportPolygonError;
+  hand count, degenerate sets always raising DegenerateSupportPolygonError; the same for point feet
+  (four, three, a sole and a point), and degenerate point feet (two, on one line, coincident far from
+  the origin) always collapsing to the hand segment or point, with margin minus the hand distance;
 - closed forms: success unchanged (True), the solution's Pinocchio FK within the shared 1e-6 m / 1e-6
   rad, q6 of the start kept to 1e-12 rad at a singular UR5 wrist, merged branches listed once.
 
@@ -36,16 +38,19 @@ from hypothesis import strategies as st
 import wbik
 from wbik.qp.humanoid import sole_corners
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.support_polygon import DegenerateSupport
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import contact_points
+from wbik.qp.support_polygon import support_region
 from wbik.robot_packages.bioloid.model import ALPHA
 from wbik.solvers.analytic import wrap_into_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 CHILD = "WBIK_NUMERICS_CHILD"
 NUMERICS_FILES = ["tests/test_robust_numerics.py", "tests/test_scenarios_wholebody.py",
-                  "tests/test_analytic_ur5.py", "tests/test_ur_kernel.py", "tests/test_compiled.py"]
+                  "tests/test_scenarios_legged.py", "tests/test_analytic_ur5.py", "tests/test_ur_kernel.py",
+                  "tests/test_compiled.py"]
 SETTINGS = settings(deadline=None, max_examples=50, derandomize=True, database=None)
 RHO = math.radians(13.43)  # golem3.md
 MARGIN_TOLERANCE = 1e-9
@@ -159,6 +164,122 @@ def test_collinear_corners_raise_a_typed_error(relative, direction):
         SupportPolygon(line * (1.0 + relative))
     with pytest.raises(ValueError):  # still a ValueError for callers that caught the old one
         SupportPolygon(np.vstack((line[:1], line[:1] * (1.0 + relative[:1]))))
+
+
+# --- point feet ----------------------------------------------------------------------------------------
+FEET = np.array([[0.1946, 0.1689], [-0.1946, 0.1689], [-0.1946, -0.1689], [0.1946, -0.1689]])
+"""A quadruped's four feet (x, y), m: Solo12's standing stance, written here by hand."""
+
+
+def line_margin(point, vertices) -> float:
+    """Hand geometry: signed distance from ``point`` to the boundary of the convex polygon ``vertices``
+    given counter-clockwise (cross products, positive inside)."""
+    margins = []
+    for a, b in zip(vertices, np.roll(vertices, -1, axis=0), strict=True):
+        edge, offset = b - a, np.asarray(point) - a
+        margins.append((edge[0] * offset[1] - edge[1] * offset[0]) / np.hypot(*edge))
+    return float(min(margins))
+
+
+def segment_distance(point, a, b) -> float:
+    """Hand geometry: distance from ``point`` to the segment [a, b]."""
+    direction = b - a
+    t = np.clip(np.dot(np.asarray(point) - a, direction) / np.dot(direction, direction), 0.0, 1.0)
+    return float(np.hypot(*(np.asarray(point) - a - t * direction)))
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((4, 2)), angle=st.floats(-math.pi, math.pi), shift=st.floats(-2.0, 2.0))
+def test_four_point_feet_keep_their_quadrilateral_and_margins(relative, angle, shift):
+    """Four point feet, turned and moved anywhere, with rounding noise: 4 vertices, the hand margins to
+    1e-9 m, and the CoM decision at 1 um either side of a 20 mm margin does not flip."""
+    turn = np.array([[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]])
+    feet = FEET @ turn.T + [shift, -shift]
+    polygon = SupportPolygon(feet * (1.0 + relative))
+    assert len(polygon.vertices) == 4
+    centre = feet.mean(axis=0)
+    for local in ([0.0, 0.0], [0.1, 0.05], [-0.15, 0.12], [0.25, 0.0]):
+        point = centre + turn @ local
+        assert abs(polygon.margin_of(point) - line_margin(point, feet)) < MARGIN_TOLERANCE
+    for offset in (-1e-6, 1e-6):  # CoM 20 mm +- 1 um from the front edge
+        point = centre + turn @ [FEET[0, 0] - 0.02 + offset, 0.0]
+        assert polygon.contains(point, margin=0.02) == (offset < 0)
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((3, 2)), lifted=st.integers(0, 3))
+def test_three_point_feet_make_a_triangle(relative, lifted):
+    """One foot lifted: the triangle of the other three, margins by hand (the centre of the four feet
+    lies on the triangle's diagonal: margin 0 to 1e-9, so a positive margin needs the CoM moved)."""
+    feet = np.delete(FEET, lifted, axis=0)  # still counter-clockwise
+    polygon = SupportPolygon(feet * (1.0 + relative))
+    assert len(polygon.vertices) == 3
+    assert abs(polygon.margin_of([0.0, 0.0])) < MARGIN_TOLERANCE
+    inside = feet.mean(axis=0)
+    assert abs(polygon.margin_of(inside) - line_margin(inside, feet)) < MARGIN_TOLERANCE
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((2, 2)), pair=st.sampled_from([(0, 2), (1, 3), (0, 1), (1, 2)]),
+       point=st.tuples(st.floats(-0.3, 0.3), st.floats(-0.3, 0.3)))
+def test_two_point_feet_are_a_degenerate_segment(relative, pair, point):
+    """Two point feet (a trot's diagonal pair, or one side): no polygon at any rounding; the region
+    they collapse to is the segment, whose margin is minus the hand distance to it, never inside."""
+    feet = FEET[list(pair)] * (1.0 + relative)
+    with pytest.raises(DegenerateSupportPolygonError):
+        SupportPolygon(feet)
+    region = support_region(feet)
+    assert isinstance(region, DegenerateSupport) and len(region.vertices) == 2
+    expected = -segment_distance(point, *FEET[list(pair)])
+    assert abs(region.margin_of(point) - expected) < MARGIN_TOLERANCE
+    assert not region.contains(point, margin=0.0)
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((4, 2)), middle=st.floats(0.1, 0.9))
+def test_point_feet_on_one_line_are_degenerate(relative, middle):
+    """Three or four point feet on one line (the diagonal, with rounding across it): a segment."""
+    a, b = FEET[0], FEET[2]
+    feet = np.array([a, a + middle * (b - a), b, a + 0.5 * middle * (b - a)]) * (1.0 + relative)
+    with pytest.raises(DegenerateSupportPolygonError, match="one line"):
+        SupportPolygon(feet)
+    region = support_region(feet)
+    assert len(region.vertices) == 2
+    assert abs(region.margin_of(a) - 0.0) < MARGIN_TOLERANCE  # an end of the segment lies on it
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((3, 2)), far=st.floats(1.0, 1000.0))
+def test_coincident_point_feet_far_from_the_origin_are_one_point(relative, far):
+    """Three feet a rounding apart at (far, -far/2) m: one point, not a tiny triangle (the tolerance
+    scales with the coordinates, whose rounding is what separates them); margin = -distance to it."""
+    where = np.array([far, -0.5 * far])
+    feet = np.tile(where, (3, 1)) * (1.0 + relative)
+    with pytest.raises(DegenerateSupportPolygonError):
+        SupportPolygon(feet)
+    region = support_region(feet)
+    assert len(region.vertices) == 1
+    assert abs(region.margin_of(where + [0.3, 0.4]) + 0.5) < 1e-9 * far
+
+
+@pytest.mark.numerics
+@SETTINGS
+@given(relative=noise((5, 2)))
+def test_a_flat_sole_and_a_point_foot_share_one_hull(relative):
+    """A 0.2 x 0.1 m sole and a point foot 0.3 m ahead of its centre: a pentagon (the sole's four
+    corners and the point), margins by hand."""
+    sole = np.array([[0.1, 0.05], [-0.1, 0.05], [-0.1, -0.05], [0.1, -0.05]])
+    tip = np.array([[0.3, 0.0]])
+    polygon = SupportPolygon(np.vstack((sole, tip)) * (1.0 + relative))
+    assert len(polygon.vertices) == 5
+    pentagon = np.array([[0.3, 0.0], [0.1, 0.05], [-0.1, 0.05], [-0.1, -0.05], [0.1, -0.05]])
+    for point in ([0.0, 0.0], [0.15, 0.01], [0.25, 0.0], [0.4, 0.0]):
+        assert abs(polygon.margin_of(point) - line_margin(point, pentagon)) < MARGIN_TOLERANCE
 
 
 # --- closed forms -----------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from wbik.errors import InvalidBudgetError
@@ -39,6 +40,20 @@ phases:
     tasks:
       - {type: com, over: r_sole, axes: xy}
       - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
+"""
+
+
+LEGGED = """kind: wholebody_ik
+robot: example-robot-data:solo12
+soles:
+  - {frame: FL_FOOT, point: [0, 0, 0]}
+  - {frame: FR_FOOT, point: [0, 0, 0]}
+  - {frame: HL_FOOT, point: [0, 0, 0]}
+methods: [qp, pink]
+phases:
+  - contacts: [FL_FOOT, FR_FOOT, HL_FOOT]
+    tasks:
+      - {type: frame, frame: base_link, offset: [0.01, 0, 0]}
 """
 
 
@@ -114,6 +129,37 @@ def yaml_load(text: str):
     ("~\n", ScenarioFileError, ["empty", "null"]),
     ("kind: [unclosed\n", ScenarioFileError, ["not valid YAML"]),
     ("kind: wholebody_ik\nrobot: golem3\n1: x\nphases: []\n", ScenarioValueError, ["keys must be strings"]),
+    (LEGGED.replace("{frame: FL_FOOT, point:", "{frame: FL_FOOT, pont:"), UnknownScenarioKeyError,
+     ["soles[0].pont", "did you mean 'point'"]),
+    (LEGGED.replace("{frame: FL_FOOT, point: [0, 0, 0]}", "{frame: FL_FOOT, point: [0, 0, 0], size: [1, 1]}"),
+     ScenarioValueError, ["soles[0]", "exactly one of size, corners, point", "got size, point"]),
+    (LEGGED.replace("{frame: FL_FOOT, point: [0, 0, 0]}", "{frame: FL_FOOT}"), ScenarioValueError,
+     ["soles[0]", "exactly one of", "got none"]),
+    (LEGGED.replace("point: [0, 0, 0]}", "point: [0, 0, 0], centre: [0, 0, 0]}", 1), ScenarioValueError,
+     ["soles[0].centre", "size"]),
+    (LEGGED.replace("{frame: FL_FOOT, point: [0, 0, 0]}", "{frame: FL_FOOT, size: [0.2, -0.1]}"),
+     ScenarioValueError, ["soles[0].size[1]", "positive"]),
+    (LEGGED.replace("{frame: FR_FOOT,", "{frame: FL_FOOT,"), ScenarioValueError, ["soles[1].frame", "twice"]),
+    (LEGGED.replace("methods: [qp, pink]", "methods: [qp, pnik]"), ScenarioValueError,
+     ["methods[1]", "did you mean 'pink'"]),
+    (LEGGED.replace("methods: [qp, pink]", "methods: [{method: placo, options: {regularisation: 1}}]"),
+     InvalidOptionError, ["methods[0].options.regularisation", "did you mean 'regularization'"]),
+    (LEGGED.replace("methods: [qp, pink]", "methods: [qp, {method: qp}]"), ScenarioValueError,
+     ["methods[1]", "label 'qp' is used twice"]),
+    (LEGGED.replace("    tasks:", "    lock: [FL_HAA]\n    tasks:"), ScenarioValueError,
+     ["phases[0].lock", "methods"]),
+    (LEGGED.replace("soles:", "robot_params: {floating_base: yes please}\nsoles:"), ScenarioValueError,
+     ["robot_params.floating_base", "true or false"]),
+    (LEGGED.replace("soles:", "robot_params: {floating_bse: true}\nsoles:"), UnknownScenarioKeyError,
+     ["robot_params.floating_bse", "did you mean 'floating_base'"]),
+    (LEGGED.replace("soles:", "robot_params: {facts: 1}\nsoles:"), ScenarioValueError,
+     ["robot_params.facts", "Python"]),
+    (LEGGED.replace("soles:", "robot_params: {soles: {FL_FOOT: [0, 0, 0]}}\nsoles:"), ScenarioValueError,
+     ["soles", "not both"]),
+    (LEGGED.replace("example-robot-data:solo12", "example-robot-data:solo21"), UnknownRobotError,
+     ["solo21", "did you mean 'solo12'"]),
+    (BALANCE.replace("robot: bioloid", "robot: bioloid\nsoles: [{frame: r_sole, point: [0, 0, 0]}]"),
+     ScenarioValueError, ["soles", "declares its own soles"]),
 ])
 def test_hostile_files_raise_typed_errors_naming_file_and_key(tmp_path, text, error, words):
     path = write(tmp_path, text)
@@ -124,6 +170,34 @@ def test_hostile_files_raise_typed_errors_naming_file_and_key(tmp_path, text, er
     assert "bad.yaml" in message, message
     for word in words:
         assert word in message, (word, message)
+
+
+def test_legged_file_soles_become_the_robots_contact_points(tmp_path):
+    """size (centred on centre), corners and point entries give robot_params.soles, checked by hand."""
+    text = LEGGED.replace("{frame: FR_FOOT, point: [0, 0, 0]}",
+                          "{frame: FR_FOOT, size: [0.2, 0.1], centre: [0.01, 0, -0.02]}").replace(
+        "{frame: HL_FOOT, point: [0, 0, 0]}", "{frame: HL_FOOT, corners: [[0.1, 0, 0], [-0.1, 0, 0]]}")
+    checked = validate(load_scenario(write(tmp_path, text)), "legged.yaml")
+    soles = checked["robot_params"]["soles"]
+    assert soles["FL_FOOT"] == [[0, 0, 0]] and soles["HL_FOOT"] == [[0.1, 0, 0], [-0.1, 0, 0]]
+    corners = np.array(sorted(map(tuple, soles["FR_FOOT"])))
+    np.testing.assert_allclose(corners, [[-0.09, -0.05, -0.02], [-0.09, 0.05, -0.02], [0.11, -0.05, -0.02],
+                                         [0.11, 0.05, -0.02]], atol=1e-15)
+    assert [entry["label"] for entry in checked["methods"]] == ["qp", "pink"]
+
+
+@pytest.mark.parametrize("change, words", [
+    (("{frame: FL_FOOT,", "{frame: FL_FOT,"), ["soles[0].frame", "FL_FOT", "did you mean 'FL_FOOT'"]),
+    (("contacts: [FL_FOOT, FR_FOOT, HL_FOOT]", "contacts: [FL_FOOT, FR_FOOT]"),
+     ["phases[0].support", "FL_FOOT", "FR_FOOT", "no support polygon"]),
+])
+def test_legged_file_errors_found_when_running_name_the_key(tmp_path, change, words):
+    """Frames are known once the robot is loaded; support that spans no area (two point feet) is bad
+    input of the phase, not a failed solve."""
+    with pytest.raises(ScenarioValueError) as info:
+        run_scenario(load_scenario(write(tmp_path, LEGGED.replace(*change))))
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
 
 
 def test_unknown_key_error_lists_the_known_keys(tmp_path):
@@ -182,3 +256,7 @@ def test_cli_bad_scenarios_exit_2_without_traceback(tmp_path):
         assert "Traceback" not in out.stderr and out.stderr.startswith("wbik: error: "), out.stderr
     out = subprocess.run([str(WBIK), "run", str(bad)], capture_output=True, text=True, timeout=120)
     assert "phases[0].tasks[1].wieght" in out.stderr and "weight" in out.stderr
+    sole = write(tmp_path, LEGGED.replace("{frame: FL_FOOT,", "{frame: FL_FOT,"), "sole.yaml")
+    out = subprocess.run([str(WBIK), "run", str(sole)], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    assert "soles[0].frame" in out.stderr and "did you mean 'FL_FOOT'" in out.stderr, out.stderr

@@ -80,6 +80,18 @@ class RobotDescriptionError(WbikError, ValueError):
     """A URDF or DH table that cannot be turned into a model."""
 
 
+class SoleError(RobotDescriptionError):
+    """A sole (``robot.soles``) that is not a frame of the model or whose contact points are not finite
+    (k, 3) points; ``sole`` is its frame name."""
+
+    def __init__(self, message: str, sole: str = ""):
+        self.sole = sole
+        super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.sole)
+
+
 class MissingDependencyError(WbikError, ImportError):
     """An optional dependency (PyKDL, Chromium, ...) is not installed; says how to get it."""
 

@@ -214,14 +214,24 @@ class Chain:
 
 
 def _sole_corners(sole, corners) -> np.ndarray:
-    """(k, 3) finite corners of a sole rectangle (k >= 3), read-only, or RobotDescriptionError."""
+    """(k, 3) finite contact points of a sole in its frame (m), read-only, or RobotDescriptionError.
+
+    k >= 3: the corners of a flat sole (a rectangle or any polygon); k = 2: a line contact (an edge);
+    k = 1: a point foot (a quadruped's foot frame: ``[[0, 0, 0]]``, or just ``[0, 0, 0]``). The support
+    polygon is the convex hull of the contact points of every sole in support
+    (:mod:`wbik.qp.support_polygon`), so point feet make one as soon as three of them span an area.
+    """
     try:
         array = np.array(corners, dtype=float)
     except (TypeError, ValueError):
         array = np.empty(0)
-    if array.ndim != 2 or array.shape[1] != 3 or array.shape[0] < 3 or not np.all(np.isfinite(array)):
-        raise RobotDescriptionError(f"sole {sole!r}: corners must be >= 3 finite points (k, 3) in the sole "
-                                    f"frame (m), got {np.shape(array) if array.size else repr(corners)}")
+    if array.shape == (3,):
+        array = array.reshape(1, 3)  # one point
+    if array.ndim != 2 or array.shape[1] != 3 or array.shape[0] < 1 or not np.all(np.isfinite(array)):
+        raise SoleError(
+            f"sole {sole!r}: contact points must be finite points (k, 3) in the sole frame (m), k >= 1 (a "
+            f"point foot [[0, 0, 0]], an edge, or a rectangle's 4 corners), got "
+            f"{np.shape(array) if array.size else repr(corners)}", str(sole))
     array.setflags(write=False)
     return array
 
@@ -238,8 +248,9 @@ FactsT = TypeVar("FactsT")
 class Robot:
     """A Pinocchio model with named chains, limits and a nominal configuration, and its typed facts.
 
-    ``soles``: sole frame -> (k, 3) corners of its contact rectangle in that frame (m, read-only), the
-    feet a support polygon is made of (empty for a robot without feet). ``closed_forms``: (chain, target
+    ``soles``: sole frame -> (k, 3) contact points in that frame (m, read-only): a flat sole's corners
+    (k >= 3), an edge (k = 2) or a point foot (k = 1); the feet a support polygon is made of (empty for a
+    robot without feet). ``closed_forms``: (chain, target
     kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``: the
     robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions), or None;
     a reader that needs one robot's facts asks :meth:`require_facts`. ``continuous_joints``: the URDF's
@@ -280,8 +291,8 @@ class Robot:
         return value
 
     def _checked_soles(self, soles) -> dict[str, np.ndarray]:
-        """{sole frame: read-only (k, 3) corners}, every sole a frame of the model."""
-        soles = self._mapping(soles, "soles must map a sole frame to its (k, 3) corners")
+        """{sole frame: read-only (k, 3) contact points}, every sole a frame of the model."""
+        soles = self._mapping(soles, "soles must map a sole frame to its (k, 3) contact points")
         checked = {}
         for sole, corners in soles.items():
             if not isinstance(sole, str) or not self.model.existFrame(sole):

@@ -11,7 +11,10 @@ function, dataclass or class the key feeds, which the schema reads (:func:`defau
 One set of defaults for the keys several kinds share (the builders below give them):
 
 - ``robot_params`` (:func:`common_keys`): ``{}``; every kind loads its robot with them, or refuses
-  the key by name (ur5_riveting);
+  the key by name (ur5_riveting); for a robot loaded from a URDF path or ``example-robot-data:NAME``
+  they are typed (:func:`urdf_robot_params`: floating_base, nominal, soles, chains, ...);
+- ``soles`` (:func:`soles_key`): ``[]``; the feet (rectangles, contact points, point feet) of a robot
+  loaded from a URDF path or example-robot-data, for the kinds that keep one balanced;
 - ``backend`` (:func:`backend_key`): :data:`wbik.qp.backends.DEFAULT`, for every kind that solves
   a whole-body QP (and the riveting ``ours`` planner);
 - ``margin`` (:func:`margin_key`): :data:`COM_MARGIN` = 0.005 m, the CoM margin of every kind that
@@ -58,9 +61,9 @@ from wbik.errors import did_you_mean
 from wbik.expectations import ExpectationError
 
 __all__ = ["COM_MARGIN", "Key", "Map", "ScenarioBudgetError", "ScenarioError", "ScenarioFileError",
-           "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError", "backend_key",
-           "common_keys", "default_of", "expect_block", "from_dataclass", "kind_schema", "margin_key",
-           "validate"]
+           "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError", "apply_soles",
+           "backend_key", "common_keys", "default_of", "expect_block", "from_dataclass", "kind_schema",
+           "margin_key", "soles_key", "urdf_robot_params", "validate"]
 
 
 # -- errors -----------------------------------------------------------------------------------------
@@ -255,7 +258,8 @@ class ListOf(Node):
 
 class Either(Node):
     """The first option that accepts the value; else the refusal of the one mapping option the value
-    shares keys with (it names the key), or an error listing every option."""
+    shares keys with (it names the key), for a string the refusal of the one word option (its "did
+    you mean"), or an error listing every option."""
 
     def __init__(self, *options: Node):
         self.options = options
@@ -276,6 +280,10 @@ class Either(Node):
             sharing = [exc for option, exc in maps if set(option.keys) & set(value)]
             if len(sharing) == 1 or len(maps) == 1:
                 raise (sharing or [maps[0][1]])[0]
+        if isinstance(value, str):
+            words = [exc for option, exc in refusals if isinstance(option, Text) and option.choices]
+            if len(words) == 1:
+                raise words[0]
         self.wrong(value, path, ctx)
 
 
@@ -467,12 +475,44 @@ FRAME = Text(what="a frame name")
 FRAMES = ListOf(FRAME, what="frame names")
 
 
+def urdf_robot_params() -> Map:
+    """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (the keyword
+    parameters of :func:`wbik.models.load`, ``URDF_PARAMS``), typed; ``chains`` entries become
+    :class:`wbik.robot.ChainSpec` (without ``joints``: every joint between base and tip)."""
+    from wbik.models import URDF_PARAMS
+
+    chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
+                 "tip": Key(FRAME, required=True), "joints": Key(ListOf(Text(what="a joint name")), []),
+                 "description": Key(Text(), "")})
+    python_only = Refused("is a Python object: pass it to wbik.load(...) from Python")
+    nodes = {"floating_base": Boolean(), "name": Text(), "nominal": Vector(unit="m, rad"),
+             "package_dirs": ListOf(Text(what="a folder")),
+             "soles": Map(values=Either(VECTOR3, ListOf(VECTOR3, min_items=1)),
+                          what="a mapping {sole frame: its contact points [[x, y, z], ...] (m)}"),
+             "chains": ListOf(chain, what="chain mappings {name, base, tip, joints}")}
+
+    def post(params: dict, path: str, ctx: Context) -> None:
+        from wbik.robot import ChainSpec
+
+        if "chains" in params:
+            params["chains"] = [ChainSpec(item["name"], item["base"], item["tip"], tuple(item["joints"]),
+                                          item["description"]) for item in params["chains"]]
+
+    return Map({name: Key(nodes.get(name, python_only)) for name in URDF_PARAMS}, post=post)
+
+
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
-    """The robot's builder must take every key of ``robot_params`` (wbik.models.check_parameters)."""
+    """The robot's builder must take every key of ``robot_params`` (wbik.models.check_parameters); a
+    robot loaded from a URDF path or example-robot-data has its parameters typed
+    (:func:`urdf_robot_params`: an unknown key gets a "did you mean", a bad value names its path)."""
     from wbik.models import check_parameters
+    from wbik.models import robot_entries
 
     params = spec.get("robot_params") or {}
     if params and spec.get("robot") is not None:
+        if spec["robot"] not in robot_entries():
+            spec["robot_params"] = urdf_robot_params().check(params, _join(path, "robot_params"), ctx)
+            return
         try:
             check_parameters(spec["robot"], params)
         except InvalidOptionError as exc:
@@ -505,6 +545,63 @@ def backend_key() -> Key:
 def margin_key() -> Key:
     """``margin``: the CoM margin (m), default :data:`COM_MARGIN`."""
     return Key(Number(unit="m"), COM_MARGIN)
+
+
+def soles_key() -> Key:
+    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data, each
+    ``{frame, size: [length, width], centre: [x, y, z]}`` (a flat sole: a rectangle in the sole frame,
+    centred on ``centre``, default the frame's origin), ``{frame, corners: [[x, y, z], ...]}`` (any
+    contact points: a polygon, an edge) or ``{frame, point: [x, y, z]}`` (a point foot), in m; default
+    none (the robot's own soles). :func:`apply_soles` turns them into ``robot_params.soles``."""
+
+    def one_shape(entry: dict, path: str, ctx: Context) -> None:
+        shapes = [key for key in SOLE_SHAPES if key in entry]
+        if len(shapes) != 1:
+            ctx.fail(path, f"a sole takes exactly one of {', '.join(SOLE_SHAPES)}, got "
+                           f"{', '.join(shapes) or 'none'} (size: a rectangle, corners: contact points, "
+                           "point: a point foot)")
+        if "centre" in entry and shapes != ["size"]:
+            ctx.fail(_join(path, "centre"), "is the centre of a size rectangle; with corners or point, "
+                                            "give the points themselves")
+
+    sole = Map({"frame": Key(FRAME, required=True), "size": Key(Vector(2, positive=True, unit="m")),
+                "centre": Key(VECTOR3), "corners": Key(ListOf(VECTOR3, min_items=1, what="[x, y, z] points")),
+                "point": Key(VECTOR3)}, post=one_shape)
+    return Key(ListOf(sole, what="sole mappings {frame, size | corners | point}"), [])
+
+
+SOLE_SHAPES = ("size", "corners", "point")
+"""The keys of a ``soles`` entry that give its shape (exactly one per sole)."""
+
+
+def apply_soles(spec: dict, path: str, ctx: Context) -> None:
+    """Checked ``soles`` entries (:func:`soles_key`) into ``robot_params.soles`` ({frame: (k, 3) contact
+    points}), for a robot whose loader takes soles; a frame given twice, or soles given both ways, is
+    refused by path."""
+    from wbik.models import builder_parameters
+    from wbik.qp.support_polygon import sole_rectangle
+
+    entries = spec.get("soles") or []
+    if not entries:
+        return
+    if "soles" not in builder_parameters(spec["robot"]):
+        ctx.fail(_join(path, "soles"), f"robot {spec['robot']!r} declares its own soles (robot.soles); "
+                                       "soles: is for a robot loaded from a URDF path or example-robot-data")
+    points: dict[str, list] = {}
+    for index, entry in enumerate(entries):
+        frame = entry["frame"]
+        if frame in points:
+            ctx.fail(f"{_join(path, 'soles')}[{index}].frame", f"sole {frame!r} is given twice")
+        if "size" in entry:
+            points[frame] = sole_rectangle(*entry["size"], entry.get("centre", (0.0, 0.0, 0.0))).tolist()
+        elif "point" in entry:
+            points[frame] = [list(entry["point"])]
+        else:
+            points[frame] = [list(point) for point in entry["corners"]]
+    given = (spec.get("robot_params") or {}).get("soles")
+    if given is not None and given != points:  # (equal: a spec this function already filled)
+        ctx.fail(_join(path, "soles"), "give the soles either here or in robot_params.soles, not both")
+    spec["robot_params"] = {**(spec.get("robot_params") or {}), "soles": points}
 
 
 def time_laws() -> tuple[str, ...]:

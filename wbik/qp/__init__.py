@@ -38,12 +38,15 @@ from wbik.qp.constraints import InequalityConstraint
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.constraints import JointVelocityLimits
 from wbik.qp.constraints import MinimumDistance
+from wbik.qp.constraints import PointContact
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.problem import IKProblem
 from wbik.qp.problem import QPSolution
 from wbik.qp.rows import BoundRows
 from wbik.qp.rows import EqualityRows
 from wbik.qp.rows import InequalityRows
+from wbik.qp.support_polygon import DegenerateSupport
+from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import convex_hull
 from wbik.qp.support_polygon import feet_support_polygon
@@ -58,9 +61,9 @@ from wbik.qp.tasks import Task
 
 __all__ = [
     "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint",
-    "Contact", "EqualityConstraint", "EqualityRows", "FrameTask", "IKProblem", "InequalityConstraint",
-    "InequalityRows", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance",
-    "OrientationTask", "PositionTask", "PostureTask", "QPSolution", "RegularizationTask",
-    "RelativeFrameTask", "SupportPolygon", "Task", "available_backends", "convex_hull",
-    "feet_support_polygon",
+    "Contact", "DegenerateSupport", "DegenerateSupportPolygonError", "EqualityConstraint", "EqualityRows",
+    "FrameTask", "IKProblem", "InequalityConstraint", "InequalityRows", "JointPositionLimits",
+    "JointVelocityLimits", "Kinematics", "MinimumDistance", "OrientationTask", "PointContact",
+    "PositionTask", "PostureTask", "QPSolution", "RegularizationTask", "RelativeFrameTask",
+    "SupportPolygon", "Task", "available_backends", "convex_hull", "feet_support_polygon",
 ]

@@ -7,7 +7,7 @@ which returns its rows (:mod:`wbik.qp.rows`) at the kinematics' configuration:
   position limits (q + dq inside [q_min, q_max], exact for 1-DOF joints), joint velocity limits
   (|dq| <= v_max dt), locked joints;
 - ``EqualityConstraint.equality(k)``     -> EqualityRows    A dq = b: contacts (a frame keeps its
-  pose, J dq = -e: a Newton step on e = 0);
+  pose, J dq = -e: a Newton step on e = 0; a point contact keeps its position only);
 - ``InequalityConstraint.inequality(k)`` -> InequalityRows  G dq <= h: CoM inside the support
   polygon shrunk by a margin, minimum distances, collision avoidance.
 
@@ -32,6 +32,7 @@ from wbik.qp.rows import Rows
 from wbik.qp.rows import as_index
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import PositionTask
 
 
 class Constraint:
@@ -196,6 +197,40 @@ class Contact(EqualityConstraint):
         # in Python floats: the same sums of squares as numpy's, without six small-array calls
         x, y, z, rx, ry, rz = self._rhs.tolist()
         return math.sqrt(max(x * x + y * y + z * z, rx * rx + ry * ry + rz * rz))
+
+
+class PointContact(EqualityConstraint):
+    """A frame's origin held at a fixed world position (a point foot on the ground): J_v dq = -(p - p*),
+    3 rows. Its rotation is free: a point contact transmits no moment, and a 3-joint leg could not hold
+    a foot's full pose while the body moves.
+
+    ``position`` (m, world) defaults to the frame's position when the problem starts. ``violation`` is
+    the position error (m).
+    """
+
+    def __init__(self, frame: str, position: np.ndarray | None = None):
+        self.frame = frame
+        self.name = f"point contact[{frame}]"
+        self.fixed_position = None if position is None else np.array(position, dtype=float).reshape(3)
+        self._task = PositionTask(frame, np.zeros(3) if position is None else self.fixed_position)
+
+    @property
+    def position(self) -> np.ndarray:
+        return self._task.target
+
+    def start(self, kinematics: Kinematics) -> None:
+        self._task.start(kinematics)
+        if self.fixed_position is None:
+            self._task.target = kinematics.placement(self._task.frame_id).translation.copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return self._task.error(kinematics)
+
+    def equality(self, kinematics: Kinematics) -> EqualityRows:
+        return EqualityRows(self._task.jacobian(kinematics), -self._task.error(kinematics))
+
+    def violation(self, kinematics: Kinematics) -> float:
+        return float(np.linalg.norm(self._task.error(kinematics)))
 
 
 class CoMInSupportPolygon(InequalityConstraint):

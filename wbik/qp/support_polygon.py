@@ -1,5 +1,9 @@
 """Support polygon: the convex hull of the contact points on the ground, as half-planes.
 
+The contact points are those of every sole in support (``robot.soles``: a flat sole's corners, an
+edge's two ends, or a point foot's single point, each in its sole frame), placed by FK and projected
+on the ground: two flat soles give a hexagon or a rectangle, four point feet a quadrilateral.
+
 The polygon is stored counter-clockwise; edge i from v_i to v_{i+1} has the outward unit normal
 n_i = (dy, -dx) / |d| and offset d_i = n_i . v_i, so the inside is {x : N x <= d}. Shrinking by a
 margin m (the Minkowski erosion of a convex polygon by a disc) keeps the normals and lowers every
@@ -7,25 +11,37 @@ offset by m: {x : N x <= d - m}. ``margin_of(x) = min_i (d_i - n_i . x)`` is the
 inside point to the boundary (negative outside), which is what the balance checks read.
 
 Robustness (the same verdict on every CPU): the hull is qhull's (:class:`scipy.spatial.ConvexHull`),
-and every geometric decision uses one length tolerance scaled to the point set,
-``tol = HULL_RELATIVE_TOLERANCE * size`` (size = the larger side of the points' bounding box):
+and every geometric decision uses one length tolerance scaled to the problem,
+``tol = HULL_RELATIVE_TOLERANCE * scale``, where scale is the larger of the points' extent (the larger
+side of their bounding box) and their largest coordinate (rounding noise grows with a coordinate's
+magnitude: points a rounding apart far from the origin are one point, not a tiny triangle):
 
 - a hull vertex closer than ``tol`` to the segment joining its neighbours is dropped (a corner that
   only rounding noise pushes out of a straight edge, e.g. the inner front corners of two side-by-side
   soles), and of two vertices closer than ``tol`` one is dropped (no near-zero-length edge with a
   garbage normal);
 - points whose spread across their main direction is at most ``tol`` (all collinear, or fewer than
-  three distinct points) raise :class:`DegenerateSupportPolygonError`: a line or a point has no
-  interior, so no CoM margin can be given.
+  three distinct points) are degenerate: a line or a point has no interior, so no CoM margin can be
+  given. :class:`SupportPolygon` raises :class:`DegenerateSupportPolygonError` for them.
 
 Dropping such a vertex moves the boundary by at most ``tol``, so margins are exact to ``tol`` (about
 1e-10 m for a 0.14 m wide pair of soles) whatever the rounding of the corners.
+
+Degenerate support (two point feet, feet on one line, one point foot): there is no polygon, so a
+hard CoM-in-polygon constraint cannot be set up on it (``SupportPolygon`` raises, a problem that asks
+for one is bad input). The checks that judge an answer (the whole-body check, a scenario's phase
+check) never raise for it: :func:`support_region` gives a :class:`DegenerateSupport` (the segment or
+point the points collapse to) whose ``margin_of(x)`` is minus the distance from x to that segment or
+point (<= 0) and which contains no point, so the answer fails with "support polygon is degenerate"
+and a margin that says how far the CoM is from the line of support. Static balance on a line or a
+point is not robust to any perturbation: a CoM exactly on the segment (margin 0) still fails.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import ConvexHull
@@ -35,8 +51,9 @@ from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
 
 HULL_RELATIVE_TOLERANCE = 1e-9
-"""Hull tolerance relative to the size of the point set: vertices that rounding alone separates from
-an edge or from each other (1e-17 m on a 0.1 m sole) are merged; real corners are millimetres apart."""
+"""Hull tolerance relative to the scale of the point set (the larger of its extent and its largest
+coordinate): vertices that rounding alone separates from an edge or from each other (1e-17 m on a
+0.1 m sole) are merged; real corners are millimetres apart."""
 
 
 class DegenerateSupportPolygonError(RobotDescriptionError):
@@ -48,7 +65,8 @@ def _degenerate(points: np.ndarray, why: str) -> DegenerateSupportPolygonError:
     more = f" (first 8 of {len(points)})" if len(points) > 8 else ""
     return DegenerateSupportPolygonError(
         f"a support polygon needs at least three points that are not on one line; {why}. Points{more}: "
-        f"{shown}. Check the sole corners (robot.soles) and which soles are in contact")
+        f"{shown}. Check the soles' contact points (robot.soles) and which soles are in support: three "
+        "point feet not on one line, or one flat sole, make a polygon")
 
 
 def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
@@ -76,22 +94,31 @@ def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
     return vertices
 
 
+def hull_tolerance(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> float:
+    """The length tolerance of a point set (k, 2): ``relative_tolerance`` times the larger of its extent
+    and its largest coordinate (m); 0 only for points that are all at the origin."""
+    if points.size == 0:
+        return 0.0
+    scale = max(float(np.max(np.ptp(points, axis=0))), float(np.max(np.abs(points))))
+    return relative_tolerance * scale
+
+
 def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
     """Counter-clockwise hull vertices (k, 2), k >= 3, of 2D points, starting at the lowest (x, y).
 
-    qhull's hull, then vertices within ``relative_tolerance * size`` of a straight edge or of each other
-    are dropped (see the module docstring). Raises :class:`DegenerateSupportPolygonError` when the points
-    span no area at that tolerance (fewer than three distinct points, all collinear) or are not finite.
+    qhull's hull, then vertices within the tolerance (:func:`hull_tolerance`) of a straight edge or of
+    each other are dropped (see the module docstring). Raises :class:`DegenerateSupportPolygonError`
+    when the points span no area at that tolerance (fewer than three distinct points, coincident or
+    collinear points) or are not finite.
     """
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not np.all(np.isfinite(points)):
         raise _degenerate(points, "some coordinates are NaN or inf")
     if len(points) < 3:
         raise _degenerate(points, f"got {len(points)} point(s)")
-    size = float(np.max(np.ptp(points, axis=0)))
-    tolerance = relative_tolerance * size
-    if size == 0.0:
-        raise _degenerate(points, "all points coincide")
+    tolerance = hull_tolerance(points, relative_tolerance)
+    if float(np.max(np.ptp(points, axis=0))) <= tolerance:
+        raise _degenerate(points, f"they coincide (within the tolerance {tolerance:.3g} m)")
     centred = points - points.mean(axis=0)
     _, _, axes = np.linalg.svd(centred, full_matrices=False)
     spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
@@ -142,14 +169,70 @@ class SupportPolygon:
         return self.normals, self.offsets - margin
 
 
+def degenerate_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
+    """What finite 2D points that span no area collapse to: the two extreme points along their main
+    direction (2, 2), or one point (1, 2) when they are within the tolerance of each other."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    centred = points - points.mean(axis=0)
+    _, _, axes = np.linalg.svd(centred, full_matrices=False)
+    along = centred @ axes[0]
+    ends = points[[int(np.argmin(along)), int(np.argmax(along))]]
+    if float(np.ptp(along)) <= hull_tolerance(points, relative_tolerance):
+        return points.mean(axis=0, keepdims=True)
+    return ends
+
+
+@dataclass(frozen=True)
+class DegenerateSupport:
+    """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``.
+
+    ``margin_of(x)`` = -(distance from x to the segment or point), <= 0; it contains no point
+    (see the module docstring: balance on a line or a point is not robust)."""
+
+    vertices: np.ndarray
+    why: str
+
+    def margin_of(self, point: np.ndarray) -> float:
+        """Minus the distance (m) from ``point`` (x, y) to the segment or point."""
+        point = np.asarray(point, dtype=float)[:2]
+        start = self.vertices[0]
+        direction = self.vertices[-1] - start
+        length_squared = float(direction @ direction)
+        along = 0.0 if length_squared == 0.0 else min(max(float((point - start) @ direction) / length_squared,
+                                                          0.0), 1.0)
+        return 0.0 - float(np.hypot(*(point - start - along * direction)))  # (0.0, not -0.0, on it)
+
+    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
+        return False
+
+
+def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
+    """The support polygon of finite 2D contact points, or the :class:`DegenerateSupport` they collapse to
+    (for checks that report a margin instead of raising); non-finite points raise."""
+    try:
+        return SupportPolygon(points)
+    except DegenerateSupportPolygonError as exc:
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
+        if points.size == 0 or not np.all(np.isfinite(points)):
+            raise
+        return DegenerateSupport(degenerate_hull(points), str(exc))
+
+
+def sole_rectangle(length: float, width: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """The 4 corners (4, 3), counter-clockwise, of a ``length`` (x) by ``width`` (y) sole rectangle
+    centred on ``centre`` in its sole frame (m): ``robot.soles`` entries for a flat foot."""
+    half = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
+    return half * [0.5 * float(length), 0.5 * float(width), 0.0] + np.asarray(centre, dtype=float).reshape(3)
+
+
 def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                    frames: Iterable[str]) -> np.ndarray:
-    """World positions (k, 3) of the sole corners of the frames in contact."""
+    """World positions (k, 3) of the contact points (``robot.soles``) of the soles in contact."""
     points = []
     for frame in frames:
         if frame not in corners:
             raise RobotDescriptionError(
-                f"no sole corners for frame {frame!r}; the robot lists corners for {sorted(corners)}")
+                f"no sole contact points for frame {frame!r}; the robot lists soles {sorted(corners)}")
         placement = kinematics.placement(kinematics.frame_id(frame))
         local = np.asarray(corners[frame], dtype=float).reshape(-1, 3)
         points.append(local @ placement.rotation.T + placement.translation)
@@ -158,5 +241,22 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
 
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
-    """Support polygon of the feet in contact: hull of their corners projected on the ground."""
-    return SupportPolygon(contact_points(kinematics, corners, frames)[:, :2])
+    """Support polygon of the feet in contact: hull of their contact points projected on the ground.
+    DegenerateSupportPolygonError names the soles when they span no area (e.g. two point feet)."""
+    frames = list(frames)
+    points = contact_points(kinematics, corners, frames)
+    try:
+        return SupportPolygon(points[:, :2])
+    except DegenerateSupportPolygonError as exc:
+        raise DegenerateSupportPolygonError(f"the support soles {frames} ({len(points)} contact points) "
+                                            f"make no support polygon: {exc}") from None
+
+
+def feet_support_region(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
+                        frames: Iterable[str]) -> SupportPolygon | DegenerateSupport:
+    """:func:`feet_support_polygon`, or the :class:`DegenerateSupport` its points collapse to."""
+    frames = list(frames)
+    region = support_region(contact_points(kinematics, corners, frames)[:, :2])
+    if isinstance(region, DegenerateSupport):
+        return DegenerateSupport(region.vertices, f"support soles {frames}: {region.why}")
+    return region

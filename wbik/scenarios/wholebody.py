@@ -2,10 +2,16 @@
 previous phase's answer (its schema, runner and printed report)::
 
     kind: wholebody_ik
-    robot: bioloid
+    robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
+    robot_params: {floating_base: true}   # for a URDF path: wbik.load's parameters (typed)
+    soles:                         # feet of a URDF / example-robot-data robot (m, in the sole frame)
+      - {frame: left_sole_link, size: [0.2, 0.12], centre: [-0.005, 0, 0]}   # a flat sole rectangle
+      - {frame: FL_FOOT, point: [0, 0, 0]}                                   # a point foot
+      - {frame: edge_link, corners: [[0.1, 0, 0], [-0.1, 0, 0]]}            # any contact points
     backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
                                    # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
     margin: 0.005                  # m, default CoM margin of the phases (default COM_MARGIN, 0.005)
+    methods: [qp, placo, pink]     # optional: whole-body methods compared on every phase (below)
     collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
       self_collision: true         # pairs of the robot's own primitives (default true)
       robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
@@ -15,7 +21,7 @@ previous phase's answer (its schema, runner and printed report)::
       influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
     phases:
       - name: shift the CoM over the right foot
-        contacts: [r_sole, l_sole]  # soles held fixed (hard equality)
+        contacts: [r_sole, l_sole]  # frames held fixed (hard equality; a point foot: its position only)
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
         margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
         lock: [mb]                  # joints held at their value (optional)
@@ -34,6 +40,24 @@ inside the support polygon (when there is one) and no joint beyond its limit (1e
 ``collisions`` the minimum pair distance (coal, by FK) at least the safety distance
 (``collision_distance_min_m``). An ``expect`` value may be ``{threshold, expected_to_fail, why}``
 (see :mod:`wbik.expectations`).
+
+Contacts on a point foot (a sole with a single contact point) hold its position only: a point
+contact transmits no moment, so its rotation is free (:func:`wbik.qp.humanoid.contact_constraint`).
+The support polygon is the convex hull of the contact points of the support soles; a support that
+spans no area (two point feet) is refused as input of a phase (``phases[i].support``), and reported
+as a degenerate polygon (margin: minus the distance to it, failed) where an answer is checked.
+
+``methods`` (entries: a whole-body method name, or ``{method, label, options, max_iterations}``)
+compares methods of :mod:`wbik.wholebody` on every phase: each phase becomes a
+:class:`wbik.wholebody.WholeBody` (the same tasks, contacts held where they are at the phase's
+start, support, margin, ``min_distance`` pairs, joint position limits) solved from the same start
+by each method within the phase's ``max_iterations`` (unless the entry gives its own), and judged
+by the one shared check (:func:`wbik.wholebody.check_wholebody`). Each phase's ``methods`` figure
+holds per label: success, reason, CoM margin, contact drift, task errors and the worst of them,
+time, iterations, and what the method could not express (``unsupported``: Pink has no hard
+support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
+own QP's. ``lock`` and ``collisions`` are not part of a WholeBody problem, so a file with
+``methods`` may not use them.
 
 The report's figures: ``backend`` and one entry per phase in ``phases``; the animation goes from
 the start through every phase's answer.
@@ -56,6 +80,7 @@ from wbik.scenario_schema import NON_NEGATIVE
 from wbik.scenario_schema import POSITIVE
 from wbik.scenario_schema import START
 from wbik.scenario_schema import VECTOR3
+from wbik.scenario_schema import Anything
 from wbik.scenario_schema import Boolean
 from wbik.scenario_schema import Context
 from wbik.scenario_schema import Either
@@ -69,11 +94,13 @@ from wbik.scenario_schema import ScenarioValueError
 from wbik.scenario_schema import Text
 from wbik.scenario_schema import Variants
 from wbik.scenario_schema import Vector
+from wbik.scenario_schema import apply_soles
 from wbik.scenario_schema import backend_key
 from wbik.scenario_schema import check_robot_params
 from wbik.scenario_schema import common_keys
 from wbik.scenario_schema import expect_block
 from wbik.scenario_schema import margin_key
+from wbik.scenario_schema import soles_key
 from wbik.scenarios.kinds import KindRun
 from wbik.scenarios.kinds import Progress
 from wbik.scenarios.kinds import ScenarioKind
@@ -81,8 +108,8 @@ from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
 
-__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "format_report",
-           "run_wholebody_ik", "wholebody_schema"]
+__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "compare_methods",
+           "format_method", "format_report", "run_wholebody_ik", "wholebody_schema"]
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
@@ -154,8 +181,14 @@ def wholebody_schema() -> Map:
         "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
     })
 
+    method = Map({"method": Key(Text(_method_names), required=True), "label": Key(Text()),
+                  "options": Key(Map(values=Anything()), {}),
+                  "max_iterations": Key(Number(gt=0, integer=True, budget=True, nullable=True))})
+
     def post(spec: dict, path: str, ctx: Context) -> None:
         check_robot_params(spec, path, ctx)
+        apply_soles(spec, path, ctx)
+        spec["methods"] = _checked_methods(spec, ctx)
         block = spec["collisions"]
         if block is not None and not block["influence_distance"] > block["safety_distance"]:
             ctx.fail("collisions.influence_distance", f"must exceed safety_distance "
@@ -178,36 +211,86 @@ def wholebody_schema() -> Map:
                 "start": Key(START, "nominal"),
                 "margin": margin_key(),
                 "collisions": Key(collisions, None),
+                "soles": soles_key(),
+                "methods": Key(ListOf(Either(Text(_method_names, what="a whole-body method name"), method),
+                                      what="whole-body method names or {method, label, options, "
+                                           "max_iterations}"), []),
                 "phases": Key(ListOf(phase, min_items=1, what="phase mappings"), required=True)}, post=post)
+
+
+def _method_names() -> tuple[str, ...]:
+    from wbik.wholebody.methods import wholebody_methods
+
+    return tuple(sorted(wholebody_methods()))
+
+
+def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
+    """The ``methods`` entries as {method, label, options, max_iterations or None}: options the method
+    takes, labels unique, and nothing in the file a WholeBody problem cannot hold (lock, collisions)."""
+    from wbik.errors import InvalidOptionError
+    from wbik.errors import did_you_mean
+    from wbik.wholebody.methods import wholebody_solver_options
+
+    entries = []
+    for index, item in enumerate(spec["methods"]):
+        entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
+        entry.setdefault("label", entry["method"])
+        entry.setdefault("max_iterations", None)
+        accepted = wholebody_solver_options(entry["method"]) - {"max_iterations"}
+        for option in entry["options"]:
+            if option not in accepted:
+                raise InvalidOptionError(
+                    f"{ctx.source}: methods[{index}].options.{option}: whole-body method {entry['method']!r} "
+                    f"takes no option {option!r}{did_you_mean(option, accepted)}; its options: "
+                    f"{', '.join(sorted(accepted))}", option=str(option), accepted=sorted(accepted))
+        if entry["label"] in (e["label"] for e in entries):
+            ctx.fail(f"methods[{index}]", f"label {entry['label']!r} is used twice; give each a label")
+        entries.append(entry)
+    if entries:
+        if spec["collisions"] is not None:
+            ctx.fail("methods", "compared methods solve a wbik.wholebody.WholeBody problem, which has no "
+                                "'collisions' block; drop one or the other")
+        for index, phase in enumerate(spec["phases"]):
+            if phase["lock"]:
+                ctx.fail(f"phases[{index}].lock", "compared methods (methods:) solve a WholeBody problem, "
+                                                  "which cannot lock joints; drop lock or methods")
+    return entries
 
 
 # -- the checks of one phase -----------------------------------------------------------------------
 def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.SE3],
                         support: list[str], margin: float) -> dict:
-    """Independent FK checks of one solved configuration: contacts, CoM margin, joint limits."""
+    """Independent FK checks of one solved configuration: contacts (a point foot: its position only),
+    CoM margin (a degenerate support: minus the distance to it, and not balanced), joint limits."""
     from wbik.qp.constraints import bounded_joint_indices
-    from wbik.qp.humanoid import support_polygon
+    from wbik.qp.humanoid import is_point_foot
+    from wbik.qp.humanoid import sole_corners
+    from wbik.qp.kinematics import Kinematics
+    from wbik.qp.support_polygon import DegenerateSupport
+    from wbik.qp.support_polygon import feet_support_region
 
     contact_errors = {}
     for frame, fixed in contact_placements.items():
         reached = robot.frame_placement(q, frame)
         contact_errors[frame] = {
             "position": float(np.linalg.norm(reached.translation - fixed.translation)),
-            "rotation": float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
+            "rotation": 0.0 if is_point_foot(robot, frame) else
+            float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
     contacts_ok = all(e["position"] <= CONTACT_TOLERANCE and e["rotation"] <= CONTACT_TOLERANCE
                       for e in contact_errors.values())
     com = robot.center_of_mass(q)
-    com_margin = None
+    com_margin, degenerate = None, False
     if support:
-        com_margin = support_polygon(robot, q, support).margin_of(com[:2])
-    balance_ok = com_margin is None or com_margin >= margin - 1e-9
+        region = feet_support_region(Kinematics(robot.model, q), sole_corners(robot), support)
+        com_margin, degenerate = region.margin_of(com[:2]), isinstance(region, DegenerateSupport)
+    balance_ok = com_margin is None or (not degenerate and com_margin >= margin - 1e-9)
     q_index, _ = bounded_joint_indices(robot.model)
     lower, upper = robot.model.lowerPositionLimit[q_index], robot.model.upperPositionLimit[q_index]
     joints = q[q_index]
     limit_excess = float(max(np.max(lower - joints, initial=0.0), np.max(joints - upper, initial=0.0)))
     return {"contact_errors": contact_errors, "contacts_ok": contacts_ok, "com": com.tolist(),
-            "com_margin": com_margin, "balance_ok": balance_ok, "limit_excess": limit_excess,
-            "limits_ok": limit_excess <= 1e-9}
+            "com_margin": com_margin, "support_degenerate": degenerate, "balance_ok": balance_ok,
+            "limit_excess": limit_excess, "limits_ok": limit_excess <= 1e-9}
 
 
 def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
@@ -280,27 +363,78 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
     return tasks
 
 
+def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
+    """The run of a checked spec; a sole the robot refuses (an unknown frame, bad points) is a
+    ScenarioValueError naming the ``soles`` entry."""
+    from wbik.errors import SoleError
+
+    try:
+        return KindRun(spec, "phases", on_progress, figures={"backend": spec["backend"]})
+    except SoleError as exc:
+        index = next((i for i, entry in enumerate(spec["soles"]) if entry["frame"] == exc.sole), None)
+        where = f"soles[{index}].frame" if index is not None else "robot_params.soles"
+        raise ScenarioValueError(f"{where}: {exc}") from None
+
+
+def _stance(robot, q: np.ndarray, phase: dict, index: int) -> list:
+    """The phase's stance constraints at q; a support that spans no area names the phase's support."""
+    from wbik.qp.humanoid import stance_constraints
+    from wbik.qp.support_polygon import DegenerateSupportPolygonError
+
+    try:
+        return stance_constraints(robot, q, list(phase["contacts"]), list(phase["support"]),
+                                  float(phase["margin"]))
+    except DegenerateSupportPolygonError as exc:
+        raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
+
+
+def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
+                    solvers: dict) -> dict[str, dict]:
+    """Each of ``methods`` on the phase as a :class:`wbik.wholebody.WholeBody` from q (see the module
+    docstring), judged by the shared check: {label: figures}. ``solvers`` keeps one solver per (label, budget)
+    for the run (a PlaCo robot costs milliseconds to load)."""
+    from wbik.wholebody import WholeBody
+    from wbik.wholebody import wholebody_solver
+
+    problem = WholeBody(robot, _phase_tasks(robot, q, phase, index),
+                        contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
+                        support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
+                        collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
+                        name=phase["name"])
+    compared = {}
+    for entry in methods:
+        label = entry["label"]
+        budget = entry["max_iterations"] or int(phase["max_iterations"])
+        if (label, budget) not in solvers:
+            solvers[label, budget] = wholebody_solver(entry["method"], robot, max_iterations=budget,
+                                                      **entry["options"])
+        result = solvers[label, budget].solve(problem, q)
+        compared[label] = {**result.as_dict(), "task_error": result.task_error,
+                           "max_iterations": budget}
+    return compared
+
+
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
     the report and the animation from the start through every phase's answer."""
     from wbik.qp.constraints import LockedJoints
     from wbik.qp.constraints import MinimumDistance
-    from wbik.qp.humanoid import stance_constraints
     from wbik.qp.problem import IKProblem
 
     backend = spec["backend"]
-    run = KindRun(spec, "phases", on_progress, figures={"backend": backend})
+    run = _kind_run(spec, on_progress)
     robot = run.robot
     q = start_of(spec, robot)
     start = q.copy()
     collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
+    solvers: dict = {}
     for index, phase in enumerate(spec["phases"]):
         name = phase["name"]
         contacts = list(phase["contacts"])
         support = list(phase["support"])
         margin = float(phase["margin"])
         tasks = _phase_tasks(robot, q, phase, index)
-        constraints = stance_constraints(robot, q, contacts, support, margin)
+        constraints = _stance(robot, q, phase, index)
         if phase["lock"]:
             constraints.append(LockedJoints(robot.model, list(phase["lock"])))
         for item in phase["min_distance"]:
@@ -318,12 +452,15 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
                                     collision_constraint and collision_constraint.safety)
         expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
                                 f"phase {name!r} expect")
-        run.add({
+        entry = {
             "name": name, "passed": verdict(expectations) != "FAILED", "success": solution.success,
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
             "expectations": expectations,
-            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()})
+            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()}
+        if spec["methods"]:
+            entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers)
+        run.add(entry)
         if phase["continue_from"] == "result":
             q = solution.q.copy()
     report = run.finished()  # one animation through every phase's answer, not one per phase
@@ -345,24 +482,60 @@ def moved_frame(spec: dict) -> str | None:
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
     """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
-    each phase's support soles and contacts; the first frame a phase task moves is traced."""
+    each phase's support soles and contacts; a phase that started from elsewhere than the previous
+    answer (``continue_from: start``) is preceded by the way back there, on the previous stance. The
+    first frame a phase task moves is traced."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS
     from wbik.viz.scenario import SAMPLES_PER_PHASE
 
+    keyframes: list[np.ndarray] = []
+    support: list[tuple] = []
+    contacts: list[tuple] = []
+    origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is
+    for phase, entry in zip(spec["phases"], phases, strict=False):
+        if keyframes and not np.array_equal(origin, shown):
+            keyframes.append(origin)
+            support.append(support[-1])
+            contacts.append(contacts[-1])
+        shown = np.asarray(entry["q"], dtype=float)
+        keyframes.append(shown)
+        support.append(tuple(entry["support"]))
+        contacts.append(tuple(entry["contacts"]))
+        if phase["continue_from"] == "result":
+            origin = shown
     return Animation.from_keyframes(
-        robot, start, [np.asarray(p["q"], dtype=float) for p in phases], PHASE_SECONDS, SAMPLES_PER_PHASE,
-        support=[tuple(p["support"]) for p in phases], contacts=[tuple(p["contacts"]) for p in phases],
+        robot, start, keyframes, PHASE_SECONDS, SAMPLES_PER_PHASE, support=support, contacts=contacts,
         trace_frame=moved_frame(spec), name=spec["name"])
 
 
+def format_method(label: str, figures: dict) -> str:
+    """One compared method's line: verdict of the shared check, CoM margin, worst goal task error,
+    contact drift, time and iterations, and what it could not express."""
+    margin = figures["com_margin"]
+    margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
+    line = (f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
+            f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
+            f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it")
+    if not figures["success"]:
+        line += f"\n        why: {figures['reason']}"
+    for item in figures["unsupported"]:
+        line += f"\n        cannot express: {item}"
+    return line
+
+
 def format_report(report: dict) -> str:
-    """The phase summary: solved or best effort, iterations, time, goal task errors, the checks."""
+    """The phase summary: solved or best effort, iterations, time, goal task errors, the compared
+    methods (with ``methods``), the checks."""
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
-        return (f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
+        text = (f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
+        if phase.get("methods"):
+            text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
+                format_method(label, figures) for label, figures in phase["methods"].items())
+        return text
 
     return format_entries(report, "phases", describe)
 

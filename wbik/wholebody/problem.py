@@ -1,17 +1,20 @@
 """One whole-body problem description, one result type, one shared check by forward kinematics.
 
 A :class:`WholeBody` is what every whole-body method is asked to solve: tasks (the types of
-:mod:`wbik.qp.tasks`), contacts (frames that keep their pose), the support polygon (soles whose
-corners make it) with a CoM margin, joint limits and optional minimum distances. Every method's
+:mod:`wbik.qp.tasks`), contacts (frames that keep their pose; a point foot, a sole with a single
+contact point, keeps its position only), the support polygon (soles whose contact points make it)
+with a CoM margin, joint limits and optional minimum distances. Every method's
 answer is judged by :func:`check_wholebody`, the same FK check for all, as
 :func:`wbik.solvers.base.evaluate` judges chain answers:
 
 - task errors: every *goal* task's error at q (the task's own e(q), evaluated on a fresh
   Pinocchio data by FK), split into position (m) and rotation (rad) parts;
 - contact drift: the largest position (m) or rotation (rad) error of a contact frame against
-  where it was held (its placement at q0, or the placement given);
+  where it was held (its placement at q0, or the placement given); position only for a point foot;
 - CoM margin: distance of the CoM's ground projection inside the support polygon built by FK at
-  q from the support soles' corners (m, negative outside);
+  q from the support soles' contact points (m, negative outside); support that spans no area (two
+  point feet, feet on one line) is degenerate: the margin is minus the distance to the segment or
+  point it collapses to and the check fails (:mod:`wbik.qp.support_polygon`);
 - limit excess: how far any bounded joint is beyond its limits (rad or m);
 - collision clearance: min over the minimum-distance pairs of (distance - required) (m).
 
@@ -36,7 +39,9 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidSettingError
 from wbik.files import json_plain
 from wbik.geometry import rotation_angle
+from wbik.qp.humanoid import is_point_foot
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.support_polygon import DegenerateSupport
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import OrientationTask
@@ -66,9 +71,11 @@ class MinimumDistance:
 class WholeBody:
     """A whole-body IK problem on one robot (see the module docstring).
 
-    ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (held there).
-    ``support``: soles whose corners (``robot.soles``) make the support polygon;
-    default the contacts that have sole corners; ``[]`` for none. ``limits``: "position",
+    ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (held there); a point foot
+    (a sole with a single contact point, :func:`wbik.qp.humanoid.is_point_foot`) is held in position
+    only, listed in ``point_contacts``. ``support``: soles whose contact points (``robot.soles``) make
+    the support polygon;
+    default the contacts that are soles; ``[]`` for none. ``limits``: "position",
     "position+velocity" (each IK step also bounded by v_max * ``step_dt``) or "none".
     ``collisions``: minimum distances, as :class:`MinimumDistance` or (frame_a, frame_b, m).
     """
@@ -109,6 +116,7 @@ class WholeBody:
             }
         else:
             self.contacts = {str(frame): None for frame in contacts}
+        self.point_contacts = frozenset(frame for frame in self.contacts if is_point_foot(robot, frame))
         corners = robot.soles
         if support is None:
             support = [frame for frame in self.contacts if frame in corners]
@@ -122,7 +130,7 @@ class WholeBody:
             from wbik.errors import RobotDescriptionError
 
             raise RobotDescriptionError(
-                f"support frames {missing} have no sole corners on {robot.name!r} "
+                f"support frames {missing} have no sole contact points on {robot.name!r} "
                 f"(robot.soles lists {sorted(corners)})"
             )
         if (
@@ -221,7 +229,8 @@ class WholeBody:
         }
 
     def support_polygon(self, q: np.ndarray):
-        """The support polygon of the support soles at q (None without support)."""
+        """The support polygon of the support soles at q (None without support); a support that spans
+        no area raises DegenerateSupportPolygonError naming the soles (no hard CoM constraint on it)."""
         if not self.support:
             return None
         from wbik.qp.support_polygon import feet_support_polygon
@@ -229,6 +238,24 @@ class WholeBody:
         return feet_support_polygon(
             Kinematics(self.robot.model, q), self.robot.soles, self.support
         )
+
+    def support_region(self, kinematics: Kinematics):
+        """The support polygon at the kinematics' q, or the DegenerateSupport its points collapse to
+        (for the check, which reports instead of raising); None without support."""
+        if not self.support:
+            return None
+        from wbik.qp.support_polygon import feet_support_region
+
+        return feet_support_region(kinematics, self.robot.soles, self.support)
+
+    def contact_error(self, kinematics: Kinematics, frame: str, held: pin.SE3) -> tuple[float, float]:
+        """(position error m, rotation error rad) of contact ``frame`` at the kinematics' q against
+        ``held``; the rotation error of a point foot is 0 (its rotation is free)."""
+        reached = kinematics.placement(kinematics.frame_id(frame))
+        position = float(np.linalg.norm(reached.translation - held.translation))
+        if frame in self.point_contacts:
+            return position, 0.0
+        return position, rotation_angle(reached.rotation, held.rotation)
 
     def check_q(self, q, what: str = "q0") -> np.ndarray:
         array = np.asarray(q, dtype=float).reshape(-1) if q is not None else None
@@ -402,17 +429,19 @@ def check_wholebody(
             contact_placements = problem.contact_placements(problem.check_q(q0))
     drift = 0.0
     for frame, held in (contact_placements or {}).items():
-        reached = kinematics.placement(kinematics.frame_id(frame))
-        position = float(np.linalg.norm(reached.translation - held.translation))
-        rotation = rotation_angle(reached.rotation, held.rotation)
+        position, rotation = problem.contact_error(kinematics, frame, held)
         drift = max(drift, position, rotation)
         if position > tolerances.position or rotation > tolerances.rotation:
             failures.append(f"contact {frame} drifted {position:.3g} m, {rotation:.3g} rad")
     com_margin = math.nan
-    polygon = problem.support_polygon(q)
-    if polygon is not None:
-        com_margin = polygon.margin_of(kinematics.com()[:2])
-        if com_margin < problem.margin - MARGIN_SLACK:
+    region = problem.support_region(kinematics)
+    if region is not None:
+        com_margin = region.margin_of(kinematics.com()[:2])
+        if isinstance(region, DegenerateSupport):
+            shape = "a segment" if len(region.vertices) == 2 else "a point"
+            failures.append(f"support polygon is degenerate (the support spans no area: {shape}), CoM "
+                            f"{-com_margin * 1e3:.3g} mm from it")
+        elif com_margin < problem.margin - MARGIN_SLACK:
             failures.append(f"CoM margin {com_margin * 1e3:.3g} mm < {problem.margin * 1e3:g} mm")
     limit_excess = _limit_excess(robot, q) if problem.limits != "none" else 0.0
     if limit_excess > LIMIT_SLACK:

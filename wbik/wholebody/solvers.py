@@ -7,14 +7,18 @@ its answer is judged by the one shared check, :func:`~wbik.wholebody.problem.che
 
 Methods:
 
+Contacts on a point foot (``problem.point_contacts``) hold its position only, in every method.
+
 - ``qp``: our task QP (:class:`wbik.qp.IKProblem`), contacts as equalities, the CoM in the shrunk
   support polygon as hard rows, limits as bounds; ``backend=`` any installed qpsolvers backend.
 - ``placo``: PlaCo's KinematicsSolver: its own frame / position / orientation / CoM / joints tasks
-  (soft, with our weights), contacts as hard frame tasks, its CoM polygon constraint with the
+  (soft, with our weights), contacts as hard frame tasks (a point foot: a hard position task), its
+  CoM polygon constraint with the
   polygon clockwise (PlaCo's convention) and configured hard (as benchmarks/qp.py does), joint
   limits; one ``solve(True)`` per iteration of our loop.
 - ``pink``: pin-pink 4.4: FrameTask (also for position-only and orientation-only tasks, the other
-  half at cost 0), ComTask, PostureTask, contacts as Pink equality constraints, ConfigurationLimit
+  half at cost 0), ComTask, PostureTask, contacts as Pink equality constraints (a point foot: a
+  3-row task of our own, :func:`pink_point_contact`), ConfigurationLimit
   (and VelocityLimit); Pink has no hard CoM-in-polygon constraint, so it solves without one:
   every pink result with a support polygon lists it in ``unsupported``.
 
@@ -40,7 +44,6 @@ import pinocchio as pin
 
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
-from wbik.geometry import rotation_angle
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
@@ -152,7 +155,8 @@ class WholeBodySolver(PerThreadState, IterationBudget):
         return 0.5 * self.tolerances.position, 0.5 * self.tolerances.rotation
 
     def _converged(
-        self, monitor: Kinematics, tasks: list[Task], placements: dict, polygon, margin: float, q: np.ndarray
+        self, problem: WholeBody, monitor: Kinematics, tasks: list[Task], placements: dict, polygon,
+        q: np.ndarray
     ) -> bool:
         """Goals and contacts within half the check's tolerances (and the CoM margin, with a polygon)."""
         monitor.update(q)
@@ -166,13 +170,10 @@ class WholeBodySolver(PerThreadState, IterationBudget):
             ):
                 return False
         for frame, held in placements.items():
-            reached = monitor.placement(monitor.frame_id(frame))
-            if (
-                np.linalg.norm(reached.translation - held.translation) > position_tolerance
-                or rotation_angle(reached.rotation, held.rotation) > rotation_tolerance
-            ):
+            position, rotation = problem.contact_error(monitor, frame, held)
+            if position > position_tolerance or rotation > rotation_tolerance:
                 return False
-        return polygon is None or polygon.margin_of(monitor.com()[:2]) >= margin
+        return polygon is None or polygon.margin_of(monitor.com()[:2]) >= problem.margin
 
     def _peer_loop(
         self,
@@ -182,7 +183,7 @@ class WholeBodySolver(PerThreadState, IterationBudget):
         *converged_on,
     ) -> WholeBodyCandidate:
         """Our loop around a peer's single QP step from q: stop when :meth:`_converged` (given
-        ``converged_on``: monitor, tasks, placements, polygon, margin) holds, when the time budget is
+        ``converged_on``: problem, monitor, tasks, placements, polygon) holds, when the time budget is
         used up, or when ``step(q)`` (the next q and a reason to stop, "" to go on) gives a reason;
         else after ``max_iterations`` steps."""
 
@@ -257,10 +258,10 @@ class QPWholeBody(WholeBodySolver):
 
     def _solve(self, problem, q0, placements, polygon, deadline):
         from wbik.qp.constraints import CoMInSupportPolygon
-        from wbik.qp.constraints import Contact
         from wbik.qp.constraints import JointPositionLimits
         from wbik.qp.constraints import JointVelocityLimits
         from wbik.qp.constraints import MinimumDistance
+        from wbik.qp.humanoid import contact_constraint
         from wbik.qp.problem import IKProblem
 
         model = self.robot.model
@@ -270,7 +271,7 @@ class QPWholeBody(WholeBodySolver):
             if task.goal:
                 task.tolerance = min(task.tolerance, tolerance)
         tasks.append(RegularizationTask(self.regularization))
-        constraints = [Contact(frame, placement) for frame, placement in placements.items()]
+        constraints = [contact_constraint(self.robot, frame, held) for frame, held in placements.items()]
         if polygon is not None:
             constraints.append(CoMInSupportPolygon(polygon, problem.margin))
         if problem.limits != "none":
@@ -370,8 +371,12 @@ class PlacoWholeBody(WholeBodySolver):
             solver.dt = problem.step_dt
             solver.enable_velocity_limits(True)
         for index, (frame, placement) in enumerate(placements.items()):
-            task = solver.add_frame_task(frame, placement.homogeneous)
-            task.configure(f"contact_{index}", "hard", 1.0, 1.0)
+            if frame in problem.point_contacts:  # a point foot: its position only
+                task = solver.add_position_task(frame, placement.translation.copy())
+                task.configure(f"contact_{index}", "hard", 1.0)
+            else:
+                task = solver.add_frame_task(frame, placement.homogeneous)
+                task.configure(f"contact_{index}", "hard", 1.0, 1.0)
         tasks = problem.copied_tasks()
         kinematics = Kinematics(robot.model, q0)
         for index, task in enumerate(tasks):
@@ -393,8 +398,7 @@ class PlacoWholeBody(WholeBodySolver):
                 return q, "stalled: PlaCo's steps no longer move the robot"
             return q, ""
 
-        margin = problem.margin
-        return self._peer_loop(step, q0.copy(), deadline, kinematics, tasks, placements, polygon, margin)
+        return self._peer_loop(step, q0.copy(), deadline, problem, kinematics, tasks, placements, polygon)
 
     def _add_task(self, solver, wrapper, task: Task, index: int, q0: np.ndarray) -> None:
         label = f"task_{index}"
@@ -536,6 +540,9 @@ class PinkWholeBody(WholeBodySolver):
         pink_tasks, damping = self._pink_tasks(problem, tasks, kinematics)
         constraints = []
         for frame, placement in placements.items():
+            if frame in problem.point_contacts:  # a point foot: its position only (3 equality rows)
+                constraints.append(pink_point_contact(frame, placement.translation))
+                continue
             contact = P.FrameTask(frame, position_cost=1.0, orientation_cost=1.0)
             contact.set_target(placement)
             constraints.append(contact)
@@ -567,7 +574,32 @@ class PinkWholeBody(WholeBodySolver):
             return q, ""
 
         # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
-        return self._peer_loop(step, q0.copy(), deadline, kinematics, tasks, placements, None, problem.margin)
+        return self._peer_loop(step, q0.copy(), deadline, problem, kinematics, tasks, placements, None)
+
+
+def pink_point_contact(frame: str, position: np.ndarray):
+    """A Pink task holding ``frame``'s origin at ``position`` (world, m), for Pink's equality
+    constraints (which take a task's every row, whatever its cost): e = p - p*, J = the frame's
+    world-aligned linear Jacobian (3 rows)."""
+    from pink.tasks import Task as PinkTask
+
+    class PointContactTask(PinkTask):
+        def __init__(self):
+            super().__init__(cost=1.0)
+            self.frame, self.position = frame, np.array(position, dtype=float)
+
+        def compute_error(self, configuration) -> np.ndarray:
+            return configuration.get_transform_frame_to_world(self.frame).translation - self.position
+
+        def compute_jacobian(self, configuration) -> np.ndarray:
+            model, data = configuration.model, configuration.data
+            return pin.getFrameJacobian(model, data, model.getFrameId(self.frame),
+                                        pin.LOCAL_WORLD_ALIGNED)[:3]
+
+        def __repr__(self) -> str:
+            return f"PointContactTask({self.frame!r})"
+
+    return PointContactTask()
 
 
 WHOLEBODY_METHODS = (
