@@ -83,7 +83,9 @@ def measure(count: int, rounds: int, seed: int) -> tuple[dict[str, tuple[float, 
     eaik = wbik.solver("eaik", ur5, "ee")
     poses = fk_poses(analytic.chain, count, seed)
     eaik_poses = [eaik.eaik_pose(wbik.targets.as_target(pose)) for pose in poses]
-    raw = eaik._thread_state()  # this thread's EAIK HPRobot, built from the chain's H and P
+    from eaik.IK_HP import HPRobot
+
+    raw = HPRobot(eaik.structure.H, eaik.structure.P)  # EAIK's own robot of the chain's H and P
     golem = wbik.solver("analytic", wbik.load("golem3"), "right_arm")
     golem_poses = fk_poses(golem.chain, count, seed)
     for solver, first in ((analytic, poses[0]), (eaik, poses[0]), (golem, golem_poses[0])):

@@ -20,6 +20,7 @@ GOALS = {  # a phrase of each goal's row -> rows expected
     "UR5 closed-form solve_all <= 3x EAIK": 1,
     "UR5 closed-form solve_many": 1,
     "Golem-III closed-form solve <= 25 us": 1,
+    "eaik method solve <= 2x EAIK's own call": 2,
     "bounded_lm mean time <= 0.5x TRAC-IK": 5,
     "bounded_lm success >= TRAC-IK": 5,
     "solve_many throughput": 4,

@@ -41,15 +41,17 @@ def run(args: argparse.Namespace) -> int:
     target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
               else wbik.Target(position))
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
+    family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:
-        payload = [r.as_dict() for r in results]
+        payload = [dict(r.as_dict(), **({"family": family} if family else {})) for r in results]
         print(json.dumps(payload if args.all else payload[0], indent=2))
     else:
         if not results:
             print("no solution")
         for result in results:
             status = "solved" if result.success else f"NOT solved: {result.reason}"
-            print(f"{result.method} on {robot.name}.{solver.chain.name}: {status}")
+            solved_by = f" (closed form: {family})" if family else ""
+            print(f"{result.method} on {robot.name}.{solver.chain.name}{solved_by}: {status}")
             if result.q is not None:
                 for name, value in zip(solver.chain.joint_names, result.q, strict=True):
                     print(f"  {name:24s} {value: .9f}")
@@ -57,3 +59,13 @@ def run(args: argparse.Namespace) -> int:
                   f"{result.rotation_error:.3e} rad, {result.iterations} iterations, "
                   f"{result.time_s * 1e3:.3f} ms")
     return 0 if results and all(r.success for r in results) else 1  # 1: ran, but not solved
+
+
+def solver_family(solver, kind: str) -> str | None:
+    """Which closed form solves the chain, for a method that says: ``analytic``'s family of this target
+    kind (e.g. "ur_type", "bound:module:Class"), ``eaik``'s kinematic class; None for the others."""
+    families = getattr(solver, "families", None)
+    if isinstance(families, dict):
+        return families.get(kind)
+    family = getattr(solver, "family", None)
+    return family if isinstance(family, str) else None

@@ -4,24 +4,34 @@ EAIK 1.2.2 (``pip install EAIK==1.2.2``; Ostermeier et al., "Automatic Geometric
 Analytical Inverse Kinematics") looks at a 1R..6R chain's joint axes, recognises a kinematic family
 it can decompose into Paden-Kahan subproblems, and returns every closed-form branch of a pose.
 
-Building the EAIK robot. It is built with ``eaik.IK_HP.HPRobot(H, P)`` from the chain's own reduced
-Pinocchio model (:func:`wbik.solvers.task_error.serial_structure`), not from the URDF, so any chain
-works, also one whose other joints are locked: at q = 0 the joint axes ``H`` (n, 3) and the offsets
-``P`` (n + 1, 3) between consecutive joint origins (base -> joint 1, ..., joint n -> tip) are written
-in the chain's base frame. HPRobot's end-effector frame has the base's orientation at q = 0 (its R6T
-is the identity), ours has R0, the tip's orientation at q = 0, so EAIK is asked for
-``T_target @ diag(R0^T, 1)``; with that, EAIK's FK equals our chain FK to 3e-16 on every chain below.
+Building the EAIK robot. Its description comes from the chain's own reduced Pinocchio model (the
+chain's joint lines, :func:`wbik.solvers.analytic.structure.chain_lines`), not from the URDF, so any
+chain works, also one whose other joints are locked: at q = 0 the joint axes ``H`` (n, 3) and the
+offsets ``P`` (n + 1, 3) between consecutive joint origins (base -> joint 1, ..., joint n -> tip) are
+written in the chain's base frame. ``eaik.IK_HP.HPRobot(H, P)``'s end-effector frame has the base's
+orientation at q = 0 (its R6T is the identity), ours has R0, the tip's orientation at q = 0: the verdict
+and the probe use HPRobot and ask it for ``T_target @ diag(R0^T, 1)`` (:meth:`EAIKSolver.eaik_pose`);
+the solver's own robot is built with R6T = R0 (:func:`wbik.solvers.analytic.eaik_family.eaik_robot`)
+and takes the target as it is. Either way EAIK's FK equals our chain FK to 3e-16 on every chain below.
 The structure and EAIK's verdict are computed once per chain (cached); each thread builds its own
-HPRobot (:meth:`Solver._thread_state`).
+robot (:meth:`Solver._thread_state`).
 
-Choosing a branch. As in ``analytic``: each revolute angle is shifted by multiples of 2 pi into the
-limits, nearest to q0 (:func:`wbik.solvers.analytic.wrap_into_limits`, which matters for the UR5's
-+-2 pi joints), branches outside the limits are dropped, and ``solve`` returns the branch with the
-smallest Euclidean joint distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad).
-EAIK's ``is_LS`` flag is not trusted either way (it marks exact branches of 4R chains as
-least-squares); the FK screen decides. ``solve_all`` returns every distinct branch inside the limits
-that passes the shared check; ``solve_many`` makes one ``IK_batched`` call (``batch_threads``
-worker threads, 1 by default) and picks branches exactly as ``solve`` does.
+Choosing a branch. As in ``analytic``, and with its code (the chain as the closed form
+:class:`wbik.solvers.analytic.eaik_family.EAIKForm`, :func:`wbik.solvers.analytic.nearest_branch`):
+each revolute angle is shifted by multiples of 2 pi into the limits, nearest to q0 (which matters for
+the UR5's +-2 pi joints), branches outside the limits are dropped, and ``solve`` returns the branch with
+the smallest Euclidean joint distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad),
+in plain floats, the branches taken in the order of a lower bound of their distance. EAIK's ``is_LS``
+flag is not trusted either way (it marks exact branches of 4R chains as least-squares); the FK screen
+decides. Where no branch passes, the reason says whether none is inside the limits or EAIK returned
+only least-squares branches. ``solve_all`` returns every distinct branch inside the limits that passes
+the shared check; ``solve_many`` makes one batched EAIK call (``batch_threads`` worker threads, 1 by
+default) and picks branches exactly as ``solve`` does.
+
+Cost (``benchmarks/eaik_interface.py``, UR10 and UR5): a ``solve`` costs about 7x EAIK's own ``IK``
+call (5 us): the interface every method pays (target conversion, the shared FK check, the IKResult) is
+about 1.4x of it, the choice above about 3x (bounds of the 8 branches, the wrap and the FK screen of
+the nearest, array conversions), all of it Python around one EAIK call.
 
 Targets. EAIK solves full poses only (its 1R..5R solvers solve the over-determined pose and flag
 the inexact branches as least-squares); a position-only target raises UnsupportedError on every
@@ -81,13 +91,15 @@ from wbik.errors import UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.solvers.analytic import BRANCH_MERGE
+from wbik.solvers.analytic import nearest_branch
 from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IKMethod
-from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
 from wbik.targets import as_target
 from wbik.targets import pose_error
@@ -121,7 +133,7 @@ class EAIKStructure:
     family: str
 
 
-_STRUCTURES: weakref.WeakKeyDictionary[Chain, EAIKStructure] = weakref.WeakKeyDictionary()
+_STRUCTURES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _STRUCTURES_LOCK = threading.Lock()
 
 
@@ -130,43 +142,45 @@ def eaik_structure(chain: Chain) -> EAIKStructure:
 
     UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
     """
+    try:
+        return eaik_verdict(chain)
+    except UnsupportedError as refused:
+        label = f"{chain.robot.name}.{chain.name}"
+        raise UnsupportedError(f"method 'eaik' cannot solve {label}: {refused}") from None
+
+
+def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
+    """:func:`eaik_structure` of any chain-like object with joint lines (:func:`chain_lines`: a Chain, or
+    a chain with a locked joint), UnsupportedError saying only why (the caller names the chain).
+    ``probe``: check EAIK's branches on seeded FK poses (see the module docstring); a probed verdict is
+    computed once per chain, an unprobed one (a chain rebuilt at each value of a locked joint) each time."""
     HPRobot = _import_eaik()  # first, so a missing EAIK is reported also for a cached chain
-    with _STRUCTURES_LOCK:
-        cached = _STRUCTURES.get(chain)
-    if cached is not None:
-        return cached
-    label = f"{chain.robot.name}.{chain.name}"
-    structure = serial_structure(chain)
-    if structure.prismatic.any():
-        names = [n for n, p in zip(chain.joint_names, structure.prismatic, strict=True) if p]
-        raise UnsupportedError(f"method 'eaik' cannot solve {label}: EAIK takes revolute joints only, "
-                               f"{names} prismatic")
-    transform = structure.placements[0].copy()
-    axes, origins = [], []
-    for k, axis in enumerate(structure.axes):
-        axes.append(transform[:3, :3] @ axis)
-        origins.append(transform[:3, 3].copy())
-        transform = transform @ structure.placements[k + 1]
-    offsets = [origins[0]] + [origins[k] - origins[k - 1] for k in range(1, len(origins))]
-    offsets.append(transform[:3, 3] - origins[-1])
-    H, P = np.array(axes), np.array(offsets)
+    if probe:
+        with _STRUCTURES_LOCK:
+            cached = _STRUCTURES.get(chain)
+        if cached is not None:
+            return cached
+    lines = chain_lines(chain)
+    if lines.prismatic.any():
+        names = [n for n, p in zip(chain.joint_names, lines.prismatic, strict=True) if p]
+        raise UnsupportedError(f"EAIK takes revolute joints only, {names} prismatic")
+    H, P, tip_rotation = eaik_vectors(lines)
     try:
         robot = HPRobot(H, P)
     except RuntimeError as exc:
-        raise UnsupportedError(f"method 'eaik' cannot solve {label} ({chain.nq} joints): EAIK says "
-                               f"{str(exc).strip()!r}") from None
+        raise UnsupportedError(f"EAIK says {str(exc).strip()!r} ({chain.nq} joints)") from None
     family = robot.getKinematicFamily()
     if not robot.hasKnownDecomposition():
-        raise UnsupportedError(f"method 'eaik' cannot solve {label}: EAIK knows no decomposition for "
-                               f"its kinematic family ({family!r})")
-    result = EAIKStructure(H, P, transform[:3, :3].T.copy(), family)
+        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})")
+    result = EAIKStructure(H, P, tip_rotation.T.copy(), family)
+    if not probe:
+        return result
     reproduced, miss = _probe(chain, robot, result)
     if reproduced < PROBE_REQUIRED:
         raise UnsupportedError(
-            f"method 'eaik' cannot solve {label}: EAIK reports a decomposition ({family!r}) but its "
-            f"branches reproduce only {reproduced} of {PROBE_POSES} FK poses of random joints (the nearest "
-            f"branch's 4x4 pose off by up to {miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this "
-            "geometry")
+            f"EAIK reports a decomposition ({family!r}) but its branches reproduce only {reproduced} of "
+            f"{PROBE_POSES} FK poses of random joints (the nearest branch's 4x4 pose off by up to "
+            f"{miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this geometry")
     with _STRUCTURES_LOCK:
         _STRUCTURES[chain] = result
     return result
@@ -197,21 +211,28 @@ class EAIKSolver(Solver):
 
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
+        from wbik.solvers.analytic.eaik_family import EAIKForm
+
         super().__init__(robot, chain, **options)
         self.batch_threads = check_count("batch_threads", batch_threads)
         self.structure = eaik_structure(self.chain)
         self.family = self.structure.family
+        self.form = EAIKForm(self.chain, structure=self.structure)
+        """The chain as a closed form of EAIK's branches: the scalar path the choice runs on."""
         self.revolute = ~self.chain.is_prismatic
+        self._limits = (self.chain.lower.tolist(), self.chain.upper.tolist())
         self._tip = np.eye(4)
         self._tip[:3, :3] = self.structure.tip_rotation_t
 
     def _new_thread_state(self):
-        """This thread's EAIK robot (built from the cached structure)."""
-        return _import_eaik()(self.structure.H, self.structure.P)
+        """This thread's EAIK robot (:func:`~wbik.solvers.analytic.eaik_family.eaik_robot`: it takes
+        our target poses as they are)."""
+        return self.form.robot()
 
     # -- EAIK in our frames ---------------------------------------------------------------------
     def eaik_pose(self, target: Target) -> np.ndarray:
-        """The 4x4 pose to give EAIK for a target of ours (our tip pose @ diag(R0^T, 1))."""
+        """The 4x4 pose to give ``eaik.IK_HP.HPRobot(H, P)`` (end-effector rotation the identity) for a
+        target of ours: our tip pose @ diag(R0^T, 1). (This solver's own robot takes the target as it is.)"""
         pose = np.eye(4)
         pose[:3, :3] = target.rotation
         pose[:3, 3] = target.position
@@ -221,11 +242,27 @@ class EAIKSolver(Solver):
         """EAIK's branches (K, n) for a target, as EAIK returns them (no wrapping, no screening)."""
         target = as_target(target)
         self._check_target_kind(target)
-        return self._branches(self._thread_state().IK(self.eaik_pose(target)))
+        return self._branches(self._eaik_call(target))
+
+    def _eaik_call(self, target: Target):
+        """EAIK's solution for one target (this thread's robot)."""
+        return self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
 
     def _branches(self, solution) -> np.ndarray:
         q_all = np.asarray(solution.Q, dtype=float)
         return q_all.reshape(-1, self.chain.nq)
+
+    def _choose(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
+        """The branch nearest q0 (wrapped into the limits) that reaches the target, in plain floats
+        (:func:`~wbik.solvers.analytic.nearest_branch`, the screen with the chain's FK); where none does,
+        :meth:`_pick` says why."""
+        form = self.form
+        bounded = form.bounded(q_all, q0)
+        q, _ = nearest_branch(form, bounded, target.position.tolist(), target.rotation.ravel().tolist(),
+                              q0.tolist(), *self._limits)
+        if q is None:
+            return self._pick(q_all, target, q0)
+        return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
 
     def _reaches(self, q: np.ndarray, target: Target) -> bool:
         position_xyz, rotation_xyz = pose_error(self.chain.fk(q), target)
@@ -256,8 +293,8 @@ class EAIKSolver(Solver):
 
     # -- the interface ----------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        solution = self._thread_state().IK(self.eaik_pose(target))
-        return self._pick(self._branches(solution), target, q0)
+        solution = self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
+        return self._choose(self._branches(solution), target, q0)
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """One EAIK ``IK_batched`` call for the batch; branches picked as in ``solve``;
@@ -270,9 +307,9 @@ class EAIKSolver(Solver):
         starts = self._batch_starts(q0s, len(targets))
         q0_array = [self.chain.nominal.copy() if s is None else s for s in starts]
         start = time.perf_counter()
-        poses = [self.eaik_pose(target) for target in targets]
-        solutions = self._thread_state().IK_batched(poses, num_worker_threads=self.batch_threads)
-        candidates = [self._pick(self._branches(solution), target, q0)
+        poses = [self.form.pose(target.position, target.rotation) for target in targets]
+        solutions = self._thread_state().calculate_IK_batched(poses, self.batch_threads)
+        candidates = [self._choose(self._branches(solution), target, q0)
                       for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
         per_pose = (time.perf_counter() - start) / len(targets)
         for candidate in candidates:
@@ -285,7 +322,7 @@ class EAIKSolver(Solver):
         target = as_target(target)
         self._check_target_kind(target)
         start = time.perf_counter()
-        q_all = self._branches(self._thread_state().IK(self.eaik_pose(target)))
+        q_all = self._branches(self._eaik_call(target))
         elapsed = time.perf_counter() - start
         if len(q_all) == 0:
             return []

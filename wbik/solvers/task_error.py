@@ -160,3 +160,15 @@ def serial_structure(chain: Chain) -> SerialStructure:
     placements += [model.jointPlacements[j].homogeneous for j in joint_ids[1:]]
     placements.append(tip_frame.placement.homogeneous)
     return SerialStructure(np.array(placements), np.array(axes), np.array(prismatic, dtype=bool))
+
+
+def joint_lines_at_zero(structure: SerialStructure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(axes (n, 3), origins (n, 3), tip (4, 4)) at q = 0, in the base frame: joint k turns about (or
+    slides along) the line through origins[k] with direction axes[k], P_0 ... P_k-1 applied."""
+    transform = structure.placements[0].copy()
+    axes, origins = [], []
+    for k, axis in enumerate(structure.axes):
+        axes.append(transform[:3, :3] @ axis)
+        origins.append(transform[:3, 3].copy())
+        transform = transform @ structure.placements[k + 1]
+    return np.array(axes).reshape(-1, 3), np.array(origins).reshape(-1, 3), transform

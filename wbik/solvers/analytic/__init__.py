@@ -11,6 +11,12 @@ The closed forms are layered as IK-Geo layers its solvers:
    the thesis's own decomposition of the arm and the leg (equation by equation, used by the Bioloid
    application) on the shared subproblems.
 
+A chain without a binding gets its family from its structure (:mod:`.recognition`: the joint axes at
+q = 0 matched against every family, the parameters and the chain's frame and joint conventions read
+off them, the form held to the model's FK), else EAIK's decomposition for full poses
+(:mod:`.eaik_family`), else, on a 7-joint chain, one joint held at a value (:mod:`.redundancy`);
+``AnalyticSolver.families`` names what solves each target kind.
+
 This module is the framework over them. A closed form is a :class:`ClosedForm` registered for
 (robot, chain, target kind). It maps a batch of B targets to K candidate branches per target, ``Q``
 (B, K, n), with a mask ``real`` (B, K) of branches that exist (real square roots / cosines in [-1, 1],
@@ -204,20 +210,22 @@ class ToolClosedForm(ClosedForm):
 
 
 def closed_forms(robot) -> dict[tuple[str, str], str]:
-    """A robot's closed forms: ``robot.closed_forms`` maps (chain, kind) to "module:Class".
+    """A robot's closed forms bound by hand: ``robot.closed_forms`` maps (chain, kind) to "module:Class".
 
-    Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``.
+    Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``. A chain
+    and kind without one gets the form recognised from its structure (:mod:`.recognition`).
     """
     return dict(robot.closed_forms)
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
+    """The closed form bound to (chain, kind) by the robot (built here, checked by the caller), else the
+    one recognised from the chain's structure (:func:`.recognition.recognise`; checked there)."""
     forms = closed_forms(chain.robot)
     if (chain.name, kind) not in forms:
-        available = sorted(f"{c} ({k})" for c, k in forms)
-        raise UnsupportedError(
-            f"no closed form for {chain.robot.name}.{chain.name} with {kind} targets; available: "
-            f"{', '.join(available) or '(none)'}. Use a numerical method (e.g. 'dls') instead")
+        from wbik.solvers.analytic.recognition import recognise
+
+        return recognise(chain, kind, options).form
     module_name, class_name = forms[(chain.name, kind)].split(":")
     return getattr(importlib.import_module(module_name), class_name)(chain, **options)
 
@@ -405,18 +413,46 @@ class Choice(NamedTuple):
     reached_r: np.ndarray
 
 
+TARGET_KINDS = ("pose", "position")
+
+
 class AnalyticSolver(Solver):
-    """Closed-form IK behind the common interface; see the module docstring."""
+    """Closed-form IK behind the common interface; see the module docstring.
+
+    Which closed form: the one the robot binds to (chain, kind), else the one recognised from the
+    chain's structure (:mod:`.recognition`: a family of wbik, EAIK's decomposition for full poses, a
+    7-joint chain with one joint held). ``families`` says, per target kind, which solves the chain
+    ("bound:<module:Class>", "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with the
+    held joint where one is); a chain with neither kind is refused when the solver is built
+    (UnsupportedError saying what was tried), a missing kind when it is asked for.
+    """
 
     name = "analytic"
     budgeted = False
 
-    def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None, **options):
+    def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None,
+                 redundant_joint: str | int | None = None, redundancy: str = "seed",
+                 grid_size: int = 16, **options):
         """``closed_form_options``: keyword arguments per target kind for the closed form's
-        constructor, e.g. ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll)."""
+        constructor, e.g. ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll).
+
+        A chain with one joint too many for a closed form (7 joints) holds one at a value
+        (:mod:`.redundancy`): ``redundant_joint`` (its name or index; default: the first of the last, the
+        first, then the others from the tip whose holding leaves a chain with a closed form), held at the
+        start's value (``redundancy="seed"``) or, besides it, at ``grid_size`` values over its range
+        (``"grid"``), the branch nearest q0 over all of them returned.
+        """
+        from wbik.solvers.analytic.redundancy import check_redundancy_options
+
         super().__init__(robot, chain, **options)
         self._forms: dict[str, ClosedForm] = {}
         self.closed_form_options = dict(closed_form_options or {})
+        held = check_redundancy_options(self.chain, redundant_joint, redundancy, grid_size)
+        self.redundancy = {"joint": held, "mode": redundancy, "grid_size": int(grid_size)}
+        self.families: dict[str, str] = {}
+        """Per target kind, the family of the closed form that solves the chain (see the class)."""
+        self._refusals: dict[str, str] = {}
+        self._recognise_forms()
         self.revolute = ~self.chain.is_prismatic
         self._lower, self._upper = self.chain.lower.tolist(), self.chain.upper.tolist()
         self._limits_by_joint = (self.chain.lower[:, None, None], self.chain.upper[:, None, None],
@@ -425,8 +461,37 @@ class AnalyticSolver(Solver):
         self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())
         """Then a branch inside the limits is finite (no isfinite pass)."""
 
+    def _recognise_forms(self) -> None:
+        """Per target kind: the bound form's name (built on first use), or the form recognised from the
+        chain's structure (built and checked now), or why there is none; UnsupportedError when no kind
+        has one."""
+        from wbik.solvers.analytic.recognition import refusal
+        from wbik.solvers.analytic.recognition import refusal_reasons
+
+        bound = closed_forms(self.robot)
+        reasons = {}
+        for kind in TARGET_KINDS:
+            where = bound.get((self.chain.name, kind))
+            if where is not None and self.redundancy["joint"] is None:
+                self.families[kind] = f"bound:{where}"
+                continue
+            found = refusal_reasons(self.chain, kind, self.closed_form_options.get(kind, {}), self.redundancy)
+            if isinstance(found, list):
+                reasons[kind] = found
+                self._refusals[kind] = refusal(self.chain, {kind: found})
+                continue
+            self._forms[kind] = found.form
+            self.families[kind] = found.family
+        if not self.families:
+            raise UnsupportedError(refusal(self.chain, reasons))
+
+    @property
+    def family(self) -> str:
+        """The family of the full-pose closed form, else of the position one (see ``families``)."""
+        return self.families.get("pose") or self.families["position"]
+
     def check_target_kind(self, kind: str) -> None:
-        """Also an UnsupportedError when the robot declares no closed form of this kind for the chain."""
+        """Also an UnsupportedError when the chain has no closed form of this kind."""
         super().check_target_kind(kind)
         self.closed_form(kind)
 
@@ -441,7 +506,11 @@ class AnalyticSolver(Solver):
         return form
 
     def closed_form(self, kind: str) -> ClosedForm:
+        """The closed form of ``kind`` targets (the bound one built and checked on first use);
+        UnsupportedError saying why where the chain has none."""
         if kind not in self._forms:
+            if kind in self._refusals:
+                raise UnsupportedError(self._refusals[kind])
             form = _closed_form(self.chain, kind, **self.closed_form_options.get(kind, {}))
             check_fk_against_model(form)
             self._forms[kind] = form

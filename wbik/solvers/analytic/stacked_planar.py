@@ -26,6 +26,11 @@ two free parameters. For fixed (t1, t2) the rest is closed form (:func:`position
 shoulder point S(t1, t2), l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is the planar 2R
 subproblem of the links l4 and sqrt(l5^2 + l6^2) for (t4, t5); :class:`PositionSearch` searches
 (t1, t2).
+
+Forms: the Golem-III binding (its robot package) solves its arms with these functions as the thesis
+does (one Euler triple, its roll range being +-pi/2); :class:`StackedPlanarPose` and
+:class:`StackedPlanarPosition` are the family's forms for any chain of this structure in the family's
+frames and joints (both Euler triples), which :mod:`.recognition` puts on a chain found to have it.
 """
 
 from __future__ import annotations
@@ -42,6 +47,7 @@ from wbik.geometry import rot_z
 from wbik.geometry import wrap_to_pi
 from wbik.solvers.analytic import LIMIT_TOLERANCE
 from wbik.solvers.analytic import TWO_PI
+from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r
@@ -369,3 +375,91 @@ class PositionSearch:
             final_cost[active] = cost
         converged = final_cost <= 1e-18  # |e| <= 1e-9 m
         return q.reshape(count, seeds, 6), converged.reshape(count, seeds)
+
+
+# --- the family's forms on any chain of its structure ------------------------------------------------
+GIMBAL_LOCK_SWEEP = 7
+"""Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""
+
+
+def _finite_limits(chain) -> tuple[np.ndarray, np.ndarray]:
+    """The chain's limits with an infinite bound replaced by -pi or pi (a search needs a finite box)."""
+    lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)
+    upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
+    return lower, upper
+
+
+class StackedPlanarPose(ClosedForm):
+    """Full poses of a stacked-planar arm in the family's frames and joints: both Euler triples of the
+    target rotation (t6 = alpha with |alpha| <= pi/2, and alpha + pi), 4 branches each (K = 8); at gimbal
+    lock t6 is free and q0's t6 and GIMBAL_LOCK_SWEEP rolls over its range are tried."""
+
+    target_kind = "pose"
+    has_scalar_path = True
+
+    def __init__(self, chain, geometry: StackedPlanarGeometry):
+        super().__init__(chain)
+        self.geometry = geometry
+        lower, upper = _finite_limits(chain)
+        self.roll_limits = (float(lower[5]), float(upper[5]))
+        self.roll_sweep = np.linspace(lower[5], upper[5], GIMBAL_LOCK_SWEEP)
+        self._sweep_list = self.roll_sweep.tolist()
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        alpha = wrist_roll(rotations)
+        locked = gimbal_locked(rotations)
+        rolls = np.stack((alpha, alpha + np.pi), axis=1)
+        real_roll = np.ones(rolls.shape, dtype=bool)
+        if locked.any():
+            count, sweep = len(alpha), len(self.roll_sweep)
+            start = np.clip(q0[:, 5], *self.roll_limits)
+            rolls = np.concatenate([np.where(locked[:, None], start[:, None], rolls),
+                                    np.broadcast_to(self.roll_sweep, (count, sweep))], axis=1)
+            real_roll = np.concatenate([np.stack((np.ones(count, dtype=bool), ~locked), axis=1),
+                                        np.broadcast_to(locked[:, None], (count, sweep))], axis=1)
+        q_all, real = pose_branches(self.geometry, positions, rotations, rolls)
+        count = len(positions)
+        return q_all.reshape(count, -1, 6), (real & real_roll[..., None]).reshape(count, -1)
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return fk(self.geometry, q)
+
+    def branches_one(self, position, rotation, reference):
+        r32, r33 = rotation[7], rotation[8]
+        if math.hypot(r32, r33) < GIMBAL_LOCK:
+            low, high = self.roll_limits
+            rolls = [min(high, max(low, reference[5])), *self._sweep_list]
+        else:
+            alpha = math.atan2(r32, r33)
+            if abs(alpha) > math.pi / 2:
+                alpha -= math.copysign(math.pi, alpha)
+            rolls = [alpha, alpha + math.pi]
+        return pose_branches_one(self.geometry, position, rotation, rolls, reference)
+
+    def fk_one(self, q):
+        return fk_one(self.geometry, q)
+
+
+class StackedPlanarPosition(ClosedForm):
+    """Position targets of a stacked-planar arm with the wrist roll t6 held at ``yaw`` (rad, in the
+    family's joints; it does not move the gripper centre): :class:`PositionSearch` over (t1, t2) in the
+    chain's limits, over batches of at most ``chunk`` positions."""
+
+    target_kind = "position"
+    chunk = 256
+
+    def __init__(self, chain, geometry: StackedPlanarGeometry, yaw: float):
+        super().__init__(chain)
+        self.geometry = geometry
+        self.yaw = float(yaw)
+        self.search = PositionSearch(geometry, *_finite_limits(chain))
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        parts = [self.search.candidates(positions[i:i + self.chunk], q0[i:i + self.chunk], self.yaw)
+                 for i in range(0, len(positions), self.chunk)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return fk(self.geometry, q)

@@ -253,8 +253,11 @@ class URArm(ClosedForm):
     has_scalar_path = True
     geometry: URGeometry
 
-    def __init__(self, chain):
+    def __init__(self, chain, geometry: URGeometry | None = None):
+        """``geometry``: the arm's DH numbers, where the class does not set them (a recognised chain)."""
         super().__init__(chain)
+        if geometry is not None:
+            self.geometry = geometry
         self.kernel = self.compiled_kernel()
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,

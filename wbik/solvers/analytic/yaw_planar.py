@@ -77,9 +77,10 @@ class Yaw2RPosition(ClosedForm):
 
     target_kind = "position"
 
-    def __init__(self, chain: Chain):
+    def __init__(self, chain: Chain, geometry: Yaw2RGeometry | None = None):
+        """``geometry``: the arm's lengths; without it, ``geometry_of(chain)`` (a binding's)."""
         super().__init__(chain)
-        self.geometry = self.geometry_of(chain)
+        self.geometry = self.geometry_of(chain) if geometry is None else geometry
         g = self.geometry
         self.axis_tolerance = AXIS_RELATIVE_TOLERANCE * (abs(g.l2) + abs(g.l3))
 
@@ -166,6 +167,12 @@ class PitchArmPose(ClosedForm):
     target_kind = "pose"
     geometry: PitchArmGeometry
 
+    def __init__(self, chain: Chain, geometry: PitchArmGeometry | None = None):
+        """``geometry``: the arm's lengths, where the class does not set them (a recognised chain)."""
+        super().__init__(chain)
+        if geometry is not None:
+            self.geometry = geometry
+
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         yaw = np.arctan2(rotations[:, 0, 1], -rotations[:, 1, 1])
@@ -208,8 +215,11 @@ class PitchArmPosition(ClosedForm):
     target_kind = "position"
     geometry: PitchArmGeometry
 
-    def __init__(self, chain: Chain):
+    def __init__(self, chain: Chain, geometry: PitchArmGeometry | None = None):
+        """``geometry``: the arm's lengths, where the class does not set them (a recognised chain)."""
         super().__init__(chain)
+        if geometry is not None:
+            self.geometry = geometry
         g = self.geometry
         if g.a != g.b:
             raise InvalidConfigurationError(

@@ -1,0 +1,297 @@
+"""A 7-joint chain in closed form: one joint (the redundant one) held at a value, the other six solved.
+
+As IKFast's free joint and EAIK's locked axes: joint k is held at a value v, the remaining 6-joint chain
+(:class:`LockedChain`) is solved by a recognised family or EAIK (:func:`.recognition.recognise_family`,
+:func:`.recognition.recognise_eaik`), and v is put back in every branch. The values tried per target
+(``redundancy``):
+
+- ``"seed"``: v = q0_k (inside the limits), the start's own value: an arm that moves little keeps it;
+- ``"grid"``: q0_k and ``grid_size`` values evenly over the joint's range, every branch of each; the
+  solver then returns the branch nearest q0 over all of them (K = 8 x (grid_size + 1) for a 6R).
+
+Holding the first or the last joint leaves the other lines where they are: the held joint only moves the
+base (T = exp([xi_1] v) T_6(q)) or the tool (T = T_6(q) M^-1 exp([xi_n] v) M), so one 6-joint form,
+built once at v = 0, solves every value with the target moved accordingly. Holding a joint in between
+moves the lines after it: the 6-joint form is rebuilt for each value (grid values once, kept).
+
+The default joint (:func:`lock_redundant_joint`) is the first of the last, the first, then the others from
+the tip, whose holding leaves a chain with a closed form (at the nominal value): e.g. the Panda's joint 7
+(EAIK's 6R-SPHERICAL_FIRST_TWO_INTERSECTING), the Golem-III's torso lift (the stacked-planar arm).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnsupportedError
+from wbik.geometry import TWO_PI
+from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.structure import ChainLines
+from wbik.solvers.analytic.structure import axis_rotation
+from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import locked_lines
+from wbik.solvers.analytic.structure import poe_fk
+
+REDUNDANCY_MODES = ("seed", "grid")
+DEFAULT_GRID_SIZE = 16
+"""Values of the held joint over its range in ``"grid"`` mode (besides q0's): 16 puts them ~0.35 rad
+apart on a 2 pi range, a few x 8 branches per target."""
+KEPT_FORMS = 256
+"""Forms built for a joint held in the middle of the chain that are kept (the grid's values recur; a
+start's own value rarely does)."""
+
+
+class LockedChain:
+    """``chain`` with joint ``index`` held at ``value``: what a closed form reads of a chain (limits,
+    nominal, names, its lines and its FK, the parent's at the held value)."""
+
+    def __init__(self, chain, index: int, value: float):
+        self.parent, self.index, self.value = chain, index, float(value)
+        keep = np.arange(chain.nq) != index
+        self.robot = chain.robot
+        self.held = chain.joint_names[index]
+        self.name = f"{chain.name} with {self.held} at {self.value:.6g}"
+        self.base_frame, self.tip_frame = chain.base_frame, chain.tip_frame
+        self.joint_names = [name for name, kept in zip(chain.joint_names, keep, strict=True) if kept]
+        self.lower, self.upper = chain.lower[keep].copy(), chain.upper[keep].copy()
+        self.nominal, self.mid_range = chain.nominal[keep].copy(), chain.mid_range[keep].copy()
+        self.is_prismatic = np.asarray(chain.is_prismatic)[keep].copy()
+        self.lines = locked_lines(chain_lines(chain), index, self.value)
+
+    @property
+    def nq(self) -> int:
+        return len(self.joint_names)
+
+    def full(self, q: np.ndarray) -> np.ndarray:
+        """The parent's joints (..., n + 1) with the held value inserted."""
+        return np.insert(np.asarray(q, dtype=float), self.index, self.value, axis=-1)
+
+    def fk(self, q: np.ndarray):
+        """The tip pose (pin.SE3) at joints q (n,), the parent's FK."""
+        return self.parent.fk(self.full(q))
+
+    def random(self, rng: np.random.Generator, count: int | None = None) -> np.ndarray:
+        shape = (self.nq,) if count is None else (count, self.nq)
+        return rng.uniform(self.lower, self.upper, size=shape)
+
+
+def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
+    """The grid of ``"grid"`` mode: ``grid_size`` values over the joint's range ([-pi, pi] where a
+    bound is infinite; a range of a full turn or more without its last value, the first's twin)."""
+    low, high = float(chain.lower[index]), float(chain.upper[index])
+    if not (math.isfinite(low) and math.isfinite(high)):
+        low, high = -math.pi, math.pi
+    full_turn = not chain.is_prismatic[index] and high - low >= TWO_PI - 1e-12
+    return np.linspace(low, high, grid_size, endpoint=not full_turn) if mode == "grid" else np.zeros(0)
+
+
+class LockedJointForm(ClosedForm):
+    """A chain solved with joint ``index`` held (see the module docstring); UnsupportedError where the
+    chain without it has no closed form."""
+
+    def __init__(self, chain, index: int, kind: str, options: dict | None = None, mode: str = "seed",
+                 grid_size: int = DEFAULT_GRID_SIZE):
+        from wbik.solvers.analytic.recognition import recognise_eaik
+        from wbik.solvers.analytic.recognition import recognise_family
+
+        super().__init__(chain)
+        self.index, self.mode, self.kind = index, mode, kind
+        self.options = dict(options or {})
+        self.target_kind = kind
+        self.lines: ChainLines = chain_lines(chain)
+        self.revolute = not chain.is_prismatic[index]
+        self.grid = held_values(chain, index, mode, grid_size)
+        last = index == chain.nq - 1
+        self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
+        """What the held joint moves where one form serves every value: the base, the tool, or None."""
+        self._recognisers = (recognise_family, recognise_eaik)
+        value = 0.0 if self.moves else float(np.clip(chain.nominal[index], chain.lower[index],
+                                                     chain.upper[index]))
+        self.sub = self._recognise(LockedChain(chain, index, value), self._recognisers)
+        self.family = self.sub.family
+        self.parameters = self.sub.parameters
+        self.screen_tolerance = self.sub.form.screen_tolerance
+        self.has_scalar_path = (self.moves is not None and self.sub.form.has_scalar_path
+                                and not np.any(chain.is_prismatic))
+        self._forms: dict[float, ClosedForm | None] = {value: self.sub.form}
+        self._lock = threading.Lock()
+        self._per_value = self._recognisers[1:] if self.family.startswith("eaik:") else self._recognisers[:1]
+        """What is tried at another value of a joint in the middle: what served at the nominal one."""
+
+    def _recognise(self, locked: LockedChain, recognisers, probe: bool = True):
+        """The first of ``recognisers`` (a family of wbik, EAIK) that solves the 6-joint chain."""
+        reasons = []
+        for recogniser in recognisers:
+            try:
+                if recogniser is self._recognisers[1]:
+                    return recogniser(locked, self.kind, probe=probe)
+                return recogniser(locked, self.kind, self.options)
+            except UnsupportedError as refused:
+                reasons.append(str(refused))
+        raise UnsupportedError("; ".join(reasons))
+
+    def _form_at(self, value: float) -> ClosedForm | None:
+        """The 6-joint form with the joint held at ``value`` (a middle joint), None where it has none."""
+        with self._lock:
+            if value in self._forms:
+                return self._forms[value]
+        try:
+            locked = LockedChain(self.chain, self.index, value)
+            form = self._recognise(locked, self._per_value, probe=False).form
+        except UnsupportedError:
+            form = None
+        with self._lock:
+            if len(self._forms) >= KEPT_FORMS:
+                self._forms.pop(next(iter(self._forms)))
+            self._forms[value] = form
+        return form
+
+    def values(self, starts: np.ndarray) -> np.ndarray:
+        """Held values per start (B, V): q0_k inside the limits, then the grid."""
+        k = self.index
+        seeds = np.clip(starts[:, k], self.chain.lower[k], self.chain.upper[k])[:, None]
+        return np.concatenate((seeds, np.broadcast_to(self.grid, (len(starts), len(self.grid)))), axis=1)
+
+    # -- moving the target of a form built at v = 0 ---------------------------------------------------
+    def _motions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """exp([xi_k] v) for values (m,): rotations (m, 3, 3), translations (m, 3)."""
+        axis, point = self.lines.axes[self.index], self.lines.origins[self.index]
+        if not self.revolute:
+            return np.broadcast_to(np.eye(3), (len(values), 3, 3)), values[:, None] * axis
+        rotations = axis_rotation(axis, values)
+        return rotations, point - rotations @ point
+
+    def moved_targets(self, positions: np.ndarray, rotations: np.ndarray | None,
+                      values: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Targets of the form built at v = 0, one per (target, value) pair (all arrays (m, ...)): base
+        moved, exp(-[xi_1] v) T; tool moved, T Y_v^-1 with Y_v = M^-1 exp([xi_n] v) M."""
+        turn, shift = self._motions(values)
+        if self.moves == "base":
+            positions = np.einsum("mji,mj->mi", turn, positions - shift)
+            return positions, None if rotations is None else np.matmul(np.swapaxes(turn, 1, 2), rotations)
+        tip_r, tip_p = self.lines.tip[:3, :3], self.lines.tip[:3, 3]
+        # Y_v = (R0^T turn R0, R0^T (turn p0 + shift - p0)); T Y^-1 = (R Y_R^T, p - R Y_R^T Y_p)
+        moved_r = np.swapaxes(tip_r.T @ turn @ tip_r, 1, 2)  # Y_R^T
+        moved_p = (np.einsum("mij,j->mi", turn, tip_p) + shift - tip_p) @ tip_r  # Y_p
+        new_rotations = rotations @ moved_r
+        return positions - np.einsum("mij,mj->mi", new_rotations, moved_p), new_rotations
+
+    # -- the closed form --------------------------------------------------------------------------
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        values = self.values(q0)
+        count, per_target = values.shape
+        sub_starts = np.repeat(np.delete(q0, self.index, axis=1), per_target, axis=0)
+        flat = values.reshape(-1)
+        if self.moves is not None:
+            repeated = None if rotations is None else np.repeat(rotations, per_target, axis=0)
+            moved_p, moved_r = self.moved_targets(np.repeat(positions, per_target, axis=0), repeated, flat)
+            sub_q, sub_real = self.sub.form.branches(moved_p, moved_r, sub_starts)
+        else:
+            parts = []
+            for row, value in enumerate(flat.tolist()):
+                form = self._form_at(value)
+                target = row // per_target
+                if form is None:
+                    parts.append((np.full((1, 1, self.chain.nq - 1), np.nan), np.zeros((1, 1), dtype=bool)))
+                    continue
+                parts.append(form.branches(positions[target:target + 1],
+                                           None if rotations is None else rotations[target:target + 1],
+                                           sub_starts[row:row + 1]))
+            width = max(q.shape[1] for q, _ in parts)
+            sub_q = np.full((len(parts), width, self.chain.nq - 1), np.nan)
+            sub_real = np.zeros((len(parts), width), dtype=bool)
+            for row, (q, real) in enumerate(parts):
+                sub_q[row, :q.shape[1]], sub_real[row, :q.shape[1]] = q[0], real[0]
+        held = np.broadcast_to(flat[:, None, None], sub_q.shape[:2] + (1,))
+        q_all = np.concatenate((sub_q[..., :self.index], held, sub_q[..., self.index:]), axis=-1)
+        width = q_all.shape[1]
+        return q_all.reshape(count, per_target * width, -1), sub_real.reshape(count, per_target * width)
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return poe_fk(self.lines, q)
+
+    def branches_one(self, position, rotation, reference):
+        values = self.values(np.array([reference]))[0]
+        sub_reference = reference[:self.index] + reference[self.index + 1:]
+        k, remainder = self.index, math.remainder
+        if self.moves is not None:
+            count = len(values)
+            repeated = None if rotation is None else np.tile(np.reshape(rotation, (3, 3)), (count, 1, 1))
+            moved_p, moved_r = self.moved_targets(np.tile(position, (len(values), 1)), repeated, values)
+        branches = []
+        for row, value in enumerate(values.tolist()):
+            if self.moves is not None:
+                form = self.sub.form
+                target = (moved_p[row].tolist(), None if rotation is None else moved_r[row].ravel().tolist())
+            else:
+                form = self._form_at(value)
+                if form is None:
+                    continue
+                target = (position, rotation)
+            gap = remainder(value - reference[k], TWO_PI)
+            for bound, q in form.branches_one(*target, sub_reference):
+                q.insert(k, value)
+                branches.append((bound + gap * gap, q))
+        return branches
+
+    def fk_one(self, q):
+        pose = self.chain.fk(np.asarray(q, dtype=float))
+        return tuple(pose.translation.tolist()), tuple(pose.rotation.ravel().tolist())
+
+
+def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
+    """The held joint's index (None: the default) after checking the options; InvalidSettingError
+    saying what is accepted."""
+    from wbik.validation import check_count
+
+    if mode not in REDUNDANCY_MODES:
+        raise InvalidSettingError(f"redundancy must be one of {list(REDUNDANCY_MODES)}, got {mode!r}")
+    check_count("grid_size", grid_size)
+    if joint is None:
+        return None
+    if isinstance(joint, str):
+        if joint not in chain.joint_names:
+            raise InvalidSettingError(f"redundant_joint {joint!r} is not a joint of {chain.name!r}: "
+                                      f"{chain.joint_names}")
+        return chain.joint_names.index(joint)
+    if isinstance(joint, int | np.integer) and not isinstance(joint, bool) and -chain.nq <= joint < chain.nq:
+        return int(joint) % chain.nq
+    raise InvalidSettingError(f"redundant_joint must name a joint of {chain.name!r} ({chain.joint_names}) "
+                              f"or index one (0..{chain.nq - 1}), got {joint!r}")
+
+
+def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict):
+    """The chain's closed form with one joint held (:class:`LockedJointForm`) as a
+    :class:`~.recognition.Recognised`: the joint ``redundancy["joint"]`` (an index), else the default
+    (see the module docstring) of a 7-joint chain. UnsupportedError saying why none."""
+    from wbik.solvers.analytic.model_agreement import check_fk_against_model
+    from wbik.solvers.analytic.recognition import Recognised
+
+    mode = redundancy.get("mode", "seed")
+    grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
+    index = redundancy.get("joint")
+    count = chain.nq
+    if index is None:
+        if count != 7:
+            raise UnsupportedError(f"holding one joint: for 7-joint chains (this one has {count})")
+        candidates = [count - 1, 0, *range(count - 2, 0, -1)]
+    else:
+        candidates = [index]
+    first_reason = ""
+    for candidate in candidates:
+        try:
+            form = LockedJointForm(chain, candidate, kind, options, mode, grid_size)
+        except UnsupportedError as refused:
+            first_reason = first_reason or f"holding {chain.joint_names[candidate]}: {refused}"
+            continue
+        check_fk_against_model(form)
+        family = f"{form.family} with {chain.joint_names[candidate]} held ({mode})"
+        return Recognised(form, family, form.parameters)
+    if index is not None:
+        raise UnsupportedError(first_reason)
+    raise UnsupportedError(f"holding any one joint leaves no chain with a closed form ({first_reason})")

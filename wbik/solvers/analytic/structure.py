@@ -1,0 +1,150 @@
+"""A chain's kinematic structure as lines: its joint axes at q = 0, and what can be done with them.
+
+Every serial chain is T(q) = exp([xi_1] q_1) ... exp([xi_n] q_n) M (product of exponentials): joint k
+turns about (or slides along) a line with unit direction ``axes[k]`` through the point ``origins[k]``,
+both in the chain's base frame at q = 0, and M (``tip``) is the tip's pose at q = 0. Read from the
+chain's reduced Pinocchio model through :func:`wbik.solvers.task_error.serial_structure`, so any
+chain, also one whose other joints are locked, has one.
+
+From these lines: the chain's FK (:func:`poe_fk`, exact to rounding), the lines of the chain with one
+joint locked at a value (:func:`locked_lines`), EAIK's H and P (:func:`eaik_vectors`), and what
+:mod:`.recognition` matches against the closed-form families.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import weakref
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from wbik.solvers.task_error import joint_lines_at_zero
+from wbik.solvers.task_error import serial_structure
+
+STRUCTURE_TOLERANCE = 1e-9
+"""How far a chain may be from an exact geometric relation and still count as having it: two axes are
+parallel (or perpendicular) when the sine (or cosine) of their angle is at most this, and two lines
+intersect (a length is zero) when they are at most this times the chain's length (:attr:`ChainLines.length`)
+apart. URDFs write angles to ~12 digits (pi/2 as 1.57079632679, 5e-12 off) and lengths to the
+micrometre, which an exact relation of the design survives by orders of magnitude, while a real offset
+or tilt (a millimetre, a tenth of a degree) misses it by orders of magnitude too. A form built on a
+relation held only within the tolerance is off the model by up to this much per metre, which the model
+agreement check (:mod:`.model_agreement`, 1e-9) then judges."""
+
+
+@dataclass(frozen=True)
+class ChainLines:
+    """The joint lines of a chain at q = 0, in its base frame (see the module docstring)."""
+
+    axes: np.ndarray
+    """(n, 3) unit joint directions."""
+    origins: np.ndarray
+    """(n, 3) a point of each joint line (the joint frame's origin)."""
+    tip: np.ndarray
+    """(4, 4) the tip's pose at q = 0."""
+    prismatic: np.ndarray
+    """(n,) bool."""
+
+    @property
+    def count(self) -> int:
+        return len(self.axes)
+
+    @cached_property
+    def length(self) -> float:
+        """The chain's size (m): base origin -> each joint origin -> tip, summed; the scale of the length
+        tolerances (at least 1e-3 m, so that a chain of coincident joints still has a scale)."""
+        points = np.vstack((np.zeros(3), self.origins, self.tip[:3, 3]))
+        return max(float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()), 1e-3)
+
+
+_LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_LINES_LOCK = threading.Lock()
+
+
+def chain_lines(chain) -> ChainLines:
+    """The chain's lines, computed once per chain: ``chain.lines`` where the chain carries its own
+    (a chain with a locked joint, :class:`wbik.solvers.analytic.redundancy.LockedChain`), else read from
+    its reduced model."""
+    own = getattr(chain, "lines", None)
+    if isinstance(own, ChainLines):
+        return own
+    with _LINES_LOCK:
+        cached = _LINES.get(chain)
+    if cached is not None:
+        return cached
+    structure = serial_structure(chain)
+    axes, origins, tip = joint_lines_at_zero(structure)
+    lines = ChainLines(axes, origins, tip, structure.prismatic.copy())
+    with _LINES_LOCK:
+        _LINES[chain] = lines
+    return lines
+
+
+def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
+    """exp([xi_index] value) (4, 4): joint ``index`` moved by ``value`` (rad or m), in the base frame.
+    A turn by a about the line (h, c) is (Rot(h, a), c - Rot(h, a) c)."""
+    transform = np.eye(4)
+    axis = lines.axes[index]
+    if lines.prismatic[index]:
+        transform[:3, 3] = value * axis
+        return transform
+    rotation = axis_rotation(axis, value)
+    transform[:3, :3] = rotation
+    transform[:3, 3] = lines.origins[index] - rotation @ lines.origins[index]
+    return transform
+
+
+def axis_rotation(axis: np.ndarray, angle) -> np.ndarray:
+    """Rot(axis, angle) = I + sin(a) K + (1 - cos(a)) K^2, K = [axis]x; angles (...) -> (..., 3, 3)."""
+    x, y, z = axis
+    skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    angle = np.asarray(angle, dtype=float)[..., None, None]
+    return np.eye(3) + np.sin(angle) * skew + (1.0 - np.cos(angle)) * (skew @ skew)
+
+
+def locked_lines(lines: ChainLines, index: int, value: float) -> ChainLines:
+    """The lines of the chain with joint ``index`` held at ``value``: exp([xi_k] v) moves every line
+    after it and the tip, T(q) = ... exp([xi_k] v) exp([xi_k+1] q_k+1) ... M
+    = ... exp([Ad xi_k+1] q_k+1) ... exp([xi_k] v) M."""
+    moved = motion(lines, index, value)
+    rotation, translation = moved[:3, :3], moved[:3, 3]
+    keep = np.arange(lines.count) != index
+    after = np.arange(lines.count) > index
+    axes = np.where(after[:, None], lines.axes @ rotation.T, lines.axes)[keep]
+    origins = np.where(after[:, None], lines.origins @ rotation.T + translation, lines.origins)[keep]
+    return ChainLines(axes, origins, moved @ lines.tip, lines.prismatic[keep])
+
+
+def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tip positions (..., 3) and rotations (..., 3, 3) of joints q (..., n): the product of
+    exponentials, T = T_1(q_1) ... T_n(q_n) M."""
+    q = np.asarray(q, dtype=float)
+    shape = q.shape[:-1]
+    rotation = np.broadcast_to(np.eye(3), shape + (3, 3))
+    position = np.zeros(shape + (3,))
+    for k in range(lines.count):
+        axis = lines.axes[k]
+        if lines.prismatic[k]:
+            position = position + np.einsum("...ij,j->...i", rotation, axis) * q[..., k, None]
+            continue
+        turn = axis_rotation(axis, q[..., k])
+        offset = lines.origins[k] - np.einsum("...ij,j->...i", turn, lines.origins[k])
+        position = position + np.einsum("...ij,...j->...i", rotation, offset)
+        rotation = rotation @ turn
+    position = position + np.einsum("...ij,j->...i", rotation, lines.tip[:3, 3])
+    return position, rotation @ lines.tip[:3, :3]
+
+
+def eaik_vectors(lines: ChainLines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """EAIK's description of the chain: axes H (n, 3), offsets P (n + 1, 3) between consecutive joint
+    origins (base -> joint 1, ..., joint n -> tip) and the tip rotation R0 at q = 0."""
+    points = np.vstack((np.zeros(3), lines.origins, lines.tip[:3, 3]))
+    return lines.axes.copy(), np.diff(points, axis=0), lines.tip[:3, :3].copy()
+
+
+def angle_between(a: np.ndarray, b: np.ndarray) -> float:
+    """The angle (rad, in [0, pi]) between two vectors, accurate also near 0 and pi."""
+    return math.atan2(float(np.linalg.norm(np.cross(a, b))), float(np.dot(a, b)))
