@@ -42,6 +42,8 @@ METHOD_MODULES: list[str] = [
     "wbik.solvers.tracik",
     "wbik.solvers.placo",
     "wbik.solvers.eaik",
+    "wbik.solvers.ik_geo",
+    "wbik.solvers.mink",
     "wbik.apps.golem3.thesis_solvers",  # thesis_literal, thesis_sweep
 ]
 """The modules whose ``IK_METHODS`` are registered (a new module of methods: one line here)."""
