@@ -3,8 +3,9 @@
 Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
-  registry, data); kinematics (dh, urdf, kinematic_tree, robot, models, collision); solving (solvers, qp, wholebody, and
-  the ``wbik`` facade); uses of solving (motion, study, viz, expectations, scenario_schema, scenarios);
+  registry, data); kinematics (dh, urdf, kinematic_tree, robot, models, collision); solving (solvers,
+  qp, wholebody, and the ``wbik`` facade); uses of solving (motion, study, viz, expectations,
+  scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
   the core; the core names them only by registry strings;
 - applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core and the
@@ -22,7 +23,8 @@ and at function level only at the places listed below with their reason (so the 
 down, and a new place or a paid-off one fails the test until this list says so); (c) inside the
 core, imports go down ``LAYERS`` (up only at the listed places); (d) only the entry points import
 the entry points; (e) the study's report does not import the study's runner (they share
-:mod:`wbik.study.context`).
+:mod:`wbik.study.context`); (f) the study's modules import each other without a cycle, function-level
+imports included (its case kinds sit below the runner and the report).
 """
 
 from __future__ import annotations
@@ -267,3 +269,16 @@ def test_the_study_report_does_not_import_the_runner():
              if item.source == "wbik.study.report" and item.target == "wbik.study.runner"]
     assert not wrong, ("the report reads results; what it shares with the runner lives in "
                        "wbik.study.context:\n" + _where(wrong))
+
+
+def test_no_cycle_inside_the_study_counting_function_level_imports():
+    """The runner, the applicability check and the report ask a case's kind; the kinds import what
+    they share from below (context, blocks), never back from the runner or the report, lazily or not."""
+    edges: dict[str, set[str]] = defaultdict(set)
+    inside = [item for item in _graph() if item.level != "typing"
+              and _within(item.source, ("wbik.study",)) and _within(item.target, ("wbik.study",))]
+    for item in inside:
+        edges[item.source].add(item.target)
+    cycles = _cycles(edges)
+    details = [_where(i for i in inside if i.source in c and i.target in c) for c in cycles]
+    assert not cycles, "study modules importing each other (top or function level):\n" + "\n\n".join(details)

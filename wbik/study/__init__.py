@@ -1,11 +1,15 @@
 """The comparison study: IK methods on the same random reachable targets of any robot, judged by one
 FK check, beside the figures of a published reference when the study file gives them.
 
-``definition`` (study files), ``sampling`` (poses), ``runner`` (chunks, joblib/Dask, resume),
-``applicability`` (which methods apply to a case), ``results`` (files on disk), ``metrics``
-(per-axis errors, Euler angles), ``statistics`` (summary, Mann-Whitney), ``reference`` (the figures
-a study compares with), ``figures`` and ``report`` (Markdown + self-contained HTML), ``wholebody``
-(whole-body cases).
+``definition`` (study files), ``case_kinds`` (what a kind of case does, and their registry),
+``chain_targets`` (the kinds ``pose`` and ``position``: targets of one chain), ``wholebody`` (the
+kind ``wholebody``: whole-body cases), ``sampling`` (poses), ``context`` (what the runner, the kinds
+and the report share), ``runner`` (chunks, joblib/Dask, resume), ``cpu_watch`` (wall-clock solves
+re-run when starved of CPU), ``applicability`` (which methods apply to a case), ``results`` (files
+on disk), ``ownership`` (the output folder's lock), ``metrics`` (per-axis errors, Euler angles),
+``statistics`` (summary, Mann-Whitney), ``reference`` (the figures a study compares with),
+``figures``, ``blocks`` (what every kind's report section is made of) and ``report`` (Markdown +
+self-contained HTML).
 
 >>> from wbik.study import load_study, run_study
 >>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP

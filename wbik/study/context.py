@@ -1,18 +1,23 @@
-"""What the study's runner, applicability check and report share: the robot a task runs on, the
-solver of a method, a method's solver budget, how many chunks a case has, and the plain-data form of
-a mapping.
+"""What the study's runner, applicability check, case kinds and report share: the robot a task runs
+on, the solver of a method, a method's solver budget, a chunk's seed, how many chunks a case has, and
+the plain-data form of a mapping.
 
-This module sits below :mod:`wbik.study.runner`, :mod:`wbik.study.applicability` and
-:mod:`wbik.study.report` (they import it; it imports none of them), so the report does not depend on
-the runner. The runner re-exports these names.
+This module sits below :mod:`wbik.study.runner`, :mod:`wbik.study.applicability`,
+:mod:`wbik.study.report` and the case kinds (:mod:`wbik.study.case_kinds`): they import it, it
+imports none of them, so nothing here depends on the runner. The runner re-exports these names.
 """
 
 from __future__ import annotations
 
 import threading
+import zlib
+from typing import TYPE_CHECKING
 
-from wbik.study.definition import CaseSpec
-from wbik.study.definition import Study
+import numpy as np
+
+if TYPE_CHECKING:
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import Study
 
 _LOCAL = threading.local()
 
@@ -71,6 +76,12 @@ def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float |
     if "max_iterations" in options:
         return None, options
     return None, {**options, "max_iterations": factory.iterations_for(timeout_s)}
+
+
+def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
+    """A solver seed that depends only on the study seed and the task's identity."""
+    sequence = np.random.SeedSequence([seed, zlib.crc32(case.encode()), zlib.crc32(label.encode()), chunk])
+    return int(sequence.generate_state(1)[0])
 
 
 def chunk_count(study: Study, case: CaseSpec) -> int:

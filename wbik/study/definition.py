@@ -52,7 +52,6 @@ from wbik.study.metrics import ROTATION_VECTOR_AXES
 from wbik.study.metrics import STUDY_SEQUENCE
 from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
 from wbik.study.metrics import AngleConvention
-from wbik.study.metrics import axes as error_axes
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import Reference
 
@@ -62,8 +61,11 @@ the installed package's copy of its study files."""
 
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
-TARGET_KINDS = ("pose", "position", "wholebody")
-"""wholebody: whole-body cases drawn by the sampler named in ``scenario:`` (wbik.study.wholebody)."""
+DEFAULT_TARGET = "pose"
+"""The kind of a case entry that names none (``target:``, or a key only one kind takes): the case
+kinds are those of :mod:`wbik.study.case_kinds` (pose, position, wholebody, and any registered)."""
+CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip"}
+"""The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``)."""
 START_KINDS = ("nominal", "mid_range", "random")
 REFERENCE_KEYS = {"name", "source", "angles", "figures", "significance", "significance_source", "notes"}
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
@@ -92,7 +94,7 @@ class CaseSpec:
     name: str
     robot: str
     chain: str | None = None
-    target: str = "pose"
+    target: str = DEFAULT_TARGET  # the case's kind (wbik.study.case_kinds)
     robot_params: dict = field(default_factory=dict)
     poses: int | None = None  # None: the study's
     reference: Reference | None = None  # published figures to compare with, and their angle names
@@ -245,9 +247,8 @@ def study_from_dict(data, source: str = "study") -> Study:
     if not isinstance(data, dict):
         raise StudyDefinitionError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
                                    f"got {type(data).__name__}")
-    known = {"name", "description", "notes", "robot", "chain", "target", "robot_params", "cases",
-             "methods", "poses", "seed", "timeout_s", "tolerances", "start", "baseline", "chunk_size",
-             "reference", "scenario", "base", "tip"}
+    known = {"name", "description", "notes", "cases", "methods", "poses", "seed", "timeout_s", "tolerances",
+             "start", "baseline", "chunk_size", *_case_keys()}
     _no_unknown(data, known, source, "the study")
     name = _label(data.get("name", Path(source).stem), "name", source)
     poses = _positive_int(data.get("poses", 1000), "poses", source)
@@ -286,10 +287,10 @@ def _methods(raw, source: str) -> list[MethodSpec]:
     if not isinstance(raw, list) or not raw:
         raise StudyDefinitionError(f"{source}: methods must be a non-empty list, e.g. [analytic, dls, "
                                    "{label: kdl_15s, method: kdl, timeout_s: 15}]")
-    from wbik.solvers import methods as registered
-    from wbik.wholebody.methods import wholebody_methods
+    from wbik.study.case_kinds import case_kinds
 
-    known_methods = {**registered(), **wholebody_methods()}  # whole-body methods for wholebody cases
+    known_methods = {name: description for kind in case_kinds().values()  # every kind's methods
+                     for name, description in kind.methods().items()}
     specs: list[MethodSpec] = []
     for index, item in enumerate(raw):
         where = f"methods[{index}]"
@@ -331,9 +332,35 @@ def _case_name(robot: str, chain: str | None, target: str) -> str:
     return "_".join(part for part in (robot, chain, target) if part)
 
 
+def _case_keys() -> set[str]:
+    """The keys a case entry may hold: CASE_KEYS and every case kind's own."""
+    from wbik.study.case_kinds import case_kinds
+
+    return CASE_KEYS | {key for kind in case_kinds().values() for key in kind.entry_keys}
+
+
+def _case_kind(item: dict, source: str, where: str):
+    """The kind of a case entry: its ``target:``, else the kind whose own key it holds, else
+    DEFAULT_TARGET; a key of another kind than the target's is an error."""
+    from wbik.study.case_kinds import case_kinds
+
+    kinds = case_kinds()
+    owners = {key: kind for kind in kinds.values() for key in kind.entry_keys if key in item}
+    target = item.get("target", next(iter(owners.values())).name if owners else DEFAULT_TARGET)
+    for key, owner in owners.items():
+        if owner.name != target:
+            raise StudyDefinitionError(f"{source}: {where}: {key}: is for target: {owner.name} cases, got "
+                                       f"target {target!r}")
+    if not isinstance(target, str) or target not in kinds:
+        names = [repr(name) for name in kinds]
+        choices = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else names[0]
+        raise StudyDefinitionError(f"{source}: {where}.target must be {choices}, got {target!r}")
+    return kinds[target]
+
+
 def _cases(data: dict, source: str) -> list[CaseSpec]:
-    top_level = {key for key in ("robot", "chain", "target", "robot_params", "scenario", "base", "tip")
-                 if key in data}
+    case_keys = _case_keys()
+    top_level = {key for key in case_keys - {"name", "poses", "reference"} if key in data}
     if "cases" in data:
         if top_level:
             raise StudyDefinitionError(f"{source}: give either cases: [...] or robot/chain/target at the "
@@ -346,20 +373,18 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             raise StudyDefinitionError(f"{source}: reference: belongs inside each case of cases: (the "
                                        "figures and angle names are a case's)")
     else:
-        if "robot" not in data and "scenario" not in data:
+        if "robot" not in data and not (case_keys - CASE_KEYS) & set(data):
             raise StudyDefinitionError(f"{source}: say which robot to study (robot: NAME or a URDF path) "
                                        "or list cases:")
-        raw = [{key: data[key] for key in ("robot", "chain", "target", "robot_params", "reference",
-                                           "scenario", "base", "tip") if key in data}]
+        raw = [{key: value for key, value in data.items() if key in case_keys - {"name", "poses"}}]
     cases: list[CaseSpec] = []
     for index, item in enumerate(raw):
         where = f"cases[{index}]" if "cases" in data else "the study"
         if not isinstance(item, dict):
             raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
-        _no_unknown(item, {"name", "robot", "chain", "target", "robot_params", "poses", "reference",
-                           "scenario", "base", "tip"}, source, where)
-        if item.get("target") == "wholebody" or "scenario" in item:
-            item = _wholebody_case(item, source, where)
+        _no_unknown(item, case_keys, source, where)
+        kind = _case_kind(item, source, where)
+        item = kind.entry(item, source, where)
         robot = item.get("robot")
         if not isinstance(robot, str) or not robot:
             raise StudyDefinitionError(f"{source}: {where}.robot must be a robot name or URDF path")
@@ -369,10 +394,7 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
         base, tip = _chain_frames(item, source, where)
         if base is not None and chain is None:
             chain = f"{base}_to_{tip}"
-        target = item.get("target", "pose")
-        if target not in TARGET_KINDS:
-            raise StudyDefinitionError(
-                f"{source}: {where}.target must be 'pose', 'position' or 'wholebody', got {target!r}")
+        target = kind.name
         params = item.get("robot_params", {}) or {}
         if not isinstance(params, dict):
             raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping of the robot's "
@@ -382,7 +404,7 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             name=_label(item.get("name", _case_name(robot, chain, target)), f"{where}.name", source),
             robot=robot, chain=chain, target=target, robot_params=dict(params),
             poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
-            reference=_reference(item.get("reference"), target, source, f"{where}.reference"),
+            reference=_reference(item.get("reference"), kind, source, f"{where}.reference"),
             scenario=item.get("scenario"), base=base, tip=tip)
         cases.append(case)
     names = [c.name for c in cases]
@@ -406,29 +428,9 @@ def _chain_frames(item: dict, source: str, where: str) -> tuple[str | None, str 
     return base, tip
 
 
-def _wholebody_case(item: dict, source: str, where: str) -> dict:
-    """A whole-body case entry checked, with its robot and name filled from the sampler."""
-    from wbik.wholebody.cases import CASE_REGISTRY
-
-    if item.get("target", "wholebody") != "wholebody":
-        raise StudyDefinitionError(f"{source}: {where}: scenario: is for target: wholebody cases, got target "
-                                   f"{item.get('target')!r}")
-    samplers = CASE_REGISTRY.entries()
-    scenario = item.get("scenario")
-    _require_known(scenario, samplers, f"{source}: {where}.scenario {scenario!r} is not a whole-body case "
-                                       "sampler")
-    robot = samplers[scenario].robot
-    if item.get("robot", robot) != robot:
-        raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
-                                   f"{item['robot']!r} (leave robot: out)")
-    for key in ("chain", "robot_params", "reference", "base", "tip"):
-        if item.get(key):
-            raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
-    return {**item, "target": "wholebody", "robot": robot, "name": item.get("name", scenario)}
-
-
-def _reference(raw, target: str, source: str, where: str) -> Reference | None:
-    """A case's ``reference:`` block checked (see wbik.study.reference), None when absent."""
+def _reference(raw, kind, source: str, where: str) -> Reference | None:
+    """A case's ``reference:`` block checked (see wbik.study.reference), None when absent; ``kind``
+    the case's kind (:class:`wbik.study.case_kinds.CaseKind`: its target and error axes)."""
     if raw is None or raw == {}:
         return None
     if not isinstance(raw, dict):
@@ -441,11 +443,11 @@ def _reference(raw, target: str, source: str, where: str) -> Reference | None:
         if not isinstance(value, str):
             raise StudyDefinitionError(f"{source}: {where}.{key} must be text, got {value!r}")
     name = texts["name"].strip() or "reference"
-    angles = _angles(raw.get("angles"), target, source, f"{where}.angles")
+    angles = _angles(raw.get("angles"), kind.target, source, f"{where}.angles")
     figures = _table(raw.get("figures"), source, f"{where}.figures",
                      "maps method labels to {metric: value}, e.g. {kdl: {percent_solved: 72.5}}",
                      "metrics", REFERENCE_METRICS, "numbers", _number)
-    axes = [*error_axes(target, angles), "time"]
+    axes = [*kind.axes(angles), "time"]
     significance = _table(raw.get("significance"), source, f"{where}.significance",
                           "maps method labels to {axis: p-value}, e.g. {kdl: {x: 0, time: 1.0e-3}}",
                           "error axes", axes, "p-values", _p_value)
@@ -530,27 +532,26 @@ def _number(value, field_name: str, source: str) -> float:
 
 def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
-    against its constructor (:func:`wbik.solvers.method_registry.solver_options`), every case's robot (a
-    built-in name or an existing URDF file) and its ``robot_params`` against the robot's builder."""
+    against its constructor, as the first of the cases' kinds that runs the method reads it
+    (:meth:`wbik.study.case_kinds.CaseKind.method_options`), every case's robot (a built-in name or an
+    existing URDF file) and its ``robot_params`` against the robot's builder."""
     from wbik.models import builder_parameters
     from wbik.models import robot_entries
     from wbik.models.erd import example_robot_name
     from wbik.models.erd import example_robot_names
-    from wbik.solvers.method_registry import methods as chain_methods
-    from wbik.solvers.method_registry import solver_options
-    from wbik.wholebody.methods import wholebody_solver_options
+    from wbik.study.case_kinds import case_kinds
+    from wbik.study.case_kinds import kinds_of
 
     study_settings = {"timeout_s", "tolerances", "seed"}  # every method takes these from the study
-    wholebody = bool(cases) and all(case.target == "wholebody" for case in cases)
+    kinds = kinds_of(cases) or list(case_kinds().values())
     for index, spec in enumerate(methods):
+        kind = next((kind for kind in kinds if spec.method in kind.methods()), kinds[0])
         try:
-            if wholebody or spec.method not in chain_methods():  # whole-body methods check their own options
-                accepted = wholebody_solver_options(spec.method) | study_settings
-            else:
-                accepted = solver_options(spec.method)
+            accepted = kind.method_options(spec.method)
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
         if accepted is not None:
+            accepted = accepted | study_settings
             _no_unknown_keys(spec.options, accepted, accepted - study_settings,
                              f"{source}: methods[{index}] ({spec.label}).options has unknown option(s)",
                              f"method {spec.method!r}; its options")

@@ -2,7 +2,8 @@
 
 Work is cut into tasks (case, method, chunk of ``chunk_size`` poses). Each task builds its solver
 with a seed derived from (study seed, case, method, chunk), so a task's answer does not depend on
-which worker runs it or in which order.
+which worker runs it or in which order. The runner knows no kind of case: the case's kind
+(:mod:`wbik.study.case_kinds`) samples its inputs, makes its tasks and solves them in the worker.
 
 Budgets (:func:`solver_budget`). A method whose loop is ours (``Solver.iteration_cost_s``) gets the
 study's time budget as an *iteration* budget, the iterations that cost that long on the reference
@@ -10,8 +11,9 @@ machine, and no wall clock: its rows are the same on any machine and under any l
 budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved pose by pose while
 the process's CPU time is measured beside the wall time; a solve that got less than
 ``STARVED_CPU_SHARE`` of its wall time as CPU (the machine was busy) is run again, its answer
-discarded, with its wall budget stretched by wall/CPU, up to ``MAX_RERUNS`` times. Each row records
-its CPU time and its re-runs; the report counts them, and ``run.json`` records the machine's load.
+discarded, with its wall budget stretched by wall/CPU, up to ``MAX_RERUNS`` times
+(:mod:`wbik.study.cpu_watch`). Each row records its CPU time and its re-runs; the report counts
+them, and ``run.json`` records the machine's load.
 
 Workers return the rows; the main process writes each chunk atomically as it arrives (see
 :mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
@@ -33,180 +35,35 @@ import sys
 import threading
 import time
 import traceback
-import zlib
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
-from wbik.solvers.method_registry import IKMethod
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
-from wbik.study.context import _frozen  # also re-exported
+from wbik.study.case_kinds import ChunkTask
+from wbik.study.case_kinds import case_kind
+from wbik.study.context import _frozen  # noqa: F401 - also re-exported
 from wbik.study.context import _robot  # noqa: F401 - also re-exported
-from wbik.study.context import case_chain
 from wbik.study.context import chunk_count  # also re-exported
-from wbik.study.context import make_solver  # also re-exported
-from wbik.study.context import solver_budget  # also re-exported
+from wbik.study.context import chunk_seed  # noqa: F401 - also re-exported
+from wbik.study.context import make_solver  # noqa: F401 - also re-exported
+from wbik.study.context import solver_budget  # noqa: F401 - also re-exported
 from wbik.study.definition import CaseSpec
 from wbik.study.definition import MethodSpec
 from wbik.study.definition import Study
 from wbik.study.definition import StudyDefinitionError
-from wbik.study.metrics import AngleConvention
-from wbik.study.metrics import axis_errors
 from wbik.study.ownership import FolderLock
 from wbik.study.sampling import PoseSet
-from wbik.study.sampling import sample_poses
 
 BACKENDS = ("loky", "sequential", "dask")
-STARVED_CPU_SHARE = 0.8
-"""A wall-clock solve that got less CPU time than this share of its wall time is run again."""
-STARVED_MIN_WALL_S = 0.001
-"""Solves shorter than this are not judged (a short preemption says little, and they ended early)."""
-MAX_RERUNS = 3
-MAX_STRETCH = 20.0
-"""A re-run's wall budget is at most this many times the study's."""
-
-
-@dataclass(frozen=True)
-class ChunkTask:
-    """Everything a worker needs to solve one chunk (plain data, cheap to pickle)."""
-
-    case: str
-    robot: str
-    robot_params: tuple
-    chain: str | None
-    angles: AngleConvention | None  # the reference's Euler angles: extra error columns
-    label: str
-    method: str
-    options: tuple
-    timeout_s: float | None
-    tolerances: tuple
-    seed: int
-    per_pose: bool
-    chunk: int
-    first_pose: int
-    positions: np.ndarray
-    rotations: np.ndarray | None
-    q0: np.ndarray
-    scenario: str | None = None  # whole-body cases: the sampler that rebuilds them (wbik.study.wholebody)
-    scenario_seed: int = 0
-    registered: IKMethod | None = None
-    """The IK method when user code registered it at run time (``wbik.register``; None for one a
-    module of METHOD_MODULES declares): worker processes have their own registry, so the task carries it and
-    :func:`solve_chunk` registers it there (loky and Dask pickle with cloudpickle, so a class defined
-    in the user's script travels by value)."""
-    wholebody_entries: tuple = ()
-    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and whole-body method
-    (:class:`wbik.wholebody.methods.WholeBodyMethod`) of a whole-body chunk that user code registered
-    at run time (``register_sampler``, ``register_wholebody_method``): carried to the worker, which
-    registers them before solving (:func:`wbik.study.wholebody.solve_wholebody_chunk`); empty when
-    the listed modules declare both."""
-    base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
-    tip: str | None = None
-
-
-def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:
-    """A solver seed that depends only on the study seed and the task's identity."""
-    sequence = np.random.SeedSequence([seed, zlib.crc32(case.encode()), zlib.crc32(label.encode()), chunk])
-    return int(sequence.generate_state(1)[0])
-
-
-def _solve_watching_the_cpu(task: ChunkTask, solver, target, q0) -> tuple:
-    """(answer, CPU seconds, re-runs) of a wall-clock solve whose budget is T = ``task.timeout_s``.
-
-    A solve is *starved* when it ran for at least STARVED_MIN_WALL_S and the process got less than
-    STARVED_CPU_SHARE of that wall time as CPU time (process CPU time: TRAC-IK's own threads count):
-    the machine was busy. Its answer is then discarded, whatever it was, and the solve is run again
-    with its wall budget stretched by the wall/CPU ratio just observed (at most MAX_STRETCH x T), so
-    that it gets about T of CPU, up to MAX_RERUNS times. Keeping only answers of solves that had the
-    CPU keeps the success rate that of an idle machine: re-running only the failures would give a
-    method with random restarts of its own (TRAC-IK) a second draw, and re-running them for the
-    missing CPU alone would replay a seeded method's first restarts.
-    """
-    reruns, current = 0, solver
-    while True:
-        cpu_start = time.process_time()
-        answer = current.solve(target, q0)
-        cpu = time.process_time() - cpu_start
-        wall = answer.time_s
-        starved = wall >= STARVED_MIN_WALL_S and cpu < STARVED_CPU_SHARE * wall
-        if not starved or reruns >= MAX_RERUNS:
-            return answer, cpu, reruns
-        reruns += 1
-        budget = task.timeout_s * min(MAX_STRETCH, max(wall / max(cpu, 1e-9), 1.0 / STARVED_CPU_SHARE))
-        current = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                              budget, task.tolerances, task.seed, task.base, task.tip)
 
 
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
-    """Solve one chunk with ``solve_many`` (batched methods keep their speed; a batched method's
-    time per pose is then the batch's time / size) or, with ``per_pose``, one ``solve`` per pose.
-
-    A pose on which the method raises gets success=False and reason "raised ...", and the chunk
-    continues pose by pose. Whether the method applies was decided before (:func:`probe`).
-    """
-    if task.registered is not None:  # a method registered in the study's main process
-        from wbik.solvers.method_registry import register_method
-
-        register_method(task.registered, replace=True)
-    if task.scenario is not None:  # a whole-body chunk
-        from wbik.study.wholebody import solve_wholebody_chunk
-
-        return solve_wholebody_chunk(task)
-    from wbik.targets import Target
-
-    solver = make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
-                         task.timeout_s, task.tolerances, task.seed, task.base, task.tip)
-    count = len(task.positions)
-    targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
-               for i in range(count)]
-    cpu_seconds = np.full(count, np.nan)
-    reruns = np.zeros(count, dtype=int)
-    try:
-        if task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted:
-            answers = []
-            for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
-                answer, cpu_seconds[i], reruns[i] = _solve_watching_the_cpu(task, solver, target, q0)
-                answers.append(answer)
-        elif task.per_pose:
-            answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
-        else:
-            answers = solver.solve_many(targets, task.q0)
-    except Exception:  # noqa: BLE001 - solved again pose by pose, each failure recorded in its row
-        answers = []
-        for target, q0 in zip(targets, task.q0, strict=True):
-            try:
-                answers.append(solver.solve(target, q0))
-            except Exception as pose_exc:  # noqa: BLE001 - recorded in the row, counted in the report
-                answers.append(_raised(solver, pose_exc))
-    nq = solver.chain.nq
-    columns = {
-        "pose": np.arange(task.first_pose, task.first_pose + count),
-        "success": np.array([a.success for a in answers], dtype=bool),
-        "reason": np.array([a.reason for a in answers], dtype=str),
-        "time_s": np.array([a.time_s for a in answers], dtype=float),
-        "iterations": np.array([a.iterations for a in answers], dtype=int),
-        "position_error": np.array([a.position_error for a in answers], dtype=float),
-        "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
-    }
-    columns["cpu_s"] = cpu_seconds
-    columns["reruns"] = reruns
-    columns.update(axis_errors(answers, task.rotations, task.angles))
-    columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
-                            dtype=float).reshape(count, nq)
-    return columns
-
-
-def _raised(solver, exc: BaseException):
-    from wbik.solvers.base import IKResult
-
-    nan3 = np.full(3, np.nan)
-    detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-    return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),
-                    float("nan"), 0, solver.name)
+    """The rows of one chunk, solved by the task's case kind (in a worker, or here)."""
+    return task.kind.solve(task)
 
 
 # -- preparing ---------------------------------------------------------------------------------
@@ -232,17 +89,11 @@ def prepare_output(study: Study, output: Path, fresh: bool, lock: FolderLock) ->
 
 
 def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
-    """The case's poses: read back if already sampled, else sampled from the seed and saved."""
+    """The case's poses: read back if already sampled, else sampled by the case's kind and saved."""
     path = store.case_dir(output, case.name) / "poses.npz"
     if path.is_file():
         return PoseSet.load(path)
-    if case.target == "wholebody":
-        from wbik.study.wholebody import sample_poses as sample_wholebody
-
-        poses = sample_wholebody(case.scenario, study.poses_of(case), study.seed)
-    else:
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
-        poses = sample_poses(chain, study.poses_of(case), study.seed, case.target, study.start)
+    poses = case_kind(case).sample(study, case)
     path.parent.mkdir(parents=True, exist_ok=True)
     poses.save(path)
     return poses
@@ -270,24 +121,7 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
 
 def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
           stop: int) -> ChunkTask:
-    if case.target == "wholebody":
-        from wbik.study.wholebody import make_task
-
-        return make_task(study, case, method, poses, chunk, start, stop)
-    from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-
-    timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
-    return ChunkTask(
-        case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params), chain=case.chain,
-        angles=case.reference.angles if case.reference else None, label=method.label, method=method.method,
-        options=_frozen(options), timeout_s=timeout_s,
-        tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
-        seed=chunk_seed(study.seed, case.name, method.label, chunk), per_pose=method.per_pose,
-        chunk=chunk, first_pose=start,
-        positions=poses.positions[start:stop],
-        rotations=None if poses.rotations is None else poses.rotations[start:stop],
-        q0=poses.q0[start:stop], registered=IK_METHOD_REGISTRY.added_at_run_time(method.method),
-        base=case.base, tip=case.tip)
+    return case_kind(case).task(study, case, method, poses, chunk, start, stop)
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
@@ -329,12 +163,7 @@ def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output:
     if previous is not None and previous.get("fingerprint") != fingerprint:
         log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
         shutil.rmtree(folder)
-    if case.target == "wholebody":
-        from wbik.study.wholebody import budget as wholebody_budget
-
-        timeout_s, options = wholebody_budget(method.method, study.timeout_of(method), method.options)
-    else:
-        timeout_s, options = solver_budget(method.method, study.timeout_of(method), method.options)
+    timeout_s, options = case_kind(case).budget(method.method, study.timeout_of(method), method.options)
     store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
                               "timeout_s": study.timeout_of(method), "solver_timeout_s": timeout_s,
                               "solver_options": options})

@@ -62,7 +62,14 @@ def start_configurations(chain: Chain, count: int, seed: int, start: str) -> np.
 def sample_poses(chain: Chain, count: int, seed: int, target: str = "pose",
                  start: str = "nominal") -> PoseSet:
     """``count`` reachable targets of kind "pose" or "position" from FK of seeded random joints."""
-    q_true = sample_joints(chain, count, seed)
+    return poses_of_joints(chain, sample_joints(chain, count, seed), seed, target, start)
+
+
+def poses_of_joints(chain: Chain, q_true: np.ndarray, seed: int, target: str = "pose",
+                    start: str = "nominal") -> PoseSet:
+    """The targets of kind "pose" or "position" that FK of the joint vectors ``q_true`` (count, n)
+    reaches, with the study's start configurations."""
+    count = len(q_true)
     positions = np.empty((count, 3))
     rotations = np.empty((count, 3, 3))
     for index, q in enumerate(q_true):

@@ -1,33 +1,60 @@
-"""Whole-body cases in the study (``target: wholebody``, ``scenario: <sampler>``).
+"""Whole-body cases, the study's case kind ``wholebody`` (``target: wholebody``, ``scenario:
+<sampler>``).
 
 The runner's chunking, resume, folder ownership and report machinery are reused; this module holds
-what differs for whole-body cases:
+what differs for whole-body cases (:class:`WholeBodyCases`):
 
 - sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.cases`,
   stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
   a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
-- solving (:func:`solve_wholebody_chunk`): ``wbik.wholebody_solver(method, robot).solve(problem,
+- solving (:meth:`WholeBodyCases.solve`): ``wbik.wholebody_solver(method, robot).solve(problem,
   q0)`` per case (a sampler or method user code registered travels with the task and is registered
   in the worker first, see :func:`run_time_entries`), budgets in iterations
   (:func:`wbik.wholebody.methods.wholebody_budget`); a method that cannot express the family's
   first problem (its ``cannot_express`` query says why) is "not applicable"
-  (:mod:`wbik.study.applicability`);
+  (:meth:`WholeBodyCases.refusal`);
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
   what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
   Mann-Whitney tests and error figures;
-- the report section of a whole-body case (:func:`case_blocks`).
+- the report section of a whole-body case (:meth:`WholeBodyCases.blocks`).
 """
 
 from __future__ import annotations
 
 import math
 import traceback
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from wbik.study import results as store
+from wbik.study.blocks import SOLVED_COLUMNS
+from wbik.study.blocks import TIME_COLUMNS
+from wbik.study.blocks import Block
+from wbik.study.blocks import case_figures
+from wbik.study.blocks import case_rows
+from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import significance_blocks
+from wbik.study.blocks import status_blocks
+from wbik.study.blocks import summary_table
+from wbik.study.blocks import time_columns
+from wbik.study.blocks import write_case_tables
+from wbik.study.case_kinds import CaseKind
+from wbik.study.case_kinds import ChunkTask
+from wbik.study.context import _frozen
+from wbik.study.context import _robot
+from wbik.study.context import chunk_seed
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.definition import _require_known
 from wbik.study.sampling import PoseSet
+
+if TYPE_CHECKING:
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
+    from wbik.study.definition import Study
+    from wbik.study.metrics import AngleConvention
 
 WHOLEBODY = "wholebody"
 
@@ -50,10 +77,16 @@ ROW_COLUMNS = (
 )
 # The float columns among them (task_error .. collision_clearance).
 FLOAT_COLUMNS = ROW_COLUMNS[6:13]
+ERROR_AXES = ("task", "contact")
+"""The error axes of a whole-body row (``err_task``, ``err_contact``)."""
 
-
-def is_wholebody(case) -> bool:
-    return getattr(case, "target", None) == WHOLEBODY
+STUDY_NOTE = (
+    "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
+    "iterated by our loop, or a method's own iteration), so every method is budgeted in iterations: "
+    "the study's time budget divided by the method's measured cost per iteration (its "
+    "iteration_cost_s, wbik.wholebody.solvers.WholeBodySolver), no wall clock; the rows are the same "
+    "on any machine (times aside)."
+)
 
 
 def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
@@ -64,18 +97,6 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
     nq = cases[0].q0.size
     q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
     return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
-
-
-def method_options(method: str) -> set[str]:
-    from wbik.wholebody.methods import wholebody_solver_options
-
-    return wholebody_solver_options(method)
-
-
-def budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    from wbik.wholebody.methods import wholebody_budget
-
-    return wholebody_budget(method, timeout_s, options)
 
 
 def run_time_entries(scenario: str, method: str) -> tuple:
@@ -105,107 +126,305 @@ def register_run_time_entries(entries: tuple) -> None:
             raise TypeError(f"a whole-body task carries samplers and methods, got {type(entry).__name__}")
 
 
-def make_task(study, case, method, poses: PoseSet, chunk: int, start: int, stop: int):
-    """The runner's ChunkTask of a whole-body chunk (the sampler and seed rebuild its cases)."""
-    from wbik.study.runner import ChunkTask
-    from wbik.study.runner import _frozen
-    from wbik.study.runner import chunk_seed
+@dataclass(frozen=True)
+class WholeBodyChunkTask(ChunkTask):
+    """A chunk of whole-body cases: the sampler and the study seed rebuild them in the worker."""
 
-    timeout_s, options = budget(method.method, study.timeout_of(method), method.options)
-    return ChunkTask(
-        case=case.name,
-        robot=case.robot,
-        robot_params=_frozen(case.robot_params),
-        chain=None,
-        angles=None,
-        label=method.label,
-        method=method.method,
-        options=_frozen(options),
-        timeout_s=timeout_s,
-        tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
-        seed=chunk_seed(study.seed, case.name, method.label, chunk),
-        per_pose=True,
-        chunk=chunk,
-        first_pose=start,
-        positions=poses.positions[start:stop],
-        rotations=None,
-        q0=poses.q0[start:stop],
-        scenario=case.scenario,
-        scenario_seed=study.seed,
-        wholebody_entries=run_time_entries(case.scenario, method.method),
-    )
+    scenario: str
+    scenario_seed: int
+    wholebody_entries: tuple = ()
+    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and whole-body method
+    (:class:`wbik.wholebody.methods.WholeBodyMethod`) of the chunk that user code registered at run
+    time (``register_sampler``, ``register_wholebody_method``): carried to the worker, which
+    registers them before solving (:meth:`WholeBodyCases.solve`); empty when the listed modules
+    declare both."""
 
 
-def solve_wholebody_chunk(task) -> dict[str, np.ndarray]:
-    """Solve the cases of one whole-body chunk (the method applies: the runner's probe decided it)."""
-    import wbik
-    from wbik.study.runner import _robot
-    from wbik.wholebody.cases import sample_case
-    from wbik.wholebody.methods import wholebody_solver
+class WholeBodyCases(CaseKind):
+    """Whole-body problems drawn by a case sampler (the case's ``scenario:``)."""
 
-    register_run_time_entries(task.wholebody_entries)
-    robot = _robot(task.robot, task.robot_params)
-    solver = wholebody_solver(
-        task.method,
-        robot,
-        tolerances=wbik.Tolerances(*task.tolerances),
-        timeout_s=task.timeout_s,
-        seed=task.seed,
-        **dict(task.options),
-    )
-    count = len(task.positions)
-    answers = []
-    for offset in range(count):
-        index = task.first_pose + offset
-        case = sample_case(task.scenario, task.scenario_seed, index)
-        try:
-            answer = solver.solve(case.problem, task.q0[offset])
-        except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
-            detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-            answers.append(("raised", detail))
-            continue
-        answers.append(answer)
-    nq = robot.model.nq
-    rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
-    q_rows = []
-    for answer in answers:
-        if isinstance(answer, tuple):
-            values = (False, f"raised {answer[1]}", math.nan, 0, *([math.nan] * 7), "")
-            q_rows.append(np.full(nq, np.nan))
-        else:
-            values = (
-                answer.success,
-                answer.reason,
-                answer.time_s,
-                answer.iterations,
-                answer.task_error,
-                max(answer.task_position_errors.values(), default=0.0) if answer.q is not None else math.nan,
-                max(answer.task_rotation_errors.values(), default=0.0) if answer.q is not None else math.nan,
-                answer.contact_drift,
-                answer.com_margin,
-                answer.limit_excess,
-                answer.collision_clearance,
-                "; ".join(answer.unsupported),
+    name = WHOLEBODY
+    target = WHOLEBODY
+    entry_keys = ("scenario",)
+    study_note = STUDY_NOTE
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+    # -- the study file ----------------------------------------------------------------------------
+    def entry(self, item: dict, source: str, where: str) -> dict:
+        """A whole-body case entry checked, with its robot and name filled from the sampler."""
+        from wbik.wholebody.cases import CASE_REGISTRY
+
+        samplers = CASE_REGISTRY.entries()
+        scenario = item.get("scenario")
+        _require_known(scenario, samplers,
+                       f"{source}: {where}.scenario {scenario!r} is not a whole-body case sampler")
+        robot = samplers[scenario].robot
+        if item.get("robot", robot) != robot:
+            raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
+                                       f"{item['robot']!r} (leave robot: out)")
+        for key in ("chain", "robot_params", "reference", "base", "tip"):
+            if item.get(key):
+                raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
+        return {**item, "target": WHOLEBODY, "robot": robot, "name": item.get("name", scenario)}
+
+    def methods(self) -> dict[str, str]:
+        from wbik.wholebody.methods import wholebody_methods
+
+        return wholebody_methods()
+
+    def method_options(self, method: str) -> set[str]:
+        from wbik.wholebody.methods import wholebody_solver_options
+
+        return wholebody_solver_options(method)
+
+    def axes(self, angles: AngleConvention | None = None) -> list[str]:
+        return list(ERROR_AXES)
+
+    # -- sampling and tasks ------------------------------------------------------------------------
+    def sample(self, study: Study, case: CaseSpec) -> PoseSet:
+        return sample_poses(case.scenario, study.poses_of(case), study.seed)
+
+    def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+        from wbik.wholebody.methods import wholebody_budget
+
+        return wholebody_budget(method, timeout_s, options)
+
+    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+             start: int, stop: int) -> WholeBodyChunkTask:
+        timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
+        return WholeBodyChunkTask(
+            kind=self,
+            case=case.name,
+            robot=case.robot,
+            robot_params=_frozen(case.robot_params),
+            label=method.label,
+            method=method.method,
+            options=_frozen(options),
+            timeout_s=timeout_s,
+            tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
+            seed=chunk_seed(study.seed, case.name, method.label, chunk),
+            chunk=chunk,
+            first_pose=start,
+            q0=poses.q0[start:stop],
+            scenario=case.scenario,
+            scenario_seed=study.seed,
+            wholebody_entries=run_time_entries(case.scenario, method.method),
+        )
+
+    # -- in the worker -----------------------------------------------------------------------------
+    def build(self, task: WholeBodyChunkTask):
+        import wbik
+        from wbik.wholebody.methods import wholebody_solver
+
+        return wholebody_solver(task.method, _robot(task.robot, task.robot_params),
+                                tolerances=wbik.Tolerances(*task.tolerances), timeout_s=task.timeout_s,
+                                seed=task.seed, **dict(task.options))
+
+    def refusal(self, task: WholeBodyChunkTask, solver) -> str | None:
+        """The method's own reason it cannot express the case's first problem."""
+        from wbik.wholebody.cases import sample_case
+
+        case = sample_case(task.scenario, task.scenario_seed, task.first_pose)
+        return solver.cannot_express(case.problem, task.q0[0])
+
+    def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
+        """Solve the cases of one whole-body chunk (the method applies: the runner's probe decided it)."""
+        from wbik.wholebody.cases import sample_case
+
+        register_run_time_entries(task.wholebody_entries)
+        robot = _robot(task.robot, task.robot_params)
+        solver = self.build(task)
+        count = task.count
+        answers = []
+        for offset in range(count):
+            index = task.first_pose + offset
+            case = sample_case(task.scenario, task.scenario_seed, index)
+            try:
+                answer = solver.solve(case.problem, task.q0[offset])
+            except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
+                detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+                answers.append(("raised", detail))
+                continue
+            answers.append(answer)
+        nq = robot.model.nq
+        rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
+        q_rows = []
+        for answer in answers:
+            if isinstance(answer, tuple):
+                values = (False, f"raised {answer[1]}", math.nan, 0, *([math.nan] * 7), "")
+                q_rows.append(np.full(nq, np.nan))
+            else:
+                values = (
+                    answer.success,
+                    answer.reason,
+                    answer.time_s,
+                    answer.iterations,
+                    answer.task_error,
+                    _largest(answer.task_position_errors) if answer.q is not None else math.nan,
+                    _largest(answer.task_rotation_errors) if answer.q is not None else math.nan,
+                    answer.contact_drift,
+                    answer.com_margin,
+                    answer.limit_excess,
+                    answer.collision_clearance,
+                    "; ".join(answer.unsupported),
+                )
+                q_rows.append(np.full(nq, np.nan) if answer.q is None else answer.q)
+            for key, value in zip(rows, values, strict=True):
+                rows[key].append(value)
+        columns = {
+            "pose": np.arange(task.first_pose, task.first_pose + count),
+            "success": np.array(rows["success"], dtype=bool),
+            "reason": np.array(rows["reason"], dtype=str),
+            "time_s": np.array(rows["time_s"], dtype=float),
+            "iterations": np.array(rows["iterations"], dtype=int),
+        }
+        for key in FLOAT_COLUMNS:
+            columns[key] = np.array(rows[key], dtype=float)
+        columns["unsupported"] = np.array(rows["unsupported"], dtype=str)
+        columns["cpu_s"] = np.full(count, np.nan)
+        columns["reruns"] = np.zeros(count, dtype=int)
+        columns["err_task"] = columns["task_error"]
+        columns["err_contact"] = columns["contact_drift"]
+        columns["q"] = np.array(q_rows, dtype=float).reshape(count, nq)
+        return columns
+
+    def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
+        from wbik.study.statistics import significance
+        from wbik.wholebody.cases import sample_case
+
+        directory = store.case_dir(output, case.name)
+        rows_by_method, not_applicable = case_rows(study, case, output)
+        robot = _robot(case.robot, _frozen(case.robot_params))
+        model = robot.model
+        joint_names = [model.names[j] for j in range(1, model.njoints) for _ in range(model.joints[j].nq)]
+        if robot.has_floating_base:
+            joint_names = [
+                "base_x",
+                "base_y",
+                "base_z",
+                "base_qx",
+                "base_qy",
+                "base_qz",
+                "base_qw",
+                *joint_names[7:],
+            ]
+        write_raw_csv(directory / "raw.csv", rows_by_method, joint_names)
+        margin = sample_case(case.scenario, study.seed, 0).problem.margin
+        summaries = {label: summarize(rows, margin) for label, rows in rows_by_method.items()}
+        baseline = study.baseline if study.baseline in rows_by_method else None
+        tests = (
+            (significance(baseline, rows_by_method) + com_margin_test(baseline, rows_by_method))
+            if baseline
+            else []
+        )
+        write_case_tables(directory, summaries, tests)
+        title, folder = f"{case.robot} {case.scenario}", directory / "figures"
+        images = case_figures(rows_by_method, summaries, title, folder, self.axes())
+        if rows_by_method:
+            if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
+                images["com_margin"] = com_margin_boxplots(
+                    rows_by_method, margin, title, folder / "com_margin.png"
+                )
+        return {
+            "case": case,
+            "rows": rows_by_method,
+            "not_applicable": not_applicable,
+            "summaries": summaries,
+            "tests": tests,
+            "baseline": baseline,
+            "margin": margin,
+            "images": images,
+            "robot": robot,
+        }
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        from wbik.wholebody.cases import CASE_REGISTRY
+
+        case = analysis["case"]
+        summaries, rows_by_method = analysis["summaries"], analysis["rows"]
+        margin, tolerances = analysis["margin"], study.tolerances
+        blocks = [
+            Block("h2", f"Case {case.name}: {case.robot}, whole body ({case.scenario})"),
+            Block(
+                "p",
+                f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
+                f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is "
+                "judged by the one shared whole-body check (wbik.wholebody.check_wholebody): goal task "
+                f"errors by FK within {tolerances['position']:g} m / {tolerances['rotation']:g} rad, "
+                "contact drift within the same, CoM margin by FK against the support polygon of the "
+                "support soles at the answer, joint limits.",
+            ),
+            *status_blocks(study, analysis),
+        ]
+        if not summaries:
+            return blocks
+        marked = {label: s["unsupported"] for label, s in summaries.items() if s["unsupported"]}
+        blocks.append(Block("h3", "Cases solved, task error, contact drift, CoM margin"))
+        blocks.append(summary_table(summaries, [
+            *SOLVED_COLUMNS,
+            ("median task error (all calls)", "task_error_all_median"),
+            ("median task error (solved)", "task_error_solved_median"),
+            ("max task error (solved)", "task_error_solved_max"),
+            ("max contact drift (all calls)", "contact_drift_all_max"),
+            ("max contact drift (solved)", "contact_drift_solved_max"),
+            ("median CoM margin mm (all calls)", lambda s: s["com_margin_all_median"] * 1e3),
+            ("min CoM margin mm (all calls)", lambda s: s["com_margin_all_min"] * 1e3),
+            (f"% calls with CoM margin >= {margin * 1e3:g} mm", "percent_com_margin_kept_all"),
+            ("max limit excess (all calls)", "limit_excess_all_max"),
+            ("solved without", _solved_without),
+        ]))
+        blocks.append(
+            Block(
+                "p",
+                "Task errors in m or rad (the larger of a task's position and rotation errors, the "
+                "largest over the goal tasks); contact drift in m or rad; CoM margin: distance of "
+                "the CoM's ground projection inside the support polygon (negative outside), NaN "
+                "('-') without a support polygon. 'All calls' counts every case, 'solved' only "
+                "those the shared check passed.",
             )
-            q_rows.append(np.full(nq, np.nan) if answer.q is None else answer.q)
-        for key, value in zip(rows, values, strict=True):
-            rows[key].append(value)
-    columns = {
-        "pose": np.arange(task.first_pose, task.first_pose + count),
-        "success": np.array(rows["success"], dtype=bool),
-        "reason": np.array(rows["reason"], dtype=str),
-        "time_s": np.array(rows["time_s"], dtype=float),
-        "iterations": np.array(rows["iterations"], dtype=int),
-    }
-    for key in FLOAT_COLUMNS:
-        columns[key] = np.array(rows[key], dtype=float)
-    columns["unsupported"] = np.array(rows["unsupported"], dtype=str)
-    columns["cpu_s"] = np.full(count, np.nan)
-    columns["reruns"] = np.zeros(count, dtype=int)
-    columns["err_task"] = columns["task_error"]
-    columns["err_contact"] = columns["contact_drift"]
-    columns["q"] = np.array(q_rows, dtype=float).reshape(count, nq)
-    return columns
+        )
+        if marked:
+            blocks.append(
+                Block(
+                    "p",
+                    "What each method could not express (it solved the problem without it; the check "
+                    "still judges everything):",
+                )
+            )
+            blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
+        blocks.append(Block("h3", "Time"))
+        blocks.append(summary_table(summaries, [
+            *TIME_COLUMNS,
+            *time_columns("unsolved", "median", "max"),
+            ("median iterations (all calls)", "iterations_median"),
+            ("exceptions", "raised"),
+        ]))
+        reasons = frequent_reasons(rows_by_method)
+        if reasons:
+            blocks.append(
+                Block(
+                    "p",
+                    "Most frequent reasons for 'not solved' (as the methods and the check gave them; "
+                    "causes are not measured here):",
+                )
+            )
+            blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
+        for key, caption in (
+            ("solved", "Cases solved per method"),
+            ("errors", "Task error and contact drift (solved)"),
+            ("com_margin", "CoM margin per method (all calls)"),
+            ("time", "Time per case"),
+            ("time_histogram", "Histogram of time per case"),
+        ):
+            if key in analysis["images"]:
+                blocks.append(Block("image", caption, path=analysis["images"][key]))
+        blocks.extend(significance_blocks(analysis, "task error and contact drift on the solved cases of "
+                                                    "each method, time on every case, CoM margin on every "
+                                                    "case"))
+        return blocks
 
 
 # -- report ---------------------------------------------------------------------------------------------
@@ -320,155 +539,9 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
     return figures._save(figure, path)
 
 
-def analyse_case(study, case, output: Path) -> dict:
-    """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
-    from wbik.study.report import case_figures
-    from wbik.study.report import case_rows
-    from wbik.study.report import write_case_tables
-    from wbik.study.runner import _frozen
-    from wbik.study.runner import _robot
-    from wbik.study.statistics import significance
-    from wbik.wholebody.cases import sample_case
-
-    directory = store.case_dir(output, case.name)
-    rows_by_method, not_applicable = case_rows(study, case, output)
-    robot = _robot(case.robot, _frozen(case.robot_params))
-    model = robot.model
-    joint_names = [model.names[j] for j in range(1, model.njoints) for _ in range(model.joints[j].nq)]
-    if robot.has_floating_base:
-        joint_names = [
-            "base_x",
-            "base_y",
-            "base_z",
-            "base_qx",
-            "base_qy",
-            "base_qz",
-            "base_qw",
-            *joint_names[7:],
-        ]
-    write_raw_csv(directory / "raw.csv", rows_by_method, joint_names)
-    margin = sample_case(case.scenario, study.seed, 0).problem.margin
-    summaries = {label: summarize(rows, margin) for label, rows in rows_by_method.items()}
-    baseline = study.baseline if study.baseline in rows_by_method else None
-    tests = (
-        (significance(baseline, rows_by_method) + com_margin_test(baseline, rows_by_method))
-        if baseline
-        else []
-    )
-    write_case_tables(directory, summaries, tests)
-    title, folder = f"{case.robot} {case.scenario}", directory / "figures"
-    images = case_figures(rows_by_method, summaries, title, folder, ["task", "contact"])
-    if rows_by_method:
-        if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
-            images["com_margin"] = com_margin_boxplots(
-                rows_by_method, margin, title, folder / "com_margin.png"
-            )
-    return {
-        "case": case,
-        "wholebody": True,
-        "rows": rows_by_method,
-        "not_applicable": not_applicable,
-        "summaries": summaries,
-        "tests": tests,
-        "baseline": baseline,
-        "margin": margin,
-        "images": images,
-        "robot": robot,
-    }
-
-
-def case_blocks(study, analysis: dict) -> list:
-    from wbik.study.report import SOLVED_COLUMNS
-    from wbik.study.report import TIME_COLUMNS
-    from wbik.study.report import Block
-    from wbik.study.report import frequent_reasons
-    from wbik.study.report import significance_blocks
-    from wbik.study.report import status_blocks
-    from wbik.study.report import summary_table
-    from wbik.study.report import time_columns
-    from wbik.wholebody.cases import CASE_REGISTRY
-
-    case = analysis["case"]
-    summaries, rows_by_method = analysis["summaries"], analysis["rows"]
-    margin = analysis["margin"]
-    blocks = [
-        Block("h2", f"Case {case.name}: {case.robot}, whole body ({case.scenario})"),
-        Block(
-            "p",
-            f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
-            f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is judged by "
-            "the one shared whole-body check (wbik.wholebody.check_wholebody): goal task errors by "
-            f"FK within {study.tolerances['position']:g} m / {study.tolerances['rotation']:g} rad, "
-            "contact drift within the same, CoM margin by FK against the support polygon of the "
-            "support soles at the answer, joint limits.",
-        ),
-        *status_blocks(study, analysis),
-    ]
-    if not summaries:
-        return blocks
-    marked = {label: s["unsupported"] for label, s in summaries.items() if s["unsupported"]}
-    blocks.append(Block("h3", "Cases solved, task error, contact drift, CoM margin"))
-    blocks.append(summary_table(summaries, [
-        *SOLVED_COLUMNS,
-        ("median task error (all calls)", "task_error_all_median"),
-        ("median task error (solved)", "task_error_solved_median"),
-        ("max task error (solved)", "task_error_solved_max"),
-        ("max contact drift (all calls)", "contact_drift_all_max"),
-        ("max contact drift (solved)", "contact_drift_solved_max"),
-        ("median CoM margin mm (all calls)", lambda s: s["com_margin_all_median"] * 1e3),
-        ("min CoM margin mm (all calls)", lambda s: s["com_margin_all_min"] * 1e3),
-        (f"% calls with CoM margin >= {margin * 1e3:g} mm", "percent_com_margin_kept_all"),
-        ("max limit excess (all calls)", "limit_excess_all_max"),
-        ("solved without", _solved_without),
-    ]))
-    blocks.append(
-        Block(
-            "p",
-            "Task errors in m or rad (the larger of a task's position and rotation errors, the "
-            "largest over the goal tasks); contact drift in m or rad; CoM margin: distance of "
-            "the CoM's ground projection inside the support polygon (negative outside), NaN "
-            "('-') without a support polygon. 'All calls' counts every case, 'solved' only "
-            "those the shared check passed.",
-        )
-    )
-    if marked:
-        blocks.append(
-            Block(
-                "p",
-                "What each method could not express (it solved the problem without it; the check "
-                "still judges everything):",
-            )
-        )
-        blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
-    blocks.append(Block("h3", "Time"))
-    blocks.append(summary_table(summaries, [
-        *TIME_COLUMNS,
-        *time_columns("unsolved", "median", "max"),
-        ("median iterations (all calls)", "iterations_median"),
-        ("exceptions", "raised"),
-    ]))
-    reasons = frequent_reasons(rows_by_method)
-    if reasons:
-        blocks.append(
-            Block(
-                "p",
-                "Most frequent reasons for 'not solved' (as the methods and the check gave them; "
-                "causes are not measured here):",
-            )
-        )
-        blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
-    for key, caption in (
-        ("solved", "Cases solved per method"),
-        ("errors", "Task error and contact drift (solved)"),
-        ("com_margin", "CoM margin per method (all calls)"),
-        ("time", "Time per case"),
-        ("time_histogram", "Histogram of time per case"),
-    ):
-        if key in analysis["images"]:
-            blocks.append(Block("image", caption, path=analysis["images"][key]))
-    blocks.extend(significance_blocks(analysis, "task error and contact drift on the solved cases of each "
-                                                "method, time on every case, CoM margin on every case"))
-    return blocks
+def _largest(errors: dict) -> float:
+    """The largest of a result's per-task errors (0 without goal tasks)."""
+    return max(errors.values(), default=0.0)
 
 
 def _solved_without(summary: dict) -> str:
@@ -478,10 +551,4 @@ def _solved_without(summary: dict) -> str:
     return "see below" if summary["unsupported"] else "-"
 
 
-STUDY_NOTE = (
-    "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
-    "iterated by our loop, or a method's own iteration), so every method is budgeted in iterations: "
-    "the study's time budget divided by the method's measured cost per iteration (its "
-    "iteration_cost_s, wbik.wholebody.solvers.WholeBodySolver), no wall clock; the rows are the same "
-    "on any machine (times aside)."
-)
+CASE_KINDS = (WholeBodyCases(),)

@@ -1,0 +1,197 @@
+"""The parts every case kind builds its report section from: blocks (headings, paragraphs, tables,
+images, lists, rendered by :mod:`wbik.study.report` to Markdown and HTML), number formats, a case's
+rows read back and its summary and significance tables written, the figures of every case, and the
+tables and paragraphs every case's section shares (solved, times, status, significance, reasons).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.study import results as store
+from wbik.study.context import chunk_count
+
+if TYPE_CHECKING:
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import Study
+
+
+@dataclass
+class Block:
+    kind: str  # "h1".."h3", "p", "table", "image", "list"
+    text: str = ""
+    header: list | None = None
+    rows: list | None = None
+    path: Path | None = None
+    items: list | None = None
+
+
+def fmt(value, digits: int = 3) -> str:
+    """A number for a table: 3 significant digits, '-' for missing."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool | np.bool_):
+        return "yes" if value else "no"
+    if isinstance(value, int | np.integer):
+        return str(int(value))
+    value = float(value)
+    if math.isnan(value):
+        return "-"
+    if value == 0:
+        return "0"
+    if 1e-3 <= abs(value) < 1e5:
+        return f"{value:.{digits}g}"
+    return f"{value:.{digits - 1}e}"
+
+
+def fmt_p(value: float) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return "0" if value == 0 else f"{value:.2g}"  # 0: below the smallest double, as published tables print it
+
+
+# -- per case ----------------------------------------------------------------------------------
+def case_rows(study: Study, case: CaseSpec, output: Path) -> tuple[dict, dict]:
+    """({label: rows} of the methods with every chunk present, {label: not-applicable message})."""
+    not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
+    rows_by_method = {}
+    for method in study.methods:
+        if method.label in not_applicable:
+            continue
+        rows = store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
+        if rows is not None:
+            rows_by_method[method.label] = rows
+    return rows_by_method, not_applicable
+
+
+def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(header)
+    writer.writerows(rows)
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[dict]) -> None:
+    """A case's summary.csv (a row per method: every summary figure, ``repr`` of numbers) and, with
+    tests, its significance.csv (a row per Mann-Whitney test)."""
+    if summaries:
+        keys = list(next(iter(summaries.values())))
+        _write_csv(directory / "summary.csv", ["method", *keys],
+                   [[label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
+                    for label, s in summaries.items()])
+    if tests:
+        keys = list(tests[0])
+        _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
+                                                          for k in keys] for t in tests])
+
+
+def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
+                 angles=None) -> dict[str, Path]:
+    """The figures of every case (none without rows): poses solved, errors per axis of the solved
+    poses (``error_names``; ``angles`` the reference's angle convention), time and its histogram."""
+    if not rows_by_method:
+        return {}
+    from wbik.study import figures
+
+    return {"solved": figures.solved_bars(summaries, title, folder / "solved.png"),
+            "errors": figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
+                                             angles),
+            "time": figures.time_boxplots(rows_by_method, title, folder / "time.png"),
+            "time_histogram": figures.time_histogram(rows_by_method, title, folder / "time_histogram.png")}
+
+
+
+
+SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved")]
+"""The first columns of every case's table (:func:`summary_table`): solved of all, and in %."""
+
+_CALLS = {"all": "all calls", "solved": "solved", "unsolved": "not solved"}
+
+
+def time_columns(calls: str, *statistics: str) -> list[tuple[str, str]]:
+    """Columns of the time per call (ms) of ``calls`` ("all", "solved" or "unsolved"), one per
+    statistic of its summary ("median", "p95", "max", "mean"): ``("p95 ms (not solved)",
+    "time_unsolved_p95_ms")``."""
+    return [(f"{statistic} ms ({_CALLS[calls]})", f"time_{calls}_{statistic}_ms") for statistic in statistics]
+
+
+TIME_COLUMNS = [*time_columns("all", "median"), *time_columns("solved", "median", "p95")]
+"""The first time columns of every case's table: the median time of all calls, then the median and
+95th percentile of the solved ones (ms per call)."""
+
+
+def summary_table(summaries: dict[str, dict], columns) -> Block:
+    """A table with a row per method: its label, then a cell per column ``(header, key)``:
+    ``fmt(summary[key])``, or ``(header, function)``: ``function(summary)`` (text as it is, a number
+    through ``fmt``)."""
+    def cell(summary: dict, column) -> str:
+        value = column(summary) if callable(column) else summary[column]
+        return value if isinstance(value, str) else fmt(value)
+
+    return Block("table", header=["method", *(header for header, _ in columns)],
+                 rows=[[label, *(cell(summary, column) for _, column in columns)]
+                       for label, summary in summaries.items()])
+
+
+def status_blocks(study: Study, analysis: dict) -> list[Block]:
+    """The methods not applicable to the case (with why), and those whose rows are incomplete."""
+    blocks = []
+    not_applicable, rows_by_method = analysis["not_applicable"], analysis["rows"]
+    if not_applicable:
+        blocks.append(Block("p", "Not applicable to this case (or could not start):"))
+        blocks.append(Block("list", items=[f"{label}: {why}" for label, why in not_applicable.items()]))
+    missing = [m.label for m in study.methods
+               if m.label not in rows_by_method and m.label not in not_applicable]
+    if missing:
+        blocks.append(Block("p", f"Incomplete (run interrupted; run the study again to resume): "
+                                 f"{', '.join(missing)}."))
+    return blocks
+
+
+def significance_blocks(analysis: dict, samples: str) -> list[Block]:
+    """The Mann-Whitney p-values against the baseline, a row per method (``samples``: what each
+    test compares); none without tests."""
+    if not analysis["tests"]:
+        return []
+    by_method: dict[str, dict] = {}
+    for test in analysis["tests"]:
+        mark = "*" if test["significant"] else ""
+        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
+    axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
+    return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"),
+            Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; * marks p < 0.05."),
+            Block("table", header=["method", *axes_tested],
+                  rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
+                        for label, cells in by_method.items()])]
+
+
+def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
+    """[method, reason kind, count] of the ``most`` most frequent reasons for 'not solved' per method."""
+    reasons = []
+    for label, rows in rows_by_method.items():
+        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
+        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(most):
+            reasons.append([label, reason, count])
+    return reasons
+
+
+def _reason_kind(reason: str) -> str:
+    """A reason without its numbers, so that similar failures are counted together."""
+    words = []
+    for word in reason.split():
+        stripped = word.strip(",.;:()")
+        try:
+            float(stripped)
+            words.append("#")
+        except ValueError:
+            words.append(word)
+    return " ".join(words)[:120] or "(no reason given)"

@@ -1,0 +1,373 @@
+"""Chain targets, the study's case kinds ``pose`` and ``position``: reachable targets of one chain
+(FK of seeded random joints inside the limits), solved by the IK methods.
+
+- sampling: :func:`wbik.study.sampling.sample_poses` on the case's chain (by name, or between the
+  ``base`` and ``tip`` frames); a subclass draws other joints by overriding :meth:`ChainTargets.joints`;
+- solving (:meth:`ChainTargets.solve`, in the worker): ``solve_many`` on the chunk's targets, or one
+  ``solve`` per pose with ``per_pose``, or per pose with the CPU watched for a wall-clock method
+  (:mod:`wbik.study.cpu_watch`); an IK method user code registered travels with the task;
+- applicability: a method that refuses the case's target kind (``check_target_kind``);
+- rows: success, reason, time, iterations, position/rotation error, CPU time, re-runs, the per-axis
+  errors of :func:`wbik.study.metrics.axis_errors`, q;
+- the report section: poses solved and time, error per axis, significance, the figures beside a
+  reference's (the case's ``reference:`` block).
+"""
+
+from __future__ import annotations
+
+import math
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.errors import InvalidSettingError
+from wbik.errors import UnsupportedError
+from wbik.errors import WbikError
+from wbik.study import results as store
+from wbik.study.blocks import SOLVED_COLUMNS
+from wbik.study.blocks import TIME_COLUMNS
+from wbik.study.blocks import Block
+from wbik.study.blocks import case_figures
+from wbik.study.blocks import case_rows
+from wbik.study.blocks import fmt
+from wbik.study.blocks import fmt_p
+from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import significance_blocks
+from wbik.study.blocks import status_blocks
+from wbik.study.blocks import summary_table
+from wbik.study.blocks import time_columns
+from wbik.study.blocks import write_case_tables
+from wbik.study.case_kinds import CaseKind
+from wbik.study.case_kinds import ChunkTask
+from wbik.study.context import _frozen
+from wbik.study.context import case_chain
+from wbik.study.context import chunk_seed
+from wbik.study.context import make_solver
+from wbik.study.context import solver_budget
+from wbik.study.cpu_watch import solve_watching_the_cpu
+from wbik.study.metrics import STUDY_SEQUENCE
+from wbik.study.metrics import AngleConvention
+from wbik.study.metrics import axes as case_axes
+from wbik.study.metrics import axis_errors
+from wbik.study.reference import REFERENCE_METRICS
+from wbik.study.reference import our_figures
+from wbik.study.reference import same_significance
+from wbik.study.reference import verdict
+from wbik.study.sampling import PoseSet
+from wbik.study.sampling import poses_of_joints
+from wbik.study.sampling import sample_joints
+from wbik.study.statistics import ALPHA
+from wbik.study.statistics import significance
+from wbik.study.statistics import summarize
+
+if TYPE_CHECKING:
+    from wbik.robot import Chain
+    from wbik.solvers.method_registry import IKMethod
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
+    from wbik.study.definition import Study
+
+
+@dataclass(frozen=True)
+class ChainChunkTask(ChunkTask):
+    """A chunk of chain targets."""
+
+    chain: str | None
+    angles: AngleConvention | None  # the reference's Euler angles: extra error columns
+    per_pose: bool
+    positions: np.ndarray
+    rotations: np.ndarray | None
+    registered: IKMethod | None = None
+    """The IK method when user code registered it at run time (``wbik.register``; None for one a
+    module of METHOD_MODULES declares): worker processes have their own registry, so the task carries it and
+    :meth:`ChainTargets.solve` registers it there (loky and Dask pickle with cloudpickle, so a class defined
+    in the user's script travels by value)."""
+    base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
+    tip: str | None = None
+
+
+TARGETS = ("pose", "position")
+"""What a chain solver can be given: full poses, or positions only."""
+
+
+class ChainTargets(CaseKind):
+    """Targets of one chain, full poses (``target`` "pose") or positions only ("position")."""
+
+    sampled_from = "FK of uniform random joints inside the limits"
+    """How the targets were drawn, in the words of the case's report section."""
+    methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
+                    "study's time budget as an iteration budget (the iterations that cost that "
+                    "long on the reference machine) and no wall clock, so their rows are the "
+                    "same on any machine and under any load. KDL, TRAC-IK and PlaCo are "
+                    "budgeted by wall-clock time inside their libraries; TRAC-IK also restarts "
+                    "from random seeds of its own, so its rows vary from run to run.")
+
+    def __init__(self, name: str, target: str | None = None):
+        self.name = name
+        self.target = target or name
+        if self.target not in TARGETS:
+            raise InvalidSettingError(f"case kind {name!r}: target must be one of {', '.join(TARGETS)} "
+                                      f"(what a chain solver is given), got {self.target!r}")
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r}, target={self.target!r})"
+
+    # -- the study file ----------------------------------------------------------------------------
+    def methods(self) -> dict[str, str]:
+        from wbik.solvers.method_registry import methods
+
+        return methods()
+
+    def method_options(self, method: str) -> set[str] | None:
+        from wbik.solvers.method_registry import solver_options
+
+        return solver_options(method)
+
+    def axes(self, angles: AngleConvention | None = None) -> list[str]:
+        return case_axes(self.target, angles)
+
+    # -- sampling and tasks ------------------------------------------------------------------------
+    def joints(self, chain: Chain, count: int, seed: int) -> np.ndarray:
+        """(count, n) joint vectors whose FK are the targets: uniform inside the chain's limits."""
+        return sample_joints(chain, count, seed)
+
+    def sample(self, study: Study, case: CaseSpec) -> PoseSet:
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        q_true = self.joints(chain, study.poses_of(case), study.seed)
+        return poses_of_joints(chain, q_true, study.seed, self.target, study.start)
+
+    def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
+        return solver_budget(method, timeout_s, options)
+
+    def unbudgeted(self, method: str) -> bool:
+        from wbik.solvers.method_registry import method_factory
+
+        try:
+            return getattr(method_factory(method), "budgeted", True) is False
+        except WbikError:
+            return False
+
+    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+             start: int, stop: int) -> ChainChunkTask:
+        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+
+        timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
+        return ChainChunkTask(
+            kind=self, case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params),
+            label=method.label, method=method.method, options=_frozen(options), timeout_s=timeout_s,
+            tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
+            seed=chunk_seed(study.seed, case.name, method.label, chunk), chunk=chunk, first_pose=start,
+            q0=poses.q0[start:stop], chain=case.chain,
+            angles=case.reference.angles if case.reference else None, per_pose=method.per_pose,
+            positions=poses.positions[start:stop],
+            rotations=None if poses.rotations is None else poses.rotations[start:stop],
+            registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip)
+
+    # -- in the worker -----------------------------------------------------------------------------
+    def build(self, task: ChainChunkTask, timeout_s: float | None = None):
+        """The task's solver (``timeout_s``: another wall budget than the task's)."""
+        return make_solver(task.robot, task.robot_params, task.chain, task.method, dict(task.options),
+                           task.timeout_s if timeout_s is None else timeout_s, task.tolerances, task.seed,
+                           task.base, task.tip)
+
+    def refusal(self, task: ChainChunkTask, solver) -> str | None:
+        """The solver's refusal of the case's target kind (its capability query ``check_target_kind``)."""
+        try:
+            solver.check_target_kind("position" if task.rotations is None else "pose")
+        except UnsupportedError as exc:
+            return str(exc)
+        return None
+
+    def solve(self, task: ChainChunkTask) -> dict[str, np.ndarray]:
+        """Solve one chunk with ``solve_many`` (batched methods keep their speed; a batched method's
+        time per pose is then the batch's time / size) or, with ``per_pose``, one ``solve`` per pose.
+
+        A pose on which the method raises gets success=False and reason "raised ...", and the chunk
+        continues pose by pose. Whether the method applies was decided before (the runner's probe).
+        """
+        from wbik.targets import Target
+
+        if task.registered is not None:  # a method registered in the study's main process
+            from wbik.solvers.method_registry import register_method
+
+            register_method(task.registered, replace=True)
+        solver = self.build(task)
+        count = task.count
+        targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
+                   for i in range(count)]
+        cpu_seconds = np.full(count, np.nan)
+        reruns = np.zeros(count, dtype=int)
+        try:
+            if task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted:
+                answers = []
+                for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
+                    answer, cpu_seconds[i], reruns[i] = solve_watching_the_cpu(
+                        solver, target, q0, task.timeout_s, lambda budget: self.build(task, budget))
+                    answers.append(answer)
+            elif task.per_pose:
+                answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
+            else:
+                answers = solver.solve_many(targets, task.q0)
+        except Exception:  # noqa: BLE001 - solved again pose by pose, each failure recorded in its row
+            answers = []
+            for target, q0 in zip(targets, task.q0, strict=True):
+                try:
+                    answers.append(solver.solve(target, q0))
+                except Exception as pose_exc:  # noqa: BLE001 - recorded in the row, counted in the report
+                    answers.append(_raised(solver, pose_exc))
+        nq = solver.chain.nq
+        columns = {
+            "pose": np.arange(task.first_pose, task.first_pose + count),
+            "success": np.array([a.success for a in answers], dtype=bool),
+            "reason": np.array([a.reason for a in answers], dtype=str),
+            "time_s": np.array([a.time_s for a in answers], dtype=float),
+            "iterations": np.array([a.iterations for a in answers], dtype=int),
+            "position_error": np.array([a.position_error for a in answers], dtype=float),
+            "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
+        }
+        columns["cpu_s"] = cpu_seconds
+        columns["reruns"] = reruns
+        columns.update(axis_errors(answers, task.rotations, task.angles))
+        columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
+                                dtype=float).reshape(count, nq)
+        return columns
+
+    # -- the report --------------------------------------------------------------------------------
+    def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        directory = store.case_dir(output, case.name)
+        rows_by_method, not_applicable = case_rows(study, case, output)
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
+        summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
+        baseline = study.baseline if study.baseline in rows_by_method else None
+        tests = significance(baseline, rows_by_method) if baseline else []
+        write_case_tables(directory, summaries, tests)
+        angles = case.reference.angles if case.reference else None
+        error_names = self.axes(angles)
+        images = case_figures(rows_by_method, summaries, f"{case.robot}.{chain.name} ({case.target})",
+                              directory / "figures", error_names, angles)
+        return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
+                "summaries": summaries, "tests": tests, "baseline": baseline, "axes": error_names,
+                "images": images}
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        case: CaseSpec = analysis["case"]
+        chain = analysis["chain"]
+        summaries = analysis["summaries"]
+        rows_by_method = analysis["rows"]
+        blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {case.target} targets"),
+                  Block("p", f"{study.poses_of(case)} {case.target} targets from {self.sampled_from} "
+                             f"(seed {study.seed}); chain {chain.base_frame} -> "
+                             f"{chain.tip_frame}, {chain.nq} joints ({', '.join(chain.joint_names)}); "
+                             f"every method starts from q0 = {study.start}.")]
+        blocks.extend(status_blocks(study, analysis))
+        if not summaries:
+            return blocks
+        blocks.append(Block("h3", "Poses solved and time"))
+        blocks.append(summary_table(summaries, [
+            *SOLVED_COLUMNS,
+            *TIME_COLUMNS,
+            *time_columns("solved", "max"),
+            *time_columns("unsolved", "median", "p95", "max", "mean"),
+            ("median iterations", "iterations_median"),
+            ("exceptions", "raised"),
+            ("re-run (CPU starved)", lambda s: s.get("rerun", 0)),
+        ]))
+        blocks.append(Block("p", "Times are per call of the method alone. \"All calls\" counts every pose; "
+                                 "\"solved\" and \"not solved\" split them by the shared FK check. "
+                                 "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that failed "
+                                 "while the machine gave them less than 80 % of their budget in CPU time "
+                                 "and were run again with a stretched wall budget (wbik.study.runner)."))
+        reasons = frequent_reasons(rows_by_method)
+        if reasons:
+            blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
+            blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
+        blocks.append(Block("image", "Poses solved per method", path=analysis["images"]["solved"]))
+        blocks.append(Block("image", "Time per pose", path=analysis["images"]["time"]))
+        blocks.append(Block("image", "Histogram of time per pose", path=analysis["images"]["time_histogram"]))
+
+        blocks.append(Block("h3", "Error per axis (solved poses)"))
+        blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
+                                 "target, base axes); rot_* the rotation vector log3(R_target^T R_reached); "
+                                 "alpha, beta, gamma the angles of R = Rz(gamma) Ry(beta) Rx(alpha)"
+                                 + _reference_angles_text(case) + "; radians. Near beta = +-90 deg (gimbal "
+                                 "lock) a tiny rotation can show as large, opposite alpha and gamma errors; "
+                                 "the rotation vector has no such artefact."))
+        labels = list(summaries)
+        for statistic, title in (("abs_median", "median |e|"), ("abs_max", "max |e|"),
+                                 ("zero_fraction", "fraction exactly 0")):
+            table = [[f"{title}: {label}", *(fmt(summaries[label].get(f"err_{axis}_{statistic}"))
+                                             for axis in analysis["axes"])] for label in labels]
+            blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
+        blocks.append(Block("image", "Error per axis", path=analysis["images"]["errors"]))
+
+        blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, "
+                                                    "and on the time of every pose"))
+        blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
+        return blocks
+
+
+def _raised(solver, exc: BaseException):
+    from wbik.solvers.base import IKResult
+
+    nan3 = np.full(3, np.nan)
+    detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+    return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),
+                    float("nan"), 0, solver.name)
+
+
+def _reference_angles_text(case: CaseSpec) -> str:
+    """Where the reference's angle columns come from, for the per-axis error paragraph."""
+    angles = case.reference.angles if case.reference else None
+    if not angles:
+        return ""
+    if angles.sequence == STUDY_SEQUENCE:
+        return (f" (repeated under the {case.reference.name}'s names: "
+                + ", ".join(f"{angles.study_angle(axis)} = {name}" for axis, name in angles.names) + ")")
+    return f"; {', '.join(angles.columns)} the {case.reference.name}'s angles of {angles.describe()}"
+
+
+def _reference_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> list[Block]:
+    """Our figures and p-values beside the reference's (the case's ``reference:`` block)."""
+    reference = case.reference
+    if reference is None:
+        return []
+    name = reference.name
+    blocks = [Block("h3", f"Beside the {name}")]
+    if reference.source:
+        blocks.append(Block("p", f"{reference.title} figures from {reference.source}."))
+    table = []
+    for label, metrics in reference.figures.items():
+        ours = our_figures(summaries[label]) if label in summaries else {}
+        for metric, value in metrics.items():
+            described = REFERENCE_METRICS[metric]
+            our = ours.get(metric)
+            judged = verdict(metric, value, our)
+            if label in summaries and (our is None or not math.isfinite(our)):
+                judged = "no such poses in our run"
+            table.append([label, f"{described.description} ({described.unit})", fmt(value), fmt(our), judged])
+    if table:
+        blocks.append(Block("table", header=["method", "metric", name, "ours", "comparison"], rows=table))
+    ours = {(t["method"], t["axis"]): t for t in tests}
+    rows = []
+    for label, axes in reference.significance.items():
+        for axis, p_value in axes.items():
+            test = ours.get((label, axis))
+            our_p = test["p_value"] if test else None
+            rows.append([label, axis, fmt_p(p_value), fmt_p(our_p) if our_p is not None else "-",
+                         same_significance(p_value, our_p)])
+    if rows:
+        where = f" ({reference.significance_source})" if reference.significance_source else ""
+        blocks.append(Block("p", f"Mann-Whitney p-values against the baseline, the {name}'s{where} "
+                                 f"beside ours; 'same verdict' compares significance at {ALPHA:g}."))
+        blocks.append(Block("table", header=["method", "axis", f"{name} p", "our p", "same verdict"],
+                            rows=rows))
+    if reference.notes:
+        blocks.append(Block("p", "Where and why we differ: " + reference.notes.strip()))
+    return blocks
+
+
+CASE_KINDS = (ChainTargets("pose"), ChainTargets("position"))
