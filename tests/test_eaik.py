@@ -6,7 +6,9 @@ independent FK on the robot's full model (not the chain's reduced model that the
 
 from __future__ import annotations
 
+import math
 import sys
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pinocchio as pin
@@ -16,6 +18,10 @@ import wbik
 from wbik.errors import InvalidSettingError
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
+from wbik.solvers.analytic import nearest_branch
+from wbik.solvers.analytic.eaik_family import branch_bounds
+from wbik.solvers.base import Candidate
+from wbik.solvers.base import evaluate
 from wbik.targets import Target
 
 POSES = 200
@@ -197,3 +203,122 @@ def test_missing_eaik_raises_missing_dependency(monkeypatch):
     monkeypatch.setitem(sys.modules, "eaik.IK_HP", None)
     with pytest.raises(MissingDependencyError, match="pip install EAIK==1.2.2"):
         wbik.solver("eaik", load("ur5"), "ee")
+
+
+# --- the branch choice against the rule it implements ---------------------------------------------------
+CHOICE_POSES = 1000
+
+
+def _rule_bounded(q_all: np.ndarray, reference: np.ndarray) -> list[tuple[float, list[float]]]:
+    """(sum_i remainder(q_i - r_i, 2 pi)^2, q) per branch, in the rint form."""
+    gaps = q_all - reference
+    gaps -= 2 * np.pi * np.rint(gaps / (2 * np.pi))
+    return list(zip((gaps * gaps).sum(axis=1).tolist(), q_all.tolist(), strict=True))
+
+
+class _ChainFK:
+    """The screen's FK for :func:`nearest_branch`: the chain's own (Pinocchio), in plain floats."""
+
+    screen_tolerance = 1e-7
+
+    def __init__(self, chain):
+        self.chain = chain
+
+    def fk_one(self, q):
+        pose = self.chain.fk(np.asarray(q, dtype=float))
+        return tuple(pose.translation.tolist()), tuple(pose.rotation.ravel().tolist())
+
+
+def _rule_choice(solver, q_all: np.ndarray, target: Target, q0: np.ndarray):
+    """The branch rule spelled out: every branch bounded, taken in the bounds' order, wrapped into the
+    limits nearest q0, the nearest one whose FK passes the 1e-7 screen (analytic's ``nearest_branch``);
+    where none does, the solver's reasons (``_pick``)."""
+    q, _ = nearest_branch(_ChainFK(solver.chain), _rule_bounded(q_all, q0), target.position.tolist(),
+                          target.rotation.ravel().tolist(), q0.tolist(), *solver._limits)
+    return solver._pick(q_all, target, q0) if q is None else Candidate(np.array(q), 1)
+
+
+def test_branch_bounds_are_the_remainders_squared():
+    """sum_i remainder(q_i - r_i, 2 pi)^2 per branch (math.remainder), NaN for a branch with a NaN or
+    infinite joint."""
+    rng = np.random.default_rng(4)
+    q_all = rng.uniform(-7.0, 7.0, (200, 6))
+    reference = rng.uniform(-7.0, 7.0, 6)
+    expected = [sum(math.remainder(q - r, 2 * math.pi) ** 2 for q, r in zip(row, reference, strict=True))
+                for row in q_all.tolist()]
+    np.testing.assert_allclose(branch_bounds(q_all, reference), expected, rtol=1e-13, atol=1e-13)
+    q_all[:2, 3] = np.nan, np.inf
+    with np.errstate(invalid="ignore"):  # inf - inf
+        bounds = branch_bounds(q_all[:3], reference)
+    assert math.isnan(bounds[0]) and math.isnan(bounds[1]) and math.isfinite(bounds[2])
+
+
+def _choice_chains():
+    ur10 = wbik.load("example-robot-data:ur10")
+    kinova = wbik.load("example-robot-data:kinova")
+    kinova_arm = kinova.chain_between("base", "j2s6s200_end_effector")
+    return {"ur10": (ur10, None), "ur5.ee": (load("ur5"), "ee"),
+            "bioloid.right_leg": (load("bioloid"), "right_leg"), "kinova": (kinova, kinova_arm.name)}
+
+
+@pytest.mark.parametrize("name", ["ur10", "ur5.ee", "bioloid.right_leg", "kinova"])
+def test_choice_is_the_nearest_branch_rule(name):
+    """On FK poses of random joints, the same poses moved by up to 1 mm and 1 mrad, and random far poses
+    (least-squares branches only), from random starts and from the nominal: the solver's choice gives
+    the joints, the reason and the success of the rule spelled out (:func:`_rule_choice`)."""
+    robot, chain_name = _choice_chains()[name]
+    solver = wbik.solver("eaik", robot, chain_name)
+    chain = solver.chain
+    rng = np.random.default_rng(11)
+    targets = []
+    for q in chain.random(rng, CHOICE_POSES):
+        pose = chain.fk(q)
+        targets.append(Target(pose.translation.copy(), pose.rotation.copy()))
+        if len(targets) % 4 == 0:
+            moved = pose * pin.exp6(pin.Motion(rng.uniform(-1e-3, 1e-3, 6)))
+            targets.append(Target(moved.translation.copy(), moved.rotation.copy()))
+    targets += [Target(rng.uniform(-3.0, 3.0, 3), pin.exp3(rng.uniform(-3.0, 3.0, 3))) for _ in range(20)]
+    starts = list(chain.random(rng, len(targets)))
+    starts[::5] = [chain.nominal] * len(starts[::5])
+    counts = {"found": 0, "none": 0}
+    for target, q0 in zip(targets, starts, strict=True):
+        q_all = solver.raw_branches(target)
+        chosen = solver._choose(q_all, target, q0)
+        expected = _rule_choice(solver, q_all, target, q0)
+        assert (chosen.q is None) == (expected.q is None)
+        assert chosen.reason == expected.reason
+        counts["found" if chosen.q is not None else "none"] += 1
+        if chosen.q is not None:
+            np.testing.assert_array_equal(chosen.q, expected.q)
+        checked, reference = (evaluate(chain, target, candidate, solver.tolerances, 0.0, "eaik")
+                              for candidate in (chosen, expected))
+        assert checked.success == reference.success
+        result = solver.solve(target, q0)
+        assert result.success == reference.success
+        if result.q is not None:
+            np.testing.assert_array_equal(result.q, reference.q)
+    assert counts["found"] >= CHOICE_POSES and counts["none"] > 0  # every FK pose solved, far ones not
+
+
+def test_four_threads_on_one_solver_match_the_sequential_run():
+    """Each thread has its own EAIK robot and pose buffer: threads switching every microsecond give the
+    sequential answers exactly."""
+    solver = wbik.solver("eaik", load("ur5"), "ee")
+    chain = solver.chain
+    rng = np.random.default_rng(3)
+    targets = [chain.fk(q) for q in chain.random(rng, 64)] + [pin.SE3(np.eye(3), np.array([3.0, 0.0, 0.0]))]
+    starts = chain.random(rng, len(targets))
+    sequential = [solver.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
+    previous = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        with ThreadPoolExecutor(max_workers=4) as pool:
+            threaded = list(pool.map(solver.solve, targets, starts))
+    finally:
+        sys.setswitchinterval(previous)
+    for alone, shared in zip(sequential, threaded, strict=True):
+        assert shared.success == alone.success
+        if alone.q is None:
+            assert shared.q is None
+        else:
+            np.testing.assert_array_equal(shared.q, alone.q)

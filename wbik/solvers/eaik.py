@@ -16,22 +16,30 @@ and takes the target as it is. Either way EAIK's FK equals our chain FK to 3e-16
 The structure and EAIK's verdict are computed once per chain (cached); each thread builds its own
 robot (:meth:`Solver._thread_state`).
 
-Choosing a branch. As in ``analytic``, and with its code (the chain as the closed form
-:class:`wbik.solvers.analytic.eaik_family.EAIKForm`, :func:`wbik.solvers.analytic.nearest_branch`):
-each revolute angle is shifted by multiples of 2 pi into the limits, nearest to q0 (which matters for
-the UR5's +-2 pi joints), branches outside the limits are dropped, and ``solve`` returns the branch with
-the smallest Euclidean joint distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad),
-in plain floats, the branches taken in the order of a lower bound of their distance. EAIK's ``is_LS``
-flag is not trusted either way (it marks exact branches of 4R chains as least-squares); the FK screen
-decides. Where no branch passes, the reason says whether none is inside the limits or EAIK returned
-only least-squares branches. ``solve_all`` returns every distinct branch inside the limits that passes
-the shared check; ``solve_many`` makes one batched EAIK call (``batch_threads`` worker threads, 1 by
-default) and picks branches exactly as ``solve`` does.
+Choosing a branch. The rule of ``analytic`` (:func:`wbik.solvers.analytic.nearest_branch`, the chain as
+the closed form :class:`wbik.solvers.analytic.eaik_family.EAIKForm`): each revolute angle is shifted by
+multiples of 2 pi into the limits, nearest to q0 (which matters for the UR5's +-2 pi joints), branches
+outside the limits are dropped, and ``solve`` returns the branch with the smallest Euclidean joint
+distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad). The per-call path
+(:meth:`EAIKSolver._choose`) computes a lower bound of every branch's squared distance in a few NumPy
+calls (:func:`~wbik.solvers.analytic.eaik_family.branch_bounds`), then works in plain floats: branches
+are wrapped in the order of their bounds only while one could still be nearer than the nearest wrapped
+one, and that one is screened (one FK) as soon as no other can be; usually one wrap and one FK per
+solve. ``tests/test_eaik.py`` holds it to the rule spelled out. EAIK's ``is_LS`` flag is not trusted
+either way (it marks exact branches of 4R chains as least-squares); the FK screen decides. Where no
+branch passes, the reason says whether none is inside the limits or EAIK returned only least-squares
+branches. ``solve_all`` returns every distinct branch inside the limits that passes the shared check;
+``solve_many`` makes one batched EAIK call (``batch_threads`` worker threads, 1 by default) and picks
+branches exactly as ``solve`` does.
 
-Cost (``benchmarks/eaik_interface.py``, UR10 and UR5): a ``solve`` costs about 7x EAIK's own ``IK``
-call (5 us): the interface every method pays (target conversion, the shared FK check, the IKResult) is
-about 1.4x of it, the choice above about 3x (bounds of the 8 branches, the wrap and the FK screen of
-the nearest, array conversions), all of it Python around one EAIK call.
+Cost (``benchmarks/eaik_interface.py``, UR10 and UR5 ``ee``, FK poses from the nominal start): a
+``solve`` costs about 28 us, 4.7-5.6x EAIK's own ``IK`` call (5.1-6.2 us). The interface every method
+pays (target conversion, the shared FK check, the IKResult) is 7-8 us (1.2-1.4x); the choice about
+15 us: the pose handed to EAIK and its binding's overhead ~1.5 us, the bounds of the 8 branches ~3.5 us,
+their order ~1 us, the wrap ~2.5 us and the FK screen ~4 us of the nearest (one solve in eight also
+screens a second branch: a least-squares branch nearer than the exact ones), the rest bookkeeping. The
+interface and EAIK's call alone are already 2.3-2.5x (the benchmark's floor): 2x is out of reach while
+the shared check stays as it is.
 
 Targets. EAIK solves full poses only (its 1R..5R solvers solve the over-determined pose and flag
 the inexact branches as least-squares); a position-only target raises UnsupportedError on every
@@ -78,21 +86,30 @@ of rounding, the same family solves correctly. We do not add noise to dodge EAIK
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 import weakref
 from collections.abc import Iterable
 from dataclasses import dataclass
+from heapq import heappop
+from heapq import heappush
 
 import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
+from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
+from wbik.solvers.analytic import BOUND_SLACK
 from wbik.solvers.analytic import BRANCH_MERGE
-from wbik.solvers.analytic import nearest_branch
+from wbik.solvers.analytic import LIMIT_TOLERANCE
+from wbik.solvers.analytic import squared_distance
 from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic import wrap_one_into_limits
+from wbik.solvers.analytic.eaik_family import EAIKForm
+from wbik.solvers.analytic.eaik_family import branch_bounds
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.base import Candidate
@@ -211,8 +228,6 @@ class EAIKSolver(Solver):
 
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
-        from wbik.solvers.analytic.eaik_family import EAIKForm
-
         super().__init__(robot, chain, **options)
         self.batch_threads = check_count("batch_threads", batch_threads)
         self.structure = eaik_structure(self.chain)
@@ -220,14 +235,23 @@ class EAIKSolver(Solver):
         self.form = EAIKForm(self.chain, structure=self.structure)
         """The chain as a closed form of EAIK's branches: the scalar path the choice runs on."""
         self.revolute = ~self.chain.is_prismatic
-        self._limits = (self.chain.lower.tolist(), self.chain.upper.tolist())
+        lower, upper = self.chain.lower.tolist(), self.chain.upper.tolist()
+        self._limits = (lower, upper)
+        self._joint_limits = tuple((low, high, low - LIMIT_TOLERANCE, high + LIMIT_TOLERANCE)
+                                   for low, high in zip(lower, upper, strict=True))
+        """Per joint (lower, upper, lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE): the fast path of
+        :func:`~wbik.solvers.analytic.wrap_one_into_limits`."""
+        self._slack = self.chain.nq * BOUND_SLACK
         self._tip = np.eye(4)
         self._tip[:3, :3] = self.structure.tip_rotation_t
 
-    def _new_thread_state(self):
+    def _new_thread_state(self) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
         """This thread's EAIK robot (:func:`~wbik.solvers.analytic.eaik_family.eaik_robot`: it takes
-        our target poses as they are)."""
-        return self.form.robot()
+        our target poses as they are), the 4 x 4 pose ``solve`` fills for it (EAIK copies it) and views
+        of its rotation and position."""
+        pose = np.zeros((4, 4))
+        pose[3, 3] = 1.0
+        return self.form.robot(), pose, pose[:3, :3], pose[:3, 3]
 
     # -- EAIK in our frames ---------------------------------------------------------------------
     def eaik_pose(self, target: Target) -> np.ndarray:
@@ -246,23 +270,87 @@ class EAIKSolver(Solver):
 
     def _eaik_call(self, target: Target):
         """EAIK's solution for one target (this thread's robot)."""
-        return self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
+        return self._thread_state()[0].calculate_IK(self.form.pose(target.position, target.rotation))
 
     def _branches(self, solution) -> np.ndarray:
         q_all = np.asarray(solution.Q, dtype=float)
         return q_all.reshape(-1, self.chain.nq)
 
     def _choose(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 (wrapped into the limits) that reaches the target, in plain floats
-        (:func:`~wbik.solvers.analytic.nearest_branch`, the screen with the chain's FK); where none does,
-        :meth:`_pick` says why."""
-        form = self.form
-        bounded = form.bounded(q_all, q0)
-        q, _ = nearest_branch(form, bounded, target.position.tolist(), target.rotation.ravel().tolist(),
-                              q0.tolist(), *self._limits)
-        if q is None:
-            return self._pick(q_all, target, q0)
-        return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
+        """The branch nearest q0 (wrapped into the limits) whose FK passes the screen, in plain floats;
+        where none does, :meth:`_pick` says why.
+
+        The rule of :func:`~wbik.solvers.analytic.nearest_branch` (the nearest branch that passes, the
+        first in the bounds' order on a tie) with fewer wraps and FKs: the branches are taken in the
+        order of a lower bound of their squared distance
+        (:func:`~wbik.solvers.analytic.eaik_family.branch_bounds`, less ``BOUND_SLACK`` per joint) and
+        wrapped (their exact distance) only while one could still be nearer than the nearest wrapped
+        one; that one is screened (one FK) as soon as no other can be nearer, the next one if it fails.
+        """
+        count = len(q_all)
+        if count:
+            bounds = branch_bounds(q_all, q0)
+            if not math.isfinite(sum(bounds)):  # NaN or inf joints: last, never wrapped
+                bounds = [bound if bound < math.inf else math.inf for bound in bounds]
+            reference = q0.tolist()
+            slack = self._slack
+            pending: list[tuple[float, int, list[float]]] = []  # heap of (distance, rank, q): unscreened
+            for rank, index in enumerate(sorted(range(count), key=bounds.__getitem__)):
+                bound = bounds[index]
+                while pending and pending[0][0] <= bound - slack:  # no branch left can be nearer
+                    q = self._screened(heappop(pending)[2], target)
+                    if q is not None:
+                        return Candidate(q, 1, extra={"branches": count})
+                if bound == math.inf:
+                    break
+                wrapped = self._wrapped(q_all[index].tolist(), reference)
+                if wrapped is not None:
+                    heappush(pending, (wrapped[0], rank, wrapped[1]))
+            while pending:
+                q = self._screened(heappop(pending)[2], target)
+                if q is not None:
+                    return Candidate(q, 1, extra={"branches": count})
+        return self._pick(q_all, target, q0)
+
+    def _wrapped(self, raw: list[float], reference: list[float]) -> tuple[float, list[float]] | None:
+        """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it), the
+        values of :func:`~wbik.solvers.analytic.squared_distance` and
+        :func:`~wbik.solvers.analytic.wrap_one_into_limits` (its fast path inline); None if a joint
+        has no 2 pi shift inside its limits."""
+        wrapped: list[float] = []
+        append = wrapped.append
+        total = 0.0
+        for value, ref, (low, high, low_tolerant, high_tolerant) in zip(raw, reference, self._joint_limits,
+                                                                         strict=True):
+            turns = round((ref - value) / TWO_PI)  # the shift nearest ref: the usual answer
+            shifted = value + turns * TWO_PI
+            if not (low_tolerant <= shifted <= high_tolerant and -2 <= turns <= 2):
+                slow = wrap_one_into_limits(raw, reference, *self._limits)
+                return None if slow is None else (squared_distance(slow, reference), slow)
+            if shifted > high:
+                shifted = high
+            elif shifted < low:
+                shifted = low
+            append(shifted)
+            difference = shifted - ref
+            total += difference * difference
+        return total, wrapped
+
+    def _screened(self, q: list[float], target: Target) -> np.ndarray | None:
+        """``q`` as an array if its FK (Pinocchio, the chain's) reaches the target within
+        SCREEN_TOLERANCE, else None: :func:`~wbik.solvers.analytic.screen_residual`'s test (position
+        error, then the rotation angle acos((trace(R*^T R) - 1) / 2)) with its arithmetic."""
+        joints = np.array(q)
+        (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = self.chain.fk(joints).homogeneous.tolist()
+        px, py, pz = target.position.tolist()
+        dx, dy, dz = x - px, y - py, z - pz
+        if not math.sqrt(dx * dx + dy * dy + dz * dz) <= SCREEN_TOLERANCE:
+            return None
+        (ra, rb, rc), (rd, re, rf), (rg, rh, ri) = target.rotation.tolist()
+        trace = sum((a * ra, b * rb, c * rc, d * rd, e * re, f * rf, g * rg, h * rh, i * ri))
+        if math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))) <= SCREEN_TOLERANCE:
+            return joints
+        return None
 
     def _reaches(self, q: np.ndarray, target: Target) -> bool:
         position_xyz, rotation_xyz = pose_error(self.chain.fk(q), target)
@@ -293,8 +381,10 @@ class EAIKSolver(Solver):
 
     # -- the interface ----------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        solution = self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
-        return self._choose(self._branches(solution), target, q0)
+        robot, pose, rotation, position = self._thread_state()
+        rotation[...] = target.rotation
+        position[...] = target.position
+        return self._choose(robot.calculate_IK(pose).Q, target, q0)
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """One EAIK ``IK_batched`` call for the batch; branches picked as in ``solve``;
@@ -308,7 +398,7 @@ class EAIKSolver(Solver):
         q0_array = [self.chain.nominal.copy() if s is None else s for s in starts]
         start = time.perf_counter()
         poses = [self.form.pose(target.position, target.rotation) for target in targets]
-        solutions = self._thread_state().calculate_IK_batched(poses, self.batch_threads)
+        solutions = self._thread_state()[0].calculate_IK_batched(poses, self.batch_threads)
         candidates = [self._choose(self._branches(solution), target, q0)
                       for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
         per_pose = (time.perf_counter() - start) / len(targets)

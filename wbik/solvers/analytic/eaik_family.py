@@ -21,6 +21,22 @@ from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import poe_fk
 
+_INVERSE_TURN = 1.0 / TWO_PI
+_TURN_SQUARED = {joints: np.full(joints, TWO_PI * TWO_PI) for joints in range(1, 7)}
+"""(2 pi)^2 per joint, for EAIK's chains of 1 to 6 joints."""
+
+
+def branch_bounds(q_all: np.ndarray, reference: np.ndarray) -> list[float]:
+    """Per branch of q_all (K, n), sum_i remainder(q_i - r_i, 2 pi)^2 (to rounding, far below
+    ``BOUND_SLACK``): a lower bound of its squared distance to ``reference`` once wrapped into the
+    limits (:func:`wbik.solvers.analytic.nearest_branch`), computed in turns in six small NumPy calls:
+    (2 pi)^2 sum_i (t_i - rint(t_i))^2 with t = (q - r) / 2 pi. NaN where a joint is not finite."""
+    turns = np.subtract(q_all, reference)
+    turns *= _INVERSE_TURN
+    turns -= np.rint(turns)
+    turns *= turns
+    return np.dot(turns, _TURN_SQUARED[turns.shape[-1]]).tolist()
+
 
 def eaik_robot(structure):
     """An EAIK robot of a verdict's H and P whose end-effector rotation is the chain tip's at q = 0 (as
@@ -68,13 +84,10 @@ class EAIKForm(ClosedForm):
 
     @staticmethod
     def bounded(q_all: np.ndarray, reference) -> list[tuple[float, list[float]]]:
-        """Branches (K, n) as ``branches_one`` returns them: (sum_i remainder(q_i - r_i, 2 pi)^2, q)."""
+        """Branches (K, n) as ``branches_one`` returns them: (:func:`branch_bounds`, q)."""
         if not len(q_all):
             return []
-        gaps = q_all - reference
-        gaps -= TWO_PI * np.rint(gaps * (1.0 / TWO_PI))  # remainder(q - r, 2 pi), in [-pi, pi]
-        gaps *= gaps
-        return list(zip(gaps.sum(axis=1).tolist(), q_all.tolist(), strict=True))
+        return list(zip(branch_bounds(q_all, reference), q_all.tolist(), strict=True))
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -98,5 +111,6 @@ class EAIKForm(ClosedForm):
         return self.bounded(q_all, reference)
 
     def fk_one(self, q):
-        pose = self.chain.fk(np.asarray(q, dtype=float))
-        return tuple(pose.translation.tolist()), tuple(pose.rotation.ravel().tolist())
+        pose = self.chain.fk(np.asarray(q, dtype=float)).homogeneous.tolist()
+        (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = pose
+        return (x, y, z), (a, b, c, d, e, f, g, h, i)
