@@ -132,6 +132,11 @@ def test_a_joint_and_a_link_sharing_a_name_load_and_the_link_keeps_it():
     assert result.success
     tool = robot.chain_between("link00", "gripperStator")
     assert tool.joint_names == [f"joint{i}" for i in range(1, 7)]
+    # PlaCo reads the URDF itself and looks frames up by name alone: it gets the joint renamed too
+    placo = wbik.solver("placo", robot, chain=tool.name, timeout_s=0.02)
+    rng = np.random.default_rng(1)
+    results = [placo.solve(tool.fk(q), q + 0.05) for q in tool.random(rng, 10)]
+    assert sum(r.success for r in results) >= 5, [r.reason for r in results]
 
 
 def test_chains_between_base_and_tip_on_tree_robots():

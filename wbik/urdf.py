@@ -302,3 +302,28 @@ def reduced_model(model: pin.Model, locked: list[int], q: np.ndarray) -> pin.Mod
             renamed.name = f"{temporary[frame.name]}_joint"
             reduced.frames[index] = renamed
     return reduced
+
+
+_NAME_ATTRIBUTE = re.compile(r"""(\bname\s*=\s*)(["'])(.*?)\2""", re.DOTALL)
+
+
+def fixed_joints_renamed(text: str) -> str:
+    """URDF text whose fixed joints named like a link are renamed ``NAME_joint``, as :func:`angle_model`
+    renames their frames: for libraries that read the URDF themselves and look frames up by name alone
+    (PlaCo), where the shared name would be ambiguous. Movable joints keep their names (they are set by
+    name)."""
+    uncommented = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    links = {attributes.get("name") for attributes in
+             ({key: value for key, _, value in _ATTRIBUTE.findall(match.group(1))}
+              for match in _LINK_BLOCK.finditer(uncommented))}
+
+    def one_joint(match: re.Match) -> str:
+        attributes = match.group(1)
+        own = {key: value for key, _, value in _ATTRIBUTE.findall(attributes)}
+        if own.get("type") != "fixed" or own.get("name") not in links:
+            return match.group(0)
+        renamed = _NAME_ATTRIBUTE.sub(lambda name: f'{name.group(1)}"{name.group(3)}_joint"', attributes,
+                                      count=1)
+        return f"<joint{renamed}>{match.group(2)}</joint>"
+
+    return _JOINT_BLOCK.sub(one_joint, text)

@@ -29,6 +29,7 @@ from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import pose_error
 from wbik.urdf import continuous_as_revolute
+from wbik.urdf import fixed_joints_renamed
 
 
 def import_placo():
@@ -50,8 +51,9 @@ def _kinematic_urdf(name: str, text: str) -> Path:
     # a regular expression rather than an XML parser: URDF readers accept some files that a strict
     # XML parser rejects (e.g. "--" inside comments)
     # continuous joints as revolute ones with wide limits: one angle each, as in wbik's model (PlaCo would
-    # store cos, sin); the answers are wrapped by the shared check
-    text = continuous_as_revolute(_GEOMETRY.sub("", text), PLACO_CONTINUOUS_LIMIT)
+    # store cos, sin; the answers are wrapped by the shared check); a fixed joint named like a link
+    # renamed, as in wbik's model (PlaCo looks frames up by name alone)
+    text = fixed_joints_renamed(continuous_as_revolute(_GEOMETRY.sub("", text), PLACO_CONTINUOUS_LIMIT))
     return write_cached_urdf(f"{name}-kinematic", text)
 
 
