@@ -15,6 +15,11 @@ no such tuple, or declares a name that another module declares too is an error n
 entry with :meth:`DeclaredRegistry.register`, or a module of entries with
 :meth:`DeclaredRegistry.register_module`.
 
+Applications plug in from outside the core: a registry made with ``plugins="wbik.GROUP"`` also lists
+every module named by an entry point of that group (``[project.entry-points."wbik.GROUP"]`` in a
+package's pyproject.toml; wbik's own applications declare theirs there), so the core never names an
+application. An installed package of the user's is found the same way.
+
 A registry lives in one process. A fresh process (a study's worker) imports the listed modules
 again but knows nothing user code added; :meth:`DeclaredRegistry.added_at_run_time` says which
 entries those are, so whoever sends work to another process carries them with it, and the worker
@@ -31,6 +36,7 @@ from collections.abc import Callable
 from collections.abc import Iterable
 from collections.abc import Iterator
 from contextlib import contextmanager
+from importlib import metadata
 from typing import Generic
 from typing import Protocol
 from typing import TypeVar
@@ -67,7 +73,8 @@ class DeclaredRegistry(Generic[Entry]):
     names): an :class:`~wbik.errors.UnknownNameError` subclass, or a function. ``error`` /
     ``import_error``: the error types raised for a clash or a module declaring nothing / for a
     listed module that cannot be imported (a registry's own subclasses, so callers can catch its
-    errors alone).
+    errors alone). ``plugins``: an entry-point group whose entries name more modules to list (the
+    applications'; see the module docstring).
     """
 
     def __init__(
@@ -80,7 +87,10 @@ class DeclaredRegistry(Generic[Entry]):
         unknown: Callable[[str, list[str]], WbikError] | None = None,
         error: type[RegistryError] = RegistryError,
         import_error: type[RegistryImportError] = RegistryImportError,
+        plugins: str | None = None,
     ):
+        self.plugins = plugins
+        modules.extend(name for name in plugin_modules(plugins) if name not in modules)
         self.what, self.attribute, self.modules, self.listed_in = what, attribute, modules, listed_in
         self.entry_type, self.error, self.import_error = entry_type, error, import_error
         self.unknown = unknown or (lambda name, known: UnknownNameError(name, known,
@@ -193,6 +203,15 @@ class DeclaredRegistry(Generic[Entry]):
             self._check_new(entry, where)
         self._entries[entry.name] = entry
         self._origins[entry.name] = where
+
+
+def plugin_modules(group: str | None) -> list[str]:
+    """The modules named by the entry points of ``group`` (none for None), sorted by entry name: the
+    applications that plug into a registry (see the module docstring)."""
+    if group is None:
+        return []
+    found = sorted(metadata.entry_points(group=group), key=lambda entry: (entry.name, entry.value))
+    return [entry.value.split(":")[0] for entry in found]
 
 
 # -- the options a registered factory takes ----------------------------------------------------------

@@ -22,7 +22,7 @@ One set of defaults for the keys several kinds share (the builders below give th
 - ``expect``: null (each kind's own default expectations; see its runner);
 - ``start``: "nominal"; ``timing.law``: "quintic". ``timing.mode`` differs on purpose: "global"
   for motion kinds (:func:`wbik.motion.timing.time_scale`), "segment" for the Bioloid's servo
-  timing, rest at every sample like the seed code (:func:`wbik.apps.bioloid.gait.time_scale_motion`).
+  timing, rest at every sample like the seed code (the Bioloid application's gait timing).
 
 What is refused, always naming the file and the key's path (``phases[1].tasks[0].frame``):
 

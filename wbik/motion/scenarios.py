@@ -10,8 +10,9 @@ Kinds (each report's figures have one entry per move in ``moves``):
 - ``pincher_motion``: a teleoperation session, ``moves`` run one after another from the previous
   end: {jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}},
   {automatic: {}}.
-- ``golem3_approach``: straight approach from ``start`` (mb, m0, m10..m14) to ``grasp``
-  ({position, rpy} in base_link, or {from_joints: [7 values]}); ``expect: {lift: bool}``.
+
+Applications build their own motion kinds on these pieces (:class:`MoveRun`, :func:`common_motion_keys`
+with rules of their own added to ``MOVE_RULES``).
 
 Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults those of
 :func:`wbik.motion.timing.time_scale`: quintic, global; URDF limits, knot times), ``export: {csv:
@@ -74,10 +75,8 @@ MOVE_RULES = {
     "velocity_ratio_max": Rule("max_velocity_over_limit", "<="),
     "jumps_max": Rule("jumps", "<="),
     "waypoints_reached": Rule("waypoints_reached", "=="),
-    "lift": Rule("lift", "=="),
 }
-"""Expectations of one move (``jumps``: joint steps above the jump threshold; ``lift``: the Golem-III
-torso lift moved)."""
+"""Expectations of one move (``jumps``: joint steps above the jump threshold)."""
 
 
 def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: dict = MOVE_RULES) -> dict:
@@ -102,7 +101,7 @@ def pose_of(entry, what: str):
 
 
 def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
-                extra_defaults: dict | None = None) -> tuple[dict, object]:
+                extra_defaults: dict | None = None, rules: dict = MOVE_RULES) -> tuple[dict, object]:
     """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
     timing = spec["timing"]
     timed = time_scale(path, timing["law"], timing["velocity_limit"], timing["acceleration_limit"],
@@ -129,7 +128,7 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
                 defaults[key] = tolerance
     figures.update(extra_figures or {})
     defaults.update(extra_defaults or {})
-    return judge_move(spec, entry, figures, defaults), trajectory
+    return judge_move(spec, entry, figures, defaults, rules), trajectory
 
 
 def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
@@ -146,15 +145,17 @@ class MoveRun(KindRun):
     """A motion run in progress: the report's ``moves``, each timed and judged (:func:`timed_move`),
     their animations 0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
 
-    def __init__(self, spec: dict, on_progress: Progress = None):
+    def __init__(self, spec: dict, on_progress: Progress = None, rules: dict = MOVE_RULES):
         super().__init__(spec, "moves", on_progress, pause=0.25)
         self.trajectory = None
+        self.rules = rules  # MOVE_RULES, with a kind's own figures added (e.g. an application's)
 
     def move(self, chain, path: JointPath, name: str, extra_figures: dict | None = None,
              extra_defaults: dict | None = None, spec: dict | None = None) -> dict:
         """Time, judge and add one move of ``chain`` (``spec``: the move's own keys over the
         scenario's); the entry."""
-        entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults)
+        entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults,
+                                            self.rules)
         return self.add(entry, move_animation(self.robot, chain, self.trajectory, name))
 
     def finished(self) -> ScenarioReport:
@@ -244,14 +245,15 @@ def timing_node() -> Map:
                 "dt": Key(Number(gt=0, nullable=True, unit="s"), None)}, nullable=True)
 
 
-def common_motion_keys() -> dict[str, Key]:
-    """Keys every motion kind has: robot, timing, export, tolerance, expect (+ the shared ones)."""
+def common_motion_keys(rules: dict = MOVE_RULES) -> dict[str, Key]:
+    """Keys every motion kind has: robot, timing, export, tolerance, expect (its keys: ``rules``; + the
+    shared ones)."""
     return {**common_keys(robot=Key(Robot(), required=True)),
             "timing": Key(timing_node(), {}),
             "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
                               nullable=True), {}),
             "tolerance": Key(Number(gt=0, unit="m / rad"), 1e-6),
-            "expect": Key(expect_block(MOVE_RULES), None)}
+            "expect": Key(expect_block(rules), None)}
 
 
 def solving_keys() -> dict[str, Key]:

@@ -3,8 +3,9 @@
 Every file has a ``kind`` and usually a ``robot``. A kind (:class:`ScenarioKind`, registered in
 :mod:`wbik.scenarios.kinds`) is declared next to its runner with its schema and its printed report:
 ``wholebody_ik`` in :mod:`wbik.scenarios.wholebody`, the motion kinds in
-:mod:`wbik.motion.scenarios`, the Bioloid behaviours in :mod:`wbik.apps.bioloid.scenarios`, the UR5
-riveting cell in :mod:`wbik.apps.riveting.scenarios`.
+:mod:`wbik.motion.scenarios`; the applications (the Bioloid behaviours, the UR5 riveting cell, the
+Pincher and Golem-III motions) declare theirs in their own packages and plug them in through the
+entry-point group ``wbik.scenario_kinds``.
 
 Before anything runs, the file is checked against its kind's schema (:mod:`wbik.scenario_schema`:
 allowed keys, types, ranges and the one set of defaults), and the runner reads the checked copy.
@@ -26,7 +27,6 @@ from wbik.scenarios.kinds import KIND_REGISTRY
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import json_default
-from wbik.scenarios.kinds import json_default as _json_default  # noqa: F401  imported by wbik.apps.riveting.report
 from wbik.scenarios.kinds import kind_names
 from wbik.scenarios.kinds import register_kind
 from wbik.scenarios.kinds import report_verdict

@@ -44,9 +44,9 @@ METHOD_MODULES: list[str] = [
     "wbik.solvers.eaik",
     "wbik.solvers.ik_geo",
     "wbik.solvers.mink",
-    "wbik.apps.golem3.thesis_solvers",  # thesis_literal, thesis_sweep
 ]
-"""The modules whose ``IK_METHODS`` are registered (a new module of methods: one line here)."""
+"""The core's modules whose ``IK_METHODS`` are registered (a new module of methods: one line here);
+applications add theirs through the entry-point group ``wbik.ik_methods``."""
 
 SolverFactory = Callable[..., Solver]
 """A Solver subclass, or any callable ``factory(robot, chain, **options) -> Solver``."""
@@ -69,7 +69,7 @@ class IKMethod:
 
 IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
-    unknown=UnknownMethodError,
+    unknown=UnknownMethodError, plugins="wbik.ik_methods",
 )
 
 register_method = IK_METHOD_REGISTRY.register

@@ -31,11 +31,9 @@ from wbik.wholebody.problem import WholeBody
 __all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cached_robot", "case_rng",
            "register_sampler", "sample_case"]
 
-CASE_MODULES: list[str] = [
-    "wbik.apps.bioloid.wholebody_cases",
-    "wbik.apps.golem3.wholebody_cases",
-]
-"""The modules whose ``WHOLEBODY_CASES`` are registered (a new module of samplers: one line here)."""
+CASE_MODULES: list[str] = []
+"""The core's modules whose ``WHOLEBODY_CASES`` are registered (none: the samplers are applications',
+added through the entry-point group ``wbik.case_samplers``; user code: :func:`register_sampler`)."""
 
 
 @dataclass
@@ -64,7 +62,7 @@ class CaseSampler:
 
 CASE_REGISTRY: DeclaredRegistry[CaseSampler] = DeclaredRegistry(
     "whole-body case sampler", "WHOLEBODY_CASES", CASE_MODULES, "wbik.wholebody.cases.CASE_MODULES",
-    CaseSampler,
+    CaseSampler, plugins="wbik.case_samplers",
 )
 
 

@@ -32,9 +32,9 @@ __all__ = ["METHOD_MODULES", "WHOLEBODY_METHOD_REGISTRY", "WholeBodyMethod", "re
 
 METHOD_MODULES: list[str] = [
     "wbik.wholebody.solvers",  # qp, placo, pink
-    "wbik.apps.bioloid.thesis_legs",
 ]
-"""The modules whose ``WHOLEBODY_METHODS`` are registered (a new module of methods: one line here)."""
+"""The core's modules whose ``WHOLEBODY_METHODS`` are registered (a new module of methods: one line
+here); applications add theirs through the entry-point group ``wbik.wholebody_methods``."""
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class WholeBodyMethod:
 
 WHOLEBODY_METHOD_REGISTRY: DeclaredRegistry[WholeBodyMethod] = DeclaredRegistry(
     "whole-body method", "WHOLEBODY_METHODS", METHOD_MODULES, "wbik.wholebody.methods.METHOD_MODULES",
-    WholeBodyMethod, unknown=UnknownMethodError,
+    WholeBodyMethod, unknown=UnknownMethodError, plugins="wbik.wholebody_methods",
 )
 
 

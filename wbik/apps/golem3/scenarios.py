@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from wbik.apps.golem3.approach import ARM_WITH_LIFT
 from wbik.apps.golem3.approach import approach
+from wbik.expectations import Rule
+from wbik.motion.scenarios import MOVE_RULES
 from wbik.motion.scenarios import MoveRun
 from wbik.motion.scenarios import common_motion_keys
 from wbik.motion.scenarios import format_report
@@ -28,10 +30,13 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import start_of
 
+APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}
+"""A motion's expectations and ``lift``: whether the torso lift moved."""
+
 
 def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """One move: the approach, timed and judged like any motion (``lift`` among its figures)."""
-    run = MoveRun(spec, on_progress)
+    run = MoveRun(spec, on_progress, APPROACH_RULES)
     chain = run.robot.chain(ARM_WITH_LIFT)
     grasp = spec["grasp"]
     if "from_joints" in grasp:
@@ -49,7 +54,7 @@ def approach_schema() -> Map:
     grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
                    Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
     keys = {**solving_keys(), **samples_key(approach), "grasp": Key(grasp, required=True)}
-    return kind_schema(common_motion_keys(), keys)
+    return kind_schema(common_motion_keys(APPROACH_RULES), keys)
 
 
 SCENARIO_KINDS = (

@@ -28,7 +28,7 @@ Both sides use the same axis directions, so a mirrored pose (y -> -y) negates th
 joints (x and z axes) and keeps the pitch joints (y axes).
 
 Joint limits: the code's servo-degree limits (bioloid.md 1.6) turned into joint angles through
-the servo map of :mod:`wbik.apps.bioloid.servo` (right leg: yaw [-55, 50], hip roll [-50, 40],
+the Bioloid application's servo map (right leg: yaw [-55, 50], hip roll [-50, 40],
 hip pitch [-100, 25], knee [-10, 104], ankle pitch [-60, 30], ankle roll [-30, 40] deg; the left
 leg mirrors them, including the rolls, which the code forgot to mirror, bioloid.md 9.6). Arms:
 shoulder roll and elbow servo in [60, 240] -> q in [-90, 90] deg; base servo in [0, 300] ->

@@ -65,7 +65,7 @@ def build() -> Robot:
 
 TABLE_SIZE = (1.4, 1.2, 0.05)
 """The table under the UR5 (m): top at z = 0 (the base's plane), centred 0.3 m ahead of the base,
-as the riveting cell's default table (wbik.apps.riveting.scene)."""
+as the riveting application's cell has it by default."""
 
 
 def collision_primitives(robot: Robot | None = None) -> list:
