@@ -375,7 +375,7 @@ class Variants(Node):
         if not isinstance(value, Mapping):
             self.wrong(value, path, ctx)
         name = self.select(value)
-        if name not in self.variants:
+        if not isinstance(name, str) or name not in self.variants:  # a list or a mapping is no tag either
             choices = ", ".join(sorted(self.variants))
             if name is None:
                 ctx.fail(path, f"must be {self.what}; it needs a {self.tag} (one of {choices}), "
@@ -469,6 +469,18 @@ COM_MARGIN = 0.005
 
 POSITIVE = Number(gt=0)
 NON_NEGATIVE = Number(ge=0)
+class Axes(Text):
+    """A non-empty subset of "xyz", each axis once (a task's ``axes``: "xy", "z", ...)."""
+
+    what = "a subset of 'xyz' (e.g. xy)"
+
+    def check(self, value, path, ctx):
+        value = super().check(value, path, ctx)
+        if not value or any(axis not in "xyz" for axis in value) or len(set(value)) != len(value):
+            ctx.fail(path, f"must be {self.what}: each of x, y, z at most once, got {value!r}")
+        return value
+
+
 VECTOR3 = Vector(3)
 START = Either(Text(("nominal",)), Vector())
 FRAME = Text(what="a frame name")

@@ -81,6 +81,7 @@ from wbik.scenario_schema import POSITIVE
 from wbik.scenario_schema import START
 from wbik.scenario_schema import VECTOR3
 from wbik.scenario_schema import Anything
+from wbik.scenario_schema import Axes
 from wbik.scenario_schema import Boolean
 from wbik.scenario_schema import Context
 from wbik.scenario_schema import Either
@@ -134,7 +135,7 @@ TASK_OPTION_KEYS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Eith
 
 def _task(*names: str, required: tuple[str, ...] = (), **nodes) -> Map:
     common = {"frame": FRAME, "target": VECTOR3, "rpy": VECTOR3, "offset": VECTOR3, "keep": Boolean(),
-              "axes": Text(what="a subset of 'xyz' (e.g. xy)"), "reference": FRAME,
+              "axes": Axes(), "reference": FRAME,
               "position_weight": NON_NEGATIVE, "orientation_weight": NON_NEGATIVE, "over": FRAME}
     keys = {name: Key(nodes.get(name, common.get(name)), required=name in required) for name in names}
     return Map({**TASK_OPTION_KEYS, **keys})
