@@ -135,13 +135,17 @@ class UsageError(WbikError, ValueError):
 
 class NoQPSolutionError(WbikError, RuntimeError):
     """One QP step found no displacement: its hard constraints conflict at this configuration (or the
-    backend failed). ``backend`` names the QP solver and ``status`` keeps its own exit status.
+    backend failed). ``backend`` names the QP solver and ``status`` keeps its own exit status;
+    ``conflict`` (from ``IKProblem.step``) the rows that conflict, an irreducible set found by an
+    elastic re-solve (:class:`wbik.qp.elastic.ConflictRow` entries; empty when the rows do hold
+    together and the backend failed numerically).
 
     Raised by a single QP step (:mod:`wbik.qp.backends`, ``IKProblem.step``); ``IKProblem.solve``
     turns it into a failed solution with the reason, so an IK call still returns, never raises it.
     """
 
-    def __init__(self, message: str, backend: str = "", status: object = None):
+    def __init__(self, message: str, backend: str = "", status: object = None, conflict: tuple = ()):
         self.backend = backend
         self.status = status
+        self.conflict = tuple(conflict)
         super().__init__(message)

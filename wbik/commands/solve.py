@@ -43,13 +43,18 @@ def run(args: argparse.Namespace) -> int:
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
     family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:
-        payload = [dict(r.as_dict(), **({"family": family} if family else {})) for r in results]
+        payload = [dict(r.as_dict(), **({"family": family} if family else {}), **diagnosis_of(r))
+                   for r in results]
         print(json.dumps(payload if args.all else payload[0], indent=2))
     else:
         if not results:
             print("no solution")
         for result in results:
-            status = "solved" if result.success else f"NOT solved: {result.reason}"
+            diagnosis = result.extra.get("diagnosis")
+            reason = result.reason
+            if diagnosis is not None and diagnosis.summary():  # (printed below, line by line)
+                reason = reason.removesuffix(diagnosis.summary()).rstrip("; ")
+            status = "solved" if result.success else f"NOT solved: {reason}"
             solved_by = f" (closed form: {family})" if family else ""
             print(f"{result.method} on {robot.name}.{solver.chain.name}{solved_by}: {status}")
             if result.q is not None:
@@ -58,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"  position error {result.position_error:.3e} m, rotation error "
                   f"{result.rotation_error:.3e} rad, {result.iterations} iterations, "
                   f"{result.time_s * 1e3:.3f} ms")
+            for line in diagnosis.lines() if diagnosis is not None else ():
+                print(f"  {line}")
     return 0 if results and all(r.success for r in results) else 1  # 1: ran, but not solved
 
 
@@ -69,3 +76,9 @@ def solver_family(solver, kind: str) -> str | None:
         return families.get(kind)
     family = getattr(solver, "family", None)
     return family if isinstance(family, str) else None
+
+
+def diagnosis_of(result) -> dict:
+    """{"diagnosis": ...} for a result that carries one (method qp), else {}."""
+    diagnosis = result.extra.get("diagnosis")
+    return {} if diagnosis is None else {"diagnosis": diagnosis.as_dict()}

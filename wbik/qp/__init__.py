@@ -8,11 +8,13 @@
 >>> # self-collision / environment: CollisionAvoidance(wbik.collision.robot_collision_model(robot), 0.02)
 
 Modules: ``kinematics`` (model + data at one q), ``tasks``, ``rows`` (the typed rows a constraint
-contributes: EqualityRows, InequalityRows, BoundRows), ``constraints`` (each derives from
-BoundConstraint, EqualityConstraint or InequalityConstraint and returns its rows), ``support_polygon``,
-``backends`` (qpsolvers names, "fastest"; DAQP on reused buffers), ``step`` (one QP step),
-``problem`` (the IK loop: IKProblem), ``humanoid`` (contact/balance helpers for robots that list
-sole corners).
+contributes: EqualityRows, InequalityRows, BoundRows; RowLabel names a row), ``constraints`` (each
+derives from BoundConstraint, EqualityConstraint or InequalityConstraint and returns its rows),
+``support_polygon``, ``backends`` (qpsolvers names, "fastest"; DAQP on reused buffers), ``step`` (one
+QP step: any number of priority levels of equality and inequality tasks), ``problem`` (the IK loop:
+IKProblem), ``humanoid`` (contact/balance helpers for robots that list sole corners); when a solve
+fails: ``hard_rows`` (a step's rows, each labelled), ``elastic`` (the rows of an infeasible step that
+conflict), ``diagnosis`` (what blocks the goals at the answer, what conflicts with them, what to do).
 
 Where ours differs from PlaCo (the reference, method ``placo``):
 - Contacts: both make them equality rows of every step (PlaCo: a "hard" frame task), so a step's
@@ -21,7 +23,11 @@ Where ours differs from PlaCo (the reference, method ``placo``):
   only with every contact within 1e-10, and verify the answer by FK.
 - Support polygon: both use the linearised CoM rows against the polygon shrunk by the margin;
   ours add a few micrometres of safety and reject (by FK) a step whose CoM breaks the margin.
-- Priorities: PlaCo has hard/soft; ours have weights plus optional strict levels (a QP per level).
+- Priorities: PlaCo has hard/soft; ours have weights plus strict levels (a QP per level; each keeps
+  what the levels above achieved to 1e-10 per row), equality and inequality tasks alike.
+- Failures: ours say what blocks the goals (the active constraints by name, the tasks in conflict,
+  ranked by how much they hold the goals back) and which rows of an infeasible step conflict.
+- Acceleration limits (JointAccelerationLimits) with room to brake before the joint limits.
 - The IK loop: a trust region with merit acceptance and best-effort stall detection (PlaCo's
   solve() is one step; the loop is the caller's). No walk pattern generator here: PlaCo's
   WalkPatternGenerator / LIPM stay the reference for gait.
@@ -35,24 +41,29 @@ from wbik.qp.constraints import Constraint
 from wbik.qp.constraints import Contact
 from wbik.qp.constraints import EqualityConstraint
 from wbik.qp.constraints import InequalityConstraint
+from wbik.qp.constraints import JointAccelerationLimits
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.constraints import JointVelocityLimits
 from wbik.qp.constraints import MinimumDistance
 from wbik.qp.constraints import PointContact
+from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.problem import IKProblem
 from wbik.qp.problem import QPSolution
 from wbik.qp.rows import BoundRows
 from wbik.qp.rows import EqualityRows
 from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import RowLabel
 from wbik.qp.support_polygon import DegenerateSupport
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import convex_hull
 from wbik.qp.support_polygon import feet_support_polygon
+from wbik.qp.tasks import ComBoxTask
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionBoxTask
 from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
@@ -60,10 +71,11 @@ from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 
 __all__ = [
-    "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComTask", "Constraint",
-    "Contact", "DegenerateSupport", "DegenerateSupportPolygonError", "EqualityConstraint", "EqualityRows",
-    "FrameTask", "IKProblem", "InequalityConstraint", "InequalityRows", "JointPositionLimits",
-    "JointVelocityLimits", "Kinematics", "MinimumDistance", "OrientationTask", "PointContact",
-    "PositionTask", "PostureTask", "QPSolution", "RegularizationTask", "RelativeFrameTask",
-    "SupportPolygon", "Task", "available_backends", "convex_hull", "feet_support_polygon",
+    "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComBoxTask", "ComTask",
+    "Constraint", "Contact", "DegenerateSupport", "DegenerateSupportPolygonError", "Diagnosis",
+    "EqualityConstraint", "EqualityRows", "FrameTask", "IKProblem", "InequalityConstraint", "InequalityRows",
+    "JointAccelerationLimits", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance",
+    "OrientationTask", "PointContact", "PositionBoxTask", "PositionTask", "PostureTask", "QPSolution",
+    "RegularizationTask", "RelativeFrameTask", "RowLabel", "SupportPolygon", "Task", "available_backends",
+    "convex_hull", "feet_support_polygon",
 ]

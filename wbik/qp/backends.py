@@ -96,6 +96,35 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     return solution.x
 
 
+def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
+                     A: np.ndarray | None, b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), by
+    qpsolvers' ``solve_problem`` (its ``Solution`` carries them for DAQP, quadprog, OSQP and ProxQP);
+    for the diagnoses of a failed solve, not for steps. Raises NoQPSolutionError when there is none."""
+    problem = qpsolvers.Problem(H, c, G, h, A, b)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            solution = qpsolvers.solve_problem(problem, solver=backend, **BACKEND_OPTIONS.get(backend, {}))
+    except (ValueError, qpsolvers.SolverError) as exc:
+        raise NoQPSolutionError(f"{backend} failed: {exc}", backend, str(exc)) from exc
+    if not solution.found or solution.x is None:
+        raise NoQPSolutionError(f"{backend} found no solution", backend, "not found")
+    x = np.asarray(solution.x, dtype=float)
+    # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
+    # contradictory ones included, and reports an optimum 5 cm off them)
+    broken = max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
+                 float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)
+    if broken > 1e-6:
+        raise NoQPSolutionError(f"{backend} returned a point that breaks its rows by {broken:.3g}", backend,
+                                "infeasible")
+    count_g = 0 if G is None else G.shape[0]
+    count_a = 0 if A is None else A.shape[0]
+    z = np.zeros(count_g) if solution.z is None else np.asarray(solution.z, dtype=float).reshape(count_g)
+    y = np.zeros(count_a) if solution.y is None else np.asarray(solution.y, dtype=float).reshape(count_a)
+    return x, z, y
+
+
 class StackedConstraints:
     """lb <= x <= ub, G x <= h and A x = b kept the way DAQP takes them, in buffers reused from
     one QP to the next: ``lower <= [I; M] x <= upper`` whose first n entries are the simple bounds,
@@ -121,6 +150,7 @@ class StackedConstraints:
         self._lower = np.zeros(n + capacity)
         self._sense = np.zeros(n + capacity, dtype=np.int32)
         self._lb, self._ub = self._lower[:n], self._upper[:n]  # views of the simple bounds
+        self._scratch, self._zeros = np.zeros(n), np.zeros(n)
 
     def _grow(self, capacity: int) -> None:
         """Larger buffers, keeping the rows already added."""
@@ -160,9 +190,24 @@ class StackedConstraints:
             lb[index] = np.maximum(lb[index], lower)
             ub[index] = np.minimum(ub[index], upper)
 
-    def close_box(self) -> None:
-        """Keep every lb <= ub (a velocity bound may leave no room inside a position bound)."""
-        np.minimum(self._lb, self._ub, out=self._lb)
+    def close_box(self, toward_rest: bool = False) -> None:
+        """Keep every lb <= ub where a coordinate's bounds leave no room (lb > ub): lb <- ub; with
+        ``toward_rest``, the bound nearest to no motion instead - both positive: ub, both negative:
+        lb, one of each: 0.
+
+        With ``toward_rest`` a joint outside its position range (its position bound asks for more than
+        one step may do) moves back as fast as its velocity, acceleration and step-box bounds allow,
+        instead of all the way in one step against them (Pink #206), on either side of its range; and
+        a joint moving faster than it can brake before its limit keeps its limit rather than its
+        acceleration bound. In formulas: ub <- max(ub, min(lb, 0)), then lb <- min(lb, ub); where
+        lb <= ub neither rule changes anything (the IK loop's iterates, inside their limits, never
+        need the second: it is the control step's)."""
+        lb, ub = self._lb, self._ub
+        if toward_rest:
+            scratch = self._scratch
+            np.minimum(lb, self._zeros, out=scratch)  # (an array of zeros: a scalar costs a conversion)
+            np.maximum(ub, scratch, out=ub)
+        np.minimum(lb, ub, out=lb)
 
     def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
         """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""
@@ -265,14 +310,60 @@ class DaqpWorkspace:
         return _cold_daqp(H, c, constraints)
 
 
-def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints) -> np.ndarray:
+DAQP_RETRY = {"eps_prox": 1e-12}
+"""DAQP's settings for a second try after it reports "infeasible" or "cycling": its proximal-point
+iterations, which solve nearly degenerate QPs (a priority level's kept rows, two inequalities 2e-10
+apart) that its default active-set iterations declare infeasible (measured: quadprog solved the same
+QP to 1e-15). A QP that is infeasible stays so. Never used on a solve that succeeds."""
+
+
+def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
+               settings: dict | None = None) -> np.ndarray:
+    """DAQP from scratch (``settings``: DAQP's, e.g. a tighter ``primal_tol``)."""
     import daqp
 
-    x, _, exitflag, _ = daqp.solve(H, c, constraints.matrix, constraints.upper, constraints.lower,
-                                   constraints.sense)
+    arguments = (H, c, constraints.matrix, constraints.upper, constraints.lower, constraints.sense)
+    x, _, exitflag, _ = daqp.solve(*arguments, **(settings or {}))
     if exitflag > 0:
         return x
+    if exitflag in (-1, -2):
+        x, _, retried, _ = daqp.solve(*arguments, **{**(settings or {}), **DAQP_RETRY})
+        if retried > 0:
+            return x
     raise _daqp_failure(exitflag)
+
+
+def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
+                  tolerance: float, workspace: DaqpWorkspace | None = None) -> np.ndarray:
+    """The minimiser with every inequality row held to ``tolerance`` where the backend can: DAQP is
+    tried warm (``workspace``), then cold with its primal tolerance at ``tolerance``, then cold with
+    its default (1e-6: rows may be broken by up to that), and the first answer that holds the rows is
+    returned, else the one that breaks them least. The rows that keep what higher priority levels
+    achieved must hold to their slack: measured, a warm DAQP left them broken by 2.8e-9 on a nearly
+    singular level where a cold solve gave 3e-17, and a cold one at the default tolerance by 2e-8.
+    Other backends are solved once (their tolerances are set tight in ``BACKEND_OPTIONS``)."""
+    if backend != "daqp":
+        return solve(backend, H, c, *constraints.split())
+    rows = constraints.inequality_rows()
+    matrix, upper = constraints.matrix[rows - constraints.n], constraints.upper[rows]
+    attempts = ([lambda: workspace.solve(H, c, constraints)] if workspace is not None else []) + [
+        lambda: _cold_daqp(H, c, constraints, {"primal_tol": tolerance}),
+        lambda: _cold_daqp(H, c, constraints)]
+    best, best_excess, failure = None, np.inf, None
+    for attempt in attempts:
+        try:
+            x = attempt()
+        except NoQPSolutionError as exc:
+            failure = exc
+            continue
+        excess = float((matrix @ x[:matrix.shape[1]] - upper).max(initial=-np.inf))
+        if excess <= tolerance:
+            return x
+        if excess < best_excess:
+            best, best_excess = x, excess
+    if best is None:
+        raise failure
+    return best
 
 
 def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,

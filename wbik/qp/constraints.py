@@ -13,7 +13,16 @@ which returns its rows (:mod:`wbik.qp.rows`) at the kinematics' configuration:
 
 ``rows(k, dt)`` is what the QP step calls (each base forwards it to its method). ``violation(k)``
 measures the constraint by forward kinematics at the current q (metres or radians, > 0 means
-violated); the IK loop uses it to verify every configuration it returns.
+violated); the IK loop uses it to verify every configuration it returns. ``labels(k, rows)`` names
+each row (:class:`wbik.qp.rows.RowLabel`: a joint's limit, a contact's axis, a polygon edge, a pair),
+for the diagnoses made when a solve fails; ``stepped(dq, dt)`` tells a constraint with a memory
+(acceleration limits: the previous velocity) the step that was taken.
+
+A joint outside its position range (a start outside the limits) is not asked to be back inside in
+one step: where its limit and the other bounds of the step (velocity, acceleration, the step box)
+leave no room, the step takes the bound nearest to no motion, so the joint moves back as fast as they
+allow (:meth:`wbik.qp.backends.StackedConstraints.close_box`), where q + dq inside the range in one
+step would contradict them (Pink #206).
 """
 
 from __future__ import annotations
@@ -28,6 +37,7 @@ from wbik.qp.kinematics import Kinematics
 from wbik.qp.rows import BoundRows
 from wbik.qp.rows import EqualityRows
 from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import RowLabel
 from wbik.qp.rows import Rows
 from wbik.qp.rows import as_index
 from wbik.qp.support_polygon import SupportPolygon
@@ -39,6 +49,8 @@ class Constraint:
     """Base class: derive from BoundConstraint, EqualityConstraint or InequalityConstraint."""
 
     name = "constraint"
+    label_kind = "inequality"
+    """What its rows stand for in a diagnosis's labels (one of :data:`wbik.qp.rows.ROW_KINDS`)."""
 
     def start(self, kinematics: Kinematics) -> None:
         """Called once when a problem starts from a configuration."""
@@ -47,6 +59,15 @@ class Constraint:
         """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""
         raise NotImplementedError(f"{type(self).__name__} must derive from BoundConstraint, "
                                   "EqualityConstraint or InequalityConstraint and implement its method")
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list:
+        """One :class:`~wbik.qp.rows.RowLabel` per row of ``rows`` (this constraint's rows at the
+        kinematics' q); a bound constraint gives a (lower, upper) pair per index. Made on failure only."""
+        count = len(rows[1]) if not isinstance(rows, BoundRows) else 0
+        return [RowLabel(self.name, self.label_kind, f"row {index}") for index in range(count)]
+
+    def stepped(self, dq: np.ndarray, dt: float) -> None:
+        """The step dq (over dt) was taken: a constraint with a memory updates it (default: none)."""
 
     def violation(self, kinematics: Kinematics) -> float:
         return 0.0
@@ -58,15 +79,28 @@ class Constraint:
 class BoundConstraint(Constraint):
     """lower <= dq[index] <= upper."""
 
+    label_kind = "bound"
+
     def rows(self, kinematics: Kinematics, dt: float) -> BoundRows:
         return self.bounds(kinematics, dt)
 
     def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         raise NotImplementedError
 
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
+        """(lower, upper) labels per index of the bound rows: the tangent coordinate's name."""
+        names = tangent_names(kinematics.model)
+        indices = np.arange(kinematics.nv)[rows.index]
+        lower, upper = (np.broadcast_to(np.asarray(v, dtype=float), indices.shape) for v in rows[1:])
+        return [(RowLabel(self.name, self.label_kind, names[i], "lower", 0.0, float(low)),
+                 RowLabel(self.name, self.label_kind, names[i], "upper", 0.0, float(high)))
+                for i, low, high in zip(indices.tolist(), lower.tolist(), upper.tolist(), strict=True)]
+
 
 class EqualityConstraint(Constraint):
     """A dq = b; the IK loop also projects its iterates onto these (Newton steps on e = 0)."""
+
+    label_kind = "equality"
 
     def rows(self, kinematics: Kinematics, dt: float) -> EqualityRows:
         return self.equality(kinematics)
@@ -83,6 +117,21 @@ class InequalityConstraint(Constraint):
 
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
         raise NotImplementedError
+
+
+def tangent_names(model: pin.Model) -> list[str]:
+    """A name per tangent coordinate (nv): a 1-DOF joint's name; "<joint> x" ... "<joint> rz" for a
+    free flyer's six; "<joint>[i]" for another multi-DOF joint's."""
+    names = [""] * model.nv
+    for joint_id in range(1, model.njoints):
+        joint, name = model.joints[joint_id], model.names[joint_id]
+        if joint.nv == 1:
+            names[joint.idx_v] = name
+        else:
+            axes = ("x", "y", "z", "rx", "ry", "rz") if joint.nv == 6 else None
+            for offset in range(joint.nv):
+                names[joint.idx_v + offset] = f"{name} {axes[offset]}" if axes else f"{name}[{offset}]"
+    return names
 
 
 def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
@@ -105,6 +154,7 @@ class JointPositionLimits(BoundConstraint):
     wrapped instead)."""
 
     name = "joint position limits"
+    label_kind = "joint limit"
 
     def __init__(self, model: pin.Model, unbounded: Collection[str] = ()):
         self.q_index, self.v_index = bounded_joint_indices(model, unbounded)
@@ -115,6 +165,14 @@ class JointPositionLimits(BoundConstraint):
     def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         q = kinematics.q[self._q_rows]
         return BoundRows(self._v_rows, self.lower - q, self.upper - q)
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        q = kinematics.q[self.q_index]
+        return [(RowLabel(self.name, self.label_kind, names[v], "lower", value, low, "rad"),
+                 RowLabel(self.name, self.label_kind, names[v], "upper", value, high, "rad"))
+                for v, value, low, high in zip(self.v_index.tolist(), q.tolist(), self.lower.tolist(),
+                                               self.upper.tolist(), strict=True)]
 
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
@@ -137,6 +195,7 @@ class JointVelocityLimits(BoundConstraint):
     """|dq_i| <= v_max,i dt on the joints with a positive finite velocity limit."""
 
     name = "joint velocity limits"
+    label_kind = "velocity limit"
 
     def __init__(self, model: pin.Model, velocity_limit: np.ndarray | None = None):
         limit = model.velocityLimit.copy() if velocity_limit is None else np.asarray(velocity_limit, float)
@@ -148,6 +207,99 @@ class JointVelocityLimits(BoundConstraint):
     def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         step = self.limit * dt
         return BoundRows(self.v_index, -step, step)
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        return [(RowLabel(self.name, self.label_kind, names[v], "lower", math.nan, -limit, "rad/s"),
+                 RowLabel(self.name, self.label_kind, names[v], "upper", math.nan, limit, "rad/s"))
+                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
+
+
+class JointAccelerationLimits(BoundConstraint):
+    """|dq/dt - v_prev| <= a_max dt on every joint with a positive finite acceleration limit, and
+    room to brake before a position limit:
+
+        dt (v_prev - a_max dt) <= dq <= dt (v_prev + a_max dt),
+        -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q)         (bounded 1-DOF joints)
+
+    with v_stop(d) the largest velocity from which braking at a_max, one period at a time, stops within
+    the distance d: the periods at v, v - a dt, v - 2 a dt, ... cover D(v) = dt sum_k max(v - k a dt, 0)
+    (:func:`stopping_velocity` inverts it). Since D(v) = v dt + D(v - a dt), a velocity that could stop
+    leaves one that can (v - a dt) after its period: the second line keeps each joint slow enough to stop
+    before its limit, and the first line always meets it on the way there.
+
+    ``v_prev`` (``velocity``, nv; zeros at first) is the previous step's dq / dt: the IK loop and
+    ``IKProblem.step`` report every step taken to :meth:`stepped`; set ``velocity`` for a measured
+    one. Bounding the change of velocity between control periods is what removes the chatter of an
+    active set that switches from one period to the next near a constraint (PlaCo #7): near a joint
+    limit at full stretch, velocity limits alone let a joint bounce off its limit at its velocity
+    bound every period; ``benchmarks/chatter.py`` measures it.
+
+    ``acceleration_limit``: rad/s^2 (m/s^2 for a prismatic joint), one value for every joint or nv
+    values (inf or 0: none on that coordinate; the floating base has none unless given).
+    """
+
+    name = "joint acceleration limits"
+    label_kind = "acceleration limit"
+
+    def __init__(self, model: pin.Model, acceleration_limit: float | np.ndarray,
+                 unbounded: Collection[str] = ()):
+        limit = np.asarray(acceleration_limit, dtype=float)
+        if limit.ndim == 0:
+            limit = np.full(model.nv, float(limit))
+            limit[:6 if model.njoints > 1 and model.joints[1].nv == 6 else 0] = np.inf
+        if limit.shape != (model.nv,) or np.any(np.isnan(limit)) or np.any(limit < 0):
+            raise ValueError(f"acceleration limits need one value >= 0 or nv = {model.nv} values >= 0, "
+                             f"got {acceleration_limit!r}")
+        self.v_index = np.flatnonzero(np.isfinite(limit) & (limit > 0))
+        self.limit = limit[self.v_index]
+        self.velocity = np.zeros(model.nv)
+        q_index, v_index = bounded_joint_indices(model, unbounded)
+        selected = np.isin(v_index, self.v_index)
+        self._q_braking, self._v_braking = q_index[selected], v_index[selected]
+        self._braking_rows = np.searchsorted(self.v_index, self._v_braking)
+        self._lower = model.lowerPositionLimit[self._q_braking].copy()
+        self._upper = model.upperPositionLimit[self._q_braking].copy()
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        previous = self.velocity[self.v_index]
+        change = self.limit * dt
+        lower, upper = (previous - change) * dt, (previous + change) * dt
+        if self._q_braking.size:
+            q = kinematics.q[self._q_braking]
+            rows = self._braking_rows
+            limit = self.limit[rows]
+            upper[rows] = np.minimum(upper[rows], dt * stopping_velocity(self._upper - q, limit, dt))
+            lower[rows] = np.maximum(lower[rows], -dt * stopping_velocity(q - self._lower, limit, dt))
+        return BoundRows(self.v_index, lower, upper)
+
+    def stepped(self, dq: np.ndarray, dt: float) -> None:
+        self.velocity = np.asarray(dq, dtype=float) / dt
+
+    def start(self, kinematics: Kinematics) -> None:
+        if self.velocity.shape != (kinematics.nv,):
+            self.velocity = np.zeros(kinematics.nv)
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        return [(RowLabel(self.name, self.label_kind, names[v], "lower", float(self.velocity[v]), -limit,
+                          "rad/s^2"),
+                 RowLabel(self.name, self.label_kind, names[v], "upper", float(self.velocity[v]), limit,
+                          "rad/s^2"))
+                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
+
+
+def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:
+    """The largest v >= 0 with D(v) = dt sum_k max(v - k a dt, 0) <= distance (0 for distance <= 0):
+    braking at ``acceleration`` a from v, one period dt at a time, stops within ``distance``.
+
+    D is piecewise linear: on [n a dt, (n + 1) a dt), D(v) = dt ((n + 1) v - a dt n (n + 1) / 2), and
+    D(n a dt) = a dt^2 n (n + 1) / 2, so n = floor((sqrt(1 + 8 d / (a dt^2)) - 1) / 2) and
+    v = min((d / dt + a dt n (n + 1) / 2) / (n + 1), (n + 1) a dt)."""
+    distance = np.maximum(np.asarray(distance, dtype=float), 0.0)
+    step = acceleration * dt
+    n = np.floor((np.sqrt(1.0 + 8.0 * distance / (step * dt)) - 1.0) / 2.0)
+    return np.minimum((distance / dt + 0.5 * step * n * (n + 1.0)) / (n + 1.0), (n + 1.0) * step)
 
 
 class Contact(EqualityConstraint):
@@ -184,8 +336,18 @@ class Contact(EqualityConstraint):
             np.negative(self._rhs, out=self._rhs)
             self._version = kinematics.version
 
+    label_kind = "contact"
+
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._task.error(kinematics)
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[RowLabel]:
+        """Per axis (x, y, z, rx, ry, rz): the drift e of that axis (m or rad), held at 0."""
+        error = self.error(kinematics)
+        axes = ("x", "y", "z", "rx", "ry", "rz")[:len(error)]
+        return [RowLabel(self.name, self.label_kind, self.frame, axis, float(value), 0.0,
+                         "m" if index < 3 else "rad")
+                for index, (axis, value) in enumerate(zip(axes, error.tolist(), strict=True))]
 
     def equality(self, kinematics: Kinematics) -> EqualityRows:
         """J dq = -e (buffers reused at the next configuration: copy them to keep them)."""
@@ -223,8 +385,14 @@ class PointContact(EqualityConstraint):
         if self.fixed_position is None:
             self._task.target = kinematics.placement(self._task.frame_id).translation.copy()
 
+    label_kind = "contact"
+
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return self._task.error(kinematics)
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[RowLabel]:
+        return [RowLabel(self.name, self.label_kind, self.frame, axis, float(value), 0.0, "m")
+                for axis, value in zip("xyz", self.error(kinematics).tolist(), strict=True)]
 
     def equality(self, kinematics: Kinematics) -> EqualityRows:
         return EqualityRows(self._task.jacobian(kinematics), -self._task.error(kinematics))
@@ -259,9 +427,17 @@ class CoMInSupportPolygon(InequalityConstraint):
             self._version = kinematics.version
         return self._projected
 
+    label_kind = "support polygon"
+
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
         return InequalityRows(self.normals.dot(kinematics.com_jacobian()[:2]),
                               self.offsets - self.projected(kinematics))
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[RowLabel]:
+        """Per edge ("a-b" by its vertices' labels): the CoM's distance to it (m) and the margin."""
+        inside = self.polygon.offsets - self.projected(kinematics)
+        return [RowLabel(self.name, self.label_kind, self.polygon.edge_name(index), "", float(distance),
+                         self.margin, "m") for index, distance in enumerate(inside.tolist())]
 
     def com_margin(self, kinematics: Kinematics) -> float:
         """Distance from the CoM projection to the polygon's boundary (m, positive inside):
@@ -292,6 +468,12 @@ class MinimumDistance(InequalityConstraint):
                   - kinematics.placement(self.ids[1]).translation)
         return float(np.linalg.norm(offset)), offset
 
+    label_kind = "distance"
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[RowLabel]:
+        return [RowLabel(self.name, self.label_kind, f"{self.frames[0]}-{self.frames[1]}", "",
+                         self.current_distance(kinematics)[0], self.distance, "m")]
+
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
         distance, offset = self.current_distance(kinematics)
         direction = offset / max(distance, 1e-12)
@@ -316,6 +498,8 @@ class LockedJoints(BoundConstraint):
             indices.extend(range(joint.idx_v, joint.idx_v + joint.nv))
         self.v_index = np.array(indices, dtype=int)
         self.name = f"locked joints {', '.join(joints)}"
+
+    label_kind = "locked joint"
 
     def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
         return BoundRows(self.v_index, 0.0, 0.0)
@@ -382,6 +566,16 @@ class CollisionAvoidance(InequalityConstraint):
     def minimum(self, kinematics: Kinematics):
         """The closest pair (a wbik.collision.PairDistance) at the current q, or None."""
         return min(self.distances(kinematics), key=lambda d: d.distance, default=None)
+
+    label_kind = "collision"
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[RowLabel]:
+        """Per pair within the influence distance: its distance (m) and the safety distance."""
+        near = [pair for pair in self.distances(kinematics) if pair.distance < self.influence]
+        if not near:
+            return [RowLabel(self.name, self.label_kind, "no pair within the influence distance")]
+        return [RowLabel(self.name, self.label_kind, f"{pair.a}-{pair.b}", "", float(pair.distance),
+                         self.safety, "m") for pair in near]
 
     def inequality(self, kinematics: Kinematics) -> InequalityRows:
         rows, bounds = [], []

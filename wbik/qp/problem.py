@@ -7,6 +7,13 @@ box, ``max_step`` at most) with merit acceptance makes the loop globally converg
 projections bring the contacts back where a step's own contact rows are not enough
 (:meth:`IKProblem.project`). The configuration returned is verified by forward kinematics:
 contacts, CoM margin, limits.
+
+A solve that does not succeed explains itself: ``QPSolution.diagnosis`` (:mod:`wbik.qp.diagnosis`)
+names the constraints active at the answer and the tasks in conflict with the goals, ranked by how
+much they hold the goals back, and what to change; its summary ends the ``reason``. A step whose
+hard constraints conflict raises NoQPSolutionError with ``conflict``, the rows that conflict
+(:mod:`wbik.qp.elastic`). A start outside the joint limits is clipped into them and reported
+(``start_violations``); a start breaking an inequality is repaired by the steps first.
 """
 
 from __future__ import annotations
@@ -28,6 +35,10 @@ from wbik.qp.constraints import Constraint
 from wbik.qp.constraints import EqualityConstraint
 from wbik.qp.constraints import InequalityConstraint
 from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.diagnosis import Diagnosis
+from wbik.qp.diagnosis import StartViolation
+from wbik.qp.diagnosis import diagnose
+from wbik.qp.diagnosis import start_violations
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.step import PHASES
 from wbik.qp.step import QPStep
@@ -49,7 +60,9 @@ class QPSolution:
 
     ``task_errors``: |e| per task name at q; ``violations``: per constraint, > 0 means violated
     (contacts in m or rad, CoM in m inside the margin, limits in rad or m); ``com_margins``:
-    distance from the CoM projection to each polygon boundary (m, positive inside).
+    distance from the CoM projection to each polygon boundary (m, positive inside);
+    ``start_violations``: what q0 broke (a joint outside its limits, clipped into them first);
+    ``diagnosis``: why a solve that did not succeed stopped where it did (None after a success).
     """
 
     q: np.ndarray
@@ -62,12 +75,16 @@ class QPSolution:
     task_errors: dict[str, float] = field(default_factory=dict)
     violations: dict[str, float] = field(default_factory=dict)
     com_margins: dict[str, float] = field(default_factory=dict)
+    start_violations: list[StartViolation] = field(default_factory=list)
+    diagnosis: Diagnosis | None = None
 
     def as_dict(self) -> dict:
         return {"success": self.success, "converged": self.converged, "feasible": self.feasible,
                 "iterations": self.iterations, "reason": self.reason, "time_s": self.time_s,
                 "q": [float(v) for v in self.q], "task_errors": self.task_errors,
-                "violations": self.violations, "com_margins": self.com_margins}
+                "violations": self.violations, "com_margins": self.com_margins,
+                "start_violations": [v.as_dict() for v in self.start_violations],
+                "diagnosis": None if self.diagnosis is None else self.diagnosis.as_dict()}
 
 
 class IKProblem:
@@ -82,7 +99,7 @@ class IKProblem:
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
                  max_step: float = 0.2, constraint_tolerance: float = 1e-6,
-                 hierarchy_slack: float = 1e-9, progress: float = 1e-6):
+                 hierarchy_slack: float = 1e-10, progress: float = 1e-6):
         self.model = model
         self.kinematics = Kinematics(model)
         self.tasks = list(tasks)
@@ -103,11 +120,21 @@ class IKProblem:
         self._step = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
                             self.lm_damping, self.hierarchy_slack)
         self._started = False
+        # constraints that remember the steps taken (acceleration limits: the previous velocity)
+        self._memories = [c for c in self.constraints if type(c).stepped is not Constraint.stepped]
+        self._start_violations: list[StartViolation] = []
+
+    @property
+    def qp(self) -> QPStep:
+        """The QP step this problem iterates (its levels and constraints at the current q)."""
+        return self._step
 
     # -- set-up ---------------------------------------------------------------------------------
-    def start(self, q: np.ndarray) -> None:
-        """Set the configuration and let tasks and constraints resolve frames / capture placements."""
-        q = self.clip(np.asarray(q, dtype=float))
+    def start(self, q: np.ndarray, clip: bool = True) -> None:
+        """Set the configuration and let tasks and constraints resolve frames / capture placements;
+        ``clip``: first clip q into the joint limits (``solve`` does; a control ``step`` does not, it
+        moves an out-of-range joint back at the pace its bounds allow)."""
+        q = self.clip(np.asarray(q, dtype=float)) if clip else np.array(q, dtype=float)
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
             item.start(self.kinematics)
@@ -138,38 +165,73 @@ class IKProblem:
 
     # -- one QP step ----------------------------------------------------------------------------
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
-             profile: dict[str, float] | None = None) -> np.ndarray:
+             profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
         """The QP displacement dq at q (default: the current q); raises NoQPSolutionError (with the
-        backend's status) when the QP has no solution.
+        backend's status and ``conflict``, the hard rows that conflict) when the QP has no solution.
 
         For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
-        bound |dq| <= v_max dt); for IK, dt = 1 and dq is a Newton-like step.
+        bound |dq| <= v_max dt, acceleration limits |dq / dt - v_prev| <= a_max dt); for IK, dt = 1
+        and dq is a Newton-like step. ``velocity`` (nv): the joint velocity v_prev now, for acceleration
+        limits (default: the previous step's dq / dt, which every step records). A joint outside its
+        range is moved back as fast as its other bounds allow.
         ``profile``: a dict to which the seconds spent in each phase are added (``PHASES``); the
         clock is read only when it is given.
         """
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
-            self.start(self.kinematics.q if q is None else q)
+            self.start(self.kinematics.q if q is None else q, clip=False)
         elif q is not None:
             self.kinematics.update(q)
         if profile is not None:
             self.kinematics.com()  # (lazy) here, so that "constraints" only builds rows
             lap(profile, "kinematics", tick)
+        if velocity is not None:
+            for constraint in self._memories:
+                constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()
         self._step.refresh()  # a caller may have moved a task's target since the last step
-        return self._step.solve(dt, self.max_step if max_step is None else max_step, profile)
+        radius = self.max_step if max_step is None else max_step
+        try:
+            dq = self._step.solve(dt, radius, profile)
+        except NoQPSolutionError as exc:
+            exc.conflict = tuple(self.conflict(dt, radius))
+            raise
+        for constraint in self._memories:
+            constraint.stepped(dq, dt)
+        return dq
 
-    def project(self, tolerance: float = 1e-12, max_iterations: int = 6) -> bool:
+    def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
+        """The hard rows of the step at the current q that conflict (an irreducible set,
+        :func:`wbik.qp.elastic.conflict`; empty when they hold together). For a failed step only."""
+        from wbik.qp.elastic import conflict
+        from wbik.qp.hard_rows import step_rows
+
+        return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
+
+    def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
+        """Why the solve stopped at the current q (:mod:`wbik.qp.diagnosis`); ``solution`` (the one this
+        q was returned in) gives the loop's reason and the start's violations."""
+        if solution is not None and not self._stands_at(solution.q):
+            self.kinematics.update(solution.q)
+        self._step.refresh()
+        return diagnose(self, solution.reason if solution is not None else "",
+                        solution.start_violations if solution is not None else self._start_violations)
+
+    def project(self, tolerance: float = 1e-12, max_iterations: int = 6,
+                violation: float | None = None) -> bool:
         """Newton steps onto the contacts from the current q: min |dq|^2 s.t. J_c dq = -e_c and the
-        other constraints. True when every contact holds to ``tolerance`` afterwards."""
+        other constraints. True when every contact holds to ``tolerance`` afterwards. ``violation``:
+        the inequality violation at q, if known (measured here otherwise): no step may raise it."""
         equalities = self._equalities
         if not equalities:
             return True
         kinematics = self.kinematics
+        allowed = None
         for _ in range(max_iterations):
             if self._equalities_met(tolerance):
                 return True
             # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps
-            # every bound (limits, locked joints, velocities); otherwise the QP with every constraint
+            # every bound (limits, locked joints, velocities) and, by FK, the inequalities (the CoM in
+            # its polygon: this step knows nothing of them); otherwise the QP with every constraint
             rows = [c.equality(kinematics) for c in equalities]
             A, b = rows[0] if len(rows) == 1 else (np.vstack([r.A for r in rows]),
                                                      np.concatenate([r.b for r in rows]))
@@ -178,10 +240,20 @@ class IKProblem:
             except np.linalg.LinAlgError:
                 dq = None
             if dq is not None and self._within_bounds(dq):
+                if not self._inequalities:
+                    kinematics.update(kinematics.integrate(dq))
+                    continue
+                if allowed is None:
+                    allowed = max(self._inequality_violation() if violation is None else violation, 0.0)
+                q = kinematics.q.copy()
                 kinematics.update(kinematics.integrate(dq))
-                continue
+                after = self._inequality_violation()
+                if after <= allowed + 1e-15:
+                    allowed = after
+                    continue
+                kinematics.update(q)  # it broke an inequality: the QP's projection instead
             try:
-                dq = self._step.minimum_norm(self._step.build_constraints(1.0, self.max_step))
+                dq = self._step.minimum_norm(self._step.build_constraints(1.0, self.max_step, recover=False))
             except NoQPSolutionError:
                 return False
             kinematics.update(self.clip(kinematics.integrate(dq)))
@@ -212,6 +284,12 @@ class IKProblem:
             for task, goal_error in level.goal_errors:
                 if goals_met:
                     goals_met = math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
+            if level.inequalities:  # their cost and error: max(0, e)
+                excess = np.maximum(level.inequality_error, 0.0)
+                cost += float(level.inequality_weight.dot(excess * excess)) * 1e-6 ** index
+                for task, goal_error in level.inequality_goal_errors:
+                    if goals_met:
+                        goals_met = float(np.linalg.norm(np.maximum(goal_error, 0.0))) <= task.tolerance
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
@@ -230,19 +308,23 @@ class IKProblem:
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
         """(kept, merit, goals met, inequality violation) of the configuration the kinematics stand
-        at: kept when it does not raise the merit and keeps the inequalities by FK (or reduces
-        their violation when the kept iterate breaks them)."""
+        at: kept when it does not raise the merit and keeps the inequalities by FK; while the kept
+        iterate breaks inequalities (a start inside a collision, the CoM outside its margin), when it
+        reduces their violation, whatever the merit (the constraints come first: a step that repairs
+        them against the pull of a task raises the task cost)."""
         tick = time.perf_counter() if profile is not None else 0.0
         trial_merit, goals_met = self._merit_and_goals()
         trial_violation = self._inequality_violation()
-        keeps_inequalities = trial_violation <= 0.0 or trial_violation < violation
         if profile is not None:
             lap(profile, "checks", tick)
-        return keeps_inequalities and trial_merit <= merit + 1e-15, trial_merit, goals_met, trial_violation
+        if violation > 0.0:
+            return trial_violation < violation, trial_merit, goals_met, trial_violation
+        kept = trial_violation <= 0.0 and trial_merit <= merit + 1e-15
+        return kept, trial_merit, goals_met, trial_violation
 
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
-              profile: dict[str, float] | None = None) -> QPSolution:
+              profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
         """Iterate QP steps from q0 to convergence: every goal task under its tolerance and every
         contact within ``equality_tolerance``.
 
@@ -256,11 +338,22 @@ class IKProblem:
         before the contacts, and on the configuration returned. A radius or step under ``stall``
         ends the loop at the best effort under the constraints.
 
+        A step whose hard constraints conflict while the contacts drift more than the step box
+        lets it repair (the box shrank after rejected steps) is followed by a projection onto the
+        contacts, and the loop goes on from there. The loop starts at rest for acceleration limits
+        (each kept step is a period of their dt = 1; a rejected one stops the motion).
+
         ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the loop's
-        own phases (``SOLVE_PHASES``) are added.
+        own phases (``SOLVE_PHASES``) are added. ``diagnose``: when the solve does not succeed, add
+        the diagnosis (``QPSolution.diagnosis``, its summary at the end of the reason; it runs after
+        ``time_s`` is measured).
         """
         start_time = time.perf_counter()
+        q0 = np.asarray(q0, dtype=float)
         self.start(q0)
+        outside = bool(self._limits) and not self._stands_at(q0)  # (start clipped q0 into the limits)
+        for constraint in self._memories:
+            constraint.stepped(np.zeros(self.nv), 1.0)
         if profile is not None:
             lap(profile, "start", start_time)
         kinematics = self.kinematics
@@ -271,6 +364,8 @@ class IKProblem:
             self._timed(profile, "tasks", self._step.fill_tasks)
         merit, goals_met = self._timed(profile, "checks", self._merit_and_goals)
         violation = self._timed(profile, "checks", self._inequality_violation)
+        # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
+        self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
         for iteration in range(1, max_iterations + 1):
             if goals_met:
@@ -279,7 +374,7 @@ class IKProblem:
                     iteration -= 1
                     break
                 # the goals hold, the contacts still drift
-                if self._timed(profile, "projection", self.project, tolerance):
+                if self._timed(profile, "projection", self.project, tolerance, 6, violation):
                     q = kinematics.q.copy()
                     merit, goals_met = self._merit_and_goals()
                     violation = self._inequality_violation()
@@ -290,8 +385,19 @@ class IKProblem:
                 reason = "time budget used up"
                 break
             try:
-                dq = self._step.solve(1.0, radius, profile)
+                dq = self._step.solve(1.0, radius, profile, recover=False)  # (iterates are inside the limits)
             except NoQPSolutionError as exc:
+                if iteration > 1 and not self._equalities_met(tolerance) and self._timed(
+                        profile, "projection", self.project, tolerance) and self._inequality_violation() \
+                        <= max(violation, 0.0) + 1e-15:
+                    # the contacts drift more than the step box lets one step repair: back onto them
+                    q = kinematics.q.copy()
+                    merit, goals_met = self._merit_and_goals()
+                    violation = self._inequality_violation()
+                    radius = self.max_step
+                    continue
+                if not self._stands_at(q):
+                    kinematics.update(q)
                 reason = (f"the QP has no solution ({exc}): the constraints conflict at this configuration"
                           if iteration == 1 else
                           f"best effort: {self.backend} found no further step (radius {radius:.2g})")
@@ -304,11 +410,13 @@ class IKProblem:
                 self._step.fill_tasks()
                 lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
-            if not kept and not self._equalities_met(tolerance) and self._timed(profile, "projection",
-                                                                                self.project, tolerance):
+            if not kept and not self._equalities_met(tolerance) and self._timed(
+                    profile, "projection", self.project, tolerance, 6, trial_violation):
                 kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if kept:
                 q = kinematics.q.copy()
+                for constraint in self._memories:
+                    constraint.stepped(dq, 1.0)
                 slow = slow + 1 if merit - trial_merit < self.progress * merit else 0
                 merit, violation, goals_met = trial_merit, trial_violation, trial_goals_met
                 if slow >= 5 and not goals_met:
@@ -320,6 +428,8 @@ class IKProblem:
                     break
             else:
                 kinematics.update(q)
+                for constraint in self._memories:  # (a rejected step: the motion stops there)
+                    constraint.stepped(np.zeros(self.nv), 1.0)
                 radius = 0.25 * min(radius, step_size)
                 if radius < stall:
                     break
@@ -337,7 +447,22 @@ class IKProblem:
                 reason = ""
             elif not reason:
                 reason = "stalled: best effort under the constraints (see the task errors)"
-        return self._report(q, converged, iteration, reason, start_time, profile)
+        solution = self._report(q, converged, iteration, reason, start_time, profile)
+        solution.start_violations = list(self._start_violations)
+        if diagnose and not solution.success:
+            self.explain(solution)
+        return solution
+
+    def explain(self, solution: QPSolution) -> QPSolution:
+        """Add the diagnosis to a solution that did not succeed (at its q): ``solution.diagnosis`` and
+        its summary at the end of ``solution.reason``; returns the solution."""
+        diagnosis = self.diagnose(solution)
+        solution.diagnosis = diagnosis
+        text = diagnosis.summary()
+        if text:
+            solution.reason = f"{solution.reason}; {text}" if solution.reason else text
+        return solution
+
 
     @staticmethod
     def _timed(profile: dict[str, float] | None, phase: str, function, *arguments):

@@ -5,10 +5,20 @@
             and the box |dq_i| <= radius (the IK loop's trust region)
 
 The Levenberg-Marquardt term mu |e|^2 (e: the level's goal tasks) keeps far-away steps short and
-vanishes at the solution, so it does not bias the answer. With several priority levels, level k is
-solved with the achieved task values of levels < k kept (to ``hierarchy_slack``) as extra rows.
+vanishes at the solution, so it does not bias the answer. With several priority levels (any number),
+level k is solved with the achieved task values of levels < k kept (to ``hierarchy_slack``) as extra
+rows: |sqrt(w) J (dq - dq*_l)| <= slack row by row for an equality task of level l, and
+J dq + g e <= max(0, J dq*_l + g e) + slack for an inequality task (:mod:`wbik.qp.tasks`), which its
+own level solves with slack variables w (min weight |w|^2 s.t. J dq + g e <= w). A level without
+inequality tasks is the plain QP over dq.
+
 When q breaks an inequality by more than one step can repair, the violated rows ask for half the
-repair, then a quarter, ..., then only not to get worse. No solution raises NoQPSolutionError.
+repair, then a quarter, ..., then only not to get worse (the constraints' own rows only: a level's
+kept rows are never relaxed). A joint outside its position range is brought back as fast as its other
+bounds allow (``StackedConstraints.close_box``). No solution at the first level raises
+NoQPSolutionError; a lower level is always
+feasible (the step of the levels above it meets its rows), so a backend that reports otherwise on its
+nearly degenerate kept rows leaves that step as it is.
 
 The task rows of every level are filled once per configuration (``fill_tasks``, keyed by the
 kinematics' version): the IK loop reads its merit from the same errors (``level_errors``).
@@ -55,9 +65,18 @@ class Level:
         self.tasks = tasks
         self.diagonal = np.zeros(nv)
         self.slices: list[slice | None] = []
-        stacked, stop = [], 0
+        self.inequality_slices: list[slice | None] = []
+        """Per task: its rows in ``inequality_jacobian`` / ``inequality_error`` (None for others)."""
+        stacked, stop, inequalities, inequality_stop = [], 0, [], 0
         for task in tasks:
             diagonal = task.constant_diagonal()
+            if task.inequality:
+                self.slices.append(None)
+                self.inequality_slices.append(slice(inequality_stop, inequality_stop + task.dimension))
+                inequalities.append(task)
+                inequality_stop += task.dimension
+                continue
+            self.inequality_slices.append(None)
             if diagonal is not None:
                 self.diagonal += diagonal
                 self.slices.append(None)
@@ -65,6 +84,20 @@ class Level:
                 self.slices.append(slice(stop, stop + task.dimension))
                 stacked.append(task)
                 stop += task.dimension
+        self.inequalities = inequalities
+        """The level's inequality tasks (their rows: J dq + g e <= w, weight |w|^2)."""
+        self.inequality_jacobian = np.zeros((inequality_stop, nv))
+        self.inequality_error = np.zeros(inequality_stop)
+        self.inequality_weight = (np.concatenate([task.weight for task in inequalities]) if inequalities
+                                  else np.zeros(0))
+        self.inequality_gain = (np.concatenate([np.full(task.dimension, task.gain) for task in inequalities])
+                                if inequalities else np.zeros(0))
+        self._inequality_rows = [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
+                                 for task, rows in zip(tasks, self.inequality_slices, strict=True)
+                                 if rows is not None]
+        self.inequality_goal_errors = [(task, self.inequality_error[rows])
+                                       for task, rows in zip(tasks, self.inequality_slices, strict=True)
+                                       if rows is not None and task.goal]
         stacked_rows = [(task, rows) for task, rows in zip(tasks, self.slices, strict=True)
                         if rows is not None]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
@@ -85,18 +118,46 @@ class Level:
     def fill(self, kinematics: Kinematics) -> None:
         for task, jacobian, error in self._task_rows:
             task.fill(kinematics, jacobian, error)
+        for task, jacobian, error in self._inequality_rows:
+            jacobian[:] = task.jacobian(kinematics)
+            error[:] = task.error(kinematics)
 
     def goal_cost(self) -> float:
-        """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2)."""
+        """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2; max(0, e) for an
+        inequality task)."""
         cost = 0.0
         for _, error in self.goal_errors:
             cost += float(error.dot(error))
+        for _, error in self.inequality_goal_errors:
+            excess = np.maximum(error, 0.0)
+            cost += float(excess.dot(excess))
+        return cost
+
+    def cost(self) -> float:
+        """The level's weighted task cost at the last fill: sum w e^2 (w max(0, e)^2 for an inequality
+        task's rows)."""
+        error = self.error
+        cost = float(self.weight.dot(error * error))
+        if self.inequalities:
+            excess = np.maximum(self.inequality_error, 0.0)
+            cost += float(self.inequality_weight.dot(excess * excess))
         return cost
 
     def error_norm(self, index: int) -> float:
-        """|e| of ``tasks[index]`` at the last fill (0 for a regularisation)."""
+        """|e| of ``tasks[index]`` at the last fill (0 for a regularisation; |max(0, e)| for an
+        inequality task)."""
         rows = self.slices[index]
-        return 0.0 if rows is None else math.sqrt(self.error[rows].dot(self.error[rows]))
+        if rows is None:
+            rows = self.inequality_slices[index]
+            if rows is None:
+                return 0.0
+            excess = np.maximum(self.inequality_error[rows], 0.0)
+            return math.sqrt(excess.dot(excess))
+        return math.sqrt(self.error[rows].dot(self.error[rows]))
+
+    def inequality_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(J, -g e) of the inequality tasks: their rows J dq + w... as J dq - w <= -g e."""
+        return self.inequality_jacobian, -self.inequality_gain * self.inequality_error
 
     def weighted_rows(self) -> np.ndarray:
         """sqrt(w) J, in a reused buffer."""
@@ -121,7 +182,7 @@ class Level:
 def layout_key(tasks: Sequence[Task]) -> tuple:
     """What the levels' layout depends on (a problem solved again keeps its layout)."""
     return tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
-                  task.constant_diagonal() is None) for task in tasks)
+                  task.constant_diagonal() is None, task.inequality) for task in tasks)
 
 
 class QPStep:
@@ -140,6 +201,8 @@ class QPStep:
         self.levels: list[Level] = []
         self._layout: tuple | None = None
         self._filled = -1
+        self._augmented: dict[int, backends.StackedConstraints] = {}
+        self._constraint_rows = 0  # general rows of the constraints in the stack (the levels' follow)
 
     def start(self) -> None:
         """Lay out every priority level's rows (tasks know their dimension once started)."""
@@ -161,21 +224,27 @@ class QPStep:
         """Fill the task rows again at the next step (a task's target may have changed)."""
         self._filled = -1
 
-    def build_constraints(self, dt: float, radius: float) -> backends.StackedConstraints:
-        """Every constraint's rows at the current q, stacked into the reused buffers."""
+    def build_constraints(self, dt: float, radius: float,
+                          recover: bool = True) -> backends.StackedConstraints:
+        """Every constraint's rows at the current q, stacked into the reused buffers; ``recover``: a
+        joint outside its range moves back as fast as its other bounds allow
+        (``StackedConstraints.close_box(toward_rest=True)``; the IK loop's iterates are inside)."""
         stack = self.stack
         stack.clear(radius)
         kinematics = self.kinematics
         for constraint in self.constraints:
             constraint.rows(kinematics, dt).add_to(stack)
-        stack.close_box()
+        stack.close_box(recover)
+        self._constraint_rows = stack.rows
         return stack
 
-    def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None) -> np.ndarray:
-        """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution."""
+    def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None,
+              recover: bool = True) -> np.ndarray:
+        """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution.
+        ``recover``: see :meth:`build_constraints`."""
         clock = time.perf_counter if profile is not None else None
         tick = clock() if clock else 0.0
-        stack = self.build_constraints(dt, radius)
+        stack = self.build_constraints(dt, radius, recover)
         if clock:
             tick = lap(profile, "constraints", tick)
         self.fill_tasks()
@@ -183,33 +252,93 @@ class QPStep:
             tick = lap(profile, "tasks", tick)
         dq = None
         for index, level in enumerate(self.levels):
-            H, c = level.quadratic(self.damping + self.lm_damping * level.goal_cost())
+            damping = self.damping + self.lm_damping * level.goal_cost()
+            H, c = level.quadratic(damping)
             if clock:
                 tick = lap(profile, "assemble", tick)
-            dq = self._solve_relaxed(H, c, stack)
+            if not index and not level.inequalities:
+                dq = self._solve_relaxed(H, c, stack)
+            else:
+                solver = (self._with_slacks(index, level, damping) if level.inequalities
+                          else self._solve_strict)
+                try:
+                    dq = self._solve_relaxed(H, c, stack, solver)
+                except NoQPSolutionError:
+                    if not index:
+                        raise
+                    # (numerical: the previous level's dq meets every row; keep it)
             if clock:
                 tick = lap(profile, "qp", tick)
             if index + 1 < len(self.levels):
-                # keep what this level achieved: |J_l dq - J_l dq*| <= slack (the regularisation's
-                # rows sqrt(w) I included)
-                kept = np.vstack((level.weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
-                achieved = kept @ dq
-                stack.add(kept, achieved + self.hierarchy_slack)
-                stack.add(-kept, -achieved + self.hierarchy_slack)
+                self.keep(level, dq, stack)
         return dq
+
+    def keep(self, level: Level, dq: np.ndarray, stack: backends.StackedConstraints) -> None:
+        """Rows that keep what ``level`` achieved with dq for the levels below it: |J_l dq - J_l dq*|
+        <= slack (the regularisation's rows sqrt(w) I included) and, for its inequality tasks,
+        J dq + g e <= max(0, J dq* + g e) + slack."""
+        slack = self.hierarchy_slack
+        kept = np.vstack((level.weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
+        if kept.shape[0]:
+            achieved = kept @ dq
+            stack.add(kept, achieved + slack)
+            stack.add(-kept, -achieved + slack)
+        if level.inequalities:
+            jacobian, bound = level.inequality_rows()
+            stack.add(jacobian, np.maximum(jacobian @ dq - bound, 0.0) + bound + slack)
+
+    def _with_slacks(self, index: int, level: Level, damping: float):
+        """The solver of a level with inequality tasks: the QP over x = [dq; w], w one slack per
+        inequality row, min 1/2 x^T [H 0; 0 diag(weight)] x + [c; 0]^T x s.t. the stacked rows on dq,
+        J dq - w <= -g e (the rows' cost weight |w|^2); returns dq."""
+        nv, jacobian, bound = self.nv, *level.inequality_rows()
+        count = len(bound)
+        weight = np.maximum(level.inequality_weight, damping)  # (> 0: the QP stays strictly convex)
+
+        def solve(H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
+            augmented = self._augmented.get(index)
+            if augmented is None or augmented.n != nv + count:
+                augmented = self._augmented[index] = backends.StackedConstraints(nv + count)
+            lower, upper = augmented.clear(1e30)
+            lower[:nv], upper[:nv] = stack.lower[:nv], stack.upper[:nv]
+            equality = stack.sense[nv:] == 5
+            matrix, rows_upper = stack.matrix, stack.upper[nv:]
+            padding = np.zeros((len(rows_upper), count))
+            if np.any(~equality):
+                augmented.add(np.hstack((matrix, padding))[~equality], rows_upper[~equality])
+            if np.any(equality):
+                augmented.add(np.hstack((matrix, padding))[equality], rows_upper[equality], equality=True)
+            augmented.add(np.hstack((jacobian, -np.eye(count))), bound)
+            hessian = np.zeros((nv + count, nv + count))
+            hessian[:nv, :nv] = H
+            hessian[nv:, nv:] = np.diag(weight)
+            gradient = np.concatenate((c, np.zeros(count)))
+            x = (backends.solve_precise(self.backend, hessian, gradient, augmented, self.hierarchy_slack)
+                 if index else backends.solve_stacked(self.backend, hessian, gradient, augmented))
+            return x[:nv]
+
+        return solve
 
     def _solve(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
         if self.workspace is not None:  # (DAQP's reused workspaces, one call layer fewer)
             return self.workspace.solve(H, c, stack)
         return backends.solve_stacked(self.backend, H, c, stack, self.workspace)
 
-    def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
-        """The QP; if it has no solution and q breaks inequality rows (h < 0), the same QP with
-        those rows asking for half the repair, a quarter, ..., 1/64, then only not to get worse."""
+    def _solve_strict(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints) -> np.ndarray:
+        """A level below the first: its kept rows must hold to the slack (``backends.solve_precise``)."""
+        return backends.solve_precise(self.backend, H, c, stack, self.hierarchy_slack, self.workspace)
+
+    def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints,
+                       solver=None) -> np.ndarray:
+        """The QP (by ``solver(H, c, stack)``, default the level's plain QP); if it has no solution
+        and q breaks inequality rows (h < 0), the same QP with those rows asking for half the repair,
+        a quarter, ..., 1/64, then only not to get worse."""
+        solve = solver or self._solve
         try:
-            return self._solve(H, c, stack)
+            return solve(H, c, stack)
         except NoQPSolutionError:
             rows = stack.inequality_rows()
+            rows = rows[rows < stack.n + self._constraint_rows]  # the constraints' rows, not the levels'
             upper = stack.upper
             h = upper[rows]
             if not np.any(h < 0):
@@ -220,11 +349,11 @@ class QPStep:
                 relaxed[relaxed < 0] *= 0.5
                 upper[rows] = relaxed
                 try:
-                    return self._solve(H, c, stack)
+                    return solve(H, c, stack)
                 except NoQPSolutionError:
                     pass
             upper[rows] = np.maximum(h, 0.0)
-            return self._solve(H, c, stack)
+            return solve(H, c, stack)
         finally:
             upper[rows] = h
 

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from collections.abc import Mapping
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,8 +144,12 @@ class SupportPolygon:
     for points that span no area; see :func:`convex_hull`.
     """
 
-    def __init__(self, points: np.ndarray):
+    def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
         self.vertices = convex_hull(points)
+        self.vertex_labels = _vertex_labels(np.asarray(points, dtype=float).reshape(-1, 2), self.vertices,
+                                            labels)
+        """Each vertex's name: the label of the contact point it is (``labels``, one per point, e.g.
+        "left_sole_link[2]": a sole's corner), else "vertex i"."""
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
         lengths = np.linalg.norm(edges, axis=1)
         self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / lengths[:, None]
@@ -167,6 +172,19 @@ class SupportPolygon:
     def halfplanes(self, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(N, d - margin): the polygon shrunk by ``margin`` as N x <= d - margin."""
         return self.normals, self.offsets - margin
+
+    def edge_name(self, index: int) -> str:
+        """Edge ``index`` (from vertex i to vertex i + 1) by its two vertices' labels, "a-b"."""
+        count = len(self.vertices)
+        return f"{self.vertex_labels[index % count]}-{self.vertex_labels[(index + 1) % count]}"
+
+
+def _vertex_labels(points: np.ndarray, vertices: np.ndarray, labels: Sequence[str] | None) -> list[str]:
+    """The label of the input point each hull vertex is (the nearest: a vertex is one of the points)."""
+    if labels is None or len(labels) != len(points):
+        return [f"vertex {index}" for index in range(len(vertices))]
+    nearest = np.argmin(((vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
+    return [str(labels[index]) for index in nearest]
 
 
 def degenerate_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
@@ -239,6 +257,16 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
     return np.vstack(points)
 
 
+def contact_point_labels(corners: Mapping[str, np.ndarray], frames: Iterable[str]) -> list[str]:
+    """"frame[i]" for each contact point of the soles ``frames`` (a point foot: "frame"), in
+    :func:`contact_points`' order."""
+    labels = []
+    for frame in frames:
+        count = len(np.asarray(corners[frame], dtype=float).reshape(-1, 3))
+        labels += [frame] if count == 1 else [f"{frame}[{index}]" for index in range(count)]
+    return labels
+
+
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
     """Support polygon of the feet in contact: hull of their contact points projected on the ground.
@@ -246,7 +274,7 @@ def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarra
     frames = list(frames)
     points = contact_points(kinematics, corners, frames)
     try:
-        return SupportPolygon(points[:, :2])
+        return SupportPolygon(points[:, :2], contact_point_labels(corners, frames))
     except DegenerateSupportPolygonError as exc:
         raise DegenerateSupportPolygonError(f"the support soles {frames} ({len(points)} contact points) "
                                             f"make no support polygon: {exc}") from None

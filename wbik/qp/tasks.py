@@ -10,6 +10,21 @@ row; ``priority`` is the level in a strict hierarchy (0 first; equal levels trad
 ``goal`` tasks decide convergence of the IK loop: their |e| must fall under ``tolerance``; posture
 and regularisation are not goals.
 
+An *inequality* task (``inequality = True``: :class:`PositionBoxTask`, :class:`ComBoxTask`) wants
+e <= 0 row by row instead of e = 0; at its level it costs weight * max(0, J dq + gain * e)^2 (a
+slack w >= J dq + gain * e, weight * |w|^2, in the level's QP), and lower levels keep what it
+achieved: J dq + gain * e <= max(0, J dq* + gain * e). Its error is max(0, e).
+
+Priorities: a lower level acts only in what the higher levels leave free (``wbik.qp.step``).
+Posture and regularisation are two different things there. The regularisation weighs the *step*
+(w |dq|^2): at a solution dq = 0 is its optimum, so on the goals' level it only damps the redundant
+directions and never moves the answer. The posture weighs the *configuration* (w |q - q_ref|^2):
+on the goals' level it is traded off against them: at the answer J^T W e = -w (q - q_ref), so the
+goals stop short of their targets wherever the posture pulls against them; one level lower
+(``priority`` one more than the goals') it is served in their null space only, and the goals
+converge exactly. Put a posture on
+the lowest level (docs/guide/wholebody.md gives the figures, ``benchmarks/priorities.py`` the cost).
+
 Rotation errors are the geometry kernel's (:mod:`wbik.geometry`): e_R = log3(R*^T R) in the target's
 axes (``rotation_error``) with de_R/dq = Jlog3(M) R^T J_w, M = R*^T R (``rotation_error_jacobian``;
 exact: with R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt)). ``error`` and ``jacobian`` call them;
@@ -48,6 +63,8 @@ class Task:
 
     dimension = 0
     goal = True
+    inequality = False
+    """True: the task wants e <= 0 on each row (see the module docstring), not e = 0."""
 
     def __init__(self, weight: float | Sequence[float] = 1.0, gain: float = 1.0, priority: int = 0,
                  tolerance: float = 1e-7, name: str | None = None, goal: bool | None = None):
@@ -361,3 +378,73 @@ class RegularizationTask(Task):
 
     def constant_diagonal(self) -> np.ndarray:
         return self.weight
+
+
+class _BoxTask(Task):
+    """A point inside an axis-aligned box (world, m), as an inequality task: e = [p - upper; lower - p]
+    on the box's finite sides (each row <= 0 inside). Subclasses give the point and its Jacobian."""
+
+    inequality = True
+
+    def __init__(self, lower: Sequence[float] | None, upper: Sequence[float] | None, **options):
+        lower = np.full(3, -np.inf) if lower is None else np.asarray(lower, dtype=float).reshape(3)
+        upper = np.full(3, np.inf) if upper is None else np.asarray(upper, dtype=float).reshape(3)
+        if np.any(np.isnan(lower)) or np.any(np.isnan(upper)) or np.any(lower > upper):
+            raise ValueError(f"a box needs lower <= upper on every axis, got {lower} and {upper}")
+        self.lower, self.upper = lower, upper
+        self._upper_rows = np.flatnonzero(np.isfinite(upper))
+        self._lower_rows = np.flatnonzero(np.isfinite(lower))
+        self.dimension = len(self._upper_rows) + len(self._lower_rows)
+        if not self.dimension:
+            raise ValueError("a box task needs at least one finite side")
+        super().__init__(**options)
+
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        raise NotImplementedError
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        raise NotImplementedError
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        point = self._point(kinematics)
+        return np.concatenate((point[self._upper_rows] - self.upper[self._upper_rows],
+                               self.lower[self._lower_rows] - point[self._lower_rows]))
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        jacobian = self._point_jacobian(kinematics)
+        return np.vstack((jacobian[self._upper_rows], -jacobian[self._lower_rows]))
+
+
+class PositionBoxTask(_BoxTask):
+    """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
+    level: an inequality task (e.g. a hand above a table, priority above a reach)."""
+
+    def __init__(self, frame: str, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None,
+                 **options):
+        self.frame = frame
+        self.frame_id = -1
+        options.setdefault("name", f"PositionBoxTask[{frame}]")
+        super().__init__(lower, upper, **options)
+
+    def start(self, kinematics: Kinematics) -> None:
+        self.frame_id = kinematics.frame_id(self.frame)
+
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.placement(self.frame_id).translation
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.jacobian(self.frame_id)[:3]
+
+
+class ComBoxTask(_BoxTask):
+    """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
+    level: an inequality task."""
+
+    def __init__(self, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None, **options):
+        super().__init__(lower, upper, **options)
+
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com()
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com_jacobian()

@@ -25,6 +25,8 @@ previous phase's answer (its schema, runner and printed report)::
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
         margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
         lock: [mb]                  # joints held at their value (optional)
+        acceleration_limit: 20      # rad/s^2, optional: each IK step a period of dt (s, default 1):
+        dt: 0.01                    # joint velocities change by at most a dt from step to step
         tasks:
           - {type: com, over: r_sole, axes: xy}
           - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
@@ -71,6 +73,7 @@ import pinocchio as pin
 from wbik.expectations import Rule
 from wbik.expectations import evaluate
 from wbik.expectations import verdict
+from wbik.qp.diagnosis import report_lines
 from wbik.qp.task_entries import REGULARIZATION_WEIGHT
 from wbik.qp.task_entries import TaskEntryError
 from wbik.qp.task_entries import build_task
@@ -167,6 +170,8 @@ def wholebody_schema() -> Map:
         "min_distance": Key(ListOf(Map({"frames": Key(ListOf(FRAME, min_items=2), required=True),
                                         "distance": Key(NON_NEGATIVE, required=True)})), []),
         "max_step": Key(POSITIVE, 0.2),
+        "acceleration_limit": Key(Number(gt=0, unit="rad/s^2")),
+        "dt": Key(Number(gt=0, unit="s"), 1.0),
         "max_iterations": Key(Number(gt=0, integer=True, budget=True), 300),
         "expect": Key(expect_block(PHASE_RULES), None),
         "continue_from": Key(Text(("result", "start")), "result"),
@@ -360,7 +365,9 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
             raise ScenarioValueError(f"phases[{index}].tasks[{number}]: {exc}") from exc
     if not any(task.goal for task in tasks):
         raise ScenarioError(f"phase {phase['name']!r} has no goal task")
-    tasks.append(build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]}))
+    regularization = build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]})
+    regularization.priority = max(task.priority for task in tasks)  # the lowest level (see lowest_priority)
+    tasks.append(regularization)
     return tasks
 
 
@@ -401,6 +408,7 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
                         contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
                         support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
                         collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
+                        step_dt=float(phase["dt"]), acceleration_limit=phase.get("acceleration_limit"),
                         name=phase["name"])
     compared = {}
     for entry in methods:
@@ -418,6 +426,7 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
     the report and the animation from the start through every phase's answer."""
+    from wbik.qp.constraints import JointAccelerationLimits
     from wbik.qp.constraints import LockedJoints
     from wbik.qp.constraints import MinimumDistance
     from wbik.qp.problem import IKProblem
@@ -438,6 +447,9 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         constraints = _stance(robot, q, phase, index)
         if phase["lock"]:
             constraints.append(LockedJoints(robot.model, list(phase["lock"])))
+        if phase.get("acceleration_limit") is not None:  # (IK steps: periods of dt, solved at dt 1)
+            constraints.append(JointAccelerationLimits(
+                robot.model, float(phase["acceleration_limit"]) * float(phase["dt"]) ** 2))
         for item in phase["min_distance"]:
             constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
         if collision_constraint is not None:
@@ -458,7 +470,8 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
             "expectations": expectations,
-            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist()}
+            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist(),
+            "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
         if spec["methods"]:
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers)
         run.add(entry)
@@ -518,11 +531,20 @@ def format_method(label: str, figures: dict) -> str:
     line = (f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
             f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
             f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it")
+    diagnosis = figures.get("diagnosis")
     if not figures["success"]:
-        line += f"\n        why: {figures['reason']}"
+        line += f"\n        why: {_without_summary(figures['reason'], diagnosis)}"
+    for text in report_lines(diagnosis) if diagnosis else ():
+        line += f"\n        {text}"
     for item in figures["unsupported"]:
         line += f"\n        cannot express: {item}"
     return line
+
+
+def _without_summary(reason: str, diagnosis: dict | None) -> str:
+    """The reason without the diagnosis's summary at its end (printed line by line instead)."""
+    summary = (diagnosis or {}).get("summary") or ""
+    return reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason
 
 
 def format_report(report: dict) -> str:
@@ -531,8 +553,12 @@ def format_report(report: dict) -> str:
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
-        text = (f"{'solved' if phase['success'] else 'best effort: ' + phase['reason']}; "
+        diagnosis = phase.get("diagnosis")
+        reason = _without_summary(phase["reason"], diagnosis)
+        text = (f"{'solved' if phase['success'] else 'best effort: ' + reason}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
+        for line in report_lines(diagnosis) if diagnosis else ():
+            text += f"\n      {line}"
         if phase.get("methods"):
             text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
                 format_method(label, figures) for label, figures in phase["methods"].items())

@@ -9,7 +9,13 @@ the iteration budget or (when ``timeout_s`` is given) the deadline.
 Options: ``backend`` (a qpsolvers name, "fastest" or "default"; default DAQP, the fastest measured
 here: see wbik.qp.backends), ``max_iterations`` (default: the iterations that cost about 30 ms here;
 a converging solve needs 14 median, 25 at the 90th percentile on the Golem-III arm), ``max_step``
-(trust region per step, rad or m), ``lm_damping``.
+(trust region per step, rad or m), ``lm_damping``, ``diagnose``.
+
+A result that fails the shared check explains itself (``diagnose=True``, the default): the joint
+limits active at the answer, ranked by how much they hold the tip back, or a stationary point (out of
+reach, a local minimum), in ``result.extra["diagnosis"]`` (:class:`wbik.qp.diagnosis.Diagnosis`) and
+at the end of ``result.reason``; it is made after the timed solve, on failure only. A start outside
+the limits is clipped into them and listed in ``diagnosis.start``.
 """
 
 from __future__ import annotations
@@ -37,12 +43,34 @@ class QPSolver(Solver):
 
     def __init__(self, robot, chain=None, *, backend: str = backends.DEFAULT,
                  max_iterations: int | None = None, max_step: float = 0.2, lm_damping: float = 1e-3,
-                 velocity_dt: float | None = None, **options):
+                 velocity_dt: float | None = None, diagnose: bool = True, **options):
         super().__init__(robot, chain, **options)
         self.backend = backends.resolve(backend)
         self.max_iterations = self._iteration_budget(max_iterations)
         self.velocity_dt = velocity_dt
         self.max_step, self.lm_damping = float(max_step), float(lm_damping)
+        self.diagnose = bool(diagnose)
+
+    def solve(self, target, q0=None):
+        """The shared check's result; one that fails it gets the QP's diagnosis (after the timing)."""
+        self._local.last = None
+        result = super().solve(target, q0)
+        last = getattr(self._local, "last", None)
+        if last is None:
+            return result
+        problem, solution = last
+        self._local.last = None
+        if not result.success and self.diagnose:
+            diagnosis = problem.diagnose(solution)
+            result.extra["diagnosis"] = diagnosis
+            text = diagnosis.summary()
+            if text:
+                result.reason = f"{result.reason}; {text}" if result.reason else text
+        elif solution.start_violations:
+            from wbik.qp.diagnosis import Diagnosis
+
+            result.extra["diagnosis"] = Diagnosis(start=list(solution.start_violations))
+        return result
 
     def _new_thread_state(self) -> dict:
         """Each thread's own tasks and problems (a problem holds its Pinocchio Data and iterate)."""
@@ -67,7 +95,8 @@ class QPSolver(Solver):
         task, problem = self._thread_state()["pose" if target.is_pose else "position"]
         task.target = world_target if target.is_pose else world_target.translation.copy()
         solution = problem.solve(q0, max_iterations=self.max_iterations,
-                                 deadline=None if deadline == float("inf") else deadline)
+                                 deadline=None if deadline == float("inf") else deadline, diagnose=False)
+        self._local.last = (problem, solution)
         return Candidate(solution.q, solution.iterations, solution.reason,
                          {"backend": self.backend, "converged": solution.converged})
 

@@ -39,6 +39,7 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidSettingError
 from wbik.files import json_plain
 from wbik.geometry import rotation_angle
+from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.humanoid import is_point_foot
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import DegenerateSupport
@@ -77,6 +78,10 @@ class WholeBody:
     the support polygon;
     default the contacts that are soles; ``[]`` for none. ``limits``: "position",
     "position+velocity" (each IK step also bounded by v_max * ``step_dt``) or "none".
+    ``acceleration_limit``: rad/s^2 (one value for every joint, or nv values), each IK step being a
+    period of ``step_dt``: the joint velocity dq / step_dt changes by at most a_max * step_dt from one
+    kept step to the next, and each joint stays slow enough to stop before its limits
+    (:class:`wbik.qp.constraints.JointAccelerationLimits`); None (default) for none.
     ``collisions``: minimum distances, as :class:`MinimumDistance` or (frame_a, frame_b, m).
     """
 
@@ -91,6 +96,7 @@ class WholeBody:
         collisions=None,
         *,
         step_dt: float = 1.0,
+        acceleration_limit=None,
         name: str = "",
     ):
         if not isinstance(robot, Robot):
@@ -147,6 +153,7 @@ class WholeBody:
         if isinstance(step_dt, bool) or not isinstance(step_dt, numbers.Real) or not step_dt > 0:
             raise InvalidSettingError(f"step_dt must be a positive number (s), got {step_dt!r}")
         self.step_dt = float(step_dt)
+        self.acceleration_limit = self._acceleration(robot, acceleration_limit)
         self.collisions = [self._distance(item) for item in (collisions or ())]
         for item in self.collisions:
             robot.frame_id(item.frame_a)
@@ -155,6 +162,20 @@ class WholeBody:
         self.task_names = [
             name if names.count(name) == 1 else f"{name}#{index}" for index, name in enumerate(names)
         ]
+
+    @staticmethod
+    def _acceleration(robot: Robot, value) -> float | np.ndarray | None:
+        """``acceleration_limit`` checked: None, one number > 0 or nv numbers >= 0 (rad/s^2)."""
+        if value is None:
+            return None
+        array = np.asarray(value, dtype=float) if not isinstance(value, bool) else np.array(np.nan)
+        nv = robot.model.nv
+        if array.ndim == 0 and math.isfinite(float(array)) and float(array) > 0:
+            return float(array)
+        if array.shape == (nv,) and not np.any(np.isnan(array)) and np.all(array >= 0):
+            return array.copy()
+        raise InvalidSettingError(f"acceleration_limit must be one number > 0 or {nv} numbers >= 0 "
+                                  f"(rad/s^2), got {value!r}")
 
     @staticmethod
     def _distance(item) -> MinimumDistance:
@@ -189,7 +210,8 @@ class WholeBody:
 
         Keys: ``tasks`` (entries as in a ``wholebody_ik`` phase: type frame | position | orientation |
         relative | com | posture | regularization, with target / keep / offset / over), ``contacts``,
-        ``support``, ``margin``, ``limits``, ``collisions`` ([{frames: [a, b], distance: m}]), ``name``.
+        ``support``, ``margin``, ``limits``, ``collisions`` ([{frames: [a, b], distance: m}]),
+        ``step_dt``, ``acceleration_limit``, ``name``.
         """
         from wbik.qp.task_entries import build_task
 
@@ -197,7 +219,8 @@ class WholeBody:
             raise InvalidSettingError(
                 f"a whole-body problem is a mapping (tasks, contacts, ...), got {data!r}"
             )
-        known = {"tasks", "contacts", "support", "margin", "limits", "collisions", "name", "step_dt"}
+        known = {"tasks", "contacts", "support", "margin", "limits", "collisions", "name", "step_dt",
+                 "acceleration_limit"}
         unknown = sorted(set(data) - known)
         if unknown:
             raise InvalidSettingError(
@@ -217,6 +240,7 @@ class WholeBody:
             limits=data.get("limits", "position+velocity"),
             collisions=data.get("collisions"),
             step_dt=data.get("step_dt", 1.0),
+            acceleration_limit=data.get("acceleration_limit"),
             name=str(data.get("name", "") or ""),
         )
 
@@ -278,7 +302,10 @@ class WholeBodyResult:
     ``contact_drift``: the largest contact error (m or rad), 0 without contacts; ``com_margin``: m
     inside the support polygon (NaN without support); ``limit_excess``: rad or m beyond the limits;
     ``collision_clearance``: min (distance - required) m (NaN without pairs); ``unsupported``:
-    what the method could not express (it solved the problem without it).
+    what the method could not express (it solved the problem without it); ``diagnosis``: why a
+    method that explains itself (``qp``) did not succeed - the constraints active at the answer, the
+    tasks in conflict with the goals, an infeasible step's conflicting rows, a start outside the
+    limits (:class:`wbik.qp.diagnosis.Diagnosis`; its summary ends ``reason``) - or None.
     """
 
     q: np.ndarray | None
@@ -296,6 +323,7 @@ class WholeBodyResult:
     task_position_errors: dict[str, float] = field(default_factory=dict)
     task_rotation_errors: dict[str, float] = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
+    diagnosis: Diagnosis | None = None
 
     @property
     def task_error(self) -> float:
@@ -308,12 +336,15 @@ class WholeBodyResult:
         return not self.unsupported
 
     JSON_FIELDS = ("method", "success", "reason", "q", "task_errors", "contact_drift", "com_margin",
-                   "limit_excess", "collision_clearance", "time_s", "iterations", "unsupported")
+                   "limit_excess", "collision_clearance", "time_s", "iterations", "unsupported", "diagnosis")
     """The fields :meth:`as_dict` gives."""
 
     def as_dict(self) -> dict:
-        """JSON-friendly dictionary of the ``JSON_FIELDS``."""
-        return json_plain({name: getattr(self, name) for name in self.JSON_FIELDS})
+        """JSON-friendly dictionary of the ``JSON_FIELDS`` (the diagnosis as its ``as_dict``)."""
+        values = {name: getattr(self, name) for name in self.JSON_FIELDS}
+        if self.diagnosis is not None:
+            values["diagnosis"] = self.diagnosis.as_dict()
+        return json_plain(values)
 
 
 def task_error_parts(task: Task, kinematics: Kinematics) -> tuple[float | None, float | None]:

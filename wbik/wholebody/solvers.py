@@ -10,7 +10,10 @@ Methods:
 Contacts on a point foot (``problem.point_contacts``) hold its position only, in every method.
 
 - ``qp``: our task QP (:class:`wbik.qp.IKProblem`), contacts as equalities, the CoM in the shrunk
-  support polygon as hard rows, limits as bounds; ``backend=`` any installed qpsolvers backend.
+  support polygon as hard rows, limits as bounds (and acceleration limits, ``acceleration_limit``);
+  ``backend=`` any installed qpsolvers backend. A result that fails the check carries a
+  ``diagnosis`` (what blocks the goals, what conflicts with them, what to change: its summary ends
+  the reason), made after the timed solve (``diagnose=False`` leaves it out).
 - ``placo``: PlaCo's KinematicsSolver: its own frame / position / orientation / CoM / joints tasks
   (soft, with our weights), contacts as hard frame tasks (a point foot: a hard position task), its
   CoM polygon constraint with the
@@ -219,13 +222,22 @@ PEER_TASKS = (
 
 def _peer_unsupported(problem: WholeBody, priorities: str) -> list[str]:
     """What PlaCo and Pink both cannot express: collisions, strict priority levels (``priorities``
-    says what the peer has instead)."""
+    says what the peer has instead), acceleration limits."""
     missing = []
     if problem.collisions:
         missing.append("minimum distances between frames (collisions)")
+    if problem.acceleration_limit is not None:
+        missing.append("acceleration limits (solved with position and velocity limits only)")
     if len({task.priority for task in problem.tasks}) > 1:
         missing.append(f"strict priority levels ({priorities})")
     return missing
+
+
+def lowest_priority(tasks: list[Task]) -> int:
+    """The priority number of the lowest level of ``tasks`` (0 without tasks): where a regularisation
+    goes. The step keeps each level's achieved rows for the levels below it, a regularisation's rows
+    (J = I) included, so one above another level would leave that level no motion at all."""
+    return max((task.priority for task in tasks), default=0)
 
 
 # -- qp -------------------------------------------------------------------------------------------------
@@ -244,6 +256,7 @@ class QPWholeBody(WholeBodySolver):
         max_step: float = 0.2,
         lm_damping: float = 1e-3,
         regularization: float = 1e-6,
+        diagnose: bool = True,
         **options,
     ):
         from wbik.qp import backends
@@ -255,9 +268,33 @@ class QPWholeBody(WholeBodySolver):
             float(lm_damping),
             float(regularization),
         )
+        self.diagnose = bool(diagnose)
+
+    def solve(self, problem: WholeBody, q0=None) -> WholeBodyResult:
+        """The shared check's result; one that fails it gets the QP's diagnosis (after the timing), and
+        a start outside the limits is reported in ``diagnosis.start`` either way."""
+        self._local.last = None
+        result = super().solve(problem, q0)
+        last = getattr(self._local, "last", None)
+        if last is None:
+            return result
+        ik, solution = last
+        self._local.last = None
+        if not result.success and self.diagnose:
+            diagnosis = ik.diagnose(solution)
+            result.diagnosis = diagnosis
+            text = diagnosis.summary()
+            if text:
+                result.reason = f"{result.reason}; {text}" if result.reason else text
+        elif solution.start_violations:
+            from wbik.qp.diagnosis import Diagnosis
+
+            result.diagnosis = Diagnosis(start=list(solution.start_violations))
+        return result
 
     def _solve(self, problem, q0, placements, polygon, deadline):
         from wbik.qp.constraints import CoMInSupportPolygon
+        from wbik.qp.constraints import JointAccelerationLimits
         from wbik.qp.constraints import JointPositionLimits
         from wbik.qp.constraints import JointVelocityLimits
         from wbik.qp.constraints import MinimumDistance
@@ -270,7 +307,8 @@ class QPWholeBody(WholeBodySolver):
         for task in tasks:
             if task.goal:
                 task.tolerance = min(task.tolerance, tolerance)
-        tasks.append(RegularizationTask(self.regularization))
+        # on the lowest level: on a level above others, its kept rows sqrt(w) dq would pin the step for them
+        tasks.append(RegularizationTask(self.regularization, priority=lowest_priority(tasks)))
         constraints = [contact_constraint(self.robot, frame, held) for frame, held in placements.items()]
         if polygon is not None:
             constraints.append(CoMInSupportPolygon(polygon, problem.margin))
@@ -278,6 +316,9 @@ class QPWholeBody(WholeBodySolver):
             constraints.append(JointPositionLimits(model))
         if problem.limits == "position+velocity":
             constraints.append(JointVelocityLimits(model, model.velocityLimit * problem.step_dt))
+        if problem.acceleration_limit is not None:  # (the IK's steps are periods of step_dt, solved at dt 1)
+            constraints.append(JointAccelerationLimits(model, np.multiply(problem.acceleration_limit,
+                                                                          problem.step_dt ** 2)))
         constraints += [MinimumDistance(c.frame_a, c.frame_b, c.distance) for c in problem.collisions]
         ik = IKProblem(
             model,
@@ -288,8 +329,10 @@ class QPWholeBody(WholeBodySolver):
             lm_damping=self.lm_damping,
         )
         solution = ik.solve(
-            q0, max_iterations=self.max_iterations, deadline=None if deadline == math.inf else deadline
+            q0, max_iterations=self.max_iterations, deadline=None if deadline == math.inf else deadline,
+            diagnose=False,
         )
+        self._local.last = (ik, solution)
         return WholeBodyCandidate(
             solution.q,
             solution.iterations,

@@ -1,0 +1,559 @@
+"""Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
+
+Made only when a solve fails (``IKProblem.diagnose``), at the configuration q it returned, from the
+QP step there: the same tasks, levels and hard rows (:func:`wbik.qp.hard_rows.step_rows`, each row
+labelled), with the full step box. Let e_g be the unmet goal tasks' errors and
+
+    r(dq) = sum_g |e_g + J_g dq|        (|max(0, e_g + J_g dq)| for an inequality task)
+
+their linearised error after a step dq. The hierarchy of levels is solved with every hard row
+(dq*, by qpsolvers' ``solve_problem`` with the problem's backend, which gives the multipliers
+lambda of the rows), and then again
+
+- without each group of rows whose multiplier is non-zero at the goals' level (a joint's bound on
+  one side, a contact, an edge of the support polygon, a collision pair, a minimum distance): its
+  ``gain`` = r(dq*) - r(dq* without it) is how much closer one step would bring the goals if that
+  constraint did not hold them back;
+- without each task that is not one of the unmet goals (on their level or above): its ``gain``
+  likewise, the tasks in conflict with the goals (a posture on the goals' level, a higher level).
+
+Both are ranked by gain. Besides: ``step_gain`` = sum_g |e_g| - r(dq*), what one more step would
+still achieve (a loop stopped by its budget while still moving); ``stationary`` when nothing blocks
+and no step helps (the gradient J^T W e vanishes: the target is out of reach, or a local minimum);
+``infeasible`` when the step at q has no solution at all (its conflicting rows, :mod:`wbik.qp.elastic`);
+``start`` for a start outside the joint limits or breaking an inequality (moved back first).
+:meth:`Diagnosis.summary` says all that in one line, with what to change (``advice``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from dataclasses import field
+
+import numpy as np
+
+from wbik.errors import NoQPSolutionError
+from wbik.qp import backends
+from wbik.qp.elastic import ConflictRow
+from wbik.qp.elastic import conflict
+from wbik.qp.elastic import describe_rows
+from wbik.qp.hard_rows import HardRows
+from wbik.qp.hard_rows import group_key
+from wbik.qp.hard_rows import step_rows
+from wbik.qp.rows import RowLabel
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionBoxTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import RelativeFrameTask
+from wbik.qp.tasks import Task
+
+__all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines",
+           "start_violations"]
+
+ACTIVE = 1e-7
+"""A row is active when its multiplier exceeds this fraction of the largest one (and 1e-12)."""
+SHOWN = 3
+"""Blockers and conflicting tasks named in the summary (all are in the lists)."""
+
+
+@dataclass(frozen=True)
+class StartViolation:
+    """The start broke a hard constraint: a joint outside its limits (clipped into them before the
+    first step), the CoM outside the shrunk polygon, a pair closer than its safety distance (the
+    steps repair them first). ``value`` and ``bound`` in ``unit``."""
+
+    kind: str
+    subject: str
+    value: float
+    bound: float
+    unit: str
+    side: str = ""
+
+    @property
+    def text(self) -> str:
+        if self.kind == "joint limit":
+            sign = ">" if self.side == "upper" else "<"
+            return f"joint {self.subject} at {self.value:.4g} {self.unit} {sign} {self.bound:.4g}"
+        if self.kind == "support polygon":
+            return (f"CoM {self.value * 1e3:.3g} mm inside the support polygon < margin "
+                    f"{self.bound * 1e3:g} mm")
+        if self.kind == "collision":
+            return (f"collision pair {self.subject} at {self.value * 1e3:.3g} mm < safety "
+                    f"{self.bound * 1e3:g} mm")
+        return f"{self.subject} violated by {self.value:.3g} {self.unit}"
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "subject": self.subject, "side": self.side, "value": self.value,
+                "bound": self.bound, "unit": self.unit, "text": self.text}
+
+
+@dataclass(frozen=True)
+class Blocker:
+    """A hard constraint active at the answer that holds the goals back: its first row's label, the
+    number of its rows, its largest multiplier and its ``gain`` (see the module docstring)."""
+
+    label: RowLabel
+    rows: int
+    multiplier: float
+    gain: float
+
+    @property
+    def text(self) -> str:
+        label = self.label
+        kind, subject = label.kind, label.subject
+        if kind == "joint limit":
+            return f"joint {subject} at its {label.side} limit ({label.bound:.4g} rad)"
+        if kind == "velocity limit":
+            return f"the velocity limit of {subject} ({abs(label.bound):.3g} rad/s per step)"
+        if kind == "acceleration limit":
+            return f"the acceleration limit of {subject} ({abs(label.bound):.3g} rad/s^2)"
+        if kind == "locked joint":
+            return f"locked joint {subject}"
+        if kind == "contact":
+            return f"contact {subject}"
+        if kind == "support polygon":
+            return (f"CoM {label.value * 1e3:.3g} mm inside the edge {subject} of the support polygon "
+                    f"(margin {label.bound * 1e3:g} mm)")
+        if kind == "collision":
+            return f"collision pair {subject} at {label.value * 1e3:.3g} mm (safety {label.bound * 1e3:g} mm)"
+        if kind == "distance":
+            return f"minimum distance {subject} ({label.value:.4g} m, at least {label.bound:g} m)"
+        return f"{label.constraint} ({subject}{', ' + label.side if label.side else ''})"
+
+    def as_dict(self) -> dict:
+        label = self.label
+        return {"kind": label.kind, "constraint": label.constraint, "subject": label.subject,
+                "side": label.side, "value": label.value, "bound": label.bound, "unit": label.unit,
+                "rows": self.rows, "multiplier": self.multiplier, "gain": self.gain, "text": self.text}
+
+
+@dataclass(frozen=True)
+class TaskConflict:
+    """A task that holds unmet goals back: without it one step would bring them ``gain`` closer."""
+
+    task: str
+    priority: int
+    goal: bool
+    gain: float
+    holds_back: tuple[str, ...]
+    advice: str
+
+    @property
+    def text(self) -> str:
+        what = "goal" if self.goal else "not a goal"
+        return f"task {self.task} (priority {self.priority}, {what})"
+
+    def as_dict(self) -> dict:
+        return {"task": self.task, "priority": self.priority, "goal": self.goal, "gain": self.gain,
+                "holds_back": list(self.holds_back), "advice": self.advice, "text": self.text}
+
+
+@dataclass
+class Diagnosis:
+    """What blocks progress at a failed answer (see the module docstring); ``as_dict`` for JSON."""
+
+    goals: dict[str, float] = field(default_factory=dict)
+    unit: str = ""
+    step_gain: float = 0.0
+    blockers: list[Blocker] = field(default_factory=list)
+    tasks: list[TaskConflict] = field(default_factory=list)
+    infeasible: list[ConflictRow] = field(default_factory=list)
+    start: list[StartViolation] = field(default_factory=list)
+    stationary: bool = False
+    advice: list[str] = field(default_factory=list)
+
+    @property
+    def empty(self) -> bool:
+        return not (self.goals or self.blockers or self.tasks or self.infeasible or self.start
+                    or self.stationary or self.advice)
+
+    def _amount(self, value: float) -> str:
+        return _amount(value, self.unit)
+
+    def summary(self) -> str:
+        """One line: the start, the conflicting rows, the blockers, the tasks in conflict, the advice."""
+        parts = []
+        outside = [v.text for v in self.start if v.kind == "joint limit"]
+        broken = [v.text for v in self.start if v.kind != "joint limit"]
+        if outside:
+            parts.append("start outside limits: " + ", ".join(outside) + " (clipped into them first)")
+        if broken:
+            parts.append("the start breaks: " + ", ".join(broken) + " (the first steps repair it)")
+        if self.infeasible:
+            parts.append("the hard constraints of the step conflict: " + describe_rows(self.infeasible))
+        if self.blockers:
+            parts.append("blocked by: " + ", ".join(
+                f"{b.text} [{self._amount(b.gain)} per step]" for b in self.blockers[:SHOWN]))
+        if self.tasks:
+            parts.append("in conflict: " + ", ".join(
+                f"{t.text} [{self._amount(t.gain)} per step]" for t in self.tasks[:SHOWN]))
+        if self.advice:
+            parts.append("to converge: " + "; ".join(self.advice[:2]))
+        return "; ".join(parts)
+
+    def as_dict(self) -> dict:
+        return {"goals": dict(self.goals), "unit": self.unit, "step_gain": self.step_gain,
+                "blockers": [b.as_dict() for b in self.blockers],
+                "tasks": [t.as_dict() for t in self.tasks],
+                "infeasible": [r.as_dict() for r in self.infeasible],
+                "start": [s.as_dict() for s in self.start],
+                "stationary": self.stationary, "advice": list(self.advice), "summary": self.summary()}
+
+    def lines(self) -> list[str]:
+        """The diagnosis as lines for a terminal (:func:`report_lines`)."""
+        return report_lines(self.as_dict())
+
+
+def _amount(value: float, unit: str) -> str:
+    if unit == "m":
+        return f"{value * 1e3:.3g} mm"
+    if unit == "rad":
+        return f"{value * 1e3:.3g} mrad"
+    return f"{value:.3g} ({unit})" if unit else f"{value:.3g}"
+
+
+def report_lines(data: dict) -> list[str]:
+    """A diagnosis in its JSON form (``Diagnosis.as_dict()``, as a scenario report keeps it) as lines:
+    the start, the conflicting rows, each blocker and task in conflict with what relaxing it would gain
+    in one step, the advice."""
+    unit, lines = data.get("unit", ""), []
+    for item in data.get("start", []):
+        lines.append(f"start outside limits: {item['text']} (clipped into them first)"
+                     if item["kind"] == "joint limit" else
+                     f"the start breaks: {item['text']} (the first steps repair it)")
+    if data.get("infeasible"):
+        lines.append("the hard constraints of the step conflict (an irreducible set):")
+        lines += [f"  - {item['text']}" for item in data["infeasible"]]
+    if data.get("blockers"):
+        lines.append("blocked by (relaxing it alone would bring the goals closer by, in one step):")
+        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["blockers"]]
+    if data.get("tasks"):
+        lines.append("tasks in conflict with the goals (without it, one step closer by):")
+        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["tasks"]]
+    lines += [f"to converge: {item}" for item in data.get("advice", [])]
+    return lines
+
+
+def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
+    """The hard constraints q0 breaks (before the loop clips it into the joint limits): joints outside
+    their limits (beyond 1e-9), then, at the clipped q the kinematics stand at, inequalities (CoM margin,
+    collision pairs, distances)."""
+    from wbik.qp.constraints import CollisionAvoidance
+    from wbik.qp.constraints import CoMInSupportPolygon
+    from wbik.qp.constraints import InequalityConstraint
+    from wbik.qp.constraints import JointPositionLimits
+    from wbik.qp.constraints import tangent_names
+
+    found = []
+    names = tangent_names(problem.model)
+    for limits in problem.constraints:
+        if not isinstance(limits, JointPositionLimits):
+            continue
+        values = q0[limits.q_index]
+        for v, value, low, high in zip(limits.v_index.tolist(), values.tolist(), limits.lower.tolist(),
+                                       limits.upper.tolist(), strict=True):
+            if value > high + 1e-9:
+                found.append(StartViolation("joint limit", names[v], value, high, "rad", "upper"))
+            elif value < low - 1e-9:
+                found.append(StartViolation("joint limit", names[v], value, low, "rad", "lower"))
+    kinematics = problem.kinematics
+    for constraint in problem.constraints:
+        if not isinstance(constraint, InequalityConstraint):
+            continue
+        violation = float(constraint.violation(kinematics))
+        if violation <= 1e-9:
+            continue
+        if isinstance(constraint, CoMInSupportPolygon):
+            found.append(StartViolation("support polygon", constraint.name, constraint.com_margin(kinematics),
+                                        constraint.margin, "m"))
+        elif isinstance(constraint, CollisionAvoidance):
+            closest = constraint.minimum(kinematics)
+            found.append(StartViolation("collision", f"{closest.a}-{closest.b}", closest.distance,
+                                        constraint.safety, "m"))
+        else:
+            found.append(StartViolation(constraint.label_kind, constraint.name, violation, 0.0, "m"))
+    return found
+
+
+def _unit(tasks: list[Task]) -> str:
+    """The unit of the goals' errors: "m", "rad", "m, rad" (a pose, or a mix), "" (another task)."""
+    units = set()
+    for task in tasks:
+        if isinstance(task, PositionTask | ComTask | PositionBoxTask):
+            units.add("m")
+        elif isinstance(task, OrientationTask):
+            units.add("rad")
+        elif isinstance(task, FrameTask | RelativeFrameTask):
+            units.add("m, rad")
+        else:
+            units.add("")
+    if len(units) == 1:
+        return units.pop()
+    return "" if "" in units else "m, rad"
+
+
+class _Hierarchy:
+    """The step's levels as a QP per level over the labelled rows, with rows or one task left out."""
+
+    def __init__(self, problem, rows: HardRows):
+        step = problem.qp
+        self.nv, self.rows, self.backend = step.nv, rows, problem.backend
+        self.slack = problem.hierarchy_slack
+        self.levels = []
+        for level in step.levels:
+            damping = problem.damping + problem.lm_damping * level.goal_cost()
+            entries = []
+            for index, task in enumerate(level.tasks):
+                rows_eq, rows_in = level.slices[index], level.inequality_slices[index]
+                if rows_eq is not None:
+                    entries.append((task, False, level.jacobian[rows_eq].copy(), level.error[rows_eq].copy()))
+                elif rows_in is not None:
+                    entries.append((task, True, level.inequality_jacobian[rows_in].copy(),
+                                    level.inequality_error[rows_in].copy()))
+                else:
+                    entries.append((task, None, None, None))
+            self.levels.append((entries, damping))
+
+    @staticmethod
+    def error_after(task_entry, dq: np.ndarray) -> float:
+        task, inequality, jacobian, error = task_entry
+        after = error + jacobian @ dq
+        return float(np.linalg.norm(np.maximum(after, 0.0) if inequality else after))
+
+    def solve(self, upto: int, drop_rows: np.ndarray | None = None, drop_task: Task | None = None
+              ) -> tuple[np.ndarray, list[np.ndarray]]:
+        """dq through levels 0..upto and, per level, the multipliers of the labelled rows (zero for
+        dropped rows). Raises NoQPSolutionError."""
+        nv, rows = self.nv, self.rows
+        keep = np.ones(len(rows), dtype=bool) if drop_rows is None else ~drop_rows
+        kept_rows = rows.subset(keep)
+        G0, h0, A0, b0 = kept_rows.split()
+        inequality_index = np.flatnonzero(keep)[~kept_rows.equality]
+        equality_index = np.flatnonzero(keep)[kept_rows.equality]
+        extra_G, extra_h = [], []
+        dq, duals = np.zeros(nv), []
+        for entries, damping in self.levels[:upto + 1]:
+            hessian, gradient = np.eye(nv) * damping, np.zeros(nv)
+            soft_J, soft_b, soft_w, kept_eq = [], [], [], []
+            for task, inequality, jacobian, error in entries:
+                if task is drop_task:
+                    continue
+                if inequality is None:
+                    hessian += np.diag(task.constant_diagonal())
+                    kept_eq.append(np.diag(np.sqrt(task.constant_diagonal())))
+                    continue
+                scale = np.sqrt(task.weight)[:, None]
+                if inequality:
+                    soft_J.append(jacobian)
+                    soft_b.append(-task.gain * error)
+                    soft_w.append(np.maximum(task.weight, damping))
+                    continue
+                weighted = scale * jacobian
+                hessian += weighted.T @ weighted
+                gradient += weighted.T @ (scale[:, 0] * task.gain * error)
+                kept_eq.append(weighted)
+            count = sum(len(b) for b in soft_b)
+            n = nv + count
+            H = np.zeros((n, n))
+            H[:nv, :nv] = hessian
+            c = np.zeros(n)
+            c[:nv] = gradient
+            blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]
+            blocks_h = [] if G0 is None else [h0]
+            if extra_G:
+                padding = np.zeros((sum(len(h) for h in extra_h), count))
+                blocks_G.append(np.hstack((np.vstack(extra_G), padding)))
+                blocks_h.append(np.concatenate(extra_h))
+            if count:
+                J_soft = np.vstack(soft_J)
+                H[nv:, nv:] = np.diag(np.concatenate(soft_w))
+                blocks_G.append(np.hstack((J_soft, -np.eye(count))))
+                blocks_h.append(np.concatenate(soft_b))
+            G = np.vstack(blocks_G) if blocks_G else None
+            h = np.concatenate(blocks_h) if blocks_h else None
+            A = None if A0 is None else np.hstack((A0, np.zeros((len(b0), count))))
+            x, z, y = backends.solve_with_duals(self.backend, H, c, G, h, A, b0)
+            dq = x[:nv]
+            multipliers = np.zeros(len(rows))
+            if G0 is not None:
+                multipliers[inequality_index] = np.abs(z[:len(h0)])
+            if A0 is not None:
+                multipliers[equality_index] = np.abs(y)
+            duals.append(multipliers)
+            if kept_eq:  # keep what this level achieved (the step's hierarchy rows)
+                kept = np.vstack(kept_eq)
+                achieved = kept @ dq
+                extra_G += [kept, -kept]
+                extra_h += [achieved + self.slack, -achieved + self.slack]
+            if count:
+                bound = np.concatenate(soft_b)
+                extra_G.append(J_soft)
+                extra_h.append(np.maximum(J_soft @ dq - bound, 0.0) + bound + self.slack)
+        return dq, duals
+
+
+def diagnose(problem, reason: str = "", start: list[StartViolation] | None = None) -> Diagnosis:
+    """The diagnosis at the configuration ``problem`` (an :class:`wbik.qp.problem.IKProblem`) stands at
+    (see the module docstring)."""
+    step = problem.qp
+    step.fill_tasks()
+    diagnosis = Diagnosis(start=list(start or []))
+    unmet, deepest = [], -1
+    for level_index, level in enumerate(step.levels):
+        for index, task in enumerate(level.tasks):
+            if task.goal and level.error_norm(index) > task.tolerance:
+                unmet.append((level_index, index, task))
+                deepest = max(deepest, level_index)
+    diagnosis.goals = {task.name: step.levels[li].error_norm(i) for li, i, task in unmet}
+    diagnosis.unit = _unit([task for _, _, task in unmet])
+    rows = step_rows(step, 1.0, problem.max_step)
+    try:
+        hierarchy = _Hierarchy(problem, rows)
+        upto = deepest if unmet else len(step.levels) - 1
+        dq, duals = hierarchy.solve(upto)
+    except NoQPSolutionError:
+        diagnosis.infeasible = conflict(rows)
+        diagnosis.advice = _infeasible_advice(diagnosis.infeasible)
+        return diagnosis
+    if not unmet:
+        return diagnosis
+    goal_entries = {(li, i): hierarchy.levels[li][0][i] for li, i, _ in unmet}
+
+    def residual(step_dq: np.ndarray) -> float:
+        return sum(hierarchy.error_after(entry, step_dq) for entry in goal_entries.values())
+
+    base = residual(dq)
+    diagnosis.step_gain = sum(diagnosis.goals.values()) - base
+    scale = max(sum(diagnosis.goals.values()), 1e-300)
+    multipliers = np.max(np.vstack(duals[:deepest + 1]), axis=0)
+    threshold = max(1e-12, ACTIVE * float(multipliers.max(initial=0.0)))
+    groups: dict[tuple, list[int]] = {}
+    for index in np.flatnonzero(multipliers > threshold).tolist():
+        label = rows.labels[index]
+        if label.kind == "trust region":
+            continue
+        key = group_key(label)
+        if label.kind == "contact":
+            key = (*key[:3], "")
+        groups.setdefault(key, []).append(index)
+    masks = []
+    for indices in groups.values():  # (a group: every row of one constraint's subject and side)
+        mask = np.zeros(len(rows), dtype=bool)
+        mask[indices] = True
+        try:
+            relaxed, _ = hierarchy.solve(deepest, drop_rows=mask)
+        except NoQPSolutionError:
+            continue
+        masks.append(mask)
+        diagnosis.blockers.append(Blocker(rows.labels[indices[0]], len(indices),
+                                          float(multipliers[indices].max()), base - residual(relaxed)))
+    unmet_tasks = {id(task) for _, _, task in unmet}
+    for level_index, (entries, _) in enumerate(hierarchy.levels[:deepest + 1]):
+        for entry in entries:
+            task = entry[0]
+            if id(task) in unmet_tasks and len(unmet) == 1:
+                continue
+            try:
+                relaxed, _ = hierarchy.solve(deepest, drop_task=task)
+            except NoQPSolutionError:
+                continue
+            others = [(key, e) for key, e in goal_entries.items() if e[0] is not task]
+            gain = (sum(hierarchy.error_after(e, dq) for _, e in others)
+                    - sum(hierarchy.error_after(e, relaxed) for _, e in others))
+            if gain <= max(1e-12, 1e-3 * scale):
+                continue
+            held = tuple(e[0].name for _, e in others)
+            goal_level = min(key[0] for key, _ in others)
+            diagnosis.tasks.append(TaskConflict(task.name, task.priority, task.goal, gain, held,
+                                                _task_advice(task, level_index, goal_level, held, step)))
+    diagnosis.tasks.sort(key=lambda t: -t.gain)
+    # a blocker holds the goals back on its own: with the non-goal task that conflicts most with them
+    # left out as well (a posture on their level), relaxing it must still bring them closer; an active
+    # row whose relaxation does not (it holds back other tasks only), or brings them under 1 % of the
+    # largest gain closer, is left out
+    top = next((t for t in diagnosis.tasks if not t.goal), None)
+    if top is not None:
+        task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
+        try:
+            alone = residual(hierarchy.solve(deepest, drop_task=task)[0])
+            gains = []
+            for mask in masks:
+                gains.append(alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0]))
+        except NoQPSolutionError:
+            gains = [b.gain for b in diagnosis.blockers]
+        diagnosis.blockers = [b for b, own in zip(diagnosis.blockers, gains, strict=True)
+                              if own > max(1e-12, 1e-6 * scale, 1e-3 * alone)]
+    largest = max((b.gain for b in diagnosis.blockers), default=0.0)
+    floor = max(1e-12, 1e-6 * scale, 0.01 * largest)
+    diagnosis.blockers = sorted((b for b in diagnosis.blockers if b.gain > floor), key=lambda b: -b.gain)
+    diagnosis.stationary = (not diagnosis.blockers and not diagnosis.tasks
+                            and diagnosis.step_gain <= max(1e-12, 1e-6 * scale))
+    diagnosis.advice = _advice(diagnosis, reason, problem)
+    return diagnosis
+
+
+def _priority_below(step, level_index: int) -> int:
+    """The priority number of the level just below ``level_index`` (a new one if it is the last)."""
+    priorities = [level.tasks[0].priority for level in step.levels if level.tasks]
+    own = priorities[level_index] if level_index < len(priorities) else 0
+    lower = [p for p in priorities if p > own]
+    return min(lower) if lower else own + 1
+
+
+def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str, ...], step) -> str:
+    goals = ", ".join(held)
+    if level_index == goal_level and not task.goal:
+        return (f"move {task.name} to a lower priority level (priority={_priority_below(step, goal_level)}) "
+                f"so that it acts only in the null space of {goals}, or lower its weight")
+    if level_index == goal_level:
+        return (f"{task.name} and {goals} conflict on one level: give the one that matters more a higher "
+                "priority")
+    return (f"{task.name} (priority {task.priority}) takes precedence over {goals}: give {goals} its "
+            "priority, or free the higher level")
+
+
+def _infeasible_advice(rows: list[ConflictRow]) -> list[str]:
+    kinds = {row.label.kind for row in rows}
+    if "trust region" in kinds and "contact" in kinds:
+        return ["the contacts drift more than one step may repair: project onto them first "
+                "(IKProblem.project) or allow a larger step (max_step)"]
+    if "locked joint" in kinds:
+        return ["unlock a joint the conflicting rows need, or drop one of the conflicting constraints"]
+    return ["drop or relax one of the conflicting constraints (each of them is needed for the conflict)"]
+
+
+def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
+    advice = []
+    for conflict_task in diagnosis.tasks[:1]:
+        advice.append(conflict_task.advice)
+    for blocker in diagnosis.blockers[:2]:
+        label = blocker.label
+        if label.kind == "joint limit":
+            advice.append(f"the goal needs {label.subject} beyond its {label.side} limit: bring the target "
+                          "within the joints' range")
+        elif label.kind == "support polygon":
+            advice.append(f"the CoM is held at the support polygon's edge {label.subject}: bring the target "
+                          f"closer, lower the margin ({label.bound * 1e3:g} mm) or widen the support")
+        elif label.kind == "contact":
+            advice.append(f"the contact {label.subject} holds the body: the goal needs it to move "
+                          "(release it or step)")
+        elif label.kind in ("collision", "distance"):
+            advice.append(f"{label.subject} is at its safety distance: the goal is behind it")
+        elif label.kind in ("velocity limit", "acceleration limit"):
+            advice.append(f"the {label.kind} of {label.subject} bounds each step: more iterations "
+                          "(max_iterations) reach further")
+    scale = sum(diagnosis.goals.values())
+    if diagnosis.step_gain > max(1e-9, 1e-3 * scale) and "no convergence" in reason:
+        advice.append("the steps still reduce the goal error: a larger budget (max_iterations) goes further")
+    if diagnosis.stationary:
+        advice.append("no constraint is active and no task conflicts: the goal error is at a stationary "
+                      "point (the target is out of reach, or a local minimum): try another start q0")
+    seen, unique = set(), []
+    for item in advice:
+        if item not in seen:
+            seen.add(item)
+            unique.append(item)
+    return unique
+

@@ -1,0 +1,151 @@
+"""Why a step has no solution: a small set of its hard rows that conflict, by an elastic re-solve.
+
+Every row of the step (:class:`wbik.qp.hard_rows.HardRows`, M dq <= u; an equality as two rows) gets a
+slack s >= 0, and the least total violation is found by a linear program (scipy's HiGHS):
+
+    min_{dq, s}  sum_i s_i   s.t.   M dq - s <= u,   s >= 0.                         (elastic L1 LP)
+
+Its optimum is 0 exactly when the rows are compatible. When it is positive, the LP's dual y
+(0 <= y <= 1, M^T y = 0, u^T y < 0) is a Farkas certificate: the rows with y_i > 0 cannot hold
+together. A deletion filter then shrinks that set to an irreducible one: each row in turn is left
+out, and stays out if the others still conflict (the same LP over them has a positive optimum).
+What remains is an irreducible infeasible subsystem (IIS): the rows conflict, and without any one
+of them the rest hold. ``violation`` is each row's slack in the elastic optimum (m or rad of the
+step): how far from holding it was left when all rows were relaxed at once.
+
+Run only when a step has failed (a few LPs of nv + m variables: milliseconds on a humanoid).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linprog
+
+from wbik.qp.hard_rows import HardRows
+from wbik.qp.hard_rows import group_key
+from wbik.qp.rows import RowLabel
+
+CONFLICT_TOLERANCE = 1e-9
+"""Total violation (m or rad of one step) above which rows conflict."""
+
+
+@dataclass(frozen=True)
+class ConflictRow:
+    """One row of the conflicting set: its label and its slack in the elastic optimum."""
+
+    label: RowLabel
+    violation: float
+
+    @property
+    def text(self) -> str:
+        return describe_row(self.label)
+
+    def as_dict(self) -> dict:
+        label = self.label
+        return {"constraint": label.constraint, "kind": label.kind, "subject": label.subject,
+                "side": label.side, "value": label.value, "bound": label.bound, "unit": label.unit,
+                "violation": self.violation, "text": self.text}
+
+
+def describe_row(label: RowLabel) -> str:
+    """A row in words: "joint arm_right_4_joint upper limit (0 rad, at 0.12)", "contact right_sole_link
+    (x, drift 4.3 mm)", ..."""
+    kind, subject, side = label.kind, label.subject, label.side
+    if kind == "joint limit":
+        return f"joint {subject} {side} limit ({label.bound:.4g} rad; at {label.value:.4g})"
+    if kind == "velocity limit":
+        return f"velocity limit of {subject} ({side}, {abs(label.bound):.3g} rad/s)"
+    if kind == "acceleration limit":
+        return f"acceleration limit of {subject} ({side}, {abs(label.bound):.3g} rad/s^2)"
+    if kind == "locked joint":
+        return f"locked joint {subject}"
+    if kind == "trust region":
+        return f"the step box on {subject} ({side}, |dq| <= {label.bound:.2g})"
+    if kind == "contact":
+        drift = f", drift {abs(label.value) * 1e3:.3g} {'mm' if label.unit == 'm' else 'mrad'}" \
+            if math.isfinite(label.value) else ""
+        return f"contact {subject} ({side}{drift})"
+    if kind == "support polygon":
+        return f"CoM {label.value * 1e3:.3g} mm inside the edge {subject} (margin {label.bound * 1e3:g} mm)"
+    if kind == "collision":
+        return f"collision pair {subject} at {label.value * 1e3:.3g} mm (safety {label.bound * 1e3:g} mm)"
+    if kind == "distance":
+        return f"distance {subject} {label.value:.4g} m (at least {label.bound:g} m)"
+    return f"{label.constraint} {subject}{' ' + side if side else ''}"
+
+
+def describe_rows(rows: Sequence[ConflictRow]) -> str:
+    """The rows in words; the axes of one contact are named together ("contact r_sole (x, z; drift
+    4.3 mm)")."""
+    groups: dict[tuple, list[RowLabel]] = {}
+    for row in rows:
+        key = group_key(row.label)
+        groups.setdefault(key if row.label.kind != "contact" else (*key[:3], ""), []).append(row.label)
+    parts = []
+    for labels in groups.values():
+        first = labels[0]
+        if first.kind == "contact" and len(labels) > 1:
+            drifts = [abs(label.value) for label in labels if math.isfinite(label.value)]
+            unit = "mm" if first.unit == "m" else "mrad"
+            drift = f"; drift up to {max(drifts) * 1e3:.3g} {unit}" if drifts else ""
+            parts.append(f"contact {first.subject} ({', '.join(label.side for label in labels)}{drift})")
+        else:
+            parts.append(describe_row(first))
+    return "; ".join(parts)
+
+
+def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, np.ndarray] | None:
+    """(optimum, slacks s, duals y >= 0) of the elastic LP over M dq <= u, or None if HiGHS fails."""
+    count, nv = matrix.shape
+    if count == 0:
+        return 0.0, np.zeros(0), np.zeros(0)
+    scale = max(1.0, float(np.abs(matrix).max()))
+    cost = np.concatenate((np.zeros(nv), np.ones(count)))
+    constraints = np.hstack((matrix / scale, -np.eye(count) / scale))
+    bounds = [(None, None)] * nv + [(0.0, None)] * count
+    result = linprog(cost, A_ub=constraints, b_ub=upper / scale, bounds=bounds, method="highs")
+    if result.status != 0:
+        return None
+    slacks = result.x[nv:]
+    duals = -np.asarray(result.ineqlin.marginals, dtype=float) / scale
+    return float(result.fun), slacks, duals
+
+
+def least_violation(rows: HardRows) -> float:
+    """The elastic LP's optimum: the least total violation of the rows (0 when they hold together)."""
+    matrix, upper, _ = rows.as_inequalities()
+    found = _elastic(matrix, upper)
+    return math.inf if found is None else found[0]
+
+
+def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
+             max_rows: int = 60) -> list[ConflictRow]:
+    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``);
+    see the module docstring. The deletion filter runs over at most ``max_rows`` candidates (the
+    certificate's rows, largest multipliers first); beyond that the set is the certificate's, not
+    shrunk."""
+    matrix, upper, owner = rows.as_inequalities()
+    found = _elastic(matrix, upper)
+    if found is None or found[0] <= tolerance:
+        return []
+    _, slacks, duals = found
+    support = np.flatnonzero(duals > 1e-9)
+    if support.size == 0:
+        support = np.flatnonzero(slacks > tolerance)
+    order = support[np.argsort(-duals[support])]
+    if order.size <= max_rows:
+        kept = list(order)
+        for candidate in list(order):
+            trial = [row for row in kept if row != candidate]
+            found_without = _elastic(matrix[trial], upper[trial])
+            if found_without is not None and found_without[0] > tolerance:
+                kept = trial
+        order = np.array(kept, dtype=int)
+    result = []
+    for index in sorted(order.tolist(), key=lambda i: owner[i]):
+        result.append(ConflictRow(rows.labels[owner[index]], float(slacks[index])))
+    return result

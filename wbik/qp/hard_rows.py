@@ -1,0 +1,134 @@
+"""The hard rows of one QP step, each with its label: what the diagnoses of a failed solve read.
+
+The step stacks its constraints into ``lb <= dq <= ub`` and general rows ``A dq = b``, ``G dq <= h``
+(:class:`wbik.qp.backends.StackedConstraints`), merging the bounds of several constraints on one
+coordinate. :func:`step_rows` rebuilds the same system at the kinematics' q as one list of rows
+
+    M dq <= u   (or = u for an equality row),   one :class:`~wbik.qp.rows.RowLabel` per row,
+
+with each finite bound written as its own row (+dq_j <= ub_j, -dq_j <= -lb_j) and labelled by the
+constraint that set it: the tightest of the position, velocity and acceleration bounds, the step box
+(kind "trust region") where none of them is tighter, the locked joint. The values are the stack's own
+(after ``close_box`` and the give-way of a joint outside its range), so the rows are exactly those the
+backend saw; violated inequality rows are relaxed to "do not get worse" (h -> max(h, 0)), the step's
+last resort, unless ``relax`` is False.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.qp.constraints import tangent_names
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import RowLabel
+
+INFINITE = 1e29
+"""A bound at or beyond this is no bound (the stack writes 1e30 for none)."""
+
+
+@dataclass
+class HardRows:
+    """M dq <= u (``equality``: M dq = u), one label per row (m rows, nv columns)."""
+
+    matrix: np.ndarray
+    upper: np.ndarray
+    equality: np.ndarray
+    labels: list[RowLabel]
+
+    def __len__(self) -> int:
+        return len(self.labels)
+
+    def subset(self, keep: np.ndarray | Iterable[int]) -> HardRows:
+        """The rows ``keep`` (a boolean mask or indices)."""
+        keep = np.asarray(keep)
+        if keep.dtype != bool:
+            keep = np.isin(np.arange(len(self)), keep)
+        return HardRows(self.matrix[keep], self.upper[keep], self.equality[keep],
+                        [label for label, kept in zip(self.labels, keep.tolist(), strict=True) if kept])
+
+    def split(self) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """(G, h, A, b) for a backend (None for an empty block)."""
+        inequality = ~self.equality
+        G, h = (self.matrix[inequality], self.upper[inequality]) if inequality.any() else (None, None)
+        equality = self.equality
+        A, b = (self.matrix[equality], self.upper[equality]) if equality.any() else (None, None)
+        return G, h, A, b
+
+    def as_inequalities(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(M', u', owner): every equality row as two inequality rows (M dq <= u, -M dq <= -u);
+        ``owner`` maps each row of M' to its row here."""
+        equality = np.flatnonzero(self.equality)
+        matrix = np.vstack((self.matrix, -self.matrix[equality]))
+        upper = np.concatenate((self.upper, -self.upper[equality]))
+        owner = np.concatenate((np.arange(len(self)), equality))
+        return matrix, upper, owner
+
+
+def group_key(label: RowLabel) -> tuple[str, str, str, str]:
+    """Rows that a diagnosis names together: a bound by its coordinate and side, a contact by its frame
+    (all axes), any other row by its subject (a polygon edge, a pair)."""
+    side = label.side if label.side in ("lower", "upper") else ""
+    return label.constraint, label.kind, label.subject, side
+
+
+def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
+    """The labelled rows of ``step`` (a :class:`wbik.qp.step.QPStep`) at its kinematics' q (see the
+    module docstring); ``radius``: the step box."""
+    stack = step.build_constraints(dt, radius)
+    kinematics, nv = step.kinematics, step.nv
+    general: list[RowLabel] = []
+    candidates: list[list[tuple[float, float, RowLabel, RowLabel]]] = [[] for _ in range(nv)]
+    for constraint in step.constraints:
+        rows = constraint.rows(kinematics, dt)
+        labels = constraint.labels(kinematics, rows)
+        if isinstance(rows, BoundRows):
+            indices = np.arange(nv)[rows.index]
+            lower = np.broadcast_to(np.asarray(rows.lower, dtype=float), indices.shape)
+            upper = np.broadcast_to(np.asarray(rows.upper, dtype=float), indices.shape)
+            for j, low, high, (low_label, high_label) in zip(indices.tolist(), lower.tolist(), upper.tolist(),
+                                                             labels, strict=True):
+                candidates[j].append((low, high, low_label, high_label))
+        else:
+            count = len(rows[1])
+            if len(labels) != count:  # (a constraint whose labels do not match its rows: generic ones)
+                labels = [RowLabel(constraint.name, constraint.label_kind, f"row {i}") for i in range(count)]
+            general.extend(labels)
+    names = tangent_names(kinematics.model)
+    lb, ub = stack.lower[:nv].copy(), stack.upper[:nv].copy()
+    matrices, uppers, labels = [], [], []
+    for j in range(nv):
+        for side, value in (("lower", lb[j]), ("upper", ub[j])):
+            if abs(value) >= INFINITE:
+                continue
+            label = _bound_label(candidates[j], side, value, radius, names[j])
+            row = np.zeros(nv)
+            row[j] = 1.0 if side == "upper" else -1.0
+            matrices.append(row)
+            uppers.append(value if side == "upper" else -value)
+            labels.append(label)
+    equality = stack.sense[nv:] == 5
+    upper = stack.upper[nv:].copy()
+    if relax:
+        upper[~equality] = np.maximum(upper[~equality], 0.0)
+    bound_matrix = np.array(matrices).reshape(-1, nv)
+    return HardRows(np.vstack((bound_matrix, stack.matrix)), np.concatenate((uppers, upper)),
+                    np.concatenate((np.zeros(len(uppers), dtype=bool), equality)), labels + general)
+
+
+def _bound_label(candidates: list, side: str, value: float, radius: float, name: str) -> RowLabel:
+    """The label of the bound ``value`` on one side of a coordinate: the constraint that set it (the
+    closest of ``candidates``, preferring a constraint to the step box on a tie)."""
+    lower_side = side == "lower"
+    best, best_gap = None, np.inf
+    for low, high, low_label, high_label in candidates:
+        bound, label = (low, low_label) if lower_side else (high, high_label)
+        gap = abs(bound - value)
+        if gap < best_gap:
+            best, best_gap = label, gap
+    box_gap = abs(abs(value) - radius)
+    if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and box_gap <= best_gap):
+        return RowLabel("step box", "trust region", name, side, float("nan"), radius, "")
+    return best
