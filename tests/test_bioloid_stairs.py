@@ -216,7 +216,7 @@ def test_step_down_only_after_three_climbs_and_two_low_reads():
 
 
 # -- the stair run ----------------------------------------------------------------------------------
-def test_stair_scenario_reaches_the_top():
+def test_stair_scenario_goes_up_and_down_again():
     from wbik.scenarios import load_scenario
     from wbik.scenarios import run_scenario_animated
 
@@ -224,20 +224,24 @@ def test_stair_scenario_reaches_the_top():
     report, animation = run_scenario_animated(spec, source="tasks/bioloid_stairs.yaml")
     assert report["passed"], report["verdict"]
     entry = report["behaviours"][0]
-    steps, height = spec["stairs"]["steps"], spec["stairs"]["height"]
+    steps = spec["stairs"]["steps"]
+    assert spec["stairs"]["descend"]
     assert entry["climbed"] == steps and entry["reached_top"]
-    assert entry["states"].count("UpStair") == steps
+    assert entry["descended"] == steps and entry["reached_bottom"]
+    assert entry["states"].count("UpStair") == steps and entry["states"].count("DownStair") == steps
     margin = float(spec["margin"])
     robot = animation.robot
     for record in entry["per_sample"]:
         assert record["com_margin_m"] >= margin - 1e-9
         assert record["clearance_m"] is None or record["clearance_m"] >= 0.0
         assert record["penetration_m"] <= 1e-6
-    # independent FK: both soles end flat on the top tread, the CoM inside their hull by the margin
+    # independent FK: both soles end flat on the floor beyond the staircase, the CoM inside their hull
+    stairs_geometry = Staircase(**spec["stairs"])
     final = animation.configurations[-1]
     for sole in ("r_sole", "l_sole"):
         placement = robot.frame_placement(final, sole)
-        assert placement.translation[2] == pytest.approx(steps * height, abs=1e-6)
+        assert placement.translation[2] == pytest.approx(0.0, abs=1e-6)
+        assert placement.translation[0] - 0.05 > stairs_geometry.end_x  # the heel past the last riser
         assert placement.rotation[2, 2] == pytest.approx(1.0, abs=1e-9)
     assert hull_margin(robot, final, ("r_sole", "l_sole")) >= margin - 1e-9
     # the Sharp readings seen by the machine: proximity (both < 100) before the first climb
@@ -245,9 +249,17 @@ def test_stair_scenario_reaches_the_top():
     first_up = next(i for i, r in enumerate(reads) if r["after"] == "UpStair")
     assert any(max(r["sharp_mm"].values()) < 100 for r in reads[:first_up])
     assert any(max(r["sharp_mm"].values()) > 120 for r in reads[:first_up])
-    # FSRs: at a read both feet stand, so every front sensor is well above PSThreshold
-    assert all(min(min(v) for v in r["front_fsr_mv"].values()) > sensors.PS_THRESHOLD for r in reads)
-    assert animation.frames == len(entry["per_sample"])
+    # FSRs: on the way up both feet stand wholly on a tread at every read, every front sensor well above
+    # PSThreshold; before each DownStair a foot over the nose read both front sensors under it, twice
+    last_up = max(i for i, r in enumerate(reads) if r["after"] == "UpStair")
+    front = [min(min(v) for v in r["front_fsr_mv"].values()) for r in reads[:last_up]]
+    assert all(value > sensors.PS_THRESHOLD for value in front)
+    downs = [i for i, r in enumerate(reads) if r["after"] == "DownStair"]
+    assert len(downs) == steps
+    for index in downs:
+        before = [r for r in reads[:index] if r["after"] not in ("DownStair", "UpStair")][-2:]
+        assert any(all(max(r["front_fsr_mv"][side]) < sensors.PS_THRESHOLD for r in before) for side in "rl")
+    assert animation.frames <= len(entry["per_sample"])
 
 
 def test_a_foot_into_a_riser_is_refused(robot):

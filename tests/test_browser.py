@@ -105,3 +105,41 @@ def test_walk_scenario_page_draws_the_robot():
     empty = render_checked(viewer, "bioloid_walk_turn_without_robot")
     grey_empty = (empty.min(axis=2) > 120) & (empty.max(axis=2) - empty.min(axis=2) < 25)
     assert np.count_nonzero(grey) - np.count_nonzero(grey_empty) > 3000, "the walking robot was not drawn"
+
+
+def wood_pixels(image: np.ndarray) -> int:
+    """Pixels of the staircase's wood browns (wbik.viz.environment.STAIR_COLORS), any shading: red
+    above green above blue, all three well apart (the robot is grey, the sky blue, the grid grey)."""
+    red, green, blue = image[..., 0], image[..., 1], image[..., 2]
+    return int(np.count_nonzero((red > 70) & (red > 1.15 * green) & (green > 1.2 * blue) & (red - blue > 40)))
+
+
+def test_stair_walk_page_shows_the_staircase_and_the_floor_under_the_feet():
+    """``wbik view tasks/bioloid_stairs.yaml``: the page draws the staircase (not only the robot), the
+    floor grid at the soles' height, the camera on the robot (one step up and down, to keep it short)."""
+    from wbik.scenarios import load_scenario
+    from wbik.viz.environment import STAIR_COLORS
+    from wbik.viz.scenario import animation_viewer
+    from wbik.viz.scenario import scenario_animation
+
+    task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_stairs.yaml"
+    spec = load_scenario(task)
+    spec["stairs"].update(steps=1, top_depth=0.2)
+    report, animation = scenario_animation(task, spec)
+    assert report.verdict == "PASSED" and {box.name for box in animation.environment} == {"stair step 1"}
+    viewer = animation_viewer(animation)
+    image = render_checked(viewer, "bioloid_stairs_page")
+    colour = STAIR_COLORS[0]
+    assert wood_pixels(np.array([[[colour >> 16, (colour >> 8) & 255, colour & 255]]])) == 1
+    wood = wood_pixels(image)
+    assert wood > 5000, f"only {wood} staircase-coloured pixels: the staircase was not drawn"
+    # the wood is the staircase's: hidden, it goes
+    viewer.meshcat["wbik/environment"].set_property("visible", False)
+    assert wood - wood_pixels(render_checked(viewer, "bioloid_stairs_page_without_steps")) > 5000
+    # the grid lies under the feet (the soles on the floor at z = 0), scaled to the robot
+    import umsgpack
+
+    commands = [umsgpack.unpackb(c) for c in viewer.window.commands()]
+    grid = next(c for c in commands if c["path"] == "/Grid")
+    matrix = np.array(grid["matrix"]).reshape(4, 4).T  # meshcat sends column-major
+    assert matrix[2, 3] == pytest.approx(-1e-4, abs=1e-9) and matrix[0, 0] == pytest.approx(viewer.grid_scale)

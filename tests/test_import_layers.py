@@ -282,3 +282,19 @@ def test_no_cycle_inside_the_study_counting_function_level_imports():
     cycles = _cycles(edges)
     details = [_where(i for i in inside if i.source in c and i.target in c) for c in cycles]
     assert not cycles, "study modules importing each other (top or function level):\n" + "\n\n".join(details)
+
+
+def test_the_core_names_no_application_not_even_in_a_string():
+    """Applications plug in from outside (entry points, wbik.registry.plugin_modules): no module outside
+    wbik/apps names one, by import or in any string (a registry list, a docstring, a comment-like
+    string)."""
+    named = []
+    for name, (path, _) in _modules().items():
+        if _within(name, ("wbik.apps",)):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and (
+                    "wbik.apps" in node.value or "wbik/apps" in node.value):
+                named.append(f"{name}:{node.lineno}: {node.value.strip()[:80]!r}")
+    assert not named, "the core names an application (declare it as an entry point instead):\n" + \
+        "\n".join(named)

@@ -53,13 +53,10 @@ __all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioKind", "Scenario
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
     "wbik.motion.scenarios",  # motion_joint, motion_cartesian
-    "wbik.apps.pincher.scenarios",  # pincher_motion
-    "wbik.apps.golem3.scenarios",  # golem3_approach
-    "wbik.apps.bioloid.scenarios",  # bioloid_step, _walk, _turn, _keyframes, _placo_walk, _half_steps,
-    #                                 _stairs, bioloid_stance_sensors
-    "wbik.apps.riveting.scenarios",  # ur5_riveting
+    "wbik.motion.walking.scenario",  # walk
 ]
-"""The modules whose ``SCENARIO_KINDS`` are registered (a new module of kinds: one line here)."""
+"""The core's modules whose ``SCENARIO_KINDS`` are registered (a new module of kinds: one line here);
+applications add theirs through the entry-point group ``wbik.scenario_kinds`` (pyproject.toml)."""
 
 VERDICTS = ("PASSED", "FAILED", "informational")
 
@@ -257,6 +254,7 @@ def _unknown_kind(name: str, known: list[str]) -> WbikError:
 KIND_REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
     "scenario kind", "SCENARIO_KINDS", KIND_MODULES, "wbik.scenarios.kinds.KIND_MODULES", ScenarioKind,
     unknown=_unknown_kind, error=ScenarioKindError, import_error=ScenarioKindImportError,
+    plugins="wbik.scenario_kinds",
 )
 
 

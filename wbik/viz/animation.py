@@ -4,7 +4,9 @@ A robot (the runner's own ``wbik.robot.Robot``, so ``robot_params`` hold), sampl
 strictly increasing, a single sample is a still picture), the full configuration of the robot at
 each sample, and what to draw along (:class:`Overlays`): a traced frame, the soles on the ground at
 each sample (the viewer draws the CoM, its ground projection and the support polygon of those
-soles) and the frames held in contact at each sample (markers).
+soles), the frames held in contact at each sample (markers), a ZMP at each sample (a marker on the
+ground, with its path), and the scene's fixed boxes (``environment``: a staircase, a table, a
+workpiece; :class:`wbik.viz.environment.SceneBox`).
 
 The viewer (:meth:`wbik.viz.viewer.Viewer.play_animation`) plays it as meshcat keyframes; three.js
 interpolates between samples, so a runner gives its knots, not a dense grid. Helpers build one from
@@ -25,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.viz.environment import SceneBox
 
 Feet = tuple[str, ...]
 
@@ -43,22 +46,26 @@ def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
 class Overlays:
     """What is drawn with the robot: ``trace_frame`` (its path as a line, a marker riding along);
     ``support`` (soles on the ground per sample: CoM, ground projection, support polygon);
-    ``contacts`` (frames held in contact per sample: markers)."""
+    ``contacts`` (frames held in contact per sample: markers); ``zmp`` (K, 3) a ZMP per sample on the
+    ground (world, m; NaN rows where there is none)."""
 
     trace_frame: str | None = None
     support: tuple[Feet, ...] | None = None
     contacts: tuple[Feet, ...] | None = None
+    zmp: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
 class Animation:
-    """Full configurations of ``robot`` at ``times`` (s), with :class:`Overlays`."""
+    """Full configurations of ``robot`` at ``times`` (s), with :class:`Overlays` and the scene's fixed
+    boxes (``environment``)."""
 
     robot: object
     times: np.ndarray
     configurations: np.ndarray
     overlays: Overlays = field(default_factory=Overlays)
     name: str = ""
+    environment: tuple[SceneBox, ...] = ()
 
     def __post_init__(self) -> None:
         times = np.asarray(self.times, dtype=float).reshape(-1)
@@ -76,11 +83,21 @@ class Animation:
         if np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError(f"animation {self.name!r}: times must be strictly increasing")
         overlays = self.overlays
+        zmp = overlays.zmp
+        if zmp is not None:
+            zmp = np.asarray(zmp, dtype=float)
+            if zmp.shape != (len(times), 3):
+                raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
+                                                f"sample ({len(times)}, 3), got {zmp.shape}")
+        boxes = tuple(self.environment)
+        if not all(isinstance(box, SceneBox) for box in boxes):
+            raise InvalidConfigurationError(f"animation {self.name!r}: environment items must be SceneBox")
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "configurations", rows)
+        object.__setattr__(self, "environment", boxes)
         object.__setattr__(self, "overlays", replace(
             overlays, support=_per_sample(overlays.support, len(times), "support"),
-            contacts=_per_sample(overlays.contacts, len(times), "contacts")))
+            contacts=_per_sample(overlays.contacts, len(times), "contacts"), zmp=zmp))
 
     @property
     def frames(self) -> int:
@@ -136,6 +153,11 @@ class Animation:
                             tuple(held) if contacts is not None else None)
         return cls(robot, np.array(times), np.array(rows), overlays, name)
 
+    def with_environment(self, boxes) -> Animation:
+        """The same animation with the scene's fixed boxes ``boxes`` (SceneBox) added (by name)."""
+        merged = {box.name: box for box in (*self.environment, *boxes)}
+        return replace(self, environment=tuple(merged.values()))
+
     # -- combining and thinning -------------------------------------------------------------------
     def then(self, other: Animation, pause: float = 0.5) -> Animation:
         """This animation, then ``other`` starting ``pause`` s after this one ends."""
@@ -152,12 +174,17 @@ class Animation:
             return (a or ((),) * count_a) + (b or ((),) * count_b)
 
         mine, theirs = self.overlays, other.overlays
+        zmp = None
+        if mine.zmp is not None or theirs.zmp is not None:
+            zmp = np.vstack([mine.zmp if mine.zmp is not None else np.full((self.frames, 3), np.nan),
+                             theirs.zmp if theirs.zmp is not None else np.full((other.frames, 3), np.nan)])
         overlays = Overlays(mine.trace_frame or theirs.trace_frame,
                             joined(mine.support, theirs.support, self.frames, other.frames),
-                            joined(mine.contacts, theirs.contacts, self.frames, other.frames))
+                            joined(mine.contacts, theirs.contacts, self.frames, other.frames), zmp)
         name = " + ".join(n for n in (self.name, other.name) if n)
+        boxes = {box.name: box for box in (*self.environment, *other.environment)}
         return Animation(self.robot, times, np.vstack([self.configurations, other.configurations]),
-                         overlays, name)
+                         overlays, name, tuple(boxes.values()))
 
     def subsampled(self, every: int) -> Animation:
         """Every ``every``-th sample (the last one kept)."""
@@ -180,6 +207,8 @@ class Animation:
         def pick(rows):
             return None if rows is None else tuple(rows[i] for i in index)
 
+        zmp = self.overlays.zmp
         overlays = replace(self.overlays, support=pick(self.overlays.support),
-                           contacts=pick(self.overlays.contacts))
-        return Animation(self.robot, self.times[index], self.configurations[index], overlays, self.name)
+                           contacts=pick(self.overlays.contacts), zmp=None if zmp is None else zmp[index])
+        return Animation(self.robot, self.times[index], self.configurations[index], overlays, self.name,
+                         self.environment)

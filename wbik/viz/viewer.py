@@ -11,7 +11,12 @@ with ``viewer.close()`` or a ``with`` block. In a notebook the viewer displays i
 (``_repr_html_``, an iframe holding the exported page: no server needed).
 
 Robot geometry is loaded with Pinocchio's MeshcatVisualizer (meshes, primitives, URDF colours);
-robots without visuals are drawn as sticks (see ``wbik.viz.geometry``).
+robots without visuals are drawn as sticks (see ``wbik.viz.geometry``). The fixed boxes of the robot's
+cell (its package's ``collision_obstacles()``, the UR5's table) and of an animation's scene (a
+staircase, a workpiece: ``Animation.environment``) are drawn with it (:meth:`Viewer.show_environment`).
+Meshcat's floor grid is put under the robot: at the height of its soles when it has feet, else under
+the lowest box of the scene; the camera frames the robot (over the whole motion when an animation
+plays).
 """
 
 from __future__ import annotations
@@ -33,6 +38,8 @@ from wbik.robot import Chain
 from wbik.robot import Robot
 from wbik.targets import as_target
 from wbik.viz import geometry as robot_geometry
+from wbik.viz.environment import SceneBox
+from wbik.viz.environment import robot_cell
 from wbik.viz.scene import SceneRecorder
 from wbik.viz.scene import ServerWindow
 
@@ -45,6 +52,7 @@ TRACE_COLOR = 0xEEBB00
 INSIDE_COLOR = 0x22AA44
 OUTSIDE_COLOR = 0xDD2222
 CONTACT_COLOR = 0x2288EE
+ZMP_COLOR = 0xFF7F00
 POLYGON_TOLERANCE = 0.005
 """m: an animation's support polygon is drawn anew when its soles change or move more than this
 (samples interpolated between solved keyframes let a held sole drift a little)."""
@@ -96,7 +104,10 @@ class Viewer:
         self._pinocchio.initViewer(viewer=self.meshcat)
         self._pinocchio.loadViewerModel(rootNodeName=ROBOT_NODE)
         self.q = robot.nominal.copy()
+        self.environment: dict[str, SceneBox] = {}
         self.show(self.q if q is None else q)
+        self.show_environment(robot_cell(robot))
+        self.place_grid()
         self.look_at()
 
     # -- life cycle -------------------------------------------------------------------------------
@@ -152,11 +163,31 @@ class Viewer:
     def frame_pose(self, frame: str, q: np.ndarray | None = None) -> pin.SE3:
         return self.robot.frame_placement(self.q if q is None else q, frame)
 
-    def look_at(self, center: np.ndarray | None = None, distance: float | None = None) -> None:
-        """Point the camera at ``center`` (default: the robot) from ``distance`` (m) away."""
+    def _frame_points(self, configurations: Sequence[np.ndarray]) -> np.ndarray:
+        """Every frame origin (world) at each of ``configurations``."""
         data = self.robot.model.createData()
-        pin.framesForwardKinematics(self.robot.model, data, self.q)
-        points = np.array([placement.translation for placement in data.oMf])
+        points = []
+        for q in configurations:
+            pin.framesForwardKinematics(self.robot.model, data, q)
+            points.extend(placement.translation.copy() for placement in data.oMf)
+        return np.array(points)
+
+    def camera_distance(self, q: np.ndarray | None = None) -> float:
+        """How far (m) the camera stands from the robot to show it whole: 1.6 times its frames' extent."""
+        points = self._frame_points([self.q if q is None else q])
+        size = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+        return 1.6 * max(size, 0.5 * self.extent, 1e-2)
+
+    def robot_centre(self, q: np.ndarray) -> np.ndarray:
+        """The middle of the robot's frame origins at q (world, m)."""
+        points = self._frame_points([q])
+        return 0.5 * (points.min(axis=0) + points.max(axis=0))
+
+    def look_at(self, center: np.ndarray | None = None, distance: float | None = None,
+                configurations: Sequence[np.ndarray] | None = None) -> None:
+        """Point the camera at ``center`` (default: the robot, at the shown q or over
+        ``configurations``) from ``distance`` (m) away."""
+        points = self._frame_points([self.q] if configurations is None else configurations)
         low, high = points.min(axis=0), points.max(axis=0)
         if center is None:
             center = 0.5 * (low + high)
@@ -170,6 +201,44 @@ class Viewer:
         position = distance * direction / np.linalg.norm(direction)
         self.meshcat["/Cameras/default/rotated/<object>"].set_property(
             "position", [float(position[0]), float(position[2]), float(-position[1])])
+
+    # -- the scene around the robot ----------------------------------------------------------------
+    def show_environment(self, boxes: Sequence[SceneBox]) -> None:
+        """Draw fixed boxes (a staircase's steps, a table, a workpiece) under ``wbik/environment``; a box
+        replaces a drawn one of the same name."""
+        import meshcat.geometry as mg
+
+        for box in boxes:
+            material = mg.MeshLambertMaterial(color=box.color, opacity=box.opacity,
+                                              transparent=box.opacity < 1.0)
+            node = self.meshcat[f"{ROOT}/environment/{box.name}"]
+            node.set_object(mg.Box(list(box.size)), material)
+            node.set_transform(box.homogeneous())
+            self.environment[box.name] = box
+
+    def ground_height(self, q: np.ndarray | None = None) -> float:
+        """Where the floor is (m): the lowest sole contact point at q (default: the shown q) when the
+        robot has soles, else the bottom of the lowest box of the scene, else 0."""
+        if self.robot.soles:
+            kinematics = Kinematics(self.robot.model, self.q if q is None else q)
+            return float(contact_points(kinematics, self.robot.soles, list(self.robot.soles))[:, 2].min())
+        if self.environment:
+            return float(min(box.corners()[:, 2].min() for box in self.environment.values()))
+        return 0.0
+
+    def place_grid(self, height: float | None = None) -> float:
+        """Put meshcat's floor grid at ``height`` (m; default :meth:`ground_height`), its cells scaled to
+        the robot (meshcat's 0.5 m cells times ``grid_scale``); returns the height."""
+        height = self.ground_height() if height is None else float(height)
+        transform = np.diag([self.grid_scale, self.grid_scale, self.grid_scale, 1.0])
+        transform[2, 3] = height - 1e-4  # (just under the soles: they are not hidden by the grid)
+        self.meshcat["/Grid"].set_transform(transform)
+        return height
+
+    @property
+    def grid_scale(self) -> float:
+        """The grid's scale: half the robot's extent (m), within [0.05, 1] (5 cm cells on the Bioloid)."""
+        return float(min(1.0, max(0.05, 0.5 * self.extent)))
 
     # -- markers ----------------------------------------------------------------------------------
     def _triad(self, path: str, placement: pin.SE3, scale: float) -> None:
@@ -376,6 +445,12 @@ class Viewer:
             rows = rows * 2
         clip, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
         keys = [float(t * fps) for t in times - times[0]]
+        self.show_environment(animation.environment)
+        self.place_grid(self.ground_height(rows[0]))
+        self._camera_keyframes(clip, keys, rows, times)
+        if overlays.zmp is not None:
+            zmp = overlays.zmp if not still else np.vstack([overlays.zmp, overlays.zmp])
+            self._zmp_keyframes(clip, keys, zmp)
         margins = None
         if overlays.support is not None and self.robot.soles:
             support = overlays.support * (2 if still else 1)
@@ -385,6 +460,43 @@ class Viewer:
         self.show(rows[0])
         self.meshcat.set_animation(clip, play=play and not still, repetitions=repetitions)
         return AnimationView(animation.frames, trace, margins)
+
+    def _camera_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray) -> None:
+        """The camera follows the robot: its target on the robot's middle, averaged over about half a
+        second of samples, at the distance that shows the standing robot whole."""
+        self.look_at(center=self.robot_centre(rows[0]), distance=self.camera_distance(rows[0]))
+        if len(rows) < 2:
+            return
+        centres = np.array([self.robot_centre(q) for q in rows])
+        spacing = float(times[-1] - times[0]) / (len(times) - 1)
+        width = max(1, int(round(0.25 / max(spacing, 1e-9))))
+        padded = np.vstack([np.repeat(centres[:1], width, axis=0), centres,
+                            np.repeat(centres[-1:], width, axis=0)])
+        kernel = np.ones(2 * width + 1) / (2 * width + 1)
+        smooth = np.column_stack([np.convolve(padded[:, axis], kernel, mode="valid") for axis in range(3)])
+        for key, centre in zip(keys, smooth, strict=True):
+            target = np.eye(4)
+            target[:3, 3] = centre
+            with clip.at_frame(self.meshcat, key) as frame:
+                frame["/Cameras/default"].set_transform(target)
+
+    def _zmp_keyframes(self, clip, keys: list[float], zmp: np.ndarray) -> None:
+        """A ZMP marker on the ground moving with the samples (hidden where there is none) and its path."""
+        path = f"{ROOT}/zmp"
+        self.meshcat[path].delete()
+        finite = np.all(np.isfinite(zmp), axis=1)
+        if not finite.any():
+            return
+        first = zmp[int(np.argmax(finite))]
+        self._sphere(f"{path}/marker", first, 0.015 * self.extent, ZMP_COLOR)
+        self._line(f"{path}/path", zmp[finite] + [0.0, 0.0, 2e-4], ZMP_COLOR)
+        for key, point, ok in zip(keys, zmp, finite, strict=True):
+            if ok:
+                marker = np.eye(4)
+                marker[:3, 3] = point
+                with clip.at_frame(self.meshcat, key) as frame:
+                    frame[f"{path}/marker"].set_transform(marker)
+        self._visibility(clip, self.meshcat[f"{path}/marker"], keys, [bool(v) for v in finite])
 
     @staticmethod
     def _visibility(clip, path_node, keys: list[float], visible: Sequence[bool]) -> None:

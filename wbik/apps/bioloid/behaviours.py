@@ -137,7 +137,7 @@ def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: f
         step, soles = step_phases(robot, soles, gait, side, rear_lift)
         for phase in step:
             if isinstance(phase.com, ComRamp):
-                phase.com = ComRamp(phase.com.polygon, RAMP_INSET)
+                phase.com = ComRamp(phase.com.polygon, RAMP_INSET, footprint=phase.com.footprint)
         phases += step
         side = "right" if side == "left" else "left"
     if turn_deg:

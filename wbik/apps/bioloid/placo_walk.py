@@ -7,16 +7,21 @@ mesh-free copy of our URDF gets three fixed frames with those names at ``l_sole`
 pattern generator at the robot's standing CoM height with the trunk pitched 20 deg and 40 mm foot
 rise, the 100 x 60 mm soles and a ZMP margin of ``margin``.
 
-Reported: the planned step lengths (between consecutive footsteps of opposite feet, and per foot),
-the duration, and on a 10 ms grid the margin of the CoM ground projection and of the ZMP in the
-support polygon of the feet on the ground at that time: a foot is down when PlaCo's own foot
-trajectory has its sole within ``GROUND_TOLERANCE`` of the floor. (PlaCo's ``support_is_both(t)``
-already answers "single support" at the switch instant, while the leaving foot is still flat on the
-floor and the ZMP is still between the feet: judged against the single sole, that instant showed the
-ZMP 5.4 mm outside.) PlaCo hands no polygon of ours to PlaCo: the footsteps and the ZMP bounds are
-PlaCo's own, from ``foot_length``, ``foot_width`` and ``zmp_margin``. PlaCo's generator is dynamic:
-it keeps the ZMP, not the CoM, inside the support (at its planning time steps), so the CoM may leave
-the polygon in single support, unlike the quasi-static whole-body step.
+Reported: the planned step lengths (between consecutive footsteps of opposite feet, and per foot), the
+duration, and on a 10 ms grid the margin of the CoM ground projection and of the plan's ZMP (the
+pendulum's, c - c'' / omega^2) in the support polygon of the feet on the ground at that time: a foot is
+down when PlaCo's own foot trajectory has its sole within ``GROUND_TOLERANCE`` of the floor. (PlaCo's
+``support_is_both(t)`` already answers "single support" at the switch instant, while the leaving foot is
+still flat on the floor and the ZMP is still between the feet: judged against the single sole, that
+instant showed the ZMP 5.4 mm outside.) PlaCo hands no polygon of ours to PlaCo: the footsteps and the
+ZMP bounds are PlaCo's own, from ``foot_length``, ``foot_width`` and ``zmp_margin``. PlaCo's generator
+is dynamic: it keeps the ZMP, not the CoM, inside the support (at its planning time steps), so the CoM
+may leave the polygon in single support, unlike the quasi-static whole-body step.
+
+The robot's own ZMP is reported too (``multibody_*``): PlaCo's IK (``WalkTasks``, 3 iterations per
+10 ms tick, as :mod:`wbik.apps.bioloid.placo_view` does at 50 ms) follows the plan, and the motion is
+judged by :func:`wbik.motion.walking.figures.walk_figures` (the multibody ZMP of its centroidal
+dynamics in the support, CoM tracking, slip, joint velocity and acceleration peaks).
 """
 
 from __future__ import annotations
@@ -120,7 +125,8 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
         zmp_margins.append(polygon.margin_of(trajectory.get_p_world_ZMP(t, omega)[:2]))
         single.append(len(down) == 1)
     com_margins, zmp_margins, single = map(np.asarray, (com_margins, zmp_margins, single))
-    return {
+    body = _multibody(robot, trajectory, parameters, margin, dt)
+    return {**body,
         "planned": True, "footsteps": len(footsteps), "footstep_x_m": xs,
         "max_step_advance_mm": 1e3 * max(advances, default=0.0),
         "per_foot_advance_mm": {k: [1e3 * v for v in values] for k, values in per_foot.items()},
@@ -132,3 +138,39 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
         "min_zmp_margin_mm": 1e3 * float(np.min(zmp_margins)),
         "walk_com_height_m": parameters.walk_com_height,
     }
+
+
+def _multibody(robot: Robot, trajectory, parameters, margin: float, dt: float,
+               iterations: int = 3) -> dict:
+    """PlaCo's IK on the plan every ``dt`` and the figures of the whole robot's motion (mm, rad/s)."""
+    from wbik.motion.walking.figures import walk_figures
+    from wbik.motion.walking.footsteps import Feet
+    from wbik.solvers.placo import import_placo
+    from wbik.solvers.placo import placo_configuration
+    from wbik.solvers.placo import placo_robot
+
+    humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
+    solver = humanoid.make_solver()
+    tasks = import_placo().WalkTasks()
+    tasks.initialize_tasks(solver, humanoid)
+    times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
+    rows, support, com = [], [], []
+    for index, t in enumerate(times):
+        tasks.update_tasks_from_trajectory(trajectory, float(t))
+        for _ in range(50 if index == 0 else iterations):
+            humanoid.update_kinematics()
+            solver.solve(True)
+        humanoid.update_kinematics()
+        rows.append(placo_configuration(robot, humanoid))
+        feet = (("l_sole", trajectory.get_T_world_left(float(t))),
+                ("r_sole", trajectory.get_T_world_right(float(t))))
+        support.append(tuple(sole for sole, pose in feet if abs(pose[2, 3]) <= GROUND_TOLERANCE))
+        com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
+    figures, _ = walk_figures(robot, Feet("l_sole", "r_sole"), times, np.array(rows), support, 0.0, margin,
+                              np.array(com))
+    return {"multibody_zmp_margin_min_mm": 1e3 * figures["zmp_margin_min_m"],
+            "multibody_zmp_margin_p5_mm": 1e3 * figures["zmp_margin_p5_m"],
+            "multibody_com_error_max_mm": 1e3 * figures["com_error_max_m"],
+            "multibody_foot_slip_max_mm": 1e3 * figures["foot_slip_max_m"],
+            "multibody_joint_velocity_peak_rad_s": figures["joint_velocity_peak_rad_s"],
+            "multibody_joint_acceleration_peak_rad_s2": figures["joint_acceleration_peak_rad_s2"]}

@@ -121,8 +121,10 @@ PLACO_WALK_RULES = {
     "step_advance_max_m": Rule("max_step_advance_m", "<=", "m"),
     "com_margin_min_m": Rule("min_com_margin_m", ">=", "m"),
     "zmp_margin_min_m": Rule("min_zmp_margin_m", ">=", "m"),
+    "multibody_zmp_margin_min_m": Rule("multibody_zmp_margin_min_m", ">=", "m"),
 }
-"""PlaCo's walk: planned, steps no longer than asked, CoM and ZMP margins in the feet on the ground."""
+"""PlaCo's walk: planned, steps no longer than asked, CoM and ZMP margins in the feet on the ground (the
+plan's pendulum ZMP, and the multibody ZMP of PlaCo's IK following it)."""
 
 
 def sample_guarantees(margin: float) -> dict:
@@ -183,9 +185,10 @@ def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
     from wbik.viz.animation import Animation
     from wbik.viz.animation import Overlays
 
-    support = tuple(tuple(feet) for feet in motion.support)
-    return Animation(motion.robot, np.asarray(times, dtype=float), motion.q,
-                     Overlays(trace_frame, support, support), name)
+    times = np.asarray(times, dtype=float)
+    keep = np.r_[np.diff(times) > 0, True]  # a sample that did not move has the next one's time
+    support = tuple(tuple(feet) for feet, kept in zip(motion.support, keep, strict=True) if kept)
+    return Animation(motion.robot, times[keep], motion.q[keep], Overlays(trace_frame, support, support), name)
 
 
 def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[dict, object]:
@@ -310,7 +313,7 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                         margin=run.margin)
     entry = {"name": "PlaCo walk pattern generator", **result}
     figures = {**result}
-    for key in ("max_step_advance", "min_com_margin", "min_zmp_margin"):
+    for key in ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min"):
         if f"{key}_mm" in result:
             figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
     wanted = {"planned": True, **run.expect}
@@ -347,12 +350,14 @@ def scenario_path(name: str) -> Path:
 
 STAIR_RULES = {
     "reached_top": Rule("reached_top", "=="),
+    "reached_bottom": Rule("reached_bottom", "=="),
     **SAMPLE_RULES,
     "clearance_min_m": Rule("min_clearance_m", ">=", "m"),
     "penetration_max_m": Rule("max_penetration_m", "<=", "m"),
 }
-"""The stair run: the top reached, and at every sample by FK contacts held, the CoM margin, joint
-limits, the swing sole's distance to the step edges, no sole corner below the surface under it."""
+"""The stair run: the top reached (and the floor beyond, down again, for a staircase that
+``descend``s), and at every sample by FK contacts held, the CoM margin, joint limits, the swing
+sole's distance to the step edges, no sole corner below the surface under it."""
 
 
 def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
@@ -382,8 +387,7 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     :func:`wbik.apps.bioloid.stairs.simulate_stairs`. The entry has the states visited, the reads the
     state machine decided on, and one record per sample (state, Sharp and filtered FSR readings,
     CoM margin, swing-sole clearance to the step edges); ``expect`` has the keys of ``STAIR_RULES``.
-    The animation has the samples at their timed knot times; the staircase itself is not drawn
-    (the animation carries no scene geometry)."""
+    The animation has the samples at their timed knot times and the staircase's steps."""
     from wbik.apps.bioloid.stairs import Staircase
     from wbik.apps.bioloid.stairs import simulate_stairs
 
@@ -394,15 +398,18 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     summary = climb.summary()
     timed = _timed(spec, climb.motion)
     size = f"{stairs.height * 1e3:g} mm x {stairs.depth * 1e3:g} mm"
-    entry = {"name": f"stairs: {stairs.steps} steps of {size}",
+    way = ", up and down" if stairs.descend else ""
+    entry = {"name": f"stairs: {stairs.steps} steps of {size}{way}",
              **summary, "margin_m": margin, "duration_s": timed.duration,
              "staircase": {"steps": stairs.steps, "height_m": stairs.height, "depth_m": stairs.depth,
                            "start_x_m": stairs.start_x, "top_depth_m": stairs.top_depth,
-                           "width_m": stairs.width},
+                           "width_m": stairs.width, "descend": stairs.descend},
              "states": climb.states, "reads": climb.reads, "per_sample": climb.samples}
-    wanted = {"reached_top": True, **sample_guarantees(margin), **run.expect}
+    wanted = {"reached_top": True, **({"reached_bottom": True} if stairs.descend else {}),
+              **sample_guarantees(margin), **run.expect}
+    animation = _motion_animation(climb.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
     run.add(judge(entry, wanted, dict(summary), STAIR_RULES, "expect"),
-            _motion_animation(climb.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis"))
+            animation.with_environment(climb.scene_boxes()))
     return run.finished()
 
 
@@ -497,7 +504,7 @@ def bioloid_schema(kind: str) -> Map:
                 "expect": Key(expect_block(WHOLEBODY_RULES), None)}
     elif kind == "bioloid_stairs":
         keys = {**margin, **gait, **timed,
-                "stairs": Key(Map(from_dataclass(Staircase).keys, nullable=True), {}),
+                "stairs": Key(Map(from_dataclass(Staircase, {"descend": Boolean()}).keys, nullable=True), {}),
                 "climbs": Key(Number(ge=1, integer=True, nullable=True),
                               default_of(simulate_stairs, "climbs")),
                 "expect": Key(expect_block(STAIR_RULES), None)}

@@ -2,7 +2,8 @@
 
 Staircase (ours: the sources give no stair geometry, bioloid.md 9.2). ``steps`` solid steps of
 ``height`` (default 30 mm) and ``depth`` (default 160 mm) whose first riser is at x = ``start_x``,
-the last tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, faces along +x.
+the last tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, faces along +x; with
+``descend``, the same steps down again after the platform (CEABOT's test: 3 up, then 3 down).
 Why these numbers: the sole is 100 mm long, so a tread must take the foot (100 mm) plus the heel
 overhang past the edge (10 mm) plus room to walk up to the next riser (50 mm); 30 mm is what the
 model's legs climb in one step (a 120 mm forward reach onto a tread 30 mm higher, single support,
@@ -31,6 +32,12 @@ feet's sensors after every half step (each time a foot is put down):
 - only once stairCont >= 3: a foot whose FSR3 and FSR4 both read < 1000 (PSThreshold) on 2
   consecutive reads means a step down: BackS* first when that foot is the forward one, then DownStair.
 
+A sole may stand over a nose (the walk on a tread brings the forward foot past it; that is how the
+front FSRs come to read nothing): it stands on its part behind the edge, which rests on the nose.
+The FSRs over the void read nothing; the weight is carried by the FSRs on the tread and the nose
+line under the sole; the CoM is held in the support polygon cut at the edge (``BodyPhase.clip_x``),
+and a sole may not overhang by more than ``0.1 - MIN_FOOTHOLD`` m.
+
 Where we differ from the code, and why:
 
 - a trigger after a WalkS*1 (one foot 30 mm ahead) first completes the pair with WalkS*2: with the
@@ -46,8 +53,14 @@ Where we differ from the code, and why:
   not know; ours stay inside the limits by construction and follow the modelled step;
 - the code's extra LeftTurnMedium every 4th iteration (heading drift of the real robot, not in the
   text) is left out: the simulated walk does not drift; the proximity flag is cleared after a climb;
-- DownStair is not generated (the simulated staircase is climbed only): the detection and its
-  decisions (BackS*, DownStair) are implemented and tested on hand-made readings;
+- DownStair is generated (:func:`descend_phases`; the seed's keyframes, as for UpStair, are not replayed):
+  our StairReady first brings the toes ``DOWN_READY_OVERHANG`` over the nose (less reach down for the
+  legs; with the toes 5 mm before it, the second foot's way down from a 200 mm platform left the model's
+  reach by 11 mm) unless they are that far over it; then CoM over one foot, the other one swung
+  ``STEP_CLEARANCE`` above the tread it leaves, over the nose and down onto the tread below with its heel
+  ``DOWN_HEEL_GAP`` past the riser, CoM over it, the other foot brought beside it, CoM between the feet;
+  every sample a whole-body QP solve, judged like the way up. The state machine's step-down detection
+  starts over after each DownStair, and the run ends on the floor beyond the staircase;
 - RightTurnMedium / LeftTurnMedium (Roboplus presets, angle not in the sources) are the whole-body
   turn in place by ``TURN_MEDIUM_DEG`` (ours).
 """
@@ -76,6 +89,7 @@ from wbik.apps.bioloid.half_steps import half_step_phases
 from wbik.apps.bioloid.half_steps import recentre_goal
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
+from wbik.apps.bioloid.step_wholebody import clip_points
 from wbik.apps.bioloid.step_wholebody import com_over_phase
 from wbik.apps.bioloid.step_wholebody import current_soles
 from wbik.apps.bioloid.step_wholebody import pelvis_rotation
@@ -103,7 +117,14 @@ READY_GAP = 0.005
 HEEL_OVERHANG = 0.010
 """m, UpStair puts the heel this far past the step's edge."""
 STEP_CLEARANCE = 0.015
-"""m, UpStair lifts the sole this far above the next tread before carrying it over the edge."""
+"""m, UpStair lifts the sole this far above the next tread before carrying it over the edge (DownStair
+this far above the tread it leaves)."""
+DOWN_HEEL_GAP = 0.010
+"""m, DownStair puts the heel this far past the riser below the nose it comes over."""
+DOWN_READY_OVERHANG = 0.015
+"""m, before DownStair our StairReady brings the toes this far over the nose."""
+MIN_FOOTHOLD = 0.05
+"""m, a sole over a nose must stand on at least this much of its length."""
 SURFACE_TOLERANCE = 1e-6
 """m, a sole corner this close to the surface under it touches it."""
 
@@ -115,7 +136,8 @@ class StairError(WbikError):
 # -- geometry ---------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Staircase:
-    """``steps`` solid steps (see the module docstring); SI units."""
+    """``steps`` solid steps (see the module docstring); SI units. With ``descend`` the same steps go
+    down again after the top platform (the CEABOT structure: 3 up, 3 down)."""
 
     steps: int = 3
     height: float = 0.030
@@ -123,6 +145,7 @@ class Staircase:
     start_x: float = 0.160
     top_depth: float = 0.300
     width: float = 0.600
+    descend: bool = False
 
     def __post_init__(self) -> None:
         if int(self.steps) != self.steps or self.steps < 1:
@@ -135,8 +158,14 @@ class Staircase:
                                             "heel overhang")
 
     def edge_x(self, step: int) -> float:
-        """x of the riser (and nose edge) of step ``step`` (1-based)."""
+        """x of the riser (and nose edge) of step ``step`` (1-based) on the way up."""
         return self.start_x + (step - 1) * self.depth
+
+    def far_x(self, step: int) -> float:
+        """x where tread ``step`` ends ahead: its nose edge on the way down (``descend``), else the end
+        of the structure (the top platform's end)."""
+        top_end = self.start_x + (self.steps - 1) * self.depth + self.top_depth
+        return top_end + (self.steps - step) * self.depth if self.descend else top_end
 
     def tread_z(self, step: int) -> float:
         """Height of tread ``step`` (0 = the floor)."""
@@ -144,26 +173,28 @@ class Staircase:
 
     @property
     def end_x(self) -> float:
-        return self.start_x + (self.steps - 1) * self.depth + self.top_depth
+        """x where the structure ends (the floor beyond)."""
+        return self.far_x(1)
 
     def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """(lower corner, upper corner) of each step's solid box, step 1 first."""
+        """(lower corner, upper corner) of each step's solid box, step 1 (the widest) first."""
         half = 0.5 * self.width
-        return [(np.array([self.edge_x(i), -half, 0.0]), np.array([self.end_x, half, self.tread_z(i)]))
+        return [(np.array([self.edge_x(i), -half, 0.0]), np.array([self.far_x(i), half, self.tread_z(i)]))
                 for i in range(1, self.steps + 1)]
 
     def step_at(self, x: float) -> int:
-        """The step whose tread is under x (0: the floor before the stairs; past the end: the floor)."""
-        if x < self.start_x or x >= self.end_x:
-            return 0
-        return min(self.steps, int(math.floor((x - self.start_x) / self.depth)) + 1)
+        """The level of the tread under x (0: the floor, before or after the structure)."""
+        return sum(1 for i in range(1, self.steps + 1) if self.edge_x(i) <= x < self.far_x(i))
 
     def surface_z(self, x: float) -> float:
         return self.tread_z(self.step_at(x))
 
     def surface_name(self, x: float) -> str:
         step = self.step_at(x)
-        return "floor" if step == 0 else f"tread {step}"
+        if step == 0:
+            return "floor" if x < self.start_x else "floor beyond"
+        down = self.descend and step < self.steps and x >= self.far_x(step + 1)
+        return f"tread {step}" + (" (way down)" if down else "")
 
     def raycast(self, origin: np.ndarray, direction: np.ndarray) -> float:
         """Distance (m) along the unit ``direction`` to the first step face hit, inf if none."""
@@ -173,8 +204,17 @@ class Staircase:
             best = min(best, hit)
         return best
 
+    def nose_edges(self) -> list[tuple[float, float]]:
+        """(x, z) of every nose edge (the risers' tops): up, then down with ``descend``."""
+        edges = [(self.edge_x(step), self.tread_z(step)) for step in range(1, self.steps + 1)]
+        if self.descend:
+            edges += [(self.far_x(step), self.tread_z(step)) for step in range(self.steps, 0, -1)]
+        return edges
+
     def edge_distance(self, corners: np.ndarray) -> float:
-        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge of a step.
+        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge of a step that
+        is not under it (the height above an edge under the sole is the sole's height above the tread:
+        :meth:`penetration` checks that one; a sole lifting off a nose it stood over starts at 0).
 
         The edges run along y across the stair; the sole is horizontal, so the distance is
         hypot(height difference, gap in x between the edge and the sole's x range)."""
@@ -182,8 +222,9 @@ class Staircase:
         z = float(np.mean(corners[:, 2]))
         low, high = float(corners[:, 0].min()), float(corners[:, 0].max())
         best = math.inf
-        for step in range(1, self.steps + 1):
-            x_edge, z_edge = self.edge_x(step), self.tread_z(step)
+        for x_edge, z_edge in self.nose_edges():
+            if low < x_edge < high and z >= z_edge:
+                continue
             gap = max(0.0, low - x_edge, x_edge - high)
             best = min(best, math.hypot(gap, z - z_edge))
         return best
@@ -202,6 +243,25 @@ class Staircase:
             return names.pop()
         return None
 
+    def foothold(self, corners: np.ndarray,
+                 tolerance: float = SURFACE_TOLERANCE) -> tuple[str, float | None] | None:
+        """Where a flat sole stands: (the surface under its heel, the x of the nose edge its toes are
+        over, or None when it lies wholly on the surface), or None when it does not stand (in the air,
+        tilted, or over a higher surface). A sole over a nose stands on the part behind the edge."""
+        corners = np.asarray(corners, dtype=float)
+        z = float(np.mean(corners[:, 2]))
+        if np.ptp(corners[:, 2]) > tolerance:
+            return None
+        heel = corners[np.argmin(corners[:, 0]), 0]
+        if abs(self.surface_z(heel) - z) > tolerance:
+            return None
+        if any(self.surface_z(c[0]) > z + tolerance for c in corners):
+            return None
+        if all(abs(self.surface_z(c[0]) - z) <= tolerance for c in corners):
+            return self.surface_name(heel), None
+        edge = min(x for x, edge_z in self.nose_edges() if x > heel and abs(edge_z - z) <= tolerance)
+        return self.surface_name(heel), edge
+
 
 def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: np.ndarray) -> float:
     """Slab test: distance to the box along the ray (inf when missed or behind; 0 when inside)."""
@@ -217,6 +277,17 @@ def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: n
     if near > far or far < 0:
         return math.inf
     return max(near, 0.0)
+
+
+def staircase_boxes(stairs: Staircase) -> tuple:
+    """The steps as the viewer's boxes (:class:`wbik.viz.environment.SceneBox`), one per step's solid
+    block, in wood browns, lighter the higher it is."""
+    from wbik.viz.environment import STAIR_COLORS
+    from wbik.viz.environment import SceneBox
+
+    return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
+                                  color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])
+                 for index, (low, high) in enumerate(stairs.boxes()))
 
 
 def sole_corners_world(robot: Robot, q: np.ndarray, sole: str) -> np.ndarray:
@@ -276,6 +347,11 @@ class StairStateMachine:
         self.proximity = False
         self.turns_made = 0
 
+    def descended(self) -> None:
+        """A DownStair is done: the step-down detection starts over."""
+        for detector in self.down.values():
+            detector.reset()
+
 
 # -- paths and the climb ---------------------------------------------------------------------------
 def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
@@ -311,17 +387,37 @@ def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
                  gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
     """UpStair onto step ``step`` (1-based), ``first`` ("r"/"l") foot first, from feet side by side
     on the tread below with their toes before the riser; returns the phases and the new soles."""
+    landing_x = stairs.edge_x(step) + HEEL_OVERHANG + 0.05
+    return _change_level(robot, soles, landing_x, stairs.tread_z(step), first, gait, f"UpStair {step}",
+                         f"tread {step}")
+
+
+def descend_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
+                   gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """DownStair from tread ``step`` (1-based) to the one below on the way down, ``first`` foot first,
+    from feet side by side on tread ``step`` near its nose (their toes before it or over it); each
+    foot is swung ``STEP_CLEARANCE`` above the upper tread, over the nose, and put down with its heel
+    ``DOWN_HEEL_GAP`` past the riser below; returns the phases and the new soles."""
+    landing_x = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05
+    below = "the floor" if step == 1 else f"tread {step - 1}"
+    return _change_level(robot, soles, landing_x, stairs.tread_z(step - 1), first, gait, f"DownStair {step}",
+                         below)
+
+
+def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_new: float, first: str,
+                  gait: GaitParameters | None, label: str, surface: str
+                  ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """The CoM over one foot, ``first`` swung over the nose onto ``landing_x`` at height ``z_new``, the
+    CoM over it, the other foot brought beside it, the CoM between the feet (UpStair, DownStair)."""
     gait = gait or GaitParameters()
     second = OTHER[first]
-    z_up = stairs.tread_z(step)
-    landing_x = stairs.edge_x(step) + HEEL_OVERHANG + 0.05
-    over = z_up + STEP_CLEARANCE
+    over = max(z_new, float(soles[first].translation[2])) + STEP_CLEARANCE
     n = gait.divisions
     heading = yaw_of(soles[second].rotation)
     rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
     start_first, start_second = soles[first], soles[second]
-    land_first = _moved(start_first, x=landing_x, z=z_up)
-    land_second = _moved(start_second, x=landing_x, z=z_up)
+    land_first = _moved(start_first, x=landing_x, z=z_new)
+    land_second = _moved(start_second, x=landing_x, z=z_new)
     names = {"r": "right", "l": "left"}
 
     def path(start: pin.SE3, end: pin.SE3):
@@ -329,27 +425,27 @@ def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
 
     def com_over(foot: str, contacts: dict[str, pin.SE3], divisions: int) -> BodyPhase:
         """The CoM shifted over ``foot`` (the soles of ``contacts`` held), slow servos."""
-        return com_over_phase(robot, f"UpStair {step}: CoM over the {names[foot]} foot", dict(contacts), foot,
+        return com_over_phase(robot, f"{label}: CoM over the {names[foot]} foot", dict(contacts), foot,
                               contacts[SOLE[foot]], RAMP_INSET, pelvis_rotation=rotation, divisions=divisions,
                               speed_rpm=gait.servo_slow_rpm)
 
-    def onto_tread(foot: str, start: pin.SE3, land: pin.SE3, standing: pin.SE3) -> BodyPhase:
+    def onto(foot: str, start: pin.SE3, land: pin.SE3, standing: pin.SE3) -> BodyPhase:
         """``foot`` swung from ``start`` over the nosing onto ``land``, the other one ``standing``."""
-        return BodyPhase(f"UpStair {step}: {names[foot]} foot onto tread {step}",
+        return BodyPhase(f"{label}: {names[foot]} foot onto {surface}",
                          {SOLE[OTHER[foot]]: standing}, swing={SOLE[foot]: path(start, land)},
                          pelvis_rotation=rotation, divisions=3 * n, speed_rpm=gait.servo_fast_rpm)
 
-    up = {first: land_first, second: land_second}
+    after = {first: land_first, second: land_second}
     phases = [
         com_over(second, {SOLE[s]: soles[s] for s in SIDES}, n),
-        onto_tread(first, start_first, land_first, start_second),
+        onto(first, start_first, land_first, start_second),
         com_over(first, {SOLE[second]: start_second, SOLE[first]: land_first}, 2 * n),
-        onto_tread(second, start_second, land_second, land_first),
-        BodyPhase(f"UpStair {step}: CoM between the feet", {SOLE[s]: up[s] for s in SIDES},
-                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, up)), divisions=n,
+        onto(second, start_second, land_second, land_first),
+        BodyPhase(f"{label}: CoM between the feet", {SOLE[s]: after[s] for s in SIDES},
+                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n,
                   speed_rpm=gait.servo_slow_rpm),
     ]
-    return phases, up
+    return phases, after
 
 
 def toe_gap(stairs: Staircase, sole: pin.SE3) -> float:
@@ -359,6 +455,17 @@ def toe_gap(stairs: Staircase, sole: pin.SE3) -> float:
         if stairs.edge_x(step) >= toes - 1e-9:
             return stairs.edge_x(step) - toes
     return math.inf
+
+
+def nose_gap(stairs: Staircase, sole: pin.SE3) -> float:
+    """Distance (m) along x from the sole's toes to the nose of the tread it stands on, on the way
+    down (negative: the toes are over it; inf: no nose ahead)."""
+    toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
+    heel = sole.translation[0] - 0.05 * sole.rotation[0, 0]
+    level = stairs.step_at(heel)
+    if not stairs.descend or level == 0:
+        return math.inf
+    return stairs.far_x(level) - toes
 
 
 # -- the simulation ---------------------------------------------------------------------------------
@@ -373,17 +480,29 @@ class StairRun:
     climbed: int
     stairs: Staircase
     margin: float
+    descended: int = 0
 
     @property
     def reached_top(self) -> bool:
         return self.climbed == self.stairs.steps
+
+    def scene_boxes(self) -> tuple:
+        """The staircase's steps as boxes for the viewer (wbik.viz.environment.SceneBox)."""
+        return staircase_boxes(self.stairs)
+
+    @property
+    def reached_bottom(self) -> bool:
+        """Down every step again (a staircase that ``descend``s)."""
+        return self.stairs.descend and self.descended == self.stairs.steps
 
     def summary(self) -> dict:
         swing = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
         solved = [s for s in self.samples if s["state"] != "start"]
         return {
             "samples": len(solved), "steps": self.stairs.steps, "climbed": self.climbed,
-            "reached_top": self.reached_top, "states_visited": list(dict.fromkeys(self.states)),
+            "reached_top": self.reached_top, "descended": self.descended,
+            "reached_bottom": self.reached_bottom,
+            "states_visited": list(dict.fromkeys(self.states)),
             "behaviours_run": len(self.states),
             "max_contact_error_m": max(s["contact_error_m"] for s in solved),
             "max_contact_error_rad": max(s["contact_error_rad"] for s in solved),
@@ -400,6 +519,7 @@ class _Simulator:
                  climbs: int, q0: np.ndarray):
         self.robot, self.stairs, self.gait, self.margin, self.backend = robot, stairs, gait, margin, backend
         self.machine = StairStateMachine(climbs=climbs)
+        self.descended = 0
         self.q = q0.copy()
         self.boards = {side: sensors.MovingAverage(3) for side in SIDES}
         self.configurations = [q0.copy()]
@@ -420,20 +540,31 @@ class _Simulator:
                 swing: Sequence[str]) -> None:
         robot, stairs = self.robot, self.stairs
         corners = {side: sole_corners_world(robot, q, SOLE[side]) for side in SIDES}
-        surfaces = {side: stairs.touching(corners[side]) for side in SIDES}
+        footholds = {side: stairs.foothold(corners[side]) for side in SIDES}
+        surfaces = {side: None if footholds[side] is None else footholds[side][0] for side in SIDES}
         sharp_true = {side: 1e3 * stairs.raycast(*sensors.sharp_ray(robot, q, SOLE[side])) for side in SIDES}
         sharp = {side: float(sensors.sharp_reading_mm(sharp_true[side])) for side in SIDES}
         contact = [side for side in SIDES if surfaces[side] is not None]
         forces = {side: np.zeros(4) for side in SIDES}
-        if contact:
-            points = np.vstack([(sensors.robot_fsr_positions(robot, SOLE[side])
-                                 @ robot.frame_placement(q, SOLE[side]).rotation.T
-                                 + robot.frame_placement(q, SOLE[side]).translation) for side in contact])
-            loads = sensors.support_loads(points, robot.mass * sensors.GRAVITY, robot.center_of_mass(q)[:2])
-            for index, side in enumerate(contact):
-                forces[side] = loads[4 * index:4 * index + 4]
+        if contact:  # the FSRs over the surface carry the weight, with the nose under a sole over it
+            pressed, nose = [], []
+            for side in contact:
+                placement = robot.frame_placement(q, SOLE[side])
+                points = (sensors.robot_fsr_positions(robot, SOLE[side]) @ placement.rotation.T
+                          + placement.translation)
+                edge = footholds[side][1]
+                for index, point in enumerate(points):
+                    if edge is None or point[0] <= edge:
+                        pressed.append((side, index, point))
+                if edge is not None:  # the sole rests on the nose: where its sides cross the edge line
+                    outline = corners[side][:, :2]
+                    nose += [point for point in clip_points(outline, edge) if abs(point[0] - edge) < 1e-12]
+            supports = np.array([p[:2] for _, _, p in pressed] + nose)
+            loads = sensors.support_loads(supports, robot.mass * sensors.GRAVITY, robot.center_of_mass(q)[:2])
+            for (side, index, _), load in zip(pressed, loads[:len(pressed)], strict=True):
+                forces[side][index] = load
         fsr = {side: self.boards[side].add(sensors.fsr_reading_mv(forces[side])) for side in SIDES}
-        swing_sole = [s for s in SIDES if SOLE[s] in swing]
+        swing_sole = [s for s in SIDES if SOLE[s] in swing and footholds[s] is None]  # in the air
         clearance = min((stairs.edge_distance(corners[s]) for s in swing_sole), default=None)
         self.samples.append({
             "state": state, "phase": phase, "support": sorted(surfaces[s] and SOLE[s] for s in contact),
@@ -448,14 +579,29 @@ class _Simulator:
             "limit_excess_rad": check["limit_excess_rad"],
             "swing": [SOLE[s] for s in swing_sole]})
 
+    def _foothold(self, sole: str, placement: pin.SE3, tolerance: float = 1e-9) -> tuple[str, float | None]:
+        corners = np.asarray(self.robot.soles[sole]) @ placement.rotation.T + placement.translation
+        found = self.stairs.foothold(corners, tolerance)
+        if found is not None and found[1] is not None and found[1] - corners[:, 0].min() < MIN_FOOTHOLD:
+            found = None
+        if found is None:
+            raise StairError(f"the {sole} would be off a surface (into a riser, or over a nose by more than "
+                             f"{0.1 - MIN_FOOTHOLD:.3f} m) at x = {placement.translation[0]:.3f} m")
+        return found
+
     def run(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
-        """Solve a behaviour's phases and record every sample; check the new footholds."""
+        """Solve a behaviour's phases and record every sample; check the new footholds. A sole standing
+        over a nose holds the CoM with its part behind the edge only (each phase's ``clip_x``)."""
         for side, placement in soles_after.items():
-            corners = np.asarray(self.robot.soles[SOLE[side]]) @ placement.rotation.T \
-                + placement.translation
-            if self.stairs.touching(corners, 1e-9) is None:
-                raise StairError(f"{state} would put the {SOLE[side]} off a surface (across an edge or "
-                                 f"into a riser) at x = {placement.translation[0]:.3f} m")
+            try:
+                self._foothold(SOLE[side], placement)
+            except StairError as error:
+                raise StairError(f"{state}: {error}") from None
+        for phase in phases:
+            for sole, placement in phase.stance.items():
+                edge = self._foothold(sole, placement)[1]
+                if edge is not None:
+                    phase.clip_x[sole] = edge
         self.states.append(state)
         result = solve_phases(self.robot, self.q, phases, self.margin, self.backend, name=state)
         offset = len(self.phase_names)
@@ -499,16 +645,19 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
                     max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND,
                     on_behaviour: Callable[[str], None] | None = None) -> StairRun:
     """Walk toward the staircase with the half steps, sensing after each, and climb it as the state
-    machine decides; stops when the top is reached (``climbs`` climbs, default the number of steps)
-    or after ``max_decisions`` reads. Raises StairError when a foot would hit a riser."""
+    machine decides; with a staircase that ``descend``s, walk on and go down each step it detects
+    (BackS* when the forward foot felt it, our StairReady, DownStair); stops on the floor beyond
+    the staircase, at the top (``climbs`` climbs, default the number of steps) when it does not
+    descend, or after ``max_decisions`` reads. Raises StairError when a foot would hit a riser."""
     stairs = stairs or Staircase()
     gait = gait or GaitParameters()
     climbs = stairs.steps if climbs is None else int(climbs)
+    descents = stairs.steps if stairs.descend and climbs == stairs.steps else 0
     q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
     sim = _Simulator(robot, stairs, gait, margin, backend, climbs, q)
     cycle = 0
     for _ in range(max_decisions):
-        if sim.machine.stair_count >= climbs:
+        if sim.machine.stair_count >= climbs and sim.descended >= descents:
             break
         name = WALK_CYCLE[cycle % 4]
         cycle += 1
@@ -517,9 +666,25 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             on_behaviour(name)
         decision = sim.machine.after_placement(**_machine_inputs(sim.read(name)))
         if decision.action in ("down", "back_then_down"):
-            sim.states.append("BackS" + decision.foot.upper() if decision.action == "back_then_down"
-                              else "DownStair")
-            break  # DownStair is not generated (see the module docstring)
+            if sim.descended >= descents:
+                sim.states.append("BackS" + decision.foot.upper() if decision.action == "back_then_down"
+                                  else "DownStair")
+                break  # a step down the staircase does not have (``descend`` false): not generated
+            if decision.action == "back_then_down":
+                sim.half("BackS" + decision.foot.upper())
+                cycle = 0 if decision.foot == "r" else 2  # the next half step starts with this foot
+            heel = float(sole_corners_world(robot, sim.q, SOLE["r"])[:, 0].min())
+            level = stairs.step_at(heel + 1e-6)
+            cycle = _down_ready(sim, cycle)
+            first = "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
+            phases, after = descend_phases(robot, sim.soles(), stairs, level, first, gait)
+            sim.run("DownStair", phases, after)
+            sim.descended += 1
+            sim.machine.descended()
+            sim.read("DownStair")
+            if on_behaviour is not None:
+                on_behaviour(f"DownStair {level}")
+            continue
         if decision.action != "up":
             continue
         if name in PAIR_END:  # our addition: the feet side by side before the re-reads
@@ -546,12 +711,30 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
         sim.read("UpStair")
         if on_behaviour is not None:
             on_behaviour(f"UpStair {step}")
-    return StairRun(sim.motion(), sim.samples, sim.states, sim.reads, sim.machine.stair_count, stairs, margin)
+    return StairRun(sim.motion(), sim.samples, sim.states, sim.reads, sim.machine.stair_count, stairs, margin,
+                    sim.descended)
 
 
 def _machine_inputs(entry: dict) -> dict:
     return {"sharp": entry["sharp_mm"], "front_fsr": entry["front_fsr_mv"],
             "forward_foot": entry["forward_foot"]}
+
+
+def _down_ready(sim: _Simulator, cycle: int) -> int:
+    """Our StairReady before DownStair: both feet forward (two half steps) until their toes are
+    ``DOWN_READY_OVERHANG`` over the nose, unless they are that far over it already (the shorter the
+    reach down, the more room the legs have); the next cycle index."""
+    soles = sim.soles()
+    gap = max(nose_gap(sim.stairs, soles[s]) for s in SIDES)
+    if not math.isfinite(gap):
+        raise StairError("DownStair: no nose ahead of the feet")
+    if gap > -DOWN_READY_OVERHANG + 1e-4:
+        first = "R" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "L"
+        sim.states.append("StairReady")
+        sim.half(f"WalkS{first}1", length=gap + DOWN_READY_OVERHANG)
+        sim.half(f"WalkS{first}2")
+        cycle += 2
+    return cycle
 
 
 def _stair_ready(sim: _Simulator, cycle: int) -> None:

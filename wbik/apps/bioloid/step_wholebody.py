@@ -82,7 +82,9 @@ class BodyPhase:
     (followed exactly); ``hips``: hip frame -> s -> world target (soft); ``pelvis_rotation``: s ->
     world rotation of the pelvis (soft); ``com``: s -> CoM xy target (soft) or None; ``end_support``:
     soles whose polygon holds the CoM at the last sample (default: the stance soles); ``on_ground``:
-    soles counted as support for the polygon (default: the stance soles).
+    soles counted as support for the polygon (default: the stance soles); ``clip_x``: sole -> the world
+    x where the ground under that sole ends (a stair's nose: a sole over it stands on its part behind
+    it), so the phase's support polygons hold only that part of it.
     """
 
     name: str
@@ -95,14 +97,36 @@ class BodyPhase:
     divisions: int = 5
     speed_rpm: float = 40.0
     pause_s: float = 0.0
+    clip_x: dict[str, float] = field(default_factory=dict)
 
 
-def sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon:
-    """Support polygon of the given soles at the given world poses (their corners on the ground)."""
+def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
+    """The part with x <= ``x_max`` (unchanged for None) of the convex polygon whose vertices, in
+    order, are ``points`` (k, 2): cut by one half-plane (Sutherland-Hodgman)."""
+    if x_max is None:
+        return points
+    vertices = np.asarray(points, dtype=float)
+    kept = []
+    for index, current in enumerate(vertices):
+        following = vertices[(index + 1) % len(vertices)]
+        inside, next_inside = current[0] <= x_max, following[0] <= x_max
+        if inside:
+            kept.append(current)
+        if inside != next_inside:
+            fraction = (x_max - current[0]) / (following[0] - current[0])
+            kept.append(current + fraction * (following - current))
+    return np.array(kept)
+
+
+def sole_polygon(robot: Robot, placements: dict[str, pin.SE3],
+                 clip_x: dict[str, float] | None = None) -> SupportPolygon:
+    """Support polygon of the given soles at the given world poses (their corners on the ground), each
+    sole cut at its ``clip_x`` (:func:`clip_points`; the corners of ``robot.soles`` go round the sole)."""
     points = []
     for sole, placement in placements.items():
         corners = np.asarray(robot.soles[sole], dtype=float)
-        points.append((corners @ placement.rotation.T + placement.translation)[:, :2])
+        ground = (corners @ placement.rotation.T + placement.translation)[:, :2]
+        points.append(clip_points(ground, (clip_x or {}).get(sole)))
     return SupportPolygon(np.vstack(points))
 
 
@@ -215,10 +239,12 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
     locked = arm_joints()
     for index, phase in enumerate(phases):
         if isinstance(phase.com, ComRamp) and phase.com.start is None:
+            if phase.com.footprint is not None and phase.clip_x:
+                phase.com.polygon = sole_polygon(robot, phase.com.footprint, phase.clip_x)
             phase.com.bind(robot.center_of_mass(q)[:2])
-        polygon = sole_polygon(robot, phase.stance)
+        polygon = sole_polygon(robot, phase.stance, phase.clip_x)
         end_polygon = polygon if phase.end_support is None else sole_polygon(
-            robot, {sole: phase.stance[sole] for sole in phase.end_support})
+            robot, {sole: phase.stance[sole] for sole in phase.end_support}, phase.clip_x)
         for division in range(1, phase.divisions + 1):
             s = division / phase.divisions
             active = end_polygon if division == phase.divisions else polygon
@@ -369,8 +395,10 @@ class ComRamp:
     """
 
     def __init__(self, polygon: SupportPolygon | None = None, inset: float = 0.0,
-                 goal: np.ndarray | None = None):
+                 goal: np.ndarray | None = None, footprint: dict[str, pin.SE3] | None = None):
         self.polygon = polygon
+        self.footprint = footprint
+        """The soles (world poses) ``polygon`` is made of, so the engine can cut it (BodyPhase.clip_x)."""
         self.inset = float(inset)
         self.goal = None if goal is None else np.asarray(goal, dtype=float)[:2]
         self.start: np.ndarray | None = None
@@ -390,7 +418,8 @@ def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: st
                    inset: float, **options) -> BodyPhase:
     """A phase that ramps the CoM into the ``side`` sole's polygon (that sole at ``placement``) shrunk
     by ``inset`` and ends supported by that sole alone; ``options``: the other BodyPhase fields."""
-    return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, {SOLE[side]: placement}), inset),
+    footprint = {SOLE[side]: placement}
+    return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, footprint), inset, footprint=footprint),
                      end_support=(SOLE[side],), **options)
 
 

@@ -80,11 +80,26 @@ def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         write_report(result, spec["report_folder"])
     report = ScenarioReport.from_dict(result)
     if kept:
+        from wbik.apps.riveting.scene import build_scene
         from wbik.models import load
 
         robot = load(spec["robot"])  # the robot of wbik.apps.riveting.report.Cell, arm chain "arm"
-        report.animation = riveting_animation(robot.chain("arm"), next(iter(kept.values())))
+        animation = riveting_animation(robot.chain("arm"), next(iter(kept.values())))
+        report.animation = animation.with_environment(scene_boxes(build_scene(spec.get("scene"))))
     return report
+
+
+def scene_boxes(scene) -> tuple:
+    """The cell's table and workpiece (a wbik.apps.riveting.scene.Scene) as the viewer's boxes."""
+    from wbik.viz.environment import PART_COLOR
+    from wbik.viz.environment import TABLE_COLOR
+    from wbik.viz.environment import SceneBox
+
+    table_size = np.asarray(scene.table_size, dtype=float)
+    table_centre = [*scene.table_center, scene.table_top_z - 0.5 * table_size[2]]
+    return (SceneBox("table", tuple(table_size), tuple(table_centre), color=TABLE_COLOR),
+            SceneBox("workpiece", tuple(scene.workpiece_size), tuple(scene.workpiece_center),
+                     color=PART_COLOR))
 
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,

@@ -1,0 +1,155 @@
+"""What a walk is judged by, on the full model, from its configurations alone.
+
+Given configurations q_k every dt, the soles on the ground at each sample and the ground's height,
+whichever generator made them (ours, PlaCo's, the static gait):
+
+- the multibody ZMP (:mod:`wbik.motion.walking.multibody_zmp`) and its margin in the support polygon
+  of the soles on the ground, placed by FK at that sample (m, positive inside; a sample whose vertical
+  contact force would be negative has no ZMP and counts as -inf): the minimum (with when and on which
+  soles), the 5th percentile (a sample's value, not interpolated) and how many samples fall under
+  ``margin``;
+- CoM tracking: |c(q_k) - c_ref,k| (m) against a reference, when one is given;
+- foot slip: for every stretch of samples a sole stays on the ground, how far it moves from where it
+  stood at the stretch's first sample (m, and rad);
+- swing clearance: the lowest contact point of a swinging sole above the ground; per swing its
+  highest value (the lift), and over every swing sample its lowest (below 0: through the floor);
+- joint position limits (the largest excess, rad or m), velocity and acceleration peaks over the
+  actuated joints (rad/s, rad/s^2; the finite differences of the ZMP), and the velocity peak over each
+  joint's limit;
+- the legs' smallest distance when a collision model is given (coal, by FK);
+- how far the feet's centre frame travelled and turned, the duration and the speed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import centre_frame
+from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.multibody_zmp import multibody_zmp
+from wbik.motion.walking.multibody_zmp import trajectory_derivatives
+from wbik.qp.support_polygon import support_region
+from wbik.robot import Robot
+
+
+def _actuated_v(model: pin.Model) -> np.ndarray:
+    return np.array([model.joints[j].idx_v for j in range(1, model.njoints) if model.joints[j].nq == 1])
+
+
+def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
+    """(first, last) index of every run of True."""
+    runs, first = [], None
+    for index, flag in enumerate([*flags, False]):
+        if flag and first is None:
+            first = index
+        elif not flag and first is not None:
+            runs.append((first, index - 1))
+            first = None
+    return runs
+
+
+def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],
+                 ground_z: float = 0.0, margin: float = 0.0, com_reference: np.ndarray | None = None,
+                 collision_model=None) -> tuple[dict, dict]:
+    """(figures, series) of a walk (see the module docstring): the figures JSON-friendly (SI units),
+    the series per sample for drawing: ``zmp`` (K, 3) on the ground, ``zmp_margin`` (K,)."""
+    model = robot.model
+    data = model.createData()
+    times = np.asarray(times, dtype=float)
+    qs = np.asarray(qs, dtype=float)
+    dt = float(np.median(np.diff(times)))
+    velocity, acceleration = trajectory_derivatives(model, qs, dt)
+    zmp = multibody_zmp(model, qs, velocity, acceleration, ground_z, data)
+    frames = {frame: model.getFrameId(frame) for frame in feet.frames}
+    placements = {frame: [] for frame in feet.frames}
+    com = np.zeros((len(qs), 3))
+    margins = np.zeros(len(qs))
+    lowest = {frame: np.zeros(len(qs)) for frame in feet.frames}
+    regions: dict[tuple, object] = {}  # support polygons by soles and their placements (to 1 um)
+    for k, q in enumerate(qs):
+        pin.framesForwardKinematics(model, data, q)
+        com[k] = pin.centerOfMass(model, data, q, False)
+        points, key = [], []
+        for frame, frame_id in frames.items():
+            placement = data.oMf[frame_id].copy()
+            placements[frame].append(placement)
+            corners = np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
+            lowest[frame][k] = float(corners[:, 2].min()) - ground_z
+            if frame in support[k]:
+                points.append(corners[:, :2])
+                key.append((frame, *np.round(corners[:, :2], 6).ravel().tolist()))
+        key = tuple(key)
+        if points and key not in regions:
+            regions[key] = support_region(np.vstack(points))
+        region = regions.get(key)
+        finite = bool(np.all(np.isfinite(zmp[k])))
+        margins[k] = region.margin_of(zmp[k]) if (region is not None and finite) else -math.inf
+    figures = {"samples": len(qs), "duration_s": float(times[-1] - times[0])}
+    finite_margins = margins[np.isfinite(margins)]
+    worst = int(np.argmin(margins))
+    figures.update({
+        "zmp_margin_min_m": float(margins.min()),
+        "zmp_margin_min_at_s": float(times[worst] - times[0]),
+        "zmp_margin_min_support": list(support[worst]),
+        "zmp_margin_p5_m": float(np.percentile(margins, 5, method="lower")),
+        "zmp_margin_median_m": float(np.median(finite_margins)) if finite_margins.size else None,
+        "samples_zmp_under_margin": int(np.sum(margins < margin)),
+        "samples_without_zmp": int(np.sum(~np.all(np.isfinite(zmp), axis=1))),
+    })
+    if com_reference is not None:
+        error = np.linalg.norm(com - np.asarray(com_reference, dtype=float), axis=1)
+        figures["com_error_max_m"] = float(error.max())
+        figures["com_error_rms_m"] = float(np.sqrt(np.mean(error ** 2)))
+    slip, slip_rad, swing_peaks, swing_low = 0.0, 0.0, [], math.inf
+    for frame in feet.frames:
+        down = [frame in s for s in support]
+        for first, last in _stretches(down):
+            held = placements[frame][first]
+            for k in range(first + 1, last + 1):
+                moved = placements[frame][k]
+                slip = max(slip, float(np.linalg.norm(moved.translation - held.translation)))
+                slip_rad = max(slip_rad, float(np.linalg.norm(pin.log3(held.rotation.T @ moved.rotation))))
+        for first, last in _stretches([not d for d in down]):
+            heights = lowest[frame][first:last + 1]
+            swing_peaks.append(float(heights.max()))
+            swing_low = min(swing_low, float(heights.min()))
+    figures.update({"foot_slip_max_m": slip, "foot_slip_max_rad": slip_rad,
+                    "swings": len(swing_peaks),
+                    "swing_clearance_min_m": min(swing_peaks) if swing_peaks else None,
+                    "swing_height_min_m": swing_low if swing_peaks else None})
+    actuated = _actuated_v(model)
+    speeds = np.abs(velocity[:, actuated])
+    accelerations = np.abs(acceleration[:, actuated])
+    limit = model.velocityLimit[actuated]
+    finite_limit = np.where(np.isfinite(limit) & (limit > 0) & (limit < 1e10), limit, np.inf)
+    names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    peak_joint = int(np.argmax(speeds.max(axis=0)))
+    q_index = np.array([model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1])
+    joints = qs[:, q_index]
+    excess = max(np.max(model.lowerPositionLimit[q_index] - joints),
+                 np.max(joints - model.upperPositionLimit[q_index]), 0.0)
+    figures.update({
+        "joint_limit_excess_max_rad": float(excess),
+        "joint_velocity_peak_rad_s": float(speeds.max()),
+        "joint_velocity_peak_joint": names[peak_joint],
+        "joint_velocity_over_limit": float(np.max(speeds / finite_limit)),
+        "joint_acceleration_peak_rad_s2": float(accelerations.max()),
+        "joint_acceleration_p95_rad_s2": float(np.percentile(accelerations.max(axis=1), 95)),
+        "joint_acceleration_peak_joint": names[int(np.argmax(accelerations.max(axis=0)))],
+    })
+    if collision_model is not None and collision_model.pairs:
+        figures["leg_distance_min_m"] = float(min(collision_model.minimum(q).distance for q in qs))
+    first = centre_frame(placements[feet.left][0], placements[feet.right][0])
+    last = centre_frame(placements[feet.left][-1], placements[feet.right][-1])
+    distance = float(np.linalg.norm((last.translation - first.translation)[:2]))
+    figures.update({"distance_m": distance,
+                    "turn_deg": math.degrees(math.remainder(yaw_of(last.rotation) - yaw_of(first.rotation),
+                                                            2 * math.pi)),
+                    "speed_m_s": distance / figures["duration_s"] if figures["duration_s"] > 0 else 0.0})
+    series = {"zmp": np.column_stack([zmp, np.full(len(zmp), ground_z)]), "zmp_margin": margins}
+    return figures, series
+

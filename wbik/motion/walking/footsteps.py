@@ -1,0 +1,189 @@
+"""Footsteps: where each foot is put down, for a straight, turning, sideways or in-place walk.
+
+A walk command (:class:`StepCommand`) moves a *centre frame* C (between the feet, yawed like them)
+by the same displacement at every step: C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)). The feet
+alternate, starting with ``first`` (by default the foot on the side the robot moves or turns to, so
+the feet open before they close); step i puts its foot at C_i * O_foot, where O_foot is that foot's
+placement in C at the start (the stance width and the soles' own tilt kept), and, sideways, the
+leading foot (the one on the side the robot moves to) another dy out: each foot then moves 2 dy
+when it swings and the stance width is the start's or dy wider, never narrower (the feet do not
+close on each other). A last step brings the trailing foot back to the start's stance relative to
+the foot that moved last (left out when it would not move). So ``length`` is how far a landing
+foot lands ahead of the other one, and the robot advances ``steps * length`` (the seed's step: the
+lifted foot lands 30 mm ahead of the other one).
+
+SI units; angles in radians except ``turn_deg``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError
+from wbik.robot import Robot
+
+SIDES = ("left", "right")
+OTHER = {"left": "right", "right": "left"}
+CLOSING_TOLERANCE = 1e-6
+"""m or rad: a closing step that moves the foot less than this is left out."""
+
+
+def yaw_of(rotation: np.ndarray) -> float:
+    """Heading (rad) of a rotation: the angle of its x axis in the ground plane."""
+    return float(math.atan2(rotation[1, 0], rotation[0, 0]))
+
+
+@dataclass(frozen=True)
+class Feet:
+    """The two sole frames of a biped, by side."""
+
+    left: str
+    right: str
+
+    def frame(self, side: str) -> str:
+        return self.left if side == "left" else self.right
+
+    def side(self, frame: str) -> str:
+        if frame not in (self.left, self.right):
+            raise InvalidConfigurationError(f"{frame!r} is neither foot ({self.left}, {self.right})")
+        return "left" if frame == self.left else "right"
+
+    @property
+    def frames(self) -> tuple[str, str]:
+        return (self.left, self.right)
+
+    @classmethod
+    def of(cls, robot: Robot, left: str | None = None, right: str | None = None) -> Feet:
+        """The robot's feet: the two soles of ``robot.soles`` (the left one has the larger y at the
+        nominal configuration) unless named."""
+        if left is not None and right is not None:
+            for frame in (left, right):
+                if frame not in robot.soles:
+                    raise InvalidConfigurationError(f"foot {frame!r} is not a sole of {robot.name!r} "
+                                                    f"(robot.soles: {sorted(robot.soles)})")
+            return cls(left, right)
+        soles = list(robot.soles)
+        if len(soles) != 2:
+            raise InvalidConfigurationError(
+                f"a biped walk needs two soles; {robot.name!r} lists {len(soles)} ({soles}): name the feet")
+        a, b = soles
+        y_a = robot.frame_placement(robot.nominal, a).translation[1]
+        y_b = robot.frame_placement(robot.nominal, b).translation[1]
+        return cls(a, b) if y_a > y_b else cls(b, a)
+
+
+@dataclass(frozen=True)
+class Footstep:
+    """A foot put down: its ``side``, sole ``frame`` and world ``placement`` (the sole frame's pose)."""
+
+    side: str
+    frame: str
+    placement: pin.SE3
+
+    @property
+    def xy(self) -> np.ndarray:
+        return self.placement.translation[:2].copy()
+
+    @property
+    def yaw(self) -> float:
+        return yaw_of(self.placement.rotation)
+
+
+@dataclass(frozen=True)
+class StepCommand:
+    """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m)
+    and turning it ``turn_deg`` to the left; ``first``: the foot that moves first ("left", "right" or
+    None: the one on the side of the lateral motion, else of the turn, else the left)."""
+
+    steps: int = 4
+    length: float = 0.03
+    lateral: float = 0.0
+    turn_deg: float = 0.0
+    first: str | None = None
+
+    def __post_init__(self) -> None:
+        if int(self.steps) != self.steps or self.steps < 0:
+            raise InvalidConfigurationError(f"steps must be an integer >= 0, got {self.steps}")
+        for name in ("length", "lateral", "turn_deg"):
+            if not math.isfinite(getattr(self, name)):
+                raise InvalidConfigurationError(f"{name} must be finite, got {getattr(self, name)}")
+        if abs(self.turn_deg) > 45.0:
+            raise InvalidConfigurationError(f"turn at most 45 deg per step, got {self.turn_deg}")
+        if self.first not in (None, *SIDES):
+            raise InvalidConfigurationError(f"first must be 'left', 'right' or null, got {self.first!r}")
+
+    @property
+    def first_side(self) -> str:
+        if self.first is not None:
+            return self.first
+        if self.lateral:
+            return "left" if self.lateral > 0 else "right"
+        if self.turn_deg:
+            return "left" if self.turn_deg > 0 else "right"
+        return "left"
+
+    @property
+    def kind(self) -> str:
+        """straight, sideways, turning, in place or standing (what the command mostly does)."""
+        if self.steps == 0:
+            return "standing"
+        if self.length == 0 and self.lateral == 0:
+            return "in place" if self.turn_deg == 0 else "turning in place"
+        if self.turn_deg:
+            return "turning"
+        return "sideways" if abs(self.lateral) > abs(self.length) else "straight"
+
+
+def centre_frame(left: pin.SE3, right: pin.SE3) -> pin.SE3:
+    """Between the feet, yawed like them (mean heading), at their mean height."""
+    yaw_left, yaw_right = yaw_of(left.rotation), yaw_of(right.rotation)
+    yaw = yaw_right + 0.5 * math.remainder(yaw_left - yaw_right, 2 * math.pi)
+    return pin.SE3(pin.utils.rotate("z", yaw), 0.5 * (left.translation + right.translation))
+
+
+def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Feet) -> list[Footstep]:
+    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3}), in
+    order (the closing step last); see the module docstring."""
+    centre = centre_frame(start["left"], start["right"])
+    offsets = {side: centre.actInv(start[side]) for side in SIDES}
+    width = float(offsets["left"].translation[1] - offsets["right"].translation[1])
+    if width <= 0:
+        raise InvalidConfigurationError(f"the left foot must be left of the right one (width {width:.4f} m)")
+    if command.lateral and abs(command.lateral) >= width:
+        raise InvalidConfigurationError(
+            f"a lateral step of {command.lateral} m would cross the feet (stance width {width:.4f} m)")
+    move = pin.SE3(pin.utils.rotate("z", math.radians(command.turn_deg)),
+                   np.array([command.length, command.lateral, 0.0]))
+    leading = None if not command.lateral else ("left" if command.lateral > 0 else "right")
+    outward = pin.SE3(np.eye(3), np.array([0.0, command.lateral, 0.0]))
+    footsteps, side = [], command.first_side
+    for _ in range(command.steps):
+        centre = centre * move
+        placement = (centre * outward if side == leading else centre) * offsets[side]
+        footsteps.append(Footstep(side, feet.frame(side), placement))
+        side = OTHER[side]
+    if command.steps:
+        last = footsteps[-1]
+        closing = last.placement * offsets[last.side].inverse() * offsets[side]
+        previous = next((f.placement for f in reversed(footsteps) if f.side == side), start[side])
+        moved = np.linalg.norm(closing.translation - previous.translation) > CLOSING_TOLERANCE or \
+            np.linalg.norm(pin.log3(previous.rotation.T @ closing.rotation)) > CLOSING_TOLERANCE
+        if moved:
+            footsteps.append(Footstep(side, feet.frame(side), closing))
+    return footsteps
+
+
+def travel(start: Mapping[str, pin.SE3], footsteps: list[Footstep]) -> tuple[float, float]:
+    """(distance, turn): how far the centre frame moved on the ground (m) and turned (rad)."""
+    before = centre_frame(start["left"], start["right"])
+    last = dict(start)
+    for step in footsteps:
+        last[step.side] = step.placement
+    after = centre_frame(last["left"], last["right"])
+    distance = float(np.linalg.norm((after.translation - before.translation)[:2]))
+    return distance, math.remainder(yaw_of(after.rotation) - yaw_of(before.rotation), 2 * math.pi)

@@ -1,0 +1,188 @@
+"""The walk pattern: every reference of a walk on the control grid (one tick every ``dt``).
+
+From footsteps and a timing: the support phases, the ZMP reference in the support, the CoM of the
+linear inverted pendulum by preview control (x_zmp = x_c - (z_c / g) x_c'', z_c the standing CoM's
+height above the ground, held), the swing feet on their trajectories, the stance feet where they
+stand, and the trunk's heading (the mean of the feet's). The preview controller runs tick by tick as
+it would on line (its state advanced once per tick, the reference read over its horizon), and the
+time each tick takes is kept (:attr:`WalkPattern.tick_time_s`).
+
+``zmp_offset`` (K, 2) is added to the reference the pendulum tracks, not to the one reported: the
+dynamics filter (:mod:`wbik.motion.walking.tracking`) uses it to correct the CoM for the multibody
+ZMP's departure from the pendulum's.
+
+A walk ends standing: after its last double support the pattern goes on, the reference still,
+until the CoM is within ``SETTLED_M`` of it and slower than ``SETTLED_M_S`` (at most
+``SETTLE_MAX_S``); that time is part of the walk's duration.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from dataclasses import field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError
+from wbik.motion.walking.footsteps import SIDES
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.footsteps import StepCommand
+from wbik.motion.walking.footsteps import centre_frame
+from wbik.motion.walking.footsteps import plan_footsteps
+from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.preview import PreviewController
+from wbik.motion.walking.swing import swing_pose
+from wbik.motion.walking.timeline import Phase
+from wbik.motion.walking.timeline import Timing
+from wbik.motion.walking.timeline import phase_at
+from wbik.motion.walking.timeline import timeline
+from wbik.motion.walking.zmp_reference import ZmpReference
+from wbik.motion.walking.zmp_reference import sole_centres
+from wbik.robot import Robot
+
+SETTLED_M = 0.002
+"""m: the CoM this close to the final reference counts as settled ..."""
+SETTLED_M_S = 0.01
+"""m/s: ... when also this slow."""
+SETTLE_MAX_S = 1.0
+"""s: the longest the pattern waits for the CoM to settle after the last phase."""
+
+
+@dataclass(frozen=True)
+class PreviewSettings:
+    """The preview controller's horizon (s) and weights (see :mod:`wbik.motion.walking.preview`)."""
+
+    horizon_s: float = 1.0
+    q: float = 1.0
+    r: float = 1e-6
+
+
+@dataclass
+class WalkPattern:
+    """References at the ticks ``times`` (K,): ``com``, ``com_velocity``, ``com_acceleration`` (K, 3);
+    ``zmp_reference`` and the pendulum's ``lipm_zmp`` (K, 2); ``feet_poses[side][k]`` (world SE3);
+    ``support[k]`` (the sole frames on the ground); ``swing[k]`` (the swinging side or None);
+    ``trunk_yaw`` (K,) rad; ``phase_index`` (K,); ``tick_time_s`` (K,) the pattern's computing time per
+    tick (wall clock) and ``tick_cpu_s`` (K,) the same in this thread's CPU time (what the machine's
+    other processes do not change)."""
+
+    robot: Robot
+    feet: Feet
+    dt: float
+    times: np.ndarray
+    footsteps: list[Footstep]
+    phases: list[Phase]
+    com_height: float
+    ground_z: float
+    zmp_reference: np.ndarray
+    lipm_zmp: np.ndarray
+    com: np.ndarray
+    com_velocity: np.ndarray
+    com_acceleration: np.ndarray
+    feet_poses: dict[str, list[pin.SE3]]
+    support: list[tuple[str, ...]]
+    swing: list[str | None]
+    trunk_yaw: np.ndarray
+    phase_index: np.ndarray
+    tick_time_s: np.ndarray
+    clearance: float
+    info: dict = field(default_factory=dict)
+    tick_cpu_s: np.ndarray | None = None
+
+    @property
+    def ticks(self) -> int:
+        return len(self.times)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+    def stance(self, k: int) -> dict[str, pin.SE3]:
+        """The sole frames on the ground at tick k and where they stand."""
+        return {frame: self.feet_poses[self.feet.side(frame)][k] for frame in self.support[k]}
+
+
+def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footstep], timing: Timing,
+                 dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
+                 preview: PreviewSettings | None = None, com_height: float | None = None,
+                 zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
+    """The pattern of a walk from configuration ``q0`` (standing on both feet): ``steps`` a command
+    (planned with :func:`~wbik.motion.walking.footsteps.plan_footsteps`) or the footsteps themselves;
+    ``clearance`` the swing height (m); ``com_height`` z_c (m, default the CoM's height above the
+    feet at q0); ``zmp_forward``: the ZMP target's offset ahead of each sole's centre (m). See the
+    module docstring."""
+    if not (math.isfinite(dt) and dt > 0):
+        raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
+    if not (math.isfinite(clearance) and clearance >= 0):
+        raise InvalidConfigurationError(f"the swing clearance must be >= 0 m, got {clearance}")
+    feet = feet or Feet.of(robot)
+    preview = preview or PreviewSettings()
+    start = {side: robot.frame_placement(q0, feet.frame(side)) for side in SIDES}
+    footsteps = plan_footsteps(start, steps, feet) if isinstance(steps, StepCommand) else list(steps)
+    phases = timeline(start, footsteps, timing)
+    com0 = robot.center_of_mass(q0)
+    ground_z = float(np.mean([start[side].translation[2] for side in SIDES]))
+    height = com0[2] - ground_z if com_height is None else float(com_height)
+    reference = ZmpReference(phases, sole_centres(robot, feet, zmp_forward), com0[:2])
+    planned = int(round(reference.end / dt)) + 1
+    controller = PreviewController(dt, height, preview.horizon_s, preview.q, preview.r)
+    horizon = controller.steps
+    longest = planned + int(round(SETTLE_MAX_S / dt))
+    all_times = dt * np.arange(longest + horizon + 1)
+    targets = reference(all_times)
+    tracked = targets.copy()
+    if zmp_offset is not None:
+        offset = np.asarray(zmp_offset, dtype=float)
+        if offset.ndim != 2 or offset.shape[1] != 2 or len(offset) < planned:
+            raise InvalidConfigurationError(f"zmp_offset must have ({planned}, 2) values at least, got "
+                                            f"{offset.shape}")
+        used = min(len(offset), longest)
+        tracked[:used] += offset[:used]
+        tracked[used:] += offset[used - 1]
+    state = controller.start(com0[:2])
+    com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
+    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
+    support, swing, yaw, index = [], [], np.zeros(longest), np.zeros(longest, dtype=int)
+    ticks = np.zeros(longest)
+    cpu = np.zeros(longest)
+    count = longest
+    for k in range(longest):
+        tick, tick_cpu = time.perf_counter(), time.thread_time()
+        t = k * dt
+        com[k, :2], velocity[k, :2], acceleration[k, :2] = state.x
+        if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
+                and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
+            count = k + 1
+        phase = phase_at(phases, t)
+        poses = _feet_at(phase, t, clearance)
+        for side in SIDES:
+            feet_poses[side].append(poses[side])
+        support.append(tuple(feet.frame(side) for side in phase.stance))
+        swing.append(phase.swing.side if phase.swing is not None else None)
+        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+        index[k] = phases.index(phase)
+        state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
+        ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
+        if count == k + 1:
+            break
+    com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
+    yaw, index, ticks, cpu = yaw[:count], index[:count], ticks[:count], cpu[:count]
+    com[:, 2] = ground_z + height
+    return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
+                       targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
+                       acceleration, feet_poses, support, swing, np.unwrap(yaw), index, ticks,
+                       float(clearance),
+                       {"omega": controller.omega, "preview_steps": horizon}, cpu)
+
+
+def _feet_at(phase: Phase, t: float, clearance: float) -> Mapping[str, pin.SE3]:
+    poses = dict(phase.feet)
+    if phase.swing is not None:
+        step = phase.swing
+        poses[step.side] = swing_pose(phase.feet[step.side], step.placement, phase.fraction(t), clearance)
+    return poses

@@ -1,0 +1,167 @@
+"""PlaCo's walk pattern generator on the same footsteps, and PlaCo's own IK following it.
+
+PlaCo (``placo.WalkPatternGenerator``: a LIPM whose ZMP is optimised inside the supports over a
+receding horizon, then the feet and the trunk) needs a ``placo.HumanoidRobot``, which looks for frames
+named ``left_foot``, ``right_foot`` and ``trunk``: the robot's kinematic URDF gets three fixed frames
+with these names at the two soles and the trunk frame. Our footsteps are handed to PlaCo as its own
+``Footstep`` list (the standing feet first, PlaCo's convention), so both generators walk the same
+path.
+
+Two settings:
+
+- ``"placo"``: PlaCo's defaults (``placo.HumanoidParameters()``: 1 s single supports, double support
+  ratio 1, 1 s start and end, 0.1 s planning steps over a 100-step horizon, 25 mm ZMP margin), with
+  the robot's geometry (sole size, feet spacing, CoM height, trunk pitch) and our swing height;
+- ``"ours"``: our timing (single and double support, start and end durations), 10 ms planning
+  steps over our preview horizon and our swing height, the ZMP margin ``zmp_margin``.
+
+The whole-body motion is PlaCo's: ``WalkTasks`` (feet and CoM on the trajectory, the trunk's orientation)
+solved by PlaCo's kinematics solver ``iterations`` times per 10 ms tick, each tick from the previous one
+(``SETTLE_ITERATIONS`` at t = 0, from the standing configuration). The soles on the ground at a tick are
+those PlaCo's own foot trajectory keeps on the floor (within ``GROUND_TOLERANCE``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from dataclasses import field
+
+import numpy as np
+
+from wbik.errors import RobotDescriptionError
+from wbik.motion.walking.footsteps import OTHER
+from wbik.motion.walking.footsteps import SIDES
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.timeline import Timing
+from wbik.robot import Robot
+from wbik.robot import write_cached_urdf
+
+GROUND_TOLERANCE = 1e-6
+"""m: a sole this close to the ground (by PlaCo's foot trajectory) is on it."""
+SETTINGS = ("placo", "ours")
+SETTLE_ITERATIONS = 50
+"""PlaCo IK iterations at t = 0: the standing robot brought into PlaCo's walking posture before the
+first tick is recorded."""
+
+
+@dataclass
+class PlacoWalk:
+    """PlaCo's walk: ``times`` (K,), configurations ``q`` (K, nq) from PlaCo's IK, the soles on the
+    ground (``support``), PlaCo's CoM (K, 3) and its pendulum's ZMP (K, 2), the time of each tick
+    (PlaCo's IK; ``plan_time_s`` the whole plan, once) and the parameters used."""
+
+    times: np.ndarray
+    q: np.ndarray
+    support: list[tuple[str, ...]]
+    com: np.ndarray
+    lipm_zmp: np.ndarray
+    tick_time_s: np.ndarray
+    plan_time_s: float
+    parameters: dict = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+
+def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
+    """The robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk) fixed to
+    the links of the feet's and the trunk's frames; the cached file's path."""
+    from wbik.solvers.placo import kinematic_urdf_path
+
+    text = kinematic_urdf_path(robot).read_text()
+    extra = []
+    for name, link in (("left_foot", feet.left), ("right_foot", feet.right), ("trunk", trunk)):
+        if f'<link name="{link}"' not in text:
+            raise RobotDescriptionError(f"PlaCo's humanoid needs {link!r} to be a link of "
+                                        f"{robot.name!r}'s URDF")
+        extra.append(f'  <link name="{name}"/>\n  <joint name="{name}_frame" type="fixed">'
+                     f'<parent link="{link}"/><child link="{name}"/>'
+                     f'<origin xyz="0 0 0" rpy="0 0 0"/></joint>\n')
+    return str(write_cached_urdf(f"{robot.name}-placo-walk-humanoid",
+                                 text.replace("</robot>", "".join(extra) + "</robot>")))
+
+
+def _sole_size(robot: Robot, frame: str) -> tuple[float, float]:
+    points = np.asarray(robot.soles[frame], dtype=float)
+    return float(np.ptp(points[:, 0])), float(np.ptp(points[:, 1]))
+
+
+def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
+               setting: str = "ours", timing: Timing | None = None, clearance: float = 0.02,
+               zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
+               iterations: int = 3) -> PlacoWalk:
+    """Plan the walk through ``footsteps`` from ``q0`` with PlaCo's generator (``setting``: see the
+    module docstring) and follow it with PlaCo's IK every ``dt``."""
+    from wbik.solvers.placo import import_placo
+    from wbik.solvers.placo import placo_configuration
+    from wbik.solvers.placo import placo_robot
+
+    placo = import_placo()
+    if setting not in SETTINGS:
+        raise ValueError(f"setting must be one of {SETTINGS}, got {setting!r}")
+    timing = timing or Timing()
+    humanoid = placo_robot(robot, q0, humanoid_urdf=humanoid_urdf(robot, feet, trunk))
+    start = {side: robot.frame_placement(q0, feet.frame(side)) for side in SIDES}
+    parameters = placo.HumanoidParameters()
+    length, width = _sole_size(robot, feet.left)
+    parameters.foot_length, parameters.foot_width = length, width
+    parameters.feet_spacing = float(np.linalg.norm(start["left"].translation - start["right"].translation))
+    com0 = robot.center_of_mass(q0)
+    ground = float(np.mean([start[s].translation[2] for s in SIDES]))
+    parameters.walk_com_height = float(com0[2] - ground)
+    parameters.walk_foot_height = float(clearance)
+    trunk_rotation = robot.frame_placement(q0, trunk).rotation
+    parameters.walk_trunk_pitch = float(math.atan2(-trunk_rotation[2, 0], trunk_rotation[2, 2]))
+    if setting == "ours":
+        steps = max(1, int(round(timing.single_support_s / dt)))
+        parameters.single_support_duration = timing.single_support_s
+        parameters.single_support_timesteps = steps
+        parameters.double_support_ratio = timing.double_support_s / timing.single_support_s
+        parameters.startend_double_support_ratio = timing.start_s / timing.single_support_s
+        parameters.planned_timesteps = max(steps, int(round(horizon_s / dt)))
+        parameters.zmp_margin = float(zmp_margin)
+    placo_steps = placo.Footsteps()
+    first = footsteps[0].side if footsteps else "left"
+    for side, placement in ((first, start[first]), (OTHER[first], start[OTHER[first]]),
+                            *((step.side, step.placement) for step in footsteps)):
+        item = placo.Footstep(parameters.foot_width, parameters.foot_length)
+        item.side = placo.HumanoidRobot_Side.left if side == "left" else placo.HumanoidRobot_Side.right
+        item.frame = placement.homogeneous
+        placo_steps.append(item)
+    tick = time.perf_counter()
+    supports = placo.FootstepsPlanner.make_supports(placo_steps, 0.0, True, True, True)
+    trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, com0, 0.0)
+    plan_time = time.perf_counter() - tick
+    solver = humanoid.make_solver()
+    tasks = placo.WalkTasks()
+    tasks.initialize_tasks(solver, humanoid)
+    times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
+    omega = math.sqrt(9.80665 / parameters.walk_com_height)
+    rows, support, com, zmp, ticks = [], [], [], [], []
+    for index, t in enumerate(times):
+        tick = time.perf_counter()
+        tasks.update_tasks_from_trajectory(trajectory, float(t))
+        for _ in range(SETTLE_ITERATIONS if index == 0 else iterations):
+            humanoid.update_kinematics()
+            solver.solve(True)
+        humanoid.update_kinematics()
+        ticks.append(time.perf_counter() - tick)
+        rows.append(placo_configuration(robot, humanoid))
+        poses = ((feet.left, trajectory.get_T_world_left(float(t))),
+                 (feet.right, trajectory.get_T_world_right(float(t))))
+        support.append(tuple(frame for frame, pose in poses if abs(pose[2, 3] - ground) <= GROUND_TOLERANCE))
+        com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
+        zmp.append(np.asarray(trajectory.get_p_world_ZMP(float(t), omega), dtype=float)[:2])
+    used = {"setting": setting, "single_support_s": parameters.single_support_duration,
+            "double_support_s": parameters.double_support_duration(),
+            "start_end_s": parameters.startend_double_support_duration(), "dt": parameters.dt(),
+            "planned_timesteps": parameters.planned_timesteps, "zmp_margin_m": parameters.zmp_margin,
+            "walk_foot_height_m": parameters.walk_foot_height,
+            "walk_com_height_m": parameters.walk_com_height,
+            "ik_iterations_per_tick": iterations}
+    return PlacoWalk(times, np.array(rows), support, np.array(com), np.array(zmp), np.array(ticks), plan_time,
+                     used)

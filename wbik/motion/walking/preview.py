@@ -1,0 +1,139 @@
+"""The CoM from the ZMP reference: Kajita's preview controller on the cart-table model.
+
+The linear inverted pendulum (CoM at constant height z_c over flat ground) in each horizontal axis,
+as a cart on a table, with the CoM jerk u as input (Kajita et al., ICRA 2003):
+
+    x_(k+1) = A x_k + B u_k,   x = (c, c', c''),   A = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]],
+    B = (T^3/6, T^2/2, T),     p_k = C x_k = c - (z_c / g) c''   (the ZMP of the pendulum).
+
+The controller minimises sum Q e^2 + R (delta u)^2 with e = p - p_ref, on the system augmented with
+the error's integral (Katayama's optimal preview servo); P solves the discrete algebraic Riccati
+equation (``scipy.linalg.solve_discrete_are``) and the law is
+
+    u_k = -G_i sum_(i<=k) e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j),
+
+the preview gains G_d(j) decaying over the horizon N T (about 1 s is plenty once omega = sqrt(g / z_c)
+exceeds 3 rad/s). The ZMP of the result follows the reference up to the controller's small lag;
+:meth:`PreviewController.run` returns both.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import solve_discrete_are
+
+from wbik.errors import InvalidConfigurationError
+
+GRAVITY = 9.80665
+"""m/s^2."""
+
+
+@dataclass
+class PreviewRun:
+    """CoM position, velocity, acceleration (K, 2) and the pendulum's ZMP (K, 2) at the ticks."""
+
+    com: np.ndarray
+    velocity: np.ndarray
+    acceleration: np.ndarray
+    zmp: np.ndarray
+
+
+class PreviewController:
+    """Preview control of the cart-table model (see the module docstring).
+
+    ``dt`` (s), ``com_height`` z_c (m), ``horizon_s`` (s), weights ``q`` (error) and ``r`` (input).
+    """
+
+    def __init__(self, dt: float, com_height: float, horizon_s: float = 1.0, q: float = 1.0, r: float = 1e-6,
+                 gravity: float = GRAVITY):
+        for name, value in (("dt", dt), ("com_height", com_height), ("horizon_s", horizon_s), ("q", q),
+                            ("r", r)):
+            if not (math.isfinite(value) and value > 0):
+                raise InvalidConfigurationError(f"preview control: {name} must be > 0, got {value}")
+        self.dt, self.com_height, self.gravity = float(dt), float(com_height), float(gravity)
+        self.steps = max(1, int(round(horizon_s / dt)))
+        T = self.dt
+        self.A = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])
+        self.B = np.array([T ** 3 / 6, T * T / 2, T])
+        self.C = np.array([1.0, 0.0, -self.com_height / self.gravity])
+        CA, CB = self.C @ self.A, float(self.C @ self.B)
+        augmented_A = np.zeros((4, 4))
+        augmented_A[0, 0] = 1.0
+        augmented_A[0, 1:] = CA
+        augmented_A[1:, 1:] = self.A
+        augmented_B = np.r_[CB, self.B].reshape(4, 1)
+        Q = np.diag([float(q), 0.0, 0.0, 0.0])
+        R = np.array([[float(r)]])
+        P = solve_discrete_are(augmented_A, augmented_B, Q, R)
+        gain = np.linalg.solve(R + augmented_B.T @ P @ augmented_B, augmented_B.T @ P @ augmented_A)
+        self.gain_integral = float(gain[0, 0])
+        self.gain_state = gain[0, 1:].copy()
+        closed = (augmented_A - augmented_B @ gain).T
+        unit = np.array([1.0, 0.0, 0.0, 0.0])
+        X = -closed @ P @ unit
+        preview = np.zeros(self.steps)
+        preview[0] = -self.gain_integral
+        scale = np.linalg.inv(R + augmented_B.T @ P @ augmented_B) @ augmented_B.T
+        for j in range(1, self.steps):
+            preview[j] = (scale @ X).item()
+            X = closed @ X
+        self.gain_preview = preview
+        """G_d(1..N) (G_d(1) = -G_i)."""
+
+    @property
+    def omega(self) -> float:
+        """sqrt(g / z_c) (rad/s)."""
+        return math.sqrt(self.gravity / self.com_height)
+
+    def zmp_of(self, com: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
+        """The pendulum's ZMP c - (z_c / g) c''."""
+        return np.asarray(com) - self.com_height / self.gravity * np.asarray(acceleration)
+
+    def start(self, com_xy: np.ndarray, velocity_xy: np.ndarray | None = None) -> PreviewState:
+        """A controller state at a CoM (x, y) at rest (or moving at ``velocity_xy``), no acceleration."""
+        state = np.zeros((3, 2))
+        state[0] = np.asarray(com_xy, dtype=float)[:2]
+        if velocity_xy is not None:
+            state[1] = np.asarray(velocity_xy, dtype=float)[:2]
+        return PreviewState(self, state)
+
+    def run(self, reference: np.ndarray, com_xy: np.ndarray) -> PreviewRun:
+        """Every tick of a reference known in advance: ``reference`` (K, 2) is p_ref at the ticks
+        0..K-1 (held at its last value beyond); the CoM starts at rest at ``com_xy``."""
+        reference = np.asarray(reference, dtype=float)
+        count = len(reference)
+        padded = np.vstack([reference, np.repeat(reference[-1:], self.steps, axis=0)])
+        state = self.start(com_xy)
+        com, velocity, acceleration = (np.zeros((count, 2)) for _ in range(3))
+        for k in range(count):
+            com[k], velocity[k], acceleration[k] = state.x
+            state.step(padded[k + 1:k + 1 + self.steps], padded[k])
+        return PreviewRun(com, velocity, acceleration, self.zmp_of(com, acceleration))
+
+
+class PreviewState:
+    """One controller's running state: x (3, 2) = rows c, c', c'' for x and y, and sum e."""
+
+    def __init__(self, controller: PreviewController, x: np.ndarray):
+        self.controller = controller
+        self.x = x
+        self.error_sum = np.zeros(2)
+
+    def step(self, future: np.ndarray, current: np.ndarray) -> np.ndarray:
+        """Advance one tick: ``current`` is p_ref now, ``future`` (N, 2) p_ref at the next N ticks
+        (as many as the horizon). Returns the jerk applied (2,)."""
+        c = self.controller
+        current = np.asarray(current, dtype=float)
+        zmp = c.C @ self.x
+        self.error_sum += zmp - current
+        # in coordinates centred on the current reference: the model is invariant to a shift, the
+        # horizon's truncated gains are not (their sum misses G_x's position gain by a few 1e-4)
+        relative = self.x.copy()
+        relative[0] -= current
+        jerk = (-c.gain_integral * self.error_sum - c.gain_state @ relative
+                - c.gain_preview @ (future - current))
+        self.x = c.A @ self.x + np.outer(c.B, jerk)
+        return jerk

@@ -1,0 +1,371 @@
+"""The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
+and compared with PlaCo's generator and the quasi-static gait on the same footsteps.
+
+A file names the robot (its two soles are the feet unless ``feet`` names them; a robot loaded from
+example-robot-data gets its ``soles``), the walk's settings (``dt``, ``timing``, ``clearance``,
+``zmp_forward``, ``com_height``, ``preview``, ``filter_iterations``, ``tracking``, ``locked``, ``trunk``)
+and one or more ``walks`` (``steps``, ``length``, ``lateral``, ``turn_deg``, ``first``: a
+:class:`~wbik.motion.walking.footsteps.StepCommand`; ``timing``: durations that differ from the file's;
+``compare``: the generators to run on the same footsteps). Every walk is planned and tracked
+(:func:`wbik.motion.walking.tracking.walk`) and judged by :func:`wbik.motion.walking.figures.walk_figures`
+against the file's ``expect`` (the keys of ``WALK_RULES``; a walk's own ``expect`` overrides keys of the
+file's). Without an ``expect`` block a walk expects its multibody ZMP ``margin`` inside the support at
+every sample and no QP failure.
+
+Compared (reported, not judged, but ``speed_ratio_min`` judges the speed against the first):
+
+- ``static``: the quasi-static gait (:mod:`wbik.motion.walking.static_gait`) timed like the seed's
+  servos (``static.speed_rpm``, rest at every sample); ``speed_ratio_vs_static`` is its duration over
+  ours on the same footsteps;
+- ``static_balanced``: the same samples passed without stopping (stops at phase ends only) at the
+  highest of 40 rpm / sqrt(2)^n whose multibody ZMP stays ``margin`` inside the support;
+- ``placo`` and ``placo_ours``: PlaCo's walk pattern generator and its IK at PlaCo's default settings
+  and at ours (:mod:`wbik.motion.walking.placo_pattern`).
+
+Each walk's entry also has the computing time per control tick of our pattern and whole-body step
+(median, 95th percentile, max; the benchmark ``benchmarks/walking.py`` measures it properly). The
+animation plays our walks one after the other (a sample every ``ANIMATION_SAMPLE_S``) with the
+multibody ZMP and the support polygon.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.expectations import Rule
+from wbik.expectations import judge
+from wbik.scenario_schema import FRAME
+from wbik.scenario_schema import START
+from wbik.scenario_schema import Boolean
+from wbik.scenario_schema import Context
+from wbik.scenario_schema import Key
+from wbik.scenario_schema import ListOf
+from wbik.scenario_schema import Map
+from wbik.scenario_schema import Number
+from wbik.scenario_schema import Robot
+from wbik.scenario_schema import Text
+from wbik.scenario_schema import apply_soles
+from wbik.scenario_schema import backend_key
+from wbik.scenario_schema import check_robot_params
+from wbik.scenario_schema import common_keys
+from wbik.scenario_schema import default_of
+from wbik.scenario_schema import expect_block
+from wbik.scenario_schema import from_dataclass
+from wbik.scenario_schema import margin_key
+from wbik.scenario_schema import soles_key
+from wbik.scenarios.kinds import KindRun
+from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioKind
+from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import format_entries
+from wbik.scenarios.kinds import start_of
+
+__all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
+
+WALK_RULES = {
+    "zmp_margin_min_m": Rule("zmp_margin_min_m", ">=", "m"),
+    "zmp_margin_p5_min_m": Rule("zmp_margin_p5_m", ">=", "m"),
+    "com_error_max_m": Rule("com_error_max_m", "<=", "m"),
+    "foot_slip_max_m": Rule("foot_slip_max_m", "<=", "m"),
+    "swing_clearance_min_m": Rule("swing_clearance_min_m", ">=", "m"),
+    "swing_height_min_m": Rule("swing_height_min_m", ">=", "m"),
+    "velocity_ratio_max": Rule("joint_velocity_over_limit", "<="),
+    "limit_excess_max_rad": Rule("joint_limit_excess_max_rad", "<=", "rad"),
+    "leg_distance_min_m": Rule("leg_distance_min_m", ">=", "m"),
+    "qp_failures_max": Rule("qp_failures", "<="),
+    "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
+}
+"""A walk on the full model: the multibody ZMP's margin in the support (minimum, 5th percentile), CoM
+tracking, stance-foot slip, the swing's lift and the lowest swinging sole, joint limits, the joint
+speed over its limit, the legs' distance, QP failures, and the speed against the static gait on the
+same footsteps."""
+
+COMPARED = ("static", "static_balanced", "placo", "placo_ours")
+ANIMATION_SAMPLE_S = 0.02
+"""s between two samples of the animation (the viewer interpolates; the page stays small)."""
+STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))
+"""rpm tried by ``static_balanced``, fastest first."""
+
+
+def _spec_objects(spec: dict, robot):
+    """(feet, timing, preview settings, tracking settings) of a checked spec."""
+    from wbik.motion.walking.footsteps import Feet
+    from wbik.motion.walking.pattern import PreviewSettings
+    from wbik.motion.walking.timeline import Timing
+    from wbik.motion.walking.tracking import TrackingSettings
+
+    feet_spec = spec["feet"] or {}
+    feet = Feet.of(robot, feet_spec.get("left"), feet_spec.get("right"))
+    tracking = dict(spec["tracking"])
+    settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]), **tracking)
+    return feet, Timing(**spec["timing"]), PreviewSettings(**spec["preview"]), settings
+
+
+def _ticks(times: np.ndarray) -> dict:
+    return {"median_s": float(np.median(times)), "p95_s": float(np.percentile(times, 95)),
+            "max_s": float(np.max(times))}
+
+
+def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
+    """Every walk of a checked spec (see the module docstring)."""
+    from wbik.motion.walking.figures import walk_figures
+    from wbik.motion.walking.footsteps import StepCommand
+    from wbik.motion.walking.timeline import Timing
+    from wbik.motion.walking.tracking import leg_collision_model
+    from wbik.motion.walking.tracking import walk
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
+
+    run = KindRun(spec, "walks", on_progress, figures={"backend": spec["backend"]})
+    robot = run.robot
+    q0 = start_of(spec, robot)
+    feet, _, preview, settings = _spec_objects(spec, robot)
+    collisions = leg_collision_model(robot, feet) if settings.self_collision else None
+    margin = float(spec["margin"])
+    for item in spec["walks"]:
+        command = StepCommand(item["steps"], item["length"], item["lateral"], item["turn_deg"], item["first"])
+        timing = Timing(**{**spec["timing"], **(item["timing"] or {})})
+        motion = walk(robot, q0, command, timing, spec["dt"], spec["clearance"], feet, preview,
+                      spec["com_height"], settings, spec["filter_iterations"], spec["zmp_forward"],
+                      spec["backend"])
+        pattern = motion.pattern
+        figures, series = walk_figures(robot, feet, pattern.times, motion.q, pattern.support,
+                                       pattern.ground_z, margin, pattern.com, collisions)
+        figures["qp_failures"] = len(motion.failed)
+        lipm, _ = _reference_margins(robot, pattern)
+        entry = {"name": item["name"] or f"{command.kind}: {command.steps} steps", "kind": command.kind,
+                 "footsteps": len(pattern.footsteps), **figures,
+                 "lipm_zmp_margin_min_m": lipm,
+                 "tick_time": {"pattern": _ticks(pattern.tick_time_s[1:]),
+                               "wholebody_step": _ticks(motion.step_time_s[1:]),
+                               "both": _ticks(motion.tick_time_s[1:])},
+                 "collision_pairs": motion.collision_pairs,
+                 "settings": {"single_support_s": timing.single_support_s,
+                              "double_support_s": timing.double_support_s, "start_s": timing.start_s,
+                              "end_s": timing.end_s, "dt": spec["dt"], "clearance_m": spec["clearance"],
+                              "com_height_m": pattern.com_height,
+                              "filter_iterations": spec["filter_iterations"]}}
+        compared, solved = {}, {}
+        for label in item["compare"]:
+            compared[label] = _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin,
+                                       solved)
+        if compared:
+            entry["compared"] = compared
+            static = compared.get("static")
+            if static is not None:
+                entry["speed_ratio_vs_static"] = static["duration_s"] / entry["duration_s"]
+            balanced = compared.get("static_balanced")
+            if balanced is not None and balanced.get("duration_s"):
+                entry["speed_ratio_vs_static_balanced"] = balanced["duration_s"] / entry["duration_s"]
+        wanted = {"zmp_margin_min_m": margin, "qp_failures_max": 0} if spec["expect"] is None else dict(
+            spec["expect"])
+        wanted.update(item["expect"] or {})
+        judge(entry, wanted, entry, WALK_RULES, f"walks[{entry['name']!r}] expect")
+        support = tuple(tuple(s) for s in pattern.support)
+        animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
+                                                                       series["zmp"]), entry["name"])
+        run.add(entry, animation.subsampled(max(1, round(ANIMATION_SAMPLE_S / pattern.dt))))
+    return run.finished()
+
+
+def _reference_margins(robot, pattern) -> tuple[float, float]:
+    """The smallest margin of the pendulum's ZMP and of the reference in the planned support (m)."""
+    from wbik.qp.support_polygon import SupportPolygon
+
+    lipm, reference = math.inf, math.inf
+    for k in range(pattern.ticks):
+        points = [np.asarray(robot.soles[f]) @ pattern.feet_poses[pattern.feet.side(f)][k].rotation.T
+                  + pattern.feet_poses[pattern.feet.side(f)][k].translation for f in pattern.support[k]]
+        polygon = SupportPolygon(np.vstack(points)[:, :2])
+        lipm = min(lipm, polygon.margin_of(pattern.lipm_zmp[k]))
+        reference = min(reference, polygon.margin_of(pattern.zmp_reference[k]))
+    return lipm, reference
+
+
+def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
+             solved: dict) -> dict:
+    """The figures of one compared generator on the pattern's footsteps (``solved``: what this walk's
+    comparisons share, the static gait's samples)."""
+    from wbik.motion.walking.figures import walk_figures
+
+    dt = spec["dt"]
+    trunk = _trunk(robot, settings)
+    if label in ("static", "static_balanced"):
+        if "static" not in solved:
+            solved["static"] = _static(spec, robot, q0, pattern, feet, trunk, settings, margin)
+        gait = solved["static"]
+        figures: dict = {"generator": "quasi-static gait (CoM over the stance sole, "
+                                      f"{margin * 1e3:g} mm margin, one IK per division)"}
+        if label == "static":
+            times, qs, support = gait.resample(dt)
+            found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
+            figures.update({"timing": f"servo speed {gait.info['speed_rpm']:g} rpm, rest at every sample",
+                            "samples_solved": len(gait.q) - 1,
+                            "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found})
+            return figures
+        return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
+    from wbik.motion.walking.placo_pattern import placo_walk
+
+    placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
+                       timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
+                       spec["placo"]["iterations"])
+    found, _ = walk_figures(robot, feet, placo.times, placo.q, placo.support, pattern.ground_z, margin,
+                            placo.com)
+    setting = "defaults" if label == "placo" else "ours"
+    return {"generator": f"PlaCo's walk pattern generator and IK ({setting})",
+            "parameters": placo.parameters, "plan_time_s": placo.plan_time_s,
+            "tick_time": _ticks(placo.tick_time_s[1:]), **found}
+
+
+def _trunk(robot, settings) -> str:
+    from wbik.motion.walking.tracking import trunk_frame
+
+    return trunk_frame(robot, settings)
+
+
+def _static(spec, robot, q0, pattern, feet, trunk, settings, margin):
+    """The static gait on the pattern's footsteps."""
+    from wbik.motion.walking.static_gait import static_gait
+
+    static = spec["static"]
+    return static_gait(robot, q0, pattern.footsteps, feet, trunk, spec["clearance"], margin, static["inset"],
+                       static["divisions"], static["speed_rpm"], settings.locked, spec["backend"])
+
+
+def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
+    """The static gait's samples at the fastest of ``STATIC_SPEEDS`` whose multibody ZMP keeps the
+    margin (stops at phase ends only)."""
+    from wbik.motion.walking.figures import walk_figures
+    from wbik.motion.walking.static_gait import retimed
+
+    base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
+    for rpm in STATIC_SPEEDS:
+        timed = retimed(base, rpm, "waypoint")
+        times, qs, support = timed.resample(dt)
+        found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
+        if found["zmp_margin_min_m"] >= margin:
+            return {"timing": f"servo speed {rpm:.3g} rpm, stops at phase ends only", "speed_rpm": rpm,
+                    **found}
+    return {"timing": f"no speed down to {STATIC_SPEEDS[-1]:.3g} rpm keeps the margin", "duration_s": None}
+
+
+def format_report(report: dict) -> str:
+    """Per walk: duration, speed, the multibody ZMP margin, tracking, slip, clearance, peaks, the
+    compared generators and the checks."""
+    def describe(entry: dict) -> str:
+        text = (f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
+                f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
+                f"({entry['speed_m_s'] * 1e3:.0f} mm/s)\n"
+                f"      {_line('ours', entry)}")
+        ticks = entry["tick_time"]["both"]
+        text += (f"\n      per 10 ms tick (pattern + whole-body step): "
+                 f"median {ticks['median_s'] * 1e3:.3f} ms, "
+                 f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms")
+        for label, figures in entry.get("compared", {}).items():
+            text += f"\n      {_line(label, figures)}"
+        if "speed_ratio_vs_static" in entry:
+            text += f"\n      speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x"
+            if "speed_ratio_vs_static_balanced" in entry:
+                slowed = entry["speed_ratio_vs_static_balanced"]
+                text += f" (vs the static gait slowed until balanced: {slowed:.1f}x)"
+        return text
+
+    return format_entries(report, "walks", describe)
+
+
+def _line(label: str, figures: dict) -> str:
+    if figures.get("duration_s") is None:
+        return f"{label}: {figures.get('timing', 'not run')}"
+    down = len(figures["zmp_margin_min_support"])
+    parts = [f"{label}: {figures['duration_s']:.2f} s",
+             f"ZMP margin min {figures['zmp_margin_min_m'] * 1e3:.1f} mm "
+             f"(at {figures['zmp_margin_min_at_s']:.2f} s, {down} {'foot' if down == 1 else 'feet'} down) "
+             f"p5 {figures['zmp_margin_p5_m'] * 1e3:.1f} mm"]
+    if figures["samples_without_zmp"]:
+        parts.append(f"{figures['samples_without_zmp']} samples with no ZMP (the feet would have to pull)")
+    if "com_error_max_m" in figures:
+        parts.append(f"CoM error {figures['com_error_max_m'] * 1e3:.2f} mm")
+    parts.append(f"slip {figures['foot_slip_max_m'] * 1e3:.3f} mm")
+    if figures.get("swing_clearance_min_m") is not None:
+        parts.append(f"clearance {figures['swing_clearance_min_m'] * 1e3:.1f} mm")
+    parts.append(f"peaks {figures['joint_velocity_peak_rad_s']:.2f} rad/s, "
+                 f"{figures['joint_acceleration_peak_rad_s2']:.0f} rad/s^2")
+    return ", ".join(parts)
+
+
+# -- the schema ------------------------------------------------------------------------------------
+def walk_schema() -> Map:
+    """The keys of a ``walk`` file (see the module docstring)."""
+    from wbik.motion.walking.footsteps import StepCommand
+    from wbik.motion.walking.pattern import PreviewSettings
+    from wbik.motion.walking.placo_pattern import placo_walk
+    from wbik.motion.walking.static_gait import static_gait
+    from wbik.motion.walking.timeline import Timing
+    from wbik.motion.walking.tracking import TrackingSettings
+    from wbik.motion.walking.tracking import walk
+
+    defaults = TrackingSettings()
+    tracking = Map({name: Key(Number(gt=0), getattr(defaults, name))
+                    for name in ("com_weight", "foot_weight", "trunk_weight", "posture_weight",
+                                 "regularization")}
+                   | {"self_collision": Key(Boolean(), defaults.self_collision),
+                      "safety_distance": Key(Number(ge=0, unit="m"), defaults.safety_distance),
+                      "velocity_limits": Key(Boolean(), defaults.velocity_limits)}, nullable=True)
+    command = StepCommand()
+    one = Map({"name": Key(Text(), ""),
+               "steps": Key(Number(ge=0, integer=True), command.steps),
+               "length": Key(Number(unit="m"), command.length),
+               "lateral": Key(Number(unit="m"), command.lateral),
+               "turn_deg": Key(Number(ge=-45, le=45, unit="deg"), command.turn_deg),
+               "first": Key(Text(("left", "right"), nullable=True), None),
+               "timing": Key(Map({name: Key(Number(ge=0, unit="s")) for name in from_dataclass(Timing).keys},
+                                 nullable=True), None),
+               "compare": Key(ListOf(Text(COMPARED)), []),
+               "expect": Key(expect_block(WALK_RULES), None)})
+
+    def post(spec: dict, path: str, ctx: Context) -> None:
+        check_robot_params(spec, path, ctx)
+        apply_soles(spec, path, ctx)
+        for index, item in enumerate(spec["walks"]):
+            if "speed_ratio_min" in (item["expect"] or {}) and "static" not in item["compare"]:
+                ctx.fail(f"walks[{index}].expect.speed_ratio_min",
+                         "needs 'static' in this walk's compare list")
+
+    return Map({**common_keys(robot=Key(Robot(), required=True)),
+                "soles": soles_key(), "start": Key(START, "nominal"),
+                "feet": Key(Map({"left": Key(FRAME, required=True), "right": Key(FRAME, required=True)},
+                                nullable=True), None),
+                "trunk": Key(Text(what="a frame name", nullable=True), None),
+                "locked": Key(ListOf(Text(what="a joint name")), []),
+                "dt": Key(Number(gt=0, le=0.1, unit="s"), default_of(walk, "dt")),
+                "timing": Key(Map(from_dataclass(Timing).keys, nullable=True), {}),
+                "clearance": Key(Number(ge=0, unit="m"), default_of(walk, "clearance")),
+                "zmp_forward": Key(Number(unit="m"), default_of(walk, "zmp_forward")),
+                "com_height": Key(Number(gt=0, nullable=True, unit="m"), None),
+                "preview": Key(Map(from_dataclass(PreviewSettings).keys, nullable=True), {}),
+                "filter_iterations": Key(Number(ge=0, le=5, integer=True),
+                                         default_of(walk, "filter_iterations")),
+                "tracking": Key(tracking, {}),
+                "margin": margin_key(),
+                "backend": backend_key(),
+                "static": Key(Map({"divisions": Key(Number(ge=1, integer=True),
+                                                    default_of(static_gait, "divisions")),
+                                   "speed_rpm": Key(Number(gt=0, unit="rpm"),
+                                                    default_of(static_gait, "speed_rpm")),
+                                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)},
+                                  nullable=True), {}),
+                "placo": Key(Map({"iterations": Key(Number(ge=1, integer=True),
+                                                    default_of(placo_walk, "iterations"))}, nullable=True),
+                             {}),
+                "walks": Key(ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, "
+                                                          "turn_deg, first, timing, compare, expect}"),
+                             required=True),
+                "expect": Key(expect_block(WALK_RULES), None)}, post=post)
+
+
+SCENARIO_KINDS = (
+    ScenarioKind("walk", run_walk, walk_schema, format_report,
+                 "dynamic walk (preview control + whole-body QP), judged by the multibody ZMP"),
+)

@@ -1,0 +1,256 @@
+"""The quasi-static gait on given footsteps: the seed's balance strategy (the Bioloid's whole-body
+step) on any biped, for comparison with the dynamic walk.
+
+For every footstep: a double support moving the CoM's ground projection into the stance sole (to
+the point of the sole shrunk by ``inset`` nearest to it, as the seed's whole-body step does), then a
+single support where the other foot swings to the footstep on the same trajectory as the dynamic
+walk's (:mod:`wbik.motion.walking.swing`), the CoM held; a last double support brings the CoM back
+between the feet. Each phase is cut into ``divisions`` samples (the swing into twice as many, the
+seed's lift and lower), and every sample is a converged whole-body IK (:class:`wbik.qp.IKProblem`):
+the soles on the ground and the swinging sole held exactly (contacts), the CoM inside the support
+polygon shrunk by ``margin`` (hard: balance is static at every sample), joint limits, ``locked``
+joints; the CoM and trunk orientation soft.
+
+Timing, as the seed's servos do: every joint moves in a straight line from sample to sample at
+rest at each sample (the "segment" mode of :func:`wbik.motion.timing.time_scale`, quintic law),
+no joint faster than ``speed_rpm``; :func:`retimed` gives another speed or passes the samples of a
+phase without stopping ("waypoint"). :meth:`StaticGait.resample` gives the configurations on a
+regular grid (each sample's stance sole kept where it stands, the base placed from it), so the
+multibody ZMP of the static gait can be judged like the dynamic walk's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import replace
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import InvalidConfigurationError
+from wbik.motion.walking.footsteps import OTHER
+from wbik.motion.walking.footsteps import SIDES
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.swing import swing_pose
+from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import LockedJoints
+from wbik.qp.problem import IKProblem
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.robot import Robot
+
+RPM = 2.0 * math.pi / 60.0
+"""rad/s per rpm."""
+
+
+@dataclass
+class StaticGait:
+    """The samples (``q``, K x nq; the start first), the soles on the ground at each (``support``), the
+    sole each one stands on (``anchor``), the timing (``knot_times``, s) and each sample's FK check
+    (``com_margin_m``: the CoM's margin in its support polygon, m)."""
+
+    robot: Robot
+    q: np.ndarray
+    support: list[tuple[str, ...]]
+    anchor: list[str]
+    anchor_placement: list[pin.SE3]
+    timed: object  # wbik.motion.timing.TimedPath of the actuated joints
+    com_margin_m: np.ndarray
+    info: dict = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        return float(self.timed.duration)
+
+    @property
+    def knot_times(self) -> np.ndarray:
+        return np.asarray(self.timed.knot_times, dtype=float)
+
+    def resample(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[tuple[str, ...]]]:
+        """(times, configurations (T, nq), support per time) every ``dt`` s: the joints on their timed
+        straight lines, the base placed so that the sample's stance sole stays where it stands."""
+        model = self.robot.model
+        actuated = _actuated_q(model)
+        times = np.arange(0.0, self.duration + 0.5 * dt, dt)
+        joints, _, _ = self.timed.evaluate(times)
+        knots = self.knot_times
+        rows, support = [], []
+        data = model.createData()
+        for t, values in zip(times, joints, strict=True):
+            k = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2))
+            segment = k + 1  # the sample this stretch moves to
+            q = self.q[segment].copy()
+            q[actuated] = values
+            q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+            pin.framesForwardKinematics(model, data, q)
+            sole = data.oMf[model.getFrameId(self.anchor[segment])]
+            base = self.anchor_placement[segment] * sole.inverse()
+            q[:7] = pin.SE3ToXYZQUAT(base)
+            rows.append(q)
+            support.append(self.support[segment])
+        return times, np.array(rows), support
+
+
+def _actuated_q(model: pin.Model) -> np.ndarray:
+    return np.array([model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1])
+
+
+class _JointSet:
+    """The actuated joints seen as a chain by :func:`wbik.motion.timing.time_scale`."""
+
+    def __init__(self, model: pin.Model, limit: float):
+        self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        self.nq = len(self.joint_names)
+        self.velocity_limit = np.full(self.nq, float(limit))
+        self.name = "joints"
+
+
+def _sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon:
+    points = [(np.asarray(robot.soles[frame]) @ p.rotation.T + p.translation)[:, :2]
+              for frame, p in placements.items()]
+    return SupportPolygon(np.vstack(points))
+
+
+def _nearest_inside(polygon: SupportPolygon, point: np.ndarray, inset: float) -> np.ndarray:
+    """The point of the polygon shrunk by ``inset`` nearest to ``point`` (x, y)."""
+    from wbik.qp import backends
+
+    normals, offsets = polygon.halfplanes(inset)
+    point = np.asarray(point, dtype=float)[:2]
+    if np.all(normals @ point <= offsets):
+        return point.copy()
+    return np.asarray(backends.solve(DEFAULT_BACKEND, np.eye(2), -point, normals, offsets, None, None, None,
+                                     None), dtype=float)
+
+
+def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
+                clearance: float = 0.02, margin: float = 0.005, inset: float | None = None,
+                divisions: int = 5, speed_rpm: float = 40.0, locked: tuple[str, ...] = (),
+                backend: str = DEFAULT_BACKEND) -> StaticGait:
+    """The quasi-static gait through ``footsteps`` from ``q0`` (see the module docstring); ``inset``
+    (m) defaults to the larger of the seed's 8 mm and the margin + 3 mm."""
+    inset = max(0.008, margin + 0.003) if inset is None else float(inset)
+    if divisions < 1 or not speed_rpm > 0:
+        raise InvalidConfigurationError(f"divisions must be >= 1 and speed_rpm > 0, got {divisions}, "
+                                        f"{speed_rpm}")
+    if inset < margin:
+        raise InvalidConfigurationError(f"the CoM goes {inset} m inside the stance sole, less than the "
+                                        f"margin {margin} m")
+    model = robot.model
+    q = np.asarray(q0, dtype=float).copy()
+    stand = {side: robot.frame_placement(q, feet.frame(side)) for side in SIDES}
+    trunk_rotation = robot.frame_placement(q, trunk).rotation
+    heading0 = math.atan2(trunk_rotation[1, 0], trunk_rotation[0, 0])
+    level = pin.utils.rotate("z", -heading0) @ trunk_rotation
+    com_height = float(robot.center_of_mass(q)[2])
+    rows, support, anchor, anchor_placement, margins = [q.copy()], [tuple(feet.frames)], [feet.left], \
+        [stand["left"]], [np.nan]
+    phase_ends: list[int] = []
+    common = [JointPositionLimits(model)] + ([LockedJoints(model, list(locked))] if locked else [])
+
+    def heading_of() -> float:
+        yaws = [math.atan2(stand[s].rotation[1, 0], stand[s].rotation[0, 0]) for s in SIDES]
+        return yaws[1] + 0.5 * math.remainder(yaws[0] - yaws[1], 2 * math.pi)
+
+    feet_heading0 = heading_of()
+
+    def sample(held: dict[str, pin.SE3], polygon: SupportPolygon, com_xy: np.ndarray, on_ground: tuple,
+               stance_frame: str) -> None:
+        nonlocal q
+        rotation = pin.utils.rotate("z", heading0 + heading_of() - feet_heading0) @ level
+        tasks = [ComTask(np.r_[com_xy, com_height], axes="xy", weight=10.0, tolerance=1e-7, name="com"),
+                 OrientationTask(trunk, rotation, weight=0.02, goal=False, name="trunk"),
+                 PostureTask(q0, weight=1e-4, priority=1), RegularizationTask(1e-8)]
+        constraints = [Contact(frame, placement) for frame, placement in held.items()]
+        constraints += [CoMInSupportPolygon(polygon, margin), *common]
+        problem = IKProblem(model, tasks, constraints, backend=backend, max_step=0.1)
+        solution = problem.solve(q, max_iterations=60)
+        q = solution.q.copy()
+        rows.append(q.copy())
+        support.append(on_ground)
+        anchor.append(stance_frame)
+        anchor_placement.append(held[stance_frame])
+        margins.append(polygon.margin_of(robot.center_of_mass(q)[:2]))
+
+    def shift(target_side: str | None) -> None:
+        """Double support: the CoM into the ``target_side`` sole (None: between the feet)."""
+        both = {feet.frame(s): stand[s] for s in SIDES}
+        polygon = _sole_polygon(robot, both)
+        start = robot.center_of_mass(q)[:2]
+        if target_side is None:
+            goal = 0.5 * (stand["left"].translation + stand["right"].translation)[:2]
+            end_polygon = polygon
+        else:
+            end_polygon = _sole_polygon(robot, {feet.frame(target_side): stand[target_side]})
+            goal = _nearest_inside(end_polygon, start, inset)
+        stance_frame = feet.frame(target_side or "left")
+        for division in range(1, divisions + 1):
+            s = division / divisions
+            sample(both, end_polygon if division == divisions else polygon, start + s * (goal - start),
+                   tuple(feet.frames), stance_frame)
+        phase_ends.append(len(rows) - 1)
+
+    for step in footsteps:
+        stance_side = OTHER[step.side]
+        shift(stance_side)
+        stance_frame = feet.frame(stance_side)
+        polygon = _sole_polygon(robot, {stance_frame: stand[stance_side]})
+        com_xy = robot.center_of_mass(q)[:2]
+        lift_off = stand[step.side]
+        for division in range(1, 2 * divisions + 1):
+            pose = swing_pose(lift_off, step.placement, division / (2 * divisions), clearance)
+            sample({stance_frame: stand[stance_side], step.frame: pose}, polygon, com_xy, (stance_frame,),
+                   stance_frame)
+        phase_ends.append(len(rows) - 1)
+        stand[step.side] = step.placement
+    shift(None)
+    configurations = np.array(rows)
+    timed = _timed(model, configurations, speed_rpm, "segment", phase_ends)
+    return StaticGait(robot, configurations, support, anchor, anchor_placement, timed, np.array(margins),
+                      {"divisions": divisions, "speed_rpm": speed_rpm, "margin": margin, "inset": inset,
+                       "mode": "segment", "phase_ends": phase_ends})
+
+
+def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
+    """The shortest timing of the samples' actuated joints at ``speed_rpm`` (quintic law, ``mode`` of
+    :func:`wbik.motion.timing.time_scale`; ``phase_ends`` the waypoints)."""
+    from wbik.motion.path import JointPath
+    from wbik.motion.timing import time_scale
+
+    joints = configurations[:, _actuated_q(model)]
+    lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
+    s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
+    limit = speed_rpm * RPM
+    path = JointPath(_JointSet(model, limit), s, joints, waypoint_knots=list(phase_ends))
+    return time_scale(path, "quintic", velocity_limit=limit, mode=mode)
+
+
+def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
+    """The same samples timed at another servo speed (rpm) and mode ("segment": rest at every sample;
+    "waypoint": rest at phase ends only, the samples between passed on a spline). Under a velocity
+    limit alone every piece's shortest duration scales as 1 / speed, so a timing of the same mode is
+    scaled rather than searched again."""
+    if not speed_rpm > 0:
+        raise InvalidConfigurationError(f"speed_rpm must be > 0, got {speed_rpm}")
+    if gait.info.get("mode") == mode:
+        timed = scaled_timing(gait.timed, gait.info["speed_rpm"] / speed_rpm)
+    else:
+        timed = _timed(gait.robot.model, gait.q, speed_rpm, mode, gait.info["phase_ends"])
+    return replace(gait, timed=timed, info={**gait.info, "speed_rpm": speed_rpm, "mode": mode})
+
+
+def scaled_timing(timed, factor: float):
+    """A TimedPath (:mod:`wbik.motion.timing`, velocity limit only) run ``factor`` times slower."""
+    pieces = [replace(piece, start=piece.start * factor, duration=piece.duration * factor)
+              for piece in timed.pieces]
+    return replace(timed, pieces=pieces, knot_times=np.asarray(timed.knot_times) * factor,
+                   duration=timed.duration * factor, velocity_limit=np.asarray(timed.velocity_limit) / factor)

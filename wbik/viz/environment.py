@@ -1,0 +1,91 @@
+"""What stands around a robot in a scene: boxes fixed in the world (a staircase's steps, a table, a
+workpiece), drawn by the viewer with the robot.
+
+A :class:`SceneBox` is a box by its full side lengths, the world pose of its centre and a colour. A
+scenario's animation carries the boxes of its scene (:attr:`wbik.viz.animation.Animation.environment`);
+the viewer also draws the fixed obstacles a robot's package declares for its cell
+(``collision_obstacles()``, e.g. the UR5's table: :func:`robot_cell`). Boxes are keyed by name: a
+scenario's box of the same name as a cell obstacle replaces it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from wbik.errors import InvalidConfigurationError
+
+FLOOR_COLOR = 0x8C8C8C
+"""Grey: steps, floors."""
+TABLE_COLOR = 0xA0764A
+"""Wood brown: tables."""
+PART_COLOR = 0x5B7DB1
+"""Steel blue: workpieces."""
+STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)
+"""Wood browns for a staircase's steps, the lowest first (tests look for their hue)."""
+
+
+@dataclass(frozen=True)
+class SceneBox:
+    """A box fixed in the world: ``size`` (full side lengths, m), centre ``xyz`` (m) and orientation
+    ``rpy`` (rad), RGB ``color`` and ``opacity`` in (0, 1]."""
+
+    name: str
+    size: tuple[float, float, float]
+    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    color: int = FLOOR_COLOR
+    opacity: float = 1.0
+
+    def __post_init__(self) -> None:
+        size = tuple(float(v) for v in self.size)
+        if len(size) != 3 or not all(math.isfinite(v) and v > 0 for v in size):
+            raise InvalidConfigurationError(f"scene box {self.name!r}: size must be 3 positive lengths, got "
+                                            f"{self.size!r}")
+        for what in ("xyz", "rpy"):
+            values = tuple(float(v) for v in getattr(self, what))
+            if len(values) != 3 or not all(math.isfinite(v) for v in values):
+                raise InvalidConfigurationError(f"scene box {self.name!r}: {what} must be 3 finite numbers")
+            object.__setattr__(self, what, values)
+        object.__setattr__(self, "size", size)
+        if not 0.0 < float(self.opacity) <= 1.0:
+            raise InvalidConfigurationError(f"scene box {self.name!r}: opacity must be in (0, 1]")
+
+    @classmethod
+    def between(cls, name: str, low, high, color: int = FLOOR_COLOR, opacity: float = 1.0) -> SceneBox:
+        """The axis-aligned box from corner ``low`` to corner ``high`` (world, m)."""
+        low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+        return cls(name, tuple(high - low), tuple(0.5 * (low + high)), (0.0, 0.0, 0.0), color, opacity)
+
+    def homogeneous(self) -> np.ndarray:
+        """The 4 x 4 world pose of the box's centre."""
+        import pinocchio as pin
+
+        pose = np.eye(4)
+        pose[:3, :3] = pin.rpy.rpyToMatrix(*self.rpy)
+        pose[:3, 3] = self.xyz
+        return pose
+
+    def corners(self) -> np.ndarray:
+        """The 8 corners (8, 3) in the world."""
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+        pose = self.homogeneous()
+        return (0.5 * signs * self.size) @ pose[:3, :3].T + pose[:3, 3]
+
+
+def robot_cell(robot) -> tuple[SceneBox, ...]:
+    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g.
+    the UR5's table), as boxes; none for a robot without a package or without such obstacles."""
+    from wbik.models import robot_entries
+
+    entry = robot_entries().get(getattr(robot, "name", ""))
+    if entry is None:
+        return ()
+    obstacles = getattr(entry.module(), "collision_obstacles", None)
+    if obstacles is None:
+        return ()
+    return tuple(SceneBox(obstacle.name, tuple(obstacle.size), tuple(obstacle.xyz), tuple(obstacle.rpy),
+                          TABLE_COLOR if "table" in obstacle.name else FLOOR_COLOR)
+                 for obstacle in obstacles())
