@@ -9,10 +9,8 @@ default; OSQP stays one name away (``backend="osqp"``).
 A backend that finds no minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status
 (DAQP's exit flag and its meaning, or qpsolvers' message); nothing returns None.
 
-Measured here (Golem-III right arm, 150 reachable poses from the nominal start, ``wbik.solver("qp")``
-with 1000 iterations allowed): DAQP 70 % solved at 2.3 ms per call (148 us per step), quadprog 70 %
-at 2.9 ms (188 us per step); OSQP is 10-20x slower per step than DAQP on these small dense QPs (see
-``benchmarks/qp.py``), which is why it was dropped as the default.
+The default is the backend ``benchmarks/qp.py`` measures fastest on these small dense QPs (DAQP; the
+figures are in docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -39,7 +37,7 @@ FASTEST = "daqp"
 """Measured fastest per QP step on the Bioloid whole body (benchmarks/qp.py; see its table)."""
 
 DEFAULT = FASTEST
-"""The default backend: the fastest measured here (dense active-set DAQP)."""
+"""The default backend: the fastest one in ``benchmarks/qp.py`` (dense active-set DAQP)."""
 
 BACKEND_OPTIONS: dict[str, dict] = {
     "osqp": {"eps_abs": 1e-9, "eps_rel": 1e-9, "polishing": False, "max_iter": 50000, "verbose": False},

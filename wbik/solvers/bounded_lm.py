@@ -34,7 +34,7 @@ limit), or after ``attempt_iterations``.
 Restarts, until the iteration budget ``max_iterations`` is spent (the result is the first solution
 that passes, or the best attempt with a reason). The budget counts single-seed iterations; one
 iteration of the vectorised batch counts ``BATCH_ITERATION_UNITS`` of them (what it costs relative
-to a single one, measured here). By default the budget is the iterations that cost about 5 ms on
+to a single one). By default the budget is the iterations that cost about 5 ms on
 the reference machine, so the answer depends on the inputs and ``seed`` only, never on the load;
 ``timeout_s`` adds a wall clock. Restarts draw from the call's own random stream
 (:meth:`Solver._call_rng`).
@@ -157,9 +157,9 @@ class BoundedLMSolver(Solver):
     succeeds as often or more (UR5 81 vs 77 %, Golem-III 76 vs 68, Pincher 96 vs 81, Panda 84 vs 83,
     Bioloid leg 96 vs 97) in 0.6-2.9 fewer iterations; where it is less near, the two are even."""
     iteration_cost_s = 20e-6
-    """The budget's unit: one single-seed iteration (FK, Jacobian, Cholesky) as measured here before the
-    compiled trial (17-25 us); kept when the trial moved to C, so the default budget stays the same
-    number of iterations (the same answers on every machine, compiled or not)."""
+    """The budget's unit: one single-seed iteration (FK, Jacobian, Cholesky) of the Python trial on the
+    reference machine, kept for the compiled trial too, so the default budget is the same number of
+    iterations (the same answers on every machine, compiled or not)."""
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
                  attempt_iterations: int = 30, stall: int = 3,

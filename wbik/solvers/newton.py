@@ -45,7 +45,7 @@ def newton_step(jacobian: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 class NewtonRaphson(Solver):
     name = "newton"
-    iteration_cost_s = 30e-6  # one FK + Jacobian and one LU or least-squares solve, measured here (26-46 us)
+    iteration_cost_s = 30e-6  # the budget's unit: one FK + Jacobian and one LU or least-squares solve
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None, stall_iterations: int = 10,
                  max_step: float | None = None, **options):

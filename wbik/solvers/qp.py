@@ -38,7 +38,7 @@ from wbik.targets import Target
 
 class QPSolver(Solver):
     name = "qp"
-    iteration_cost_s = 150e-6  # one DAQP step with its FK checks on a 6-joint arm, measured here
+    iteration_cost_s = 150e-6  # the budget's unit: one DAQP step with its FK checks on a 6-joint arm
     default_budget_s = 0.03
 
     def __init__(self, robot, chain=None, *, backend: str = backends.DEFAULT,
