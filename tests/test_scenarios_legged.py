@@ -1,10 +1,10 @@
 """The legged task files: Talos reaching on two flat feet, Solo12 moving its trunk on four point feet.
 
-Each file is run once (qp for the phases, and qp, placo and pink compared on every phase). Every
+Each file is run once (qp for the phases, and qp, placo, pink and mink compared on every phase). Every
 figure is checked by forward kinematics and geometry computed here: contact placements against those
 at the phase's start, the CoM margin against qhull's own half-planes of the contact points, the goals
 against the targets the file states, joints against the model's limits. The compared methods need
-not succeed (Pink has no hard support polygon), but what each reports must agree with these
+not succeed (Pink and mink have no hard support polygon), but what each reports must agree with these
 independent figures and with the shared check's rule (goals and contacts within 1e-6, CoM margin at
 least the phase's margin, joints inside their limits).
 """
@@ -23,7 +23,8 @@ from wbik.scenarios import run_scenario_report
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 TOLERANCE = 1e-6  # m and rad: the shared check's default tolerances
-METHODS = {"qp", "placo", "pink"}
+METHODS = {"qp", "placo", "pink", "mink"}
+NO_HARD_POLYGON = {"pink", "mink"}
 
 
 class Run:
@@ -122,7 +123,7 @@ def check_qp_phases(run: Run) -> None:
 
 
 def check_compared_methods(run: Run) -> dict:
-    """Every phase reports qp, placo and pink; each report agrees with the figures computed here
+    """Every phase reports qp, placo, pink and mink; each report agrees with the figures computed here
     and its success with the shared rule. Returns {method: phases solved}."""
     solved = dict.fromkeys(METHODS, 0)
     for spec_phase, phase, start in zip(run.spec["phases"], run.phases, run.starts, strict=True):
@@ -142,8 +143,9 @@ def check_compared_methods(run: Run) -> dict:
                      and limit_excess(run.robot, q) <= 1e-9)
             assert figures["success"] == meets, (phase["name"], method, figures["reason"])
             assert figures["success"] or figures["reason"]
-            if method == "pink":  # said, not dropped silently
-                assert any("support polygon" in item for item in figures["unsupported"])
+            if method in NO_HARD_POLYGON:  # said, not dropped silently
+                (item,) = figures["unsupported"]
+                assert item.startswith(f"unsupported by {method}: CoM in support polygon"), item
             else:
                 assert figures["unsupported"] == []
             solved[method] += figures["success"]

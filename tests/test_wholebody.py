@@ -146,7 +146,7 @@ def test_problem_from_a_task_file_dict(bioloid):
 
 
 # -- every method on a Bioloid CoM shift and a Golem-III two-gripper case ------------------------------------
-@pytest.mark.parametrize("method", ["qp", "placo", "pink", "thesis_legs"])
+@pytest.mark.parametrize("method", ["qp", "placo", "pink", "mink", "thesis_legs"])
 def test_each_method_solves_a_bioloid_com_shift(bioloid, method):
     q0 = bioloid.nominal
     right = bioloid.frame_placement(q0, "r_sole").translation
@@ -164,13 +164,13 @@ def test_each_method_solves_a_bioloid_com_shift(bioloid, method):
         held, reached = bioloid.frame_placement(q0, sole), bioloid.frame_placement(result.q, sole)
         assert np.linalg.norm(reached.translation - held.translation) <= 1e-6
     assert result.com_margin >= 0.005
-    if method in ("pink", "thesis_legs"):
+    if method in ("pink", "mink", "thesis_legs"):
         assert any(NO_POLYGON in item for item in result.unsupported)
     else:
         assert result.unsupported == []
 
 
-@pytest.mark.parametrize("method", ["qp", "placo", "pink"])
+@pytest.mark.parametrize("method", ["qp", "placo", "pink", "mink"])
 def test_each_method_solves_a_golem_two_gripper_case(golem, method):
     problem, _ = golem_problem(golem)
     result = wholebody_solver(method, golem, max_iterations=300).solve(problem, golem.nominal)

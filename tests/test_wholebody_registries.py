@@ -149,8 +149,9 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 
 # -- methods ----------------------------------------------------------------------------------------------
 def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate):
-    assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.apps.bioloid.thesis_legs"]
-    assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "thesis_legs"}
+    assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.wholebody.placo", "wbik.wholebody.pink",
+                                      "wbik.wholebody.mink", "wbik.apps.bioloid.thesis_legs"]
+    assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "mink", "thesis_legs"}
     isolate(methods.WHOLEBODY_METHOD_REGISTRY)
 
     class Mine(QPWholeBody):
@@ -165,7 +166,7 @@ def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate
         register_wholebody_method(WholeBodyMethod("qp", Mine))
     with pytest.raises(RegistryError, match="must be a WholeBodySolver subclass"):
         WholeBodyMethod("bad", print)
-    with pytest.raises(wbik.errors.UnknownMethodError, match="known methods: mine, pink, placo, qp"):
+    with pytest.raises(wbik.errors.UnknownMethodError, match="known methods: mine, mink, pink, placo, qp"):
         wholebody_solver("qp2", load("ur5"))
 
 

@@ -30,6 +30,10 @@ axes (``rotation_error``) with de_R/dq = Jlog3(M) R^T J_w, M = R*^T R (``rotatio
 exact: with R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt)). ``error`` and ``jacobian`` call them;
 ``fill``, the QP step's path, writes both into the step's rows sharing M, and takes R^T J_w from
 the LOCAL frame Jacobian (tests/test_qp_tasks.py checks that ``fill`` agrees with the geometry).
+
+A task's task-file entry is declared in :mod:`wbik.qp.task_entries` (a ``TaskEntry``), how PlaCo, Pink
+and mink state it in :mod:`wbik.qp.peers` (their forms, keyed by class); a new task declares both in its
+own module (docs/architecture.md, "Tasks").
 """
 
 from __future__ import annotations
@@ -100,6 +104,11 @@ class Task:
         the diagonal w of the QP's H, added there instead of stacked as nv rows. None otherwise."""
         return None
 
+    def error_parts(self, error: np.ndarray) -> tuple[float | None, float | None]:
+        """(position part m or None, rotation part rad or None) of an error of this task, as the
+        whole-body check judges it: by default its norm, as a position (in the task's own unit)."""
+        return float(np.linalg.norm(error)), None
+
 
 def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, target: np.ndarray,
                    jacobian: np.ndarray, error: np.ndarray) -> None:
@@ -154,6 +163,11 @@ class _FrameTaskBase(Task):
             self._compiled_for = kinematics
 
 
+def _pose_parts(error: np.ndarray) -> tuple[float, float]:
+    """(|position rows| m, |rotation rows| rad) of a 6-row pose error."""
+    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
 class FrameTask(_FrameTaskBase):
     """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows).
 
@@ -162,6 +176,9 @@ class FrameTask(_FrameTaskBase):
 
     dimension = 6
     kernel_rows = 6
+
+    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
+        return _pose_parts(error)
 
     def __init__(self, frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
@@ -233,6 +250,9 @@ class OrientationTask(_FrameTaskBase):
         super().__init__(frame, **options)
         self.target = np.asarray(target, dtype=float).reshape(3, 3).copy()
 
+    def error_parts(self, error: np.ndarray) -> tuple[None, float]:
+        return None, float(np.linalg.norm(error))
+
     def error(self, kinematics: Kinematics) -> np.ndarray:
         return rotation_error(kinematics.placement(self.frame_id).rotation, self.target)
 
@@ -270,6 +290,9 @@ class RelativeFrameTask(_FrameTaskBase):
     def start(self, kinematics: Kinematics) -> None:
         super().start(kinematics)
         self.reference_id = kinematics.frame_id(self.reference_frame)
+
+    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
+        return _pose_parts(error)
 
     def relative_placement(self, kinematics: Kinematics) -> pin.SE3:
         return kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))

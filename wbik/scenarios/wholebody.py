@@ -11,7 +11,7 @@ previous phase's answer (its schema, runner and printed report)::
     backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
                                    # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
     margin: 0.005                  # m, default CoM margin of the phases (default COM_MARGIN, 0.005)
-    methods: [qp, placo, pink]     # optional: whole-body methods compared on every phase (below)
+    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase (below)
     collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
       self_collision: true         # pairs of the robot's own primitives (default true)
       robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
@@ -33,8 +33,9 @@ previous phase's answer (its schema, runner and printed report)::
         expect: {success: true}     # or {success: false}: a balanced best effort; see PHASE_RULES
 
 Task entries are those of :mod:`wbik.qp.task_entries` (``type`` frame | position | orientation |
-relative | com | posture | regularization; ``target``, ``rpy``, ``keep``, ``offset``, ``over``;
-options weight, position_weight, orientation_weight, axes, goal, priority, tolerance). Every phase's
+relative | com | posture | regularization, or any type registered there; ``target``, ``rpy``, ``keep``,
+``offset``, ``over``; options weight, position_weight, orientation_weight, axes, goal, priority,
+tolerance): each type's keys are those its :class:`~wbik.qp.task_entries.TaskEntry` declares. Every phase's
 answer is checked independently by FK: contacts, CoM margin in the support polygon, joint limits.
 The phase's ``expect`` block judges these figures (keys in ``PHASE_RULES``, thresholds SI); unless
 the block sets them, the phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin``
@@ -56,8 +57,8 @@ start, support, margin, ``min_distance`` pairs, joint position limits) solved fr
 by each method within the phase's ``max_iterations`` (unless the entry gives its own), and judged
 by the one shared check (:func:`wbik.wholebody.check_wholebody`). Each phase's ``methods`` figure
 holds per label: success, reason, CoM margin, contact drift, task errors and the worst of them,
-time, iterations, and what the method could not express (``unsupported``: Pink has no hard
-support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
+time, iterations, and what the method could not express (``unsupported``: Pink and mink have no
+hard support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
 own QP's. ``lock`` and ``collisions`` are not part of a WholeBody problem, so a file with
 ``methods`` may not use them.
 
@@ -75,6 +76,7 @@ from wbik.expectations import evaluate
 from wbik.expectations import verdict
 from wbik.qp.diagnosis import report_lines
 from wbik.qp.task_entries import REGULARIZATION_WEIGHT
+from wbik.qp.task_entries import TASK_ENTRY_REGISTRY
 from wbik.qp.task_entries import TaskEntryError
 from wbik.qp.task_entries import build_task
 from wbik.scenario_schema import FRAME
@@ -136,29 +138,51 @@ TASK_OPTION_KEYS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Eith
 """Keys every task type takes (the options of wbik.qp.tasks.Task, see wbik.qp.task_entries)."""
 
 
-def _task(*names: str, required: tuple[str, ...] = (), **nodes) -> Map:
-    common = {"frame": FRAME, "target": VECTOR3, "rpy": VECTOR3, "offset": VECTOR3, "keep": Boolean(),
-              "axes": Axes(), "reference": FRAME,
-              "position_weight": NON_NEGATIVE, "orientation_weight": NON_NEGATIVE, "over": FRAME}
-    keys = {name: Key(nodes.get(name, common.get(name)), required=name in required) for name in names}
-    return Map({**TASK_OPTION_KEYS, **keys})
+def _key_nodes() -> dict:
+    """The schema node of each key kind a task entry names (wbik.qp.task_entries.KEY_KINDS)."""
+    return {"frame": FRAME, "vector3": VECTOR3, "boolean": Boolean(), "axes": Axes(),
+            "non_negative": NON_NEGATIVE, "positive": POSITIVE, "length": Number(unit="m"),
+            "joint_names": ListOf(Text(what="a joint name"), what="joint names")}
+
+
+def task_node(entry) -> Map:
+    """The schema of one entry type (a :class:`wbik.qp.task_entries.TaskEntry`): ``type``, the task
+    options it takes and its own keys, each by its kind (a tuple: one of those words; a node: itself)."""
+    nodes = _key_nodes()
+
+    def node(kind):
+        if isinstance(kind, tuple):
+            return Text(kind)
+        return nodes[kind] if isinstance(kind, str) else kind
+
+    options = {key: rule for key, rule in TASK_OPTION_KEYS.items() if key == "type" or key in entry.options}
+    keys = {key: Key(node(kind), required=key in entry.required) for key, kind in entry.keys.items()}
+    return Map({**options, **keys})
+
+
+class TaskVariants(Variants):
+    """A task mapping, one variant per entry type registered when it is checked (an entry type user
+    code registers after the schema was made is taken too)."""
+
+    def __init__(self):
+        super().__init__(lambda entry: entry.get("type"), {}, "a task mapping with a 'type'", "type")
+        self._made: tuple = ((), {})
+
+    @property
+    def variants(self) -> dict[str, Map]:
+        entries = tuple(TASK_ENTRY_REGISTRY.entries().items())
+        if self._made[0] != entries:
+            self._made = (entries, {name: task_node(entry) for name, entry in entries})
+        return self._made[1]
+
+    @variants.setter
+    def variants(self, value: dict) -> None:
+        """(Variants sets its table; this one makes it from the registry.)"""
 
 
 def wholebody_schema() -> Map:
     """The keys of a wholebody_ik file (see the module docstring)."""
-    tasks = {
-        "frame": _task("frame", "target", "rpy", "offset", "keep", "position_weight", "orientation_weight",
-                       required=("frame",)),
-        "position": _task("frame", "target", "offset", "keep", "axes", required=("frame",)),
-        "orientation": _task("frame", "rpy", "keep", required=("frame",)),
-        "relative": _task("frame", "reference", "target", "rpy", "offset", "keep",
-                          required=("frame", "reference")),
-        "com": _task("target", "over", "offset", "keep", "axes"),
-        "posture": _task("reference", "joints", reference=Text(("nominal", "start")),
-                         joints=ListOf(Text(what="a joint name"), what="joint names")),
-        "regularization": Map({"type": Key(Text()), "weight": Key(POSITIVE)}),
-    }
-    task = Variants(lambda entry: entry.get("type"), tasks, "a task mapping with a 'type'", "type")
+    task = TaskVariants()
     phase = Map({
         "name": Key(Text()),
         "contacts": Key(FRAMES, []),
@@ -536,8 +560,9 @@ def format_method(label: str, figures: dict) -> str:
         line += f"\n        why: {_without_summary(figures['reason'], diagnosis)}"
     for text in report_lines(diagnosis) if diagnosis else ():
         line += f"\n        {text}"
-    for item in figures["unsupported"]:
-        line += f"\n        cannot express: {item}"
+    for item in figures["unsupported"]:  # a peer's "unsupported by PEER: ...", or another method's words
+        said = item if item.startswith("unsupported by ") else f"cannot express: {item}"
+        line += f"\n        {said}"
     return line
 
 

@@ -78,11 +78,18 @@ from wbik.validation import check_positive_finite
 INSTALL = "pip install mink==1.3.0"
 _DROPPED = re.compile(r"<(visual|collision|inertial|mimic)\b[^>]*?/>"
                       r"|<(visual|collision|inertial|mimic)\b.*?</\2\s*>", re.DOTALL)
+_DROPPED_BUT_INERTIAL = re.compile(r"<(visual|collision|mimic)\b[^>]*?/>"
+                                   r"|<(visual|collision|mimic)\b.*?</\2\s*>", re.DOTALL)
 _ROBOT_TAG = re.compile(r"<robot\b[^>]*?>", re.DOTALL)
 MUJOCO_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" boundmass="1e-9" '
                     'boundinertia="1e-12"/></mujoco>')
 """MuJoCo's URDF extension: keep every link a body (fixed joints not fused), no visual elements, and
 bounds that let the massless links move (see the module docstring)."""
+MUJOCO_MASS_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" inertiafromgeom="false" '
+                         'balanceinertia="true" boundmass="1e-12" boundinertia="1e-14"/></mujoco>')
+"""The extension for a URDF read with its masses: the links' own masses and centres of mass (no
+inertia from geometry), inertias MuJoCo finds unphysical balanced (they play no part in kinematics nor
+in a centre of mass), and bounds small enough to leave a centre of mass unchanged to 1e-12 m."""
 BASE_SITE, TIP_SITE = "wbik_base", "wbik_tip"
 AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 8, 0, 1e-9
 """MuJoCo's FK of the chain must equal wbik's to AGREEMENT_TOLERANCE (m, rad) on AGREEMENT_POSES seeded
@@ -103,17 +110,18 @@ def import_mink():
     return mink, mujoco
 
 
-def mujoco_urdf(text: str) -> str:
+def mujoco_urdf(text: str, masses: bool = False) -> str:
     """The robot's URDF for MuJoCo, kinematics only: no visual, collision, inertial or mimic elements, and
-    MuJoCo's compiler extension added."""
+    MuJoCo's compiler extension added; with ``masses`` the inertial elements stay (for a centre of mass)
+    and the extension is MUJOCO_MASS_EXTENSION."""
     # a regular expression rather than an XML parser, as for PlaCo (wbik.solvers.placo): URDF readers accept
     # some files a strict XML parser rejects
-    text = _DROPPED.sub("", text)
+    text = (_DROPPED_BUT_INERTIAL if masses else _DROPPED).sub("", text)
     text = re.sub(r"<mujoco\b.*?</mujoco\s*>|<mujoco\b[^>]*/>", "", text, flags=re.DOTALL)
     match = _ROBOT_TAG.search(text)
     if match is None:
         raise UnsupportedError("the URDF has no <robot> element MuJoCo could read")
-    return text[:match.end()] + MUJOCO_EXTENSION + text[match.end():]
+    return text[:match.end()] + (MUJOCO_MASS_EXTENSION if masses else MUJOCO_EXTENSION) + text[match.end():]
 
 
 @dataclass(frozen=True)
@@ -193,7 +201,7 @@ _WARNINGS_LOCK = threading.Lock()
 
 
 @contextmanager
-def _mujoco_warnings(mujoco) -> Iterator[list[str]]:
+def mujoco_warnings(mujoco) -> Iterator[list[str]]:
     """Collect MuJoCo's warnings in a list instead of its default handler (which prints them and appends
     them to MUJOCO_LOG.TXT in the working directory); the previous handler is restored after."""
     messages: list[str] = []
@@ -207,7 +215,7 @@ def _mujoco_warnings(mujoco) -> Iterator[list[str]]:
 
 
 def _build(chain: Chain, mujoco) -> MuJoCoChain:
-    with _mujoco_warnings(mujoco) as warnings:
+    with mujoco_warnings(mujoco) as warnings:
         built = _compile(chain, mujoco)
     built.warnings = tuple(warnings)
     return built

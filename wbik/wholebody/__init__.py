@@ -9,9 +9,10 @@
 >>> result.success, result.com_margin, result.unsupported  # doctest: +SKIP
 
 Modules: ``problem`` (:class:`WholeBody`, :class:`WholeBodyResult`, :func:`check_wholebody`),
-``solvers`` (the solver interface and the generic methods qp, placo, pink), ``methods`` (the
-method registry: modules listed by name, each declaring its methods), ``cases`` (the study's
-seeded case samplers, registered the same way).
+``solvers`` (the solver interface, the base of the peers' methods and method qp), ``placo``, ``pink``
+and ``mink`` (the peers' methods, each with its forms of wbik's tasks and constraints,
+:mod:`wbik.qp.peers`), ``methods`` (the method registry: modules listed by name, each declaring its
+methods), ``cases`` (the study's seeded case samplers, registered the same way).
 """
 
 from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY

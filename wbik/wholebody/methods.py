@@ -8,8 +8,8 @@ none, or declares a name another declares too is an error naming it). User code 
 :func:`register_wholebody_method`; :data:`WHOLEBODY_METHOD_REGISTRY` is the registry itself (a module
 of methods: ``WHOLEBODY_METHOD_REGISTRY.register_module(name)``).
 
-The methods' own optional libraries (PlaCo, Pink) are imported when a solver is built, not when
-its module is, so listing a method costs no optional dependency.
+The methods' own optional libraries (PlaCo, Pink, mink and MuJoCo) are imported when a solver is
+built, not when its module is, so listing a method costs no optional dependency.
 """
 
 from __future__ import annotations
@@ -31,7 +31,10 @@ __all__ = ["METHOD_MODULES", "WHOLEBODY_METHOD_REGISTRY", "WholeBodyMethod", "re
            "wholebody_budget", "wholebody_methods", "wholebody_solver", "wholebody_solver_options"]
 
 METHOD_MODULES: list[str] = [
-    "wbik.wholebody.solvers",  # qp, placo, pink
+    "wbik.wholebody.solvers",  # qp
+    "wbik.wholebody.placo",
+    "wbik.wholebody.pink",
+    "wbik.wholebody.mink",
 ]
 """The core's modules whose ``WHOLEBODY_METHODS`` are registered (a new module of methods: one line
 here); applications add theirs through the entry-point group ``wbik.wholebody_methods``."""

@@ -31,6 +31,7 @@ from collections.abc import Mapping
 from collections.abc import Sequence
 from dataclasses import dataclass
 from dataclasses import field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -43,15 +44,13 @@ from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.humanoid import is_point_foot
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import DegenerateSupport
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
 from wbik.solvers.base import Tolerances
 from wbik.solvers.base import invalid_joints_reason
+
+if TYPE_CHECKING:
+    from wbik.qp.constraints import Constraint
 
 LIMITS = ("position", "position+velocity", "none")
 LIMIT_SLACK = 1e-9
@@ -209,7 +208,8 @@ class WholeBody:
         """A problem from a task-file mapping, targets resolved at q (default: the robot's nominal).
 
         Keys: ``tasks`` (entries as in a ``wholebody_ik`` phase: type frame | position | orientation |
-        relative | com | posture | regularization, with target / keep / offset / over), ``contacts``,
+        relative | com | posture | regularization or a type registered in :mod:`wbik.qp.task_entries`,
+        with target / keep / offset / over), ``contacts``,
         ``support``, ``margin``, ``limits``, ``collisions`` ([{frames: [a, b], distance: m}]),
         ``step_dt``, ``acceleration_limit``, ``name``.
         """
@@ -293,6 +293,34 @@ class WholeBody:
         """Fresh copies of the tasks (a task keeps buffers and frame ids: one copy per solve)."""
         return [copy.deepcopy(task) for task in self.tasks]
 
+    def constraints(self, placements: Mapping[str, pin.SE3], polygon=None) -> list[Constraint]:
+        """The problem's hard constraints as :mod:`wbik.qp.constraints` (what ``qp`` solves with, and
+        what the peers express in their own terms): each contact held at ``placements`` (a point
+        foot: its position), the CoM in ``polygon`` (the support polygon, None for none) shrunk by
+        the margin, the limits (velocity: v_max ``step_dt`` per IK step), the acceleration limits
+        (an IK step is a period of ``step_dt``, solved at dt 1) and the minimum distances."""
+        from wbik.qp.constraints import CoMInSupportPolygon
+        from wbik.qp.constraints import JointAccelerationLimits
+        from wbik.qp.constraints import JointPositionLimits
+        from wbik.qp.constraints import JointVelocityLimits
+        from wbik.qp.constraints import MinimumDistance as DistanceConstraint
+        from wbik.qp.humanoid import contact_constraint
+
+        model = self.robot.model
+        constraints: list[Constraint] = [contact_constraint(self.robot, frame, held)
+                                         for frame, held in placements.items()]
+        if polygon is not None:
+            constraints.append(CoMInSupportPolygon(polygon, self.margin))
+        if self.limits != "none":
+            constraints.append(JointPositionLimits(model))
+        if self.limits == "position+velocity":
+            constraints.append(JointVelocityLimits(model, model.velocityLimit * self.step_dt))
+        if self.acceleration_limit is not None:
+            constraints.append(JointAccelerationLimits(model, np.multiply(self.acceleration_limit,
+                                                                          self.step_dt ** 2)))
+        constraints += [DistanceConstraint(c.frame_a, c.frame_b, c.distance) for c in self.collisions]
+        return constraints
+
 
 @dataclass
 class WholeBodyResult:
@@ -348,15 +376,9 @@ class WholeBodyResult:
 
 
 def task_error_parts(task: Task, kinematics: Kinematics) -> tuple[float | None, float | None]:
-    """(position error m or None, rotation error rad or None) of one task at the kinematics' q."""
-    error = np.asarray(task.error(kinematics), dtype=float)
-    if isinstance(task, FrameTask | RelativeFrameTask):
-        return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
-    if isinstance(task, OrientationTask):
-        return None, float(np.linalg.norm(error))
-    if isinstance(task, PositionTask | ComTask):
-        return float(np.linalg.norm(error)), None
-    return float(np.linalg.norm(error)), None  # another task type: its error norm, in its own unit
+    """(position error m or None, rotation error rad or None) of one task at the kinematics' q, as
+    the task splits its error (:meth:`wbik.qp.tasks.Task.error_parts`)."""
+    return task.error_parts(np.asarray(task.error(kinematics), dtype=float))
 
 
 def _limit_excess(robot: Robot, q: np.ndarray) -> float:

@@ -1,0 +1,168 @@
+"""How other IK libraries (peers: PlaCo, Pink, mink) express wbik's QP tasks and constraints.
+
+Each peer has a registry of *forms*, keyed by class: :data:`PLACO`, :data:`PINK`, :data:`MINK`. A form
+says how one class of task or constraint is stated in that peer's terms (``build(item, target)`` adds
+the item to the peer's problem being built, ``target``), or that the peer cannot state it and why
+(:meth:`PeerForms.cannot`). A class without a form of its own takes its nearest base class's; a class
+with none at all is not expressible by that peer, and says so. The whole-body methods of the peers
+(:mod:`wbik.wholebody.placo`, :mod:`wbik.wholebody.pink`, :mod:`wbik.wholebody.mink`) build every item
+that has a form and list each other one in the result's ``unsupported`` as an :class:`Unsupported`:
+"unsupported by PEER: WHAT: WHY".
+
+The forms of wbik's own tasks and constraints are registered by the peer's whole-body module (listed
+here by name, imported on first use); a new task registers its own forms beside its class::
+
+    @PINK.form(HeightTask)
+    def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.wholebody.pink.PinkProblem
+        ...
+        pink.tasks.append(pink_task)
+
+    PLACO.cannot(HeightTask, "PlaCo has no ...")          # said, not left out silently
+
+Nothing here imports a peer: a form imports its library when it runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from wbik.registry import RegistryError
+
+__all__ = ["MINK", "PEERS", "PINK", "PLACO", "PeerForm", "PeerForms", "Unsupported", "frame_weights",
+           "largest_weight"]
+
+Build = Callable[[Any, Any], None]
+"""A form's builder: ``build(item, target)`` adds ``item`` to the peer's problem being built."""
+
+
+class Unsupported(str):
+    """What a peer could not express, as a whole-body result lists it: the text
+    "unsupported by PEER: WHAT: WHY", with ``peer``, ``what`` (the item: "task NAME", a constraint's
+    name) and ``why`` as attributes. A ``str``, so it prints, compares and serialises as its text."""
+
+    peer: str
+    what: str
+    why: str
+
+    def __new__(cls, peer: str, what: str, why: str) -> Unsupported:
+        text = super().__new__(cls, f"unsupported by {peer}: {what}: {why}")
+        text.peer, text.what, text.why = str(peer), str(what), str(why)
+        return text
+
+    def __reduce__(self):
+        return Unsupported, (self.peer, self.what, self.why)
+
+
+@dataclass(frozen=True)
+class PeerForm:
+    """How one peer expresses the items of one class: ``build(item, target)``, or None when it cannot,
+    with ``why``; ``refuse(item)`` optionally says why one particular item cannot be (None: it can)."""
+
+    build: Build | None = None
+    why: str = ""
+    refuse: Callable[[Any], str | None] | None = None
+
+
+class PeerForms:
+    """The forms of one peer, by class (see the module docstring). ``peer`` names it as the
+    whole-body method does ("pink"), ``title`` as its authors do ("Pink"); ``modules`` register the
+    forms of wbik's own tasks and constraints and are imported on first use."""
+
+    def __init__(self, peer: str, title: str, modules: tuple[str, ...] = ()):
+        self.peer, self.title, self.modules = peer, title, modules
+        self._forms: dict[type, PeerForm] = {}
+        self._loaded = False
+        self._lock = threading.RLock()
+
+    def __repr__(self) -> str:
+        return f"PeerForms({self.peer!r}, {len(self._forms)} forms)"
+
+    def _load(self) -> None:
+        with self._lock:
+            if self._loaded:
+                return
+            self._loaded = True  # (the modules register while they are imported)
+            try:
+                for name in self.modules:
+                    importlib.import_module(name)
+            except BaseException:
+                self._loaded = False
+                raise
+
+    def register(self, kind: type, form: PeerForm, replace: bool = False) -> None:
+        """Register ``form`` for the class ``kind`` (a second form for the same class only with
+        ``replace``)."""
+        if not isinstance(kind, type) or not isinstance(form, PeerForm):
+            raise RegistryError(f"{self.title}: a form is registered for a class as a PeerForm, got "
+                                f"{kind!r} and {form!r}")
+        self._load()
+        with self._lock:
+            if kind in self._forms and not replace:
+                raise RegistryError(f"{self.title} already has a form for {kind.__name__} (pass replace=True "
+                                    "to change it)")
+            self._forms[kind] = form
+
+    def form(self, kind: type, *, refuse: Callable[[Any], str | None] | None = None,
+             replace: bool = False) -> Callable[[Build], Build]:
+        """Decorator: the decorated ``build(item, target)`` is this peer's form of ``kind``."""
+        def decorate(build: Build) -> Build:
+            self.register(kind, PeerForm(build, refuse=refuse), replace)
+            return build
+
+        return decorate
+
+    def cannot(self, kind: type, why: str, replace: bool = False) -> None:
+        """Say that this peer cannot express ``kind``, and why (listed in ``unsupported``)."""
+        self.register(kind, PeerForm(None, why), replace)
+
+    def lookup(self, kind: type) -> PeerForm | None:
+        """The form of ``kind``: its own, else its nearest base class's; None without any."""
+        self._load()
+        with self._lock:
+            return next((self._forms[base] for base in kind.__mro__ if base in self._forms), None)
+
+    def refusal(self, item) -> str | None:
+        """Why this peer cannot express ``item`` (a task or a constraint), or None when it can."""
+        form = self.lookup(type(item))
+        if form is None:
+            return (f"{self.title} has no form for {type(item).__name__} (a form registers with "
+                    f"wbik.qp.peers.{self.peer.upper()}.form)")
+        if form.build is None:
+            return form.why
+        return None if form.refuse is None else form.refuse(item)
+
+    def build(self, item, target) -> None:
+        """Add ``item`` to ``target`` through its form (:meth:`refusal` must be None)."""
+        form = self.lookup(type(item))
+        if form is None or form.build is None:
+            raise RegistryError(f"{self.title} cannot express {item!r}: {self.refusal(item)}")
+        form.build(item, target)
+
+
+PLACO = PeerForms("placo", "PlaCo", ("wbik.wholebody.placo",))
+"""PlaCo's forms (targets: :class:`wbik.wholebody.placo.PlacoProblem`)."""
+PINK = PeerForms("pink", "Pink", ("wbik.wholebody.pink",))
+"""Pink's forms (targets: :class:`wbik.wholebody.pink.PinkProblem`)."""
+MINK = PeerForms("mink", "mink", ("wbik.wholebody.mink",))
+"""mink's forms (targets: :class:`wbik.wholebody.mink.MinkProblem`)."""
+PEERS = {forms.peer: forms for forms in (PLACO, PINK, MINK)}
+"""Every peer's forms by peer name."""
+
+
+# -- what forms share: a task's weights as peers take them ------------------------------------------------
+def largest_weight(task, default: float) -> float:
+    """The largest of a task's per-row weights (``default`` for a task without rows)."""
+    weight = np.asarray(task.weight, dtype=float)
+    return float(np.max(weight)) if weight.size else default
+
+
+def frame_weights(task) -> tuple[float, float]:
+    """(position weight, orientation weight) of a 6-row frame task, from its per-row weights."""
+    weight = np.asarray(task.weight, dtype=float)
+    return float(np.max(weight[:3])), float(np.max(weight[3:]))

@@ -1,0 +1,252 @@
+"""Method ``pink``: pin-pink 4.4's differential IK on a whole body, and Pink's forms of wbik's tasks
+and constraints (:data:`wbik.qp.peers.PINK`).
+
+Tasks are Pink's FrameTask (also for position-only and orientation-only tasks, the other half at cost
+0), RelativeFrameTask, ComTask and PostureTask (on some joints: cost 0 on the others), costs the
+square roots of our weights; a regularisation raises ``solve_ik``'s damping. Contacts are Pink
+equality constraints (a point foot: a 3-row task of our own, :func:`pink_point_contact`); limits are
+ConfigurationLimit and VelocityLimit, solved at dt = the problem's ``step_dt``. Pink 4.4 has no hard
+CoM-in-polygon constraint, so it solves without one and every pink result with a support polygon
+lists it in ``unsupported``; nor acceleration limits or minimum distances here, nor strict priority
+levels.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from dataclasses import field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.qp.constraints import CoMInSupportPolygon
+from wbik.qp.constraints import Contact
+from wbik.qp.constraints import JointAccelerationLimits
+from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.constraints import JointVelocityLimits
+from wbik.qp.constraints import MinimumDistance
+from wbik.qp.constraints import PointContact
+from wbik.qp.peers import PINK
+from wbik.qp.peers import frame_weights
+from wbik.qp.peers import largest_weight
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import RelativeFrameTask
+from wbik.wholebody.methods import WholeBodyMethod
+from wbik.wholebody.solvers import NO_POLYGON
+from wbik.wholebody.solvers import PeerWholeBody
+from wbik.wholebody.solvers import SolveIKProblem
+from wbik.wholebody.solvers import raise_damping
+from wbik.wholebody.solvers import stalled
+
+__all__ = ["WHOLEBODY_METHODS", "PinkProblem", "PinkWholeBody", "pink_point_contact"]
+
+
+@dataclass
+class PinkProblem(SolveIKProblem):
+    """What Pink's forms add to (:class:`wbik.wholebody.solvers.SolveIKProblem`), with the robot's
+    ``model``."""
+
+    model: pin.Model = field(kw_only=True)
+
+
+def _axis_costs(task, weight: float) -> np.ndarray:
+    """Cost sqrt(weight) on the axes a position or CoM task holds, 0 on the others."""
+    cost = np.zeros(3)
+    cost[task.rows] = math.sqrt(weight)
+    return cost
+
+
+# -- Pink's forms of the tasks --------------------------------------------------------------------------
+def _frame_task(frame: str, target: pin.SE3, position_cost, orientation_cost):
+    """Pink's FrameTask on ``frame`` toward ``target`` (costs per axis or one for all)."""
+    from pink.tasks import FrameTask as PinkFrameTask
+
+    added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
+    added.set_target(target)
+    return added
+
+
+@PINK.form(FrameTask)
+def _frame(task: FrameTask, pink: PinkProblem) -> None:
+    position, orientation = frame_weights(task)
+    pink.tasks.append(_frame_task(task.frame, task.target, math.sqrt(position), math.sqrt(orientation)))
+
+
+@PINK.form(RelativeFrameTask)
+def _relative(task: RelativeFrameTask, pink: PinkProblem) -> None:
+    from pink.tasks import RelativeFrameTask as PinkRelativeFrameTask
+
+    position, orientation = frame_weights(task)
+    added = PinkRelativeFrameTask(task.frame, task.reference_frame, position_cost=math.sqrt(position),
+                                  orientation_cost=math.sqrt(orientation))
+    added.set_target(task.target)
+    pink.tasks.append(added)
+
+
+@PINK.form(PositionTask)
+def _position(task: PositionTask, pink: PinkProblem) -> None:
+    """A FrameTask with cost on the task's axes only, the start's rotation as the (costless) target's."""
+    start = pink.kinematics.placement(task.frame_id)
+    translation = start.translation.copy()
+    translation[task.rows] = task.target[task.rows]
+    cost = _axis_costs(task, largest_weight(task, 1.0))
+    pink.tasks.append(_frame_task(task.frame, pin.SE3(start.rotation.copy(), translation), cost, 0.0))
+
+
+@PINK.form(OrientationTask)
+def _orientation(task: OrientationTask, pink: PinkProblem) -> None:
+    target = pin.SE3(task.target, pink.kinematics.placement(task.frame_id).translation.copy())
+    pink.tasks.append(_frame_task(task.frame, target, 0.0, math.sqrt(largest_weight(task, 1.0))))
+
+
+@PINK.form(ComTask)
+def _com(task: ComTask, pink: PinkProblem) -> None:
+    from pink.tasks import ComTask as PinkComTask
+
+    added = PinkComTask(cost=_axis_costs(task, largest_weight(task, 1.0)))
+    target = pink.kinematics.com().copy()
+    target[task.rows] = task.target[task.rows]
+    added.set_target(target)
+    pink.tasks.append(added)
+
+
+@PINK.form(PostureTask)
+def _posture(task: PostureTask, pink: PinkProblem) -> None:
+    """Pink's posture holds every tangent row but the root joint's: the task's weights on its own
+    rows, cost 0 on the others (a posture on some joints only)."""
+    from pink.tasks import PostureTask as PinkPostureTask
+    from pink.utils import get_root_joint_dim
+
+    _, root = get_root_joint_dim(pink.model)
+    cost: float | np.ndarray = math.sqrt(largest_weight(task, 1e-3))
+    if task.joint_names is not None:
+        cost = np.zeros(pink.model.nv - root)
+        cost[task.rows - root] = np.sqrt(task.weight)
+    added = PinkPostureTask(cost=cost)
+    added.set_target(task.reference)
+    pink.tasks.append(added)
+
+
+PINK.form(RegularizationTask)(raise_damping)
+
+
+# -- and of the constraints -----------------------------------------------------------------------------
+@PINK.form(Contact)
+def _contact(contact: Contact, pink: PinkProblem) -> None:
+    pink.constraints.append(_frame_task(contact.frame, contact.placement, 1.0, 1.0))
+
+
+@PINK.form(PointContact)
+def _point_contact(contact: PointContact, pink: PinkProblem) -> None:
+    pink.constraints.append(pink_point_contact(contact.frame, contact.position))
+
+
+@PINK.form(JointPositionLimits)
+def _position_limits(limits: JointPositionLimits, pink: PinkProblem) -> None:
+    from pink.limits import ConfigurationLimit
+
+    pink.limits.append(ConfigurationLimit(pink.model))
+
+
+@PINK.form(JointVelocityLimits)
+def _velocity_limits(limits: JointVelocityLimits, pink: PinkProblem) -> None:
+    """|dq| <= limit per step (dt 1): Pink's VelocityLimit at limit / dt over its step dt."""
+    from pink.limits import VelocityLimit
+
+    velocity = np.full(pink.model.nv, np.inf)
+    velocity[limits.v_index] = limits.limit / pink.dt
+    pink.limits.append(VelocityLimit(pink.model, velocity))
+
+
+PINK.cannot(CoMInSupportPolygon, f"Pink 4.4 has no {NO_POLYGON}; solved without it, the CoM margin is only "
+                                 "checked")
+PINK.cannot(JointAccelerationLimits, "Pink's AccelerationLimit is not used here; solved with position and "
+                                     "velocity limits only")
+PINK.cannot(MinimumDistance, "no minimum distance between frame origins in Pink 4.4; solved without it")
+
+
+def pink_point_contact(frame: str, position: np.ndarray):
+    """A Pink task holding ``frame``'s origin at ``position`` (world, m), for Pink's equality
+    constraints (which take a task's every row, whatever its cost): e = p - p*, J = the frame's
+    world-aligned linear Jacobian (3 rows)."""
+    from pink.tasks import Task as PinkTask
+
+    class PointContactTask(PinkTask):
+        def __init__(self):
+            super().__init__(cost=1.0)
+            self.frame, self.position = frame, np.array(position, dtype=float)
+
+        def compute_error(self, configuration) -> np.ndarray:
+            return configuration.get_transform_frame_to_world(self.frame).translation - self.position
+
+        def compute_jacobian(self, configuration) -> np.ndarray:
+            model, data = configuration.model, configuration.data
+            return pin.getFrameJacobian(model, data, model.getFrameId(self.frame),
+                                        pin.LOCAL_WORLD_ALIGNED)[:3]
+
+        def __repr__(self) -> str:
+            return f"PointContactTask({self.frame!r})"
+
+    return PointContactTask()
+
+
+# -- the method -----------------------------------------------------------------------------------------
+class PinkWholeBody(PeerWholeBody):
+    """pin-pink's differential IK, iterated by our loop (dt = the problem's step_dt per step)."""
+
+    name = "pink"
+    iteration_cost_s = 500e-6  # solve_ik, integration, convergence FK; the same biped: measured 0.35-0.66 ms
+    default_budget_s = 0.12
+    forms = PINK
+    priorities = "Pink: weighted costs only"
+
+    def __init__(self, robot, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
+        super().__init__(robot, **options)
+        try:
+            import pink  # noqa: F401
+        except ImportError as exc:
+            from wbik.errors import MissingDependencyError
+
+            raise MissingDependencyError(
+                "Pink is not installed: 'pip install pin-pink==4.4.0' (the dev extra)"
+            ) from exc
+        self.qp_solver = str(qp_solver)
+        self.damping = float(damping)
+
+    def _solve(self, problem, q0, placements, polygon, deadline):
+        import pink
+
+        model = self.robot.model
+        tasks, kinematics = self.started_tasks(problem, q0)
+        built = PinkProblem(kinematics, problem.step_dt, self.damping, model=model)
+        self.translate(self.items(problem, tasks, placements, polygon), built)
+        configuration = pink.Configuration(model, model.createData(), q0.copy())
+
+        def step(q: np.ndarray) -> tuple[np.ndarray, str]:
+            try:
+                velocity = pink.solve_ik(configuration, built.tasks, problem.step_dt, solver=self.qp_solver,
+                                         damping=built.damping, limits=built.limits,
+                                         constraints=built.constraints or None, safety_break=False)
+            except Exception as exc:  # noqa: BLE001 - Pink raises its own NoSolutionFound and others
+                return q, f"Pink found no step: {type(exc).__name__}: {exc}"
+            q = configuration.integrate(velocity, problem.step_dt)
+            configuration.update(q)
+            return q, stalled(velocity, problem.step_dt, "Pink")
+
+        # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
+        return self._peer_loop(step, q0.copy(), deadline, problem, kinematics, tasks, placements, None)
+
+
+WHOLEBODY_METHODS = (
+    WholeBodyMethod(
+        "pink", PinkWholeBody,
+        "pin-pink 4.4: frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
+    ),
+)
+"""The method this module declares (registered through wbik.wholebody.methods.METHOD_MODULES)."""
