@@ -3,7 +3,8 @@ top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``
 study files ``comparisons/*.yaml`` and the project's robot descriptions ``urdf/``; and it builds the
 optional C extensions of
 :mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic,
-``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path, ``wbik.qp._rows_kernel``,
+``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path,
+``wbik.solvers.analytic._eaik_kernel``, the eaik method's branch order and screen, ``wbik.qp._rows_kernel``,
 the QP step's frame-task rows and quadratic, and ``wbik.solvers._lm_kernel``, bounded_lm's trial step).
 Without a C compiler the build goes on without them and their Python twins run.
 
@@ -62,6 +63,10 @@ UR_KERNEL = Extension(
     optional=True,
 )
 
+EAIK_KERNEL = Extension("wbik.solvers.analytic._eaik_kernel", ["wbik/solvers/analytic/_eaik_kernel.c"],
+                        depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
+                        optional=True)
+
 ROWS_KERNEL = Extension("wbik.qp._rows_kernel", ["wbik/qp/_rows_kernel.c"],
                         depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
                         optional=True)
@@ -71,4 +76,4 @@ LM_KERNEL = Extension("wbik.solvers._lm_kernel", ["wbik/solvers/_lm_kernel.c"],
                       optional=True)
 
 setup(cmdclass={"build_py": BuildPyWithData},
-      ext_modules=[POSE_KERNEL, UR_KERNEL, ROWS_KERNEL, LM_KERNEL])
+      ext_modules=[POSE_KERNEL, UR_KERNEL, EAIK_KERNEL, ROWS_KERNEL, LM_KERNEL])

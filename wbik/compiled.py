@@ -1,10 +1,12 @@
 """The switch between wbik's compiled kernels and their Python twins.
 
-Four optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
+Five optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, replace
 per-call Python arithmetic with the same arithmetic in C: ``wbik._pose_kernel`` (the fast-path test of
 :func:`wbik.targets.as_target` and the arithmetic of the shared FK check,
 :func:`wbik.geometry.error_parts`) and ``wbik.solvers.analytic._ur_kernel`` (the UR-type closed form's
-scalar path), both giving their twins' bits; ``wbik.qp._rows_kernel`` (the QP step's frame-task rows,
+scalar path) and ``wbik.solvers.analytic._eaik_kernel`` (the order of EAIK's branches wrapped into
+the limits, and the screen's arithmetic, for the ``eaik`` method), all giving their twins' bits;
+``wbik.qp._rows_kernel`` (the QP step's frame-task rows,
 each level's H and c, the constraint stack's copies) and ``wbik.solvers._lm_kernel`` (one bounded
 Levenberg-Marquardt trial of ``bounded_lm``), agreeing with their twins (Pinocchio, NumPy, LAPACK),
 which sum in their own orders, to rounding. Tests compare every pair. Without them, or with

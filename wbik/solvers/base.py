@@ -145,7 +145,7 @@ class IKResult:
 
 
 def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
-             time_s: float, method: str) -> IKResult:
+             time_s: float, method: str, reached: np.ndarray | None = None) -> IKResult:
     """The shared FK check: clip into the limits, measure the errors, decide success.
 
     The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
@@ -153,6 +153,11 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     Pinocchio the log3). Written for the per-call path (a few microseconds): one clip, one FK, one
     call for the arithmetic (compiled where built), one log3; the detailed checks run only when
     something is off.
+
+    ``reached``: optional, ``chain.fk(candidate.q).homogeneous`` as the method already computed it
+    (e.g. for its own screen). It stands for the FK only when the joints checked are ``candidate.q``
+    unchanged, bit for bit (inside the limits, no continuous joint wrapped), so the IKResult is the one
+    computed without it; otherwise the FK is computed as usual.
     """
     q = candidate.q
     if q is None:
@@ -166,9 +171,12 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
         return _invalid_joints(q, time_s, candidate, method)
     reason = candidate.reason
     if chain.any_continuous:  # an angle of a continuous joint is in range modulo 2 pi
-        q = chain.wrap_continuous(q)
+        unwrapped, q = q, chain.wrap_continuous(q)
+        if reached is not None and q.tobytes() != unwrapped.tobytes():
+            reached = None
     inside = clip_to_limits(q, lower, upper)
     if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
+        reached = None
         if not np.all(np.isfinite(q)):
             return _invalid_joints(q, time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
@@ -176,8 +184,9 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     target_rotation = target.rotation
     position_xyz = np.empty(3)
     relative = None if target_rotation is None else np.empty((3, 3))
-    position_norm = error_parts(chain.fk(inside).homogeneous, target.position, target_rotation,
-                                position_xyz, relative)
+    if reached is None:
+        reached = chain.fk(inside).homogeneous
+    position_norm = error_parts(reached, target.position, target_rotation, position_xyz, relative)
     if relative is None:
         rotation_xyz, rotation_norm = np.zeros(3), 0.0
     else:
@@ -191,6 +200,29 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     reason = reason or fk_check_reason(position_norm, rotation_norm)
     return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
+
+
+def evaluate_reached(chain: Chain, target: Target, q: np.ndarray, reached: np.ndarray, extra: dict,
+                     tolerances: Tolerances, time_s: float, method: str) -> IKResult:
+    """``evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)``, the
+    same IKResult, in fewer steps on the common path of a closed form that screened its answer: ``q`` a
+    float64 array of the chain's shape, inside the limits bit for bit (its clip is itself), no continuous
+    joint, a full pose, both errors within the tolerances: then the steps :func:`evaluate` takes on that
+    path, in its order, with ``reached`` (``chain.fk(q).homogeneous``) for the FK. Anything else goes to
+    :func:`evaluate` itself."""
+    if (chain.any_continuous or target.rotation is None or type(q) is not np.ndarray or q.dtype != np.float64
+            or q.shape != chain.lower.shape):
+        return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)
+    inside = clip_to_limits(q, chain.lower, chain.upper)
+    if inside.tobytes() == q.tobytes():
+        position_xyz, relative = np.empty(3), np.empty((3, 3))
+        position_norm = error_parts(reached, target.position, target.rotation, position_xyz, relative)
+        rotation_xyz = pin.log3(relative)
+        rotation_norm = math.hypot(*rotation_xyz.tolist())
+        if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
+            return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
+                            time_s, 1, method, extra)
+    return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)
 
 
 def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:

@@ -21,25 +21,27 @@ the closed form :class:`wbik.solvers.analytic.eaik_family.EAIKForm`): each revol
 multiples of 2 pi into the limits, nearest to q0 (which matters for the UR5's +-2 pi joints), branches
 outside the limits are dropped, and ``solve`` returns the branch with the smallest Euclidean joint
 distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad). The per-call path
-(:meth:`EAIKSolver._choose`) computes a lower bound of every branch's squared distance in a few NumPy
-calls (:func:`~wbik.solvers.analytic.eaik_family.branch_bounds`), then works in plain floats: branches
-are wrapped in the order of their bounds only while one could still be nearer than the nearest wrapped
-one, and that one is screened (one FK) as soon as no other can be; usually one wrap and one FK per
-solve. ``tests/test_eaik.py`` holds it to the rule spelled out. EAIK's ``is_LS`` flag is not trusted
-either way (it marks exact branches of 4R chains as least-squares); the FK screen decides. Where no
-branch passes, the reason says whether none is inside the limits or EAIK returned only least-squares
+(:meth:`EAIKSolver._placed`): ``order`` (:mod:`wbik.solvers.analytic.eaik_kernel`, C where built, a Python
+twin with the same bits under ``WBIK_PURE_PYTHON=1``) bounds every branch's squared distance from below,
+wraps them in the order of their bounds only while one could still be nearer than the nearest wrapped
+one and writes the wrapped branches in the order they are screened; each is screened in turn (Pinocchio's
+FK, ``screen``'s arithmetic) until one passes, usually the first. ``solve`` hands the chosen branch's FK
+to the shared check (:func:`~wbik.solvers.base.evaluate_reached`: the same IKResult as
+:func:`~wbik.solvers.base.evaluate`, without a second FK). ``tests/test_eaik.py`` holds the choice to
+the rule spelled out, ``tests/test_eaik_kernel.py`` the twins to each other. EAIK's ``is_LS`` flag is not
+trusted either way (it marks exact branches of 4R chains as least-squares); the FK screen decides. Where
+no branch passes, the reason says whether none is inside the limits or EAIK returned only least-squares
 branches. ``solve_all`` returns every distinct branch inside the limits that passes the shared check;
 ``solve_many`` makes one batched EAIK call (``batch_threads`` worker threads, 1 by default) and picks
 branches exactly as ``solve`` does.
 
-Cost (``benchmarks/eaik_interface.py``, UR10 and UR5 ``ee``, FK poses from the nominal start): a
-``solve`` costs about 28 us, 4.7-5.6x EAIK's own ``IK`` call (5.1-6.2 us). The interface every method
-pays (target conversion, the shared FK check, the IKResult) is 7-8 us (1.2-1.4x); the choice about
-15 us: the pose handed to EAIK and its binding's overhead ~1.5 us, the bounds of the 8 branches ~3.5 us,
-their order ~1 us, the wrap ~2.5 us and the FK screen ~4 us of the nearest (one solve in eight also
-screens a second branch: a least-squares branch nearer than the exact ones), the rest bookkeeping. The
-interface and EAIK's call alone are already 2.3-2.5x (the benchmark's floor): 2x is out of reach while
-the shared check stays as it is.
+Cost (``benchmarks/eaik_interface.py --poses 2000 --rounds 9 --runs 3``, UR10 and UR5 ``ee``, FK poses
+from the nominal start): a ``solve`` costs 2.6-2.9x EAIK's own ``IK`` call (about 14 us against 5-5.5;
+it was 4.7-5.6x, ~28 us, with the choice in NumPy and plain floats). The interface every method pays
+(target conversion, the shared FK check, the IKResult) with EAIK's call is already 2.3-2.4x (the
+benchmark's floor); the remaining ~0.4x is EAIK's ``.Q``, the pose buffer, ``order`` and the screen.
+Of the rest: target conversion ~1.2 us, the one FK ~1.2 us, the check's arithmetic, log3 and IKResult
+~2 us. 2x is out of reach while the target conversion and the shared check stay as they are.
 
 Targets. EAIK solves full poses only (its 1R..5R solvers solve the over-determined pose and flag
 the inexact branches as least-squares); a position-only target raises UnsupportedError on every
@@ -86,36 +88,30 @@ of rounding, the same family solves correctly. We do not add noise to dodge EAIK
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 import weakref
 from collections.abc import Iterable
 from dataclasses import dataclass
-from heapq import heappop
-from heapq import heappush
+from time import perf_counter
 
 import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.analytic import BOUND_SLACK
 from wbik.solvers.analytic import BRANCH_MERGE
-from wbik.solvers.analytic import LIMIT_TOLERANCE
-from wbik.solvers.analytic import squared_distance
+from wbik.solvers.analytic import eaik_kernel
 from wbik.solvers.analytic import wrap_into_limits
-from wbik.solvers.analytic import wrap_one_into_limits
 from wbik.solvers.analytic.eaik_family import EAIKForm
-from wbik.solvers.analytic.eaik_family import branch_bounds
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
+from wbik.solvers.base import evaluate_reached
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
@@ -237,11 +233,10 @@ class EAIKSolver(Solver):
         self.revolute = ~self.chain.is_prismatic
         lower, upper = self.chain.lower.tolist(), self.chain.upper.tolist()
         self._limits = (lower, upper)
-        self._joint_limits = tuple((low, high, low - LIMIT_TOLERANCE, high + LIMIT_TOLERANCE)
-                                   for low, high in zip(lower, upper, strict=True))
-        """Per joint (lower, upper, lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE): the fast path of
-        :func:`~wbik.solvers.analytic.wrap_one_into_limits`."""
-        self._slack = self.chain.nq * BOUND_SLACK
+        self._params = eaik_kernel.parameters(self.chain.nq, lower, upper)
+        self._order, self._screen = eaik_kernel.twins()
+        """The choice's order and screen (:mod:`~wbik.solvers.analytic.eaik_kernel`): compiled where
+        built, the Python twins with ``WBIK_PURE_PYTHON=1`` when the solver is built."""
         self._tip = np.eye(4)
         self._tip[:3, :3] = self.structure.tip_rotation_t
 
@@ -277,79 +272,42 @@ class EAIKSolver(Solver):
         return q_all.reshape(-1, self.chain.nq)
 
     def _choose(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 (wrapped into the limits) whose FK passes the screen, in plain floats;
-        where none does, :meth:`_pick` says why.
+        """The branch nearest q0 (wrapped into the limits) whose FK passes the screen; where none does,
+        :meth:`_pick` says why (:meth:`_choose_placed` without the placement)."""
+        return self._choose_placed(q_all, target, q0)[0]
+
+    def _choose_placed(self, q_all: np.ndarray, target: Target,
+                       q0: np.ndarray) -> tuple[Candidate, np.ndarray | None]:
+        """(the choice, the chosen branch's tip placement (Pinocchio's 4 x 4) or None): :meth:`_placed`,
+        else :meth:`_pick`'s failure."""
+        placed = self._placed(q_all, target, q0)
+        if placed is None:
+            return self._pick(q_all, target, q0), None
+        return Candidate(placed[0], 1, extra={"branches": len(q_all)}), placed[1]
+
+    def _placed(self, q_all: np.ndarray, target: Target,
+                q0: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, its tip placement)
+        or None.
 
         The rule of :func:`~wbik.solvers.analytic.nearest_branch` (the nearest branch that passes, the
-        first in the bounds' order on a tie) with fewer wraps and FKs: the branches are taken in the
-        order of a lower bound of their squared distance
-        (:func:`~wbik.solvers.analytic.eaik_family.branch_bounds`, less ``BOUND_SLACK`` per joint) and
-        wrapped (their exact distance) only while one could still be nearer than the nearest wrapped
-        one; that one is screened (one FK) as soon as no other can be nearer, the next one if it fails.
+        first in the bounds' order on a tie) with few FKs: ``order``
+        (:mod:`~wbik.solvers.analytic.eaik_kernel`, compiled where built) writes the branches wrapped
+        into the limits in the order branch and bound screens them (the order of their distances), and
+        they are screened in turn (Pinocchio's FK, the screen's arithmetic in ``screen``) until one
+        passes; its placement is the one the shared check then reuses (``reached`` of :func:`evaluate`).
         """
         count = len(q_all)
-        if count:
-            bounds = branch_bounds(q_all, q0)
-            if not math.isfinite(sum(bounds)):  # NaN or inf joints: last, never wrapped
-                bounds = [bound if bound < math.inf else math.inf for bound in bounds]
-            reference = q0.tolist()
-            slack = self._slack
-            pending: list[tuple[float, int, list[float]]] = []  # heap of (distance, rank, q): unscreened
-            for rank, index in enumerate(sorted(range(count), key=bounds.__getitem__)):
-                bound = bounds[index]
-                while pending and pending[0][0] <= bound - slack:  # no branch left can be nearer
-                    q = self._screened(heappop(pending)[2], target)
-                    if q is not None:
-                        return Candidate(q, 1, extra={"branches": count})
-                if bound == math.inf:
-                    break
-                wrapped = self._wrapped(q_all[index].tolist(), reference)
-                if wrapped is not None:
-                    heappush(pending, (wrapped[0], rank, wrapped[1]))
-            while pending:
-                q = self._screened(heappop(pending)[2], target)
-                if q is not None:
-                    return Candidate(q, 1, extra={"branches": count})
-        return self._pick(q_all, target, q0)
-
-    def _wrapped(self, raw: list[float], reference: list[float]) -> tuple[float, list[float]] | None:
-        """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it), the
-        values of :func:`~wbik.solvers.analytic.squared_distance` and
-        :func:`~wbik.solvers.analytic.wrap_one_into_limits` (its fast path inline); None if a joint
-        has no 2 pi shift inside its limits."""
-        wrapped: list[float] = []
-        append = wrapped.append
-        total = 0.0
-        for value, ref, (low, high, low_tolerant, high_tolerant) in zip(raw, reference, self._joint_limits,
-                                                                         strict=True):
-            turns = round((ref - value) / TWO_PI)  # the shift nearest ref: the usual answer
-            shifted = value + turns * TWO_PI
-            if not (low_tolerant <= shifted <= high_tolerant and -2 <= turns <= 2):
-                slow = wrap_one_into_limits(raw, reference, *self._limits)
-                return None if slow is None else (squared_distance(slow, reference), slow)
-            if shifted > high:
-                shifted = high
-            elif shifted < low:
-                shifted = low
-            append(shifted)
-            difference = shifted - ref
-            total += difference * difference
-        return total, wrapped
-
-    def _screened(self, q: list[float], target: Target) -> np.ndarray | None:
-        """``q`` as an array if its FK (Pinocchio, the chain's) reaches the target within
-        SCREEN_TOLERANCE, else None: :func:`~wbik.solvers.analytic.screen_residual`'s test (position
-        error, then the rotation angle acos((trace(R*^T R) - 1) / 2)) with its arithmetic."""
-        joints = np.array(q)
-        (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = self.chain.fk(joints).homogeneous.tolist()
-        px, py, pz = target.position.tolist()
-        dx, dy, dz = x - px, y - py, z - pz
-        if not math.sqrt(dx * dx + dy * dy + dz * dz) <= SCREEN_TOLERANCE:
+        if not count:
             return None
-        (ra, rb, rc), (rd, re, rf), (rg, rh, ri) = target.rotation.tolist()
-        trace = sum((a * ra, b * rb, c * rc, d * rd, e * re, f * rf, g * rg, h * rh, i * ri))
-        if math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))) <= SCREEN_TOLERANCE:
-            return joints
+        out = np.empty((count, len(q0)))
+        screened = self._order(self._params, q_all, q0, out)
+        fk, screen = self.chain.fk, self._screen
+        for row in range(screened):
+            q = out[row]
+            reached = fk(q).homogeneous
+            if screen(reached, target.position, target.rotation, SCREEN_TOLERANCE):
+                return q, reached
         return None
 
     def _reaches(self, q: np.ndarray, target: Target) -> bool:
@@ -380,11 +338,35 @@ class EAIKSolver(Solver):
         return Candidate(None, 1, reason, extra={"branches": len(q_all)})
 
     # -- the interface ----------------------------------------------------------------------------
-    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+    def solve(self, target, q0=None) -> IKResult:
+        """:meth:`Solver.solve` on one path: the same input checks, timing and shared check
+        (:func:`evaluate`), which reuses the chosen branch's FK from the screen (the same joints, so the
+        same IKResult) instead of computing it again."""
+        target = as_target(target)
+        if target.rotation is None:
+            self._check_target_kind(target)  # raises: EAIK solves full poses only
+        chain = self.chain
+        q_start = chain.nominal if q0 is None else chain.check_q(q0)  # read only: no copy needed
+        start = perf_counter()
+        q_all = self._eaik_branches(target)
+        placed = self._placed(q_all, target, q_start)
+        if placed is not None:
+            elapsed = perf_counter() - start
+            return evaluate_reached(chain, target, placed[0], placed[1], {"branches": len(q_all)},
+                                    self.tolerances, elapsed, self.name)
+        candidate = self._pick(q_all, target, q_start)
+        elapsed = perf_counter() - start
+        return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
+
+    def _eaik_branches(self, target: Target) -> np.ndarray:
+        """EAIK's branches (K, n) of a target from this thread's robot and pose buffer."""
         robot, pose, rotation, position = self._thread_state()
         rotation[...] = target.rotation
         position[...] = target.position
-        return self._choose(robot.calculate_IK(pose).Q, target, q0)
+        return robot.calculate_IK(pose).Q
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        return self._choose(self._eaik_branches(target), target, q0)
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """One EAIK ``IK_batched`` call for the batch; branches picked as in ``solve``;
@@ -399,13 +381,13 @@ class EAIKSolver(Solver):
         start = time.perf_counter()
         poses = [self.form.pose(target.position, target.rotation) for target in targets]
         solutions = self._thread_state()[0].calculate_IK_batched(poses, self.batch_threads)
-        candidates = [self._choose(self._branches(solution), target, q0)
-                      for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
+        chosen = [self._choose_placed(self._branches(solution), target, q0)
+                  for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
         per_pose = (time.perf_counter() - start) / len(targets)
-        for candidate in candidates:
+        for candidate, _ in chosen:
             candidate.extra["batched"] = True
-        return [evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name)
-                for target, candidate in zip(targets, candidates, strict=True)]
+        return [evaluate(self.chain, target, candidate, self.tolerances, per_pose, self.name, reached)
+                for target, (candidate, reached) in zip(targets, chosen, strict=True)]
 
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct EAIK branch inside the limits that passes the shared FK check."""
