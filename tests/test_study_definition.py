@@ -38,7 +38,7 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
 
 @pytest.mark.parametrize("change, words", [
     ({"poses": 0}, "poses must be a positive integer"),
-    ({"target": "orientation"}, "target must be 'pose', 'position' or 'wholebody'"),
+    ({"target": "orientation"}, "target must be 'pose', 'position', 'wholebody', 'path' or 'protocol'"),
     ({"methods": ["no_such_method"]}, "unknown method 'no_such_method'"),
     ({"methods": ["dls", "dls"]}, "labels must be unique"),
     ({"baseline": "kdl"}, "baseline 'kdl' is not one of the method labels"),

@@ -83,10 +83,11 @@ def test_files_appear(serial_run):
         assert (serial_run / name).is_file()
     for case in ("ur5_arm_pose", "arm3r_arm_position"):
         for name in ("poses.npz", "raw.csv", "summary.csv", "figures/solved.png", "figures/errors.png",
-                     "figures/time.png", "figures/time_histogram.png"):
+                     "figures/error_histograms.png", "figures/time.png", "figures/time_histogram.png",
+                     "figures/time_ecdf.png"):
             assert (serial_run / case / name).is_file(), (case, name)
     html = (serial_run / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 8  # 4 figures x 2 cases, embedded
+    assert html.count("data:image/png;base64,") == 12  # 6 figures x 2 cases, embedded (no budget curves)
     assert "src='http" not in html and 'src="http' not in html
 
 

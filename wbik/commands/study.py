@@ -1,7 +1,11 @@
 """Run a study file from comparisons/ (default: comparisons/default.yaml; a file's description: says what
 it compares, its reference: block the published figures it is set beside): raw rows, summary,
 Mann-Whitney tests, figures and a Markdown + HTML report in the output folder. An interrupted run
-resumes where it stopped when run again with the same output folder."""
+resumes where it stopped when run again with the same output folder.
+
+With ``--compare-to OLD`` (the output folder of an earlier run) the report gains a comparison with
+OLD, per case and method, and the command exits 1 when a method regressed under the study file's
+``regression:`` rule (:mod:`wbik.study.compare`): a regression gate for CI."""
 
 from __future__ import annotations
 
@@ -34,6 +38,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--report-only", action="store_true",
                         help="rebuild the report from the results already in the output folder")
+    parser.add_argument("--budget-curves", type=int, metavar="POSES",
+                        help="success-versus-budget curves on this many poses per case (0: none; "
+                             "default: the study file's budget_curves:)")
+    parser.add_argument("--compare-to", type=Path, metavar="OLD",
+                        help="compare with the output folder of an earlier run of the study; exit 1 "
+                             "when a method regressed (the study file's regression: rule)")
 
 
 def check_output_folder(output: Path | None) -> None:
@@ -59,22 +69,40 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--report-only reads the results in the output folder; --fresh would delete "
                          "them: give one or the other")
 
+    compare_to = getattr(args, "compare_to", None)
+    if compare_to is not None and not (compare_to / "study.json").is_file():
+        raise UsageError(f"--compare-to {str(compare_to)!r} holds no results of a study (no study.json): "
+                         "pass the output folder of an earlier 'wbik study' run")
     study = load_study(args.file).with_overrides(
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
-        robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name)
+        robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
+        budget_curve_poses=getattr(args, "budget_curves", None))
+    from wbik.study.ownership import FolderLock
+
     if args.report_only:
         output = args.output or default_output(study)
         check_output_folder(output)
         if not (output / "study.json").is_file():
             raise UsageError(f"--report-only: {str(output)!r} holds no results of a study (no study.json); "
                              f"run 'wbik study' first, or pass --output FOLDER of an earlier run")
-        from wbik.study.ownership import FolderLock
-
-        with FolderLock(output):  # not while a run is writing into it
-            markdown, html = write_report(study, output)
     else:
         output = run_study(study, args.output, jobs=args.jobs, backend=args.backend,
-                           scheduler=args.scheduler, fresh=args.fresh, progress=not args.no_progress)
+                           scheduler=args.scheduler, fresh=args.fresh, progress=not args.no_progress,
+                           report=compare_to is None)
+    comparison = None
+    if args.report_only or compare_to is not None:
+        with FolderLock(output):  # not while a run is writing into it
+            if compare_to is not None:
+                from wbik.study.compare import compare_runs
+
+                comparison = compare_runs(study, output, compare_to)
+            markdown, html = write_report(study, output, comparison)
+    else:
         markdown, html = output / "report.md", output / "report.html"
     print(f"report: {markdown}\n        {html}")
-    return 0
+    if comparison is None:
+        return 0
+    from wbik.study.compare import summary_lines
+
+    print("\n".join(summary_lines(comparison)))
+    return 1 if comparison.regressions else 0

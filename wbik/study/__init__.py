@@ -7,9 +7,10 @@ kind ``wholebody``: whole-body cases), ``sampling`` (poses), ``context`` (what t
 and the report share), ``runner`` (chunks, joblib/Dask, resume), ``cpu_watch`` (wall-clock solves
 re-run when starved of CPU), ``applicability`` (which methods apply to a case), ``results`` (files
 on disk), ``ownership`` (the output folder's lock), ``metrics`` (per-axis errors, Euler angles),
-``statistics`` (summary, Mann-Whitney), ``reference`` (the figures a study compares with),
-``figures``, ``blocks`` (what every kind's report section is made of) and ``report`` (Markdown +
-self-contained HTML).
+``statistics`` (summary, intervals, Mann-Whitney with Holm's correction), ``reference`` (the figures
+a study compares with), ``budget_curves`` (success versus budget), ``figures``, ``blocks`` (what
+every kind's report section is made of), ``report`` (Markdown + self-contained HTML) and
+``compare`` (the regression gate of ``--compare-to``).
 
 >>> from wbik.study import load_study, run_study
 >>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP

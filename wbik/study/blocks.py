@@ -1,7 +1,8 @@
 """The parts every case kind builds its report section from: blocks (headings, paragraphs, tables,
 images, lists, rendered by :mod:`wbik.study.report` to Markdown and HTML), number formats, a case's
 rows read back and its summary and significance tables written, the figures of every case, and the
-tables and paragraphs every case's section shares (solved, times, status, significance, reasons).
+tables and paragraphs every case's section shares (solved and times with their 95 % intervals,
+status, significance with Holm's adjustment, reasons, success versus budget).
 """
 
 from __future__ import annotations
@@ -18,9 +19,17 @@ import numpy as np
 
 from wbik.study import results as store
 from wbik.study.context import chunk_count
+from wbik.study.cpu_watch import STARVED_CPU_SHARE
+from wbik.study.cpu_watch import threads_of
+from wbik.study.statistics import ALPHA
+from wbik.study.statistics import BOOTSTRAP_RESAMPLES
+from wbik.study.statistics import with_holm
 
 if TYPE_CHECKING:
+    from wbik.study.budget_curves import BudgetCurve
+    from wbik.study.case_kinds import CaseKind
     from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
 
 
@@ -50,6 +59,13 @@ def fmt(value, digits: int = 3) -> str:
     if 1e-3 <= abs(value) < 1e5:
         return f"{value:.{digits}g}"
     return f"{value:.{digits - 1}e}"
+
+
+def fmt_interval(low, high, digits: int = 3) -> str:
+    """An interval for a table: "[low, high]" with :func:`fmt`'s digits, '-' when missing."""
+    if low is None or high is None or not (math.isfinite(float(low)) and math.isfinite(float(high))):
+        return "-"
+    return f"[{fmt(low, digits)}, {fmt(high, digits)}]"
 
 
 def fmt_p(value: float) -> str:
@@ -82,37 +98,112 @@ def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
 
 def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[dict]) -> None:
     """A case's summary.csv (a row per method: every summary figure, ``repr`` of numbers) and, with
-    tests, its significance.csv (a row per Mann-Whitney test)."""
+    tests, its significance.csv (a row per Mann-Whitney test, with its Holm-adjusted p-value)."""
     if summaries:
         keys = list(next(iter(summaries.values())))
         _write_csv(directory / "summary.csv", ["method", *keys],
                    [[label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
                     for label, s in summaries.items()])
     if tests:
+        tests = with_holm(tests)
         keys = list(tests[0])
         _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
                                                           for k in keys] for t in tests])
 
 
 def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
-                 angles=None) -> dict[str, Path]:
-    """The figures of every case (none without rows): poses solved, errors per axis of the solved
-    poses (``error_names``; ``angles`` the reference's angle convention), time and its histogram."""
+                 angles=None, curves: dict[str, BudgetCurve] | None = None,
+                 budget_kinds: dict[str, str] | None = None) -> dict[str, Path]:
+    """The figures of every case (none without rows): poses solved with their intervals, errors per
+    axis of the solved poses (``error_names``; ``angles`` the reference's angle convention) as box
+    plots and histograms, time, its histogram and its ECDFs, and with ``curves`` success versus
+    budget (``budget_kinds``: label -> "iterations", "wall" or "none", :func:`budget_kind`)."""
     if not rows_by_method:
         return {}
     from wbik.study import figures
 
-    return {"solved": figures.solved_bars(summaries, title, folder / "solved.png"),
-            "errors": figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
-                                             angles),
-            "time": figures.time_boxplots(rows_by_method, title, folder / "time.png"),
-            "time_histogram": figures.time_histogram(rows_by_method, title, folder / "time_histogram.png")}
+    images = {"solved": figures.solved_bars(summaries, title, folder / "solved.png"),
+              "errors": figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",
+                                               angles),
+              "error_histograms": figures.error_histograms(rows_by_method, error_names, title,
+                                                           folder / "error_histograms.png", angles),
+              "time": figures.time_boxplots(rows_by_method, title, folder / "time.png"),
+              "time_histogram": figures.time_histogram(rows_by_method, title, folder / "time_histogram.png"),
+              "time_ecdf": figures.time_ecdf(rows_by_method, title, folder / "time_ecdf.png")}
+    if curves:
+        images["budget"] = figures.budget_curves(curves, budget_kinds or {}, title, folder / "budget.png")
+    return images
+
+
+# -- budgets -----------------------------------------------------------------------------------
+def budget_kind(kind: CaseKind, method: MethodSpec, seconds: float) -> str:
+    """How ``method`` is budgeted in a case of ``kind``: "none" (a closed form), "iterations" (our
+    loops: CPU work, the same on any machine) or "wall" (a wall clock inside another library)."""
+    from wbik.errors import WbikError
+
+    if kind.unbudgeted(method.method):
+        return "none"
+    try:
+        timeout_s, _ = kind.budget(method.method, seconds, method.options)
+    except WbikError:
+        return "wall"
+    return "iterations" if timeout_s is None else "wall"
+
+
+def budget_semantics(kind: CaseKind, method: MethodSpec, seconds: float, workers: int | None = None) -> str:
+    """What ``method``'s budget measures, for the report's methods table: CPU work (iterations), a
+    wall clock (and, for a method with threads of its own, how it was given a core per thread)."""
+    kind_of_budget = budget_kind(kind, method, seconds)
+    if kind_of_budget == "none":
+        return "none: a fixed amount of work per call"
+    if kind_of_budget == "iterations":
+        return "CPU work: iterations, the same on any machine and load"
+    threads = threads_of(method.method)
+    if threads == 1:
+        return (f"wall clock, 1 thread; a solve given < {STARVED_CPU_SHARE:g} x wall of CPU is re-run with "
+                "a stretched budget")
+    ran = f"; ran with {workers} worker(s)" if workers else ""
+    return (f"wall clock, {threads} threads of its own: run with at most cores / {threads} workers{ran}, "
+            f"a solve given < {STARVED_CPU_SHARE:g} x {threads} x wall of CPU is re-run with a stretched "
+            f"budget")
+
+
+def budget_blocks(study: Study, analysis: dict) -> list[Block]:
+    """The case's success-versus-budget table and figure (``analysis["curves"]``, label ->
+    :class:`~wbik.study.budget_curves.BudgetCurve`); none without curves."""
+    curves = analysis.get("curves") or {}
+    if not curves:
+        return []
+    first = next(iter(curves.values()))
+    budgets = list(first.budgets_ms)
+    rows = []
+    for label, curve in curves.items():
+        low, high = curve.interval()
+        cells = [f"{fmt(p)} {fmt_interval(lo, hi)}"
+                 for p, lo, hi in zip(curve.percent, low, high, strict=True)]
+        reruns = int(curve.reruns.sum())
+        rows.append([label, analysis.get("budget_kinds", {}).get(label, ""), *cells,
+                     "flat (closed form)" if curve.unbudgeted else str(reruns)])
+    return [Block("h3", "Success versus budget"),
+            Block("p", f"% solved (Wilson 95 % interval) of the case's first {first.poses} targets, each "
+                       "method solved again at every budget (wbik.study.budget_curves: a run stopped early "
+                       "is not the same as a run given a smaller budget, so none is read off the full run). "
+                       "'iterations': the iterations that cost that long on the reference machine (CPU "
+                       "work); 'wall': a wall clock, CPU-starved solves re-run; 'none': a closed form, "
+                       "its rows at every budget. The curve's budget replaces the study file's "
+                       "(timeout_s and max_iterations)."),
+            Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in budgets), "re-run"],
+                  rows=rows),
+            Block("image", "Success versus budget (95 % bands)", path=analysis["images"]["budget"])]
 
 
 
 
-SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved")]
-"""The first columns of every case's table (:func:`summary_table`): solved of all, and in %."""
+SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved"),
+                  ("% solved 95 % CI", lambda s: fmt_interval(s.get("percent_solved_ci_low"),
+                                                              s.get("percent_solved_ci_high")))]
+"""The first columns of every case's table (:func:`summary_table`): solved of all, in %, and its
+Wilson 95 % interval."""
 
 _CALLS = {"all": "all calls", "solved": "solved", "unsolved": "not solved"}
 
@@ -124,9 +215,22 @@ def time_columns(calls: str, *statistics: str) -> list[tuple[str, str]]:
     return [(f"{statistic} ms ({_CALLS[calls]})", f"time_{calls}_{statistic}_ms") for statistic in statistics]
 
 
-TIME_COLUMNS = [*time_columns("all", "median"), *time_columns("solved", "median", "p95")]
-"""The first time columns of every case's table: the median time of all calls, then the median and
-95th percentile of the solved ones (ms per call)."""
+def median_interval_column(calls: str) -> tuple[str, object]:
+    """The column of the bootstrap 95 % interval of the median time of ``calls`` ("all", "solved")."""
+    return (f"median ms 95 % CI ({_CALLS[calls]})",
+            lambda s: fmt_interval(s.get(f"time_{calls}_median_ci_low_ms"),
+                                   s.get(f"time_{calls}_median_ci_high_ms")))
+
+
+TIME_COLUMNS = [*time_columns("all", "median"), median_interval_column("all"),
+                *time_columns("solved", "median"), median_interval_column("solved"),
+                *time_columns("solved", "p95")]
+"""The first time columns of every case's table: the median time of all calls and its bootstrap
+95 % interval, then the median (and interval) and 95th percentile of the solved ones (ms per call)."""
+
+INTERVALS_TEXT = (f"Intervals are 95 %: Wilson's score interval for the share solved, the percentile "
+                  f"bootstrap ({BOOTSTRAP_RESAMPLES} resamples, fixed seed) for median times.")
+"""The sentence under a table with :data:`SOLVED_COLUMNS` and :data:`TIME_COLUMNS`."""
 
 
 def summary_table(summaries: dict[str, dict], columns) -> Block:
@@ -159,16 +263,22 @@ def status_blocks(study: Study, analysis: dict) -> list[Block]:
 
 def significance_blocks(analysis: dict, samples: str) -> list[Block]:
     """The Mann-Whitney p-values against the baseline, a row per method (``samples``: what each
-    test compares); none without tests."""
+    test compares), adjusted for the methods compared by Holm's step-down procedure; none without
+    tests."""
     if not analysis["tests"]:
         return []
+    tests = with_holm(analysis["tests"])
     by_method: dict[str, dict] = {}
-    for test in analysis["tests"]:
-        mark = "*" if test["significant"] else ""
-        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_value"]) + mark
-    axes_tested = list(dict.fromkeys(t["axis"] for t in analysis["tests"]))
-    return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided)"),
-            Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; * marks p < 0.05."),
+    for test in tests:
+        mark = "*" if test["significant_holm"] else ""
+        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_holm"]) + mark
+    axes_tested = list(dict.fromkeys(t["axis"] for t in tests))
+    pairs = len(by_method)
+    return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided, Holm)"),
+            Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; adjusted for the {pairs} method(s) "
+                       f"compared with {analysis['baseline']} on each axis by Holm's step-down procedure "
+                       f"(family-wise error {ALPHA:g}); * marks adjusted p < {ALPHA:g}. The unadjusted "
+                       "p-values are in significance.csv (p_value; adjusted: p_holm)."),
             Block("table", header=["method", *axes_tested],
                   rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
                         for label, cells in by_method.items()])]

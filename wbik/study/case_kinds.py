@@ -167,6 +167,13 @@ class CaseKind(ABC):
 CASE_KIND_MODULES: list[str] = [
     "wbik.study.chain_targets",  # pose, position
     "wbik.study.wholebody",  # wholebody
+    "wbik.study.target_sets",  # uniform (target sets: a case's targets:)
+    "wbik.study.near_limits",  # near_limits
+    "wbik.study.near_singularities",  # near_singularities
+    "wbik.study.reach_boundary",  # reach_boundary
+    "wbik.study.unreachable",  # unreachable
+    "wbik.study.paths",  # path
+    "wbik.study.protocols",  # protocol
 ]
 """The modules whose ``CASE_KINDS`` are registered (a new module of kinds: one line here)."""
 

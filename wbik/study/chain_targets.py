@@ -27,9 +27,12 @@ from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
 from wbik.study import results as store
+from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
 from wbik.study.blocks import Block
+from wbik.study.blocks import budget_blocks
+from wbik.study.blocks import budget_kind
 from wbik.study.blocks import case_figures
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
@@ -40,6 +43,7 @@ from wbik.study.blocks import status_blocks
 from wbik.study.blocks import summary_table
 from wbik.study.blocks import time_columns
 from wbik.study.blocks import write_case_tables
+from wbik.study.budget_curves import read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.context import _frozen
@@ -47,6 +51,7 @@ from wbik.study.context import case_chain
 from wbik.study.context import chunk_seed
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
+from wbik.study.cpu_watch import MAX_RERUNS
 from wbik.study.cpu_watch import solve_watching_the_cpu
 from wbik.study.metrics import STUDY_SEQUENCE
 from wbik.study.metrics import AngleConvention
@@ -114,6 +119,11 @@ class ChainTargets(CaseKind):
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r}, target={self.target!r})"
+
+    def sampling_text(self, case: CaseSpec) -> str:
+        """How the case's targets were drawn, in the words of its report section (``sampled_from``;
+        a kind whose targets depend on the case's parameters says them)."""
+        return self.sampled_from
 
     # -- the study file ----------------------------------------------------------------------------
     def methods(self) -> dict[str, str]:
@@ -247,11 +257,14 @@ class ChainTargets(CaseKind):
         write_case_tables(directory, summaries, tests)
         angles = case.reference.angles if case.reference else None
         error_names = self.axes(angles)
+        curves = read_curves(study, case, output, rows_by_method)
+        budget_kinds = {label: budget_kind(self, study.method(label), study.timeout_of(study.method(label)))
+                        for label in rows_by_method}
         images = case_figures(rows_by_method, summaries, f"{case.robot}.{chain.name} ({case.target})",
-                              directory / "figures", error_names, angles)
+                              directory / "figures", error_names, angles, curves, budget_kinds)
         return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
                 "summaries": summaries, "tests": tests, "baseline": baseline, "axes": error_names,
-                "images": images}
+                "images": images, "curves": curves, "budget_kinds": budget_kinds}
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
@@ -259,7 +272,7 @@ class ChainTargets(CaseKind):
         summaries = analysis["summaries"]
         rows_by_method = analysis["rows"]
         blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {case.target} targets"),
-                  Block("p", f"{study.poses_of(case)} {case.target} targets from {self.sampled_from} "
+                  Block("p", f"{study.poses_of(case)} {case.target} targets from {self.sampling_text(case)} "
                              f"(seed {study.seed}); chain {chain.base_frame} -> "
                              f"{chain.tip_frame}, {chain.nq} joints ({', '.join(chain.joint_names)}); "
                              f"every method starts from q0 = {study.start}.")]
@@ -275,12 +288,18 @@ class ChainTargets(CaseKind):
             ("median iterations", "iterations_median"),
             ("exceptions", "raised"),
             ("re-run (CPU starved)", lambda s: s.get("rerun", 0)),
+            (f"re-run {MAX_RERUNS} times", lambda s: s.get("rerun_exhausted", 0)),
+            ("CPU / wall (median)", lambda s: s.get("cpu_per_wall_median")),
         ]))
         blocks.append(Block("p", "Times are per call of the method alone. \"All calls\" counts every pose; "
                                  "\"solved\" and \"not solved\" split them by the shared FK check. "
-                                 "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that failed "
-                                 "while the machine gave them less than 80 % of their budget in CPU time "
-                                 "and were run again with a stretched wall budget (wbik.study.runner)."))
+                                 "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that got less "
+                                 "than 80 % of their wall time in CPU time (the machine was busy; a method "
+                                 "with threads of its own: of wall time x its threads, wbik.study.cpu_watch) "
+                                 "and were run again, their answer discarded, with a stretched wall budget, "
+                                 f"at most {MAX_RERUNS} times (the last answer is kept); 'CPU / wall': the "
+                                 "median share of CPU the kept answers had (about the method's threads "
+                                 "when each had a core). " + INTERVALS_TEXT))
         reasons = frequent_reasons(rows_by_method)
         if reasons:
             blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
@@ -288,6 +307,9 @@ class ChainTargets(CaseKind):
         blocks.append(Block("image", "Poses solved per method", path=analysis["images"]["solved"]))
         blocks.append(Block("image", "Time per pose", path=analysis["images"]["time"]))
         blocks.append(Block("image", "Histogram of time per pose", path=analysis["images"]["time_histogram"]))
+        blocks.append(Block("image", "Time per call (ECDF): calls returned and poses solved within t",
+                            path=analysis["images"]["time_ecdf"]))
+        blocks.extend(budget_blocks(study, analysis))
 
         blocks.append(Block("h3", "Error per axis (solved poses)"))
         blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
@@ -303,6 +325,8 @@ class ChainTargets(CaseKind):
                                              for axis in analysis["axes"])] for label in labels]
             blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
         blocks.append(Block("image", "Error per axis", path=analysis["images"]["errors"]))
+        blocks.append(Block("image", "Distribution of |error| per axis",
+                            path=analysis["images"]["error_histograms"]))
 
         blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, "
                                                     "and on the time of every pose"))

@@ -64,8 +64,10 @@ DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 DEFAULT_TARGET = "pose"
 """The kind of a case entry that names none (``target:``, or a key only one kind takes): the case
 kinds are those of :mod:`wbik.study.case_kinds` (pose, position, wholebody, and any registered)."""
-CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip"}
-"""The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``)."""
+CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip",
+             "targets"}
+"""The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``). ``targets``
+names a target set (:func:`_target_set_kind`), whose kind checks and completes its parameters."""
 START_KINDS = ("nominal", "mid_range", "random")
 REFERENCE_KEYS = {"name", "source", "angles", "figures", "significance", "significance_source", "notes"}
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
@@ -101,6 +103,36 @@ class CaseSpec:
     scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.cases)
     base: str | None = None  # a chain named by its base and tip frames (``chain`` is then its name)
     tip: str | None = None
+    targets: dict | None = None  # a target set and its parameters (``targets:``; None: the kind's own)
+    path: dict | None = None  # target "path": the path's shape and parameters (wbik.study.paths)
+    success: dict | None = None  # target "protocol": the case's success rule (wbik.study.protocols)
+    peers: list | None = None  # target "protocol": peers' published figures (report only, not fingerprinted)
+
+
+BUDGET_CURVE_MS = (0.2, 0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
+"""The budgets (ms) of a study's success-versus-budget curves unless ``budget_curves.budgets_ms`` says."""
+SUCCESS_DROP_CI = "ci"
+
+
+@dataclass(frozen=True)
+class BudgetCurveSpec:
+    """``budget_curves:``: success against the budget, from the first ``poses`` targets of every case
+    solved again at each budget of ``budgets_ms`` (:mod:`wbik.study.budget_curves`); 0 poses: none."""
+
+    poses: int = 0
+    budgets_ms: tuple[float, ...] = BUDGET_CURVE_MS
+
+
+@dataclass(frozen=True)
+class RegressionRule:
+    """``regression:``: when ``wbik study --compare-to OLD`` calls a method worse than in OLD
+    (:mod:`wbik.study.compare`). ``success_drop``: "ci" (the two runs' 95 % intervals of the share
+    solved are disjoint, the new one below) or percentage points (new < old - points);
+    ``time_rise``: a factor r >= 1 (the new median time's interval lies above r x the old one's),
+    None: times are not gated."""
+
+    success_drop: str | float = SUCCESS_DROP_CI
+    time_rise: float | None = 1.2
 
 
 @dataclass(frozen=True)
@@ -115,6 +147,8 @@ class Study:
     start: str = "nominal"
     baseline: str | None = None
     chunk_size: int = 100
+    budget_curves: BudgetCurveSpec = field(default_factory=BudgetCurveSpec)
+    regression: RegressionRule = field(default_factory=RegressionRule)
     description: str = ""
     notes: str = ""
     source: str = ""  # the file it came from (not part of the fingerprint)
@@ -147,14 +181,17 @@ class Study:
         data = self.as_dict()
         for key in ("description", "notes", "methods", "baseline", "timeout_s"):
             data.pop(key)
+        for key in ("budget_curves", "regression"):  # what is measured beside the rows, how runs compare
+            data.pop(key)
         for spec, case in zip(self.cases, data["cases"], strict=True):
             case.pop("reference")
             case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
             if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
                 case.pop("scenario", None)
-            for key in ("base", "tip"):  # chains by name: the same fingerprint as before base/tip
-                if case.get(key) is None:
+            for key in ("base", "tip", "targets", "path", "success"):  # keys a case leaves out: the
+                if case.get(key) is None:  # fingerprint of before them
                     case.pop(key, None)
+            case.pop("peers", None)  # report text, as the reference
         return _digest(data)
 
     def method_fingerprint(self, method: MethodSpec) -> str:
@@ -167,7 +204,7 @@ class Study:
     def with_overrides(self, *, poses: int | None = None, methods: list[str] | None = None,
                        robot: str | None = None, chain: str | None = None,
                        chunk_size: int | None = None, seed: int | None = None,
-                       name: str | None = None) -> Study:
+                       name: str | None = None, budget_curve_poses: int | None = None) -> Study:
         """A copy with command-line overrides applied (and validated)."""
         study = self
         if methods:
@@ -201,6 +238,12 @@ class Study:
             study = replace(study, seed=int(seed))
         if name is not None:
             study = replace(study, name=_label(name, "--name", "command line"))
+        if budget_curve_poses is not None:
+            if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
+                    or budget_curve_poses < 0:
+                raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
+                                           f"(0: none), got {budget_curve_poses!r}")
+            study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
         return study
 
 
@@ -248,7 +291,7 @@ def study_from_dict(data, source: str = "study") -> Study:
         raise StudyDefinitionError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
                                    f"got {type(data).__name__}")
     known = {"name", "description", "notes", "cases", "methods", "poses", "seed", "timeout_s", "tolerances",
-             "start", "baseline", "chunk_size", *_case_keys()}
+             "start", "baseline", "chunk_size", "budget_curves", "regression", *_case_keys()}
     _no_unknown(data, known, source, "the study")
     name = _label(data.get("name", Path(source).stem), "name", source)
     poses = _positive_int(data.get("poses", 1000), "poses", source)
@@ -279,8 +322,57 @@ def study_from_dict(data, source: str = "study") -> Study:
                                           f"{label!r}, which is not a method label of the study")
     return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
                  timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
-                 chunk_size=chunk_size, description=str(data.get("description", "") or ""),
+                 chunk_size=chunk_size, budget_curves=_budget_curves(data.get("budget_curves"), source),
+                 regression=_regression(data.get("regression"), source),
+                 description=str(data.get("description", "") or ""),
                  notes=str(data.get("notes", "") or ""), source=source)
+
+
+def _budget_curves(raw, source: str) -> BudgetCurveSpec:
+    """``budget_curves:``: false/absent (none), true (100 poses), or {poses: n, budgets_ms: [...]}."""
+    if raw is None or raw is False:
+        return BudgetCurveSpec()
+    if raw is True:
+        return BudgetCurveSpec(poses=100)
+    where = "budget_curves"
+    raw = _mapping(raw, source, where, "is true, false or {poses: 100, budgets_ms: [0.2, 1, 5, 20]}")
+    _no_unknown(raw, {"poses", "budgets_ms"}, source, where)
+    poses = raw.get("poses", 100)
+    if isinstance(poses, bool) or not isinstance(poses, int) or poses < 0:
+        raise StudyDefinitionError(f"{source}: {where}.poses must be a number of poses >= 0 (0: no curves), "
+                                   f"got {poses!r}")
+    budgets = raw.get("budgets_ms", list(BUDGET_CURVE_MS))
+    if not isinstance(budgets, list) or not budgets:
+        raise StudyDefinitionError(f"{source}: {where}.budgets_ms must be a non-empty list of budgets in ms, "
+                                   f"got {budgets!r}")
+    budgets = sorted({_positive_float(value, f"{where}.budgets_ms", source) for value in budgets})
+    return BudgetCurveSpec(poses=poses, budgets_ms=tuple(budgets))
+
+
+def _regression(raw, source: str) -> RegressionRule:
+    """``regression:``: {success_drop: ci or points >= 0, time_rise: factor >= 1, ci (1) or off}."""
+    where = "regression"
+    raw = _mapping(raw, source, where, "is {success_drop: ci, time_rise: 1.2}")
+    _no_unknown(raw, {"success_drop", "time_rise"}, source, where)
+    drop = raw.get("success_drop", SUCCESS_DROP_CI)
+    if drop != SUCCESS_DROP_CI:
+        drop = _yaml_number(drop)
+        if isinstance(drop, bool) or not isinstance(drop, int | float) or not 0 <= drop <= 100:
+            raise StudyDefinitionError(f"{source}: {where}.success_drop must be 'ci' (the 95 % intervals are "
+                                       f"disjoint) or percentage points between 0 and 100, got {drop!r}")
+        drop = float(drop)
+    rise = raw.get("time_rise", 1.2)
+    if rise in (None, False, "off"):
+        rise = None
+    elif rise == SUCCESS_DROP_CI:
+        rise = 1.0
+    else:
+        rise = _yaml_number(rise)
+        if isinstance(rise, bool) or not isinstance(rise, int | float) or not 1.0 <= rise < math.inf:
+            raise StudyDefinitionError(f"{source}: {where}.time_rise must be a factor >= 1 (e.g. 1.2), 'ci' "
+                                       f"(1) or off, got {rise!r}")
+        rise = float(rise)
+    return RegressionRule(success_drop=drop, time_rise=rise)
 
 
 def _methods(raw, source: str) -> list[MethodSpec]:
@@ -345,6 +437,8 @@ def _case_kind(item: dict, source: str, where: str):
     from wbik.study.case_kinds import case_kinds
 
     kinds = case_kinds()
+    if "targets" in item:
+        return _target_set_kind(item, kinds, source, where)
     owners = {key: kind for kind in kinds.values() for key in kind.entry_keys if key in item}
     target = item.get("target", next(iter(owners.values())).name if owners else DEFAULT_TARGET)
     for key, owner in owners.items():
@@ -352,10 +446,37 @@ def _case_kind(item: dict, source: str, where: str):
             raise StudyDefinitionError(f"{source}: {where}: {key}: is for target: {owner.name} cases, got "
                                        f"target {target!r}")
     if not isinstance(target, str) or target not in kinds:
-        names = [repr(name) for name in kinds]
+        names = [repr(name) for name, kind in kinds.items() if not getattr(kind, "target_set", None)]
+        sets = [name for name, kind in kinds.items() if getattr(kind, "target_set", None)]
         choices = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else names[0]
-        raise StudyDefinitionError(f"{source}: {where}.target must be {choices}, got {target!r}")
+        also = f" (or a target set: {', '.join(sets)}; see targets:)" if sets else ""
+        raise StudyDefinitionError(f"{source}: {where}.target must be {choices}{also}, got {target!r}")
     return kinds[target]
+
+
+def _target_set_kind(item: dict, kinds: dict, source: str, where: str):
+    """The kind of a case entry naming a target set, ``targets: NAME`` or ``targets: {set: NAME, ...}``:
+    the registered kind whose ``target_set`` is NAME and whose target is the entry's ``target`` (pose
+    by default, or the kind's own name)."""
+    raw = item["targets"]
+    if isinstance(raw, dict):
+        name, key = raw.get("set"), f"{where}.targets.set"
+    else:
+        name, key = raw, f"{where}.targets"
+    sets: dict[str, list] = {}
+    for kind in kinds.values():
+        if getattr(kind, "target_set", None):
+            sets.setdefault(kind.target_set, []).append(kind)
+    if not isinstance(name, str) or name not in sets:
+        known = ", ".join(sets) or "none is registered"
+        raise StudyDefinitionError(f"{source}: {key} must name a target set ({known}), got "
+                                   f"{name!r}{did_you_mean(name, sets)}")
+    target = item.get("target", DEFAULT_TARGET)
+    for kind in sets[name]:
+        if target in (kind.target, kind.name):
+            return kind
+    raise StudyDefinitionError(f"{source}: {where}.target: the target set {name!r} draws "
+                               f"{' or '.join(kind.target for kind in sets[name])} targets, got {target!r}")
 
 
 def _cases(data: dict, source: str) -> list[CaseSpec]:
@@ -405,7 +526,8 @@ def _cases(data: dict, source: str) -> list[CaseSpec]:
             robot=robot, chain=chain, target=target, robot_params=dict(params),
             poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
             reference=_reference(item.get("reference"), kind, source, f"{where}.reference"),
-            scenario=item.get("scenario"), base=base, tip=tip)
+            scenario=item.get("scenario"), base=base, tip=tip, targets=item.get("targets"),
+            path=item.get("path"), success=item.get("success"), peers=item.get("peers"))
         cases.append(case)
     names = [c.name for c in cases]
     if len(set(names)) != len(names):

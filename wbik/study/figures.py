@@ -1,9 +1,15 @@
 """The study's figures, drawn with matplotlib's Agg backend (no display needed).
 
-- bars of the poses solved per method;
-- box plots of |error| per axis over solved poses (log scale; exact zeros drawn at a floor);
+- bars of the share of poses solved per method, with their 95 % (Wilson) intervals;
+- box plots of |error| per axis over solved poses (log scale; exact zeros drawn at a floor), and
+  histograms of log10 |error| per axis and method;
 - box plots of time per method, solved and unsolved poses side by side (log scale);
-- a histogram of time per method (log bins).
+- a histogram of time per method (log bins);
+- time ECDFs per method: the share of calls that returned within t, and the share of poses solved
+  within t;
+- success versus budget per method, with 95 % bands (:mod:`wbik.study.budget_curves`).
+
+A method has the same colour in every figure of a case (:func:`colours`).
 """
 
 from __future__ import annotations
@@ -16,7 +22,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from wbik.files import atomic_write_bytes
+from wbik.files import atomic_write_bytes  # noqa: E402
 from wbik.study.metrics import AngleConvention  # noqa: E402
 from wbik.study.metrics import axis_label  # noqa: E402
 
@@ -33,21 +39,147 @@ def _save(figure, path: Path) -> Path:
     return path
 
 
+def colours(labels) -> dict[str, tuple]:
+    """A colour per method label, in order: tab20's ten darker shades, then its ten lighter ones."""
+    palette = plt.get_cmap("tab20").colors
+    order = [*palette[0::2], *palette[1::2]]
+    return {label: order[index % len(order)] for index, label in enumerate(labels)}
+
+
 def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
+    """% solved per method, with its 95 % interval (``percent_solved_ci_low``/``_high``) as a whisker
+    and as text under the figure's value."""
     labels = list(summaries)
-    solved = [summaries[label]["solved"] for label in labels]
-    unsolved = [summaries[label]["poses"] - summaries[label]["solved"] for label in labels]
-    figure, axes = plt.subplots(figsize=(max(5.0, 0.9 * len(labels) + 2), 3.8))
+    percent = np.array([summaries[label]["percent_solved"] for label in labels], dtype=float)
+    low = np.array([summaries[label].get("percent_solved_ci_low", np.nan) for label in labels], dtype=float)
+    high = np.array([summaries[label].get("percent_solved_ci_high", np.nan) for label in labels], dtype=float)
+    figure, axes = plt.subplots(figsize=(max(5.0, 0.9 * len(labels) + 2), 4.0))
     positions = np.arange(len(labels))
-    axes.bar(positions, solved, color="tab:green", label="solved")
-    axes.bar(positions, unsolved, bottom=solved, color="tab:red", alpha=0.6, label="not solved")
-    for x, label in zip(positions, labels, strict=True):
-        axes.text(x, summaries[label]["poses"], f"{summaries[label]['percent_solved']:.1f} %",
-                  ha="center", va="bottom", fontsize=8)
+    colour = colours(labels)
+    axes.bar(positions, percent, color=[colour[label] for label in labels], alpha=0.85)
+    whiskers = np.nan_to_num(np.vstack([percent - low, high - percent]), nan=0.0)
+    axes.errorbar(positions, percent, yerr=np.maximum(whiskers, 0.0), fmt="none", ecolor="black",
+                  elinewidth=1.2, capsize=4)
+    for x, value, lo, hi in zip(positions, percent, low, high, strict=True):
+        interval = f"\n[{lo:.1f}, {hi:.1f}]" if np.isfinite(lo) else ""
+        top = max(value, hi) if np.isfinite(hi) else value
+        axes.text(x, min(top, 100.0) + 1.5, f"{value:.1f} %{interval}", ha="center", va="bottom", fontsize=7)
+    axes.set_ylim(0, 118)
+    axes.set_yticks(np.arange(0, 101, 20))
     axes.set_xticks(positions, labels, rotation=30, ha="right")
-    axes.set_ylabel("poses")
-    axes.set_title(title)
-    axes.legend(loc="lower right", fontsize=8)
+    axes.set_ylabel("% solved (95 % interval)")
+    axes.set_title(f"{title}: poses solved")
+    return _save(figure, path)
+
+
+def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
+                     angles: AngleConvention | None = None) -> Path:
+    """Histograms of log10 |error| per axis (solved poses), a step line per method; exact zeros
+    counted at the ZERO_FLOOR bin."""
+    columns = 3
+    lines = -(-len(axes_names) // columns)
+    labels = list(rows_by_method)
+    colour = colours(labels)
+    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, 3.0 * lines), squeeze=False)
+    for index, axis in enumerate(axes_names):
+        subplot = grid[index // columns][index % columns]
+        values = {}
+        for label in labels:
+            rows = rows_by_method[label]
+            magnitude = np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
+            magnitude = magnitude[np.isfinite(magnitude)]
+            if magnitude.size:
+                values[label] = np.log10(np.maximum(magnitude, ZERO_FLOOR))
+        if values:
+            everything = np.concatenate(list(values.values()))
+            bins = np.linspace(everything.min(), everything.max() + 1e-9, 40)
+            for label, logs in values.items():
+                subplot.hist(logs, bins=bins, histtype="step", linewidth=1.2, color=colour[label],
+                             label=label)
+        subplot.set_xlabel(f"log10 |error| {axis_label(axis, angles)}", fontsize=8)
+        subplot.set_ylabel("poses", fontsize=8)
+        subplot.tick_params(labelsize=7)
+    for index in range(len(axes_names), lines * columns):
+        grid[index // columns][index % columns].set_visible(False)
+    handles, names = grid[0][0].get_legend_handles_labels()
+    if handles:
+        figure.legend(handles, names, loc="upper center", ncol=min(6, len(names)), fontsize=7,
+                      bbox_to_anchor=(0.5, 1.0))
+    figure.suptitle(f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})", fontsize=10,
+                    y=1.04)
+    figure.tight_layout()
+    return _save(figure, path)
+
+
+def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
+    """Two ECDFs of time per method (log time axis): left, the share of calls that returned within
+    t, F(t) = #{time <= t} / n; right, the share of poses solved within t, #{solved, time <= t} / n,
+    which ends at the method's share solved."""
+    labels = list(rows_by_method)
+    colour = colours(labels)
+    figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True)
+    for label in labels:
+        rows = rows_by_method[label]
+        times = rows["time_s"] * 1e3
+        finite = np.isfinite(times) & (times > 0)
+        count = times.size
+        if not finite.any() or count == 0:
+            continue
+        order = np.sort(times[finite])
+        returned.step(order, np.arange(1, order.size + 1) / count, where="post", color=colour[label],
+                      linewidth=1.3, label=label)
+        success = rows["success"].astype(bool) & finite
+        won = np.sort(times[success])
+        if won.size:
+            solved.step(won, 100.0 * np.arange(1, won.size + 1) / count, where="post", color=colour[label],
+                        linewidth=1.3, label=label)
+    for axes, ylabel, heading in ((returned, "share of calls returned", "calls returned within t"),
+                                  (solved, "% of poses solved", "poses solved within t")):
+        axes.set_xscale("log")
+        axes.set_xlabel("time t (ms)")
+        axes.set_ylabel(ylabel)
+        axes.set_title(heading, fontsize=10)
+        axes.grid(True, which="both", alpha=0.25)
+    handles, names = returned.get_legend_handles_labels()
+    figure.suptitle(f"{title}: time per call (ECDF)", fontsize=11)
+    figure.tight_layout()
+    if handles:
+        solved.legend(handles, names, fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    return _save(figure, path)
+
+
+BUDGET_STYLES = {"iterations": "-", "wall": "--", "none": ":"}
+"""Line style of a budget curve by the method's budget kind."""
+
+
+def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -> Path:
+    """% solved against the budget (ms, log axis) per method (``curves``: label -> BudgetCurve),
+    a 95 % (Wilson) band around each; ``kinds`` label -> "iterations", "wall" or "none" (a closed
+    form: a flat line) sets the line style."""
+    labels = list(curves)
+    colour = colours(labels)
+    figure, axes = plt.subplots(figsize=(9.0, 5.0))
+    for label in labels:
+        curve = curves[label]
+        low, high = curve.interval()
+        style = BUDGET_STYLES.get(kinds.get(label, "wall"), "--")
+        axes.plot(curve.budgets_ms, curve.percent, style, marker="o" if style != ":" else None, markersize=3,
+                  color=colour[label], linewidth=1.4, label=f"{label} ({kinds.get(label, 'wall')})")
+        axes.fill_between(curve.budgets_ms, low, high, color=colour[label], alpha=0.12, linewidth=0)
+    axes.set_xscale("log")
+    if labels:
+        budgets = next(iter(curves.values())).budgets_ms
+        axes.set_xticks(budgets, [f"{value:g}" for value in budgets])
+        axes.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+    axes.set_ylim(-2, 102)
+    axes.set_xlabel("budget per solve (ms): the iterations that cost that long for 'iterations', "
+                    "wall clock for 'wall'")
+    axes.set_ylabel("% solved (95 % band)")
+    axes.grid(True, which="both", alpha=0.25)
+    if labels:
+        axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+        poses = next(iter(curves.values())).poses
+        axes.set_title(f"{title}: success versus budget ({poses} poses per point)")
     return _save(figure, path)
 
 
@@ -106,6 +238,7 @@ def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Pa
 
 def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
     figure, axes = plt.subplots(figsize=(7.0, 4.0))
+    colour = colours(rows_by_method)
     all_times = np.concatenate([rows["time_s"] * 1e3 for rows in rows_by_method.values()])
     all_times = all_times[np.isfinite(all_times) & (all_times > 0)]
     if all_times.size:
@@ -113,7 +246,7 @@ def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> P
         for label, rows in rows_by_method.items():
             times = rows["time_s"] * 1e3
             times = times[np.isfinite(times) & (times > 0)]
-            axes.hist(times, bins=bins, histtype="step", linewidth=1.4, label=label)
+            axes.hist(times, bins=bins, histtype="step", linewidth=1.4, label=label, color=colour[label])
         axes.set_xscale("log")
         axes.legend(fontsize=8)
     axes.set_xlabel("time (ms)")

@@ -6,6 +6,7 @@ The report is assembled once as a list of blocks (headings, paragraphs, tables, 
 rendered to both formats, so the two always say the same thing. Each case's section, and its
 merged ``raw.csv``, ``summary.csv``, ``significance.csv`` and figures, come from the case's kind
 (:mod:`wbik.study.case_kinds`); what every kind builds them from is :mod:`wbik.study.blocks`.
+With ``wbik study --compare-to OLD`` the report ends with the comparison of :mod:`wbik.study.compare`.
 """
 
 from __future__ import annotations
@@ -14,14 +15,17 @@ import base64
 import html
 import json
 import platform
+import re
 from datetime import UTC
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wbik.study import results as store
 from wbik.study.blocks import SOLVED_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import TIME_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import Block
+from wbik.study.blocks import budget_semantics
 from wbik.study.blocks import case_figures  # noqa: F401 - also re-exported
 from wbik.study.blocks import case_rows  # noqa: F401 - also re-exported
 from wbik.study.blocks import fmt
@@ -34,8 +38,12 @@ from wbik.study.blocks import time_columns  # noqa: F401 - also re-exported
 from wbik.study.blocks import write_case_tables  # noqa: F401 - also re-exported
 from wbik.study.case_kinds import case_kind
 from wbik.study.case_kinds import kinds_of
+from wbik.study.cpu_watch import threads_of
 from wbik.study.definition import CaseSpec
 from wbik.study.definition import Study
+
+if TYPE_CHECKING:
+    from wbik.study.compare import Comparison
 
 
 # -- per case ----------------------------------------------------------------------------------
@@ -45,7 +53,8 @@ def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
 
 
 # -- the whole report --------------------------------------------------------------------------
-def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block]:
+def build_blocks(study: Study, output: Path, analyses: list[dict],
+                 comparison: Comparison | None = None) -> list[Block]:
     run = store.read_json(output / "run.json", {}) or {}
     blocks = [Block("h1", f"Study {study.name}")]
     if study.description:
@@ -67,9 +76,20 @@ def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block
     blocks.append(Block("h2", "Methods"))
     kinds = kinds_of(study.cases)
     budget_kind = kinds[0]  # states the budgets of the methods table (the first kind in registry order)
-    blocks.append(Block("table", header=["label", "method", "budget", "options", "note"],
+    workers = run.get("workers", {}) or {}
+    blocks.append(Block("table", header=["label", "method", "budget", "what the budget measures", "options",
+                                         "note"],
                         rows=[[m.label, m.method, budget_kind.budget_text(m, study.timeout_of(m)),
+                               budget_semantics(budget_kind, m, study.timeout_of(m), workers.get(m.method)),
                                json.dumps(m.options) if m.options else "", m.note] for m in study.methods]))
+    threaded = sorted({m.method for m in study.methods if threads_of(m.method) > 1})
+    if threaded:
+        blocks.append(Block("p", f"Methods with threads of their own ({', '.join(threaded)}; TRAC-IK runs "
+                                 "KDL and an SQP side by side) are meant to have a core per thread: they "
+                                 "run after the other methods with at most cores / threads worker "
+                                 f"processes ({run.get('cores', '?')} cores here; the loky backend), and a "
+                                 "solve of theirs counts as CPU-starved when the process got less than "
+                                 "0.8 x threads x its wall time as CPU (wbik.study.cpu_watch)."))
     blocks.extend(Block("p", note) for note in dict.fromkeys(kind.methods_note for kind in kinds) if note)
     load = run.get("load_average_before"), run.get("load_average_after")
     if any(value is not None for value in load):
@@ -80,6 +100,10 @@ def build_blocks(study: Study, output: Path, analyses: list[dict]) -> list[Block
         blocks.append(Block("p", study.notes.strip()))
     for analysis in analyses:
         blocks.extend(case_kind(analysis["case"]).blocks(study, analysis))
+    if comparison is not None:
+        from wbik.study.compare import comparison_blocks
+
+        blocks.extend(comparison_blocks(comparison))
     return blocks
 
 
@@ -104,9 +128,18 @@ def render_markdown(blocks: list[Block], base: Path) -> str:
 
 
 _STYLE = """body{font-family:system-ui,sans-serif;max-width:1200px;margin:2em auto;padding:0 1em;color:#222}
-table{border-collapse:collapse;margin:0.6em 0;font-size:0.85em}td,th{border:1px solid #ccc;padding:3px 7px;
-text-align:right}td:first-child,th:first-child{text-align:left}th{background:#f0f0f0}img{max-width:100%}
-h2{border-bottom:1px solid #ddd;margin-top:2em}"""
+.table{overflow-x:auto;margin:0.6em 0}table{border-collapse:collapse;font-size:0.85em}
+td,th{border:1px solid #ccc;padding:3px 7px;text-align:left;vertical-align:top}td.number{text-align:right;
+white-space:nowrap}th{background:#f0f0f0}tbody tr:nth-child(even){background:#fafafa}img{max-width:100%}
+figure{margin:1em 0}figcaption{color:#555;font-size:0.9em}h2{border-bottom:1px solid #ddd;margin-top:2em}"""
+_NUMBER = re.compile(r"^[-+]?(\d[\d.e+-]*|-)( ?%)?( ?\[[-\d.e+, ]+\])?$|^\[[-\d.e+, ]+\]$|^\d+/\d+$")
+"""A table cell that holds a number, a count of all, an interval or '-' (right-aligned in HTML)."""
+
+
+def _cell(value) -> str:
+    text = str(value)
+    kind = " class='number'" if _NUMBER.match(text) else ""
+    return f"<td{kind}>{html.escape(text)}</td>"
 
 
 def render_html(blocks: list[Block], title: str) -> str:
@@ -121,9 +154,9 @@ def render_html(blocks: list[Block], title: str) -> str:
             parts.append("<ul>" + "".join(f"<li>{html.escape(str(i))}</li>" for i in block.items) + "</ul>")
         elif block.kind == "table":
             head = "".join(f"<th>{html.escape(str(h))}</th>" for h in block.header)
-            body = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>"
-                           for row in block.rows)
-            parts.append(f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>")
+            body = "".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in block.rows)
+            parts.append(f"<div class='table'><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody>"
+                         "</table></div>")
         elif block.kind == "image":
             data = base64.b64encode(block.path.read_bytes()).decode()
             parts.append(f"<figure><img alt='{html.escape(block.text)}' src='data:image/png;base64,{data}'>"
@@ -132,11 +165,12 @@ def render_html(blocks: list[Block], title: str) -> str:
     return "\n".join(parts)
 
 
-def write_report(study: Study, output: Path) -> tuple[Path, Path]:
-    """Analyse every case and write ``report.md`` and ``report.html`` into ``output``."""
+def write_report(study: Study, output: Path, comparison: Comparison | None = None) -> tuple[Path, Path]:
+    """Analyse every case and write ``report.md`` and ``report.html`` into ``output`` (with
+    ``comparison``, its section at the end)."""
     output = Path(output)
     analyses = [analyse_case(study, case, output) for case in study.cases]
-    blocks = build_blocks(study, output, analyses)
+    blocks = build_blocks(study, output, analyses, comparison)
     markdown_path, html_path = output / "report.md", output / "report.html"
     store.atomic_write_text(markdown_path, render_markdown(blocks, output))
     store.atomic_write_text(html_path, render_html(blocks, f"wbik study {study.name}"))

@@ -11,9 +11,18 @@ machine, and no wall clock: its rows are the same on any machine and under any l
 budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved pose by pose while
 the process's CPU time is measured beside the wall time; a solve that got less than
 ``STARVED_CPU_SHARE`` of its wall time as CPU (the machine was busy) is run again, its answer
-discarded, with its wall budget stretched by wall/CPU, up to ``MAX_RERUNS`` times
+discarded, with its wall budget stretched by wall/CPU (x threads), up to ``MAX_RERUNS`` times
 (:mod:`wbik.study.cpu_watch`). Each row records its CPU time and its re-runs; the report counts
 them, and ``run.json`` records the machine's load.
+
+Methods with threads of their own (TRAC-IK: KDL and SQP side by side) are meant to have a core per
+thread: their CPU is judged against wall x threads, and with the loky backend their tasks run after
+the others' with at most cores // threads workers (:func:`wbik.study.cpu_watch.workers_for`; on 2
+cores one worker, so its two threads have the machine's two cores). ``run.json`` records the
+workers each group of tasks ran with.
+
+Budget curves (``budget_curves:``, :mod:`wbik.study.budget_curves`) are tasks too, run after the
+study's rows, written and resumed the same way.
 
 Workers return the rows; the main process writes each chunk atomically as it arrives (see
 :mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
@@ -43,6 +52,8 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
+from wbik.study.budget_curves import budget_path
+from wbik.study.budget_curves import budget_tasks
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
 from wbik.study.context import _frozen  # noqa: F401 - also re-exported
@@ -51,6 +62,9 @@ from wbik.study.context import chunk_count  # also re-exported
 from wbik.study.context import chunk_seed  # noqa: F401 - also re-exported
 from wbik.study.context import make_solver  # noqa: F401 - also re-exported
 from wbik.study.context import solver_budget  # noqa: F401 - also re-exported
+from wbik.study.cpu_watch import threads_of
+from wbik.study.cpu_watch import usable_cores
+from wbik.study.cpu_watch import workers_for
 from wbik.study.definition import CaseSpec
 from wbik.study.definition import MethodSpec
 from wbik.study.definition import Study
@@ -212,6 +226,18 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
             cluster.close()
 
 
+def phases(tasks: list[ChunkTask], jobs: int, backend: str, cores: int | None = None
+           ) -> list[tuple[int, list[ChunkTask]]]:
+    """``tasks`` as (workers, tasks) groups, run one after the other, most workers first: with the
+    loky backend a method of k threads runs with :func:`workers_for` (k, ``jobs``) workers, so every
+    thread has a core; other backends keep ``jobs`` (a Dask cluster's cores are its own)."""
+    groups: dict[int, list[ChunkTask]] = {}
+    for task in tasks:
+        workers = workers_for(threads_of(task.method), jobs, cores) if backend == "loky" else jobs
+        groups.setdefault(workers, []).append(task)
+    return sorted(groups.items(), key=lambda item: -item[0])
+
+
 def _load_average() -> list[float] | None:
     """The system's 1, 5 and 15 minute load averages (None where the OS has none)."""
     try:
@@ -292,22 +318,29 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
     prepare_output(study, output, fresh, lock)
     log(f"study {study.name!r} -> {output}")
     tasks, done_rows, total_rows = pending_tasks(study, output, log)
-    if done_rows:
-        log(f"resuming: {done_rows} of {total_rows} rows already computed")
+    curve_tasks, curve_done, curve_total = budget_tasks(study, output, log)
+    if done_rows or curve_done:
+        log(f"resuming: {done_rows + curve_done} of {total_rows + curve_total} rows already computed")
     started = time.perf_counter()
     load_before = _load_average()
-    if tasks:
+    workers: dict[str, int] = {}
+    if tasks or curve_tasks:
         from tqdm import tqdm
 
-        with tqdm(total=total_rows, initial=done_rows, unit="solve", disable=not progress,
-                  desc=study.name, smoothing=0.05, dynamic_ncols=True) as bar:
-            for task, rows in _execute(tasks, jobs, backend, scheduler):
-                store.write_chunk(store.chunk_path(output, task.case, task.label, task.chunk), rows)
-                bar.update(len(rows["pose"]))
+        with tqdm(total=total_rows + curve_total, initial=done_rows + curve_done, unit="solve",
+                  disable=not progress, desc=study.name, smoothing=0.05, dynamic_ncols=True) as bar:
+            for group, path in ((tasks, store.chunk_path), (curve_tasks, budget_path)):
+                for count, phase in phases(group, jobs, backend):
+                    workers.update({task.method: count for task in phase})
+                    for task, rows in _execute(phase, count, backend, scheduler):
+                        store.write_chunk(path(output, task.case, task.label, task.chunk), rows)
+                        bar.update(len(rows["pose"]))
     elapsed = time.perf_counter() - started
     previous = store.read_json(output / "run.json", {}) or {}
     store.write_json(output / "run.json", {
         "jobs": jobs, "backend": backend, "computed_tasks": len(tasks), "seconds": elapsed,
+        "budget_curve_tasks": len(curve_tasks), "cores": usable_cores(),
+        "workers": workers or previous.get("workers", {}),
         "cpu_count": os.cpu_count(), "load_average_before": load_before,
         "load_average_after": _load_average(),
         "total_seconds": elapsed + float(previous.get("total_seconds", 0.0)) if tasks else

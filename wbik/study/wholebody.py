@@ -30,9 +30,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wbik.study import results as store
+from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
 from wbik.study.blocks import Block
+from wbik.study.blocks import budget_blocks
+from wbik.study.blocks import budget_kind
 from wbik.study.blocks import case_figures
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import frequent_reasons
@@ -41,6 +44,7 @@ from wbik.study.blocks import status_blocks
 from wbik.study.blocks import summary_table
 from wbik.study.blocks import time_columns
 from wbik.study.blocks import write_case_tables
+from wbik.study.budget_curves import read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.context import _frozen
@@ -322,7 +326,12 @@ class WholeBodyCases(CaseKind):
         )
         write_case_tables(directory, summaries, tests)
         title, folder = f"{case.robot} {case.scenario}", directory / "figures"
-        images = case_figures(rows_by_method, summaries, title, folder, self.axes())
+        curves = read_curves(study, case, output, rows_by_method)
+        budget_kinds = {label: budget_kind(self, study.method(label), study.timeout_of(study.method(label)))
+                        for label in rows_by_method}
+        images = case_figures(
+            rows_by_method, summaries, title, folder, self.axes(), None, curves, budget_kinds
+        )
         if rows_by_method:
             if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
                 images["com_margin"] = com_margin_boxplots(
@@ -338,6 +347,8 @@ class WholeBodyCases(CaseKind):
             "margin": margin,
             "images": images,
             "robot": robot,
+            "curves": curves,
+            "budget_kinds": budget_kinds,
         }
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
@@ -383,7 +394,7 @@ class WholeBodyCases(CaseKind):
                 "largest over the goal tasks); contact drift in m or rad; CoM margin: distance of "
                 "the CoM's ground projection inside the support polygon (negative outside), NaN "
                 "('-') without a support polygon. 'All calls' counts every case, 'solved' only "
-                "those the shared check passed.",
+                "those the shared check passed. " + INTERVALS_TEXT,
             )
         )
         if marked:
@@ -415,12 +426,15 @@ class WholeBodyCases(CaseKind):
         for key, caption in (
             ("solved", "Cases solved per method"),
             ("errors", "Task error and contact drift (solved)"),
+            ("error_histograms", "Distribution of task error and contact drift (solved)"),
             ("com_margin", "CoM margin per method (all calls)"),
             ("time", "Time per case"),
             ("time_histogram", "Histogram of time per case"),
+            ("time_ecdf", "Time per call (ECDF): calls returned and cases solved within t"),
         ):
             if key in analysis["images"]:
                 blocks.append(Block("image", caption, path=analysis["images"][key]))
+        blocks.extend(budget_blocks(study, analysis))
         blocks.extend(significance_blocks(analysis, "task error and contact drift on the solved cases of "
                                                     "each method, time on every case, CoM margin on every "
                                                     "case"))

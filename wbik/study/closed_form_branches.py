@@ -1,0 +1,139 @@
+"""Every branch of a chain's closed form: what proves a pose unreachable inside the joint limits, and
+what the study's solution coverage compares numerical answers with.
+
+A closed form is *complete* here when ``analytic`` solves the chain's full poses without holding a
+joint (a 6-joint chain of a family wbik recognises, a robot's own bound form, or EAIK's
+decomposition): for a pose where the Jacobian is regular at every solution, its branches are every
+solution of FK(q) = T, each revolute angle modulo 2 pi. A 7-joint chain's form holds one joint at a
+value: its branches are the solutions at that value only, a sample of a one-dimensional set, so they
+prove nothing and cover nothing.
+
+Limits modulo 2 pi. A revolute angle q has a representative inside [l, u] iff its distance to the
+interval on the circle is 0:
+
+    x = (q - l) mod 2 pi,  w = u - l:   excess(q) = 0 if w >= 2 pi or x <= w,  else min(x - w, 2 pi - x)
+
+(a prismatic joint: the distance of q to [l, u]). A branch's *excess* is the largest joint excess: the
+branch has an in-limit representative iff its excess is 0. If every branch of a complete closed form
+has an excess of at least a margin, no configuration inside the limits reaches the pose.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import UnsupportedError
+from wbik.geometry import TWO_PI
+from wbik.geometry import wrap_to_pi
+
+if TYPE_CHECKING:
+    from wbik.robot import Chain
+
+BRANCH_RESIDUAL = 1e-7
+"""Model FK residual (m and rad) at or below which a closed-form branch solves the pose."""
+SAME_SOLUTION = 1e-6
+"""Two branches whose joints differ by less than this (rad or m, revolute modulo 2 pi) are one."""
+
+
+@dataclass(frozen=True)
+class ClosedFormBranches:
+    """A chain's complete closed form: ``solver`` (the ``analytic`` method on the chain) and its
+    ``family`` (its words: "ur_type", "bound:...", "eaik:...")."""
+
+    chain: Chain
+    solver: object
+    family: str
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray) -> list[np.ndarray]:
+        """Per pose of a batch (positions (B, 3), rotations (B, 3, 3)), its distinct solutions (K, n),
+        as the closed form gives them (not wrapped into the limits), each checked by the model's FK
+        (residual <= BRANCH_RESIDUAL)."""
+        chain = self.chain
+        form = self.solver.closed_form("pose")
+        starts = np.broadcast_to(chain.nominal, (len(positions), chain.nq)).copy()
+        with np.errstate(invalid="ignore"):
+            q_all, real = form.branches(np.asarray(positions, float), np.asarray(rotations, float), starts)
+        revolute = ~chain.is_prismatic
+        found = []
+        for index in range(len(positions)):
+            target = pin.SE3(np.asarray(rotations[index], float), np.asarray(positions[index], float))
+            distinct: list[np.ndarray] = []
+            for q in q_all[index][real[index]]:
+                if not np.all(np.isfinite(q)) or residual(chain, q, target) > BRANCH_RESIDUAL:
+                    continue
+                if not any(joint_distance(q, other, revolute) < SAME_SOLUTION for other in distinct):
+                    distinct.append(q)
+            found.append(np.array(distinct).reshape(len(distinct), chain.nq))
+        return found
+
+
+def complete_closed_form(chain: Chain) -> ClosedFormBranches | str:
+    """The chain's complete closed form, or why it has none (text for the report)."""
+    import wbik
+    from wbik.solvers.analytic.redundancy import LockedJointForm
+
+    try:
+        solver = wbik.solver("analytic", chain.robot, chain=chain.name)
+        form = solver.closed_form("pose")
+    except UnsupportedError as exc:
+        return f"no closed form of full poses ({exc})"
+    except ImportError as exc:  # an optional library of a family (EAIK) is missing
+        return f"no closed form of full poses ({exc})"
+    family = solver.families.get("pose", "")
+    if isinstance(form, LockedJointForm):
+        return (f"the closed form ({family}) holds a joint at a value: its branches are the solutions at "
+                "that value only, not every solution")
+    return ClosedFormBranches(chain, solver, family)
+
+
+def residual(chain: Chain, q: np.ndarray, target: pin.SE3) -> float:
+    """max(|p - p*|, angle(R*^T R)) of FK(q) (the model's) against ``target``."""
+    reached = chain.fk(q)
+    position = float(np.linalg.norm(reached.translation - target.translation))
+    return max(position, float(np.linalg.norm(pin.log3(target.rotation.T @ reached.rotation))))
+
+
+def joint_distance(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
+    """Largest |q_i - other_i|, revolute joints modulo 2 pi (:func:`wbik.geometry.joint_gap`, vectorised
+    over leading axes)."""
+    difference = np.asarray(q, dtype=float) - other
+    return np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference)), axis=-1)
+
+
+def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
+    """Per joint, how far q (..., n) is outside the limits, revolute joints modulo 2 pi (the module
+    docstring's formula); 0 where a representative is inside."""
+    q = np.asarray(q, dtype=float)
+    lower, upper = chain.lower, chain.upper
+    width = upper - lower
+    x = np.mod(q - lower, TWO_PI)
+    circular = np.where((width >= TWO_PI) | (x <= width), 0.0, np.minimum(x - width, TWO_PI - x))
+    straight = np.maximum(lower - q, 0.0) + np.maximum(q - upper, 0.0)
+    return np.where(chain.is_prismatic, straight, circular)
+
+
+def branch_excess(branches: np.ndarray, chain: Chain) -> np.ndarray:
+    """Per branch (K, n), its largest joint excess (K,): 0 for a branch with a representative inside
+    the limits."""
+    if len(branches) == 0:
+        return np.zeros(0)
+    return np.max(joint_excess(branches, chain), axis=-1)
+
+
+def in_limit_branches(branches: np.ndarray, chain: Chain) -> np.ndarray:
+    """The branches with a representative inside the limits (K', n), each as the closed form gives it."""
+    return branches[branch_excess(branches, chain) == 0.0] if len(branches) else branches
+
+
+def branch_index(q: np.ndarray, branches: np.ndarray, revolute: np.ndarray, tolerance: float) -> int:
+    """The index of the branch within ``tolerance`` of q (revolute modulo 2 pi), the nearest if several;
+    -1 if none."""
+    if len(branches) == 0 or not np.all(np.isfinite(q)):
+        return -1
+    distance = joint_distance(branches, q, revolute)
+    nearest = int(np.argmin(distance))
+    return nearest if distance[nearest] <= tolerance else -1

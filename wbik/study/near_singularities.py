@@ -1,0 +1,145 @@
+"""The target set ``near_singularities``: FK of joints where the smallest singular value of the
+chain's 6 x n Jacobian is below ``sigma_max``.
+
+sigma_min(q) is the smallest singular value of J(q) = [J_v; J_w] (tip velocity in base axes, m/rad,
+and angular velocity, rad/rad: the units mix, so the bound is on that matrix as it is). Where it is
+simple, with singular vectors u, v (J v = sigma_min u),
+
+    d sigma_min / d q_k = u^T (dJ/dq_k) v,
+
+dJ/dq_k by central differences (step 1e-6 rad or m). Target i (its own stream): a goal s uniform in
+[0, sigma_max) and joints uniform inside the limits; then Newton steps on the scalar equation
+sigma_min(q) = s along the gradient g,
+
+    dq = -(sigma_min(q) - s) g / |g|^2,
+
+each clipped into the limits and halved (up to 8 times) until it brings sigma_min nearer s, at most
+``steps`` steps, until sigma_min < sigma_max and |sigma_min - s| <= sigma_max / 10. A start that does
+not get there is replaced by another uniform one (at most ``attempts`` per target). The joints are
+then where the chain loses a direction of motion (an elbow stretched, a wrist's axes aligned, the wrist
+centre on the first axis: whichever singular set the start was nearest), up to sigma_max.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.study.blocks import Block
+from wbik.study.blocks import fmt
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.target_parameters import Parameter
+from wbik.study.target_parameters import integer
+from wbik.study.target_parameters import number
+from wbik.study.target_sets import Drawing
+from wbik.study.target_sets import TargetSetKind
+from wbik.study.target_sets import target_stream
+
+if TYPE_CHECKING:
+    from wbik.robot import Chain
+
+DIFFERENCE_STEP = 1e-6
+"""Central-difference step of dJ/dq (rad or m)."""
+
+
+def sigma_min(chain: Chain, q: np.ndarray) -> float:
+    """The smallest singular value of the chain's 6 x n Jacobian at q."""
+    return float(np.linalg.svd(chain.fk_jacobian(q)[1], compute_uv=False)[-1])
+
+
+def sigma_min_gradient(chain: Chain, q: np.ndarray) -> tuple[float, np.ndarray]:
+    """(sigma_min(q), its gradient): u^T (dJ/dq_k) v per joint, dJ/dq_k by central differences."""
+    jacobian = chain.fk_jacobian(q)[1]
+    left, values, right = np.linalg.svd(jacobian, full_matrices=False)
+    u, v = left[:, -1], right[-1]
+    gradient = np.empty(chain.nq)
+    for k in range(chain.nq):
+        step = np.zeros(chain.nq)
+        step[k] = DIFFERENCE_STEP
+        difference = chain.fk_jacobian(q + step)[1] - chain.fk_jacobian(q - step)[1]
+        gradient[k] = u @ difference @ v / (2.0 * DIFFERENCE_STEP)
+    return float(values[-1]), gradient
+
+
+def drive_to_sigma(chain: Chain, q: np.ndarray, goal: float, bound: float,
+                   steps: int) -> tuple[np.ndarray, float, int]:
+    """Newton steps on sigma_min(q) = goal from q (module docstring): (q, sigma_min(q), steps taken)."""
+    sigma, gradient = sigma_min_gradient(chain, q)
+    for step in range(steps):
+        if sigma < bound and abs(sigma - goal) <= bound / 10.0:
+            return q, sigma, step
+        norm = float(gradient @ gradient)
+        if not norm > 0.0:
+            break
+        delta = -(sigma - goal) * gradient / norm
+        for _ in range(9):
+            trial = np.clip(q + delta, chain.lower, chain.upper)
+            trial_sigma = sigma_min(chain, trial)
+            if abs(trial_sigma - goal) < abs(sigma - goal):
+                break
+            delta /= 2.0
+        else:
+            break
+        q = trial
+        sigma, gradient = sigma_min_gradient(chain, q)
+    return q, sigma, steps
+
+
+class NearSingularities(TargetSetKind):
+    """Targets from joints near a singularity (module docstring)."""
+
+    parameters = {
+        "sigma_max": Parameter(1e-3, "a positive number (a bound on the Jacobian's smallest singular value)",
+                               number(0.0, 1e3, low_open=True), "bound on sigma_min at the target's joints"),
+        "steps": Parameter(30, "an integer >= 1 (Newton steps per start)", integer(1, 10000),
+                           "Newton steps per start"),
+        "attempts": Parameter(20, "an integer >= 1 (starts per target)", integer(1, 10000),
+                              "uniform starts tried per target"),
+    }
+
+    def drawn_from(self, parameters: dict) -> str:
+        return (f"FK of joints driven from uniform ones, by Newton steps on the smallest singular value of "
+                f"the 6 x n Jacobian, below sigma_max = {parameters['sigma_max']:g}")
+
+    def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
+        bound = parameters["sigma_max"]
+        q = np.empty((count, chain.nq))
+        sigmas, goals = np.empty(count), np.empty(count)
+        attempts_used, steps_used = np.empty(count, dtype=int), np.empty(count, dtype=int)
+        for i in range(count):
+            rng = target_stream(seed, self.target_set, i)
+            goal = rng.uniform(0.0, bound)
+            attempt, sigma = 0, np.inf
+            while not sigma < bound:
+                if attempt == parameters["attempts"]:
+                    raise StudyDefinitionError(
+                        f"near_singularities: target {i} of {chain.robot.name}.{chain.name}: no start of "
+                        f"{parameters['attempts']} reached sigma_min < {bound:g} in {parameters['steps']} "
+                        "Newton steps; raise targets.sigma_max, targets.steps or targets.attempts")
+                attempt += 1
+                start = rng.uniform(chain.lower, chain.upper)
+                found, sigma, steps = drive_to_sigma(chain, start, goal, bound, parameters["steps"])
+            q[i], sigmas[i], goals[i] = found, sigma, goal
+            attempts_used[i], steps_used[i] = attempt, steps
+        return Drawing(q, {"sigma_min": sigmas, "sigma_goal": goals, "attempts": attempts_used,
+                           "steps": steps_used},
+                       {"method": "Newton steps on sigma_min(q) = s, s uniform in [0, sigma_max), "
+                                  "dJ/dq by central differences"})
+
+    def drawing_blocks(self, analysis: dict) -> list[Block]:
+        extras = analysis["extras"]
+        sigma = extras.get("sigma_min")
+        if sigma is None or not sigma.size:
+            return []
+        bound = analysis["parameters"]["sigma_max"]
+        attempts, steps = extras["attempts"], extras["steps"]
+        return [Block("p", (
+            f"Smallest singular value of the 6 x n Jacobian at the targets' joints: median "
+            f"{fmt(float(np.median(sigma)))}, max {fmt(float(np.max(sigma)))} (bound {bound:g}); each "
+            f"target's goal s uniform in [0, {bound:g}). Starts per target: mean "
+            f"{fmt(float(np.mean(attempts)))}, max {int(np.max(attempts))}; Newton steps: median "
+            f"{fmt(float(np.median(steps)))}, max {int(np.max(steps))}."))]
+
+
+CASE_KINDS = (NearSingularities("near_singularities"),)

@@ -1,0 +1,147 @@
+"""Paths of a path study: their shapes in the task space and the metrics of a joint path that follows them.
+
+Shapes, from the tip pose (p0, R0) of a start configuration, N points, k = 0..N-1, s_k = k / (N - 1):
+
+- a line of length L along a unit direction d: p_k = p0 + s_k L d;
+- a circle of radius r in the plane of the orthonormal u, v through the tip: centre c = p0 + r u and
+  p_k = c - r (u cos t_k - v sin t_k) = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k, so the
+  last point is the first (the circle is closed);
+- the orientation held, R_k = R0, or slerped by an angle phi about a unit axis a (in the tip frame),
+  R_k = R0 exp3(s_k phi a).
+
+Metrics of a joint path q_0..q_{N-1} (rad, m for a prismatic joint) of which some points are solved:
+the robot moves between consecutive *solved* points i < j (an unsolved point is skipped, the robot
+stays at its last solved configuration), by the step dq = q_j - q_i (no wrap: the motion the joints
+make). Then
+
+- largest step = max over steps of max_j |dq_j|;
+- length = sum over steps of sum_j |dq_j| (the joint-space path length, L1 over the joints);
+- a *jump* is a step with max_j |dq_j| > a threshold;
+- a *branch change* is a step between points whose closed-form branches (their indices among the
+  closed form's branches, :func:`branch_labels`) are known and differ;
+- a *flip* is a step that is a jump or a branch change.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.study.closed_form_branches import joint_distance
+
+if TYPE_CHECKING:
+    from wbik.study.closed_form_branches import ClosedFormBranches
+
+
+def fractions(count: int) -> np.ndarray:
+    """s_k = k / (N - 1), k = 0..N-1 (N >= 2)."""
+    return np.arange(count) / (count - 1)
+
+
+def random_unit(rng: np.random.Generator) -> np.ndarray:
+    """A unit vector uniform on the sphere (a normalised standard normal vector)."""
+    while True:
+        vector = rng.standard_normal(3)
+        norm = float(np.linalg.norm(vector))
+        if norm > 1e-9:
+            return vector / norm
+
+
+def random_plane(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Two orthonormal vectors (u, v) spanning a plane uniform among planes through the origin (Gram-Schmidt
+    of two random unit vectors)."""
+    u = random_unit(rng)
+    while True:
+        w = random_unit(rng)
+        v = w - float(w @ u) * u
+        norm = float(np.linalg.norm(v))
+        if norm > 1e-6:
+            return u, v / norm
+
+
+def line_points(start: np.ndarray, direction: np.ndarray, length: float, count: int) -> np.ndarray:
+    """(N, 3): p_k = p0 + s_k L d."""
+    return np.asarray(start, float) + np.outer(fractions(count) * length, direction)
+
+
+def circle_points(start: np.ndarray, u: np.ndarray, v: np.ndarray, radius: float, count: int) -> np.ndarray:
+    """(N, 3): p_k = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k (the first and the last point
+    are p0)."""
+    angles = 2.0 * math.pi * fractions(count)
+    return (np.asarray(start, float) + radius * (np.outer(1.0 - np.cos(angles), u)
+                                                 + np.outer(np.sin(angles), v)))
+
+
+def slerped_rotations(start: np.ndarray, axis: np.ndarray | None, angle: float, count: int) -> np.ndarray:
+    """(N, 3, 3): R_k = R0 exp3(s_k phi a); R0 at every point for ``axis`` None (the orientation held)."""
+    if axis is None or angle == 0.0:
+        return np.broadcast_to(np.asarray(start, float), (count, 3, 3)).copy()
+    return np.array([start @ pin.exp3(s * angle * np.asarray(axis, float)) for s in fractions(count)])
+
+
+@dataclass(frozen=True)
+class PathMetrics:
+    """What a joint path did along one path (see the module docstring)."""
+
+    points_solved: float  # share of the points solved, in [0, 1]
+    whole: bool  # every point solved
+    jumps: int
+    branch_changes: int
+    flips: int
+    largest_step: float  # rad (m); NaN with fewer than two solved points
+    length: float  # rad (m); 0 with fewer than two solved points
+
+
+def path_metrics(q: np.ndarray, solved: np.ndarray, threshold: float,
+                 branches: np.ndarray | None = None) -> PathMetrics:
+    """The metrics of the joint path ``q`` (N, n) whose points ``solved`` (N,) were solved; a jump is a
+    step larger than ``threshold`` (rad or m) on some joint; ``branches`` (N,): each point's closed-form
+    branch (-1: unknown), None where the chain has no complete closed form."""
+    solved = np.asarray(solved, dtype=bool)
+    count = solved.size
+    indices = np.flatnonzero(solved)
+    share = float(indices.size / count) if count else math.nan
+    if indices.size < 2:
+        return PathMetrics(share, bool(solved.all()) and count > 0, 0, 0, 0, math.nan, 0.0)
+    steps = np.abs(np.diff(np.asarray(q, float)[indices], axis=0))  # (steps, n)
+    largest = steps.max(axis=1)
+    jumps = largest > threshold
+    if branches is None:
+        changes = np.zeros(jumps.size, dtype=bool)
+    else:
+        labels = np.asarray(branches)[indices]
+        changes = (labels[:-1] >= 0) & (labels[1:] >= 0) & (labels[:-1] != labels[1:])
+    return PathMetrics(share, bool(solved.all()), int(jumps.sum()), int(changes.sum()),
+                       int((jumps | changes).sum()), float(largest.max()), float(steps.sum()))
+
+
+def branch_labels(form: ClosedFormBranches, positions: np.ndarray, rotations: np.ndarray, q: np.ndarray,
+                  solved: np.ndarray, tolerance: float) -> np.ndarray:
+    """(N,): for each solved point, the index of the closed-form branch its answer q equals within
+    ``tolerance`` on every joint (revolute joints modulo 2 pi), the nearest if several; -1 for an
+    unsolved point or an answer equal to no branch.
+
+    The index is the branch's place in the closed form's list of a pose's branches (for the UR family
+    the sign choices shoulder x wrist x elbow), the same choices at every pose: a joint path that stays
+    on one branch keeps its index unless it crosses a singularity where branches meet.
+    """
+    chain = form.chain
+    closed = form.solver.closed_form("pose")
+    count = len(positions)
+    starts = np.broadcast_to(chain.nominal, (count, chain.nq)).copy()
+    with np.errstate(invalid="ignore"):
+        q_all, real = closed.branches(np.asarray(positions, float), np.asarray(rotations, float), starts)
+    revolute = ~chain.is_prismatic
+    labels = np.full(count, -1, dtype=int)
+    for index in np.flatnonzero(np.asarray(solved, dtype=bool)):
+        with np.errstate(invalid="ignore"):
+            distance = joint_distance(q_all[index], q[index], revolute)
+        distance = np.where(real[index] & np.isfinite(distance), distance, np.inf)
+        nearest = int(np.argmin(distance))
+        if distance[nearest] <= tolerance:
+            labels[index] = nearest
+    return labels

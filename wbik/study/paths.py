@@ -1,0 +1,653 @@
+"""Path studies, the case kind ``path`` (``target: path``, or a case with a ``path:`` mapping): straight
+lines and circles in the task space of one chain, followed point by point by every method.
+
+A case's ``path:`` (:data:`PATH_PARAMETERS`; every value is written into the case's definition with its
+default filled in, so the results folder's fingerprint holds it)::
+
+    path: {shape: line, length: 0.2, points: 50, count: 20, orientation: hold, jump: 0.5}
+    path: {shape: circle, radius: 0.1, points: 50, orientation: slerp, angle: 0.5}
+
+Drawing (main process, :func:`sample_paths`). Path i comes from its own stream
+``default_rng([seed, crc32("path"), i])``: a start configuration uniform inside the joint limits, its tip
+pose (p0, R0), then a line of ``length`` along a direction uniform on the sphere, or a circle of
+``radius`` in a plane through the tip uniform among planes, with the orientation held or slerped by
+``angle`` about an axis uniform on the sphere (:mod:`wbik.study.path_metrics`), cut into ``points``
+points, the first the tip pose. With ``reachable`` (the default) a path is kept only when every point
+has a *witness*, a configuration inside the limits that passes the shared check: ``bounded_lm`` from
+the previous point's witness, else from up to :data:`WITNESS_RESTARTS` random starts; otherwise the
+path is drawn again from the same stream, up to ``attempts`` times (a path that never passes is kept
+and counted as unverified in the report). The witness shows each point is reachable, not that one
+continuous joint path joins them all.
+
+Following (worker, :meth:`PathTargets.solve`): every method solves point 0 from the start
+configuration, then point k from its answer at the last solved point (a warm start: the robot stays
+where it was when a point fails). Wall-clock methods are watched for CPU starvation point by point
+(:mod:`wbik.study.cpu_watch`). Where the chain has a complete closed form
+(:func:`wbik.study.closed_form_branches.complete_closed_form`), each answer is labelled with its
+closed-form branch.
+
+Rows: one per path, with the per-point columns (``point_*``, arrays of the path's points) and the
+metrics of :func:`wbik.study.path_metrics.path_metrics`: share of points solved, whole path solved
+(``success``), jumps (a joint step above ``jump``), branch changes, flips (either), largest joint step,
+joint-space path length. The report section: a table per method, and a figure of the share of paths
+solved at each point beside the joint path lengths.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import zlib
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import fields
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.files import atomic_write_bytes
+from wbik.study import results as store
+from wbik.study.blocks import Block
+from wbik.study.blocks import case_rows
+from wbik.study.blocks import fmt
+from wbik.study.blocks import fmt_interval
+from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import status_blocks
+from wbik.study.blocks import write_case_tables
+from wbik.study.chain_targets import ChainChunkTask
+from wbik.study.chain_targets import ChainTargets
+from wbik.study.context import _frozen
+from wbik.study.context import case_chain
+from wbik.study.context import make_solver
+from wbik.study.context import solver_budget
+from wbik.study.cpu_watch import solve_watching_the_cpu
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.path_metrics import branch_labels
+from wbik.study.path_metrics import circle_points
+from wbik.study.path_metrics import line_points
+from wbik.study.path_metrics import path_metrics
+from wbik.study.path_metrics import random_plane
+from wbik.study.path_metrics import random_unit
+from wbik.study.path_metrics import slerped_rotations
+from wbik.study.sampling import PoseSet
+from wbik.study.statistics import wilson_interval
+from wbik.study.target_parameters import Parameter
+from wbik.study.target_parameters import choice
+from wbik.study.target_parameters import integer
+from wbik.study.target_parameters import number
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from wbik.robot import Chain
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
+    from wbik.study.definition import Study
+
+PATH = "path"
+SHAPES = ("line", "circle")
+ORIENTATIONS = ("hold", "slerp")
+
+
+def _flag(value):
+    """A check of true or false."""
+    return value if isinstance(value, bool) else None
+
+
+PATH_PARAMETERS = {
+    "shape": Parameter("line", "'line' or 'circle'", choice(*SHAPES), "the path's shape"),
+    "length": Parameter(0.2, "a length in m, in (0, 10]", number(0.0, 10.0, low_open=True),
+                        "a line's length (m)"),
+    "radius": Parameter(0.1, "a radius in m, in (0, 5]", number(0.0, 5.0, low_open=True),
+                        "a circle's radius (m)"),
+    "points": Parameter(50, "an integer in [2, 10000] (points per path, the start included)",
+                        integer(2, 10_000), "points per path, the start included"),
+    "orientation": Parameter("hold", "'hold' or 'slerp'", choice(*ORIENTATIONS),
+                             "the orientation held, or slerped by angle about a random axis"),
+    "angle": Parameter(0.5, "an angle in rad, in (0, pi]", number(0.0, math.pi, low_open=True),
+                       "the rotation from the first to the last point (rad)"),
+    "jump": Parameter(0.5, "a joint step in rad (m for a prismatic joint), in (0, 2 pi]",
+                      number(0.0, 2.0 * math.pi, low_open=True),
+                      "a step between consecutive points larger than this on some joint is a jump"),
+    "reachable": Parameter(True, "true or false", _flag,
+                           "keep only paths whose every point has a witness configuration"),
+    "attempts": Parameter(50, "an integer in [1, 1000] (draws per path)", integer(1, 1000),
+                          "draws per path until one has a witness at every point"),
+    "branch_tolerance": Parameter(1e-3, "a number in (0, 0.5] (rad or m)", number(0.0, 0.5, low_open=True),
+                                  "largest joint difference of an answer and the closed-form branch it is"),
+}
+"""What a case's ``path:`` may hold (``count``, the number of paths, besides: the case's ``poses``)."""
+ONLY_FOR = {"length": ("shape", "line"), "radius": ("shape", "circle"), "angle": ("orientation", "slerp")}
+"""Parameters that apply to one shape or orientation only: key -> (the deciding key, its value)."""
+
+WITNESS_METHOD = "bounded_lm"
+WITNESS_BUDGET_S = 0.02
+"""The witness's budget per solve (an iteration budget, the same on any machine)."""
+WITNESS_RESTARTS = 10
+"""Random starts tried at a point whose witness the previous point's does not reach."""
+STREAM = zlib.crc32(PATH.encode())
+
+
+def path_parameters(raw, source: str, where: str) -> tuple[dict, int | None]:
+    """A case's ``path:`` checked and completed with its defaults (the keys of its shape and
+    orientation only), and its ``count`` (None when not given); a StudyDefinitionError naming the key
+    path (``cases[1].path.radius``) for a mistake."""
+    given = {} if raw is None else raw
+    if not isinstance(given, dict):
+        raise StudyDefinitionError(f"{source}: {where}.path must be a mapping {{shape: line|circle, length "
+                                   f"or radius, points, count, ...}}, got {raw!r}")
+    known = {*PATH_PARAMETERS, "count"}
+    unknown = sorted(set(given) - known, key=str)
+    if unknown:
+        from wbik.errors import closest_name
+
+        guess = closest_name(str(unknown[0]), known)
+        hint = f" (did you mean {guess!r}?)" if guess else ""
+        raise StudyDefinitionError(f"{source}: {where}.path has unknown field(s) {unknown}{hint}; a path "
+                                   f"takes: {', '.join(sorted(known))}")
+    checked: dict = {}
+    for key, parameter in PATH_PARAMETERS.items():
+        value = given.get(key, parameter.default)
+        normalised = parameter.check(value)
+        if normalised is None:
+            raise StudyDefinitionError(f"{source}: {where}.path.{key} must be {parameter.what}, got "
+                                       f"{value!r}")
+        checked[key] = normalised
+    for key, (decider, value) in ONLY_FOR.items():
+        if checked[decider] != value:
+            if key in given:
+                raise StudyDefinitionError(f"{source}: {where}.path.{key} applies to {decider}: {value} only "
+                                           f"(this path's {decider} is {checked[decider]})")
+            del checked[key]
+    count = given.get("count")
+    if count is not None:
+        count = integer(1)(count)
+        if count is None:
+            raise StudyDefinitionError(f"{source}: {where}.path.count must be a positive integer (paths), "
+                                       f"got {given['count']!r}")
+    return checked, count
+
+
+def describe(parameters: dict) -> str:
+    """The paths in words: "line of 0.2 m, 50 points, orientation held"."""
+    shape = (f"line of {parameters['length']:g} m" if parameters["shape"] == "line"
+             else f"circle of radius {parameters['radius']:g} m")
+    turn = ("orientation held" if parameters["orientation"] == "hold"
+            else f"orientation slerped by {parameters['angle']:g} rad")
+    return f"{shape}, {parameters['points']} points, {turn}"
+
+
+# -- drawing -----------------------------------------------------------------------------------------
+def path_stream(seed: int, index: int) -> np.random.Generator:
+    """The random stream of path ``index``: ``default_rng([seed, crc32("path"), index])``."""
+    return np.random.default_rng([seed, STREAM, index])
+
+
+def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(q_start (n,), positions (N, 3), rotations (N, 3, 3)) of one path drawn from ``rng``."""
+    q_start = chain.random(rng)
+    tip = chain.fk(q_start)
+    count = parameters["points"]
+    if parameters["shape"] == "line":
+        positions = line_points(tip.translation, random_unit(rng), parameters["length"], count)
+    else:
+        u, v = random_plane(rng)
+        positions = circle_points(tip.translation, u, v, parameters["radius"], count)
+    axis = random_unit(rng) if parameters["orientation"] == "slerp" else None
+    rotations = slerped_rotations(tip.rotation, axis, parameters.get("angle", 0.0), count)
+    return q_start, positions, rotations
+
+
+def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.ndarray, positions: np.ndarray,
+                 rotations: np.ndarray) -> np.ndarray | None:
+    """(N, n) configurations inside the limits that reach every point (the shared check), each solved
+    from the previous one, else from up to WITNESS_RESTARTS random starts; None at the first point
+    none reaches."""
+    from wbik.targets import Target
+
+    q, found = q_start, []
+    for position, rotation in zip(positions, rotations, strict=True):
+        target = Target(position, rotation)
+        answer = solver.solve(target, q)
+        restarts = 0
+        while not answer.success and restarts < WITNESS_RESTARTS:
+            answer = solver.solve(target, chain.random(rng))
+            restarts += 1
+        if not answer.success:
+            return None
+        q = answer.q
+        found.append(q)
+    return np.array(found)
+
+
+@dataclass
+class PathSet(PoseSet):
+    """The paths of a case as a :class:`~wbik.study.sampling.PoseSet`: ``q_true`` and ``q0`` the start
+    configurations (count, n), ``positions`` (count, N, 3), ``rotations`` (count, N, 3, 3); beside them
+    the draws each path took, whether its witness was found and the witness's joint path length."""
+
+    draws: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    verified: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    witness_length: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def save(self, path: Path) -> None:
+        arrays = {"q_true": self.q_true, "positions": self.positions, "rotations": self.rotations,
+                  "q0": self.q0, "path_draws": self.draws, "path_verified": self.verified,
+                  "path_witness_length": self.witness_length}
+        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
+
+
+def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=None) -> PathSet:
+    """``count`` paths (module docstring); ``witness``: the solver of the witnesses (None: no check)."""
+    n, points = chain.nq, parameters["points"]
+    q_start = np.empty((count, n))
+    positions, rotations = np.empty((count, points, 3)), np.empty((count, points, 3, 3))
+    draws = np.zeros(count, dtype=int)
+    verified = np.zeros(count, dtype=bool)
+    witness_length = np.full(count, np.nan)
+    for index in range(count):
+        rng = path_stream(seed, index)
+        for draw in range(1, parameters["attempts"] + 1):
+            drawn = draw_path(chain, rng, parameters)
+            draws[index] = draw
+            if witness is None or not parameters["reachable"]:
+                break
+            joints = witness_path(witness, chain, rng, *drawn)
+            if joints is not None:
+                verified[index] = True
+                witness_length[index] = float(np.abs(np.diff(joints, axis=0)).sum())
+                break
+        q_start[index], positions[index], rotations[index] = drawn
+    return PathSet(q_start, positions, rotations, q_start.copy(), draws, verified, witness_length)
+
+
+def read_drawing(path: Path) -> dict[str, np.ndarray]:
+    """The draws, verified flags and witness lengths saved with a case's paths ({} if none)."""
+    if not path.is_file():
+        return {}
+    with np.load(path, allow_pickle=False) as data:
+        return {key[len("path_"):]: data[key] for key in data.files if key.startswith("path_")}
+
+
+# -- the kind ------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class PathChunkTask(ChainChunkTask):
+    """A chunk of paths: the chain chunk (``positions`` (k, N, 3), ``rotations`` (k, N, 3, 3), ``q0`` the
+    start configurations) and the flip criteria."""
+
+    jump: float = 0.5
+    branch_tolerance: float = 1e-3
+
+
+class PathTargets(ChainTargets):
+    """Paths in the task space of one chain, followed point by point (module docstring)."""
+
+    entry_keys = ("path",)
+    sampled_from = "lines and circles from the tip pose of a start configuration uniform inside the limits"
+
+    def __init__(self, name: str = PATH):
+        super().__init__(name, target="pose")
+
+    # -- the study file ----------------------------------------------------------------------------
+    def entry(self, item: dict, source: str, where: str) -> dict:
+        from wbik.study.definition import _case_name
+
+        if item.get("reference"):
+            raise StudyDefinitionError(f"{source}: {where}.reference does not apply to a path case")
+        parameters, count = path_parameters(item.get("path"), source, where)
+        completed = {**item, "path": parameters, "target": self.name}
+        if count is not None:
+            if item.get("poses") not in (None, count):
+                raise StudyDefinitionError(f"{source}: {where}: path.count ({count}) and poses "
+                                           f"({item['poses']}) both say how many paths; give one")
+            completed["poses"] = count
+        robot = item.get("robot")
+        if "name" not in item and isinstance(robot, str) and robot:
+            chain = item.get("chain") or (f"{item['base']}_to_{item['tip']}" if item.get("base") and
+                                          item.get("tip") else None)
+            completed["name"] = _case_name(robot, chain, f"{parameters['shape']}_path")
+        return completed
+
+    def parameters_of(self, case: CaseSpec) -> dict:
+        """The case's path parameters (completed when it was read), else the defaults."""
+        return dict(case.path) if case.path else path_parameters(None, "defaults", "defaults")[0]
+
+    def sampling_text(self, case: CaseSpec) -> str:
+        return describe(self.parameters_of(case))
+
+    # -- sampling and tasks ------------------------------------------------------------------------
+    def sample(self, study: Study, case: CaseSpec) -> PathSet:
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        parameters = self.parameters_of(case)
+        witness = None
+        if parameters["reachable"]:
+            timeout_s, options = solver_budget(WITNESS_METHOD, WITNESS_BUDGET_S, {})
+            witness = make_solver(case.robot, _frozen(case.robot_params), case.chain, WITNESS_METHOD, options,
+                                  timeout_s, (study.tolerances["position"], study.tolerances["rotation"]),
+                                  study.seed, case.base, case.tip)
+        return sample_paths(chain, study.poses_of(case), study.seed, parameters, witness)
+
+    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+             start: int, stop: int) -> PathChunkTask:
+        base = super().task(study, case, method, poses, chunk, start, stop)
+        parameters = self.parameters_of(case)
+        return PathChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
+                             jump=parameters["jump"], branch_tolerance=parameters["branch_tolerance"])
+
+    # -- in the worker -----------------------------------------------------------------------------
+    def solve(self, task: PathChunkTask) -> dict[str, np.ndarray]:
+        """Follow every path of the chunk (module docstring): the per-point columns and the metrics."""
+        from wbik.study.chain_targets import _raised
+        from wbik.study.solution_coverage import closed_form_of
+        from wbik.targets import Target
+
+        if task.registered is not None:
+            from wbik.solvers.method_registry import register_method
+
+            register_method(task.registered, replace=True)
+        solver = self.build(task)
+        chain = solver.chain
+        count, points, n = task.count, task.positions.shape[1], chain.nq
+        watch = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
+        form = closed_form_of(chain)
+        form = None if isinstance(form, str) else form
+        columns = {
+            "point_success": np.zeros((count, points), dtype=bool),
+            "point_reason": np.full((count, points), "", dtype=object),
+            "point_time_s": np.full((count, points), np.nan),
+            "point_iterations": np.zeros((count, points), dtype=int),
+            "point_position_error": np.full((count, points), np.nan),
+            "point_rotation_error": np.full((count, points), np.nan),
+            "point_branch": np.full((count, points), -1, dtype=int),
+            "point_q": np.full((count, points, n), np.nan),
+        }
+        cpu = np.zeros(count)
+        reruns = np.zeros(count, dtype=int)
+        for path in range(count):
+            q_previous = task.q0[path]
+            for point in range(points):
+                target = Target(task.positions[path, point], task.rotations[path, point])
+                try:
+                    if watch:
+                        answer, seconds, again = solve_watching_the_cpu(
+                            solver, target, q_previous, task.timeout_s,
+                            lambda budget: self.build(task, budget))
+                        cpu[path] += seconds
+                        reruns[path] += again
+                    else:
+                        answer = solver.solve(target, q_previous)
+                except Exception as exc:  # noqa: BLE001 - recorded in the point's row
+                    answer = _raised(solver, exc)
+                columns["point_success"][path, point] = answer.success
+                columns["point_reason"][path, point] = answer.reason
+                columns["point_time_s"][path, point] = answer.time_s
+                columns["point_iterations"][path, point] = answer.iterations
+                columns["point_position_error"][path, point] = answer.position_error
+                columns["point_rotation_error"][path, point] = answer.rotation_error
+                if answer.q is not None:
+                    columns["point_q"][path, point] = answer.q
+                if answer.success:
+                    q_previous = answer.q
+            if form is not None:
+                columns["point_branch"][path] = branch_labels(
+                    form, task.positions[path], task.rotations[path], columns["point_q"][path],
+                    columns["point_success"][path], task.branch_tolerance)
+        columns["point_reason"] = columns["point_reason"].astype(str)
+        return {**path_columns(columns, task.first_pose, task.jump, form is not None),
+                "cpu_s": np.where(watch, cpu, np.nan), "reruns": reruns, **columns}
+
+    # -- the report --------------------------------------------------------------------------------
+    def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        directory = store.case_dir(output, case.name)
+        rows_by_method, not_applicable = case_rows(study, case, output)
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        write_point_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
+        write_path_csv(directory / "paths.csv", rows_by_method)
+        common = common_paths(rows_by_method)
+        summaries = {label: path_summary(rows, common) for label, rows in rows_by_method.items()}
+        write_case_tables(directory, summaries, [])
+        from wbik.study.solution_coverage import closed_form_of
+
+        form = closed_form_of(chain)
+        images = {}
+        if rows_by_method:
+            title = f"{case.robot}.{chain.name} ({self.sampling_text(case)})"
+            images["paths"] = path_figure(rows_by_method, title, directory / "figures" / "paths.png")
+        return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
+                "summaries": summaries, "tests": [], "baseline": None, "images": images,
+                "drawing": read_drawing(directory / "poses.npz"), "common": int(common.sum()),
+                "closed_form": (f"not counted, {form}" if isinstance(form, str)
+                                else f"counted on the closed form {form.family}"),
+                "parameters": self.parameters_of(case)}
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        case: CaseSpec = analysis["case"]
+        chain, parameters = analysis["chain"], analysis["parameters"]
+        count = study.poses_of(case)
+        drawing = analysis["drawing"]
+        words = (f"{count} paths (seed {study.seed}), each a {describe(parameters)}: from the tip pose of a "
+                 "start configuration uniform inside the limits, ")
+        words += ("in a direction uniform on the sphere" if parameters["shape"] == "line"
+                  else "in a plane through the tip uniform among planes (the last point is the first)")
+        if parameters["orientation"] == "slerp":
+            words += ", the orientation turning about an axis uniform on the sphere"
+        words += (f". Chain {chain.base_frame} -> {chain.tip_frame}, {chain.nq} joints "
+                  f"({', '.join(chain.joint_names)}). Every method solves the first point from the start "
+                  "configuration, then each point from its answer at the last solved point (the study's "
+                  "start setting does not apply).")
+        blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {parameters['shape']} paths"),
+                  Block("p", words)]
+        if parameters["reachable"] and drawing:
+            draws = drawing.get("draws", np.zeros(0))
+            unverified = int(np.sum(~drawing.get("verified", np.ones(0, dtype=bool))))
+            text = (f"Every point of a path was checked reachable before the path was kept: a witness "
+                    f"configuration inside the limits passing the shared check ({WITNESS_METHOD} from the "
+                    f"previous point's witness, else from up to {WITNESS_RESTARTS} random starts). "
+                    f"{int(np.sum(draws - 1))} drawn paths were rejected on the way")
+            if draws.size:
+                text += f" (at most {int(draws.max())} draws for one path)"
+            text += "."
+            if unverified:
+                text += (f" {unverified} path(s) found no witness in {parameters['attempts']} draws and were "
+                         "kept unverified.")
+            blocks.append(Block("p", text))
+        blocks.extend(status_blocks(study, analysis))
+        summaries = analysis["summaries"]
+        if not summaries:
+            return blocks
+        blocks.append(Block("h3", "Paths followed"))
+        blocks.append(Block("table", header=[
+            "method", "whole paths", "% whole (95 % CI)", "% points solved", "paths with a flip", "flips",
+            "jumps", "branch changes", "largest step (max)", "largest step (median)",
+            "path length (median, whole paths)", f"path length (median, {analysis['common']} common paths)",
+            "ms per point (median)", "ms per path (median)", "re-run (CPU starved)"],
+            rows=[[label, f"{s['solved']}/{s['poses']}",
+                   f"{fmt(s['percent_solved'])} "
+                   f"{fmt_interval(s['percent_solved_ci_low'], s['percent_solved_ci_high'])}",
+                   fmt(s["percent_points_solved"]), str(s["paths_with_flips"]), str(s["flips"]),
+                   str(s["jumps"]),
+                   str(s["branch_changes"]) if s["branches_known"] else "-", fmt(s["largest_step_max"]),
+                   fmt(s["largest_step_median"]), fmt(s["length_median"]), fmt(s["length_common_median"]),
+                   fmt(s["time_point_median_ms"]), fmt(s["time_all_median_ms"]), str(s["rerun"])]
+                  for label, s in summaries.items()]))
+        blocks.append(Block("p", (
+            "A whole path: every point solved. The robot moves between consecutive solved points (an "
+            "unsolved point is skipped); a step's size is its largest |dq| over the joints (rad, m for a "
+            f"prismatic joint); a jump is a step above {parameters['jump']:g}; a branch change a step "
+            "between answers on different branches of the chain's complete closed form (the index of the "
+            f"branch each answer equals within {parameters['branch_tolerance']:g}); a flip either. Branch "
+            f"changes: {analysis['closed_form']}. Path length: sum over the steps of sum_j |dq_j| (rad), "
+            "median over the paths the method solved whole, and over the paths every method solved whole. "
+            "Times are per call of the method alone; a path's time is the sum over its points.")))
+        reasons = frequent_reasons(analysis["rows"])
+        if reasons:
+            blocks.append(Block("p", "Most frequent reasons for a path not solved whole (its first unsolved "
+                                     "point's):"))
+            blocks.append(Block("table", header=["method", "reason", "paths"], rows=reasons))
+        if "paths" in analysis["images"]:
+            blocks.append(Block("image", "Paths solved at each point, and joint path length per method",
+                                path=analysis["images"]["paths"]))
+        return blocks
+
+
+# -- rows and summaries --------------------------------------------------------------------------------
+def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, branches_known: bool
+                 ) -> dict[str, np.ndarray]:
+    """The per-path columns of a chunk from its per-point columns: ``pose`` (the path's index),
+    ``success`` (whole path), ``reason`` (the first unsolved point's), ``time_s`` and ``iterations``
+    (sums over the points), the :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the answer at the
+    last solved point)."""
+    success = points["point_success"]
+    count, _ = success.shape
+    metrics = [path_metrics(points["point_q"][i], success[i], jump,
+                            points["point_branch"][i] if branches_known else None) for i in range(count)]
+    reasons = []
+    last_q = np.full((count, points["point_q"].shape[2]), np.nan)
+    for i in range(count):
+        unsolved = np.flatnonzero(~success[i])
+        first = int(unsolved[0]) if unsolved.size else -1
+        reasons.append("" if first < 0 else f"point {first}: {points['point_reason'][i, first]}")
+        solved = np.flatnonzero(success[i])
+        if solved.size:
+            last_q[i] = points["point_q"][i, solved[-1]]
+    return {
+        "pose": np.arange(first_path, first_path + count),
+        "success": np.array([m.whole for m in metrics], dtype=bool),
+        "reason": np.array(reasons, dtype=str),
+        "time_s": np.nansum(points["point_time_s"], axis=1),
+        "iterations": points["point_iterations"].sum(axis=1),
+        "points_solved": np.array([m.points_solved for m in metrics]),
+        "jumps": np.array([m.jumps for m in metrics], dtype=int),
+        "branch_changes": np.array([m.branch_changes for m in metrics], dtype=int),
+        "branches_known": np.full(count, branches_known),
+        "flips": np.array([m.flips for m in metrics], dtype=int),
+        "largest_step": np.array([m.largest_step for m in metrics]),
+        "length": np.array([m.length for m in metrics]),
+        "q": last_q,
+    }
+
+
+def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
+    """The paths every method solved whole (a mask over the paths)."""
+    masks = [rows["success"].astype(bool) for rows in rows_by_method.values()]
+    return np.logical_and.reduce(masks) if masks else np.zeros(0, dtype=bool)
+
+
+def _median(values: np.ndarray) -> float:
+    values = values[np.isfinite(values)]
+    return float(np.median(values)) if values.size else math.nan
+
+
+def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
+    """One method's figures over a case's paths (the keys of summary.csv): paths, whole paths
+    (``solved``, ``percent_solved`` and its Wilson 95 % interval), % points solved, flips, jumps, branch
+    changes, largest steps, path lengths (whole paths; ``common``: the paths every method solved whole),
+    times (per point, and per path as ``time_all_*``)."""
+    whole = rows["success"].astype(bool)
+    count, solved = int(whole.size), int(whole.sum())
+    low, high = wilson_interval(solved, count)
+    point_success = rows["point_success"].astype(bool)
+    point_ms = rows["point_time_s"][np.isfinite(rows["point_time_s"])] * 1e3
+    path_ms = rows["time_s"] * 1e3
+    return {
+        "poses": count, "solved": solved, "percent_solved": 100.0 * solved / count if count else math.nan,
+        "percent_solved_ci_low": 100.0 * low, "percent_solved_ci_high": 100.0 * high,
+        "points": int(point_success.size),
+        "percent_points_solved": 100.0 * float(point_success.mean()) if point_success.size else math.nan,
+        "paths_with_flips": int(np.sum(rows["flips"] > 0)), "flips": int(rows["flips"].sum()),
+        "jumps": int(rows["jumps"].sum()), "branch_changes": int(rows["branch_changes"].sum()),
+        "branches_known": bool(rows["branches_known"].all()) if count else False,
+        "largest_step_max": float(np.nanmax(rows["largest_step"])) if np.isfinite(rows["largest_step"]).any()
+        else math.nan,
+        "largest_step_median": _median(rows["largest_step"]),
+        "length_median": _median(rows["length"][whole]),
+        "length_common_median": _median(rows["length"][common]) if common.size == count else math.nan,
+        "time_point_median_ms": float(np.median(point_ms)) if point_ms.size else math.nan,
+        "time_point_p95_ms": float(np.percentile(point_ms, 95)) if point_ms.size else math.nan,
+        "time_all_median_ms": _median(path_ms),
+        "raised": int(sum(str(reason).startswith("raised") for reason in rows["point_reason"].ravel())),
+        "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
+    }
+
+
+def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: list[str]) -> None:
+    """Every (path, point, method) row in one CSV: success, reason, time, iterations, errors, the step
+    from the last solved point (largest |dq|), the closed-form branch (-1: none or unknown), the joints."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["path", "point", "method", "success", "reason", "time_s", "iterations", "position_error",
+                     "rotation_error", "step", "branch", *(f"q_{name}" for name in joint_names)])
+    for label, rows in rows_by_method.items():
+        for i, path_index in enumerate(rows["pose"]):
+            previous = None
+            for k in range(rows["point_success"].shape[1]):
+                q = rows["point_q"][i, k]
+                solved = bool(rows["point_success"][i, k])
+                step = math.nan
+                if solved:
+                    if previous is not None:
+                        step = float(np.max(np.abs(q - previous)))
+                    previous = q
+                writer.writerow([int(path_index), k, label, int(solved), str(rows["point_reason"][i, k]),
+                                 repr(float(rows["point_time_s"][i, k])), int(rows["point_iterations"][i, k]),
+                                 repr(float(rows["point_position_error"][i, k])),
+                                 repr(float(rows["point_rotation_error"][i, k])), repr(step),
+                                 int(rows["point_branch"][i, k]), *(repr(float(v)) for v in q)])
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+def write_path_csv(path: Path, rows_by_method: dict[str, dict]) -> None:
+    """Every (path, method) row: whole, points solved, jumps, branch changes, flips, largest step,
+    length, time, iterations, reason."""
+    keys = ("points_solved", "jumps", "branch_changes", "flips", "largest_step", "length", "time_s",
+            "iterations")
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["path", "method", "whole", *keys, "reason"])
+    for label, rows in rows_by_method.items():
+        for i, path_index in enumerate(rows["pose"]):
+            writer.writerow([int(path_index), label, int(bool(rows["success"][i])),
+                             *(repr(float(rows[key][i])) if np.issubdtype(rows[key].dtype, np.floating)
+                               else int(rows[key][i]) for key in keys), str(rows["reason"][i])])
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
+    """Left: % of the paths whose point k each method solved, against k. Right: the joint path length of
+    each path a method solved whole (a box per method, log scale)."""
+    import matplotlib.pyplot as plt
+
+    from wbik.study import figures
+
+    labels = list(rows_by_method)
+    colour = figures.colours(labels)
+    figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2),
+                                            constrained_layout=True)
+    for label in labels:
+        success = rows_by_method[label]["point_success"].astype(bool)
+        along.plot(np.arange(success.shape[1]), 100.0 * success.mean(axis=0), color=colour[label],
+                   label=label, linewidth=1.3)
+    along.set_xlabel("point along the path")
+    along.set_ylabel("% of paths solved at the point")
+    along.set_ylim(-2, 102)
+    along.legend(fontsize=7)
+    data = []
+    for label in labels:
+        rows = rows_by_method[label]
+        values = rows["length"][rows["success"].astype(bool)]
+        values = values[np.isfinite(values) & (values > 0)]
+        data.append(values if values.size else np.array([np.nan]))
+    boxes = lengths.boxplot(data, showfliers=True, flierprops={"markersize": 2}, patch_artist=True)
+    for patch, label in zip(boxes["boxes"], labels, strict=True):
+        patch.set_facecolor(colour[label])
+        patch.set_alpha(0.6)
+    lengths.set_yscale("log")
+    lengths.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
+    lengths.set_ylabel("joint path length, sum |dq| (rad), whole paths")
+    figure.suptitle(title, fontsize=10)
+    return figures._save(figure, path)
+
+
+CASE_KINDS = (PathTargets(),)

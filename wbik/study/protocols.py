@@ -1,0 +1,299 @@
+"""Benchmark protocols, the case kind ``protocol`` (``target: protocol``, or a case with ``success:``):
+chain targets judged by a published benchmark's success rule, with the peers' published figures beside
+ours.
+
+A case's keys (besides those of every chain case, ``reference:`` included)::
+
+    success: {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}   # TRAC-IK's test
+    success: {per: norm, position: 0.005, rotation: 0.05}                      # cuRobo's, PyRoki's
+    peers:                      # published figures of solvers that are not methods of the study
+      - {solver: cuRobo v2, source: "its documentation, IK benchmark", figures: {percent_solved: 100}}
+
+The targets are the ``pose`` case's (FK of uniform joints inside the limits, the study's ``start``).
+Every method runs as in a ``pose`` case, under the shared check of the study's tolerances; then, in the
+worker, each answer is judged by the case's rule (:mod:`wbik.study.success_rules`): ``success`` is the
+rule's verdict (what the summaries, the error tables, the figures and the reference block count), and
+``check_success`` keeps the shared check's. The report adds the rule, how often the two verdicts differ,
+the position and rotation errors at p50, p98 and the maximum, and the ``peers`` table (each of their
+figures beside the best of ours under the same rule). ``success`` enters the fingerprint (the rows
+depend on it); ``peers`` does not.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+from dataclasses import fields
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.study import results as store
+from wbik.study.blocks import Block
+from wbik.study.blocks import fmt
+from wbik.study.chain_targets import ChainChunkTask
+from wbik.study.chain_targets import ChainTargets
+from wbik.study.definition import StudyDefinitionError
+from wbik.study.reference import REFERENCE_METRICS
+from wbik.study.reference import our_figures
+from wbik.study.success_rules import FRAMES
+from wbik.study.success_rules import PERCENTILES
+from wbik.study.success_rules import RULES
+from wbik.study.success_rules import SuccessRule
+from wbik.study.success_rules import error_percentiles
+from wbik.study.success_rules import failure_reason
+from wbik.study.success_rules import judge
+from wbik.study.target_parameters import choice
+from wbik.study.target_parameters import number
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
+    from wbik.study.definition import Study
+    from wbik.study.sampling import PoseSet
+
+PROTOCOL = "protocol"
+PEER_KEYS = {"solver", "source", "figures", "note"}
+_BOUND = number(0.0, 1.0e3, low_open=True)
+
+
+def success_rule(raw, source: str, where: str) -> dict:
+    """A case's ``success:`` checked and completed: {position, rotation, per, frame (per-axis rules
+    only)}; a StudyDefinitionError naming the key path for a mistake."""
+    example = "e.g. {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}"
+    if not isinstance(raw, dict):
+        raise StudyDefinitionError(f"{source}: {where}.success must be a mapping {{position: m, rotation: "
+                                   f"rad, per: norm|axis, frame: target|base}}, {example}; got {raw!r}")
+    unknown = sorted(set(raw) - {"position", "rotation", "per", "frame"}, key=str)
+    if unknown:
+        raise StudyDefinitionError(f"{source}: {where}.success has unknown field(s) {unknown}; allowed: "
+                                   "frame, per, position, rotation")
+    rule: dict = {}
+    for key, unit in (("position", "m"), ("rotation", "rad")):
+        if key not in raw:
+            raise StudyDefinitionError(f"{source}: {where}.success.{key} is required (a bound in {unit}), "
+                                       f"{example}")
+        value = _BOUND(raw[key])
+        if value is None:
+            raise StudyDefinitionError(f"{source}: {where}.success.{key} must be a positive bound in {unit}, "
+                                       f"got {raw[key]!r}")
+        rule[key] = value
+    rule["per"] = choice(*RULES)(raw.get("per", "norm"))
+    if rule["per"] is None:
+        raise StudyDefinitionError(f"{source}: {where}.success.per must be 'norm' or 'axis', got "
+                                   f"{raw['per']!r}")
+    if rule["per"] == "axis":
+        rule["frame"] = choice(*FRAMES)(raw.get("frame", "target"))
+        if rule["frame"] is None:
+            raise StudyDefinitionError(f"{source}: {where}.success.frame must be 'target' (TRAC-IK's) or "
+                                       f"'base', got {raw['frame']!r}")
+    elif "frame" in raw:
+        raise StudyDefinitionError(f"{source}: {where}.success.frame applies to per: axis only (norms do not "
+                                   "depend on the frame)")
+    return rule
+
+
+def peer_figures(raw, source: str, where: str) -> list[dict]:
+    """A case's ``peers:`` checked: a list of {solver, source, figures: {metric: number}, note}."""
+    if raw is None:
+        return []
+    if not isinstance(raw, list):
+        raise StudyDefinitionError(f"{source}: {where}.peers must be a list of {{solver, source, figures, "
+                                   f"note}}, got {raw!r}")
+    peers = []
+    for index, item in enumerate(raw):
+        at = f"{where}.peers[{index}]"
+        if not isinstance(item, dict):
+            raise StudyDefinitionError(f"{source}: {at} must be a mapping {{solver, source, figures, note}}, "
+                                       f"got {item!r}")
+        unknown = sorted(set(item) - PEER_KEYS, key=str)
+        if unknown:
+            raise StudyDefinitionError(f"{source}: {at} has unknown field(s) {unknown}; allowed: "
+                                       f"{', '.join(sorted(PEER_KEYS))}")
+        solver = item.get("solver")
+        if not isinstance(solver, str) or not solver.strip():
+            raise StudyDefinitionError(f"{source}: {at}.solver must name the peer's solver")
+        for key in ("source", "note"):
+            if not isinstance(item.get(key, ""), str):
+                raise StudyDefinitionError(f"{source}: {at}.{key} must be text, got {item[key]!r}")
+        figures = item.get("figures") or {}
+        if not isinstance(figures, dict):
+            raise StudyDefinitionError(f"{source}: {at}.figures must map metrics "
+                                       f"({', '.join(REFERENCE_METRICS)}) to numbers, got {figures!r}")
+        checked = {}
+        for metric, value in figures.items():
+            if metric not in REFERENCE_METRICS:
+                raise StudyDefinitionError(f"{source}: {at}.figures.{metric} is no metric; metrics: "
+                                           f"{', '.join(REFERENCE_METRICS)}")
+            number_ = number(-math.inf, math.inf)(value)
+            if number_ is None:
+                raise StudyDefinitionError(f"{source}: {at}.figures.{metric} must be a number, got {value!r}")
+            checked[metric] = number_
+        peers.append({"solver": solver.strip(), "source": item.get("source", ""), "figures": checked,
+                      "note": item.get("note", "")})
+    return peers
+
+
+@dataclass(frozen=True)
+class ProtocolChunkTask(ChainChunkTask):
+    """A chunk of chain targets and the case's success rule (position, rotation, per, frame)."""
+
+    rule: tuple = ()
+
+
+class ProtocolTargets(ChainTargets):
+    """Chain targets judged by a benchmark's success rule (module docstring)."""
+
+    entry_keys = ("success", "peers")
+
+    def __init__(self, name: str = PROTOCOL):
+        super().__init__(name, target="pose")
+
+    # -- the study file ----------------------------------------------------------------------------
+    def entry(self, item: dict, source: str, where: str) -> dict:
+        return {**item, "target": self.name, "success": success_rule(item.get("success"), source, where),
+                "peers": peer_figures(item.get("peers"), source, where)}
+
+    @staticmethod
+    def rule_of(case: CaseSpec) -> SuccessRule:
+        """The case's success rule."""
+        return SuccessRule(**case.success)
+
+    # -- tasks and solving -------------------------------------------------------------------------
+    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+             start: int, stop: int) -> ProtocolChunkTask:
+        base = super().task(study, case, method, poses, chunk, start, stop)
+        rule = self.rule_of(case)
+        return ProtocolChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
+                                 rule=(rule.position, rule.rotation, rule.per, rule.frame))
+
+    def solve(self, task: ProtocolChunkTask) -> dict[str, np.ndarray]:
+        """The chain rows, ``success`` judged by the case's rule, ``check_success`` the shared check's."""
+        columns = super().solve(task)
+        rule = SuccessRule(*task.rule)
+        position = np.stack([columns[f"err_{axis}"] for axis in "xyz"], axis=1)
+        rotation = np.stack([columns[f"err_rot_{axis}"] for axis in "xyz"], axis=1)
+        passed, worst, component = judge(rule, position, rotation, task.rotations)
+        checked = columns["success"].astype(bool)
+        reasons = columns["reason"].astype(object)
+        for index in np.flatnonzero(checked & ~passed & np.isfinite(worst)):
+            reasons[index] = failure_reason(rule, float(worst[index]), int(component[index]))
+        reasons[passed] = ""
+        columns["check_success"] = checked
+        columns["success"] = passed
+        columns["reason"] = reasons.astype(str)
+        return columns
+
+    # -- the report --------------------------------------------------------------------------------
+    def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        analysis = super().analyse(study, case, output)
+        protocol = {label: protocol_figures(rows) for label, rows in analysis["rows"].items()}
+        _write_csv(store.case_dir(output, case.name) / "protocol.csv", protocol)
+        analysis.update(protocol=protocol, rule=self.rule_of(case), peers=list(case.peers or []))
+        return analysis
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        blocks = super().blocks(study, analysis)
+        if not analysis["summaries"]:
+            return blocks
+        rule: SuccessRule = analysis["rule"]
+        tolerances = study.tolerances
+        section = [Block("h3", "Success rule"),
+                   Block("p", f"Solved here means: {rule.describe()}, judged on every answer with joints, "
+                              "converged or not. The methods ran under the shared check of "
+                              f"{tolerances['position']:g} m / {tolerances['rotation']:g} rad (norms): what "
+                              "they aim at and where they stop. "
+                              + ("A per-axis bound b implies the norm bound sqrt(3) b, so an answer can pass "
+                                 "the shared check and fail the rule; one that passes the rule passes a "
+                                 "shared check of sqrt(3) b. " if rule.per == "axis" else "")
+                              + "The tables and figures of this case count the rule's verdict."),
+                   Block("table", header=["method", "% solved (rule)", "% shared check", "check only",
+                                          "rule only"],
+                         rows=[[label, fmt(figures["percent_rule"]), fmt(figures["percent_check"]),
+                                str(figures["check_only"]), str(figures["rule_only"])]
+                               for label, figures in analysis["protocol"].items()])]
+        blocks[2:2] = section
+        names = ", ".join(f"p{p:g}" if p < 100 else "max" for p in PERCENTILES)
+        blocks.append(Block("h3", f"Errors at percentiles ({names})"))
+        blocks.append(Block("p", "Position error |p - p*| (mm) and rotation error |log3(R*^T R)| (rad) of "
+                                 "the answers the rule counts as solved, then of every answer with joints."))
+        header = ["method", *(f"position {n} mm" for n in names.split(", ")),
+                  *(f"rotation {n} rad" for n in names.split(", "))]
+        for which, title in (("solved", "solved"), ("all", "all answers")):
+            blocks.append(Block("table", header=[f"{header[0]} ({title})", *header[1:]], rows=[
+                [label, *(fmt(v * 1e3) for v in figures[f"position_{which}"]),
+                 *(fmt(v) for v in figures[f"rotation_{which}"])]
+                for label, figures in analysis["protocol"].items()]))
+        blocks.extend(peer_blocks(analysis["peers"], analysis["summaries"]))
+        return blocks
+
+
+def protocol_figures(rows: dict[str, np.ndarray]) -> dict:
+    """One method's figures under the rule: % solved by the rule and by the shared check, answers
+    passing one only, and the error percentiles (solved, all answers with joints)."""
+    rule = rows["success"].astype(bool)
+    check = rows["check_success"].astype(bool) if "check_success" in rows else rule
+    count = max(int(rule.size), 1)
+    figures = {"poses": int(rule.size), "percent_rule": 100.0 * float(rule.sum()) / count,
+               "percent_check": 100.0 * float(check.sum()) / count,
+               "check_only": int(np.sum(check & ~rule)), "rule_only": int(np.sum(rule & ~check))}
+    for which, mask in (("solved", rule), ("all", np.ones(rule.size, dtype=bool))):
+        figures[f"position_{which}"] = error_percentiles(rows["position_error"][mask])
+        figures[f"rotation_{which}"] = error_percentiles(rows["rotation_error"][mask])
+    return figures
+
+
+def peer_blocks(peers: list[dict], summaries: dict[str, dict]) -> list[Block]:
+    """The peers' published figures, each beside the best of ours (the highest % solved, the lowest
+    time) under the case's rule."""
+    if not peers:
+        return []
+    ours = {label: our_figures(summary) for label, summary in summaries.items()}
+    rows = []
+    for peer in peers:
+        if not peer["figures"]:
+            rows.append([peer["solver"], "-", "-", "-", peer["source"], peer["note"]])
+        for metric, value in peer["figures"].items():
+            described = REFERENCE_METRICS[metric]
+            candidates = {label: figures[metric] for label, figures in ours.items()
+                          if figures.get(metric) is not None and math.isfinite(figures[metric])}
+            best = "-"
+            if candidates:
+                pick = max if described.unit == "%" else min  # shares: the highest; times: the lowest
+                label = pick(candidates, key=candidates.get)
+                best = f"{fmt(candidates[label])} ({label})"
+            rows.append([peer["solver"], f"{described.description} ({described.unit})", fmt(value), best,
+                         peer["source"], peer["note"]])
+    return [Block("h3", "Beside published figures of other solvers"),
+            Block("p", "Figures the peers' own documentation gives for their solvers (not methods of this "
+                       "study: other hardware, seeds and sample sizes), beside the best of our methods under "
+                       "the same success rule."),
+            Block("table", header=["peer", "metric", "theirs", "ours: best (method)", "source", "note"],
+                  rows=rows)]
+
+
+def _write_csv(path: Path, protocol: dict[str, dict]) -> None:
+    """protocol.csv: a row per method, the rule's and the check's verdicts and the error percentiles."""
+    if not protocol:
+        return
+    names = [f"p{p:g}" for p in PERCENTILES]
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    header = ["method", "poses", "percent_rule", "percent_check", "check_only", "rule_only"]
+    for which in ("solved", "all"):
+        header += [f"position_{which}_{n}_m" for n in names] + [f"rotation_{which}_{n}_rad" for n in names]
+    writer.writerow(header)
+    for label, figures in protocol.items():
+        row = [label, figures["poses"], repr(figures["percent_rule"]), repr(figures["percent_check"]),
+               figures["check_only"], figures["rule_only"]]
+        for which in ("solved", "all"):
+            row += [repr(v) for v in (*figures[f"position_{which}"], *figures[f"rotation_{which}"])]
+        writer.writerow(row)
+    store.atomic_write_text(path, buffer.getvalue())
+
+
+CASE_KINDS = (ProtocolTargets(),)

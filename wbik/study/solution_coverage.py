@@ -1,0 +1,248 @@
+"""Solution coverage: which of a pose's solutions a method finds, measured against a complete closed
+form (:mod:`wbik.study.closed_form_branches`).
+
+Per answer (columns of a chunk's rows, computed in the worker after the method's own solves):
+
+- ``start_distance``: |q - q0| (Euclidean over the joints, rad and m, no wrap: the motion the answer
+  asks of the robot from its start), NaN without joints;
+- ``same_branch``: 1 when a solved answer equals the closed form's branch nearest the start (what
+  ``analytic`` answers from the same q0: its branches wrapped into the limits nearest q0, the nearest
+  kept) within ``branch_tolerance`` on every joint, revolute joints modulo 2 pi; 0 when it is another
+  solution; -1 when the answer or the closed form did not solve the pose;
+- ``branch``: the index of the closed-form branch (those with a representative inside the limits) the
+  solved answer equals within ``branch_tolerance``, -1 for none; ``branches_in_limits`` how many there are;
+- restarts, on the case's first ``restart_targets`` poses (a random sample: targets are drawn
+  independently): the method solves the pose again from ``restarts`` starts uniform inside the limits,
+  the same starts for every method (seeded by the study's seed and the pose's index);
+  ``restart_solved`` counts the solved restarts, ``restart_branches`` the distinct closed-form branches
+  they equal and ``restart_others`` the distinct solutions among them equal to no branch (at a singular
+  pose two branches coincide, and an answer within the FK check's tolerance may lie farther than
+  ``branch_tolerance`` from the exact one), -1 on poses outside the sample.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.study.blocks import Block
+from wbik.study.blocks import fmt
+from wbik.study.closed_form_branches import ClosedFormBranches
+from wbik.study.closed_form_branches import branch_index
+from wbik.study.closed_form_branches import complete_closed_form
+from wbik.study.closed_form_branches import in_limit_branches
+from wbik.study.closed_form_branches import joint_distance
+from wbik.study.target_parameters import Parameter
+from wbik.study.target_parameters import integer
+from wbik.study.target_parameters import number
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+
+    from wbik.robot import Chain
+
+COVERAGE_PARAMETERS = {
+    "restarts": Parameter(8, "an integer >= 0 (starts per sampled pose)", integer(0, 1000),
+                          "random starts per pose of the restart sample"),
+    "restart_targets": Parameter(20, "an integer >= 0 (poses)", integer(0),
+                                 "how many poses (the case's first) are solved again from the random starts"),
+    "branch_tolerance": Parameter(1e-3, "a number in (0, 0.5] (rad or m)", number(0, 0.5, low_open=True),
+                                  "largest joint difference (revolute modulo 2 pi) of two equal solutions"),
+}
+"""The parameters of every reachable target set for its solution coverage."""
+
+RESTART_STREAM = 0x5EED
+"""The random stream of the restarts' starts: ``default_rng([seed, RESTART_STREAM, pose])``."""
+
+_LOCAL = threading.local()
+
+
+def closed_form_of(chain: Chain) -> ClosedFormBranches | str:
+    """:func:`complete_closed_form` of the chain, built once per thread."""
+    cache = getattr(_LOCAL, "forms", None)
+    if cache is None:
+        cache = _LOCAL.forms = {}
+    key = (id(chain.robot), chain.name)
+    if key not in cache:
+        cache[key] = complete_closed_form(chain)
+    return cache[key]
+
+
+def restart_starts(chain: Chain, seed: int, pose: int, count: int) -> np.ndarray:
+    """(count, n) starts uniform inside the limits for the restarts of pose ``pose``."""
+    return chain.random(np.random.default_rng([seed, RESTART_STREAM, pose]), count)
+
+
+def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarray, positions: np.ndarray,
+                     rotations: np.ndarray, first_pose: int, seed: int, parameters: dict,
+                     solve: Callable) -> dict[str, np.ndarray]:
+    """The coverage columns of a chunk (module docstring). ``columns``: the method's rows of the chunk
+    (``q``, ``success``); ``solve(target, q0)``: the method, for the restarts; ``seed``: the study's."""
+    import pinocchio as pin
+
+    count = len(q0)
+    q, success = columns["q"], columns["success"].astype(bool)
+    found = np.all(np.isfinite(q), axis=1)
+    distance = np.full(count, np.nan)
+    distance[found] = np.linalg.norm(q[found] - q0[found], axis=1)
+    out = {"start_distance": distance, "same_branch": np.full(count, -1), "branch": np.full(count, -1),
+           "branches_in_limits": np.full(count, -1), "restart_solved": np.full(count, -1),
+           "restart_branches": np.full(count, -1), "restart_others": np.full(count, -1)}
+    form = closed_form_of(chain)
+    if isinstance(form, str) or rotations is None:
+        return out
+    revolute = ~chain.is_prismatic
+    tolerance = parameters["branch_tolerance"]
+    nearest = form.solver.solve_many([pin.SE3(r, p) for p, r in zip(positions, rotations, strict=True)], q0)
+    every = [in_limit_branches(branches, chain) for branches in form.branches(positions, rotations)]
+    for i in range(count):
+        out["branches_in_limits"][i] = len(every[i])
+        if success[i]:
+            out["branch"][i] = branch_index(q[i], every[i], revolute, tolerance)
+            if nearest[i].success:
+                out["same_branch"][i] = int(joint_distance(q[i], nearest[i].q, revolute) <= tolerance)
+        pose = first_pose + i
+        if pose < parameters["restart_targets"] and parameters["restarts"] > 0:
+            target = pin.SE3(rotations[i], positions[i])
+            answers = [solve(target, start) for start in
+                       restart_starts(chain, seed, pose, parameters["restarts"])]
+            solved = [answer.q for answer in answers if answer.success]
+            out["restart_solved"][i] = len(solved)
+            out["restart_branches"][i], out["restart_others"][i] = distinct_solutions(
+                solved, every[i], revolute, tolerance)
+    return out
+
+
+def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolute: np.ndarray,
+                       tolerance: float) -> tuple[int, int]:
+    """(how many distinct closed-form branches ``solutions`` equal, how many distinct solutions among
+    them equal no branch), equality within ``tolerance`` on every joint (revolute modulo 2 pi)."""
+    matched: set[int] = set()
+    others: list[np.ndarray] = []
+    for q in solutions:
+        index = branch_index(q, branches, revolute, tolerance)
+        if index >= 0:
+            matched.add(index)
+        elif not any(joint_distance(q, other, revolute) <= tolerance for other in others):
+            others.append(q)
+    return len(matched), len(others)
+
+
+# -- the report ------------------------------------------------------------------------------------------
+def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
+    """One method's coverage figures from its rows (NaN where a figure has no samples)."""
+    solved = rows["success"].astype(bool)
+    distance = rows["start_distance"][solved]
+    distance = distance[np.isfinite(distance)]
+    compared = rows["same_branch"] >= 0
+    sampled = rows["restart_branches"] >= 0
+    available = rows["branches_in_limits"][sampled]
+    reached = rows["restart_branches"][sampled]
+
+    def share(part, whole) -> float:
+        return 100.0 * part / whole if whole else math.nan
+
+    return {
+        "solved": int(solved.sum()),
+        "compared": int(compared.sum()),
+        "same_branch": int(np.sum(rows["same_branch"] == 1)),
+        "percent_same_branch": share(int(np.sum(rows["same_branch"] == 1)), int(compared.sum())),
+        "percent_on_a_branch": share(int(np.sum(rows["branch"][solved] >= 0)), int(solved.sum()))
+        if np.any(rows["branches_in_limits"] >= 0) else math.nan,
+        "restart_targets": int(sampled.sum()),
+        "restart_solved_mean": float(np.mean(rows["restart_solved"][sampled])) if sampled.any() else math.nan,
+        "branches_reached_mean": float(np.mean(reached)) if sampled.any() else math.nan,
+        "branches_reached_max": int(np.max(reached)) if sampled.any() else -1,
+        "others_mean": float(np.mean(rows["restart_others"][sampled])) if sampled.any() else math.nan,
+        "branches_available_mean": float(np.mean(available)) if sampled.any() else math.nan,
+        "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
+        if sampled.any() else math.nan,
+        "start_distance_median": float(np.median(distance)) if distance.size else math.nan,
+        "start_distance_p95": float(np.percentile(distance, 95)) if distance.size else math.nan,
+    }
+
+
+def coverage_blocks(summaries: dict[str, dict], parameters: dict, form: str, restarts_run: bool,
+                    histogram: Path | None) -> list[Block]:
+    """The case's coverage section: what was compared, a table per method, the histogram."""
+    blocks = [Block("h3", "Solution coverage and distance from the start")]
+    tolerance = parameters["branch_tolerance"]
+    compared = form.startswith("closed form ")  # a complete closed form (else: why there is none)
+    if compared:
+        blocks.append(Block("p", (
+            f"Against the chain's {form}: 'same branch' is the share of answers (of those where the closed "
+            f"form solves the pose from the same q0) equal to the closed form's branch nearest the start "
+            f"(every joint within {tolerance:g} rad or m, revolute joints modulo 2 pi); 'on a branch' the "
+            f"share of solved answers equal to one of the closed form's branches inside the limits. "
+            + (f"Restarts: the case's first {parameters['restart_targets']} poses solved again from "
+               f"{parameters['restarts']} random starts inside the limits (the same starts for every "
+               f"method); 'branches' counts the distinct closed-form branches the solved restarts "
+               f"equal, 'available' the closed form's branches inside the limits (modulo 2 pi), 'other' the "
+               f"distinct solved restarts equal to no branch (near a singular pose two branches coincide and "
+               f"an answer within the FK check's tolerance may differ from both by more than {tolerance:g})."
+               if restarts_run else "No restarts were asked for (restarts or restart_targets is 0)."))))
+    else:
+        blocks.append(Block("p", f"No comparison with a closed form: {form}. Distance from the start only."))
+    header = ["method", "solved"]
+    if compared:
+        header += ["same branch", "% same branch", "% on a branch", "restart poses", "solved restarts (mean)",
+                   "branches (mean)", "branches (max)", "available (mean)", "% of available reached",
+                   "other (mean)"]
+    header += ["|q - q0| median", "|q - q0| p95"]
+    rows = []
+    for label, s in summaries.items():
+        row = [label, s["solved"]]
+        if compared:
+            most = s["branches_reached_max"]
+            row += [f"{s['same_branch']}/{s['compared']}", fmt(s["percent_same_branch"]),
+                    fmt(s["percent_on_a_branch"]), s["restart_targets"], fmt(s["restart_solved_mean"]),
+                    fmt(s["branches_reached_mean"]), most if most >= 0 else "-",
+                    fmt(s["branches_available_mean"]), fmt(s["percent_branches_reached"]),
+                    fmt(s["others_mean"])]
+        rows.append([*row, fmt(s["start_distance_median"]), fmt(s["start_distance_p95"])])
+    blocks.append(Block("table", header=header, rows=rows))
+    blocks.append(Block("p", "|q - q0|: Euclidean norm over the joints of a solved answer's joints minus "
+                             "the start (rad, and m for prismatic joints; no wrap: the motion asked of the "
+                             "robot)."))
+    if histogram is not None:
+        blocks.append(Block("image", "Joint distance from the start (solved answers)", path=histogram))
+    return blocks
+
+
+def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path | None:
+    """Step histograms of |q - q0| of every method's solved answers (one figure, shared bins)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from wbik.files import atomic_write_bytes
+
+    values = {}
+    for label, rows in rows_by_method.items():
+        solved = rows["start_distance"][rows["success"].astype(bool)]
+        values[label] = solved[np.isfinite(solved)]
+    everything = np.concatenate([v for v in values.values()]) if values else np.zeros(0)
+    if everything.size == 0:
+        return None
+    figure, axes = plt.subplots(figsize=(7.0, 4.0))
+    bins = np.linspace(0.0, float(everything.max()) * 1.0001 + 1e-12, 40)
+    for label, v in values.items():
+        if v.size:
+            axes.hist(v, bins=bins, histtype="step", linewidth=1.4, label=label)
+    axes.set_xlabel("|q - q0| (rad)")
+    axes.set_ylabel("solved answers")
+    axes.set_title(f"{title}: joint distance from the start")
+    axes.legend(fontsize=8)
+
+    def write(handle) -> None:
+        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, write)
+    plt.close(figure)
+    return path

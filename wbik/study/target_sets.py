@@ -1,0 +1,262 @@
+"""Target sets: chain targets drawn by a stated method, chosen per case in a study file, and the
+case kind ``uniform`` (today's targets, with the solution coverage of the target sets).
+
+A case names its set with ``targets:`` (``targets: near_limits``, or a mapping with ``set:`` and the
+set's parameters: ``targets: {set: near_singularities, sigma_max: 1.0e-3}``); ``target: NAME`` alone
+is the set at its defaults. Each set is a case kind (:class:`TargetSetKind`, a
+:class:`~wbik.study.chain_targets.ChainTargets` of full poses) declared in its own module and
+registered in :data:`wbik.study.case_kinds.CASE_KIND_MODULES`: ``uniform`` here, ``near_limits``,
+``near_singularities``, ``reach_boundary`` and ``unreachable`` in modules of those names. A set:
+
+- checks its parameters (:mod:`wbik.study.target_parameters`) and fills in their defaults, so the
+  case's definition (and its fingerprint) holds every value the targets depend on;
+- draws the joints of its targets (:meth:`TargetSetKind.draw`) from the study's seed, target i from
+  its own stream ``default_rng([seed, stream, i])`` (target i does not depend on how many are
+  drawn), with what it measured on each (``extras``) and about the drawing (``facts``), all saved in
+  the case's ``poses.npz`` (:class:`DrawnTargets`): a run resumes on the same targets;
+- adds the solution coverage of :mod:`wbik.study.solution_coverage` to the rows of every method
+  (reachable sets), and to the report a section on how the targets were drawn and one on coverage.
+"""
+
+from __future__ import annotations
+
+import json
+import zlib
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import fields
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.files import atomic_write_bytes
+from wbik.study import results as store
+from wbik.study.blocks import Block
+from wbik.study.chain_targets import ChainChunkTask
+from wbik.study.chain_targets import ChainTargets
+from wbik.study.context import _frozen
+from wbik.study.context import case_chain
+from wbik.study.sampling import PoseSet
+from wbik.study.sampling import poses_of_joints
+from wbik.study.sampling import sample_joints
+from wbik.study.solution_coverage import COVERAGE_PARAMETERS
+from wbik.study.solution_coverage import closed_form_of
+from wbik.study.solution_coverage import coverage_blocks
+from wbik.study.solution_coverage import coverage_columns
+from wbik.study.solution_coverage import coverage_summary
+from wbik.study.solution_coverage import distance_histogram
+from wbik.study.target_parameters import Parameter
+from wbik.study.target_parameters import checked_parameters
+from wbik.study.target_parameters import defaults
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from wbik.robot import Chain
+    from wbik.study.definition import CaseSpec
+    from wbik.study.definition import MethodSpec
+    from wbik.study.definition import Study
+
+
+@dataclass
+class Drawing:
+    """What a target set drew: the joints of its targets (count, n; NaN rows for targets no
+    configuration reaches), per-target measurements (``extras``, arrays of length count) and facts
+    about the drawing for the report (plain data)."""
+
+    q_true: np.ndarray
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    facts: dict = field(default_factory=dict)
+
+
+@dataclass
+class DrawnTargets(PoseSet):
+    """A :class:`~wbik.study.sampling.PoseSet` with the drawing's extras and facts, saved beside the
+    poses (``drawn_<name>`` arrays and ``drawn_facts``, JSON); the runner reads the poses back."""
+
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+    facts: dict = field(default_factory=dict)
+
+    def save(self, path: Path) -> None:
+        arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
+        if self.rotations is not None:
+            arrays["rotations"] = self.rotations
+        arrays.update({f"drawn_{name}": np.asarray(value) for name, value in self.extras.items()})
+        arrays["drawn_facts"] = np.array(json.dumps(self.facts, sort_keys=True, default=_plain))
+        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
+
+
+def _plain(value):
+    """JSON form of numpy scalars and arrays."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    return str(value)
+
+
+def read_drawing(path: Path) -> tuple[dict[str, np.ndarray], dict]:
+    """(extras, facts) saved with a case's poses ({}, {} for poses of another kind)."""
+    if not path.is_file():
+        return {}, {}
+    with np.load(path, allow_pickle=False) as data:
+        extras = {key[len("drawn_"):]: data[key] for key in data.files
+                  if key.startswith("drawn_") and key != "drawn_facts"}
+        facts = json.loads(str(data["drawn_facts"])) if "drawn_facts" in data.files else {}
+    return extras, facts
+
+
+def target_stream(seed: int, name: str, index: int) -> np.random.Generator:
+    """The random stream of target ``index`` of the set ``name``:
+    ``default_rng([seed, crc32(name), index])``."""
+    return np.random.default_rng([seed, zlib.crc32(name.encode()), index])
+
+
+@dataclass(frozen=True)
+class TargetSetChunkTask(ChainChunkTask):
+    """A chunk of a target set's targets: the chain chunk and the set's parameters."""
+
+    parameters: tuple = ()
+    study_seed: int = 0
+
+
+class TargetSetKind(ChainTargets):
+    """A target set of full poses, as a case kind (module docstring). A set implements
+    :meth:`draw` and :meth:`drawn_from`, declares its ``parameters`` (the coverage's are added for a
+    reachable set) and may add report blocks (:meth:`drawing_blocks`)."""
+
+    parameters: dict[str, Parameter] = {}
+    """The set's own parameters (a case's ``targets:`` keys besides ``set``)."""
+    reachable = True
+    """Whether every target is FK of joints inside the limits (then its rows get solution coverage)."""
+
+    def __init__(self, name: str, target: str = "pose"):
+        super().__init__(name, target)
+        self.target_set = name
+
+    @property
+    def all_parameters(self) -> dict[str, Parameter]:
+        """The set's parameters and, for a reachable set, the coverage's."""
+        return {**self.parameters, **(COVERAGE_PARAMETERS if self.reachable else {})}
+
+    # -- the study file ----------------------------------------------------------------------------
+    def entry(self, item: dict, source: str, where: str) -> dict:
+        return {**item, "targets": checked_parameters(self.target_set, self.all_parameters,
+                                                      item.get("targets"), source, where)}
+
+    def parameters_of(self, case: CaseSpec) -> dict:
+        """The case's parameters (its ``targets:``, completed when it was read), else the defaults."""
+        return dict(case.targets) if case.targets else defaults(self.target_set, self.all_parameters)
+
+    # -- drawing -----------------------------------------------------------------------------------
+    def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
+        """The joints of ``count`` targets, with their measurements and the drawing's facts."""
+        raise NotImplementedError
+
+    def drawn_from(self, parameters: dict) -> str:
+        """How the targets are drawn, for the report's words (the parameters' values said)."""
+        return self.sampled_from
+
+    def sampling_text(self, case: CaseSpec) -> str:
+        return self.drawn_from(self.parameters_of(case))
+
+    def sample(self, study: Study, case: CaseSpec) -> PoseSet:
+        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        parameters = self.parameters_of(case)
+        drawing = self.draw(chain, study.poses_of(case), study.seed, parameters)
+        return self.drawn_targets(chain, drawing, study, parameters)
+
+    def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
+        """The targets FK of the drawing's joints reaches, with the study's starts."""
+        poses = poses_of_joints(chain, drawing.q_true, study.seed, self.target, study.start)
+        return DrawnTargets(poses.q_true, poses.positions, poses.rotations, poses.q0, drawing.extras,
+                            {"parameters": parameters, "seed": study.seed, **drawing.facts})
+
+    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+             start: int, stop: int) -> TargetSetChunkTask:
+        base = super().task(study, case, method, poses, chunk, start, stop)
+        return TargetSetChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
+                                  parameters=_frozen(self.parameters_of(case)), study_seed=study.seed)
+
+    # -- in the worker -----------------------------------------------------------------------------
+    def solve(self, task: TargetSetChunkTask) -> dict[str, np.ndarray]:
+        """The chain rows, and for a reachable set the solution coverage's columns."""
+        columns = super().solve(task)
+        if not self.reachable:
+            return columns
+        chain = case_chain(task.robot, task.robot_params, task.chain, task.base, task.tip)
+        solver = None
+
+        def solve(target, q0):
+            nonlocal solver
+            if solver is None:
+                solver = self.build(task)
+            return solver.solve(target, q0)
+
+        columns.update(coverage_columns(chain, columns, task.q0, task.positions, task.rotations,
+                                        task.first_pose, task.study_seed, dict(task.parameters), solve))
+        return columns
+
+    # -- the report --------------------------------------------------------------------------------
+    def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        analysis = super().analyse(study, case, output)
+        directory = store.case_dir(output, case.name)
+        extras, facts = read_drawing(directory / "poses.npz")
+        analysis.update(parameters=self.parameters_of(case), extras=extras, facts=facts)
+        if self.reachable and analysis["rows"]:
+            form = closed_form_of(analysis["chain"])
+            analysis["coverage_form"] = (form if isinstance(form, str)
+                                         else f"closed form {form.family} (complete: every branch)")
+            analysis["coverage"] = {label: coverage_summary(rows) for label, rows in analysis["rows"].items()
+                                    if "start_distance" in rows}
+            _write_rows_csv(directory / "coverage.csv", analysis["coverage"])
+            analysis["images"]["start_distance"] = distance_histogram(
+                analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
+                directory / "figures" / "start_distance.png")
+        return analysis
+
+    def drawing_blocks(self, analysis: dict) -> list[Block]:
+        """The report's paragraphs and tables on how the case's targets were drawn."""
+        return []
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        blocks = super().blocks(study, analysis)
+        drawn = self.drawing_blocks(analysis)
+        if drawn:
+            blocks[2:2] = [Block("h3", "How the targets were drawn"), *drawn]
+        if analysis.get("coverage"):
+            parameters = analysis["parameters"]
+            blocks.extend(coverage_blocks(analysis["coverage"], parameters, analysis["coverage_form"],
+                                          parameters["restarts"] > 0 and parameters["restart_targets"] > 0,
+                                          analysis["images"].get("start_distance")))
+        return blocks
+
+
+def _write_rows_csv(path: Path, table: dict[str, dict]) -> None:
+    """{label: {figure: value}} as a CSV with a row per label."""
+    import csv
+    import io
+
+    from wbik.files import atomic_write_text
+
+    if not table:
+        return
+    keys = list(next(iter(table.values())))
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["method", *keys])
+    writer.writerows([[label, *(repr(values[key]) for key in keys)] for label, values in table.items()])
+    atomic_write_text(path, buffer.getvalue())
+
+
+class UniformTargets(TargetSetKind):
+    """Today's targets, FK of uniform joints inside the limits (the same joints as a ``pose`` case
+    with the same seed), with the solution coverage of the target sets."""
+
+    sampled_from = "FK of uniform random joints inside the limits"
+
+    def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
+        return Drawing(sample_joints(chain, count, seed))
+
+
+CASE_KINDS = (UniformTargets("uniform"),)

@@ -1,0 +1,307 @@
+"""The target set ``unreachable``: full poses no configuration inside the joint limits reaches, each
+with its proof; the report counts false successes, the reasons given and the time to refuse.
+
+Two sources, chosen per target by a coin of weight ``beyond_limits`` (its own stream):
+
+(a) **outside the reach**: a position at distance f R from the reach bound's centre c along a
+    uniform random direction, f uniform in ``reach_factor`` (> 1), with a uniform random rotation.
+    Proof: :mod:`wbik.study.chain_reach`, |p(q) - c| <= R for every q (triangle inequality over the
+    link lengths between consecutive joint origins), so no joint values reach it.
+
+(b) **reachable only outside the limits**: joints uniform inside the limits, then one eligible joint
+    set beyond a limit by delta uniform in ``beyond`` (rad or m; for a revolute joint at most half
+    its gap 2 pi - (u - l), the farthest an angle gets from the range on the circle); the target is
+    FK of those joints. Eligible: prismatic joints and revolute joints with a range shorter than
+    2 pi. Proof, on a chain with a complete closed form (:mod:`wbik.study.closed_form_branches`):
+    every branch of the closed form is computed (each checked by the model's FK), and the target is
+    kept only if (1) the generating joints are one of them (modulo 2 pi), (2) the Jacobian's smallest
+    singular value is at least ``sigma_proof`` at every branch (the solutions are isolated, so the
+    branches are all of them), and (3) every branch is at least ``proof_margin`` outside the limits
+    (revolute joints modulo 2 pi): then no configuration inside the limits reaches the target. A
+    candidate failing a condition is drawn again (at most ``attempts`` per target; then the target
+    comes from (a)). A numerical method proves nothing, so chains without a complete closed form
+    (7-joint arms: their closed forms hold a joint) draw every target from (a), and so do chains
+    with no eligible joint (every range 2 pi or more: every angle has a representative inside).
+
+``q_true`` holds the generating joints of (b) targets and NaN for (a) targets.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from wbik.geometry import TWO_PI
+from wbik.study.blocks import Block
+from wbik.study.blocks import fmt
+from wbik.study.blocks import frequent_reasons
+from wbik.study.chain_reach import reach_bound
+from wbik.study.closed_form_branches import ClosedFormBranches
+from wbik.study.closed_form_branches import branch_excess
+from wbik.study.closed_form_branches import complete_closed_form
+from wbik.study.closed_form_branches import joint_distance
+from wbik.study.near_singularities import sigma_min
+from wbik.study.sampling import start_configurations
+from wbik.study.target_parameters import Parameter
+from wbik.study.target_parameters import integer
+from wbik.study.target_parameters import interval
+from wbik.study.target_parameters import number
+from wbik.study.target_sets import Drawing
+from wbik.study.target_sets import DrawnTargets
+from wbik.study.target_sets import TargetSetKind
+from wbik.study.target_sets import target_stream
+
+if TYPE_CHECKING:
+    from wbik.robot import Chain
+    from wbik.study.definition import Study
+
+OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
+"""The ``source`` of a target: (a) or (b) of the module docstring."""
+GENERATING_BRANCH = 1e-6
+"""How near (rad or m, revolute modulo 2 pi) a branch must be to the generating joints to be them."""
+REJECTIONS = {
+    "missing": "the closed form does not return the generating joints",
+    "singular": "a solution where the Jacobian is (nearly) singular",
+    "inside": "a solution inside the limits, or within the margin of them",
+}
+
+
+def eligible_joints(chain: Chain, beyond_low: float) -> np.ndarray:
+    """Joints that can be set beyond a limit by at least ``beyond_low`` with the angle still outside the
+    range on the circle: prismatic, or revolute with half its gap 2 pi - (u - l) above ``beyond_low``."""
+    gap = TWO_PI - (chain.upper - chain.lower)
+    return np.flatnonzero(chain.is_prismatic | (gap / 2.0 > beyond_low))
+
+
+def uniform_rotation(rng: np.random.Generator) -> np.ndarray:
+    """A rotation matrix uniform on SO(3) (a normalised Gaussian quaternion)."""
+    quaternion = rng.normal(size=4)
+    w, x, y, z = quaternion / np.linalg.norm(quaternion)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def prove_beyond_limits(chain: Chain, form: ClosedFormBranches, q: np.ndarray, position: np.ndarray,
+                        rotation: np.ndarray, parameters: dict) -> tuple[str | None, np.ndarray]:
+    """(None if the pose FK(q) is proved unreachable inside the limits, else the rejection's key of
+    REJECTIONS; the closed form's branches), by the module docstring's conditions (1)-(3)."""
+    branches = form.branches(position[None], rotation[None])[0]
+    revolute = ~chain.is_prismatic
+    if not len(branches) or np.min(joint_distance(branches, q, revolute)) > GENERATING_BRANCH:
+        return "missing", branches
+    if min(sigma_min(chain, branch) for branch in branches) < parameters["sigma_proof"]:
+        return "singular", branches
+    if np.min(branch_excess(branches, chain)) < parameters["proof_margin"]:
+        return "inside", branches
+    return None, branches
+
+
+class Unreachable(TargetSetKind):
+    """Proved unreachable targets (module docstring)."""
+
+    reachable = False
+    parameters = {
+        "beyond_limits": Parameter(0.5, "a number in [0, 1] (the share of targets reachable only outside the "
+                                        "limits, where the chain allows a proof)", number(0.0, 1.0),
+                                   "share of targets of source (b)"),
+        "reach_factor": Parameter((1.05, 1.5), "a pair [a, b] with 1 < a <= b <= 100 (multiples of the reach "
+                                               "bound)", interval(1.0 + 1e-9, 100.0),
+                                  "distance of (a) targets from the centre, in reach bounds"),
+        "beyond": Parameter((0.05, 0.5), "a pair [a, b] with 0 < a <= b <= 3 (rad or m beyond the limit)",
+                            interval(1e-9, 3.0), "how far beyond its limit the (b) joint is set"),
+        "proof_margin": Parameter(1e-3, "a positive number (rad or m)", number(0.0, 1.0, low_open=True),
+                                  "how far outside the limits every branch must be"),
+        "sigma_proof": Parameter(1e-4, "a positive number", number(0.0, 1e3, low_open=True),
+                                 "smallest singular value of the Jacobian required at every branch"),
+        "attempts": Parameter(50, "an integer >= 1 (candidates per target)", integer(1, 100000),
+                              "candidates drawn per (b) target before it comes from (a)"),
+    }
+
+    def drawn_from(self, parameters: dict) -> str:
+        low, high = parameters["reach_factor"]
+        return (f"poses proved unreachable: (a) positions {low:g}-{high:g} times the chain's reach bound "
+                f"from its centre, uniform rotations; (b) FK of joints with one beyond its limit, kept when "
+                f"the complete closed form's branches all lie outside the limits (share "
+                f"{parameters['beyond_limits']:g} where the chain allows it)")
+
+    def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
+        bound = reach_bound(chain)
+        form = complete_closed_form(chain)
+        eligible = eligible_joints(chain, parameters["beyond"][0])
+        why_not = form if isinstance(form, str) else ""
+        if not why_not and not len(eligible):
+            why_not = ("no joint has a range shorter than 2 pi by enough: every angle of every joint has a "
+                       "representative inside the limits")
+        q_true = np.full((count, chain.nq), np.nan)
+        positions, rotations = np.empty((count, 3)), np.empty((count, 3, 3))
+        source = np.full(count, OUTSIDE_REACH)
+        distance = np.full(count, np.nan)
+        excess = np.full(count, np.nan)
+        branch_count = np.full(count, -1)
+        rejections: Counter = Counter()
+        fell_back = 0
+        for i in range(count):
+            rng = target_stream(seed, self.target_set, i)
+            if not why_not and rng.random() < parameters["beyond_limits"]:
+                found = self._beyond_limits(chain, form, eligible, rng, parameters, rejections)
+                if found is not None:
+                    q_true[i], positions[i], rotations[i], branches = found
+                    source[i] = BEYOND_LIMITS
+                    excess[i] = float(np.min(branch_excess(branches, chain)))
+                    branch_count[i] = len(branches)
+                    continue
+                fell_back += 1
+            direction = rng.normal(size=3)
+            direction /= np.linalg.norm(direction)
+            factor = rng.uniform(*parameters["reach_factor"])
+            positions[i] = bound.centre + factor * bound.radius * direction
+            rotations[i] = uniform_rotation(rng)
+            distance[i] = factor
+        facts = {
+            "reach_radius": bound.radius, "reach_centre": bound.centre.tolist(),
+            "reach_lengths": list(bound.lengths),
+            "closed_form": form.family if isinstance(form, ClosedFormBranches) else None,
+            "beyond_limits_impossible": why_not,
+            "eligible": [chain.joint_names[j] for j in eligible],
+            "rejections": {REJECTIONS[key]: count for key, count in rejections.items()},
+            "fell_back": fell_back,
+            "proved": {"reach bound (triangle inequality)": int(np.sum(source == OUTSIDE_REACH))},
+        }
+        if isinstance(form, ClosedFormBranches):
+            facts["proved"][f"closed form {form.family} (every branch outside the limits)"] = int(
+                np.sum(source == BEYOND_LIMITS))
+        extras = {"source": source, "reach_factor": distance, "branch_excess": excess,
+                  "branches": branch_count, "positions": positions, "rotations": rotations}
+        return Drawing(q_true, extras, facts)
+
+    def _beyond_limits(self, chain: Chain, form: ClosedFormBranches, eligible: np.ndarray,
+                       rng: np.random.Generator, parameters: dict, rejections: Counter):
+        """(q, position, rotation, branches) of a proved (b) target, or None after ``attempts``."""
+        low, high = parameters["beyond"]
+        gap = TWO_PI - (chain.upper - chain.lower)
+        for _ in range(parameters["attempts"]):
+            q = rng.uniform(chain.lower, chain.upper)
+            joint = int(rng.choice(eligible))
+            top = high if chain.is_prismatic[joint] else min(high, gap[joint] / 2.0)
+            delta = rng.uniform(low, top)
+            q[joint] = chain.upper[joint] + delta if rng.random() < 0.5 else chain.lower[joint] - delta
+            placement = chain.fk(q)
+            rejection, branches = prove_beyond_limits(chain, form, q, placement.translation,
+                                                      placement.rotation, parameters)
+            if rejection is None:
+                return q, placement.translation, placement.rotation, branches
+            rejections[rejection] += 1
+        return None
+
+    def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
+        extras = dict(drawing.extras)
+        positions, rotations = extras.pop("positions"), extras.pop("rotations")
+        count = len(positions)
+        return DrawnTargets(drawing.q_true, positions, rotations,
+                            start_configurations(chain, count, study.seed, study.start), extras,
+                            {"parameters": parameters, "seed": study.seed, **drawing.facts})
+
+    # -- the report --------------------------------------------------------------------------------
+    def drawing_blocks(self, analysis: dict) -> list[Block]:
+        facts = analysis["facts"]
+        if not facts:
+            return []
+        lengths = " + ".join(f"{value:.4g}" for value in facts["reach_lengths"])
+        text = (f"Reach bound: |p - c| <= R = {lengths} = {facts['reach_radius']:.4g} m from c = "
+                f"({', '.join(f'{v:.4g}' for v in facts['reach_centre'])}) m (the sum of the link lengths "
+                f"between consecutive joint origins; triangle inequality, wbik.study.chain_reach).")
+        if facts["beyond_limits_impossible"]:
+            text += f" No target reachable only outside the limits: {facts['beyond_limits_impossible']}."
+        else:
+            rejected = "; ".join(f"{why}: {count}" for why, count in facts["rejections"].items()) or "none"
+            text += (f" Targets beyond the limits: joints eligible {', '.join(facts['eligible'])}; "
+                     f"candidates rejected: {rejected}"
+                     + (f"; {facts['fell_back']} targets drawn from (a) after every candidate was rejected"
+                        if facts["fell_back"] else "") + ".")
+        rows = [[method, count] for method, count in facts["proved"].items()
+                if count or not facts["beyond_limits_impossible"]]
+        return [Block("p", text), Block("table", header=["proved unreachable by", "targets"], rows=rows)]
+
+    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+        blocks = super().blocks(study, analysis)
+        refusals = refusal_blocks(analysis)
+        at = next((i for i, block in enumerate(blocks) if block.text == "Poses solved and time"), len(blocks))
+        blocks[at:at] = refusals
+        return blocks
+
+
+def refusal_summary(rows: dict[str, np.ndarray], source: np.ndarray | None) -> dict[str, float]:
+    """False successes, refusals and the time to refuse (ms, all calls) of one method's rows on
+    unreachable targets, overall and per source."""
+    success = rows["success"].astype(bool)
+    times = rows["time_s"] * 1e3
+
+    def statistic(mask, which):
+        values = times[mask]
+        values = values[np.isfinite(values)]
+        if not values.size:
+            return float("nan")
+        return float(np.median(values)) if which == "median" else float(np.percentile(values, 95))
+
+    everything = np.ones(len(success), dtype=bool)
+    summary = {"targets": int(len(success)), "false_successes": int(success.sum()),
+               "refused": int((~success).sum()),
+               "time_median_ms": statistic(everything, "median"), "time_p95_ms": statistic(everything, "p95")}
+    if source is not None and len(source) == len(success):
+        for name, code in (("a", OUTSIDE_REACH), ("b", BEYOND_LIMITS)):
+            summary[f"time_median_ms_{name}"] = statistic(source == code, "median")
+    return summary
+
+
+MOST_REASONS = 4
+"""Reasons shown per method in the unreachable targets' section; the rest are counted together."""
+
+
+def grouped_reasons(rows_by_method: dict) -> list[list]:
+    """[method, reason, targets]: each method's MOST_REASONS most frequent reasons (numbers replaced by
+    #), then one row counting the other reasons and how many kinds they are."""
+    every = max(len(rows["reason"]) for rows in rows_by_method.values())  # as many kinds as there can be
+    by_method: dict[str, list] = {}
+    for method, reason, count in frequent_reasons(rows_by_method, most=every):
+        by_method.setdefault(method, []).append([method, reason, count])
+    table = []
+    for method, rows in by_method.items():
+        table.extend(rows[:MOST_REASONS])
+        rest = rows[MOST_REASONS:]
+        if rest:
+            kinds = f"{len(rest)} kind{'s' if len(rest) > 1 else ''}"
+            table.append([method, f"other reasons ({kinds})", sum(row[2] for row in rest)])
+    return table
+
+
+def refusal_blocks(analysis: dict) -> list[Block]:
+    """The unreachable targets' section: false successes, time to refuse, the reasons given."""
+    rows_by_method = analysis["rows"]
+    if not rows_by_method:
+        return []
+    source = analysis["extras"].get("source")
+    pose_source = source[rows_by_method[next(iter(rows_by_method))]["pose"]] if source is not None else None
+    summaries = {label: refusal_summary(rows, pose_source) for label, rows in rows_by_method.items()}
+    analysis["refusals"] = summaries
+    counts = ", ".join(f"{int(np.sum(source == code))} {name}" for name, code in
+                       (("outside the reach (a)", OUTSIDE_REACH), ("beyond the limits (b)", BEYOND_LIMITS))) \
+        if source is not None else ""
+    table = [[label, s["targets"], s["false_successes"], s["refused"], fmt(s["time_median_ms"]),
+              fmt(s["time_p95_ms"]), fmt(s.get("time_median_ms_a")), fmt(s.get("time_median_ms_b"))]
+             for label, s in summaries.items()]
+    reasons = grouped_reasons(rows_by_method)
+    return [Block("h3", "Unreachable targets: false successes, time to refuse, reasons"),
+            Block("p", f"Every target is proved unreachable inside the limits ({counts}). A false success is "
+                       "a method's answer that passes the shared FK check on such a target (none can, unless "
+                       "a proof is wrong). Time to refuse: per call, every call (ms)."),
+            Block("table", header=["method", "targets", "false successes", "refused", "median ms",
+                                   "p95 ms", "median ms (a)", "median ms (b)"], rows=table),
+            Block("p", f"Reasons given (numbers replaced by #; the {MOST_REASONS} most frequent per method, "
+                       "then the others together):"),
+            Block("table", header=["method", "reason", "targets"], rows=reasons)]
+
+
+CASE_KINDS = (Unreachable("unreachable"),)
