@@ -67,14 +67,12 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.analytic import BRANCH_MERGE
+from wbik.solvers.analytic import checked_branches
 from wbik.solvers.analytic import wrap_into_limits
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
 from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
@@ -411,15 +409,7 @@ class IKGeoSolver(Solver):
         elapsed = time.perf_counter() - start
         if len(q_all) == 0:
             return []
-        wrapped, in_limits = wrap_into_limits(q_all, self.chain.nominal[None], self.chain.lower,
-                                              self.chain.upper, self.revolute)
-        results: list[IKResult] = []
-        for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
-            result = evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
-            if result.success and not any(joint_gap(result.q, other.q, self.revolute) < BRANCH_MERGE
-                                          for other in results):
-                results.append(result)
-        return results
+        return checked_branches(self, target, q_all, self.revolute, elapsed)
 
 
 IK_METHODS = (

@@ -399,6 +399,22 @@ def no_solution_reason(real: bool, in_limits: bool) -> str:
     return "unreachable: no closed-form branch inside the joint limits reaches the target"
 
 
+def checked_branches(solver: Solver, target: Target, q_all: np.ndarray, revolute: np.ndarray,
+                     elapsed: float) -> list[IKResult]:
+    """``solve_all``'s answer from a closed form's raw branches (K, n) of one target: each wrapped into
+    the limits nearest the chain's nominal configuration, those inside held to the shared check, and
+    the passing ones kept unless within BRANCH_MERGE of one kept before (the same solution twice)."""
+    chain = solver.chain
+    wrapped, in_limits = wrap_into_limits(q_all, chain.nominal[None], chain.lower, chain.upper, revolute)
+    results: list[IKResult] = []
+    for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
+        result = evaluate(chain, target, Candidate(q, 1), solver.tolerances, elapsed, solver.name)
+        if result.success and not any(joint_gap(result.q, other.q, revolute) < BRANCH_MERGE
+                                      for other in results):
+            results.append(result)
+    return results
+
+
 class Choice(NamedTuple):
     """What the vectorised choice knows per target: the joints ``q`` (B, n) where ``found`` (B,), the
     masks ``real`` and ``usable`` (real, in the limits, finite) over the branches (B, K) for the
