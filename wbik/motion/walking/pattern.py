@@ -28,6 +28,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.footsteps import Footstep
@@ -151,25 +152,26 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     ticks = np.zeros(longest)
     cpu = np.zeros(longest)
     count = longest
-    for k in range(longest):
-        tick, tick_cpu = time.perf_counter(), time.thread_time()
-        t = k * dt
-        com[k, :2], velocity[k, :2], acceleration[k, :2] = state.x
-        if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
-                and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
-            count = k + 1
-        phase = phase_at(phases, t)
-        poses = _feet_at(phase, t, clearance)
-        for side in SIDES:
-            feet_poses[side].append(poses[side])
-        support.append(tuple(feet.frame(side) for side in phase.stance))
-        swing.append(phase.swing.side if phase.swing is not None else None)
-        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
-        index[k] = phases.index(phase)
-        state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
-        ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
-        if count == k + 1:
-            break
+    with without_cyclic_gc():  # a control loop: no collector pause inside a tick
+        for k in range(longest):
+            tick, tick_cpu = time.perf_counter(), time.thread_time()
+            t = k * dt
+            com[k, :2], velocity[k, :2], acceleration[k, :2] = state.x
+            if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
+                    and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
+                count = k + 1
+            phase = phase_at(phases, t)
+            poses = _feet_at(phase, t, clearance)
+            for side in SIDES:
+                feet_poses[side].append(poses[side])
+            support.append(tuple(feet.frame(side) for side in phase.stance))
+            swing.append(phase.swing.side if phase.swing is not None else None)
+            yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+            index[k] = phases.index(phase)
+            state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
+            ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
+            if count == k + 1:
+                break
     com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
     yaw, index, ticks, cpu = yaw[:count], index[:count], ticks[:count], cpu[:count]
     com[:, 2] = ground_z + height

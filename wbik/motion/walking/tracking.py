@@ -41,6 +41,7 @@ import pinocchio as pin
 
 from wbik.errors import NoQPSolutionError
 from wbik.errors import UnsupportedError
+from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.pattern import SETTLE_MAX_S
@@ -253,14 +254,15 @@ def track(robot: Robot, pattern: WalkPattern, q0: np.ndarray, settings: Tracking
     tracker = Tracker(robot, pattern.feet, q0, settings, backend)
     q = np.asarray(q0, dtype=float).copy()
     rows, times, cpu, failed = [q.copy()], np.zeros(pattern.ticks), np.zeros(pattern.ticks), []
-    for k in range(1, pattern.ticks):
-        tick, tick_cpu = time.perf_counter(), time.thread_time()
-        try:
-            q = tracker.step(q, pattern, k)
-        except NoQPSolutionError:
-            failed.append(k)
-        times[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
-        rows.append(q.copy())
+    with without_cyclic_gc():  # a control loop: no collector pause inside a tick
+        for k in range(1, pattern.ticks):
+            tick, tick_cpu = time.perf_counter(), time.thread_time()
+            try:
+                q = tracker.step(q, pattern, k)
+            except NoQPSolutionError:
+                failed.append(k)
+            times[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
+            rows.append(q.copy())
     pairs = 0 if tracker.collision_model is None else len(tracker.collision_model.pairs)
     return WalkMotion(pattern, np.array(rows), times, failed, pairs, {"trunk": tracker.trunk}, cpu)
 
