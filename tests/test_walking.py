@@ -305,3 +305,23 @@ def test_no_garbage_collection_runs_inside_a_control_tick(bioloid, monkeypatch):
         assert not gc.isenabled()  # a caller's own choice is kept
     finally:
         gc.enable()
+
+
+def test_a_robot_without_package_shapes_gets_its_legs_kept_apart_from_the_task_file():
+    """Talos from example-robot-data lists no collision primitives; the walk file's leg capsules give
+    the tracking QP its left-right leg pairs."""
+    import yaml
+
+    from wbik.data import shipped_tasks
+    from wbik.motion.walking.scenario import _spec_objects
+    from wbik.motion.walking.tracking import leg_collision_model
+    from wbik.scenario_schema import validate
+
+    spec = validate(yaml.safe_load(shipped_tasks()["talos_walk"].read_text()), "talos_walk.yaml")
+    robot = wbik.load(spec["robot"], **spec["robot_params"])
+    feet, _, _, settings = _spec_objects(spec, robot)
+    assert len(settings.leg_capsules) == 4
+    model = leg_collision_model(robot, feet, settings.leg_capsules)
+    assert len(model.pairs) == 4  # thigh and shin of one leg against thigh and shin of the other
+    assert min(pair.distance for pair in model.distances(robot.nominal)) > 0.04
+    assert leg_collision_model(robot, feet) is None  # without them: no shapes, no pairs

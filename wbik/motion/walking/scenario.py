@@ -34,12 +34,15 @@ import math
 
 import numpy as np
 
+from wbik.collision import capsule
 from wbik.expectations import Rule
 from wbik.expectations import judge
 from wbik.scenario_schema import FRAME
 from wbik.scenario_schema import START
+from wbik.scenario_schema import VECTOR3
 from wbik.scenario_schema import Boolean
 from wbik.scenario_schema import Context
+from wbik.scenario_schema import Either
 from wbik.scenario_schema import Key
 from wbik.scenario_schema import ListOf
 from wbik.scenario_schema import Map
@@ -99,7 +102,10 @@ def _spec_objects(spec: dict, robot):
     feet_spec = spec["feet"] or {}
     feet = Feet.of(robot, feet_spec.get("left"), feet_spec.get("right"))
     tracking = dict(spec["tracking"])
-    settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]), **tracking)
+    capsules = tuple(capsule(f"leg_capsule_{index}", item["frame"], item["start"], item["end"],
+                             item["radius"]) for index, item in enumerate(spec["leg_capsules"]))
+    settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]), leg_capsules=capsules,
+                                **tracking)
     return feet, Timing(**spec["timing"]), PreviewSettings(**spec["preview"]), settings
 
 
@@ -122,7 +128,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     robot = run.robot
     q0 = start_of(spec, robot)
     feet, _, preview, settings = _spec_objects(spec, robot)
-    collisions = leg_collision_model(robot, feet) if settings.self_collision else None
+    collisions = leg_collision_model(robot, feet, settings.leg_capsules) if settings.self_collision else None
     margin = float(spec["margin"])
     for item in spec["walks"]:
         command = StepCommand(item["steps"], item["length"], item["lateral"], item["turn_deg"], item["first"])
@@ -339,6 +345,11 @@ def walk_schema() -> Map:
                                 nullable=True), None),
                 "trunk": Key(Text(what="a frame name", nullable=True), None),
                 "locked": Key(ListOf(Text(what="a joint name")), []),
+                "leg_capsules": Key(ListOf(Map({"frame": Key(FRAME, required=True),
+                                                "start": Key(Either(FRAME, VECTOR3), required=True),
+                                                "end": Key(Either(FRAME, VECTOR3), required=True),
+                                                "radius": Key(Number(gt=0, unit="m"), required=True)}),
+                                           what="capsules {frame, start, end, radius} on the legs"), []),
                 "dt": Key(Number(gt=0, le=0.1, unit="s"), default_of(walk, "dt")),
                 "timing": Key(Map(from_dataclass(Timing).keys, nullable=True), {}),
                 "clearance": Key(Number(ge=0, unit="m"), default_of(walk, "clearance")),

@@ -79,6 +79,9 @@ class TrackingSettings:
     self_collision: bool = True
     safety_distance: float = 0.003
     velocity_limits: bool = True
+    leg_capsules: tuple = ()
+    """Collision capsules (:class:`wbik.collision.Primitive`) of the legs, for a robot whose package lists
+    no collision primitives (a robot from a URDF path or example-robot-data)."""
 
 
 @dataclass
@@ -118,17 +121,21 @@ def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
     raise UnsupportedError(f"{robot.name!r} has no body on its first joint; name the trunk frame")
 
 
-def leg_collision_model(robot: Robot, feet: Feet):
-    """The collision model of the robot's package restricted to pairs of a left-leg and a right-leg
-    shape (the joints between the floating base and each foot), or None when the package lists no
-    collision primitives."""
+def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
+    """The collision model of the robot's package (or of ``capsules``, the legs' shapes declared for a
+    robot without package primitives) restricted to pairs of a left-leg and a right-leg shape (the
+    joints between the floating base and each foot), or None when there are no shapes."""
     from wbik.collision import CollisionModel
     from wbik.models import robot_entries
 
     entry = robot_entries().get(robot.name)
-    primitives = getattr(entry.module(), "collision_primitives", None) if entry is not None else None
-    if primitives is None:
+    listed = getattr(entry.module(), "collision_primitives", None) if entry is not None else None
+    if listed is None and not capsules:
         return None
+
+    def primitives(robot: Robot) -> list:
+        return [*(listed(robot) if listed is not None else ()), *capsules]
+
     full = CollisionModel(robot.model, primitives(robot), reference=robot.nominal)
     model = robot.model
     legs = {}
@@ -211,7 +218,8 @@ class Tracker:
             self.constraints.append(JointVelocityLimits(robot.model))
         if settings.locked:
             self.constraints.append(LockedJoints(robot.model, list(settings.locked)))
-        self.collision_model = leg_collision_model(robot, feet) if settings.self_collision else None
+        self.collision_model = (leg_collision_model(robot, feet, settings.leg_capsules)
+                                if settings.self_collision else None)
         if self.collision_model is not None and self.collision_model.pairs:
             self.constraints.append(CollisionAvoidance(self.collision_model, settings.safety_distance,
                                                        influence_distance=settings.safety_distance + 0.03))
