@@ -172,6 +172,17 @@ def angles_of(parsed: pin.Model, angles: pin.Model, q: np.ndarray) -> np.ndarray
 _JOINT_BLOCK = re.compile(r"<joint\b([^>]*?)>(.*?)</joint\s*>", re.DOTALL)
 _ATTRIBUTE = re.compile(r"""\b(\w+)\s*=\s*(["'])(.*?)\2""", re.DOTALL)
 _MIMIC = re.compile(r"<mimic\b([^>]*?)/?>", re.DOTALL)
+_COMMENT = re.compile(r"<!--.*?-->", re.DOTALL)
+
+
+def _attributes(tag_text: str) -> dict[str, str]:
+    """The ``name="value"`` attributes of a tag's text."""
+    return {key: value for key, _, value in _ATTRIBUTE.findall(tag_text)}
+
+
+def _uncommented(text: str) -> str:
+    """URDF text without its comments (a tag inside a comment is no tag)."""
+    return _COMMENT.sub("", text)
 
 
 def mimic_joints(text: str) -> dict[str, Mimic]:
@@ -179,14 +190,14 @@ def mimic_joints(text: str) -> dict[str, Mimic]:
 
     Read with regular expressions, as PlaCo's geometry stripping is: URDF readers accept files a strict
     XML parser refuses (e.g. ``--`` inside comments)."""
-    text = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    text = _uncommented(text)
     mimics = {}
     for attributes, body in _JOINT_BLOCK.findall(text):
         found = _MIMIC.search(body)
         if found is None:
             continue
-        own = {key: value for key, _, value in _ATTRIBUTE.findall(attributes)}
-        mimic = {key: value for key, _, value in _ATTRIBUTE.findall(found.group(1))}
+        own = _attributes(attributes)
+        mimic = _attributes(found.group(1))
         if "name" not in own or "joint" not in mimic:
             continue
         try:
@@ -252,11 +263,10 @@ def with_massless_root(text: str) -> str:
     """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a new massless
     root link: KDL's URDF parser (used by TRAC-IK) ignores a root link's inertia and warns about it on
     every parse, and suggests this very change. Kinematics and every other link are unchanged."""
-    uncommented = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
+    uncommented = _uncommented(text)
     children = {match.group(2) for match in _CHILD.finditer(uncommented)}
     for match in _LINK_BLOCK.finditer(uncommented):
-        attributes = {key: value for key, _, value in _ATTRIBUTE.findall(match.group(1))}
-        name = attributes.get("name")
+        name = _attributes(match.group(1)).get("name")
         if name is None or name in children:
             continue
         if "<inertial" not in (match.group(3) or ""):
@@ -312,14 +322,11 @@ def fixed_joints_renamed(text: str) -> str:
     renames their frames: for libraries that read the URDF themselves and look frames up by name alone
     (PlaCo), where the shared name would be ambiguous. Movable joints keep their names (they are set by
     name)."""
-    uncommented = re.sub(r"<!--.*?-->", "", text, flags=re.DOTALL)
-    links = {attributes.get("name") for attributes in
-             ({key: value for key, _, value in _ATTRIBUTE.findall(match.group(1))}
-              for match in _LINK_BLOCK.finditer(uncommented))}
+    links = {_attributes(match.group(1)).get("name") for match in _LINK_BLOCK.finditer(_uncommented(text))}
 
     def one_joint(match: re.Match) -> str:
         attributes = match.group(1)
-        own = {key: value for key, _, value in _ATTRIBUTE.findall(attributes)}
+        own = _attributes(attributes)
         if own.get("type") != "fixed" or own.get("name") not in links:
             return match.group(0)
         renamed = _NAME_ATTRIBUTE.sub(lambda name: f'{name.group(1)}"{name.group(3)}_joint"', attributes,

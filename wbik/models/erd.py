@@ -13,16 +13,19 @@ from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownRobotError
 
 
-def robots_dir() -> Path:
-    """example-robot-data's ``robots/`` folder."""
+def _robots_loader():
+    """example-robot-data's loader module (its paths and its robots' loaders)."""
     try:
-        import example_robot_data
-        from example_robot_data.robots_loader import getModelPath
+        from example_robot_data import robots_loader
     except ImportError as exc:  # pragma: no cover - a pinned dependency
         raise MissingDependencyError(
             "example-robot-data is not installed; run 'bash scripts/setup.sh'") from exc
-    del example_robot_data
-    return Path(getModelPath("ur_description")).resolve()
+    return robots_loader
+
+
+def robots_dir() -> Path:
+    """example-robot-data's ``robots/`` folder."""
+    return Path(_robots_loader().getModelPath("ur_description")).resolve()
 
 
 def urdf_path(relative: str) -> Path:
@@ -53,12 +56,7 @@ def example_robot_name(name: str) -> str | None:
 
 
 def _loaders() -> dict:
-    try:
-        from example_robot_data.robots_loader import ROBOTS
-    except ImportError as exc:  # pragma: no cover - a pinned dependency
-        raise MissingDependencyError(
-            "example-robot-data is not installed; run 'bash scripts/setup.sh'") from exc
-    return ROBOTS
+    return _robots_loader().ROBOTS
 
 
 def example_robot_names() -> list[str]:
