@@ -360,7 +360,8 @@ class Robot:
             if len(self.chains) != 1:
                 hint = (f"{self.name} has several chains: pass chain=..." if self.chains else
                         f"{self.name} is a tree with no chain declared: name one by its base and tip, "
-                        f"robot.chain_between(base, tip) (tips: {', '.join(leaf_frames(self.model)[:8])})")
+                        f"robot.chain_between(base, tip), or --base and --tip on the command line (tips: "
+                        f"{', '.join(leaf_frames(self.model)[:8])})")
                 raise UnknownChainError("(none given)", list(self.chains), hint=hint)
             name = next(iter(self.chains))
         if not isinstance(name, str):
