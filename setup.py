@@ -2,11 +2,8 @@
 top-level data folders as package data under ``wbik/data/``: ``tasks/`` (with ``tasks/data/``), the
 study files ``comparisons/*.yaml`` and the project's robot descriptions ``urdf/``; and it builds the
 optional C extensions of
-:mod:`wbik.compiled` (``wbik._pose_kernel``, the interface's pose arithmetic,
-``wbik.solvers.analytic._ur_kernel``, the UR-type closed form's scalar path,
-``wbik.solvers.analytic._eaik_kernel``, the eaik method's branch order and screen, ``wbik.qp._rows_kernel``,
-the QP step's frame-task rows and quadratic, and ``wbik.solvers._lm_kernel``, bounded_lm's trial step).
-Without a C compiler the build goes on without them and their Python twins run.
+:mod:`wbik.kernels` (``wbik/kernels/_<name>.c``, one per kernel that module lists). Without a C
+compiler the build goes on without them and their Python twins run.
 
 The folders stay at the top level of the repository, where the README documents them;
 :func:`wbik.data.data_dir` finds the packaged copy in an installed wheel and the top-level folder in
@@ -52,28 +49,9 @@ class BuildPyWithData(build_py):
 COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fno-builtin-sin", "-fno-builtin-cos"]
 """The Python twins' bits: no fused multiply-add, no reassociation, and libm's own sin and cos (not a
 merged sincos), as CPython's math module calls them (the C files say why)."""
-POSE_KERNEL = Extension("wbik._pose_kernel", ["wbik/_pose_kernel.c"], depends=["wbik/_kernel_buffers.h"],
-                        extra_compile_args=COMPILE_ARGS, optional=True)
-UR_KERNEL = Extension(
-    "wbik.solvers.analytic._ur_kernel",
-    ["wbik/solvers/analytic/_ur_kernel.c"],
-    depends=["wbik/_kernel_buffers.h"],
-    extra_compile_args=COMPILE_ARGS,
-    libraries=["m"],
-    optional=True,
-)
+KERNELS = ("pose", "ur_type", "eaik", "qp_rows", "lm_trial")
+"""wbik.kernels.KERNELS by name: each is wbik/kernels/_<name>.c, built as wbik.kernels._<name>."""
+EXTENSIONS = [Extension(f"wbik.kernels._{name}", [f"wbik/kernels/_{name}.c"], depends=["wbik/kernels/_buffers.h", "wbik/kernels/_pose_errors.h"],
+                        extra_compile_args=COMPILE_ARGS, libraries=["m"], optional=True) for name in KERNELS]
 
-EAIK_KERNEL = Extension("wbik.solvers.analytic._eaik_kernel", ["wbik/solvers/analytic/_eaik_kernel.c"],
-                        depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
-                        optional=True)
-
-ROWS_KERNEL = Extension("wbik.qp._rows_kernel", ["wbik/qp/_rows_kernel.c"],
-                        depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
-                        optional=True)
-
-LM_KERNEL = Extension("wbik.solvers._lm_kernel", ["wbik/solvers/_lm_kernel.c"],
-                      depends=["wbik/_kernel_buffers.h"], extra_compile_args=COMPILE_ARGS, libraries=["m"],
-                      optional=True)
-
-setup(cmdclass={"build_py": BuildPyWithData},
-      ext_modules=[POSE_KERNEL, UR_KERNEL, EAIK_KERNEL, ROWS_KERNEL, LM_KERNEL])
+setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=EXTENSIONS)

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 import wbik
-from wbik.solvers.analytic import closed_forms
+from wbik.solvers.analytic.solver import closed_forms
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:

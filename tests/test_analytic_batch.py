@@ -15,10 +15,10 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import AnalyticSolver
-from wbik.solvers.analytic import closed_forms
 from wbik.solvers.analytic.batch import batch_targets
 from wbik.solvers.analytic.batch import evaluate_batch
+from wbik.solvers.analytic.solver import AnalyticSolver
+from wbik.solvers.analytic.solver import closed_forms
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import evaluate
 from wbik.targets import Target
@@ -206,7 +206,7 @@ def test_a_closed_form_whose_fk_is_not_the_models_is_refused(monkeypatch):
     not the model's must not be used: 1 um on the UR5's d4 is refused when the form is built."""
     from dataclasses import replace
 
-    import wbik.solvers.analytic as analytic
+    import wbik.solvers.analytic.solver as analytic
     from wbik.errors import RobotDescriptionError
     from wbik.robot_packages.ur5.closed_form import UR5
     from wbik.robot_packages.ur5.closed_form import UR5EndEffector

@@ -13,7 +13,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 
 RHO = math.radians(13.43)  # golem3.md
 

@@ -16,7 +16,7 @@ from wbik.robot_packages.pincher.closed_form import arm_plane_branches
 from wbik.robot_packages.pincher.closed_form import pose_from_position_pitch
 from wbik.robot_packages.pincher.closed_form import position_pitch_branches
 from wbik.robot_packages.pincher.closed_form import tool_fk
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 
 ROUND_TRIP_POSES = 10_000
 

@@ -1,4 +1,4 @@
-"""The compiled kernels of :mod:`wbik.compiled`: built by the set-up where a C compiler exists, switched
+"""The compiled kernels of :mod:`wbik.kernels`: built by the set-up where a C compiler exists, switched
 off by ``WBIK_PURE_PYTHON=1``; the SE3 fast-path test giving the Python test's verdict on every matrix,
 and the shared check's arithmetic the Python twin's bits (the UR kernel's own agreement tests are in
 tests/test_ur_kernel.py)."""
@@ -17,9 +17,9 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 from wbik import targets
-from wbik.compiled import PURE_PYTHON_VARIABLE
-from wbik.compiled import can_build
-from wbik.compiled import pure_python
+from wbik.kernels import PURE_PYTHON_VARIABLE
+from wbik.kernels import can_build
+from wbik.kernels import pure_python
 from wbik.solvers.analytic import ur_kernel
 from wbik.targets import MAX_POSITION
 from wbik.targets import ROTATION_TOLERANCE
@@ -44,11 +44,58 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     from wbik.solvers import levenberg_marquardt
 
     assert (levenberg_marquardt._LM_TRIAL is not None) == HAS_COMPILER
-    assert geometry.error_parts is (geometry._python_error_parts if pure_python() or not HAS_COMPILER
+    assert geometry.error_parts is (geometry._python_error_parts if pure_python("pose") or not HAS_COMPILER
                                     else geometry._compiled_error_parts)
-    expected = targets._python_accepts_plain_se3 if pure_python() or not HAS_COMPILER else \
+    expected = targets._python_accepts_plain_se3 if pure_python("pose") or not HAS_COMPILER else \
         targets._compiled_accepts_plain_se3
     assert targets._accepts_plain_se3 is expected  # WBIK_PURE_PYTHON=1 (a whole-suite run) picks Python
+
+
+def test_every_kernel_is_in_the_kernels_folder_and_listed():
+    """One look finds them all: every C source of wbik is wbik/kernels/_<name>.c, listed in
+    wbik.kernels.KERNELS (and built by setup.py under that name), whose Python twins exist."""
+    import importlib
+    import re
+    from pathlib import Path
+
+    from wbik.kernels import KERNELS
+
+    package = Path(importlib.import_module("wbik").__file__).parent
+    sources = sorted(path.relative_to(package).as_posix() for path in package.rglob("*.c"))
+    names = [kernel.name for kernel in KERNELS]
+    assert sources == sorted(f"kernels/_{name}.c" for name in names)
+    setup = (package.parent / "setup.py").read_text(encoding="utf-8")
+    listed = re.search(r"KERNELS = \(([^)]*)\)", setup).group(1)
+    assert [word.strip().strip('"') for word in listed.split(",")] == names
+    for kernel in KERNELS:
+        assert kernel.extension == f"wbik.kernels._{kernel.name}" and kernel.goal_rows
+        if HAS_COMPILER:
+            importlib.import_module(kernel.extension)
+        for twin in re.findall(r"(wbik(?:\.\w+)+)", kernel.python_twin):
+            parts = twin.split(".")
+            cut = max(i for i in range(1, len(parts) + 1) if _importable(".".join(parts[:i])))
+            found = importlib.import_module(".".join(parts[:cut]))
+            for attribute in parts[cut:]:
+                found = getattr(found, attribute)  # AttributeError: a twin the index names is gone
+
+
+def _importable(module: str) -> bool:
+    import importlib
+
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        return False
+    return True
+
+
+def test_a_kernel_list_switches_those_kernels_only(monkeypatch):
+    monkeypatch.setenv(PURE_PYTHON_VARIABLE, "eaik, lm_trial")
+    assert pure_python("eaik") and pure_python("lm_trial") and not pure_python("pose") and not pure_python()
+    monkeypatch.setenv(PURE_PYTHON_VARIABLE, "1")
+    assert pure_python("pose") and pure_python()
+    monkeypatch.setenv(PURE_PYTHON_VARIABLE, "")
+    assert not pure_python("pose") and not pure_python()
 
 
 def test_pure_python_switch_picks_the_python_twins():

@@ -18,7 +18,7 @@ import wbik
 from wbik.errors import InvalidSettingError
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.solvers.analytic import nearest_branch
+from wbik.solvers.analytic.closed_form import nearest_branch
 from wbik.solvers.analytic.eaik_family import branch_bounds
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import evaluate

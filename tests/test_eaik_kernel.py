@@ -1,25 +1,24 @@
-"""The eaik method's compiled choice (``_eaik_kernel.c``) against its Python twin (``eaik_kernel.py``).
+"""The eaik method's compiled choice (``wbik/kernels/_eaik.c``) against its Python twin
+(``wbik/kernels/eaik.py``).
 
-Both must return the same bits: the same rows in the same order from ``order`` and the same verdict from
-``screen``, on EAIK's branches of FK poses from random starts, starts on the joint limits, branches
-moved onto the limits and onto +-pi and 2 pi wraps, perturbed branches, NaN and infinite joints, and
-the screen at its threshold. ``evaluate_reached`` and ``evaluate``'s ``reached`` give ``evaluate``'s
-IKResult.
+Both must return the same bits: the same rows in the same order from ``order`` and the same choice, pose
+and errors from ``choose``, on EAIK's branches of FK poses from random starts, starts on the joint
+limits, branches moved onto the limits and onto +-pi and 2 pi wraps, perturbed branches, NaN and
+infinite joints, and targets at the screen's threshold. The form's FK is the model's, its errors are
+Pinocchio's to rounding, and ``evaluate_screened`` gives ``evaluate``'s verdict.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import eaik_kernel
+from wbik.kernels import eaik as eaik_kernel
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import evaluate
-from wbik.solvers.base import evaluate_reached
+from wbik.solvers.base import evaluate_screened
 
 pytest.importorskip("eaik")
 pytestmark = pytest.mark.skipif(not eaik_kernel.built(), reason="the C extension is not built here")
@@ -95,22 +94,63 @@ def test_order_is_the_distance_order_inside_the_limits(solver):
         assert np.all(rows >= chain.lower) and np.all(rows <= chain.upper)
 
 
-def test_screen_twins_give_the_same_verdict_at_the_threshold(solver):
+def _chosen(solver, q_all, q0, target):
+    outs = []
+    for choose in (eaik_kernel.choose_python, eaik_kernel.choose_compiled):
+        out = np.full(len(q0) + 24, -7.0)
+        found = choose(solver._params, q_all, q0, target, out)
+        outs.append((found, out))
+    return outs
+
+
+def test_choose_twins_give_the_same_bits(solver):
+    chain = solver.chain
+    found_any = 0
+    for index, (q_all, q0) in enumerate(_cases(solver, 200)):
+        target = chain.fk(q_all[0] if index % 2 and np.all(np.isfinite(q_all[0])) else chain.random(
+            np.random.default_rng(index), 1)[0]).homogeneous
+        (found_python, python), (found_compiled, compiled) = _chosen(solver, q_all, q0, target)
+        assert found_python == found_compiled
+        assert python.tobytes() == compiled.tobytes()
+        found_any += found_compiled
+    assert found_any >= 40  # the found path is exercised, not only the refusals
+
+
+def test_choose_twins_agree_at_the_screens_threshold(solver):
     chain = solver.chain
     rng = np.random.default_rng(8)
-    for q in chain.random(rng, 200):
-        reached = chain.fk(q).homogeneous
+    verdicts = set()
+    for q in chain.random(rng, 100):
+        reached = chain.fk(q)
         for size in (0.0, 3e-8, 9.9e-8, 1e-7, 1.01e-7, 3e-7):
             for motion in (np.r_[rng.normal(size=3), 0, 0, 0], np.r_[0, 0, 0, rng.normal(size=3)]):
                 step = motion / np.linalg.norm(motion) * size
-                target = pin.SE3(reached) * pin.exp6(pin.Motion(step))
-                position, rotation = target.translation.copy(), target.rotation.copy()
-                verdicts = {screen(reached, position, rotation, 1e-7)
-                            for screen in (eaik_kernel.screen_python, eaik_kernel.screen_compiled)}
-                assert len(verdicts) == 1
+                target = (reached * pin.exp6(pin.Motion(step))).homogeneous
+                (found_python, python), (found_compiled, compiled) = _chosen(solver, q[None], q, target)
+                assert found_python == found_compiled and python.tobytes() == compiled.tobytes()
+                verdicts.add((size, found_compiled))
+    assert (0.0, 1) in verdicts and (3e-7, 0) in verdicts  # both sides of the threshold are reached
     nan = np.full((4, 4), np.nan)
-    assert eaik_kernel.screen_compiled(nan, np.zeros(3), np.eye(3), 1e-7) is False
-    assert eaik_kernel.screen_python(nan, np.zeros(3), np.eye(3), 1e-7) is False
+    q = chain.nominal
+    assert _chosen(solver, q[None], q, nan)[1][0] == 0 == _chosen(solver, q[None], q, nan)[0][0]
+
+
+def test_the_forms_fk_and_errors_are_the_models(solver):
+    """choose's pose is the model's FK to rounding, and its errors are evaluate's (Pinocchio's log3)."""
+    chain = solver.chain
+    rng = np.random.default_rng(4)
+    for q in chain.random(rng, 100):
+        target = wbik.targets.as_target(chain.fk(q) * pin.exp6(pin.Motion(rng.normal(0, 2e-8, 6))))
+        out = np.empty(chain.nq + 24)
+        assert eaik_kernel.choose_compiled(solver._params, q[None], q, target.rotation.base, out) == 1
+        np.testing.assert_allclose(out[chain.nq:chain.nq + 16].reshape(4, 4), chain.fk(q).homogeneous,
+                                   rtol=0, atol=1e-14)
+        reference = evaluate(chain, target, Candidate(q, 1), solver.tolerances, 0.0, "eaik")
+        errors = out[chain.nq + 16:]
+        np.testing.assert_allclose(errors[:3], reference.position_error_xyz, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(errors[3:6], reference.rotation_error_xyz, rtol=1e-7, atol=1e-15)
+        np.testing.assert_allclose(errors[6:], [reference.position_error, reference.rotation_error],
+                                   rtol=1e-7, atol=1e-15)
 
 
 def test_kernel_refuses_wrong_arguments(solver):
@@ -121,46 +161,49 @@ def test_kernel_refuses_wrong_arguments(solver):
         eaik_kernel.order_compiled(np.zeros(2 + 2 * n), np.zeros((8, n)), np.zeros(n), np.zeros((8, n)))
     with pytest.raises(TypeError):
         eaik_kernel.order_compiled(solver._params, np.zeros((8, n + 1)), np.zeros(n), np.zeros((8, n + 1)))
+    with pytest.raises(TypeError):
+        eaik_kernel.choose_compiled(solver._params[:-8], np.zeros((8, n)), np.zeros(n), np.eye(4),
+                                    np.zeros(n + 24))
+    with pytest.raises(TypeError):
+        eaik_kernel.choose_compiled(solver._params, np.zeros((8, n)), np.zeros(n), np.eye(3),
+                                    np.zeros(n + 24))
+    with pytest.raises(TypeError):
+        eaik_kernel.choose_compiled(solver._params, np.zeros((8, n)), np.zeros(n), np.eye(4),
+                                    np.zeros(n + 23))
 
 
-def _same_result(a, b):
-    assert (a.q is None) == (b.q is None)
-    if a.q is not None:
-        assert a.q.tobytes() == b.q.tobytes()
-    assert (a.success, a.reason, a.iterations, a.method, a.extra, a.time_s) == \
-        (b.success, b.reason, b.iterations, b.method, b.extra, b.time_s)
-    for name in ("position_error", "rotation_error"):
-        assert np.float64(getattr(a, name)).tobytes() == np.float64(getattr(b, name)).tobytes()
-    for name in ("position_error_xyz", "rotation_error_xyz"):
-        assert getattr(a, name).tobytes() == getattr(b, name).tobytes()
-
-
-def test_reached_gives_the_shared_checks_result(solver):
-    """evaluate with the placement, and evaluate_reached, give evaluate's IKResult: inside the limits,
-    outside (the FK is then recomputed), failing the tolerances, NaN joints."""
+def test_screened_gives_the_shared_checks_verdict(solver):
+    """evaluate_screened on choose's output gives evaluate's verdict, joints and reason, its errors to
+    rounding: within the tolerances, and failing tight ones (then it is evaluate's result itself)."""
     chain = solver.chain
     rng = np.random.default_rng(2)
     tight = wbik.Tolerances(position=1e-15, rotation=1e-15)
     for q in chain.random(rng, 100):
-        target = wbik.targets.as_target(chain.fk(q) * pin.exp6(pin.Motion(rng.normal(0, 1e-7, 6))))
-        for joints in (q, q + 1e-4, np.where(rng.random(chain.nq) < 0.5, chain.upper + 0.1, q),
-                       np.where(rng.random(chain.nq) < 0.2, np.nan, q)):
-            reached = chain.fk(joints).homogeneous
-            for tolerances in (solver.tolerances, tight):
-                extra = {"branches": 8}
-                plain = evaluate(chain, target, Candidate(joints, 1, extra=extra), tolerances, 1.0, "eaik")
-                placed = evaluate(chain, target, Candidate(joints, 1, extra=extra), tolerances, 1.0, "eaik",
-                                  reached)
-                fast = evaluate_reached(chain, target, joints, reached, extra, tolerances, 1.0, "eaik")
-                _same_result(placed, plain)
-                _same_result(fast, plain)
+        target = wbik.targets.as_target(chain.fk(q) * pin.exp6(pin.Motion(rng.normal(0, 2e-8, 6))))
+        out = np.empty(chain.nq + 24)
+        assert eaik_kernel.choose_compiled(solver._params, q[None], q, target.rotation.base, out) == 1
+        for tolerances in (solver.tolerances, tight):
+            extra = {"branches": 1}
+            plain = evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, 1.0, "eaik")
+            fast = evaluate_screened(chain, target, out, extra, tolerances, 1.0, "eaik")
+            assert (fast.success, fast.reason, fast.iterations, fast.method, fast.extra, fast.time_s) == \
+                (plain.success, plain.reason, plain.iterations, plain.method, plain.extra, plain.time_s)
+            assert fast.q.tobytes() == plain.q.tobytes()
+            np.testing.assert_allclose(fast.rotation_error_xyz, plain.rotation_error_xyz, rtol=1e-7,
+                                       atol=1e-15)
+            np.testing.assert_allclose(fast.position_error_xyz, plain.position_error_xyz, rtol=0,
+                                       atol=1e-15)
 
 
-def test_solver_runs_the_python_twin_when_asked(monkeypatch):
-    monkeypatch.setenv("WBIK_PURE_PYTHON", "1")
+@pytest.mark.parametrize("setting", ["1", "eaik", "pose,eaik"])
+def test_solver_runs_the_python_twin_when_asked(monkeypatch, setting):
+    monkeypatch.setenv("WBIK_PURE_PYTHON", setting)
     solver = wbik.solver("eaik", wbik.load("ur5"), "ee")
-    assert solver._order is eaik_kernel.order_python and solver._screen is eaik_kernel.screen_python
-    monkeypatch.delenv("WBIK_PURE_PYTHON")
+    assert solver._kernel_choose is eaik_kernel.choose_python
+    python_result = solver.solve(solver.chain.fk(solver.chain.nominal))
+    monkeypatch.setenv("WBIK_PURE_PYTHON", "pose,ur_type")
     solver = wbik.solver("eaik", wbik.load("ur5"), "ee")
-    assert solver._order is eaik_kernel.order_compiled and math.isfinite(solver.solve(
-        solver.chain.fk(solver.chain.nominal)).position_error)
+    assert solver._kernel_choose is eaik_kernel.choose_compiled
+    compiled_result = solver.solve(solver.chain.fk(solver.chain.nominal))
+    assert python_result.success and compiled_result.success
+    assert python_result.q.tobytes() == compiled_result.q.tobytes()

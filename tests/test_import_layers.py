@@ -4,7 +4,7 @@ Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
   registry, data); kinematics (dh, urdf, kinematic_tree, robot, models, collision); solving (solvers,
-  qp, wholebody, and the ``wbik`` facade); uses of solving (motion, study, viz, expectations,
+  qp, wholebody, and the ``wbik`` facade); uses of solving (motion, study, viz, expectations, schema,
   scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
   the core; the core names them only by registry strings;
@@ -38,18 +38,18 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
 CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
-        "wbik.compiled", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp",
-        "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
-        "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree")
+        "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp",
+        "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.schema",
+        "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
-     "wbik.data", "wbik.compiled"),
+     "wbik.data", "wbik.kernels"),
     ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
-    ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.scenario_schema",
+    ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.schema", "wbik.scenario_schema",
      "wbik.scenarios"),
 )
 FACADE_LAYER = 2  # ``wbik/__init__.py`` re-exports models, solvers and wholebody

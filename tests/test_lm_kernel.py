@@ -1,4 +1,4 @@
-"""The compiled Levenberg-Marquardt trial (``wbik/solvers/_lm_kernel.c``) against its Python twin
+"""The compiled Levenberg-Marquardt trial (``wbik/kernels/_lm_trial.c``) against its Python twin
 (:meth:`LevenbergMarquardt.trial`: NumPy's products, LAPACK's Cholesky).
 
 The kernel sums in index order, BLAS and LAPACK in their own: the trials agree to rounding (1e-12 here,
@@ -16,7 +16,7 @@ import pytest
 from compiled_twins import compared_with_its_twin
 
 import wbik
-from wbik.compiled import PURE_PYTHON_VARIABLE
+from wbik.kernels import PURE_PYTHON_VARIABLE
 from wbik.solvers import levenberg_marquardt as lm
 from wbik.solvers.base import Tolerances
 from wbik.solvers.levenberg_marquardt import JointBounds

@@ -97,7 +97,7 @@ def tool_reach(rng: np.random.Generator, index: int):
 
 
 def _user_qp():
-    from wbik.wholebody.solvers import QPWholeBody
+    from wbik.wholebody.qp import QPWholeBody
 
     class UserQP(QPWholeBody):
         """A user's whole-body method: our QP, whose rows say which process solved them."""

@@ -44,7 +44,7 @@ from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import contact_points
 from wbik.qp.support_polygon import support_region
 from wbik.robot_packages.bioloid.model import ALPHA
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 CHILD = "WBIK_NUMERICS_CHILD"

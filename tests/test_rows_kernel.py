@@ -1,4 +1,4 @@
-"""The compiled twin of the QP step's task rows and quadratic (``wbik/qp/_rows_kernel.c``) against the
+"""The compiled twin of the QP step's task rows and quadratic (``wbik/kernels/_qp_rows.c``) against the
 Python path (Pinocchio's getFrameJacobian, log3 and Jlog3; NumPy's products).
 
 Unlike the closed-form kernels these are not the same bits: Pinocchio's Eigen code and BLAS sum in
@@ -17,7 +17,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.compiled import PURE_PYTHON_VARIABLE
+from wbik.kernels import PURE_PYTHON_VARIABLE
 from wbik.qp import FrameTask
 from wbik.qp import IKProblem
 from wbik.qp import OrientationTask

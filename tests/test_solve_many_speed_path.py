@@ -21,12 +21,12 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic import LIMIT_TOLERANCE
-from wbik.solvers.analytic import TWO_PI
-from wbik.solvers.analytic import ClosedForm
-from wbik.solvers.analytic import _wrap_by_shifts
+from wbik.geometry import TWO_PI
 from wbik.solvers.analytic import ur_type
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
+from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import _wrap_by_shifts
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 from wbik.solvers.analytic.subproblems import planar_2r
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
 

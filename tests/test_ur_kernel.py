@@ -17,9 +17,9 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.solvers.analytic import nearest_branch
-from wbik.solvers.analytic import no_solution_reason
 from wbik.solvers.analytic import ur_kernel
+from wbik.solvers.analytic.closed_form import nearest_branch
+from wbik.solvers.analytic.closed_form import no_solution_reason
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import evaluate
 from wbik.targets import as_target
@@ -143,8 +143,8 @@ def test_kernel_fk_is_the_python_fk(solvers, chain_name):
     for q in solvers[chain_name].chain.random(np.random.default_rng(8), 200):
         position, rotation = form.fk_one(q.tolist())
         got_position, got_rotation = form.kernel.fk(q)
-        assert np.array(got_position).tobytes() == np.array(position).tobytes()
-        assert np.array(got_rotation).tobytes() == np.array(rotation).tobytes()
+        assert got_position.tobytes() == np.array(position).tobytes()
+        assert got_rotation.tobytes() == np.array(rotation).tobytes()
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
@@ -239,9 +239,10 @@ def test_solve_many_is_solve_bit_for_bit(solvers, chain_name):
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
-def test_solve_all_results_built_by_the_kernel(solvers, chain_name):
-    """The kernel's IKResults are those of its distinct branches and errors: every field, in order; a
-    tolerance below the errors drops exactly the branches above it; nothing leaks over many calls."""
+def test_solve_all_results_from_the_kernels_arrays(solvers, chain_name):
+    """solve_all's IKResults are those of the kernel's distinct branches and errors: every field, in
+    order; a tolerance below the errors drops exactly the branches above it; nothing leaks over many
+    calls."""
     import gc
     import sys
     import tracemalloc
@@ -275,9 +276,8 @@ def test_solve_all_results_built_by_the_kernel(solvers, chain_name):
                 strict.closed_form("pose")
             expected = [row.tobytes() for row, error in zip(joints, errors, strict=True) if error[7] <= cut]
             assert [r.q.tobytes() for r in strict.solve_all(target)] == expected
-    # no leak: live IKResults hold a reference to their class each, every result one to the method name
-    # (a string of this test's own); tracemalloc sees every object the kernel allocates (floats, dicts,
-    # views)
+    # no leak: every result holds a reference to the method name (a string of this test's own);
+    # tracemalloc sees every object allocated (floats, dicts, views)
     target = as_target(chain.fk(chain.mid_range))
     method = "".join(["leak", "-", "check"])
     call = functools.partial(kernel.results, target.position, target.rotation, chain.nominal, method,

@@ -28,7 +28,7 @@ from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.methods import register_wholebody_method
 from wbik.wholebody.methods import wholebody_solver
 from wbik.wholebody.problem import WholeBody
-from wbik.wholebody.solvers import QPWholeBody
+from wbik.wholebody.qp import QPWholeBody
 
 SEED_ROBOTS = re.compile(r"golem|bioloid|pincher|ur5|arm3r|thesis", re.IGNORECASE)
 REGISTRY_STRING = re.compile(r"[\"']wbik\.apps(\.\w+)+(:\w+)?[\"']")

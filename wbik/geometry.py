@@ -23,9 +23,9 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.errors import InvalidSettingError
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 
 
 # --- angles ------------------------------------------------------------------------------------------
@@ -145,7 +145,7 @@ def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.
     """The shared check's arithmetic in plain floats: p - p* into ``position_error`` (3,) and, for a
     rotation, R*^T R into ``relative`` (3, 3) (sum over k of R*_ki R_kj, k in order), from the reached
     pose's 4x4 homogeneous matrix; returns |p - p*| = sqrt(x^2 + y^2 + z^2). Its compiled twin is
-    ``wbik._pose_kernel.error_parts``: the same bits, on every CPU (a BLAS product's rounding is not)."""
+    ``wbik.kernels._pose.error_parts``: the same bits, on every CPU (a BLAS product's rounding is not)."""
     (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
     px, py, pz = position.tolist()
     ex, ey, ez = x - px, y - py, z - pz
@@ -161,8 +161,8 @@ def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
-_compiled_error_parts = compiled_twin("wbik._pose_kernel", "error_parts")
-error_parts = chosen(_python_error_parts, _compiled_error_parts)
+_compiled_error_parts = compiled_twin("wbik.kernels._pose", "error_parts")
+error_parts = chosen(_python_error_parts, _compiled_error_parts, "pose")
 """error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared FK check's
 arithmetic (:func:`_python_error_parts`, compiled where built); log3 of ``relative`` is e_R."""
 

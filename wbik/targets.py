@@ -16,11 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.errors import InvalidRotationError
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rotation_error
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6
@@ -122,7 +122,7 @@ def _plain_given_target(value: Target) -> Target | None:
 
 def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float) -> bool:
     """The fast-path test of a 4x4 pose in plain floats: position within ``bound``; unit, orthogonal
-    columns and det +1 within ``tolerance`` (``wbik._pose_kernel.plain_se3`` is its compiled twin)."""
+    columns and det +1 within ``tolerance`` (``wbik.kernels._pose.plain_se3`` is its compiled twin)."""
     (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = matrix.tolist()
     # chained comparisons: no abs() calls
     if not (-bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound):
@@ -136,9 +136,9 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
             and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high)
 
 
-# the compiled twin (wbik.compiled): the same test in C, ~1 us less per call
-_compiled_accepts_plain_se3 = compiled_twin("wbik._pose_kernel", "plain_se3")
-_accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3)
+# the compiled twin (wbik.kernels): the same test in C, ~1 us less per call
+_compiled_accepts_plain_se3 = compiled_twin("wbik.kernels._pose", "plain_se3")
+_accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3, "pose")
 
 
 def as_target(value, rotation=None) -> Target:

@@ -21,13 +21,13 @@ import numpy as np
 import qpsolvers
 from scipy import sparse
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.errors import MissingDependencyError
 from wbik.errors import NoQPSolutionError
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 
-_STACK_ROWS = compiled_twin("wbik.qp._rows_kernel", "stack_rows")
-_TIGHTEN_SLICE = compiled_twin("wbik.qp._rows_kernel", "tighten_slice")
+_STACK_ROWS = compiled_twin("wbik.kernels._qp_rows", "stack_rows")
+_TIGHTEN_SLICE = compiled_twin("wbik.kernels._qp_rows", "tighten_slice")
 
 
 class BackendUnavailableError(MissingDependencyError):
@@ -139,8 +139,8 @@ class StackedConstraints:
         self.rows = 0
         self._adds = 0
         # the compiled twins of add's copies and of tighten on a slice (None: NumPy's)
-        self._stack_rows = chosen(None, _STACK_ROWS) if n > 0 else None
-        self._tighten_slice = chosen(None, _TIGHTEN_SLICE)
+        self._stack_rows = chosen(None, _STACK_ROWS, "qp_rows") if n > 0 else None
+        self._tighten_slice = chosen(None, _TIGHTEN_SLICE, "qp_rows")
         self._layout: list[tuple[int, int, bool]] = []
         self._views: tuple | None = None  # (rows, matrix, upper, lower, sense, key) while the layout holds
         self._matrix = np.zeros((capacity, n))

@@ -32,15 +32,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.errors import NoQPSolutionError
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 from wbik.qp import backends
 from wbik.qp.constraints import Constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import Task
 
-_QUADRATIC = compiled_twin("wbik.qp._rows_kernel", "quadratic")
+_QUADRATIC = compiled_twin("wbik.kernels._qp_rows", "quadratic")
 """The compiled twin of Level.quadratic's products (None where it is not built)."""
 
 PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
@@ -111,7 +111,7 @@ class Level:
         self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
         self.row_scale = np.sqrt(self.weight)[:, None]
         self._row_scale = self.row_scale[:, 0]  # (a contiguous view: the kernel's 1-D form)
-        self._compiled_quadratic = chosen(None, _QUADRATIC)
+        self._compiled_quadratic = chosen(None, _QUADRATIC, "qp_rows")
         self.error_scale = self.row_scale[:, 0] * np.concatenate(
             [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
 

@@ -44,14 +44,14 @@ from functools import partial
 import numpy as np
 import pinocchio as pin
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.geometry import rotation_error
 from wbik.geometry import rotation_error_jacobian
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 from wbik.qp.kinematics import Kinematics
 
 _AXES = {"x": 0, "y": 1, "z": 2}
-_FRAME_ROWS = compiled_twin("wbik.qp._rows_kernel", "frame_rows")
+_FRAME_ROWS = compiled_twin("wbik.kernels._qp_rows", "frame_rows")
 """The compiled twin of FrameTask.fill and OrientationTask.fill (None where it is not built)."""
 
 
@@ -129,7 +129,7 @@ class _FrameTaskBase(Task):
         self.frame_id = -1
         self._compiled_rows, self._compiled_for = None, None
         # picked once, as a closed form picks its kernel (WBIK_PURE_PYTHON=1 is read here)
-        self._kernel = chosen(None, _FRAME_ROWS) if self.kernel_rows is not None else None
+        self._kernel = chosen(None, _FRAME_ROWS, "qp_rows") if self.kernel_rows is not None else None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def __getstate__(self) -> dict:

@@ -202,27 +202,28 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                     time_s, candidate.iterations, method, candidate.extra)
 
 
-def evaluate_reached(chain: Chain, target: Target, q: np.ndarray, reached: np.ndarray, extra: dict,
-                     tolerances: Tolerances, time_s: float, method: str) -> IKResult:
-    """``evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)``, the
-    same IKResult, in fewer steps on the common path of a closed form that screened its answer: ``q`` a
-    float64 array of the chain's shape, inside the limits bit for bit (its clip is itself), no continuous
-    joint, a full pose, both errors within the tolerances: then the steps :func:`evaluate` takes on that
-    path, in its order, with ``reached`` (``chain.fk(q).homogeneous``) for the FK. Anything else goes to
-    :func:`evaluate` itself."""
-    if (chain.any_continuous or target.rotation is None or type(q) is not np.ndarray or q.dtype != np.float64
-            or q.shape != chain.lower.shape):
-        return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)
-    inside = clip_to_limits(q, chain.lower, chain.upper)
-    if inside.tobytes() == q.tobytes():
-        position_xyz, relative = np.empty(3), np.empty((3, 3))
-        position_norm = error_parts(reached, target.position, target.rotation, position_xyz, relative)
-        rotation_xyz = pin.log3(relative)
-        rotation_norm = math.hypot(*rotation_xyz.tolist())
+def evaluate_screened(chain: Chain, target: Target, parts: np.ndarray, extra: dict, tolerances: Tolerances,
+                      time_s: float, method: str) -> IKResult:
+    """The shared check of joints a compiled closed form chose and screened, with the errors it already
+    computed: ``parts`` (n + 24 values) holds the joints q (n), their 4 x 4 tip pose (16, the form's FK)
+    and the batched check's errors of that pose (8: e_p, e_R, |e_p|, |e_R|; the rule of
+    :func:`wbik.solvers.analytic.batch.evaluate_batch`, e_R in :func:`wbik.geometry.batch_log3`'s
+    formula, which agrees with Pinocchio's log3 to rounding away from a half turn).
+
+    For a full pose on a chain without continuous joints, whose joints the choice wrote inside the
+    limits (their clip is themselves), the IKResult is built from ``parts`` (its arrays are views of
+    it) when both errors are within the tolerances. Anything else goes to :func:`evaluate` with the
+    tip pose as ``reached``.
+    """
+    joints = len(chain.lower)
+    q = parts[:joints]
+    if not chain.any_continuous and target.rotation is not None:
+        position_norm, rotation_norm = parts.item(joints + 22), parts.item(joints + 23)
         if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
-            return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
-                            time_s, 1, method, extra)
-    return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method, reached)
+            return IKResult(q, True, "", position_norm, rotation_norm, parts[joints + 16:joints + 19],
+                            parts[joints + 19:joints + 22], time_s, 1, method, extra)
+    return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method,
+                    parts[joints:joints + 16].reshape(4, 4))
 
 
 def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:

@@ -16,32 +16,28 @@ and takes the target as it is. Either way EAIK's FK equals our chain FK to 3e-16
 The structure and EAIK's verdict are computed once per chain (cached); each thread builds its own
 robot (:meth:`Solver._thread_state`).
 
-Choosing a branch. The rule of ``analytic`` (:func:`wbik.solvers.analytic.nearest_branch`, the chain as
-the closed form :class:`wbik.solvers.analytic.eaik_family.EAIKForm`): each revolute angle is shifted by
-multiples of 2 pi into the limits, nearest to q0 (which matters for the UR5's +-2 pi joints), branches
-outside the limits are dropped, and ``solve`` returns the branch with the smallest Euclidean joint
-distance to q0 whose Pinocchio FK reaches the target within 1e-7 (m, rad). The per-call path
-(:meth:`EAIKSolver._placed`): ``order`` (:mod:`wbik.solvers.analytic.eaik_kernel`, C where built, a Python
-twin with the same bits under ``WBIK_PURE_PYTHON=1``) bounds every branch's squared distance from below,
-wraps them in the order of their bounds only while one could still be nearer than the nearest wrapped
-one and writes the wrapped branches in the order they are screened; each is screened in turn (Pinocchio's
-FK, ``screen``'s arithmetic) until one passes, usually the first. ``solve`` hands the chosen branch's FK
-to the shared check (:func:`~wbik.solvers.base.evaluate_reached`: the same IKResult as
-:func:`~wbik.solvers.base.evaluate`, without a second FK). ``tests/test_eaik.py`` holds the choice to
-the rule spelled out, ``tests/test_eaik_kernel.py`` the twins to each other. EAIK's ``is_LS`` flag is not
-trusted either way (it marks exact branches of 4R chains as least-squares); the FK screen decides. Where
-no branch passes, the reason says whether none is inside the limits or EAIK returned only least-squares
+Choosing a branch. The rule of ``analytic`` (:func:`wbik.solvers.analytic.closed_form.nearest_branch`,
+the chain as the closed form :class:`wbik.solvers.analytic.eaik_family.EAIKForm`): each revolute angle
+is shifted by multiples of 2 pi into the limits, nearest to q0 (which matters for the UR5's +-2 pi
+joints), branches outside the limits are dropped, and ``solve`` returns the branch with the smallest
+Euclidean joint distance to q0 whose FK reaches the target within 1e-7 (m, rad). The per-call path is
+one call of ``choose`` (:mod:`wbik.kernels.eaik`, C where built, a Python twin with the same bits
+under ``WBIK_PURE_PYTHON=1``): it bounds every branch's squared distance from below, wraps them in the
+order of their bounds only while one could still be nearer than the nearest wrapped one, and screens
+the wrapped branches in the order of their distances, usually only the first, with the form's FK (the
+product of exponentials of the chain's joint lines, held to the model's FK when the solver is built).
+The chosen branch's pose and its errors go to the shared check
+(:func:`~wbik.solvers.base.evaluate_screened`: the batched check's rule, as ``analytic``'s
+``solve_many``). ``tests/test_eaik.py`` holds the choice to the rule spelled out,
+``tests/test_eaik_kernel.py`` the twins to each other. EAIK's ``is_LS`` flag is not trusted either
+way (it marks exact branches of 4R chains as least-squares); the FK screen decides. Where no branch
+passes, the reason says whether none is inside the limits or EAIK returned only least-squares
 branches. ``solve_all`` returns every distinct branch inside the limits that passes the shared check;
 ``solve_many`` makes one batched EAIK call (``batch_threads`` worker threads, 1 by default) and picks
 branches exactly as ``solve`` does.
 
-Cost (``benchmarks/eaik_interface.py --poses 2000 --rounds 9 --runs 3``, UR10 and UR5 ``ee``, FK poses
-from the nominal start): a ``solve`` costs 2.6-2.9x EAIK's own ``IK`` call (about 14 us against 5-5.5;
-it was 4.7-5.6x, ~28 us, with the choice in NumPy and plain floats). The interface every method pays
-(target conversion, the shared FK check, the IKResult) with EAIK's call is already 2.3-2.4x (the
-benchmark's floor); the remaining ~0.4x is EAIK's ``.Q``, the pose buffer, ``order`` and the screen.
-Of the rest: target conversion ~1.2 us, the one FK ~1.2 us, the check's arithmetic, log3 and IKResult
-~2 us. 2x is out of reach while the target conversion and the shared check stay as they are.
+Cost: ``benchmarks/eaik_interface.py`` times a ``solve`` against EAIK's own call on the same poses
+(docs/benchmarks.md gives the figures and the machine).
 
 Targets. EAIK solves full poses only (its 1R..5R solvers solve the over-determined pose and flag
 the inexact branches as least-squares); a position-only target raises UnsupportedError on every
@@ -88,129 +84,31 @@ of rounding, the same family solves correctly. We do not add noise to dodge EAIK
 
 from __future__ import annotations
 
-import threading
 import time
-import weakref
 from collections.abc import Iterable
-from dataclasses import dataclass
 from time import perf_counter
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
-from wbik.robot import Chain
-from wbik.solvers.analytic import checked_branches
-from wbik.solvers.analytic import eaik_kernel
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.kernels import eaik as eaik_kernel
+from wbik.solvers.analytic.closed_form import BOUND_SLACK
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
+from wbik.solvers.analytic.closed_form import checked_branches
+from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.eaik_family import SCREEN_TOLERANCE
 from wbik.solvers.analytic.eaik_family import EAIKForm
-from wbik.solvers.analytic.structure import chain_lines
-from wbik.solvers.analytic.structure import eaik_vectors
+from wbik.solvers.analytic.eaik_family import eaik_structure
+from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
-from wbik.solvers.base import evaluate_reached
+from wbik.solvers.base import evaluate_screened
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
 from wbik.targets import pose_error
 from wbik.validation import check_count
-
-INSTALL = "pip install EAIK==1.2.2"
-SCREEN_TOLERANCE = 1e-7
-"""FK residual (m and rad) above which a branch is not a solution (as ``analytic``'s screen)."""
-PROBE_POSES, PROBE_REQUIRED, PROBE_SEED = 8, 6, 0
-"""A chain EAIK claims is checked once: EAIK must reproduce (to 1e-6) at least PROBE_REQUIRED of
-PROBE_POSES FK poses of seeded random joints inside the limits, else UnsupportedError."""
-
-
-def _import_eaik():
-    """EAIK's HPRobot class, or MissingDependencyError with the install command."""
-    try:
-        from eaik.IK_HP import HPRobot
-    except ImportError as exc:
-        raise MissingDependencyError(
-            f"method 'eaik' needs the EAIK package ({exc}); install it with: {INSTALL}") from None
-    return HPRobot
-
-
-@dataclass(frozen=True)
-class EAIKStructure:
-    """A chain in EAIK's terms: axes H (n, 3), offsets P (n + 1, 3), tip rotation R0 at q = 0."""
-
-    H: np.ndarray
-    P: np.ndarray
-    tip_rotation_t: np.ndarray  # R0^T: EAIK's pose = our pose @ diag(R0^T, 1)
-    family: str
-
-
-_STRUCTURES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_STRUCTURES_LOCK = threading.Lock()
-
-
-def eaik_structure(chain: Chain) -> EAIKStructure:
-    """H, P and R0 of ``chain`` with EAIK's verdict, computed once per chain.
-
-    UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
-    """
-    try:
-        return eaik_verdict(chain)
-    except UnsupportedError as refused:
-        label = f"{chain.robot.name}.{chain.name}"
-        raise UnsupportedError(f"method 'eaik' cannot solve {label}: {refused}") from None
-
-
-def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
-    """:func:`eaik_structure` of any chain-like object with joint lines (:func:`chain_lines`: a Chain, or
-    a chain with a locked joint), UnsupportedError saying only why (the caller names the chain).
-    ``probe``: check EAIK's branches on seeded FK poses (see the module docstring); a probed verdict is
-    computed once per chain, an unprobed one (a chain rebuilt at each value of a locked joint) each time."""
-    HPRobot = _import_eaik()  # first, so a missing EAIK is reported also for a cached chain
-    if probe:
-        with _STRUCTURES_LOCK:
-            cached = _STRUCTURES.get(chain)
-        if cached is not None:
-            return cached
-    lines = chain_lines(chain)
-    if lines.prismatic.any():
-        names = [n for n, p in zip(chain.joint_names, lines.prismatic, strict=True) if p]
-        raise UnsupportedError(f"EAIK takes revolute joints only, {names} prismatic")
-    H, P, tip_rotation = eaik_vectors(lines)
-    try:
-        robot = HPRobot(H, P)
-    except RuntimeError as exc:
-        raise UnsupportedError(f"EAIK says {str(exc).strip()!r} ({chain.nq} joints)") from None
-    family = robot.getKinematicFamily()
-    if not robot.hasKnownDecomposition():
-        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})")
-    result = EAIKStructure(H, P, tip_rotation.T.copy(), family)
-    if not probe:
-        return result
-    reproduced, miss = _probe(chain, robot, result)
-    if reproduced < PROBE_REQUIRED:
-        raise UnsupportedError(
-            f"EAIK reports a decomposition ({family!r}) but its branches reproduce only {reproduced} of "
-            f"{PROBE_POSES} FK poses of random joints (the nearest branch's 4x4 pose off by up to "
-            f"{miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this geometry")
-    with _STRUCTURES_LOCK:
-        _STRUCTURES[chain] = result
-    return result
-
-
-def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
-    """(how many of PROBE_POSES FK poses of seeded random joints EAIK reproduces, worst miss)."""
-    tip = np.eye(4)
-    tip[:3, :3] = structure.tip_rotation_t
-    reproduced, worst = 0, 0.0
-    for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):
-        pose = chain.fk(q).homogeneous
-        branches = np.asarray(robot.IK(pose @ tip).Q, dtype=float).reshape(-1, chain.nq)
-        misses = [np.abs(chain.fk(b).homogeneous - pose).max() for b in branches if np.all(np.isfinite(b))]
-        miss = min(misses, default=np.inf)
-        reproduced += miss <= 1e-6
-        worst = max(worst, miss)
-    return reproduced, worst
 
 
 class EAIKSolver(Solver):
@@ -232,20 +130,19 @@ class EAIKSolver(Solver):
         self.revolute = ~self.chain.is_prismatic
         lower, upper = self.chain.lower.tolist(), self.chain.upper.tolist()
         self._limits = (lower, upper)
-        self._params = eaik_kernel.parameters(self.chain.nq, lower, upper)
-        self._order, self._screen = eaik_kernel.twins()
-        """The choice's order and screen (:mod:`~wbik.solvers.analytic.eaik_kernel`): compiled where
-        built, the Python twins with ``WBIK_PURE_PYTHON=1`` when the solver is built."""
+        check_fk_against_model(self.form)  # the choice screens and checks with the form's FK
+        self._params = eaik_kernel.parameters(self.chain.nq, lower, upper, self.chain.nq * BOUND_SLACK,
+                                              LIMIT_TOLERANCE, self.form.lines, SCREEN_TOLERANCE)
+        self._kernel_choose = eaik_kernel.twins()[1]
+        """The choice (:mod:`~wbik.kernels.eaik`): compiled where built, the Python
+        twin with ``WBIK_PURE_PYTHON=1`` when the solver is built."""
         self._tip = np.eye(4)
         self._tip[:3, :3] = self.structure.tip_rotation_t
 
-    def _new_thread_state(self) -> tuple[object, np.ndarray, np.ndarray, np.ndarray]:
-        """This thread's EAIK robot (:func:`~wbik.solvers.analytic.eaik_family.eaik_robot`: it takes
-        our target poses as they are), the 4 x 4 pose ``solve`` fills for it (EAIK copies it) and views
-        of its rotation and position."""
-        pose = np.zeros((4, 4))
-        pose[3, 3] = 1.0
-        return self.form.robot(), pose, pose[:3, :3], pose[:3, 3]
+    def _new_thread_state(self):
+        """This thread's EAIK robot (:func:`~wbik.solvers.analytic.eaik_family.eaik_robot`: it takes our
+        target poses as they are)."""
+        return self.form.robot()
 
     # -- EAIK in our frames ---------------------------------------------------------------------
     def eaik_pose(self, target: Target) -> np.ndarray:
@@ -264,7 +161,7 @@ class EAIKSolver(Solver):
 
     def _eaik_call(self, target: Target):
         """EAIK's solution for one target (this thread's robot)."""
-        return self._thread_state()[0].calculate_IK(self.form.pose(target.position, target.rotation))
+        return self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
 
     def _branches(self, solution) -> np.ndarray:
         q_all = np.asarray(solution.Q, dtype=float)
@@ -286,28 +183,32 @@ class EAIKSolver(Solver):
 
     def _placed(self, q_all: np.ndarray, target: Target,
                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-        """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, its tip placement)
+        """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, its 4 x 4 tip pose)
         or None.
 
-        The rule of :func:`~wbik.solvers.analytic.nearest_branch` (the nearest branch that passes, the
-        first in the bounds' order on a tie) with few FKs: ``order``
-        (:mod:`~wbik.solvers.analytic.eaik_kernel`, compiled where built) writes the branches wrapped
-        into the limits in the order branch and bound screens them (the order of their distances), and
-        they are screened in turn (Pinocchio's FK, the screen's arithmetic in ``screen``) until one
-        passes; its placement is the one the shared check then reuses (``reached`` of :func:`evaluate`).
+        The rule of :func:`~wbik.solvers.analytic.closed_form.nearest_branch` (the nearest branch that
+        passes, the first in the bounds' order on a tie) with few FKs, in one call of ``choose``
+        (:mod:`~wbik.kernels.eaik`, compiled where built): the branches wrapped into the
+        limits in the order of their distances (branch and bound), screened in turn with the form's FK
+        (the product of exponentials of the chain's lines, held to the model's FK when the solver is
+        built) until one passes; its pose is the one the shared check then uses (``reached`` of
+        :func:`evaluate`).
         """
-        count = len(q_all)
-        if not count:
+        if not len(q_all):
             return None
-        out = np.empty((count, len(q0)))
-        screened = self._order(self._params, q_all, q0, out)
-        fk, screen = self.chain.fk, self._screen
-        for row in range(screened):
-            q = out[row]
-            reached = fk(q).homogeneous
-            if screen(reached, target.position, target.rotation, SCREEN_TOLERANCE):
-                return q, reached
+        out = np.empty(len(q0) + 24)
+        if self._kernel_choose(self._params, q_all, q0, self._target_pose(target), out):
+            return out[:len(q0)], out[len(q0):len(q0) + 16].reshape(4, 4)
         return None
+
+    @staticmethod
+    def _target_pose(target: Target) -> np.ndarray:
+        """The target's 4 x 4 homogeneous matrix: the one its arrays are views of (as
+        :func:`~wbik.targets.as_target` makes them), else a new one."""
+        matrix = target.rotation.base
+        if matrix is not None and matrix is target.position.base and matrix.shape == (4, 4):
+            return matrix
+        return EAIKForm.pose(target.position, target.rotation)
 
     def _reaches(self, q: np.ndarray, target: Target) -> bool:
         position_xyz, rotation_xyz = pose_error(self.chain.fk(q), target)
@@ -347,22 +248,23 @@ class EAIKSolver(Solver):
         chain = self.chain
         q_start = chain.nominal if q0 is None else chain.check_q(q0)  # read only: no copy needed
         start = perf_counter()
-        q_all = self._eaik_branches(target)
-        placed = self._placed(q_all, target, q_start)
-        if placed is not None:
-            elapsed = perf_counter() - start
-            return evaluate_reached(chain, target, placed[0], placed[1], {"branches": len(q_all)},
-                                    self.tolerances, elapsed, self.name)
+        pose = target.rotation.base  # _target_pose, inline on the per-call path
+        if pose is None or pose is not target.position.base or pose.shape != (4, 4):
+            pose = EAIKForm.pose(target.position, target.rotation)
+        q_all = self._thread_state().calculate_IK(pose).Q
+        if len(q_all):
+            out = np.empty(chain.nq + 24)
+            if self._kernel_choose(self._params, q_all, q_start, pose, out):
+                elapsed = perf_counter() - start
+                return evaluate_screened(chain, target, out, {"branches": len(q_all)}, self.tolerances,
+                                         elapsed, self.name)
         candidate = self._pick(q_all, target, q_start)
         elapsed = perf_counter() - start
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def _eaik_branches(self, target: Target) -> np.ndarray:
         """EAIK's branches (K, n) of a target from this thread's robot and pose buffer."""
-        robot, pose, rotation, position = self._thread_state()
-        rotation[...] = target.rotation
-        position[...] = target.position
-        return robot.calculate_IK(pose).Q
+        return self._thread_state().calculate_IK(self._target_pose(target)).Q
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         return self._choose(self._eaik_branches(target), target, q0)
@@ -379,7 +281,7 @@ class EAIKSolver(Solver):
         q0_array = [self.chain.nominal.copy() if s is None else s for s in starts]
         start = time.perf_counter()
         poses = [self.form.pose(target.position, target.rotation) for target in targets]
-        solutions = self._thread_state()[0].calculate_IK_batched(poses, self.batch_threads)
+        solutions = self._thread_state().calculate_IK_batched(poses, self.batch_threads)
         chosen = [self._choose_placed(self._branches(solution), target, q0)
                   for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
         per_pose = (time.perf_counter() - start) / len(targets)

@@ -48,7 +48,8 @@ fewer than 6 joints (IK-Geo 1.0.3: "7-joint bots are not yet supported"; lock a 
 Panda with joint 1, 2 or 3 locked, the Golem-III arms, the Bravo 7: off by 3e-5 m and more).
 
 Choosing a branch. As in ``eaik``: each angle is shifted by multiples of 2 pi into the limits nearest
-to q0 (:func:`wbik.solvers.analytic.wrap_into_limits`), branches outside the limits are dropped, and
+to q0 (:func:`wbik.solvers.analytic.closed_form.wrap_into_limits`), branches outside the limits are dropped,
+and
 ``solve`` returns the branch nearest to q0 (Euclidean) whose FK reaches the target within 1e-7 (m, rad);
 IK-Geo's least-squares flag is not trusted either way, the FK screen decides. ``solve_all`` returns
 every distinct branch inside the limits that passes the shared check. Full poses only; no budget (a
@@ -68,8 +69,8 @@ import numpy as np
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.robot import Chain
-from wbik.solvers.analytic import checked_branches
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import checked_branches
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver

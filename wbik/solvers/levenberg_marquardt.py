@@ -39,12 +39,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg.lapack import dposv
 
-from wbik.compiled import chosen
-from wbik.compiled import compiled_twin
 from wbik.geometry import TWO_PI
+from wbik.kernels import chosen
+from wbik.kernels import compiled_twin
 from wbik.solvers.base import clip_to_limits
 
-_LM_TRIAL = compiled_twin("wbik.solvers._lm_kernel", "lm_trial")
+_LM_TRIAL = compiled_twin("wbik.kernels._lm_trial", "lm_trial")
 """The compiled twin of :meth:`LevenbergMarquardt.trial` (None where it is not built)."""
 
 
@@ -151,7 +151,7 @@ class LevenbergMarquardt:
         agrees with :meth:`trial` to rounding (tests/test_lm_kernel.py). It hands the trial to
         :meth:`trial` where its Cholesky fails (least squares), for systems over 32 rows or joints, and
         for other bounds than these."""
-        kernel = chosen(None, _LM_TRIAL)
+        kernel = chosen(None, _LM_TRIAL, "lm_trial")
         if kernel is None:
             return self.trial
         captured, lower, upper, wraps = bounds, bounds.lower, bounds.upper, bounds.wrap_mask

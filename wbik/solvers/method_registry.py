@@ -33,7 +33,7 @@ __all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "method_factory",
            "register_method", "solver", "solver_options"]
 
 METHOD_MODULES: list[str] = [
-    "wbik.solvers.analytic",
+    "wbik.solvers.analytic.solver",
     "wbik.solvers.newton",
     "wbik.solvers.dls",
     "wbik.solvers.bounded_lm",

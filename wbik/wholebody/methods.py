@@ -31,7 +31,7 @@ __all__ = ["METHOD_MODULES", "WHOLEBODY_METHOD_REGISTRY", "WholeBodyMethod", "re
            "wholebody_budget", "wholebody_methods", "wholebody_solver", "wholebody_solver_options"]
 
 METHOD_MODULES: list[str] = [
-    "wbik.wholebody.solvers",  # qp
+    "wbik.wholebody.qp",
     "wbik.wholebody.placo",
     "wbik.wholebody.pink",
     "wbik.wholebody.mink",

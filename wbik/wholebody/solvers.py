@@ -1,4 +1,4 @@
-"""The whole-body solver interface, the base of the peers' methods and method ``qp``:
+"""The whole-body solver interface and the base of the peers' methods:
 ``wholebody_solver(method, robot).solve(problem, q0)`` (the registry is :mod:`wbik.wholebody.methods`).
 
 Every method builds its own formulation of a :class:`~wbik.wholebody.problem.WholeBody`, lists in
@@ -7,8 +7,8 @@ its answer is judged by the one shared check, :func:`~wbik.wholebody.problem.che
 
 Contacts on a point foot (``problem.point_contacts``) hold its position only, in every method.
 
-- ``qp`` (here): our task QP (:class:`wbik.qp.IKProblem`), contacts as equalities, the CoM in the
-  shrunk support polygon as hard rows, limits as bounds (and acceleration limits,
+- ``qp`` (:mod:`wbik.wholebody.qp`): our task QP (:class:`wbik.qp.IKProblem`), contacts as
+  equalities, the CoM in the shrunk support polygon as hard rows, limits as bounds (and acceleration limits,
   ``acceleration_limit``): the problem's own constraints (:meth:`WholeBody.constraints`);
   ``backend=`` any installed qpsolvers backend. A result that fails the check carries a
   ``diagnosis`` (what blocks the goals, what conflicts with them, what to change: its summary ends
@@ -58,7 +58,6 @@ from wbik.solvers.base import Tolerances
 from wbik.solvers.base import checked_tolerances
 from wbik.validation import check_budget
 from wbik.validation import check_seed
-from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody
 from wbik.wholebody.problem import WholeBodyResult
 from wbik.wholebody.problem import check_wholebody
@@ -283,97 +282,3 @@ def lowest_priority(tasks: list[Task]) -> int:
     goes. The step keeps each level's achieved rows for the levels below it, a regularisation's rows
     (J = I) included, so one above another level would leave that level no motion at all."""
     return max((task.priority for task in tasks), default=0)
-
-
-# -- qp -------------------------------------------------------------------------------------------------
-class QPWholeBody(WholeBodySolver):
-    """Our task QP (wbik.qp.IKProblem) on the whole model."""
-
-    name = "qp"
-    iteration_cost_s = 800e-6  # DAQP step, projection, FK checks; a biped with nv 24: measured 0.8-1.5 ms
-    default_budget_s = 0.08
-
-    def __init__(
-        self,
-        robot,
-        *,
-        backend: str = "default",
-        max_step: float = 0.2,
-        lm_damping: float = 1e-3,
-        regularization: float = 1e-6,
-        diagnose: bool = True,
-        **options,
-    ):
-        from wbik.qp import backends
-
-        super().__init__(robot, **options)
-        self.backend = backends.resolve(backend)
-        self.max_step, self.lm_damping, self.regularization = (
-            float(max_step),
-            float(lm_damping),
-            float(regularization),
-        )
-        self.diagnose = bool(diagnose)
-
-    def solve(self, problem: WholeBody, q0=None) -> WholeBodyResult:
-        """The shared check's result; one that fails it gets the QP's diagnosis (after the timing), and
-        a start outside the limits is reported in ``diagnosis.start`` either way."""
-        self._local.last = None
-        result = super().solve(problem, q0)
-        last = getattr(self._local, "last", None)
-        if last is None:
-            return result
-        ik, solution = last
-        self._local.last = None
-        if not result.success and self.diagnose:
-            diagnosis = ik.diagnose(solution)
-            result.diagnosis = diagnosis
-            text = diagnosis.summary()
-            if text:
-                result.reason = f"{result.reason}; {text}" if result.reason else text
-        elif solution.start_violations:
-            from wbik.qp.diagnosis import Diagnosis
-
-            result.diagnosis = Diagnosis(start=list(solution.start_violations))
-        return result
-
-    def _solve(self, problem, q0, placements, polygon, deadline):
-        from wbik.qp.problem import IKProblem
-
-        model = self.robot.model
-        tasks = problem.copied_tasks()
-        tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
-        for task in tasks:
-            if task.goal:
-                task.tolerance = min(task.tolerance, tolerance)
-        # on the lowest level: on a level above others, its kept rows sqrt(w) dq would pin the step for them
-        tasks.append(RegularizationTask(self.regularization, priority=lowest_priority(tasks)))
-        constraints = problem.constraints(placements, polygon)
-        ik = IKProblem(
-            model,
-            tasks,
-            constraints,
-            backend=self.backend,
-            max_step=self.max_step,
-            lm_damping=self.lm_damping,
-        )
-        solution = ik.solve(
-            q0, max_iterations=self.max_iterations, deadline=None if deadline == math.inf else deadline,
-            diagnose=False,
-        )
-        self._local.last = (ik, solution)
-        return WholeBodyCandidate(
-            solution.q,
-            solution.iterations,
-            solution.reason,
-            {"backend": self.backend, "converged": solution.converged},
-        )
-
-
-WHOLEBODY_METHODS = (
-    WholeBodyMethod(
-        "qp", QPWholeBody,
-        "our task QP (wbik.qp.IKProblem): hard contacts, hard CoM polygon, limits; backend= any installed",
-    ),
-)
-"""The methods this module declares (registered through wbik.wholebody.methods.METHOD_MODULES)."""

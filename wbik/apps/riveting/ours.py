@@ -66,7 +66,7 @@ from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 
 TASK_TOLERANCE = 1e-8
 """|e| of the 5-D task (m, and the sine of the axis error) at which a QP configuration is accepted."""

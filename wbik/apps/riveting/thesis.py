@@ -172,7 +172,7 @@ class ThesisPlanner(Planner):
 
 def _nearest_turn(q: np.ndarray, reference: np.ndarray, chain) -> np.ndarray:
     """q with each revolute joint shifted by 2 pi multiples toward ``reference`` (inside the limits)."""
-    from wbik.solvers.analytic import wrap_into_limits
+    from wbik.solvers.analytic.closed_form import wrap_into_limits
 
     wrapped, _ = wrap_into_limits(q, reference, chain.lower, chain.upper, ~chain.is_prismatic)
     return wrapped

@@ -46,7 +46,7 @@ from wbik.robot_packages.bioloid.model import LF
 from wbik.robot_packages.bioloid.model import MIRROR_SIGN
 from wbik.robot_packages.bioloid.model import BioloidFacts
 from wbik.robot_packages.bioloid.model import arm_lengths
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 

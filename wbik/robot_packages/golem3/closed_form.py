@@ -20,8 +20,8 @@ from wbik.errors import InvalidConfigurationError
 from wbik.robot import Chain
 from wbik.robot_packages.golem3.model import LEFT_JOINTS
 from wbik.robot_packages.golem3.model import Golem3Facts
-from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic import stacked_planar as family
+from wbik.solvers.analytic.closed_form import ClosedForm
 
 LOCK_SWEEP = 7
 """Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""

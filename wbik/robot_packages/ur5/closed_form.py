@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.analytic import ToolClosedForm
+from wbik.solvers.analytic.closed_form import ToolClosedForm
 from wbik.solvers.analytic.ur_type import URArm
 from wbik.solvers.analytic.ur_type import URGeometry
 from wbik.solvers.analytic.ur_type import fk

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
 
 IDENTITY_TOLERANCE = STRUCTURE_TOLERANCE

@@ -1,24 +1,35 @@
 """EAIK's decomposition as a closed form: the fallback of ``analytic`` for full poses where no family of
 wbik matches the chain, and the scalar path of the ``eaik`` method.
 
-EAIK 1.2.2 (:mod:`wbik.solvers.eaik`, which says which chains it accepts and how its verdict is
-checked) returns every branch of a pose; here they feed ``analytic``'s own choice (wrapping into the
-limits, the screen with this form's FK, the branch nearest q0: :func:`wbik.solvers.analytic.nearest_branch`).
+EAIK 1.2.2 returns every branch of a pose; here they feed ``analytic``'s own choice (wrapping into the
+limits, the screen with this form's FK, the branch nearest q0:
+:func:`wbik.solvers.analytic.closed_form.nearest_branch`).
 Each thread builds its own EAIK robot, from the chain's H and P and with the tip's rotation at q = 0 as
 EAIK's end-effector rotation R6T, so a target pose goes to EAIK as it is. The vectorised FK is the
 product of exponentials of the chain's lines (:func:`~wbik.solvers.analytic.structure.poe_fk`, the
 model's to rounding); the scalar path's FK is the chain's own (Pinocchio).
+
+EAIK's verdict on a chain (:func:`eaik_verdict`): the chain's axes H and offsets P at q = 0 go to
+EAIK, which names its kinematic family and whether it knows a decomposition; a claimed decomposition
+is then probed: its branches must reproduce at least PROBE_REQUIRED of PROBE_POSES FK poses of
+seeded random joints, since EAIK 1.2.2 claims some it gets wrong.
 """
 
 from __future__ import annotations
 
 import threading
+import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic import ClosedForm
+from wbik.robot import Chain
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.analytic.structure import poe_fk
 
 _INVERSE_TURN = 1.0 / TWO_PI
@@ -28,8 +39,10 @@ _TURN_SQUARED = {joints: np.full(joints, TWO_PI * TWO_PI) for joints in range(1,
 
 def branch_bounds(q_all: np.ndarray, reference: np.ndarray) -> list[float]:
     """Per branch of q_all (K, n), sum_i remainder(q_i - r_i, 2 pi)^2 (to rounding, far below
-    ``BOUND_SLACK``): a lower bound of its squared distance to ``reference`` once wrapped into the
-    limits (:func:`wbik.solvers.analytic.nearest_branch`), computed in turns in six small NumPy calls:
+    ``BOUND_SLACK``): a lower bound of its squared distance to ``reference`` once wrapped into
+    the
+    limits (:func:`wbik.solvers.analytic.closed_form.nearest_branch`), computed in turns in six small NumPy
+    calls:
     (2 pi)^2 sum_i (t_i - rint(t_i))^2 with t = (q - r) / 2 pi. NaN where a joint is not finite."""
     turns = np.subtract(q_all, reference)
     turns *= _INVERSE_TURN
@@ -38,12 +51,106 @@ def branch_bounds(q_all: np.ndarray, reference: np.ndarray) -> list[float]:
     return np.dot(turns, _TURN_SQUARED[turns.shape[-1]]).tolist()
 
 
+INSTALL = "pip install EAIK==1.2.2"
+SCREEN_TOLERANCE = 1e-7
+"""FK residual (m and rad) above which a branch is not a solution (as ``analytic``'s screen)."""
+PROBE_POSES, PROBE_REQUIRED, PROBE_SEED = 8, 6, 0
+"""A chain EAIK claims is checked once: EAIK must reproduce (to 1e-6) at least PROBE_REQUIRED of
+PROBE_POSES FK poses of seeded random joints inside the limits, else UnsupportedError."""
+
+
+def import_eaik():
+    """EAIK's HPRobot class, or MissingDependencyError with the install command."""
+    try:
+        from eaik.IK_HP import HPRobot
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"method 'eaik' needs the EAIK package ({exc}); install it with: {INSTALL}") from None
+    return HPRobot
+
+
+@dataclass(frozen=True)
+class EAIKStructure:
+    """A chain in EAIK's terms: axes H (n, 3), offsets P (n + 1, 3), tip rotation R0 at q = 0."""
+
+    H: np.ndarray
+    P: np.ndarray
+    tip_rotation_t: np.ndarray  # R0^T: EAIK's pose = our pose @ diag(R0^T, 1)
+    family: str
+
+
+_STRUCTURES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_STRUCTURES_LOCK = threading.Lock()
+
+
+def eaik_structure(chain: Chain) -> EAIKStructure:
+    """H, P and R0 of ``chain`` with EAIK's verdict, computed once per chain.
+
+    UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
+    """
+    try:
+        return eaik_verdict(chain)
+    except UnsupportedError as refused:
+        label = f"{chain.robot.name}.{chain.name}"
+        raise UnsupportedError(f"method 'eaik' cannot solve {label}: {refused}") from None
+
+
+def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
+    """:func:`eaik_structure` of any chain-like object with joint lines (:func:`chain_lines`: a Chain, or
+    a chain with a locked joint), UnsupportedError saying only why (the caller names the chain).
+    ``probe``: check EAIK's branches on seeded FK poses (see the module docstring); a probed verdict is
+    computed once per chain, an unprobed one (a chain rebuilt at each value of a locked joint) each time."""
+    HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
+    if probe:
+        with _STRUCTURES_LOCK:
+            cached = _STRUCTURES.get(chain)
+        if cached is not None:
+            return cached
+    lines = chain_lines(chain)
+    if lines.prismatic.any():
+        names = [n for n, p in zip(chain.joint_names, lines.prismatic, strict=True) if p]
+        raise UnsupportedError(f"EAIK takes revolute joints only, {names} prismatic")
+    H, P, tip_rotation = eaik_vectors(lines)
+    try:
+        robot = HPRobot(H, P)
+    except RuntimeError as exc:
+        raise UnsupportedError(f"EAIK says {str(exc).strip()!r} ({chain.nq} joints)") from None
+    family = robot.getKinematicFamily()
+    if not robot.hasKnownDecomposition():
+        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})")
+    result = EAIKStructure(H, P, tip_rotation.T.copy(), family)
+    if not probe:
+        return result
+    reproduced, miss = _probe(chain, robot, result)
+    if reproduced < PROBE_REQUIRED:
+        raise UnsupportedError(
+            f"EAIK reports a decomposition ({family!r}) but its branches reproduce only {reproduced} of "
+            f"{PROBE_POSES} FK poses of random joints (the nearest branch's 4x4 pose off by up to "
+            f"{miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this geometry")
+    with _STRUCTURES_LOCK:
+        _STRUCTURES[chain] = result
+    return result
+
+
+def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
+    """(how many of PROBE_POSES FK poses of seeded random joints EAIK reproduces, worst miss)."""
+    tip = np.eye(4)
+    tip[:3, :3] = structure.tip_rotation_t
+    reproduced, worst = 0, 0.0
+    for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):
+        pose = chain.fk(q).homogeneous
+        branches = np.asarray(robot.IK(pose @ tip).Q, dtype=float).reshape(-1, chain.nq)
+        misses = [np.abs(chain.fk(b).homogeneous - pose).max() for b in branches if np.all(np.isfinite(b))]
+        miss = min(misses, default=np.inf)
+        reproduced += miss <= 1e-6
+        worst = max(worst, miss)
+    return reproduced, worst
+
+
 def eaik_robot(structure):
     """An EAIK robot of a verdict's H and P whose end-effector rotation is the chain tip's at q = 0 (as
     ``eaik.IK_HP.HPRobot``, which fixes it to the identity): it takes our target poses as they are."""
-    from wbik.solvers.eaik import _import_eaik
-
-    _import_eaik()  # MissingDependencyError with the install command
+    import_eaik()  # MissingDependencyError with the install command
     from eaik.pybindings import EAIK
 
     return EAIK.Robot(structure.H.T, structure.P.T, structure.tip_rotation_t.T, [], True)
@@ -51,15 +158,13 @@ def eaik_robot(structure):
 
 class EAIKForm(ClosedForm):
     """Full poses through EAIK's decomposition of the chain (UnsupportedError, saying why, where EAIK
-    refuses it). ``structure``: a verdict already reached, else :func:`wbik.solvers.eaik.eaik_verdict`
+    refuses it). ``structure``: a verdict already reached, else :func:`eaik_verdict`
     (``probe``: check EAIK's branches on seeded FK poses)."""
 
     target_kind = "pose"
     has_scalar_path = True
 
     def __init__(self, chain, probe: bool = True, structure=None):
-        from wbik.solvers.eaik import eaik_verdict
-
         super().__init__(chain)
         self.structure = eaik_verdict(chain, probe) if structure is None else structure
         self.family = self.structure.family

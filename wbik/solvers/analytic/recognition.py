@@ -43,9 +43,9 @@ from wbik.errors import InvalidOptionError
 from wbik.errors import MissingDependencyError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
-from wbik.solvers.analytic import ClosedForm
 from wbik.solvers.analytic.aligned import AlignedForm
 from wbik.solvers.analytic.aligned import FamilyChain
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
 from wbik.solvers.analytic.structure import ChainLines
@@ -407,53 +407,6 @@ def recognise_family(chain, kind: str, options: dict | None = None) -> Recognise
             continue
         return Recognised(form, family, match.parameters)
     raise UnsupportedError("; ".join(reasons))
-
-
-def refusal(chain, reasons: dict[str, list[str]]) -> str:
-    """The message of a chain without a closed form: per target kind, why each way was refused."""
-    kinds = {"pose": "full poses", "position": "positions"}
-    parts = "; ".join(f"for {kinds.get(kind, kind)}, {'; '.join(why)}" for kind, why in reasons.items())
-    return (f"no closed form for {chain.robot.name}.{chain.name} ({chain.nq} joints): {parts}. Use a "
-            "numerical method (e.g. 'dls') instead")
-
-
-def refusal_reasons(chain, kind: str, options: dict | None = None,
-                    redundancy: dict | None = None) -> Recognised | list[str]:
-    """:func:`recognise`'s answer, or the reasons (one per way tried) where there is no closed form."""
-    from wbik.solvers.analytic.redundancy import lock_redundant_joint
-
-    try:
-        chain_lines(chain)
-    except RobotDescriptionError as unreadable:
-        return [f"its joint lines cannot be read ({unreadable})"]
-    reasons = []
-    redundancy = dict(redundancy or {})
-    if redundancy.get("joint") is None:
-        try:
-            return recognise_family(chain, kind, options)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-        try:
-            return recognise_eaik(chain, kind)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-    if redundancy.get("joint") is not None or chain.nq >= 7:
-        try:
-            return lock_redundant_joint(chain, kind, options, redundancy)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-    return reasons
-
-
-def recognise(chain, kind: str, options: dict | None = None, redundancy: dict | None = None) -> Recognised:
-    """The closed form of ``chain`` for ``kind`` targets without a binding: a family of wbik
-    (:func:`recognise_family`), else for full poses EAIK's decomposition, else, for a chain with one
-    joint more than that (``redundancy``: the options of :mod:`.redundancy`), one joint held at a value.
-    UnsupportedError naming the chain and why each was refused."""
-    found = refusal_reasons(chain, kind, options, redundancy)
-    if isinstance(found, Recognised):
-        return found
-    raise UnsupportedError(refusal(chain, {kind: found}))
 
 
 def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:

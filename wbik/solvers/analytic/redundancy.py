@@ -29,7 +29,7 @@ import numpy as np
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import ChainLines
 from wbik.solvers.analytic.structure import axis_rotation
 from wbik.solvers.analytic.structure import chain_lines

@@ -40,14 +40,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.geometry import TWO_PI
 from wbik.geometry import add_wrapped_squares
 from wbik.geometry import rot_x
 from wbik.geometry import rot_y
 from wbik.geometry import rot_z
 from wbik.geometry import wrap_to_pi
-from wbik.solvers.analytic import LIMIT_TOLERANCE
-from wbik.solvers.analytic import TWO_PI
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r

@@ -28,6 +28,12 @@ COSINE_TOLERANCE = 1e-9
 workspace boundary (a stretched elbow, an offset at full reach) comes back up to a few 1e-16 outside
 after rounding, or 1e-10 beyond the boundary for a target itself rounded; clamping it moves the limb
 by at most COSINE_TOLERANCE * its length (<= 1e-9 m per metre), far below the screening tolerance."""
+WRIST_SINGULARITY = 1e-8
+"""|sin| of a spherical wrist's middle joint (the UR-type's q5) below which the last joint is free
+(ur_kinematics' threshold). |sin q5| is read from the rotation, where
+rounding moves it by ~1e-16, so the decision has a margin of 1e8 over rounding; keeping q6 of q0 there
+costs at most ~1e-8 rad of orientation, far below the screening tolerance (1e-7)."""
+
 
 
 def clamped_cosine(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tuple[np.ndarray, np.ndarray]:

@@ -28,10 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.geometry import TWO_PI
 from wbik.geometry import add_wrapped_squares
-from wbik.solvers.analytic import TWO_PI
-from wbik.solvers.analytic import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
+from wbik.solvers.analytic.subproblems import WRIST_SINGULARITY
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
@@ -39,10 +40,6 @@ from wbik.solvers.analytic.subproblems import planar_2r_one
 from wbik.solvers.analytic.ur_kernel import URKernel
 from wbik.solvers.analytic.ur_kernel import ur_kernel
 
-WRIST_SINGULARITY = 1e-8
-"""|sin q5| below which q6 is free (ur_kinematics' threshold). |sin q5| is read from the rotation, where
-rounding moves it by ~1e-16, so the decision has a margin of 1e8 over rounding; keeping q6 of q0 there
-costs at most ~1e-8 rad of orientation, far below the screening tolerance (1e-7)."""
 BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])
 """Rz(pi), exactly: the UR description's base_link -> link0 (the DH base)."""
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])

@@ -25,9 +25,9 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
-from wbik.solvers.analytic import LIMIT_TOLERANCE
-from wbik.solvers.analytic import ClosedForm
-from wbik.solvers.analytic import wrap_into_limits
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
+from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import wrap_into_limits
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import planar_2r

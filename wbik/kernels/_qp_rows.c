@@ -1,4 +1,4 @@
-/* Compiled twins of the QP step's per-step arithmetic (the Python module wbik.qp._rows_kernel):
+/* Compiled twins of the QP step's per-step arithmetic (the Python module wbik.kernels._qp_rows):
  *
  * - frame_rows: a frame task's rows at one configuration, from the joint Jacobians Pinocchio keeps in
  *   its data (data.J, world axes at the world origin) and the frame's placement: the position rows
@@ -16,7 +16,7 @@
  * - stack_rows and tighten_slice: StackedConstraints.add's and .tighten's copies, max and min (NumPy's
  *   bits, signed zeros and NaN included), each one call instead of several slice assignments.
  */
-#include "../_kernel_buffers.h"
+#include "_buffers.h"
 #include <float.h>
 #include <math.h>
 
@@ -380,8 +380,8 @@ static PyMethodDef methods[] = {
      "tighten_slice(lb, ub, start, lower, upper): StackedConstraints.tighten on a slice"},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_rows_kernel",
-                                    "Compiled twins of the QP step's rows and quadratic (wbik.compiled).", -1,
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_qp_rows",
+                                    "Compiled twins of the QP step's rows and quadratic (wbik.kernels).", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__rows_kernel(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__qp_rows(void) { return PyModule_Create(&module); }

@@ -1,4 +1,4 @@
-/* Compiled twins of the interface's per-call pose arithmetic (the Python module wbik._pose_kernel):
+/* Compiled twins of the interface's per-call pose arithmetic (the Python module wbik.kernels._pose):
  *
  * - plain_se3: the plain-float test of wbik.targets._python_accepts_plain_se3 (is a 4x4 homogeneous
  *   matrix a pose as_target accepts on its fast path: position within the bound, unit and orthogonal
@@ -7,9 +7,9 @@
  *   error p - p*, its norm, and R*^T R, whose log3 Pinocchio then takes.
  *
  * The same products and sums in the same order as the Python twins (built with -ffp-contract=off), so
- * both give the same bits; tests/test_compiled.py compares them. wbik.compiled switches between them.
+ * both give the same bits; tests/test_compiled.py compares them. wbik.kernels switches between them.
  */
-#include "_kernel_buffers.h"
+#include "_buffers.h"
 #include <math.h>
 
 /* error_parts(reached, position, rotation, position_error, relative) -> float
@@ -73,8 +73,8 @@ static PyMethodDef methods[] = {
      "arithmetic"},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pose_kernel",
-                                    "Compiled twins of the interface's pose arithmetic (wbik.compiled).", -1,
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_pose",
+                                    "Compiled twins of the interface's pose arithmetic (wbik.kernels).", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__pose_kernel(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__pose(void) { return PyModule_Create(&module); }

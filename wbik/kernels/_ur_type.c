@@ -10,16 +10,16 @@
  * the Python twin's sums are plain left-to-right additions (Python 3.11's sum(); 3.12's compensated
  * sum would differ). tests/test_ur_kernel.py compares both paths bit for bit.
  *
- * Beyond the twin: nearest_many (solve_many) and distinct_results (solve_all) also check the chosen
- * branches with the closed-form FK (pose_errors: the batched rule of solve_many), which the analytic
- * solver holds to the robot model (Pinocchio) when it builds the form (check_fk_against_model);
- * distinct_results builds the IKResults.
+ * Beyond the twin: nearest_many (solve_many) and distinct (solve_all) also check the chosen branches
+ * with the closed-form FK (pose_errors: the batched rule of solve_many), which the analytic solver
+ * holds to the robot model (Pinocchio) when it builds the form (check_fk_against_model). Results are
+ * written into the caller's arrays; the caller builds the IKResults.
  *
- * The Python module is wbik.solvers.analytic._ur_kernel; wbik.solvers.analytic.ur_kernel wraps it.
+ * The Python module is wbik.kernels._ur_type; wbik.solvers.analytic.ur_kernel wraps it.
  */
-#include "../../_kernel_buffers.h"
+#include "_buffers.h"
+#include "_pose_errors.h"
 #include <math.h>
-#include <time.h>
 
 #define TWO_PI (2.0 * 3.141592653589793)
 /* Python's max(a, b) and min(a, b) of two floats: the first unless the second compares larger (smaller),
@@ -265,31 +265,6 @@ static int read_arguments(const char *function, PyObject *const *args, Py_ssize_
     return 0;
 }
 
-/* The batched check's errors of one reached pose against the target (wbik.solvers.analytic.batch.
- * evaluate_batch, geometry.batch_log3): position error p - p*, rotation error log3(R*^T R) as
- * vee(M - M^T) angle / |vee(M - M^T)| with angle = atan2(|vee| / 2, (trace M - 1) / 2), and both norms:
- * errors = (ex, ey, ez, rx, ry, rz, |e_p|, |e_R|). The formula loses the axis only near a half turn, and
- * the branches checked here passed the screen (rotation error <= screen tolerance, 1e-7 rad). */
-static void pose_errors(const double reached_p[3], const double reached_r[9], const double position[3],
-                        const double rotation[9], double errors[8])
-{
-    double m[9];
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            m[3 * i + j] = rotation[i] * reached_r[j] + rotation[3 + i] * reached_r[3 + j]
-                           + rotation[6 + i] * reached_r[6 + j];
-    double vee[3] = {m[7] - m[5], m[2] - m[6], m[3] - m[1]};
-    double twice_sine = sqrt(vee[0] * vee[0] + vee[1] * vee[1] + vee[2] * vee[2]);
-    double cosine = 0.5 * (m[0] + m[4] + m[8] - 1.0);
-    double scale = atan2(0.5 * twice_sine, cosine) / PY_MAX(twice_sine, 1e-300);
-    for (int i = 0; i < 3; i++) {
-        errors[i] = reached_p[i] - position[i];
-        errors[3 + i] = vee[i] * scale;
-    }
-    errors[6] = sqrt(errors[0] * errors[0] + errors[1] * errors[1] + errors[2] * errors[2]);
-    errors[7] = sqrt(errors[3] * errors[3] + errors[4] * errors[4] + errors[5] * errors[5]);
-}
-
 /* The branch AnalyticSolver._solve picks (nearest_branch over branches_one): written into best (6,),
  * with the batched check's errors of its closed-form FK into errors (8,) unless errors is NULL.
  * Returns 1 when one is picked, else 0 (no real branch), -1 (real branches, none inside the limits) or
@@ -465,98 +440,18 @@ static PyObject *distinct(PyObject *self, PyObject *const *args, Py_ssize_t narg
     return PyLong_FromLong(kept_count);
 }
 
-/* The result of one kept branch: result_type(q, True, "", |e_p|, |e_R|, e_p, e_R, time_s, 1, method, {}),
- * the arrays as row views of q_rows, p_rows and r_rows (wbik.solvers.base.IKResult's positional order);
- * NULL with the error set if any step fails. */
-static PyObject *one_result(PyObject *result_type, PyObject *q_rows, PyObject *p_rows, PyObject *r_rows,
-                            Py_ssize_t row, const double *errors, PyObject *time_s, PyObject *method)
-{
-    PyObject *items[11] = {NULL};
-    PyObject *result = NULL;
-    if ((items[0] = PySequence_GetItem(q_rows, row)) == NULL
-        || (items[2] = PyUnicode_FromStringAndSize("", 0)) == NULL
-        || (items[3] = PyFloat_FromDouble(errors[6])) == NULL
-        || (items[4] = PyFloat_FromDouble(errors[7])) == NULL
-        || (items[5] = PySequence_GetItem(p_rows, row)) == NULL
-        || (items[6] = PySequence_GetItem(r_rows, row)) == NULL
-        || (items[8] = PyLong_FromLong(1)) == NULL
-        || (items[10] = PyDict_New()) == NULL)
-        goto done;
-    items[1] = Py_NewRef(Py_True);
-    items[7] = Py_NewRef(time_s);
-    items[9] = Py_NewRef(method);
-    result = PyObject_Vectorcall(result_type, items, 11, NULL);
-done:
-    for (int i = 0; i < 11; i++)
-        Py_XDECREF(items[i]);
-    return result;
-}
-
-/* distinct_results(params, position, rotation, reference, q_rows, p_rows, r_rows, result_type, method,
- *                  position_tolerance, rotation_tolerance) -> list
- * AnalyticSolver.solve_all through the kernel: distinct_branches(), then one result (one_result) per
- * branch whose errors are within both tolerances, in branch order. The joints and errors are written
- * into q_rows (8, 6), p_rows (8, 3) and r_rows (8, 3), whose rows the results view. time_s is the time
- * of distinct_branches() (CLOCK_MONOTONIC, as time.perf_counter on Linux). */
-static PyObject *distinct_results(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
-{
-    double params[P_COUNT], position[3], rotation[9], reference[JOINTS];
-    double position_tolerance, rotation_tolerance;
-    if (read_arguments("distinct_results", args, nargs, 11, params, position, rotation, reference) < 0
-        || read_float(args[9], &position_tolerance, "position_tolerance") < 0
-        || read_float(args[10], &rotation_tolerance, "rotation_tolerance") < 0)
-        return NULL;
-    struct timespec started, finished;
-    clock_gettime(CLOCK_MONOTONIC, &started);
-    double kept[MAX_BRANCHES * JOINTS] = {0.0}, errors[MAX_BRANCHES * 8] = {0.0};
-    int kept_count = distinct_branches(params, position, rotation, reference, kept, errors);
-    clock_gettime(CLOCK_MONOTONIC, &finished);
-    double p_rows[MAX_BRANCHES * 3] = {0.0}, r_rows[MAX_BRANCHES * 3] = {0.0};
-    for (int k = 0; k < kept_count; k++)
-        for (int i = 0; i < 3; i++) {
-            p_rows[3 * k + i] = errors[8 * k + i];
-            r_rows[3 * k + i] = errors[8 * k + 3 + i];
-        }
-    if (write_doubles(args[4], kept, MAX_BRANCHES * JOINTS, "q_rows") < 0
-        || write_doubles(args[5], p_rows, MAX_BRANCHES * 3, "p_rows") < 0
-        || write_doubles(args[6], r_rows, MAX_BRANCHES * 3, "r_rows") < 0)
-        return NULL;
-    PyObject *time_s = PyFloat_FromDouble((double)(finished.tv_sec - started.tv_sec)
-                                          + 1e-9 * (double)(finished.tv_nsec - started.tv_nsec));
-    PyObject *results = PyList_New(0);
-    if (time_s == NULL || results == NULL) {
-        Py_XDECREF(time_s);
-        Py_XDECREF(results);
-        return NULL;
-    }
-    for (int k = 0; k < kept_count; k++) {
-        const double *row = errors + 8 * k;
-        if (!(row[6] <= position_tolerance && row[7] <= rotation_tolerance))
-            continue;
-        PyObject *result = one_result(args[7], args[4], args[5], args[6], k, row, time_s, args[8]);
-        if (result == NULL || PyList_Append(results, result) < 0) {
-            Py_XDECREF(result);
-            Py_DECREF(results);
-            Py_DECREF(time_s);
-            return NULL;
-        }
-        Py_DECREF(result);
-    }
-    Py_DECREF(time_s);
-    return results;
-}
-
-/* fk(params, q) -> (position (3 floats), rotation row by row (9 floats)): for the agreement tests. */
+/* fk(params, q, out) -> None: the kernel's FK of q (6,), tool included, into out (12: position, then
+ * rotation row by row); for the agreement tests. */
 static PyObject *fk(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    double params[P_COUNT], q[JOINTS], position[3], rotation[9];
-    if (check_count("fk", nargs, 2) < 0 || read_doubles(args[0], params, P_COUNT, -1, "params") < 0
+    double params[P_COUNT], q[JOINTS], pose[12];
+    if (check_count("fk", nargs, 3) < 0 || read_doubles(args[0], params, P_COUNT, -1, "params") < 0
         || read_doubles(args[1], q, JOINTS, -1, "q") < 0)
         return NULL;
-    fk_one(params, q, position, rotation);
-    return Py_BuildValue("(ddd)(ddddddddd)", position[0], position[1], position[2], rotation[0], rotation[1],
-                         rotation[2], rotation[3], rotation[4], rotation[5], rotation[6], rotation[7],
-                         rotation[8]);
+    fk_one(params, q, pose, pose + 3);
+    if (write_doubles(args[2], pose, 12, "out") < 0)
+        return NULL;
+    Py_RETURN_NONE;
 }
 
 static PyMethodDef methods[] = {
@@ -566,17 +461,14 @@ static PyMethodDef methods[] = {
      "nearest_many(params, positions, rotations, references, q, errors, info): nearest for a batch"},
     {"distinct", (PyCFunction)(void (*)(void))distinct, METH_FASTCALL,
      "distinct(params, position, rotation, reference, out, errors) -> int: the distinct screened branches"},
-    {"distinct_results", (PyCFunction)(void (*)(void))distinct_results, METH_FASTCALL,
-     "distinct_results(params, position, rotation, reference, q_rows, p_rows, r_rows, result_type, method, "
-     "position_tolerance, rotation_tolerance) -> list: solve_all's results"},
-    {"fk", (PyCFunction)(void (*)(void))fk, METH_FASTCALL, "fk(params, q) -> (position, rotation)"},
+    {"fk", (PyCFunction)(void (*)(void))fk, METH_FASTCALL, "fk(params, q, out): the FK into out (12,)"},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ur_kernel",
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_ur_type",
                                     "Compiled scalar path of the UR-type closed form (see ur_kernel.py).", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__ur_kernel(void)
+PyMODINIT_FUNC PyInit__ur_type(void)
 {
     PyObject *m = PyModule_Create(&module);
     if (m != NULL && PyModule_AddIntConstant(m, "PARAMETER_COUNT", P_COUNT) < 0) {

@@ -1,4 +1,4 @@
-/* Compiled twin of one Levenberg-Marquardt trial (the Python module wbik.solvers._lm_kernel), the policy of
+/* Compiled twin of one Levenberg-Marquardt trial (the Python module wbik.kernels._lm_trial), the policy of
  * wbik.solvers.levenberg_marquardt (LevenbergMarquardt.trial with its helpers _descent, _capped,
  * _frozen_descent, JointBounds.blocked and .project):
  *
@@ -12,7 +12,7 @@
  * gives the same bits on every CPU. Where the damped system is not numerically positive definite
  * (Cholesky fails) trial returns False and the Python twin, with its least-squares fallback, decides.
  */
-#include "../_kernel_buffers.h"
+#include "_buffers.h"
 #include <math.h>
 #include <stdlib.h>
 
@@ -231,8 +231,8 @@ static PyMethodDef methods[] = {
      "Levenberg-Marquardt trial (False: let the Python twin decide)"},
     {NULL, NULL, 0, NULL}};
 
-static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_lm_kernel",
-                                    "Compiled twin of the Levenberg-Marquardt trial (wbik.compiled).", -1,
+static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_lm_trial",
+                                    "Compiled twin of the Levenberg-Marquardt trial (wbik.kernels).", -1,
                                     methods};
 
-PyMODINIT_FUNC PyInit__lm_kernel(void) { return PyModule_Create(&module); }
+PyMODINIT_FUNC PyInit__lm_trial(void) { return PyModule_Create(&module); }
