@@ -1,6 +1,7 @@
 """MkDocs hook: a page holding ``<!-- notebook: notebooks/NAME.py -->`` gets that notebook's cells (a
 jupytext percent script, executed by the test suite) as Markdown text and Python code blocks, so the
-tutorials are the notebooks themselves, never a copy."""
+tutorials are the notebooks themselves, never a copy; ``<!-- task-kinds -->`` and ``<!-- study-keys -->``
+become the key tables of task files and study files, read from their schemas (:mod:`wbik.schema`)."""
 
 from __future__ import annotations
 
@@ -31,56 +32,57 @@ def on_page_markdown(markdown: str, page, config, files) -> str:
 
 
 _KINDS_MARKER = "<!-- task-kinds -->"
-_NESTING = 6
+_STUDY_MARKER = "<!-- study-keys -->"
 
 
-def _short(value) -> str:
-    text = repr(value) if not isinstance(value, str) else f'"{value}"'
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _rows(node, path: str, depth: int) -> list[tuple[str, str, str]]:
-    """(key path, what it must be, default) rows of a schema node's keys, nested maps expanded."""
-    from wbik.scenario_schema import NO_DEFAULT
-    from wbik.scenario_schema import ListOf
-    from wbik.scenario_schema import Map
-    from wbik.scenario_schema import Refused
-    from wbik.scenario_schema import Variants
-
-    rows = []
-    if isinstance(node, Map):
-        for key, rule in node.keys.items():
-            where = f"{path}.{key}" if path else key
-            if isinstance(rule.node, Refused):
-                rows.append((where, f"refused: {rule.node.why}", ""))
-                continue
-            default = ("required" if rule.required else
-                       "" if rule.default is NO_DEFAULT else _short(rule.default))
-            rows.append((where, rule.node.expected, default))
-            if depth < _NESTING:
-                rows.extend(_rows(rule.node, where, depth + 1))
-    elif isinstance(node, ListOf) and depth < _NESTING:
-        rows.extend(_rows(node.item, f"{path}[]", depth + 1))
-    elif isinstance(node, Variants) and depth < _NESTING:
-        for name, variant in node.variants.items():
-            rows.extend((f"{where} ({node.tag}: {name})", what, default)
-                        for where, what, default in _rows(variant, path, depth + 1))
-    return rows
+def _table(rows) -> list[str]:
+    """A Markdown table of :func:`wbik.schema.key_rows` rows."""
+    out = ["| key | value | default |", "|---|---|---|"]
+    for where, what, default, doc in rows:
+        what = (what + (f" ({doc})" if doc else "")).replace("|", "\\|").replace("\n", " ")
+        out.append(f"| `{where}` | {what} | {default.replace('|', '/')} |")
+    return out
 
 
 def _task_kinds() -> str:
     from wbik.scenarios.kinds import KIND_REGISTRY
+    from wbik.schema import key_rows
 
     out = []
     for name, kind in sorted(KIND_REGISTRY.entries().items()):
         out.append(f"## `kind: {name}`\n\n{kind.summary}\n")
-        out.append("| key | value | default |\n|---|---|---|")
-        for where, what, default in _rows(kind.schema_map, "", 0):
-            what = what.replace("|", "\\|").replace("\n", " ")
-            out.append(f"| `{where}` | {what} | {default.replace('|', '/')} |")
+        rows = key_rows(kind.schema_map)
+        out.extend(_table((where, what, default, "") for where, what, default, _ in rows))
         out.append("")
     return "\n".join(out)
 
 
+def _study_keys() -> str:
+    """The study file's keys, its methods' and each case kind's, from the study schema."""
+    from wbik.schema import Map
+    from wbik.schema import key_rows
+    from wbik.study.case_kinds import case_kinds
+    from wbik.study.definition import _common_case_keys
+    from wbik.study.definition import case_schema
+    from wbik.study.definition import method_schema
+    from wbik.study.definition import study_schema
+
+    study = [row for row in key_rows(study_schema(), nesting=1) if "single-case" not in row[3]
+             and not row[0].startswith(("cases", "methods"))]
+    out = ["### The study", "", *_table(study), "", "### `methods[]`", "",
+           *_table(key_rows(method_schema(), "methods[]")), "", "### `cases[]`: every case", "",
+           *_table(key_rows(Map(_common_case_keys()), "cases[]")), ""]
+    common = set(_common_case_keys())
+    for name, kind in case_kinds().items():
+        rows = [row for row in key_rows(case_schema(kind), "cases[]") if row[0].split(".")[1] not in common]
+        if rows:
+            out += [f"### `cases[]` of `target: {name}`", "", *_table(rows), ""]
+    return "\n".join(out)
+
+
 def _with_task_kinds(markdown: str) -> str:
-    return markdown.replace(_KINDS_MARKER, _task_kinds()) if _KINDS_MARKER in markdown else markdown
+    if _KINDS_MARKER in markdown:
+        markdown = markdown.replace(_KINDS_MARKER, _task_kinds())
+    if _STUDY_MARKER in markdown:
+        markdown = markdown.replace(_STUDY_MARKER, _study_keys())
+    return markdown

@@ -116,7 +116,8 @@ def test_a_kind_registered_from_user_code_runs_with_its_schema_and_default_forma
     assert format_report(report) == "c (counting, pincher): PASSED"
     failed = run_scenario({"kind": "counting", "name": "c", "count": 1})
     assert failed["passed"] is False and failed["verdict"] == "FAILED"
-    with pytest.raises(UnknownScenarioKeyError, match="unknown key 'cont'"):
+    with pytest.raises(UnknownScenarioKeyError,
+                       match=r"cont: the top level has unknown field\(s\) \['cont'\]"):
         validate({"kind": "counting", "cont": 1}, "c.yaml")
 
 

@@ -134,7 +134,7 @@ def test_the_rule_exactly():
     ({"success_drop": "lots"}, "success_drop must be 'ci'"),
     ({"time_rise": 0.5}, "time_rise must be a factor >= 1"),
     ({"time_ris": 2}, "did you mean 'time_rise'"),
-    ("strict", "regression is {success_drop: ci, time_rise: 1.2}"),
+    ("strict", "regression must be a mapping {success_drop: ci, time_rise: 1.2}"),
 ])
 def test_the_regression_block_is_checked(block, message):
     with pytest.raises(StudyDefinitionError, match=message.replace("(", r"\(").replace("{", r"\{")):

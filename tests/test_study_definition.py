@@ -50,7 +50,7 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
     ({"reference": {"significance": {"dls": {"x": "zero"}}}}, "significance.dls.x must be a number"),
     ({"reference": {"significance": {"dls": {"x": 1.5}}}}, "between 0 and 1"),
     ({"reference": {"significance": {"dls": {"yaw": 0.1}}}}, "significance.dls has unknown field(s) ['yaw']"),
-    ({"reference": {"significance": ["dls"]}}, "significance maps method labels"),
+    ({"reference": {"significance": ["dls"]}}, "significance must be a mapping of method labels"),
     ({"reference": {"figures": {"kdl": {"percent_solved": 72.5}}}}, "name method 'kdl'"),
     ({"reference": {"figures": {"dls": {"speed": 1}}}}, "figures.dls has unknown field(s) ['speed']"),
     ({"reference": {"figures": {"dls": {"percent_solve": 1}}}}, "(did you mean 'percent_solved'?)"),

@@ -92,7 +92,7 @@ def test_a_protocol_case_is_completed():
 
 
 @pytest.mark.parametrize(("case", "message"), [
-    ({"success": {"position": 1e-5}}, r"cases\[0\]\.success\.rotation is required"),
+    ({"success": {"position": 1e-5}}, r"cases\[0\]\.success: missing the required key 'rotation'"),
     ({"success": {"position": 1e-5, "rotation": 1e-5, "per": "each"}},
      r"cases\[0\]\.success\.per must be 'norm' or 'axis', got 'each'"),
     ({"success": {"position": 1e-5, "rotation": 1e-5, "frame": "base"}},
@@ -101,11 +101,11 @@ def test_a_protocol_case_is_completed():
      r"cases\[0\]\.success\.position must be a positive bound"),
     ({"success": {"position": 1e-5, "rotation": 1e-5, "pre": "axis"}},
      r"cases\[0\]\.success has unknown field\(s\) \['pre'\]"),
-    ({"target": "protocol"}, r"cases\[0\]\.success must be a mapping"),
+    ({"target": "protocol"}, r"cases\[0\]: missing the required key 'success' \(a mapping"),
     ({"success": {"position": 1e-5, "rotation": 1e-5}, "peers": [{"figures": {}}]},
-     r"cases\[0\]\.peers\[0\]\.solver must name the peer's solver"),
+     r"cases\[0\]\.peers\[0\]: missing the required key 'solver'"),
     ({"success": {"position": 1e-5, "rotation": 1e-5}, "peers": [{"solver": "X", "figures": {"solved": 1}}]},
-     r"cases\[0\]\.peers\[0\]\.figures\.solved is no metric"),
+     r"cases\[0\]\.peers\[0\]\.figures has unknown field\(s\) \['solved'\]"),
 ])
 def test_a_wrong_protocol_names_its_key(case, message):
     with pytest.raises(StudyDefinitionError, match=message):

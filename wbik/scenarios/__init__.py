@@ -20,10 +20,9 @@ import json
 from pathlib import Path
 
 from wbik.files import atomic_write_text
-from wbik.scenario_schema import ScenarioError
-from wbik.scenario_schema import ScenarioFileError
-from wbik.scenario_schema import validate
 from wbik.scenarios.kinds import KIND_REGISTRY
+from wbik.scenarios.kinds import ScenarioError
+from wbik.scenarios.kinds import ScenarioFileError
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import json_default
@@ -79,6 +78,8 @@ def load_scenario(path: str | Path) -> dict:
     if not isinstance(spec, dict):
         raise ScenarioFileError(f"{path}: a scenario is a mapping with a 'kind' (one of "
                                 f"{', '.join(kind_names())}), got a {type(spec).__name__}")
+    from wbik.scenario_schema import validate  # (it imports this package's kinds)
+
     spec.setdefault("name", path.stem)
     validate(spec, str(path))
     return spec
@@ -92,6 +93,8 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
     the file, or the dict's name); the runner gets the checked copy with the defaults filled in.
     With ``output``, the JSON report (:meth:`ScenarioReport.as_dict`) is written after every phase.
     """
+    from wbik.scenario_schema import validate
+
     if isinstance(scenario, dict):
         spec = scenario
         source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"

@@ -1,5 +1,6 @@
 """Scenario kinds: what a kind is (:class:`ScenarioKind`), what its runner returns
-(:class:`ScenarioReport`) and where kinds are registered.
+(:class:`ScenarioReport`), where kinds are registered, and the errors of a scenario file
+(:class:`ScenarioError` and its kinds, the schema's refusals among them).
 
 A kind is declared where its runner lives, in that module's ``SCENARIO_KINDS`` tuple::
 
@@ -32,23 +33,32 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from wbik.errors import InvalidBudgetError
 from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
+from wbik.errors import did_you_mean
+from wbik.expectations import ExpectationError
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
 from wbik.files import json_plain
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
 from wbik.registry import RegistryImportError
+from wbik.schema import Refused
+from wbik.schema import SchemaBudgetError
+from wbik.schema import SchemaValueError
+from wbik.schema import UnknownKeyError
 
 if TYPE_CHECKING:
     from wbik.robot import Robot
-    from wbik.scenario_schema import Map
+    from wbik.schema import Map
     from wbik.viz.animation import Animation
 
-__all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioKind", "ScenarioKindError",
-           "ScenarioKindImportError", "ScenarioReport", "format_entries", "json_default", "kind_names",
-           "register_kind", "report_header", "report_verdict", "robot_of", "start_of"]
+__all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioBudgetError", "ScenarioError",
+           "ScenarioFileError", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
+           "ScenarioReport", "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError",
+           "format_entries", "json_default", "kind_names", "register_kind", "report_header", "report_verdict",
+           "robot_of", "start_of"]
 
 KIND_MODULES: list[str] = [
     "wbik.scenarios.wholebody",  # wholebody_ik
@@ -59,6 +69,31 @@ KIND_MODULES: list[str] = [
 applications add theirs through the entry-point group ``wbik.scenario_kinds`` (pyproject.toml)."""
 
 VERDICTS = ("PASSED", "FAILED", "informational")
+
+
+# -- errors -----------------------------------------------------------------------------------------
+class ScenarioError(WbikError, ValueError):
+    """A scenario file that cannot be read or names something that does not exist."""
+
+
+class ScenarioFileError(ScenarioError):
+    """The file itself: missing, a directory, not UTF-8, empty, not YAML/JSON/TOML, not a mapping."""
+
+
+class UnknownScenarioKeyError(ScenarioError, UnknownKeyError):
+    """A key the scenario's kind does not read; ``path`` is where, ``known`` the keys allowed there."""
+
+
+class UnknownExpectationKeyError(UnknownScenarioKeyError, ExpectationError):
+    """An unknown key inside an ``expect:`` block."""
+
+
+class ScenarioValueError(ScenarioError, SchemaValueError):
+    """A value of the wrong type, outside its range, or not one of the allowed words; or a missing key."""
+
+
+class ScenarioBudgetError(ScenarioValueError, SchemaBudgetError, InvalidBudgetError):
+    """A time or iteration budget that is not a finite number > 0."""
 
 
 class ScenarioKindError(RegistryError):
@@ -156,7 +191,6 @@ def robot_of(spec: dict) -> Robot:
 def start_of(spec: dict, owner) -> np.ndarray:
     """The configuration a checked spec's ``start`` names: "nominal" (a copy of ``owner.nominal``,
     ``owner`` a robot or one of its chains) or as many finite numbers, else a ScenarioError."""
-    from wbik.scenario_schema import ScenarioError
     from wbik.validation import finite_vector
 
     start, nominal = spec["start"], owner.nominal
@@ -217,7 +251,7 @@ def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> s
 @dataclass(frozen=True)
 class ScenarioKind:
     """A scenario kind: its ``name`` (the files' ``kind:``), its runner ``run(spec, on_progress) ->
-    ScenarioReport``, ``schema()`` building its :class:`wbik.scenario_schema.Map` (called once, on
+    ScenarioReport``, ``schema()`` building its :class:`wbik.schema.Map` (called once, on
     first use), ``format(JSON report) -> str`` printing the report for ``wbik run`` (default: the
     header line) and a one-line ``summary``."""
 
@@ -234,8 +268,6 @@ class ScenarioKind:
 
     def takes(self, key: str) -> bool:
         """Whether the kind's files take the top-level ``key``."""
-        from wbik.scenario_schema import Refused
-
         rule = self.schema_map.keys.get(key)
         return rule is not None and not isinstance(rule.node, Refused)
 
@@ -244,9 +276,6 @@ class ScenarioKind:
 
 
 def _unknown_kind(name: str, known: list[str]) -> WbikError:
-    from wbik.errors import did_you_mean
-    from wbik.scenario_schema import ScenarioValueError
-
     return ScenarioValueError(f"unknown scenario kind {name!r}{did_you_mean(name, known)}; known kinds: "
                               f"{', '.join(known)}")
 

@@ -33,6 +33,9 @@ if TYPE_CHECKING:
     from collections.abc import Iterable
     from pathlib import Path
 
+    from wbik.schema import Context
+    from wbik.schema import Key
+    from wbik.schema import Map
     from wbik.study.blocks import Block
     from wbik.study.definition import CaseSpec
     from wbik.study.definition import MethodSpec
@@ -86,9 +89,16 @@ class CaseKind(ABC):
     """A paragraph after the machine's load when the study has cases of this kind."""
 
     # -- the study file ----------------------------------------------------------------------------
-    def entry(self, item: dict, source: str, where: str) -> dict:
-        """A study file's case entry of this kind checked, and completed where the kind knows more
-        (a StudyDefinitionError naming ``where`` in ``source`` for a mistake)."""
+    def entry_schema(self) -> dict[str, Key]:
+        """The schema of the keys a case entry of this kind takes besides every case's
+        (:data:`wbik.study.definition.CASE_KEYS`): its own (``entry_keys``), and any common key it
+        reads otherwise (:mod:`wbik.schema` nodes, with their defaults)."""
+        return {}
+
+    def entry(self, item: dict, path: str, ctx: Context) -> dict:
+        """A case entry of this kind, checked against its schema (defaults filled in), completed where
+        the kind knows more and checked across its keys (``ctx.fail`` naming the key's path for a
+        mistake)."""
         return item
 
     @abstractmethod
@@ -98,6 +108,10 @@ class CaseKind(ABC):
     @abstractmethod
     def method_options(self, method: str) -> set[str] | None:
         """The keyword options ``method`` takes (None: any)."""
+
+    def method_option_schema(self, method: str) -> Map | None:
+        """The types of ``method``'s options (:func:`wbik.schema.option_schema`; None: unchecked)."""
+        return None
 
     @abstractmethod
     def axes(self, angles: AngleConvention | None = None) -> list[str]:

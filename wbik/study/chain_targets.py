@@ -70,6 +70,7 @@ from wbik.study.statistics import summarize
 
 if TYPE_CHECKING:
     from wbik.robot import Chain
+    from wbik.schema import Map
     from wbik.solvers.method_registry import IKMethod
     from wbik.study.definition import CaseSpec
     from wbik.study.definition import MethodSpec
@@ -135,6 +136,12 @@ class ChainTargets(CaseKind):
         from wbik.solvers.method_registry import solver_options
 
         return solver_options(method)
+
+    def method_option_schema(self, method: str) -> Map:
+        from wbik.schema import option_schema
+        from wbik.solvers.method_registry import method_factory
+
+        return option_schema(method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return case_axes(self.target, angles)

@@ -23,19 +23,24 @@ at the top level instead of a ``cases`` list. Example::
       source: "a paper's Table 2"
       figures: {kdl_15s: {percent_solved: 72.5, time_median_ms: 200}}
 
-Every mistake raises :class:`StudyDefinitionError` naming the file, the field and what to write.
+The file is checked against the study schema (:func:`study_schema`, in the schema language of
+:mod:`wbik.schema`, the one of task files too): the study's keys, its methods (and their options'
+types), its cases, each with the keys of its kind (declared next to the kind,
+:meth:`wbik.study.case_kinds.CaseKind.entry_schema`). Every mistake raises a
+:class:`StudyDefinitionError` naming the file, the key's path (``cases[2].poses``) and what to write; an
+unknown key gets a "did you mean" guess.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-import math
 import re
 import tomllib
 from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
+from dataclasses import fields
 from dataclasses import replace
 from pathlib import Path
 
@@ -44,8 +49,26 @@ import yaml
 from wbik.data import data_dir
 from wbik.data import study_path
 from wbik.errors import WbikError
-from wbik.errors import closest_name
 from wbik.errors import did_you_mean
+from wbik.schema import Anything
+from wbik.schema import Boolean
+from wbik.schema import Constant
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Errors
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Node
+from wbik.schema import Number
+from wbik.schema import SchemaBudgetError
+from wbik.schema import SchemaValueError
+from wbik.schema import Shorthand
+from wbik.schema import Text
+from wbik.schema import UnknownKeyError
+from wbik.schema import dataclass_default
+from wbik.schema import join
+from wbik.schema import unknown_keys
 from wbik.study.metrics import ANGLE_AXES
 from wbik.study.metrics import POSITION_AXES
 from wbik.study.metrics import ROTATION_VECTOR_AXES
@@ -69,7 +92,6 @@ CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "refer
 """The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``). ``targets``
 names a target set (:func:`_target_set_kind`), whose kind checks and completes its parameters."""
 START_KINDS = ("nominal", "mid_range", "random")
-REFERENCE_KEYS = {"name", "source", "angles", "figures", "significance", "significance_source", "notes"}
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
@@ -111,6 +133,8 @@ class CaseSpec:
 
 BUDGET_CURVE_MS = (0.2, 0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
 """The budgets (ms) of a study's success-versus-budget curves unless ``budget_curves.budgets_ms`` says."""
+BUDGET_CURVE_POSES = 100
+"""The poses of ``budget_curves: true`` and of a ``budget_curves`` mapping that names none."""
 SUCCESS_DROP_CI = "ci"
 
 
@@ -286,135 +310,353 @@ def load_study(path: str | Path | None = None) -> Study:
 
 
 def study_from_dict(data, source: str = "study") -> Study:
-    """Validate plain data (as read from a file) into a :class:`Study`."""
+    """Validate plain data (as read from a file) against the study schema (:func:`study_schema`) into a
+    :class:`Study`; a mistake is a :class:`StudyDefinitionError` naming ``source`` and the key's path."""
     if not isinstance(data, dict):
-        raise StudyDefinitionError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
-                                   f"got {type(data).__name__}")
-    known = {"name", "description", "notes", "cases", "methods", "poses", "seed", "timeout_s", "tolerances",
-             "start", "baseline", "chunk_size", "budget_curves", "regression", *_case_keys()}
-    _no_unknown(data, known, source, "the study")
-    name = _label(data.get("name", Path(source).stem), "name", source)
-    poses = _positive_int(data.get("poses", 1000), "poses", source)
-    seed = data.get("seed", 0)
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise StudyDefinitionError(f"{source}: seed must be a non-negative integer, got {seed!r}")
-    timeout_s = _positive_float(data.get("timeout_s", 0.005), "timeout_s", source)
-    tolerances = data.get("tolerances", {}) or {}
-    if not isinstance(tolerances, dict):
-        raise StudyDefinitionError(f"{source}: tolerances must be a mapping {{position: m, rotation: rad}}")
-    _no_unknown(tolerances, {"position", "rotation"}, source, "tolerances")
-    tolerances = {key: _positive_float(tolerances.get(key, 1e-6), f"tolerances.{key}", source)
-                  for key in ("position", "rotation")}
-    start = data.get("start", "nominal")
-    if start not in START_KINDS:
-        raise StudyDefinitionError(f"{source}: start must be one of {', '.join(START_KINDS)} (the q0 given "
-                                   f"to every method), got {start!r}")
-    chunk_size = _positive_int(data.get("chunk_size", 100), "chunk_size", source)
-    methods = _methods(data.get("methods"), source)
-    cases = _cases(data, source)
+        raise StudyValueError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
+                              f"got {type(data).__name__}")
+    ctx = Context(source, STUDY_ERRORS)
+    checked = study_schema().check(data, "", ctx)
+    methods = [MethodSpec(label=item["label"], method=item["method"], options=dict(item["options"]),
+                          timeout_s=item["timeout_s"], note=item["note"] or "", per_pose=item["per_pose"])
+               for item in checked["methods"]]
+    cases = [CaseSpec(**{key: item[key] for key in _CASE_FIELDS if key in item})
+             for item in checked["cases"]]
     check_schema(methods, cases, source)
-    baseline = data.get("baseline", methods[0].label)
     labels = [m.label for m in methods]
-    _require_known(baseline, labels, f"{source}: baseline {baseline!r} is not one of the method labels")
-    for case in cases:
+    baseline = checked.get("baseline") or labels[0]
+    if baseline not in labels:
+        ctx.fail("baseline", f"baseline {baseline!r} is not one of the method labels"
+                             f"{did_you_mean(baseline, labels)}; known: {', '.join(labels)}")
+    for index, case in enumerate(cases):
         for label in case.reference.labels if case.reference else ():
-            _require_known(label, labels, f"{source}: case {case.name!r}: the reference figures name method "
-                                          f"{label!r}, which is not a method label of the study")
-    return Study(name=name, cases=tuple(cases), methods=tuple(methods), poses=poses, seed=seed,
-                 timeout_s=timeout_s, tolerances=tolerances, start=start, baseline=baseline,
-                 chunk_size=chunk_size, budget_curves=_budget_curves(data.get("budget_curves"), source),
-                 regression=_regression(data.get("regression"), source),
-                 description=str(data.get("description", "") or ""),
-                 notes=str(data.get("notes", "") or ""), source=source)
+            if label not in labels:
+                where = join(f"cases[{index}]" if "cases" in data else "", "reference")
+                ctx.fail(where, f"case {case.name!r}: the reference figures name method {label!r}, which is "
+                                f"not a method label of the study{did_you_mean(label, labels)}; known: "
+                                f"{', '.join(labels)}")
+    return Study(name=checked["name"], cases=tuple(cases), methods=tuple(methods), poses=checked["poses"],
+                 seed=checked["seed"], timeout_s=checked["timeout_s"], tolerances=checked["tolerances"],
+                 start=checked["start"], baseline=baseline, chunk_size=checked["chunk_size"],
+                 budget_curves=_budget_curves(checked["budget_curves"]),
+                 regression=_regression(checked["regression"]), description=checked["description"] or "",
+                 notes=checked["notes"] or "", source=source)
 
 
-def _budget_curves(raw, source: str) -> BudgetCurveSpec:
-    """``budget_curves:``: false/absent (none), true (100 poses), or {poses: n, budgets_ms: [...]}."""
+_CASE_FIELDS = tuple(item.name for item in fields(CaseSpec))
+
+
+# -- the schema ------------------------------------------------------------------------------------
+class StudyValueError(StudyDefinitionError, SchemaValueError):
+    """A value of a study file that its schema refuses (wrong type, outside its range, a missing key)."""
+
+
+class UnknownStudyKeyError(StudyDefinitionError, UnknownKeyError):
+    """A key of a study file that is not read there; ``path`` is where, ``known`` the keys allowed."""
+
+
+class StudyBudgetError(StudyValueError, SchemaBudgetError):
+    """A study's time budget (``timeout_s``) that is not a finite number > 0."""
+
+
+STUDY_ERRORS = Errors(StudyValueError, UnknownStudyKeyError, StudyBudgetError)
+"""The errors a study file's check raises (each a :class:`StudyDefinitionError`)."""
+
+LABEL = Text(pattern=_LABEL.pattern, what="a name of letters, digits, '_', '-' or '.' (it names files)")
+"""A study's, a case's or a method's name."""
+
+
+def _count(what: str = "a positive integer", nullable: bool = False) -> Number:
+    return Number(integer=True, gt=0, nullable=nullable, what=what)
+
+
+def _real(what: str, **bounds) -> Number:
+    """A number (a string holding one counts: YAML 1.1 reads 1e-6 as a string), as a float."""
+    return Number(strings=True, as_float=True, what=what, **bounds)
+
+
+def study_schema() -> Map:
+    """The schema of a study file: the study's keys, its methods and its cases, each case with the keys
+    of its kind (:meth:`wbik.study.case_kinds.CaseKind.entry_schema`); a single-case study gives the
+    case's keys at the top level. Defaults are those of :class:`Study` and of the blocks' classes."""
+    tolerances = dataclass_default(Study, "tolerances")
+    keys = {
+        "name": Key(LABEL, doc="the study's name (the output folder); default: the file's name"),
+        "description": Key(Text(nullable=True), "", doc="text for the report"),
+        "notes": Key(Text(nullable=True), "", doc="text for the report"),
+        "cases": Key(ListOf(CaseEntry(), min_items=1, what="{robot, chain, target} mappings"),
+                     doc="the cases (or one case's keys at the top level)"),
+        "methods": Key(ListOf(method_schema(), min_items=1, what="method names or {label, method, options, "
+                              "timeout_s, note, per_pose} mappings, e.g. [analytic, dls, {label: kdl_15s, "
+                              "method: kdl, timeout_s: 15}]"), required=True, doc="the methods compared"),
+        "poses": Key(_count(), dataclass_default(Study, "poses"), doc="targets per case"),
+        "seed": Key(Number(integer=True, ge=0, what="a non-negative integer"),
+                    dataclass_default(Study, "seed"), doc="the targets, the starts and every seeded method"),
+        "timeout_s": Key(_real("a positive number (s)", gt=0, budget=True),
+                         dataclass_default(Study, "timeout_s"), doc="default budget per solve"),
+        "tolerances": Key(Map({key: Key(_real(f"a positive number ({unit})", gt=0), tolerances[key])
+                               for key, unit in (("position", "m"), ("rotation", "rad"))}, nullable=True,
+                              what="a mapping {position: m, rotation: rad}"), tolerances,
+                          doc="the shared FK check's tolerances"),
+        "start": Key(Text(START_KINDS,
+                          what=f"one of {', '.join(START_KINDS)} (the q0 given to every method)"),
+                     dataclass_default(Study, "start"), doc="the start configuration of every solve"),
+        "baseline": Key(Text(nullable=True),
+                        doc="the method label the tests compare with; default: the first"),
+        "chunk_size": Key(_count(), dataclass_default(Study, "chunk_size"), doc="targets per work unit"),
+        "budget_curves": Key(Either(Boolean(nullable=True), budget_curves_schema(),
+                                    what="true, false or {poses: 100, budgets_ms: [0.2, 1, 5, 20]}"), None,
+                             doc="success versus budget"),
+        "regression": Key(regression_schema(), {}, doc="the rule of wbik study --compare-to"),
+        **{key: Key(Anything("one case's key (see a case)"), doc="a single-case study's case key")
+           for key in sorted(_case_keys() - {"name", "poses"})},
+    }
+    return Map(keys, post=_across_keys)
+
+
+def _across_keys(study: dict, path: str, ctx: Context) -> None:
+    """The study's name (default: the file's); its cases: ``cases:``, or the case whose keys are given
+    at the top level (checked as a case, paths from the top level); unique case names and labels."""
+    if "name" not in study:
+        study["name"] = LABEL.check(Path(ctx.source).stem, "name", ctx)
+    case_keys = _case_keys()
+    top_level = {key for key in case_keys - {"name", "poses"} if key in study}
+    if "cases" in study:
+        if top_level - {"reference"}:
+            ctx.fail(path, "give either cases: [...] or robot/chain/target at the top level, not both "
+                           f"(found {sorted(top_level - {'reference'})})")
+        if "reference" in study:
+            ctx.fail("reference", "reference: belongs inside each case of cases: (the figures and angle "
+                                  "names are a case's)")
+    else:
+        if "robot" not in study and not (case_keys - CASE_KEYS) & set(study):
+            ctx.fail(path, "say which robot to study (robot: NAME or a URDF path) or list cases:")
+        study["cases"] = [CaseEntry().check({key: study.pop(key) for key in sorted(top_level)}, path, ctx)]
+    names = [case["name"] for case in study["cases"]]
+    if len(set(names)) != len(names):
+        ctx.fail("cases", f"case names must be unique (give each a name:), got {names}")
+    labels = [method["label"] for method in study["methods"]]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        ctx.fail("methods", f"method labels must be unique; repeated: {repeated} (give each variant its own "
+                            "label:)")
+
+
+def method_schema() -> Shorthand:
+    """A method of ``methods:``: its name, or {method, label, options, timeout_s, note, per_pose}."""
+
+    def label_and_settings(item: dict, path: str, ctx: Context) -> None:
+        if "label" not in item:
+            item["label"] = LABEL.check(item["method"], join(path, "label"), ctx)
+        for reserved in ("timeout_s", "tolerances", "seed"):
+            if reserved in item["options"]:
+                ctx.says(join(path, f"options.{reserved}"),
+                         f"is set by the study; use {join(path, 'timeout_s')} or the study's tolerances/seed")
+
+    keys = {"method": Key(MethodName(), required=True, doc="an IK method ('wbik methods')"),
+            "label": Key(LABEL, doc="its name in the report; default: the method"),
+            "options": Key(Map(values=Anything(), nullable=True, what="a mapping of keyword arguments"), {},
+                           doc="keyword options of the method"),
+            "timeout_s": Key(_real("a positive number (s)", gt=0, nullable=True, budget=True), None,
+                             doc="its budget per solve; default: the study's"),
+            "note": Key(Text(nullable=True), "", doc="text for the report's methods table"),
+            "per_pose": Key(Boolean(), False, doc="time single solve calls")}
+    return Shorthand(Map(keys, post=label_and_settings), "method",
+                     what="a method name or a mapping {label, method, options, timeout_s, note, per_pose}")
+
+
+class MethodName(Text):
+    """A method some case kind runs (``wbik methods``, whole-body methods too)."""
+
+    what = "a method name ('wbik methods' lists them)"
+
+    def __init__(self):
+        super().__init__(_known_methods)
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, str):
+            self.wrong(value, path, ctx)
+        known = self.choices
+        if value not in known:
+            ctx.fail(path, f"unknown method {value!r}{did_you_mean(value, known)}; known: {', '.join(known)}")
+        return value
+
+
+def _known_methods() -> tuple[str, ...]:
+    from wbik.study.case_kinds import case_kinds
+
+    return tuple(dict.fromkeys(name for kind in case_kinds().values() for name in kind.methods()))
+
+
+def budget_curves_schema() -> Map:
+    """``budget_curves:`` as a mapping {poses, budgets_ms}."""
+    return Map({"poses": Key(Number(integer=True, ge=0, what="a number of poses >= 0 (0: no curves)"),
+                             BUDGET_CURVE_POSES, doc="the first poses of every case solved again"),
+                "budgets_ms": Key(ListOf(_real("a positive number (ms)", gt=0), min_items=1,
+                                         what="budgets in ms"), list(BUDGET_CURVE_MS), doc="the budgets")},
+               what="{poses: 100, budgets_ms: [0.2, 1, 5, 20]}")
+
+
+def regression_schema() -> Map:
+    """``regression:`` {success_drop, time_rise}, defaults those of :class:`RegressionRule`."""
+    drop = Either(Text((SUCCESS_DROP_CI,)), _real("percentage points", ge=0, le=100),
+                  what="'ci' (the 95 % intervals are disjoint) or percentage points between 0 and 100")
+    rise = Either(_real("a factor >= 1", ge=1), Constant(SUCCESS_DROP_CI, "off", False, None),
+                  what="a factor >= 1 (e.g. 1.2), 'ci' (1) or off")
+    return Map({"success_drop": Key(drop, dataclass_default(RegressionRule, "success_drop"),
+                                    doc="when the share solved regressed"),
+                "time_rise": Key(rise, dataclass_default(RegressionRule, "time_rise"),
+                                 doc="when the median time regressed")},
+               nullable=True, what="a mapping {success_drop: ci, time_rise: 1.2}")
+
+
+def _budget_curves(raw) -> BudgetCurveSpec:
+    """``budget_curves:`` checked: false/absent (none), true (BUDGET_CURVE_POSES poses), or
+    {poses, budgets_ms}."""
     if raw is None or raw is False:
         return BudgetCurveSpec()
     if raw is True:
-        return BudgetCurveSpec(poses=100)
-    where = "budget_curves"
-    raw = _mapping(raw, source, where, "is true, false or {poses: 100, budgets_ms: [0.2, 1, 5, 20]}")
-    _no_unknown(raw, {"poses", "budgets_ms"}, source, where)
-    poses = raw.get("poses", 100)
-    if isinstance(poses, bool) or not isinstance(poses, int) or poses < 0:
-        raise StudyDefinitionError(f"{source}: {where}.poses must be a number of poses >= 0 (0: no curves), "
-                                   f"got {poses!r}")
-    budgets = raw.get("budgets_ms", list(BUDGET_CURVE_MS))
-    if not isinstance(budgets, list) or not budgets:
-        raise StudyDefinitionError(f"{source}: {where}.budgets_ms must be a non-empty list of budgets in ms, "
-                                   f"got {budgets!r}")
-    budgets = sorted({_positive_float(value, f"{where}.budgets_ms", source) for value in budgets})
-    return BudgetCurveSpec(poses=poses, budgets_ms=tuple(budgets))
+        return BudgetCurveSpec(poses=BUDGET_CURVE_POSES)
+    return BudgetCurveSpec(poses=raw["poses"], budgets_ms=tuple(sorted(set(raw["budgets_ms"]))))
 
 
-def _regression(raw, source: str) -> RegressionRule:
-    """``regression:``: {success_drop: ci or points >= 0, time_rise: factor >= 1, ci (1) or off}."""
-    where = "regression"
-    raw = _mapping(raw, source, where, "is {success_drop: ci, time_rise: 1.2}")
-    _no_unknown(raw, {"success_drop", "time_rise"}, source, where)
-    drop = raw.get("success_drop", SUCCESS_DROP_CI)
-    if drop != SUCCESS_DROP_CI:
-        drop = _yaml_number(drop)
-        if isinstance(drop, bool) or not isinstance(drop, int | float) or not 0 <= drop <= 100:
-            raise StudyDefinitionError(f"{source}: {where}.success_drop must be 'ci' (the 95 % intervals are "
-                                       f"disjoint) or percentage points between 0 and 100, got {drop!r}")
-        drop = float(drop)
-    rise = raw.get("time_rise", 1.2)
-    if rise in (None, False, "off"):
-        rise = None
-    elif rise == SUCCESS_DROP_CI:
-        rise = 1.0
-    else:
-        rise = _yaml_number(rise)
-        if isinstance(rise, bool) or not isinstance(rise, int | float) or not 1.0 <= rise < math.inf:
-            raise StudyDefinitionError(f"{source}: {where}.time_rise must be a factor >= 1 (e.g. 1.2), 'ci' "
-                                       f"(1) or off, got {rise!r}")
-        rise = float(rise)
-    return RegressionRule(success_drop=drop, time_rise=rise)
+def _regression(raw: dict) -> RegressionRule:
+    """``regression:`` checked: time_rise 'ci' is 1, off (or null) None."""
+    rise = raw["time_rise"]
+    rise = 1.0 if rise == SUCCESS_DROP_CI else None if rise in (None, False, "off") else rise
+    return RegressionRule(success_drop=raw["success_drop"], time_rise=rise)
 
 
-def _methods(raw, source: str) -> list[MethodSpec]:
-    if not isinstance(raw, list) or not raw:
-        raise StudyDefinitionError(f"{source}: methods must be a non-empty list, e.g. [analytic, dls, "
-                                   "{label: kdl_15s, method: kdl, timeout_s: 15}]")
-    from wbik.study.case_kinds import case_kinds
+def _common_case_keys() -> dict[str, Key]:
+    """The keys every case entry takes (CASE_KEYS; ``targets`` is a target set kind's)."""
+    return {
+        "name": Key(LABEL, doc="the case's name; default: robot_chain_target"),
+        "robot": Key(Text(non_empty=True, what="a robot name or URDF path"),
+                     doc="a built-in robot, example-robot-data:NAME or a URDF path"),
+        "chain": Key(Text(nullable=True, what="a chain name"), doc="a chain of the robot, by name"),
+        "target": Key(Text(what="a case kind"), doc="the case's kind; default: pose"),
+        "robot_params": Key(Map(values=Anything(), nullable=True,
+                                what="a mapping of the robot's parameters (e.g. {lengths: [3, 2, 2]})"), {},
+                            doc="keyword parameters of the robot's builder"),
+        "poses": Key(_count(nullable=True), doc="this case's number of targets; default: the study's"),
+        "reference": Key(reference_schema(), doc="published figures to set beside ours"),
+        **{key: Key(Text(non_empty=True, nullable=True, what="a frame name"),
+                    doc="a chain named by its frames") for key in ("base", "tip")},
+    }
 
-    known_methods = {name: description for kind in case_kinds().values()  # every kind's methods
-                     for name, description in kind.methods().items()}
-    specs: list[MethodSpec] = []
-    for index, item in enumerate(raw):
-        where = f"methods[{index}]"
-        if isinstance(item, str):
-            item = {"method": item}
-        if not isinstance(item, dict):
-            raise StudyDefinitionError(f"{source}: {where} must be a method name or a mapping, got {item!r}")
-        _no_unknown(item, {"label", "method", "options", "timeout_s", "note", "per_pose"}, source, where)
-        method = item.get("method")
-        _require_known(method, known_methods, f"{source}: {where}: unknown method {method!r}")
-        options = item.get("options", {}) or {}
-        if not isinstance(options, dict):
-            raise StudyDefinitionError(f"{source}: {where}.options must be a mapping of keyword arguments")
-        for reserved in ("timeout_s", "tolerances", "seed"):
-            if reserved in options:
-                raise StudyDefinitionError(f"{source}: {where}.options.{reserved} is set by the study; "
-                                           f"use {where}.timeout_s or the study's tolerances/seed")
-        timeout = item.get("timeout_s")
-        per_pose = item.get("per_pose", False)
-        if not isinstance(per_pose, bool):
-            raise StudyDefinitionError(f"{source}: {where}.per_pose must be true or false")
-        specs.append(MethodSpec(
-            label=_label(item.get("label", method), f"{where}.label", source), method=method,
-            options=dict(options),
-            timeout_s=None if timeout is None else _positive_float(timeout, f"{where}.timeout_s", source),
-            note=str(item.get("note", "") or ""), per_pose=per_pose))
-    labels = [s.label for s in specs]
-    duplicates = sorted({label for label in labels if labels.count(label) > 1})
-    if duplicates:
-        raise StudyDefinitionError(f"{source}: method labels must be unique; repeated: {duplicates} "
-                                   "(give each variant its own label:)")
-    return specs
+
+def case_schema(kind) -> Map:
+    """The schema of a case entry of ``kind``: every case's keys and the kind's own."""
+    return Map({**_common_case_keys(), **kind.entry_schema()},
+               what="a mapping {robot, chain, target, ...}")
+
+
+class CaseEntry(Node):
+    """A case entry of ``cases:``: its kind chosen (``target:``, a target set's ``targets:``, or a key
+    only one kind takes), checked against the kind's schema (:func:`case_schema`), completed by the
+    kind (:meth:`wbik.study.case_kinds.CaseKind.entry`), its reference read against the kind's axes."""
+
+    expected = "a mapping {robot, chain, target, ...}"
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, dict):
+            self.wrong(value, path, ctx)
+        unknown_keys(ctx, path, value, _case_keys())
+        kind = _case_kind(value, path, ctx)
+        item = kind.entry(case_schema(kind).check(value, path, ctx), path, ctx)
+        base, tip = item.get("base"), item.get("tip")
+        if (base is None) != (tip is None):
+            ctx.fail(path, "give both base: and tip: (the chain's frames), got only "
+                           f"{'base' if tip is None else 'tip'}")
+        robot = item.get("robot")
+        if robot is None:
+            ctx.says(join(path, "robot"),
+                     "is required: a built-in robot, example-robot-data:NAME or a URDF path")
+        chain = item.get("chain")
+        if base is not None and chain is None:
+            chain = f"{base}_to_{tip}"
+        item["chain"], item["target"] = chain, kind.name
+        if "name" not in item:
+            item["name"] = LABEL.check(_case_name(robot, chain, kind.name), join(path, "name"), ctx)
+        item["robot_params"] = dict(item.get("robot_params") or {})
+        item["reference"] = _reference(item.get("reference"), kind, join(path, "reference"), ctx)
+        return item
+
+
+def _reference(raw: dict | None, kind, path: str, ctx: Context) -> Reference | None:
+    """A case's checked ``reference:`` as a :class:`Reference`, its angles and p-values read against
+    ``kind``'s target and error axes; None when absent or empty."""
+    if not raw or not any(value not in (None, {}, "") for value in raw.values()):
+        return None
+    angles = _angles(raw.get("angles"), kind.target, join(path, "angles"), ctx)
+    axes = [*kind.axes(angles), "time"]
+    for label, row in raw["significance"].items():
+        unknown_keys(ctx, join(path, f"significance.{label}"), row, axes)
+    texts = {key: raw.get(key) or "" for key in ("name", "source", "significance_source", "notes")}
+    return Reference(name=texts["name"].strip() or dataclass_default(Reference, "name"),
+                     source=texts["source"], angles=angles, figures=raw["figures"],
+                     significance=raw["significance"],
+                     significance_source=texts["significance_source"], notes=texts["notes"])
+
+
+ANGLES_EXAMPLE = "e.g. {sequence: zyx, names: {x: yaw, y: pitch, z: roll}} for R = Rz(roll) Ry(pitch) Rx(yaw)"
+
+
+def reference_schema() -> Map:
+    """A case's ``reference:`` block (see :mod:`wbik.study.reference`)."""
+
+    def some_angle(angles: dict, path: str, ctx: Context) -> None:
+        if not angles["names"]:
+            ctx.says(join(path, "names"), f"must name at least one angle, {ANGLES_EXAMPLE}")
+
+    sequence = Text(TAIT_BRYAN_SEQUENCES, what=f"one of {', '.join(TAIT_BRYAN_SEQUENCES)} (R = R_i R_j R_k "
+                                               f"for 'ijk'), {ANGLES_EXAMPLE}")
+    angles = Map({"sequence": Key(sequence, required=True),
+                  "names": Key(Map({axis: Key(LABEL) for axis in POSITION_AXES}, nullable=True,
+                                   what=f"a mapping of axes (x, y, z) to column names, {ANGLES_EXAMPLE}"), {},
+                               doc="the column name of each angle")},
+                 post=some_angle, nullable=True, what=f"a mapping {{sequence, names}}, {ANGLES_EXAMPLE}")
+    metrics = Map({metric: Key(_real("a number")) for metric in REFERENCE_METRICS},
+                  what=f"a mapping of metrics ({', '.join(REFERENCE_METRICS)}) to numbers")
+    p_values = Map(values=_real("a number between 0 and 1 (a p-value)", ge=0, le=1),
+                   what="a mapping of error axes to p-values")
+    text = Text(nullable=True)
+    return Map({"name": Key(text, doc="the report's name of the figures"),
+                "source": Key(text, doc="where the figures come from"),
+                "angles": Key(angles, doc="Euler angles whose errors get columns (pose targets only)"),
+                "figures": Key(Map(values=metrics, nullable=True,
+                                   what="a mapping of method labels to {metric: value}, e.g. "
+                                        "{kdl: {percent_solved: 72.5}}"), {}, doc="{label: {metric: value}}"),
+                "significance": Key(Map(values=p_values, nullable=True,
+                                        what="a mapping of method labels to {axis: p-value}, e.g. "
+                                             "{kdl: {x: 0, time: 1.0e-3}}"), {},
+                                    doc="{label: {axis: p-value}}"),
+                "significance_source": Key(text, doc="where the p-values come from"),
+                "notes": Key(text, doc="text for the report")},
+               nullable=True, what="a mapping {name, source, angles, figures, significance, "
+                                   "significance_source, notes}")
+
+
+def _angles(raw: dict | None, target: str, path: str, ctx: Context) -> AngleConvention | None:
+    """``reference.angles`` checked as an :class:`AngleConvention`: pose targets only, each column a
+    name no error column has."""
+    if raw is None or raw == {}:
+        return None
+    if target != "pose":
+        ctx.fail(path, f"Euler angles apply to pose targets only, this case's target is {target!r} (leave "
+                       "angles: out)")
+    taken = {*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES}
+    columns: list[tuple[str, str]] = []
+    for axis in POSITION_AXES:
+        column = raw["names"].get(axis)
+        if column is None:
+            continue
+        if column in taken:
+            ctx.fail(f"{path}.names.{axis}", f"{column!r} is already an error column "
+                                            f"({', '.join(sorted(taken))}); choose another name")
+        taken.add(column)
+        columns.append((axis, column))
+    return AngleConvention(sequence=raw["sequence"], names=tuple(columns))
 
 
 def _case_name(robot: str, chain: str | None, target: str) -> str:
@@ -431,230 +673,58 @@ def _case_keys() -> set[str]:
     return CASE_KEYS | {key for kind in case_kinds().values() for key in kind.entry_keys}
 
 
-def _case_kind(item: dict, source: str, where: str):
+def _case_kind(item: dict, path: str, ctx: Context):
     """The kind of a case entry: its ``target:``, else the kind whose own key it holds, else
     DEFAULT_TARGET; a key of another kind than the target's is an error."""
     from wbik.study.case_kinds import case_kinds
 
     kinds = case_kinds()
     if "targets" in item:
-        return _target_set_kind(item, kinds, source, where)
+        return _target_set_kind(item, kinds, path, ctx)
     owners = {key: kind for kind in kinds.values() for key in kind.entry_keys if key in item}
     target = item.get("target", next(iter(owners.values())).name if owners else DEFAULT_TARGET)
-    for key, owner in owners.items():
-        if owner.name != target:
-            raise StudyDefinitionError(f"{source}: {where}: {key}: is for target: {owner.name} cases, got "
-                                       f"target {target!r}")
     if not isinstance(target, str) or target not in kinds:
         names = [repr(name) for name, kind in kinds.items() if not getattr(kind, "target_set", None)]
         sets = [name for name, kind in kinds.items() if getattr(kind, "target_set", None)]
         choices = f"{', '.join(names[:-1])} or {names[-1]}" if len(names) > 1 else names[0]
         also = f" (or a target set: {', '.join(sets)}; see targets:)" if sets else ""
-        raise StudyDefinitionError(f"{source}: {where}.target must be {choices}{also}, got {target!r}")
+        ctx.says(join(path, "target"), f"must be {choices}{also}, got {target!r}"
+                                       f"{did_you_mean(target, kinds) if isinstance(target, str) else ''}")
+    for key, owner in owners.items():
+        if owner.name != target:
+            ctx.fail(join(path, key), f"is for target: {owner.name} cases, got target {target!r}")
     return kinds[target]
 
 
-def _target_set_kind(item: dict, kinds: dict, source: str, where: str):
+def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
     """The kind of a case entry naming a target set, ``targets: NAME`` or ``targets: {set: NAME, ...}``:
     the registered kind whose ``target_set`` is NAME and whose target is the entry's ``target`` (pose
     by default, or the kind's own name)."""
     raw = item["targets"]
     if isinstance(raw, dict):
-        name, key = raw.get("set"), f"{where}.targets.set"
+        name, key = raw.get("set"), join(path, "targets.set")
     else:
-        name, key = raw, f"{where}.targets"
+        name, key = raw, join(path, "targets")
     sets: dict[str, list] = {}
     for kind in kinds.values():
         if getattr(kind, "target_set", None):
             sets.setdefault(kind.target_set, []).append(kind)
     if not isinstance(name, str) or name not in sets:
         known = ", ".join(sets) or "none is registered"
-        raise StudyDefinitionError(f"{source}: {key} must name a target set ({known}), got "
-                                   f"{name!r}{did_you_mean(name, sets)}")
+        ctx.says(key, f"must name a target set ({known}), got {name!r}"
+                      f"{did_you_mean(name, sets) if isinstance(name, str) else ''}")
     target = item.get("target", DEFAULT_TARGET)
     for kind in sets[name]:
         if target in (kind.target, kind.name):
             return kind
-    raise StudyDefinitionError(f"{source}: {where}.target: the target set {name!r} draws "
-                               f"{' or '.join(kind.target for kind in sets[name])} targets, got {target!r}")
-
-
-def _cases(data: dict, source: str) -> list[CaseSpec]:
-    case_keys = _case_keys()
-    top_level = {key for key in case_keys - {"name", "poses", "reference"} if key in data}
-    if "cases" in data:
-        if top_level:
-            raise StudyDefinitionError(f"{source}: give either cases: [...] or robot/chain/target at the "
-                                       f"top level, not both (found {sorted(top_level)})")
-        raw = data["cases"]
-        if not isinstance(raw, list) or not raw:
-            raise StudyDefinitionError(f"{source}: cases must be a non-empty list of "
-                                       "{robot, chain, target} mappings")
-        if "reference" in data:
-            raise StudyDefinitionError(f"{source}: reference: belongs inside each case of cases: (the "
-                                       "figures and angle names are a case's)")
-    else:
-        if "robot" not in data and not (case_keys - CASE_KEYS) & set(data):
-            raise StudyDefinitionError(f"{source}: say which robot to study (robot: NAME or a URDF path) "
-                                       "or list cases:")
-        raw = [{key: value for key, value in data.items() if key in case_keys - {"name", "poses"}}]
-    cases: list[CaseSpec] = []
-    for index, item in enumerate(raw):
-        where = f"cases[{index}]" if "cases" in data else "the study"
-        if not isinstance(item, dict):
-            raise StudyDefinitionError(f"{source}: {where} must be a mapping, got {item!r}")
-        _no_unknown(item, case_keys, source, where)
-        kind = _case_kind(item, source, where)
-        item = kind.entry(item, source, where)
-        robot = item.get("robot")
-        if not isinstance(robot, str) or not robot:
-            raise StudyDefinitionError(f"{source}: {where}.robot must be a robot name or URDF path")
-        chain = item.get("chain")
-        if chain is not None and not isinstance(chain, str):
-            raise StudyDefinitionError(f"{source}: {where}.chain must be a chain name")
-        base, tip = _chain_frames(item, source, where)
-        if base is not None and chain is None:
-            chain = f"{base}_to_{tip}"
-        target = kind.name
-        params = item.get("robot_params", {}) or {}
-        if not isinstance(params, dict):
-            raise StudyDefinitionError(f"{source}: {where}.robot_params must be a mapping of the robot's "
-                                       f"parameters (e.g. {{lengths: [3, 2, 2]}}), got {params!r}")
-        poses = item.get("poses")
-        case = CaseSpec(
-            name=_label(item.get("name", _case_name(robot, chain, target)), f"{where}.name", source),
-            robot=robot, chain=chain, target=target, robot_params=dict(params),
-            poses=None if poses is None else _positive_int(poses, f"{where}.poses", source),
-            reference=_reference(item.get("reference"), kind, source, f"{where}.reference"),
-            scenario=item.get("scenario"), base=base, tip=tip, targets=item.get("targets"),
-            path=item.get("path"), success=item.get("success"), peers=item.get("peers"))
-        cases.append(case)
-    names = [c.name for c in cases]
-    if len(set(names)) != len(names):
-        raise StudyDefinitionError(f"{source}: case names must be unique (give each a name:), got {names}")
-    return cases
-
-
-def _chain_frames(item: dict, source: str, where: str) -> tuple[str | None, str | None]:
-    """A case's ``base``/``tip`` (a chain named by its frames, as KDL and TRAC-IK take it): both or
-    neither, frame names."""
-    base, tip = item.get("base"), item.get("tip")
-    if base is None and tip is None:
-        return None, None
-    if base is None or tip is None:
-        raise StudyDefinitionError(f"{source}: {where}: give both base: and tip: (the chain's frames), got "
-                                   f"only {'base' if tip is None else 'tip'}")
-    for key, value in (("base", base), ("tip", tip)):
-        if not isinstance(value, str) or not value:
-            raise StudyDefinitionError(f"{source}: {where}.{key} must be a frame name, got {value!r}")
-    return base, tip
-
-
-def _reference(raw, kind, source: str, where: str) -> Reference | None:
-    """A case's ``reference:`` block checked (see wbik.study.reference), None when absent; ``kind``
-    the case's kind (:class:`wbik.study.case_kinds.CaseKind`: its target and error axes)."""
-    if raw is None or raw == {}:
-        return None
-    if not isinstance(raw, dict):
-        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{name, source, angles, figures, "
-                                   f"significance, significance_source, notes}}, got {raw!r}")
-    _no_unknown(raw, REFERENCE_KEYS, source, where)
-    texts = {key: raw.get(key, "") if raw.get(key) is not None else "" for key in
-             ("name", "source", "significance_source", "notes")}
-    for key, value in texts.items():
-        if not isinstance(value, str):
-            raise StudyDefinitionError(f"{source}: {where}.{key} must be text, got {value!r}")
-    name = texts["name"].strip() or "reference"
-    angles = _angles(raw.get("angles"), kind.target, source, f"{where}.angles")
-    figures = _table(raw.get("figures"), source, f"{where}.figures",
-                     "maps method labels to {metric: value}, e.g. {kdl: {percent_solved: 72.5}}",
-                     "metrics", REFERENCE_METRICS, "numbers", _number)
-    axes = [*kind.axes(angles), "time"]
-    significance = _table(raw.get("significance"), source, f"{where}.significance",
-                          "maps method labels to {axis: p-value}, e.g. {kdl: {x: 0, time: 1.0e-3}}",
-                          "error axes", axes, "p-values", _p_value)
-    return Reference(name=name, source=texts["source"], angles=angles, figures=figures,
-                     significance=significance, significance_source=texts["significance_source"],
-                     notes=texts["notes"])
-
-
-def _table(raw, source: str, where: str, what: str, row_keys_are: str, row_keys, values_are: str,
-           value) -> dict[str, dict[str, float]]:
-    """A ``{label: {key: number}}`` block checked: ``what`` says what it maps; each row maps keys
-    among ``row_keys`` (``row_keys_are``, e.g. "metrics") to ``values_are``, each one checked by
-    ``value(item, field_name, source)``."""
-    checked = {}
-    for label, row in _mapping(raw, source, where, what).items():
-        row_where = f"{where}.{label}"
-        row = _mapping(row, source, row_where, f"maps {row_keys_are} ({', '.join(row_keys)}) to {values_are}")
-        _no_unknown(row, set(row_keys), source, row_where)
-        checked[str(label)] = {key: value(item, f"{row_where}.{key}", source) for key, item in row.items()}
-    return checked
-
-
-def _p_value(value, field_name: str, source: str) -> float:
-    """A number between 0 and 1, else a StudyDefinitionError."""
-    p_value = _number(value, field_name, source)
-    if not 0.0 <= p_value <= 1.0:
-        raise StudyDefinitionError(f"{source}: {field_name} is a p-value, between 0 and 1; got {value!r}")
-    return p_value
-
-
-def _angles(raw, target: str, source: str, where: str) -> AngleConvention | None:
-    """``reference.angles``: {sequence: one of TAIT_BRYAN_SEQUENCES, names: {axis: column name}}."""
-    if raw is None:
-        return None
-    example = "e.g. {sequence: zyx, names: {x: yaw, y: pitch, z: roll}} for R = Rz(roll) Ry(pitch) Rx(yaw)"
-    if not isinstance(raw, dict):
-        raise StudyDefinitionError(f"{source}: {where} must be a mapping {{sequence, names}}, {example}")
-    _no_unknown(raw, {"sequence", "names"}, source, where)
-    if target != "pose":
-        raise StudyDefinitionError(f"{source}: {where}: Euler angles apply to pose targets only, this case's "
-                                   f"target is {target!r} (leave angles: out)")
-    sequence = raw.get("sequence")
-    if sequence not in TAIT_BRYAN_SEQUENCES:
-        raise StudyDefinitionError(
-            f"{source}: {where}.sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)} (R = R_i R_j R_k "
-            f"for 'ijk'), got {sequence!r}{did_you_mean(sequence, TAIT_BRYAN_SEQUENCES)}; {example}")
-    names = _mapping(raw.get("names"), source, f"{where}.names",
-                     f"maps axes (x, y, z) to column names, {example}")
-    if not names:
-        raise StudyDefinitionError(f"{source}: {where}.names must name at least one angle, {example}")
-    _no_unknown(names, set(POSITION_AXES), source, f"{where}.names")
-    taken = {*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES}
-    columns: list[tuple[str, str]] = []
-    for axis in POSITION_AXES:
-        if axis not in names:
-            continue
-        column = _label(names[axis], f"{where}.names.{axis}", source)
-        if column in taken:
-            raise StudyDefinitionError(f"{source}: {where}.names.{axis}: {column!r} is already an error "
-                                       f"column ({', '.join(sorted(taken))}); choose another name")
-        taken.add(column)
-        columns.append((axis, column))
-    return AngleConvention(sequence=sequence, names=tuple(columns))
-
-
-def _mapping(value, source: str, where: str, what: str) -> dict:
-    """``value`` if a mapping ({} for None), else a StudyDefinitionError saying what it maps."""
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise StudyDefinitionError(f"{source}: {where} {what}; got {value!r}")
-    return value
-
-
-def _number(value, field_name: str, source: str) -> float:
-    """A finite number (PyYAML's string '1e-3' included), else a StudyDefinitionError."""
-    value = _yaml_number(value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise StudyDefinitionError(f"{source}: {field_name} must be a number, got {value!r}")
-    return float(value)
+    draws = " or ".join(kind.target for kind in sets[name])
+    ctx.fail(join(path, "target"), f"the target set {name!r} draws {draws} targets, got {target!r}")
 
 
 def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
-    against its constructor, as the first of the cases' kinds that runs the method reads it
+    against its constructor (names, and the types its defaults tell: ``methods[i].options.KEY``), as
+    the first of the cases' kinds that runs the method reads it
     (:meth:`wbik.study.case_kinds.CaseKind.method_options`), every case's robot (a built-in name or an
     existing URDF file) and its ``robot_params`` against the robot's builder."""
     from wbik.models import builder_parameters
@@ -670,6 +740,7 @@ def check_schema(methods, cases, source: str) -> None:
         kind = next((kind for kind in kinds if spec.method in kind.methods()), kinds[0])
         try:
             accepted = kind.method_options(spec.method)
+            types = kind.method_option_schema(spec.method)
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
         if accepted is not None:
@@ -677,6 +748,8 @@ def check_schema(methods, cases, source: str) -> None:
             _no_unknown_keys(spec.options, accepted, accepted - study_settings,
                              f"{source}: methods[{index}] ({spec.label}).options has unknown option(s)",
                              f"method {spec.method!r}; its options")
+        if types is not None:
+            types.check(spec.options, f"methods[{index}].options", Context(source, STUDY_ERRORS))
     for case in cases:
         path = Path(case.robot).expanduser()
         example = example_robot_name(case.robot)
@@ -699,55 +772,12 @@ def _no_unknown_keys(given, accepted: set[str], listed: set[str], what: str, who
     {whose}: [``listed``, sorted]"."""
     unknown = sorted(set(given) - accepted)
     if unknown:
-        raise StudyDefinitionError(f"{what} {unknown} for {whose}: {', '.join(sorted(listed)) or '(none)'}")
-
-
-def _no_unknown(mapping: dict, known: set[str], source: str, where: str) -> None:
-    unknown = sorted(set(mapping) - known, key=str)
-    if unknown:
-        guesses = [(key, closest_name(key, known)) for key in unknown]
-        guesses = [(key, guess) for key, guess in guesses if guess is not None]
-        if len(unknown) == 1 and guesses:
-            hint = f" (did you mean {guesses[0][1]!r}?)"
-        elif guesses:
-            hint = " (did you mean " + ", ".join(f"{guess!r} for {key!r}" for key, guess in guesses) + "?)"
-        else:
-            hint = ""
-        raise StudyDefinitionError(f"{source}: {where} has unknown field(s) {unknown}{hint}; allowed: "
-                                   f"{', '.join(sorted(known))}")
-
-
-def _require_known(name, known, message: str) -> None:
-    """A StudyDefinitionError ``message`` + did-you-mean + the known names when ``name`` is not one."""
-    if not isinstance(name, str) or name not in known:
-        raise StudyDefinitionError(f"{message}{did_you_mean(name, known)}; known: {', '.join(known)}")
+        raise StudyValueError(f"{what} {unknown} for {whose}: {', '.join(sorted(listed)) or '(none)'}")
 
 
 def _label(value, field_name: str, source: str) -> str:
-    if not isinstance(value, str) or not _LABEL.match(value):
-        raise StudyDefinitionError(f"{source}: {field_name} must be a name of letters, digits, '_', '-' or "
-                                   f"'.' (it names files), got {value!r}")
-    return value
+    return LABEL.check(value, field_name, Context(source, STUDY_ERRORS))
 
 
 def _positive_int(value, field_name: str, source: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
-        raise StudyDefinitionError(f"{source}: {field_name} must be a positive integer, got {value!r}")
-    return value
-
-
-def _yaml_number(value):
-    """``value`` as a float when it is a string holding one (PyYAML reads 1e-6, no dot, as a string)."""
-    if isinstance(value, str):
-        try:
-            return float(value)
-        except ValueError:
-            pass
-    return value
-
-
-def _positive_float(value, field_name: str, source: str) -> float:
-    value = _yaml_number(value)
-    if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
-        raise StudyDefinitionError(f"{source}: {field_name} must be a positive number, got {value!r}")
-    return float(value)
+    return _count().check(value, field_name, Context(source, STUDY_ERRORS))

@@ -47,6 +47,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wbik.files import atomic_write_bytes
+from wbik.schema import Boolean
+from wbik.schema import Context
+from wbik.schema import Key
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import join
 from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.blocks import case_rows
@@ -62,7 +68,6 @@ from wbik.study.context import case_chain
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
 from wbik.study.cpu_watch import solve_watching_the_cpu
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.path_metrics import branch_labels
 from wbik.study.path_metrics import circle_points
 from wbik.study.path_metrics import line_points
@@ -90,11 +95,6 @@ SHAPES = ("line", "circle")
 ORIENTATIONS = ("hold", "slerp")
 
 
-def _flag(value):
-    """A check of true or false."""
-    return value if isinstance(value, bool) else None
-
-
 PATH_PARAMETERS = {
     "shape": Parameter("line", "'line' or 'circle'", choice(*SHAPES), "the path's shape"),
     "length": Parameter(0.2, "a length in m, in (0, 10]", number(0.0, 10.0, low_open=True),
@@ -110,7 +110,7 @@ PATH_PARAMETERS = {
     "jump": Parameter(0.5, "a joint step in rad (m for a prismatic joint), in (0, 2 pi]",
                       number(0.0, 2.0 * math.pi, low_open=True),
                       "a step between consecutive points larger than this on some joint is a jump"),
-    "reachable": Parameter(True, "true or false", _flag,
+    "reachable": Parameter(True, "true or false", Boolean(),
                            "keep only paths whose every point has a witness configuration"),
     "attempts": Parameter(50, "an integer in [1, 1000] (draws per path)", integer(1, 1000),
                           "draws per path until one has a witness at every point"),
@@ -129,44 +129,33 @@ WITNESS_RESTARTS = 10
 STREAM = zlib.crc32(PATH.encode())
 
 
-def path_parameters(raw, source: str, where: str) -> tuple[dict, int | None]:
-    """A case's ``path:`` checked and completed with its defaults (the keys of its shape and
-    orientation only), and its ``count`` (None when not given); a StudyDefinitionError naming the key
-    path (``cases[1].path.radius``) for a mistake."""
-    given = {} if raw is None else raw
-    if not isinstance(given, dict):
-        raise StudyDefinitionError(f"{source}: {where}.path must be a mapping {{shape: line|circle, length "
-                                   f"or radius, points, count, ...}}, got {raw!r}")
-    known = {*PATH_PARAMETERS, "count"}
-    unknown = sorted(set(given) - known, key=str)
-    if unknown:
-        from wbik.errors import closest_name
+def path_schema() -> Map:
+    """A case's ``path:``: the keys of its shape and orientation (PATH_PARAMETERS, defaults filled in)
+    and ``count``, the number of paths (absent when not given); a key of another shape or orientation
+    is refused by its path (``cases[1].path.radius``)."""
 
-        guess = closest_name(str(unknown[0]), known)
-        hint = f" (did you mean {guess!r}?)" if guess else ""
-        raise StudyDefinitionError(f"{source}: {where}.path has unknown field(s) {unknown}{hint}; a path "
-                                   f"takes: {', '.join(sorted(known))}")
-    checked: dict = {}
-    for key, parameter in PATH_PARAMETERS.items():
-        value = given.get(key, parameter.default)
-        normalised = parameter.check(value)
-        if normalised is None:
-            raise StudyDefinitionError(f"{source}: {where}.path.{key} must be {parameter.what}, got "
-                                       f"{value!r}")
-        checked[key] = normalised
-    for key, (decider, value) in ONLY_FOR.items():
-        if checked[decider] != value:
-            if key in given:
-                raise StudyDefinitionError(f"{source}: {where}.path.{key} applies to {decider}: {value} only "
-                                           f"(this path's {decider} is {checked[decider]})")
-            del checked[key]
-    count = given.get("count")
-    if count is not None:
-        count = integer(1)(count)
-        if count is None:
-            raise StudyDefinitionError(f"{source}: {where}.path.count must be a positive integer (paths), "
-                                       f"got {given['count']!r}")
-    return checked, count
+    def only_for(checked: dict, path: str, ctx: Context) -> None:
+        for key, (decider, value) in ONLY_FOR.items():
+            if checked[decider] != value:
+                if key in checked:
+                    ctx.says(join(path, key), f"applies to {decider}: {value} only (this path's {decider} "
+                                              f"is {checked[decider]})")
+            elif key not in checked:
+                checked[key] = PATH_PARAMETERS[key].default
+
+    keys = {key: (Key(parameter.node, doc=parameter.description) if key in ONLY_FOR else parameter.key)
+            for key, parameter in PATH_PARAMETERS.items()}
+    keys["count"] = Key(Number(integer=True, gt=0, what="a positive integer (paths)"),
+                        doc="how many paths (the case's poses)")
+    return Map(keys, post=only_for, nullable=True,
+               what="a mapping {shape: line|circle, length or radius, points, count, ...}")
+
+
+def path_parameters(raw, ctx: Context, path: str) -> tuple[dict, int | None]:
+    """A case's ``path:`` (``raw``) checked and completed with its defaults (the keys of its shape and
+    orientation only), and its ``count`` (None when not given)."""
+    checked = path_schema().check(raw, path, ctx)
+    return checked, checked.pop("count", None)
 
 
 def describe(parameters: dict) -> str:
@@ -291,17 +280,21 @@ class PathTargets(ChainTargets):
         super().__init__(name, target="pose")
 
     # -- the study file ----------------------------------------------------------------------------
-    def entry(self, item: dict, source: str, where: str) -> dict:
+    def entry_schema(self) -> dict[str, Key]:
+        return {"path": Key(path_schema(), {}, doc="the path's shape and parameters")}
+
+    def entry(self, item: dict, path: str, ctx: Context) -> dict:
         from wbik.study.definition import _case_name
 
         if item.get("reference"):
-            raise StudyDefinitionError(f"{source}: {where}.reference does not apply to a path case")
-        parameters, count = path_parameters(item.get("path"), source, where)
+            ctx.says(join(path, "reference"), "does not apply to a path case")
+        parameters = dict(item["path"])
+        count = parameters.pop("count", None)
         completed = {**item, "path": parameters, "target": self.name}
         if count is not None:
             if item.get("poses") not in (None, count):
-                raise StudyDefinitionError(f"{source}: {where}: path.count ({count}) and poses "
-                                           f"({item['poses']}) both say how many paths; give one")
+                ctx.fail(path, f"path.count ({count}) and poses ({item['poses']}) both say how many paths; "
+                               "give one")
             completed["poses"] = count
         robot = item.get("robot")
         if "name" not in item and isinstance(robot, str) and robot:
@@ -312,7 +305,7 @@ class PathTargets(ChainTargets):
 
     def parameters_of(self, case: CaseSpec) -> dict:
         """The case's path parameters (completed when it was read), else the defaults."""
-        return dict(case.path) if case.path else path_parameters(None, "defaults", "defaults")[0]
+        return dict(case.path) if case.path else path_parameters(None, Context("defaults"), "path")[0]
 
     def sampling_text(self, case: CaseSpec) -> str:
         return describe(self.parameters_of(case))

@@ -30,12 +30,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from wbik.schema import Context
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Text
+from wbik.schema import dataclass_default
+from wbik.schema import join
 from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import our_figures
 from wbik.study.success_rules import FRAMES
@@ -57,85 +63,39 @@ if TYPE_CHECKING:
     from wbik.study.sampling import PoseSet
 
 PROTOCOL = "protocol"
-PEER_KEYS = {"solver", "source", "figures", "note"}
 _BOUND = number(0.0, 1.0e3, low_open=True)
 
 
-def success_rule(raw, source: str, where: str) -> dict:
-    """A case's ``success:`` checked and completed: {position, rotation, per, frame (per-axis rules
-    only)}; a StudyDefinitionError naming the key path for a mistake."""
-    example = "e.g. {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}"
-    if not isinstance(raw, dict):
-        raise StudyDefinitionError(f"{source}: {where}.success must be a mapping {{position: m, rotation: "
-                                   f"rad, per: norm|axis, frame: target|base}}, {example}; got {raw!r}")
-    unknown = sorted(set(raw) - {"position", "rotation", "per", "frame"}, key=str)
-    if unknown:
-        raise StudyDefinitionError(f"{source}: {where}.success has unknown field(s) {unknown}; allowed: "
-                                   "frame, per, position, rotation")
-    rule: dict = {}
-    for key, unit in (("position", "m"), ("rotation", "rad")):
-        if key not in raw:
-            raise StudyDefinitionError(f"{source}: {where}.success.{key} is required (a bound in {unit}), "
-                                       f"{example}")
-        value = _BOUND(raw[key])
-        if value is None:
-            raise StudyDefinitionError(f"{source}: {where}.success.{key} must be a positive bound in {unit}, "
-                                       f"got {raw[key]!r}")
-        rule[key] = value
-    rule["per"] = choice(*RULES)(raw.get("per", "norm"))
-    if rule["per"] is None:
-        raise StudyDefinitionError(f"{source}: {where}.success.per must be 'norm' or 'axis', got "
-                                   f"{raw['per']!r}")
-    if rule["per"] == "axis":
-        rule["frame"] = choice(*FRAMES)(raw.get("frame", "target"))
-        if rule["frame"] is None:
-            raise StudyDefinitionError(f"{source}: {where}.success.frame must be 'target' (TRAC-IK's) or "
-                                       f"'base', got {raw['frame']!r}")
-    elif "frame" in raw:
-        raise StudyDefinitionError(f"{source}: {where}.success.frame applies to per: axis only (norms do not "
-                                   "depend on the frame)")
-    return rule
+def success_schema() -> Map:
+    """A case's ``success:``: {position, rotation, per, frame (per-axis rules only)}, defaults those of
+    :class:`~wbik.study.success_rules.SuccessRule`."""
+
+    def frame_for_axis_rules(rule: dict, path: str, ctx: Context) -> None:
+        if rule["per"] == "axis":
+            rule.setdefault("frame", dataclass_default(SuccessRule, "frame"))
+        elif "frame" in rule:
+            ctx.says(join(path, "frame"), "applies to per: axis only (norms do not depend on the frame)")
+
+    keys = {key: Key(_BOUND.described(f"a positive bound in {unit} (at most 1000)"), required=True,
+                     doc=f"the bound on the {key} error ({unit})")
+            for key, unit in (("position", "m"), ("rotation", "rad"))}
+    keys["per"] = Key(choice(*RULES), dataclass_default(SuccessRule, "per"),
+                      doc="norm: the error norms; axis: each of the six components")
+    keys["frame"] = Key(choice(*FRAMES).described("'target' (TRAC-IK's) or 'base'"),
+                        doc="the frame of a per-axis rule")
+    return Map(keys, post=frame_for_axis_rules,
+               what="a mapping {position: m, rotation: rad, per: norm|axis, frame: target|base}, e.g. "
+                    "{per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}")
 
 
-def peer_figures(raw, source: str, where: str) -> list[dict]:
-    """A case's ``peers:`` checked: a list of {solver, source, figures: {metric: number}, note}."""
-    if raw is None:
-        return []
-    if not isinstance(raw, list):
-        raise StudyDefinitionError(f"{source}: {where}.peers must be a list of {{solver, source, figures, "
-                                   f"note}}, got {raw!r}")
-    peers = []
-    for index, item in enumerate(raw):
-        at = f"{where}.peers[{index}]"
-        if not isinstance(item, dict):
-            raise StudyDefinitionError(f"{source}: {at} must be a mapping {{solver, source, figures, note}}, "
-                                       f"got {item!r}")
-        unknown = sorted(set(item) - PEER_KEYS, key=str)
-        if unknown:
-            raise StudyDefinitionError(f"{source}: {at} has unknown field(s) {unknown}; allowed: "
-                                       f"{', '.join(sorted(PEER_KEYS))}")
-        solver = item.get("solver")
-        if not isinstance(solver, str) or not solver.strip():
-            raise StudyDefinitionError(f"{source}: {at}.solver must name the peer's solver")
-        for key in ("source", "note"):
-            if not isinstance(item.get(key, ""), str):
-                raise StudyDefinitionError(f"{source}: {at}.{key} must be text, got {item[key]!r}")
-        figures = item.get("figures") or {}
-        if not isinstance(figures, dict):
-            raise StudyDefinitionError(f"{source}: {at}.figures must map metrics "
-                                       f"({', '.join(REFERENCE_METRICS)}) to numbers, got {figures!r}")
-        checked = {}
-        for metric, value in figures.items():
-            if metric not in REFERENCE_METRICS:
-                raise StudyDefinitionError(f"{source}: {at}.figures.{metric} is no metric; metrics: "
-                                           f"{', '.join(REFERENCE_METRICS)}")
-            number_ = number(-math.inf, math.inf)(value)
-            if number_ is None:
-                raise StudyDefinitionError(f"{source}: {at}.figures.{metric} must be a number, got {value!r}")
-            checked[metric] = number_
-        peers.append({"solver": solver.strip(), "source": item.get("source", ""), "figures": checked,
-                      "note": item.get("note", "")})
-    return peers
+def peers_schema() -> ListOf:
+    """A case's ``peers:``: a list of {solver, source, figures: {metric: number}, note}."""
+    figures = Map({metric: Key(number(-math.inf, math.inf)) for metric in REFERENCE_METRICS},
+                  nullable=True, what=f"a mapping of metrics ({', '.join(REFERENCE_METRICS)}) to numbers")
+    peer = Map({"solver": Key(Text(non_empty=True, what="the name of the peer's solver"), required=True),
+                "source": Key(Text(), ""), "figures": Key(figures, {}), "note": Key(Text(), "")},
+               what="a mapping {solver, source, figures, note}")
+    return ListOf(peer, what="{solver, source, figures, note} mappings")
 
 
 @dataclass(frozen=True)
@@ -154,9 +114,13 @@ class ProtocolTargets(ChainTargets):
         super().__init__(name, target="pose")
 
     # -- the study file ----------------------------------------------------------------------------
-    def entry(self, item: dict, source: str, where: str) -> dict:
-        return {**item, "target": self.name, "success": success_rule(item.get("success"), source, where),
-                "peers": peer_figures(item.get("peers"), source, where)}
+    def entry_schema(self) -> dict[str, Key]:
+        return {"success": Key(success_schema(), required=True, doc="the case's success rule"),
+                "peers": Key(peers_schema(), [], doc="peers' published figures (report only)")}
+
+    def entry(self, item: dict, path: str, ctx: Context) -> dict:
+        peers = [{**peer, "solver": peer["solver"].strip()} for peer in item["peers"]]
+        return {**item, "target": self.name, "peers": peers}
 
     @staticmethod
     def rule_of(case: CaseSpec) -> SuccessRule:

@@ -5,103 +5,78 @@ and their checks (a :class:`~wbik.study.definition.StudyDefinitionError` naming 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
-from wbik.errors import closest_name
-from wbik.study.definition import StudyDefinitionError
+from wbik.schema import Context
+from wbik.schema import Interval
+from wbik.schema import Key
+from wbik.schema import Map
+from wbik.schema import Node
+from wbik.schema import Number
+from wbik.schema import Shorthand
+from wbik.schema import Text
 
 
 @dataclass(frozen=True)
 class Parameter:
-    """One parameter of a target set: its ``default``, ``what`` it must be (for messages) and its
-    ``check`` (the value normalised, or None when it is not one)."""
+    """One parameter of a target set (or a path): its ``default``, ``what`` it must be (for messages),
+    its ``check`` (a schema node: :func:`number`, :func:`integer`, :func:`interval`, :func:`choice`, or
+    any :class:`wbik.schema.Node`) and what it is for."""
 
     default: object
     what: str
-    check: Callable[[object], object | None]
+    check: Node
     description: str = ""
 
+    @property
+    def node(self) -> Node:
+        """The check, saying ``what`` in its messages."""
+        return self.check.described(self.what)
 
-def _float(value) -> float | None:
-    """A finite float from a number or a string holding one (YAML reads 1e-3 as a string), else None."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, str):
-        try:
-            value = float(value)
-        except ValueError:
-            return None
-    if not isinstance(value, int | float) or not math.isfinite(value):
-        return None
-    return float(value)
+    @property
+    def key(self) -> Key:
+        """The parameter as a schema key, with its default."""
+        return Key(self.node, self.default, doc=self.description)
 
 
-def number(low: float, high: float, *, low_open: bool = False, high_open: bool = False) -> Callable:
-    """A check of a number in [low, high] (ends open where asked)."""
-    def check(value):
-        number_ = _float(value)
-        if number_ is None or number_ < low or number_ > high:
-            return None
-        if (low_open and number_ == low) or (high_open and number_ == high):
-            return None
-        return number_
-    return check
+def number(low: float, high: float, *, low_open: bool = False, high_open: bool = False) -> Number:
+    """A number in [low, high] (ends open where asked; infinite ends: none), as a float; a string holding
+    one counts (YAML reads 1e-3 as a string)."""
+    bounds = {("gt" if low_open else "ge"): low if math.isfinite(low) else None,
+              ("lt" if high_open else "le"): high if math.isfinite(high) else None}
+    return Number(**bounds, strings=True, as_float=True)
 
 
-def integer(low: int, high: int | None = None) -> Callable:
-    """A check of an integer in [low, high] (no upper end for None)."""
-    def check(value):
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            return None
-        if high is not None and value > high:
-            return None
-        return int(value)
-    return check
+def integer(low: int, high: int | None = None) -> Number:
+    """An integer in [low, high] (no upper end for None)."""
+    return Number(ge=low, le=high, integer=True)
 
 
-def interval(low: float, high: float) -> Callable:
-    """A check of a pair [a, b] with low <= a <= b <= high (a tuple of floats)."""
-    def check(value):
-        if not isinstance(value, list | tuple) or len(value) != 2:
-            return None
-        a, b = _float(value[0]), _float(value[1])
-        if a is None or b is None or not low <= a <= b <= high:
-            return None
-        return (a, b)
-    return check
+def interval(low: float, high: float) -> Interval:
+    """A pair [a, b] with low <= a <= b <= high (a tuple of floats)."""
+    return Interval(low, high, strings=True)
 
 
-def choice(*names: str) -> Callable:
-    """A check of one of ``names``."""
-    return lambda value: value if isinstance(value, str) and value in names else None
+def choice(*names: str) -> Text:
+    """One of ``names``."""
+    return Text(names)
 
 
-def checked_parameters(name: str, parameters: dict[str, Parameter], raw, source: str, where: str) -> dict:
-    """A case's ``targets:`` (the set's name, or a mapping with ``set:`` and parameters) checked against
-    the set ``name``'s ``parameters`` and completed with their defaults: ``{"set": name, key: value}``."""
-    given = {} if raw is None or isinstance(raw, str) else raw
-    if not isinstance(given, dict):
-        raise StudyDefinitionError(f"{source}: {where}.targets must be a target set's name or a mapping "
-                                   f"{{set: NAME, ...its parameters}}, got {raw!r}")
-    known = {"set", *parameters}
-    unknown = sorted(set(given) - known, key=str)
-    if unknown:
-        guess = closest_name(unknown[0], known)
-        hint = f" (did you mean {guess!r}?)" if guess else ""
-        raise StudyDefinitionError(f"{source}: {where}.targets has unknown field(s) {unknown}{hint}; the "
-                                   f"target set {name!r} takes: {', '.join(sorted(known))}")
-    checked: dict = {"set": name}
-    for key, parameter in parameters.items():
-        value = given.get(key, parameter.default)
-        normalised = parameter.check(value)
-        if normalised is None:
-            raise StudyDefinitionError(f"{source}: {where}.targets.{key} must be {parameter.what}, "
-                                       f"got {value!r}")
-        checked[key] = normalised
-    return checked
+def parameters_map(name: str, parameters: dict[str, Parameter]) -> Shorthand:
+    """A case's ``targets:``: the set's name, or a mapping with ``set:`` and the set ``name``'s
+    ``parameters``; checked, it is ``{"set": name, key: value}`` with every default filled in."""
+    keys = {"set": Key(Text((name,)), name, doc="the target set"),
+            **{key: parameter.key for key, parameter in parameters.items()}}
+    return Shorthand(Map(keys, what=f"a mapping {{set: {name}, ...its parameters}}"), "set",
+                     what="a target set's name or a mapping {set: NAME, ...its parameters}")
+
+
+def checked_parameters(name: str, parameters: dict[str, Parameter], raw, ctx: Context, path: str) -> dict:
+    """A case's ``targets:`` (``raw``, None for the set's defaults) checked against the set ``name``'s
+    ``parameters`` and completed with their defaults: ``{"set": name, key: value}``."""
+    return parameters_map(name, parameters).check(name if raw is None else raw, path, ctx)
 
 
 def defaults(name: str, parameters: dict[str, Parameter]) -> dict:
     """The set's parameters at their defaults: ``{"set": name, key: default}``."""
-    return checked_parameters(name, parameters, None, "defaults", "defaults")
+    return checked_parameters(name, parameters, None, Context("defaults"), "targets")

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from wbik.files import atomic_write_bytes
+from wbik.schema import Key
 from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.chain_targets import ChainChunkTask
@@ -46,8 +47,8 @@ from wbik.study.solution_coverage import coverage_columns
 from wbik.study.solution_coverage import coverage_summary
 from wbik.study.solution_coverage import distance_histogram
 from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import checked_parameters
 from wbik.study.target_parameters import defaults
+from wbik.study.target_parameters import parameters_map
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -140,9 +141,9 @@ class TargetSetKind(ChainTargets):
         return {**self.parameters, **(COVERAGE_PARAMETERS if self.reachable else {})}
 
     # -- the study file ----------------------------------------------------------------------------
-    def entry(self, item: dict, source: str, where: str) -> dict:
-        return {**item, "targets": checked_parameters(self.target_set, self.all_parameters,
-                                                      item.get("targets"), source, where)}
+    def entry_schema(self) -> dict[str, Key]:
+        return {"targets": Key(parameters_map(self.target_set, self.all_parameters), self.target_set,
+                               doc="the target set and its parameters")}
 
     def parameters_of(self, case: CaseSpec) -> dict:
         """The case's parameters (its ``targets:``, completed when it was read), else the defaults."""

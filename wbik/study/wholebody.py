@@ -29,6 +29,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from wbik.schema import Key
+from wbik.schema import Text
+from wbik.schema import join
 from wbik.study import results as store
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
@@ -50,11 +53,11 @@ from wbik.study.case_kinds import ChunkTask
 from wbik.study.context import _frozen
 from wbik.study.context import _robot
 from wbik.study.context import chunk_seed
-from wbik.study.definition import StudyDefinitionError
-from wbik.study.definition import _require_known
 from wbik.study.sampling import PoseSet
 
 if TYPE_CHECKING:
+    from wbik.schema import Context
+    from wbik.schema import Map
     from wbik.study.definition import CaseSpec
     from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
@@ -156,22 +159,31 @@ class WholeBodyCases(CaseKind):
         return f"{type(self).__name__}()"
 
     # -- the study file ----------------------------------------------------------------------------
-    def entry(self, item: dict, source: str, where: str) -> dict:
-        """A whole-body case entry checked, with its robot and name filled from the sampler."""
+    def entry_schema(self) -> dict[str, Key]:
         from wbik.wholebody.cases import CASE_REGISTRY
 
-        samplers = CASE_REGISTRY.entries()
-        scenario = item.get("scenario")
-        _require_known(scenario, samplers,
-                       f"{source}: {where}.scenario {scenario!r} is not a whole-body case sampler")
-        robot = samplers[scenario].robot
+        samplers = Text(lambda: tuple(CASE_REGISTRY.entries()))
+        return {"scenario": Key(samplers, required=True, doc="the whole-body case sampler")}
+
+    def entry(self, item: dict, path: str, ctx: Context) -> dict:
+        """A whole-body case entry with its robot and name filled from the sampler."""
+        from wbik.wholebody.cases import CASE_REGISTRY
+
+        scenario = item["scenario"]
+        robot = CASE_REGISTRY.entries()[scenario].robot
         if item.get("robot", robot) != robot:
-            raise StudyDefinitionError(f"{source}: {where}: sampler {scenario!r} is on robot {robot!r}, not "
-                                       f"{item['robot']!r} (leave robot: out)")
+            ctx.fail(path, f"sampler {scenario!r} is on robot {robot!r}, not {item['robot']!r} (leave "
+                           "robot: out)")
         for key in ("chain", "robot_params", "reference", "base", "tip"):
             if item.get(key):
-                raise StudyDefinitionError(f"{source}: {where}.{key} does not apply to a whole-body case")
+                ctx.says(join(path, key), "does not apply to a whole-body case")
         return {**item, "target": WHOLEBODY, "robot": robot, "name": item.get("name", scenario)}
+
+    def method_option_schema(self, method: str) -> Map:
+        from wbik.schema import option_schema
+        from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
+
+        return option_schema(WHOLEBODY_METHOD_REGISTRY.get(method).factory, leading=1)
 
     def methods(self) -> dict[str, str]:
         from wbik.wholebody.methods import wholebody_methods

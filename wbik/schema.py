@@ -1,0 +1,697 @@
+"""The schema language of wbik's files: keys, types, ranges, defaults and checking, with one way of
+saying what is wrong.
+
+Task files (``tasks/*.yaml``, :mod:`wbik.scenario_schema`) and study files (``comparisons/*.yaml``,
+:mod:`wbik.study.definition`) declare what they read with the nodes below: a :class:`Map` of
+:class:`Key` entries (each a node, a default and whether it is required), :class:`Text`,
+:class:`Number`, :class:`Boolean`, :class:`Vector`, :class:`ListOf`, :class:`Either`,
+:class:`Variants`, ... ``node.check(value, path, ctx)`` returns the value with every default filled in,
+or raises a typed error whose message starts with the file (``ctx.source``) and names the key's path
+(``cases[2].targets.fraction``, ``phases[1].tasks[0].frame``):
+
+- ``{path} must be {what the node takes}, got {value} ({type})``: a value of the wrong type, outside
+  its range, or not one of the allowed words (with a "did you mean" guess);
+- ``{key path}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ...``: a key the
+  mapping does not read;
+- ``{path}: {why}``: anything a file's own check refuses (:meth:`Context.fail`).
+
+Each kind of file picks its error classes (:class:`Errors`): subclasses of :class:`SchemaValueError`,
+:class:`UnknownKeyError` and :class:`SchemaBudgetError`, so a task file's refusal is a
+``ScenarioValueError`` and a study file's a ``StudyDefinitionError``. This module imports no task-file
+or study code.
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import math
+import numbers
+import re
+from collections.abc import Callable
+from collections.abc import Iterator
+from collections.abc import Mapping
+from dataclasses import MISSING
+from dataclasses import dataclass
+from dataclasses import field
+from dataclasses import fields
+
+from wbik.errors import InvalidBudgetError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnknownMethodError
+from wbik.errors import UnknownRobotError
+from wbik.errors import WbikError
+from wbik.errors import closest_name
+from wbik.errors import did_you_mean
+
+__all__ = ["NO_DEFAULT", "Anything", "Axes", "Backend", "Boolean", "Constant", "Context", "Either",
+           "Errors", "Interval", "Key", "ListOf", "Map", "Method", "Node", "Number", "Refused", "Robot",
+           "SchemaBudgetError", "SchemaError", "SchemaValueError", "Shorthand", "Text", "UnknownKeyError",
+           "Variants", "Vector", "dataclass_default", "default_of", "from_dataclass", "got", "join",
+           "key_rows", "option_schema", "short", "unknown_keys"]
+
+
+# -- errors -----------------------------------------------------------------------------------------
+class SchemaError(WbikError, ValueError):
+    """A file's value that its schema refuses; the message names the file and the key's path."""
+
+
+class SchemaValueError(SchemaError):
+    """A value of the wrong type, outside its range, or not one of the allowed words; or a missing key."""
+
+
+class UnknownKeyError(SchemaError):
+    """A key the mapping does not read; ``path`` is where, ``known`` the keys allowed there."""
+
+    def __init__(self, message: str, path: str = "", known: list[str] | tuple[str, ...] = ()):
+        self.path = path
+        self.known = sorted(known)
+        super().__init__(message)
+
+    def __reduce__(self):
+        return type(self), (self.args[0], self.path, self.known)
+
+
+class SchemaBudgetError(SchemaValueError, InvalidBudgetError):
+    """A time or iteration budget that is not a finite number > 0."""
+
+
+@dataclass(frozen=True)
+class Errors:
+    """The error classes a kind of file raises: ``value`` (wrong values, missing keys), ``unknown``
+    (unknown keys) and ``budget`` (budgets, :class:`Number` with ``budget=True``)."""
+
+    value: type[SchemaValueError] = SchemaValueError
+    unknown: type[UnknownKeyError] = UnknownKeyError
+    budget: type[SchemaValueError] = SchemaBudgetError
+
+
+@dataclass
+class Context:
+    """Where a check runs: the file (``source``, the start of every message) and its error classes."""
+
+    source: str
+    errors: Errors = field(default_factory=Errors)
+
+    def fail(self, path: str, message: str, error: type[WbikError] | None = None):
+        """Refuse the value at ``path``: "{source}: {path}: {message}"."""
+        raise (error or self.errors.value)(f"{self.source}: {path or 'the top level'}: {message}")
+
+    def must(self, path: str, expected: str, value, error: type[WbikError] | None = None, hint: str = ""):
+        """Refuse the value at ``path``: "{source}: {path} must be {expected}, got {value} ({type})"."""
+        raise (error or self.errors.value)(
+            f"{self.source}: {path or 'the top level'} must be {expected}, {got(value)}{hint}")
+
+    def says(self, path: str, sentence: str, error: type[WbikError] | None = None):
+        """Refuse the value at ``path`` with a sentence going on from it: "{source}: {path} {sentence}"."""
+        raise (error or self.errors.value)(f"{self.source}: {path or 'the top level'} {sentence}")
+
+
+def join(path: str, key) -> str:
+    """``path`` and one more key: ``phases[0]`` + ``tasks`` is ``phases[0].tasks``."""
+    return f"{path}.{key}" if path else str(key)
+
+
+def short(value, limit: int = 60) -> str:
+    """``repr(value)``, cut to ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def got(value) -> str:
+    """"got VALUE (TYPE)", the tail of a refusal."""
+    return f"got {short(value)} ({type(value).__name__})"
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _words(choices) -> str:
+    """'a', 'b' or 'c'."""
+    quoted = [repr(str(choice)) for choice in choices]
+    return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"
+
+
+def unknown_keys(ctx: Context, path: str, given, known, error: type[UnknownKeyError] | None = None) -> None:
+    """Refuse the keys of ``given`` that ``known`` lacks, all of them named, each with a "did you mean"
+    guess: "{their paths}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ..."."""
+    known = sorted(map(str, known))
+    unknown = sorted((key for key in given if key not in known), key=str)
+    if not unknown:
+        return
+    guesses = [(key, closest_name(key, known)) for key in unknown]
+    guesses = [(key, guess) for key, guess in guesses if guess is not None]
+    if len(unknown) == 1 and guesses:
+        hint = f" (did you mean {guesses[0][1]!r}?)"
+    elif guesses:
+        hint = " (did you mean " + ", ".join(f"{guess!r} for {key!r}" for key, guess in guesses) + "?)"
+    else:
+        hint = ""
+    where = ", ".join(join(path, key) for key in unknown)
+    raise (error or ctx.errors.unknown)(
+        f"{ctx.source}: {where}: {path or 'the top level'} has unknown field(s) {unknown}{hint}; allowed: "
+        f"{', '.join(known) or '(none)'}", join(path, unknown[0]), known)
+
+
+# -- nodes ------------------------------------------------------------------------------------------
+NO_DEFAULT = object()
+"""A key's default when it has none (absent stays absent)."""
+
+
+class Node:
+    """A value's rule: ``check(value, path, ctx)`` returns it (defaults filled) or raises."""
+
+    expected = "a value"
+
+    def check(self, value, path: str, ctx: Context):
+        return value
+
+    def wrong(self, value, path: str, ctx: Context, error: type[WbikError] | None = None):
+        ctx.must(path, self.expected, value, error)
+
+    def described(self, what: str) -> Node:
+        """A copy that says ``what`` in its messages."""
+        node = copy.copy(self)
+        node.what = what
+        return node
+
+
+class Anything(Node):
+    """Any value (the code that reads it checks it)."""
+
+    def __init__(self, expected: str = "a value"):
+        self.expected = expected
+
+
+class Boolean(Node):
+    def __init__(self, nullable: bool = False):
+        self.nullable = nullable
+
+    @property
+    def expected(self) -> str:
+        return "true, false or null" if self.nullable else "true or false"
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, bool) and not (value is None and self.nullable):
+            self.wrong(value, path, ctx)
+        return value
+
+
+class Text(Node):
+    """A string: one of ``choices`` when given (a tuple, or a function giving it), matching ``pattern``
+    when given, not empty with ``non_empty``; ``what`` says what it is in messages (a subclass's class
+    attribute, or the choices, unless given)."""
+
+    what: str = "text"
+
+    def __init__(self, choices: tuple | Callable[[], tuple] | None = None, nullable: bool = False,
+                 what: str | None = None, pattern: str | None = None, non_empty: bool = False):
+        self._choices = choices
+        self.nullable, self.non_empty = nullable, non_empty
+        self.pattern = re.compile(pattern) if pattern else None
+        self._what = what
+
+    @property
+    def choices(self) -> tuple | None:
+        return self._choices() if callable(self._choices) else self._choices
+
+    def described(self, what: str) -> Text:
+        node = copy.copy(self)
+        node._what = what
+        return node
+
+    @property
+    def expected(self) -> str:
+        choices = self.choices
+        text = self._what or (_words(choices) if choices else self.what)
+        return text + (" or null" if self.nullable else "")
+
+    def check(self, value, path, ctx):
+        if value is None and self.nullable:
+            return value
+        if not isinstance(value, str) or (self.non_empty and not value.strip()) \
+                or (self.pattern is not None and not self.pattern.match(value)):
+            self.wrong(value, path, ctx)
+        choices = self.choices
+        if choices and value not in choices:
+            ctx.must(path, self.expected, value, hint=did_you_mean(value, choices))
+        return value
+
+
+class Number(Node):
+    """A finite real number (an int with ``integer``), optionally bounded (``gt``/``lt`` strict).
+
+    ``strings``: a string holding a number counts (PyYAML reads ``1e-6``, no dot, as a string);
+    ``as_float``: the value is returned as a float; ``finite=False``: infinities count; ``budget``: a
+    refusal is the context's budget error; ``what`` replaces the generated description in messages."""
+
+    def __init__(self, ge: float | None = None, gt: float | None = None, le: float | None = None,
+                 lt: float | None = None, integer: bool = False, nullable: bool = False, unit: str = "",
+                 budget: bool = False, strings: bool = False, as_float: bool = False, what: str = "",
+                 finite: bool = True):
+        self.ge, self.gt, self.le, self.lt, self.finite = ge, gt, le, lt, finite
+        self.integer, self.nullable, self.unit, self.budget = integer, nullable, unit, budget
+        self.strings, self.as_float, self.what = strings, as_float, what
+
+    @property
+    def expected(self) -> str:
+        if self.what:
+            return self.what + (" or null" if self.nullable else "")
+        bounds = [(op, bound) for op, bound in ((">", self.gt), (">=", self.ge), ("<", self.lt),
+                                                ("<=", self.le)) if bound is not None]
+        text = "an integer" if self.integer else "a finite number" if self.finite else "a number"
+        text += (" " + " and ".join(f"{op} {bound:g}" for op, bound in bounds)) if bounds else ""
+        text += f" ({self.unit})" if self.unit else ""
+        return text + (" or null" if self.nullable else "")
+
+    def check(self, value, path, ctx):
+        if value is None and self.nullable:
+            return value
+        error = ctx.errors.budget if self.budget else ctx.errors.value
+        number = value
+        if self.strings and isinstance(value, str) and not self.integer:
+            try:
+                number = float(value)
+            except ValueError:
+                pass
+        if not _is_number(number) or (self.integer and not isinstance(number, numbers.Integral)):
+            self.wrong(value, path, ctx, error)
+        outside = ((self.gt is not None and not number > self.gt)
+                   or (self.ge is not None and not number >= self.ge)
+                   or (self.lt is not None and not number < self.lt)
+                   or (self.le is not None and not number <= self.le))
+        if (self.finite and not math.isfinite(number)) or math.isnan(number) or outside:
+            self.wrong(value, path, ctx, error)
+        return float(number) if self.as_float else number
+
+
+class Vector(Node):
+    """A list of ``size`` (any number when None) finite numbers."""
+
+    def __init__(self, size: int | None = None, positive: bool = False, unit: str = ""):
+        self.size, self.positive, self.unit = size, positive, unit
+
+    @property
+    def expected(self) -> str:
+        count = f"{self.size} " if self.size else ""
+        sign = "positive " if self.positive else ""
+        unit = f" ({self.unit})" if self.unit else ""
+        return f"a list of {count}{sign}finite numbers{unit}"
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, list | tuple) or not value or (self.size and len(value) != self.size):
+            self.wrong(value, path, ctx)
+        for index, item in enumerate(value):
+            if not _is_number(item) or not math.isfinite(item) or (self.positive and not item > 0):
+                ctx.must(f"{path}[{index}]", f"a {'positive ' if self.positive else ''}finite number "
+                                             f"({path} is {self.expected})", item)
+        return value
+
+
+class Interval(Node):
+    """A pair ``[a, b]`` of numbers with ``low <= a <= b <= high`` (``strings`` as for
+    :class:`Number`), returned as a tuple of floats."""
+
+    def __init__(self, low: float, high: float, strings: bool = False, what: str = ""):
+        self.low, self.high, self.strings = low, high, strings
+        self.what = what
+
+    @property
+    def expected(self) -> str:
+        return self.what or f"a pair [a, b] with {self.low:g} <= a <= b <= {self.high:g}"
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, list | tuple) or len(value) != 2:
+            self.wrong(value, path, ctx)
+        ends = Number(strings=self.strings, as_float=True)
+        try:
+            a, b = (ends.check(item, path, ctx) for item in value)
+        except SchemaValueError:
+            self.wrong(value, path, ctx)
+        if not self.low <= a <= b <= self.high:
+            self.wrong(value, path, ctx)
+        return (a, b)
+
+
+class ListOf(Node):
+    def __init__(self, item: Node, min_items: int = 0, what: str = ""):
+        self.item, self.min_items, self.what = item, min_items, what
+
+    @property
+    def expected(self) -> str:
+        least = f" of at least {self.min_items}" if self.min_items > 1 else (
+            " (not empty)" if self.min_items == 1 else "")
+        return f"a list{least} of {self.what or self.item.expected}"
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, list | tuple) or len(value) < self.min_items:
+            self.wrong(value, path, ctx)
+        return [self.item.check(item, f"{path}[{index}]", ctx) for index, item in enumerate(value)]
+
+
+class Either(Node):
+    """The first option that accepts the value; else the refusal of the one mapping option the value
+    shares keys with (it names the key), for a string the refusal of the one word option (its "did
+    you mean"), or an error listing every option (``what``, unless given, joins theirs)."""
+
+    def __init__(self, *options: Node, what: str = ""):
+        self.options = options
+        self.what = what
+
+    @property
+    def expected(self) -> str:
+        return self.what or " or ".join(option.expected for option in self.options)
+
+    def check(self, value, path, ctx):
+        refusals = []
+        for option in self.options:
+            try:
+                return option.check(value, path, ctx)
+            except (SchemaValueError, UnknownKeyError) as exc:
+                refusals.append((option, exc))
+        if isinstance(value, Mapping):
+            maps = [(option, exc) for option, exc in refusals if isinstance(option, Map)]
+            sharing = [exc for option, exc in maps if set(option.keys) & set(value)]
+            if len(sharing) == 1 or len(maps) == 1:
+                raise (sharing or [maps[0][1]])[0]
+        if isinstance(value, str):
+            words = [exc for option, exc in refusals if isinstance(option, Text) and option.choices]
+            if len(words) == 1 and not self.what:
+                raise words[0]
+        self.wrong(value, path, ctx)
+
+
+class Constant(Node):
+    """One of a few exact values (``off``, ``false``, null, ...)."""
+
+    def __init__(self, *values, what: str = ""):
+        self.values, self.what = values, what
+
+    @property
+    def expected(self) -> str:
+        return self.what or " or ".join("null" if value is None else repr(value) for value in self.values)
+
+    def check(self, value, path, ctx):
+        if not any(value is option or (type(value) is type(option) and value == option)
+                   for option in self.values):
+            self.wrong(value, path, ctx)
+        return value
+
+
+class Refused(Node):
+    """A key that cannot be used here, refused by name with the reason."""
+
+    def __init__(self, why: str):
+        self.why = why
+
+    def check(self, value, path, ctx):
+        ctx.fail(path, self.why)
+
+
+@dataclass
+class Key:
+    """A key of a mapping: its rule, its default (filled in when absent) and whether it is required;
+    ``doc`` says what it is for (the documentation's tables)."""
+
+    node: Node
+    default: object = NO_DEFAULT
+    required: bool = False
+    doc: str = ""
+
+
+class Map(Node):
+    """A mapping with known keys (``keys``) and/or free keys whose values follow ``values``.
+
+    ``post(result, path, ctx)`` runs after the keys: cross-key checks and defaults that depend on
+    other keys. ``nullable``: null stands for an empty mapping. ``unknown_error``: the error of an
+    unknown key when not the context's.
+    """
+
+    def __init__(self, keys: dict[str, Key] | None = None, values: Node | None = None,
+                 post: Callable | None = None, nullable: bool = False,
+                 unknown_error: type[UnknownKeyError] | None = None, what: str = ""):
+        self.keys = keys or {}
+        self.values, self.post, self.nullable = values, post, nullable
+        self.unknown_error, self.what = unknown_error, what
+
+    @property
+    def expected(self) -> str:
+        if self.what:
+            return self.what
+        return f"a mapping with keys {', '.join(self.keys)}" if self.keys else "a mapping"
+
+    def check(self, value, path, ctx):
+        if value is None and self.nullable:
+            value = {}
+        if not isinstance(value, Mapping):
+            self.wrong(value, path, ctx)
+        for key in value:
+            if not isinstance(key, str):
+                ctx.fail(join(path, key), f"keys must be strings, got {short(key)} ({type(key).__name__})")
+        if self.values is None:
+            unknown_keys(ctx, path, value, self.keys, self.unknown_error)
+        result = {}
+        for key, item in value.items():
+            rule = self.keys.get(key)
+            result[key] = (rule.node if rule is not None else self.values).check(item, join(path, key), ctx)
+        for key, rule in self.keys.items():
+            if key in result:
+                continue
+            if rule.required:
+                ctx.fail(path, f"missing the required key {key!r} ({rule.node.expected})")
+            if rule.default is None:
+                result[key] = None
+            elif rule.default is not NO_DEFAULT:
+                result[key] = rule.node.check(copy.deepcopy(rule.default), join(path, key), ctx)
+        if self.post is not None:
+            self.post(result, path, ctx)
+        return result
+
+
+class Variants(Node):
+    """A mapping whose allowed keys depend on one of its values (``select`` names the variant)."""
+
+    def __init__(self, select: Callable[[Mapping], str | None], variants: dict[str, Node], what: str,
+                 tag: str):
+        self.select, self.variants, self.what, self.tag = select, variants, what, tag
+
+    @property
+    def expected(self) -> str:
+        return self.what
+
+    def variant(self, value) -> Node | None:
+        """The variant ``value`` selects (None: none)."""
+        name = self.select(value) if isinstance(value, Mapping) else None
+        return self.variants.get(name) if isinstance(name, str) else None
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, Mapping):
+            self.wrong(value, path, ctx)
+        name = self.select(value)
+        if not isinstance(name, str) or name not in self.variants:  # a list or a mapping is no tag either
+            choices = ", ".join(sorted(self.variants))
+            if name is None:
+                ctx.fail(path, f"must be {self.what}; it needs a {self.tag} (one of {choices}), "
+                               f"got keys {sorted(map(str, value))}")
+            where = join(path, self.tag) if self.tag in value else path
+            ctx.fail(where, f"{self.tag} {short(name)} is not allowed{did_you_mean(name, self.variants)}; "
+                            f"allowed: {choices}")
+        return self.variants[name].check(value, path, ctx)
+
+
+class Shorthand(Node):
+    """A mapping (``node``) that a single word may stand for: a string ``s`` is read as ``{key: s}``
+    (``methods: [dls]`` for ``[{method: dls}]``)."""
+
+    def __init__(self, node: Map, key: str, what: str = ""):
+        self.node, self.key, self.what = node, key, what
+
+    @property
+    def expected(self) -> str:
+        return self.what or f"a {self.key} name or {self.node.expected}"
+
+    def check(self, value, path, ctx):
+        if isinstance(value, str):
+            value = {self.key: value}
+        elif not isinstance(value, Mapping):
+            self.wrong(value, path, ctx)
+        return self.node.check(value, path, ctx)
+
+
+# -- names checked against what exists --------------------------------------------------------------
+class Robot(Text):
+    """A built-in robot name, ``example-robot-data:NAME`` or a .urdf path; ``only`` restricts a file to
+    some robots."""
+
+    what = "a built-in robot name, example-robot-data:NAME or the path of a .urdf file"
+
+    def __init__(self, only: tuple[str, ...] | None = None):
+        super().__init__()
+        self.only = only
+
+    def check(self, value, path, ctx):
+        from pathlib import Path
+
+        from wbik.models import robot_entries
+        from wbik.models.erd import example_robot_name
+        from wbik.models.erd import example_robot_names
+
+        known = list(robot_entries())
+        if not isinstance(value, str):
+            raise UnknownRobotError(short(value), known, hint=f"{ctx.source}: {path} must be a "
+                                    "robot name (a string) or the path of a .urdf file")
+        if self.only and value not in self.only:
+            ctx.fail(path, f"robot {value!r} cannot run this kind; it runs on {', '.join(self.only)}")
+        example = example_robot_name(value)
+        if example is not None:
+            names = example_robot_names()
+            if example not in names:
+                raise UnknownRobotError(value, [f"example-robot-data:{name}" for name in names],
+                                        hint=f"{ctx.source}: {path}{did_you_mean(example, names)}")
+            return value
+        if value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
+                and not Path(value).expanduser().exists():
+            raise UnknownRobotError(value, known,
+                                    hint=f"{ctx.source}: {path}{did_you_mean(value, known)}. Pass a built-in "
+                                         "name ('wbik robots' lists them), example-robot-data:NAME or a "
+                                         ".urdf path")
+        return value
+
+
+class Backend(Text):
+    """A QP backend name: a known one ('fastest', 'default' or BACKEND_OPTIONS) that is installed."""
+
+    what = "a QP backend name"
+
+    def check(self, value, path, ctx):
+        from wbik.qp.backends import BACKEND_OPTIONS
+        from wbik.qp.backends import available
+        from wbik.qp.backends import resolve
+
+        super().check(value, path, ctx)
+        known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
+        if value not in known:
+            ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
+                           f"{', '.join(known)} (installed here: {', '.join(available())})")
+        try:
+            resolve(value)
+        except MissingDependencyError as exc:
+            raise MissingDependencyError(f"{ctx.source}: {path}: {exc}") from None
+        return value
+
+
+class Method(Text):
+    """A registered IK method (``wbik methods``)."""
+
+    what = "an IK method name ('wbik methods' lists them)"
+
+    def check(self, value, path, ctx):
+        from wbik.solvers.method_registry import methods
+
+        if not isinstance(value, str) or value not in methods():
+            raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
+                                     hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
+        return value
+
+
+class Axes(Text):
+    """A non-empty subset of "xyz", each axis once (a task's ``axes``: "xy", "z", ...)."""
+
+    what = "a subset of 'xyz' (e.g. xy)"
+
+    def check(self, value, path, ctx):
+        value = super().check(value, path, ctx)
+        if not value or any(axis not in "xyz" for axis in value) or len(set(value)) != len(value):
+            ctx.fail(path, f"must be {self.what}: each of x, y, z at most once, got {value!r}")
+        return value
+
+
+# -- schemas read from code ---------------------------------------------------------------------------
+def from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
+    """A mapping of a dataclass's fields, each with the dataclass's own default (one set of defaults)."""
+    nodes = nodes or {}
+    keys = {}
+    for item in fields(cls):
+        default = item.default if item.default is not MISSING else NO_DEFAULT
+        integer = isinstance(default, int) and not isinstance(default, bool)
+        keys[item.name] = Key(nodes.get(item.name, Number(integer=integer)), default)
+    return Map(keys)
+
+
+def dataclass_default(cls, name: str):
+    """The default of the dataclass ``cls``'s field ``name`` (its default factory called): a schema key
+    that fills the field takes the dataclass's own default instead of a second copy of it."""
+    for item in fields(cls):
+        if item.name == name:
+            if item.default is not MISSING:
+                return item.default
+            if item.default_factory is not MISSING:
+                return item.default_factory()
+            raise TypeError(f"{cls.__qualname__}.{name} has no default")
+    raise TypeError(f"{cls.__qualname__} has no field {name!r}")
+
+
+def default_of(function: Callable, parameter: str):
+    """The default value of ``function``'s ``parameter``: a schema key whose value is passed there
+    takes the function's own default instead of a second copy of it."""
+    default = inspect.signature(function).parameters[parameter].default
+    if default is inspect.Parameter.empty:
+        raise TypeError(f"{function.__qualname__}({parameter}) has no default")
+    return default
+
+
+_OPTION_NODES: dict[str, Callable[[bool], Node]] = {
+    "bool": lambda nullable: Boolean(nullable=nullable),
+    "int": lambda nullable: Number(integer=True, nullable=nullable),
+    "float": lambda nullable: Number(nullable=nullable, finite=False),
+    "str": lambda nullable: Text(nullable=nullable),
+}
+
+
+def option_schema(factory: Callable, leading: int, skip: tuple[str, ...] = ()) -> Map:
+    """The keyword options of ``factory(*leading arguments, **options)`` typed by their defaults (or
+    their ``X | None`` annotation, see :func:`wbik.registry.check_option_types`): an integer, a number,
+    true/false or text (null too where the default is None); options whose kind the signature does not
+    tell take any value, and so do other keys (the factory's own check names unknown ones)."""
+    from wbik.registry import _expected_kind
+    from wbik.registry import _option_parameters
+
+    keys = {}
+    for name, parameter in _option_parameters(factory, leading).items():
+        kind = _expected_kind(parameter)
+        if kind is None or name in skip:
+            continue
+        keys[name] = Key(_OPTION_NODES[kind](parameter.default is None))
+    return Map(keys, values=Anything())
+
+
+# -- reading a schema ---------------------------------------------------------------------------------
+def key_rows(node: Node, path: str = "", depth: int = 0,
+             nesting: int = 6) -> Iterator[tuple[str, str, str, str]]:
+    """(key path, what it must be, default, what it is for) of a schema's keys, nested mappings, list
+    items (``cases[]``) and variants expanded (the documentation's tables)."""
+    if isinstance(node, Shorthand):
+        node = node.node
+    if isinstance(node, Map):
+        for key, rule in node.keys.items():
+            where = join(path, key)
+            if isinstance(rule.node, Refused):
+                yield where, f"refused: {rule.node.why}", "", rule.doc
+                continue
+            default = ("required" if rule.required else "" if rule.default is NO_DEFAULT
+                       else _doc_value(rule.default))
+            yield where, rule.node.expected, default, rule.doc
+            if depth < nesting:
+                yield from key_rows(rule.node, where, depth + 1, nesting)
+    elif isinstance(node, ListOf) and depth < nesting:
+        yield from key_rows(node.item, f"{path}[]", depth + 1, nesting)
+    elif isinstance(node, Variants) and depth < nesting:
+        for name, variant in node.variants.items():
+            for where, what, default, doc in key_rows(variant, path, depth + 1, nesting):
+                yield f"{where} ({node.tag}: {name})", what, default, doc
+
+
+def _doc_value(value) -> str:
+    text = repr(value) if not isinstance(value, str) else f'"{value}"'
+    return text if len(text) <= 40 else text[:37] + "..."
