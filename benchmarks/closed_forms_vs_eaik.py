@@ -128,7 +128,7 @@ def ratios(quick: bool = False) -> list:
     count, rounds = (300, 3) if quick else (2000, ROUNDS)
     rows, _ = measure(count, rounds, seed=0)
     peer = rows["EAIK raw IK (all branches)"][0]
-    path = ("UR scalar path: compiled kernel (_ur_kernel.c)" if ur_kernel.compiled()
+    path = ("UR scalar path: compiled kernel (wbik/kernels/_ur_type.c)" if ur_kernel.compiled()
             else "UR scalar path: pure Python (kernel not built or WBIK_PURE_PYTHON=1)")
     how = (f"UR5 ee, {count} FK poses from the nominal start, best of {rounds} interleaved rounds; "
            f"ours wall time with everything (conversion, limits, choice, FK check); EAIK raw: "

@@ -23,8 +23,9 @@ and at function level only at the places listed below with their reason (so the 
 down, and a new place or a paid-off one fails the test until this list says so); (c) inside the
 core, imports go down ``LAYERS`` (up only at the listed places); (d) only the entry points import
 the entry points; (e) the study's report does not import the study's runner (they share
-:mod:`wbik.study.context`); (f) the study's modules import each other without a cycle, function-level
-imports included (its case kinds sit below the runner and the report).
+:mod:`wbik.study.context`); (f) the core's modules, and the study's among themselves, import each other
+without a cycle, function-level imports included (the study's case kinds sit below the runner and the
+report).
 """
 
 from __future__ import annotations
@@ -269,6 +270,19 @@ def test_the_study_report_does_not_import_the_runner():
              if item.source == "wbik.study.report" and item.target == "wbik.study.runner"]
     assert not wrong, ("the report reads results; what it shares with the runner lives in "
                        "wbik.study.context:\n" + _where(wrong))
+
+
+def test_no_cycle_in_the_core_counting_function_level_imports():
+    """The core's modules import each other without a cycle, lazily or not (a lazy import that closes a
+    cycle only hides it from the interpreter, not from a reader)."""
+    edges: dict[str, set[str]] = defaultdict(set)
+    inside = [item for item in _graph() if item.level != "typing"
+              and _within(item.source, CORE) and _within(item.target, CORE)]
+    for item in inside:
+        edges[item.source].add(item.target)
+    cycles = _cycles(edges)
+    details = [_where(i for i in inside if i.source in c and i.target in c) for c in cycles]
+    assert not cycles, "core modules importing each other (top or function level):\n" + "\n\n".join(details)
 
 
 def test_no_cycle_inside_the_study_counting_function_level_imports():

@@ -149,7 +149,7 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 
 # -- methods ----------------------------------------------------------------------------------------------
 def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate):
-    assert methods.METHOD_MODULES == ["wbik.wholebody.solvers", "wbik.wholebody.placo", "wbik.wholebody.pink",
+    assert methods.METHOD_MODULES == ["wbik.wholebody.qp", "wbik.wholebody.placo", "wbik.wholebody.pink",
                                       "wbik.wholebody.mink", "wbik.apps.bioloid.thesis_legs"]
     assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "mink", "thesis_legs"}
     isolate(methods.WHOLEBODY_METHOD_REGISTRY)

@@ -1,5 +1,4 @@
-/* Argument helpers shared by wbik's C kernels (_pose_kernel.c, solvers/analytic/_ur_kernel.c,
- * qp/_rows_kernel.c, solvers/_lm_kernel.c): float64
+/* Argument helpers shared by wbik's C kernels (every _<name>.c in this folder): float64
  * arrays in (copied into C arrays, any strides) and out (written into C-contiguous writable arrays),
  * floats, and the argument count. Anything else raises a TypeError naming the argument. Header-only
  * (static inline: a kernel that uses a helper gets it, the others no "unused" warning). */

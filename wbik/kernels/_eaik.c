@@ -34,7 +34,7 @@ enum { P_SLACK, P_LIMIT_TOLERANCE, P_SCREEN_TOLERANCE, P_LOWER };
 
 static const double SHIFTS[5] = {0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI};
 
-/* eaik_kernel.wrapped_python: raw wrapped into the limits nearest ref, its squared distance into
+/* eaik.py's wrapped_python: raw wrapped into the limits nearest ref, its squared distance into
  * *distance; 0 when some joint has no 2 pi shift inside its limits. */
 static int wrap(const double *raw, const double *ref, const double *lower, const double *upper,
                 double tolerance, int joints, double *out, double *distance)
@@ -143,7 +143,7 @@ static int order_rows(const double *params, int joints, double q[][MAX_JOINTS], 
 
 /* The tip's pose of joints q as a 4 x 4 homogeneous matrix (row by row) from the chain's joint lines:
  * T = T_1(q_1) ... T_n(q_n) M with T_k = (Rot(a_k, q_k), o_k - Rot(a_k, q_k) o_k) and
- * Rot(a, t) = cos t I + (1 - cos t) a a^T + sin t [a]x (eaik_kernel.poe_python, in its order). */
+ * Rot(a, t) = cos t I + (1 - cos t) a a^T + sin t [a]x (eaik.py's poe_python, in its order). */
 static void poe(const double *params, int joints, const double *q, double *pose)
 {
     const double *axes = params + P_LOWER + 2 * joints, *origins = axes + 3 * joints, *tip = origins + 3 * joints;
@@ -177,7 +177,7 @@ static void poe(const double *params, int joints, const double *q, double *pose)
 }
 
 /* The screen on a tip pose: |p - p*| <= tolerance and acos(clip((trace(R*^T R) - 1) / 2)) <= tolerance,
- * the trace summed as sum_ij R_ij R*_ij row by row (eaik_kernel.screen_values). */
+ * the trace summed as sum_ij R_ij R*_ij row by row (eaik.py's screen_values). */
 static int screens(const double *reached, const double *position, const double *rotation, double tolerance)
 {
     double dx = reached[3] - position[0], dy = reached[7] - position[1], dz = reached[11] - position[2];
@@ -305,7 +305,7 @@ static PyMethodDef methods[] = {
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_eaik",
-                                    "Compiled per-call choice of the eaik method (see eaik_kernel.py).", -1,
+                                    "Compiled per-call choice of the eaik method (see eaik.py).", -1,
                                     methods};
 
 PyMODINIT_FUNC PyInit__eaik(void) { return PyModule_Create(&module); }

@@ -1,6 +1,6 @@
 """The per-call choice of the ``eaik`` method (:meth:`wbik.solvers.eaik.EAIKSolver.solve`) in two
 twins with the same bits: :func:`order_python` and :func:`choose_python` here, and the C extension
-``_eaik_kernel`` (``_eaik_kernel.c``, expression by expression the same code).
+``wbik.kernels._eaik`` (``_eaik.c``, expression by expression the same code).
 
 * ``order(params, branches, reference, out) -> count``: of EAIK's branches (K, n), the ones the choice
   screens, wrapped into the limits nearest to ``reference``, written into ``out`` (at least K * n
