@@ -68,29 +68,40 @@ def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarra
     return matrix
 
 
-def _checked_pose(matrix: np.ndarray) -> Target | None:
-    """A Target whose arrays are views of ``matrix`` (a private 4x4 copy) when it passes the plain-float
-    pose test, else None (the fast paths' one test)."""
-    if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE):
-        return Target(matrix[:3, 3], matrix[:3, :3])
-    return None
+def plain_pose_matrix(value) -> np.ndarray | None:
+    """The private 4 x 4 homogeneous matrix of a full-pose target on :func:`as_target`'s fast path: a
+    ``pinocchio.SE3``, or a float64 4 x 4 array whose last row is exactly [0, 0, 0, 1], that passes the
+    plain-float pose test (position within MAX_POSITION, a rotation within ROTATION_TOLERANCE). None
+    for anything else: :func:`as_target`'s general path then decides, and says what is wrong. The
+    matrix is a copy (changing ``value`` later does not change it); :func:`pose_target` makes the
+    Target whose arrays are views of it."""
+    kind = type(value)
+    if kind is pin.SE3:
+        matrix = value.homogeneous  # a new array
+    elif kind is np.ndarray and value.dtype == np.float64 and value.shape == (4, 4) \
+            and value[3].tolist() == [0.0, 0.0, 0.0, 1.0]:
+        matrix = value.copy()
+    else:
+        return None
+    return matrix if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE) else None
+
+
+def pose_target(matrix: np.ndarray) -> Target:
+    """The Target of a matrix :func:`plain_pose_matrix` returned: its position and rotation are views
+    of it."""
+    return Target(matrix[:3, 3], matrix[:3, :3])
 
 
 def _plain_se3_target(value: pin.SE3) -> Target | None:
-    """The common case, an SE3 with a finite position and a rotation, checked in plain floats (about
-    2 us, 1 us with the compiled test; the general path's small numpy calls cost ~40 us). None when
-    anything is off, so that the general path raises the detailed error. The target's position and
-    rotation are views of one private 4x4 copy (not of the SE3: changing the SE3 later leaves the
-    target as it was)."""
-    matrix = value.homogeneous  # a private copy: the target's arrays are views of it
-    return _checked_pose(matrix)
+    """as_target's fast path for an SE3 (:func:`plain_pose_matrix`), None where it does not apply."""
+    matrix = plain_pose_matrix(value)
+    return None if matrix is None else pose_target(matrix)
 
 
 def _plain_array_target(value: np.ndarray) -> Target | None:
-    """The same fast path for a float64 array: a 3-vector within the bound (the general path took
-    ~10 us), or a 4x4 homogeneous matrix whose last row is exactly [0, 0, 0, 1] (~45 us); the target's
-    arrays are views of a private copy. None for anything else: the general path decides (and says
-    what is wrong)."""
+    """The same fast path for a float64 array: a 3-vector within the bound, or a 4x4 homogeneous
+    matrix (:func:`plain_pose_matrix`); the target's arrays are views of a private copy. None for
+    anything else: the general path decides (and says what is wrong)."""
     if value.dtype != np.float64:
         return None
     if value.shape == (3,):
@@ -98,15 +109,13 @@ def _plain_array_target(value: np.ndarray) -> Target | None:
         x, y, z = value.tolist()
         inside = -bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound  # (False for NaN)
         return Target(value.copy()) if inside else None
-    if value.shape != (4, 4) or value[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
-        return None
-    matrix = value.copy()
-    return _checked_pose(matrix)
+    matrix = plain_pose_matrix(value)
+    return None if matrix is None else pose_target(matrix)
 
 
 def _plain_given_target(value: Target) -> Target | None:
-    """A Target checked again on the fast path (the general path's rotation check took ~20 us): a copy
-    of it when its float64 arrays pass the plain-float test, None otherwise."""
+    """A Target checked again on the fast path: a copy of it when its float64 arrays pass the plain-float
+    test, None otherwise (the general path then checks it in detail)."""
     position, rotation = value.position, value.rotation
     if type(position) is not np.ndarray:
         return None
@@ -117,7 +126,7 @@ def _plain_given_target(value: Target) -> Target | None:
         return None
     matrix = np.zeros((4, 4))
     matrix[:3, :3], matrix[:3, 3], matrix[3, 3] = rotation, position, 1.0
-    return _checked_pose(matrix)
+    return pose_target(matrix) if _accepts_plain_se3(matrix, MAX_POSITION, ROTATION_TOLERANCE) else None
 
 
 def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float) -> bool:
@@ -136,7 +145,7 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
             and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high)
 
 
-# the compiled twin (wbik.kernels): the same test in C, ~1 us less per call
+# the compiled twin (wbik.kernels, kernel 'pose'): the same test in C
 _compiled_accepts_plain_se3 = compiled_twin("wbik.kernels._pose", "plain_se3")
 _accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3, "pose")
 
@@ -149,8 +158,11 @@ def as_target(value, rotation=None) -> Target:
     """
     if rotation is None:
         kind = type(value)
-        plain = _plain_se3_target(value) if kind is pin.SE3 else \
-            _plain_array_target(value) if kind is np.ndarray else \
+        if kind is pin.SE3:  # _plain_se3_target, inline on the most common path
+            matrix = plain_pose_matrix(value)
+            if matrix is not None:
+                return Target(matrix[:3, 3], matrix[:3, :3])
+        plain = _plain_array_target(value) if kind is np.ndarray else \
             _plain_given_target(value) if kind is Target else None
         if plain is not None:
             return plain

@@ -30,6 +30,7 @@ from wbik.robot import Chain
 from wbik.robot import Robot
 from wbik.targets import Target
 from wbik.targets import as_target
+from wbik.targets import pose_target
 from wbik.validation import check_budget
 from wbik.validation import check_count
 from wbik.validation import check_seed
@@ -202,13 +203,14 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
                     time_s, candidate.iterations, method, candidate.extra)
 
 
-def evaluate_screened(chain: Chain, target: Target, parts: np.ndarray, extra: dict, tolerances: Tolerances,
-                      time_s: float, method: str) -> IKResult:
+def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
+                      tolerances: Tolerances, time_s: float, method: str) -> IKResult:
     """The shared check of joints a compiled closed form chose and screened, with the errors it already
     computed: ``parts`` (n + 24 values) holds the joints q (n), their 4 x 4 tip pose (16, the form's FK)
     and the batched check's errors of that pose (8: e_p, e_R, |e_p|, |e_R|; the rule of
     :func:`wbik.solvers.analytic.batch.evaluate_batch`, e_R in :func:`wbik.geometry.batch_log3`'s
-    formula, which agrees with Pinocchio's log3 to rounding away from a half turn).
+    formula, which agrees with Pinocchio's log3 to rounding away from a half turn). ``target``: the
+    Target, or the 4 x 4 matrix of a full pose (:func:`wbik.targets.plain_pose_matrix`).
 
     For a full pose on a chain without continuous joints, whose joints the choice wrote inside the
     limits (their clip is themselves), the IKResult is built from ``parts`` (its arrays are views of
@@ -217,11 +219,13 @@ def evaluate_screened(chain: Chain, target: Target, parts: np.ndarray, extra: di
     """
     joints = len(chain.lower)
     q = parts[:joints]
-    if not chain.any_continuous and target.rotation is not None:
+    if not chain.any_continuous and (type(target) is np.ndarray or target.rotation is not None):
         position_norm, rotation_norm = parts.item(joints + 22), parts.item(joints + 23)
         if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
             return IKResult(q, True, "", position_norm, rotation_norm, parts[joints + 16:joints + 19],
                             parts[joints + 19:joints + 22], time_s, 1, method, extra)
+    if type(target) is np.ndarray:
+        target = pose_target(target)
     return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method,
                     parts[joints:joints + 16].reshape(4, 4))
 

@@ -107,7 +107,9 @@ from wbik.solvers.base import evaluate_screened
 from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
+from wbik.targets import plain_pose_matrix
 from wbik.targets import pose_error
+from wbik.targets import pose_target
 from wbik.validation import check_count
 
 
@@ -134,6 +136,7 @@ class EAIKSolver(Solver):
         self._params = eaik_kernel.parameters(self.chain.nq, lower, upper, self.chain.nq * BOUND_SLACK,
                                               LIMIT_TOLERANCE, self.form.lines, SCREEN_TOLERANCE)
         self._kernel_choose = eaik_kernel.twins()[1]
+        self._parts_size = self.chain.nq + 24  # what choose writes: joints, tip pose, errors
         """The choice (:mod:`~wbik.kernels.eaik`): compiled where built, the Python
         twin with ``WBIK_PURE_PYTHON=1`` when the solver is built."""
         self._tip = np.eye(4)
@@ -239,25 +242,31 @@ class EAIKSolver(Solver):
 
     # -- the interface ----------------------------------------------------------------------------
     def solve(self, target, q0=None) -> IKResult:
-        """:meth:`Solver.solve` on one path: the same input checks, timing and shared check
-        (:func:`evaluate`), which reuses the chosen branch's FK from the screen (the same joints, so the
-        same IKResult) instead of computing it again."""
-        target = as_target(target)
-        if target.rotation is None:
-            self._check_target_kind(target)  # raises: EAIK solves full poses only
+        """:meth:`Solver.solve` on one path: the same input checks and timing; EAIK's call on the target's
+        own 4 x 4 matrix, the choice in one ``choose`` call, and the shared check on the pose and errors it
+        wrote (:func:`~wbik.solvers.base.evaluate_screened`; :func:`evaluate` where no branch passes).
+        A pose on :func:`~wbik.targets.as_target`'s fast path (:func:`~wbik.targets.plain_pose_matrix`)
+        becomes a Target only where the check needs one."""
+        pose = plain_pose_matrix(target)
+        if pose is None:
+            target = as_target(target)
+            if target.rotation is None:
+                self._check_target_kind(target)  # raises: EAIK solves full poses only
+            pose = self._target_pose(target)
+        else:
+            target = None  # the matrix stands for it (pose_target below where a Target is needed)
         chain = self.chain
         q_start = chain.nominal if q0 is None else chain.check_q(q0)  # read only: no copy needed
         start = perf_counter()
-        pose = target.rotation.base  # _target_pose, inline on the per-call path
-        if pose is None or pose is not target.position.base or pose.shape != (4, 4):
-            pose = EAIKForm.pose(target.position, target.rotation)
-        q_all = self._thread_state().calculate_IK(pose).Q
+        robot = getattr(self._local, "state", None) or self._thread_state()  # this thread's EAIK robot
+        q_all = robot.calculate_IK(pose).Q
         if len(q_all):
-            out = np.empty(chain.nq + 24)
+            out = np.empty(self._parts_size)
             if self._kernel_choose(self._params, q_all, q_start, pose, out):
                 elapsed = perf_counter() - start
-                return evaluate_screened(chain, target, out, {"branches": len(q_all)}, self.tolerances,
-                                         elapsed, self.name)
+                return evaluate_screened(chain, pose if target is None else target, out,
+                                         {"branches": len(q_all)}, self.tolerances, elapsed, self.name)
+        target = pose_target(pose) if target is None else target
         candidate = self._pick(q_all, target, q_start)
         elapsed = perf_counter() - start
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
