@@ -13,6 +13,7 @@ import hashlib
 import math
 import os
 import threading
+import weakref
 from collections.abc import Mapping
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -58,6 +59,30 @@ class PerThreadData:
         except AttributeError:
             data = local.data = owner.model.createData()
             return data
+
+
+CachedT = TypeVar("CachedT")
+
+
+class ChainCache:
+    """A value per chain, computed once and shared by threads: weakly keyed (it goes with its chain),
+    read and stored under a lock, computed outside it (by the caller, between :meth:`get` and
+    :meth:`store`)."""
+
+    def __init__(self) -> None:
+        self._values: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._lock = threading.Lock()
+
+    def get(self, chain) -> Any:
+        """The value stored for ``chain``, None when there is none yet."""
+        with self._lock:
+            return self._values.get(chain)
+
+    def store(self, chain, value: CachedT) -> CachedT:
+        """``value``, stored for ``chain``."""
+        with self._lock:
+            self._values[chain] = value
+        return value
 
 
 @dataclass(frozen=True)

@@ -4,6 +4,8 @@
 - :func:`check_budget` -- a time budget such as ``timeout_s``: a finite number > 0 (seconds).
 - :func:`check_positive_finite` -- any positive finite setting (tolerances, ...).
 - :func:`check_count` -- a count such as ``max_iterations``: an integer >= 1 (bools refused).
+- :func:`check_nonnegative_finite` -- a setting such as a damping: a finite number >= 0.
+- :func:`check_gain` -- a gain in (0, 1].
 - :func:`numeric_array` -- an array of real numbers (no strings, bools, complex, objects, ragged
   lists), finite, of a given shape.
 """
@@ -52,6 +54,22 @@ def check_count(name: str, value, error: type[WbikError] = InvalidSettingError) 
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
         raise error(f"{name} must be an integer >= 1, got {value!r}")
     return int(value)
+
+
+def check_nonnegative_finite(name: str, value, error: type[WbikError] = InvalidSettingError) -> float:
+    """``float(value)`` if it is finite and >= 0; else ``error`` naming ``name``."""
+    number = float(value)
+    if not (math.isfinite(number) and number >= 0.0):
+        raise error(f"{name} must be a finite number >= 0, got {value!r}")
+    return number
+
+
+def check_gain(name: str, value, error: type[WbikError] = InvalidSettingError) -> float:
+    """``float(value)`` if it is in (0, 1]; else ``error`` naming ``name``."""
+    number = float(value)
+    if not 0.0 < number <= 1.0:
+        raise error(f"{name} must be in (0, 1], got {value!r}")
+    return number
 
 
 def check_seed(seed) -> int | None:

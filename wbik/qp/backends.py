@@ -15,6 +15,7 @@ figures are in docs/benchmarks.md).
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 
 import numpy as np
@@ -77,21 +78,23 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     """The minimiser; raises NoQPSolutionError (with the backend's status) when there is none."""
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
-    options = BACKEND_OPTIONS.get(backend, {})
+    if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
+        problem = qpsolvers.Problem(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub)
+        return _found_solution(backend, problem, quiet=True).x
+    return _found_solution(backend, qpsolvers.Problem(H, c, G, h, A, b, lb, ub), quiet=False).x
+
+
+def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qpsolvers.Solution:
+    """qpsolvers' solution of ``problem`` by ``backend`` with its ``BACKEND_OPTIONS`` (its warnings
+    silenced when ``quiet``); NoQPSolutionError when the backend fails or finds no solution."""
     try:
-        if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
-            problem = qpsolvers.Problem(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                solution = qpsolvers.solve_problem(problem, solver=backend, **options)
-        else:
-            solution = qpsolvers.solve_problem(qpsolvers.Problem(H, c, G, h, A, b, lb, ub), solver=backend,
-                                               **options)
+        with warnings.catch_warnings(action="ignore") if quiet else contextlib.nullcontext():
+            solution = qpsolvers.solve_problem(problem, solver=backend, **BACKEND_OPTIONS.get(backend, {}))
     except (ValueError, qpsolvers.SolverError) as exc:
         raise NoQPSolutionError(f"{backend} failed: {exc}", backend, str(exc)) from exc
     if not solution.found or solution.x is None:
         raise NoQPSolutionError(f"{backend} found no solution", backend, "not found")
-    return solution.x
+    return solution
 
 
 def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
@@ -99,15 +102,7 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
     """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), by
     qpsolvers' ``solve_problem`` (its ``Solution`` carries them for DAQP, quadprog, OSQP and ProxQP);
     for the diagnoses of a failed solve, not for steps. Raises NoQPSolutionError when there is none."""
-    problem = qpsolvers.Problem(H, c, G, h, A, b)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            solution = qpsolvers.solve_problem(problem, solver=backend, **BACKEND_OPTIONS.get(backend, {}))
-    except (ValueError, qpsolvers.SolverError) as exc:
-        raise NoQPSolutionError(f"{backend} failed: {exc}", backend, str(exc)) from exc
-    if not solution.found or solution.x is None:
-        raise NoQPSolutionError(f"{backend} found no solution", backend, "not found")
+    solution = _found_solution(backend, qpsolvers.Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
     # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
     # contradictory ones included, and reports an optimum 5 cm off them)

@@ -205,6 +205,31 @@ class Diagnosis:
         """The diagnosis as lines for a terminal (:func:`report_lines`)."""
         return report_lines(self.as_dict())
 
+    def reason_with_summary(self, reason: str) -> str:
+        """``reason`` with this diagnosis's summary at its end ("; " between them when both are given)."""
+        text = self.summary()
+        if not text:
+            return reason
+        return f"{reason}; {text}" if reason else text
+
+
+def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
+    """(diagnosis, reason) of the ``(problem, solution)`` a method's QP solve left in ``local.last``
+    (cleared here): a result that did not succeed, with ``diagnose``, gets the problem's diagnosis at
+    the solution and its summary at the end of ``reason``; any other, the hard constraints the start
+    broke (None when it broke none, or when no QP solve ran) and ``reason`` unchanged."""
+    last = getattr(local, "last", None)
+    if last is None:
+        return None, reason
+    problem, solution = last
+    local.last = None
+    if not success and diagnose:
+        diagnosis = problem.diagnose(solution)
+        return diagnosis, diagnosis.reason_with_summary(reason)
+    if solution.start_violations:
+        return Diagnosis(start=list(solution.start_violations)), reason
+    return None, reason
+
 
 def _amount(value: float, unit: str) -> str:
     if unit == "m":

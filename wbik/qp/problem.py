@@ -456,11 +456,8 @@ class IKProblem:
     def explain(self, solution: QPSolution) -> QPSolution:
         """Add the diagnosis to a solution that did not succeed (at its q): ``solution.diagnosis`` and
         its summary at the end of ``solution.reason``; returns the solution."""
-        diagnosis = self.diagnose(solution)
-        solution.diagnosis = diagnosis
-        text = diagnosis.summary()
-        if text:
-            solution.reason = f"{solution.reason}; {text}" if solution.reason else text
+        solution.diagnosis = self.diagnose(solution)
+        solution.reason = solution.diagnosis.reason_with_summary(solution.reason)
         return solution
 
 

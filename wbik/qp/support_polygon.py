@@ -173,6 +173,18 @@ class SupportPolygon:
         """(N, d - margin): the polygon shrunk by ``margin`` as N x <= d - margin."""
         return self.normals, self.offsets - margin
 
+    def nearest_inside(self, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
+        """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point``: ``point`` itself when
+        inside, else the answer of a 2-variable QP (NoQPSolutionError when the shrunk polygon is empty)."""
+        from wbik.qp import backends
+
+        normals, offsets = self.halfplanes(margin)
+        point = np.asarray(point, dtype=float)[:2]
+        if np.all(normals @ point <= offsets):
+            return point.copy()
+        found = backends.solve(backends.DEFAULT, np.eye(2), -point, normals, offsets, None, None, None, None)
+        return np.asarray(found, dtype=float)
+
     def edge_name(self, index: int) -> str:
         """Edge ``index`` (from vertex i to vertex i + 1) by its two vertices' labels, "a-b"."""
         count = len(self.vertices)

@@ -59,9 +59,7 @@ the object mutably).
 
 from __future__ import annotations
 
-import threading
 import time
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,12 +67,14 @@ import numpy as np
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.robot import Chain
+from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import checked_branches
 from wbik.solvers.analytic.closed_form import wrap_into_limits
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
 from wbik.targets import as_target
@@ -174,15 +174,10 @@ def chain_lines(chain: Chain) -> Lines:
     if structure.prismatic.any():
         names = [n for n, p in zip(chain.joint_names, structure.prismatic, strict=True) if p]
         raise UnsupportedError(f"IK-Geo takes revolute joints only, {names} prismatic")
-    transform = structure.placements[0].copy()
-    axes, points = [], []
-    for k, axis in enumerate(structure.axes):
-        axes.append(transform[:3, :3] @ axis)
-        points.append(transform[:3, 3].copy())
-        transform = transform @ structure.placements[k + 1]
-    route = np.vstack((np.zeros(3), points, transform[:3, 3]))
+    axes, points, tip = joint_lines_at_zero(structure)
+    route = np.vstack((np.zeros(3), points, tip[:3, 3]))
     length = max(float(np.linalg.norm(np.diff(route, axis=0), axis=1).sum()), 1e-3)
-    return Lines(np.array(axes), np.array(points), transform, length)
+    return Lines(axes, points, tip, length)
 
 
 @dataclass(frozen=True)
@@ -255,17 +250,14 @@ def _structure_for(lines: Lines, family: Family, reverse: bool) -> IKGeoStructur
                           signs, order, lines.tip[:3, :3].T.copy())
 
 
-_STRUCTURES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_STRUCTURES_LOCK = threading.Lock()
+_STRUCTURES = ChainCache()
 
 
 def ik_geo_structure(chain: Chain) -> IKGeoStructure:
     """IK-Geo's family, H and P for ``chain``, decided once per chain (see the module docstring);
     UnsupportedError naming the chain and the reason when IK-Geo has no family that solves it."""
     _import_robot()  # first, so a missing package is reported also for a cached chain
-    with _STRUCTURES_LOCK:
-        cached = _STRUCTURES.get(chain)
-    if cached is not None:
+    if (cached := _STRUCTURES.get(chain)) is not None:
         return cached
     label = f"method 'ik_geo' cannot solve {chain.robot.name}.{chain.name}"
     if chain.nq != 6:
@@ -285,9 +277,7 @@ def ik_geo_structure(chain: Chain) -> IKGeoStructure:
                 continue
             reproduced, miss = _probe(chain, structure)
             if reproduced >= PROBE_REQUIRED:
-                with _STRUCTURES_LOCK:
-                    _STRUCTURES[chain] = structure
-                return structure
+                return _STRUCTURES.store(chain, structure)
             tried.append(f"{family.name}{' (reversed chain)' if reverse else ''}, a {family.kind}, "
                          f"{reproduced} of {PROBE_POSES} (off by up to {miss:.2g})")
     raise UnsupportedError(

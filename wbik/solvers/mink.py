@@ -52,7 +52,6 @@ import math
 import re
 import threading
 import time
-import weakref
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -66,6 +65,7 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.qp import backends
 from wbik.robot import Chain
+from wbik.robot import ChainCache
 from wbik.robot import Robot
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
@@ -73,6 +73,8 @@ from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.task_error import converged
 from wbik.solvers.task_error import task_error
 from wbik.targets import Target
+from wbik.validation import check_gain
+from wbik.validation import check_nonnegative_finite
 from wbik.validation import check_positive_finite
 
 INSTALL = "pip install mink==1.3.0"
@@ -169,17 +171,14 @@ class MuJoCoChain:
     """What MuJoCo's parser and compiler warned about (e.g. a joint whose equal limits it ignores)."""
 
 
-_MODELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_MODELS_LOCK = threading.Lock()
+_MODELS = ChainCache()
 
 
 def mujoco_chain(chain: Chain) -> MuJoCoChain:
     """MuJoCo's model of the chain's robot with its sites and joint maps, built and checked once per
     chain; UnsupportedError naming the chain and the reason when MuJoCo cannot take it."""
     _, mujoco = import_mink()
-    with _MODELS_LOCK:
-        cached = _MODELS.get(chain)
-    if cached is not None:
+    if (cached := _MODELS.get(chain)) is not None:
         return cached
     label = f"method 'mink' cannot solve {chain.robot.name}.{chain.name}"
     try:
@@ -192,9 +191,7 @@ def mujoco_chain(chain: Chain) -> MuJoCoChain:
             f"{label}: MuJoCo's FK of the chain differs from wbik's by up to {worst:.3g} (m, rad) on "
             f"{AGREEMENT_POSES} random joint vectors (allowed {AGREEMENT_TOLERANCE:g}): MuJoCo reads this "
             "URDF differently")
-    with _MODELS_LOCK:
-        _MODELS[chain] = built
-    return built
+    return _MODELS.store(chain, built)
 
 
 _WARNINGS_LOCK = threading.Lock()
@@ -221,24 +218,40 @@ def _build(chain: Chain, mujoco) -> MuJoCoChain:
     return built
 
 
-def _compile(chain: Chain, mujoco) -> MuJoCoChain:
-    robot = chain.robot
+def urdf_spec(mujoco, urdf_text: str, masses: bool = False):
+    """MuJoCo's MjSpec of the robot's URDF text (as :func:`mujoco_urdf` prepares it, ``masses`` as there);
+    UnsupportedError when MuJoCo cannot read it."""
     try:
-        spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf_text))
+        return mujoco.MjSpec.from_string(mujoco_urdf(urdf_text, masses=masses))
     except ValueError as exc:
         raise UnsupportedError(f"MuJoCo cannot read the URDF: {str(exc).strip()}") from None
+
+
+def add_site(body, name: str, placement: pin.SE3) -> None:
+    """A site called ``name`` on the MjSpec body ``body``, at ``placement`` in the body's frame."""
+    quaternion = pin.Quaternion(placement.rotation)
+    body.add_site(name=name, pos=placement.translation.tolist(),
+                  quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
+
+
+def compile_spec(spec):
+    """MuJoCo's model (MjModel) of the MjSpec ``spec``; UnsupportedError when it does not compile."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
+
+
+def _compile(chain: Chain, mujoco) -> MuJoCoChain:
+    robot = chain.robot
+    spec = urdf_spec(mujoco, robot.urdf_text)
     for site, frame in ((BASE_SITE, chain.base_frame), (TIP_SITE, chain.tip_frame)):
         where = frame_on_body(robot, frame)
         body = spec.body(where.body)
         if body is None:
             raise UnsupportedError(f"frame {frame!r}: MuJoCo has no body {where.body!r}")
-        quaternion = pin.Quaternion(where.placement.rotation)
-        body.add_site(name=site, pos=where.placement.translation.tolist(),
-                      quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
-    try:
-        model = spec.compile()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
+        add_site(body, site, where.placement)
+    model = compile_spec(spec)
     slots = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
     chain_qpos, chain_dof = [], []
     for name in chain.joint_names:
@@ -304,12 +317,8 @@ class MinkSolver(Solver):
         self.max_iterations = self._iteration_budget(max_iterations)
         self.backend = backends.resolve(backend)
         self.damping = check_positive_finite("damping", damping)
-        self.lm_damping = float(lm_damping)
-        if not (math.isfinite(self.lm_damping) and self.lm_damping >= 0.0):
-            raise InvalidSettingError(f"lm_damping must be a finite number >= 0, got {lm_damping!r}")
-        self.limit_gain = float(limit_gain)
-        if not 0.0 < self.limit_gain <= 1.0:
-            raise InvalidSettingError(f"limit_gain must be in (0, 1], got {limit_gain!r}")
+        self.lm_damping = check_nonnegative_finite("lm_damping", lm_damping)
+        self.limit_gain = check_gain("limit_gain", limit_gain)
         self.max_step = float(max_step)
         if not self.max_step > 0.0:  # NaN, zero or negative
             raise InvalidSettingError(f"max_step must be a number > 0 (math.inf: no bound), got {max_step!r}")

@@ -26,6 +26,7 @@ import pinocchio as pin
 from wbik.qp import backends
 from wbik.qp.constraints import JointPositionLimits
 from wbik.qp.constraints import JointVelocityLimits
+from wbik.qp.diagnosis import last_solve_diagnosis
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import PositionTask
@@ -55,21 +56,10 @@ class QPSolver(Solver):
         """The shared check's result; one that fails it gets the QP's diagnosis (after the timing)."""
         self._local.last = None
         result = super().solve(target, q0)
-        last = getattr(self._local, "last", None)
-        if last is None:
-            return result
-        problem, solution = last
-        self._local.last = None
-        if not result.success and self.diagnose:
-            diagnosis = problem.diagnose(solution)
+        diagnosis, result.reason = last_solve_diagnosis(self._local, result.success, self.diagnose,
+                                                        result.reason)
+        if diagnosis is not None:
             result.extra["diagnosis"] = diagnosis
-            text = diagnosis.summary()
-            if text:
-                result.reason = f"{result.reason}; {text}" if result.reason else text
-        elif solution.start_violations:
-            from wbik.qp.diagnosis import Diagnosis
-
-            result.extra["diagnosis"] = Diagnosis(start=list(solution.start_violations))
         return result
 
     def _new_thread_state(self) -> dict:

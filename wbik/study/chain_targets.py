@@ -47,7 +47,7 @@ from wbik.study.budget_curves import read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.context import _frozen
-from wbik.study.context import case_chain
+from wbik.study.context import chain_of
 from wbik.study.context import chunk_seed
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
@@ -152,7 +152,7 @@ class ChainTargets(CaseKind):
         return sample_joints(chain, count, seed)
 
     def sample(self, study: Study, case: CaseSpec) -> PoseSet:
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        chain = chain_of(case)
         q_true = self.joints(chain, study.poses_of(case), study.seed)
         return poses_of_joints(chain, q_true, study.seed, self.target, study.start)
 
@@ -167,12 +167,20 @@ class ChainTargets(CaseKind):
         except WbikError:
             return False
 
+    task_type: type[ChainChunkTask] = ChainChunkTask
+    """The chunk task of this kind: a :class:`ChainChunkTask`, or a subclass whose own fields
+    :meth:`task_fields` gives."""
+
+    def task_fields(self, study: Study, case: CaseSpec) -> dict:
+        """The fields ``task_type`` adds to those of a :class:`ChainChunkTask`, for ``case`` (none here)."""
+        return {}
+
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> ChainChunkTask:
         from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 
         timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
-        return ChainChunkTask(
+        return self.task_type(
             kind=self, case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params),
             label=method.label, method=method.method, options=_frozen(options), timeout_s=timeout_s,
             tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
@@ -181,7 +189,8 @@ class ChainTargets(CaseKind):
             angles=case.reference.angles if case.reference else None, per_pose=method.per_pose,
             positions=poses.positions[start:stop],
             rotations=None if poses.rotations is None else poses.rotations[start:stop],
-            registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip)
+            registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip,
+            **self.task_fields(study, case))
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: ChainChunkTask, timeout_s: float | None = None):
@@ -253,10 +262,13 @@ class ChainTargets(CaseKind):
         return columns
 
     # -- the report --------------------------------------------------------------------------------
+    def case_results(self, study: Study, case: CaseSpec, output: Path) -> tuple[Path, dict, dict, Chain]:
+        """What the analysis of a case starts from: (its folder, {label: rows} of the methods with every
+        chunk present, {label: not-applicable message}, its chain)."""
+        return store.case_dir(output, case.name), *case_rows(study, case, output), chain_of(case)
+
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
-        directory = store.case_dir(output, case.name)
-        rows_by_method, not_applicable = case_rows(study, case, output)
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        directory, rows_by_method, not_applicable, chain = self.case_results(study, case, output)
         store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
         summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
         baseline = study.baseline if study.baseline in rows_by_method else None

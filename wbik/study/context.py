@@ -49,6 +49,12 @@ def case_chain(robot_name: str, robot_params: tuple, chain: str | None, base: st
     return robot.chain_between(base, tip, name=chain) if base is not None else robot.chain(chain)
 
 
+def chain_of(case: CaseSpec):
+    """The chain of a study case on the (per-thread cached) robot: :func:`case_chain` of its robot, robot
+    parameters, chain name, base and tip."""
+    return case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+
+
 def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method: str, options: dict,
                 timeout_s: float | None, tolerances: tuple, seed: int, base: str | None = None,
                 tip: str | None = None):

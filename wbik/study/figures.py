@@ -39,6 +39,24 @@ def _save(figure, path: Path) -> Path:
     return path
 
 
+def _axis_grid(count: int, height: float) -> tuple[plt.Figure, list]:
+    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches, the cells left over
+    hidden: (figure, the ``count`` subplots in order)."""
+    columns = 3
+    lines = -(-count // columns)
+    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False)
+    cells = [cell for line in grid for cell in line]
+    for cell in cells[count:]:
+        cell.set_visible(False)
+    return figure, cells[:count]
+
+
+def _solved_errors(rows: dict, axis: str) -> np.ndarray:
+    """|error| on ``axis`` (the ``err_<axis>`` column) of the solved poses, finite values only."""
+    magnitude = np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
+    return magnitude[np.isfinite(magnitude)]
+
+
 def colours(labels) -> dict[str, tuple]:
     """A colour per method label, in order: tab20's ten darker shades, then its ten lighter ones."""
     palette = plt.get_cmap("tab20").colors
@@ -76,18 +94,13 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
                      angles: AngleConvention | None = None) -> Path:
     """Histograms of log10 |error| per axis (solved poses), a step line per method; exact zeros
     counted at the ZERO_FLOOR bin."""
-    columns = 3
-    lines = -(-len(axes_names) // columns)
     labels = list(rows_by_method)
     colour = colours(labels)
-    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, 3.0 * lines), squeeze=False)
-    for index, axis in enumerate(axes_names):
-        subplot = grid[index // columns][index % columns]
+    figure, cells = _axis_grid(len(axes_names), 3.0)
+    for subplot, axis in zip(cells, axes_names, strict=True):
         values = {}
         for label in labels:
-            rows = rows_by_method[label]
-            magnitude = np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
-            magnitude = magnitude[np.isfinite(magnitude)]
+            magnitude = _solved_errors(rows_by_method[label], axis)
             if magnitude.size:
                 values[label] = np.log10(np.maximum(magnitude, ZERO_FLOOR))
         if values:
@@ -99,9 +112,7 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
         subplot.set_xlabel(f"log10 |error| {axis_label(axis, angles)}", fontsize=8)
         subplot.set_ylabel("poses", fontsize=8)
         subplot.tick_params(labelsize=7)
-    for index in range(len(axes_names), lines * columns):
-        grid[index // columns][index % columns].set_visible(False)
-    handles, names = grid[0][0].get_legend_handles_labels()
+    handles, names = cells[0].get_legend_handles_labels()
     if handles:
         figure.legend(handles, names, loc="upper center", ncol=min(6, len(names)), fontsize=7,
                       bbox_to_anchor=(0.5, 1.0))
@@ -185,24 +196,17 @@ def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -
 
 def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
                    angles: AngleConvention | None = None) -> Path:
-    columns = 3
-    lines = -(-len(axes_names) // columns)
     labels = list(rows_by_method)
-    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, 3.2 * lines), squeeze=False)
-    for index, axis in enumerate(axes_names):
-        subplot = grid[index // columns][index % columns]
+    figure, cells = _axis_grid(len(axes_names), 3.2)
+    for subplot, axis in zip(cells, axes_names, strict=True):
         data = []
         for label in labels:
-            rows = rows_by_method[label]
-            values = np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
-            values = values[np.isfinite(values)]
+            values = _solved_errors(rows_by_method[label], axis)
             data.append(np.maximum(values, ZERO_FLOOR) if values.size else np.array([np.nan]))
         subplot.boxplot(data, showfliers=True, flierprops={"markersize": 2})
         subplot.set_yscale("log")
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)
-    for index in range(len(axes_names), lines * columns):
-        grid[index // columns][index % columns].set_visible(False)
     figure.suptitle(f"{title} (solved poses; exact zeros drawn at {ZERO_FLOOR:g})", fontsize=10)
     figure.tight_layout()
     return _save(figure, path)

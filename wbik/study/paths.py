@@ -41,12 +41,10 @@ import math
 import zlib
 from dataclasses import dataclass
 from dataclasses import field
-from dataclasses import fields
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.files import atomic_write_bytes
 from wbik.schema import Boolean
 from wbik.schema import Context
 from wbik.schema import Key
@@ -55,7 +53,6 @@ from wbik.schema import Number
 from wbik.schema import join
 from wbik.study import results as store
 from wbik.study.blocks import Block
-from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
 from wbik.study.blocks import frequent_reasons
@@ -64,7 +61,7 @@ from wbik.study.blocks import write_case_tables
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.context import _frozen
-from wbik.study.context import case_chain
+from wbik.study.context import chain_of
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
 from wbik.study.cpu_watch import solve_watching_the_cpu
@@ -87,7 +84,6 @@ if TYPE_CHECKING:
 
     from wbik.robot import Chain
     from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
 
 PATH = "path"
@@ -221,11 +217,11 @@ class PathSet(PoseSet):
     verified: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     witness_length: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
-    def save(self, path: Path) -> None:
-        arrays = {"q_true": self.q_true, "positions": self.positions, "rotations": self.rotations,
-                  "q0": self.q0, "path_draws": self.draws, "path_verified": self.verified,
-                  "path_witness_length": self.witness_length}
-        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
+    def saved_arrays(self) -> dict[str, np.ndarray]:
+        """The poses' arrays, then the draws, verified flags and witness lengths as ``path_<name>``."""
+        return {"q_true": self.q_true, "positions": self.positions, "rotations": self.rotations,
+                "q0": self.q0, "path_draws": self.draws, "path_verified": self.verified,
+                "path_witness_length": self.witness_length}
 
 
 def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=None) -> PathSet:
@@ -312,7 +308,7 @@ class PathTargets(ChainTargets):
 
     # -- sampling and tasks ------------------------------------------------------------------------
     def sample(self, study: Study, case: CaseSpec) -> PathSet:
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        chain = chain_of(case)
         parameters = self.parameters_of(case)
         witness = None
         if parameters["reachable"]:
@@ -322,12 +318,12 @@ class PathTargets(ChainTargets):
                                   study.seed, case.base, case.tip)
         return sample_paths(chain, study.poses_of(case), study.seed, parameters, witness)
 
-    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
-             start: int, stop: int) -> PathChunkTask:
-        base = super().task(study, case, method, poses, chunk, start, stop)
+    task_type = PathChunkTask
+
+    def task_fields(self, study: Study, case: CaseSpec) -> dict:
+        """The case's flip criteria (``jump``, ``branch_tolerance``)."""
         parameters = self.parameters_of(case)
-        return PathChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
-                             jump=parameters["jump"], branch_tolerance=parameters["branch_tolerance"])
+        return {"jump": parameters["jump"], "branch_tolerance": parameters["branch_tolerance"]}
 
     # -- in the worker -----------------------------------------------------------------------------
     def solve(self, task: PathChunkTask) -> dict[str, np.ndarray]:
@@ -393,9 +389,7 @@ class PathTargets(ChainTargets):
 
     # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
-        directory = store.case_dir(output, case.name)
-        rows_by_method, not_applicable = case_rows(study, case, output)
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        directory, rows_by_method, not_applicable, chain = self.case_results(study, case, output)
         write_point_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
         write_path_csv(directory / "paths.csv", rows_by_method)
         common = common_paths(rows_by_method)

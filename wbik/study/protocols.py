@@ -25,7 +25,6 @@ import csv
 import io
 import math
 from dataclasses import dataclass
-from dataclasses import fields
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -58,9 +57,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
-    from wbik.study.sampling import PoseSet
 
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)
@@ -128,12 +125,12 @@ class ProtocolTargets(ChainTargets):
         return SuccessRule(**case.success)
 
     # -- tasks and solving -------------------------------------------------------------------------
-    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
-             start: int, stop: int) -> ProtocolChunkTask:
-        base = super().task(study, case, method, poses, chunk, start, stop)
+    task_type = ProtocolChunkTask
+
+    def task_fields(self, study: Study, case: CaseSpec) -> dict:
+        """The case's success rule as (position, rotation, per, frame)."""
         rule = self.rule_of(case)
-        return ProtocolChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
-                                 rule=(rule.position, rule.rotation, rule.per, rule.frame))
+        return {"rule": (rule.position, rule.rotation, rule.per, rule.frame)}
 
     def solve(self, task: ProtocolChunkTask) -> dict[str, np.ndarray]:
         """The chain rows, ``success`` judged by the case's rule, ``check_success`` the shared check's."""

@@ -29,11 +29,16 @@ class PoseSet:
     def __len__(self) -> int:
         return len(self.q_true)
 
-    def save(self, path: Path) -> None:
-        """Write atomically (temporary file renamed into place)."""
+    def saved_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays :meth:`save` writes, by name: q_true, positions, q0 and rotations (when given)."""
         arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
         if self.rotations is not None:
             arrays["rotations"] = self.rotations
+        return arrays
+
+    def save(self, path: Path) -> None:
+        """Write :meth:`saved_arrays` atomically (temporary file renamed into place)."""
+        arrays = self.saved_arrays()
         atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
 
     @classmethod

@@ -24,12 +24,10 @@ import json
 import zlib
 from dataclasses import dataclass
 from dataclasses import field
-from dataclasses import fields
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.files import atomic_write_bytes
 from wbik.schema import Key
 from wbik.study import results as store
 from wbik.study.blocks import Block
@@ -37,6 +35,7 @@ from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.context import _frozen
 from wbik.study.context import case_chain
+from wbik.study.context import chain_of
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import poses_of_joints
 from wbik.study.sampling import sample_joints
@@ -55,7 +54,6 @@ if TYPE_CHECKING:
 
     from wbik.robot import Chain
     from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
 
 
@@ -78,13 +76,12 @@ class DrawnTargets(PoseSet):
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     facts: dict = field(default_factory=dict)
 
-    def save(self, path: Path) -> None:
-        arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
-        if self.rotations is not None:
-            arrays["rotations"] = self.rotations
+    def saved_arrays(self) -> dict[str, np.ndarray]:
+        """The poses' arrays, then each extra as ``drawn_<name>`` and the facts as ``drawn_facts`` (JSON)."""
+        arrays = super().saved_arrays()
         arrays.update({f"drawn_{name}": np.asarray(value) for name, value in self.extras.items()})
         arrays["drawn_facts"] = np.array(json.dumps(self.facts, sort_keys=True, default=_plain))
-        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
+        return arrays
 
 
 def _plain(value):
@@ -162,7 +159,7 @@ class TargetSetKind(ChainTargets):
         return self.drawn_from(self.parameters_of(case))
 
     def sample(self, study: Study, case: CaseSpec) -> PoseSet:
-        chain = case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
+        chain = chain_of(case)
         parameters = self.parameters_of(case)
         drawing = self.draw(chain, study.poses_of(case), study.seed, parameters)
         return self.drawn_targets(chain, drawing, study, parameters)
@@ -173,11 +170,11 @@ class TargetSetKind(ChainTargets):
         return DrawnTargets(poses.q_true, poses.positions, poses.rotations, poses.q0, drawing.extras,
                             {"parameters": parameters, "seed": study.seed, **drawing.facts})
 
-    def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
-             start: int, stop: int) -> TargetSetChunkTask:
-        base = super().task(study, case, method, poses, chunk, start, stop)
-        return TargetSetChunkTask(**{f.name: getattr(base, f.name) for f in fields(ChainChunkTask)},
-                                  parameters=_frozen(self.parameters_of(case)), study_seed=study.seed)
+    task_type = TargetSetChunkTask
+
+    def task_fields(self, study: Study, case: CaseSpec) -> dict:
+        """The set's parameters and the study's seed."""
+        return {"parameters": _frozen(self.parameters_of(case)), "study_seed": study.seed}
 
     # -- in the worker -----------------------------------------------------------------------------
     def solve(self, task: TargetSetChunkTask) -> dict[str, np.ndarray]:

@@ -57,10 +57,14 @@ from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import RelativeFrameTask
 from wbik.robot import Robot
+from wbik.solvers.mink import add_site
+from wbik.solvers.mink import compile_spec
 from wbik.solvers.mink import frame_on_body
 from wbik.solvers.mink import import_mink
-from wbik.solvers.mink import mujoco_urdf
 from wbik.solvers.mink import mujoco_warnings
+from wbik.solvers.mink import urdf_spec
+from wbik.validation import check_gain
+from wbik.validation import check_nonnegative_finite
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.solvers import NO_POLYGON
 from wbik.wholebody.solvers import PeerWholeBody
@@ -152,10 +156,7 @@ def _massless_while_welded(body) -> None:
 
 def _compile(robot: Robot, mujoco) -> MuJoCoBody:
     model = robot.model
-    try:
-        spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf_text, masses=True))
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot read the URDF: {str(exc).strip()}") from None
+    spec = urdf_spec(mujoco, robot.urdf_text, masses=True)
     if robot.has_floating_base:
         root = next(frame for frame in model.frames
                     if frame.type == pin.FrameType.BODY and frame.parentJoint == 1)
@@ -172,14 +173,9 @@ def _compile(robot: Robot, mujoco) -> MuJoCoBody:
         body = spec.worldbody if link is None else spec.body(link)
         if body is None:
             raise UnsupportedError(f"frame {name!r}: MuJoCo has no body {link!r}")
-        quaternion = pin.Quaternion(placement.rotation)
         sites[name] = SITE_PREFIX + name
-        body.add_site(name=sites[name], pos=placement.translation.tolist(),
-                      quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
-    try:
-        compiled = spec.compile()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
+        add_site(body, sites[name], placement)
+    compiled = compile_spec(spec)
     slots = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
     q_index, qpos_index, v_index, dof_index, names = [], [], [], [], {}
     if robot.has_floating_base:  # x y z, then Pinocchio's quaternion x y z w is MuJoCo's w x y z
@@ -433,18 +429,13 @@ class MinkWholeBody(PeerWholeBody):
         """``backend``: the qpsolvers name ``mink.solve_ik`` uses; ``damping``: its Levenberg-Marquardt
         damping on every DOF (a regularisation task raises it); ``limit_gain``: ConfigurationLimit's
         gain in (0, 1]."""
-        from wbik.errors import InvalidSettingError
         from wbik.qp import backends
 
         super().__init__(robot, **options)
         self.mink, self.mujoco = import_mink()
         self.backend = backends.resolve(backend)
-        self.damping = float(damping)
-        if not (math.isfinite(self.damping) and self.damping >= 0.0):
-            raise InvalidSettingError(f"damping must be a finite number >= 0, got {damping!r}")
-        self.limit_gain = float(limit_gain)
-        if not 0.0 < self.limit_gain <= 1.0:
-            raise InvalidSettingError(f"limit_gain must be in (0, 1], got {limit_gain!r}")
+        self.damping = check_nonnegative_finite("damping", damping)
+        self.limit_gain = check_gain("limit_gain", limit_gain)
         self.body = mujoco_body(robot)
         self._thread_state()  # this thread's configuration now (errors show here, its cost is not a solve's)
 

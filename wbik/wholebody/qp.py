@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+from wbik.qp.diagnosis import last_solve_diagnosis
 from wbik.qp.tasks import RegularizationTask
 from wbik.wholebody.methods import WholeBodyMethod
 from wbik.wholebody.problem import WholeBody
@@ -48,21 +49,8 @@ class QPWholeBody(WholeBodySolver):
         a start outside the limits is reported in ``diagnosis.start`` either way."""
         self._local.last = None
         result = super().solve(problem, q0)
-        last = getattr(self._local, "last", None)
-        if last is None:
-            return result
-        ik, solution = last
-        self._local.last = None
-        if not result.success and self.diagnose:
-            diagnosis = ik.diagnose(solution)
-            result.diagnosis = diagnosis
-            text = diagnosis.summary()
-            if text:
-                result.reason = f"{result.reason}; {text}" if result.reason else text
-        elif solution.start_violations:
-            from wbik.qp.diagnosis import Diagnosis
-
-            result.diagnosis = Diagnosis(start=list(solution.start_violations))
+        result.diagnosis, result.reason = last_solve_diagnosis(self._local, result.success, self.diagnose,
+                                                               result.reason)
         return result
 
     def _solve(self, problem, q0, placements, polygon, deadline):

@@ -35,7 +35,8 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
     docstring); ``footstep_x``: the report's footsteps (m), which the re-planned ones must equal."""
     from wbik.apps.bioloid.placo_walk import GROUND_TOLERANCE
     from wbik.apps.bioloid.placo_walk import plan_walk
-    from wbik.solvers.placo import import_placo
+    from wbik.motion.walking.placo_pattern import WalkIK
+    from wbik.motion.walking.placo_pattern import soles_on_ground
     from wbik.solvers.placo import placo_configuration
     from wbik.viz.animation import Animation
     from wbik.viz.animation import Overlays
@@ -47,20 +48,12 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
         raise InvalidConfigurationError(
             f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
             "wbik.apps.bioloid.placo_view no longer mirrors wbik.apps.bioloid.placo_walk")
-    solver = humanoid.make_solver()
-    tasks = import_placo().WalkTasks()
-    tasks.initialize_tasks(solver, humanoid)
+    ik = WalkIK(humanoid)
     times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
     rows, support = [], []
     for index, t in enumerate(times):
-        tasks.update_tasks_from_trajectory(trajectory, float(t))
-        for _ in range(SETTLE_ITERATIONS if index == 0 else ITERATIONS):
-            humanoid.update_kinematics()
-            solver.solve(True)
-        humanoid.update_kinematics()
+        ik.follow(trajectory, float(t), SETTLE_ITERATIONS if index == 0 else ITERATIONS)
         rows.append(placo_configuration(robot, humanoid))
-        feet = (("l_sole", trajectory.get_T_world_left(float(t))),
-                ("r_sole", trajectory.get_T_world_right(float(t))))
-        support.append(tuple(sole for sole, pose in feet if abs(pose[2, 3]) <= GROUND_TOLERANCE))
+        support.append(soles_on_ground(trajectory, float(t), "l_sole", "r_sole", tolerance=GROUND_TOLERANCE))
     return Animation(robot, times, np.array(rows), Overlays("pelvis", tuple(support), tuple(support)),
                      "PlaCo walk pattern generator")

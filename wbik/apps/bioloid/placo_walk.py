@@ -145,26 +145,19 @@ def _multibody(robot: Robot, trajectory, parameters, margin: float, dt: float,
     """PlaCo's IK on the plan every ``dt`` and the figures of the whole robot's motion (mm, rad/s)."""
     from wbik.motion.walking.figures import walk_figures
     from wbik.motion.walking.footsteps import Feet
-    from wbik.solvers.placo import import_placo
+    from wbik.motion.walking.placo_pattern import WalkIK
+    from wbik.motion.walking.placo_pattern import soles_on_ground
     from wbik.solvers.placo import placo_configuration
     from wbik.solvers.placo import placo_robot
 
     humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
-    solver = humanoid.make_solver()
-    tasks = import_placo().WalkTasks()
-    tasks.initialize_tasks(solver, humanoid)
+    ik = WalkIK(humanoid)
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
     rows, support, com = [], [], []
     for index, t in enumerate(times):
-        tasks.update_tasks_from_trajectory(trajectory, float(t))
-        for _ in range(50 if index == 0 else iterations):
-            humanoid.update_kinematics()
-            solver.solve(True)
-        humanoid.update_kinematics()
+        ik.follow(trajectory, float(t), 50 if index == 0 else iterations)
         rows.append(placo_configuration(robot, humanoid))
-        feet = (("l_sole", trajectory.get_T_world_left(float(t))),
-                ("r_sole", trajectory.get_T_world_right(float(t))))
-        support.append(tuple(sole for sole, pose in feet if abs(pose[2, 3]) <= GROUND_TOLERANCE))
+        support.append(soles_on_ground(trajectory, float(t), "l_sole", "r_sole", tolerance=GROUND_TOLERANCE))
         com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
     figures, _ = walk_figures(robot, Feet("l_sole", "r_sole"), times, np.array(rows), support, 0.0, margin,
                               np.array(com))

@@ -676,7 +676,7 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             heel = float(sole_corners_world(robot, sim.q, SOLE["r"])[:, 0].min())
             level = stairs.step_at(heel + 1e-6)
             cycle = _down_ready(sim, cycle)
-            first = "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
+            first = _leading_foot(cycle)
             phases, after = descend_phases(robot, sim.soles(), stairs, level, first, gait)
             sim.run("DownStair", phases, after)
             sim.descended += 1
@@ -704,7 +704,7 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             sim.machine.turns_made += 1
         _stair_ready(sim, cycle)
         step = sim.machine.stair_count + 1
-        first = "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
+        first = _leading_foot(cycle)
         phases, after = climb_phases(robot, sim.soles(), stairs, step, first, gait)
         sim.run("UpStair", phases, after)
         sim.machine.climbed()
@@ -720,31 +720,43 @@ def _machine_inputs(entry: dict) -> dict:
             "forward_foot": entry["forward_foot"]}
 
 
+def _leading_foot(cycle: int) -> str:
+    """"r" when the walk cycle's step at index ``cycle`` is led by the right foot (WalkSR...), else "l"."""
+    return "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
+
+
+def _feet_gap(sim: _Simulator, gap_of: Callable, pick: Callable, missing: str) -> float:
+    """``pick`` (min or max) over both soles of ``gap_of(stairs, sole)`` (m); StairError ``missing`` when
+    that is not finite (nothing ahead of the feet)."""
+    soles = sim.soles()
+    gap = pick(gap_of(sim.stairs, soles[s]) for s in SIDES)
+    if not math.isfinite(gap):
+        raise StairError(missing)
+    return gap
+
+
+def _ready_steps(sim: _Simulator, cycle: int, length: float) -> None:
+    """Our StairReady's two half steps, led by the foot of the walk cycle at ``cycle``, the first
+    ``length`` (m) long."""
+    first = _leading_foot(cycle).upper()
+    sim.states.append("StairReady")
+    sim.half(f"WalkS{first}1", length=length)
+    sim.half(f"WalkS{first}2")
+
+
 def _down_ready(sim: _Simulator, cycle: int) -> int:
     """Our StairReady before DownStair: both feet forward (two half steps) until their toes are
     ``DOWN_READY_OVERHANG`` over the nose, unless they are that far over it already (the shorter the
     reach down, the more room the legs have); the next cycle index."""
-    soles = sim.soles()
-    gap = max(nose_gap(sim.stairs, soles[s]) for s in SIDES)
-    if not math.isfinite(gap):
-        raise StairError("DownStair: no nose ahead of the feet")
+    gap = _feet_gap(sim, nose_gap, max, "DownStair: no nose ahead of the feet")
     if gap > -DOWN_READY_OVERHANG + 1e-4:
-        first = "R" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "L"
-        sim.states.append("StairReady")
-        sim.half(f"WalkS{first}1", length=gap + DOWN_READY_OVERHANG)
-        sim.half(f"WalkS{first}2")
+        _ready_steps(sim, cycle, gap + DOWN_READY_OVERHANG)
         cycle += 2
     return cycle
 
 
 def _stair_ready(sim: _Simulator, cycle: int) -> None:
     """Our StairReady: both feet forward (two half steps) until the toes are READY_GAP from the riser."""
-    soles = sim.soles()
-    gap = min(toe_gap(sim.stairs, soles[s]) for s in SIDES)
-    if not math.isfinite(gap):
-        raise StairError("StairReady: no riser ahead of the feet")
+    gap = _feet_gap(sim, toe_gap, min, "StairReady: no riser ahead of the feet")
     if gap > READY_GAP + 1e-4:
-        first = "R" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "L"
-        sim.states.append("StairReady")
-        sim.half(f"WalkS{first}1", length=gap - READY_GAP)
-        sim.half(f"WalkS{first}2")
+        _ready_steps(sim, cycle, gap - READY_GAP)

@@ -373,18 +373,12 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
 
 
 def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) -> np.ndarray:
-    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y): a 2-variable QP."""
-    from wbik.qp import backends
-
-    normals, offsets = polygon.halfplanes(margin)
-    point = np.asarray(point, dtype=float)[:2]
-    if np.all(normals @ point <= offsets):
-        return point.copy()
+    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y): a 2-variable QP;
+    InvalidConfigurationError when the shrunk polygon is empty."""
     try:
-        found = backends.solve(DEFAULT_BACKEND, np.eye(2), -point, normals, offsets, None, None, None, None)
+        return polygon.nearest_inside(point, margin)
     except NoQPSolutionError as error:
         raise InvalidConfigurationError(f"the support polygon shrunk by {margin} m is empty") from error
-    return np.asarray(found, dtype=float)
 
 
 class ComRamp:

@@ -90,6 +90,36 @@ def _sole_size(robot: Robot, frame: str) -> tuple[float, float]:
     return float(np.ptp(points[:, 0])), float(np.ptp(points[:, 1]))
 
 
+class WalkIK:
+    """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with PlaCo's ``WalkTasks`` set up on it,
+    to follow a walk trajectory of PlaCo's generator."""
+
+    def __init__(self, humanoid):
+        from wbik.solvers.placo import import_placo
+
+        self.humanoid = humanoid
+        self.solver = humanoid.make_solver()
+        self.tasks = import_placo().WalkTasks()
+        self.tasks.initialize_tasks(self.solver, humanoid)
+
+    def follow(self, trajectory, t: float, iterations: int) -> None:
+        """The humanoid at time ``t`` of ``trajectory``: the walk tasks moved there, ``iterations`` solver
+        steps from the humanoid's current configuration, its kinematics updated at the answer."""
+        self.tasks.update_tasks_from_trajectory(trajectory, t)
+        for _ in range(iterations):
+            self.humanoid.update_kinematics()
+            self.solver.solve(True)
+        self.humanoid.update_kinematics()
+
+
+def soles_on_ground(trajectory, t: float, left: str, right: str, ground: float = 0.0,
+                    tolerance: float = GROUND_TOLERANCE) -> tuple[str, ...]:
+    """The soles (of ``left`` and ``right``) that PlaCo's foot trajectories keep within ``tolerance`` (m)
+    of the ground height ``ground`` at time ``t``."""
+    poses = ((left, trajectory.get_T_world_left(t)), (right, trajectory.get_T_world_right(t)))
+    return tuple(sole for sole, pose in poses if abs(pose[2, 3] - ground) <= tolerance)
+
+
 def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
                setting: str = "ours", timing: Timing | None = None, clearance: float = 0.02,
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
@@ -136,24 +166,16 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     supports = placo.FootstepsPlanner.make_supports(placo_steps, 0.0, True, True, True)
     trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, com0, 0.0)
     plan_time = time.perf_counter() - tick
-    solver = humanoid.make_solver()
-    tasks = placo.WalkTasks()
-    tasks.initialize_tasks(solver, humanoid)
+    ik = WalkIK(humanoid)
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
     omega = math.sqrt(9.80665 / parameters.walk_com_height)
     rows, support, com, zmp, ticks = [], [], [], [], []
     for index, t in enumerate(times):
         tick = time.perf_counter()
-        tasks.update_tasks_from_trajectory(trajectory, float(t))
-        for _ in range(SETTLE_ITERATIONS if index == 0 else iterations):
-            humanoid.update_kinematics()
-            solver.solve(True)
-        humanoid.update_kinematics()
+        ik.follow(trajectory, float(t), SETTLE_ITERATIONS if index == 0 else iterations)
         ticks.append(time.perf_counter() - tick)
         rows.append(placo_configuration(robot, humanoid))
-        poses = ((feet.left, trajectory.get_T_world_left(float(t))),
-                 (feet.right, trajectory.get_T_world_right(float(t))))
-        support.append(tuple(frame for frame, pose in poses if abs(pose[2, 3] - ground) <= GROUND_TOLERANCE))
+        support.append(soles_on_ground(trajectory, float(t), feet.left, feet.right, ground))
         com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
         zmp.append(np.asarray(trajectory.get_p_world_ZMP(float(t), omega), dtype=float)[:2])
     used = {"setting": setting, "single_support_s": parameters.single_support_duration,

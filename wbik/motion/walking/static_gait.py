@@ -120,18 +120,6 @@ def _sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygo
     return SupportPolygon(np.vstack(points))
 
 
-def _nearest_inside(polygon: SupportPolygon, point: np.ndarray, inset: float) -> np.ndarray:
-    """The point of the polygon shrunk by ``inset`` nearest to ``point`` (x, y)."""
-    from wbik.qp import backends
-
-    normals, offsets = polygon.halfplanes(inset)
-    point = np.asarray(point, dtype=float)[:2]
-    if np.all(normals @ point <= offsets):
-        return point.copy()
-    return np.asarray(backends.solve(DEFAULT_BACKEND, np.eye(2), -point, normals, offsets, None, None, None,
-                                     None), dtype=float)
-
-
 def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
                 clearance: float = 0.02, margin: float = 0.005, inset: float | None = None,
                 divisions: int = 5, speed_rpm: float = 40.0, locked: tuple[str, ...] = (),
@@ -191,7 +179,7 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
             end_polygon = polygon
         else:
             end_polygon = _sole_polygon(robot, {feet.frame(target_side): stand[target_side]})
-            goal = _nearest_inside(end_polygon, start, inset)
+            goal = end_polygon.nearest_inside(start, inset)
         stance_frame = feet.frame(target_side or "left")
         for division in range(1, divisions + 1):
             s = division / divisions
