@@ -188,7 +188,7 @@ class Chain:
         """q as a float array (a copy) of the right length with finite values, or
         InvalidConfigurationError."""
         if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self.nq,) \
-                and math.isfinite(float(q.dot(q))):  # the common case, in well under a microsecond
+                and math.isfinite(float(q.dot(q))):  # the common case, fast (docs/measurements.md, robot)
             return q.copy()
         array = numeric_array(q, "joint values", InvalidConfigurationError).reshape(-1)
         if array.shape != (self.nq,):
@@ -197,7 +197,8 @@ class Chain:
         return array
 
     def fk(self, q: np.ndarray) -> pin.SE3:
-        """Pose of the tip frame in the base frame (a new SE3; ~1 us: only the tip frame is placed)."""
+        """Pose of the tip frame in the base frame (a new SE3; only the tip frame is placed, which is
+        fast: docs/measurements.md, robot)."""
         model, data = self.model, self.data
         pin.forwardKinematics(model, data, q)
         tip = pin.updateFramePlacement(model, data, self.tip_id)  # a copy, not a view into data

@@ -305,9 +305,10 @@ class DaqpWorkspace:
 
 DAQP_RETRY = {"eps_prox": 1e-12}
 """DAQP's settings for a second try after it reports "infeasible" or "cycling": its proximal-point
-iterations, which solve nearly degenerate QPs (a priority level's kept rows, two inequalities 2e-10
-apart) that its default active-set iterations declare infeasible (measured: quadprog solved the same
-QP to 1e-15). A QP that is infeasible stays so. Never used on a solve that succeeds."""
+iterations, which solve nearly degenerate QPs (a priority level's kept rows, two inequalities very
+close) that its default active-set iterations declare infeasible while another backend solves them (the
+measurements: docs/measurements.md, qp backends). A QP that is infeasible stays so. Never used on a
+solve that succeeds."""
 
 
 def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
@@ -332,9 +333,10 @@ def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
     tried warm (``workspace``), then cold with its primal tolerance at ``tolerance``, then cold with
     its default (1e-6: rows may be broken by up to that), and the first answer that holds the rows is
     returned, else the one that breaks them least. The rows that keep what higher priority levels
-    achieved must hold to their slack: measured, a warm DAQP left them broken by 2.8e-9 on a nearly
-    singular level where a cold solve gave 3e-17, and a cold one at the default tolerance by 2e-8.
-    Other backends are solved once (their tolerances are set tight in ``BACKEND_OPTIONS``)."""
+    achieved must hold to their slack: on a nearly singular level a warm DAQP, or a cold one at the
+    default tolerance, can leave them broken where a cold solve holds them (the measurements:
+    docs/measurements.md, qp backends). Other backends are solved once (their tolerances
+    are set tight in ``BACKEND_OPTIONS``)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     rows = constraints.inequality_rows()

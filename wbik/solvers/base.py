@@ -35,7 +35,9 @@ from wbik.validation import check_budget
 from wbik.validation import check_count
 from wbik.validation import check_seed
 
-try:  # numpy's clip ufunc: np.clip wraps it in Python at 3-4x its cost on a few joints
+# numpy's clip ufunc, called directly: np.clip wraps it in Python code that costs more than the ufunc
+# itself on a few joints (the measurements: docs/measurements.md, base)
+try:
     from numpy._core.umath import clip as _clip_ufunc
 except ImportError:  # pragma: no cover - another numpy layout
     _clip_ufunc = None
@@ -151,7 +153,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
 
     The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
     e_R = log3(R*^T R) (target axes; ``geometry.error_parts`` gives p - p*, its norm and R*^T R,
-    Pinocchio the log3). Written for the per-call path (a few microseconds): one clip, one FK, one
+    Pinocchio the log3). Written for the per-call path (its cost: docs/benchmarks.md): one clip, one FK, one
     call for the arithmetic (compiled where built), one log3; the detailed checks run only when
     something is off.
 
@@ -260,8 +262,9 @@ class IterationBudget:
     on the machine the costs were measured on. The owner sets ``name`` and ``timeout_s``."""
 
     iteration_cost_s: float | None = None
-    """Ours: the time one iteration costs (s), measured on the reference machine (the README says which);
-    it turns a time budget into an iteration budget. None: a wall-clock method."""
+    """Ours: the time one iteration costs (s) on the reference machine, the budget's unit (the machine and
+    each method's measured cost: docs/measurements.md); it turns a time budget into an iteration budget.
+    None: a wall-clock method."""
     default_budget_s: float = DEFAULT_TIMEOUT_S
     """Ours: the time the default iteration budget is equivalent to."""
 

@@ -16,15 +16,11 @@ The residual e is the pose-error convention of :mod:`wbik.geometry` in its SE(3)
 in :mod:`wbik.solvers.task_error`): e = log6(T*^-1 T), whose rotation part is log3(R*^T R) and
 whose translation part is R*^T (p - p*) bent along the screw motion, with the tip-axes (LOCAL) frame
 Jacobian; a position target uses e = p - p* with the linear rows of the Jacobian (base axes).
-Measured against the straight form [p - p*; log3(R*^T R)] with its exact Jacobian (both paths,
-2000 poses per chain under TRAC-IK's protocol, interleaved), UR5 / Golem-III / Pincher / Bioloid
-leg / Panda: success 100 / 99.95 / 100 / 100 / 99.95 % against 100 / 100 / 100 / 100 / 100 %
-(one pose in 2000 either way), 0.1-0.5 fewer iterations per call (11.5 / 11.3 / 4.8 / 4.6 / 10.3),
-and 27-29 % less CPU time per call (182 / 217 / 97 / 102 / 202 us against 256 / 298 / 133 / 140 /
-282 us): one SE(3) product and log6 in Pinocchio, and the tip-axes Jacobian as Pinocchio gives it,
-against a log3, Jlog3 and two products per evaluation. From a far seed alone (the mid-range
-configuration, no restarts) the SE(3) form also succeeds more often (77.6 / 67.9 / 79.3 / 97.6 /
-82.4 % against 77.7 / 64.7 / 71.1 / 96.3 / 77.1 %). Hence the SE(3) form, in both paths.
+Against the straight form [p - p*; log3(R*^T R)] with its exact Jacobian, the SE(3) form succeeds as
+often, in fewer iterations and less CPU time per call (one SE(3) product and log6 in Pinocchio, and
+the tip-axes Jacobian as Pinocchio gives it, against a log3, Jlog3 and two products per evaluation),
+and from a far seed alone it succeeds as often or more. Hence the SE(3) form, in both paths (the
+measurements: docs/measurements.md, bounded_lm).
 Position rows are weighted by ``position_weight`` (default: 1 / the chain's length scale, at least
 1), which puts metres and radians on a par on small chains (Pincher, Bioloid legs); the FK check is
 unchanged. An attempt ends when the FK check passes (success), when the error stops dropping
@@ -41,30 +37,30 @@ the reference machine, so the answer depends on the inputs and ``seed`` only, ne
 
 1. q0 and the nearest entry of a per-chain *seed table* (``table_size`` 1024 configurations, uniform
    inside the limits shrunk by ``table_margin`` = 10 % of each range at both ends; searched by brute
-   force in a few microseconds, :class:`SeedTable`): q0 first when it is near the target (tracking,
+   force, :class:`SeedTable`): q0 first when it is near the target (tracking,
    warm starts); the entry first when its distance^2 is under ``table_first`` (0.1) x |e(q0)|^2
    (q0 an uninformed guess, as TRAC-IK's protocol's mid-range seed), q0 then coming third, after
    the library's nearest entry.
 2. Then the entries of a per-chain *seed library* (``library_size`` 8192 uniform configurations,
-   k-d trees over their tip poses, :func:`seed_library`, ~40 ms once per chain) whose tip pose is
+   k-d trees over their tip poses, :func:`seed_library`, built once per chain) whose tip pose is
    nearest the target (weighted position distance^2 + 3 - trace(R*^T R_i)), nearest first: they
    start in the right region of the workspace, so an attempt from them succeeds more often and
    sooner than from a uniform seed. Table and library are built once per chain and cached.
 3. After ``single_attempts`` one-seed attempts, ``batch_size`` seeds advance together, vectorised
    over the batch (:class:`VectorisedChain`: residuals and Jacobians of all seeds in a fixed number
    of numpy calls); the first ``library_share`` of them are the next library neighbours, the others
-   uniform. A seed that stalls is replaced by a fresh uniform one. A batch iteration costs about
-   as much as 10-20 single ones but advances 32 seeds, which is what solves the rare targets whose
-   solution lies in a small basin (joints near their limits; 0.1-1 % of random poses).
+   uniform. A seed that stalls is replaced by a fresh uniform one. A batch iteration costs as much
+   as several single ones (``BATCH_ITERATION_UNITS``) but advances 32 seeds, which is what solves the
+   rare targets whose solution lies in a small basin (joints near their limits).
 
 ``solve_many`` (no wall clock) runs the same attempts for many targets at once, one vectorised row
 per target (:meth:`BoundedLMSolver._solve_rows`).
 
 Defaults were tuned under TRAC-IK's protocol with ``benchmarks/numerical.py`` on the UR5, Golem3,
-Pincher, Bioloid and Panda chains. A one-seed iteration costs 8-10 us here with the Python trial
-(three Pinocchio calls, the policy's damped solve and a dozen small numpy calls), about 30 % less with
-the compiled one (:meth:`LevenbergMarquardt.trial_function`, the same decisions); a call's fixed cost
-(goal, seed table, first residual) is ~15 us besides the interface's.
+Pincher, Bioloid and Panda chains. A one-seed iteration is three Pinocchio calls, the policy's damped
+solve and a dozen small numpy calls with the Python trial; the compiled trial
+(:meth:`LevenbergMarquardt.trial_function`) makes the same decisions with the sums in C. A call also has
+a fixed cost (goal, seed table, first residual). What each costs: docs/measurements.md, bounded_lm.
 """
 
 from __future__ import annotations
@@ -102,7 +98,7 @@ FIRST_QUERY = 3
 """Library entries asked for by a call's first k-d tree query (the rest, if needed, by a second)."""
 BATCH_ITERATION_UNITS = 10
 """Budget units one vectorised batch iteration (32 seeds) counts: its time over a single-seed
-iteration's, measured on the Golem-III, UR5 and Panda chains (8-12)."""
+iteration's on the reference machine (the measurements: docs/measurements.md, bounded_lm)."""
 
 
 @dataclass
@@ -137,7 +133,8 @@ class _CallDraws:
 class BoundedLMSolver(Solver):
     """Bounded LM with restarts (see the module docstring). Options, besides the base ones:
 
-    max_iterations: the budget of a call, in single-seed iterations (default: ~5 ms here);
+    max_iterations: the budget of a call, in single-seed iterations (default: the iterations that
+    cost about 5 ms on the reference machine);
     attempt_iterations, stall, progress: end of an attempt (30 iterations; 3 without a 10 % drop);
     damping, cost_weight, decrease, increase: mu floor, w, mu factors on accept/reject (the
     policy, :class:`LevenbergMarquardt`); max_step: cap on the largest joint step (rad or m), None =
@@ -152,14 +149,15 @@ class BoundedLMSolver(Solver):
 
     name = "bounded_lm"
     table_first = 0.1
-    """The seed-table entry goes before q0 when its distance^2 is under this x |e(q0)|^2. Measured from
-    the mid-range seed: where the entry is that much nearer (77-94 % of poses) an attempt from it
-    succeeds as often or more (UR5 81 vs 77 %, Golem-III 76 vs 68, Pincher 96 vs 81, Panda 84 vs 83,
-    Bioloid leg 96 vs 97) in 0.6-2.9 fewer iterations; where it is less near, the two are even."""
+    """The seed-table entry goes before q0 when its distance^2 is under this x |e(q0)|^2. From an
+    uninformed q0 (the mid-range seed), an attempt from an entry that much nearer succeeds about as
+    often or more, in fewer iterations; where the entry is less near, the two are even (the
+    measurements: docs/measurements.md, bounded_lm)."""
     iteration_cost_s = 20e-6
     """The budget's unit: one single-seed iteration (FK, Jacobian, Cholesky) of the Python trial on the
     reference machine, kept for the compiled trial too, so the default budget is the same number of
-    iterations (the same answers on every machine, compiled or not)."""
+    iterations (the same answers on every machine, compiled or not; the measured cost:
+    docs/measurements.md, bounded_lm)."""
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
                  attempt_iterations: int = 30, stall: int = 3,
@@ -340,9 +338,9 @@ class BoundedLMSolver(Solver):
         """The first seeds, and whether q0 is still to come: [q0, the seed-table entry nearest the
         target] when q0 is near (tracking, warm starts); [the entry] when its distance^2 is under
         ``table_first`` x |e(q0)|^2 (q0 an uninformed guess such as TRAC-IK's mid-range seed), q0
-        then coming after the library's nearest entry (measured where the table entry failed, an
-        attempt from the library's nearest succeeds more often than from the mid-range seed:
-        Golem-III 61 vs 34 %, Pincher 86 vs 37 %, UR5 57 vs 55 %, Panda 62 vs 60 %)."""
+        then coming after the library's nearest entry: where the table entry failed, an attempt from
+        the library's nearest succeeds more often than from the mid-range seed (the measurements:
+        docs/measurements.md, bounded_lm)."""
         if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
             return [q_start], False
         error = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
@@ -765,8 +763,9 @@ def seed_library(chain, size: int, weight: float, kinematics: VectorisedChain | 
 
 @dataclass(frozen=True)
 class SeedTable:
-    """A small set of configurations q (N, n) searched by brute force (one matrix-vector product,
-    a few microseconds: a k-d tree query costs 20-50 us here, mostly call overhead).
+    """A small set of configurations q (N, n) searched by brute force (one matrix-vector product:
+    cheaper than a k-d tree query, whose cost is mostly call overhead; the measurements:
+    docs/measurements.md, bounded_lm).
 
     With the weighted tip positions p_i and rotations R_i, the distance^2 of an entry to a target
     (p*, R*) is w^2 |p* - p_i|^2 + 3 - trace(R*^T R_i) = offset_i - features_i . [w p*, vec R*]
@@ -810,8 +809,8 @@ class SeedTable:
 
 @dataclass
 class TableSearch:
-    """The distances of a seed table's entries to one target: the nearest by argmin (~1 us), the
-    next ones only when asked for."""
+    """The distances of a seed table's entries to one target: the nearest by argmin, the next ones
+    only when asked for."""
 
     q: np.ndarray
     scores: np.ndarray  # distance^2 - constant
@@ -828,8 +827,7 @@ def seed_table(chain, size: int, weight: float, kinematics: VectorisedChain | No
     """The chain's seed table: ``size`` configurations uniform inside the limits shrunk by ``margin``
     x the range at both ends (full-turn joints: the whole turn), a fixed random stream, built once
     per (chain, size, weight, margin) and cached. The margin: an attempt from an entry near a limit
-    fails more often (nearest-entry attempts solved, margin 0 / 0.1 / 0.2: Panda 76 / 87 / 92 %,
-    Pincher 94 / 98 / 93 %, Golem-III 80 / 82 / 76 %)."""
+    fails more often (the measurements: docs/measurements.md, bounded_lm)."""
     cache = _LIBRARIES.setdefault(chain, {})
     key = ("table", size, weight, margin)
     if key not in cache:

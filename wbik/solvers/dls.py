@@ -8,7 +8,8 @@ shrinks (x0.3, down to 1e-12); one that does not is rejected and lambda grows (x
 updates are the one Levenberg-Marquardt policy of :mod:`wbik.solvers.levenberg_marquardt`, with
 this method's numbers: a constant damping (no error-dependent term) starting at ``damping``.
 Stops on the shared tolerance, a stall (lambda above 1e6: the steps no longer go anywhere), the
-iteration budget (``max_iterations``; by default the iterations that cost about 5 ms here) or,
+iteration budget (``max_iterations``; by default the iterations that cost about 5 ms on the reference
+machine) or,
 when ``timeout_s`` is given, the deadline.
 """
 

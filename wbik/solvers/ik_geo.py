@@ -31,21 +31,22 @@ inverse pose solved with the joints in reverse order and negated: a spherical *s
 spherical wrist, as on the Panda with a wrist joint locked); the first whose structure holds and whose
 branches reproduce :data:`PROBE_REQUIRED` of :data:`PROBE_POSES` FK poses of seeded random joints (to
 1e-6 m and rad) is kept. A chain with no such family is an UnsupportedError naming the families its
-geometry allows and how they missed. Measured with ``ik-geo`` 1.0.3 on random geometries of each family:
-the closed forms reach their poses to 1e-12, the searches (two_parallel, two_intersecting, gen_six_dof)
-only to 1e-5 .. 3e-4, short of the shared 1e-6 check, so in practice only the closed-form families pass.
+geometry allows and how they missed. With ``ik-geo`` 1.0.3 the closed forms reach their poses, the
+searches (two_parallel, two_intersecting, gen_six_dof) fall short of the shared 1e-6 check, so in
+practice only the closed-form families pass (the measurements: docs/measurements.md, ik_geo).
 A search that finds no bracket panics in Rust (pyo3's PanicException, a BaseException; Rust's panic hook
 prints it on stderr): it counts as a miss in the probe, and as "IK-Geo failed" in a solve.
 
-Which chains (measured with this module): the UR3, UR5 and UR10 arms (three_parallel_two_intersecting),
+Which chains (checked with this module): the UR3, UR5 and UR10 arms (three_parallel_two_intersecting),
 the Kinova Jaco j2s6s200 of example-robot-data (spherical_two_parallel: its wrist axes meet in one point,
 axes 2 and 3 are parallel), the Panda with joint 5 (spherical_two_parallel), 6 or 7
 (spherical_two_intersecting) locked at its nominal, both on the reversed chain, and with joint 4 locked
-(spherical, reversed: IK-Geo's branches reach 299 of 300 poses, but its subproblem 5 misses the branch
-inside the limits for some, so ``solve`` reaches 88 %). Refused: the 7R Panda and every chain of more or
-fewer than 6 joints (IK-Geo 1.0.3: "7-joint bots are not yet supported"; lock a joint with a
-:class:`wbik.ChainSpec` listing six), prismatic joints, and 6R chains that only a search family fits (the
-Panda with joint 1, 2 or 3 locked, the Golem-III arms, the Bravo 7: off by 3e-5 m and more).
+(spherical, reversed: IK-Geo's branches reach nearly every pose, but its subproblem 5 misses the branch
+inside the limits for some, so ``solve`` misses those poses; docs/measurements.md, ik_geo). Refused: the
+7R Panda and every chain of more or fewer than 6 joints (IK-Geo 1.0.3: "7-joint bots are not yet
+supported"; lock a joint with a :class:`wbik.ChainSpec` listing six), prismatic joints, and 6R chains
+that only a search family fits (the Panda with joint 1, 2 or 3 locked, the Golem-III arms, the Bravo 7:
+their answers miss the check).
 
 Choosing a branch. As in ``eaik``: each angle is shifted by multiples of 2 pi into the limits nearest
 to q0 (:func:`wbik.solvers.analytic.closed_form.wrap_into_limits`), branches outside the limits are dropped,

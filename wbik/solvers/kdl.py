@@ -153,8 +153,8 @@ class KDLRestartsSolver(KDLSolver):
     """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline.
 
     An attempt is started only when the time left holds one more attempt of the mean length so far,
-    so the call ends within its budget (give or take part of one attempt, ~0.1-0.3 ms). Seeds come
-    from the call's own random stream.
+    so the call ends within its budget, give or take part of one attempt (how long one lasts:
+    docs/measurements.md, kdl). Seeds come from the call's own random stream.
     """
 
     name = "kdl_restarts"

@@ -34,16 +34,15 @@ with every other joint at the robot's nominal configuration.
 
 The velocity limit is what bounds a step: |dq| <= v_max dt per joint, dt = 1 s and v_max = ``max_step``
 (default 0.5 rad or m; ``math.inf``: no VelocityLimit). Without it mink's first Gauss-Newton steps from a far
-start are long and often end in another basin: on 300 random reachable poses from the nominal (seed
-2026) it solved 78 / 60 / 79 / 82 % (UR5, UR10, Kinova Jaco, Panda), with 0.5 rad 84 / 82 / 77 / 85 %.
-With no velocity limit dt only scales mink's velocity v = dq / dt, integrated over the same dt.
+start are long and often end in another basin (the measurements behind the default: docs/measurements.md,
+mink). With no velocity limit dt only scales mink's velocity v = dq / dt, integrated over the same dt.
 
-Budget. mink's loop is driven here, so it is budgeted in iterations like wbik's own methods
-(``max_iterations``; default: the iterations that cost about 30 ms, as for ``qp``); the shared check's pose
-error (at half its tolerances, :func:`wbik.solvers.task_error.converged`) stops it, and so do
-STALL_ITERATIONS iterations without progress. A single start, as mink runs: no restarts. Each thread has
-its own mink Configuration (MjData), tasks and limits; the MjModel is shared, as MuJoCo allows (the
-kinematics only read it).
+Budget. mink's loop is driven by this module, so it is budgeted in iterations like wbik's own methods
+(``max_iterations``; default: the iterations that cost about 30 ms on the reference machine, as for
+``qp``); the shared check's pose error (at half its tolerances, :func:`wbik.solvers.task_error.converged`)
+stops it, and so do STALL_ITERATIONS iterations without progress. A single start, as mink runs: no
+restarts. Each thread has its own mink Configuration (MjData), tasks and limits; the MjModel is shared, as
+MuJoCo allows (the kinematics only read it).
 """
 
 from __future__ import annotations
@@ -303,7 +302,9 @@ class MinkSolver(Solver):
     """mink's differential IK loop on MuJoCo's model of the same URDF; see the module docstring."""
 
     name = "mink"
-    iteration_cost_s = 120e-6  # one mink step (DAQP, both limits, FK check): 105-130 us on 6-7 joints here
+    # the budget's unit: one mink step (DAQP, both limits, FK check); its measured cost:
+    # docs/measurements.md, mink
+    iteration_cost_s = 120e-6
     default_budget_s = 0.03
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None, backend: str = "daqp",

@@ -9,7 +9,7 @@ target, 6 for a pose) and J its exact Jacobian (:func:`wbik.solvers.task_error.t
 - J not square, or singular: x = J^+ e, the least-squares / minimum-norm solution.
 
 The seed iterated until |e| <= eps and so looped forever on unreachable points. Here the loop is
-bounded by ``max_iterations`` (by default the iterations that cost about 5 ms here), the
+bounded by ``max_iterations`` (by default the iterations that cost about 5 ms on the reference machine), the
 deadline when ``timeout_s`` is given, and a stall test: when the best error has not
 dropped by 0.1 % in ``stall_iterations`` iterations the target is reported as not reached (it is
 out of reach, outside the joint limits, or the iteration is caught at a singularity). Steps

@@ -6,10 +6,10 @@ constraints: the joint position limits (none on continuous joints: the answer is
 ``velocity_dt``, the velocity limits x dt per step. Steps iterate until the shared tolerance, a stall,
 the iteration budget or (when ``timeout_s`` is given) the deadline.
 
-Options: ``backend`` (a qpsolvers name, "fastest" or "default"; default DAQP, the fastest measured
-here: see wbik.qp.backends), ``max_iterations`` (default: the iterations that cost about 30 ms here;
-a converging solve needs 14 median, 25 at the 90th percentile on the Golem-III arm), ``max_step``
-(trust region per step, rad or m), ``lm_damping``, ``diagnose``.
+Options: ``backend`` (a qpsolvers name, "fastest" or "default"; default DAQP, the fastest that
+``benchmarks/qp.py`` measures: see wbik.qp.backends), ``max_iterations`` (default: the iterations that
+cost about 30 ms on the reference machine, well above what a converging solve needs; the measurements:
+docs/measurements.md, qp), ``max_step`` (trust region per step, rad or m), ``lm_damping``, ``diagnose``.
 
 A result that fails the shared check explains itself (``diagnose=True``, the default): the joint
 limits active at the answer, ranked by how much they hold the tip back, or a stationary point (out of
@@ -39,7 +39,8 @@ from wbik.targets import Target
 
 class QPSolver(Solver):
     name = "qp"
-    iteration_cost_s = 150e-6  # the budget's unit: one DAQP step with its FK checks on a 6-joint arm
+    # the budget's unit: one DAQP step with its FK checks on a 6-joint arm (docs/measurements.md, qp)
+    iteration_cost_s = 150e-6
     default_budget_s = 0.03
 
     def __init__(self, robot, chain=None, *, backend: str = backends.DEFAULT,

@@ -7,10 +7,9 @@ PlaCo) nothing in a row says what it had found by then. For our iteration-budget
 holds but not exactly: ``bounded_lm``'s vectorised batch phase counts 10 budget units per batch
 iteration but records 1 iteration, a budget that ends inside an attempt still checks that
 attempt's last step, and its ``solve_many`` re-solves a row whose budget ran out from scratch.
-Measured on 200 random poses of a 6-joint arm (full budget 20 ms = 1,000 iterations): success
-re-run at a budget vs "iterations <= budget" in the full run differ on 1-2 poses at 10 and 100
-iterations (bounded_lm; dls and newton: 1 pose at 7 iterations). So every budgeted method is
-re-run, on the same sample (the case's first ``poses`` targets) at every budget of the grid; a
+A re-run and the cut rows do differ on a few poses at small budgets, for ``bounded_lm``, ``dls``
+and ``newton`` alike (the measurements: docs/measurements.md, budget_curves). So every budgeted method
+is re-run, on the same sample (the case's first ``poses`` targets) at every budget of the grid; a
 closed form (no budget) answers the same at any budget, and its curve is its rows' success on that
 sample.
 

@@ -419,7 +419,9 @@ class MinkWholeBody(PeerWholeBody):
     problem's step_dt per step)."""
 
     name = "mink"
-    iteration_cost_s = 500e-6  # solve_ik, integration, read-back, convergence FK: as Pink (Talos: 0.24 ms)
+    # the budget's unit: solve_ik, integration, read-back, convergence FK; the same as Pink's (measured:
+    # docs/measurements.md, wholebody)
+    iteration_cost_s = 500e-6
     default_budget_s = 0.12
     forms = MINK
     priorities = "mink: weighted costs only"

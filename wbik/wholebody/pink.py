@@ -201,7 +201,8 @@ class PinkWholeBody(PeerWholeBody):
     """pin-pink's differential IK, iterated by our loop (dt = the problem's step_dt per step)."""
 
     name = "pink"
-    iteration_cost_s = 500e-6  # solve_ik, integration, convergence FK; the same biped: measured 0.35-0.66 ms
+    # the budget's unit: solve_ik, integration, convergence FK (measured: docs/measurements.md, wholebody)
+    iteration_cost_s = 500e-6
     default_budget_s = 0.12
     forms = PINK
     priorities = "Pink: weighted costs only"

@@ -168,7 +168,8 @@ class PlacoWholeBody(PeerWholeBody):
     """PlaCo's KinematicsSolver with its own tasks, hard contacts and hard clockwise CoM polygon."""
 
     name = "placo"
-    iteration_cost_s = 300e-6  # solve(True), read-back, convergence FK; the same biped: measured 0.25-0.3 ms
+    # the budget's unit: solve(True), read-back, convergence FK (measured: docs/measurements.md, wholebody)
+    iteration_cost_s = 300e-6
     default_budget_s = 0.08
     forms = PLACO
     priorities = "PlaCo: hard or soft only; all tasks soft"

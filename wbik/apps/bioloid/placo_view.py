@@ -9,10 +9,10 @@ CoM on its CoM trajectory, trunk pitched) are solved by PlaCo's kinematics solve
 ``GROUND_TOLERANCE`` of the floor) are the support of each sample.
 
 PlaCo's solver treats every walk task as soft, and the plan's 40 mm foot rise at the standing CoM
-height is not always within reach of the Bioloid's legs: measured on tasks/bioloid_walk_placo.yaml,
-the stance sole leaves the floor by up to 33 mm for a few samples of the second and fourth single
-supports (from 2.05 s and 3.25 s). The animation shows PlaCo's plan as PlaCo's IK follows it; the
-report's figures are PlaCo's plan itself (wbik.apps.bioloid.placo_walk), not this IK.
+height is not always within reach of the Bioloid's legs: on tasks/bioloid_walk_placo.yaml the stance
+sole leaves the floor for a few samples of some single supports (how far and when:
+docs/measurements.md, Bioloid PlaCo walk). The animation shows PlaCo's plan as PlaCo's IK follows it;
+the report's figures are PlaCo's plan itself (wbik.apps.bioloid.placo_walk), not this IK.
 """
 
 from __future__ import annotations

@@ -13,10 +13,11 @@ pendulum's, c - c'' / omega^2) in the support polygon of the feet on the ground 
 down when PlaCo's own foot trajectory has its sole within ``GROUND_TOLERANCE`` of the floor. (PlaCo's
 ``support_is_both(t)`` already answers "single support" at the switch instant, while the leaving foot is
 still flat on the floor and the ZMP is still between the feet: judged against the single sole, that
-instant showed the ZMP 5.4 mm outside.) PlaCo hands no polygon of ours to PlaCo: the footsteps and the
-ZMP bounds are PlaCo's own, from ``foot_length``, ``foot_width`` and ``zmp_margin``. PlaCo's generator
-is dynamic: it keeps the ZMP, not the CoM, inside the support (at its planning time steps), so the CoM
-may leave the polygon in single support, unlike the quasi-static whole-body step.
+instant shows the ZMP outside; docs/measurements.md, Bioloid PlaCo walk.) PlaCo hands no polygon of
+ours to PlaCo: the footsteps and the ZMP bounds are PlaCo's own, from ``foot_length``, ``foot_width``
+and ``zmp_margin``. PlaCo's generator is dynamic: it keeps the ZMP, not the CoM, inside the support (at
+its planning time steps), so the CoM may leave the polygon in single support, unlike the quasi-static
+whole-body step.
 
 The robot's own ZMP is reported too (``multibody_*``): PlaCo's IK (``WalkTasks``, 3 iterations per
 10 ms tick, as :mod:`wbik.apps.bioloid.placo_view` does at 50 ms) follows the plan, and the motion is

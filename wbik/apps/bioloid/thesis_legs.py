@@ -39,7 +39,9 @@ class ThesisLegs(WholeBodySolver):
     """The Bioloid thesis's way: closed-form legs from the feet, the hip shifted over the CoM target."""
 
     name = "thesis_legs"
-    iteration_cost_s = 1e-3  # one hip placement: two closed-form legs, FK, CoM (measured 1.2 ms)
+    # the budget's unit: one hip placement, two closed-form legs, FK, CoM (measured: docs/measurements.md,
+    # thesis_legs)
+    iteration_cost_s = 1e-3
     default_budget_s = 0.01
     finite_step = 1e-4
     """Hip shift (m) of the one finite-difference CoM Jacobian."""

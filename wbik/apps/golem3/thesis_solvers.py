@@ -270,8 +270,9 @@ class ThesisSweepSolver(_ThesisGolem3):
     name = "thesis_sweep"
     supports_pose = False
     iteration_cost_s = 3e-6
-    """One sweep point (8 branches) inside a vectorised block of 599-1198 points: 2.7-3.3 us measured
-    here (blocks of 2396-16384 points cost 3.7-4.5 us a point: worse cache use)."""
+    """The budget's unit: one sweep point (8 branches) inside a vectorised block of ``first_block`` to
+    ``max_block`` points; larger blocks cost more a point (worse cache use). The measurements:
+    docs/measurements.md, thesis_sweep."""
     first_block = 599
     """Points of the first block (the roll = 0 row); later blocks double up to ``max_block``."""
     max_block = 1198

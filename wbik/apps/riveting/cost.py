@@ -1,8 +1,8 @@
 """A deterministic cost model of planning time, so that planning can be charged to the 300 s run.
 
-Measured wall time depends on the machine's load (two shared cores here), so the run charges
-planning by counting the planner's elementary operations and multiplying each count by a
-calibrated unit cost (s). The wall time is measured too and reported beside it, never charged.
+Measured wall time depends on the machine's load, so the run charges planning by counting the
+planner's elementary operations and multiplying each count by a calibrated unit cost (s). The wall
+time is measured too and reported beside it, never charged.
 
 Operations counted (each through the planner's own calls, see :class:`CountingCollision`):
 
@@ -15,13 +15,11 @@ Operations counted (each through the planner's own calls, see :class:`CountingCo
   between its checked samples (spline evaluation, position and velocity);
 - ``qp_iteration``: one QP step (its clearance queries are counted separately).
 
-UNIT_COST_S: :func:`calibrate` on the development machine (2 shared cores, other jobs running)
-measured medians of 0.58 ms (ik), 0.47 ms (clearance), 0.74 ms (line_timing), 13 ms
-(spline_timing) and 7.4 us per dense sample with FK (the grid points need no FK); the constants
-are these rounded up. ``line_estimate`` and ``qp_iteration`` are estimates, not measured (the QP
-fallback is not used on the default cell). The model leaves out the Python work between
-operations: on the full default run it charged 13.25 s of planning where the wall time measured
-15.8 s. Rerun ``python -m wbik.apps.riveting.cost`` to see this machine's figures.
+UNIT_COST_S: the medians :func:`calibrate` measures on the reference machine, rounded up;
+``line_estimate`` and ``qp_iteration`` are estimates, not measured (the QP fallback is not used on the
+default cell). The model leaves out the Python work between operations, so it charges somewhat less
+than the wall time. The figures: docs/measurements.md, riveting cost; ``python -m
+wbik.apps.riveting.cost`` prints the current machine's.
 """
 
 from __future__ import annotations

@@ -24,14 +24,12 @@ Per hole, from rivet_home (q_home), deterministic (no random sampling):
 4. fallback (not needed on the default cell): the QP trust-region path of the 5-D task under the
    workpiece clearance constraint from rivet_home to the best approach configuration.
 
-Why the previous planner failed 6 holes (h14, h15, h16, h20, h21, h27; measured on h14 and h20):
-its joint line home -> approach came within 4.67 and 4.60 mm of the workpiece (< the 5 mm line
-clearance; the approach configuration itself was 20 mm clear, so neither its IK branch nor the
-10 mm margin was the cause), and its QP found no retreat configuration 150 mm out on the axis
-from the approach configuration ("progress stalled"), so no route was tried through one. The
-closed-form retreat of the same branch exists. On h16 (measured) the retreat routes of the best
-rolls sweep the upper arm 9 mm into the workpiece; h16 and h21 take a slower joint line of
-another roll (1.85 s each way, against 1.3-1.6 s for the other side holes).
+Why routes through closed-form retreats: with only the joint line home -> approach, and a QP search
+for a retreat configuration as its alternative, some holes get no clear route: the joint line grazes
+the workpiece although the approach configuration itself is clear, and the QP finds no retreat, while
+the closed-form retreat of the same branch exists. On a few side holes the retreat routes of the best
+rolls sweep the upper arm into the workpiece, and a slower joint line of another roll is taken (the
+measurements: docs/measurements.md, riveting planner).
 
 Planning cost is counted (:mod:`wbik.apps.riveting.cost`): every IK, clearance query, timing and grid
 point, deterministic for a given hole; the cycle charges it to the run's clock.

@@ -27,7 +27,7 @@ LIMIT_TOLERANCE = 1e-9
 """Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
 the limit). Inverses of poses whose joints sit exactly at a limit come back a few 1e-12 rad outside, and
 up to ~1e-8 rad near a singular pose where an arccos amplifies rounding; 1e-9 rad moves a 1 m lever by
-1e-9 m, far below the screening tolerance. The old 1e-12 was only ~1e3 ulps of an angle."""
+1e-9 m, far below the screening tolerance. A tolerance of 1e-12 would be only ~1e3 ulps of an angle."""
 BRANCH_MERGE = 1e-6
 """Two branches whose joints differ by less than this (rad, modulo 2 pi) are one solution in
 ``solve_all``: at a singular pose (elbow stretched, wrist aligned) two analytic branches coincide, but

@@ -112,7 +112,7 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     Branch order: q1 (+, -) x q5 (+, -) x q3 (+, -). ``q6_free`` (B,) is used at the wrist singularity.
     Every intermediate keeps the batch on its last axis, (choices..., B), so that NumPy broadcasts a
     per-target value over the branches along whole rows (broadcasting over a short last axis costs
-    ~5x more per element).
+    more per element; the measurements: docs/measurements.md, analytic).
     """
     d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
     count = len(positions)
