@@ -94,7 +94,7 @@ from wbik.kernels import eaik as eaik_kernel
 from wbik.solvers.analytic.closed_form import BOUND_SLACK
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import checked_branches
-from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.closed_form import pick_reaching
 from wbik.solvers.analytic.eaik_family import SCREEN_TOLERANCE
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.eaik_family import eaik_structure
@@ -108,7 +108,6 @@ from wbik.solvers.method_registry import IKMethod
 from wbik.targets import Target
 from wbik.targets import as_target
 from wbik.targets import plain_pose_matrix
-from wbik.targets import pose_error
 from wbik.targets import pose_target
 from wbik.validation import check_count
 
@@ -213,32 +212,9 @@ class EAIKSolver(Solver):
             return matrix
         return EAIKForm.pose(target.position, target.rotation)
 
-    def _reaches(self, q: np.ndarray, target: Target) -> bool:
-        position_xyz, rotation_xyz = pose_error(self.chain.fk(q), target)
-        return bool(np.linalg.norm(position_xyz) <= SCREEN_TOLERANCE
-                    and np.linalg.norm(rotation_xyz) <= SCREEN_TOLERANCE)
-
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 (wrapped into the limits) that reaches the target."""
-        if len(q_all) == 0:
-            return Candidate(None, 1, "unreachable: EAIK returns no branch (target outside the workspace)",
-                             extra={"branches": 0})
-        wrapped, in_limits = wrap_into_limits(q_all, q0[None], self.chain.lower, self.chain.upper,
-                                              self.revolute)
-        usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
-        distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
-        for index in np.argsort(distance, kind="stable"):
-            if not usable[index]:
-                break
-            if self._reaches(wrapped[index], target):
-                return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
-        if usable.any():
-            reason = "unreachable: no EAIK branch inside the joint limits reaches the target"
-        elif any(self._reaches(q, target) for q in q_all if np.all(np.isfinite(q))):
-            reason = "every exact EAIK branch is outside the joint limits"
-        else:
-            reason = "unreachable: EAIK returns only least-squares branches (target outside the workspace)"
-        return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+        """The branch nearest q0 (wrapped into the limits) that reaches the target, or why none does."""
+        return pick_reaching(self.chain, q_all, target, q0, self.revolute, SCREEN_TOLERANCE, "EAIK")
 
     # -- the interface ----------------------------------------------------------------------------
     def solve(self, target, q0=None) -> IKResult:

@@ -70,7 +70,8 @@ from wbik.errors import UnsupportedError
 from wbik.robot import Chain
 from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import checked_branches
-from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.closed_form import fk_residual
+from wbik.solvers.analytic.closed_form import pick_reaching
 from wbik.solvers.base import Candidate
 from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
@@ -79,7 +80,6 @@ from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
 from wbik.targets import as_target
-from wbik.targets import pose_error
 
 INSTALL = "pip install ik-geo==1.0.3"
 GEOMETRY_TOLERANCE = 1e-9
@@ -296,7 +296,7 @@ def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
         pose = chain.fk(q)
         target = Target(pose.translation.copy(), pose.rotation.copy())
         try:
-            miss = min((_residual(chain, branch, target) for branch in _branches(robot, structure, target)),
+            miss = min((fk_residual(chain, branch, target) for branch in _branches(robot, structure, target)),
                        default=np.inf)
         except IKGeoPanic:
             miss = np.inf
@@ -323,14 +323,6 @@ def _branches(robot, structure: IKGeoStructure, target: Target) -> np.ndarray:
     if not solutions:
         return np.empty((0, 6))
     return structure.joints(np.array([q for q, _ in solutions], dtype=float))
-
-
-def _residual(chain: Chain, q: np.ndarray, target: Target) -> float:
-    """max(|e_p|, |e_R|) of q against the target (inf for non-finite joints)."""
-    if not np.all(np.isfinite(q)):
-        return np.inf
-    position_xyz, rotation_xyz = pose_error(chain.fk(q), target)
-    return max(float(np.linalg.norm(position_xyz)), float(np.linalg.norm(rotation_xyz)))
 
 
 class IKGeoSolver(Solver):
@@ -362,25 +354,8 @@ class IKGeoSolver(Solver):
             return np.empty((0, self.chain.nq))
 
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 (wrapped into the limits) that reaches the target."""
-        if len(q_all) == 0:
-            return Candidate(None, 1, "unreachable: IK-Geo returns no branch", extra={"branches": 0})
-        wrapped, in_limits = wrap_into_limits(q_all, q0[None], self.chain.lower, self.chain.upper,
-                                              self.revolute)
-        usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
-        distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
-        for index in np.argsort(distance, kind="stable"):
-            if not usable[index]:
-                break
-            if _residual(self.chain, wrapped[index], target) <= SCREEN_TOLERANCE:
-                return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
-        if usable.any():
-            reason = "unreachable: no IK-Geo branch inside the joint limits reaches the target"
-        elif any(_residual(self.chain, q, target) <= SCREEN_TOLERANCE for q in q_all):
-            reason = "every exact IK-Geo branch is outside the joint limits"
-        else:
-            reason = "unreachable: IK-Geo returns only least-squares branches (target outside the workspace)"
-        return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+        """The branch nearest q0 (wrapped into the limits) that reaches the target, or why none does."""
+        return pick_reaching(self.chain, q_all, target, q0, self.revolute, SCREEN_TOLERANCE, "IK-Geo")
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         try:

@@ -22,6 +22,7 @@ from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.base import evaluate
 from wbik.targets import Target
+from wbik.targets import pose_error
 
 LIMIT_TOLERANCE = 1e-9
 """Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
@@ -349,6 +350,41 @@ def checked_branches(solver: Solver, target: Target, q_all: np.ndarray, revolute
                                       for other in results):
             results.append(result)
     return results
+
+
+def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
+    """max(|e_p|, |e_R|) of joints q against the target through the chain's FK (inf for non-finite
+    joints): the screen of a library's branch."""
+    if not np.all(np.isfinite(q)):
+        return math.inf
+    position_xyz, rotation_xyz = pose_error(chain.fk(q), target)
+    return max(float(np.linalg.norm(position_xyz)), float(np.linalg.norm(rotation_xyz)))
+
+
+def pick_reaching(chain: Chain, q_all: np.ndarray, target: Target, q0: np.ndarray, revolute: np.ndarray,
+                  tolerance: float, library: str) -> Candidate:
+    """Of a library's raw branches (K, n), the one nearest q0 once wrapped into the limits whose FK
+    reaches the target within ``tolerance`` (:func:`fk_residual`); where none does, why: no branch,
+    none inside the limits reaching it, every exact one outside the limits, or only least-squares ones
+    (``library`` names the library in the reason)."""
+    if len(q_all) == 0:
+        return Candidate(None, 1, f"unreachable: {library} returns no branch (target outside the workspace)",
+                         extra={"branches": 0})
+    wrapped, in_limits = wrap_into_limits(q_all, q0[None], chain.lower, chain.upper, revolute)
+    usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
+    distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
+    for index in np.argsort(distance, kind="stable"):
+        if not usable[index]:
+            break
+        if fk_residual(chain, wrapped[index], target) <= tolerance:
+            return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
+    if usable.any():
+        reason = f"unreachable: no {library} branch inside the joint limits reaches the target"
+    elif any(fk_residual(chain, q, target) <= tolerance for q in q_all):
+        reason = f"every exact {library} branch is outside the joint limits"
+    else:
+        reason = f"unreachable: {library} returns only least-squares branches (target outside the workspace)"
+    return Candidate(None, 1, reason, extra={"branches": len(q_all)})
 
 
 class Choice(NamedTuple):

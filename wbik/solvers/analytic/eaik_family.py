@@ -18,7 +18,6 @@ seeded random joints, since EAIK 1.2.2 claims some it gets wrong.
 from __future__ import annotations
 
 import threading
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +26,7 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.robot import Chain
+from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
@@ -79,8 +79,7 @@ class EAIKStructure:
     family: str
 
 
-_STRUCTURES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_STRUCTURES_LOCK = threading.Lock()
+_STRUCTURES = ChainCache()
 
 
 def eaik_structure(chain: Chain) -> EAIKStructure:
@@ -102,8 +101,7 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
     computed once per chain, an unprobed one (a chain rebuilt at each value of a locked joint) each time."""
     HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
     if probe:
-        with _STRUCTURES_LOCK:
-            cached = _STRUCTURES.get(chain)
+        cached = _STRUCTURES.get(chain)
         if cached is not None:
             return cached
     lines = chain_lines(chain)
@@ -127,9 +125,7 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
             f"EAIK reports a decomposition ({family!r}) but its branches reproduce only {reproduced} of "
             f"{PROBE_POSES} FK poses of random joints (the nearest branch's 4x4 pose off by up to "
             f"{miss:.3g}), a decomposition EAIK 1.2.2 gets wrong on this geometry")
-    with _STRUCTURES_LOCK:
-        _STRUCTURES[chain] = result
-    return result
+    return _STRUCTURES.store(chain, result)
 
 
 def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
