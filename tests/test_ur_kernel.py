@@ -1,4 +1,4 @@
-"""The compiled scalar path of the UR-type closed form (``_ur_kernel.c``) against the Python path.
+"""The compiled scalar path of the UR-type closed form (``wbik/kernels/_ur_type.c``) against the Python path.
 
 Both must return the same bits: the same branch chosen, the same joints, the same failure status, the
 same distinct branches for ``solve_all``, on random poses, at the wrist singularity, with the elbow
