@@ -12,8 +12,9 @@ import random
 
 import pytest
 import yaml
+from schema_walk import key_paths
+from schema_walk import written
 
-from wbik.schema import Anything
 from wbik.schema import Boolean
 from wbik.schema import Constant
 from wbik.schema import Context
@@ -22,7 +23,6 @@ from wbik.schema import Interval
 from wbik.schema import ListOf
 from wbik.schema import Map
 from wbik.schema import Number
-from wbik.schema import Refused
 from wbik.schema import Shorthand
 from wbik.schema import Text
 from wbik.study.case_kinds import kinds_of
@@ -71,54 +71,27 @@ def _wrong_values(node) -> list:
     return []
 
 
-def _rule(node, key):
-    if isinstance(node, Shorthand):
-        node = node.node
-    if isinstance(node, Map):
-        return node.keys[key].node if key in node.keys else node.values
-    return None
-
-
-def _key_paths(node, value, path: tuple):
-    """(path, rule) of every key the file gives, through mappings, list items and case entries (each case
-    checked against its kind's schema, as the study's check chooses it); ``path`` a tuple of keys and list
-    indices."""
+def _case_kind_schema(node, value):
+    """A case entry is checked against its kind's schema, as the study's check chooses it."""
     if isinstance(node, CaseEntry) and isinstance(value, dict):
-        yield from _key_paths(case_schema(_case_kind(value, "", Context("test"))), value, path)
-    elif isinstance(node, Shorthand | Map) and isinstance(value, dict):
-        for key, item in value.items():
-            rule = _rule(node, key)
-            if rule is None or isinstance(rule, Refused | Anything):
-                continue
-            yield (*path, key), rule
-            yield from _key_paths(rule, item, (*path, key))
-    elif isinstance(node, ListOf) and isinstance(value, list):
-        for index, item in enumerate(value):
-            yield from _key_paths(node.item, item, (*path, index))
+        return case_schema(_case_kind(value, "", Context("test")))
+    return None
 
 
 def _study_key_paths(data: dict, study):
     """The key paths of a study file: the study's keys, the case given at the top level of a single-case
     study (checked as a case, paths from the top level), and the methods' options (typed by the first of
     the cases' kinds that runs the method, as the check types them)."""
-    yield from _key_paths(study_schema(), data, ())
+    yield from key_paths(study_schema(), data, (), _case_kind_schema)
     if "cases" not in data:
         case = {key: value for key, value in data.items() if key in _case_keys() - {"name", "poses"}}
-        yield from _key_paths(CaseEntry(), case, ())
+        yield from key_paths(CaseEntry(), case, (), _case_kind_schema)
     kinds = kinds_of(study.cases)
     for index, method in enumerate(study.methods):
         kind = next(kind for kind in kinds if method.method in kind.methods())
         if method.options:
-            yield from _key_paths(kind.method_option_schema(method.method), method.options,
+            yield from key_paths(kind.method_option_schema(method.method), method.options,
                                   ("methods", index, "options"))
-
-
-def _written(path: tuple) -> str:
-    """A key path as errors write it: cases[2].targets.fraction."""
-    text = ""
-    for part in path:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else part)
-    return text
 
 
 def _cases():
@@ -135,7 +108,7 @@ def _cases():
                 continue
             seen.add((field, kind))
             for index, wrong in enumerate(_wrong_values(rule)):
-                yield pytest.param(file.stem, path, wrong, id=f"{file.stem}-{_written(path)}-{index}")
+                yield pytest.param(file.stem, path, wrong, id=f"{file.stem}-{written(path)}-{index}")
 
 
 CASES = list(_cases())
@@ -158,7 +131,7 @@ def test_every_key_refuses_a_wrong_value_by_its_path(tmp_path, name, path, wrong
     with pytest.raises(StudyDefinitionError) as info:
         load_study(file)
     message = str(info.value)
-    assert str(file) in message and _written(path) in message, message
+    assert str(file) in message and written(path) in message, message
 
 
 def test_the_generator_reaches_every_part_of_the_schema():
@@ -177,7 +150,7 @@ def test_the_command_line_exits_2_naming_the_key(tmp_path, capsys, name, path, w
     code = main(["study", str(file), "--output", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert code == 2 and err.startswith("wbik: error: ") and "Traceback" not in err, (code, err)
-    assert _written(path) in err, err
+    assert written(path) in err, err
     assert not (tmp_path / "out").exists()
 
 

@@ -9,17 +9,17 @@ import math
 
 import pytest
 import yaml
+from schema_walk import key_paths
+from schema_walk import written
 
 from wbik.data import shipped_tasks
 from wbik.errors import WbikError
-from wbik.scenario_schema import Anything
 from wbik.scenario_schema import Axes
 from wbik.scenario_schema import Boolean
 from wbik.scenario_schema import Either
 from wbik.scenario_schema import ListOf
 from wbik.scenario_schema import Map
 from wbik.scenario_schema import Number
-from wbik.scenario_schema import Refused
 from wbik.scenario_schema import Text
 from wbik.scenario_schema import Variants
 from wbik.scenario_schema import Vector
@@ -55,49 +55,15 @@ def _wrong_values(node) -> list:
     return []
 
 
-def _rule(node, key):
-    """The rule of ``key`` inside a mapping node, or None."""
-    if isinstance(node, Map):
-        return node.keys[key].node if key in node.keys else node.values
-    return None
-
-
-def _key_paths(node, value, path: tuple):
-    """(path, rule) of every key the file gives, through mappings, list items and variants (each
-    variant chosen as the schema chooses it); ``path`` a tuple of keys and list indices."""
-    if isinstance(node, Variants) and isinstance(value, dict):
-        name = node.select(value)
-        if name in node.variants:
-            yield from _key_paths(node.variants[name], value, path)
-    elif isinstance(node, Map) and isinstance(value, dict):
-        for key, item in value.items():
-            rule = _rule(node, key)
-            if rule is None or isinstance(rule, Refused | Anything):
-                continue
-            yield (*path, key), rule
-            yield from _key_paths(rule, item, (*path, key))
-    elif isinstance(node, ListOf) and isinstance(value, list):
-        for index, item in enumerate(value):
-            yield from _key_paths(node.item, item, (*path, index))
-
-
-def _written(path: tuple) -> str:
-    """A key path as errors write it: phases[0].tasks[1].axes."""
-    text = ""
-    for part in path:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else part)
-    return text
-
-
 def _cases():
     for name, file in shipped_tasks().items():
         spec = yaml.safe_load(file.read_text(encoding="utf-8"))
         schema = KIND_REGISTRY.get(spec["kind"]).schema_map
-        for path, rule in _key_paths(schema, spec, ()):
+        for path, rule in key_paths(schema, spec):
             if isinstance(rule, Either):
                 continue  # which option a value takes is the node's own business
             for index, wrong in enumerate(_wrong_values(rule)):
-                yield pytest.param(name, path, wrong, id=f"{name}-{_written(path)}-{index}")
+                yield pytest.param(name, path, wrong, id=f"{name}-{written(path)}-{index}")
 
 
 def _refused_naming(spec: dict, source: str, path_words: str) -> None:
@@ -113,7 +79,7 @@ def test_every_key_refuses_a_wrong_value_by_its_path(name, path, wrong):
     for part in path[:-1]:
         container = container[part]
     container[path[-1]] = wrong
-    _refused_naming(spec, f"{name}.yaml", _written(path))
+    _refused_naming(spec, f"{name}.yaml", written(path))
 
 
 def test_the_generator_reaches_the_leaks_it_is_for():
