@@ -234,7 +234,8 @@ def _rule_choice(solver, q_all: np.ndarray, target: Target, q0: np.ndarray):
     limits nearest q0, the nearest one whose FK passes the 1e-7 screen (analytic's ``nearest_branch``);
     where none does, the solver's reasons (``_pick``)."""
     q, _ = nearest_branch(_ChainFK(solver.chain), _rule_bounded(q_all, q0), target.position.tolist(),
-                          target.rotation.ravel().tolist(), q0.tolist(), *solver._limits)
+                          target.rotation.ravel().tolist(), q0.tolist(), solver.chain.lower.tolist(),
+                          solver.chain.upper.tolist())
     return solver._pick(q_all, target, q0) if q is None else Candidate(np.array(q), 1)
 
 

@@ -130,14 +130,13 @@ class EAIKSolver(Solver):
         """The chain as a closed form of EAIK's branches: the scalar path the choice runs on."""
         self.revolute = ~self.chain.is_prismatic
         lower, upper = self.chain.lower.tolist(), self.chain.upper.tolist()
-        self._limits = (lower, upper)
         check_fk_against_model(self.form)  # the choice screens and checks with the form's FK
         self._params = eaik_kernel.parameters(self.chain.nq, lower, upper, self.chain.nq * BOUND_SLACK,
                                               LIMIT_TOLERANCE, self.form.lines, SCREEN_TOLERANCE)
         self._kernel_choose = eaik_kernel.twins()[1]
-        self._parts_size = self.chain.nq + 24  # what choose writes: joints, tip pose, errors
         """The choice (:mod:`~wbik.kernels.eaik`): compiled where built, the Python
         twin with ``WBIK_PURE_PYTHON=1`` when the solver is built."""
+        self._parts_size = self.chain.nq + 24  # what choose writes: joints, tip pose, errors
         self._tip = np.eye(4)
         self._tip[:3, :3] = self.structure.tip_rotation_t
 
@@ -159,11 +158,7 @@ class EAIKSolver(Solver):
         """EAIK's branches (K, n) for a target, as EAIK returns them (no wrapping, no screening)."""
         target = as_target(target)
         self._check_target_kind(target)
-        return self._branches(self._eaik_call(target))
-
-    def _eaik_call(self, target: Target):
-        """EAIK's solution for one target (this thread's robot)."""
-        return self._thread_state().calculate_IK(self.form.pose(target.position, target.rotation))
+        return self._eaik_branches(target)
 
     def _branches(self, solution) -> np.ndarray:
         q_all = np.asarray(solution.Q, dtype=float)
@@ -248,8 +243,8 @@ class EAIKSolver(Solver):
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def _eaik_branches(self, target: Target) -> np.ndarray:
-        """EAIK's branches (K, n) of a target from this thread's robot and pose buffer."""
-        return self._thread_state().calculate_IK(self._target_pose(target)).Q
+        """EAIK's branches (K, n) of a target from this thread's robot."""
+        return self._branches(self._thread_state().calculate_IK(self._target_pose(target)))
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         return self._choose(self._eaik_branches(target), target, q0)
@@ -280,7 +275,7 @@ class EAIKSolver(Solver):
         target = as_target(target)
         self._check_target_kind(target)
         start = time.perf_counter()
-        q_all = self._branches(self._eaik_call(target))
+        q_all = self._eaik_branches(target)
         elapsed = time.perf_counter() - start
         if len(q_all) == 0:
             return []
