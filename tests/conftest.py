@@ -35,3 +35,15 @@ def compiled_twins(monkeypatch):
     from wbik.kernels import PURE_PYTHON_VARIABLE
 
     monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
+
+
+@pytest.fixture(scope="module")
+def require_chromium() -> str:
+    """Chromium's path; the browser tests fail (they do not skip) where the set-up did not install it."""
+    from wbik.errors import MissingDependencyError
+    from wbik.viz.browser import find_chromium
+
+    try:
+        return find_chromium()
+    except MissingDependencyError as exc:
+        pytest.fail(f"the browser tests need Chromium: {exc}")

@@ -14,21 +14,14 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from wbik.errors import MissingDependencyError
 from wbik.viz import Viewer
-from wbik.viz.browser import find_chromium
 from wbik.viz.browser import render
 from wbik.viz.geometry import STICK_COLOR
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
 
 
-@pytest.fixture(scope="module", autouse=True)
-def chromium() -> str:
-    try:
-        return find_chromium()
-    except MissingDependencyError as exc:
-        pytest.fail(f"the browser tests need Chromium: {exc}")
+pytestmark = pytest.mark.usefixtures("require_chromium")  # a missing Chromium fails, it does not skip
 
 
 def pixels(path: Path) -> np.ndarray:

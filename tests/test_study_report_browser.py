@@ -21,8 +21,6 @@ import pytest
 from PIL import Image
 
 from wbik.cli import main
-from wbik.errors import MissingDependencyError
-from wbik.viz.browser import find_chromium
 from wbik.viz.browser import render
 
 ARTIFACTS = Path(__file__).resolve().parent / "artifacts"
@@ -52,12 +50,7 @@ IMAGE_LINE = re.compile(r"^wbik-report-image (\d+) ([01]) (-?\d+) (-?\d+) (\d+) 
 WIDTH = 1200
 
 
-@pytest.fixture(scope="module", autouse=True)
-def chromium() -> str:
-    try:
-        return find_chromium()
-    except MissingDependencyError as exc:
-        pytest.fail(f"the browser tests need Chromium: {exc}")
+pytestmark = pytest.mark.usefixtures("require_chromium")  # a missing Chromium fails, it does not skip
 
 
 def _shoot(page: Path, height: int):
