@@ -40,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{chain.tip_frame} in {chain.base_frame} at q = {np.array2string(q, precision=6)}")
     print(f"  position (m): {np.array2string(pose.translation, precision=6)}")
     print(f"  rpy (rad):    {np.array2string(rpy, precision=6)}  (R = Rz(y) Ry(p) Rx(r))")
-    print("  rotation:\n" + np.array2string(pose.rotation, precision=6, prefix="    "))
+    print("  rotation:\n    " + np.array2string(pose.rotation, precision=6, prefix="    "))
     if not out["in_limits"]:
         print("  warning: q is outside the joint limits")
     return 0
