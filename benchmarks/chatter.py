@@ -28,7 +28,7 @@ from wbik.qp import JointPositionLimits
 from wbik.qp import JointVelocityLimits
 from wbik.qp import PositionTask
 from wbik.qp import PostureTask
-from wbik.qp.constraints import JointAccelerationLimits
+from wbik.qp.limits import JointAccelerationLimits
 from wbik.robot import robot_from_urdf_text
 
 LINK = 0.3
@@ -64,9 +64,9 @@ def track(robot, acceleration_limit: float | None, seconds: float = 4.0) -> dict
     """The control loop (see the module docstring); its figures."""
     model = robot.model
     task = PositionTask("tip", np.zeros(3), axes="xy")
-    constraints = [JointPositionLimits(model), JointVelocityLimits(model)]
+    constraints = [JointPositionLimits(), JointVelocityLimits()]
     if acceleration_limit is not None:
-        constraints.append(JointAccelerationLimits(model, acceleration_limit))
+        constraints.append(JointAccelerationLimits(acceleration_limit))
     posture = PostureTask(np.array([0.0, 1.2]), weight=1e-4, priority=1)  # (a bent elbow, in the null space)
     problem = IKProblem(model, [task, posture], constraints)
     q = np.array([0.0, 0.3])

@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 import wbik
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
+from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import Ratio  # noqa: E402

@@ -21,8 +21,8 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
+from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import Ratio  # noqa: E402

@@ -35,7 +35,7 @@ import numpy as np
 
 import wbik
 from wbik.errors import WbikError
-from wbik.solvers.base import Tolerances
+from wbik.solvers.result import Tolerances
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import Ratio  # noqa: E402

@@ -19,8 +19,8 @@ from wbik.solvers.analytic.batch import batch_targets
 from wbik.solvers.analytic.batch import evaluate_batch
 from wbik.solvers.analytic.solver import AnalyticSolver
 from wbik.solvers.analytic.solver import closed_forms
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.targets import as_target
 

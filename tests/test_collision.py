@@ -129,7 +129,7 @@ def test_constraint_row_matches_finite_differences(robot_name):
 def two_gripper_problem(golem, collisions, separation, with_constraint, safety=0.02):
     targets = {"r_eef": [0.55, -separation / 2, 1.25], "l_eef": [0.55, separation / 2, 1.25]}
     tasks = [PositionTask(frame, np.array(target)) for frame, target in targets.items()]
-    constraints = [JointPositionLimits(golem.model)]
+    constraints = [JointPositionLimits()]
     if with_constraint:
         constraints.append(CollisionAvoidance(collisions, safety, 0.1))
     return IKProblem(golem.model, tasks, constraints).solve(golem.nominal, max_iterations=300)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.solvers.base import Tolerances
+from wbik.solvers.result import Tolerances
 
 
 @pytest.mark.parametrize(("robot_name", "chain_name"),

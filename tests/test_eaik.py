@@ -20,8 +20,8 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.solvers.analytic.closed_form import nearest_branch
 from wbik.solvers.analytic.eaik_family import branch_bounds
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
 from wbik.targets import Target
 
 POSES = 200

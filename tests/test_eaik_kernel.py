@@ -16,9 +16,9 @@ import pytest
 
 import wbik
 from wbik.kernels import eaik as eaik_kernel
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import evaluate
-from wbik.solvers.base import evaluate_screened
+from wbik.solvers.check import evaluate
+from wbik.solvers.check import evaluate_screened
+from wbik.solvers.result import Candidate
 
 pytest.importorskip("eaik")
 pytestmark = pytest.mark.skipif(not eaik_kernel.built(), reason="the C extension is not built here")

@@ -24,9 +24,9 @@ from wbik.errors import InvalidToleranceError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
-from wbik.solvers.base import Tolerances
 from wbik.solvers.method_registry import methods
 from wbik.solvers.method_registry import solver_options
+from wbik.solvers.result import Tolerances
 from wbik.validation import check_budget
 
 BARE = (ValueError, TypeError, KeyError, IndexError, AttributeError, RuntimeError)

@@ -41,14 +41,16 @@ PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
         "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp",
         "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.schema",
-        "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree")
+        "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree",
+        "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
      "wbik.data", "wbik.kernels"),
-    ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision"),
+    ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision",
+     "wbik.mujoco_model"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
     ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.schema", "wbik.scenario_schema",
      "wbik.scenarios"),

@@ -7,10 +7,10 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
 from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+from wbik.solvers.result import Candidate
 
 ROBOTS = list(wbik.robots())
 

@@ -16,7 +16,7 @@ import wbik
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
 from wbik.solvers import kdl as kdl_module
-from wbik.solvers.base import Tolerances
+from wbik.solvers.result import Tolerances
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("golem3", "right_arm_lift"), ("pincher", "arm"),
           ("bioloid", "right_leg"), ("panda", "arm"), ("arm3r", "arm")]

@@ -15,9 +15,9 @@ from wbik.registry import RegistryImportError
 from wbik.solvers import method_registry
 from wbik.solvers.base import Solver
 from wbik.solvers.dls import DampedLeastSquares
+from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 from wbik.solvers.method_registry import METHOD_MODULES
-from wbik.solvers.method_registry import IKMethod
 from wbik.solvers.method_registry import register
 from wbik.solvers.method_registry import register_method
 

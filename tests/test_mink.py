@@ -19,7 +19,7 @@ import pytest
 import wbik
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
-from wbik.solvers.mink import mujoco_urdf
+from wbik.mujoco_model import mujoco_urdf
 
 POSES = 100
 # (robot, chain) -> the least share of POSES random reachable poses mink solves from the nominal within its
@@ -97,12 +97,13 @@ def test_joints_outside_the_chain_are_held_at_the_nominal():
     robot = load("golem3")
     solver = wbik.solver("mink", robot, "right_arm")
     chain, built = solver.chain, solver.built
-    assert len(built.frozen_dofs) == built.model.nv - chain.nq
     q = chain.random(np.random.default_rng(5))
     result = solver.solve(independent_fk(chain, q), q0=q + 0.05)
     assert result.success
-    qpos = solver._thread_state().configuration.data.qpos
-    np.testing.assert_array_equal(qpos[built.frozen_dofs], built.nominal_qpos[built.frozen_dofs])
+    reached = built.q(solver._configuration(built).data.qpos)  # where mink left the whole robot
+    outside = np.delete(np.arange(robot.model.nq), chain.q_index)
+    np.testing.assert_array_equal(reached[outside], robot.nominal[outside])
+    np.testing.assert_allclose(reached[chain.q_index], result.q, atol=1e-12)
 
 
 def test_a_position_target_frees_the_orientation():
@@ -119,7 +120,7 @@ def test_budget_and_settings():
     result = solver.solve(far)
     assert not result.success and result.iterations <= 3 and result.reason
     assert wbik.solver("mink", robot, "arm", max_step=np.inf).solve(far).reason
-    for option, value in (("damping", 0.0), ("lm_damping", -1.0), ("limit_gain", 1.5), ("max_step", -0.1)):
+    for option, value in (("damping", -1.0), ("chain_damping", -1.0), ("limit_gain", 1.5), ("max_step", -0.1)):
         with pytest.raises(InvalidSettingError, match=option):
             wbik.solver("mink", robot, "arm", **{option: value})
 

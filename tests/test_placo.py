@@ -36,7 +36,7 @@ def test_placo_reaches_a_pose_and_moves_only_the_chain(robot_name, chain_name, q
     assert result.position_error <= 1e-6 and result.rotation_error <= 1e-6
     assert chain.in_limits(result.q)
     # joints outside the chain stayed at the nominal inside PlaCo
-    full = placo_configuration(robot, solver._thread_state().wrapper)
+    full = placo_configuration(robot, solver._thread_state())
     others = np.setdiff1d(np.arange(robot.model.nq), chain.q_index)
     assert np.allclose(full[others], robot.nominal[others])
 

@@ -14,14 +14,14 @@ import wbik
 from wbik.qp import ComTask
 from wbik.qp import FrameTask
 from wbik.qp import PositionTask
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import PointContact
+from wbik.qp.contacts import Contact
+from wbik.qp.contacts import PointContact
 from wbik.qp.humanoid import contact_constraint
 from wbik.qp.humanoid import is_point_foot
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
-from wbik.wholebody import WholeBody
-from wbik.wholebody import check_wholebody
+from wbik.solvers.check import check_problem
+from wbik.wholebody.problem import WholeBody
 
 FEET = ["FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"]
 
@@ -72,7 +72,7 @@ def test_problem_lists_point_contacts_and_checks_their_position_only(solo):
     q = q0.copy()
     q[:7] = pin.SE3ToXYZQUAT(about * pin.XYZQUATToSE3(q0[:7]))
     one_foot = WholeBody(solo, [ComTask([0.0, 0.0, 0.0], axes="xy")], contacts=["FL_FOOT"], support=[])
-    result = check_wholebody(one_foot, q, q0=q0, tolerances=wbik.Tolerances(1e-6, 1e-6))
+    result = check_problem(one_foot, q, q0=q0, tolerances=wbik.Tolerances(1e-6, 1e-6))
     assert result.contact_drift < 1e-12  # its rotation (0.3 rad) is free
     assert "contact" not in result.reason
 
@@ -84,7 +84,7 @@ def test_four_point_feet_margin_is_the_hand_rectangle(solo):
     com = solo.center_of_mass(q)[:2]
     low, high = feet.min(axis=0), feet.max(axis=0)  # the feet stand on an axis-aligned rectangle
     by_hand = min(com[0] - low[0], high[0] - com[0], com[1] - low[1], high[1] - com[1])
-    result = check_wholebody(problem, q, q0=q)
+    result = check_problem(problem, q, q0=q)
     assert result.com_margin == pytest.approx(by_hand, abs=1e-9)
 
 
@@ -93,7 +93,7 @@ def test_two_point_feet_are_degenerate_input_and_a_failed_check(solo):
     diagonal = ["FL_FOOT", "HR_FOOT"]
     problem = WholeBody(solo, [PositionTask("FR_FOOT", np.zeros(3))], contacts=diagonal, margin=0.0)
     with pytest.raises(DegenerateSupportPolygonError) as info:
-        wbik.wholebody_solver("qp", solo).solve(problem, q)
+        wbik.solver("qp", solo).solve(problem, q)
     assert "FL_FOOT" in str(info.value) and "HR_FOOT" in str(info.value)
     # the check reports instead: minus the CoM's hand distance to the segment of the left feet
     left = ["FL_FOOT", "HL_FOOT"]
@@ -102,7 +102,7 @@ def test_two_point_feet_are_degenerate_input_and_a_failed_check(solo):
     com = solo.center_of_mass(q)[:2]
     direction = (b - a) / np.linalg.norm(b - a)
     distance = abs(direction[0] * (com - a)[1] - direction[1] * (com - a)[0])
-    result = check_wholebody(one_side, q, q0=q)
+    result = check_problem(one_side, q, q0=q)
     assert not result.success and "support polygon is degenerate" in result.reason
     assert result.com_margin == pytest.approx(-distance, abs=1e-9) and distance > 0.1
 
@@ -115,7 +115,7 @@ def test_each_method_moves_the_trunk_on_point_feet(solo, method):
     base = solo.frame_placement(q0, "base_link")
     target = pin.SE3(base.rotation, base.translation + [0.0, 0.04, 0.0])
     problem = WholeBody(solo, [FrameTask("base_link", target)], contacts=FEET, margin=0.02, limits="position")
-    result = wbik.wholebody_solver(method, solo, max_iterations=100).solve(problem, q0)
+    result = wbik.solver(method, solo, max_iterations=100).solve(problem, q0)
     assert result.success, result.reason
     reached = solo.frame_placement(result.q, "base_link")
     assert np.linalg.norm(reached.translation - target.translation) < 1e-6

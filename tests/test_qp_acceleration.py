@@ -21,11 +21,11 @@ from wbik.qp import IKProblem
 from wbik.qp import JointPositionLimits
 from wbik.qp import JointVelocityLimits
 from wbik.qp import PositionTask
-from wbik.qp.constraints import JointAccelerationLimits
-from wbik.qp.constraints import stopping_velocity
+from wbik.qp.limits import JointAccelerationLimits
+from wbik.qp.limits import stopping_velocity
 from wbik.scenario_schema import UnknownScenarioKeyError
 from wbik.scenarios import load_scenario
-from wbik.wholebody import WholeBody
+from wbik.wholebody.problem import WholeBody
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -75,8 +75,8 @@ def test_a_joint_driven_at_its_limit_brakes_in_time(chatter):
     robot = chatter.planar_arm()
     model, dt, limit = robot.model, 0.01, 30.0
     task = PositionTask("tip", np.array([-0.6 * np.cos(0.3), -0.6 * np.sin(0.3), 0.0]), axes="xy")
-    problem = IKProblem(model, [task], [JointPositionLimits(model), JointVelocityLimits(model),
-                                        JointAccelerationLimits(model, limit)])
+    problem = IKProblem(model, [task], [JointPositionLimits(), JointVelocityLimits(),
+                                        JointAccelerationLimits(limit)])
     q, velocity = np.array([1.0, 0.0]), np.zeros(2)
     for _ in range(150):
         dq = problem.step(q, dt=dt)
@@ -90,7 +90,7 @@ def test_a_measured_velocity_is_the_previous_one(chatter):
     robot = chatter.planar_arm()
     model = robot.model
     problem = IKProblem(model, [PositionTask("tip", np.array([0.0, 0.6, 0.0]), axes="xy")],
-                        [JointAccelerationLimits(model, 10.0)])
+                        [JointAccelerationLimits(10.0)])
     dq = problem.step(np.array([0.0, 1.0]), dt=0.01, velocity=np.array([2.0, -1.0]))
     assert np.all(np.abs(dq / 0.01 - [2.0, -1.0]) <= 10.0 * 0.01 + 1e-12)
 
@@ -102,10 +102,10 @@ def test_a_whole_body_with_acceleration_limits_converges_and_peers_say_they_cann
     shift, soles = [ComTask([right[0], right[1], 0.0], axes="xy")], ["r_sole", "l_sole"]
     problem = WholeBody(bioloid, shift, contacts=soles, step_dt=0.01, acceleration_limit=10.0)
     free = WholeBody(bioloid, shift, contacts=soles)
-    limited = wbik.wholebody_solver("qp", bioloid, max_iterations=500).solve(problem, q0)
-    unlimited = wbik.wholebody_solver("qp", bioloid, max_iterations=500).solve(free, q0)
+    limited = wbik.solver("qp", bioloid, max_iterations=500).solve(problem, q0)
+    unlimited = wbik.solver("qp", bioloid, max_iterations=500).solve(free, q0)
     assert limited.success and unlimited.success and limited.iterations > unlimited.iterations
-    assert any("acceleration limits" in item for item in wbik.wholebody_solver("placo", bioloid)
+    assert any("acceleration limits" in item for item in wbik.solver("placo", bioloid)
                .unsupported(problem))
     with pytest.raises(InvalidSettingError, match="acceleration_limit"):
         WholeBody(bioloid, [ComTask([0.0, 0.0, 0.0], axes="xy")], acceleration_limit=-1.0)

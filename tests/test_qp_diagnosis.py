@@ -39,7 +39,7 @@ from wbik.qp.hard_rows import HardRows
 from wbik.qp.rows import RowLabel
 from wbik.robot import ChainSpec
 from wbik.robot import robot_from_urdf_text
-from wbik.wholebody import WholeBody
+from wbik.wholebody.problem import WholeBody
 
 LINK = 0.3
 FEET = ["FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT"]
@@ -83,7 +83,7 @@ def test_a_target_beyond_a_joint_limit_names_that_limit_alone(arm):
     # nearer than 2 * 0.3 * cos(2.5 / 2) = 0.189 m: only an elbow bent past 2.5 rad would reach it
     result = wbik.solver("qp", arm, chain="arm").solve([0.1, 0.05, 0.0], [0.3, 1.0])
     assert not result.success
-    diagnosis = result.extra["diagnosis"]
+    diagnosis = result.diagnosis
     assert [(b.label.kind, b.label.subject, b.label.side) for b in diagnosis.blockers] == [
         ("joint limit", "joint1", "upper")]
     assert diagnosis.blockers[0].gain > 0 and not diagnosis.stationary and not diagnosis.tasks
@@ -94,7 +94,7 @@ def test_a_target_beyond_a_joint_limit_names_that_limit_alone(arm):
 def test_a_target_out_of_reach_with_nothing_active_is_a_stationary_point():
     ur5 = wbik.load("ur5")
     result = wbik.solver("qp", ur5, chain="arm").solve([1.5, 0.2, 0.3])
-    diagnosis = result.extra["diagnosis"]
+    diagnosis = result.diagnosis
     assert not result.success and diagnosis.stationary
     assert not diagnosis.blockers and not diagnosis.tasks and not diagnosis.infeasible
     assert "stationary point" in result.reason and "another start" in result.reason
@@ -109,7 +109,7 @@ def test_two_contradictory_contacts_are_exactly_the_conflicting_rows(panda):
     first.name, second.name = "hold here", "hold 5 cm ahead"
     problem = IKProblem(model, [PositionTask("panda_link4", panda.frame_placement(panda.nominal,
                                                                                   "panda_link4").translation)],
-                        [first, second, JointPositionLimits(model)])
+                        [first, second, JointPositionLimits()])
     with pytest.raises(NoQPSolutionError) as caught:
         problem.step(panda.nominal)
     named = {(row.label.constraint, row.label.side) for row in caught.value.conflict}
@@ -137,7 +137,7 @@ def test_a_com_target_outside_a_triangle_of_point_feet_names_the_edge_it_faces(s
     target = solo.frame_placement(q0, "HR_FOOT").translation  # beyond the diagonal FR-HL
     problem = WholeBody(solo, [ComTask(target, axes="xy")], contacts=FEET, support=FEET[:3],
                         margin=0.01)
-    result = wbik.wholebody_solver("qp", solo).solve(problem, q0)
+    result = wbik.solver("qp", solo).solve(problem, q0)
     assert not result.success and result.com_margin >= 0.01 - 1e-9
     polygon = [b for b in result.diagnosis.blockers if b.label.kind == "support polygon"]
     assert [set(b.label.subject.split("-")) for b in polygon] == [{"HL_FOOT", "FR_FOOT"}]
@@ -159,7 +159,7 @@ def test_a_posture_on_the_goals_level_is_named_with_the_fix_that_converges(panda
     def solve(priority: int):
         tasks = [PositionTask("panda_hand_tcp", target), PostureTask(far, weight=1e-2, priority=priority),
                  RegularizationTask(1e-9, priority=priority)]
-        return IKProblem(model, tasks, [JointPositionLimits(model)]).solve(panda.nominal)
+        return IKProblem(model, tasks, [JointPositionLimits()]).solve(panda.nominal)
 
     same_level = solve(0)
     assert not same_level.success
@@ -174,13 +174,13 @@ def test_a_start_beyond_a_limit_is_reported_and_recovered(arm):
     target = [0.35, 0.3, 0.0]  # within reach
     result = wbik.solver("qp", arm, chain="arm").solve(target, [0.2, 3.0])
     assert result.success
-    start = result.extra["diagnosis"].start
+    start = result.diagnosis.start
     assert [(v.subject, v.side, v.value, v.bound) for v in start] == [("joint1", "upper", 3.0, 2.5)]
     assert start[0].text == "joint joint1 at 3 rad > 2.5"
     # a control step moves the joint back at its velocity bound, not all the way in one period
     model = arm.model
     problem = IKProblem(model, [PositionTask("tip", np.array([*target]))],
-                        [JointPositionLimits(model), JointVelocityLimits(model)])
+                        [JointPositionLimits(), JointVelocityLimits()])
     dq = problem.step(np.array([0.2, 3.0]), dt=0.01)
     assert dq[1] == pytest.approx(-3.0 * 0.01)
 
@@ -209,7 +209,7 @@ def test_talos_reaching_far_keeps_its_com_margin_with_every_backend():
                                 wbik.qp.OrientationTask("base_link", base, weight=0.1, goal=False)],
                         contacts=list(soles), margin=0.02)
     for backend in wbik.qp.available_backends():
-        result = wbik.wholebody_solver("qp", talos, backend=backend).solve(problem, q0)
+        result = wbik.solver("qp", talos, backend=backend).solve(problem, q0)
         assert result.success, (backend, result.reason)
         assert result.com_margin >= 0.02 - 1e-9, backend
         reached = talos.frame_placement(result.q, "gripper_right_base_link").translation

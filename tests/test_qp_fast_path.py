@@ -14,10 +14,10 @@ from wbik.qp import IKProblem
 from wbik.qp import OrientationTask
 from wbik.qp import RegularizationTask
 from wbik.qp import backends
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.contacts import Contact
 from wbik.qp.humanoid import stance_constraints
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointPositionLimits
 from wbik.qp.problem import PHASES
 from wbik.qp.problem import SOLVE_PHASES
 from wbik.qp.step import Level
@@ -48,7 +48,8 @@ def test_tightening_through_a_slice_equals_tightening_by_indices():
 
 
 def test_clipping_through_a_slice_equals_clipping_by_indices(biped):
-    limits = JointPositionLimits(biped.model)
+    limits = JointPositionLimits()
+    limits.bind(biped.model)
     assert isinstance(limits._q_rows, slice)  # the biped's bounded joints are consecutive in q
     rng = np.random.default_rng(1)
     for _ in range(50):

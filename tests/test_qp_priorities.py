@@ -86,7 +86,7 @@ def levels_by_construction(rng: np.random.Generator, nv: int, count: int) -> lis
 def test_a_lower_level_never_changes_what_a_higher_level_achieved(panda, seed, count):
     model = panda.model
     levels = levels_by_construction(np.random.default_rng(seed), model.nv, count)
-    constraints = [JointPositionLimits(model)]
+    constraints = [JointPositionLimits()]
 
     def step(upto: int) -> np.ndarray:
         tasks = [task for level in levels[:upto + 1] for task in level]
@@ -116,7 +116,7 @@ def test_an_inequality_level_keeps_the_hand_above_a_floor_while_a_lower_level_re
         tasks = [PositionBoxTask("panda_hand_tcp", lower=[-np.inf, -np.inf, floor], priority=floor_priority),
                  PositionTask("panda_hand_tcp", target, priority=reach_priority),
                  RegularizationTask(1e-9, priority=max(floor_priority, reach_priority))]
-        solution = IKProblem(model, tasks, [JointPositionLimits(model)]).solve(panda.nominal)
+        solution = IKProblem(model, tasks, [JointPositionLimits()]).solve(panda.nominal)
         return solution, panda.frame_placement(solution.q, "panda_hand_tcp").translation
 
     held, hand = solve(0, 1)
@@ -140,6 +140,6 @@ def test_a_posture_one_level_below_the_goals_leaves_them_exact(panda):
         tasks = [PositionTask("panda_hand_tcp", target),
                  PostureTask(far, weight=1e-2, priority=posture_priority),
                  RegularizationTask(1e-9, priority=posture_priority)]
-        solution = IKProblem(model, tasks, [JointPositionLimits(model)]).solve(panda.nominal)
+        solution = IKProblem(model, tasks, [JointPositionLimits()]).solve(panda.nominal)
         error = solution.task_errors["PositionTask[panda_hand_tcp]"]
         assert (error < 1e-7) is exact, (posture_priority, error)

@@ -37,7 +37,7 @@ def test_every_backend_solves_a_panda_pose(panda, backend):
     q_goal[:7] = [0.2, -0.3, 0.1, -2.1, 0.2, 1.8, 0.4]
     target = panda.frame_placement(q_goal, "panda_hand_tcp")
     problem = IKProblem(panda.model, [FrameTask("panda_hand_tcp", target), RegularizationTask(1e-9)],
-                        [JointPositionLimits(panda.model)], backend=backend)
+                        [JointPositionLimits()], backend=backend)
     solution = problem.solve(panda.nominal)
     assert solution.success, solution.reason
     reached = panda.frame_placement(solution.q, "panda_hand_tcp")
@@ -49,7 +49,7 @@ def test_joint_limits_hold_when_the_target_pulls_past_them(panda):
     model = panda.model
     # a target far beyond the reach: the best effort must stay inside the limits
     problem = IKProblem(model, [PositionTask("panda_hand_tcp", [2.0, 0.0, 0.5])],
-                        [JointPositionLimits(model)], backend="daqp")
+                        [JointPositionLimits()], backend="daqp")
     solution = problem.solve(panda.nominal)
     assert not solution.success
     assert np.all(solution.q >= model.lowerPositionLimit - 1e-12)
@@ -61,7 +61,7 @@ def test_velocity_limits_bound_one_control_step(panda):
     model = panda.model
     target = pin.SE3(np.eye(3), np.array([0.3, 0.3, 0.3]))
     problem = IKProblem(model, [FrameTask("panda_hand_tcp", target)],
-                        [JointPositionLimits(model), JointVelocityLimits(model)], backend="daqp")
+                        [JointPositionLimits(), JointVelocityLimits()], backend="daqp")
     dt = 0.01
     dq = problem.step(panda.nominal, dt=dt)
     assert np.all(np.abs(dq) <= model.velocityLimit * dt + 1e-9)
@@ -77,10 +77,10 @@ def test_priority_level_is_not_biased_by_a_lower_level(panda):
     far_posture[:7] = [-1.0, 0.5, -1.0, -1.0, 1.0, 1.0, -1.0]
     same_level = IKProblem(model, [PositionTask("panda_hand_tcp", target),
                                    PostureTask(far_posture, weight=1.0)],
-                           [JointPositionLimits(model)], backend="daqp")
+                           [JointPositionLimits()], backend="daqp")
     ranked = IKProblem(model, [PositionTask("panda_hand_tcp", target),
                                PostureTask(far_posture, weight=1.0, priority=1)],
-                       [JointPositionLimits(model)], backend="daqp")
+                       [JointPositionLimits()], backend="daqp")
     biased = same_level.solve(panda.nominal)
     exact = ranked.solve(panda.nominal)
     assert biased.task_errors["PositionTask[panda_hand_tcp]"] > 1e-3   # the posture pulls it away
@@ -94,7 +94,7 @@ def test_minimum_distance_holds(panda):
     model = panda.model
     target = panda.frame_placement(panda.nominal, "panda_link0").translation + np.array([0.0, 0.0, 0.1])
     problem = IKProblem(model, [PositionTask("panda_hand_tcp", target)],
-                        [JointPositionLimits(model), MinimumDistance("panda_hand_tcp", "panda_link0", 0.3)],
+                        [JointPositionLimits(), MinimumDistance("panda_hand_tcp", "panda_link0", 0.3)],
                         backend="daqp")
     solution = problem.solve(panda.nominal)
     reached = panda.frame_placement(solution.q, "panda_hand_tcp").translation
@@ -154,15 +154,14 @@ def test_a_step_without_solution_raises_and_the_loop_reports_the_solvers_status(
     and the locked bounds overdetermine the working set) and solve() returns a failed solution whose
     reason says so (instead of a silent None)."""
     from wbik.errors import NoQPSolutionError
-    from wbik.qp.constraints import Contact
-    from wbik.qp.constraints import LockedJoints
-
+    from wbik.qp.contacts import Contact
+    from wbik.qp.limits import LockedJoints
     model = panda.model
     held = panda.frame_placement(panda.nominal, "panda_hand_tcp")
     held.translation = held.translation + np.array([0.05, 0.0, 0.0])
     joints = [name for name in model.names[1:] if model.joints[model.getJointId(name)].nv == 1]
     problem = IKProblem(model, [PositionTask("panda_hand_tcp", held.translation)],
-                        [Contact("panda_hand_tcp", held), LockedJoints(model, joints)], backend="daqp")
+                        [Contact("panda_hand_tcp", held), LockedJoints(joints)], backend="daqp")
     with pytest.raises(NoQPSolutionError) as caught:
         problem.step(panda.nominal)
     assert caught.value.backend == "daqp" and caught.value.status < 0

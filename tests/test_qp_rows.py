@@ -6,13 +6,13 @@ import pytest
 from qp_models import build_biped
 
 from wbik.qp import backends
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Constraint
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import JointVelocityLimits
-from wbik.qp.constraints import MinimumDistance
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.constraint import Constraint
+from wbik.qp.contacts import Contact
+from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
 from wbik.qp.rows import BoundRows
 from wbik.qp.rows import EqualityRows
 from wbik.qp.rows import InequalityRows
@@ -29,7 +29,7 @@ def test_each_constraint_contributes_its_row_type(biped):
     model = biped.model
     kinematics = Kinematics(model, biped.nominal)
     polygon = SupportPolygon(np.array([[0.1, 0.1], [-0.1, 0.1], [-0.1, -0.1], [0.1, -0.1]]))
-    expected = [(JointPositionLimits(model), BoundRows), (JointVelocityLimits(model), BoundRows),
+    expected = [(JointPositionLimits(), BoundRows), (JointVelocityLimits(), BoundRows),
                 (Contact("r_sole"), EqualityRows), (CoMInSupportPolygon(polygon, 0.01), InequalityRows),
                 (MinimumDistance("r_hand", "l_sole", 0.05), InequalityRows)]
     for constraint, row_type in expected:
@@ -37,7 +37,8 @@ def test_each_constraint_contributes_its_row_type(biped):
         rows = constraint.rows(kinematics, 0.01)
         assert type(rows) is row_type, constraint
     # joint limits: q + dq stays inside [q_min, q_max] on the bounded joints, exactly
-    limits = JointPositionLimits(model)
+    limits = JointPositionLimits()
+    limits.start(kinematics)
     rows = limits.rows(kinematics, 1.0)
     q = biped.nominal[limits.q_index]
     np.testing.assert_array_equal(rows.lower, model.lowerPositionLimit[limits.q_index] - q)
@@ -72,8 +73,7 @@ def test_a_constraint_that_declares_no_row_type_is_an_error(biped):
 
 def test_the_riveting_clearance_contributes_typed_inequality_rows():
     from wbik.apps.riveting.qp_terms import WorkpieceClearance
-    from wbik.qp.constraints import InequalityConstraint
-
+    from wbik.qp.constraint import InequalityConstraint
     assert issubclass(WorkpieceClearance, InequalityConstraint)
     assert not hasattr(WorkpieceClearance, "kind")
 

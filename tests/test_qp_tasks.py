@@ -13,8 +13,8 @@ from wbik.qp import OrientationTask
 from wbik.qp import PositionTask
 from wbik.qp import RelativeFrameTask
 from wbik.qp import SupportPolygon
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import MinimumDistance
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.distances import MinimumDistance
 
 
 def numeric_jacobian(model, q, error_of, step=1e-6):

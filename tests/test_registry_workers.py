@@ -97,9 +97,9 @@ def tool_reach(rng: np.random.Generator, index: int):
 
 
 def _user_qp():
-    from wbik.wholebody.qp import QPWholeBody
+    from wbik.solvers.qp import QPSolver
 
-    class UserQP(QPWholeBody):
+    class UserQP(QPSolver):
         """A user's whole-body method: our QP, whose rows say which process solved them."""
 
         name = METHOD
@@ -127,24 +127,25 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
     from joblib.externals.loky import ProcessPoolExecutor
 
     from wbik.errors import UnknownNameError
+    from wbik.solvers import method_registry
+    from wbik.solvers.method import IKMethod
     from wbik.study import study_from_dict
     from wbik.study.runner import pending_tasks
     from wbik.study.runner import solve_chunk
     from wbik.wholebody import cases
-    from wbik.wholebody import methods
 
     isolated = contextlib.ExitStack()
     request.addfinalizer(isolated.close)
     isolated.enter_context(cases.CASE_REGISTRY.isolated())
-    isolated.enter_context(methods.WHOLEBODY_METHOD_REGISTRY.isolated())
+    isolated.enter_context(method_registry.IK_METHOD_REGISTRY.isolated())
     sampler = cases.CaseSampler(SAMPLER, "ur5", tool_reach, "test only: the UR5's tool to a random point")
-    method = methods.WholeBodyMethod(METHOD, _user_qp(), "test only: our QP defined in a test")
+    method = IKMethod(METHOD, _user_qp(), "test only: our QP defined in a test")
     cases.register_sampler(sampler)
-    methods.register_wholebody_method(method)
+    method_registry.register_method(method)
     assert cases.CASE_REGISTRY.added_at_run_time(SAMPLER) is sampler
-    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time(METHOD) is method
+    assert method_registry.IK_METHOD_REGISTRY.added_at_run_time(METHOD) is method
     assert cases.CASE_REGISTRY.added_at_run_time("bioloid_com_shift") is None  # a listed one: not carried
-    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time("qp") is None
+    assert method_registry.IK_METHOD_REGISTRY.added_at_run_time("qp") is None
 
     import yaml
 
@@ -170,7 +171,7 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
     # without the entries it carries, a task fails in a fresh process: the carrying is what works
     tasks, _, _ = pending_tasks(study, tmp_path / "again", log=lambda message: None)
     task = next(t for t in tasks if t.method == METHOD)
-    assert {type(entry).__name__ for entry in task.wholebody_entries} == {"CaseSampler", "WholeBodyMethod"}
+    assert {type(entry).__name__ for entry in task.wholebody_entries} == {"CaseSampler", "IKMethod"}
     assert next(t for t in tasks if t.method == "qp").wholebody_entries == (sampler,)
     with ProcessPoolExecutor(max_workers=1) as fresh_process:
         for carried, missing in (((), METHOD), ((method,), SAMPLER)):  # the solver is built first

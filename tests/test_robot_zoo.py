@@ -11,7 +11,7 @@ import wbik
 from wbik.errors import WbikError
 from wbik.kinematic_tree import longest_chain
 from wbik.models.erd import example_robot_names
-from wbik.solvers.base import IKResult
+from wbik.solvers.result import IKResult
 
 
 @pytest.mark.parametrize("name", example_robot_names())

@@ -146,8 +146,6 @@ def yaml_load(text: str):
      InvalidOptionError, ["methods[0].options.regularisation", "did you mean 'regularization'"]),
     (LEGGED.replace("methods: [qp, pink]", "methods: [qp, {method: qp}]"), ScenarioValueError,
      ["methods[1]", "label 'qp' is used twice"]),
-    (LEGGED.replace("    tasks:", "    lock: [FL_HAA]\n    tasks:"), ScenarioValueError,
-     ["phases[0].lock", "methods"]),
     (LEGGED.replace("soles:", "robot_params: {floating_base: yes please}\nsoles:"), ScenarioValueError,
      ["robot_params.floating_base", "true or false"]),
     (LEGGED.replace("soles:", "robot_params: {floating_bse: true}\nsoles:"), UnknownScenarioKeyError,
@@ -260,3 +258,19 @@ def test_cli_bad_scenarios_exit_2_without_traceback(tmp_path):
     out = subprocess.run([str(WBIK), "run", str(sole)], capture_output=True, text=True, timeout=120)
     assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
     assert "soles[0].frame" in out.stderr and "did you mean 'FL_FOOT'" in out.stderr, out.stderr
+
+
+def test_compared_methods_hold_a_phase_s_locked_joints(tmp_path):
+    """A phase's ``lock`` is a constraint of the WholeBody every compared method solves (LockedJoints; a
+    peer states it in its own terms): each answer keeps the locked joint where it started."""
+    import wbik
+    from wbik.scenarios import run_scenario
+
+    locked = LEGGED.replace("    tasks:", "    lock: [FL_HAA]\n    tasks:").replace("[qp, pink]",
+                                                                                  "[qp, placo, pink, mink]")
+    report = run_scenario(write(tmp_path, locked, "locked.yaml"))
+    robot = wbik.load("example-robot-data:solo12")
+    index = robot.model.joints[robot.model.getJointId("FL_HAA")].idx_q
+    phase = report["phases"][0]
+    for label, figures in phase["methods"].items():
+        assert figures["q"][index] == pytest.approx(robot.nominal[index], abs=1e-9), label

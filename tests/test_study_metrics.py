@@ -9,7 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from wbik.errors import InvalidSettingError
 from wbik.geometry import batch_exp3 as exp3
-from wbik.solvers.base import IKResult
+from wbik.solvers.result import IKResult
 from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
 from wbik.study.metrics import AngleConvention
 from wbik.study.metrics import axes

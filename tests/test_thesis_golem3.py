@@ -16,8 +16,8 @@ from wbik.apps.golem3.thesis_solvers import sweep_order
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
 
 RHO = math.radians(13.43)  # golem3.md, DH table: rho = 13.43 deg
 
@@ -204,6 +204,6 @@ def test_sweep_of_an_unreachable_position_runs_to_the_end(golem):
 def test_sweep_budget_follows_timeout_like_our_other_methods(golem):
     sweep = wbik.solver("thesis_sweep", golem, chain="right_arm", timeout_s=0.003)
     assert sweep.max_iterations == math.ceil(0.003 / type(sweep).iteration_cost_s)
-    from wbik.solvers.base import InvalidBudgetError
+    from wbik.errors import InvalidBudgetError
     with pytest.raises(InvalidBudgetError):
         wbik.solver("thesis_sweep", golem, chain="right_arm", max_iterations=0)

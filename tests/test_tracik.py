@@ -9,7 +9,7 @@ import pytest
 
 import wbik
 from wbik.errors import UnsupportedError
-from wbik.solvers.base import Tolerances
+from wbik.solvers.result import Tolerances
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),
           ("panda", "arm")]

@@ -20,8 +20,8 @@ import wbik
 from wbik.solvers.analytic import ur_kernel
 from wbik.solvers.analytic.closed_form import nearest_branch
 from wbik.solvers.analytic.closed_form import no_solution_reason
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
 from wbik.targets import as_target
 
 pytestmark = pytest.mark.skipif(
@@ -247,9 +247,8 @@ def test_solve_all_results_from_the_kernels_arrays(solvers, chain_name):
     import sys
     import tracemalloc
 
-    from wbik.solvers.base import IKResult
-    from wbik.solvers.base import Tolerances
-
+    from wbik.solvers.result import IKResult
+    from wbik.solvers.result import Tolerances
     solver = solvers[chain_name]
     chain = solver.chain
     kernel = solver.closed_form("pose").kernel

@@ -17,10 +17,9 @@ from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import OrientationTask
 from wbik.qp.tasks import PositionTask
-from wbik.wholebody import WholeBody
-from wbik.wholebody import check_wholebody
-from wbik.wholebody import wholebody_solver
-from wbik.wholebody.solvers import NO_POLYGON
+from wbik.solvers.check import check_problem
+from wbik.solvers.peer import NO_POLYGON
+from wbik.wholebody.problem import WholeBody
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +76,7 @@ def test_check_on_hand_built_configuration_matches_independent_fk_and_convex_hul
     q[1] += 0.002
     knee = bioloid.model.joints[bioloid.model.getJointId("l_knee")].idx_q
     q[knee] += 0.05
-    result = check_wholebody(problem, q, q0=q0)
+    result = check_problem(problem, q, q0=q0)
     # contact drift: the largest sole position/rotation error against the soles at q0, by FK
     drifts = []
     for sole in ("r_sole", "l_sole"):
@@ -99,14 +98,14 @@ def test_check_passes_a_configuration_that_meets_everything_and_flags_the_com_ma
     q0 = bioloid.nominal.copy()
     com = bioloid.center_of_mass(q0)
     problem = com_shift_problem(bioloid, com[:2])  # the task is met at q0 itself
-    result = check_wholebody(problem, q0, q0=q0)
+    result = check_problem(problem, q0, q0=q0)
     assert result.success, result.reason
     assert result.contact_drift == 0.0
     expected = hull_margin(sole_points(bioloid, q0, ["r_sole", "l_sole"]), com[:2])
     assert result.com_margin == pytest.approx(expected, abs=1e-9)
     # the same configuration with a margin larger than the CoM's: fails on the margin alone
     strict = WholeBody(bioloid, problem.tasks, contacts=["r_sole", "l_sole"], margin=expected + 0.001)
-    failed = check_wholebody(strict, q0, q0=q0)
+    failed = check_problem(strict, q0, q0=q0)
     assert not failed.success and "CoM margin" in failed.reason
     assert failed.com_margin == pytest.approx(expected, abs=1e-9)
 
@@ -117,17 +116,17 @@ def test_check_limit_excess_and_typed_errors(bioloid):
     joint = bioloid.model.joints[bioloid.model.getJointId("r_elbow")]
     q = q0.copy()
     q[joint.idx_q] = bioloid.model.upperPositionLimit[joint.idx_q] + 0.1
-    result = check_wholebody(problem, q, q0=q0)
+    result = check_problem(problem, q, q0=q0)
     assert result.limit_excess == pytest.approx(0.1, abs=1e-12)
     assert not result.success
     with pytest.raises(InvalidSettingError):
-        check_wholebody(problem, q)  # contacts need q0 to know where they are held
+        check_problem(problem, q)  # contacts need q0 to know where they are held
     with pytest.raises(WbikError):
         WholeBody(bioloid, [], contacts=["r_sole"])  # no goal task
     with pytest.raises(WbikError):
         WholeBody(bioloid, problem.tasks, contacts=["no_such_frame"])
     with pytest.raises(WbikError):
-        wholebody_solver("qp", bioloid).solve(problem, np.zeros(3))
+        wbik.solver("qp", bioloid).solve(problem, np.zeros(3))
 
 
 def test_problem_from_a_task_file_dict(bioloid):
@@ -139,7 +138,7 @@ def test_problem_from_a_task_file_dict(bioloid):
     assert problem.support == ["r_sole", "l_sole"]  # default: the contacts with sole corners
     right = bioloid.frame_placement(q0, "r_sole").translation
     assert np.allclose(problem.tasks[0].target[:2], right[:2])
-    result = wholebody_solver("qp", bioloid).solve(problem, q0)
+    result = wbik.solver("qp", bioloid).solve(problem, q0)
     assert result.success, result.reason
     with pytest.raises(InvalidSettingError):
         WholeBody.from_dict(bioloid, {"tasks": [], "contact": ["r_sole"]})
@@ -153,7 +152,7 @@ def test_each_method_solves_a_bioloid_com_shift(bioloid, method):
     left = bioloid.frame_placement(q0, "l_sole").translation
     target = right[:2] + 0.3 * (left[:2] - right[:2])  # 30 % of the way from the right sole to the left
     problem = com_shift_problem(bioloid, target)
-    solver = wholebody_solver(method, bioloid)
+    solver = wbik.solver(method, bioloid)
     assert solver.cannot_express(problem, q0) is None
     result = solver.solve(problem, q0)
     assert result.method == method
@@ -173,7 +172,7 @@ def test_each_method_solves_a_bioloid_com_shift(bioloid, method):
 @pytest.mark.parametrize("method", ["qp", "placo", "pink", "mink"])
 def test_each_method_solves_a_golem_two_gripper_case(golem, method):
     problem, _ = golem_problem(golem)
-    result = wholebody_solver(method, golem, max_iterations=300).solve(problem, golem.nominal)
+    result = wbik.solver(method, golem, max_iterations=300).solve(problem, golem.nominal)
     assert result.success, result.reason
     for task in problem.tasks:
         assert np.linalg.norm(golem.frame_placement(result.q, task.frame).translation - task.target) <= 1e-6
@@ -183,11 +182,11 @@ def test_each_method_solves_a_golem_two_gripper_case(golem, method):
 
 def test_thesis_legs_refuses_the_golem_and_lists_a_hand_task(bioloid, golem):
     with pytest.raises(UnsupportedError):
-        wholebody_solver("thesis_legs", golem)
+        wbik.solver("thesis_legs", golem)
     q0 = bioloid.nominal
     hand = bioloid.frame_placement(q0, "r_hand").translation + np.array([0.02, 0.0, 0.0])
     problem = WholeBody(bioloid, [PositionTask("r_hand", hand, name="r_hand")], contacts=["r_sole", "l_sole"])
-    solver = wholebody_solver("thesis_legs", bioloid)
+    solver = wbik.solver("thesis_legs", bioloid)
     assert solver.cannot_express(problem, q0) == ("cannot express the goal task(s) r_hand (thesis_legs "
                                                   "places the soles and the CoM only)")
     result = solver.solve(problem, q0)
@@ -204,7 +203,7 @@ def test_thesis_legs_lifts_a_foot_with_the_closed_form(bioloid):
     target = bioloid.frame_placement(q0, "l_sole")
     target.translation = target.translation + np.array([0.01, 0.0, 0.015])
     problem = WholeBody(bioloid, [FrameTask("l_sole", target, name="l_sole")], contacts=["r_sole"])
-    solver = wholebody_solver("thesis_legs", bioloid)
+    solver = wbik.solver("thesis_legs", bioloid)
     assert solver.cannot_express(problem, q0) is None  # a sole and the CoM: what the legs place
     result = solver.solve(problem, q0)
     assert result.success, result.reason
@@ -218,9 +217,9 @@ def test_pink_results_carry_the_no_hard_polygon_mark_and_are_judged_by_the_same_
     from wbik.wholebody.cases import sample_case
 
     case = sample_case("bioloid_reach_two_feet", 1, 0)
-    result = wholebody_solver("pink", bioloid).solve(case.problem, case.q0)
+    result = wbik.solver("pink", bioloid).solve(case.problem, case.q0)
     assert [item for item in result.unsupported if NO_POLYGON in item]
-    again = check_wholebody(case.problem, result.q, q0=case.q0)
+    again = check_problem(case.problem, result.q, q0=case.q0)
     assert again.success == result.success
     assert again.com_margin == pytest.approx(result.com_margin, abs=1e-12)
 

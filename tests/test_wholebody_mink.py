@@ -14,12 +14,11 @@ import pinocchio as pin
 import pytest
 
 import wbik
+from wbik.mujoco_model import random_configurations
 from wbik.qp.support_polygon import sole_rectangle
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import PositionTask
-from wbik.wholebody import WholeBody
-from wbik.wholebody import wholebody_solver
-from wbik.wholebody.mink import random_configurations
+from wbik.wholebody.problem import WholeBody
 
 pytest.importorskip("mink")
 
@@ -34,7 +33,7 @@ FEET = {  # each robot's feet: flat 0.20 x 0.12 m soles (tasks/talos_reach.yaml)
 @pytest.fixture(scope="module", params=sorted(FEET))
 def robot_and_solver(request):
     robot = wbik.load(request.param, soles=FEET[request.param])
-    return robot, wholebody_solver("mink", robot)
+    return robot, wbik.solver("mink", robot)
 
 
 def test_mink_com_and_frames_equal_wbik_to_1e_9(robot_and_solver):
@@ -54,8 +53,8 @@ def test_mink_com_and_frames_equal_wbik_to_1e_9(robot_and_solver):
 def test_configurations_go_to_mujoco_and_back(robot_and_solver):
     robot, solver = robot_and_solver
     for q in random_configurations(robot, 3, seed=2):
-        np.testing.assert_array_equal(solver.body.q(solver.body.qpos(q)), q)
-    assert solver.body.model.nq == robot.model.nq and solver.body.model.nv == robot.model.nv
+        np.testing.assert_array_equal(solver.built.q(solver.built.qpos(q)), q)
+    assert solver.built.model.nq == robot.model.nq and solver.built.model.nv == robot.model.nv
 
 
 def test_mink_moves_the_com_with_its_feet_held(robot_and_solver):
@@ -80,7 +79,7 @@ def test_a_position_on_some_axes_is_held_in_world_axes():
     start = bioloid.frame_placement(q0, "r_hand").translation
     task = PositionTask("r_hand", start + [0.0, 0.0, 0.02], axes="z", name="hand up")
     problem = WholeBody(bioloid, [task], contacts=["r_sole", "l_sole"], support=[])
-    result = wholebody_solver("mink", bioloid).solve(problem, q0)
+    result = wbik.solver("mink", bioloid).solve(problem, q0)
     assert result.success, result.reason
     reached = bioloid.frame_placement(result.q, "r_hand").translation
     assert reached[2] == pytest.approx(start[2] + 0.02, abs=1e-6)
@@ -92,6 +91,6 @@ def test_options_are_checked():
 
     bioloid = wbik.load("bioloid")
     with pytest.raises(InvalidSettingError, match="limit_gain"):
-        wholebody_solver("mink", bioloid, limit_gain=0.0)
+        wbik.solver("mink", bioloid, limit_gain=0.0)
     with pytest.raises(InvalidSettingError, match="damping"):
-        wholebody_solver("mink", bioloid, damping=-1.0)
+        wbik.solver("mink", bioloid, damping=-1.0)

@@ -14,11 +14,8 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.qp.constraints import MinimumDistance
+from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.peers import MINK
-from wbik.qp.peers import PINK
-from wbik.qp.peers import PLACO
 from wbik.qp.peers import PeerForms
 from wbik.qp.peers import Unsupported
 from wbik.qp.peers import largest_weight
@@ -30,6 +27,9 @@ from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import Task
 from wbik.registry import RegistryError
 from wbik.scenarios import run_scenario
+from wbik.solvers.mink import MINK
+from wbik.solvers.pink import PINK
+from wbik.solvers.placo import PLACO
 
 
 # -- the new task: one module's worth -------------------------------------------------------------------
@@ -72,7 +72,7 @@ def _height_in_placo(task: HeightTask, placo) -> None:
 
 @MINK.form(HeightTask)
 def _height_in_mink(task: HeightTask, mink) -> None:
-    from wbik.wholebody.mink import site_position_task
+    from wbik.solvers.mink import site_position_task
 
     target = np.array([0.0, 0.0, task.height])
     cost = np.sqrt(largest_weight(task, 1.0))
@@ -110,7 +110,7 @@ def test_a_new_task_from_a_task_file_solved_by_qp_placo_mink_and_said_unsupporte
     pink = compared["pink"]
     assert not pink["success"]  # without its only goal, Pink leaves the hand where it was
     assert ("unsupported by pink: task HeightTask[r_hand]: Pink has no form for HeightTask (a form registers "
-            "with wbik.qp.peers.PINK.form)") in pink["unsupported"]
+            "with PINK.form of wbik.solvers.pink)") in pink["unsupported"]
 
 
 def test_the_entry_type_is_checked_by_the_schema_and_by_build_task(height_registered):
@@ -178,14 +178,14 @@ def test_unsupported_is_a_typed_string_that_survives_pickling():
 
 def test_peers_list_priorities_and_constraints_they_cannot_state():
     from wbik.qp.tasks import ComTask
-    from wbik.wholebody import WholeBody
+    from wbik.wholebody.problem import WholeBody
 
     bioloid = wbik.load("bioloid")
     problem = WholeBody(bioloid, [ComTask([0.0, 0.0, 0.0], axes="xy"), HeightTask("r_hand", 0.1, priority=1)],
                         contacts=["r_sole", "l_sole"], collisions=[("r_hand", "l_hand", 0.05)],
                         acceleration_limit=10.0)
     for method in ("placo", "pink", "mink"):
-        missing = wbik.wholebody_solver(method, bioloid).unsupported(problem)
+        missing = wbik.solver(method, bioloid).unsupported(problem)
         assert all(isinstance(item, Unsupported) and item.peer == method for item in missing)
         what = [item.what for item in missing]
         assert "strict priority levels" in what and "joint acceleration limits" in what
@@ -200,7 +200,7 @@ def test_a_posture_on_some_joints_moves_those_joints_only(method):
     every method brings that elbow to its reference, and none has anything to say against the task."""
     from wbik.qp.tasks import PositionTask
     from wbik.qp.tasks import PostureTask
-    from wbik.wholebody import WholeBody
+    from wbik.wholebody.problem import WholeBody
 
     bioloid = wbik.load("bioloid")
     q0 = bioloid.nominal
@@ -211,7 +211,7 @@ def test_a_posture_on_some_joints_moves_those_joints_only(method):
     problem = WholeBody(bioloid, [PositionTask("r_hand", hand), PostureTask(reference, joints=["l_elbow"],
                                                                             weight=1.0)],
                         contacts=["r_sole", "l_sole"], support=[])
-    result = wbik.wholebody_solver(method, bioloid).solve(problem, q0)
+    result = wbik.solver(method, bioloid).solve(problem, q0)
     assert result.success, result.reason
     assert result.q[elbow] - q0[elbow] == pytest.approx(0.3, abs=1e-6)
     assert result.unsupported == []

@@ -13,22 +13,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import wbik
 import wbik.wholebody
 from wbik.qp.tasks import PositionTask
 from wbik.registry import RegistryError
 from wbik.registry import RegistryImportError
+from wbik.solvers import method_registry as methods
+from wbik.solvers.method import IKMethod
+from wbik.solvers.qp import QPSolver
 from wbik.wholebody import cases
-from wbik.wholebody import methods
 from wbik.wholebody.cases import CASE_REGISTRY
 from wbik.wholebody.cases import CaseSampler
 from wbik.wholebody.cases import WholeBodyCase
 from wbik.wholebody.cases import register_sampler
 from wbik.wholebody.cases import sample_case
-from wbik.wholebody.methods import WholeBodyMethod
-from wbik.wholebody.methods import register_wholebody_method
-from wbik.wholebody.methods import wholebody_solver
 from wbik.wholebody.problem import WholeBody
-from wbik.wholebody.qp import QPWholeBody
 
 SEED_ROBOTS = re.compile(r"golem|bioloid|pincher|ur5|arm3r|thesis", re.IGNORECASE)
 REGISTRY_STRING = re.compile(r"[\"']wbik\.apps(\.\w+)+(:\w+)?[\"']")
@@ -148,33 +147,36 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 
 
 # -- methods ----------------------------------------------------------------------------------------------
-def test_the_methods_come_from_the_listed_modules_and_user_code_adds_one(isolate):
-    assert methods.METHOD_MODULES == ["wbik.wholebody.qp", "wbik.wholebody.placo", "wbik.wholebody.pink",
-                                      "wbik.wholebody.mink", "wbik.apps.bioloid.thesis_legs"]
-    assert set(wbik.wholebody.wholebody_methods()) == {"qp", "placo", "pink", "mink", "thesis_legs"}
-    isolate(methods.WHOLEBODY_METHOD_REGISTRY)
+def test_the_whole_body_methods_are_in_the_one_registry_and_user_code_adds_one(isolate):
+    assert {"qp", "placo", "pink", "mink", "thesis_legs"} <= set(wbik.methods())
+    isolate(methods.IK_METHOD_REGISTRY)
 
-    class Mine(QPWholeBody):
+    class Mine(QPSolver):
         name = "mine"
 
-    register_wholebody_method(WholeBodyMethod("mine", Mine, "ours, renamed"))
-    assert wbik.wholebody.wholebody_methods()["mine"] == "ours, renamed"
+    methods.register_method(IKMethod("mine", Mine, "ours, renamed"))
+    assert wbik.methods()["mine"] == "ours, renamed"
     from wbik.models import load
 
-    assert isinstance(wholebody_solver("mine", load("ur5"), backend="daqp"), Mine)
+    solver = wbik.solver("mine", load("bioloid"), backend="daqp")
+    assert isinstance(solver, Mine)
+    bioloid = solver.robot
+    target = bioloid.frame_placement(bioloid.nominal, "r_hand").translation + np.array([0.0, 0.0, 0.01])
+    problem = WholeBody(bioloid, [PositionTask("r_hand", target)], contacts=["r_sole", "l_sole"])
+    assert solver.solve(problem, bioloid.nominal).success  # a whole body, through the one interface
     with pytest.raises(RegistryError, match="'qp' of register\\(\\) is already registered"):
-        register_wholebody_method(WholeBodyMethod("qp", Mine))
-    with pytest.raises(RegistryError, match="must be a WholeBodySolver subclass"):
-        WholeBodyMethod("bad", print)
-    with pytest.raises(wbik.errors.UnknownMethodError, match="known methods: mine, mink, pink, placo, qp"):
-        wholebody_solver("qp2", load("ur5"))
+        methods.register_method(IKMethod("qp", Mine))
+    with pytest.raises(RegistryError, match="the factory must be a Solver subclass or a callable"):
+        IKMethod("bad", 3)
+    with pytest.raises(wbik.errors.UnknownMethodError, match="mine"):
+        wbik.solver("qp2", load("ur5"))
 
 
 def test_a_listed_method_module_that_fails_to_import_is_an_error_naming_it(modules, isolate):
     modules(wbik_test_broken_methods="raise ImportError('libfoo is missing')\n")
-    isolate(methods.WHOLEBODY_METHOD_REGISTRY, [*methods.METHOD_MODULES, "wbik_test_broken_methods"])
+    isolate(methods.IK_METHOD_REGISTRY, [*methods.METHOD_MODULES, "wbik_test_broken_methods"])
     with pytest.raises(RegistryImportError, match="wbik_test_broken_methods.*libfoo is missing"):
-        wbik.wholebody.wholebody_methods()
+        wbik.methods()
 
 
 # -- the core knows no seed robot ----------------------------------------------------------------------------
@@ -216,26 +218,24 @@ def test_entries_added_at_run_time_are_those_a_fresh_process_lacks(modules, isol
 
 
 def test_the_facade_registers_samplers_and_methods_next_to_register(isolate):
-    """wbik.register_sampler / wbik.register_wholebody_method are the registries' own functions,
-    and what they register is what the whole-body API and the study find."""
-    import wbik
-
+    """wbik.register_sampler / wbik.register are the registries' own functions, and what they register is
+    what the one interface and the study find."""
     isolate(cases.CASE_REGISTRY)
-    isolate(methods.WHOLEBODY_METHOD_REGISTRY)
+    isolate(methods.IK_METHOD_REGISTRY)
     assert wbik.register_sampler is cases.register_sampler and wbik.CaseSampler is CaseSampler
-    assert wbik.register_wholebody_method is methods.register_wholebody_method
-    assert wbik.WholeBodyMethod is WholeBodyMethod and wbik.WholeBodyCase is WholeBodyCase
-    assert {"register", "register_sampler", "register_wholebody_method"} <= set(wbik.__all__)
+    assert wbik.register is methods.register and wbik.IKMethod is IKMethod
+    assert wbik.WholeBodyCase is WholeBodyCase
+    assert {"register", "register_sampler"} <= set(wbik.__all__)
 
-    class Facade(QPWholeBody):
+    class Facade(QPSolver):
         name = "facade_qp"
 
-    wbik.register_wholebody_method(wbik.WholeBodyMethod("facade_qp", Facade, "via the facade"))
+    wbik.register("facade_qp", Facade, "via the facade")
     wbik.register_sampler(wbik.CaseSampler("facade_cases", "ur5", print, "via the facade"))
-    assert wbik.wholebody_methods()["facade_qp"] == "via the facade"
-    assert isinstance(wbik.wholebody_solver("facade_qp", "ur5"), Facade)
+    assert wbik.methods()["facade_qp"] == "via the facade"
+    assert isinstance(wbik.solver("facade_qp", "ur5"), Facade)
     assert CASE_REGISTRY.entries()["facade_cases"].description == "via the facade"
-    assert methods.WHOLEBODY_METHOD_REGISTRY.added_at_run_time("facade_qp") is not None  # to workers
+    assert methods.IK_METHOD_REGISTRY.added_at_run_time("facade_qp") is not None  # to workers
 
 
 def test_an_isolated_registry_gives_back_what_it_held():

@@ -5,11 +5,13 @@
 >>> solver = wbik.solver("dls", robot, chain="arm")
 >>> result = solver.solve(robot.chain("arm").fk(robot.chain("arm").nominal))
 
-User code adds an IK method with ``wbik.register(name, Class)``, a whole-body method with
-``wbik.register_wholebody_method(wbik.WholeBodyMethod(name, Class))`` and a whole-body study case
-sampler with ``wbik.register_sampler(wbik.CaseSampler(name, robot, sample))``; all three reach a
-parallel study's worker processes. (Scenario kinds: ``wbik.scenarios.register_kind``, a layer above
-this package's facade.)
+One interface for chain targets and whole bodies: ``wbik.solver(method, robot, chain=...)`` solves a
+target on a chain, or a :class:`wbik.WholeBody` problem (tasks under open constraints), as the method
+allows; every answer is an :class:`IKResult` judged by one shared check.
+
+User code adds a method with ``wbik.register(name, Class)`` and a whole-body study case sampler with
+``wbik.register_sampler(wbik.CaseSampler(name, robot, sample))``; both reach a parallel study's worker
+processes. (Scenario kinds: ``wbik.scenarios.register_kind``, a layer above this package's facade.)
 """
 
 from wbik.errors import InvalidConfigurationError
@@ -28,33 +30,28 @@ from wbik.models import robots
 from wbik.robot import Chain
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
-from wbik.solvers import IKResult
-from wbik.solvers import Solver
-from wbik.solvers import Tolerances
-from wbik.solvers import methods
-from wbik.solvers import register
-from wbik.solvers import solver
+from wbik.solvers.base import Solver
+from wbik.solvers.check import check_problem
+from wbik.solvers.method import IKMethod
+from wbik.solvers.method_registry import methods
+from wbik.solvers.method_registry import register
+from wbik.solvers.method_registry import solver
+from wbik.solvers.result import IKResult
+from wbik.solvers.result import Tolerances
 from wbik.targets import Target
 from wbik.targets import as_target
-from wbik.wholebody import WholeBody
-from wbik.wholebody import WholeBodyMethod
-from wbik.wholebody import WholeBodyResult
-from wbik.wholebody import check_wholebody
-from wbik.wholebody import register_wholebody_method
-from wbik.wholebody import wholebody_methods
-from wbik.wholebody import wholebody_solver
 from wbik.wholebody.cases import CaseSampler
 from wbik.wholebody.cases import WholeBodyCase
 from wbik.wholebody.cases import register_sampler
+from wbik.wholebody.problem import WholeBody
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "Chain", "ChainSpec", "IKResult", "InvalidConfigurationError", "InvalidRotationError",
+    "Chain", "ChainSpec", "IKMethod", "IKResult", "InvalidConfigurationError", "InvalidRotationError",
     "InvalidTargetError", "MissingDependencyError", "Robot", "RobotDescriptionError", "Solver",
     "Target", "Tolerances", "UnknownChainError", "UnknownFrameError", "UnknownMethodError",
     "UnknownRobotError", "UnsupportedError", "WbikError", "as_target", "load", "methods",
     "register", "robots", "solver",
-    "WholeBody", "WholeBodyResult", "check_wholebody", "wholebody_methods", "wholebody_solver",
-    "CaseSampler", "WholeBodyCase", "WholeBodyMethod", "register_sampler", "register_wholebody_method",
+    "WholeBody", "check_problem", "CaseSampler", "WholeBodyCase", "register_sampler",
 ]

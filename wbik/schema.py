@@ -588,7 +588,6 @@ class Method(Text):
 
     def check(self, value, path, ctx):
         from wbik.solvers.method_registry import methods
-
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
                                      hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")

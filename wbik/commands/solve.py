@@ -43,14 +43,13 @@ def run(args: argparse.Namespace) -> int:
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
     family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:
-        payload = [dict(r.as_dict(), **({"family": family} if family else {}), **diagnosis_of(r))
-                   for r in results]
+        payload = [dict(r.as_dict(), **({"family": family} if family else {})) for r in results]
         print(json.dumps(payload if args.all else payload[0], indent=2))
     else:
         if not results:
             print("no solution")
         for result in results:
-            diagnosis = result.extra.get("diagnosis")
+            diagnosis = result.diagnosis
             reason = result.reason
             if diagnosis is not None and diagnosis.summary():  # (printed below, line by line)
                 reason = reason.removesuffix(diagnosis.summary()).rstrip("; ")
@@ -77,8 +76,3 @@ def solver_family(solver, kind: str) -> str | None:
     family = getattr(solver, "family", None)
     return family if isinstance(family, str) else None
 
-
-def diagnosis_of(result) -> dict:
-    """{"diagnosis": ...} for a result that carries one (method qp), else {}."""
-    diagnosis = result.extra.get("diagnosis")
-    return {} if diagnosis is None else {"diagnosis": diagnosis.as_dict()}

@@ -22,9 +22,9 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidTargetError
 from wbik.motion.path import JointPath
 from wbik.motion.path import TaskReference
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
 from wbik.solvers.path import interpolate
+from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 

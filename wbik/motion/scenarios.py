@@ -203,7 +203,6 @@ def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     from wbik.motion.cartesian import waypoint_path
     from wbik.solvers.method_registry import solver
-
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, chain=chain_of(run.robot, spec).name,
                 timeout_s=float(spec["timeout_s"]))

@@ -1,15 +1,16 @@
 """Task-based QP inverse kinematics on Pinocchio (whole body, floating base included).
 
 >>> from wbik.qp import IKProblem, FrameTask, Contact, CoMInSupportPolygon, JointPositionLimits
->>> problem = IKProblem(robot.model, [FrameTask("r_hand", target)], [JointPositionLimits(robot.model)])
+>>> problem = IKProblem(robot.model, [FrameTask("r_hand", target)], [JointPositionLimits()])
 >>> solution = problem.solve(robot.nominal)        # iterate to convergence (IK)
 >>> dq = problem.step(q, dt=0.01)                   # or one QP step (control), v = dq / dt
 >>> # (a step whose constraints conflict raises wbik.errors.NoQPSolutionError with the backend's status)
 >>> # self-collision / environment: CollisionAvoidance(wbik.collision.robot_collision_model(robot), 0.02)
 
 Modules: ``kinematics`` (model + data at one q), ``tasks``, ``rows`` (the typed rows a constraint
-contributes: EqualityRows, InequalityRows, BoundRows; RowLabel names a row), ``constraints`` (each
-derives from BoundConstraint, EqualityConstraint or InequalityConstraint and returns its rows),
+contributes: EqualityRows, InequalityRows, BoundRows; RowLabel names a row), ``constraint`` (what every
+constraint is: its rows, its measure for the shared check, its words), the constraints ``limits``,
+``contacts``, ``balance`` and ``distances``,
 ``support_polygon``, ``backends`` (qpsolvers names, "fastest"; DAQP on reused buffers), ``step`` (one
 QP step: any number of priority levels of equality and inequality tasks), ``problem`` (the IK loop:
 IKProblem), ``humanoid`` (contact/balance helpers for robots that list sole corners); when a solve
@@ -34,20 +35,21 @@ Where ours differs from PlaCo (the reference, method ``placo``):
 """
 
 from wbik.qp.backends import available as available_backends
-from wbik.qp.constraints import BoundConstraint
-from wbik.qp.constraints import CollisionAvoidance
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Constraint
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import EqualityConstraint
-from wbik.qp.constraints import InequalityConstraint
-from wbik.qp.constraints import JointAccelerationLimits
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import JointVelocityLimits
-from wbik.qp.constraints import MinimumDistance
-from wbik.qp.constraints import PointContact
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.constraint import BoundConstraint
+from wbik.qp.constraint import Constraint
+from wbik.qp.constraint import EqualityConstraint
+from wbik.qp.constraint import InequalityConstraint
+from wbik.qp.contacts import Contact
+from wbik.qp.contacts import PointContact
 from wbik.qp.diagnosis import Diagnosis
+from wbik.qp.distances import CollisionAvoidance
+from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointAccelerationLimits
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.problem import QPSolution
 from wbik.qp.rows import BoundRows
@@ -74,7 +76,8 @@ __all__ = [
     "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComBoxTask", "ComTask",
     "Constraint", "Contact", "DegenerateSupport", "DegenerateSupportPolygonError", "Diagnosis",
     "EqualityConstraint", "EqualityRows", "FrameTask", "IKProblem", "InequalityConstraint", "InequalityRows",
-    "JointAccelerationLimits", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "MinimumDistance",
+    "JointAccelerationLimits", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "LockedJoints",
+    "MinimumDistance",
     "OrientationTask", "PointContact", "PositionBoxTask", "PositionTask", "PostureTask", "QPSolution",
     "RegularizationTask", "RelativeFrameTask", "RowLabel", "SupportPolygon", "Task", "available_backends",
     "convex_hull", "feet_support_polygon",

@@ -34,6 +34,8 @@ import numpy as np
 
 from wbik.errors import NoQPSolutionError
 from wbik.qp import backends
+from wbik.qp.constraint import StartViolation
+from wbik.qp.constraint import StepBox
 from wbik.qp.elastic import ConflictRow
 from wbik.qp.elastic import conflict
 from wbik.qp.elastic import describe_rows
@@ -59,37 +61,6 @@ SHOWN = 3
 
 
 @dataclass(frozen=True)
-class StartViolation:
-    """The start broke a hard constraint: a joint outside its limits (clipped into them before the
-    first step), the CoM outside the shrunk polygon, a pair closer than its safety distance (the
-    steps repair them first). ``value`` and ``bound`` in ``unit``."""
-
-    kind: str
-    subject: str
-    value: float
-    bound: float
-    unit: str
-    side: str = ""
-
-    @property
-    def text(self) -> str:
-        if self.kind == "joint limit":
-            sign = ">" if self.side == "upper" else "<"
-            return f"joint {self.subject} at {self.value:.4g} {self.unit} {sign} {self.bound:.4g}"
-        if self.kind == "support polygon":
-            return (f"CoM {self.value * 1e3:.3g} mm inside the support polygon < margin "
-                    f"{self.bound * 1e3:g} mm")
-        if self.kind == "collision":
-            return (f"collision pair {self.subject} at {self.value * 1e3:.3g} mm < safety "
-                    f"{self.bound * 1e3:g} mm")
-        return f"{self.subject} violated by {self.value:.3g} {self.unit}"
-
-    def as_dict(self) -> dict:
-        return {"kind": self.kind, "subject": self.subject, "side": self.side, "value": self.value,
-                "bound": self.bound, "unit": self.unit, "text": self.text}
-
-
-@dataclass(frozen=True)
 class Blocker:
     """A hard constraint active at the answer that holds the goals back: its first row's label, the
     number of its rows, its largest multiplier and its ``gain`` (see the module docstring)."""
@@ -101,26 +72,7 @@ class Blocker:
 
     @property
     def text(self) -> str:
-        label = self.label
-        kind, subject = label.kind, label.subject
-        if kind == "joint limit":
-            return f"joint {subject} at its {label.side} limit ({label.bound:.4g} rad)"
-        if kind == "velocity limit":
-            return f"the velocity limit of {subject} ({abs(label.bound):.3g} rad/s per step)"
-        if kind == "acceleration limit":
-            return f"the acceleration limit of {subject} ({abs(label.bound):.3g} rad/s^2)"
-        if kind == "locked joint":
-            return f"locked joint {subject}"
-        if kind == "contact":
-            return f"contact {subject}"
-        if kind == "support polygon":
-            return (f"CoM {label.value * 1e3:.3g} mm inside the edge {subject} of the support polygon "
-                    f"(margin {label.bound * 1e3:g} mm)")
-        if kind == "collision":
-            return f"collision pair {subject} at {label.value * 1e3:.3g} mm (safety {label.bound * 1e3:g} mm)"
-        if kind == "distance":
-            return f"minimum distance {subject} ({label.value:.4g} m, at least {label.bound:g} m)"
-        return f"{label.constraint} ({subject}{', ' + label.side if label.side else ''})"
+        return self.label.owner.blocker_text(self.label)
 
     def as_dict(self) -> dict:
         label = self.label
@@ -175,8 +127,8 @@ class Diagnosis:
     def summary(self) -> str:
         """One line: the start, the conflicting rows, the blockers, the tasks in conflict, the advice."""
         parts = []
-        outside = [v.text for v in self.start if v.kind == "joint limit"]
-        broken = [v.text for v in self.start if v.kind != "joint limit"]
+        outside = [v.text for v in self.start if v.clipped]
+        broken = [v.text for v in self.start if not v.clipped]
         if outside:
             parts.append("start outside limits: " + ", ".join(outside) + " (clipped into them first)")
         if broken:
@@ -246,7 +198,7 @@ def report_lines(data: dict) -> list[str]:
     unit, lines = data.get("unit", ""), []
     for item in data.get("start", []):
         lines.append(f"start outside limits: {item['text']} (clipped into them first)"
-                     if item["kind"] == "joint limit" else
+                     if item.get("clipped") else
                      f"the start breaks: {item['text']} (the first steps repair it)")
     if data.get("infeasible"):
         lines.append("the hard constraints of the step conflict (an irreducible set):")
@@ -262,44 +214,10 @@ def report_lines(data: dict) -> list[str]:
 
 
 def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
-    """The hard constraints q0 breaks (before the loop clips it into the joint limits): joints outside
-    their limits (beyond 1e-9), then, at the clipped q the kinematics stand at, inequalities (CoM margin,
-    collision pairs, distances)."""
-    from wbik.qp.constraints import CollisionAvoidance
-    from wbik.qp.constraints import CoMInSupportPolygon
-    from wbik.qp.constraints import InequalityConstraint
-    from wbik.qp.constraints import JointPositionLimits
-    from wbik.qp.constraints import tangent_names
-
-    found = []
-    names = tangent_names(problem.model)
-    for limits in problem.constraints:
-        if not isinstance(limits, JointPositionLimits):
-            continue
-        values = q0[limits.q_index]
-        for v, value, low, high in zip(limits.v_index.tolist(), values.tolist(), limits.lower.tolist(),
-                                       limits.upper.tolist(), strict=True):
-            if value > high + 1e-9:
-                found.append(StartViolation("joint limit", names[v], value, high, "rad", "upper"))
-            elif value < low - 1e-9:
-                found.append(StartViolation("joint limit", names[v], value, low, "rad", "lower"))
-    kinematics = problem.kinematics
-    for constraint in problem.constraints:
-        if not isinstance(constraint, InequalityConstraint):
-            continue
-        violation = float(constraint.violation(kinematics))
-        if violation <= 1e-9:
-            continue
-        if isinstance(constraint, CoMInSupportPolygon):
-            found.append(StartViolation("support polygon", constraint.name, constraint.com_margin(kinematics),
-                                        constraint.margin, "m"))
-        elif isinstance(constraint, CollisionAvoidance):
-            closest = constraint.minimum(kinematics)
-            found.append(StartViolation("collision", f"{closest.a}-{closest.b}", closest.distance,
-                                        constraint.safety, "m"))
-        else:
-            found.append(StartViolation(constraint.label_kind, constraint.name, violation, 0.0, "m"))
-    return found
+    """The hard constraints q0 breaks, as each constraint judges it (joints outside their limits on q0
+    itself, inequalities at the clipped q the kinematics stand at)."""
+    return [found for constraint in problem.constraints
+            for found in constraint.start_violations(problem.kinematics, q0)]
 
 
 def _unit(tasks: list[Task]) -> str:
@@ -457,10 +375,10 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     groups: dict[tuple, list[int]] = {}
     for index in np.flatnonzero(multipliers > threshold).tolist():
         label = rows.labels[index]
-        if label.kind == "trust region":
+        if isinstance(label.owner, StepBox):
             continue
         key = group_key(label)
-        if label.kind == "contact":
+        if label.owner.groups_rows:
             key = (*key[:3], "")
         groups.setdefault(key, []).append(index)
     masks = []
@@ -540,12 +458,11 @@ def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str,
 
 
 def _infeasible_advice(rows: list[ConflictRow]) -> list[str]:
-    kinds = {row.label.kind for row in rows}
-    if "trust region" in kinds and "contact" in kinds:
-        return ["the contacts drift more than one step may repair: project onto them first "
-                "(IKProblem.project) or allow a larger step (max_step)"]
-    if "locked joint" in kinds:
-        return ["unlock a joint the conflicting rows need, or drop one of the conflicting constraints"]
+    labels = [row.label for row in rows]
+    for label in labels:
+        advice = label.owner.conflict_advice(labels)
+        if advice:
+            return [advice]
     return ["drop or relax one of the conflicting constraints (each of them is needed for the conflict)"]
 
 
@@ -554,21 +471,7 @@ def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
     for conflict_task in diagnosis.tasks[:1]:
         advice.append(conflict_task.advice)
     for blocker in diagnosis.blockers[:2]:
-        label = blocker.label
-        if label.kind == "joint limit":
-            advice.append(f"the goal needs {label.subject} beyond its {label.side} limit: bring the target "
-                          "within the joints' range")
-        elif label.kind == "support polygon":
-            advice.append(f"the CoM is held at the support polygon's edge {label.subject}: bring the target "
-                          f"closer, lower the margin ({label.bound * 1e3:g} mm) or widen the support")
-        elif label.kind == "contact":
-            advice.append(f"the contact {label.subject} holds the body: the goal needs it to move "
-                          "(release it or step)")
-        elif label.kind in ("collision", "distance"):
-            advice.append(f"{label.subject} is at its safety distance: the goal is behind it")
-        elif label.kind in ("velocity limit", "acceleration limit"):
-            advice.append(f"the {label.kind} of {label.subject} bounds each step: more iterations "
-                          "(max_iterations) reach further")
+        advice.append(blocker.label.owner.advice(blocker.label))
     scale = sum(diagnosis.goals.values())
     if diagnosis.step_gain > max(1e-9, 1e-3 * scale) and "no convergence" in reason:
         advice.append("the steps still reduce the goal error: a larger budget (max_iterations) goes further")
@@ -577,7 +480,7 @@ def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
                       "point (the target is out of reach, or a local minimum): try another start q0")
     seen, unique = set(), []
     for item in advice:
-        if item not in seen:
+        if item and item not in seen:
             seen.add(item)
             unique.append(item)
     return unique

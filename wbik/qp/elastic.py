@@ -42,7 +42,7 @@ class ConflictRow:
 
     @property
     def text(self) -> str:
-        return describe_row(self.label)
+        return self.label.text
 
     def as_dict(self) -> dict:
         label = self.label
@@ -51,51 +51,15 @@ class ConflictRow:
                 "violation": self.violation, "text": self.text}
 
 
-def describe_row(label: RowLabel) -> str:
-    """A row in words: "joint arm_right_4_joint upper limit (0 rad, at 0.12)", "contact right_sole_link
-    (x, drift 4.3 mm)", ..."""
-    kind, subject, side = label.kind, label.subject, label.side
-    if kind == "joint limit":
-        return f"joint {subject} {side} limit ({label.bound:.4g} rad; at {label.value:.4g})"
-    if kind == "velocity limit":
-        return f"velocity limit of {subject} ({side}, {abs(label.bound):.3g} rad/s)"
-    if kind == "acceleration limit":
-        return f"acceleration limit of {subject} ({side}, {abs(label.bound):.3g} rad/s^2)"
-    if kind == "locked joint":
-        return f"locked joint {subject}"
-    if kind == "trust region":
-        return f"the step box on {subject} ({side}, |dq| <= {label.bound:.2g})"
-    if kind == "contact":
-        drift = f", drift {abs(label.value) * 1e3:.3g} {'mm' if label.unit == 'm' else 'mrad'}" \
-            if math.isfinite(label.value) else ""
-        return f"contact {subject} ({side}{drift})"
-    if kind == "support polygon":
-        return f"CoM {label.value * 1e3:.3g} mm inside the edge {subject} (margin {label.bound * 1e3:g} mm)"
-    if kind == "collision":
-        return f"collision pair {subject} at {label.value * 1e3:.3g} mm (safety {label.bound * 1e3:g} mm)"
-    if kind == "distance":
-        return f"distance {subject} {label.value:.4g} m (at least {label.bound:g} m)"
-    return f"{label.constraint} {subject}{' ' + side if side else ''}"
-
-
 def describe_rows(rows: Sequence[ConflictRow]) -> str:
-    """The rows in words; the axes of one contact are named together ("contact r_sole (x, z; drift
-    4.3 mm)")."""
+    """The rows in words, as their constraints say them; rows of one subject that their constraint names
+    together (a contact's axes) in one phrase."""
     groups: dict[tuple, list[RowLabel]] = {}
     for row in rows:
         key = group_key(row.label)
-        groups.setdefault(key if row.label.kind != "contact" else (*key[:3], ""), []).append(row.label)
-    parts = []
-    for labels in groups.values():
-        first = labels[0]
-        if first.kind == "contact" and len(labels) > 1:
-            drifts = [abs(label.value) for label in labels if math.isfinite(label.value)]
-            unit = "mm" if first.unit == "m" else "mrad"
-            drift = f"; drift up to {max(drifts) * 1e3:.3g} {unit}" if drifts else ""
-            parts.append(f"contact {first.subject} ({', '.join(label.side for label in labels)}{drift})")
-        else:
-            parts.append(describe_row(first))
-    return "; ".join(parts)
+        groups.setdefault(key if not row.label.owner.groups_rows else (*key[:3], ""), []).append(row.label)
+    return "; ".join(labels[0].owner.group_text(labels) if labels[0].owner.groups_rows else labels[0].text
+                     for labels in groups.values())
 
 
 def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, np.ndarray] | None:

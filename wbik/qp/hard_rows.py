@@ -8,10 +8,10 @@ coordinate. :func:`step_rows` rebuilds the same system at the kinematics' q as o
 
 with each finite bound written as its own row (+dq_j <= ub_j, -dq_j <= -lb_j) and labelled by the
 constraint that set it: the tightest of the position, velocity and acceleration bounds, the step box
-(kind "trust region") where none of them is tighter, the locked joint. The values are the stack's own
-(after ``close_box`` and the give-way of a joint outside its range), so the rows are exactly those the
-backend saw; violated inequality rows are relaxed to "do not get worse" (h -> max(h, 0)), the step's
-last resort, unless ``relax`` is False.
+(:data:`wbik.qp.constraint.STEP_BOX`) where none of them is tighter, the locked joint. The values are
+the stack's own (after ``close_box`` and the give-way of a joint outside its range), so the rows are
+exactly those the backend saw; violated inequality rows are relaxed to "do not get worse"
+(h -> max(h, 0)), the step's last resort, unless ``relax`` is False.
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.qp.constraints import tangent_names
+from wbik.qp.constraint import STEP_BOX
+from wbik.qp.constraint import tangent_names
 from wbik.qp.rows import BoundRows
 from wbik.qp.rows import RowLabel
 
@@ -94,7 +95,7 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
         else:
             count = len(rows[1])
             if len(labels) != count:  # (a constraint whose labels do not match its rows: generic ones)
-                labels = [RowLabel(constraint.name, constraint.label_kind, f"row {i}") for i in range(count)]
+                labels = [constraint.label(f"row {i}") for i in range(count)]
             general.extend(labels)
     names = tangent_names(kinematics.model)
     lb, ub = stack.lower[:nv].copy(), stack.upper[:nv].copy()
@@ -130,5 +131,5 @@ def _bound_label(candidates: list, side: str, value: float, radius: float, name:
             best, best_gap = label, gap
     box_gap = abs(abs(value) - radius)
     if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and box_gap <= best_gap):
-        return RowLabel("step box", "trust region", name, side, float("nan"), radius, "")
+        return STEP_BOX.label(name, side, float("nan"), radius, "")
     return best

@@ -15,12 +15,12 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Constraint
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import PointContact
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.constraint import Constraint
+from wbik.qp.contacts import Contact
+from wbik.qp.contacts import PointContact
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointPositionLimits
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import feet_support_polygon
 from wbik.robot import Robot
@@ -67,5 +67,5 @@ def stance_constraints(robot: Robot, q: np.ndarray, contacts: Sequence[str],
     if support:
         constraints.append(CoMInSupportPolygon(support_polygon(robot, q, support), margin))
     if with_limits:
-        constraints.append(JointPositionLimits(robot.model))
+        constraints.append(JointPositionLimits())
     return constraints

@@ -1,19 +1,19 @@
 """How other IK libraries (peers: PlaCo, Pink, mink) express wbik's QP tasks and constraints.
 
-Each peer has a registry of *forms*, keyed by class: :data:`PLACO`, :data:`PINK`, :data:`MINK`. A form
+Each peer has a registry of *forms*, keyed by class, beside its method (``PLACO`` in
+:mod:`wbik.solvers.placo`, ``PINK`` in :mod:`wbik.solvers.pink`, ``MINK`` in :mod:`wbik.solvers.mink`). A form
 says how one class of task or constraint is stated in that peer's terms (``build(item, target)`` adds
 the item to the peer's problem being built, ``target``), or that the peer cannot state it and why
 (:meth:`PeerForms.cannot`). A class without a form of its own takes its nearest base class's; a class
-with none at all is not expressible by that peer, and says so. The whole-body methods of the peers
-(:mod:`wbik.wholebody.placo`, :mod:`wbik.wholebody.pink`, :mod:`wbik.wholebody.mink`) build every item
+with none at all is not expressible by that peer, and says so. The peers' methods build every item
 that has a form and list each other one in the result's ``unsupported`` as an :class:`Unsupported`:
 "unsupported by PEER: WHAT: WHY".
 
-The forms of wbik's own tasks and constraints are registered by the peer's whole-body module (listed
-here by name, imported on first use); a new task registers its own forms beside its class::
+The forms of wbik's own tasks and constraints are registered in the peer's method module; a new task
+registers its own forms beside its class::
 
     @PINK.form(HeightTask)
-    def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.wholebody.pink.PinkProblem
+    def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.solvers.pink.PinkProblem
         ...
         pink.tasks.append(pink_task)
 
@@ -24,7 +24,6 @@ Nothing here imports a peer: a form imports its library when it runs.
 
 from __future__ import annotations
 
-import importlib
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -34,8 +33,7 @@ import numpy as np
 
 from wbik.registry import RegistryError
 
-__all__ = ["MINK", "PEERS", "PINK", "PLACO", "PeerForm", "PeerForms", "Unsupported", "frame_weights",
-           "largest_weight"]
+__all__ = ["PeerForm", "PeerForms", "Unsupported", "frame_weights", "largest_weight"]
 
 Build = Callable[[Any, Any], None]
 """A form's builder: ``build(item, target)`` adds ``item`` to the peer's problem being built."""
@@ -70,30 +68,16 @@ class PeerForm:
 
 
 class PeerForms:
-    """The forms of one peer, by class (see the module docstring). ``peer`` names it as the
-    whole-body method does ("pink"), ``title`` as its authors do ("Pink"); ``modules`` register the
-    forms of wbik's own tasks and constraints and are imported on first use."""
+    """The forms of one peer, by class (see the module docstring). ``peer`` names it as its method does
+    ("pink"), ``title`` as its authors do ("Pink")."""
 
-    def __init__(self, peer: str, title: str, modules: tuple[str, ...] = ()):
-        self.peer, self.title, self.modules = peer, title, modules
+    def __init__(self, peer: str, title: str):
+        self.peer, self.title = peer, title
         self._forms: dict[type, PeerForm] = {}
-        self._loaded = False
         self._lock = threading.RLock()
 
     def __repr__(self) -> str:
         return f"PeerForms({self.peer!r}, {len(self._forms)} forms)"
-
-    def _load(self) -> None:
-        with self._lock:
-            if self._loaded:
-                return
-            self._loaded = True  # (the modules register while they are imported)
-            try:
-                for name in self.modules:
-                    importlib.import_module(name)
-            except BaseException:
-                self._loaded = False
-                raise
 
     def register(self, kind: type, form: PeerForm, replace: bool = False) -> None:
         """Register ``form`` for the class ``kind`` (a second form for the same class only with
@@ -101,7 +85,6 @@ class PeerForms:
         if not isinstance(kind, type) or not isinstance(form, PeerForm):
             raise RegistryError(f"{self.title}: a form is registered for a class as a PeerForm, got "
                                 f"{kind!r} and {form!r}")
-        self._load()
         with self._lock:
             if kind in self._forms and not replace:
                 raise RegistryError(f"{self.title} already has a form for {kind.__name__} (pass replace=True "
@@ -123,7 +106,6 @@ class PeerForms:
 
     def lookup(self, kind: type) -> PeerForm | None:
         """The form of ``kind``: its own, else its nearest base class's; None without any."""
-        self._load()
         with self._lock:
             return next((self._forms[base] for base in kind.__mro__ if base in self._forms), None)
 
@@ -132,7 +114,7 @@ class PeerForms:
         form = self.lookup(type(item))
         if form is None:
             return (f"{self.title} has no form for {type(item).__name__} (a form registers with "
-                    f"wbik.qp.peers.{self.peer.upper()}.form)")
+                    f"{self.peer.upper()}.form of wbik.solvers.{self.peer})")
         if form.build is None:
             return form.why
         return None if form.refuse is None else form.refuse(item)
@@ -143,16 +125,6 @@ class PeerForms:
         if form is None or form.build is None:
             raise RegistryError(f"{self.title} cannot express {item!r}: {self.refusal(item)}")
         form.build(item, target)
-
-
-PLACO = PeerForms("placo", "PlaCo", ("wbik.wholebody.placo",))
-"""PlaCo's forms (targets: :class:`wbik.wholebody.placo.PlacoProblem`)."""
-PINK = PeerForms("pink", "Pink", ("wbik.wholebody.pink",))
-"""Pink's forms (targets: :class:`wbik.wholebody.pink.PinkProblem`)."""
-MINK = PeerForms("mink", "mink", ("wbik.wholebody.mink",))
-"""mink's forms (targets: :class:`wbik.wholebody.mink.MinkProblem`)."""
-PEERS = {forms.peer: forms for forms in (PLACO, PINK, MINK)}
-"""Every peer's forms by peer name."""
 
 
 # -- what forms share: a task's weights as peers take them ------------------------------------------------

@@ -29,17 +29,17 @@ import pinocchio as pin
 
 from wbik.errors import NoQPSolutionError
 from wbik.qp import backends
-from wbik.qp.constraints import BoundConstraint
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Constraint
-from wbik.qp.constraints import EqualityConstraint
-from wbik.qp.constraints import InequalityConstraint
-from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.constraint import BoundConstraint
+from wbik.qp.constraint import Constraint
+from wbik.qp.constraint import EqualityConstraint
+from wbik.qp.constraint import InequalityConstraint
 from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.diagnosis import StartViolation
 from wbik.qp.diagnosis import diagnose
 from wbik.qp.diagnosis import start_violations
 from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointPositionLimits
 from wbik.qp.step import PHASES
 from wbik.qp.step import QPStep
 from wbik.qp.step import lap
@@ -112,6 +112,8 @@ class IKProblem:
         self.hierarchy_slack = float(hierarchy_slack)
         self.progress = float(progress)
         self.nv = model.nv
+        for constraint in self.constraints:
+            constraint.bind(model)
         self._limits = [c for c in self.constraints if isinstance(c, JointPositionLimits)]
         self._equalities = [c for c in self.constraints if isinstance(c, EqualityConstraint)]
         self._bounds = [c for c in self.constraints if isinstance(c, BoundConstraint)]

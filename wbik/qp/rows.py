@@ -11,15 +11,17 @@ itself into the stacked QP with ``add_to``: the step never asks a constraint wha
 The arrays may be buffers a constraint reuses at its next configuration; ``add_to`` copies them.
 
 A :class:`RowLabel` says what one row stands for (a joint's limit, a contact's axis, an edge of the
-support polygon, a collision pair): ``Constraint.labels`` gives one per row, and the diagnoses of
-:mod:`wbik.qp.diagnosis` and :mod:`wbik.qp.elastic` name rows with them. Labels are made on failure
-only, never in a step.
+support polygon, a collision pair) and carries its ``owner``, the constraint that puts it in words
+(:class:`wbik.qp.constraint.Describer`): the diagnoses of :mod:`wbik.qp.diagnosis` and
+:mod:`wbik.qp.elastic` ask the owner, never the kind. Labels are made on failure only, never in a step.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from dataclasses import field
 from typing import TYPE_CHECKING
+from typing import Any
 from typing import NamedTuple
 
 import numpy as np
@@ -62,22 +64,17 @@ class BoundRows(NamedTuple):
 Rows = EqualityRows | InequalityRows | BoundRows
 """What ``Constraint.rows`` returns."""
 
-ROW_KINDS = ("joint limit", "velocity limit", "acceleration limit", "locked joint", "contact",
-             "support polygon", "collision", "distance", "trust region", "priority", "equality",
-             "inequality", "bound")
-"""The kinds of rows a diagnosis names (the last three: a constraint that gives no labels of its own)."""
-
-
 @dataclass(frozen=True)
 class RowLabel:
     """What one row of a hard constraint stands for.
 
-    ``constraint``: the constraint's name; ``kind``: one of ``ROW_KINDS``; ``subject``: the joint,
+    ``constraint``: the constraint's name; ``kind``: its owner's word for its rows; ``subject``: the joint,
     the contact frame, the polygon edge ("left_sole_link[2]-right_sole_link[1]") or the pair;
     ``side``: "lower" / "upper" for a bound, the axis ("x", ..., "rz") of a contact row;
     ``value`` and ``bound``: the measured quantity and its limit at the configuration the row was made
     at (rad or m in ``unit``; NaN where they mean nothing), e.g. a joint's angle and its limit, the
-    CoM's distance to the edge and the margin, a pair's distance and the safety distance.
+    CoM's distance to the edge and the margin, a pair's distance and the safety distance; ``owner``:
+    the constraint (or step box) that describes the row.
     """
 
     constraint: str
@@ -87,10 +84,17 @@ class RowLabel:
     value: float = float("nan")
     bound: float = float("nan")
     unit: str = ""
+    owner: Any = field(default=None, compare=False, repr=False)
 
     def with_side(self, side: str) -> RowLabel:
         """The same label for one side of a bound (the other fields kept)."""
-        return RowLabel(self.constraint, self.kind, self.subject, side, self.value, self.bound, self.unit)
+        return RowLabel(self.constraint, self.kind, self.subject, side, self.value, self.bound, self.unit,
+                        self.owner)
+
+    @property
+    def text(self) -> str:
+        """The row in words, as its owner says it."""
+        return self.owner.row_text(self)
 
 
 def as_index(indices: np.ndarray) -> np.ndarray | slice:

@@ -36,7 +36,7 @@ from wbik.errors import NoQPSolutionError
 from wbik.kernels import chosen
 from wbik.kernels import compiled_twin
 from wbik.qp import backends
-from wbik.qp.constraints import Constraint
+from wbik.qp.constraint import Constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import Task
 

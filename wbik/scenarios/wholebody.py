@@ -55,7 +55,7 @@ compares methods of :mod:`wbik.wholebody` on every phase: each phase becomes a
 :class:`wbik.wholebody.WholeBody` (the same tasks, contacts held where they are at the phase's
 start, support, margin, ``min_distance`` pairs, joint position limits) solved from the same start
 by each method within the phase's ``max_iterations`` (unless the entry gives its own), and judged
-by the one shared check (:func:`wbik.wholebody.check_wholebody`). Each phase's ``methods`` figure
+by the one shared check (:func:`wbik.solvers.check.check_problem`). Each phase's ``methods`` figure
 holds per label: success, reason, CoM margin, contact drift, task errors and the worst of them,
 time, iterations, and what the method could not express (``unsupported``: Pink and mink have no
 hard support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
@@ -249,41 +249,33 @@ def wholebody_schema() -> Map:
 
 
 def _method_names() -> tuple[str, ...]:
-    from wbik.wholebody.methods import wholebody_methods
+    from wbik.solvers.method_registry import methods
 
-    return tuple(sorted(wholebody_methods()))
+    return tuple(sorted(methods()))
 
 
 def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     """The ``methods`` entries as {method, label, options, max_iterations or None}: options the method
-    takes, labels unique, and nothing in the file a WholeBody problem cannot hold (lock, collisions)."""
+    takes, labels unique."""
     from wbik.errors import InvalidOptionError
     from wbik.errors import did_you_mean
-    from wbik.wholebody.methods import wholebody_solver_options
+    from wbik.solvers.method_registry import solver_options
 
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
         entry.setdefault("label", entry["method"])
         entry.setdefault("max_iterations", None)
-        accepted = wholebody_solver_options(entry["method"]) - {"max_iterations"}
+        accepted = (solver_options(entry["method"]) or set()) - {"max_iterations"}
         for option in entry["options"]:
             if option not in accepted:
                 raise InvalidOptionError(
-                    f"{ctx.source}: methods[{index}].options.{option}: whole-body method {entry['method']!r} "
+                    f"{ctx.source}: methods[{index}].options.{option}: method {entry['method']!r} "
                     f"takes no option {option!r}{did_you_mean(option, accepted)}; its options: "
                     f"{', '.join(sorted(accepted))}", option=str(option), accepted=sorted(accepted))
         if entry["label"] in (e["label"] for e in entries):
             ctx.fail(f"methods[{index}]", f"label {entry['label']!r} is used twice; give each a label")
         entries.append(entry)
-    if entries:
-        if spec["collisions"] is not None:
-            ctx.fail("methods", "compared methods solve a wbik.wholebody.WholeBody problem, which has no "
-                                "'collisions' block; drop one or the other")
-        for index, phase in enumerate(spec["phases"]):
-            if phase["lock"]:
-                ctx.fail(f"phases[{index}].lock", "compared methods (methods:) solve a WholeBody problem, "
-                                                  "which cannot lock joints; drop lock or methods")
     return entries
 
 
@@ -292,7 +284,7 @@ def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.
                         support: list[str], margin: float) -> dict:
     """Independent FK checks of one solved configuration: contacts (a point foot: its position only),
     CoM margin (a degenerate support: minus the distance to it, and not balanced), joint limits."""
-    from wbik.qp.constraints import bounded_joint_indices
+    from wbik.qp.constraint import bounded_joint_indices
     from wbik.qp.humanoid import is_point_foot
     from wbik.qp.humanoid import sole_corners
     from wbik.qp.kinematics import Kinematics
@@ -346,8 +338,7 @@ def collision_setup(robot, collisions: dict | None):
         return None, None
     from wbik.collision import Obstacle
     from wbik.collision import robot_collision_model
-    from wbik.qp.constraints import CollisionAvoidance
-
+    from wbik.qp.distances import CollisionAvoidance
     def build():
         boxes = [Obstacle(b["name"], tuple(b["size"]), tuple(b["xyz"]), tuple(b["rpy"]))
                  for b in collisions["boxes"]]
@@ -421,26 +412,26 @@ def _stance(robot, q: np.ndarray, phase: dict, index: int) -> list:
 
 
 def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
-                    solvers: dict) -> dict[str, dict]:
-    """Each of ``methods`` on the phase as a :class:`wbik.wholebody.WholeBody` from q (see the module
-    docstring), judged by the shared check: {label: figures}. ``solvers`` keeps one solver per (label, budget)
-    for the run (a PlaCo robot costs milliseconds to load)."""
-    from wbik.wholebody import WholeBody
-    from wbik.wholebody import wholebody_solver
+                    solvers: dict, extra: list) -> dict[str, dict]:
+    """Each of ``methods`` on the phase as a :class:`wbik.wholebody.problem.WholeBody` from q (see the
+    module docstring; ``extra``: the phase's locked joints and collision avoidance), judged by the shared
+    check: {label: figures}. ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot
+    costs milliseconds to load)."""
+    from wbik.solvers.method_registry import solver
+    from wbik.wholebody.problem import WholeBody
 
     problem = WholeBody(robot, _phase_tasks(robot, q, phase, index),
                         contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
                         support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
                         collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
-                        step_dt=float(phase["dt"]), acceleration_limit=phase.get("acceleration_limit"),
-                        name=phase["name"])
+                        constraints=extra, step_dt=float(phase["dt"]),
+                        acceleration_limit=phase.get("acceleration_limit"), name=phase["name"])
     compared = {}
     for entry in methods:
         label = entry["label"]
         budget = entry["max_iterations"] or int(phase["max_iterations"])
         if (label, budget) not in solvers:
-            solvers[label, budget] = wholebody_solver(entry["method"], robot, max_iterations=budget,
-                                                      **entry["options"])
+            solvers[label, budget] = solver(entry["method"], robot, max_iterations=budget, **entry["options"])
         result = solvers[label, budget].solve(problem, q)
         compared[label] = {**result.as_dict(), "task_error": result.task_error,
                            "max_iterations": budget}
@@ -450,9 +441,9 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
     the report and the animation from the start through every phase's answer."""
-    from wbik.qp.constraints import JointAccelerationLimits
-    from wbik.qp.constraints import LockedJoints
-    from wbik.qp.constraints import MinimumDistance
+    from wbik.qp.distances import MinimumDistance
+    from wbik.qp.limits import JointAccelerationLimits
+    from wbik.qp.limits import LockedJoints
     from wbik.qp.problem import IKProblem
 
     backend = spec["backend"]
@@ -470,10 +461,10 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         tasks = _phase_tasks(robot, q, phase, index)
         constraints = _stance(robot, q, phase, index)
         if phase["lock"]:
-            constraints.append(LockedJoints(robot.model, list(phase["lock"])))
+            constraints.append(LockedJoints(list(phase["lock"])))
         if phase.get("acceleration_limit") is not None:  # (IK steps: periods of dt, solved at dt 1)
-            constraints.append(JointAccelerationLimits(
-                robot.model, float(phase["acceleration_limit"]) * float(phase["dt"]) ** 2))
+            constraints.append(JointAccelerationLimits(float(phase["acceleration_limit"]),
+                                                       period=float(phase["dt"])))
         for item in phase["min_distance"]:
             constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
         if collision_constraint is not None:
@@ -497,7 +488,9 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
             "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist(),
             "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
         if spec["methods"]:
-            entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers)
+            extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
+                [collision_constraint] if collision_constraint is not None else [])
+            entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
         run.add(entry)
         if phase["continue_from"] == "result":
             q = solution.q.copy()

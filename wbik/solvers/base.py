@@ -1,10 +1,12 @@
-"""The one solver interface: Solver, IKResult and the shared FK check (the method registry is
-:mod:`wbik.solvers.method_registry`).
+"""The one solver interface: every method, on chain targets and whole-body problems.
 
-Every method subclasses :class:`Solver` and implements ``_solve(target, q0, deadline)``, returning
-a :class:`Candidate` (joints or None, iterations, reason). The base class validates input, times
-the call, keeps joints inside the limits and decides ``success`` with one FK check shared by all
-methods, so results of different methods compare like with like.
+Every method subclasses :class:`Solver`. On a chain target it implements ``_solve(target, q0,
+deadline)`` returning a :class:`~wbik.solvers.result.Candidate`; the base validates input, times the
+call, and the shared check (:mod:`wbik.solvers.check`) decides ``success``. A whole-body problem
+(:class:`wbik.wholebody.problem.WholeBody`) goes to ``_solve_problem(started, deadline)``: methods that
+formulate whole bodies (``takes_problems``: qp, placo, pink, mink) implement it; the chain methods
+accept a problem that is a chain target in disguise (one frame or position task on the chain's tip,
+joint limits, the rest of the robot at its nominal) and refuse others with a typed reason.
 """
 
 from __future__ import annotations
@@ -15,227 +17,49 @@ import threading
 import time
 from collections.abc import Iterable
 from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidBudgetError
 from wbik.errors import InvalidConfigurationError
+from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
-from wbik.geometry import error_parts
+from wbik.qp.constraint import Constraint
+from wbik.qp.limits import JointAccelerationLimits
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import LockedJoints
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import RegularizationTask
 from wbik.robot import Chain
 from wbik.robot import Robot
+from wbik.solvers.check import check_problem
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
+from wbik.solvers.result import Tolerances
+from wbik.solvers.result import checked_tolerances
 from wbik.targets import Target
 from wbik.targets import as_target
-from wbik.targets import pose_target
 from wbik.validation import check_budget
 from wbik.validation import check_count
 from wbik.validation import check_seed
-
-# numpy's clip ufunc, called directly: np.clip wraps it in Python code that costs more than the ufunc
-# itself on a few joints (the measurements: docs/measurements.md, base)
-try:
-    from numpy._core.umath import clip as _clip_ufunc
-except ImportError:  # pragma: no cover - another numpy layout
-    _clip_ufunc = None
-
-
-CLIPPED_REASON = "solution outside the joint limits (clipped)"
-
-
-def fk_check_reason(position_norm: float, rotation_norm: float) -> str:
-    """Why the shared FK check failed a candidate inside the limits."""
-    return f"FK check failed: position error {position_norm:.3g} m, rotation error {rotation_norm:.3g} rad"
-
-
-def invalid_joints_reason(q) -> str:
-    return f"method returned invalid joints {q!r}"
-
-
-def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
-    """min(max(q, lower), upper) element-wise (a new array; NaN stays NaN), in one ufunc call."""
-    if _clip_ufunc is None:
-        return np.minimum(np.maximum(q, lower), upper)
-    return _clip_ufunc(q, lower, upper)
-
+from wbik.wholebody.problem import StartedProblem
+from wbik.wholebody.problem import WholeBody
 
 DEFAULT_TIMEOUT_S = 0.005
 """Default time budget of iterative methods (TRAC-IK's benchmark protocol and MoveIt's KDL default)."""
-
-
-@dataclass(frozen=True)
-class Tolerances:
-    """The shared FK check: a solution succeeds when both errors are at or below these."""
-
-    position: float = 1e-6  # metres (norm of the position error)
-    rotation: float = 1e-6  # radians (angle of the rotation error)
-
-    def __post_init__(self) -> None:
-        from wbik.errors import InvalidToleranceError
-        from wbik.validation import check_positive_finite
-
-        for name, unit in (("position", "m"), ("rotation", "rad")):
-            value = check_positive_finite(f"tolerances.{name}", getattr(self, name), InvalidToleranceError,
-                                          unit)
-            object.__setattr__(self, name, value)
-
-
-def checked_tolerances(tolerances: Tolerances | None) -> Tolerances:
-    """``tolerances``, or the default Tolerances() for None; InvalidSettingError for anything else."""
-    if tolerances is None:
-        return Tolerances()
-    if not isinstance(tolerances, Tolerances):
-        raise InvalidSettingError(
-            f"tolerances must be wbik.Tolerances(position=..., rotation=...), got {tolerances!r}")
-    return tolerances
+STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
+"""Constraints that shape the steps, not the answer: a chain method solves without them."""
 
 
 def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
     """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
     (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
     return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
-
-
-@dataclass(slots=True)
-class Candidate:
-    """What a method found, before the shared check."""
-
-    q: np.ndarray | None
-    iterations: int = 0
-    reason: str = ""
-    extra: dict = field(default_factory=dict)
-
-
-@dataclass(slots=True)
-class IKResult:
-    """The answer of every method.
-
-    ``q`` is None only when the method produced no joint values at all (e.g. a closed form for an
-    unreachable target); otherwise it is inside the joint limits and the errors are measured on it
-    through FK. ``position_error_xyz`` is reached - target in base-frame axes (m);
-    ``rotation_error_xyz`` is log3(R_target^T R_reached) (rad), zeros for position-only targets.
-    """
-
-    q: np.ndarray | None
-    success: bool
-    reason: str
-    position_error: float
-    rotation_error: float
-    position_error_xyz: np.ndarray
-    rotation_error_xyz: np.ndarray
-    time_s: float
-    iterations: int
-    method: str = ""
-    extra: dict = field(default_factory=dict)
-
-    def as_dict(self) -> dict:
-        """JSON-friendly dictionary."""
-        return {
-            "method": self.method,
-            "success": self.success,
-            "reason": self.reason,
-            "q": None if self.q is None else [float(v) for v in self.q],
-            "position_error": self.position_error,
-            "rotation_error": self.rotation_error,
-            "position_error_xyz": [float(v) for v in self.position_error_xyz],
-            "rotation_error_xyz": [float(v) for v in self.rotation_error_xyz],
-            "time_s": self.time_s,
-            "iterations": self.iterations,
-        }
-
-
-def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
-             time_s: float, method: str, reached: np.ndarray | None = None) -> IKResult:
-    """The shared FK check: clip into the limits, measure the errors, decide success.
-
-    The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
-    e_R = log3(R*^T R) (target axes; ``geometry.error_parts`` gives p - p*, its norm and R*^T R,
-    Pinocchio the log3). Written for the per-call path (its cost: docs/benchmarks.md): one clip, one FK, one
-    call for the arithmetic (compiled where built), one log3; the detailed checks run only when
-    something is off.
-
-    ``reached``: optional, ``chain.fk(candidate.q).homogeneous`` as the method already computed it
-    (e.g. for its own screen). It stands for the FK only when the joints checked are ``candidate.q``
-    unchanged, bit for bit (inside the limits, no continuous joint wrapped), so the IKResult is the one
-    computed without it; otherwise the FK is computed as usual.
-    """
-    q = candidate.q
-    if q is None:
-        nan3 = np.full(3, np.nan)
-        return IKResult(None, False, candidate.reason or "no solution", math.nan, math.nan,
-                        nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
-    if type(q) is not np.ndarray or q.dtype != np.float64:
-        q = np.asarray(q, dtype=float)
-    lower, upper = chain.lower, chain.upper
-    if q.shape != lower.shape:
-        return _invalid_joints(q, time_s, candidate, method)
-    reason = candidate.reason
-    if chain.any_continuous:  # an angle of a continuous joint is in range modulo 2 pi
-        unwrapped, q = q, chain.wrap_continuous(q)
-        if reached is not None and q.tobytes() != unwrapped.tobytes():
-            reached = None
-    inside = clip_to_limits(q, lower, upper)
-    if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
-        reached = None
-        if not np.all(np.isfinite(q)):
-            return _invalid_joints(q, time_s, candidate, method)
-        if not reason and not chain.in_limits(q, tolerance=1e-9):
-            reason = CLIPPED_REASON
-    target_rotation = target.rotation
-    position_xyz = np.empty(3)
-    relative = None if target_rotation is None else np.empty((3, 3))
-    if reached is None:
-        reached = chain.fk(inside).homogeneous
-    position_norm = error_parts(reached, target.position, target_rotation, position_xyz, relative)
-    if relative is None:
-        rotation_xyz, rotation_norm = np.zeros(3), 0.0
-    else:
-        rotation_xyz = pin.log3(relative)  # e_R = log3(R*^T R): geometry.rotation_error's
-        rotation_norm = math.hypot(*rotation_xyz.tolist())
-    if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
-        return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
-                        time_s, candidate.iterations, method, candidate.extra)
-    if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
-        return _invalid_joints(q, time_s, candidate, method)
-    reason = reason or fk_check_reason(position_norm, rotation_norm)
-    return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
-                    time_s, candidate.iterations, method, candidate.extra)
-
-
-def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
-                      tolerances: Tolerances, time_s: float, method: str) -> IKResult:
-    """The shared check of joints a compiled closed form chose and screened, with the errors it already
-    computed: ``parts`` (n + 24 values) holds the joints q (n), their 4 x 4 tip pose (16, the form's FK)
-    and the batched check's errors of that pose (8: e_p, e_R, |e_p|, |e_R|; the rule of
-    :func:`wbik.solvers.analytic.batch.evaluate_batch`, e_R in :func:`wbik.geometry.batch_log3`'s
-    formula, which agrees with Pinocchio's log3 to rounding away from a half turn). ``target``: the
-    Target, or the 4 x 4 matrix of a full pose (:func:`wbik.targets.plain_pose_matrix`).
-
-    For a full pose on a chain without continuous joints, whose joints the choice wrote inside the
-    limits (their clip is themselves), the IKResult is built from ``parts`` (its arrays are views of
-    it) when both errors are within the tolerances. Anything else goes to :func:`evaluate` with the
-    tip pose as ``reached``.
-    """
-    joints = len(chain.lower)
-    q = parts[:joints]
-    if not chain.any_continuous and (type(target) is np.ndarray or target.rotation is not None):
-        position_norm, rotation_norm = parts.item(joints + 22), parts.item(joints + 23)
-        if position_norm <= tolerances.position and rotation_norm <= tolerances.rotation:
-            return IKResult(q, True, "", position_norm, rotation_norm, parts[joints + 16:joints + 19],
-                            parts[joints + 19:joints + 22], time_s, 1, method, extra)
-    if type(target) is np.ndarray:
-        target = pose_target(target)
-    return evaluate(chain, target, Candidate(q, 1, extra=extra), tolerances, time_s, method,
-                    parts[joints:joints + 16].reshape(4, 4))
-
-
-def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:
-    nan3 = np.full(3, np.nan)
-    return IKResult(None, False, invalid_joints_reason(q), math.nan, math.nan,
-                    nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
 
 
 class PerThreadState:
@@ -257,45 +81,56 @@ class PerThreadState:
 
 
 class IterationBudget:
-    """The iteration budget of a method whose loop is ours (``iteration_cost_s`` set): ``max_iterations``
-    if given, else the iterations that cost about ``timeout_s`` (or ``default_budget_s`` without one)
-    on the machine the costs were measured on. The owner sets ``name`` and ``timeout_s``."""
+    """The one budget rule. A method whose loop is ours (an iteration cost set) is budgeted in iterations,
+    so its answer does not depend on the machine's load: ``max_iterations`` if given, else
+    ceil(budget / cost), the iterations that cost about ``timeout_s`` (or the default budget) on the
+    machine the costs were measured on (docs/measurements.md). The costs and default budgets are those
+    of one chain target (``iteration_cost_s``, ``default_budget_s``) and of one whole-body problem
+    (``problem_iteration_cost_s``, ``problem_budget_s``). A method without a cost is budgeted by the wall
+    clock (``timeout_s``). The owner sets ``name`` and ``timeout_s``."""
 
     iteration_cost_s: float | None = None
-    """Ours: the time one iteration costs (s) on the reference machine, the budget's unit (the machine and
-    each method's measured cost: docs/measurements.md); it turns a time budget into an iteration budget.
-    None: a wall-clock method."""
+    """The time one iteration on a chain target costs (s) on the reference machine; None: wall clock."""
     default_budget_s: float = DEFAULT_TIMEOUT_S
-    """Ours: the time the default iteration budget is equivalent to."""
+    problem_iteration_cost_s: float | None = None
+    """The time one iteration on a whole-body problem costs (s); None: the method takes none."""
+    problem_budget_s: float = 0.1
 
     @classmethod
-    def iterations_for(cls, timeout_s: float) -> int:
+    def iterations_for(cls, timeout_s: float, problem: bool = False) -> int:
         """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
-        if cls.iteration_cost_s is None:
+        cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
+        if cost is None:
             raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
-        return iterations_costing(timeout_s, cls.iteration_cost_s)
+        return iterations_costing(timeout_s, cost)
 
-    def _iteration_budget(self, max_iterations: int | None) -> int:
-        """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or ``default_budget_s``."""
-        if max_iterations is None:
-            return self.iterations_for(self.timeout_s or self.default_budget_s)
-        return check_count("max_iterations", max_iterations, InvalidBudgetError)
+    @classmethod
+    def budget_options(cls, timeout_s: float, options: dict,
+                       problem: bool = False) -> tuple[float | None, dict]:
+        """(timeout_s, options) to build the method with for a budget of ``timeout_s`` seconds: ours get
+        no wall clock and the equivalent ``max_iterations`` (unless given), the others the wall clock."""
+        cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
+        if cost is None:
+            return timeout_s, dict(options)
+        if "max_iterations" in options:
+            return None, dict(options)
+        return None, {**options, "max_iterations": cls.iterations_for(timeout_s, problem)}
+
+    def _iteration_budget(self, max_iterations: int | None, problem: bool = False) -> int:
+        """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or the default budget."""
+        if max_iterations is not None:
+            return check_count("max_iterations", max_iterations, InvalidBudgetError)
+        default = self.problem_budget_s if problem else self.default_budget_s
+        return self.iterations_for(self.timeout_s or default, problem)
 
 
 class Solver(PerThreadState, IterationBudget):
-    """Base class of every IK method on one chain of one robot.
+    """Base class of every IK method of one robot (see the module docstring).
 
-    Subclasses set ``name`` and implement ``_solve``; they should stop at ``deadline`` (a
-    ``time.perf_counter()`` value, ``math.inf`` when there is no wall-clock budget) and return their
-    best effort with a reason.
-
-    Budgets. A method whose loop is ours (``iteration_cost_s`` set) is budgeted in iterations, so its
-    answer does not depend on how busy the machine is: ``max_iterations`` if given, else
-    ceil(``default_budget_s`` / ``iteration_cost_s``), the iterations that cost about that long (5 ms
-    unless the method says otherwise) on the machine the costs were measured on. Such a method has no
-    wall clock unless ``timeout_s`` is given; then both apply, whichever ends first (and its iteration
-    budget, if not given, follows ``timeout_s``). Methods that live in another library (KDL, TRAC-IK,
-    PlaCo) are budgeted by ``timeout_s`` (default ``DEFAULT_TIMEOUT_S``) only.
+    ``chain``: the chain a chain target is solved on (a name; default the robot's only chain). The chain
+    methods need one when they are built; the methods that solve whole bodies only when a chain target
+    comes. ``_solve`` should stop at ``deadline`` (a ``time.perf_counter()`` value, ``math.inf`` without
+    a wall-clock budget) and return its best effort with a reason. Budgets: :class:`IterationBudget`.
 
     Thread safety. Mutable state (Pinocchio Data, a peer library's solver object) is kept per thread
     (:meth:`_thread_state`); random restarts draw from a generator seeded by ``seed`` and the call's
@@ -311,21 +146,35 @@ class Solver(PerThreadState, IterationBudget):
     its refusal message (what it lacks, what to use instead)."""
     budgeted: bool = True
     """False for closed forms: a fixed amount of work per call, no budget of any kind applies."""
+    takes_problems: bool = False
+    """True for a method with its own whole-body formulation (``_solve_problem``)."""
 
     def __init__(self, robot: Robot, chain: str | None = None, *,
                  tolerances: Tolerances | None = None, timeout_s: float | None = None,
                  seed: int | None = 0):
+        if not isinstance(robot, Robot):
+            raise InvalidOptionError(f"robot must be a wbik.Robot, got {type(robot).__name__}",
+                                     option="robot")
         self.robot = robot
-        self.chain = robot.chain(chain)
+        self._chain_name = chain
+        self._chain = None if self.takes_problems and chain is None else robot.chain(chain)
         self.tolerances = checked_tolerances(tolerances)
-        if timeout_s is None and self.iteration_cost_s is None:
+        if timeout_s is None and self.iteration_cost_s is None and self.problem_iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
         self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
         self.seed = None if check_seed(seed) is None else int(seed)
         self._local = threading.local()
 
+    @property
+    def chain(self) -> Chain:
+        """The chain chain targets are solved on (UnknownChainError when the robot has no default)."""
+        if self._chain is None:
+            self._chain = self.robot.chain(self._chain_name)
+        return self._chain
+
     def __repr__(self) -> str:
-        return f"{type(self).__name__}({self.robot.name}.{self.chain.name})"
+        where = self.robot.name if self._chain is None else f"{self.robot.name}.{self._chain.name}"
+        return f"{type(self).__name__}({where})"
 
     @property
     def budget(self) -> str:
@@ -339,7 +188,11 @@ class Solver(PerThreadState, IterationBudget):
 
     # -- the interface ------------------------------------------------------------------------
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
-        """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal)."""
+        """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal), or a
+        whole-body problem (a :class:`~wbik.wholebody.problem.WholeBody`) from q0 (default: the robot's
+        nominal configuration)."""
+        if isinstance(target, WholeBody):
+            return self.solve_problem(target, q0)
         target = as_target(target)
         if not (self.supports_pose if target.rotation is not None else self.supports_position_only):
             self._check_target_kind(target)  # raises the detailed UnsupportedError
@@ -351,6 +204,31 @@ class Solver(PerThreadState, IterationBudget):
         elapsed = time.perf_counter() - start
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
+    def solve_problem(self, problem: WholeBody, q0=None) -> IKResult:
+        """Solve a whole-body problem from q0 (default the robot's nominal), judged by the shared check.
+        A method that cannot take the problem at all raises UnsupportedError saying why."""
+        if not isinstance(problem, WholeBody):
+            raise InvalidSettingError(f"solve_problem() takes a wbik.WholeBody, got "
+                                      f"{type(problem).__name__}")
+        if problem.robot is not self.robot and (problem.robot.name != self.robot.name
+                                                or problem.robot.model.nq != self.robot.model.nq):
+            raise InvalidSettingError(f"the problem is on {problem.robot.name!r}, this solver on "
+                                      f"{self.robot.name!r}")
+        q_start = problem.check_q(self.robot.nominal if q0 is None else q0)
+        if not self.takes_problems:
+            why = self.cannot_express(problem, q_start)
+            if why:
+                raise UnsupportedError(f"method {self.name!r} cannot solve this problem: {why}")
+        started = problem.start(q_start)
+        unsupported = self.unsupported(problem)
+        start = time.perf_counter()
+        deadline = math.inf if self.timeout_s is None else start + self.timeout_s
+        candidate = self._solve_problem(started, deadline, getattr(self, "problem_max_iterations", 0))
+        elapsed = time.perf_counter() - start
+        return check_problem(started, candidate.q, self.tolerances, method=self.name, time_s=elapsed,
+                             iterations=candidate.iterations, reason=candidate.reason,
+                             unsupported=unsupported, extra=candidate.extra)
+
     def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None) -> list[IKResult]:
         """Solve a batch; ``q0s`` is one start for all, one per target, or None."""
         targets = list(targets)
@@ -360,6 +238,40 @@ class Solver(PerThreadState, IterationBudget):
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct solution (closed-form methods only)."""
         raise UnsupportedError(f"method {self.name!r} finds one solution; use 'analytic' for all branches")
+
+    def unsupported(self, problem: WholeBody) -> list[str]:
+        """What of ``problem`` this method cannot express (it solves the problem without it)."""
+        if self.takes_problems:
+            return []
+        return [f"{c.name} (a chain method takes no step limits)" for c in problem.constraints
+                if isinstance(c, STEP_SHAPING)]
+
+    def cannot_express(self, problem: WholeBody, q0=None) -> str | None:
+        """Why ``problem`` is outside what this method can solve at all, or None. A chain method takes a
+        chain target in disguise: one goal, a frame or position task on the chain's tip, under joint
+        limits, with the joints outside the chain at the robot's nominal values."""
+        if self.takes_problems:
+            return None
+        try:
+            chain = self.chain
+        except UnsupportedError as exc:
+            return str(exc)
+        goals = [task for task in problem.tasks if task.goal]
+        task = goals[0] if len(goals) == 1 else None
+        if task is None or type(task) not in (FrameTask, PositionTask) or task.frame != chain.tip_frame \
+                or (isinstance(task, PositionTask) and len(task.rows) != 3):
+            return (f"it solves one frame or position task on the tip {chain.tip_frame!r} of chain "
+                    f"{chain.name!r}; use a whole-body method (qp, placo, pink, mink) for other problems")
+        others = [c.name for c in problem.constraints
+                  if not isinstance(c, (JointPositionLimits, LockedJoints, *STEP_SHAPING))]
+        if others:
+            return f"it cannot hold {', '.join(others)}; use a whole-body method (qp, placo, pink, mink)"
+        q0 = self.robot.nominal if q0 is None else np.asarray(q0, dtype=float)
+        outside = np.delete(q0 - self.robot.nominal, chain.q_index)
+        if outside.size and not np.allclose(outside, 0.0, rtol=0.0, atol=1e-12):
+            return (f"the joints outside chain {chain.name!r} must be at the robot's nominal values (the "
+                    "chain's reduced model)")
+        return None
 
     # -- state that must not be shared between calls ---------------------------------------------
     def _call_rng(self, target: Target, q0: np.ndarray) -> np.random.Generator:
@@ -375,7 +287,53 @@ class Solver(PerThreadState, IterationBudget):
 
     # -- for subclasses ------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        raise NotImplementedError
+        """A chain target: a method that solves whole bodies solves the chain's problem
+        (:meth:`chain_problem`) on the whole robot, the rest locked, from q0 clipped into the limits."""
+        if not self.takes_problems:
+            raise NotImplementedError
+        chain = self.chain
+        problem = self.chain_problem(target)
+        candidate = self._solve_problem(problem.start(chain.full_configuration(chain.clip(q0))), deadline,
+                                        self.max_iterations)
+        if candidate.q is not None:
+            candidate.q = candidate.q[chain.q_index]
+        return candidate
+
+    def chain_problem(self, target: Target, constraints: Sequence[Constraint] = (),
+                      regularization: float = 0.0) -> WholeBody:
+        """A chain target as a whole-body problem: one frame task (a position task for a position
+        target) on the tip toward the target in the world, the chain's joint limits (none on continuous
+        joints), every other joint locked; plus ``constraints`` and a ``regularization`` weight."""
+        chain = self.chain
+        world = chain.base_placement * target.se3()
+        tip = (FrameTask(chain.tip_frame, world) if target.is_pose
+               else PositionTask(chain.tip_frame, world.translation.copy()))
+        tasks = [tip] + ([RegularizationTask(regularization)] if regularization else [])
+        continuous = [n for n, wraps in zip(chain.joint_names, chain.continuous, strict=True) if wraps]
+        model = self.robot.model
+        others = [model.names[j] for j in range(1, model.njoints) if model.names[j] not in chain.joint_names
+                  and model.joints[j].nv]
+        locked = [LockedJoints(others)] if others else []
+        return WholeBody(self.robot, tasks, limits="none",
+                         constraints=[JointPositionLimits(unbounded=continuous), *locked, *constraints])
+
+    def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
+        """A whole-body problem (see the module docstring) within ``max_iterations`` of the method's loop:
+        the chain methods solve the chain target it stands for (:meth:`cannot_express` said it is one)
+        and return the whole configuration."""
+        chain = self.chain
+        task = next(task for task in started.tasks if task.goal)
+        world = task.target if isinstance(task, FrameTask) else pin.SE3(np.eye(3), task.target)
+        local = chain.base_placement.actInv(world)
+        target = as_target(local if isinstance(task, FrameTask) else local.translation)
+        candidate = self._solve(target, started.q0[chain.q_index], deadline)
+        if candidate.q is not None:
+            joints = np.asarray(candidate.q, dtype=float).reshape(-1)
+            q = started.q0.copy()
+            if joints.shape == chain.lower.shape and np.all(np.isfinite(joints)):
+                q[chain.q_index] = chain.clip(joints)  # as the chain check clips and wraps them
+            candidate.q = q if joints.shape == chain.lower.shape else None
+        return candidate
 
     def check_target_kind(self, kind: str) -> None:
         """UnsupportedError, saying why, if this solver cannot take ``kind`` ("pose" or "position")

@@ -76,16 +76,16 @@ import pinocchio as pin
 from scipy.spatial import cKDTree
 
 from wbik.errors import RobotDescriptionError
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
 from wbik.solvers.levenberg_marquardt import JointBounds
 from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
 from wbik.solvers.levenberg_marquardt import Workspace
 from wbik.solvers.levenberg_marquardt import batch_cost
 from wbik.solvers.levenberg_marquardt import keep_better
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
 from wbik.solvers.task_error import batch_se3_error
 from wbik.solvers.task_error import converged
 from wbik.targets import Target

@@ -99,12 +99,12 @@ from wbik.solvers.analytic.eaik_family import SCREEN_TOLERANCE
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.eaik_family import eaik_structure
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
-from wbik.solvers.base import evaluate_screened
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.check import evaluate
+from wbik.solvers.check import evaluate_screened
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 from wbik.targets import plain_pose_matrix

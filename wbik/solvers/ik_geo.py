@@ -72,10 +72,10 @@ from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import checked_branches
 from wbik.solvers.analytic.closed_form import fk_residual
 from wbik.solvers.analytic.closed_form import pick_reaching
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
 from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target

@@ -29,9 +29,9 @@ import numpy as np
 from wbik.errors import MissingDependencyError
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
 from wbik.targets import pose_error

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import importlib
 import inspect
-from collections.abc import Callable
-from dataclasses import dataclass
 
 from wbik.errors import InvalidOptionError
 from wbik.errors import UnknownMethodError
@@ -28,9 +26,11 @@ from wbik.registry import check_options
 from wbik.registry import factory_options
 from wbik.robot import Robot
 from wbik.solvers.base import Solver
+from wbik.solvers.method import IKMethod
+from wbik.solvers.method import SolverFactory
 
-__all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "method_factory", "methods", "register",
-           "register_method", "solver", "solver_options"]
+__all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "budget_options", "method_factory", "methods",
+           "register", "register_method", "solver", "solver_options"]
 
 METHOD_MODULES: list[str] = [
     "wbik.solvers.analytic.solver",
@@ -41,31 +41,13 @@ METHOD_MODULES: list[str] = [
     "wbik.solvers.kdl",  # kdl, kdl_restarts
     "wbik.solvers.tracik",
     "wbik.solvers.placo",
+    "wbik.solvers.pink",
     "wbik.solvers.eaik",
     "wbik.solvers.ik_geo",
     "wbik.solvers.mink",
 ]
 """The core's modules whose ``IK_METHODS`` are registered (a new module of methods: one line here);
 applications add theirs through the entry-point group ``wbik.ik_methods``."""
-
-SolverFactory = Callable[..., Solver]
-"""A Solver subclass, or any callable ``factory(robot, chain, **options) -> Solver``."""
-
-
-@dataclass(frozen=True)
-class IKMethod:
-    """An IK method: its ``name`` (``solver(name, ...)``, a study's ``method:``), its ``factory``
-    (``factory(robot, chain, **options)``, usually a Solver subclass) and a one-line ``description``."""
-
-    name: str
-    factory: SolverFactory
-    description: str = ""
-
-    def __post_init__(self) -> None:
-        if not callable(self.factory):
-            raise RegistryError(f"IK method {self.name!r}: the factory must be a Solver subclass or a "
-                                f"callable, got {self.factory!r}")
-
 
 IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
@@ -99,6 +81,15 @@ def methods() -> dict[str, str]:
     return IK_METHOD_REGISTRY.descriptions()
 
 
+def budget_options(method: str, timeout_s: float, options: dict,
+                   problem: bool = False) -> tuple[float | None, dict]:
+    """(timeout_s, options) to build ``method`` with for a budget of ``timeout_s`` seconds on chain targets
+    or (``problem``) whole-body problems: the one budget rule, :meth:`Solver.budget_options`."""
+    factory = method_factory(method)
+    rule = getattr(factory, "budget_options", None)
+    return (timeout_s, dict(options)) if rule is None else rule(timeout_s, options, problem)
+
+
 def method_factory(method: str) -> SolverFactory:
     """The factory (usually the Solver subclass) of ``method``; UnknownMethodError listing the known
     methods if nobody registered it."""
@@ -112,8 +103,11 @@ def solver_options(method: str) -> set[str] | None:
     return factory_options(method_factory(method), leading=2)  # robot, chain
 
 
-def solver(method: str, robot: Robot | str, chain: str | None = None, **options) -> Solver:
-    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``.
+def solver(method: str, robot: Robot | str, chain: str | None = None, *, base: str | None = None,
+           tip: str | None = None, **options) -> Solver:
+    """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``; a chain by
+    name, or by its ``base`` and ``tip`` frames (every joint between them). Its ``solve`` takes a chain
+    target or a whole-body problem (:class:`wbik.WholeBody`), as the method allows.
 
     Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
     """
@@ -140,4 +134,8 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, **options)
     elif not isinstance(robot, Robot):
         raise InvalidOptionError(f"robot must be a wbik.Robot or a robot name, got {type(robot).__name__}",
                                  option="robot")
+    if base is not None or tip is not None:
+        if base is None or tip is None:
+            raise InvalidOptionError("a chain by its frames needs both base= and tip=", option="base/tip")
+        chain = robot.chain_between(base, tip, name=chain).name
     return factory(robot, chain, **options)

@@ -24,9 +24,9 @@ import time
 import numpy as np
 import scipy.linalg
 
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import converged
 from wbik.solvers.task_error import task_error
 from wbik.targets import Target

@@ -19,8 +19,8 @@ import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import rotation_error
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
+from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 

@@ -1,35 +1,58 @@
-"""Method ``placo``: the same chain targets solved by PlaCo's kinematics solver (C++), same URDF.
+"""Method ``placo``: PlaCo's KinematicsSolver (C++) on the same URDF, for chain targets and whole bodies,
+and PlaCo's forms of wbik's tasks and constraints (:data:`wbik.qp.peers.PLACO`).
 
-PlaCo loads the robot's URDF (``robot.urdf_path``) with its visual and collision geometry removed,
-since PlaCo resolves every mesh a URDF names and the kinematics do not need them. PlaCo always
-adds a floating base; it is masked (fixed at the robot's nominal base pose), and so is every joint
-outside the chain (held at the robot's nominal), so PlaCo moves exactly the chain's joints. One
-frame task (pose target) or position task (position target) on the tip, joint limits on; each
-``solve(True)`` is one QP step, iterated to the shared tolerance, a stall or the deadline.
+PlaCo loads the robot's URDF (visual and collision geometry removed: PlaCo resolves every mesh a URDF
+names, and the kinematics do not need them; continuous joints as revolute ones with wide limits). Tasks
+are PlaCo's own frame / relative frame / position / orientation / CoM / joints tasks, soft, with our
+weights (a position or CoM task on some axes: PlaCo's axis mask); a regularisation is PlaCo's
+regularisation task. Contacts are hard frame tasks (a point foot: a hard position task); the CoM in the
+support polygon is PlaCo's CoM polygon constraint, clockwise (PlaCo's convention) and configured hard;
+joint limits and velocity limits are PlaCo's (its ``dt`` the problem's ``step_dt``); locked joints are
+masked. PlaCo has no acceleration limits nor minimum distances between frames here, and hard or soft
+tasks only (no strict priority levels). One ``solve(True)`` per iteration of our loop; a chain target is
+the chain's problem (the tip's frame task, every other joint masked).
 """
 
 from __future__ import annotations
 
 import re
-import time
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import RobotDescriptionError
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
+from wbik.qp.contacts import PointContact
+from wbik.qp.distances import MinimumDistance
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import JointAccelerationLimits
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import LockedJoints
+from wbik.qp.peers import PeerForms
+from wbik.qp.peers import frame_weights
+from wbik.qp.peers import largest_weight
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
+from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import PostureTask
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import RelativeFrameTask
 from wbik.robot import Robot
 from wbik.robot import write_cached_urdf
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import Solver
-from wbik.solvers.method_registry import IKMethod
-from wbik.targets import Target
-from wbik.targets import pose_error
+from wbik.solvers.method import IKMethod
+from wbik.solvers.peer import PeerSolver
+from wbik.solvers.result import Candidate
 from wbik.urdf import continuous_as_revolute
 from wbik.urdf import fixed_joints_renamed
+from wbik.wholebody.problem import StartedProblem
 
 
 def import_placo():
@@ -104,84 +127,191 @@ def placo_configuration(robot: Robot, wrapper) -> np.ndarray:
     return q
 
 
-class PlacoSolver(Solver):
-    name = "placo"
+PLACO = PeerForms("placo", "PlaCo")
+"""PlaCo's forms of wbik's tasks and constraints (and of the user's: ``@PLACO.form(MyTask)``)."""
 
-    def __init__(self, robot, chain=None, *, max_iterations: int = 300, regularization: float = 1e-9,
-                 **options):
+
+@dataclass
+class PlacoProblem:
+    """What PlaCo's forms add to: its ``solver`` (a placo.KinematicsSolver), the PlaCo robot
+    (``wrapper``), our ``robot``, its ``kinematics`` at the start and the step ``dt`` (s)."""
+
+    solver: Any
+    wrapper: Any
+    robot: Robot
+    kinematics: Kinematics
+    dt: float
+
+
+def clockwise(polygon) -> list[np.ndarray]:
+    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them (wbik stores them
+    counter-clockwise); the same rule as benchmarks/qp.py ``placo_polygon``."""
+    vertices = [np.array(v, dtype=float) for v in polygon.vertices]
+    x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
+    area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    return vertices[::-1] if area > 0 else vertices
+
+
+def _soft_on_axes(added, task) -> None:
+    """Configure PlaCo's position or CoM task ``added`` as ``task``: soft, its weight, masked to the
+    axes it holds (PlaCo's masks name them "xz", ...)."""
+    added.mask.set_axises("".join("xyz"[i] for i in task.rows))
+    added.configure(task.name, "soft", largest_weight(task, 1.0))
+
+
+# -- PlaCo's forms of the tasks -------------------------------------------------------------------------
+@PLACO.form(FrameTask)
+def _frame(task: FrameTask, placo: PlacoProblem) -> None:
+    placo.solver.add_frame_task(task.frame, task.target.homogeneous).configure(task.name, "soft",
+                                                                              *frame_weights(task))
+
+
+@PLACO.form(RelativeFrameTask)
+def _relative(task: RelativeFrameTask, placo: PlacoProblem) -> None:
+    added = placo.solver.add_relative_frame_task(task.reference_frame, task.frame, task.target.homogeneous)
+    added.configure(task.name, "soft", *frame_weights(task))
+
+
+@PLACO.form(PositionTask)
+def _position(task: PositionTask, placo: PlacoProblem) -> None:
+    target = placo.kinematics.placement(task.frame_id).translation.copy()  # the start's, on the free axes
+    target[task.rows] = task.target[task.rows]
+    _soft_on_axes(placo.solver.add_position_task(task.frame, target), task)
+
+
+@PLACO.form(OrientationTask)
+def _orientation(task: OrientationTask, placo: PlacoProblem) -> None:
+    placo.solver.add_orientation_task(task.frame, task.target).configure(task.name, "soft",
+                                                                        largest_weight(task, 1.0))
+
+
+@PLACO.form(ComTask)
+def _com(task: ComTask, placo: PlacoProblem) -> None:
+    _soft_on_axes(placo.solver.add_com_task(task.target.copy()), task)
+
+
+@PLACO.form(PostureTask)
+def _posture(task: PostureTask, placo: PlacoProblem) -> None:
+    model = placo.robot.model
+    names = task.joint_names or [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    joints = {name: float(task.reference[model.joints[model.getJointId(name)].idx_q]) for name in names}
+    added = placo.solver.add_joints_task()
+    added.set_joints(joints)
+    added.configure(task.name, "soft", largest_weight(task, 1e-3))
+
+
+@PLACO.form(RegularizationTask)
+def _regularization(task: RegularizationTask, placo: PlacoProblem) -> None:
+    placo.solver.add_regularization_task(largest_weight(task, 1e-6))
+
+
+# -- and of the constraints -----------------------------------------------------------------------------
+@PLACO.form(Contact)
+def _contact(contact: Contact, placo: PlacoProblem) -> None:
+    placo.solver.add_frame_task(contact.frame, contact.placement.homogeneous).configure(contact.name, "hard",
+                                                                                       1.0, 1.0)
+
+
+@PLACO.form(PointContact)
+def _point_contact(contact: PointContact, placo: PlacoProblem) -> None:
+    added = placo.solver.add_position_task(contact.frame, contact.position.copy())
+    added.configure(contact.name, "hard", 1.0)
+
+
+@PLACO.form(CoMInSupportPolygon)
+def _com_polygon(constraint: CoMInSupportPolygon, placo: PlacoProblem) -> None:
+    added = placo.solver.add_com_polygon_constraint(clockwise(constraint.polygon), constraint.margin)
+    added.configure("com_polygon", "hard", 1.0)
+
+
+@PLACO.form(JointPositionLimits)
+def _position_limits(limits: JointPositionLimits, placo: PlacoProblem) -> None:
+    placo.solver.enable_joint_limits(True)
+
+
+@PLACO.form(JointVelocityLimits)
+def _velocity_limits(limits: JointVelocityLimits, placo: PlacoProblem) -> None:
+    """|dq| <= limit per step (dt 1): PlaCo's velocity limits limit / dt over its step dt."""
+    names = _tangent_joint_names(placo.robot.model)
+    for index, limit in zip(limits.v_index.tolist(), limits.step_limit.tolist(), strict=True):
+        if index in names:
+            placo.wrapper.set_velocity_limit(names[index], limit / placo.dt)
+    placo.solver.dt = placo.dt
+    placo.solver.enable_velocity_limits(True)
+
+
+def _tangent_joint_names(model: pin.Model) -> dict[int, str]:
+    """{tangent index: joint name} of the 1-DOF joints."""
+    return {model.joints[j].idx_v: model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1}
+
+
+@PLACO.form(LockedJoints)
+def _locked(locked: LockedJoints, placo: PlacoProblem) -> None:
+    model = placo.robot.model
+    for name in locked.joints:
+        if model.joints[model.getJointId(name)].nv == 6:
+            placo.solver.mask_fbase(True)
+        else:
+            placo.solver.mask_dof(name)
+
+
+PLACO.cannot(JointAccelerationLimits, "PlaCo 0.10 has none here; solved with position and velocity limits "
+                                      "only")
+PLACO.cannot(MinimumDistance, "no minimum distance between frame origins in PlaCo here; solved without it")
+
+
+# -- the method -----------------------------------------------------------------------------------------
+class PlacoSolver(PeerSolver):
+    """PlaCo's KinematicsSolver with its own tasks, hard contacts and hard clockwise CoM polygon."""
+
+    name = "placo"
+    # the budget's units: solve(True), read-back, convergence FK, on an arm and on a humanoid (measured:
+    # docs/measurements.md, placo and wholebody)
+    iteration_cost_s = 40e-6
+    default_budget_s = 0.005
+    problem_iteration_cost_s = 300e-6
+    problem_budget_s = 0.08
+    forms = PLACO
+    priorities = "PlaCo: hard or soft only; all tasks soft"
+
+    def __init__(self, robot, chain=None, *, regularization: float = 1e-6, **options):
         super().__init__(robot, chain, **options)
-        self.max_iterations = int(max_iterations)
         self.placo = import_placo()
         self.regularization = float(regularization)
-        self._thread_state()  # build this thread's PlaCo robot and solver now (errors show here)
+        self._thread_state()  # this thread's PlaCo robot now (errors show here, its cost is not a solve's)
 
-    def _new_thread_state(self) -> SimpleNamespace:
-        """This thread's PlaCo robot wrapper and solver (they hold the configuration being solved)."""
-        wrapper = placo_robot(self.robot)
+    def _new_thread_state(self):
+        """This thread's PlaCo robot (loading the URDF costs milliseconds; a solver is built per call)."""
+        return placo_robot(self.robot)
+
+    def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
+        robot = self.robot
+        wrapper = self._thread_state()
+        set_placo_configuration(robot, wrapper, started.q0)
         solver = self.placo.KinematicsSolver(wrapper)
-        solver.mask_fbase(True)
-        solver.enable_joint_limits(True)
-        chain_joints = set(self.chain.joint_names)
-        model = self.robot.model
-        for joint_id in range(1, model.njoints):
-            name = model.names[joint_id]
-            if model.joints[joint_id].nq == 1 and name not in chain_joints:
-                solver.mask_dof(name)
+        if not robot.has_floating_base:
+            solver.mask_fbase(True)
+        self.translate(started, PlacoProblem(solver, wrapper, robot, started.kinematics,
+                                             started.problem.step_dt))
         solver.add_regularization_task(self.regularization)
-        return SimpleNamespace(wrapper=wrapper, solver=solver, task=None, task_kind=None)
 
-    @staticmethod
-    def _set_task(state: SimpleNamespace, tip_frame: str, target: Target, world_target: np.ndarray) -> None:
-        kind = "pose" if target.is_pose else "position"
-        if state.task is not None and state.task_kind != kind:
-            state.solver.remove_task(state.task)
-            state.task = None
-        if state.task is None:
-            if kind == "pose":
-                state.task = state.solver.add_frame_task(tip_frame, world_target)
-            else:
-                state.task = state.solver.add_position_task(tip_frame, world_target[:3, 3])
-            state.task.configure("target", "soft", 1.0)
-            state.task_kind = kind
-        elif kind == "pose":
-            state.task.T_world_frame = world_target
-        else:
-            state.task.target_world = world_target[:3, 3]
-
-    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        chain = self.chain
-        state = self._thread_state()
-        wrapper = state.wrapper
-        set_placo_configuration(self.robot, wrapper, chain.full_configuration(q0))
-        base = wrapper.get_T_world_frame(chain.base_frame)
-        self._set_task(state, chain.tip_frame, target, base @ target.se3().homogeneous)
-        tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
-        q = q0.copy()
-        previous = np.inf
-        stalled = 0
-        for iteration in range(1, self.max_iterations + 1):
-            position_error, rotation_error = pose_error(chain.fk(q), target)
-            error = float(np.linalg.norm(position_error)) + (
-                0.0 if rotation_error is None else float(np.linalg.norm(rotation_error)))
-            if error <= tolerance:
-                return Candidate(q, iteration - 1)
-            stalled = stalled + 1 if error > previous - 1e-14 else 0
-            if stalled >= 5:
-                return Candidate(q, iteration - 1, "stalled: PlaCo's steps no longer reduce the error")
-            if time.perf_counter() > deadline:
-                return Candidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
-            previous = error
+        def step(q: np.ndarray) -> tuple[np.ndarray, str]:
             try:
-                state.solver.solve(True)
+                solver.solve(True)
             except RuntimeError as exc:
-                return Candidate(q, iteration, f"PlaCo's QP failed: {exc}")
+                return q, f"PlaCo's QP failed: {exc}"
             wrapper.update_kinematics()
-            q = np.array([wrapper.get_joint(name) for name in chain.joint_names])
-        return Candidate(q, self.max_iterations, f"no convergence in {self.max_iterations} iterations")
+            previous, q = q, placo_configuration(robot, wrapper)
+            if float(np.max(np.abs(pin.difference(robot.model, previous, q)))) < 1e-12:
+                return q, "stalled: PlaCo's steps no longer move the robot"
+            return q, ""
+
+        return self._peer_loop(step, started, deadline, max_iterations)
 
 
 IK_METHODS = (
     IKMethod("placo", PlacoSolver,
-             "PlaCo's kinematics solver on the same URDF"),
+             "PlaCo 0.10 KinematicsSolver on the same URDF: chain targets; whole bodies with its tasks, hard "
+             "contacts, hard clockwise CoM polygon, limits"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""
+"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

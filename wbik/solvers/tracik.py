@@ -24,9 +24,9 @@ import pinocchio as pin
 from wbik.errors import InvalidSettingError
 from wbik.errors import MissingDependencyError
 from wbik.errors import RobotDescriptionError
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.urdf import with_massless_root
 

@@ -71,7 +71,7 @@ from wbik.study.statistics import summarize
 if TYPE_CHECKING:
     from wbik.robot import Chain
     from wbik.schema import Map
-    from wbik.solvers.method_registry import IKMethod
+    from wbik.solvers.method import IKMethod
     from wbik.study.definition import CaseSpec
     from wbik.study.definition import MethodSpec
     from wbik.study.definition import Study
@@ -129,18 +129,15 @@ class ChainTargets(CaseKind):
     # -- the study file ----------------------------------------------------------------------------
     def methods(self) -> dict[str, str]:
         from wbik.solvers.method_registry import methods
-
         return methods()
 
     def method_options(self, method: str) -> set[str] | None:
         from wbik.solvers.method_registry import solver_options
-
         return solver_options(method)
 
     def method_option_schema(self, method: str) -> Map:
         from wbik.schema import option_schema
         from wbik.solvers.method_registry import method_factory
-
         return option_schema(method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
@@ -161,7 +158,6 @@ class ChainTargets(CaseKind):
 
     def unbudgeted(self, method: str) -> bool:
         from wbik.solvers.method_registry import method_factory
-
         try:
             return getattr(method_factory(method), "budgeted", True) is False
         except WbikError:
@@ -178,7 +174,6 @@ class ChainTargets(CaseKind):
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> ChainChunkTask:
         from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-
         timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
         return self.task_type(
             kind=self, case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params),
@@ -218,7 +213,6 @@ class ChainTargets(CaseKind):
 
         if task.registered is not None:  # a method registered in the study's main process
             from wbik.solvers.method_registry import register_method
-
             register_method(task.registered, replace=True)
         solver = self.build(task)
         count = task.count
@@ -354,8 +348,7 @@ class ChainTargets(CaseKind):
 
 
 def _raised(solver, exc: BaseException):
-    from wbik.solvers.base import IKResult
-
+    from wbik.solvers.result import IKResult
     nan3 = np.full(3, np.nan)
     detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
     return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),

@@ -75,7 +75,6 @@ def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float |
     reference machine (unless the study gives max_iterations itself). Others: the wall clock.
     """
     from wbik.solvers.method_registry import method_factory
-
     factory = method_factory(method)
     if getattr(factory, "iteration_cost_s", None) is None:
         return timeout_s, options

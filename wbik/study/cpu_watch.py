@@ -47,7 +47,6 @@ def threads_of(method: str) -> int:
     chain methods' registry does not know, e.g. a whole-body method)."""
     from wbik.errors import WbikError
     from wbik.solvers.method_registry import method_factory
-
     try:
         factory = method_factory(method)
     except WbikError:

@@ -35,8 +35,7 @@ from wbik.geometry import tait_bryan_angles  # noqa: F401  (re-exported)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 
 if TYPE_CHECKING:
-    from wbik.solvers.base import IKResult
-
+    from wbik.solvers.result import IKResult
 POSITION_AXES = ("x", "y", "z")
 ROTATION_VECTOR_AXES = ("rot_x", "rot_y", "rot_z")
 ANGLE_AXES = ("alpha", "beta", "gamma")

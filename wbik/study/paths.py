@@ -334,7 +334,6 @@ class PathTargets(ChainTargets):
 
         if task.registered is not None:
             from wbik.solvers.method_registry import register_method
-
             register_method(task.registered, replace=True)
         solver = self.build(task)
         chain = solver.chain

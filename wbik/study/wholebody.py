@@ -7,10 +7,10 @@ what differs for whole-body cases (:class:`WholeBodyCases`):
 - sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.cases`,
   stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
   a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
-- solving (:meth:`WholeBodyCases.solve`): ``wbik.wholebody_solver(method, robot).solve(problem,
-  q0)`` per case (a sampler or method user code registered travels with the task and is registered
-  in the worker first, see :func:`run_time_entries`), budgets in iterations
-  (:func:`wbik.wholebody.methods.wholebody_budget`); a method that cannot express the family's
+- solving (:meth:`WholeBodyCases.solve`): ``wbik.solver(method, robot).solve(problem, q0)`` per case
+  (a sampler or method user code registered travels with the task and is registered in the worker
+  first, see :func:`run_time_entries`), budgets by the one rule
+  (:func:`wbik.solvers.method_registry.budget_options`); a method that cannot express the family's
   first problem (its ``cannot_express`` query says why) is "not applicable"
   (:meth:`WholeBodyCases.refusal`);
 - rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
@@ -91,7 +91,7 @@ STUDY_NOTE = (
     "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
     "iterated by our loop, or a method's own iteration), so every method is budgeted in iterations: "
     "the study's time budget divided by the method's measured cost per iteration (its "
-    "iteration_cost_s, wbik.wholebody.solvers.WholeBodySolver), no wall clock; the rows are the same "
+    "problem_iteration_cost_s, wbik.solvers.base.IterationBudget), no wall clock; the rows are the same "
     "on any machine (times aside)."
 )
 
@@ -107,28 +107,28 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
 
 
 def run_time_entries(scenario: str, method: str) -> tuple:
-    """The sampler ``scenario`` and the whole-body method ``method`` among those user code registered
-    at run time (a worker process lacks them; the listed modules' own are left out)."""
+    """The sampler ``scenario`` and the method ``method`` among those user code registered at run time (a
+    worker process lacks them; the listed modules' own are left out)."""
+    from wbik.solvers.method_registry import IK_METHOD_REGISTRY
     from wbik.wholebody.cases import CASE_REGISTRY
-    from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
 
-    entries = (CASE_REGISTRY.added_at_run_time(scenario), WHOLEBODY_METHOD_REGISTRY.added_at_run_time(method))
+    entries = (CASE_REGISTRY.added_at_run_time(scenario), IK_METHOD_REGISTRY.added_at_run_time(method))
     return tuple(entry for entry in entries if entry is not None)
 
 
 def register_run_time_entries(entries: tuple) -> None:
     """Register, in this process, the samplers and methods a task carries (replacing a namesake: a
     reused worker may hold an earlier study's)."""
+    from wbik.solvers.method import IKMethod
+    from wbik.solvers.method_registry import register_method
     from wbik.wholebody.cases import CaseSampler
     from wbik.wholebody.cases import register_sampler
-    from wbik.wholebody.methods import WholeBodyMethod
-    from wbik.wholebody.methods import register_wholebody_method
 
     for entry in entries:
         if isinstance(entry, CaseSampler):
             register_sampler(entry, replace=True)
-        elif isinstance(entry, WholeBodyMethod):
-            register_wholebody_method(entry, replace=True)
+        elif isinstance(entry, IKMethod):
+            register_method(entry, replace=True)
         else:
             raise TypeError(f"a whole-body task carries samplers and methods, got {type(entry).__name__}")
 
@@ -140,9 +140,9 @@ class WholeBodyChunkTask(ChunkTask):
     scenario: str
     scenario_seed: int
     wholebody_entries: tuple = ()
-    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and whole-body method
-    (:class:`wbik.wholebody.methods.WholeBodyMethod`) of the chunk that user code registered at run
-    time (``register_sampler``, ``register_wholebody_method``): carried to the worker, which
+    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and method
+    (:class:`wbik.solvers.method.IKMethod`) of the chunk that user code registered at run
+    time (``register_sampler``, ``wbik.register``): carried to the worker, which
     registers them before solving (:meth:`WholeBodyCases.solve`); empty when the listed modules
     declare both."""
 
@@ -181,19 +181,19 @@ class WholeBodyCases(CaseKind):
 
     def method_option_schema(self, method: str) -> Map:
         from wbik.schema import option_schema
-        from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
+        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
 
-        return option_schema(WHOLEBODY_METHOD_REGISTRY.get(method).factory, leading=1)
+        return option_schema(IK_METHOD_REGISTRY.get(method).factory, leading=2)
 
     def methods(self) -> dict[str, str]:
-        from wbik.wholebody.methods import wholebody_methods
+        from wbik.solvers.method_registry import methods
 
-        return wholebody_methods()
+        return methods()
 
     def method_options(self, method: str) -> set[str]:
-        from wbik.wholebody.methods import wholebody_solver_options
+        from wbik.solvers.method_registry import solver_options
 
-        return wholebody_solver_options(method)
+        return solver_options(method)
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return list(ERROR_AXES)
@@ -203,9 +203,9 @@ class WholeBodyCases(CaseKind):
         return sample_poses(case.scenario, study.poses_of(case), study.seed)
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-        from wbik.wholebody.methods import wholebody_budget
+        from wbik.solvers.method_registry import budget_options
 
-        return wholebody_budget(method, timeout_s, options)
+        return budget_options(method, timeout_s, options, problem=True)
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> WholeBodyChunkTask:
@@ -231,12 +231,19 @@ class WholeBodyCases(CaseKind):
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: WholeBodyChunkTask):
-        import wbik
-        from wbik.wholebody.methods import wholebody_solver
+        """The method's solver on the robot (UnsupportedError: a chain method given no chain)."""
+        from wbik.errors import UnknownChainError
+        from wbik.errors import UnsupportedError
+        from wbik.solvers.method_registry import solver
+        from wbik.solvers.result import Tolerances
 
-        return wholebody_solver(task.method, _robot(task.robot, task.robot_params),
-                                tolerances=wbik.Tolerances(*task.tolerances), timeout_s=task.timeout_s,
-                                seed=task.seed, **dict(task.options))
+        try:
+            return solver(task.method, _robot(task.robot, task.robot_params),
+                          tolerances=Tolerances(*task.tolerances), timeout_s=task.timeout_s, seed=task.seed,
+                          **dict(task.options))
+        except UnknownChainError as exc:
+            raise UnsupportedError(f"method {task.method!r} solves chain targets and the case names no "
+                                   f"chain: {exc}") from None
 
     def refusal(self, task: WholeBodyChunkTask, solver) -> str | None:
         """The method's own reason it cannot express the case's first problem."""
@@ -375,7 +382,7 @@ class WholeBodyCases(CaseKind):
                 "p",
                 f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
                 f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is "
-                "judged by the one shared whole-body check (wbik.wholebody.check_wholebody): goal task "
+                "judged by the one shared whole-body check (wbik.solvers.check.check_problem): goal task "
                 f"errors by FK within {tolerances['position']:g} m / {tolerances['rotation']:g} rad, "
                 "contact drift within the same, CoM margin by FK against the support polygon of the "
                 "support soles at the answer, joint limits.",

@@ -46,10 +46,10 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import NoQPSolutionError
 from wbik.geometry import wrap_to_pi
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import LockedJoints
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import ComTask
@@ -251,8 +251,8 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
             held = dict(phase.stance)
             held.update({sole: path(s) for sole, path in phase.swing.items()})
             constraints = [Contact(sole, placement) for sole, placement in held.items()]
-            constraints += [CoMInSupportPolygon(active, margin), JointPositionLimits(robot.model),
-                            LockedJoints(robot.model, locked)]
+            constraints += [CoMInSupportPolygon(active, margin), JointPositionLimits(),
+                            LockedJoints(locked)]
             tasks = [PositionTask(frame, target(s), weight=HIP_WEIGHT, tolerance=1e-12, name=f"hip {frame}")
                      for frame, target in phase.hips.items()]
             if phase.pelvis_rotation is not None:

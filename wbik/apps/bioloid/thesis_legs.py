@@ -1,5 +1,5 @@
-"""``thesis_legs``: the Bioloid thesis's whole-body method, registered in the whole-body method
-registry (:data:`wbik.wholebody.methods.METHOD_MODULES`).
+"""``thesis_legs``: the Bioloid thesis's whole-body method (whole-body problems only), registered in the
+method registry.
 
 Each leg's closed form (foot -> hip, the LegPose closed form of wbik.robot_packages.bioloid.closed_form) from
 its planted or targeted sole to the hip, with the hip shifted horizontally until the CoM is over
@@ -26,28 +26,35 @@ from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
-from wbik.wholebody.methods import WholeBodyMethod
+from wbik.solvers.base import Solver
+from wbik.solvers.method import IKMethod
+from wbik.solvers.method_registry import solver
+from wbik.solvers.peer import NO_POLYGON
+from wbik.solvers.result import Candidate
+from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
-from wbik.wholebody.solvers import NO_POLYGON
-from wbik.wholebody.solvers import WholeBodyCandidate
-from wbik.wholebody.solvers import WholeBodySolver
 
 LEGS = {"r": ("right_leg", "r_sole", "r_hip"), "l": ("left_leg", "l_sole", "l_hip")}
 
 
-class ThesisLegs(WholeBodySolver):
+class ThesisLegs(Solver):
     """The Bioloid thesis's way: closed-form legs from the feet, the hip shifted over the CoM target."""
 
     name = "thesis_legs"
+    takes_problems = True
     # the budget's unit: one hip placement, two closed-form legs, FK, CoM (measured: docs/measurements.md,
     # thesis_legs)
-    iteration_cost_s = 1e-3
-    default_budget_s = 0.01
+    problem_iteration_cost_s = 1e-3
+    problem_budget_s = 0.01
     finite_step = 1e-4
     """Hip shift (m) of the one finite-difference CoM Jacobian."""
 
-    def __init__(self, robot, **options):
-        super().__init__(robot, **options)
+    def __init__(self, robot, chain=None, *, max_iterations: int | None = None, **options):
+        if chain is not None:
+            raise UnsupportedError(f"method 'thesis_legs' solves whole-body problems (wbik.WholeBody), not "
+                                   f"targets on chain {chain!r}")
+        super().__init__(robot, chain, **options)
+        self.problem_max_iterations = self._iteration_budget(max_iterations, problem=True)
         legs = {chain for chain, _, _ in LEGS.values()}
         if robot.name != "bioloid" or not robot.has_floating_base or not legs <= set(robot.chains):
             raise UnsupportedError(
@@ -56,9 +63,14 @@ class ThesisLegs(WholeBodySolver):
             )
         self._thread_state()  # the two closed-form leg solvers now, not in the first solve
 
-    def _new_thread_state(self):
-        from wbik.solvers.method_registry import solver
+    def check_target_kind(self, kind: str) -> None:
+        raise UnsupportedError(f"method {self.name!r} solves whole-body problems (wbik.WholeBody), not chain "
+                               "targets")
 
+    def _solve(self, target, q0, deadline) -> Candidate:
+        self.check_target_kind("pose")
+
+    def _new_thread_state(self):
         return {
             side: solver("analytic", self.robot, chain=chain, tolerances=self.tolerances)
             for side, (chain, _, _) in LEGS.items()
@@ -131,8 +143,9 @@ class ThesisLegs(WholeBodySolver):
             missing.append("minimum distances between frames (collisions)")
         return missing
 
-    def _solve(self, problem, q0, placements, polygon, deadline):
-        robot = self.robot
+    def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
+        robot, problem, q0 = self.robot, started.problem, started.q0
+        placements, polygon = started.placements, started.polygon
         legs = self._thread_state()
         targets = self._sole_targets(problem, q0, placements)
         com_target = None
@@ -148,7 +161,7 @@ class ThesisLegs(WholeBodySolver):
                 and task.goal
                 and not self._expressed(problem, task, q0)
             ):
-                return WholeBodyCandidate(
+                return Candidate(
                     q0.copy(),
                     0,
                     f"cannot express goal task {task.name}: the closed-form legs keep the pelvis orientation",
@@ -183,7 +196,7 @@ class ThesisLegs(WholeBodySolver):
         q, reason = place(shift)
         iterations = 1
         if q is None:
-            return WholeBodyCandidate(None, iterations, reason)
+            return Candidate(None, iterations, reason)
         if com_target is not None:
             tolerance = 0.5 * self.tolerances.position
             jacobian = None
@@ -191,9 +204,9 @@ class ThesisLegs(WholeBodySolver):
                 error = robot.center_of_mass(q)[:2] - com_target
                 if float(np.linalg.norm(error)) <= tolerance:
                     break
-                if iterations >= self.max_iterations:
+                if iterations >= max_iterations:
                     off = float(np.linalg.norm(error))
-                    reason = f"no convergence in {self.max_iterations} iterations (CoM {off:.3g} m off)"
+                    reason = f"no convergence in {max_iterations} iterations (CoM {off:.3g} m off)"
                     break
                 if time.perf_counter() > deadline:
                     reason = f"time budget of {self.timeout_s:g} s used up"
@@ -206,7 +219,7 @@ class ThesisLegs(WholeBodySolver):
                         moved, why = place(probe)
                         iterations += 1
                         if moved is None:
-                            return WholeBodyCandidate(q, iterations, why)
+                            return Candidate(q, iterations, why)
                         columns.append(
                             (robot.center_of_mass(moved)[:2] - com_target - error) / self.finite_step
                         )
@@ -215,23 +228,22 @@ class ThesisLegs(WholeBodySolver):
                 trial, why = place(shift)
                 iterations += 1
                 if trial is None:
-                    return WholeBodyCandidate(
+                    return Candidate(
                         q, iterations, f"the hip shift needed for the CoM target: {why}"
                     )
                 q = trial
         if cannot:
             reason = f"cannot express goal task(s) {', '.join(cannot)}" + (f"; {reason}" if reason else "")
-        return WholeBodyCandidate(q, iterations, reason, {"cannot_express": cannot})
+        return Candidate(q, iterations, reason, {"cannot_express": cannot})
 
 
 def chain_tip(robot: Robot, chain: str) -> str:
     return robot.chain(chain).tip_frame
 
 
-WHOLEBODY_METHODS = (
-    WholeBodyMethod(
-        "thesis_legs", ThesisLegs,
-        "Bioloid thesis: closed-form legs from the feet, hip shifted until the CoM is on target",
-    ),
+IK_METHODS = (
+    IKMethod("thesis_legs", ThesisLegs,
+             "Bioloid thesis: whole bodies by closed-form legs from the feet, the hip shifted until the CoM "
+             "is on target"),
 )
 """The Bioloid's whole-body method."""

@@ -75,10 +75,10 @@ from wbik.robot_packages.golem3.model import L5
 from wbik.robot_packages.golem3.model import L6
 from wbik.robot_packages.golem3.model import RHO
 from wbik.robot_packages.golem3.model import H
-from wbik.solvers.base import Candidate
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.check import evaluate
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.targets import as_target
 

@@ -40,7 +40,6 @@ from wbik.scenarios.kinds import start_of
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Each move from where the previous one ended; one entry per move, the moves' animations chained."""
     from wbik.solvers.method_registry import solver
-
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, timeout_s=float(spec["timeout_s"]))
     chain = ik.chain

@@ -61,7 +61,7 @@ from wbik.apps.riveting.scene import Hole
 from wbik.errors import NoQPSolutionError
 from wbik.motion.profiles import time_law
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraints import JointPositionLimits
+from wbik.qp.limits import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
 from wbik.solvers.analytic.closed_form import wrap_into_limits
@@ -251,7 +251,7 @@ class QPPlanner(Planner):
     def _qp_path(self, target: pin.SE3, q_start: np.ndarray, q_end: np.ndarray) -> np.ndarray | None:
         """Trust-region QP steps from q_start toward the 5-D target under the clearance constraint."""
         task = ToolAxisTask(self.tcp, target, tolerance=TASK_TOLERANCE)
-        constraints = [JointPositionLimits(self.model),
+        constraints = [JointPositionLimits(),
                        WorkpieceClearance(self.counted, self.minimum_clearance)]
         problem = IKProblem(self.model, [task, RegularizationTask(1e-9)], constraints, backend=self.backend,
                             max_step=0.2)

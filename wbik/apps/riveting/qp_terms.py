@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.qp.constraints import InequalityConstraint
+from wbik.qp.constraint import InequalityConstraint
 from wbik.qp.kinematics import LWA
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.rows import InequalityRows

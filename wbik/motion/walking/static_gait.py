@@ -36,10 +36,10 @@ from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.footsteps import Footstep
 from wbik.motion.walking.swing import swing_pose
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import LockedJoints
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import ComTask
@@ -143,7 +143,7 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
     rows, support, anchor, anchor_placement, margins = [q.copy()], [tuple(feet.frames)], [feet.left], \
         [stand["left"]], [np.nan]
     phase_ends: list[int] = []
-    common = [JointPositionLimits(model)] + ([LockedJoints(model, list(locked))] if locked else [])
+    common = [JointPositionLimits()] + ([LockedJoints(list(locked))] if locked else [])
 
     def heading_of() -> float:
         yaws = [math.atan2(stand[s].rotation[1, 0], stand[s].rotation[0, 0]) for s in SIDES]

@@ -49,11 +49,11 @@ from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.pattern import walk_pattern
 from wbik.motion.walking.swing import quintic
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraints import CollisionAvoidance
-from wbik.qp.constraints import EqualityConstraint
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import JointVelocityLimits
-from wbik.qp.constraints import LockedJoints
+from wbik.qp.constraint import EqualityConstraint
+from wbik.qp.distances import CollisionAvoidance
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.rows import EqualityRows
 from wbik.qp.tasks import ComTask
@@ -213,11 +213,11 @@ class Tracker:
         self._trunk_heading0 = math.atan2(trunk[1, 0], trunk[0, 0])
         self._trunk_level = pin.utils.rotate("z", -self._trunk_heading0) @ trunk  # pitch and roll only
         self.q0 = np.asarray(q0, dtype=float).copy()
-        self.constraints = [JointPositionLimits(robot.model)]
+        self.constraints = [JointPositionLimits()]
         if settings.velocity_limits:
-            self.constraints.append(JointVelocityLimits(robot.model))
+            self.constraints.append(JointVelocityLimits())
         if settings.locked:
-            self.constraints.append(LockedJoints(robot.model, list(settings.locked)))
+            self.constraints.append(LockedJoints(list(settings.locked)))
         self.collision_model = (leg_collision_model(robot, feet, settings.leg_capsules)
                                 if settings.self_collision else None)
         if self.collision_model is not None and self.collision_model.pairs:

@@ -17,10 +17,10 @@ from wbik.errors import InvalidConfigurationError
 from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
+from wbik.solvers.check import evaluate
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import pose_error
 

@@ -30,11 +30,11 @@ from wbik.solvers.analytic.recognition import recognise_eaik
 from wbik.solvers.analytic.recognition import recognise_family
 from wbik.solvers.analytic.redundancy import lock_redundant_joint
 from wbik.solvers.analytic.structure import chain_lines
-from wbik.solvers.base import Candidate
-from wbik.solvers.base import IKResult
 from wbik.solvers.base import Solver
-from wbik.solvers.base import evaluate
-from wbik.solvers.method_registry import IKMethod
+from wbik.solvers.check import evaluate
+from wbik.solvers.method import IKMethod
+from wbik.solvers.result import Candidate
+from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 

@@ -28,8 +28,8 @@ import numpy as np
 from wbik.kernels import PURE_PYTHON_VARIABLE  # noqa: F401 - re-exported: the switch, for this kernel's users
 from wbik.kernels import pure_python
 from wbik.robot import Chain
-from wbik.solvers.base import IKResult
-from wbik.solvers.base import Tolerances
+from wbik.solvers.result import IKResult
+from wbik.solvers.result import Tolerances
 
 if TYPE_CHECKING:
     from wbik.solvers.analytic.ur_type import URGeometry

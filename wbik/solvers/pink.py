@@ -1,5 +1,5 @@
-"""Method ``pink``: pin-pink 4.4's differential IK on a whole body, and Pink's forms of wbik's tasks
-and constraints (:data:`wbik.qp.peers.PINK`).
+"""Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
+wbik's tasks and constraints (:data:`wbik.qp.peers.PINK`).
 
 Tasks are Pink's FrameTask (also for position-only and orientation-only tasks, the other half at cost
 0), RelativeFrameTask, ComTask and PostureTask (on some joints: cost 0 on the others), costs the
@@ -8,7 +8,8 @@ equality constraints (a point foot: a 3-row task of our own, :func:`pink_point_c
 ConfigurationLimit and VelocityLimit, solved at dt = the problem's ``step_dt``. Pink 4.4 has no hard
 CoM-in-polygon constraint, so it solves without one and every pink result with a support polygon
 lists it in ``unsupported``; nor acceleration limits or minimum distances here, nor strict priority
-levels.
+levels. Locked joints are an equality constraint of our own (:func:`pink_locked_joints`); a chain target
+is the chain's problem (the tip's frame task, every other joint locked).
 """
 
 from __future__ import annotations
@@ -20,14 +21,15 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
-from wbik.qp.constraints import CoMInSupportPolygon
-from wbik.qp.constraints import Contact
-from wbik.qp.constraints import JointAccelerationLimits
-from wbik.qp.constraints import JointPositionLimits
-from wbik.qp.constraints import JointVelocityLimits
-from wbik.qp.constraints import MinimumDistance
-from wbik.qp.constraints import PointContact
-from wbik.qp.peers import PINK
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
+from wbik.qp.contacts import PointContact
+from wbik.qp.distances import MinimumDistance
+from wbik.qp.limits import JointAccelerationLimits
+from wbik.qp.limits import JointPositionLimits
+from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import LockedJoints
+from wbik.qp.peers import PeerForms
 from wbik.qp.peers import frame_weights
 from wbik.qp.peers import largest_weight
 from wbik.qp.tasks import ComTask
@@ -37,14 +39,20 @@ from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import RelativeFrameTask
-from wbik.wholebody.methods import WholeBodyMethod
-from wbik.wholebody.solvers import NO_POLYGON
-from wbik.wholebody.solvers import PeerWholeBody
-from wbik.wholebody.solvers import SolveIKProblem
-from wbik.wholebody.solvers import raise_damping
-from wbik.wholebody.solvers import stalled
+from wbik.solvers.method import IKMethod
+from wbik.solvers.peer import NO_POLYGON
+from wbik.solvers.peer import PeerSolver
+from wbik.solvers.peer import SolveIKProblem
+from wbik.solvers.peer import raise_damping
+from wbik.solvers.peer import stalled
+from wbik.solvers.result import Candidate
+from wbik.wholebody.problem import StartedProblem
 
-__all__ = ["WHOLEBODY_METHODS", "PinkProblem", "PinkWholeBody", "pink_point_contact"]
+__all__ = ["IK_METHODS", "PinkProblem", "PinkSolver", "pink_locked_joints", "pink_point_contact"]
+
+
+PINK = PeerForms("pink", "Pink")
+"""Pink's forms of wbik's tasks and constraints (and of the user's: ``@PINK.form(MyTask)``)."""
 
 
 @dataclass
@@ -160,8 +168,13 @@ def _velocity_limits(limits: JointVelocityLimits, pink: PinkProblem) -> None:
     from pink.limits import VelocityLimit
 
     velocity = np.full(pink.model.nv, np.inf)
-    velocity[limits.v_index] = limits.limit / pink.dt
+    velocity[limits.v_index] = limits.step_limit / pink.dt
     pink.limits.append(VelocityLimit(pink.model, velocity))
+
+
+@PINK.form(LockedJoints)
+def _locked(locked: LockedJoints, pink: PinkProblem) -> None:
+    pink.constraints.append(pink_locked_joints(locked.v_index, pink.kinematics.q.copy()))
 
 
 PINK.cannot(CoMInSupportPolygon, f"Pink 4.4 has no {NO_POLYGON}; solved without it, the CoM margin is only "
@@ -196,19 +209,43 @@ def pink_point_contact(frame: str, position: np.ndarray):
     return PointContactTask()
 
 
+def pink_locked_joints(v_index: np.ndarray, held: np.ndarray):
+    """A Pink task holding the tangent coordinates ``v_index`` where they are in ``held`` (the start q),
+    for Pink's equality constraints: e = (q (-) held)[v_index], J = those rows of the identity."""
+    from pink.tasks import Task as PinkTask
+
+    class LockedJointsTask(PinkTask):
+        def __init__(self):
+            super().__init__(cost=1.0)
+
+        def compute_error(self, configuration) -> np.ndarray:
+            return pin.difference(configuration.model, held, configuration.q)[v_index]
+
+        def compute_jacobian(self, configuration) -> np.ndarray:
+            return np.eye(configuration.model.nv)[v_index]
+
+        def __repr__(self) -> str:
+            return f"LockedJointsTask({len(v_index)} coordinates)"
+
+    return LockedJointsTask()
+
+
 # -- the method -----------------------------------------------------------------------------------------
-class PinkWholeBody(PeerWholeBody):
+class PinkSolver(PeerSolver):
     """pin-pink's differential IK, iterated by our loop (dt = the problem's step_dt per step)."""
 
     name = "pink"
-    # the budget's unit: solve_ik, integration, convergence FK (measured: docs/measurements.md, wholebody)
-    iteration_cost_s = 500e-6
-    default_budget_s = 0.12
+    # the budget's units: solve_ik, integration, convergence FK, on an arm and on a humanoid (measured:
+    # docs/measurements.md, pink and wholebody)
+    iteration_cost_s = 150e-6
+    default_budget_s = 0.03
+    problem_iteration_cost_s = 500e-6
+    problem_budget_s = 0.12
     forms = PINK
     priorities = "Pink: weighted costs only"
 
-    def __init__(self, robot, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
-        super().__init__(robot, **options)
+    def __init__(self, robot, chain=None, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
+        super().__init__(robot, chain, **options)
         try:
             import pink  # noqa: F401
         except ImportError as exc:
@@ -220,14 +257,13 @@ class PinkWholeBody(PeerWholeBody):
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 
-    def _solve(self, problem, q0, placements, polygon, deadline):
+    def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
         import pink
 
-        model = self.robot.model
-        tasks, kinematics = self.started_tasks(problem, q0)
-        built = PinkProblem(kinematics, problem.step_dt, self.damping, model=model)
-        self.translate(self.items(problem, tasks, placements, polygon), built)
-        configuration = pink.Configuration(model, model.createData(), q0.copy())
+        model, problem = self.robot.model, started.problem
+        built = PinkProblem(started.kinematics, problem.step_dt, self.damping, model=model)
+        self.translate(started, built)
+        configuration = pink.Configuration(model, model.createData(), started.q0.copy())
 
         def step(q: np.ndarray) -> tuple[np.ndarray, str]:
             try:
@@ -241,13 +277,12 @@ class PinkWholeBody(PeerWholeBody):
             return q, stalled(velocity, problem.step_dt, "Pink")
 
         # no hard polygon in Pink: the loop stops on goals and contacts only, the check judges the CoM
-        return self._peer_loop(step, q0.copy(), deadline, problem, kinematics, tasks, placements, None)
+        return self._peer_loop(step, started, deadline, max_iterations, with_polygon=False)
 
 
-WHOLEBODY_METHODS = (
-    WholeBodyMethod(
-        "pink", PinkWholeBody,
-        "pin-pink 4.4: frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
-    ),
+IK_METHODS = (
+    IKMethod("pink", PinkSolver,
+             "pin-pink 4.4: chain targets; whole bodies with frame / CoM / posture tasks, contacts as "
+             "constraints; no hard CoM polygon"),
 )
-"""The method this module declares (registered through wbik.wholebody.methods.METHOD_MODULES)."""
+"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

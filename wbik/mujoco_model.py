@@ -1,0 +1,359 @@
+"""The robot in MuJoCo (4.0): one model builder for every use of MuJoCo (mink's IK).
+
+MuJoCo reads the robot's own URDF text (``mujoco.MjSpec.from_string``: MuJoCo loads URDF as well as
+MJCF) with its visual, collision and mimic elements removed (MuJoCo would resolve every mesh a URDF names,
+and turns mimic joints into equality constraints wbik does not use: wbik locks them), and MuJoCo's URDF
+extension added (a ``<mujoco>`` element with a ``<compiler>`` child): ``fusestatic="false"`` (it defaults
+to true for URDF and would merge every link behind a fixed joint, a tool frame such as the UR5's ``tcp``,
+into its parent), ``discardvisual="true"``, and bounds on masses and inertias. Kinematics alone
+(``masses=False``) drops the inertial elements too (MuJoCo refuses some URDF inertias); with the masses,
+the links' own masses and centres of mass are kept (inertias MuJoCo finds unphysical balanced).
+
+Through ``mujoco.MjSpec`` the model gets a free joint on the root link for a floating base (MuJoCo welds a
+URDF's root to the world), and a site ``wbik:FRAME`` for every frame of wbik's model, on the body of the
+link that carries it, at the frame's fixed offset. q between wbik and MuJoCo: the base pose (Pinocchio's
+quaternion x, y, z, w; MuJoCo's w, x, y, z) and every 1-DOF joint by name. MuJoCo's sites (and with the
+masses its CoM, ``subtree_com`` of the root) must equal wbik's to 1e-9 (m, rad) on seeded random
+configurations, else the robot is refused (UnsupportedError). MuJoCo's warnings while it compiles are kept
+(``MuJoCoBody.warnings``), not printed nor appended to MUJOCO_LOG.TXT.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import threading
+import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from dataclasses import field
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnsupportedError
+from wbik.geometry import wrap_to_pi
+from wbik.robot import Robot
+
+INSTALL = "pip install mink==1.3.0"
+_DROPPED = re.compile(r"<(visual|collision|inertial|mimic)\b[^>]*?/>"
+                      r"|<(visual|collision|inertial|mimic)\b.*?</\2\s*>", re.DOTALL)
+_DROPPED_BUT_INERTIAL = re.compile(r"<(visual|collision|mimic)\b[^>]*?/>"
+                                   r"|<(visual|collision|mimic)\b.*?</\2\s*>", re.DOTALL)
+_ROBOT_TAG = re.compile(r"<robot\b[^>]*?>", re.DOTALL)
+MUJOCO_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" boundmass="1e-9" '
+                    'boundinertia="1e-12"/></mujoco>')
+"""MuJoCo's URDF extension: keep every link a body (fixed joints not fused), no visual elements, and
+bounds that let the massless links move (see the module docstring)."""
+MUJOCO_MASS_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" inertiafromgeom="false" '
+                         'balanceinertia="true" boundmass="1e-12" boundinertia="1e-14"/></mujoco>')
+"""The extension for a URDF read with its masses: the links' own masses and centres of mass (no
+inertia from geometry), inertias MuJoCo finds unphysical balanced (they play no part in kinematics nor
+in a centre of mass), and bounds small enough to leave a centre of mass unchanged to 1e-12 m."""
+def import_mink():
+    """(mink, mujoco), or MissingDependencyError with the install command."""
+    try:
+        import mink
+        import mujoco
+    except ImportError as exc:
+        raise MissingDependencyError(
+            f"MuJoCo's IK (method 'mink') needs mink and MuJoCo ({exc}); install them with: "
+            f"{INSTALL}") from None
+    return mink, mujoco
+
+
+def mujoco_urdf(text: str, masses: bool = False) -> str:
+    """The robot's URDF for MuJoCo, kinematics only: no visual, collision, inertial or mimic elements, and
+    MuJoCo's compiler extension added; with ``masses`` the inertial elements stay (for a centre of mass)
+    and the extension is MUJOCO_MASS_EXTENSION."""
+    # a regular expression rather than an XML parser, as for PlaCo (wbik.solvers.placo): URDF readers accept
+    # some files a strict XML parser rejects
+    text = (_DROPPED_BUT_INERTIAL if masses else _DROPPED).sub("", text)
+    text = re.sub(r"<mujoco\b.*?</mujoco\s*>|<mujoco\b[^>]*/>", "", text, flags=re.DOTALL)
+    match = _ROBOT_TAG.search(text)
+    if match is None:
+        raise UnsupportedError("the URDF has no <robot> element MuJoCo could read")
+    return text[:match.end()] + (MUJOCO_MASS_EXTENSION if masses else MUJOCO_EXTENSION) + text[match.end():]
+
+
+@dataclass(frozen=True)
+class FrameOnBody:
+    """A Pinocchio frame as MuJoCo sees it: the MuJoCo body (URDF link) carrying it, its fixed pose there."""
+
+    body: str
+    placement: pin.SE3
+
+
+def frame_on_body(robot: Robot, frame: str) -> FrameOnBody:
+    """The URDF link (a MuJoCo body) that carries ``frame``, and the frame's pose in that link.
+
+    A link frame is its own body; another frame (a joint, a fixed joint) is placed on the first link frame
+    up its parent frames that moves with the same joint (so the offset is fixed)."""
+    model = robot.model
+    frame_id = robot.frame_id(frame)
+    target = model.frames[frame_id]
+    current = frame_id
+    while True:
+        candidate = model.frames[current]
+        if candidate.parentJoint != target.parentJoint:
+            break
+        if candidate.type == pin.FrameType.BODY:
+            link = robot.renamed_frames.get(candidate.name, candidate.name)
+            return FrameOnBody(link, candidate.placement.inverse() * target.placement)
+        if candidate.parentFrame == current:
+            break
+        current = candidate.parentFrame
+    raise UnsupportedError(f"frame {frame!r} is carried by no URDF link that MuJoCo keeps as a body")
+
+
+_WARNINGS_LOCK = threading.Lock()
+
+
+@contextmanager
+def mujoco_warnings(mujoco) -> Iterator[list[str]]:
+    """Collect MuJoCo's warnings in a list instead of its default handler (which prints them and appends
+    them to MUJOCO_LOG.TXT in the working directory); the previous handler is restored after."""
+    messages: list[str] = []
+    with _WARNINGS_LOCK:
+        previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(messages.append)
+        try:
+            yield messages
+        finally:
+            mujoco.set_mju_user_warning(previous)
+
+
+def urdf_spec(mujoco, urdf_text: str, masses: bool = False):
+    """MuJoCo's MjSpec of the robot's URDF text (as :func:`mujoco_urdf` prepares it, ``masses`` as there);
+    UnsupportedError when MuJoCo cannot read it."""
+    try:
+        return mujoco.MjSpec.from_string(mujoco_urdf(urdf_text, masses=masses))
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot read the URDF: {str(exc).strip()}") from None
+
+
+def add_site(body, name: str, placement: pin.SE3) -> None:
+    """A site called ``name`` on the MjSpec body ``body``, at ``placement`` in the body's frame."""
+    quaternion = pin.Quaternion(placement.rotation)
+    body.add_site(name=name, pos=placement.translation.tolist(),
+                  quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
+
+
+def compile_spec(spec):
+    """MuJoCo's model (MjModel) of the MjSpec ``spec``; UnsupportedError when it does not compile."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
+
+
+FREE_JOINT = "wbik_free_base"
+SITE_PREFIX = "wbik:"
+AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 4, 0, 1e-9
+"""MuJoCo's CoM and sites must equal wbik's to AGREEMENT_TOLERANCE (m, rad) at the nominal and at
+AGREEMENT_POSES - 1 seeded random configurations."""
+
+
+@dataclass
+class MuJoCoBody:
+    """The robot in MuJoCo: the ``model`` (an MjModel), ``sites`` {wbik frame: site name}, and the maps
+    of q: wbik's ``q_index`` and MuJoCo's ``qpos_index`` of the same coordinates (the base pose's, its
+    quaternion's order changed, and each 1-DOF joint's), the 1-DOF joints' tangent indices
+    (``v_index``, ``dof_index``), their names by wbik's tangent index (``joint_names``), and the
+    continuous joints' q indices (``wrapped``)."""
+
+    robot: Robot
+    model: Any
+    sites: dict[str, str]
+    q_index: np.ndarray
+    qpos_index: np.ndarray
+    v_index: np.ndarray
+    dof_index: np.ndarray
+    joint_names: dict[int, str]
+    wrapped: np.ndarray
+    base_dof: int | None = None
+    """MuJoCo's first DOF address of the free base (None without a floating base)."""
+    warnings: tuple[str, ...] = ()
+    """What MuJoCo's parser and compiler warned about."""
+    agreed: list = field(default_factory=list)
+    """The frame lists whose sites were checked against wbik's."""
+
+    def qpos(self, q: np.ndarray) -> np.ndarray:
+        """MuJoCo's qpos of wbik's configuration q."""
+        qpos = self.model.qpos0.copy()
+        qpos[self.qpos_index] = q[self.q_index]
+        return qpos
+
+    def q(self, qpos: np.ndarray) -> np.ndarray:
+        """wbik's configuration of MuJoCo's qpos (continuous joints wrapped into [-pi, pi])."""
+        q = self.robot.nominal.copy()
+        q[self.q_index] = qpos[self.qpos_index]
+        if self.wrapped.size:
+            q[self.wrapped] = wrap_to_pi(q[self.wrapped])
+        return q
+
+    def dofs(self, v_index: np.ndarray) -> np.ndarray:
+        """MuJoCo's DOF addresses of wbik's tangent indices (the free base's six and 1-DOF joints')."""
+        where = {int(v): int(d) for v, d in zip(self.v_index, self.dof_index, strict=True)}
+        if self.base_dof is not None:
+            where.update({v: self.base_dof + v for v in range(6)})
+        return np.array([where[int(v)] for v in v_index], dtype=int)
+
+    def site(self, frame: str) -> str:
+        """The site of a wbik frame."""
+        self.robot.frame_id(frame)  # UnknownFrameError names the frames
+        return self.sites[frame]
+
+
+def _carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
+    """(URDF link carrying the frame, None for the world; the frame's pose in it)."""
+    model = robot.model
+    frame = model.frames[frame_id]
+    try:
+        where = frame_on_body(robot, frame.name)
+        return where.body, where.placement
+    except UnsupportedError:
+        pass  # a joint's frame (its child link carries it), or a frame of the world
+    if frame.parentJoint == 0:
+        return None, frame.placement
+    for candidate in model.frames:
+        if candidate.type == pin.FrameType.BODY and candidate.parentJoint == frame.parentJoint:
+            link = robot.renamed_frames.get(candidate.name, candidate.name)
+            return link, candidate.placement.inverse() * frame.placement
+    raise UnsupportedError(f"frame {frame.name!r} is carried by no URDF link MuJoCo keeps as a body")
+
+
+def _massless_while_welded(body) -> None:
+    """No mass on ``body`` and its descendants while no joint moves them (welded to the world)."""
+    if body.joints:
+        return
+    body.mass, body.inertia, body.explicitinertial = 0.0, [0.0, 0.0, 0.0], True
+    for child in body.bodies:
+        _massless_while_welded(child)
+
+
+def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
+    model = robot.model
+    spec = urdf_spec(mujoco, robot.urdf_text, masses=masses)
+    if robot.has_floating_base:
+        root = next(frame for frame in model.frames
+                    if frame.type == pin.FrameType.BODY and frame.parentJoint == 1)
+        body = spec.body(robot.renamed_frames.get(root.name, root.name))
+        if body is None:
+            raise UnsupportedError(f"MuJoCo has no body for the root link {root.name!r}")
+        body.add_freejoint(name=FREE_JOINT)
+    elif masses:
+        for body in spec.worldbody.bodies:
+            _massless_while_welded(body)
+    sites = {}
+    for name in dict.fromkeys(frame.name for frame in model.frames):
+        link, placement = _carrier(robot, robot.frame_id(name))
+        body = spec.worldbody if link is None else spec.body(link)
+        if body is None:
+            raise UnsupportedError(f"frame {name!r}: MuJoCo has no body {link!r}")
+        sites[name] = SITE_PREFIX + name
+        add_site(body, sites[name], placement)
+    compiled = compile_spec(spec)
+    slots = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
+    q_index, qpos_index, v_index, dof_index, names, base_dof = [], [], [], [], {}, None
+    if robot.has_floating_base:  # x y z, then Pinocchio's quaternion x y z w is MuJoCo's w x y z
+        free = mujoco.mj_name2id(compiled, mujoco.mjtObj.mjOBJ_JOINT, FREE_JOINT)
+        at, base_dof = int(compiled.jnt_qposadr[free]), int(compiled.jnt_dofadr[free])
+        q_index += range(7)
+        qpos_index += [at, at + 1, at + 2, at + 4, at + 5, at + 6, at + 3]
+    for joint_id in range(1, model.njoints):
+        joint, name = model.joints[joint_id], model.names[joint_id]
+        if joint_id == 1 and robot.has_floating_base:
+            continue
+        if joint.nq != 1 or joint.nv != 1:
+            raise UnsupportedError(f"joint {name!r} ({joint.shortname()}) is neither the floating base nor "
+                                   "a 1-DOF joint")
+        mj_id = mujoco.mj_name2id(compiled, mujoco.mjtObj.mjOBJ_JOINT, name)
+        if mj_id < 0 or int(compiled.jnt_type[mj_id]) not in slots:
+            raise UnsupportedError(f"MuJoCo has no hinge or slide joint {name!r}")
+        q_index.append(joint.idx_q)
+        qpos_index.append(int(compiled.jnt_qposadr[mj_id]))
+        v_index.append(joint.idx_v)
+        dof_index.append(int(compiled.jnt_dofadr[mj_id]))
+        names[joint.idx_v] = name
+    wrapped = [model.joints[model.getJointId(name)].idx_q for name in robot.continuous_joints]
+    return MuJoCoBody(robot, compiled, sites, *(np.array(index, dtype=int) for index in (
+        q_index, qpos_index, v_index, dof_index)), names, np.array(wrapped, dtype=int), base_dof=base_dof)
+
+
+def random_configurations(robot: Robot, count: int, seed: int) -> list[np.ndarray]:
+    """``count`` seeded configurations inside the joint limits (a range wider than [-pi, pi] cut to
+    it), the base anywhere within 1 m with any orientation."""
+    rng = np.random.default_rng(seed)
+    model = robot.model
+    lower = np.maximum(model.lowerPositionLimit, -math.pi)
+    upper = np.minimum(model.upperPositionLimit, math.pi)
+    configurations = []
+    for _ in range(count):
+        q = rng.uniform(lower, upper)
+        if robot.has_floating_base:
+            q[:3] = rng.uniform(-1.0, 1.0, 3)
+            quaternion = rng.normal(size=4)
+            q[3:7] = quaternion / np.linalg.norm(quaternion)
+        configurations.append(q)
+    return configurations
+
+
+def agreement(body: MuJoCoBody, configurations: list[np.ndarray], mujoco, frames, with_com: bool) -> float:
+    """Largest difference (m, rad) between MuJoCo's sites of ``frames`` (and CoM) and wbik's."""
+    robot = body.robot
+    data, pin_data = mujoco.MjData(body.model), robot.model.createData()
+    worst = 0.0
+    for q in configurations:
+        data.qpos[:] = body.qpos(q)
+        mujoco.mj_kinematics(body.model, data)
+        pin.framesForwardKinematics(robot.model, pin_data, q)
+        if with_com:
+            mujoco.mj_comPos(body.model, data)
+            com = pin.centerOfMass(robot.model, pin_data, q)
+            worst = max(worst, float(np.max(np.abs(data.subtree_com[1] - com))))
+        for frame in frames:
+            site = body.sites[frame]
+            expected, reached = pin_data.oMf[robot.frame_id(frame)], data.site(site)
+            worst = max(worst, float(np.max(np.abs(reached.xpos - expected.translation))),
+                        float(np.linalg.norm(pin.log3(expected.rotation.T @ reached.xmat.reshape(3, 3)))))
+    return worst
+
+
+_BODIES: dict[tuple[int, bool], tuple[weakref.ref, MuJoCoBody]] = {}
+_BODIES_LOCK = threading.Lock()
+
+
+def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
+    """MuJoCo's model of ``robot`` with its sites and maps (see the module docstring), built once per robot
+    and ``masses``, checked against wbik's ``frames`` (default all; with ``masses`` also the CoM);
+    UnsupportedError saying why when MuJoCo cannot take the robot."""
+    _, mujoco = import_mink()
+    key = (id(robot), bool(masses))
+    with _BODIES_LOCK:
+        known = _BODIES.get(key)
+    if known is not None and known[0]() is robot:
+        body = known[1]
+    else:
+        try:
+            with mujoco_warnings(mujoco) as warnings:
+                body = _compile(robot, mujoco, masses)
+        except UnsupportedError as refused:
+            raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
+        body.warnings = tuple(warnings)
+        with _BODIES_LOCK:
+            _BODIES[key] = (weakref.ref(robot), body)
+    frames = list(body.sites) if frames is None else list(frames)
+    if frames not in body.agreed:
+        configurations = [robot.nominal, *random_configurations(robot, AGREEMENT_POSES - 1, AGREEMENT_SEED)]
+        worst = agreement(body, configurations, mujoco, frames, masses)
+        if not worst <= AGREEMENT_TOLERANCE:
+            what = "CoM or frames" if masses else f"frames {', '.join(frames)}"
+            raise UnsupportedError(f"MuJoCo's {what} of {robot.name} differ from wbik's by up to {worst:.3g} "
+                                   f"(m, rad) (allowed {AGREEMENT_TOLERANCE:g}): MuJoCo reads this URDF "
+                                   "differently")
+        body.agreed.append(frames)
+    return body

@@ -1,0 +1,111 @@
+"""Balance: the centre of mass over the support polygon, shrunk by a margin."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from wbik.qp.constraint import SLACK
+from wbik.qp.constraint import InequalityConstraint
+from wbik.qp.constraint import Measure
+from wbik.qp.constraint import StartViolation
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import RowLabel
+from wbik.qp.support_polygon import DegenerateSupport
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.qp.support_polygon import feet_support_polygon
+from wbik.qp.support_polygon import feet_support_region
+
+
+class CoMInSupportPolygon(InequalityConstraint):
+    """The ground projection of the CoM stays inside the support polygon shrunk by ``margin`` (m).
+
+    Linearised: N (c_xy + J_com,xy dq) <= d - margin - safety, one row per polygon edge; ``safety`` (a few
+    micrometres) absorbs the linearisation's second-order error. The polygon is ``polygon``, or the hull
+    of the contact points of ``soles`` ({sole frame: (k, 3) points}, :attr:`wbik.Robot.soles`) where they
+    stand when the problem starts (support spanning no area: DegenerateSupportPolygonError). Its measure
+    is the margin of the polygon the soles make at the configuration judged.
+    """
+
+    label_kind = "support polygon"
+    quantity = "CoM margin"
+
+    def __init__(self, polygon: SupportPolygon | None = None, margin: float = 0.0, safety: float = 2e-6,
+                 *, soles: Mapping[str, np.ndarray] | None = None):
+        if margin < 0:
+            raise ValueError(f"the margin must be >= 0, got {margin}")
+        if (polygon is None) == (soles is None):
+            raise ValueError("CoMInSupportPolygon takes a polygon or the soles that make it, not both")
+        self.soles = None if soles is None else dict(soles)
+        self.margin, self.safety = float(margin), float(safety)
+        self.name = f"CoM in support polygon (margin {margin * 1e3:g} mm)"
+        self._version, self._projected = -1, np.zeros(0)
+        if polygon is not None:
+            self._use(polygon)
+
+    def _use(self, polygon: SupportPolygon) -> None:
+        self.polygon = polygon
+        self.normals, self.offsets = polygon.halfplanes(self.margin + self.safety)
+        self._version, self._projected = -1, np.zeros(len(self.offsets))
+
+    def start(self, kinematics: Kinematics) -> None:
+        if self.soles is not None:
+            self._use(feet_support_polygon(kinematics, self.soles, list(self.soles)))
+
+    def projected(self, kinematics: Kinematics) -> np.ndarray:
+        """N c_xy at the kinematics' q (once per configuration: the rows and the margin share it)."""
+        if self._version != kinematics.version:
+            self._projected = self.normals.dot(kinematics.com()[:2])
+            self._version = kinematics.version
+        return self._projected
+
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
+        return InequalityRows(self.normals.dot(kinematics.com_jacobian()[:2]),
+                              self.offsets - self.projected(kinematics))
+
+    def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
+        """Per edge ("a-b" by its vertices' labels): the CoM's distance to it (m) and the margin."""
+        inside = self.polygon.offsets - self.projected(kinematics)
+        return [self.label(self.polygon.edge_name(index), "", float(distance), self.margin, "m")
+                for index, distance in enumerate(inside.tolist())]
+
+    def com_margin(self, kinematics: Kinematics) -> float:
+        """Distance from the CoM projection to the polygon's boundary (m, positive inside)."""
+        return float((self.polygon.offsets - self.projected(kinematics)).min())
+
+    def violation(self, kinematics: Kinematics) -> float:
+        return max(self.margin - self.com_margin(kinematics), 0.0)
+
+    def measure(self, kinematics: Kinematics, tolerances) -> Measure:
+        region = self.polygon if self.soles is None else feet_support_region(kinematics, self.soles,
+                                                                             list(self.soles))
+        value = region.margin_of(kinematics.com()[:2])
+        if isinstance(region, DegenerateSupport):
+            shape = "a segment" if len(region.vertices) == 2 else "a point"
+            return Measure(self.name, self.quantity, value, "m", False,
+                           f"support polygon is degenerate (the support spans no area: {shape}), CoM "
+                           f"{-value * 1e3:.3g} mm from it")
+        return Measure(self.name, self.quantity, value, "m", value >= self.margin - SLACK,
+                       f"CoM margin {value * 1e3:.3g} mm < {self.margin * 1e3:g} mm")
+
+    def start_violations(self, kinematics: Kinematics, q0: np.ndarray) -> list[StartViolation]:
+        if self.violation(kinematics) <= SLACK:
+            return []
+        value = self.com_margin(kinematics)
+        return [self.start_violation(self.name, value, self.margin, "m",
+                                     f"CoM {value * 1e3:.3g} mm inside the support polygon < margin "
+                                     f"{self.margin * 1e3:g} mm")]
+
+    def row_text(self, label: RowLabel) -> str:
+        return (f"CoM {label.value * 1e3:.3g} mm inside the edge {label.subject} "
+                f"(margin {label.bound * 1e3:g} mm)")
+
+    def blocker_text(self, label: RowLabel) -> str:
+        return (f"CoM {label.value * 1e3:.3g} mm inside the edge {label.subject} of the support polygon "
+                f"(margin {label.bound * 1e3:g} mm)")
+
+    def advice(self, label: RowLabel) -> str:
+        return (f"the CoM is held at the support polygon's edge {label.subject}: bring the target closer, "
+                f"lower the margin ({label.bound * 1e3:g} mm) or widen the support")

@@ -1,0 +1,247 @@
+"""What every hard constraint is: typed rows for one QP step over dq (nv), a measure of a configuration
+by forward kinematics for the shared check, and words for its own rows.
+
+A constraint derives from one of three typed bases and implements the one method of that base
+(:mod:`wbik.qp.rows`):
+
+- ``BoundConstraint.bounds(k, dt)``      -> BoundRows       lower <= dq[index] <= upper
+- ``EqualityConstraint.equality(k)``     -> EqualityRows    A dq = b (also projected onto by the IK loop)
+- ``InequalityConstraint.inequality(k)`` -> InequalityRows  G dq <= h
+
+Its life: made by the user (no model needed), ``start(k)`` binds it to the model and the start
+configuration (a contact holds its pose there), ``rows(k, dt)`` per step, ``stepped(dq, dt)`` after a
+step (a constraint with a memory), ``measure(k, tolerances)`` judges an answer. It describes itself:
+``labels(k, rows)`` name its rows, and ``row_text`` / ``blocker_text`` / ``advice`` / ``start_text``
+put one row in words, so the diagnoses never ask a constraint what kind it is.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Collection
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import EqualityRows
+from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import RowLabel
+from wbik.qp.rows import Rows
+
+SLACK = 1e-9
+"""How far (m or rad) a configuration may be past a constraint's edge and still satisfy it (rounding)."""
+
+
+@dataclass(frozen=True)
+class Measure:
+    """How a configuration stands against one constraint: ``value`` of its ``quantity`` in ``unit``
+    (e.g. the CoM margin 0.012 m), whether it ``holds``, and ``failure``, the words of a breach."""
+
+    constraint: str
+    quantity: str
+    value: float
+    unit: str
+    holds: bool
+    failure: str = ""
+
+
+@dataclass(frozen=True)
+class StartViolation:
+    """A hard constraint the start configuration breaks: ``text`` in words; ``clipped`` when the loop
+    clips it away before the first step (a joint outside its limits), else the steps repair it."""
+
+    constraint: str
+    kind: str
+    subject: str
+    value: float
+    bound: float
+    unit: str
+    text: str
+    side: str = ""
+    clipped: bool = False
+
+    def as_dict(self) -> dict:
+        return {"constraint": self.constraint, "kind": self.kind, "subject": self.subject, "side": self.side,
+                "value": self.value, "bound": self.bound, "unit": self.unit, "text": self.text,
+                "clipped": self.clipped}
+
+
+class Describer:
+    """Words for the rows of one source of rows (a constraint, the step box): defaults name the row by
+    its constraint and subject; a constraint overrides what its rows mean."""
+
+    name = "constraint"
+    label_kind = "inequality"
+    """A short word for what its rows are, kept in the labels' JSON."""
+    groups_rows = False
+    """True when the rows of one subject are one thing in words (a contact's six axes)."""
+
+    def label(self, subject: str, side: str = "", value: float = math.nan, bound: float = math.nan,
+              unit: str = "") -> RowLabel:
+        return RowLabel(self.name, self.label_kind, subject, side, value, bound, unit, self)
+
+    def row_text(self, label: RowLabel) -> str:
+        """One row of a conflicting set."""
+        return f"{label.constraint} {label.subject}{' ' + label.side if label.side else ''}"
+
+    def group_text(self, labels: list[RowLabel]) -> str:
+        """Rows of one subject named together (only for ``groups_rows``)."""
+        return self.row_text(labels[0])
+
+    def blocker_text(self, label: RowLabel) -> str:
+        """An active row that holds the goals back."""
+        return f"{label.constraint} ({label.subject}{', ' + label.side if label.side else ''})"
+
+    def advice(self, label: RowLabel) -> str | None:
+        """What to change when this row blocks the goals (None: nothing specific)."""
+        return None
+
+    def conflict_advice(self, labels: list[RowLabel]) -> str | None:
+        """What to change when ``labels`` (this source's among them) conflict (None: the generic advice)."""
+        return None
+
+
+class Constraint(Describer):
+    """Base class: derive from BoundConstraint, EqualityConstraint or InequalityConstraint."""
+
+    quantity = ""
+    """What :meth:`measure` reports ("" for a constraint that shapes steps only, e.g. velocity limits)."""
+
+    def bind(self, model: pin.Model) -> None:
+        """Make what depends on the model alone (a problem calls it when it is made)."""
+
+    def start(self, kinematics: Kinematics) -> None:
+        """Bind to the model and the start configuration (called once per solve)."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> Rows:
+        """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""
+        raise NotImplementedError(f"{type(self).__name__} must derive from BoundConstraint, "
+                                  "EqualityConstraint or InequalityConstraint and implement its method")
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list:
+        """One RowLabel per row of ``rows``; a bound constraint gives a (lower, upper) pair per index.
+        Made on failure only."""
+        count = len(rows[1]) if not isinstance(rows, BoundRows) else 0
+        return [self.label(f"row {index}") for index in range(count)]
+
+    def stepped(self, dq: np.ndarray, dt: float) -> None:
+        """The step dq (over dt) was taken: a constraint with a memory updates it (default: none)."""
+
+    def violation(self, kinematics: Kinematics) -> float:
+        """How far the kinematics' q is beyond the constraint (m or rad, 0 inside); the IK loop's test."""
+        return 0.0
+
+    def measure(self, kinematics: Kinematics, tolerances) -> Measure | None:
+        """The shared check's verdict on the kinematics' q (None: nothing to judge)."""
+        return None
+
+    def start_violations(self, kinematics: Kinematics, q0: np.ndarray) -> list[StartViolation]:
+        """What the start q0 breaks (the kinematics stand at q0 clipped into the joint limits)."""
+        violation = float(self.violation(kinematics))
+        if violation <= SLACK:
+            return []
+        text = f"{self.name} violated by {violation:.3g}"
+        return [self.start_violation(self.name, violation, 0.0, "m", text)]
+
+    def start_violation(self, subject: str, value: float, bound: float, unit: str, text: str, side: str = "",
+                        clipped: bool = False) -> StartViolation:
+        return StartViolation(self.name, self.label_kind, subject, value, bound, unit, text, side, clipped)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.name!r})"
+
+
+class BoundConstraint(Constraint):
+    """lower <= dq[index] <= upper."""
+
+    label_kind = "bound"
+    unit = ""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        return self.bounds(kinematics, dt)
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        raise NotImplementedError
+
+    def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
+        """(lower, upper) labels per index of the bound rows, named by the tangent coordinate."""
+        names = tangent_names(kinematics.model)
+        indices = np.arange(kinematics.nv)[rows.index]
+        values = self.label_values(kinematics, indices)
+        lower, upper = (np.broadcast_to(np.asarray(v, dtype=float), indices.shape) for v in rows[1:])
+        return [(self.label(names[i], "lower", value, float(low), self.unit),
+                 self.label(names[i], "upper", value, float(high), self.unit))
+                for i, value, low, high in zip(indices.tolist(), values, lower.tolist(), upper.tolist(),
+                                               strict=True)]
+
+    def label_values(self, kinematics: Kinematics, indices: np.ndarray) -> list[float]:
+        """The measured value each bound's label carries (NaN: none)."""
+        return [math.nan] * len(indices)
+
+
+class EqualityConstraint(Constraint):
+    """A dq = b; the IK loop also projects its iterates onto these (Newton steps on e = 0)."""
+
+    label_kind = "equality"
+
+    def rows(self, kinematics: Kinematics, dt: float) -> EqualityRows:
+        return self.equality(kinematics)
+
+    def equality(self, kinematics: Kinematics) -> EqualityRows:
+        raise NotImplementedError
+
+
+class InequalityConstraint(Constraint):
+    """G dq <= h."""
+
+    def rows(self, kinematics: Kinematics, dt: float) -> InequalityRows:
+        return self.inequality(kinematics)
+
+    def inequality(self, kinematics: Kinematics) -> InequalityRows:
+        raise NotImplementedError
+
+
+class StepBox(Describer):
+    """The trust region |dq_j| <= radius of a step: where no constraint bounds a coordinate tighter."""
+
+    name = "step box"
+    label_kind = "trust region"
+
+    def row_text(self, label: RowLabel) -> str:
+        return f"the step box on {label.subject} ({label.side}, |dq| <= {label.bound:.2g})"
+
+    blocker_text = row_text
+
+
+STEP_BOX = StepBox()
+
+
+def tangent_names(model: pin.Model) -> list[str]:
+    """A name per tangent coordinate (nv): a 1-DOF joint's name; "<joint> x" ... "<joint> rz" for a
+    free flyer's six; "<joint>[i]" for another multi-DOF joint's."""
+    names = [""] * model.nv
+    for joint_id in range(1, model.njoints):
+        joint, name = model.joints[joint_id], model.names[joint_id]
+        if joint.nv == 1:
+            names[joint.idx_v] = name
+        else:
+            axes = ("x", "y", "z", "rx", "ry", "rz") if joint.nv == 6 else None
+            for offset in range(joint.nv):
+                names[joint.idx_v + offset] = f"{name} {axes[offset]}" if axes else f"{name}[{offset}]"
+    return names
+
+
+def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
+    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits, but for the
+    joints named in ``unbounded``."""
+    q_index, v_index = [], []
+    for joint_id, joint in enumerate(model.joints):
+        if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded:
+            low, high = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
+            if np.isfinite(low) and np.isfinite(high) and high - low < 1e10:
+                q_index.append(joint.idx_q)
+                v_index.append(joint.idx_v)
+    return np.array(q_index, dtype=int), np.array(v_index, dtype=int)

@@ -1,0 +1,285 @@
+"""Joint limits as bounds on one step dq: position, velocity and acceleration limits, locked joints.
+
+Each is made without a model and bound to one when a problem starts (:meth:`Constraint.bind`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import RobotDescriptionError
+from wbik.qp.constraint import SLACK
+from wbik.qp.constraint import BoundConstraint
+from wbik.qp.constraint import Measure
+from wbik.qp.constraint import StartViolation
+from wbik.qp.constraint import bounded_joint_indices
+from wbik.qp.constraint import tangent_names
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.rows import BoundRows
+from wbik.qp.rows import RowLabel
+from wbik.qp.rows import as_index
+
+
+class ModelBound(BoundConstraint):
+    """A bound constraint whose arrays come from the model: :meth:`bind` makes them once per model."""
+
+    _model: pin.Model | None = None
+
+    def bind(self, model: pin.Model) -> None:
+        if self._model is not model:
+            self._bind(model)
+            self._model = model
+
+    def _bind(self, model: pin.Model) -> None:
+        raise NotImplementedError
+
+    def start(self, kinematics: Kinematics) -> None:
+        self.bind(kinematics.model)
+
+
+class JointPositionLimits(ModelBound):
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step).
+
+    ``unbounded``: names of joints left without position bounds (continuous joints, whose answers are
+    wrapped instead)."""
+
+    name = "joint position limits"
+    label_kind = "joint limit"
+    quantity = "limit excess"
+    unit = "rad"
+
+    def __init__(self, unbounded: Collection[str] = ()):
+        self.unbounded = tuple(unbounded)
+
+    def _bind(self, model: pin.Model) -> None:
+        self.q_index, self.v_index = bounded_joint_indices(model, self.unbounded)
+        self.lower = model.lowerPositionLimit[self.q_index].copy()
+        self.upper = model.upperPositionLimit[self.q_index].copy()
+        self._q_rows, self._v_rows = as_index(self.q_index), as_index(self.v_index)
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        q = kinematics.q[self._q_rows]
+        return BoundRows(self._v_rows, self.lower - q, self.upper - q)
+
+    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        q = kinematics.q[self.q_index]
+        return [(self.label(names[v], "lower", value, low, "rad"),
+                 self.label(names[v], "upper", value, high, "rad"))
+                for v, value, low, high in zip(self.v_index.tolist(), q.tolist(), self.lower.tolist(),
+                                               self.upper.tolist(), strict=True)]
+
+    def clip(self, q: np.ndarray) -> None:
+        """Clip q (nq) into the limits, in place."""
+        rows = self._q_rows
+        if isinstance(rows, slice):  # a view: clipped in place
+            view = q[rows]
+            np.maximum(view, self.lower, out=view)
+            np.minimum(view, self.upper, out=view)
+        else:
+            q[rows] = np.minimum(np.maximum(q[rows], self.lower), self.upper)
+
+    def violation(self, kinematics: Kinematics) -> float:
+        q = kinematics.q[self._q_rows]
+        if q.size == 0:
+            return 0.0
+        return float(max((self.lower - q).max(), (q - self.upper).max(), 0.0))
+
+    def measure(self, kinematics: Kinematics, tolerances) -> Measure:
+        self.bind(kinematics.model)
+        excess = self.violation(kinematics)
+        return Measure(self.name, self.quantity, excess, "rad", excess <= SLACK,
+                       f"a joint {excess:.3g} beyond its limits")
+
+    def start_violations(self, kinematics: Kinematics, q0: np.ndarray) -> list[StartViolation]:
+        names, found = tangent_names(kinematics.model), []
+        for v, value, low, high in zip(self.v_index.tolist(), q0[self.q_index].tolist(), self.lower.tolist(),
+                                       self.upper.tolist(), strict=True):
+            for outside, bound, side, sign in ((value > high + SLACK, high, "upper", ">"),
+                                               (value < low - SLACK, low, "lower", "<")):
+                if outside:
+                    text = f"joint {names[v]} at {value:.4g} rad {sign} {bound:.4g}"
+                    found.append(self.start_violation(names[v], value, bound, "rad", text, side, True))
+        return found
+
+    def row_text(self, label: RowLabel) -> str:
+        return f"joint {label.subject} {label.side} limit ({label.bound:.4g} rad; at {label.value:.4g})"
+
+    def blocker_text(self, label: RowLabel) -> str:
+        return f"joint {label.subject} at its {label.side} limit ({label.bound:.4g} rad)"
+
+    def advice(self, label: RowLabel) -> str:
+        return (f"the goal needs {label.subject} beyond its {label.side} limit: bring the target within the "
+                "joints' range")
+
+
+class JointVelocityLimits(ModelBound):
+    """|dq_i| <= v_max,i ``period`` dt on the joints with a positive finite velocity limit (``limit``:
+    nv values, default the model's; ``period``: the time one IK step stands for, s)."""
+
+    name = "joint velocity limits"
+    label_kind = "velocity limit"
+    unit = "rad/s"
+
+    def __init__(self, limit: Sequence[float] | np.ndarray | None = None, period: float = 1.0):
+        self._given = None if limit is None else np.asarray(limit, dtype=float)
+        self.period = float(period)
+
+    def _bind(self, model: pin.Model) -> None:
+        limit = model.velocityLimit.copy() if self._given is None else self._given
+        if limit.shape != (model.nv,):
+            raise RobotDescriptionError(f"velocity limits need nv = {model.nv} values, got {limit.size}")
+        self.v_index = np.flatnonzero(np.isfinite(limit) & (limit > 0) & (limit < 1e10))
+        self.limit = limit[self.v_index]
+
+    @property
+    def step_limit(self) -> np.ndarray:
+        """The bound on one IK step at dt 1 of each limited coordinate: v_max ``period`` (rad or m)."""
+        return self.limit * self.period
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        step = self.limit * (self.period * dt)
+        return BoundRows(self.v_index, -step, step)
+
+    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        return [(self.label(names[v], "lower", np.nan, -limit, "rad/s"),
+                 self.label(names[v], "upper", np.nan, limit, "rad/s"))
+                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
+
+    def row_text(self, label: RowLabel) -> str:
+        return f"velocity limit of {label.subject} ({label.side}, {abs(label.bound):.3g} rad/s)"
+
+    def blocker_text(self, label: RowLabel) -> str:
+        return f"the velocity limit of {label.subject} ({abs(label.bound):.3g} rad/s per step)"
+
+    def advice(self, label: RowLabel) -> str:
+        return (f"the velocity limit of {label.subject} bounds each step: more iterations (max_iterations) "
+                "reach further")
+
+
+class JointAccelerationLimits(ModelBound):
+    """|dq/dt - v_prev| <= a_max dt on every joint with a positive finite acceleration limit, and room to
+    brake before a position limit:
+
+        dt (v_prev - a_max dt) <= dq <= dt (v_prev + a_max dt),
+        -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q)         (bounded 1-DOF joints)
+
+    with v_stop(d) the largest velocity from which braking at a_max, one period at a time, stops within
+    d (:func:`stopping_velocity`). Since D(v) = v dt + D(v - a dt), a velocity that can stop leaves one
+    that can after its period, so the second line is always met on the way to a limit.
+
+    ``v_prev`` (``velocity``, nv; zeros at first) is the previous step's dq / dt, reported through
+    :meth:`stepped`; set it for a measured one. Bounding the change of velocity between periods removes
+    the chatter of an active set switching near a limit (PlaCo #7; ``benchmarks/chatter.py``).
+    ``acceleration_limit``: rad/s^2 (m/s^2 for a prismatic joint), one value for every joint (none on a
+    floating base) or nv values (inf or 0: none); ``period``: the time one IK step stands for (s).
+    """
+
+    name = "joint acceleration limits"
+    label_kind = "acceleration limit"
+    unit = "rad/s^2"
+
+    def __init__(self, acceleration_limit: float | np.ndarray, period: float = 1.0,
+                 unbounded: Collection[str] = ()):
+        given = np.asarray(acceleration_limit, dtype=float)
+        if np.any(np.isnan(given)) or np.any(given < 0):
+            raise ValueError(f"acceleration limits must be >= 0, got {acceleration_limit!r}")
+        self._given, self.period, self.unbounded = given * float(period) ** 2, float(period), tuple(unbounded)
+        self.velocity = np.zeros(0)
+
+    def _bind(self, model: pin.Model) -> None:
+        limit = self._given
+        if limit.ndim == 0:
+            limit = np.full(model.nv, float(limit))
+            limit[:6 if model.njoints > 1 and model.joints[1].nv == 6 else 0] = np.inf
+        if limit.shape != (model.nv,):
+            raise ValueError(f"acceleration limits need one value or nv = {model.nv} values, "
+                             f"got {limit.size}")
+        self.v_index = np.flatnonzero(np.isfinite(limit) & (limit > 0))
+        self.limit = limit[self.v_index]
+        if self.velocity.shape != (model.nv,):
+            self.velocity = np.zeros(model.nv)
+        q_index, v_index = bounded_joint_indices(model, self.unbounded)
+        selected = np.isin(v_index, self.v_index)
+        self._q_braking, self._v_braking = q_index[selected], v_index[selected]
+        self._braking_rows = np.searchsorted(self.v_index, self._v_braking)
+        self._lower = model.lowerPositionLimit[self._q_braking].copy()
+        self._upper = model.upperPositionLimit[self._q_braking].copy()
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        previous = self.velocity[self.v_index]
+        change = self.limit * dt
+        lower, upper = (previous - change) * dt, (previous + change) * dt
+        if self._q_braking.size:
+            q = kinematics.q[self._q_braking]
+            rows = self._braking_rows
+            limit = self.limit[rows]
+            upper[rows] = np.minimum(upper[rows], dt * stopping_velocity(self._upper - q, limit, dt))
+            lower[rows] = np.maximum(lower[rows], -dt * stopping_velocity(q - self._lower, limit, dt))
+        return BoundRows(self.v_index, lower, upper)
+
+    def stepped(self, dq: np.ndarray, dt: float) -> None:
+        self.velocity = np.asarray(dq, dtype=float) / dt
+
+    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
+        names = tangent_names(kinematics.model)
+        return [(self.label(names[v], "lower", float(self.velocity[v]), -limit, "rad/s^2"),
+                 self.label(names[v], "upper", float(self.velocity[v]), limit, "rad/s^2"))
+                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
+
+    def row_text(self, label: RowLabel) -> str:
+        return f"acceleration limit of {label.subject} ({label.side}, {abs(label.bound):.3g} rad/s^2)"
+
+    def blocker_text(self, label: RowLabel) -> str:
+        return f"the acceleration limit of {label.subject} ({abs(label.bound):.3g} rad/s^2)"
+
+    def advice(self, label: RowLabel) -> str:
+        return (f"the acceleration limit of {label.subject} bounds each step: more iterations "
+                "(max_iterations) reach further")
+
+
+def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:
+    """The largest v >= 0 with D(v) = dt sum_k max(v - k a dt, 0) <= distance (0 for distance <= 0).
+
+    D is piecewise linear: on [n a dt, (n + 1) a dt), D(v) = dt ((n + 1) v - a dt n (n + 1) / 2), and
+    D(n a dt) = a dt^2 n (n + 1) / 2, so n = floor((sqrt(1 + 8 d / (a dt^2)) - 1) / 2) and
+    v = min((d / dt + a dt n (n + 1) / 2) / (n + 1), (n + 1) a dt)."""
+    distance = np.maximum(np.asarray(distance, dtype=float), 0.0)
+    step = acceleration * dt
+    n = np.floor((np.sqrt(1.0 + 8.0 * distance / (step * dt)) - 1.0) / 2.0)
+    return np.minimum((distance / dt + 0.5 * step * n * (n + 1.0)) / (n + 1.0), (n + 1.0) * step)
+
+
+class LockedJoints(ModelBound):
+    """Named joints keep their value: 0 <= dq_i <= 0 (e.g. the arms alone, without the lift)."""
+
+    label_kind = "locked joint"
+
+    def __init__(self, joints: Sequence[str]):
+        self.joints = list(joints)
+        self.name = f"locked joints {', '.join(self.joints)}"
+
+    def _bind(self, model: pin.Model) -> None:
+        indices = []
+        for name in self.joints:
+            if not model.existJointName(name):
+                raise RobotDescriptionError(f"cannot lock joint {name!r}: the model has no such joint")
+            joint = model.joints[model.getJointId(name)]
+            indices.extend(range(joint.idx_v, joint.idx_v + joint.nv))
+        self.v_index = np.array(indices, dtype=int)
+
+    def bounds(self, kinematics: Kinematics, dt: float) -> BoundRows:
+        return BoundRows(self.v_index, 0.0, 0.0)
+
+    def row_text(self, label: RowLabel) -> str:
+        return f"locked joint {label.subject}"
+
+    blocker_text = row_text
+
+    def conflict_advice(self, labels: list[RowLabel]) -> str:
+        return "unlock a joint the conflicting rows need, or drop one of the conflicting constraints"

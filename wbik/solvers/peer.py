@@ -1,0 +1,139 @@
+"""What the methods of the QP peers (PlaCo, Pink, mink) share: each task and constraint of a problem
+stated through the peer's forms (:mod:`wbik.qp.peers`; what has none is listed in ``unsupported``), and
+our loop around the peer's single QP step. A chain target is the chain's problem
+(:meth:`wbik.solvers.base.Solver.chain_problem`): one frame task, the rest of the robot locked."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from dataclasses import field
+from typing import ClassVar
+
+import numpy as np
+
+from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import HeldFrame
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.peers import PeerForms
+from wbik.qp.peers import Unsupported
+from wbik.qp.peers import largest_weight
+from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import Task
+from wbik.solvers.base import Solver
+from wbik.solvers.result import Candidate
+from wbik.wholebody.problem import StartedProblem
+from wbik.wholebody.problem import WholeBody
+
+NO_POLYGON = "support polygon as a hard CoM constraint"
+"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported``."""
+
+
+class PeerSolver(Solver):
+    """A method solving with a peer library's own tasks and constraints (see the module docstring).
+    ``priorities``: what the peer has instead of strict priority levels."""
+
+    takes_problems = True
+    forms: ClassVar[PeerForms]
+    priorities: ClassVar[str] = "weighted costs only"
+
+    def __init__(self, robot, chain=None, *, max_iterations: int | None = None, **options):
+        super().__init__(robot, chain, **options)
+        self.max_iterations = self._iteration_budget(max_iterations)
+        self.problem_max_iterations = self._iteration_budget(max_iterations, problem=True)
+
+    def unsupported(self, problem: WholeBody) -> list[Unsupported]:
+        """Strict priority levels, and every task and constraint the peer has no form for (decided by
+        class and by the item's own settings)."""
+        missing = []
+        if len({task.priority for task in problem.tasks}) > 1:
+            missing.append(Unsupported(self.name, "strict priority levels", self.priorities))
+        items = [(c.name, c) for c in problem.constraints] + [
+            (f"task {name}", task) for name, task in zip(problem.task_names, problem.tasks, strict=True)]
+        for what, item in items:
+            why = self.forms.refusal(item)
+            if why is not None:
+                missing.append(Unsupported(self.name, what, why))
+        return missing
+
+    def translate(self, started: StartedProblem, target) -> None:
+        """Add every task and constraint the peer can express to ``target``, the peer's problem."""
+        for _, item in started.items():
+            if self.forms.refusal(item) is None:
+                self.forms.build(item, target)
+
+    def _converged(self, started: StartedProblem, monitor: Kinematics, q: np.ndarray,
+                   with_polygon: bool) -> bool:
+        """Goals and contacts within half the check's tolerances (and the CoM margin, ``with_polygon``)."""
+        monitor.update(q)
+        position_tolerance = 0.5 * self.tolerances.position
+        rotation_tolerance = 0.5 * self.tolerances.rotation
+        for task in started.tasks:
+            if not task.goal:
+                continue
+            position, rotation = task.error_parts(np.asarray(task.error(monitor), dtype=float))
+            if (position is not None and position > position_tolerance) or (
+                    rotation is not None and rotation > rotation_tolerance):
+                return False
+        for constraint in started.constraints:
+            if isinstance(constraint, HeldFrame):
+                position, rotation = constraint.drift(monitor)
+                if position > position_tolerance or rotation > rotation_tolerance:
+                    return False
+            elif with_polygon and isinstance(constraint, CoMInSupportPolygon):
+                if constraint.polygon.margin_of(monitor.com()[:2]) < constraint.margin:
+                    return False
+        return True
+
+    def _peer_loop(self, step: Callable[[np.ndarray], tuple[np.ndarray, str]], started: StartedProblem,
+                   deadline: float, max_iterations: int, with_polygon: bool = True) -> Candidate:
+        """Our loop around a peer's single QP step from the start: stop when :meth:`_converged` holds,
+        when the time budget is used up, or when ``step(q)`` (the next q and a reason to stop, "" to go
+        on) gives a reason; else after ``max_iterations`` steps."""
+        monitor = Kinematics(started.problem.robot.model, started.q0)
+        q = started.q0.copy()
+        for iteration in range(1, max_iterations + 1):
+            if self._converged(started, monitor, q, with_polygon):
+                return Candidate(q, iteration - 1)
+            if time.perf_counter() > deadline:
+                return Candidate(q, iteration - 1, f"time budget of {self.timeout_s:g} s used up")
+            q, reason = step(q)
+            if reason:
+                return Candidate(q, iteration, reason)
+        if self._converged(started, monitor, q, with_polygon):
+            return Candidate(q, max_iterations)
+        return Candidate(q, max_iterations, f"no convergence in {max_iterations} iterations")
+
+
+@dataclass
+class SolveIKProblem:
+    """What the forms of a peer solving as Pink's and mink's ``solve_ik(configuration, tasks, dt,
+    damping, limits, constraints)`` add to: its ``tasks``, equality ``constraints`` (tasks whose every
+    row is held), ``limits`` and ``damping``; with wbik's ``kinematics`` at the start and the step
+    ``dt`` (s)."""
+
+    kinematics: Kinematics
+    dt: float
+    damping: float
+    tasks: list = field(default_factory=list)
+    constraints: list = field(default_factory=list)
+    limits: list = field(default_factory=list)
+
+
+def stalled(velocity: np.ndarray, dt: float, peer: str) -> str:
+    """Why to stop after a ``solve_ik`` step of ``velocity`` over ``dt`` that no longer moves the robot,
+    or ""."""
+    moved = float(np.max(np.abs(velocity))) * dt
+    return f"stalled: {peer}'s steps no longer move the robot" if moved < 1e-12 else ""
+
+
+def raise_damping(task: RegularizationTask, problem: SolveIKProblem) -> None:
+    """A regularisation (w |dq|^2) as ``solve_ik``'s damping on every DOF: the larger of the two."""
+    problem.damping = max(problem.damping, largest_weight(task, 0.0))
+
+
+def lowest_priority(tasks: list[Task]) -> int:
+    """The priority number of the lowest level of ``tasks`` (0 without tasks): where a regularisation
+    goes (a regularisation above another level would leave that level no motion at all)."""
+    return max((task.priority for task in tasks), default=0)
