@@ -19,11 +19,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.robot_packages.pincher.model import BASE_HEIGHT
-from wbik.robot_packages.pincher.model import LINK
-from wbik.robot_packages.pincher.model import WRIST_TO_TOOL
 from wbik.solvers.analytic import yaw_planar as family
 
+BASE_HEIGHT = 0.137
+LINK = 0.105
+WRIST_TO_TOOL = 0.095
 PINCHER = family.PitchArmGeometry(h=BASE_HEIGHT, a=LINK, b=LINK, t=WRIST_TO_TOOL)
 
 

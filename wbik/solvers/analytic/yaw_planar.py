@@ -25,9 +25,13 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
+from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.recognition import HALF_PI
+from wbik.solvers.analytic.recognition import require
+from wbik.solvers.analytic.recognition import small
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import planar_2r
@@ -326,3 +330,53 @@ class PitchArmPosition(ClosedForm):
         valid = np.where(np.any(usable, axis=(1, 2))[:, None, None], usable & best_side[..., None], exact)
         valid &= reachable[..., None]
         return q_best.reshape(count, 4, 4), valid.reshape(count, 4)
+
+
+# --- recognition --------------------------------------------------------------------------------------
+CANONICAL_2R = recognition.Canonical((HALF_PI, 0.0, 0.0), (0.0, 0.0, 0.0), np.eye(4), np.eye(4))
+"""The yaw + planar 2R's FK as DH rows."""
+NOA = recognition.rotation4([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_PI, 0.0, 0.0), np.eye(4), NOA)
+"""The yaw + planar 2R + pitch's FK as DH rows, its tool frame "noa" a fixed rotation."""
+
+
+def match(lines, kind: str, options: dict) -> recognition.Match:
+    """A base axis meeting a planar 2R at a right angle with the tip in the plane (3R, positions), or a
+    planar 3R with the tip off the last axis (4R: full poses; positions when the links are equal and the
+    tip is in the plane)."""
+    require(lines.count in (3, 4), f"it has {lines.count} joints, the family 3 (yaw + planar 2R) or 4 "
+                                   "(yaw + planar 3R)")
+    recognition.require_revolute(lines, lines.count)
+    three = lines.count == 3
+    require(not three or kind == "position", "a yaw + planar 2R arm is solved for positions only")
+    canonical = CANONICAL_2R if three else CANONICAL_PITCH
+    first, sign = recognition.first_frame(lines, np.eye(3))
+    result = recognition.walk(lines, first, sign, canonical.alphas[:-1], (1.0,) * (lines.count - 1))
+    require(small(result.a[0], lines), f"axes 1 and 2 miss each other by {abs(result.a[0]):.3g} m")
+    last = result.frames[-1]
+    sideways, reach = recognition.tip_offset(lines, last)
+    distance = float(np.linalg.norm(reach))
+    on_axis = small(distance, lines)
+    if kind == "position":
+        require(small(sideways, lines), f"the tip is {abs(sideways):.3g} m off the arm's plane")
+        require(not on_axis, f"the tip is on the last axis ({distance:.3g} m from it)")
+    theta = 0.0 if on_axis else recognition.angle_about(last[:3, 2], last[:3, 0], reach / distance)
+    recognition.close_walk(result, theta, 0.0, 0.0 if on_axis else distance, 0.0)
+    aligned = recognition.aligned(canonical, lines, result)
+    recognition.no_options(options, "yaw_planar")
+    if three:
+        geometry = Yaw2RGeometry(l1=result.d[0], l2=result.a[1], l3=result.a[2])
+        words = "yaw + planar 2R, " + recognition.in_words(geometry, ("l1", "l2", "l3"))
+        return recognition.Match("yaw_planar", lambda chain: Yaw2RPosition(chain, geometry), *aligned, words)
+    a, b = result.a[1], result.a[2]
+    if kind == "position":
+        require(small(a - b, lines), f"its links differ ({a:.6g} and {b:.6g} m); the family's position "
+                                     "search needs equal links")
+        b = a
+    geometry = PitchArmGeometry(h=result.d[0], a=a, b=b, t=result.a[3])
+    family = PitchArmPose if kind == "pose" else PitchArmPosition
+    words = "yaw + planar 2R + pitch, " + recognition.in_words(geometry, ("h", "a", "b", "t"))
+    return recognition.Match("yaw_planar", lambda chain: family(chain, geometry), *aligned, words)
+
+
+YAW_PLANAR = recognition.Family("yaw_planar", match)
