@@ -24,6 +24,7 @@ from wbik.dh import DHTable
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
+from wbik.kernels import eaik as eaik_kernel
 from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic import solver as analytic
 from wbik.solvers.analytic import stacked_planar
@@ -404,6 +405,33 @@ def test_a_middle_joint_held_is_rebuilt_per_value():
     assert solver.family == "eaik:6R-SPHERICAL_SECOND_TWO_PARALLEL with panda_joint5 held (seed)"
     solved, _ = round_trip(solver, "pose", from_original=True, every_branch=False)
     assert solved == POSES
+
+
+def _twin_case(name, chain, kernel):
+    return pytest.param(name, chain, id=name, marks=pytest.mark.skipif(
+        kernel is None, reason="the C extension is not built here: test_compiled checks that it is"))
+
+
+@pytest.mark.parametrize(("name", "chain"), [
+    _twin_case("bare:bioloid", "right_leg", eaik_kernel.choose_compiled),
+    _twin_case("erd:" + TALOS_ARM_URDF, None, eaik_kernel.choose_compiled),
+    _twin_case("panda", "arm", eaik_kernel.choose_compiled),
+    _twin_case("bare:golem3", "right_arm_lift", stacked_planar._stacked_kernel)])
+def test_compiled_choice_of_one_target_is_the_vectorised_one(compiled_twins, name, chain):
+    """EAIK's family (the eaik method's compiled choice among EAIK's branches) and a held first or last
+    joint (the 6-joint form's kernel on the moved target) solve one target through a kernel where built:
+    the status and the branch of the vectorised choice, from the original joints and from random starts."""
+    from compiled_twins import TWIN_TOLERANCE
+    from compiled_twins import assert_twins_agree
+
+    solver = wbik.solver("analytic", robot(name), chain)
+    assert solver.closed_form("pose").kernel is not None
+    chain_ = solver.chain
+    rng = np.random.default_rng(9)
+    joints = chain_.random(rng, 100)
+    starts = np.concatenate((joints[:50], chain_.random(rng, 50)))
+    for q, q0 in zip(joints, starts, strict=True):
+        assert_twins_agree(solver, wbik.targets.as_target(chain_.fk(q)), q0, False, TWIN_TOLERANCE)
 
 
 def test_redundancy_options_are_checked():

@@ -18,6 +18,7 @@ from compiled_twins import TWIN_TOLERANCE
 from compiled_twins import assert_same_bits_without_avx512
 from compiled_twins import assert_twins_agree
 from compiled_twins import compared_with_its_twin
+from compiled_twins import compiled_nearest
 from compiled_twins import numpy_is_libm
 from hypothesis import given
 from hypothesis import settings
@@ -59,11 +60,10 @@ def tolerance(joints: np.ndarray) -> float:
     return SINGULAR_TOLERANCE if abs(np.sin(joints[2])) < 1e-6 else TWIN_TOLERANCE
 
 
-def compiled_nearest(solver, target, q0):
-    """The kernel, as ``AnalyticSolver._solve`` reads it: (joints or None, the failure reason or "")."""
-    q, status = solver.closed_form("pose").kernel.nearest(target.position, target.rotation, q0)
-    return (None if q is None else q.tolist()), ("" if q is not None else
-                                                 no_solution_reason(status != 0, status == -2))
+def compiled_reason(solver, target, q0) -> str:
+    """The kernel's failure reason, as ``AnalyticSolver._solve`` reads it ("" where it picks a branch)."""
+    q, status = compiled_nearest(solver.closed_form("pose").kernel, target.position, target.rotation, q0)
+    return "" if q is not None else no_solution_reason(status != 0, status == -2)
 
 
 def special_joints(chain, rng: np.random.Generator, count: int) -> np.ndarray:
@@ -109,7 +109,7 @@ def test_kernel_agrees_on_unreachable_targets(solvers, chain_name):
     for position in ([3.0, 0.0, 0.5], [0.0, 0.0, 0.3], [0.01, 0.02, 0.9], reachable.translation):
         target = as_target(wbik.Target(np.array(position), rotation))
         assert_twins_agree(solver, target, chain.nominal, BITS)
-        reasons.add(compiled_nearest(solver, target, chain.nominal)[1])
+        reasons.add(compiled_reason(solver, target, chain.nominal))
     assert reasons == {"", no_solution_reason(False, False)}  # the reachable pose solved, the rest not
 
 
@@ -168,11 +168,11 @@ def test_bad_buffers_are_refused_with_a_type_error(solvers):
     kernel = solvers["ee"].closed_form("pose").kernel
     target = as_target(solvers["ee"].chain.fk(solvers["ee"].chain.nominal))
     with pytest.raises(TypeError, match="rotation"):
-        kernel.nearest(target.position, np.eye(2), np.zeros(6))
+        compiled_nearest(kernel, target.position, np.eye(2), np.zeros(6))
     with pytest.raises(TypeError, match="reference"):
-        kernel.nearest(target.position, target.rotation, np.zeros(6, dtype=np.float32))
-    with pytest.raises(TypeError):
-        kernel.nearest(target.position, target.rotation, None)
+        compiled_nearest(kernel, target.position, target.rotation, np.zeros(6, dtype=np.float32))
+    with pytest.raises(TypeError, match="out"):
+        kernel.nearest_into(target.position, target.rotation, np.zeros(6), np.zeros(5))
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
@@ -306,7 +306,7 @@ def test_the_forms_screen_tolerance_reaches_the_kernel(solvers):
         outcomes = set()
         for q in chain.random(np.random.default_rng(6), 30):
             target = as_target(chain.fk(q))
-            got, status = form.kernel.nearest(target.position, target.rotation, chain.nominal)
+            got, status = compiled_nearest(form.kernel, target.position, target.rotation, chain.nominal)
             assert solver.solve(target).success  # the default screen keeps a branch
             if got is not None:
                 residual = solver._screen(form, got[None], target.position[None], target.rotation[None])[0]

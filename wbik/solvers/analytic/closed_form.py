@@ -45,8 +45,9 @@ class ClosedForm:
     screen_tolerance = 1e-7
     """Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
     kernel = None
-    """The compiled choice (:class:`.compiled.CompiledForm`) or None: ``solve``, ``solve_many`` and
-    ``solve_all`` call it in place of the vectorised choice, its twin."""
+    """The compiled choice or None: a :class:`.compiled.CompiledForm` serves ``solve``, ``solve_many`` and
+    ``solve_all`` in place of the vectorised choice (its twin); another kernel (``nearest_into`` only,
+    e.g. :class:`.eaik_family.EAIKChoice`) serves ``solve``."""
 
     def __init__(self, chain: Chain):
         self.chain = chain

@@ -58,19 +58,13 @@ class CompiledForm:
         self.params, self.extension = params, extension
         self.branches = extension.MAX_BRANCHES
         self.nearest_into = functools.partial(extension.nearest, params)
-        """nearest_into(position, rotation, reference, out) -> status: :meth:`nearest` into ``out`` (6,)."""
-
-    def nearest(self, position: np.ndarray, rotation: np.ndarray,
-                reference: np.ndarray) -> tuple[np.ndarray | None, int]:
-        """(the branch the vectorised choice picks or None, status): the number of real branches, else 0
-        (no real branch), -1 (none inside the limits) or -2 (none passes the screen)."""
-        out = np.empty(6)
-        status = self.nearest_into(position, rotation, reference, out)
-        return (out if status > 0 else None), status
+        """nearest_into(position, rotation, reference, out) -> status: the branch the vectorised choice picks
+        into ``out`` (6,) and the number of real branches, else 0 (no real branch), -1 (none inside the
+        limits) or -2 (none passes the screen)."""
 
     def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
                      references: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`nearest` for a batch, without the GIL: (joints (B, 6), the batched check's errors (B, 8) as
+        """``nearest_into`` for a batch, without the GIL: (joints (B, 6), the batched check's errors (B, 8) as
         in :meth:`distinct`, (real branches, outcome) (B, 2), outcome 1 where picked); rows not picked are
         zeros."""
         count = len(positions)

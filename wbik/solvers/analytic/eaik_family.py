@@ -6,7 +6,8 @@ own EAIK robot from the chain's H and P with the tip's rotation at q = 0 as EAIK
 to EAIK as it is. The FK is the product of exponentials of the chain's lines (the model's to rounding).
 EAIK's verdict (:func:`eaik_verdict`): EAIK names the chain's kinematic family and whether it knows a
 decomposition; a claimed one must reproduce at least PROBE_REQUIRED of PROBE_POSES FK poses of seeded
-random joints (EAIK 1.2.2 claims some it gets wrong).
+random joints (EAIK 1.2.2 claims some it gets wrong). ``solve`` picks among EAIK's branches with the
+``eaik`` method's compiled choice where built (:class:`EAIKChoice`), else with the vectorised one.
 """
 
 from __future__ import annotations
@@ -18,8 +19,12 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
+from wbik.kernels import eaik as eaik_kernel
+from wbik.kernels import pure_python
 from wbik.robot import Chain
 from wbik.robot import ChainCache
+from wbik.solvers.analytic.closed_form import BOUND_SLACK
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
@@ -139,6 +144,8 @@ class EAIKForm(ClosedForm):
         self.family = self.structure.family
         self.lines = chain_lines(chain)
         self._local = threading.local()
+        compiled = eaik_kernel.choose_compiled is not None and not pure_python("eaik")
+        self.kernel = EAIKChoice(self) if compiled else None
 
     def robot(self):
         """This thread's EAIK robot (:func:`eaik_robot`)."""
@@ -171,3 +178,31 @@ class EAIKForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
+
+
+class EAIKChoice:
+    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches of the target, then the ``eaik`` method's
+    compiled choice (``wbik/kernels/_eaik.c``: wrapped into the limits nearest the start, nearest first,
+    screened with the chain lines' FK), the choice the vectorised one makes."""
+
+    def __init__(self, form: EAIKForm):
+        chain = form.chain
+        self.form, self.joints = form, chain.nq
+        self.params = eaik_kernel.parameters(chain.nq, chain.lower.tolist(), chain.upper.tolist(),
+                                             chain.nq * BOUND_SLACK, LIMIT_TOLERANCE, form.lines,
+                                             form.screen_tolerance)
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """The chosen branch into ``out``: the number of EAIK's branches, else 0 (none), -1 (none inside
+        the limits) or -2 (none passes the screen), as :class:`~.compiled.CompiledForm`."""
+        pose = EAIKForm.pose(position, rotation)
+        q_all = self.form.robot().calculate_IK(pose).Q
+        if not len(q_all):
+            return 0
+        parts = np.empty(self.joints + 24)
+        if eaik_kernel.choose_compiled(self.params, q_all, reference, pose, parts):
+            out[:] = parts[:self.joints]
+            return len(q_all)
+        inside = eaik_kernel.order_compiled(self.params, q_all, reference, np.empty(np.shape(q_all)))
+        return -2 if inside else -1

@@ -114,6 +114,8 @@ class LockedJointForm(ClosedForm):
         eaik = self.family.startswith("eaik:")
         self._per_value = (not eaik, eaik)
         """What is tried at another value of a joint in the middle (a family, EAIK): what served first."""
+        one_value = self.moves is not None and not len(self.grid)
+        self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
@@ -210,6 +212,27 @@ class LockedJointForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
+
+class HeldChoice:
+    """``solve``'s kernel of a :class:`LockedJointForm` holding the first or last joint at the start's
+    value (one form, one value): the target moved for the 6-joint form, its kernel's choice, the value put
+    back."""
+
+    def __init__(self, form: LockedJointForm):
+        self.form, self.index = form, form.index
+        self.low, self.high = float(form.chain.lower[form.index]), float(form.chain.upper[form.index])
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        k = self.index
+        value = min(max(float(reference[k]), self.low), self.high)
+        moved_p, moved_r = self.form.moved_targets(position[None], rotation[None], np.array([value]))
+        sub = np.empty(len(reference) - 1)
+        status = self.form.sub.form.kernel.nearest_into(moved_p[0], moved_r[0], np.delete(reference, k), sub)
+        if status > 0:
+            out[:k], out[k], out[k + 1:] = sub[:k], value, sub[k:]
+        return status
+
 
 def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
     """The held joint's index (None: the default) after checking the options; InvalidSettingError

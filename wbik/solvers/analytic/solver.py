@@ -20,6 +20,7 @@ from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.closed_form import kernel_failure_reason
 from wbik.solvers.analytic.closed_form import no_solution_reason
 from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import Recognised
 from wbik.solvers.analytic.recognition import recognise_eaik
@@ -291,7 +292,7 @@ class AnalyticSolver(Solver):
         form = self.closed_form("position" if rotations is None else "pose")
         form_rotations = rotations if form.target_kind == "pose" else None
         start = time.perf_counter()
-        if form.kernel is not None and form_rotations is not None:
+        if isinstance(form.kernel, CompiledForm) and form_rotations is not None:
             joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
             per_pose = (time.perf_counter() - start) / count
             branches, outcomes = info.T.astype(int).tolist()
@@ -321,7 +322,7 @@ class AnalyticSolver(Solver):
         target = as_target(target)
         form = self._form_of(target)
         nominal = self.chain.nominal
-        if form.kernel is not None:
+        if isinstance(form.kernel, CompiledForm):
             return form.kernel.results(target.position, target.rotation, nominal, self.name, self.tolerances)
         start = time.perf_counter()
         positions = target.position[None]
