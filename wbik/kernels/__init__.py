@@ -7,10 +7,11 @@ benchmark goal rows it moves (``benchmarks/all.py``; docs/benchmarks.md gives ea
 gain). The C sources sit beside this file (``_<name>.c``, sharing ``_buffers.h``); a C function writes
 into arrays the caller passes and returns a number, a bool or None, never a Python object of wbik's.
 
-Twins with the same bits: ``pose``, ``ur_type`` and ``eaik`` (plain IEEE arithmetic in the same order,
-built without FMA contraction). Twins to rounding: ``qp_rows`` and ``lm_trial``, whose Python twins
-call Pinocchio, NumPy or LAPACK, which sum in their own orders. Tests compare every pair
-(tests/test_compiled.py and one test file per kernel).
+Twins with the same bits: ``pose`` and ``eaik`` (plain IEEE arithmetic in the same order, built without
+FMA contraction); ``ur_type`` and ``stacked_planar`` too where NumPy's arctan2 and arccos are libm's (their
+twin is the vectorised NumPy choice; NumPy's AVX-512 versions are one ulp off on some arguments). Twins to
+rounding: ``qp_rows`` and ``lm_trial``, whose Python twins call Pinocchio, NumPy or LAPACK, which sum in
+their own orders. Tests compare every pair (tests/test_compiled.py and one test file per kernel).
 
 ``WBIK_PURE_PYTHON=1`` in the environment runs every Python twin; a comma-separated list of kernel
 names (``WBIK_PURE_PYTHON=eaik,pose``) runs the twins of those only, which is how a kernel's own gain

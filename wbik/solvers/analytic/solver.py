@@ -49,12 +49,8 @@ def binding_name(binding) -> str:
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
-    """The closed form the robot binds to (chain, kind) (built here, checked by the caller), else the one
-    recognised from the chain's structure (checked there)."""
-    binding = chain.robot.closed_forms.get((chain.name, kind))
-    if binding is None:
-        return recognise(chain, kind, options).form
-    return binding(chain, **options)
+    """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
+    return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
 
 
 def refusal(chain, reasons: dict[str, list[str]]) -> str:
@@ -67,7 +63,9 @@ def refusal(chain, reasons: dict[str, list[str]]) -> str:
 
 def refusal_reasons(chain, kind: str, options: dict | None = None,
                     redundancy: dict | None = None) -> Recognised | list[str]:
-    """:func:`recognise`'s answer, or the reasons (one per way tried) where there is no closed form."""
+    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, else for full poses
+    EAIK's decomposition, else one joint held: ``redundancy``, :mod:`.redundancy`'s options), or the
+    reasons (one per way tried) where there is none."""
     try:
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
@@ -89,16 +87,6 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
         except UnsupportedError as refused:
             reasons.append(str(refused))
     return reasons
-
-
-def recognise(chain, kind: str, options: dict | None = None, redundancy: dict | None = None) -> Recognised:
-    """The closed form of ``chain`` for ``kind`` targets without a binding: a family of :data:`FAMILIES`,
-    else for full poses EAIK's decomposition, else one joint held (``redundancy``: :mod:`.redundancy`'s
-    options). UnsupportedError naming the chain and why each was refused."""
-    found = refusal_reasons(chain, kind, options, redundancy)
-    if isinstance(found, Recognised):
-        return found
-    raise UnsupportedError(refusal(chain, {kind: found}))
 
 
 TARGET_KINDS = ("pose", "position")
