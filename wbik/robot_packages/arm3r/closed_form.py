@@ -22,10 +22,7 @@ class Arm3RFacts:
     """The standard DH table the URDF is written from (SI)."""
 
 
-class Arm3RPosition(Yaw2RPosition):
+def arm3r_position(chain: Chain) -> Yaw2RPosition:
     """Position-only closed form of arm3r: 2 shoulder x 2 elbow branches (K = 4)."""
-
-    @staticmethod
-    def geometry_of(chain: Chain) -> Yaw2RGeometry:
-        facts = chain.robot.require_facts(Arm3RFacts, "the arm3r closed form")
-        return Yaw2RGeometry(*(float(v) for v in facts.lengths))
+    facts = chain.robot.require_facts(Arm3RFacts, "the arm3r closed form")
+    return Yaw2RPosition(chain, Yaw2RGeometry(*(float(v) for v in facts.lengths)))

@@ -21,13 +21,13 @@ from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages.arm3r.closed_form import Arm3RFacts
-from wbik.robot_packages.arm3r.closed_form import Arm3RPosition
+from wbik.robot_packages.arm3r.closed_form import arm3r_position
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
 URDF_PATH = description_file("arm3r.urdf")
 """The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
 
-CLOSED_FORMS = {("arm", "position"): Arm3RPosition}
+CLOSED_FORMS = {("arm", "position"): arm3r_position}
 """The yaw + planar 2R position closed form (see that module)."""
 
 

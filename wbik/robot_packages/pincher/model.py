@@ -25,8 +25,8 @@ from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages.pincher.closed_form import BASE_HEIGHT
 from wbik.robot_packages.pincher.closed_form import LINK
 from wbik.robot_packages.pincher.closed_form import WRIST_TO_TOOL
-from wbik.robot_packages.pincher.closed_form import PincherPose
-from wbik.robot_packages.pincher.closed_form import PincherPosition
+from wbik.robot_packages.pincher.closed_form import pincher_pose
+from wbik.robot_packages.pincher.closed_form import pincher_position
 
 LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
@@ -35,7 +35,7 @@ URDF_PATH = description_file("pincher.urdf")
 """The committed URDF of :func:`dh_table` (package data next to this module; scripts/export_urdf.py)."""
 
 
-CLOSED_FORMS = {("arm", "pose"): PincherPose, ("arm", "position"): PincherPosition}
+CLOSED_FORMS = {("arm", "pose"): pincher_pose, ("arm", "position"): pincher_position}
 """Closed forms of pincher.md's analytic inverse (position + tool pitch), see that module."""
 
 
@@ -57,7 +57,7 @@ def dh_table() -> DHTable:
 @dataclass(frozen=True)
 class PincherFacts:
     """The Pincher's defining table (``robot.facts``); the closed form uses the same numbers
-    (BASE_HEIGHT, LINK, WRIST_TO_TOOL above)."""
+    (BASE_HEIGHT, LINK, WRIST_TO_TOOL, from its closed_form)."""
 
     dh: DHTable
     """pincher.md's standard DH table in SI (m, rad; the seed writes mm and degrees), tool "noa" included."""

@@ -88,14 +88,12 @@ class CompiledForm:
         """``solve_all``'s answer: one IKResult per :meth:`distinct` branch within ``tolerances`` (arrays
         are row views of the kernel's buffers; ``time_s`` the kernel's time with its check)."""
         start = perf_counter()
-        joints, errors = np.empty((self.branches, 6)), np.empty((self.branches, 8))
-        count = self.extension.distinct(self.params, position, rotation, reference, joints, errors)
+        joints, errors = self.distinct(position, rotation, reference)
         time_s = perf_counter() - start
         position_tolerance, rotation_tolerance = tolerances.position, tolerances.rotation
-        kept = errors[:count]
         return [IKResult(q, True, "", norms[0], norms[1], position_xyz, rotation_xyz, time_s, 1, method, {})
-                for q, position_xyz, rotation_xyz, norms in zip(joints[:count], kept[:, :3], kept[:, 3:6],
-                                                                 kept[:, 6:].tolist(), strict=True)
+                for q, position_xyz, rotation_xyz, norms in zip(joints, errors[:, :3], errors[:, 3:6],
+                                                                 errors[:, 6:].tolist(), strict=True)
                 if norms[0] <= position_tolerance and norms[1] <= rotation_tolerance]
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
