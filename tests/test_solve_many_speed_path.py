@@ -144,9 +144,9 @@ def _ur5_poses(chain, count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _agreement(joints: np.ndarray) -> float:
-    """How closely the batch and scalar paths agree on the pose of ``joints``: at a stretched elbow
-    (sin q3 ~ 0) the elbow angle, sqrt(1 - c^2) of its cosine c ~ 1, turns the paths' different last
-    bits of c into ~1e-10 rad (both pass the FK check); elsewhere they agree to rounding."""
+    """How closely solve_many and solve (one path, or the kernel and its twin: compiled_twins) agree on the
+    pose of ``joints``: at a stretched elbow (sin q3 ~ 0) the elbow angle, sqrt(1 - c^2) of its cosine
+    c ~ 1, turns a last bit of c into ~1e-10 rad (both pass the FK check); elsewhere, to rounding."""
     return 1e-7 if abs(math.sin(joints[2])) < 1e-6 else 1e-12
 
 
@@ -176,8 +176,8 @@ def test_ur_branches_by_joint_are_every_branch(ur5):
 
 
 def test_ur_dh_conversion_is_base_r_ee_transpose():
-    """The batch path reads T_dh = B R E^T off the rotation's entries (as the scalar path): the
-    documented B = Rz(pi) and E = link6 -> ee_link give the same entries."""
+    """The family reads T_dh = B R E^T off the rotation's entries: the documented B = Rz(pi) and
+    E = link6 -> ee_link give the same entries."""
     angles = np.random.default_rng(20).normal(size=(50, 3))
     rotations = np.array([pin.rpy.rpyToMatrix(*rpy) for rpy in angles])
     dh = np.einsum("ij,bjk,lk->bil", ur_type.BASE_TO_LINK0, rotations, ur_type.LINK6_TO_EE)
