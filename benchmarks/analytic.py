@@ -24,7 +24,6 @@ from pathlib import Path
 import numpy as np
 
 import wbik
-from wbik.solvers.analytic.solver import closed_forms
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
@@ -117,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         except (ImportError, wbik.WbikError) as exc:  # robots being written elsewhere may not load yet
             skipped.append(f"{name}: does not load ({type(exc).__name__}: {exc})")
             continue
-        forms = closed_forms(robot)
+        forms = robot.closed_forms
         if not forms:
             skipped.append(f"{name}: declares no closed form")
             continue

@@ -13,7 +13,7 @@ machine busy with other work distorts them less and alike:
   everything included (target conversion, wrapping into the limits, choice of the nearest branch, the
   FK check of each returned result: Pinocchio's shared check in solve; the batched rule with the closed
   form's FK in solve_many, and in solve_all where the compiled kernel runs). The notes say whether the
-  compiled UR kernel ran (``WBIK_PURE_PYTHON=1`` times the Python path).
+  compiled UR kernel ran (``WBIK_PURE_PYTHON=1`` times its vectorised twin).
 * eaik solve / solve_all / solve_many: EAIK through ``wbik.solver("eaik")``, the same inclusions.
 
 A last row times the Golem-III ``right_arm`` analytic ``solve`` (EAIK has no decomposition for it),
@@ -32,7 +32,8 @@ from collections.abc import Callable
 import numpy as np
 
 import wbik
-from wbik.solvers.analytic import ur_kernel
+from wbik.kernels import pure_python
+from wbik.solvers.analytic import ur_type
 
 ROUNDS = 9
 """Interleaved rounds (as benchmarks/qp.py). With 5, one run in a slow phase of this machine read the UR5
@@ -128,8 +129,9 @@ def ratios(quick: bool = False) -> list:
     count, rounds = (300, 3) if quick else (2000, ROUNDS)
     rows, _ = measure(count, rounds, seed=0)
     peer = rows["EAIK raw IK (all branches)"][0]
-    path = ("UR scalar path: compiled kernel (wbik/kernels/_ur_type.c)" if ur_kernel.compiled()
-            else "UR scalar path: pure Python (kernel not built or WBIK_PURE_PYTHON=1)")
+    path = ("UR closed form: compiled kernel (wbik/kernels/_ur_type.c)"
+            if ur_type._ur_kernel is not None and not pure_python("ur_type")
+            else "UR closed form: its vectorised twin (kernel not built or WBIK_PURE_PYTHON)")
     how = (f"UR5 ee, {count} FK poses from the nominal start, best of {rounds} interleaved rounds; "
            f"ours wall time with everything (conversion, limits, choice, FK check); EAIK raw: "
            f"HPRobot.IK on every pose, all branches, no limits, no choice, no check; {path}")

@@ -1,11 +1,12 @@
 """The closed forms' fast paths agree with the general ones they stand in for.
 
-- every closed form's vectorised FK (and scalar ``fk_one``) equals Pinocchio's FK: the batched check of
-  ``solve_many`` measures errors with it;
+- every closed form's vectorised FK equals Pinocchio's FK: the batched check of ``solve_many`` measures
+  errors with it;
 - ``evaluate_batch`` decides exactly as the shared per-call check ``wbik.solvers.base.evaluate``;
 - ``batch_targets`` accepts what ``as_target`` accepts and raises what it raises;
 - the vectorised choice (screen the nearest branch first) returns the branch of screening every branch
-  and taking the nearest, written out here as the reference.
+  and taking the nearest, written out here as the reference;
+- ``solve_all`` through a compiled kernel lists the vectorised path's branches.
 """
 
 from __future__ import annotations
@@ -18,14 +19,13 @@ import wbik
 from wbik.solvers.analytic.batch import batch_targets
 from wbik.solvers.analytic.batch import evaluate_batch
 from wbik.solvers.analytic.solver import AnalyticSolver
-from wbik.solvers.analytic.solver import closed_forms
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.targets import as_target
 
 ROBOTS = ("arm3r", "bioloid", "golem3", "pincher", "ur5")
-FORMS = [(robot, chain, kind) for robot in ROBOTS for chain, kind in sorted(closed_forms(wbik.load(robot)))]
+FORMS = [(robot, chain, kind) for robot in ROBOTS for chain, kind in sorted(wbik.load(robot).closed_forms)]
 FK_AGREEMENT = 1e-10
 """Closed-form FK against Pinocchio's (m, and rotation entries): the UR5's differ by up to 4e-12 (the
 URDF's offsets are rounded differently from ur_kinematics' DH numbers), the others by ~1e-16. The
@@ -46,18 +46,13 @@ def test_closed_form_fk_equals_pinocchio(solvers, robot, chain_name, kind):
     chain, form = solver.chain, solver.closed_form(kind)
     joints = chain.random(np.random.default_rng(7), 500)
     if kind == "position" and robot == "golem3":
-        joints[:, 5] = form.yaw  # the position form fixes the wrist roll
+        joints[:, 5] = form.inner.yaw  # the position form fixes the wrist roll (the same in the arm's joints)
     positions, rotations = form.fk(joints)
     for q, position, rotation in zip(joints, positions, rotations, strict=True):
         pose = chain.fk(q)
         np.testing.assert_allclose(position, pose.translation, rtol=0, atol=FK_AGREEMENT)
         if kind == "pose":
             np.testing.assert_allclose(rotation, pose.rotation, rtol=0, atol=FK_AGREEMENT)
-    if form.has_scalar_path:
-        for q, position, rotation in zip(joints[:100], positions[:100], rotations[:100], strict=True):
-            scalar_p, scalar_r = form.fk_one(q.tolist())
-            np.testing.assert_allclose(scalar_p, position, rtol=0, atol=1e-14)
-            np.testing.assert_allclose(np.reshape(scalar_r, (3, 3)), rotation, rtol=0, atol=1e-14)
 
 
 def _per_call(chain, targets, q, found, reasons, tolerances):
@@ -80,7 +75,7 @@ def test_evaluate_batch_decides_as_evaluate(solvers, robot, chain_name, kind, to
     count = 400
     joints = chain.random(rng, count)
     if kind == "position" and robot == "golem3":
-        joints[:, 5] = form.yaw
+        joints[:, 5] = form.inner.yaw
     poses = [chain.fk(q) for q in joints]
     miss = np.exp(rng.uniform(np.log(1e-7), np.log(1e-2), count)) * (rng.random(count) < 0.6)
     q = joints + miss[:, None] * rng.normal(size=joints.shape)
@@ -142,7 +137,8 @@ def test_batch_targets_accepts_and_refuses_as_as_target(solvers):
 
 def _reference_choice(solver: AnalyticSolver, form, positions, rotations, q0s):
     """Screen every usable branch, take the nearest screened one (the first on a tie)."""
-    q_all, real, usable = solver._wrapped(form, positions, rotations, q0s)
+    q_all, real, usable = solver._wrapped_by_joint(form, positions, rotations, q0s)
+    q_all, usable = q_all.transpose(2, 1, 0), usable.T
     targets_r = None if rotations is None else rotations[:, None]
     residual = solver._screen(form, q_all, positions[:, None], targets_r)[0]
     screened = usable & (residual <= form.screen_tolerance)
@@ -175,27 +171,27 @@ def test_nearest_first_screening_equals_screening_every_branch(solvers, robot, c
 
 
 
+@pytest.mark.usefixtures("compiled_twins")
 @pytest.mark.parametrize(("robot", "chain_name"), [("ur5", "ee"), ("ur5", "arm"), ("golem3", "right_arm"),
                                                    ("golem3", "left_arm")])
-def test_scalar_solve_all_equals_the_vectorised_one(solvers, robot, chain_name):
-    """solve_all's scalar path (branches_one, wrap_one_into_limits, the float screen and merge) against
-    the vectorised path of the same closed form, including gimbal-locked and singular poses."""
-    solver = solvers[(robot, chain_name)]
+def test_compiled_solve_all_equals_the_vectorised_one(robot, chain_name):
+    """solve_all through the compiled kernel (where built) against the vectorised path of the same closed
+    form, including gimbal-locked and singular poses: the same branches, in the same order."""
+    solver = wbik.solver("analytic", wbik.load(robot), chain=chain_name)
     chain, form = solver.chain, solver.closed_form("pose")
     joints = chain.random(np.random.default_rng(21), 150)
     joints[:10, 4] = 0.0  # UR5 wrist singularity (q5 = 0)
     if robot == "golem3":
         joints[10:20, 4] = np.pi / 2 - joints[10:20, 3]  # gimbal lock: beta = -pi/2
     poses = [chain.fk(q) for q in joints]
-    scalar = [solver.solve_all(pose) for pose in poses]
-    assert form.has_scalar_path
-    form.has_scalar_path = False
+    compiled = [solver.solve_all(pose) for pose in poses]
+    kernel, form.kernel = form.kernel, None
     try:
         vectorised = [solver.solve_all(pose) for pose in poses]
     finally:
-        form.has_scalar_path = True
-    assert sum(len(results) > 0 for results in scalar) >= 140
-    for mine, theirs in zip(scalar, vectorised, strict=True):
+        form.kernel = kernel
+    assert sum(len(results) > 0 for results in compiled) >= 140
+    for mine, theirs in zip(compiled, vectorised, strict=True):
         assert len(mine) == len(theirs)
         for a, b in zip(mine, theirs, strict=True):
             np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-12)

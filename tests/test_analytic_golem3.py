@@ -210,3 +210,50 @@ def test_unreachable_targets_fail_quickly_with_a_reason(right, left):
             assert result.time_s < 0.5  # bounded: a grid and at most 40 LM steps
     results = right.solve_many([[1.5, -0.3, 1.0], [0.0, 0.0, 2.5]])
     assert not any(r.success for r in results)
+
+
+# --- the compiled choice (wbik/kernels/_stacked_planar.c) against its twin, the vectorised choice --------
+def against_the_twin(test):
+    """Skip where the kernel is not built; the compiled choice even in a WBIK_PURE_PYTHON=1 run."""
+    from compiled_twins import compared_with_its_twin
+
+    from wbik.solvers.analytic import stacked_planar
+
+    for mark in compared_with_its_twin(stacked_planar._stacked_kernel):
+        test = mark(test)
+    return test
+
+
+@against_the_twin
+@pytest.mark.numerics
+@pytest.mark.parametrize("arm", ["right_arm", "left_arm"])
+def test_kernel_is_its_twin(robot, arm):
+    """The same decisions as the vectorised choice (branch, status, solve_all's branches) on random poses,
+    at gimbal lock, at the joint limits and at singular poses; the same bits where NumPy's arctan2 and
+    arccos are libm's, else within TWIN_TOLERANCE (SINGULAR_TOLERANCE at the singular poses)."""
+    from compiled_twins import SINGULAR_TOLERANCE
+    from compiled_twins import assert_twins_agree
+    from compiled_twins import numpy_is_libm
+
+    solver = wbik.solver("analytic", robot, chain=arm)
+    assert solver.closed_form("pose").kernel is not None
+    chain = solver.chain
+    rng = np.random.default_rng(2027)
+    joints = chain.random(rng, 600)
+    joints[:60, 4] = np.pi / 2 - joints[:60, 3]  # gimbal lock
+    joints[60:120] = np.where(rng.random((60, 6)) < 0.5, chain.lower, chain.upper)
+    singular = np.zeros(len(joints), dtype=bool)
+    singular[120:180], joints[120:150, 3], joints[150:180, 1] = True, -RHO, 0.0  # t4 + rho = 0; t2 = 0
+    starts = chain.random(rng, len(joints))
+    bits = numpy_is_libm()
+    for q, q0, at_singularity in zip(joints, starts, singular, strict=True):
+        tolerance = SINGULAR_TOLERANCE if at_singularity else 1e-12
+        assert_twins_agree(solver, wbik.targets.as_target(chain.fk(q)), q0, bits, tolerance)
+
+
+@against_the_twin
+def test_kernel_is_its_twin_bit_for_bit_where_numpy_is_libm():
+    """NumPy without its AVX-512 code (libm's arctan2 and arccos): the kernel's joints are its twin's bits."""
+    from compiled_twins import assert_same_bits_without_avx512
+
+    assert_same_bits_without_avx512([("golem3", "right_arm"), ("golem3", "left_arm")])

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 
 import numpy as np
 import pinocchio as pin
@@ -25,10 +24,13 @@ from wbik.dh import DHTable
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
+from wbik.kernels import eaik as eaik_kernel
 from wbik.solvers.analytic import recognition
+from wbik.solvers.analytic import solver as analytic
 from wbik.solvers.analytic import stacked_planar
 from wbik.solvers.analytic import ur_type
 from wbik.solvers.analytic import yaw_planar
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
 from wbik.solvers.analytic.structure import ChainLines
 from wbik.solvers.analytic.structure import chain_lines
@@ -112,19 +114,19 @@ def _dh(canonical, a, d):
 
 @pytest.mark.parametrize("seed", range(3))
 def test_canonical_rows_are_each_familys_fk(seed):
-    """recognition.CANONICAL writes each family's FK as DH rows; wbik.dh multiplies them out."""
+    """Each family module's CANONICAL writes its FK as DH rows; wbik.dh multiplies them out."""
     rng = np.random.default_rng(seed)
     lengths = rng.uniform(0.05, 0.6, 8) * rng.choice([-1.0, 1.0], 8)
     d1, a2, a3, d4, d5, d6, _, _ = lengths
     cases = [
-        (recognition.CANONICAL["ur_type"], (0, a2, a3, 0, 0, 0), (d1, 0, 0, d4, d5, d6),
+        (ur_type.CANONICAL, (0, a2, a3, 0, 0, 0), (d1, 0, 0, d4, d5, d6),
          lambda q: ur_type.fk(ur_type.URGeometry(d1, a2, a3, d4, d5, d6), q)),
-        (recognition.CANONICAL["pitch_arm"], (0, a2, a3, d5), (d1, 0, 0, 0),
+        (yaw_planar.CANONICAL_PITCH, (0, a2, a3, d5), (d1, 0, 0, 0),
          lambda q: yaw_planar.pitch_arm_fk(yaw_planar.PitchArmGeometry(d1, a2, a3, d5), q)),
-        (recognition.CANONICAL["yaw_2r"], (0, a2, a3), (d1, 0, 0),
+        (yaw_planar.CANONICAL_2R, (0, a2, a3), (d1, 0, 0),
          lambda q: yaw_planar.Yaw2RPosition.fk(
              type("Form", (), {"geometry": yaw_planar.Yaw2RGeometry(d1, a2, a3)})(), q)),
-        (recognition.CANONICAL["stacked_planar"], (a2, a3, 0, d4, d5, 0), (d1, 0, 0, 0, 0, d6),
+        (stacked_planar.CANONICAL, (a2, a3, 0, d4, d5, 0), (d1, 0, 0, 0, 0, d6),
          lambda q: stacked_planar.fk(stacked_planar.StackedPlanarGeometry(a2, a3, d4, d5, d6, d1, 0.0), q)),
     ]
     for canonical, a, d, family_fk in cases:
@@ -159,13 +161,18 @@ def test_ur10_in_other_frames_and_joint_zeros():
     assert solved == POSES and contained == POSES
 
 
+@pytest.mark.usefixtures("compiled_twins")
 def test_ur10_urdf_keeps_the_compiled_kernel_where_built():
-    """A UR URDF's frames are the family's (up to the URDF's rounding of pi/2): no base or joint
-    change, so the compiled kernel (where built) serves it as it serves the bound UR5."""
-    from wbik.solvers.analytic import ur_kernel
+    """A UR URDF's frames are the family's (up to the URDF's rounding of pi/2): no base or joint change;
+    the compiled kernel (where built) serves it as it serves the bound UR5, and the UR10 between other
+    frames and joint zeros (REP-103) too."""
+    from wbik.kernels import compiled_twin
 
+    built = compiled_twin("wbik.kernels._ur_type", "nearest") is not None
     form = wbik.solver("analytic", robot(f"erd:{UR_URDFS[1]}")).closed_form("pose")
-    assert (form.kernel is not None) == ur_kernel.compiled()
+    assert (form.kernel is not None) == built
+    assert form.base is None and form.alignment.signs is None
+    assert (wbik.solver("analytic", robot("ur10-rep103")).closed_form("pose").kernel is not None) == built
     np.testing.assert_array_equal(form.signs, np.ones(6))
     np.testing.assert_array_equal(form.offsets, np.zeros(6))
     geometry = form.inner.geometry  # ur_description's UR10 numbers, read back from the URDF's structure
@@ -181,13 +188,11 @@ FAMILY_MODULES = {"ur_type": ur_type, "yaw_planar": yaw_planar, "stacked_planar"
 
 
 def bound_family(form) -> str:
-    """The family a hand binding uses: the family module its class derives from, or the module its own
-    module solves with (the Golem-III binding calls stacked_planar's functions)."""
-    form = getattr(form, "flange", form)
+    """The family a hand binding uses: the family module its class (or the class of the form it sees
+    through its frames) derives from."""
+    form = getattr(form, "inner", form)
     for name, module in FAMILY_MODULES.items():
         if any(cls.__module__ == module.__name__ for cls in type(form).__mro__):
-            return name
-        if any(value is module for value in vars(sys.modules[type(form).__module__]).values()):
             return name
     raise AssertionError(f"{type(form).__name__} uses no family of wbik")
 
@@ -245,10 +250,8 @@ def test_recognised_ur5_gives_the_bound_forms_answers(chain):
 def test_a_wrong_recognition_is_refused_never_used(monkeypatch):
     """A family that matches the structure but builds a form off the model (1 um on the UR5's d4) is
     refused by the model agreement check; the chain falls back to EAIK's decomposition."""
-    original = dict(recognition.FAMILIES)["ur_type"]
-
     def shifted(lines, kind, options):
-        match = original(lines, kind, options)
+        match = ur_type.match(lines, kind, options)
         build = match.build
 
         def wrong(chain):
@@ -257,15 +260,77 @@ def test_a_wrong_recognition_is_refused_never_used(monkeypatch):
 
         return dataclasses.replace(match, build=wrong)
 
-    families = tuple((name, shifted if name == "ur_type" else matcher)
-                     for name, matcher in recognition.FAMILIES)
-    monkeypatch.setattr(recognition, "FAMILIES", families)
+    families = tuple(recognition.Family("ur_type", shifted) if family is ur_type.UR_TYPE else family
+                     for family in analytic.FAMILIES)
+    monkeypatch.setattr(analytic, "FAMILIES", families)
     chain = robot("bare:ur5").chain("ee")
     with pytest.raises(UnsupportedError, match="ur_type: the structure matches but the form is refused"):
-        recognition.recognise_family(chain, "pose")
+        recognition.recognise_family(chain, "pose", None, families)
     solver = wbik.solver("analytic", robot("bare:ur5"), "ee")
     assert solver.family == "eaik:6R-THREE_INNER_PARALLEL"
     assert round_trip(solver, "pose")[0] == POSES
+
+
+# --- a new family: one module and one registration line -------------------------------------------------
+class PlanarTwoLink(ClosedForm):
+    """A small family written here: two parallel revolute axes, the tip in their plane (DH a = (l1, l2),
+    alpha = 0), positions in the plane, both elbows."""
+
+    target_kind = "position"
+
+    def __init__(self, chain, lengths: tuple[float, float]):
+        super().__init__(chain)
+        self.lengths = lengths
+
+    def branches(self, positions, rotations, q0):
+        from wbik.solvers.analytic.subproblems import planar_2r
+
+        first, second, real = planar_2r(positions[:, 0], positions[:, 1], *self.lengths)
+        in_plane = np.abs(positions[:, 2]) <= 1e-9
+        return np.stack((first, second), axis=-1), real[:, None] & in_plane[:, None] & np.ones(2, dtype=bool)
+
+    def fk(self, q):
+        l1, l2 = self.lengths
+        x = l1 * np.cos(q[..., 0]) + l2 * np.cos(q[..., 0] + q[..., 1])
+        y = l1 * np.sin(q[..., 0]) + l2 * np.sin(q[..., 0] + q[..., 1])
+        position = np.stack((x, y, np.zeros_like(x)), axis=-1)
+        return position, np.broadcast_to(np.eye(3), position.shape[:-1] + (3, 3))
+
+
+def match_planar_two_link(lines, kind, options):
+    recognition.require(kind == "position", "the family solves positions only")
+    recognition.require_revolute(lines, 2)
+    canonical = recognition.Canonical((0.0, 0.0), (0.0, 0.0), np.eye(4), np.eye(4))
+    first, sign = recognition.first_frame(lines, np.eye(3))
+    result = recognition.walk(lines, first, sign, canonical.alphas[:1], (1.0,))
+    along, reach = recognition.tip_offset(lines, result.frames[-1])
+    recognition.require(recognition.small(along, lines), "the tip is off the plane")
+    recognition.close_walk(result, 0.0, 0.0, float(np.linalg.norm(reach)), 0.0)
+    lengths = (result.a[0], result.a[1])
+    return recognition.Match("planar_two_link", lambda chain: PlanarTwoLink(chain, lengths),
+                             *recognition.aligned(canonical, lines, result), f"lengths {lengths}")
+
+
+def test_a_family_registered_by_one_line_is_recognised(monkeypatch):
+    """A two-link planar arm has no closed form of positions; registering the family above (its matcher
+    and its form, one entry in FAMILIES) gives it one, found from the URDF's structure, solving by FK."""
+    from wbik.robot import robot_from_urdf_text
+
+    table = DHTable([DHJoint(a=0.5, alpha=0.0, d=0.0, name="shoulder"),
+                     DHJoint(a=0.3, alpha=0.0, d=0.0, name="elbow")])
+    arm = robot_from_urdf_text("planar", table.urdf(name="planar", base_link="base", tip_link="tip"),
+                               [wbik.ChainSpec("arm", "base", "tip", ("shoulder", "elbow"))], np.zeros(2))
+    assert "position" not in wbik.solver("analytic", arm, "arm").families  # EAIK's 2R takes poses only
+    monkeypatch.setattr(analytic, "FAMILIES",
+                        (*analytic.FAMILIES, recognition.Family("planar_two_link", match_planar_two_link)))
+    solver = wbik.solver("analytic", arm, "arm")
+    assert solver.families["position"] == "planar_two_link"
+    chain = solver.chain
+    for q in chain.random(np.random.default_rng(12), 20):
+        target = chain.fk(q).translation.copy()
+        result = solver.solve(target)
+        assert result.success and fk_error(chain, result.q, target) < FK_ERROR
+        assert any(angle_gap(branch.q, q) < 1e-9 for branch in solver.solve_all(target))
 
 
 # --- EAIK where no family matches ----------------------------------------------------------------------
@@ -342,6 +407,33 @@ def test_a_middle_joint_held_is_rebuilt_per_value():
     assert solved == POSES
 
 
+def _twin_case(name, chain, kernel):
+    return pytest.param(name, chain, id=name, marks=pytest.mark.skipif(
+        kernel is None, reason="the C extension is not built here: test_compiled checks that it is"))
+
+
+@pytest.mark.parametrize(("name", "chain"), [
+    _twin_case("bare:bioloid", "right_leg", eaik_kernel.choose_compiled),
+    _twin_case("erd:" + TALOS_ARM_URDF, None, eaik_kernel.choose_compiled),
+    _twin_case("panda", "arm", eaik_kernel.choose_compiled),
+    _twin_case("bare:golem3", "right_arm_lift", stacked_planar._stacked_kernel)])
+def test_compiled_choice_of_one_target_is_the_vectorised_one(compiled_twins, name, chain):
+    """EAIK's family (the eaik method's compiled choice among EAIK's branches) and a held first or last
+    joint (the 6-joint form's kernel on the moved target) solve one target through a kernel where built:
+    the status and the branch of the vectorised choice, from the original joints and from random starts."""
+    from compiled_twins import TWIN_TOLERANCE
+    from compiled_twins import assert_twins_agree
+
+    solver = wbik.solver("analytic", robot(name), chain)
+    assert solver.closed_form("pose").kernel is not None
+    chain_ = solver.chain
+    rng = np.random.default_rng(9)
+    joints = chain_.random(rng, 100)
+    starts = np.concatenate((joints[:50], chain_.random(rng, 50)))
+    for q, q0 in zip(joints, starts, strict=True):
+        assert_twins_agree(solver, wbik.targets.as_target(chain_.fk(q)), q0, False, TWIN_TOLERANCE)
+
+
 def test_redundancy_options_are_checked():
     panda = robot("panda")
     for options, word in (({"redundancy": "sweep"}, "redundancy must be one of"),
@@ -409,10 +501,10 @@ DECIDED = [("bare:ur5", "ee"), ("bare:pincher", "arm"), ("bare:arm3r", "arm"), (
 def decisions(lines: ChainLines) -> tuple[bool, ...]:
     """Per family and target kind, whether the family matches the lines."""
     verdicts = []
-    for _, matcher in recognition.FAMILIES:
+    for family in analytic.FAMILIES:
         for kind in ("pose", "position"):
             try:
-                matcher(lines, kind, {})
+                family.match(lines, kind, {})
                 verdicts.append(True)
             except recognition.Mismatch:
                 verdicts.append(False)

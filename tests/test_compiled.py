@@ -1,7 +1,7 @@
 """The compiled kernels of :mod:`wbik.kernels`: built by the set-up where a C compiler exists, switched
 off by ``WBIK_PURE_PYTHON=1``; the SE3 fast-path test giving the Python test's verdict on every matrix,
-and the shared check's arithmetic the Python twin's bits (the UR kernel's own agreement tests are in
-tests/test_ur_kernel.py)."""
+and the shared check's arithmetic the Python twin's bits (the closed-form kernels' own agreement tests are
+in tests/test_ur_kernel.py and tests/test_analytic_golem3.py)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,8 @@ from wbik import targets
 from wbik.kernels import PURE_PYTHON_VARIABLE
 from wbik.kernels import can_build
 from wbik.kernels import pure_python
-from wbik.solvers.analytic import ur_kernel
+from wbik.solvers.analytic import stacked_planar
+from wbik.solvers.analytic import ur_type
 from wbik.targets import MAX_POSITION
 from wbik.targets import ROTATION_TOLERANCE
 
@@ -32,7 +33,8 @@ COMPILED_TWIN = pytest.mark.skipif(not HAS_COMPILER, reason="no C compiler here:
 def test_the_extensions_are_built_where_a_compiler_exists():
     """The README's set-up (pip install -e .) builds them; without a compiler or the Python headers the
     Python twins run (and the set-up says so)."""
-    assert ur_kernel.built() == HAS_COMPILER
+    assert (ur_type._ur_kernel is not None) == HAS_COMPILER
+    assert (stacked_planar._stacked_kernel is not None) == HAS_COMPILER
     assert (targets._compiled_accepts_plain_se3 is not None) == HAS_COMPILER
     from wbik import geometry
 
@@ -99,12 +101,13 @@ def test_a_kernel_list_switches_those_kernels_only(monkeypatch):
 
 
 def test_pure_python_switch_picks_the_python_twins():
-    script = ("from wbik import targets; from wbik.solvers.analytic import ur_kernel; import wbik; "
-              "print(targets._accepts_plain_se3 is targets._python_accepts_plain_se3, ur_kernel.compiled(), "
-              "wbik.solver('analytic', wbik.load('ur5'), 'ee').closed_form('pose').kernel)")
+    script = ("from wbik import targets; import wbik; "
+              "print(targets._accepts_plain_se3 is targets._python_accepts_plain_se3, "
+              "wbik.solver('analytic', wbik.load('ur5'), 'ee').closed_form('pose').kernel, "
+              "wbik.solver('analytic', wbik.load('golem3'), 'right_arm').closed_form('pose').kernel)")
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True,
                          env={**os.environ, PURE_PYTHON_VARIABLE: "1"}).stdout.split()
-    assert out == ["True", "False", "None"]
+    assert out == ["True", "None", "None"]
 
 
 def both_verdicts(matrix: np.ndarray) -> tuple[bool, bool]:

@@ -18,8 +18,6 @@ import wbik
 from wbik.errors import InvalidSettingError
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.solvers.analytic.closed_form import nearest_branch
-from wbik.solvers.analytic.eaik_family import branch_bounds
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
@@ -209,49 +207,39 @@ def test_missing_eaik_raises_missing_dependency(monkeypatch):
 CHOICE_POSES = 1000
 
 
-def _rule_bounded(q_all: np.ndarray, reference: np.ndarray) -> list[tuple[float, list[float]]]:
-    """(sum_i remainder(q_i - r_i, 2 pi)^2, q) per branch, in the rint form."""
-    gaps = q_all - reference
-    gaps -= 2 * np.pi * np.rint(gaps / (2 * np.pi))
-    return list(zip((gaps * gaps).sum(axis=1).tolist(), q_all.tolist(), strict=True))
+def _wrapped(raw: list[float], reference: list[float], lower: list[float], upper: list[float]):
+    """Each angle's 2 pi shift (0, +-2 pi, +-4 pi) inside its limits (within 1e-9) nearest the reference,
+    the first on a tie, set into the limits; None where an angle has none."""
+    wrapped = []
+    for value, ref, low, high in zip(raw, reference, lower, upper, strict=True):
+        inside = [value + shift for shift in (0.0, 2 * math.pi, -2 * math.pi, 4 * math.pi, -4 * math.pi)
+                  if low - 1e-9 <= value + shift <= high + 1e-9]
+        if not inside:
+            return None
+        wrapped.append(min(high, max(low, min(inside, key=lambda shifted: abs(shifted - ref)))))
+    return wrapped
 
 
-class _ChainFK:
-    """The screen's FK for :func:`nearest_branch`: the chain's own (Pinocchio), in plain floats."""
-
-    screen_tolerance = 1e-7
-
-    def __init__(self, chain):
-        self.chain = chain
-
-    def fk_one(self, q):
-        pose = self.chain.fk(np.asarray(q, dtype=float))
-        return tuple(pose.translation.tolist()), tuple(pose.rotation.ravel().tolist())
+def _passes_screen(chain, q: list[float], target: Target) -> bool:
+    """|p - p*| <= 1e-7 and angle(R*^T R) <= 1e-7 by the chain's own FK (Pinocchio)."""
+    pose = chain.fk(np.asarray(q))
+    if not math.dist(pose.translation, target.position) <= 1e-7:
+        return False
+    trace = float(np.sum(pose.rotation * target.rotation))
+    return math.acos(min(1.0, max(-1.0, 0.5 * (trace - 1.0)))) <= 1e-7
 
 
 def _rule_choice(solver, q_all: np.ndarray, target: Target, q0: np.ndarray):
-    """The branch rule spelled out: every branch bounded, taken in the bounds' order, wrapped into the
-    limits nearest q0, the nearest one whose FK passes the 1e-7 screen (analytic's ``nearest_branch``);
-    where none does, the solver's reasons (``_pick``)."""
-    q, _ = nearest_branch(_ChainFK(solver.chain), _rule_bounded(q_all, q0), target.position.tolist(),
-                          target.rotation.ravel().tolist(), q0.tolist(), solver.chain.lower.tolist(),
-                          solver.chain.upper.tolist())
-    return solver._pick(q_all, target, q0) if q is None else Candidate(np.array(q), 1)
-
-
-def test_branch_bounds_are_the_remainders_squared():
-    """sum_i remainder(q_i - r_i, 2 pi)^2 per branch (math.remainder), NaN for a branch with a NaN or
-    infinite joint."""
-    rng = np.random.default_rng(4)
-    q_all = rng.uniform(-7.0, 7.0, (200, 6))
-    reference = rng.uniform(-7.0, 7.0, 6)
-    expected = [sum(math.remainder(q - r, 2 * math.pi) ** 2 for q, r in zip(row, reference, strict=True))
-                for row in q_all.tolist()]
-    np.testing.assert_allclose(branch_bounds(q_all, reference), expected, rtol=1e-13, atol=1e-13)
-    q_all[:2, 3] = np.nan, np.inf
-    with np.errstate(invalid="ignore"):  # inf - inf
-        bounds = branch_bounds(q_all[:3], reference)
-    assert math.isnan(bounds[0]) and math.isnan(bounds[1]) and math.isfinite(bounds[2])
+    """The branch rule spelled out: every branch wrapped into the limits nearest q0, the nearest (squared
+    distance, the first on a tie) whose FK passes the 1e-7 screen; where none does, the solver's reasons
+    (``_pick``)."""
+    chain, reference = solver.chain, q0.tolist()
+    wrapped = [_wrapped(raw, reference, chain.lower.tolist(), chain.upper.tolist()) for raw in q_all.tolist()]
+    inside = [q for q in wrapped if q is not None and all(map(math.isfinite, q))]
+    for q in sorted(inside, key=lambda q: sum((a - b) ** 2 for a, b in zip(q, reference, strict=True))):
+        if _passes_screen(chain, q, target):
+            return Candidate(np.array(q), 1)
+    return solver._pick(q_all, target, q0)
 
 
 def _choice_chains():

@@ -120,7 +120,8 @@ def test_budget_and_settings():
     result = solver.solve(far)
     assert not result.success and result.iterations <= 3 and result.reason
     assert wbik.solver("mink", robot, "arm", max_step=np.inf).solve(far).reason
-    for option, value in (("damping", -1.0), ("chain_damping", -1.0), ("limit_gain", 1.5), ("max_step", -0.1)):
+    bad = (("damping", -1.0), ("chain_damping", -1.0), ("limit_gain", 1.5), ("max_step", -0.1))
+    for option, value in bad:
         with pytest.raises(InvalidSettingError, match=option):
             wbik.solver("mink", robot, "arm", **{option: value})
 

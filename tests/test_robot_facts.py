@@ -17,6 +17,7 @@ from wbik.errors import InvalidOptionError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import SoleError
 from wbik.qp.humanoid import support_polygon
+from wbik.robot_packages.arm3r.closed_form import arm3r_position
 from wbik.robot_packages.arm3r.model import URDF_PATH as ARM3R_URDF
 from wbik.robot_packages.arm3r.model import Arm3RFacts
 from wbik.robot_packages.arm3r.model import dh_table
@@ -25,7 +26,7 @@ from wbik.robot_packages.bioloid.model import BioloidFacts
 
 HALF = np.array([0.05, 0.03])  # half the 100 x 60 mm sole rectangle, written here by hand
 CORNERS = [[0.05, 0.03, 0.0], [-0.05, 0.03, 0.0], [-0.05, -0.03, 0.0], [0.05, -0.03, 0.0]]
-ARM3R_FORM = {("default", "position"): "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}
+ARM3R_FORM = {("default", "position"): arm3r_position}
 
 
 def test_urdf_humanoid_loaded_with_soles_gets_a_support_polygon():
@@ -98,9 +99,9 @@ def test_urdf_closed_form_needs_its_facts():
 
 def test_closed_forms_and_facts_are_checked():
     path = ARM3R_URDF
-    for forms, words in (({("arm", "position"): "m:C"}, ("'arm'", "chain of ['default']")),
-                         ({"default": "m:C"}, ("(chain, target kind)",)),
-                         ({("default", "position"): "module.Class"}, ("module:Class",)),
+    for forms, words in (({("arm", "position"): arm3r_position}, ("'arm'", "chain of ['default']")),
+                         ({"default": arm3r_position}, ("(chain, target kind)",)),
+                         ({("default", "position"): "module:Class"}, ("class or a factory", "module:Class")),
                          ([("default", "position")], ("closed_forms must map",))):
         with pytest.raises(RobotDescriptionError) as info:
             wbik.load(path, closed_forms=forms)

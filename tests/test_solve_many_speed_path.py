@@ -5,8 +5,8 @@
   (:func:`wbik.solvers.analytic._wrap_by_shifts`, the rule) on every angle, including near ties,
   angles on and just outside a limit, -0.0, NaN, inf and prismatic joints, in either layout;
 - the UR family's batch-last branches (``branches_by_joint``, q4 from the elbow's direction without
-  trigonometry) equal its scalar twin's, and
-  ``solve_many`` equals ``solve`` on singular, axis-aligned and unreachable UR5 poses;
+  trigonometry) are every branch, and ``solve_many`` equals ``solve`` on singular, axis-aligned and
+  unreachable UR5 poses;
 - the choice, which screens the nearest branch of every target at once and sorts only where it
   missed, equals screening every branch;
 - ``batch_targets``'s vectorised SE3 check accepts exactly what ``as_target``'s fast path accepts.
@@ -144,26 +144,31 @@ def _ur5_poses(chain, count: int, seed: int) -> tuple[np.ndarray, np.ndarray, np
 
 
 def _agreement(joints: np.ndarray) -> float:
-    """How closely the batch and scalar paths agree on the pose of ``joints``: at a stretched elbow
-    (sin q3 ~ 0) the elbow angle, sqrt(1 - c^2) of its cosine c ~ 1, turns the paths' different last
-    bits of c into ~1e-10 rad (both pass the FK check); elsewhere they agree to rounding."""
+    """How closely solve_many and solve (one path, or the kernel and its twin: compiled_twins) agree on the
+    pose of ``joints``: at a stretched elbow (sin q3 ~ 0) the elbow angle, sqrt(1 - c^2) of its cosine
+    c ~ 1, turns a last bit of c into ~1e-10 rad (both pass the FK check); elsewhere, to rounding."""
     return 1e-7 if abs(math.sin(joints[2])) < 1e-6 else 1e-12
 
 
-def test_ur_branches_by_joint_equal_the_scalar_branches(ur5):
-    """The batch-last UR family (solve_many's) against its scalar twin (solve's): the same real branches
-    in the same order, the same angles; and ``branches`` is the same set target by target."""
+def test_ur_branches_by_joint_are_every_branch(ur5):
+    """The batch-last UR family (solve_many's): every real branch reaches its pose by the form's FK, the
+    original joints are a branch of every reachable pose off the wrist singularity, and ``branches`` is the
+    same set target by target."""
     form = ur5["ee"].closed_form("pose")
     joints, positions, rotations = _ur5_poses(ur5["ee"].chain, 400, 18)
     starts = ur5["ee"].chain.random(np.random.default_rng(19), len(joints))
     q_all, real = form.branches_by_joint(positions, rotations, starts)
     assert q_all.shape == (6, 8, len(joints)) and real.shape == (8, len(joints))
-    for index, (position, rotation, start) in enumerate(zip(positions, rotations, starts, strict=True)):
-        scalar = form.branches_one(position.tolist(), rotation.ravel().tolist(), start.tolist())
-        assert real[:, index].sum() == len(scalar)
-        batched = q_all[:, real[:, index], index].T
-        np.testing.assert_allclose(batched, np.reshape([q for _, q in scalar], (-1, 6)), rtol=0,
-                                   atol=_agreement(joints[index]))
+    reached_p, reached_r = form.fk(q_all.transpose(2, 1, 0))
+    for index in np.flatnonzero(real.any(axis=0)):
+        branches = real[:, index]
+        np.testing.assert_allclose(reached_p[index, branches] - positions[index], 0.0, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(reached_r[index, branches] - rotations[index], 0.0, rtol=0, atol=1e-9)
+        gaps = np.abs(np.angle(np.exp(1j * (q_all[:, branches, index].T - joints[index]))))
+        stretched = abs(math.sin(joints[index, 2])) < 1e-6  # q3 = acos(c ~ 1): ~sqrt(rounding) off
+        singular_wrist = abs(math.sin(joints[index, 4])) < 1e-6  # q6 is then the start's
+        if not singular_wrist and index not in range(80, 100):  # (80..99: scaled out of reach)
+            assert (gaps.max(axis=1) < (1e-5 if stretched else 1e-7)).any()
     by_target, real_by_target = form.branches(positions, rotations, starts)
     np.testing.assert_array_equal(by_target, q_all.transpose(2, 1, 0))
     np.testing.assert_array_equal(real_by_target, real.T)
@@ -171,8 +176,8 @@ def test_ur_branches_by_joint_equal_the_scalar_branches(ur5):
 
 
 def test_ur_dh_conversion_is_base_r_ee_transpose():
-    """The batch path reads T_dh = B R E^T off the rotation's entries (as the scalar path): the
-    documented B = Rz(pi) and E = link6 -> ee_link give the same entries."""
+    """The family reads T_dh = B R E^T off the rotation's entries: the documented B = Rz(pi) and
+    E = link6 -> ee_link give the same entries."""
     angles = np.random.default_rng(20).normal(size=(50, 3))
     rotations = np.array([pin.rpy.rpyToMatrix(*rpy) for rpy in angles])
     dh = np.einsum("ij,bjk,lk->bil", ur_type.BASE_TO_LINK0, rotations, ur_type.LINK6_TO_EE)
@@ -209,7 +214,7 @@ def test_planar_2r_elbow_axis():
 @pytest.mark.parametrize("chain_name", ["ee", "arm"])
 def test_ur5_solve_many_equals_solve_on_hard_poses(ur5, chain_name):
     """solve_many (batch-last branches, the nearest-shift wrap, argmin before any sort) against solve
-    (the scalar path), started at random configurations, on singular, aligned and unreachable poses."""
+    (one target at a time), started at random configurations, on singular, aligned and unreachable poses."""
     solver = ur5[chain_name]
     chain = solver.chain
     joints, _, _ = _ur5_poses(chain, 300, 23)
@@ -253,7 +258,8 @@ def test_choice_goes_on_to_the_next_branch_where_the_nearest_misses(ur5):
     starts = joints + np.random.default_rng(26).normal(0.0, 0.3, joints.shape)
     starts = np.clip(starts, solver.chain.lower, solver.chain.upper)
     choice = solver._choose(form, positions, rotations, starts)
-    q_all, _, usable = solver._wrapped(form, positions, rotations, starts)
+    q_all, _, usable = solver._wrapped_by_joint(form, positions, rotations, starts)
+    q_all, usable = q_all.transpose(2, 1, 0), usable.T
     residual = solver._screen(form, q_all, positions[:, None], rotations[:, None])[0]
     screened = usable & (residual <= form.screen_tolerance)
     distance = np.where(screened, np.linalg.norm(q_all - starts[:, None], axis=-1), np.inf)

@@ -1,9 +1,10 @@
-"""The compiled scalar path of the UR-type closed form (``wbik/kernels/_ur_type.c``) against the Python path.
+"""The compiled UR-type choice (``wbik/kernels/_ur_type.c``) against its twin, the vectorised choice.
 
-Both must return the same bits: the same branch chosen, the same joints, the same failure status, the
-same distinct branches for ``solve_all``, on random poses, at the wrist singularity, with the elbow
-stretched, at the joint limits, and under tiny relative perturbations (hypothesis). The extension is
-built by the README's set-up (``pip install -e .``; tests/test_compiled.py checks that it is).
+Both take the same decisions (branch, status, the distinct branches of ``solve_all``) on random poses, at
+the wrist singularity, with the elbow stretched, at the joint limits and under tiny relative perturbations
+(hypothesis); their joints are the same bits where NumPy's arctan2 and arccos are libm's (checked in a
+child process without NumPy's AVX-512 code), else within ``TWIN_TOLERANCE``. The extension is built by
+the README's set-up (``pip install -e .``; tests/test_compiled.py checks that it is).
 """
 
 from __future__ import annotations
@@ -12,24 +13,30 @@ import functools
 
 import numpy as np
 import pytest
+from compiled_twins import SINGULAR_TOLERANCE
+from compiled_twins import TWIN_TOLERANCE
+from compiled_twins import assert_same_bits_without_avx512
+from compiled_twins import assert_twins_agree
+from compiled_twins import compared_with_its_twin
+from compiled_twins import compiled_nearest
+from compiled_twins import numpy_is_libm
 from hypothesis import given
 from hypothesis import settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.solvers.analytic import ur_kernel
-from wbik.solvers.analytic.closed_form import nearest_branch
+from wbik.kernels import PURE_PYTHON_VARIABLE
+from wbik.solvers.analytic import ur_type
 from wbik.solvers.analytic.closed_form import no_solution_reason
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.targets import as_target
 
-pytestmark = pytest.mark.skipif(
-    not ur_kernel.built(), reason="the C extension is not built here (no compiler or Python headers): "
-    "nothing to compare; tests/test_compiled.py checks that it is built wherever it can be")
+pytestmark = compared_with_its_twin(ur_type._ur_kernel)
 
 CHAINS = ["ee", "arm"]
 """UR5 chains: ``ee`` is the family's own frame, ``arm`` adds the riveting tool (the kernel's tool)."""
+BITS = numpy_is_libm()
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +44,7 @@ def solvers():
     """Analytic solvers with their closed forms built with the kernel (even in a WBIK_PURE_PYTHON=1 run)."""
     robot = wbik.load("ur5")
     with pytest.MonkeyPatch.context() as patch:
-        patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
+        patch.delenv(PURE_PYTHON_VARIABLE, raising=False)
         solvers = {name: wbik.solver("analytic", robot, chain=name) for name in CHAINS}
         for solver in solvers.values():
             solver.closed_form("pose")
@@ -45,38 +52,18 @@ def solvers():
 
 
 def test_every_ur_form_has_the_kernel_where_it_is_built(solvers):
-    assert all((solver.closed_form("pose").kernel is not None) == ur_kernel.built()
-               for solver in solvers.values())
+    assert all(solver.closed_form("pose").kernel is not None for solver in solvers.values())
 
 
-def python_nearest(solver, target, q0):
-    """The Python path of ``AnalyticSolver._solve``: (joints or None, the failure reason or "")."""
-    form = solver.closed_form("pose")
-    position, rotation, reference = target.position.tolist(), target.rotation.ravel().tolist(), q0.tolist()
-    bounded = form.branches_one(position, rotation, reference)
-    q, inside = nearest_branch(form, bounded, position, rotation, reference, solver._lower, solver._upper)
-    return q, ("" if q is not None else no_solution_reason(bool(bounded), inside))
+def tolerance(joints: np.ndarray) -> float:
+    """Kernel against twin off libm (compiled_twins): SINGULAR_TOLERANCE at a stretched elbow (q3)."""
+    return SINGULAR_TOLERANCE if abs(np.sin(joints[2])) < 1e-6 else TWIN_TOLERANCE
 
 
-def compiled_nearest(solver, target, q0):
-    """The kernel, as ``AnalyticSolver._solve`` reads it: (joints or None, the failure reason or "")."""
-    q, status = solver.closed_form("pose").kernel.nearest(target.position, target.rotation, q0)
-    return (None if q is None else q.tolist()), ("" if q is not None else
-                                                 no_solution_reason(status != 0, status == -2))
-
-
-def assert_same_bits(solver, target, q0):
-    expected, expected_reason = python_nearest(solver, target, q0)
-    got, got_reason = compiled_nearest(solver, target, q0)
-    assert got_reason == expected_reason
-    if expected is not None:
-        assert np.array(got).tobytes() == np.array(expected).tobytes(), (got, expected)
-    form = solver.closed_form("pose")
-    expected_all = solver._distinct_one(form, target, q0)
-    got_all, _ = form.kernel.distinct(target.position, target.rotation, q0)
-    assert len(got_all) == len(expected_all)
-    for row, q in zip(got_all, expected_all, strict=True):
-        assert row.tobytes() == q.tobytes()
+def compiled_reason(solver, target, q0) -> str:
+    """The kernel's failure reason, as ``AnalyticSolver._solve`` reads it ("" where it picks a branch)."""
+    q, status = compiled_nearest(solver.closed_form("pose").kernel, target.position, target.rotation, q0)
+    return "" if q is not None else no_solution_reason(status != 0, status == -2)
 
 
 def special_joints(chain, rng: np.random.Generator, count: int) -> np.ndarray:
@@ -93,15 +80,21 @@ def special_joints(chain, rng: np.random.Generator, count: int) -> np.ndarray:
 
 @pytest.mark.numerics
 @pytest.mark.parametrize("chain_name", CHAINS)
-def test_kernel_returns_the_python_paths_bits(solvers, chain_name):
+def test_kernel_is_its_twin(solvers, chain_name):
     solver = solvers[chain_name]
     chain = solver.chain
     rng = np.random.default_rng(2026)
     joints = special_joints(chain, rng, 1500)
     starts = chain.random(rng, len(joints))
     starts[::2] = chain.nominal  # solve's default start
-    for q, q0 in zip(joints, starts, strict=True):
-        assert_same_bits(solver, as_target(chain.fk(q)), q0)
+    gaps = [assert_twins_agree(solver, as_target(chain.fk(q)), q0, BITS, tolerance(q))
+            for q, q0 in zip(joints, starts, strict=True)]
+    assert max(gaps) > 0.0 or BITS  # AVX-512's arctan2 and arccos do differ from libm's somewhere
+
+
+def test_kernel_is_its_twin_bit_for_bit_where_numpy_is_libm():
+    """NumPy without its AVX-512 code (libm's arctan2 and arccos): the kernel's joints are its twin's bits."""
+    assert_same_bits_without_avx512([("ur5", name) for name in CHAINS])
 
 
 @pytest.mark.numerics
@@ -115,8 +108,8 @@ def test_kernel_agrees_on_unreachable_targets(solvers, chain_name):
     reasons = set()
     for position in ([3.0, 0.0, 0.5], [0.0, 0.0, 0.3], [0.01, 0.02, 0.9], reachable.translation):
         target = as_target(wbik.Target(np.array(position), rotation))
-        assert_same_bits(solver, target, chain.nominal)
-        reasons.add(compiled_nearest(solver, target, chain.nominal)[1])
+        assert_twins_agree(solver, target, chain.nominal, BITS)
+        reasons.add(compiled_reason(solver, target, chain.nominal))
     assert reasons == {"", no_solution_reason(False, False)}  # the reachable pose solved, the rest not
 
 
@@ -124,7 +117,7 @@ def test_kernel_agrees_on_unreachable_targets(solvers, chain_name):
 @settings(max_examples=150, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), noise=st.floats(-1e-12, 1e-12), chain_name=st.sampled_from(CHAINS))
 def test_kernel_bits_under_tiny_relative_noise(solvers, seed, noise, chain_name):
-    """A singular pose (wrist aligned, elbow stretched) nudged by a relative 1e-12: both paths still
+    """A singular pose (wrist aligned, elbow stretched) nudged by a relative 1e-12: kernel and twin still
     take every decision alike (the singularity, the cosine clamps, the limits, the screen)."""
     solver = solvers[chain_name]
     chain = solver.chain
@@ -134,44 +127,40 @@ def test_kernel_bits_under_tiny_relative_noise(solvers, seed, noise, chain_name)
     pose = chain.fk(q)
     position = pose.translation * (1.0 + noise)
     target = as_target(wbik.Target(position, pose.rotation))
-    assert_same_bits(solver, target, chain.random(rng))
+    assert_twins_agree(solver, target, chain.random(rng), BITS, SINGULAR_TOLERANCE)
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
-def test_kernel_fk_is_the_python_fk(solvers, chain_name):
+def test_kernel_fk_is_the_forms_fk(solvers, chain_name):
     form = solvers[chain_name].closed_form("pose")
-    for q in solvers[chain_name].chain.random(np.random.default_rng(8), 200):
-        position, rotation = form.fk_one(q.tolist())
+    joints = solvers[chain_name].chain.random(np.random.default_rng(8), 200)
+    positions, rotations = form.fk(joints)
+    for q, position, rotation in zip(joints, positions, rotations, strict=True):
         got_position, got_rotation = form.kernel.fk(q)
-        assert got_position.tobytes() == np.array(position).tobytes()
-        assert got_rotation.tobytes() == np.array(rotation).tobytes()
+        assert got_position.tobytes() == position.tobytes()  # sin, cos and arithmetic: libm's bits
+        assert got_rotation.tobytes() == rotation.ravel().tobytes()
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
-def test_pure_python_switch_gives_the_same_results(solvers, monkeypatch, chain_name):
-    """WBIK_PURE_PYTHON=1 turns the kernel off; solve and solve_all answer the same."""
+def test_pure_python_switch_runs_the_twin(solvers, monkeypatch, chain_name):
+    """WBIK_PURE_PYTHON=ur_type turns the kernel off when a form is built: solve, solve_all and solve_many
+    then run the vectorised twin and answer the same."""
     robot = solvers[chain_name].robot
-    monkeypatch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
-    compiled = wbik.solver("analytic", robot, chain=chain_name)
-    compiled.closed_form("pose")  # built (with its kernel) before the switch
-    monkeypatch.setenv(ur_kernel.PURE_PYTHON_VARIABLE, "1")
+    compiled = solvers[chain_name]
+    monkeypatch.setenv(PURE_PYTHON_VARIABLE, "ur_type")
     python = wbik.solver("analytic", robot, chain=chain_name)
     assert python.closed_form("pose").kernel is None
-    assert compiled.closed_form("pose").kernel is not None
     chain = compiled.chain
-    for q in chain.random(np.random.default_rng(31), 100):
-        target = chain.fk(q)
+    poses = [chain.fk(q) for q in chain.random(np.random.default_rng(31), 100)]
+    atol = 0.0 if BITS else TWIN_TOLERANCE
+    for target in poses:
         ours, theirs = compiled.solve(target), python.solve(target)
-        assert (ours.success, ours.reason) == (theirs.success, theirs.reason)
-        assert ours.q.tobytes() == theirs.q.tobytes()
-        assert ours.extra == theirs.extra
-        assert [r.q.tobytes() for r in compiled.solve_all(target)] == \
-            [r.q.tobytes() for r in python.solve_all(target)]
-    # solve_many: the kernel's choice against the NumPy batch path (within ~1e-10 rad, same verdicts)
-    poses = [chain.fk(q) for q in chain.random(np.random.default_rng(32), 300)]
+        assert (ours.success, ours.reason, ours.extra) == (theirs.success, theirs.reason, theirs.extra)
+        np.testing.assert_allclose(ours.q, theirs.q, rtol=0, atol=atol)
+        assert len(compiled.solve_all(target)) == len(python.solve_all(target))
     for ours, theirs in zip(compiled.solve_many(poses), python.solve_many(poses), strict=True):
         assert (ours.success, ours.reason, ours.extra) == (theirs.success, theirs.reason, theirs.extra)
-        np.testing.assert_allclose(ours.q, theirs.q, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(ours.q, theirs.q, rtol=0, atol=atol)
         np.testing.assert_allclose(ours.position_error_xyz, theirs.position_error_xyz, rtol=0, atol=1e-12)
 
 
@@ -179,11 +168,11 @@ def test_bad_buffers_are_refused_with_a_type_error(solvers):
     kernel = solvers["ee"].closed_form("pose").kernel
     target = as_target(solvers["ee"].chain.fk(solvers["ee"].chain.nominal))
     with pytest.raises(TypeError, match="rotation"):
-        kernel.nearest(target.position, np.eye(2), np.zeros(6))
+        compiled_nearest(kernel, target.position, np.eye(2), np.zeros(6))
     with pytest.raises(TypeError, match="reference"):
-        kernel.nearest(target.position, target.rotation, np.zeros(6, dtype=np.float32))
-    with pytest.raises(TypeError):
-        kernel.nearest(target.position, target.rotation, None)
+        compiled_nearest(kernel, target.position, target.rotation, np.zeros(6, dtype=np.float32))
+    with pytest.raises(TypeError, match="out"):
+        kernel.nearest_into(target.position, target.rotation, np.zeros(6), np.zeros(5))
 
 
 @pytest.mark.parametrize("chain_name", CHAINS)
@@ -269,7 +258,7 @@ def test_solve_all_results_from_the_kernels_arrays(solvers, chain_name):
         cut = float(np.median(errors[:, 7])) if len(errors) > 1 else 0.0
         if cut > 0.0:
             with pytest.MonkeyPatch.context() as patch:
-                patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
+                patch.delenv(PURE_PYTHON_VARIABLE, raising=False)
                 strict = wbik.solver("analytic", solver.robot, chain=chain_name,
                                      tolerances=Tolerances(position=1e-6, rotation=cut))
                 strict.closed_form("pose")
@@ -298,37 +287,28 @@ def test_solve_all_results_from_the_kernels_arrays(solvers, chain_name):
 
 
 def test_the_forms_screen_tolerance_reaches_the_kernel(solvers):
-    """A UR form with a screen tolerance of 0 (no branch is that exact): the kernel screens with it as
-    the Python path does, on the plain form and through the tool form."""
+    """A UR form with a screen tolerance of 0 (few branches are that exact): the kernel screens with it, on
+    the plain form and through the tool: it refuses branches the default screen keeps, and what it keeps
+    reaches the target exactly by the form's FK."""
     from wbik.robot_packages.ur5.closed_form import UR5EndEffector
-    from wbik.robot_packages.ur5.closed_form import UR5Tool
+    from wbik.solvers.analytic.aligned import with_tool
 
     class Exact(UR5EndEffector):
         screen_tolerance = 0.0
 
-    class ExactTool(UR5Tool):
-        flange_form = Exact
-        screen_tolerance = 0.0
-
-    for chain_name, form_type in (("ee", Exact), ("arm", ExactTool)):
+    for chain_name in CHAINS:
         solver = solvers[chain_name]
         chain = solver.chain
         with pytest.MonkeyPatch.context() as patch:
-            patch.delenv(ur_kernel.PURE_PYTHON_VARIABLE, raising=False)
-            form = form_type(chain)
+            patch.delenv(PURE_PYTHON_VARIABLE, raising=False)
+            form = Exact(chain) if chain_name == "ee" else with_tool(chain, Exact, "ee")
         outcomes = set()
         for q in chain.random(np.random.default_rng(6), 30):
             target = as_target(chain.fk(q))
-            position, rotation, reference = (target.position.tolist(), target.rotation.ravel().tolist(),
-                                             chain.nominal.tolist())
-            bounded = form.branches_one(position, rotation, reference)
-            expected, inside = nearest_branch(form, bounded, position, rotation, reference, solver._lower,
-                                              solver._upper)
-            got, status = form.kernel.nearest(target.position, target.rotation, chain.nominal)
-            assert (got is None) == (expected is None)
-            if got is None:
-                assert status == -2 and inside
-            else:
-                assert got.tobytes() == np.array(expected).tobytes()
+            got, status = compiled_nearest(form.kernel, target.position, target.rotation, chain.nominal)
+            assert solver.solve(target).success  # the default screen keeps a branch
+            if got is not None:
+                residual = solver._screen(form, got[None], target.position[None], target.rotation[None])[0]
+                assert residual[0] == 0.0
             outcomes.add(status if got is None else "found")
-        assert -2 in outcomes  # an exact screen refuses branches; each path refused the same ones
+        assert -2 in outcomes  # an exact screen refuses branches

@@ -329,19 +329,22 @@ class Robot:
             checked[sole] = _sole_corners(sole, corners)
         return checked
 
-    def _checked_closed_forms(self, closed_forms) -> dict[tuple[str, str], str]:
-        """{(chain, kind): "module:Class"} with every chain one of ``chains``."""
-        closed_forms = self._mapping(closed_forms,
-                                     'closed_forms must map (chain, target kind) to "module:Class"')
-        for key, where in closed_forms.items():
+    def _checked_closed_forms(self, closed_forms) -> dict[tuple[str, str], Any]:
+        """{(chain, kind): the closed form's class or factory, called (chain, **options)} with every chain
+        one of ``chains``."""
+        closed_forms = self._mapping(closed_forms, "closed_forms must map (chain, target kind) to a closed "
+                                                   "form's class or factory")
+        for key, binding in closed_forms.items():
             if not (isinstance(key, tuple) and len(key) == 2 and all(isinstance(k, str) for k in key)
                     and key[0] in self.chains):
                 raise RobotDescriptionError(
                     f"robot {self.name!r}: closed form key {key!r} is not (chain, target kind) with a chain "
                     f"of {sorted(self.chains)}; e.g. ('arm', 'pose')")
-            if not (isinstance(where, str) and where.count(":") == 1 and all(where.split(":"))):
-                raise RobotDescriptionError(f"robot {self.name!r}: closed form of {key!r} must be named "
-                                            f"\"module:Class\", got {where!r}")
+            if not callable(binding):
+                raise RobotDescriptionError(
+                    f"robot {self.name!r}: closed form of {key!r} must be a closed form's class or a factory "
+                    f"(chain, **options) -> ClosedForm, e.g. the robot package's closed_form.MyArm, got "
+                    f"{binding!r}")
         return dict(closed_forms)
 
     def require_facts(self, kind: type[FactsT], needed_by: str) -> FactsT:

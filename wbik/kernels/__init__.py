@@ -1,16 +1,17 @@
 """wbik's compiled kernels, all in this folder, with the switch between them and their Python twins.
 
-Five optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, each
+Six optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, each
 replace a piece of per-call Python arithmetic with the same arithmetic in C. :data:`KERNELS` lists
 them: the extension, what it computes, its Python twin (the code that runs without it) and the
 benchmark goal rows it moves (``benchmarks/all.py``; docs/benchmarks.md gives each one's measured
 gain). The C sources sit beside this file (``_<name>.c``, sharing ``_buffers.h``); a C function writes
 into arrays the caller passes and returns a number, a bool or None, never a Python object of wbik's.
 
-Twins with the same bits: ``pose``, ``ur_type`` and ``eaik`` (plain IEEE arithmetic in the same order,
-built without FMA contraction). Twins to rounding: ``qp_rows`` and ``lm_trial``, whose Python twins
-call Pinocchio, NumPy or LAPACK, which sum in their own orders. Tests compare every pair
-(tests/test_compiled.py and one test file per kernel).
+Twins with the same bits: ``pose`` and ``eaik`` (plain IEEE arithmetic in the same order, built without
+FMA contraction); ``ur_type`` and ``stacked_planar`` too where NumPy's arctan2 and arccos are libm's (their
+twin is the vectorised NumPy choice; NumPy's AVX-512 versions are one ulp off on some arguments). Twins to
+rounding: ``qp_rows`` and ``lm_trial``, whose Python twins call Pinocchio, NumPy or LAPACK, which sum in
+their own orders. Tests compare every pair (tests/test_compiled.py and one test file per kernel).
 
 ``WBIK_PURE_PYTHON=1`` in the environment runs every Python twin; a comma-separated list of kernel
 names (``WBIK_PURE_PYTHON=eaik,pose``) runs the twins of those only, which is how a kernel's own gain
@@ -49,10 +50,15 @@ KERNELS = (
            "wbik.targets._python_accepts_plain_se3, wbik.geometry._python_error_parts",
            ("interface overhead", "Golem-III closed-form solve")),
     Kernel("ur_type", "wbik.kernels._ur_type",
-           "the UR-type closed form's scalar path: branches, wrapping into the limits, screen, choice",
-           "wbik.solvers.analytic.ur_type (branches_one, fk_one) with "
-           "wbik.solvers.analytic.closed_form.nearest_branch",
+           "the UR-type closed form's choice: branches, wrapping into the limits, screen, nearest branch",
+           "wbik.solvers.analytic.ur_type.branches_by_joint with "
+           "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
            ("UR5 closed-form solve", "UR5 closed-form solve_all", "UR5 closed-form solve_many")),
+    Kernel("stacked_planar", "wbik.kernels._stacked_planar",
+           "the stacked-planar (Golem-III arm) pose closed form's choice, as the UR-type kernel's",
+           "wbik.solvers.analytic.stacked_planar.StackedPlanarPose.branches with "
+           "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
+           ("Golem-III closed-form solve",)),
     Kernel("eaik", "wbik.kernels._eaik",
            "the eaik method's choice among EAIK's branches: order, wrapping, FK screen, check arithmetic",
            "wbik.kernels.eaik (order_python, choose_python)",

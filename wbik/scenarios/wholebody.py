@@ -250,7 +250,6 @@ def wholebody_schema() -> Map:
 
 def _method_names() -> tuple[str, ...]:
     from wbik.solvers.method_registry import methods
-
     return tuple(sorted(methods()))
 
 
@@ -260,7 +259,6 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     from wbik.errors import InvalidOptionError
     from wbik.errors import did_you_mean
     from wbik.solvers.method_registry import solver_options
-
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)

@@ -182,17 +182,14 @@ class WholeBodyCases(CaseKind):
     def method_option_schema(self, method: str) -> Map:
         from wbik.schema import option_schema
         from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-
         return option_schema(IK_METHOD_REGISTRY.get(method).factory, leading=2)
 
     def methods(self) -> dict[str, str]:
         from wbik.solvers.method_registry import methods
-
         return methods()
 
     def method_options(self, method: str) -> set[str]:
         from wbik.solvers.method_registry import solver_options
-
         return solver_options(method)
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
@@ -204,7 +201,6 @@ class WholeBodyCases(CaseKind):
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
         from wbik.solvers.method_registry import budget_options
-
         return budget_options(method, timeout_s, options, problem=True)
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,

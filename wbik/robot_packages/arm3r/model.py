@@ -11,7 +11,6 @@ table into this package's ``arm3r.urdf`` (:data:`URDF_PATH`), for tools that rea
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -21,23 +20,15 @@ from wbik.dh import DHTable
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
+from wbik.robot_packages.arm3r.closed_form import Arm3RFacts
+from wbik.robot_packages.arm3r.closed_form import arm3r_position
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
 URDF_PATH = description_file("arm3r.urdf")
 """The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
 
-CLOSED_FORMS = {("arm", "position"): "wbik.robot_packages.arm3r.closed_form:Arm3RPosition"}
+CLOSED_FORMS = {("arm", "position"): arm3r_position}
 """The yaw + planar 2R position closed form (see that module)."""
-
-
-@dataclass(frozen=True)
-class Arm3RFacts:
-    """What an arm3r robot was built with (``robot.facts``; the closed form reads ``lengths``)."""
-
-    lengths: tuple[float, float, float]
-    """(l1, l2, l3) in metres: base height d1 and the two link lengths a2, a3."""
-    dh: DHTable
-    """The standard DH table the URDF is written from (SI)."""
 
 
 def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:

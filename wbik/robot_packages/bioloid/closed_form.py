@@ -1,34 +1,23 @@
-"""Closed-form IK of the Bioloid's arms and legs (bioloid.md 2 and 3), vectorised over batches.
+"""Closed-form IK of the Bioloid's arms and legs (bioloid.md 2 and 3), vectorised over batches, and the
+dimensions and facts the robot is built with (:mod:`.model` imports them).
 
-Thesis-level functions (angles in radians, any leading batch shape):
+Thesis-level functions (radians, any leading batch shape): :func:`arm_thesis_angles`, eq. 1-9 with the
+code's exact variant of eq. 8 (gamma2 uses -theta5), right arm (the left on the mirrored target);
+:func:`leg_thesis_angles`, eq. 10-22 foot -> hip with eq. 22 as the code's theta11 = -Pitch + beta +
+gamma/2 - alpha, reaching the hip orientation Rx(-theta17) Ry(Pitch) Rx(theta17 + Roll) Rz(Yaw) in the
+ankle frame; :func:`leg_foot_to_hip`, :func:`leg_hip_to_foot`, :func:`arm_ik` as the URDF chains' joints.
+Unreachable targets (|cos| > 1) get the clamped cosine (the nearest stretched limb, never NaN) and a
+``reachable`` mask; within ``COSINE_TOLERANCE`` of +-1 they stay reachable (a stretched knee or elbow).
 
-- :func:`arm_thesis_angles`: eq. 1-9 with the code's variant of eq. 8 (gamma2 uses -theta5),
-  the variant that is exact (bioloid.md 2.3). Right arm; the left arm is solved on the mirrored
-  target (y -> -y).
-- :func:`leg_thesis_angles`: eq. 10-22, foot -> hip, with eq. 22 read as the code's
-  ``theta11 = -Pitch + beta + gamma/2 - alpha``. The reached hip orientation (in the ankle frame)
-  is ``Rx(-theta17) Ry(Pitch) Rx(theta17 + Roll) Rz(Yaw)``: the pitch acts about the lateral axis
-  of the leg plane (tilted by the ankle roll), which is what the decoupled equations produce.
-- :func:`leg_foot_to_hip`, :func:`leg_hip_to_foot`, :func:`arm_ik`: the same, as joint angles of
-  the URDF chains (conversion in :mod:`wbik.robot_packages.bioloid.model`).
-
-Unreachable targets (|cos gamma| > 1, i.e. hip-ankle distance > 2 Lf, or |c5| > 1 for the arm)
-are reported by a ``reachable`` mask; their angles come from the clamped cosine (the nearest
-stretched limb), never NaN. Cosines within the shared ``COSINE_TOLERANCE`` of +-1 are clamped and
-stay reachable (:func:`wbik.solvers.analytic.subproblems.clamped_cosine`): a stretched knee or elbow
-is a branch merge where rounding must not flip the verdict. (The leg's hip Euler lock, hip roll
-+-pi/2, is outside the +-0.87 rad limits, so its decomposition needs no tolerance.)
-
-Closed forms for the solver framework (declared in ``robot.closed_forms``):
-:class:`ArmPosition` (4 exact branches: the thesis's elbow and the other, times the base
-servo turned by pi), :class:`LegPose` (ankle pose in the hip frame; 4 branches: the thesis's
-walking knee branch, flexion >= 2 alpha, and the near-straight one, times the two hip Euler
-branches) and :class:`LegPosition` (ankle position; foot kept parallel to the hip as in the
-thesis's IK6ServoLegtoFoot, or at its orientation of q0, or the ankle joints of q0 kept).
+The robot's closed forms: :class:`ArmPosition` (the thesis's elbow and the other, times the base turned by
+pi), :class:`LegPose` (ankle pose in the hip frame: the walking knee branch and the near-straight one,
+times two hip Euler branches), :class:`LegPosition` (foot parallel to the hip as the thesis's
+IK6ServoLegtoFoot, or at q0's orientation, or q0's ankle joints kept).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,22 +26,68 @@ from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x
 from wbik.geometry import rot_y
 from wbik.geometry import rot_z
-from wbik.robot_packages.bioloid.model import ALPHA
-from wbik.robot_packages.bioloid.model import ARM_JOINTS
-from wbik.robot_packages.bioloid.model import L7
-from wbik.robot_packages.bioloid.model import L8
-from wbik.robot_packages.bioloid.model import LEG_JOINTS
-from wbik.robot_packages.bioloid.model import LF
-from wbik.robot_packages.bioloid.model import MIRROR_SIGN
-from wbik.robot_packages.bioloid.model import BioloidFacts
-from wbik.robot_packages.bioloid.model import arm_lengths
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 
+# --- lengths from the seed (m) -------------------------------------------------------------------
+L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675
+FOREARM = 0.0745
+TOOL_CODE = 0.0255
+"""Hand/tool length of the author's code (L4 = 0.100 m); the default."""
+TOOL_THESIS = 0.070
+"""Hand/tool length of the thesis's Table 1 (L4 = 0.1445 m)."""
+L7, L8 = 0.0145, 0.075
+LF = math.hypot(L7, L8)
+ALPHA = math.atan2(L7, L8)
+
+LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
+
+MIRROR_SIGN = {"shoulder_pitch": 1.0, "shoulder_roll": -1.0, "elbow": -1.0, "hip_yaw": -1.0,
+               "hip_roll": -1.0, "hip_pitch": 1.0, "knee": 1.0, "ankle_pitch": 1.0, "ankle_roll": -1.0}
+"""q_left = sign * q_right for the mirror image (y -> -y) of a right-side pose (same axes both sides)."""
+
+
+def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, float, float]:
+    """(L0, L1, L2, L3, L4) in metres; L4 = 0.0745 + tool (code 0.0255 -> 0.100, thesis 0.070)."""
+    return (L0, L1, L2, L3, FOREARM + tool_length)
+
+
+@dataclass(frozen=True)
+class BioloidFacts:
+    """What a Bioloid robot was built with and what it assumes (``robot.facts``; SI: m, rad).
+
+    Masses (an assumption): AX-12A 54.6 g per servo plus estimated brackets, battery and controller
+    (see the URDF's comments). The seed itself writes degrees and servo units.
+    """
+
+    servo_ids: dict[str, int]
+    """Joint -> Dynamixel ID (1..18) of the seed's wiring (read: do not change)."""
+    mirror_sign: dict[str, float]
+    """Joint without side (e.g. "knee") -> sign s with q_left = s q_right for the mirror image (y -> -y)."""
+    arm_lengths: tuple[float, float, float, float, float]
+    """(L0, L1, L2, L3, L4) of the arm closed form (m); L4 = 0.0745 + tool_length."""
+    tool_length: float
+    """Hand/tool length the robot was built with (m): 0.0255 (the code's) or 0.070 (the thesis's)."""
+    standing_hip_height: float
+    """Hip above ankle in the nominal standing pose (m), the code's zd."""
+    standing_pitch: float
+    """Torso pitch of the nominal standing pose (rad)."""
+    hip_lateral: float
+    """ASSUMPTION: pelvis centre -> hip, sideways (m); the feet are 2 hip_lateral apart."""
+    hip_drop: float
+    """ASSUMPTION: pelvis origin -> hip roll/pitch intersection, downward (m)."""
+    ankle_height: float
+    """ASSUMPTION: ankle axes -> sole (m)."""
+    chest_height: float
+    """ASSUMPTION: pelvis origin -> chest centre (the arm frame), upward (m)."""
+    sole_size: tuple[float, float]
+    """ASSUMPTION: (length along x, width along y) of each sole rectangle (m), centred under the ankle."""
+
+
 ARM_MIRROR = np.array([MIRROR_SIGN[joint] for joint in ARM_JOINTS])
 LEG_MIRROR = np.array([MIRROR_SIGN[joint] for joint in LEG_JOINTS])
-"""q_left = sign * q_right for mirror-image poses (both sides use the same axis directions)."""
 
 
 def _points(p, what: str) -> np.ndarray:

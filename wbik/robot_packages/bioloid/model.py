@@ -38,7 +38,6 @@ q1 in [-62, 238] deg.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -48,17 +47,25 @@ from wbik.data import description_file
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
-
-# --- lengths from the seed (m) -------------------------------------------------------------------
-L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675
-FOREARM = 0.0745
-TOOL_CODE = 0.0255
-"""Hand/tool length of the author's code (L4 = 0.100 m); the default."""
-TOOL_THESIS = 0.070
-"""Hand/tool length of the thesis's Table 1 (L4 = 0.1445 m)."""
-L7, L8 = 0.0145, 0.075
-LF = math.hypot(L7, L8)
-ALPHA = math.atan2(L7, L8)
+from wbik.robot_packages.bioloid.closed_form import ALPHA as ALPHA
+from wbik.robot_packages.bioloid.closed_form import ARM_JOINTS
+from wbik.robot_packages.bioloid.closed_form import FOREARM
+from wbik.robot_packages.bioloid.closed_form import L0
+from wbik.robot_packages.bioloid.closed_form import L1
+from wbik.robot_packages.bioloid.closed_form import L2
+from wbik.robot_packages.bioloid.closed_form import L3
+from wbik.robot_packages.bioloid.closed_form import L7
+from wbik.robot_packages.bioloid.closed_form import L8
+from wbik.robot_packages.bioloid.closed_form import LEG_JOINTS
+from wbik.robot_packages.bioloid.closed_form import LF
+from wbik.robot_packages.bioloid.closed_form import MIRROR_SIGN
+from wbik.robot_packages.bioloid.closed_form import TOOL_CODE
+from wbik.robot_packages.bioloid.closed_form import TOOL_THESIS as TOOL_THESIS
+from wbik.robot_packages.bioloid.closed_form import ArmPosition
+from wbik.robot_packages.bioloid.closed_form import BioloidFacts
+from wbik.robot_packages.bioloid.closed_form import LegPose
+from wbik.robot_packages.bioloid.closed_form import LegPosition
+from wbik.robot_packages.bioloid.closed_form import arm_lengths
 
 # --- assumptions (not in the seed) -----------------------------------------------------------------
 HIP_LATERAL = 0.0385
@@ -90,17 +97,9 @@ SERVO_IDS = {
     "r_hip_pitch": 11, "l_hip_pitch": 12, "r_knee": 13, "l_knee": 14, "r_ankle_pitch": 15,
     "l_ankle_pitch": 16, "r_ankle_roll": 17, "l_ankle_roll": 18,
 }
-LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
-ARM_JOINTS = ("shoulder_pitch", "shoulder_roll", "elbow")
-
-CLOSED_FORMS = {
-    ("right_arm", "position"): "wbik.robot_packages.bioloid.closed_form:ArmPosition",
-    ("left_arm", "position"): "wbik.robot_packages.bioloid.closed_form:ArmPosition",
-    ("right_leg", "pose"): "wbik.robot_packages.bioloid.closed_form:LegPose",
-    ("left_leg", "pose"): "wbik.robot_packages.bioloid.closed_form:LegPose",
-    ("right_leg", "position"): "wbik.robot_packages.bioloid.closed_form:LegPosition",
-    ("left_leg", "position"): "wbik.robot_packages.bioloid.closed_form:LegPosition",
-}
+CLOSED_FORMS = {("right_arm", "position"): ArmPosition, ("left_arm", "position"): ArmPosition,
+                ("right_leg", "pose"): LegPose, ("left_leg", "pose"): LegPose,
+                ("right_leg", "position"): LegPosition, ("left_leg", "position"): LegPosition}
 
 # Joint limits (deg) of the right side; the left side mirrors them (see the module docstring).
 RIGHT_LIMITS_DEG = {
@@ -108,11 +107,6 @@ RIGHT_LIMITS_DEG = {
     "hip_yaw": (-55.0, 50.0), "hip_roll": (-50.0, 40.0), "hip_pitch": (-100.0, 25.0),
     "knee": (-10.0, 104.0), "ankle_pitch": (-60.0, 30.0), "ankle_roll": (-30.0, 40.0),
 }
-MIRROR_SIGN = {"shoulder_pitch": 1.0, "shoulder_roll": -1.0, "elbow": -1.0, "hip_yaw": -1.0,
-               "hip_roll": -1.0, "hip_pitch": 1.0, "knee": 1.0, "ankle_pitch": 1.0, "ankle_roll": -1.0}
-"""q_left = sign * q_right for the mirror image (y -> -y) of a right-side pose (same axes both sides)."""
-
-
 def joint_limits_deg(side: str, joint: str) -> tuple[float, float]:
     """(lower, upper) in degrees of ``joint`` (e.g. "knee") on side "r" or "l"."""
     lower, upper = RIGHT_LIMITS_DEG[joint]
@@ -329,43 +323,6 @@ def sole_corners() -> dict[str, np.ndarray]:
     a, b = SOLE_LENGTH / 2, SOLE_WIDTH / 2
     corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
     return {"r_sole": corners.copy(), "l_sole": corners.copy()}
-
-
-def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, float, float]:
-    """(L0, L1, L2, L3, L4) in metres; L4 = 0.0745 + tool (code 0.0255 -> 0.100, thesis 0.070)."""
-    return (L0, L1, L2, L3, FOREARM + tool_length)
-
-
-@dataclass(frozen=True)
-class BioloidFacts:
-    """What a Bioloid robot was built with and what it assumes (``robot.facts``; SI: m, rad).
-
-    Masses (an assumption): AX-12A 54.6 g per servo plus estimated brackets, battery and controller
-    (see the URDF's comments). The seed itself writes degrees and servo units.
-    """
-
-    servo_ids: dict[str, int]
-    """Joint -> Dynamixel ID (1..18) of the seed's wiring (read: do not change)."""
-    mirror_sign: dict[str, float]
-    """Joint without side (e.g. "knee") -> sign s with q_left = s q_right for the mirror image (y -> -y)."""
-    arm_lengths: tuple[float, float, float, float, float]
-    """(L0, L1, L2, L3, L4) of the arm closed form (m); L4 = 0.0745 + tool_length."""
-    tool_length: float
-    """Hand/tool length the robot was built with (m): 0.0255 (the code's) or 0.070 (the thesis's)."""
-    standing_hip_height: float
-    """Hip above ankle in the nominal standing pose (m), the code's zd."""
-    standing_pitch: float
-    """Torso pitch of the nominal standing pose (rad)."""
-    hip_lateral: float
-    """ASSUMPTION: pelvis centre -> hip, sideways (m); the feet are 2 hip_lateral apart."""
-    hip_drop: float
-    """ASSUMPTION: pelvis origin -> hip roll/pitch intersection, downward (m)."""
-    ankle_height: float
-    """ASSUMPTION: ankle axes -> sole (m)."""
-    chest_height: float
-    """ASSUMPTION: pelvis origin -> chest centre (the arm frame), upward (m)."""
-    sole_size: tuple[float, float]
-    """ASSUMPTION: (length along x, width along y) of each sole rectangle (m), centred under the ankle."""
 
 
 def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robot:

@@ -35,7 +35,6 @@ and the left arm joints m20..m24 have the right arm's limits.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -50,6 +49,11 @@ from wbik.dh import urdf_document
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import model_from_urdf_text
+from wbik.robot_packages.golem3.closed_form import LEFT_JOINTS
+from wbik.robot_packages.golem3.closed_form import RIGHT_JOINTS
+from wbik.robot_packages.golem3.closed_form import Golem3Facts
+from wbik.robot_packages.golem3.closed_form import golem3_pose
+from wbik.robot_packages.golem3.closed_form import golem3_position
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 
 # -- thesis geometry (golem3.md) ----------------------------------------------------------------
@@ -74,8 +78,6 @@ LIFT_VELOCITY = 0.005  # m/s
 FINGER_RANGE = (0.0, 1.6)  # rad
 HEAD_RANGE = (-1.0, 1.0)  # rad
 
-RIGHT_JOINTS = ("m10", "m11", "m12", "m13", "m14")
-LEFT_JOINTS = ("m20", "m21", "m22", "m23", "m24")
 MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
 """Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
 
@@ -83,27 +85,8 @@ URDF_PATH = description_file("golem3.urdf")
 """The committed URDF (package data next to this module), written by :func:`write_urdf`."""
 
 
-@dataclass(frozen=True)
-class Golem3Facts:
-    """The thesis's right-arm DH numbers (golem3.md), ``robot.facts``; the closed form reads them.
-
-    ASSUMPTIONS documented here and in the module docstring: the left arm is the mirror image of the
-    right one, T_left(m0, q) = M T_right(-m0, q) M with M = diag(1, -1, 1) in torso_link, and its
-    joints m2x have the limits of m1x; masses, head and finger geometry are guesses.
-    """
-
-    arm: StackedPlanarGeometry
-    """The arm as the stacked-planar closed form takes it: l1 = row 1 a (chest yaw axis -> shoulder),
-    l2 = row 2 a, l4 = row 4 a (upper arm), l5 = row 5 a (elbow offset), l6 = row 6 d (forearm, wrist
-    roll axis to the gripper centre), h = row 1 d (base height of the shoulder plane), all in m, and
-    rho the elbow angle offset (rad, 13.43 deg)."""
-
-CLOSED_FORMS = {
-    ("right_arm", "pose"): "wbik.robot_packages.golem3.closed_form:Golem3PoseIK",
-    ("right_arm", "position"): "wbik.robot_packages.golem3.closed_form:Golem3PositionIK",
-    ("left_arm", "pose"): "wbik.robot_packages.golem3.closed_form:Golem3PoseIK",
-    ("left_arm", "position"): "wbik.robot_packages.golem3.closed_form:Golem3PositionIK",
-}
+CLOSED_FORMS = {("right_arm", "pose"): golem3_pose, ("right_arm", "position"): golem3_position,
+                ("left_arm", "pose"): golem3_pose, ("left_arm", "position"): golem3_position}
 """Closed forms of golem3.md ch. 4.1 (pose, up to 4 real branches) and 4.2.1 (position, yaw fixed)."""
 
 # -- assumptions (not in the thesis): masses in kg, head and finger geometry in m -----------------

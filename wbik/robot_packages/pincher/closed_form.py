@@ -4,13 +4,13 @@ base height, both links 0.105 m, 0.095 m wrist to tool); chain ``arm``: base_lin
 
 Three target kinds:
 
-- pose (SE3): :class:`PincherPose`, 2 branches; a pose the arm cannot take (y axis not horizontal, or
+- pose (SE3): :func:`pincher_pose`, 2 branches; a pose the arm cannot take (y axis not horizontal, or
   position off the arm plane of that yaw) has none: success=False, "unreachable".
 - position + pitch (the seed's [px, py, pz, theta], :func:`position_pitch_branches`): q1 = atan2(py, px)
   with pitch theta, or q1 + pi with pitch pi - theta (same approach direction, tool rolled by pi);
   2 x 2 branches. :func:`pose_from_position_pitch` turns the seed's 4-vector into the SE3 the arm
   reaches with q1 = atan2(py, px).
-- position only (3-vector): :class:`PincherPosition`, the pitch nearest to q0's with a branch inside
+- position only (3-vector): :func:`pincher_position`, the pitch nearest to q0's with a branch inside
   the limits (the family's rule).
 """
 
@@ -19,11 +19,11 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.robot_packages.pincher.model import BASE_HEIGHT
-from wbik.robot_packages.pincher.model import LINK
-from wbik.robot_packages.pincher.model import WRIST_TO_TOOL
 from wbik.solvers.analytic import yaw_planar as family
 
+BASE_HEIGHT = 0.137
+LINK = 0.105
+WRIST_TO_TOOL = 0.095
 PINCHER = family.PitchArmGeometry(h=BASE_HEIGHT, a=LINK, b=LINK, t=WRIST_TO_TOOL)
 
 
@@ -62,13 +62,11 @@ def tool_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return family.pitch_arm_fk(PINCHER, q)
 
 
-class PincherPose(family.PitchArmPose):
+def pincher_pose(chain) -> family.PitchArmPose:
     """Full-pose targets: q1 and the pitch from the rotation, 2 elbow branches (K = 2)."""
+    return family.PitchArmPose(chain, PINCHER)
 
-    geometry = PINCHER
 
-
-class PincherPosition(family.PitchArmPosition):
+def pincher_position(chain) -> family.PitchArmPosition:
     """Position-only targets: the pitch nearest to q0's pitch with a branch inside the limits (K = 4)."""
-
-    geometry = PINCHER
+    return family.PitchArmPosition(chain, PINCHER)

@@ -22,10 +22,12 @@ from wbik.dh import DHTable
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
+from wbik.robot_packages.pincher.closed_form import BASE_HEIGHT
+from wbik.robot_packages.pincher.closed_form import LINK
+from wbik.robot_packages.pincher.closed_form import WRIST_TO_TOOL
+from wbik.robot_packages.pincher.closed_form import pincher_pose
+from wbik.robot_packages.pincher.closed_form import pincher_position
 
-BASE_HEIGHT = 0.137
-LINK = 0.105
-WRIST_TO_TOOL = 0.095
 LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
 TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -33,10 +35,7 @@ URDF_PATH = description_file("pincher.urdf")
 """The committed URDF of :func:`dh_table` (package data next to this module; scripts/export_urdf.py)."""
 
 
-CLOSED_FORMS = {
-    ("arm", "pose"): "wbik.robot_packages.pincher.closed_form:PincherPose",
-    ("arm", "position"): "wbik.robot_packages.pincher.closed_form:PincherPosition",
-}
+CLOSED_FORMS = {("arm", "pose"): pincher_pose, ("arm", "position"): pincher_position}
 """Closed forms of pincher.md's analytic inverse (position + tool pitch), see that module."""
 
 
@@ -58,7 +57,7 @@ def dh_table() -> DHTable:
 @dataclass(frozen=True)
 class PincherFacts:
     """The Pincher's defining table (``robot.facts``); the closed form uses the same numbers
-    (BASE_HEIGHT, LINK, WRIST_TO_TOOL above)."""
+    (BASE_HEIGHT, LINK, WRIST_TO_TOOL, from its closed_form)."""
 
     dh: DHTable
     """pincher.md's standard DH table in SI (m, rad; the seed writes mm and degrees), tool "noa" included."""

@@ -1,14 +1,15 @@
 """UR5 binding: the UR-type family (:mod:`wbik.solvers.analytic.ur_type`) with the UR5's DH numbers.
 
 Chain ``ee`` (base_link -> ee_link) is the family's frame; chain ``arm`` (base_link -> tcp, the riveting
-tool) composes it with the fixed ee_link -> tcp transform read from the model (:class:`ToolClosedForm`).
+tool) composes it with the fixed ee_link -> tcp transform read from the model.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.analytic.closed_form import ToolClosedForm
+from wbik.solvers.analytic.aligned import AlignedForm
+from wbik.solvers.analytic.aligned import with_tool
 from wbik.solvers.analytic.ur_type import URArm
 from wbik.solvers.analytic.ur_type import URGeometry
 from wbik.solvers.analytic.ur_type import fk
@@ -28,8 +29,6 @@ class UR5EndEffector(URArm):
     geometry = UR5
 
 
-class UR5Tool(ToolClosedForm):
+def ur5_tool(chain) -> AlignedForm:
     """Chain ``arm`` (base_link -> tcp): the ``ee`` closed form composed with the fixed ee_link -> tcp."""
-
-    flange_form = UR5EndEffector
-    flange_chain = "ee"
+    return with_tool(chain, UR5EndEffector, "ee")

@@ -17,6 +17,8 @@ from wbik.models.erd import urdf_path
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
+from wbik.robot_packages.ur5.closed_form import UR5EndEffector
+from wbik.robot_packages.ur5.closed_form import ur5_tool
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
@@ -27,10 +29,7 @@ TOOL_DIAMETER = 0.005
 TOOL_URDF_PATH = description_file("ur5_rivet_tool.urdf.xml")
 """The riveting tool's links and joints (a URDF fragment), appended to example-robot-data's UR5."""
 
-CLOSED_FORMS = {
-    ("ee", "pose"): "wbik.robot_packages.ur5.closed_form:UR5EndEffector",
-    ("arm", "pose"): "wbik.robot_packages.ur5.closed_form:UR5Tool",
-}
+CLOSED_FORMS = {("ee", "pose"): UR5EndEffector, ("arm", "pose"): ur5_tool}
 """ur_kinematics' closed form (ur5-riveting.md 1.2) on ee_link, and composed with the tool for tcp."""
 
 

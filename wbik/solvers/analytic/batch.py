@@ -1,16 +1,7 @@
-"""Batched twins of the per-call interface for ``analytic``'s ``solve_many``: target conversion and the
-shared FK check, one NumPy pass per batch instead of one Python call per target.
-
-- :func:`batch_targets`: a batch of ``pinocchio.SE3`` targets checked as :func:`wbik.targets.as_target`
-  checks one (finite position within ``MAX_POSITION``, R^T R = I and det R = 1 within
-  ``ROTATION_TOLERANCE``, with its fast path's arithmetic), vectorised; anything else, or any target
-  that fails, goes through ``as_target`` one by one, so bad input raises exactly the error it raises
-  in ``solve``.
-- :func:`evaluate_batch`: :func:`wbik.solvers.base.evaluate`'s rule (clip into the limits, position
-  error p - p*, rotation error log3(R*^T R), success when both norms are within the tolerances, the
-  same reasons) for a batch, with the closed form's vectorised FK in place of Pinocchio's.
-  ``tests/test_analytic_batch.py`` checks both against their per-call originals, and every closed
-  form's FK against Pinocchio.
+"""Batched twins of the per-call interface for ``analytic``'s ``solve_many``, one NumPy pass per batch:
+:func:`batch_targets` checks targets as :func:`wbik.targets.as_target` does (anything else goes through it
+one by one, raising its errors), :func:`evaluate_batch` is :func:`wbik.solvers.base.evaluate`'s rule with
+the closed form's FK in place of Pinocchio's (tests/test_analytic_batch.py holds both to the originals).
 """
 
 from __future__ import annotations

@@ -1,18 +1,13 @@
 """EAIK's decomposition as a closed form: the fallback of ``analytic`` for full poses where no family of
-wbik matches the chain, and the scalar path of the ``eaik`` method.
+wbik matches the chain, and the chain model of the ``eaik`` method.
 
-EAIK 1.2.2 returns every branch of a pose; here they feed ``analytic``'s own choice (wrapping into the
-limits, the screen with this form's FK, the branch nearest q0:
-:func:`wbik.solvers.analytic.closed_form.nearest_branch`).
-Each thread builds its own EAIK robot, from the chain's H and P and with the tip's rotation at q = 0 as
-EAIK's end-effector rotation R6T, so a target pose goes to EAIK as it is. The vectorised FK is the
-product of exponentials of the chain's lines (:func:`~wbik.solvers.analytic.structure.poe_fk`, the
-model's to rounding); the scalar path's FK is the chain's own (Pinocchio).
-
-EAIK's verdict on a chain (:func:`eaik_verdict`): the chain's axes H and offsets P at q = 0 go to
-EAIK, which names its kinematic family and whether it knows a decomposition; a claimed decomposition
-is then probed: its branches must reproduce at least PROBE_REQUIRED of PROBE_POSES FK poses of
-seeded random joints, since EAIK 1.2.2 claims some it gets wrong.
+EAIK 1.2.2 returns every branch of a pose; they feed ``analytic``'s own choice. Each thread builds its
+own EAIK robot from the chain's H and P with the tip's rotation at q = 0 as EAIK's R6T, so a target goes
+to EAIK as it is. The FK is the product of exponentials of the chain's lines (the model's to rounding).
+EAIK's verdict (:func:`eaik_verdict`): EAIK names the chain's kinematic family and whether it knows a
+decomposition; a claimed one must reproduce at least PROBE_REQUIRED of PROBE_POSES FK poses of seeded
+random joints (EAIK 1.2.2 claims some it gets wrong). ``solve`` picks among EAIK's branches with the
+``eaik`` method's compiled choice where built (:class:`EAIKChoice`), else with the vectorised one.
 """
 
 from __future__ import annotations
@@ -24,32 +19,16 @@ import numpy as np
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.geometry import TWO_PI
+from wbik.kernels import eaik as eaik_kernel
+from wbik.kernels import pure_python
 from wbik.robot import Chain
 from wbik.robot import ChainCache
+from wbik.solvers.analytic.closed_form import BOUND_SLACK
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.analytic.structure import poe_fk
-
-_INVERSE_TURN = 1.0 / TWO_PI
-_TURN_SQUARED = {joints: np.full(joints, TWO_PI * TWO_PI) for joints in range(1, 7)}
-"""(2 pi)^2 per joint, for EAIK's chains of 1 to 6 joints."""
-
-
-def branch_bounds(q_all: np.ndarray, reference: np.ndarray) -> list[float]:
-    """Per branch of q_all (K, n), sum_i remainder(q_i - r_i, 2 pi)^2 (to rounding, far below
-    ``BOUND_SLACK``): a lower bound of its squared distance to ``reference`` once wrapped into
-    the
-    limits (:func:`wbik.solvers.analytic.closed_form.nearest_branch`), computed in turns in six small NumPy
-    calls:
-    (2 pi)^2 sum_i (t_i - rint(t_i))^2 with t = (q - r) / 2 pi. NaN where a joint is not finite."""
-    turns = np.subtract(q_all, reference)
-    turns *= _INVERSE_TURN
-    turns -= np.rint(turns)
-    turns *= turns
-    return np.dot(turns, _TURN_SQUARED[turns.shape[-1]]).tolist()
-
 
 INSTALL = "pip install EAIK==1.2.2"
 SCREEN_TOLERANCE = 1e-7
@@ -158,7 +137,6 @@ class EAIKForm(ClosedForm):
     (``probe``: check EAIK's branches on seeded FK poses)."""
 
     target_kind = "pose"
-    has_scalar_path = True
 
     def __init__(self, chain, probe: bool = True, structure=None):
         super().__init__(chain)
@@ -166,6 +144,8 @@ class EAIKForm(ClosedForm):
         self.family = self.structure.family
         self.lines = chain_lines(chain)
         self._local = threading.local()
+        compiled = eaik_kernel.choose_compiled is not None and not pure_python("eaik")
+        self.kernel = EAIKChoice(self) if compiled else None
 
     def robot(self):
         """This thread's EAIK robot (:func:`eaik_robot`)."""
@@ -183,13 +163,6 @@ class EAIKForm(ClosedForm):
         pose[3] = (0.0, 0.0, 0.0, 1.0)
         return pose
 
-    @staticmethod
-    def bounded(q_all: np.ndarray, reference) -> list[tuple[float, list[float]]]:
-        """Branches (K, n) as ``branches_one`` returns them: (:func:`branch_bounds`, q)."""
-        if not len(q_all):
-            return []
-        return list(zip(branch_bounds(q_all, reference), q_all.tolist(), strict=True))
-
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         robot, joints = self.robot(), self.chain.nq
@@ -206,12 +179,30 @@ class EAIKForm(ClosedForm):
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
 
-    def branches_one(self, position, rotation, reference):
-        pose = self.pose(position, np.reshape(rotation, (3, 3)))
-        q_all = np.asarray(self.robot().calculate_IK(pose).Q, dtype=float).reshape(-1, self.chain.nq)
-        return self.bounded(q_all, reference)
 
-    def fk_one(self, q):
-        pose = self.chain.fk(np.asarray(q, dtype=float)).homogeneous.tolist()
-        (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = pose
-        return (x, y, z), (a, b, c, d, e, f, g, h, i)
+class EAIKChoice:
+    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches of the target, then the ``eaik`` method's
+    compiled choice (``wbik/kernels/_eaik.c``: wrapped into the limits nearest the start, nearest first,
+    screened with the chain lines' FK), the choice the vectorised one makes."""
+
+    def __init__(self, form: EAIKForm):
+        chain = form.chain
+        self.form, self.joints = form, chain.nq
+        self.params = eaik_kernel.parameters(chain.nq, chain.lower.tolist(), chain.upper.tolist(),
+                                             chain.nq * BOUND_SLACK, LIMIT_TOLERANCE, form.lines,
+                                             form.screen_tolerance)
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """The chosen branch into ``out``: the number of EAIK's branches, else 0 (none), -1 (none inside
+        the limits) or -2 (none passes the screen), as :class:`~.compiled.CompiledForm`."""
+        pose = EAIKForm.pose(position, rotation)
+        q_all = self.form.robot().calculate_IK(pose).Q
+        if not len(q_all):
+            return 0
+        parts = np.empty(self.joints + 24)
+        if eaik_kernel.choose_compiled(self.params, q_all, reference, pose, parts):
+            out[:] = parts[:self.joints]
+            return len(q_all)
+        inside = eaik_kernel.order_compiled(self.params, q_all, reference, np.empty(np.shape(q_all)))
+        return -2 if inside else -1

@@ -1,10 +1,6 @@
-"""A closed form's FK held to the robot model's (Pinocchio) when ``analytic`` builds the form.
-
-``solve_many``, and ``solve_all`` through a compiled kernel, check their answers with the closed form's
-own FK (the batched rule of :func:`wbik.solvers.analytic.batch.evaluate_batch`). That check is the
-shared one (Pinocchio) only if the form's FK is the model's: :func:`check_fk_against_model` refuses a
-form whose FK differs, e.g. a UR-type binding given another arm's DH numbers.
-"""
+"""A closed form's FK held to the robot model's when ``analytic`` builds the form: the batched check (and
+a kernel's) uses the form's FK, the shared one only if that is the model's (e.g. not a UR-type binding
+given another arm's DH numbers)."""
 
 from __future__ import annotations
 
@@ -15,10 +11,8 @@ import numpy as np
 from wbik.errors import RobotDescriptionError
 
 MODEL_AGREEMENT = 1e-9
-"""Largest difference (m, and rotation-matrix entries) allowed between a closed form's FK and the robot
-model's. Held to it, the closed form's check is the shared one's to within 1e-9, three orders of
-magnitude below the check's tolerances (1e-6). The shipped forms differ by 1.24e-11 at most (the UR5's
-DH numbers against its URDF)."""
+"""Largest difference (m, rotation entries) between a form's FK and the model's, three orders below the
+check's tolerances; the shipped forms differ by 1.24e-11 at most (the UR5's DH numbers vs its URDF)."""
 MODEL_SAMPLES = 16
 """Joint vectors the agreement is checked on (seeded, inside the limits; [-pi, pi] where one is infinite)."""
 

@@ -1,22 +1,15 @@
 """A 7-joint chain in closed form: one joint (the redundant one) held at a value, the other six solved.
 
-As IKFast's free joint and EAIK's locked axes: joint k is held at a value v, the remaining 6-joint chain
-(:class:`LockedChain`) is solved by a recognised family or EAIK (:func:`.recognition.recognise_family`,
-:func:`.recognition.recognise_eaik`), and v is put back in every branch. The values tried per target
-(``redundancy``):
+As IKFast's free joint and EAIK's locked axes: joint k is held at v, the 6-joint rest (:class:`LockedChain`)
+is solved by a recognised family or EAIK, and v is put back in every branch. Values per target
+(``redundancy``): ``"seed"``, v = q0_k (inside the limits); ``"grid"``, q0_k and ``grid_size`` values over
+the joint's range, every branch of each (the solver returns the one nearest q0 over all).
 
-- ``"seed"``: v = q0_k (inside the limits), the start's own value: an arm that moves little keeps it;
-- ``"grid"``: q0_k and ``grid_size`` values evenly over the joint's range, every branch of each; the
-  solver then returns the branch nearest q0 over all of them (K = 8 x (grid_size + 1) for a 6R).
-
-Holding the first or the last joint leaves the other lines where they are: the held joint only moves the
-base (T = exp([xi_1] v) T_6(q)) or the tool (T = T_6(q) M^-1 exp([xi_n] v) M), so one 6-joint form,
-built once at v = 0, solves every value with the target moved accordingly. Holding a joint in between
-moves the lines after it: the 6-joint form is rebuilt for each value (grid values once, kept).
-
-The default joint (:func:`lock_redundant_joint`) is the first of the last, the first, then the others from
-the tip, whose holding leaves a chain with a closed form (at the nominal value): e.g. the Panda's joint 7
-(EAIK's 6R-SPHERICAL_FIRST_TWO_INTERSECTING), the Golem-III's torso lift (the stacked-planar arm).
+Holding the first or the last joint only moves the base (T = exp([xi_1] v) T_6(q)) or the tool (T = T_6(q)
+M^-1 exp([xi_n] v) M): one form built at v = 0 solves every value with the target moved. A joint in
+between moves the lines after it: the form is rebuilt per value (kept). The default joint
+(:func:`lock_redundant_joint`): the last, the first, then the others from the tip, the first whose holding
+leaves a chain with a closed form.
 """
 
 from __future__ import annotations
@@ -30,6 +23,11 @@ from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.model_agreement import check_fk_against_model
+from wbik.solvers.analytic.recognition import Family
+from wbik.solvers.analytic.recognition import Recognised
+from wbik.solvers.analytic.recognition import recognise_eaik
+from wbik.solvers.analytic.recognition import recognise_family
 from wbik.solvers.analytic.structure import ChainLines
 from wbik.solvers.analytic.structure import axis_rotation
 from wbik.solvers.analytic.structure import chain_lines
@@ -93,11 +91,8 @@ class LockedJointForm(ClosedForm):
     """A chain solved with joint ``index`` held (see the module docstring); UnsupportedError where the
     chain without it has no closed form."""
 
-    def __init__(self, chain, index: int, kind: str, options: dict | None = None, mode: str = "seed",
-                 grid_size: int = DEFAULT_GRID_SIZE):
-        from wbik.solvers.analytic.recognition import recognise_eaik
-        from wbik.solvers.analytic.recognition import recognise_family
-
+    def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
+                 options: dict | None = None, mode: str = "seed", grid_size: int = DEFAULT_GRID_SIZE):
         super().__init__(chain)
         self.index, self.mode, self.kind = index, mode, kind
         self.options = dict(options or {})
@@ -108,28 +103,31 @@ class LockedJointForm(ClosedForm):
         last = index == chain.nq - 1
         self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
         """What the held joint moves where one form serves every value: the base, the tool, or None."""
-        self._recognisers = (recognise_family, recognise_eaik)
+        self.families = families
         value = 0.0 if self.moves else float(np.clip(chain.nominal[index], chain.lower[index],
                                                      chain.upper[index]))
-        self.sub = self._recognise(LockedChain(chain, index, value), self._recognisers)
-        self.family = self.sub.family
-        self.parameters = self.sub.parameters
+        self.sub = self._recognise(LockedChain(chain, index, value), (True, True))
+        self.family, self.parameters = self.sub.family, self.sub.parameters
         self.screen_tolerance = self.sub.form.screen_tolerance
-        self.has_scalar_path = (self.moves is not None and self.sub.form.has_scalar_path
-                                and not np.any(chain.is_prismatic))
         self._forms: dict[float, ClosedForm | None] = {value: self.sub.form}
         self._lock = threading.Lock()
-        self._per_value = self._recognisers[1:] if self.family.startswith("eaik:") else self._recognisers[:1]
-        """What is tried at another value of a joint in the middle: what served at the nominal one."""
+        eaik = self.family.startswith("eaik:")
+        self._per_value = (not eaik, eaik)
+        """What is tried at another value of a joint in the middle (a family, EAIK): what served first."""
+        one_value = self.moves is not None and not len(self.grid)
+        self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
 
-    def _recognise(self, locked: LockedChain, recognisers, probe: bool = True):
-        """The first of ``recognisers`` (a family of wbik, EAIK) that solves the 6-joint chain."""
+    def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
+        """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
         reasons = []
-        for recogniser in recognisers:
+        if ways[0]:
             try:
-                if recogniser is self._recognisers[1]:
-                    return recogniser(locked, self.kind, probe=probe)
-                return recogniser(locked, self.kind, self.options)
+                return recognise_family(locked, self.kind, self.options, self.families)
+            except UnsupportedError as refused:
+                reasons.append(str(refused))
+        if ways[1]:
+            try:
+                return recognise_eaik(locked, self.kind, probe=probe)
             except UnsupportedError as refused:
                 reasons.append(str(refused))
         raise UnsupportedError("; ".join(reasons))
@@ -215,33 +213,25 @@ class LockedJointForm(ClosedForm):
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
 
-    def branches_one(self, position, rotation, reference):
-        values = self.values(np.array([reference]))[0]
-        sub_reference = reference[:self.index] + reference[self.index + 1:]
-        k, remainder = self.index, math.remainder
-        if self.moves is not None:
-            count = len(values)
-            repeated = None if rotation is None else np.tile(np.reshape(rotation, (3, 3)), (count, 1, 1))
-            moved_p, moved_r = self.moved_targets(np.tile(position, (len(values), 1)), repeated, values)
-        branches = []
-        for row, value in enumerate(values.tolist()):
-            if self.moves is not None:
-                form = self.sub.form
-                target = (moved_p[row].tolist(), None if rotation is None else moved_r[row].ravel().tolist())
-            else:
-                form = self._form_at(value)
-                if form is None:
-                    continue
-                target = (position, rotation)
-            gap = remainder(value - reference[k], TWO_PI)
-            for bound, q in form.branches_one(*target, sub_reference):
-                q.insert(k, value)
-                branches.append((bound + gap * gap, q))
-        return branches
+class HeldChoice:
+    """``solve``'s kernel of a :class:`LockedJointForm` holding the first or last joint at the start's
+    value (one form, one value): the target moved for the 6-joint form, its kernel's choice, the value put
+    back."""
 
-    def fk_one(self, q):
-        pose = self.chain.fk(np.asarray(q, dtype=float))
-        return tuple(pose.translation.tolist()), tuple(pose.rotation.ravel().tolist())
+    def __init__(self, form: LockedJointForm):
+        self.form, self.index = form, form.index
+        self.low, self.high = float(form.chain.lower[form.index]), float(form.chain.upper[form.index])
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        k = self.index
+        value = min(max(float(reference[k]), self.low), self.high)
+        moved_p, moved_r = self.form.moved_targets(position[None], rotation[None], np.array([value]))
+        sub = np.empty(len(reference) - 1)
+        status = self.form.sub.form.kernel.nearest_into(moved_p[0], moved_r[0], np.delete(reference, k), sub)
+        if status > 0:
+            out[:k], out[k], out[k + 1:] = sub[:k], value, sub[k:]
+        return status
 
 
 def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
@@ -265,13 +255,11 @@ def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
                               f"or index one (0..{chain.nq - 1}), got {joint!r}")
 
 
-def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict):
-    """The chain's closed form with one joint held (:class:`LockedJointForm`) as a
-    :class:`~.recognition.Recognised`: the joint ``redundancy["joint"]`` (an index), else the default
-    (see the module docstring) of a 7-joint chain. UnsupportedError saying why none."""
-    from wbik.solvers.analytic.model_agreement import check_fk_against_model
-    from wbik.solvers.analytic.recognition import Recognised
-
+def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict,
+                         families: tuple[Family, ...]) -> Recognised:
+    """The chain's closed form with one joint held (:class:`LockedJointForm`, the rest recognised among
+    ``families`` or by EAIK): the joint ``redundancy["joint"]`` (an index), else the default of a 7-joint
+    chain. UnsupportedError saying why none."""
     mode = redundancy.get("mode", "seed")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")
@@ -285,7 +273,7 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
     first_reason = ""
     for candidate in candidates:
         try:
-            form = LockedJointForm(chain, candidate, kind, options, mode, grid_size)
+            form = LockedJointForm(chain, candidate, kind, families, options, mode, grid_size)
         except UnsupportedError as refused:
             first_reason = first_reason or f"holding {chain.joint_names[candidate]}: {refused}"
             continue

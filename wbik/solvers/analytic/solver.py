@@ -3,8 +3,6 @@ a chain gets (bound by its robot, else recognised from its structure)."""
 
 from __future__ import annotations
 
-import importlib
-import math
 import time
 from collections.abc import Iterable
 
@@ -12,24 +10,27 @@ import numpy as np
 
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
-from wbik.geometry import TWO_PI
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
+from wbik.solvers.analytic.batch import batch_targets
+from wbik.solvers.analytic.batch import evaluate_batch
 from wbik.solvers.analytic.closed_form import BRANCH_MERGE
 from wbik.solvers.analytic.closed_form import Choice
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.closed_form import kernel_failure_reason
-from wbik.solvers.analytic.closed_form import nearest_branch
 from wbik.solvers.analytic.closed_form import no_solution_reason
-from wbik.solvers.analytic.closed_form import screen_residual
 from wbik.solvers.analytic.closed_form import wrap_into_limits
-from wbik.solvers.analytic.closed_form import wrap_one_into_limits
+from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import Recognised
 from wbik.solvers.analytic.recognition import recognise_eaik
 from wbik.solvers.analytic.recognition import recognise_family
+from wbik.solvers.analytic.redundancy import check_redundancy_options
 from wbik.solvers.analytic.redundancy import lock_redundant_joint
+from wbik.solvers.analytic.stacked_planar import STACKED_PLANAR
 from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.ur_type import UR_TYPE
+from wbik.solvers.analytic.yaw_planar import YAW_PLANAR
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
 from wbik.solvers.method import IKMethod
@@ -38,24 +39,18 @@ from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 
+FAMILIES = (UR_TYPE, YAW_PLANAR, STACKED_PLANAR)
+"""The families recognition tries, in this order (a new family: its module and one entry here)."""
 
-def closed_forms(robot) -> dict[tuple[str, str], str]:
-    """A robot's closed forms bound by hand: ``robot.closed_forms`` maps (chain, kind) to "module:Class".
 
-    Each robot package declares its own; a user robot passes ``closed_forms=`` to ``wbik.load``. A chain
-    and kind without one gets the form recognised from its structure (:mod:`.recognition`).
-    """
-    return dict(robot.closed_forms)
+def binding_name(binding) -> str:
+    """A robot's closed-form binding in words: "module:Name" of its class or factory."""
+    return f"{binding.__module__}:{getattr(binding, '__qualname__', type(binding).__name__)}"
 
 
 def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
-    """The closed form bound to (chain, kind) by the robot (built here, checked by the caller), else the
-    one recognised from the chain's structure (:func:`recognise`; checked there)."""
-    forms = closed_forms(chain.robot)
-    if (chain.name, kind) not in forms:
-        return recognise(chain, kind, options).form
-    module_name, class_name = forms[(chain.name, kind)].split(":")
-    return getattr(importlib.import_module(module_name), class_name)(chain, **options)
+    """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
+    return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
 
 
 def refusal(chain, reasons: dict[str, list[str]]) -> str:
@@ -68,7 +63,9 @@ def refusal(chain, reasons: dict[str, list[str]]) -> str:
 
 def refusal_reasons(chain, kind: str, options: dict | None = None,
                     redundancy: dict | None = None) -> Recognised | list[str]:
-    """:func:`recognise`'s answer, or the reasons (one per way tried) where there is no closed form."""
+    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, else for full poses
+    EAIK's decomposition, else one joint held: ``redundancy``, :mod:`.redundancy`'s options), or the
+    reasons (one per way tried) where there is none."""
     try:
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
@@ -77,7 +74,7 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
     redundancy = dict(redundancy or {})
     if redundancy.get("joint") is None:
         try:
-            return recognise_family(chain, kind, options)
+            return recognise_family(chain, kind, options, FAMILIES)
         except UnsupportedError as refused:
             reasons.append(str(refused))
         try:
@@ -86,37 +83,27 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
             reasons.append(str(refused))
     if redundancy.get("joint") is not None or chain.nq >= 7:
         try:
-            return lock_redundant_joint(chain, kind, options, redundancy)
+            return lock_redundant_joint(chain, kind, options, redundancy, FAMILIES)
         except UnsupportedError as refused:
             reasons.append(str(refused))
     return reasons
-
-
-def recognise(chain, kind: str, options: dict | None = None, redundancy: dict | None = None) -> Recognised:
-    """The closed form of ``chain`` for ``kind`` targets without a binding: a family of wbik
-    (:func:`.recognition.recognise_family`), else for full poses EAIK's decomposition, else, for a
-    chain with one joint more than that (``redundancy``: the options of :mod:`.redundancy`), one joint
-    held at a value.
-    UnsupportedError naming the chain and why each was refused."""
-    found = refusal_reasons(chain, kind, options, redundancy)
-    if isinstance(found, Recognised):
-        return found
-    raise UnsupportedError(refusal(chain, {kind: found}))
-
 
 
 TARGET_KINDS = ("pose", "position")
 
 
 class AnalyticSolver(Solver):
-    """Closed-form IK behind the common interface; see :mod:`wbik.solvers.analytic`.
+    """Closed-form IK behind the common interface: every branch of the chain's closed form (the robot's
+    binding, else recognised: a family of wbik, EAIK's decomposition, a 7-joint chain with one joint held),
+    wrapped into the limits nearest q0, screened with the form's FK, the nearest returned. ``families``
+    names per target kind what solves the chain ("bound:<module:Name>", "ur_type", "yaw_planar",
+    "stacked_planar", "eaik:<EAIK's class>", with the held joint where one is); a chain with neither kind is
+    refused when the solver is built, a missing kind when it is asked for (UnsupportedError saying why).
 
-    Which closed form: the one the robot binds to (chain, kind), else the one recognised from the
-    chain's structure (:mod:`.recognition`: a family of wbik, EAIK's decomposition for full poses, a
-    7-joint chain with one joint held). ``families`` says, per target kind, which solves the chain
-    ("bound:<module:Class>", "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with the
-    held joint where one is); a chain with neither kind is refused when the solver is built
-    (UnsupportedError saying what was tried), a missing kind when it is asked for.
+    One path per form: the vectorised choice over a batch of B targets (``solve``: B = 1), or the form's
+    compiled kernel where one is built (:mod:`.compiled`: the same choice in C). Results go through the
+    shared check (``solve``, and ``solve_all`` without a kernel) or its batched twin
+    (:func:`~.batch.evaluate_batch`, with the form's FK, held to the model's by :mod:`.model_agreement`).
     """
 
     name = "analytic"
@@ -125,17 +112,11 @@ class AnalyticSolver(Solver):
     def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None,
                  redundant_joint: str | int | None = None, redundancy: str = "seed",
                  grid_size: int = 16, **options):
-        """``closed_form_options``: keyword arguments per target kind for the closed form's
-        constructor, e.g. ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll).
-
-        A chain with one joint too many for a closed form (7 joints) holds one at a value
-        (:mod:`.redundancy`): ``redundant_joint`` (its name or index; default: the first of the last, the
-        first, then the others from the tip whose holding leaves a chain with a closed form), held at the
-        start's value (``redundancy="seed"``) or, besides it, at ``grid_size`` values over its range
-        (``"grid"``), the branch nearest q0 over all of them returned.
-        """
-        from wbik.solvers.analytic.redundancy import check_redundancy_options
-
+        """``closed_form_options``: keyword arguments per target kind for the closed form, e.g.
+        ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll). A 7-joint chain holds one joint
+        (:mod:`.redundancy`): ``redundant_joint`` (name or index; default: the last, the first, then the
+        others from the tip whose holding leaves a closed form), at the start's value (``redundancy="seed"``)
+        or also at ``grid_size`` values over its range (``"grid"``)."""
         super().__init__(robot, chain, **options)
         self._forms: dict[str, ClosedForm] = {}
         self.closed_form_options = dict(closed_form_options or {})
@@ -146,7 +127,6 @@ class AnalyticSolver(Solver):
         self._refusals: dict[str, str] = {}
         self._recognise_forms()
         self.revolute = ~self.chain.is_prismatic
-        self._lower, self._upper = self.chain.lower.tolist(), self.chain.upper.tolist()
         self._limits_by_joint = (self.chain.lower[:, None, None], self.chain.upper[:, None, None],
                                  self.revolute[:, None, None])
         """(lower, upper, revolute), each (n, 1, 1): the limits of a joint-major (n, K, B) batch."""
@@ -154,15 +134,13 @@ class AnalyticSolver(Solver):
         """Then a branch inside the limits is finite (no isfinite pass)."""
 
     def _recognise_forms(self) -> None:
-        """Per target kind: the bound form's name (built on first use), or the form recognised from the
-        chain's structure (built and checked now), or why there is none; UnsupportedError when no kind
-        has one."""
-        bound = closed_forms(self.robot)
+        """Per target kind: the bound form's name (built on first use), or the form recognised now, or why
+        there is none; UnsupportedError when no kind has one."""
         reasons = {}
         for kind in TARGET_KINDS:
-            where = bound.get((self.chain.name, kind))
-            if where is not None and self.redundancy["joint"] is None:
-                self.families[kind] = f"bound:{where}"
+            binding = self.robot.closed_forms.get((self.chain.name, kind))
+            if binding is not None and self.redundancy["joint"] is None:
+                self.families[kind] = f"bound:{binding_name(binding)}"
                 continue
             found = refusal_reasons(self.chain, kind, self.closed_form_options.get(kind, {}), self.redundancy)
             if isinstance(found, list):
@@ -185,8 +163,7 @@ class AnalyticSolver(Solver):
         self.closed_form(kind)
 
     def _form_of(self, target: Target) -> ClosedForm:
-        """The closed form of the target's kind: cached after the kind's first call, which runs the
-        detailed checks (:meth:`check_target_kind`; ``solve`` has run the interface's already)."""
+        """The closed form of the target's kind (the kind's first call runs the detailed checks)."""
         kind = "position" if target.rotation is None else "pose"
         form = self._forms.get(kind)
         if form is None:
@@ -205,10 +182,10 @@ class AnalyticSolver(Solver):
             self._forms[kind] = form
         return self._forms[kind]
 
-    # -- vectorised ---------------------------------------------------------------------------
+    # -- the vectorised choice -------------------------------------------------------------------------
     def _wrapped_by_joint(self, form: ClosedForm, positions, rotations, q0s):
-        """Every branch of a batch wrapped into the limits, joint-major and batch-last: (Q (n, K, B),
-        real (K, B), usable (K, B)) with usable = real, inside the limits and finite (not yet screened)."""
+        """Every branch of a batch wrapped into the limits nearest q0, joint-major and batch-last:
+        (Q (n, K, B), real (K, B), usable (K, B)), usable = real, inside the limits and finite."""
         q_all, real = form.branches_by_joint(positions, rotations, q0s)
         lower, upper, revolute = self._limits_by_joint
         q_all, in_limits = wrap_into_limits(q_all, _by_joint(q0s), lower, upper, revolute, axis=0)
@@ -217,29 +194,24 @@ class AnalyticSolver(Solver):
             usable &= np.all(np.isfinite(q_all), axis=0)
         return q_all, real, usable
 
-    def _wrapped(self, form: ClosedForm, positions, rotations, q0s):
-        """:meth:`_wrapped_by_joint` target by target: (Q (B, K, n), real (B, K), usable (B, K))."""
-        q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
-        return q_all.transpose(2, 1, 0), real.T, usable.T
-
     @staticmethod
     def _screen(form: ClosedForm, q: np.ndarray, positions, rotations):
-        """Closed-form FK of joints q (..., n) and its residual max(|p - p*|, angle(R*^T R)) against the
-        targets: (residual, reached positions, reached rotations)."""
+        """The form's FK of joints q (..., n) and its residual max(|p - p*|, angle(R*^T R)) against the
+        targets, the trace summed row by row (as the compiled kernels): (residual, reached p, reached R)."""
         reached_p, reached_r = form.fk(q)
-        residual = np.linalg.norm(reached_p - positions, axis=-1)
+        d = reached_p - positions
+        residual = np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2])
         if rotations is not None:
-            trace = np.sum(rotations * reached_r, axis=(-2, -1))  # trace(R_target^T R_reached)
+            products = (rotations * reached_r).reshape(reached_r.shape[:-2] + (9,))
+            trace = products[..., 0]
+            for k in range(1, 9):
+                trace = trace + products[..., k]
             residual = np.maximum(residual, np.arccos(np.clip((trace - 1.0) / 2.0, -1.0, 1.0)))
         return residual, reached_p, reached_r
 
     def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
-        """The nearest screened branch per target (see :class:`Choice`).
-
-        Same answer as screening every branch and taking the nearest (ties: the first branch), but the
-        nearest branch of every target is screened at once (its FK is kept for the batched check), and
-        only the targets where it misses have their branches sorted and the next ones screened (rare).
-        """
+        """The nearest screened branch per target (see :class:`Choice`): the nearest usable branch of every
+        target screened at once; where it misses (rare), the next ones in the order of their distances."""
         q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
         squares = q_all - _by_joint(q0s)
         squares *= squares
@@ -282,27 +254,14 @@ class AnalyticSolver(Solver):
 
     # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        rotation = target.rotation
         form = self._form_of(target)
-        if form.target_kind == "position":
-            rotation = None
-        kernel = form.kernel
-        if kernel is not None:
+        rotation = None if form.target_kind == "position" else target.rotation
+        if form.kernel is not None:
             q = np.empty(len(q0))
-            status = kernel.nearest_into(target.position, rotation, q0, q)
+            status = form.kernel.nearest_into(target.position, rotation, q0, q)
             if status <= 0:
                 return Candidate(None, 1, kernel_failure_reason(status))
             return Candidate(q, 1, extra={"branches": status})
-        if form.has_scalar_path:
-            position = target.position.tolist()
-            if rotation is not None:
-                rotation = rotation.ravel().tolist()
-            reference = q0.tolist()
-            bounded = form.branches_one(position, rotation, reference)
-            q, inside = nearest_branch(form, bounded, position, rotation, reference, self._lower, self._upper)
-            if q is None:
-                return Candidate(None, 1, no_solution_reason(bool(bounded), inside))
-            return Candidate(np.array(q), 1, extra={"branches": len(bounded)})
         choice = self._choose(form, target.position[None], None if rotation is None else rotation[None],
                               q0[None])
         if not choice.found[0]:
@@ -310,13 +269,9 @@ class AnalyticSolver(Solver):
         return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """Vectorised: one closed-form evaluation and one batched FK check (the closed form's FK, held to
-        the model by :mod:`.model_agreement`) for the whole batch; per-pose time = closed-form
-        time / B (the check is not counted, as in ``solve``). With a compiled kernel: one kernel call
-        for the batch, the same choice as ``solve`` (same bits), its time per pose with the check."""
-        from wbik.solvers.analytic.batch import batch_targets
-        from wbik.solvers.analytic.batch import evaluate_batch
-
+        """One choice and one batched check for the whole batch (the form's kernel where built); per-pose
+        time = the choice's time / B (the vectorised check not counted, as in ``solve``; the kernel's
+        includes its check)."""
         positions, rotations = batch_targets(targets, self)
         count = len(positions)
         if not count:
@@ -324,9 +279,16 @@ class AnalyticSolver(Solver):
         q0_array = self._start_array(q0s, count)
         form = self.closed_form("position" if rotations is None else "pose")
         form_rotations = rotations if form.target_kind == "pose" else None
-        if form.kernel is not None and form_rotations is not None:
-            return self._many_compiled(form, positions, rotations, q0_array)
         start = time.perf_counter()
+        if isinstance(form.kernel, CompiledForm) and form_rotations is not None:
+            joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
+            per_pose = (time.perf_counter() - start) / count
+            branches, outcomes = info.T.astype(int).tolist()
+            reasons = ["" if outcome == 1 else kernel_failure_reason(outcome) for outcome in outcomes]
+            extras = [{"branches": branch_count, "batched": True} for branch_count in branches]
+            measured = (errors[:, :3], errors[:, 3:6], errors[:, 6], errors[:, 7])
+            return evaluate_batch(self.chain, form, positions, rotations, joints, info[:, 1] == 1, reasons,
+                                  self.tolerances, per_pose, self.name, extras, measured=measured)
         choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
         extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
@@ -334,85 +296,41 @@ class AnalyticSolver(Solver):
                               self._reasons(choice), self.tolerances, per_pose, self.name, extras,
                               reached=(choice.reached_p, choice.reached_r))
 
-    def _many_compiled(self, form: ClosedForm, positions: np.ndarray, rotations: np.ndarray,
-                       q0_array: np.ndarray) -> list[IKResult]:
-        """:meth:`solve_many` through the kernel: every target's choice and its errors (closed-form FK,
-        :func:`.batch.evaluate_batch`'s rule: the joints are inside the limits already) in one call.
-        ``time_s`` is the kernel's time per pose, its check included."""
-        from wbik.solvers.analytic.batch import evaluate_batch
-
-        start = time.perf_counter()
-        joints, errors, info = form.kernel.nearest_many(positions, rotations, q0_array)
-        per_pose = (time.perf_counter() - start) / len(positions)
-        branches, outcomes = info.T.astype(int).tolist()
-        reasons = ["" if outcome == 1 else kernel_failure_reason(outcome) for outcome in outcomes]
-        extras = [{"branches": count, "batched": True} for count in branches]
-        measured = (errors[:, :3], errors[:, 3:6], errors[:, 6], errors[:, 7])
-        return evaluate_batch(self.chain, form, positions, rotations, joints, info[:, 1] == 1, reasons,
-                              self.tolerances, per_pose, self.name, extras, measured=measured)
-
     def _start_array(self, q0s, count: int) -> np.ndarray:
         """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""
         if q0s is None:
             return np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy()
-        starts = self._batch_starts(q0s, count)
-        return np.array(starts)
+        return np.array(self._batch_starts(q0s, count))
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch inside the limits that passes the FK check (wrapped nearest to the
-        chain's nominal configuration, in branch order): the shared check (Pinocchio) on the Python
-        path; with a compiled kernel the batched rule of ``solve_many`` (the closed form's FK, held to
-        the model by :mod:`.model_agreement`; the branches are inside the limits already,
-        nothing to clip), and the kernel builds the results: their arrays are row views of three
-        buffers, ``time_s`` the kernel's time with its check."""
+        """Every distinct branch (not within BRANCH_MERGE of an earlier one) inside the limits, wrapped
+        nearest the chain's nominal configuration, that passes the screen and the check, in branch order.
+        The check is the shared one (Pinocchio), or with a kernel its batched rule (the form's FK; the
+        kernel builds the results, their arrays row views of its buffers)."""
         target = as_target(target)
         form = self._form_of(target)
         nominal = self.chain.nominal
-        if form.kernel is not None:  # the kernel builds the results (the same rule, see the docstring)
+        if isinstance(form.kernel, CompiledForm):
             return form.kernel.results(target.position, target.rotation, nominal, self.name, self.tolerances)
         start = time.perf_counter()
-        if form.has_scalar_path:
-            distinct = self._distinct_one(form, target, nominal)
-        else:
-            positions = target.position[None]
-            rotations = None if form.target_kind == "position" else target.rotation[None]
-            q_all, _, usable = self._wrapped(form, positions, rotations, nominal[None])
-            q_all = q_all[0][usable[0]]
-            passed = self._screen(form, q_all, positions, rotations)[0] <= form.screen_tolerance
-            distinct = []
-            for q in q_all[passed]:
-                if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):
-                    distinct.append(q)
+        positions = target.position[None]
+        rotations = None if form.target_kind == "position" else target.rotation[None]
+        q_all, _, usable = self._wrapped_by_joint(form, positions, rotations, nominal[None])
+        q_all = q_all[:, usable[:, 0], 0].T
+        passed = self._screen(form, q_all, positions, rotations)[0] <= form.screen_tolerance
+        distinct: list[np.ndarray] = []
+        for q in q_all[passed]:
+            if not any(joint_gap(q, other, self.revolute) < BRANCH_MERGE for other in distinct):
+                distinct.append(q)
         elapsed = time.perf_counter() - start
         results = [evaluate(self.chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
                    for q in distinct]
         return [r for r in results if r.success]
 
-    def _distinct_one(self, form: ClosedForm, target: Target, nominal: np.ndarray) -> list[np.ndarray]:
-        """Every branch wrapped into the limits nearest to ``nominal`` that passes the screen and is not
-        within BRANCH_MERGE of an earlier one, in branch order (the scalar path of :meth:`solve_all`)."""
-        position = target.position.tolist()
-        rotation = None if form.target_kind == "position" else target.rotation.ravel().tolist()
-        reference = nominal.tolist()
-        screened: list[list[float]] = []
-        for _, raw in form.branches_one(position, rotation, reference):
-            q = wrap_one_into_limits(raw, reference, self._lower, self._upper)
-            if (q is not None and not any(_same_branch(q, other) for other in screened)
-                    and screen_residual(form.fk_one(q), position, rotation) <= form.screen_tolerance):
-                screened.append(q)
-        return [np.array(q) for q in screened]
-
 
 def _by_joint(q: np.ndarray) -> np.ndarray:
     """Joints (B, n) as the reference of a joint-major batch: (n, 1, B), contiguous along B."""
     return np.ascontiguousarray(q.T)[:, None, :]
-
-
-def _same_branch(q: list[float], other: list[float]) -> bool:
-    """Every revolute angle within BRANCH_MERGE of the other's modulo 2 pi (geometry.joint_gap's rule,
-    in plain floats, stopping at the first joint that differs)."""
-    remainder = math.remainder
-    return all(abs(remainder(a - b, TWO_PI)) < BRANCH_MERGE for a, b in zip(q, other, strict=True))
 
 
 IK_METHODS = (

@@ -12,25 +12,15 @@ height h of the horizontal plane and the angle rho of link l4), the gripper cent
     z  = h - l4 cos(t4+rho) - l5 cos(t4+t5) + l6 sin(t4+t5)
     R  = Rz(gamma) Ry(beta) Rx(alpha),  gamma = t1+t2+t3, beta = -t4-t5, alpha = t6
 
-Pose IK: alpha is taken with |alpha| <= pi/2 (the other Euler triple has t6 = alpha +- pi, outside a
-+-pi/2 roll range), then beta and gamma from R Rx(-alpha) = Rz(gamma) Ry(beta). At gimbal lock
-(beta = +-pi/2, gripper axis vertical) t6 is free: the start's t6 and a sweep of t6 values are tried.
-z fixes cos(t4+rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link is the planar 2R
-subproblem for (t1, t2) (elbow-left/right). So at most 2 x 2 = 4 real branches per roll; the thesis'
-2^3 = 8 sign choices come from squaring the t1 equation, and half of them are spurious. Cosines within
-``COSINE_TOLERANCE`` of +-1 are clamped (the thesis' failures near singular poses) and the FK screen
-decides.
+Pose IK: alpha = t6 from R Rx(-alpha) = Rz(gamma) Ry(beta) (|alpha| <= pi/2, or also alpha + pi), then
+beta and gamma; at gimbal lock (beta = +-pi/2) t6 is free and a sweep of values is tried. z fixes
+cos(t4 + rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link is the planar 2R of
+(t1, t2): at most 4 real branches per roll (the thesis' 8 sign choices square the t1 equation; half are
+spurious). Cosines within ``COSINE_TOLERANCE`` of +-1 are clamped and the FK screen decides.
 
-Position IK: t6 = ``yaw`` (it does not move the gripper centre), t1..t5 for the three coordinates,
-two free parameters. For fixed (t1, t2) the rest is closed form (:func:`position_candidates`): the
-shoulder point S(t1, t2), l3 = +-|p_xy - S| and gamma its direction, then (l3, h - z) is the planar 2R
-subproblem of the links l4 and sqrt(l5^2 + l6^2) for (t4, t5); :class:`PositionSearch` searches
-(t1, t2).
-
-Forms: the Golem-III binding (its robot package) solves its arms with these functions as the thesis
-does (one Euler triple, its roll range being +-pi/2); :class:`StackedPlanarPose` and
-:class:`StackedPlanarPosition` are the family's forms for any chain of this structure in the family's
-frames and joints (both Euler triples), which :mod:`.recognition` puts on a chain found to have it.
+Position IK: t6 = ``yaw`` (it does not move the gripper centre); for fixed (t1, t2) the rest is closed
+form (:func:`position_candidates`: l3 = +-|p_xy - S(t1, t2)|, then the planar 2R of l4 and
+|(l5, l6)|); :class:`PositionSearch` searches (t1, t2).
 """
 
 from __future__ import annotations
@@ -40,28 +30,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.geometry import TWO_PI
-from wbik.geometry import add_wrapped_squares
-from wbik.geometry import rot_x
-from wbik.geometry import rot_y
-from wbik.geometry import rot_z
+from wbik.dh import rot_z
+from wbik.errors import InvalidOptionError
 from wbik.geometry import wrap_to_pi
+from wbik.solvers.analytic import recognition
+from wbik.solvers.analytic.aligned import FamilyChain
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.compiled import compiled_form
+from wbik.solvers.analytic.recognition import HALF_PI
+from wbik.solvers.analytic.recognition import require
+from wbik.solvers.analytic.recognition import small
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r
-from wbik.solvers.analytic.subproblems import planar_2r_one
 from wbik.solvers.levenberg_marquardt import JointBounds
 from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
 from wbik.solvers.levenberg_marquardt import batch_cost
 from wbik.solvers.levenberg_marquardt import keep_better
 
+try:
+    from wbik.kernels import _stacked_planar as _stacked_kernel
+except ImportError:  # not built (no C compiler at install time): the vectorised twin
+    _stacked_kernel = None
+
 GIMBAL_LOCK = 1e-9
-"""|cos(beta)| below which alpha (t6) is free: the Euler angles are coupled there. It is read as
-hypot(R32, R33), entries of the target rotation that rounding moves by ~1e-16 (never through an
-arccos), so the decision has a margin of ~1e7 over rounding; the t6 so chosen costs at most
-GIMBAL_LOCK * |its change| of orientation, far below the screening tolerance."""
+"""|cos(beta)| = hypot(R32, R33) below which t6 is free (rounding moves it by ~1e-16; the t6 chosen there
+costs at most GIMBAL_LOCK |its change| of orientation)."""
 
 
 @dataclass(frozen=True)
@@ -88,35 +83,22 @@ class StackedPlanarGeometry:
 
 
 def fk(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form FK: joints (..., 6) -> positions (..., 3), rotations (..., 3, 3)."""
+    """Closed-form FK of joints (..., 6): positions (..., 3), rotations Rz(gamma) Ry(beta) Rx(t6)."""
     q = np.asarray(q, dtype=float)
     t1, t2, t3, t4, t5, t6 = (q[..., i] for i in range(6))
     s = t4 + t5
     t12 = t1 + t2
     gamma = t12 + t3
-    l3 = g.l4 * np.sin(t4 + g.rho) + g.l5 * np.sin(s) + g.l6 * np.cos(s)
-    position = np.empty(q.shape[:-1] + (3,))
-    position[..., 0] = g.l1 * np.sin(t1) + g.l2 * np.sin(t12) + l3 * np.cos(gamma)
-    position[..., 1] = -g.l1 * np.cos(t1) - g.l2 * np.cos(t12) + l3 * np.sin(gamma)
-    position[..., 2] = g.h - g.l4 * np.cos(t4 + g.rho) - g.l5 * np.cos(s) + g.l6 * np.sin(s)
-    return position, rot_z(gamma) @ rot_y(-s) @ rot_x(t6)
-
-
-def fk_one(g: StackedPlanarGeometry, q) -> tuple[tuple[float, float, float], tuple[float, ...]]:
-    """:func:`fk` of one joint vector in plain floats: (position, rotation row by row (9,))."""
-    t1, t2, t3, t4, t5, t6 = q
-    s, t12 = t4 + t5, t1 + t2
-    gamma = t12 + t3
-    sin, cos = math.sin, math.cos
-    ss, cs, sg, cg, sa, ca = sin(s), cos(s), sin(gamma), cos(gamma), sin(t6), cos(t6)
-    l3 = g.l4 * sin(t4 + g.rho) + g.l5 * ss + g.l6 * cs
-    position = (g.l1 * sin(t1) + g.l2 * sin(t12) + l3 * cg,
-                -g.l1 * cos(t1) - g.l2 * cos(t12) + l3 * sg,
-                g.h - g.l4 * cos(t4 + g.rho) - g.l5 * cs + g.l6 * ss)
-    sb, cb = -ss, cs  # beta = -s
-    return position, (cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
-                      sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
-                      -sb, cb * sa, cb * ca)
+    ss, cs, sg, cg, sa, ca = np.sin(s), np.cos(s), np.sin(gamma), np.cos(gamma), np.sin(t6), np.cos(t6)
+    l3 = g.l4 * np.sin(t4 + g.rho) + g.l5 * ss + g.l6 * cs
+    sb = -ss  # beta = -s
+    position = np.stack((g.l1 * np.sin(t1) + g.l2 * np.sin(t12) + l3 * cg,
+                         -g.l1 * np.cos(t1) - g.l2 * np.cos(t12) + l3 * sg,
+                         g.h - g.l4 * np.cos(t4 + g.rho) - g.l5 * cs + g.l6 * ss), axis=-1)
+    rows = ((cg * cs, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa),
+            (sg * cs, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa),
+            (-sb, cs * sa, cs * ca))
+    return position, np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 
 def position_jacobian(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -191,41 +173,6 @@ def pose_branches(g: StackedPlanarGeometry, positions: np.ndarray, rotations: np
     return q_all, real
 
 
-def pose_branches_one(g: StackedPlanarGeometry, position, rotation, rolls,
-                      reference) -> list[tuple[float, list[float]]]:
-    """:func:`pose_branches` for one pose and the rolls ``rolls`` in plain floats: the real branches
-    in the same order (roll by roll), each as (bound, q) with bound = sum_i remainder(q_i - r_i, 2 pi)^2
-    summed along the tree of roll, sin(t4 + rho) sign and elbow choices."""
-    x, y, z = position
-    _, r12, r13, _, r22, r23, r31, r32, r33 = rotation
-    ref1, ref2, ref3, ref4, ref5, ref6 = reference
-    atan2, cos, sin, remainder = math.atan2, math.cos, math.sin, math.remainder
-    l1, l2, l4, l5, l6, h, rho = g.l1, g.l2, g.l4, g.l5, g.l6, g.h, g.rho
-    branches = []
-    for alpha in rolls:
-        ca, sa = cos(alpha), sin(alpha)
-        beta = atan2(-r31, sa * r32 + ca * r33)
-        gamma = atan2(-(ca * r12 - sa * r13), ca * r22 - sa * r23)
-        sb, cb, sg, cg = sin(beta), cos(beta), sin(gamma), cos(gamma)
-        cos4 = (h - z - l5 * cb - l6 * sb) / l4
-        if not abs(cos4) <= 1.0 + COSINE_TOLERANCE:
-            continue
-        cos4 = min(1.0, max(-1.0, cos4))
-        root4 = math.sqrt(1.0 - cos4 * cos4)
-        e6 = remainder(alpha - ref6, TWO_PI)
-        for sin4 in (root4, -root4):
-            t4 = atan2(sin4, cos4) - rho
-            t5 = -beta - t4
-            e4, e5 = remainder(t4 - ref4, TWO_PI), remainder(t5 - ref5, TWO_PI)
-            bound = e4 * e4 + e5 * e5 + e6 * e6
-            l3 = l4 * sin4 + l6 * cb - l5 * sb
-            for t1, t2 in planar_2r_one(l3 * sg - y, x - l3 * cg, l1, l2):
-                t3 = gamma - (t1 + t2)
-                branches.append((add_wrapped_squares(bound, t1, ref1, t2, ref2, t3, ref3),
-                                 [t1, t2, t3, t4, t5, alpha]))
-    return branches
-
-
 def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.ndarray, t2: np.ndarray,
                         yaw: float) -> tuple[np.ndarray, np.ndarray]:
     """Closed form of t3, t4, t5 for given (t1, t2) (broadcast over (B, G)), 4 branches each.
@@ -254,16 +201,11 @@ def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.
 
 
 class PositionSearch:
-    """Position IK with t6 fixed (two free parameters) over the limit box of (t1, t2): a vectorised grid
-    of ``grid_t1`` x ``grid_t2`` values gives exact candidates through :func:`position_candidates` (the
-    ``keep`` nearest to q0 are returned); a bounded Levenberg-Marquardt on the position (closed-form
-    Jacobian, the project's one LM policy) starts from q0 and, where the grid found nothing, from the
-    ``lm_starts`` grid points nearest to feasibility (robust near the workspace boundary). Positions
-    outside a certified outer bound of the workspace are rejected at once; other unreachable ones after
-    at most ``lm_iterations`` trials. The solver returns the candidate nearest to q0 among the exact,
-    in-limit ones (the LM from q0 gives a nearby solution; grid ones are ~0.25 rad apart), so "nearest"
-    is among these candidates, not a global optimum over the solution surface.
-    """
+    """Position IK with t6 fixed over the limit box of (t1, t2): a ``grid_t1`` x ``grid_t2`` grid of exact
+    candidates (:func:`position_candidates`; the ``keep`` nearest q0), and a bounded Levenberg-Marquardt on
+    the position (closed-form Jacobian, the project's LM policy) from q0 and, where the grid found
+    nothing, from the ``lm_starts`` grid points nearest feasibility. Positions beyond a certified outer
+    bound are refused at once. "Nearest q0" is among these candidates, not over the solution surface."""
 
     grid_t1 = 9
     grid_t2 = 13
@@ -272,9 +214,8 @@ class PositionSearch:
     lm_iterations = 40
     lm_tolerance = 1e-11
     lm_stall = 8
-    """Trials without |e| falling below 0.99 of its best after which a start is given up: rejected trials
-    count, and near the workspace boundary progress is slow (with 2, 2 of 10,000 reachable Golem-III
-    positions were given up; the accept-every-step LM this replaced needed no margin)."""
+    """Trials (rejected ones count) without |e| below 0.99 of its best after which a start is given up (near
+    the workspace boundary progress is slow: with 2, 2 of 10,000 reachable Golem-III positions were lost)."""
     damping_factor = 0.1
 
     def __init__(self, geometry: StackedPlanarGeometry, lower: np.ndarray, upper: np.ndarray):
@@ -337,15 +278,10 @@ class PositionSearch:
 
     def _refine(self, positions: np.ndarray, starts: np.ndarray,
                 use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Levenberg-Marquardt on the position error e = p(q) - p* over t1..t5, from starts (B, S, 6)
-        where ``use`` (B, S); returns (joints, converged to 1e-9 m).
-
-        The project's one LM policy (:mod:`wbik.solvers.levenberg_marquardt`): damping
-        lambda = damping_factor |e|^2 + mu (quadratic near a regular solution, damped near singular
-        ones), a trial accepted when it lowers |e|, joints pushed against a limit frozen for the step.
-        A start stops when it converges (|e| <= lm_tolerance), stalls (|e| not below 0.99 of its best
-        in ``lm_stall`` trials) or after ``lm_iterations`` trials.
-        """
+        """Levenberg-Marquardt (:mod:`wbik.solvers.levenberg_marquardt`: lambda = damping_factor |e|^2 + mu,
+        a trial kept when it lowers |e|, joints at a limit frozen) on e = p(q) - p* over t1..t5 from starts
+        (B, S, 6) where ``use`` (B, S), until |e| <= lm_tolerance, a stall or ``lm_iterations`` trials;
+        returns (joints, converged to 1e-9 m)."""
         count, seeds, _ = starts.shape
         q = starts.reshape(-1, 6).copy()
         target = np.repeat(positions, seeds, axis=0)
@@ -390,34 +326,34 @@ def _finite_limits(chain) -> tuple[np.ndarray, np.ndarray]:
 
 
 class StackedPlanarPose(ClosedForm):
-    """Full poses of a stacked-planar arm in the family's frames and joints: both Euler triples of the
-    target rotation (t6 = alpha with |alpha| <= pi/2, and alpha + pi), 4 branches each (K = 8); at gimbal
-    lock t6 is free and q0's t6 and GIMBAL_LOCK_SWEEP rolls over its range are tried."""
+    """Full poses in the family's frames and joints: ``triples`` Euler triples of the target rotation (t6 =
+    alpha with |alpha| <= pi/2, and alpha + pi when 2; a roll range of +-pi/2 needs one), 4 branches each;
+    at gimbal lock t6 is free: q0's t6 and GIMBAL_LOCK_SWEEP rolls over its range. Compiled kernel:
+    ``wbik/kernels/_stacked_planar.c``."""
 
     target_kind = "pose"
-    has_scalar_path = True
 
-    def __init__(self, chain, geometry: StackedPlanarGeometry):
+    def __init__(self, chain, geometry: StackedPlanarGeometry, triples: int = 2):
         super().__init__(chain)
-        self.geometry = geometry
+        self.geometry, self.triples = geometry, triples
         lower, upper = _finite_limits(chain)
         self.roll_limits = (float(lower[5]), float(upper[5]))
         self.roll_sweep = np.linspace(lower[5], upper[5], GIMBAL_LOCK_SWEEP)
-        self._sweep_list = self.roll_sweep.tolist()
+        self.kernel = self.compiled(chain, None, self.screen_tolerance)
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         alpha = wrist_roll(rotations)
         locked = gimbal_locked(rotations)
-        rolls = np.stack((alpha, alpha + np.pi), axis=1)
+        rolls = alpha[:, None] if self.triples == 1 else np.stack((alpha, alpha + np.pi), axis=1)
         real_roll = np.ones(rolls.shape, dtype=bool)
         if locked.any():
             count, sweep = len(alpha), len(self.roll_sweep)
             start = np.clip(q0[:, 5], *self.roll_limits)
             rolls = np.concatenate([np.where(locked[:, None], start[:, None], rolls),
                                     np.broadcast_to(self.roll_sweep, (count, sweep))], axis=1)
-            real_roll = np.concatenate([np.stack((np.ones(count, dtype=bool), ~locked), axis=1),
-                                        np.broadcast_to(locked[:, None], (count, sweep))], axis=1)
+            real_roll[:, 1:] = ~locked[:, None]
+            real_roll = np.concatenate([real_roll, np.broadcast_to(locked[:, None], (count, sweep))], axis=1)
         q_all, real = pose_branches(self.geometry, positions, rotations, rolls)
         count = len(positions)
         return q_all.reshape(count, -1, 6), (real & real_roll[..., None]).reshape(count, -1)
@@ -425,26 +361,16 @@ class StackedPlanarPose(ClosedForm):
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return fk(self.geometry, q)
 
-    def branches_one(self, position, rotation, reference):
-        r32, r33 = rotation[7], rotation[8]
-        if math.hypot(r32, r33) < GIMBAL_LOCK:
-            low, high = self.roll_limits
-            rolls = [min(high, max(low, reference[5])), *self._sweep_list]
-        else:
-            alpha = math.atan2(r32, r33)
-            if abs(alpha) > math.pi / 2:
-                alpha -= math.copysign(math.pi, alpha)
-            rolls = [alpha, alpha + math.pi]
-        return pose_branches_one(self.geometry, position, rotation, rolls, reference)
-
-    def fk_one(self, q):
-        return fk_one(self.geometry, q)
+    def compiled(self, chain, alignment, screen_tolerance: float):
+        g = self.geometry
+        numbers = (g.l1, g.l2, g.l4, g.l5, g.l6, g.h, g.rho, COSINE_TOLERANCE, GIMBAL_LOCK, self.triples,
+                   *self.roll_limits, *self.roll_sweep)
+        return compiled_form(_stacked_kernel, "stacked_planar", numbers, chain, alignment, screen_tolerance)
 
 
 class StackedPlanarPosition(ClosedForm):
-    """Position targets of a stacked-planar arm with the wrist roll t6 held at ``yaw`` (rad, in the
-    family's joints; it does not move the gripper centre): :class:`PositionSearch` over (t1, t2) in the
-    chain's limits, over batches of at most ``chunk`` positions."""
+    """Positions with the wrist roll t6 held at ``yaw`` (rad, family joints; it does not move the gripper
+    centre): :class:`PositionSearch` over (t1, t2) in the chain's limits, ``chunk`` positions at a time."""
 
     target_kind = "position"
     chunk = 256
@@ -463,3 +389,60 @@ class StackedPlanarPosition(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return fk(self.geometry, q)
+
+
+def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
+    """The roll joint's value for position targets: ``yaw`` (default: the nominal, inside the limits),
+    checked inside the chain's limits (``error`` otherwise)."""
+    if yaw is None:
+        yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]))
+    yaw = float(yaw)
+    if not math.isfinite(yaw) or not chain.lower[5] <= yaw <= chain.upper[5]:
+        raise error(f"yaw (the roll joint {chain.joint_names[5]}) must be inside [{chain.lower[5]}, "
+                    f"{chain.upper[5]}] rad, got {yaw}")
+    return yaw
+
+
+# --- recognition --------------------------------------------------------------------------------------
+CANONICAL = recognition.Canonical((0.0, 0.0, HALF_PI, 0.0, -HALF_PI, HALF_PI), (-HALF_PI, 0.0, HALF_PI,
+                                  -HALF_PI, 0.0, -HALF_PI), np.eye(4), rot_z(HALF_PI))
+"""The family's FK as DH rows (rho = 0), its gripper frame Rz(pi/2)."""
+
+
+def match(lines, kind: str, options: dict) -> recognition.Match:
+    """6R, axes 1-3 parallel, axis 4 meeting axis 3 at a right angle, 5 parallel to 4, 6 at a right angle
+    to 5, without a sideways offset of the forearm; positions only where the tip is on axis 6."""
+    recognition.require_revolute(lines, 6)
+    first, sign = recognition.first_frame(lines, np.eye(3))
+    result = recognition.walk(lines, first, sign, CANONICAL.alphas[:5], (1.0,) * 5)
+    require(small(result.a[2], lines), f"axes 3 and 4 miss each other by {abs(result.a[2]):.3g} m")
+    require(small(result.d[4], lines), f"the forearm is {abs(result.d[4]):.3g} m off the arm's plane")
+    along, off_axis = recognition.tip_offset(lines, result.frames[-1])
+    if kind == "position":
+        distance = float(np.linalg.norm(off_axis))
+        require(small(distance, lines), f"the tip is {distance:.3g} m off the roll axis (6), so positions "
+                                        "depend on the roll")
+    recognition.close_walk(result, 0.0, along, 0.0, HALF_PI)
+    geometry = StackedPlanarGeometry(l1=result.a[0], l2=result.a[1], l4=result.a[3], l5=result.a[4], l6=along,
+                                     h=result.d[2], rho=0.0)
+    aligned = recognition.aligned(CANONICAL, lines, result)
+    parameters = recognition.in_words(geometry, ("l1", "l2", "l4", "l5", "l6", "h"))
+    if kind == "pose":
+        recognition.no_options(options, "stacked_planar pose")
+        return recognition.Match("stacked_planar", lambda chain: StackedPlanarPose(chain, geometry), *aligned,
+                                 parameters)
+    unknown = set(options) - {"yaw"}
+    if unknown:
+        raise InvalidOptionError(f"the recognised stacked_planar position form takes the option 'yaw' (the "
+                                 f"roll joint's value, rad), not {sorted(unknown)}",
+                                 option=sorted(unknown)[0], accepted=["yaw"])
+
+    def build(family_chain: FamilyChain) -> ClosedForm:
+        yaw = held_roll(family_chain.chain, options.get("yaw"))
+        family_yaw = family_chain.signs[5] * yaw + family_chain.offsets[5]
+        return StackedPlanarPosition(family_chain, geometry, family_yaw)
+
+    return recognition.Match("stacked_planar", build, *aligned, parameters + ", roll held")
+
+
+STACKED_PLANAR = recognition.Family("stacked_planar", match)

@@ -1,14 +1,8 @@
-"""A chain's kinematic structure as lines: its joint axes at q = 0, and what can be done with them.
-
-Every serial chain is T(q) = exp([xi_1] q_1) ... exp([xi_n] q_n) M (product of exponentials): joint k
-turns about (or slides along) a line with unit direction ``axes[k]`` through the point ``origins[k]``,
-both in the chain's base frame at q = 0, and M (``tip``) is the tip's pose at q = 0. Read from the
-chain's reduced Pinocchio model through :func:`wbik.solvers.task_error.serial_structure`, so any
-chain, also one whose other joints are locked, has one.
-
-From these lines: the chain's FK (:func:`poe_fk`, exact to rounding), the lines of the chain with one
-joint locked at a value (:func:`locked_lines`), EAIK's H and P (:func:`eaik_vectors`), and what
-:mod:`.recognition` matches against the closed-form families.
+"""A chain's kinematic structure as lines: T(q) = exp([xi_1] q_1) ... exp([xi_n] q_n) M (product of
+exponentials), joint k turning about (or sliding along) the line of unit direction ``axes[k]`` through
+``origins[k]`` (base frame, q = 0), M (``tip``) the tip's pose at q = 0, read from the chain's reduced
+model (:func:`wbik.solvers.task_error.serial_structure`). From them: the FK (:func:`poe_fk`), the lines with
+a joint locked (:func:`locked_lines`), EAIK's H and P (:func:`eaik_vectors`), what recognition matches.
 """
 
 from __future__ import annotations
@@ -25,14 +19,10 @@ from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 
 STRUCTURE_TOLERANCE = 1e-9
-"""How far a chain may be from an exact geometric relation and still count as having it: two axes are
-parallel (or perpendicular) when the sine (or cosine) of their angle is at most this, and two lines
-intersect (a length is zero) when they are at most this times the chain's length (:attr:`ChainLines.length`)
-apart. URDFs write angles to ~12 digits (pi/2 as 1.57079632679, 5e-12 off) and lengths to the
-micrometre, which an exact relation of the design survives by orders of magnitude, while a real offset
-or tilt (a millimetre, a tenth of a degree) misses it by orders of magnitude too. A form built on a
-relation held only within the tolerance is off the model by up to this much per metre, which the model
-agreement check (:mod:`.model_agreement`, 1e-9) then judges."""
+"""Two axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, two lines
+meet (a length is zero) within this times the chain's length. URDFs write angles to ~12 digits (pi/2 as
+1.57079632679, 5e-12 off) while a real offset or tilt (a millimetre, a tenth of a degree) misses by
+orders of magnitude; the model agreement check (1e-9) judges the form built."""
 
 
 @dataclass(frozen=True)

@@ -1,25 +1,14 @@
-"""Subproblems shared by the closed forms: the bottom layer of IK-Geo's layering.
+"""Subproblems shared by the closed forms, the bottom layer as in IK-Geo (Elias and Wen) and EAIK:
+subproblems -> kinematic families (:mod:`.ur_type`, :mod:`.yaw_planar`, :mod:`.stacked_planar`) -> one
+binding per robot. Every function takes arrays of any leading batch shape.
 
-IK-Geo (Elias and Wen, "IK-Geo: Unified robot inverse kinematics using subproblem decomposition")
-and EAIK solve every arm they know by reducing it to a few small geometric problems with all their
-solutions. Ours are layered the same way: these subproblems -> kinematic families
-(:mod:`~wbik.solvers.analytic.ur_type`, :mod:`~wbik.solvers.analytic.yaw_planar`,
-:mod:`~wbik.solvers.analytic.stacked_planar`) -> one small binding per robot.
-
-- :func:`clamped_cosine` / :func:`clamped_acos`: a cosine computed from lengths (law of cosines, a
-  ratio of a distance to an offset) is a real angle only inside [-1, 1]; rounding puts a target on
-  the workspace boundary slightly outside, so the verdict allows ``COSINE_TOLERANCE`` (scaled by the
-  size of the terms the cosine came from) and the value is clipped.
-- :func:`planar_2r`: a planar two-link arm reaching a point, both elbow branches (the law of cosines
-  and one atan2), and :func:`planar_2r_one`, the same for one point in plain floats (scalar fast
-  paths; ``tests/test_analytic_subproblems.py`` checks that both agree).
-
-Every function takes arrays of any leading batch shape (the scalar twin excepted).
+- :func:`clamped_cosine` / :func:`clamped_acos`: a cosine from lengths is a real angle only inside
+  [-1, 1]; rounding puts a boundary target slightly outside, so the verdict allows ``COSINE_TOLERANCE``
+  (scaled by the size of the terms) and the value is clipped;
+- :func:`planar_2r`: a planar two-link arm reaching a point, both elbow branches.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -30,10 +19,8 @@ after rounding, or 1e-10 beyond the boundary for a target itself rounded; clampi
 by at most COSINE_TOLERANCE * its length (<= 1e-9 m per metre), far below the screening tolerance."""
 WRIST_SINGULARITY = 1e-8
 """|sin| of a spherical wrist's middle joint (the UR-type's q5) below which the last joint is free
-(ur_kinematics' threshold). |sin q5| is read from the rotation, where
-rounding moves it by ~1e-16, so the decision has a margin of 1e8 over rounding; keeping q6 of q0 there
-costs at most ~1e-8 rad of orientation, far below the screening tolerance (1e-7)."""
-
+(ur_kinematics' threshold; read from the rotation, rounding moves it by ~1e-16); keeping q0's q6 there
+costs at most ~1e-8 rad of orientation."""
 
 
 def clamped_cosine(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tuple[np.ndarray, np.ndarray]:
@@ -85,18 +72,3 @@ def planar_2r_elbow(x, y, first, second, tolerance: float = COSINE_TOLERANCE,
     angle2 = np.arctan2(sines, cosines)
     angle1 = np.expand_dims(np.arctan2(y, x), axis) - np.arctan2(second * sines, first + second * cosines)
     return angle1, angle2, real, cosines, sines
-
-
-def planar_2r_one(x: float, y: float, first: float, second: float,
-                  tolerance: float = COSINE_TOLERANCE) -> tuple[tuple[float, float], ...]:
-    """:func:`planar_2r` for one point in plain floats: ((angle1, angle2) elbow up, then elbow down),
-    or () when the point is out of reach. Same arithmetic as the vectorised version."""
-    cosine = (x * x + y * y - first * first - second * second) / (2.0 * first * second)
-    if not abs(cosine) <= 1.0 + tolerance:
-        return ()
-    cosine = min(1.0, max(-1.0, cosine))
-    sine = math.sqrt(1.0 - cosine * cosine)
-    reach = math.atan2(y, x)
-    atan2 = math.atan2
-    return ((reach - atan2(second * sine, first + second * cosine), atan2(sine, cosine)),
-            (reach - atan2(-second * sine, first + second * cosine), atan2(-sine, cosine)))

@@ -1,24 +1,18 @@
-"""Family: UR-type 6R arms (Universal Robots' UR3/UR5/UR10 and the like), every branch.
+"""Family: UR-type 6R arms (UR3/UR5/UR10 and the like), every branch.
 
-Axes 2, 3 and 4 are parallel (IK-Geo's and EAIK's "three parallel" 6R) and consecutive axes are
-otherwise perpendicular. Standard DH: a = (0, a2, a3, 0, 0, 0), d = (d1, 0, 0, d4, d5, d6),
-alpha = (pi/2, 0, 0, pi/2, -pi/2, 0); a robot binding gives these six numbers (:class:`URGeometry`).
-The closed form is ur_kinematics' (ur5-riveting.md section 1.2), on T = base_link -> ee_link of the
-ROS-Industrial UR description, first turned into the DH frames: T_dh = B T E^T with
-B = base_link -> link0 = Rz(pi) and E = link6 -> ee_link. Up to 8 branches = 2 (shoulder q1) x
-2 (wrist q5) x 2 (elbow q3), in that order:
+Axes 2, 3 and 4 parallel, consecutive axes otherwise perpendicular; standard DH a = (0, a2, a3, 0, 0, 0),
+d = (d1, 0, 0, d4, d5, d6), alpha = (pi/2, 0, 0, pi/2, -pi/2, 0) (:class:`URGeometry`). ur_kinematics'
+closed form (ur5-riveting.md 1.2) on T = base_link -> ee_link turned into the DH frames, T_dh = B T E^T
+(B = Rz(pi), E = link6 -> ee_link). 8 branches, shoulder q1 x wrist q5 x elbow q3:
 
-1. q1 = atan2(-b, a) +- acos(d4 / sqrt(a^2 + b^2)), a = d6 T12 - T13, b = d6 T02 - T03
-   (no solution when the wrist-2 centre is within d4 of the base axis);
-2. q5 = +-acos((T03 s1 - T13 c1 - d4) / d6), computed as +-atan2(|s5|, c5) with
-   |s5| = hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) from the rotation (well conditioned at q5 = 0, pi);
-3. q6 = atan2(-sgn(s5) (T01 s1 - T11 c1), sgn(s5) (T00 s1 - T10 c1)); at the wrist singularity
-   (|s5| < WRIST_SINGULARITY) q6 is free and the start configuration's q6 is kept (ur_kinematics'
-   q6_des);
-4. (q2, q3) from the planar two-link subproblem p13 = a2 (c2, s2) + a3 (c23, s23), and
-   q4 = atan2(c23 x04y - s23 x04x, c23 x04x + s23 x04y).
+1. q1 = atan2(-b, a) +- acos(d4 / |(a, b)|), a = d6 T12 - T13, b = d6 T02 - T03;
+2. q5 = +-atan2(|s5|, c5), c5 = (T03 s1 - T13 c1 - d4) / d6, |s5| = |(T00 s1 - T10 c1, T01 s1 - T11 c1)|;
+3. q6 = atan2(-sgn(s5) (T01 s1 - T11 c1), sgn(s5) (T00 s1 - T10 c1)), the start's q6 where
+   |s5| < WRIST_SINGULARITY;
+4. (q2, q3) the planar 2R of p13 = a2 (c2, s2) + a3 (c23, s23); q4 = atan2(c23 x04y - s23 x04x,
+   c23 x04x + s23 x04y).
 
-Angles come out in (-2 pi, 2 pi); the framework wraps them into the limits nearest to q0.
+Compiled kernel: ``wbik/kernels/_ur_type.c`` (:mod:`.compiled`).
 """
 
 from __future__ import annotations
@@ -28,22 +22,34 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.geometry import TWO_PI
-from wbik.geometry import add_wrapped_squares
+from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.compiled import compiled_form
+from wbik.solvers.analytic.recognition import HALF_PI
+from wbik.solvers.analytic.recognition import require
+from wbik.solvers.analytic.recognition import small
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import WRIST_SINGULARITY
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
-from wbik.solvers.analytic.subproblems import planar_2r_one
-from wbik.solvers.analytic.ur_kernel import URKernel
-from wbik.solvers.analytic.ur_kernel import ur_kernel
+
+try:
+    from wbik.kernels import _ur_type as _ur_kernel
+except ImportError:  # not built (no C compiler at install time): the vectorised twin
+    _ur_kernel = None
 
 BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])
 """Rz(pi), exactly: the UR description's base_link -> link0 (the DH base)."""
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
 """The UR description's link6 (the DH flange) -> ee_link."""
+CANONICAL = recognition.Canonical((HALF_PI, 0.0, 0.0, HALF_PI, -HALF_PI, 0.0), (0.0,) * 6,
+                                  recognition.rotation4(BASE_TO_LINK0), recognition.rotation4(LINK6_TO_EE))
+"""The family's FK (base_link -> ee_link) as DH rows: Rz(pi) D(u) E."""
+FLANGE_SHARE, FLANGE_MINIMUM = 0.1, 0.01
+"""The form divides by d6, the wrist centre to the flange frame along axis 6, which any non-zero value
+describes (the tool takes the rest): the tip's own distance when at least FLANGE_MINIMUM of the chain's
+length, else FLANGE_SHARE of the length."""
 
 
 @dataclass(frozen=True)
@@ -83,37 +89,11 @@ def fk(geometry: URGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return position, rotation
 
 
-def fk_one(geometry: URGeometry, q) -> tuple[tuple[float, float, float], tuple[float, ...]]:
-    """:func:`fk` of one joint vector in plain floats: (position, rotation row by row (9,))."""
-    d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
-    q1, q2, q3, q4, q5, q6 = q
-    q23 = q2 + q3
-    q234 = q23 + q4
-    cos, sin = math.cos, math.sin
-    c1, s1, c2, s2 = cos(q1), sin(q1), cos(q2), sin(q2)
-    c4, s4, c5, s5 = cos(q4), sin(q4), cos(q5), sin(q5)
-    c6, s6, c23, s23 = cos(q6), sin(q6), cos(q23), sin(q23)
-    c234, s234 = cos(q234), sin(q234)
-    side = s1 * s5 + c234 * c1 * c5
-    front = c1 * s5 - c234 * c5 * s1
-    rotation = (c234 * c1 * s5 - c5 * s1, c6 * side - s234 * c1 * s6, -s6 * side - s234 * c1 * c6,
-                c1 * c5 + c234 * s1 * s5, -c6 * front - s234 * s1 * s6, s6 * front - s234 * c6 * s1,
-                -s234 * s5, -c234 * s6 - s234 * c5 * c6, s234 * c5 * s6 - c234 * c6)
-    position = (d6 * c234 * c1 * s5 - a3 * c23 * c1 - a2 * c1 * c2 - d6 * c5 * s1 - d5 * s234 * c1 - d4 * s1,
-                d6 * (c1 * c5 + c234 * s1 * s5) + d4 * c1 - a3 * c23 * s1 - a2 * c2 * s1 - d5 * s234 * s1,
-                d1 + a3 * s23 + a2 * s2 - d5 * (c23 * c4 - s23 * s4) - d6 * s5 * (c23 * s4 + s23 * c4))
-    return position, rotation
-
-
 def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
                       tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
-    """All 8 branches for base_link -> ee_link poses, joint-major and batch-last: (Q (6, 8, B), real (8, B)).
-
-    Branch order: q1 (+, -) x q5 (+, -) x q3 (+, -). ``q6_free`` (B,) is used at the wrist singularity.
-    Every intermediate keeps the batch on its last axis, (choices..., B), so that NumPy broadcasts a
-    per-target value over the branches along whole rows (broadcasting over a short last axis costs
-    more per element; the measurements: docs/measurements.md, analytic).
-    """
+    """All 8 branches for base_link -> ee_link poses, joint-major and batch-last: (Q (6, 8, B), real (8, B)),
+    q1 (+, -) x q5 (+, -) x q3 (+, -); ``q6_free`` (B,) at the wrist singularity. Intermediates keep the
+    batch last, (choices..., B): broadcasting along whole rows is the cheaper layout."""
     d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
     count = len(positions)
     r = np.ascontiguousarray(rotations.reshape(count, 9).T)  # r[3 i + j] = R_ij, each (B,)
@@ -178,88 +158,18 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     return q_all.reshape(6, 8, count), np.broadcast_to(real, (2, 2, 2, count)).reshape(8, count)
 
 
-def branches(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
-             tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`branches_by_joint` laid out target by target: (Q (B, 8, 6), real (B, 8))."""
-    q_all, real = branches_by_joint(geometry, positions, rotations, q6_free, tolerance)
-    return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
-
-
-def branches_one(geometry: URGeometry, position, rotation, reference,
-                 tolerance: float = COSINE_TOLERANCE) -> list[tuple[float, list[float]]]:
-    """:func:`branches` for one pose in plain floats: the real branches in the same order, each as
-    (bound, q) with bound = sum_i remainder(q_i - reference_i, 2 pi)^2 (summed along the tree of
-    shoulder, wrist and elbow choices, so each remainder is taken once). q6 at the wrist singularity
-    is reference[5]."""
-    d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
-    x, y, z = position
-    r00, r01, r02, r10, r11, r12, r20, r21, r22 = rotation
-    # into the DH convention: B R E^T with B = diag(-1, -1, 1) and E^T's columns -e1, -e2, e0
-    t00, t01, t02, t10, t11, t12 = r01, r02, -r00, r11, r12, -r10
-    t20, t21, t22 = -r21, -r22, r20
-    t03, t13, t23 = -x, -y, z
-    ref1, ref2, ref3, ref4, ref5, ref6 = reference
-    atan2, cos, sin, remainder = math.atan2, math.cos, math.sin, math.remainder
-    branches = []
-    a, b = d6 * t12 - t13, d6 * t02 - t03
-    ratio = d4 / max(math.sqrt(a * a + b * b), 1e-300)
-    if not ratio <= 1.0 + tolerance:
-        return branches
-    offset = math.acos(min(1.0, ratio))
-    shoulder = atan2(-b, a)
-    for q1 in (shoulder + offset, shoulder - offset):
-        e1 = remainder(q1 - ref1, TWO_PI)
-        bound1 = e1 * e1
-        c1, s1 = cos(q1), sin(q1)
-        cos5 = (t03 * s1 - t13 * c1 - d4) / d6
-        if not abs(cos5) <= 1.0 + tolerance * max((abs(t03 * s1) + abs(t13 * c1) + d4) / d6, 1.0):
-            continue
-        u, v = t00 * s1 - t10 * c1, t01 * s1 - t11 * c1
-        sine5 = math.sqrt(u * u + v * v)  # not math.hypot (CPython's own algorithm): the kernel's arithmetic
-        angle5 = atan2(sine5, min(1.0, max(-1.0, cos5)))
-        singular = sine5 < WRIST_SINGULARITY
-        r0, r1, r2 = t00 * c1 + t10 * s1, t01 * c1 + t11 * s1, t02 * c1 + t12 * s1
-        for q5 in (angle5, -angle5):
-            c5, s5 = cos(q5), sin(q5)
-            if singular:
-                q6 = ref6
-            else:
-                sign = 1.0 if s5 >= 0.0 else -1.0
-                q6 = atan2(-sign * v, sign * u)
-            e5, e6 = remainder(q5 - ref5, TWO_PI), remainder(q6 - ref6, TWO_PI)
-            bound5 = bound1 + e5 * e5 + e6 * e6
-            c6, s6 = cos(q6), sin(q6)
-            x04x = -s5 * r2 - c5 * (s6 * r1 - c6 * r0)
-            x04y = c5 * (t20 * c6 - t21 * s6) - t22 * s5
-            px = d5 * (s6 * r0 + c6 * r1) - d6 * r2 + t03 * c1 + t13 * s1
-            py = t23 - d1 - d6 * t22 + d5 * (t21 * c6 + t20 * s6)
-            for q2, q3 in planar_2r_one(px, py, a2, a3, tolerance):
-                q23 = q2 + q3
-                c23, s23 = cos(q23), sin(q23)
-                q4 = atan2(c23 * x04y - s23 * x04x, x04x * c23 + x04y * s23)
-                branches.append((add_wrapped_squares(bound5, q2, ref2, q3, ref3, q4, ref4),
-                                 [q1, q2, q3, q4, q5, q6]))
-    return branches
-
-
 class URArm(ClosedForm):
-    """Closed form of a UR-type arm's base_link -> ee_link chain (full poses, 8 branches); a binding
-    sets ``geometry``."""
+    """Closed form of a UR-type arm's base_link -> ee_link chain (full poses, 8 branches); a binding sets
+    ``geometry``, a recognised chain passes it."""
 
     target_kind = "pose"
-    has_scalar_path = True
     geometry: URGeometry
 
     def __init__(self, chain, geometry: URGeometry | None = None):
-        """``geometry``: the arm's DH numbers, where the class does not set them (a recognised chain)."""
         super().__init__(chain)
         if geometry is not None:
             self.geometry = geometry
-        self.kernel = self.compiled_kernel()
-
-    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
-                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return branches(self.geometry, positions, rotations, q0[:, 5])
+        self.kernel = self.compiled(chain, None, self.screen_tolerance)
 
     def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
                           q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,13 +178,31 @@ class URArm(ClosedForm):
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return fk(self.geometry, q)
 
-    def branches_one(self, position, rotation, reference):
-        return branches_one(self.geometry, position, rotation, reference)
+    def compiled(self, chain, alignment, screen_tolerance: float):
+        g = self.geometry
+        numbers = (g.d1, g.a2, g.a3, g.d4, g.d5, g.d6, COSINE_TOLERANCE, WRIST_SINGULARITY)
+        return compiled_form(_ur_kernel, "ur_type", numbers, chain, alignment, screen_tolerance)
 
-    def fk_one(self, q):
-        return fk_one(self.geometry, q)
 
-    def compiled_kernel(self, tool: tuple[np.ndarray, np.ndarray] | None = None,
-                        screen_tolerance: float | None = None) -> URKernel | None:
-        tolerance = self.screen_tolerance if screen_tolerance is None else screen_tolerance
-        return ur_kernel(self.geometry, self.chain, tool, tolerance)
+def match(lines, kind: str, options: dict) -> recognition.Match:
+    """6R, axes 2-4 parallel, axis 1 meeting axis 2 at a right angle, axis 5 meeting 4 and 6 at right
+    angles; full poses."""
+    require(kind == "pose", "the family solves full poses only")
+    recognition.require_revolute(lines, 6)
+    first, sign = recognition.first_frame(lines, CANONICAL.base[:3, :3])
+    result = recognition.walk(lines, first, sign, CANONICAL.alphas[:5], (1.0, -1.0, -1.0, 1.0, 1.0))
+    for row, pair in ((0, "1 and 2"), (3, "4 and 5"), (4, "5 and 6")):
+        require(small(result.a[row], lines), f"axes {pair} miss each other by {abs(result.a[row]):.3g} m")
+    length = lines.length
+    along, _ = recognition.tip_offset(lines, result.frames[-1])
+    d6 = along if abs(along) >= FLANGE_MINIMUM * length else math.copysign(FLANGE_SHARE * length, along)
+    recognition.close_walk(result, 0.0, d6, 0.0, 0.0)
+    geometry = URGeometry(d1=result.d[0], a2=result.a[1], a3=result.a[2], d4=result.d[3], d5=result.d[4],
+                          d6=d6)
+    recognition.no_options(options, "ur_type")
+    return recognition.Match("ur_type", lambda chain: URArm(chain, geometry),
+                             *recognition.aligned(CANONICAL, lines, result),
+                             recognition.in_words(geometry, ("d1", "a2", "a3", "d4", "d5", "d6")))
+
+
+UR_TYPE = recognition.Family("ur_type", match)

@@ -1,19 +1,16 @@
-"""Family: a base yaw (vertical axis) carrying a planar arm of parallel horizontal axes, every branch.
+"""Family: a base yaw carrying a planar arm of parallel horizontal axes, every branch.
 
-The yaw q1 turns the arm plane; in that plane a point is (r, z) with r the signed horizontal distance
-along (cos q1, sin q1, 0). A point (x, y, z) lies in the plane of q1 = atan2(y, x) with r = +|(x, y)|
-and in the plane of q1 + pi with r = -|(x, y)| (:func:`shoulder_sides`); on the base axis q1 is free
-and the start's is kept. Two members:
+The yaw q1 turns the arm plane, where a point is (r, z), r the signed horizontal distance along (cos q1,
+sin q1, 0): (x, y, z) is in the plane of q1 = atan2(y, x) at r = |(x, y)| and of q1 + pi at r = -|(x, y)|
+(:func:`shoulder_sides`); on the base axis the start's q1 is kept. Two members:
 
-- **yaw + planar 2R** (the 3-DOF articulated arm of seed 001, :class:`Yaw2RGeometry`): r = l2 c2 + l3 c23,
-  z = l1 + l2 s2 + l3 s23; position IK = 2 shoulder sides x 2 elbows (the planar 2R subproblem).
-- **yaw + planar 2R + wrist pitch** (the PhantomX Pincher, :class:`PitchArmGeometry`): angles from the
-  vertical, wrist (r_w, z_w) = (a sin q2 + b sin(q2 + q3), h + a cos q2 + b cos(q2 + q3)), tool point
-  (r, z) = wrist + t (cos psi, sin psi) with the tool pitch psi = pi/2 - (q2 + q3 + q4) above the
-  horizontal. Given q1 and psi the wrist follows, (q2, q3) is the planar 2R subproblem (both elbows;
-  r_w < 0, a wrist behind the base, is exact since r_w is signed) and q4 = pi/2 - psi - q2 - q3. The
-  tool frame: z = the approach a = cos psi (c1, s1, 0) + sin psi (0, 0, 1), y = (s1, -c1, 0).
-  Position only (one free parameter, the pitch): :class:`PitchArmPosition`.
+- **yaw + planar 2R** (seed 001's arm, :class:`Yaw2RGeometry`): r = l2 c2 + l3 c23, z = l1 + l2 s2 + l3 s23;
+  positions: 2 sides x 2 elbows.
+- **yaw + planar 2R + wrist pitch** (the Pincher, :class:`PitchArmGeometry`): angles from the vertical,
+  wrist (r_w, z_w) = (a s2 + b s23, h + a c2 + b c23), tool point = wrist + t (cos psi, sin psi), pitch
+  psi = pi/2 - (q2 + q3 + q4); given q1 and psi, (q2, q3) is the planar 2R of the wrist (r_w signed) and
+  q4 = pi/2 - psi - q2 - q3. Tool frame: z = cos psi (c1, s1, 0) + sin psi (0, 0, 1), y = (s1, -c1, 0).
+  Positions (the pitch free): :class:`PitchArmPosition`.
 """
 
 from __future__ import annotations
@@ -25,9 +22,13 @@ import numpy as np
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
+from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.recognition import HALF_PI
+from wbik.solvers.analytic.recognition import require
+from wbik.solvers.analytic.recognition import small
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import planar_2r
@@ -72,21 +73,14 @@ class Yaw2RGeometry:
 
 
 class Yaw2RPosition(ClosedForm):
-    """Position IK of a yaw + planar 2R arm: 2 shoulder sides x 2 elbows (K = 4); a binding gives
-    ``geometry(chain)``."""
+    """Position IK of a yaw + planar 2R arm of ``geometry``: 2 shoulder sides x 2 elbows (K = 4)."""
 
     target_kind = "position"
 
-    def __init__(self, chain: Chain, geometry: Yaw2RGeometry | None = None):
-        """``geometry``: the arm's lengths; without it, ``geometry_of(chain)`` (a binding's)."""
+    def __init__(self, chain: Chain, geometry: Yaw2RGeometry):
         super().__init__(chain)
-        self.geometry = self.geometry_of(chain) if geometry is None else geometry
-        g = self.geometry
+        self.geometry = g = geometry
         self.axis_tolerance = AXIS_RELATIVE_TOLERANCE * (abs(g.l2) + abs(g.l3))
-
-    @staticmethod
-    def geometry_of(chain: Chain) -> Yaw2RGeometry:
-        raise NotImplementedError
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -158,20 +152,14 @@ def pitch_arm_fk(g: PitchArmGeometry, q: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 class PitchArmPose(ClosedForm):
-    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbow branches (K = 2).
-
-    The arm takes only poses whose y axis is horizontal and whose position is in the arm plane of
-    that yaw; any other pose has no real branch. A binding sets ``geometry``.
-    """
+    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbow branches (K = 2);
+    a pose whose y axis is not horizontal, or off the arm plane of that yaw, has no real branch."""
 
     target_kind = "pose"
-    geometry: PitchArmGeometry
 
-    def __init__(self, chain: Chain, geometry: PitchArmGeometry | None = None):
-        """``geometry``: the arm's lengths, where the class does not set them (a recognised chain)."""
+    def __init__(self, chain: Chain, geometry: PitchArmGeometry):
         super().__init__(chain)
-        if geometry is not None:
-            self.geometry = geometry
+        self.geometry = geometry
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -200,27 +188,19 @@ PITCH_TIE = 1e-9
 
 
 class PitchArmPosition(ClosedForm):
-    """Position only: the pitch nearest to q0's pitch with a branch inside the limits (K = 4).
+    """Positions: the pitch nearest q0's (psi0 = pi/2 - (q2 + q3 + q4)) with a branch inside the limits.
 
-    Rule: take the pitch psi closest to the pitch at q0 (psi0 = pi/2 - (q2 + q3 + q4) of q0) for which a
-    branch exists inside the joint limits. For each shoulder side the reachable pitches form an exact
-    arc (the wrist within a + b of the shoulder; the arm must have a = b, so that the wrist's annulus
-    has no hole), so the first candidate is psi0 projected onto the arc; only on a side where none of its
-    branches is inside the limits, a grid of PITCH_GRID pitches across the arc is tried (all targets at
-    once), and the grid pitches with such a branch nearest on either side are moved toward psi0 by
-    bisection up to the edge of the in-limits set. The branches at the chosen pitch (both elbows, both
-    sides when equally close) go to the solver, which keeps the one nearest to q0.
-    """
+    Per shoulder side the reachable pitches form an arc (the wrist within a + b of the shoulder; a = b, so
+    the wrist's annulus has no hole): psi0 projected onto it first; on a side with no branch inside the
+    limits there, a grid of PITCH_GRID pitches across the arc, the nearest usable ones moved toward psi0 by
+    bisection to the edge of the usable set. The branches at the chosen pitch (both elbows, both sides when
+    equally near) go to the solver (K = 4)."""
 
     target_kind = "position"
-    geometry: PitchArmGeometry
 
-    def __init__(self, chain: Chain, geometry: PitchArmGeometry | None = None):
-        """``geometry``: the arm's lengths, where the class does not set them (a recognised chain)."""
+    def __init__(self, chain: Chain, geometry: PitchArmGeometry):
         super().__init__(chain)
-        if geometry is not None:
-            self.geometry = geometry
-        g = self.geometry
+        self.geometry = g = geometry
         if g.a != g.b:
             raise InvalidConfigurationError(
                 f"the pitch search needs equal links (a wrist annulus without a hole), got {g.a} and {g.b}")
@@ -326,3 +306,53 @@ class PitchArmPosition(ClosedForm):
         valid = np.where(np.any(usable, axis=(1, 2))[:, None, None], usable & best_side[..., None], exact)
         valid &= reachable[..., None]
         return q_best.reshape(count, 4, 4), valid.reshape(count, 4)
+
+
+# --- recognition --------------------------------------------------------------------------------------
+CANONICAL_2R = recognition.Canonical((HALF_PI, 0.0, 0.0), (0.0, 0.0, 0.0), np.eye(4), np.eye(4))
+"""The yaw + planar 2R's FK as DH rows."""
+NOA = recognition.rotation4([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_PI, 0.0, 0.0), np.eye(4), NOA)
+"""The yaw + planar 2R + pitch's FK as DH rows, its tool frame "noa" a fixed rotation."""
+
+
+def match(lines, kind: str, options: dict) -> recognition.Match:
+    """A base axis meeting a planar 2R at a right angle with the tip in the plane (3R, positions), or a
+    planar 3R with the tip off the last axis (4R: full poses; positions when the links are equal and the
+    tip is in the plane)."""
+    require(lines.count in (3, 4), f"it has {lines.count} joints, the family 3 (yaw + planar 2R) or 4 "
+                                   "(yaw + planar 3R)")
+    recognition.require_revolute(lines, lines.count)
+    three = lines.count == 3
+    require(not three or kind == "position", "a yaw + planar 2R arm is solved for positions only")
+    canonical = CANONICAL_2R if three else CANONICAL_PITCH
+    first, sign = recognition.first_frame(lines, np.eye(3))
+    result = recognition.walk(lines, first, sign, canonical.alphas[:-1], (1.0,) * (lines.count - 1))
+    require(small(result.a[0], lines), f"axes 1 and 2 miss each other by {abs(result.a[0]):.3g} m")
+    last = result.frames[-1]
+    sideways, reach = recognition.tip_offset(lines, last)
+    distance = float(np.linalg.norm(reach))
+    on_axis = small(distance, lines)
+    if kind == "position":
+        require(small(sideways, lines), f"the tip is {abs(sideways):.3g} m off the arm's plane")
+        require(not on_axis, f"the tip is on the last axis ({distance:.3g} m from it)")
+    theta = 0.0 if on_axis else recognition.angle_about(last[:3, 2], last[:3, 0], reach / distance)
+    recognition.close_walk(result, theta, 0.0, 0.0 if on_axis else distance, 0.0)
+    aligned = recognition.aligned(canonical, lines, result)
+    recognition.no_options(options, "yaw_planar")
+    if three:
+        geometry = Yaw2RGeometry(l1=result.d[0], l2=result.a[1], l3=result.a[2])
+        words = "yaw + planar 2R, " + recognition.in_words(geometry, ("l1", "l2", "l3"))
+        return recognition.Match("yaw_planar", lambda chain: Yaw2RPosition(chain, geometry), *aligned, words)
+    a, b = result.a[1], result.a[2]
+    if kind == "position":
+        require(small(a - b, lines), f"its links differ ({a:.6g} and {b:.6g} m); the family's position "
+                                     "search needs equal links")
+        b = a
+    geometry = PitchArmGeometry(h=result.d[0], a=a, b=b, t=result.a[3])
+    family = PitchArmPose if kind == "pose" else PitchArmPosition
+    words = "yaw + planar 2R + pitch, " + recognition.in_words(geometry, ("h", "a", "b", "t"))
+    return recognition.Match("yaw_planar", lambda chain: family(chain, geometry), *aligned, words)
+
+
+YAW_PLANAR = recognition.Family("yaw_planar", match)
