@@ -32,7 +32,7 @@ from collections.abc import Callable
 import numpy as np
 
 import wbik
-from wbik.kernels import pure_python
+from wbik.kernels.twins import pure_python
 from wbik.solvers.analytic import ur_type
 
 ROUNDS = 9

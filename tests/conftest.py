@@ -32,7 +32,7 @@ def riveting_cell():
 def compiled_twins(monkeypatch):
     """The compiled kernels picked even in a ``WBIK_PURE_PYTHON=1`` run of the suite (for the tests that
     compare them with their Python twins: tests/compiled_twins.py)."""
-    from wbik.kernels import PURE_PYTHON_VARIABLE
+    from wbik.kernels.twins import PURE_PYTHON_VARIABLE
 
     monkeypatch.delenv(PURE_PYTHON_VARIABLE, raising=False)
 

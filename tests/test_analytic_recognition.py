@@ -166,9 +166,9 @@ def test_ur10_urdf_keeps_the_compiled_kernel_where_built():
     """A UR URDF's frames are the family's (up to the URDF's rounding of pi/2): no base or joint change;
     the compiled kernel (where built) serves it as it serves the bound UR5, and the UR10 between other
     frames and joint zeros (REP-103) too."""
-    from wbik.kernels import compiled_twin
+    from wbik.kernels.twins import compiled_twin
 
-    built = compiled_twin("wbik.kernels._ur_type", "nearest") is not None
+    built = compiled_twin("ur_type", "nearest") is not None
     form = wbik.solver("analytic", robot(f"erd:{UR_URDFS[1]}")).closed_form("pose")
     assert (form.kernel is not None) == built
     assert form.base is None and form.alignment.signs is None

@@ -3,29 +3,26 @@
 Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, validation, geometry, files, targets,
-  registry, data); kinematics (dh, urdf, kinematic_tree, robot, models, collision); solving (solvers,
-  qp, wholebody, and the ``wbik`` facade); uses of solving (motion, study, viz, expectations, schema,
+  registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models, collision, mujoco_model);
+  solving (solvers, qp, wholebody); uses of solving (motion, study, viz, expectations, schema,
   scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
-  the core; the core names them only by registry strings;
+  the core;
 - applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core and the
   robot packages;
-- entry points: ``wbik.cli`` and ``wbik.commands``, which may use anything.
+- the top: the facade ``wbik``, the catalog of what wbik ships (``wbik.catalog``: it imports the robot
+  packages and applications by name for the registries) and the command line (``wbik.cli``,
+  ``wbik.commands``), which may use anything.
 
-Each import is classified as *top-level* (runs when the module is imported: module body, class
-bodies, ``try``/``if`` at module level), *function-level* (runs when a function is called: the lazy
-imports that keep optional dependencies optional) or *typing* (under ``if TYPE_CHECKING:``, never
-at run time). Registry strings ("module:Class", imported with importlib on first use) are not
-imports here: they are the intended way for the core to name code it must not depend on.
+Each import is classified as *top-level* (module body, class bodies, ``try``/``if`` at module level),
+*function-level* (the lazy imports that keep optional dependencies optional) or *typing* (under
+``if TYPE_CHECKING:``). ``from A import B`` imports A (a package: its ``__init__``) and, when B is a
+module, A.B too.
 
-Checked: (a) no cycle among top-level imports; (b) the core imports no application at top level,
-and at function level only at the places listed below with their reason (so the debt is written
-down, and a new place or a paid-off one fails the test until this list says so); (c) inside the
-core, imports go down ``LAYERS`` (up only at the listed places); (d) only the entry points import
-the entry points; (e) the study's report does not import the study's runner (they share
-:mod:`wbik.study.context`); (f) the core's modules, and the study's among themselves, import each other
-without a cycle, function-level imports included (the study's case kinds sit below the runner and the
-report).
+Checked: (a) no import cycle of any kind, every level counted; (b) no module imports its own package
+(it imports the defining module); (c) the project's own modules are imported by name, never named by a
+string; (d) the core imports no robot package or application; (e) inside the core, imports go down
+``LAYERS``; (f) only the top imports the top; (g) the study's report does not import the study's runner.
 """
 
 from __future__ import annotations
@@ -45,7 +42,7 @@ CORE = ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.t
         "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
-ENTRY_POINTS = ("wbik.cli", "wbik.commands")
+ENTRY_POINTS = ("wbik.cli", "wbik.commands", "wbik.catalog")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
     ("wbik.errors", "wbik.validation", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry",
      "wbik.data", "wbik.kernels"),
@@ -55,17 +52,7 @@ LAYERS = (  # the core's layers, from the bottom; a module imports its own layer
     ("wbik.motion", "wbik.study", "wbik.viz", "wbik.expectations", "wbik.schema", "wbik.scenario_schema",
      "wbik.scenarios"),
 )
-FACADE_LAYER = 2  # ``wbik/__init__.py`` re-exports models, solvers and wholebody
-UPWARD_EXCEPTIONS: dict[tuple[str, str], str] = {
-    # (module, module of a higher core layer it imports in a function): reason. None today.
-}
-
-TOP_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
-    # (core module, application module): reason. None today.
-}
-FUNCTION_LEVEL_EXCEPTIONS: dict[tuple[str, str], str] = {
-    # (core module, application module): reason. None today.
-}
+TOP = len(LAYERS)  # the facade, the catalog and the command line
 
 
 @dataclass(frozen=True)
@@ -116,9 +103,10 @@ def _imports_of(name: str, path: Path, is_package: bool, known: set[str]) -> lis
                     add(alias.name, level, child.lineno)
             elif isinstance(child, ast.ImportFrom):
                 module = absolute(child)
-                for alias in child.names:  # "from wbik.study import results" imports the module
-                    submodule = f"{module}.{alias.name}"
-                    add(submodule if submodule in known else module, level, child.lineno)
+                add(module, level, child.lineno)  # a package: its __init__
+                for alias in child.names:  # "from wbik.study import results" imports the module too
+                    if f"{module}.{alias.name}" in known:
+                        add(f"{module}.{alias.name}", level, child.lineno)
             visit(ast.iter_child_nodes(child), level)
 
     visit(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)).body, "top")
@@ -187,43 +175,62 @@ def test_the_parser_sees_the_package():
     assert all(item.target.startswith("wbik") for item in graph)
 
 
-def test_no_cycle_among_top_level_imports():
+def test_no_import_cycle_of_any_kind():
+    """Module-level, function-level and TYPE_CHECKING imports all count (a lazy import that closes a cycle
+    only hides it from the interpreter, not from a reader)."""
     edges: dict[str, set[str]] = defaultdict(set)
     for item in _graph():
-        if item.level == "top":
-            edges[item.source].add(item.target)
+        edges[item.source].add(item.target)
     cycles = _cycles(edges)
-    details = [_where(i for i in _graph() if i.level == "top" and i.source in c and i.target in c)
-               for c in cycles]
-    assert not cycles, "modules importing each other at top level:\n" + "\n\n".join(details)
+    details = [_where(i for i in _graph() if i.source in c and i.target in c) for c in cycles]
+    assert not cycles, "modules importing each other:\n" + "\n\n".join(details)
 
 
-def _core_to_applications(level: str) -> dict[tuple[str, str], list[Import]]:
-    found: dict[tuple[str, str], list[Import]] = defaultdict(list)
-    for item in _graph():
-        if item.level == level and _within(item.source, CORE) and _within(item.target, APPLICATIONS):
-            found[item.source, item.target].append(item)
+def test_the_cycle_check_can_fail():
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert _cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_no_module_imports_its_own_package():
+    """A module imports the defining module (``wbik.qp.backends``), never its own package's ``__init__``
+    (``from wbik.qp import backends`` inside ``wbik/qp``)."""
+    wrong = [item for item in _graph() if item.source.startswith(item.target + ".")]
+    assert not wrong, "modules importing their own package:\n" + _where(wrong)
+
+
+def _docstring_nodes(tree: ast.AST) -> set[int]:
+    """ids of the string constants that are docstrings (of modules, classes, functions, attributes)."""
+    found = set()
+    for node in ast.walk(tree):
+        body = getattr(node, "body", None)
+        if isinstance(body, list):
+            for statement in body:
+                if isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant):
+                    found.add(id(statement.value))
     return found
 
 
-def test_the_core_does_not_import_the_applications_at_top_level():
-    found = _core_to_applications("top")
-    new = {pair: items for pair, items in found.items() if pair not in TOP_LEVEL_EXCEPTIONS}
-    assert not new, ("the core imports an application at top level (move the code into the "
-                     "application, or name it by a registry string):\n"
-                     + _where(item for items in new.values() for item in items))
-    paid = set(TOP_LEVEL_EXCEPTIONS) - set(found)
-    assert not paid, f"no longer imported, remove from TOP_LEVEL_EXCEPTIONS: {sorted(paid)}"
+def test_the_project_names_its_own_modules_by_import_not_by_string():
+    """No string holds the name of one of wbik's modules (a registry list, importlib's argument): editors,
+    graphs and this test see the ties. Entry points stay for installed plug-ins."""
+    known = set(_modules())
+    named = []
+    for name, (path, _) in _modules().items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        docstrings = _docstring_nodes(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings:
+                value = node.value.split(":")[0].strip()
+                if "." in value and (value in known or (value.rpartition(".")[0] in known
+                                                        and value.rpartition(".")[2].startswith("_"))):
+                    named.append(f"{name}:{node.lineno}: {node.value!r}")
+    assert not named, "modules of wbik named by a string (import them by name):\n" + "\n".join(named)
 
 
-def test_the_core_imports_the_applications_only_at_the_listed_function_level_places():
-    found = _core_to_applications("function")
-    new = {pair: items for pair, items in found.items() if pair not in FUNCTION_LEVEL_EXCEPTIONS}
-    assert not new, ("a new function-level import of an application from the core; avoid it, or list "
-                     "it in FUNCTION_LEVEL_EXCEPTIONS with its reason:\n"
-                     + _where(item for items in new.values() for item in items))
-    paid = set(FUNCTION_LEVEL_EXCEPTIONS) - set(found)
-    assert not paid, f"no longer imported, remove from FUNCTION_LEVEL_EXCEPTIONS: {sorted(paid)}"
+def test_the_core_imports_no_robot_package_and_no_application():
+    wrong = [item for item in _graph() if _within(item.source, CORE) and _within(item.target, APPLICATIONS)]
+    assert not wrong, ("the core imports a robot package or an application (list it in wbik.catalog, "
+                       "which adds it to the registries):\n" + _where(wrong))
 
 
 def test_every_module_is_core_robot_package_application_or_entry_point():
@@ -238,8 +245,8 @@ def test_robot_packages_do_not_import_the_applications():
 
 
 def _layer(module: str) -> int | None:
-    if module == "wbik":
-        return FACADE_LAYER
+    if module == "wbik" or _within(module, ENTRY_POINTS):
+        return TOP
     for number, prefixes in enumerate(LAYERS):
         if _within(module, prefixes):
             return number
@@ -253,17 +260,13 @@ def test_the_core_layers_cover_the_core_and_imports_go_down_them():
         source, target = _layer(item.source), _layer(item.target)
         if item.level != "typing" and None not in (source, target) and target > source:
             found[item.source, item.target].append(item)
-    new = {pair: items for pair, items in found.items() if pair not in UPWARD_EXCEPTIONS}
-    assert not new, ("a core module imports a higher core layer (see LAYERS and docs/architecture.md); "
-                     "move the code down, or list it in UPWARD_EXCEPTIONS with its reason:\n"
-                     + _where(item for items in new.values() for item in items))
-    paid = set(UPWARD_EXCEPTIONS) - set(found)
-    assert not paid, f"no longer imported, remove from UPWARD_EXCEPTIONS: {sorted(paid)}"
+    assert not found, ("a core module imports a higher core layer (see LAYERS and docs/architecture.md); "
+                       "move the code down:\n" + _where(item for items in found.values() for item in items))
 
 
 def test_only_the_entry_points_import_the_entry_points():
-    wrong = [item for item in _graph() if item.level != "typing" and _within(item.target, ENTRY_POINTS)
-             and not _within(item.source, ENTRY_POINTS)]
+    wrong = [item for item in _graph() if _within(item.target, ENTRY_POINTS)
+             and not (item.source == "wbik" or _within(item.source, ENTRY_POINTS))]
     assert not wrong, "the command line is the top layer; nothing below imports it:\n" + _where(wrong)
 
 
@@ -272,45 +275,3 @@ def test_the_study_report_does_not_import_the_runner():
              if item.source == "wbik.study.report" and item.target == "wbik.study.runner"]
     assert not wrong, ("the report reads results; what it shares with the runner lives in "
                        "wbik.study.context:\n" + _where(wrong))
-
-
-def test_no_cycle_in_the_core_counting_function_level_imports():
-    """The core's modules import each other without a cycle, lazily or not (a lazy import that closes a
-    cycle only hides it from the interpreter, not from a reader)."""
-    edges: dict[str, set[str]] = defaultdict(set)
-    inside = [item for item in _graph() if item.level != "typing"
-              and _within(item.source, CORE) and _within(item.target, CORE)]
-    for item in inside:
-        edges[item.source].add(item.target)
-    cycles = _cycles(edges)
-    details = [_where(i for i in inside if i.source in c and i.target in c) for c in cycles]
-    assert not cycles, "core modules importing each other (top or function level):\n" + "\n\n".join(details)
-
-
-def test_no_cycle_inside_the_study_counting_function_level_imports():
-    """The runner, the applicability check and the report ask a case's kind; the kinds import what
-    they share from below (context, blocks), never back from the runner or the report, lazily or not."""
-    edges: dict[str, set[str]] = defaultdict(set)
-    inside = [item for item in _graph() if item.level != "typing"
-              and _within(item.source, ("wbik.study",)) and _within(item.target, ("wbik.study",))]
-    for item in inside:
-        edges[item.source].add(item.target)
-    cycles = _cycles(edges)
-    details = [_where(i for i in inside if i.source in c and i.target in c) for c in cycles]
-    assert not cycles, "study modules importing each other (top or function level):\n" + "\n\n".join(details)
-
-
-def test_the_core_names_no_application_not_even_in_a_string():
-    """Applications plug in from outside (entry points, wbik.registry.plugin_modules): no module outside
-    wbik/apps names one, by import or in any string (a registry list, a docstring, a comment-like
-    string)."""
-    named = []
-    for name, (path, _) in _modules().items():
-        if _within(name, ("wbik.apps",)):
-            continue
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.Constant) and isinstance(node.value, str) and (
-                    "wbik.apps" in node.value or "wbik/apps" in node.value):
-                named.append(f"{name}:{node.lineno}: {node.value.strip()[:80]!r}")
-    assert not named, "the core names an application (declare it as an entry point instead):\n" + \
-        "\n".join(named)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from wbik.kernels import can_build
+from wbik.kernels.twins import can_build
 
 ROOT = Path(__file__).resolve().parents[1]
 BUILD_INPUTS = ("pyproject.toml", "setup.py", "MANIFEST.in", "README.md", "wbik", "tasks", "urdf")
@@ -94,10 +94,9 @@ def test_the_installed_copy_is_imported_and_carries_its_data(installed):
               "wbik.load('arm3r'); wbik.load('pincher'); "
               "from wbik.solvers.analytic import ur_type as k; "
               "print(k._ur_kernel is not None, getattr(k._ur_kernel, '__file__', '')); "
-              "from wbik.kernels import compiled_twin as t; "
-              "print(*[getattr(__import__(m, fromlist=['_']), '__file__', '') if t(m, f) else 'missing' "
-              "for m, f in [('wbik.kernels._pose', 'plain_se3'), ('wbik.kernels._qp_rows', 'frame_rows'), "
-              "('wbik.kernels._lm_trial', 'lm_trial')]])")
+              "from wbik.kernels.twins import KERNELS; "
+              "print(*[getattr(k.extension, '__file__', 'missing') for k in KERNELS "
+              "if k.name in ('pose', 'qp_rows', 'lm_trial')])")
     out = _run([installed["python"], "-c", script], cwd=installed["cwd"], env=installed["env"]).stdout
     lines = out.splitlines()
     package = installed["purelib"] / "wbik"

@@ -16,7 +16,7 @@ import pytest
 from compiled_twins import compared_with_its_twin
 
 import wbik
-from wbik.kernels import PURE_PYTHON_VARIABLE
+from wbik.kernels.twins import PURE_PYTHON_VARIABLE
 from wbik.solvers import levenberg_marquardt as lm
 from wbik.solvers.levenberg_marquardt import JointBounds
 from wbik.solvers.levenberg_marquardt import LevenbergMarquardt

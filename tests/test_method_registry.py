@@ -1,7 +1,6 @@
 """The IK method registry: every method is declared by the module holding it (IK_METHODS), the core
 lists the modules; user code adds methods with wbik.register."""
 
-import importlib
 import sys
 import types
 
@@ -31,10 +30,10 @@ def isolated():
 def test_every_listed_module_declares_its_methods_and_each_name_once():
     assert isinstance(IK_METHOD_REGISTRY, DeclaredRegistry) and IK_METHOD_REGISTRY.modules is METHOD_MODULES
     declared = {}
-    for module_name in METHOD_MODULES:
-        for entry in importlib.import_module(module_name).IK_METHODS:
+    for module in IK_METHOD_REGISTRY.declaring_modules():
+        for entry in module.IK_METHODS:
             assert entry.name not in declared, f"{entry.name} declared by {declared.get(entry.name)} too"
-            declared[entry.name] = module_name
+            declared[entry.name] = module.__name__
             assert entry.description, f"{entry.name} has no description"
     added = method_registry.IK_METHOD_REGISTRY.added_at_run_time
     built_in = {name for name in wbik.methods() if added(name) is None}

@@ -17,7 +17,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.kernels import PURE_PYTHON_VARIABLE
+from wbik.kernels.twins import PURE_PYTHON_VARIABLE
 from wbik.qp import FrameTask
 from wbik.qp import IKProblem
 from wbik.qp import OrientationTask

@@ -25,7 +25,7 @@ from hypothesis import settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.kernels import PURE_PYTHON_VARIABLE
+from wbik.kernels.twins import PURE_PYTHON_VARIABLE
 from wbik.solvers.analytic import ur_type
 from wbik.solvers.analytic.closed_form import no_solution_reason
 from wbik.solvers.check import evaluate

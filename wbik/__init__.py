@@ -14,6 +14,7 @@ User code adds a method with ``wbik.register(name, Class)`` and a whole-body stu
 processes. (Scenario kinds: ``wbik.scenarios.register_kind``, a layer above this package's facade.)
 """
 
+from wbik.catalog import install as _install_catalog
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidRotationError
 from wbik.errors import InvalidTargetError
@@ -44,6 +45,8 @@ from wbik.wholebody.cases import CaseSampler
 from wbik.wholebody.cases import WholeBodyCase
 from wbik.wholebody.cases import register_sampler
 from wbik.wholebody.problem import WholeBody
+
+_install_catalog()  # what wbik ships, imported by name when a registry first needs it
 
 __version__ = "0.1.0"
 

@@ -1,4 +1,5 @@
-"""The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py``, which declares
+"""The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py`` (listed in
+:data:`SUBCOMMANDS`), which declares
 ``HELP`` (its line in ``wbik --help``), a module docstring (the description ``wbik NAME --help``
 prints), optionally ``EPILOG`` and ``add_arguments(parser)``, and ``run(args) -> int``; heavy imports
 stay inside ``run``. The parser of each subcommand (with ``--debug`` and its ``run``) is made here.
@@ -17,38 +18,36 @@ after the subcommand) prints the traceback of errors of classes 2 and 3.
 from __future__ import annotations
 
 import argparse
-import importlib
 import inspect
 import os
 import sys
 import traceback
+from types import ModuleType
 
+import wbik.commands.fk as fk
+import wbik.commands.methods as methods
+import wbik.commands.robots as robots
+import wbik.commands.run as run
+import wbik.commands.solve as solve
+import wbik.commands.study as study
+import wbik.commands.tasks as tasks
+import wbik.commands.view as view
 from wbik.errors import WbikError
 
-SUBCOMMANDS = ("robots", "methods", "fk", "solve", "study", "view", "run", "tasks")
+SUBCOMMANDS = (robots, methods, fk, solve, study, view, run, tasks)
+"""The subcommands' modules in ``wbik --help``'s order (a new subcommand: its module here)."""
 
 EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 
-def subcommand_module(name: str):
-    """``wbik.commands.<name>``, which must exist and have ``HELP``, a docstring and ``run`` (a
-    listed subcommand whose module is missing is an error, never skipped: exit code 3, the install is
-    broken)."""
-    module_name = f"wbik.commands.{name}"
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:
-        if exc.name != module_name:
-            raise
-        raise ImportError(f"subcommand {name!r} is listed in wbik.cli.SUBCOMMANDS but its module "
-                          f"{module_name} does not exist; reinstall wbik (pip install -e .)",
-                          name=module_name) from None
+def checked_subcommand(module: ModuleType) -> ModuleType:
+    """``module`` if it has ``HELP``, a docstring and ``run`` (else an error, never skipped: exit code 3)."""
     missing = [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
                                      ("docstring", bool(module.__doc__)),
                                      ("run(args)", callable(getattr(module, "run", None)))) if not ok]
     if missing:
-        raise ImportError(f"{module_name} has no {', '.join(missing)}; every subcommand module needs them "
-                          "(see wbik.cli)", name=module_name)
+        raise ImportError(f"{module.__name__} has no {', '.join(missing)}; every subcommand module needs "
+                          "them (see wbik.cli)", name=module.__name__)
     return module
 
 
@@ -63,9 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--debug", action="store_true",
                         help="print the traceback of errors (for bug reports)")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in SUBCOMMANDS:
-        module = subcommand_module(name)
-        command = subparsers.add_parser(name, help=module.HELP, description=inspect.cleandoc(module.__doc__),
+    for module in SUBCOMMANDS:
+        module = checked_subcommand(module)
+        command = subparsers.add_parser(module.__name__.rpartition(".")[2], help=module.HELP,
+                                        description=inspect.cleandoc(module.__doc__),
                                         epilog=getattr(module, "EPILOG", None))
         if hasattr(module, "add_arguments"):
             module.add_arguments(command)

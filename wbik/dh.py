@@ -25,7 +25,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
-from wbik import geometry
+import wbik.geometry as geometry
 from wbik.errors import RobotDescriptionError
 
 Convention = Literal["standard", "modified"]

@@ -24,8 +24,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidSettingError
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 
 
 # --- angles ------------------------------------------------------------------------------------------
@@ -162,7 +162,7 @@ def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.
     return math.sqrt(ex * ex + ey * ey + ez * ez)
 
 
-_compiled_error_parts = compiled_twin("wbik.kernels._pose", "error_parts")
+_compiled_error_parts = compiled_twin("pose", "error_parts")
 error_parts = chosen(_python_error_parts, _compiled_error_parts, "pose")
 """error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared FK check's
 arithmetic (:func:`_python_error_parts`, compiled where built); log3 of ``relative`` is e_R."""

@@ -1,24 +1,20 @@
-"""Registries of named things that modules declare: the core lists the modules by name, each module
-declares what it provides.
+"""Registries of named things that modules declare: each module declares what it provides, and the
+registry reads the modules its sources give on first use.
 
-A :class:`DeclaredRegistry` holds entries of one type (anything with a ``name``: a whole-body case
-sampler, a whole-body method, ...). The modules listed in its ``modules`` list ("package.module"
-strings) are imported on first use, so the core names an application's module without importing
-it, and each declares its entries in a module-level tuple (the registry's ``attribute``, e.g.
-``WHOLEBODY_CASES``)::
+A :class:`DeclaredRegistry` holds entries of one type (anything with a ``name``: an IK method, a case
+sampler, ...). Each declaring module holds its entries in a module-level tuple (the registry's
+``attribute``, e.g. ``WHOLEBODY_CASES``)::
 
     WHOLEBODY_CASES = (CaseSampler("walk_com_shift", "my_biped", com_shift, "the CoM to ..."),)
 
-Every listed module is imported when the entries are first needed; one that fails to import, has
-no such tuple, or declares a name that another module declares too is an error naming the module
-(:class:`RegistryError`, or the registry's own subclass of it), never skipped. User code adds an
-entry with :meth:`DeclaredRegistry.register`, or a module of entries with
-:meth:`DeclaredRegistry.register_module`.
-
-Applications plug in from outside the core: a registry made with ``plugins="wbik.GROUP"`` also lists
-every module named by an entry point of that group (``[project.entry-points."wbik.GROUP"]`` in a
-package's pyproject.toml; wbik's own applications declare theirs there), so the core never names an
-application. An installed package of the user's is found the same way.
+A registry's ``modules`` are its sources: a function giving modules (what wbik ships: :mod:`wbik.catalog`
+imports them by name and adds its functions with :func:`add_source`, so the core never imports a robot
+package or an application), or the name of a module (user code, :meth:`DeclaredRegistry.register_module`;
+installed plug-ins, the modules named by the entry points of the registry's ``plugins`` group,
+``[project.entry-points."wbik.GROUP"]`` in a package's pyproject.toml). Every source is read when the
+entries are first needed; one that fails to import, a module without the tuple, or a name declared twice
+is an error naming the module (:class:`RegistryError`, or the registry's own subclass of it), never
+skipped. User code adds an entry with :meth:`DeclaredRegistry.register`.
 
 A registry lives in one process. A fresh process (a study's worker) imports the listed modules
 again but knows nothing user code added; :meth:`DeclaredRegistry.added_at_run_time` says which
@@ -37,6 +33,7 @@ from collections.abc import Iterable
 from collections.abc import Iterator
 from contextlib import contextmanager
 from importlib import metadata
+from types import ModuleType
 from typing import Generic
 from typing import Protocol
 from typing import TypeVar
@@ -45,7 +42,8 @@ from wbik.errors import InvalidOptionError
 from wbik.errors import UnknownNameError
 from wbik.errors import WbikError
 
-__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "check_options", "factory_options"]
+__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "add_source", "check_options",
+           "factory_options"]
 
 
 class RegistryError(WbikError):
@@ -61,16 +59,37 @@ class Named(Protocol):
 
 
 Entry = TypeVar("Entry", bound=Named)
+Source = str | Callable[[], Iterable[ModuleType]]
+"""A module's name, or a function giving the declaring modules (imported by name inside it)."""
+
+_SHIPPED: dict[str, list[Source]] = {}
+_REGISTRIES: dict[str, DeclaredRegistry] = {}
+_SHIPPED_LOCK = threading.Lock()
+
+
+def add_source(what: str, source: Callable[[], Iterable[ModuleType]]) -> None:
+    """Add ``source``, a function giving modules that declare entries, to the registry of ``what``s
+    (made now or later): how :mod:`wbik.catalog` lists what wbik ships."""
+    with _SHIPPED_LOCK:
+        _SHIPPED.setdefault(what, []).append(source)
+        registry = _REGISTRIES.get(what)
+    if registry is not None:
+        registry._add_shipped(source)
+
+
+def source_label(source: Source) -> str:
+    """A source in words: the module's name, or the function's qualified name."""
+    return source if isinstance(source, str) else f"{source.__module__}.{source.__qualname__}()"
 
 
 class DeclaredRegistry(Generic[Entry]):
-    """Entries of ``entry_type`` declared by the modules in ``modules`` (see the module docstring).
+    """Entries of ``entry_type`` declared by the modules its sources give (see the module docstring).
 
-    ``what``: what an entry is, for messages ("whole-body case sampler"). ``attribute``: the tuple
-    each listed module declares. ``modules``: the listed modules (the list itself is kept, so
-    :meth:`register_module` appends to the caller's list). ``listed_in``: where ``modules`` is
-    defined, for messages. ``unknown``: the error for a name nobody declares, made from (name, known
-    names): an :class:`~wbik.errors.UnknownNameError` subclass, or a function. ``error`` /
+    ``what``: what an entry is, for messages ("whole-body case sampler"), and the name :func:`add_source`
+    adds sources by. ``attribute``: the tuple each declaring module holds. ``modules``: the sources (the
+    list itself is kept, so :meth:`register_module` appends to the caller's list). ``listed_in``: where
+    ``modules`` is defined, for messages. ``unknown``: the error for a name nobody declares, made from
+    (name, known names): an :class:`~wbik.errors.UnknownNameError` subclass, or a function. ``error`` /
     ``import_error``: the error types raised for a clash or a module declaring nothing / for a
     listed module that cannot be imported (a registry's own subclasses, so callers can catch its
     errors alone). ``plugins``: an entry-point group whose entries name more modules to list (the
@@ -91,6 +110,9 @@ class DeclaredRegistry(Generic[Entry]):
     ):
         self.plugins = plugins
         modules.extend(name for name in plugin_modules(plugins) if name not in modules)
+        with _SHIPPED_LOCK:
+            modules.extend(source for source in _SHIPPED.get(what, ()) if source not in modules)
+            _REGISTRIES[what] = self
         self.what, self.attribute, self.modules, self.listed_in = what, attribute, modules, listed_in
         self.entry_type, self.error, self.import_error = entry_type, error, import_error
         self.unknown = unknown or (lambda name, known: UnknownNameError(name, known,
@@ -98,33 +120,46 @@ class DeclaredRegistry(Generic[Entry]):
         self._declared_by_default = frozenset(modules)  # what a fresh process imports
         self._entries: dict[str, Entry] = {}
         self._origins: dict[str, str] = {}
+        self._sources: dict[str, Source] = {}
         self._loaded: set[str] = set()
         self._lock = threading.RLock()
 
+    def _add_shipped(self, source: Source) -> None:
+        with self._lock:
+            if source not in self.modules:
+                self.modules.append(source)
+            self._declared_by_default |= {source}
+
     @contextmanager
-    def isolated(self, modules: list[str] | None = None) -> Iterator[DeclaredRegistry[Entry]]:
+    def isolated(self, modules: list[Source] | None = None) -> Iterator[DeclaredRegistry[Entry]]:
         """This registry with nothing loaded, listing ``modules`` (default: a copy of its list), for
         the time of the block; what it held is back afterwards. For tests and for trying a list of
         modules: the functions made from its methods (``register_sampler = _SAMPLERS.register``)
         see the isolated state."""
         with self._lock:
-            saved = (self.modules, self._declared_by_default, self._entries, self._origins, self._loaded)
+            saved = (self.modules, self._declared_by_default, self._entries, self._origins, self._loaded,
+                     self._sources)
             self.modules = list(self.modules if modules is None else modules)
             self._declared_by_default = frozenset(self.modules)
-            self._entries, self._origins, self._loaded = {}, {}, set()
+            self._entries, self._origins, self._loaded, self._sources = {}, {}, set(), {}
         try:
             yield self
         finally:
             with self._lock:
                 (self.modules, self._declared_by_default, self._entries, self._origins,
-                 self._loaded) = saved
+                 self._loaded, self._sources) = saved
 
     def entries(self) -> dict[str, Entry]:
         """Every entry by name (the listed modules imported on first use)."""
         with self._lock:
-            for module_name in list(self.modules):
-                self._load_once(module_name)
+            for source in list(self.modules):
+                self._load_once(source)
             return dict(self._entries)
+
+    def declaring_modules(self) -> list[ModuleType]:
+        """The modules the sources give, in order (imported now)."""
+        return [module for source in list(self.modules) for module in
+                ([importlib.import_module(source)] if isinstance(source, str) else source())]
 
     def descriptions(self) -> dict[str, str]:
         """Every entry's one-line ``description`` ("" for none), by name in alphabetical order."""
@@ -144,7 +179,7 @@ class DeclaredRegistry(Generic[Entry]):
         a name nobody registered."""
         entries = self.entries()
         with self._lock:
-            if name not in entries or self._origins[name] in self._declared_by_default:
+            if name not in entries or self._sources.get(name) in self._declared_by_default:
                 return None
             return entries[name]
 
@@ -167,21 +202,27 @@ class DeclaredRegistry(Generic[Entry]):
                 self.modules.append(module_name)
 
     # -- loading -----------------------------------------------------------------------------------
-    def _load_once(self, module_name: str) -> None:
-        if module_name in self._loaded:
+    def _load_once(self, source: Source) -> None:
+        if source in self._loaded:
             return
         try:
-            module = importlib.import_module(module_name)
+            modules = [importlib.import_module(source)] if isinstance(source, str) else list(source())
         except ImportError as exc:
             raise self.import_error(
-                f"the {self.what}s of {module_name} (listed in {self.listed_in}) cannot be registered: "
-                f"importing it failed: {exc}. Install what it names (pip install -e . installs wbik's "
-                f"own dependencies), or remove the module from that list") from exc
+                f"the {self.what}s of {source_label(source)} (listed in {self.listed_in}) cannot be "
+                f"registered: importing it failed: {exc}. Install what it names (pip install -e . installs "
+                f"wbik's own dependencies), or remove the module from that list") from exc
+        for module in modules:
+            self._load_module(module, source)
+        self._loaded.add(source)
+
+    def _load_module(self, module: ModuleType, source: Source) -> None:
+        module_name = module.__name__
         declared = getattr(module, self.attribute, None)
         if not isinstance(declared, tuple | list) or not all(isinstance(item, self.entry_type)
                                                                for item in declared):
             raise self.error(f"{module_name} is listed in {self.listed_in} but has no {self.attribute} "
-                                f"tuple of {self.entry_type.__name__}")
+                             f"tuple of {self.entry_type.__name__}")
         names = [entry.name for entry in declared]
         twice = sorted({name for name in names if names.count(name) > 1})
         if twice:
@@ -190,7 +231,7 @@ class DeclaredRegistry(Generic[Entry]):
             self._check_new(entry, module_name)
         for entry in declared:
             self._add(entry, module_name)
-        self._loaded.add(module_name)
+            self._sources[entry.name] = source
 
     def _check_new(self, entry: Entry, where: str) -> None:
         known = self._entries.get(entry.name)
@@ -203,6 +244,7 @@ class DeclaredRegistry(Generic[Entry]):
             self._check_new(entry, where)
         self._entries[entry.name] = entry
         self._origins[entry.name] = where
+        self._sources.pop(entry.name, None)
 
 
 def plugin_modules(group: str | None) -> list[str]:

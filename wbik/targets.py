@@ -19,8 +19,8 @@ import pinocchio as pin
 from wbik.errors import InvalidRotationError
 from wbik.errors import InvalidTargetError
 from wbik.geometry import rotation_error
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6
@@ -146,7 +146,7 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
 
 
 # the compiled twin (wbik.kernels, kernel 'pose'): the same test in C
-_compiled_accepts_plain_se3 = compiled_twin("wbik.kernels._pose", "plain_se3")
+_compiled_accepts_plain_se3 = compiled_twin("pose", "plain_se3")
 _accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3, "pose")
 
 

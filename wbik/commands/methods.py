@@ -8,8 +8,8 @@ HELP = "list the IK methods"
 
 
 def run(args: argparse.Namespace) -> int:
-    import wbik
+    from wbik.solvers.method_registry import methods
 
-    for name, description in wbik.methods().items():
+    for name, description in methods().items():
         print(f"{name:12s} {description}")
     return 0

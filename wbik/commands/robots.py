@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from wbik.commands import add_json_argument
+from wbik.commands.arguments import add_json_argument
 
 HELP = "list the built-in robots (and their chains with -v)"
 
@@ -16,13 +16,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import wbik
+    from wbik.models import load
+    from wbik.models import robots
 
     listing = {}
-    for name, description in wbik.robots().items():
+    for name, description in robots().items():
         entry = {"description": description}
         if args.verbose:
-            robot = wbik.load(name)
+            robot = load(name)
             entry["chains"] = {spec.name: {"base": spec.base_frame, "tip": spec.tip_frame,
                                            "joints": list(spec.joints)} for spec in robot.chains.values()}
         listing[name] = entry

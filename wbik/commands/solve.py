@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 
-from wbik.commands import add_json_argument
-from wbik.commands import add_robot_arguments
-from wbik.commands import load_robot_chain
+from wbik.commands.arguments import add_json_argument
+from wbik.commands.arguments import add_robot_arguments
+from wbik.commands.arguments import load_robot_chain
 
 HELP = "solve IK for one target"
 
@@ -31,15 +31,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
-    import wbik
+    from wbik.solvers.method_registry import solver as make_solver
+    from wbik.targets import Target
     from wbik.validation import check_budget
 
     timeout = check_budget("--timeout", args.timeout)
     robot, chain = load_robot_chain(args)
-    solver = wbik.solver(args.method, robot, chain=chain.name, timeout_s=timeout)
+    solver = make_solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)
     target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
-              else wbik.Target(position))
+              else Target(position))
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
     family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:

@@ -34,8 +34,8 @@ import math
 import numpy as np
 
 from wbik.geometry import TWO_PI
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 
 _INVERSE_TURN = 1.0 / TWO_PI
 _TURN_SQUARED = TWO_PI * TWO_PI
@@ -220,8 +220,8 @@ def choose_python(params: bytes, branches: np.ndarray, reference: np.ndarray, ta
     return 0
 
 
-order_compiled = compiled_twin("wbik.kernels._eaik", "order")
-choose_compiled = compiled_twin("wbik.kernels._eaik", "choose")
+order_compiled = compiled_twin("eaik", "order")
+choose_compiled = compiled_twin("eaik", "choose")
 
 
 def built() -> bool:

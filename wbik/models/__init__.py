@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
 
+import wbik.models.erd as erd
 from wbik.errors import InvalidOptionError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownRobotError
-from wbik.models import erd
 from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
@@ -25,19 +27,21 @@ from wbik.robot import robot_from_urdf_text
 
 @dataclass(frozen=True)
 class RobotEntry:
-    """A robot known by name: ``model`` is the module with ``build(**params) -> Robot`` (imported on
-    first use; it may also define ``collision_primitives(robot)`` and ``collision_obstacles()``)."""
+    """A robot known by name: ``model`` gives the module with ``build(**params) -> Robot`` (a function
+    importing it by name, or for user code the module's name; imported on first use; it may also define
+    ``collision_primitives(robot)`` and ``collision_obstacles()``)."""
 
     name: str
-    model: str
+    model: str | Callable[[], ModuleType]
     description: str
 
-    def module(self):
-        return importlib.import_module(self.model)
+    def module(self) -> ModuleType:
+        return importlib.import_module(self.model) if isinstance(self.model, str) else self.model()
 
 
-ROBOT_MODULES: list[str] = ["wbik.robot_packages"]
-"""The modules whose ``ROBOTS`` are registered (a new robot package: one entry in its ``ROBOTS``)."""
+ROBOT_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds the robot packages (a new one: one entry
+in their ``ROBOTS``), user code a module by name or :func:`register_robot`."""
 
 ROBOT_REGISTRY: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
     "robot", "ROBOTS", ROBOT_MODULES, "wbik.models.ROBOT_MODULES", RobotEntry,

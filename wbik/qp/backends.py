@@ -24,11 +24,11 @@ from scipy import sparse
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import NoQPSolutionError
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 
-_STACK_ROWS = compiled_twin("wbik.kernels._qp_rows", "stack_rows")
-_TIGHTEN_SLICE = compiled_twin("wbik.kernels._qp_rows", "tighten_slice")
+_STACK_ROWS = compiled_twin("qp_rows", "stack_rows")
+_TIGHTEN_SLICE = compiled_twin("qp_rows", "tighten_slice")
 
 
 class BackendUnavailableError(MissingDependencyError):

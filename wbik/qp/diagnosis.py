@@ -32,8 +32,8 @@ from dataclasses import field
 
 import numpy as np
 
+import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
-from wbik.qp import backends
 from wbik.qp.constraint import StartViolation
 from wbik.qp.constraint import StepBox
 from wbik.qp.elastic import ConflictRow

@@ -27,8 +27,8 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
+import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
-from wbik.qp import backends
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import BoundConstraint
 from wbik.qp.constraint import Constraint

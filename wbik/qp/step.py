@@ -32,15 +32,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
+import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
-from wbik.qp import backends
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 from wbik.qp.constraint import Constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import Task
 
-_QUADRATIC = compiled_twin("wbik.kernels._qp_rows", "quadratic")
+_QUADRATIC = compiled_twin("qp_rows", "quadratic")
 """The compiled twin of Level.quadratic's products (None where it is not built)."""
 
 PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")

@@ -176,7 +176,7 @@ class SupportPolygon:
     def nearest_inside(self, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
         """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point``: ``point`` itself when
         inside, else the answer of a 2-variable QP (NoQPSolutionError when the shrunk polygon is empty)."""
-        from wbik.qp import backends
+        import wbik.qp.backends as backends
 
         normals, offsets = self.halfplanes(margin)
         point = np.asarray(point, dtype=float)[:2]

@@ -228,8 +228,9 @@ TASK_ENTRIES = (
 )
 """The core's entry types (see the module docstring)."""
 
-TASK_ENTRY_MODULES: list[str] = ["wbik.qp.task_entries"]
-"""Modules whose ``TASK_ENTRIES`` are registered (a new task module: one line here)."""
+TASK_ENTRY_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds this one (the core's entries), user code
+a module by name or an entry (:func:`register_task_entry`)."""
 
 TASK_ENTRY_REGISTRY: DeclaredRegistry[TaskEntry] = DeclaredRegistry(
     "task entry type", "TASK_ENTRIES", TASK_ENTRY_MODULES, "wbik.qp.task_entries.TASK_ENTRY_MODULES",

@@ -46,12 +46,12 @@ import pinocchio as pin
 
 from wbik.geometry import rotation_error
 from wbik.geometry import rotation_error_jacobian
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 from wbik.qp.kinematics import Kinematics
 
 _AXES = {"x": 0, "y": 1, "z": 2}
-_FRAME_ROWS = compiled_twin("wbik.kernels._qp_rows", "frame_rows")
+_FRAME_ROWS = compiled_twin("qp_rows", "frame_rows")
 """The compiled twin of FrameTask.fill and OrientationTask.fill (None where it is not built)."""
 
 

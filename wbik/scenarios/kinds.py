@@ -60,13 +60,9 @@ __all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioBudgetError", "S
            "format_entries", "json_default", "kind_names", "register_kind", "report_header", "report_verdict",
            "robot_of", "start_of"]
 
-KIND_MODULES: list[str] = [
-    "wbik.scenarios.wholebody",  # wholebody_ik
-    "wbik.motion.scenarios",  # motion_joint, motion_cartesian
-    "wbik.motion.walking.scenario",  # walk
-]
-"""The core's modules whose ``SCENARIO_KINDS`` are registered (a new module of kinds: one line here);
-applications add theirs through the entry-point group ``wbik.scenario_kinds`` (pyproject.toml)."""
+KIND_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own, user code a module by name,
+installed packages theirs through the entry-point group ``wbik.scenario_kinds``."""
 
 VERDICTS = ("PASSED", "FAILED", "informational")
 

@@ -368,8 +368,9 @@ def phase_figures(success: bool, checks: dict) -> dict:
 
 
 # -- the runner ------------------------------------------------------------------------------------
-def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
-    """The phase's tasks (targets at q) and its regularisation; a bad entry names the phase."""
+def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: bool = True) -> list:
+    """The phase's tasks (targets at q) and, with ``regularization``, its regularisation; a bad entry
+    names the phase."""
     tasks = []
     for number, entry in enumerate(phase["tasks"]):
         try:
@@ -378,6 +379,8 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int) -> list:
             raise ScenarioValueError(f"phases[{index}].tasks[{number}]: {exc}") from exc
     if not any(task.goal for task in tasks):
         raise ScenarioError(f"phase {phase['name']!r} has no goal task")
+    if not regularization:
+        return tasks
     regularization = build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]})
     regularization.priority = max(task.priority for task in tasks)  # the lowest level (see lowest_priority)
     tasks.append(regularization)
@@ -397,16 +400,18 @@ def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
         raise ScenarioValueError(f"{where}: {exc}") from None
 
 
-def _stance(robot, q: np.ndarray, phase: dict, index: int) -> list:
-    """The phase's stance constraints at q; a support that spans no area names the phase's support."""
-    from wbik.qp.humanoid import stance_constraints
-    from wbik.qp.support_polygon import DegenerateSupportPolygonError
+def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
+    """The phase as a :class:`wbik.wholebody.problem.WholeBody` from q: its tasks, contacts held where they
+    are at q, support and margin, joint position limits, minimum distances, acceleration limits (IK steps:
+    periods of ``dt``) and ``extra`` (locked joints, collision avoidance)."""
+    from wbik.wholebody.problem import WholeBody
 
-    try:
-        return stance_constraints(robot, q, list(phase["contacts"]), list(phase["support"]),
-                                  float(phase["margin"]))
-    except DegenerateSupportPolygonError as exc:
-        raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
+    return WholeBody(robot, _phase_tasks(robot, q, phase, index, regularization),
+                     contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
+                     support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
+                     collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
+                     constraints=extra, step_dt=float(phase["dt"]),
+                     acceleration_limit=phase.get("acceleration_limit"), name=phase["name"])
 
 
 def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
@@ -416,14 +421,8 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
     check: {label: figures}. ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot
     costs milliseconds to load)."""
     from wbik.solvers.method_registry import solver
-    from wbik.wholebody.problem import WholeBody
 
-    problem = WholeBody(robot, _phase_tasks(robot, q, phase, index),
-                        contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
-                        support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
-                        collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
-                        constraints=extra, step_dt=float(phase["dt"]),
-                        acceleration_limit=phase.get("acceleration_limit"), name=phase["name"])
+    problem = phase_problem(robot, q, phase, index, extra)
     compared = {}
     for entry in methods:
         label = entry["label"]
@@ -437,12 +436,12 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 
 
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults);
-    the report and the animation from the start through every phase's answer."""
-    from wbik.qp.distances import MinimumDistance
-    from wbik.qp.limits import JointAccelerationLimits
+    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults) with
+    ``wbik.solver("qp", robot)``; the report and the animation from the start through every phase's
+    answer."""
     from wbik.qp.limits import LockedJoints
-    from wbik.qp.problem import IKProblem
+    from wbik.qp.support_polygon import DegenerateSupportPolygonError
+    from wbik.solvers.method_registry import solver
 
     backend = spec["backend"]
     run = _kind_run(spec, on_progress)
@@ -456,21 +455,19 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         contacts = list(phase["contacts"])
         support = list(phase["support"])
         margin = float(phase["margin"])
-        tasks = _phase_tasks(robot, q, phase, index)
-        constraints = _stance(robot, q, phase, index)
-        if phase["lock"]:
-            constraints.append(LockedJoints(list(phase["lock"])))
-        if phase.get("acceleration_limit") is not None:  # (IK steps: periods of dt, solved at dt 1)
-            constraints.append(JointAccelerationLimits(float(phase["acceleration_limit"]),
-                                                       period=float(phase["dt"])))
-        for item in phase["min_distance"]:
-            constraints.append(MinimumDistance(item["frames"][0], item["frames"][1], float(item["distance"])))
-        if collision_constraint is not None:
-            constraints.append(collision_constraint)
+        extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
+            [collision_constraint] if collision_constraint is not None else [])
         contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
-        problem = IKProblem(robot.model, tasks, constraints, backend=backend,
-                            max_step=float(phase["max_step"]))
-        solution = problem.solve(q, max_iterations=int(phase["max_iterations"]))
+        problem = phase_problem(robot, q, phase, index, extra, regularization=False)
+        settings = ("qp", backend, float(phase["max_step"]), int(phase["max_iterations"]),
+                    phase["regularization"])
+        if settings not in solvers:
+            solvers[settings] = solver("qp", robot, backend=backend, max_step=settings[2],
+                                       max_iterations=settings[3], regularization=settings[4])
+        try:
+            solution = solvers[settings].solve(problem, q)
+        except DegenerateSupportPolygonError as exc:
+            raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
         checks = check_configuration(robot, solution.q, contact_placements, support, margin)
         if collision_model is not None:
             checks["collision"] = collision_check(collision_model, solution.q)
@@ -486,8 +483,6 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
             "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist(),
             "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
         if spec["methods"]:
-            extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
-                [collision_constraint] if collision_constraint is not None else [])
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
         run.add(entry)
         if phase["continue_from"] == "result":

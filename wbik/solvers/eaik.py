@@ -90,7 +90,7 @@ from time import perf_counter
 
 import numpy as np
 
-from wbik.kernels import eaik as eaik_kernel
+import wbik.kernels.eaik as eaik_kernel
 from wbik.solvers.analytic.closed_form import BOUND_SLACK
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import checked_branches

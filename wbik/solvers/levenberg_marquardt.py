@@ -40,11 +40,11 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from wbik.geometry import TWO_PI
-from wbik.kernels import chosen
-from wbik.kernels import compiled_twin
+from wbik.kernels.twins import chosen
+from wbik.kernels.twins import compiled_twin
 from wbik.solvers.check import clip_to_limits
 
-_LM_TRIAL = compiled_twin("wbik.kernels._lm_trial", "lm_trial")
+_LM_TRIAL = compiled_twin("lm_trial", "lm_trial")
 """The compiled twin of :meth:`LevenbergMarquardt.trial` (None where it is not built)."""
 
 

@@ -32,22 +32,10 @@ from wbik.solvers.method import SolverFactory
 __all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "budget_options", "method_factory", "methods",
            "register", "register_method", "solver", "solver_options"]
 
-METHOD_MODULES: list[str] = [
-    "wbik.solvers.analytic.solver",
-    "wbik.solvers.newton",
-    "wbik.solvers.dls",
-    "wbik.solvers.bounded_lm",
-    "wbik.solvers.qp",
-    "wbik.solvers.kdl",  # kdl, kdl_restarts
-    "wbik.solvers.tracik",
-    "wbik.solvers.placo",
-    "wbik.solvers.pink",
-    "wbik.solvers.eaik",
-    "wbik.solvers.ik_geo",
-    "wbik.solvers.mink",
-]
-"""The core's modules whose ``IK_METHODS`` are registered (a new module of methods: one line here);
-applications add theirs through the entry-point group ``wbik.ik_methods``."""
+METHOD_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own (a new module of methods:
+one line there), user code a module by name (``IK_METHOD_REGISTRY.register_module``), installed
+packages theirs through the entry-point group ``wbik.ik_methods``."""
 
 IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,

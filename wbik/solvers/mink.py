@@ -30,11 +30,11 @@ from functools import cache
 import numpy as np
 import pinocchio as pin
 
+import wbik.qp.backends as backends
 from wbik.errors import InvalidSettingError
 from wbik.mujoco_model import MuJoCoBody
 from wbik.mujoco_model import import_mink
 from wbik.mujoco_model import mujoco_body
-from wbik.qp import backends
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
 from wbik.qp.contacts import PointContact

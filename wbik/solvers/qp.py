@@ -23,7 +23,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.qp import backends
+import wbik.qp.backends as backends
 from wbik.qp.diagnosis import last_solve_diagnosis
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.limits import JointVelocityLimits

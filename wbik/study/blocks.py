@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.study import results as store
+import wbik.study.results as store
 from wbik.study.context import chunk_count
 from wbik.study.cpu_watch import STARVED_CPU_SHARE
 from wbik.study.cpu_watch import threads_of
@@ -120,7 +120,7 @@ def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path
     budget (``budget_kinds``: label -> "iterations", "wall" or "none", :func:`budget_kind`)."""
     if not rows_by_method:
         return {}
-    from wbik.study import figures
+    import wbik.study.figures as figures
 
     images = {"solved": figures.solved_bars(summaries, title, folder / "solved.png"),
               "errors": figures.error_boxplots(rows_by_method, error_names, title, folder / "errors.png",

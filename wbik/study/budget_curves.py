@@ -41,7 +41,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.study import results as store
+import wbik.study.results as store
 from wbik.study.case_kinds import case_kind
 from wbik.study.sampling import PoseSet
 from wbik.study.statistics import wilson_interval

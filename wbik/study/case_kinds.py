@@ -178,18 +178,9 @@ class CaseKind(ABC):
         """The case's section of the report."""
 
 
-CASE_KIND_MODULES: list[str] = [
-    "wbik.study.chain_targets",  # pose, position
-    "wbik.study.wholebody",  # wholebody
-    "wbik.study.target_sets",  # uniform (target sets: a case's targets:)
-    "wbik.study.near_limits",  # near_limits
-    "wbik.study.near_singularities",  # near_singularities
-    "wbik.study.reach_boundary",  # reach_boundary
-    "wbik.study.unreachable",  # unreachable
-    "wbik.study.paths",  # path
-    "wbik.study.protocols",  # protocol
-]
-"""The modules whose ``CASE_KINDS`` are registered (a new module of kinds: one line here)."""
+CASE_KIND_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own (a new kind: its module plus
+one line there), user code a module by name or a kind (:func:`register_case_kind`)."""
 
 CASE_KIND_REGISTRY: DeclaredRegistry[CaseKind] = DeclaredRegistry(
     "study case kind", "CASE_KINDS", CASE_KIND_MODULES, "wbik.study.case_kinds.CASE_KIND_MODULES", CaseKind)

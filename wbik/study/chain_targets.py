@@ -23,10 +23,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
-from wbik.study import results as store
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS

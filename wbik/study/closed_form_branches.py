@@ -73,11 +73,11 @@ class ClosedFormBranches:
 
 def complete_closed_form(chain: Chain) -> ClosedFormBranches | str:
     """The chain's complete closed form, or why it has none (text for the report)."""
-    import wbik
     from wbik.solvers.analytic.redundancy import LockedJointForm
+    from wbik.solvers.method_registry import solver as make_solver
 
     try:
-        solver = wbik.solver("analytic", chain.robot, chain=chain.name)
+        solver = make_solver("analytic", chain.robot, chain=chain.name)
         form = solver.closed_form("pose")
     except UnsupportedError as exc:
         return f"no closed form of full poses ({exc})"

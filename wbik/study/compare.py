@@ -33,8 +33,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.errors import UsageError
-from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt

@@ -35,9 +35,9 @@ def _robot(name: str, params: tuple):
         cache = _LOCAL.robots = {}
     key = (name, params)
     if key not in cache:
-        import wbik
+        from wbik.models import load
 
-        cache[key] = wbik.load(name, **dict(params))
+        cache[key] = load(name, **dict(params))
     return cache[key]
 
 
@@ -59,13 +59,14 @@ def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method:
                 timeout_s: float | None, tolerances: tuple, seed: int, base: str | None = None,
                 tip: str | None = None):
     """The chain solver ``method`` on the (per-thread cached) robot, built as the study builds it."""
-    import wbik
+    from wbik.solvers.method_registry import solver
+    from wbik.solvers.result import Tolerances
 
     robot = _robot(robot_name, robot_params)
     if base is not None:
         chain = case_chain(robot_name, robot_params, chain, base, tip).name
-    return wbik.solver(method, robot, chain=chain, timeout_s=timeout_s,
-                       tolerances=wbik.Tolerances(*tolerances), seed=seed, **options)
+    return solver(method, robot, chain=chain, timeout_s=timeout_s,
+                       tolerances=Tolerances(*tolerances), seed=seed, **options)
 
 
 def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:

@@ -45,13 +45,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.schema import Boolean
 from wbik.schema import Context
 from wbik.schema import Key
 from wbik.schema import Map
 from wbik.schema import Number
 from wbik.schema import join
-from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
@@ -605,7 +605,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     each path a method solved whole (a box per method, log scale)."""
     import matplotlib.pyplot as plt
 
-    from wbik.study import figures
+    import wbik.study.figures as figures
 
     labels = list(rows_by_method)
     colour = figures.colours(labels)

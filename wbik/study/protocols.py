@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.schema import Context
 from wbik.schema import Key
 from wbik.schema import ListOf
@@ -36,7 +37,6 @@ from wbik.schema import Map
 from wbik.schema import Text
 from wbik.schema import dataclass_default
 from wbik.schema import join
-from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.chain_targets import ChainChunkTask

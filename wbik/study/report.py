@@ -21,7 +21,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wbik.study import results as store
+import wbik.study.results as store
 from wbik.study.blocks import SOLVED_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import TIME_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import Block

@@ -48,9 +48,9 @@ from pathlib import Path
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
-from wbik.study import results as store
 from wbik.study.applicability import not_applicable
 from wbik.study.budget_curves import budget_path
 from wbik.study.budget_curves import budget_tasks

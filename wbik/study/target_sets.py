@@ -28,8 +28,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.schema import Key
-from wbik.study import results as store
 from wbik.study.blocks import Block
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets

@@ -29,10 +29,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+import wbik.study.results as store
 from wbik.schema import Key
 from wbik.schema import Text
 from wbik.schema import join
-from wbik.study import results as store
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
@@ -548,7 +548,7 @@ def com_margin_test(baseline: str, rows_by_method: dict) -> list[dict]:
 def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
-    from wbik.study import figures
+    import wbik.study.figures as figures
 
     labels = list(rows_by_method)
     figure, axes = plt.subplots(figsize=(max(6.0, 1.1 * len(labels) + 2), 4.0))

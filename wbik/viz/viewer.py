@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import UnsupportedError
 from wbik.qp.kinematics import Kinematics
@@ -37,7 +38,6 @@ from wbik.qp.support_polygon import contact_points
 from wbik.robot import Chain
 from wbik.robot import Robot
 from wbik.targets import as_target
-from wbik.viz import geometry as robot_geometry
 from wbik.viz.environment import SceneBox
 from wbik.viz.environment import robot_cell
 from wbik.viz.scene import SceneRecorder

@@ -31,9 +31,10 @@ from wbik.wholebody.problem import WholeBody
 __all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cached_robot", "case_rng",
            "register_sampler", "sample_case"]
 
-CASE_MODULES: list[str] = []
-"""The core's modules whose ``WHOLEBODY_CASES`` are registered (none: the samplers are applications',
-added through the entry-point group ``wbik.case_samplers``; user code: :func:`register_sampler`)."""
+CASE_MODULES: list = []
+"""The sources of the registry's modules: :mod:`wbik.catalog` adds the applications' samplers, user code a
+module by name or :func:`register_sampler`, installed packages theirs through the entry-point group
+``wbik.case_samplers``."""
 
 
 @dataclass

@@ -76,7 +76,7 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid import sensors
+import wbik.apps.bioloid.sensors as sensors
 from wbik.apps.bioloid.gait import OTHER
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE

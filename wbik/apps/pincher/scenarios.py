@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 
-from wbik.apps.pincher import teleoperation
+import wbik.apps.pincher.teleoperation as teleoperation
 from wbik.motion.scenarios import MOVE_RULES
 from wbik.motion.scenarios import MoveRun
 from wbik.motion.scenarios import common_motion_keys

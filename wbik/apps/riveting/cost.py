@@ -79,20 +79,21 @@ def calibrate(repeats: int = 200) -> dict[str, float]:
     """Median wall time (s) of each operation on this machine, in the default riveting cell."""
     import pinocchio as pin
 
-    import wbik
     from wbik.apps.riveting.collision import CollisionModel
     from wbik.apps.riveting.moves import Limits
     from wbik.apps.riveting.moves import sample_times
     from wbik.apps.riveting.moves import timed_move
     from wbik.apps.riveting.plan import Insertion
     from wbik.apps.riveting.scene import build_scene
+    from wbik.models import load
+    from wbik.solvers.method_registry import solver
 
-    robot = wbik.load("ur5")
+    robot = load("ur5")
     scene = build_scene()
     collision = CollisionModel(robot, scene)
     chain = robot.chain("arm")
     limits = Limits(chain.velocity_limit, 5.0)
-    analytic = wbik.solver("analytic", robot, chain="arm")
+    analytic = solver("analytic", robot, chain="arm")
     q_home = analytic.solve(scene.rivet_home, robot.nominal).q
     pose = Insertion().approach_pose(scene.hole("h14"))
     q_near = analytic.solve(pin.SE3(pose.rotation, pose.translation), q_home).q

@@ -44,7 +44,6 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-import wbik
 from wbik.apps.riveting.cost import CountingCollision
 from wbik.apps.riveting.cost import PlanningCost
 from wbik.apps.riveting.moves import Move
@@ -65,6 +64,7 @@ from wbik.qp.limits import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
 from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.method_registry import solver
 
 TASK_TOLERANCE = 1e-8
 """|e| of the 5-D task (m, and the sine of the axis error) at which a QP configuration is accepted."""
@@ -106,7 +106,7 @@ class QPPlanner(Planner):
         self.retreats = tuple(float(r) for r in retreats)
         self.model = self.robot.model
         self.tcp = self.chain.tip_frame
-        self.analytic = wbik.solver("analytic", self.robot, chain="arm")
+        self.analytic = solver("analytic", self.robot, chain="arm")
         self.cost = PlanningCost()
         self.counted = CountingCollision(self.collision, self.cost)
         self.reach = self.collision.joint_reach()

@@ -17,7 +17,6 @@ from pathlib import Path
 
 import numpy as np
 
-import wbik
 from wbik.apps.riveting.collision import CollisionModel
 from wbik.apps.riveting.cycle import NoiseModel
 from wbik.apps.riveting.cycle import RunConfig
@@ -34,6 +33,8 @@ from wbik.expectations import Rule
 from wbik.expectations import evaluate
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
+from wbik.models import load
+from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
 THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}
@@ -60,7 +61,7 @@ class Cell:
     """Robot, scene, collision model, limits, insertion and rivet_home's joints for one task file."""
 
     def __init__(self, spec: dict):
-        self.robot = wbik.load(spec.get("robot", "ur5"))
+        self.robot = load(spec.get("robot", "ur5"))
         self.scene: Scene = build_scene(spec.get("scene"))
         self.collision = CollisionModel(self.robot, self.scene)
         self.chain = self.robot.chain("arm")
@@ -69,7 +70,7 @@ class Cell:
         self.limits = Limits(np.broadcast_to(np.asarray(velocity, float), (6,)).copy(),
                              float(limits.get("acceleration", 5.0)), limits.get("law", "quintic"))
         self.insertion = Insertion(**spec.get("insertion", {}))
-        analytic = wbik.solver("analytic", self.robot, chain="arm")
+        analytic = solver("analytic", self.robot, chain="arm")
         home = analytic.solve(self.scene.rivet_home, self.robot.nominal)
         if not home.success:
             raise ValueError(f"rivet_home is not reachable: {home.reason}")

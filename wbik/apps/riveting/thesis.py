@@ -29,7 +29,6 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-import wbik
 from wbik.apps.riveting.cost import PlanningCost
 from wbik.apps.riveting.moves import Move
 from wbik.apps.riveting.moves import dwell
@@ -40,6 +39,7 @@ from wbik.apps.riveting.plan import CyclePlan
 from wbik.apps.riveting.plan import Planner
 from wbik.apps.riveting.scene import FACE_NORMALS
 from wbik.apps.riveting.scene import Hole
+from wbik.solvers.method_registry import solver
 
 ROLL_CANDIDATES = 12
 TEACH_CLEARANCE = 0.015
@@ -65,7 +65,7 @@ class ThesisPlanner(Planner):
         self.sleep = float(sleep)
         self.move_time = float(move_time)
         self.return_via = return_via
-        self.solver = wbik.solver("analytic", self.robot, chain="arm")
+        self.solver = solver("analytic", self.robot, chain="arm")
         self.intermediate: dict[str, np.ndarray] = {}
         self.roll: dict[str, float] = {}
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from wbik.solvers.analytic import yaw_planar as family
+import wbik.solvers.analytic.yaw_planar as family
 
 BASE_HEIGHT = 0.137
 LINK = 0.105

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wbik.kernels import pure_python
+from wbik.kernels.twins import pure_python
 from wbik.solvers.analytic.closed_form import BRANCH_MERGE
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.result import IKResult

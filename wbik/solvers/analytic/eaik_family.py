@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import wbik.kernels.eaik as eaik_kernel
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-from wbik.kernels import eaik as eaik_kernel
-from wbik.kernels import pure_python
+from wbik.kernels.twins import pure_python
 from wbik.robot import Chain
 from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import BOUND_SLACK

@@ -30,10 +30,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import wbik.solvers.analytic.recognition as recognition
 from wbik.dh import rot_z
 from wbik.errors import InvalidOptionError
 from wbik.geometry import wrap_to_pi
-from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic.aligned import FamilyChain
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
@@ -50,7 +50,7 @@ from wbik.solvers.levenberg_marquardt import batch_cost
 from wbik.solvers.levenberg_marquardt import keep_better
 
 try:
-    from wbik.kernels import _stacked_planar as _stacked_kernel
+    import wbik.kernels._stacked_planar as _stacked_kernel
 except ImportError:  # not built (no C compiler at install time): the vectorised twin
     _stacked_kernel = None
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.solvers.analytic import recognition
+import wbik.solvers.analytic.recognition as recognition
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
 from wbik.solvers.analytic.recognition import HALF_PI
@@ -35,7 +35,7 @@ from wbik.solvers.analytic.subproblems import clamped_cosine
 from wbik.solvers.analytic.subproblems import planar_2r_elbow
 
 try:
-    from wbik.kernels import _ur_type as _ur_kernel
+    import wbik.kernels._ur_type as _ur_kernel
 except ImportError:  # not built (no C compiler at install time): the vectorised twin
     _ur_kernel = None
 

@@ -19,10 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+import wbik.solvers.analytic.recognition as recognition
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
-from wbik.solvers.analytic import recognition
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.closed_form import wrap_into_limits

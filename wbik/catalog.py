@@ -1,0 +1,91 @@
+"""Everything wbik ships, named here: the modules that declare its robots, IK methods, case samplers,
+scenario kinds, study case kinds and task entry types, in the core, the robot packages and the
+applications. Each function imports its modules by name when a registry first needs them; the facade
+adds them to the registries (:func:`wbik.registry.add_source`) when wbik is imported, so the core never
+imports a robot package or an application. A new method, robot, kind or sampler of wbik is its module
+plus one line here; user code registers its own with the registries' ``register`` functions.
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+
+from wbik.registry import add_source
+
+
+def robots() -> tuple[ModuleType, ...]:
+    import wbik.robot_packages as shipped
+
+    return (shipped,)
+
+
+def ik_methods() -> tuple[ModuleType, ...]:
+    import wbik.apps.bioloid.thesis_legs as thesis_legs
+    import wbik.apps.golem3.thesis_solvers as thesis_solvers
+    import wbik.solvers.analytic.solver as analytic
+    import wbik.solvers.bounded_lm as bounded_lm
+    import wbik.solvers.dls as dls
+    import wbik.solvers.eaik as eaik
+    import wbik.solvers.ik_geo as ik_geo
+    import wbik.solvers.kdl as kdl
+    import wbik.solvers.mink as mink
+    import wbik.solvers.newton as newton
+    import wbik.solvers.pink as pink
+    import wbik.solvers.placo as placo
+    import wbik.solvers.qp as qp
+    import wbik.solvers.tracik as tracik
+
+    return (analytic, newton, dls, bounded_lm, qp, kdl, tracik, placo, pink, eaik, ik_geo, mink,
+            thesis_solvers, thesis_legs)
+
+
+def case_samplers() -> tuple[ModuleType, ...]:
+    import wbik.apps.bioloid.wholebody_cases as bioloid
+    import wbik.apps.golem3.wholebody_cases as golem3
+
+    return (bioloid, golem3)
+
+
+def scenario_kinds() -> tuple[ModuleType, ...]:
+    import wbik.apps.bioloid.scenarios as bioloid
+    import wbik.apps.golem3.scenarios as golem3
+    import wbik.apps.pincher.scenarios as pincher
+    import wbik.apps.riveting.scenarios as riveting
+    import wbik.motion.scenarios as motion
+    import wbik.motion.walking.scenario as walk
+    import wbik.scenarios.wholebody as wholebody
+
+    return (wholebody, motion, walk, bioloid, golem3, pincher, riveting)
+
+
+def study_case_kinds() -> tuple[ModuleType, ...]:
+    import wbik.study.chain_targets as chain_targets
+    import wbik.study.near_limits as near_limits
+    import wbik.study.near_singularities as near_singularities
+    import wbik.study.paths as paths
+    import wbik.study.protocols as protocols
+    import wbik.study.reach_boundary as reach_boundary
+    import wbik.study.target_sets as target_sets
+    import wbik.study.unreachable as unreachable
+    import wbik.study.wholebody as wholebody
+
+    return (chain_targets, wholebody, target_sets, near_limits, near_singularities, reach_boundary,
+            unreachable, paths, protocols)
+
+
+def task_entry_types() -> tuple[ModuleType, ...]:
+    import wbik.qp.task_entries as task_entries
+
+    return (task_entries,)
+
+
+SHIPPED = {"robot": robots, "IK method": ik_methods, "whole-body case sampler": case_samplers,
+           "scenario kind": scenario_kinds, "study case kind": study_case_kinds,
+           "task entry type": task_entry_types}
+"""Each registry (by what its entries are) and the function naming the modules wbik ships for it."""
+
+
+def install() -> None:
+    """Add the shipped modules to the registries (the facade does, once)."""
+    for what, source in SHIPPED.items():
+        add_source(what, source)
