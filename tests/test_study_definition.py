@@ -21,7 +21,6 @@ def test_minimal_study_defaults_and_single_case():
     assert study.timeout_of(study.method("dls")) == 0.005
     assert study.timeout_of(study.method("dls_short")) == 0.5
     assert study.tolerances == {"position": 1e-6, "rotation": 1e-6}
-    assert not study.method("dls").per_pose
 
 
 def test_yaml_and_toml_files_give_the_same_study(tmp_path):
@@ -46,7 +45,7 @@ def test_yaml_and_toml_files_give_the_same_study(tmp_path):
     ({"start": "home"}, "start must be one of"),
     ({"methods": [{"method": "dls", "options": {"timeout_s": 1}}]}, "options.timeout_s is set by the study"),
     ({"name": "a b"}, "name must be a name of letters"),
-    ({"methods": [{"method": "dls", "per_pose": "yes"}]}, "per_pose must be true or false"),
+    ({"methods": [{"method": "dls", "per_pose": True}]}, "unknown field(s) ['per_pose']"),
     ({"reference": {"significance": {"dls": {"x": "zero"}}}}, "significance.dls.x must be a number"),
     ({"reference": {"significance": {"dls": {"x": 1.5}}}}, "between 0 and 1"),
     ({"reference": {"significance": {"dls": {"yaw": 0.1}}}}, "significance.dls has unknown field(s) ['yaw']"),
@@ -120,7 +119,7 @@ def test_the_default_study_carries_its_reference_block():
     assert reference.name == "thesis"
     assert reference.figures["analytic"]["percent_solved"] == 94.0
     assert reference.figures["kdl"] == {"percent_solved": 72.5, "time_median_ms": 200.0}
-    assert reference.figures["analytic_per_pose"]["time_median_ms"] == 1.95
+    assert reference.figures["analytic"]["time_median_ms"] == 1.95
     assert reference.significance["kdl"]["thesis_roll"] == 6.0e-6
     assert reference.significance_source == "Table 5.1"
     assert reference.angles.sequence == "zyx"

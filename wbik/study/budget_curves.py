@@ -132,7 +132,7 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
                     done += count
                     continue
                 task = kind.task(study, case, curve_method(method, budget_ms), poses, 0, 0, count)
-                tasks.append(replace(task, chunk=index))
+                tasks.append(replace(task, chunk=index, batch=False))
     return tasks, done, total
 
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 from abc import ABC
 from abc import abstractmethod
 from dataclasses import dataclass
+from dataclasses import field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -65,6 +66,9 @@ class ChunkTask:
     chunk: int
     first_pose: int
     q0: np.ndarray  # the start configuration of each pose of the chunk
+    batch: bool = field(default=True, kw_only=True)
+    """Also time the method's batched path (``solve_many``) over the chunk, where it has one (the
+    throughput; not for budget curves)."""
 
     @property
     def count(self) -> int:

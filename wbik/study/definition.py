@@ -17,7 +17,6 @@ at the top level instead of a ``cases`` list. Example::
     methods:
       - bounded_lm
       - {label: kdl_15s, method: kdl, timeout_s: 15, note: "a published run's timeout"}
-      - {label: dls_per_pose, method: dls, per_pose: true}   # time of single calls
     reference:              # published figures to set beside ours (wbik.study.reference)
       name: paper
       source: "a paper's Table 2"
@@ -108,7 +107,6 @@ class MethodSpec:
     options: dict = field(default_factory=dict)
     timeout_s: float | None = None  # None: the study's default
     note: str = ""
-    per_pose: bool = False  # True: one solve() per pose instead of a batched solve_many (time per call)
 
 
 @dataclass(frozen=True)
@@ -318,7 +316,7 @@ def study_from_dict(data, source: str = "study") -> Study:
     ctx = Context(source, STUDY_ERRORS)
     checked = study_schema().check(data, "", ctx)
     methods = [MethodSpec(label=item["label"], method=item["method"], options=dict(item["options"]),
-                          timeout_s=item["timeout_s"], note=item["note"] or "", per_pose=item["per_pose"])
+                          timeout_s=item["timeout_s"], note=item["note"] or "")
                for item in checked["methods"]]
     cases = [CaseSpec(**{key: item[key] for key in _CASE_FIELDS if key in item})
              for item in checked["cases"]]
@@ -387,7 +385,7 @@ def study_schema() -> Map:
         "cases": Key(ListOf(CaseEntry(), min_items=1, what="{robot, chain, target} mappings"),
                      doc="the cases (or one case's keys at the top level)"),
         "methods": Key(ListOf(method_schema(), min_items=1, what="method names or {label, method, options, "
-                              "timeout_s, note, per_pose} mappings, e.g. [analytic, dls, {label: kdl_15s, "
+                              "timeout_s, note} mappings, e.g. [analytic, dls, {label: kdl_15s, "
                               "method: kdl, timeout_s: 15}]"), required=True, doc="the methods compared"),
         "poses": Key(_count(), dataclass_default(Study, "poses"), doc="targets per case"),
         "seed": Key(Number(integer=True, ge=0, what="a non-negative integer"),
@@ -443,7 +441,7 @@ def _across_keys(study: dict, path: str, ctx: Context) -> None:
 
 
 def method_schema() -> Shorthand:
-    """A method of ``methods:``: its name, or {method, label, options, timeout_s, note, per_pose}."""
+    """A method of ``methods:``: its name, or {method, label, options, timeout_s, note}."""
 
     def label_and_settings(item: dict, path: str, ctx: Context) -> None:
         if "label" not in item:
@@ -459,10 +457,9 @@ def method_schema() -> Shorthand:
                            doc="keyword options of the method"),
             "timeout_s": Key(_real("a positive number (s)", gt=0, nullable=True, budget=True), None,
                              doc="its budget per solve; default: the study's"),
-            "note": Key(Text(nullable=True), "", doc="text for the report's methods table"),
-            "per_pose": Key(Boolean(), False, doc="time single solve calls")}
+            "note": Key(Text(nullable=True), "", doc="text for the report's methods table")}
     return Shorthand(Map(keys, post=label_and_settings), "method",
-                     what="a method name or a mapping {label, method, options, timeout_s, note, per_pose}")
+                     what="a method name or a mapping {label, method, options, timeout_s, note}")
 
 
 class MethodName(Text):
