@@ -51,7 +51,6 @@ from wbik.errors import WbikError
 from wbik.errors import did_you_mean
 from wbik.schema import Anything
 from wbik.schema import Boolean
-from wbik.schema import Constant
 from wbik.schema import Context
 from wbik.schema import Either
 from wbik.schema import Errors
@@ -76,6 +75,9 @@ from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
 from wbik.study.metrics import AngleConvention
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import Reference
+from wbik.study.regression_rule import RegressionRule
+from wbik.study.regression_rule import regression_rule
+from wbik.study.regression_rule import regression_schema
 
 COMPARISONS_DIR = data_dir("comparisons")
 """The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
@@ -133,7 +135,6 @@ BUDGET_CURVE_MS = (0.2, 0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
 """The budgets (ms) of a study's success-versus-budget curves unless ``budget_curves.budgets_ms`` says."""
 BUDGET_CURVE_POSES = 100
 """The poses of ``budget_curves: true`` and of a ``budget_curves`` mapping that names none."""
-SUCCESS_DROP_CI = "ci"
 
 
 @dataclass(frozen=True)
@@ -143,18 +144,6 @@ class BudgetCurveSpec:
 
     poses: int = 0
     budgets_ms: tuple[float, ...] = BUDGET_CURVE_MS
-
-
-@dataclass(frozen=True)
-class RegressionRule:
-    """``regression:``: when ``wbik study --compare-to OLD`` calls a method worse than in OLD
-    (:mod:`wbik.study.compare`). ``success_drop``: "ci" (the two runs' 95 % intervals of the share
-    solved are disjoint, the new one below) or percentage points (new < old - points);
-    ``time_rise``: a factor r >= 1 (the new median time's interval lies above r x the old one's),
-    None: times are not gated."""
-
-    success_drop: str | float = SUCCESS_DROP_CI
-    time_rise: float | None = 1.2
 
 
 @dataclass(frozen=True)
@@ -195,11 +184,15 @@ class Study:
         return data
 
     def fingerprint(self) -> str:
-        """Hash of what every method's results depend on: cases, poses, seed, start, chunking,
-        tolerances and the reference's angle columns (not the methods, descriptions, notes or the
-        reference's figures). The angle columns enter as ``angle_names``, keyed by the study's own
-        angles when the reference's sequence is the study's (the form of files written before the
-        reference block, whose results folders therefore still resume)."""
+        """Hash of :meth:`row_settings`."""
+        return _digest(self.row_settings())
+
+    def row_settings(self) -> dict:
+        """What every method's results depend on: cases, poses, seed, start, chunking, tolerances and
+        the reference's angle columns (not the methods, descriptions, notes or the reference's
+        figures). The angle columns enter as ``angle_names``, keyed by the study's own angles when
+        the reference's sequence is the study's (results folders of files without a reference block
+        resume)."""
         data = self.as_dict()
         for key in ("description", "notes", "methods", "baseline", "timeout_s"):
             data.pop(key)
@@ -214,7 +207,7 @@ class Study:
                 if case.get(key) is None:  # fingerprint of before them
                     case.pop(key, None)
             case.pop("peers", None)  # report text, as the reference
-        return _digest(data)
+        return data
 
     def method_fingerprint(self, method: MethodSpec) -> str:
         """Hash of what one method's results depend on: the study's fingerprint and the method's spec."""
@@ -337,7 +330,7 @@ def study_from_dict(data, source: str = "study") -> Study:
                  seed=checked["seed"], timeout_s=checked["timeout_s"], tolerances=checked["tolerances"],
                  start=checked["start"], baseline=baseline, chunk_size=checked["chunk_size"],
                  budget_curves=_budget_curves(checked["budget_curves"]),
-                 regression=_regression(checked["regression"]), description=checked["description"] or "",
+                 regression=regression_rule(checked["regression"]), description=checked["description"] or "",
                  notes=checked["notes"] or "", source=source)
 
 
@@ -494,19 +487,6 @@ def budget_curves_schema() -> Map:
                what="{poses: 100, budgets_ms: [0.2, 1, 5, 20]}")
 
 
-def regression_schema() -> Map:
-    """``regression:`` {success_drop, time_rise}, defaults those of :class:`RegressionRule`."""
-    drop = Either(Text((SUCCESS_DROP_CI,)), _real("percentage points", ge=0, le=100),
-                  what="'ci' (the 95 % intervals are disjoint) or percentage points between 0 and 100")
-    rise = Either(_real("a factor >= 1", ge=1), Constant(SUCCESS_DROP_CI, "off", False, None),
-                  what="a factor >= 1 (e.g. 1.2), 'ci' (1) or off")
-    return Map({"success_drop": Key(drop, dataclass_default(RegressionRule, "success_drop"),
-                                    doc="when the share solved regressed"),
-                "time_rise": Key(rise, dataclass_default(RegressionRule, "time_rise"),
-                                 doc="when the median time regressed")},
-               nullable=True, what="a mapping {success_drop: ci, time_rise: 1.2}")
-
-
 def _budget_curves(raw) -> BudgetCurveSpec:
     """``budget_curves:`` checked: false/absent (none), true (BUDGET_CURVE_POSES poses), or
     {poses, budgets_ms}."""
@@ -515,13 +495,6 @@ def _budget_curves(raw) -> BudgetCurveSpec:
     if raw is True:
         return BudgetCurveSpec(poses=BUDGET_CURVE_POSES)
     return BudgetCurveSpec(poses=raw["poses"], budgets_ms=tuple(sorted(set(raw["budgets_ms"]))))
-
-
-def _regression(raw: dict) -> RegressionRule:
-    """``regression:`` checked: time_rise 'ci' is 1, off (or null) None."""
-    rise = raw["time_rise"]
-    rise = 1.0 if rise == SUCCESS_DROP_CI else None if rise in (None, False, "off") else rise
-    return RegressionRule(success_drop=raw["success_drop"], time_rise=rise)
 
 
 def _common_case_keys() -> dict[str, Key]:

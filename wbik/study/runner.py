@@ -52,10 +52,13 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
 from wbik.study import results as store
 from wbik.study.applicability import not_applicable
+from wbik.study.blocks import budget_kind
 from wbik.study.budget_curves import budget_path
 from wbik.study.budget_curves import budget_tasks
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
+from wbik.study.compare import TARGETS_RECORD
+from wbik.study.compare import targets_record
 from wbik.study.context import _frozen  # noqa: F401 - also re-exported
 from wbik.study.context import _robot  # noqa: F401 - also re-exported
 from wbik.study.context import chunk_count  # also re-exported
@@ -165,6 +168,7 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
                     done_rows += stop - start
                 else:
                     tasks.append(_task(study, case, method, poses, chunk, start, stop))
+    store.write_json(output / TARGETS_RECORD, targets_record(study, output))
     return tasks, done_rows, total_rows
 
 
@@ -177,10 +181,11 @@ def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output:
     if previous is not None and previous.get("fingerprint") != fingerprint:
         log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
         shutil.rmtree(folder)
-    timeout_s, options = case_kind(case).budget(method.method, study.timeout_of(method), method.options)
-    store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
-                              "timeout_s": study.timeout_of(method), "solver_timeout_s": timeout_s,
-                              "solver_options": options})
+    kind, seconds = case_kind(case), study.timeout_of(method)
+    timeout_s, options = kind.budget(method.method, seconds, method.options)
+    store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__, "timeout_s": seconds,
+                              "solver_timeout_s": timeout_s, "solver_options": options,
+                              "budget": budget_kind(kind, method, seconds)})
 
 
 # -- running -----------------------------------------------------------------------------------
