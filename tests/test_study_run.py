@@ -93,6 +93,32 @@ def test_files_appear(serial_run):
     assert "src='http" not in html and 'src="http' not in html
 
 
+def test_the_run_records_what_made_its_rows(serial_run):
+    """provenance.json: the version, the commit, the machine, the command and the code fingerprint of the
+    study's code as computed from the source; the report's head says them."""
+    import json
+
+    import numpy
+    import pinocchio
+
+    from wbik.study.provenance import code_digests
+    from wbik.study.provenance import code_fingerprint
+    from wbik.study.provenance import code_roots
+    from wbik.study.provenance import command_line
+
+    record = json.loads((serial_run / "provenance.json").read_text())
+    digests = code_digests(code_roots(load_study(serial_run.parent / "small.yaml")))
+    assert record["code"] == digests and record["code_fingerprint"] == code_fingerprint(digests)
+    assert record["wbik"] == wbik.__version__ and record["machine"]["cpu_count"] == os.cpu_count()
+    versions = numpy.__version__, pinocchio.__version__
+    assert (record["machine"]["numpy"], record["machine"]["pinocchio"]) == versions
+    assert record["command"] == command_line()  # this process's: pytest's here, "wbik study ..." from a shell
+    head = (serial_run / "report.md").read_text().split("## Methods")[0]
+    for words in (record["command"], record["code_fingerprint"], record["machine"]["cpu"],
+                  f"NumPy {numpy.__version__}", f"Pinocchio {pinocchio.__version__}"):
+        assert words in head
+
+
 def test_raw_rows_are_complete_and_reproduce_the_errors(serial_run):
     rows = read_raw_csv(serial_run / "ur5_arm_pose" / "raw.csv")
     assert set(rows) == {"analytic", "dls", "kdl"}

@@ -113,6 +113,16 @@ class CaseKind(ABC):
     def method_options(self, method: str) -> set[str] | None:
         """The keyword options ``method`` takes (None: any)."""
 
+    def method_factory(self, method: str):
+        """What builds ``method``'s solver (a Solver subclass or a callable; None: not known here). Its
+        module is among those a report's code fingerprint starts from (:mod:`wbik.study.provenance`)."""
+        return None
+
+    def code_roots(self, case: CaseSpec) -> list:
+        """Objects besides the kind, its methods and its robot whose modules ``case``'s rows come from
+        (a sampler, ...), for the code fingerprint."""
+        return []
+
     def method_option_schema(self, method: str) -> Map | None:
         """The types of ``method``'s options (:func:`wbik.schema.option_schema`; None: unchecked)."""
         return None

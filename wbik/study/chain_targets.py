@@ -140,11 +140,15 @@ class ChainTargets(CaseKind):
 
         return solver_options(method)
 
-    def method_option_schema(self, method: str) -> Map:
-        from wbik.schema import option_schema
+    def method_factory(self, method: str):
         from wbik.solvers.method_registry import method_factory
 
-        return option_schema(method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
+        return method_factory(method)
+
+    def method_option_schema(self, method: str) -> Map:
+        from wbik.schema import option_schema
+
+        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return case_axes(self.target, angles)
@@ -163,10 +167,8 @@ class ChainTargets(CaseKind):
         return solver_budget(method, timeout_s, options)
 
     def unbudgeted(self, method: str) -> bool:
-        from wbik.solvers.method_registry import method_factory
-
         try:
-            return getattr(method_factory(method), "budgeted", True) is False
+            return getattr(self.method_factory(method), "budgeted", True) is False
         except WbikError:
             return False
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 import base64
 import html
 import json
-import platform
 import re
 from datetime import UTC
 from datetime import datetime
@@ -41,6 +40,8 @@ from wbik.study.case_kinds import kinds_of
 from wbik.study.cpu_watch import threads_of
 from wbik.study.definition import CaseSpec
 from wbik.study.definition import Study
+from wbik.study.provenance import PROVENANCE
+from wbik.study.provenance import provenance_lines
 
 if TYPE_CHECKING:
     from wbik.study.compare import Comparison
@@ -70,7 +71,7 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
         f"{fmt(run.get('seconds'))} s for {run.get('computed_tasks', '?')} chunk(s) "
         f"({fmt(run.get('total_seconds'))} s of solving over all runs of this folder); "
         f"report written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
-        f"machine: {platform.machine()}, Python {platform.python_version()}",
+        *provenance_lines(store.read_json(output / PROVENANCE, {}) or {}),
     ]
     blocks.append(Block("list", items=facts))
     blocks.append(Block("h2", "Methods"))

@@ -24,6 +24,9 @@ workers each group of tasks ran with.
 Budget curves (``budget_curves:``, :mod:`wbik.study.budget_curves`) are tasks too, run after the
 study's rows, written and resumed the same way.
 
+What made the rows (version, commit, machine, command, code fingerprint) goes to ``provenance.json``
+(:mod:`wbik.study.provenance`), rewritten by each run that computes rows.
+
 Workers return the rows; the main process writes each chunk atomically as it arrives (see
 :mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
 computes only the missing ones. Adding or changing a method in the study file recomputes that method
@@ -73,6 +76,8 @@ from wbik.study.definition import MethodSpec
 from wbik.study.definition import Study
 from wbik.study.definition import StudyDefinitionError
 from wbik.study.ownership import FolderLock
+from wbik.study.provenance import PROVENANCE
+from wbik.study.provenance import provenance
 from wbik.study.sampling import PoseSet
 
 BACKENDS = ("loky", "sequential", "dask")
@@ -341,6 +346,8 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
                         store.write_chunk(path(output, task.case, task.label, task.chunk), rows)
                         bar.update(len(rows["pose"]))
     elapsed = time.perf_counter() - started
+    if tasks or curve_tasks or not (output / PROVENANCE).is_file():  # what made the rows there
+        store.write_json(output / PROVENANCE, provenance(study))
     previous = store.read_json(output / "run.json", {}) or {}
     store.write_json(output / "run.json", {
         "jobs": jobs, "backend": backend, "computed_tasks": len(tasks), "seconds": elapsed,

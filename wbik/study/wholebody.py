@@ -179,11 +179,21 @@ class WholeBodyCases(CaseKind):
                 ctx.says(join(path, key), "does not apply to a whole-body case")
         return {**item, "target": WHOLEBODY, "robot": robot, "name": item.get("name", scenario)}
 
-    def method_option_schema(self, method: str) -> Map:
-        from wbik.schema import option_schema
+    def method_factory(self, method: str):
         from wbik.wholebody.methods import WHOLEBODY_METHOD_REGISTRY
 
-        return option_schema(WHOLEBODY_METHOD_REGISTRY.get(method).factory, leading=1)
+        return WHOLEBODY_METHOD_REGISTRY.get(method).factory
+
+    def code_roots(self, case: CaseSpec) -> list:
+        """The case's sampler."""
+        from wbik.wholebody.cases import CASE_REGISTRY
+
+        return [CASE_REGISTRY.get(case.scenario).sample]
+
+    def method_option_schema(self, method: str) -> Map:
+        from wbik.schema import option_schema
+
+        return option_schema(self.method_factory(method), leading=1)
 
     def methods(self) -> dict[str, str]:
         from wbik.wholebody.methods import wholebody_methods
