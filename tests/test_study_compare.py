@@ -175,12 +175,28 @@ def test_a_dropped_method_a_refusing_one_and_a_missing_case_regress(old_run, tmp
     (("--seed", "6"), "seed: 5 in OLD, 6 here"),
     (("--poses", "60"), "case ur5_arm_pose: poses 80 in OLD, 60 here"),
 ])
-def test_runs_on_other_targets_are_not_compared(old_run, tmp_path, capsys, more, says):
+def test_runs_on_other_settings_are_not_compared_nor_run(old_run, tmp_path, capsys, more, says):
     assert _run(_study(tmp_path, "strong"), tmp_path / "other", *more, "--compare-to", str(old_run)) == 4
     out = capsys.readouterr().out
-    assert f"not compared with {old_run}: the runs' targets differ" in out and says in out
-    assert "case ur5_arm_pose: other targets" in out
+    assert f"not compared with {old_run}: the runs' targets differ (nothing run)" in out and says in out
+    assert not (tmp_path / "other").exists()
+
+
+def test_other_targets_drawn_by_the_same_settings_are_not_compared(old_run, tmp_path, capsys, monkeypatch):
+    """The same study file and settings, but the sampling gives other targets (as a change to the
+    sampling code would): found from the saved targets after the run, exit 4, the report says so."""
+    import wbik.study.chain_targets as chain_targets
+
+    drawn = chain_targets.sample_joints
+    monkeypatch.setattr(chain_targets, "sample_joints",
+                        lambda chain, count, seed: drawn(chain, count, seed + 9))
+    assert _run(_study(tmp_path, "strong"), tmp_path / "other", "--compare-to", str(old_run)) == 4
+    out = capsys.readouterr().out
+    assert "case ur5_arm_pose: other targets (the same settings and definition drew them: the sampling " \
+           "code differs)" in out
     assert "Not compared: the two runs' targets differ" in (tmp_path / "other" / "report.md").read_text()
+    rows = _comparison(tmp_path / "other")
+    assert list(rows) == [("", "")] and "other targets" in rows["", ""]["refused"]  # no method compared
 
 
 def test_compare_to_a_folder_without_a_run_is_a_usage_error(tmp_path, capsys):

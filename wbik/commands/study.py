@@ -85,6 +85,14 @@ def run(args: argparse.Namespace) -> int:
         budget_curve_poses=getattr(args, "budget_curves", None))
     from wbik.study.ownership import FolderLock
 
+    if compare_to is not None:  # other settings or cases: nothing to compare, so nothing to run
+        from wbik.study.compare import refusal_before_the_run
+
+        differs = refusal_before_the_run(study, compare_to)
+        if differs:
+            print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",
+                             *(f"  {line}" for line in differs)]))
+            return EXIT_OTHER_TARGETS
     if args.report_only:
         output = args.output or default_output(study)
         check_output_folder(output)

@@ -18,7 +18,7 @@ Then per case and method, pairing the two runs' rows by target (:func:`judge`), 
   P(X >= b | X ~ B(b + c, 1/2)) (``scipy.stats.binomtest``) is below ``success_level``;
 - time: the per-target ratio new / old of the time per call, over the targets both runs timed;
   regressed when the percentile bootstrap 95 % interval of its median lies wholly above ``time_rise``;
-- a method OLD has rows of that this run has not (no longer in the study, not applicable, or
+- a method OLD has rows of that this run has not (not in the study, not applicable, or
   incomplete), and every method of a case OLD has and this run lacks, regressed.
 
 Written: ``comparison.csv`` in this run's folder and the report's "Compared with" section.
@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import json
 import math
 from dataclasses import dataclass
 from dataclasses import field
@@ -71,20 +72,23 @@ def targets_digest(path: Path) -> str:
     return digest.hexdigest()[:16]
 
 
-def targets_record(study: Study, output: Path) -> dict:
+def targets_record(study: Study, output: Path | None = None) -> dict:
     """What shapes the rows of ``study``'s run in ``output``: the study's settings (:data:`SETTINGS`),
-    each case's definition (its poses resolved) and the hash of its saved targets."""
-    settings = study.row_settings()
+    each case's definition (its poses resolved) and the hash of its saved targets (without ``output``:
+    the settings and definitions alone, before any target is drawn)."""
     cases = {}
-    for case, data in zip(study.cases, settings["cases"], strict=True):
+    for case, data in zip(study.cases, study.row_settings()["cases"], strict=True):
         data["poses"] = study.poses_of(case)
-        cases[case.name] = {"definition": data,
-                            "targets": targets_digest(store.case_dir(output, case.name) / "poses.npz")}
-    return {"settings": {key: getattr(study, key) for key in SETTINGS}, "cases": cases}
+        cases[case.name] = {"definition": json.loads(json.dumps(data, default=str))}  # as read back
+        if output is not None:
+            cases[case.name]["targets"] = targets_digest(store.case_dir(output, case.name) / "poses.npz")
+    settings = json.loads(json.dumps({key: getattr(study, key) for key in SETTINGS}))
+    return {"settings": settings, "cases": cases}
 
 
 def differences(old: dict, new: dict) -> list[str]:
-    """What differs between two runs' :func:`targets_record` (settings, and the cases both have)."""
+    """What differs between two runs' :func:`targets_record` (settings, and the cases both have; their
+    targets when both records hold them)."""
     settings = [f"{key}: {old['settings'].get(key)!r} in OLD, {new['settings'].get(key)!r} here"
                 for key in SETTINGS if old["settings"].get(key) != new["settings"].get(key)]
     found = list(settings)
@@ -94,7 +98,7 @@ def differences(old: dict, new: dict) -> list[str]:
                       if before["definition"].get(key) != now["definition"].get(key))
         found.extend(f"case {name}: {key} {before['definition'].get(key)!r} in OLD, "
                      f"{now['definition'].get(key)!r} here" for key in keys)
-        if before["targets"] != now["targets"]:
+        if "targets" in now and before.get("targets") != now["targets"]:
             found.append(f"case {name}: other targets" + (" (the same settings and definition drew them: "
                          "the sampling code differs)" if not (keys or settings) else ""))
     return found
@@ -195,6 +199,13 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
     return MethodComparison(case, label, budget, int(now.size), int(before.sum()), int(now.sum()),
                             tuple(int(i) for i in lost), tuple(int(i) for i in gained), p_value, ratio,
                             success_regressed, bool(time_regressed), "", "; ".join(words))
+
+
+def refusal_before_the_run(study: Study, old: Path) -> list[str]:
+    """What differs between ``study``'s settings and case definitions and those of the run in ``old``
+    (known before drawing a target, so a run on other targets need not run)."""
+    old_targets = store.read_json(Path(old) / TARGETS_RECORD)
+    return [] if old_targets is None else differences(old_targets, targets_record(study))
 
 
 def _old_record(old: Path, name: str) -> dict | None:

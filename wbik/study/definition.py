@@ -201,10 +201,8 @@ class Study:
         for spec, case in zip(self.cases, data["cases"], strict=True):
             case.pop("reference")
             case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
-            if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
-                case.pop("scenario", None)
-            for key in ("base", "tip", "targets", "path", "success"):  # keys a case leaves out: the
-                if case.get(key) is None:  # fingerprint of before them
+            for key in ("scenario", "base", "tip", "targets", "path", "success"):  # a case's unset keys
+                if case.get(key) is None:  # are not hashed: a case hashes as a file without them
                     case.pop(key, None)
             case.pop("peers", None)  # report text, as the reference
         return data
