@@ -9,8 +9,9 @@ re-run when starved of CPU), ``applicability`` (which methods apply to a case), 
 on disk), ``ownership`` (the output folder's lock), ``metrics`` (per-axis errors, Euler angles),
 ``statistics`` (summary, intervals, Mann-Whitney with Holm's correction), ``reference`` (the figures
 a study compares with), ``budget_curves`` (success versus budget), ``figures``, ``blocks`` (what
-every kind's report section is made of), ``report`` (Markdown + self-contained HTML) and
-``compare`` (the regression gate of ``--compare-to``).
+every kind's report section is made of), ``report`` (Markdown + self-contained HTML), ``provenance``
+(what made a run's rows: version, commit, machine, command, code fingerprint), ``compare`` (the paired
+regression gate of ``--compare-to``) and ``regression_rule`` (its rule).
 
 >>> from wbik.study import load_study, run_study
 >>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP

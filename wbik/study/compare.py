@@ -127,10 +127,6 @@ class MethodComparison:
     def regressed(self) -> bool:
         return self.success_regressed or self.time_regressed or bool(self.missing)
 
-    @property
-    def deterministic(self) -> bool:
-        return self.budget in DETERMINISTIC
-
 
 @dataclass(frozen=True)
 class Comparison:
@@ -216,11 +212,6 @@ def _old_record(old: Path, name: str) -> dict | None:
     return record
 
 
-def _complete_rows(folder: Path, case: str, label: str, poses: int, chunk_size: int) -> dict | None:
-    """The rows of ``label`` on ``case`` in the run folder ``folder``, None unless every chunk is there."""
-    return store.load_method_rows(folder, case, label, -(-poses // chunk_size))
-
-
 def _method_record(folder: Path, case: str, label: str) -> dict:
     return store.read_json(store.case_dir(folder, case) / "chunks" / label / "method.json", {}) or {}
 
@@ -266,8 +257,9 @@ def _paired(study: Study, output: Path, old: Path, old_study: dict, old_targets:
     cases = {case.name: case for case in study.cases}
     for name, record in old_targets["cases"].items():
         poses = record["definition"]["poses"]
+        chunks = -(-poses // chunk_size)
         old_rows = {label: rows for label in labels
-                    if (rows := _complete_rows(old, name, label, poses, chunk_size)) is not None}
+                    if (rows := store.load_method_rows(old, name, label, chunks)) is not None}
         if name not in cases:
             methods.extend(MethodComparison(name, label, _budget(old, name, label), poses,
                                             int(rows["success"].sum()), missing="case not in this run",

@@ -21,20 +21,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from wbik.study import results as store
-from wbik.study.blocks import SOLVED_COLUMNS  # noqa: F401 - also re-exported
-from wbik.study.blocks import TIME_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import Block
 from wbik.study.blocks import budget_semantics
-from wbik.study.blocks import case_figures  # noqa: F401 - also re-exported
-from wbik.study.blocks import case_rows  # noqa: F401 - also re-exported
 from wbik.study.blocks import fmt
-from wbik.study.blocks import fmt_p  # noqa: F401 - also re-exported
-from wbik.study.blocks import frequent_reasons  # noqa: F401 - also re-exported
-from wbik.study.blocks import significance_blocks  # noqa: F401 - also re-exported
-from wbik.study.blocks import status_blocks  # noqa: F401 - also re-exported
-from wbik.study.blocks import summary_table  # noqa: F401 - also re-exported
-from wbik.study.blocks import time_columns  # noqa: F401 - also re-exported
-from wbik.study.blocks import write_case_tables  # noqa: F401 - also re-exported
 from wbik.study.case_kinds import case_kind
 from wbik.study.case_kinds import kinds_of
 from wbik.study.cpu_watch import threads_of

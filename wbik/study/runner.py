@@ -62,12 +62,7 @@ from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
 from wbik.study.compare import TARGETS_RECORD
 from wbik.study.compare import targets_record
-from wbik.study.context import _frozen  # noqa: F401 - also re-exported
-from wbik.study.context import _robot  # noqa: F401 - also re-exported
-from wbik.study.context import chunk_count  # also re-exported
-from wbik.study.context import chunk_seed  # noqa: F401 - also re-exported
-from wbik.study.context import make_solver  # noqa: F401 - also re-exported
-from wbik.study.context import solver_budget  # noqa: F401 - also re-exported
+from wbik.study.context import chunk_count
 from wbik.study.cpu_watch import threads_of
 from wbik.study.cpu_watch import usable_cores
 from wbik.study.cpu_watch import workers_for
