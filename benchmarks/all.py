@@ -7,7 +7,7 @@
 Runs, in one process and one after the other, the ``ratios()`` of each benchmark module
 (interface overhead, closed forms vs EAIK, the eaik method vs EAIK's own call, numerical IK vs
 TRAC-IK, whole-body QP vs PlaCo and Pink) and prints one table: ours, the peer, the ratio and
-whether the issue's goal is met. Times are wall clock on this machine; the ratios are what carries
+whether wbik's goal is met. Times are wall clock on this machine; the ratios are what carries
 over to another machine, so the README quotes them. The machine and its load are printed first: a
 loaded machine distorts the ratios (each benchmark interleaves ours and the peer and keeps the best
 of several loops to limit that).

@@ -17,7 +17,7 @@ machine busy with other work distorts them less and alike:
 * eaik solve / solve_all / solve_many: EAIK through ``wbik.solver("eaik")``, the same inclusions.
 
 A last row times the Golem-III ``right_arm`` analytic ``solve`` (EAIK has no decomposition for it),
-against the issue's fixed goal of 25 us per call.
+against wbik's fixed goal of 25 us per call.
 
     .venv/bin/python benchmarks/closed_forms_vs_eaik.py
     .venv/bin/python benchmarks/closed_forms_vs_eaik.py --poses 500 --rounds 3
@@ -40,7 +40,7 @@ ROUNDS = 9
 solve 45 % slower but EAIK's call only 17 % slower (13.6 and 6.1 us, against 9.4 and 5.2 us in the run
 before): a phase can cover all five rounds of a row, and it does not slow Python and C alike."""
 GOLEM_GOAL_S = 25e-6
-"""Issue 16: Golem-III ``solve`` at most 25 us wall per call (a fixed bound, not a peer)."""
+"""The goal: Golem-III ``solve`` at most 25 us wall per call (a fixed bound, not a peer)."""
 
 
 def parse_arguments(argv: list[str] | None = None) -> argparse.Namespace:
@@ -122,7 +122,7 @@ def measure(count: int, rounds: int, seed: int) -> tuple[dict[str, tuple[float, 
 
 
 def ratios(quick: bool = False) -> list:
-    """Issue 16 item 3 as ratios: UR5 ``solve`` / ``solve_all`` / ``solve_many`` against EAIK's raw
+    """The closed-form goals as ratios: UR5 ``solve`` / ``solve_all`` / ``solve_many`` against EAIK's raw
     all-branch time per pose in the same run, and Golem-III ``solve`` against the fixed 25 us goal."""
     from ratios import Ratio
 
@@ -148,7 +148,7 @@ def ratios(quick: bool = False) -> list:
               note=f"{how}; one solve_many call for all poses, {rows['analytic solve_many'][1]}"),
         Ratio("Golem-III closed-form solve <= 25 us", "analytic solve (Golem-III right_arm)",
               rows["golem3 right_arm analytic solve"][0], "goal 25 us", GOLEM_GOAL_S, "s/call", 1.0,
-              note=(f"a ratio to the issue's fixed bound, not to a peer (EAIK refuses the chain); {count} FK "
+              note=(f"a ratio to the fixed bound, not to a peer (EAIK refuses the chain); {count} FK "
                     f"poses, best of {rounds} interleaved rounds, wall per call; "
                     f"{rows['golem3 right_arm analytic solve'][1]}")),
     ]

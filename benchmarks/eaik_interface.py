@@ -41,7 +41,7 @@ from ratios import best_of_rounds  # noqa: E402
 
 ROUNDS = 9
 GOAL = 2.0
-"""Issue 27: the ``eaik`` method costs at most 2x EAIK's own call per solve."""
+"""The goal: the ``eaik`` method costs at most 2x EAIK's own call per solve."""
 
 
 class Trivial(Solver):

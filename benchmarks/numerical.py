@@ -18,7 +18,7 @@ Rows are appended to ``--output`` (JSON lines) as each (chain, method) finishes,
 interrupted run keeps what it measured.
 
 ``ratios(quick)`` (for ``benchmarks/all.py``): per chain, bounded_lm's mean time and success rate
-against TRAC-IK's in the same interleaved run (issue 16: success >= TRAC-IK's at <= 0.5x its mean
+against TRAC-IK's in the same interleaved run (the goal: success >= TRAC-IK's at <= 0.5x its mean
 time), and the throughput of bounded_lm's vectorised ``solve_many`` on 10,000 UR5 and Panda poses
 (one core) beside published GPU figures (informational).
 """

@@ -32,7 +32,7 @@ report and the rest of the loop (step size, integration); ``ratios`` prints it t
 gives the same picture by function.
 
 Run: .venv/bin/python benchmarks/qp.py [--repeats 300] [--rounds 5]
-``ratios(quick)`` gives the issue's goals as Ratio figures for benchmarks/all.py.
+``ratios(quick)`` gives wbik's goals as Ratio figures for benchmarks/all.py.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ LIFT = np.array([0.0, 0.0, 0.04])
 ACCURACY = 1e-6
 """The converged IK's final foot accuracy (m and rad), the same for every solver."""
 STEP_RATE = 5000.0
-"""The issue's floor on our QP steps per second (Hz)."""
+"""wbik's floor on our QP steps per second (Hz)."""
 
 
 def stand_on_right_foot(robot) -> np.ndarray:
@@ -349,7 +349,7 @@ def bench_setup():
 
 
 def ratios(quick: bool = False) -> list:
-    """The issue's whole-body QP goals (issue 16 item 5) as ratios to PlaCo and Pink (DAQP),
+    """wbik's whole-body QP goals as ratios to PlaCo and Pink (DAQP),
     measured in this process: ours with DAQP, interleaved, best of several rounds."""
     from ratios import Ratio
 
@@ -360,7 +360,7 @@ def ratios(quick: bool = False) -> list:
                                       pink_contender(robot, q_start, foot_target, "daqp"),
                                       placo_contender(robot, q_start, foot_target)], repeats, rounds)}
     us, pink, placo = rows["wbik.qp"], rows["Pink"], rows["PlaCo"]
-    phase_table(robot, q_start, foot_target, repeats)  # where our time goes (the issue asks for it)
+    phase_table(robot, q_start, foot_target, repeats)  # where our time goes
     how = (f"Bioloid on one foot, nv 24; best of {rounds} interleaved rounds of the median of "
            f"{repeats} steps / {max(repeats // 10, 5)} IK solves")
     ik_note = (f"{how}; to foot error <= 1e-6 m and rad for all (ours {us.iterations} iterations, "

@@ -31,7 +31,7 @@ def best_of_rounds(measurements: dict[Hashable, Callable[[], float]], rounds: in
 class Ratio:
     """One comparison: ``ours`` and ``peer`` in ``unit``; met when the ratio is on the goal's side."""
 
-    goal: str  # the issue's goal in words, e.g. "UR5 solve <= 2x EAIK all branches"
+    goal: str  # wbik's goal in words, e.g. "UR5 solve <= 2x EAIK all branches"
     ours_label: str
     ours: float
     peer_label: str

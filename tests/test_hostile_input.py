@@ -295,7 +295,7 @@ def test_a_sane_hostile_twin_loads_and_solves_inside_its_limits(tmp_path):
 ])
 def test_bad_study_files(tmp_path, body, words):
     from wbik.study import load_study
-    from wbik.study.definition import StudyDefinitionError
+    from wbik.study.spec import StudyDefinitionError
 
     path = tmp_path / "hostile.yaml"
     path.write_text(body)
@@ -312,7 +312,7 @@ def test_bad_option_values_stop_the_study_before_solving(tmp_path, method, words
     """A bad-valued option or an uninstalled QP backend is an error in the file, not 'not applicable'."""
     from wbik.study import load_study
     from wbik.study import run_study
-    from wbik.study.definition import StudyDefinitionError
+    from wbik.study.spec import StudyDefinitionError
 
     path = tmp_path / "hostile.yaml"
     path.write_text(f"robot: arm3r\ntarget: position\nposes: 5\nmethods: [analytic, {method}]\n")

@@ -28,12 +28,12 @@ from wbik.schema import Text
 from wbik.study.case_kinds import kinds_of
 from wbik.study.definition import COMPARISONS_DIR
 from wbik.study.definition import CaseEntry
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.definition import _case_keys
 from wbik.study.definition import _case_kind
 from wbik.study.definition import case_schema
 from wbik.study.definition import load_study
 from wbik.study.definition import study_schema
+from wbik.study.spec import StudyDefinitionError
 
 FILES = sorted(COMPARISONS_DIR.glob("*.yaml"))
 

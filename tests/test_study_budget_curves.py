@@ -67,7 +67,9 @@ def test_budget_curves_are_re_runs_that_reproduce_the_study_at_its_own_budget(tm
     assert "### Success versus budget" in report and "figures/budget.png" in report
     assert "| bounded_lm | iterations |" in report and "| kdl | wall |" in report
     html = (output / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 7  # 6 figures of every case + the budget curves
+    # 6 figures of every case + the budget curves + the throughput of the batched methods
+    assert html.count("data:image/png;base64,") == 8
+    assert "batch_success" not in saved  # a curve's rows are per-call solves only
 
     # resumed: nothing recomputed; a changed grid recomputes the curves only
     stamp = (output / "ur5_arm_pose" / "budget_curves" / "kdl" / "budget_00.npz").stat().st_mtime_ns

@@ -17,9 +17,9 @@ from wbik.study.case_kinds import register_case_kind
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.context import case_chain
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.results import read_raw_csv
 from wbik.study.runner import pending_tasks
+from wbik.study.spec import StudyDefinitionError
 from wbik.study.wholebody import WholeBodyChunkTask
 
 SHARE = 0.05  # joints within 5 % of their range from a limit

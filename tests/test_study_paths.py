@@ -12,7 +12,6 @@ import pytest
 
 from wbik.study import run_study
 from wbik.study import study_from_dict
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.path_metrics import branch_labels
 from wbik.study.path_metrics import circle_points
 from wbik.study.path_metrics import line_points
@@ -21,6 +20,7 @@ from wbik.study.path_metrics import random_plane
 from wbik.study.path_metrics import slerped_rotations
 from wbik.study.paths import describe
 from wbik.study.paths import sample_paths
+from wbik.study.spec import StudyDefinitionError
 from wbik.targets import Target
 
 

@@ -14,8 +14,9 @@ import pytest
 from wbik.study import load_study
 from wbik.study import run_study
 from wbik.study import study_from_dict
-from wbik.study.definition import StudyDefinitionError
+from wbik.study.definition import with_overrides
 from wbik.study.results import read_raw_csv
+from wbik.study.spec import StudyDefinitionError
 from wbik.study.success_rules import SuccessRule
 from wbik.study.success_rules import error_percentiles
 from wbik.study.success_rules import failure_reason
@@ -130,7 +131,7 @@ def test_the_presets_load_as_their_protocols_say():
 
 @pytest.mark.parametrize("name", ["tracik_protocol", "curobo_thresholds"])
 def test_the_presets_run_at_a_few_poses(name, tmp_path):
-    study = load_study(f"comparisons/{name}.yaml").with_overrides(poses=4)
+    study = with_overrides(load_study(f"comparisons/{name}.yaml"), poses=4)
     output = run_study(study, tmp_path / name, jobs=2, backend="loky", progress=False,
                        log=lambda message: None)
     report = (output / "report.md").read_text()

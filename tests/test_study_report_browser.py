@@ -74,7 +74,7 @@ def test_the_report_renders_with_its_figures(tmp_path):
                  "sequential", "--no-progress"]) == 0
     html = (tmp_path / "out" / "report.html").read_text()
     embedded = re.findall(r"src='data:image/png;base64,([^']+)'", html)
-    assert len(embedded) == 7  # solved, time, histogram, ECDF, budget curves, errors, error histograms
+    assert len(embedded) == 8  # solved, time, histogram, ECDF, throughput, budget curves, errors, error hists
     ARTIFACTS.mkdir(exist_ok=True)
     page = ARTIFACTS / "study_report.html"
     page.write_text(html.replace("</body>", PROBE))

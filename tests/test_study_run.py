@@ -87,8 +87,36 @@ def test_files_appear(serial_run):
                      "figures/time_ecdf.png"):
             assert (serial_run / case / name).is_file(), (case, name)
     html = (serial_run / "report.html").read_text()
-    assert html.count("data:image/png;base64,") == 12  # 6 figures x 2 cases, embedded (no budget curves)
+    # 6 figures x 2 cases and analytic's throughput in each, embedded (no budget curves)
+    assert html.count("data:image/png;base64,") == 14
+    assert (serial_run / "ur5_arm_pose" / "figures" / "throughput.png").is_file()
     assert "src='http" not in html and 'src="http' not in html
+
+
+def test_the_run_records_what_made_its_rows(serial_run):
+    """provenance.json: the version, the commit, the machine, the command and the code fingerprint of the
+    study's code as computed from the source; the report's head says them."""
+    import json
+
+    import numpy
+    import pinocchio
+
+    from wbik.study.provenance import code_digests
+    from wbik.study.provenance import code_fingerprint
+    from wbik.study.provenance import command_line
+    from wbik.study.runner import study_code_roots
+
+    record = json.loads((serial_run / "provenance.json").read_text())
+    digests = code_digests(study_code_roots(load_study(serial_run.parent / "small.yaml")))
+    assert record["code"] == digests and record["code_fingerprint"] == code_fingerprint(digests)
+    assert record["wbik"] == wbik.__version__ and record["machine"]["cpu_count"] == os.cpu_count()
+    versions = numpy.__version__, pinocchio.__version__
+    assert (record["machine"]["numpy"], record["machine"]["pinocchio"]) == versions
+    assert record["command"] == command_line()  # this process's: pytest's here, "wbik study ..." from a shell
+    head = (serial_run / "report.md").read_text().split("## Methods")[0]
+    for words in (record["command"], record["code_fingerprint"], record["machine"]["cpu"],
+                  f"NumPy {numpy.__version__}", f"Pinocchio {pinocchio.__version__}"):
+        assert words in head
 
 
 def test_raw_rows_are_complete_and_reproduce_the_errors(serial_run):
@@ -167,6 +195,29 @@ def test_summary_matches_the_raw_rows(serial_run):
                 errors = columns[f"err_{axis}"][solved]
                 assert line[f"err_{axis}_abs_max"] == pytest.approx(np.abs(errors).max())
                 assert line[f"err_{axis}_mean"] == pytest.approx(errors.mean())
+
+
+def test_every_row_is_one_call_and_batched_methods_get_a_throughput(serial_run):
+    """analytic (a batched path of its own) and dls (none): every time is one solve call's, so a chunk's
+    poses do not share one time; analytic's summary adds the throughput of its solve_many over the case,
+    the chunks' times read back from the chunk files; dls has none."""
+    from wbik.study.results import load_method_rows
+
+    summary = _summary(serial_run / "ur5_arm_pose" / "summary.csv")
+    for label in ("analytic", "dls"):
+        rows, line = load_method_rows(serial_run, "ur5_arm_pose", label, 4), summary[label]
+        assert np.unique(rows["time_s"]).size > 150  # 200 calls, 4 chunks: no shared chunk time
+        if label == "dls":
+            assert "batch_success" not in rows and np.isnan(line["throughput_poses_per_s"])
+            continue
+        assert line["throughput_poses_per_s"] == pytest.approx(200 / rows["batch_share_s"].sum())
+        assert np.unique(rows["batch_share_s"]).size == 4  # one solve_many call per chunk
+        assert line["throughput_percent_solved"] == pytest.approx(100 * rows["batch_success"].mean())
+        assert line["throughput_disagreements"] == np.sum(rows["batch_success"] != rows["success"])
+    section = (serial_run / "report.md").read_text().split("### Throughput of batched methods")[1]
+    assert "| method | throughput (poses/s, solve_many over the case) | % solved (solve_many) | disagree |" \
+        in section.split("### ")[0]
+    assert "| dls |" not in section.split("### ")[0]
 
 
 def test_mann_whitney_p_values_match_scipy_on_the_raw_rows(serial_run):

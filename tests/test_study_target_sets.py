@@ -12,13 +12,13 @@ from wbik.study import run_study
 from wbik.study import study_from_dict
 from wbik.study.case_kinds import case_kinds
 from wbik.study.context import case_chain
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.near_limits import limit_distance
 from wbik.study.near_limits import limited_joints
 from wbik.study.near_singularities import sigma_min
 from wbik.study.reach_boundary import reach_along
 from wbik.study.reach_boundary import stationarity_residual
 from wbik.study.runner import pending_tasks
+from wbik.study.spec import StudyDefinitionError
 from wbik.study.target_parameters import defaults
 from wbik.study.target_sets import read_drawing
 

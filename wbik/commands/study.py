@@ -3,9 +3,10 @@ it compares, its reference: block the published figures it is set beside): raw r
 Mann-Whitney tests, figures and a Markdown + HTML report in the output folder. An interrupted run
 resumes where it stopped when run again with the same output folder.
 
-With ``--compare-to OLD`` (the output folder of an earlier run) the report gains a comparison with
-OLD, per case and method, and the command exits 1 when a method regressed under the study file's
-``regression:`` rule (:mod:`wbik.study.compare`): a regression gate for CI."""
+With ``--compare-to OLD`` (the output folder of an earlier run on the same targets) the report gains
+a comparison with OLD, per case and method, paired target by target, and the command exits 1 when a
+method regressed under the study file's ``regression:`` rule (:mod:`wbik.study.compare`), 4 when the
+two runs' targets or settings differ (nothing compared): a regression gate for CI."""
 
 from __future__ import annotations
 
@@ -13,6 +14,10 @@ import argparse
 from pathlib import Path
 
 HELP = "run a comparison study of IK methods and write its report"
+EPILOG = ("Exit codes: 0 done (no regression), 1 a method regressed against --compare-to OLD, 2 bad input "
+          "or usage, 3 internal error, 4 OLD's targets or settings differ from this run's (not compared).")
+EXIT_OTHER_TARGETS = 4
+"""--compare-to OLD holds a run on other targets or settings: nothing was compared."""
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -42,8 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="success-versus-budget curves on this many poses per case (0: none; "
                              "default: the study file's budget_curves:)")
     parser.add_argument("--compare-to", type=Path, metavar="OLD",
-                        help="compare with the output folder of an earlier run of the study; exit 1 "
-                             "when a method regressed (the study file's regression: rule)")
+                        help="compare with the output folder of an earlier run of the study on the same "
+                             "targets; exit 1 when a method regressed (the study file's regression: rule), "
+                             "4 when the targets differ")
 
 
 def check_output_folder(output: Path | None) -> None:
@@ -59,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
     from wbik.errors import UsageError
     from wbik.study import load_study
     from wbik.study import run_study
+    from wbik.study.definition import with_overrides
     from wbik.study.report import write_report
     from wbik.study.runner import default_output
 
@@ -73,12 +80,20 @@ def run(args: argparse.Namespace) -> int:
     if compare_to is not None and not (compare_to / "study.json").is_file():
         raise UsageError(f"--compare-to {str(compare_to)!r} holds no results of a study (no study.json): "
                          "pass the output folder of an earlier 'wbik study' run")
-    study = load_study(args.file).with_overrides(
+    study = with_overrides(load_study(args.file),
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
         budget_curve_poses=getattr(args, "budget_curves", None))
     from wbik.study.ownership import FolderLock
 
+    if compare_to is not None:  # other settings or cases: nothing to compare, so nothing to run
+        from wbik.study.compare import refusal_before_the_run
+
+        differs = refusal_before_the_run(study, compare_to)
+        if differs:
+            print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",
+                             *(f"  {line}" for line in differs)]))
+            return EXIT_OTHER_TARGETS
     if args.report_only:
         output = args.output or default_output(study)
         check_output_folder(output)
@@ -105,4 +120,6 @@ def run(args: argparse.Namespace) -> int:
     from wbik.study.compare import summary_lines
 
     print("\n".join(summary_lines(comparison)))
+    if comparison.refused:
+        return EXIT_OTHER_TARGETS
     return 1 if comparison.regressions else 0

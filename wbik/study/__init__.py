@@ -9,20 +9,22 @@ re-run when starved of CPU), ``applicability`` (which methods apply to a case), 
 on disk), ``ownership`` (the output folder's lock), ``metrics`` (per-axis errors, Euler angles),
 ``statistics`` (summary, intervals, Mann-Whitney with Holm's correction), ``reference`` (the figures
 a study compares with), ``budget_curves`` (success versus budget), ``figures``, ``blocks`` (what
-every kind's report section is made of), ``report`` (Markdown + self-contained HTML) and
-``compare`` (the regression gate of ``--compare-to``).
+every kind's report section is made of), ``report`` (Markdown + self-contained HTML), ``provenance``
+(what made a run's rows: version, commit, machine, command, code fingerprint), ``compare`` (the paired
+regression gate of ``--compare-to``) and ``regression_rule`` (its rule).
 
 >>> from wbik.study import load_study, run_study
->>> run_study(load_study("comparisons/default.yaml").with_overrides(poses=50))  # doctest: +SKIP
+>>> run_study(with_overrides(load_study("comparisons/default.yaml"), poses=50))  # doctest: +SKIP
 """
 
-from wbik.study.definition import CaseSpec
-from wbik.study.definition import MethodSpec
-from wbik.study.definition import Study
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.definition import load_study
 from wbik.study.definition import study_from_dict
+from wbik.study.definition import with_overrides
 from wbik.study.runner import run_study
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
+from wbik.study.spec import StudyDefinitionError
 
 __all__ = ["CaseSpec", "MethodSpec", "Study", "StudyDefinitionError", "load_study", "run_study",
-           "study_from_dict"]
+           "study_from_dict", "with_overrides"]

@@ -1,8 +1,8 @@
 """The parts every case kind builds its report section from: blocks (headings, paragraphs, tables,
 images, lists, rendered by :mod:`wbik.study.report` to Markdown and HTML), number formats, a case's
 rows read back and its summary and significance tables written, the figures of every case, and the
-tables and paragraphs every case's section shares (solved and times with their 95 % intervals,
-status, significance with Holm's adjustment, reasons, success versus budget).
+tables and paragraphs every case's section shares (solved and times per call with their 95 %
+intervals, status, significance with Holm's adjustment, reasons, success versus budget, throughput).
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from wbik.study.statistics import with_holm
 if TYPE_CHECKING:
     from wbik.study.budget_curves import BudgetCurve
     from wbik.study.case_kinds import CaseKind
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import MethodSpec
+    from wbik.study.spec import Study
 
 
 @dataclass
@@ -132,6 +132,8 @@ def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path
               "time_ecdf": figures.time_ecdf(rows_by_method, title, folder / "time_ecdf.png")}
     if curves:
         images["budget"] = figures.budget_curves(curves, budget_kinds or {}, title, folder / "budget.png")
+    if any(math.isfinite(s.get("throughput_poses_per_s", math.nan)) for s in summaries.values()):
+        images["throughput"] = figures.throughput_bars(summaries, title, folder / "throughput.png")
     return images
 
 
@@ -166,6 +168,30 @@ def budget_semantics(kind: CaseKind, method: MethodSpec, seconds: float, workers
     return (f"wall clock, {threads} threads of its own: run with at most cores / {threads} workers{ran}, "
             f"a solve given < {STARVED_CPU_SHARE:g} x {threads} x wall of CPU is re-run with a stretched "
             f"budget")
+
+
+THROUGHPUT = "throughput (poses/s, solve_many over the case)"
+
+
+def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
+    """The throughput of the case's methods with a batched path (``solve_many`` of their own), its
+    table and figure; none when no method has one."""
+    summaries = {label: s for label, s in analysis["summaries"].items()
+                 if math.isfinite(s.get("throughput_poses_per_s", math.nan))}
+    if not summaries:
+        return []
+    return [Block("h3", "Throughput of batched methods"),
+            Block("p", f"Methods with a batched path were given the case's targets once more through "
+                       f"solve_many, in its chunks of {study.chunk_size} poses, after their per-call rows: "
+                       "poses per second of solve_many over the case (the case's poses / the summed wall "
+                       "time of its calls) and the share it solved. A throughput of batches, no time of "
+                       "a call. Every other table and figure of this case counts the per-call solve; "
+                       "'disagree' counts the poses whose verdict differs between solve and solve_many."),
+            summary_table(summaries, [(THROUGHPUT, "throughput_poses_per_s"),
+                                      ("% solved (solve_many)", "throughput_percent_solved"),
+                                      ("disagree", "throughput_disagreements")]),
+            Block("image", "Throughput of batched methods (poses/s, solve_many over the case)",
+                  path=analysis["images"]["throughput"])]
 
 
 def budget_blocks(study: Study, analysis: dict) -> list[Block]:

@@ -48,9 +48,9 @@ from wbik.study.statistics import wilson_interval
 
 if TYPE_CHECKING:
     from wbik.study.case_kinds import ChunkTask
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import MethodSpec
+    from wbik.study.spec import Study
 
 FOLDER = "budget_curves"
 RECORD = "budget.json"
@@ -132,7 +132,7 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
                     done += count
                     continue
                 task = kind.task(study, case, curve_method(method, budget_ms), poses, 0, 0, count)
-                tasks.append(replace(task, chunk=index))
+                tasks.append(replace(task, chunk=index, batch=False))
     return tasks, done, total
 
 

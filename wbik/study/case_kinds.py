@@ -22,6 +22,7 @@ from __future__ import annotations
 from abc import ABC
 from abc import abstractmethod
 from dataclasses import dataclass
+from dataclasses import field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -36,12 +37,11 @@ if TYPE_CHECKING:
     from wbik.schema import Context
     from wbik.schema import Key
     from wbik.schema import Map
-    from wbik.study.blocks import Block
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
-    from wbik.study.definition import Study
     from wbik.study.metrics import AngleConvention
     from wbik.study.sampling import PoseSet
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import MethodSpec
+    from wbik.study.spec import Study
 
 __all__ = ["CASE_KIND_MODULES", "CASE_KIND_REGISTRY", "CaseKind", "ChunkTask", "case_kind", "case_kinds",
            "kinds_of", "register_case_kind"]
@@ -65,6 +65,9 @@ class ChunkTask:
     chunk: int
     first_pose: int
     q0: np.ndarray  # the start configuration of each pose of the chunk
+    batch: bool = field(default=True, kw_only=True)
+    """Also time the method's batched path (``solve_many``) over the chunk, where it has one (the
+    throughput; not for budget curves)."""
 
     @property
     def count(self) -> int:
@@ -108,6 +111,16 @@ class CaseKind(ABC):
     @abstractmethod
     def method_options(self, method: str) -> set[str] | None:
         """The keyword options ``method`` takes (None: any)."""
+
+    def method_factory(self, method: str):
+        """What builds ``method``'s solver (a Solver subclass or a callable; None: not known here). Its
+        module is among those a report's code fingerprint starts from (:mod:`wbik.study.provenance`)."""
+        return None
+
+    def code_roots(self, case: CaseSpec) -> list:
+        """Objects besides the kind, its methods and its robot whose modules ``case``'s rows come from
+        (a sampler, ...), for the code fingerprint."""
+        return []
 
     def method_option_schema(self, method: str) -> Map | None:
         """The types of ``method``'s options (:func:`wbik.schema.option_schema`; None: unchecked)."""
@@ -174,7 +187,7 @@ class CaseKind(ABC):
         ``baseline``, ``images`` and the kind's own)."""
 
     @abstractmethod
-    def blocks(self, study: Study, analysis: dict) -> list[Block]:
+    def blocks(self, study: Study, analysis: dict) -> list:
         """The case's section of the report."""
 
 

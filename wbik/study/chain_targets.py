@@ -3,19 +3,22 @@
 
 - sampling: :func:`wbik.study.sampling.sample_poses` on the case's chain (by name, or between the
   ``base`` and ``tip`` frames); a subclass draws other joints by overriding :meth:`ChainTargets.joints`;
-- solving (:meth:`ChainTargets.solve`, in the worker): ``solve_many`` on the chunk's targets, or one
-  ``solve`` per pose with ``per_pose``, or per pose with the CPU watched for a wall-clock method
-  (:mod:`wbik.study.cpu_watch`); an IK method user code registered travels with the task;
+- solving (:meth:`ChainTargets.solve`, in the worker): one ``solve`` call per pose, timed alone (the
+  CPU watched for a wall-clock method, :mod:`wbik.study.cpu_watch`); a method with a batched path
+  (its own ``solve_many``) then solves the chunk again with ``solve_many`` for the throughput; an IK
+  method user code registered travels with the task;
 - applicability: a method that refuses the case's target kind (``check_target_kind``);
 - rows: success, reason, time, iterations, position/rotation error, CPU time, re-runs, the per-axis
-  errors of :func:`wbik.study.metrics.axis_errors`, q;
-- the report section: poses solved and time, error per axis, significance, the figures beside a
-  reference's (the case's ``reference:`` block).
+  errors of :func:`wbik.study.metrics.axis_errors`, q; for a batched method also ``batch_success``
+  (solve_many's verdict) and ``batch_share_s`` (the chunk's solve_many time / its poses);
+- the report section: poses solved and time per call, throughput of batched methods, error per
+  axis, significance, the figures beside a reference's (the case's ``reference:`` block).
 """
 
 from __future__ import annotations
 
 import math
+import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
@@ -41,6 +44,7 @@ from wbik.study.blocks import frequent_reasons
 from wbik.study.blocks import significance_blocks
 from wbik.study.blocks import status_blocks
 from wbik.study.blocks import summary_table
+from wbik.study.blocks import throughput_blocks
 from wbik.study.blocks import time_columns
 from wbik.study.blocks import write_case_tables
 from wbik.study.budget_curves import read_curves
@@ -72,9 +76,9 @@ if TYPE_CHECKING:
     from wbik.robot import Chain
     from wbik.schema import Map
     from wbik.solvers.method import IKMethod
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import MethodSpec
+    from wbik.study.spec import Study
 
 
 @dataclass(frozen=True)
@@ -83,7 +87,6 @@ class ChainChunkTask(ChunkTask):
 
     chain: str | None
     angles: AngleConvention | None  # the reference's Euler angles: extra error columns
-    per_pose: bool
     positions: np.ndarray
     rotations: np.ndarray | None
     registered: IKMethod | None = None
@@ -135,10 +138,15 @@ class ChainTargets(CaseKind):
         from wbik.solvers.method_registry import solver_options
         return solver_options(method)
 
+    def method_factory(self, method: str):
+        from wbik.solvers.method_registry import method_factory
+
+        return method_factory(method)
+
     def method_option_schema(self, method: str) -> Map:
         from wbik.schema import option_schema
-        from wbik.solvers.method_registry import method_factory
-        return option_schema(method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
+
+        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return case_axes(self.target, angles)
@@ -157,9 +165,8 @@ class ChainTargets(CaseKind):
         return solver_budget(method, timeout_s, options)
 
     def unbudgeted(self, method: str) -> bool:
-        from wbik.solvers.method_registry import method_factory
         try:
-            return getattr(method_factory(method), "budgeted", True) is False
+            return getattr(self.method_factory(method), "budgeted", True) is False
         except WbikError:
             return False
 
@@ -181,7 +188,7 @@ class ChainTargets(CaseKind):
             tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
             seed=chunk_seed(study.seed, case.name, method.label, chunk), chunk=chunk, first_pose=start,
             q0=poses.q0[start:stop], chain=case.chain,
-            angles=case.reference.angles if case.reference else None, per_pose=method.per_pose,
+            angles=case.reference.angles if case.reference else None,
             positions=poses.positions[start:stop],
             rotations=None if poses.rotations is None else poses.rotations[start:stop],
             registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip,
@@ -203,11 +210,12 @@ class ChainTargets(CaseKind):
         return None
 
     def solve(self, task: ChainChunkTask) -> dict[str, np.ndarray]:
-        """Solve one chunk with ``solve_many`` (batched methods keep their speed; a batched method's
-        time per pose is then the batch's time / size) or, with ``per_pose``, one ``solve`` per pose.
+        """Solve one chunk: one ``solve`` call per pose, each timed alone (``time_s`` is that call's
+        latency), a wall-clock method's with the CPU watched; then, for a method with a batched path
+        and ``task.batch``, the chunk's targets once more through ``solve_many`` (:func:`batch_columns`).
 
-        A pose on which the method raises gets success=False and reason "raised ...", and the chunk
-        continues pose by pose. Whether the method applies was decided before (the runner's probe).
+        A pose on which the method raises gets success=False and reason "raised ...". Whether the
+        method applies was decided before (the runner's probe).
         """
         from wbik.targets import Target
 
@@ -220,24 +228,18 @@ class ChainTargets(CaseKind):
                    for i in range(count)]
         cpu_seconds = np.full(count, np.nan)
         reruns = np.zeros(count, dtype=int)
-        try:
-            if task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted:
-                answers = []
-                for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
+        watched = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
+        answers = []
+        for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
+            try:
+                if watched:
                     answer, cpu_seconds[i], reruns[i] = solve_watching_the_cpu(
                         solver, target, q0, task.timeout_s, lambda budget: self.build(task, budget))
-                    answers.append(answer)
-            elif task.per_pose:
-                answers = [solver.solve(target, q0) for target, q0 in zip(targets, task.q0, strict=True)]
-            else:
-                answers = solver.solve_many(targets, task.q0)
-        except Exception:  # noqa: BLE001 - solved again pose by pose, each failure recorded in its row
-            answers = []
-            for target, q0 in zip(targets, task.q0, strict=True):
-                try:
-                    answers.append(solver.solve(target, q0))
-                except Exception as pose_exc:  # noqa: BLE001 - recorded in the row, counted in the report
-                    answers.append(_raised(solver, pose_exc))
+                else:
+                    answer = solver.solve(target, q0)
+            except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
+                answer = _raised(solver, exc)
+            answers.append(answer)
         nq = solver.chain.nq
         columns = {
             "pose": np.arange(task.first_pose, task.first_pose + count),
@@ -253,6 +255,8 @@ class ChainTargets(CaseKind):
         columns.update(axis_errors(answers, task.rotations, task.angles))
         columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                                 dtype=float).reshape(count, nq)
+        if task.batch and has_batched_path(solver):
+            columns.update(batch_columns(solver, targets, task.q0))
         return columns
 
     # -- the report --------------------------------------------------------------------------------
@@ -322,6 +326,7 @@ class ChainTargets(CaseKind):
         blocks.append(Block("image", "Histogram of time per pose", path=analysis["images"]["time_histogram"]))
         blocks.append(Block("image", "Time per call (ECDF): calls returned and poses solved within t",
                             path=analysis["images"]["time_ecdf"]))
+        blocks.extend(throughput_blocks(study, analysis))
         blocks.extend(budget_blocks(study, analysis))
 
         blocks.append(Block("h3", "Error per axis (solved poses)"))
@@ -345,6 +350,28 @@ class ChainTargets(CaseKind):
                                                     "and on the time of every pose"))
         blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
         return blocks
+
+
+def has_batched_path(solver) -> bool:
+    """Whether ``solver`` has a batched path of its own (its class overrides ``Solver.solve_many``)."""
+    from wbik.solvers.base import Solver
+
+    return type(solver).solve_many is not Solver.solve_many
+
+
+def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray]:
+    """The chunk solved again in one ``solve_many`` call, timed from outside: ``batch_success`` (its
+    verdict per pose) and ``batch_share_s`` (the call's wall time / the chunk's poses, so that the
+    case's sum is its solve_many time; NaN when it raised)."""
+    count = len(targets)
+    start = time.perf_counter()
+    try:
+        answers = solver.solve_many(targets, q0)
+    except Exception:  # noqa: BLE001 - no throughput for this chunk; the per-call rows stand
+        return {"batch_success": np.zeros(count, dtype=bool), "batch_share_s": np.full(count, np.nan)}
+    seconds = time.perf_counter() - start
+    return {"batch_success": np.array([a.success for a in answers], dtype=bool),
+            "batch_share_s": np.full(count, seconds / count)}
 
 
 def _raised(solver, exc: BaseException):

@@ -1,37 +1,43 @@
-"""The regression gate: a study's run beside an earlier run of it (``wbik study FILE --compare-to
-OLD``), per case and method, with a verdict; the command exits 1 when a method regressed.
+"""The regression gate: a study's run beside an earlier run of it on the same targets (``wbik study
+FILE -o NEW --compare-to OLD``), paired target by target.
 
-For each case and method of this run that OLD has complete rows of (its chunk files), both runs'
-figures are computed from their rows the same way (:mod:`wbik.study.statistics`): the share solved
-p with its Wilson 95 % interval [p-, p+] and the median time of all calls m (ms) with its bootstrap
-95 % interval [m-, m+]. The study file's ``regression:`` block sets the rule
-(:class:`wbik.study.definition.RegressionRule`; default ``{success_drop: ci, time_rise: 1.2}``):
+Same targets first. Each run folder records in ``targets.json`` (:func:`targets_record`) the settings
+that shape every row (seed, start, tolerances, chunk size, default budget) and, per case, its
+definition and a hash of its saved targets and start configurations (``poses.npz``). When the two
+differ, on the settings or on a case both runs have, nothing is compared: the comparison is *refused*
+with what differs (the command exits 4).
 
-- success regressed, ``success_drop: ci``: p+_new < p-_old (the two 95 % intervals are disjoint, the
-  new one below); ``success_drop: d`` (percentage points): p_new < p_old - d;
-- time regressed, ``time_rise: r``: m-_new > r x m+_old (even the new median's most favourable
-  reading is more than r times the old one's least favourable); ``time_rise: ci`` is r = 1,
-  ``time_rise: off`` gates no time.
+Then per case and method, pairing the two runs' rows by target (:func:`judge`), under the study file's
+``regression:`` rule (:class:`wbik.study.regression_rule.RegressionRule`):
 
-A method is *regressed* when either holds. Methods only one of the runs has, and cases OLD lacks,
-are listed and never regressed. Times are only comparable between runs on the same machine under
-the same load; success is comparable anywhere (our iteration-budgeted methods give the same rows on
-any machine).
+- success, a method without a wall clock (a closed form, or budgeted in iterations: the same rows on
+  any machine, the run's ``method.json`` says which): regressed when any target solved in OLD is
+  unsolved now (the pose ids are listed);
+- success, a wall-clock method (KDL, TRAC-IK, PlaCo, ...): McNemar's exact test on the discordant
+  targets, b solved in OLD only and c solved now only: regressed when the one-sided binomial p-value
+  P(X >= b | X ~ B(b + c, 1/2)) (``scipy.stats.binomtest``) is below ``success_level``;
+- time: the per-target ratio new / old of the time per call, over the targets both runs timed;
+  regressed when the percentile bootstrap 95 % interval of its median lies wholly above ``time_rise``;
+- a method OLD has rows of that this run has not (not in the study, not applicable, or
+  incomplete), and every method of a case OLD has and this run lacks, regressed.
 
-Written: ``comparison.csv`` in this run's folder (a row per case and method) and the report's
-"Compared with" section (:func:`comparison_blocks`).
+Written: ``comparison.csv`` in this run's folder and the report's "Compared with" section.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
+import json
 import math
 from dataclasses import dataclass
+from dataclasses import field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy import stats
 
 import wbik.study.results as store
 from wbik.errors import UsageError
@@ -39,129 +45,188 @@ from wbik.study.blocks import Block
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
-from wbik.study.definition import SUCCESS_DROP_CI
+from wbik.study.blocks import fmt_p
 from wbik.study.statistics import bootstrap_median_interval
-from wbik.study.statistics import wilson_interval
 
 if TYPE_CHECKING:
-    from wbik.study.definition import RegressionRule
-    from wbik.study.definition import Study
+    from wbik.study.regression_rule import RegressionRule
+    from wbik.study.spec import Study
+
+TARGETS_RECORD = "targets.json"
+SETTINGS = ("seed", "start", "tolerances", "chunk_size", "timeout_s")
+"""The study's settings that shape every row (a case's own are in its definition)."""
+DETERMINISTIC = ("none", "iterations")
+"""Budgets whose rows are the same on any machine: a closed form's, iterations (``method.json``)."""
+LISTED_POSES = 20
+"""Pose ids a message lists at most (comparison.csv has them all)."""
 
 
-@dataclass(frozen=True)
-class RunFigures:
-    """One method's figures in one run: poses, solved, % solved and its Wilson 95 % interval, the
-    median time of all calls (ms) and its bootstrap 95 % interval."""
+def targets_digest(path: Path) -> str:
+    """A hash of a case's saved targets (every array of its ``poses.npz``: targets, starts, ...)."""
+    digest = hashlib.sha256()
+    with np.load(path, allow_pickle=False) as data:
+        for key in sorted(data.files):
+            array = np.ascontiguousarray(data[key])
+            digest.update(f"{key} {array.dtype.str} {array.shape}".encode())
+            digest.update(array.tobytes())
+    return digest.hexdigest()[:16]
 
-    poses: int
-    solved: int
-    percent: float
-    percent_low: float
-    percent_high: float
-    median_ms: float
-    median_low_ms: float
-    median_high_ms: float
 
-    @classmethod
-    def of_rows(cls, rows: dict[str, np.ndarray]) -> RunFigures:
-        success = rows["success"].astype(bool)
-        count, solved = int(success.size), int(success.sum())
-        low, high = wilson_interval(solved, count)
-        times = rows["time_s"] * 1e3
-        finite = times[np.isfinite(times)]
-        median = float(np.median(finite)) if finite.size else math.nan
-        median_low, median_high = bootstrap_median_interval(times)
-        return cls(count, solved, 100.0 * solved / count if count else math.nan, 100.0 * low, 100.0 * high,
-                   median, median_low, median_high)
+def targets_record(study: Study, output: Path | None = None) -> dict:
+    """What shapes the rows of ``study``'s run in ``output``: the study's settings (:data:`SETTINGS`),
+    each case's definition (its poses resolved) and the hash of its saved targets (without ``output``:
+    the settings and definitions alone, before any target is drawn)."""
+    cases = {}
+    for case, data in zip(study.cases, study.row_settings()["cases"], strict=True):
+        data["poses"] = study.poses_of(case)
+        cases[case.name] = {"definition": json.loads(json.dumps(data, default=str))}  # as read back
+        if output is not None:
+            cases[case.name]["targets"] = targets_digest(store.case_dir(output, case.name) / "poses.npz")
+    settings = json.loads(json.dumps({key: getattr(study, key) for key in SETTINGS}))
+    return {"settings": settings, "cases": cases}
+
+
+def differences(old: dict, new: dict) -> list[str]:
+    """What differs between two runs' :func:`targets_record` (settings, and the cases both have; their
+    targets when both records hold them)."""
+    settings = [f"{key}: {old['settings'].get(key)!r} in OLD, {new['settings'].get(key)!r} here"
+                for key in SETTINGS if old["settings"].get(key) != new["settings"].get(key)]
+    found = list(settings)
+    for name in new["cases"].keys() & old["cases"].keys():
+        before, now = old["cases"][name], new["cases"][name]
+        keys = sorted(key for key in before["definition"].keys() | now["definition"].keys()
+                      if before["definition"].get(key) != now["definition"].get(key))
+        found.extend(f"case {name}: {key} {before['definition'].get(key)!r} in OLD, "
+                     f"{now['definition'].get(key)!r} here" for key in keys)
+        if "targets" in now and before.get("targets") != now["targets"]:
+            found.append(f"case {name}: other targets" + (" (the same settings and definition drew them: "
+                         "the sampling code differs)" if not (keys or settings) else ""))
+    return found
 
 
 @dataclass(frozen=True)
 class MethodComparison:
-    """One (case, method): its figures in OLD and in this run, and the verdict."""
+    """One (case, method), OLD's rows beside this run's, paired by target, and the verdict."""
 
     case: str
     label: str
-    old: RunFigures | None
-    new: RunFigures | None
+    budget: str = ""  # "none", "iterations" or "wall" (method.json); "" when a run lacks the method
+    poses: int = 0
+    old_solved: int | None = None
+    new_solved: int | None = None
+    lost: tuple[int, ...] = ()  # pose ids solved in OLD, unsolved now
+    gained: tuple[int, ...] = ()  # pose ids unsolved in OLD, solved now
+    p_value: float = math.nan  # McNemar's exact one-sided p (wall-clock methods)
+    ratio: tuple[float, float, float] = (math.nan, math.nan, math.nan)  # median new/old time, 95 % interval
     success_regressed: bool = False
     time_regressed: bool = False
+    missing: str = ""  # why OLD's method has no rows here
     verdict: str = ""
 
     @property
     def regressed(self) -> bool:
-        return self.success_regressed or self.time_regressed
+        return self.success_regressed or self.time_regressed or bool(self.missing)
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """This run against OLD under ``rule``: a :class:`MethodComparison` per case and method."""
+    """This run against OLD under ``rule``; ``refused``: what differs when the targets do (nothing
+    compared)."""
 
     old: Path
     rule: RegressionRule
-    methods: list[MethodComparison]
-    notes: list[str]
+    methods: list[MethodComparison] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    refused: list[str] = field(default_factory=list)
 
     @property
     def regressions(self) -> list[MethodComparison]:
         return [method for method in self.methods if method.regressed]
 
 
-def success_regressed(old: RunFigures, new: RunFigures, rule: RegressionRule) -> bool:
-    """Whether the share solved dropped under ``rule.success_drop`` (see the module docstring)."""
-    if rule.success_drop == SUCCESS_DROP_CI:
-        return new.percent_high < old.percent_low
-    return new.percent < old.percent - float(rule.success_drop)
+def mcnemar_p(lost: int, gained: int) -> float:
+    """McNemar's exact one-sided p-value that success dropped: P(X >= lost), X ~ B(lost + gained, 1/2)
+    (1 when no target is discordant)."""
+    if lost + gained == 0:
+        return 1.0
+    return float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue)
 
 
-def time_regressed(old: RunFigures, new: RunFigures, rule: RegressionRule) -> bool:
-    """Whether the median time rose under ``rule.time_rise`` (see the module docstring)."""
-    if rule.time_rise is None or not (math.isfinite(new.median_low_ms) and math.isfinite(old.median_high_ms)):
-        return False
-    return new.median_low_ms > rule.time_rise * old.median_high_ms
+def _poses(ids) -> str:
+    ids = [int(i) for i in ids]
+    more = f" and {len(ids) - LISTED_POSES} more" if len(ids) > LISTED_POSES else ""
+    return ", ".join(map(str, ids[:LISTED_POSES])) + more
 
 
-def judge(case: str, label: str, old: RunFigures | None, new: RunFigures | None,
+def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: dict[str, np.ndarray],
           rule: RegressionRule) -> MethodComparison:
-    """The comparison of one (case, method) and its verdict in words."""
-    if old is None or new is None:
-        verdict = "not in OLD" if old is None else "not in this run"
-        return MethodComparison(case, label, old, new, verdict=verdict)
-    success = success_regressed(old, new, rule)
-    slower = time_regressed(old, new, rule)
+    """One method's rows in OLD and here (the same targets, in pose order) paired target by target,
+    and the verdict under ``rule`` (module docstring)."""
+    if not np.array_equal(old["pose"], new["pose"]):
+        raise UsageError(f"case {case!r}, method {label!r}: the two runs' rows are of other poses")
+    before, now = old["success"].astype(bool), new["success"].astype(bool)
+    lost, gained = old["pose"][before & ~now], old["pose"][~before & now]
+    p_value = math.nan
+    if budget in DETERMINISTIC:
+        success_regressed = lost.size > 0
+    else:
+        p_value = mcnemar_p(lost.size, gained.size)
+        success_regressed = p_value < rule.success_level
+    timed = np.isfinite(old["time_s"]) & np.isfinite(new["time_s"]) & (old["time_s"] > 0)
+    ratios = new["time_s"][timed] / old["time_s"][timed]
+    ratio = (float(np.median(ratios)), *bootstrap_median_interval(ratios)) if ratios.size else \
+        (math.nan, math.nan, math.nan)
+    time_regressed = rule.time_rise is not None and ratio[1] > rule.time_rise
     words = []
-    if success:
-        words.append("REGRESSION: success dropped")
-    if slower:
-        words.append(f"REGRESSION: median time rose beyond x{rule.time_rise:g}")
+    if success_regressed:
+        test = "" if budget in DETERMINISTIC else \
+            f" (McNemar exact, p = {fmt_p(p_value)} < {rule.success_level:g})"
+        words.append(f"REGRESSION: {lost.size} target(s) solved in OLD unsolved now{test}: "
+                     f"poses {_poses(lost)}")
+    elif lost.size:
+        words.append(f"{lost.size} lost, {gained.size} gained (McNemar exact p = {fmt_p(p_value)})")
+    if time_regressed:
+        words.append(f"REGRESSION: time per call rose: median ratio new/old {fmt(ratio[0])} "
+                     f"{fmt_interval(ratio[1], ratio[2])} above x{rule.time_rise:g}")
     if not words:
-        if new.percent_low > old.percent_high:
-            words.append("better success")
-        if rule.time_rise is not None and new.median_high_ms * rule.time_rise < old.median_low_ms:
+        words.append(f"{gained.size} target(s) solved now unsolved in OLD" if gained.size else "no change")
+        if rule.time_rise is not None and ratio[2] < 1.0 / rule.time_rise:
             words.append("faster")
-        words = words or ["same within the intervals"]
-    return MethodComparison(case, label, old, new, success, slower, "; ".join(words))
+    return MethodComparison(case, label, budget, int(now.size), int(before.sum()), int(now.sum()),
+                            tuple(int(i) for i in lost), tuple(int(i) for i in gained), p_value, ratio,
+                            success_regressed, bool(time_regressed), "", "; ".join(words))
 
 
-def _old_study(old: Path) -> dict:
-    record = store.read_json(old / "study.json")
-    if record is None:
+def refusal_before_the_run(study: Study, old: Path) -> list[str]:
+    """What differs between ``study``'s settings and case definitions and those of the run in ``old``
+    (known before drawing a target, so a run on other targets need not run)."""
+    old_targets = store.read_json(Path(old) / TARGETS_RECORD)
+    return [] if old_targets is None else differences(old_targets, targets_record(study))
+
+
+def _old_record(old: Path, name: str) -> dict | None:
+    record = store.read_json(old / name)
+    if name == "study.json" and record is None:
         raise UsageError(f"--compare-to {str(old)!r} holds no results of a study (no study.json): pass the "
                          "output folder of an earlier 'wbik study' run")
     return record
 
 
-def old_method_rows(old: Path, record: dict, case_name: str, label: str) -> dict[str, np.ndarray] | None:
-    """The rows of method ``label`` on case ``case_name`` in the run folder ``old`` (``record``: its
-    study.json), None unless every chunk of it is there."""
-    study = record.get("study", {})
-    case = next((c for c in study.get("cases", []) if c.get("name") == case_name), None)
-    if case is None:
-        return None
-    poses = case.get("poses") or study.get("poses")
-    chunk_size = study.get("chunk_size")
-    if not poses or not chunk_size:
-        return None
-    return store.load_method_rows(old, case_name, label, -(-int(poses) // int(chunk_size)))
+def _method_record(folder: Path, case: str, label: str) -> dict:
+    return store.read_json(store.case_dir(folder, case) / "chunks" / label / "method.json", {}) or {}
+
+
+def _budget(folder: Path, case: str, label: str) -> str:
+    return _method_record(folder, case, label).get("budget", "wall")  # not recorded: rows may vary
+
+
+def _definition_note(old: Path, output: Path, case: str, label: str) -> list[str]:
+    """A note when ``label`` ran with another definition in OLD (its method, options or budget)."""
+    before, now = (_method_record(folder, case, label) for folder in (old, output))
+    keys = ("method", "options", "timeout_s")
+    changed = [f"{key} {before.get('method', {}).get(key)!r} -> {now.get('method', {}).get(key)!r}"
+               for key in keys if before.get("method", {}).get(key) != now.get("method", {}).get(key)]
+    return [f"{case}/{label} is defined otherwise than in OLD: {', '.join(changed)}"] if changed else []
 
 
 def compare_runs(study: Study, output: Path, old: Path) -> Comparison:
@@ -171,103 +236,119 @@ def compare_runs(study: Study, output: Path, old: Path) -> Comparison:
     if old.resolve() == output.resolve():
         raise UsageError(f"--compare-to {str(old)!r} is this run's own folder: pass the folder of an "
                          "earlier run")
-    record = _old_study(old)
-    notes = []
-    if record.get("fingerprint") != study.fingerprint():
-        notes.append(f"OLD holds a study with other cases, poses, seed, start, chunk size or tolerances "
-                     f"(fingerprint {record.get('fingerprint')} != {study.fingerprint()}): its targets are "
-                     "not this run's")
-    methods: list[MethodComparison] = []
-    for case in study.cases:
-        rows_by_method, _ = case_rows(study, case, output)
-        old_labels = []
-        if (old / case.name).is_dir():
-            old_labels = sorted(path.name for path in (old / case.name / "chunks").glob("*") if path.is_dir())
-        else:
-            notes.append(f"OLD has no case {case.name!r}")
-        for label, rows in rows_by_method.items():
-            old_rows = old_method_rows(old, record, case.name, label)
-            methods.append(judge(case.name, label, None if old_rows is None else RunFigures.of_rows(old_rows),
-                                 RunFigures.of_rows(rows), study.regression))
-        for label in old_labels:
-            if label not in rows_by_method:
-                old_rows = old_method_rows(old, record, case.name, label)
-                if old_rows is not None:
-                    methods.append(judge(case.name, label, RunFigures.of_rows(old_rows), None,
-                                         study.regression))
-    comparison = Comparison(old, study.regression, methods, notes)
+    old_study = _old_record(old, "study.json").get("study", {})
+    old_targets = _old_record(old, TARGETS_RECORD)
+    new_targets = store.read_json(output / TARGETS_RECORD)
+    if old_targets is None:
+        comparison = Comparison(old, study.regression, refused=[
+            f"OLD has no {TARGETS_RECORD} (the record of its targets): run its study again with this wbik"])
+    elif differences(old_targets, new_targets):
+        comparison = Comparison(old, study.regression, refused=differences(old_targets, new_targets))
+    else:
+        comparison = _paired(study, output, old, old_study, old_targets)
     _write_csv(output / "comparison.csv", comparison)
     return comparison
 
 
+def _paired(study: Study, output: Path, old: Path, old_study: dict, old_targets: dict) -> Comparison:
+    """The comparison of two runs on the same targets, case by case (OLD's cases, then this run's)."""
+    methods, notes = [], []
+    chunk_size, labels = old_study["chunk_size"], [m["label"] for m in old_study.get("methods", [])]
+    cases = {case.name: case for case in study.cases}
+    for name, record in old_targets["cases"].items():
+        poses = record["definition"]["poses"]
+        chunks = -(-poses // chunk_size)
+        old_rows = {label: rows for label in labels
+                    if (rows := store.load_method_rows(old, name, label, chunks)) is not None}
+        if name not in cases:
+            methods.extend(MethodComparison(name, label, _budget(old, name, label), poses,
+                                            int(rows["success"].sum()), missing="case not in this run",
+                                            verdict="REGRESSION: its case is not in this run")
+                           for label, rows in old_rows.items())
+            continue
+        new_rows, refused = case_rows(study, cases[name], output)
+        for label, rows in old_rows.items():
+            if label in new_rows:
+                methods.append(judge(name, label, _budget(output, name, label), rows, new_rows[label],
+                                     study.regression))
+                notes.extend(_definition_note(old, output, name, label))
+                continue
+            in_study = label in {m.label for m in study.methods}
+            why = (f"not applicable here: {refused[label]}" if label in refused
+                   else "incomplete here" if in_study else "not in this run's study")
+            methods.append(MethodComparison(name, label, _budget(old, name, label), poses,
+                                            int(rows["success"].sum()), missing=why,
+                                            verdict=f"REGRESSION: {why}"))
+        notes.extend(f"{name}/{label} is not in OLD (nothing to compare)" for label in new_rows
+                     if label not in old_rows)
+    notes.extend(f"OLD has no case {name!r} (nothing to compare)" for name in cases
+                 if name not in old_targets["cases"])
+    return Comparison(old, study.regression, methods, notes)
+
+
 def rule_text(rule: RegressionRule) -> str:
     """The rule in words."""
-    if rule.success_drop == SUCCESS_DROP_CI:
-        success = "its % solved interval lies wholly below OLD's (95 % Wilson intervals disjoint)"
-    else:
-        success = f"its % solved is more than {rule.success_drop:g} points below OLD's"
-    if rule.time_rise is None:
-        time = "times are not gated (time_rise: off)"
-    else:
-        time = (f"or the lower end of its median time's 95 % bootstrap interval exceeds {rule.time_rise:g} x "
-                "the upper end of OLD's")
-    return f"A method regressed when {success}, {time}."
+    time = ("times are not gated (time_rise: off)" if rule.time_rise is None else
+            f"its time per call regressed when the 95 % bootstrap interval of the median per-target ratio "
+            f"new/old lies wholly above {rule.time_rise:g}")
+    return ("Paired by target: a method without a wall clock (closed form, iteration budget) regressed "
+            "when any target solved in OLD is unsolved now; a wall-clock method when McNemar's exact "
+            f"one-sided test on the targets solved in one run only gives p < {rule.success_level:g}; "
+            f"{time}; a method or case of OLD that this run lacks regressed.")
 
 
-def _figures_cells(figures: RunFigures | None) -> list[str]:
-    if figures is None:
-        return ["-", "-", "-", "-"]
-    return [fmt(figures.percent), fmt_interval(figures.percent_low, figures.percent_high),
-            fmt(figures.median_ms), fmt_interval(figures.median_low_ms, figures.median_high_ms)]
+def _cells(m: MethodComparison) -> list[str]:
+    kind = {"none": "closed form", "iterations": "iterations", "wall": "wall clock"}.get(m.budget, "-")
+    return [m.case, m.label, kind, fmt(m.old_solved), fmt(m.new_solved), str(len(m.lost)), str(len(m.gained)),
+            fmt_p(m.p_value), fmt(m.ratio[0]), fmt_interval(m.ratio[1], m.ratio[2]), m.verdict]
+
+
+HEADER = ["case", "method", "budget", "solved OLD", "solved", "lost", "gained", "McNemar p",
+          "time ratio new/old (median)", "95 % CI", "verdict"]
 
 
 def comparison_blocks(comparison: Comparison) -> list[Block]:
-    """The report's section: the rule, then a row per case and method, OLD beside this run."""
+    """The report's section: the rule, then a row per case and method (or why nothing was compared)."""
+    blocks = [Block("h2", f"Compared with {comparison.old}")]
+    if comparison.refused:
+        return [*blocks, Block("p", "Not compared: the two runs' targets differ (targets.json):"),
+                Block("list", items=comparison.refused)]
     regressions = comparison.regressions
-    blocks = [Block("h2", f"Compared with {comparison.old}"),
-              Block("p", rule_text(comparison.rule)
-                    + " (the study file's regression: block; wbik.study.compare) "
-                    + (f"{len(regressions)} regression(s): "
-                       + ", ".join(f"{m.case}/{m.label}" for m in regressions) + "." if regressions
-                       else "No regression."))]
+    named = ", ".join(f"{m.case}/{m.label}" for m in regressions)
+    blocks.append(Block("p", rule_text(comparison.rule) + " (the study file's regression: block; "
+                        "wbik.study.compare) " + (f"{len(regressions)} regression(s): {named}." if regressions
+                                                  else "No regression.")))
     blocks.extend(Block("p", note + ".") for note in comparison.notes)
-    header = ["case", "method", "% solved OLD", "95 % CI OLD", "median ms OLD", "95 % CI OLD",
-              "% solved", "95 % CI", "median ms", "95 % CI", "verdict"]
-    blocks.append(Block("table", header=header, rows=[
-        [m.case, m.label, *_figures_cells(m.old), *_figures_cells(m.new), m.verdict]
-        for m in comparison.methods]))
+    blocks.append(Block("table", header=HEADER, rows=[_cells(m) for m in comparison.methods]))
     return blocks
 
 
 def summary_lines(comparison: Comparison) -> list[str]:
     """The comparison for a terminal: a line per case and method, regressions marked."""
-    lines = [f"compared with {comparison.old}: {len(comparison.regressions)} regression(s); "
+    if comparison.refused:
+        return [f"not compared with {comparison.old}: the runs' targets differ:",
+                *(f"  {line}" for line in comparison.refused)]
+    lines = [f"compared with {comparison.old}: {len(comparison.regressions)} regression(s). "
              + rule_text(comparison.rule)]
     lines.extend(f"  note: {note}" for note in comparison.notes)
     for m in comparison.methods:
-        old, new = m.old, m.new
-        if old is None or new is None:
-            lines.append(f"  {m.case} / {m.label}: {m.verdict}")
-            continue
-        lines.append(f"  {m.case} / {m.label}: % solved {old.percent:.1f} "
-                     f"[{old.percent_low:.1f}, {old.percent_high:.1f}] -> {new.percent:.1f} "
-                     f"[{new.percent_low:.1f}, {new.percent_high:.1f}]; median ms {fmt(old.median_ms)} "
-                     f"{fmt_interval(old.median_low_ms, old.median_high_ms)} -> {fmt(new.median_ms)} "
-                     f"{fmt_interval(new.median_low_ms, new.median_high_ms)}: {m.verdict}")
+        figures = "" if m.missing else (f" [{m.budget}] solved {m.old_solved} -> {m.new_solved}, time ratio "
+                                        f"{fmt(m.ratio[0])} {fmt_interval(m.ratio[1], m.ratio[2])}:")
+        lines.append(f"  {m.case} / {m.label}:{figures} {m.verdict}")
     return lines
 
 
 def _write_csv(path: Path, comparison: Comparison) -> None:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    fields = ["poses", "solved", "percent", "percent_low", "percent_high", "median_ms", "median_low_ms",
-              "median_high_ms"]
-    writer.writerow(["case", "method", *(f"old_{f}" for f in fields), *(f"new_{f}" for f in fields),
-                     "success_regressed", "time_regressed", "verdict"])
+    writer.writerow(["case", "method", "budget", "poses", "old_solved", "new_solved", "lost", "gained",
+                     "mcnemar_p", "time_ratio_median", "time_ratio_ci_low", "time_ratio_ci_high",
+                     "success_regressed", "time_regressed", "missing", "verdict", "lost_poses", "refused"])
     for m in comparison.methods:
-        cells = []
-        for figures in (m.old, m.new):
-            cells.extend([""] * len(fields) if figures is None
-                         else [repr(getattr(figures, f)) for f in fields])
-        writer.writerow([m.case, m.label, *cells, int(m.success_regressed), int(m.time_regressed), m.verdict])
+        writer.writerow([m.case, m.label, m.budget, m.poses, m.old_solved, m.new_solved, len(m.lost),
+                         len(m.gained), repr(m.p_value), *(repr(value) for value in m.ratio),
+                         int(m.success_regressed), int(m.time_regressed), m.missing, m.verdict,
+                         " ".join(map(str, m.lost)), ""])
+    for reason in comparison.refused:
+        writer.writerow([""] * 17 + [reason])
     store.atomic_write_text(path, buffer.getvalue())

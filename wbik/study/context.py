@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import Study
 
 _LOCAL = threading.local()
 

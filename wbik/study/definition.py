@@ -17,7 +17,6 @@ at the top level instead of a ``cases`` list. Example::
     methods:
       - bounded_lm
       - {label: kdl_15s, method: kdl, timeout_s: 15, note: "a published run's timeout"}
-      - {label: dls_per_pose, method: dls, per_pose: true}   # time of single calls
     reference:              # published figures to set beside ours (wbik.study.reference)
       name: paper
       source: "a paper's Table 2"
@@ -33,13 +32,8 @@ unknown key gets a "did you mean" guess.
 
 from __future__ import annotations
 
-import hashlib
-import json
 import re
 import tomllib
-from dataclasses import asdict
-from dataclasses import dataclass
-from dataclasses import field
 from dataclasses import fields
 from dataclasses import replace
 from pathlib import Path
@@ -48,11 +42,9 @@ import yaml
 
 from wbik.data import data_dir
 from wbik.data import study_path
-from wbik.errors import WbikError
 from wbik.errors import did_you_mean
 from wbik.schema import Anything
 from wbik.schema import Boolean
-from wbik.schema import Constant
 from wbik.schema import Context
 from wbik.schema import Either
 from wbik.schema import Errors
@@ -72,11 +64,20 @@ from wbik.schema import unknown_keys
 from wbik.study.metrics import ANGLE_AXES
 from wbik.study.metrics import POSITION_AXES
 from wbik.study.metrics import ROTATION_VECTOR_AXES
-from wbik.study.metrics import STUDY_SEQUENCE
 from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
 from wbik.study.metrics import AngleConvention
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import Reference
+from wbik.study.regression_rule import regression_rule
+from wbik.study.regression_rule import regression_schema
+from wbik.study.spec import BUDGET_CURVE_MS
+from wbik.study.spec import BUDGET_CURVE_POSES
+from wbik.study.spec import DEFAULT_TARGET
+from wbik.study.spec import BudgetCurveSpec
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
+from wbik.study.spec import StudyDefinitionError
 
 COMPARISONS_DIR = data_dir("comparisons")
 """The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
@@ -84,9 +85,6 @@ the installed package's copy of its study files."""
 
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
-DEFAULT_TARGET = "pose"
-"""The kind of a case entry that names none (``target:``, or a key only one kind takes): the case
-kinds are those of :mod:`wbik.study.case_kinds` (pose, position, wholebody, and any registered)."""
 CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip",
              "targets"}
 """The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``). ``targets``
@@ -95,192 +93,50 @@ START_KINDS = ("nominal", "mid_range", "random")
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
-class StudyDefinitionError(WbikError, ValueError):
-    """A study file that cannot be run as written; the message names the field to fix."""
-
-
-@dataclass(frozen=True)
-class MethodSpec:
-    """One column of the comparison: a registered method with its options under a label."""
-
-    label: str
-    method: str
-    options: dict = field(default_factory=dict)
-    timeout_s: float | None = None  # None: the study's default
-    note: str = ""
-    per_pose: bool = False  # True: one solve() per pose instead of a batched solve_many (time per call)
-
-
-@dataclass(frozen=True)
-class CaseSpec:
-    """One robot chain and target kind the methods are compared on."""
-
-    name: str
-    robot: str
-    chain: str | None = None
-    target: str = DEFAULT_TARGET  # the case's kind (wbik.study.case_kinds)
-    robot_params: dict = field(default_factory=dict)
-    poses: int | None = None  # None: the study's
-    reference: Reference | None = None  # published figures to compare with, and their angle names
-    scenario: str | None = None  # target "wholebody": the case sampler (wbik.wholebody.cases)
-    base: str | None = None  # a chain named by its base and tip frames (``chain`` is then its name)
-    tip: str | None = None
-    targets: dict | None = None  # a target set and its parameters (``targets:``; None: the kind's own)
-    path: dict | None = None  # target "path": the path's shape and parameters (wbik.study.paths)
-    success: dict | None = None  # target "protocol": the case's success rule (wbik.study.protocols)
-    peers: list | None = None  # target "protocol": peers' published figures (report only, not fingerprinted)
-
-
-BUDGET_CURVE_MS = (0.2, 0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
-"""The budgets (ms) of a study's success-versus-budget curves unless ``budget_curves.budgets_ms`` says."""
-BUDGET_CURVE_POSES = 100
-"""The poses of ``budget_curves: true`` and of a ``budget_curves`` mapping that names none."""
-SUCCESS_DROP_CI = "ci"
-
-
-@dataclass(frozen=True)
-class BudgetCurveSpec:
-    """``budget_curves:``: success against the budget, from the first ``poses`` targets of every case
-    solved again at each budget of ``budgets_ms`` (:mod:`wbik.study.budget_curves`); 0 poses: none."""
-
-    poses: int = 0
-    budgets_ms: tuple[float, ...] = BUDGET_CURVE_MS
-
-
-@dataclass(frozen=True)
-class RegressionRule:
-    """``regression:``: when ``wbik study --compare-to OLD`` calls a method worse than in OLD
-    (:mod:`wbik.study.compare`). ``success_drop``: "ci" (the two runs' 95 % intervals of the share
-    solved are disjoint, the new one below) or percentage points (new < old - points);
-    ``time_rise``: a factor r >= 1 (the new median time's interval lies above r x the old one's),
-    None: times are not gated."""
-
-    success_drop: str | float = SUCCESS_DROP_CI
-    time_rise: float | None = 1.2
-
-
-@dataclass(frozen=True)
-class Study:
-    name: str
-    cases: tuple[CaseSpec, ...]
-    methods: tuple[MethodSpec, ...]
-    poses: int = 1000
-    seed: int = 0
-    timeout_s: float = 0.005
-    tolerances: dict = field(default_factory=lambda: {"position": 1e-6, "rotation": 1e-6})
-    start: str = "nominal"
-    baseline: str | None = None
-    chunk_size: int = 100
-    budget_curves: BudgetCurveSpec = field(default_factory=BudgetCurveSpec)
-    regression: RegressionRule = field(default_factory=RegressionRule)
-    description: str = ""
-    notes: str = ""
-    source: str = ""  # the file it came from (not part of the fingerprint)
-
-    def poses_of(self, case: CaseSpec) -> int:
-        return self.poses if case.poses is None else case.poses
-
-    def timeout_of(self, method: MethodSpec) -> float:
-        return self.timeout_s if method.timeout_s is None else method.timeout_s
-
-    def method(self, label: str) -> MethodSpec:
-        for spec in self.methods:
-            if spec.label == label:
-                return spec
-        raise StudyDefinitionError(f"study {self.name!r} has no method labelled {label!r}; "
-                                   f"labels: {', '.join(m.label for m in self.methods)}")
-
-    def as_dict(self) -> dict:
-        """Plain data (JSON-friendly), without ``source``."""
-        data = asdict(self)
-        data.pop("source")
-        return data
-
-    def fingerprint(self) -> str:
-        """Hash of what every method's results depend on: cases, poses, seed, start, chunking,
-        tolerances and the reference's angle columns (not the methods, descriptions, notes or the
-        reference's figures). The angle columns enter as ``angle_names``, keyed by the study's own
-        angles when the reference's sequence is the study's (the form of files written before the
-        reference block, whose results folders therefore still resume)."""
-        data = self.as_dict()
-        for key in ("description", "notes", "methods", "baseline", "timeout_s"):
-            data.pop(key)
-        for key in ("budget_curves", "regression"):  # what is measured beside the rows, how runs compare
-            data.pop(key)
-        for spec, case in zip(self.cases, data["cases"], strict=True):
-            case.pop("reference")
-            case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
-            if case.get("scenario") is None:  # chain cases: the same fingerprint as before whole-body cases
-                case.pop("scenario", None)
-            for key in ("base", "tip", "targets", "path", "success"):  # keys a case leaves out: the
-                if case.get(key) is None:  # fingerprint of before them
-                    case.pop(key, None)
-            case.pop("peers", None)  # report text, as the reference
-        return _digest(data)
-
-    def method_fingerprint(self, method: MethodSpec) -> str:
-        """Hash of what one method's results depend on: the study's fingerprint and the method's spec."""
-        data = asdict(method)
-        data.pop("note")
-        data["timeout_s"] = self.timeout_of(method)
-        return _digest({"study": self.fingerprint(), "method": data})
-
-    def with_overrides(self, *, poses: int | None = None, methods: list[str] | None = None,
-                       robot: str | None = None, chain: str | None = None,
-                       chunk_size: int | None = None, seed: int | None = None,
-                       name: str | None = None, budget_curve_poses: int | None = None) -> Study:
-        """A copy with command-line overrides applied (and validated)."""
-        study = self
-        if methods:
-            unknown = [m for m in methods if m not in {s.label for s in self.methods}]
-            if unknown:
-                raise StudyDefinitionError(
-                    f"--methods names {unknown} which study {self.name!r} does not have; its labels: "
-                    f"{', '.join(s.label for s in self.methods)}")
-            study = replace(study, methods=tuple(s for s in self.methods if s.label in methods))
-            if study.baseline not in methods:
-                study = replace(study, baseline=study.methods[0].label)
-        if robot is not None or chain is not None:
-            if len(study.cases) != 1:
-                raise StudyDefinitionError("--robot/--chain apply to single-case studies only")
-            case = study.cases[0]
-            new_robot = robot or case.robot
-            case = replace(case, robot=new_robot, chain=chain if chain is not None else
-                           (case.chain if robot is None else None),
-                           name=_case_name(new_robot, chain if chain is not None else case.chain,
-                                           case.target) if robot is not None else case.name,
-                           robot_params={} if robot is not None else case.robot_params,
-                           reference=None if robot is not None else case.reference)
-            study = replace(study, cases=(case,))
-            check_schema((), study.cases, "command line")
-        if poses is not None:
-            study = replace(study, poses=_positive_int(poses, "--poses", "command line"),
-                            cases=tuple(replace(c, poses=None) for c in study.cases))
-        if chunk_size is not None:
-            study = replace(study, chunk_size=_positive_int(chunk_size, "--chunk-size", "command line"))
-        if seed is not None:
-            study = replace(study, seed=int(seed))
-        if name is not None:
-            study = replace(study, name=_label(name, "--name", "command line"))
-        if budget_curve_poses is not None:
-            if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
-                    or budget_curve_poses < 0:
-                raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
-                                           f"(0: none), got {budget_curve_poses!r}")
-            study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
-        return study
-
-
-def _fingerprint_angles(angles: AngleConvention | None) -> dict:
-    if angles is None:
-        return {}
-    if angles.sequence == STUDY_SEQUENCE:
-        return {angles.study_angle(axis): name for axis, name in angles.names}
-    return {"sequence": angles.sequence, **dict(angles.names)}
-
-
-def _digest(data) -> str:
-    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+def with_overrides(study: Study, *, poses: int | None = None, methods: list[str] | None = None,
+                   robot: str | None = None, chain: str | None = None,
+                   chunk_size: int | None = None, seed: int | None = None,
+                   name: str | None = None, budget_curve_poses: int | None = None) -> Study:
+    """A copy of ``study`` with command-line overrides applied (and validated)."""
+    original = study
+    if methods:
+        unknown = [m for m in methods if m not in {s.label for s in original.methods}]
+        if unknown:
+            raise StudyDefinitionError(
+                f"--methods names {unknown} which study {original.name!r} does not have; its labels: "
+                f"{', '.join(s.label for s in original.methods)}")
+        study = replace(study, methods=tuple(s for s in original.methods if s.label in methods))
+        if study.baseline not in methods:
+            study = replace(study, baseline=study.methods[0].label)
+    if robot is not None or chain is not None:
+        if len(study.cases) != 1:
+            raise StudyDefinitionError("--robot/--chain apply to single-case studies only")
+        case = study.cases[0]
+        new_robot = robot or case.robot
+        case = replace(case, robot=new_robot, chain=chain if chain is not None else
+                       (case.chain if robot is None else None),
+                       name=_case_name(new_robot, chain if chain is not None else case.chain,
+                                       case.target) if robot is not None else case.name,
+                       robot_params={} if robot is not None else case.robot_params,
+                       reference=None if robot is not None else case.reference)
+        study = replace(study, cases=(case,))
+        check_schema((), study.cases, "command line")
+    if poses is not None:
+        study = replace(study, poses=_positive_int(poses, "--poses", "command line"),
+                        cases=tuple(replace(c, poses=None) for c in study.cases))
+    if chunk_size is not None:
+        study = replace(study, chunk_size=_positive_int(chunk_size, "--chunk-size", "command line"))
+    if seed is not None:
+        study = replace(study, seed=int(seed))
+    if name is not None:
+        study = replace(study, name=_label(name, "--name", "command line"))
+    if budget_curve_poses is not None:
+        if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
+                or budget_curve_poses < 0:
+            raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
+                                       f"(0: none), got {budget_curve_poses!r}")
+        study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
+    return study
 
 
 # -- parsing -----------------------------------------------------------------------------------
@@ -318,7 +174,7 @@ def study_from_dict(data, source: str = "study") -> Study:
     ctx = Context(source, STUDY_ERRORS)
     checked = study_schema().check(data, "", ctx)
     methods = [MethodSpec(label=item["label"], method=item["method"], options=dict(item["options"]),
-                          timeout_s=item["timeout_s"], note=item["note"] or "", per_pose=item["per_pose"])
+                          timeout_s=item["timeout_s"], note=item["note"] or "")
                for item in checked["methods"]]
     cases = [CaseSpec(**{key: item[key] for key in _CASE_FIELDS if key in item})
              for item in checked["cases"]]
@@ -339,7 +195,7 @@ def study_from_dict(data, source: str = "study") -> Study:
                  seed=checked["seed"], timeout_s=checked["timeout_s"], tolerances=checked["tolerances"],
                  start=checked["start"], baseline=baseline, chunk_size=checked["chunk_size"],
                  budget_curves=_budget_curves(checked["budget_curves"]),
-                 regression=_regression(checked["regression"]), description=checked["description"] or "",
+                 regression=regression_rule(checked["regression"]), description=checked["description"] or "",
                  notes=checked["notes"] or "", source=source)
 
 
@@ -387,7 +243,7 @@ def study_schema() -> Map:
         "cases": Key(ListOf(CaseEntry(), min_items=1, what="{robot, chain, target} mappings"),
                      doc="the cases (or one case's keys at the top level)"),
         "methods": Key(ListOf(method_schema(), min_items=1, what="method names or {label, method, options, "
-                              "timeout_s, note, per_pose} mappings, e.g. [analytic, dls, {label: kdl_15s, "
+                              "timeout_s, note} mappings, e.g. [analytic, dls, {label: kdl_15s, "
                               "method: kdl, timeout_s: 15}]"), required=True, doc="the methods compared"),
         "poses": Key(_count(), dataclass_default(Study, "poses"), doc="targets per case"),
         "seed": Key(Number(integer=True, ge=0, what="a non-negative integer"),
@@ -443,7 +299,7 @@ def _across_keys(study: dict, path: str, ctx: Context) -> None:
 
 
 def method_schema() -> Shorthand:
-    """A method of ``methods:``: its name, or {method, label, options, timeout_s, note, per_pose}."""
+    """A method of ``methods:``: its name, or {method, label, options, timeout_s, note}."""
 
     def label_and_settings(item: dict, path: str, ctx: Context) -> None:
         if "label" not in item:
@@ -459,10 +315,9 @@ def method_schema() -> Shorthand:
                            doc="keyword options of the method"),
             "timeout_s": Key(_real("a positive number (s)", gt=0, nullable=True, budget=True), None,
                              doc="its budget per solve; default: the study's"),
-            "note": Key(Text(nullable=True), "", doc="text for the report's methods table"),
-            "per_pose": Key(Boolean(), False, doc="time single solve calls")}
+            "note": Key(Text(nullable=True), "", doc="text for the report's methods table")}
     return Shorthand(Map(keys, post=label_and_settings), "method",
-                     what="a method name or a mapping {label, method, options, timeout_s, note, per_pose}")
+                     what="a method name or a mapping {label, method, options, timeout_s, note}")
 
 
 class MethodName(Text):
@@ -497,19 +352,6 @@ def budget_curves_schema() -> Map:
                what="{poses: 100, budgets_ms: [0.2, 1, 5, 20]}")
 
 
-def regression_schema() -> Map:
-    """``regression:`` {success_drop, time_rise}, defaults those of :class:`RegressionRule`."""
-    drop = Either(Text((SUCCESS_DROP_CI,)), _real("percentage points", ge=0, le=100),
-                  what="'ci' (the 95 % intervals are disjoint) or percentage points between 0 and 100")
-    rise = Either(_real("a factor >= 1", ge=1), Constant(SUCCESS_DROP_CI, "off", False, None),
-                  what="a factor >= 1 (e.g. 1.2), 'ci' (1) or off")
-    return Map({"success_drop": Key(drop, dataclass_default(RegressionRule, "success_drop"),
-                                    doc="when the share solved regressed"),
-                "time_rise": Key(rise, dataclass_default(RegressionRule, "time_rise"),
-                                 doc="when the median time regressed")},
-               nullable=True, what="a mapping {success_drop: ci, time_rise: 1.2}")
-
-
 def _budget_curves(raw) -> BudgetCurveSpec:
     """``budget_curves:`` checked: false/absent (none), true (BUDGET_CURVE_POSES poses), or
     {poses, budgets_ms}."""
@@ -518,13 +360,6 @@ def _budget_curves(raw) -> BudgetCurveSpec:
     if raw is True:
         return BudgetCurveSpec(poses=BUDGET_CURVE_POSES)
     return BudgetCurveSpec(poses=raw["poses"], budgets_ms=tuple(sorted(set(raw["budgets_ms"]))))
-
-
-def _regression(raw: dict) -> RegressionRule:
-    """``regression:`` checked: time_rise 'ci' is 1, off (or null) None."""
-    rise = raw["time_rise"]
-    rise = 1.0 if rise == SUCCESS_DROP_CI else None if rise in (None, False, "off") else rise
-    return RegressionRule(success_drop=raw["success_drop"], time_rise=rise)
 
 
 def _common_case_keys() -> dict[str, Key]:

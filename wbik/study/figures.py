@@ -7,7 +7,8 @@
 - a histogram of time per method (log bins);
 - time ECDFs per method: the share of calls that returned within t, and the share of poses solved
   within t;
-- success versus budget per method, with 95 % bands (:mod:`wbik.study.budget_curves`).
+- success versus budget per method, with 95 % bands (:mod:`wbik.study.budget_curves`);
+- the throughput of the methods with a batched path (poses/s of solve_many over the case).
 
 A method has the same colour in every figure of a case (:func:`colours`).
 """
@@ -87,6 +88,28 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("% solved (95 % interval)")
     axes.set_title(f"{title}: poses solved")
+    return _save(figure, path)
+
+
+def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
+    """Poses per second of solve_many over the case (log scale) of the methods that have one
+    (``throughput_poses_per_s`` finite), the share it solved written above each bar."""
+    colour = colours(summaries)
+    labels = [label for label, s in summaries.items() if np.isfinite(s.get("throughput_poses_per_s", np.nan))]
+    rates = np.array([summaries[label]["throughput_poses_per_s"] for label in labels], dtype=float)
+    figure, axes = plt.subplots(figsize=(max(4.0, 0.9 * len(labels) + 2), 4.0))
+    positions = np.arange(len(labels))
+    axes.bar(positions, rates, color=[colour[label] for label in labels], alpha=0.85)
+    for x, label, rate in zip(positions, labels, rates, strict=True):
+        solved = summaries[label]["throughput_percent_solved"]
+        axes.text(x, rate * 1.15, f"{rate:.3g}/s\n{solved:.1f} % solved", ha="center", va="bottom",
+                  fontsize=7)
+    axes.set_yscale("log")
+    if rates.size:
+        axes.set_ylim(rates.min() / 10, rates.max() * 10)
+    axes.set_xticks(positions, labels, rotation=30, ha="right")
+    axes.set_ylabel("throughput (poses/s, solve_many over the case)")
+    axes.set_title(f"{title}: throughput of batched methods")
     return _save(figure, path)
 
 

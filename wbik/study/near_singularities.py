@@ -28,7 +28,7 @@ import numpy as np
 
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
-from wbik.study.definition import StudyDefinitionError
+from wbik.study.spec import StudyDefinitionError
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number

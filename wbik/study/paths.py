@@ -83,8 +83,8 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from wbik.robot import Chain
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import Study
 
 PATH = "path"
 SHAPES = ("line", "circle")

@@ -56,8 +56,8 @@ from wbik.study.target_parameters import number
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import Study
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import Study
 
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)

@@ -14,7 +14,6 @@ from __future__ import annotations
 import base64
 import html
 import json
-import platform
 import re
 from datetime import UTC
 from datetime import datetime
@@ -22,25 +21,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import wbik.study.results as store
-from wbik.study.blocks import SOLVED_COLUMNS  # noqa: F401 - also re-exported
-from wbik.study.blocks import TIME_COLUMNS  # noqa: F401 - also re-exported
 from wbik.study.blocks import Block
 from wbik.study.blocks import budget_semantics
-from wbik.study.blocks import case_figures  # noqa: F401 - also re-exported
-from wbik.study.blocks import case_rows  # noqa: F401 - also re-exported
 from wbik.study.blocks import fmt
-from wbik.study.blocks import fmt_p  # noqa: F401 - also re-exported
-from wbik.study.blocks import frequent_reasons  # noqa: F401 - also re-exported
-from wbik.study.blocks import significance_blocks  # noqa: F401 - also re-exported
-from wbik.study.blocks import status_blocks  # noqa: F401 - also re-exported
-from wbik.study.blocks import summary_table  # noqa: F401 - also re-exported
-from wbik.study.blocks import time_columns  # noqa: F401 - also re-exported
-from wbik.study.blocks import write_case_tables  # noqa: F401 - also re-exported
 from wbik.study.case_kinds import case_kind
 from wbik.study.case_kinds import kinds_of
 from wbik.study.cpu_watch import threads_of
-from wbik.study.definition import CaseSpec
-from wbik.study.definition import Study
+from wbik.study.provenance import PROVENANCE
+from wbik.study.provenance import provenance_lines
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 
 if TYPE_CHECKING:
     from wbik.study.compare import Comparison
@@ -70,7 +60,7 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
         f"{fmt(run.get('seconds'))} s for {run.get('computed_tasks', '?')} chunk(s) "
         f"({fmt(run.get('total_seconds'))} s of solving over all runs of this folder); "
         f"report written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
-        f"machine: {platform.machine()}, Python {platform.python_version()}",
+        *provenance_lines(store.read_json(output / PROVENANCE, {}) or {}),
     ]
     blocks.append(Block("list", items=facts))
     blocks.append(Block("h2", "Methods"))

@@ -24,6 +24,9 @@ workers each group of tasks ran with.
 Budget curves (``budget_curves:``, :mod:`wbik.study.budget_curves`) are tasks too, run after the
 study's rows, written and resumed the same way.
 
+What made the rows (version, commit, machine, command, code fingerprint) goes to ``provenance.json``
+(:mod:`wbik.study.provenance`), rewritten by each run that computes rows.
+
 Workers return the rows; the main process writes each chunk atomically as it arrives (see
 :mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
 computes only the missing ones. Adding or changing a method in the study file recomputes that method
@@ -52,25 +55,26 @@ import wbik.study.results as store
 from wbik.errors import MissingDependencyError
 from wbik.errors import WbikError
 from wbik.study.applicability import not_applicable
+from wbik.study.blocks import budget_kind
 from wbik.study.budget_curves import budget_path
 from wbik.study.budget_curves import budget_tasks
 from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
-from wbik.study.context import _frozen  # noqa: F401 - also re-exported
-from wbik.study.context import _robot  # noqa: F401 - also re-exported
-from wbik.study.context import chunk_count  # also re-exported
-from wbik.study.context import chunk_seed  # noqa: F401 - also re-exported
-from wbik.study.context import make_solver  # noqa: F401 - also re-exported
-from wbik.study.context import solver_budget  # noqa: F401 - also re-exported
+from wbik.study.compare import TARGETS_RECORD
+from wbik.study.compare import targets_record
+from wbik.study.context import chunk_count
 from wbik.study.cpu_watch import threads_of
 from wbik.study.cpu_watch import usable_cores
 from wbik.study.cpu_watch import workers_for
-from wbik.study.definition import CaseSpec
-from wbik.study.definition import MethodSpec
-from wbik.study.definition import Study
-from wbik.study.definition import StudyDefinitionError
 from wbik.study.ownership import FolderLock
+from wbik.study.provenance import PROVENANCE
+from wbik.study.provenance import code_roots
+from wbik.study.provenance import provenance
 from wbik.study.sampling import PoseSet
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
+from wbik.study.spec import StudyDefinitionError
 
 BACKENDS = ("loky", "sequential", "dask")
 
@@ -165,6 +169,7 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
                     done_rows += stop - start
                 else:
                     tasks.append(_task(study, case, method, poses, chunk, start, stop))
+    store.write_json(output / TARGETS_RECORD, targets_record(study, output))
     return tasks, done_rows, total_rows
 
 
@@ -177,10 +182,11 @@ def _forget_if_changed(study: Study, case: CaseSpec, method: MethodSpec, output:
     if previous is not None and previous.get("fingerprint") != fingerprint:
         log(f"  {case.name}: {method.label} changed since its results were computed; recomputing it")
         shutil.rmtree(folder)
-    timeout_s, options = case_kind(case).budget(method.method, study.timeout_of(method), method.options)
-    store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__,
-                              "timeout_s": study.timeout_of(method), "solver_timeout_s": timeout_s,
-                              "solver_options": options})
+    kind, seconds = case_kind(case), study.timeout_of(method)
+    timeout_s, options = kind.budget(method.method, seconds, method.options)
+    store.write_json(record, {"fingerprint": fingerprint, "method": method.__dict__, "timeout_s": seconds,
+                              "solver_timeout_s": timeout_s, "solver_options": options,
+                              "budget": budget_kind(kind, method, seconds)})
 
 
 # -- running -----------------------------------------------------------------------------------
@@ -336,6 +342,8 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
                         store.write_chunk(path(output, task.case, task.label, task.chunk), rows)
                         bar.update(len(rows["pose"]))
     elapsed = time.perf_counter() - started
+    if tasks or curve_tasks or not (output / PROVENANCE).is_file():  # what made the rows there
+        store.write_json(output / PROVENANCE, provenance(study, [__name__]))
     previous = store.read_json(output / "run.json", {}) or {}
     store.write_json(output / "run.json", {
         "jobs": jobs, "backend": backend, "computed_tasks": len(tasks), "seconds": elapsed,
@@ -345,3 +353,8 @@ def _run_locked(study: Study, output: Path, lock: FolderLock, *, jobs: int, back
         "load_average_after": _load_average(),
         "total_seconds": elapsed + float(previous.get("total_seconds", 0.0)) if tasks else
         float(previous.get("total_seconds", elapsed))})
+
+
+def study_code_roots(study: Study) -> list[str]:
+    """The modules the code fingerprint of ``study``'s rows starts from (:func:`code_roots`, from here)."""
+    return code_roots(study, [__name__])

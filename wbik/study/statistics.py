@@ -1,9 +1,10 @@
 """Summary tables, confidence intervals and significance tests over a study's raw rows (numpy and
 scipy only).
 
-Per method: poses solved; time (ms) mean / median / p95 / min / max over all, solved and unsolved
-poses separately (the time to decide "no solution" is a figure of its own); per error axis over the
-*solved* poses: mean signed error, median / p95 / max of |e| and the fraction of exact zeros.
+Per method: poses solved; time per call (ms) mean / median / p95 / min / max over all, solved and
+unsolved poses separately (the time to decide "no solution" is a figure of its own); per error axis
+over the *solved* poses: mean signed error, median / p95 / max of |e| and the fraction of exact
+zeros; for a method with a batched path, its throughput (:func:`throughput_figures`).
 
 Intervals (95 %, :data:`CONFIDENCE`):
 
@@ -165,6 +166,22 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
             "rerun_exhausted": int(np.sum(rows["reruns"] >= MAX_RERUNS)) if "reruns" in rows else 0}
 
 
+def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
+    """Of a method with a batched path (rows with ``batch_success`` and ``batch_share_s``,
+    :func:`wbik.study.chain_targets.batch_columns`): poses per second of ``solve_many`` over the
+    case, the % it solved, and the poses where its verdict differs from the per-call ``solve``'s.
+    NaN (and 0) for a method without one; NaN throughput when a solve_many call raised."""
+    batch = rows.get("batch_success")
+    if batch is None:
+        return {"throughput_poses_per_s": math.nan, "throughput_percent_solved": math.nan,
+                "throughput_disagreements": 0}
+    seconds = float(np.sum(rows["batch_share_s"]))
+    batch = batch.astype(bool)
+    return {"throughput_poses_per_s": batch.size / seconds if seconds > 0 else math.nan,
+            "throughput_percent_solved": 100.0 * float(np.mean(batch)) if batch.size else math.nan,
+            "throughput_disagreements": int(np.sum(batch != rows["success"].astype(bool)))}
+
+
 def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
     """Flat summary of one method's rows (keys as in the summary.csv header)."""
     success = rows["success"].astype(bool)
@@ -179,6 +196,7 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
     }
     summary.update(_cpu_figures(rows))
+    summary.update(throughput_figures(rows))
     low, high = wilson_interval(solved, count)
     summary["percent_solved_ci_low"], summary["percent_solved_ci_high"] = 100.0 * low, 100.0 * high
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success), ("unsolved", ~success)):

@@ -55,7 +55,7 @@ from wbik.study.target_sets import target_stream
 
 if TYPE_CHECKING:
     from wbik.robot import Chain
-    from wbik.study.definition import Study
+    from wbik.study.spec import Study
 
 OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
 """The ``source`` of a target: (a) or (b) of the module docstring."""

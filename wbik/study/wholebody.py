@@ -58,10 +58,10 @@ from wbik.study.sampling import PoseSet
 if TYPE_CHECKING:
     from wbik.schema import Context
     from wbik.schema import Map
-    from wbik.study.definition import CaseSpec
-    from wbik.study.definition import MethodSpec
-    from wbik.study.definition import Study
     from wbik.study.metrics import AngleConvention
+    from wbik.study.spec import CaseSpec
+    from wbik.study.spec import MethodSpec
+    from wbik.study.spec import Study
 
 WHOLEBODY = "wholebody"
 
@@ -179,10 +179,21 @@ class WholeBodyCases(CaseKind):
                 ctx.says(join(path, key), "does not apply to a whole-body case")
         return {**item, "target": WHOLEBODY, "robot": robot, "name": item.get("name", scenario)}
 
+    def method_factory(self, method: str):
+        from wbik.solvers.method_registry import method_factory
+
+        return method_factory(method)
+
+    def code_roots(self, case: CaseSpec) -> list:
+        """The case's sampler."""
+        from wbik.wholebody.cases import CASE_REGISTRY
+
+        return [CASE_REGISTRY.get(case.scenario).sample]
+
     def method_option_schema(self, method: str) -> Map:
         from wbik.schema import option_schema
-        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-        return option_schema(IK_METHOD_REGISTRY.get(method).factory, leading=2)
+
+        return option_schema(self.method_factory(method), leading=2)
 
     def methods(self) -> dict[str, str]:
         from wbik.solvers.method_registry import methods

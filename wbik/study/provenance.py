@@ -1,0 +1,229 @@
+"""What made a study's rows: the wbik version and git commit, the machine, the command, and the code
+the rows come from (``provenance.json`` in the run folder, written by the run that computed rows; the
+report's head states it).
+
+The code is fingerprinted module by module (:func:`code_digests`). The roots are the study runner and
+report, each case's kind, the factory of each method (``CaseKind.method_factory``), the robot's builder
+and a kind's own roots (``CaseKind.code_roots``: a whole-body case's sampler); from them the import
+graph is followed through the source with ``ast`` (imports in functions included, ``TYPE_CHECKING``
+blocks not), and through the strings that bind code by name: "wbik.module:Class" (a robot's closed
+forms) and "wbik.kernels._name" (a compiled kernel, whose C source is hashed with the headers it
+includes). A module's digest hashes its syntax tree without docstrings (comments are not in it), so an
+edit to words alone changes nothing. Registries' lists of modules are not followed: a study depends on
+the methods it runs, not on every method there is.
+"""
+
+from __future__ import annotations
+
+import ast
+import hashlib
+import os
+import platform
+import re
+import shlex
+import subprocess
+import sys
+from collections.abc import Iterable
+from datetime import UTC
+from datetime import datetime
+from importlib import metadata
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from wbik.study.spec import Study
+
+PROVENANCE = "provenance.json"
+PACKAGE = Path(__file__).resolve().parents[1]
+"""The ``wbik`` package folder whose source is fingerprinted."""
+_KERNEL = re.compile(r"^wbik\.kernels\._\w+$")
+_INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.MULTILINE)
+
+
+def source_of(module: str) -> Path | None:
+    """The source file of the wbik module ``module`` (None if it is no module of the package)."""
+    parts = module.split(".")
+    if parts[0] != "wbik":
+        return None
+    base = PACKAGE.joinpath(*parts[1:])
+    for path in (base / "__init__.py", base.with_suffix(".py")):
+        if path.is_file():
+            return path
+    return None
+
+
+def _is_type_checking(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or \
+        (isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING")
+
+
+def references(tree: ast.AST) -> tuple[set[str], set[str]]:
+    """(wbik modules, kernel C files) a module's tree imports or binds by name (module docstring)."""
+    modules: set[str] = set()
+    kernels: set[str] = set()
+
+    def visit(node: ast.AST) -> None:
+        if isinstance(node, ast.If) and _is_type_checking(node):
+            for child in node.orelse:
+                visit(child)
+            return
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names = [f"{node.module}.{alias.name}" if source_of(f"{node.module}.{alias.name}")
+                     or _KERNEL.match(f"{node.module}.{alias.name}") else node.module for alias in node.names]
+        else:
+            names = []
+        for name in names:  # a compiled kernel (wbik.kernels._name) is its C source
+            if _KERNEL.match(name):
+                kernels.add(name.rsplit(".", 1)[1] + ".c")
+            else:
+                modules.add(name)
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(tree)
+    return {module for module in modules if source_of(module)}, kernels
+
+
+def without_docstrings(tree: ast.Module) -> ast.Module:
+    """``tree`` with every statement that is a lone string (docstrings, attribute docstrings) removed."""
+    for node in ast.walk(tree):
+        for name in ("body", "orelse", "finalbody"):
+            body = getattr(node, name, None)
+            if isinstance(body, list) and body and isinstance(body[0], ast.stmt):
+                kept = [statement for statement in body if not _is_string(statement)]
+                setattr(node, name, kept or ([ast.Pass()] if name == "body" else []))
+    return tree
+
+
+def _is_string(statement: ast.stmt) -> bool:
+    return isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant) and \
+        isinstance(statement.value.value, str)
+
+
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()[:16]
+
+
+def code_digests(roots) -> dict[str, str]:
+    """{module or kernel file: digest} of the modules reached from ``roots`` (module names) and the
+    kernels they name (module docstring)."""
+    digests: dict[str, str] = {}
+    pending, kernels = list(roots), set()
+    while pending:
+        module = pending.pop()
+        path = source_of(module)
+        if module in digests or path is None:
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        imported, named = references(tree)
+        digests[module] = _digest(ast.dump(without_docstrings(tree), include_attributes=False).encode())
+        pending.extend(imported)
+        kernels |= named
+    folder = PACKAGE / "kernels"
+    while kernels:
+        name = kernels.pop()
+        path = folder / name
+        if f"kernels/{name}" in digests or not path.is_file():
+            continue
+        text = path.read_text(encoding="utf-8")
+        digests[f"kernels/{name}"] = _digest(text.encode())
+        kernels.update(_INCLUDE.findall(text))
+    return dict(sorted(digests.items()))
+
+
+def code_roots(study: Study, machinery: Iterable[str]) -> list[str]:
+    """The modules the fingerprint of ``study``'s code starts from (module docstring): ``machinery`` (the
+    runner, which reaches the report), the robot registry, and per case its kind, the methods' solvers and
+    the robot's module."""
+    from wbik.models import robot_entries
+    from wbik.study.case_kinds import case_kind
+
+    objects: list = []
+    roots = set(machinery) | {robot_entries.__module__}
+    for case in study.cases:
+        kind = case_kind(case)
+        objects += [type(kind), *kind.code_roots(case)]
+        objects += [kind.method_factory(method.method) for method in study.methods]
+        entry = robot_entries().get(case.robot)
+        if entry is not None:
+            roots.add(entry.module().__name__)
+    roots.update(getattr(item, "__module__", None) or "" for item in objects if item is not None)
+    return sorted(root for root in roots if source_of(root))
+
+
+def code_fingerprint(digests: dict[str, str]) -> str:
+    """One digest of :func:`code_digests`'s."""
+    return _digest("\n".join(f"{name} {digest}" for name, digest in sorted(digests.items())).encode())
+
+
+def git_commit() -> str | None:
+    """The commit of the checkout the package runs from, "+ uncommitted changes" when tracked files
+    differ from it (None outside a git checkout)."""
+    root = PACKAGE.parent
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True, check=True,
+                              timeout=10).stdout.strip()
+
+    try:
+        commit = git("rev-parse", "HEAD")
+        dirty = git("status", "--porcelain", "--untracked-files=no")
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return commit + (" + uncommitted changes" if dirty else "")
+
+
+def cpu_model() -> str:
+    """The CPU's model name (Linux's /proc/cpuinfo, else what platform says)."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine() -> dict:
+    """The machine and the versions the rows were computed with."""
+    import numpy
+    import pinocchio
+
+    from wbik.study.cpu_watch import usable_cores
+
+    return {"cpu": cpu_model(), "cpu_count": os.cpu_count(), "usable_cores": usable_cores(),
+            "os": platform.platform(), "python": platform.python_version(), "numpy": numpy.__version__,
+            "pinocchio": pinocchio.__version__}
+
+
+def command_line() -> str:
+    """The command this process runs, as typed (``wbik study ...`` for the console script)."""
+    program = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
+    return shlex.join([program, *sys.argv[1:]])
+
+
+def provenance(study: Study, machinery: Iterable[str]) -> dict:
+    """The record of what made ``study``'s rows in this process (``machinery``: see :func:`code_roots`)."""
+    try:
+        version = metadata.version("wbik")
+    except metadata.PackageNotFoundError:  # a source tree on the path, not installed
+        version = "unknown"
+    digests = code_digests(code_roots(study, machinery))
+    return {"wbik": version, "commit": git_commit(), "machine": machine(), "command": command_line(),
+            "made": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+            "code_fingerprint": code_fingerprint(digests), "code": digests}
+
+
+def provenance_lines(record: dict) -> list[str]:
+    """The record in words, for the report's head."""
+    box = record.get("machine", {})
+    return [f"made by: {record.get('command')} ({record.get('made')})",
+            f"wbik {record.get('wbik')}, commit {record.get('commit') or 'unknown (not a git checkout)'}; "
+            f"code fingerprint {record.get('code_fingerprint')} ({len(record.get('code', {}))} modules and "
+            "kernels the rows come from, wbik.study.provenance)",
+            f"machine: {box.get('cpu')}, {box.get('cpu_count')} CPUs ({box.get('usable_cores')} usable), "
+            f"{box.get('os')}; Python {box.get('python')}, NumPy {box.get('numpy')}, Pinocchio "
+            f"{box.get('pinocchio')}"]
