@@ -22,8 +22,6 @@ from wbik.errors import UnsupportedError
 from wbik.kinematic_tree import longest_chain
 from wbik.models.erd import example_robot_names
 
-pytestmark = pytest.mark.xdist_group("robot_zoo")  # one worker builds the zoo's table once
-
 ROBOTS = example_robot_names()
 METHODS = sorted(wbik.methods())
 """The methods wbik declares (read before any test registers one of its own)."""
