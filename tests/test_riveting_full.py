@@ -18,11 +18,9 @@ from wbik.apps.riveting.report import run_task
 from wbik.apps.riveting.task_states import State
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+from riveting_full_run import CYCLE_STATES  # noqa: E402
+from riveting_full_run import TASK  # noqa: E402
 from riveting_full_run import failed_checks  # noqa: E402
-
-TASK = Path(__file__).resolve().parents[1] / "tasks" / "ur5_riveting.yaml"
-CYCLE_STATES = ["DETECTING_HOLE_POSE", "GOING_HOLE_GUESS", "MOVING_INTO_HOLE", "RIVETING",
-                "MOVING_OUT_FROM_HOLE", "GOING_RIVET_HOME"]
 
 
 def _spec(planners: tuple[str, ...], **changes) -> dict:
