@@ -5,6 +5,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+LONGEST_FILES = ("test_study_run.py", "test_browser.py", "test_notebooks.py", "test_riveting_full.py",
+                 "test_view_every_task.py", "test_bioloid_stairs.py", "test_installed.py",
+                 "test_study_protocols.py", "test_study_compare.py", "test_study_target_sets.py",
+                 "test_study_budget_curves.py", "test_docs.py", "test_hostile_input.py", "test_robot_zoo.py",
+                 "test_riveting_cycle.py", "test_robust_numerics.py", "test_scenario_kinds.py",
+                 "test_hostile_study_files.py", "test_study_ownership.py")
+"""The test files that take longest (10-60 s each on one core, measured), longest first."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The longest files first, the others in their order: each file runs on one worker (``--dist
+    loadfile``, pyproject.toml), and a long file handed out last would leave the other workers idle."""
+    rank = {name: index for index, name in enumerate(LONGEST_FILES)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: each file keeps its order
+
 
 @pytest.fixture
 def rng() -> np.random.Generator:

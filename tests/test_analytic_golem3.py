@@ -188,7 +188,6 @@ def test_position_only_prefers_solutions_near_q0(right):
         assert np.linalg.norm(result.q - q) < 1e-6
 
 
-@pytest.mark.heavy
 def test_position_only_10000_both_arms(robot):
     for name, seed in (("right_arm", 2017), ("left_arm", 2018)):
         solver = wbik.solver("analytic", robot, chain=name)

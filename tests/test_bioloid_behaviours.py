@@ -81,7 +81,6 @@ def test_walk_two_steps_advances_sixty_mm(robot):
     assert robot.frame_placement(final, "r_sole").translation == pytest.approx([0.06, -0.0385, 0.0], abs=1e-6)
 
 
-@pytest.mark.heavy
 def test_walk_four_steps_and_turn(robot):
     result = walk(robot, steps=4, turn_deg=20.0)
     assert_every_sample_balanced(robot, result)
@@ -115,6 +114,8 @@ def test_keyframe_replay_puts_the_lower_sole_on_the_ground(robot):
 @pytest.mark.parametrize("name", ["bioloid_step_forward", "bioloid_step_forward_right",
                                   "bioloid_walk_turn_in_place", "bioloid_walk_keyframes"])
 def test_scenario_files_run_and_pass(name, tmp_path):
+    """Their reports and servo tables; every task file, the turning walks included, also runs and is
+    judged as shipped in tests/test_view_every_task.py."""
     import yaml
 
     import wbik.apps.bioloid.scenarios  # noqa: F401  registers the kinds
@@ -133,15 +134,3 @@ def test_scenario_files_run_and_pass(name, tmp_path):
         assert len(lines) > 10
     assert yaml.safe_load((TASKS / f"{name}.yaml").read_text())["kind"].startswith("bioloid_")
 
-
-@pytest.mark.heavy
-@pytest.mark.parametrize("name", ["bioloid_walk_turn", "bioloid_walk_placo"])
-def test_heavy_scenario_files_run(name, tmp_path):
-    import wbik.apps.bioloid.scenarios  # noqa: F401
-    from wbik.scenarios import load_scenario
-    from wbik.scenarios import run_scenario
-
-    spec = load_scenario(TASKS / f"{name}.yaml")
-    if spec.get("export", {}).get("servo_csv"):
-        spec["export"]["servo_csv"] = str(tmp_path / "servos.csv")
-    assert run_scenario(spec)["passed"]

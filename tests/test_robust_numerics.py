@@ -424,8 +424,8 @@ def test_numerics_under_two_openblas_core_types():
     for core in ("Nehalem", "Haswell"):
         env = dict(os.environ, OPENBLAS_CORETYPE=core, **{CHILD: "1"})
         children[core] = subprocess.Popen(
-            [sys.executable, "-m", "pytest", "-q", "-m", "numerics", "-p", "no:cacheprovider",
-             *NUMERICS_FILES],
+            [sys.executable, "-m", "pytest", "-q", "-n", "0", "-m", "numerics", "-p", "no:cacheprovider",
+             *NUMERICS_FILES],  # -n 0: the two children already run side by side
             cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     for core, child in children.items():
         output, _ = child.communicate(timeout=600)
