@@ -83,6 +83,17 @@ def test_kdl_agrees_with_a_direct_pykdl_call(rng):
     assert compared >= 10
 
 
+def _unstarved(solver, target, q0, attempts: int = 3):
+    """A wall-clock method's answer, solved again when a failure had less CPU time than its budget (the
+    machine starved it; the study's rule, wbik.study.cpu_watch)."""
+    for _ in range(attempts):
+        start = time.thread_time()
+        result = solver.solve(target, q0)
+        if result.success or time.thread_time() - start >= 0.9 * solver.timeout_s:
+            break
+    return result
+
+
 @pytest.mark.parametrize(("robot_name", "chain_name"),
                          [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"),
                           ("bioloid", "right_leg"), ("panda", "arm")])
@@ -91,18 +102,19 @@ def test_solutions_pass_fk_check_and_limits(robot_name, chain_name, rng):
     single = wbik.solver("kdl", robot(robot_name), chain=chain_name, tolerances=tolerances)
     restarts = wbik.solver("kdl_restarts", robot(robot_name), chain=chain_name, tolerances=tolerances)
     chain = single.chain
-    counts = {"kdl": 0, "kdl_restarts": 0}
+    solved = {"kdl": set(), "kdl_restarts": set()}
     # 200 poses for kdl; 50 for kdl_restarts, whose failures each use the full 5 ms budget
     for index, q in enumerate(chain.random(rng, 200)):
         target = chain.fk(q)
         for solver in (single, restarts) if index < 50 else (single,):
-            result = solver.solve(target, chain.mid_range)
+            result = _unstarved(solver, target, chain.mid_range)
             assert chain.in_limits(result.q, tolerance=0.0)
             if result.success:
-                counts[solver.name] += 1
+                solved[solver.name].add(index)
                 assert np.linalg.norm(chain.fk(result.q).translation - target.translation) <= 1e-5
-    assert counts["kdl"] >= 0.15 * 200  # measured 27-92 % from mid-range
-    assert counts["kdl_restarts"] >= counts["kdl"] * 50 / 200
+    assert len(solved["kdl"]) >= 0.15 * 200  # measured 27-92 % from mid-range
+    # the restarts begin with the single attempt from the same seed: they solve what it solves
+    assert {i for i in solved["kdl"] if i < 50} <= solved["kdl_restarts"]
 
 
 def test_restarts_honour_the_budget():
@@ -115,9 +127,12 @@ def test_restarts_honour_the_budget():
     single.solve(unreachable)
     budget = max(0.01, 10.0 * (time.perf_counter() - start))
     solver = wbik.solver("kdl_restarts", robot("ur5"), chain="arm", timeout_s=budget)
-    start = time.perf_counter()
-    result = solver.solve(unreachable)
-    assert time.perf_counter() - start < budget + 0.05
+    for _ in range(3):  # a call the machine starved of CPU (less than its budget) is made again
+        start, cpu = time.perf_counter(), time.thread_time()
+        result = solver.solve(unreachable)
+        assert time.perf_counter() - start < budget + 0.05
+        if result.extra["attempts"] >= 2 or time.thread_time() - cpu >= 0.9 * budget:
+            break
     assert not result.success and "time budget" in result.reason and result.extra["attempts"] >= 2
 
 
