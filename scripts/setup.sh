@@ -28,7 +28,7 @@ if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -c requirements.lock -e ".[dev]"
+.venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
 # /usr/lib/python3/dist-packages: a shim folder holding only PyKDL, added through a .pth file.
@@ -39,7 +39,10 @@ if [ -n "$kdl_so" ]; then
     ln -sf "$kdl_so" .venv/pykdl-shim/
     echo "$(pwd)/.venv/pykdl-shim" > "$site/wbik-pykdl.pth"
 fi
-if ! .venv/bin/python -c "from wbik.solvers.analytic import ur_kernel; raise SystemExit(not ur_kernel.built())"; then
+# the notebooks: each notebooks/NN_name.py (a jupytext percent script, the tested source) is paired with the
+# NN_name.ipynb that JupyterLab opens (notebooks/jupytext.toml); saving either one updates the other
+.venv/bin/jupytext --quiet --sync notebooks/[0-9][0-9]_*.py
+if ! .venv/bin/python -c "from wbik.kernels.twins import KERNELS; raise SystemExit(not all(k.extension for k in KERNELS))"; then
     echo "setup: the optional C kernels were not built (no C compiler or Python headers): wbik runs their" >&2
     echo "setup: pure-Python twins (slower; solve gives the same bits); install gcc and python3-dev, then" >&2
     echo "setup: run this again." >&2

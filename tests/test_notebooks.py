@@ -9,9 +9,8 @@ fails. The notebooks assert the seed numbers they reproduce, so an executed note
 
 The notebooks are plain sources: jupytext percent scripts ``notebooks/NN_name.py`` (cells start at
 ``# %%``, markdown cells at ``# %% [markdown]``), linted by ruff like the rest of the code and
-converted to notebooks here with jupytext. No .ipynb (with or without outputs) is committed; open a
-script as a notebook with ``jupytext --to ipynb notebooks/01_quickstart.py`` or Jupyter's jupytext
-extension.
+converted to notebooks here with jupytext. No .ipynb is committed: the set-up pairs each script with
+the .ipynb JupyterLab opens (``notebooks/jupytext.toml``), and saving either updates the other.
 """
 
 from __future__ import annotations
@@ -92,3 +91,21 @@ def test_notebook_runs_top_to_bottom(path: Path, kernel_specs: KernelSpecManager
     errors = [output for cell in code_cells for output in cell.outputs if output.output_type == "error"]
     assert not errors
 
+
+def test_every_notebook_opens_in_jupyterlab_as_a_notebook_paired_with_its_script():
+    """After the README's set-up, ``.venv/bin/jupyter lab notebooks/`` shows each script as a notebook:
+    its paired .ipynb holds the script's cells, and JupyterLab runs jupytext's extension (which saves a
+    notebook back to its script)."""
+    import subprocess
+
+    bin_folder = Path(sys.executable).parent
+    for script in _notebooks():
+        paired = script.with_suffix(".ipynb")
+        assert paired.is_file(), f"{paired.name} missing: run bash scripts/setup.sh"
+        source, notebook = jupytext.read(script), jupytext.read(paired)
+        assert [(c.cell_type, c.source) for c in source.cells] == \
+            [(c.cell_type, c.source) for c in notebook.cells], f"{paired.name} differs from {script.name}"
+    extensions = subprocess.run([str(bin_folder / "jupyter"), "server", "extension", "list"],
+                                capture_output=True, text=True, check=True)
+    found = ANSI_ESCAPE.sub("", extensions.stdout + extensions.stderr)
+    assert re.search(r"jupyterlab\s+enabled", found) and re.search(r"jupyterlab_jupytext\s+enabled", found)

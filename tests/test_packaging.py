@@ -1,0 +1,70 @@
+"""The package metadata gives compatible ranges, the lock the exact set: pyproject.toml's dependencies and
+extras are ranges (no ``==``), each peer is an extra and ``all`` holds every one, and requirements.lock
+(what the README's set-up installs) satisfies every range."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
+from packaging.version import Version
+
+ROOT = Path(__file__).resolve().parents[1]
+PEERS = {"placo": "placo", "mink": "mink", "pink": "pin-pink", "eaik": "eaik", "ikgeo": "ik-geo",
+         "tracik": "pytracik"}
+
+
+def _project() -> dict:
+    return tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+
+
+def _lock() -> dict[str, Version]:
+    pins = {}
+    for line in (ROOT / "requirements.lock").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            name, _, version = line.partition("==")
+            pins[canonicalize_name(name)] = Version(version.strip())
+    return pins
+
+
+def _requirements() -> list[tuple[str, Requirement]]:
+    project = _project()
+    found = [("dependencies", Requirement(text)) for text in project["dependencies"]]
+    for extra, texts in project["optional-dependencies"].items():
+        found += [(f"extra {extra}", Requirement(text)) for text in texts]
+    return found
+
+
+def test_every_requirement_is_a_range_with_a_floor_and_a_ceiling():
+    for where, requirement in _requirements():
+        if canonicalize_name(requirement.name) == "wbik":
+            continue
+        operators = {spec.operator for spec in requirement.specifier}
+        assert "==" not in operators and "===" not in operators, f"{where}: {requirement} pins one version"
+        assert ">=" in operators and "<" in operators, f"{where}: {requirement} needs a floor and a ceiling"
+
+
+def test_the_lock_satisfies_every_range():
+    pins = _lock()
+    for where, requirement in _requirements():
+        name = canonicalize_name(requirement.name)
+        if name == "wbik":
+            continue
+        assert name in pins, f"{where}: {requirement.name} is not in requirements.lock"
+        assert requirement.specifier.contains(pins[name], prereleases=True), \
+            f"{where}: requirements.lock has {requirement.name}=={pins[name]}, outside {requirement.specifier}"
+
+
+def test_each_peer_is_an_extra_outside_the_core_and_all_holds_every_extra():
+    project = _project()
+    core = {canonicalize_name(Requirement(text).name) for text in project["dependencies"]}
+    extras = project["optional-dependencies"]
+    for extra, package in PEERS.items():
+        assert canonicalize_name(package) in {canonicalize_name(Requirement(t).name) for t in extras[extra]}
+        assert canonicalize_name(package) not in core, f"{package} is a peer: an extra, not a dependency"
+    everything = Requirement(extras["all"][0])
+    assert canonicalize_name(everything.name) == "wbik"
+    assert everything.extras == set(extras) - {"all", "dev"}
+    assert "all" in (ROOT / "scripts" / "setup.sh").read_text()  # the README's set-up installs them all
