@@ -62,7 +62,8 @@ def test_each_peer_is_an_extra_outside_the_core_and_all_holds_every_extra():
     core = {canonicalize_name(Requirement(text).name) for text in project["dependencies"]}
     extras = project["optional-dependencies"]
     for extra, package in PEERS.items():
-        assert canonicalize_name(package) in {canonicalize_name(Requirement(t).name) for t in extras[extra]}
+        names = {canonicalize_name(Requirement(text).name) for text in extras[extra]}
+        assert canonicalize_name(package) in names
         assert canonicalize_name(package) not in core, f"{package} is a peer: an extra, not a dependency"
     everything = Requirement(extras["all"][0])
     assert canonicalize_name(everything.name) == "wbik"
