@@ -53,8 +53,9 @@ def test_the_lock_satisfies_every_range():
         if name == "wbik":
             continue
         assert name in pins, f"{where}: {requirement.name} is not in requirements.lock"
-        assert requirement.specifier.contains(pins[name], prereleases=True), \
-            f"{where}: requirements.lock has {requirement.name}=={pins[name]}, outside {requirement.specifier}"
+        pinned = pins[name]
+        assert requirement.specifier.contains(pinned, prereleases=True), \
+            f"{where}: requirements.lock has {requirement.name}=={pinned}, outside {requirement.specifier}"
 
 
 def test_each_peer_is_an_extra_outside_the_core_and_all_holds_every_extra():
