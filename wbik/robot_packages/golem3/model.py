@@ -48,13 +48,13 @@ from wbik.dh import trans
 from wbik.dh import urdf_document
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
-from wbik.robot import model_from_urdf_text
 from wbik.robot_packages.golem3.closed_form import LEFT_JOINTS
 from wbik.robot_packages.golem3.closed_form import RIGHT_JOINTS
 from wbik.robot_packages.golem3.closed_form import Golem3Facts
 from wbik.robot_packages.golem3.closed_form import golem3_pose
 from wbik.robot_packages.golem3.closed_form import golem3_position
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
+from wbik.urdf import parse_urdf
 
 # -- thesis geometry (golem3.md) ----------------------------------------------------------------
 L1 = 0.1225
@@ -240,7 +240,7 @@ def build() -> Robot:
         ChainSpec("right_arm_lift", "base_link", "r_eef", ("mb", "m0", *RIGHT_JOINTS),
                   "torso lift + chest yaw + right arm, in base_link (7 DOF, redundant)"),
     ]
-    model = model_from_urdf_text(text, source="golem3")
+    model = parse_urdf(text, source="golem3").model
     nominal = np.zeros(model.nq)
     for joint_names in (("m0", *RIGHT_JOINTS), ("m0", *LEFT_JOINTS)):
         for name, value in zip(joint_names, NOMINAL_ARM, strict=True):
