@@ -1,11 +1,7 @@
-"""The 3-DOF articulated arm of seed 001 (Newton-Raphson course project).
-
-Standard DH (arm3r.md): a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0). Lengths are
-parameters (default 3, 2, 2 as in the worked example; the seed gives no unit, we read metres).
-The seed has no joint limits; we use +-pi on every joint.
-
-:func:`build` writes the URDF text from the table; scripts/export_urdf.py writes the default lengths'
-table into this package's ``arm3r.urdf`` (:data:`URDF_PATH`), for tools that read a file.
+"""The 3-DOF articulated arm of seed 001 (Newton-Raphson course project), standard DH (arm3r.md):
+a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0), lengths as parameters (default 3, 2, 2 m, the
+worked example's), +-pi on every joint (the seed has none). scripts/export_urdf.py writes the default
+table into ``arm3r.urdf`` (:data:`URDF_PATH`).
 """
 
 from __future__ import annotations
@@ -25,10 +21,7 @@ from wbik.robot_packages.arm3r.closed_form import arm3r_position
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
 URDF_PATH = description_file("arm3r.urdf")
-"""The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
-
 CLOSED_FORMS = {("arm", "position"): arm3r_position}
-"""The yaw + planar 2R position closed form (see that module)."""
 
 
 def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
