@@ -21,9 +21,7 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownFrameError
 from wbik.errors import UnsupportedError
-
-__all__ = ["CollisionModel", "Obstacle", "PairDistance", "Primitive", "box", "capsule",
-           "robot_collision_model", "sphere"]
+from wbik.kinematic_tree import frame_index
 
 SHAPES = ("capsule", "box", "sphere")
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -85,10 +83,6 @@ class PairDistance:
     joint_a: int
     joint_b: int
 
-    def as_dict(self) -> dict:
-        return {"pair": [self.a, self.b], "distance": float(self.distance),
-                "point_a": self.point_a.tolist(), "point_b": self.point_b.tolist()}
-
 
 def _finite(values, count: int, what: str, positive: bool = False) -> np.ndarray:
     array = np.asarray(values, dtype=float).reshape(-1) if not isinstance(values, str) else np.array([])
@@ -140,16 +134,11 @@ class CollisionModel:
             raise RobotDescriptionError(f"two collision geometries are named {obj.name!r}")
         self.geometry.addGeometryObject(obj)
 
-    def _frame(self, name: str) -> int:
-        if not self.model.existFrame(name):
-            raise UnknownFrameError(name, [f.name for f in self.model.frames])
-        return self.model.getFrameId(name)
-
     def _point(self, point: Point, frame_id: int, what: str) -> np.ndarray:
         """A capsule end in the frame ``frame_id``: a point, or the origin of a frame fixed in it."""
         if not isinstance(point, str):
             return _finite(point, 3, what)
-        other = self._frame(point)
+        other = frame_index(self.model, point)
         local = self.data.oMf[frame_id].actInv(self.data.oMf[other].translation)
         data = self.model.createData()
         q = pin.integrate(self.model, self.reference, np.full(self.model.nv, 0.37))
@@ -166,7 +155,7 @@ class CollisionModel:
         if primitive.shape not in SHAPES:
             raise RobotDescriptionError(f"{what}: shape {primitive.shape!r} is not one of "
                                         f"{', '.join(SHAPES)}")
-        frame_id = self._frame(primitive.frame)
+        frame_id = frame_index(self.model, primitive.frame)
         frame = self.model.frames[frame_id]
         rotation = pin.rpy.rpyToMatrix(*_finite(primitive.rpy, 3, f"{what} rpy"))
         center = _finite(primitive.xyz, 3, f"{what} xyz")
@@ -190,11 +179,8 @@ class CollisionModel:
         placement = frame.placement * pin.SE3(rotation, center)
         return pin.GeometryObject(primitive.name, frame.parentJoint, frame_id, placement, shape)
 
-    def _adjacent(self, joint_a: int, joint_b: int) -> bool:
-        return self.model.parents[joint_a] == joint_b or self.model.parents[joint_b] == joint_a
-
     def _default_pairs(self, self_collision: bool, contact_distance: float) -> list[tuple[str, str]]:
-        objects = self.geometry.geometryObjects
+        objects, parents = self.geometry.geometryObjects, self.model.parents
         candidates = []
         for i in range(len(objects)):
             for j in range(i + 1, len(objects)):
@@ -205,13 +191,12 @@ class CollisionModel:
                     self.excluded[key] = "same joint"
                 elif robot_pair and not self_collision:
                     self.excluded[key] = "self-collision off"
-                elif robot_pair and self._adjacent(a.parentJoint, b.parentJoint):
+                elif robot_pair and (parents[a.parentJoint] == b.parentJoint
+                                     or parents[b.parentJoint] == a.parentJoint):
                     self.excluded[key] = "adjacent links"
                 else:
                     candidates.append((i, j))
-        probe = pin.GeometryModel()
-        for obj in objects:
-            probe.addGeometryObject(obj)
+        probe = self.geometry.copy()  # no pairs yet
         for i, j in candidates:
             probe.addCollisionPair(pin.CollisionPair(i, j))
         probe_data = pin.GeometryData(probe)

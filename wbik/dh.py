@@ -134,14 +134,6 @@ def _fmt(value: float) -> str:
     return repr(float(value))
 
 
-def origin_xml(transform: np.ndarray) -> str:
-    """<origin> of a 4x4 transform; URDF rpy is R = Rz(yaw) Ry(pitch) Rx(roll), as pin.rpy."""
-    xyz = transform[:3, 3]
-    rpy = pin.rpy.matrixToRpy(transform[:3, :3])
-    return (f'<origin xyz="{_fmt(xyz[0])} {_fmt(xyz[1])} {_fmt(xyz[2])}" '
-            f'rpy="{_fmt(rpy[0])} {_fmt(rpy[1])} {_fmt(rpy[2])}"/>')
-
-
 def link_xml(name: str, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
              inertia_diagonal: Sequence[float] | None = None) -> str:
     """A <link>; with mass > 0 it carries an inertial (a small solid by default)."""
@@ -156,9 +148,12 @@ def link_xml(name: str, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
 def joint_xml(name: str, kind: str, parent: str, child: str, origin: np.ndarray,
               axis: Sequence[float] = (0.0, 0.0, 1.0),
               limits: tuple[float, float, float, float] | None = None) -> str:
-    """A <joint>; ``limits`` = (lower, upper, velocity, effort) for revolute/prismatic joints."""
-    xml = [f'<joint name="{name}" type="{kind}">', f'<parent link="{parent}"/>',
-           f'<child link="{child}"/>', origin_xml(origin)]
+    """A <joint> at the 4x4 ``origin`` (URDF rpy: R = Rz(yaw) Ry(pitch) Rx(roll), as pin.rpy); ``limits`` =
+    (lower, upper, velocity, effort) for revolute/prismatic joints."""
+    xyz, rpy = origin[:3, 3], pin.rpy.matrixToRpy(origin[:3, :3])
+    xml = [f'<joint name="{name}" type="{kind}">', f'<parent link="{parent}"/>', f'<child link="{child}"/>',
+           f'<origin xyz="{_fmt(xyz[0])} {_fmt(xyz[1])} {_fmt(xyz[2])}" '
+           f'rpy="{_fmt(rpy[0])} {_fmt(rpy[1])} {_fmt(rpy[2])}"/>']
     if kind != "fixed":
         xml.append(f'<axis xyz="{_fmt(axis[0])} {_fmt(axis[1])} {_fmt(axis[2])}"/>')
         lower, upper, velocity, effort = limits or (-math.pi, math.pi, 1.0, 10.0)

@@ -103,11 +103,8 @@ class Chain:
     """
 
     def __init__(self, robot: Robot, spec: ChainSpec):
-        self.robot = robot
-        self.spec = spec
-        self.name = spec.name
-        self.base_frame = spec.base_frame
-        self.tip_frame = spec.tip_frame
+        self.robot, self.spec = robot, spec
+        self.name, self.base_frame, self.tip_frame = spec.name, spec.base_frame, spec.tip_frame
         full = robot.model
         for frame in (spec.base_frame, spec.tip_frame):
             robot.frame_id(frame)  # raises UnknownFrameError with the known names
@@ -335,14 +332,13 @@ class Robot:
         return self.urdf_path
 
     def __repr__(self) -> str:
-        return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
-                f"chains={list(self.chains)})")
+        return f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, chains={list(self.chains)})"
 
     data = PerThreadData()
 
     @property
     def has_floating_base(self) -> bool:
-        return self.model.joints[1].shortname() == "JointModelFreeFlyer" if self.model.njoints > 1 else False
+        return self.model.njoints > 1 and self.model.joints[1].shortname() == "JointModelFreeFlyer"
 
     @cached_property
     def frame_names(self) -> list[str]:

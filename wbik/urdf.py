@@ -22,17 +22,10 @@ from wbik.errors import RobotDescriptionError
 CONTINUOUS_LIMIT = math.pi
 """A continuous joint's range is [-CONTINUOUS_LIMIT, CONTINUOUS_LIMIT] (rad)."""
 
-_BOUNDED_OF = {
-    "JointModelRUBX": pin.JointModelRX,
-    "JointModelRUBY": pin.JointModelRY,
-    "JointModelRUBZ": pin.JointModelRZ,
-}
-_SUFFIX = {
-    pin.FrameType.JOINT: "joint",
-    pin.FrameType.FIXED_JOINT: "joint",
-    pin.FrameType.OP_FRAME: "frame",
-    pin.FrameType.SENSOR: "sensor",
-}
+_BOUNDED_OF = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY,
+               "JointModelRUBZ": pin.JointModelRZ}
+_SUFFIX = {pin.FrameType.JOINT: "joint", pin.FrameType.FIXED_JOINT: "joint", pin.FrameType.OP_FRAME: "frame",
+           pin.FrameType.SENSOR: "sensor"}
 
 
 @dataclass(frozen=True)
@@ -61,13 +54,6 @@ def is_unbounded_revolute(joint) -> bool:
     """Whether a Pinocchio joint model is an unbounded revolute joint (cos, sin)."""
     name = joint.shortname()
     return name in _BOUNDED_OF or name == "JointModelRevoluteUnboundedUnaligned"
-
-
-def _bounded_revolute(joint):
-    name = joint.shortname()
-    if name in _BOUNDED_OF:
-        return _BOUNDED_OF[name]()
-    return pin.JointModelRevoluteUnaligned(np.asarray(joint.extract().axis, dtype=float))
 
 
 def _unique_frame_names(model: pin.Model) -> list[str]:
@@ -110,8 +96,10 @@ def angle_model(model: pin.Model) -> ParsedModel:
         joint = model.joints[joint_id]
         q_slice = slice(joint.idx_q, joint.idx_q + joint.nq)
         v_slice = slice(joint.idx_v, joint.idx_v + joint.nv)
-        if joint_id in unbounded:
-            new_joint = _bounded_revolute(joint)
+        if joint_id in unbounded:  # the bounded revolute joint about the same axis
+            bounded = _BOUNDED_OF.get(joint.shortname())
+            new_joint = bounded() if bounded else pin.JointModelRevoluteUnaligned(
+                np.asarray(joint.extract().axis, dtype=float))
             lower, upper = np.array([-CONTINUOUS_LIMIT]), np.array([CONTINUOUS_LIMIT])
         else:
             new_joint = joint

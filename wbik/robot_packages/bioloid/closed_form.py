@@ -262,11 +262,6 @@ def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.n
     return q_all, np.repeat(reachable[:, None], len(solutions), axis=1)
 
 
-def _chain_side(chain) -> str:
-    first = chain.joint_names[0]
-    return "l" if first.startswith("l_") else "r"
-
-
 class ArmPosition(ClosedForm):
     """Hand position of ``right_arm``/``left_arm`` (chest frame): 4 exact branches, thesis first."""
 
@@ -274,7 +269,7 @@ class ArmPosition(ClosedForm):
 
     def __init__(self, chain):
         super().__init__(chain)
-        self.side = _chain_side(chain)
+        self.side = "l" if chain.joint_names[0].startswith("l_") else "r"
         self.lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
 
     def branches(self, positions, rotations, q0):

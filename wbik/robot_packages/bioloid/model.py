@@ -86,11 +86,6 @@ def _vec(values) -> str:
     return " ".join(f"{v:.6g}" if abs(v) > 1e-15 else "0" for v in values)
 
 
-def _box_inertia(mass: float, size: tuple[float, float, float]) -> tuple[float, float, float]:
-    x, y, z = size
-    return (mass * (y * y + z * z) / 12, mass * (x * x + z * z) / 12, mass * (x * x + y * y) / 12)
-
-
 class _UrdfWriter:
     def __init__(self) -> None:
         self.lines: list[str] = []
@@ -105,7 +100,8 @@ class _UrdfWriter:
         if mass <= 0.0:
             self.lines.append(f'  <link name="{name}"/>')
             return
-        ixx, iyy, izz = _box_inertia(mass, size)
+        x, y, z = size  # a box's inertia
+        ixx, iyy, izz = mass * (y * y + z * z) / 12, mass * (x * x + z * z) / 12, mass * (x * x + y * y) / 12
         if note:
             self.comment(note)
         self.lines += [

@@ -97,11 +97,6 @@ def arm_dh_rows() -> list[DHJoint]:
     ]
 
 
-def arm_tool() -> np.ndarray:
-    """Last link -> gripper centre: the remaining 0.2 m of l6 (y after Post_6 = Rx(90 deg)), then row 6'."""
-    return trans(y=WRIST_TO_EEF) @ rot_z(math.pi / 2)
-
-
 def _inertial_link(name: str, mass: float, com: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> str:
     """A link of ``mass`` (kg) as a solid of about 10 cm: I ~ m (0.1 m)^2 / 6."""
     moment = mass * 0.01 / 6.0
@@ -137,7 +132,8 @@ def _arm_elements(side: str) -> list[str]:
         parent = child
     eef = f"{side}_eef"
     parts.append(link_xml(eef, 0.0))
-    parts.append(joint_xml(f"{eef}_fixed", "fixed", parent, eef, place(carry @ arm_tool())))
+    tool = trans(y=WRIST_TO_EEF) @ rot_z(math.pi / 2)  # the rest of l6 (y after Post_6), then row 6'
+    parts.append(joint_xml(f"{eef}_fixed", "fixed", parent, eef, place(carry @ tool)))
     fingers = ("m15", "m17") if side == "r" else ("m25", "m27")
     for finger, sign in zip(fingers, (1.0, -1.0), strict=True):
         link = f"{side}_finger_{finger}_link"
