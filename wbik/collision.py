@@ -22,6 +22,7 @@ from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownFrameError
 from wbik.errors import UnsupportedError
 from wbik.kinematic_tree import frame_index
+from wbik.models import robot_entries
 
 SHAPES = ("capsule", "box", "sphere")
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -258,8 +259,6 @@ def robot_collision_model(robot, *, self_collision: bool = True, robot_obstacles
                           contact_distance: float = 0.0) -> CollisionModel:
     """The collision model of a built-in robot: its ``collision_primitives(robot)``, its
     ``collision_obstacles()`` when ``robot_obstacles``, and ``obstacles``; pairs chosen at the nominal."""
-    from wbik.models import robot_entries
-
     entry = robot_entries().get(robot.name)
     if entry is None:
         raise UnsupportedError(f"robot {robot.name!r} has no collision primitives; pass a list of "

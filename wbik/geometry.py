@@ -47,12 +47,10 @@ def rot_x(angle) -> np.ndarray:
 
 
 def rot_y(angle) -> np.ndarray:
-    """Rotation about y by ``angle``."""
     return _rotation(angle, (("c", "0", "s"), ("0", "1", "0"), ("-s", "0", "c")))
 
 
 def rot_z(angle) -> np.ndarray:
-    """Rotation about z by ``angle``."""
     return _rotation(angle, (("c", "-s", "0"), ("s", "c", "0"), ("0", "0", "1")))
 
 

@@ -1,12 +1,8 @@
-"""The robot in MuJoCo (4.0) for mink's IK, from the robot's own URDF text.
-
-MuJoCo reads the URDF (``MjSpec.from_string``) without its visual, collision and mimic elements (wbik
-locks mimic joints), with the inertial ones only for ``masses``, and with a ``<mujoco><compiler>``
-extension: ``fusestatic="false"`` keeps every link a body (a tool frame behind a fixed joint too), mass
-and inertia bounds let massless links move. A floating base gets a free joint on the root link and every
-frame of wbik's model a site ``wbik:FRAME`` on the link that carries it. MuJoCo's sites (and CoM) must
-equal wbik's to 1e-9 (m, rad) on seeded configurations, else UnsupportedError; its warnings are kept in
-``MuJoCoBody.warnings``, not printed nor appended to MUJOCO_LOG.TXT.
+"""The robot in MuJoCo (4.0) for mink, from its own URDF (docs/guide/wholebody.md): no visual, collision
+or mimic elements (inertial ones only with ``masses``), a ``<mujoco><compiler>`` extension keeping every
+link a body, a free joint on a floating base's root link, a site ``wbik:FRAME`` per frame of wbik's model;
+refused (UnsupportedError) unless its sites and CoM equal wbik's to 1e-9 (m, rad). MuJoCo's warnings go
+to ``MuJoCoBody.warnings``, not to the terminal nor MUJOCO_LOG.TXT.
 """
 
 from __future__ import annotations

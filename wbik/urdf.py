@@ -1,10 +1,6 @@
-"""From URDF text to the Pinocchio model wbik works on: one angle per revolute joint, unique frame names.
-
-Pinocchio parses a ``continuous`` joint as (cos, sin); :func:`angle_model` replaces it by the revolute
-joint about the same axis limited to [-pi, pi] (ids, nv and velocity quantities unchanged) and returns
-the continuous joints' names, which methods that can treat as unbounded. Frames sharing a link's name
-(a joint named like a link) get their kind's suffix (``NAME_joint``). :func:`mimic_joints` reads the
-URDF's ``<mimic>`` joints, which chains lock.
+"""From URDF text to wbik's Pinocchio model (docs/guide/robots.md): a continuous joint, which Pinocchio
+parses as (cos, sin), becomes the revolute joint about its axis limited to [-pi, pi] (ids and nv kept);
+frames sharing a link's name get their kind's suffix (``NAME_joint``); ``<mimic>`` joints are read.
 """
 
 from __future__ import annotations

@@ -1,17 +1,9 @@
 """The per-call choice of the ``eaik`` method in two twins with the same bits: :func:`order_python` and
-:func:`choose_python` here, and ``wbik.kernels._eaik`` (``_eaik.c``, expression by expression).
-
-* ``order(params, branches, reference, out) -> count``: EAIK's branches (K, n) wrapped into the limits
-  nearest to ``reference``, written into ``out`` nearest first, by branch and bound: a branch's lower
-  bound is sum_i (2 pi)^2 (t_i - rint(t_i))^2, t = (q - r) / 2 pi (+inf for a non-finite joint); before
-  each branch in the order of the bounds, the wrapped branches at most its bound less ``params[0]`` away
-  come out, nearest first (ties: bounds' order).
-* ``choose(params, branches, reference, target, out) -> 0 or 1``: the first of those rows whose FK
-  (:func:`poe_python`) passes the screen |p - p*| <= tolerance and acos(clip((trace(R*^T R) - 1) / 2))
-  <= tolerance on the target (4 x 4); ``out`` gets its joints (n), tip pose (16) and the batched check's
-  errors (8, :func:`pose_errors_python`).
-
-:func:`parameters` packs what both read (float64 values in bytes).
+:func:`choose_python` here, ``wbik.kernels._eaik`` in C (docs/benchmarks.md). ``order`` writes EAIK's
+branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch and
+bound (bound: :func:`bound_python`; a wrapped branch comes out once at most the next bound less
+``params[0]`` away; ties in the bounds' order) and returns how many; ``choose`` writes the first of them
+whose FK (:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
-"""wbik's compiled kernels and their Python twins, and the switch between them.
-
-Six optional C extensions (``_<name>.c`` here, built by ``setup.py`` where a C compiler exists) each do a
-piece of per-call arithmetic in C; a C function writes into arrays the caller passes. Same bits as their
-twins: ``pose``, ``eaik`` (same IEEE operations, no FMA), ``ur_type`` and ``stacked_planar`` where NumPy's
-arctan2 and arccos are libm's; to rounding: ``qp_rows`` and ``lm_trial``. ``WBIK_PURE_PYTHON=1`` runs
-every Python twin, a comma-separated list of kernel names (``eaik,pose``) those only.
+"""wbik's compiled kernels (``_<name>.c`` here, built by ``setup.py`` where a C compiler exists), their
+Python twins and the switch between them: ``WBIK_PURE_PYTHON=1`` runs every Python twin, a comma-separated
+list of kernel names (``eaik,pose``) those only (docs/benchmarks.md).
 """
 
 from __future__ import annotations

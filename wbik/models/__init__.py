@@ -44,7 +44,6 @@ ROBOT_REGISTRY: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
 
 
 def robot_entries() -> dict[str, RobotEntry]:
-    """Every robot known by name."""
     return ROBOT_REGISTRY.entries()
 
 

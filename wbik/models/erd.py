@@ -14,7 +14,6 @@ from wbik.errors import UnknownRobotError
 
 
 def _robots_loader():
-    """example-robot-data's loader module."""
     try:
         from example_robot_data import robots_loader
     except ImportError as exc:  # pragma: no cover - a pinned dependency

@@ -13,11 +13,13 @@ import numpy as np
 from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import DHTable
+from wbik.errors import RobotDescriptionError
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages.arm3r.closed_form import Arm3RFacts
 from wbik.robot_packages.arm3r.closed_form import arm3r_position
+from wbik.validation import numeric_array
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
 URDF_PATH = description_file("arm3r.urdf")
@@ -34,9 +36,6 @@ def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
 
 
 def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
-    from wbik.errors import RobotDescriptionError
-    from wbik.validation import numeric_array
-
     what = "arm3r lengths (three positive link lengths l1, l2, l3 in metres)"
     values = numeric_array(lengths, what, RobotDescriptionError, shape=(3,), max_abs=1e3)
     if min(values) <= 0:
@@ -54,6 +53,3 @@ def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
 def start_configuration() -> np.ndarray:
     """The seed's start, theta = (pi/2, pi/2, pi/2), giving P0 = (0, -l3, l1 + l2)."""
     return np.full(3, math.pi / 2)
-
-
-__all__ = ["DEFAULT_LENGTHS", "Arm3RFacts", "build", "dh_table", "start_configuration", "Robot"]

@@ -20,7 +20,10 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbik.collision import box
+from wbik.collision import capsule
 from wbik.data import description_file
+from wbik.errors import RobotDescriptionError
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
@@ -43,6 +46,7 @@ from wbik.robot_packages.bioloid.closed_form import BioloidFacts
 from wbik.robot_packages.bioloid.closed_form import LegPose
 from wbik.robot_packages.bioloid.closed_form import LegPosition
 from wbik.robot_packages.bioloid.closed_form import arm_lengths
+from wbik.validation import check_positive_finite
 
 # ASSUMPTIONS (not in the seed), m
 HIP_LATERAL = 0.0385  # pelvis centre -> hip, sideways: the code's unlabelled L5
@@ -282,9 +286,6 @@ def sole_corners() -> dict[str, np.ndarray]:
 def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robot:
     """The Bioloid on a free-flyer base: ``tool_length`` (m) 0.0255 (the code's) or 0.070 (the
     thesis's), ``pitch`` the nominal standing pose's torso pitch (rad)."""
-    from wbik.errors import RobotDescriptionError
-    from wbik.validation import check_positive_finite
-
     tool_length = check_positive_finite("bioloid tool_length", tool_length, RobotDescriptionError, "m")
     if isinstance(pitch, bool) or not isinstance(pitch, int | float) or not abs(pitch) < math.pi / 2:
         raise RobotDescriptionError(f"bioloid pitch must be a number of radians in (-pi/2, pi/2), "
@@ -306,9 +307,6 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
 def collision_primitives(robot: Robot | None = None) -> list:
     """Collision shapes: the URDF's trunk and pelvis boxes, capsules from joint to joint along the limbs,
     the foot plate. ASSUMPTION: radii 17 mm (legs), 15 mm (upper arms), 12.5 mm (forearms)."""
-    from wbik.collision import box
-    from wbik.collision import capsule
-
     shapes = [
         box("trunk", "chest", (0.07, 0.10, 0.10), (-0.010, 0.0, -0.020)),
         box("pelvis", "pelvis", (0.05, 0.10, 0.03), (0.0, 0.0, -0.010)),

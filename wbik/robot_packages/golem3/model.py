@@ -25,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.collision import box
+from wbik.collision import capsule
+from wbik.collision import sphere
 from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import joint_xml
@@ -42,12 +45,7 @@ from wbik.robot_packages.golem3.closed_form import golem3_position
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 from wbik.urdf import parse_urdf
 
-L1 = 0.1225
-L2 = 0.212
-L4 = 0.256
-L5 = 0.034
-L6 = 0.4
-H = 1.283
+L1, L2, L4, L5, L6, H = 0.1225, 0.212, 0.256, 0.034, 0.4, 1.283  # the thesis table's lengths (m)
 RHO = math.radians(13.43)
 WRIST_TO_EEF = 0.2  # m14 sits 0.2 m before the gripper centre on its own axis (kinematically free)
 
@@ -225,10 +223,6 @@ def build() -> Robot:
 def collision_primitives(robot: Robot | None = None) -> list:
     """Collision shapes: capsules along the arm links, chest and torso, a box base, a sphere head.
     ASSUMPTION (the thesis gives no volumes): radii 0.045..0.06 m arms, 0.11 m torso, 0.12 m head."""
-    from wbik.collision import box
-    from wbik.collision import capsule
-    from wbik.collision import sphere
-
     shapes = [
         box("base", "base_link", (0.55, 0.55, 0.35), (0.0, 0.0, 0.175)),
         capsule("torso", "torso_link", (0.0, 0.0, 0.45), (0.0, 0.0, 1.10), 0.11),

@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.collision import Obstacle
+from wbik.collision import capsule
 from wbik.data import description_file
 from wbik.models.erd import package_dirs
 from wbik.models.erd import urdf_path
@@ -59,8 +61,6 @@ TABLE_SIZE = (1.4, 1.2, 0.05)  # the table under the UR5 (m), top at z = 0, cent
 def collision_primitives(robot: Robot | None = None) -> list:
     """Collision shapes: capsules along the links and the base, the tool's holder and pin. ASSUMPTION:
     radii 0.06 m (base to upper arm), 0.05 (forearm), 0.04 (wrists) round the meshes."""
-    from wbik.collision import capsule
-
     return [
         capsule("base", "base_link", (0.0, 0.0, 0.0), (0.0, 0.0, 0.06), 0.06),
         capsule("shoulder", "shoulder_link", (0.0, 0.0, -0.03), (0.0, 0.0, 0.06), 0.06),
@@ -76,6 +76,4 @@ def collision_primitives(robot: Robot | None = None) -> list:
 
 def collision_obstacles() -> list:
     """The table under the UR5 (a box, top at z = 0)."""
-    from wbik.collision import Obstacle
-
     return [Obstacle("table", TABLE_SIZE, (0.3, 0.0, -0.5 * TABLE_SIZE[2]))]
