@@ -11,8 +11,6 @@ import math
 import re
 import threading
 import weakref
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from dataclasses import field
 from typing import Any
@@ -63,21 +61,6 @@ def mujoco_urdf(text: str, masses: bool = False) -> str:
 
 
 _WARNINGS_LOCK = threading.Lock()
-
-
-@contextmanager
-def mujoco_warnings(mujoco) -> Iterator[list[str]]:
-    """MuJoCo's warnings collected in a list instead of printed; the previous handler restored after."""
-    messages: list[str] = []
-    with _WARNINGS_LOCK:
-        previous = mujoco.get_mju_user_warning()
-        mujoco.set_mju_user_warning(messages.append)
-        try:
-            yield messages
-        finally:
-            mujoco.set_mju_user_warning(previous)
-
-
 FREE_JOINT = "wbik_free_base"
 SITE_PREFIX = "wbik:"
 AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 4, 0, 1e-9
@@ -275,11 +258,16 @@ def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
     if known is not None and known[0]() is robot:
         body = known[1]
     else:
-        try:
-            with mujoco_warnings(mujoco) as warnings:
+        warnings: list[str] = []
+        with _WARNINGS_LOCK:  # MuJoCo's warnings into the list, not printed, while it compiles
+            previous = mujoco.get_mju_user_warning()
+            mujoco.set_mju_user_warning(warnings.append)
+            try:
                 body = _compile(robot, mujoco, masses)
-        except UnsupportedError as refused:
-            raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
+            except UnsupportedError as refused:
+                raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
+            finally:
+                mujoco.set_mju_user_warning(previous)
         body.warnings = tuple(warnings)
         with _BODIES_LOCK:
             _BODIES[key] = (weakref.ref(robot), body)

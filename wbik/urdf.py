@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections import Counter
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -55,20 +56,14 @@ def is_unbounded_revolute(joint) -> bool:
 def _unique_frame_names(model: pin.Model) -> list[str]:
     """Each frame's name, the non-link frames of a shared name renamed by their kind."""
     names = [frame.name for frame in model.frames]
-    by_name: dict[str, list[int]] = {}
-    for index, name in enumerate(names):
-        by_name.setdefault(name, []).append(index)
     taken = set(names)
-    for name, indices in by_name.items():
-        if len(indices) == 1:
-            continue
+    for name in [name for name, count in Counter(names).items() if count > 1]:
+        indices = [i for i, frame in enumerate(model.frames) if frame.name == name]
         bodies = [i for i in indices if model.frames[i].type == pin.FrameType.BODY]
         if len(bodies) > 1:
             raise RobotDescriptionError(f"two links are named {name!r}; give each link its own name")
         keeper = bodies[0] if bodies else indices[0]
-        for index in indices:
-            if index == keeper:
-                continue
+        for index in (i for i in indices if i != keeper):
             suffix = _SUFFIX.get(model.frames[index].type, "frame")
             new, count = f"{name}_{suffix}", 2
             while new in taken:

@@ -123,13 +123,15 @@ def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip
     return ArmAngles(theta1, theta3, theta5, t, s, reach, c5, reachable)
 
 
-def arm_ik(p_hand, side: str = "right", lengths=None) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (thesis branch)."""
+def arm_ik(p_hand, side: str = "right", lengths=None, other_elbow: bool = False,
+           base_flip: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (branch flags as in
+    :func:`arm_thesis_angles`)."""
     side = _side(side)
     p = _points(p_hand, "hand target")
     if side == "l":
         p = p * np.array([1.0, -1.0, 1.0])
-    a = arm_thesis_angles(p, lengths)
+    a = arm_thesis_angles(p, lengths, other_elbow, base_flip)
     q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
     return (q * ARM_MIRROR if side == "l" else q), a.reachable
 
@@ -273,15 +275,9 @@ class ArmPosition(ClosedForm):
         self.lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
 
     def branches(self, positions, rotations, q0):
-        p = positions * np.array([1.0, -1.0, 1.0]) if self.side == "l" else positions
-        qs, valid = [], []
-        for base_flip in (False, True):
-            for other_elbow in (False, True):
-                a = arm_thesis_angles(p, self.lengths, other_elbow, base_flip)
-                q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
-                qs.append(q * ARM_MIRROR if self.side == "l" else q)
-                valid.append(a.reachable)
-        return np.stack(qs, 1), np.stack(valid, 1)
+        branches = [arm_ik(positions, self.side, self.lengths, other_elbow, base_flip)
+                    for base_flip in (False, True) for other_elbow in (False, True)]
+        return np.stack([q for q, _ in branches], 1), np.stack([real for _, real in branches], 1)
 
     def fk(self, q):
         return arm_fk(q, self.side, self.lengths)
