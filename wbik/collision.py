@@ -1,26 +1,11 @@
 """Collision geometry of a robot as coal primitives in a Pinocchio GeometryModel, and pair distances.
 
-A robot's collision shapes are a small table of :class:`Primitive` (capsule, box or sphere on a
-frame), kept where the robot's facts live: ``collision_primitives()`` in its model module
-(wbik/robot_packages/<robot>/model.py: golem3, bioloid, ur5), with ``collision_obstacles()`` for
-fixed things of its cell (the UR5's table). :class:`CollisionModel` turns the table into a
-``pinocchio.GeometryModel`` of ``coal.Capsule`` / ``coal.Box`` / ``coal.Sphere`` objects, each attached
-to its frame's joint, plus
-world-fixed :class:`Obstacle` boxes on the universe joint, and chooses the pairs to check:
-
-- never two geometries on the same joint (they cannot move relative to each other), nor two
-  fixed to the world;
-- no robot-robot pair whose joints are adjacent (one is the other's parent);
-- no pair in contact at the reference configuration (the robot's nominal pose): a distance
-  ``<= contact_distance`` there means the shapes overlap by design (a shoulder cap and the chest).
-
-Distances come from coal through ``pinocchio.computeDistance``: signed (negative when the shapes
-overlap), with the witness points p_a, p_b (world) and the unit normal n from a to b, so that
-d = n . (p_b - p_a). Its derivative along a tangent displacement dq is
-
-    dd = n^T (J_b(p_b) - J_a(p_a)) dq
-
-with J_x(p) the linear Jacobian of the point p moving with geometry x's joint (world axes). SI units.
+A robot package lists its :class:`Primitive` shapes (capsule, box, sphere on a frame) in its model's
+``collision_primitives()`` and fixed boxes of its cell in ``collision_obstacles()``. Pairs checked: not
+on the same joint, not both fixed, not adjacent links, not in contact (distance <= ``contact_distance``)
+at the reference configuration. Distances are signed (negative on overlap) with witness points p_a, p_b
+(world) and the unit normal n from a to b: dd = n^T (J_b(p_b) - J_a(p_a)) dq, J_x(p) the linear
+Jacobian (world axes) of p moving with x's joint. SI units.
 """
 
 from __future__ import annotations
@@ -36,9 +21,8 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnknownFrameError
 from wbik.errors import UnsupportedError
-
-__all__ = ["CollisionModel", "Obstacle", "PairDistance", "Primitive", "box", "capsule",
-           "robot_collision_model", "sphere"]
+from wbik.kinematic_tree import frame_index
+from wbik.models import robot_entries
 
 SHAPES = ("capsule", "box", "sphere")
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -49,12 +33,9 @@ Point = str | Sequence[float]
 
 @dataclass(frozen=True)
 class Primitive:
-    """One collision shape moving with ``frame``.
-
-    ``shape``: "capsule" (``size`` = (radius,), axis from ``start`` to ``end``), "box" (``size`` =
-    full side lengths (x, y, z), centred at ``xyz`` with orientation ``rpy`` in the frame) or "sphere"
-    (``size`` = (radius,), centre ``xyz``). Lengths in m, angles in rad.
-    """
+    """One collision shape moving with ``frame``: "capsule" (``size`` (radius,), axis ``start`` to
+    ``end``), "box" (``size`` full side lengths, centre ``xyz``, orientation ``rpy`` in the frame) or
+    "sphere" (``size`` (radius,), centre ``xyz``). m, rad."""
 
     name: str
     frame: str
@@ -103,10 +84,6 @@ class PairDistance:
     joint_a: int
     joint_b: int
 
-    def as_dict(self) -> dict:
-        return {"pair": [self.a, self.b], "distance": float(self.distance),
-                "point_a": self.point_a.tolist(), "point_b": self.point_b.tolist()}
-
 
 def _finite(values, count: int, what: str, positive: bool = False) -> np.ndarray:
     array = np.asarray(values, dtype=float).reshape(-1) if not isinstance(values, str) else np.array([])
@@ -117,9 +94,9 @@ def _finite(values, count: int, what: str, positive: bool = False) -> np.ndarray
 
 
 class CollisionModel:
-    """Robot primitives and world obstacles in one ``pin.GeometryModel`` (``geometry``), with the pairs
-    to check. ``pairs`` (names) overrides the automatic choice; ``self_collision`` False keeps only
-    robot-obstacle pairs. ``excluded`` says why each left-out pair is out."""
+    """Robot primitives and world obstacles in one ``pin.GeometryModel`` (``geometry``) and the pairs to
+    check: ``pairs`` (names) overrides the choice, ``self_collision`` False keeps robot-obstacle pairs
+    only; ``excluded`` says why each left-out pair is out."""
 
     def __init__(self, model: pin.Model, primitives: Iterable[Primitive], obstacles: Iterable[Obstacle] = (),
                  *, reference: np.ndarray | None = None, pairs: Sequence[tuple[str, str]] | None = None,
@@ -153,24 +130,17 @@ class CollisionModel:
         self.pairs = [(self.names[p.first], self.names[p.second]) for p in self.geometry.collisionPairs]
         self.geometry_data = pin.GeometryData(self.geometry)
 
-    # -- building -------------------------------------------------------------------------------
     def _add(self, obj: pin.GeometryObject) -> None:
         if self.geometry.existGeometryName(obj.name):
             raise RobotDescriptionError(f"two collision geometries are named {obj.name!r}")
         self.geometry.addGeometryObject(obj)
 
-    def _frame(self, name: str) -> int:
-        if not self.model.existFrame(name):
-            raise UnknownFrameError(name, [f.name for f in self.model.frames])
-        return self.model.getFrameId(name)
-
     def _point(self, point: Point, frame_id: int, what: str) -> np.ndarray:
-        """A capsule end in the frame ``frame_id``: a frame's origin must be fixed in that frame."""
+        """A capsule end in the frame ``frame_id``: a point, or the origin of a frame fixed in it."""
         if not isinstance(point, str):
             return _finite(point, 3, what)
-        other = self._frame(point)
+        other = frame_index(self.model, point)
         local = self.data.oMf[frame_id].actInv(self.data.oMf[other].translation)
-        # a second, generic configuration: the point must not move in the frame
         data = self.model.createData()
         q = pin.integrate(self.model, self.reference, np.full(self.model.nv, 0.37))
         pin.framesForwardKinematics(self.model, data, q)
@@ -186,7 +156,7 @@ class CollisionModel:
         if primitive.shape not in SHAPES:
             raise RobotDescriptionError(f"{what}: shape {primitive.shape!r} is not one of "
                                         f"{', '.join(SHAPES)}")
-        frame_id = self._frame(primitive.frame)
+        frame_id = frame_index(self.model, primitive.frame)
         frame = self.model.frames[frame_id]
         rotation = pin.rpy.rpyToMatrix(*_finite(primitive.rpy, 3, f"{what} rpy"))
         center = _finite(primitive.xyz, 3, f"{what} xyz")
@@ -198,7 +168,6 @@ class CollisionModel:
             end = self._point(primitive.end, frame_id, f"{what} end")
             axis = end - start
             length = float(np.linalg.norm(axis))
-            # z of the capsule along its axis (any rotation that takes z there)
             rotation = (pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), axis / length).matrix()
                         if length > 1e-12 else np.eye(3))
             center = 0.5 * (start + end)
@@ -208,15 +177,11 @@ class CollisionModel:
         else:
             (radius,) = _finite(primitive.size, 1, f"{what} size (radius)", positive=True)
             shape = coal.Sphere(radius)
-        # placement in the joint frame: frame placement (in its joint) * local placement
         placement = frame.placement * pin.SE3(rotation, center)
         return pin.GeometryObject(primitive.name, frame.parentJoint, frame_id, placement, shape)
 
-    def _adjacent(self, joint_a: int, joint_b: int) -> bool:
-        return self.model.parents[joint_a] == joint_b or self.model.parents[joint_b] == joint_a
-
     def _default_pairs(self, self_collision: bool, contact_distance: float) -> list[tuple[str, str]]:
-        objects = self.geometry.geometryObjects
+        objects, parents = self.geometry.geometryObjects, self.model.parents
         candidates = []
         for i in range(len(objects)):
             for j in range(i + 1, len(objects)):
@@ -227,14 +192,12 @@ class CollisionModel:
                     self.excluded[key] = "same joint"
                 elif robot_pair and not self_collision:
                     self.excluded[key] = "self-collision off"
-                elif robot_pair and self._adjacent(a.parentJoint, b.parentJoint):
+                elif robot_pair and (parents[a.parentJoint] == b.parentJoint
+                                     or parents[b.parentJoint] == a.parentJoint):
                     self.excluded[key] = "adjacent links"
                 else:
                     candidates.append((i, j))
-        # contact at the reference configuration
-        probe = pin.GeometryModel()
-        for obj in objects:
-            probe.addGeometryObject(obj)
+        probe = self.geometry.copy()  # no pairs yet
         for i, j in candidates:
             probe.addCollisionPair(pin.CollisionPair(i, j))
         probe_data = pin.GeometryData(probe)
@@ -250,12 +213,11 @@ class CollisionModel:
                 pairs.append((objects[i].name, objects[j].name))
         return pairs
 
-    # -- queries --------------------------------------------------------------------------------
     def create_data(self) -> pin.GeometryData:
         return pin.GeometryData(self.geometry)
 
     def compute(self, data: pin.Data, geometry_data: pin.GeometryData | None = None) -> list[PairDistance]:
-        """Distances of every pair, the joint placements ``data.oMi`` being already computed."""
+        """Distances of every pair, with ``data.oMi`` already computed."""
         geometry_data = self.geometry_data if geometry_data is None else geometry_data
         pin.updateGeometryPlacements(self.model, data, self.geometry, geometry_data)
         pin.computeDistances(self.geometry, geometry_data)
@@ -278,8 +240,8 @@ class CollisionModel:
         return min(self.distances(q), key=lambda d: d.distance, default=None)
 
     def point_jacobian(self, data: pin.Data, joint: int, point: np.ndarray) -> np.ndarray:
-        """3 x nv linear Jacobian (world axes) of ``point`` (world) moving with ``joint`` (zero for the
-        universe); needs the joint Jacobians in ``data`` (pin.computeJointJacobians)."""
+        """3 x nv linear Jacobian (world axes) of ``point`` (world) moving with ``joint`` (0: zero); needs
+        ``pin.computeJointJacobians`` in ``data``."""
         if joint == 0:
             return np.zeros((3, self.model.nv))
         jacobian = pin.getJointJacobian(self.model, data, joint, LWA)
@@ -292,23 +254,16 @@ class CollisionModel:
                               - self.point_jacobian(data, pair.joint_a, pair.point_a))
 
 
-def _model_module(robot):
-    from wbik.models import robot_entries
-
+def robot_collision_model(robot, *, self_collision: bool = True, robot_obstacles: bool = True,
+                          obstacles: Iterable[Obstacle] = (),
+                          contact_distance: float = 0.0) -> CollisionModel:
+    """The collision model of a built-in robot: its ``collision_primitives(robot)``, its
+    ``collision_obstacles()`` when ``robot_obstacles``, and ``obstacles``; pairs chosen at the nominal."""
     entry = robot_entries().get(robot.name)
     if entry is None:
         raise UnsupportedError(f"robot {robot.name!r} has no collision primitives; pass a list of "
                                "wbik.collision.Primitive to CollisionModel")
-    return entry.module()
-
-
-def robot_collision_model(robot, *, self_collision: bool = True, robot_obstacles: bool = True,
-                          obstacles: Iterable[Obstacle] = (),
-                          contact_distance: float = 0.0) -> CollisionModel:
-    """The collision model of a built-in robot: its model module's ``collision_primitives(robot)``,
-    its ``collision_obstacles()`` when ``robot_obstacles`` (the UR5's table), and ``obstacles``; pairs
-    chosen at the robot's nominal configuration (see the module docstring)."""
-    module = _model_module(robot)
+    module = entry.module()
     table = getattr(module, "collision_primitives", None)
     if table is None:
         raise UnsupportedError(f"robot {robot.name!r} lists no collision primitives "

@@ -1,17 +1,10 @@
 """Denavit-Hartenberg tables -> URDF text -> Pinocchio model.
 
-Conventions (q is the joint variable, ``theta`` and ``d`` in a row are offsets):
-
-- standard (distal): A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)
-- modified (proximal, Craig): A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i)
-
-with theta_i = theta + q for a revolute joint and d_i = d + q for a prismatic one. The chain is
-T = base * A_1 ... A_n * tool. Because Rz(q) commutes with Tz(d) (and Tz(q) with Tz(d)), every
-A_i splits as Pre_i * J(q) * Post_i with the joint motion J about/along z, which is exactly a URDF
-joint whose origin is Post_{i-1} Pre_i and whose axis is z:
-
-- standard: Pre = Rz(theta) Tz(d), Post = Tx(a) Rx(alpha)
-- modified: Pre = Rx(alpha) Tx(a) Rz(theta) Tz(d), Post = I
+Standard (distal): A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); modified (proximal, Craig):
+A_i = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i) Tz(d_i); theta_i = theta + q (revolute) or d_i = d + q
+(prismatic), T = base A_1 ... A_n tool. Each A_i = Pre_i J(q) Post_i with J about/along z, a URDF joint
+of origin Post_{i-1} Pre_i: standard Pre = Rz(theta) Tz(d), Post = Tx(a) Rx(alpha); modified
+Pre = Rx(alpha) Tx(a) Rz(theta) Tz(d), Post = I.
 """
 
 from __future__ import annotations
@@ -42,17 +35,14 @@ def homogeneous(rotation: np.ndarray | None = None, translation=(0.0, 0.0, 0.0))
 
 
 def rot_x(angle: float) -> np.ndarray:
-    """4x4 homogeneous rotation about x."""
     return homogeneous(geometry.rot_x(angle))
 
 
 def rot_z(angle: float) -> np.ndarray:
-    """4x4 homogeneous rotation about z."""
     return homogeneous(geometry.rot_z(angle))
 
 
 def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
-    """4x4 homogeneous translation."""
     return homogeneous(translation=(x, y, z))
 
 
@@ -110,9 +100,6 @@ class DHTable:
         self.base = np.asarray(self.base, dtype=float)
         self.tool = np.asarray(self.tool, dtype=float)
 
-    def joint_names(self, prefix: str = "") -> list[str]:
-        return [joint.name or f"{prefix}joint{i + 1}" for i, joint in enumerate(self.joints)]
-
     def transform(self, q: Sequence[float]) -> np.ndarray:
         """Base-to-tool 4x4 for joint values q, multiplied out row by row."""
         if len(q) != len(self.joints):
@@ -122,50 +109,29 @@ class DHTable:
             total = total @ joint.pre(self.convention) @ joint.motion(value) @ joint.post(self.convention)
         return total @ self.tool
 
-    def urdf_elements(self, parent_link: str, prefix: str = "", tip_link: str = "tool",
-                      link_mass: float = 0.1) -> str:
-        """URDF <link>/<joint> elements of this chain hanging from ``parent_link``.
-
-        Links are ``{prefix}link1..n`` and the tool link ``{prefix}{tip_link}``, fixed to the last
-        link by ``Post_n * tool``. Use it to assemble trees (several chains on one body).
-        """
-        names = self.joint_names(prefix)
-        parts: list[str] = []
-        carry = self.base
-        parent = parent_link
-        for index, (joint, name) in enumerate(zip(self.joints, names, strict=True)):
-            child = f"{prefix}link{index + 1}"
-            parts.append(link_xml(child, link_mass))
-            parts.append(joint_xml(name, joint.type, parent, child, carry @ joint.pre(self.convention),
-                                   limits=(joint.lower, joint.upper, joint.velocity, joint.effort)))
-            carry = joint.post(self.convention)
-            parent = child
-        tool_link = f"{prefix}{tip_link}"
-        parts.append(link_xml(tool_link, 0.0))
-        parts.append(joint_xml(f"{prefix}{tip_link}_fixed", "fixed", parent, tool_link, carry @ self.tool))
-        return "\n".join(parts)
-
     def urdf(self, name: str = "dh_robot", base_link: str = "base_link", tip_link: str = "tool",
              link_mass: float = 0.1) -> str:
-        """A complete URDF document of this chain."""
-        body = link_xml(base_link, 0.0) + "\n" + self.urdf_elements(base_link, "", tip_link, link_mass)
-        return urdf_document(name, body)
+        """A URDF document of this chain: links ``link1..n``, then ``tip_link`` fixed by Post_n tool."""
+        parts = [link_xml(base_link, 0.0)]
+        carry, parent = self.base, base_link
+        for index, joint in enumerate(self.joints):
+            child = f"link{index + 1}"
+            parts.append(link_xml(child, link_mass))
+            parts.append(joint_xml(joint.name or f"joint{index + 1}", joint.type, parent, child,
+                                   carry @ joint.pre(self.convention),
+                                   limits=(joint.lower, joint.upper, joint.velocity, joint.effort)))
+            carry, parent = joint.post(self.convention), child
+        parts.append(link_xml(tip_link, 0.0))
+        parts.append(joint_xml(f"{tip_link}_fixed", "fixed", parent, tip_link, carry @ self.tool))
+        return urdf_document(name, "\n".join(parts))
 
     def model(self, base_link: str = "base_link", tip_link: str = "tool") -> pin.Model:
-        """The Pinocchio model of this chain (built from the URDF text)."""
+        """The Pinocchio model of this chain (from its URDF text)."""
         return pin.buildModelFromXML(self.urdf(base_link=base_link, tip_link=tip_link))
 
 
 def _fmt(value: float) -> str:
     return repr(float(value))
-
-
-def origin_xml(transform: np.ndarray) -> str:
-    """<origin> of a 4x4 transform; URDF rpy is R = Rz(yaw) Ry(pitch) Rx(roll), as pin.rpy."""
-    xyz = transform[:3, 3]
-    rpy = pin.rpy.matrixToRpy(transform[:3, :3])
-    return (f'<origin xyz="{_fmt(xyz[0])} {_fmt(xyz[1])} {_fmt(xyz[2])}" '
-            f'rpy="{_fmt(rpy[0])} {_fmt(rpy[1])} {_fmt(rpy[2])}"/>')
 
 
 def link_xml(name: str, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
@@ -182,9 +148,12 @@ def link_xml(name: str, mass: float, com: Sequence[float] = (0.0, 0.0, 0.0),
 def joint_xml(name: str, kind: str, parent: str, child: str, origin: np.ndarray,
               axis: Sequence[float] = (0.0, 0.0, 1.0),
               limits: tuple[float, float, float, float] | None = None) -> str:
-    """A <joint>; ``limits`` = (lower, upper, velocity, effort) for revolute/prismatic joints."""
-    xml = [f'<joint name="{name}" type="{kind}">', f'<parent link="{parent}"/>',
-           f'<child link="{child}"/>', origin_xml(origin)]
+    """A <joint> at the 4x4 ``origin`` (URDF rpy: R = Rz(yaw) Ry(pitch) Rx(roll), as pin.rpy); ``limits`` =
+    (lower, upper, velocity, effort) for revolute/prismatic joints."""
+    xyz, rpy = origin[:3, 3], pin.rpy.matrixToRpy(origin[:3, :3])
+    xml = [f'<joint name="{name}" type="{kind}">', f'<parent link="{parent}"/>', f'<child link="{child}"/>',
+           f'<origin xyz="{_fmt(xyz[0])} {_fmt(xyz[1])} {_fmt(xyz[2])}" '
+           f'rpy="{_fmt(rpy[0])} {_fmt(rpy[1])} {_fmt(rpy[2])}"/>']
     if kind != "fixed":
         xml.append(f'<axis xyz="{_fmt(axis[0])} {_fmt(axis[1])} {_fmt(axis[2])}"/>')
         lower, upper, velocity, effort = limits or (-math.pi, math.pi, 1.0, 10.0)

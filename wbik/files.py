@@ -1,9 +1,5 @@
-"""Durable file writes: write next to the destination, then rename into place; and the plain
-values JSON files take (:func:`json_plain`).
-
-A reader (or a resumed run) sees either the old file or the complete new one, never a partial
-write. The temporary name carries the process id, so parallel workers do not collide.
-"""
+"""Atomic file writes (a temporary file per process next to the destination, renamed into place: a
+reader sees the old file or the new one, never a partial write) and the plain values JSON takes."""
 
 from __future__ import annotations
 
@@ -17,9 +13,8 @@ import numpy as np
 
 
 def json_plain(value, finite: bool = False):
-    """``value`` with NumPy arrays and scalars made plain Python (lists, float, int, bool), tuples
-    made lists and mapping keys strings, at any depth; with ``finite``, NaN and infinities become
-    None (strict JSON has no NaN)."""
+    """``value`` with NumPy arrays and scalars made plain Python, tuples lists and keys strings, at any
+    depth; with ``finite``, NaN and infinities None."""
     if isinstance(value, dict):
         return {str(k): json_plain(v, finite) for k, v in value.items()}
     if isinstance(value, list | tuple):

@@ -1,19 +1,10 @@
-"""The geometry kernel: rotations, angle wrapping, rotation logarithm/exponential and the pose error.
+"""Rotations, angle wrapping, rotation logarithm/exponential and the pose error: one convention each.
 
-Conventions (one per quantity, used by every solver, the QP tasks, the study and motion):
-
-- **Angles** wrap with one rule: ``wrap_to_pi(a)`` is a - 2 pi k in (-pi, pi].
-- **Rotations** are 3x3 matrices acting on column vectors; ``rot_x/rot_y/rot_z`` take scalars or
-  arrays of angles and return (..., 3, 3).
-- **Pose error** of a reached pose (R, p) against a target (R*, p*), both in the same base frame::
-
-      e = [p - p* ; log3(R*^T R)]            (6,), metres then radians
-
-  position part in base axes, rotation part a rotation vector in the *target's* axes; the sign is
-  "reached relative to target", so a solver drives e to 0 with a step dq = -J_e^+ e. Its
-  derivative: de_p/dq = J_v (base axes) and de_R/dq = Jlog3(R*^T R) R^T J_w for a frame Jacobian
-  whose angular rows J_w are in base axes (``rotation_error_jacobian``). Position-only targets use
-  the first three rows. ``|e_R|`` is the rotation angle between R and R* (``rotation_angle``).
+Angles wrap into (-pi, pi] (``wrap_to_pi``). Rotations are 3x3 matrices on column vectors. The pose
+error of a reached pose (R, p) against a target (R*, p*) in the same base frame is
+e = [p - p*; log3(R*^T R)] (m, rad; rotation vector in the target's axes), driven to 0 by
+dq = -J_e^+ e with de_p/dq = J_v and de_R/dq = Jlog3(R*^T R) R^T J_w (J_w in base axes);
+position-only targets use the first three rows.
 """
 
 from __future__ import annotations
@@ -28,7 +19,6 @@ from wbik.kernels.twins import chosen
 from wbik.kernels.twins import compiled_twin
 
 
-# --- angles ------------------------------------------------------------------------------------------
 def wrap_to_pi(angle):
     """a - 2 pi k in (-pi, pi] (element-wise on arrays)."""
     return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
@@ -41,19 +31,9 @@ def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
 
 
 TWO_PI = 2.0 * math.pi
-"""One turn (rad): the period every wrap of a revolute joint uses."""
+"""One turn (rad): the period of every revolute joint's wrap."""
 
 
-def add_wrapped_squares(total: float, a: float, a_ref: float, b: float, b_ref: float, c: float,
-                        c_ref: float) -> float:
-    """total + e_a^2 + e_b^2 + e_c^2, added in that order, e_x = remainder(x - x_ref, 2 pi) (plain
-    floats): three joints' share of a closed-form branch's squared distance to a reference."""
-    remainder, turn = math.remainder, TWO_PI
-    e_a, e_b, e_c = remainder(a - a_ref, turn), remainder(b - b_ref, turn), remainder(c - c_ref, turn)
-    return total + e_a * e_a + e_b * e_b + e_c * e_c
-
-
-# --- elementary rotations ----------------------------------------------------------------------------
 def _rotation(angle, rows) -> np.ndarray:
     c, s = np.cos(angle), np.sin(angle)
     one, zero = np.ones_like(c), np.zeros_like(c)
@@ -67,25 +47,20 @@ def rot_x(angle) -> np.ndarray:
 
 
 def rot_y(angle) -> np.ndarray:
-    """Rotation about y by ``angle``."""
     return _rotation(angle, (("c", "0", "s"), ("0", "1", "0"), ("-s", "0", "c")))
 
 
 def rot_z(angle) -> np.ndarray:
-    """Rotation about z by ``angle``."""
     return _rotation(angle, (("c", "-s", "0"), ("s", "c", "0"), ("0", "0", "1")))
 
 
-# --- Euler angles -------------------------------------------------------------------------------------
 TAIT_BRYAN_SEQUENCES = ("xyz", "xzy", "yxz", "yzx", "zxy", "zyx")
 """Euler-angle sequences with three distinct axes: R = R_i R_j R_k for the sequence "ijk"."""
 
 
 def tait_bryan_angles(rotations: np.ndarray, sequence: str = "zyx") -> np.ndarray:
-    """(..., 3) angles about x, y, z of R = R_i(a_i) R_j(a_j) R_k(a_k), ``sequence`` "ijk", for
-    rotations (..., 3, 3): outer = atan2(R_jk, R_kk), middle = atan2(-R_ik, hypot(R_kk, R_jk)),
-    inner = atan2(R_ij, R_ii) for the even permutations of (z, y, x), all three negated for the odd
-    ones ("zyx": R = Rz(gamma) Ry(beta) Rx(alpha) gives (alpha, beta, gamma))."""
+    """(..., 3) angles about x, y, z of rotations (..., 3, 3) R = R_i(a_i) R_j(a_j) R_k(a_k), ``sequence``
+    "ijk" ("zyx": R = Rz(gamma) Ry(beta) Rx(alpha) gives (alpha, beta, gamma))."""
     if sequence not in TAIT_BRYAN_SEQUENCES:
         raise InvalidSettingError(f"sequence must be one of {', '.join(TAIT_BRYAN_SEQUENCES)}, "
                                   f"got {sequence!r}")
@@ -100,13 +75,12 @@ def tait_bryan_angles(rotations: np.ndarray, sequence: str = "zyx") -> np.ndarra
     return angles if sign > 0 else -angles
 
 
-# --- logarithm and exponential of rotations ----------------------------------------------------------
 _LOG3_ENTRIES = np.array([7, 2, 3, 5, 6, 1, 0, 4, 8])  # R21 R02 R10, R12 R20 R01, R00 R11 R22
 
 
 def batch_log3(rotations: np.ndarray) -> np.ndarray:
-    """Rotation vectors (B, 3) of (B, 3, 3) rotations: v = vee(R - R^T) = 2 sin(angle) axis and
-    angle = atan2(|v| / 2, (trace - 1) / 2), accurate at every angle but near pi (done by Pinocchio)."""
+    """Rotation vectors (B, 3) of rotations (B, 3, 3): vee(R - R^T) angle / |vee|, angle =
+    atan2(|vee| / 2, (trace - 1) / 2); Pinocchio's log3 near pi."""
     entries = rotations.reshape(-1, 9).take(_LOG3_ENTRIES, axis=1)
     vee = entries[:, :3] - entries[:, 3:6]
     twice_sine = np.sqrt(np.einsum("bi,bi->b", vee, vee))
@@ -133,20 +107,16 @@ def batch_exp3(vectors: np.ndarray) -> np.ndarray:
     return np.eye(3) + first * skew + second * (skew @ skew)
 
 
-# --- the pose error ----------------------------------------------------------------------------------
 def rotation_error(reached: np.ndarray, target: np.ndarray) -> np.ndarray:
-    """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached.
-    (``ndarray.dot``, not ``@``: the same 3 x 3 product, faster, on every solve; the measurements:
-    docs/measurements.md, geometry.)"""
+    """e_R = log3(R*^T R): the rotation vector (target axes, rad) taking the target onto the reached."""
     return pin.log3(target.T.dot(reached))
 
 
 def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.ndarray | None,
                         position_error: np.ndarray, relative: np.ndarray | None) -> float:
-    """The shared check's arithmetic in plain floats: p - p* into ``position_error`` (3,) and, for a
-    rotation, R*^T R into ``relative`` (3, 3) (sum over k of R*_ki R_kj, k in order), from the reached
-    pose's 4x4 homogeneous matrix; returns |p - p*| = sqrt(x^2 + y^2 + z^2). Its compiled twin is
-    ``wbik.kernels._pose.error_parts``: the same bits, on every CPU (a BLAS product's rounding is not)."""
+    """The shared FK check's arithmetic in plain floats, from the reached 4x4 pose: p - p* into
+    ``position_error``, R*^T R into ``relative`` (for a rotation); returns |p - p*|. Compiled twin:
+    ``wbik.kernels._pose.error_parts``, the same bits."""
     (r00, r01, r02, x), (r10, r11, r12, y), (r20, r21, r22, z), _ = reached.tolist()
     px, py, pz = position.tolist()
     ex, ey, ez = x - px, y - py, z - pz
@@ -164,8 +134,7 @@ def _python_error_parts(reached: np.ndarray, position: np.ndarray, rotation: np.
 
 _compiled_error_parts = compiled_twin("pose", "error_parts")
 error_parts = chosen(_python_error_parts, _compiled_error_parts, "pose")
-"""error_parts(reached, position, rotation, position_error, relative) -> |p - p*|: the shared FK check's
-arithmetic (:func:`_python_error_parts`, compiled where built); log3 of ``relative`` is e_R."""
+"""error_parts(reached, position, rotation, position_error, relative) -> |p - p*| (see the Python twin)."""
 
 
 def rotation_angle(reached: np.ndarray, target: np.ndarray) -> float:

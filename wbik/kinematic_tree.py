@@ -1,12 +1,5 @@
-"""The joints between two frames of a Pinocchio model's kinematic tree, as KDL, TRAC-IK and MoveIt find a
-chain from a base link and a tip link.
-
-In a Pinocchio model every frame hangs from one joint (``parentJoint``; 0 is the universe) and every
-joint from its parent (``model.parents``), so the joints that move a tip frame are the ancestors of its
-joint. A chain from ``base`` to ``tip`` is the part of that line below the base's joint: the base must
-not move with the chain (it lies upstream of the tip), or the chain's poses would be measured in a
-moving frame.
-"""
+"""The joints between two frames of a Pinocchio model's tree, as KDL, TRAC-IK and MoveIt find a chain:
+the ancestors of the tip's joint below the base's joint (the base must lie upstream of the tip)."""
 
 from __future__ import annotations
 
@@ -21,11 +14,8 @@ from wbik.errors import UnknownFrameError
 
 @dataclass(frozen=True)
 class ChainPath:
-    """The joints of a chain between two frames, base to tip, and what was left out of it.
-
-    ``joints``: the 1-DOF joints that move the tip relative to the base; ``locked_mimic``: joints on
-    that line that follow another joint (URDF ``<mimic>``), locked at the nominal configuration.
-    """
+    """The 1-DOF joints moving the tip relative to the base (base to tip), and the mimic joints on that
+    line, locked."""
 
     joints: tuple[str, ...]
     locked_mimic: tuple[str, ...] = ()
@@ -48,19 +38,15 @@ def ancestors(model: pin.Model, joint_id: int) -> list[int]:
 
 
 def leaf_frames(model: pin.Model) -> list[str]:
-    """Body frames of joints that carry no other joint (hands, feet, tools, fingertips), in model order:
-    the tips a user most likely wants a chain to."""
+    """Body frames of joints that carry no other joint (hands, feet, tools), in model order."""
     parents = set(model.parents[1:])
     return [frame.name for frame in model.frames if frame.type == pin.FrameType.BODY
             and frame.parentJoint not in parents and frame.parentJoint != 0]
 
 
 def chain_path(model: pin.Model, base: str, tip: str, mimic: Mapping[str, object] = ()) -> ChainPath:
-    """The joints moving ``tip`` relative to ``base`` (base to tip), mimic followers locked.
-
-    RobotDescriptionError when the base moves with the chain (it is not upstream of the tip), when no
-    joint lies between them, or when a joint on the way is not a 1-DOF revolute or prismatic joint (a
-    floating base: choose a base frame on the robot)."""
+    """The joints moving ``tip`` relative to ``base``, mimic followers locked; RobotDescriptionError when
+    the base is not upstream of the tip, no joint lies between them or one is not 1-DOF."""
     base_joint = model.frames[frame_index(model, base)].parentJoint
     tip_joint = model.frames[frame_index(model, tip)].parentJoint
     line = ancestors(model, tip_joint)
@@ -89,9 +75,8 @@ def chain_path(model: pin.Model, base: str, tip: str, mimic: Mapping[str, object
 
 
 def longest_chain(model: pin.Model) -> tuple[str, str] | None:
-    """(base, tip) frames of the serial chain with the most 1-DOF joints from the robot's root body (the
-    body carried by a floating base, or the root link) to a leaf body: a robot's arm or leg, for tools
-    that need some chain of an unknown robot. None for a robot without such a joint."""
+    """(base, tip) frames of the chain with the most 1-DOF joints from the root body to a leaf body (an
+    arm or a leg of an unknown robot); None for a robot without such a joint."""
     root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
     bases = [frame.name for frame in model.frames
              if frame.type == pin.FrameType.BODY and frame.parentJoint == root]

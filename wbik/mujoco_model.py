@@ -1,21 +1,8 @@
-"""The robot in MuJoCo (4.0): one model builder for every use of MuJoCo (mink's IK).
-
-MuJoCo reads the robot's own URDF text (``mujoco.MjSpec.from_string``: MuJoCo loads URDF as well as
-MJCF) with its visual, collision and mimic elements removed (MuJoCo would resolve every mesh a URDF names,
-and turns mimic joints into equality constraints wbik does not use: wbik locks them), and MuJoCo's URDF
-extension added (a ``<mujoco>`` element with a ``<compiler>`` child): ``fusestatic="false"`` (it defaults
-to true for URDF and would merge every link behind a fixed joint, a tool frame such as the UR5's ``tcp``,
-into its parent), ``discardvisual="true"``, and bounds on masses and inertias. Kinematics alone
-(``masses=False``) drops the inertial elements too (MuJoCo refuses some URDF inertias); with the masses,
-the links' own masses and centres of mass are kept (inertias MuJoCo finds unphysical balanced).
-
-Through ``mujoco.MjSpec`` the model gets a free joint on the root link for a floating base (MuJoCo welds a
-URDF's root to the world), and a site ``wbik:FRAME`` for every frame of wbik's model, on the body of the
-link that carries it, at the frame's fixed offset. q between wbik and MuJoCo: the base pose (Pinocchio's
-quaternion x, y, z, w; MuJoCo's w, x, y, z) and every 1-DOF joint by name. MuJoCo's sites (and with the
-masses its CoM, ``subtree_com`` of the root) must equal wbik's to 1e-9 (m, rad) on seeded random
-configurations, else the robot is refused (UnsupportedError). MuJoCo's warnings while it compiles are kept
-(``MuJoCoBody.warnings``), not printed nor appended to MUJOCO_LOG.TXT.
+"""The robot in MuJoCo (4.0) for mink, from its own URDF (docs/guide/wholebody.md): no visual, collision
+or mimic elements (inertial ones only with ``masses``), a ``<mujoco><compiler>`` extension keeping every
+link a body, a free joint on a floating base's root link, a site ``wbik:FRAME`` per frame of wbik's model;
+refused (UnsupportedError) unless its sites and CoM equal wbik's to 1e-9 (m, rad). MuJoCo's warnings go
+to ``MuJoCoBody.warnings``, not to the terminal nor MUJOCO_LOG.TXT.
 """
 
 from __future__ import annotations
@@ -24,8 +11,6 @@ import math
 import re
 import threading
 import weakref
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from dataclasses import field
 from typing import Any
@@ -46,13 +31,12 @@ _DROPPED_BUT_INERTIAL = re.compile(r"<(visual|collision|mimic)\b[^>]*?/>"
 _ROBOT_TAG = re.compile(r"<robot\b[^>]*?>", re.DOTALL)
 MUJOCO_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" boundmass="1e-9" '
                     'boundinertia="1e-12"/></mujoco>')
-"""MuJoCo's URDF extension: keep every link a body (fixed joints not fused), no visual elements, and
-bounds that let the massless links move (see the module docstring)."""
 MUJOCO_MASS_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="true" inertiafromgeom="false" '
                          'balanceinertia="true" boundmass="1e-12" boundinertia="1e-14"/></mujoco>')
-"""The extension for a URDF read with its masses: the links' own masses and centres of mass (no
-inertia from geometry), inertias MuJoCo finds unphysical balanced (they play no part in kinematics nor
-in a centre of mass), and bounds small enough to leave a centre of mass unchanged to 1e-12 m."""
+"""With the masses: the links' own masses and CoMs, unphysical inertias balanced (they play no part in
+kinematics nor in a CoM), bounds that leave a CoM unchanged to 1e-12 m."""
+
+
 def import_mink():
     """(mink, mujoco), or MissingDependencyError with the install command."""
     try:
@@ -66,11 +50,8 @@ def import_mink():
 
 
 def mujoco_urdf(text: str, masses: bool = False) -> str:
-    """The robot's URDF for MuJoCo, kinematics only: no visual, collision, inertial or mimic elements, and
-    MuJoCo's compiler extension added; with ``masses`` the inertial elements stay (for a centre of mass)
-    and the extension is MUJOCO_MASS_EXTENSION."""
-    # a regular expression rather than an XML parser, as for PlaCo (wbik.solvers.placo): URDF readers accept
-    # some files a strict XML parser rejects
+    """The robot's URDF for MuJoCo (see the module docstring), read with regular expressions (URDF
+    readers accept files a strict XML parser refuses)."""
     text = (_DROPPED_BUT_INERTIAL if masses else _DROPPED).sub("", text)
     text = re.sub(r"<mujoco\b.*?</mujoco\s*>|<mujoco\b[^>]*/>", "", text, flags=re.DOTALL)
     match = _ROBOT_TAG.search(text)
@@ -79,77 +60,7 @@ def mujoco_urdf(text: str, masses: bool = False) -> str:
     return text[:match.end()] + (MUJOCO_MASS_EXTENSION if masses else MUJOCO_EXTENSION) + text[match.end():]
 
 
-@dataclass(frozen=True)
-class FrameOnBody:
-    """A Pinocchio frame as MuJoCo sees it: the MuJoCo body (URDF link) carrying it, its fixed pose there."""
-
-    body: str
-    placement: pin.SE3
-
-
-def frame_on_body(robot: Robot, frame: str) -> FrameOnBody:
-    """The URDF link (a MuJoCo body) that carries ``frame``, and the frame's pose in that link.
-
-    A link frame is its own body; another frame (a joint, a fixed joint) is placed on the first link frame
-    up its parent frames that moves with the same joint (so the offset is fixed)."""
-    model = robot.model
-    frame_id = robot.frame_id(frame)
-    target = model.frames[frame_id]
-    current = frame_id
-    while True:
-        candidate = model.frames[current]
-        if candidate.parentJoint != target.parentJoint:
-            break
-        if candidate.type == pin.FrameType.BODY:
-            link = robot.renamed_frames.get(candidate.name, candidate.name)
-            return FrameOnBody(link, candidate.placement.inverse() * target.placement)
-        if candidate.parentFrame == current:
-            break
-        current = candidate.parentFrame
-    raise UnsupportedError(f"frame {frame!r} is carried by no URDF link that MuJoCo keeps as a body")
-
-
 _WARNINGS_LOCK = threading.Lock()
-
-
-@contextmanager
-def mujoco_warnings(mujoco) -> Iterator[list[str]]:
-    """Collect MuJoCo's warnings in a list instead of its default handler (which prints them and appends
-    them to MUJOCO_LOG.TXT in the working directory); the previous handler is restored after."""
-    messages: list[str] = []
-    with _WARNINGS_LOCK:
-        previous = mujoco.get_mju_user_warning()
-        mujoco.set_mju_user_warning(messages.append)
-        try:
-            yield messages
-        finally:
-            mujoco.set_mju_user_warning(previous)
-
-
-def urdf_spec(mujoco, urdf_text: str, masses: bool = False):
-    """MuJoCo's MjSpec of the robot's URDF text (as :func:`mujoco_urdf` prepares it, ``masses`` as there);
-    UnsupportedError when MuJoCo cannot read it."""
-    try:
-        return mujoco.MjSpec.from_string(mujoco_urdf(urdf_text, masses=masses))
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot read the URDF: {str(exc).strip()}") from None
-
-
-def add_site(body, name: str, placement: pin.SE3) -> None:
-    """A site called ``name`` on the MjSpec body ``body``, at ``placement`` in the body's frame."""
-    quaternion = pin.Quaternion(placement.rotation)
-    body.add_site(name=name, pos=placement.translation.tolist(),
-                  quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
-
-
-def compile_spec(spec):
-    """MuJoCo's model (MjModel) of the MjSpec ``spec``; UnsupportedError when it does not compile."""
-    try:
-        return spec.compile()
-    except ValueError as exc:
-        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
-
-
 FREE_JOINT = "wbik_free_base"
 SITE_PREFIX = "wbik:"
 AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 4, 0, 1e-9
@@ -159,11 +70,10 @@ AGREEMENT_POSES - 1 seeded random configurations."""
 
 @dataclass
 class MuJoCoBody:
-    """The robot in MuJoCo: the ``model`` (an MjModel), ``sites`` {wbik frame: site name}, and the maps
-    of q: wbik's ``q_index`` and MuJoCo's ``qpos_index`` of the same coordinates (the base pose's, its
-    quaternion's order changed, and each 1-DOF joint's), the 1-DOF joints' tangent indices
-    (``v_index``, ``dof_index``), their names by wbik's tangent index (``joint_names``), and the
-    continuous joints' q indices (``wrapped``)."""
+    """The robot in MuJoCo: ``model`` (an MjModel), ``sites`` {wbik frame: site name}, wbik's ``q_index``
+    and MuJoCo's ``qpos_index`` of the same coordinates (base pose, quaternion reordered, and 1-DOF
+    joints), the 1-DOF joints' ``v_index`` and ``dof_index``, ``joint_names`` by wbik's tangent index,
+    the continuous joints' q indices (``wrapped``) and the free base's first DOF (``base_dof``)."""
 
     robot: Robot
     model: Any
@@ -175,9 +85,7 @@ class MuJoCoBody:
     joint_names: dict[int, str]
     wrapped: np.ndarray
     base_dof: int | None = None
-    """MuJoCo's first DOF address of the free base (None without a floating base)."""
     warnings: tuple[str, ...] = ()
-    """What MuJoCo's parser and compiler warned about."""
     agreed: list = field(default_factory=list)
     """The frame lists whose sites were checked against wbik's."""
 
@@ -209,14 +117,19 @@ class MuJoCoBody:
 
 
 def _carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
-    """(URDF link carrying the frame, None for the world; the frame's pose in it)."""
+    """(URDF link carrying the frame, None for the world; the frame's pose in it): the first link frame up
+    its parent frames on the same joint, else a link frame on its joint."""
     model = robot.model
     frame = model.frames[frame_id]
-    try:
-        where = frame_on_body(robot, frame.name)
-        return where.body, where.placement
-    except UnsupportedError:
-        pass  # a joint's frame (its child link carries it), or a frame of the world
+    current = frame_id
+    while model.frames[current].parentJoint == frame.parentJoint:
+        candidate = model.frames[current]
+        if candidate.type == pin.FrameType.BODY:
+            link = robot.renamed_frames.get(candidate.name, candidate.name)
+            return link, candidate.placement.inverse() * frame.placement
+        if candidate.parentFrame == current:
+            break
+        current = candidate.parentFrame
     if frame.parentJoint == 0:
         return None, frame.placement
     for candidate in model.frames:
@@ -237,7 +150,10 @@ def _massless_while_welded(body) -> None:
 
 def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
     model = robot.model
-    spec = urdf_spec(mujoco, robot.urdf_text, masses=masses)
+    try:
+        spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf_text, masses=masses))
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot read the URDF: {str(exc).strip()}") from None
     if robot.has_floating_base:
         root = next(frame for frame in model.frames
                     if frame.type == pin.FrameType.BODY and frame.parentJoint == 1)
@@ -255,8 +171,13 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
         if body is None:
             raise UnsupportedError(f"frame {name!r}: MuJoCo has no body {link!r}")
         sites[name] = SITE_PREFIX + name
-        add_site(body, sites[name], placement)
-    compiled = compile_spec(spec)
+        quaternion = pin.Quaternion(placement.rotation)
+        body.add_site(name=sites[name], pos=placement.translation.tolist(),
+                      quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
+    try:
+        compiled = spec.compile()
+    except ValueError as exc:
+        raise UnsupportedError(f"MuJoCo cannot compile the URDF: {str(exc).strip()}") from None
     slots = {int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)}
     q_index, qpos_index, v_index, dof_index, names, base_dof = [], [], [], [], {}, None
     if robot.has_floating_base:  # x y z, then Pinocchio's quaternion x y z w is MuJoCo's w x y z
@@ -285,8 +206,8 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
 
 
 def random_configurations(robot: Robot, count: int, seed: int) -> list[np.ndarray]:
-    """``count`` seeded configurations inside the joint limits (a range wider than [-pi, pi] cut to
-    it), the base anywhere within 1 m with any orientation."""
+    """``count`` seeded configurations inside the joint limits cut to [-pi, pi], the base anywhere within
+    1 m with any orientation."""
     rng = np.random.default_rng(seed)
     model = robot.model
     lower = np.maximum(model.lowerPositionLimit, -math.pi)
@@ -328,9 +249,8 @@ _BODIES_LOCK = threading.Lock()
 
 
 def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
-    """MuJoCo's model of ``robot`` with its sites and maps (see the module docstring), built once per robot
-    and ``masses``, checked against wbik's ``frames`` (default all; with ``masses`` also the CoM);
-    UnsupportedError saying why when MuJoCo cannot take the robot."""
+    """MuJoCo's model of ``robot``, built once per robot and ``masses``, checked against wbik's ``frames``
+    (default all; with ``masses`` also the CoM); UnsupportedError saying why MuJoCo cannot take it."""
     _, mujoco = import_mink()
     key = (id(robot), bool(masses))
     with _BODIES_LOCK:
@@ -338,11 +258,16 @@ def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
     if known is not None and known[0]() is robot:
         body = known[1]
     else:
-        try:
-            with mujoco_warnings(mujoco) as warnings:
+        warnings: list[str] = []
+        with _WARNINGS_LOCK:  # MuJoCo's warnings into the list, not printed, while it compiles
+            previous = mujoco.get_mju_user_warning()
+            mujoco.set_mju_user_warning(warnings.append)
+            try:
                 body = _compile(robot, mujoco, masses)
-        except UnsupportedError as refused:
-            raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
+            except UnsupportedError as refused:
+                raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
+            finally:
+                mujoco.set_mju_user_warning(previous)
         body.warnings = tuple(warnings)
         with _BODIES_LOCK:
             _BODIES[key] = (weakref.ref(robot), body)

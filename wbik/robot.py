@@ -1,9 +1,8 @@
 """Robot (a Pinocchio model with named chains) and Chain (one serial chain of it).
 
-A chain is solved on its own reduced model: every joint that is not in the chain is locked at the
-robot's nominal configuration, so a chain's q has exactly one value per chain joint (revolute or
-prismatic). Chain poses and Jacobians are expressed in the chain's base frame, which must not
-move with the chain's joints.
+A chain is solved on its own reduced model (the other joints locked at the robot's nominal
+configuration): q has one value per chain joint, poses and Jacobians are in the chain's base frame,
+which must not move with the chain's joints.
 """
 
 from __future__ import annotations
@@ -47,8 +46,7 @@ _CHAIN_BUILD_LOCK = threading.Lock()
 
 
 class PerThreadData:
-    """``owner.data``: this thread's Pinocchio Data of ``owner.model`` (each thread writes its own;
-    the owner keeps a ``threading.local`` in ``_local``)."""
+    """``owner.data``: this thread's Pinocchio Data of ``owner.model`` (kept in ``owner._local``)."""
 
     def __get__(self, owner, owner_type=None) -> pin.Data:
         if owner is None:
@@ -65,9 +63,8 @@ CachedT = TypeVar("CachedT")
 
 
 class ChainCache:
-    """A value per chain, computed once and shared by threads: weakly keyed (it goes with its chain),
-    read and stored under a lock, computed outside it (by the caller, between :meth:`get` and
-    :meth:`store`)."""
+    """A value per chain, shared by threads: weakly keyed, read and stored under a lock, computed by the
+    caller between :meth:`get` and :meth:`store`."""
 
     def __init__(self) -> None:
         self._values: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -79,7 +76,6 @@ class ChainCache:
             return self._values.get(chain)
 
     def store(self, chain, value: CachedT) -> CachedT:
-        """``value``, stored for ``chain``."""
         with self._lock:
             self._values[chain] = value
         return value
@@ -87,10 +83,8 @@ class ChainCache:
 
 @dataclass(frozen=True)
 class ChainSpec:
-    """Names that define a chain: base frame, tip frame and the joints between them, in order.
-
-    With no joints, the chain takes every joint between base and tip (:func:`wbik.kinematic_tree.chain_path`:
-    mimic joints on the way are locked), as KDL, TRAC-IK and MoveIt do."""
+    """Base frame, tip frame and the joints between them, in order; with no joints, every joint between
+    base and tip (mimic joints locked), as KDL, TRAC-IK and MoveIt take a chain."""
 
     name: str
     base_frame: str
@@ -102,23 +96,15 @@ class ChainSpec:
 class Chain:
     """One serial chain: q -> pose of ``tip_frame`` in ``base_frame``.
 
-    Attributes: ``model``/``data`` (reduced Pinocchio model), ``lower``/``upper`` (rad or m),
-    ``velocity_limit``, ``nominal`` (the robot's nominal values of these joints) and
-    ``mid_range`` ((lower + upper) / 2, the seed of TRAC-IK's benchmark protocol).
-
-    Continuous joints (``continuous``, a mask) have the range [-pi, pi]: random configurations are drawn
-    in it and answers are wrapped into it (:meth:`clip`), while the methods that can leave them
-    unbounded do (``unbounded_lower``/``unbounded_upper``: the limits with -inf/inf there).
-    ``locked_mimic``: joints between base and tip that follow another joint (URDF ``<mimic>``), locked
-    at the nominal configuration.
+    ``model``/``data``: the reduced model; ``lower``/``upper`` (rad or m), ``velocity_limit``,
+    ``nominal`` and ``mid_range`` ((lower + upper) / 2) per joint. Continuous joints (``continuous``) have
+    the range [-pi, pi] and are wrapped into it (:meth:`clip`); ``unbounded_lower``/``unbounded_upper``
+    are the limits with -inf/inf there. ``locked_mimic``: mimic joints between base and tip, locked.
     """
 
     def __init__(self, robot: Robot, spec: ChainSpec):
-        self.robot = robot
-        self.spec = spec
-        self.name = spec.name
-        self.base_frame = spec.base_frame
-        self.tip_frame = spec.tip_frame
+        self.robot, self.spec = robot, spec
+        self.name, self.base_frame, self.tip_frame = spec.name, spec.base_frame, spec.tip_frame
         full = robot.model
         for frame in (spec.base_frame, spec.tip_frame):
             robot.frame_id(frame)  # raises UnknownFrameError with the known names
@@ -185,8 +171,7 @@ class Chain:
                 f"{self.nq} joints {self.joint_names})")
 
     def check_q(self, q: Sequence[float]) -> np.ndarray:
-        """q as a float array (a copy) of the right length with finite values, or
-        InvalidConfigurationError."""
+        """q as a float array (a copy) of n finite values, or InvalidConfigurationError."""
         if type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self.nq,) \
                 and math.isfinite(float(q.dot(q))):  # the common case, fast (docs/measurements.md, robot)
             return q.copy()
@@ -197,8 +182,7 @@ class Chain:
         return array
 
     def fk(self, q: np.ndarray) -> pin.SE3:
-        """Pose of the tip frame in the base frame (a new SE3; only the tip frame is placed, which is
-        fast: docs/measurements.md, robot)."""
+        """Pose of the tip frame in the base frame (a new SE3; only the tip frame is placed)."""
         model, data = self.model, self.data
         pin.forwardKinematics(model, data, q)
         tip = pin.updateFramePlacement(model, data, self.tip_id)  # a copy, not a view into data
@@ -240,13 +224,8 @@ class Chain:
 
 
 def _sole_corners(sole, corners) -> np.ndarray:
-    """(k, 3) finite contact points of a sole in its frame (m), read-only, or RobotDescriptionError.
-
-    k >= 3: the corners of a flat sole (a rectangle or any polygon); k = 2: a line contact (an edge);
-    k = 1: a point foot (a quadruped's foot frame: ``[[0, 0, 0]]``, or just ``[0, 0, 0]``). The support
-    polygon is the convex hull of the contact points of every sole in support
-    (:mod:`wbik.qp.support_polygon`), so point feet make one as soon as three of them span an area.
-    """
+    """(k, 3) finite contact points of a sole in its frame (m), read-only, or SoleError: a flat sole's
+    corners (k >= 3), an edge (k = 2) or a point foot (k = 1, ``[0, 0, 0]`` also accepted)."""
     try:
         array = np.array(corners, dtype=float)
     except (TypeError, ValueError):
@@ -262,27 +241,18 @@ def _sole_corners(sole, corners) -> np.ndarray:
     return array
 
 
-def _is_frozen_dataclass(value) -> bool:
-    return (dataclasses.is_dataclass(value) and not isinstance(value, type)
-            and type(value).__dataclass_params__.frozen)
-
-
 FactsT = TypeVar("FactsT")
 
 
 @dataclass
 class Robot:
-    """A Pinocchio model with named chains, limits and a nominal configuration, and its typed facts.
+    """A Pinocchio model with named chains, limits, a nominal configuration and typed facts.
 
-    ``soles``: sole frame -> (k, 3) contact points in that frame (m, read-only): a flat sole's corners
-    (k >= 3), an edge (k = 2) or a point foot (k = 1); the feet a support polygon is made of (empty for a
-    robot without feet). ``closed_forms``: (chain, target
-    kind) -> "module:Class" of the closed form that solves it (the method ``analytic``). ``facts``: the
-    robot package's own typed facts (a frozen dataclass: link lengths, servo IDs, assumptions), or None;
-    a reader that needs one robot's facts asks :meth:`require_facts`. ``continuous_joints``: the URDF's
-    continuous joints (revolute in ``model``, range [-pi, pi]); ``mimic``: {follower joint: Mimic};
-    ``renamed_frames``: {new name: URDF name} of frames renamed to keep names unique
-    (:mod:`wbik.urdf`).
+    ``soles``: {sole frame: (k, 3) contact points in it (m)}, the feet of the support polygon.
+    ``closed_forms``: {(chain, target kind): closed form class or factory (chain, **options)}.
+    ``facts``: the robot package's frozen dataclass (lengths, servo IDs, assumptions) or None, read with
+    :meth:`require_facts`. ``continuous_joints``: revolute in ``model``, range [-pi, pi]; ``mimic``:
+    {follower joint: Mimic}; ``renamed_frames``: {new name: URDF name} (:mod:`wbik.urdf`).
     """
 
     name: str
@@ -304,20 +274,21 @@ class Robot:
         self.nominal = np.asarray(self.nominal, dtype=float)
         self.soles = self._checked_soles(self.soles)
         self.closed_forms = self._checked_closed_forms(self.closed_forms)
-        if self.facts is not None and not _is_frozen_dataclass(self.facts):
+        facts = self.facts
+        if facts is not None and not (dataclasses.is_dataclass(facts) and not isinstance(facts, type)
+                                      and type(facts).__dataclass_params__.frozen):
             raise RobotDescriptionError(
                 f"robot {self.name!r}: facts must be an instance of a frozen dataclass (the robot "
                 f"package's typed facts) or None, got {type(self.facts).__name__}")
         self._chains: dict[str, Chain] = {}
 
     def _mapping(self, value, what: str) -> Mapping:
-        """``value`` if it is a mapping, else a RobotDescriptionError: "robot NAME: ``what``, got TYPE"."""
+        """``value`` if it is a mapping, else RobotDescriptionError."""
         if not isinstance(value, Mapping):
             raise RobotDescriptionError(f"robot {self.name!r}: {what}, got {type(value).__name__}")
         return value
 
     def _checked_soles(self, soles) -> dict[str, np.ndarray]:
-        """{sole frame: read-only (k, 3) contact points}, every sole a frame of the model."""
         soles = self._mapping(soles, "soles must map a sole frame to its (k, 3) contact points")
         checked = {}
         for sole, corners in soles.items():
@@ -330,8 +301,6 @@ class Robot:
         return checked
 
     def _checked_closed_forms(self, closed_forms) -> dict[tuple[str, str], Any]:
-        """{(chain, kind): the closed form's class or factory, called (chain, **options)} with every chain
-        one of ``chains``."""
         closed_forms = self._mapping(closed_forms, "closed_forms must map (chain, target kind) to a closed "
                                                    "form's class or factory")
         for key, binding in closed_forms.items():
@@ -348,8 +317,7 @@ class Robot:
         return dict(closed_forms)
 
     def require_facts(self, kind: type[FactsT], needed_by: str) -> FactsT:
-        """``facts`` if it is a ``kind`` (the facts of one robot package), else RobotDescriptionError
-        saying that ``needed_by`` needs them."""
+        """``facts`` if it is a ``kind``, else RobotDescriptionError saying that ``needed_by`` needs them."""
         if isinstance(self.facts, kind):
             return self.facts
         has = "no facts" if self.facts is None else f"facts of type {type(self.facts).__name__}"
@@ -358,21 +326,19 @@ class Robot:
             f"through its package (wbik.load(name)) or pass facts={kind.__name__}(...)")
 
     def urdf_file(self) -> Path:
-        """A URDF file of this robot: ``urdf_path``, or else a copy of ``urdf_text`` written to the
-        user's cache folder on first use (for libraries that read files; see :func:`cache_dir`)."""
+        """``urdf_path``, or else ``urdf_text`` written to :func:`cache_dir` on first use."""
         if self.urdf_path is None:
             self.urdf_path = write_cached_urdf(self.name, self.urdf_text)
         return self.urdf_path
 
     def __repr__(self) -> str:
-        return (f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, "
-                f"chains={list(self.chains)})")
+        return f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, chains={list(self.chains)})"
 
     data = PerThreadData()
 
     @property
     def has_floating_base(self) -> bool:
-        return self.model.joints[1].shortname() == "JointModelFreeFlyer" if self.model.njoints > 1 else False
+        return self.model.njoints > 1 and self.model.joints[1].shortname() == "JointModelFreeFlyer"
 
     @cached_property
     def frame_names(self) -> list[str]:
@@ -405,8 +371,7 @@ class Robot:
 
     def chain_between(self, base: str, tip: str, name: str | None = None) -> Chain:
         """The chain from frame ``base`` to frame ``tip`` with every joint between them (mimic joints
-        locked), as KDL, TRAC-IK and MoveIt take a chain; registered under ``name`` (default
-        "BASE_to_TIP") so that ``chain(name)`` finds it again."""
+        locked), registered under ``name`` (default "BASE_to_TIP") for ``chain(name)``."""
         name = f"{base}_to_{tip}" if name is None else name
         spec = ChainSpec(name, base, tip, description=f"{base} to {tip}, joints found between them")
         known = self.chains.get(name)
@@ -435,8 +400,7 @@ class Robot:
 
 
 def cache_dir() -> Path:
-    """wbik's per-user cache folder: ``$WBIK_CACHE_DIR``, else ``$XDG_CACHE_HOME/wbik``, else
-    ``~/.cache/wbik``. Not created here: whoever writes into it creates it on first use."""
+    """``$WBIK_CACHE_DIR``, else ``$XDG_CACHE_HOME/wbik``, else ``~/.cache/wbik`` (not created here)."""
     override = os.environ.get("WBIK_CACHE_DIR")
     if override:
         return Path(override).expanduser()
@@ -446,8 +410,8 @@ def cache_dir() -> Path:
 
 
 def write_cached_urdf(name: str, text: str) -> Path:
-    """Write URDF text to a content-addressed file in ``cache_dir()/urdf`` (for the libraries that
-    read URDF files, e.g. PlaCo); the folder is created on first use."""
+    """URDF text written once to a content-addressed file in ``cache_dir()/urdf`` (for libraries that
+    read files, e.g. PlaCo)."""
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
     folder = cache_dir() / "urdf"
     folder.mkdir(parents=True, exist_ok=True)
@@ -457,14 +421,8 @@ def write_cached_urdf(name: str, text: str) -> Path:
     return path
 
 
-def model_from_urdf_text(text: str, floating_base: bool = False, source: str = "URDF") -> pin.Model:
-    """Parse URDF text into wbik's Pinocchio model (one angle per revolute joint, continuous joints
-    included; unique frame names: :func:`wbik.urdf.parse_urdf`), parser failures as RobotDescriptionError."""
-    return parse_urdf(text, floating_base, source).model
-
-
 def _joint_kind(joint) -> str:
-    """'continuous' (unbounded revolute), 'a free flyer', ... for messages."""
+    """A joint's kind in words, for messages."""
     name = joint.shortname()
     if "Unbounded" in name or name.startswith("JointModelRUB"):
         return "continuous (an unbounded revolute joint)"
@@ -474,8 +432,7 @@ def _joint_kind(joint) -> str:
 
 
 def check_model(model: pin.Model, source: str = "URDF") -> None:
-    """Refuse joints no IK method can handle sensibly, naming the joint: lower limit above upper
-    limit, NaN limits, or a zero rotation/translation axis."""
+    """RobotDescriptionError naming a joint with a zero axis, a NaN limit or lower above upper."""
     for joint_id in range(1, model.njoints):
         joint = model.joints[joint_id]
         name = model.names[joint_id]
@@ -495,9 +452,8 @@ def check_model(model: pin.Model, source: str = "URDF") -> None:
 
 
 def serial_chain_spec(model: pin.Model, name: str = "default", mimic: Mapping = ()) -> ChainSpec | None:
-    """Chain from the model's root body to the deepest frame of a single serial chain; None for a tree
-    (a joint carrying two others: name its chains by base and tip) or a model without a 1-DOF joint
-    after the base."""
+    """Chain from the root body to the last body of a single serial chain; None for a tree or a model
+    without a 1-DOF joint after the base."""
     root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
     children = [model.parents[j] for j in range(root + 1, model.njoints) if model.names[j] not in mimic]
     if len(children) != len(set(children)):
@@ -515,13 +471,11 @@ def serial_chain_spec(model: pin.Model, name: str = "default", mimic: Mapping = 
     last_joint = model.getJointId(movable[-1])
     frames = [f for f in model.frames if f.parentJoint == last_joint and f.type == pin.FrameType.BODY]
     tip = frames[-1].name if frames else model.frames[-1].name
-    root = 1 if model.joints[1].shortname() == "JointModelFreeFlyer" else 0  # the chain locks a free flyer
     bodies = [f.name for f in model.frames if f.type == pin.FrameType.BODY and f.parentJoint == root]
-    base = bodies[0] if bodies else None
-    if base is None:
+    if not bodies:
         raise RobotDescriptionError("the model has no root body to start a chain from; pass "
                                     "chains=[ChainSpec(name, base_frame, tip_frame, joints)]")
-    return ChainSpec(name, base, tip, tuple(movable), "root body to last link")
+    return ChainSpec(name, bodies[0], tip, tuple(movable), "root body to last link")
 
 
 def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | None = None,
@@ -529,14 +483,9 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
                          urdf_path: Path | None = None, package_dirs: Sequence[str] = (),
                          soles: Mapping | None = None, closed_forms: Mapping | None = None,
                          facts: Any = None) -> Robot:
-    """A Robot from URDF text; with no chains given, the single serial chain of the model (none for a
-    tree: name chains with :meth:`Robot.chain_between`).
-
-    ``nominal`` is a configuration of wbik's model (one angle per continuous joint) or of Pinocchio's
-    own parse of the URDF (cos, sin per continuous joint), e.g. a reference posture read from an SRDF.
-    ``soles``, ``closed_forms``, ``facts``: see :class:`Robot` (e.g. ``soles={"r_sole": corners, ...}``
-    gives a humanoid its support polygon).
-    """
+    """A Robot from URDF text; with no chains given, the model's single serial chain (none for a tree:
+    :meth:`Robot.chain_between`). ``nominal``: one angle per continuous joint, or Pinocchio's (cos, sin)
+    (an SRDF posture); ``soles``, ``closed_forms``, ``facts``: see :class:`Robot`."""
     source = str(urdf_path or name)
     parsed = parse_urdf(text, floating_base, source=source)
     model = parsed.model
@@ -548,7 +497,7 @@ def robot_from_urdf_text(name: str, text: str, chains: Sequence[ChainSpec] | Non
         elif nominal.shape != (model.nq,):
             raise RobotDescriptionError(f"{source}: nominal has {nominal.size} values, the model has nq = "
                                         f"{model.nq}")
-    if nominal is None:
+    else:
         nominal = pin.neutral(model)
         bounded = np.isfinite(model.lowerPositionLimit) & np.isfinite(model.upperPositionLimit)
         if floating_base:

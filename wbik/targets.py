@@ -1,12 +1,5 @@
-"""IK targets and the error between a reached pose and a target.
-
-A target is a position p (3,) and, for a full pose, a rotation R (3, 3), both expressed in the
-chain's base frame, SI units. Errors follow the one convention of :mod:`wbik.geometry`
-(``geometry.pose_error``):
-
-- position: e_p = p_reached - p_target (metres, base-frame axes);
-- rotation: e_R = log3(R_target^T R_reached) (radians, a rotation vector in the target frame,
-  so its components are small-angle errors about the target's own x, y, z axes).
+"""IK targets: a position p (3,) and, for a full pose, a rotation R (3, 3), in the chain's base frame
+(SI), and their error e_p = p_reached - p_target, e_R = log3(R_target^T R_reached) (:mod:`wbik.geometry`).
 """
 
 from __future__ import annotations
@@ -25,9 +18,8 @@ from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6
 """How far R^T R may be from identity (max abs entry) and det(R) from 1 for R to count as a rotation."""
-
 MAX_POSITION = 1e6
-"""Largest target coordinate accepted (m): anything larger is a unit mistake or garbage, not a pose."""
+"""Largest target coordinate accepted (m)."""
 
 TARGET_FORMS = ("a pinocchio.SE3, a 4x4 homogeneous matrix, a 3-vector position (m) or a "
                 "wbik.Target")
@@ -45,7 +37,7 @@ class Target:
         return self.rotation is not None
 
     def se3(self) -> pin.SE3:
-        """The target as an SE3 (identity rotation for a position-only target)."""
+        """The target as an SE3 (identity rotation for a position only)."""
         rotation = np.eye(3) if self.rotation is None else self.rotation
         return pin.SE3(rotation, self.position)
 
@@ -55,7 +47,7 @@ def _finite_array(value, shape: tuple[int, ...], what: str, max_abs: float | Non
 
 
 def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:
-    """Return ``rotation`` as a float array, or raise InvalidRotationError if it is not in SO(3)."""
+    """``rotation`` as a float array, or InvalidRotationError if it is not in SO(3)."""
     matrix = _finite_array(rotation, (3, 3), "rotation")
     with np.errstate(over="ignore", invalid="ignore"):  # huge entries: inf, still refused below
         orthogonality = float(np.max(np.abs(matrix.T @ matrix - np.eye(3))))
@@ -69,12 +61,9 @@ def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarra
 
 
 def plain_pose_matrix(value) -> np.ndarray | None:
-    """The private 4 x 4 homogeneous matrix of a full-pose target on :func:`as_target`'s fast path: a
-    ``pinocchio.SE3``, or a float64 4 x 4 array whose last row is exactly [0, 0, 0, 1], that passes the
-    plain-float pose test (position within MAX_POSITION, a rotation within ROTATION_TOLERANCE). None
-    for anything else: :func:`as_target`'s general path then decides, and says what is wrong. The
-    matrix is a copy (changing ``value`` later does not change it); :func:`pose_target` makes the
-    Target whose arrays are views of it."""
+    """A private copy of a full-pose target as a 4 x 4 matrix, on :func:`as_target`'s fast path: an SE3
+    or a float64 4 x 4 array with last row [0, 0, 0, 1] that passes the plain-float pose test; None for
+    anything else (the general path then decides and says what is wrong)."""
     kind = type(value)
     if kind is pin.SE3:
         matrix = value.homogeneous  # a new array
@@ -87,21 +76,18 @@ def plain_pose_matrix(value) -> np.ndarray | None:
 
 
 def pose_target(matrix: np.ndarray) -> Target:
-    """The Target of a matrix :func:`plain_pose_matrix` returned: its position and rotation are views
-    of it."""
+    """The Target whose position and rotation are views of a :func:`plain_pose_matrix` matrix."""
     return Target(matrix[:3, 3], matrix[:3, :3])
 
 
 def _plain_se3_target(value: pin.SE3) -> Target | None:
-    """as_target's fast path for an SE3 (:func:`plain_pose_matrix`), None where it does not apply."""
+    """as_target's fast path for an SE3, None where it does not apply."""
     matrix = plain_pose_matrix(value)
     return None if matrix is None else pose_target(matrix)
 
 
 def _plain_array_target(value: np.ndarray) -> Target | None:
-    """The same fast path for a float64 array: a 3-vector within the bound, or a 4x4 homogeneous
-    matrix (:func:`plain_pose_matrix`); the target's arrays are views of a private copy. None for
-    anything else: the general path decides (and says what is wrong)."""
+    """The fast path for a float64 array (a 3-vector within the bound, or a 4x4 pose), None otherwise."""
     if value.dtype != np.float64:
         return None
     if value.shape == (3,):
@@ -114,8 +100,7 @@ def _plain_array_target(value: np.ndarray) -> Target | None:
 
 
 def _plain_given_target(value: Target) -> Target | None:
-    """A Target checked again on the fast path: a copy of it when its float64 arrays pass the plain-float
-    test, None otherwise (the general path then checks it in detail)."""
+    """The fast path for a Target: a copy when its float64 arrays pass the plain-float test, else None."""
     position, rotation = value.position, value.rotation
     if type(position) is not np.ndarray:
         return None
@@ -131,13 +116,11 @@ def _plain_given_target(value: Target) -> Target | None:
 
 def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float) -> bool:
     """The fast-path test of a 4x4 pose in plain floats: position within ``bound``; unit, orthogonal
-    columns and det +1 within ``tolerance`` (``wbik.kernels._pose.plain_se3`` is its compiled twin)."""
+    columns and det +1 within ``tolerance`` (compiled twin: ``wbik.kernels._pose.plain_se3``)."""
     (a, b, c, x), (d, e, f, y), (g, h, i, z), _ = matrix.tolist()
-    # chained comparisons: no abs() calls
     if not (-bound <= x <= bound and -bound <= y <= bound and -bound <= z <= bound):
         return False  # NaN fails every comparison
     low, high = 1.0 - tolerance, 1.0 + tolerance
-    # R^T R = I: unit columns, orthogonal columns; det R = +1
     return (low <= a * a + d * d + g * g <= high and low <= b * b + e * e + h * h <= high
             and low <= c * c + f * f + i * i <= high and -tolerance <= a * b + d * e + g * h <= tolerance
             and -tolerance <= a * c + d * f + g * i <= tolerance
@@ -145,17 +128,13 @@ def _python_accepts_plain_se3(matrix: np.ndarray, bound: float, tolerance: float
             and low <= a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) <= high)
 
 
-# the compiled twin (wbik.kernels, kernel 'pose'): the same test in C
 _compiled_accepts_plain_se3 = compiled_twin("pose", "plain_se3")
 _accepts_plain_se3 = chosen(_python_accepts_plain_se3, _compiled_accepts_plain_se3, "pose")
 
 
 def as_target(value, rotation=None) -> Target:
-    """Normalise a user target.
-
-    Accepts a :class:`Target`, a ``pinocchio.SE3`` (full pose), a 4x4 homogeneous matrix (full pose),
-    or a 3-vector (position only; ``rotation`` optionally adds an orientation).
-    """
+    """A user target as a Target: a Target, an SE3 or a 4x4 homogeneous matrix (full pose), or a
+    3-vector (a position; ``rotation`` optionally adds an orientation)."""
     if rotation is None:
         kind = type(value)
         if kind is pin.SE3:  # _plain_se3_target, inline on the most common path
@@ -192,8 +171,7 @@ def as_target(value, rotation=None) -> Target:
 
 
 def pose_error(reached: pin.SE3, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
-    """(e_p, e_R) of ``geometry.pose_error`` split in two: position error xyz, and the rotation
-    error vector or None for a position-only target."""
+    """(e_p, e_R) of ``geometry.pose_error``, e_R None for a position-only target."""
     position_error = reached.translation - target.position
     if target.rotation is None:
         return position_error, None

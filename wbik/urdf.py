@@ -1,31 +1,13 @@
-"""From URDF text to the Pinocchio model wbik works on: one angle per revolute joint, unique frame names.
-
-Pinocchio parses a URDF ``continuous`` joint as an unbounded revolute joint with two configuration
-values (cos theta, sin theta) and one velocity. wbik speaks angles everywhere (a chain's q has one value
-per joint, tables and files give angles), so :func:`angle_model` rebuilds the parsed model with each
-unbounded revolute joint replaced by the bounded revolute joint about the same axis, limited to
-``[-pi, pi]`` (one turn: the range random configurations are drawn from and answers are wrapped into).
-The joint's name, placement, inertia, effort and velocity limits are kept, and so are the joint ids,
-frame ids, nv and every velocity-indexed quantity; only nq shrinks by one per such joint. The names of
-the continuous joints are returned beside the model, since the rebuilt model no longer tells them
-apart from a revolute joint limited to one turn: methods that can (KDL, TRAC-IK, the QP, bounded LM)
-then treat them as unbounded and wrap their answers.
-
-A URDF may give a joint and a link the same name (the Unitree Z1's ``gripperStator``). Pinocchio keeps
-both frames, and its frame look-ups by name (``buildReducedModel`` among them) then refuse the name.
-The link keeps it (a frame named in a chain or a task is a link, as in KDL, TRAC-IK and MoveIt); the
-other frames of that name get the suffix of their kind (``gripperStator_joint``), and the renames are
-returned so a loader can say so.
-
-``mimic`` joints (a gripper's second finger following the first) are parsed by Pinocchio as
-independent joints; :func:`mimic_joints` reads which joint follows which from the URDF text, so chains
-can lock them and say so by name.
+"""From URDF text to wbik's Pinocchio model (docs/guide/robots.md): a continuous joint, which Pinocchio
+parses as (cos, sin), becomes the revolute joint about its axis limited to [-pi, pi] (ids and nv kept);
+frames sharing a link's name get their kind's suffix (``NAME_joint``); ``<mimic>`` joints are read.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections import Counter
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -35,19 +17,12 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError
 
 CONTINUOUS_LIMIT = math.pi
-"""A continuous joint's range in wbik's model is [-CONTINUOUS_LIMIT, CONTINUOUS_LIMIT] (rad): one turn."""
+"""A continuous joint's range is [-CONTINUOUS_LIMIT, CONTINUOUS_LIMIT] (rad)."""
 
-_BOUNDED_OF = {
-    "JointModelRUBX": pin.JointModelRX,
-    "JointModelRUBY": pin.JointModelRY,
-    "JointModelRUBZ": pin.JointModelRZ,
-}
-_SUFFIX = {
-    pin.FrameType.JOINT: "joint",
-    pin.FrameType.FIXED_JOINT: "joint",
-    pin.FrameType.OP_FRAME: "frame",
-    pin.FrameType.SENSOR: "sensor",
-}
+_BOUNDED_OF = {"JointModelRUBX": pin.JointModelRX, "JointModelRUBY": pin.JointModelRY,
+               "JointModelRUBZ": pin.JointModelRZ}
+_SUFFIX = {pin.FrameType.JOINT: "joint", pin.FrameType.FIXED_JOINT: "joint", pin.FrameType.OP_FRAME: "frame",
+           pin.FrameType.SENSOR: "sensor"}
 
 
 @dataclass(frozen=True)
@@ -62,52 +37,33 @@ class Mimic:
 
 @dataclass
 class ParsedModel:
-    """A URDF parsed into wbik's model, with what the parse changed.
-
-    ``continuous``: names of the URDF's continuous joints (revolute in ``model``, limited to one
-    turn); ``renamed``: {new frame name: old name} of frames renamed to keep names unique;
-    ``mimic``: {follower joint: Mimic}.
-    """
+    """A URDF parsed into wbik's model: ``continuous`` joints' names, ``renamed`` {new frame name: old
+    name}, ``mimic`` {follower joint: Mimic}, and ``source_model``, Pinocchio's own parse (cos, sin)."""
 
     model: pin.Model
     continuous: tuple[str, ...] = ()
     renamed: dict[str, str] = field(default_factory=dict)
     mimic: dict[str, Mimic] = field(default_factory=dict)
     source_model: pin.Model | None = None
-    """The faithful parse (continuous joints as cos, sin), for configurations given in its form."""
 
 
 def is_unbounded_revolute(joint) -> bool:
-    """Whether a Pinocchio joint model is an unbounded revolute joint (nq = 2: cos, sin; nv = 1)."""
+    """Whether a Pinocchio joint model is an unbounded revolute joint (cos, sin)."""
     name = joint.shortname()
     return name in _BOUNDED_OF or name == "JointModelRevoluteUnboundedUnaligned"
 
 
-def _bounded_revolute(joint):
-    """The bounded revolute joint model about the same axis as an unbounded one."""
-    name = joint.shortname()
-    if name in _BOUNDED_OF:
-        return _BOUNDED_OF[name]()
-    return pin.JointModelRevoluteUnaligned(np.asarray(joint.extract().axis, dtype=float))
-
-
 def _unique_frame_names(model: pin.Model) -> list[str]:
-    """Each frame's name in ``model``, the non-link frames of a shared name renamed by their kind."""
+    """Each frame's name, the non-link frames of a shared name renamed by their kind."""
     names = [frame.name for frame in model.frames]
-    by_name: dict[str, list[int]] = {}
-    for index, name in enumerate(names):
-        by_name.setdefault(name, []).append(index)
     taken = set(names)
-    for name, indices in by_name.items():
-        if len(indices) == 1:
-            continue
+    for name in [name for name, count in Counter(names).items() if count > 1]:
+        indices = [i for i, frame in enumerate(model.frames) if frame.name == name]
         bodies = [i for i in indices if model.frames[i].type == pin.FrameType.BODY]
         if len(bodies) > 1:
             raise RobotDescriptionError(f"two links are named {name!r}; give each link its own name")
         keeper = bodies[0] if bodies else indices[0]
-        for index in indices:
-            if index == keeper:
-                continue
+        for index in (i for i in indices if i != keeper):
             suffix = _SUFFIX.get(model.frames[index].type, "frame")
             new, count = f"{name}_{suffix}", 2
             while new in taken:
@@ -118,9 +74,7 @@ def _unique_frame_names(model: pin.Model) -> list[str]:
 
 
 def angle_model(model: pin.Model) -> ParsedModel:
-    """``model`` with one angle per revolute joint and unique frame names (see the module docstring).
-
-    Returns the model itself when nothing needs changing."""
+    """``model`` with one angle per revolute joint and unique frame names (itself if nothing changes)."""
     unbounded = [j for j in range(1, model.njoints) if is_unbounded_revolute(model.joints[j])]
     names = _unique_frame_names(model)
     renamed = {new: frame.name for new, frame in zip(names, model.frames, strict=True) if new != frame.name}
@@ -133,8 +87,10 @@ def angle_model(model: pin.Model) -> ParsedModel:
         joint = model.joints[joint_id]
         q_slice = slice(joint.idx_q, joint.idx_q + joint.nq)
         v_slice = slice(joint.idx_v, joint.idx_v + joint.nv)
-        if joint_id in unbounded:
-            new_joint = _bounded_revolute(joint)
+        if joint_id in unbounded:  # the bounded revolute joint about the same axis
+            bounded = _BOUNDED_OF.get(joint.shortname())
+            new_joint = bounded() if bounded else pin.JointModelRevoluteUnaligned(
+                np.asarray(joint.extract().axis, dtype=float))
             lower, upper = np.array([-CONTINUOUS_LIMIT]), np.array([CONTINUOUS_LIMIT])
         else:
             new_joint = joint
@@ -143,8 +99,6 @@ def angle_model(model: pin.Model) -> ParsedModel:
                                   model.names[joint_id], model.effortLimit[v_slice],
                                   model.velocityLimit[v_slice], lower, upper,
                                   model.friction[v_slice], model.damping[v_slice])
-        if new_id != joint_id:  # pragma: no cover - parents precede children in a Pinocchio model
-            raise RobotDescriptionError(f"joint {model.names[joint_id]!r}: the rebuilt model reorders joints")
         rebuilt.inertias[new_id] = model.inertias[joint_id]
     for index in range(1, len(model.frames)):
         frame = pin.Frame(model.frames[index])
@@ -157,7 +111,7 @@ def angle_model(model: pin.Model) -> ParsedModel:
 
 
 def angles_of(parsed: pin.Model, angles: pin.Model, q: np.ndarray) -> np.ndarray:
-    """A configuration of the parsed model (cos, sin per continuous joint) as one of its angle model."""
+    """A configuration of ``parsed`` (cos, sin per continuous joint) as one of ``angles``."""
     out = pin.neutral(angles)
     for joint_id in range(1, parsed.njoints):
         joint, target = parsed.joints[joint_id], angles.joints[joint_id]
@@ -180,17 +134,10 @@ def _attributes(tag_text: str) -> dict[str, str]:
     return {key: value for key, _, value in _ATTRIBUTE.findall(tag_text)}
 
 
-def _uncommented(text: str) -> str:
-    """URDF text without its comments (a tag inside a comment is no tag)."""
-    return _COMMENT.sub("", text)
-
-
 def mimic_joints(text: str) -> dict[str, Mimic]:
-    """{follower: Mimic} of every ``<joint>`` of URDF text with a ``<mimic joint=...>`` element.
-
-    Read with regular expressions, as PlaCo's geometry stripping is: URDF readers accept files a strict
-    XML parser refuses (e.g. ``--`` inside comments)."""
-    text = _uncommented(text)
+    """{follower: Mimic} of URDF text's joints with a ``<mimic>``, read with regular expressions (URDF
+    readers accept files a strict XML parser refuses)."""
+    text = _COMMENT.sub("", text)
     mimics = {}
     for attributes, body in _JOINT_BLOCK.findall(text):
         found = _MIMIC.search(body)
@@ -211,8 +158,7 @@ def mimic_joints(text: str) -> dict[str, Mimic]:
 
 
 def parse_urdf(text: str, floating_base: bool = False, source: str = "URDF") -> ParsedModel:
-    """Parse URDF text into wbik's model (:func:`angle_model`) with its mimic joints; parser failures
-    become RobotDescriptionError."""
+    """URDF text as wbik's model (:func:`angle_model`) with its mimic joints, or RobotDescriptionError."""
     try:
         model = (pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if floating_base
                  else pin.buildModelFromXML(text))
@@ -233,9 +179,8 @@ _BOUND_ATTRIBUTE = re.compile(r"""\s(lower|upper)\s*=\s*(["']).*?\2""", re.DOTAL
 
 
 def continuous_as_revolute(text: str, limit: float) -> str:
-    """URDF text with every continuous joint made revolute with limits [-limit, limit] (its effort and
-    velocity limits kept): for libraries that read the URDF themselves but would store a continuous
-    joint as (cos, sin), so that a joint's position stays one angle there too."""
+    """URDF text with every continuous joint revolute in [-limit, limit] (effort and velocity kept), for
+    libraries that read the URDF themselves."""
 
     def one_joint(match: re.Match) -> str:
         attributes, body = match.group(1), match.group(2)
@@ -261,9 +206,8 @@ MASSLESS_ROOT = "wbik_massless_root"
 
 def with_massless_root(text: str) -> str:
     """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a new massless
-    root link: KDL's URDF parser (used by TRAC-IK) ignores a root link's inertia and warns about it on
-    every parse, and suggests this very change. Kinematics and every other link are unchanged."""
-    uncommented = _uncommented(text)
+    root link (KDL ignores a root link's inertia and warns on every parse)."""
+    uncommented = _COMMENT.sub("", text)
     children = {match.group(2) for match in _CHILD.finditer(uncommented)}
     for match in _LINK_BLOCK.finditer(uncommented):
         name = _attributes(match.group(1)).get("name")
@@ -279,13 +223,9 @@ def with_massless_root(text: str) -> str:
 
 
 def reduced_model(model: pin.Model, locked: list[int], q: np.ndarray) -> pin.Model:
-    """``pin.buildReducedModel(model, locked, q)``, also where a movable joint has the name of a link.
-
-    Locking a joint turns it into a fixed-joint frame named after the joint, and Pinocchio 3.8 then
-    looks frames up by that name: a link of the same name (ANYmal C's knee ``RH_KFE``) makes the name
-    ambiguous and the call fails. Such joints (and their joint frames) are renamed for the call; in the
-    result, kept joints get their names back and their frames, fixed or not, are ``NAME_joint``, as
-    :func:`angle_model` names them."""
+    """``pin.buildReducedModel(model, locked, q)``, also where a joint has a link's name (Pinocchio then
+    fails on the ambiguous name): such joints are renamed for the call, and in the result keep their
+    names while their frames are ``NAME_joint``, as :func:`angle_model` names them."""
     frame_names = {frame.name for frame in model.frames}
     clashing = {joint_id: model.names[joint_id] for joint_id in range(1, model.njoints)
                 if model.names[joint_id] in frame_names
@@ -319,10 +259,9 @@ _NAME_ATTRIBUTE = re.compile(r"""(\bname\s*=\s*)(["'])(.*?)\2""", re.DOTALL)
 
 def fixed_joints_renamed(text: str) -> str:
     """URDF text whose fixed joints named like a link are renamed ``NAME_joint``, as :func:`angle_model`
-    renames their frames: for libraries that read the URDF themselves and look frames up by name alone
-    (PlaCo), where the shared name would be ambiguous. Movable joints keep their names (they are set by
-    name)."""
-    links = {_attributes(match.group(1)).get("name") for match in _LINK_BLOCK.finditer(_uncommented(text))}
+    renames their frames (for PlaCo, which looks frames up by name)."""
+    uncommented = _COMMENT.sub("", text)
+    links = {_attributes(match.group(1)).get("name") for match in _LINK_BLOCK.finditer(uncommented)}
 
     def one_joint(match: re.Match) -> str:
         attributes = match.group(1)

@@ -1,12 +1,6 @@
-"""The data files wbik ships: scenario files (``tasks/``, keyframes in ``tasks/data/``), study
-definitions (``comparisons/*.yaml``) and the robot descriptions written for this project (``urdf/``:
-Golem-III, Pincher, Bioloid, arm3r and the UR5's riveting tool; robot packages keep the code that
-builds and reads them).
-
-In the source tree (and an editable install) they are the repository's top-level folders, where the
-README documents them. A built wheel carries a copy of each at ``wbik/data/<folder>/`` (setup.py
-copies them at build time), found here with :mod:`importlib.resources`. :func:`data_dir` returns the
-packaged copy when there is one, else the source tree's folder.
+"""The data files wbik ships: scenario files (``tasks/``), study definitions (``comparisons/``) and the
+robot descriptions written for this project (``urdf/``): the repository's top-level folders, or their
+copies at ``wbik/data/<folder>/`` in a built wheel (setup.py).
 """
 
 from __future__ import annotations
@@ -20,7 +14,7 @@ STUDY_SUFFIXES = (".yaml", ".yml", ".toml")
 
 
 def data_dir(folder: str) -> Path:
-    """The folder ``tasks``, ``comparisons`` or ``urdf``: the installed copy, else the source tree's."""
+    """The folder ``tasks``, ``comparisons`` or ``urdf``: the wheel's copy, else the source tree's."""
     if folder not in FOLDERS:
         raise ValueError(f"unknown data folder {folder!r}; one of {', '.join(FOLDERS)}")
     packaged = files(__name__) / folder
@@ -47,11 +41,11 @@ def shipped_studies() -> dict[str, Path]:
 
 
 def _resolve(name_or_path: str | Path, shipped: dict[str, Path], folder: str) -> Path:
+    """An existing path as given, else the shipped file of that name, file name or ``FOLDER/NAME.yaml``
+    path; otherwise the path as given (the caller reports it missing)."""
     path = Path(name_or_path).expanduser()
     if path.exists() or path.parent not in (Path("."), Path(folder)):
         return path
-    # a shipped name ("bioloid_balance"), its file name, or its documented source-tree path
-    # ("tasks/bioloid_balance.yaml"), which thus also works where wbik is installed from a wheel
     candidate = shipped.get(path.stem if path.suffix else path.name)
     if candidate is not None and (not path.suffix or candidate.name == path.name):
         return candidate
@@ -59,18 +53,15 @@ def _resolve(name_or_path: str | Path, shipped: dict[str, Path], folder: str) ->
 
 
 def task_path(name_or_path: str | Path) -> Path:
-    """A scenario file: an existing path as given, else the shipped task of that name (or file name,
-    or ``tasks/NAME.yaml`` path); otherwise the path as given (the caller reports it missing)."""
+    """A scenario file (:func:`_resolve`)."""
     return _resolve(name_or_path, shipped_tasks(), "tasks")
 
 
 def study_path(name_or_path: str | Path) -> Path:
-    """A study file: an existing path as given, else the shipped study of that name (or file name, or
-    ``comparisons/NAME.yaml`` path); otherwise the path as given (the caller reports it missing)."""
+    """A study file (:func:`_resolve`)."""
     return _resolve(name_or_path, shipped_studies(), "comparisons")
 
 
 def description_file(name: str) -> Path:
-    """A robot description shipped in ``urdf/`` (e.g. ``golem3.urdf``); for the generated ones
-    (Golem-III, Bioloid) the file need not exist yet: ``scripts/export_urdf.py`` writes it."""
+    """A robot description in ``urdf/`` (e.g. ``golem3.urdf``; ``scripts/export_urdf.py`` writes them)."""
     return data_dir("urdf") / name

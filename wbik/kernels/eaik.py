@@ -1,30 +1,9 @@
-"""The per-call choice of the ``eaik`` method (:meth:`wbik.solvers.eaik.EAIKSolver.solve`) in two
-twins with the same bits: :func:`order_python` and :func:`choose_python` here, and the C extension
-``wbik.kernels._eaik`` (``_eaik.c``, expression by expression the same code).
-
-* ``order(params, branches, reference, out) -> count``: of EAIK's branches (K, n), the ones the choice
-  screens, wrapped into the limits nearest to ``reference``, written into ``out`` (at least K * n
-  float64 values, C order) in the order they are screened; returns how many. The order is that of
-  branch and bound: each branch's lower bound of its squared distance once wrapped,
-  sum_i (2 pi)^2 (t_i - rint(t_i))^2 with t = (q - r) / 2 pi (+inf where a joint is not finite),
-  branches taken in the (stable) order of their bounds; before each is taken, every wrapped branch whose
-  squared distance is at most its bound less ``params[0]`` (n BOUND_SLACK) comes out, nearest first
-  (ties: the first in the bounds' order), and after the last one (or at an infinite bound) all of them.
-  Because no branch left can be nearer, this is the order of the wrapped distances; the caller screens
-  the rows in turn and takes the first that passes.
-* ``choose(params, branches, reference, target, out) -> 0 or 1``: the first of ``order``'s rows whose
-  FK passes the screen on the target (its 4 x 4 homogeneous matrix). ``out`` (n + 24 values) gets its
-  joints (n), its 4 x 4 tip pose (16) and the batched check's errors of that pose (8:
-  :func:`pose_errors_python`, the rule of :func:`wbik.solvers.analytic.batch.evaluate_batch`). The FK
-  is the product of exponentials of the chain's joint lines (:func:`poe_python`; the model's FK to
-  rounding, held to it when the solver is built), the screen |p - p*| <= tolerance, then
-  acos(clip((trace(R*^T R) - 1) / 2)) <= tolerance with the trace summed row by row (as
-  :func:`wbik.solvers.analytic.closed_form.screen_residual`).
-
-The C code builds no Python object but the returned int. :func:`parameters` packs what both read
-(float64 values in a bytes object). ``WBIK_PURE_PYTHON=1`` (:mod:`wbik.kernels`) when the solver is
-built, or no built extension, runs the Python twin. tests/test_eaik_kernel.py holds both to the same
-bits.
+"""The per-call choice of the ``eaik`` method in two twins with the same bits: :func:`order_python` and
+:func:`choose_python` here, ``wbik.kernels._eaik`` in C (docs/benchmarks.md). ``order`` writes EAIK's
+branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch and
+bound (bound: :func:`bound_python`; a wrapped branch comes out once at most the next bound less
+``params[0]`` away; ties in the bounds' order) and returns how many; ``choose`` writes the first of them
+whose FK (:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
 """
 
 from __future__ import annotations
@@ -44,11 +23,9 @@ _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 def parameters(joints: int, lower, upper, slack: float, limit_tolerance: float, lines=None,
                screen_tolerance: float = 0.0) -> bytes:
-    """The parameters of ``order`` and ``choose``, float64 values packed in bytes: (``slack``, the bound's
-    slack, n BOUND_SLACK; ``limit_tolerance``; the screen's tolerance; lower (n); upper (n); the joint
-    lines' axes (n x 3) and origins (n x 3); the tip's pose at q = 0: rotation (3 x 3) and position
-    (3)). ``lines``: the chain's :class:`~wbik.solvers.analytic.structure.ChainLines` (zeros without:
-    ``order`` only)."""
+    """float64 values in bytes: ``slack`` (the bound's), ``limit_tolerance``, ``screen_tolerance``, lower
+    (n), upper (n), and from ``lines`` (:class:`~wbik.solvers.analytic.structure.ChainLines`; zeros
+    without, for ``order`` only) the joint axes (n x 3), origins (n x 3) and tip pose at q = 0 (R, p)."""
     if lines is None:
         axes, origins, tip = np.zeros((joints, 3)), np.zeros((joints, 3)), np.eye(4)
     else:
@@ -64,9 +41,7 @@ def parameters(joints: int, lower, upper, slack: float, limit_tolerance: float, 
 def wrapped_python(raw: list[float], reference: list[float], lower: list[float], upper: list[float],
                    tolerance: float) -> tuple[float, list[float]] | None:
     """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it) or None when a
-    joint has no 2 pi shift inside its limits: :func:`wbik.solvers.analytic.closed_form.wrap_one_into_limits`
-    and
-    :func:`~wbik.solvers.analytic.squared_distance`, joint by joint."""
+    joint has no 2 pi shift inside them (:func:`~wbik.solvers.analytic.closed_form.wrap_one_into_limits`)."""
     wrapped = []
     total = 0.0
     for value, ref, low, high in zip(raw, reference, lower, upper, strict=True):
@@ -94,8 +69,7 @@ def wrapped_python(raw: list[float], reference: list[float], lower: list[float],
 
 
 def bound_python(raw: list[float], reference: list[float]) -> float:
-    """sum_i (2 pi)^2 (t_i - rint(t_i))^2, t = (q - r) / 2 pi, joint by joint; +inf where a joint is
-    not finite."""
+    """sum_i (2 pi)^2 (t_i - rint(t_i))^2, t = (q - r) / 2 pi; +inf where a joint is not finite."""
     total = 0.0
     for value, ref in zip(raw, reference, strict=True):
         turns = (value - ref) * _INVERSE_TURN
@@ -107,7 +81,7 @@ def bound_python(raw: list[float], reference: list[float]) -> float:
 
 
 def order_python(params: bytes, branches: np.ndarray, reference: np.ndarray, out: np.ndarray) -> int:
-    """The Python twin of ``_eaik_kernel.order`` (see the module docstring)."""
+    """The Python twin of ``_eaik.order`` (see the module docstring)."""
     joints = len(reference)
     values = np.frombuffer(params, dtype=float).tolist()
     slack, tolerance = values[0], values[1]
@@ -137,9 +111,8 @@ def order_python(params: bytes, branches: np.ndarray, reference: np.ndarray, out
 
 
 def poe_python(values: list[float], joints: int, q: list[float]) -> list[float]:
-    """The tip's 4 x 4 pose (16 values, row by row) of joints ``q`` from the packed parameters' lines:
-    T = T_1(q_1) ... T_n(q_n) M, T_k = (Rot(a_k, q_k), o_k - Rot(a_k, q_k) o_k),
-    Rot(a, t) = cos t I + (1 - cos t) a a^T + sin t [a]x; the C twin's operations in its order."""
+    """The tip's 4 x 4 pose (16 values, row by row): T = T_1(q_1) ... T_n(q_n) M, T_k = (Rot(a_k, q_k),
+    o_k - Rot(a_k, q_k) o_k), Rot(a, t) = cos t I + (1 - cos t) a a^T + sin t [a]x."""
     base = 3 + 2 * joints
     axes, origins = values[base:base + 3 * joints], values[base + 3 * joints:base + 6 * joints]
     tip = values[base + 6 * joints:base + 6 * joints + 12]
@@ -168,7 +141,7 @@ def poe_python(values: list[float], joints: int, q: list[float]) -> list[float]:
 
 def screen_values(reached: list[float], position: list[float], rotation: list[float],
                   tolerance: float) -> bool:
-    """The screen on a tip pose (16 values, row by row) and a target (position, rotation row by row)."""
+    """The screen of a tip pose (16 values) on a target (position, rotation row by row)."""
     a, b, c, x, d, e, f, y, g, h, i, z = reached[:12]
     px, py, pz = position
     dx, dy, dz = x - px, y - py, z - pz
@@ -182,10 +155,8 @@ def screen_values(reached: list[float], position: list[float], rotation: list[fl
 
 
 def pose_errors_python(reached: list[float], position: list[float], rotation: list[float]) -> list[float]:
-    """The batched check's errors of a tip pose (16 values, row by row) against a target (position,
-    rotation row by row): (e_p (3), e_R (3), |e_p|, |e_R|), e_R = log3(M), M = R*^T R, in
-    :func:`wbik.geometry.batch_log3`'s formula: vee(M - M^T) angle / |vee|, angle = atan2(|vee| / 2,
-    (trace M - 1) / 2) (``_pose_errors.h``, operation by operation)."""
+    """(e_p (3), e_R (3), |e_p|, |e_R|) of a tip pose (16 values) on a target, e_R in
+    :func:`wbik.geometry.batch_log3`'s formula (``_pose_errors.h``, operation by operation)."""
     r00, r01, r02, x, r10, r11, r12, y, r20, r21, r22, z = reached[:12]
     t00, t01, t02, t10, t11, t12, t20, t21, t22 = rotation
     m = [t00 * r00 + t10 * r10 + t20 * r20, t00 * r01 + t10 * r11 + t20 * r21,

@@ -1,21 +1,6 @@
-"""wbik's compiled kernels, all in this folder, with the switch between them and their Python twins.
-
-Six optional C extensions, built by ``pip install`` (``setup.py``) where a C compiler exists, each
-replace a piece of per-call Python arithmetic with the same arithmetic in C. :data:`KERNELS` lists
-them: the extension, what it computes, its Python twin (the code that runs without it) and the
-benchmark goal rows it moves (``benchmarks/all.py``; docs/benchmarks.md gives each one's measured
-gain). The C sources sit beside this file (``_<name>.c``, sharing ``_buffers.h``); a C function writes
-into arrays the caller passes and returns a number, a bool or None, never a Python object of wbik's.
-
-Twins with the same bits: ``pose`` and ``eaik`` (plain IEEE arithmetic in the same order, built without
-FMA contraction); ``ur_type`` and ``stacked_planar`` too where NumPy's arctan2 and arccos are libm's (their
-twin is the vectorised NumPy choice; NumPy's AVX-512 versions are one ulp off on some arguments). Twins to
-rounding: ``qp_rows`` and ``lm_trial``, whose Python twins call Pinocchio, NumPy or LAPACK, which sum in
-their own orders. Tests compare every pair (tests/test_compiled.py and one test file per kernel).
-
-``WBIK_PURE_PYTHON=1`` in the environment runs every Python twin; a comma-separated list of kernel
-names (``WBIK_PURE_PYTHON=eaik,pose``) runs the twins of those only, which is how a kernel's own gain
-is measured. It is read when a kernel is picked (see :func:`pure_python`).
+"""wbik's compiled kernels (``_<name>.c`` here, built by ``setup.py`` where a C compiler exists), their
+Python twins and the switch between them: ``WBIK_PURE_PYTHON=1`` runs every Python twin, a comma-separated
+list of kernel names (``eaik,pose``) those only (docs/benchmarks.md).
 """
 
 from __future__ import annotations
@@ -53,13 +38,12 @@ except ImportError:
     _lm_trial = None
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
-"""Set to 1 to run every Python twin even where the extensions are built, or to kernel names."""
 
 
 @dataclass(frozen=True)
 class Kernel:
-    """One compiled kernel: ``name`` (``WBIK_PURE_PYTHON``'s word for it), its extension module (None where
-    it is not built), what it computes, where its Python twin lives, and the benchmark goal rows it moves."""
+    """One compiled kernel: ``name``, its extension (None where not built), what it computes, where its
+    Python twin lives, and the goal rows of ``benchmarks/all.py`` it moves."""
 
     name: str
     extension: ModuleType | None
@@ -101,15 +85,13 @@ KERNELS = (
 
 
 def compiled_twin(kernel: str, name: str):
-    """The function ``name`` of the extension of ``kernel`` (a name in :data:`KERNELS`), or None where it is
-    not built."""
+    """The function ``name`` of ``kernel``'s extension, or None where it is not built."""
     extension = next(k.extension for k in KERNELS if k.name == kernel)
     return None if extension is None else getattr(extension, name)
 
 
 def chosen(python, compiled, kernel: str):
-    """The twin to run: ``compiled`` unless it is None (not built) or ``WBIK_PURE_PYTHON`` asks for
-    ``python`` (see :func:`pure_python`)."""
+    """``compiled``, unless it is None or ``WBIK_PURE_PYTHON`` asks for ``python``."""
     return python if compiled is None or pure_python(kernel) else compiled
 
 
@@ -120,11 +102,9 @@ def can_build() -> bool:
 
 
 def pure_python(kernel: str | None = None) -> bool:
-    """Whether ``WBIK_PURE_PYTHON`` asks for the Python twin of ``kernel`` (1: of every kernel; a
-    comma-separated list: of those named); without ``kernel``, whether it asks for every twin. Read
-    when a kernel is picked: at import of :mod:`wbik.targets` and :mod:`wbik.geometry`, when a closed
-    form or an ``eaik`` solver is built, when a QP frame task, priority level or constraint stack is
-    made, when a ``bounded_lm`` solver is made."""
+    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: for every
+    twin). Read when a kernel is picked (at import of :mod:`wbik.targets` and :mod:`wbik.geometry`, or
+    when the solver, closed form or QP piece using it is made)."""
     value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
     if value == "1":
         return True

@@ -1,10 +1,6 @@
-"""Robots by name, and ``load``.
-
-The robots wbik knows by name are declared by robot packages, not written here: each module listed
-in ``ROBOT_MODULES`` declares ``ROBOTS``, a tuple of :class:`RobotEntry` (name, the module holding
-``build(**params) -> Robot``, a description); ``wbik/robot_packages/__init__.py`` declares the built-in
-ones (the seed robots and the Panda). User code adds one with :func:`register_robot`. ``load`` also
-takes a path to any URDF file (one serial chain is found automatically, or pass ``chains=``).
+"""Robots by name, and ``load``: each module of ``ROBOT_MODULES`` declares ``ROBOTS``, a tuple of
+:class:`RobotEntry` (``wbik.robot_packages`` the built-in ones); user code adds one with
+:func:`register_robot`. ``load`` also takes a URDF path or ``"example-robot-data:NAME"``.
 """
 
 from __future__ import annotations
@@ -27,9 +23,9 @@ from wbik.robot import robot_from_urdf_text
 
 @dataclass(frozen=True)
 class RobotEntry:
-    """A robot known by name: ``model`` gives the module with ``build(**params) -> Robot`` (a function
-    importing it by name, or for user code the module's name; imported on first use; it may also define
-    ``collision_primitives(robot)`` and ``collision_obstacles()``)."""
+    """A robot known by name: ``model``, a function returning the module with ``build(**params) -> Robot``
+    (for user code: the module's name), which may also define ``collision_primitives(robot)`` and
+    ``collision_obstacles()``."""
 
     name: str
     model: str | Callable[[], ModuleType]
@@ -40,8 +36,7 @@ class RobotEntry:
 
 
 ROBOT_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds the robot packages (a new one: one entry
-in their ``ROBOTS``), user code a module by name or :func:`register_robot`."""
+"""The modules declaring ``ROBOTS`` (:mod:`wbik.catalog` adds the robot packages)."""
 
 ROBOT_REGISTRY: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
     "robot", "ROBOTS", ROBOT_MODULES, "wbik.models.ROBOT_MODULES", RobotEntry,
@@ -49,7 +44,6 @@ ROBOT_REGISTRY: DeclaredRegistry[RobotEntry] = DeclaredRegistry(
 
 
 def robot_entries() -> dict[str, RobotEntry]:
-    """Every robot known by name."""
     return ROBOT_REGISTRY.entries()
 
 
@@ -64,8 +58,7 @@ def robots() -> dict[str, str]:
 
 
 URDF_PARAMS = ("chains", "floating_base", "nominal", "name", "package_dirs", "soles", "closed_forms", "facts")
-"""Keyword options ``load`` takes with a URDF path (see :func:`wbik.robot.robot_from_urdf_text` and
-:class:`wbik.robot.Robot`)."""
+"""Keyword options ``load`` takes with a URDF path (:func:`wbik.robot.robot_from_urdf_text`)."""
 
 
 def builder_parameters(name_or_path: str | Path) -> set[str]:
@@ -88,31 +81,12 @@ def check_parameters(name_or_path: str | Path, params: dict) -> None:
                 f"{', '.join(sorted(accepted)) or '(none)'}", option=str(key), accepted=sorted(accepted))
 
 
-def load_example_robot(name: str, **params) -> Robot:
-    """A robot example-robot-data ships (``load("example-robot-data:NAME")``): its URDF, floating base as
-    its loader has it, its SRDF reference posture (e.g. Talos half-sitting, Solo12 standing) as the
-    nominal configuration, meshes resolved for the viewer; ``params`` as for a URDF path."""
-    example = erd.example_robot(name)
-    check_parameters(example.urdf, params)
-    text = example.urdf.read_text(encoding="utf-8")
-    params.setdefault("floating_base", example.floating_base)
-    if "nominal" not in params and params["floating_base"] == example.floating_base:
-        params["nominal"] = erd.reference_posture(example, text)
-    params.setdefault("package_dirs", erd.package_dirs())
-    return robot_from_urdf_text(params.pop("name", name), text, urdf_path=example.urdf.resolve(), **params)
-
-
 def load(name_or_path: str | Path, **params) -> Robot:
     """A built-in robot by name (``params`` go to its builder), a robot example-robot-data ships
-    (``"example-robot-data:talos"`` or ``"erd:talos"``: :func:`load_example_robot`) or a Robot from a
-    URDF file path.
-
-    For a URDF path, optional ``params``: ``chains`` (list of ChainSpec), ``floating_base``,
-    ``nominal``, ``name``, ``package_dirs``, ``soles`` ({sole frame: (k, 3) corners in that frame, m}:
-    the feet of a support polygon), ``closed_forms`` ({(chain, target kind): "module:Class"}) and
-    ``facts`` (a frozen dataclass a closed form may need, e.g. ``Arm3RFacts``). Unknown parameters
-    raise InvalidOptionError listing the known ones; each builder checks its values
-    (RobotDescriptionError).
+    (``"example-robot-data:talos"`` or ``"erd:talos"``: its loader's floating base, its SRDF reference
+    posture as the nominal) or a URDF file path. With a URDF, ``params`` are :data:`URDF_PARAMS`
+    (:func:`wbik.robot.robot_from_urdf_text`). Unknown parameters raise InvalidOptionError, bad values
+    RobotDescriptionError.
     """
     if not isinstance(name_or_path, str | Path):
         raise UnknownRobotError(repr(name_or_path), list(robot_entries()),
@@ -122,9 +96,17 @@ def load(name_or_path: str | Path, **params) -> Robot:
     if entry is not None:
         check_parameters(key, params)
         return entry.module().build(**params)
-    example = erd.example_robot_name(key) if isinstance(name_or_path, str) else None
-    if example is not None:
-        return load_example_robot(example, **params)
+    name = erd.example_robot_name(key) if isinstance(name_or_path, str) else None
+    if name is not None:
+        example = erd.example_robot(name)
+        check_parameters(example.urdf, params)
+        text = example.urdf.read_text(encoding="utf-8")
+        params.setdefault("floating_base", example.floating_base)
+        if "nominal" not in params and params["floating_base"] == example.floating_base:
+            params["nominal"] = erd.reference_posture(example, text)
+        params.setdefault("package_dirs", erd.package_dirs())
+        urdf = example.urdf.resolve()
+        return robot_from_urdf_text(params.pop("name", name), text, urdf_path=urdf, **params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
         if path.is_dir():
@@ -140,6 +122,5 @@ def load(name_or_path: str | Path, **params) -> Robot:
                 "URDF (XML) file") from None
         except OSError as exc:
             raise RobotDescriptionError(f"cannot read URDF file {str(path)!r}: {exc.strerror}") from None
-        return robot_from_urdf_text(params.pop("name", path.stem), text,
-                                    urdf_path=path.resolve(), **params)
+        return robot_from_urdf_text(params.pop("name", path.stem), text, urdf_path=path.resolve(), **params)
     raise UnknownRobotError(key, list(robot_entries()), hint="or pass the path of a .urdf file")

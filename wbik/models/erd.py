@@ -1,4 +1,4 @@
-"""Access to example-robot-data's URDF files (pin 3.8 era, example-robot-data 4.3.0)."""
+"""example-robot-data's URDF files and robots (example-robot-data 4.3.0)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from wbik.errors import UnknownRobotError
 
 
 def _robots_loader():
-    """example-robot-data's loader module (its paths and its robots' loaders)."""
     try:
         from example_robot_data import robots_loader
     except ImportError as exc:  # pragma: no cover - a pinned dependency
@@ -28,7 +27,7 @@ def robots_dir() -> Path:
     return Path(_robots_loader().getModelPath("ur_description")).resolve()
 
 
-def urdf_path(relative: str) -> Path:
+def urdf_path(relative: str | Path) -> Path:
     """Path of a URDF in example-robot-data, e.g. ``ur_description/urdf/ur5_robot.urdf``."""
     path = robots_dir() / relative
     if not path.is_file():
@@ -37,14 +36,12 @@ def urdf_path(relative: str) -> Path:
 
 
 def package_dirs() -> list[str]:
-    """Folders that resolve ``package://example-robot-data/...`` mesh paths."""
-    # meshes are named package://example-robot-data/robots/...; the parent of share/ resolves them
+    """Folders that resolve ``package://example-robot-data/robots/...`` mesh paths."""
     share = robots_dir().parents[1]
     return [str(share), str(robots_dir().parent)]
 
 
 PREFIXES = ("example-robot-data:", "erd:")
-"""``wbik.load("example-robot-data:talos")`` (or ``"erd:talos"``) loads a robot example-robot-data ships."""
 
 
 def example_robot_name(name: str) -> str | None:
@@ -55,19 +52,14 @@ def example_robot_name(name: str) -> str | None:
     return None
 
 
-def _loaders() -> dict:
-    return _robots_loader().ROBOTS
-
-
 def example_robot_names() -> list[str]:
     """Every robot example-robot-data 4.3.0 ships a loader for (URDF and SDF)."""
-    return sorted(_loaders())
+    return sorted(_robots_loader().ROBOTS)
 
 
 @dataclass(frozen=True)
 class ExampleRobot:
-    """Where one example-robot-data robot's files are, and how its loader builds it (without loading
-    its meshes): URDF path, SRDF path (or None), floating base, reference posture's name."""
+    """One example-robot-data robot's files and how its loader builds it."""
 
     name: str
     urdf: Path
@@ -78,7 +70,7 @@ class ExampleRobot:
 
 def example_robot(name: str) -> ExampleRobot:
     """The files of example-robot-data's robot ``name``; UnknownRobotError naming the known ones."""
-    loaders = _loaders()
+    loaders = _robots_loader().ROBOTS
     if name not in loaders:
         raise UnknownRobotError(f"example-robot-data:{name}",
                                 [f"example-robot-data:{known}" for known in sorted(loaders)])
@@ -87,10 +79,7 @@ def example_robot(name: str) -> ExampleRobot:
         raise RobotDescriptionError(
             f"example-robot-data's {name!r} is described in SDF ({loader.sdf_filename}); wbik loads URDF "
             "files only")
-    relative = Path(loader.path) / loader.urdf_subpath / loader.urdf_filename
-    urdf = robots_dir() / relative
-    if not urdf.is_file():
-        raise MissingDependencyError(f"example-robot-data has no {relative}; reinstall it (4.3.0)")
+    urdf = urdf_path(Path(loader.path) / loader.urdf_subpath / loader.urdf_filename)
     srdf = (robots_dir() / loader.path / loader.srdf_subpath / loader.srdf_filename
             if loader.srdf_filename else None)
     return ExampleRobot(name, urdf, srdf if srdf is not None and srdf.is_file() else None,
@@ -98,8 +87,7 @@ def example_robot(name: str) -> ExampleRobot:
 
 
 def reference_posture(robot: ExampleRobot, text: str) -> np.ndarray | None:
-    """The robot's reference posture from its SRDF (what example-robot-data's loader calls ``q0``), as
-    a configuration of Pinocchio's own parse of the URDF; None without an SRDF or that posture."""
+    """The SRDF's reference posture (the loader's ``q0``) in Pinocchio's own parse of the URDF, or None."""
     if robot.srdf is None or robot.reference_posture is None:
         return None
     model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if robot.floating_base else \

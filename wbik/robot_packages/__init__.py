@@ -1,11 +1,8 @@
-"""The robot packages shipped with wbik: one package per robot with its model (``model.py``:
-``build(**params) -> Robot``, which writes or loads its URDF; collision primitives) and, where one
-exists, its closed-form binding (``closed_form.py``, named in the robot's ``closed_forms``). The robot
-descriptions written for this project lie in the repository's top-level ``urdf/`` (shipped in the
-wheel; :func:`wbik.data.description_file` finds them).
-
-``ROBOTS`` declares them to the robot registry (:mod:`wbik.models`), each with a function importing its
-model by name; a new robot package is one entry here.
+"""The robot packages shipped with wbik: per robot, ``model.py`` (``build(**params) -> Robot``, which
+writes or loads its URDF, and its collision primitives) and, where one exists, its closed-form binding
+(``closed_form.py``). The descriptions written for this project lie in the repository's ``urdf/``
+(:func:`wbik.data.description_file`). ``ROBOTS`` declares them to :mod:`wbik.models`, each with a
+function importing its model by name: a new robot package is one entry here.
 """
 
 from __future__ import annotations

@@ -14,12 +14,10 @@ from wbik.solvers.analytic.yaw_planar import Yaw2RPosition
 
 @dataclass(frozen=True)
 class Arm3RFacts:
-    """What an arm3r robot was built with (``robot.facts``; the closed form reads ``lengths``)."""
+    """``robot.facts`` of arm3r: ``lengths`` (l1, l2, l3) = (d1, a2, a3) in m, and the DH table ``dh``."""
 
     lengths: tuple[float, float, float]
-    """(l1, l2, l3) in metres: base height d1 and the two link lengths a2, a3."""
     dh: DHTable
-    """The standard DH table the URDF is written from (SI)."""
 
 
 def arm3r_position(chain: Chain) -> Yaw2RPosition:

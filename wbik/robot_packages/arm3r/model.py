@@ -1,11 +1,7 @@
-"""The 3-DOF articulated arm of seed 001 (Newton-Raphson course project).
-
-Standard DH (arm3r.md): a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0). Lengths are
-parameters (default 3, 2, 2 as in the worked example; the seed gives no unit, we read metres).
-The seed has no joint limits; we use +-pi on every joint.
-
-:func:`build` writes the URDF text from the table; scripts/export_urdf.py writes the default lengths'
-table into this package's ``arm3r.urdf`` (:data:`URDF_PATH`), for tools that read a file.
+"""The 3-DOF articulated arm of seed 001 (Newton-Raphson course project), standard DH (arm3r.md):
+a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0), lengths as parameters (default 3, 2, 2 m, the
+worked example's), +-pi on every joint (the seed has none). scripts/export_urdf.py writes the default
+table into ``arm3r.urdf`` (:data:`URDF_PATH`).
 """
 
 from __future__ import annotations
@@ -17,18 +13,17 @@ import numpy as np
 from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import DHTable
+from wbik.errors import RobotDescriptionError
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
 from wbik.robot import robot_from_urdf_text
 from wbik.robot_packages.arm3r.closed_form import Arm3RFacts
 from wbik.robot_packages.arm3r.closed_form import arm3r_position
+from wbik.validation import numeric_array
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)
 URDF_PATH = description_file("arm3r.urdf")
-"""The committed URDF of the default lengths (package data next to this module; scripts/export_urdf.py)."""
-
 CLOSED_FORMS = {("arm", "position"): arm3r_position}
-"""The yaw + planar 2R position closed form (see that module)."""
 
 
 def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
@@ -41,9 +36,6 @@ def dh_table(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> DHTable:
 
 
 def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
-    from wbik.errors import RobotDescriptionError
-    from wbik.validation import numeric_array
-
     what = "arm3r lengths (three positive link lengths l1, l2, l3 in metres)"
     values = numeric_array(lengths, what, RobotDescriptionError, shape=(3,), max_abs=1e3)
     if min(values) <= 0:
@@ -61,6 +53,3 @@ def build(lengths: tuple[float, float, float] = DEFAULT_LENGTHS) -> Robot:
 def start_configuration() -> np.ndarray:
     """The seed's start, theta = (pi/2, pi/2, pi/2), giving P0 = (0, -l3, l1 + l2)."""
     return np.full(3, math.pi / 2)
-
-
-__all__ = ["DEFAULT_LENGTHS", "Arm3RFacts", "build", "dh_table", "start_configuration", "Robot"]

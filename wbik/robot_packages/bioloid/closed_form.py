@@ -1,18 +1,10 @@
 """Closed-form IK of the Bioloid's arms and legs (bioloid.md 2 and 3), vectorised over batches, and the
-dimensions and facts the robot is built with (:mod:`.model` imports them).
+dimensions and facts the robot is built with.
 
-Thesis-level functions (radians, any leading batch shape): :func:`arm_thesis_angles`, eq. 1-9 with the
-code's exact variant of eq. 8 (gamma2 uses -theta5), right arm (the left on the mirrored target);
-:func:`leg_thesis_angles`, eq. 10-22 foot -> hip with eq. 22 as the code's theta11 = -Pitch + beta +
-gamma/2 - alpha, reaching the hip orientation Rx(-theta17) Ry(Pitch) Rx(theta17 + Roll) Rz(Yaw) in the
-ankle frame; :func:`leg_foot_to_hip`, :func:`leg_hip_to_foot`, :func:`arm_ik` as the URDF chains' joints.
-Unreachable targets (|cos| > 1) get the clamped cosine (the nearest stretched limb, never NaN) and a
-``reachable`` mask; within ``COSINE_TOLERANCE`` of +-1 they stay reachable (a stretched knee or elbow).
-
-The robot's closed forms: :class:`ArmPosition` (the thesis's elbow and the other, times the base turned by
-pi), :class:`LegPose` (ankle pose in the hip frame: the walking knee branch and the near-straight one,
-times two hip Euler branches), :class:`LegPosition` (foot parallel to the hip as the thesis's
-IK6ServoLegtoFoot, or at q0's orientation, or q0's ankle joints kept).
+The thesis's equations (rad, any batch shape): :func:`arm_thesis_angles` (eq. 1-9, the code's eq. 8)
+and :func:`leg_thesis_angles` (eq. 10-22 foot -> hip, eq. 22 with "- alpha"). Unreachable targets get
+the clamped cosine (the nearest stretched limb, never NaN) and a ``reachable`` mask. The closed forms
+:class:`ArmPosition`, :class:`LegPose` and :class:`LegPosition` give every exact branch, the thesis's first.
 """
 
 from __future__ import annotations
@@ -30,13 +22,10 @@ from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import clamped_cosine
 
-# --- lengths from the seed (m) -------------------------------------------------------------------
-L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675
+L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675  # the seed's arm lengths (m)
 FOREARM = 0.0745
-TOOL_CODE = 0.0255
-"""Hand/tool length of the author's code (L4 = 0.100 m); the default."""
-TOOL_THESIS = 0.070
-"""Hand/tool length of the thesis's Table 1 (L4 = 0.1445 m)."""
+TOOL_CODE = 0.0255  # hand/tool length of the author's code (L4 = 0.100 m), the default
+TOOL_THESIS = 0.070  # hand/tool length of the thesis's Table 1 (L4 = 0.1445 m)
 L7, L8 = 0.0145, 0.075
 LF = math.hypot(L7, L8)
 ALPHA = math.atan2(L7, L8)
@@ -56,38 +45,27 @@ def arm_lengths(tool_length: float = TOOL_CODE) -> tuple[float, float, float, fl
 
 @dataclass(frozen=True)
 class BioloidFacts:
-    """What a Bioloid robot was built with and what it assumes (``robot.facts``; SI: m, rad).
-
-    Masses (an assumption): AX-12A 54.6 g per servo plus estimated brackets, battery and controller
-    (see the URDF's comments). The seed itself writes degrees and servo units.
-    """
+    """What a Bioloid robot was built with (``robot.facts``; m, rad): the seed's ``servo_ids`` (joint ->
+    Dynamixel ID), ``mirror_sign`` (q_left = s q_right), ``arm_lengths`` (L0..L4, L4 = 0.0745 + tool),
+    ``tool_length``, the nominal's ``standing_hip_height`` (the code's zd) and ``standing_pitch``, and
+    ASSUMPTIONS: ``hip_lateral`` (pelvis centre -> hip, sideways), ``hip_drop`` (pelvis origin -> hip,
+    down), ``ankle_height`` (ankle axes -> sole), ``chest_height`` (pelvis origin -> chest centre, up),
+    ``sole_size`` (length, width of the sole rectangle under the ankle), masses (see the URDF)."""
 
     servo_ids: dict[str, int]
-    """Joint -> Dynamixel ID (1..18) of the seed's wiring (read: do not change)."""
     mirror_sign: dict[str, float]
-    """Joint without side (e.g. "knee") -> sign s with q_left = s q_right for the mirror image (y -> -y)."""
     arm_lengths: tuple[float, float, float, float, float]
-    """(L0, L1, L2, L3, L4) of the arm closed form (m); L4 = 0.0745 + tool_length."""
     tool_length: float
-    """Hand/tool length the robot was built with (m): 0.0255 (the code's) or 0.070 (the thesis's)."""
     standing_hip_height: float
-    """Hip above ankle in the nominal standing pose (m), the code's zd."""
     standing_pitch: float
-    """Torso pitch of the nominal standing pose (rad)."""
     hip_lateral: float
-    """ASSUMPTION: pelvis centre -> hip, sideways (m); the feet are 2 hip_lateral apart."""
     hip_drop: float
-    """ASSUMPTION: pelvis origin -> hip roll/pitch intersection, downward (m)."""
     ankle_height: float
-    """ASSUMPTION: ankle axes -> sole (m)."""
     chest_height: float
-    """ASSUMPTION: pelvis origin -> chest centre (the arm frame), upward (m)."""
     sole_size: tuple[float, float]
-    """ASSUMPTION: (length along x, width along y) of each sole rectangle (m), centred under the ankle."""
 
 
 ARM_MIRROR = np.array([MIRROR_SIGN[joint] for joint in ARM_JOINTS])
-LEG_MIRROR = np.array([MIRROR_SIGN[joint] for joint in LEG_JOINTS])
 
 
 def _points(p, what: str) -> np.ndarray:
@@ -108,10 +86,9 @@ def _side(side: str) -> str:
     raise InvalidTargetError(f"side must be 'right'/'r' or 'left'/'l', got {side!r}")
 
 
-# --- arm (bioloid.md 2.2-2.3) -----------------------------------------------------------------------
 @dataclass(frozen=True)
 class ArmAngles:
-    """Eq. 1-9 intermediates and outputs (radians, metres) for a batch of right-hand targets."""
+    """Eq. 1-9 intermediates and outputs (rad, m) for a batch of right-hand targets (bioloid.md 2.2-2.3)."""
 
     theta1: np.ndarray
     theta3: np.ndarray
@@ -124,11 +101,8 @@ class ArmAngles:
 
 
 def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip: bool = False) -> ArmAngles:
-    """Right-arm IK, eq. 1-9 with the code's eq. 8: gamma2 = atan2(L4 sin(-theta5), L3 + L4 cos(-theta5)).
-
-    ``other_elbow`` gives theta5 >= 0 (the other exact branch); ``base_flip`` turns the base by
-    pi (the arm plane points the other way, s measured negative). Both default to the thesis.
-    """
+    """Right-arm IK, eq. 1-9 with the code's eq. 8: gamma2 = atan2(L4 sin(-theta5), L3 + L4 cos(-theta5));
+    ``other_elbow``: theta5 >= 0, ``base_flip``: the base turned by pi (both False: the thesis's)."""
     l0, l1, l2, l3, l4 = arm_lengths() if lengths is None else lengths
     p = _points(p_hand, "hand target")
     x, y, z = p[..., 0], p[..., 1], p[..., 2]
@@ -149,13 +123,15 @@ def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip
     return ArmAngles(theta1, theta3, theta5, t, s, reach, c5, reachable)
 
 
-def arm_ik(p_hand, side: str = "right", lengths=None) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (thesis branch)."""
+def arm_ik(p_hand, side: str = "right", lengths=None, other_elbow: bool = False,
+           base_flip: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (branch flags as in
+    :func:`arm_thesis_angles`)."""
     side = _side(side)
     p = _points(p_hand, "hand target")
     if side == "l":
         p = p * np.array([1.0, -1.0, 1.0])
-    a = arm_thesis_angles(p, lengths)
+    a = arm_thesis_angles(p, lengths, other_elbow, base_flip)
     q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
     return (q * ARM_MIRROR if side == "l" else q), a.reachable
 
@@ -180,10 +156,9 @@ def arm_fk(q, side: str = "right", lengths=None) -> tuple[np.ndarray, np.ndarray
     return p, rotation
 
 
-# --- leg (bioloid.md 3.2-3.6) ------------------------------------------------------------------------
 @dataclass(frozen=True)
 class LegAngles:
-    """Eq. 10-22 intermediates and outputs (radians) for a batch of hip targets."""
+    """Eq. 10-22 intermediates and outputs (rad) for a batch of hip targets (bioloid.md 3.2-3.6)."""
 
     gamma: np.ndarray
     beta: np.ndarray
@@ -227,31 +202,24 @@ def leg_thesis_angles(p_hip, yaw=0.0, pitch=0.0, roll=0.0) -> LegAngles:
 
 
 def thesis_hip_rotation(theta17, yaw=0.0, pitch=0.0, roll=0.0) -> np.ndarray:
-    """Hip orientation in the ankle frame reached by eq. 10-22.
-
-    R = Rx(-theta17) Ry(pitch) Rx(theta17 + roll) Rz(yaw).
-    """
+    """Hip orientation in the ankle frame reached by eq. 10-22: Rx(-theta17) Ry(pitch) Rx(theta17 + roll)
+    Rz(yaw)."""
     theta17 = np.asarray(theta17, dtype=float)
     return rot_x(-theta17) @ rot_y(pitch + 0 * theta17) @ rot_x(theta17 + roll) @ rot_z(yaw + 0 * theta17)
 
 
 def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
                     side: str = "right") -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (..., 6) putting the hip at ``p_hip`` (ankle frame, m), thesis yaw/pitch/roll (rad).
-
-    Returns (q, reachable). Both legs use the same equations in the robot's own axes (as the
-    thesis's gait does); ``side`` only selects and checks the leg name.
-    """
+    """(q (..., 6), reachable) putting the hip at ``p_hip`` (ankle frame, m) with the thesis's yaw, pitch,
+    roll (rad); both legs use the same equations (``side`` is only checked)."""
     _side(side)
     angles = leg_thesis_angles(p_hip, yaw, pitch, roll)
     return angles.q, angles.reachable
 
 
 def leg_hip_to_foot(p_ankle, side: str = "right") -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles placing the ankle at ``p_ankle`` (hip frame, m), foot parallel to the hip.
-
-    The code's IK6ServoLegtoFoot: negate the position and solve foot -> hip with zero orientation.
-    """
+    """(q, reachable) placing the ankle at ``p_ankle`` (hip frame, m), foot parallel to the hip (the
+    code's IK6ServoLegtoFoot: foot -> hip of -p_ankle)."""
     return leg_foot_to_hip(-_points(p_ankle, "ankle target"), 0.0, 0.0, 0.0, side)
 
 
@@ -272,13 +240,10 @@ def leg_fk(q) -> tuple[np.ndarray, np.ndarray]:
 
 
 def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Every exact solution for the hip pose (p_hip (B, 3), r_hip (B, 3, 3)) in the ankle frame.
-
-    Returns (Q (B, 4, 6), reachable (B, 4)); branch 0 is the thesis's (walking knee, hip roll
-    cosine > 0). Derivation: hip = -Rx(-q17) Ry(-q15) (SHANK + Ry(-q13) THIGH) gives the ankle
-    roll (leg plane), the knee (triangle of sides Lf, Lf, |p|) and the ankle pitch; then
-    Ry(q13 + q15) Rx(q17) R_hip = Ry(-q11) Rx(-q9) Rz(-q7) is a Y-X-Z Euler decomposition.
-    """
+    """(Q (B, 4, 6), reachable (B, 4)): every exact solution for the hip pose (p_hip, r_hip) in the ankle
+    frame, branch 0 the thesis's. hip = -Rx(-q17) Ry(-q15) (SHANK + Ry(-q13) THIGH) gives the ankle roll,
+    the knee (triangle Lf, Lf, |p|) and the ankle pitch; Ry(q13 + q15) Rx(q17) R_hip =
+    Ry(-q11) Rx(-q9) Rz(-q7) the hip's Y-X-Z Euler angles."""
     x, y, z = p_hip[:, 0], p_hip[:, 1], p_hip[:, 2]
     q17 = np.arctan2(y, z)
     beta = np.arctan2(x, np.hypot(y, z))
@@ -299,12 +264,6 @@ def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.n
     return q_all, np.repeat(reachable[:, None], len(solutions), axis=1)
 
 
-# --- closed forms for the solver framework --------------------------------------------------------
-def _chain_side(chain) -> str:
-    first = chain.joint_names[0]
-    return "l" if first.startswith("l_") else "r"
-
-
 class ArmPosition(ClosedForm):
     """Hand position of ``right_arm``/``left_arm`` (chest frame): 4 exact branches, thesis first."""
 
@@ -312,19 +271,13 @@ class ArmPosition(ClosedForm):
 
     def __init__(self, chain):
         super().__init__(chain)
-        self.side = _chain_side(chain)
+        self.side = "l" if chain.joint_names[0].startswith("l_") else "r"
         self.lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
 
     def branches(self, positions, rotations, q0):
-        p = positions * np.array([1.0, -1.0, 1.0]) if self.side == "l" else positions
-        qs, valid = [], []
-        for base_flip in (False, True):
-            for other_elbow in (False, True):
-                a = arm_thesis_angles(p, self.lengths, other_elbow, base_flip)
-                q = np.stack([a.theta1, -a.theta3, -a.theta5], -1)
-                qs.append(q * ARM_MIRROR if self.side == "l" else q)
-                valid.append(a.reachable)
-        return np.stack(qs, 1), np.stack(valid, 1)
+        branches = [arm_ik(positions, self.side, self.lengths, other_elbow, base_flip)
+                    for base_flip in (False, True) for other_elbow in (False, True)]
+        return np.stack([q for q, _ in branches], 1), np.stack([real for _, real in branches], 1)
 
     def fk(self, q):
         return arm_fk(q, self.side, self.lengths)
@@ -345,13 +298,9 @@ class LegPose(ClosedForm):
 
 
 def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Solutions for the ankle position (B, 3) in the hip frame with yaw and both ankle joints of q0.
-
-    The ankle point depends on the hip yaw, roll, pitch and the knee only. With the yaw fixed,
-    u = Rz(-q7) p; the hip roll puts u in the leg plane (two signs of the leg's z), the knee
-    comes from the Lf triangle (two branches) and the hip pitch rotates the thigh+shank vector
-    d = THIGH + Ry(q13) SHANK onto the in-plane target. Returns (Q (B, 4, 6), reachable (B, 4)).
-    """
+    """(Q (B, 4, 6), reachable (B, 4)) for the ankle position (B, 3) in the hip frame with q0's yaw and
+    ankle joints: u = Rz(-q7) p, the hip roll puts u in the leg plane (2 signs), the knee from the Lf
+    triangle (2 branches), the hip pitch turns d = THIGH + Ry(q13) SHANK onto u."""
     u = np.einsum("bji,bj->bi", rot_z(q0[:, 0]), p_ankle)       # Rz(-q7) p
     length = np.linalg.norm(p_ankle, axis=-1)
     gamma, reachable = clamped_acos((length ** 2 - 2 * LF ** 2) / (-2 * LF ** 2))
@@ -368,12 +317,8 @@ def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> 
 
 
 class LegPosition(ClosedForm):
-    """Ankle position in the hip frame: 12 exact branches.
-
-    Branches 0-3 keep the foot parallel to the hip (the thesis's hip -> foot IK, branch 0 its
-    own); 4-7 keep the foot orientation it has at q0 (useful when the torso is pitched); 8-11 keep
-    q0's hip yaw and ankle joints and solve hip roll, hip pitch and knee.
-    """
+    """Ankle position in the hip frame, 12 branches: foot parallel to the hip (0-3, branch 0 the
+    thesis's), foot at q0's orientation (4-7), q0's hip yaw and ankle joints kept (8-11)."""
 
     target_kind = "position"
 

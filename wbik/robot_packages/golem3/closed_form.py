@@ -1,10 +1,7 @@
-"""Golem-III binding (golem3.md, thesis ch. 4.1 and 4.2.1): both arms, the stacked-planar family
-(:mod:`wbik.solvers.analytic.stacked_planar`) with the thesis's geometry and, as the thesis, one Euler
-triple (the roll range is +-pi/2).
-
-The left arm is the mirror image of the right one (see wbik.robot_packages.golem3.model): T_left(m0, q) =
-M T_right(-m0, q) M with M = diag(1, -1, 1), the family's form seen through G = X = M and the sign of m0
-(:class:`~wbik.solvers.analytic.aligned.AlignedForm`).
+"""Golem-III binding (golem3.md, thesis ch. 4.1 and 4.2.1): both arms as the stacked-planar family
+(:mod:`wbik.solvers.analytic.stacked_planar`) with one Euler triple, as the thesis (roll range +-pi/2);
+the left arm, T_left(m0, q) = M T_right(-m0, q) M, through an
+:class:`~wbik.solvers.analytic.aligned.AlignedForm` with G = X = M = diag(1, -1, 1) and -m0.
 """
 
 from __future__ import annotations
@@ -30,23 +27,15 @@ _MIRROR_R = np.outer(_MIRROR_P, _MIRROR_P)  # M R M, entry-wise
 
 @dataclass(frozen=True)
 class Golem3Facts:
-    """The thesis's right-arm DH numbers (golem3.md), ``robot.facts``; the closed form reads them.
-
-    ASSUMPTIONS documented here and in the model's docstring: the left arm is the mirror image of the
-    right one, T_left(m0, q) = M T_right(-m0, q) M with M = diag(1, -1, 1) in torso_link, and its
-    joints m2x have the limits of m1x; masses, head and finger geometry are guesses.
-    """
+    """``robot.facts`` of Golem-III: ``arm``, the thesis's right-arm DH numbers (golem3.md) as the
+    closed form takes them: l1, l2, l4, l5 (row a's), l6 (row 6 d), h (row 1 d) in m, rho (rad)."""
 
     arm: StackedPlanarGeometry
-    """The arm as the stacked-planar closed form takes it: l1 = row 1 a (chest yaw axis -> shoulder),
-    l2 = row 2 a, l4 = row 4 a (upper arm), l5 = row 5 a (elbow offset), l6 = row 6 d (forearm, wrist
-    roll axis to the gripper centre), h = row 1 d (base height of the shoulder plane), all in m, and
-    rho the elbow angle offset (rad, 13.43 deg)."""
 
 
 def right_arm_coordinates(chain: Chain) -> tuple[bool, np.ndarray, np.ndarray]:
-    """(mirrored, lower, upper): whether ``chain`` is the left arm, solved as the mirror image of the
-    right one, and its limits in right-arm coordinates (m0 -> -m0 on the left)."""
+    """(mirrored, lower, upper): whether ``chain`` is the left arm, and its limits in right-arm
+    coordinates (m0 -> -m0 on the left)."""
     mirrored = any(name in chain.joint_names for name in LEFT_JOINTS)
     lower, upper = chain.lower.copy(), chain.upper.copy()
     if mirrored:
@@ -79,13 +68,11 @@ def _arm(chain: Chain, form) -> AlignedForm:
 
 
 def golem3_pose(chain: Chain) -> AlignedForm:
-    """6-DOF pose IK: up to 4 real branches per pose; at gimbal lock (gripper x axis vertical) q0's t6 and
-    7 rolls over its range."""
+    """6-DOF pose IK: up to 4 real branches; at gimbal lock (gripper x vertical) q0's t6 and 7 rolls."""
     return _arm(chain, lambda family_chain, geometry: StackedPlanarPose(family_chain, geometry, triples=1))
 
 
 def golem3_position(chain: Chain, yaw: float = 0.0) -> AlignedForm:
-    """Position-only IK with the wrist roll t6 held at ``yaw`` (rad, inside its limits): the family's
-    (t1, t2) search."""
+    """Position-only IK with the wrist roll t6 held at ``yaw`` (rad, inside its limits)."""
     yaw = held_roll(chain, yaw, InvalidConfigurationError)
     return _arm(chain, lambda family_chain, geometry: StackedPlanarPosition(family_chain, geometry, yaw))

@@ -1,14 +1,8 @@
 """Golem-III service robot (UNAM), upper body, from the thesis DH table (seed 000, golem3.md).
 
-Tree (the naming contract of the project)::
-
-    base_link --mb (prismatic z, torso lift)--> torso_link
-        torso_link --m0 (chest yaw)--> chest_link
-            chest_link --m10..m14--> r_arm_link5 --fixed--> r_eef   (+ fingers m15, m17)
-            chest_link --m20..m24--> l_arm_link5 --fixed--> l_eef   (+ fingers m25, m27)
-        torso_link --m1 (head pan)--> head_pan_link --m2 (head tilt)--> head_link
-
-The right arm is the thesis table, A = Rz(theta) Tz(d) Tx(a) Rx(alpha) (lengths in metres):
+Tree: base_link -mb (torso lift)-> torso_link -m0 (chest yaw)-> chest_link, then the arms m10..m14 ->
+r_eef and m20..m24 -> l_eef (fingers m15, m17 and m25, m27); torso_link -m1, m2-> head_link. The right
+arm is the thesis table, A = Rz(theta) Tz(d) Tx(a) Rx(alpha) (m)::
 
     row  alpha   a            d          theta
     1    0       l1 = 0.1225  h = 1.283  t1 - 90 deg     (t1 = m0)
@@ -19,17 +13,9 @@ The right arm is the thesis table, A = Rz(theta) Tz(d) Tx(a) Rx(alpha) (lengths 
     6    90 deg  0            l6 = 0.4   t6 - 90 deg     (m14)
     6'   tool: Rz(90 deg)
 
-so that in torso_link the gripper centre r_eef is at (x, y, z) of golem3.md's closed form and
-its rotation is Rz(t1+t2+t3) Ry(-t4-t5) Rx(t6).
-
-Left arm (an assumption: the thesis models the right arm only): the mirror image of the right arm
-across the sagittal plane y = 0 of torso_link, M = diag(1, -1, 1). Every fixed transform X of the
-right arm becomes M X M and every joint axis a becomes -M a, so the same joint values give the
-mirrored pose. The chest yaw m0 is shared and not mirrored, hence
-
-    T_left(m0, q) = M T_right(-m0, q) M      (q = arm joints, m2x = m1x)
-
-and the left arm joints m20..m24 have the right arm's limits.
+so r_eef's rotation in torso_link is Rz(t1+t2+t3) Ry(-t4-t5) Rx(t6). ASSUMPTION: the left arm is the
+right one mirrored across y = 0 of torso_link (M = diag(1, -1, 1): transforms M X M, axes -M a, the
+shared m0 not mirrored): T_left(m0, q) = M T_right(-m0, q) M, with the right arm's limits.
 """
 
 from __future__ import annotations
@@ -39,6 +25,9 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.collision import box
+from wbik.collision import capsule
+from wbik.collision import sphere
 from wbik.data import description_file
 from wbik.dh import DHJoint
 from wbik.dh import joint_xml
@@ -48,29 +37,20 @@ from wbik.dh import trans
 from wbik.dh import urdf_document
 from wbik.robot import ChainSpec
 from wbik.robot import Robot
-from wbik.robot import model_from_urdf_text
 from wbik.robot_packages.golem3.closed_form import LEFT_JOINTS
 from wbik.robot_packages.golem3.closed_form import RIGHT_JOINTS
 from wbik.robot_packages.golem3.closed_form import Golem3Facts
 from wbik.robot_packages.golem3.closed_form import golem3_pose
 from wbik.robot_packages.golem3.closed_form import golem3_position
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
+from wbik.urdf import parse_urdf
 
-# -- thesis geometry (golem3.md) ----------------------------------------------------------------
-L1 = 0.1225
-L2 = 0.212
-L4 = 0.256
-L5 = 0.034
-L6 = 0.4
-H = 1.283
+L1, L2, L4, L5, L6, H = 0.1225, 0.212, 0.256, 0.034, 0.4, 1.283  # the thesis table's lengths (m)
 RHO = math.radians(13.43)
-WRIST_TO_EEF = 0.2
-"""Where the wrist roll joint m14 sits on its axis: 0.2 m before the gripper centre (golem3.md).
-Kinematically free (m14 turns about the forearm axis), so the closed form does not see it."""
+WRIST_TO_EEF = 0.2  # m14 sits 0.2 m before the gripper centre on its own axis (kinematically free)
 
-# -- joint limits (golem3.md, the robot's control software) --------------------------------------
+# joint limits (golem3.md, the robot's control software) of (m0, m10..m14), rad; the left arm's too
 ARM_LOWER = (-1.00, -1.14, -3.00, -1.55, -1.67, -1.50)
-"""Lower limits of (m0, m10, m11, m12, m13, m14) in rad; the left arm (m0, m20..m24) uses the same."""
 ARM_UPPER = (1.00, 1.75, 3.00, 1.55, 1.67, 1.50)
 ARM_VELOCITY = 1.0  # rad/s, every arm joint (the robot's planner)
 LIFT_RANGE = (0.0, 0.55)  # m
@@ -78,18 +58,13 @@ LIFT_VELOCITY = 0.005  # m/s
 FINGER_RANGE = (0.0, 1.6)  # rad
 HEAD_RANGE = (-1.0, 1.0)  # rad
 
-MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])
-"""Sagittal mirror (y -> -y) of torso_link, as a 4x4."""
-
-URDF_PATH = description_file("golem3.urdf")
-"""The committed URDF (package data next to this module), written by :func:`write_urdf`."""
-
-
+MIRROR = np.diag([1.0, -1.0, 1.0, 1.0])  # sagittal mirror (y -> -y) of torso_link
+URDF_PATH = description_file("golem3.urdf")  # the committed URDF, written by write_urdf
 CLOSED_FORMS = {("right_arm", "pose"): golem3_pose, ("right_arm", "position"): golem3_position,
                 ("left_arm", "pose"): golem3_pose, ("left_arm", "position"): golem3_position}
 """Closed forms of golem3.md ch. 4.1 (pose, up to 4 real branches) and 4.2.1 (position, yaw fixed)."""
 
-# -- assumptions (not in the thesis): masses in kg, head and finger geometry in m -----------------
+# ASSUMPTIONS (not in the thesis): masses in kg, head and finger geometry in m
 MASSES = {
     "base_link": 40.0, "torso_link": 12.0, "chest_link": 6.0,
     "arm_link1": 1.2, "arm_link2": 1.5, "arm_link3": 1.4, "arm_link4": 1.0, "arm_link5": 0.6,
@@ -120,14 +95,8 @@ def arm_dh_rows() -> list[DHJoint]:
     ]
 
 
-def arm_tool() -> np.ndarray:
-    """Last link -> gripper centre: the remaining 0.2 m of l6 (along the forearm, y after Rx(90 deg))
-    then row 6' (Rz(90 deg)). Rx(90) Tz(0.2) Rx(-90) ... gives Ty(0.2) after Post_6 = Rx(90 deg)."""
-    return trans(y=WRIST_TO_EEF) @ rot_z(math.pi / 2)
-
-
 def _inertial_link(name: str, mass: float, com: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> str:
-    # a solid of about 10 cm: I ~ m (0.1 m)^2 / 6
+    """A link of ``mass`` (kg) as a solid of about 10 cm: I ~ m (0.1 m)^2 / 6."""
     moment = mass * 0.01 / 6.0
     return link_xml(name, mass, com, (moment, moment, moment))
 
@@ -161,7 +130,8 @@ def _arm_elements(side: str) -> list[str]:
         parent = child
     eef = f"{side}_eef"
     parts.append(link_xml(eef, 0.0))
-    parts.append(joint_xml(f"{eef}_fixed", "fixed", parent, eef, place(carry @ arm_tool())))
+    tool = trans(y=WRIST_TO_EEF) @ rot_z(math.pi / 2)  # the rest of l6 (y after Post_6), then row 6'
+    parts.append(joint_xml(f"{eef}_fixed", "fixed", parent, eef, place(carry @ tool)))
     fingers = ("m15", "m17") if side == "r" else ("m25", "m27")
     for finger, sign in zip(fingers, (1.0, -1.0), strict=True):
         link = f"{side}_finger_{finger}_link"
@@ -191,7 +161,7 @@ HEADER = """<!--
 
 
 def urdf_text() -> str:
-    """The whole upper body as URDF text (what the committed golem3.urdf, :data:`URDF_PATH`, holds)."""
+    """The upper body as URDF text (the committed :data:`URDF_PATH`)."""
     rows = arm_dh_rows()
     chest = rows[0]
     parts = [
@@ -226,8 +196,7 @@ def write_urdf(path: Path = URDF_PATH) -> Path:
     return path
 
 
-NOMINAL_ARM = (0.0, 0.0, 0.0, 0.0, 0.5, 0.0)
-"""(m0, m1x..m1x4) nominal: upper arm hanging (m12 = 0), elbow bent (m13 = 0.5 rad), gripper in front."""
+NOMINAL_ARM = (0.0, 0.0, 0.0, 0.0, 0.5, 0.0)  # (m0, arm): upper arm hanging, elbow bent 0.5 rad
 
 
 def build() -> Robot:
@@ -240,7 +209,7 @@ def build() -> Robot:
         ChainSpec("right_arm_lift", "base_link", "r_eef", ("mb", "m0", *RIGHT_JOINTS),
                   "torso lift + chest yaw + right arm, in base_link (7 DOF, redundant)"),
     ]
-    model = model_from_urdf_text(text, source="golem3")
+    model = parse_urdf(text, source="golem3").model
     nominal = np.zeros(model.nq)
     for joint_names in (("m0", *RIGHT_JOINTS), ("m0", *LEFT_JOINTS)):
         for name, value in zip(joint_names, NOMINAL_ARM, strict=True):
@@ -252,13 +221,8 @@ def build() -> Robot:
 
 
 def collision_primitives(robot: Robot | None = None) -> list:
-    """Collision shapes (wbik.collision): capsules from joint to joint along each arm link, the chest
-    and torso column as capsules, a box for the mobile base, a sphere for the head. ASSUMPTION (the
-    thesis gives no link volumes): radii 0.045..0.06 m on the arms, 0.11 m torso, 0.12 m head."""
-    from wbik.collision import box
-    from wbik.collision import capsule
-    from wbik.collision import sphere
-
+    """Collision shapes: capsules along the arm links, chest and torso, a box base, a sphere head.
+    ASSUMPTION (the thesis gives no volumes): radii 0.045..0.06 m arms, 0.11 m torso, 0.12 m head."""
     shapes = [
         box("base", "base_link", (0.55, 0.55, 0.35), (0.0, 0.0, 0.175)),
         capsule("torso", "torso_link", (0.0, 0.0, 0.45), (0.0, 0.0, 1.10), 0.11),

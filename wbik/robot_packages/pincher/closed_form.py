@@ -1,17 +1,7 @@
 """PhantomX Pincher binding (pincher.md's inverse): the yaw + planar 2R + wrist pitch member of the
-yaw-planar family (:mod:`wbik.solvers.analytic.yaw_planar`) with the Pincher's geometry (SI: h = 0.137 m
-base height, both links 0.105 m, 0.095 m wrist to tool); chain ``arm``: base_link -> noa.
-
-Three target kinds:
-
-- pose (SE3): :func:`pincher_pose`, 2 branches; a pose the arm cannot take (y axis not horizontal, or
-  position off the arm plane of that yaw) has none: success=False, "unreachable".
-- position + pitch (the seed's [px, py, pz, theta], :func:`position_pitch_branches`): q1 = atan2(py, px)
-  with pitch theta, or q1 + pi with pitch pi - theta (same approach direction, tool rolled by pi);
-  2 x 2 branches. :func:`pose_from_position_pitch` turns the seed's 4-vector into the SE3 the arm
-  reaches with q1 = atan2(py, px).
-- position only (3-vector): :func:`pincher_position`, the pitch nearest to q0's with a branch inside
-  the limits (the family's rule).
+yaw-planar family (:mod:`wbik.solvers.analytic.yaw_planar`), chain ``arm`` (base_link -> noa): full poses
+(:func:`pincher_pose`, none for a pose off the arm's reach), the seed's position + pitch
+(:func:`position_pitch_branches`) and positions (:func:`pincher_position`).
 """
 
 from __future__ import annotations
@@ -21,9 +11,9 @@ import pinocchio as pin
 
 import wbik.solvers.analytic.yaw_planar as family
 
-BASE_HEIGHT = 0.137
-LINK = 0.105
-WRIST_TO_TOOL = 0.095
+BASE_HEIGHT = 0.137  # m
+LINK = 0.105  # both links (m)
+WRIST_TO_TOOL = 0.095  # m
 PINCHER = family.PitchArmGeometry(h=BASE_HEIGHT, a=LINK, b=LINK, t=WRIST_TO_TOOL)
 
 
@@ -34,11 +24,8 @@ def arm_plane_branches(yaw, signed_reach, height, pitch) -> tuple[np.ndarray, np
 
 
 def position_pitch_branches(positions: np.ndarray, pitches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The seed's inverse for [px, py, pz] (B, 3) in metres and pitch theta (B,) in radians.
-
-    Returns (Q (B, 4, 4), real (B, 4)): branches q1 = atan2(py, px) (elbow q3 >= 0, then q3 <= 0),
-    then q1 + pi with pitch pi - theta (both elbows). Angles are not wrapped into the limits.
-    """
+    """The seed's inverse for [px, py, pz] (B, 3) (m) and pitch theta (B,) (rad): (Q (B, 4, 4), real
+    (B, 4)), q1 = atan2(py, px) (elbow q3 >= 0, then <= 0), then q1 + pi with pitch pi - theta; unwrapped."""
     positions = np.atleast_2d(np.asarray(positions, dtype=float))
     pitches = np.atleast_1d(np.asarray(pitches, dtype=float))
     yaws, reaches = family.shoulder_sides(positions)
@@ -49,7 +36,7 @@ def position_pitch_branches(positions: np.ndarray, pitches: np.ndarray) -> tuple
 
 
 def pose_from_position_pitch(position, pitch: float) -> pin.SE3:
-    """The noa pose for the seed's target [px, py, pz] (m) and tool pitch theta (rad), q1 = atan2(py, px)."""
+    """The noa pose for the seed's [px, py, pz] (m) and tool pitch theta (rad), q1 = atan2(py, px)."""
     position = np.asarray(position, dtype=float)
     yaw = float(np.arctan2(position[1], position[0]))
     approach = np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
@@ -63,10 +50,10 @@ def tool_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def pincher_pose(chain) -> family.PitchArmPose:
-    """Full-pose targets: q1 and the pitch from the rotation, 2 elbow branches (K = 2)."""
+    """Full poses: q1 and the pitch from the rotation, 2 elbow branches."""
     return family.PitchArmPose(chain, PINCHER)
 
 
 def pincher_position(chain) -> family.PitchArmPosition:
-    """Position-only targets: the pitch nearest to q0's pitch with a branch inside the limits (K = 4)."""
+    """Positions: the pitch nearest to q0's with a branch inside the limits (4 branches)."""
     return family.PitchArmPosition(chain, PINCHER)

@@ -1,12 +1,7 @@
-"""PhantomX Pincher 4-DOF arm (seed 004), built from its standard DH table.
-
-pincher.md: alpha = (-90, 0, 0, 0) deg, a = (0, 105, 105, 95) mm, d = (137, 0, 0, 0) mm,
-theta offsets (0, -90, 0, 0) deg; the tool frame "noa" adds the fixed rotation
-E = [[0,0,1],[-1,0,0],[0,-1,0]] after link 4. Limits +-150 deg on every joint. SI units here
-(metres, radians); the seed's millimetres and degrees stay at the edges.
-
-:func:`build` writes the URDF text from the table; scripts/export_urdf.py writes the same table into
-this package's ``pincher.urdf`` (:data:`URDF_PATH`), for tools that read a file.
+"""PhantomX Pincher 4-DOF arm (seed 004) from pincher.md's standard DH table: alpha = (-90, 0, 0, 0) deg,
+a = (0, 105, 105, 95) mm, d = (137, 0, 0, 0) mm, theta offsets (0, -90, 0, 0) deg, tool frame "noa" the
+fixed rotation E = [[0,0,1],[-1,0,0],[0,-1,0]] after link 4, limits +-150 deg (SI here).
+scripts/export_urdf.py writes the table into ``pincher.urdf`` (:data:`URDF_PATH`).
 """
 
 from __future__ import annotations
@@ -32,9 +27,6 @@ LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V
 TOOL_ROTATION = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 URDF_PATH = description_file("pincher.urdf")
-"""The committed URDF of :func:`dh_table` (package data next to this module; scripts/export_urdf.py)."""
-
-
 CLOSED_FORMS = {("arm", "pose"): pincher_pose, ("arm", "position"): pincher_position}
 """Closed forms of pincher.md's analytic inverse (position + tool pitch), see that module."""
 
@@ -56,11 +48,9 @@ def dh_table() -> DHTable:
 
 @dataclass(frozen=True)
 class PincherFacts:
-    """The Pincher's defining table (``robot.facts``); the closed form uses the same numbers
-    (BASE_HEIGHT, LINK, WRIST_TO_TOOL, from its closed_form)."""
+    """``robot.facts``: ``dh``, pincher.md's DH table in SI with the tool "noa"."""
 
     dh: DHTable
-    """pincher.md's standard DH table in SI (m, rad; the seed writes mm and degrees), tool "noa" included."""
 
 
 def build() -> Robot:

@@ -1,8 +1,5 @@
-"""UR5 binding: the UR-type family (:mod:`wbik.solvers.analytic.ur_type`) with the UR5's DH numbers.
-
-Chain ``ee`` (base_link -> ee_link) is the family's frame; chain ``arm`` (base_link -> tcp, the riveting
-tool) composes it with the fixed ee_link -> tcp transform read from the model.
-"""
+"""UR5 binding: the UR-type family (:mod:`wbik.solvers.analytic.ur_type`) on chain ``ee``, composed with
+the fixed ee_link -> tcp transform on chain ``arm``."""
 
 from __future__ import annotations
 

@@ -1,9 +1,5 @@
-"""UR5 from example-robot-data with the riveting tool (this package's ur5_rivet_tool.urdf.xml) appended.
-
-Chains: ``arm`` (base_link -> tcp, the riveting task's frame) and ``ee`` (base_link -> ee_link,
-the frame ur_kinematics' closed form solves for). Limits are example-robot-data's (+-2 pi,
-elbow +-pi).
-"""
+"""UR5 from example-robot-data (limits +-2 pi, elbow +-pi) with the riveting tool appended; chains ``arm``
+(base_link -> tcp) and ``ee`` (base_link -> ee_link, ur_kinematics' frame)."""
 
 from __future__ import annotations
 
@@ -11,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.collision import Obstacle
+from wbik.collision import capsule
 from wbik.data import description_file
 from wbik.models.erd import package_dirs
 from wbik.models.erd import urdf_path
@@ -22,25 +20,20 @@ from wbik.robot_packages.ur5.closed_form import ur5_tool
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
-TOOL_LENGTH = 0.13
-"""ee_link -> tcp along the flange normal (m): 100 mm holder + 30 mm of 5 mm cylinder (assumed)."""
-TOOL_DIAMETER = 0.005
-"""Diameter of the rivet tool's pin (m): the 5 mm cylinder (assumed)."""
-TOOL_URDF_PATH = description_file("ur5_rivet_tool.urdf.xml")
-"""The riveting tool's links and joints (a URDF fragment), appended to example-robot-data's UR5."""
-
+TOOL_LENGTH = 0.13  # ASSUMPTION: ee_link -> tcp along the flange normal (m), 100 mm holder + 30 mm pin
+TOOL_DIAMETER = 0.005  # ASSUMPTION: the rivet tool's pin (m)
+TOOL_URDF_PATH = description_file("ur5_rivet_tool.urdf.xml")  # the tool, a URDF fragment
 CLOSED_FORMS = {("ee", "pose"): UR5EndEffector, ("arm", "pose"): ur5_tool}
 """ur_kinematics' closed form (ur5-riveting.md 1.2) on ee_link, and composed with the tool for tcp."""
 
 
 @dataclass(frozen=True)
 class UR5Facts:
-    """The riveting tool the UR5 carries (``robot.facts``; assumptions, ur5-riveting.md)."""
+    """The riveting tool the UR5 carries (``robot.facts``, ur5-riveting.md): ee_link -> tcp length and
+    pin diameter (m)."""
 
     tool_length: float
-    """ee_link -> tcp along the flange normal (m)."""
     tool_diameter: float
-    """Diameter of the tool's pin (m)."""
 
 
 def urdf_text() -> str:
@@ -62,17 +55,12 @@ def build() -> Robot:
                                 closed_forms=CLOSED_FORMS, facts=UR5Facts(TOOL_LENGTH, TOOL_DIAMETER))
 
 
-TABLE_SIZE = (1.4, 1.2, 0.05)
-"""The table under the UR5 (m): top at z = 0 (the base's plane), centred 0.3 m ahead of the base,
-as the riveting application's cell has it by default."""
+TABLE_SIZE = (1.4, 1.2, 0.05)  # the table under the UR5 (m), top at z = 0, centred 0.3 m ahead
 
 
 def collision_primitives(robot: Robot | None = None) -> list:
-    """Collision shapes (wbik.collision): capsules from joint to joint along the links, the base as a
-    capsule standing on the table, the rivet tool as its 40 mm holder and 5 mm pin. ASSUMPTION: radii
-    (0.06 m base to upper arm, 0.05 forearm, 0.04 wrists) round the example-robot-data meshes."""
-    from wbik.collision import capsule
-
+    """Collision shapes: capsules along the links and the base, the tool's holder and pin. ASSUMPTION:
+    radii 0.06 m (base to upper arm), 0.05 (forearm), 0.04 (wrists) round the meshes."""
     return [
         capsule("base", "base_link", (0.0, 0.0, 0.0), (0.0, 0.0, 0.06), 0.06),
         capsule("shoulder", "shoulder_link", (0.0, 0.0, -0.03), (0.0, 0.0, 0.06), 0.06),
@@ -88,6 +76,4 @@ def collision_primitives(robot: Robot | None = None) -> list:
 
 def collision_obstacles() -> list:
     """The table under the UR5 (a box, top at z = 0)."""
-    from wbik.collision import Obstacle
-
     return [Obstacle("table", TABLE_SIZE, (0.3, 0.0, -0.5 * TABLE_SIZE[2]))]
