@@ -22,9 +22,8 @@ def _checked(chain: Chain, q: Sequence[float], what: str) -> np.ndarray:
 
 
 def joint_path(chain: Chain, configurations: Sequence[Sequence[float]], samples: int = 10) -> JointPath:
-    """Straight lines in joint space through ``configurations`` (at least two), each segment split
-    into ``samples`` steps (the segment end included). Every knot is inside the limits because
-    the limits form a box and the end points are inside it."""
+    """Straight lines in joint space through ``configurations`` (at least two, inside the limits, so
+    every knot is), each segment split into ``samples`` steps (its end included)."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     if len(configurations) < 2:

@@ -1,31 +1,14 @@
-"""Scenario kinds of robot motions (tasks/motion_*.yaml): their schemas, runners and printed report,
-registered in ``SCENARIO_KINDS`` (see :mod:`wbik.scenarios.kinds`); every runner reads the spec
-checked against its kind's schema.
+"""Scenario kinds of robot motions (tasks/motion_*.yaml), registered in ``SCENARIO_KINDS``:
+``motion_joint`` (joint-space interpolation through ``configurations``) and ``motion_cartesian``
+(straight lines from ``start`` through ``waypoints``, each [x, y, z] or {position, rpy}, solved by
+``method``). Every report has one entry per move in ``moves``; the animation plays the moves' timed
+trajectories one after the other.
 
-Kinds (each report's figures have one entry per move in ``moves``):
-
-- ``motion_joint``: joint-space interpolation through ``configurations`` (rad / m).
-- ``motion_cartesian``: straight lines from ``start`` (joints or "nominal") through ``waypoints``
-  (each [x, y, z] or {position, rpy}) with ``method``; ``samples`` per segment.
-- ``pincher_motion``: a teleoperation session, ``moves`` run one after another from the previous
-  end: {jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}},
-  {automatic: {}}.
-
-Applications build their own motion kinds on these pieces (:class:`MoveRun`, :func:`common_motion_keys`
-with rules of their own added to ``MOVE_RULES``).
-
-Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults those of
-:func:`wbik.motion.timing.time_scale`: quintic, global; URDF limits, knot times), ``export: {csv:
-PATH, json: PATH}`` (the trajectory of the last move, JointTrajectory shape), ``tolerance`` (knot
-tracking, default 1e-6 m / rad) and ``expect`` with the keys of ``MOVE_RULES`` (thresholds SI,
-judged by :mod:`wbik.expectations` for every move and printed as figure / threshold / ok). Unless
-``expect`` sets them, a move expects success, the peak joint speed within the limit (1e-9) and,
-when it has Cartesian knots, each knot tracked to ``tolerance``. ``samples`` defaults are those of
-the path builders (:func:`wbik.motion.joint.joint_path`, ...).
-
-Each runner's report carries a :class:`wbik.viz.animation.Animation` (what ``wbik view`` plays):
-every move's timed trajectory (the chain's joints in the full configuration, the tip traced), the
-moves one after the other.
+Shared keys: ``timing`` (:func:`wbik.motion.timing.time_scale`'s defaults), ``export: {csv, json}`` (the
+last move's trajectory), ``tolerance`` (knot tracking, m / rad) and ``expect`` (the keys of
+``MOVE_RULES``; by default a move expects success, the peak joint speed within its limit and Cartesian
+knots tracked to ``tolerance``). Applications build their own motion kinds on :class:`MoveRun` and
+:func:`common_motion_keys`.
 """
 
 from __future__ import annotations
@@ -38,6 +21,8 @@ import pinocchio as pin
 from wbik.expectations import Rule
 from wbik.expectations import judge
 from wbik.files import json_plain
+from wbik.motion.cartesian import waypoint_path
+from wbik.motion.joint import joint_path
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
@@ -66,7 +51,9 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.solvers.method_registry import solver
 from wbik.validation import finite_vector
+from wbik.viz.animation import Animation
 
 MOVE_RULES = {
     "success": Rule("success", "=="),
@@ -77,13 +64,6 @@ MOVE_RULES = {
     "waypoints_reached": Rule("waypoints_reached", "=="),
 }
 """Expectations of one move (``jumps``: joint steps above the jump threshold)."""
-
-
-def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: dict = MOVE_RULES) -> dict:
-    """The move's expectations (``defaults`` under the task file's ``expect``) into the entry:
-    ``expectations``, ``verdict``, ``passed``."""
-    wanted = {**defaults, **(spec["expect"] or {})}
-    return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect")
 
 
 def vector_of(value, size: int, what: str) -> np.ndarray:
@@ -102,7 +82,8 @@ def pose_of(entry, what: str):
 
 def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
                 extra_defaults: dict | None = None, rules: dict = MOVE_RULES) -> tuple[dict, object]:
-    """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
+    """Time the path, sample it and judge it (``extra_*``: the kind's own figures and expectations under
+    the file's ``expect``); the entry and the trajectory."""
     timing = spec["timing"]
     timed = time_scale(path, timing["law"], timing["velocity_limit"], timing["acceleration_limit"],
                        timing["mode"])
@@ -127,23 +108,20 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
             if figures[figure] is not None:
                 defaults[key] = tolerance
     figures.update(extra_figures or {})
-    defaults.update(extra_defaults or {})
-    return judge_move(spec, entry, figures, defaults, rules), trajectory
+    wanted = {**defaults, **(extra_defaults or {}), **(spec["expect"] or {})}
+    return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect"), trajectory
 
 
-def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
+def move_animation(robot, chain, trajectory, name: str):
     """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
-    from wbik.viz.animation import Animation
-
     times = np.asarray(trajectory.times, dtype=float)
     keep = np.r_[True, np.diff(times) > 0]
-    return Animation.from_chain(robot, chain, times[keep], np.asarray(trajectory.positions)[keep],
-                                reference=reference, name=name)
+    return Animation.from_chain(robot, chain, times[keep], np.asarray(trajectory.positions)[keep], name=name)
 
 
 class MoveRun(KindRun):
-    """A motion run in progress: the report's ``moves``, each timed and judged (:func:`timed_move`),
-    their animations 0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
+    """A motion run: the report's ``moves``, each timed and judged (:func:`timed_move`), their animations
+    0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
 
     def __init__(self, spec: dict, on_progress: Progress = None, rules: dict = MOVE_RULES):
         super().__init__(spec, "moves", on_progress, pause=0.25)
@@ -152,15 +130,13 @@ class MoveRun(KindRun):
 
     def move(self, chain, path: JointPath, name: str, extra_figures: dict | None = None,
              extra_defaults: dict | None = None, spec: dict | None = None) -> dict:
-        """Time, judge and add one move of ``chain`` (``spec``: the move's own keys over the
-        scenario's); the entry."""
+        """Time, judge and add one move of ``chain`` (``spec``: the move's own keys); the entry."""
         entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults,
                                             self.rules)
         return self.add(entry, move_animation(self.robot, chain, self.trajectory, name))
 
     def finished(self) -> ScenarioReport:
-        """The report; the last move's trajectory written where ``export`` says (paths in the
-        figures)."""
+        """The report; the last move's trajectory written where ``export`` says (paths in the figures)."""
         export = self.spec["export"]
         if "csv" in export:
             self.report.figures["csv"] = str(self.trajectory.write_csv(Path(export["csv"])))
@@ -190,8 +166,6 @@ def chain_keys() -> dict[str, Key]:
 
 
 def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion.joint import joint_path
-
     run = MoveRun(spec, on_progress)
     chain = chain_of(run.robot, spec)
     configurations = [vector_of(q, chain.nq, f"configurations[{index}]")
@@ -201,8 +175,6 @@ def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion.cartesian import waypoint_path
-    from wbik.solvers.method_registry import solver
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, chain=chain_of(run.robot, spec).name,
                 timeout_s=float(spec["timeout_s"]))
@@ -233,7 +205,6 @@ def format_report(report: dict) -> str:
     return format_entries(report, "moves", describe)
 
 
-
 # -- the schemas -----------------------------------------------------------------------------------
 def timing_node() -> Map:
     """``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults of time_scale)."""
@@ -245,8 +216,7 @@ def timing_node() -> Map:
 
 
 def common_motion_keys(rules: dict = MOVE_RULES) -> dict[str, Key]:
-    """Keys every motion kind has: robot, timing, export, tolerance, expect (its keys: ``rules``; + the
-    shared ones)."""
+    """Keys every motion kind has: robot, timing, export, tolerance, expect (the keys of ``rules``)."""
     return {**common_keys(robot=Key(Robot(), required=True)),
             "timing": Key(timing_node(), {}),
             "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
@@ -267,10 +237,7 @@ def samples_key(function) -> dict[str, Key]:
 
 
 def motion_schema(kind: str) -> Map:
-    """The keys of a generic motion kind's file (see the module docstring)."""
-    from wbik.motion.cartesian import waypoint_path
-    from wbik.motion.joint import joint_path
-
+    """The keys of a generic motion kind's file."""
     if kind == "motion_joint":
         keys = {**samples_key(joint_path), **chain_keys(),
                 "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}

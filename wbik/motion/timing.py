@@ -1,24 +1,13 @@
 """Time scaling: the shortest timing of a joint path under joint velocity (and acceleration) limits.
 
-The path is cut into pieces that start and end at rest; each piece gets one time law
-u = s(tau), tau = (t - t_0) / T, over its own knots joined by a C2 cubic spline q(u) (not-a-knot
-ends; a straight line for two knots). Then dq/dt = q'(u) s'(tau) / T and
-d2q/dt2 = (q''(u) s'^2 + q'(u) s'') / T^2 scale as 1/T and 1/T^2, so the minimum duration of a
-piece is T = max(T_v, T_a) with
+The path is cut into pieces from rest to rest; each follows one time law u = s(tau),
+tau = (t - t_0) / T, along a not-a-knot cubic spline q(u) through its knots, so its shortest duration is
 
-    T_v = max_tau max_j |q'_j s'| / v_j,   T_a = sqrt(max_tau max_j |q''_j s'^2 + q'_j s''| / a_j).
+    T = max(max_tau max_j |q'_j s'| / v_j,  sqrt(max_tau max_j |q''_j s'^2 + q'_j s''| / a_j)),
 
-For a two-knot piece (a line, q' = dq, q'' = 0) this is closed form:
-T = max_j max(|dq_j| peak_s' / v_j, sqrt(|dq_j| peak_|s''| / a_j)). Longer pieces are maximised
-on a dense tau grid refined around its worst cells by a bounded scalar search, so the limit is
-reached (tight) and not exceeded. Modes (for any time law of :mod:`wbik.motion.profiles`):
-
-- ``global``: one piece, the whole path (a uniform scaling of one smooth motion);
-- ``waypoint``: one piece per waypoint segment (rest at each waypoint, corners kept sharp);
-- ``segment``: one piece per knot interval, rest at every knot (what the seeds did: each
-  sub-point is a separate move).
-
-The linear law has unbounded acceleration at its end points, so it takes no acceleration limit.
+in closed form for two knots, else on a dense tau grid refined by a bounded scalar search (tight, never
+exceeded). Modes: ``global`` (one piece), ``waypoint`` (rest at each waypoint), ``segment`` (rest at
+every knot). The linear law takes no acceleration limit.
 """
 
 from __future__ import annotations
@@ -37,6 +26,7 @@ from wbik.motion.profiles import time_law
 
 GRID_POINTS = 4001
 """Dense tau grid of a multi-knot piece (plus local refinement around its worst cells)."""
+MODES = ("global", "waypoint", "segment")
 
 
 def _limit_vector(value, count: int, what: str) -> np.ndarray | None:
@@ -46,9 +36,6 @@ def _limit_vector(value, count: int, what: str) -> np.ndarray | None:
     if not np.all(np.isfinite(array)) or np.any(array <= 0):
         raise InvalidConfigurationError(f"{what} must be positive and finite per joint, got {array.tolist()}")
     return array
-
-
-MODES = ("global", "waypoint", "segment")
 
 
 @dataclass
@@ -154,16 +141,12 @@ def _piece_duration(spline: CubicSpline, knots: int, law: TimeLaw, velocity: np.
 
 def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=None,
                acceleration_limit=None, mode: str = "global") -> TimedPath:
-    """The minimum-duration timing of ``path`` for ``law`` under the limits.
-
-    ``velocity_limit`` defaults to the chain's URDF limits (rad/s or m/s); a scalar applies to
-    every joint. ``acceleration_limit`` (rad/s^2 or m/s^2) is optional. ``mode``: global,
-    waypoint or segment (see the module notes).
-    """
+    """The minimum-duration timing of ``path`` for ``law`` and ``mode`` under ``velocity_limit`` (default
+    the chain's URDF limits; rad/s or m/s, a scalar for every joint) and ``acceleration_limit``
+    (optional; rad/s^2 or m/s^2)."""
     law = time_law(law)
-    chain = path.chain
-    count = chain.nq
-    velocity = _limit_vector(chain.velocity_limit if velocity_limit is None else velocity_limit, count,
+    count = path.chain.nq
+    velocity = _limit_vector(path.chain.velocity_limit if velocity_limit is None else velocity_limit, count,
                              "velocity_limit")
     acceleration = _limit_vector(acceleration_limit, count, "acceleration_limit")
     if acceleration is not None and not np.isfinite(law.peak_acceleration):

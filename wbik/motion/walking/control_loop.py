@@ -1,11 +1,6 @@
-"""The discipline of a control loop's ticks: Python's cyclic garbage collector does not run inside them.
-
-A collection of the older generations, which Python starts whenever enough container objects were
-allocated, can take longer than a whole tick of the walk (pattern plus whole-body step), and some ticks
-meet one (``benchmarks/walking.py`` measures both; the figures: docs/measurements.md, control_loop).
-Real-time loops do not let it: the collector is switched off for the loop (reference counting still
-frees everything the ticks drop; only reference cycles wait) and its previous state is restored
-afterwards.
+"""A control loop's ticks run without Python's cyclic garbage collector: a collection of the older
+generations can take longer than a whole tick (docs/measurements.md, control_loop); reference counting
+still frees what the ticks drop.
 """
 
 from __future__ import annotations

@@ -1,18 +1,10 @@
 """Footsteps: where each foot is put down, for a straight, turning, sideways or in-place walk.
 
-A walk command (:class:`StepCommand`) moves a *centre frame* C (between the feet, yawed like them)
-by the same displacement at every step: C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)). The feet
-alternate, starting with ``first`` (by default the foot on the side the robot moves or turns to, so
-the feet open before they close); step i puts its foot at C_i * O_foot, where O_foot is that foot's
-placement in C at the start (the stance width and the soles' own tilt kept), and, sideways, the
-leading foot (the one on the side the robot moves to) another dy out: each foot then moves 2 dy
-when it swings and the stance width is the start's or dy wider, never narrower (the feet do not
-close on each other). A last step brings the trailing foot back to the start's stance relative to
-the foot that moved last (left out when it would not move). So ``length`` is how far a landing
-foot lands ahead of the other one, and the robot advances ``steps * length`` (the seed's step: the
-lifted foot lands 30 mm ahead of the other one).
-
-SI units; angles in radians except ``turn_deg``.
+A *centre frame* C between the feet moves by the same displacement at every step,
+C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)); step i puts its foot at C_i * O_foot (O_foot: the foot's
+placement in C at the start), sideways the leading foot another dy out (the feet never close on each
+other). The feet alternate from ``first``, and a closing step brings the trailing foot back to the
+start's stance (left out when it would not move). SI units; angles in radians except ``turn_deg``.
 """
 
 from __future__ import annotations
@@ -25,6 +17,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 
 SIDES = ("left", "right")
@@ -86,19 +79,15 @@ class Footstep:
     placement: pin.SE3
 
     @property
-    def xy(self) -> np.ndarray:
-        return self.placement.translation[:2].copy()
-
-    @property
     def yaw(self) -> float:
         return yaw_of(self.placement.rotation)
 
 
 @dataclass(frozen=True)
 class StepCommand:
-    """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m)
-    and turning it ``turn_deg`` to the left; ``first``: the foot that moves first ("left", "right" or
-    None: the one on the side of the lateral motion, else of the turn, else the left)."""
+    """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m) and
+    turning it ``turn_deg`` to the left; ``first``: the foot that moves first (None: the one on the side
+    of the lateral motion, else of the turn, else the left)."""
 
     steps: int = 4
     length: float = 0.03
@@ -139,16 +128,30 @@ class StepCommand:
         return "sideways" if abs(self.lateral) > abs(self.length) else "straight"
 
 
+def mean_yaw(left: pin.SE3, right: pin.SE3) -> float:
+    """The feet's mean heading (rad)."""
+    yaw_left, yaw_right = yaw_of(left.rotation), yaw_of(right.rotation)
+    return yaw_right + 0.5 * math.remainder(yaw_left - yaw_right, 2 * math.pi)
+
+
 def centre_frame(left: pin.SE3, right: pin.SE3) -> pin.SE3:
     """Between the feet, yawed like them (mean heading), at their mean height."""
-    yaw_left, yaw_right = yaw_of(left.rotation), yaw_of(right.rotation)
-    yaw = yaw_right + 0.5 * math.remainder(yaw_left - yaw_right, 2 * math.pi)
-    return pin.SE3(pin.utils.rotate("z", yaw), 0.5 * (left.translation + right.translation))
+    return pin.SE3(pin.utils.rotate("z", mean_yaw(left, right)), 0.5 * (left.translation + right.translation))
+
+
+def sole_points(robot: Robot, frame: str, placement: pin.SE3) -> np.ndarray:
+    """The sole's contact points (``robot.soles``) in the world with the sole frame at ``placement``."""
+    return np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
+
+
+def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3]) -> SupportPolygon:
+    """The support polygon of the soles (frame -> placement) on the ground."""
+    return SupportPolygon(np.vstack([sole_points(robot, frame, p)[:, :2] for frame, p in placements.items()]))
 
 
 def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Feet) -> list[Footstep]:
-    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3}), in
-    order (the closing step last); see the module docstring."""
+    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3}), the closing
+    step last."""
     centre = centre_frame(start["left"], start["right"])
     offsets = {side: centre.actInv(start[side]) for side in SIDES}
     width = float(offsets["left"].translation[1] - offsets["right"].translation[1])
@@ -177,13 +180,3 @@ def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Fee
             footsteps.append(Footstep(side, feet.frame(side), closing))
     return footsteps
 
-
-def travel(start: Mapping[str, pin.SE3], footsteps: list[Footstep]) -> tuple[float, float]:
-    """(distance, turn): how far the centre frame moved on the ground (m) and turned (rad)."""
-    before = centre_frame(start["left"], start["right"])
-    last = dict(start)
-    for step in footsteps:
-        last[step.side] = step.placement
-    after = centre_frame(last["left"], last["right"])
-    distance = float(np.linalg.norm((after.translation - before.translation)[:2]))
-    return distance, math.remainder(yaw_of(after.rotation) - yaw_of(before.rotation), 2 * math.pi)

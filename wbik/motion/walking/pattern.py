@@ -1,19 +1,8 @@
-"""The walk pattern: every reference of a walk on the control grid (one tick every ``dt``).
-
-From footsteps and a timing: the support phases, the ZMP reference in the support, the CoM of the
-linear inverted pendulum by preview control (x_zmp = x_c - (z_c / g) x_c'', z_c the standing CoM's
-height above the ground, held), the swing feet on their trajectories, the stance feet where they
-stand, and the trunk's heading (the mean of the feet's). The preview controller runs tick by tick as
-it would on line (its state advanced once per tick, the reference read over its horizon), and the
-time each tick takes is kept (:attr:`WalkPattern.tick_time_s`).
-
-``zmp_offset`` (K, 2) is added to the reference the pendulum tracks, not to the one reported: the
-dynamics filter (:mod:`wbik.motion.walking.tracking`) uses it to correct the CoM for the multibody
-ZMP's departure from the pendulum's.
-
-A walk ends standing: after its last double support the pattern goes on, the reference still,
-until the CoM is within ``SETTLED_M`` of it and slower than ``SETTLED_M_S`` (at most
-``SETTLE_MAX_S``); that time is part of the walk's duration.
+"""The walk pattern: every reference of a walk on the control grid (one tick every ``dt``): the support
+phases, the ZMP reference, the CoM of the linear inverted pendulum by preview control (stepped tick by
+tick as on line, each tick's computing time kept), the swing and stance feet, and the trunk's heading
+(the feet's mean). The walk ends standing, once the CoM has settled over the final reference (at most
+``SETTLE_MAX_S`` after the last phase).
 """
 
 from __future__ import annotations
@@ -46,12 +35,9 @@ from wbik.motion.walking.zmp_reference import ZmpReference
 from wbik.motion.walking.zmp_reference import sole_centres
 from wbik.robot import Robot
 
-SETTLED_M = 0.002
-"""m: the CoM this close to the final reference counts as settled ..."""
-SETTLED_M_S = 0.01
-"""m/s: ... when also this slow."""
-SETTLE_MAX_S = 1.0
-"""s: the longest the pattern waits for the CoM to settle after the last phase."""
+SETTLED_M = 0.002  # m: the CoM this close to the final reference ...
+SETTLED_M_S = 0.01  # m/s: ... and this slow has settled
+SETTLE_MAX_S = 1.0  # s: the longest the pattern waits for it after the last phase
 
 
 @dataclass(frozen=True)
@@ -65,12 +51,10 @@ class PreviewSettings:
 
 @dataclass
 class WalkPattern:
-    """References at the ticks ``times`` (K,): ``com``, ``com_velocity``, ``com_acceleration`` (K, 3);
-    ``zmp_reference`` and the pendulum's ``lipm_zmp`` (K, 2); ``feet_poses[side][k]`` (world SE3);
-    ``support[k]`` (the sole frames on the ground); ``swing[k]`` (the swinging side or None);
-    ``trunk_yaw`` (K,) rad; ``phase_index`` (K,); ``tick_time_s`` (K,) the pattern's computing time per
-    tick (wall clock) and ``tick_cpu_s`` (K,) the same in this thread's CPU time (what the machine's
-    other processes do not change)."""
+    """References at the ticks ``times`` (K,): ``com`` and its derivatives (K, 3), ``zmp_reference`` and
+    the pendulum's ``lipm_zmp`` (K, 2), ``feet_poses[side][k]`` (world SE3), ``support[k]`` (the sole
+    frames on the ground), ``swing[k]`` (the swinging side or None), ``trunk_yaw`` (rad), and each tick's
+    computing time by the wall clock (``tick_time_s``) and in this thread's CPU time (``tick_cpu_s``)."""
 
     robot: Robot
     feet: Feet
@@ -112,11 +96,11 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
                  zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
-    """The pattern of a walk from configuration ``q0`` (standing on both feet): ``steps`` a command
-    (planned with :func:`~wbik.motion.walking.footsteps.plan_footsteps`) or the footsteps themselves;
-    ``clearance`` the swing height (m); ``com_height`` z_c (m, default the CoM's height above the
-    feet at q0); ``zmp_forward``: the ZMP target's offset ahead of each sole's centre (m). See the
-    module docstring."""
+    """The pattern of a walk from ``q0`` (standing on both feet): ``steps`` a command or the footsteps;
+    ``clearance`` the swing height (m); ``com_height`` z_c (m, default the CoM's height above the feet);
+    ``zmp_forward`` the ZMP target's offset ahead of each sole's centre (m); ``zmp_offset`` (K, 2) is
+    added to the reference the pendulum tracks, not to the one reported (the dynamics filter of
+    :func:`wbik.motion.walking.tracking.walk`)."""
     if not (math.isfinite(dt) and dt > 0):
         raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
     if not (math.isfinite(clearance) and clearance >= 0):
@@ -149,8 +133,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
     support, swing, yaw, index = [], [], np.zeros(longest), np.zeros(longest, dtype=int)
-    ticks = np.zeros(longest)
-    cpu = np.zeros(longest)
+    ticks, cpu = np.zeros(longest), np.zeros(longest)
     count = longest
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
         for k in range(longest):

@@ -1,31 +1,13 @@
-"""The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
-and compared with PlaCo's generator and the quasi-static gait on the same footsteps.
+"""The ``walk`` scenario kind: dynamic walks of any biped from a task file (:func:`tracking.walk
+<wbik.motion.walking.tracking.walk>`), judged on the full model (:func:`figures.walk_figures
+<wbik.motion.walking.figures.walk_figures>`) against ``expect`` (the keys of ``WALK_RULES``; a walk's
+own keys over the file's; by default the multibody ZMP ``margin`` inside the support and no QP failure).
 
-A file names the robot (its two soles are the feet unless ``feet`` names them; a robot loaded from
-example-robot-data gets its ``soles``), the walk's settings (``dt``, ``timing``, ``clearance``,
-``zmp_forward``, ``com_height``, ``preview``, ``filter_iterations``, ``tracking``, ``locked``, ``trunk``)
-and one or more ``walks`` (``steps``, ``length``, ``lateral``, ``turn_deg``, ``first``: a
-:class:`~wbik.motion.walking.footsteps.StepCommand`; ``timing``: durations that differ from the file's;
-``compare``: the generators to run on the same footsteps). Every walk is planned and tracked
-(:func:`wbik.motion.walking.tracking.walk`) and judged by :func:`wbik.motion.walking.figures.walk_figures`
-against the file's ``expect`` (the keys of ``WALK_RULES``; a walk's own ``expect`` overrides keys of the
-file's). Without an ``expect`` block a walk expects its multibody ZMP ``margin`` inside the support at
-every sample and no QP failure.
-
-Compared (reported, not judged, but ``speed_ratio_min`` judges the speed against the first):
-
-- ``static``: the quasi-static gait (:mod:`wbik.motion.walking.static_gait`) timed like the seed's
-  servos (``static.speed_rpm``, rest at every sample); ``speed_ratio_vs_static`` is its duration over
-  ours on the same footsteps;
-- ``static_balanced``: the same samples passed without stopping (stops at phase ends only) at the
-  highest of 40 rpm / sqrt(2)^n whose multibody ZMP stays ``margin`` inside the support;
-- ``placo`` and ``placo_ours``: PlaCo's walk pattern generator and its IK at PlaCo's default settings
-  and at ours (:mod:`wbik.motion.walking.placo_pattern`).
-
-Each walk's entry also has the computing time per control tick of our pattern and whole-body step
-(median, 95th percentile, max; the benchmark ``benchmarks/walking.py`` measures it properly). The
-animation plays our walks one after the other (a sample every ``ANIMATION_SAMPLE_S``) with the
-multibody ZMP and the support polygon.
+Compared on the same footsteps (reported, not judged; ``speed_ratio_min`` judges the speed against
+``static``): ``static`` (the quasi-static gait at ``static.speed_rpm``, rest at every sample),
+``static_balanced`` (its samples passed without stopping, at the fastest of ``STATIC_SPEEDS`` whose
+multibody ZMP keeps the margin), ``placo`` and ``placo_ours`` (PlaCo's generator and IK at its defaults
+and at ours). Each entry also has the computing time per control tick.
 """
 
 from __future__ import annotations
@@ -37,6 +19,19 @@ import numpy as np
 from wbik.collision import capsule
 from wbik.expectations import Rule
 from wbik.expectations import judge
+from wbik.motion.walking.figures import walk_figures
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import StepCommand
+from wbik.motion.walking.footsteps import sole_polygon
+from wbik.motion.walking.pattern import PreviewSettings
+from wbik.motion.walking.placo_pattern import placo_walk
+from wbik.motion.walking.static_gait import retimed
+from wbik.motion.walking.static_gait import static_gait
+from wbik.motion.walking.timeline import Timing
+from wbik.motion.walking.tracking import TrackingSettings
+from wbik.motion.walking.tracking import leg_collision_model
+from wbik.motion.walking.tracking import trunk_frame
+from wbik.motion.walking.tracking import walk
 from wbik.scenario_schema import FRAME
 from wbik.scenario_schema import START
 from wbik.scenario_schema import VECTOR3
@@ -64,6 +59,8 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.viz.animation import Animation
+from wbik.viz.animation import Overlays
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 
@@ -80,32 +77,22 @@ WALK_RULES = {
     "qp_failures_max": Rule("qp_failures", "<="),
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
 }
-"""A walk on the full model: the multibody ZMP's margin in the support (minimum, 5th percentile), CoM
-tracking, stance-foot slip, the swing's lift and the lowest swinging sole, joint limits, the joint
-speed over its limit, the legs' distance, QP failures, and the speed against the static gait on the
-same footsteps."""
+"""A walk on the full model, and its speed against the static gait on the same footsteps."""
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
-ANIMATION_SAMPLE_S = 0.02
-"""s between two samples of the animation (the viewer interpolates; the page stays small)."""
+ANIMATION_SAMPLE_S = 0.02  # s between two samples of the animation (the viewer interpolates)
 STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))
 """rpm tried by ``static_balanced``, fastest first."""
 
 
 def _spec_objects(spec: dict, robot):
     """(feet, timing, preview settings, tracking settings) of a checked spec."""
-    from wbik.motion.walking.footsteps import Feet
-    from wbik.motion.walking.pattern import PreviewSettings
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import TrackingSettings
-
     feet_spec = spec["feet"] or {}
     feet = Feet.of(robot, feet_spec.get("left"), feet_spec.get("right"))
-    tracking = dict(spec["tracking"])
     capsules = tuple(capsule(f"leg_capsule_{index}", item["frame"], item["start"], item["end"],
                              item["radius"]) for index, item in enumerate(spec["leg_capsules"]))
     settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]), leg_capsules=capsules,
-                                **tracking)
+                                **spec["tracking"])
     return feet, Timing(**spec["timing"]), PreviewSettings(**spec["preview"]), settings
 
 
@@ -115,15 +102,7 @@ def _ticks(times: np.ndarray) -> dict:
 
 
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Every walk of a checked spec (see the module docstring)."""
-    from wbik.motion.walking.figures import walk_figures
-    from wbik.motion.walking.footsteps import StepCommand
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import leg_collision_model
-    from wbik.motion.walking.tracking import walk
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
-
+    """Every walk of a checked spec."""
     run = KindRun(spec, "walks", on_progress, figures={"backend": spec["backend"]})
     robot = run.robot
     q0 = start_of(spec, robot)
@@ -140,10 +119,10 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         figures, series = walk_figures(robot, feet, pattern.times, motion.q, pattern.support,
                                        pattern.ground_z, margin, pattern.com, collisions)
         figures["qp_failures"] = len(motion.failed)
-        lipm, _ = _reference_margins(robot, pattern)
+        lipm = min(sole_polygon(robot, pattern.stance(k)).margin_of(pattern.lipm_zmp[k])
+                   for k in range(pattern.ticks))  # the pendulum's ZMP in the planned support
         entry = {"name": item["name"] or f"{command.kind}: {command.steps} steps", "kind": command.kind,
-                 "footsteps": len(pattern.footsteps), **figures,
-                 "lipm_zmp_margin_min_m": lipm,
+                 "footsteps": len(pattern.footsteps), **figures, "lipm_zmp_margin_min_m": lipm,
                  "tick_time": {"pattern": _ticks(pattern.tick_time_s[1:]),
                                "wholebody_step": _ticks(motion.step_time_s[1:]),
                                "both": _ticks(motion.tick_time_s[1:])},
@@ -176,31 +155,18 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     return run.finished()
 
 
-def _reference_margins(robot, pattern) -> tuple[float, float]:
-    """The smallest margin of the pendulum's ZMP and of the reference in the planned support (m)."""
-    from wbik.qp.support_polygon import SupportPolygon
-
-    lipm, reference = math.inf, math.inf
-    for k in range(pattern.ticks):
-        points = [np.asarray(robot.soles[f]) @ pattern.feet_poses[pattern.feet.side(f)][k].rotation.T
-                  + pattern.feet_poses[pattern.feet.side(f)][k].translation for f in pattern.support[k]]
-        polygon = SupportPolygon(np.vstack(points)[:, :2])
-        lipm = min(lipm, polygon.margin_of(pattern.lipm_zmp[k]))
-        reference = min(reference, polygon.margin_of(pattern.zmp_reference[k]))
-    return lipm, reference
-
-
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
              solved: dict) -> dict:
     """The figures of one compared generator on the pattern's footsteps (``solved``: what this walk's
     comparisons share, the static gait's samples)."""
-    from wbik.motion.walking.figures import walk_figures
-
     dt = spec["dt"]
-    trunk = _trunk(robot, settings)
+    trunk = trunk_frame(robot, settings)
     if label in ("static", "static_balanced"):
         if "static" not in solved:
-            solved["static"] = _static(spec, robot, q0, pattern, feet, trunk, settings, margin)
+            static = spec["static"]
+            solved["static"] = static_gait(robot, q0, pattern.footsteps, feet, trunk, spec["clearance"],
+                                           margin, static["inset"], static["divisions"], static["speed_rpm"],
+                                           settings.locked, spec["backend"])
         gait = solved["static"]
         figures: dict = {"generator": "quasi-static gait (CoM over the stance sole, "
                                       f"{margin * 1e3:g} mm margin, one IK per division)"}
@@ -212,8 +178,6 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
                             "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found})
             return figures
         return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
-    from wbik.motion.walking.placo_pattern import placo_walk
-
     placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
                        timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
                        spec["placo"]["iterations"])
@@ -225,27 +189,9 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
             "tick_time": _ticks(placo.tick_time_s[1:]), **found}
 
 
-def _trunk(robot, settings) -> str:
-    from wbik.motion.walking.tracking import trunk_frame
-
-    return trunk_frame(robot, settings)
-
-
-def _static(spec, robot, q0, pattern, feet, trunk, settings, margin):
-    """The static gait on the pattern's footsteps."""
-    from wbik.motion.walking.static_gait import static_gait
-
-    static = spec["static"]
-    return static_gait(robot, q0, pattern.footsteps, feet, trunk, spec["clearance"], margin, static["inset"],
-                       static["divisions"], static["speed_rpm"], settings.locked, spec["backend"])
-
-
 def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
     """The static gait's samples at the fastest of ``STATIC_SPEEDS`` whose multibody ZMP keeps the
     margin (stops at phase ends only)."""
-    from wbik.motion.walking.figures import walk_figures
-    from wbik.motion.walking.static_gait import retimed
-
     base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
     for rpm in STATIC_SPEEDS:
         timed = retimed(base, rpm, "waypoint")
@@ -303,15 +249,7 @@ def _line(label: str, figures: dict) -> str:
 
 # -- the schema ------------------------------------------------------------------------------------
 def walk_schema() -> Map:
-    """The keys of a ``walk`` file (see the module docstring)."""
-    from wbik.motion.walking.footsteps import StepCommand
-    from wbik.motion.walking.pattern import PreviewSettings
-    from wbik.motion.walking.placo_pattern import placo_walk
-    from wbik.motion.walking.static_gait import static_gait
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import TrackingSettings
-    from wbik.motion.walking.tracking import walk
-
+    """The keys of a ``walk`` file."""
     defaults = TrackingSettings()
     tracking = Map({name: Key(Number(gt=0), getattr(defaults, name))
                     for name in ("com_weight", "foot_weight", "trunk_weight", "posture_weight",
