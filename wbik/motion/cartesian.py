@@ -1,10 +1,7 @@
-"""Straight-line and waypoint Cartesian paths, solved by any registered IK method with continuity.
-
-The tip follows T(s), s in [0, 1]: positions on straight lines and rotations on the geodesic
-R(s) = R_a exp3(f log3(R_a^T R_b)), f the fraction of the current segment. Each knot is solved from
-the previous knot's joints; a step max_j |q_k,j - q_(k-1),j| above ``jump_threshold`` (rad or m) is a
-suspected branch jump: the interval is halved (up to ``refinements`` times), and a jump or miss that
-persists is reported in ``JointPath.jumps`` / ``JointPath.reasons`` (the knot keeps the best effort).
+"""Straight-line and waypoint Cartesian paths (positions on lines, rotations on geodesics), solved by
+any IK method from the previous knot's joints. A step max_j |q_k,j - q_(k-1),j| above ``jump_threshold``
+(rad or m) is a suspected branch jump: the interval is halved up to ``refinements`` times, and a jump or
+miss that persists is reported in ``JointPath.jumps`` / ``reasons``.
 """
 
 from __future__ import annotations
@@ -92,8 +89,8 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
         raise InvalidConfigurationError(f"jump_threshold must be positive, got {jump_threshold}")
     knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [True], {}, []
     first = solver.solve(reference.target(float(s_values[0])), q)
+    solved[0] = bool(first.success)
     if not first.success:
-        solved[0] = False
         reasons[0] = f"start pose: {first.reason}"
     for s_to in s_values[1:]:
         for s_knot, result in _advance(solver, reference, knots_s[-1], q, float(s_to), jump_threshold,

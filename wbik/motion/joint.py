@@ -1,5 +1,4 @@
-"""Joint-space interpolation: q(s) = q_a + s (q_b - q_a) between configurations (the thesis's
-``freeTraj``: the tip describes an arc, not a line)."""
+"""Joint-space interpolation: q(s) = q_a + s (q_b - q_a) between configurations."""
 
 from __future__ import annotations
 

@@ -22,9 +22,8 @@ class TaskReference(Protocol):
 
 @dataclass
 class JointPath:
-    """Knots of a joint path on one chain: ``solved[k]`` False where IK missed knot k (``reasons[k]``
-    says why), ``jumps`` the knots whose step max |q_k - q_(k-1)| exceeded the jump threshold,
-    ``waypoint_knots`` the knots of the waypoints."""
+    """Knots of a joint path on one chain; ``solved[k]`` False where IK missed knot k (``reasons[k]``),
+    ``jumps`` the knots whose step exceeded the jump threshold."""
 
     chain: Chain
     s: np.ndarray  # (K,) increasing, s[0] = 0, s[-1] = 1

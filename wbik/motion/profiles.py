@@ -27,8 +27,7 @@ class UnknownTimeLawError(UnknownNameError):
 
 @dataclass(frozen=True)
 class TimeLaw:
-    """A monotonic polynomial s(tau) = sum_k c_k tau^k with s(0) = 0, s(1) = 1, and the peaks of its
-    derivatives over [0, 1]."""
+    """A monotonic polynomial s(tau) = sum_k c_k tau^k from s(0) = 0 to s(1) = 1."""
 
     name: str
     peak_velocity: float  # max s'

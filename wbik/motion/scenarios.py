@@ -1,14 +1,7 @@
-"""Scenario kinds of robot motions (tasks/motion_*.yaml), registered in ``SCENARIO_KINDS``:
-``motion_joint`` (joint-space interpolation through ``configurations``) and ``motion_cartesian``
-(straight lines from ``start`` through ``waypoints``, each [x, y, z] or {position, rpy}, solved by
-``method``). Every report has one entry per move in ``moves``; the animation plays the moves' timed
-trajectories one after the other.
-
-Shared keys: ``timing`` (:func:`wbik.motion.timing.time_scale`'s defaults), ``export: {csv, json}`` (the
-last move's trajectory), ``tolerance`` (knot tracking, m / rad) and ``expect`` (the keys of
-``MOVE_RULES``; by default a move expects success, the peak joint speed within its limit and Cartesian
-knots tracked to ``tolerance``). Applications build their own motion kinds on :class:`MoveRun` and
-:func:`common_motion_keys`.
+"""Scenario kinds of robot motions: ``motion_joint`` (joint-space interpolation) and ``motion_cartesian``
+(straight lines through waypoints), one entry per move in ``moves``. By default a move expects success,
+its peak joint speed within the limits and its Cartesian knots tracked to ``tolerance``. Applications
+build their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`.
 """
 
 from __future__ import annotations
@@ -82,8 +75,7 @@ def pose_of(entry, what: str):
 
 def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
                 extra_defaults: dict | None = None, rules: dict = MOVE_RULES) -> tuple[dict, object]:
-    """Time the path, sample it and judge it (``extra_*``: the kind's own figures and expectations under
-    the file's ``expect``); the entry and the trajectory."""
+    """The entry of a timed, sampled and judged path (``extra_*``: the kind's own) and its trajectory."""
     timing = spec["timing"]
     timed = time_scale(path, timing["law"], timing["velocity_limit"], timing["acceleration_limit"],
                        timing["mode"])
@@ -120,8 +112,7 @@ def move_animation(robot, chain, trajectory, name: str):
 
 
 class MoveRun(KindRun):
-    """A motion run: the report's ``moves``, each timed and judged (:func:`timed_move`), their animations
-    0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
+    """A motion run: its ``moves`` (:func:`timed_move`), animated 0.25 s apart; ``export`` the last one."""
 
     def __init__(self, spec: dict, on_progress: Progress = None, rules: dict = MOVE_RULES):
         super().__init__(spec, "moves", on_progress, pause=0.25)

@@ -1,13 +1,9 @@
 """Time scaling: the shortest timing of a joint path under joint velocity (and acceleration) limits.
 
-The path is cut into pieces from rest to rest; each follows one time law u = s(tau),
-tau = (t - t_0) / T, along a not-a-knot cubic spline q(u) through its knots, so its shortest duration is
-
-    T = max(max_tau max_j |q'_j s'| / v_j,  sqrt(max_tau max_j |q''_j s'^2 + q'_j s''| / a_j)),
-
-in closed form for two knots, else on a dense tau grid refined by a bounded scalar search (tight, never
-exceeded). Modes: ``global`` (one piece), ``waypoint`` (rest at each waypoint), ``segment`` (rest at
-every knot). The linear law takes no acceleration limit.
+Pieces from rest to rest (``mode``: ``global`` one, ``waypoint`` one per waypoint segment, ``segment`` one
+per knot interval) each follow a time law along a cubic spline q(u), u = s(tau), and last
+T = max(max |q'_j s'| / v_j, sqrt(max |q''_j s'^2 + q'_j s''| / a_j)) over tau (closed form for two knots,
+else a dense grid refined by a bounded scalar search).
 """
 
 from __future__ import annotations
@@ -24,8 +20,7 @@ from wbik.motion.path import JointPath
 from wbik.motion.profiles import TimeLaw
 from wbik.motion.profiles import time_law
 
-GRID_POINTS = 4001
-"""Dense tau grid of a multi-knot piece (plus local refinement around its worst cells)."""
+GRID_POINTS = 4001  # the dense tau grid of a multi-knot piece
 MODES = ("global", "waypoint", "segment")
 
 
@@ -51,7 +46,7 @@ class Piece:
 
 @dataclass
 class TimedPath:
-    """A joint path with a timing: ``evaluate(t)`` gives q, dq/dt, d2q/dt2 at any t in [0, duration]."""
+    """A joint path with a timing (s)."""
 
     path: JointPath
     law: TimeLaw
@@ -98,12 +93,6 @@ class TimedPath:
         return q, velocity, acceleration
 
 
-def _piece_spline(path: JointPath, first: int, last: int) -> CubicSpline:
-    s = path.s[first:last + 1]
-    u = (s - s[0]) / (s[-1] - s[0])
-    return CubicSpline(u, path.q[first:last + 1], axis=0, bc_type="not-a-knot")
-
-
 def _peak(ratio, grid: np.ndarray) -> float:
     values = ratio(grid)
     best = float(values.max())
@@ -141,9 +130,8 @@ def _piece_duration(spline: CubicSpline, knots: int, law: TimeLaw, velocity: np.
 
 def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=None,
                acceleration_limit=None, mode: str = "global") -> TimedPath:
-    """The minimum-duration timing of ``path`` for ``law`` and ``mode`` under ``velocity_limit`` (default
-    the chain's URDF limits; rad/s or m/s, a scalar for every joint) and ``acceleration_limit``
-    (optional; rad/s^2 or m/s^2)."""
+    """The shortest timing of ``path``; limits per joint or one for all (rad/s, rad/s^2 or m/s, m/s^2;
+    ``velocity_limit`` defaults to the URDF's)."""
     law = time_law(law)
     count = path.chain.nq
     velocity = _limit_vector(path.chain.velocity_limit if velocity_limit is None else velocity_limit, count,
@@ -165,7 +153,8 @@ def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=N
         breaks = sorted({0, last, *[k for k in path.waypoint_knots if 0 < k < last]})
     pieces, knot_times, clock = [], np.zeros(last + 1), 0.0
     for first, end in zip(breaks[:-1], breaks[1:], strict=True):
-        spline = _piece_spline(path, first, end)
+        s = path.s[first:end + 1]
+        spline = CubicSpline((s - s[0]) / (s[-1] - s[0]), path.q[first:end + 1], axis=0, bc_type="not-a-knot")
         duration = _piece_duration(spline, end - first + 1, law, velocity, acceleration)
         knot_times[first:end + 1] = clock + duration * law.inverse(spline.x)
         pieces.append(Piece(first, end, clock, duration, spline))

@@ -1,10 +1,6 @@
-"""The trajectory object: times, joints, the tip path achieved and its tracking error, exported in the
-shape of a ROS ``trajectory_msgs/JointTrajectory``.
-
-JSON: ``{"joint_names", "points": [{"positions", "velocities", "accelerations", "time_from_start":
-{"sec", "nanosec"}}]}`` plus a ``wbik`` block (tip path, errors, timing facts). CSV: one row per point,
-columns ``time_s``, the joint names, ``<joint>_velocity``, ``<joint>_acceleration``, ``tip_x/y/z`` (m),
-``position_error_m``, ``rotation_error_rad`` (empty without a task reference).
+"""The trajectory object: times, joints, the tip path achieved and its tracking error, written as a ROS
+``trajectory_msgs/JointTrajectory`` (JSON, with a ``wbik`` block) or CSV (``time_s``, the joints, their
+``_velocity`` and ``_acceleration``, ``tip_x/y/z``, ``position_error_m``, ``rotation_error_rad``).
 """
 
 from __future__ import annotations
@@ -107,8 +103,7 @@ class Trajectory:
 
 
 def make_trajectory(timed: TimedPath, dt: float | None = None, times=None) -> Trajectory:
-    """Sample ``timed`` at its knot times (default), every ``dt`` seconds (end included), or at ``times``;
-    the tip path is FK of the samples, its error against the path's task reference at s(t)."""
+    """Sample ``timed`` at its knot times (default), every ``dt`` s (end included) or at ``times``."""
     if times is not None:
         times = np.asarray(times, dtype=float)
     elif dt is not None:

@@ -1,7 +1,4 @@
-"""A control loop's ticks run without Python's cyclic garbage collector: a collection of the older
-generations can take longer than a whole tick (docs/measurements.md, control_loop); reference counting
-still frees what the ticks drop.
-"""
+"""Control loops run without Python's cyclic garbage collector, whose pauses can outlast a tick."""
 
 from __future__ import annotations
 

@@ -1,8 +1,6 @@
-"""What a walk is judged by, on the full model, from its configurations q_k every dt and the soles on
-the ground at each, whichever generator made them: the multibody ZMP's margin in the support polygon
-(m, positive inside; -inf where there is no ZMP), CoM tracking, stance-foot slip, swing clearance (the
-lowest contact point of a swinging sole above the ground), joint limits, velocity and acceleration
-peaks, the legs' smallest distance, and how far and fast the feet's centre frame went.
+"""What a walk is judged by, on the full model, from its configurations alone (whichever generator
+made them): the multibody ZMP's margin in the support polygon, CoM tracking, foot slip, swing
+clearance, joint limits, velocity and acceleration peaks, the legs' distance, distance and speed.
 """
 
 from __future__ import annotations
@@ -38,10 +36,9 @@ def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
 def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],
                  ground_z: float = 0.0, margin: float = 0.0, com_reference: np.ndarray | None = None,
                  collision_model=None) -> tuple[dict, dict]:
-    """(figures, series) of a walk: the figures JSON-friendly (SI units; the margin's minimum with when and
-    on which soles, its 5th percentile a sample's value; slip per stretch a sole stays down, from where it
-    stood; clearance per swing its highest value and over all its lowest), the series per sample:
-    ``zmp`` (K, 3) on the ground, ``zmp_margin`` (K,)."""
+    """(figures, series) of configurations ``qs`` at ``times`` with the soles ``support`` on the ground:
+    the figures JSON-friendly (SI; the margin positive inside, -inf without a ZMP), the series per sample
+    ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
     model = robot.model
     data = model.createData()
     times = np.asarray(times, dtype=float)

@@ -1,10 +1,7 @@
-"""Footsteps: where each foot is put down, for a straight, turning, sideways or in-place walk.
-
-A *centre frame* C between the feet moves by the same displacement at every step,
-C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)); step i puts its foot at C_i * O_foot (O_foot: the foot's
-placement in C at the start), sideways the leading foot another dy out (the feet never close on each
-other). The feet alternate from ``first``, and a closing step brings the trailing foot back to the
-start's stance (left out when it would not move). SI units; angles in radians except ``turn_deg``.
+"""Footsteps: where each foot is put down. A centre frame between the feet moves by
+C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)) per step and the stepping foot lands at its start offset
+from it (sideways, the leading foot another dy out); a closing step brings the trailing foot back beside
+the other. SI units; angles in radians except ``turn_deg``.
 """
 
 from __future__ import annotations
@@ -22,8 +19,7 @@ from wbik.robot import Robot
 
 SIDES = ("left", "right")
 OTHER = {"left": "right", "right": "left"}
-CLOSING_TOLERANCE = 1e-6
-"""m or rad: a closing step that moves the foot less than this is left out."""
+CLOSING_TOLERANCE = 1e-6  # m or rad: a closing step that moves the foot less is left out
 
 
 def yaw_of(rotation: np.ndarray) -> float:
@@ -52,8 +48,7 @@ class Feet:
 
     @classmethod
     def of(cls, robot: Robot, left: str | None = None, right: str | None = None) -> Feet:
-        """The robot's feet: the two soles of ``robot.soles`` (the left one has the larger y at the
-        nominal configuration) unless named."""
+        """The feet named, or the two soles of ``robot.soles`` (the left one at the larger y)."""
         if left is not None and right is not None:
             for frame in (left, right):
                 if frame not in robot.soles:
@@ -64,10 +59,8 @@ class Feet:
         if len(soles) != 2:
             raise InvalidConfigurationError(
                 f"a biped walk needs two soles; {robot.name!r} lists {len(soles)} ({soles}): name the feet")
-        a, b = soles
-        y_a = robot.frame_placement(robot.nominal, a).translation[1]
-        y_b = robot.frame_placement(robot.nominal, b).translation[1]
-        return cls(a, b) if y_a > y_b else cls(b, a)
+        y_a, y_b = (robot.frame_placement(robot.nominal, frame).translation[1] for frame in soles)
+        return cls(*soles) if y_a > y_b else cls(*reversed(soles))
 
 
 @dataclass(frozen=True)
@@ -86,8 +79,7 @@ class Footstep:
 @dataclass(frozen=True)
 class StepCommand:
     """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m) and
-    turning it ``turn_deg`` to the left; ``first``: the foot that moves first (None: the one on the side
-    of the lateral motion, else of the turn, else the left)."""
+    turning it ``turn_deg`` to the left; ``first``: the first foot (None: the side it moves to)."""
 
     steps: int = 4
     length: float = 0.03
@@ -110,11 +102,7 @@ class StepCommand:
     def first_side(self) -> str:
         if self.first is not None:
             return self.first
-        if self.lateral:
-            return "left" if self.lateral > 0 else "right"
-        if self.turn_deg:
-            return "left" if self.turn_deg > 0 else "right"
-        return "left"
+        return "right" if (self.lateral or self.turn_deg) < 0 else "left"
 
     @property
     def kind(self) -> str:
@@ -150,8 +138,7 @@ def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3]) -> SupportPoly
 
 
 def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Feet) -> list[Footstep]:
-    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3}), the closing
-    step last."""
+    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3})."""
     centre = centre_frame(start["left"], start["right"])
     offsets = {side: centre.actInv(start[side]) for side in SIDES}
     width = float(offsets["left"].translation[1] - offsets["right"].translation[1])
@@ -174,9 +161,8 @@ def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Fee
         last = footsteps[-1]
         closing = last.placement * offsets[last.side].inverse() * offsets[side]
         previous = next((f.placement for f in reversed(footsteps) if f.side == side), start[side])
-        moved = np.linalg.norm(closing.translation - previous.translation) > CLOSING_TOLERANCE or \
-            np.linalg.norm(pin.log3(previous.rotation.T @ closing.rotation)) > CLOSING_TOLERANCE
-        if moved:
+        if (np.linalg.norm(closing.translation - previous.translation) > CLOSING_TOLERANCE
+                or np.linalg.norm(pin.log3(previous.rotation.T @ closing.rotation)) > CLOSING_TOLERANCE):
             footsteps.append(Footstep(side, feet.frame(side), closing))
     return footsteps
 

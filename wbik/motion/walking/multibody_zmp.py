@@ -1,16 +1,9 @@
 """The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics.
 
-Velocities and accelerations of samples every dt are central differences in the tangent space at q_k
-(exact to second order for a floating base), one-sided at the ends:
-
-    d+ = q_(k+1) (-) q_k,   d- = q_(k-1) (-) q_k,   v_k = (d+ - d-) / (2 dt),   a_k = (d+ + d-) / dt^2.
-
-The centroidal momentum rate dh = (m c'', dL/dt) at the CoM c gives the contact wrench f = m c'' - m g,
-n = dL/dt about c; the ZMP on the ground z = z_g is where it has no horizontal moment:
-
-    p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z,   p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z,
-
-NaN when f_z <= 0 (the robot would leave the ground).
+v_k = (d+ - d-) / (2 dt) and a_k = (d+ + d-) / dt^2 with d+ = q_(k+1) (-) q_k, d- = q_(k-1) (-) q_k; the
+centroidal momentum rate gives the contact wrench f = m c'' - m g, n = dL/dt about the CoM c, and the
+ZMP on z = z_g is p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z, p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z
+(NaN when f_z <= 0).
 """
 
 from __future__ import annotations
@@ -48,8 +41,7 @@ def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple
 
 
 def zmp_of_wrench(force: np.ndarray, moment: np.ndarray, point: np.ndarray, ground_z: float) -> np.ndarray:
-    """The ZMP (x, y) on z = ``ground_z`` of a contact wrench given as ``force`` and its ``moment``
-    about ``point`` (world); NaN when the vertical force is not positive."""
+    """The ZMP (x, y) on z = ``ground_z`` of a contact wrench (``moment`` about ``point``, world)."""
     fx, fy, fz = force
     if not fz > 0:
         return np.array([np.nan, np.nan])
@@ -74,8 +66,7 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
 
 def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                          ground_z: float = 0.0, data: pin.Data | None = None) -> np.ndarray:
-    """The same ZMP by an independent path: the free flyer's RNEA wrench (what the contacts apply to the
-    floating base), moved to the world origin."""
+    """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
     data = model.createData() if data is None else data
     tau = pin.rnea(model, data, q, v, a)
     pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)

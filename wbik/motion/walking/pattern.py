@@ -1,8 +1,5 @@
-"""The walk pattern: every reference of a walk on the control grid (one tick every ``dt``): the support
-phases, the ZMP reference, the CoM of the linear inverted pendulum by preview control (stepped tick by
-tick as on line, each tick's computing time kept), the swing and stance feet, and the trunk's heading
-(the feet's mean). The walk ends standing, once the CoM has settled over the final reference (at most
-``SETTLE_MAX_S`` after the last phase).
+"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control stepped
+tick by tick as on line; the walk ends once the CoM has settled over its final reference.
 """
 
 from __future__ import annotations
@@ -51,10 +48,8 @@ class PreviewSettings:
 
 @dataclass
 class WalkPattern:
-    """References at the ticks ``times`` (K,): ``com`` and its derivatives (K, 3), ``zmp_reference`` and
-    the pendulum's ``lipm_zmp`` (K, 2), ``feet_poses[side][k]`` (world SE3), ``support[k]`` (the sole
-    frames on the ground), ``swing[k]`` (the swinging side or None), ``trunk_yaw`` (rad), and each tick's
-    computing time by the wall clock (``tick_time_s``) and in this thread's CPU time (``tick_cpu_s``)."""
+    """References at the ticks ``times`` (K,) (``support[k]``: the sole frames on the ground, ``swing[k]``:
+    the swinging side) and each tick's computing time, by the wall clock and in CPU time."""
 
     robot: Robot
     feet: Feet
@@ -73,7 +68,6 @@ class WalkPattern:
     support: list[tuple[str, ...]]
     swing: list[str | None]
     trunk_yaw: np.ndarray
-    phase_index: np.ndarray
     tick_time_s: np.ndarray
     clearance: float
     info: dict = field(default_factory=dict)
@@ -96,11 +90,9 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
                  zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
-    """The pattern of a walk from ``q0`` (standing on both feet): ``steps`` a command or the footsteps;
-    ``clearance`` the swing height (m); ``com_height`` z_c (m, default the CoM's height above the feet);
-    ``zmp_forward`` the ZMP target's offset ahead of each sole's centre (m); ``zmp_offset`` (K, 2) is
-    added to the reference the pendulum tracks, not to the one reported (the dynamics filter of
-    :func:`wbik.motion.walking.tracking.walk`)."""
+    """The pattern of a walk from ``q0``, standing; ``clearance`` the swing height (m), ``com_height`` z_c
+    (m), ``zmp_forward`` the ZMP target ahead of each sole's centre (m), ``zmp_offset`` (K, 2) added to
+    the reference the pendulum tracks (the dynamics filter)."""
     if not (math.isfinite(dt) and dt > 0):
         raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
     if not (math.isfinite(clearance) and clearance >= 0):
@@ -132,7 +124,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     state = controller.start(com0[:2])
     com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw, index = [], [], np.zeros(longest), np.zeros(longest, dtype=int)
+    support, swing, yaw = [], [], np.zeros(longest)
     ticks, cpu = np.zeros(longest), np.zeros(longest)
     count = longest
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
@@ -150,18 +142,16 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
             support.append(tuple(feet.frame(side) for side in phase.stance))
             swing.append(phase.swing.side if phase.swing is not None else None)
             yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
-            index[k] = phases.index(phase)
             state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
             ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
             if count == k + 1:
                 break
     com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
-    yaw, index, ticks, cpu = yaw[:count], index[:count], ticks[:count], cpu[:count]
+    yaw, ticks, cpu = yaw[:count], ticks[:count], cpu[:count]
     com[:, 2] = ground_z + height
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
-                       acceleration, feet_poses, support, swing, np.unwrap(yaw), index, ticks,
-                       float(clearance),
+                       acceleration, feet_poses, support, swing, np.unwrap(yaw), ticks, float(clearance),
                        {"omega": controller.omega, "preview_steps": horizon}, cpu)
 
 

@@ -1,11 +1,5 @@
-"""PlaCo's walk pattern generator on our footsteps, followed by PlaCo's own IK.
-
-``placo.WalkPatternGenerator`` needs a ``placo.HumanoidRobot`` with frames ``left_foot``, ``right_foot``
-and ``trunk`` (added to the kinematic URDF at the soles and the trunk). Settings: ``"placo"`` (PlaCo's
-defaults with the robot's geometry and our swing height) or ``"ours"`` (our timing, 10 ms planning steps
-over our preview horizon, the ZMP margin ``zmp_margin``). The whole body follows by PlaCo's
-``WalkTasks`` solved ``iterations`` times per tick; the soles on the ground at a tick are those PlaCo's
-foot trajectory keeps on the floor.
+"""PlaCo's walk pattern generator on our footsteps, followed by PlaCo's own IK (``WalkTasks``), at
+PlaCo's settings (``"placo"``) or at our timing and ZMP margin (``"ours"``).
 """
 
 from __future__ import annotations
@@ -33,8 +27,7 @@ SETTLE_ITERATIONS = 50  # PlaCo IK iterations at t = 0, into PlaCo's walking pos
 
 @dataclass
 class PlacoWalk:
-    """PlaCo's walk: ``times`` (K,), configurations ``q`` (K, nq), the soles on the ground, PlaCo's CoM
-    (K, 3) and pendulum ZMP (K, 2), the time of each tick's IK and of the plan, the parameters used."""
+    """PlaCo's walk at ``times``, the time of each tick's IK and of the plan, and the parameters used."""
 
     times: np.ndarray
     q: np.ndarray
@@ -45,14 +38,9 @@ class PlacoWalk:
     plan_time_s: float
     parameters: dict = field(default_factory=dict)
 
-    @property
-    def duration(self) -> float:
-        return float(self.times[-1] - self.times[0])
-
 
 def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
-    """The path of the robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk)
-    fixed to the feet's and the trunk's links."""
+    """The robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk); its path."""
     from wbik.solvers.placo import kinematic_urdf_path
 
     text = kinematic_urdf_path(robot).read_text()
@@ -68,14 +56,8 @@ def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
                                  text.replace("</robot>", "".join(extra) + "</robot>")))
 
 
-def _sole_size(robot: Robot, frame: str) -> tuple[float, float]:
-    points = np.asarray(robot.soles[frame], dtype=float)
-    return float(np.ptp(points[:, 0])), float(np.ptp(points[:, 1]))
-
-
 class WalkIK:
-    """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with its ``WalkTasks``, to follow a walk
-    trajectory of PlaCo's generator."""
+    """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with its ``WalkTasks``."""
 
     def __init__(self, humanoid):
         from wbik.solvers.placo import import_placo
@@ -86,8 +68,7 @@ class WalkIK:
         self.tasks.initialize_tasks(self.solver, humanoid)
 
     def follow(self, trajectory, t: float, iterations: int) -> None:
-        """The humanoid at time ``t`` of ``trajectory``: ``iterations`` solver steps from its current
-        configuration toward the walk tasks there."""
+        """``iterations`` solver steps toward time ``t`` of PlaCo's ``trajectory``."""
         self.tasks.update_tasks_from_trajectory(trajectory, t)
         for _ in range(iterations):
             self.humanoid.update_kinematics()
@@ -97,8 +78,7 @@ class WalkIK:
 
 def soles_on_ground(trajectory, t: float, left: str, right: str, ground: float = 0.0,
                     tolerance: float = GROUND_TOLERANCE) -> tuple[str, ...]:
-    """The soles (``left``, ``right``) that PlaCo's foot trajectories keep within ``tolerance`` (m) of the
-    ground height at time ``t``."""
+    """The soles that PlaCo's foot trajectories keep within ``tolerance`` (m) of the ground at ``t``."""
     poses = ((left, trajectory.get_T_world_left(t)), (right, trajectory.get_T_world_right(t)))
     return tuple(sole for sole, pose in poses if abs(pose[2, 3] - ground) <= tolerance)
 
@@ -107,8 +87,7 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
                setting: str = "ours", timing: Timing | None = None, clearance: float = 0.02,
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
                iterations: int = 3) -> PlacoWalk:
-    """Plan the walk through ``footsteps`` from ``q0`` with PlaCo's generator and follow it with PlaCo's
-    IK every ``dt``."""
+    """Plan the walk through ``footsteps`` with PlaCo's generator and follow it with its IK every ``dt``."""
     from wbik.solvers.placo import import_placo
     from wbik.solvers.placo import placo_configuration
     from wbik.solvers.placo import placo_robot
@@ -120,8 +99,8 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     humanoid = placo_robot(robot, q0, humanoid_urdf=humanoid_urdf(robot, feet, trunk))
     start = {side: robot.frame_placement(q0, feet.frame(side)) for side in SIDES}
     parameters = placo.HumanoidParameters()
-    length, width = _sole_size(robot, feet.left)
-    parameters.foot_length, parameters.foot_width = length, width
+    sole = np.asarray(robot.soles[feet.left], dtype=float)
+    parameters.foot_length, parameters.foot_width = float(np.ptp(sole[:, 0])), float(np.ptp(sole[:, 1]))
     parameters.feet_spacing = float(np.linalg.norm(start["left"].translation - start["right"].translation))
     com0 = robot.center_of_mass(q0)
     ground = float(np.mean([start[s].translation[2] for s in SIDES]))

@@ -1,14 +1,8 @@
 """The CoM from the ZMP reference: Kajita's preview controller on the cart-table model (ICRA 2003).
 
-Per horizontal axis, the CoM jerk u drives x = (c, c', c''):
-
-    x_(k+1) = A x_k + B u_k,   A = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]],   B = (T^3/6, T^2/2, T),
-    p_k = C x_k = c - (z_c / g) c''   (the pendulum's ZMP).
-
-Minimising sum Q e^2 + R (delta u)^2, e = p - p_ref, on the system augmented with the error's integral
-(the Riccati equation by ``scipy.linalg.solve_discrete_are``) gives
-
-    u_k = -G_i sum_(i<=k) e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j).
+Per axis the jerk u drives x = (c, c', c''), x_(k+1) = A x_k + B u_k, and the ZMP is p = c - (z_c / g) c'';
+minimising sum Q e^2 + R (delta u)^2, e = p - p_ref, with the error's integral in the state gives
+u_k = -G_i sum e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j).
 """
 
 from __future__ import annotations
@@ -35,8 +29,7 @@ class PreviewRun:
 
 
 class PreviewController:
-    """Preview control of the cart-table model: ``dt`` (s), ``com_height`` z_c (m), ``horizon_s`` (s),
-    weights ``q`` (error) and ``r`` (input)."""
+    """Preview control: ``dt``, ``horizon_s`` (s), ``com_height`` z_c (m), weights ``q`` (error), ``r``."""
 
     def __init__(self, dt: float, com_height: float, horizon_s: float = 1.0, q: float = 1.0, r: float = 1e-6,
                  gravity: float = GRAVITY):
@@ -87,8 +80,7 @@ class PreviewController:
         return PreviewState(self, state)
 
     def run(self, reference: np.ndarray, com_xy: np.ndarray) -> PreviewRun:
-        """Every tick of a reference known in advance, p_ref (K, 2) (held at its last value beyond); the
-        CoM starts at rest at ``com_xy``."""
+        """Every tick of ``reference`` p_ref (K, 2) (held beyond), from rest at ``com_xy``."""
         reference = np.asarray(reference, dtype=float)
         count = len(reference)
         padded = np.vstack([reference, np.repeat(reference[-1:], self.steps, axis=0)])
@@ -109,8 +101,7 @@ class PreviewState:
         self.error_sum = np.zeros(2)
 
     def step(self, future: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """Advance one tick: ``current`` is p_ref now, ``future`` (N, 2) p_ref at the next N ticks
-        (as many as the horizon). Returns the jerk applied (2,)."""
+        """Advance one tick (``current`` p_ref now, ``future`` the next N); the jerk applied (2,)."""
         c = self.controller
         current = np.asarray(current, dtype=float)
         zmp = c.C @ self.x

@@ -1,13 +1,7 @@
-"""The ``walk`` scenario kind: dynamic walks of any biped from a task file (:func:`tracking.walk
-<wbik.motion.walking.tracking.walk>`), judged on the full model (:func:`figures.walk_figures
-<wbik.motion.walking.figures.walk_figures>`) against ``expect`` (the keys of ``WALK_RULES``; a walk's
-own keys over the file's; by default the multibody ZMP ``margin`` inside the support and no QP failure).
-
-Compared on the same footsteps (reported, not judged; ``speed_ratio_min`` judges the speed against
-``static``): ``static`` (the quasi-static gait at ``static.speed_rpm``, rest at every sample),
-``static_balanced`` (its samples passed without stopping, at the fastest of ``STATIC_SPEEDS`` whose
-multibody ZMP keeps the margin), ``placo`` and ``placo_ours`` (PlaCo's generator and IK at its defaults
-and at ours). Each entry also has the computing time per control tick.
+"""The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
+against ``expect`` (by default the multibody ZMP ``margin`` inside the support and no QP failure), and
+compared on the same footsteps with the quasi-static gait (``static``; ``static_balanced``: slowed until
+its multibody ZMP keeps the margin) and PlaCo's generator (``placo``, ``placo_ours``).
 """
 
 from __future__ import annotations
@@ -157,8 +151,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
              solved: dict) -> dict:
-    """The figures of one compared generator on the pattern's footsteps (``solved``: what this walk's
-    comparisons share, the static gait's samples)."""
+    """The figures of one compared generator on the pattern's footsteps (``solved``: the static gait)."""
     dt = spec["dt"]
     trunk = trunk_frame(robot, settings)
     if label in ("static", "static_balanced"):
@@ -190,8 +183,7 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
 
 
 def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
-    """The static gait's samples at the fastest of ``STATIC_SPEEDS`` whose multibody ZMP keeps the
-    margin (stops at phase ends only)."""
+    """The static gait at the fastest of ``STATIC_SPEEDS`` (stops at phase ends) that keeps the margin."""
     base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
     for rpm in STATIC_SPEEDS:
         timed = retimed(base, rpm, "waypoint")
@@ -204,8 +196,7 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
 
 
 def format_report(report: dict) -> str:
-    """Per walk: duration, speed, the multibody ZMP margin, tracking, slip, clearance, peaks, the
-    compared generators and the checks."""
+    """Per walk: its figures, the compared generators' and the checks."""
     def describe(entry: dict) -> str:
         text = (f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
                 f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "

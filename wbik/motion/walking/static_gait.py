@@ -1,12 +1,7 @@
-"""The quasi-static gait on given footsteps: the seed's balance strategy on any biped, for comparison.
-
-Per footstep, a double support moves the CoM's ground projection into the stance sole (shrunk by
-``inset``), then the other foot swings on the dynamic walk's trajectory, the CoM held; a last double
-support brings the CoM back between the feet. Every sample (``divisions`` per phase, twice as many in
-a swing) is a converged whole-body IK: contacts held, the CoM inside the support polygon shrunk by
-``margin`` (hard), joint limits, ``locked`` joints; the CoM and trunk orientation soft. Timing as the
-seed's servos: straight joint lines at rest at each sample (quintic, "segment" mode), no joint faster
-than ``speed_rpm``.
+"""The quasi-static gait on given footsteps (the seed's balance strategy, for comparison): per footstep
+the CoM moves over the stance sole, then the other foot swings, every sample a converged whole-body IK
+with the CoM ``margin`` inside the support polygon; timed like servos, straight joint lines from rest
+to rest at ``speed_rpm``.
 """
 
 from __future__ import annotations
@@ -47,8 +42,8 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 @dataclass
 class StaticGait:
-    """The samples ``q`` (K, nq; the start first), the soles on the ground at each (``support``), the sole
-    each stands on (``anchor``) and where, the timing, and the CoM's margin in its support polygon (m)."""
+    """The samples ``q`` (K, nq), the soles on the ground at each, the sole each stands on (``anchor``) and
+    where, the timing, and the CoM's margin in the support polygon (m)."""
 
     robot: Robot
     q: np.ndarray
@@ -68,8 +63,7 @@ class StaticGait:
         return np.asarray(self.timed.knot_times, dtype=float)
 
     def resample(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[tuple[str, ...]]]:
-        """(times, configurations (T, nq), support per time) every ``dt`` s, the base placed so that the
-        sample's stance sole stays where it stands."""
+        """(times, configurations, support) every ``dt`` s, each sample's stance sole kept where it stands."""
         model = self.robot.model
         actuated = [model.joints[j].idx_q for j in actuated_joints(model)]
         times = np.arange(0.0, self.duration + 0.5 * dt, dt)
@@ -96,8 +90,7 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
                 clearance: float = 0.02, margin: float = 0.005, inset: float | None = None,
                 divisions: int = 5, speed_rpm: float = 40.0, locked: tuple[str, ...] = (),
                 backend: str = DEFAULT_BACKEND) -> StaticGait:
-    """The quasi-static gait through ``footsteps`` from ``q0``; ``inset`` (m) defaults to the larger of
-    the seed's 8 mm and the margin + 3 mm."""
+    """The quasi-static gait through ``footsteps``; the CoM goes ``inset`` (m) inside the stance sole."""
     inset = max(0.008, margin + 0.003) if inset is None else float(inset)
     if divisions < 1 or not speed_rpm > 0:
         raise InvalidConfigurationError(f"divisions must be >= 1 and speed_rpm > 0, got {divisions}, "
@@ -177,8 +170,7 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
 
 
 def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
-    """The shortest quintic timing of the samples' actuated joints at ``speed_rpm`` (``phase_ends``: the
-    waypoints of ``mode``)."""
+    """The shortest quintic timing of the samples' 1-DOF joints at ``speed_rpm``."""
     from wbik.motion.path import JointPath
     from wbik.motion.timing import time_scale
 
@@ -194,7 +186,7 @@ def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode:
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
     """The same samples timed at another servo speed (rpm) and mode ("segment": rest at every sample;
-    "waypoint": at phase ends only); a timing of the same mode is scaled (durations go as 1 / speed)."""
+    "waypoint": at phase ends only)."""
     if not speed_rpm > 0:
         raise InvalidConfigurationError(f"speed_rpm must be > 0, got {speed_rpm}")
     if gait.info.get("mode") == mode:

@@ -1,7 +1,5 @@
-"""Swing-foot trajectories from lift-off to touch-down, tau = (t - t_lift) / T in [0, 1]: the quintic
-s(tau) along the line between the footholds (position, and their relative rotation on SO(3)), plus a
-bump clearance * 64 tau^3 (1 - tau)^3 in height; zero velocity and acceleration at both ends.
-"""
+"""Swing-foot trajectories: the quintic s(tau) between the footholds (position and rotation) plus a
+bump of ``clearance`` in height; zero velocity and acceleration at lift-off and touch-down."""
 
 from __future__ import annotations
 
@@ -22,8 +20,7 @@ def bump(tau: float) -> float:
 
 
 def swing_pose(lift_off: pin.SE3, touch_down: pin.SE3, tau: float, clearance: float) -> pin.SE3:
-    """The swinging sole's world pose at fraction ``tau`` of the single support; ``clearance`` (m) is the
-    bump's height above the line between the footholds."""
+    """The swinging sole's world pose at fraction ``tau`` of the single support (``clearance``: m)."""
     s = quintic(tau)
     relative = pin.log3(lift_off.rotation.T @ touch_down.rotation)
     rotation = lift_off.rotation @ pin.exp3(s * relative)

@@ -1,7 +1,4 @@
-"""The support phases of a walk, from standing on both feet to standing: a double support of
-``start_s``, then per footstep a single support of ``single_support_s`` (the footstep's foot swings)
-and a double support of ``double_support_s``, the last one ``end_s`` long (seconds).
-"""
+"""The support phases of a walk: double support, then per footstep a single and a double support."""
 
 from __future__ import annotations
 
@@ -36,8 +33,7 @@ class Timing:
 
 @dataclass(frozen=True)
 class Phase:
-    """One support phase from ``start`` to ``end`` (s): the ``stance`` sides on the ground, the ``feet``
-    placements at its start ({side: SE3}) and in single support the ``swing`` footstep."""
+    """A support phase (s): the ``stance`` sides, the ``feet`` at its start and the ``swing`` footstep."""
 
     start: float
     end: float
@@ -59,8 +55,7 @@ class Phase:
 
 
 def timeline(start: Mapping[str, pin.SE3], footsteps: list[Footstep], timing: Timing) -> list[Phase]:
-    """The support phases of a walk through ``footsteps`` from the feet at ``start``; a walk without
-    footsteps is one double support of ``start_s + end_s``."""
+    """The support phases of a walk through ``footsteps`` from the feet at ``start``."""
     feet = {side: placement.copy() for side, placement in start.items()}
     if not footsteps:
         return [Phase(0.0, timing.start_s + timing.end_s, ("left", "right"), dict(feet))]

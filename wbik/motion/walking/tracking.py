@@ -1,14 +1,6 @@
-"""Whole-body tracking of a walk pattern: one QP step of :mod:`wbik.qp` per control tick, from q_k toward
-the pattern's tick k + 1 (q_(k+1) = q_k (+) dq).
-
-Hard: the soles on the ground held at their footholds (:class:`Foothold`, 6 rows each), joint position
-and velocity limits, self-collision between the legs, ``locked`` joints. Soft: the CoM on the pattern's,
-the swinging sole on its trajectory, the trunk's standing pitch and roll turned to the feet's heading, a
-posture term and a small regularisation. One QP per kind of support is built before the first tick.
-
-The dynamics filter (:func:`walk`): with ``filter_iterations`` n > 0 the pattern is planned again with
-its reference shifted by the measured error, p_ref' = p_ref + sum (p_ref - p_multibody), faded in over
-the first double support (the robot starts at rest), and tracked again, n times.
+"""Whole-body tracking of a walk pattern: one QP step per control tick toward the pattern's next tick
+(footholds, joint limits, leg self-collision hard; CoM, swing sole, trunk, posture soft), and the
+dynamics filter p_ref' = p_ref + sum (p_ref - p_multibody), faded in over the first double support.
 """
 
 from __future__ import annotations
@@ -33,13 +25,12 @@ from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.pattern import walk_pattern
 from wbik.motion.walking.swing import quintic
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraint import EqualityConstraint
+from wbik.qp.contacts import Contact
 from wbik.qp.distances import CollisionAvoidance
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.limits import JointVelocityLimits
 from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
-from wbik.qp.rows import EqualityRows
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import OrientationTask
@@ -50,9 +41,8 @@ from wbik.robot import Robot
 
 @dataclass(frozen=True)
 class TrackingSettings:
-    """Weights of the soft tasks, the trunk frame (None: the floating base's first body), joints held
-    still, whether the legs avoid each other (``safety_distance`` m) and the legs' collision capsules
-    (:class:`wbik.collision.Primitive`) for a robot whose package lists no collision primitives."""
+    """Task weights, the trunk frame (None: the floating base's first body), joints held still, leg
+    self-collision (``safety_distance`` m; ``leg_capsules`` for a robot without package primitives)."""
 
     com_weight: float = 100.0
     foot_weight: float = 100.0
@@ -69,8 +59,7 @@ class TrackingSettings:
 
 @dataclass
 class WalkMotion:
-    """The tracked walk: configurations ``q`` (K, nq) at the pattern's ticks, each tick's whole-body step
-    time (s), the ticks whose QP had no solution (``failed``), and the pattern tracked."""
+    """The tracked walk: ``q`` (K, nq) at the pattern's ticks, each tick's step time (s), ``failed`` ticks."""
 
     pattern: WalkPattern
     q: np.ndarray
@@ -92,8 +81,7 @@ class WalkMotion:
 
 
 def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
-    """The frame whose orientation the trunk task holds: ``settings.trunk`` or the floating base's first
-    body frame."""
+    """``settings.trunk`` or the floating base's first body frame."""
     if settings.trunk is not None:
         robot.frame_id(settings.trunk)
         return settings.trunk
@@ -104,9 +92,8 @@ def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
 
 
 def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
-    """The collision model of the robot package's primitives and ``capsules``, restricted to pairs of a
-    left-leg and a right-leg shape (the joints between the floating base and each foot); None without
-    shapes."""
+    """The collision model of the package's primitives and ``capsules``, left-leg against right-leg pairs
+    only; None without shapes."""
     from wbik.collision import CollisionModel
     from wbik.models import robot_entries
 
@@ -128,40 +115,21 @@ def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
     return CollisionModel(robot.model, shapes, reference=robot.nominal, pairs=pairs)
 
 
-class Foothold(EqualityConstraint):
-    """A sole held at a world pose that can be moved between steps (``placement``): J dq = -e,
-    e = [p - p*; log3(R*^T R)]; ``violation`` the larger of the position (m) and rotation (rad) errors."""
+class Foothold(Contact):
+    """A contact whose world pose can be moved between steps (``placement``)."""
 
     def __init__(self, frame: str, placement: pin.SE3):
-        self.frame = frame
+        super().__init__(frame, placement.copy())
         self.name = f"foothold[{frame}]"
-        self._task = FrameTask(frame, placement.copy(), name=self.name)
-        self._jacobian, self._error = None, None
 
-    @property
-    def placement(self) -> pin.SE3:
-        return self._task.target
-
-    @placement.setter
+    @Contact.placement.setter
     def placement(self, value: pin.SE3) -> None:
-        self._task.target = value.copy()
-
-    def start(self, kinematics) -> None:
-        self._task.start(kinematics)
-        self._jacobian, self._error = np.zeros((6, kinematics.nv)), np.zeros(6)
-
-    def equality(self, kinematics) -> EqualityRows:
-        self._task.fill(kinematics, self._jacobian, self._error)
-        return EqualityRows(self._jacobian, -self._error)
-
-    def violation(self, kinematics) -> float:
-        error = self._task.error(kinematics)
-        return float(max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])))
+        self._task.target = self.fixed_placement = value.copy()
+        self._version = -1  # the rows of the new pose
 
 
 class _Stage:
-    """The QP of one kind of support (the soles that stand, the side that swings), built once; its
-    targets and footholds move from tick to tick."""
+    """The QP of one kind of support, built once; its targets move from tick to tick."""
 
     def __init__(self, tracker: Tracker, stance: tuple[str, ...], swing: str | None, q0: np.ndarray):
         robot, settings = tracker.robot, tracker.settings
@@ -257,9 +225,7 @@ def walk(robot: Robot, q0: np.ndarray, steps, timing, dt: float = 0.01, clearanc
          feet: Feet | None = None, preview=None, com_height: float | None = None,
          settings: TrackingSettings | None = None, filter_iterations: int = 1, zmp_forward: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WalkMotion:
-    """Plan (:func:`~wbik.motion.walking.pattern.walk_pattern`) and track a walk, with
-    ``filter_iterations`` passes of the dynamics filter."""
-
+    """Plan and track a walk, with ``filter_iterations`` passes of the dynamics filter."""
     options = {"dt": dt, "clearance": clearance, "feet": feet, "preview": preview, "com_height": com_height,
                "zmp_forward": zmp_forward}
     pattern = walk_pattern(robot, q0, steps, timing, **options)

@@ -1,9 +1,6 @@
-"""The ZMP reference of a walk: a point inside the support at every instant, moving between knots on
-the quintic s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 (no jerk asked of the pendulum).
-
-It rests at the stance sole's centre in single support (:func:`sole_centres`), goes from one sole to
-the next in double support, from ``start`` (the CoM's ground projection) to the first stance sole, and
-to the midpoint of the last two soles' centres (``end``, unless given); after the last phase it holds.
+"""The ZMP reference of a walk: at the stance sole's centre in single support, from one sole to the next
+in double support (a quintic in time), from the CoM's start to the first sole and to between the last
+two at the ends.
 """
 
 from __future__ import annotations
@@ -20,8 +17,7 @@ Centre = Callable[[str, pin.SE3], np.ndarray]
 
 
 def sole_centres(robot, feet, forward: float = 0.0) -> Centre:
-    """The ZMP target of a sole at a placement (x, y): its contact points' centroid (``robot.soles``),
-    ``forward`` m ahead along the sole's x axis."""
+    """The ZMP target of a sole at a placement: its contact points' centroid, ``forward`` m ahead."""
     local = {side: np.asarray(robot.soles[feet.frame(side)], dtype=float).mean(axis=0) + [forward, 0.0, 0.0]
              for side in ("left", "right")}
     return lambda side, placement: (placement.rotation @ local[side] + placement.translation)[:2]
