@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -110,8 +109,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     controller = PreviewController(dt, height, preview.horizon_s, preview.q, preview.r)
     horizon = controller.steps
     longest = planned + int(round(SETTLE_MAX_S / dt))
-    all_times = dt * np.arange(longest + horizon + 1)
-    targets = reference(all_times)
+    targets = reference(dt * np.arange(longest + horizon + 1))
     tracked = targets.copy()
     if zmp_offset is not None:
         offset = np.asarray(zmp_offset, dtype=float)
@@ -136,7 +134,10 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                     and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
                 count = k + 1
             phase = phase_at(phases, t)
-            poses = _feet_at(phase, t, clearance)
+            poses = dict(phase.feet)
+            if phase.swing is not None:
+                poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
+                                                     phase.fraction(t), clearance)
             for side in SIDES:
                 feet_poses[side].append(poses[side])
             support.append(tuple(feet.frame(side) for side in phase.stance))
@@ -153,11 +154,3 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
                        acceleration, feet_poses, support, swing, np.unwrap(yaw), ticks, float(clearance),
                        {"omega": controller.omega, "preview_steps": horizon}, cpu)
-
-
-def _feet_at(phase: Phase, t: float, clearance: float) -> Mapping[str, pin.SE3]:
-    poses = dict(phase.feet)
-    if phase.swing is not None:
-        step = phase.swing
-        poses[step.side] = swing_pose(phase.feet[step.side], step.placement, phase.fraction(t), clearance)
-    return poses

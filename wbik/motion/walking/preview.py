@@ -71,12 +71,10 @@ class PreviewController:
         """The pendulum's ZMP c - (z_c / g) c''."""
         return np.asarray(com) - self.com_height / self.gravity * np.asarray(acceleration)
 
-    def start(self, com_xy: np.ndarray, velocity_xy: np.ndarray | None = None) -> PreviewState:
-        """A controller state at a CoM (x, y) at rest (or moving at ``velocity_xy``), no acceleration."""
+    def start(self, com_xy: np.ndarray) -> PreviewState:
+        """A controller state with the CoM at rest at (x, y)."""
         state = np.zeros((3, 2))
         state[0] = np.asarray(com_xy, dtype=float)[:2]
-        if velocity_xy is not None:
-            state[1] = np.asarray(velocity_xy, dtype=float)[:2]
         return PreviewState(self, state)
 
     def run(self, reference: np.ndarray, com_xy: np.ndarray) -> PreviewRun:
@@ -104,8 +102,7 @@ class PreviewState:
         """Advance one tick (``current`` p_ref now, ``future`` the next N); the jerk applied (2,)."""
         c = self.controller
         current = np.asarray(current, dtype=float)
-        zmp = c.C @ self.x
-        self.error_sum += zmp - current
+        self.error_sum += c.C @ self.x - current
         # in coordinates centred on the current reference: the model is invariant to a shift, the
         # horizon's truncated gains are not (their sum misses G_x's position gain by a few 1e-4)
         relative = self.x.copy()

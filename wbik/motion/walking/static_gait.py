@@ -16,6 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.motion.path import JointPath
+from wbik.motion.timing import time_scale
 from wbik.motion.walking.footsteps import OTHER
 from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
@@ -58,22 +60,18 @@ class StaticGait:
     def duration(self) -> float:
         return float(self.timed.duration)
 
-    @property
-    def knot_times(self) -> np.ndarray:
-        return np.asarray(self.timed.knot_times, dtype=float)
-
     def resample(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[tuple[str, ...]]]:
         """(times, configurations, support) every ``dt`` s, each sample's stance sole kept where it stands."""
         model = self.robot.model
         actuated = [model.joints[j].idx_q for j in actuated_joints(model)]
         times = np.arange(0.0, self.duration + 0.5 * dt, dt)
         joints, _, _ = self.timed.evaluate(times)
-        knots = self.knot_times
+        knots = np.asarray(self.timed.knot_times, dtype=float)
         rows, support = [], []
         data = model.createData()
         for t, values in zip(times, joints, strict=True):
-            k = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2))
-            segment = k + 1  # the sample this stretch moves to
+            # the sample this stretch of the timing moves to
+            segment = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)) + 1
             q = self.q[segment].copy()
             q[actuated] = values
             q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
@@ -109,7 +107,6 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         [stand["left"]], [np.nan]
     phase_ends: list[int] = []
     common = [JointPositionLimits()] + ([LockedJoints(list(locked))] if locked else [])
-
     feet_heading0 = mean_yaw(stand["left"], stand["right"])
 
     def sample(held: dict[str, pin.SE3], polygon: SupportPolygon, com_xy: np.ndarray, on_ground: tuple,
@@ -154,9 +151,8 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         stance_frame = feet.frame(stance_side)
         polygon = sole_polygon(robot, {stance_frame: stand[stance_side]})
         com_xy = robot.center_of_mass(q)[:2]
-        lift_off = stand[step.side]
         for division in range(1, 2 * divisions + 1):
-            pose = swing_pose(lift_off, step.placement, division / (2 * divisions), clearance)
+            pose = swing_pose(stand[step.side], step.placement, division / (2 * divisions), clearance)
             sample({stance_frame: stand[stance_side], step.frame: pose}, polygon, com_xy, (stance_frame,),
                    stance_frame)
         phase_ends.append(len(rows) - 1)
@@ -171,9 +167,6 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
 
 def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
     """The shortest quintic timing of the samples' 1-DOF joints at ``speed_rpm``."""
-    from wbik.motion.path import JointPath
-    from wbik.motion.timing import time_scale
-
     joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
     lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
     s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)

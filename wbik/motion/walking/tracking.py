@@ -16,7 +16,6 @@ import pinocchio as pin
 from wbik.errors import NoQPSolutionError
 from wbik.errors import UnsupportedError
 from wbik.motion.walking.control_loop import without_cyclic_gc
-from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.multibody_zmp import multibody_zmp
 from wbik.motion.walking.multibody_zmp import trajectory_derivatives
@@ -104,14 +103,11 @@ def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
     shapes = [*(listed(robot) if listed is not None else ()), *capsules]
     full = CollisionModel(robot.model, shapes, reference=robot.nominal)
     model = robot.model
-    legs = {}
-    for side in SIDES:
-        joint = model.frames[model.getFrameId(feet.frame(side))].parentJoint
-        legs[side] = set(model.supports[joint].tolist()[2:])  # below the universe and the floating base
+    legs = [set(model.supports[model.frames[model.getFrameId(frame)].parentJoint].tolist()[2:])
+            for frame in feet.frames]  # the joints below the universe and the floating base
     parents = {obj.name: obj.parentJoint for obj in full.geometry.geometryObjects}
     pairs = [(a, b) for a, b in full.pairs
-             if (parents[a] in legs["left"] and parents[b] in legs["right"])
-             or (parents[a] in legs["right"] and parents[b] in legs["left"])]
+             if any(parents[a] in one and parents[b] in other for one, other in (legs, legs[::-1]))]
     return CollisionModel(robot.model, shapes, reference=robot.nominal, pairs=pairs)
 
 
@@ -170,8 +166,7 @@ class Tracker:
             self.constraints.append(CollisionAvoidance(self.collision_model, settings.safety_distance,
                                                        influence_distance=settings.safety_distance + 0.03))
         self._stages: dict[tuple, _Stage] = {}
-        kinds = (((feet.left, feet.right), None), ((feet.right,), "left"), ((feet.left,), "right"))
-        for stance, swing in kinds:
+        for stance, swing in ((feet.frames, None), ((feet.right,), "left"), ((feet.left,), "right")):
             self.stage(stance, swing).problem.start(self.q0)  # built before the first tick, not during one
 
     def trunk_rotation(self, heading_change: float) -> np.ndarray:
@@ -197,8 +192,7 @@ class Tracker:
         stage.trunk.target = self.trunk_rotation(pattern.trunk_yaw[k] - pattern.trunk_yaw[0])
         if swing is not None:
             stage.swing.target = pattern.feet_poses[swing][k]
-        dq = stage.problem.step(q, dt=pattern.dt)
-        return pin.integrate(self.robot.model, q, dq)
+        return pin.integrate(self.robot.model, q, stage.problem.step(q, dt=pattern.dt))
 
 
 def track(robot: Robot, pattern: WalkPattern, q0: np.ndarray, settings: TrackingSettings | None = None,
