@@ -46,10 +46,6 @@ class JointPath:
         """Every knot solved and no branch jump."""
         return bool(np.all(self.solved)) and not self.jumps
 
-    @property
-    def joint_names(self) -> list[str]:
-        return self.chain.joint_names
-
     def max_step(self) -> float:
         """The largest joint change between consecutive knots (rad or m)."""
         return float(np.max(np.abs(np.diff(self.q, axis=0)))) if len(self.q) > 1 else 0.0

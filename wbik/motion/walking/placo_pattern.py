@@ -19,6 +19,10 @@ from wbik.motion.walking.footsteps import Footstep
 from wbik.motion.walking.timeline import Timing
 from wbik.robot import Robot
 from wbik.robot import write_cached_urdf
+from wbik.solvers.placo import import_placo
+from wbik.solvers.placo import kinematic_urdf_path
+from wbik.solvers.placo import placo_configuration
+from wbik.solvers.placo import placo_robot
 
 GROUND_TOLERANCE = 1e-6  # m: a sole this close to the ground is on it
 SETTINGS = ("placo", "ours")
@@ -41,8 +45,6 @@ class PlacoWalk:
 
 def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
     """The robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk); its path."""
-    from wbik.solvers.placo import kinematic_urdf_path
-
     text = kinematic_urdf_path(robot).read_text()
     extra = []
     for name, link in (("left_foot", feet.left), ("right_foot", feet.right), ("trunk", trunk)):
@@ -60,8 +62,6 @@ class WalkIK:
     """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with its ``WalkTasks``."""
 
     def __init__(self, humanoid):
-        from wbik.solvers.placo import import_placo
-
         self.humanoid = humanoid
         self.solver = humanoid.make_solver()
         self.tasks = import_placo().WalkTasks()
@@ -88,10 +88,6 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
                iterations: int = 3) -> PlacoWalk:
     """Plan the walk through ``footsteps`` with PlaCo's generator and follow it with its IK every ``dt``."""
-    from wbik.solvers.placo import import_placo
-    from wbik.solvers.placo import placo_configuration
-    from wbik.solvers.placo import placo_robot
-
     placo = import_placo()
     if setting not in SETTINGS:
         raise ValueError(f"setting must be one of {SETTINGS}, got {setting!r}")

@@ -259,6 +259,17 @@ def walk_schema() -> Map:
                                  nullable=True), None),
                "compare": Key(ListOf(Text(COMPARED)), []),
                "expect": Key(expect_block(WALK_RULES), None)})
+    point = Key(Either(FRAME, VECTOR3), required=True)
+    capsules = ListOf(Map({"frame": Key(FRAME, required=True), "start": point, "end": point,
+                           "radius": Key(Number(gt=0, unit="m"), required=True)}),
+                      what="capsules {frame, start, end, radius} on the legs")
+    static = Map({"divisions": Key(Number(ge=1, integer=True), default_of(static_gait, "divisions")),
+                  "speed_rpm": Key(Number(gt=0, unit="rpm"), default_of(static_gait, "speed_rpm")),
+                  "inset": Key(Number(ge=0, unit="m", nullable=True), None)}, nullable=True)
+    placo = Map({"iterations": Key(Number(ge=1, integer=True), default_of(placo_walk, "iterations"))},
+                nullable=True)
+    walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
+                                          "timing, compare, expect}")
 
     def post(spec: dict, path: str, ctx: Context) -> None:
         check_robot_params(spec, path, ctx)
@@ -274,11 +285,7 @@ def walk_schema() -> Map:
                                 nullable=True), None),
                 "trunk": Key(Text(what="a frame name", nullable=True), None),
                 "locked": Key(ListOf(Text(what="a joint name")), []),
-                "leg_capsules": Key(ListOf(Map({"frame": Key(FRAME, required=True),
-                                                "start": Key(Either(FRAME, VECTOR3), required=True),
-                                                "end": Key(Either(FRAME, VECTOR3), required=True),
-                                                "radius": Key(Number(gt=0, unit="m"), required=True)}),
-                                           what="capsules {frame, start, end, radius} on the legs"), []),
+                "leg_capsules": Key(capsules, []),
                 "dt": Key(Number(gt=0, le=0.1, unit="s"), default_of(walk, "dt")),
                 "timing": Key(Map(from_dataclass(Timing).keys, nullable=True), {}),
                 "clearance": Key(Number(ge=0, unit="m"), default_of(walk, "clearance")),
@@ -290,18 +297,7 @@ def walk_schema() -> Map:
                 "tracking": Key(tracking, {}),
                 "margin": margin_key(),
                 "backend": backend_key(),
-                "static": Key(Map({"divisions": Key(Number(ge=1, integer=True),
-                                                    default_of(static_gait, "divisions")),
-                                   "speed_rpm": Key(Number(gt=0, unit="rpm"),
-                                                    default_of(static_gait, "speed_rpm")),
-                                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)},
-                                  nullable=True), {}),
-                "placo": Key(Map({"iterations": Key(Number(ge=1, integer=True),
-                                                    default_of(placo_walk, "iterations"))}, nullable=True),
-                             {}),
-                "walks": Key(ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, "
-                                                          "turn_deg, first, timing, compare, expect}"),
-                             required=True),
+                "static": Key(static, {}), "placo": Key(placo, {}), "walks": Key(walks, required=True),
                 "expect": Key(expect_block(WALK_RULES), None)}, post=post)
 
 

@@ -171,8 +171,7 @@ def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode:
     lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
     s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
     limit = speed_rpm * RPM
-    chain = SimpleNamespace(name="joints", joint_names=[model.names[j] for j in actuated_joints(model)],
-                            nq=joints.shape[1])  # the actuated joints, as time_scale sees a chain
+    chain = SimpleNamespace(nq=joints.shape[1])  # the 1-DOF joints, as time_scale sees a chain
     path = JointPath(chain, s, joints, waypoint_knots=list(phase_ends))
     return time_scale(path, "quintic", velocity_limit=limit, mode=mode)
 

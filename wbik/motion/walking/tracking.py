@@ -13,8 +13,10 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
+from wbik.collision import CollisionModel
 from wbik.errors import NoQPSolutionError
 from wbik.errors import UnsupportedError
+from wbik.models import robot_entries
 from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.multibody_zmp import multibody_zmp
@@ -93,9 +95,6 @@ def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
 def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
     """The collision model of the package's primitives and ``capsules``, left-leg against right-leg pairs
     only; None without shapes."""
-    from wbik.collision import CollisionModel
-    from wbik.models import robot_entries
-
     entry = robot_entries().get(robot.name)
     listed = getattr(entry.module(), "collision_primitives", None) if entry is not None else None
     if listed is None and not capsules:
