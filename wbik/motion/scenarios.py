@@ -94,21 +94,11 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
                "max_knot_rotation_error": summary["max_knot_rotation_error"],
                "jumps": len(summary["jumps"] or [])}
     defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
-    if bool((spec["expect"] or {}).get("success", True)):
-        for key, figure in (("knot_error_max_m", "max_knot_position_error"),
-                            ("knot_error_max_rad", "max_knot_rotation_error")):
-            if figures[figure] is not None:
-                defaults[key] = tolerance
+    if (spec["expect"] or {}).get("success", True) and summary["max_knot_position_error"] is not None:
+        defaults.update(knot_error_max_m=tolerance, knot_error_max_rad=tolerance)  # Cartesian knots
     figures.update(extra_figures or {})
     wanted = {**defaults, **(extra_defaults or {}), **(spec["expect"] or {})}
     return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect"), trajectory
-
-
-def move_animation(robot, chain, trajectory, name: str):
-    """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
-    times = np.asarray(trajectory.times, dtype=float)
-    keep = np.r_[True, np.diff(times) > 0]
-    return Animation.from_chain(robot, chain, times[keep], np.asarray(trajectory.positions)[keep], name=name)
 
 
 class MoveRun(KindRun):
@@ -124,7 +114,10 @@ class MoveRun(KindRun):
         """Time, judge and add one move of ``chain`` (``spec``: the move's own keys); the entry."""
         entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults,
                                             self.rules)
-        return self.add(entry, move_animation(self.robot, chain, self.trajectory, name))
+        times = np.asarray(self.trajectory.times, dtype=float)
+        keep = np.r_[True, np.diff(times) > 0]  # a repeated time keeps its first row
+        return self.add(entry, Animation.from_chain(self.robot, chain, times[keep],
+                                                    np.asarray(self.trajectory.positions)[keep], name=name))
 
     def finished(self) -> ScenarioReport:
         """The report; the last move's trajectory written where ``export`` says (paths in the figures)."""
@@ -172,12 +165,10 @@ def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     waypoints = [pose_of(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
     path = waypoint_path(ik, start_of(spec, ik.chain), waypoints, int(spec["samples"]),
                          float(spec["jump_threshold"]))
-    chain = ik.chain
-    tolerance = float(spec["tolerance"])
-    reached = []
-    for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
-        wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
-        reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
+    chain, tolerance = ik.chain, float(spec["tolerance"])
+    wanted = [waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint for waypoint in waypoints]
+    reached = [bool(np.linalg.norm(chain.fk(path.q[knot]).translation - position) <= tolerance)
+               for knot, position in zip(path.waypoint_knots, wanted, strict=True)]
     entry = run.move(chain, path, f"{len(waypoints)} Cartesian segments", {"waypoints_reached": all(reached)},
                      {"waypoints_reached": True})
     entry["waypoints_reached"] = reached

@@ -79,7 +79,7 @@ class Footstep:
 @dataclass(frozen=True)
 class StepCommand:
     """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m) and
-    turning it ``turn_deg`` to the left; ``first``: the first foot (None: the side it moves to)."""
+    turning it ``turn_deg`` to the left; ``first``: the first foot (None: the side it moves or turns to)."""
 
     steps: int = 4
     length: float = 0.03

@@ -126,10 +126,9 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                               "end_s": timing.end_s, "dt": spec["dt"], "clearance_m": spec["clearance"],
                               "com_height_m": pattern.com_height,
                               "filter_iterations": spec["filter_iterations"]}}
-        compared, solved = {}, {}
-        for label in item["compare"]:
-            compared[label] = _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin,
-                                       solved)
+        solved: dict = {}  # what this walk's comparisons share
+        compared = {label: _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin, solved)
+                    for label in item["compare"]}
         if compared:
             entry["compared"] = compared
             static = compared.get("static")
