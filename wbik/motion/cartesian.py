@@ -1,15 +1,7 @@
-"""Straight-line and waypoint Cartesian paths, solved by any registered IK method with continuity.
-
-The tip follows a reference pose T(s), s in [0, 1]: positions on straight lines
-p(s) = p_a + f (p_b - p_a) and rotations on the geodesic R(s) = R_a exp3(f log3(R_a^T R_b))
-(position lerp + slerp, so the tip really moves on the line; a log6/exp6 screw would bend it),
-f being the fraction of the current segment.
-
-Continuity: each knot is solved starting from the previous knot's joints, so the solver stays on
-the branch it started on. A step max_j |q_k,j - q_k-1,j| larger than ``jump_threshold`` (rad or
-m) is a suspected branch jump: the interval is first halved (up to ``refinements`` times), and if
-the jump persists, or the knot is not reached, the knot is reported in ``JointPath.jumps`` /
-``JointPath.reasons``. Unreached knots keep the solver's best effort (or the previous joints).
+"""Straight-line and waypoint Cartesian paths (positions on lines, rotations on geodesics), solved by
+any IK method from the previous knot's joints. A step max_j |q_k,j - q_(k-1),j| above ``jump_threshold``
+(rad or m) is a suspected branch jump: the interval is halved up to ``refinements`` times, and a jump or
+miss that persists is reported in ``JointPath.jumps`` / ``reasons``.
 """
 
 from __future__ import annotations
@@ -76,12 +68,9 @@ def _advance(solver: Solver, reference: TaskReference, s_from: float, q_from: np
     q_middle = first[-1][1].q if first[-1][1].q is not None else q_from
     second = _advance(solver, reference, middle, q_middle, s_to, threshold, refinements - 1)
     refined = first + second
-    previous, clean = q_from, True
-    for _, result in refined:
-        if not result.success or _step(previous, result.q) > threshold:
-            clean = False
-            break
-        previous = result.q
+    qs = [q_from, *(result.q for _, result in refined)]
+    clean = all(result.success for _, result in refined) and all(
+        _step(a, b) <= threshold for a, b in zip(qs[:-1], qs[1:], strict=True))
     if clean or (not direct.success and refined[-1][1].success):
         return refined
     return [(s_to, direct)]
@@ -100,8 +89,8 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
         raise InvalidConfigurationError(f"jump_threshold must be positive, got {jump_threshold}")
     knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [True], {}, []
     first = solver.solve(reference.target(float(s_values[0])), q)
+    solved[0] = bool(first.success)
     if not first.success:
-        solved[0] = False
         reasons[0] = f"start pose: {first.reason}"
     for s_to in s_values[1:]:
         for s_knot, result in _advance(solver, reference, knots_s[-1], q, float(s_to), jump_threshold,
@@ -125,11 +114,6 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
                      waypoint_knots, info={"method": solver.name, "jump_threshold": jump_threshold})
 
 
-def _start_target(solver: Solver, q0: np.ndarray, with_rotation: bool) -> Target:
-    pose = solver.chain.fk(q0)
-    return Target(pose.translation.copy(), pose.rotation.copy() if with_rotation else None)
-
-
 def linear_path(solver: Solver, q0: Sequence[float], goal, samples: int = 10,
                 jump_threshold: float = DEFAULT_JUMP_THRESHOLD, refinements: int = 3) -> JointPath:
     """Straight line from the tip pose at q0 to ``goal`` (SE3, 4x4 or 3-vector), ``samples`` steps."""
@@ -139,15 +123,15 @@ def linear_path(solver: Solver, q0: Sequence[float], goal, samples: int = 10,
 def waypoint_path(solver: Solver, q0: Sequence[float], waypoints: Sequence, samples: int = 10,
                   jump_threshold: float = DEFAULT_JUMP_THRESHOLD, refinements: int = 3) -> JointPath:
     """Straight segments from the tip pose at q0 through ``waypoints``, each split into ``samples``
-    sub-points k / samples, k = 1..samples: the last sub-point is the waypoint itself (seed 001's
-    loop stopped one short, arm3r.md)."""
+    sub-points k / samples, k = 1..samples (the last one the waypoint itself)."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     q0 = solver.chain.check_q(q0)
     targets = [as_target(point) for point in waypoints]
     if not targets:
         raise InvalidTargetError("give at least one waypoint")
-    start = _start_target(solver, q0, any(t.is_pose for t in targets))
+    pose = solver.chain.fk(q0)
+    start = Target(pose.translation.copy(), pose.rotation.copy() if any(t.is_pose for t in targets) else None)
     reference = PolylineReference([start, *targets])
     count = len(targets) * samples
     s_values = np.arange(count + 1) / count

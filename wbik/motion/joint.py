@@ -1,5 +1,4 @@
-"""Joint-space interpolation: q(s) = q_a + s (q_b - q_a) between configurations (the thesis's
-``freeTraj``: the tip describes an arc, not a line)."""
+"""Joint-space interpolation: q(s) = q_a + s (q_b - q_a) between configurations."""
 
 from __future__ import annotations
 
@@ -22,9 +21,8 @@ def _checked(chain: Chain, q: Sequence[float], what: str) -> np.ndarray:
 
 
 def joint_path(chain: Chain, configurations: Sequence[Sequence[float]], samples: int = 10) -> JointPath:
-    """Straight lines in joint space through ``configurations`` (at least two), each segment split
-    into ``samples`` steps (the segment end included). Every knot is inside the limits because
-    the limits form a box and the end points are inside it."""
+    """Straight lines in joint space through ``configurations`` (at least two, inside the limits, so
+    every knot is), each segment split into ``samples`` steps (its end included)."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     if len(configurations) < 2:

@@ -1,8 +1,5 @@
-"""A geometric joint path: knots q_k at path parameters s_k in [0, 1], before any timing.
-
-Cartesian paths also carry their task reference (the tip pose wanted at each s), so that the
-achieved tip path of a timed trajectory can be compared with it (the tracking error).
-"""
+"""A geometric joint path: knots q_k at path parameters s_k in [0, 1], before any timing, with the
+task reference of a Cartesian path (the tip pose wanted at each s)."""
 
 from __future__ import annotations
 
@@ -25,13 +22,8 @@ class TaskReference(Protocol):
 
 @dataclass
 class JointPath:
-    """Knots of a joint path on one chain.
-
-    ``solved[k]`` is False where IK did not reach the reference at knot k (``reasons[k]`` says
-    why); ``jumps`` lists knots whose step from the previous knot exceeded the jump threshold
-    (max |q_k - q_{k-1}| over the joints); ``waypoint_knots`` are the knot indices of the
-    waypoints (the last knot of each segment).
-    """
+    """Knots of a joint path on one chain; ``solved[k]`` False where IK missed knot k (``reasons[k]``),
+    ``jumps`` the knots whose step exceeded the jump threshold."""
 
     chain: Chain
     s: np.ndarray  # (K,) increasing, s[0] = 0, s[-1] = 1
@@ -54,10 +46,6 @@ class JointPath:
         """Every knot solved and no branch jump."""
         return bool(np.all(self.solved)) and not self.jumps
 
-    @property
-    def joint_names(self) -> list[str]:
-        return self.chain.joint_names
-
     def max_step(self) -> float:
         """The largest joint change between consecutive knots (rad or m)."""
         return float(np.max(np.abs(np.diff(self.q, axis=0)))) if len(self.q) > 1 else 0.0
@@ -77,8 +65,8 @@ class JointPath:
             "unsolved_knots": [int(k) for k in np.flatnonzero(~self.solved)],
             "jumps": list(self.jumps),
             "max_joint_step": self.max_step(),
-            "max_knot_position_error": _nanmax(position_errors),
-            "max_knot_rotation_error": _nanmax(rotation_errors),
+            "max_knot_position_error": nanmax(position_errors),
+            "max_knot_rotation_error": nanmax(rotation_errors),
             "reasons": {str(k): v for k, v in self.reasons.items()},
         }
 
@@ -91,12 +79,11 @@ def tracking_errors(chain: Chain, reference: TaskReference, s: np.ndarray, q: np
         wanted = reference.target(float(parameter))
         reached = chain.fk(joints)
         position_errors[index] = np.linalg.norm(reached.translation - wanted.position)
-        if wanted.rotation is None:
-            rotation_errors[index] = 0.0
-        else:
-            rotation_errors[index] = rotation_angle(reached.rotation, wanted.rotation)
+        rotation_errors[index] = 0.0 if wanted.rotation is None else rotation_angle(reached.rotation,
+                                                                                    wanted.rotation)
     return position_errors, rotation_errors
 
 
-def _nanmax(values: np.ndarray) -> float | None:
+def nanmax(values: np.ndarray) -> float | None:
+    """The largest value that is not NaN; None when all are."""
     return None if np.all(np.isnan(values)) else float(np.nanmax(values))

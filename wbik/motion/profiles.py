@@ -1,16 +1,12 @@
 """Time laws s(tau): how a path parameter s in [0, 1] advances with normalised time tau in [0, 1].
 
-A trajectory of duration T follows q(t) = q_path(s(t / T)), so
+A trajectory of duration T follows q(t) = q_path(s(t / T)), so dq/dt = q'(s) s' / T and
+d2q/dt2 = (q''(s) s'^2 + q'(s) s'') / T^2.
 
-    dq/dt   = q'(s) s'(tau) / T
-    d2q/dt2 = (q''(s) s'(tau)^2 + q'(s) s''(tau)) / T^2
-
-- ``linear``:  s = tau (constant speed, what the seeds used; s' jumps from 0 to 1 at the ends, so
-  the acceleration is unbounded there and an acceleration limit cannot be honoured);
-- ``cubic``:   s = 3 tau^2 - 2 tau^3 (rest to rest; peak s' = 3/2, peak |s''| = 6 at the ends);
-- ``quintic``: s = 10 tau^3 - 15 tau^4 + 6 tau^5, the minimum-jerk law (rest to rest with zero
-  acceleration at both ends; peak s' = 15/8 at tau = 1/2, peak |s''| = 10 / sqrt(3) at
-  tau = 1/2 -+ sqrt(3) / 6). ``minimum_jerk`` is an alias.
+- ``linear``:  s = tau (s' jumps at the ends: unbounded acceleration, no acceleration limit);
+- ``cubic``:   s = 3 tau^2 - 2 tau^3 (rest to rest; peak s' = 3/2, peak |s''| = 6);
+- ``quintic`` (alias ``minimum_jerk``): s = 10 tau^3 - 15 tau^4 + 6 tau^5 (zero acceleration at
+  both ends too; peak s' = 15/8, peak |s''| = 10 / sqrt(3)).
 """
 
 from __future__ import annotations
@@ -31,12 +27,11 @@ class UnknownTimeLawError(UnknownNameError):
 
 @dataclass(frozen=True)
 class TimeLaw:
-    """A monotonic polynomial s(tau) = sum_k c_k tau^k with s(0) = 0, s(1) = 1, its derivatives and
-    their peaks."""
+    """A monotonic polynomial s(tau) = sum_k c_k tau^k from s(0) = 0 to s(1) = 1."""
 
     name: str
-    peak_velocity: float  # max s'(tau) over [0, 1]
-    peak_acceleration: float  # max |s''(tau)| over [0, 1]; inf for the linear law
+    peak_velocity: float  # max s'
+    peak_acceleration: float  # max |s''|; inf for the linear law
     coefficients: tuple[float, ...]  # c_0, c_1, ... (increasing powers)
 
     def s(self, tau):
@@ -47,11 +42,10 @@ class TimeLaw:
         return self._derivative(tau, 1)
 
     def dds(self, tau):
-        """s''(tau) (zero for the linear law away from its end points)."""
+        """s''(tau); zero outside [0, 1]."""
         return self._derivative(tau, 2)
 
     def _derivative(self, tau, order: int):
-        """d^order s / dtau^order inside [0, 1], zero outside."""
         tau = np.asarray(tau, dtype=float)
         value = polyval(tau, polyder(self.coefficients, order)) + np.zeros_like(tau)
         return np.where((tau >= 0.0) & (tau <= 1.0), value, 0.0)

@@ -1,31 +1,7 @@
-"""Scenario kinds of robot motions (tasks/motion_*.yaml): their schemas, runners and printed report,
-registered in ``SCENARIO_KINDS`` (see :mod:`wbik.scenarios.kinds`); every runner reads the spec
-checked against its kind's schema.
-
-Kinds (each report's figures have one entry per move in ``moves``):
-
-- ``motion_joint``: joint-space interpolation through ``configurations`` (rad / m).
-- ``motion_cartesian``: straight lines from ``start`` (joints or "nominal") through ``waypoints``
-  (each [x, y, z] or {position, rpy}) with ``method``; ``samples`` per segment.
-- ``pincher_motion``: a teleoperation session, ``moves`` run one after another from the previous
-  end: {jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}},
-  {automatic: {}}.
-
-Applications build their own motion kinds on these pieces (:class:`MoveRun`, :func:`common_motion_keys`
-with rules of their own added to ``MOVE_RULES``).
-
-Common keys: ``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults those of
-:func:`wbik.motion.timing.time_scale`: quintic, global; URDF limits, knot times), ``export: {csv:
-PATH, json: PATH}`` (the trajectory of the last move, JointTrajectory shape), ``tolerance`` (knot
-tracking, default 1e-6 m / rad) and ``expect`` with the keys of ``MOVE_RULES`` (thresholds SI,
-judged by :mod:`wbik.expectations` for every move and printed as figure / threshold / ok). Unless
-``expect`` sets them, a move expects success, the peak joint speed within the limit (1e-9) and,
-when it has Cartesian knots, each knot tracked to ``tolerance``. ``samples`` defaults are those of
-the path builders (:func:`wbik.motion.joint.joint_path`, ...).
-
-Each runner's report carries a :class:`wbik.viz.animation.Animation` (what ``wbik view`` plays):
-every move's timed trajectory (the chain's joints in the full configuration, the tip traced), the
-moves one after the other.
+"""Scenario kinds of robot motions: ``motion_joint`` (joint-space interpolation) and ``motion_cartesian``
+(straight lines through waypoints), one entry per move in ``moves``. By default a move expects success,
+its peak joint speed within the limits and its Cartesian knots tracked to ``tolerance``. Applications
+build their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`.
 """
 
 from __future__ import annotations
@@ -38,6 +14,8 @@ import pinocchio as pin
 from wbik.expectations import Rule
 from wbik.expectations import judge
 from wbik.files import json_plain
+from wbik.motion.cartesian import waypoint_path
+from wbik.motion.joint import joint_path
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
@@ -66,7 +44,9 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.solvers.method_registry import solver
 from wbik.validation import finite_vector
+from wbik.viz.animation import Animation
 
 MOVE_RULES = {
     "success": Rule("success", "=="),
@@ -77,13 +57,6 @@ MOVE_RULES = {
     "waypoints_reached": Rule("waypoints_reached", "=="),
 }
 """Expectations of one move (``jumps``: joint steps above the jump threshold)."""
-
-
-def judge_move(spec: dict, entry: dict, figures: dict, defaults: dict, rules: dict = MOVE_RULES) -> dict:
-    """The move's expectations (``defaults`` under the task file's ``expect``) into the entry:
-    ``expectations``, ``verdict``, ``passed``."""
-    wanted = {**defaults, **(spec["expect"] or {})}
-    return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect")
 
 
 def vector_of(value, size: int, what: str) -> np.ndarray:
@@ -102,7 +75,7 @@ def pose_of(entry, what: str):
 
 def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | None = None,
                 extra_defaults: dict | None = None, rules: dict = MOVE_RULES) -> tuple[dict, object]:
-    """Time the path, sample it, judge it (with the kind's own figures); the entry and the trajectory."""
+    """The entry of a timed, sampled and judged path (``extra_*``: the kind's own) and its trajectory."""
     timing = spec["timing"]
     timed = time_scale(path, timing["law"], timing["velocity_limit"], timing["acceleration_limit"],
                        timing["mode"])
@@ -121,29 +94,15 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
                "max_knot_rotation_error": summary["max_knot_rotation_error"],
                "jumps": len(summary["jumps"] or [])}
     defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
-    if bool((spec["expect"] or {}).get("success", True)):
-        for key, figure in (("knot_error_max_m", "max_knot_position_error"),
-                            ("knot_error_max_rad", "max_knot_rotation_error")):
-            if figures[figure] is not None:
-                defaults[key] = tolerance
+    if (spec["expect"] or {}).get("success", True) and summary["max_knot_position_error"] is not None:
+        defaults.update(knot_error_max_m=tolerance, knot_error_max_rad=tolerance)  # Cartesian knots
     figures.update(extra_figures or {})
-    defaults.update(extra_defaults or {})
-    return judge_move(spec, entry, figures, defaults, rules), trajectory
-
-
-def move_animation(robot, chain, trajectory, name: str, reference: np.ndarray | None = None):
-    """A move's trajectory (chain joint rows at their times; a repeated time keeps its first row)."""
-    from wbik.viz.animation import Animation
-
-    times = np.asarray(trajectory.times, dtype=float)
-    keep = np.r_[True, np.diff(times) > 0]
-    return Animation.from_chain(robot, chain, times[keep], np.asarray(trajectory.positions)[keep],
-                                reference=reference, name=name)
+    wanted = {**defaults, **(extra_defaults or {}), **(spec["expect"] or {})}
+    return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect"), trajectory
 
 
 class MoveRun(KindRun):
-    """A motion run in progress: the report's ``moves``, each timed and judged (:func:`timed_move`),
-    their animations 0.25 s apart, and the last move's trajectory (what ``export`` writes)."""
+    """A motion run: its ``moves`` (:func:`timed_move`), animated 0.25 s apart; ``export`` the last one."""
 
     def __init__(self, spec: dict, on_progress: Progress = None, rules: dict = MOVE_RULES):
         super().__init__(spec, "moves", on_progress, pause=0.25)
@@ -152,15 +111,16 @@ class MoveRun(KindRun):
 
     def move(self, chain, path: JointPath, name: str, extra_figures: dict | None = None,
              extra_defaults: dict | None = None, spec: dict | None = None) -> dict:
-        """Time, judge and add one move of ``chain`` (``spec``: the move's own keys over the
-        scenario's); the entry."""
+        """Time, judge and add one move of ``chain`` (``spec``: the move's own keys); the entry."""
         entry, self.trajectory = timed_move(spec or self.spec, path, name, extra_figures, extra_defaults,
                                             self.rules)
-        return self.add(entry, move_animation(self.robot, chain, self.trajectory, name))
+        times = np.asarray(self.trajectory.times, dtype=float)
+        keep = np.r_[True, np.diff(times) > 0]  # a repeated time keeps its first row
+        return self.add(entry, Animation.from_chain(self.robot, chain, times[keep],
+                                                    np.asarray(self.trajectory.positions)[keep], name=name))
 
     def finished(self) -> ScenarioReport:
-        """The report; the last move's trajectory written where ``export`` says (paths in the
-        figures)."""
+        """The report; the last move's trajectory written where ``export`` says (paths in the figures)."""
         export = self.spec["export"]
         if "csv" in export:
             self.report.figures["csv"] = str(self.trajectory.write_csv(Path(export["csv"])))
@@ -190,8 +150,6 @@ def chain_keys() -> dict[str, Key]:
 
 
 def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion.joint import joint_path
-
     run = MoveRun(spec, on_progress)
     chain = chain_of(run.robot, spec)
     configurations = [vector_of(q, chain.nq, f"configurations[{index}]")
@@ -201,20 +159,16 @@ def run_joint(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_cartesian(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.motion.cartesian import waypoint_path
-    from wbik.solvers.method_registry import solver
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, chain=chain_of(run.robot, spec).name,
                 timeout_s=float(spec["timeout_s"]))
     waypoints = [pose_of(entry, f"waypoints[{i}]") for i, entry in enumerate(spec["waypoints"])]
     path = waypoint_path(ik, start_of(spec, ik.chain), waypoints, int(spec["samples"]),
                          float(spec["jump_threshold"]))
-    chain = ik.chain
-    tolerance = float(spec["tolerance"])
-    reached = []
-    for knot, waypoint in zip(path.waypoint_knots, waypoints, strict=True):
-        wanted = waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint
-        reached.append(bool(np.linalg.norm(chain.fk(path.q[knot]).translation - wanted) <= tolerance))
+    chain, tolerance = ik.chain, float(spec["tolerance"])
+    wanted = [waypoint.translation if isinstance(waypoint, pin.SE3) else waypoint for waypoint in waypoints]
+    reached = [bool(np.linalg.norm(chain.fk(path.q[knot]).translation - position) <= tolerance)
+               for knot, position in zip(path.waypoint_knots, wanted, strict=True)]
     entry = run.move(chain, path, f"{len(waypoints)} Cartesian segments", {"waypoints_reached": all(reached)},
                      {"waypoints_reached": True})
     entry["waypoints_reached"] = reached
@@ -233,7 +187,6 @@ def format_report(report: dict) -> str:
     return format_entries(report, "moves", describe)
 
 
-
 # -- the schemas -----------------------------------------------------------------------------------
 def timing_node() -> Map:
     """``timing: {law, mode, velocity_limit, acceleration_limit, dt}`` (defaults of time_scale)."""
@@ -245,8 +198,7 @@ def timing_node() -> Map:
 
 
 def common_motion_keys(rules: dict = MOVE_RULES) -> dict[str, Key]:
-    """Keys every motion kind has: robot, timing, export, tolerance, expect (its keys: ``rules``; + the
-    shared ones)."""
+    """Keys every motion kind has: robot, timing, export, tolerance, expect (the keys of ``rules``)."""
     return {**common_keys(robot=Key(Robot(), required=True)),
             "timing": Key(timing_node(), {}),
             "export": Key(Map({"csv": Key(Text(what="a file path")), "json": Key(Text(what="a file path"))},
@@ -267,10 +219,7 @@ def samples_key(function) -> dict[str, Key]:
 
 
 def motion_schema(kind: str) -> Map:
-    """The keys of a generic motion kind's file (see the module docstring)."""
-    from wbik.motion.cartesian import waypoint_path
-    from wbik.motion.joint import joint_path
-
+    """The keys of a generic motion kind's file."""
     if kind == "motion_joint":
         keys = {**samples_key(joint_path), **chain_keys(),
                 "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}

@@ -1,24 +1,9 @@
 """Time scaling: the shortest timing of a joint path under joint velocity (and acceleration) limits.
 
-The path is cut into pieces that start and end at rest; each piece gets one time law
-u = s(tau), tau = (t - t_0) / T, over its own knots joined by a C2 cubic spline q(u) (not-a-knot
-ends; a straight line for two knots). Then dq/dt = q'(u) s'(tau) / T and
-d2q/dt2 = (q''(u) s'^2 + q'(u) s'') / T^2 scale as 1/T and 1/T^2, so the minimum duration of a
-piece is T = max(T_v, T_a) with
-
-    T_v = max_tau max_j |q'_j s'| / v_j,   T_a = sqrt(max_tau max_j |q''_j s'^2 + q'_j s''| / a_j).
-
-For a two-knot piece (a line, q' = dq, q'' = 0) this is closed form:
-T = max_j max(|dq_j| peak_s' / v_j, sqrt(|dq_j| peak_|s''| / a_j)). Longer pieces are maximised
-on a dense tau grid refined around its worst cells by a bounded scalar search, so the limit is
-reached (tight) and not exceeded. Modes (for any time law of :mod:`wbik.motion.profiles`):
-
-- ``global``: one piece, the whole path (a uniform scaling of one smooth motion);
-- ``waypoint``: one piece per waypoint segment (rest at each waypoint, corners kept sharp);
-- ``segment``: one piece per knot interval, rest at every knot (what the seeds did: each
-  sub-point is a separate move).
-
-The linear law has unbounded acceleration at its end points, so it takes no acceleration limit.
+Pieces from rest to rest (``mode``: ``global`` one, ``waypoint`` one per waypoint segment, ``segment`` one
+per knot interval) each follow a time law along a cubic spline q(u), u = s(tau), and last
+T = max(max |q'_j s'| / v_j, sqrt(max |q''_j s'^2 + q'_j s''| / a_j)) over tau (closed form for two knots,
+else a dense grid refined by a bounded scalar search).
 """
 
 from __future__ import annotations
@@ -35,8 +20,8 @@ from wbik.motion.path import JointPath
 from wbik.motion.profiles import TimeLaw
 from wbik.motion.profiles import time_law
 
-GRID_POINTS = 4001
-"""Dense tau grid of a multi-knot piece (plus local refinement around its worst cells)."""
+GRID_POINTS = 4001  # the dense tau grid of a multi-knot piece
+MODES = ("global", "waypoint", "segment")
 
 
 def _limit_vector(value, count: int, what: str) -> np.ndarray | None:
@@ -46,9 +31,6 @@ def _limit_vector(value, count: int, what: str) -> np.ndarray | None:
     if not np.all(np.isfinite(array)) or np.any(array <= 0):
         raise InvalidConfigurationError(f"{what} must be positive and finite per joint, got {array.tolist()}")
     return array
-
-
-MODES = ("global", "waypoint", "segment")
 
 
 @dataclass
@@ -64,7 +46,7 @@ class Piece:
 
 @dataclass
 class TimedPath:
-    """A joint path with a timing: ``evaluate(t)`` gives q, dq/dt, d2q/dt2 at any t in [0, duration]."""
+    """A joint path with a timing (s)."""
 
     path: JointPath
     law: TimeLaw
@@ -111,12 +93,6 @@ class TimedPath:
         return q, velocity, acceleration
 
 
-def _piece_spline(path: JointPath, first: int, last: int) -> CubicSpline:
-    s = path.s[first:last + 1]
-    u = (s - s[0]) / (s[-1] - s[0])
-    return CubicSpline(u, path.q[first:last + 1], axis=0, bc_type="not-a-knot")
-
-
 def _peak(ratio, grid: np.ndarray) -> float:
     values = ratio(grid)
     best = float(values.max())
@@ -154,16 +130,11 @@ def _piece_duration(spline: CubicSpline, knots: int, law: TimeLaw, velocity: np.
 
 def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=None,
                acceleration_limit=None, mode: str = "global") -> TimedPath:
-    """The minimum-duration timing of ``path`` for ``law`` under the limits.
-
-    ``velocity_limit`` defaults to the chain's URDF limits (rad/s or m/s); a scalar applies to
-    every joint. ``acceleration_limit`` (rad/s^2 or m/s^2) is optional. ``mode``: global,
-    waypoint or segment (see the module notes).
-    """
+    """The shortest timing of ``path``; limits per joint or one for all (rad/s, rad/s^2 or m/s, m/s^2;
+    ``velocity_limit`` defaults to the URDF's)."""
     law = time_law(law)
-    chain = path.chain
-    count = chain.nq
-    velocity = _limit_vector(chain.velocity_limit if velocity_limit is None else velocity_limit, count,
+    count = path.chain.nq
+    velocity = _limit_vector(path.chain.velocity_limit if velocity_limit is None else velocity_limit, count,
                              "velocity_limit")
     acceleration = _limit_vector(acceleration_limit, count, "acceleration_limit")
     if acceleration is not None and not np.isfinite(law.peak_acceleration):
@@ -182,7 +153,8 @@ def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=N
         breaks = sorted({0, last, *[k for k in path.waypoint_knots if 0 < k < last]})
     pieces, knot_times, clock = [], np.zeros(last + 1), 0.0
     for first, end in zip(breaks[:-1], breaks[1:], strict=True):
-        spline = _piece_spline(path, first, end)
+        s = path.s[first:end + 1]
+        spline = CubicSpline((s - s[0]) / (s[-1] - s[0]), path.q[first:end + 1], axis=0, bc_type="not-a-knot")
         duration = _piece_duration(spline, end - first + 1, law, velocity, acceleration)
         knot_times[first:end + 1] = clock + duration * law.inverse(spline.x)
         pieces.append(Piece(first, end, clock, duration, spline))

@@ -1,23 +1,6 @@
-"""What a walk is judged by, on the full model, from its configurations alone.
-
-Given configurations q_k every dt, the soles on the ground at each sample and the ground's height,
-whichever generator made them (ours, PlaCo's, the static gait):
-
-- the multibody ZMP (:mod:`wbik.motion.walking.multibody_zmp`) and its margin in the support polygon
-  of the soles on the ground, placed by FK at that sample (m, positive inside; a sample whose vertical
-  contact force would be negative has no ZMP and counts as -inf): the minimum (with when and on which
-  soles), the 5th percentile (a sample's value, not interpolated) and how many samples fall under
-  ``margin``;
-- CoM tracking: |c(q_k) - c_ref,k| (m) against a reference, when one is given;
-- foot slip: for every stretch of samples a sole stays on the ground, how far it moves from where it
-  stood at the stretch's first sample (m, and rad);
-- swing clearance: the lowest contact point of a swinging sole above the ground; per swing its
-  highest value (the lift), and over every swing sample its lowest (below 0: through the floor);
-- joint position limits (the largest excess, rad or m), velocity and acceleration peaks over the
-  actuated joints (rad/s, rad/s^2; the finite differences of the ZMP), and the velocity peak over each
-  joint's limit;
-- the legs' smallest distance when a collision model is given (coal, by FK);
-- how far the feet's centre frame travelled and turned, the duration and the speed.
+"""What a walk is judged by, on the full model, from its configurations alone (whichever generator
+made them): the multibody ZMP's margin in the support polygon, CoM tracking, foot slip, swing
+clearance, joint limits, velocity and acceleration peaks, the legs' distance, distance and speed.
 """
 
 from __future__ import annotations
@@ -29,15 +12,13 @@ import pinocchio as pin
 
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.footsteps import centre_frame
+from wbik.motion.walking.footsteps import sole_points
 from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.multibody_zmp import multibody_zmp
 from wbik.motion.walking.multibody_zmp import trajectory_derivatives
 from wbik.qp.support_polygon import support_region
 from wbik.robot import Robot
-
-
-def _actuated_v(model: pin.Model) -> np.ndarray:
-    return np.array([model.joints[j].idx_v for j in range(1, model.njoints) if model.joints[j].nq == 1])
 
 
 def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
@@ -55,8 +36,9 @@ def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
 def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],
                  ground_z: float = 0.0, margin: float = 0.0, com_reference: np.ndarray | None = None,
                  collision_model=None) -> tuple[dict, dict]:
-    """(figures, series) of a walk (see the module docstring): the figures JSON-friendly (SI units),
-    the series per sample for drawing: ``zmp`` (K, 3) on the ground, ``zmp_margin`` (K,)."""
+    """(figures, series) of configurations ``qs`` at ``times`` with the soles ``support`` on the ground:
+    the figures JSON-friendly (SI; the margin positive inside, -inf without a ZMP), the series per sample
+    ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
     model = robot.model
     data = model.createData()
     times = np.asarray(times, dtype=float)
@@ -77,7 +59,7 @@ def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, su
         for frame, frame_id in frames.items():
             placement = data.oMf[frame_id].copy()
             placements[frame].append(placement)
-            corners = np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
+            corners = sole_points(robot, frame, placement)
             lowest[frame][k] = float(corners[:, 2].min()) - ground_z
             if frame in support[k]:
                 points.append(corners[:, :2])
@@ -121,14 +103,15 @@ def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, su
                     "swings": len(swing_peaks),
                     "swing_clearance_min_m": min(swing_peaks) if swing_peaks else None,
                     "swing_height_min_m": swing_low if swing_peaks else None})
-    actuated = _actuated_v(model)
+    joint_ids = actuated_joints(model)
+    actuated = np.array([model.joints[j].idx_v for j in joint_ids])
     speeds = np.abs(velocity[:, actuated])
     accelerations = np.abs(acceleration[:, actuated])
     limit = model.velocityLimit[actuated]
     finite_limit = np.where(np.isfinite(limit) & (limit > 0) & (limit < 1e10), limit, np.inf)
-    names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    names = [model.names[j] for j in joint_ids]
     peak_joint = int(np.argmax(speeds.max(axis=0)))
-    q_index = np.array([model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1])
+    q_index = np.array([model.joints[j].idx_q for j in joint_ids])
     joints = qs[:, q_index]
     excess = max(np.max(model.lowerPositionLimit[q_index] - joints),
                  np.max(joints - model.upperPositionLimit[q_index]), 0.0)

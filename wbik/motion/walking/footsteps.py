@@ -1,18 +1,7 @@
-"""Footsteps: where each foot is put down, for a straight, turning, sideways or in-place walk.
-
-A walk command (:class:`StepCommand`) moves a *centre frame* C (between the feet, yawed like them)
-by the same displacement at every step: C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)). The feet
-alternate, starting with ``first`` (by default the foot on the side the robot moves or turns to, so
-the feet open before they close); step i puts its foot at C_i * O_foot, where O_foot is that foot's
-placement in C at the start (the stance width and the soles' own tilt kept), and, sideways, the
-leading foot (the one on the side the robot moves to) another dy out: each foot then moves 2 dy
-when it swings and the stance width is the start's or dy wider, never narrower (the feet do not
-close on each other). A last step brings the trailing foot back to the start's stance relative to
-the foot that moved last (left out when it would not move). So ``length`` is how far a landing
-foot lands ahead of the other one, and the robot advances ``steps * length`` (the seed's step: the
-lifted foot lands 30 mm ahead of the other one).
-
-SI units; angles in radians except ``turn_deg``.
+"""Footsteps: where each foot is put down. A centre frame between the feet moves by
+C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)) per step and the stepping foot lands at its start offset
+from it (sideways, the leading foot another dy out); a closing step brings the trailing foot back beside
+the other. SI units; angles in radians except ``turn_deg``.
 """
 
 from __future__ import annotations
@@ -25,12 +14,12 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 
 SIDES = ("left", "right")
 OTHER = {"left": "right", "right": "left"}
-CLOSING_TOLERANCE = 1e-6
-"""m or rad: a closing step that moves the foot less than this is left out."""
+CLOSING_TOLERANCE = 1e-6  # m or rad: a closing step that moves the foot less is left out
 
 
 def yaw_of(rotation: np.ndarray) -> float:
@@ -59,8 +48,7 @@ class Feet:
 
     @classmethod
     def of(cls, robot: Robot, left: str | None = None, right: str | None = None) -> Feet:
-        """The robot's feet: the two soles of ``robot.soles`` (the left one has the larger y at the
-        nominal configuration) unless named."""
+        """The feet named, or the two soles of ``robot.soles`` (the left one at the larger y)."""
         if left is not None and right is not None:
             for frame in (left, right):
                 if frame not in robot.soles:
@@ -71,10 +59,8 @@ class Feet:
         if len(soles) != 2:
             raise InvalidConfigurationError(
                 f"a biped walk needs two soles; {robot.name!r} lists {len(soles)} ({soles}): name the feet")
-        a, b = soles
-        y_a = robot.frame_placement(robot.nominal, a).translation[1]
-        y_b = robot.frame_placement(robot.nominal, b).translation[1]
-        return cls(a, b) if y_a > y_b else cls(b, a)
+        y_a, y_b = (robot.frame_placement(robot.nominal, frame).translation[1] for frame in soles)
+        return cls(*soles) if y_a > y_b else cls(*reversed(soles))
 
 
 @dataclass(frozen=True)
@@ -86,19 +72,14 @@ class Footstep:
     placement: pin.SE3
 
     @property
-    def xy(self) -> np.ndarray:
-        return self.placement.translation[:2].copy()
-
-    @property
     def yaw(self) -> float:
         return yaw_of(self.placement.rotation)
 
 
 @dataclass(frozen=True)
 class StepCommand:
-    """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m)
-    and turning it ``turn_deg`` to the left; ``first``: the foot that moves first ("left", "right" or
-    None: the one on the side of the lateral motion, else of the turn, else the left)."""
+    """``steps`` steps, each moving the centre frame ``length`` forward, ``lateral`` to the left (m) and
+    turning it ``turn_deg`` to the left; ``first``: the first foot (None: the side it moves or turns to)."""
 
     steps: int = 4
     length: float = 0.03
@@ -121,11 +102,7 @@ class StepCommand:
     def first_side(self) -> str:
         if self.first is not None:
             return self.first
-        if self.lateral:
-            return "left" if self.lateral > 0 else "right"
-        if self.turn_deg:
-            return "left" if self.turn_deg > 0 else "right"
-        return "left"
+        return "right" if (self.lateral or self.turn_deg) < 0 else "left"
 
     @property
     def kind(self) -> str:
@@ -139,16 +116,29 @@ class StepCommand:
         return "sideways" if abs(self.lateral) > abs(self.length) else "straight"
 
 
+def mean_yaw(left: pin.SE3, right: pin.SE3) -> float:
+    """The feet's mean heading (rad)."""
+    yaw_left, yaw_right = yaw_of(left.rotation), yaw_of(right.rotation)
+    return yaw_right + 0.5 * math.remainder(yaw_left - yaw_right, 2 * math.pi)
+
+
 def centre_frame(left: pin.SE3, right: pin.SE3) -> pin.SE3:
     """Between the feet, yawed like them (mean heading), at their mean height."""
-    yaw_left, yaw_right = yaw_of(left.rotation), yaw_of(right.rotation)
-    yaw = yaw_right + 0.5 * math.remainder(yaw_left - yaw_right, 2 * math.pi)
-    return pin.SE3(pin.utils.rotate("z", yaw), 0.5 * (left.translation + right.translation))
+    return pin.SE3(pin.utils.rotate("z", mean_yaw(left, right)), 0.5 * (left.translation + right.translation))
+
+
+def sole_points(robot: Robot, frame: str, placement: pin.SE3) -> np.ndarray:
+    """The sole's contact points (``robot.soles``) in the world with the sole frame at ``placement``."""
+    return np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
+
+
+def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3]) -> SupportPolygon:
+    """The support polygon of the soles (frame -> placement) on the ground."""
+    return SupportPolygon(np.vstack([sole_points(robot, frame, p)[:, :2] for frame, p in placements.items()]))
 
 
 def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Feet) -> list[Footstep]:
-    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3}), in
-    order (the closing step last); see the module docstring."""
+    """The footsteps of ``command`` from the feet at ``start`` ({"left": SE3, "right": SE3})."""
     centre = centre_frame(start["left"], start["right"])
     offsets = {side: centre.actInv(start[side]) for side in SIDES}
     width = float(offsets["left"].translation[1] - offsets["right"].translation[1])
@@ -171,19 +161,8 @@ def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Fee
         last = footsteps[-1]
         closing = last.placement * offsets[last.side].inverse() * offsets[side]
         previous = next((f.placement for f in reversed(footsteps) if f.side == side), start[side])
-        moved = np.linalg.norm(closing.translation - previous.translation) > CLOSING_TOLERANCE or \
-            np.linalg.norm(pin.log3(previous.rotation.T @ closing.rotation)) > CLOSING_TOLERANCE
-        if moved:
+        if (np.linalg.norm(closing.translation - previous.translation) > CLOSING_TOLERANCE
+                or np.linalg.norm(pin.log3(previous.rotation.T @ closing.rotation)) > CLOSING_TOLERANCE):
             footsteps.append(Footstep(side, feet.frame(side), closing))
     return footsteps
 
-
-def travel(start: Mapping[str, pin.SE3], footsteps: list[Footstep]) -> tuple[float, float]:
-    """(distance, turn): how far the centre frame moved on the ground (m) and turned (rad)."""
-    before = centre_frame(start["left"], start["right"])
-    last = dict(start)
-    for step in footsteps:
-        last[step.side] = step.placement
-    after = centre_frame(last["left"], last["right"])
-    distance = float(np.linalg.norm((after.translation - before.translation)[:2]))
-    return distance, math.remainder(yaw_of(after.rotation) - yaw_of(before.rotation), 2 * math.pi)

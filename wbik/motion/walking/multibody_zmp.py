@@ -1,24 +1,9 @@
 """The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics.
 
-Velocities and accelerations of a trajectory sampled every ``dt`` come from central differences on
-the configuration manifold, both in the tangent space at q_k (so a floating base is handled
-exactly to second order):
-
-    d+ = q_(k+1) (-) q_k,   d- = q_(k-1) (-) q_k   (pinocchio.difference),
-    v_k = (d+ - d-) / (2 dt),   a_k = (d+ + d-) / dt^2,
-
-one-sided at the two ends (the neighbour's acceleration, the one-sided velocity).
-
-At each sample, Pinocchio's ``computeCentroidalMomentumTimeVariation`` gives the rate of the
-centroidal momentum dh = (m c'', dL/dt) at the CoM c (world axes). The contact wrench that produces
-it against gravity g is f = m c'' - m g and n = dL/dt about c. The ZMP p on the ground plane
-z = z_g is the point about which that wrench has no horizontal moment, n + (c - p) x f = 0 on x, y:
-
-    p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z,   p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z.
-
-For a point mass at constant height this is the pendulum's x_c - (z_c / g) x_c''. An f_z <= 0 (the
-robot would leave the ground) has no ZMP: NaN. :func:`zmp_from_base_wrench` computes the same point
-from the floating base's RNEA wrench (an independent path, for checks).
+v_k = (d+ - d-) / (2 dt) and a_k = (d+ + d-) / dt^2 with d+ = q_(k+1) (-) q_k, d- = q_(k-1) (-) q_k; the
+centroidal momentum rate gives the contact wrench f = m c'' - m g, n = dL/dt about the CoM c, and the
+ZMP on z = z_g is p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z, p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z
+(NaN when f_z <= 0).
 """
 
 from __future__ import annotations
@@ -29,9 +14,13 @@ import pinocchio as pin
 from wbik.errors import InvalidConfigurationError
 
 
+def actuated_joints(model: pin.Model) -> list[int]:
+    """The ids of the model's 1-DOF joints."""
+    return [j for j in range(1, model.njoints) if model.joints[j].nq == 1]
+
+
 def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """(v, a), each (K, nv), of configurations ``qs`` (K, nq) sampled every ``dt`` s (see the module
-    docstring)."""
+    """(v, a), each (K, nv), of configurations ``qs`` (K, nq) sampled every ``dt`` s."""
     qs = np.asarray(qs, dtype=float)
     if qs.ndim != 2 or qs.shape[1] != model.nq or len(qs) < 3:
         raise InvalidConfigurationError(f"a trajectory of at least 3 configurations of {model.nq} values is "
@@ -52,8 +41,7 @@ def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple
 
 
 def zmp_of_wrench(force: np.ndarray, moment: np.ndarray, point: np.ndarray, ground_z: float) -> np.ndarray:
-    """The ZMP (x, y) on z = ``ground_z`` of a contact wrench given as ``force`` and its ``moment``
-    about ``point`` (world); NaN when the vertical force is not positive."""
+    """The ZMP (x, y) on z = ``ground_z`` of a contact wrench (``moment`` about ``point``, world)."""
     fx, fy, fz = force
     if not fz > 0:
         return np.array([np.nan, np.nan])
@@ -63,8 +51,7 @@ def zmp_of_wrench(force: np.ndarray, moment: np.ndarray, point: np.ndarray, grou
 
 def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, accelerations: np.ndarray,
                   ground_z=0.0, data: pin.Data | None = None) -> np.ndarray:
-    """The ZMP (K, 2) of each sample from the centroidal dynamics (see the module docstring);
-    ``ground_z``: the ground's height, one value or one per sample (m)."""
+    """The ZMP (K, 2) of each sample; ``ground_z``: the ground's height, one value or one per sample (m)."""
     data = model.createData() if data is None else data
     count = len(qs)
     heights = np.broadcast_to(np.asarray(ground_z, dtype=float), (count,))
@@ -72,16 +59,14 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
     zmp = np.zeros((count, 2))
     for k in range(count):
         pin.computeCentroidalMomentumTimeVariation(model, data, qs[k], velocities[k], accelerations[k])
-        mass = data.mass[0]
-        force = data.dhg.linear - mass * gravity
+        force = data.dhg.linear - data.mass[0] * gravity
         zmp[k] = zmp_of_wrench(force, data.dhg.angular, data.com[0], float(heights[k]))
     return zmp
 
 
 def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
                          ground_z: float = 0.0, data: pin.Data | None = None) -> np.ndarray:
-    """The same ZMP from the free flyer's RNEA wrench: the wrench the contacts must apply to the
-    floating base (expressed in joint 1's frame), moved to the world origin."""
+    """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
     data = model.createData() if data is None else data
     tau = pin.rnea(model, data, q, v, a)
     pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)

@@ -1,26 +1,11 @@
-"""The walk pattern: every reference of a walk on the control grid (one tick every ``dt``).
-
-From footsteps and a timing: the support phases, the ZMP reference in the support, the CoM of the
-linear inverted pendulum by preview control (x_zmp = x_c - (z_c / g) x_c'', z_c the standing CoM's
-height above the ground, held), the swing feet on their trajectories, the stance feet where they
-stand, and the trunk's heading (the mean of the feet's). The preview controller runs tick by tick as
-it would on line (its state advanced once per tick, the reference read over its horizon), and the
-time each tick takes is kept (:attr:`WalkPattern.tick_time_s`).
-
-``zmp_offset`` (K, 2) is added to the reference the pendulum tracks, not to the one reported: the
-dynamics filter (:mod:`wbik.motion.walking.tracking`) uses it to correct the CoM for the multibody
-ZMP's departure from the pendulum's.
-
-A walk ends standing: after its last double support the pattern goes on, the reference still,
-until the CoM is within ``SETTLED_M`` of it and slower than ``SETTLED_M_S`` (at most
-``SETTLE_MAX_S``); that time is part of the walk's duration.
+"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control stepped
+tick by tick as on line; the walk ends once the CoM has settled over its final reference.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -46,12 +31,9 @@ from wbik.motion.walking.zmp_reference import ZmpReference
 from wbik.motion.walking.zmp_reference import sole_centres
 from wbik.robot import Robot
 
-SETTLED_M = 0.002
-"""m: the CoM this close to the final reference counts as settled ..."""
-SETTLED_M_S = 0.01
-"""m/s: ... when also this slow."""
-SETTLE_MAX_S = 1.0
-"""s: the longest the pattern waits for the CoM to settle after the last phase."""
+SETTLED_M = 0.002  # m: the CoM this close to the final reference ...
+SETTLED_M_S = 0.01  # m/s: ... and this slow has settled
+SETTLE_MAX_S = 1.0  # s: the longest the pattern waits for it after the last phase
 
 
 @dataclass(frozen=True)
@@ -65,12 +47,8 @@ class PreviewSettings:
 
 @dataclass
 class WalkPattern:
-    """References at the ticks ``times`` (K,): ``com``, ``com_velocity``, ``com_acceleration`` (K, 3);
-    ``zmp_reference`` and the pendulum's ``lipm_zmp`` (K, 2); ``feet_poses[side][k]`` (world SE3);
-    ``support[k]`` (the sole frames on the ground); ``swing[k]`` (the swinging side or None);
-    ``trunk_yaw`` (K,) rad; ``phase_index`` (K,); ``tick_time_s`` (K,) the pattern's computing time per
-    tick (wall clock) and ``tick_cpu_s`` (K,) the same in this thread's CPU time (what the machine's
-    other processes do not change)."""
+    """References at the ticks ``times`` (K,) (``support[k]``: the sole frames on the ground, ``swing[k]``:
+    the swinging side) and each tick's computing time, by the wall clock and in CPU time."""
 
     robot: Robot
     feet: Feet
@@ -89,7 +67,6 @@ class WalkPattern:
     support: list[tuple[str, ...]]
     swing: list[str | None]
     trunk_yaw: np.ndarray
-    phase_index: np.ndarray
     tick_time_s: np.ndarray
     clearance: float
     info: dict = field(default_factory=dict)
@@ -112,11 +89,9 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
                  zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
-    """The pattern of a walk from configuration ``q0`` (standing on both feet): ``steps`` a command
-    (planned with :func:`~wbik.motion.walking.footsteps.plan_footsteps`) or the footsteps themselves;
-    ``clearance`` the swing height (m); ``com_height`` z_c (m, default the CoM's height above the
-    feet at q0); ``zmp_forward``: the ZMP target's offset ahead of each sole's centre (m). See the
-    module docstring."""
+    """The pattern of a walk from ``q0``, standing; ``clearance`` the swing height (m), ``com_height`` z_c
+    (m), ``zmp_forward`` the ZMP target ahead of each sole's centre (m), ``zmp_offset`` (K, 2) added to
+    the reference the pendulum tracks (the dynamics filter)."""
     if not (math.isfinite(dt) and dt > 0):
         raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
     if not (math.isfinite(clearance) and clearance >= 0):
@@ -134,8 +109,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     controller = PreviewController(dt, height, preview.horizon_s, preview.q, preview.r)
     horizon = controller.steps
     longest = planned + int(round(SETTLE_MAX_S / dt))
-    all_times = dt * np.arange(longest + horizon + 1)
-    targets = reference(all_times)
+    targets = reference(dt * np.arange(longest + horizon + 1))
     tracked = targets.copy()
     if zmp_offset is not None:
         offset = np.asarray(zmp_offset, dtype=float)
@@ -148,9 +122,8 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     state = controller.start(com0[:2])
     com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw, index = [], [], np.zeros(longest), np.zeros(longest, dtype=int)
-    ticks = np.zeros(longest)
-    cpu = np.zeros(longest)
+    support, swing, yaw = [], [], np.zeros(longest)
+    ticks, cpu = np.zeros(longest), np.zeros(longest)
     count = longest
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
         for k in range(longest):
@@ -161,30 +134,23 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                     and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
                 count = k + 1
             phase = phase_at(phases, t)
-            poses = _feet_at(phase, t, clearance)
+            poses = dict(phase.feet)
+            if phase.swing is not None:
+                poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
+                                                     phase.fraction(t), clearance)
             for side in SIDES:
                 feet_poses[side].append(poses[side])
             support.append(tuple(feet.frame(side) for side in phase.stance))
             swing.append(phase.swing.side if phase.swing is not None else None)
             yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
-            index[k] = phases.index(phase)
             state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
             ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
             if count == k + 1:
                 break
     com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
-    yaw, index, ticks, cpu = yaw[:count], index[:count], ticks[:count], cpu[:count]
+    yaw, ticks, cpu = yaw[:count], ticks[:count], cpu[:count]
     com[:, 2] = ground_z + height
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
-                       acceleration, feet_poses, support, swing, np.unwrap(yaw), index, ticks,
-                       float(clearance),
+                       acceleration, feet_poses, support, swing, np.unwrap(yaw), ticks, float(clearance),
                        {"omega": controller.omega, "preview_steps": horizon}, cpu)
-
-
-def _feet_at(phase: Phase, t: float, clearance: float) -> Mapping[str, pin.SE3]:
-    poses = dict(phase.feet)
-    if phase.swing is not None:
-        step = phase.swing
-        poses[step.side] = swing_pose(phase.feet[step.side], step.placement, phase.fraction(t), clearance)
-    return poses

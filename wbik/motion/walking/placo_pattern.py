@@ -1,24 +1,5 @@
-"""PlaCo's walk pattern generator on the same footsteps, and PlaCo's own IK following it.
-
-PlaCo (``placo.WalkPatternGenerator``: a LIPM whose ZMP is optimised inside the supports over a
-receding horizon, then the feet and the trunk) needs a ``placo.HumanoidRobot``, which looks for frames
-named ``left_foot``, ``right_foot`` and ``trunk``: the robot's kinematic URDF gets three fixed frames
-with these names at the two soles and the trunk frame. Our footsteps are handed to PlaCo as its own
-``Footstep`` list (the standing feet first, PlaCo's convention), so both generators walk the same
-path.
-
-Two settings:
-
-- ``"placo"``: PlaCo's defaults (``placo.HumanoidParameters()``: 1 s single supports, double support
-  ratio 1, 1 s start and end, 0.1 s planning steps over a 100-step horizon, 25 mm ZMP margin), with
-  the robot's geometry (sole size, feet spacing, CoM height, trunk pitch) and our swing height;
-- ``"ours"``: our timing (single and double support, start and end durations), 10 ms planning
-  steps over our preview horizon and our swing height, the ZMP margin ``zmp_margin``.
-
-The whole-body motion is PlaCo's: ``WalkTasks`` (feet and CoM on the trajectory, the trunk's orientation)
-solved by PlaCo's kinematics solver ``iterations`` times per 10 ms tick, each tick from the previous one
-(``SETTLE_ITERATIONS`` at t = 0, from the standing configuration). The soles on the ground at a tick are
-those PlaCo's own foot trajectory keeps on the floor (within ``GROUND_TOLERANCE``).
+"""PlaCo's walk pattern generator on our footsteps, followed by PlaCo's own IK (``WalkTasks``), at
+PlaCo's settings (``"placo"``) or at our timing and ZMP margin (``"ours"``).
 """
 
 from __future__ import annotations
@@ -38,20 +19,19 @@ from wbik.motion.walking.footsteps import Footstep
 from wbik.motion.walking.timeline import Timing
 from wbik.robot import Robot
 from wbik.robot import write_cached_urdf
+from wbik.solvers.placo import import_placo
+from wbik.solvers.placo import kinematic_urdf_path
+from wbik.solvers.placo import placo_configuration
+from wbik.solvers.placo import placo_robot
 
-GROUND_TOLERANCE = 1e-6
-"""m: a sole this close to the ground (by PlaCo's foot trajectory) is on it."""
+GROUND_TOLERANCE = 1e-6  # m: a sole this close to the ground is on it
 SETTINGS = ("placo", "ours")
-SETTLE_ITERATIONS = 50
-"""PlaCo IK iterations at t = 0: the standing robot brought into PlaCo's walking posture before the
-first tick is recorded."""
+SETTLE_ITERATIONS = 50  # PlaCo IK iterations at t = 0, into PlaCo's walking posture
 
 
 @dataclass
 class PlacoWalk:
-    """PlaCo's walk: ``times`` (K,), configurations ``q`` (K, nq) from PlaCo's IK, the soles on the
-    ground (``support``), PlaCo's CoM (K, 3) and its pendulum's ZMP (K, 2), the time of each tick
-    (PlaCo's IK; ``plan_time_s`` the whole plan, once) and the parameters used."""
+    """PlaCo's walk at ``times``, the time of each tick's IK and of the plan, and the parameters used."""
 
     times: np.ndarray
     q: np.ndarray
@@ -62,16 +42,9 @@ class PlacoWalk:
     plan_time_s: float
     parameters: dict = field(default_factory=dict)
 
-    @property
-    def duration(self) -> float:
-        return float(self.times[-1] - self.times[0])
-
 
 def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
-    """The robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk) fixed to
-    the links of the feet's and the trunk's frames; the cached file's path."""
-    from wbik.solvers.placo import kinematic_urdf_path
-
+    """The robot's kinematic URDF with PlaCo's humanoid frames (left_foot, right_foot, trunk); its path."""
     text = kinematic_urdf_path(robot).read_text()
     extra = []
     for name, link in (("left_foot", feet.left), ("right_foot", feet.right), ("trunk", trunk)):
@@ -85,26 +58,17 @@ def humanoid_urdf(robot: Robot, feet: Feet, trunk: str) -> str:
                                  text.replace("</robot>", "".join(extra) + "</robot>")))
 
 
-def _sole_size(robot: Robot, frame: str) -> tuple[float, float]:
-    points = np.asarray(robot.soles[frame], dtype=float)
-    return float(np.ptp(points[:, 0])), float(np.ptp(points[:, 1]))
-
-
 class WalkIK:
-    """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with PlaCo's ``WalkTasks`` set up on it,
-    to follow a walk trajectory of PlaCo's generator."""
+    """PlaCo's kinematics solver of a ``placo.HumanoidRobot`` with its ``WalkTasks``."""
 
     def __init__(self, humanoid):
-        from wbik.solvers.placo import import_placo
-
         self.humanoid = humanoid
         self.solver = humanoid.make_solver()
         self.tasks = import_placo().WalkTasks()
         self.tasks.initialize_tasks(self.solver, humanoid)
 
     def follow(self, trajectory, t: float, iterations: int) -> None:
-        """The humanoid at time ``t`` of ``trajectory``: the walk tasks moved there, ``iterations`` solver
-        steps from the humanoid's current configuration, its kinematics updated at the answer."""
+        """``iterations`` solver steps toward time ``t`` of PlaCo's ``trajectory``."""
         self.tasks.update_tasks_from_trajectory(trajectory, t)
         for _ in range(iterations):
             self.humanoid.update_kinematics()
@@ -114,8 +78,7 @@ class WalkIK:
 
 def soles_on_ground(trajectory, t: float, left: str, right: str, ground: float = 0.0,
                     tolerance: float = GROUND_TOLERANCE) -> tuple[str, ...]:
-    """The soles (of ``left`` and ``right``) that PlaCo's foot trajectories keep within ``tolerance`` (m)
-    of the ground height ``ground`` at time ``t``."""
+    """The soles that PlaCo's foot trajectories keep within ``tolerance`` (m) of the ground at ``t``."""
     poses = ((left, trajectory.get_T_world_left(t)), (right, trajectory.get_T_world_right(t)))
     return tuple(sole for sole, pose in poses if abs(pose[2, 3] - ground) <= tolerance)
 
@@ -124,12 +87,7 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
                setting: str = "ours", timing: Timing | None = None, clearance: float = 0.02,
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
                iterations: int = 3) -> PlacoWalk:
-    """Plan the walk through ``footsteps`` from ``q0`` with PlaCo's generator (``setting``: see the
-    module docstring) and follow it with PlaCo's IK every ``dt``."""
-    from wbik.solvers.placo import import_placo
-    from wbik.solvers.placo import placo_configuration
-    from wbik.solvers.placo import placo_robot
-
+    """Plan the walk through ``footsteps`` with PlaCo's generator and follow it with its IK every ``dt``."""
     placo = import_placo()
     if setting not in SETTINGS:
         raise ValueError(f"setting must be one of {SETTINGS}, got {setting!r}")
@@ -137,8 +95,8 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     humanoid = placo_robot(robot, q0, humanoid_urdf=humanoid_urdf(robot, feet, trunk))
     start = {side: robot.frame_placement(q0, feet.frame(side)) for side in SIDES}
     parameters = placo.HumanoidParameters()
-    length, width = _sole_size(robot, feet.left)
-    parameters.foot_length, parameters.foot_width = length, width
+    sole = np.asarray(robot.soles[feet.left], dtype=float)
+    parameters.foot_length, parameters.foot_width = float(np.ptp(sole[:, 0])), float(np.ptp(sole[:, 1]))
     parameters.feet_spacing = float(np.linalg.norm(start["left"].translation - start["right"].translation))
     com0 = robot.center_of_mass(q0)
     ground = float(np.mean([start[s].translation[2] for s in SIDES]))

@@ -1,20 +1,8 @@
-"""The CoM from the ZMP reference: Kajita's preview controller on the cart-table model.
+"""The CoM from the ZMP reference: Kajita's preview controller on the cart-table model (ICRA 2003).
 
-The linear inverted pendulum (CoM at constant height z_c over flat ground) in each horizontal axis,
-as a cart on a table, with the CoM jerk u as input (Kajita et al., ICRA 2003):
-
-    x_(k+1) = A x_k + B u_k,   x = (c, c', c''),   A = [[1, T, T^2/2], [0, 1, T], [0, 0, 1]],
-    B = (T^3/6, T^2/2, T),     p_k = C x_k = c - (z_c / g) c''   (the ZMP of the pendulum).
-
-The controller minimises sum Q e^2 + R (delta u)^2 with e = p - p_ref, on the system augmented with
-the error's integral (Katayama's optimal preview servo); P solves the discrete algebraic Riccati
-equation (``scipy.linalg.solve_discrete_are``) and the law is
-
-    u_k = -G_i sum_(i<=k) e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j),
-
-the preview gains G_d(j) decaying over the horizon N T (about 1 s is plenty once omega = sqrt(g / z_c)
-exceeds 3 rad/s). The ZMP of the result follows the reference up to the controller's small lag;
-:meth:`PreviewController.run` returns both.
+Per axis the jerk u drives x = (c, c', c''), x_(k+1) = A x_k + B u_k, and the ZMP is p = c - (z_c / g) c'';
+minimising sum Q e^2 + R (delta u)^2, e = p - p_ref, with the error's integral in the state gives
+u_k = -G_i sum e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j).
 """
 
 from __future__ import annotations
@@ -27,8 +15,7 @@ from scipy.linalg import solve_discrete_are
 
 from wbik.errors import InvalidConfigurationError
 
-GRAVITY = 9.80665
-"""m/s^2."""
+GRAVITY = 9.80665  # m/s^2
 
 
 @dataclass
@@ -42,10 +29,7 @@ class PreviewRun:
 
 
 class PreviewController:
-    """Preview control of the cart-table model (see the module docstring).
-
-    ``dt`` (s), ``com_height`` z_c (m), ``horizon_s`` (s), weights ``q`` (error) and ``r`` (input).
-    """
+    """Preview control: ``dt``, ``horizon_s`` (s), ``com_height`` z_c (m), weights ``q`` (error), ``r``."""
 
     def __init__(self, dt: float, com_height: float, horizon_s: float = 1.0, q: float = 1.0, r: float = 1e-6,
                  gravity: float = GRAVITY):
@@ -60,10 +44,7 @@ class PreviewController:
         self.B = np.array([T ** 3 / 6, T * T / 2, T])
         self.C = np.array([1.0, 0.0, -self.com_height / self.gravity])
         CA, CB = self.C @ self.A, float(self.C @ self.B)
-        augmented_A = np.zeros((4, 4))
-        augmented_A[0, 0] = 1.0
-        augmented_A[0, 1:] = CA
-        augmented_A[1:, 1:] = self.A
+        augmented_A = np.block([[np.ones((1, 1)), CA[None, :]], [np.zeros((3, 1)), self.A]])
         augmented_B = np.r_[CB, self.B].reshape(4, 1)
         Q = np.diag([float(q), 0.0, 0.0, 0.0])
         R = np.array([[float(r)]])
@@ -72,16 +53,14 @@ class PreviewController:
         self.gain_integral = float(gain[0, 0])
         self.gain_state = gain[0, 1:].copy()
         closed = (augmented_A - augmented_B @ gain).T
-        unit = np.array([1.0, 0.0, 0.0, 0.0])
-        X = -closed @ P @ unit
+        X = -closed @ P @ np.array([1.0, 0.0, 0.0, 0.0])
         preview = np.zeros(self.steps)
         preview[0] = -self.gain_integral
         scale = np.linalg.inv(R + augmented_B.T @ P @ augmented_B) @ augmented_B.T
         for j in range(1, self.steps):
             preview[j] = (scale @ X).item()
             X = closed @ X
-        self.gain_preview = preview
-        """G_d(1..N) (G_d(1) = -G_i)."""
+        self.gain_preview = preview  # G_d(1..N), G_d(1) = -G_i
 
     @property
     def omega(self) -> float:
@@ -92,17 +71,14 @@ class PreviewController:
         """The pendulum's ZMP c - (z_c / g) c''."""
         return np.asarray(com) - self.com_height / self.gravity * np.asarray(acceleration)
 
-    def start(self, com_xy: np.ndarray, velocity_xy: np.ndarray | None = None) -> PreviewState:
-        """A controller state at a CoM (x, y) at rest (or moving at ``velocity_xy``), no acceleration."""
+    def start(self, com_xy: np.ndarray) -> PreviewState:
+        """A controller state with the CoM at rest at (x, y)."""
         state = np.zeros((3, 2))
         state[0] = np.asarray(com_xy, dtype=float)[:2]
-        if velocity_xy is not None:
-            state[1] = np.asarray(velocity_xy, dtype=float)[:2]
         return PreviewState(self, state)
 
     def run(self, reference: np.ndarray, com_xy: np.ndarray) -> PreviewRun:
-        """Every tick of a reference known in advance: ``reference`` (K, 2) is p_ref at the ticks
-        0..K-1 (held at its last value beyond); the CoM starts at rest at ``com_xy``."""
+        """Every tick of ``reference`` p_ref (K, 2) (held beyond), from rest at ``com_xy``."""
         reference = np.asarray(reference, dtype=float)
         count = len(reference)
         padded = np.vstack([reference, np.repeat(reference[-1:], self.steps, axis=0)])
@@ -123,12 +99,10 @@ class PreviewState:
         self.error_sum = np.zeros(2)
 
     def step(self, future: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """Advance one tick: ``current`` is p_ref now, ``future`` (N, 2) p_ref at the next N ticks
-        (as many as the horizon). Returns the jerk applied (2,)."""
+        """Advance one tick (``current`` p_ref now, ``future`` the next N); the jerk applied (2,)."""
         c = self.controller
         current = np.asarray(current, dtype=float)
-        zmp = c.C @ self.x
-        self.error_sum += zmp - current
+        self.error_sum += c.C @ self.x - current
         # in coordinates centred on the current reference: the model is invariant to a shift, the
         # horizon's truncated gains are not (their sum misses G_x's position gain by a few 1e-4)
         relative = self.x.copy()

@@ -1,31 +1,7 @@
 """The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
-and compared with PlaCo's generator and the quasi-static gait on the same footsteps.
-
-A file names the robot (its two soles are the feet unless ``feet`` names them; a robot loaded from
-example-robot-data gets its ``soles``), the walk's settings (``dt``, ``timing``, ``clearance``,
-``zmp_forward``, ``com_height``, ``preview``, ``filter_iterations``, ``tracking``, ``locked``, ``trunk``)
-and one or more ``walks`` (``steps``, ``length``, ``lateral``, ``turn_deg``, ``first``: a
-:class:`~wbik.motion.walking.footsteps.StepCommand`; ``timing``: durations that differ from the file's;
-``compare``: the generators to run on the same footsteps). Every walk is planned and tracked
-(:func:`wbik.motion.walking.tracking.walk`) and judged by :func:`wbik.motion.walking.figures.walk_figures`
-against the file's ``expect`` (the keys of ``WALK_RULES``; a walk's own ``expect`` overrides keys of the
-file's). Without an ``expect`` block a walk expects its multibody ZMP ``margin`` inside the support at
-every sample and no QP failure.
-
-Compared (reported, not judged, but ``speed_ratio_min`` judges the speed against the first):
-
-- ``static``: the quasi-static gait (:mod:`wbik.motion.walking.static_gait`) timed like the seed's
-  servos (``static.speed_rpm``, rest at every sample); ``speed_ratio_vs_static`` is its duration over
-  ours on the same footsteps;
-- ``static_balanced``: the same samples passed without stopping (stops at phase ends only) at the
-  highest of 40 rpm / sqrt(2)^n whose multibody ZMP stays ``margin`` inside the support;
-- ``placo`` and ``placo_ours``: PlaCo's walk pattern generator and its IK at PlaCo's default settings
-  and at ours (:mod:`wbik.motion.walking.placo_pattern`).
-
-Each walk's entry also has the computing time per control tick of our pattern and whole-body step
-(median, 95th percentile, max; the benchmark ``benchmarks/walking.py`` measures it properly). The
-animation plays our walks one after the other (a sample every ``ANIMATION_SAMPLE_S``) with the
-multibody ZMP and the support polygon.
+against ``expect`` (by default the multibody ZMP ``margin`` inside the support and no QP failure), and
+compared on the same footsteps with the quasi-static gait (``static``; ``static_balanced``: slowed until
+its multibody ZMP keeps the margin) and PlaCo's generator (``placo``, ``placo_ours``).
 """
 
 from __future__ import annotations
@@ -37,6 +13,19 @@ import numpy as np
 from wbik.collision import capsule
 from wbik.expectations import Rule
 from wbik.expectations import judge
+from wbik.motion.walking.figures import walk_figures
+from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.footsteps import StepCommand
+from wbik.motion.walking.footsteps import sole_polygon
+from wbik.motion.walking.pattern import PreviewSettings
+from wbik.motion.walking.placo_pattern import placo_walk
+from wbik.motion.walking.static_gait import retimed
+from wbik.motion.walking.static_gait import static_gait
+from wbik.motion.walking.timeline import Timing
+from wbik.motion.walking.tracking import TrackingSettings
+from wbik.motion.walking.tracking import leg_collision_model
+from wbik.motion.walking.tracking import trunk_frame
+from wbik.motion.walking.tracking import walk
 from wbik.scenario_schema import FRAME
 from wbik.scenario_schema import START
 from wbik.scenario_schema import VECTOR3
@@ -64,6 +53,8 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.viz.animation import Animation
+from wbik.viz.animation import Overlays
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 
@@ -80,32 +71,22 @@ WALK_RULES = {
     "qp_failures_max": Rule("qp_failures", "<="),
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
 }
-"""A walk on the full model: the multibody ZMP's margin in the support (minimum, 5th percentile), CoM
-tracking, stance-foot slip, the swing's lift and the lowest swinging sole, joint limits, the joint
-speed over its limit, the legs' distance, QP failures, and the speed against the static gait on the
-same footsteps."""
+"""A walk on the full model, and its speed against the static gait on the same footsteps."""
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
-ANIMATION_SAMPLE_S = 0.02
-"""s between two samples of the animation (the viewer interpolates; the page stays small)."""
+ANIMATION_SAMPLE_S = 0.02  # s between two samples of the animation (the viewer interpolates)
 STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))
 """rpm tried by ``static_balanced``, fastest first."""
 
 
 def _spec_objects(spec: dict, robot):
     """(feet, timing, preview settings, tracking settings) of a checked spec."""
-    from wbik.motion.walking.footsteps import Feet
-    from wbik.motion.walking.pattern import PreviewSettings
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import TrackingSettings
-
     feet_spec = spec["feet"] or {}
     feet = Feet.of(robot, feet_spec.get("left"), feet_spec.get("right"))
-    tracking = dict(spec["tracking"])
     capsules = tuple(capsule(f"leg_capsule_{index}", item["frame"], item["start"], item["end"],
                              item["radius"]) for index, item in enumerate(spec["leg_capsules"]))
     settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]), leg_capsules=capsules,
-                                **tracking)
+                                **spec["tracking"])
     return feet, Timing(**spec["timing"]), PreviewSettings(**spec["preview"]), settings
 
 
@@ -115,15 +96,7 @@ def _ticks(times: np.ndarray) -> dict:
 
 
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Every walk of a checked spec (see the module docstring)."""
-    from wbik.motion.walking.figures import walk_figures
-    from wbik.motion.walking.footsteps import StepCommand
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import leg_collision_model
-    from wbik.motion.walking.tracking import walk
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
-
+    """Every walk of a checked spec."""
     run = KindRun(spec, "walks", on_progress, figures={"backend": spec["backend"]})
     robot = run.robot
     q0 = start_of(spec, robot)
@@ -140,10 +113,10 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         figures, series = walk_figures(robot, feet, pattern.times, motion.q, pattern.support,
                                        pattern.ground_z, margin, pattern.com, collisions)
         figures["qp_failures"] = len(motion.failed)
-        lipm, _ = _reference_margins(robot, pattern)
+        lipm = min(sole_polygon(robot, pattern.stance(k)).margin_of(pattern.lipm_zmp[k])
+                   for k in range(pattern.ticks))  # the pendulum's ZMP in the planned support
         entry = {"name": item["name"] or f"{command.kind}: {command.steps} steps", "kind": command.kind,
-                 "footsteps": len(pattern.footsteps), **figures,
-                 "lipm_zmp_margin_min_m": lipm,
+                 "footsteps": len(pattern.footsteps), **figures, "lipm_zmp_margin_min_m": lipm,
                  "tick_time": {"pattern": _ticks(pattern.tick_time_s[1:]),
                                "wholebody_step": _ticks(motion.step_time_s[1:]),
                                "both": _ticks(motion.tick_time_s[1:])},
@@ -153,10 +126,9 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                               "end_s": timing.end_s, "dt": spec["dt"], "clearance_m": spec["clearance"],
                               "com_height_m": pattern.com_height,
                               "filter_iterations": spec["filter_iterations"]}}
-        compared, solved = {}, {}
-        for label in item["compare"]:
-            compared[label] = _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin,
-                                       solved)
+        solved: dict = {}  # what this walk's comparisons share
+        compared = {label: _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin, solved)
+                    for label in item["compare"]}
         if compared:
             entry["compared"] = compared
             static = compared.get("static")
@@ -176,31 +148,17 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     return run.finished()
 
 
-def _reference_margins(robot, pattern) -> tuple[float, float]:
-    """The smallest margin of the pendulum's ZMP and of the reference in the planned support (m)."""
-    from wbik.qp.support_polygon import SupportPolygon
-
-    lipm, reference = math.inf, math.inf
-    for k in range(pattern.ticks):
-        points = [np.asarray(robot.soles[f]) @ pattern.feet_poses[pattern.feet.side(f)][k].rotation.T
-                  + pattern.feet_poses[pattern.feet.side(f)][k].translation for f in pattern.support[k]]
-        polygon = SupportPolygon(np.vstack(points)[:, :2])
-        lipm = min(lipm, polygon.margin_of(pattern.lipm_zmp[k]))
-        reference = min(reference, polygon.margin_of(pattern.zmp_reference[k]))
-    return lipm, reference
-
-
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
              solved: dict) -> dict:
-    """The figures of one compared generator on the pattern's footsteps (``solved``: what this walk's
-    comparisons share, the static gait's samples)."""
-    from wbik.motion.walking.figures import walk_figures
-
+    """The figures of one compared generator on the pattern's footsteps (``solved``: the static gait)."""
     dt = spec["dt"]
-    trunk = _trunk(robot, settings)
+    trunk = trunk_frame(robot, settings)
     if label in ("static", "static_balanced"):
         if "static" not in solved:
-            solved["static"] = _static(spec, robot, q0, pattern, feet, trunk, settings, margin)
+            static = spec["static"]
+            solved["static"] = static_gait(robot, q0, pattern.footsteps, feet, trunk, spec["clearance"],
+                                           margin, static["inset"], static["divisions"], static["speed_rpm"],
+                                           settings.locked, spec["backend"])
         gait = solved["static"]
         figures: dict = {"generator": "quasi-static gait (CoM over the stance sole, "
                                       f"{margin * 1e3:g} mm margin, one IK per division)"}
@@ -212,8 +170,6 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
                             "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found})
             return figures
         return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
-    from wbik.motion.walking.placo_pattern import placo_walk
-
     placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
                        timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
                        spec["placo"]["iterations"])
@@ -225,27 +181,8 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
             "tick_time": _ticks(placo.tick_time_s[1:]), **found}
 
 
-def _trunk(robot, settings) -> str:
-    from wbik.motion.walking.tracking import trunk_frame
-
-    return trunk_frame(robot, settings)
-
-
-def _static(spec, robot, q0, pattern, feet, trunk, settings, margin):
-    """The static gait on the pattern's footsteps."""
-    from wbik.motion.walking.static_gait import static_gait
-
-    static = spec["static"]
-    return static_gait(robot, q0, pattern.footsteps, feet, trunk, spec["clearance"], margin, static["inset"],
-                       static["divisions"], static["speed_rpm"], settings.locked, spec["backend"])
-
-
 def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
-    """The static gait's samples at the fastest of ``STATIC_SPEEDS`` whose multibody ZMP keeps the
-    margin (stops at phase ends only)."""
-    from wbik.motion.walking.figures import walk_figures
-    from wbik.motion.walking.static_gait import retimed
-
+    """The static gait at the fastest of ``STATIC_SPEEDS`` (stops at phase ends) that keeps the margin."""
     base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
     for rpm in STATIC_SPEEDS:
         timed = retimed(base, rpm, "waypoint")
@@ -258,8 +195,7 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
 
 
 def format_report(report: dict) -> str:
-    """Per walk: duration, speed, the multibody ZMP margin, tracking, slip, clearance, peaks, the
-    compared generators and the checks."""
+    """Per walk: its figures, the compared generators' and the checks."""
     def describe(entry: dict) -> str:
         text = (f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
                 f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
@@ -303,15 +239,7 @@ def _line(label: str, figures: dict) -> str:
 
 # -- the schema ------------------------------------------------------------------------------------
 def walk_schema() -> Map:
-    """The keys of a ``walk`` file (see the module docstring)."""
-    from wbik.motion.walking.footsteps import StepCommand
-    from wbik.motion.walking.pattern import PreviewSettings
-    from wbik.motion.walking.placo_pattern import placo_walk
-    from wbik.motion.walking.static_gait import static_gait
-    from wbik.motion.walking.timeline import Timing
-    from wbik.motion.walking.tracking import TrackingSettings
-    from wbik.motion.walking.tracking import walk
-
+    """The keys of a ``walk`` file."""
     defaults = TrackingSettings()
     tracking = Map({name: Key(Number(gt=0), getattr(defaults, name))
                     for name in ("com_weight", "foot_weight", "trunk_weight", "posture_weight",
@@ -330,6 +258,17 @@ def walk_schema() -> Map:
                                  nullable=True), None),
                "compare": Key(ListOf(Text(COMPARED)), []),
                "expect": Key(expect_block(WALK_RULES), None)})
+    point = Key(Either(FRAME, VECTOR3), required=True)
+    capsules = ListOf(Map({"frame": Key(FRAME, required=True), "start": point, "end": point,
+                           "radius": Key(Number(gt=0, unit="m"), required=True)}),
+                      what="capsules {frame, start, end, radius} on the legs")
+    static = Map({"divisions": Key(Number(ge=1, integer=True), default_of(static_gait, "divisions")),
+                  "speed_rpm": Key(Number(gt=0, unit="rpm"), default_of(static_gait, "speed_rpm")),
+                  "inset": Key(Number(ge=0, unit="m", nullable=True), None)}, nullable=True)
+    placo = Map({"iterations": Key(Number(ge=1, integer=True), default_of(placo_walk, "iterations"))},
+                nullable=True)
+    walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
+                                          "timing, compare, expect}")
 
     def post(spec: dict, path: str, ctx: Context) -> None:
         check_robot_params(spec, path, ctx)
@@ -345,11 +284,7 @@ def walk_schema() -> Map:
                                 nullable=True), None),
                 "trunk": Key(Text(what="a frame name", nullable=True), None),
                 "locked": Key(ListOf(Text(what="a joint name")), []),
-                "leg_capsules": Key(ListOf(Map({"frame": Key(FRAME, required=True),
-                                                "start": Key(Either(FRAME, VECTOR3), required=True),
-                                                "end": Key(Either(FRAME, VECTOR3), required=True),
-                                                "radius": Key(Number(gt=0, unit="m"), required=True)}),
-                                           what="capsules {frame, start, end, radius} on the legs"), []),
+                "leg_capsules": Key(capsules, []),
                 "dt": Key(Number(gt=0, le=0.1, unit="s"), default_of(walk, "dt")),
                 "timing": Key(Map(from_dataclass(Timing).keys, nullable=True), {}),
                 "clearance": Key(Number(ge=0, unit="m"), default_of(walk, "clearance")),
@@ -361,18 +296,7 @@ def walk_schema() -> Map:
                 "tracking": Key(tracking, {}),
                 "margin": margin_key(),
                 "backend": backend_key(),
-                "static": Key(Map({"divisions": Key(Number(ge=1, integer=True),
-                                                    default_of(static_gait, "divisions")),
-                                   "speed_rpm": Key(Number(gt=0, unit="rpm"),
-                                                    default_of(static_gait, "speed_rpm")),
-                                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)},
-                                  nullable=True), {}),
-                "placo": Key(Map({"iterations": Key(Number(ge=1, integer=True),
-                                                    default_of(placo_walk, "iterations"))}, nullable=True),
-                             {}),
-                "walks": Key(ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, "
-                                                          "turn_deg, first, timing, compare, expect}"),
-                             required=True),
+                "static": Key(static, {}), "placo": Key(placo, {}), "walks": Key(walks, required=True),
                 "expect": Key(expect_block(WALK_RULES), None)}, post=post)
 
 

@@ -1,22 +1,7 @@
-"""The quasi-static gait on given footsteps: the seed's balance strategy (the Bioloid's whole-body
-step) on any biped, for comparison with the dynamic walk.
-
-For every footstep: a double support moving the CoM's ground projection into the stance sole (to
-the point of the sole shrunk by ``inset`` nearest to it, as the seed's whole-body step does), then a
-single support where the other foot swings to the footstep on the same trajectory as the dynamic
-walk's (:mod:`wbik.motion.walking.swing`), the CoM held; a last double support brings the CoM back
-between the feet. Each phase is cut into ``divisions`` samples (the swing into twice as many, the
-seed's lift and lower), and every sample is a converged whole-body IK (:class:`wbik.qp.IKProblem`):
-the soles on the ground and the swinging sole held exactly (contacts), the CoM inside the support
-polygon shrunk by ``margin`` (hard: balance is static at every sample), joint limits, ``locked``
-joints; the CoM and trunk orientation soft.
-
-Timing, as the seed's servos do: every joint moves in a straight line from sample to sample at
-rest at each sample (the "segment" mode of :func:`wbik.motion.timing.time_scale`, quintic law),
-no joint faster than ``speed_rpm``; :func:`retimed` gives another speed or passes the samples of a
-phase without stopping ("waypoint"). :meth:`StaticGait.resample` gives the configurations on a
-regular grid (each sample's stance sole kept where it stands, the base placed from it), so the
-multibody ZMP of the static gait can be judged like the dynamic walk's.
+"""The quasi-static gait on given footsteps (the seed's balance strategy, for comparison): per footstep
+the CoM moves over the stance sole, then the other foot swings, every sample a converged whole-body IK
+with the CoM ``margin`` inside the support polygon; timed like servos, straight joint lines from rest
+to rest at ``speed_rpm``.
 """
 
 from __future__ import annotations
@@ -25,15 +10,21 @@ import math
 from dataclasses import dataclass
 from dataclasses import field
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.motion.path import JointPath
+from wbik.motion.timing import time_scale
 from wbik.motion.walking.footsteps import OTHER
 from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
 from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.footsteps import mean_yaw
+from wbik.motion.walking.footsteps import sole_polygon
+from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.swing import swing_pose
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
@@ -48,15 +39,13 @@ from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.robot import Robot
 
-RPM = 2.0 * math.pi / 60.0
-"""rad/s per rpm."""
+RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 
 @dataclass
 class StaticGait:
-    """The samples (``q``, K x nq; the start first), the soles on the ground at each (``support``), the
-    sole each one stands on (``anchor``), the timing (``knot_times``, s) and each sample's FK check
-    (``com_margin_m``: the CoM's margin in its support polygon, m)."""
+    """The samples ``q`` (K, nq), the soles on the ground at each, the sole each stands on (``anchor``) and
+    where, the timing, and the CoM's margin in the support polygon (m)."""
 
     robot: Robot
     q: np.ndarray
@@ -71,23 +60,18 @@ class StaticGait:
     def duration(self) -> float:
         return float(self.timed.duration)
 
-    @property
-    def knot_times(self) -> np.ndarray:
-        return np.asarray(self.timed.knot_times, dtype=float)
-
     def resample(self, dt: float) -> tuple[np.ndarray, np.ndarray, list[tuple[str, ...]]]:
-        """(times, configurations (T, nq), support per time) every ``dt`` s: the joints on their timed
-        straight lines, the base placed so that the sample's stance sole stays where it stands."""
+        """(times, configurations, support) every ``dt`` s, each sample's stance sole kept where it stands."""
         model = self.robot.model
-        actuated = _actuated_q(model)
+        actuated = [model.joints[j].idx_q for j in actuated_joints(model)]
         times = np.arange(0.0, self.duration + 0.5 * dt, dt)
         joints, _, _ = self.timed.evaluate(times)
-        knots = self.knot_times
+        knots = np.asarray(self.timed.knot_times, dtype=float)
         rows, support = [], []
         data = model.createData()
         for t, values in zip(times, joints, strict=True):
-            k = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2))
-            segment = k + 1  # the sample this stretch moves to
+            # the sample this stretch of the timing moves to
+            segment = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)) + 1
             q = self.q[segment].copy()
             q[actuated] = values
             q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
@@ -100,32 +84,11 @@ class StaticGait:
         return times, np.array(rows), support
 
 
-def _actuated_q(model: pin.Model) -> np.ndarray:
-    return np.array([model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1])
-
-
-class _JointSet:
-    """The actuated joints seen as a chain by :func:`wbik.motion.timing.time_scale`."""
-
-    def __init__(self, model: pin.Model, limit: float):
-        self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
-        self.nq = len(self.joint_names)
-        self.velocity_limit = np.full(self.nq, float(limit))
-        self.name = "joints"
-
-
-def _sole_polygon(robot: Robot, placements: dict[str, pin.SE3]) -> SupportPolygon:
-    points = [(np.asarray(robot.soles[frame]) @ p.rotation.T + p.translation)[:, :2]
-              for frame, p in placements.items()]
-    return SupportPolygon(np.vstack(points))
-
-
 def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
                 clearance: float = 0.02, margin: float = 0.005, inset: float | None = None,
                 divisions: int = 5, speed_rpm: float = 40.0, locked: tuple[str, ...] = (),
                 backend: str = DEFAULT_BACKEND) -> StaticGait:
-    """The quasi-static gait through ``footsteps`` from ``q0`` (see the module docstring); ``inset``
-    (m) defaults to the larger of the seed's 8 mm and the margin + 3 mm."""
+    """The quasi-static gait through ``footsteps``; the CoM goes ``inset`` (m) inside the stance sole."""
     inset = max(0.008, margin + 0.003) if inset is None else float(inset)
     if divisions < 1 or not speed_rpm > 0:
         raise InvalidConfigurationError(f"divisions must be >= 1 and speed_rpm > 0, got {divisions}, "
@@ -144,25 +107,20 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         [stand["left"]], [np.nan]
     phase_ends: list[int] = []
     common = [JointPositionLimits()] + ([LockedJoints(list(locked))] if locked else [])
-
-    def heading_of() -> float:
-        yaws = [math.atan2(stand[s].rotation[1, 0], stand[s].rotation[0, 0]) for s in SIDES]
-        return yaws[1] + 0.5 * math.remainder(yaws[0] - yaws[1], 2 * math.pi)
-
-    feet_heading0 = heading_of()
+    feet_heading0 = mean_yaw(stand["left"], stand["right"])
 
     def sample(held: dict[str, pin.SE3], polygon: SupportPolygon, com_xy: np.ndarray, on_ground: tuple,
                stance_frame: str) -> None:
         nonlocal q
-        rotation = pin.utils.rotate("z", heading0 + heading_of() - feet_heading0) @ level
+        heading = heading0 + mean_yaw(stand["left"], stand["right"]) - feet_heading0
+        rotation = pin.utils.rotate("z", heading) @ level
         tasks = [ComTask(np.r_[com_xy, com_height], axes="xy", weight=10.0, tolerance=1e-7, name="com"),
                  OrientationTask(trunk, rotation, weight=0.02, goal=False, name="trunk"),
                  PostureTask(q0, weight=1e-4, priority=1), RegularizationTask(1e-8)]
         constraints = [Contact(frame, placement) for frame, placement in held.items()]
         constraints += [CoMInSupportPolygon(polygon, margin), *common]
         problem = IKProblem(model, tasks, constraints, backend=backend, max_step=0.1)
-        solution = problem.solve(q, max_iterations=60)
-        q = solution.q.copy()
+        q = problem.solve(q, max_iterations=60).q.copy()
         rows.append(q.copy())
         support.append(on_ground)
         anchor.append(stance_frame)
@@ -172,13 +130,13 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
     def shift(target_side: str | None) -> None:
         """Double support: the CoM into the ``target_side`` sole (None: between the feet)."""
         both = {feet.frame(s): stand[s] for s in SIDES}
-        polygon = _sole_polygon(robot, both)
+        polygon = sole_polygon(robot, both)
         start = robot.center_of_mass(q)[:2]
         if target_side is None:
             goal = 0.5 * (stand["left"].translation + stand["right"].translation)[:2]
             end_polygon = polygon
         else:
-            end_polygon = _sole_polygon(robot, {feet.frame(target_side): stand[target_side]})
+            end_polygon = sole_polygon(robot, {feet.frame(target_side): stand[target_side]})
             goal = end_polygon.nearest_inside(start, inset)
         stance_frame = feet.frame(target_side or "left")
         for division in range(1, divisions + 1):
@@ -191,11 +149,10 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         stance_side = OTHER[step.side]
         shift(stance_side)
         stance_frame = feet.frame(stance_side)
-        polygon = _sole_polygon(robot, {stance_frame: stand[stance_side]})
+        polygon = sole_polygon(robot, {stance_frame: stand[stance_side]})
         com_xy = robot.center_of_mass(q)[:2]
-        lift_off = stand[step.side]
         for division in range(1, 2 * divisions + 1):
-            pose = swing_pose(lift_off, step.placement, division / (2 * divisions), clearance)
+            pose = swing_pose(stand[step.side], step.placement, division / (2 * divisions), clearance)
             sample({stance_frame: stand[stance_side], step.frame: pose}, polygon, com_xy, (stance_frame,),
                    stance_frame)
         phase_ends.append(len(rows) - 1)
@@ -209,24 +166,19 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
 
 
 def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
-    """The shortest timing of the samples' actuated joints at ``speed_rpm`` (quintic law, ``mode`` of
-    :func:`wbik.motion.timing.time_scale`; ``phase_ends`` the waypoints)."""
-    from wbik.motion.path import JointPath
-    from wbik.motion.timing import time_scale
-
-    joints = configurations[:, _actuated_q(model)]
+    """The shortest quintic timing of the samples' 1-DOF joints at ``speed_rpm``."""
+    joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
     lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
     s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
     limit = speed_rpm * RPM
-    path = JointPath(_JointSet(model, limit), s, joints, waypoint_knots=list(phase_ends))
+    chain = SimpleNamespace(nq=joints.shape[1])  # the 1-DOF joints, as time_scale sees a chain
+    path = JointPath(chain, s, joints, waypoint_knots=list(phase_ends))
     return time_scale(path, "quintic", velocity_limit=limit, mode=mode)
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
     """The same samples timed at another servo speed (rpm) and mode ("segment": rest at every sample;
-    "waypoint": rest at phase ends only, the samples between passed on a spline). Under a velocity
-    limit alone every piece's shortest duration scales as 1 / speed, so a timing of the same mode is
-    scaled rather than searched again."""
+    "waypoint": at phase ends only)."""
     if not speed_rpm > 0:
         raise InvalidConfigurationError(f"speed_rpm must be > 0, got {speed_rpm}")
     if gait.info.get("mode") == mode:

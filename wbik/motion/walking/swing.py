@@ -1,15 +1,5 @@
-"""Swing-foot trajectories: from lift-off to touch-down in one single support.
-
-With tau = (t - t_lift) / T in [0, 1]:
-
-- along the ground (x, y, yaw, and the height difference of the two footholds): the quintic
-  s(tau) = 10 tau^3 - 15 tau^4 + 6 tau^5 from 0 to 1, zero velocity and acceleration at both ends;
-- above that: a bump h(tau) = clearance * 64 tau^3 (1 - tau)^3, the clearance at mid-swing, zero
-  height, velocity and acceleration at lift-off and touch-down (the foot leaves and meets the ground
-  vertically, without a jolt);
-- the sole stays parallel to the ground it leaves and meets: its roll and pitch are the footholds'
-  (their relative rotation is interpolated on SO(3) with s).
-"""
+"""Swing-foot trajectories: the quintic s(tau) between the footholds (position and rotation) plus a
+bump of ``clearance`` in height; zero velocity and acceleration at lift-off and touch-down."""
 
 from __future__ import annotations
 
@@ -30,8 +20,7 @@ def bump(tau: float) -> float:
 
 
 def swing_pose(lift_off: pin.SE3, touch_down: pin.SE3, tau: float, clearance: float) -> pin.SE3:
-    """The swinging sole's world pose at fraction ``tau`` of the single support (see the module
-    docstring); ``clearance`` (m) is the height of the bump above the line between the footholds."""
+    """The swinging sole's world pose at fraction ``tau`` of the single support (``clearance``: m)."""
     s = quintic(tau)
     relative = pin.log3(lift_off.rotation.T @ touch_down.rotation)
     rotation = lift_off.rotation @ pin.exp3(s * relative)

@@ -1,12 +1,4 @@
-"""When each foot is on the ground: the support phases of a walk.
-
-A walk starts and ends standing on both feet. From the footsteps (:mod:`wbik.motion.walking.footsteps`)
-and a :class:`Timing`: a first double support of ``start_s`` (the ZMP moves from under the CoM to the
-first stance sole), then for every footstep a single support of ``single_support_s`` (the other foot
-stands, this one swings from where it was to the footstep), separated by double supports of
-``double_support_s``, and a last double support of ``end_s`` (the ZMP goes back between the feet and
-the CoM settles there). Seconds.
-"""
+"""The support phases of a walk: double support, then per footstep a single and a double support."""
 
 from __future__ import annotations
 
@@ -23,7 +15,7 @@ from wbik.motion.walking.footsteps import Footstep
 
 @dataclass(frozen=True)
 class Timing:
-    """Phase durations (s) of a walk; see the module docstring."""
+    """Phase durations (s) of a walk."""
 
     single_support_s: float = 0.3
     double_support_s: float = 0.1
@@ -41,9 +33,7 @@ class Timing:
 
 @dataclass(frozen=True)
 class Phase:
-    """One support phase from ``start`` to ``end`` (s): the ``stance`` sides on the ground, the
-    ``feet`` placements at its start ({side: SE3}), and in single support the ``swing`` footstep (where
-    the swinging foot goes; it lifts off from ``feet[swing.side]``)."""
+    """A support phase (s): the ``stance`` sides, the ``feet`` at its start and the ``swing`` footstep."""
 
     start: float
     end: float
@@ -65,8 +55,7 @@ class Phase:
 
 
 def timeline(start: Mapping[str, pin.SE3], footsteps: list[Footstep], timing: Timing) -> list[Phase]:
-    """The support phases of a walk through ``footsteps`` from the feet at ``start`` (see the module
-    docstring); a walk without footsteps is one double support of ``start_s + end_s``."""
+    """The support phases of a walk through ``footsteps`` from the feet at ``start``."""
     feet = {side: placement.copy() for side, placement in start.items()}
     if not footsteps:
         return [Phase(0.0, timing.start_s + timing.end_s, ("left", "right"), dict(feet))]
@@ -76,8 +65,7 @@ def timeline(start: Mapping[str, pin.SE3], footsteps: list[Footstep], timing: Ti
         phases.append(Phase(t, t + timing.single_support_s, (OTHER[step.side],), dict(feet), step))
         t += timing.single_support_s
         feet[step.side] = step.placement.copy()
-        last = index == len(footsteps) - 1
-        duration = timing.end_s if last else timing.double_support_s
+        duration = timing.end_s if index == len(footsteps) - 1 else timing.double_support_s
         if duration > 0:
             phases.append(Phase(t, t + duration, ("left", "right"), dict(feet)))
             t += duration

@@ -1,32 +1,6 @@
-"""Whole-body tracking of a walk pattern: one QP step of the task QP (:mod:`wbik.qp`) per control tick.
-
-At tick k the robot is at q_k and the pattern gives the references of tick k + 1. One QP step over
-the tangent displacement dq (``IKProblem.step(q_k, dt)``; q_(k+1) = q_k (+) dq) with
-
-hard
-    - every sole on the ground at tick k + 1 held at its foothold (:class:`Foothold`, a contact whose
-      pose moves from step to step: J dq = -e, 6 rows);
-    - joint position limits (q + dq inside) and velocity limits (|dq_i| <= v_max,i dt);
-    - self-collision between the two legs where the robot's package lists collision primitives
-      (:func:`wbik.collision.robot_collision_model`, pairs of a left-leg and a right-leg shape);
-    - ``locked`` joints (e.g. arms held at rest);
-soft (one priority level, weights below)
-    - the CoM on the pattern's CoM (x, y from the pendulum, z held);
-    - the swinging sole on its trajectory (full pose);
-    - the trunk's orientation: its standing pitch and roll, turned to the feet's heading;
-    - a posture term toward the start configuration and a small regularisation.
-
-One QP is built per kind of support (both feet, standing on the left, on the right) when the tracker
-is made, before the first tick; afterwards only its targets and footholds move. The time of each
-tick's whole-body step is kept, by the wall clock and in CPU time.
-
-The dynamics filter (:func:`walk`): the multibody ZMP of the tracked motion departs from the
-pendulum's (the legs' swing, the trunk's angular momentum, the CoM's small height changes). With
-``filter_iterations`` n > 0 the pattern is planned again with its reference shifted by the
-measured error, p_ref' = p_ref + sum (p_ref - p_multibody), and tracked again, n times (the
-second stage of Kajita's preview control, applied to the whole motion). The shift fades in over the
-first double support (a quintic from 0 at the start): the robot starts at rest, and a shifted
-reference there would ask the pendulum for a larger counter-movement than the one it corrects.
+"""Whole-body tracking of a walk pattern: one QP step per control tick toward the pattern's next tick
+(footholds, joint limits, leg self-collision hard; CoM, swing sole, trunk, posture soft), and the
+dynamics filter p_ref' = p_ref + sum (p_ref - p_multibody), faded in over the first double support.
 """
 
 from __future__ import annotations
@@ -39,23 +13,25 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
+from wbik.collision import CollisionModel
 from wbik.errors import NoQPSolutionError
 from wbik.errors import UnsupportedError
+from wbik.models import robot_entries
 from wbik.motion.walking.control_loop import without_cyclic_gc
-from wbik.motion.walking.footsteps import SIDES
 from wbik.motion.walking.footsteps import Feet
+from wbik.motion.walking.multibody_zmp import multibody_zmp
+from wbik.motion.walking.multibody_zmp import trajectory_derivatives
 from wbik.motion.walking.pattern import SETTLE_MAX_S
 from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.pattern import walk_pattern
 from wbik.motion.walking.swing import quintic
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
-from wbik.qp.constraint import EqualityConstraint
+from wbik.qp.contacts import Contact
 from wbik.qp.distances import CollisionAvoidance
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.limits import JointVelocityLimits
 from wbik.qp.limits import LockedJoints
 from wbik.qp.problem import IKProblem
-from wbik.qp.rows import EqualityRows
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
 from wbik.qp.tasks import OrientationTask
@@ -66,8 +42,8 @@ from wbik.robot import Robot
 
 @dataclass(frozen=True)
 class TrackingSettings:
-    """Weights of the soft tasks, the trunk frame (None: the floating base's first body), joints held
-    still, and whether the legs avoid each other (``safety_distance`` m)."""
+    """Task weights, the trunk frame (None: the floating base's first body), joints held still, leg
+    self-collision (``safety_distance`` m; ``leg_capsules`` for a robot without package primitives)."""
 
     com_weight: float = 100.0
     foot_weight: float = 100.0
@@ -80,14 +56,11 @@ class TrackingSettings:
     safety_distance: float = 0.003
     velocity_limits: bool = True
     leg_capsules: tuple = ()
-    """Collision capsules (:class:`wbik.collision.Primitive`) of the legs, for a robot whose package lists
-    no collision primitives (a robot from a URDF path or example-robot-data)."""
 
 
 @dataclass
 class WalkMotion:
-    """The tracked walk: configurations ``q`` (K, nq) at the pattern's ticks, the time of each tick's
-    whole-body step (s), ticks whose QP had no solution (``failed``), and the pattern tracked."""
+    """The tracked walk: ``q`` (K, nq) at the pattern's ticks, each tick's step time (s), ``failed`` ticks."""
 
     pattern: WalkPattern
     q: np.ndarray
@@ -109,81 +82,49 @@ class WalkMotion:
 
 
 def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
-    """The frame whose orientation the trunk task holds: ``settings.trunk`` or the first body frame
-    of the floating base."""
+    """``settings.trunk`` or the floating base's first body frame."""
     if settings.trunk is not None:
         robot.frame_id(settings.trunk)
         return settings.trunk
-    model = robot.model
-    for frame in model.frames:
+    for frame in robot.model.frames:
         if frame.parentJoint == 1 and frame.type == pin.FrameType.BODY:
             return frame.name
     raise UnsupportedError(f"{robot.name!r} has no body on its first joint; name the trunk frame")
 
 
 def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
-    """The collision model of the robot's package (or of ``capsules``, the legs' shapes declared for a
-    robot without package primitives) restricted to pairs of a left-leg and a right-leg shape (the
-    joints between the floating base and each foot), or None when there are no shapes."""
-    from wbik.collision import CollisionModel
-    from wbik.models import robot_entries
-
+    """The collision model of the package's primitives and ``capsules``, left-leg against right-leg pairs
+    only; None without shapes."""
     entry = robot_entries().get(robot.name)
     listed = getattr(entry.module(), "collision_primitives", None) if entry is not None else None
     if listed is None and not capsules:
         return None
-
-    def primitives(robot: Robot) -> list:
-        return [*(listed(robot) if listed is not None else ()), *capsules]
-
-    full = CollisionModel(robot.model, primitives(robot), reference=robot.nominal)
+    shapes = [*(listed(robot) if listed is not None else ()), *capsules]
+    full = CollisionModel(robot.model, shapes, reference=robot.nominal)
     model = robot.model
-    legs = {}
-    for side in SIDES:
-        joint = model.frames[model.getFrameId(feet.frame(side))].parentJoint
-        legs[side] = set(model.supports[joint].tolist()[2:])  # below the universe and the floating base
+    legs = [set(model.supports[model.frames[model.getFrameId(frame)].parentJoint].tolist()[2:])
+            for frame in feet.frames]  # the joints below the universe and the floating base
     parents = {obj.name: obj.parentJoint for obj in full.geometry.geometryObjects}
     pairs = [(a, b) for a, b in full.pairs
-             if (parents[a] in legs["left"] and parents[b] in legs["right"])
-             or (parents[a] in legs["right"] and parents[b] in legs["left"])]
-    return CollisionModel(robot.model, primitives(robot), reference=robot.nominal, pairs=pairs)
+             if any(parents[a] in one and parents[b] in other for one, other in (legs, legs[::-1]))]
+    return CollisionModel(robot.model, shapes, reference=robot.nominal, pairs=pairs)
 
 
-class Foothold(EqualityConstraint):
-    """A sole held at a world pose that can be moved between steps (``placement``): J dq = -e with
-    e = [p - p*; log3(R*^T R)], 6 rows, as a contact; ``violation`` the larger of the position (m) and
-    rotation (rad) errors."""
+class Foothold(Contact):
+    """A contact whose world pose can be moved between steps (``placement``)."""
 
     def __init__(self, frame: str, placement: pin.SE3):
-        self.frame = frame
+        super().__init__(frame, placement.copy())
         self.name = f"foothold[{frame}]"
-        self._task = FrameTask(frame, placement.copy(), name=self.name)
-        self._jacobian, self._error = None, None
 
-    @property
-    def placement(self) -> pin.SE3:
-        return self._task.target
-
-    @placement.setter
+    @Contact.placement.setter
     def placement(self, value: pin.SE3) -> None:
-        self._task.target = value.copy()
-
-    def start(self, kinematics) -> None:
-        self._task.start(kinematics)
-        self._jacobian, self._error = np.zeros((6, kinematics.nv)), np.zeros(6)
-
-    def equality(self, kinematics) -> EqualityRows:
-        self._task.fill(kinematics, self._jacobian, self._error)
-        return EqualityRows(self._jacobian, -self._error)
-
-    def violation(self, kinematics) -> float:
-        error = self._task.error(kinematics)
-        return float(max(np.linalg.norm(error[:3]), np.linalg.norm(error[3:])))
+        self._task.target = self.fixed_placement = value.copy()
+        self._version = -1  # the rows of the new pose
 
 
 class _Stage:
-    """The QP of one kind of support (which soles stand, which one swings), built once: its own tasks
-    and footholds, whose targets move from tick to tick."""
+    """The QP of one kind of support, built once; its targets move from tick to tick."""
 
     def __init__(self, tracker: Tracker, stance: tuple[str, ...], swing: str | None, q0: np.ndarray):
         robot, settings = tracker.robot, tracker.settings
@@ -202,7 +143,7 @@ class _Stage:
 
 
 class Tracker:
-    """The whole-body QP of a walk on one robot (see the module docstring)."""
+    """The whole-body QP of a walk on one robot."""
 
     def __init__(self, robot: Robot, feet: Feet, q0: np.ndarray, settings: TrackingSettings | None = None,
                  backend: str = DEFAULT_BACKEND):
@@ -224,8 +165,7 @@ class Tracker:
             self.constraints.append(CollisionAvoidance(self.collision_model, settings.safety_distance,
                                                        influence_distance=settings.safety_distance + 0.03))
         self._stages: dict[tuple, _Stage] = {}
-        kinds = (((feet.left, feet.right), None), ((feet.right,), "left"), ((feet.left,), "right"))
-        for stance, swing in kinds:
+        for stance, swing in ((feet.frames, None), ((feet.right,), "left"), ((feet.left,), "right")):
             self.stage(stance, swing).problem.start(self.q0)  # built before the first tick, not during one
 
     def trunk_rotation(self, heading_change: float) -> np.ndarray:
@@ -251,14 +191,13 @@ class Tracker:
         stage.trunk.target = self.trunk_rotation(pattern.trunk_yaw[k] - pattern.trunk_yaw[0])
         if swing is not None:
             stage.swing.target = pattern.feet_poses[swing][k]
-        dq = stage.problem.step(q, dt=pattern.dt)
-        return pin.integrate(self.robot.model, q, dq)
+        return pin.integrate(self.robot.model, q, stage.problem.step(q, dt=pattern.dt))
 
 
 def track(robot: Robot, pattern: WalkPattern, q0: np.ndarray, settings: TrackingSettings | None = None,
           backend: str = DEFAULT_BACKEND) -> WalkMotion:
-    """Every tick of ``pattern`` tracked from ``q0`` (see the module docstring). A tick whose QP has no
-    solution keeps the configuration (listed in ``failed``)."""
+    """Every tick of ``pattern`` tracked from ``q0``; a tick whose QP has no solution keeps the
+    configuration (listed in ``failed``)."""
     tracker = Tracker(robot, pattern.feet, q0, settings, backend)
     q = np.asarray(q0, dtype=float).copy()
     rows, times, cpu, failed = [q.copy()], np.zeros(pattern.ticks), np.zeros(pattern.ticks), []
@@ -279,11 +218,7 @@ def walk(robot: Robot, q0: np.ndarray, steps, timing, dt: float = 0.01, clearanc
          feet: Feet | None = None, preview=None, com_height: float | None = None,
          settings: TrackingSettings | None = None, filter_iterations: int = 1, zmp_forward: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WalkMotion:
-    """Plan (:func:`~wbik.motion.walking.pattern.walk_pattern`) and track a walk, with
-    ``filter_iterations`` passes of the dynamics filter (see the module docstring)."""
-    from wbik.motion.walking.multibody_zmp import multibody_zmp
-    from wbik.motion.walking.multibody_zmp import trajectory_derivatives
-
+    """Plan and track a walk, with ``filter_iterations`` passes of the dynamics filter."""
     options = {"dt": dt, "clearance": clearance, "feet": feet, "preview": preview, "com_height": com_height,
                "zmp_forward": zmp_forward}
     pattern = walk_pattern(robot, q0, steps, timing, **options)
