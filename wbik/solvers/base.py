@@ -26,6 +26,9 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
+from wbik.options import COUNT
+from wbik.options import SEED
+from wbik.options import TIMEOUT_S
 from wbik.qp.constraint import Constraint
 from wbik.qp.limits import JointAccelerationLimits
 from wbik.qp.limits import JointPositionLimits
@@ -36,6 +39,7 @@ from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.robot import Chain
 from wbik.robot import Robot
+from wbik.schema import checked
 from wbik.solvers.check import check_problem
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
@@ -44,9 +48,6 @@ from wbik.solvers.result import Tolerances
 from wbik.solvers.result import checked_tolerances
 from wbik.targets import Target
 from wbik.targets import as_target
-from wbik.validation import check_budget
-from wbik.validation import check_count
-from wbik.validation import check_seed
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
@@ -59,7 +60,8 @@ STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
 def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
     """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
     (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
-    return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
+    timeout_s = checked(TIMEOUT_S, timeout_s, "timeout_s", "iterations_costing")
+    return max(1, math.ceil(timeout_s / iteration_cost_s))
 
 
 class PerThreadState:
@@ -119,7 +121,7 @@ class IterationBudget:
     def _iteration_budget(self, max_iterations: int | None, problem: bool = False) -> int:
         """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or the default budget."""
         if max_iterations is not None:
-            return check_count("max_iterations", max_iterations, InvalidBudgetError)
+            return checked(COUNT, max_iterations, "max_iterations", type(self).__name__, InvalidBudgetError)
         default = self.problem_budget_s if problem else self.default_budget_s
         return self.iterations_for(self.timeout_s or default, problem)
 
@@ -161,8 +163,9 @@ class Solver(PerThreadState, IterationBudget):
         self.tolerances = checked_tolerances(tolerances)
         if timeout_s is None and self.iteration_cost_s is None and self.problem_iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
-        self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
-        self.seed = None if check_seed(seed) is None else int(seed)
+        source = type(self).__name__
+        self.timeout_s = None if timeout_s is None else checked(TIMEOUT_S, timeout_s, "timeout_s", source)
+        self.seed = None if checked(SEED, seed, "seed", source) is None else int(seed)
         self._local = threading.local()
 
     @property

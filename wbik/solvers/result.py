@@ -13,7 +13,8 @@ import numpy as np
 from wbik.errors import InvalidSettingError
 from wbik.errors import InvalidToleranceError
 from wbik.files import json_plain
-from wbik.validation import check_positive_finite
+from wbik.schema import Number
+from wbik.schema import checked
 
 
 @dataclass(frozen=True)
@@ -25,8 +26,8 @@ class Tolerances:
 
     def __post_init__(self) -> None:
         for name, unit in (("position", "m"), ("rotation", "rad")):
-            value = check_positive_finite(f"tolerances.{name}", getattr(self, name), InvalidToleranceError,
-                                          unit)
+            value = checked(Number(gt=0, unit=unit, as_float=True), getattr(self, name), f"tolerances.{name}",
+                            "Tolerances", InvalidToleranceError)
             object.__setattr__(self, name, value)
 
 

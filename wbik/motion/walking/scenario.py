@@ -37,25 +37,15 @@ import numpy as np
 from wbik.collision import capsule
 from wbik.expectations import Rule
 from wbik.expectations import judge
-from wbik.scenario_schema import FRAME
+from wbik.qp.task_entries import FRAME
+from wbik.qp.task_entries import VECTOR3
 from wbik.scenario_schema import START
-from wbik.scenario_schema import VECTOR3
-from wbik.scenario_schema import Boolean
-from wbik.scenario_schema import Context
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
 from wbik.scenario_schema import Robot
-from wbik.scenario_schema import Text
 from wbik.scenario_schema import apply_soles
 from wbik.scenario_schema import backend_key
 from wbik.scenario_schema import check_robot_params
 from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import default_of
 from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import from_dataclass
 from wbik.scenario_schema import margin_key
 from wbik.scenario_schema import soles_key
 from wbik.scenarios.kinds import KindRun
@@ -64,6 +54,16 @@ from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.schema import Boolean
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import default_of
+from wbik.schema import from_dataclass
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 

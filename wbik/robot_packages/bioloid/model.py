@@ -332,9 +332,11 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
     pitch of the nominal standing pose (rad, default the gait's 20 deg).
     """
     from wbik.errors import RobotDescriptionError
-    from wbik.validation import check_positive_finite
+    from wbik.schema import Number
+    from wbik.schema import checked
 
-    tool_length = check_positive_finite("bioloid tool_length", tool_length, RobotDescriptionError, "m")
+    tool_length = checked(Number(gt=0, unit="m", as_float=True), tool_length, "tool_length",
+                          "wbik.load('bioloid')", RobotDescriptionError)
     if isinstance(pitch, bool) or not isinstance(pitch, int | float) or not abs(pitch) < math.pi / 2:
         raise RobotDescriptionError(f"bioloid pitch must be a number of radians in (-pi/2, pi/2), "
                                     f"got {pitch!r}")
