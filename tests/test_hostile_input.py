@@ -25,7 +25,6 @@ from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
 from wbik.options import TIMEOUT_S
-from wbik.schema import checked
 from wbik.solvers.method_registry import methods
 from wbik.solvers.method_registry import solver_options
 from wbik.solvers.result import Tolerances
@@ -183,9 +182,9 @@ def test_bad_tolerances(values):
 @pytest.mark.parametrize("value", [0, -1, np.nan, np.inf, -np.inf, "abc", None, True, [0.1], 1 + 1j])
 def test_check_budget(value):
     with pytest.raises(InvalidBudgetError) as info:
-        checked(TIMEOUT_S, value, "timeout_s", "test")
+        TIMEOUT_S.checked(value, "timeout_s", "test")
     assert_typed(info.value, "test: timeout_s must be", "> 0")
-    assert checked(TIMEOUT_S, 0.25, "timeout_s", "test") == 0.25
+    assert TIMEOUT_S.checked(0.25, "timeout_s", "test") == 0.25
 
 
 # -- robots ---------------------------------------------------------------------------------------

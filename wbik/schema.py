@@ -42,7 +42,7 @@ from wbik.errors import did_you_mean
 __all__ = ["NO_DEFAULT", "Anything", "Boolean", "Constant", "Context", "Either", "Errors", "Instance",
            "Interval", "Key", "ListOf", "Map", "Node", "Number", "Refused", "SchemaBudgetError",
            "SchemaError", "SchemaValueError", "Shorthand", "Text", "UnknownKeyError", "Variants", "Vector",
-           "checked", "dataclass_default", "default_of", "from_dataclass", "got", "join", "key_rows",
+           "dataclass_default", "default_of", "from_dataclass", "got", "join", "key_rows",
            "short", "unknown_keys"]
 
 
@@ -166,6 +166,11 @@ class Node:
 
     def wrong(self, value, path: str, ctx: Context, error: type[WbikError] | None = None):
         ctx.must(path, self.expected, value, error)
+
+    def checked(self, value, name: str, source: str, error: type[WbikError] | None = None):
+        """``value``, the argument ``name`` of the Python call ``source``, checked alone; ``error``: the
+        type of its refusal (default the schema's)."""
+        return self.check(value, name, Context(source, Errors(error, budget=error) if error else Errors()))
 
     def described(self, what: str) -> Node:
         """A copy that says ``what`` in its messages."""
@@ -556,13 +561,6 @@ def default_of(function: Callable, parameter: str):
     if default is inspect.Parameter.empty:
         raise TypeError(f"{function.__qualname__}({parameter}) has no default")
     return default
-
-
-def checked(node: Node, value, name: str, source: str, error: type[WbikError] | None = None):
-    """``value``, the argument ``name`` of the Python call ``source``, checked by ``node`` alone;
-    ``error``: the type of its refusal (default the schema's)."""
-    errors = Errors() if error is None else Errors(error, budget=error)
-    return node.check(value, name, Context(source, errors))
 
 
 # -- reading a schema ---------------------------------------------------------------------------------

@@ -32,11 +32,10 @@ def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
     from wbik.options import TIMEOUT_S
-    from wbik.schema import checked
     from wbik.solvers.method_registry import solver as make_solver
     from wbik.targets import Target
 
-    timeout = checked(TIMEOUT_S, args.timeout, "--timeout", "wbik solve")
+    timeout = TIMEOUT_S.checked(args.timeout, "--timeout", "wbik solve")
     robot, chain = load_robot_chain(args)
     solver = make_solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)

@@ -14,7 +14,6 @@ from wbik.qp.kinematics import Kinematics
 from wbik.qp.rows import InequalityRows
 from wbik.qp.rows import RowLabel
 from wbik.schema import Number
-from wbik.schema import checked
 
 
 class MinimumDistance(InequalityConstraint):
@@ -88,14 +87,14 @@ class CollisionAvoidance(InequalityConstraint):
     def __init__(self, pairs, safety_distance: float = 0.01, influence_distance: float = 0.1,
                  gain: float = 1.0, padding: float = 1e-6):
         self.collision_model = pairs
-        self.safety = checked(Number(ge=0, unit="m", as_float=True), safety_distance, "safety_distance",
-                              "CollisionAvoidance")
-        self.influence = checked(Number(gt=0, unit="m", as_float=True), influence_distance,
-                                 "influence_distance", "CollisionAvoidance")
+        self.safety = Number(ge=0, unit="m", as_float=True).checked(safety_distance, "safety_distance",
+                                                                    "CollisionAvoidance")
+        positive = Number(gt=0, unit="m", as_float=True)
+        self.influence = positive.checked(influence_distance, "influence_distance", "CollisionAvoidance")
         if self.influence <= self.safety:
             raise InvalidSettingError(f"influence_distance ({self.influence:g} m) must exceed the safety "
                                       f"distance ({self.safety:g} m)")
-        self.gain = checked(Number(gt=0, le=1, as_float=True), gain, "gain", "CollisionAvoidance")
+        self.gain = Number(gt=0, le=1, as_float=True).checked(gain, "gain", "CollisionAvoidance")
         self.padding = float(padding)
         self.name = f"collision avoidance (safety {self.safety * 1e3:g} mm)"
         self.geometry_data = pairs.create_data()

@@ -39,7 +39,6 @@ from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.robot import Chain
 from wbik.robot import Robot
-from wbik.schema import checked
 from wbik.solvers.check import check_problem
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
@@ -60,8 +59,7 @@ STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
 def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
     """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
     (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
-    timeout_s = checked(TIMEOUT_S, timeout_s, "timeout_s", "iterations_costing")
-    return max(1, math.ceil(timeout_s / iteration_cost_s))
+    return max(1, math.ceil(TIMEOUT_S.checked(timeout_s, "timeout_s", "budget") / iteration_cost_s))
 
 
 class PerThreadState:
@@ -121,7 +119,7 @@ class IterationBudget:
     def _iteration_budget(self, max_iterations: int | None, problem: bool = False) -> int:
         """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or the default budget."""
         if max_iterations is not None:
-            return checked(COUNT, max_iterations, "max_iterations", type(self).__name__, InvalidBudgetError)
+            return COUNT.checked(max_iterations, "max_iterations", type(self).__name__, InvalidBudgetError)
         default = self.problem_budget_s if problem else self.default_budget_s
         return self.iterations_for(self.timeout_s or default, problem)
 
@@ -163,9 +161,8 @@ class Solver(PerThreadState, IterationBudget):
         self.tolerances = checked_tolerances(tolerances)
         if timeout_s is None and self.iteration_cost_s is None and self.problem_iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
-        source = type(self).__name__
-        self.timeout_s = None if timeout_s is None else checked(TIMEOUT_S, timeout_s, "timeout_s", source)
-        self.seed = None if checked(SEED, seed, "seed", source) is None else int(seed)
+        self.timeout_s = None if timeout_s is None else TIMEOUT_S.checked(timeout_s, "timeout_s", self.name)
+        self.seed = None if SEED.checked(seed, "seed", self.name) is None else int(seed)
         self._local = threading.local()
 
     @property

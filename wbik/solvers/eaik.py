@@ -92,7 +92,6 @@ import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
 from wbik.options import COUNT
-from wbik.schema import checked
 from wbik.solvers.analytic.closed_form import BOUND_SLACK
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import checked_branches
@@ -124,7 +123,7 @@ class EAIKSolver(Solver):
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
         super().__init__(robot, chain, **options)
-        self.batch_threads = checked(COUNT, batch_threads, "batch_threads", "EAIKSolver")
+        self.batch_threads = COUNT.checked(batch_threads, "batch_threads", "EAIKSolver")
         self.structure = eaik_structure(self.chain)
         self.family = self.structure.family
         self.form = EAIKForm(self.chain, structure=self.structure)

@@ -54,7 +54,6 @@ from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import RelativeFrameTask
 from wbik.schema import Number
-from wbik.schema import checked
 from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
@@ -262,10 +261,9 @@ class MinkSolver(PeerSolver):
         super().__init__(robot, chain, **options)
         self.mink, self.mujoco = import_mink()
         self.backend = backends.resolve(backend)
-        damping_node = Number(ge=0, as_float=True)
-        self.damping = checked(damping_node, damping, "damping", "MinkSolver")
-        self.chain_damping = checked(damping_node, chain_damping, "chain_damping", "MinkSolver")
-        self.limit_gain = checked(Number(gt=0, le=1, as_float=True), limit_gain, "limit_gain", "MinkSolver")
+        self.damping = Number(ge=0, as_float=True).checked(damping, "damping", "MinkSolver")
+        self.chain_damping = Number(ge=0, as_float=True).checked(chain_damping, "chain_damping", "MinkSolver")
+        self.limit_gain = Number(gt=0, le=1, as_float=True).checked(limit_gain, "limit_gain", "MinkSolver")
         self.max_step = float(max_step)
         if not self.max_step > 0.0:  # NaN, zero or negative
             raise InvalidSettingError(f"max_step must be a number > 0 (math.inf: no bound), got {max_step!r}")

@@ -14,7 +14,6 @@ from wbik.errors import InvalidSettingError
 from wbik.errors import InvalidToleranceError
 from wbik.files import json_plain
 from wbik.schema import Number
-from wbik.schema import checked
 
 
 @dataclass(frozen=True)
@@ -26,8 +25,8 @@ class Tolerances:
 
     def __post_init__(self) -> None:
         for name, unit in (("position", "m"), ("rotation", "rad")):
-            value = checked(Number(gt=0, unit=unit, as_float=True), getattr(self, name), f"tolerances.{name}",
-                            "Tolerances", InvalidToleranceError)
+            value = Number(gt=0, unit=unit, as_float=True).checked(getattr(self, name), f"tolerances.{name}",
+                                                                   "Tolerances", InvalidToleranceError)
             object.__setattr__(self, name, value)
 
 

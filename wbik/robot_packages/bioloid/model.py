@@ -333,10 +333,8 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
     """
     from wbik.errors import RobotDescriptionError
     from wbik.schema import Number
-    from wbik.schema import checked
 
-    tool_length = checked(Number(gt=0, unit="m", as_float=True), tool_length, "tool_length",
-                          "wbik.load('bioloid')", RobotDescriptionError)
+    tool_length = Number(gt=0, unit="m").checked(tool_length, "tool_length", "bioloid", RobotDescriptionError)
     if isinstance(pitch, bool) or not isinstance(pitch, int | float) or not abs(pitch) < math.pi / 2:
         raise RobotDescriptionError(f"bioloid pitch must be a number of radians in (-pi/2, pi/2), "
                                     f"got {pitch!r}")
