@@ -26,10 +26,10 @@ from wbik.qp import IKProblem
 from wbik.qp import JointPositionLimits
 from wbik.qp import Kinematics
 from wbik.qp import PositionTask
-from wbik.scenario_schema import ScenarioValueError
 from wbik.scenario_schema import validate
 from wbik.scenarios import load_scenario
 from wbik.scenarios import run_scenario
+from wbik.scenarios.kinds import ScenarioValueError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 

@@ -24,10 +24,10 @@ from wbik.errors import InvalidToleranceError
 from wbik.errors import RobotDescriptionError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
+from wbik.options import TIMEOUT_S
 from wbik.solvers.method_registry import methods
 from wbik.solvers.method_registry import solver_options
 from wbik.solvers.result import Tolerances
-from wbik.validation import check_budget
 
 BARE = (ValueError, TypeError, KeyError, IndexError, AttributeError, RuntimeError)
 ROBOTS = {name: wbik.load(name) for name in wbik.robots()}
@@ -175,16 +175,16 @@ def test_unknown_method_names():
 def test_bad_tolerances(values):
     with pytest.raises(InvalidToleranceError) as info:
         Tolerances(*values)
-    assert_typed(info.value, "tolerances.", "0 < value < inf")
+    assert_typed(info.value, "Tolerances: tolerances.", "must be a finite number > 0")
     assert isinstance(info.value, ValueError)
 
 
 @pytest.mark.parametrize("value", [0, -1, np.nan, np.inf, -np.inf, "abc", None, True, [0.1], 1 + 1j])
 def test_check_budget(value):
     with pytest.raises(InvalidBudgetError) as info:
-        check_budget("timeout_s", value)
-    assert_typed(info.value, "timeout_s", "> 0")
-    assert check_budget("timeout_s", 0.25) == 0.25
+        TIMEOUT_S.checked(value, "timeout_s", "test")
+    assert_typed(info.value, "test: timeout_s must be", "> 0")
+    assert TIMEOUT_S.checked(0.25, "timeout_s", "test") == 0.25
 
 
 # -- robots ---------------------------------------------------------------------------------------

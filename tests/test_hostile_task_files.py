@@ -14,17 +14,17 @@ from schema_walk import written
 
 from wbik.data import shipped_tasks
 from wbik.errors import WbikError
-from wbik.scenario_schema import Axes
-from wbik.scenario_schema import Boolean
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
-from wbik.scenario_schema import Text
-from wbik.scenario_schema import Variants
-from wbik.scenario_schema import Vector
+from wbik.qp.task_entries import AXES
 from wbik.scenario_schema import validate
 from wbik.scenarios.kinds import KIND_REGISTRY
+from wbik.schema import Boolean
+from wbik.schema import Either
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import Variants
+from wbik.schema import Vector
 
 
 def _wrong_values(node) -> list:
@@ -39,7 +39,7 @@ def _wrong_values(node) -> list:
                 values.append(bound + step)
         values.append(math.nan)
         return values
-    if isinstance(node, Axes):
+    if node is AXES:
         return [3, "qq", "xx", ""]
     if isinstance(node, Text):
         choices = node.choices

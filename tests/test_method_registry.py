@@ -100,10 +100,12 @@ def test_an_unknown_method_lists_the_known_ones():
     assert issubclass(DampedLeastSquares, Solver)
 
 
-def test_factory_options_follow_the_class_hierarchy_as_far_as_options_are_handed_on():
+def test_option_schemas_follow_the_class_hierarchy_as_far_as_options_are_handed_on():
     from wbik.errors import InvalidOptionError
-    from wbik.registry import check_options
-    from wbik.registry import factory_options
+    from wbik.errors import InvalidSettingError
+    from wbik.options import OPTION_ERRORS
+    from wbik.options import option_schema
+    from wbik.schema import Context
 
     class Base:
         def __init__(self, robot, chain=None, *, timeout_s=None, seed=None):
@@ -117,14 +119,20 @@ def test_factory_options_follow_the_class_hierarchy_as_far_as_options_are_handed
         def __init__(self, robot, chain=None, *, gain=1.0):
             super().__init__(robot, chain)
 
-    assert factory_options(HandsOn, leading=2) == {"gain", "timeout_s", "seed"}
-    assert factory_options(Stops, leading=2) == {"gain"}
-    assert factory_options(lambda robot, chain, *, x=1: None, leading=2) == {"x"}
-    assert factory_options(lambda robot, chain, **anything: None, leading=2) is None
-    check_options("method 'm'", {"gain": 2}, {"gain"})
-    with pytest.raises(InvalidOptionError, match="has no option 'gian'; its options: gain") as info:
-        check_options("method 'm'", {"gian": 2}, {"gain"})
-    assert info.value.option == "gian"
+    assert option_schema(HandsOn, leading=2).accepted == {"gain", "timeout_s", "seed"}
+    assert option_schema(Stops, leading=2).accepted == {"gain"}
+    assert option_schema(lambda robot, chain, *, x=1: None, leading=2).accepted == {"x"}
+    assert option_schema(lambda robot, chain, **anything: None, leading=2).accepted is None
+    schema = option_schema(Stops, leading=2, owner="method 'm'")
+    ctx = Context("wbik.solver('m')", OPTION_ERRORS)
+    assert schema.check({"gain": 2}, "", ctx) == {"gain": 2}
+    with pytest.raises(InvalidOptionError, match=r"^wbik\.solver\('m'\): gian: unknown option\(s\) "
+                       r"\['gian'\] \(did you mean 'gain'\?\); method 'm' takes: gain$") as info:
+        schema.check({"gian": 2}, "", ctx)
+    assert info.value.option == "gian" and info.value.accepted == ["gain"]
+    with pytest.raises(InvalidSettingError, match=r"^wbik\.solver\('m'\): gain must be a number, got 'x' "
+                                                  r"\(str\)$"):
+        schema.check({"gain": "x"}, "", ctx)
     # a callable's own signature decides what the option list cannot say
     with IK_METHOD_REGISTRY.isolated():
         register("needs_x_test", lambda robot, chain, *, x: DampedLeastSquares(robot, chain))

@@ -7,19 +7,28 @@ import pytest
 
 import wbik
 from wbik.errors import InvalidSettingError
-from wbik.registry import _expected_kind
-from wbik.registry import _option_parameters
+from wbik.options import option_schema
+from wbik.schema import Boolean
+from wbik.schema import Number
+from wbik.schema import Text
 from wbik.solvers.method_registry import method_factory
 
-WRONG = {"int": ["x", 2.5, True], "float": ["x", True, [1.0]], "bool": ["yes", 1], "str": [3, None]}
+
+def _wrong(node) -> list:
+    """Values of the wrong kind for ``node`` (None only where it is not nullable)."""
+    if isinstance(node, Boolean):
+        return ["yes", 1]
+    if isinstance(node, Number):
+        return ["x", 2.5, True] if node.integer else ["x", True, [1.0]]
+    return [3] + ([] if node.nullable else [None])
 
 
 def _typed_options():
     for method in sorted(wbik.methods()):
-        for name, parameter in sorted(_option_parameters(method_factory(method), leading=2).items()):
-            kind = _expected_kind(parameter)
-            if kind is not None and name not in ("timeout_s", "tolerances", "seed"):  # own checks
-                yield method, name, kind
+        schema = option_schema(method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
+        for name, key in sorted(schema.keys.items()):
+            if isinstance(key.node, Boolean | Number | Text):
+                yield method, name, key.node
 
 
 @pytest.fixture(scope="module")
@@ -27,12 +36,10 @@ def robot():
     return wbik.load("golem3")
 
 
-@pytest.mark.parametrize("method, option, kind", list(_typed_options()))
-def test_a_wrong_kind_of_value_is_refused_naming_the_option(robot, method, option, kind):
-    for value in WRONG[kind]:
-        if value is None and _option_parameters(method_factory(method), 2)[option].default is None:
-            continue
-        with pytest.raises(InvalidSettingError, match=repr(option)):
+@pytest.mark.parametrize("method, option, node", list(_typed_options()))
+def test_a_wrong_kind_of_value_is_refused_naming_the_option(robot, method, option, node):
+    for value in _wrong(node):
+        with pytest.raises(InvalidSettingError, match=rf"^wbik\.solver\({method!r}\): {option} must be "):
             wbik.solver(method, robot, chain="right_arm", **{option: value})
 
 

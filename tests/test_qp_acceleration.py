@@ -23,8 +23,8 @@ from wbik.qp import JointVelocityLimits
 from wbik.qp import PositionTask
 from wbik.qp.limits import JointAccelerationLimits
 from wbik.qp.limits import stopping_velocity
-from wbik.scenario_schema import UnknownScenarioKeyError
 from wbik.scenarios import load_scenario
+from wbik.scenarios.kinds import UnknownScenarioKeyError
 from wbik.wholebody.problem import WholeBody
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -20,15 +20,15 @@ from wbik.errors import UnknownMethodError
 from wbik.errors import UnknownRobotError
 from wbik.errors import WbikError
 from wbik.expectations import ExpectationError
-from wbik.scenario_schema import ScenarioBudgetError
-from wbik.scenario_schema import ScenarioError
-from wbik.scenario_schema import ScenarioFileError
-from wbik.scenario_schema import ScenarioValueError
-from wbik.scenario_schema import UnknownScenarioKeyError
 from wbik.scenario_schema import validate
 from wbik.scenarios import load_scenario
 from wbik.scenarios import run_scenario
 from wbik.scenarios.kinds import KIND_REGISTRY
+from wbik.scenarios.kinds import ScenarioBudgetError
+from wbik.scenarios.kinds import ScenarioError
+from wbik.scenarios.kinds import ScenarioFileError
+from wbik.scenarios.kinds import ScenarioValueError
+from wbik.scenarios.kinds import UnknownScenarioKeyError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 WBIK = Path(sys.executable).parent / "wbik"
@@ -122,7 +122,7 @@ def yaml_load(text: str):
     ("kind: ur5_riveting\nexpect: {ourz: {min_score: 1}}\n", ExpectationError, ["expect.ourz", "ours"]),
     ("kind: ur5_riveting\nscene: {table: {top_zz: 0}}\n", UnknownScenarioKeyError,
      ["scene.table.top_zz", "top_z"]),
-    ("kind: dance\nrobot: golem3\n", ScenarioValueError, ["unknown scenario kind", "wholebody_ik"]),
+    ("kind: dance\nrobot: golem3\n", ScenarioValueError, ["kind must be", "'wholebody_ik', got 'dance'"]),
     ("robot: golem3\n", ScenarioValueError, ["kind", "wholebody_ik"]),
     ("- kind: wholebody_ik\n", ScenarioFileError, ["mapping", "list"]),
     ("# only a comment\n", ScenarioFileError, ["empty"]),

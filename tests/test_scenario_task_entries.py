@@ -1,7 +1,7 @@
 """Task entries (wbik.qp.task_entries): the mapping form of a QP task, targets resolved at q.
 
 Targets are checked against the robot's own FK at q and hand-composed placements; bad entries raise
-TaskEntryError (an InvalidSettingError) naming what is wrong.
+TaskEntryError (an InvalidSettingError) naming what is wrong, in the schema's words.
 """
 
 from __future__ import annotations
@@ -70,13 +70,16 @@ def test_relative_com_posture_and_regularization(golem, q):
 
 
 @pytest.mark.parametrize("entry, words", [
-    ({"frame": "r_eef"}, ["needs a 'type'", "frame, position"]),
-    ({"type": "teleport", "frame": "r_eef"}, ["unknown task type 'teleport'"]),
-    ({"type": "position", "offset": [0, 0, 1]}, ["needs a 'frame'"]),
+    ({"frame": "r_eef"}, ["task entry: ", "needs a 'type'", "com, frame"]),
+    ({"type": "teleport", "frame": "r_eef"}, ["type: type 'teleport' is not allowed", "com, frame"]),
+    ({"type": "position", "offset": [0, 0, 1]}, ["missing the required key 'frame'"]),
     ({"type": "relative", "frame": "l_eef"}, ["'reference'"]),
     ({"type": "position", "frame": "nose", "offset": [0, 0, 0.1]}, ["nose"]),
-    ({"type": "frame", "frame": "r_eef", "target": [0, 0]}, ["target must be 3 finite numbers"]),
-    ({"type": "com", "offset": [0, float("nan"), 0]}, ["offset must be 3 finite numbers"]),
+    ({"type": "frame", "frame": "r_eef", "target": [0, 0]},
+     ["task entry: target must be a list of 3 finite numbers, got [0, 0] (list)"]),
+    ({"type": "com", "offset": [0, float("nan"), 0]},
+     ["offset[1] must be a finite number", "got nan (float)"]),
+    ({"type": "com", "ovr": "r_eef"}, ["task entry: ovr: unknown field(s) ['ovr'] (did you mean 'over'?)"]),
 ])
 def test_bad_entries_raise_task_entry_errors(golem, q, entry, words):
     with pytest.raises(TaskEntryError) as info:

@@ -1,4 +1,5 @@
-"""The exact wording of check_schema's refusals of unknown method options and robot parameters."""
+"""The exact wording of check_schema's refusals of unknown method options (the option schema's words:
+the path, a "did you mean" guess, what the method takes) and robot parameters."""
 
 from __future__ import annotations
 
@@ -14,16 +15,18 @@ def test_an_unknown_method_option_is_named_with_the_method_s_own_options():
     methods = [MethodSpec("fast", "dls", {"dampin": 0.1, "gian": 1})]
     with pytest.raises(StudyDefinitionError) as info:
         check_schema(methods, [CaseSpec("c", "ur5")], "s.yaml")
-    assert str(info.value) == ("s.yaml: methods[0] (fast).options has unknown option(s) ['dampin', 'gian'] "
-                               "for method 'dls'; its options: damping, max_iterations")
+    assert str(info.value) == ("s.yaml: methods[0].options.dampin, methods[0].options.gian: "
+                               "methods[0].options has unknown option(s) ['dampin', 'gian'] (did you mean "
+                               "'damping' for 'dampin'?); method 'dls' (fast) takes: damping, max_iterations")
 
 
 def test_an_unknown_whole_body_option_lists_the_method_s_options_without_the_study_s_settings():
     methods = [MethodSpec("p", "pink", {"solver": "x"})]
     with pytest.raises(StudyDefinitionError) as info:
         check_schema(methods, [CaseSpec("c", "bioloid", target="wholebody", scenario="any")], "s.yaml")
-    assert str(info.value) == ("s.yaml: methods[0] (p).options has unknown option(s) ['solver'] for "
-                               "method 'pink'; its options: damping, max_iterations, qp_solver")
+    assert str(info.value) == ("s.yaml: methods[0].options.solver: methods[0].options has unknown option(s) "
+                               "['solver'] (did you mean 'qp_solver'?); method 'pink' (p) takes: damping, "
+                               "max_iterations, qp_solver")
 
 
 def test_an_unknown_robot_parameter_is_named_with_the_robot_s_parameters():

@@ -25,8 +25,6 @@ registers them there (``register(entry, replace=True)``).
 from __future__ import annotations
 
 import importlib
-import inspect
-import numbers
 import threading
 from collections.abc import Callable
 from collections.abc import Iterable
@@ -38,12 +36,10 @@ from typing import Generic
 from typing import Protocol
 from typing import TypeVar
 
-from wbik.errors import InvalidOptionError
 from wbik.errors import UnknownNameError
 from wbik.errors import WbikError
 
-__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "add_source", "check_options",
-           "factory_options"]
+__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "add_source"]
 
 
 class RegistryError(WbikError):
@@ -255,110 +251,3 @@ def plugin_modules(group: str | None) -> list[str]:
     found = sorted(metadata.entry_points(group=group), key=lambda entry: (entry.name, entry.value))
     return [entry.value.split(":")[0] for entry in found]
 
-
-# -- the options a registered factory takes ----------------------------------------------------------
-def _keyword_parameters(function, skip: int) -> tuple[set[str], bool]:
-    """(keyword parameter names after the first ``skip`` parameters, whether it takes **kwargs)."""
-    names: set[str] = set()
-    more = False
-    for index, parameter in enumerate(inspect.signature(function).parameters.values()):
-        if parameter.kind is parameter.VAR_KEYWORD:
-            more = True
-        elif index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-            names.add(parameter.name)
-    return names, more
-
-
-def factory_options(factory: Callable, leading: int) -> set[str] | None:
-    """The keyword options ``factory(*leading arguments, **options)`` accepts: for a class, the
-    keyword parameters of ``__init__`` along the class hierarchy, as far as each ``__init__`` hands
-    its ``**options`` on; for a plain callable, its own. None: any keyword goes (``**kwargs`` at the
-    end of the chain)."""
-    if not isinstance(factory, type):
-        names, more = _keyword_parameters(factory, skip=leading)
-        return None if more else names
-    accepted: set[str] = set()
-    for klass in factory.__mro__:
-        init = vars(klass).get("__init__")
-        if init is None or klass is object:
-            continue
-        names, more = _keyword_parameters(init, skip=leading + 1)  # self too
-        accepted |= names
-        if not more:
-            return accepted
-    return None
-
-
-def check_options(what: str, options: Iterable[str], accepted: set[str] | None) -> None:
-    """InvalidOptionError naming the first of ``options`` that ``accepted`` lacks (None: all go) and
-    listing the accepted ones; ``what`` names the factory ("method 'dls'")."""
-    unknown = [] if accepted is None else sorted(set(options) - accepted)
-    if unknown:
-        known = sorted(accepted)
-        raise InvalidOptionError(
-            f"{what} has no option {unknown[0]!r}; its options: {', '.join(known) or '(none)'}",
-            option=unknown[0], accepted=known)
-
-
-def _option_parameters(factory: Callable, leading: int) -> dict[str, inspect.Parameter]:
-    """{keyword option: its parameter} of ``factory`` (for a class: along the hierarchy, as
-    :func:`factory_options` walks it; the first ``__init__`` naming an option wins)."""
-    functions = ([factory] if not isinstance(factory, type) else
-                 [vars(klass)["__init__"] for klass in factory.__mro__
-                  if klass is not object and "__init__" in vars(klass)])
-    found: dict[str, inspect.Parameter] = {}
-    for function in functions:
-        skip = leading + (0 if not isinstance(factory, type) else 1)
-        parameters = list(inspect.signature(function).parameters.values())
-        for index, parameter in enumerate(parameters):
-            if index >= skip and parameter.kind in (parameter.POSITIONAL_OR_KEYWORD, parameter.KEYWORD_ONLY):
-                found.setdefault(parameter.name, parameter)
-        if not any(p.kind is p.VAR_KEYWORD for p in parameters):
-            break
-    return found
-
-
-def _expected_kind(parameter: inspect.Parameter) -> str | None:
-    """'bool', 'int', 'float' or 'str' from an option's default (or, for a None default, its
-    annotation: ``int | None`` and the like), None when neither says."""
-    default = parameter.default
-    for kind, types in (("bool", bool), ("int", int), ("float", float), ("str", str)):
-        if type(default) is types:
-            return kind
-    if default is None and isinstance(parameter.annotation, str):
-        alternatives = {part.strip() for part in parameter.annotation.split("|")} - {"None"}
-        if len(alternatives) == 1 and next(iter(alternatives)) in ("bool", "int", "float", "str"):
-            return next(iter(alternatives))
-    return None
-
-
-def _has_kind(value, kind: str) -> bool:
-    if kind == "bool":
-        return isinstance(value, bool)
-    if isinstance(value, bool):
-        return False
-    if kind == "int":
-        return isinstance(value, numbers.Integral)
-    if kind == "float":
-        return isinstance(value, numbers.Real)
-    return isinstance(value, str)
-
-
-_KIND_WORDS = {"bool": "true or false", "int": "an integer", "float": "a number", "str": "a string"}
-
-
-def check_option_types(what: str, factory: Callable, options: dict, leading: int) -> None:
-    """InvalidSettingError naming the first option whose value is not of the kind its default (or its
-    ``X | None`` annotation) says: an integer, a number, true/false or a string (None where the default
-    is None). Options whose kind the signature does not tell pass unchecked; the factory checks the
-    values themselves (ranges)."""
-    from wbik.errors import InvalidSettingError
-
-    parameters = _option_parameters(factory, leading)
-    for name, value in options.items():
-        parameter = parameters.get(name)
-        if parameter is None or (value is None and parameter.default is None):
-            continue
-        kind = _expected_kind(parameter)
-        if kind is not None and not _has_kind(value, kind):
-            raise InvalidSettingError(f"{what}: option {name!r} must be {_KIND_WORDS[kind]}, got {value!r}")

@@ -1,64 +1,36 @@
-"""The schemas of scenario files (tasks/*.yaml): the keys their kinds share, and the check of a file.
+"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the
+keys the kinds share (one default each) and the check of a file, :func:`validate`.
 
-Each scenario kind declares its schema next to its runner (a :class:`Map` built by the kind's
-``schema`` function, see :class:`wbik.scenarios.kinds.ScenarioKind`) from the nodes of
-:mod:`wbik.schema` (the schema language of wbik's files, importable from here too) and the builders
-below.
-``validate(spec, source)`` checks a scenario mapping against its kind's schema before anything
-runs and returns a copy with the defaults filled in; every runner reads that copy (``spec["margin"]``,
-never ``spec.get("margin", ...)``), so each default is written once: in the schema, or in the
-function, dataclass or class the key feeds, which the schema reads (:func:`default_of`,
-:func:`from_dataclass`).
-
-One set of defaults for the keys several kinds share (the builders below give them):
-
-- ``robot_params`` (:func:`common_keys`): ``{}``; every kind loads its robot with them, or refuses
-  the key by name (ur5_riveting); for a robot loaded from a URDF path or ``example-robot-data:NAME``
-  they are typed (:func:`urdf_robot_params`: floating_base, nominal, soles, chains, ...);
-- ``soles`` (:func:`soles_key`): ``[]``; the feet (rectangles, contact points, point feet) of a robot
-  loaded from a URDF path or example-robot-data, for the kinds that keep one balanced;
-- ``backend`` (:func:`backend_key`): :data:`wbik.qp.backends.DEFAULT`, for every kind that solves
-  a whole-body QP (and the riveting ``ours`` planner);
-- ``margin`` (:func:`margin_key`): :data:`COM_MARGIN` = 0.005 m, the CoM margin of every kind that
-  keeps a robot balanced;
-- ``expect``: null (each kind's own default expectations; see its runner);
-- ``start``: "nominal"; ``timing.law``: "quintic". ``timing.mode`` differs on purpose: "global"
-  for motion kinds (:func:`wbik.motion.timing.time_scale`), "segment" for the Bioloid's servo
-  timing, rest at every sample like the seed code (the Bioloid application's gait timing).
-
-What is refused, always naming the file and the key's path (``phases[1].tasks[0].frame``):
-
-- a key the kind does not read (:class:`UnknownScenarioKeyError`, with the known keys and a
-  "did you mean" guess; inside ``expect`` blocks it is also an
-  :class:`~wbik.expectations.ExpectationError`);
-- a value of the wrong type or outside its range, or a word not among the allowed ones
-  (:class:`ScenarioValueError`); budgets (``timeout_s``, ``max_iterations``, ``duration_s``) must
-  be finite and > 0 (:class:`ScenarioBudgetError`, an :class:`~wbik.errors.InvalidBudgetError`);
-- an unknown robot (:class:`~wbik.errors.UnknownRobotError` listing the robots), robot parameters
-  the robot's builder does not take (:class:`~wbik.errors.InvalidOptionError`), an unknown IK
-  method (:class:`~wbik.errors.UnknownMethodError`), a QP backend that is unknown
-  (:class:`ScenarioValueError`) or not installed (:class:`~wbik.errors.MissingDependencyError`,
-  checked with :func:`wbik.qp.backends.resolve`).
+Each kind declares its schema next to its runner (:class:`wbik.scenarios.kinds.ScenarioKind`) in the
+language of :mod:`wbik.schema`; ``validate(spec, source)`` returns a copy with every default filled in,
+which the runner reads (``spec["margin"]``), so a default is written once: in the schema, or in the
+function or dataclass the key feeds (:func:`~wbik.schema.default_of`, :func:`~wbik.schema.from_dataclass`).
+A wrong value is a ``ScenarioValueError``, an unknown key an ``UnknownScenarioKeyError``
+(:mod:`wbik.scenarios.kinds`); an unknown robot or method, or a backend not installed, raises
+:mod:`wbik.errors`' own type.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 
-from wbik.errors import InvalidOptionError
+from wbik.errors import MissingDependencyError
+from wbik.errors import UnknownMethodError
+from wbik.errors import UnknownRobotError
 from wbik.errors import did_you_mean
+from wbik.options import UnknownOptionError
+from wbik.options import option_schema
+from wbik.qp.task_entries import FRAME
+from wbik.qp.task_entries import VECTOR3
 from wbik.scenarios.kinds import KIND_REGISTRY
 from wbik.scenarios.kinds import ScenarioBudgetError
-from wbik.scenarios.kinds import ScenarioError
 from wbik.scenarios.kinds import ScenarioFileError
 from wbik.scenarios.kinds import ScenarioValueError
 from wbik.scenarios.kinds import UnknownExpectationKeyError
 from wbik.scenarios.kinds import UnknownScenarioKeyError
 from wbik.scenarios.kinds import kind_names
-from wbik.schema import NO_DEFAULT
 from wbik.schema import Anything
-from wbik.schema import Axes
-from wbik.schema import Backend
 from wbik.schema import Boolean
 from wbik.schema import Context
 from wbik.schema import Either
@@ -66,49 +38,96 @@ from wbik.schema import Errors
 from wbik.schema import Key
 from wbik.schema import ListOf
 from wbik.schema import Map
-from wbik.schema import Method
-from wbik.schema import Node
 from wbik.schema import Number
 from wbik.schema import Refused
-from wbik.schema import Robot
 from wbik.schema import Text
-from wbik.schema import Variants
 from wbik.schema import Vector
-from wbik.schema import default_of
-from wbik.schema import from_dataclass
-from wbik.schema import got as _got
-from wbik.schema import join as _join
-from wbik.schema import short as _short
+from wbik.schema import got
+from wbik.schema import join
+from wbik.schema import short
 
-__all__ = ["COM_MARGIN", "FRAME", "FRAMES", "NON_NEGATIVE", "NO_DEFAULT", "POSITIVE", "SCENARIO_ERRORS",
-           "START", "VECTOR3", "Anything", "Axes", "Backend", "Boolean", "Context", "Either", "Key",
-           "ListOf", "Map", "Method", "Node", "Number", "Refused", "Robot", "ScenarioBudgetError",
-           "ScenarioError", "ScenarioFileError", "ScenarioValueError", "Text",
-           "UnknownExpectationKeyError", "UnknownScenarioKeyError", "Variants", "Vector", "apply_soles",
-           "backend_key", "check_robot_params", "common_keys", "default_of", "expect_block",
-           "from_dataclass", "kind_schema", "margin_key", "soles_key", "time_laws", "timing_modes",
-           "urdf_robot_params", "validate"]
+__all__ = ["COM_MARGIN", "FRAMES", "SCENARIO_ERRORS", "START", "Backend", "Method", "Robot", "apply_soles",
+           "backend_key", "check_robot_params", "common_keys", "expect_block", "kind_schema", "margin_key",
+           "soles_key", "time_laws", "timing_modes", "urdf_robot_params", "validate"]
 
 SCENARIO_ERRORS = Errors(ScenarioValueError, UnknownScenarioKeyError, ScenarioBudgetError)
 """The errors a task file's check raises."""
 
 
-# -- building blocks the kinds' schemas share --------------------------------------------------------
+class Robot(Text):
+    """A built-in robot name, ``example-robot-data:NAME`` or a .urdf path (one of ``only`` if given)."""
+
+    what = "a built-in robot name, example-robot-data:NAME or the path of a .urdf file"
+
+    def __init__(self, only: tuple[str, ...] | None = None):
+        super().__init__()
+        self.only = only
+
+    def check(self, value, path, ctx):
+        from wbik.models import robot_entries
+        from wbik.models.erd import example_robot_name
+        from wbik.models.erd import example_robot_names
+
+        known = list(robot_entries())
+        if not isinstance(value, str):
+            raise UnknownRobotError(short(value), known, hint=f"{ctx.source}: {path} must be {self.what}")
+        if self.only and value not in self.only:
+            ctx.fail(path, f"robot {value!r} cannot run this kind; it runs on {', '.join(self.only)}")
+        example = example_robot_name(value)
+        if example is not None and example not in (names := example_robot_names()):
+            raise UnknownRobotError(value, [f"example-robot-data:{name}" for name in names],
+                                    hint=f"{ctx.source}: {path}{did_you_mean(example, names)}")
+        if example is None and value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
+                and not Path(value).expanduser().exists():
+            raise UnknownRobotError(value, known, hint=f"{ctx.source}: {path}{did_you_mean(value, known)}; "
+                                    f"it must be {self.what} ('wbik robots' lists the names)")
+        return value
+
+
+class Backend(Text):
+    """A QP backend name: a known one ('fastest', 'default' or BACKEND_OPTIONS) that is installed."""
+
+    what = "a QP backend name"
+
+    def check(self, value, path, ctx):
+        from wbik.qp.backends import BACKEND_OPTIONS
+        from wbik.qp.backends import available
+        from wbik.qp.backends import resolve
+
+        known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
+        if super().check(value, path, ctx) not in known:
+            ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
+                           f"{', '.join(known)} (installed here: {', '.join(available())})")
+        try:
+            resolve(value)
+        except MissingDependencyError as exc:
+            raise MissingDependencyError(f"{ctx.source}: {path}: {exc}") from None
+        return value
+
+
+class Method(Text):
+    """A registered IK method (``wbik methods``)."""
+
+    what = "an IK method name ('wbik methods' lists them)"
+
+    def check(self, value, path, ctx):
+        from wbik.solvers.method_registry import methods
+        if not isinstance(value, str) or value not in methods():
+            raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
+                                     hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
+        return value
+
+
 COM_MARGIN = 0.005
 """m, the default CoM margin inside the support polygon of every kind that keeps a robot balanced."""
 
-POSITIVE = Number(gt=0)
-NON_NEGATIVE = Number(ge=0)
-VECTOR3 = Vector(3)
 START = Either(Text(("nominal",)), Vector())
-FRAME = Text(what="a frame name")
 FRAMES = ListOf(FRAME, what="frame names")
 
 
 def urdf_robot_params() -> Map:
-    """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (the keyword
-    parameters of :func:`wbik.models.load`, ``URDF_PARAMS``), typed; ``chains`` entries become
-    :class:`wbik.robot.ChainSpec` (without ``joints``: every joint between base and tip)."""
+    """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (``URDF_PARAMS`` of
+    :func:`wbik.models.load`); ``chains`` entries become :class:`wbik.robot.ChainSpec`."""
     from wbik.models import URDF_PARAMS
 
     chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
@@ -132,36 +151,29 @@ def urdf_robot_params() -> Map:
 
 
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
-    """The robot's builder must take every key of ``robot_params`` (wbik.models.check_parameters); a
-    robot loaded from a URDF path or example-robot-data has its parameters typed
-    (:func:`urdf_robot_params`: an unknown key gets a "did you mean", a bad value names its path)."""
-    from wbik.models import check_parameters
+    """``robot_params`` checked as the options of the robot's builder (:func:`wbik.options.option_schema`,
+    an unknown one an InvalidOptionError), or for a robot loaded from a URDF path or example-robot-data
+    against :func:`urdf_robot_params`."""
     from wbik.models import robot_entries
 
-    params = spec.get("robot_params") or {}
-    if params and spec.get("robot") is not None:
-        if spec["robot"] not in robot_entries():
-            spec["robot_params"] = urdf_robot_params().check(params, _join(path, "robot_params"), ctx)
-            return
-        try:
-            check_parameters(spec["robot"], params)
-        except InvalidOptionError as exc:
-            raise InvalidOptionError(f"{ctx.source}: robot_params: {exc}", option=exc.option,
-                                     accepted=exc.accepted) from None
+    params, robot = spec.get("robot_params") or {}, spec.get("robot")
+    if params and robot is not None:
+        entry = robot_entries().get(robot)
+        schema = urdf_robot_params() if entry is None else option_schema(
+            entry.module().build, 0, owner=f"robot {robot!r}", unknown_error=UnknownOptionError)
+        spec["robot_params"] = schema.check(params, join(path, "robot_params"), ctx)
 
 
 def common_keys(robot: Key, **more: Key) -> dict[str, Key]:
-    """The keys of every kind: ``kind``, ``name`` (default ''), ``robot`` and ``robot_params``
-    (default {}: the parameters of the robot's builder; :func:`kind_schema` checks them, or pair the
-    Map with ``post=check_robot_params``), and ``more``."""
+    """The keys of every kind: ``kind``, ``name`` (''), ``robot``, ``robot_params`` ({}: its builder's
+    parameters, checked by :func:`check_robot_params`) and ``more``."""
     return {"kind": Key(Text(), required=True), "name": Key(Text(), ""), "robot": robot,
             "robot_params": Key(Map(values=Anything()), {}), **more}
 
 
 def kind_schema(common: dict[str, Key], keys: dict[str, Key]) -> Map:
-    """A kind's schema: the ``common`` keys (:func:`common_keys`, with those its family shares) and
-    the kind's own ``keys``; ``robot_params`` checked against the robot's builder
-    (:func:`check_robot_params`)."""
+    """A kind's schema: the ``common`` keys (:func:`common_keys`) and its own ``keys``; ``robot_params``
+    checked against the robot's builder."""
     return Map({**common, **keys}, post=check_robot_params)
 
 
@@ -178,11 +190,10 @@ def margin_key() -> Key:
 
 
 def soles_key() -> Key:
-    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data, each
-    ``{frame, size: [length, width], centre: [x, y, z]}`` (a flat sole: a rectangle in the sole frame,
-    centred on ``centre``, default the frame's origin), ``{frame, corners: [[x, y, z], ...]}`` (any
-    contact points: a polygon, an edge) or ``{frame, point: [x, y, z]}`` (a point foot), in m; default
-    none (the robot's own soles). :func:`apply_soles` turns them into ``robot_params.soles``."""
+    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m), each ``{frame,
+    size: [length, width], centre: [x, y, z]}`` (a rectangle in the sole frame), ``{frame, corners:
+    [[x, y, z], ...]}`` (any contact points) or ``{frame, point: [x, y, z]}`` (a point foot); default none
+    (the robot's own). :func:`apply_soles` turns them into ``robot_params.soles``."""
 
     def one_shape(entry: dict, path: str, ctx: Context) -> None:
         shapes = [key for key in SOLE_SHAPES if key in entry]
@@ -191,7 +202,7 @@ def soles_key() -> Key:
                            f"{', '.join(shapes) or 'none'} (size: a rectangle, corners: contact points, "
                            "point: a point foot)")
         if "centre" in entry and shapes != ["size"]:
-            ctx.fail(_join(path, "centre"), "is the centre of a size rectangle; with corners or point, "
+            ctx.fail(join(path, "centre"), "is the centre of a size rectangle; with corners or point, "
                                             "give the points themselves")
 
     sole = Map({"frame": Key(FRAME, required=True), "size": Key(Vector(2, positive=True, unit="m")),
@@ -201,13 +212,12 @@ def soles_key() -> Key:
 
 
 SOLE_SHAPES = ("size", "corners", "point")
-"""The keys of a ``soles`` entry that give its shape (exactly one per sole)."""
+"""The keys of a ``soles`` entry that give its shape (one per sole)."""
 
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     """Checked ``soles`` entries (:func:`soles_key`) into ``robot_params.soles`` ({frame: (k, 3) contact
-    points}), for a robot whose loader takes soles; a frame given twice, or soles given both ways, is
-    refused by path."""
+    points}); a frame given twice, or soles given both ways, is refused by path."""
     from wbik.models import builder_parameters
     from wbik.qp.support_polygon import sole_rectangle
 
@@ -215,22 +225,19 @@ def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     if not entries:
         return
     if "soles" not in builder_parameters(spec["robot"]):
-        ctx.fail(_join(path, "soles"), f"robot {spec['robot']!r} declares its own soles (robot.soles); "
+        ctx.fail(join(path, "soles"), f"robot {spec['robot']!r} declares its own soles (robot.soles); "
                                        "soles: is for a robot loaded from a URDF path or example-robot-data")
     points: dict[str, list] = {}
     for index, entry in enumerate(entries):
         frame = entry["frame"]
         if frame in points:
-            ctx.fail(f"{_join(path, 'soles')}[{index}].frame", f"sole {frame!r} is given twice")
-        if "size" in entry:
-            points[frame] = sole_rectangle(*entry["size"], entry.get("centre", (0.0, 0.0, 0.0))).tolist()
-        elif "point" in entry:
-            points[frame] = [list(entry["point"])]
-        else:
-            points[frame] = [list(point) for point in entry["corners"]]
+            ctx.fail(f"{join(path, 'soles')}[{index}].frame", f"sole {frame!r} is given twice")
+        corners = entry.get("corners", [entry.get("point")])
+        points[frame] = (sole_rectangle(*entry["size"], entry.get("centre", (0.0, 0.0, 0.0))).tolist()
+                         if "size" in entry else [list(point) for point in corners])
     given = (spec.get("robot_params") or {}).get("soles")
     if given is not None and given != points:  # (equal: a spec this function already filled)
-        ctx.fail(_join(path, "soles"), "give the soles either here or in robot_params.soles, not both")
+        ctx.fail(join(path, "soles"), "give the soles either here or in robot_params.soles, not both")
     spec["robot_params"] = {**(spec.get("robot_params") or {}), "soles": points}
 
 
@@ -256,21 +263,12 @@ def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:
                unknown_error=UnknownExpectationKeyError)
 
 
-# -- checking a scenario ---------------------------------------------------------------------------
 def validate(spec, source: str = "scenario") -> dict:
-    """``spec`` checked against its kind's schema: a new dict with every default filled in.
-
-    ``source`` (the file) starts every error message. See the module docstring for what is refused;
-    the kind is looked up in :mod:`wbik.scenarios.kinds` (which imports the kinds' modules).
-    """
+    """``spec`` checked against its kind's schema (``source``, the file, starts every message): a new
+    dict with every default filled in."""
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "
-                                f"{', '.join(kind_names())}), {_got(spec)}")
-    if "kind" not in spec:
-        raise ScenarioValueError(f"{source}: the top level needs a 'kind', one of {', '.join(kind_names())}")
-    kind = spec["kind"]
-    if not isinstance(kind, str) or kind not in kind_names():
-        known = kind_names()
-        raise ScenarioValueError(f"{source}: kind: unknown scenario kind {_short(kind)}"
-                                 f"{did_you_mean(kind, known)}; known kinds: {', '.join(known)}")
-    return KIND_REGISTRY.get(kind).schema_map.check(spec, "", Context(source, SCENARIO_ERRORS))
+                                f"{', '.join(kind_names())}), {got(spec)}")
+    ctx = Context(source, SCENARIO_ERRORS)
+    kind = Map({"kind": Key(Text(kind_names), required=True)}, Anything()).check(spec, "", ctx)["kind"]
+    return KIND_REGISTRY.get(kind).schema_map.check(spec, "", ctx)

@@ -1,24 +1,21 @@
-"""The schema language of wbik's files: keys, types, ranges, defaults and checking, with one way of
+"""The schema language of wbik's inputs: keys, types, ranges, defaults and checking, with one way of
 saying what is wrong.
 
-Task files (``tasks/*.yaml``, :mod:`wbik.scenario_schema`) and study files (``comparisons/*.yaml``,
-:mod:`wbik.study.definition`) declare what they read with the nodes below: a :class:`Map` of
-:class:`Key` entries (each a node, a default and whether it is required), :class:`Text`,
-:class:`Number`, :class:`Boolean`, :class:`Vector`, :class:`ListOf`, :class:`Either`,
-:class:`Variants`, ... ``node.check(value, path, ctx)`` returns the value with every default filled in,
-or raises a typed error whose message starts with the file (``ctx.source``) and names the key's path
-(``cases[2].targets.fraction``, ``phases[1].tasks[0].frame``):
+Task files (:mod:`wbik.scenario_schema`), study files (:mod:`wbik.study.definition`), task entries
+(:mod:`wbik.qp.task_entries`), whole-body problems (:mod:`wbik.wholebody.problem`) and ``wbik.solver``'s
+options (:mod:`wbik.options`) declare what they read with these nodes. ``node.check(value, path, ctx)``
+returns the value with every default filled in, or raises a typed error whose message starts with the
+source (``ctx.source``: the file, or the Python call) and names the key's path (``cases[2].poses``):
 
-- ``{path} must be {what the node takes}, got {value} ({type})``: a value of the wrong type, outside
-  its range, or not one of the allowed words (with a "did you mean" guess);
-- ``{key path}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ...``: a key the
-  mapping does not read;
-- ``{path}: {why}``: anything a file's own check refuses (:meth:`Context.fail`).
+- ``{path} must be {what the node takes}, got {value} ({type})``: a wrong type, a value outside its
+  range, or not one of the allowed words (with a "did you mean" guess);
+- ``{key path}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ...``;
+- ``{path}: {why}``: anything a check of its own refuses (:meth:`Context.fail`).
 
-Each kind of file picks its error classes (:class:`Errors`): subclasses of :class:`SchemaValueError`,
-:class:`UnknownKeyError` and :class:`SchemaBudgetError`, so a task file's refusal is a
-``ScenarioValueError`` and a study file's a ``StudyDefinitionError``. This module imports no task-file
-or study code.
+Each source picks its error classes (:class:`Errors`), so a task file's refusal is a
+``ScenarioValueError`` and a study file's a ``StudyDefinitionError``; every schema error is an
+:class:`~wbik.errors.InvalidSettingError`. Domain nodes (robots, methods, task keys) live with their
+owners.
 """
 
 from __future__ import annotations
@@ -37,23 +34,21 @@ from dataclasses import field
 from dataclasses import fields
 
 from wbik.errors import InvalidBudgetError
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnknownMethodError
-from wbik.errors import UnknownRobotError
+from wbik.errors import InvalidSettingError
 from wbik.errors import WbikError
 from wbik.errors import closest_name
 from wbik.errors import did_you_mean
 
-__all__ = ["NO_DEFAULT", "Anything", "Axes", "Backend", "Boolean", "Constant", "Context", "Either",
-           "Errors", "Interval", "Key", "ListOf", "Map", "Method", "Node", "Number", "Refused", "Robot",
-           "SchemaBudgetError", "SchemaError", "SchemaValueError", "Shorthand", "Text", "UnknownKeyError",
-           "Variants", "Vector", "dataclass_default", "default_of", "from_dataclass", "got", "join",
-           "key_rows", "option_schema", "short", "unknown_keys"]
+__all__ = ["NO_DEFAULT", "Anything", "Boolean", "Constant", "Context", "Either", "Errors", "Instance",
+           "Interval", "Key", "ListOf", "Map", "Node", "Number", "Refused", "SchemaBudgetError",
+           "SchemaError", "SchemaValueError", "Shorthand", "Text", "UnknownKeyError", "Variants", "Vector",
+           "dataclass_default", "default_of", "from_dataclass", "got", "join", "key_rows",
+           "short", "unknown_keys"]
 
 
 # -- errors -----------------------------------------------------------------------------------------
-class SchemaError(WbikError, ValueError):
-    """A file's value that its schema refuses; the message names the file and the key's path."""
+class SchemaError(InvalidSettingError):
+    """A value that its schema refuses; the message names the source and the key's path."""
 
 
 class SchemaValueError(SchemaError):
@@ -78,24 +73,30 @@ class SchemaBudgetError(SchemaValueError, InvalidBudgetError):
 
 @dataclass(frozen=True)
 class Errors:
-    """The error classes a kind of file raises: ``value`` (wrong values, missing keys), ``unknown``
-    (unknown keys) and ``budget`` (budgets, :class:`Number` with ``budget=True``)."""
+    """The error classes a source raises: ``value`` (wrong values, missing keys), ``unknown`` (unknown
+    keys, made from (message, path, known keys)) and ``budget`` (:class:`Number` with ``budget=True``)."""
 
-    value: type[SchemaValueError] = SchemaValueError
-    unknown: type[UnknownKeyError] = UnknownKeyError
-    budget: type[SchemaValueError] = SchemaBudgetError
+    value: type[WbikError] = SchemaValueError
+    unknown: type[WbikError] = UnknownKeyError
+    budget: type[WbikError] = SchemaBudgetError
 
 
 @dataclass
 class Context:
-    """Where a check runs: the file (``source``, the start of every message) and its error classes."""
+    """Where a check runs: the source (a file or a Python call, the start of every message) and its
+    error classes."""
 
     source: str
     errors: Errors = field(default_factory=Errors)
 
     def fail(self, path: str, message: str, error: type[WbikError] | None = None):
         """Refuse the value at ``path``: "{source}: {path}: {message}"."""
-        raise (error or self.errors.value)(f"{self.source}: {path or 'the top level'}: {message}")
+        raise (error or self.errors.value)(f"{self.source}: {f'{path}: ' if path else ''}{message}")
+
+    @property
+    def refusals(self) -> tuple[type[WbikError], ...]:
+        """The errors a check here raises (:class:`Either` tries its next option after one)."""
+        return (SchemaError, self.errors.value, self.errors.unknown, self.errors.budget)
 
     def must(self, path: str, expected: str, value, error: type[WbikError] | None = None, hint: str = ""):
         """Refuse the value at ``path``: "{source}: {path} must be {expected}, got {value} ({type})"."""
@@ -133,24 +134,20 @@ def _words(choices) -> str:
     return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"
 
 
-def unknown_keys(ctx: Context, path: str, given, known, error: type[UnknownKeyError] | None = None) -> None:
+def unknown_keys(ctx: Context, path: str, given, known, error: type[WbikError] | None = None,
+                 words: str = "field(s)", allowed: str = "allowed") -> None:
     """Refuse the keys of ``given`` that ``known`` lacks, all of them named, each with a "did you mean"
-    guess: "{their paths}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ..."."""
+    guess: "{their paths}: {path} has unknown {words} [...] (did you mean ...?); {allowed}: ..."."""
     known = sorted(map(str, known))
     unknown = sorted((key for key in given if key not in known), key=str)
     if not unknown:
         return
-    guesses = [(key, closest_name(key, known)) for key in unknown]
-    guesses = [(key, guess) for key, guess in guesses if guess is not None]
-    if len(unknown) == 1 and guesses:
-        hint = f" (did you mean {guesses[0][1]!r}?)"
-    elif guesses:
-        hint = " (did you mean " + ", ".join(f"{guess!r} for {key!r}" for key, guess in guesses) + "?)"
-    else:
-        hint = ""
+    guesses = [(key, guess) for key in unknown if (guess := closest_name(key, known)) is not None]
+    hint = (f" (did you mean {guesses[0][1]!r}?)" if len(unknown) == 1 and guesses else " (did you mean "
+            + ", ".join(f"{guess!r} for {key!r}" for key, guess in guesses) + "?)" if guesses else "")
     where = ", ".join(join(path, key) for key in unknown)
     raise (error or ctx.errors.unknown)(
-        f"{ctx.source}: {where}: {path or 'the top level'} has unknown field(s) {unknown}{hint}; allowed: "
+        f"{ctx.source}: {where}: {f'{path} has ' if path else ''}unknown {words} {unknown}{hint}; {allowed}: "
         f"{', '.join(known) or '(none)'}", join(path, unknown[0]), known)
 
 
@@ -169,6 +166,11 @@ class Node:
 
     def wrong(self, value, path: str, ctx: Context, error: type[WbikError] | None = None):
         ctx.must(path, self.expected, value, error)
+
+    def checked(self, value, name: str, source: str, error: type[WbikError] | None = None):
+        """``value``, the argument ``name`` of the Python call ``source``, checked alone; ``error``: the
+        type of its refusal (default the schema's)."""
+        return self.check(value, name, Context(source, Errors(error, budget=error) if error else Errors()))
 
     def described(self, what: str) -> Node:
         """A copy that says ``what`` in its messages."""
@@ -240,8 +242,7 @@ class Text(Node):
 
 
 class Number(Node):
-    """A finite real number (an int with ``integer``), optionally bounded (``gt``/``lt`` strict).
-
+    """A finite real number (an int with ``integer``), optionally bounded (``gt``/``lt`` strict);
     ``strings``: a string holding a number counts (PyYAML reads ``1e-6``, no dot, as a string);
     ``as_float``: the value is returned as a float; ``finite=False``: infinities count; ``budget``: a
     refusal is the context's budget error; ``what`` replaces the generated description in messages."""
@@ -294,10 +295,8 @@ class Vector(Node):
 
     @property
     def expected(self) -> str:
-        count = f"{self.size} " if self.size else ""
-        sign = "positive " if self.positive else ""
-        unit = f" ({self.unit})" if self.unit else ""
-        return f"a list of {count}{sign}finite numbers{unit}"
+        return (f"a list of {f'{self.size} ' if self.size else ''}{'positive ' if self.positive else ''}"
+                f"finite numbers{f' ({self.unit})' if self.unit else ''}")
 
     def check(self, value, path, ctx):
         if not isinstance(value, list | tuple) or not value or (self.size and len(value) != self.size):
@@ -310,12 +309,10 @@ class Vector(Node):
 
 
 class Interval(Node):
-    """A pair ``[a, b]`` of numbers with ``low <= a <= b <= high`` (``strings`` as for
-    :class:`Number`), returned as a tuple of floats."""
+    """A pair ``[a, b]`` with ``low <= a <= b <= high`` (``strings`` as for :class:`Number`), as floats."""
 
     def __init__(self, low: float, high: float, strings: bool = False, what: str = ""):
-        self.low, self.high, self.strings = low, high, strings
-        self.what = what
+        self.low, self.high, self.strings, self.what = low, high, strings, what
 
     @property
     def expected(self) -> str:
@@ -327,7 +324,7 @@ class Interval(Node):
         ends = Number(strings=self.strings, as_float=True)
         try:
             a, b = (ends.check(item, path, ctx) for item in value)
-        except SchemaValueError:
+        except ctx.refusals:
             self.wrong(value, path, ctx)
         if not self.low <= a <= b <= self.high:
             self.wrong(value, path, ctx)
@@ -356,8 +353,7 @@ class Either(Node):
     you mean"), or an error listing every option (``what``, unless given, joins theirs)."""
 
     def __init__(self, *options: Node, what: str = ""):
-        self.options = options
-        self.what = what
+        self.options, self.what = options, what
 
     @property
     def expected(self) -> str:
@@ -368,7 +364,7 @@ class Either(Node):
         for option in self.options:
             try:
                 return option.check(value, path, ctx)
-            except (SchemaValueError, UnknownKeyError) as exc:
+            except ctx.refusals as exc:
                 refusals.append((option, exc))
         if isinstance(value, Mapping):
             maps = [(option, exc) for option, exc in refusals if isinstance(option, Map)]
@@ -399,6 +395,18 @@ class Constant(Node):
         return value
 
 
+class Instance(Node):
+    """A Python object of class ``kind`` (an argument of a Python call)."""
+
+    def __init__(self, kind: type | tuple[type, ...], expected: str):
+        self.kind, self.expected = kind, expected
+
+    def check(self, value, path, ctx):
+        if not isinstance(value, self.kind):
+            self.wrong(value, path, ctx)
+        return value
+
+
 class Refused(Node):
     """A key that cannot be used here, refused by name with the reason."""
 
@@ -411,8 +419,8 @@ class Refused(Node):
 
 @dataclass
 class Key:
-    """A key of a mapping: its rule, its default (filled in when absent) and whether it is required;
-    ``doc`` says what it is for (the documentation's tables)."""
+    """A key of a mapping: its rule, its default (filled in when absent), whether it is required and
+    what it is for (``doc``, the documentation's tables)."""
 
     node: Node
     default: object = NO_DEFAULT
@@ -425,8 +433,10 @@ class Map(Node):
 
     ``post(result, path, ctx)`` runs after the keys: cross-key checks and defaults that depend on
     other keys. ``nullable``: null stands for an empty mapping. ``unknown_error``: the error of an
-    unknown key when not the context's.
+    unknown key when not the context's; ``words`` and ``allowed`` the words of its message.
     """
+
+    words, allowed = "field(s)", "allowed"
 
     def __init__(self, keys: dict[str, Key] | None = None, values: Node | None = None,
                  post: Callable | None = None, nullable: bool = False,
@@ -437,9 +447,7 @@ class Map(Node):
 
     @property
     def expected(self) -> str:
-        if self.what:
-            return self.what
-        return f"a mapping with keys {', '.join(self.keys)}" if self.keys else "a mapping"
+        return self.what or (f"a mapping with keys {', '.join(self.keys)}" if self.keys else "a mapping")
 
     def check(self, value, path, ctx):
         if value is None and self.nullable:
@@ -450,7 +458,7 @@ class Map(Node):
             if not isinstance(key, str):
                 ctx.fail(join(path, key), f"keys must be strings, got {short(key)} ({type(key).__name__})")
         if self.values is None:
-            unknown_keys(ctx, path, value, self.keys, self.unknown_error)
+            unknown_keys(ctx, path, value, self.keys, self.unknown_error, self.words, self.allowed)
         result = {}
         for key, item in value.items():
             rule = self.keys.get(key)
@@ -470,11 +478,16 @@ class Map(Node):
 
 
 class Variants(Node):
-    """A mapping whose allowed keys depend on one of its values (``select`` names the variant)."""
+    """A mapping whose allowed keys depend on one of its values (``select`` names the variant);
+    ``variants``: {name: node}, or a function giving them (those registered when a value is checked)."""
 
-    def __init__(self, select: Callable[[Mapping], str | None], variants: dict[str, Node], what: str,
-                 tag: str):
-        self.select, self.variants, self.what, self.tag = select, variants, what, tag
+    def __init__(self, select: Callable[[Mapping], str | None],
+                 variants: dict[str, Node] | Callable[[], dict[str, Node]], what: str, tag: str):
+        self.select, self._variants, self.what, self.tag = select, variants, what, tag
+
+    @property
+    def variants(self) -> dict[str, Node]:
+        return self._variants() if callable(self._variants) else self._variants
 
     @property
     def expected(self) -> str:
@@ -488,16 +501,16 @@ class Variants(Node):
     def check(self, value, path, ctx):
         if not isinstance(value, Mapping):
             self.wrong(value, path, ctx)
-        name = self.select(value)
-        if not isinstance(name, str) or name not in self.variants:  # a list or a mapping is no tag either
-            choices = ", ".join(sorted(self.variants))
+        name, variants = self.select(value), self.variants
+        if not isinstance(name, str) or name not in variants:  # a list or a mapping is no tag either
+            choices = ", ".join(sorted(variants))
             if name is None:
-                ctx.fail(path, f"must be {self.what}; it needs a {self.tag} (one of {choices}), "
+                ctx.fail(path, f"must be {self.what}; it needs a {self.tag!r} (one of {choices}), "
                                f"got keys {sorted(map(str, value))}")
             where = join(path, self.tag) if self.tag in value else path
-            ctx.fail(where, f"{self.tag} {short(name)} is not allowed{did_you_mean(name, self.variants)}; "
+            ctx.fail(where, f"{self.tag} {short(name)} is not allowed{did_you_mean(name, variants)}; "
                             f"allowed: {choices}")
-        return self.variants[name].check(value, path, ctx)
+        return variants[name].check(value, path, ctx)
 
 
 class Shorthand(Node):
@@ -519,108 +532,19 @@ class Shorthand(Node):
         return self.node.check(value, path, ctx)
 
 
-# -- names checked against what exists --------------------------------------------------------------
-class Robot(Text):
-    """A built-in robot name, ``example-robot-data:NAME`` or a .urdf path; ``only`` restricts a file to
-    some robots."""
-
-    what = "a built-in robot name, example-robot-data:NAME or the path of a .urdf file"
-
-    def __init__(self, only: tuple[str, ...] | None = None):
-        super().__init__()
-        self.only = only
-
-    def check(self, value, path, ctx):
-        from pathlib import Path
-
-        from wbik.models import robot_entries
-        from wbik.models.erd import example_robot_name
-        from wbik.models.erd import example_robot_names
-
-        known = list(robot_entries())
-        if not isinstance(value, str):
-            raise UnknownRobotError(short(value), known, hint=f"{ctx.source}: {path} must be a "
-                                    "robot name (a string) or the path of a .urdf file")
-        if self.only and value not in self.only:
-            ctx.fail(path, f"robot {value!r} cannot run this kind; it runs on {', '.join(self.only)}")
-        example = example_robot_name(value)
-        if example is not None:
-            names = example_robot_names()
-            if example not in names:
-                raise UnknownRobotError(value, [f"example-robot-data:{name}" for name in names],
-                                        hint=f"{ctx.source}: {path}{did_you_mean(example, names)}")
-            return value
-        if value not in known and Path(value).suffix.lower() not in (".urdf", ".xml") \
-                and not Path(value).expanduser().exists():
-            raise UnknownRobotError(value, known,
-                                    hint=f"{ctx.source}: {path}{did_you_mean(value, known)}. Pass a built-in "
-                                         "name ('wbik robots' lists them), example-robot-data:NAME or a "
-                                         ".urdf path")
-        return value
-
-
-class Backend(Text):
-    """A QP backend name: a known one ('fastest', 'default' or BACKEND_OPTIONS) that is installed."""
-
-    what = "a QP backend name"
-
-    def check(self, value, path, ctx):
-        from wbik.qp.backends import BACKEND_OPTIONS
-        from wbik.qp.backends import available
-        from wbik.qp.backends import resolve
-
-        super().check(value, path, ctx)
-        known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
-        if value not in known:
-            ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
-                           f"{', '.join(known)} (installed here: {', '.join(available())})")
-        try:
-            resolve(value)
-        except MissingDependencyError as exc:
-            raise MissingDependencyError(f"{ctx.source}: {path}: {exc}") from None
-        return value
-
-
-class Method(Text):
-    """A registered IK method (``wbik methods``)."""
-
-    what = "an IK method name ('wbik methods' lists them)"
-
-    def check(self, value, path, ctx):
-        from wbik.solvers.method_registry import methods
-        if not isinstance(value, str) or value not in methods():
-            raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
-                                     hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
-        return value
-
-
-class Axes(Text):
-    """A non-empty subset of "xyz", each axis once (a task's ``axes``: "xy", "z", ...)."""
-
-    what = "a subset of 'xyz' (e.g. xy)"
-
-    def check(self, value, path, ctx):
-        value = super().check(value, path, ctx)
-        if not value or any(axis not in "xyz" for axis in value) or len(set(value)) != len(value):
-            ctx.fail(path, f"must be {self.what}: each of x, y, z at most once, got {value!r}")
-        return value
-
-
 # -- schemas read from code ---------------------------------------------------------------------------
 def from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
     """A mapping of a dataclass's fields, each with the dataclass's own default (one set of defaults)."""
-    nodes = nodes or {}
     keys = {}
     for item in fields(cls):
         default = item.default if item.default is not MISSING else NO_DEFAULT
         integer = isinstance(default, int) and not isinstance(default, bool)
-        keys[item.name] = Key(nodes.get(item.name, Number(integer=integer)), default)
+        keys[item.name] = Key((nodes or {}).get(item.name, Number(integer=integer)), default)
     return Map(keys)
 
 
 def dataclass_default(cls, name: str):
-    """The default of the dataclass ``cls``'s field ``name`` (its default factory called): a schema key
-    that fills the field takes the dataclass's own default instead of a second copy of it."""
+    """The default of the dataclass ``cls``'s field ``name`` (its default factory called)."""
     for item in fields(cls):
         if item.name == name:
             if item.default is not MISSING:
@@ -632,37 +556,11 @@ def dataclass_default(cls, name: str):
 
 
 def default_of(function: Callable, parameter: str):
-    """The default value of ``function``'s ``parameter``: a schema key whose value is passed there
-    takes the function's own default instead of a second copy of it."""
+    """The default value of ``function``'s ``parameter`` (a key's default, written once)."""
     default = inspect.signature(function).parameters[parameter].default
     if default is inspect.Parameter.empty:
         raise TypeError(f"{function.__qualname__}({parameter}) has no default")
     return default
-
-
-_OPTION_NODES: dict[str, Callable[[bool], Node]] = {
-    "bool": lambda nullable: Boolean(nullable=nullable),
-    "int": lambda nullable: Number(integer=True, nullable=nullable),
-    "float": lambda nullable: Number(nullable=nullable, finite=False),
-    "str": lambda nullable: Text(nullable=nullable),
-}
-
-
-def option_schema(factory: Callable, leading: int, skip: tuple[str, ...] = ()) -> Map:
-    """The keyword options of ``factory(*leading arguments, **options)`` typed by their defaults (or
-    their ``X | None`` annotation, see :func:`wbik.registry.check_option_types`): an integer, a number,
-    true/false or text (null too where the default is None); options whose kind the signature does not
-    tell take any value, and so do other keys (the factory's own check names unknown ones)."""
-    from wbik.registry import _expected_kind
-    from wbik.registry import _option_parameters
-
-    keys = {}
-    for name, parameter in _option_parameters(factory, leading).items():
-        kind = _expected_kind(parameter)
-        if kind is None or name in skip:
-            continue
-        keys[name] = Key(_OPTION_NODES[kind](parameter.default is None))
-    return Map(keys, values=Anything())
 
 
 # -- reading a schema ---------------------------------------------------------------------------------

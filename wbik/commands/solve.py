@@ -31,11 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
+    from wbik.options import TIMEOUT_S
     from wbik.solvers.method_registry import solver as make_solver
     from wbik.targets import Target
-    from wbik.validation import check_budget
 
-    timeout = check_budget("--timeout", args.timeout)
+    timeout = TIMEOUT_S.checked(args.timeout, "--timeout", "wbik solve")
     robot, chain = load_robot_chain(args)
     solver = make_solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)

@@ -13,7 +13,7 @@ from wbik.qp.constraint import StartViolation
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.rows import InequalityRows
 from wbik.qp.rows import RowLabel
-from wbik.validation import check_positive_finite
+from wbik.schema import Number
 
 
 class MinimumDistance(InequalityConstraint):
@@ -87,19 +87,14 @@ class CollisionAvoidance(InequalityConstraint):
     def __init__(self, pairs, safety_distance: float = 0.01, influence_distance: float = 0.1,
                  gain: float = 1.0, padding: float = 1e-6):
         self.collision_model = pairs
-        if isinstance(safety_distance, bool) or not isinstance(safety_distance, int | float) \
-                or not np.isfinite(safety_distance) or safety_distance < 0:
-            raise InvalidSettingError("safety_distance must be a finite number >= 0 (m), "
-                                      f"got {safety_distance!r}")
-        self.safety = float(safety_distance)
-        self.influence = check_positive_finite("influence_distance", influence_distance,
-                                               InvalidSettingError, "m")
+        self.safety = Number(ge=0, unit="m", as_float=True).checked(safety_distance, "safety_distance",
+                                                                    "CollisionAvoidance")
+        positive = Number(gt=0, unit="m", as_float=True)
+        self.influence = positive.checked(influence_distance, "influence_distance", "CollisionAvoidance")
         if self.influence <= self.safety:
             raise InvalidSettingError(f"influence_distance ({self.influence:g} m) must exceed the safety "
                                       f"distance ({self.safety:g} m)")
-        self.gain = check_positive_finite("gain", gain, InvalidSettingError)
-        if self.gain > 1.0:
-            raise InvalidSettingError(f"gain must be in (0, 1], got {gain!r}")
+        self.gain = Number(gt=0, le=1, as_float=True).checked(gain, "gain", "CollisionAvoidance")
         self.padding = float(padding)
         self.name = f"collision avoidance (safety {self.safety * 1e3:g} mm)"
         self.geometry_data = pairs.create_data()

@@ -16,18 +16,14 @@ if given, else the start's), or the start placement with ``offset`` added to its
 axes) and ``rpy`` replacing its rotation; ``keep: true`` (or nothing) holds the start placement.
 A relative target is the child's placement in the reference frame at q, or ``target`` [+ ``rpy``],
 or that placement with ``offset`` added (reference axes). A CoM target is ``target``, or the
-start CoM with ``over``'s origin as its x and y, or the start CoM plus ``offset``.
+start CoM with ``over``'s origin as its x and y, or the start CoM plus ``offset``. Options passed to the
+task: weight, goal, priority, tolerance, gain, name (and position_weight, orientation_weight for frame).
 
-Options passed to the task: weight, goal, priority, tolerance, gain, name (and position_weight,
-orientation_weight for ``frame``). An entry that cannot be built raises :class:`TaskEntryError`.
-Scenario files are checked against their schema first (:mod:`wbik.scenarios.wholebody`), so
-these errors are what a Python caller sees.
-
-Every entry type is declared by a :class:`TaskEntry`: its ``type``, the task class, its own keys (by
-kind, :data:`KEY_KINDS`; the task-file schema is made from them), the keys it requires and its builder.
-A module declares its entry types in a ``TASK_ENTRIES`` tuple and is listed in
-:data:`TASK_ENTRY_MODULES` (imported on first use, :class:`wbik.registry.DeclaredRegistry`); user code
-adds one with :func:`register_task_entry`. The types above are declared here.
+A :class:`TaskEntry` declares an entry type: its ``type``, the task class, its builder, its own keys (each
+a :mod:`wbik.schema` node) and those it requires. :data:`TASK_ENTRY`, one variant per type, checks an
+entry in task files, ``WholeBody.from_dict`` and :func:`build_task` (a :class:`TaskEntryError` naming the
+key). A module declares its types in a ``TASK_ENTRIES`` tuple listed in :data:`TASK_ENTRY_MODULES`
+(:class:`wbik.registry.DeclaredRegistry`); user code adds one with :func:`register_task_entry`.
 """
 
 from __future__ import annotations
@@ -41,7 +37,6 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidSettingError
 from wbik.errors import UnknownFrameError
 from wbik.qp.tasks import ComTask
 from wbik.qp.tasks import FrameTask
@@ -53,49 +48,62 @@ from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
-from wbik.validation import finite_vector
+from wbik.schema import Boolean
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Errors
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Node
+from wbik.schema import Number
+from wbik.schema import SchemaValueError
+from wbik.schema import Text
+from wbik.schema import UnknownKeyError
+from wbik.schema import Variants
+from wbik.schema import Vector
 
-__all__ = ["KEY_KINDS", "TASK_ENTRIES", "TASK_ENTRY_MODULES", "TASK_ENTRY_REGISTRY", "TASK_OPTIONS",
-           "TaskEntry", "TaskEntryError", "build_task", "com_target", "entry_vector", "frame_target",
-           "register_task_entry", "relative_target", "task_types"]
+__all__ = ["AXES", "FRAME", "NON_NEGATIVE", "POSITIVE", "TASK_ENTRIES", "TASK_ENTRY", "TASK_ENTRY_MODULES",
+           "TASK_ENTRY_REGISTRY", "TASK_OPTIONS", "VECTOR3", "TaskEntry", "TaskEntryError", "build_task",
+           "com_target", "frame_target", "register_task_entry", "relative_target"]
 
 TASK_OPTIONS = ("weight", "goal", "priority", "tolerance", "gain", "name")
 """Keys every task type passes to its :class:`wbik.qp.tasks.Task` (unless its entry says otherwise)."""
 REGULARIZATION_WEIGHT = 1e-6
 """Weight of a ``regularization`` entry that gives none (and of a wholebody_ik phase's)."""
-KEY_KINDS = {
-    "frame": "a frame name of the robot",
-    "vector3": "3 numbers (m or rad)",
-    "boolean": "true or false",
-    "axes": "a non-empty subset of xyz, each once",
-    "non_negative": "a number >= 0",
-    "positive": "a number > 0",
-    "length": "a number (m)",
-    "joint_names": "a list of joint names",
-}
-"""The kinds of an entry's own keys, as :attr:`TaskEntry.keys` names them (a tuple of words instead:
-one of those words). The task-file schema gives each kind its node (:mod:`wbik.scenarios.wholebody`)."""
+FRAME = Text(what="a frame name")
+VECTOR3 = Vector(3)
+POSITIVE, NON_NEGATIVE = Number(gt=0), Number(ge=0)
+AXES = Text(pattern=r"(?!.*(.).*\1)[xyz]+\Z", what="a subset of 'xyz', each axis once (e.g. xy)")
+TASK_OPTION_KEYS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Either(NON_NEGATIVE, Vector())),
+                    "goal": Key(Boolean()), "priority": Key(Number(integer=True)),
+                    "tolerance": Key(POSITIVE), "gain": Key(POSITIVE)}
+"""The keys of the Task options (:data:`TASK_OPTIONS`)."""
 
 
-class TaskEntryError(InvalidSettingError):
-    """A task entry with an unknown type, a missing frame, or a target that is not 3 finite numbers."""
+class TaskEntryError(SchemaValueError):
+    """A task entry with an unknown type, a missing key, a wrong value or an unknown frame."""
 
 
+class UnknownTaskKeyError(TaskEntryError, UnknownKeyError):
+    """A key a task entry's type does not read."""
+
+
+TASK_ENTRY_ERRORS = Errors(TaskEntryError, UnknownTaskKeyError, TaskEntryError)
 Builder = Callable[[Any, np.ndarray, Mapping, dict], Task]
 """``build(robot, q, entry, options) -> Task``: ``options`` holds the entry's :attr:`TaskEntry.options`."""
 
 
 @dataclass(frozen=True)
 class TaskEntry:
-    """One entry type: ``name`` (the entry's ``type``), the ``task`` class it builds, ``build(robot, q,
-    entry, options)``, its own ``keys`` ({key: a kind of :data:`KEY_KINDS`, a tuple of allowed words,
-    or a :mod:`wbik.scenario_schema` node}), the keys it ``requires``, the Task ``options`` it takes from
-    the entry (default :data:`TASK_OPTIONS`) and a one-line ``description``."""
+    """One entry type: ``name`` (the entry's ``type``), the ``task`` class, ``build(robot, q, entry,
+    options)``, its own ``keys`` ({key: a :mod:`wbik.schema` node}), those it ``requires``, the Task
+    ``options`` it takes (default :data:`TASK_OPTIONS`) and a one-line ``description``."""
 
     name: str
     task: type[Task]
     build: Builder
-    keys: Mapping[str, Any] = field(default_factory=dict)
+    keys: Mapping[str, Node] = field(default_factory=dict)
     required: tuple[str, ...] = ()
     options: tuple[str, ...] = TASK_OPTIONS
     description: str = ""
@@ -108,22 +116,18 @@ class TaskEntry:
                    and key not in TASK_OPTIONS]
         if unknown:
             raise RegistryError(f"task entry {self.name!r}: {unknown} are neither its keys nor task options")
-        kinds = [kind for kind in self.keys.values() if isinstance(kind, str) and kind not in KEY_KINDS]
-        if kinds:
-            raise RegistryError(f"task entry {self.name!r}: unknown key kind(s) {kinds}; the kinds are "
-                                f"{', '.join(KEY_KINDS)}")
+        loose = {key: node for key, node in self.keys.items() if not isinstance(node, Node)}
+        if loose:
+            raise RegistryError(f"task entry {self.name!r}: each key is a wbik.schema node (FRAME, VECTOR3, "
+                                f"Number(...), ...), got {loose}")
+
+    def schema(self) -> Map:
+        """The entry's node: ``type``, the task options it takes and its own keys."""
+        keys = {key: rule for key, rule in TASK_OPTION_KEYS.items() if key == "type" or key in self.options}
+        return Map(keys | {key: Key(node, required=key in self.required) for key, node in self.keys.items()})
 
 
 # -- what builders share -----------------------------------------------------------------------------------
-def entry_vector(value, size: int, what: str) -> np.ndarray:
-    """``value`` as ``size`` finite numbers, else a TaskEntryError naming ``what``."""
-    return finite_vector(value, size, what, TaskEntryError)
-
-
-def _rotation(entry: Mapping) -> np.ndarray:
-    return pin.rpy.rpyToMatrix(*entry_vector(entry["rpy"], 3, "rpy"))
-
-
 def _placement(robot, q: np.ndarray, frame: str) -> pin.SE3:
     try:
         return robot.frame_placement(q, frame)
@@ -135,13 +139,13 @@ def frame_target(robot, q: np.ndarray, entry: Mapping, frame: str) -> pin.SE3:
     """World target of a frame-like entry (keep / offset / target [+ rpy]), see the module notes."""
     start = _placement(robot, q, frame)
     if "target" in entry:
-        rotation = _rotation(entry) if "rpy" in entry else start.rotation
-        return pin.SE3(rotation, entry_vector(entry["target"], 3, "target"))
+        rotation = pin.rpy.rpyToMatrix(*entry["rpy"]) if "rpy" in entry else start.rotation
+        return pin.SE3(rotation, np.array(entry["target"], dtype=float))
     placement = start.copy()
     if "offset" in entry:
-        placement.translation = start.translation + entry_vector(entry["offset"], 3, "offset")
+        placement.translation = start.translation + np.array(entry["offset"], dtype=float)
     if "rpy" in entry:
-        placement.rotation = _rotation(entry)
+        placement.rotation = pin.rpy.rpyToMatrix(*entry["rpy"])
     return placement
 
 
@@ -149,10 +153,10 @@ def relative_target(robot, q: np.ndarray, entry: Mapping, frame: str, reference:
     """``frame`` in ``reference`` axes: the placement at q, or target [+ rpy], or + offset."""
     relative = _placement(robot, q, reference).actInv(_placement(robot, q, frame))
     if "target" in entry:
-        rotation = _rotation(entry) if "rpy" in entry else relative.rotation
-        return pin.SE3(rotation, entry_vector(entry["target"], 3, "target"))
+        rotation = pin.rpy.rpyToMatrix(*entry["rpy"]) if "rpy" in entry else relative.rotation
+        return pin.SE3(rotation, np.array(entry["target"], dtype=float))
     if "offset" in entry:
-        relative.translation = relative.translation + entry_vector(entry["offset"], 3, "offset")
+        relative.translation = relative.translation + np.array(entry["offset"], dtype=float)
     return relative
 
 
@@ -160,25 +164,22 @@ def com_target(robot, q: np.ndarray, entry: Mapping) -> np.ndarray:
     """A CoM entry's target: ``target``, or the start CoM under ``over``'s origin, or + ``offset``."""
     com = robot.center_of_mass(q)
     if "target" in entry:
-        return entry_vector(entry["target"], 3, "com target")
+        return np.array(entry["target"], dtype=float)
     if "over" in entry:
         above = _placement(robot, q, entry["over"]).translation
         return np.array([above[0], above[1], com[2]])
-    return com + entry_vector(entry.get("offset", [0, 0, 0]), 3, "offset")
+    return com + np.array(entry.get("offset", [0, 0, 0]), dtype=float)
 
 
 # -- the core's entry types ----------------------------------------------------------------------------
 def _frame(robot, q, entry, options) -> FrameTask:
-    for key in ("position_weight", "orientation_weight"):
-        if key in entry:
-            options[key] = float(entry[key])
+    options |= {key: float(entry[key]) for key in ("position_weight", "orientation_weight") if key in entry}
     return FrameTask(entry["frame"], frame_target(robot, q, entry, entry["frame"]), **options)
 
 
 def _position(robot, q, entry, options) -> PositionTask:
-    frame = entry["frame"]
-    target = frame_target(robot, q, entry, frame).translation
-    return PositionTask(frame, target, axes=entry.get("axes", "xyz"), **options)
+    target = frame_target(robot, q, entry, entry["frame"]).translation
+    return PositionTask(entry["frame"], target, axes=entry.get("axes", "xyz"), **options)
 
 
 def _orientation(robot, q, entry, options) -> OrientationTask:
@@ -203,34 +204,33 @@ def _regularization(robot, q, entry, options) -> RegularizationTask:
     return RegularizationTask(float(entry.get("weight", REGULARIZATION_WEIGHT)))
 
 
-_V, _FRAME = "vector3", "frame"
+_V, _KEEP = VECTOR3, Boolean()
 TASK_ENTRIES = (
     TaskEntry("frame", FrameTask, _frame,
-              {"frame": _FRAME, "target": _V, "rpy": _V, "offset": _V, "keep": "boolean",
-               "position_weight": "non_negative", "orientation_weight": "non_negative"},
+              {"frame": FRAME, "target": _V, "rpy": _V, "offset": _V, "keep": _KEEP,
+               "position_weight": NON_NEGATIVE, "orientation_weight": NON_NEGATIVE},
               required=("frame",), description="a frame's pose in the world"),
     TaskEntry("position", PositionTask, _position,
-              {"frame": _FRAME, "target": _V, "offset": _V, "keep": "boolean", "axes": "axes"},
+              {"frame": FRAME, "target": _V, "offset": _V, "keep": _KEEP, "axes": AXES},
               required=("frame",), description="a frame's origin in the world, on some axes"),
-    TaskEntry("orientation", OrientationTask, _orientation, {"frame": _FRAME, "rpy": _V, "keep": "boolean"},
+    TaskEntry("orientation", OrientationTask, _orientation, {"frame": FRAME, "rpy": _V, "keep": _KEEP},
               required=("frame",), description="a frame's orientation in the world"),
     TaskEntry("relative", RelativeFrameTask, _relative,
-              {"frame": _FRAME, "reference": _FRAME, "target": _V, "rpy": _V, "offset": _V,
-               "keep": "boolean"},
+              {"frame": FRAME, "reference": FRAME, "target": _V, "rpy": _V, "offset": _V, "keep": _KEEP},
               required=("frame", "reference"), description="a frame's pose in another frame"),
-    TaskEntry("com", ComTask, _com,
-              {"target": _V, "over": _FRAME, "offset": _V, "keep": "boolean", "axes": "axes"},
+    TaskEntry("com", ComTask, _com, {"target": _V, "over": FRAME, "offset": _V, "keep": _KEEP, "axes": AXES},
               description="the centre of mass in the world, on some axes"),
-    TaskEntry("posture", PostureTask, _posture, {"reference": ("nominal", "start"), "joints": "joint_names"},
+    TaskEntry("posture", PostureTask, _posture,
+              {"reference": Text(("nominal", "start")),
+               "joints": ListOf(Text(what="a joint name"), what="joint names")},
               description="joints toward the nominal or the start configuration"),
-    TaskEntry("regularization", RegularizationTask, _regularization, {"weight": "positive"}, options=(),
+    TaskEntry("regularization", RegularizationTask, _regularization, {"weight": POSITIVE}, options=(),
               description="small steps (weight |dq|^2)"),
 )
 """The core's entry types (see the module docstring)."""
 
 TASK_ENTRY_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds this one (the core's entries), user code
-a module by name or an entry (:func:`register_task_entry`)."""
+"""The registry's sources: :mod:`wbik.catalog` adds this module, user code a module by name."""
 
 TASK_ENTRY_REGISTRY: DeclaredRegistry[TaskEntry] = DeclaredRegistry(
     "task entry type", "TASK_ENTRIES", TASK_ENTRY_MODULES, "wbik.qp.task_entries.TASK_ENTRY_MODULES",
@@ -240,21 +240,16 @@ register_task_entry = TASK_ENTRY_REGISTRY.register
 """Add an entry type from user code (``replace`` one of the same name only when asked)."""
 
 
-def task_types() -> list[str]:
-    """The entry types, in the order they were declared."""
-    return list(TASK_ENTRY_REGISTRY.entries())
+TASK_ENTRY = Variants(lambda entry: entry.get("type"),
+                      lambda: {name: entry.schema() for name, entry in TASK_ENTRY_REGISTRY.entries().items()},
+                      "a task mapping with a 'type'", "type")
+"""The node of a task entry: one variant per entry type registered when it is checked."""
 
 
-def build_task(robot, q: np.ndarray, entry: Mapping) -> Task:
-    """The :mod:`wbik.qp.tasks` task of one entry, its target resolved at configuration q."""
-    if not isinstance(entry, Mapping) or "type" not in entry:
-        raise TaskEntryError(f"a task entry needs a 'type' (one of {', '.join(task_types())}), got {entry!r}")
-    kind = entry["type"]
-    declared = TASK_ENTRY_REGISTRY.entries().get(kind) if isinstance(kind, str) else None
-    if declared is None:
-        raise TaskEntryError(f"unknown task type {kind!r}; use {', '.join(task_types())}")
-    for key in declared.required:
-        if not entry.get(key):
-            raise TaskEntryError(f"task type {kind!r} needs a {key!r}")
+def build_task(robot, q: np.ndarray, entry: Mapping, source: str = "task entry") -> Task:
+    """The :mod:`wbik.qp.tasks` task of one entry (checked against :data:`TASK_ENTRY`, ``source`` naming
+    it), its target resolved at configuration q."""
+    entry = TASK_ENTRY.check(entry, "", Context(source, TASK_ENTRY_ERRORS))
+    declared = TASK_ENTRY_REGISTRY.get(entry["type"])
     options = {key: entry[key] for key in declared.options if key in entry}
     return declared.build(robot, q, entry, options)

@@ -74,32 +74,20 @@ import pinocchio as pin
 from wbik.expectations import Rule
 from wbik.expectations import evaluate
 from wbik.expectations import verdict
+from wbik.options import UnknownOptionError
+from wbik.options import option_schema
 from wbik.qp.diagnosis import report_lines
+from wbik.qp.task_entries import FRAME
+from wbik.qp.task_entries import NON_NEGATIVE
+from wbik.qp.task_entries import POSITIVE
 from wbik.qp.task_entries import REGULARIZATION_WEIGHT
-from wbik.qp.task_entries import TASK_ENTRY_REGISTRY
+from wbik.qp.task_entries import TASK_ENTRY
+from wbik.qp.task_entries import VECTOR3
 from wbik.qp.task_entries import TaskEntryError
 from wbik.qp.task_entries import build_task
-from wbik.scenario_schema import FRAME
 from wbik.scenario_schema import FRAMES
-from wbik.scenario_schema import NON_NEGATIVE
-from wbik.scenario_schema import POSITIVE
 from wbik.scenario_schema import START
-from wbik.scenario_schema import VECTOR3
-from wbik.scenario_schema import Anything
-from wbik.scenario_schema import Axes
-from wbik.scenario_schema import Boolean
-from wbik.scenario_schema import Context
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
 from wbik.scenario_schema import Robot
-from wbik.scenario_schema import ScenarioError
-from wbik.scenario_schema import ScenarioValueError
-from wbik.scenario_schema import Text
-from wbik.scenario_schema import Variants
-from wbik.scenario_schema import Vector
 from wbik.scenario_schema import apply_soles
 from wbik.scenario_schema import backend_key
 from wbik.scenario_schema import check_robot_params
@@ -109,10 +97,22 @@ from wbik.scenario_schema import margin_key
 from wbik.scenario_schema import soles_key
 from wbik.scenarios.kinds import KindRun
 from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioError
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import ScenarioValueError
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
+from wbik.schema import Anything
+from wbik.schema import Boolean
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import Vector
 
 __all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "compare_methods",
            "format_method", "format_report", "run_wholebody_ik", "wholebody_schema"]
@@ -132,64 +132,15 @@ PHASE_RULES = {
 
 
 # -- the schema ------------------------------------------------------------------------------------
-TASK_OPTION_KEYS = {"type": Key(Text()), "name": Key(Text()), "weight": Key(Either(NON_NEGATIVE, Vector())),
-                    "goal": Key(Boolean()), "priority": Key(Number(integer=True)),
-                    "tolerance": Key(POSITIVE), "gain": Key(POSITIVE)}
-"""Keys every task type takes (the options of wbik.qp.tasks.Task, see wbik.qp.task_entries)."""
-
-
-def _key_nodes() -> dict:
-    """The schema node of each key kind a task entry names (wbik.qp.task_entries.KEY_KINDS)."""
-    return {"frame": FRAME, "vector3": VECTOR3, "boolean": Boolean(), "axes": Axes(),
-            "non_negative": NON_NEGATIVE, "positive": POSITIVE, "length": Number(unit="m"),
-            "joint_names": ListOf(Text(what="a joint name"), what="joint names")}
-
-
-def task_node(entry) -> Map:
-    """The schema of one entry type (a :class:`wbik.qp.task_entries.TaskEntry`): ``type``, the task
-    options it takes and its own keys, each by its kind (a tuple: one of those words; a node: itself)."""
-    nodes = _key_nodes()
-
-    def node(kind):
-        if isinstance(kind, tuple):
-            return Text(kind)
-        return nodes[kind] if isinstance(kind, str) else kind
-
-    options = {key: rule for key, rule in TASK_OPTION_KEYS.items() if key == "type" or key in entry.options}
-    keys = {key: Key(node(kind), required=key in entry.required) for key, kind in entry.keys.items()}
-    return Map({**options, **keys})
-
-
-class TaskVariants(Variants):
-    """A task mapping, one variant per entry type registered when it is checked (an entry type user
-    code registers after the schema was made is taken too)."""
-
-    def __init__(self):
-        super().__init__(lambda entry: entry.get("type"), {}, "a task mapping with a 'type'", "type")
-        self._made: tuple = ((), {})
-
-    @property
-    def variants(self) -> dict[str, Map]:
-        entries = tuple(TASK_ENTRY_REGISTRY.entries().items())
-        if self._made[0] != entries:
-            self._made = (entries, {name: task_node(entry) for name, entry in entries})
-        return self._made[1]
-
-    @variants.setter
-    def variants(self, value: dict) -> None:
-        """(Variants sets its table; this one makes it from the registry.)"""
-
-
 def wholebody_schema() -> Map:
     """The keys of a wholebody_ik file (see the module docstring)."""
-    task = TaskVariants()
     phase = Map({
         "name": Key(Text()),
         "contacts": Key(FRAMES, []),
         "support": Key(FRAMES),                      # default: the contacts
         "margin": Key(Number(unit="m")),             # default: the scenario's margin
         "lock": Key(ListOf(Text(what="a joint name"), what="joint names"), []),
-        "tasks": Key(ListOf(task, min_items=1, what="task mappings"), required=True),
+        "tasks": Key(ListOf(TASK_ENTRY, min_items=1, what="task mappings"), required=True),
         "regularization": Key(POSITIVE, REGULARIZATION_WEIGHT),
         "min_distance": Key(ListOf(Map({"frames": Key(ListOf(FRAME, min_items=2), required=True),
                                         "distance": Key(NON_NEGATIVE, required=True)})), []),
@@ -254,23 +205,17 @@ def _method_names() -> tuple[str, ...]:
 
 
 def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
-    """The ``methods`` entries as {method, label, options, max_iterations or None}: options the method
-    takes, labels unique."""
-    from wbik.errors import InvalidOptionError
-    from wbik.errors import did_you_mean
-    from wbik.solvers.method_registry import solver_options
+    """The ``methods`` entries as {method, label, options, max_iterations or None}: options checked by the
+    method's option schema (:func:`wbik.options.option_schema`), labels unique."""
+    from wbik.solvers.method_registry import method_factory
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
         entry.setdefault("label", entry["method"])
         entry.setdefault("max_iterations", None)
-        accepted = (solver_options(entry["method"]) or set()) - {"max_iterations"}
-        for option in entry["options"]:
-            if option not in accepted:
-                raise InvalidOptionError(
-                    f"{ctx.source}: methods[{index}].options.{option}: method {entry['method']!r} "
-                    f"takes no option {option!r}{did_you_mean(option, accepted)}; its options: "
-                    f"{', '.join(sorted(accepted))}", option=str(option), accepted=sorted(accepted))
+        options = option_schema(method_factory(entry["method"]), 2, skip=("max_iterations",),
+                                owner=f"method {entry['method']!r}", unknown_error=UnknownOptionError)
+        entry["options"] = options.check(entry["options"], f"methods[{index}].options", ctx)
         if entry["label"] in (e["label"] for e in entries):
             ctx.fail(f"methods[{index}]", f"label {entry['label']!r} is used twice; give each a label")
         entries.append(entry)

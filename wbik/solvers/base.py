@@ -26,6 +26,9 @@ from wbik.errors import InvalidConfigurationError
 from wbik.errors import InvalidOptionError
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
+from wbik.options import COUNT
+from wbik.options import SEED
+from wbik.options import TIMEOUT_S
 from wbik.qp.constraint import Constraint
 from wbik.qp.limits import JointAccelerationLimits
 from wbik.qp.limits import JointPositionLimits
@@ -44,9 +47,6 @@ from wbik.solvers.result import Tolerances
 from wbik.solvers.result import checked_tolerances
 from wbik.targets import Target
 from wbik.targets import as_target
-from wbik.validation import check_budget
-from wbik.validation import check_count
-from wbik.validation import check_seed
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
@@ -59,7 +59,7 @@ STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
 def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
     """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
     (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
-    return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
+    return max(1, math.ceil(TIMEOUT_S.checked(timeout_s, "timeout_s", "budget") / iteration_cost_s))
 
 
 class PerThreadState:
@@ -119,7 +119,7 @@ class IterationBudget:
     def _iteration_budget(self, max_iterations: int | None, problem: bool = False) -> int:
         """``max_iterations`` checked, or the budget equivalent to ``timeout_s`` or the default budget."""
         if max_iterations is not None:
-            return check_count("max_iterations", max_iterations, InvalidBudgetError)
+            return COUNT.checked(max_iterations, "max_iterations", type(self).__name__, InvalidBudgetError)
         default = self.problem_budget_s if problem else self.default_budget_s
         return self.iterations_for(self.timeout_s or default, problem)
 
@@ -161,8 +161,8 @@ class Solver(PerThreadState, IterationBudget):
         self.tolerances = checked_tolerances(tolerances)
         if timeout_s is None and self.iteration_cost_s is None and self.problem_iteration_cost_s is None:
             timeout_s = DEFAULT_TIMEOUT_S
-        self.timeout_s = None if timeout_s is None else check_budget("timeout_s", timeout_s)
-        self.seed = None if check_seed(seed) is None else int(seed)
+        self.timeout_s = None if timeout_s is None else TIMEOUT_S.checked(timeout_s, "timeout_s", self.name)
+        self.seed = None if SEED.checked(seed, "seed", self.name) is None else int(seed)
         self._local = threading.local()
 
     @property

@@ -91,6 +91,7 @@ from time import perf_counter
 import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
+from wbik.options import COUNT
 from wbik.solvers.analytic.closed_form import BOUND_SLACK
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
 from wbik.solvers.analytic.closed_form import checked_branches
@@ -109,7 +110,6 @@ from wbik.targets import Target
 from wbik.targets import as_target
 from wbik.targets import plain_pose_matrix
 from wbik.targets import pose_target
-from wbik.validation import check_count
 
 
 class EAIKSolver(Solver):
@@ -123,7 +123,7 @@ class EAIKSolver(Solver):
     def __init__(self, robot, chain=None, batch_threads: int = 1, **options):
         """``batch_threads``: worker threads of EAIK's ``IK_batched`` in :meth:`solve_many`."""
         super().__init__(robot, chain, **options)
-        self.batch_threads = check_count("batch_threads", batch_threads)
+        self.batch_threads = COUNT.checked(batch_threads, "batch_threads", "EAIKSolver")
         self.structure = eaik_structure(self.chain)
         self.family = self.structure.family
         self.form = EAIKForm(self.chain, structure=self.structure)

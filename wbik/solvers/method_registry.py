@@ -19,12 +19,13 @@ import inspect
 
 from wbik.errors import InvalidOptionError
 from wbik.errors import UnknownMethodError
+from wbik.options import OPTION_ERRORS
+from wbik.options import option_schema
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
-from wbik.registry import check_option_types
-from wbik.registry import check_options
-from wbik.registry import factory_options
 from wbik.robot import Robot
+from wbik.schema import Context
+from wbik.schema import got
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.method import SolverFactory
@@ -86,9 +87,8 @@ def method_factory(method: str) -> SolverFactory:
 
 def solver_options(method: str) -> set[str] | None:
     """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
-    seed and the method's own), from the constructor signatures along the class hierarchy.
-    None: the factory takes any keyword (a plain callable with **kwargs)."""
-    return factory_options(method_factory(method), leading=2)  # robot, chain
+    seed and the method's own; :func:`wbik.options.option_schema`). None: the factory takes any keyword."""
+    return option_schema(method_factory(method), leading=2).accepted  # robot, chain
 
 
 def solver(method: str, robot: Robot | str, chain: str | None = None, *, base: str | None = None,
@@ -97,30 +97,26 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, *, base: s
     name, or by its ``base`` and ``tip`` frames (every joint between them). Its ``solve`` takes a chain
     target or a whole-body problem (:class:`wbik.WholeBody`), as the method allows.
 
-    Unknown options raise InvalidOptionError listing the method's options (see :func:`solver_options`).
+    Options are checked against the method's option schema (:func:`wbik.options.option_schema`) before
+    any model is built: an unknown one is an InvalidOptionError listing the method's options, a value of
+    the wrong type an InvalidSettingError.
     """
     factory = method_factory(method)
-    accepted = factory_options(factory, leading=2)  # as solver_options(method), the factory looked up once
-    check_options(f"method {method!r}", options, accepted)
-    own_checks = {"timeout_s", "tolerances", "seed"}  # checked below and by Solver, with their own words
-    check_option_types(f"method {method!r}", factory,
-                       {key: value for key, value in options.items() if key not in own_checks}, leading=2)
+    source = f"wbik.solver({method!r})"
+    schema = option_schema(factory, leading=2, owner=f"method {method!r}")  # robot, chain
+    options = schema.check(options, "", Context(source, OPTION_ERRORS))
     if not isinstance(factory, type):
         try:  # a plain callable: its own signature decides the rest (required options, **kwargs)
             inspect.signature(factory).bind(robot, chain, **options)
         except TypeError as exc:
-            raise InvalidOptionError(f"method {method!r} cannot take these options: {exc}", option=f"({exc})",
-                                     accepted=sorted(accepted or ())) from exc
-    if options.get("timeout_s") is not None:  # a typed error before any model is built
-        from wbik.validation import check_budget
-
-        options["timeout_s"] = check_budget("timeout_s", options["timeout_s"])
+            raise InvalidOptionError(f"{source}: method {method!r} cannot take these options: {exc}",
+                                     option=f"({exc})", accepted=sorted(schema.accepted or ())) from exc
     if isinstance(robot, str):
         from wbik.models import load
 
         robot = load(robot)
     elif not isinstance(robot, Robot):
-        raise InvalidOptionError(f"robot must be a wbik.Robot or a robot name, got {type(robot).__name__}",
+        raise InvalidOptionError(f"{source}: robot must be a wbik.Robot or a robot name, {got(robot)}",
                                  option="robot")
     if base is not None or tip is not None:
         if base is None or tip is None:

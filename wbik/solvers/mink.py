@@ -53,6 +53,7 @@ from wbik.qp.tasks import PositionTask
 from wbik.qp.tasks import PostureTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import RelativeFrameTask
+from wbik.schema import Number
 from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
@@ -61,8 +62,6 @@ from wbik.solvers.peer import raise_damping
 from wbik.solvers.peer import stalled
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
-from wbik.validation import check_gain
-from wbik.validation import check_nonnegative_finite
 from wbik.wholebody.problem import StartedProblem
 
 __all__ = ["IK_METHODS", "MinkProblem", "MinkSolver", "site_position_task"]
@@ -262,9 +261,9 @@ class MinkSolver(PeerSolver):
         super().__init__(robot, chain, **options)
         self.mink, self.mujoco = import_mink()
         self.backend = backends.resolve(backend)
-        self.damping = check_nonnegative_finite("damping", damping)
-        self.chain_damping = check_nonnegative_finite("chain_damping", chain_damping)
-        self.limit_gain = check_gain("limit_gain", limit_gain)
+        self.damping = Number(ge=0, as_float=True).checked(damping, "damping", "MinkSolver")
+        self.chain_damping = Number(ge=0, as_float=True).checked(chain_damping, "chain_damping", "MinkSolver")
+        self.limit_gain = Number(gt=0, le=1, as_float=True).checked(limit_gain, "limit_gain", "MinkSolver")
         self.max_step = float(max_step)
         if not self.max_step > 0.0:  # NaN, zero or negative
             raise InvalidSettingError(f"max_step must be a number > 0 (math.inf: no bound), got {max_step!r}")

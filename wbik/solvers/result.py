@@ -13,7 +13,7 @@ import numpy as np
 from wbik.errors import InvalidSettingError
 from wbik.errors import InvalidToleranceError
 from wbik.files import json_plain
-from wbik.validation import check_positive_finite
+from wbik.schema import Number
 
 
 @dataclass(frozen=True)
@@ -25,8 +25,8 @@ class Tolerances:
 
     def __post_init__(self) -> None:
         for name, unit in (("position", "m"), ("rotation", "rad")):
-            value = check_positive_finite(f"tolerances.{name}", getattr(self, name), InvalidToleranceError,
-                                          unit)
+            value = Number(gt=0, unit=unit, as_float=True).checked(getattr(self, name), f"tolerances.{name}",
+                                                                   "Tolerances", InvalidToleranceError)
             object.__setattr__(self, name, value)
 
 

@@ -123,7 +123,7 @@ class CaseKind(ABC):
         return []
 
     def method_option_schema(self, method: str) -> Map | None:
-        """The types of ``method``'s options (:func:`wbik.schema.option_schema`; None: unchecked)."""
+        """The types of ``method``'s options (:func:`wbik.options.option_schema`; None: unchecked)."""
         return None
 
     @abstractmethod

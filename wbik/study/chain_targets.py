@@ -144,7 +144,7 @@ class ChainTargets(CaseKind):
         return method_factory(method)
 
     def method_option_schema(self, method: str) -> Map:
-        from wbik.schema import option_schema
+        from wbik.options import option_schema
 
         return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
 

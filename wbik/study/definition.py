@@ -43,6 +43,7 @@ import yaml
 from wbik.data import data_dir
 from wbik.data import study_path
 from wbik.errors import did_you_mean
+from wbik.options import Options
 from wbik.schema import Anything
 from wbik.schema import Boolean
 from wbik.schema import Context
@@ -558,10 +559,9 @@ def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
 
 def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options``
-    against its constructor (names, and the types its defaults tell: ``methods[i].options.KEY``), as
-    the first of the cases' kinds that runs the method reads it
-    (:meth:`wbik.study.case_kinds.CaseKind.method_options`), every case's robot (a built-in name or an
-    existing URDF file) and its ``robot_params`` against the robot's builder."""
+    against its option schema (names and types, ``methods[i].options.KEY``) as the first of the cases'
+    kinds that runs the method reads it (:meth:`~wbik.study.case_kinds.CaseKind.method_option_schema`),
+    every case's robot (a built-in name or an existing URDF file) and its ``robot_params``."""
     from wbik.models import builder_parameters
     from wbik.models import robot_entries
     from wbik.models.erd import example_robot_name
@@ -574,17 +574,16 @@ def check_schema(methods, cases, source: str) -> None:
     for index, spec in enumerate(methods):
         kind = next((kind for kind in kinds if spec.method in kind.methods()), kinds[0])
         try:
-            accepted = kind.method_options(spec.method)
-            types = kind.method_option_schema(spec.method)
+            schema = kind.method_option_schema(spec.method)
+            names = kind.method_options(spec.method) if schema is None else None
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
-        if accepted is not None:
-            accepted = accepted | study_settings
-            _no_unknown_keys(spec.options, accepted, accepted - study_settings,
-                             f"{source}: methods[{index}] ({spec.label}).options has unknown option(s)",
-                             f"method {spec.method!r}; its options")
-        if types is not None:
-            types.check(spec.options, f"methods[{index}].options", Context(source, STUDY_ERRORS))
+        if schema is None:  # a kind that does not type its options: their names
+            schema = Options(dict.fromkeys(names or (), Key(Anything())), names is None)
+        options = Options({name: key for name, key in schema.keys.items() if name not in study_settings},
+                          schema.values is not None, f"method {spec.method!r} ({spec.label})")
+        options.check({key: value for key, value in spec.options.items() if key not in study_settings},
+                      f"methods[{index}].options", Context(source, STUDY_ERRORS))
     for case in cases:
         path = Path(case.robot).expanduser()
         example = example_robot_name(case.robot)

@@ -191,7 +191,7 @@ class WholeBodyCases(CaseKind):
         return [CASE_REGISTRY.get(case.scenario).sample]
 
     def method_option_schema(self, method: str) -> Map:
-        from wbik.schema import option_schema
+        from wbik.options import option_schema
 
         return option_schema(self.method_factory(method), leading=2)
 

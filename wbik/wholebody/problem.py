@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import copy
 import math
-import numbers
 from collections.abc import Mapping
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -35,10 +34,37 @@ from wbik.qp.limits import JointAccelerationLimits
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.limits import JointVelocityLimits
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
+from wbik.qp.task_entries import FRAME
+from wbik.qp.task_entries import TASK_ENTRY
+from wbik.qp.task_entries import build_task
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Instance
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import Vector
 
 LIMITS = ("position", "position+velocity", "none")
+FRAMES = ListOf(FRAME, what="frame names")
+COLLISION = Map({"frames": Key(ListOf(FRAME, min_items=2, what="2 frame names"), required=True),
+                 "distance": Key(Number(ge=0, unit="m"), required=True)}, what="{frames: [a, b], distance}")
+KEYS = {"margin": Key(Number(ge=0, unit="m", as_float=True)), "limits": Key(Text(LIMITS)),
+        "step_dt": Key(Number(gt=0, unit="s", as_float=True)), "name": Key(Text())}
+"""The nodes of the settings :class:`WholeBody` and :meth:`WholeBody.from_dict` share."""
+ARGUMENTS = Map({"robot": Key(Instance(Robot, "a wbik.Robot")), **KEYS,
+                 "tasks": Key(ListOf(Instance(Task, "a wbik.qp.tasks task (FrameTask, ComTask, ...)"))),
+                 "constraints": Key(ListOf(Instance(Constraint, "a wbik.qp constraint (Contact, ...)")))})
+"""The arguments of :class:`WholeBody` a node checks."""
+ACCELERATION = Either(Number(gt=0), Vector(), what="one number > 0 or a list of numbers >= 0 (rad/s^2)")
+PROBLEM = Map({"tasks": Key(ListOf(TASK_ENTRY, what="task entries"), []), "contacts": Key(FRAMES),
+               "support": Key(FRAMES), "collisions": Key(ListOf(COLLISION)), **KEYS,
+               "acceleration_limit": Key(ACCELERATION)}, what="a mapping (tasks, contacts, ...)")
+"""The keys of :meth:`WholeBody.from_dict` (null: the default)."""
 
 
 class WholeBody:
@@ -51,7 +77,7 @@ class WholeBody:
     also bounded by v_max ``step_dt``) or "none". ``acceleration_limit``: rad/s^2 (one value or nv), each
     IK step a period of ``step_dt`` (:class:`wbik.qp.limits.JointAccelerationLimits`). ``collisions``:
     minimum distances between frame origins, (frame_a, frame_b, m) or {frames: [a, b], distance: m}.
-    ``constraints``: any further constraint objects.
+    ``constraints``: any further constraint objects. The arguments are checked by :data:`ARGUMENTS`.
     """
 
     def __init__(self, robot: Robot, tasks: Sequence[Task] = (), contacts=(),
@@ -59,40 +85,24 @@ class WholeBody:
                  limits: str = "position+velocity", collisions=None, *,
                  constraints: Sequence[Constraint] = (), step_dt: float = 1.0, acceleration_limit=None,
                  name: str = ""):
-        if not isinstance(robot, Robot):
-            raise InvalidSettingError(f"WholeBody needs a wbik.Robot, got {type(robot).__name__}")
-        self.robot, self.name, self.tasks = robot, str(name), list(tasks)
-        for task in self.tasks:
-            if not isinstance(task, Task):
-                raise InvalidSettingError(
-                    f"tasks must be wbik.qp.tasks types (FrameTask, ComTask, ...), got {task!r}")
+        ctx = Context("WholeBody")
+        checked = ARGUMENTS.check({"robot": robot, "tasks": list(tasks), "margin": margin, "limits": limits,
+                                   "step_dt": step_dt, "constraints": list(constraints)}, "", ctx)
+        self.robot, self.name, self.tasks = robot, str(name), checked["tasks"]
+        self.step_dt = checked["step_dt"]
         if not any(task.goal for task in self.tasks):
-            raise InvalidSettingError(
-                "a whole-body problem needs at least one goal task (posture and regularisation are not "
-                "goals)")
-        if isinstance(margin, bool) or not isinstance(margin, numbers.Real) or not math.isfinite(margin) \
-                or margin < 0:
-            raise InvalidSettingError(f"margin must be a finite number >= 0 (m), got {margin!r}")
-        if limits not in LIMITS:
-            raise InvalidSettingError(f"limits must be one of {', '.join(LIMITS)}, got {limits!r}")
-        if isinstance(step_dt, bool) or not isinstance(step_dt, numbers.Real) or not step_dt > 0:
-            raise InvalidSettingError(f"step_dt must be a positive number (s), got {step_dt!r}")
-        self.step_dt = float(step_dt)
-        self.acceleration_limit = _acceleration(robot, acceleration_limit)
+            ctx.fail("tasks", "need at least one goal task (posture and regularisation are not goals)")
+        self.acceleration_limit = _acceleration(robot, acceleration_limit, ctx)
         made = self._contacts(contacts)
-        made += self._support(support, [c.frame for c in made], float(margin))
+        made += self._support(support, [c.frame for c in made], checked["margin"])
         if limits != "none":
             made.append(JointPositionLimits())
         if limits == "position+velocity":
             made.append(JointVelocityLimits(period=self.step_dt))
         if self.acceleration_limit is not None:
             made.append(JointAccelerationLimits(self.acceleration_limit, period=self.step_dt))
-        made += [_distance(item) for item in (collisions or ())]
-        for constraint in constraints:
-            if not isinstance(constraint, Constraint):
-                raise InvalidSettingError(f"constraints must be wbik.qp constraint objects (Contact, "
-                                          f"JointPositionLimits, ...), got {constraint!r}")
-        self.constraints: list[Constraint] = made + list(constraints)
+        made += [_distance(item, f"collisions[{index}]", ctx) for index, item in enumerate(collisions or ())]
+        self.constraints: list[Constraint] = made + checked["constraints"]
         for frame in [*self.contacts, *self.support, *(f for c in self.collisions for f in c.frames)]:
             robot.frame_id(frame)  # UnknownFrameError names the frames
         names = [task.name for task in self.tasks]
@@ -189,31 +199,16 @@ class WholeBody:
     # -- from a task-file entry ---------------------------------------------------------------------
     @classmethod
     def from_dict(cls, robot: Robot, data: Mapping, q: np.ndarray | None = None) -> WholeBody:
-        """A problem from a task-file mapping, targets resolved at q (default: the robot's nominal).
-
-        Keys: ``tasks`` (entries as in a ``wholebody_ik`` phase, :mod:`wbik.qp.task_entries`),
-        ``contacts``, ``support``, ``margin``, ``limits``, ``collisions`` ([{frames: [a, b], distance: m}]),
-        ``step_dt``, ``acceleration_limit``, ``name``."""
-        from wbik.qp.task_entries import build_task
-
-        if not isinstance(data, Mapping):
-            raise InvalidSettingError(
-                f"a whole-body problem is a mapping (tasks, contacts, ...), got {data!r}")
-        known = {"tasks", "contacts", "support", "margin", "limits", "collisions", "name", "step_dt",
-                 "acceleration_limit"}
-        unknown = sorted(set(data) - known)
-        if unknown:
-            raise InvalidSettingError(
-                f"unknown key(s) {unknown} in a whole-body problem; allowed: {', '.join(sorted(known))}")
+        """A problem from a task-file mapping (:data:`PROBLEM`: ``tasks`` as in a ``wholebody_ik`` phase,
+        ``collisions`` as [{frames: [a, b], distance: m}], the other keys as the arguments of the same
+        name), targets resolved at q (default: the robot's nominal)."""
+        source = "WholeBody.from_dict"
+        if isinstance(data, Mapping):
+            data = {key: value for key, value in data.items() if value is not None}
+        data = PROBLEM.check(data, "", Context(source))
         q = robot.nominal.copy() if q is None else np.asarray(q, dtype=float)
-        entries = data.get("tasks") or []
-        if not isinstance(entries, list):
-            raise InvalidSettingError("tasks must be a list of task entries ({type: frame, frame: ..., ...})")
-        return cls(robot, [build_task(robot, q, entry) for entry in entries],
-                   contacts=list(data.get("contacts") or []), support=data.get("support"),
-                   margin=data.get("margin", 0.005), limits=data.get("limits", "position+velocity"),
-                   collisions=data.get("collisions"), step_dt=data.get("step_dt", 1.0),
-                   acceleration_limit=data.get("acceleration_limit"), name=str(data.get("name", "") or ""))
+        tasks = [build_task(robot, q, entry, source) for entry in data.pop("tasks")]
+        return cls(robot, tasks, **data)
 
 
 @dataclass
@@ -252,28 +247,30 @@ class StartedProblem:
                    for name, task in zip(self.problem.task_names, self.tasks, strict=True)])
 
 
-def _acceleration(robot: Robot, value) -> float | np.ndarray | None:
+def _acceleration(robot: Robot, value, ctx: Context) -> float | np.ndarray | None:
     """``acceleration_limit`` checked: None, one number > 0 or nv numbers >= 0 (rad/s^2)."""
     if value is None:
         return None
-    array = np.asarray(value, dtype=float) if not isinstance(value, bool) else np.array(np.nan)
+    try:
+        array = np.array(np.nan) if isinstance(value, bool | str) else np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        array = np.array(np.nan)
     nv = robot.model.nv
     if array.ndim == 0 and math.isfinite(float(array)) and float(array) > 0:
         return float(array)
     if array.shape == (nv,) and not np.any(np.isnan(array)) and np.all(array >= 0):
         return array.copy()
-    raise InvalidSettingError(f"acceleration_limit must be one number > 0 or {nv} numbers >= 0 (rad/s^2), "
-                              f"got {value!r}")
+    ctx.must("acceleration_limit", f"one number > 0 or {nv} numbers >= 0 (rad/s^2)", value)
 
 
-def _distance(item) -> MinimumDistance:
+def _distance(item, path: str, ctx: Context) -> MinimumDistance:
     if isinstance(item, MinimumDistance):
         return item
     if isinstance(item, Mapping):
-        item = (*item.get("frames", ()), item.get("distance"))
+        item = COLLISION.check(item, path, ctx)
+        item = (*item["frames"], item["distance"])
     try:
         frame_a, frame_b, distance = item
         return MinimumDistance(str(frame_a), str(frame_b), float(distance))
     except (TypeError, ValueError):
-        raise InvalidSettingError(f"a collision entry is (frame_a, frame_b, distance m) or "
-                                  f"{{frames: [a, b], distance: m}}, got {item!r}") from None
+        ctx.must(path, f"(frame_a, frame_b, distance m), {COLLISION.expected} or a MinimumDistance", item)

@@ -53,18 +53,10 @@ from wbik.expectations import ExpectationError
 from wbik.expectations import Rule
 from wbik.expectations import judge
 from wbik.scenario_schema import START
-from wbik.scenario_schema import Boolean
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
 from wbik.scenario_schema import Robot
-from wbik.scenario_schema import Text
 from wbik.scenario_schema import backend_key
 from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import default_of
 from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import from_dataclass
 from wbik.scenario_schema import kind_schema
 from wbik.scenario_schema import margin_key
 from wbik.scenario_schema import time_laws
@@ -76,6 +68,14 @@ from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import format_entries
 from wbik.scenarios.kinds import start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
+from wbik.schema import Boolean
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import default_of
+from wbik.schema import from_dataclass
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2

@@ -19,16 +19,16 @@ from wbik.motion.scenarios import pose_of
 from wbik.motion.scenarios import samples_key
 from wbik.motion.scenarios import solving_keys
 from wbik.motion.scenarios import vector_of
-from wbik.scenario_schema import VECTOR3
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Vector
+from wbik.qp.task_entries import VECTOR3
 from wbik.scenario_schema import kind_schema
 from wbik.scenarios.kinds import Progress
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import start_of
+from wbik.schema import Either
+from wbik.schema import Key
+from wbik.schema import Map
+from wbik.schema import Vector
 
 APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}
 """A motion's expectations and ``lift``: whether the torso lift moved."""

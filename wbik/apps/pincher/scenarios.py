@@ -20,21 +20,21 @@ from wbik.motion.scenarios import samples_key
 from wbik.motion.scenarios import solving_keys
 from wbik.motion.scenarios import timing_node
 from wbik.motion.scenarios import vector_of
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
-from wbik.scenario_schema import ScenarioError
-from wbik.scenario_schema import Text
-from wbik.scenario_schema import Variants
-from wbik.scenario_schema import Vector
 from wbik.scenario_schema import expect_block
 from wbik.scenario_schema import kind_schema
 from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioError
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 from wbik.scenarios.kinds import start_of
+from wbik.schema import Either
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Text
+from wbik.schema import Variants
+from wbik.schema import Vector
 
 
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:

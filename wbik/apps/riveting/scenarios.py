@@ -28,30 +28,30 @@ from wbik.apps.riveting.report import run_task
 from wbik.apps.riveting.report import write_report
 from wbik.errors import WbikError
 from wbik.errors import did_you_mean
-from wbik.scenario_schema import NON_NEGATIVE
-from wbik.scenario_schema import POSITIVE
-from wbik.scenario_schema import VECTOR3
-from wbik.scenario_schema import Context
-from wbik.scenario_schema import Either
-from wbik.scenario_schema import Key
-from wbik.scenario_schema import ListOf
-from wbik.scenario_schema import Map
-from wbik.scenario_schema import Number
-from wbik.scenario_schema import Refused
+from wbik.qp.task_entries import NON_NEGATIVE
+from wbik.qp.task_entries import POSITIVE
+from wbik.qp.task_entries import VECTOR3
 from wbik.scenario_schema import Robot
-from wbik.scenario_schema import ScenarioError
-from wbik.scenario_schema import Text
-from wbik.scenario_schema import UnknownExpectationKeyError
-from wbik.scenario_schema import Variants
-from wbik.scenario_schema import Vector
 from wbik.scenario_schema import backend_key
 from wbik.scenario_schema import common_keys
 from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import from_dataclass
 from wbik.scenario_schema import time_laws
 from wbik.scenarios.kinds import Progress
+from wbik.scenarios.kinds import ScenarioError
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
+from wbik.scenarios.kinds import UnknownExpectationKeyError
+from wbik.schema import Context
+from wbik.schema import Either
+from wbik.schema import Key
+from wbik.schema import ListOf
+from wbik.schema import Map
+from wbik.schema import Number
+from wbik.schema import Refused
+from wbik.schema import Text
+from wbik.schema import Variants
+from wbik.schema import Vector
+from wbik.schema import from_dataclass
 
 __all__ = ["SCENARIO_KINDS", "format_text", "riveting_animation", "riveting_schema", "run_riveting"]
 

@@ -46,7 +46,7 @@ from wbik.robot_packages.bioloid.closed_form import BioloidFacts
 from wbik.robot_packages.bioloid.closed_form import LegPose
 from wbik.robot_packages.bioloid.closed_form import LegPosition
 from wbik.robot_packages.bioloid.closed_form import arm_lengths
-from wbik.validation import check_positive_finite
+from wbik.schema import Number
 
 # ASSUMPTIONS (not in the seed), m
 HIP_LATERAL = 0.0385  # pelvis centre -> hip, sideways: the code's unlabelled L5
@@ -286,7 +286,7 @@ def sole_corners() -> dict[str, np.ndarray]:
 def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robot:
     """The Bioloid on a free-flyer base: ``tool_length`` (m) 0.0255 (the code's) or 0.070 (the
     thesis's), ``pitch`` the nominal standing pose's torso pitch (rad)."""
-    tool_length = check_positive_finite("bioloid tool_length", tool_length, RobotDescriptionError, "m")
+    tool_length = Number(gt=0, unit="m").checked(tool_length, "tool_length", "bioloid", RobotDescriptionError)
     if isinstance(pitch, bool) or not isinstance(pitch, int | float) or not abs(pitch) < math.pi / 2:
         raise RobotDescriptionError(f"bioloid pitch must be a number of radians in (-pi/2, pi/2), "
                                     f"got {pitch!r}")

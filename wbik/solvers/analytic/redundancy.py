@@ -237,11 +237,11 @@ class HeldChoice:
 def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
     """The held joint's index (None: the default) after checking the options; InvalidSettingError
     saying what is accepted."""
-    from wbik.validation import check_count
+    from wbik.options import COUNT
 
     if mode not in REDUNDANCY_MODES:
         raise InvalidSettingError(f"redundancy must be one of {list(REDUNDANCY_MODES)}, got {mode!r}")
-    check_count("grid_size", grid_size)
+    COUNT.checked(grid_size, "grid_size", "wbik.solver('analytic')")
     if joint is None:
         return None
     if isinstance(joint, str):
