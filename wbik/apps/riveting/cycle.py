@@ -1,39 +1,18 @@
-"""The riveting run: 300 s of simulated time, cycle after cycle, checked densely for collisions.
+"""The riveting run: cycle after cycle for 300 s of simulated time, driven by the EuRoC client's state
+machine (:mod:`wbik.apps.riveting.task_states`) and checked densely for collisions.
 
-Start: the UR5 at its nominal configuration (EuRoC's "posicion inicial"); first move to rivet_home.
-Each cycle (ur5-riveting.md 2.3):
+Each cycle: at rivet_home load_rivet (a dwell); the server publishes hole_guess, the frame of a hole
+drawn uniformly among those not riveted yet (seeded), its position moved by Gaussian noise (redrawn
+above ``position_max``, under half the hole spacing) and turned by a Gaussian angle about a random
+axis; the client takes the nearest true hole; the planner's moves go to it, insert, trigger, retract and
+return. Planning is charged to the clock (``charge_planning``): a ``plan`` dwell of the plan's
+deterministic cost (:mod:`wbik.apps.riveting.cost`); its measured wall time is reported, not charged.
 
-1. at rivet_home: load_rivet (a dwell of ``load_s``);
-2. the server publishes hole_guess, a noisy pose near one hole (noise model below); the client
-   identifies the nearest true hole by position (the thesis's ``detecting_hole_guess``);
-3. the planner's moves: to the hole, insert, trigger_rivet (dwell), retract, back to rivet_home.
-
-Hole guesses (our model; the seed gives none): the server picks a hole uniformly among those not
-riveted yet (with a seeded numpy Generator), and publishes its frame with the position moved by
-isotropic Gaussian noise (``position_sigma`` 4 mm per axis, redrawn while the offset is longer than
-``position_max`` = 15 mm, under half the 40 mm hole spacing, so the nearest hole is always right)
-and the orientation turned by a Gaussian angle (``angle_sigma_deg`` 2 deg) about a uniformly random
-axis. The run ends at ``duration`` (300 s) or when every hole is riveted.
-
-A rivet counts when its trigger comes before the end of the run, the identified hole is the true
-one, the tcp at trigger is within ``depth_tolerance`` (0.1 mm) of the 6 mm depth along the hole
-axis, within 0.3 mm laterally and 1 deg in axis, and the cycle touched nothing (all distances > 0).
-
-Collision check: every move is sampled so that consecutive samples are at most 2 mm of tcp motion
-and 0.01 rad of any joint apart (0.2 mm of tcp motion when the tool is at the hole: insert and
-retract), and every sample is measured with coal distance queries (see ``collision``). A collision
-is a contact event: a geometry's distance to the workpiece going from > 0 to <= 0.
-
-Planning is charged to the run (``charge_planning``, default on): each hole is planned online,
-after hole_guess is known, while the robot waits at rivet_home; a ``plan`` dwell of the plan's
-deterministic cost (:mod:`wbik.apps.riveting.cost`: counted operations x calibrated unit costs) is
-added to the clock. The measured wall time of the planning is reported beside it, not charged.
-
-The EuRoC client's state machine (:mod:`wbik.apps.riveting.task_states`) drives the run: STARTING ->
-GOING_RIVET_HOME (first move, load_rivet) -> DETECTING_HOLE_POSE (identify the hole, plan; the
-thesis's move to q_int and sleep) -> GOING_HOLE_GUESS -> MOVING_INTO_HOLE -> RIVETING ->
-MOVING_OUT_FROM_HOLE -> GOING_RIVET_HOME (return, load_rivet) -> DETECTING_HOLE_POSE ...; every
-move is run in its state (illegal transitions raise) and the visits are recorded with their times.
+A rivet counts when triggered before the end, in the right hole, the tcp within ``depth_tolerance`` of
+the depth along the hole axis, ``lateral_tolerance`` across it and ``angle_tolerance_deg`` in axis, and
+the cycle touched nothing. Every move is sampled (2 mm of tcp motion and 0.01 rad of any joint apart,
+0.2 mm for insert and retract) and measured (:mod:`wbik.apps.riveting.collision`); a collision is a
+geometry's workpiece distance going from > 0 to <= 0.
 """
 
 from __future__ import annotations
@@ -46,11 +25,10 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.riveting.collision import TOOL_GEOMETRIES
 from wbik.apps.riveting.collision import CollisionModel
 from wbik.apps.riveting.moves import Move
 from wbik.apps.riveting.moves import dwell
-from wbik.apps.riveting.moves import sample_times
+from wbik.apps.riveting.moves import samples
 from wbik.apps.riveting.plan import TRIGGER
 from wbik.apps.riveting.plan import Insertion
 from wbik.apps.riveting.plan import Planner
@@ -85,6 +63,8 @@ class NoiseModel:
 
 @dataclass(frozen=True)
 class RunConfig:
+    """Simulated time (s), seed, cycle cap, hole_guess noise and what counts as a rivet (m, deg)."""
+
     duration: float = 300.0
     seed: int = 2015
     max_cycles: int | None = None
@@ -110,6 +90,8 @@ class MoveCheck:
 
 @dataclass
 class RunResult:
+    """One planner's run: its cycles' records, counts, timeline [(start s, move)] and state visits."""
+
     planner: str
     cycles: list[dict]
     setup: dict
@@ -128,11 +110,13 @@ class RunResult:
         angles = [c["axis_error_rad"] for c in cycles]
         result = score(positions, angles, self.rivets, self.collisions)
         durations = [c["cycle_time_s"] for c in self.cycles if c.get("success")]
-        all_cycles = self.cycles
 
-        def smallest(key):
-            values = [c[key] for c in all_cycles if c.get(key) is not None]
-            return float(min(values)) if values else None
+        def smallest_mm(key: str) -> float | None:
+            values = [c[key] for c in self.cycles if c.get(key) is not None]
+            return float(min(values)) * 1e3 if values else None
+
+        def total(key: str) -> float:
+            return float(sum(c.get(key, 0.0) for c in self.cycles))
 
         return {
             "planner": self.planner,
@@ -146,46 +130,38 @@ class RunResult:
                                      if cycles else None),
             "max_depth_error_mm": (float(max(abs(c["depth_error_m"]) for c in cycles) * 1e3)
                                    if cycles else None),
-            "min_clearance_tool_mm": _mm(smallest("tool_min_m")),
-            "min_clearance_links_mm": _mm(smallest("link_min_m")),
-            "min_clearance_table_mm": _mm(smallest("table_min_m")),
+            "min_clearance_tool_mm": smallest_mm("tool_min_m"),
+            "min_clearance_links_mm": smallest_mm("link_min_m"),
+            "min_clearance_table_mm": smallest_mm("table_min_m"),
             "mean_cycle_time_s": float(np.mean(durations)) if durations else None,
             "min_cycle_time_s": float(np.min(durations)) if durations else None,
             "max_cycle_time_s": float(np.max(durations)) if durations else None,
             "simulated_time_s": self.end_time,
             "failed_plans": sum(1 for c in self.cycles if not c.get("success")),
-            "planning_time_s": float(sum(c.get("planning_time_s", 0.0) for c in self.cycles)),
-            "planning_cost_s": float(sum(c.get("planning_cost_s", 0.0) for c in self.cycles)),
-            "planning_charged_s": float(sum(c.get("planning_charged_s", 0.0) for c in self.cycles)),
+            "planning_time_s": total("planning_time_s"),
+            "planning_cost_s": total("planning_cost_s"),
+            "planning_charged_s": total("planning_charged_s"),
             "all_holes_riveted_s": self.all_riveted_s,
             "states_visited": self.states.counts(),
             "wall_time_s": self.wall_time_s,
         }
 
 
-def _mm(value: float | None) -> float | None:
-    return None if value is None else value * 1e3
-
-
-def check_move(move: Move, chain, collision: CollisionModel, previous: dict[str, float]) -> MoveCheck:
-    """Sample a move densely and measure every sample; ``previous`` carries the last distance per
-    geometry across moves (for contact events)."""
-    times = sample_times(move, chain)
+def check_move(move: Move, chain, collision: CollisionModel, previous: dict[str, bool]) -> MoveCheck:
+    """Sample a move densely and measure every sample; ``previous`` carries across moves whether each
+    geometry was clear of the workpiece at the last sample (a contact event: clear, then touching)."""
+    times, rows = samples(move, chain)
     tool_min = link_min = table_min = np.inf
-    events, colliding = 0, []
-    for t in times:
-        clearance = collision.clearance(move.evaluate(t)[0])
-        for item in clearance.workpiece:
-            if item.distance <= 0.0 and previous.get(item.geometry, 1.0) > 0.0:
-                events += 1
-                colliding.append(item.geometry)
-            previous[item.geometry] = item.distance
-            if item.geometry in TOOL_GEOMETRIES:
-                tool_min = min(tool_min, item.distance)
-            else:
-                link_min = min(link_min, item.distance)
-        table_min = min(table_min, clearance.table_minimum())
-    return MoveCheck(len(times), float(tool_min), float(link_min), float(table_min), events, colliding)
+    colliding = []
+    for q in rows:
+        clearance = collision.clearance(q)
+        touching = clearance.touching()
+        colliding += [name for name in touching if previous.get(name, True)]
+        previous.update({entry.name: entry.name not in touching for entry in clearance.entries})
+        tool_min = clearance.minimum("tool", tool_min)
+        link_min = clearance.minimum("links", link_min)
+        table_min = clearance.minimum("table", table_min)
+    return MoveCheck(len(times), tool_min, link_min, table_min, len(colliding), colliding)
 
 
 def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertion: Insertion,
@@ -196,30 +172,25 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
     chain = planner.chain
     rng = np.random.default_rng(config.seed)
     setup = planner.setup(q_home)
-    previous: dict[str, float] = {}
-    timeline: list[tuple[float, Move]] = []
-    clock = 0.0
+    previous: dict[str, bool] = {}
     states = TaskStateMachine(0.0)
-    states.go(State.GOING_RIVET_HOME, clock)  # target_frame == /rivet_home
+    states.go(State.GOING_RIVET_HOME, 0.0)  # target_frame == /rivet_home
     first = planner.go_home(planner.robot.nominal.copy(), q_home)
-    first_checks = [check_move(move, chain, collision, previous) for move in first]
+    collisions = sum(check_move(move, chain, collision, previous).collisions for move in first)
+    timeline, clock = [], 0.0
     for move in first:
         timeline.append((clock, move))
         clock += move.duration
-    first_collisions = sum(c.collisions for c in first_checks)
-    result = RunResult(planner.name, [], setup, 0, first_collisions, clock, timeline, 0.0,
-                       {"duration_s": clock, "collisions": first_collisions}, states)
+    result = RunResult(planner.name, [], setup, 0, collisions, clock, timeline, 0.0,
+                       {"duration_s": clock, "collisions": collisions}, states)
     remaining = list(scene.holes)
     loaded = False
     while clock < config.duration and remaining:
         if config.max_cycles is not None and len(result.cycles) >= config.max_cycles:
             break
-        cycle_start = clock
-        visits_before = len(states.visits)
-        moves: list[Move] = []
-        if not loaded:  # GOING_RIVET_HOME ends at rivet_home with load_rivet
-            moves.append(dwell("load_rivet", q_home, insertion.load_s))
-            loaded = True
+        cycle_start, visits_before = clock, len(states.visits)
+        moves = [] if loaded else [dwell("load_rivet", q_home, insertion.load_s)]  # GOING_RIVET_HOME's end
+        loaded = True
         true_hole = remaining[int(rng.integers(len(remaining)))]
         guess = config.noise.guess(true_hole, rng)
         identified = scene.nearest_hole(guess.translation)
@@ -229,17 +200,13 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
                   "guess_offset_mm": float(np.linalg.norm(guess.translation - true_hole.position) * 1e3),
                   "start_time_s": cycle_start, "success": plan.success, "reason": plan.reason,
                   "planning_time_s": plan.planning_time_s, "planning_cost_s": plan.planning_cost_s,
-                  "planning_charged_s": charged, **{k: v for k, v in plan.info.items()}}
+                  "planning_charged_s": charged, **plan.info}
         remaining.remove(true_hole)
-        if charged > 0.0:
-            moves.append(dwell("plan", q_home, charged))
-        if plan.success:
-            moves += plan.moves
-        checks, trigger_time, q_trigger = [], None, None
-        detected = False
+        moves += [dwell("plan", q_home, charged)] if charged > 0.0 else []
+        moves += plan.moves if plan.success else []
+        checks, trigger_time, q_trigger, detected = [], None, None, False
         for move in moves:
-            if move.name != "load_rivet" and not detected:
-                # target_frame == /hole_guess: detecting_hole_guess() (a retry after a failed plan)
+            if move.name != "load_rivet" and not detected:  # target_frame == /hole_guess (or a retry)
                 states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
                 detected = True
             states.go(state_of_move(move.name), clock)
@@ -251,17 +218,15 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
             clock += move.duration
         if not detected:
             states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
-        if states.state == State.GOING_RIVET_HOME:
-            loaded = False  # back at rivet_home: load_rivet before the next hole
+        loaded = states.state != State.GOING_RIVET_HOME  # back at rivet_home: load_rivet before the next hole
+        visited = [name for _, name in states.visits[visits_before:]]
+        result.cycles.append(record)
+        result.end_time = min(clock, config.duration)
         if not plan.success:
-            record.update({"cycle_time_s": clock - cycle_start,
-                           "states": [name for _, name in states.visits[visits_before:]]})
-            result.cycles.append(record)
-            result.end_time = min(clock, config.duration)
+            record.update({"cycle_time_s": clock - cycle_start, "states": visited})
             continue
         collisions = sum(check.collisions for check in checks)
-        wanted = insertion.inserted_pose(true_hole)
-        position, lateral, along, angle = tcp_errors(chain, q_trigger, wanted)
+        position, lateral, along, angle = tcp_errors(chain, q_trigger, insertion.inserted_pose(true_hole))
         in_time = trigger_time is not None and trigger_time <= config.duration
         correct = (in_time and identified.name == true_hole.name and abs(along) <= config.depth_tolerance
                    and lateral < config.lateral_tolerance and np.degrees(angle) < config.angle_tolerance_deg
@@ -274,12 +239,9 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
             "tool_min_m": min(c.tool_min for c in checks), "link_min_m": min(c.link_min for c in checks),
             "table_min_m": min(c.table_min for c in checks), "samples": sum(c.samples for c in checks),
             "moves": {move.name: round(move.duration, 4) for move in moves},
-            "states": [name for _, name in states.visits[visits_before:]],
-            "counted": bool(correct)})
-        result.cycles.append(record)
+            "states": visited, "counted": bool(correct)})
         result.rivets += int(correct)
         result.collisions += collisions
-        result.end_time = min(clock, config.duration)
         result.wall_time_s = time.perf_counter() - started
         if on_cycle is not None:
             on_cycle(result)

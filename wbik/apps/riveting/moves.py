@@ -1,11 +1,6 @@
-"""Moves of a riveting cycle: timed joint paths (wbik.motion) and dwells, with dense sampling.
-
-Every move is rest to rest: a joint path (knots) timed by :func:`wbik.motion.time_scale` with the
-quintic (minimum-jerk) law under the UR5's joint velocity limits (URDF: 3.15 rad/s for the first
-three joints, 3.2 rad/s for the wrists) and our acceleration limit. A planner may ask for a
-longer, fixed duration (the thesis's fixed trajectory times); the limits then hold a fortiori.
-A dwell holds one configuration (load_rivet, trigger_rivet, the thesis's sleep).
-"""
+"""Moves of a riveting cycle: rest-to-rest joint paths timed by :func:`wbik.motion.time_scale` under the
+UR5's joint velocity limits and our acceleration limit (or stretched to a longer fixed duration), dwells,
+and their dense sampling for the collision check."""
 
 from __future__ import annotations
 
@@ -23,7 +18,10 @@ from wbik.robot import Chain
 
 @dataclass
 class Move:
-    """One step of a cycle: a timed joint path, or a dwell at ``hold`` for ``duration`` seconds."""
+    """One step of a cycle: a timed joint path, or a dwell at ``hold`` for ``duration`` seconds.
+
+    ``offset`` (s): where the move starts on ``timed`` (a part of one blended motion); ``reverse``: run
+    ``timed`` backward (time laws are symmetric, so the limits still hold)."""
 
     name: str
     duration: float
@@ -32,9 +30,7 @@ class Move:
     fine: bool = False  # sample finely (the tool near or in the hole)
     info: dict | None = None
     offset: float = 0.0
-    """Where this move starts on ``timed`` (s): a part of one blended motion (no stop between parts)."""
     reverse: bool = False
-    """Run ``timed`` backward (the same path home; time laws are symmetric, so the limits still hold)."""
 
     def evaluate(self, t: np.ndarray) -> np.ndarray:
         """Joint rows at local times t in [0, duration]."""
@@ -78,9 +74,7 @@ def stretch(timed: TimedPath, duration: float) -> TimedPath:
 def joint_path_through(chain: Chain, knots: np.ndarray) -> JointPath:
     """A JointPath through ``knots`` (K, n) parameterised by normalised joint-space arc length."""
     knots = np.asarray(knots, dtype=float)
-    steps = np.linalg.norm(np.diff(knots, axis=0), axis=1)
-    keep = np.r_[True, steps > 1e-12]
-    knots = knots[keep]
+    knots = knots[np.r_[True, np.linalg.norm(np.diff(knots, axis=0), axis=1) > 1e-12]]
     lengths = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(knots, axis=0), axis=1))]
     s = lengths / lengths[-1] if lengths[-1] > 0 else np.linspace(0.0, 1.0, len(knots))
     return JointPath(chain, s, knots, info={"kind": "riveting"})
@@ -101,49 +95,49 @@ def timed_move(name: str, chain: Chain, knots: np.ndarray, limits: Limits,
                 info={**(info or {}), "minimum_duration_s": minimum})
 
 
-def split(timed_parts: Move, at: float, names: tuple[str, str], fine: tuple[bool, bool]) -> list[Move]:
-    """One timed motion cut at time ``at`` (s) into two moves that follow each other without a stop
-    (e.g. the approach and the insertion of one blended motion)."""
-    timed = timed_parts.timed
-    first = Move(names[0], float(at), timed=timed, fine=fine[0], info=timed_parts.info)
-    second = Move(names[1], float(timed.duration - at), timed=timed, fine=fine[1], info=timed_parts.info,
-                  offset=float(at))
-    return [first, second]
+def split(whole: Move, at: float, names: tuple[str, str], fine: tuple[bool, bool]) -> list[Move]:
+    """One timed motion cut at time ``at`` (s) into two moves that follow each other without a stop."""
+    timed, info, at = whole.timed, whole.info, float(at)
+    return [Move(names[0], at, timed=timed, fine=fine[0], info=info),
+            Move(names[1], float(timed.duration - at), timed=timed, fine=fine[1], info=info, offset=at)]
 
 
 def backward(move: Move, name: str, fine: bool = False) -> Move:
     """``move`` run backward (its path from end to start, same duration)."""
-    timed = move.timed
-    return Move(name, move.duration, timed=timed, fine=fine, info=move.info,
-                offset=float(timed.duration - move.offset - move.duration), reverse=not move.reverse)
+    return Move(name, move.duration, timed=move.timed, fine=fine, info=move.info,
+                offset=float(move.timed.duration - move.offset - move.duration), reverse=not move.reverse)
 
 
 def dwell(name: str, q: np.ndarray, duration: float) -> Move:
     return Move(name, float(duration), hold=np.asarray(q, dtype=float).copy())
 
 
-def sample_times(move: Move, chain: Chain, step: float = 0.002, angle_step: float = 0.01,
-                 fine_step: float = 0.0002, resolution: float = 5e-4) -> np.ndarray:
-    """Local times at which to check a move: consecutive samples at most ``step`` m of tcp motion
-    (``fine_step`` for fine moves) and ``angle_step`` rad of any joint apart (end points included).
+def samples(move: Move, chain: Chain, step: float = 0.002, angle_step: float = 0.01,
+            fine_step: float = 0.0002, resolution: float = 5e-4) -> tuple[np.ndarray, np.ndarray]:
+    """(local times, joint rows) at which to check a move: consecutive samples at most ``step`` m of tcp
+    motion (``fine_step`` for fine moves) and ``angle_step`` rad of any joint apart, end points included.
 
-    The move is first evaluated every ``resolution`` s; when the tcp or a joint has moved by the step
-    since the last kept sample, the dense point just before is kept, so no gap between kept samples
-    exceeds the step (by more than one dense interval at most).
+    The move is evaluated every ``resolution`` s; when the tcp or a joint has moved a step since the last
+    kept sample, the dense point before is kept (no gap exceeds the step by more than one dense interval).
     """
     if move.timed is None or move.duration <= 0:
-        return np.array([0.0])
+        return np.array([0.0]), move.evaluate(0.0)
     count = max(int(np.ceil(move.duration / resolution)), 2) + 1
     times = np.linspace(0.0, move.duration, count)
     rows = move.evaluate(times)
     tips = np.array([chain.fk(q).translation for q in rows])
     limit = fine_step if move.fine else step
-    kept = [0]
-    for index in range(1, count):
-        last = kept[-1]
-        if (np.linalg.norm(tips[index] - tips[last]) >= limit
-                or np.max(np.abs(rows[index] - rows[last])) >= angle_step):
-            kept.append(index - 1 if index - 1 > last else index)
-    if kept[-1] != count - 1:
-        kept.append(count - 1)
-    return times[np.unique(kept)]
+    kept, index = [0], 1
+    while index < count:
+        last, ahead = kept[-1], slice(index, min(index + 1024, count))
+        gap = tips[ahead] - tips[last]  # vecdot: np.linalg.norm's own dot, bit for bit
+        moved = (np.sqrt(np.vecdot(gap, gap)) >= limit) | (np.max(np.abs(rows[ahead] - rows[last]), axis=1)
+                                                            >= angle_step)
+        if not moved.any():
+            index = ahead.stop
+            continue
+        index += int(np.argmax(moved))
+        kept.append(index - 1 if index - 1 > last else index)
+        index += 1
+    kept = np.unique([*kept, count - 1])
+    return times[kept], rows[kept]
