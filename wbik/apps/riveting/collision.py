@@ -1,14 +1,8 @@
-"""Collision model of the riveting cell (Pinocchio GeometryModel + coal) and its distance queries.
-
-The UR5's meshes and the rivet tool's primitives (urdf/ur5_rivet_tool.urdf.xml) are measured against
-the workpiece's solid envelope (holes filled in: distances can only under-report) and the table. The
-5 mm pin is measured against the envelope with its nearest hole cut out, 17 boxes in the hole frame:
-4 beside the tile |x|, |y| <= 8 mm, 1 under it past the hole's depth and 12 whose inner faces make a
-regular 12-gon of inradius 3 mm (0.5 mm radial clearance for a centred pin).
-
-A geometry whose bounding sphere is over ``exact_below`` (50 mm) from an obstacle reports that lower
-bound (``exact`` False); nearer ones the exact coal distance, computed only when a query needs it: a
-minimum skips every geometry whose bounding box is farther than the smallest distance found.
+"""Distances of the riveting cell: the UR5's meshes and the rivet tool's primitives (coal, placed by
+Pinocchio) against the workpiece's solid envelope (holes filled in: distances can only under-report) and
+the table; the pin against the envelope with its nearest hole cut out (:func:`hole_model`). A geometry
+whose bounding sphere is over ``exact_below`` from an obstacle reports that bound (``exact`` False), a
+nearer one its exact coal distance, computed only when a query needs it.
 """
 
 from __future__ import annotations
@@ -23,16 +17,10 @@ from wbik.apps.riveting.scene import Hole
 from wbik.apps.riveting.scene import Scene
 from wbik.robot import Robot
 
-TILE_HALF = 0.008
-"""Half-width (m) of the square tile around a hole that the 12 wall boxes replace."""
-WALL_SIDES = 12
-EXACT_BELOW = 0.05
-"""Bounding-sphere bound (m) under which a distance is computed exactly."""
-SKIP_MARGIN = 1e-4
-"""m by which a bounding box must lie beyond a minimum for its exact distance to be skipped (coal's
-error is some 1e-10 m)."""
-TABLE_IGNORED = ("base_link_0", "shoulder_link_0")
-"""Robot geometries that stand on the table (not checked against it)."""
+TILE_HALF = 0.008  # m, half-width of the square tile around a hole that the 12 wall boxes replace
+EXACT_BELOW = 0.05  # m, the bounding-sphere bound under which a distance is exact
+SKIP_MARGIN = 1e-4  # m a bounding box must lie beyond a minimum to skip its geometry (coal's error ~1e-10 m)
+TABLE_IGNORED = ("base_link_0", "shoulder_link_0")  # they stand on the table
 TOOL_GEOMETRIES = ("ee_link_0", "rivet_tool_0", "rivet_tool_1")
 PIN = "rivet_tool_1"
 WHICH = {"all": lambda entry: entry.obstacle == "workpiece",
@@ -52,9 +40,11 @@ def _box_from_bounds(low, high, frame: pin.SE3) -> Obstacle:
     return coal.Box(*size), coal.Transform3s(frame.rotation, center)
 
 
-def hole_model(scene: Scene, hole: Hole, sides: int = WALL_SIDES,
-               tile_half: float = TILE_HALF) -> list[Obstacle]:
-    """The workpiece envelope with ``hole`` cut out, as boxes in the world (see the module notes)."""
+def hole_model(scene: Scene, hole: Hole, sides: int = 12, tile_half: float = TILE_HALF) -> list[Obstacle]:
+    """The workpiece envelope with ``hole`` cut out, as boxes in the world. In the hole frame (z into the
+    hole, surface at 0): 4 beside the tile |x|, |y| <= ``tile_half``, 1 under it past the hole's depth and
+    ``sides`` whose inner faces make a regular polygon of the hole's radius as inradius (0.5 mm of radial
+    clearance for a centred 5 mm pin in a 6 mm hole)."""
     frame = hole.placement
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     world = scene.workpiece_center + corners * scene.workpiece_half
@@ -88,19 +78,13 @@ def _bounds(shape) -> tuple[np.ndarray, float, coal.Box]:
     if isinstance(shape, coal.Cylinder):
         box = coal.Box(2.0 * shape.radius, 2.0 * shape.radius, 2.0 * shape.halfLength)
         return np.zeros(3), float(np.hypot(shape.radius, shape.halfLength)), box
-    if isinstance(shape, coal.Sphere):
-        return np.zeros(3), float(shape.radius), coal.Box(*np.full(3, 2.0 * shape.radius))
     raise TypeError(f"no bounding sphere for {type(shape).__name__}")
 
 
 @dataclass
 class GeometryDistance:
-    """Distance of one robot geometry to an obstacle at one configuration.
-
-    ``exact`` False: ``distance`` is a lower bound (the bounding sphere's), with no points.
-    ``robot_point`` / ``direction``: nearest point on the robot (world) and the unit direction in
-    which moving that point increases the distance.
-    """
+    """Distance of one robot geometry to an obstacle (``exact`` False: a lower bound, no points); the nearest
+    point on the robot (world) and the unit direction in which moving it increases the distance."""
 
     geometry: str
     distance: float
@@ -147,16 +131,17 @@ class Clearance:
             entry.box = self.collision.box_bound(entry, self.placements[entry.index])
         return entry.box if entry.box > level + SKIP_MARGIN else self._distance(entry).distance
 
-    def _minimum(self, entries, start: float) -> float:
+    def _minimum(self, entries: list[_Entry], start: float, floor: float) -> float:
         best = start
         for entry in sorted(entries, key=lambda entry: entry.bound):
-            best = min(best, self._value(entry, best))
+            best = min(best, self._value(entry, min(best, floor)))
         return float(best)
 
-    def minimum(self, which: str = "all", start: float = np.inf) -> float:
+    def minimum(self, which: str = "all", start: float = np.inf, floor: float = np.inf) -> float:
         """min(start, the smallest distance of ``which``): to the workpiece of "all" geometries, of the
-        "tool" (flange box, holder, pin) or of the "links"; to the "table"; or to both ("cell")."""
-        return self._minimum([e for e in self.entries if WHICH[which](e)], start)
+        "tool" (flange box, holder, pin) or of the "links"; to the "table"; or to both ("cell"). Exact when
+        at most ``floor``; above it, some value above ``floor`` (enough to compare with it)."""
+        return self._minimum([e for e in self.entries if WHICH[which](e)], start, floor)
 
     def touching(self) -> list[str]:
         """The geometries at distance <= 0 from the workpiece."""
@@ -184,17 +169,12 @@ class CollisionModel:
         self.names = [obj.name for obj in self.geometry.geometryObjects]
         self.pin_index = self.names.index(PIN)
         self._bounds = [_bounds(self.geometry.geometryObjects[i].geometry) for i in self.robot_geometries]
+        self._radii = np.array([radius for _, radius, _ in self._bounds])
         table_center = np.array([*scene.table_center, scene.table_top_z - 0.5 * scene.table_size[2]])
         cell = (("workpiece", scene.workpiece_size, scene.workpiece_center),
                 ("table", scene.table_size, table_center))
         self.obstacles = {kind: (coal.Box(*size), coal.Transform3s(np.eye(3), center), center, 0.5 * size)
                           for kind, size, center in cell}
-        for name, (shape, _, center, _) in self.obstacles.items():  # fixed to the universe, seen by viewers
-            added = self.geometry.addGeometryObject(pin.GeometryObject(name, 0, 0, pin.SE3(np.eye(3), center),
-                                                                       shape))
-            for index in self.robot_geometries:
-                if name == "workpiece" or self.names[index] not in TABLE_IGNORED:
-                    self.geometry.addCollisionPair(pin.CollisionPair(index, added))
         self.geometry_data = pin.GeometryData(self.geometry)
         self._hole_models: dict[int, list[Obstacle]] = {}
         self._request = coal.DistanceRequest()
@@ -222,11 +202,6 @@ class CollisionModel:
         if hole.index not in self._hole_models:
             self._hole_models[hole.index] = hole_model(self.scene, hole)
         return self._hole_models[hole.index]
-
-    def update(self, q: np.ndarray) -> None:
-        """Place the robot geometries at full configuration q."""
-        pin.forwardKinematics(self.model, self.data, q)
-        pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)
 
     def _distance(self, shape, placement: pin.SE3, obstacle: Obstacle) -> float:
         self._result.clear()
@@ -263,20 +238,18 @@ class CollisionModel:
             direction = -normal / max(np.linalg.norm(normal), 1e-12)
         return GeometryDistance(entry.name, float(distance), True, robot_point, direction, obj.parentJoint)
 
-    def clearance(self, q: np.ndarray | None = None, table: bool = True,
-                  skip: tuple[str, ...] = ()) -> Clearance:
-        """Distances at q (or at the last ``update``); ``skip`` leaves geometries out (by name)."""
-        if q is not None:
-            self.update(q)
+    def clearance(self, q: np.ndarray, table: bool = True, skip: tuple[str, ...] = ()) -> Clearance:
+        """Distances at full configuration q; ``skip`` leaves geometries out (by name)."""
+        pin.forwardKinematics(self.model, self.data, q)
+        pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)
         placements = [pin.SE3(self.geometry_data.oMg[i]) for i in self.robot_geometries]
+        centers = np.array([placements[i].act(self._bounds[i][0]) for i in self.robot_geometries])
         entries = []
         for kind in ("workpiece", "table") if table else ("workpiece",):
             *_, center, half = self.obstacles[kind]
+            gap = np.maximum(np.abs(centers - center) - half, 0.0)
+            bounds = np.sqrt(np.vecdot(gap, gap)) - self._radii  # vecdot: np.linalg.norm's dot, bit for bit
             left_out = (*skip, *TABLE_IGNORED) if kind == "table" else skip
-            for index in self.robot_geometries:
-                if self.names[index] in left_out:
-                    continue
-                local_center, radius, _ = self._bounds[index]
-                gap = np.maximum(np.abs(placements[index].act(local_center) - center) - half, 0.0)
-                entries.append(_Entry(self.names[index], index, kind, float(np.linalg.norm(gap)) - radius))
+            entries += [_Entry(self.names[i], i, kind, float(bounds[i]))
+                        for i in self.robot_geometries if self.names[i] not in left_out]
         return Clearance(self, placements, entries)

@@ -12,7 +12,7 @@ docs/measurements.md, riveting cost. ``python -m wbik.apps.riveting.cost`` print
 
 from __future__ import annotations
 
-import time
+import timeit
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -50,9 +50,8 @@ class PlanningCost:
 class CountingCollision:
     """A CollisionModel whose ``clearance`` calls are counted into ``cost`` (all else delegated)."""
 
-    def __init__(self, collision, cost: PlanningCost | None = None):
-        self._collision = collision
-        self.cost = cost or PlanningCost()
+    def __init__(self, collision, cost: PlanningCost):
+        self._collision, self.cost = collision, cost
 
     def clearance(self, *args, **kwargs):
         self.cost.add("clearance")
@@ -73,34 +72,26 @@ def calibrate(repeats: int = 200) -> dict[str, float]:
     from wbik.models import load
     from wbik.solvers.method_registry import solver
 
-    robot = load("ur5")
-    scene = build_scene()
-    collision = CollisionModel(robot, scene)
-    chain = robot.chain("arm")
+    robot, scene = load("ur5"), build_scene()
+    collision, chain = CollisionModel(robot, scene), robot.chain("arm")
     limits = Limits(chain.velocity_limit, 5.0)
     analytic = solver("analytic", robot, chain="arm")
-    q_home = analytic.solve(scene.rivet_home, robot.nominal).q
     pose = Insertion().approach_pose(scene.hole("h14"))
+    q_home = analytic.solve(scene.rivet_home, robot.nominal).q
     q_near = analytic.solve(pose, q_home).q
 
     def median(function, count=repeats):
-        values = []
-        for _ in range(count):
-            started = time.perf_counter()
-            function()
-            values.append(time.perf_counter() - started)
-        return float(np.median(values))
+        return float(np.median(timeit.repeat(function, number=1, repeat=count)))
 
     via = 0.5 * (q_home + q_near) + 0.2
     line = timed_move("line", chain, np.array([q_home, q_near]), limits)
-    count = len(samples(line, chain)[0])
     return {
         "ik": median(lambda: analytic.solve_all(pose)),
         "clearance": median(lambda: collision.clearance(q_near).minimum("cell")),
         "line_timing": median(lambda: timed_move("x", chain, np.array([q_home, q_near]), limits)),
         "spline_timing": median(lambda: timed_move("x", chain, np.array([q_home, via, q_near]), limits), 20),
         "path_samples": median(lambda: samples(line, chain), 20) / max(line.duration / 5e-4, 1.0),
-        "samples_per_line": count,
+        "samples_per_line": len(samples(line, chain)[0]),
     }
 
 

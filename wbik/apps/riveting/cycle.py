@@ -50,15 +50,13 @@ class NoiseModel:
     angle_sigma_deg: float = 2.0
 
     def guess(self, hole: Hole, rng: np.random.Generator) -> pin.SE3:
-        while True:
+        offset = rng.normal(0.0, self.position_sigma, 3)
+        while np.linalg.norm(offset) > self.position_max:
             offset = rng.normal(0.0, self.position_sigma, 3)
-            if np.linalg.norm(offset) <= self.position_max:
-                break
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         angle = np.radians(rng.normal(0.0, self.angle_sigma_deg))
-        rotation = pin.exp3(axis * angle) @ hole.placement.rotation
-        return pin.SE3(rotation, hole.position + offset)
+        return pin.SE3(pin.exp3(axis * angle) @ hole.placement.rotation, hole.position + offset)
 
 
 @dataclass(frozen=True)
@@ -108,34 +106,31 @@ class RunResult:
         cycles = [c for c in self.cycles if c.get("trigger_time_s") is not None]
         positions = [c["position_error_m"] for c in cycles]
         angles = [c["axis_error_rad"] for c in cycles]
-        result = score(positions, angles, self.rivets, self.collisions)
         durations = [c["cycle_time_s"] for c in self.cycles if c.get("success")]
 
+        def stat(values: list, function, scale: float = 1e3) -> float | None:
+            return float(function(values)) * scale if values else None
+
         def smallest_mm(key: str) -> float | None:
-            values = [c[key] for c in self.cycles if c.get(key) is not None]
-            return float(min(values)) * 1e3 if values else None
+            return stat([c[key] for c in self.cycles if c.get(key) is not None], min)
 
         def total(key: str) -> float:
             return float(sum(c.get(key, 0.0) for c in self.cycles))
 
         return {
-            "planner": self.planner,
-            "rivets": self.rivets,
-            "cycles": len(self.cycles),
+            "planner": self.planner, "rivets": self.rivets, "cycles": len(self.cycles),
             "collisions": self.collisions,
-            "score": result.as_dict(),
-            "mean_localisation_error_mm": float(np.mean(positions) * 1e3) if positions else None,
+            "score": score(positions, angles, self.rivets, self.collisions).as_dict(),
+            "mean_localisation_error_mm": stat(positions, np.mean),
             "mean_axis_error_deg": float(np.degrees(np.mean(angles))) if angles else None,
-            "max_lateral_error_mm": (float(max(c["lateral_error_m"] for c in cycles) * 1e3)
-                                     if cycles else None),
-            "max_depth_error_mm": (float(max(abs(c["depth_error_m"]) for c in cycles) * 1e3)
-                                   if cycles else None),
+            "max_lateral_error_mm": stat([c["lateral_error_m"] for c in cycles], max),
+            "max_depth_error_mm": stat([abs(c["depth_error_m"]) for c in cycles], max),
             "min_clearance_tool_mm": smallest_mm("tool_min_m"),
             "min_clearance_links_mm": smallest_mm("link_min_m"),
             "min_clearance_table_mm": smallest_mm("table_min_m"),
-            "mean_cycle_time_s": float(np.mean(durations)) if durations else None,
-            "min_cycle_time_s": float(np.min(durations)) if durations else None,
-            "max_cycle_time_s": float(np.max(durations)) if durations else None,
+            "mean_cycle_time_s": stat(durations, np.mean, 1.0),
+            "min_cycle_time_s": stat(durations, np.min, 1.0),
+            "max_cycle_time_s": stat(durations, np.max, 1.0),
             "simulated_time_s": self.end_time,
             "failed_plans": sum(1 for c in self.cycles if not c.get("success")),
             "planning_time_s": total("planning_time_s"),

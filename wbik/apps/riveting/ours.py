@@ -46,27 +46,21 @@ from wbik.qp.limits import JointPositionLimits
 from wbik.qp.problem import IKProblem
 from wbik.qp.tasks import RegularizationTask
 
-TASK_TOLERANCE = 1e-8
-"""|e| of the 5-D task (m, and the sine of the axis error) at which a QP configuration is accepted."""
-BRANCH_STEP = 0.2
-"""Largest joint change (rad) between neighbouring axis points of one branch (else a branch jump)."""
-CERTIFIED = 0.002
-"""Clearance (m) that a checked route keeps everywhere between its samples (see _path_clearance)."""
-GRID_DT = 2e-4
-"""Time step (s) of the grid on which a route's joint motion is bounded between samples."""
-LOOKAHEAD = 1000
-"""Grid points looked ahead from a sample (bounds the work per sample)."""
-MAX_ROUTE_CHECKS = 40
-"""Routes densely checked per hole before falling back to the QP path."""
+TASK_TOLERANCE = 1e-8  # |e| of the 5-D task (m, and the sine of the axis error) the QP path accepts
+BRANCH_STEP = 0.2  # rad, the largest joint change between neighbouring axis points of one branch
+CERTIFIED = 0.002  # m a checked route keeps everywhere between its samples (see _path_clearance)
+GRID_DT = 2e-4  # s, the grid on which a route's joint motion is bounded between samples
+LOOKAHEAD = 1000  # grid points looked ahead from a sample
+MAX_ROUTE_CHECKS = 40  # routes densely checked per hole before the QP path
 
 
 @dataclass
 class _Route:
-    estimate: float
+    estimate: float  # s, the closed-form time estimate
     roll: float
     retreat: float
     knots: np.ndarray  # (2 or 3, 6): home, [retreat,] approach
-    kind: tuple = ()  # (roll index, branch, retreat)
+    key: tuple  # (roll index, branch): the approach configuration
 
 
 class QPPlanner(Planner):
@@ -97,14 +91,11 @@ class QPPlanner(Planner):
                 for branch, result in enumerate(self.analytic.solve_all(pose)) if result.success]
 
     def _same_branch(self, solutions: list[tuple[int, np.ndarray]], near: np.ndarray) -> np.ndarray | None:
-        """The solution, wrapped nearest ``near``, within BRANCH_STEP (rad) of it per joint (the nearest)."""
-        best = None
-        for _, q in solutions:
-            q = self.wrap(q, near)
-            step = float(np.max(np.abs(q - near)))
-            if step <= BRANCH_STEP and (best is None or step < best[0]):
-                best = (step, q)
-        return None if best is None else best[1]
+        """The solution, wrapped nearest ``near``, nearest to it if within BRANCH_STEP per joint."""
+        wrapped = [self.wrap(q, near) for _, q in solutions]
+        steps = [(float(np.max(np.abs(q - near))), index) for index, q in enumerate(wrapped)]
+        within = [step for step in steps if step[0] <= BRANCH_STEP]
+        return wrapped[min(within)[1]] if within else None
 
     def _line_time(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
         """Minimum time of the joint line under the limits (closed form for a two-knot path)."""
@@ -147,7 +138,7 @@ class QPPlanner(Planner):
             out = {}  # the closed-form solutions of each retreat pose
             for branch, q_approach in self._branches(hole_pose(hole, -standoff, roll), q_home):
                 routes.append(_Route(self._line_time(q_home, q_approach), float(roll), 0.0,
-                                     np.array([q_home, q_approach]), (index, branch, 0.0)))
+                                     np.array([q_home, q_approach]), (index, branch)))
                 for retreat in self.retreats:
                     if retreat not in out:
                         out[retreat] = self._branches(hole_pose(hole, -standoff - retreat, roll), q_home)
@@ -155,7 +146,7 @@ class QPPlanner(Planner):
                     if q_retreat is not None:
                         estimate = self._line_time(q_home, q_retreat) + self._line_time(q_retreat, q_approach)
                         knots = np.array([q_home, q_retreat, q_approach])
-                        routes.append(_Route(estimate, float(roll), retreat, knots, (index, branch, retreat)))
+                        routes.append(_Route(estimate, float(roll), retreat, knots, (index, branch)))
         routes.sort(key=lambda route: (route.estimate, route.retreat, route.roll))
         return routes
 
@@ -183,11 +174,10 @@ class QPPlanner(Planner):
             return None
         at = float(full.timed.knot_times[len(route.knots) - 1])
         approach, insert = split(full, at, ("approach", "insert"), (False, True))
-        if not self._path_clearance(approach, self.line_clearance)[0]:
-            return None
-        if not self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0]:
-            return None
-        return approach, insert
+        if self._path_clearance(approach, self.line_clearance)[0] \
+                and self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0]:
+            return approach, insert
+        return None
 
     def _qp_path(self, target: pin.SE3, q_start: np.ndarray, q_end: np.ndarray) -> np.ndarray | None:
         """Trust-region QP steps from q_start toward the 5-D target under the clearance constraint."""
@@ -220,7 +210,7 @@ class QPPlanner(Planner):
         for route in routes:
             if checked >= MAX_ROUTE_CHECKS:
                 break
-            key = route.kind[:2]
+            key = route.key
             if key not in static:
                 static[key] = self._clear(route.knots[-1], self.minimum_clearance)
             if not static[key] or (len(route.knots) == 3
@@ -259,7 +249,7 @@ class QPPlanner(Planner):
         chosen, checked, worst_seen = self._search(hole, routes, insertions)
         qp = chosen is None and bool(routes)
         if qp:
-            chosen = self._fallback(hole, routes[0], insertions.get(routes[0].kind[:2]), q_home)
+            chosen = self._fallback(hole, routes[0], insertions.get(routes[0].key), q_home)
         info = {"routes_ranked": len(routes), "routes_checked": checked,
                 "planning_counts": dict(self.cost.counts)}
         if chosen is None:

@@ -96,7 +96,7 @@ class Planner:
 
     def _clear(self, q: np.ndarray, minimum: float, skip: tuple[str, ...] = ()) -> bool:
         """Every geometry (but ``skip``) at least ``minimum`` (m) from the workpiece and the table."""
-        return self.collision.clearance(q, skip=skip).minimum("cell") >= minimum
+        return self.collision.clearance(q, skip=skip).minimum("cell", floor=minimum) >= minimum
 
 
 def tcp_errors(chain, q: np.ndarray, wanted: pin.SE3) -> tuple[float, float, float, float]:

@@ -11,7 +11,6 @@ the 5 mm tool) and ``hole_depth`` 10 mm.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
@@ -81,7 +80,6 @@ class Scene:
     hole_depth: float
     holes: list[Hole]
     rivet_home: pin.SE3
-    spec: dict = field(default_factory=dict)
 
     @property
     def workpiece_half(self) -> np.ndarray:
@@ -115,15 +113,13 @@ def _vector(value, size: int, what: str) -> np.ndarray:
 
 
 def _merged(spec: dict | None) -> dict:
-    merged = {key: (dict(value) if isinstance(value, dict) else value)
-              for key, value in DEFAULT_SCENE.items()}
+    """DEFAULT_SCENE updated by ``spec``, one level deep (but ``faces``, which is replaced whole)."""
+    merged = dict(DEFAULT_SCENE)
     for key, value in (spec or {}).items():
         if key not in DEFAULT_SCENE:
             raise InvalidConfigurationError(f"scene: unknown key {key!r}; known: {sorted(DEFAULT_SCENE)}")
-        if isinstance(value, dict) and isinstance(merged[key], dict) and key != "faces":
-            merged[key] = {**merged[key], **value}
-        else:
-            merged[key] = value
+        nested = isinstance(value, dict) and isinstance(merged[key], dict) and key != "faces"
+        merged[key] = {**merged[key], **value} if nested else value
     return merged
 
 
@@ -141,8 +137,7 @@ def build_scene(spec: dict | None = None) -> Scene:
     size = _vector(workpiece["size"], 3, "workpiece.size")
     if np.any(size <= 0):
         raise InvalidConfigurationError(f"scene: workpiece.size must be positive, got {size.tolist()}")
-    footprint = _vector(workpiece["center"], 2, "workpiece.center")
-    center = np.array([footprint[0], footprint[1], table_top + 0.5 * size[2]])
+    center = np.array([*_vector(workpiece["center"], 2, "workpiece.center"), table_top + 0.5 * size[2]])
     half = 0.5 * size
     holes: list[Hole] = []
     for face, layout in merged["faces"].items():
@@ -163,13 +158,12 @@ def build_scene(spec: dict | None = None) -> Scene:
                          _vector(home["position"], 3, "rivet_home.position"))
     scene = Scene(table_top, _vector(table["center"], 2, "table.center"),
                   _vector(table["size"], 3, "table.size"), center, size, float(merged["hole_diameter"]),
-                  float(merged["hole_depth"]), holes, rivet_home, merged)
+                  float(merged["hole_depth"]), holes, rivet_home)
     _check_holes(scene)
     return scene
 
 
-EDGE_MARGIN = 0.015
-"""Holes keep at least this much (m) between their axis and the face's edges (room for the hole model)."""
+EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 
 def _check_holes(scene: Scene) -> None:

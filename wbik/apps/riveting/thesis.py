@@ -32,10 +32,8 @@ from wbik.apps.riveting.scene import FACE_NORMALS
 from wbik.apps.riveting.scene import Hole
 
 ROLL_CANDIDATES = 12
-TEACH_CLEARANCE = 0.015
-"""Clearance (m) to workpiece and table that a taught q_int keeps."""
-LINE_CLEARANCE = 0.01
-"""Clearance (m) kept along the taught lines rivet_home -> q_int -> every approach pose (sampled)."""
+TEACH_CLEARANCE = 0.015  # m to workpiece and table that a taught q_int keeps
+LINE_CLEARANCE = 0.01  # m kept along the taught lines rivet_home -> q_int -> every approach pose (sampled)
 
 
 class ThesisPlanner(Planner):
@@ -54,7 +52,7 @@ class ThesisPlanner(Planner):
         self.intermediate_time = float(intermediate_time)
         self.sleep = float(sleep)
         self.move_time = float(move_time)
-        self.intermediate: dict[str, np.ndarray] = {}
+        self.intermediate: dict[str, np.ndarray] = {}  # q_int and roll per face
         self.roll: dict[str, float] = {}
 
     def setup(self, q_home: np.ndarray) -> dict:
