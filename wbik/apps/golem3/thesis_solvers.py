@@ -3,22 +3,14 @@
 Source: the thesis (seed ``000_48c793128bbb812d``, ch. 4-5) and its code reference [19], read for facts only;
 reproductions kept beside our closed form (:mod:`wbik.robot_packages.golem3.closed_form`).
 
-``thesis_literal``: the 6-DOF closed form (eq. 3.6, 4.2-4.37, with golem3.md's correction t4 -> t4 + rho),
-right arm, target (x, y, z) and the thesis's angles (yaw alpha = t6, pitch beta = -t4 - t5, roll
-gamma = t1 + t2 + t3):
-
-    t6 = alpha,  cos(t4 + rho) = (h - z - l5 cos(-beta) + l6 sin(-beta)) / l4,  sin(t4 + rho) = +-sqrt(...)
-    t4 = atan2(sin, cos) - rho,  t5 = -beta - t4,  l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
-    xp = x - l3 cos(gamma),  yp = -y + l3 sin(gamma), a = 2 yp l1, b = 2 xp l1, c = xp^2 + yp^2 + l1^2 - l2^2
-    cos t1 = (2ac -+ sqrt((2ac)^2 - 4 (a^2 + b^2)(c^2 - b^2))) / (2 (a^2 + b^2)),  sin t1 = +-sqrt(...)
-    t2 = atan2((xp - l1 sin t1) / l2, (yp - l1 cos t1) / l2) - t1,  t3 = gamma - t1 - t2
-
-8 branches in the code's order. As in the thesis: a negative square-root argument discards the branch (no
-clamp), angles are wrapped into (-pi, pi], a branch outside the joint limits is discarded, and a survivor
-must match the input by closed-form FK within THESIS_CHECK_TOLERANCE on x, y, z, yaw and pitch (the code's
-check); the survivor nearest q0 (Euclidean) is returned, then judged by the shared 1e-6 check. No rounding
-of inputs or outputs (the code's 6-decimal rounding is not in the text). A target rotation R is read as
-Rz(gamma) Ry(beta) Rx(alpha) with |alpha| <= pi/2 (t6's limits are +-1.5 rad).
+``thesis_literal``: the 6-DOF closed form of the right arm (eq. 3.6, 4.2-4.37 as in :func:`thesis_branches`,
+with golem3.md's correction t4 -> t4 + rho) for a target (x, y, z) and the thesis's angles (yaw alpha = t6,
+pitch beta = -t4 - t5, roll gamma = t1 + t2 + t3), 8 branches in the code's order. As in the thesis: a
+negative square-root argument discards the branch (no clamp), angles are wrapped into (-pi, pi], a branch
+outside the joint limits is discarded, and a survivor must match the input by closed-form FK within
+THESIS_CHECK_TOLERANCE on x, y, z, yaw and pitch (the code's check); the survivor nearest q0 (Euclidean) is
+returned, then judged by the shared 1e-6 check. No rounding of inputs or outputs (the code's 6 decimals are
+not in the text). A target rotation R is read as Rz(gamma) Ry(beta) Rx(alpha), |alpha| <= pi/2.
 
 ``thesis_sweep``: the position-only search (ch. 4.2.1): yaw fixed, roll (outer loop) and pitch (inner)
 each 0, +0.01, -0.01, ..., +2.99, -2.99 rad (magnitudes accumulated by repeated addition, as the code),

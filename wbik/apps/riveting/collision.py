@@ -17,7 +17,6 @@ from wbik.apps.riveting.scene import Hole
 from wbik.apps.riveting.scene import Scene
 from wbik.robot import Robot
 
-TILE_HALF = 0.008  # m, half-width of the square tile around a hole that the 12 wall boxes replace
 EXACT_BELOW = 0.05  # m, the bounding-sphere bound under which a distance is exact
 SKIP_MARGIN = 1e-4  # m a bounding box must lie beyond a minimum to skip its geometry (coal's error ~1e-10 m)
 TABLE_IGNORED = ("base_link_0", "shoulder_link_0")  # they stand on the table
@@ -33,36 +32,32 @@ WHICH = {"all": lambda entry: entry.obstacle == "workpiece",
 Obstacle = tuple[coal.ShapeBase, coal.Transform3s]
 
 
-def _box_from_bounds(low, high, frame: pin.SE3) -> Obstacle:
+def _box(low, high, frame: pin.SE3) -> Obstacle:
     """A coal box spanning [low, high] in ``frame`` coordinates, placed in the world."""
-    size = np.asarray(high, float) - np.asarray(low, float)
-    center = frame.act(0.5 * (np.asarray(low, float) + np.asarray(high, float)))
-    return coal.Box(*size), coal.Transform3s(frame.rotation, center)
+    low, high = np.asarray(low, float), np.asarray(high, float)
+    return coal.Box(*(high - low)), coal.Transform3s(frame.rotation, frame.act(0.5 * (low + high)))
 
 
-def hole_model(scene: Scene, hole: Hole, sides: int = 12, tile_half: float = TILE_HALF) -> list[Obstacle]:
+def hole_model(scene: Scene, hole: Hole, sides: int = 12, tile_half: float = 0.008) -> list[Obstacle]:
     """The workpiece envelope with ``hole`` cut out, as boxes in the world. In the hole frame (z into the
-    hole, surface at 0): 4 beside the tile |x|, |y| <= ``tile_half``, 1 under it past the hole's depth and
-    ``sides`` whose inner faces make a regular polygon of the hole's radius as inradius (0.5 mm of radial
-    clearance for a centred 5 mm pin in a 6 mm hole)."""
+    hole, surface at 0): 4 beside the tile |x|, |y| <= ``tile_half`` (m), 1 under it past the hole's depth
+    and ``sides`` whose inner faces make a regular polygon of the hole's radius as inradius (0.5 mm of
+    radial clearance for a centred 5 mm pin in a 6 mm hole)."""
     frame = hole.placement
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
-    world = scene.workpiece_center + corners * scene.workpiece_half
-    local = (world - frame.translation) @ frame.rotation  # envelope corners in the hole frame
-    low, high = local.min(axis=0), local.max(axis=0)
+    local = (scene.workpiece_center + corners * scene.workpiece_half - frame.translation) @ frame.rotation
+    low, high = local.min(axis=0), local.max(axis=0)  # the envelope in the hole frame
     h, depth, radius = tile_half, scene.hole_depth, 0.5 * scene.hole_diameter
-    boxes = [
-        _box_from_bounds([low[0], low[1], 0.0], [-h, high[1], high[2]], frame),
-        _box_from_bounds([h, low[1], 0.0], [high[0], high[1], high[2]], frame),
-        _box_from_bounds([-h, low[1], 0.0], [h, -h, high[2]], frame),
-        _box_from_bounds([-h, h, 0.0], [h, high[1], high[2]], frame),
-        _box_from_bounds([-h, -h, depth], [h, h, high[2]], frame),
-    ]
+    boxes = [_box([low[0], low[1], 0.0], [-h, high[1], high[2]], frame),
+             _box([h, low[1], 0.0], [high[0], high[1], high[2]], frame),
+             _box([-h, low[1], 0.0], [h, -h, high[2]], frame),
+             _box([-h, h, 0.0], [h, high[1], high[2]], frame),
+             _box([-h, -h, depth], [h, h, high[2]], frame)]
     outer = np.sqrt(2.0) * h + 1e-4  # reach the tile's corners
     half_width = outer * np.sin(np.pi / sides) + 1e-4  # cover the sector's chord at the outer radius
     for k in range(sides):
         wall_frame = frame * pin.SE3(pin.rpy.rpyToMatrix(0.0, 0.0, 2.0 * np.pi * k / sides), np.zeros(3))
-        boxes.append(_box_from_bounds([radius, -half_width, 0.0], [outer, half_width, depth], wall_frame))
+        boxes.append(_box([radius, -half_width, 0.0], [outer, half_width, depth], wall_frame))
     return boxes
 
 
@@ -96,12 +91,11 @@ class GeometryDistance:
 
 @dataclass
 class _Entry:
-    """One robot geometry against one obstacle ('workpiece' or 'table'): its sphere bound (m), and its
-    box bound and distance once computed."""
+    """A robot geometry against an obstacle: its sphere bound (m), its box bound and distance once known."""
 
     name: str
     index: int
-    obstacle: str
+    obstacle: str  # "workpiece" or "table"
     bound: float
     box: float | None = None
     distance: GeometryDistance | None = None
@@ -131,17 +125,14 @@ class Clearance:
             entry.box = self.collision.box_bound(entry, self.placements[entry.index])
         return entry.box if entry.box > level + SKIP_MARGIN else self._distance(entry).distance
 
-    def _minimum(self, entries: list[_Entry], start: float, floor: float) -> float:
-        best = start
-        for entry in sorted(entries, key=lambda entry: entry.bound):
-            best = min(best, self._value(entry, min(best, floor)))
-        return float(best)
-
     def minimum(self, which: str = "all", start: float = np.inf, floor: float = np.inf) -> float:
         """min(start, the smallest distance of ``which``): to the workpiece of "all" geometries, of the
         "tool" (flange box, holder, pin) or of the "links"; to the "table"; or to both ("cell"). Exact when
         at most ``floor``; above it, some value above ``floor`` (enough to compare with it)."""
-        return self._minimum([e for e in self.entries if WHICH[which](e)], start, floor)
+        best = start
+        for entry in sorted((e for e in self.entries if WHICH[which](e)), key=lambda entry: entry.bound):
+            best = min(best, self._value(entry, min(best, floor)))
+        return float(best)
 
     def touching(self) -> list[str]:
         """The geometries at distance <= 0 from the workpiece."""
@@ -150,10 +141,6 @@ class Clearance:
     @property
     def workpiece(self) -> list[GeometryDistance]:
         return [self._distance(e) for e in self.entries if e.obstacle == "workpiece"]
-
-    @property
-    def table(self) -> list[GeometryDistance]:
-        return [self._distance(e) for e in self.entries if e.obstacle == "table"]
 
 
 class CollisionModel:
@@ -165,17 +152,15 @@ class CollisionModel:
         self.data = robot.model.createData()
         self.geometry = pin.buildGeomFromUrdfString(robot.model, robot.urdf_text, pin.GeometryType.COLLISION,
                                                     package_dirs=list(robot.package_dirs))
-        self.robot_geometries = list(range(self.geometry.ngeoms))
+        self.geometry_data = pin.GeometryData(self.geometry)
         self.names = [obj.name for obj in self.geometry.geometryObjects]
         self.pin_index = self.names.index(PIN)
-        self._bounds = [_bounds(self.geometry.geometryObjects[i].geometry) for i in self.robot_geometries]
+        self._bounds = [_bounds(obj.geometry) for obj in self.geometry.geometryObjects]
         self._radii = np.array([radius for _, radius, _ in self._bounds])
-        table_center = np.array([*scene.table_center, scene.table_top_z - 0.5 * scene.table_size[2]])
         cell = (("workpiece", scene.workpiece_size, scene.workpiece_center),
-                ("table", scene.table_size, table_center))
+                ("table", scene.table_size, scene.table_box_center))
         self.obstacles = {kind: (coal.Box(*size), coal.Transform3s(np.eye(3), center), center, 0.5 * size)
                           for kind, size, center in cell}
-        self.geometry_data = pin.GeometryData(self.geometry)
         self._hole_models: dict[int, list[Obstacle]] = {}
         self._request = coal.DistanceRequest()
         self._result = coal.DistanceResult()
@@ -186,9 +171,7 @@ class CollisionModel:
         point by more than sum_j |dq_j| R_j, so a clearance d at q stays >= d - sum_j |dq_j| R_j."""
         model = self.model
         reach = np.zeros(model.nq)
-        for index in self.robot_geometries:
-            obj = self.geometry.geometryObjects[index]
-            center, radius, _ = self._bounds[index]
+        for obj, (center, radius, _) in zip(self.geometry.geometryObjects, self._bounds, strict=True):
             joint = obj.parentJoint
             distance = float(np.linalg.norm(obj.placement.act(center))) + radius
             while joint > 0:
@@ -197,11 +180,6 @@ class CollisionModel:
                 distance += float(np.linalg.norm(model.jointPlacements[joint].translation))
                 joint = model.parents[joint]
         return reach
-
-    def hole_boxes(self, hole: Hole) -> list[Obstacle]:
-        if hole.index not in self._hole_models:
-            self._hole_models[hole.index] = hole_model(self.scene, hole)
-        return self._hole_models[hole.index]
 
     def _distance(self, shape, placement: pin.SE3, obstacle: Obstacle) -> float:
         self._result.clear()
@@ -220,8 +198,10 @@ class CollisionModel:
         obj = self.geometry.geometryObjects[entry.index]
         obstacles = [self.obstacles[entry.obstacle][:2]]
         if entry.obstacle == "workpiece" and entry.index == self.pin_index:
-            tip = placement.act(np.array([0.0, 0.0, obj.geometry.halfLength]))
-            obstacles = self.hole_boxes(self.scene.nearest_hole(tip))
+            hole = self.scene.nearest_hole(placement.act(np.array([0.0, 0.0, obj.geometry.halfLength])))
+            if hole.index not in self._hole_models:
+                self._hole_models[hole.index] = hole_model(self.scene, hole)
+            obstacles = self._hole_models[hole.index]
         best = None
         for obstacle in obstacles:
             distance = self._distance(obj.geometry, placement, obstacle)
@@ -242,14 +222,15 @@ class CollisionModel:
         """Distances at full configuration q; ``skip`` leaves geometries out (by name)."""
         pin.forwardKinematics(self.model, self.data, q)
         pin.updateGeometryPlacements(self.model, self.data, self.geometry, self.geometry_data)
-        placements = [pin.SE3(self.geometry_data.oMg[i]) for i in self.robot_geometries]
-        centers = np.array([placements[i].act(self._bounds[i][0]) for i in self.robot_geometries])
+        placements = [pin.SE3(placement) for placement in self.geometry_data.oMg]
+        centers = np.array([placement.act(bounds[0]) for placement, bounds in zip(placements, self._bounds,
+                                                                                  strict=True)])
         entries = []
         for kind in ("workpiece", "table") if table else ("workpiece",):
             *_, center, half = self.obstacles[kind]
             gap = np.maximum(np.abs(centers - center) - half, 0.0)
             bounds = np.sqrt(np.vecdot(gap, gap)) - self._radii  # vecdot: np.linalg.norm's dot, bit for bit
             left_out = (*skip, *TABLE_IGNORED) if kind == "table" else skip
-            entries += [_Entry(self.names[i], i, kind, float(bounds[i]))
-                        for i in self.robot_geometries if self.names[i] not in left_out]
+            entries += [_Entry(name, i, kind, float(bounds[i])) for i, name in enumerate(self.names)
+                        if name not in left_out]
         return Clearance(self, placements, entries)

@@ -1,18 +1,12 @@
-"""The riveting run: cycle after cycle for 300 s of simulated time, driven by the EuRoC client's state
-machine (:mod:`wbik.apps.riveting.task_states`) and checked densely for collisions.
+"""The riveting run: cycle after cycle for ``duration`` s of simulated time, driven by the EuRoC client's
+state machine (:mod:`wbik.apps.riveting.task_states`), every move checked densely for collisions.
 
-Each cycle: at rivet_home load_rivet (a dwell); the server publishes hole_guess, the frame of a hole
-drawn uniformly among those not riveted yet (seeded), its position moved by Gaussian noise (redrawn
-above ``position_max``, under half the hole spacing) and turned by a Gaussian angle about a random
-axis; the client takes the nearest true hole; the planner's moves go to it, insert, trigger, retract and
-return. Planning is charged to the clock (``charge_planning``): a ``plan`` dwell of the plan's
-deterministic cost (:mod:`wbik.apps.riveting.cost`); its measured wall time is reported, not charged.
-
-A rivet counts when triggered before the end, in the right hole, the tcp within ``depth_tolerance`` of
-the depth along the hole axis, ``lateral_tolerance`` across it and ``angle_tolerance_deg`` in axis, and
-the cycle touched nothing. Every move is sampled (2 mm of tcp motion and 0.01 rad of any joint apart,
-0.2 mm for insert and retract) and measured (:mod:`wbik.apps.riveting.collision`); a collision is a
-geometry's workpiece distance going from > 0 to <= 0.
+A cycle: load_rivet at rivet_home; hole_guess, a hole not riveted yet drawn by the seeded rng, its frame
+moved by Gaussian noise (``NoiseModel``; under half the hole spacing, so the nearest hole is the true one);
+the plan for the nearest hole, charged to the clock as a ``plan`` dwell of its counted cost
+(:mod:`wbik.apps.riveting.cost`); the planner's moves. A rivet counts when triggered in time in the true
+hole within the tolerances and the cycle touched nothing: no geometry's workpiece distance went from > 0
+to <= 0 at the samples (2 mm of tcp motion and 0.01 rad apart, 0.2 mm at the hole).
 """
 
 from __future__ import annotations
@@ -70,7 +64,6 @@ class RunConfig:
     depth_tolerance: float = 1e-4
     lateral_tolerance: float = 3e-4
     angle_tolerance_deg: float = 1.0
-    keep_trajectory: bool = True
     charge_planning: bool = True
 
 
@@ -98,7 +91,6 @@ class RunResult:
     end_time: float
     timeline: list[tuple[float, Move]]
     wall_time_s: float
-    first_move: dict
     states: TaskStateMachine = field(default_factory=TaskStateMachine)
     all_riveted_s: float | None = None
 
@@ -169,23 +161,29 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
     setup = planner.setup(q_home)
     previous: dict[str, bool] = {}
     states = TaskStateMachine(0.0)
-    states.go(State.GOING_RIVET_HOME, 0.0)  # target_frame == /rivet_home
-    first = planner.go_home(planner.robot.nominal.copy(), q_home)
-    collisions = sum(check_move(move, chain, collision, previous).collisions for move in first)
-    timeline, clock = [], 0.0
-    for move in first:
-        timeline.append((clock, move))
-        clock += move.duration
-    result = RunResult(planner.name, [], setup, 0, collisions, clock, timeline, 0.0,
-                       {"duration_s": clock, "collisions": collisions}, states)
+    timeline: list[tuple[float, Move]] = []
+    clock = 0.0
+
+    def run(moves: list[Move]) -> list[MoveCheck]:
+        """Check the moves, each in its state, and add them to the timeline."""
+        nonlocal clock
+        checks = []
+        for move in moves:
+            states.go(state_of_move(move.name), clock)
+            checks.append(check_move(move, chain, collision, previous))
+            timeline.append((clock, move))
+            clock += move.duration
+        return checks
+
+    collisions = sum(check.collisions for check in run(planner.go_home(planner.robot.nominal.copy(), q_home)))
+    result = RunResult(planner.name, [], setup, 0, collisions, clock, timeline, 0.0, states)
     remaining = list(scene.holes)
     loaded = False
     while clock < config.duration and remaining:
         if config.max_cycles is not None and len(result.cycles) >= config.max_cycles:
             break
-        cycle_start, visits_before = clock, len(states.visits)
-        moves = [] if loaded else [dwell("load_rivet", q_home, insertion.load_s)]  # GOING_RIVET_HOME's end
-        loaded = True
+        cycle_start, visits_before, cycle_moves = clock, len(states.visits), len(timeline)
+        checks = [] if loaded else run([dwell("load_rivet", q_home, insertion.load_s)])  # at rivet_home
         true_hole = remaining[int(rng.integers(len(remaining)))]
         guess = config.noise.guess(true_hole, rng)
         identified = scene.nearest_hole(guess.translation)
@@ -197,22 +195,10 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
                   "planning_time_s": plan.planning_time_s, "planning_cost_s": plan.planning_cost_s,
                   "planning_charged_s": charged, **plan.info}
         remaining.remove(true_hole)
-        moves += [dwell("plan", q_home, charged)] if charged > 0.0 else []
-        moves += plan.moves if plan.success else []
-        checks, trigger_time, q_trigger, detected = [], None, None, False
-        for move in moves:
-            if move.name != "load_rivet" and not detected:  # target_frame == /hole_guess (or a retry)
-                states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
-                detected = True
-            states.go(state_of_move(move.name), clock)
-            checks.append(check_move(move, chain, collision, previous))
-            if move.name == TRIGGER:
-                trigger_time, q_trigger = clock, move.hold
-            if config.keep_trajectory:
-                timeline.append((clock, move))
-            clock += move.duration
-        if not detected:
-            states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
+        # target_frame == /hole_guess: detecting_hole_guess(), a retry after a failed plan
+        states.go(State.DETECTING_HOLE_POSE, clock, retry=states.state == State.DETECTING_HOLE_POSE)
+        planning = [dwell("plan", q_home, charged)] if charged > 0.0 else []
+        checks += run(planning + (plan.moves if plan.success else []))
         loaded = states.state != State.GOING_RIVET_HOME  # back at rivet_home: load_rivet before the next hole
         visited = [name for _, name in states.visits[visits_before:]]
         result.cycles.append(record)
@@ -220,9 +206,11 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
         if not plan.success:
             record.update({"cycle_time_s": clock - cycle_start, "states": visited})
             continue
+        moves = timeline[cycle_moves:]
+        trigger_time, trigger = next((start, move) for start, move in moves if move.name == TRIGGER)
         collisions = sum(check.collisions for check in checks)
-        position, lateral, along, angle = tcp_errors(chain, q_trigger, insertion.inserted_pose(true_hole))
-        in_time = trigger_time is not None and trigger_time <= config.duration
+        position, lateral, along, angle = tcp_errors(chain, trigger.hold, insertion.inserted_pose(true_hole))
+        in_time = trigger_time <= config.duration
         correct = (in_time and identified.name == true_hole.name and abs(along) <= config.depth_tolerance
                    and lateral < config.lateral_tolerance and np.degrees(angle) < config.angle_tolerance_deg
                    and collisions == 0)
@@ -233,7 +221,7 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
             "colliding": sorted({name for check in checks for name in check.colliding}),
             "tool_min_m": min(c.tool_min for c in checks), "link_min_m": min(c.link_min for c in checks),
             "table_min_m": min(c.table_min for c in checks), "samples": sum(c.samples for c in checks),
-            "moves": {move.name: round(move.duration, 4) for move in moves},
+            "moves": {move.name: round(move.duration, 4) for _, move in moves},
             "states": visited, "counted": bool(correct)})
         result.rivets += int(correct)
         result.collisions += collisions

@@ -1,11 +1,12 @@
-"""Moves of a riveting cycle: rest-to-rest joint paths timed by :func:`wbik.motion.time_scale` under the
-UR5's joint velocity limits and our acceleration limit (or stretched to a longer fixed duration), dwells,
-and their dense sampling for the collision check."""
+"""Moves of a riveting cycle: rest-to-rest joint paths timed under the joint velocity and acceleration
+limits (:func:`wbik.motion.time_scale`, or stretched to a longer fixed duration), dwells, and the samples at
+which the run checks them."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from dataclasses import replace
+from functools import cache
 
 import numpy as np
 
@@ -66,13 +67,6 @@ class Limits:
     law: str = "quintic"
 
 
-def stretch(timed: TimedPath, duration: float) -> TimedPath:
-    """The same path and law, slowed down uniformly to last ``duration`` (>= its own duration)."""
-    factor = duration / timed.duration
-    pieces = [Piece(p.first, p.last, p.start * factor, p.duration * factor, p.spline) for p in timed.pieces]
-    return replace(timed, pieces=pieces, knot_times=timed.knot_times * factor, duration=duration)
-
-
 def joint_path_through(chain: Chain, knots: np.ndarray) -> JointPath:
     """A JointPath through ``knots`` (K, n) parameterised by normalised joint-space arc length."""
     knots = np.asarray(knots, dtype=float)
@@ -82,19 +76,22 @@ def joint_path_through(chain: Chain, knots: np.ndarray) -> JointPath:
     return JointPath(chain, s, knots, info={"kind": "riveting"})
 
 
-def timed_move(name: str, chain: Chain, knots: np.ndarray, limits: Limits,
-               duration: float | None = None, fine: bool = False, info: dict | None = None) -> Move:
-    """A rest-to-rest move through ``knots``: minimum time under ``limits``, or ``duration`` if longer."""
+def timed_move(name: str, chain: Chain, knots: np.ndarray, limits: Limits, duration: float | None = None,
+               fine: bool = False) -> Move:
+    """A rest-to-rest move through ``knots``: minimum time under ``limits``, or ``duration`` if longer (the
+    same path and law, slowed down uniformly)."""
     knots = np.asarray(knots, dtype=float)
     if np.max(np.abs(knots[-1] - knots[0])) < 1e-12 and len(knots) <= 2:
-        return Move(name, 0.0, hold=knots[0].copy(), fine=fine, info=info)
+        return Move(name, 0.0, hold=knots[0].copy(), fine=fine)
     timed = time_scale(joint_path_through(chain, knots), limits.law, velocity_limit=limits.velocity,
                        acceleration_limit=limits.acceleration, mode="global")
     minimum = timed.duration
     if duration is not None and duration > timed.duration:
-        timed = stretch(timed, duration)
-    return Move(name, timed.duration, timed=timed, fine=fine,
-                info={**(info or {}), "minimum_duration_s": minimum})
+        factor = duration / timed.duration
+        pieces = [Piece(piece.first, piece.last, piece.start * factor, piece.duration * factor, piece.spline)
+                  for piece in timed.pieces]
+        timed = replace(timed, pieces=pieces, knot_times=timed.knot_times * factor, duration=duration)
+    return Move(name, timed.duration, timed=timed, fine=fine, info={"minimum_duration_s": minimum})
 
 
 def split(whole: Move, at: float, names: tuple[str, str], fine: tuple[bool, bool]) -> list[Move]:
@@ -116,14 +113,10 @@ def dwell(name: str, q: np.ndarray, duration: float) -> Move:
 
 def samples(move: Move, chain: Chain, step: float = 0.002, angle_step: float = 0.01,
             fine_step: float = 0.0002, resolution: float = 5e-4) -> tuple[np.ndarray, np.ndarray]:
-    """(local times, joint rows) at which to check a move: consecutive samples at most ``step`` m of tcp
-    motion (``fine_step`` for fine moves) and ``angle_step`` rad of any joint apart, end points included.
-
-    The move is evaluated every ``resolution`` s; when the tcp (by ``chain.fk``) or a joint has moved a step
-    since the last kept sample, the dense point before is kept (no gap exceeds the step by more than one
-    dense interval). The batch product-of-exponentials FK (within 1e-9 m of ``chain.fk``) picks the points
-    that may have moved a step, and ``chain.fk`` decides among them.
-    """
+    """(local times, joint rows) at which to check a move: of its points every ``resolution`` s, the one
+    before the tcp (``chain.fk``) or a joint has moved ``step`` m (``fine_step`` for fine moves) or
+    ``angle_step`` rad since the last one kept, and the end points. The batch product-of-exponentials FK
+    (within 1e-9 m of ``chain.fk``) picks the points that may have moved, ``chain.fk`` decides."""
     if move.timed is None or move.duration <= 0:
         return np.array([0.0]), move.evaluate(0.0)
     count = max(int(np.ceil(move.duration / resolution)), 2) + 1
@@ -131,13 +124,13 @@ def samples(move: Move, chain: Chain, step: float = 0.002, angle_step: float = 0
     rows = move.evaluate(times)
     near_tips = poe_fk(chain_lines(chain), rows)[0]
     limit = fine_step if move.fine else step
-    tips: dict[int, np.ndarray] = {}
+
+    @cache
+    def tip(index: int) -> np.ndarray:
+        return chain.fk(rows[index]).translation
 
     def moved(index: int, last: int) -> bool:
-        for i in (index, last):
-            if i not in tips:
-                tips[i] = chain.fk(rows[i]).translation
-        return bool(np.linalg.norm(tips[index] - tips[last]) >= limit
+        return bool(np.linalg.norm(tip(index) - tip(last)) >= limit
                     or np.max(np.abs(rows[index] - rows[last])) >= angle_step)
 
     kept, index, width = [0], 1, 64  # the window searched: twice the last gap

@@ -1,19 +1,12 @@
-"""Our planner: approach configurations over the 5-D task's free roll, routes ranked by time and checked
-for clearance, the QP layer (wbik.qp) as the fallback route. Deterministic, per hole from rivet_home:
-
-1. approach configurations: at ``rolls`` rolls about the hole axis, every closed-form branch of the
-   approach pose, wrapped nearest rivet_home, kept if ``minimum_clearance`` clear of workpiece and table;
-2. routes: the joint line home -> approach, or one C2 spline through a retreat configuration of the same
-   roll and branch ``retreats`` further out on the axis (the tool comes in along it), ranked by a
-   closed-form time estimate; best first, each is timed and walked with a certified step
-   (:meth:`QPPlanner._path_clearance`) until one keeps ``line_clearance``;
-3. insertion: knots every ``knot_spacing`` on the axis, same roll and branch by closed form; when faster,
-   route and insertion are one blended motion cut into ``approach`` and ``insert``; retract and return
-   run the same motions backward;
-4. fallback: the QP trust-region path of the 5-D task under the workpiece clearance constraint.
-
-Why closed-form retreats: docs/measurements.md, riveting planner. Every IK, clearance query, timing and
-grid point is counted (:mod:`wbik.apps.riveting.cost`); the cycle charges the cost to the run's clock.
+"""Our planner, per hole from rivet_home, deterministic: approach configurations at ``rolls`` rolls about
+the hole axis (the 5-D task's free roll), every closed-form branch kept if ``minimum_clearance`` clear;
+routes to each, the joint line or one spline through a retreat configuration of the same roll and branch
+``retreats`` out on the axis, ranked by a closed-form time estimate and checked best first
+(:meth:`QPPlanner._path_clearance`) until one keeps ``line_clearance``; the insertion on the axis by closed
+form every ``knot_spacing``, blended with the route when faster; retract and return run the same motions
+backward. Fallback: the QP path (wbik.qp) of the 5-D task under the workpiece clearance constraint. Why
+closed-form retreats: docs/measurements.md, riveting planner. Every IK, clearance query, timing and grid
+point is counted (:mod:`wbik.apps.riveting.cost`).
 """
 
 from __future__ import annotations
@@ -77,12 +70,11 @@ class QPPlanner(Planner):
         self.backend = backend
         self.rolls = int(rolls)
         self.retreats = tuple(float(r) for r in retreats)
+        self.reach = self.collision.joint_reach()
         self.cost = PlanningCost()
         self.collision = CountingCollision(self.collision, self.cost)
-        self.reach = self.collision.joint_reach()
         self.law = time_law(self.limits.law)
 
-    # -- counted primitives ---------------------------------------------------------------------
     def _branches(self, pose: pin.SE3, near: np.ndarray) -> list[tuple[int, np.ndarray]]:
         """(branch index in the solver's order, q) of every closed-form solution of a 6-D tcp pose,
         wrapped nearest ``near``."""
@@ -116,9 +108,8 @@ class QPPlanner(Planner):
         count = max(int(np.ceil(move.duration / GRID_DT)), 2) + 1
         self.cost.add("grid_points", count)
         times = np.linspace(0.0, move.duration, count)[::-1]
-        rows = move.evaluate(times)
-        speed = np.max(np.abs(move.timed.evaluate(move.local_times(times))[1]), axis=0)
-        slack = float((times[0] - times[1]) * speed @ self.reach)
+        rows, velocity, _ = move.timed.evaluate(move.local_times(times))
+        slack = float((times[0] - times[1]) * np.max(np.abs(velocity), axis=0) @ self.reach)
         worst, index = np.inf, 0
         while True:
             distance = self.collision.clearance(rows[index], skip=skip).minimum("cell")
@@ -129,7 +120,6 @@ class QPPlanner(Planner):
             beyond = np.flatnonzero(moved > distance - CERTIFIED - slack)
             index += max(int(beyond[0]) if beyond.size else min(LOOKAHEAD, count - 1 - index), 1)
 
-    # -- approach configurations and routes -----------------------------------------------------
     def _routes(self, hole: Hole, q_home: np.ndarray) -> list[_Route]:
         """Every (approach configuration, route) pair, ranked by its time estimate."""
         routes = []
@@ -202,7 +192,6 @@ class QPPlanner(Planner):
                 return np.array([*knots, q_end])
         return None
 
-    # -- one cycle ------------------------------------------------------------------------------
     def _search(self, hole: Hole, routes: list[_Route], insertions: dict) -> tuple[tuple | None, int, float]:
         """(route, approach move, insertion knots, worst clearance) of the best clear route, the routes
         checked and the best clearance seen."""
@@ -210,11 +199,10 @@ class QPPlanner(Planner):
         for route in routes:
             if checked >= MAX_ROUTE_CHECKS:
                 break
-            key = route.key
-            if key not in static:
-                static[key] = self._clear(route.knots[-1], self.minimum_clearance)
-            if not static[key] or (len(route.knots) == 3
-                                   and not self._clear(route.knots[1], self.line_clearance)):
+            if route.key not in static:
+                static[route.key] = self._clear(route.knots[-1], self.minimum_clearance)
+            if not static[route.key] or (len(route.knots) == 3
+                                         and not self._clear(route.knots[1], self.line_clearance)):
                 continue
             checked += 1
             move = self._timed("approach", route.knots)
@@ -222,10 +210,10 @@ class QPPlanner(Planner):
             worst_seen = max(worst_seen, worst)
             if not clear:
                 continue
-            if key not in insertions:
-                insertions[key] = self._insertion(hole, route.roll, route.knots[-1])
-            if insertions[key] is not None:
-                return (route, move, insertions[key], worst), checked, worst_seen
+            if route.key not in insertions:
+                insertions[route.key] = self._insertion(hole, route.roll, route.knots[-1])
+            if insertions[route.key] is not None:
+                return (route, move, insertions[route.key], worst), checked, worst_seen
         return None, checked, worst_seen
 
     def _fallback(self, hole: Hole, route: _Route, insertion: np.ndarray | None, q_home: np.ndarray):

@@ -61,10 +61,6 @@ class CyclePlan:
     planning_cost_s: float = 0.0
     info: dict = field(default_factory=dict)
 
-    @property
-    def duration(self) -> float:
-        return float(sum(move.duration for move in self.moves))
-
 
 class Planner:
     """Base class: ``setup(q_home)`` once, then ``plan(hole, q_home)`` per cycle and
@@ -78,7 +74,6 @@ class Planner:
         self.insertion = insertion
         self.chain = robot.chain("arm")
         self.analytic = solver("analytic", robot, chain="arm")
-        self.options = options
 
     def setup(self, q_home: np.ndarray) -> dict:
         """Prepare (e.g. teach intermediate configurations); returns facts for the report."""

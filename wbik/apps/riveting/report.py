@@ -32,6 +32,7 @@ from wbik.expectations import evaluate
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
 from wbik.models import load
+from wbik.scenarios.kinds import report_verdict
 from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
@@ -62,9 +63,8 @@ class Cell:
         self.robot = load(spec.get("robot", "ur5"))
         self.scene: Scene = build_scene(spec.get("scene"))
         self.collision = CollisionModel(self.robot, self.scene)
-        self.chain = self.robot.chain("arm")
         limits = spec.get("limits", {})
-        velocity = limits.get("velocity", self.chain.velocity_limit)
+        velocity = limits.get("velocity", self.robot.chain("arm").velocity_limit)
         self.limits = Limits(np.broadcast_to(np.asarray(velocity, float), (6,)).copy(),
                              float(limits.get("acceleration", 5.0)), limits.get("law", "quintic"))
         self.insertion = Insertion(**spec.get("insertion", {}))
@@ -171,9 +171,7 @@ def judge(report: dict, expect: dict | None) -> dict:
 
 
 def _fmt(value, digits: int = 2) -> str:
-    if value is None:
-        return "-"
-    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+    return "-" if value is None else f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
 def comparison_rows(report: dict) -> list[list[str]]:
@@ -197,8 +195,7 @@ def comparison_rows(report: dict) -> list[list[str]]:
 def format_text(report: dict) -> str:
     rows = comparison_rows(report)
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    status = "FAILED" if not report["passed"] else report.get("verdict", "PASSED")
-    lines = [f"{report['name']} (ur5_riveting): {status}"]
+    lines = [f"{report['name']} (ur5_riveting): {report_verdict(report)}"]
     settings = report["settings"]
     lines.append(f"  {settings['duration_s']:g} s, seed {settings['seed']}, {settings['holes']} holes, "
                  f"a_max {settings['acceleration_limit_rad_s2']:g} rad/s^2, v_max URDF, "

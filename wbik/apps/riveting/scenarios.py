@@ -45,8 +45,6 @@ from wbik.scenarios.kinds import Progress
 from wbik.scenarios.kinds import ScenarioKind
 from wbik.scenarios.kinds import ScenarioReport
 
-__all__ = ["SCENARIO_KINDS", "format_text", "riveting_animation", "riveting_schema", "run_riveting"]
-
 ANIMATION_SECONDS = 40.0
 ANIMATION_SAMPLE_S = 0.1
 
@@ -84,11 +82,8 @@ def scene_boxes(scene) -> tuple:
     from wbik.viz.environment import TABLE_COLOR
     from wbik.viz.environment import SceneBox
 
-    table_size = np.asarray(scene.table_size, dtype=float)
-    table_centre = [*scene.table_center, scene.table_top_z - 0.5 * table_size[2]]
-    return (SceneBox("table", tuple(table_size), tuple(table_centre), color=TABLE_COLOR),
-            SceneBox("workpiece", tuple(scene.workpiece_size), tuple(scene.workpiece_center),
-                     color=PART_COLOR))
+    return (SceneBox("table", scene.table_size, scene.table_box_center, color=TABLE_COLOR),
+            SceneBox("workpiece", scene.workpiece_size, scene.workpiece_center, color=PART_COLOR))
 
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,

@@ -85,6 +85,11 @@ class Scene:
     def workpiece_half(self) -> np.ndarray:
         return 0.5 * self.workpiece_size
 
+    @property
+    def table_box_center(self) -> np.ndarray:
+        """Centre (m) of the table's box, its top at ``table_top_z``."""
+        return np.array([*self.table_center, self.table_top_z - 0.5 * self.table_size[2]])
+
     def hole(self, name: str) -> Hole:
         found = next((hole for hole in self.holes if hole.name == name), None)
         if found is None:

@@ -37,18 +37,13 @@ class StateTransitionError(WbikError, RuntimeError):
     """A transition the EuRoC state machine does not have."""
 
 
-MOVE_STATES = {
-    "to rivet_home": State.GOING_RIVET_HOME,
-    "back to intermediate": State.GOING_RIVET_HOME,
-    "load_rivet": State.GOING_RIVET_HOME,
-    "plan": State.DETECTING_HOLE_POSE,
-    "to intermediate": State.DETECTING_HOLE_POSE,
-    "sleep": State.DETECTING_HOLE_POSE,
-    "approach": State.GOING_HOLE_GUESS,
-    "insert": State.MOVING_INTO_HOLE,
-    "trigger_rivet": State.RIVETING,
-    "retract": State.MOVING_OUT_FROM_HOLE,
-}
+MOVE_STATES = {name: state for state, names in (
+    (State.GOING_RIVET_HOME, ("to rivet_home", "back to intermediate", "load_rivet")),
+    (State.DETECTING_HOLE_POSE, ("plan", "to intermediate", "sleep")),
+    (State.GOING_HOLE_GUESS, ("approach",)),
+    (State.MOVING_INTO_HOLE, ("insert",)),
+    (State.RIVETING, ("trigger_rivet",)),
+    (State.MOVING_OUT_FROM_HOLE, ("retract",))) for name in names}
 """The state each move of a cycle belongs to, by its name."""
 
 
@@ -73,9 +68,9 @@ class TaskStateMachine:
         if state == self.state and not retry:
             return
         if state not in TRANSITIONS[self.state]:
+            allowed = [s.name for s in TRANSITIONS[self.state]]
             raise StateTransitionError(f"no transition {self.state.name} -> {state.name}; from "
-                                       f"{self.state.name} the seed allows "
-                                       f"{[s.name for s in TRANSITIONS[self.state]]}")
+                                       f"{self.state.name} the seed allows {allowed}")
         self.state = state
         self.visits.append((float(time), state.name))
 
