@@ -63,13 +63,9 @@ class QPPlanner(Planner):
                  knot_spacing: float = 0.001, max_step: float = 0.05, backend: str = DEFAULT_BACKEND,
                  rolls: int = 12, retreats=(0.015, 0.03, 0.06), **options):
         super().__init__(*args, **options)
-        self.minimum_clearance = float(minimum_clearance)
-        self.line_clearance = float(line_clearance)
-        self.knot_spacing = float(knot_spacing)
-        self.max_step = float(max_step)
-        self.backend = backend
-        self.rolls = int(rolls)
-        self.retreats = tuple(float(r) for r in retreats)
+        self.minimum_clearance, self.line_clearance = float(minimum_clearance), float(line_clearance)
+        self.knot_spacing, self.max_step, self.backend = float(knot_spacing), float(max_step), backend
+        self.rolls, self.retreats = int(rolls), tuple(float(r) for r in retreats)
         self.reach = self.collision.joint_reach()
         self.cost = PlanningCost()
         self.collision = CountingCollision(self.collision, self.cost)
