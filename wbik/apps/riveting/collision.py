@@ -26,8 +26,7 @@ WHICH = {"all": lambda entry: entry.obstacle == "workpiece",
          "tool": lambda entry: entry.obstacle == "workpiece" and entry.name in TOOL_GEOMETRIES,
          "links": lambda entry: entry.obstacle == "workpiece" and entry.name not in TOOL_GEOMETRIES,
          "table": lambda entry: entry.obstacle == "table",
-         "cell": lambda entry: True}
-"""The distances each ``which`` of :meth:`Clearance.minimum` takes."""
+         "cell": lambda entry: True}  # the distances each ``which`` of Clearance.minimum takes
 
 Obstacle = tuple[coal.ShapeBase, coal.Transform3s]
 

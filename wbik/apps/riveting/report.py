@@ -37,8 +37,7 @@ from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
 DEFAULT_PLANNERS = [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]
-THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}
-"""Table 6 of the thesis (ur5-riveting.md 5)."""
+THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}  # the thesis's Table 6
 
 
 RIVETING_RULES = {
@@ -53,7 +52,6 @@ RIVETING_RULES = {
     "max_depth_error_m": Rule("max_depth_error_m", "<=", "m"),
     "max_all_holes_riveted_s": Rule("all_holes_riveted_s", "<=", "s"),
 }
-"""Expectations of one planner's run."""
 
 
 class Cell:

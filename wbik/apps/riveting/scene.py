@@ -18,12 +18,10 @@ import pinocchio as pin
 from wbik.errors import InvalidConfigurationError
 from wbik.validation import finite_vector
 
-FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 0.0]),
+FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 0.0]),  # outward, world
                 "left": np.array([0.0, 1.0, 0.0])}
-"""Outward normals of the holed faces (world)."""
-FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),
+FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),  # of the hole frames
                "left": np.array([0.0, 0.0, -1.0])}
-"""x axis of the hole frames of each face."""
 
 DEFAULT_SCENE = {
     "table": {"top_z": 0.0, "center": [0.3, 0.0], "size": [1.4, 1.2, 0.05]},

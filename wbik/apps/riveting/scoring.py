@@ -26,8 +26,7 @@ import numpy as np
 POSITION_BANDS_MM = (0.3, 1.5, 5.0)
 ANGLE_BANDS_DEG = (1.0, 3.0, 5.0)
 LOCALISATION_POINTS = (10, 5, 2, 0)
-RIVET_BANDS = ((15, 10), (10, 5), (5, 2), (0, 0))
-"""(at least this many rivets, points), best first."""
+RIVET_BANDS = ((15, 10), (10, 5), (5, 2), (0, 0))  # (at least this many rivets, points), best first
 MAXIMUM = 30
 
 

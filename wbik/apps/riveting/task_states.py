@@ -29,8 +29,7 @@ TRANSITIONS: dict[State, tuple[State, ...]] = {
     State.MOVING_INTO_HOLE: (State.RIVETING,),
     State.RIVETING: (State.MOVING_OUT_FROM_HOLE,),
     State.MOVING_OUT_FROM_HOLE: (State.GOING_RIVET_HOME,),
-}
-"""Allowed successors of each state."""
+}  # the allowed successors of each state
 
 
 class StateTransitionError(WbikError, RuntimeError):
@@ -43,8 +42,7 @@ MOVE_STATES = {name: state for state, names in (
     (State.GOING_HOLE_GUESS, ("approach",)),
     (State.MOVING_INTO_HOLE, ("insert",)),
     (State.RIVETING, ("trigger_rivet",)),
-    (State.MOVING_OUT_FROM_HOLE, ("retract",))) for name in names}
-"""The state each move of a cycle belongs to, by its name."""
+    (State.MOVING_OUT_FROM_HOLE, ("retract",))) for name in names}  # the state of each move, by its name
 
 
 def state_of_move(name: str) -> State:
