@@ -1,13 +1,10 @@
-"""Golem-III approach (golem3.md): reach a grasp pose along a straight line without moving the slow
-torso lift (``mb``, 0.005 m/s) unless the arm cannot reach.
+"""Golem-III approach (golem3.md): reach a grasp pose along a straight line without moving the slow torso
+lift (``mb``, 0.005 m/s) unless the arm cannot reach.
 
-Each sample of the line (base_link frame, position lerp + rotation slerp) is first solved with the
-6-DOF arm chain ``right_arm`` (torso_link -> r_eef), the lift held where it is: the target is
-moved into the torso frame, T_torso = T_base_torso(mb)^-1 T_base. Only when that fails (or jumps)
-is the sample solved with the 7-DOF chain ``right_arm_lift`` (base_link -> r_eef, mb first),
-starting from the previous joints; the following samples try the arm alone again at the new lift
-height. The path is returned on the 7-DOF chain; ``info['lift_samples']`` lists the samples that
-used the lift and ``info['lift_travel_m']`` how far it moved.
+Each sample of the line (base_link frame) is first solved with the 6-DOF ``right_arm`` (torso_link ->
+r_eef), the lift held, the target moved into the torso frame; only when that fails (or jumps) with the
+7-DOF ``right_arm_lift`` (mb first) from the previous joints. The path is on the 7-DOF chain;
+``info['lift_samples']`` lists the samples that used the lift, ``info['lift_travel_m']`` how far it moved.
 """
 
 from __future__ import annotations
@@ -38,10 +35,8 @@ def torso_placement(robot: Robot, q_lift: np.ndarray):
 def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method: str = "dls",
              jump_threshold: float = DEFAULT_JUMP_THRESHOLD, lift_method: str | None = None,
              **solver_options) -> JointPath:
-    """Straight line from the gripper pose at q0 (mb, m0, m10..m14) to ``grasp`` (pose in base_link).
-
-    ``method`` solves the 6-DOF arm, ``lift_method`` (default: the same, or 'dls' when the
-    method is 'analytic', which has no closed form with the lift) the 7-DOF chain."""
+    """Straight line from the gripper pose at q0 (mb, m0, m10..m14) to ``grasp`` (pose in base_link);
+    ``method`` solves the arm, ``lift_method`` (default: the same, 'dls' for 'analytic') the 7-DOF chain."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     arm_solver = make_solver(method, robot, chain=ARM, **solver_options)
@@ -64,8 +59,7 @@ def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method
         else:
             lifted = lift_solver.solve(target, q)
             lift_samples.append(k)
-            new_q = lifted.q if lifted.q is not None else q
-            ok = lifted.success
+            new_q, ok = (lifted.q if lifted.q is not None else q), lifted.success
             note = "" if ok else f"arm alone: {arm.reason or 'jump'}; with the lift: {lifted.reason}"
         step = float(np.max(np.abs(new_q - q)))
         if step > jump_threshold:

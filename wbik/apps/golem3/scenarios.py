@@ -1,9 +1,6 @@
-"""The ``golem3_approach`` scenario kind: a straight grasp approach of the Golem-III right arm.
-
-From ``start`` (mb, m0, m10..m14) to ``grasp`` ({position, rpy} in base_link, or {from_joints:
-[7 values]}), the torso lift moved only when the arm alone cannot follow the line
-(:func:`wbik.apps.golem3.approach.approach`); ``expect: {lift: bool}`` besides the generic motion
-expectations of :mod:`wbik.motion.scenarios`.
+"""The ``golem3_approach`` scenario kind: from ``start`` (mb, m0, m10..m14) to ``grasp`` ({position, rpy} in
+base_link, or {from_joints: [7 values]}) along a straight line (:func:`wbik.apps.golem3.approach.approach`),
+judged like any motion (:mod:`wbik.motion.scenarios`) and by ``expect: {lift: bool}``.
 """
 
 from __future__ import annotations

@@ -1,58 +1,22 @@
 """The Golem-III thesis's own solvers, written literally: ``thesis_literal`` and ``thesis_sweep``.
 
-Source: seed ``000_48c793128bbb812d`` (the thesis, ch. 4.1, 4.2, 4.2.1, 4.4 and 5) and its code
-reference [19] (``golem_kinematics/scripts/golem_right_arm_kinematics.py`` of the thesis's
-repository), read for facts only. These are *reproductions*, kept beside our own closed form
-(``analytic``, :mod:`wbik.robot_packages.golem3.closed_form`) so the study can show both.
+Source: the thesis (seed ``000_48c793128bbb812d``, ch. 4-5) and its code reference [19], read for facts only;
+reproductions kept beside our closed form (:mod:`wbik.robot_packages.golem3.closed_form`).
 
-``thesis_literal``, the 6-DOF closed form (thesis eq. 3.6, 4.2-4.6, 4.9-4.10, 4.23, 4.30-4.32,
-4.36-4.37, with golem3.md's correction t4 -> t4 + rho in eq. 4.2), right arm, target (x, y, z) and
-the thesis's angles (yaw alpha = t6, pitch beta = -t4 - t5, roll gamma = t1 + t2 + t3):
+``thesis_literal``: the 6-DOF closed form of the right arm (eq. 3.6, 4.2-4.37 as in :func:`thesis_branches`,
+with golem3.md's correction t4 -> t4 + rho) for a target (x, y, z) and the thesis's angles (yaw alpha = t6,
+pitch beta = -t4 - t5, roll gamma = t1 + t2 + t3), 8 branches in the code's order. As in the thesis: a
+negative square-root argument discards the branch (no clamp), angles are wrapped into (-pi, pi], a branch
+outside the joint limits is discarded, and a survivor must match the input by closed-form FK within
+THESIS_CHECK_TOLERANCE on x, y, z, yaw and pitch (the code's check); the survivor nearest q0 (Euclidean) is
+returned, then judged by the shared 1e-6 check. No rounding of inputs or outputs (the code's 6 decimals are
+not in the text). A target rotation R is read as Rz(gamma) Ry(beta) Rx(alpha), |alpha| <= pi/2.
 
-    t6 = alpha
-    cos(t4 + rho) = (h - z - l5 cos(-beta) + l6 sin(-beta)) / l4,  sin(t4 + rho) = +-sqrt(1 - cos^2)
-    t4 = atan2(sin, cos) - rho,  t5 = -beta - t4,  l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
-    xp = x - l3 cos(gamma),  yp = -y + l3 sin(gamma),  a = 2 yp l1,  b = 2 xp l1,
-    c = xp^2 + yp^2 + l1^2 - l2^2
-    cos t1 = (2ac -+ sqrt((2ac)^2 - 4 (a^2 + b^2)(c^2 - b^2))) / (2 (a^2 + b^2)),
-    sin t1 = +-sqrt(1 - cos^2 t1)
-    t1 = atan2(sin t1, cos t1),  t2 = atan2((xp - l1 sin t1) / l2, (yp - l1 cos t1) / l2) - t1,
-    t3 = gamma - t1 - t2
-
-Three square roots, 2^3 = 8 branches, visited in the thesis code's order (sign of sin(t4 + rho),
-then the quadratic's root, then the sign of sin t1). As in the thesis: a negative square-root
-argument discards the branch (no clamp: rounding that makes an argument slightly negative loses the
-branch); every angle is wrapped into (-pi, pi] (geometry.wrap_to_pi; the thesis says [-pi, pi]; no
-limit reaches pi, so the boundary decides nothing) and a branch with an angle outside the joint
-limits (inclusive, no tolerance) is discarded; each survivor's closed-form FK is compared with the
-input.
-The thesis's text asks the two to be "identical"; its code accepts |difference| <= 1e-3 (m, rad)
-on x, y, z, yaw and pitch (not roll), ``THESIS_CHECK_TOLERANCE``, which we use. Among the survivors
-the one nearest q0 is returned (thesis ch. 4.4: "the difference between each solution and the
-current position of the motors", the closest; the metric is not stated, we use the Euclidean norm).
-The shared 1e-6 FK check of :mod:`wbik.solvers.base` then decides success, as for every method.
-
-Rounding of inputs: the thesis's text states none, and none is applied. (Its code rounds the
-*returned* joints to 6 decimals and compares FK and input after rounding them to 6 decimals; the
-text does not say so and we do not do it.)
-
-Our targets are rotation matrices, the thesis's inputs were its three angles. We take the triple
-of R = Rz(gamma) Ry(beta) Rx(alpha) with |alpha| <= pi/2 (t6 has limits +-1.5 rad, so the other
-triple, alpha +- pi, is never a solution) and beta, gamma from R Rx(-alpha), so |beta| may exceed
-pi/2 as -t4 - t5 does. At gimbal lock (cos beta = 0) the thesis has no rule and neither do we.
-
-``thesis_sweep``, the position-only search (thesis ch. 4.2.1, "a breadth search of the
-orientation": yaw fixed, roll and pitch swept). The code's sweep: yaw = ``yaw`` (default 0), roll
-in the outer loop and pitch in the inner one, each taking 0, +0.01, -0.01, +0.02, -0.02, ...,
-+2.99, -2.99 rad (300 magnitudes, each after 0 with both signs: 599 values; the magnitudes are
-accumulated by repeated addition of 0.01, as in the code), so at most 599 x 599 = 358,801
-closed-form evaluations; the first (roll, pitch) with a solution wins (golem3.md's "up to 300 x
-300 values" counts magnitudes, not signed values). Evaluations are vectorised over blocks of sweep
-points; the first point of the block (in sweep order) with a solution is taken, so the answer and
-the iteration count are those of the one-at-a-time loop.
-
-Left arm: the mirror image (wbik.robot_packages.golem3.model): targets are mirrored, solved as
-right-arm ones and m0 negated back, as the thesis does ("both arms are identical").
+``thesis_sweep``: the position-only search (ch. 4.2.1): yaw fixed, roll (outer loop) and pitch (inner)
+each 0, +0.01, -0.01, ..., +2.99, -2.99 rad (magnitudes accumulated by repeated addition, as the code),
+at most 599 x 599 closed-form evaluations; the first (roll, pitch) with a solution wins. Blocks of sweep
+points are evaluated at once, the first point in sweep order taken, so answer and iteration count are
+those of the one-at-a-time loop. Left arm: targets mirrored, solved as right-arm ones, m0 negated back.
 """
 
 from __future__ import annotations
@@ -82,29 +46,20 @@ from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.targets import as_target
 
-THESIS_CHECK_TOLERANCE = 1e-3
-"""The thesis code's acceptance of a branch: |FK - input| <= this on x, y, z (m), yaw and pitch (rad)."""
-SWEEP_STEP = 0.01
-"""rad between two swept roll (or pitch) magnitudes (the thesis code's increment)."""
-SWEEP_MAGNITUDES = 300
-"""Magnitudes per axis (0, 0.01, ..., 2.99), each but 0 with both signs: 599 values per axis."""
-SWEEP_POINTS = (2 * SWEEP_MAGNITUDES - 1) ** 2
-"""Closed-form evaluations of the whole sweep: 599 x 599 = 358,801."""
+THESIS_CHECK_TOLERANCE = 1e-3  # the code's acceptance: |FK - input| on x, y, z (m), yaw and pitch (rad)
+SWEEP_STEP = 0.01  # rad between two swept magnitudes (the code's increment)
+SWEEP_MAGNITUDES = 300  # per axis: 0, 0.01, ..., 2.99, each but 0 with both signs
+SWEEP_POINTS = (2 * SWEEP_MAGNITUDES - 1) ** 2  # closed-form evaluations of the whole sweep: 599 x 599
 GOLEM3_CHAINS = ("right_arm", "left_arm")
 NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)
 """Fate of a branch, in the order the thesis meets them."""
 
 
 def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
-    """The thesis's 8 branches for right-arm targets (broadcast arrays of shape S).
-
-    Returns (Q (S..., 8, 6), fate (S..., 8), arguments (S..., 8, 3)): ``fate`` is one of
-    NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED per branch (the first test a branch
-    fails); ``arguments`` holds the three square-root arguments as computed (1 - cos^2(t4 + rho),
-    the quadratic's discriminant, 1 - cos^2 t1), NaN where an earlier root already failed.
-    Branch k = 4 j1 + 2 j2 + j3: j1 the sign of sin(t4 + rho) (+, -), j2 the root of the quadratic
-    (-, + before the square root), j3 the sign of sin t1 (+, -). ``lower``/``upper``: (6,) limits.
-    """
+    """The thesis's 8 branches for right-arm targets (broadcast arrays of shape S) and (6,) joint limits:
+    (Q (S..., 8, 6), fate (S..., 8): the first test a branch fails or ACCEPTED, the three square-root
+    arguments (S..., 8, 3), NaN after an earlier failed root). Branch k = 4 j1 + 2 j2 + j3: the sign of
+    sin(t4 + rho) (+, -), the quadratic's root (-, +), the sign of sin t1 (+, -)."""
     x, y, z, yaw, pitch, roll = (v[..., None] for v in np.broadcast_arrays(
         *(np.asarray(v, dtype=float) for v in (x, y, z, yaw, pitch, roll))))
     j1 = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0])
@@ -166,13 +121,9 @@ def thesis_angles(rotation: np.ndarray) -> tuple[float, float, float]:
 
 
 def sweep_order(magnitudes: int = SWEEP_MAGNITUDES, step: float = SWEEP_STEP) -> np.ndarray:
-    """The thesis's sweep, (N, 2) rows (roll, pitch) in visiting order, N = (2 magnitudes - 1)^2.
-
-    Per axis: 0, +m1, -m1, +m2, -m2, ... with m_k = m_(k-1) + step (floating-point accumulation,
-    as the code); roll is the outer loop, pitch the inner one.
-    """
-    values = [0.0]
-    magnitude = 0.0
+    """The thesis's sweep, (N, 2) rows (roll, pitch) in visiting order: per axis 0, +m1, -m1, +m2, -m2, ...
+    with m_k = m_(k-1) + step (accumulated, as the code), roll the outer loop."""
+    values, magnitude = [0.0], 0.0
     for _ in range(magnitudes - 1):
         magnitude = magnitude + step
         values += [magnitude, -magnitude]
@@ -211,12 +162,16 @@ class _ThesisGolem3(Solver):
         return best
 
 
+def _fate_counts(fate: np.ndarray) -> dict[str, int]:
+    """How many branches met each end short of acceptance."""
+    ends = {"negative_sqrt": NEGATIVE_SQRT, "outside_limits": OUTSIDE_LIMITS, "check_failed": CHECK_FAILED}
+    return {key: int(np.sum(fate == code)) for key, code in ends.items()}
+
+
 def _fates(fate: np.ndarray, arguments: np.ndarray) -> dict:
     """Counts of the branches' fates and the most negative square-root argument met."""
     negative = np.where(arguments < 0.0, arguments, np.inf)
-    return {"negative_sqrt": int(np.sum(fate == NEGATIVE_SQRT)),
-            "outside_limits": int(np.sum(fate == OUTSIDE_LIMITS)),
-            "check_failed": int(np.sum(fate == CHECK_FAILED)),
+    return {**_fate_counts(fate),
             "min_negative_sqrt_argument": float(np.min(negative)) if np.isfinite(negative).any() else None}
 
 
@@ -243,38 +198,29 @@ class ThesisLiteralSolver(_ThesisGolem3):
         return Candidate(self._pick(q, accepted, q0), 1, extra=extra)
 
     def solve_all(self, target):
-        """Every branch the thesis accepts that also passes the shared FK check (the thesis returned
-        all its accepted branches)."""
+        """Every branch the thesis accepts that also passes the shared FK check."""
         target = as_target(target)
         self._check_target_kind(target)
         position, rotation = self._right_target(target)
         q, fate, _ = thesis_branches(*position, *thesis_angles(rotation), self.right_lower, self.right_upper)
-        results = []
-        for branch in q[fate == ACCEPTED]:
-            if self.mirrored:
-                branch = branch.copy()
-                branch[0] = -branch[0]
-            results.append(evaluate(self.chain, target, Candidate(branch, 1), self.tolerances, 0.0,
-                                    self.name))
+        branches = q[fate == ACCEPTED]
+        if self.mirrored:
+            branches[:, 0] = -branches[:, 0]
+        results = [evaluate(self.chain, target, Candidate(branch, 1), self.tolerances, 0.0, self.name)
+                   for branch in branches]
         return [result for result in results if result.success]
 
 
 class ThesisSweepSolver(_ThesisGolem3):
-    """``thesis_sweep``: the thesis's position-only search (see the module docstring).
-
-    Options: ``yaw`` (rad, the fixed wrist roll t6, default 0, inside t6's limits);
-    ``max_iterations``: closed-form evaluations (sweep points) allowed, default the whole sweep
-    (``SWEEP_POINTS``, as the thesis ran it); ``timeout_s`` adds a wall clock (checked between blocks).
-    """
+    """``thesis_sweep``: the thesis's position-only search. Options: ``yaw`` (rad, the fixed wrist roll t6);
+    ``max_iterations`` (sweep points, default the whole sweep); ``timeout_s`` (checked between blocks)."""
 
     name = "thesis_sweep"
     supports_pose = False
     iteration_cost_s = 3e-6
-    """The budget's unit: one sweep point (8 branches) inside a vectorised block of ``first_block`` to
-    ``max_block`` points; larger blocks cost more a point (worse cache use). The measurements:
-    docs/measurements.md, thesis_sweep."""
-    first_block = 599
-    """Points of the first block (the roll = 0 row); later blocks double up to ``max_block``."""
+    """The budget's unit: one sweep point (8 branches) in a block of ``first_block`` to ``max_block`` points
+    (docs/measurements.md, thesis_sweep)."""
+    first_block = 599  # the roll = 0 row; later blocks double up to max_block
     max_block = 1198
 
     def __init__(self, robot, chain=None, *, yaw: float = 0.0, max_iterations: int | None = None, **options):
@@ -301,18 +247,13 @@ class ThesisSweepSolver(_ThesisGolem3):
             roll, pitch = self.order[start:stop, 0], self.order[start:stop, 1]
             q, fate, _ = thesis_branches(x, y, z, self.yaw, pitch, roll, self.right_lower, self.right_upper)
             found = np.flatnonzero((fate == ACCEPTED).any(axis=1))
+            visited = fate[:found[0] + 1] if found.size else fate
+            extra = {key: extra[key] + count for key, count in _fate_counts(visited).items()}
             if found.size:
                 point = found[0]
-                visited = fate[:point + 1]
-                for key, code in (("negative_sqrt", NEGATIVE_SQRT), ("outside_limits", OUTSIDE_LIMITS),
-                                  ("check_failed", CHECK_FAILED)):
-                    extra[key] += int(np.sum(visited == code))
                 extra.update(roll=float(roll[point]), pitch=float(pitch[point]), yaw=self.yaw)
                 q_best = self._pick(q[point], fate[point] == ACCEPTED, q0)
                 return Candidate(q_best, start + point + 1, extra=extra)
-            for key, code in (("negative_sqrt", NEGATIVE_SQRT), ("outside_limits", OUTSIDE_LIMITS),
-                              ("check_failed", CHECK_FAILED)):
-                extra[key] += int(np.sum(fate == code))
             start, block = stop, min(2 * block, self.max_block)
             if start < self.max_iterations and time.perf_counter() > deadline:
                 return Candidate(None, start, f"timeout after {start} of {SWEEP_POINTS} sweep orientations "

@@ -1,2 +1,1 @@
-"""PhantomX Pincher application: teleoperation moves (jog, plane line, automatic cycle) and
-their scenario kind."""
+"""PhantomX Pincher application: teleoperation moves and their scenario kind."""

@@ -1,9 +1,6 @@
-"""The ``pincher_motion`` scenario kind: a PhantomX Pincher teleoperation session.
-
-``moves`` run one after another from the previous end: {jog: JOINT, delta_deg: D},
-{plane_line: {start_xy_mm: [x, y], goal_xy_mm: [x, y]}}, {automatic: {}}; a move's own ``timing``,
-``tolerance`` and ``expect`` override the scenario's. Common keys, timing and expectations are
-those of the generic motion kinds (:mod:`wbik.motion.scenarios`).
+"""The ``pincher_motion`` scenario kind: ``moves`` ({jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm,
+goal_xy_mm}}, {automatic: {}}) run one after another, each from the previous end, with their own ``timing``,
+``tolerance`` and ``expect`` over the scenario's (those of :mod:`wbik.motion.scenarios`).
 """
 
 from __future__ import annotations

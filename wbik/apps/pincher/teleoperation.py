@@ -1,18 +1,10 @@
-"""PhantomX Pincher moves of the seed's teleoperation (pincher.md): joint jog, linear TCP moves in
-the reduced working plane, and the automatic mode path.
+"""PhantomX Pincher moves of the seed's teleoperation (pincher.md): joint jog, straight TCP lines in the
+reduced working plane, and the automatic mode's path. Metres and radians (mm and deg only in names).
 
-Reduced working plane (our precise reading of "joint 2 keeps the arm parallel to the floor;
-effective reach 305 mm over 300 deg around the base"): the TCP ("noa") moves on the horizontal
-plane z = 137 mm (the shoulder height, d1), with the tool horizontal (pitch theta = 0, i.e.
-q2 + q3 + q4 = 90 deg) and pointing radially away from the base axis (tool z axis along
-(cos psi, sin psi, 0), psi = atan2(y, x), the only yaw a 4-DOF arm can take there). When the arm
-is stretched flat (q = (psi, 90, 0, 0) deg) all three links lie in that plane and the TCP is
-105 + 105 + 95 = 305 mm from the base axis, the stated reach; the base range +-150 deg is the
-300 deg sector. Inside, the reachable band is
-r in [95 + 2 * 105 * cos(75 deg), 305] mm = [149.4, 305] mm (elbow limit 150 deg) and
-|psi| <= 150 deg; every pose there is reachable with the elbow up (tool-pitch IK of pincher.md).
-A 4-DOF arm cannot keep a fixed orientation along a line, so the TCP keeps pitch 0 and its yaw
-follows psi. Units: metres and radians (mm and deg only in names that say so).
+The working plane (our reading of "joint 2 keeps the arm parallel to the floor; reach 305 mm over 300 deg"):
+the TCP moves at the shoulder height z = 137 mm, the tool horizontal (q2 + q3 + q4 = 90 deg) and pointing
+away from the base axis (the only yaw a 4-DOF arm has there). Stretched flat the arm reaches 105 + 105 + 95
+= 305 mm; folded (elbow limit 150 deg) 149.4 mm; the base turns +-150 deg.
 """
 
 from __future__ import annotations
@@ -36,34 +28,25 @@ PLANE_REACH = 0.105 + 0.105 + 0.095  # m, arm stretched flat
 PLANE_MIN_RADIUS = 0.095 + 2 * 0.105 * math.cos(math.radians(75.0))  # m, elbow folded to 150 deg
 PLANE_SECTOR = math.radians(150.0)  # rad, |base angle| limit
 AUTOMATIC_CYCLE = (
-    # (x, y, z, tool pitch): m and rad. Home over the base front, tool pointing down, then a
-    # pick at -40 deg and a place at +40 deg around the base, 0.15 m out, down to z = 0.04 m.
     (0.15, 0.0, 0.12, -math.pi / 2),
-    (0.15 * math.cos(-0.698), 0.15 * math.sin(-0.698), 0.10, -math.pi / 2),
-    (0.15 * math.cos(-0.698), 0.15 * math.sin(-0.698), 0.04, -math.pi / 2),
-    (0.15 * math.cos(-0.698), 0.15 * math.sin(-0.698), 0.10, -math.pi / 2),
-    (0.15 * math.cos(0.698), 0.15 * math.sin(0.698), 0.10, -math.pi / 2),
-    (0.15 * math.cos(0.698), 0.15 * math.sin(0.698), 0.04, -math.pi / 2),
-    (0.15 * math.cos(0.698), 0.15 * math.sin(0.698), 0.10, -math.pi / 2),
+    *((0.15 * math.cos(angle), 0.15 * math.sin(angle), z, -math.pi / 2)
+      for angle in (-0.698, 0.698) for z in (0.10, 0.04, 0.10)),
     (0.15, 0.0, 0.12, -math.pi / 2),
 )
-"""The automatic mode's fixed pick-and-place cycle (our choice; the seed gives no numbers)."""
+"""The automatic mode's pick-and-place cycle, (x, y, z, tool pitch) points (our choice; the seed gives none):
+home over the base front, tool down, a pick at -40 deg and a place at +40 deg, 0.15 m out, down to 0.04 m."""
 HOME_SEED = np.array([0.0, 0.5, 1.2, 1.44])
 """Joints from which the cycle's first point (home) is solved: elbow up."""
 
 
 def tool_rotation(chain: Chain, yaw: float, pitch: float) -> np.ndarray:
-    """Rotation of 'noa' for base angle ``yaw`` and tool pitch ``pitch`` above the horizontal (rad).
-
-    The tool rotation depends only on q1 and q2 + q3 + q4 = pi/2 - pitch (pincher.md), so it is
-    read from FK of (yaw, pi/2, 0, -pitch)."""
+    """Rotation of 'noa' for base angle ``yaw`` and tool pitch ``pitch`` above the horizontal (rad): FK of
+    (yaw, pi/2, 0, -pitch), as it depends only on q1 and q2 + q3 + q4 = pi/2 - pitch (pincher.md)."""
     return chain.fk(np.array([yaw, math.pi / 2, 0.0, -pitch])).rotation.copy()
 
 
 def jog(chain: Chain, q: Sequence[float], joint: int | str, delta: float, samples: int = 10) -> JointPath:
-    """Move one joint by ``delta`` (rad) from q, stopping at its limit (+-150 deg); the rest stay put.
-
-    ``info['clipped']`` says whether the limit cut the move short."""
+    """Move one joint by ``delta`` (rad) from q, stopped by its limit (``info['clipped']``)."""
     q = chain.check_q(q)
     index = chain.joint_names.index(joint) if isinstance(joint, str) else int(joint)
     if not 0 <= index < chain.nq:
@@ -71,16 +54,15 @@ def jog(chain: Chain, q: Sequence[float], joint: int | str, delta: float, sample
     goal = q.copy()
     goal[index] = np.clip(q[index] + delta, chain.lower[index], chain.upper[index])
     path = joint_path(chain, [q, goal], samples)
+    moved = goal[index] - q[index]
     path.info.update({"kind": "jog", "joint": chain.joint_names[index], "requested": float(delta),
-                      "moved": float(goal[index] - q[index]),
-                      "clipped": bool(not math.isclose(goal[index] - q[index], delta, abs_tol=1e-12))})
+                      "moved": float(moved), "clipped": not math.isclose(moved, delta, abs_tol=1e-12)})
     return path
 
 
 class ToolPathReference:
-    """Straight segments through (x, y, z, pitch) points, each an equal share of s; the tool pitch
-    varies linearly along a segment and the yaw is atan2(y, x), so every pose is one a 4-DOF
-    Pincher can take (a geodesic slerp between two such poses generally is not)."""
+    """Straight segments through (x, y, z, pitch) points, each an equal share of s, the pitch linear along
+    a segment and the yaw atan2(y, x): poses a 4-DOF Pincher can take (a slerp between two generally not)."""
 
     def __init__(self, chain: Chain, points: Sequence[Sequence[float]]):
         self.chain = chain
@@ -114,17 +96,14 @@ def plane_reason(xy: Sequence[float]) -> str:
 
 def tool_path(solver: Solver, points: Sequence[Sequence[float]], samples: int = 10,
               q0: Sequence[float] | None = None, jump_threshold: float = DEFAULT_JUMP_THRESHOLD) -> JointPath:
-    """Straight TCP segments through (x, y, z, pitch) points, ``samples`` sub-points each.
-
-    The first point is solved from ``q0`` (default: elbow up, pointing at it); every sub-point is
-    then solved from the previous one."""
-    chain = solver.chain
-    reference = ToolPathReference(chain, points)
+    """Straight TCP segments through (x, y, z, pitch) points, ``samples`` sub-points each, the first solved
+    from ``q0`` (default: elbow up, pointing at it), every other from the previous one."""
+    reference = ToolPathReference(solver.chain, points)
     x, y = reference.points[0, :2]
-    if q0 is None:
-        q0 = np.array([math.atan2(y, x), 0.3 + math.pi / 2, -0.6, 0.3])
-    first = solver.solve(reference.target(0.0), chain.check_q(q0))
-    q_start = first.q if first.q is not None else chain.check_q(q0)
+    elbow_up = np.array([math.atan2(y, x), 0.3 + math.pi / 2, -0.6, 0.3])
+    q0 = solver.chain.check_q(elbow_up if q0 is None else q0)
+    first = solver.solve(reference.target(0.0), q0)
+    q_start = first.q if first.q is not None else q0
     count = reference.segments * samples
     waypoint_s = [(k + 1) / reference.segments for k in range(reference.segments)]
     path = follow(solver, reference, np.arange(count + 1) / count, q_start, jump_threshold,
@@ -139,9 +118,8 @@ def tool_path(solver: Solver, points: Sequence[Sequence[float]], samples: int = 
 def plane_line(solver: Solver, start_xy: Sequence[float], goal_xy: Sequence[float], samples: int = 20,
                q0: Sequence[float] | None = None,
                jump_threshold: float = DEFAULT_JUMP_THRESHOLD) -> JointPath:
-    """Straight TCP line from start_xy to goal_xy (m) in the working plane (z = 137 mm, pitch 0).
-
-    Samples outside the reachable band also go into ``info['outside_plane']`` with the reason."""
+    """Straight TCP line from start_xy to goal_xy (m) in the working plane; samples outside its reachable
+    band go into ``info['outside_plane']`` with the reason."""
     start, goal = np.asarray(start_xy, dtype=float), np.asarray(goal_xy, dtype=float)
     points = [(*start, PLANE_HEIGHT, 0.0), (*goal, PLANE_HEIGHT, 0.0)]
     path = tool_path(solver, points, samples, q0, jump_threshold)

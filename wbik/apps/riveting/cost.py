@@ -1,34 +1,24 @@
 """A deterministic cost model of planning time, so that planning can be charged to the 300 s run.
 
-Measured wall time depends on the machine's load, so the run charges planning by counting the
-planner's elementary operations and multiplying each count by a calibrated unit cost (s). The wall
-time is measured too and reported beside it, never charged.
-
-Operations counted (each through the planner's own calls, see :class:`CountingCollision`):
-
-- ``ik``: one closed-form UR5 solve (all 8 branches, or the one nearest a seed);
-- ``clearance``: one coal distance query of the whole robot against workpiece and table;
-- ``line_timing``: the closed-form minimum-time scaling of a two-knot joint line;
-- ``line_estimate``: the closed-form minimum time of a two-knot line (a few numpy operations);
-- ``spline_timing``: the numerical minimum-time scaling of a multi-knot spline;
-- ``grid_points``: one point of the fine time grid on which a route's joint motion is bounded
-  between its checked samples (spline evaluation, position and velocity);
-- ``qp_iteration``: one QP step (its clearance queries are counted separately).
-
-UNIT_COST_S: the medians :func:`calibrate` measures on the reference machine, rounded up;
-``line_estimate`` and ``qp_iteration`` are estimates, not measured (the QP fallback is not used on the
-default cell). The model leaves out the Python work between operations, so it charges somewhat less
-than the wall time. The figures: docs/measurements.md, riveting cost; ``python -m
-wbik.apps.riveting.cost`` prints the current machine's.
+Wall time depends on the machine's load, so a plan's charged time is its counted operations times
+calibrated unit costs (s): ``ik`` (one closed-form UR5 solve, all branches or the one nearest a seed),
+``clearance`` (one distance query of the robot against workpiece and table), ``line_timing`` and
+``spline_timing`` (minimum-time scaling of a two-knot line, of a multi-knot spline), ``line_estimate``
+(the closed-form minimum time of a line), ``grid_points`` (one point of the fine time grid bounding a
+route's motion between its checked samples) and ``qp_iteration`` (one QP step). UNIT_COST_S holds the
+medians :func:`calibrate` measured, rounded up (``line_estimate`` and ``qp_iteration`` are estimates);
+docs/measurements.md, riveting cost. ``python -m wbik.apps.riveting.cost`` prints this machine's.
 """
 
 from __future__ import annotations
 
-import time
+import timeit
 from dataclasses import dataclass
 from dataclasses import field
 
 import numpy as np
+
+from wbik.errors import InvalidSettingError
 
 UNIT_COST_S = {
     "ik": 7.0e-4,
@@ -39,7 +29,6 @@ UNIT_COST_S = {
     "grid_points": 2.0e-6,
     "qp_iteration": 2.0e-3,
 }
-"""Calibrated cost (s) of one operation of each kind (see the module notes)."""
 
 
 @dataclass
@@ -50,8 +39,6 @@ class PlanningCost:
 
     def add(self, kind: str, count: int = 1) -> None:
         if kind not in UNIT_COST_S:
-            from wbik.errors import InvalidSettingError
-
             raise InvalidSettingError(f"unknown planning operation {kind!r}; known: {sorted(UNIT_COST_S)}")
         self.counts[kind] = self.counts.get(kind, 0) + int(count)
 
@@ -61,61 +48,47 @@ class PlanningCost:
 
 
 class CountingCollision:
-    """A CollisionModel whose ``clearance`` calls are counted into ``cost`` (all else delegated)."""
+    """A CollisionModel's ``clearance``, its calls counted into ``cost``."""
 
-    def __init__(self, collision, cost: PlanningCost | None = None):
-        self._collision = collision
-        self.cost = cost or PlanningCost()
+    def __init__(self, collision, cost: PlanningCost):
+        self._collision, self.cost = collision, cost
 
     def clearance(self, *args, **kwargs):
         self.cost.add("clearance")
         return self._collision.clearance(*args, **kwargs)
 
-    def __getattr__(self, name):
-        return getattr(self._collision, name)
-
 
 def calibrate(repeats: int = 200) -> dict[str, float]:
     """Median wall time (s) of each operation on this machine, in the default riveting cell."""
-    import pinocchio as pin
-
     from wbik.apps.riveting.collision import CollisionModel
     from wbik.apps.riveting.moves import Limits
-    from wbik.apps.riveting.moves import sample_times
+    from wbik.apps.riveting.moves import samples
     from wbik.apps.riveting.moves import timed_move
     from wbik.apps.riveting.plan import Insertion
     from wbik.apps.riveting.scene import build_scene
     from wbik.models import load
     from wbik.solvers.method_registry import solver
 
-    robot = load("ur5")
-    scene = build_scene()
-    collision = CollisionModel(robot, scene)
-    chain = robot.chain("arm")
+    robot, scene = load("ur5"), build_scene()
+    collision, chain = CollisionModel(robot, scene), robot.chain("arm")
     limits = Limits(chain.velocity_limit, 5.0)
     analytic = solver("analytic", robot, chain="arm")
-    q_home = analytic.solve(scene.rivet_home, robot.nominal).q
     pose = Insertion().approach_pose(scene.hole("h14"))
-    q_near = analytic.solve(pin.SE3(pose.rotation, pose.translation), q_home).q
+    q_home = analytic.solve(scene.rivet_home, robot.nominal).q
+    q_near = analytic.solve(pose, q_home).q
 
     def median(function, count=repeats):
-        values = []
-        for _ in range(count):
-            started = time.perf_counter()
-            function()
-            values.append(time.perf_counter() - started)
-        return float(np.median(values))
+        return float(np.median(timeit.repeat(function, number=1, repeat=count)))
 
     via = 0.5 * (q_home + q_near) + 0.2
     line = timed_move("line", chain, np.array([q_home, q_near]), limits)
-    samples = len(sample_times(line, chain))
     return {
         "ik": median(lambda: analytic.solve_all(pose)),
-        "clearance": median(lambda: collision.clearance(q_near)),
+        "clearance": median(lambda: collision.clearance(q_near).minimum("cell")),
         "line_timing": median(lambda: timed_move("x", chain, np.array([q_home, q_near]), limits)),
         "spline_timing": median(lambda: timed_move("x", chain, np.array([q_home, via, q_near]), limits), 20),
-        "path_samples": median(lambda: sample_times(line, chain), 20) / max(line.duration / 5e-4, 1.0),
-        "samples_per_line": samples,
+        "path_samples": median(lambda: samples(line, chain), 20) / max(line.duration / 5e-4, 1.0),
+        "samples_per_line": len(samples(line, chain)[0]),
     }
 
 

@@ -1,12 +1,8 @@
-"""What both planners share: the insertion geometry, the plan of one cycle, the planner interface.
+"""What both planners share: the insertion geometry, the plan of one cycle and the planner interface.
 
-One cycle, from rivet_home back to rivet_home (the cycle runner adds load_rivet at home):
-
-    [planner's way to the hole] -> approach pose -> insert (tool tip ``depth`` inside the hole,
-    along the hole axis) -> trigger_rivet (dwell) -> retract to the approach pose -> [way home]
-
-The approach pose ("posicion de encare") faces the hole on its axis, the tool tip ``standoff``
-metres outside the opening. The seed gives neither number; ours: standoff 20 mm, depth 6 mm.
+A cycle goes rivet_home -> [the planner's way] -> approach pose (on the hole axis, the tool tip
+``standoff`` outside the opening) -> insert (tip ``depth`` inside) -> trigger_rivet -> retract -> [way
+home]; the cycle runner adds load_rivet at home.
 """
 
 from __future__ import annotations
@@ -20,12 +16,20 @@ import pinocchio as pin
 from wbik.apps.riveting.collision import CollisionModel
 from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.moves import Move
+from wbik.apps.riveting.moves import timed_move
 from wbik.apps.riveting.scene import Hole
 from wbik.apps.riveting.scene import Scene
 from wbik.robot import Robot
+from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.method_registry import solver
 
 TRIGGER = "trigger_rivet"
-INSERT = "insert"
+
+
+def hole_pose(hole: Hole, depth: float, roll: float = 0.0) -> pin.SE3:
+    """tcp pose on the hole axis ``depth`` m inside the opening (tcp z = hole z), turned by ``roll``."""
+    rotation = hole.placement.rotation @ pin.rpy.rpyToMatrix(0.0, 0.0, roll)
+    return pin.SE3(rotation, hole.point_at_depth(depth))
 
 
 @dataclass(frozen=True)
@@ -38,35 +42,24 @@ class Insertion:
     load_s: float = 0.5
 
     def approach_pose(self, hole: Hole, roll: float = 0.0) -> pin.SE3:
-        """tcp pose facing the hole (tcp z = hole z), turned by ``roll`` about the hole axis."""
-        return self._pose(hole, -self.standoff, roll)
+        return hole_pose(hole, -self.standoff, roll)
 
     def inserted_pose(self, hole: Hole, roll: float = 0.0) -> pin.SE3:
-        return self._pose(hole, self.depth, roll)
-
-    @staticmethod
-    def _pose(hole: Hole, depth: float, roll: float) -> pin.SE3:
-        rotation = hole.placement.rotation @ pin.rpy.rpyToMatrix(0.0, 0.0, roll)
-        return pin.SE3(rotation, hole.point_at_depth(depth))
+        return hole_pose(hole, self.depth, roll)
 
 
 @dataclass
 class CyclePlan:
-    """The moves of one cycle (home -> hole -> home) or a failure with its reason."""
+    """The moves of one cycle (home -> hole -> home) or a failure with its reason; the planning's measured
+    wall time (reported, never charged) and its counted cost (charged, :mod:`wbik.apps.riveting.cost`)."""
 
     hole: Hole
     moves: list[Move] = field(default_factory=list)
     success: bool = True
     reason: str = ""
     planning_time_s: float = 0.0
-    """Measured wall time of the planning (s): reported, never charged (it depends on the load)."""
     planning_cost_s: float = 0.0
-    """Planning time charged to the run (s): counted operations x calibrated costs (apps.riveting.cost)."""
     info: dict = field(default_factory=dict)
-
-    @property
-    def duration(self) -> float:
-        return float(sum(move.duration for move in self.moves))
 
 
 class Planner:
@@ -77,13 +70,10 @@ class Planner:
 
     def __init__(self, robot: Robot, scene: Scene, collision: CollisionModel, limits: Limits,
                  insertion: Insertion, **options):
-        self.robot = robot
-        self.scene = scene
-        self.collision = collision
-        self.limits = limits
+        self.robot, self.scene, self.collision, self.limits = robot, scene, collision, limits
         self.insertion = insertion
         self.chain = robot.chain("arm")
-        self.options = options
+        self.analytic = solver("analytic", robot, chain="arm")
 
     def setup(self, q_home: np.ndarray) -> dict:
         """Prepare (e.g. teach intermediate configurations); returns facts for the report."""
@@ -93,9 +83,15 @@ class Planner:
         raise NotImplementedError
 
     def go_home(self, q_from: np.ndarray, q_home: np.ndarray) -> list[Move]:
-        from wbik.apps.riveting.moves import timed_move
-
         return [timed_move("to rivet_home", self.chain, np.array([q_from, q_home]), self.limits)]
+
+    def wrap(self, q: np.ndarray, near: np.ndarray) -> np.ndarray:
+        """q with each revolute joint turned by 2 pi multiples toward ``near`` (inside the limits)."""
+        return wrap_into_limits(q, near, self.chain.lower, self.chain.upper, ~self.chain.is_prismatic)[0]
+
+    def _clear(self, q: np.ndarray, minimum: float, skip: tuple[str, ...] = ()) -> bool:
+        """Every geometry (but ``skip``) at least ``minimum`` (m) from the workpiece and the table."""
+        return self.collision.clearance(q, skip=skip).minimum("cell", floor=minimum) >= minimum
 
 
 def tcp_errors(chain, q: np.ndarray, wanted: pin.SE3) -> tuple[float, float, float, float]:

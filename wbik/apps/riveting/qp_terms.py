@@ -1,21 +1,12 @@
-"""Two QP terms for riveting, on top of :mod:`wbik.qp`: the 5-D tool-axis task and the workpiece
-clearance constraint.
+"""Two QP terms for riveting, on top of :mod:`wbik.qp`.
 
-ToolAxisTask (5 rows): the tool is a cylinder, so rotation about its axis is free. With p the tcp
-position, z the tool axis (tcp z) and (x*, y*, z*) the target frame's axes,
+ToolAxisTask (5 rows): with p the tcp position, z the tool axis and (x*, y*, z*) the target's axes,
+e = [p - p*; x* . z; y* . z] is zero when the tcp is at p* with z parallel to z* (roll free; the sign
+z . z* > 0 is checked apart). As dz/dt = w x z, the Jacobian rows are [J_v; (z x x*)^T J_w; (z x y*)^T J_w].
 
-    e = [p - p*;  x* . z;  y* . z]
-
-is zero exactly when the tcp is at p* and z is parallel to z* (the sign is checked separately:
-z . z* > 0). Since dz/dt = w x z, d(x* . z) = x* . (w x z) = (z x x*) . w, so the Jacobian rows are
-[J_v; (z x x*)^T J_w; (z x y*)^T J_w].
-
-WorkpieceClearance: for each robot geometry whose exact distance d to the workpiece is under
-``activation``, with p its nearest point and n the unit direction away from the workpiece,
-
-    d + n^T J_p dq >= d_min + safety   <=>   -n^T J_p dq <= d - d_min - safety,
-
-J_p = J_v(joint) - [p - o_joint]x J_w(joint) (the velocity of the material point p).
+WorkpieceClearance: each robot geometry at exact distance d < ``activation``, nearest point p and unit
+direction n away from the workpiece, keeps -n^T J_p dq <= d - d_min - safety, with
+J_p = J_v(joint) - [p - o_joint]x J_w(joint) the velocity of the material point p.
 """
 
 from __future__ import annotations
@@ -48,33 +39,23 @@ class ToolAxisTask(Task):
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         placement = kinematics.placement(self.frame_id)
-        axis = placement.rotation[:, 2]
-        target_rotation = self.target.rotation
-        return np.r_[placement.translation - self.target.translation,
-                     target_rotation[:, 0] @ axis, target_rotation[:, 1] @ axis]
+        z, target = placement.rotation[:, 2], self.target.rotation
+        return np.r_[placement.translation - self.target.translation, target[:, 0] @ z, target[:, 1] @ z]
 
     def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        placement = kinematics.placement(self.frame_id)
         jacobian = kinematics.jacobian(self.frame_id)
-        axis = placement.rotation[:, 2]
-        target_rotation = self.target.rotation
-        rows = np.vstack((np.cross(axis, target_rotation[:, 0]), np.cross(axis, target_rotation[:, 1])))
+        axis, target = kinematics.placement(self.frame_id).rotation[:, 2], self.target.rotation
+        rows = np.cross(axis, target[:, :2].T)
         return np.vstack((jacobian[:3], rows @ jacobian[3:]))
 
 
 class WorkpieceClearance(InequalityConstraint):
-    """Every robot geometry at least ``minimum`` (m) from the workpiece (linearised, see module notes).
-
-    ``skip``: geometry names left out (the pin while it goes into its hole).
-    """
+    """Every robot geometry but ``skip`` at least ``minimum`` (m) from the workpiece (module notes)."""
 
     def __init__(self, collision: CollisionModel, minimum: float, skip: tuple[str, ...] = (),
                  activation: float = 0.05, safety: float = 5e-4):
-        self.collision = collision
-        self.minimum = float(minimum)
-        self.skip = tuple(skip)
-        self.activation = float(activation)
-        self.safety = float(safety)
+        self.collision, self.minimum, self.skip = collision, float(minimum), tuple(skip)
+        self.activation, self.safety = float(activation), float(safety)
         self.name = f"workpiece clearance >= {minimum * 1e3:g} mm"
 
     def _distances(self, kinematics: Kinematics):

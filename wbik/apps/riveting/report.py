@@ -1,12 +1,9 @@
 """Run the riveting task for each planner of a task file and report (dict, text, Markdown).
 
-Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``seed``,
-``max_cycles`` (null: the whole run), ``limits`` {acceleration (rad/s^2), law}, ``insertion``
-{standoff, depth, trigger_s, load_s}, ``noise`` {position_sigma, position_max, angle_sigma_deg},
-``scene`` (see :mod:`wbik.apps.riveting.scene`), ``planners``: a list of {name, planner: thesis | ours,
-planner options...}, ``expect``: {planner name: {key: threshold}} with the keys of ``RIVETING_RULES``
-(judged by :mod:`wbik.expectations`; a threshold may be {threshold, expected_to_fail, why}; unknown
-keys raise).
+Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``seed``, ``max_cycles``,
+``limits``, ``insertion``, ``noise``, ``scene`` (:mod:`wbik.apps.riveting.scene`), ``planners`` ({name,
+planner: thesis | ours, options...}) and ``expect`` ({planner name: {key of RIVETING_RULES: threshold}},
+judged by :mod:`wbik.expectations`).
 """
 
 from __future__ import annotations
@@ -25,6 +22,7 @@ from wbik.apps.riveting.cycle import simulate
 from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.plan import Planner
 from wbik.apps.riveting.scene import Scene
 from wbik.apps.riveting.scene import build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
@@ -34,11 +32,12 @@ from wbik.expectations import evaluate
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
 from wbik.models import load
+from wbik.scenarios.kinds import report_verdict
 from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
-THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}
-"""Table 6 of the thesis (ur5-riveting.md 5)."""
+DEFAULT_PLANNERS = [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]
+THESIS_RESULT = {"rivets": 9, "collisions": 0, "localisation_error": 0.0, "score": 22}  # the thesis's Table 6
 
 
 RIVETING_RULES = {
@@ -53,8 +52,6 @@ RIVETING_RULES = {
     "max_depth_error_m": Rule("max_depth_error_m", "<=", "m"),
     "max_all_holes_riveted_s": Rule("all_holes_riveted_s", "<=", "s"),
 }
-"""Expectations of one planner's run (Table 5 score, rivets, collisions, clearances, insertion errors,
-the simulated time at which every hole is riveted, planning charged)."""
 
 
 class Cell:
@@ -64,19 +61,18 @@ class Cell:
         self.robot = load(spec.get("robot", "ur5"))
         self.scene: Scene = build_scene(spec.get("scene"))
         self.collision = CollisionModel(self.robot, self.scene)
-        self.chain = self.robot.chain("arm")
         limits = spec.get("limits", {})
-        velocity = limits.get("velocity", self.chain.velocity_limit)
+        velocity = limits.get("velocity", self.robot.chain("arm").velocity_limit)
         self.limits = Limits(np.broadcast_to(np.asarray(velocity, float), (6,)).copy(),
                              float(limits.get("acceleration", 5.0)), limits.get("law", "quintic"))
         self.insertion = Insertion(**spec.get("insertion", {}))
-        analytic = solver("analytic", self.robot, chain="arm")
-        home = analytic.solve(self.scene.rivet_home, self.robot.nominal)
+        home = solver("analytic", self.robot, chain="arm").solve(self.scene.rivet_home, self.robot.nominal)
         if not home.success:
             raise ValueError(f"rivet_home is not reachable: {home.reason}")
         self.q_home = home.q
 
-    def planner(self, entry: dict):
+    def planner(self, entry: dict) -> Planner:
+        """The planner of one ``planners`` entry, named by its ``name``."""
         options = {k: v for k, v in entry.items() if k not in ("name", "planner")}
         kind = entry.get("planner", "ours")
         if kind not in PLANNERS:
@@ -88,6 +84,7 @@ class Cell:
 
 
 def run_config(spec: dict, **overrides) -> RunConfig:
+    """The run's settings from a task file, with ``overrides``."""
     values = {"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
               "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {}))}
     values.update(overrides)
@@ -109,7 +106,7 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
                            "insertion": vars(cell.insertion), "noise": vars(config.noise),
                            "holes": len(cell.scene.holes), "q_home": cell.q_home.tolist()},
               "thesis_table6": THESIS_RESULT, "runs": {}, "passed": True}
-    for entry in spec.get("planners", [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]):
+    for entry in spec.get("planners", DEFAULT_PLANNERS):
         planner = cell.planner(entry)
 
         def progress(result: RunResult, name=planner.name) -> None:
@@ -127,14 +124,15 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
     return report
 
 
+def planner_names(spec: dict) -> list[str]:
+    return [entry.get("name", entry.get("planner", "ours"))
+            for entry in spec.get("planners", DEFAULT_PLANNERS)]
+
+
 def _check_expect_keys(spec: dict) -> None:
     """Unknown planners or keys in ``expect`` raise before minutes of simulation."""
-    expect = spec.get("expect", {}) or {}
-    planners = [entry.get("name", entry.get("planner", "ours"))
-                for entry in spec.get("planners", [{"name": "thesis"}, {"name": "ours"}])]
-    if not isinstance(expect, dict):
-        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
-    for name, wanted in expect.items():
+    planners = planner_names(spec)
+    for name, wanted in _expect(spec.get("expect")).items():
         if name not in planners:
             raise ExpectationError(f"expect names planner {name!r}; the planners are {planners}")
         unknown = set(wanted or {}) - set(RIVETING_RULES)
@@ -143,13 +141,16 @@ def _check_expect_keys(spec: dict) -> None:
                                    f"known keys: {sorted(RIVETING_RULES)}")
 
 
+def _expect(expect) -> dict:
+    if not isinstance(expect or {}, dict):
+        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
+    return expect or {}
+
+
 def judge(report: dict, expect: dict | None) -> dict:
     """Check every planner's run against ``expect`` (``checks``, ``verdict``, ``passed``)."""
     checks = []
-    expect = expect or {}
-    if not isinstance(expect, dict):
-        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
-    for name, wanted in expect.items():
+    for name, wanted in _expect(expect).items():
         summary = report["runs"].get(name, {}).get("summary")
         if summary is None:
             raise ExpectationError(f"expect names planner {name!r}, which did not run; "
@@ -159,8 +160,8 @@ def judge(report: dict, expect: dict | None) -> dict:
                     "max_depth_error"):
             value = summary.get(f"{key}_mm")
             figures[f"{key}_m"] = None if value is None else value / 1e3
-        for check in evaluate(wanted, figures, RIVETING_RULES, f"expect.{name}"):
-            checks.append({"planner": name, **check})
+        checks += [{"planner": name, **check}
+                   for check in evaluate(wanted, figures, RIVETING_RULES, f"expect.{name}")]
     report["checks"] = checks
     report["verdict"] = verdict(checks)
     report["passed"] = report["verdict"] != "FAILED"
@@ -168,9 +169,7 @@ def judge(report: dict, expect: dict | None) -> dict:
 
 
 def _fmt(value, digits: int = 2) -> str:
-    if value is None:
-        return "-"
-    return f"{value:.{digits}f}" if isinstance(value, float) else str(value)
+    return "-" if value is None else f"{value:.{digits}f}" if isinstance(value, float) else str(value)
 
 
 def comparison_rows(report: dict) -> list[list[str]]:
@@ -187,16 +186,14 @@ def comparison_rows(report: dict) -> list[list[str]]:
                      _fmt(s["mean_cycle_time_s"], 2), str(s["failed_plans"]),
                      _fmt(s.get("all_holes_riveted_s"), 1),
                      f"{_fmt(s.get('planning_charged_s'), 2)} ({_fmt(s.get('planning_time_s'), 1)})"])
-    rows.append(["thesis (Table 6)", "22/30", "10/2/10", "9", "0", "0", "-", "-", "~33 (300/9)", "-", "-",
-                 "-"])
-    return rows
+    thesis = ["thesis (Table 6)", "22/30", "10/2/10", "9", "0", "0", "-", "-", "~33 (300/9)", "-", "-", "-"]
+    return [*rows, thesis]
 
 
 def format_text(report: dict) -> str:
     rows = comparison_rows(report)
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
-    status = "FAILED" if not report["passed"] else report.get("verdict", "PASSED")
-    lines = [f"{report['name']} (ur5_riveting): {status}"]
+    lines = [f"{report['name']} (ur5_riveting): {report_verdict(report)}"]
     settings = report["settings"]
     lines.append(f"  {settings['duration_s']:g} s, seed {settings['seed']}, {settings['holes']} holes, "
                  f"a_max {settings['acceleration_limit_rad_s2']:g} rad/s^2, v_max URDF, "
@@ -220,10 +217,8 @@ def format_text(report: dict) -> str:
 
 def format_markdown(report: dict) -> str:
     rows = comparison_rows(report)
-    lines = [f"# {report['name']}", "", "| " + " | ".join(rows[0]) + " |",
-             "|" + "---|" * len(rows[0])]
-    lines += ["| " + " | ".join(row) + " |" for row in rows[1:]]
-    return "\n".join(lines) + "\n"
+    table = ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join([f"# {report['name']}", "", table[0], "|" + "---|" * len(rows[0]), *table[1:]]) + "\n"
 
 
 def write_report(report: dict, folder: str | Path) -> list[Path]:
@@ -232,8 +227,7 @@ def write_report(report: dict, folder: str | Path) -> list[Path]:
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    json_path = folder / "report.json"
-    json_path.write_text(json.dumps(report, indent=1, default=json_default))
-    markdown_path = folder / "report.md"
-    markdown_path.write_text(format_markdown(report))
-    return [json_path, markdown_path]
+    paths = [folder / "report.json", folder / "report.md"]
+    paths[0].write_text(json.dumps(report, indent=1, default=json_default))
+    paths[1].write_text(format_markdown(report))
+    return paths

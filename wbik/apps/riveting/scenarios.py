@@ -1,19 +1,11 @@
-"""Scenario kind ``ur5_riveting`` for ``wbik run tasks/ur5_riveting.yaml``: its schema, runner and
-printed report (:func:`wbik.apps.riveting.report.format_text`), registered in ``SCENARIO_KINDS`` (see
-:mod:`wbik.scenarios.kinds`).
+"""Scenario kind ``ur5_riveting`` (``wbik run tasks/ur5_riveting.yaml``): its schema, runner and printed
+report (:func:`wbik.apps.riveting.report.format_text`).
 
-The report's figures hold every planner's summary, Table 5 score and cycles (``runs``), the
-settings and the expectations' ``checks``; ``report_folder`` in the task file also writes
-report.json and report.md there. The defaults of ``duration_s``, ``seed``, ``max_cycles``,
-``insertion`` and ``noise`` are the riveting dataclasses' own (RunConfig, Insertion, NoiseModel);
-a planner's options default to its class's, but for ``backend`` (the scenario-wide QP backend,
-:func:`wbik.scenario_schema.backend_key`); missing ``scene`` keys take
-:data:`wbik.apps.riveting.scene.DEFAULT_SCENE`.
-
-The report's animation is light (what ``wbik view`` plays; the three 300 s runs at this rate would
-add some 9,000 samples, ~12 MB): the first planner's first ``ANIMATION_SECONDS`` (going home and
-the first cycle, which takes 33 s with the thesis timing) sampled every ``ANIMATION_SAMPLE_S``, the
-tool tip traced.
+The report holds every planner's summary, Table 5 score and cycles, the settings and the expectations'
+checks; ``report_folder`` also writes report.json and report.md there. Defaults are those of the riveting
+dataclasses and planner classes (``backend`` is the scenario-wide QP backend) and DEFAULT_SCENE. The
+animation (what ``wbik view`` plays) is the first planner's first ``ANIMATION_SECONDS`` (going home and
+the first cycle) every ``ANIMATION_SAMPLE_S``: all runs at this rate would add some 12 MB.
 """
 
 from __future__ import annotations
@@ -53,17 +45,12 @@ from wbik.schema import Variants
 from wbik.schema import Vector
 from wbik.schema import from_dataclass
 
-__all__ = ["SCENARIO_KINDS", "format_text", "riveting_animation", "riveting_schema", "run_riveting"]
-
 ANIMATION_SECONDS = 40.0
-"""s of the first planner's run that the animation shows."""
 ANIMATION_SAMPLE_S = 0.1
-"""s between two samples of the animation."""
 
 
 def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Every planner of a checked spec; the report with the animation of the first planner's first
-    cycle."""
+    """Every planner of a checked spec; the report with the animation of the first planner's first cycle."""
     kept = {}
 
     def progress(partial: dict) -> None:
@@ -95,27 +82,23 @@ def scene_boxes(scene) -> tuple:
     from wbik.viz.environment import TABLE_COLOR
     from wbik.viz.environment import SceneBox
 
-    table_size = np.asarray(scene.table_size, dtype=float)
-    table_centre = [*scene.table_center, scene.table_top_z - 0.5 * table_size[2]]
-    return (SceneBox("table", tuple(table_size), tuple(table_centre), color=TABLE_COLOR),
-            SceneBox("workpiece", tuple(scene.workpiece_size), tuple(scene.workpiece_center),
-                     color=PART_COLOR))
+    return (SceneBox("table", scene.table_size, scene.table_box_center, color=TABLE_COLOR),
+            SceneBox("workpiece", scene.workpiece_size, scene.workpiece_center, color=PART_COLOR))
 
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
                        sample_s: float = ANIMATION_SAMPLE_S):
-    """The first ``seconds`` of a planner's run (a wbik.apps.riveting.cycle.RunResult, whose timeline holds
-    the moves with their start times) every ``sample_s``, the chain's tip traced."""
+    """The first ``seconds`` of a planner's run (a wbik.apps.riveting.cycle.RunResult) every ``sample_s``,
+    the chain's tip traced."""
     from wbik.viz.animation import Animation
 
     timeline = result.timeline
     end = min(seconds, timeline[-1][0] + timeline[-1][1].duration)
     times = np.append(np.arange(0.0, end, sample_s), end)
     times = times[np.r_[True, np.diff(times) > 1e-9]]
-    rows, index = [], 0
-    for t in times:
-        while index + 1 < len(timeline) and timeline[index + 1][0] <= t:
-            index += 1
+    rows = []
+    for t, index in zip(times, np.searchsorted([start for start, _ in timeline], times, side="right") - 1,
+                        strict=True):
         start, move = timeline[index]
         rows.append(move.evaluate(min(t - start, move.duration))[0])
     return Animation.from_chain(chain.robot, chain, times, np.array(rows), name=f"riveting, {result.planner}")

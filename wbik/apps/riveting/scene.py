@@ -1,25 +1,16 @@
-"""The riveting cell: UR5 on a table, a box workpiece with 33 holes on three faces, rivet_home.
+"""The riveting cell: a UR5 on a table, a box workpiece with 33 holes on three faces, rivet_home.
 
-The seed (ur5-riveting.md 7.3) gives none of these numbers; ours are assumptions, written in
-tasks/ur5_riveting.yaml (the defaults below repeat them). World = the UR5's ``base_link``
-(x forward, z up); the table top is the plane z = 0 under the robot's base.
-
-Workpiece: a box (``center`` of its footprint, ``size``) standing on the table in front of the
-robot. Holes are on its top face (normal +z) and on its two sides (normals -y "right" and +y
-"left"); each face lists rows of holes. A hole frame has its origin at the centre of the hole's
-opening and its z axis pointing INTO the hole (minus the face's outward normal); its x axis is
--z (world) on the sides and -x on the top, so the frames of one face are parallel. Names h0..h32
-as in the thesis's code (top first, then right, then left).
-
-Holes are blind cylinders of ``hole_diameter`` (6 mm: 0.5 mm of radial clearance around the 5 mm
-tool) and ``hole_depth`` (10 mm >= the 6 mm insertion). See :mod:`wbik.apps.riveting.collision` for how
-they are modelled for distance queries.
+The seed gives none of these numbers: ours are in tasks/ur5_riveting.yaml (DEFAULT_SCENE repeats them).
+World = the UR5's ``base_link`` (x forward, z up), the table top at z = 0. Holes lie in rows on the top
+face (normal +z) and the two sides (-y "right", +y "left"), named h0..h32 as in the thesis's code. A hole
+frame has its origin at the opening's centre and z INTO the hole; its x axis is -z (world) on the sides
+and -x on the top. Holes are blind cylinders, ``hole_diameter`` 6 mm (0.5 mm of radial clearance around
+the 5 mm tool) and ``hole_depth`` 10 mm.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from dataclasses import field
 
 import numpy as np
 import pinocchio as pin
@@ -27,12 +18,10 @@ import pinocchio as pin
 from wbik.errors import InvalidConfigurationError
 from wbik.validation import finite_vector
 
-FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 0.0]),
+FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 0.0]),  # outward, world
                 "left": np.array([0.0, 1.0, 0.0])}
-"""Outward normals of the holed faces (world)."""
-FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),
+FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),  # of the hole frames
                "left": np.array([0.0, 0.0, -1.0])}
-"""x axis of the hole frames of each face (perpendicular to the normal)."""
 
 DEFAULT_SCENE = {
     "table": {"top_z": 0.0, "center": [0.3, 0.0], "size": [1.4, 1.2, 0.05]},
@@ -89,11 +78,15 @@ class Scene:
     hole_depth: float
     holes: list[Hole]
     rivet_home: pin.SE3
-    spec: dict = field(default_factory=dict)
 
     @property
     def workpiece_half(self) -> np.ndarray:
         return 0.5 * self.workpiece_size
+
+    @property
+    def table_box_center(self) -> np.ndarray:
+        """Centre (m) of the table's box, its top at ``table_top_z``."""
+        return np.array([*self.table_center, self.table_top_z - 0.5 * self.table_size[2]])
 
     def hole(self, name: str) -> Hole:
         found = next((hole for hole in self.holes if hole.name == name), None)
@@ -109,8 +102,8 @@ class Scene:
 
     def nearest_hole(self, position: np.ndarray) -> Hole:
         """The hole whose opening is nearest to ``position`` (the thesis's identification, position only)."""
-        distances = [np.linalg.norm(hole.position - position) for hole in self.holes]
-        return self.holes[int(np.argmin(distances))]
+        gaps = np.array([hole.position for hole in self.holes]) - position  # vecdot: np.linalg.norm's dot
+        return self.holes[int(np.argmin(np.sqrt(np.vecdot(gaps, gaps))))]
 
     def minimum_hole_spacing(self) -> float:
         points = np.array([hole.position for hole in self.holes])
@@ -123,36 +116,31 @@ def _vector(value, size: int, what: str) -> np.ndarray:
 
 
 def _merged(spec: dict | None) -> dict:
-    merged = {key: (dict(value) if isinstance(value, dict) else value)
-              for key, value in DEFAULT_SCENE.items()}
+    """DEFAULT_SCENE updated by ``spec``, one level deep (but ``faces``, which is replaced whole)."""
+    merged = dict(DEFAULT_SCENE)
     for key, value in (spec or {}).items():
         if key not in DEFAULT_SCENE:
             raise InvalidConfigurationError(f"scene: unknown key {key!r}; known: {sorted(DEFAULT_SCENE)}")
-        if isinstance(value, dict) and isinstance(merged[key], dict) and key != "faces":
-            merged[key] = {**merged[key], **value}
-        else:
-            merged[key] = value
+        nested = isinstance(value, dict) and isinstance(merged[key], dict) and key != "faces"
+        merged[key] = {**merged[key], **value} if nested else value
     return merged
 
 
 def hole_frame(face: str, position: np.ndarray) -> pin.SE3:
     """Frame of a hole on ``face`` whose opening centre is ``position``."""
-    z_axis = -FACE_NORMALS[face]
-    x_axis = FACE_X_AXES[face]
+    z_axis, x_axis = -FACE_NORMALS[face], FACE_X_AXES[face]
     return pin.SE3(np.column_stack((x_axis, np.cross(z_axis, x_axis), z_axis)), np.asarray(position, float))
 
 
 def build_scene(spec: dict | None = None) -> Scene:
     """The scene from a (partial) ``scene`` mapping of a task file; missing keys take DEFAULT_SCENE."""
     merged = _merged(spec)
-    table = merged["table"]
-    workpiece = merged["workpiece"]
+    table, workpiece = merged["table"], merged["workpiece"]
     table_top = float(table["top_z"])
     size = _vector(workpiece["size"], 3, "workpiece.size")
     if np.any(size <= 0):
         raise InvalidConfigurationError(f"scene: workpiece.size must be positive, got {size.tolist()}")
-    footprint = _vector(workpiece["center"], 2, "workpiece.center")
-    center = np.array([footprint[0], footprint[1], table_top + 0.5 * size[2]])
+    center = np.array([*_vector(workpiece["center"], 2, "workpiece.center"), table_top + 0.5 * size[2]])
     half = 0.5 * size
     holes: list[Hole] = []
     for face, layout in merged["faces"].items():
@@ -166,22 +154,19 @@ def build_scene(spec: dict | None = None) -> Scene:
                 raise InvalidConfigurationError(f"scene: rows of face {face!r} need '{row_axis}' and 'x'")
             for x in row["x"]:
                 position = level.copy()
-                position[0] = float(x)
-                position["yz".index(row_axis) + 1] = float(row[row_axis])
+                position[0], position["yz".index(row_axis) + 1] = float(x), float(row[row_axis])
                 holes.append(Hole(len(holes), f"h{len(holes)}", face, hole_frame(face, position)))
     home = merged["rivet_home"]
     rivet_home = pin.SE3(pin.rpy.rpyToMatrix(*_vector(home["rpy"], 3, "rivet_home.rpy")),
                          _vector(home["position"], 3, "rivet_home.position"))
     scene = Scene(table_top, _vector(table["center"], 2, "table.center"),
-                  _vector(table["size"], 3, "table.size"),
-                  center, size, float(merged["hole_diameter"]), float(merged["hole_depth"]), holes,
-                  rivet_home, merged)
+                  _vector(table["size"], 3, "table.size"), center, size, float(merged["hole_diameter"]),
+                  float(merged["hole_depth"]), holes, rivet_home)
     _check_holes(scene)
     return scene
 
 
-EDGE_MARGIN = 0.015
-"""Holes keep at least this much (m) between their axis and the face's edges (room for the hole model)."""
+EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 
 def _check_holes(scene: Scene) -> None:
@@ -192,8 +177,7 @@ def _check_holes(scene: Scene) -> None:
         if np.any(np.abs(local[in_face]) > half[in_face] - EDGE_MARGIN):
             raise InvalidConfigurationError(
                 f"scene: hole {hole.name} at {hole.position.round(4).tolist()} is within "
-                f"{EDGE_MARGIN * 1e3:g} mm "
-                f"of the edge of face {hole.face!r} (or outside it)")
+                f"{EDGE_MARGIN * 1e3:g} mm of the edge of face {hole.face!r} (or outside it)")
     if scene.hole_depth <= 0 or scene.hole_diameter <= 0:
         raise InvalidConfigurationError("scene: hole_diameter and hole_depth must be positive")
     if len(scene.holes) > 1 and scene.minimum_hole_spacing() < 0.03:

@@ -1,21 +1,7 @@
-"""The EuRoC client's state machine (ur5-riveting.md 6.4): seven states and their transitions.
-
-The thesis's client (Annex B) is a ``State`` enum with seven values and one ``update_<state>()``
-per state; the seed lists the transitions and the action taken on each:
-
-    STARTING            -> GOING_RIVET_HOME     target_frame == /rivet_home: move_to(rivet_home), load_rivet
-    GOING_RIVET_HOME    -> DETECTING_HOLE_POSE  target_frame == /hole_guess: detecting_hole_guess(), (thesis:
-                                                joint move to q_int, sleep 2 s)
-    DETECTING_HOLE_POSE -> DETECTING_HOLE_POSE  no hole / no plan (q_int == -1): retry
-    DETECTING_HOLE_POSE -> GOING_HOLE_GUESS     flag set: move_to(location_pose_aux), the approach pose
-    GOING_HOLE_GUESS    -> MOVING_INTO_HOLE     move_to(rivet_aux), the inserted pose
-    MOVING_INTO_HOLE    -> RIVETING             trigger_rivet(); rivet counter + 1
-    RIVETING            -> MOVING_OUT_FROM_HOLE move_to(location_pose_aux)
-    MOVING_OUT_FROM_HOLE-> GOING_RIVET_HOME     move_to(rivet_home), then reload (load_rivet)
-
-The cycle runner (:mod:`wbik.apps.riveting.cycle`) enters each state before the moves that belong to it
-(:func:`state_of_move`) and records every visit with its simulated time; any other transition
-raises :class:`StateTransitionError`.
+"""The EuRoC client's state machine (ur5-riveting.md 6.4): the thesis's seven states (Annex B) and the
+seed's transitions. The cycle runner (:mod:`wbik.apps.riveting.cycle`) enters each state before the moves
+that belong to it (:func:`state_of_move`) and records every visit with its simulated time; any other
+transition raises :class:`StateTransitionError`.
 """
 
 from __future__ import annotations
@@ -36,38 +22,31 @@ class State(IntEnum):
 
 
 TRANSITIONS: dict[State, tuple[State, ...]] = {
-    State.STARTING: (State.GOING_RIVET_HOME,),
-    State.GOING_RIVET_HOME: (State.DETECTING_HOLE_POSE,),
-    State.DETECTING_HOLE_POSE: (State.DETECTING_HOLE_POSE, State.GOING_HOLE_GUESS),
+    State.STARTING: (State.GOING_RIVET_HOME,),  # target_frame == /rivet_home
+    State.GOING_RIVET_HOME: (State.DETECTING_HOLE_POSE,),  # target_frame == /hole_guess
+    State.DETECTING_HOLE_POSE: (State.DETECTING_HOLE_POSE, State.GOING_HOLE_GUESS),  # a retry, or a plan
     State.GOING_HOLE_GUESS: (State.MOVING_INTO_HOLE,),
     State.MOVING_INTO_HOLE: (State.RIVETING,),
     State.RIVETING: (State.MOVING_OUT_FROM_HOLE,),
     State.MOVING_OUT_FROM_HOLE: (State.GOING_RIVET_HOME,),
-}
-"""Allowed successors of each state (the seed's transitions; the self-loop is the retry)."""
+}  # the allowed successors of each state
 
 
 class StateTransitionError(WbikError, RuntimeError):
     """A transition the EuRoC state machine does not have."""
 
 
-MOVE_STATES = {
-    "to rivet_home": State.GOING_RIVET_HOME,
-    "back to intermediate": State.GOING_RIVET_HOME,
-    "load_rivet": State.GOING_RIVET_HOME,
-    "plan": State.DETECTING_HOLE_POSE,
-    "to intermediate": State.DETECTING_HOLE_POSE,
-    "sleep": State.DETECTING_HOLE_POSE,
-    "approach": State.GOING_HOLE_GUESS,
-    "insert": State.MOVING_INTO_HOLE,
-    "trigger_rivet": State.RIVETING,
-    "retract": State.MOVING_OUT_FROM_HOLE,
-}
-"""The state each move of a cycle belongs to, by the move's name (numbered parts: 'approach 2')."""
+MOVE_STATES = {name: state for state, names in (
+    (State.GOING_RIVET_HOME, ("to rivet_home", "back to intermediate", "load_rivet")),
+    (State.DETECTING_HOLE_POSE, ("plan", "to intermediate", "sleep")),
+    (State.GOING_HOLE_GUESS, ("approach",)),
+    (State.MOVING_INTO_HOLE, ("insert",)),
+    (State.RIVETING, ("trigger_rivet",)),
+    (State.MOVING_OUT_FROM_HOLE, ("retract",))) for name in names}  # the state of each move, by its name
 
 
 def state_of_move(name: str) -> State:
-    """The state a move named ``name`` runs in ('approach 2' is an approach, ...)."""
+    """The state a move named ``name`` runs in ('approach 2' is an approach)."""
     base = name.rstrip("0123456789 ")
     if base not in MOVE_STATES:
         raise StateTransitionError(f"move {name!r} belongs to no state; known moves: {sorted(MOVE_STATES)}")
@@ -87,13 +66,12 @@ class TaskStateMachine:
         if state == self.state and not retry:
             return
         if state not in TRANSITIONS[self.state]:
+            allowed = [s.name for s in TRANSITIONS[self.state]]
             raise StateTransitionError(f"no transition {self.state.name} -> {state.name}; from "
-                                       f"{self.state.name} the seed allows "
-                                       f"{[s.name for s in TRANSITIONS[self.state]]}")
+                                       f"{self.state.name} the seed allows {allowed}")
         self.state = state
         self.visits.append((float(time), state.name))
 
     def counts(self) -> dict[str, int]:
         """Visits per state, in the enum's order."""
-        names = [name for _, name in self.visits]
-        return {state.name: names.count(state.name) for state in State}
+        return {state.name: sum(name == state.name for _, name in self.visits) for state in State}
