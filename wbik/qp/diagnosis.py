@@ -1,28 +1,13 @@
 """Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
 
-Made only when a solve fails (``IKProblem.diagnose``), at the configuration q it returned, from the
-QP step there: the same tasks, levels and hard rows (:func:`wbik.qp.hard_rows.step_rows`, each row
-labelled), with the full step box. Let e_g be the unmet goal tasks' errors and
-
-    r(dq) = sum_g |e_g + J_g dq|        (|max(0, e_g + J_g dq)| for an inequality task)
-
-their linearised error after a step dq. The hierarchy of levels is solved with every hard row
-(dq*, by qpsolvers' ``solve_problem`` with the problem's backend, which gives the multipliers
-lambda of the rows), and then again
-
-- without each group of rows whose multiplier is non-zero at the goals' level (a joint's bound on
-  one side, a contact, an edge of the support polygon, a collision pair, a minimum distance): its
-  ``gain`` = r(dq*) - r(dq* without it) is how much closer one step would bring the goals if that
-  constraint did not hold them back;
-- without each task that is not one of the unmet goals (on their level or above): its ``gain``
-  likewise, the tasks in conflict with the goals (a posture on the goals' level, a higher level).
-
-Both are ranked by gain. Besides: ``step_gain`` = sum_g |e_g| - r(dq*), what one more step would
-still achieve (a loop stopped by its budget while still moving); ``stationary`` when nothing blocks
-and no step helps (the gradient J^T W e vanishes: the target is out of reach, or a local minimum);
-``infeasible`` when the step at q has no solution at all (its conflicting rows, :mod:`wbik.qp.elastic`);
-``start`` for a start outside the joint limits or breaking an inequality (moved back first).
-:meth:`Diagnosis.summary` says all that in one line, with what to change (``advice``).
+Made when a solve fails (``IKProblem.diagnose``), from the QP step at the answer q with its labelled hard
+rows (:func:`wbik.qp.hard_rows.step_rows`). With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised
+error (|max(0, .)| for an inequality task), the levels are solved with every row (dq*, with the rows'
+multipliers) and again without each group of active rows (a joint's bound on one side, a contact, a
+polygon edge, a pair) and without each other task: the ``gain`` r(dq*) - r(dq* without it) ranks the
+``blockers`` and the ``tasks`` in conflict. ``step_gain`` = sum_g |e_g| - r(dq*) is what one more step
+would achieve; ``stationary``: nothing blocks and no step helps (out of reach, or a local minimum);
+``infeasible``: the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
 """
 
 from __future__ import annotations
@@ -43,12 +28,6 @@ from wbik.qp.hard_rows import HardRows
 from wbik.qp.hard_rows import group_key
 from wbik.qp.hard_rows import step_rows
 from wbik.qp.rows import RowLabel
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionBoxTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 
 __all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines",
@@ -75,10 +54,8 @@ class Blocker:
         return self.label.owner.blocker_text(self.label)
 
     def as_dict(self) -> dict:
-        label = self.label
-        return {"kind": label.kind, "constraint": label.constraint, "subject": label.subject,
-                "side": label.side, "value": label.value, "bound": label.bound, "unit": label.unit,
-                "rows": self.rows, "multiplier": self.multiplier, "gain": self.gain, "text": self.text}
+        return {"kind": self.label.kind, **self.label.as_dict(), "rows": self.rows,
+                "multiplier": self.multiplier, "gain": self.gain, "text": self.text}
 
 
 @dataclass(frozen=True)
@@ -116,14 +93,6 @@ class Diagnosis:
     stationary: bool = False
     advice: list[str] = field(default_factory=list)
 
-    @property
-    def empty(self) -> bool:
-        return not (self.goals or self.blockers or self.tasks or self.infeasible or self.start
-                    or self.stationary or self.advice)
-
-    def _amount(self, value: float) -> str:
-        return _amount(value, self.unit)
-
     def summary(self) -> str:
         """One line: the start, the conflicting rows, the blockers, the tasks in conflict, the advice."""
         parts = []
@@ -137,10 +106,10 @@ class Diagnosis:
             parts.append("the hard constraints of the step conflict: " + describe_rows(self.infeasible))
         if self.blockers:
             parts.append("blocked by: " + ", ".join(
-                f"{b.text} [{self._amount(b.gain)} per step]" for b in self.blockers[:SHOWN]))
+                f"{b.text} [{_amount(b.gain, self.unit)} per step]" for b in self.blockers[:SHOWN]))
         if self.tasks:
             parts.append("in conflict: " + ", ".join(
-                f"{t.text} [{self._amount(t.gain)} per step]" for t in self.tasks[:SHOWN]))
+                f"{t.text} [{_amount(t.gain, self.unit)} per step]" for t in self.tasks[:SHOWN]))
         if self.advice:
             parts.append("to converge: " + "; ".join(self.advice[:2]))
         return "; ".join(parts)
@@ -222,16 +191,7 @@ def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
 
 def _unit(tasks: list[Task]) -> str:
     """The unit of the goals' errors: "m", "rad", "m, rad" (a pose, or a mix), "" (another task)."""
-    units = set()
-    for task in tasks:
-        if isinstance(task, PositionTask | ComTask | PositionBoxTask):
-            units.add("m")
-        elif isinstance(task, OrientationTask):
-            units.add("rad")
-        elif isinstance(task, FrameTask | RelativeFrameTask):
-            units.add("m, rad")
-        else:
-            units.add("")
+    units = {task.unit for task in tasks}
     if len(units) == 1:
         return units.pop()
     return "" if "" in units else "m, rad"
@@ -377,10 +337,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         label = rows.labels[index]
         if isinstance(label.owner, StepBox):
             continue
-        key = group_key(label)
-        if label.owner.groups_rows:
-            key = (*key[:3], "")
-        groups.setdefault(key, []).append(index)
+        groups.setdefault(group_key(label), []).append(index)
     masks = []
     for indices in groups.values():  # (a group: every row of one constraint's subject and side)
         mask = np.zeros(len(rows), dtype=bool)
@@ -478,10 +435,5 @@ def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
     if diagnosis.stationary:
         advice.append("no constraint is active and no task conflicts: the goal error is at a stationary "
                       "point (the target is out of reach, or a local minimum): try another start q0")
-    seen, unique = set(), []
-    for item in advice:
-        if item and item not in seen:
-            seen.add(item)
-            unique.append(item)
-    return unique
+    return list(dict.fromkeys(item for item in advice if item))
 

@@ -1,19 +1,11 @@
 """The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 until the goals are met.
 
-``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates steps
-until every goal task is under its tolerance and every contact holds, or the steps stall (best
-effort: the constrained optimum, errors reported), or the budget ends. A trust region (the step
-box, ``max_step`` at most) with merit acceptance makes the loop globally convergent; Newton
-projections bring the contacts back where a step's own contact rows are not enough
-(:meth:`IKProblem.project`). The configuration returned is verified by forward kinematics:
-contacts, CoM margin, limits.
-
-A solve that does not succeed explains itself: ``QPSolution.diagnosis`` (:mod:`wbik.qp.diagnosis`)
-names the constraints active at the answer and the tasks in conflict with the goals, ranked by how
-much they hold the goals back, and what to change; its summary ends the ``reason``. A step whose
-hard constraints conflict raises NoQPSolutionError with ``conflict``, the rows that conflict
-(:mod:`wbik.qp.elastic`). A start outside the joint limits is clipped into them and reported
-(``start_violations``); a start breaking an inequality is repaired by the steps first.
+``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates them under a
+trust region with merit acceptance until every goal task is under its tolerance and every contact holds
+(Newton projections, :meth:`IKProblem.project`, where a step's contact rows are not enough), or stalls
+at the best effort, and verifies its answer by FK. A solve that does not succeed explains itself
+(``QPSolution.diagnosis``, :mod:`wbik.qp.diagnosis`); a step whose hard constraints conflict raises
+NoQPSolutionError with ``conflict``, the rows that conflict (:mod:`wbik.qp.elastic`).
 """
 
 from __future__ import annotations
@@ -38,6 +30,8 @@ from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.diagnosis import StartViolation
 from wbik.qp.diagnosis import diagnose
 from wbik.qp.diagnosis import start_violations
+from wbik.qp.elastic import conflict
+from wbik.qp.hard_rows import step_rows
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.step import PHASES
@@ -48,22 +42,15 @@ from wbik.qp.tasks import Task
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]
 
 SOLVE_PHASES = ("start", "projection", "checks", "report")
-"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: setting q0 up (clip,
-kinematics, tasks' and constraints' start), the Newton projections onto the contacts, the merit and
-constraint checks of each trial configuration by FK, the final report (violations, margins, task
-errors)."""
+"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: q0's set-up, the Newton
+projections onto the contacts, the FK checks of each trial configuration, the final report."""
 
 
 @dataclass
 class QPSolution:
-    """Outcome of ``IKProblem.solve``.
-
-    ``task_errors``: |e| per task name at q; ``violations``: per constraint, > 0 means violated
-    (contacts in m or rad, CoM in m inside the margin, limits in rad or m); ``com_margins``:
-    distance from the CoM projection to each polygon boundary (m, positive inside);
-    ``start_violations``: what q0 broke (a joint outside its limits, clipped into them first);
-    ``diagnosis``: why a solve that did not succeed stopped where it did (None after a success).
-    """
+    """Outcome of ``IKProblem.solve``: ``task_errors`` |e| per task name at q; ``violations`` per
+    constraint (> 0: violated; m or rad); ``com_margins`` the CoM's distance to each polygon's boundary (m,
+    positive inside); ``start_violations`` what q0 broke; ``diagnosis`` why a failed solve stopped there."""
 
     q: np.ndarray
     success: bool
@@ -90,11 +77,9 @@ class QPSolution:
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
 
-    ``constraint_tolerance`` is what ``solve`` verifies on its answer (1e-6 m for contacts).
-    ``max_step`` bounds every tangent component of one IK step (a trust region, rad or m).
-    ``progress``: five kept steps in a row that lower the merit by less than this fraction end
-    the loop at the best effort.
-    """
+    ``constraint_tolerance``: what ``solve`` verifies on its answer (m for contacts); ``max_step``: the
+    trust region on every tangent component of one IK step (rad or m); ``progress``: five kept steps in a
+    row that lower the merit by less than this fraction end the loop at the best effort."""
 
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
@@ -133,9 +118,8 @@ class IKProblem:
 
     # -- set-up ---------------------------------------------------------------------------------
     def start(self, q: np.ndarray, clip: bool = True) -> None:
-        """Set the configuration and let tasks and constraints resolve frames / capture placements;
-        ``clip``: first clip q into the joint limits (``solve`` does; a control ``step`` does not, it
-        moves an out-of-range joint back at the pace its bounds allow)."""
+        """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
+        the joint limits (``solve`` does; a control ``step`` moves such a joint back at its bounds' pace)."""
         q = self.clip(np.asarray(q, dtype=float)) if clip else np.array(q, dtype=float)
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
@@ -168,17 +152,12 @@ class IKProblem:
     # -- one QP step ----------------------------------------------------------------------------
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
-        """The QP displacement dq at q (default: the current q); raises NoQPSolutionError (with the
-        backend's status and ``conflict``, the hard rows that conflict) when the QP has no solution.
+        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with the backend's
+        status and ``conflict``, the hard rows that conflict) when the QP has no solution.
 
-        For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
-        bound |dq| <= v_max dt, acceleration limits |dq / dt - v_prev| <= a_max dt); for IK, dt = 1
-        and dq is a Newton-like step. ``velocity`` (nv): the joint velocity v_prev now, for acceleration
-        limits (default: the previous step's dq / dt, which every step records). A joint outside its
-        range is moved back as fast as its other bounds allow.
-        ``profile``: a dict to which the seconds spent in each phase are added (``PHASES``); the
-        clock is read only when it is given.
-        """
+        For control, v = dq / dt is the joint velocity to send for one period dt; for IK, dt = 1.
+        ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the previous step's
+        dq / dt). ``profile``: a dict to which the seconds of each phase (``PHASES``) are added."""
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q, clip=False)
@@ -204,9 +183,6 @@ class IKProblem:
     def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
         """The hard rows of the step at the current q that conflict (an irreducible set,
         :func:`wbik.qp.elastic.conflict`; empty when they hold together). For a failed step only."""
-        from wbik.qp.elastic import conflict
-        from wbik.qp.hard_rows import step_rows
-
         return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
 
     def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
@@ -268,16 +244,9 @@ class IKProblem:
         return {task.name: level.error_norm(index)
                 for level in self._step.levels for index, task in enumerate(level.tasks)}
 
-    def violations(self) -> dict[str, float]:
-        return {constraint.name: float(constraint.violation(self.kinematics))
-                for constraint in self.constraints}
-
-    def merit(self) -> float:
-        """Weighted task cost (lower levels scaled down by 1e-6 each); contacts are kept by projection."""
-        return self._merit_and_goals()[0]
-
     def _merit_and_goals(self) -> tuple[float, bool]:
-        """(merit, every goal task under its tolerance), from the step's task rows at q."""
+        """(merit: the weighted task cost, lower levels scaled down by 1e-6 each; every goal task under its
+        tolerance), from the step's task rows at q."""
         self._step.fill_tasks()
         cost, goals_met = 0.0, True
         for index, level in enumerate(self._step.levels):
@@ -295,10 +264,7 @@ class IKProblem:
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
-        for constraint in self._equalities:
-            if constraint.violation(self.kinematics) > tolerance:
-                return False
-        return True
+        return all(constraint.violation(self.kinematics) <= tolerance for constraint in self._equalities)
 
     def _inequality_violation(self) -> float:
         total = 0
@@ -327,29 +293,18 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """Iterate QP steps from q0 to convergence: every goal task under its tolerance and every
-        contact within ``equality_tolerance``.
+        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact
+        within ``equality_tolerance``.
 
-        A trust region (the step box, ``max_step`` at most) makes the loop globally convergent: a
-        step is kept only if it does not raise the merit (the task cost) and keeps the inequalities
-        by FK (or reduces their violation when q0 breaks them); otherwise the radius shrinks and the
-        QP is solved again. The contacts are rows of every step (J dq = -e), so their drift is of
-        second order in the step and the next step removes it, as in PlaCo; Newton projections
-        (:meth:`project`, to 0.1 ``equality_tolerance``) bring them back where that is not enough:
-        from q0, for a step the merit test rejects while the contacts drift, when the goals are met
-        before the contacts, and on the configuration returned. A radius or step under ``stall``
-        ends the loop at the best effort under the constraints.
+        A step is kept when it does not raise the merit (the task cost) and keeps the inequalities by FK
+        (or reduces their violation when q0 breaks them); else the trust region shrinks. Newton
+        projections (:meth:`project`, to 0.1 ``equality_tolerance``) bring the contacts back from q0,
+        after a rejected step or a conflicting one, when the goals are met first, and on the answer. A
+        radius or step under ``stall`` ends the loop at the best effort. Acceleration limits start at
+        rest (a kept step is one period of dt = 1; a rejected one stops the motion).
 
-        A step whose hard constraints conflict while the contacts drift more than the step box
-        lets it repair (the box shrank after rejected steps) is followed by a projection onto the
-        contacts, and the loop goes on from there. The loop starts at rest for acceleration limits
-        (each kept step is a period of their dt = 1; a rejected one stops the motion).
-
-        ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the loop's
-        own phases (``SOLVE_PHASES``) are added. ``diagnose``: when the solve does not succeed, add
-        the diagnosis (``QPSolution.diagnosis``, its summary at the end of the reason; it runs after
-        ``time_s`` is measured).
-        """
+        ``profile``: a dict to which the seconds of ``PHASES`` and ``SOLVE_PHASES`` are added;
+        ``diagnose``: a solve that does not succeed gets its diagnosis (after ``time_s`` is measured)."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)
@@ -452,16 +407,9 @@ class IKProblem:
         solution = self._report(q, converged, iteration, reason, start_time, profile)
         solution.start_violations = list(self._start_violations)
         if diagnose and not solution.success:
-            self.explain(solution)
+            solution.diagnosis = self.diagnose(solution)
+            solution.reason = solution.diagnosis.reason_with_summary(solution.reason)
         return solution
-
-    def explain(self, solution: QPSolution) -> QPSolution:
-        """Add the diagnosis to a solution that did not succeed (at its q): ``solution.diagnosis`` and
-        its summary at the end of ``solution.reason``; returns the solution."""
-        solution.diagnosis = self.diagnose(solution)
-        solution.reason = solution.diagnosis.reason_with_summary(solution.reason)
-        return solution
-
 
     @staticmethod
     def _timed(profile: dict[str, float] | None, phase: str, function, *arguments):

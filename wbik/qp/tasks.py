@@ -1,39 +1,14 @@
 """Tasks: the soft objectives of the QP.
 
-A task has an error e(q) (m rows, zero when the task is done) and its Jacobian J = de/dq (m x nv).
-In one QP step over the tangent displacement dq it contributes the cost
+A task has an error e(q) (m rows, zero when it is done) and its Jacobian J = de/dq (m x nv); in one QP
+step it costs weight |J dq + gain e|^2 (``weight``: a scalar or one value per row). ``priority`` is its
+level in a strict hierarchy (0 first, :mod:`wbik.qp.step`); ``goal`` tasks decide convergence (|e| under
+``tolerance``). An *inequality* task (:class:`PositionBoxTask`, :class:`ComBoxTask`) wants e <= 0 row by
+row: it costs weight max(0, J dq + gain e)^2 and its error is max(0, e). A posture belongs on the lowest
+level (docs/guide/wholebody.md, "Priorities"); a regularisation weighs the step and never moves the answer.
 
-    weight * || J dq + gain * e ||^2
-
-so a full step (gain 1) drives the linearised error to zero. ``weight`` is a scalar or one value per
-row; ``priority`` is the level in a strict hierarchy (0 first; equal levels trade off by weight).
-``goal`` tasks decide convergence of the IK loop: their |e| must fall under ``tolerance``; posture
-and regularisation are not goals.
-
-An *inequality* task (``inequality = True``: :class:`PositionBoxTask`, :class:`ComBoxTask`) wants
-e <= 0 row by row instead of e = 0; at its level it costs weight * max(0, J dq + gain * e)^2 (a
-slack w >= J dq + gain * e, weight * |w|^2, in the level's QP), and lower levels keep what it
-achieved: J dq + gain * e <= max(0, J dq* + gain * e). Its error is max(0, e).
-
-Priorities: a lower level acts only in what the higher levels leave free (``wbik.qp.step``).
-Posture and regularisation are two different things there. The regularisation weighs the *step*
-(w |dq|^2): at a solution dq = 0 is its optimum, so on the goals' level it only damps the redundant
-directions and never moves the answer. The posture weighs the *configuration* (w |q - q_ref|^2):
-on the goals' level it is traded off against them: at the answer J^T W e = -w (q - q_ref), so the
-goals stop short of their targets wherever the posture pulls against them; one level lower
-(``priority`` one more than the goals') it is served in their null space only, and the goals
-converge exactly. Put a posture on
-the lowest level (docs/guide/wholebody.md gives the figures, ``benchmarks/priorities.py`` the cost).
-
-Rotation errors are the geometry kernel's (:mod:`wbik.geometry`): e_R = log3(R*^T R) in the target's
-axes (``rotation_error``) with de_R/dq = Jlog3(M) R^T J_w, M = R*^T R (``rotation_error_jacobian``;
-exact: with R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt)). ``error`` and ``jacobian`` call them;
-``fill``, the QP step's path, writes both into the step's rows sharing M, and takes R^T J_w from
-the LOCAL frame Jacobian (tests/test_qp_tasks.py checks that ``fill`` agrees with the geometry).
-
-A task's task-file entry is declared in :mod:`wbik.qp.task_entries` (a ``TaskEntry``), how PlaCo, Pink
-and mink state it in :mod:`wbik.qp.peers` (their forms, keyed by class); a new task declares both in its
-own module (docs/architecture.md, "Tasks").
+Rotation errors are :mod:`wbik.geometry`'s: e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill``,
+the step's path, writes J and e together (compiled where built).
 """
 
 from __future__ import annotations
@@ -69,6 +44,8 @@ class Task:
     goal = True
     inequality = False
     """True: the task wants e <= 0 on each row (see the module docstring), not e = 0."""
+    unit = ""
+    """The unit of its error: "m", "rad", "m, rad" (a pose) or "" (another quantity)."""
 
     def __init__(self, weight: float | Sequence[float] = 1.0, gain: float = 1.0, priority: int = 0,
                  tolerance: float = 1e-7, name: str | None = None, goal: bool | None = None):
@@ -100,13 +77,13 @@ class Task:
         error[:] = self.error(kinematics)
 
     def constant_diagonal(self) -> np.ndarray | None:
-        """The weights, for a task whose rows are always J = I and e = 0: its cost w |dq|^2 is then
-        the diagonal w of the QP's H, added there instead of stacked as nv rows. None otherwise."""
+        """The weights w of a task whose rows are always J = I, e = 0 (added to H's diagonal, not
+        stacked as nv rows); None for any other task."""
         return None
 
     def error_parts(self, error: np.ndarray) -> tuple[float | None, float | None]:
-        """(position part m or None, rotation part rad or None) of an error of this task, as the
-        whole-body check judges it: by default its norm, as a position (in the task's own unit)."""
+        """(position part m or None, rotation part rad or None) of an error, as the whole-body check
+        judges it: by default its norm, as a position (in the task's own unit)."""
         return float(np.linalg.norm(error)), None
 
 
@@ -133,9 +110,8 @@ class _FrameTaskBase(Task):
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def __getstate__(self) -> dict:
-        """Without the compiled rows (they hold views of one Kinematics' data: a copy would hold copies
-        of them, frozen) nor views of the target; ``__setstate__`` makes the latter again, ``start``
-        the former."""
+        """Without the compiled rows (views of one Kinematics' data) nor the target's views; ``start``
+        and ``__setstate__`` make them again."""
         state = dict(self.__dict__)
         for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
             state.pop(name, None)
@@ -163,22 +139,12 @@ class _FrameTaskBase(Task):
             self._compiled_for = kinematics
 
 
-def _pose_parts(error: np.ndarray) -> tuple[float, float]:
-    """(|position rows| m, |rotation rows| rad) of a 6-row pose error."""
-    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
-
-
-class FrameTask(_FrameTaskBase):
-    """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows).
-
-    ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad differ in scale).
-    """
+class _PoseTask(_FrameTaskBase):
+    """A 6-row pose task: ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad
+    differ in scale)."""
 
     dimension = 6
-    kernel_rows = 6
-
-    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
-        return _pose_parts(error)
+    unit = "m, rad"
 
     def __init__(self, frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
@@ -187,6 +153,15 @@ class FrameTask(_FrameTaskBase):
         super().__init__(frame, weight=rows, **options)
         self.target = target.copy()
         self._error = np.zeros(6)
+
+    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
+        return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+class FrameTask(_PoseTask):
+    """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows)."""
+
+    kernel_rows = 6
 
     @property
     def target(self) -> pin.SE3:
@@ -227,6 +202,8 @@ class FrameTask(_FrameTaskBase):
 class PositionTask(_FrameTaskBase):
     """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
 
+    unit = "m"
+
     def __init__(self, frame: str, target: Sequence[float], axes: str = "xyz", **options):
         self.rows = axis_rows(axes)
         self.dimension = len(self.rows)
@@ -245,6 +222,7 @@ class OrientationTask(_FrameTaskBase):
 
     dimension = 3
     kernel_rows = 3
+    unit = "rad"
 
     def __init__(self, frame: str, target: np.ndarray, **options):
         super().__init__(frame, **options)
@@ -268,37 +246,26 @@ class OrientationTask(_FrameTaskBase):
                        error)
 
 
-class RelativeFrameTask(_FrameTaskBase):
+class RelativeFrameTask(_PoseTask):
     """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)].
 
     With d = p_frame - p_ref:  dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq  and
     de_R = Jlog3(M) R_frame^T (J_w,frame - J_w,ref) dq.
     """
 
-    dimension = 6
-
     def __init__(self, frame: str, reference_frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
-        weight = options.pop("weight", 1.0)
-        rows = np.r_[np.full(3, position_weight), np.full(3, orientation_weight)] * weight
         options.setdefault("name", f"RelativeFrameTask[{frame} in {reference_frame}]")
-        super().__init__(frame, weight=rows, **options)
+        super().__init__(frame, target, position_weight, orientation_weight, **options)
         self.reference_frame = reference_frame
         self.reference_id = -1
-        self.target = target.copy()
 
     def start(self, kinematics: Kinematics) -> None:
         super().start(kinematics)
         self.reference_id = kinematics.frame_id(self.reference_frame)
 
-    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
-        return _pose_parts(error)
-
-    def relative_placement(self, kinematics: Kinematics) -> pin.SE3:
-        return kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))
-
     def error(self, kinematics: Kinematics) -> np.ndarray:
-        relative = self.relative_placement(kinematics)
+        relative = kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))
         return np.concatenate((relative.translation - self.target.translation,
                                rotation_error(relative.rotation, self.target.rotation)))
 
@@ -320,6 +287,8 @@ class RelativeFrameTask(_FrameTaskBase):
 
 class ComTask(Task):
     """Centre of mass in the world, optionally on some axes only: e = (c - c*)[axes]."""
+
+    unit = "m"
 
     def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
         self.rows = axis_rows(axes)
@@ -441,6 +410,8 @@ class _BoxTask(Task):
 class PositionBoxTask(_BoxTask):
     """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task (e.g. a hand above a table, priority above a reach)."""
+
+    unit = "m"
 
     def __init__(self, frame: str, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None,
                  **options):
