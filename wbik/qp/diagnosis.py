@@ -96,20 +96,15 @@ class Diagnosis:
     def summary(self) -> str:
         """One line: the start, the conflicting rows, the blockers, the tasks in conflict, the advice."""
         parts = []
-        outside = [v.text for v in self.start if v.clipped]
-        broken = [v.text for v in self.start if not v.clipped]
-        if outside:
-            parts.append("start outside limits: " + ", ".join(outside) + " (clipped into them first)")
-        if broken:
-            parts.append("the start breaks: " + ", ".join(broken) + " (the first steps repair it)")
+        for clipped in (True, False):
+            if texts := [v.text for v in self.start if v.clipped == clipped]:
+                parts.append(_start_text(", ".join(texts), clipped))
         if self.infeasible:
             parts.append("the hard constraints of the step conflict: " + describe_rows(self.infeasible))
-        if self.blockers:
-            parts.append("blocked by: " + ", ".join(
-                f"{b.text} [{_amount(b.gain, self.unit)} per step]" for b in self.blockers[:SHOWN]))
-        if self.tasks:
-            parts.append("in conflict: " + ", ".join(
-                f"{t.text} [{_amount(t.gain, self.unit)} per step]" for t in self.tasks[:SHOWN]))
+        for title, items in (("blocked by", self.blockers), ("in conflict", self.tasks)):
+            if items:
+                parts.append(f"{title}: " + ", ".join(
+                    f"{item.text} [{_amount(item.gain, self.unit)} per step]" for item in items[:SHOWN]))
         if self.advice:
             parts.append("to converge: " + "; ".join(self.advice[:2]))
         return "; ".join(parts)
@@ -136,9 +131,8 @@ class Diagnosis:
 
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
     """(diagnosis, reason) of the ``(problem, solution)`` a method's QP solve left in ``local.last``
-    (cleared here): a result that did not succeed, with ``diagnose``, gets the problem's diagnosis at
-    the solution and its summary at the end of ``reason``; any other, the hard constraints the start
-    broke (None when it broke none, or when no QP solve ran) and ``reason`` unchanged."""
+    (cleared here): a failed result, with ``diagnose``, gets its diagnosis and the summary at the end of
+    ``reason``; any other, what the start broke (None: nothing, or no QP solve) and ``reason``."""
     last = getattr(local, "last", None)
     if last is None:
         return None, reason
@@ -152,6 +146,11 @@ def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> t
     return None, reason
 
 
+def _start_text(texts: str, clipped: bool) -> str:
+    return (f"start outside limits: {texts} (clipped into them first)" if clipped
+            else f"the start breaks: {texts} (the first steps repair it)")
+
+
 def _amount(value: float, unit: str) -> str:
     if unit == "m":
         return f"{value * 1e3:.3g} mm"
@@ -161,23 +160,18 @@ def _amount(value: float, unit: str) -> str:
 
 
 def report_lines(data: dict) -> list[str]:
-    """A diagnosis in its JSON form (``Diagnosis.as_dict()``, as a scenario report keeps it) as lines:
-    the start, the conflicting rows, each blocker and task in conflict with what relaxing it would gain
-    in one step, the advice."""
-    unit, lines = data.get("unit", ""), []
-    for item in data.get("start", []):
-        lines.append(f"start outside limits: {item['text']} (clipped into them first)"
-                     if item.get("clipped") else
-                     f"the start breaks: {item['text']} (the first steps repair it)")
+    """A diagnosis in its JSON form (``Diagnosis.as_dict()``, as a scenario report keeps it) as lines."""
+    unit = data.get("unit", "")
+    lines = [_start_text(item["text"], bool(item.get("clipped"))) for item in data.get("start", [])]
     if data.get("infeasible"):
         lines.append("the hard constraints of the step conflict (an irreducible set):")
         lines += [f"  - {item['text']}" for item in data["infeasible"]]
-    if data.get("blockers"):
-        lines.append("blocked by (relaxing it alone would bring the goals closer by, in one step):")
-        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["blockers"]]
-    if data.get("tasks"):
-        lines.append("tasks in conflict with the goals (without it, one step closer by):")
-        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["tasks"]]
+    for key, title in (("blockers", "blocked by (relaxing it alone would bring the goals closer by, in one "
+                                    "step):"),
+                       ("tasks", "tasks in conflict with the goals (without it, one step closer by):")):
+        if data.get(key):
+            lines.append(title)
+            lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data[key]]
     lines += [f"to converge: {item}" for item in data.get("advice", [])]
     return lines
 

@@ -272,19 +272,21 @@ class IKProblem:
             total += constraint.violation(self.kinematics)
         return total
 
+    def _checks(self) -> tuple[float, bool, float]:
+        """(merit, goals met, inequality violation) at the current q."""
+        return *self._merit_and_goals(), self._inequality_violation()
+
+    def _at_rest(self) -> None:
+        for constraint in self._memories:  # (acceleration limits: the motion stops here)
+            constraint.stepped(np.zeros(self.nv), 1.0)
+
     # -- iterate to convergence -----------------------------------------------------------------
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
-        """(kept, merit, goals met, inequality violation) of the configuration the kinematics stand
-        at: kept when it does not raise the merit and keeps the inequalities by FK; while the kept
-        iterate breaks inequalities (a start inside a collision, the CoM outside its margin), when it
-        reduces their violation, whatever the merit (the constraints come first: a step that repairs
-        them against the pull of a task raises the task cost)."""
-        tick = time.perf_counter() if profile is not None else 0.0
-        trial_merit, goals_met = self._merit_and_goals()
-        trial_violation = self._inequality_violation()
-        if profile is not None:
-            lap(profile, "checks", tick)
+        """(kept, merit, goals met, inequality violation) at the current q: kept when it does not raise the
+        merit and keeps the inequalities by FK, or, while the kept iterate breaks inequalities, when it
+        reduces their violation whatever the merit (the constraints come first)."""
+        trial_merit, goals_met, trial_violation = self._timed(profile, "checks", self._checks)
         if violation > 0.0:
             return trial_violation < violation, trial_merit, goals_met, trial_violation
         kept = trial_violation <= 0.0 and trial_merit <= merit + 1e-15
@@ -309,8 +311,7 @@ class IKProblem:
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)
         outside = bool(self._limits) and not self._stands_at(q0)  # (start clipped q0 into the limits)
-        for constraint in self._memories:
-            constraint.stepped(np.zeros(self.nv), 1.0)
+        self._at_rest()
         if profile is not None:
             lap(profile, "start", start_time)
         kinematics = self.kinematics
@@ -319,8 +320,7 @@ class IKProblem:
         q = kinematics.q.copy()
         if profile is not None:  # the first step's task rows, filled here for the merit
             self._timed(profile, "tasks", self._step.fill_tasks)
-        merit, goals_met = self._timed(profile, "checks", self._merit_and_goals)
-        violation = self._timed(profile, "checks", self._inequality_violation)
+        merit, goals_met, violation = self._timed(profile, "checks", self._checks)
         # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
         self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
@@ -333,8 +333,7 @@ class IKProblem:
                 # the goals hold, the contacts still drift
                 if self._timed(profile, "projection", self.project, tolerance, 6, violation):
                     q = kinematics.q.copy()
-                    merit, goals_met = self._merit_and_goals()
-                    violation = self._inequality_violation()
+                    merit, goals_met, violation = self._checks()
                     if goals_met:
                         converged = True
                         break
@@ -349,8 +348,7 @@ class IKProblem:
                         <= max(violation, 0.0) + 1e-15:
                     # the contacts drift more than the step box lets one step repair: back onto them
                     q = kinematics.q.copy()
-                    merit, goals_met = self._merit_and_goals()
-                    violation = self._inequality_violation()
+                    merit, goals_met, violation = self._checks()
                     radius = self.max_step
                     continue
                 if not self._stands_at(q):
@@ -385,8 +383,7 @@ class IKProblem:
                     break
             else:
                 kinematics.update(q)
-                for constraint in self._memories:  # (a rejected step: the motion stops there)
-                    constraint.stepped(np.zeros(self.nv), 1.0)
+                self._at_rest()
                 radius = 0.25 * min(radius, step_size)
                 if radius < stall:
                     break
