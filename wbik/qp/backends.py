@@ -58,11 +58,6 @@ def resolve(name: str) -> str:
     return resolved
 
 
-def _daqp_failure(exitflag: int) -> NoQPSolutionError:
-    meaning = DAQP_EXIT_FLAGS.get(exitflag, "failed")
-    return NoQPSolutionError(f"daqp found no solution (exit flag {exitflag}: {meaning})", "daqp", exitflag)
-
-
 def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
           A: np.ndarray | None, b: np.ndarray | None, lb: np.ndarray | None,
           ub: np.ndarray | None) -> np.ndarray:
@@ -294,7 +289,8 @@ def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
         x, _, retried, _ = daqp.solve(*arguments, **{**(settings or {}), **DAQP_RETRY})
         if retried > 0:
             return x
-    raise _daqp_failure(exitflag)
+    meaning = DAQP_EXIT_FLAGS.get(exitflag, "failed")
+    raise NoQPSolutionError(f"daqp found no solution (exit flag {exitflag}: {meaning})", "daqp", exitflag)
 
 
 def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,

@@ -102,12 +102,20 @@ class Constraint(Describer):
 
     quantity = ""
     """What :meth:`measure` reports ("" for a constraint that shapes steps only, e.g. velocity limits)."""
+    _model: pin.Model | None = None
 
     def bind(self, model: pin.Model) -> None:
-        """Make what depends on the model alone (a problem calls it when it is made)."""
+        """Make what depends on the model alone (``_bind``), once per model."""
+        if self._model is not model:
+            self._bind(model)
+            self._model = model
+
+    def _bind(self, model: pin.Model) -> None:
+        """What ``bind`` makes (a problem calls it when it is made)."""
 
     def start(self, kinematics: Kinematics) -> None:
         """Bind to the model and the start configuration (called once per solve)."""
+        self.bind(kinematics.model)
 
     def rows(self, kinematics: Kinematics, dt: float) -> Rows:
         """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""

@@ -21,24 +21,7 @@ from wbik.qp.rows import RowLabel
 from wbik.qp.rows import as_index
 
 
-class ModelBound(BoundConstraint):
-    """A bound constraint whose arrays come from the model: :meth:`bind` makes them once per model."""
-
-    _model: pin.Model | None = None
-
-    def bind(self, model: pin.Model) -> None:
-        if self._model is not model:
-            self._bind(model)
-            self._model = model
-
-    def _bind(self, model: pin.Model) -> None:
-        raise NotImplementedError
-
-    def start(self, kinematics: Kinematics) -> None:
-        self.bind(kinematics.model)
-
-
-class RateLimits(ModelBound):
+class RateLimits(BoundConstraint):
     """Bounds on how fast a coordinate may change (``rate``: "velocity", "acceleration"), in words."""
 
     rate = ""
@@ -55,7 +38,7 @@ class RateLimits(ModelBound):
                 "(max_iterations) reach further")
 
 
-class JointPositionLimits(ModelBound):
+class JointPositionLimits(BoundConstraint):
     """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the ``unbounded`` ones (continuous joints,
     whose answers are wrapped instead)."""
 
@@ -233,7 +216,7 @@ def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float)
     return np.minimum((distance / dt + 0.5 * step * n * (n + 1.0)) / (n + 1.0), (n + 1.0) * step)
 
 
-class LockedJoints(ModelBound):
+class LockedJoints(BoundConstraint):
     """Named joints keep their value: 0 <= dq_i <= 0 (e.g. the arms alone, without the lift)."""
 
     label_kind = "locked joint"

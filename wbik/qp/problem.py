@@ -116,7 +116,6 @@ class IKProblem:
         """The QP step this problem iterates (its levels and constraints at the current q)."""
         return self._step
 
-    # -- set-up ---------------------------------------------------------------------------------
     def start(self, q: np.ndarray, clip: bool = True) -> None:
         """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
         the joint limits (``solve`` does; a control ``step`` moves such a joint back at its bounds' pace)."""
@@ -149,7 +148,6 @@ class IKProblem:
             constraint.rows(self.kinematics, 1.0).add_to(box)
         return not ((dq < lower).any() or (dq > upper).any())
 
-    # -- one QP step ----------------------------------------------------------------------------
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
         """The QP displacement dq at q (default: the current q); NoQPSolutionError (with the backend's
@@ -165,7 +163,7 @@ class IKProblem:
             self.kinematics.update(q)
         if profile is not None:
             self.kinematics.com()  # (lazy) here, so that "constraints" only builds rows
-            lap(profile, "kinematics", tick)
+        lap(profile, "kinematics", tick)
         if velocity is not None:
             for constraint in self._memories:
                 constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()
@@ -237,7 +235,6 @@ class IKProblem:
             kinematics.update(self.clip(kinematics.integrate(dq)))
         return self._equalities_met(tolerance)
 
-    # -- the task cost, the constraints ---------------------------------------------------------
     def task_errors(self) -> dict[str, float]:
         """|e| per task name at the current q."""
         self._step.fill_tasks()
@@ -252,15 +249,13 @@ class IKProblem:
         for index, level in enumerate(self._step.levels):
             error = level.error
             cost += float(level.weight.dot(error * error)) * 1e-6 ** index
-            for task, goal_error in level.goal_errors:
-                if goals_met:
-                    goals_met = math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
+            goals_met = goals_met and all(math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
+                                          for task, goal_error in level.goal_errors)
             if level.inequalities:  # their cost and error: max(0, e)
                 excess = np.maximum(level.inequality_error, 0.0)
                 cost += float(level.inequality_weight.dot(excess * excess)) * 1e-6 ** index
-                for task, goal_error in level.inequality_goal_errors:
-                    if goals_met:
-                        goals_met = float(np.linalg.norm(np.maximum(goal_error, 0.0))) <= task.tolerance
+                goals_met = goals_met and all(float(np.linalg.norm(np.maximum(error, 0.0))) <= task.tolerance
+                                              for task, error in level.inequality_goal_errors)
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
@@ -280,7 +275,6 @@ class IKProblem:
         for constraint in self._memories:  # (acceleration limits: the motion stops here)
             constraint.stepped(np.zeros(self.nv), 1.0)
 
-    # -- iterate to convergence -----------------------------------------------------------------
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
         """(kept, merit, goals met, inequality violation) at the current q: kept when it does not raise the
@@ -312,8 +306,7 @@ class IKProblem:
         self.start(q0)
         outside = bool(self._limits) and not self._stands_at(q0)  # (start clipped q0 into the limits)
         self._at_rest()
-        if profile is not None:
-            lap(profile, "start", start_time)
+        lap(profile, "start", start_time)
         kinematics = self.kinematics
         tolerance = 0.1 * equality_tolerance
         self._timed(profile, "projection", self.project, tolerance)
@@ -360,10 +353,10 @@ class IKProblem:
             step_size = float(np.abs(dq).max()) if dq.size else 0.0
             tick = time.perf_counter() if profile is not None else 0.0
             kinematics.update(self._clipped(pin.integrate(self.model, q, dq)))
+            tick = lap(profile, "kinematics", tick)
             if profile is not None:  # the next step's task rows, filled here for the merit
-                tick = lap(profile, "kinematics", tick)
                 self._step.fill_tasks()
-                lap(profile, "tasks", tick)
+            lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if not kept and not self._equalities_met(tolerance) and self._timed(
                     profile, "projection", self.project, tolerance, 6, trial_violation):
@@ -437,7 +430,6 @@ class IKProblem:
             worst = max(violations, key=violations.get)
             reason = f"constraint {worst!r} violated by {violations[worst]:.3g}"
         task_errors = self.task_errors()
-        if profile is not None:
-            lap(profile, "report", tick)
+        lap(profile, "report", tick)
         return QPSolution(q.copy(), converged and feasible, converged, feasible, iterations, reason,
                           time.perf_counter() - start_time, task_errors, violations, margins)

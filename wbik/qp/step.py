@@ -36,8 +36,10 @@ PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
 and bounds (G, h, A, b, lb, ub); task rows (J and e); weighted H and c; the backend."""
 
 
-def lap(profile: dict[str, float], phase: str, since: float) -> float:
-    """Add the time since ``since`` to ``profile[phase]``; returns now."""
+def lap(profile: dict[str, float] | None, phase: str, since: float) -> float:
+    """Add the time since ``since`` to ``profile[phase]``; returns now (``since`` without a profile)."""
+    if profile is None:
+        return since
     now = time.perf_counter()
     profile[phase] = profile.get(phase, 0.0) + now - since
     return now
@@ -154,12 +156,6 @@ class Level:
         return H, c
 
 
-def layout_key(tasks: Sequence[Task]) -> tuple:
-    """What the levels' layout depends on (a problem solved again keeps its layout)."""
-    return tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
-                  task.constant_diagonal() is None, task.inequality) for task in tasks)
-
-
 class QPStep:
     """The QP of one step over tasks and constraints on one Kinematics (see the module docstring)."""
 
@@ -181,7 +177,8 @@ class QPStep:
 
     def start(self) -> None:
         """Lay out every priority level's rows (tasks know their dimension once started)."""
-        key = layout_key(self.tasks)
+        key = tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
+                     task.constant_diagonal() is None, task.inequality) for task in self.tasks)
         if key != self._layout:
             priorities = sorted({task.priority for task in self.tasks}) or [0]
             self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
@@ -217,20 +214,16 @@ class QPStep:
               recover: bool = True) -> np.ndarray:
         """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution.
         ``recover``: see :meth:`build_constraints`."""
-        clock = time.perf_counter if profile is not None else None
-        tick = clock() if clock else 0.0
+        tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
-        if clock:
-            tick = lap(profile, "constraints", tick)
+        tick = lap(profile, "constraints", tick)
         self.fill_tasks()
-        if clock:
-            tick = lap(profile, "tasks", tick)
+        tick = lap(profile, "tasks", tick)
         dq = None
         for index, level in enumerate(self.levels):
             damping = self.damping + self.lm_damping * level.goal_cost()
             H, c = level.quadratic(damping)
-            if clock:
-                tick = lap(profile, "assemble", tick)
+            tick = lap(profile, "assemble", tick)
             if not index and not level.inequalities:
                 dq = self._solve_relaxed(H, c, stack)
             else:
@@ -242,8 +235,7 @@ class QPStep:
                     if not index:
                         raise
                     # (numerical: the previous level's dq meets every row; keep it)
-            if clock:
-                tick = lap(profile, "qp", tick)
+            tick = lap(profile, "qp", tick)
             if index + 1 < len(self.levels):
                 self.keep(level, dq, stack)
         return dq

@@ -25,16 +25,15 @@ from wbik.kernels.twins import chosen
 from wbik.kernels.twins import compiled_twin
 from wbik.qp.kinematics import Kinematics
 
-_AXES = {"x": 0, "y": 1, "z": 2}
 _FRAME_ROWS = compiled_twin("qp_rows", "frame_rows")
 """The compiled twin of FrameTask.fill and OrientationTask.fill (None where it is not built)."""
 
 
 def axis_rows(axes: str) -> np.ndarray:
     """Row indices of a subset of "xyz" (e.g. "xy" -> [0, 1])."""
-    if not axes or any(axis not in _AXES for axis in axes) or len(set(axes)) != len(axes):
+    if not axes or not set(axes) <= set("xyz") or len(set(axes)) != len(axes):
         raise ValueError(f"axes must be a non-empty subset of 'xyz', got {axes!r}")
-    return np.array([_AXES[axis] for axis in axes])
+    return np.array(["xyz".index(axis) for axis in axes])
 
 
 class Task:
@@ -125,15 +124,14 @@ class _FrameTaskBase(Task):
 
     def start(self, kinematics: Kinematics) -> None:
         frame_id = kinematics.frame_id(self.frame)
-        kernel = self._kernel
         if frame_id == self.frame_id and kinematics is self._compiled_for:
             return  # started on these kinematics before: the views still follow them
         self.frame_id = frame_id
         self._compiled_rows, self._compiled_for = None, None
-        if kernel is not None:
+        if self._kernel is not None:
             # the kernel reads the frame's placement and data.J through views that follow every update
             placement = kinematics.placement(self.frame_id)
-            self._compiled_rows = partial(kernel, self.kernel_rows, kinematics.joint_jacobians,
+            self._compiled_rows = partial(self._kernel, self.kernel_rows, kinematics.joint_jacobians,
                                           kinematics.support_columns(self.frame_id), placement.translation,
                                           placement.rotation)
             self._compiled_for = kinematics
@@ -303,17 +301,9 @@ class ComTask(Task):
         return kinematics.com_jacobian()[self.rows]
 
 
-def actuated_velocity_indices(model: pin.Model) -> np.ndarray:
-    """Tangent indices of every joint except a floating base (joint 1 with nv = 6)."""
-    first = 6 if model.njoints > 1 and model.joints[1].nv == 6 else 0
-    return np.arange(first, model.nv)
-
-
 class PostureTask(Task):
-    """Joints toward a reference configuration: e = (q (-) q_ref) on the chosen tangent rows.
-
-    The floating base is left out by default (its pose is for the other tasks to decide).
-    """
+    """Joints toward a reference configuration: e = (q (-) q_ref) on the tangent rows of ``joints``
+    (default: all but a floating base, whose pose is for the other tasks to decide)."""
 
     goal = False
 
@@ -330,8 +320,8 @@ class PostureTask(Task):
         model = kinematics.model
         if self.reference.shape != (model.nq,):
             raise ValueError(f"posture reference has {self.reference.size} values, the model nq = {model.nq}")
-        if self.joint_names is None:
-            self.rows = actuated_velocity_indices(model)
+        if self.joint_names is None:  # (all but a floating base: joint 1 with nv = 6)
+            self.rows = np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
         else:
             self.rows = np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names])
         self.dimension = len(self.rows)
@@ -374,11 +364,11 @@ class RegularizationTask(Task):
 
 class _BoxTask(Task):
     """A point inside an axis-aligned box (world, m), as an inequality task: e = [p - upper; lower - p]
-    on the box's finite sides (each row <= 0 inside). Subclasses give the point and its Jacobian."""
+    on the box's finite sides (each row <= 0 inside). Subclasses give ``_point`` and its Jacobian."""
 
     inequality = True
 
-    def __init__(self, lower: Sequence[float] | None, upper: Sequence[float] | None, **options):
+    def __init__(self, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None, **options):
         lower = np.full(3, -np.inf) if lower is None else np.asarray(lower, dtype=float).reshape(3)
         upper = np.full(3, np.inf) if upper is None else np.asarray(upper, dtype=float).reshape(3)
         if np.any(np.isnan(lower)) or np.any(np.isnan(upper)) or np.any(lower > upper):
@@ -390,12 +380,6 @@ class _BoxTask(Task):
         if not self.dimension:
             raise ValueError("a box task needs at least one finite side")
         super().__init__(**options)
-
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        raise NotImplementedError
-
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        raise NotImplementedError
 
     def error(self, kinematics: Kinematics) -> np.ndarray:
         point = self._point(kinematics)
@@ -433,9 +417,6 @@ class PositionBoxTask(_BoxTask):
 class ComBoxTask(_BoxTask):
     """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task."""
-
-    def __init__(self, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None, **options):
-        super().__init__(lower, upper, **options)
 
     def _point(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.com()
