@@ -233,11 +233,16 @@ class StackedConstraints:
 
     def split(self):
         """(G, h, A, b, lb, ub) as separate arrays (None when empty), for the other backends."""
-        equality = self._sense[self.n:self.n + self.rows] == 5
-        matrix, upper = self.matrix, self._upper[self.n:self.n + self.rows]
-        G, h = (matrix[~equality], upper[~equality]) if np.any(~equality) else (None, None)
-        A, b = (matrix[equality], upper[equality]) if np.any(equality) else (None, None)
-        return G, h, A, b, self._lower[:self.n].copy(), self._upper[:self.n].copy()
+        general = slice(self.n, self.n + self.rows)
+        return (*split_rows(self.matrix, self._upper[general], self._sense[general] == 5),
+                self._lower[:self.n].copy(), self._upper[:self.n].copy())
+
+
+def split_rows(matrix: np.ndarray, upper: np.ndarray, equality: np.ndarray) -> tuple:
+    """(G, h, A, b): rows ``matrix x <= upper`` and ``= upper`` (``equality``) apart (None: none)."""
+    G, h = (matrix[~equality], upper[~equality]) if np.any(~equality) else (None, None)
+    A, b = (matrix[equality], upper[equality]) if np.any(equality) else (None, None)
+    return G, h, A, b
 
 
 class DaqpWorkspace:

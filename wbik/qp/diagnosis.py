@@ -12,6 +12,7 @@ would achieve; ``stationary``: nothing blocks and no step helps (out of reach, o
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
 
@@ -75,8 +76,7 @@ class TaskConflict:
         return f"task {self.task} (priority {self.priority}, {what})"
 
     def as_dict(self) -> dict:
-        return {"task": self.task, "priority": self.priority, "goal": self.goal, "gain": self.gain,
-                "holds_back": list(self.holds_back), "advice": self.advice, "text": self.text}
+        return {**asdict(self), "holds_back": list(self.holds_back), "text": self.text}
 
 
 @dataclass
@@ -202,8 +202,8 @@ class _Hierarchy:
         for level in step.levels:
             damping = problem.damping + problem.lm_damping * level.goal_cost()
             entries = []
-            for index, task in enumerate(level.tasks):
-                rows_eq, rows_in = level.slices[index], level.inequality_slices[index]
+            for task, rows_eq, rows_in in zip(level.tasks, level.slices, level.inequality_slices,
+                                              strict=True):
                 if rows_eq is not None:
                     entries.append((task, False, level.jacobian[rows_eq].copy(), level.error[rows_eq].copy()))
                 elif rows_in is not None:
@@ -297,12 +297,9 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     step = problem.qp
     step.fill_tasks()
     diagnosis = Diagnosis(start=list(start or []))
-    unmet, deepest = [], -1
-    for level_index, level in enumerate(step.levels):
-        for index, task in enumerate(level.tasks):
-            if task.goal and level.error_norm(index) > task.tolerance:
-                unmet.append((level_index, index, task))
-                deepest = max(deepest, level_index)
+    unmet = [(li, i, task) for li, level in enumerate(step.levels) for i, task in enumerate(level.tasks)
+             if task.goal and level.error_norm(i) > task.tolerance]
+    deepest = max((li for li, _, _ in unmet), default=-1)
     diagnosis.goals = {task.name: step.levels[li].error_norm(i) for li, i, task in unmet}
     diagnosis.unit = _unit([task for _, _, task in unmet])
     rows = step_rows(step, 1.0, problem.max_step)
@@ -334,8 +331,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         groups.setdefault(group_key(label), []).append(index)
     masks = []
     for indices in groups.values():  # (a group: every row of one constraint's subject and side)
-        mask = np.zeros(len(rows), dtype=bool)
-        mask[indices] = True
+        mask = np.isin(np.arange(len(rows)), indices)
         try:
             relaxed, _ = hierarchy.solve(deepest, drop_rows=mask)
         except NoQPSolutionError:
@@ -372,9 +368,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
         try:
             alone = residual(hierarchy.solve(deepest, drop_task=task)[0])
-            gains = []
-            for mask in masks:
-                gains.append(alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0]))
+            gains = [alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0])
+                     for mask in masks]
         except NoQPSolutionError:
             gains = [b.gain for b in diagnosis.blockers]
         diagnosis.blockers = [b for b, own in zip(diagnosis.blockers, gains, strict=True)

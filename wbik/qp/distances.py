@@ -18,9 +18,7 @@ from wbik.validation import check_positive_finite
 
 class MinimumDistance(InequalityConstraint):
     """|p_a - p_b| >= distance between two frame origins, linearised along u = (p_a - p_b)/|p_a - p_b|:
-
-        -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance.
-    """
+    -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance."""
 
     label_kind = "distance"
     quantity = "clearance"
@@ -159,6 +157,4 @@ class CollisionAvoidance(InequalityConstraint):
                 f"(safety {label.bound * 1e3:g} mm)")
 
     blocker_text = row_text
-
-    def advice(self, label: RowLabel) -> str:
-        return f"{label.subject} is at its safety distance: the goal is behind it"
+    advice = MinimumDistance.advice

@@ -67,10 +67,8 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
 
 def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
              max_rows: int = 60) -> list[ConflictRow]:
-    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``);
-    see the module docstring. The deletion filter runs over at most ``max_rows`` candidates (the
-    certificate's rows, largest multipliers first); beyond that the set is the certificate's, not
-    shrunk."""
+    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``); with
+    more than ``max_rows`` candidates the certificate's rows, not shrunk."""
     matrix, upper, owner = rows.as_inequalities()
     found = _elastic(matrix, upper)
     if found is None or found[0] <= tolerance:

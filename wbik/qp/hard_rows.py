@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.qp.backends import split_rows
 from wbik.qp.constraint import STEP_BOX
 from wbik.qp.constraint import tangent_names
 from wbik.qp.rows import BoundRows
@@ -45,11 +46,7 @@ class HardRows:
 
     def split(self) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
         """(G, h, A, b) for a backend (None for an empty block)."""
-        inequality = ~self.equality
-        G, h = (self.matrix[inequality], self.upper[inequality]) if inequality.any() else (None, None)
-        equality = self.equality
-        A, b = (self.matrix[equality], self.upper[equality]) if equality.any() else (None, None)
-        return G, h, A, b
+        return split_rows(self.matrix, self.upper, self.equality)
 
     def as_inequalities(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(M', u', owner): every equality row as two inequality rows (M dq <= u, -M dq <= -u);

@@ -76,7 +76,6 @@ class QPSolution:
 
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
-
     ``constraint_tolerance``: what ``solve`` verifies on its answer (m for contacts); ``max_step``: the
     trust region on every tangent component of one IK step (rad or m); ``progress``: five kept steps in a
     row that lower the merit by less than this fraction end the loop at the best effort."""
@@ -150,12 +149,10 @@ class IKProblem:
 
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
-        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with the backend's
-        status and ``conflict``, the hard rows that conflict) when the QP has no solution.
-
-        For control, v = dq / dt is the joint velocity to send for one period dt; for IK, dt = 1.
-        ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the previous step's
-        dq / dt). ``profile``: a dict to which the seconds of each phase (``PHASES``) are added."""
+        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with ``conflict``, the
+        hard rows that conflict) when the QP has no solution. For control, v = dq / dt is the joint velocity
+        for one period dt; ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the
+        previous step's dq / dt); ``profile``: a dict to which the seconds of each ``PHASES`` are added."""
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q, clip=False)
@@ -289,18 +286,12 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact
-        within ``equality_tolerance``.
-
-        A step is kept when it does not raise the merit (the task cost) and keeps the inequalities by FK
-        (or reduces their violation when q0 breaks them); else the trust region shrinks. Newton
-        projections (:meth:`project`, to 0.1 ``equality_tolerance``) bring the contacts back from q0,
-        after a rejected step or a conflicting one, when the goals are met first, and on the answer. A
-        radius or step under ``stall`` ends the loop at the best effort. Acceleration limits start at
-        rest (a kept step is one period of dt = 1; a rejected one stops the motion).
-
-        ``profile``: a dict to which the seconds of ``PHASES`` and ``SOLVE_PHASES`` are added;
-        ``diagnose``: a solve that does not succeed gets its diagnosis (after ``time_s`` is measured)."""
+        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact within
+        ``equality_tolerance``. A step is kept when it does not raise the merit (the task cost) and keeps
+        the inequalities by FK (or reduces their violation when q0 breaks them); else the trust region
+        shrinks. Newton projections (:meth:`project`) bring the contacts back where the steps do not. A
+        radius or step under ``stall`` ends the loop at the best effort. ``profile``: a dict to which the
+        seconds of ``PHASES`` and ``SOLVE_PHASES`` are added; ``diagnose``: a failed solve is diagnosed."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)

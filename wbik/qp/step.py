@@ -50,9 +50,8 @@ def _joined(arrays: list[np.ndarray]) -> np.ndarray:
 
 
 def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None], list[tuple], int]:
-    """Per task, its rows among the level's stacked equality rows (``inequality`` False: tasks that are
-    no inequality and have no constant diagonal) or inequality rows (None for the others); the
-    (task, rows) pairs of the tasks that have such rows; their count."""
+    """Per task, its rows among the level's stacked rows (None: none there), the (task, rows) pairs, the
+    count: of the inequality tasks, or of the others but those with a constant diagonal."""
     slices, stop = [], 0
     for task in tasks:
         if task.inequality if inequality else not task.inequality and task.constant_diagonal() is None:
@@ -64,10 +63,8 @@ def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None]
 
 
 class Level:
-    """The tasks of one priority level: the stacked rows J (m x nv) and e (m) of the tasks that have
-    rows, unweighted, with the row scales sqrt(w) (for J) and gain sqrt(w) (for e); the summed
-    ``constant_diagonal`` of the tasks whose rows are J = I, e = 0 (regularisation), which go onto H's
-    diagonal; and the rows of the inequality tasks."""
+    """The tasks of one priority level: their stacked rows J (m x nv) and e (m), unweighted, with the
+    scales sqrt(w) and g sqrt(w); the tasks' summed ``constant_diagonal``; the inequality tasks' rows."""
 
     def __init__(self, tasks: list[Task], nv: int):
         self.tasks = tasks
@@ -141,9 +138,8 @@ class Level:
         return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
 
     def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
-        """The level's H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping) and
-        c = (sqrt(w) J)^T (g sqrt(w) e), in buffers reused from step to step (``damping``: the
-        scalar added to every diagonal entry). ``weighted`` holds sqrt(w) J afterwards."""
+        """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping), c = (sqrt(w) J)^T (g sqrt(w) e)
+        in reused buffers; ``weighted`` holds sqrt(w) J afterwards."""
         if self._compiled_quadratic is not None:
             self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
                                      self.diagonal, damping, self.weighted, self.hessian, self.gradient)
@@ -198,9 +194,8 @@ class QPStep:
 
     def build_constraints(self, dt: float, radius: float,
                           recover: bool = True) -> backends.StackedConstraints:
-        """Every constraint's rows at the current q, stacked into the reused buffers; ``recover``: a
-        joint outside its range moves back as fast as its other bounds allow
-        (``StackedConstraints.close_box(toward_rest=True)``; the IK loop's iterates are inside)."""
+        """Every constraint's rows at the current q, stacked; ``recover``: a joint outside its range moves
+        back as fast as its other bounds allow (``StackedConstraints.close_box``)."""
         stack = self.stack
         stack.clear(radius)
         kinematics = self.kinematics
@@ -241,9 +236,8 @@ class QPStep:
         return dq
 
     def keep(self, level: Level, dq: np.ndarray, stack: backends.StackedConstraints) -> None:
-        """Rows that keep what ``level`` achieved with dq for the levels below it: |J_l dq - J_l dq*|
-        <= slack (the regularisation's rows sqrt(w) I included) and, for its inequality tasks,
-        J dq + g e <= max(0, J dq* + g e) + slack."""
+        """Rows that keep what ``level`` achieved with dq* for the levels below: |sqrt(w) J (dq - dq*)| <=
+        slack, and J dq + g e <= max(0, J dq* + g e) + slack for its inequality tasks."""
         slack = self.hierarchy_slack
         kept = np.vstack((level.weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
         if kept.shape[0]:
@@ -293,9 +287,8 @@ class QPStep:
 
     def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints,
                        solver=None) -> np.ndarray:
-        """The QP (by ``solver(H, c, stack)``, default the level's plain QP); if it has no solution
-        and q breaks inequality rows (h < 0), the same QP with those rows asking for half the repair,
-        a quarter, ..., 1/64, then only not to get worse."""
+        """The QP by ``solver(H, c, stack)`` (default: the plain QP); without a solution while q breaks
+        inequality rows (h < 0), those rows ask for half the repair, ..., 1/64, then not to get worse."""
         solve = solver or self._solve
         try:
             return solve(H, c, stack)

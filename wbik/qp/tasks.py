@@ -245,11 +245,8 @@ class OrientationTask(_FrameTaskBase):
 
 
 class RelativeFrameTask(_PoseTask):
-    """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)].
-
-    With d = p_frame - p_ref:  dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq  and
-    de_R = Jlog3(M) R_frame^T (J_w,frame - J_w,ref) dq.
-    """
+    """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)];
+    with d = p_frame - p_ref, dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq."""
 
     def __init__(self, frame: str, reference_frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
