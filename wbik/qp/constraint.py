@@ -1,12 +1,9 @@
 """What every hard constraint is: typed rows for one QP step over dq (nv), a measure of a configuration
 by FK for the shared check, and words for its own rows.
 
-A constraint derives from ``BoundConstraint`` (``bounds(k, dt)`` -> BoundRows), ``EqualityConstraint``
-(``equality(k)`` -> EqualityRows, also projected onto by the IK loop) or ``InequalityConstraint``
-(``inequality(k)`` -> InequalityRows). Made without a model, it is bound by ``start(k)``, gives
-``rows(k, dt)`` per step, hears of each step taken (``stepped``) and judges an answer (``measure``).
-It puts its rows in words (``labels``, ``row_text``, ``blocker_text``, ``advice``), so the diagnoses
-never ask a constraint what kind it is.
+A constraint derives from ``BoundConstraint`` (``bounds(k, dt)``), ``EqualityConstraint`` (``equality(k)``,
+also projected onto by the IK loop) or ``InequalityConstraint`` (``inequality(k)``). It puts its rows in
+words (``labels``, ``row_text``, ``blocker_text``, ``advice``): the diagnoses never ask for its kind.
 """
 
 from __future__ import annotations

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from dataclasses import field
 
 import numpy as np
+from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -252,11 +253,8 @@ class _Hierarchy:
                 gradient += weighted.T @ (scale[:, 0] * task.gain * error)
                 kept_eq.append(weighted)
             count = sum(len(b) for b in soft_b)
-            n = nv + count
-            H = np.zeros((n, n))
-            H[:nv, :nv] = hessian
-            c = np.zeros(n)
-            c[:nv] = gradient
+            H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
+            c = np.concatenate((gradient, np.zeros(count)))
             blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]
             blocks_h = [] if G0 is None else [h0]
             if extra_G:
@@ -265,7 +263,6 @@ class _Hierarchy:
                 blocks_h.append(np.concatenate(extra_h))
             if count:
                 J_soft = np.vstack(soft_J)
-                H[nv:, nv:] = np.diag(np.concatenate(soft_w))
                 blocks_G.append(np.hstack((J_soft, -np.eye(count))))
                 blocks_h.append(np.concatenate(soft_b))
             G = np.vstack(blocks_G) if blocks_G else None

@@ -86,7 +86,5 @@ def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
             if found_without is not None and found_without[0] > tolerance:
                 kept = trial
         order = np.array(kept, dtype=int)
-    result = []
-    for index in sorted(order.tolist(), key=lambda i: owner[i]):
-        result.append(ConflictRow(rows.labels[owner[index]], float(slacks[index])))
-    return result
+    return [ConflictRow(rows.labels[owner[index]], float(slacks[index]))
+            for index in sorted(order.tolist(), key=lambda i: owner[i])]

@@ -4,12 +4,9 @@
     s.t.    the constraints' rows (A dq = b, G dq <= h, lower <= dq <= upper) and |dq_i| <= radius
 
 The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) keeps far steps short and vanishes at the
-solution. Level k keeps what the levels above achieved, to ``hierarchy_slack``: |sqrt(w) J (dq - dq*_l)|
-row by row for an equality task, J dq + g e <= max(0, J dq*_l + g e) for an inequality task, which its
-own level solves with slacks w (min weight |w|^2 s.t. J dq + g e <= w). When q breaks an inequality
-by more than a step can repair, its rows ask for half the repair, a quarter, ..., then only not to get
-worse. No solution at the first level raises NoQPSolutionError; a lower level whose backend fails on
-its nearly degenerate kept rows keeps the step of the levels above.
+solution. Level k keeps what the levels above achieved (:meth:`QPStep.keep`); its inequality tasks are
+solved with slacks w (min weight |w|^2 s.t. J dq + g e <= w). No solution at the first level raises
+NoQPSolutionError; a lower level whose backend fails keeps the step of the levels above.
 """
 
 from __future__ import annotations
@@ -19,6 +16,7 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -219,17 +217,13 @@ class QPStep:
             damping = self.damping + self.lm_damping * level.goal_cost()
             H, c = level.quadratic(damping)
             tick = lap(profile, "assemble", tick)
-            if not index and not level.inequalities:
-                dq = self._solve_relaxed(H, c, stack)
-            else:
-                solver = (self._with_slacks(index, level, damping) if level.inequalities
-                          else self._solve_strict)
-                try:
-                    dq = self._solve_relaxed(H, c, stack, solver)
-                except NoQPSolutionError:
-                    if not index:
-                        raise
-                    # (numerical: the previous level's dq meets every row; keep it)
+            solver = (self._with_slacks(index, level, damping) if level.inequalities
+                      else self._solve_strict if index else None)
+            try:
+                dq = self._solve_relaxed(H, c, stack, solver)
+            except NoQPSolutionError:
+                if not index:
+                    raise  # (below: numerical, the previous level's dq meets every row; it is kept)
             tick = lap(profile, "qp", tick)
             if index + 1 < len(self.levels):
                 self.keep(level, dq, stack)
@@ -266,9 +260,7 @@ class QPStep:
                 if rows is not None:
                     augmented.add(np.hstack((rows, np.zeros((len(bound_rows), count)))), bound_rows, equality)
             augmented.add(np.hstack((jacobian, -np.eye(count))), bound)
-            hessian = np.zeros((nv + count, nv + count))
-            hessian[:nv, :nv] = H
-            hessian[nv:, nv:] = np.diag(weight)
+            hessian = block_diag(H, np.diag(weight))
             gradient = np.concatenate((c, np.zeros(count)))
             x = (backends.solve_precise(self.backend, hessian, gradient, augmented, self.hierarchy_slack)
                  if index else backends.solve_stacked(self.backend, hessian, gradient, augmented))

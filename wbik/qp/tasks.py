@@ -388,7 +388,7 @@ class _BoxTask(Task):
         return np.vstack((jacobian[self._upper_rows], -jacobian[self._lower_rows]))
 
 
-class PositionBoxTask(_BoxTask):
+class PositionBoxTask(_BoxTask, _FrameTaskBase):
     """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task (e.g. a hand above a table, priority above a reach)."""
 
@@ -396,13 +396,7 @@ class PositionBoxTask(_BoxTask):
 
     def __init__(self, frame: str, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None,
                  **options):
-        self.frame = frame
-        self.frame_id = -1
-        options.setdefault("name", f"PositionBoxTask[{frame}]")
-        super().__init__(lower, upper, **options)
-
-    def start(self, kinematics: Kinematics) -> None:
-        self.frame_id = kinematics.frame_id(self.frame)
+        super().__init__(lower, upper, frame=frame, **options)
 
     def _point(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.placement(self.frame_id).translation
