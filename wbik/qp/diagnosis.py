@@ -184,14 +184,6 @@ def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
             for found in constraint.start_violations(problem.kinematics, q0)]
 
 
-def _unit(tasks: list[Task]) -> str:
-    """The unit of the goals' errors: "m", "rad", "m, rad" (a pose, or a mix), "" (another task)."""
-    units = {task.unit for task in tasks}
-    if len(units) == 1:
-        return units.pop()
-    return "" if "" in units else "m, rad"
-
-
 class _Hierarchy:
     """The step's levels as a QP per level over the labelled rows, with rows or one task left out."""
 
@@ -298,7 +290,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
              if task.goal and level.error_norm(i) > task.tolerance]
     deepest = max((li for li, _, _ in unmet), default=-1)
     diagnosis.goals = {task.name: step.levels[li].error_norm(i) for li, i, task in unmet}
-    diagnosis.unit = _unit([task for _, _, task in unmet])
+    units = {task.unit for _, _, task in unmet}  # the goals' ("m, rad": a pose, or a mix)
+    diagnosis.unit = units.pop() if len(units) == 1 else "" if "" in units else "m, rad"
     rows = step_rows(step, 1.0, problem.max_step)
     try:
         hierarchy = _Hierarchy(problem, rows)
@@ -306,7 +299,10 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         dq, duals = hierarchy.solve(upto)
     except NoQPSolutionError:
         diagnosis.infeasible = conflict(rows)
-        diagnosis.advice = _infeasible_advice(diagnosis.infeasible)
+        labels = [row.label for row in diagnosis.infeasible]
+        diagnosis.advice = [next(filter(None, (label.owner.conflict_advice(labels) for label in labels)),
+                                 "drop or relax one of the conflicting constraints (each of them is needed "
+                                 "for the conflict)")]
         return diagnosis
     if not unmet:
         return diagnosis
@@ -380,33 +376,19 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     return diagnosis
 
 
-def _priority_below(step, level_index: int) -> int:
-    """The priority number of the level just below ``level_index`` (a new one if it is the last)."""
-    priorities = [level.tasks[0].priority for level in step.levels if level.tasks]
-    own = priorities[level_index] if level_index < len(priorities) else 0
-    lower = [p for p in priorities if p > own]
-    return min(lower) if lower else own + 1
-
-
 def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str, ...], step) -> str:
     goals = ", ".join(held)
     if level_index == goal_level and not task.goal:
-        return (f"move {task.name} to a lower priority level (priority={_priority_below(step, goal_level)}) "
+        priorities = [level.tasks[0].priority for level in step.levels if level.tasks]
+        own = priorities[goal_level] if goal_level < len(priorities) else 0
+        below = min((p for p in priorities if p > own), default=own + 1)  # the next level's, or a new one
+        return (f"move {task.name} to a lower priority level (priority={below}) "
                 f"so that it acts only in the null space of {goals}, or lower its weight")
     if level_index == goal_level:
         return (f"{task.name} and {goals} conflict on one level: give the one that matters more a higher "
                 "priority")
     return (f"{task.name} (priority {task.priority}) takes precedence over {goals}: give {goals} its "
             "priority, or free the higher level")
-
-
-def _infeasible_advice(rows: list[ConflictRow]) -> list[str]:
-    labels = [row.label for row in rows]
-    for label in labels:
-        advice = label.owner.conflict_advice(labels)
-        if advice:
-            return [advice]
-    return ["drop or relax one of the conflicting constraints (each of them is needed for the conflict)"]
 
 
 def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
