@@ -105,9 +105,11 @@ class SupportPolygon:
     DegenerateSupportPolygonError (a ValueError) for points that span no area."""
 
     def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
         self.vertices = convex_hull(points)
-        self.vertex_labels = _vertex_labels(np.asarray(points, dtype=float).reshape(-1, 2), self.vertices,
-                                            labels)
+        nearest = np.argmin(((self.vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
+        named = labels is not None and len(labels) == len(points)
+        self.vertex_labels = [str(labels[i]) if named else f"vertex {k}" for k, i in enumerate(nearest)]
         """Each vertex's name: its contact point's label (``labels``, one per point), else "vertex i"."""
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
         lengths = np.linalg.norm(edges, axis=1)
@@ -150,27 +152,6 @@ class SupportPolygon:
         return f"{self.vertex_labels[index % count]}-{self.vertex_labels[(index + 1) % count]}"
 
 
-def _vertex_labels(points: np.ndarray, vertices: np.ndarray, labels: Sequence[str] | None) -> list[str]:
-    """The label of the input point each hull vertex is (the nearest: a vertex is one of the points)."""
-    if labels is None or len(labels) != len(points):
-        return [f"vertex {index}" for index in range(len(vertices))]
-    nearest = np.argmin(((vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
-    return [str(labels[index]) for index in nearest]
-
-
-def degenerate_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
-    """What finite 2D points that span no area collapse to: their two extreme points along their main
-    direction (2, 2), or one point (1, 2) when these are within the tolerance."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    centred = points - points.mean(axis=0)
-    _, _, axes = np.linalg.svd(centred, full_matrices=False)
-    along = centred @ axes[0]
-    ends = points[[int(np.argmin(along)), int(np.argmax(along))]]
-    if float(np.ptp(along)) <= hull_tolerance(points, relative_tolerance):
-        return points.mean(axis=0, keepdims=True)
-    return ends
-
-
 @dataclass(frozen=True)
 class DegenerateSupport:
     """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``; it
@@ -195,14 +176,19 @@ class DegenerateSupport:
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
     """The support polygon of finite 2D contact points, or the :class:`DegenerateSupport` they collapse to
-    (for checks that report a margin instead of raising)."""
+    (for checks that report a margin instead of raising): their two extreme points along their main
+    direction, or one point when these are within the hull tolerance."""
     try:
         return SupportPolygon(points)
     except DegenerateSupportPolygonError as exc:
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         if points.size == 0 or not np.all(np.isfinite(points)):
             raise
-        return DegenerateSupport(degenerate_hull(points), str(exc))
+        centred = points - points.mean(axis=0)
+        along = centred @ np.linalg.svd(centred, full_matrices=False)[2][0]
+        ends = (points.mean(axis=0, keepdims=True) if float(np.ptp(along)) <= hull_tolerance(points)
+                else points[[int(np.argmin(along)), int(np.argmax(along))]])
+        return DegenerateSupport(ends, str(exc))
 
 
 def sole_rectangle(length: float, width: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -226,24 +212,17 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
     return np.vstack(points)
 
 
-def contact_point_labels(corners: Mapping[str, np.ndarray], frames: Iterable[str]) -> list[str]:
-    """"frame[i]" for each contact point of the soles ``frames`` (a point foot: "frame"), in
-    :func:`contact_points`' order."""
-    labels = []
-    for frame in frames:
-        count = len(np.asarray(corners[frame], dtype=float).reshape(-1, 3))
-        labels += [frame] if count == 1 else [f"{frame}[{index}]" for index in range(count)]
-    return labels
-
-
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
     """Support polygon of the feet in contact: hull of their contact points projected on the ground
     (DegenerateSupportPolygonError naming the soles when they span no area)."""
     frames = list(frames)
     points = contact_points(kinematics, corners, frames)
+    counts = {frame: len(np.asarray(corners[frame], dtype=float).reshape(-1, 3)) for frame in frames}
+    labels = [frame if counts[frame] == 1 else f"{frame}[{index}]" for frame in frames
+              for index in range(counts[frame])]  # "frame[i]" per contact point, "frame" for a point foot
     try:
-        return SupportPolygon(points[:, :2], contact_point_labels(corners, frames))
+        return SupportPolygon(points[:, :2], labels)
     except DegenerateSupportPolygonError as exc:
         raise DegenerateSupportPolygonError(f"the support soles {frames} ({len(points)} contact points) "
                                             f"make no support polygon: {exc}") from None
