@@ -1,16 +1,9 @@
 """QP backends through qpsolvers, selected by name; DAQP called directly on reused buffers.
 
-Every QP step solves   min 1/2 x^T H x + c^T x   s.t.  G x <= h,  A x = b,  lb <= x <= ub
-with dense matrices (24 variables for the Bioloid whole body). ``BACKEND_OPTIONS`` sets each
-backend's tolerances tight enough for IK to 1e-6 (OSQP's defaults stop at 1e-3). ``FASTEST`` is
-the backend measured fastest on these small dense problems by ``benchmarks/qp.py``, and the
-default; OSQP stays one name away (``backend="osqp"``).
-
-A backend that finds no minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status
-(DAQP's exit flag and its meaning, or qpsolvers' message); nothing returns None.
-
-The default is the backend ``benchmarks/qp.py`` measures fastest on these small dense QPs (DAQP; the
-figures are in docs/benchmarks.md).
+Every QP step solves  min 1/2 x^T H x + c^T x  s.t.  G x <= h, A x = b, lb <= x <= ub  with dense
+matrices. ``BACKEND_OPTIONS`` sets tolerances tight enough for IK to 1e-6; the default is DAQP, the
+fastest on these small dense QPs (``benchmarks/qp.py``, docs/benchmarks.md). A backend that finds no
+minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status.
 """
 
 from __future__ import annotations
@@ -35,10 +28,8 @@ class BackendUnavailableError(MissingDependencyError):
     """A QP backend that was asked for by name is not installed (or is no QP solver at all)."""
 
 FASTEST = "daqp"
-"""Measured fastest per QP step on the Bioloid whole body (benchmarks/qp.py; see its table)."""
-
+"""Measured fastest per QP step on the Bioloid whole body (``benchmarks/qp.py``)."""
 DEFAULT = FASTEST
-"""The default backend: the fastest one in ``benchmarks/qp.py`` (dense active-set DAQP)."""
 
 BACKEND_OPTIONS: dict[str, dict] = {
     "osqp": {"eps_abs": 1e-9, "eps_rel": 1e-9, "polishing": False, "max_iter": 50000, "verbose": False},
@@ -67,11 +58,6 @@ def resolve(name: str) -> str:
     return resolved
 
 
-def _daqp_failure(exitflag: int) -> NoQPSolutionError:
-    meaning = DAQP_EXIT_FLAGS.get(exitflag, "failed")
-    return NoQPSolutionError(f"daqp found no solution (exit flag {exitflag}: {meaning})", "daqp", exitflag)
-
-
 def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
           A: np.ndarray | None, b: np.ndarray | None, lb: np.ndarray | None,
           ub: np.ndarray | None) -> np.ndarray:
@@ -85,8 +71,7 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
 
 
 def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qpsolvers.Solution:
-    """qpsolvers' solution of ``problem`` by ``backend`` with its ``BACKEND_OPTIONS`` (its warnings
-    silenced when ``quiet``); NoQPSolutionError when the backend fails or finds no solution."""
+    """qpsolvers' solution with the backend's ``BACKEND_OPTIONS`` (warnings silenced when ``quiet``)."""
     try:
         with warnings.catch_warnings(action="ignore") if quiet else contextlib.nullcontext():
             solution = qpsolvers.solve_problem(problem, solver=backend, **BACKEND_OPTIONS.get(backend, {}))
@@ -99,9 +84,8 @@ def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qp
 
 def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
                      A: np.ndarray | None, b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), by
-    qpsolvers' ``solve_problem`` (its ``Solution`` carries them for DAQP, quadprog, OSQP and ProxQP);
-    for the diagnoses of a failed solve, not for steps. Raises NoQPSolutionError when there is none."""
+    """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), for the
+    diagnoses of a failed solve; NoQPSolutionError when there is none."""
     solution = _found_solution(backend, qpsolvers.Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
     # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
@@ -119,15 +103,10 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
 
 
 class StackedConstraints:
-    """lb <= x <= ub, G x <= h and A x = b kept the way DAQP takes them, in buffers reused from
-    one QP to the next: ``lower <= [I; M] x <= upper`` whose first n entries are the simple bounds,
-    then one row of the general matrix M per constraint row (inequalities and equalities in any
-    order, equalities marked by ``sense`` 5 and lower = upper). The buffers grow when needed.
-
-    The QP of one step after another adds the same kinds of rows in the same order: each ``add`` is
-    recorded (``_layout``: first row, count, equality), and where it repeats the record at its place,
-    the sense and the inequalities' lower bounds already written there are kept.
-    """
+    """lb <= x <= ub, G x <= h and A x = b as DAQP takes them, in buffers reused (and grown) from one QP
+    to the next: ``lower <= [I; M] x <= upper``, the first n entries the simple bounds, then one row of M
+    per constraint row (an equality: ``sense`` 5, lower = upper). Each ``add`` is recorded (``_layout``):
+    where the next QP repeats it, the sense and lower bounds already written there are kept."""
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
@@ -184,17 +163,9 @@ class StackedConstraints:
             ub[index] = np.minimum(ub[index], upper)
 
     def close_box(self, toward_rest: bool = False) -> None:
-        """Keep every lb <= ub where a coordinate's bounds leave no room (lb > ub): lb <- ub; with
-        ``toward_rest``, the bound nearest to no motion instead - both positive: ub, both negative:
-        lb, one of each: 0.
-
-        With ``toward_rest`` a joint outside its position range (its position bound asks for more than
-        one step may do) moves back as fast as its velocity, acceleration and step-box bounds allow,
-        instead of all the way in one step against them (Pink #206), on either side of its range; and
-        a joint moving faster than it can brake before its limit keeps its limit rather than its
-        acceleration bound. In formulas: ub <- max(ub, min(lb, 0)), then lb <- min(lb, ub); where
-        lb <= ub neither rule changes anything (the IK loop's iterates, inside their limits, never
-        need the second: it is the control step's)."""
+        """Where a coordinate's bounds leave no room (lb > ub): lb <- ub; with ``toward_rest`` the bound
+        nearest to no motion instead (ub <- max(ub, min(lb, 0)), then lb <- min(lb, ub)), so that a joint
+        outside its range moves back as fast as its other bounds allow."""
         lb, ub = self._lb, self._ub
         if toward_rest:
             scratch = self._scratch
@@ -230,8 +201,7 @@ class StackedConstraints:
         self.rows = stop
 
     def in_use(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, bytes]:
-        """(matrix, upper, lower, sense) of the rows in use and the layout's key (the sense's bytes),
-        made again only when the rows or their kinds changed since the last call."""
+        """(matrix, upper, lower, sense) of the rows in use and the layout's key (the sense's bytes)."""
         views = self._views
         if views is None or views[0] != self.rows:
             n, rows = self.n, self.rows
@@ -263,19 +233,22 @@ class StackedConstraints:
 
     def split(self):
         """(G, h, A, b, lb, ub) as separate arrays (None when empty), for the other backends."""
-        equality = self._sense[self.n:self.n + self.rows] == 5
-        matrix, upper = self.matrix, self._upper[self.n:self.n + self.rows]
-        G, h = (matrix[~equality], upper[~equality]) if np.any(~equality) else (None, None)
-        A, b = (matrix[equality], upper[equality]) if np.any(equality) else (None, None)
-        return G, h, A, b, self._lower[:self.n].copy(), self._upper[:self.n].copy()
+        general = slice(self.n, self.n + self.rows)
+        return (*split_rows(self.matrix, self._upper[general], self._sense[general] == 5),
+                self._lower[:self.n].copy(), self._upper[:self.n].copy())
+
+
+def split_rows(matrix: np.ndarray, upper: np.ndarray, equality: np.ndarray) -> tuple:
+    """(G, h, A, b): rows ``matrix x <= upper`` and ``= upper`` (``equality``) apart (None: none)."""
+    G, h = (matrix[~equality], upper[~equality]) if np.any(~equality) else (None, None)
+    A, b = (matrix[equality], upper[equality]) if np.any(equality) else (None, None)
+    return G, h, A, b
 
 
 class DaqpWorkspace:
-    """DAQP workspaces reused from one QP to the next (``daqp.Model``: no set-up allocations, and the
-    previous active set as the warm start), one per constraint layout (the ``sense`` pattern:
-    row count and which rows are equalities). The QP is strictly convex, so the minimiser does not
-    depend on the start; tests/test_qp_backends.py checks it against a cold ``daqp.solve``.
-    """
+    """DAQP workspaces (``daqp.Model``: no set-up allocations, the previous active set as the warm
+    start), one per constraint layout (the ``sense`` pattern); the QP is strictly convex, so the
+    minimiser does not depend on the start."""
 
     def __init__(self):
         import daqp
@@ -304,11 +277,8 @@ class DaqpWorkspace:
 
 
 DAQP_RETRY = {"eps_prox": 1e-12}
-"""DAQP's settings for a second try after it reports "infeasible" or "cycling": its proximal-point
-iterations, which solve nearly degenerate QPs (a priority level's kept rows, two inequalities very
-close) that its default active-set iterations declare infeasible while another backend solves them (the
-measurements: docs/measurements.md, qp backends). A QP that is infeasible stays so. Never used on a
-solve that succeeds."""
+"""DAQP's settings for a second try after "infeasible" or "cycling": proximal-point iterations, which
+solve the nearly degenerate QPs its active-set iterations give up on (docs/measurements.md)."""
 
 
 def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
@@ -324,19 +294,16 @@ def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
         x, _, retried, _ = daqp.solve(*arguments, **{**(settings or {}), **DAQP_RETRY})
         if retried > 0:
             return x
-    raise _daqp_failure(exitflag)
+    meaning = DAQP_EXIT_FLAGS.get(exitflag, "failed")
+    raise NoQPSolutionError(f"daqp found no solution (exit flag {exitflag}: {meaning})", "daqp", exitflag)
 
 
 def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
                   tolerance: float, workspace: DaqpWorkspace | None = None) -> np.ndarray:
-    """The minimiser with every inequality row held to ``tolerance`` where the backend can: DAQP is
-    tried warm (``workspace``), then cold with its primal tolerance at ``tolerance``, then cold with
-    its default (1e-6: rows may be broken by up to that), and the first answer that holds the rows is
-    returned, else the one that breaks them least. The rows that keep what higher priority levels
-    achieved must hold to their slack: on a nearly singular level a warm DAQP, or a cold one at the
-    default tolerance, can leave them broken where a cold solve holds them (the measurements:
-    docs/measurements.md, qp backends). Other backends are solved once (their tolerances
-    are set tight in ``BACKEND_OPTIONS``)."""
+    """The minimiser with every inequality row held to ``tolerance`` (a level's kept rows): DAQP warm
+    (``workspace``), then cold at that primal tolerance, then cold at its default; the first answer
+    that holds the rows, else the one that breaks them least (docs/measurements.md). Other backends
+    are solved once (tight tolerances in ``BACKEND_OPTIONS``)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     rows = constraints.inequality_rows()
@@ -363,8 +330,7 @@ def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
 
 def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
                   workspace: DaqpWorkspace | None = None) -> np.ndarray:
-    """``solve`` with the constraints already stacked: DAQP takes the buffers as they are (in
-    ``workspace`` when given). Raises NoQPSolutionError when there is no minimiser."""
+    """``solve`` with the constraints already stacked (DAQP takes the buffers, in ``workspace`` if given)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     if workspace is not None:

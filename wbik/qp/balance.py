@@ -20,14 +20,10 @@ from wbik.qp.support_polygon import feet_support_region
 
 
 class CoMInSupportPolygon(InequalityConstraint):
-    """The ground projection of the CoM stays inside the support polygon shrunk by ``margin`` (m).
-
-    Linearised: N (c_xy + J_com,xy dq) <= d - margin - safety, one row per polygon edge; ``safety`` (a few
-    micrometres) absorbs the linearisation's second-order error. The polygon is ``polygon``, or the hull
-    of the contact points of ``soles`` ({sole frame: (k, 3) points}, :attr:`wbik.Robot.soles`) where they
-    stand when the problem starts (support spanning no area: DegenerateSupportPolygonError). Its measure
-    is the margin of the polygon the soles make at the configuration judged.
-    """
+    """The ground projection of the CoM inside the support polygon shrunk by ``margin`` (m), linearised:
+    N (c_xy + J_com,xy dq) <= d - margin - safety, one row per edge (``safety`` absorbs the second-order
+    error). The polygon is ``polygon``, or the hull of the contact points of ``soles`` (``robot.soles``)
+    where the problem starts; the measure takes the soles' polygon at the configuration judged."""
 
     label_kind = "support polygon"
     quantity = "CoM margin"
@@ -66,7 +62,6 @@ class CoMInSupportPolygon(InequalityConstraint):
                               self.offsets - self.projected(kinematics))
 
     def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
-        """Per edge ("a-b" by its vertices' labels): the CoM's distance to it (m) and the margin."""
         inside = self.polygon.offsets - self.projected(kinematics)
         return [self.label(self.polygon.edge_name(index), "", float(distance), self.margin, "m")
                 for index, distance in enumerate(inside.tolist())]

@@ -1,24 +1,16 @@
 """What every hard constraint is: typed rows for one QP step over dq (nv), a measure of a configuration
-by forward kinematics for the shared check, and words for its own rows.
+by FK for the shared check, and words for its own rows.
 
-A constraint derives from one of three typed bases and implements the one method of that base
-(:mod:`wbik.qp.rows`):
-
-- ``BoundConstraint.bounds(k, dt)``      -> BoundRows       lower <= dq[index] <= upper
-- ``EqualityConstraint.equality(k)``     -> EqualityRows    A dq = b (also projected onto by the IK loop)
-- ``InequalityConstraint.inequality(k)`` -> InequalityRows  G dq <= h
-
-Its life: made by the user (no model needed), ``start(k)`` binds it to the model and the start
-configuration (a contact holds its pose there), ``rows(k, dt)`` per step, ``stepped(dq, dt)`` after a
-step (a constraint with a memory), ``measure(k, tolerances)`` judges an answer. It describes itself:
-``labels(k, rows)`` name its rows, and ``row_text`` / ``blocker_text`` / ``advice`` / ``start_text``
-put one row in words, so the diagnoses never ask a constraint what kind it is.
+A constraint derives from ``BoundConstraint`` (``bounds(k, dt)``), ``EqualityConstraint`` (``equality(k)``,
+also projected onto by the IK loop) or ``InequalityConstraint`` (``inequality(k)``). It puts its rows in
+words (``labels``, ``row_text``, ``blocker_text``, ``advice``): the diagnoses never ask for its kind.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Collection
+from dataclasses import asdict
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,28 +42,26 @@ class Measure:
 
 @dataclass(frozen=True)
 class StartViolation:
-    """A hard constraint the start configuration breaks: ``text`` in words; ``clipped`` when the loop
+    """A hard constraint the start configuration breaks, in words (``text``); ``clipped`` when the loop
     clips it away before the first step (a joint outside its limits), else the steps repair it."""
 
     constraint: str
     kind: str
     subject: str
+    side: str
     value: float
     bound: float
     unit: str
     text: str
-    side: str = ""
     clipped: bool = False
 
     def as_dict(self) -> dict:
-        return {"constraint": self.constraint, "kind": self.kind, "subject": self.subject, "side": self.side,
-                "value": self.value, "bound": self.bound, "unit": self.unit, "text": self.text,
-                "clipped": self.clipped}
+        return asdict(self)
 
 
 class Describer:
-    """Words for the rows of one source of rows (a constraint, the step box): defaults name the row by
-    its constraint and subject; a constraint overrides what its rows mean."""
+    """Words for the rows of one source of rows (a constraint, the step box); a constraint overrides
+    what its rows mean."""
 
     name = "constraint"
     label_kind = "inequality"
@@ -109,12 +99,20 @@ class Constraint(Describer):
 
     quantity = ""
     """What :meth:`measure` reports ("" for a constraint that shapes steps only, e.g. velocity limits)."""
+    _model: pin.Model | None = None
 
     def bind(self, model: pin.Model) -> None:
-        """Make what depends on the model alone (a problem calls it when it is made)."""
+        """Make what depends on the model alone (``_bind``), once per model."""
+        if self._model is not model:
+            self._bind(model)
+            self._model = model
+
+    def _bind(self, model: pin.Model) -> None:
+        """What ``bind`` makes (a problem calls it when it is made)."""
 
     def start(self, kinematics: Kinematics) -> None:
         """Bind to the model and the start configuration (called once per solve)."""
+        self.bind(kinematics.model)
 
     def rows(self, kinematics: Kinematics, dt: float) -> Rows:
         """This constraint's rows at the kinematics' q (``dt``: the control period, for velocities)."""
@@ -122,13 +120,12 @@ class Constraint(Describer):
                                   "EqualityConstraint or InequalityConstraint and implement its method")
 
     def labels(self, kinematics: Kinematics, rows: Rows) -> list:
-        """One RowLabel per row of ``rows``; a bound constraint gives a (lower, upper) pair per index.
-        Made on failure only."""
+        """One RowLabel per row of ``rows`` (a bound constraint: a (lower, upper) pair per index)."""
         count = len(rows[1]) if not isinstance(rows, BoundRows) else 0
         return [self.label(f"row {index}") for index in range(count)]
 
     def stepped(self, dq: np.ndarray, dt: float) -> None:
-        """The step dq (over dt) was taken: a constraint with a memory updates it (default: none)."""
+        """The step dq (over dt) was taken: a constraint with a memory updates it."""
 
     def violation(self, kinematics: Kinematics) -> float:
         """How far the kinematics' q is beyond the constraint (m or rad, 0 inside); the IK loop's test."""
@@ -148,7 +145,7 @@ class Constraint(Describer):
 
     def start_violation(self, subject: str, value: float, bound: float, unit: str, text: str, side: str = "",
                         clipped: bool = False) -> StartViolation:
-        return StartViolation(self.name, self.label_kind, subject, value, bound, unit, text, side, clipped)
+        return StartViolation(self.name, self.label_kind, subject, side, value, bound, unit, text, clipped)
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.name!r})"
@@ -167,19 +164,17 @@ class BoundConstraint(Constraint):
         raise NotImplementedError
 
     def labels(self, kinematics: Kinematics, rows: Rows) -> list[tuple[RowLabel, RowLabel]]:
-        """(lower, upper) labels per index of the bound rows, named by the tangent coordinate."""
+        """(lower, upper) labels per bounded coordinate, named by the tangent coordinate."""
         names = tangent_names(kinematics.model)
-        indices = np.arange(kinematics.nv)[rows.index]
-        values = self.label_values(kinematics, indices)
-        lower, upper = (np.broadcast_to(np.asarray(v, dtype=float), indices.shape) for v in rows[1:])
-        return [(self.label(names[i], "lower", value, float(low), self.unit),
-                 self.label(names[i], "upper", value, float(high), self.unit))
-                for i, value, low, high in zip(indices.tolist(), values, lower.tolist(), upper.tolist(),
-                                               strict=True)]
+        return [(self.label(names[v], "lower", value, low, self.unit),
+                 self.label(names[v], "upper", value, high, self.unit))
+                for v, value, low, high in zip(*self.label_values(kinematics, rows), strict=True)]
 
-    def label_values(self, kinematics: Kinematics, indices: np.ndarray) -> list[float]:
-        """The measured value each bound's label carries (NaN: none)."""
-        return [math.nan] * len(indices)
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        """(tangent indices, measured values (NaN: none), lower bounds, upper bounds) of the labels."""
+        indices = np.arange(kinematics.nv)[rows.index]
+        lower, upper = (np.broadcast_to(np.asarray(v, dtype=float), indices.shape).tolist() for v in rows[1:])
+        return indices.tolist(), [math.nan] * len(indices), lower, upper
 
 
 class EqualityConstraint(Constraint):

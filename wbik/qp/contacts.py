@@ -35,7 +35,6 @@ class HeldFrame(EqualityConstraint):
         return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:])) if error.size > 3 else 0.0
 
     def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
-        """Per axis: the drift e of that axis (m or rad), held at 0."""
         error = self.error(kinematics).tolist()
         return [self.label(self.frame, axis, float(value), 0.0, "m" if index < 3 else "rad")
                 for index, (axis, value) in enumerate(zip(self.axes[:len(error)], error, strict=True))]
@@ -76,9 +75,8 @@ class HeldFrame(EqualityConstraint):
 
 
 class Contact(HeldFrame):
-    """A frame held at a fixed world pose (a flat foot on the ground): J dq = -e, 6 rows.
-
-    ``placement`` defaults to the frame's pose when the problem starts."""
+    """A frame held at a fixed world ``placement`` (default: where the problem starts), a flat foot on the
+    ground: J dq = -e, 6 rows."""
 
     def __init__(self, frame: str, placement: pin.SE3 | None = None):
         self.frame = frame
@@ -95,13 +93,11 @@ class Contact(HeldFrame):
         if self.fixed_placement is None:
             self._task.target = kinematics.placement(self._task.frame_id).copy()
         if getattr(self, "_jacobian", np.zeros((0, 0))).shape != (6, kinematics.nv):
-            self._jacobian = np.zeros((6, kinematics.nv))
-            self._rhs = np.zeros(6)
+            self._jacobian, self._rhs = np.zeros((6, kinematics.nv)), np.zeros(6)
         self._version = -1
 
     def _rows(self, kinematics: Kinematics) -> None:
-        """J and -e at the kinematics' configuration, once per configuration (the placement is fixed
-        once started)."""
+        """J and -e, once per configuration."""
         if self._version != kinematics.version:
             self._task.fill(kinematics, self._jacobian, self._rhs)
             np.negative(self._rhs, out=self._rhs)
@@ -119,10 +115,8 @@ class Contact(HeldFrame):
 
 
 class PointContact(HeldFrame):
-    """A frame's origin held at a fixed world position (a point foot on the ground): J_v dq = -(p - p*),
-    3 rows; its rotation is free (a point contact transmits no moment).
-
-    ``position`` (m, world) defaults to the frame's position when the problem starts."""
+    """A frame's origin held at a fixed world ``position`` (m; default: where the problem starts), its
+    rotation free (a point foot on the ground): J_v dq = -(p - p*), 3 rows."""
 
     def __init__(self, frame: str, position: np.ndarray | None = None):
         self.frame = frame

@@ -1,36 +1,23 @@
 """Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
 
-Made only when a solve fails (``IKProblem.diagnose``), at the configuration q it returned, from the
-QP step there: the same tasks, levels and hard rows (:func:`wbik.qp.hard_rows.step_rows`, each row
-labelled), with the full step box. Let e_g be the unmet goal tasks' errors and
-
-    r(dq) = sum_g |e_g + J_g dq|        (|max(0, e_g + J_g dq)| for an inequality task)
-
-their linearised error after a step dq. The hierarchy of levels is solved with every hard row
-(dq*, by qpsolvers' ``solve_problem`` with the problem's backend, which gives the multipliers
-lambda of the rows), and then again
-
-- without each group of rows whose multiplier is non-zero at the goals' level (a joint's bound on
-  one side, a contact, an edge of the support polygon, a collision pair, a minimum distance): its
-  ``gain`` = r(dq*) - r(dq* without it) is how much closer one step would bring the goals if that
-  constraint did not hold them back;
-- without each task that is not one of the unmet goals (on their level or above): its ``gain``
-  likewise, the tasks in conflict with the goals (a posture on the goals' level, a higher level).
-
-Both are ranked by gain. Besides: ``step_gain`` = sum_g |e_g| - r(dq*), what one more step would
-still achieve (a loop stopped by its budget while still moving); ``stationary`` when nothing blocks
-and no step helps (the gradient J^T W e vanishes: the target is out of reach, or a local minimum);
-``infeasible`` when the step at q has no solution at all (its conflicting rows, :mod:`wbik.qp.elastic`);
-``start`` for a start outside the joint limits or breaking an inequality (moved back first).
-:meth:`Diagnosis.summary` says all that in one line, with what to change (``advice``).
+Made when a solve fails (``IKProblem.diagnose``), from the QP step at the answer q with its labelled hard
+rows (:func:`wbik.qp.hard_rows.step_rows`). With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised
+error (|max(0, .)| for an inequality task), the levels are solved with every row (dq*, with the rows'
+multipliers) and again without each group of active rows (a joint's bound on one side, a contact, a
+polygon edge, a pair) and without each other task: the ``gain`` r(dq*) - r(dq* without it) ranks the
+``blockers`` and the ``tasks`` in conflict. ``step_gain`` = sum_g |e_g| - r(dq*) is what one more step
+would achieve; ``stationary``: nothing blocks and no step helps (out of reach, or a local minimum);
+``infeasible``: the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
 """
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
 
 import numpy as np
+from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -43,12 +30,6 @@ from wbik.qp.hard_rows import HardRows
 from wbik.qp.hard_rows import group_key
 from wbik.qp.hard_rows import step_rows
 from wbik.qp.rows import RowLabel
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionBoxTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RelativeFrameTask
 from wbik.qp.tasks import Task
 
 __all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines",
@@ -75,10 +56,8 @@ class Blocker:
         return self.label.owner.blocker_text(self.label)
 
     def as_dict(self) -> dict:
-        label = self.label
-        return {"kind": label.kind, "constraint": label.constraint, "subject": label.subject,
-                "side": label.side, "value": label.value, "bound": label.bound, "unit": label.unit,
-                "rows": self.rows, "multiplier": self.multiplier, "gain": self.gain, "text": self.text}
+        return {"kind": self.label.kind, **self.label.as_dict(), "rows": self.rows,
+                "multiplier": self.multiplier, "gain": self.gain, "text": self.text}
 
 
 @dataclass(frozen=True)
@@ -98,8 +77,7 @@ class TaskConflict:
         return f"task {self.task} (priority {self.priority}, {what})"
 
     def as_dict(self) -> dict:
-        return {"task": self.task, "priority": self.priority, "goal": self.goal, "gain": self.gain,
-                "holds_back": list(self.holds_back), "advice": self.advice, "text": self.text}
+        return {**asdict(self), "holds_back": list(self.holds_back), "text": self.text}
 
 
 @dataclass
@@ -116,31 +94,18 @@ class Diagnosis:
     stationary: bool = False
     advice: list[str] = field(default_factory=list)
 
-    @property
-    def empty(self) -> bool:
-        return not (self.goals or self.blockers or self.tasks or self.infeasible or self.start
-                    or self.stationary or self.advice)
-
-    def _amount(self, value: float) -> str:
-        return _amount(value, self.unit)
-
     def summary(self) -> str:
         """One line: the start, the conflicting rows, the blockers, the tasks in conflict, the advice."""
         parts = []
-        outside = [v.text for v in self.start if v.clipped]
-        broken = [v.text for v in self.start if not v.clipped]
-        if outside:
-            parts.append("start outside limits: " + ", ".join(outside) + " (clipped into them first)")
-        if broken:
-            parts.append("the start breaks: " + ", ".join(broken) + " (the first steps repair it)")
+        for clipped in (True, False):
+            if texts := [v.text for v in self.start if v.clipped == clipped]:
+                parts.append(_start_text(", ".join(texts), clipped))
         if self.infeasible:
             parts.append("the hard constraints of the step conflict: " + describe_rows(self.infeasible))
-        if self.blockers:
-            parts.append("blocked by: " + ", ".join(
-                f"{b.text} [{self._amount(b.gain)} per step]" for b in self.blockers[:SHOWN]))
-        if self.tasks:
-            parts.append("in conflict: " + ", ".join(
-                f"{t.text} [{self._amount(t.gain)} per step]" for t in self.tasks[:SHOWN]))
+        for title, items in (("blocked by", self.blockers), ("in conflict", self.tasks)):
+            if items:
+                parts.append(f"{title}: " + ", ".join(
+                    f"{item.text} [{_amount(item.gain, self.unit)} per step]" for item in items[:SHOWN]))
         if self.advice:
             parts.append("to converge: " + "; ".join(self.advice[:2]))
         return "; ".join(parts)
@@ -167,9 +132,8 @@ class Diagnosis:
 
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
     """(diagnosis, reason) of the ``(problem, solution)`` a method's QP solve left in ``local.last``
-    (cleared here): a result that did not succeed, with ``diagnose``, gets the problem's diagnosis at
-    the solution and its summary at the end of ``reason``; any other, the hard constraints the start
-    broke (None when it broke none, or when no QP solve ran) and ``reason`` unchanged."""
+    (cleared here): a failed result, with ``diagnose``, gets its diagnosis and the summary at the end of
+    ``reason``; any other, what the start broke (None: nothing, or no QP solve) and ``reason``."""
     last = getattr(local, "last", None)
     if last is None:
         return None, reason
@@ -183,6 +147,11 @@ def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> t
     return None, reason
 
 
+def _start_text(texts: str, clipped: bool) -> str:
+    return (f"start outside limits: {texts} (clipped into them first)" if clipped
+            else f"the start breaks: {texts} (the first steps repair it)")
+
+
 def _amount(value: float, unit: str) -> str:
     if unit == "m":
         return f"{value * 1e3:.3g} mm"
@@ -192,23 +161,18 @@ def _amount(value: float, unit: str) -> str:
 
 
 def report_lines(data: dict) -> list[str]:
-    """A diagnosis in its JSON form (``Diagnosis.as_dict()``, as a scenario report keeps it) as lines:
-    the start, the conflicting rows, each blocker and task in conflict with what relaxing it would gain
-    in one step, the advice."""
-    unit, lines = data.get("unit", ""), []
-    for item in data.get("start", []):
-        lines.append(f"start outside limits: {item['text']} (clipped into them first)"
-                     if item.get("clipped") else
-                     f"the start breaks: {item['text']} (the first steps repair it)")
+    """A diagnosis in its JSON form (``Diagnosis.as_dict()``, as a scenario report keeps it) as lines."""
+    unit = data.get("unit", "")
+    lines = [_start_text(item["text"], bool(item.get("clipped"))) for item in data.get("start", [])]
     if data.get("infeasible"):
         lines.append("the hard constraints of the step conflict (an irreducible set):")
         lines += [f"  - {item['text']}" for item in data["infeasible"]]
-    if data.get("blockers"):
-        lines.append("blocked by (relaxing it alone would bring the goals closer by, in one step):")
-        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["blockers"]]
-    if data.get("tasks"):
-        lines.append("tasks in conflict with the goals (without it, one step closer by):")
-        lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data["tasks"]]
+    for key, title in (("blockers", "blocked by (relaxing it alone would bring the goals closer by, in one "
+                                    "step):"),
+                       ("tasks", "tasks in conflict with the goals (without it, one step closer by):")):
+        if data.get(key):
+            lines.append(title)
+            lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data[key]]
     lines += [f"to converge: {item}" for item in data.get("advice", [])]
     return lines
 
@@ -218,23 +182,6 @@ def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
     itself, inequalities at the clipped q the kinematics stand at)."""
     return [found for constraint in problem.constraints
             for found in constraint.start_violations(problem.kinematics, q0)]
-
-
-def _unit(tasks: list[Task]) -> str:
-    """The unit of the goals' errors: "m", "rad", "m, rad" (a pose, or a mix), "" (another task)."""
-    units = set()
-    for task in tasks:
-        if isinstance(task, PositionTask | ComTask | PositionBoxTask):
-            units.add("m")
-        elif isinstance(task, OrientationTask):
-            units.add("rad")
-        elif isinstance(task, FrameTask | RelativeFrameTask):
-            units.add("m, rad")
-        else:
-            units.add("")
-    if len(units) == 1:
-        return units.pop()
-    return "" if "" in units else "m, rad"
 
 
 class _Hierarchy:
@@ -248,8 +195,8 @@ class _Hierarchy:
         for level in step.levels:
             damping = problem.damping + problem.lm_damping * level.goal_cost()
             entries = []
-            for index, task in enumerate(level.tasks):
-                rows_eq, rows_in = level.slices[index], level.inequality_slices[index]
+            for task, rows_eq, rows_in in zip(level.tasks, level.slices, level.inequality_slices,
+                                              strict=True):
                 if rows_eq is not None:
                     entries.append((task, False, level.jacobian[rows_eq].copy(), level.error[rows_eq].copy()))
                 elif rows_in is not None:
@@ -298,11 +245,8 @@ class _Hierarchy:
                 gradient += weighted.T @ (scale[:, 0] * task.gain * error)
                 kept_eq.append(weighted)
             count = sum(len(b) for b in soft_b)
-            n = nv + count
-            H = np.zeros((n, n))
-            H[:nv, :nv] = hessian
-            c = np.zeros(n)
-            c[:nv] = gradient
+            H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
+            c = np.concatenate((gradient, np.zeros(count)))
             blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]
             blocks_h = [] if G0 is None else [h0]
             if extra_G:
@@ -311,7 +255,6 @@ class _Hierarchy:
                 blocks_h.append(np.concatenate(extra_h))
             if count:
                 J_soft = np.vstack(soft_J)
-                H[nv:, nv:] = np.diag(np.concatenate(soft_w))
                 blocks_G.append(np.hstack((J_soft, -np.eye(count))))
                 blocks_h.append(np.concatenate(soft_b))
             G = np.vstack(blocks_G) if blocks_G else None
@@ -343,14 +286,12 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     step = problem.qp
     step.fill_tasks()
     diagnosis = Diagnosis(start=list(start or []))
-    unmet, deepest = [], -1
-    for level_index, level in enumerate(step.levels):
-        for index, task in enumerate(level.tasks):
-            if task.goal and level.error_norm(index) > task.tolerance:
-                unmet.append((level_index, index, task))
-                deepest = max(deepest, level_index)
+    unmet = [(li, i, task) for li, level in enumerate(step.levels) for i, task in enumerate(level.tasks)
+             if task.goal and level.error_norm(i) > task.tolerance]
+    deepest = max((li for li, _, _ in unmet), default=-1)
     diagnosis.goals = {task.name: step.levels[li].error_norm(i) for li, i, task in unmet}
-    diagnosis.unit = _unit([task for _, _, task in unmet])
+    units = {task.unit for _, _, task in unmet}  # the goals' ("m, rad": a pose, or a mix)
+    diagnosis.unit = units.pop() if len(units) == 1 else "" if "" in units else "m, rad"
     rows = step_rows(step, 1.0, problem.max_step)
     try:
         hierarchy = _Hierarchy(problem, rows)
@@ -358,7 +299,10 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         dq, duals = hierarchy.solve(upto)
     except NoQPSolutionError:
         diagnosis.infeasible = conflict(rows)
-        diagnosis.advice = _infeasible_advice(diagnosis.infeasible)
+        labels = [row.label for row in diagnosis.infeasible]
+        diagnosis.advice = [next(filter(None, (label.owner.conflict_advice(labels) for label in labels)),
+                                 "drop or relax one of the conflicting constraints (each of them is needed "
+                                 "for the conflict)")]
         return diagnosis
     if not unmet:
         return diagnosis
@@ -377,14 +321,10 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         label = rows.labels[index]
         if isinstance(label.owner, StepBox):
             continue
-        key = group_key(label)
-        if label.owner.groups_rows:
-            key = (*key[:3], "")
-        groups.setdefault(key, []).append(index)
+        groups.setdefault(group_key(label), []).append(index)
     masks = []
     for indices in groups.values():  # (a group: every row of one constraint's subject and side)
-        mask = np.zeros(len(rows), dtype=bool)
-        mask[indices] = True
+        mask = np.isin(np.arange(len(rows)), indices)
         try:
             relaxed, _ = hierarchy.solve(deepest, drop_rows=mask)
         except NoQPSolutionError:
@@ -421,9 +361,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
         try:
             alone = residual(hierarchy.solve(deepest, drop_task=task)[0])
-            gains = []
-            for mask in masks:
-                gains.append(alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0]))
+            gains = [alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0])
+                     for mask in masks]
         except NoQPSolutionError:
             gains = [b.gain for b in diagnosis.blockers]
         diagnosis.blockers = [b for b, own in zip(diagnosis.blockers, gains, strict=True)
@@ -437,33 +376,19 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     return diagnosis
 
 
-def _priority_below(step, level_index: int) -> int:
-    """The priority number of the level just below ``level_index`` (a new one if it is the last)."""
-    priorities = [level.tasks[0].priority for level in step.levels if level.tasks]
-    own = priorities[level_index] if level_index < len(priorities) else 0
-    lower = [p for p in priorities if p > own]
-    return min(lower) if lower else own + 1
-
-
 def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str, ...], step) -> str:
     goals = ", ".join(held)
     if level_index == goal_level and not task.goal:
-        return (f"move {task.name} to a lower priority level (priority={_priority_below(step, goal_level)}) "
+        priorities = [level.tasks[0].priority for level in step.levels if level.tasks]
+        own = priorities[goal_level] if goal_level < len(priorities) else 0
+        below = min((p for p in priorities if p > own), default=own + 1)  # the next level's, or a new one
+        return (f"move {task.name} to a lower priority level (priority={below}) "
                 f"so that it acts only in the null space of {goals}, or lower its weight")
     if level_index == goal_level:
         return (f"{task.name} and {goals} conflict on one level: give the one that matters more a higher "
                 "priority")
     return (f"{task.name} (priority {task.priority}) takes precedence over {goals}: give {goals} its "
             "priority, or free the higher level")
-
-
-def _infeasible_advice(rows: list[ConflictRow]) -> list[str]:
-    labels = [row.label for row in rows]
-    for label in labels:
-        advice = label.owner.conflict_advice(labels)
-        if advice:
-            return [advice]
-    return ["drop or relax one of the conflicting constraints (each of them is needed for the conflict)"]
 
 
 def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
@@ -478,10 +403,5 @@ def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
     if diagnosis.stationary:
         advice.append("no constraint is active and no task conflicts: the goal error is at a stationary "
                       "point (the target is out of reach, or a local minimum): try another start q0")
-    seen, unique = set(), []
-    for item in advice:
-        if item and item not in seen:
-            seen.add(item)
-            unique.append(item)
-    return unique
+    return list(dict.fromkeys(item for item in advice if item))
 

@@ -18,9 +18,7 @@ from wbik.schema import Number
 
 class MinimumDistance(InequalityConstraint):
     """|p_a - p_b| >= distance between two frame origins, linearised along u = (p_a - p_b)/|p_a - p_b|:
-
-        -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance.
-    """
+    -u^T (J_v,a - J_v,b) dq <= |p_a - p_b| - distance."""
 
     label_kind = "distance"
     quantity = "clearance"
@@ -69,17 +67,10 @@ class MinimumDistance(InequalityConstraint):
 
 
 class CollisionAvoidance(InequalityConstraint):
-    """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m).
-
-    Rows only for the pairs closer than ``influence_distance`` (m): with the coal distance d, its witness
-    points p_a, p_b and normal n (a -> b), the distance after the step, linearised, must keep
-
-        n^T (J_a - J_b) dq <= gain (d - safety - padding),
-
-    the velocity-damper form of Pink / mink / PlaCo (a full step, gain 1, may close the whole gap).
-    ``padding`` (m) absorbs the linearisation's second-order error; a pair already under ``safety`` asks
-    for half the repair (the QP's relaxation). ``violation`` = safety - the smallest pair distance by FK.
-    """
+    """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m): for
+    each pair closer than ``influence_distance`` (m), with the coal distance d and normal n (a -> b),
+    n^T (J_a - J_b) dq <= gain (d - safety - padding), the velocity-damper form of Pink / mink / PlaCo
+    (``padding``, m, absorbs the linearisation's second-order error)."""
 
     label_kind = "collision"
     quantity = "clearance"
@@ -120,7 +111,6 @@ class CollisionAvoidance(InequalityConstraint):
         return min(self.distances(kinematics), key=lambda d: d.distance, default=None)
 
     def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
-        """Per pair within the influence distance: its distance (m) and the safety distance."""
         near = [pair for pair in self.distances(kinematics) if pair.distance < self.influence]
         if not near:
             return [self.label("no pair within the influence distance")]
@@ -162,6 +152,4 @@ class CollisionAvoidance(InequalityConstraint):
                 f"(safety {label.bound * 1e3:g} mm)")
 
     blocker_text = row_text
-
-    def advice(self, label: RowLabel) -> str:
-        return f"{label.subject} is at its safety distance: the goal is behind it"
+    advice = MinimumDistance.advice

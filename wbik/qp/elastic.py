@@ -1,24 +1,14 @@
 """Why a step has no solution: a small set of its hard rows that conflict, by an elastic re-solve.
 
 Every row of the step (:class:`wbik.qp.hard_rows.HardRows`, M dq <= u; an equality as two rows) gets a
-slack s >= 0, and the least total violation is found by a linear program (scipy's HiGHS):
-
-    min_{dq, s}  sum_i s_i   s.t.   M dq - s <= u,   s >= 0.                         (elastic L1 LP)
-
-Its optimum is 0 exactly when the rows are compatible. When it is positive, the LP's dual y
-(0 <= y <= 1, M^T y = 0, u^T y < 0) is a Farkas certificate: the rows with y_i > 0 cannot hold
-together. A deletion filter then shrinks that set to an irreducible one: each row in turn is left
-out, and stays out if the others still conflict (the same LP over them has a positive optimum).
-What remains is an irreducible infeasible subsystem (IIS): the rows conflict, and without any one
-of them the rest hold. ``violation`` is each row's slack in the elastic optimum (m or rad of the
-step): how far from holding it was left when all rows were relaxed at once.
-
-Run only when a step has failed (a few LPs of nv + m variables: milliseconds on a humanoid).
+slack s >= 0 in the LP  min sum_i s_i  s.t.  M dq - s <= u  (scipy's HiGHS), whose optimum is 0 exactly
+when the rows are compatible. Otherwise its dual y is a Farkas certificate (the rows with y_i > 0 cannot
+hold together), shrunk by a deletion filter to an irreducible infeasible subsystem: without any one of
+its rows the rest hold. A row's ``violation`` is its slack in the elastic optimum (m or rad of the step).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -45,10 +35,7 @@ class ConflictRow:
         return self.label.text
 
     def as_dict(self) -> dict:
-        label = self.label
-        return {"constraint": label.constraint, "kind": label.kind, "subject": label.subject,
-                "side": label.side, "value": label.value, "bound": label.bound, "unit": label.unit,
-                "violation": self.violation, "text": self.text}
+        return {**self.label.as_dict(), "violation": self.violation, "text": self.text}
 
 
 def describe_rows(rows: Sequence[ConflictRow]) -> str:
@@ -56,8 +43,7 @@ def describe_rows(rows: Sequence[ConflictRow]) -> str:
     together (a contact's axes) in one phrase."""
     groups: dict[tuple, list[RowLabel]] = {}
     for row in rows:
-        key = group_key(row.label)
-        groups.setdefault(key if not row.label.owner.groups_rows else (*key[:3], ""), []).append(row.label)
+        groups.setdefault(group_key(row.label), []).append(row.label)
     return "; ".join(labels[0].owner.group_text(labels) if labels[0].owner.groups_rows else labels[0].text
                      for labels in groups.values())
 
@@ -79,19 +65,10 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
     return float(result.fun), slacks, duals
 
 
-def least_violation(rows: HardRows) -> float:
-    """The elastic LP's optimum: the least total violation of the rows (0 when they hold together)."""
-    matrix, upper, _ = rows.as_inequalities()
-    found = _elastic(matrix, upper)
-    return math.inf if found is None else found[0]
-
-
 def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
              max_rows: int = 60) -> list[ConflictRow]:
-    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``);
-    see the module docstring. The deletion filter runs over at most ``max_rows`` candidates (the
-    certificate's rows, largest multipliers first); beyond that the set is the certificate's, not
-    shrunk."""
+    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``); with
+    more than ``max_rows`` candidates the certificate's rows, not shrunk."""
     matrix, upper, owner = rows.as_inequalities()
     found = _elastic(matrix, upper)
     if found is None or found[0] <= tolerance:
@@ -109,7 +86,5 @@ def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
             if found_without is not None and found_without[0] > tolerance:
                 kept = trial
         order = np.array(kept, dtype=int)
-    result = []
-    for index in sorted(order.tolist(), key=lambda i: owner[i]):
-        result.append(ConflictRow(rows.labels[owner[index]], float(slacks[index])))
-    return result
+    return [ConflictRow(rows.labels[owner[index]], float(slacks[index]))
+            for index in sorted(order.tolist(), key=lambda i: owner[i])]

@@ -1,17 +1,10 @@
 """The hard rows of one QP step, each with its label: what the diagnoses of a failed solve read.
 
-The step stacks its constraints into ``lb <= dq <= ub`` and general rows ``A dq = b``, ``G dq <= h``
-(:class:`wbik.qp.backends.StackedConstraints`), merging the bounds of several constraints on one
-coordinate. :func:`step_rows` rebuilds the same system at the kinematics' q as one list of rows
-
-    M dq <= u   (or = u for an equality row),   one :class:`~wbik.qp.rows.RowLabel` per row,
-
-with each finite bound written as its own row (+dq_j <= ub_j, -dq_j <= -lb_j) and labelled by the
-constraint that set it: the tightest of the position, velocity and acceleration bounds, the step box
-(:data:`wbik.qp.constraint.STEP_BOX`) where none of them is tighter, the locked joint. The values are
-the stack's own (after ``close_box`` and the give-way of a joint outside its range), so the rows are
-exactly those the backend saw; violated inequality rows are relaxed to "do not get worse"
-(h -> max(h, 0)), the step's last resort, unless ``relax`` is False.
+:func:`step_rows` rebuilds the step's stacked system (:class:`wbik.qp.backends.StackedConstraints`) at the
+kinematics' q as rows M dq <= u (or = u), one :class:`~wbik.qp.rows.RowLabel` each: every finite bound
+is its own row (+dq_j <= ub_j, -dq_j <= -lb_j), labelled by the constraint that set it (the step box,
+:data:`wbik.qp.constraint.STEP_BOX`, where none is tighter). The values are those the backend saw;
+violated inequality rows are relaxed to "do not get worse" (h -> max(h, 0)) unless ``relax`` is False.
 """
 
 from __future__ import annotations
@@ -21,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wbik.qp.backends import split_rows
 from wbik.qp.constraint import STEP_BOX
 from wbik.qp.constraint import tangent_names
 from wbik.qp.rows import BoundRows
@@ -52,11 +46,7 @@ class HardRows:
 
     def split(self) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
         """(G, h, A, b) for a backend (None for an empty block)."""
-        inequality = ~self.equality
-        G, h = (self.matrix[inequality], self.upper[inequality]) if inequality.any() else (None, None)
-        equality = self.equality
-        A, b = (self.matrix[equality], self.upper[equality]) if equality.any() else (None, None)
-        return G, h, A, b
+        return split_rows(self.matrix, self.upper, self.equality)
 
     def as_inequalities(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(M', u', owner): every equality row as two inequality rows (M dq <= u, -M dq <= -u);
@@ -69,9 +59,9 @@ class HardRows:
 
 
 def group_key(label: RowLabel) -> tuple[str, str, str, str]:
-    """Rows that a diagnosis names together: a bound by its coordinate and side, a contact by its frame
-    (all axes), any other row by its subject (a polygon edge, a pair)."""
-    side = label.side if label.side in ("lower", "upper") else ""
+    """Rows that a diagnosis names together: a bound by its coordinate and side, the rows of a subject
+    its owner ``groups_rows`` (a contact's axes) and any other row by its subject (an edge, a pair)."""
+    side = label.side if label.side in ("lower", "upper") and not label.owner.groups_rows else ""
     return label.constraint, label.kind, label.subject, side
 
 

@@ -1,11 +1,8 @@
 """Kinematics: one Pinocchio model/data pair evaluated at one configuration, shared by every task.
 
-``update(q)`` runs forward kinematics and the joint Jacobians once; tasks and constraints then read
-frame placements, frame Jacobians and the centre of mass (computed on first use) without
-recomputing. Jacobians are in LOCAL_WORLD_ALIGNED form: rows [v; w] in world axes, v taken at the
-frame origin, so that for a tangent displacement dq, dp = J[:3] dq and the rotation changes by
-exp(J[3:] dq) applied on the left (world axes); ``local_jacobian`` gives the LOCAL form, whose
-angular rows are R^T w (frame axes).
+``update(q)`` runs forward kinematics and the joint Jacobians once; placements, frame Jacobians and the
+CoM are read from them. Jacobians are LOCAL_WORLD_ALIGNED (rows [v; w] in world axes, v at the frame
+origin: dp = J[:3] dq); ``local_jacobian`` gives the LOCAL form (R^T v; R^T w).
 """
 
 from __future__ import annotations
@@ -23,11 +20,8 @@ _VERSIONS = itertools.count()
 
 
 class Kinematics:
-    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities.
-
-    ``version`` changes with every ``update`` and is unique across all instances: a constraint may
-    cache what it computed at one configuration under it.
-    """
+    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities;
+    ``version``, unique across all instances, changes with every ``update`` (a cache key)."""
 
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model
@@ -42,12 +36,10 @@ class Kinematics:
         self.update(self.q)
 
     def _views(self) -> None:
-        """Views into ``data`` (made again by ``__setstate__``: a copy or an unpickled Kinematics has a new
-        data, and a copied view would no longer follow it)."""
+        """Views into ``data`` (made again by ``__setstate__``: a copy has a new data)."""
         self._placements = self.data.oMf  # the vector itself: indexing it is cheaper than data.oMf[i]
         self.joint_jacobians = self.data.J
-        """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin (filled by
-        ``update``; Pinocchio never reallocates it)."""
+        """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin."""
 
     def __getstate__(self) -> dict:
         state = dict(self.__dict__)
@@ -80,8 +72,7 @@ class Kinematics:
         return self._placements[frame_id]
 
     def support_columns(self, frame_id: int) -> np.ndarray:
-        """Tangent indices (int64) of the joints that move a frame: its parent joint and the joints
-        before it (the frame Jacobian's other columns are zero). Computed once per frame."""
+        """Tangent indices (int64) of the joints that move a frame (its Jacobian's other columns are 0)."""
         columns = self._support_columns.get(frame_id)
         if columns is None:
             model = self.model

@@ -1,7 +1,4 @@
-"""Joint limits as bounds on one step dq: position, velocity and acceleration limits, locked joints.
-
-Each is made without a model and bound to one when a problem starts (:meth:`Constraint.bind`).
-"""
+"""Joint limits as bounds on one step dq: position, velocity and acceleration limits, locked joints."""
 
 from __future__ import annotations
 
@@ -24,28 +21,26 @@ from wbik.qp.rows import RowLabel
 from wbik.qp.rows import as_index
 
 
-class ModelBound(BoundConstraint):
-    """A bound constraint whose arrays come from the model: :meth:`bind` makes them once per model."""
+class RateLimits(BoundConstraint):
+    """Bounds on how fast a coordinate may change (``rate``: "velocity", "acceleration"), in words."""
 
-    _model: pin.Model | None = None
+    rate = ""
+    per_step = ""
 
-    def bind(self, model: pin.Model) -> None:
-        if self._model is not model:
-            self._bind(model)
-            self._model = model
+    def row_text(self, label: RowLabel) -> str:
+        return f"{self.rate} limit of {label.subject} ({label.side}, {abs(label.bound):.3g} {self.unit})"
 
-    def _bind(self, model: pin.Model) -> None:
-        raise NotImplementedError
+    def blocker_text(self, label: RowLabel) -> str:
+        return f"the {self.rate} limit of {label.subject} ({abs(label.bound):.3g} {self.unit}{self.per_step})"
 
-    def start(self, kinematics: Kinematics) -> None:
-        self.bind(kinematics.model)
+    def advice(self, label: RowLabel) -> str:
+        return (f"the {self.rate} limit of {label.subject} bounds each step: more iterations "
+                "(max_iterations) reach further")
 
 
-class JointPositionLimits(ModelBound):
-    """q_min <= q + dq <= q_max on every bounded 1-DOF joint (linear, so exact after the step).
-
-    ``unbounded``: names of joints left without position bounds (continuous joints, whose answers are
-    wrapped instead)."""
+class JointPositionLimits(BoundConstraint):
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the ``unbounded`` ones (continuous joints,
+    whose answers are wrapped instead)."""
 
     name = "joint position limits"
     label_kind = "joint limit"
@@ -65,13 +60,9 @@ class JointPositionLimits(ModelBound):
         q = kinematics.q[self._q_rows]
         return BoundRows(self._v_rows, self.lower - q, self.upper - q)
 
-    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
-        names = tangent_names(kinematics.model)
-        q = kinematics.q[self.q_index]
-        return [(self.label(names[v], "lower", value, low, "rad"),
-                 self.label(names[v], "upper", value, high, "rad"))
-                for v, value, low, high in zip(self.v_index.tolist(), q.tolist(), self.lower.tolist(),
-                                               self.upper.tolist(), strict=True)]
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        return (self.v_index.tolist(), kinematics.q[self.q_index].tolist(), self.lower.tolist(),
+                self.upper.tolist())
 
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
@@ -117,13 +108,14 @@ class JointPositionLimits(ModelBound):
                 "joints' range")
 
 
-class JointVelocityLimits(ModelBound):
+class JointVelocityLimits(RateLimits):
     """|dq_i| <= v_max,i ``period`` dt on the joints with a positive finite velocity limit (``limit``:
     nv values, default the model's; ``period``: the time one IK step stands for, s)."""
 
     name = "joint velocity limits"
     label_kind = "velocity limit"
     unit = "rad/s"
+    rate, per_step = "velocity", " per step"
 
     def __init__(self, limit: Sequence[float] | np.ndarray | None = None, period: float = 1.0):
         self._given = None if limit is None else np.asarray(limit, dtype=float)
@@ -145,44 +137,25 @@ class JointVelocityLimits(ModelBound):
         step = self.limit * (self.period * dt)
         return BoundRows(self.v_index, -step, step)
 
-    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
-        names = tangent_names(kinematics.model)
-        return [(self.label(names[v], "lower", np.nan, -limit, "rad/s"),
-                 self.label(names[v], "upper", np.nan, limit, "rad/s"))
-                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
-
-    def row_text(self, label: RowLabel) -> str:
-        return f"velocity limit of {label.subject} ({label.side}, {abs(label.bound):.3g} rad/s)"
-
-    def blocker_text(self, label: RowLabel) -> str:
-        return f"the velocity limit of {label.subject} ({abs(label.bound):.3g} rad/s per step)"
-
-    def advice(self, label: RowLabel) -> str:
-        return (f"the velocity limit of {label.subject} bounds each step: more iterations (max_iterations) "
-                "reach further")
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        return self.v_index.tolist(), [np.nan] * len(self.limit), (-self.limit).tolist(), self.limit.tolist()
 
 
-class JointAccelerationLimits(ModelBound):
-    """|dq/dt - v_prev| <= a_max dt on every joint with a positive finite acceleration limit, and room to
-    brake before a position limit:
+class JointAccelerationLimits(RateLimits):
+    """|dq/dt - v_prev| <= a_max dt on the joints with a positive finite acceleration limit, and room to
+    brake before a position limit: -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q), v_stop(d) the
+    largest velocity from which braking at a_max, one period at a time, stops within d
+    (:func:`stopping_velocity`).
 
-        dt (v_prev - a_max dt) <= dq <= dt (v_prev + a_max dt),
-        -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q)         (bounded 1-DOF joints)
-
-    with v_stop(d) the largest velocity from which braking at a_max, one period at a time, stops within
-    d (:func:`stopping_velocity`). Since D(v) = v dt + D(v - a dt), a velocity that can stop leaves one
-    that can after its period, so the second line is always met on the way to a limit.
-
-    ``v_prev`` (``velocity``, nv; zeros at first) is the previous step's dq / dt, reported through
-    :meth:`stepped`; set it for a measured one. Bounding the change of velocity between periods removes
-    the chatter of an active set switching near a limit (PlaCo #7; ``benchmarks/chatter.py``).
-    ``acceleration_limit``: rad/s^2 (m/s^2 for a prismatic joint), one value for every joint (none on a
-    floating base) or nv values (inf or 0: none); ``period``: the time one IK step stands for (s).
-    """
+    ``v_prev`` (``velocity``, nv; zeros at first) is the previous step's dq / dt (:meth:`stepped`; set
+    it for a measured one): bounding its change removes the chatter of an active set switching near a
+    limit (``benchmarks/chatter.py``). ``acceleration_limit``: rad/s^2 (m/s^2 prismatic), one value
+    (none on a floating base) or nv values (inf or 0: none); ``period``: one IK step's time (s)."""
 
     name = "joint acceleration limits"
     label_kind = "acceleration limit"
     unit = "rad/s^2"
+    rate = "acceleration"
 
     def __init__(self, acceleration_limit: float | np.ndarray, period: float = 1.0,
                  unbounded: Collection[str] = ()):
@@ -226,21 +199,9 @@ class JointAccelerationLimits(ModelBound):
     def stepped(self, dq: np.ndarray, dt: float) -> None:
         self.velocity = np.asarray(dq, dtype=float) / dt
 
-    def labels(self, kinematics: Kinematics, rows) -> list[tuple[RowLabel, RowLabel]]:
-        names = tangent_names(kinematics.model)
-        return [(self.label(names[v], "lower", float(self.velocity[v]), -limit, "rad/s^2"),
-                 self.label(names[v], "upper", float(self.velocity[v]), limit, "rad/s^2"))
-                for v, limit in zip(self.v_index.tolist(), self.limit.tolist(), strict=True)]
-
-    def row_text(self, label: RowLabel) -> str:
-        return f"acceleration limit of {label.subject} ({label.side}, {abs(label.bound):.3g} rad/s^2)"
-
-    def blocker_text(self, label: RowLabel) -> str:
-        return f"the acceleration limit of {label.subject} ({abs(label.bound):.3g} rad/s^2)"
-
-    def advice(self, label: RowLabel) -> str:
-        return (f"the acceleration limit of {label.subject} bounds each step: more iterations "
-                "(max_iterations) reach further")
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        return (self.v_index.tolist(), self.velocity[self.v_index].tolist(), (-self.limit).tolist(),
+                self.limit.tolist())
 
 
 def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:
@@ -255,7 +216,7 @@ def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float)
     return np.minimum((distance / dt + 0.5 * step * n * (n + 1.0)) / (n + 1.0), (n + 1.0) * step)
 
 
-class LockedJoints(ModelBound):
+class LockedJoints(BoundConstraint):
     """Named joints keep their value: 0 <= dq_i <= 0 (e.g. the arms alone, without the lift)."""
 
     label_kind = "locked joint"

@@ -1,23 +1,16 @@
 """How other IK libraries (peers: PlaCo, Pink, mink) express wbik's QP tasks and constraints.
 
-Each peer has a registry of *forms*, keyed by class, beside its method (``PLACO`` in
-:mod:`wbik.solvers.placo`, ``PINK`` in :mod:`wbik.solvers.pink`, ``MINK`` in :mod:`wbik.solvers.mink`). A form
-says how one class of task or constraint is stated in that peer's terms (``build(item, target)`` adds
-the item to the peer's problem being built, ``target``), or that the peer cannot state it and why
-(:meth:`PeerForms.cannot`). A class without a form of its own takes its nearest base class's; a class
-with none at all is not expressible by that peer, and says so. The peers' methods build every item
-that has a form and list each other one in the result's ``unsupported`` as an :class:`Unsupported`:
-"unsupported by PEER: WHAT: WHY".
-
-The forms of wbik's own tasks and constraints are registered in the peer's method module; a new task
-registers its own forms beside its class::
+Each peer has a registry of *forms* keyed by class, beside its method (``PLACO`` in
+:mod:`wbik.solvers.placo`, ``PINK``, ``MINK``): a form's ``build(item, target)`` adds the item to the
+peer's problem being built, or says why the peer cannot state it (:meth:`PeerForms.cannot`). A class
+takes its nearest base class's form; an item without one is listed in the result's ``unsupported``
+(:class:`Unsupported`). A new task registers its forms beside its class::
 
     @PINK.form(HeightTask)
     def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.solvers.pink.PinkProblem
-        ...
-        pink.tasks.append(pink_task)
+        pink.tasks.append(...)
 
-    PLACO.cannot(HeightTask, "PlaCo has no ...")          # said, not left out silently
+    PLACO.cannot(HeightTask, "PlaCo has no ...")
 
 Nothing here imports a peer: a form imports its library when it runs.
 """
@@ -36,13 +29,11 @@ from wbik.registry import RegistryError
 __all__ = ["PeerForm", "PeerForms", "Unsupported", "frame_weights", "largest_weight"]
 
 Build = Callable[[Any, Any], None]
-"""A form's builder: ``build(item, target)`` adds ``item`` to the peer's problem being built."""
 
 
 class Unsupported(str):
-    """What a peer could not express, as a whole-body result lists it: the text
-    "unsupported by PEER: WHAT: WHY", with ``peer``, ``what`` (the item: "task NAME", a constraint's
-    name) and ``why`` as attributes. A ``str``, so it prints, compares and serialises as its text."""
+    """What a peer could not express: the text "unsupported by PEER: WHAT: WHY" (a ``str``), with
+    ``peer``, ``what`` (the item: "task NAME", a constraint's name) and ``why`` as attributes."""
 
     peer: str
     what: str
@@ -68,8 +59,8 @@ class PeerForm:
 
 
 class PeerForms:
-    """The forms of one peer, by class (see the module docstring). ``peer`` names it as its method does
-    ("pink"), ``title`` as its authors do ("Pink")."""
+    """The forms of one peer, by class: ``peer`` names it as its method does ("pink"), ``title`` as its
+    authors do ("Pink")."""
 
     def __init__(self, peer: str, title: str):
         self.peer, self.title = peer, title
@@ -80,8 +71,7 @@ class PeerForms:
         return f"PeerForms({self.peer!r}, {len(self._forms)} forms)"
 
     def register(self, kind: type, form: PeerForm, replace: bool = False) -> None:
-        """Register ``form`` for the class ``kind`` (a second form for the same class only with
-        ``replace``)."""
+        """Register ``form`` for the class ``kind`` (a second one only with ``replace``)."""
         if not isinstance(kind, type) or not isinstance(form, PeerForm):
             raise RegistryError(f"{self.title}: a form is registered for a class as a PeerForm, got "
                                 f"{kind!r} and {form!r}")
@@ -127,7 +117,6 @@ class PeerForms:
         form.build(item, target)
 
 
-# -- what forms share: a task's weights as peers take them ------------------------------------------------
 def largest_weight(task, default: float) -> float:
     """The largest of a task's per-row weights (``default`` for a task without rows)."""
     weight = np.asarray(task.weight, dtype=float)

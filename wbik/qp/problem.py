@@ -1,19 +1,11 @@
 """The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 until the goals are met.
 
-``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates steps
-until every goal task is under its tolerance and every contact holds, or the steps stall (best
-effort: the constrained optimum, errors reported), or the budget ends. A trust region (the step
-box, ``max_step`` at most) with merit acceptance makes the loop globally convergent; Newton
-projections bring the contacts back where a step's own contact rows are not enough
-(:meth:`IKProblem.project`). The configuration returned is verified by forward kinematics:
-contacts, CoM margin, limits.
-
-A solve that does not succeed explains itself: ``QPSolution.diagnosis`` (:mod:`wbik.qp.diagnosis`)
-names the constraints active at the answer and the tasks in conflict with the goals, ranked by how
-much they hold the goals back, and what to change; its summary ends the ``reason``. A step whose
-hard constraints conflict raises NoQPSolutionError with ``conflict``, the rows that conflict
-(:mod:`wbik.qp.elastic`). A start outside the joint limits is clipped into them and reported
-(``start_violations``); a start breaking an inequality is repaired by the steps first.
+``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates them under a
+trust region with merit acceptance until every goal task is under its tolerance and every contact holds
+(Newton projections, :meth:`IKProblem.project`, where a step's contact rows are not enough), or stalls
+at the best effort, and verifies its answer by FK. A solve that does not succeed explains itself
+(``QPSolution.diagnosis``, :mod:`wbik.qp.diagnosis`); a step whose hard constraints conflict raises
+NoQPSolutionError with ``conflict``, the rows that conflict (:mod:`wbik.qp.elastic`).
 """
 
 from __future__ import annotations
@@ -38,6 +30,8 @@ from wbik.qp.diagnosis import Diagnosis
 from wbik.qp.diagnosis import StartViolation
 from wbik.qp.diagnosis import diagnose
 from wbik.qp.diagnosis import start_violations
+from wbik.qp.elastic import conflict
+from wbik.qp.hard_rows import step_rows
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointPositionLimits
 from wbik.qp.step import PHASES
@@ -48,22 +42,15 @@ from wbik.qp.tasks import Task
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]
 
 SOLVE_PHASES = ("start", "projection", "checks", "report")
-"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: setting q0 up (clip,
-kinematics, tasks' and constraints' start), the Newton projections onto the contacts, the merit and
-constraint checks of each trial configuration by FK, the final report (violations, margins, task
-errors)."""
+"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: q0's set-up, the Newton
+projections onto the contacts, the FK checks of each trial configuration, the final report."""
 
 
 @dataclass
 class QPSolution:
-    """Outcome of ``IKProblem.solve``.
-
-    ``task_errors``: |e| per task name at q; ``violations``: per constraint, > 0 means violated
-    (contacts in m or rad, CoM in m inside the margin, limits in rad or m); ``com_margins``:
-    distance from the CoM projection to each polygon boundary (m, positive inside);
-    ``start_violations``: what q0 broke (a joint outside its limits, clipped into them first);
-    ``diagnosis``: why a solve that did not succeed stopped where it did (None after a success).
-    """
+    """Outcome of ``IKProblem.solve``: ``task_errors`` |e| per task name at q; ``violations`` per
+    constraint (> 0: violated; m or rad); ``com_margins`` the CoM's distance to each polygon's boundary (m,
+    positive inside); ``start_violations`` what q0 broke; ``diagnosis`` why a failed solve stopped there."""
 
     q: np.ndarray
     success: bool
@@ -89,12 +76,9 @@ class QPSolution:
 
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
-
-    ``constraint_tolerance`` is what ``solve`` verifies on its answer (1e-6 m for contacts).
-    ``max_step`` bounds every tangent component of one IK step (a trust region, rad or m).
-    ``progress``: five kept steps in a row that lower the merit by less than this fraction end
-    the loop at the best effort.
-    """
+    ``constraint_tolerance``: what ``solve`` verifies on its answer (m for contacts); ``max_step``: the
+    trust region on every tangent component of one IK step (rad or m); ``progress``: five kept steps in a
+    row that lower the merit by less than this fraction end the loop at the best effort."""
 
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
@@ -131,11 +115,9 @@ class IKProblem:
         """The QP step this problem iterates (its levels and constraints at the current q)."""
         return self._step
 
-    # -- set-up ---------------------------------------------------------------------------------
     def start(self, q: np.ndarray, clip: bool = True) -> None:
-        """Set the configuration and let tasks and constraints resolve frames / capture placements;
-        ``clip``: first clip q into the joint limits (``solve`` does; a control ``step`` does not, it
-        moves an out-of-range joint back at the pace its bounds allow)."""
+        """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
+        the joint limits (``solve`` does; a control ``step`` moves such a joint back at its bounds' pace)."""
         q = self.clip(np.asarray(q, dtype=float)) if clip else np.array(q, dtype=float)
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
@@ -165,20 +147,12 @@ class IKProblem:
             constraint.rows(self.kinematics, 1.0).add_to(box)
         return not ((dq < lower).any() or (dq > upper).any())
 
-    # -- one QP step ----------------------------------------------------------------------------
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
-        """The QP displacement dq at q (default: the current q); raises NoQPSolutionError (with the
-        backend's status and ``conflict``, the hard rows that conflict) when the QP has no solution.
-
-        For control, v = dq / dt is the joint velocity to send for one period dt (velocity limits
-        bound |dq| <= v_max dt, acceleration limits |dq / dt - v_prev| <= a_max dt); for IK, dt = 1
-        and dq is a Newton-like step. ``velocity`` (nv): the joint velocity v_prev now, for acceleration
-        limits (default: the previous step's dq / dt, which every step records). A joint outside its
-        range is moved back as fast as its other bounds allow.
-        ``profile``: a dict to which the seconds spent in each phase are added (``PHASES``); the
-        clock is read only when it is given.
-        """
+        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with ``conflict``, the
+        hard rows that conflict) when the QP has no solution. For control, v = dq / dt is the joint velocity
+        for one period dt; ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the
+        previous step's dq / dt); ``profile``: a dict to which the seconds of each ``PHASES`` are added."""
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q, clip=False)
@@ -186,7 +160,7 @@ class IKProblem:
             self.kinematics.update(q)
         if profile is not None:
             self.kinematics.com()  # (lazy) here, so that "constraints" only builds rows
-            lap(profile, "kinematics", tick)
+        lap(profile, "kinematics", tick)
         if velocity is not None:
             for constraint in self._memories:
                 constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()
@@ -204,9 +178,6 @@ class IKProblem:
     def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
         """The hard rows of the step at the current q that conflict (an irreducible set,
         :func:`wbik.qp.elastic.conflict`; empty when they hold together). For a failed step only."""
-        from wbik.qp.elastic import conflict
-        from wbik.qp.hard_rows import step_rows
-
         return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
 
     def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
@@ -261,44 +232,31 @@ class IKProblem:
             kinematics.update(self.clip(kinematics.integrate(dq)))
         return self._equalities_met(tolerance)
 
-    # -- the task cost, the constraints ---------------------------------------------------------
     def task_errors(self) -> dict[str, float]:
         """|e| per task name at the current q."""
         self._step.fill_tasks()
         return {task.name: level.error_norm(index)
                 for level in self._step.levels for index, task in enumerate(level.tasks)}
 
-    def violations(self) -> dict[str, float]:
-        return {constraint.name: float(constraint.violation(self.kinematics))
-                for constraint in self.constraints}
-
-    def merit(self) -> float:
-        """Weighted task cost (lower levels scaled down by 1e-6 each); contacts are kept by projection."""
-        return self._merit_and_goals()[0]
-
     def _merit_and_goals(self) -> tuple[float, bool]:
-        """(merit, every goal task under its tolerance), from the step's task rows at q."""
+        """(merit: the weighted task cost, lower levels scaled down by 1e-6 each; every goal task under its
+        tolerance), from the step's task rows at q."""
         self._step.fill_tasks()
         cost, goals_met = 0.0, True
         for index, level in enumerate(self._step.levels):
             error = level.error
             cost += float(level.weight.dot(error * error)) * 1e-6 ** index
-            for task, goal_error in level.goal_errors:
-                if goals_met:
-                    goals_met = math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
+            goals_met = goals_met and all(math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
+                                          for task, goal_error in level.goal_errors)
             if level.inequalities:  # their cost and error: max(0, e)
                 excess = np.maximum(level.inequality_error, 0.0)
                 cost += float(level.inequality_weight.dot(excess * excess)) * 1e-6 ** index
-                for task, goal_error in level.inequality_goal_errors:
-                    if goals_met:
-                        goals_met = float(np.linalg.norm(np.maximum(goal_error, 0.0))) <= task.tolerance
+                goals_met = goals_met and all(float(np.linalg.norm(np.maximum(error, 0.0))) <= task.tolerance
+                                              for task, error in level.inequality_goal_errors)
         return cost, goals_met
 
     def _equalities_met(self, tolerance: float) -> bool:
-        for constraint in self._equalities:
-            if constraint.violation(self.kinematics) > tolerance:
-                return False
-        return True
+        return all(constraint.violation(self.kinematics) <= tolerance for constraint in self._equalities)
 
     def _inequality_violation(self) -> float:
         total = 0
@@ -306,19 +264,20 @@ class IKProblem:
             total += constraint.violation(self.kinematics)
         return total
 
-    # -- iterate to convergence -----------------------------------------------------------------
+    def _checks(self) -> tuple[float, bool, float]:
+        """(merit, goals met, inequality violation) at the current q."""
+        return *self._merit_and_goals(), self._inequality_violation()
+
+    def _at_rest(self) -> None:
+        for constraint in self._memories:  # (acceleration limits: the motion stops here)
+            constraint.stepped(np.zeros(self.nv), 1.0)
+
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
-        """(kept, merit, goals met, inequality violation) of the configuration the kinematics stand
-        at: kept when it does not raise the merit and keeps the inequalities by FK; while the kept
-        iterate breaks inequalities (a start inside a collision, the CoM outside its margin), when it
-        reduces their violation, whatever the merit (the constraints come first: a step that repairs
-        them against the pull of a task raises the task cost)."""
-        tick = time.perf_counter() if profile is not None else 0.0
-        trial_merit, goals_met = self._merit_and_goals()
-        trial_violation = self._inequality_violation()
-        if profile is not None:
-            lap(profile, "checks", tick)
+        """(kept, merit, goals met, inequality violation) at the current q: kept when it does not raise the
+        merit and keeps the inequalities by FK, or, while the kept iterate breaks inequalities, when it
+        reduces their violation whatever the merit (the constraints come first)."""
+        trial_merit, goals_met, trial_violation = self._timed(profile, "checks", self._checks)
         if violation > 0.0:
             return trial_violation < violation, trial_merit, goals_met, trial_violation
         kept = trial_violation <= 0.0 and trial_merit <= merit + 1e-15
@@ -327,45 +286,25 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """Iterate QP steps from q0 to convergence: every goal task under its tolerance and every
-        contact within ``equality_tolerance``.
-
-        A trust region (the step box, ``max_step`` at most) makes the loop globally convergent: a
-        step is kept only if it does not raise the merit (the task cost) and keeps the inequalities
-        by FK (or reduces their violation when q0 breaks them); otherwise the radius shrinks and the
-        QP is solved again. The contacts are rows of every step (J dq = -e), so their drift is of
-        second order in the step and the next step removes it, as in PlaCo; Newton projections
-        (:meth:`project`, to 0.1 ``equality_tolerance``) bring them back where that is not enough:
-        from q0, for a step the merit test rejects while the contacts drift, when the goals are met
-        before the contacts, and on the configuration returned. A radius or step under ``stall``
-        ends the loop at the best effort under the constraints.
-
-        A step whose hard constraints conflict while the contacts drift more than the step box
-        lets it repair (the box shrank after rejected steps) is followed by a projection onto the
-        contacts, and the loop goes on from there. The loop starts at rest for acceleration limits
-        (each kept step is a period of their dt = 1; a rejected one stops the motion).
-
-        ``profile``: a dict to which the seconds of each step phase (``PHASES``) and of the loop's
-        own phases (``SOLVE_PHASES``) are added. ``diagnose``: when the solve does not succeed, add
-        the diagnosis (``QPSolution.diagnosis``, its summary at the end of the reason; it runs after
-        ``time_s`` is measured).
-        """
+        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact within
+        ``equality_tolerance``. A step is kept when it does not raise the merit (the task cost) and keeps
+        the inequalities by FK (or reduces their violation when q0 breaks them); else the trust region
+        shrinks. Newton projections (:meth:`project`) bring the contacts back where the steps do not. A
+        radius or step under ``stall`` ends the loop at the best effort. ``profile``: a dict to which the
+        seconds of ``PHASES`` and ``SOLVE_PHASES`` are added; ``diagnose``: a failed solve is diagnosed."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)
         outside = bool(self._limits) and not self._stands_at(q0)  # (start clipped q0 into the limits)
-        for constraint in self._memories:
-            constraint.stepped(np.zeros(self.nv), 1.0)
-        if profile is not None:
-            lap(profile, "start", start_time)
+        self._at_rest()
+        lap(profile, "start", start_time)
         kinematics = self.kinematics
         tolerance = 0.1 * equality_tolerance
         self._timed(profile, "projection", self.project, tolerance)
         q = kinematics.q.copy()
         if profile is not None:  # the first step's task rows, filled here for the merit
             self._timed(profile, "tasks", self._step.fill_tasks)
-        merit, goals_met = self._timed(profile, "checks", self._merit_and_goals)
-        violation = self._timed(profile, "checks", self._inequality_violation)
+        merit, goals_met, violation = self._timed(profile, "checks", self._checks)
         # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
         self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
@@ -378,8 +317,7 @@ class IKProblem:
                 # the goals hold, the contacts still drift
                 if self._timed(profile, "projection", self.project, tolerance, 6, violation):
                     q = kinematics.q.copy()
-                    merit, goals_met = self._merit_and_goals()
-                    violation = self._inequality_violation()
+                    merit, goals_met, violation = self._checks()
                     if goals_met:
                         converged = True
                         break
@@ -394,8 +332,7 @@ class IKProblem:
                         <= max(violation, 0.0) + 1e-15:
                     # the contacts drift more than the step box lets one step repair: back onto them
                     q = kinematics.q.copy()
-                    merit, goals_met = self._merit_and_goals()
-                    violation = self._inequality_violation()
+                    merit, goals_met, violation = self._checks()
                     radius = self.max_step
                     continue
                 if not self._stands_at(q):
@@ -407,10 +344,10 @@ class IKProblem:
             step_size = float(np.abs(dq).max()) if dq.size else 0.0
             tick = time.perf_counter() if profile is not None else 0.0
             kinematics.update(self._clipped(pin.integrate(self.model, q, dq)))
+            tick = lap(profile, "kinematics", tick)
             if profile is not None:  # the next step's task rows, filled here for the merit
-                tick = lap(profile, "kinematics", tick)
                 self._step.fill_tasks()
-                lap(profile, "tasks", tick)
+            lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if not kept and not self._equalities_met(tolerance) and self._timed(
                     profile, "projection", self.project, tolerance, 6, trial_violation):
@@ -430,8 +367,7 @@ class IKProblem:
                     break
             else:
                 kinematics.update(q)
-                for constraint in self._memories:  # (a rejected step: the motion stops there)
-                    constraint.stepped(np.zeros(self.nv), 1.0)
+                self._at_rest()
                 radius = 0.25 * min(radius, step_size)
                 if radius < stall:
                     break
@@ -452,16 +388,9 @@ class IKProblem:
         solution = self._report(q, converged, iteration, reason, start_time, profile)
         solution.start_violations = list(self._start_violations)
         if diagnose and not solution.success:
-            self.explain(solution)
+            solution.diagnosis = self.diagnose(solution)
+            solution.reason = solution.diagnosis.reason_with_summary(solution.reason)
         return solution
-
-    def explain(self, solution: QPSolution) -> QPSolution:
-        """Add the diagnosis to a solution that did not succeed (at its q): ``solution.diagnosis`` and
-        its summary at the end of ``solution.reason``; returns the solution."""
-        solution.diagnosis = self.diagnose(solution)
-        solution.reason = solution.diagnosis.reason_with_summary(solution.reason)
-        return solution
-
 
     @staticmethod
     def _timed(profile: dict[str, float] | None, phase: str, function, *arguments):
@@ -492,7 +421,6 @@ class IKProblem:
             worst = max(violations, key=violations.get)
             reason = f"constraint {worst!r} violated by {violations[worst]:.3g}"
         task_errors = self.task_errors()
-        if profile is not None:
-            lap(profile, "report", tick)
+        lap(profile, "report", tick)
         return QPSolution(q.copy(), converged and feasible, converged, feasible, iterations, reason,
                           time.perf_counter() - start_time, task_errors, violations, margins)

@@ -1,19 +1,8 @@
 """Typed rows: what a hard constraint contributes to one QP step over the tangent displacement dq.
 
-Three forms (the models are PlaCo's ``add_constraint`` and mink's ``Constraint(G, h)``):
-
-- ``EqualityRows(A, b)``                A dq = b                (contacts)
-- ``InequalityRows(G, h)``              G dq <= h               (CoM in the polygon, distances)
-- ``BoundRows(index, lower, upper)``    lower <= dq[index] <= upper   (joint limits)
-
-Each is an immutable named tuple (so ``G, h = constraint.inequality(k)`` still unpacks) that writes
-itself into the stacked QP with ``add_to``: the step never asks a constraint what kind it is.
-The arrays may be buffers a constraint reuses at its next configuration; ``add_to`` copies them.
-
-A :class:`RowLabel` says what one row stands for (a joint's limit, a contact's axis, an edge of the
-support polygon, a collision pair) and carries its ``owner``, the constraint that puts it in words
-(:class:`wbik.qp.constraint.Describer`): the diagnoses of :mod:`wbik.qp.diagnosis` and
-:mod:`wbik.qp.elastic` ask the owner, never the kind. Labels are made on failure only, never in a step.
+``EqualityRows(A, b)``: A dq = b; ``InequalityRows(G, h)``: G dq <= h; ``BoundRows(index, lower,
+upper)``: lower <= dq[index] <= upper. Each writes itself into the stacked QP (``add_to``, which copies
+the arrays: a constraint may reuse them). A :class:`RowLabel` names one row, for the diagnoses.
 """
 
 from __future__ import annotations
@@ -62,20 +51,14 @@ class BoundRows(NamedTuple):
 
 
 Rows = EqualityRows | InequalityRows | BoundRows
-"""What ``Constraint.rows`` returns."""
+
 
 @dataclass(frozen=True)
 class RowLabel:
-    """What one row of a hard constraint stands for.
-
-    ``constraint``: the constraint's name; ``kind``: its owner's word for its rows; ``subject``: the joint,
-    the contact frame, the polygon edge ("left_sole_link[2]-right_sole_link[1]") or the pair;
-    ``side``: "lower" / "upper" for a bound, the axis ("x", ..., "rz") of a contact row;
-    ``value`` and ``bound``: the measured quantity and its limit at the configuration the row was made
-    at (rad or m in ``unit``; NaN where they mean nothing), e.g. a joint's angle and its limit, the
-    CoM's distance to the edge and the margin, a pair's distance and the safety distance; ``owner``:
-    the constraint (or step box) that describes the row.
-    """
+    """What one row stands for: ``constraint`` (its name), ``kind`` (its owner's word for its rows),
+    ``subject`` (a joint, contact frame, polygon edge or pair), ``side`` ("lower"/"upper" of a bound,
+    a contact's axis), ``value`` and ``bound`` in ``unit`` where the row was made (NaN: none), and
+    ``owner``, the constraint (or step box) that puts the row in words."""
 
     constraint: str
     kind: str
@@ -86,15 +69,14 @@ class RowLabel:
     unit: str = ""
     owner: Any = field(default=None, compare=False, repr=False)
 
-    def with_side(self, side: str) -> RowLabel:
-        """The same label for one side of a bound (the other fields kept)."""
-        return RowLabel(self.constraint, self.kind, self.subject, side, self.value, self.bound, self.unit,
-                        self.owner)
-
     @property
     def text(self) -> str:
         """The row in words, as its owner says it."""
         return self.owner.row_text(self)
+
+    def as_dict(self) -> dict:
+        return {"constraint": self.constraint, "kind": self.kind, "subject": self.subject, "side": self.side,
+                "value": self.value, "bound": self.bound, "unit": self.unit}
 
 
 def as_index(indices: np.ndarray) -> np.ndarray | slice:

@@ -1,27 +1,12 @@
-"""One QP step at the kinematics' configuration q (all tasks of one priority level):
+"""One QP step at the kinematics' configuration q, one QP per priority level:
 
     min_dq  sum_k w_k |J_k dq + g_k e_k|^2 + (mu0 + mu |e|^2) |dq|^2
-    s.t.    the constraints' rows (wbik.qp.rows): A dq = b, G dq <= h, lower <= dq <= upper,
-            and the box |dq_i| <= radius (the IK loop's trust region)
+    s.t.    the constraints' rows (A dq = b, G dq <= h, lower <= dq <= upper) and |dq_i| <= radius
 
-The Levenberg-Marquardt term mu |e|^2 (e: the level's goal tasks) keeps far-away steps short and
-vanishes at the solution, so it does not bias the answer. With several priority levels (any number),
-level k is solved with the achieved task values of levels < k kept (to ``hierarchy_slack``) as extra
-rows: |sqrt(w) J (dq - dq*_l)| <= slack row by row for an equality task of level l, and
-J dq + g e <= max(0, J dq*_l + g e) + slack for an inequality task (:mod:`wbik.qp.tasks`), which its
-own level solves with slack variables w (min weight |w|^2 s.t. J dq + g e <= w). A level without
-inequality tasks is the plain QP over dq.
-
-When q breaks an inequality by more than one step can repair, the violated rows ask for half the
-repair, then a quarter, ..., then only not to get worse (the constraints' own rows only: a level's
-kept rows are never relaxed). A joint outside its position range is brought back as fast as its other
-bounds allow (``StackedConstraints.close_box``). No solution at the first level raises
-NoQPSolutionError; a lower level is always
-feasible (the step of the levels above it meets its rows), so a backend that reports otherwise on its
-nearly degenerate kept rows leaves that step as it is.
-
-The task rows of every level are filled once per configuration (``fill_tasks``, keyed by the
-kinematics' version): the IK loop reads its merit from the same errors (``level_errors``).
+The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) keeps far steps short and vanishes at the
+solution. Level k keeps what the levels above achieved (:meth:`QPStep.keep`); its inequality tasks are
+solved with slacks w (min weight |w|^2 s.t. J dq + g e <= w). No solution at the first level raises
+NoQPSolutionError; a lower level whose backend fails keeps the step of the levels above.
 """
 
 from __future__ import annotations
@@ -31,6 +16,7 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -48,58 +34,55 @@ PHASES = ("kinematics", "constraints", "tasks", "assemble", "qp")
 and bounds (G, h, A, b, lb, ub); task rows (J and e); weighted H and c; the backend."""
 
 
-def lap(profile: dict[str, float], phase: str, since: float) -> float:
-    """Add the time since ``since`` to ``profile[phase]``; returns now."""
+def lap(profile: dict[str, float] | None, phase: str, since: float) -> float:
+    """Add the time since ``since`` to ``profile[phase]``; returns now (``since`` without a profile)."""
+    if profile is None:
+        return since
     now = time.perf_counter()
     profile[phase] = profile.get(phase, 0.0) + now - since
     return now
 
 
+def _joined(arrays: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate(arrays) if arrays else np.zeros(0)
+
+
+def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None], list[tuple], int]:
+    """Per task, its rows among the level's stacked rows (None: none there), the (task, rows) pairs, the
+    count: of the inequality tasks, or of the others but those with a constant diagonal."""
+    slices, stop = [], 0
+    for task in tasks:
+        if task.inequality if inequality else not task.inequality and task.constant_diagonal() is None:
+            slices.append(slice(stop, stop + task.dimension))
+            stop += task.dimension
+        else:
+            slices.append(None)
+    return slices, [pair for pair in zip(tasks, slices, strict=True) if pair[1] is not None], stop
+
+
 class Level:
-    """The tasks of one priority level: the stacked rows J (m x nv) and e (m) of the tasks that have
-    rows, unweighted, with the row scales sqrt(w) (for J) and gain sqrt(w) (for e); and the summed
-    ``constant_diagonal`` of the tasks whose rows are J = I, e = 0 (regularisation), which go onto
-    H's diagonal instead of nv rows each."""
+    """The tasks of one priority level: their stacked rows J (m x nv) and e (m), unweighted, with the
+    scales sqrt(w) and g sqrt(w); the tasks' summed ``constant_diagonal``; the inequality tasks' rows."""
 
     def __init__(self, tasks: list[Task], nv: int):
         self.tasks = tasks
         self.diagonal = np.zeros(nv)
-        self.slices: list[slice | None] = []
-        self.inequality_slices: list[slice | None] = []
-        """Per task: its rows in ``inequality_jacobian`` / ``inequality_error`` (None for others)."""
-        stacked, stop, inequalities, inequality_stop = [], 0, [], 0
         for task in tasks:
-            diagonal = task.constant_diagonal()
-            if task.inequality:
-                self.slices.append(None)
-                self.inequality_slices.append(slice(inequality_stop, inequality_stop + task.dimension))
-                inequalities.append(task)
-                inequality_stop += task.dimension
-                continue
-            self.inequality_slices.append(None)
-            if diagonal is not None:
-                self.diagonal += diagonal
-                self.slices.append(None)
-            else:
-                self.slices.append(slice(stop, stop + task.dimension))
-                stacked.append(task)
-                stop += task.dimension
-        self.inequalities = inequalities
+            if not task.inequality and task.constant_diagonal() is not None:
+                self.diagonal += task.constant_diagonal()
+        self.slices, stacked_rows, stop = _row_slices(tasks, False)
+        self.inequality_slices, inequality_rows, inequality_stop = _row_slices(tasks, True)
+        stacked = [task for task, _ in stacked_rows]
+        self.inequalities = [task for task, _ in inequality_rows]
         """The level's inequality tasks (their rows: J dq + g e <= w, weight |w|^2)."""
         self.inequality_jacobian = np.zeros((inequality_stop, nv))
         self.inequality_error = np.zeros(inequality_stop)
-        self.inequality_weight = (np.concatenate([task.weight for task in inequalities]) if inequalities
-                                  else np.zeros(0))
-        self.inequality_gain = (np.concatenate([np.full(task.dimension, task.gain) for task in inequalities])
-                                if inequalities else np.zeros(0))
+        self.inequality_weight = _joined([task.weight for task in self.inequalities])
+        self.inequality_gain = _joined([np.full(task.dimension, task.gain) for task in self.inequalities])
         self._inequality_rows = [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
-                                 for task, rows in zip(tasks, self.inequality_slices, strict=True)
-                                 if rows is not None]
-        self.inequality_goal_errors = [(task, self.inequality_error[rows])
-                                       for task, rows in zip(tasks, self.inequality_slices, strict=True)
-                                       if rows is not None and task.goal]
-        stacked_rows = [(task, rows) for task, rows in zip(tasks, self.slices, strict=True)
-                        if rows is not None]
+                                 for task, rows in inequality_rows]
+        self.inequality_goal_errors = [(task, self.inequality_error[rows]) for task, rows in inequality_rows
+                                       if task.goal]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
         self.weighted = np.zeros((stop, nv))
         # H and c of the level's QP, refilled in place at every step (``quadratic``)
@@ -108,12 +91,11 @@ class Level:
         # each task's rows and each goal's error as views of the buffers (no slicing per fill)
         self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in stacked_rows]
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
-        self.weight = np.concatenate([task.weight for task in stacked]) if stacked else np.zeros(0)
+        self.weight = _joined([task.weight for task in stacked])
         self.row_scale = np.sqrt(self.weight)[:, None]
         self._row_scale = self.row_scale[:, 0]  # (a contiguous view: the kernel's 1-D form)
         self._compiled_quadratic = chosen(None, _QUADRATIC, "qp_rows")
-        self.error_scale = self.row_scale[:, 0] * np.concatenate(
-            [np.full(task.dimension, task.gain) for task in stacked]) if stacked else np.zeros(0)
+        self.error_scale = self._row_scale * _joined([np.full(task.dimension, task.gain) for task in stacked])
 
     def fill(self, kinematics: Kinematics) -> None:
         for task, jacobian, error in self._task_rows:
@@ -131,16 +113,6 @@ class Level:
         for _, error in self.inequality_goal_errors:
             excess = np.maximum(error, 0.0)
             cost += float(excess.dot(excess))
-        return cost
-
-    def cost(self) -> float:
-        """The level's weighted task cost at the last fill: sum w e^2 (w max(0, e)^2 for an inequality
-        task's rows)."""
-        error = self.error
-        cost = float(self.weight.dot(error * error))
-        if self.inequalities:
-            excess = np.maximum(self.inequality_error, 0.0)
-            cost += float(self.inequality_weight.dot(excess * excess))
         return cost
 
     def error_norm(self, index: int) -> float:
@@ -164,9 +136,8 @@ class Level:
         return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
 
     def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
-        """The level's H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping) and
-        c = (sqrt(w) J)^T (g sqrt(w) e), in buffers reused from step to step (``damping``: the
-        scalar added to every diagonal entry). ``weighted`` holds sqrt(w) J afterwards."""
+        """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping), c = (sqrt(w) J)^T (g sqrt(w) e)
+        in reused buffers; ``weighted`` holds sqrt(w) J afterwards."""
         if self._compiled_quadratic is not None:
             self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
                                      self.diagonal, damping, self.weighted, self.hessian, self.gradient)
@@ -177,12 +148,6 @@ class Level:
         scaled_error = np.multiply(self.error, self.error_scale, out=self._scaled_error)
         c = weighted.T.dot(scaled_error, out=self.gradient)
         return H, c
-
-
-def layout_key(tasks: Sequence[Task]) -> tuple:
-    """What the levels' layout depends on (a problem solved again keeps its layout)."""
-    return tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
-                  task.constant_diagonal() is None, task.inequality) for task in tasks)
 
 
 class QPStep:
@@ -206,7 +171,8 @@ class QPStep:
 
     def start(self) -> None:
         """Lay out every priority level's rows (tasks know their dimension once started)."""
-        key = layout_key(self.tasks)
+        key = tuple((id(task), task.priority, task.dimension, task.gain, task.weight.tobytes(),
+                     task.constant_diagonal() is None, task.inequality) for task in self.tasks)
         if key != self._layout:
             priorities = sorted({task.priority for task in self.tasks}) or [0]
             self.levels = [Level([t for t in self.tasks if t.priority == p], self.nv) for p in priorities]
@@ -226,9 +192,8 @@ class QPStep:
 
     def build_constraints(self, dt: float, radius: float,
                           recover: bool = True) -> backends.StackedConstraints:
-        """Every constraint's rows at the current q, stacked into the reused buffers; ``recover``: a
-        joint outside its range moves back as fast as its other bounds allow
-        (``StackedConstraints.close_box(toward_rest=True)``; the IK loop's iterates are inside)."""
+        """Every constraint's rows at the current q, stacked; ``recover``: a joint outside its range moves
+        back as fast as its other bounds allow (``StackedConstraints.close_box``)."""
         stack = self.stack
         stack.clear(radius)
         kinematics = self.kinematics
@@ -242,41 +207,31 @@ class QPStep:
               recover: bool = True) -> np.ndarray:
         """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution.
         ``recover``: see :meth:`build_constraints`."""
-        clock = time.perf_counter if profile is not None else None
-        tick = clock() if clock else 0.0
+        tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
-        if clock:
-            tick = lap(profile, "constraints", tick)
+        tick = lap(profile, "constraints", tick)
         self.fill_tasks()
-        if clock:
-            tick = lap(profile, "tasks", tick)
+        tick = lap(profile, "tasks", tick)
         dq = None
         for index, level in enumerate(self.levels):
             damping = self.damping + self.lm_damping * level.goal_cost()
             H, c = level.quadratic(damping)
-            if clock:
-                tick = lap(profile, "assemble", tick)
-            if not index and not level.inequalities:
-                dq = self._solve_relaxed(H, c, stack)
-            else:
-                solver = (self._with_slacks(index, level, damping) if level.inequalities
-                          else self._solve_strict)
-                try:
-                    dq = self._solve_relaxed(H, c, stack, solver)
-                except NoQPSolutionError:
-                    if not index:
-                        raise
-                    # (numerical: the previous level's dq meets every row; keep it)
-            if clock:
-                tick = lap(profile, "qp", tick)
+            tick = lap(profile, "assemble", tick)
+            solver = (self._with_slacks(index, level, damping) if level.inequalities
+                      else self._solve_strict if index else None)
+            try:
+                dq = self._solve_relaxed(H, c, stack, solver)
+            except NoQPSolutionError:
+                if not index:
+                    raise  # (below: numerical, the previous level's dq meets every row; it is kept)
+            tick = lap(profile, "qp", tick)
             if index + 1 < len(self.levels):
                 self.keep(level, dq, stack)
         return dq
 
     def keep(self, level: Level, dq: np.ndarray, stack: backends.StackedConstraints) -> None:
-        """Rows that keep what ``level`` achieved with dq for the levels below it: |J_l dq - J_l dq*|
-        <= slack (the regularisation's rows sqrt(w) I included) and, for its inequality tasks,
-        J dq + g e <= max(0, J dq* + g e) + slack."""
+        """Rows that keep what ``level`` achieved with dq* for the levels below: |sqrt(w) J (dq - dq*)| <=
+        slack, and J dq + g e <= max(0, J dq* + g e) + slack for its inequality tasks."""
         slack = self.hierarchy_slack
         kept = np.vstack((level.weighted, np.diag(np.sqrt(level.diagonal))[level.diagonal > 0]))
         if kept.shape[0]:
@@ -300,18 +255,12 @@ class QPStep:
             if augmented is None or augmented.n != nv + count:
                 augmented = self._augmented[index] = backends.StackedConstraints(nv + count)
             lower, upper = augmented.clear(1e30)
-            lower[:nv], upper[:nv] = stack.lower[:nv], stack.upper[:nv]
-            equality = stack.sense[nv:] == 5
-            matrix, rows_upper = stack.matrix, stack.upper[nv:]
-            padding = np.zeros((len(rows_upper), count))
-            if np.any(~equality):
-                augmented.add(np.hstack((matrix, padding))[~equality], rows_upper[~equality])
-            if np.any(equality):
-                augmented.add(np.hstack((matrix, padding))[equality], rows_upper[equality], equality=True)
+            G, h, A, b, lower[:nv], upper[:nv] = stack.split()
+            for rows, bound_rows, equality in ((G, h, False), (A, b, True)):
+                if rows is not None:
+                    augmented.add(np.hstack((rows, np.zeros((len(bound_rows), count)))), bound_rows, equality)
             augmented.add(np.hstack((jacobian, -np.eye(count))), bound)
-            hessian = np.zeros((nv + count, nv + count))
-            hessian[:nv, :nv] = H
-            hessian[nv:, nv:] = np.diag(weight)
+            hessian = block_diag(H, np.diag(weight))
             gradient = np.concatenate((c, np.zeros(count)))
             x = (backends.solve_precise(self.backend, hessian, gradient, augmented, self.hierarchy_slack)
                  if index else backends.solve_stacked(self.backend, hessian, gradient, augmented))
@@ -330,9 +279,8 @@ class QPStep:
 
     def _solve_relaxed(self, H: np.ndarray, c: np.ndarray, stack: backends.StackedConstraints,
                        solver=None) -> np.ndarray:
-        """The QP (by ``solver(H, c, stack)``, default the level's plain QP); if it has no solution
-        and q breaks inequality rows (h < 0), the same QP with those rows asking for half the repair,
-        a quarter, ..., 1/64, then only not to get worse."""
+        """The QP by ``solver(H, c, stack)`` (default: the plain QP); without a solution while q breaks
+        inequality rows (h < 0), those rows ask for half the repair, ..., 1/64, then not to get worse."""
         solve = solver or self._solve
         try:
             return solve(H, c, stack)

@@ -1,40 +1,13 @@
-"""Support polygon: the convex hull of the contact points on the ground, as half-planes.
+"""Support polygon: the convex hull of the soles' contact points on the ground, as half-planes.
 
-The contact points are those of every sole in support (``robot.soles``: a flat sole's corners, an
-edge's two ends, or a point foot's single point, each in its sole frame), placed by FK and projected
-on the ground: two flat soles give a hexagon or a rectangle, four point feet a quadrilateral.
-
-The polygon is stored counter-clockwise; edge i from v_i to v_{i+1} has the outward unit normal
-n_i = (dy, -dx) / |d| and offset d_i = n_i . v_i, so the inside is {x : N x <= d}. Shrinking by a
-margin m (the Minkowski erosion of a convex polygon by a disc) keeps the normals and lowers every
-offset by m: {x : N x <= d - m}. ``margin_of(x) = min_i (d_i - n_i . x)`` is the distance from an
-inside point to the boundary (negative outside), which is what the balance checks read.
-
-Robustness (the same verdict on every CPU): the hull is qhull's (:class:`scipy.spatial.ConvexHull`),
-and every geometric decision uses one length tolerance scaled to the problem,
-``tol = HULL_RELATIVE_TOLERANCE * scale``, where scale is the larger of the points' extent (the larger
-side of their bounding box) and their largest coordinate (rounding noise grows with a coordinate's
-magnitude: points a rounding apart far from the origin are one point, not a tiny triangle):
-
-- a hull vertex closer than ``tol`` to the segment joining its neighbours is dropped (a corner that
-  only rounding noise pushes out of a straight edge, e.g. the inner front corners of two side-by-side
-  soles), and of two vertices closer than ``tol`` one is dropped (no near-zero-length edge with a
-  garbage normal);
-- points whose spread across their main direction is at most ``tol`` (all collinear, or fewer than
-  three distinct points) are degenerate: a line or a point has no interior, so no CoM margin can be
-  given. :class:`SupportPolygon` raises :class:`DegenerateSupportPolygonError` for them.
-
-Dropping such a vertex moves the boundary by at most ``tol``, so margins are exact to ``tol`` (about
-1e-10 m for a 0.14 m wide pair of soles) whatever the rounding of the corners.
-
-Degenerate support (two point feet, feet on one line, one point foot): there is no polygon, so a
-hard CoM-in-polygon constraint cannot be set up on it (``SupportPolygon`` raises, a problem that asks
-for one is bad input). The checks that judge an answer (the whole-body check, a scenario's phase
-check) never raise for it: :func:`support_region` gives a :class:`DegenerateSupport` (the segment or
-point the points collapse to) whose ``margin_of(x)`` is minus the distance from x to that segment or
-point (<= 0) and which contains no point, so the answer fails with "support polygon is degenerate"
-and a margin that says how far the CoM is from the line of support. Static balance on a line or a
-point is not robust to any perturbation: a CoM exactly on the segment (margin 0) still fails.
+Stored counter-clockwise, edge i from v_i to v_{i+1} has the outward unit normal n_i and offset
+d_i = n_i . v_i: the inside is N x <= d, shrunk by a margin m it is N x <= d - m, and
+``margin_of(x) = min_i (d_i - n_i . x)`` is the distance to the boundary (negative outside). The hull is
+qhull's, with every decision at one length tolerance, ``HULL_RELATIVE_TOLERANCE`` times the points'
+scale (the larger of their extent and their largest coordinate): a vertex that close to its neighbours'
+segment or to its neighbour is dropped, and points whose spread across their main direction is within
+it are degenerate (:class:`DegenerateSupportPolygonError`). The checks that judge an answer take a
+:class:`DegenerateSupport` (the segment or point the points collapse to, containing nothing) instead.
 """
 
 from __future__ import annotations
@@ -52,9 +25,8 @@ from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
 
 HULL_RELATIVE_TOLERANCE = 1e-9
-"""Hull tolerance relative to the scale of the point set (the larger of its extent and its largest
-coordinate): vertices that rounding alone separates from an edge or from each other (1e-17 m on a
-0.1 m sole) are merged; real corners are millimetres apart."""
+"""Hull tolerance relative to the scale of the point set: vertices that rounding alone separates from an
+edge or from each other are merged; real corners are millimetres apart."""
 
 
 class DegenerateSupportPolygonError(RobotDescriptionError):
@@ -70,8 +42,11 @@ def _degenerate(points: np.ndarray, why: str) -> DegenerateSupportPolygonError:
         "point feet not on one line, or one flat sole, make a polygon")
 
 
-def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+def _deviation(before: np.ndarray, here: np.ndarray, after: np.ndarray) -> float:
+    """Distance of ``here`` from the chord (before, after), or from ``before`` when that is less."""
+    (chord_x, chord_y), (gap_x, gap_y) = after - before, here - before
+    chord, gap = float(np.hypot(chord_x, chord_y)), float(np.hypot(gap_x, gap_y))
+    return min(abs(float(chord_x * gap_y - chord_y * gap_x)) / chord if chord > 0.0 else gap, gap)
 
 
 def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
@@ -79,19 +54,12 @@ def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
     joining their neighbours or of the previous vertex (the polygon stays convex and counter-clockwise)."""
     while len(vertices) >= 3:
         count = len(vertices)
-        worst, worst_index = np.inf, -1
-        for i in range(count):
-            before, here, after = vertices[i - 1], vertices[i], vertices[(i + 1) % count]
-            chord = float(np.hypot(*(after - before)))
-            gap = float(np.hypot(*(here - before)))
-            # distance of `here` from the chord (before, after); a near-duplicate has gap <= tolerance
-            height = abs(_cross(before, after, here)) / chord if chord > 0.0 else gap
-            deviation = min(height, gap)
-            if deviation < worst:
-                worst, worst_index = deviation, i
-        if worst > tolerance:
+        deviations = [_deviation(vertices[i - 1], here, vertices[(i + 1) % count])
+                      for i, here in enumerate(vertices)]
+        worst = min(range(count), key=deviations.__getitem__)
+        if deviations[worst] > tolerance:
             break
-        del vertices[worst_index]
+        del vertices[worst]
     return vertices
 
 
@@ -105,13 +73,8 @@ def hull_tolerance(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE
 
 
 def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
-    """Counter-clockwise hull vertices (k, 2), k >= 3, of 2D points, starting at the lowest (x, y).
-
-    qhull's hull, then vertices within the tolerance (:func:`hull_tolerance`) of a straight edge or of
-    each other are dropped (see the module docstring). Raises :class:`DegenerateSupportPolygonError`
-    when the points span no area at that tolerance (fewer than three distinct points, coincident or
-    collinear points) or are not finite.
-    """
+    """Counter-clockwise hull vertices (k, 2), k >= 3, of 2D points, starting at the lowest (x, y) (see
+    the module docstring); DegenerateSupportPolygonError for points that span no area or are not finite."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if not np.all(np.isfinite(points)):
         raise _degenerate(points, "some coordinates are NaN or inf")
@@ -138,18 +101,16 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
 
 
 class SupportPolygon:
-    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d.
-
-    Raises :class:`DegenerateSupportPolygonError` (a ``RobotDescriptionError``, hence a ``ValueError``)
-    for points that span no area; see :func:`convex_hull`.
-    """
+    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d;
+    DegenerateSupportPolygonError (a ValueError) for points that span no area."""
 
     def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
+        points = np.asarray(points, dtype=float).reshape(-1, 2)
         self.vertices = convex_hull(points)
-        self.vertex_labels = _vertex_labels(np.asarray(points, dtype=float).reshape(-1, 2), self.vertices,
-                                            labels)
-        """Each vertex's name: the label of the contact point it is (``labels``, one per point, e.g.
-        "left_sole_link[2]": a sole's corner), else "vertex i"."""
+        nearest = np.argmin(((self.vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
+        named = labels is not None and len(labels) == len(points)
+        self.vertex_labels = [str(labels[i]) if named else f"vertex {k}" for k, i in enumerate(nearest)]
+        """Each vertex's name: its contact point's label (``labels``, one per point), else "vertex i"."""
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
         lengths = np.linalg.norm(edges, axis=1)
         self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / lengths[:, None]
@@ -174,8 +135,8 @@ class SupportPolygon:
         return self.normals, self.offsets - margin
 
     def nearest_inside(self, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point``: ``point`` itself when
-        inside, else the answer of a 2-variable QP (NoQPSolutionError when the shrunk polygon is empty)."""
+        """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point`` (NoQPSolutionError when
+        the shrunk polygon is empty)."""
         import wbik.qp.backends as backends
 
         normals, offsets = self.halfplanes(margin)
@@ -191,33 +152,10 @@ class SupportPolygon:
         return f"{self.vertex_labels[index % count]}-{self.vertex_labels[(index + 1) % count]}"
 
 
-def _vertex_labels(points: np.ndarray, vertices: np.ndarray, labels: Sequence[str] | None) -> list[str]:
-    """The label of the input point each hull vertex is (the nearest: a vertex is one of the points)."""
-    if labels is None or len(labels) != len(points):
-        return [f"vertex {index}" for index in range(len(vertices))]
-    nearest = np.argmin(((vertices[:, None, :] - points[None, :, :]) ** 2).sum(axis=2), axis=1)
-    return [str(labels[index]) for index in nearest]
-
-
-def degenerate_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
-    """What finite 2D points that span no area collapse to: the two extreme points along their main
-    direction (2, 2), or one point (1, 2) when they are within the tolerance of each other."""
-    points = np.asarray(points, dtype=float).reshape(-1, 2)
-    centred = points - points.mean(axis=0)
-    _, _, axes = np.linalg.svd(centred, full_matrices=False)
-    along = centred @ axes[0]
-    ends = points[[int(np.argmin(along)), int(np.argmax(along))]]
-    if float(np.ptp(along)) <= hull_tolerance(points, relative_tolerance):
-        return points.mean(axis=0, keepdims=True)
-    return ends
-
-
 @dataclass(frozen=True)
 class DegenerateSupport:
-    """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``.
-
-    ``margin_of(x)`` = -(distance from x to the segment or point), <= 0; it contains no point
-    (see the module docstring: balance on a line or a point is not robust)."""
+    """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``; it
+    contains no point (balance on a line is not robust)."""
 
     vertices: np.ndarray
     why: str
@@ -238,14 +176,19 @@ class DegenerateSupport:
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
     """The support polygon of finite 2D contact points, or the :class:`DegenerateSupport` they collapse to
-    (for checks that report a margin instead of raising); non-finite points raise."""
+    (for checks that report a margin instead of raising): their two extreme points along their main
+    direction, or one point when these are within the hull tolerance."""
     try:
         return SupportPolygon(points)
     except DegenerateSupportPolygonError as exc:
         points = np.asarray(points, dtype=float).reshape(-1, 2)
         if points.size == 0 or not np.all(np.isfinite(points)):
             raise
-        return DegenerateSupport(degenerate_hull(points), str(exc))
+        centred = points - points.mean(axis=0)
+        along = centred @ np.linalg.svd(centred, full_matrices=False)[2][0]
+        ends = (points.mean(axis=0, keepdims=True) if float(np.ptp(along)) <= hull_tolerance(points)
+                else points[[int(np.argmin(along)), int(np.argmax(along))]])
+        return DegenerateSupport(ends, str(exc))
 
 
 def sole_rectangle(length: float, width: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
@@ -269,24 +212,17 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
     return np.vstack(points)
 
 
-def contact_point_labels(corners: Mapping[str, np.ndarray], frames: Iterable[str]) -> list[str]:
-    """"frame[i]" for each contact point of the soles ``frames`` (a point foot: "frame"), in
-    :func:`contact_points`' order."""
-    labels = []
-    for frame in frames:
-        count = len(np.asarray(corners[frame], dtype=float).reshape(-1, 3))
-        labels += [frame] if count == 1 else [f"{frame}[{index}]" for index in range(count)]
-    return labels
-
-
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
-    """Support polygon of the feet in contact: hull of their contact points projected on the ground.
-    DegenerateSupportPolygonError names the soles when they span no area (e.g. two point feet)."""
+    """Support polygon of the feet in contact: hull of their contact points projected on the ground
+    (DegenerateSupportPolygonError naming the soles when they span no area)."""
     frames = list(frames)
     points = contact_points(kinematics, corners, frames)
+    counts = {frame: len(np.asarray(corners[frame], dtype=float).reshape(-1, 3)) for frame in frames}
+    labels = [frame if counts[frame] == 1 else f"{frame}[{index}]" for frame in frames
+              for index in range(counts[frame])]  # "frame[i]" per contact point, "frame" for a point foot
     try:
-        return SupportPolygon(points[:, :2], contact_point_labels(corners, frames))
+        return SupportPolygon(points[:, :2], labels)
     except DegenerateSupportPolygonError as exc:
         raise DegenerateSupportPolygonError(f"the support soles {frames} ({len(points)} contact points) "
                                             f"make no support polygon: {exc}") from None

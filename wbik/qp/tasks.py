@@ -1,39 +1,14 @@
 """Tasks: the soft objectives of the QP.
 
-A task has an error e(q) (m rows, zero when the task is done) and its Jacobian J = de/dq (m x nv).
-In one QP step over the tangent displacement dq it contributes the cost
+A task has an error e(q) (m rows, zero when it is done) and its Jacobian J = de/dq (m x nv); in one QP
+step it costs weight |J dq + gain e|^2 (``weight``: a scalar or one value per row). ``priority`` is its
+level in a strict hierarchy (0 first, :mod:`wbik.qp.step`); ``goal`` tasks decide convergence (|e| under
+``tolerance``). An *inequality* task (:class:`PositionBoxTask`, :class:`ComBoxTask`) wants e <= 0 row by
+row: it costs weight max(0, J dq + gain e)^2 and its error is max(0, e). A posture belongs on the lowest
+level (docs/guide/wholebody.md, "Priorities"); a regularisation weighs the step and never moves the answer.
 
-    weight * || J dq + gain * e ||^2
-
-so a full step (gain 1) drives the linearised error to zero. ``weight`` is a scalar or one value per
-row; ``priority`` is the level in a strict hierarchy (0 first; equal levels trade off by weight).
-``goal`` tasks decide convergence of the IK loop: their |e| must fall under ``tolerance``; posture
-and regularisation are not goals.
-
-An *inequality* task (``inequality = True``: :class:`PositionBoxTask`, :class:`ComBoxTask`) wants
-e <= 0 row by row instead of e = 0; at its level it costs weight * max(0, J dq + gain * e)^2 (a
-slack w >= J dq + gain * e, weight * |w|^2, in the level's QP), and lower levels keep what it
-achieved: J dq + gain * e <= max(0, J dq* + gain * e). Its error is max(0, e).
-
-Priorities: a lower level acts only in what the higher levels leave free (``wbik.qp.step``).
-Posture and regularisation are two different things there. The regularisation weighs the *step*
-(w |dq|^2): at a solution dq = 0 is its optimum, so on the goals' level it only damps the redundant
-directions and never moves the answer. The posture weighs the *configuration* (w |q - q_ref|^2):
-on the goals' level it is traded off against them: at the answer J^T W e = -w (q - q_ref), so the
-goals stop short of their targets wherever the posture pulls against them; one level lower
-(``priority`` one more than the goals') it is served in their null space only, and the goals
-converge exactly. Put a posture on
-the lowest level (docs/guide/wholebody.md gives the figures, ``benchmarks/priorities.py`` the cost).
-
-Rotation errors are the geometry kernel's (:mod:`wbik.geometry`): e_R = log3(R*^T R) in the target's
-axes (``rotation_error``) with de_R/dq = Jlog3(M) R^T J_w, M = R*^T R (``rotation_error_jacobian``;
-exact: with R' = exp([w] dt) R, R*^T R' = M exp([R^T w] dt)). ``error`` and ``jacobian`` call them;
-``fill``, the QP step's path, writes both into the step's rows sharing M, and takes R^T J_w from
-the LOCAL frame Jacobian (tests/test_qp_tasks.py checks that ``fill`` agrees with the geometry).
-
-A task's task-file entry is declared in :mod:`wbik.qp.task_entries` (a ``TaskEntry``), how PlaCo, Pink
-and mink state it in :mod:`wbik.qp.peers` (their forms, keyed by class); a new task declares both in its
-own module (docs/architecture.md, "Tasks").
+Rotation errors are :mod:`wbik.geometry`'s: e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill``,
+the step's path, writes J and e together (compiled where built).
 """
 
 from __future__ import annotations
@@ -50,16 +25,15 @@ from wbik.kernels.twins import chosen
 from wbik.kernels.twins import compiled_twin
 from wbik.qp.kinematics import Kinematics
 
-_AXES = {"x": 0, "y": 1, "z": 2}
 _FRAME_ROWS = compiled_twin("qp_rows", "frame_rows")
 """The compiled twin of FrameTask.fill and OrientationTask.fill (None where it is not built)."""
 
 
 def axis_rows(axes: str) -> np.ndarray:
     """Row indices of a subset of "xyz" (e.g. "xy" -> [0, 1])."""
-    if not axes or any(axis not in _AXES for axis in axes) or len(set(axes)) != len(axes):
+    if not axes or not set(axes) <= set("xyz") or len(set(axes)) != len(axes):
         raise ValueError(f"axes must be a non-empty subset of 'xyz', got {axes!r}")
-    return np.array([_AXES[axis] for axis in axes])
+    return np.array(["xyz".index(axis) for axis in axes])
 
 
 class Task:
@@ -69,6 +43,8 @@ class Task:
     goal = True
     inequality = False
     """True: the task wants e <= 0 on each row (see the module docstring), not e = 0."""
+    unit = ""
+    """The unit of its error: "m", "rad", "m, rad" (a pose) or "" (another quantity)."""
 
     def __init__(self, weight: float | Sequence[float] = 1.0, gain: float = 1.0, priority: int = 0,
                  tolerance: float = 1e-7, name: str | None = None, goal: bool | None = None):
@@ -100,13 +76,13 @@ class Task:
         error[:] = self.error(kinematics)
 
     def constant_diagonal(self) -> np.ndarray | None:
-        """The weights, for a task whose rows are always J = I and e = 0: its cost w |dq|^2 is then
-        the diagonal w of the QP's H, added there instead of stacked as nv rows. None otherwise."""
+        """The weights w of a task whose rows are always J = I, e = 0 (added to H's diagonal, not
+        stacked as nv rows); None for any other task."""
         return None
 
     def error_parts(self, error: np.ndarray) -> tuple[float | None, float | None]:
-        """(position part m or None, rotation part rad or None) of an error of this task, as the
-        whole-body check judges it: by default its norm, as a position (in the task's own unit)."""
+        """(position part m or None, rotation part rad or None) of an error, as the whole-body check
+        judges it: by default its norm, as a position (in the task's own unit)."""
         return float(np.linalg.norm(error)), None
 
 
@@ -133,9 +109,8 @@ class _FrameTaskBase(Task):
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def __getstate__(self) -> dict:
-        """Without the compiled rows (they hold views of one Kinematics' data: a copy would hold copies
-        of them, frozen) nor views of the target; ``__setstate__`` makes the latter again, ``start``
-        the former."""
+        """Without the compiled rows (views of one Kinematics' data) nor the target's views; ``start``
+        and ``__setstate__`` make them again."""
         state = dict(self.__dict__)
         for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
             state.pop(name, None)
@@ -149,36 +124,25 @@ class _FrameTaskBase(Task):
 
     def start(self, kinematics: Kinematics) -> None:
         frame_id = kinematics.frame_id(self.frame)
-        kernel = self._kernel
         if frame_id == self.frame_id and kinematics is self._compiled_for:
             return  # started on these kinematics before: the views still follow them
         self.frame_id = frame_id
         self._compiled_rows, self._compiled_for = None, None
-        if kernel is not None:
+        if self._kernel is not None:
             # the kernel reads the frame's placement and data.J through views that follow every update
             placement = kinematics.placement(self.frame_id)
-            self._compiled_rows = partial(kernel, self.kernel_rows, kinematics.joint_jacobians,
+            self._compiled_rows = partial(self._kernel, self.kernel_rows, kinematics.joint_jacobians,
                                           kinematics.support_columns(self.frame_id), placement.translation,
                                           placement.rotation)
             self._compiled_for = kinematics
 
 
-def _pose_parts(error: np.ndarray) -> tuple[float, float]:
-    """(|position rows| m, |rotation rows| rad) of a 6-row pose error."""
-    return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
-
-
-class FrameTask(_FrameTaskBase):
-    """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows).
-
-    ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad differ in scale).
-    """
+class _PoseTask(_FrameTaskBase):
+    """A 6-row pose task: ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad
+    differ in scale)."""
 
     dimension = 6
-    kernel_rows = 6
-
-    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
-        return _pose_parts(error)
+    unit = "m, rad"
 
     def __init__(self, frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
@@ -187,6 +151,15 @@ class FrameTask(_FrameTaskBase):
         super().__init__(frame, weight=rows, **options)
         self.target = target.copy()
         self._error = np.zeros(6)
+
+    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
+        return float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+class FrameTask(_PoseTask):
+    """Full pose of a frame in the world: e = [p - p*; log3(R*^T R)] (6 rows)."""
+
+    kernel_rows = 6
 
     @property
     def target(self) -> pin.SE3:
@@ -227,6 +200,8 @@ class FrameTask(_FrameTaskBase):
 class PositionTask(_FrameTaskBase):
     """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
 
+    unit = "m"
+
     def __init__(self, frame: str, target: Sequence[float], axes: str = "xyz", **options):
         self.rows = axis_rows(axes)
         self.dimension = len(self.rows)
@@ -245,6 +220,7 @@ class OrientationTask(_FrameTaskBase):
 
     dimension = 3
     kernel_rows = 3
+    unit = "rad"
 
     def __init__(self, frame: str, target: np.ndarray, **options):
         super().__init__(frame, **options)
@@ -268,37 +244,23 @@ class OrientationTask(_FrameTaskBase):
                        error)
 
 
-class RelativeFrameTask(_FrameTaskBase):
-    """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)].
-
-    With d = p_frame - p_ref:  dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq  and
-    de_R = Jlog3(M) R_frame^T (J_w,frame - J_w,ref) dq.
-    """
-
-    dimension = 6
+class RelativeFrameTask(_PoseTask):
+    """Pose of ``frame`` in ``reference_frame``: T_rel = T_ref^-1 T_frame, e = [p_rel - p*; log3(R*^T R_rel)];
+    with d = p_frame - p_ref, dp_rel = R_ref^T (J_v,frame - J_v,ref + [d]x J_w,ref) dq."""
 
     def __init__(self, frame: str, reference_frame: str, target: pin.SE3, position_weight: float = 1.0,
                  orientation_weight: float = 1.0, **options):
-        weight = options.pop("weight", 1.0)
-        rows = np.r_[np.full(3, position_weight), np.full(3, orientation_weight)] * weight
         options.setdefault("name", f"RelativeFrameTask[{frame} in {reference_frame}]")
-        super().__init__(frame, weight=rows, **options)
+        super().__init__(frame, target, position_weight, orientation_weight, **options)
         self.reference_frame = reference_frame
         self.reference_id = -1
-        self.target = target.copy()
 
     def start(self, kinematics: Kinematics) -> None:
         super().start(kinematics)
         self.reference_id = kinematics.frame_id(self.reference_frame)
 
-    def error_parts(self, error: np.ndarray) -> tuple[float, float]:
-        return _pose_parts(error)
-
-    def relative_placement(self, kinematics: Kinematics) -> pin.SE3:
-        return kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))
-
     def error(self, kinematics: Kinematics) -> np.ndarray:
-        relative = self.relative_placement(kinematics)
+        relative = kinematics.placement(self.reference_id).actInv(kinematics.placement(self.frame_id))
         return np.concatenate((relative.translation - self.target.translation,
                                rotation_error(relative.rotation, self.target.rotation)))
 
@@ -321,6 +283,8 @@ class RelativeFrameTask(_FrameTaskBase):
 class ComTask(Task):
     """Centre of mass in the world, optionally on some axes only: e = (c - c*)[axes]."""
 
+    unit = "m"
+
     def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
         self.rows = axis_rows(axes)
         self.dimension = len(self.rows)
@@ -334,17 +298,9 @@ class ComTask(Task):
         return kinematics.com_jacobian()[self.rows]
 
 
-def actuated_velocity_indices(model: pin.Model) -> np.ndarray:
-    """Tangent indices of every joint except a floating base (joint 1 with nv = 6)."""
-    first = 6 if model.njoints > 1 and model.joints[1].nv == 6 else 0
-    return np.arange(first, model.nv)
-
-
 class PostureTask(Task):
-    """Joints toward a reference configuration: e = (q (-) q_ref) on the chosen tangent rows.
-
-    The floating base is left out by default (its pose is for the other tasks to decide).
-    """
+    """Joints toward a reference configuration: e = (q (-) q_ref) on the tangent rows of ``joints``
+    (default: all but a floating base, whose pose is for the other tasks to decide)."""
 
     goal = False
 
@@ -361,8 +317,8 @@ class PostureTask(Task):
         model = kinematics.model
         if self.reference.shape != (model.nq,):
             raise ValueError(f"posture reference has {self.reference.size} values, the model nq = {model.nq}")
-        if self.joint_names is None:
-            self.rows = actuated_velocity_indices(model)
+        if self.joint_names is None:  # (all but a floating base: joint 1 with nv = 6)
+            self.rows = np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
         else:
             self.rows = np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names])
         self.dimension = len(self.rows)
@@ -405,11 +361,11 @@ class RegularizationTask(Task):
 
 class _BoxTask(Task):
     """A point inside an axis-aligned box (world, m), as an inequality task: e = [p - upper; lower - p]
-    on the box's finite sides (each row <= 0 inside). Subclasses give the point and its Jacobian."""
+    on the box's finite sides (each row <= 0 inside). Subclasses give ``_point`` and its Jacobian."""
 
     inequality = True
 
-    def __init__(self, lower: Sequence[float] | None, upper: Sequence[float] | None, **options):
+    def __init__(self, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None, **options):
         lower = np.full(3, -np.inf) if lower is None else np.asarray(lower, dtype=float).reshape(3)
         upper = np.full(3, np.inf) if upper is None else np.asarray(upper, dtype=float).reshape(3)
         if np.any(np.isnan(lower)) or np.any(np.isnan(upper)) or np.any(lower > upper):
@@ -422,12 +378,6 @@ class _BoxTask(Task):
             raise ValueError("a box task needs at least one finite side")
         super().__init__(**options)
 
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        raise NotImplementedError
-
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        raise NotImplementedError
-
     def error(self, kinematics: Kinematics) -> np.ndarray:
         point = self._point(kinematics)
         return np.concatenate((point[self._upper_rows] - self.upper[self._upper_rows],
@@ -438,19 +388,15 @@ class _BoxTask(Task):
         return np.vstack((jacobian[self._upper_rows], -jacobian[self._lower_rows]))
 
 
-class PositionBoxTask(_BoxTask):
+class PositionBoxTask(_BoxTask, _FrameTaskBase):
     """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task (e.g. a hand above a table, priority above a reach)."""
 
+    unit = "m"
+
     def __init__(self, frame: str, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None,
                  **options):
-        self.frame = frame
-        self.frame_id = -1
-        options.setdefault("name", f"PositionBoxTask[{frame}]")
-        super().__init__(lower, upper, **options)
-
-    def start(self, kinematics: Kinematics) -> None:
-        self.frame_id = kinematics.frame_id(self.frame)
+        super().__init__(lower, upper, frame=frame, **options)
 
     def _point(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.placement(self.frame_id).translation
@@ -462,9 +408,6 @@ class PositionBoxTask(_BoxTask):
 class ComBoxTask(_BoxTask):
     """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task."""
-
-    def __init__(self, lower: Sequence[float] | None = None, upper: Sequence[float] | None = None, **options):
-        super().__init__(lower, upper, **options)
 
     def _point(self, kinematics: Kinematics) -> np.ndarray:
         return kinematics.com()

@@ -1,18 +1,9 @@
 """Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``).
 
-A *case sampler* (:class:`CaseSampler`) draws case ``index`` of its family from a random stream
-that this module makes: ``numpy.random.default_rng([seed, crc32(name), index])``
-(:func:`case_rng`), so a case depends only on (sampler name, seed, index), not on how many are
-drawn or by which worker. It returns a :class:`WholeBodyCase`: the problem, the start q0, an
-``anchor`` point (the main target, for the study's poses file) and, when the targets came from
-one, the configuration ``q_true``.
-
-Samplers are declared where the robot's application lives, in that module's ``WHOLEBODY_CASES``
-tuple; the modules holding them are listed by name in :data:`CASE_MODULES` (imported on first use,
-see :class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or
-declares a name another declares too is an error naming it). User code adds a sampler with
-:func:`register_sampler`; :data:`CASE_REGISTRY` is the registry itself (``entries()``, ``get(name)``,
-``register_module(name)``, ``added_at_run_time(name)``), with the same methods as every other.
+A :class:`CaseSampler` draws case ``index`` of its family from the stream :func:`case_rng` makes, so a
+case depends only on (sampler name, seed, index). Samplers are declared in a module's ``WHOLEBODY_CASES``
+tuple (modules listed in :data:`CASE_MODULES`) or added with :func:`register_sampler`; :data:`CASE_REGISTRY`
+is the registry itself (:class:`wbik.registry.DeclaredRegistry`).
 """
 
 from __future__ import annotations
@@ -32,9 +23,8 @@ __all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cac
            "register_sampler", "sample_case"]
 
 CASE_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds the applications' samplers, user code a
-module by name or :func:`register_sampler`, installed packages theirs through the entry-point group
-``wbik.case_samplers``."""
+"""The modules that declare samplers (:mod:`wbik.catalog` adds the applications'; installed packages add
+theirs through the entry-point group ``wbik.case_samplers``)."""
 
 
 @dataclass
@@ -50,10 +40,8 @@ class WholeBodyCase:
 
 @dataclass(frozen=True)
 class CaseSampler:
-    """A family of seeded cases: its ``name`` (the study file's ``scenario:``), the ``robot`` it is
-    on (a name :func:`wbik.load` takes), ``sample(rng, index) -> WholeBodyCase`` drawing case
-    ``index`` from the stream :func:`case_rng` gives it, and a one-sentence ``description`` (the
-    study report prints it)."""
+    """A family of seeded cases: its ``name`` (the study file's ``scenario:``), its ``robot`` (a name
+    :func:`wbik.load` takes), ``sample(rng, index) -> WholeBodyCase`` and a one-sentence ``description``."""
 
     name: str
     robot: str
