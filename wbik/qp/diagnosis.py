@@ -359,6 +359,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     top = next((t for t in diagnosis.tasks if not t.goal), None)
     if top is not None:
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
+        alone = 0.0
         try:
             alone = residual(hierarchy.solve(deepest, drop_task=task)[0])
             gains = [alone - residual(hierarchy.solve(deepest, drop_rows=mask, drop_task=task)[0])
