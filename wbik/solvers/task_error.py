@@ -91,7 +91,7 @@ def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotati
     coefficient = np.where(small, 1.0 / 12.0 + theta2 / 720.0,
                            (1.0 - safe / np.tan(safe)) / (4.0 * safe * safe))
     along = coefficient * np.einsum("bi,bi->b", phi, offset)
-    cross = (phi[:, :, None] * offset[:, None, :]).reshape(-1, 9) @ _LEVI_CIVITA
+    cross = (phi[:, :, None] * offset[:, None, :]).reshape(-1, 9) @ LEVI_CIVITA
     result = np.empty((len(phi), 6))
     result[:, :3] = offset * (1.0 - coefficient * theta2)[:, None] - 0.5 * cross + along[:, None] * phi
     result[:, 3:] = phi
@@ -106,7 +106,7 @@ def _levi_civita() -> np.ndarray:
     return symbol.transpose(1, 2, 0).reshape(9, 3)
 
 
-_LEVI_CIVITA = _levi_civita()
+LEVI_CIVITA = _levi_civita()
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
