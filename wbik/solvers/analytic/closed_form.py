@@ -6,6 +6,7 @@ a failure (no real branch, none inside the limits, none reaching the target).
 from __future__ import annotations
 
 import math
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -18,6 +19,7 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.solvers.result import IKResult
 from wbik.targets import Target
+from wbik.targets import as_target
 from wbik.targets import pose_error
 
 LIMIT_TOLERANCE = 1e-9
@@ -30,6 +32,11 @@ BRANCH_MERGE = 1e-6
 BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
 """Per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the
 reference below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)."""
+SCREEN_TOLERANCE = 1e-7
+"""Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+PROBE_POSES, PROBE_REQUIRED, PROBE_SEED, PROBE_TOLERANCE = 8, 6, 0, 1e-6
+"""A library's claimed decomposition of a chain is kept when its branches reproduce (to PROBE_TOLERANCE, m
+and rad) at least PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints inside the limits."""
 NEAREST_MARGIN = 1e-9
 """An angle whose nearest 2 pi shift is inside the limits and nearer than pi - NEAREST_MARGIN to the
 reference takes it: every other shift is then farther than pi, whatever the rounding."""
@@ -42,8 +49,7 @@ class ClosedForm:
     compiled ``kernel`` of the same choice. ``target_kind`` is "pose" or "position"."""
 
     target_kind = "pose"
-    screen_tolerance = 1e-7
-    """Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+    screen_tolerance = SCREEN_TOLERANCE
     kernel = None
     """The compiled choice or None: a :class:`.compiled.CompiledForm` serves ``solve``, ``solve_many`` and
     ``solve_all`` in place of the vectorised choice (its twin); another kernel (``nearest_into`` only,
@@ -137,7 +143,7 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
     return best, in_limits
 
 
-# --- reasons, and the choice among a library's branches (ik_geo, eaik) ------------------------------
+# --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
     """:func:`no_solution_reason` of a kernel's failure code: 0 (no real branch), -1 (none inside the
     limits) or -2 (none passes the screen)."""
@@ -153,21 +159,6 @@ def no_solution_reason(real: bool, in_limits: bool) -> str:
     return "unreachable: no closed-form branch inside the joint limits reaches the target"
 
 
-def checked_branches(solver: Solver, target: Target, q_all: np.ndarray, revolute: np.ndarray,
-                     elapsed: float) -> list[IKResult]:
-    """``solve_all`` from a library's raw branches (K, n): wrapped nearest the nominal configuration,
-    held to the shared check, those within BRANCH_MERGE of one kept before dropped."""
-    chain = solver.chain
-    wrapped, in_limits = wrap_into_limits(q_all, chain.nominal[None], chain.lower, chain.upper, revolute)
-    results: list[IKResult] = []
-    for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
-        result = evaluate(chain, target, Candidate(q, 1), solver.tolerances, elapsed, solver.name)
-        if result.success and not any(joint_gap(result.q, other.q, revolute) < BRANCH_MERGE
-                                      for other in results):
-            results.append(result)
-    return results
-
-
 def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
     """max(|e_p|, |e_R|) of joints q against the target by the chain's FK (inf for non-finite joints)."""
     if not np.all(np.isfinite(q)):
@@ -176,28 +167,68 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
     return max(float(np.linalg.norm(position_xyz)), float(np.linalg.norm(rotation_xyz)))
 
 
-def pick_reaching(chain: Chain, q_all: np.ndarray, target: Target, q0: np.ndarray, revolute: np.ndarray,
-                  tolerance: float, library: str) -> Candidate:
-    """Of a library's raw branches (K, n), the one nearest q0 once wrapped into the limits whose FK
-    reaches the target within ``tolerance``; where none does, why (``library`` names it)."""
-    if len(q_all) == 0:
-        return Candidate(None, 1, f"unreachable: {library} returns no branch (target outside the workspace)",
-                         extra={"branches": 0})
-    wrapped, in_limits = wrap_into_limits(q_all, q0[None], chain.lower, chain.upper, revolute)
-    usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
-    distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
-    for index in np.argsort(distance, kind="stable"):
-        if not usable[index]:
-            break
-        if fk_residual(chain, wrapped[index], target) <= tolerance:
-            return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
-    if usable.any():
-        reason = f"unreachable: no {library} branch inside the joint limits reaches the target"
-    elif any(fk_residual(chain, q, target) <= tolerance for q in q_all):
-        reason = f"every exact {library} branch is outside the joint limits"
-    else:
-        reason = f"unreachable: {library} returns only least-squares branches (target outside the workspace)"
-    return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+class BranchLibrarySolver(Solver):
+    """A method over a closed-form library's raw branches (``eaik``, ``ik_geo``; full poses, no budget):
+    :meth:`_library_branches` gives the branches (K, n) of a target in our joints, ``library`` names it.
+    EAIK's and IK-Geo's least-squares flags are not trusted: the FK screen decides."""
+
+    budgeted = False
+    supports_position_only = False
+    library = ""
+
+    def _library_branches(self, target: Target) -> np.ndarray:
+        raise NotImplementedError
+
+    def raw_branches(self, target) -> np.ndarray:
+        """The library's branches (K, n) of a target as it returns them (not wrapped, not screened)."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        return self._library_branches(target)
+
+    def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
+        """The branch nearest q0 once wrapped into the limits whose FK reaches the target within
+        SCREEN_TOLERANCE; where none does, why."""
+        chain, library = self.chain, self.library
+        outside = "(target outside the workspace)"
+        if len(q_all) == 0:
+            return Candidate(None, 1, f"unreachable: {library} returns no branch {outside}",
+                             extra={"branches": 0})
+        wrapped, in_limits = wrap_into_limits(q_all, q0[None], chain.lower, chain.upper, ~chain.is_prismatic)
+        usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
+        distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
+        for index in np.argsort(distance, kind="stable"):
+            if not usable[index]:
+                break
+            if fk_residual(chain, wrapped[index], target) <= SCREEN_TOLERANCE:
+                return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
+        if usable.any():
+            reason = f"unreachable: no {library} branch inside the joint limits reaches the target"
+        elif any(fk_residual(chain, q, target) <= SCREEN_TOLERANCE for q in q_all):
+            reason = f"every exact {library} branch is outside the joint limits"
+        else:
+            reason = f"unreachable: {library} returns only least-squares branches {outside}"
+        return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        return self._pick(self._library_branches(target), target, q0)
+
+    def solve_all(self, target) -> list[IKResult]:
+        """Every distinct branch inside the limits (wrapped nearest the nominal configuration; within
+        BRANCH_MERGE of one kept: dropped) that passes the shared check."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        start = time.perf_counter()
+        q_all = self._library_branches(target)
+        elapsed = time.perf_counter() - start
+        chain, revolute = self.chain, ~self.chain.is_prismatic
+        wrapped, in_limits = wrap_into_limits(q_all, chain.nominal[None], chain.lower, chain.upper, revolute)
+        results: list[IKResult] = []
+        for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
+            result = evaluate(chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
+            if result.success and not any(joint_gap(result.q, other.q, revolute) < BRANCH_MERGE
+                                          for other in results):
+                results.append(result)
+        return results
 
 
 class Choice(NamedTuple):

@@ -49,6 +49,29 @@ class ChainLines:
         points = np.vstack((np.zeros(3), self.origins, self.tip[:3, 3]))
         return max(float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()), 1e-3)
 
+    def parallel(self, i: int, j: int) -> bool:
+        """Axes i and j are parallel: sin(angle) <= STRUCTURE_TOLERANCE."""
+        return float(np.linalg.norm(np.cross(self.axes[i], self.axes[j]))) <= STRUCTURE_TOLERANCE
+
+    def meeting_point(self, i: int, j: int) -> np.ndarray | None:
+        """Where lines i and j meet (the midpoint of their closest points), None if they are parallel or
+        more than STRUCTURE_TOLERANCE x the chain's length apart."""
+        if self.parallel(i, j):
+            return None
+        a, b, offset = self.axes[i], self.axes[j], self.origins[j] - self.origins[i]
+        ab = float(a @ b)
+        denominator = 1.0 - ab * ab
+        s = (offset @ a - ab * (offset @ b)) / denominator
+        t = (ab * (offset @ a) - offset @ b) / denominator
+        on_i, on_j = self.origins[i] + s * a, self.origins[j] + t * b
+        if np.linalg.norm(on_i - on_j) > STRUCTURE_TOLERANCE * self.length:
+            return None
+        return 0.5 * (on_i + on_j)
+
+    def distance_to_line(self, point: np.ndarray, k: int) -> float:
+        offset = point - self.origins[k]
+        return float(np.linalg.norm(offset - (offset @ self.axes[k]) * self.axes[k]))
+
 
 _LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 _LINES_LOCK = threading.Lock()
