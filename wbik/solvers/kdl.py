@@ -1,21 +1,11 @@
-"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the Pinocchio chain.
+"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the chain's serial structure
+(P_0, then one segment per joint; its FK held to Pinocchio's to 1e-12 when the solver is made).
 
-NR_JL is Newton-Raphson with joint limits: dq from the pseudo-inverse velocity solver
-(ChainIkSolverVel_pinv, SVD), q <- q + dq, clamped into [lower, upper], until every component of
-the twist error is below ``epsilon`` or ``max_iterations`` pass.
-
-- ``kdl``: one attempt from the seed (the Golem-III thesis's and TRAC-IK paper's "KDL").
-- ``kdl_restarts``: MoveIt's KDL plugin: the seed first, then random seeds inside the limits until
-  a solution passes or the time budget is used up.
-
-Position-only targets are unsupported (UnsupportedError): NR_JL always drives the full 6-D twist
-to zero, and KDL's weighted solvers that could drop the orientation rows (ChainIkSolverVel_wdls's
-setWeightTS, ChainIkSolverPos_LMA's weights) take Eigen matrices that crash PyKDL 1.5.1 (Debian,
-built for numpy 1) under this environment's numpy 2 (segmentation fault, checked).
-
-The KDL chain is P_0, then one segment per joint (joint about/along its axis at the segment
-origin, tip = the fixed placement to the next joint or the tip frame); its FK is checked against
-Pinocchio's to 1e-12 when the solver is made.
+NR_JL: dq from the pseudo-inverse velocity solver (SVD), q <- q + dq clamped into the limits, until every
+twist component is below ``epsilon`` or ``max_iterations`` pass. ``kdl``: one attempt from the seed (the
+Golem-III thesis's and the TRAC-IK paper's "KDL"); ``kdl_restarts``: MoveIt's KDL plugin, random restarts
+until the time budget is used up. Full poses only: NR_JL drives the whole twist to zero, and KDL's weighted
+solvers (ChainIkSolverVel_wdls, ChainIkSolverPos_LMA) crash PyKDL 1.5.1 under numpy 2.
 """
 
 from __future__ import annotations
@@ -38,8 +28,7 @@ from wbik.targets import pose_error
 
 INSTALL_HINT = ("PyKDL (orocos KDL's Python binding) is not installed: it is not on PyPI. Install it with "
                 "`sudo apt-get install python3-pykdl`, then `bash scripts/setup.sh` to expose it in the venv")
-FK_AGREEMENT = 1e-12
-"""Largest allowed difference between KDL's and Pinocchio's tip pose (m, and rotation-matrix entries)."""
+FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m, rotation entries)
 
 
 def import_pykdl():
@@ -98,11 +87,8 @@ def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0
 
 
 class KDLSolver(Solver):
-    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed.
-
-    ``epsilon`` (default: the shared tolerance / sqrt(3), so that KDL's per-component test implies
-    the shared norm test) and ``max_iterations`` (KDL's default 100) are NR_JL's parameters.
-    """
+    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed: ``epsilon`` (default the shared
+    tolerance / sqrt(3): its per-component test implies the shared norm test), ``max_iterations`` (100)."""
 
     name = "kdl"
     supports_position_only = False
@@ -150,12 +136,8 @@ class KDLSolver(Solver):
 
 
 class KDLRestartsSolver(KDLSolver):
-    """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline.
-
-    An attempt is started only when the time left holds one more attempt of the mean length so far,
-    so the call ends within its budget, give or take part of one attempt (how long one lasts:
-    docs/measurements.md, kdl). Seeds come from the call's own random stream.
-    """
+    """KDL NR_JL from the seed, then from random seeds (the call's own stream) while the time left holds
+    one more attempt of the mean length so far."""
 
     name = "kdl_restarts"
 
@@ -196,4 +178,3 @@ IK_METHODS = (
     IKMethod("kdl_restarts", KDLRestartsSolver,
              "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,23 +1,15 @@
-"""Method ``mink``: mink 1.3's differential IK (MuJoCo 4.0) on chain targets and whole bodies, and mink's
-forms of wbik's tasks and constraints (:data:`wbik.qp.peers.MINK`).
+"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`)
+for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`).
 
-The model is MuJoCo's of the same URDF (:mod:`wbik.mujoco_model`: kinematics alone for chain targets,
-with the masses for whole bodies). The problem, as mink states it: FrameTask on the sites for frame,
-orientation (position cost 0) and relative frame tasks, ComTask, PostureTask (cost 0 off the task's
-joints), costs the square roots of our weights; a position task on some axes is a task of our own on the
-site's world position (:func:`site_position_task`: mink's FrameTask weighs its axes in the target's
-frame); a regularisation raises ``solve_ik``'s damping. Contacts are equality constraints, as
-``solve_ik``'s ``constraints`` take them (a point foot: the site's world position, 3 rows); locked joints
-are a DofFreezingTask there (mink's documented way). Limits are ConfigurationLimit (gain ``limit_gain``,
-mink's default 0.95) and VelocityLimit, at dt = the problem's ``step_dt``. mink 1.3 has no
-support-polygon constraint (a result with one lists it in ``unsupported``; the check measures the CoM
-margin), nor acceleration limits or minimum distances between frame origins here, nor strict priority
-levels.
-
-A chain target is run as mink's own arm examples run one (``examples/arm_panda.py``): the tip's frame
-task, ConfigurationLimit, a VelocityLimit of ``max_step`` per step on the chain's joints (without it the
-first Gauss-Newton steps from a far start are long and often end in another basin:
-docs/measurements.md, mink), the other joints frozen, ``solve_ik``'s damping ``chain_damping``.
+Tasks are FrameTask on sites (orientation: position cost 0; relative frames), ComTask, PostureTask, costs
+the square roots of our weights, and a position task on some axes is our own :func:`site_position_task`
+(mink's FrameTask weighs axes in the target's frame); a regularisation raises ``solve_ik``'s damping.
+Contacts are equality constraints, locked joints a DofFreezingTask there; limits are ConfigurationLimit
+(``limit_gain``) and VelocityLimit at dt = the problem's ``step_dt``. No support-polygon constraint (a
+result with one lists it in ``unsupported``), acceleration limits, minimum distances or strict priority
+levels. A chain target runs as mink's arm examples do (``examples/arm_panda.py``): the tip's frame task,
+ConfigurationLimit, a VelocityLimit of ``max_step`` per step (far starts otherwise end in another basin:
+docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
 """
 
 from __future__ import annotations
@@ -68,14 +60,12 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "MinkProblem", "MinkSolver", "site_position_task"]
 
 
-MINK = PeerForms("mink", "mink")
-"""mink's forms of wbik's tasks and constraints (and of the user's: ``@MINK.form(MyTask)``)."""
+MINK = PeerForms("mink", "mink")  # mink's forms of tasks and constraints (a user's: @MINK.form(MyTask))
 
 
 @dataclass
 class MinkProblem(SolveIKProblem):
-    """What mink's forms add to (:class:`wbik.wholebody.solvers.SolveIKProblem`), with the robot in
-    MuJoCo (``body``) and ConfigurationLimit's ``limit_gain``."""
+    """What mink's forms add to, with the robot in MuJoCo (``body``) and ConfigurationLimit's gain."""
 
     body: MuJoCoBody = field(kw_only=True)
     limit_gain: float = field(default=0.95, kw_only=True)
@@ -83,7 +73,7 @@ class MinkProblem(SolveIKProblem):
 
 @cache
 def _site_position_class():
-    """mink's Task class of :func:`site_position_task` (made once, when mink is first needed)."""
+    """mink's Task class of :func:`site_position_task`, made when mink is first needed."""
     import mink
     import mujoco
 
@@ -110,8 +100,8 @@ def _site_position_class():
 
 
 def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: float):
-    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost``
-    per row), for the tasks and as an equality constraint (a point foot: all three rows)."""
+    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost`` per
+    row), also an equality constraint (a point foot: all three rows)."""
     rows = np.asarray(rows, dtype=int)
     return _site_position_class()(site, target, rows, np.full(rows.size, float(cost)))
 
@@ -244,8 +234,7 @@ class MinkSolver(PeerSolver):
     """mink's differential IK on MuJoCo's model of the same URDF, iterated by our loop."""
 
     name = "mink"
-    # the budget's units: solve_ik, integration, read-back, convergence FK, on an arm and on a humanoid
-    # (measured: docs/measurements.md, mink and wholebody)
+    # solve_ik, integration, read-back, convergence FK, on an arm, on a humanoid (docs/measurements.md)
     iteration_cost_s = 120e-6
     default_budget_s = 0.03
     problem_iteration_cost_s = 500e-6
@@ -255,10 +244,9 @@ class MinkSolver(PeerSolver):
 
     def __init__(self, robot, chain=None, *, backend: str = "daqp", damping: float = 1e-6,
                  chain_damping: float = 1e-3, limit_gain: float = 0.95, max_step: float = 0.5, **options):
-        """``backend``: the qpsolvers name ``mink.solve_ik`` uses; ``damping``: its Levenberg-Marquardt
-        damping on every DOF (a regularisation task raises it), ``chain_damping`` on chain targets;
-        ``limit_gain``: ConfigurationLimit's gain in (0, 1]; ``max_step``: the VelocityLimit's bound on one
-        step of each chain joint on chain targets (rad or m; ``math.inf``: none)."""
+        """``backend``: ``mink.solve_ik``'s qpsolvers name; ``damping``: its damping on every DOF,
+        ``chain_damping`` on chain targets; ``limit_gain``: ConfigurationLimit's gain in (0, 1]; ``max_step``:
+        a chain joint's largest step on chain targets (rad or m; ``math.inf``: none)."""
         super().__init__(robot, chain, **options)
         self.mink, self.mujoco = import_mink()
         self.backend = backends.resolve(backend)
@@ -271,14 +259,13 @@ class MinkSolver(PeerSolver):
         chain = self._chain if self._chain is not None or len(robot.chains) != 1 else self.chain
         self.built = (mujoco_body(robot) if chain is None else
                       mujoco_body(robot, masses=False, frames=[chain.base_frame, chain.tip_frame]))
-        self._thread_state()  # this thread's configurations now (errors show here, their cost is no solve's)
+        self._configuration(self.built)  # this thread's configuration now (errors show here, not in a solve)
 
     def _new_thread_state(self) -> dict:
-        """This thread's mink Configuration per MuJoCo model (its own MjData; the MjModel is shared)."""
-        built = self.built
-        return {id(built): self.mink.Configuration(built.model, built.qpos(self.robot.nominal))}
+        return {}
 
     def _configuration(self, body: MuJoCoBody):
+        """This thread's mink Configuration of a MuJoCo model (its own MjData; the MjModel is shared)."""
         state = self._thread_state()
         if id(body) not in state:
             state[id(body)] = self.mink.Configuration(body.model, body.qpos(self.robot.nominal))
@@ -349,7 +336,5 @@ class MinkSolver(PeerSolver):
 IK_METHODS = (
     IKMethod("mink", MinkSolver,
              "mink 1.3 on MuJoCo (the same URDF): chain targets as its arm examples; whole bodies with "
-             "frame / "
-             "CoM / posture tasks, contacts as constraints; no hard CoM polygon"),
+             "frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon"),
 )
-"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,7 +1,6 @@
-"""What the methods of the QP peers (PlaCo, Pink, mink) share: each task and constraint of a problem
-stated through the peer's forms (:mod:`wbik.qp.peers`; what has none is listed in ``unsupported``), and
-our loop around the peer's single QP step. A chain target is the chain's problem
-(:meth:`wbik.solvers.base.Solver.chain_problem`): one frame task, the rest of the robot locked."""
+"""What the QP peers' methods (PlaCo, Pink, mink) share: a problem's tasks and constraints stated through
+the peer's forms (:mod:`wbik.qp.peers`; what has none is listed in ``unsupported``), and our loop around the
+peer's single QP step; a chain target is the chain's problem (:meth:`Solver.chain_problem`)."""
 
 from __future__ import annotations
 
@@ -26,8 +25,7 @@ from wbik.solvers.result import Candidate
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
-NO_POLYGON = "support polygon as a hard CoM constraint"
-"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported``."""
+NO_POLYGON = "support polygon as a hard CoM constraint"  # what a method without one lists as unsupported
 
 
 class PeerSolver(Solver):
@@ -44,8 +42,7 @@ class PeerSolver(Solver):
         self.problem_max_iterations = self._iteration_budget(max_iterations, problem=True)
 
     def unsupported(self, problem: WholeBody) -> list[Unsupported]:
-        """Strict priority levels, and every task and constraint the peer has no form for (decided by
-        class and by the item's own settings)."""
+        """Strict priority levels, and every task and constraint the peer has no form for."""
         missing = []
         if len({task.priority for task in problem.tasks}) > 1:
             missing.append(Unsupported(self.name, "strict priority levels", self.priorities))
@@ -88,9 +85,8 @@ class PeerSolver(Solver):
 
     def _peer_loop(self, step: Callable[[np.ndarray], tuple[np.ndarray, str]], started: StartedProblem,
                    deadline: float, max_iterations: int, with_polygon: bool = True) -> Candidate:
-        """Our loop around a peer's single QP step from the start: stop when :meth:`_converged` holds,
-        when the time budget is used up, or when ``step(q)`` (the next q and a reason to stop, "" to go
-        on) gives a reason; else after ``max_iterations`` steps."""
+        """Our loop around a peer's QP step ``step(q)`` -> (next q, a reason to stop or ""), until
+        :meth:`_converged`, the time budget, a reason or ``max_iterations``."""
         monitor = Kinematics(started.problem.robot.model, started.q0)
         q = started.q0.copy()
         for iteration in range(1, max_iterations + 1):
@@ -108,10 +104,8 @@ class PeerSolver(Solver):
 
 @dataclass
 class SolveIKProblem:
-    """What the forms of a peer solving as Pink's and mink's ``solve_ik(configuration, tasks, dt,
-    damping, limits, constraints)`` add to: its ``tasks``, equality ``constraints`` (tasks whose every
-    row is held), ``limits`` and ``damping``; with wbik's ``kinematics`` at the start and the step
-    ``dt`` (s)."""
+    """What the forms of a peer solving by ``solve_ik(configuration, tasks, dt, damping, limits,
+    constraints)`` (Pink, mink) add to, with wbik's ``kinematics`` at the start and the step ``dt`` (s)."""
 
     kinematics: Kinematics
     dt: float
@@ -122,8 +116,7 @@ class SolveIKProblem:
 
 
 def stalled(velocity: np.ndarray, dt: float, peer: str) -> str:
-    """Why to stop after a ``solve_ik`` step of ``velocity`` over ``dt`` that no longer moves the robot,
-    or ""."""
+    """Why to stop after a ``solve_ik`` step that no longer moves the robot, or ""."""
     moved = float(np.max(np.abs(velocity))) * dt
     return f"stalled: {peer}'s steps no longer move the robot" if moved < 1e-12 else ""
 
@@ -134,6 +127,5 @@ def raise_damping(task: RegularizationTask, problem: SolveIKProblem) -> None:
 
 
 def lowest_priority(tasks: list[Task]) -> int:
-    """The priority number of the lowest level of ``tasks`` (0 without tasks): where a regularisation
-    goes (a regularisation above another level would leave that level no motion at all)."""
+    """The priority of the lowest level of ``tasks`` (0 without): where a regularisation goes."""
     return max((task.priority for task in tasks), default=0)

@@ -1,15 +1,12 @@
 """Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
-wbik's tasks and constraints (:data:`wbik.qp.peers.PINK`).
+wbik's tasks and constraints (:data:`PINK`).
 
-Tasks are Pink's FrameTask (also for position-only and orientation-only tasks, the other half at cost
-0), RelativeFrameTask, ComTask and PostureTask (on some joints: cost 0 on the others), costs the
-square roots of our weights; a regularisation raises ``solve_ik``'s damping. Contacts are Pink
-equality constraints (a point foot: a 3-row task of our own, :func:`pink_point_contact`); limits are
-ConfigurationLimit and VelocityLimit, solved at dt = the problem's ``step_dt``. Pink 4.4 has no hard
-CoM-in-polygon constraint, so it solves without one and every pink result with a support polygon
-lists it in ``unsupported``; nor acceleration limits or minimum distances here, nor strict priority
-levels. Locked joints are an equality constraint of our own (:func:`pink_locked_joints`); a chain target
-is the chain's problem (the tip's frame task, every other joint locked).
+Tasks are Pink's FrameTask (position or orientation only: the other half at cost 0), RelativeFrameTask,
+ComTask and PostureTask, costs the square roots of our weights; a regularisation raises ``solve_ik``'s
+damping. Contacts and locked joints are equality constraints (:func:`pink_point_contact`,
+:func:`pink_locked_joints`); limits are ConfigurationLimit and VelocityLimit at dt = the problem's
+``step_dt``. No hard CoM-in-polygon constraint (a result with a support polygon lists it in
+``unsupported``), acceleration limits, minimum distances or strict priority levels.
 """
 
 from __future__ import annotations
@@ -51,14 +48,12 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "PinkProblem", "PinkSolver", "pink_locked_joints", "pink_point_contact"]
 
 
-PINK = PeerForms("pink", "Pink")
-"""Pink's forms of wbik's tasks and constraints (and of the user's: ``@PINK.form(MyTask)``)."""
+PINK = PeerForms("pink", "Pink")  # Pink's forms of tasks and constraints (a user's: @PINK.form(MyTask))
 
 
 @dataclass
 class PinkProblem(SolveIKProblem):
-    """What Pink's forms add to (:class:`wbik.wholebody.solvers.SolveIKProblem`), with the robot's
-    ``model``."""
+    """What Pink's forms add to, with the robot's ``model``."""
 
     model: pin.Model = field(kw_only=True)
 
@@ -126,8 +121,7 @@ def _com(task: ComTask, pink: PinkProblem) -> None:
 
 @PINK.form(PostureTask)
 def _posture(task: PostureTask, pink: PinkProblem) -> None:
-    """Pink's posture holds every tangent row but the root joint's: the task's weights on its own
-    rows, cost 0 on the others (a posture on some joints only)."""
+    """Pink's posture holds every tangent row but the root joint's: the task's weights on its own rows."""
     from pink.tasks import PostureTask as PinkPostureTask
     from pink.utils import get_root_joint_dim
 
@@ -185,9 +179,8 @@ PINK.cannot(MinimumDistance, "no minimum distance between frame origins in Pink 
 
 
 def pink_point_contact(frame: str, position: np.ndarray):
-    """A Pink task holding ``frame``'s origin at ``position`` (world, m), for Pink's equality
-    constraints (which take a task's every row, whatever its cost): e = p - p*, J = the frame's
-    world-aligned linear Jacobian (3 rows)."""
+    """A Pink equality-constraint task holding ``frame``'s origin at ``position`` (world, m): e = p - p*,
+    J = the frame's world-aligned linear Jacobian."""
     from pink.tasks import Task as PinkTask
 
     class PointContactTask(PinkTask):
@@ -210,8 +203,8 @@ def pink_point_contact(frame: str, position: np.ndarray):
 
 
 def pink_locked_joints(v_index: np.ndarray, held: np.ndarray):
-    """A Pink task holding the tangent coordinates ``v_index`` where they are in ``held`` (the start q),
-    for Pink's equality constraints: e = (q (-) held)[v_index], J = those rows of the identity."""
+    """A Pink equality-constraint task holding the tangent coordinates ``v_index`` at ``held`` (the start
+    q): e = (q (-) held)[v_index], J = those rows of the identity."""
     from pink.tasks import Task as PinkTask
 
     class LockedJointsTask(PinkTask):
@@ -235,8 +228,7 @@ class PinkSolver(PeerSolver):
     """pin-pink's differential IK, iterated by our loop (dt = the problem's step_dt per step)."""
 
     name = "pink"
-    # the budget's units: solve_ik, integration, convergence FK, on an arm and on a humanoid (measured:
-    # docs/measurements.md, pink and wholebody)
+    # solve_ik, integration, convergence FK, on an arm, on a humanoid (docs/measurements.md)
     iteration_cost_s = 150e-6
     default_budget_s = 0.03
     problem_iteration_cost_s = 500e-6
@@ -285,4 +277,3 @@ IK_METHODS = (
              "pin-pink 4.4: chain targets; whole bodies with frame / CoM / posture tasks, contacts as "
              "constraints; no hard CoM polygon"),
 )
-"""The method this module declares to :mod:`wbik.solvers.method_registry`."""
