@@ -1,7 +1,5 @@
-"""The closed-form framework: a :class:`ClosedForm` maps a batch of targets to every branch, and the rules
-every closed form shares: wrapping revolute angles into the limits nearest a reference, and the reasons of
-a failure (no real branch, none inside the limits, none reaching the target).
-"""
+"""The closed-form framework: :class:`ClosedForm` (a batch of targets to every branch), the rules every
+closed form shares (wrapping angles into the limits, the reasons of a failure), the libraries' base."""
 
 from __future__ import annotations
 
@@ -23,37 +21,32 @@ from wbik.targets import as_target
 from wbik.targets import pose_error
 
 LIMIT_TOLERANCE = 1e-9
-"""Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
-the limit): inverses of poses at a limit come back a few 1e-12 rad outside, up to ~1e-8 near a singular
-pose; 1e-9 rad moves a 1 m lever by 1e-9 m, far below the screening tolerance."""
+"""Angle (rad) a closed-form joint may leave its limits by and count as inside (set onto the limit)."""
 BRANCH_MERGE = 1e-6
-"""Two branches whose joints differ by less than this (rad, modulo 2 pi) are one solution in ``solve_all``
-(at a singular pose rounding through arccos splits coinciding branches by up to ~1e-7 rad)."""
+"""Branches whose joints differ by less (rad, modulo 2 pi) are one solution in ``solve_all``."""
 BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
 """Per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the
 reference below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)."""
 SCREEN_TOLERANCE = 1e-7
 """Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
 PROBE_POSES, PROBE_REQUIRED, PROBE_SEED, PROBE_TOLERANCE = 8, 6, 0, 1e-6
-"""A library's claimed decomposition of a chain is kept when its branches reproduce (to PROBE_TOLERANCE, m
-and rad) at least PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints inside the limits."""
+"""A library's claimed decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
+PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints."""
 NEAREST_MARGIN = 1e-9
-"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - NEAREST_MARGIN to the
-reference takes it: every other shift is then farther than pi, whatever the rounding."""
+"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - this takes it."""
 _NEAREST_BOUND = math.pi - NEAREST_MARGIN
 _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 
 class ClosedForm:
     """A closed-form solver of one chain: ``branches`` and ``fk`` (vectorised over a batch), an optional
-    compiled ``kernel`` of the same choice. ``target_kind`` is "pose" or "position"."""
+    compiled ``kernel`` of the same choice (a :class:`.compiled.CompiledForm` serves ``solve``,
+    ``solve_many`` and ``solve_all``; another, with ``nearest_into`` only, ``solve``). ``target_kind``:
+    "pose" or "position"."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
     kernel = None
-    """The compiled choice or None: a :class:`.compiled.CompiledForm` serves ``solve``, ``solve_many`` and
-    ``solve_all`` in place of the vectorised choice (its twin); another kernel (``nearest_into`` only,
-    e.g. :class:`.eaik_family.EAIKChoice`) serves ``solve``."""
 
     def __init__(self, chain: Chain):
         self.chain = chain
@@ -66,8 +59,7 @@ class ClosedForm:
 
     def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
                           q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`branches` joint-major and batch-last, (Q (n, K, B), real (K, B)); a family overrides one
-        of the two."""
+        """:meth:`branches` joint-major and batch-last, (Q (n, K, B), real (K, B)); a family overrides one."""
         q_all, real = self.branches(positions, rotations, q0)
         return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
 
@@ -76,22 +68,18 @@ class ClosedForm:
         raise NotImplementedError
 
     def compiled(self, chain, alignment, screen_tolerance: float):
-        """This form's compiled choice on ``chain`` through ``alignment`` (:class:`.compiled.Alignment`,
-        None: the identity), or None (no kernel, not built, or ``WBIK_PURE_PYTHON``)."""
+        """This form's compiled choice on ``chain`` through ``alignment`` (None: the identity), or None."""
         return None
 
 
 # --- wrapping into the limits --------------------------------------------------------------------
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                      revolute: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
-    """Shift revolute angles by multiples of 2 pi into [lower, upper], nearest to ``reference``.
-
-    Returns (wrapped q, in-limits mask over the joint ``axis``); reference, limits and ``revolute``
-    broadcast to q. The rule: of the shifts 0, 2 pi, -2 pi, 4 pi, -4 pi inside the limits (within
-    LIMIT_TOLERANCE), the nearest to the reference (the first on a tie), set into the limits; an angle
-    without one stays (mask False). Each angle first takes round((r - q) / 2 pi) turns, the rule's answer
-    where inside and nearer than pi - NEAREST_MARGIN; the others go through :func:`_wrap_by_shifts`.
-    """
+    """Revolute angles shifted by multiples of 2 pi into [lower, upper] nearest ``reference``, and the
+    in-limits mask over the joint ``axis`` (everything broadcasts to q). The rule: of the shifts 0, +-2 pi,
+    +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest (the first on a tie), set into the
+    limits; an angle without one stays (mask False). round((r - q) / 2 pi) turns first, the rest by
+    :func:`_wrap_by_shifts`."""
     q = np.asarray(q, dtype=float)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
     fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)
@@ -123,8 +111,7 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
 
 def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high: np.ndarray,
                     fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """The rule of :func:`wrap_into_limits` on angles (m,), bounds already widened, every shift in order:
-    (the nearest shifted angle inside, not yet set into the limits; whether one is inside)."""
+    """:func:`wrap_into_limits`'s rule on angles (m,), bounds widened: (nearest shift inside, any inside)."""
     best = q.copy()
     best_distance = np.full(q.shape, np.inf)
     in_limits = np.zeros(q.shape, dtype=bool)
@@ -146,12 +133,12 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
 # --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
     """:func:`no_solution_reason` of a kernel's failure code: 0 (no real branch), -1 (none inside the
-    limits) or -2 (none passes the screen)."""
+    limits), -2 (none passes the screen)."""
     return no_solution_reason(outcome != 0, outcome == -2)
 
 
 def no_solution_reason(real: bool, in_limits: bool) -> str:
-    """Why no branch was returned, from what the choice already knows."""
+    """Why no branch was returned."""
     if not real:
         return "unreachable: no real closed-form branch (target outside the workspace)"
     if not in_limits:
@@ -232,9 +219,8 @@ class BranchLibrarySolver(Solver):
 
 
 class Choice(NamedTuple):
-    """The vectorised choice per target: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and
-    ``usable`` (B, K), and the closed-form FK of the chosen joints (``reached_p`` (B, 3), ``reached_r``
-    (B, 3, 3); zeros where not found) for the batched check."""
+    """The vectorised choice: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and ``usable``
+    (B, K), the form's FK of q (``reached_p``, ``reached_r``; zeros where not found)."""
 
     q: np.ndarray
     found: np.ndarray
