@@ -53,29 +53,6 @@ STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
 """Constraints that shape the steps, not the answer: a chain method solves without them."""
 
 
-def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
-    """ceil(timeout / cost), at least 1: the iterations costing about ``timeout_s`` on the reference
-    machine."""
-    return max(1, math.ceil(check_budget("timeout_s", timeout_s) / iteration_cost_s))
-
-
-class PerThreadState:
-    """Mutable working objects kept per thread (the owner sets ``self._local = threading.local()``)."""
-
-    _local: threading.local
-
-    def _thread_state(self):
-        """This thread's mutable state (built by :meth:`_new_thread_state` on first use)."""
-        state = getattr(self._local, "state", None)
-        if state is None:
-            state = self._local.state = self._new_thread_state()
-        return state
-
-    def _new_thread_state(self):
-        """This thread's mutable working objects (peer solvers, QP problems, buffers), built on first use."""
-        return None
-
-
 class IterationBudget:
     """The one budget rule. A method whose loop is ours (an iteration cost set) is budgeted in iterations,
     so its answer does not depend on the load: ``max_iterations``, else the iterations costing about
@@ -90,11 +67,12 @@ class IterationBudget:
 
     @classmethod
     def iterations_for(cls, timeout_s: float, problem: bool = False) -> int:
-        """The iteration budget costing about ``timeout_s`` on the reference machine (ours only)."""
+        """ceil(timeout / cost), at least 1: the iterations costing about ``timeout_s`` on the reference
+        machine (ours only)."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
-        return iterations_costing(timeout_s, cost)
+        return max(1, math.ceil(check_budget("timeout_s", timeout_s) / cost))
 
     @classmethod
     def budget_options(cls, timeout_s: float, options: dict,
@@ -116,7 +94,7 @@ class IterationBudget:
         return self.iterations_for(self.timeout_s or default, problem)
 
 
-class Solver(PerThreadState, IterationBudget):
+class Solver(IterationBudget):
     """Base class of every IK method of one robot (see the module docstring).
 
     ``chain``: the chain a chain target is solved on (default the robot's only chain). ``_solve`` stops at
@@ -158,6 +136,16 @@ class Solver(PerThreadState, IterationBudget):
     def __repr__(self) -> str:
         where = self.robot.name if self._chain is None else f"{self.robot.name}.{self._chain.name}"
         return f"{type(self).__name__}({where})"
+
+    def _thread_state(self):
+        """This thread's mutable working objects (peer solvers, QP problems, buffers), built on first use."""
+        state = getattr(self._local, "state", None)
+        if state is None:
+            state = self._local.state = self._new_thread_state()
+        return state
+
+    def _new_thread_state(self):
+        return None
 
     @property
     def budget(self) -> str:

@@ -88,12 +88,8 @@ class EAIKSolver(BranchLibrarySolver):
             return matrix
         return EAIKForm.pose(target.position, target.rotation)
 
-    def _choose(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """:meth:`_choose_placed` without the placement."""
-        return self._choose_placed(q_all, target, q0)[0]
-
-    def _choose_placed(self, q_all: np.ndarray, target: Target,
-                       q0: np.ndarray) -> tuple[Candidate, np.ndarray | None]:
+    def _choose(self, q_all: np.ndarray, target: Target,
+                q0: np.ndarray) -> tuple[Candidate, np.ndarray | None]:
         """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, by ``choose``; its
         4 x 4 tip pose), else (:meth:`_pick`'s reason, None)."""
         if len(q_all):
@@ -131,7 +127,7 @@ class EAIKSolver(BranchLibrarySolver):
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        return self._choose(self._library_branches(target), target, q0)
+        return self._choose(self._library_branches(target), target, q0)[0]
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
         """One EAIK ``IK_batched`` call for the batch, branches picked as in ``solve``; per-pose time =
@@ -146,7 +142,7 @@ class EAIKSolver(BranchLibrarySolver):
         start = time.perf_counter()
         poses = [self.form.pose(target.position, target.rotation) for target in targets]
         solutions = self._thread_state().calculate_IK_batched(poses, self.batch_threads)
-        chosen = [self._choose_placed(self._branches(solution), target, q0)
+        chosen = [self._choose(self._branches(solution), target, q0)
                   for solution, target, q0 in zip(solutions, targets, q0_array, strict=True)]
         per_pose = (time.perf_counter() - start) / len(targets)
         for candidate, _ in chosen:

@@ -116,11 +116,6 @@ class KDLSolver(Solver):
         return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
                                q_out=kdl.JntArray(self.chain.nq))
 
-    def _frame(self, target: Target):
-        kdl = self.kdl
-        return kdl.Frame(kdl.Rotation(*target.rotation.reshape(-1).tolist()),
-                         kdl.Vector(*target.position.tolist()))
-
     def attempt(self, frame, q_seed: np.ndarray) -> tuple[np.ndarray, int]:
         """One NR_JL run: (joints, KDL return code; 0 = converged)."""
         state = self._thread_state()
@@ -128,7 +123,7 @@ class KDLSolver(Solver):
         return np.array([state.q_out[i] for i in range(self.chain.nq)]), int(code)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        q, code = self.attempt(self._frame(target), self.chain.clip(q0))
+        q, code = self.attempt(kdl_frame(self.kdl, target.se3().homogeneous), self.chain.clip(q0))
         reason = ""
         if code < 0:
             reason = f"KDL NR_JL returned {code} ({self._thread_state().pose.strError(code)})"
@@ -142,7 +137,7 @@ class KDLRestartsSolver(KDLSolver):
     name = "kdl_restarts"
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        frame = self._frame(target)
+        frame = kdl_frame(self.kdl, target.se3().homogeneous)
         q_seed = self.chain.clip(q0)
         attempts = 0
         best_q, best_error = None, math.inf

@@ -49,6 +49,10 @@ from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.peer import SolveIKProblem
+from wbik.solvers.peer import com_form
+from wbik.solvers.peer import contact_form
+from wbik.solvers.peer import frame_form
+from wbik.solvers.peer import orientation_form
 from wbik.solvers.peer import raise_damping
 from wbik.solvers.peer import stalled
 from wbik.solvers.result import Candidate
@@ -69,6 +73,19 @@ class MinkProblem(SolveIKProblem):
 
     body: MuJoCoBody = field(kw_only=True)
     limit_gain: float = field(default=0.95, kw_only=True)
+
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        import mink
+
+        added = mink.FrameTask(self.body.site(frame), "site", position_cost=position_cost,
+                               orientation_cost=orientation_cost)
+        added.set_target(mink.SE3.from_matrix(target.homogeneous))
+        return added
+
+    def com_task(self, cost: np.ndarray):
+        import mink
+
+        return mink.ComTask(cost=cost)
 
 
 @cache
@@ -106,21 +123,12 @@ def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: fl
     return _site_position_class()(site, target, rows, np.full(rows.size, float(cost)))
 
 
-# -- mink's forms of the tasks --------------------------------------------------------------------------
-def _frame_task(mink_problem: MinkProblem, frame: str, target: pin.SE3, position_cost, orientation_cost):
-    import mink
-
-    added = mink.FrameTask(mink_problem.body.site(frame), "site", position_cost=position_cost,
-                           orientation_cost=orientation_cost)
-    added.set_target(mink.SE3.from_matrix(target.homogeneous))
-    return added
-
-
-@MINK.form(FrameTask)
-def _frame(task: FrameTask, mink_problem: MinkProblem) -> None:
-    position, orientation = frame_weights(task)
-    mink_problem.tasks.append(_frame_task(mink_problem, task.frame, task.target, math.sqrt(position),
-                                          math.sqrt(orientation)))
+# -- mink's forms of the tasks and constraints ------------------------------------------------------------
+MINK.form(FrameTask)(frame_form)
+MINK.form(OrientationTask)(orientation_form)
+MINK.form(ComTask)(com_form)
+MINK.form(RegularizationTask)(raise_damping)
+MINK.form(Contact)(contact_form)
 
 
 @MINK.form(RelativeFrameTask)
@@ -143,26 +151,6 @@ def _position(task: PositionTask, mink_problem: MinkProblem) -> None:
                                                  math.sqrt(largest_weight(task, 1.0))))
 
 
-@MINK.form(OrientationTask)
-def _orientation(task: OrientationTask, mink_problem: MinkProblem) -> None:
-    target = pin.SE3(task.target, mink_problem.kinematics.placement(task.frame_id).translation.copy())
-    mink_problem.tasks.append(_frame_task(mink_problem, task.frame, target, 0.0,
-                                          math.sqrt(largest_weight(task, 1.0))))
-
-
-@MINK.form(ComTask)
-def _com(task: ComTask, mink_problem: MinkProblem) -> None:
-    import mink
-
-    cost = np.zeros(3)
-    cost[task.rows] = math.sqrt(largest_weight(task, 1.0))
-    target = mink_problem.kinematics.com().copy()
-    target[task.rows] = task.target[task.rows]
-    added = mink.ComTask(cost=cost)
-    added.set_target(target)
-    mink_problem.tasks.append(added)
-
-
 @MINK.form(PostureTask)
 def _posture(task: PostureTask, mink_problem: MinkProblem) -> None:
     """mink's posture weighs each DOF (its free joint's at none): the task's weights on its own rows."""
@@ -174,15 +162,6 @@ def _posture(task: PostureTask, mink_problem: MinkProblem) -> None:
     added = mink.PostureTask(body.model, cost=cost)
     added.set_target(body.qpos(task.reference))
     mink_problem.tasks.append(added)
-
-
-MINK.form(RegularizationTask)(raise_damping)
-
-
-# -- and of the constraints -----------------------------------------------------------------------------
-@MINK.form(Contact)
-def _contact(contact: Contact, mink_problem: MinkProblem) -> None:
-    mink_problem.constraints.append(_frame_task(mink_problem, contact.frame, contact.placement, 1.0, 1.0))
 
 
 @MINK.form(PointContact)

@@ -4,6 +4,7 @@ peer's single QP step; a chain target is the chain's problem (:meth:`Solver.chai
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -11,13 +12,19 @@ from dataclasses import field
 from typing import ClassVar
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
 from wbik.qp.contacts import HeldFrame
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.peers import PeerForms
 from wbik.qp.peers import Unsupported
+from wbik.qp.peers import frame_weights
 from wbik.qp.peers import largest_weight
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import Task
 from wbik.solvers.base import Solver
@@ -113,6 +120,48 @@ class SolveIKProblem:
     tasks: list = field(default_factory=list)
     constraints: list = field(default_factory=list)
     limits: list = field(default_factory=list)
+
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        """The peer's frame task on ``frame`` toward ``target`` (costs per axis or one for all)."""
+        raise NotImplementedError
+
+    def com_task(self, cost: np.ndarray):
+        """The peer's CoM task, ``cost`` per axis."""
+        raise NotImplementedError
+
+
+def frame_form(task: FrameTask, problem: SolveIKProblem) -> None:
+    """A frame task as the peer's, costs the square roots of its weights."""
+    position, orientation = frame_weights(task)
+    problem.tasks.append(problem.frame_task(task.frame, task.target, math.sqrt(position),
+                                            math.sqrt(orientation)))
+
+
+def orientation_form(task: OrientationTask, problem: SolveIKProblem) -> None:
+    """An orientation task as the peer's frame task, its position (the start's) at cost 0."""
+    target = pin.SE3(task.target, problem.kinematics.placement(task.frame_id).translation.copy())
+    problem.tasks.append(problem.frame_task(task.frame, target, 0.0, math.sqrt(largest_weight(task, 1.0))))
+
+
+def com_form(task: ComTask, problem: SolveIKProblem) -> None:
+    """A CoM task on its axes (the start's CoM on the others)."""
+    added = problem.com_task(axis_costs(task, largest_weight(task, 1.0)))
+    target = problem.kinematics.com().copy()
+    target[task.rows] = task.target[task.rows]
+    added.set_target(target)
+    problem.tasks.append(added)
+
+
+def contact_form(contact: Contact, problem: SolveIKProblem) -> None:
+    """A contact as an equality constraint: the peer's frame task at its placement."""
+    problem.constraints.append(problem.frame_task(contact.frame, contact.placement, 1.0, 1.0))
+
+
+def axis_costs(task, weight: float) -> np.ndarray:
+    """Cost sqrt(weight) on the axes a position or CoM task holds, 0 on the others."""
+    cost = np.zeros(3)
+    cost[task.rows] = math.sqrt(weight)
+    return cost
 
 
 def stalled(velocity: np.ndarray, dt: float, peer: str) -> str:

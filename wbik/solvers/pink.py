@@ -40,6 +40,11 @@ from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.peer import SolveIKProblem
+from wbik.solvers.peer import axis_costs
+from wbik.solvers.peer import com_form
+from wbik.solvers.peer import contact_form
+from wbik.solvers.peer import frame_form
+from wbik.solvers.peer import orientation_form
 from wbik.solvers.peer import raise_damping
 from wbik.solvers.peer import stalled
 from wbik.solvers.result import Candidate
@@ -57,28 +62,25 @@ class PinkProblem(SolveIKProblem):
 
     model: pin.Model = field(kw_only=True)
 
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        from pink.tasks import FrameTask as PinkFrameTask
 
-def _axis_costs(task, weight: float) -> np.ndarray:
-    """Cost sqrt(weight) on the axes a position or CoM task holds, 0 on the others."""
-    cost = np.zeros(3)
-    cost[task.rows] = math.sqrt(weight)
-    return cost
+        added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
+        added.set_target(target)
+        return added
 
+    def com_task(self, cost: np.ndarray):
+        from pink.tasks import ComTask as PinkComTask
 
-# -- Pink's forms of the tasks --------------------------------------------------------------------------
-def _frame_task(frame: str, target: pin.SE3, position_cost, orientation_cost):
-    """Pink's FrameTask on ``frame`` toward ``target`` (costs per axis or one for all)."""
-    from pink.tasks import FrameTask as PinkFrameTask
-
-    added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
-    added.set_target(target)
-    return added
+        return PinkComTask(cost=cost)
 
 
-@PINK.form(FrameTask)
-def _frame(task: FrameTask, pink: PinkProblem) -> None:
-    position, orientation = frame_weights(task)
-    pink.tasks.append(_frame_task(task.frame, task.target, math.sqrt(position), math.sqrt(orientation)))
+# -- Pink's forms of the tasks and constraints ------------------------------------------------------------
+PINK.form(FrameTask)(frame_form)
+PINK.form(OrientationTask)(orientation_form)
+PINK.form(ComTask)(com_form)
+PINK.form(RegularizationTask)(raise_damping)
+PINK.form(Contact)(contact_form)
 
 
 @PINK.form(RelativeFrameTask)
@@ -98,25 +100,8 @@ def _position(task: PositionTask, pink: PinkProblem) -> None:
     start = pink.kinematics.placement(task.frame_id)
     translation = start.translation.copy()
     translation[task.rows] = task.target[task.rows]
-    cost = _axis_costs(task, largest_weight(task, 1.0))
-    pink.tasks.append(_frame_task(task.frame, pin.SE3(start.rotation.copy(), translation), cost, 0.0))
-
-
-@PINK.form(OrientationTask)
-def _orientation(task: OrientationTask, pink: PinkProblem) -> None:
-    target = pin.SE3(task.target, pink.kinematics.placement(task.frame_id).translation.copy())
-    pink.tasks.append(_frame_task(task.frame, target, 0.0, math.sqrt(largest_weight(task, 1.0))))
-
-
-@PINK.form(ComTask)
-def _com(task: ComTask, pink: PinkProblem) -> None:
-    from pink.tasks import ComTask as PinkComTask
-
-    added = PinkComTask(cost=_axis_costs(task, largest_weight(task, 1.0)))
-    target = pink.kinematics.com().copy()
-    target[task.rows] = task.target[task.rows]
-    added.set_target(target)
-    pink.tasks.append(added)
+    cost = axis_costs(task, largest_weight(task, 1.0))
+    pink.tasks.append(pink.frame_task(task.frame, pin.SE3(start.rotation.copy(), translation), cost, 0.0))
 
 
 @PINK.form(PostureTask)
@@ -133,15 +118,6 @@ def _posture(task: PostureTask, pink: PinkProblem) -> None:
     added = PinkPostureTask(cost=cost)
     added.set_target(task.reference)
     pink.tasks.append(added)
-
-
-PINK.form(RegularizationTask)(raise_damping)
-
-
-# -- and of the constraints -----------------------------------------------------------------------------
-@PINK.form(Contact)
-def _contact(contact: Contact, pink: PinkProblem) -> None:
-    pink.constraints.append(_frame_task(contact.frame, contact.placement, 1.0, 1.0))
 
 
 @PINK.form(PointContact)

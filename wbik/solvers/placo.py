@@ -221,17 +221,14 @@ def _position_limits(limits: JointPositionLimits, placo: PlacoProblem) -> None:
 @PLACO.form(JointVelocityLimits)
 def _velocity_limits(limits: JointVelocityLimits, placo: PlacoProblem) -> None:
     """|dq| <= limit per step (dt 1): PlaCo's velocity limits limit / dt over its step dt."""
-    names = _tangent_joint_names(placo.robot.model)
+    model = placo.robot.model
+    names = {model.joints[j].idx_v: model.names[j] for j in range(1, model.njoints)
+             if model.joints[j].nv == 1}
     for index, limit in zip(limits.v_index.tolist(), limits.step_limit.tolist(), strict=True):
         if index in names:
             placo.wrapper.set_velocity_limit(names[index], limit / placo.dt)
     placo.solver.dt = placo.dt
     placo.solver.enable_velocity_limits(True)
-
-
-def _tangent_joint_names(model: pin.Model) -> dict[int, str]:
-    """{tangent index: joint name} of the 1-DOF joints."""
-    return {model.joints[j].idx_v: model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1}
 
 
 @PLACO.form(LockedJoints)

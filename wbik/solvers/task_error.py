@@ -74,15 +74,9 @@ def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotati
     return result
 
 
-def _levi_civita() -> np.ndarray:
-    symbol = np.zeros((3, 3, 3))
-    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        symbol[i, j, k], symbol[i, k, j] = 1.0, -1.0
-    return symbol.transpose(1, 2, 0).reshape(9, 3)
-
-
-LEVI_CIVITA = _levi_civita()
-"""E (9, 3) with (a outer b).flat @ E = a x b."""
+LEVI_CIVITA = np.array([[0, 0, 0], [0, 0, 1], [0, -1, 0], [0, 0, -1], [0, 0, 0], [1, 0, 0], [0, 1, 0],
+                        [-1, 0, 0], [0, 0, 0]], dtype=float)
+"""E (9, 3) = epsilon_ijk at (3 i + j, k): (a outer b).flat @ E = a x b."""
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:

@@ -5,13 +5,12 @@ M (``tip``) the tip's pose at q = 0, read from the chain's reduced model."""
 from __future__ import annotations
 
 import math
-import threading
-import weakref
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from wbik.robot import ChainCache
 from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 
@@ -65,8 +64,7 @@ class ChainLines:
         return float(np.linalg.norm(offset - (offset @ self.axes[k]) * self.axes[k]))
 
 
-_LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_LINES_LOCK = threading.Lock()
+_LINES = ChainCache()
 
 
 def chain_lines(chain) -> ChainLines:
@@ -75,16 +73,11 @@ def chain_lines(chain) -> ChainLines:
     own = getattr(chain, "lines", None)
     if isinstance(own, ChainLines):
         return own
-    with _LINES_LOCK:
-        cached = _LINES.get(chain)
-    if cached is not None:
+    if (cached := _LINES.get(chain)) is not None:
         return cached
     structure = serial_structure(chain)
     axes, origins, tip = joint_lines_at_zero(structure)
-    lines = ChainLines(axes, origins, tip, structure.prismatic.copy())
-    with _LINES_LOCK:
-        _LINES[chain] = lines
-    return lines
+    return _LINES.store(chain, ChainLines(axes, origins, tip, structure.prismatic.copy()))
 
 
 def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
