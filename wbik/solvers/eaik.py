@@ -1,22 +1,11 @@
-"""Method ``eaik``: EAIK 1.2.2's closed forms (``pip install EAIK==1.2.2``; Ostermeier et al., "Automatic
-Geometric Decomposition for Analytical Inverse Kinematics") behind the one interface: every branch of a full
-pose on a 1R..6R chain whose kinematic family EAIK decomposes into Paden-Kahan subproblems.
-
-EAIK is built from the chain's own reduced model (:mod:`wbik.solvers.analytic.eaik_family`), so any chain
-works, also one with locked joints; EAIK's FK equals the chain's to 3e-16. ``solve`` returns the branch
-nearest q0 (Euclidean), each revolute angle shifted by 2 pi into the limits nearest q0, whose FK (the
-form's) reaches the target within 1e-7, chosen in one call of ``choose`` (:mod:`wbik.kernels.eaik`, C where
-built); the pose and errors it wrote go to the shared check (:func:`~wbik.solvers.check.evaluate_screened`).
-``solve_all`` returns every distinct branch inside the limits passing the check, ``solve_many`` makes one
-``IK_batched`` call (``batch_threads`` threads). Full poses only (a position target raises
-UnsupportedError); no budget.
-
-The built-in chains (EAIK 1.2.2): accepted, the UR5 ``arm`` and ``ee`` and the Bioloid legs
-(6R-THREE_INNER_PARALLEL), the Bioloid arms and arm3r (3R, full poses only), the Panda with joint 4, 5, 6
-or 7 locked (6R spherical families); refused, the Golem-III arms and the Panda with joint 1, 2 or 3 locked
-("6R-Unknown Kinematic Class": the Golem-III's axes 5 and 6 are skew), the 7R Panda (lock a joint), the
-Golem-III arm with its prismatic lift, and the Pincher: EAIK claims it (4R-THIRD_FOURTH_INTERSECTING) but
-returns q1 = 0 in every branch on its exact axes, which the probe (6 of 8 seeded FK poses) refuses.
+"""Method ``eaik``: EAIK 1.2.2's closed forms (``pip install EAIK==1.2.2``; Ostermeier et al.), every branch
+of a full pose on a 1R..6R chain EAIK decomposes into subproblems, built from the chain's own reduced model
+(:mod:`wbik.solvers.analytic.eaik_family`). ``solve`` returns the branch nearest q0, wrapped into the limits,
+whose FK reaches the target within 1e-7, chosen by ``choose`` (:mod:`wbik.kernels.eaik`); ``solve_many``
+makes one ``IK_batched`` call. Of the built-in chains EAIK takes the UR5 ``arm`` and ``ee``, the Bioloid legs
+and arms, arm3r (full poses only) and the Panda with joint 4, 5, 6 or 7 locked; it refuses the Golem-III
+arms and the Panda with joint 1, 2 or 3 locked ("6R-Unknown Kinematic Class"), the 7R Panda, the Golem-III
+arm with its prismatic lift, and the Pincher (EAIK returns q1 = 0 in every branch: the probe refuses it).
 """
 
 from __future__ import annotations

@@ -1,23 +1,14 @@
 """Method ``ik_geo``: IK-Geo's subproblem solvers for 6R arms (PyPI ``ik-geo`` 1.0.3; Elias and Wen,
-arXiv:2211.05737, its Rust port) behind the one interface.
+arXiv:2211.05737) behind the one interface, the branch chosen as ``eaik`` chooses.
 
-IK-Geo solves a 6R arm in product-of-exponentials form, joint axes h (6, 3) and offsets p (7, 3) between
-joint points at q = 0 in the base frame, R(q) = rot(h_1, q_1) ... rot(h_6, q_6), p(q) = p_01 + R_1 p_12 +
-... + R(q) p_6T, by the kinematic family the caller names. H and P come from the chain's reduced model
-(:mod:`wbik.solvers.analytic.structure`), IK-Geo is asked for T_target @ diag(R0^T, 1) (R0: the tip's
-rotation at q = 0; its tool frame has the base's), and the binding's rotations are transposed (it reads
-rows as columns, tests/test_ik_geo.py). Its solvers read a family's relations from P being exactly zero
-and parallel axes from one shared h, so joint points are moved along their axes onto the intersections the
-family uses and parallel axes share one direction (an anti-parallel joint negated).
-
-The family: :data:`FAMILIES` (closed forms first, then IK-Geo's 1-D and 2-D searches) are tried on the chain
-and on the reversed chain (the inverse pose, joints reversed and negated: a spherical shoulder becomes a
-wrist); the first whose relations hold within STRUCTURE_TOLERANCE and whose branches reproduce 6 of 8 seeded
-FK poses to 1e-6 is kept. In practice only the closed forms pass the shared check (docs/measurements.md,
-ik_geo): the UR3/UR5/UR10 arms, the Kinova Jaco, the Panda with joint 4, 5, 6 or 7 locked. Refused: chains
-of other than 6 joints (lock one of a 7R arm with a :class:`wbik.ChainSpec`), prismatic joints, 6R chains
-only a search fits (the Golem-III arms, the Panda with joint 1, 2 or 3 locked). A search finding no bracket
-panics in Rust: a miss in the probe, "IK-Geo failed" in a solve. The choice of a branch is ``eaik``'s.
+IK-Geo takes H (6, 3) and P (7, 3), joint axes and offsets at q = 0 from the chain's reduced model, and the
+kinematic family the caller names; its solvers read a family's relations from P being exactly zero and one
+shared h, so joint points are moved along their axes onto the intersections and parallel axes share a
+direction. Asked for T_target @ diag(R0^T, 1), rotations transposed for its binding. :data:`FAMILIES` are
+tried on the chain and the reversed chain (the inverse pose), the first whose relations hold and whose
+branches reproduce 6 of 8 seeded FK poses kept: the UR3/UR5/UR10, the Kinova Jaco, the Panda with joint 4,
+5, 6 or 7 locked; chains of other than 6 joints, prismatic joints and 6R chains only a search fits (the
+Golem-III arms) are refused (docs/measurements.md, ik_geo). A search without a bracket panics in Rust.
 """
 
 from __future__ import annotations

@@ -1,15 +1,10 @@
 """Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`)
-for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`).
-
-Tasks are FrameTask on sites (orientation: position cost 0; relative frames), ComTask, PostureTask, costs
-the square roots of our weights, and a position task on some axes is our own :func:`site_position_task`
-(mink's FrameTask weighs axes in the target's frame); a regularisation raises ``solve_ik``'s damping.
-Contacts are equality constraints, locked joints a DofFreezingTask there; limits are ConfigurationLimit
-(``limit_gain``) and VelocityLimit at dt = the problem's ``step_dt``. No support-polygon constraint (a
-result with one lists it in ``unsupported``), acceleration limits, minimum distances or strict priority
-levels. A chain target runs as mink's arm examples do (``examples/arm_panda.py``): the tip's frame task,
-ConfigurationLimit, a VelocityLimit of ``max_step`` per step (far starts otherwise end in another basin:
-docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
+for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`): sites'
+FrameTask, ComTask, PostureTask (costs the square roots of our weights), our :func:`site_position_task` for
+some axes, contacts as equality constraints, locked joints a DofFreezingTask there, ConfigurationLimit and
+VelocityLimit at dt = ``step_dt``; no support polygon, acceleration limits, minimum distances or priority
+levels. A chain target runs as mink's arm examples do: the tip's frame task under a VelocityLimit of
+``max_step`` per step (docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
 """
 
 from __future__ import annotations

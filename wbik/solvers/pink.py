@@ -1,12 +1,8 @@
 """Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
-wbik's tasks and constraints (:data:`PINK`).
-
-Tasks are Pink's FrameTask (position or orientation only: the other half at cost 0), RelativeFrameTask,
-ComTask and PostureTask, costs the square roots of our weights; a regularisation raises ``solve_ik``'s
-damping. Contacts and locked joints are equality constraints (:func:`pink_point_contact`,
-:func:`pink_locked_joints`); limits are ConfigurationLimit and VelocityLimit at dt = the problem's
-``step_dt``. No hard CoM-in-polygon constraint (a result with a support polygon lists it in
-``unsupported``), acceleration limits, minimum distances or strict priority levels.
+wbik's tasks and constraints (:data:`PINK`): FrameTask (position or orientation only: the other half at cost
+0), RelativeFrameTask, ComTask, PostureTask, costs the square roots of our weights; contacts and locked
+joints as equality constraints; ConfigurationLimit and VelocityLimit at dt = ``step_dt``. No hard CoM polygon
+(listed in ``unsupported``), acceleration limits, minimum distances or strict priority levels.
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
-"""Method ``placo``: PlaCo's KinematicsSolver (C++) on the robot's URDF (without geometry, continuous joints
-as revolute ones with wide limits), for chain targets and whole bodies, and PlaCo's forms of wbik's tasks
-and constraints (:data:`PLACO`).
-
-Tasks are PlaCo's frame / relative frame / position / orientation / CoM / joints / regularisation tasks,
-soft, with our weights (an axis mask for some axes); contacts are hard frame (a point foot: position)
-tasks, the support polygon PlaCo's hard CoM polygon constraint (clockwise), limits PlaCo's (its ``dt`` the
-problem's ``step_dt``), locked joints masked. No acceleration limits, minimum distances or strict
-priority levels. One ``solve(True)`` per iteration of our loop.
+"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry, continuous joints
+revolute with wide limits), for chain targets and whole bodies, and PlaCo's forms of wbik's tasks and
+constraints (:data:`PLACO`): its soft tasks with our weights, contacts as hard tasks, the support polygon as
+its hard CoM polygon constraint, its limits, locked joints masked; no acceleration limits, minimum distances
+or strict priority levels. One ``solve(True)`` per iteration of our loop.
 """
 
 from __future__ import annotations

@@ -1,14 +1,9 @@
-"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers, DAQP by default) on chain
-targets and whole-body problems.
-
-A chain target is a frame (or position) task on the chain's reduced model under its joint limits (none on
-continuous joints) and, with ``velocity_dt``, velocity limits x dt per step; a whole-body problem is its
-own tasks (goals at half the check's tolerances) with a regularisation on the lowest level, under its
-constraints. Options: ``backend`` (a qpsolvers name, "fastest" or "default": DAQP), ``max_iterations``,
-``max_step`` (trust region per step, rad or m), ``lm_damping``, ``regularization`` (whole bodies),
-``velocity_dt`` (chains), ``diagnose``: a failed result's ``diagnosis``
-(:class:`wbik.qp.diagnosis.Diagnosis`, made after the timed solve), its summary ending ``reason``; a start
-outside the limits is clipped and listed in ``diagnosis.start``.
+"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers) on chain targets (a frame or
+position task under the chain's limits and, with ``velocity_dt``, velocity limits x dt) and whole bodies
+(their tasks, goals at half the check's tolerances, a ``regularization`` on the lowest level). Options:
+``backend`` (a qpsolvers name, "fastest" or "default": DAQP), ``max_iterations``, ``max_step`` (trust region
+per step, rad or m), ``lm_damping``, ``diagnose`` (a failed result's ``diagnosis``,
+:class:`wbik.qp.diagnosis.Diagnosis`, made after the timed solve, its summary ending ``reason``).
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
-"""TRAC-IK through pytracik, on the robot's URDF and the chain's base/tip links, with the chain's limits.
-
-TRAC-IK runs KDL's NR_JL with random restarts and an SQP formulation concurrently, the first solution
-wins. Its wall-clock budget is fixed when its object is built (one per thread); its restarts draw from its
-own unseedable C++ random state, so its answers vary with the run and the load, whatever ``seed`` says.
-``epsilon``: its per-component twist tolerance, by default the shared tolerance / sqrt(3) (its success
-implies the shared norm check). Full poses only: pytracik 0.0.3 does not expose TRAC-IK's ``bounds``.
+"""TRAC-IK through pytracik, on the robot's URDF and the chain's base/tip links, with the chain's limits:
+KDL's NR_JL with random restarts and an SQP run concurrently, its wall-clock budget fixed with its object (one
+per thread), its restarts from an unseedable C++ random state (answers vary with the run and the load).
+``epsilon``: its per-component twist tolerance (default the shared tolerance / sqrt(3)). Full poses only.
 """
 
 from __future__ import annotations
