@@ -1,19 +1,13 @@
 """Ours: joint-limit-bounded Levenberg-Marquardt with restarts (``bounded_lm``).
 
-An attempt iterates the policy of :mod:`wbik.solvers.levenberg_marquardt` from a seed inside the limits:
-(J^T J + lambda I) dq = -J^T e, lambda = w |e|^2 + mu (Sugihara's error-dependent damping), q <- P(q + dq),
-P wrapping full-turn joints and clipping the others, a joint pushed outwards at a bound frozen. The
-residual is the SE(3) form of the pose error (:mod:`wbik.solvers.task_error`), e = log6(T*^-1 T) with the
-tip-axes Jacobian (e = p - p* for a position target), position rows weighted by ``position_weight``. An
-attempt ends on the FK check, a stall or ``attempt_iterations``.
-
-Restarts until the iteration budget is spent (counted in single-seed iterations, a batch iteration
-costing ``BATCH_ITERATION_UNITS``, so the answer depends on the inputs and ``seed`` only): q0 and the
-nearest entry of the seed table (:func:`~wbik.solvers.seeds.seed_table`), the nearer first; the seed
-library's entries nearest the target (:func:`~wbik.solvers.seeds.seed_library`); then ``batch_size`` seeds
-advancing together (:class:`~wbik.solvers.vectorised_chain.VectorisedChain`), a stalled one replaced by a
-uniform draw from the call's own stream. ``solve_many`` runs the same attempts for many targets, one
-vectorised row each. Defaults and costs: docs/measurements.md, bounded_lm.
+An attempt iterates the policy of :mod:`wbik.solvers.levenberg_marquardt` (lambda = w |e|^2 + mu) on the
+SE(3) form of the pose error, e = log6(T*^-1 T) with the tip-axes Jacobian (e = p - p* for a position),
+position rows weighted by ``position_weight``, until the FK check passes, a stall or
+``attempt_iterations``. Restarts spend the iteration budget (single-seed iterations; a batch iteration
+costs ``BATCH_ITERATION_UNITS``): q0 and the seed table's nearest entry, the nearer first, then the seed
+library's nearest entries (:mod:`wbik.solvers.seeds`), then ``batch_size`` seeds advancing together
+(:mod:`wbik.solvers.vectorised_chain`), a stalled one replaced from the call's own random stream, so an
+answer depends on the inputs and ``seed`` only. Defaults and costs: docs/measurements.md, bounded_lm.
 """
 
 from __future__ import annotations

@@ -1,16 +1,12 @@
 """The one Levenberg-Marquardt policy of wbik's iterative methods, for one configuration and for a batch.
 
-For a residual e(q) with Jacobian J (m x n), one step is
-
-    dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e,    lambda = w |e|^2 + mu,
-
-w = ``cost_weight``, mu the base damping (Sugihara's error-dependent damping), solved by Cholesky on the
-smaller system (n x n when n <= m, else the m x m minimum-norm form). The step is capped at ``max_step``,
-projected into the limits (:class:`JointBounds`), and where a clipped joint on a bound is pushed outwards it
-is frozen and the step recomputed without it (a one-pass active set). A trial is accepted when it lowers
-|e|^2 (mu <- max(decrease mu, floor)), else mu <- increase max(mu, reject_floor). A run stalls when its best
-cost has not fallen below ``progress`` x its previous best in ``stall`` iterations, or mu exceeds
-``max_damping``. The ``*_batch`` twins make the same decisions element by element.
+A step is dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e, lambda = w |e|^2 + mu (w =
+``cost_weight``, mu the base damping), by Cholesky on the smaller system, capped at ``max_step`` and
+projected into the limits (:class:`JointBounds`); a clipped joint on a bound pushed outwards is frozen and
+the step recomputed without it. A trial lowering |e|^2 is accepted (mu <- max(decrease mu, floor)), else
+mu <- increase max(mu, reject_floor). A run stalls when its best cost has not fallen below ``progress`` x
+its previous best in ``stall`` iterations, or mu exceeds ``max_damping``. The ``*_batch`` twins make the
+same decisions element by element.
 """
 
 from __future__ import annotations
