@@ -43,7 +43,8 @@ def invalid_joints_reason(q) -> str:
     return f"method returned invalid joints {q!r}"
 
 
-def _no_joints(reason: str, time_s: float, candidate: Candidate, method: str) -> IKResult:
+def no_joints(reason: str, time_s: float, candidate: Candidate, method: str) -> IKResult:
+    """The failed result of a candidate without (valid) joints."""
     nan3 = np.full(3, np.nan)
     return IKResult(None, False, reason, math.nan, math.nan, nan3, nan3.copy(), time_s, candidate.iterations,
                     method, candidate.extra)
@@ -66,12 +67,12 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     """
     q = candidate.q
     if q is None:
-        return _no_joints(candidate.reason or "no solution", time_s, candidate, method)
+        return no_joints(candidate.reason or "no solution", time_s, candidate, method)
     if type(q) is not np.ndarray or q.dtype != np.float64:
         q = np.asarray(q, dtype=float)
     lower, upper = chain.lower, chain.upper
     if q.shape != lower.shape:
-        return _no_joints(invalid_joints_reason(q), time_s, candidate, method)
+        return no_joints(invalid_joints_reason(q), time_s, candidate, method)
     reason = candidate.reason
     if chain.any_continuous:  # an angle of a continuous joint is in range modulo 2 pi
         unwrapped, q = q, chain.wrap_continuous(q)
@@ -81,7 +82,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
         reached = None
         if not np.all(np.isfinite(q)):
-            return _no_joints(invalid_joints_reason(q), time_s, candidate, method)
+            return no_joints(invalid_joints_reason(q), time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
             reason = CLIPPED_REASON
     target_rotation = target.rotation
@@ -99,7 +100,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
         return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
                         time_s, candidate.iterations, method, candidate.extra)
     if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
-        return _no_joints(invalid_joints_reason(q), time_s, candidate, method)
+        return no_joints(invalid_joints_reason(q), time_s, candidate, method)
     reason = reason or fk_check_reason(position_norm, rotation_norm)
     return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)

@@ -3,7 +3,6 @@ targets as ``as_target`` does, :func:`evaluate_batch` is the shared check's rule
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -16,6 +15,8 @@ from wbik.solvers.check import CLIPPED_REASON
 from wbik.solvers.check import clip_to_limits
 from wbik.solvers.check import fk_check_reason
 from wbik.solvers.check import invalid_joints_reason
+from wbik.solvers.check import no_joints
+from wbik.solvers.result import Candidate
 from wbik.solvers.result import IKResult
 from wbik.solvers.result import Tolerances
 from wbik.targets import MAX_POSITION
@@ -108,12 +109,9 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
                in zip(inside, p_norms, r_norms, position_xyz, rotation_xyz, extras, strict=True)]
     for index in np.flatnonzero(~(success & found & finite)).tolist():  # the rows not solved (rare)
         reason, extra = reasons[index], extras[index]
-        if not found[index]:
-            results[index] = IKResult(None, False, reason or "no solution", math.nan, math.nan,
-                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
-        elif not finite[index]:
-            results[index] = IKResult(None, False, invalid_joints_reason(q[index]), math.nan, math.nan,
-                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
+        if not found[index] or not finite[index]:
+            why = (reason or "no solution") if not found[index] else invalid_joints_reason(q[index])
+            results[index] = no_joints(why, time_s, Candidate(None, 1, extra=extra), method)
         else:
             if not reason and not chain.in_limits(q[index], tolerance=1e-9):  # the shared check's rule
                 reason = CLIPPED_REASON
