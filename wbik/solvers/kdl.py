@@ -103,7 +103,7 @@ class KDLSolver(Solver):
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.kdl_chain = kdl_chain(self.chain)
-        self.fk_disagreement = check_fk_agreement(self.chain, self.kdl_chain)
+        check_fk_agreement(self.chain, self.kdl_chain)
 
     def _new_thread_state(self) -> SimpleNamespace:
         """This thread's KDL solvers and output array (KDL's solvers keep working state)."""

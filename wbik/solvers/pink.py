@@ -14,6 +14,7 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import MissingDependencyError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
 from wbik.qp.contacts import PointContact
@@ -213,11 +214,8 @@ class PinkSolver(PeerSolver):
         try:
             import pink  # noqa: F401
         except ImportError as exc:
-            from wbik.errors import MissingDependencyError
-
-            raise MissingDependencyError(
-                "Pink is not installed: 'pip install pin-pink==4.4.0' (the dev extra)"
-            ) from exc
+            raise MissingDependencyError("Pink is not installed: 'pip install pin-pink==4.4.0' (the dev "
+                                         "extra)") from exc
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 

@@ -49,13 +49,6 @@ class Canonical:
     tool: np.ndarray
 
 
-def rotation4(rows) -> np.ndarray:
-    """A 4 x 4 transform of a 3 x 3 rotation."""
-    matrix = np.eye(4)
-    matrix[:3, :3] = rows
-    return matrix
-
-
 @dataclass
 class Match:
     """A family found on a chain: ``build(family_chain)``, G, X, u = s q + o, the parameters in words."""

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.solvers.analytic.recognition as recognition
+from wbik.dh import homogeneous
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
 from wbik.solvers.analytic.recognition import HALF_PI
@@ -39,7 +40,7 @@ except ImportError:  # not built (no C compiler at install time): the vectorised
 BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])  # Rz(pi) exactly: base_link -> link0 (the DH base)
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # link6 (DH flange) -> ee_link
 CANONICAL = recognition.Canonical((HALF_PI, 0.0, 0.0, HALF_PI, -HALF_PI, 0.0), (0.0,) * 6,
-                                  recognition.rotation4(BASE_TO_LINK0), recognition.rotation4(LINK6_TO_EE))
+                                  homogeneous(BASE_TO_LINK0), homogeneous(LINK6_TO_EE))
 FLANGE_SHARE, FLANGE_MINIMUM = 0.1, 0.01
 """The form divides by d6 (wrist centre to flange along axis 6; the tool takes the rest): the tip's own
 distance when at least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length."""

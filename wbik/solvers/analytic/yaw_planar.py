@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.solvers.analytic.recognition as recognition
+from wbik.dh import homogeneous
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
@@ -281,7 +282,7 @@ class PitchArmPosition(ClosedForm):
 
 # --- recognition --------------------------------------------------------------------------------------
 CANONICAL_2R = recognition.Canonical((HALF_PI, 0.0, 0.0), (0.0, 0.0, 0.0), np.eye(4), np.eye(4))
-NOA = recognition.rotation4([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+NOA = homogeneous([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_PI, 0.0, 0.0), np.eye(4), NOA)
 
 
