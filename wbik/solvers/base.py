@@ -67,8 +67,7 @@ class IterationBudget:
 
     @classmethod
     def iterations_for(cls, timeout_s: float, problem: bool = False) -> int:
-        """ceil(timeout / cost), at least 1: the iterations costing about ``timeout_s`` on the reference
-        machine (ours only)."""
+        """ceil(timeout / cost), at least 1: the iterations costing about ``timeout_s`` (ours only)."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
@@ -174,8 +173,7 @@ class Solver(IterationBudget):
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def solve_problem(self, problem: WholeBody, q0=None) -> IKResult:
-        """Solve a whole-body problem from q0 (default the robot's nominal); UnsupportedError saying why
-        for a problem the method cannot take."""
+        """Solve a whole-body problem from q0 (default the robot's nominal); UnsupportedError if it cannot."""
         if not isinstance(problem, WholeBody):
             raise InvalidSettingError(f"solve_problem() takes a wbik.WholeBody, got "
                                       f"{type(problem).__name__}")
@@ -252,8 +250,7 @@ class Solver(IterationBudget):
         return np.random.default_rng([self.seed, int.from_bytes(digest.digest(), "little")])
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        """A whole-body method solves a chain target as the chain's problem (:meth:`chain_problem`) from
-        q0 clipped into the limits."""
+        """A whole-body method solves a chain target as the chain's problem (:meth:`chain_problem`)."""
         if not self.takes_problems:
             raise NotImplementedError
         chain = self.chain

@@ -201,8 +201,7 @@ class BoundedLMSolver(Solver):
 
     def _attempt(self, evaluate, q: np.ndarray, deadline: float, budget: int
                  ) -> tuple[np.ndarray, bool, int, float]:
-        """LM from q for at most ``budget`` iterations on ``evaluate`` (:meth:`_residual`): (last q,
-        converged?, iterations, |e|)."""
+        """LM from q for at most ``budget`` iterations: (last q, converged?, iterations, |e|)."""
         policy, bounds = self.policy, self.bounds
         trial_of, update = self._trial, policy.update
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
@@ -349,8 +348,7 @@ class BoundedLMSolver(Solver):
     def _keep_better_trials(self, inside: np.ndarray, goal_position: np.ndarray,
                             goal_rotation: np.ndarray | None, cost: np.ndarray, q: np.ndarray,
                             error: np.ndarray, transposed: np.ndarray) -> tuple[np.ndarray, ...]:
-        """The batched accept step (:func:`keep_better`) of the trials ``inside`` (B, n): (accepted (B,),
-        cost, q, error, J^T)."""
+        """The batched accept step of the trials ``inside`` (B, n): (accepted (B,), cost, q, error, J^T)."""
         trial_error, trial_transposed = self._vectorised.evaluate(inside, goal_position, goal_rotation)
         accepted, cost, (q, error, transposed) = keep_better(
             batch_cost(trial_error), cost, (inside, q), (trial_error, error), (trial_transposed, transposed))
@@ -534,8 +532,7 @@ def scaled_model(model: pin.Model, factor: float) -> pin.Model:
 
 
 def chain_scale_weight(chain) -> float:
-    """1 / (the chain's length, m: joint origin to joint origin to the tip), at least 1: metres and radians
-    on a par on small arms."""
+    """1 / (the chain's length, m), at least 1: metres and radians on a par on small arms."""
     length = float(np.linalg.norm(serial_structure(chain).placements[1:, :3, 3], axis=1).sum())
     return max(1.0, 1.0 / max(length, 1e-3))
 

@@ -58,8 +58,7 @@ class EAIKSolver(BranchLibrarySolver):
         return self.form.robot()
 
     def eaik_pose(self, target: Target) -> np.ndarray:
-        """The pose to give ``eaik.IK_HP.HPRobot(H, P)`` (end-effector rotation the identity) for a target
-        of ours: T @ diag(R0^T, 1)."""
+        """The pose ``eaik.IK_HP.HPRobot(H, P)`` takes for a target of ours: T @ diag(R0^T, 1)."""
         return EAIKForm.pose(target.position, target.rotation) @ self._tip
 
     def _branches(self, solution) -> np.ndarray:
@@ -70,8 +69,7 @@ class EAIKSolver(BranchLibrarySolver):
 
     @staticmethod
     def _target_pose(target: Target) -> np.ndarray:
-        """The target's 4 x 4 matrix: the one its arrays are views of (as ``as_target`` makes them), else
-        a new one."""
+        """The target's 4 x 4 matrix: the one its arrays are views of (``as_target``'s), else a new one."""
         matrix = target.rotation.base
         if matrix is not None and matrix is target.position.base and matrix.shape == (4, 4):
             return matrix
@@ -119,8 +117,7 @@ class EAIKSolver(BranchLibrarySolver):
         return self._choose(self._library_branches(target), target, q0)[0]
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """One EAIK ``IK_batched`` call for the batch, branches picked as in ``solve``; per-pose time =
-        total / B."""
+        """One EAIK ``IK_batched`` call, branches picked as in ``solve``; per-pose time = total / B."""
         targets = [as_target(t) for t in targets]
         if not targets:
             return []

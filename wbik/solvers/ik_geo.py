@@ -96,8 +96,7 @@ class IKGeoStructure:
         return getattr(_import_robot(), self.family.name)(self.H, self.P)
 
     def ik_geo_pose(self, rotation: np.ndarray, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(R, p) for IK-Geo's get_ik of our tip pose: R = R_target R0^T, inverted for a reversed chain,
-        transposed for the binding."""
+        """(R, p) for get_ik of our pose: R_target R0^T, inverted for a reversed chain, R transposed."""
         rotation = rotation @ self.tip_rotation_t
         if self.reversed:
             rotation, position = rotation.T, -(rotation.T @ position)
@@ -111,8 +110,7 @@ class IKGeoStructure:
 
 
 def _structure_for(lines: ChainLines, family: Family, reverse: bool) -> IKGeoStructure | None:
-    """IK-Geo's H and P of ``family`` for the chain (or the reversed chain, joint k being 5 - k), None if
-    the geometry lacks a relation the family needs."""
+    """IK-Geo's H and P of ``family`` for the chain (or the reversed chain), None if a relation fails."""
     index = (lambda k: 5 - k) if reverse else (lambda k: k)
     points = lines.origins.copy()
     if family.spherical_wrist:
@@ -150,8 +148,7 @@ _STRUCTURES = ChainCache()
 
 
 def ik_geo_structure(chain: Chain) -> IKGeoStructure:
-    """IK-Geo's family, H and P for ``chain``, decided once per chain; UnsupportedError naming the chain
-    and the reason when no family solves it."""
+    """IK-Geo's family, H and P for ``chain``, once per chain; UnsupportedError saying why where none."""
     _import_robot()  # first, so a missing package is reported also for a cached chain
     if (cached := _STRUCTURES.get(chain)) is not None:
         return cached
@@ -206,8 +203,7 @@ def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
 
 
 def _branches(robot, structure: IKGeoStructure, target: Target) -> np.ndarray:
-    """IK-Geo's branches (K, 6) of a target in our joints (not wrapped, not screened); IKGeoPanic when
-    IK-Geo panics."""
+    """IK-Geo's branches (K, 6) of a target in our joints (raw); IKGeoPanic when IK-Geo panics."""
     rotation, position = structure.ik_geo_pose(target.rotation, target.position)
     try:
         solutions = robot.get_ik(rotation, position)

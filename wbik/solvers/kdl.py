@@ -131,8 +131,7 @@ class KDLSolver(Solver):
 
 
 class KDLRestartsSolver(KDLSolver):
-    """KDL NR_JL from the seed, then from random seeds (the call's own stream) while the time left holds
-    one more attempt of the mean length so far."""
+    """KDL NR_JL from the seed, then random seeds while the time left holds one more mean attempt."""
 
     name = "kdl_restarts"
 

@@ -25,8 +25,7 @@ _LM_TRIAL = compiled_twin("lm_trial", "lm_trial")  # LevenbergMarquardt.trial's 
 
 
 class JointBounds:
-    """Joint limits and the projection into them: full-turn joints (``wraps``) wrapped by 2 pi into their
-    range, the others clipped. Immutable (shared by threads)."""
+    """Joint limits and the projection into them (full-turn ``wraps`` wrapped by 2 pi, others clipped)."""
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, wraps: np.ndarray | None = None):
         self.lower = np.asarray(lower, dtype=float).copy()
@@ -167,8 +166,7 @@ class LevenbergMarquardt:
 
     def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
                     q: np.ndarray, bounds: JointBounds) -> np.ndarray:
-        """:meth:`trial` for J (B, m, n), e (B, m), costs and mu (B,), q (B, n); a frozen joint's column
-        of J is zeroed."""
+        """:meth:`trial` for J (B, m, n), e (B, m), costs and mu (B,), q (B, n)."""
         damping = self.cost_weight * cost + base
         step = self._capped(_damped_steps(jacobian, error, damping))
         trial = q + step
@@ -213,8 +211,7 @@ def keep_better(trial_cost: np.ndarray, cost: np.ndarray, *pairs: tuple[np.ndarr
 
 
 class Workspace:
-    """The damped system's buffer, a view of its diagonal and the last right-hand side (one run, one
-    thread)."""
+    """The damped system's buffer, its diagonal and the last right-hand side (one run, one thread)."""
 
     def __init__(self, size: int):
         self.system = np.empty((size, size))
@@ -224,8 +221,7 @@ class Workspace:
 
 def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
              workspace: Workspace | None = None) -> np.ndarray:
-    """(J^T J + lambda I)^-1 J^T e = J^T (J J^T + lambda I)^-1 e (the step's negative), by the smaller
-    system."""
+    """(J^T J + lambda I)^-1 J^T e = J^T (J J^T + lambda I)^-1 e (-dq) by the smaller system."""
     rows, columns = jacobian.shape
     transpose = jacobian.T
     small = columns <= rows

@@ -36,8 +36,7 @@ NO_POLYGON = "support polygon as a hard CoM constraint"  # what a method without
 
 
 class PeerSolver(Solver):
-    """A method solving with a peer library's own tasks and constraints (see the module docstring).
-    ``priorities``: what the peer has instead of strict priority levels."""
+    """A method solving with a peer's tasks and constraints; ``priorities``: its word on priority levels."""
 
     takes_problems = True
     forms: ClassVar[PeerForms]

@@ -119,8 +119,7 @@ PLACO = PeerForms("placo", "PlaCo")  # PlaCo's forms of tasks and constraints (a
 
 @dataclass
 class PlacoProblem:
-    """What PlaCo's forms add to: its KinematicsSolver, the PlaCo robot (``wrapper``), our ``robot``, its
-    ``kinematics`` at the start and the step ``dt`` (s)."""
+    """What PlaCo's forms add to: its solver, robot (``wrapper``), our robot, the start, step ``dt`` (s)."""
 
     solver: Any
     wrapper: Any
@@ -130,8 +129,7 @@ class PlacoProblem:
 
 
 def clockwise(polygon) -> list[np.ndarray]:
-    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them (benchmarks/qp.py's
-    ``placo_polygon`` rule)."""
+    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them."""
     vertices = [np.array(v, dtype=float) for v in polygon.vertices]
     x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
     area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))

@@ -80,8 +80,7 @@ LEVI_CIVITA = np.array([[0, 0, 0], [0, 0, 1], [0, -1, 0], [0, 0, -1], [0, 0, 0],
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
-    """The iterate passes the shared check with a safety factor: |e_p| and |e_R| at most half their
-    tolerances."""
+    """The iterate passes the shared check safely: |e_p| and |e_R| at most half their tolerances."""
     values = error.tolist()
     if math.hypot(*values[:3]) > 0.5 * position_tolerance:
         return False

@@ -109,8 +109,7 @@ class PitchArmGeometry:
 
 def pitch_arm_branches(g: PitchArmGeometry, yaw, signed_reach, height,
                        pitch) -> tuple[np.ndarray, np.ndarray]:
-    """Both elbows for a tool point at (signed_reach, height) in the plane of q1 = yaw, pitch ``pitch``
-    (broadcast to S): (Q (S, 2, 4), real (S, 2))."""
+    """Both elbows for a tool point at (signed_reach, height), q1 = yaw, ``pitch``: (Q (S, 2, 4), real)."""
     yaw, signed_reach, height, pitch = np.broadcast_arrays(yaw, signed_reach, height, pitch)
     wrist_r = signed_reach - g.t * np.cos(pitch)
     wrist_z = height - g.h - g.t * np.sin(pitch)
@@ -212,8 +211,7 @@ class PitchArmPosition(ClosedForm):
         return wrapped, exact, exact & inside
 
     def _usable(self, yaws, reaches, heights, pitches):
-        """A branch exists with a 2 pi shift inside the limits (B, 2, M, 2): (q - lower) mod 2 pi <= upper -
-        lower."""
+        """A branch with a 2 pi shift in the limits (B, 2, M, 2): (q - lower) mod 2 pi <= upper - lower."""
         q_all, exact = pitch_arm_branches(self.geometry, yaws[..., None], reaches[..., None],
                                           heights[:, None, None], pitches)
         span = self.chain.upper - self.chain.lower + 2.0 * LIMIT_TOLERANCE  # as wrap_into_limits
