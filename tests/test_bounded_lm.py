@@ -12,9 +12,9 @@ import pytest
 
 import wbik
 from wbik.geometry import batch_log3
-from wbik.solvers.bounded_lm import VectorisedChain
 from wbik.solvers.bounded_lm import scaled_model
 from wbik.solvers.result import Tolerances
+from wbik.solvers.vectorised_chain import VectorisedChain
 from wbik.targets import as_target
 
 CHAINS = [("ur5", "arm"), ("golem3", "right_arm"), ("pincher", "arm"), ("bioloid", "right_leg"),

@@ -272,7 +272,7 @@ def test_choice_is_the_nearest_branch_rule(name):
     counts = {"found": 0, "none": 0}
     for target, q0 in zip(targets, starts, strict=True):
         q_all = solver.raw_branches(target)
-        chosen = solver._choose(q_all, target, q0)
+        chosen, _ = solver._choose(q_all, target, q0)
         expected = _rule_choice(solver, q_all, target, q0)
         assert (chosen.q is None) == (expected.q is None)
         assert chosen.reason == expected.reason

@@ -16,8 +16,8 @@ import pytest
 
 import wbik
 from wbik.errors import UnsupportedError
-from wbik.solvers.ik_geo import GEOMETRY_TOLERANCE
-from wbik.solvers.ik_geo import chain_lines
+from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
+from wbik.solvers.analytic.structure import chain_lines
 from wbik.targets import Target
 
 POSES = 100
@@ -203,7 +203,7 @@ def test_parallel_and_intersecting_relations_are_read_scale_aware():
     assert lines.meeting_point(0, 1) is not None  # shoulder: pan and lift axes meet
     assert lines.meeting_point(3, 4) is not None
     assert lines.meeting_point(2, 4) is None  # the elbow and wrist 2 are 0.1 m apart (skew)
-    assert GEOMETRY_TOLERANCE * lines.length < 1e-8
+    assert STRUCTURE_TOLERANCE * lines.length < 1e-8
 
 
 def test_position_targets_and_unreachable_poses():

@@ -324,9 +324,10 @@ def test_planar_2r_elbow_gives_the_second_link_direction():
 
 def test_transpose_times_equals_einsum():
     """The batched check's R*^T R, written out, gives einsum's bits (the reported rotation errors)."""
-    from wbik.solvers.analytic.batch import _transpose_times
+    from wbik.solvers.analytic.aligned import times
 
     rng = np.random.default_rng(29)
     first, second = (np.array([pin.rpy.rpyToMatrix(*rpy) for rpy in rng.normal(size=(300, 3))])
                      for _ in range(2))
-    np.testing.assert_array_equal(_transpose_times(first, second), np.einsum("bji,bjk->bik", first, second))
+    np.testing.assert_array_equal(times(np.swapaxes(first, 1, 2), second),
+                                  np.einsum("bji,bjk->bik", first, second))

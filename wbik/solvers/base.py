@@ -1,12 +1,10 @@
-"""The one solver interface: every method, on chain targets and whole-body problems.
+"""The one solver interface of every method, on chain targets and whole-body problems.
 
-Every method subclasses :class:`Solver`. On a chain target it implements ``_solve(target, q0,
-deadline)`` returning a :class:`~wbik.solvers.result.Candidate`; the base validates input, times the
-call, and the shared check (:mod:`wbik.solvers.check`) decides ``success``. A whole-body problem
-(:class:`wbik.wholebody.problem.WholeBody`) goes to ``_solve_problem(started, deadline)``: methods that
-formulate whole bodies (``takes_problems``: qp, placo, pink, mink) implement it; the chain methods
-accept a problem that is a chain target in disguise (one frame or position task on the chain's tip,
-joint limits, the rest of the robot at its nominal) and refuse others with a typed reason.
+A method subclasses :class:`Solver` and implements ``_solve(target, q0, deadline)`` -> Candidate; the base
+validates input, times the call, and the shared check (:mod:`wbik.solvers.check`) decides ``success``. A
+:class:`~wbik.wholebody.problem.WholeBody` goes to ``_solve_problem``: the whole-body methods
+(``takes_problems``) formulate it, the chain methods take one that is a chain target in disguise and refuse
+others with a typed reason.
 """
 
 from __future__ import annotations
@@ -50,65 +48,36 @@ from wbik.targets import as_target
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
-DEFAULT_TIMEOUT_S = 0.005
-"""Default time budget of iterative methods (TRAC-IK's benchmark protocol and MoveIt's KDL default)."""
+DEFAULT_TIMEOUT_S = 0.005  # s: TRAC-IK's benchmark protocol and MoveIt's KDL default
 STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
 """Constraints that shape the steps, not the answer: a chain method solves without them."""
 
 
-def iterations_costing(timeout_s: float, iteration_cost_s: float) -> int:
-    """The iteration budget that costs about ``timeout_s`` at ``iteration_cost_s`` per iteration
-    (the cost measured on the reference machine): ceil(timeout / cost), at least 1."""
-    return max(1, math.ceil(TIMEOUT_S.checked(timeout_s, "timeout_s", "budget") / iteration_cost_s))
-
-
-class PerThreadState:
-    """Mutable working objects kept per thread: :meth:`_thread_state` builds this thread's with
-    :meth:`_new_thread_state` on first use. The owner sets ``self._local = threading.local()``."""
-
-    _local: threading.local
-
-    def _thread_state(self):
-        """This thread's mutable state (built by :meth:`_new_thread_state` on first use)."""
-        state = getattr(self._local, "state", None)
-        if state is None:
-            state = self._local.state = self._new_thread_state()
-        return state
-
-    def _new_thread_state(self):
-        """Subclasses with mutable working objects (peer solvers, QP problems, buffers) build them here."""
-        return None
-
-
 class IterationBudget:
     """The one budget rule. A method whose loop is ours (an iteration cost set) is budgeted in iterations,
-    so its answer does not depend on the machine's load: ``max_iterations`` if given, else
-    ceil(budget / cost), the iterations that cost about ``timeout_s`` (or the default budget) on the
-    machine the costs were measured on (docs/measurements.md). The costs and default budgets are those
-    of one chain target (``iteration_cost_s``, ``default_budget_s``) and of one whole-body problem
-    (``problem_iteration_cost_s``, ``problem_budget_s``). A method without a cost is budgeted by the wall
-    clock (``timeout_s``). The owner sets ``name`` and ``timeout_s``."""
+    so its answer does not depend on the load: ``max_iterations``, else the iterations costing about
+    ``timeout_s`` (or the default budget) on the reference machine (docs/measurements.md). Costs (s per
+    iteration) and default budgets are per chain target (``iteration_cost_s``, None: wall clock) and per
+    whole-body problem (``problem_iteration_cost_s``, None: takes none)."""
 
     iteration_cost_s: float | None = None
-    """The time one iteration on a chain target costs (s) on the reference machine; None: wall clock."""
     default_budget_s: float = DEFAULT_TIMEOUT_S
     problem_iteration_cost_s: float | None = None
-    """The time one iteration on a whole-body problem costs (s); None: the method takes none."""
     problem_budget_s: float = 0.1
 
     @classmethod
     def iterations_for(cls, timeout_s: float, problem: bool = False) -> int:
-        """The iteration budget that costs about ``timeout_s`` on the reference machine (ours only)."""
+        """ceil(timeout / cost), at least 1: the iterations costing about ``timeout_s`` (ours only)."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             raise UnsupportedError(f"method {cls.name!r} is budgeted by wall-clock time only")
-        return iterations_costing(timeout_s, cost)
+        return max(1, math.ceil(TIMEOUT_S.checked(timeout_s, "timeout_s", "budget") / cost))
 
     @classmethod
     def budget_options(cls, timeout_s: float, options: dict,
                        problem: bool = False) -> tuple[float | None, dict]:
-        """(timeout_s, options) to build the method with for a budget of ``timeout_s`` seconds: ours get
-        no wall clock and the equivalent ``max_iterations`` (unless given), the others the wall clock."""
+        """(timeout_s, options) for a budget of ``timeout_s``: ours get the equivalent ``max_iterations``
+        (unless given) and no wall clock, the others the wall clock."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             return timeout_s, dict(options)
@@ -124,30 +93,21 @@ class IterationBudget:
         return self.iterations_for(self.timeout_s or default, problem)
 
 
-class Solver(PerThreadState, IterationBudget):
+class Solver(IterationBudget):
     """Base class of every IK method of one robot (see the module docstring).
 
-    ``chain``: the chain a chain target is solved on (a name; default the robot's only chain). The chain
-    methods need one when they are built; the methods that solve whole bodies only when a chain target
-    comes. ``_solve`` should stop at ``deadline`` (a ``time.perf_counter()`` value, ``math.inf`` without
-    a wall-clock budget) and return its best effort with a reason. Budgets: :class:`IterationBudget`.
-
-    Thread safety. Mutable state (Pinocchio Data, a peer library's solver object) is kept per thread
-    (:meth:`_thread_state`); random restarts draw from a generator seeded by ``seed`` and the call's
-    own input (:meth:`_call_rng`), so an answer depends on (seed, target, q0) only: the same in any
-    order and from any thread.
+    ``chain``: the chain a chain target is solved on (default the robot's only chain). ``_solve`` stops at
+    ``deadline`` (``time.perf_counter()``, ``math.inf`` without a wall clock) with its best effort and a
+    reason. Mutable state is kept per thread and restarts draw from the call's own stream
+    (:meth:`_call_rng`), so an answer depends on (seed, target, q0) only, in any order, from any thread.
     """
 
     name = "base"
     supports_position_only = True
     supports_pose = True
-    pose_only_because = ""
-    """Why a method that takes full poses only (``supports_position_only = False``) does: the end of
-    its refusal message (what it lacks, what to use instead)."""
-    budgeted: bool = True
-    """False for closed forms: a fixed amount of work per call, no budget of any kind applies."""
-    takes_problems: bool = False
-    """True for a method with its own whole-body formulation (``_solve_problem``)."""
+    pose_only_because = ""  # a pose-only method's refusal ends with why (what it lacks, what to use)
+    budgeted: bool = True  # False for closed forms: a fixed amount of work per call
+    takes_problems: bool = False  # a method with its own whole-body formulation (``_solve_problem``)
 
     def __init__(self, robot: Robot, chain: str | None = None, *,
                  tolerances: Tolerances | None = None, timeout_s: float | None = None,
@@ -167,7 +127,7 @@ class Solver(PerThreadState, IterationBudget):
 
     @property
     def chain(self) -> Chain:
-        """The chain chain targets are solved on (UnknownChainError when the robot has no default)."""
+        """The chain of chain targets (UnknownChainError when the robot has no default)."""
         if self._chain is None:
             self._chain = self.robot.chain(self._chain_name)
         return self._chain
@@ -175,6 +135,16 @@ class Solver(PerThreadState, IterationBudget):
     def __repr__(self) -> str:
         where = self.robot.name if self._chain is None else f"{self.robot.name}.{self._chain.name}"
         return f"{type(self).__name__}({where})"
+
+    def _thread_state(self):
+        """This thread's mutable working objects (peer solvers, QP problems, buffers), built on first use."""
+        state = getattr(self._local, "state", None)
+        if state is None:
+            state = self._local.state = self._new_thread_state()
+        return state
+
+    def _new_thread_state(self):
+        return None
 
     @property
     def budget(self) -> str:
@@ -186,11 +156,9 @@ class Solver(PerThreadState, IterationBudget):
             parts.append(f"{self.timeout_s:g} s")
         return " or ".join(parts)
 
-    # -- the interface ------------------------------------------------------------------------
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
         """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal), or a
-        whole-body problem (a :class:`~wbik.wholebody.problem.WholeBody`) from q0 (default: the robot's
-        nominal configuration)."""
+        :class:`~wbik.wholebody.problem.WholeBody` from q0 (default: the robot's nominal)."""
         if isinstance(target, WholeBody):
             return self.solve_problem(target, q0)
         target = as_target(target)
@@ -205,8 +173,7 @@ class Solver(PerThreadState, IterationBudget):
         return evaluate(chain, target, candidate, self.tolerances, elapsed, self.name)
 
     def solve_problem(self, problem: WholeBody, q0=None) -> IKResult:
-        """Solve a whole-body problem from q0 (default the robot's nominal), judged by the shared check.
-        A method that cannot take the problem at all raises UnsupportedError saying why."""
+        """Solve a whole-body problem from q0 (default the robot's nominal); UnsupportedError if it cannot."""
         if not isinstance(problem, WholeBody):
             raise InvalidSettingError(f"solve_problem() takes a wbik.WholeBody, got "
                                       f"{type(problem).__name__}")
@@ -247,9 +214,8 @@ class Solver(PerThreadState, IterationBudget):
                 if isinstance(c, STEP_SHAPING)]
 
     def cannot_express(self, problem: WholeBody, q0=None) -> str | None:
-        """Why ``problem`` is outside what this method can solve at all, or None. A chain method takes a
-        chain target in disguise: one goal, a frame or position task on the chain's tip, under joint
-        limits, with the joints outside the chain at the robot's nominal values."""
+        """Why ``problem`` is outside what this method can solve, or None. A chain method takes one goal,
+        a frame or position task on the chain's tip, under joint limits, the other joints at nominal."""
         if self.takes_problems:
             return None
         try:
@@ -273,10 +239,8 @@ class Solver(PerThreadState, IterationBudget):
                     "chain's reduced model)")
         return None
 
-    # -- state that must not be shared between calls ---------------------------------------------
     def _call_rng(self, target: Target, q0: np.ndarray) -> np.random.Generator:
-        """The random stream of one call: seeded by (seed, target, q0), so restarts repeat exactly
-        whatever the order of calls or the thread; fresh entropy when ``seed`` is None."""
+        """The random stream of one call, seeded by (seed, target, q0); fresh entropy without ``seed``."""
         if self.seed is None:
             return np.random.default_rng()
         digest = hashlib.blake2b(target.position.tobytes(), digest_size=8)
@@ -285,10 +249,8 @@ class Solver(PerThreadState, IterationBudget):
         digest.update(np.ascontiguousarray(q0, dtype=float).tobytes())
         return np.random.default_rng([self.seed, int.from_bytes(digest.digest(), "little")])
 
-    # -- for subclasses ------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        """A chain target: a method that solves whole bodies solves the chain's problem
-        (:meth:`chain_problem`) on the whole robot, the rest locked, from q0 clipped into the limits."""
+        """A whole-body method solves a chain target as the chain's problem (:meth:`chain_problem`)."""
         if not self.takes_problems:
             raise NotImplementedError
         chain = self.chain
@@ -301,9 +263,8 @@ class Solver(PerThreadState, IterationBudget):
 
     def chain_problem(self, target: Target, constraints: Sequence[Constraint] = (),
                       regularization: float = 0.0) -> WholeBody:
-        """A chain target as a whole-body problem: one frame task (a position task for a position
-        target) on the tip toward the target in the world, the chain's joint limits (none on continuous
-        joints), every other joint locked; plus ``constraints`` and a ``regularization`` weight."""
+        """A chain target as a whole-body problem: a frame (or position) task on the tip, the chain's joint
+        limits (none on continuous joints), every other joint locked, ``constraints``, a regularisation."""
         chain = self.chain
         world = chain.base_placement * target.se3()
         tip = (FrameTask(chain.tip_frame, world) if target.is_pose
@@ -318,9 +279,8 @@ class Solver(PerThreadState, IterationBudget):
                          constraints=[JointPositionLimits(unbounded=continuous), *locked, *constraints])
 
     def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
-        """A whole-body problem (see the module docstring) within ``max_iterations`` of the method's loop:
-        the chain methods solve the chain target it stands for (:meth:`cannot_express` said it is one)
-        and return the whole configuration."""
+        """A whole-body problem within ``max_iterations``: a chain method solves the chain target it stands
+        for (:meth:`cannot_express`) and returns the whole configuration."""
         chain = self.chain
         task = next(task for task in started.tasks if task.goal)
         world = task.target if isinstance(task, FrameTask) else pin.SE3(np.eye(3), task.target)
@@ -336,8 +296,7 @@ class Solver(PerThreadState, IterationBudget):
         return candidate
 
     def check_target_kind(self, kind: str) -> None:
-        """UnsupportedError, saying why, if this solver cannot take ``kind`` ("pose" or "position")
-        targets on its chain (the study asks this before solving a case)."""
+        """UnsupportedError, saying why, if this solver cannot take ``kind`` ("pose", "position") targets."""
         if kind == "pose" and not self.supports_pose:
             raise UnsupportedError(f"method {self.name!r} on {self.chain.name!r} takes position targets only")
         if kind == "position" and not self.supports_position_only:

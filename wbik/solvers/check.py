@@ -1,13 +1,8 @@
-"""The shared check: one rule decides ``success`` for every method, on chain targets and whole-body
-problems alike. An answer succeeds when every goal is within the :class:`Tolerances` and every hard
-constraint holds, both measured by forward kinematics on the model; the method's own opinion plays no
-part, so methods compare like with like.
-
-- :func:`evaluate`: a chain target (one frame task on the chain's reduced model, its joint limits): clip
-  the joints into the limits, FK, the pose error of :mod:`wbik.geometry`. Written for the per-call path.
-- :func:`check_problem`: a whole-body problem: every goal task's error (its position and rotation parts),
-  every constraint's own :meth:`~wbik.qp.constraint.Constraint.measure` (a contact's drift against where
-  it was held, the CoM margin of the support the soles make at q, the limit excess, the clearances).
+"""The shared check: one rule decides ``success`` for every method. An answer succeeds when every goal is
+within the :class:`Tolerances` and every hard constraint holds, measured by FK on the model, whatever the
+method thinks: :func:`evaluate` for a chain target (joints clipped into the limits, the pose error of
+:mod:`wbik.geometry`), :func:`check_problem` for a whole-body problem (each goal task's error, each
+constraint's :meth:`~wbik.qp.constraint.Constraint.measure`).
 """
 
 from __future__ import annotations
@@ -30,9 +25,7 @@ from wbik.targets import pose_target
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
-# numpy's clip ufunc, called directly: np.clip wraps it in Python code that costs more than the ufunc
-# itself on a few joints (docs/measurements.md, base)
-try:
+try:  # numpy's clip ufunc: np.clip's Python wrapper costs more than the ufunc on a few joints
     from numpy._core.umath import clip as _clip_ufunc
 except ImportError:  # pragma: no cover - another numpy layout
     _clip_ufunc = None
@@ -50,6 +43,13 @@ def invalid_joints_reason(q) -> str:
     return f"method returned invalid joints {q!r}"
 
 
+def no_joints(reason: str, time_s: float, candidate: Candidate, method: str) -> IKResult:
+    """The failed result of a candidate without (valid) joints."""
+    nan3 = np.full(3, np.nan)
+    return IKResult(None, False, reason, math.nan, math.nan, nan3, nan3.copy(), time_s, candidate.iterations,
+                    method, candidate.extra)
+
+
 def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.ndarray:
     """min(max(q, lower), upper) element-wise (a new array; NaN stays NaN), in one ufunc call."""
     if _clip_ufunc is None:
@@ -59,29 +59,20 @@ def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.nd
 
 def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
              time_s: float, method: str, reached: np.ndarray | None = None) -> IKResult:
-    """The shared FK check: clip into the limits, measure the errors, decide success.
+    """The shared FK check: clip into the limits, e_p = p - p* (base axes), e_R = log3(R*^T R), success.
+    Written for the per-call path: one clip, one FK, one call for the arithmetic, one log3.
 
-    The errors are the pose error of :mod:`wbik.geometry`: e_p = p - p* (base axes) and
-    e_R = log3(R*^T R) (target axes; ``geometry.error_parts`` gives p - p*, its norm and R*^T R,
-    Pinocchio the log3). Written for the per-call path (its cost: docs/benchmarks.md): one clip, one FK, one
-    call for the arithmetic (compiled where built), one log3; the detailed checks run only when
-    something is off.
-
-    ``reached``: optional, ``chain.fk(candidate.q).homogeneous`` as the method already computed it
-    (e.g. for its own screen). It stands for the FK only when the joints checked are ``candidate.q``
-    unchanged, bit for bit (inside the limits, no continuous joint wrapped), so the IKResult is the one
-    computed without it; otherwise the FK is computed as usual.
+    ``reached``: ``chain.fk(candidate.q).homogeneous`` as the method computed it, used only when the
+    joints checked are ``candidate.q`` bit for bit (inside the limits, none wrapped).
     """
     q = candidate.q
     if q is None:
-        nan3 = np.full(3, np.nan)
-        return IKResult(None, False, candidate.reason or "no solution", math.nan, math.nan,
-                        nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
+        return no_joints(candidate.reason or "no solution", time_s, candidate, method)
     if type(q) is not np.ndarray or q.dtype != np.float64:
         q = np.asarray(q, dtype=float)
     lower, upper = chain.lower, chain.upper
     if q.shape != lower.shape:
-        return _invalid_joints(q, time_s, candidate, method)
+        return no_joints(invalid_joints_reason(q), time_s, candidate, method)
     reason = candidate.reason
     if chain.any_continuous:  # an angle of a continuous joint is in range modulo 2 pi
         unwrapped, q = q, chain.wrap_continuous(q)
@@ -91,7 +82,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
     if inside.tobytes() != q.tobytes():  # outside the limits, or infinite (NaN passes: see below)
         reached = None
         if not np.all(np.isfinite(q)):
-            return _invalid_joints(q, time_s, candidate, method)
+            return no_joints(invalid_joints_reason(q), time_s, candidate, method)
         if not reason and not chain.in_limits(q, tolerance=1e-9):
             reason = CLIPPED_REASON
     target_rotation = target.rotation
@@ -109,7 +100,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
         return IKResult(inside, True, "", position_norm, rotation_norm, position_xyz, rotation_xyz,
                         time_s, candidate.iterations, method, candidate.extra)
     if position_norm != position_norm and not np.all(np.isfinite(q)):  # NaN joints give a NaN pose
-        return _invalid_joints(q, time_s, candidate, method)
+        return no_joints(invalid_joints_reason(q), time_s, candidate, method)
     reason = reason or fk_check_reason(position_norm, rotation_norm)
     return IKResult(inside, False, reason, position_norm, rotation_norm, position_xyz, rotation_xyz,
                     time_s, candidate.iterations, method, candidate.extra)
@@ -117,17 +108,11 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
 
 def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
                       tolerances: Tolerances, time_s: float, method: str) -> IKResult:
-    """The shared check of joints a compiled closed form chose and screened, with the errors it already
-    computed: ``parts`` (n + 24 values) holds the joints q (n), their 4 x 4 tip pose (16, the form's FK)
-    and the batched check's errors of that pose (8: e_p, e_R, |e_p|, |e_R|; the rule of
-    :func:`wbik.solvers.analytic.batch.evaluate_batch`, e_R in :func:`wbik.geometry.batch_log3`'s
-    formula, which agrees with Pinocchio's log3 to rounding away from a half turn). ``target``: the
-    Target, or the 4 x 4 matrix of a full pose (:func:`wbik.targets.plain_pose_matrix`).
-
-    For a full pose on a chain without continuous joints, whose joints the choice wrote inside the
-    limits (their clip is themselves), the IKResult is built from ``parts`` (its arrays are views of
-    it) when both errors are within the tolerances. Anything else goes to :func:`evaluate` with the
-    tip pose as ``reached``.
+    """The shared check of joints a compiled choice wrote, with its errors: ``parts`` (n + 24) holds q (n),
+    their 4 x 4 tip pose (16) and the batched check's errors (8: e_p, e_R, |e_p|, |e_R|, e_R by
+    :func:`wbik.geometry.batch_log3`); ``target``: the Target or a full pose's 4 x 4 matrix. A full pose
+    on a chain without continuous joints within the tolerances gets an IKResult of views of ``parts``;
+    anything else goes to :func:`evaluate` with the tip pose as ``reached``.
     """
     joints = len(chain.lower)
     q = parts[:joints]
@@ -142,21 +127,12 @@ def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarr
                     parts[joints:joints + 16].reshape(4, 4))
 
 
-def _invalid_joints(q: np.ndarray, time_s: float, candidate: Candidate, method: str) -> IKResult:
-    nan3 = np.full(3, np.nan)
-    return IKResult(None, False, invalid_joints_reason(q), math.nan, math.nan,
-                    nan3, nan3.copy(), time_s, candidate.iterations, method, candidate.extra)
-
-
 def check_problem(started: StartedProblem | WholeBody, q, tolerances: Tolerances | None = None, *,
                   q0: np.ndarray | None = None, method: str = "", time_s: float = math.nan,
                   iterations: int = 0, reason: str = "", unsupported: Sequence[str] = (),
                   extra: dict | None = None) -> IKResult:
-    """The shared check of configuration q on a whole-body problem (see the module docstring).
-
-    ``started``: the problem as a method started it (its contacts held where they were at the start),
-    or the WholeBody itself, then started at ``q0`` (needed when it has contacts without a placement).
-    Success: every goal task within the tolerances and every constraint's measure holding."""
+    """The shared check of configuration q on a whole-body problem: ``started`` as a method started it
+    (contacts held where they were), or the WholeBody, then started at ``q0``."""
     tolerances = tolerances or Tolerances()
     if isinstance(started, WholeBody):
         started = started.start(started.robot.nominal if q0 is None else q0, need_q0=q0 is None, strict=False)

@@ -1,16 +1,8 @@
-"""Damped least squares (Levenberg-Marquardt) with adaptive damping.
-
-Step: dq = -J^T (J J^T + lambda I)^-1 e (the same as -(J^T J + lambda I)^-1 J^T e), then the trial
-q + dq is kept inside the limits (clipped; a joint on a bound pushed outwards is frozen for the
-step). e is the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], with its exact
-Jacobian (:func:`wbik.solvers.task_error.task_error`). A step that lowers |e| is kept and lambda
-shrinks (x0.3, down to 1e-12); one that does not is rejected and lambda grows (x4). Step, bounds and
-updates are the one Levenberg-Marquardt policy of :mod:`wbik.solvers.levenberg_marquardt`, with
-this method's numbers: a constant damping (no error-dependent term) starting at ``damping``.
-Stops on the shared tolerance, a stall (lambda above 1e6: the steps no longer go anywhere), the
-iteration budget (``max_iterations``; by default the iterations that cost about 5 ms on the reference
-machine) or,
-when ``timeout_s`` is given, the deadline.
+"""Damped least squares: dq = -J^T (J J^T + lambda I)^-1 e on the pose error e = [p - p*; log3(R*^T R)]
+with its exact Jacobian (:func:`wbik.solvers.task_error.task_error`), the policy of
+:mod:`wbik.solvers.levenberg_marquardt` with a constant damping from ``damping`` (x0.3 down to 1e-12 on an
+accepted step, x4 on a rejected one; joints clipped, never wrapped). Stops on the shared tolerance, a stall
+(lambda above 1e6), ``max_iterations`` (default: about 5 ms on the reference machine) or ``timeout_s``.
 """
 
 from __future__ import annotations
@@ -31,7 +23,7 @@ from wbik.targets import Target
 
 class DampedLeastSquares(Solver):
     name = "dls"
-    iteration_cost_s = 30e-6  # the budget's unit: a trial FK + Jacobian and a damped solve
+    iteration_cost_s = 30e-6  # a trial FK + Jacobian and a damped solve
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None, damping: float = 1e-3,
                  **options):
@@ -72,4 +64,3 @@ IK_METHODS = (
     IKMethod("dls", DampedLeastSquares,
              "damped least squares on the Pinocchio model (adaptive damping, joint limits by clipping)"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,21 +1,11 @@
-"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the Pinocchio chain.
+"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the chain's serial structure
+(P_0, then one segment per joint; its FK held to Pinocchio's to 1e-12 when the solver is made).
 
-NR_JL is Newton-Raphson with joint limits: dq from the pseudo-inverse velocity solver
-(ChainIkSolverVel_pinv, SVD), q <- q + dq, clamped into [lower, upper], until every component of
-the twist error is below ``epsilon`` or ``max_iterations`` pass.
-
-- ``kdl``: one attempt from the seed (the Golem-III thesis's and TRAC-IK paper's "KDL").
-- ``kdl_restarts``: MoveIt's KDL plugin: the seed first, then random seeds inside the limits until
-  a solution passes or the time budget is used up.
-
-Position-only targets are unsupported (UnsupportedError): NR_JL always drives the full 6-D twist
-to zero, and KDL's weighted solvers that could drop the orientation rows (ChainIkSolverVel_wdls's
-setWeightTS, ChainIkSolverPos_LMA's weights) take Eigen matrices that crash PyKDL 1.5.1 (Debian,
-built for numpy 1) under this environment's numpy 2 (segmentation fault, checked).
-
-The KDL chain is P_0, then one segment per joint (joint about/along its axis at the segment
-origin, tip = the fixed placement to the next joint or the tip frame); its FK is checked against
-Pinocchio's to 1e-12 when the solver is made.
+NR_JL: dq from the pseudo-inverse velocity solver (SVD), q <- q + dq clamped into the limits, until every
+twist component is below ``epsilon`` or ``max_iterations`` pass. ``kdl``: one attempt from the seed (the
+Golem-III thesis's and the TRAC-IK paper's "KDL"); ``kdl_restarts``: MoveIt's KDL plugin, random restarts
+until the time budget is used up. Full poses only: NR_JL drives the whole twist to zero, and KDL's weighted
+solvers (ChainIkSolverVel_wdls, ChainIkSolverPos_LMA) crash PyKDL 1.5.1 under numpy 2.
 """
 
 from __future__ import annotations
@@ -38,8 +28,7 @@ from wbik.targets import pose_error
 
 INSTALL_HINT = ("PyKDL (orocos KDL's Python binding) is not installed: it is not on PyPI. Install it with "
                 "`sudo apt-get install python3-pykdl`, then `bash scripts/setup.sh` to expose it in the venv")
-FK_AGREEMENT = 1e-12
-"""Largest allowed difference between KDL's and Pinocchio's tip pose (m, and rotation-matrix entries)."""
+FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m, rotation entries)
 
 
 def import_pykdl():
@@ -98,11 +87,8 @@ def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0
 
 
 class KDLSolver(Solver):
-    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed.
-
-    ``epsilon`` (default: the shared tolerance / sqrt(3), so that KDL's per-component test implies
-    the shared norm test) and ``max_iterations`` (KDL's default 100) are NR_JL's parameters.
-    """
+    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed: ``epsilon`` (default the shared
+    tolerance / sqrt(3): its per-component test implies the shared norm test), ``max_iterations`` (100)."""
 
     name = "kdl"
     supports_position_only = False
@@ -117,7 +103,7 @@ class KDLSolver(Solver):
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.kdl_chain = kdl_chain(self.chain)
-        self.fk_disagreement = check_fk_agreement(self.chain, self.kdl_chain)
+        check_fk_agreement(self.chain, self.kdl_chain)
 
     def _new_thread_state(self) -> SimpleNamespace:
         """This thread's KDL solvers and output array (KDL's solvers keep working state)."""
@@ -130,11 +116,6 @@ class KDLSolver(Solver):
         return SimpleNamespace(fk=fk_solver, velocity=velocity_solver, pose=pose_solver,
                                q_out=kdl.JntArray(self.chain.nq))
 
-    def _frame(self, target: Target):
-        kdl = self.kdl
-        return kdl.Frame(kdl.Rotation(*target.rotation.reshape(-1).tolist()),
-                         kdl.Vector(*target.position.tolist()))
-
     def attempt(self, frame, q_seed: np.ndarray) -> tuple[np.ndarray, int]:
         """One NR_JL run: (joints, KDL return code; 0 = converged)."""
         state = self._thread_state()
@@ -142,7 +123,7 @@ class KDLSolver(Solver):
         return np.array([state.q_out[i] for i in range(self.chain.nq)]), int(code)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        q, code = self.attempt(self._frame(target), self.chain.clip(q0))
+        q, code = self.attempt(kdl_frame(self.kdl, target.se3().homogeneous), self.chain.clip(q0))
         reason = ""
         if code < 0:
             reason = f"KDL NR_JL returned {code} ({self._thread_state().pose.strError(code)})"
@@ -150,17 +131,12 @@ class KDLSolver(Solver):
 
 
 class KDLRestartsSolver(KDLSolver):
-    """KDL NR_JL from the seed, then from random seeds inside the limits until the deadline.
-
-    An attempt is started only when the time left holds one more attempt of the mean length so far,
-    so the call ends within its budget, give or take part of one attempt (how long one lasts:
-    docs/measurements.md, kdl). Seeds come from the call's own random stream.
-    """
+    """KDL NR_JL from the seed, then random seeds while the time left holds one more mean attempt."""
 
     name = "kdl_restarts"
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        frame = self._frame(target)
+        frame = kdl_frame(self.kdl, target.se3().homogeneous)
         q_seed = self.chain.clip(q0)
         attempts = 0
         best_q, best_error = None, math.inf
@@ -196,4 +172,3 @@ IK_METHODS = (
     IKMethod("kdl_restarts", KDLRestartsSolver,
              "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,35 +1,12 @@
-"""The one Levenberg-Marquardt policy of wbik's iterative methods: damping law, accept/reject update,
-bound freezing and stall detection, for one configuration and for a batch.
+"""The one Levenberg-Marquardt policy of wbik's iterative methods, for one configuration and for a batch.
 
-For a residual e(q) (the pose error of :mod:`wbik.geometry`, e = [p - p*; log3(R*^T R)], its SE(3)
-form, or any other least-squares residual) with Jacobian J (m x n), one step is
-
-    dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e,   lambda = w |e|^2 + mu
-                                                                                   (damping law)
-
-with w = ``cost_weight`` and mu the *base damping*, which starts at ``start`` (default ``floor``):
-Sugihara's error-dependent damping, large far from the target (robust start), vanishing near it
-(Newton-fast end). The smaller of the two equal systems is solved (n x n normal equations when
-n <= m, the m x m minimum-norm form otherwise, which stays well conditioned under a tiny damping on
-a redundant chain), by Cholesky.
-
-- **Step cap**: with ``max_step`` set, a step whose largest joint change exceeds it is scaled down.
-- **Bounds** (:class:`JointBounds`): the trial q + dq is projected into the limits (full-turn
-  revolute joints wrapped by 2 pi, the others clipped). A clipped joint already on a bound whose
-  step points outwards is *frozen*: the step is recomputed once without it (its column of J
-  dropped), so the free joints get the best step the bound leaves them. This is a one-pass active
-  set; it is only evaluated when the trial leaves the limits.
-- **Accept/reject**: a trial is accepted when its cost |e|^2 is lower. Then mu <- max(decrease mu,
-  floor); on a rejection mu <- increase max(mu, reject_floor) (a rejected step jumps the damping
-  to at least ``increase * reject_floor`` at once: a tiny mu would only creep up).
-- **Stall**: the best cost of a run must fall below ``progress`` x its previous best at least once
-  every ``stall`` iterations; otherwise the run has stalled (a local minimum, a limit, or a target
-  out of reach). With ``max_damping`` set, a base damping above it is a stall too (the step has
-  shrunk to nothing); ``stall=0`` turns the progress test off. :meth:`LevenbergMarquardt.update`
-  applies the accept/reject update and the stall test after each trial.
-
-Scalar methods take floats and (n,) arrays; their ``*_batch`` twins take (B,) and (B, n) arrays and
-make the same decisions element by element (``tests/test_levenberg_marquardt.py`` checks it).
+A step is dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e, lambda = w |e|^2 + mu (w =
+``cost_weight``, mu the base damping), by Cholesky on the smaller system, capped at ``max_step`` and
+projected into the limits (:class:`JointBounds`); a clipped joint on a bound pushed outwards is frozen and
+the step recomputed without it. A trial lowering |e|^2 is accepted (mu <- max(decrease mu, floor)), else
+mu <- increase max(mu, reject_floor). A run stalls when its best cost has not fallen below ``progress`` x
+its previous best in ``stall`` iterations, or mu exceeds ``max_damping``. The ``*_batch`` twins make the
+same decisions element by element.
 """
 
 from __future__ import annotations
@@ -44,13 +21,11 @@ from wbik.kernels.twins import chosen
 from wbik.kernels.twins import compiled_twin
 from wbik.solvers.check import clip_to_limits
 
-_LM_TRIAL = compiled_twin("lm_trial", "lm_trial")
-"""The compiled twin of :meth:`LevenbergMarquardt.trial` (None where it is not built)."""
+_LM_TRIAL = compiled_twin("lm_trial", "lm_trial")  # LevenbergMarquardt.trial's (None: not built)
 
 
 class JointBounds:
-    """Joint limits and the projection into them: full-turn revolute joints (``wraps``) are wrapped
-    by 2 pi into their range, the others clipped. Immutable after construction (shared by threads)."""
+    """Joint limits and the projection into them (full-turn ``wraps`` wrapped by 2 pi, others clipped)."""
 
     def __init__(self, lower: np.ndarray, upper: np.ndarray, wraps: np.ndarray | None = None):
         self.lower = np.asarray(lower, dtype=float).copy()
@@ -81,8 +56,8 @@ class JointBounds:
         return inside
 
     def blocked(self, q: np.ndarray, clipped_trial: np.ndarray) -> np.ndarray:
-        """Clipped joints on a bound whose step points outwards, (n,) or (B, n): the ones to freeze.
-        ``clipped_trial`` is q + dq clipped into the limits, so they are the joints it leaves at q."""
+        """The joints to freeze, (n,) or (B, n): clipped ones on a bound pushed outwards, those
+        ``clipped_trial`` (q + dq clipped) leaves at q."""
         blocked = clipped_trial == q
         if self.any_wrap:
             blocked &= self.clipped
@@ -91,15 +66,9 @@ class JointBounds:
 
 @dataclass(frozen=True)
 class LevenbergMarquardt:
-    """The policy's numbers (see the module docstring); the methods apply them.
-
-    cost_weight: w of lambda = w |e|^2 + mu; floor: the least (and first) base damping mu;
-    decrease, increase: mu's factors on an accepted / rejected step; reject_floor: mu is raised to
-    at least this before a rejection multiplies it; progress, stall: a run stalls when its best cost
-    has not fallen below ``progress`` x the previous best in ``stall`` iterations (0: never);
-    max_damping: a base damping above this is a stall (None: no such test); max_step: cap on the
-    largest joint step (rad or m; None: no cap); start: the first base damping (None: ``floor``).
-    """
+    """The policy's numbers (see the module docstring): ``start`` is the first base damping (None:
+    ``floor``), ``stall=0`` turns the progress test off, ``max_damping`` or ``max_step`` None: no test, no
+    cap (rad or m)."""
 
     cost_weight: float = 0.01
     floor: float = 1e-6
@@ -117,17 +86,10 @@ class LevenbergMarquardt:
         """The base damping mu a run starts with."""
         return self.floor if self.start is None else self.start
 
-    # -- the damping law --------------------------------------------------------------------------
-    def damping(self, cost, base):
-        """lambda = w |e|^2 + mu (floats or arrays)."""
-        return self.cost_weight * cost + base
-
-    # -- one configuration ------------------------------------------------------------------------
     def trial(self, jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
               bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
-        """The next trial configuration, inside the limits, from J (m, n) and e (m,) at q (n,) with
-        cost |e|^2 and base damping mu: damped step, cap, projection and bound freezing.
-        ``workspace`` (:meth:`workspace`, one per run and thread) saves the system's allocation."""
+        """The next trial inside the limits from J (m, n), e (m,), |e|^2 and mu at q (n,); ``workspace``
+        (:meth:`workspace`, one per run and thread) saves the system's allocation."""
         damping = self.cost_weight * cost + base
         descent = _descent(jacobian, error, damping, workspace)  # dq = -descent
         if self.max_step is not None:
@@ -146,11 +108,9 @@ class LevenbergMarquardt:
         return inside
 
     def trial_function(self, bounds: JointBounds):
-        """:meth:`trial` for one set of bounds, through the compiled twin where it is built (and not
-        switched off by ``WBIK_PURE_PYTHON=1``, read here): the same decisions with the sums in C, so it
-        agrees with :meth:`trial` to rounding (tests/test_lm_kernel.py). It hands the trial to
-        :meth:`trial` where its Cholesky fails (least squares), for systems over 32 rows or joints, and
-        for other bounds than these."""
+        """:meth:`trial` for these bounds through the compiled twin where built and not switched off by
+        ``WBIK_PURE_PYTHON=1`` (read now): the same decisions, sums in C; :meth:`trial` where its Cholesky
+        fails, over 32 rows or joints, and for other bounds."""
         kernel = chosen(None, _LM_TRIAL, "lm_trial")
         if kernel is None:
             return self.trial
@@ -170,8 +130,7 @@ class LevenbergMarquardt:
         return trial
 
     def _capped(self, step: np.ndarray) -> np.ndarray:
-        """A step (n,), or each row of steps (B, n), scaled down to a largest joint change of at most
-        ``max_step``. One step is tested as a float (numpy's per-call cost is most of the time here)."""
+        """A step (n,), or each row of steps (B, n), scaled down to a largest joint change <= ``max_step``."""
         if self.max_step is None:
             return step
         if step.ndim == 1:
@@ -188,11 +147,7 @@ class LevenbergMarquardt:
 
     def update(self, accepted: bool, base: float, cost: float, best: float, since: int
                ) -> tuple[float, float, int, bool]:
-        """After a trial: (base damping, best cost, iterations since progress, stalled?).
-
-        mu <- max(decrease mu, floor) when the trial was accepted, increase max(mu, reject_floor)
-        if not; progress is a cost below ``progress`` x the best so far; the run has stalled after
-        ``stall`` iterations without progress, or when mu exceeds ``max_damping``."""
+        """After a trial: (base damping, best cost, iterations since progress, stalled?)."""
         if accepted:
             base = max(base * self.decrease, self.floor)
         else:
@@ -204,18 +159,15 @@ class LevenbergMarquardt:
         return base, best, since, (0 < self.stall <= since) or (
             self.max_damping is not None and base > self.max_damping)
 
-    # -- a batch of configurations, element by element the same decisions --------------------------
     def start_batch(self, error: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """(costs, base dampings, best costs, iterations since progress) of fresh runs from their
-        errors (B, m)."""
+        """(costs, base dampings, best costs, iterations since progress) of fresh runs, errors (B, m)."""
         cost = batch_cost(error)
         return cost, np.full(cost.shape, self.first_damping), cost.copy(), np.zeros(cost.shape, dtype=int)
 
     def trial_batch(self, jacobian: np.ndarray, error: np.ndarray, cost: np.ndarray, base: np.ndarray,
                     q: np.ndarray, bounds: JointBounds) -> np.ndarray:
-        """:meth:`trial` for J (B, m, n), e (B, m), costs and base dampings (B,) and q (B, n). A frozen
-        joint's column of J is zeroed: its step is 0 and the free joints solve the reduced system."""
-        damping = self.damping(cost, base)
+        """:meth:`trial` for J (B, m, n), e (B, m), costs and mu (B,), q (B, n)."""
+        damping = self.cost_weight * cost + base
         step = self._capped(_damped_steps(jacobian, error, damping))
         trial = q + step
         inside = clip_to_limits(trial, bounds.lower, bounds.upper)
@@ -250,10 +202,8 @@ def batch_cost(error: np.ndarray) -> np.ndarray:
 
 def keep_better(trial_cost: np.ndarray, cost: np.ndarray, *pairs: tuple[np.ndarray, np.ndarray]
                 ) -> tuple[np.ndarray, np.ndarray, list[np.ndarray]]:
-    """The batched accept step: for each row, the trial where it lowers the cost, else the current.
-
-    ``pairs`` are (trial, current) arrays with the batch on their first axis. Returns (accepted (B,),
-    the new cost, the kept arrays in the order given)."""
+    """The batched accept step: per row, the trial where it lowers the cost, else the current; ``pairs``
+    (trial, current) with the batch first. Returns (accepted (B,), the new cost, the kept arrays)."""
     accepted = trial_cost < cost
     kept = [np.where(accepted.reshape((-1,) + (1,) * (trial.ndim - 1)), trial, current)
             for trial, current in pairs]
@@ -261,8 +211,7 @@ def keep_better(trial_cost: np.ndarray, cost: np.ndarray, *pairs: tuple[np.ndarr
 
 
 class Workspace:
-    """The damped system's buffer, a view of its diagonal and the last right-hand side (for one run
-    in one thread)."""
+    """The damped system's buffer, its diagonal and the last right-hand side (one run, one thread)."""
 
     def __init__(self, size: int):
         self.system = np.empty((size, size))
@@ -272,8 +221,7 @@ class Workspace:
 
 def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
              workspace: Workspace | None = None) -> np.ndarray:
-    """(J^T J + lambda I)^-1 J^T e = J^T (J J^T + lambda I)^-1 e (the step is its negative), by the
-    smaller system (Cholesky; least squares if it fails)."""
+    """(J^T J + lambda I)^-1 J^T e = J^T (J J^T + lambda I)^-1 e (-dq) by the smaller system."""
     rows, columns = jacobian.shape
     transpose = jacobian.T
     small = columns <= rows
@@ -301,16 +249,14 @@ def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
 
 def _frozen_descent(jacobian: np.ndarray, error: np.ndarray, damping: float, free: np.ndarray,
                     workspace: Workspace | None) -> np.ndarray:
-    """:func:`_descent` on the ``free`` joints only (J's other columns dropped). The normal equations
-    of a run are the last system's free rows and columns: taken from the workspace, not recomputed."""
+    """:func:`_descent` on the ``free`` joints only; the normal equations are the workspace's last
+    system's free rows and columns."""
     rows, columns = jacobian.shape
     if workspace is None or columns > rows:
         return _descent(jacobian[:, free], error, damping)
     system, right = workspace.system[free[:, None], free], workspace.right[free]
     _, solution, info = dposv(system, right)
-    if info:
-        solution = np.linalg.lstsq(system, right, rcond=None)[0]
-    return solution
+    return np.linalg.lstsq(system, right, rcond=None)[0] if info else solution
 
 
 def _damped_steps(jacobian: np.ndarray, error: np.ndarray, damping: np.ndarray) -> np.ndarray:

@@ -8,8 +8,7 @@ from dataclasses import dataclass
 from wbik.registry import RegistryError
 from wbik.solvers.base import Solver
 
-SolverFactory = Callable[..., Solver]
-"""A Solver subclass, or any callable ``factory(robot, chain, **options) -> Solver``."""
+SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot, chain, **options)
 
 
 @dataclass(frozen=True)

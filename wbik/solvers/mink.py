@@ -1,23 +1,10 @@
-"""Method ``mink``: mink 1.3's differential IK (MuJoCo 4.0) on chain targets and whole bodies, and mink's
-forms of wbik's tasks and constraints (:data:`wbik.qp.peers.MINK`).
-
-The model is MuJoCo's of the same URDF (:mod:`wbik.mujoco_model`: kinematics alone for chain targets,
-with the masses for whole bodies). The problem, as mink states it: FrameTask on the sites for frame,
-orientation (position cost 0) and relative frame tasks, ComTask, PostureTask (cost 0 off the task's
-joints), costs the square roots of our weights; a position task on some axes is a task of our own on the
-site's world position (:func:`site_position_task`: mink's FrameTask weighs its axes in the target's
-frame); a regularisation raises ``solve_ik``'s damping. Contacts are equality constraints, as
-``solve_ik``'s ``constraints`` take them (a point foot: the site's world position, 3 rows); locked joints
-are a DofFreezingTask there (mink's documented way). Limits are ConfigurationLimit (gain ``limit_gain``,
-mink's default 0.95) and VelocityLimit, at dt = the problem's ``step_dt``. mink 1.3 has no
-support-polygon constraint (a result with one lists it in ``unsupported``; the check measures the CoM
-margin), nor acceleration limits or minimum distances between frame origins here, nor strict priority
-levels.
-
-A chain target is run as mink's own arm examples run one (``examples/arm_panda.py``): the tip's frame
-task, ConfigurationLimit, a VelocityLimit of ``max_step`` per step on the chain's joints (without it the
-first Gauss-Newton steps from a far start are long and often end in another basin:
-docs/measurements.md, mink), the other joints frozen, ``solve_ik``'s damping ``chain_damping``.
+"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`)
+for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`): sites'
+FrameTask, ComTask, PostureTask (costs the square roots of our weights), our :func:`site_position_task` for
+some axes, contacts as equality constraints, locked joints a DofFreezingTask there, ConfigurationLimit and
+VelocityLimit at dt = ``step_dt``; no support polygon, acceleration limits, minimum distances or priority
+levels. A chain target runs as mink's arm examples do: the tip's frame task under a VelocityLimit of
+``max_step`` per step (docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
 """
 
 from __future__ import annotations
@@ -58,6 +45,10 @@ from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.peer import SolveIKProblem
+from wbik.solvers.peer import com_form
+from wbik.solvers.peer import contact_form
+from wbik.solvers.peer import frame_form
+from wbik.solvers.peer import orientation_form
 from wbik.solvers.peer import raise_damping
 from wbik.solvers.peer import stalled
 from wbik.solvers.result import Candidate
@@ -67,22 +58,33 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "MinkProblem", "MinkSolver", "site_position_task"]
 
 
-MINK = PeerForms("mink", "mink")
-"""mink's forms of wbik's tasks and constraints (and of the user's: ``@MINK.form(MyTask)``)."""
+MINK = PeerForms("mink", "mink")  # mink's forms of tasks and constraints (a user's: @MINK.form(MyTask))
 
 
 @dataclass
 class MinkProblem(SolveIKProblem):
-    """What mink's forms add to (:class:`wbik.wholebody.solvers.SolveIKProblem`), with the robot in
-    MuJoCo (``body``) and ConfigurationLimit's ``limit_gain``."""
+    """What mink's forms add to, with the robot in MuJoCo (``body``) and ConfigurationLimit's gain."""
 
     body: MuJoCoBody = field(kw_only=True)
     limit_gain: float = field(default=0.95, kw_only=True)
 
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        import mink
+
+        added = mink.FrameTask(self.body.site(frame), "site", position_cost=position_cost,
+                               orientation_cost=orientation_cost)
+        added.set_target(mink.SE3.from_matrix(target.homogeneous))
+        return added
+
+    def com_task(self, cost: np.ndarray):
+        import mink
+
+        return mink.ComTask(cost=cost)
+
 
 @cache
 def _site_position_class():
-    """mink's Task class of :func:`site_position_task` (made once, when mink is first needed)."""
+    """mink's Task class of :func:`site_position_task`, made when mink is first needed."""
     import mink
     import mujoco
 
@@ -109,27 +111,18 @@ def _site_position_class():
 
 
 def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: float):
-    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost``
-    per row), for the tasks and as an equality constraint (a point foot: all three rows)."""
+    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost`` per
+    row), also an equality constraint (a point foot: all three rows)."""
     rows = np.asarray(rows, dtype=int)
     return _site_position_class()(site, target, rows, np.full(rows.size, float(cost)))
 
 
-# -- mink's forms of the tasks --------------------------------------------------------------------------
-def _frame_task(mink_problem: MinkProblem, frame: str, target: pin.SE3, position_cost, orientation_cost):
-    import mink
-
-    added = mink.FrameTask(mink_problem.body.site(frame), "site", position_cost=position_cost,
-                           orientation_cost=orientation_cost)
-    added.set_target(mink.SE3.from_matrix(target.homogeneous))
-    return added
-
-
-@MINK.form(FrameTask)
-def _frame(task: FrameTask, mink_problem: MinkProblem) -> None:
-    position, orientation = frame_weights(task)
-    mink_problem.tasks.append(_frame_task(mink_problem, task.frame, task.target, math.sqrt(position),
-                                          math.sqrt(orientation)))
+# -- mink's forms of the tasks and constraints ------------------------------------------------------------
+MINK.form(FrameTask)(frame_form)
+MINK.form(OrientationTask)(orientation_form)
+MINK.form(ComTask)(com_form)
+MINK.form(RegularizationTask)(raise_damping)
+MINK.form(Contact)(contact_form)
 
 
 @MINK.form(RelativeFrameTask)
@@ -152,26 +145,6 @@ def _position(task: PositionTask, mink_problem: MinkProblem) -> None:
                                                  math.sqrt(largest_weight(task, 1.0))))
 
 
-@MINK.form(OrientationTask)
-def _orientation(task: OrientationTask, mink_problem: MinkProblem) -> None:
-    target = pin.SE3(task.target, mink_problem.kinematics.placement(task.frame_id).translation.copy())
-    mink_problem.tasks.append(_frame_task(mink_problem, task.frame, target, 0.0,
-                                          math.sqrt(largest_weight(task, 1.0))))
-
-
-@MINK.form(ComTask)
-def _com(task: ComTask, mink_problem: MinkProblem) -> None:
-    import mink
-
-    cost = np.zeros(3)
-    cost[task.rows] = math.sqrt(largest_weight(task, 1.0))
-    target = mink_problem.kinematics.com().copy()
-    target[task.rows] = task.target[task.rows]
-    added = mink.ComTask(cost=cost)
-    added.set_target(target)
-    mink_problem.tasks.append(added)
-
-
 @MINK.form(PostureTask)
 def _posture(task: PostureTask, mink_problem: MinkProblem) -> None:
     """mink's posture weighs each DOF (its free joint's at none): the task's weights on its own rows."""
@@ -183,15 +156,6 @@ def _posture(task: PostureTask, mink_problem: MinkProblem) -> None:
     added = mink.PostureTask(body.model, cost=cost)
     added.set_target(body.qpos(task.reference))
     mink_problem.tasks.append(added)
-
-
-MINK.form(RegularizationTask)(raise_damping)
-
-
-# -- and of the constraints -----------------------------------------------------------------------------
-@MINK.form(Contact)
-def _contact(contact: Contact, mink_problem: MinkProblem) -> None:
-    mink_problem.constraints.append(_frame_task(mink_problem, contact.frame, contact.placement, 1.0, 1.0))
 
 
 @MINK.form(PointContact)
@@ -243,8 +207,7 @@ class MinkSolver(PeerSolver):
     """mink's differential IK on MuJoCo's model of the same URDF, iterated by our loop."""
 
     name = "mink"
-    # the budget's units: solve_ik, integration, read-back, convergence FK, on an arm and on a humanoid
-    # (measured: docs/measurements.md, mink and wholebody)
+    # solve_ik, integration, read-back, convergence FK, on an arm, on a humanoid (docs/measurements.md)
     iteration_cost_s = 120e-6
     default_budget_s = 0.03
     problem_iteration_cost_s = 500e-6
@@ -254,10 +217,9 @@ class MinkSolver(PeerSolver):
 
     def __init__(self, robot, chain=None, *, backend: str = "daqp", damping: float = 1e-6,
                  chain_damping: float = 1e-3, limit_gain: float = 0.95, max_step: float = 0.5, **options):
-        """``backend``: the qpsolvers name ``mink.solve_ik`` uses; ``damping``: its Levenberg-Marquardt
-        damping on every DOF (a regularisation task raises it), ``chain_damping`` on chain targets;
-        ``limit_gain``: ConfigurationLimit's gain in (0, 1]; ``max_step``: the VelocityLimit's bound on one
-        step of each chain joint on chain targets (rad or m; ``math.inf``: none)."""
+        """``backend``: ``mink.solve_ik``'s qpsolvers name; ``damping``: its damping on every DOF,
+        ``chain_damping`` on chain targets; ``limit_gain``: ConfigurationLimit's gain in (0, 1]; ``max_step``:
+        a chain joint's largest step on chain targets (rad or m; ``math.inf``: none)."""
         super().__init__(robot, chain, **options)
         self.mink, self.mujoco = import_mink()
         self.backend = backends.resolve(backend)
@@ -270,14 +232,13 @@ class MinkSolver(PeerSolver):
         chain = self._chain if self._chain is not None or len(robot.chains) != 1 else self.chain
         self.built = (mujoco_body(robot) if chain is None else
                       mujoco_body(robot, masses=False, frames=[chain.base_frame, chain.tip_frame]))
-        self._thread_state()  # this thread's configurations now (errors show here, their cost is no solve's)
+        self._configuration(self.built)  # this thread's configuration now (errors show here, not in a solve)
 
     def _new_thread_state(self) -> dict:
-        """This thread's mink Configuration per MuJoCo model (its own MjData; the MjModel is shared)."""
-        built = self.built
-        return {id(built): self.mink.Configuration(built.model, built.qpos(self.robot.nominal))}
+        return {}
 
     def _configuration(self, body: MuJoCoBody):
+        """This thread's mink Configuration of a MuJoCo model (its own MjData; the MjModel is shared)."""
         state = self._thread_state()
         if id(body) not in state:
             state[id(body)] = self.mink.Configuration(body.model, body.qpos(self.robot.nominal))
@@ -348,7 +309,5 @@ class MinkSolver(PeerSolver):
 IK_METHODS = (
     IKMethod("mink", MinkSolver,
              "mink 1.3 on MuJoCo (the same URDF): chain targets as its arm examples; whole bodies with "
-             "frame / "
-             "CoM / posture tasks, contacts as constraints; no hard CoM polygon"),
+             "frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon"),
 )
-"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,20 +1,9 @@
-"""Newton-Raphson IK (seed 001), generalised to n revolute/prismatic joints and any target kind.
-
-Iteration (arm3r.md): q_{k+1} = q_k - x, where J(q_k) x = e(q_k), e the pose error of
-:mod:`wbik.geometry` (e = [p - p*; log3(R*^T R)], reached relative to target; 3 rows for a position
-target, 6 for a pose) and J its exact Jacobian (:func:`wbik.solvers.task_error.task_error`).
-
-- J square (m = n): x by an LU factorisation with partial pivoting and two triangular solves
-  (the seed's Doolittle LU, made robust by pivoting);
-- J not square, or singular: x = J^+ e, the least-squares / minimum-norm solution.
-
-The seed iterated until |e| <= eps and so looped forever on unreachable points. Here the loop is
-bounded by ``max_iterations`` (by default the iterations that cost about 5 ms on the reference machine), the
-deadline when ``timeout_s`` is given, and a stall test: when the best error has not
-dropped by 0.1 % in ``stall_iterations`` iterations the target is reported as not reached (it is
-out of reach, outside the joint limits, or the iteration is caught at a singularity). Steps
-longer than ``max_step`` (norm, rad or m; None = pure Newton as in the seed) are scaled down.
-Joint limits are kept by clipping each iterate.
+"""Newton-Raphson IK (seed 001, arm3r.md) for n revolute/prismatic joints and any target kind:
+q <- clip(q - x), J x = e, e the pose error [p - p*; log3(R*^T R)] (3 rows for a position target) with its
+exact Jacobian; x by LU with partial pivoting where J is square and regular, else J^+ e. Stops on the
+shared tolerance, ``max_iterations`` (default: about 5 ms on the reference machine), ``timeout_s``, or a
+stall (the best error not 0.1 % lower in ``stall_iterations``: out of reach, a limit or a singularity).
+Steps longer than ``max_step`` (norm, rad or m; None: pure Newton) are scaled down.
 """
 
 from __future__ import annotations
@@ -45,7 +34,7 @@ def newton_step(jacobian: np.ndarray, error: np.ndarray) -> np.ndarray:
 
 class NewtonRaphson(Solver):
     name = "newton"
-    iteration_cost_s = 30e-6  # the budget's unit: one FK + Jacobian and one LU or least-squares solve
+    iteration_cost_s = 30e-6  # one FK + Jacobian and one LU or least-squares solve
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None, stall_iterations: int = 10,
                  max_step: float | None = None, **options):
@@ -105,4 +94,3 @@ IK_METHODS = (
     IKMethod("newton", NewtonRaphson,
              "Newton-Raphson (seed 001): LU where J is square, least squares otherwise"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,11 +1,7 @@
-"""Path following by continuation (seed 001): waypoints split into sub-points, each solved from the
-previous solution.
-
-The segment from the current point P_a to the next waypoint P_b is split into ``substeps``
-sub-points P_a + (k / substeps) (P_b - P_a), k = 1..substeps; rotations, when given, follow the
-geodesic R_a exp(k / substeps log(R_a^T R_b)). The last sub-point is the waypoint itself (the seed
-stopped at k = substeps - 1 and so never reached its waypoints, arm3r.md). When a sub-point fails,
-the path records why and carries on from the last good joints towards the next waypoint.
+"""Path following by continuation (seed 001): the segment from P_a to the next waypoint P_b is split into
+sub-points P_a + (k / substeps) (P_b - P_a), k = 1..substeps (the last the waypoint itself), rotations along
+the geodesic R_a exp(k / substeps log(R_a^T R_b)), each solved from the previous solution. A failed
+sub-point is recorded and the path carries on from the last good joints.
 """
 
 from __future__ import annotations

@@ -1,10 +1,10 @@
-"""What the methods of the QP peers (PlaCo, Pink, mink) share: each task and constraint of a problem
-stated through the peer's forms (:mod:`wbik.qp.peers`; what has none is listed in ``unsupported``), and
-our loop around the peer's single QP step. A chain target is the chain's problem
-(:meth:`wbik.solvers.base.Solver.chain_problem`): one frame task, the rest of the robot locked."""
+"""What the QP peers' methods (PlaCo, Pink, mink) share: a problem's tasks and constraints stated through
+the peer's forms (:mod:`wbik.qp.peers`; what has none is listed in ``unsupported``), and our loop around the
+peer's single QP step; a chain target is the chain's problem (:meth:`Solver.chain_problem`)."""
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -12,13 +12,19 @@ from dataclasses import field
 from typing import ClassVar
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.qp.balance import CoMInSupportPolygon
+from wbik.qp.contacts import Contact
 from wbik.qp.contacts import HeldFrame
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.peers import PeerForms
 from wbik.qp.peers import Unsupported
+from wbik.qp.peers import frame_weights
 from wbik.qp.peers import largest_weight
+from wbik.qp.tasks import ComTask
+from wbik.qp.tasks import FrameTask
+from wbik.qp.tasks import OrientationTask
 from wbik.qp.tasks import RegularizationTask
 from wbik.qp.tasks import Task
 from wbik.solvers.base import Solver
@@ -26,13 +32,11 @@ from wbik.solvers.result import Candidate
 from wbik.wholebody.problem import StartedProblem
 from wbik.wholebody.problem import WholeBody
 
-NO_POLYGON = "support polygon as a hard CoM constraint"
-"""What a method without a hard CoM-in-polygon constraint lists in ``unsupported``."""
+NO_POLYGON = "support polygon as a hard CoM constraint"  # what a method without one lists as unsupported
 
 
 class PeerSolver(Solver):
-    """A method solving with a peer library's own tasks and constraints (see the module docstring).
-    ``priorities``: what the peer has instead of strict priority levels."""
+    """A method solving with a peer's tasks and constraints; ``priorities``: its word on priority levels."""
 
     takes_problems = True
     forms: ClassVar[PeerForms]
@@ -44,8 +48,7 @@ class PeerSolver(Solver):
         self.problem_max_iterations = self._iteration_budget(max_iterations, problem=True)
 
     def unsupported(self, problem: WholeBody) -> list[Unsupported]:
-        """Strict priority levels, and every task and constraint the peer has no form for (decided by
-        class and by the item's own settings)."""
+        """Strict priority levels, and every task and constraint the peer has no form for."""
         missing = []
         if len({task.priority for task in problem.tasks}) > 1:
             missing.append(Unsupported(self.name, "strict priority levels", self.priorities))
@@ -88,9 +91,8 @@ class PeerSolver(Solver):
 
     def _peer_loop(self, step: Callable[[np.ndarray], tuple[np.ndarray, str]], started: StartedProblem,
                    deadline: float, max_iterations: int, with_polygon: bool = True) -> Candidate:
-        """Our loop around a peer's single QP step from the start: stop when :meth:`_converged` holds,
-        when the time budget is used up, or when ``step(q)`` (the next q and a reason to stop, "" to go
-        on) gives a reason; else after ``max_iterations`` steps."""
+        """Our loop around a peer's QP step ``step(q)`` -> (next q, a reason to stop or ""), until
+        :meth:`_converged`, the time budget, a reason or ``max_iterations``."""
         monitor = Kinematics(started.problem.robot.model, started.q0)
         q = started.q0.copy()
         for iteration in range(1, max_iterations + 1):
@@ -108,10 +110,8 @@ class PeerSolver(Solver):
 
 @dataclass
 class SolveIKProblem:
-    """What the forms of a peer solving as Pink's and mink's ``solve_ik(configuration, tasks, dt,
-    damping, limits, constraints)`` add to: its ``tasks``, equality ``constraints`` (tasks whose every
-    row is held), ``limits`` and ``damping``; with wbik's ``kinematics`` at the start and the step
-    ``dt`` (s)."""
+    """What the forms of a peer solving by ``solve_ik(configuration, tasks, dt, damping, limits,
+    constraints)`` (Pink, mink) add to, with wbik's ``kinematics`` at the start and the step ``dt`` (s)."""
 
     kinematics: Kinematics
     dt: float
@@ -120,10 +120,51 @@ class SolveIKProblem:
     constraints: list = field(default_factory=list)
     limits: list = field(default_factory=list)
 
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        """The peer's frame task on ``frame`` toward ``target`` (costs per axis or one for all)."""
+        raise NotImplementedError
+
+    def com_task(self, cost: np.ndarray):
+        """The peer's CoM task, ``cost`` per axis."""
+        raise NotImplementedError
+
+
+def frame_form(task: FrameTask, problem: SolveIKProblem) -> None:
+    """A frame task as the peer's, costs the square roots of its weights."""
+    position, orientation = frame_weights(task)
+    problem.tasks.append(problem.frame_task(task.frame, task.target, math.sqrt(position),
+                                            math.sqrt(orientation)))
+
+
+def orientation_form(task: OrientationTask, problem: SolveIKProblem) -> None:
+    """An orientation task as the peer's frame task, its position (the start's) at cost 0."""
+    target = pin.SE3(task.target, problem.kinematics.placement(task.frame_id).translation.copy())
+    problem.tasks.append(problem.frame_task(task.frame, target, 0.0, math.sqrt(largest_weight(task, 1.0))))
+
+
+def com_form(task: ComTask, problem: SolveIKProblem) -> None:
+    """A CoM task on its axes (the start's CoM on the others)."""
+    added = problem.com_task(axis_costs(task, largest_weight(task, 1.0)))
+    target = problem.kinematics.com().copy()
+    target[task.rows] = task.target[task.rows]
+    added.set_target(target)
+    problem.tasks.append(added)
+
+
+def contact_form(contact: Contact, problem: SolveIKProblem) -> None:
+    """A contact as an equality constraint: the peer's frame task at its placement."""
+    problem.constraints.append(problem.frame_task(contact.frame, contact.placement, 1.0, 1.0))
+
+
+def axis_costs(task, weight: float) -> np.ndarray:
+    """Cost sqrt(weight) on the axes a position or CoM task holds, 0 on the others."""
+    cost = np.zeros(3)
+    cost[task.rows] = math.sqrt(weight)
+    return cost
+
 
 def stalled(velocity: np.ndarray, dt: float, peer: str) -> str:
-    """Why to stop after a ``solve_ik`` step of ``velocity`` over ``dt`` that no longer moves the robot,
-    or ""."""
+    """Why to stop after a ``solve_ik`` step that no longer moves the robot, or ""."""
     moved = float(np.max(np.abs(velocity))) * dt
     return f"stalled: {peer}'s steps no longer move the robot" if moved < 1e-12 else ""
 
@@ -134,6 +175,5 @@ def raise_damping(task: RegularizationTask, problem: SolveIKProblem) -> None:
 
 
 def lowest_priority(tasks: list[Task]) -> int:
-    """The priority number of the lowest level of ``tasks`` (0 without tasks): where a regularisation
-    goes (a regularisation above another level would leave that level no motion at all)."""
+    """The priority of the lowest level of ``tasks`` (0 without): where a regularisation goes."""
     return max((task.priority for task in tasks), default=0)

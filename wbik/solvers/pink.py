@@ -1,15 +1,8 @@
 """Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
-wbik's tasks and constraints (:data:`wbik.qp.peers.PINK`).
-
-Tasks are Pink's FrameTask (also for position-only and orientation-only tasks, the other half at cost
-0), RelativeFrameTask, ComTask and PostureTask (on some joints: cost 0 on the others), costs the
-square roots of our weights; a regularisation raises ``solve_ik``'s damping. Contacts are Pink
-equality constraints (a point foot: a 3-row task of our own, :func:`pink_point_contact`); limits are
-ConfigurationLimit and VelocityLimit, solved at dt = the problem's ``step_dt``. Pink 4.4 has no hard
-CoM-in-polygon constraint, so it solves without one and every pink result with a support polygon
-lists it in ``unsupported``; nor acceleration limits or minimum distances here, nor strict priority
-levels. Locked joints are an equality constraint of our own (:func:`pink_locked_joints`); a chain target
-is the chain's problem (the tip's frame task, every other joint locked).
+wbik's tasks and constraints (:data:`PINK`): FrameTask (position or orientation only: the other half at cost
+0), RelativeFrameTask, ComTask, PostureTask, costs the square roots of our weights; contacts and locked
+joints as equality constraints; ConfigurationLimit and VelocityLimit at dt = ``step_dt``. No hard CoM polygon
+(listed in ``unsupported``), acceleration limits, minimum distances or strict priority levels.
 """
 
 from __future__ import annotations
@@ -21,6 +14,7 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import MissingDependencyError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
 from wbik.qp.contacts import PointContact
@@ -43,6 +37,11 @@ from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.peer import SolveIKProblem
+from wbik.solvers.peer import axis_costs
+from wbik.solvers.peer import com_form
+from wbik.solvers.peer import contact_form
+from wbik.solvers.peer import frame_form
+from wbik.solvers.peer import orientation_form
 from wbik.solvers.peer import raise_damping
 from wbik.solvers.peer import stalled
 from wbik.solvers.result import Candidate
@@ -51,39 +50,34 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "PinkProblem", "PinkSolver", "pink_locked_joints", "pink_point_contact"]
 
 
-PINK = PeerForms("pink", "Pink")
-"""Pink's forms of wbik's tasks and constraints (and of the user's: ``@PINK.form(MyTask)``)."""
+PINK = PeerForms("pink", "Pink")  # Pink's forms of tasks and constraints (a user's: @PINK.form(MyTask))
 
 
 @dataclass
 class PinkProblem(SolveIKProblem):
-    """What Pink's forms add to (:class:`wbik.wholebody.solvers.SolveIKProblem`), with the robot's
-    ``model``."""
+    """What Pink's forms add to, with the robot's ``model``."""
 
     model: pin.Model = field(kw_only=True)
 
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+        from pink.tasks import FrameTask as PinkFrameTask
 
-def _axis_costs(task, weight: float) -> np.ndarray:
-    """Cost sqrt(weight) on the axes a position or CoM task holds, 0 on the others."""
-    cost = np.zeros(3)
-    cost[task.rows] = math.sqrt(weight)
-    return cost
+        added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
+        added.set_target(target)
+        return added
 
+    def com_task(self, cost: np.ndarray):
+        from pink.tasks import ComTask as PinkComTask
 
-# -- Pink's forms of the tasks --------------------------------------------------------------------------
-def _frame_task(frame: str, target: pin.SE3, position_cost, orientation_cost):
-    """Pink's FrameTask on ``frame`` toward ``target`` (costs per axis or one for all)."""
-    from pink.tasks import FrameTask as PinkFrameTask
-
-    added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
-    added.set_target(target)
-    return added
+        return PinkComTask(cost=cost)
 
 
-@PINK.form(FrameTask)
-def _frame(task: FrameTask, pink: PinkProblem) -> None:
-    position, orientation = frame_weights(task)
-    pink.tasks.append(_frame_task(task.frame, task.target, math.sqrt(position), math.sqrt(orientation)))
+# -- Pink's forms of the tasks and constraints ------------------------------------------------------------
+PINK.form(FrameTask)(frame_form)
+PINK.form(OrientationTask)(orientation_form)
+PINK.form(ComTask)(com_form)
+PINK.form(RegularizationTask)(raise_damping)
+PINK.form(Contact)(contact_form)
 
 
 @PINK.form(RelativeFrameTask)
@@ -103,31 +97,13 @@ def _position(task: PositionTask, pink: PinkProblem) -> None:
     start = pink.kinematics.placement(task.frame_id)
     translation = start.translation.copy()
     translation[task.rows] = task.target[task.rows]
-    cost = _axis_costs(task, largest_weight(task, 1.0))
-    pink.tasks.append(_frame_task(task.frame, pin.SE3(start.rotation.copy(), translation), cost, 0.0))
-
-
-@PINK.form(OrientationTask)
-def _orientation(task: OrientationTask, pink: PinkProblem) -> None:
-    target = pin.SE3(task.target, pink.kinematics.placement(task.frame_id).translation.copy())
-    pink.tasks.append(_frame_task(task.frame, target, 0.0, math.sqrt(largest_weight(task, 1.0))))
-
-
-@PINK.form(ComTask)
-def _com(task: ComTask, pink: PinkProblem) -> None:
-    from pink.tasks import ComTask as PinkComTask
-
-    added = PinkComTask(cost=_axis_costs(task, largest_weight(task, 1.0)))
-    target = pink.kinematics.com().copy()
-    target[task.rows] = task.target[task.rows]
-    added.set_target(target)
-    pink.tasks.append(added)
+    cost = axis_costs(task, largest_weight(task, 1.0))
+    pink.tasks.append(pink.frame_task(task.frame, pin.SE3(start.rotation.copy(), translation), cost, 0.0))
 
 
 @PINK.form(PostureTask)
 def _posture(task: PostureTask, pink: PinkProblem) -> None:
-    """Pink's posture holds every tangent row but the root joint's: the task's weights on its own
-    rows, cost 0 on the others (a posture on some joints only)."""
+    """Pink's posture holds every tangent row but the root joint's: the task's weights on its own rows."""
     from pink.tasks import PostureTask as PinkPostureTask
     from pink.utils import get_root_joint_dim
 
@@ -139,15 +115,6 @@ def _posture(task: PostureTask, pink: PinkProblem) -> None:
     added = PinkPostureTask(cost=cost)
     added.set_target(task.reference)
     pink.tasks.append(added)
-
-
-PINK.form(RegularizationTask)(raise_damping)
-
-
-# -- and of the constraints -----------------------------------------------------------------------------
-@PINK.form(Contact)
-def _contact(contact: Contact, pink: PinkProblem) -> None:
-    pink.constraints.append(_frame_task(contact.frame, contact.placement, 1.0, 1.0))
 
 
 @PINK.form(PointContact)
@@ -185,9 +152,8 @@ PINK.cannot(MinimumDistance, "no minimum distance between frame origins in Pink 
 
 
 def pink_point_contact(frame: str, position: np.ndarray):
-    """A Pink task holding ``frame``'s origin at ``position`` (world, m), for Pink's equality
-    constraints (which take a task's every row, whatever its cost): e = p - p*, J = the frame's
-    world-aligned linear Jacobian (3 rows)."""
+    """A Pink equality-constraint task holding ``frame``'s origin at ``position`` (world, m): e = p - p*,
+    J = the frame's world-aligned linear Jacobian."""
     from pink.tasks import Task as PinkTask
 
     class PointContactTask(PinkTask):
@@ -210,8 +176,8 @@ def pink_point_contact(frame: str, position: np.ndarray):
 
 
 def pink_locked_joints(v_index: np.ndarray, held: np.ndarray):
-    """A Pink task holding the tangent coordinates ``v_index`` where they are in ``held`` (the start q),
-    for Pink's equality constraints: e = (q (-) held)[v_index], J = those rows of the identity."""
+    """A Pink equality-constraint task holding the tangent coordinates ``v_index`` at ``held`` (the start
+    q): e = (q (-) held)[v_index], J = those rows of the identity."""
     from pink.tasks import Task as PinkTask
 
     class LockedJointsTask(PinkTask):
@@ -235,8 +201,7 @@ class PinkSolver(PeerSolver):
     """pin-pink's differential IK, iterated by our loop (dt = the problem's step_dt per step)."""
 
     name = "pink"
-    # the budget's units: solve_ik, integration, convergence FK, on an arm and on a humanoid (measured:
-    # docs/measurements.md, pink and wholebody)
+    # solve_ik, integration, convergence FK, on an arm, on a humanoid (docs/measurements.md)
     iteration_cost_s = 150e-6
     default_budget_s = 0.03
     problem_iteration_cost_s = 500e-6
@@ -249,11 +214,8 @@ class PinkSolver(PeerSolver):
         try:
             import pink  # noqa: F401
         except ImportError as exc:
-            from wbik.errors import MissingDependencyError
-
-            raise MissingDependencyError(
-                "Pink is not installed: 'pip install pin-pink==4.4.0' (the dev extra)"
-            ) from exc
+            raise MissingDependencyError("Pink is not installed: 'pip install pin-pink==4.4.0' (the dev "
+                                         "extra)") from exc
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 
@@ -285,4 +247,3 @@ IK_METHODS = (
              "pin-pink 4.4: chain targets; whole bodies with frame / CoM / posture tasks, contacts as "
              "constraints; no hard CoM polygon"),
 )
-"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,16 +1,8 @@
-"""Method ``placo``: PlaCo's KinematicsSolver (C++) on the same URDF, for chain targets and whole bodies,
-and PlaCo's forms of wbik's tasks and constraints (:data:`wbik.qp.peers.PLACO`).
-
-PlaCo loads the robot's URDF (visual and collision geometry removed: PlaCo resolves every mesh a URDF
-names, and the kinematics do not need them; continuous joints as revolute ones with wide limits). Tasks
-are PlaCo's own frame / relative frame / position / orientation / CoM / joints tasks, soft, with our
-weights (a position or CoM task on some axes: PlaCo's axis mask); a regularisation is PlaCo's
-regularisation task. Contacts are hard frame tasks (a point foot: a hard position task); the CoM in the
-support polygon is PlaCo's CoM polygon constraint, clockwise (PlaCo's convention) and configured hard;
-joint limits and velocity limits are PlaCo's (its ``dt`` the problem's ``step_dt``); locked joints are
-masked. PlaCo has no acceleration limits nor minimum distances between frames here, and hard or soft
-tasks only (no strict priority levels). One ``solve(True)`` per iteration of our loop; a chain target is
-the chain's problem (the tip's frame task, every other joint masked).
+"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry, continuous joints
+revolute with wide limits), for chain targets and whole bodies, and PlaCo's forms of wbik's tasks and
+constraints (:data:`PLACO`): its soft tasks with our weights, contacts as hard tasks, the support polygon as
+its hard CoM polygon constraint, its limits, locked joints masked; no acceleration limits, minimum distances
+or strict priority levels. One ``solve(True)`` per iteration of our loop.
 """
 
 from __future__ import annotations
@@ -64,18 +56,14 @@ def import_placo():
     return placo
 
 
-PLACO_CONTINUOUS_LIMIT = 100.0
-"""Limits (rad) PlaCo gets for a continuous joint: wide enough never to bind in a solve (16 turns)."""
+PLACO_CONTINUOUS_LIMIT = 100.0  # rad, a continuous joint's limits in PlaCo: 16 turns, never binding
 _GEOMETRY = re.compile(r"<(visual|collision)\b[^>]*?/>|<(visual|collision)\b.*?</\2\s*>", re.DOTALL)
 
 
 @lru_cache(maxsize=32)
 def _kinematic_urdf(name: str, text: str) -> Path:
-    # a regular expression rather than an XML parser: URDF readers accept some files that a strict
-    # XML parser rejects (e.g. "--" inside comments)
-    # continuous joints as revolute ones with wide limits: one angle each, as in wbik's model (PlaCo would
-    # store cos, sin; the answers are wrapped by the shared check); a fixed joint named like a link
-    # renamed, as in wbik's model (PlaCo looks frames up by name alone)
+    # a regular expression: URDF readers accept files a strict XML parser rejects ("--" in comments);
+    # one angle per continuous joint and fixed joints named like a link renamed, as in wbik's model
     text = fixed_joints_renamed(continuous_as_revolute(_GEOMETRY.sub("", text), PLACO_CONTINUOUS_LIMIT))
     return write_cached_urdf(f"{name}-kinematic", text)
 
@@ -86,9 +74,8 @@ def kinematic_urdf_path(robot: Robot) -> Path:
 
 
 def placo_robot(robot: Robot, q: np.ndarray | None = None, humanoid_urdf: Path | None = None):
-    """A PlaCo model of the robot at configuration q (default: nominal), base pose included: a
-    placo.RobotWrapper of its kinematic URDF, or with ``humanoid_urdf`` a placo.HumanoidRobot of that
-    URDF (the robot's, with the frames PlaCo's humanoid looks for)."""
+    """A placo.RobotWrapper of the robot's kinematic URDF at q (default: nominal), base pose included; with
+    ``humanoid_urdf``, a placo.HumanoidRobot of that URDF (with the frames PlaCo's humanoid looks for)."""
     placo = import_placo()
     model, path = ((placo.RobotWrapper, kinematic_urdf_path(robot)) if humanoid_urdf is None
                    else (placo.HumanoidRobot, humanoid_urdf))
@@ -127,14 +114,12 @@ def placo_configuration(robot: Robot, wrapper) -> np.ndarray:
     return q
 
 
-PLACO = PeerForms("placo", "PlaCo")
-"""PlaCo's forms of wbik's tasks and constraints (and of the user's: ``@PLACO.form(MyTask)``)."""
+PLACO = PeerForms("placo", "PlaCo")  # PlaCo's forms of tasks and constraints (a user's: @PLACO.form(MyTask))
 
 
 @dataclass
 class PlacoProblem:
-    """What PlaCo's forms add to: its ``solver`` (a placo.KinematicsSolver), the PlaCo robot
-    (``wrapper``), our ``robot``, its ``kinematics`` at the start and the step ``dt`` (s)."""
+    """What PlaCo's forms add to: its solver, robot (``wrapper``), our robot, the start, step ``dt`` (s)."""
 
     solver: Any
     wrapper: Any
@@ -144,8 +129,7 @@ class PlacoProblem:
 
 
 def clockwise(polygon) -> list[np.ndarray]:
-    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them (wbik stores them
-    counter-clockwise); the same rule as benchmarks/qp.py ``placo_polygon``."""
+    """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them."""
     vertices = [np.array(v, dtype=float) for v in polygon.vertices]
     x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
     area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
@@ -153,8 +137,7 @@ def clockwise(polygon) -> list[np.ndarray]:
 
 
 def _soft_on_axes(added, task) -> None:
-    """Configure PlaCo's position or CoM task ``added`` as ``task``: soft, its weight, masked to the
-    axes it holds (PlaCo's masks name them "xz", ...)."""
+    """Configure PlaCo's position or CoM task ``added`` as ``task``: soft, its weight, its axes masked."""
     added.mask.set_axises("".join("xyz"[i] for i in task.rows))
     added.configure(task.name, "soft", largest_weight(task, 1.0))
 
@@ -232,17 +215,14 @@ def _position_limits(limits: JointPositionLimits, placo: PlacoProblem) -> None:
 @PLACO.form(JointVelocityLimits)
 def _velocity_limits(limits: JointVelocityLimits, placo: PlacoProblem) -> None:
     """|dq| <= limit per step (dt 1): PlaCo's velocity limits limit / dt over its step dt."""
-    names = _tangent_joint_names(placo.robot.model)
+    model = placo.robot.model
+    names = {model.joints[j].idx_v: model.names[j] for j in range(1, model.njoints)
+             if model.joints[j].nv == 1}
     for index, limit in zip(limits.v_index.tolist(), limits.step_limit.tolist(), strict=True):
         if index in names:
             placo.wrapper.set_velocity_limit(names[index], limit / placo.dt)
     placo.solver.dt = placo.dt
     placo.solver.enable_velocity_limits(True)
-
-
-def _tangent_joint_names(model: pin.Model) -> dict[int, str]:
-    """{tangent index: joint name} of the 1-DOF joints."""
-    return {model.joints[j].idx_v: model.names[j] for j in range(1, model.njoints) if model.joints[j].nv == 1}
 
 
 @PLACO.form(LockedJoints)
@@ -265,8 +245,7 @@ class PlacoSolver(PeerSolver):
     """PlaCo's KinematicsSolver with its own tasks, hard contacts and hard clockwise CoM polygon."""
 
     name = "placo"
-    # the budget's units: solve(True), read-back, convergence FK, on an arm and on a humanoid (measured:
-    # docs/measurements.md, placo and wholebody)
+    # solve(True), read-back, convergence FK, on an arm, on a humanoid (docs/measurements.md)
     iteration_cost_s = 40e-6
     default_budget_s = 0.005
     problem_iteration_cost_s = 300e-6
@@ -278,10 +257,10 @@ class PlacoSolver(PeerSolver):
         super().__init__(robot, chain, **options)
         self.placo = import_placo()
         self.regularization = float(regularization)
-        self._thread_state()  # this thread's PlaCo robot now (errors show here, its cost is not a solve's)
+        self._thread_state()  # this thread's PlaCo robot now (errors show here, not in a solve)
 
     def _new_thread_state(self):
-        """This thread's PlaCo robot (loading the URDF costs milliseconds; a solver is built per call)."""
+        """This thread's PlaCo robot (loading the URDF costs milliseconds)."""
         return placo_robot(self.robot)
 
     def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
@@ -314,4 +293,3 @@ IK_METHODS = (
              "PlaCo 0.10 KinematicsSolver on the same URDF: chain targets; whole bodies with its tasks, hard "
              "contacts, hard clockwise CoM polygon, limits"),
 )
-"""The method this module declares to :mod:`wbik.solvers.method_registry`."""

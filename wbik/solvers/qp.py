@@ -1,19 +1,9 @@
-"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers, DAQP by default) on chain
-targets and whole-body problems.
-
-A chain target is one frame task (a position task for a position target) on the chain's reduced model,
-T_world = T_world_base T_target, under the joint position limits (none on continuous joints: the answer
-is wrapped) and, with ``velocity_dt``, the velocity limits times dt per step. A whole-body problem is
-its own tasks (the goals' tolerances at half the check's) with a regularisation on the lowest level,
-under its constraints. Steps iterate until the goals hold, a stall, the iteration budget or (when
-``timeout_s`` is given) the deadline.
-
-Options: ``backend`` (a qpsolvers name, "fastest" or "default": DAQP, the fastest ``benchmarks/qp.py``
-measures), ``max_iterations``, ``max_step`` (trust region per step, rad or m), ``lm_damping``,
-``regularization`` (whole bodies), ``velocity_dt`` (chains), ``diagnose``. A result that fails the check
-explains itself (``diagnose=True``): ``result.diagnosis`` (:class:`wbik.qp.diagnosis.Diagnosis`), its
-summary at the end of ``reason``, made after the timed solve; a start outside the limits is clipped into
-them and listed in ``diagnosis.start``.
+"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers) on chain targets (a frame or
+position task under the chain's limits and, with ``velocity_dt``, velocity limits x dt) and whole bodies
+(their tasks, goals at half the check's tolerances, a ``regularization`` on the lowest level). Options:
+``backend`` (a qpsolvers name, "fastest" or "default": DAQP), ``max_iterations``, ``max_step`` (trust region
+per step, rad or m), ``lm_damping``, ``diagnose`` (a failed result's ``diagnosis``,
+:class:`wbik.qp.diagnosis.Diagnosis`, made after the timed solve, its summary ending ``reason``).
 """
 
 from __future__ import annotations
@@ -44,8 +34,7 @@ from wbik.wholebody.problem import WholeBody
 class QPSolver(Solver):
     name = "qp"
     takes_problems = True
-    # the budget's units: one DAQP step with its FK checks on a 6-joint arm, and on a humanoid with its
-    # projection (docs/measurements.md, qp and wholebody)
+    # a DAQP step with its FK checks on a 6-joint arm, on a humanoid (docs/measurements.md, qp, wholebody)
     iteration_cost_s = 150e-6
     default_budget_s = 0.03
     problem_iteration_cost_s = 800e-6
@@ -65,8 +54,7 @@ class QPSolver(Solver):
         self.diagnose = bool(diagnose)
 
     def solve(self, target, q0=None) -> IKResult:
-        """The shared check's result; one that fails it gets the QP's diagnosis (after the timing), and a
-        start outside the limits is reported in ``diagnosis.start`` either way."""
+        """The shared check's result with the QP's diagnosis (see the module docstring)."""
         if isinstance(target, WholeBody):
             return self.solve_problem(target, q0)
         return self._diagnosed(super().solve, target, q0)
@@ -82,7 +70,7 @@ class QPSolver(Solver):
         return result
 
     def _new_thread_state(self) -> dict:
-        """Each thread's chain tasks and problems (a problem holds its Pinocchio Data and iterate)."""
+        """This thread's chain tasks and problems (a problem holds its Pinocchio Data and iterate)."""
         chain = self.chain
         continuous = [name for name, wraps in zip(chain.joint_names, chain.continuous, strict=True) if wraps]
         constraints = [JointPositionLimits(unbounded=continuous)]  # continuous joints: wrapped
@@ -129,4 +117,3 @@ IK_METHODS = (
              "task-based QP IK (qpsolvers, DAQP default): chain targets with joint limits; whole bodies "
              "with hard contacts, hard CoM polygon, limits"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

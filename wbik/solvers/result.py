@@ -1,5 +1,4 @@
-"""What every method returns: one :class:`IKResult` for chain targets and whole-body problems alike,
-judged under one set of :class:`Tolerances` (:mod:`wbik.solvers.check`)."""
+"""What every method returns, :class:`IKResult`, judged under one set of :class:`Tolerances`."""
 
 from __future__ import annotations
 
@@ -31,7 +30,7 @@ class Tolerances:
 
 
 def checked_tolerances(tolerances: Tolerances | None) -> Tolerances:
-    """``tolerances``, or the default Tolerances() for None; InvalidSettingError for anything else."""
+    """``tolerances``, or Tolerances() for None; InvalidSettingError for anything else."""
     if tolerances is None:
         return Tolerances()
     if not isinstance(tolerances, Tolerances):
@@ -57,17 +56,13 @@ NAN3 = (math.nan, math.nan, math.nan)
 class IKResult:
     """The answer of every method, to a chain target or a whole-body problem.
 
-    ``q`` is None only when the method produced no joint values at all; otherwise it is inside the joint
-    limits and every error is measured on it by FK. ``position_error`` / ``rotation_error``: the largest
-    goal's (m, rad; a chain target's own); ``position_error_xyz``: reached - target in the chain's base
-    axes, ``rotation_error_xyz``: log3(R_target^T R_reached) (a chain target's; zeros for a position
-    target, NaN for a whole-body problem).
-
-    Whole-body problems also fill ``task_errors`` (goal name -> max(position m, rotation rad)) with their
-    position and rotation parts, ``measures`` (constraint name -> :class:`wbik.qp.constraint.Measure`:
-    a contact's drift, the CoM margin, the limit excess, a clearance), ``unsupported`` (what the method
-    could not express: it solved the problem without it) and ``diagnosis`` (why a method that explains
-    itself did not succeed, :class:`wbik.qp.diagnosis.Diagnosis`; its summary ends ``reason``).
+    ``q``: None only without joint values, else inside the limits, every error measured on it by FK.
+    ``position_error`` / ``rotation_error``: the largest goal's (m, rad); ``position_error_xyz``: reached -
+    target (base axes), ``rotation_error_xyz``: log3(R_target^T R_reached) (zeros for a position target, NaN
+    for a whole-body problem). Whole-body problems also fill ``task_errors`` (goal -> max(position m,
+    rotation rad)) and its parts, ``measures`` (constraint -> :class:`wbik.qp.constraint.Measure`),
+    ``unsupported`` (what the method solved without) and ``diagnosis`` (:class:`wbik.qp.diagnosis.Diagnosis`
+    of a failure; its summary ends ``reason``).
     """
 
     q: np.ndarray | None

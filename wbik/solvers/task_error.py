@@ -1,33 +1,13 @@
-"""The task error e(q) of the iterative methods and its Jacobian: the pose-error convention of
-:mod:`wbik.geometry`, in its two forms.
+"""The task error e(q) of the iterative methods and its Jacobian, the pose-error convention of
+:mod:`wbik.geometry` in two forms, and the chain's serial structure.
 
-**The convention** (``geometry.pose_error``): for a target (R*, p*) and the reached tip pose (R, p),
-both in the chain's base frame,
-
-    e = [p - p* ; log3(R*^T R)]                                                    (6,)
-
-position in base axes, rotation vector in the target's axes, sign "reached relative to target";
-its Jacobian is [J_v ; Jlog3(R*^T R) R^T J_w] (``geometry.rotation_error_jacobian``), and a method
-drives e to 0 with steps dq = -J_e^+ e. A position target keeps the first three rows. ``dls`` and
-``newton`` iterate on this form (:func:`task_error`).
-
-**Its SE(3) form** (:func:`se3_error`, :func:`batch_se3_error`): the same relative transform
-X = T*^-1 T = (R*^T R, R*^T (p - p*)) taken through the SE(3) logarithm,
-
-    e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ; phi],     phi = log3(R*^T R),
-
-V(phi)^-1 = I - [phi]x / 2 + (1 - (theta / 2) cot(theta / 2)) / theta^2 [phi]x^2, theta = |phi|.
-Its rotation part *is* the convention's; its translation part is the convention's position error
-in target axes, R*^T (p - p*), bent along the screw motion: the two differ by the factor
-V(phi)^-1 = I + O(theta), so they vanish together and the tolerance test reads the same. Its
-Jacobian is Jlog6(X) J_tip, J_tip the frame Jacobian in tip axes (Pinocchio's LOCAL); near a
-solution Jlog6 -> I, and ``bounded_lm`` uses J_tip. ``bounded_lm`` iterates on this form: under
-TRAC-IK's protocol, LM succeeds as often on it as on the straight form, in fewer iterations and less
-time, and from a far seed alone as often or more (the screw couples rotation into translation the way
-the arm moves; the measurements: docs/measurements.md, bounded_lm).
-
-Besides the errors, this module holds the chain's serial structure (``serial_structure``: fixed
-placements and joint axes, from which KDL chains and vectorised kinematics are built).
+For a target (R*, p*) and the reached tip pose (R, p) in the chain's base frame, ``dls`` and ``newton``
+iterate on e = [p - p* ; log3(R*^T R)] (:func:`task_error`; the first three rows for a position target)
+with the Jacobian [J_v ; Jlog3(R*^T R) R^T J_w]. ``bounded_lm`` iterates on its SE(3) form
+(:func:`se3_error`), e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ; phi], phi = log3(R*^T R), V(phi)^-1 =
+I - [phi]x / 2 + (1 - (theta / 2) cot(theta / 2)) / theta^2 [phi]x^2: the same rotation part, the position
+part in target axes bent along the screw motion (they vanish together), with the tip-axes Jacobian (the
+measurements: docs/measurements.md, bounded_lm).
 """
 
 from __future__ import annotations
@@ -64,19 +44,15 @@ def task_error(chain: Chain, target: Target, q: np.ndarray, with_jacobian: bool 
 
 
 def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
-    """The SE(3) form log6(T*^-1 T) (6,), given T*^-1 (computed once per call by the caller)."""
+    """The SE(3) form log6(T*^-1 T) (6,), given T*^-1."""
     return pin.log6(target_inverse * reached).vector
 
 
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
-    """log6(T*^-1 T) (B, 6) of B reached poses (R (B, 3, 3), p (B, 3)) against one target (R* (3, 3),
-    p* (3,)) or one target each (R* (B, 3, 3), p* (B, 3)).
-
-    With t = R*^T (p - p*) and phi x (phi x t) = phi (phi . t) - theta^2 t:
-    V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2 + c (phi . t) phi,
-    c = (1 - (theta / 2) cot(theta / 2)) / theta^2.
-    """
+    """log6(T*^-1 T) (B, 6) of reached poses (R (B, 3, 3), p (B, 3)) against one target (R* (3, 3), p* (3,))
+    or one each ((B, 3, 3), (B, 3)): with t = R*^T (p - p*), V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2
+    + c (phi . t) phi, c = (1 - (theta / 2) cot(theta / 2)) / theta^2."""
     if target_rotation.ndim == 2:
         phi = batch_log3(np.matmul(target_rotation.T, rotation))
         offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row
@@ -91,42 +67,30 @@ def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotati
     coefficient = np.where(small, 1.0 / 12.0 + theta2 / 720.0,
                            (1.0 - safe / np.tan(safe)) / (4.0 * safe * safe))
     along = coefficient * np.einsum("bi,bi->b", phi, offset)
-    cross = (phi[:, :, None] * offset[:, None, :]).reshape(-1, 9) @ _LEVI_CIVITA
+    cross = (phi[:, :, None] * offset[:, None, :]).reshape(-1, 9) @ LEVI_CIVITA
     result = np.empty((len(phi), 6))
     result[:, :3] = offset * (1.0 - coefficient * theta2)[:, None] - 0.5 * cross + along[:, None] * phi
     result[:, 3:] = phi
     return result
 
 
-def _levi_civita() -> np.ndarray:
-    """E (9, 3) with (a outer b).flat @ E = a x b."""
-    symbol = np.zeros((3, 3, 3))
-    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        symbol[i, j, k], symbol[i, k, j] = 1.0, -1.0
-    return symbol.transpose(1, 2, 0).reshape(9, 3)
-
-
-_LEVI_CIVITA = _levi_civita()
+LEVI_CIVITA = np.array([[0, 0, 0], [0, 0, 1], [0, -1, 0], [0, 0, -1], [0, 0, 0], [1, 0, 0], [0, 1, 0],
+                        [-1, 0, 0], [0, 0, 0]], dtype=float)
+"""E (9, 3) = epsilon_ijk at (3 i + j, k): (a outer b).flat @ E = a x b."""
 
 
 def converged(error: np.ndarray, position_tolerance: float, rotation_tolerance: float) -> bool:
-    """The iterate passes the shared check (with a small safety factor): |e_p| and |e_R| at most
-    half their tolerances (plain-float norms: this runs inside the iterative loops)."""
+    """The iterate passes the shared check safely: |e_p| and |e_R| at most half their tolerances."""
     values = error.tolist()
     if math.hypot(*values[:3]) > 0.5 * position_tolerance:
         return False
     return len(values) < 6 or math.hypot(*values[3:]) <= 0.5 * rotation_tolerance
 
 
-# -- serial structure --------------------------------------------------------------------------
 @dataclass(frozen=True)
 class SerialStructure:
-    """T(q) = P_0 X_1(q_1) P_1 X_2(q_2) ... X_n(q_n) P_n, everything in the chain's base frame.
-
-    ``placements[k]`` (k = 0..n, 4x4) are the fixed transforms: P_0 from the base frame to joint 1,
-    P_k from joint k to joint k+1, P_n from joint n to the tip frame. X_k is a rotation about (or a
-    translation along) the unit ``axes[k]`` (joint-k frame) by q_k.
-    """
+    """T(q) = P_0 X_1(q_1) P_1 ... X_n(q_n) P_n in the chain's base frame: ``placements`` P_0 (base to
+    joint 1) .. P_n (joint n to the tip), X_k a turn about (or a slide along) the unit ``axes[k]`` by q_k."""
 
     placements: np.ndarray  # (n + 1, 4, 4)
     axes: np.ndarray  # (n, 3)
@@ -163,8 +127,7 @@ def serial_structure(chain: Chain) -> SerialStructure:
 
 
 def joint_lines_at_zero(structure: SerialStructure) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(axes (n, 3), origins (n, 3), tip (4, 4)) at q = 0, in the base frame: joint k turns about (or
-    slides along) the line through origins[k] with direction axes[k], P_0 ... P_k-1 applied."""
+    """(axes (n, 3), origins (n, 3), tip (4, 4)) at q = 0 in the base frame: joint k's line."""
     transform = structure.placements[0].copy()
     axes, origins = [], []
     for k, axis in enumerate(structure.axes):

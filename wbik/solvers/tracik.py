@@ -1,17 +1,7 @@
-"""TRAC-IK through pytracik, on the robot's URDF file and the chain's base/tip link names.
-
-TRAC-IK runs KDL's NR_JL (with random restarts) and an SQP formulation concurrently and returns the
-first solution; its time budget is fixed when the solver object is built, so the object is built
-once per (chain, timeout) and reused. Its joint limits are set to the chain's limits so that both
-sides solve the same problem. ``epsilon`` is TRAC-IK's per-component twist tolerance; by default the
-shared tolerance / sqrt(3), so that TRAC-IK's success implies the shared norm check.
-
-TRAC-IK restarts from random seeds of its own (C++ std random state, not seedable from pytracik),
-and its budget is wall-clock time: its answers vary from run to run and with the machine's load,
-whatever ``seed`` says. The study re-runs solves that were starved of the CPU (wbik.study.runner).
-
-Position-only targets are unsupported: TRAC-IK's position-only mode is its ``bounds`` argument
-(a KDL::Twist of free tolerances), which pytracik 0.0.3 does not expose.
+"""TRAC-IK through pytracik, on the robot's URDF and the chain's base/tip links, with the chain's limits:
+KDL's NR_JL with random restarts and an SQP run concurrently, its wall-clock budget fixed with its object (one
+per thread), its restarts from an unseedable C++ random state (answers vary with the run and the load).
+``epsilon``: its per-component twist tolerance (default the shared tolerance / sqrt(3)). Full poses only.
 """
 
 from __future__ import annotations
@@ -65,7 +55,7 @@ class TracIKSolver(Solver):
         self._thread_state()  # build (and check) this thread's TRAC-IK object now
 
     def _new_thread_state(self):
-        """A TRAC-IK object of this thread's own: one object is not safe to call from two threads."""
+        """This thread's TRAC-IK object (one is not safe to call from two threads)."""
         chain_ = self.chain
         solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, self._urdf_text,
                                        self.timeout_s, self.epsilon,
@@ -78,8 +68,7 @@ class TracIKSolver(Solver):
                 f"{chain_.tip_frame!r} in {urdf}, the chain {chain_.name!r} has {chain_.nq} "
                 f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
                 "them in the chain")
-        # TRAC-IK takes a revolute joint as continuous when its bounds reach float's extremes (as it
-        # reads a URDF continuous joint); the others keep the chain's limits
+        # a revolute joint whose bounds reach float's extremes is continuous to TRAC-IK
         extreme = float(np.finfo(np.float32).max)
         lower = np.where(chain_.continuous, -extreme, chain_.lower)
         upper = np.where(chain_.continuous, extreme, chain_.upper)
@@ -100,4 +89,3 @@ IK_METHODS = (
     IKMethod("trac_ik", TracIKSolver,
              "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

@@ -1,11 +1,6 @@
-"""A family's closed form seen through a chain's own frames and joint conventions.
-
-A chain of a family differs from the family's own arm by a fixed base G, a fixed tool X and, per joint, a
-sign and an offset: T_chain(q) = G T_family(u) X, u = s q + o (s_i = +-1). :class:`AlignedForm` solves
-the chain with the family's form: a target T becomes G^-1 T X^-1, a start q0 becomes s q0 + o, a branch u
-comes back as q = s (u - o). G may be a reflection (the Golem-III's left arm is its right arm mirrored).
-The family's form is built on :class:`FamilyChain`, the chain's limits and nominal in the family's joints.
-"""
+"""A family's closed form through a chain's own frames and joints: T_chain(q) = G T_family(u) X, u = s q + o
+(s_i = +-1; G may be a reflection, as the Golem-III's left arm): a target T becomes G^-1 T X^-1, a branch u
+comes back as q = s (u - o)."""
 
 from __future__ import annotations
 
@@ -16,14 +11,11 @@ from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import Alignment
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
 
-IDENTITY_TOLERANCE = STRUCTURE_TOLERANCE
-"""A transform (entry by entry) or a joint offset (rad) this close to the identity is the identity (a
-URDF's rounding of pi/2 is not a frame of its own); what is dropped is held to the model like the rest."""
+IDENTITY_TOLERANCE = STRUCTURE_TOLERANCE  # a transform (entries) or joint offset (rad) this near is none
 
 
 class FamilyChain:
-    """A chain in a family's joint coordinates u = s q + o: the limits, nominal, joint kinds and names a
-    family's form reads."""
+    """A chain in a family's joints u = s q + o: what a family's form reads of a chain."""
 
     def __init__(self, chain, signs: np.ndarray, offsets: np.ndarray):
         self.chain = chain
@@ -56,8 +48,7 @@ def _snapped(transform) -> np.ndarray | None:
 
 
 def times(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a b of 3 x 3 matrices (leading axes broadcast), the products summed in order k = 0, 1, 2 (as the
-    compiled kernels sum them; no BLAS)."""
+    """a b of 3 x 3 matrices (leading axes broadcast), summed in order k = 0, 1, 2 as the kernels do."""
     return (a[..., :, 0, None] * b[..., None, 0, :] + a[..., :, 1, None] * b[..., None, 1, :]
             + a[..., :, 2, None] * b[..., None, 2, :])
 
@@ -68,8 +59,7 @@ def applied(a: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 class AlignedForm(ClosedForm):
-    """``inner`` (a family's form on a :class:`FamilyChain`) solving ``chain``: T_chain(q) = G T(u) X,
-    u = s q + o, ``base`` G and ``tool`` X (4 x 4)."""
+    """``inner`` (a family's form on a :class:`FamilyChain`) solving ``chain``, ``base`` G, ``tool`` X."""
 
     def __init__(self, chain, inner: ClosedForm, base: np.ndarray, tool: np.ndarray, signs: np.ndarray,
                  offsets: np.ndarray):
@@ -129,8 +119,8 @@ class AlignedForm(ClosedForm):
 
 
 def with_tool(chain, flange_form, flange_chain: str) -> AlignedForm:
-    """``flange_form`` (a form class of chain ``flange_chain``, over the same base and joints) with the
-    tool fixed to its tip: T = T_flange X, X read from the model at the nominal configuration."""
+    """``flange_form`` (a form of chain ``flange_chain``, the same base and joints) with the tool fixed to
+    its tip: T = T_flange X, X read from the model at the nominal configuration."""
     flange = chain.robot.chain(flange_chain)
     if flange.joint_names != chain.joint_names or flange.base_frame != chain.base_frame:
         raise InvalidConfigurationError(

@@ -1,12 +1,8 @@
-"""Batched twins of the per-call interface for ``analytic``'s ``solve_many``, one NumPy pass per batch:
-:func:`batch_targets` checks targets as :func:`wbik.targets.as_target` does (anything else goes through it
-one by one, raising its errors), :func:`evaluate_batch` is :func:`wbik.solvers.base.evaluate`'s rule with
-the closed form's FK in place of Pinocchio's (tests/test_analytic_batch.py holds both to the originals).
-"""
+"""Batched twins for ``analytic``'s ``solve_many``, one NumPy pass per batch: :func:`batch_targets` checks
+targets as ``as_target`` does, :func:`evaluate_batch` is the shared check's rule with the form's FK."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 
 import numpy as np
@@ -15,10 +11,13 @@ import pinocchio as pin
 from wbik.errors import UnsupportedError
 from wbik.geometry import batch_log3
 from wbik.robot import Chain
+from wbik.solvers.analytic.aligned import times
 from wbik.solvers.check import CLIPPED_REASON
 from wbik.solvers.check import clip_to_limits
 from wbik.solvers.check import fk_check_reason
 from wbik.solvers.check import invalid_joints_reason
+from wbik.solvers.check import no_joints
+from wbik.solvers.result import Candidate
 from wbik.solvers.result import IKResult
 from wbik.solvers.result import Tolerances
 from wbik.targets import MAX_POSITION
@@ -27,9 +26,8 @@ from wbik.targets import as_target
 
 
 def _valid_se3(matrices: np.ndarray) -> bool:
-    """Every 4x4 pose passes as_target's check of an SE3 (``wbik.targets._plain_se3_target``: position
-    bound, unit and orthogonal columns, det +1), with its arithmetic term by term, one target per
-    column: the batch accepts exactly the targets that ``as_target`` accepts on its fast path."""
+    """Every 4x4 pose passes as_target's check of an SE3 (position bound, unit and orthogonal columns,
+    det +1), its arithmetic term by term: exactly the targets ``as_target``'s fast path accepts."""
     (a, b, c, x, d, e, f, y, g, h, i, z) = matrices.reshape(-1, 16)[:, :12].T
     bound, tolerance = MAX_POSITION, ROTATION_TOLERANCE
     low, high = 1.0 - tolerance, 1.0 + tolerance
@@ -45,11 +43,8 @@ def _valid_se3(matrices: np.ndarray) -> bool:
 
 
 def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
-    """(positions (B, 3), rotations (B, 3, 3) or None for positions) of a batch of user targets.
-
-    Raises what ``as_target`` raises for a bad target, ``solver.check_target_kind``'s error for a
-    kind the solver does not take, and UnsupportedError for a batch mixing poses and positions.
-    """
+    """(positions (B, 3), rotations (B, 3, 3) or None) of a batch of user targets; ``as_target``'s and
+    ``solver.check_target_kind``'s errors, UnsupportedError for a batch mixing poses and positions."""
     values = list(values)
     if not values:
         return np.zeros((0, 3)), None
@@ -69,18 +64,10 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
     return positions, np.array([target.rotation for target in targets])
 
 
-def _transpose_times(first: np.ndarray, second: np.ndarray) -> np.ndarray:
-    """first^T second per target, (B, 3, 3) each: the three products summed in order, as
-    einsum("bji,bjk->bik") sums them (the same bits, in half its time for 3 x 3 matrices)."""
-    return (first[:, 0, :, None] * second[:, 0, None, :] + first[:, 1, :, None] * second[:, 1, None, :]
-            + first[:, 2, :, None] * second[:, 2, None, :])
-
-
 def _measure(form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray, inside: np.ndarray,
              finite: np.ndarray, reached: tuple[np.ndarray, np.ndarray] | None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`evaluate_batch`'s errors with the closed form's FK: (position error (B, 3), rotation error
-    (B, 3), their norms), ``reached`` reused where q is inside the limits."""
+    """:func:`evaluate_batch`'s errors by the form's FK: (e_p (B, 3), e_R (B, 3), their norms)."""
     if reached is None or not np.array_equal(inside, q, equal_nan=True):
         reached = form.fk(np.where(finite[:, None], inside, 0.0))
     reached_p, reached_r = reached
@@ -89,7 +76,7 @@ def _measure(form, positions: np.ndarray, rotations: np.ndarray | None, q: np.nd
     if rotations is None:
         count = len(positions)
         return position_xyz, np.zeros((count, 3)), position_norm, np.zeros(count)
-    rotation_xyz = batch_log3(_transpose_times(rotations, reached_r))
+    rotation_xyz = batch_log3(times(np.swapaxes(rotations, 1, 2), reached_r))  # R*^T R
     rotation_norm = np.sqrt(np.einsum("bi,bi->b", rotation_xyz, rotation_xyz))
     return position_xyz, rotation_xyz, position_norm, rotation_norm
 
@@ -99,14 +86,9 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
                    method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None,
                    measured: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
                    ) -> list[IKResult]:
-    """:func:`wbik.solvers.base.evaluate` for a batch: one IKResult per target.
-
-    ``q`` (B, n) holds the joints where ``found`` (B,), ``reasons`` the method's reason per target (the
-    failure reason where not found), ``form.fk`` the vectorised FK the errors are measured with;
-    ``reached``, when given, is ``form.fk(q)`` already computed (used where q is inside the limits);
-    ``measured``, when given, are the errors of q (inside the limits) already measured by this rule
-    (position error (B, 3), rotation error (B, 3), their norms (B,), (B,)): a compiled kernel's.
-    """
+    """:func:`wbik.solvers.check.evaluate` for a batch, by ``form.fk``: q (B, n) where ``found``, the
+    method's ``reasons``; ``reached``: ``form.fk(q)`` already computed, ``measured``: the errors of q
+    already measured by this rule (a kernel's: e_p, e_R, their norms)."""
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
     inside = clip_to_limits(q, chain.lower, chain.upper)
@@ -122,12 +104,9 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
                in zip(inside, p_norms, r_norms, position_xyz, rotation_xyz, extras, strict=True)]
     for index in np.flatnonzero(~(success & found & finite)).tolist():  # the rows not solved (rare)
         reason, extra = reasons[index], extras[index]
-        if not found[index]:
-            results[index] = IKResult(None, False, reason or "no solution", math.nan, math.nan,
-                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
-        elif not finite[index]:
-            results[index] = IKResult(None, False, invalid_joints_reason(q[index]), math.nan, math.nan,
-                                      np.full(3, np.nan), np.full(3, np.nan), time_s, 1, method, extra)
+        if not found[index] or not finite[index]:
+            why = (reason or "no solution") if not found[index] else invalid_joints_reason(q[index])
+            results[index] = no_joints(why, time_s, Candidate(None, 1, extra=extra), method)
         else:
             if not reason and not chain.in_limits(q[index], tolerance=1e-9):  # the shared check's rule
                 reason = CLIPPED_REASON

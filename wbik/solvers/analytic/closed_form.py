@@ -1,11 +1,10 @@
-"""The closed-form framework: a :class:`ClosedForm` maps a batch of targets to every branch, and the rules
-every closed form shares: wrapping revolute angles into the limits nearest a reference, and the reasons of
-a failure (no real branch, none inside the limits, none reaching the target).
-"""
+"""The closed-form framework: :class:`ClosedForm` (a batch of targets to every branch), the rules every
+closed form shares (wrapping angles into the limits, the reasons of a failure), the libraries' base."""
 
 from __future__ import annotations
 
 import math
+import time
 from typing import NamedTuple
 
 import numpy as np
@@ -18,36 +17,36 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.solvers.result import IKResult
 from wbik.targets import Target
+from wbik.targets import as_target
 from wbik.targets import pose_error
 
 LIMIT_TOLERANCE = 1e-9
-"""Angle (rad) by which a closed-form joint may leave its limits and still count as inside (then set onto
-the limit): inverses of poses at a limit come back a few 1e-12 rad outside, up to ~1e-8 near a singular
-pose; 1e-9 rad moves a 1 m lever by 1e-9 m, far below the screening tolerance."""
+"""Angle (rad) a closed-form joint may leave its limits by and count as inside (set onto the limit)."""
 BRANCH_MERGE = 1e-6
-"""Two branches whose joints differ by less than this (rad, modulo 2 pi) are one solution in ``solve_all``
-(at a singular pose rounding through arccos splits coinciding branches by up to ~1e-7 rad)."""
+"""Branches whose joints differ by less (rad, modulo 2 pi) are one solution in ``solve_all``."""
 BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
 """Per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the
 reference below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)."""
+SCREEN_TOLERANCE = 1e-7
+"""Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+PROBE_POSES, PROBE_REQUIRED, PROBE_SEED, PROBE_TOLERANCE = 8, 6, 0, 1e-6
+"""A library's claimed decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
+PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints."""
 NEAREST_MARGIN = 1e-9
-"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - NEAREST_MARGIN to the
-reference takes it: every other shift is then farther than pi, whatever the rounding."""
+"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - this takes it."""
 _NEAREST_BOUND = math.pi - NEAREST_MARGIN
 _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 
 class ClosedForm:
     """A closed-form solver of one chain: ``branches`` and ``fk`` (vectorised over a batch), an optional
-    compiled ``kernel`` of the same choice. ``target_kind`` is "pose" or "position"."""
+    compiled ``kernel`` of the same choice (a :class:`.compiled.CompiledForm` serves ``solve``,
+    ``solve_many`` and ``solve_all``; another, with ``nearest_into`` only, ``solve``). ``target_kind``:
+    "pose" or "position"."""
 
     target_kind = "pose"
-    screen_tolerance = 1e-7
-    """Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+    screen_tolerance = SCREEN_TOLERANCE
     kernel = None
-    """The compiled choice or None: a :class:`.compiled.CompiledForm` serves ``solve``, ``solve_many`` and
-    ``solve_all`` in place of the vectorised choice (its twin); another kernel (``nearest_into`` only,
-    e.g. :class:`.eaik_family.EAIKChoice`) serves ``solve``."""
 
     def __init__(self, chain: Chain):
         self.chain = chain
@@ -60,8 +59,7 @@ class ClosedForm:
 
     def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
                           q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`branches` joint-major and batch-last, (Q (n, K, B), real (K, B)); a family overrides one
-        of the two."""
+        """:meth:`branches` joint-major and batch-last, (Q (n, K, B), real (K, B)); a family overrides one."""
         q_all, real = self.branches(positions, rotations, q0)
         return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
 
@@ -70,22 +68,18 @@ class ClosedForm:
         raise NotImplementedError
 
     def compiled(self, chain, alignment, screen_tolerance: float):
-        """This form's compiled choice on ``chain`` through ``alignment`` (:class:`.compiled.Alignment`,
-        None: the identity), or None (no kernel, not built, or ``WBIK_PURE_PYTHON``)."""
+        """This form's compiled choice on ``chain`` through ``alignment`` (None: the identity), or None."""
         return None
 
 
 # --- wrapping into the limits --------------------------------------------------------------------
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                      revolute: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
-    """Shift revolute angles by multiples of 2 pi into [lower, upper], nearest to ``reference``.
-
-    Returns (wrapped q, in-limits mask over the joint ``axis``); reference, limits and ``revolute``
-    broadcast to q. The rule: of the shifts 0, 2 pi, -2 pi, 4 pi, -4 pi inside the limits (within
-    LIMIT_TOLERANCE), the nearest to the reference (the first on a tie), set into the limits; an angle
-    without one stays (mask False). Each angle first takes round((r - q) / 2 pi) turns, the rule's answer
-    where inside and nearer than pi - NEAREST_MARGIN; the others go through :func:`_wrap_by_shifts`.
-    """
+    """Revolute angles shifted by multiples of 2 pi into [lower, upper] nearest ``reference``, and the
+    in-limits mask over the joint ``axis`` (everything broadcasts to q). The rule: of the shifts 0, +-2 pi,
+    +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest (the first on a tie), set into the
+    limits; an angle without one stays (mask False). round((r - q) / 2 pi) turns first, the rest by
+    :func:`_wrap_by_shifts`."""
     q = np.asarray(q, dtype=float)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
     fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)
@@ -117,8 +111,7 @@ def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, up
 
 def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high: np.ndarray,
                     fixed: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """The rule of :func:`wrap_into_limits` on angles (m,), bounds already widened, every shift in order:
-    (the nearest shifted angle inside, not yet set into the limits; whether one is inside)."""
+    """:func:`wrap_into_limits`'s rule on angles (m,), bounds widened: (nearest shift inside, any inside)."""
     best = q.copy()
     best_distance = np.full(q.shape, np.inf)
     in_limits = np.zeros(q.shape, dtype=bool)
@@ -137,35 +130,20 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
     return best, in_limits
 
 
-# --- reasons, and the choice among a library's branches (ik_geo, eaik) ------------------------------
+# --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
     """:func:`no_solution_reason` of a kernel's failure code: 0 (no real branch), -1 (none inside the
-    limits) or -2 (none passes the screen)."""
+    limits), -2 (none passes the screen)."""
     return no_solution_reason(outcome != 0, outcome == -2)
 
 
 def no_solution_reason(real: bool, in_limits: bool) -> str:
-    """Why no branch was returned, from what the choice already knows."""
+    """Why no branch was returned."""
     if not real:
         return "unreachable: no real closed-form branch (target outside the workspace)"
     if not in_limits:
         return "every real branch is outside the joint limits"
     return "unreachable: no closed-form branch inside the joint limits reaches the target"
-
-
-def checked_branches(solver: Solver, target: Target, q_all: np.ndarray, revolute: np.ndarray,
-                     elapsed: float) -> list[IKResult]:
-    """``solve_all`` from a library's raw branches (K, n): wrapped nearest the nominal configuration,
-    held to the shared check, those within BRANCH_MERGE of one kept before dropped."""
-    chain = solver.chain
-    wrapped, in_limits = wrap_into_limits(q_all, chain.nominal[None], chain.lower, chain.upper, revolute)
-    results: list[IKResult] = []
-    for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
-        result = evaluate(chain, target, Candidate(q, 1), solver.tolerances, elapsed, solver.name)
-        if result.success and not any(joint_gap(result.q, other.q, revolute) < BRANCH_MERGE
-                                      for other in results):
-            results.append(result)
-    return results
 
 
 def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
@@ -176,34 +154,73 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
     return max(float(np.linalg.norm(position_xyz)), float(np.linalg.norm(rotation_xyz)))
 
 
-def pick_reaching(chain: Chain, q_all: np.ndarray, target: Target, q0: np.ndarray, revolute: np.ndarray,
-                  tolerance: float, library: str) -> Candidate:
-    """Of a library's raw branches (K, n), the one nearest q0 once wrapped into the limits whose FK
-    reaches the target within ``tolerance``; where none does, why (``library`` names it)."""
-    if len(q_all) == 0:
-        return Candidate(None, 1, f"unreachable: {library} returns no branch (target outside the workspace)",
-                         extra={"branches": 0})
-    wrapped, in_limits = wrap_into_limits(q_all, q0[None], chain.lower, chain.upper, revolute)
-    usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
-    distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
-    for index in np.argsort(distance, kind="stable"):
-        if not usable[index]:
-            break
-        if fk_residual(chain, wrapped[index], target) <= tolerance:
-            return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
-    if usable.any():
-        reason = f"unreachable: no {library} branch inside the joint limits reaches the target"
-    elif any(fk_residual(chain, q, target) <= tolerance for q in q_all):
-        reason = f"every exact {library} branch is outside the joint limits"
-    else:
-        reason = f"unreachable: {library} returns only least-squares branches (target outside the workspace)"
-    return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+class BranchLibrarySolver(Solver):
+    """A method over a closed-form library's raw branches (``eaik``, ``ik_geo``; full poses, no budget):
+    :meth:`_library_branches` gives the branches (K, n) of a target in our joints, ``library`` names it.
+    EAIK's and IK-Geo's least-squares flags are not trusted: the FK screen decides."""
+
+    budgeted = False
+    supports_position_only = False
+    library = ""
+
+    def _library_branches(self, target: Target) -> np.ndarray:
+        raise NotImplementedError
+
+    def raw_branches(self, target) -> np.ndarray:
+        """The library's branches (K, n) of a target as it returns them (not wrapped, not screened)."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        return self._library_branches(target)
+
+    def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
+        """The branch nearest q0 once wrapped into the limits whose FK reaches the target within
+        SCREEN_TOLERANCE; where none does, why."""
+        chain, library = self.chain, self.library
+        outside = "(target outside the workspace)"
+        if len(q_all) == 0:
+            return Candidate(None, 1, f"unreachable: {library} returns no branch {outside}",
+                             extra={"branches": 0})
+        wrapped, in_limits = wrap_into_limits(q_all, q0[None], chain.lower, chain.upper, ~chain.is_prismatic)
+        usable = in_limits & np.all(np.isfinite(wrapped), axis=-1)
+        distance = np.where(usable, np.linalg.norm(wrapped - q0, axis=-1), np.inf)
+        for index in np.argsort(distance, kind="stable"):
+            if not usable[index]:
+                break
+            if fk_residual(chain, wrapped[index], target) <= SCREEN_TOLERANCE:
+                return Candidate(wrapped[index], 1, extra={"branches": int(usable.sum())})
+        if usable.any():
+            reason = f"unreachable: no {library} branch inside the joint limits reaches the target"
+        elif any(fk_residual(chain, q, target) <= SCREEN_TOLERANCE for q in q_all):
+            reason = f"every exact {library} branch is outside the joint limits"
+        else:
+            reason = f"unreachable: {library} returns only least-squares branches {outside}"
+        return Candidate(None, 1, reason, extra={"branches": len(q_all)})
+
+    def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
+        return self._pick(self._library_branches(target), target, q0)
+
+    def solve_all(self, target) -> list[IKResult]:
+        """Every distinct branch inside the limits (wrapped nearest the nominal configuration; within
+        BRANCH_MERGE of one kept: dropped) that passes the shared check."""
+        target = as_target(target)
+        self._check_target_kind(target)
+        start = time.perf_counter()
+        q_all = self._library_branches(target)
+        elapsed = time.perf_counter() - start
+        chain, revolute = self.chain, ~self.chain.is_prismatic
+        wrapped, in_limits = wrap_into_limits(q_all, chain.nominal[None], chain.lower, chain.upper, revolute)
+        results: list[IKResult] = []
+        for q in wrapped[in_limits & np.all(np.isfinite(wrapped), axis=-1)]:
+            result = evaluate(chain, target, Candidate(q, 1), self.tolerances, elapsed, self.name)
+            if result.success and not any(joint_gap(result.q, other.q, revolute) < BRANCH_MERGE
+                                          for other in results):
+                results.append(result)
+        return results
 
 
 class Choice(NamedTuple):
-    """The vectorised choice per target: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and
-    ``usable`` (B, K), and the closed-form FK of the chosen joints (``reached_p`` (B, 3), ``reached_r``
-    (B, 3, 3); zeros where not found) for the batched check."""
+    """The vectorised choice: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and ``usable``
+    (B, K), the form's FK of q (``reached_p``, ``reached_r``; zeros where not found)."""
 
     q: np.ndarray
     found: np.ndarray

@@ -1,12 +1,7 @@
-"""A closed form's compiled choice: the C kernel of its family (``wbik/kernels/_<family>.c`` over
-``_closed_form.h``) doing for one target what :class:`~.solver.AnalyticSolver` does with the form's
-vectorised branches (its twin, run where the kernel is not built or ``WBIK_PURE_PYTHON`` names it).
-
-The kernel takes the family's numbers, the chain's limits and frames (an :class:`Alignment`: T_chain(q) =
-G T_family(u) X, u = s q + o) in one parameter vector. ``solve`` calls :meth:`CompiledForm.nearest_into`
-and the shared check; ``solve_many`` (:meth:`nearest_many`) and ``solve_all`` (:meth:`results`) check in
-C with the closed-form FK, the batched rule (the form's FK is held to the model's when it is built).
-"""
+"""A closed form's compiled choice: its family's C kernel (``wbik/kernels/_<family>.c``) doing what
+:class:`~.solver.AnalyticSolver`'s vectorised choice (its twin) does, on one parameter vector (the family's
+numbers, the chain's limits, an :class:`Alignment`); ``solve_many`` and ``solve_all`` check in C by the
+batched rule with the form's FK."""
 
 from __future__ import annotations
 
@@ -24,8 +19,7 @@ from wbik.solvers.result import Tolerances
 
 
 class Alignment(NamedTuple):
-    """A chain in a family's frames and joints (:class:`~.aligned.AlignedForm`): base G and tool X (4 x 4),
-    joint signs s and offsets o; None where it is the identity."""
+    """A chain in a family's frames (:class:`~.aligned.AlignedForm`): G, X (4 x 4), s, o; None: identity."""
 
     base: np.ndarray | None = None
     tool: np.ndarray | None = None
@@ -42,8 +36,7 @@ def _packed(transform: np.ndarray | None) -> list[float]:
 
 
 class CompiledForm:
-    """A family's kernel (``extension``) on one chain: its ``numbers``, the chain's limits, the
-    ``alignment`` and the screen's tolerance, packed as ``_closed_form.h``'s enum lays them out."""
+    """A family's kernel (``extension``) on one chain, its parameters packed as ``_closed_form.h`` reads."""
 
     def __init__(self, extension, numbers, chain, alignment: Alignment, screen_tolerance: float):
         plain_joints = alignment.signs is None
@@ -58,15 +51,13 @@ class CompiledForm:
         self.params, self.extension = params, extension
         self.branches = extension.MAX_BRANCHES
         self.nearest_into = functools.partial(extension.nearest, params)
-        """nearest_into(position, rotation, reference, out) -> status: the branch the vectorised choice picks
-        into ``out`` (6,) and the number of real branches, else 0 (no real branch), -1 (none inside the
-        limits) or -2 (none passes the screen)."""
+        """nearest_into(position, rotation, reference, out) -> the chosen branch into ``out`` (6,) and the
+        number of real branches, else 0 (none real), -1 (none inside the limits), -2 (none screened)."""
 
     def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
                      references: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``nearest_into`` for a batch, without the GIL: (joints (B, 6), the batched check's errors (B, 8) as
-        in :meth:`distinct`, (real branches, outcome) (B, 2), outcome 1 where picked); rows not picked are
-        zeros."""
+        """``nearest_into`` for a batch without the GIL: (joints (B, 6), errors (B, 8) as :meth:`distinct`'s,
+        (real branches, outcome 1 where picked) (B, 2)); rows not picked are zeros."""
         count = len(positions)
         q, errors, info = np.empty((count, 6)), np.empty((count, 8)), np.empty((count, 2))
         contiguous = np.ascontiguousarray
@@ -77,16 +68,15 @@ class CompiledForm:
 
     def distinct(self, position: np.ndarray, rotation: np.ndarray,
                  reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``solve_all``'s branches (k, 6) wrapped nearest ``reference``, in branch order, and the batched
-        check's errors of each (k, 8): e_p, e_R = log3(R*^T R) (``geometry.batch_log3``'s formula), norms."""
+        """``solve_all``'s branches (k, 6) wrapped nearest ``reference`` and the batched check's errors of
+        each (k, 8): e_p, e_R (``geometry.batch_log3``'s formula), their norms."""
         out, errors = np.empty((self.branches, 6)), np.empty((self.branches, 8))
         count = self.extension.distinct(self.params, position, rotation, reference, out, errors)
         return out[:count], errors[:count]
 
     def results(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray, method: str,
                 tolerances: Tolerances) -> list[IKResult]:
-        """``solve_all``'s answer: one IKResult per :meth:`distinct` branch within ``tolerances`` (arrays
-        are row views of the kernel's buffers; ``time_s`` the kernel's time with its check)."""
+        """``solve_all``'s answer: an IKResult per :meth:`distinct` branch within ``tolerances``."""
         start = perf_counter()
         joints, errors = self.distinct(position, rotation, reference)
         time_s = perf_counter() - start
@@ -105,8 +95,7 @@ class CompiledForm:
 
 def compiled_form(extension, name: str, numbers, chain, alignment: Alignment | None,
                   screen_tolerance: float) -> CompiledForm | None:
-    """The :class:`CompiledForm` of kernel ``name`` (``extension``: its module, None where not built), or
-    None where not built or ``WBIK_PURE_PYTHON`` names it (read now)."""
+    """The :class:`CompiledForm` of kernel ``name``, None where not built or ``WBIK_PURE_PYTHON`` names it."""
     if extension is None or pure_python(name):
         return None
     return CompiledForm(extension, numbers, chain, alignment or Alignment(), screen_tolerance)

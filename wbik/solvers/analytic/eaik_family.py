@@ -1,13 +1,7 @@
-"""EAIK's decomposition as a closed form: the fallback of ``analytic`` for full poses where no family of
-wbik matches the chain, and the chain model of the ``eaik`` method.
-
-EAIK 1.2.2 returns every branch of a pose; they feed ``analytic``'s own choice. Each thread builds its
-own EAIK robot from the chain's H and P with the tip's rotation at q = 0 as EAIK's R6T, so a target goes
-to EAIK as it is. The FK is the product of exponentials of the chain's lines (the model's to rounding).
-EAIK's verdict (:func:`eaik_verdict`): EAIK names the chain's kinematic family and whether it knows a
-decomposition; a claimed one must reproduce at least PROBE_REQUIRED of PROBE_POSES FK poses of seeded
-random joints (EAIK 1.2.2 claims some it gets wrong). ``solve`` picks among EAIK's branches with the
-``eaik`` method's compiled choice where built (:class:`EAIKChoice`), else with the vectorised one.
+"""EAIK 1.2.2's decomposition as a closed form: ``analytic``'s fallback for full poses and the ``eaik``
+method's chain model. EAIK is built from the chain's joint lines at q = 0 (axes H, offsets P) with the tip's
+rotation at q = 0 as its end-effector rotation, so a target goes to EAIK as it is; the FK is the lines'
+product of exponentials. EAIK's claimed decomposition is probed (it gets some wrong, e.g. the Pincher's).
 """
 
 from __future__ import annotations
@@ -25,17 +19,16 @@ from wbik.robot import Chain
 from wbik.robot import ChainCache
 from wbik.solvers.analytic.closed_form import BOUND_SLACK
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
+from wbik.solvers.analytic.closed_form import PROBE_POSES
+from wbik.solvers.analytic.closed_form import PROBE_REQUIRED
+from wbik.solvers.analytic.closed_form import PROBE_SEED
+from wbik.solvers.analytic.closed_form import PROBE_TOLERANCE
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.analytic.structure import poe_fk
 
 INSTALL = "pip install EAIK==1.2.2"
-SCREEN_TOLERANCE = 1e-7
-"""FK residual (m and rad) above which a branch is not a solution (as ``analytic``'s screen)."""
-PROBE_POSES, PROBE_REQUIRED, PROBE_SEED = 8, 6, 0
-"""A chain EAIK claims is checked once: EAIK must reproduce (to 1e-6) at least PROBE_REQUIRED of
-PROBE_POSES FK poses of seeded random joints inside the limits, else UnsupportedError."""
 
 
 def import_eaik():
@@ -62,10 +55,8 @@ _STRUCTURES = ChainCache()
 
 
 def eaik_structure(chain: Chain) -> EAIKStructure:
-    """H, P and R0 of ``chain`` with EAIK's verdict, computed once per chain.
-
-    UnsupportedError naming the chain and EAIK's reason when EAIK cannot solve it.
-    """
+    """H, P and R0 of ``chain`` with EAIK's verdict, once per chain; UnsupportedError naming the chain and
+    EAIK's reason when EAIK cannot solve it."""
     try:
         return eaik_verdict(chain)
     except UnsupportedError as refused:
@@ -74,10 +65,9 @@ def eaik_structure(chain: Chain) -> EAIKStructure:
 
 
 def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
-    """:func:`eaik_structure` of any chain-like object with joint lines (:func:`chain_lines`: a Chain, or
-    a chain with a locked joint), UnsupportedError saying only why (the caller names the chain).
-    ``probe``: check EAIK's branches on seeded FK poses (see the module docstring); a probed verdict is
-    computed once per chain, an unprobed one (a chain rebuilt at each value of a locked joint) each time."""
+    """:func:`eaik_structure` of any chain-like object with joint lines (a Chain, or one with a locked
+    joint), UnsupportedError saying only why. ``probe``: check EAIK's branches on seeded FK poses (cached
+    per chain; unprobed: a chain rebuilt at each value of a locked joint)."""
     HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
     if probe:
         cached = _STRUCTURES.get(chain)
@@ -117,14 +107,14 @@ def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
         branches = np.asarray(robot.IK(pose @ tip).Q, dtype=float).reshape(-1, chain.nq)
         misses = [np.abs(chain.fk(b).homogeneous - pose).max() for b in branches if np.all(np.isfinite(b))]
         miss = min(misses, default=np.inf)
-        reproduced += miss <= 1e-6
+        reproduced += miss <= PROBE_TOLERANCE
         worst = max(worst, miss)
     return reproduced, worst
 
 
 def eaik_robot(structure):
-    """An EAIK robot of a verdict's H and P whose end-effector rotation is the chain tip's at q = 0 (as
-    ``eaik.IK_HP.HPRobot``, which fixes it to the identity): it takes our target poses as they are."""
+    """An EAIK robot of a verdict's H and P whose end-effector rotation is the tip's at q = 0 (HPRobot's is
+    the identity): it takes our target poses as they are."""
     import_eaik()  # MissingDependencyError with the install command
     from eaik.pybindings import EAIK
 
@@ -132,9 +122,8 @@ def eaik_robot(structure):
 
 
 class EAIKForm(ClosedForm):
-    """Full poses through EAIK's decomposition of the chain (UnsupportedError, saying why, where EAIK
-    refuses it). ``structure``: a verdict already reached, else :func:`eaik_verdict`
-    (``probe``: check EAIK's branches on seeded FK poses)."""
+    """Full poses through EAIK's decomposition (UnsupportedError, saying why, where EAIK refuses the chain).
+    ``structure``: a verdict already reached, else :func:`eaik_verdict`; ``params``: the compiled choice's."""
 
     target_kind = "pose"
 
@@ -143,6 +132,9 @@ class EAIKForm(ClosedForm):
         self.structure = eaik_verdict(chain, probe) if structure is None else structure
         self.family = self.structure.family
         self.lines = chain_lines(chain)
+        self.params = eaik_kernel.parameters(chain.nq, chain.lower.tolist(), chain.upper.tolist(),
+                                             chain.nq * BOUND_SLACK, LIMIT_TOLERANCE, self.lines,
+                                             self.screen_tolerance)
         self._local = threading.local()
         compiled = eaik_kernel.choose_compiled is not None and not pure_python("eaik")
         self.kernel = EAIKChoice(self) if compiled else None
@@ -181,21 +173,16 @@ class EAIKForm(ClosedForm):
 
 
 class EAIKChoice:
-    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches of the target, then the ``eaik`` method's
-    compiled choice (``wbik/kernels/_eaik.c``: wrapped into the limits nearest the start, nearest first,
-    screened with the chain lines' FK), the choice the vectorised one makes."""
+    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches, then the ``eaik`` method's compiled
+    choice (``wbik/kernels/_eaik.c``), the choice the vectorised one makes."""
 
     def __init__(self, form: EAIKForm):
-        chain = form.chain
-        self.form, self.joints = form, chain.nq
-        self.params = eaik_kernel.parameters(chain.nq, chain.lower.tolist(), chain.upper.tolist(),
-                                             chain.nq * BOUND_SLACK, LIMIT_TOLERANCE, form.lines,
-                                             form.screen_tolerance)
+        self.form, self.joints, self.params = form, form.chain.nq, form.params
 
     def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
                      out: np.ndarray) -> int:
-        """The chosen branch into ``out``: the number of EAIK's branches, else 0 (none), -1 (none inside
-        the limits) or -2 (none passes the screen), as :class:`~.compiled.CompiledForm`."""
+        """The chosen branch into ``out``: the number of EAIK's branches, else 0, -1 or -2 (as
+        :class:`~.compiled.CompiledForm`)."""
         pose = EAIKForm.pose(position, rotation)
         q_all = self.form.robot().calculate_IK(pose).Q
         if not len(q_all):

@@ -1,6 +1,4 @@
-"""A closed form's FK held to the robot model's when ``analytic`` builds the form: the batched check (and
-a kernel's) uses the form's FK, the shared one only if that is the model's (e.g. not a UR-type binding
-given another arm's DH numbers)."""
+"""A closed form's FK held to the model's when built: the batched check and the kernels measure with it."""
 
 from __future__ import annotations
 
@@ -10,17 +8,13 @@ import numpy as np
 
 from wbik.errors import RobotDescriptionError
 
-MODEL_AGREEMENT = 1e-9
-"""Largest difference (m, rotation entries) between a form's FK and the model's, three orders below the
-check's tolerances; the shipped forms differ by 1.24e-11 at most (the UR5's DH numbers vs its URDF)."""
-MODEL_SAMPLES = 16
-"""Joint vectors the agreement is checked on (seeded, inside the limits; [-pi, pi] where one is infinite)."""
+MODEL_AGREEMENT = 1e-9  # m and rotation entries; the shipped forms differ by 1.24e-11 at most
+MODEL_SAMPLES = 16  # seeded joint vectors inside the limits ([-pi, pi] where one is infinite)
 
 
 def check_fk_against_model(form) -> None:
-    """RobotDescriptionError unless ``form.fk`` is the chain's model FK within MODEL_AGREEMENT on
-    MODEL_SAMPLES seeded joint vectors; positions only for a form of position targets (its check reads
-    no rotation)."""
+    """RobotDescriptionError unless ``form.fk`` is the model's FK within MODEL_AGREEMENT (positions only
+    for a form of position targets)."""
     positions_only = form.target_kind == "position"
     chain = form.chain
     lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)

@@ -1,14 +1,10 @@
-"""The closed-form family of a chain, recognised from its kinematic structure (generic part).
+"""The closed-form family of a chain, recognised from its joint lines at q = 0 (generic part).
 
-``analytic`` reads the chain's joint lines at q = 0 (:mod:`.structure`) and tries the registered families
-(:class:`Family`: a name and a matcher, each in its own module) in order. A matcher lays standard DH frames
-along the lines (:func:`walk`), choosing each axis' direction so that the twist angles are the family's
-(0 between parallel axes, +-pi/2 between perpendicular ones), and reads off a, d, the DH angle at q = 0 and
-the sign between each joint and its DH z axis. With the family's FK written as DH rows T_f(u) = B D(u +
-o_f) E (:class:`Canonical`), the chain is T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1
-T(0): the family's form through :class:`~.aligned.AlignedForm`. Relations are decided within
-:data:`~.structure.STRUCTURE_TOLERANCE`; a form whose FK is not the model's is refused and the next family
-tried (:func:`~.model_agreement.check_fk_against_model`).
+Each registered :class:`Family` (a name and a matcher) is tried in order. A matcher lays standard DH frames
+along the lines (:func:`walk`), each axis directed so the twist angles are the family's, and reads off a,
+d, the DH angle at q = 0 and each joint's sign. With the family's FK as DH rows T_f(u) = B D(u + o_f) E
+(:class:`Canonical`), the chain is T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1 T(0): the
+form through :class:`~.aligned.AlignedForm`, refused where its FK is not the model's.
 """
 
 from __future__ import annotations
@@ -53,17 +49,9 @@ class Canonical:
     tool: np.ndarray
 
 
-def rotation4(rows) -> np.ndarray:
-    """A 4 x 4 transform of a 3 x 3 rotation."""
-    matrix = np.eye(4)
-    matrix[:3, :3] = rows
-    return matrix
-
-
 @dataclass
 class Match:
-    """A family found on a chain: its form on the family's joints (``build(family_chain)``), the chain's
-    base and tool transforms G and X, its joint map u = s q + o, and the parameters in words."""
+    """A family found on a chain: ``build(family_chain)``, G, X, u = s q + o, the parameters in words."""
 
     family: str
     build: Callable[[FamilyChain], ClosedForm]
@@ -84,8 +72,8 @@ class Family:
 
 @dataclass(frozen=True)
 class Recognised:
-    """A chain's closed form found from its structure: the form, its family ("ur_type", ...,
-    "eaik:<EAIK's class>", a held joint named after it) and its parameters in words."""
+    """A chain's recognised closed form, its family ("ur_type", ..., "eaik:<EAIK's class>", a held joint
+    named after it) and its parameters in words."""
 
     form: ClosedForm
     family: str
@@ -104,8 +92,8 @@ def _frame(x: np.ndarray, z: np.ndarray, origin: np.ndarray) -> np.ndarray:
 
 
 def first_frame(lines: ChainLines, preferred: np.ndarray) -> tuple[np.ndarray, float]:
-    """DH frame 0 and the sign s_1 (z_0 = s_1 h_1): on axis 1 at the foot of the base origin, as near to the
-    ``preferred`` rotation as the axis allows (a chain described in the family's frames keeps them)."""
+    """DH frame 0 and the sign s_1 (z_0 = s_1 h_1): on axis 1 at the foot of the base origin, as near the
+    ``preferred`` rotation as the axis allows."""
     axis, point = lines.axes[0], lines.origins[0]
     sign = 1.0 if np.dot(axis, preferred[:, 2]) >= 0.0 else -1.0
     z = sign * axis
@@ -117,8 +105,8 @@ def first_frame(lines: ChainLines, preferred: np.ndarray) -> tuple[np.ndarray, f
 
 @dataclass
 class Walk:
-    """DH frames F_0..F_k along the first k + 1 lines at q = 0 and per row theta (the DH angle at q = 0),
-    d, a, alpha; ``signs`` s_1..s_k+1 with z_i-1 = s_i h_i."""
+    """DH frames F_0..F_k along the first k + 1 lines at q = 0, per row theta (at q = 0), d, a, alpha, and
+    ``signs`` s_1..s_k+1 (z_i-1 = s_i h_i)."""
 
     frames: list[np.ndarray]
     signs: list[float]
@@ -130,9 +118,8 @@ class Walk:
 
 def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[float, ...],
          a_signs: tuple[float, ...]) -> Walk:
-    """DH frames along the lines with twist angles ``alphas`` (0: parallel axes, x_i their common
-    perpendicular through O_i-1; +-pi/2: perpendicular axes, x_i the common normal, the direction of z_i
-    giving alpha_i its sign); ``a_signs`` orient x_i so a_i has the family's sign. Mismatch otherwise."""
+    """DH frames along the lines with twist angles ``alphas`` (0: parallel axes; +-pi/2: perpendicular, z_i
+    directed to give alpha_i its sign), x_i oriented so a_i has the sign of ``a_signs``; Mismatch else."""
     angle_tolerance, length_tolerance = STRUCTURE_TOLERANCE, STRUCTURE_TOLERANCE * lines.length
     result = Walk([first], [first_sign], [], [], [], [])
     for row, (alpha, a_sign) in enumerate(zip(alphas, a_signs, strict=True)):
@@ -243,7 +230,7 @@ def small(value: float, lines: ChainLines) -> bool:
 # --- trying the families ------------------------------------------------------------------------------
 def recognise_family(chain, kind: str, options: dict | None, families: tuple[Family, ...]) -> Recognised:
     """The first of ``families`` the chain matches whose form agrees with the model's FK; UnsupportedError
-    listing, family by family, why none did."""
+    listing why none did."""
     options = dict(options or {})
     lines = chain_lines(chain)
     reasons = []
@@ -265,9 +252,8 @@ def recognise_family(chain, kind: str, options: dict | None, families: tuple[Fam
 
 
 def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
-    """EAIK's decomposition of the chain as a closed form (full poses), or UnsupportedError saying why.
-    ``probe=False`` (a chain rebuilt at each value of a held joint) skips EAIK's probe and the model
-    agreement (the form's FK is the lines' product of exponentials, built as the checked one is)."""
+    """EAIK's decomposition as a closed form (full poses), or UnsupportedError saying why; ``probe=False``
+    (a chain rebuilt per held value) skips the probe and the model agreement."""
     if kind != "pose":
         raise UnsupportedError("EAIK: solves full poses only")
     try:

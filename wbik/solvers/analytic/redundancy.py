@@ -1,15 +1,8 @@
-"""A 7-joint chain in closed form: one joint (the redundant one) held at a value, the other six solved.
-
-As IKFast's free joint and EAIK's locked axes: joint k is held at v, the 6-joint rest (:class:`LockedChain`)
-is solved by a recognised family or EAIK, and v is put back in every branch. Values per target
-(``redundancy``): ``"seed"``, v = q0_k (inside the limits); ``"grid"``, q0_k and ``grid_size`` values over
-the joint's range, every branch of each (the solver returns the one nearest q0 over all).
-
-Holding the first or the last joint only moves the base (T = exp([xi_1] v) T_6(q)) or the tool (T = T_6(q)
-M^-1 exp([xi_n] v) M): one form built at v = 0 solves every value with the target moved. A joint in
-between moves the lines after it: the form is rebuilt per value (kept). The default joint
-(:func:`lock_redundant_joint`): the last, the first, then the others from the tip, the first whose holding
-leaves a chain with a closed form.
+"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v, the other six
+(:class:`LockedChain`) solved by a recognised family or EAIK, v put back in every branch. Per target
+(``redundancy``), v = q0_k (``"seed"``) or also ``grid_size`` values over its range (``"grid"``). Holding the
+first or last joint moves only the base or the tool: one form built at v = 0 solves every v with the target
+moved; a joint in between needs a form per value (kept).
 """
 
 from __future__ import annotations
@@ -35,17 +28,12 @@ from wbik.solvers.analytic.structure import locked_lines
 from wbik.solvers.analytic.structure import poe_fk
 
 REDUNDANCY_MODES = ("seed", "grid")
-DEFAULT_GRID_SIZE = 16
-"""Values of the held joint over its range in ``"grid"`` mode (besides q0's): 16 puts them ~0.35 rad
-apart on a 2 pi range, a few x 8 branches per target."""
-KEPT_FORMS = 256
-"""Forms built for a joint held in the middle of the chain that are kept (the grid's values recur; a
-start's own value rarely does)."""
+DEFAULT_GRID_SIZE = 16  # held values over the range in "grid" mode (~0.35 rad apart on 2 pi)
+KEPT_FORMS = 256  # forms kept for a joint held in the middle (the grid's values recur)
 
 
 class LockedChain:
-    """``chain`` with joint ``index`` held at ``value``: what a closed form reads of a chain (limits,
-    nominal, names, its lines and its FK, the parent's at the held value)."""
+    """``chain`` with joint ``index`` held at ``value``: what a closed form reads of a chain."""
 
     def __init__(self, chain, index: int, value: float):
         self.parent, self.index, self.value = chain, index, float(value)
@@ -78,8 +66,8 @@ class LockedChain:
 
 
 def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
-    """The grid of ``"grid"`` mode: ``grid_size`` values over the joint's range ([-pi, pi] where a
-    bound is infinite; a range of a full turn or more without its last value, the first's twin)."""
+    """``"grid"`` mode's ``grid_size`` values over the joint's range ([-pi, pi] where a bound is infinite;
+    a full turn without its last value)."""
     low, high = float(chain.lower[index]), float(chain.upper[index])
     if not (math.isfinite(low) and math.isfinite(high)):
         low, high = -math.pi, math.pi
@@ -88,8 +76,7 @@ def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
 
 
 class LockedJointForm(ClosedForm):
-    """A chain solved with joint ``index`` held (see the module docstring); UnsupportedError where the
-    chain without it has no closed form."""
+    """A chain solved with joint ``index`` held; UnsupportedError where the rest has no closed form."""
 
     def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
                  options: dict | None = None, mode: str = "seed", grid_size: int = DEFAULT_GRID_SIZE):
@@ -133,7 +120,7 @@ class LockedJointForm(ClosedForm):
         raise UnsupportedError("; ".join(reasons))
 
     def _form_at(self, value: float) -> ClosedForm | None:
-        """The 6-joint form with the joint held at ``value`` (a middle joint), None where it has none."""
+        """The 6-joint form with a middle joint held at ``value``, None where it has none."""
         with self._lock:
             if value in self._forms:
                 return self._forms[value]
@@ -154,7 +141,6 @@ class LockedJointForm(ClosedForm):
         seeds = np.clip(starts[:, k], self.chain.lower[k], self.chain.upper[k])[:, None]
         return np.concatenate((seeds, np.broadcast_to(self.grid, (len(starts), len(self.grid)))), axis=1)
 
-    # -- moving the target of a form built at v = 0 ---------------------------------------------------
     def _motions(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """exp([xi_k] v) for values (m,): rotations (m, 3, 3), translations (m, 3)."""
         axis, point = self.lines.axes[self.index], self.lines.origins[self.index]
@@ -165,8 +151,8 @@ class LockedJointForm(ClosedForm):
 
     def moved_targets(self, positions: np.ndarray, rotations: np.ndarray | None,
                       values: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        """Targets of the form built at v = 0, one per (target, value) pair (all arrays (m, ...)): base
-        moved, exp(-[xi_1] v) T; tool moved, T Y_v^-1 with Y_v = M^-1 exp([xi_n] v) M."""
+        """Targets of the form built at v = 0 per (target, value) pair (m, ...): exp(-[xi_1] v) T (base), or
+        T Y_v^-1 with Y_v = M^-1 exp([xi_n] v) M (tool)."""
         turn, shift = self._motions(values)
         if self.moves == "base":
             positions = np.einsum("mji,mj->mi", turn, positions - shift)
@@ -178,7 +164,6 @@ class LockedJointForm(ClosedForm):
         new_rotations = rotations @ moved_r
         return positions - np.einsum("mij,mj->mi", new_rotations, moved_p), new_rotations
 
-    # -- the closed form --------------------------------------------------------------------------
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         values = self.values(q0)
@@ -214,9 +199,8 @@ class LockedJointForm(ClosedForm):
         return poe_fk(self.lines, q)
 
 class HeldChoice:
-    """``solve``'s kernel of a :class:`LockedJointForm` holding the first or last joint at the start's
-    value (one form, one value): the target moved for the 6-joint form, its kernel's choice, the value put
-    back."""
+    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint at the start's value: the
+    target moved, the 6-joint form's kernel, the value put back."""
 
     def __init__(self, form: LockedJointForm):
         self.form, self.index = form, form.index
@@ -235,8 +219,7 @@ class HeldChoice:
 
 
 def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
-    """The held joint's index (None: the default) after checking the options; InvalidSettingError
-    saying what is accepted."""
+    """The held joint's index (None: the default); InvalidSettingError saying what is accepted."""
     from wbik.options import COUNT
 
     if mode not in REDUNDANCY_MODES:
@@ -257,9 +240,8 @@ def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
 
 def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict,
                          families: tuple[Family, ...]) -> Recognised:
-    """The chain's closed form with one joint held (:class:`LockedJointForm`, the rest recognised among
-    ``families`` or by EAIK): the joint ``redundancy["joint"]`` (an index), else the default of a 7-joint
-    chain. UnsupportedError saying why none."""
+    """The closed form holding ``redundancy["joint"]``, by default the first of the last, the first, the
+    others from the tip whose holding leaves a closed form; UnsupportedError saying why none."""
     mode = redundancy.get("mode", "seed")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")

@@ -39,18 +39,7 @@ from wbik.solvers.result import IKResult
 from wbik.targets import Target
 from wbik.targets import as_target
 
-FAMILIES = (UR_TYPE, YAW_PLANAR, STACKED_PLANAR)
-"""The families recognition tries, in this order (a new family: its module and one entry here)."""
-
-
-def binding_name(binding) -> str:
-    """A robot's closed-form binding in words: "module:Name" of its class or factory."""
-    return f"{binding.__module__}:{getattr(binding, '__qualname__', type(binding).__name__)}"
-
-
-def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
-    """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
-    return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
+FAMILIES = (UR_TYPE, YAW_PLANAR, STACKED_PLANAR)  # recognition's order (a new family: its module, one entry)
 
 
 def refusal(chain, reasons: dict[str, list[str]]) -> str:
@@ -63,9 +52,8 @@ def refusal(chain, reasons: dict[str, list[str]]) -> str:
 
 def refusal_reasons(chain, kind: str, options: dict | None = None,
                     redundancy: dict | None = None) -> Recognised | list[str]:
-    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, else for full poses
-    EAIK's decomposition, else one joint held: ``redundancy``, :mod:`.redundancy`'s options), or the
-    reasons (one per way tried) where there is none."""
+    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, EAIK's decomposition,
+    one joint held by ``redundancy``'s options), or the reasons, one per way tried."""
     try:
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
@@ -92,18 +80,17 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
 TARGET_KINDS = ("pose", "position")
 
 
-class AnalyticSolver(Solver):
-    """Closed-form IK behind the common interface: every branch of the chain's closed form (the robot's
-    binding, else recognised: a family of wbik, EAIK's decomposition, a 7-joint chain with one joint held),
-    wrapped into the limits nearest q0, screened with the form's FK, the nearest returned. ``families``
-    names per target kind what solves the chain ("bound:<module:Name>", "ur_type", "yaw_planar",
-    "stacked_planar", "eaik:<EAIK's class>", with the held joint where one is); a chain with neither kind is
-    refused when the solver is built, a missing kind when it is asked for (UnsupportedError saying why).
+def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
+    """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
+    return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
 
-    One path per form: the vectorised choice over a batch of B targets (``solve``: B = 1), or the form's
-    compiled kernel where one is built (:mod:`.compiled`: the same choice in C). Results go through the
-    shared check (``solve``, and ``solve_all`` without a kernel) or its batched twin
-    (:func:`~.batch.evaluate_batch`, with the form's FK, held to the model's by :mod:`.model_agreement`).
+
+class AnalyticSolver(Solver):
+    """Closed-form IK behind the common interface (see the package docstring). ``families`` names per
+    target kind what solves the chain ("bound:<module:Name>", "ur_type", "yaw_planar", "stacked_planar",
+    "eaik:<EAIK's class>", with a held joint); a chain with neither kind is refused when the solver is
+    built, a missing kind when asked for (UnsupportedError saying why). ``solve`` and ``solve_all`` go
+    through the shared check, ``solve_many`` through its batched twin (:func:`~.batch.evaluate_batch`).
     """
 
     name = "analytic"
@@ -112,35 +99,31 @@ class AnalyticSolver(Solver):
     def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None,
                  redundant_joint: str | int | None = None, redundancy: str = "seed",
                  grid_size: int = 16, **options):
-        """``closed_form_options``: keyword arguments per target kind for the closed form, e.g.
-        ``{"position": {"yaw": 0.3}}`` (Golem-III's fixed wrist roll). A 7-joint chain holds one joint
-        (:mod:`.redundancy`): ``redundant_joint`` (name or index; default: the last, the first, then the
-        others from the tip whose holding leaves a closed form), at the start's value (``redundancy="seed"``)
-        or also at ``grid_size`` values over its range (``"grid"``)."""
+        """``closed_form_options``: keyword arguments per target kind, e.g. ``{"position": {"yaw": 0.3}}``.
+        A 7-joint chain holds ``redundant_joint`` (name or index; default: the first that leaves a closed
+        form) at the start's value (``redundancy="seed"``) or also at ``grid_size`` values (``"grid"``)."""
         super().__init__(robot, chain, **options)
         self._forms: dict[str, ClosedForm] = {}
         self.closed_form_options = dict(closed_form_options or {})
         held = check_redundancy_options(self.chain, redundant_joint, redundancy, grid_size)
         self.redundancy = {"joint": held, "mode": redundancy, "grid_size": int(grid_size)}
         self.families: dict[str, str] = {}
-        """Per target kind, the family of the closed form that solves the chain (see the class)."""
         self._refusals: dict[str, str] = {}
         self._recognise_forms()
         self.revolute = ~self.chain.is_prismatic
         self._limits_by_joint = (self.chain.lower[:, None, None], self.chain.upper[:, None, None],
-                                 self.revolute[:, None, None])
-        """(lower, upper, revolute), each (n, 1, 1): the limits of a joint-major (n, K, B) batch."""
-        self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())
-        """Then a branch inside the limits is finite (no isfinite pass)."""
+                                 self.revolute[:, None, None])  # of a joint-major (n, K, B) batch
+        self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())  # no isfinite pass then
 
     def _recognise_forms(self) -> None:
-        """Per target kind: the bound form's name (built on first use), or the form recognised now, or why
+        """Per target kind: the bound form's name (built on first use), the form recognised now, or why
         there is none; UnsupportedError when no kind has one."""
         reasons = {}
         for kind in TARGET_KINDS:
             binding = self.robot.closed_forms.get((self.chain.name, kind))
             if binding is not None and self.redundancy["joint"] is None:
-                self.families[kind] = f"bound:{binding_name(binding)}"
+                name = getattr(binding, "__qualname__", type(binding).__name__)
+                self.families[kind] = f"bound:{binding.__module__}:{name}"
                 continue
             found = refusal_reasons(self.chain, kind, self.closed_form_options.get(kind, {}), self.redundancy)
             if isinstance(found, list):
@@ -163,7 +146,7 @@ class AnalyticSolver(Solver):
         self.closed_form(kind)
 
     def _form_of(self, target: Target) -> ClosedForm:
-        """The closed form of the target's kind (the kind's first call runs the detailed checks)."""
+        """The closed form of the target's kind."""
         kind = "position" if target.rotation is None else "pose"
         form = self._forms.get(kind)
         if form is None:
@@ -182,10 +165,9 @@ class AnalyticSolver(Solver):
             self._forms[kind] = form
         return self._forms[kind]
 
-    # -- the vectorised choice -------------------------------------------------------------------------
     def _wrapped_by_joint(self, form: ClosedForm, positions, rotations, q0s):
-        """Every branch of a batch wrapped into the limits nearest q0, joint-major and batch-last:
-        (Q (n, K, B), real (K, B), usable (K, B)), usable = real, inside the limits and finite."""
+        """Every branch of a batch wrapped into the limits nearest q0, joint-major and batch-last: (Q (n, K,
+        B), real (K, B), usable (K, B): real, inside the limits and finite)."""
         q_all, real = form.branches_by_joint(positions, rotations, q0s)
         lower, upper, revolute = self._limits_by_joint
         q_all, in_limits = wrap_into_limits(q_all, _by_joint(q0s), lower, upper, revolute, axis=0)
@@ -196,8 +178,8 @@ class AnalyticSolver(Solver):
 
     @staticmethod
     def _screen(form: ClosedForm, q: np.ndarray, positions, rotations):
-        """The form's FK of joints q (..., n) and its residual max(|p - p*|, angle(R*^T R)) against the
-        targets, the trace summed row by row (as the compiled kernels): (residual, reached p, reached R)."""
+        """(max(|p - p*|, angle(R*^T R)), p, R) by the form's FK of joints q (..., n), the trace summed
+        in order as the kernels do."""
         reached_p, reached_r = form.fk(q)
         d = reached_p - positions
         residual = np.sqrt(d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2])
@@ -210,8 +192,8 @@ class AnalyticSolver(Solver):
         return residual, reached_p, reached_r
 
     def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
-        """The nearest screened branch per target (see :class:`Choice`): the nearest usable branch of every
-        target screened at once; where it misses (rare), the next ones in the order of their distances."""
+        """The nearest screened branch per target: the nearest of every target screened at once, where it
+        misses (rare) the next ones by distance."""
         q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
         squares = q_all - _by_joint(q0s)
         squares *= squares
@@ -247,12 +229,11 @@ class AnalyticSolver(Solver):
 
     @staticmethod
     def _reasons(choice: Choice) -> list[str]:
-        """The failure reason of each target from the choice's masks ("" where found)."""
+        """Each target's failure reason ("" where found)."""
         any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
         return ["" if ok else no_solution_reason(r, u)
                 for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
 
-    # -- the interface --------------------------------------------------------------------------
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         form = self._form_of(target)
         rotation = None if form.target_kind == "position" else target.rotation
@@ -269,9 +250,7 @@ class AnalyticSolver(Solver):
         return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """One choice and one batched check for the whole batch (the form's kernel where built); per-pose
-        time = the choice's time / B (the vectorised check not counted, as in ``solve``; the kernel's
-        includes its check)."""
+        """One choice (the kernel where built) and one batched check; per-pose time = the choice's / B."""
         positions, rotations = batch_targets(targets, self)
         count = len(positions)
         if not count:
@@ -297,16 +276,14 @@ class AnalyticSolver(Solver):
                               reached=(choice.reached_p, choice.reached_r))
 
     def _start_array(self, q0s, count: int) -> np.ndarray:
-        """Start configurations (count, n): the chain's nominal, one start for all, or one per target."""
+        """Starts (count, n): the chain's nominal, one start for all, or one per target."""
         if q0s is None:
             return np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy()
         return np.array(self._batch_starts(q0s, count))
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch (not within BRANCH_MERGE of an earlier one) inside the limits, wrapped
-        nearest the chain's nominal configuration, that passes the screen and the check, in branch order.
-        The check is the shared one (Pinocchio), or with a kernel its batched rule (the form's FK; the
-        kernel builds the results, their arrays row views of its buffers)."""
+        """Every distinct branch (BRANCH_MERGE) inside the limits, wrapped nearest the nominal configuration,
+        passing the screen and the check (with a kernel, its batched rule), in branch order."""
         target = as_target(target)
         form = self._form_of(target)
         nominal = self.chain.nominal
@@ -329,7 +306,7 @@ class AnalyticSolver(Solver):
 
 
 def _by_joint(q: np.ndarray) -> np.ndarray:
-    """Joints (B, n) as the reference of a joint-major batch: (n, 1, B), contiguous along B."""
+    """Joints (B, n) as a joint-major batch's reference (n, 1, B)."""
     return np.ascontiguousarray(q.T)[:, None, :]
 
 
@@ -337,4 +314,3 @@ IK_METHODS = (
     IKMethod("analytic", AnalyticSolver,
              "closed-form IK: every branch, nearest to q0, vectorised batches"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

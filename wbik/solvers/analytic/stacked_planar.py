@@ -1,10 +1,8 @@
 """Family: a horizontal planar 3R carrying a vertical planar 2R and a roll (the Golem-III arm), every branch.
 
-Axes 1-3 are vertical and parallel (IK-Geo's "three parallel" first axes), axes 4-5 horizontal and
-parallel, axis 6 rolls about the forearm. With joints t = (t1..t6) and a :class:`StackedPlanarGeometry`
-(links l1, l2 in the horizontal plane, l4 and the forearm offset (l5, l6) in the vertical one, the
-height h of the horizontal plane and the angle rho of link l4), the gripper centre and rotation are
-(golem3.md, thesis ch. 4.1)::
+Axes 1-3 vertical and parallel, 4-5 horizontal and parallel, 6 the forearm roll; with links l1, l2 in the
+horizontal plane at height h, l4 (at angle rho) and the forearm offset (l5, l6) in the vertical one, the
+gripper centre and rotation are (golem3.md, thesis ch. 4.1)::
 
     l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
     x  = l1 sin t1 + l2 sin(t1+t2) + l3 cos(gamma)
@@ -13,14 +11,10 @@ height h of the horizontal plane and the angle rho of link l4), the gripper cent
     R  = Rz(gamma) Ry(beta) Rx(alpha),  gamma = t1+t2+t3, beta = -t4-t5, alpha = t6
 
 Pose IK: alpha = t6 from R Rx(-alpha) = Rz(gamma) Ry(beta) (|alpha| <= pi/2, or also alpha + pi), then
-beta and gamma; at gimbal lock (beta = +-pi/2) t6 is free and a sweep of values is tried. z fixes
-cos(t4 + rho) (two signs of the sine), l3 follows, and (x, y) minus the l3 link is the planar 2R of
-(t1, t2): at most 4 real branches per roll (the thesis' 8 sign choices square the t1 equation; half are
-spurious). Cosines within ``COSINE_TOLERANCE`` of +-1 are clamped and the FK screen decides.
-
-Position IK: t6 = ``yaw`` (it does not move the gripper centre); for fixed (t1, t2) the rest is closed
-form (:func:`position_candidates`: l3 = +-|p_xy - S(t1, t2)|, then the planar 2R of l4 and
-|(l5, l6)|); :class:`PositionSearch` searches (t1, t2).
+beta and gamma (at gimbal lock t6 is free: a sweep); z fixes cos(t4 + rho), l3 follows, and (x, y) minus
+the l3 link is the planar 2R of (t1, t2): at most 4 real branches per roll. Position IK: t6 = ``yaw``; for
+fixed (t1, t2) the rest is closed form (:func:`position_candidates`), :class:`PositionSearch` searches
+(t1, t2).
 """
 
 from __future__ import annotations
@@ -54,14 +48,12 @@ try:
 except ImportError:  # not built (no C compiler at install time): the vectorised twin
     _stacked_kernel = None
 
-GIMBAL_LOCK = 1e-9
-"""|cos(beta)| = hypot(R32, R33) below which t6 is free (rounding moves it by ~1e-16; the t6 chosen there
-costs at most GIMBAL_LOCK |its change| of orientation)."""
+GIMBAL_LOCK = 1e-9  # |cos(beta)| = hypot(R32, R33) below which t6 is free
 
 
 @dataclass(frozen=True)
 class StackedPlanarGeometry:
-    """Lengths (m) and the angle rho (rad) of the arm (see the module docstring)."""
+    """Lengths (m) and the angle rho (rad) of the arm (the module docstring's)."""
 
     l1: float
     l2: float
@@ -73,7 +65,7 @@ class StackedPlanarGeometry:
 
     @property
     def forearm(self) -> float:
-        """|(l5, l6)|: the elbow-to-gripper-centre vector in the arm's vertical plane."""
+        """|(l5, l6)|: the elbow to the gripper centre in the arm's vertical plane."""
         return math.hypot(self.l5, self.l6)
 
     @property
@@ -102,8 +94,7 @@ def fk(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 
 
 def position_jacobian(g: StackedPlanarGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(position (N, 3), d position / d (t1..t5) (N, 3, 5)) for q (N, >=5); t6 does not move the
-    gripper centre. Written for few ufunc calls (it runs inside the refinement loop)."""
+    """(position (N, 3), d position / d (t1..t5) (N, 3, 5)) for q (N, >=5), in few ufunc calls."""
     t1, t2, t3, t4, t5 = q[:, 0], q[:, 1], q[:, 2], q[:, 3], q[:, 4]
     angles = np.stack([t1, t1 + t2, t1 + t2 + t3, t4 + t5, t4 + g.rho], axis=1)
     sines, cosines = np.sin(angles), np.cos(angles)
@@ -145,10 +136,8 @@ def gimbal_locked(rotations: np.ndarray) -> np.ndarray:
 
 def pose_branches(g: StackedPlanarGeometry, positions: np.ndarray, rotations: np.ndarray,
                   alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The 4 branches for rolls alpha (B, A): Q (B, A, 4, 6), real (B, A, 4).
-
-    Branch k = 2 i + j: i picks the sign of sin(t4 + rho) (+, -), j the planar elbow t2 (+, -).
-    """
+    """The 4 branches for rolls alpha (B, A): Q (B, A, 4, 6), real (B, A, 4); branch 2 i + j: i the sign
+    of sin(t4 + rho), j the elbow t2."""
     x, y, z = (positions[:, i, None] for i in range(3))
     r = rotations[:, :, :, None]  # (B, 3, 3, 1) against alpha (B, A)
     ca, sa = np.cos(alpha), np.sin(alpha)
@@ -175,11 +164,8 @@ def pose_branches(g: StackedPlanarGeometry, positions: np.ndarray, rotations: np
 
 def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.ndarray, t2: np.ndarray,
                         yaw: float) -> tuple[np.ndarray, np.ndarray]:
-    """Closed form of t3, t4, t5 for given (t1, t2) (broadcast over (B, G)), 4 branches each.
-
-    Branch k = 2 i + j: i the sign of l3 (+: gripper beyond the t3 axis), j the planar elbow sign.
-    Returns Q (B, G, 4, 6) (t3..t5 in (-pi, pi]) and the real mask (B, G, 4).
-    """
+    """t3, t4, t5 for given (t1, t2) (broadcast over (B, G)): Q (B, G, 4, 6) (t3..t5 in (-pi, pi]), real
+    (B, G, 4); branch 2 i + j: i the sign of l3 = +-|p_xy - S(t1, t2)|, j the elbow of l4 and |(l5, l6)|."""
     x, y, z = (positions[:, i, None, None] for i in range(3))
     t1, t2 = t1[..., None], t2[..., None]
     dx = x - g.l1 * np.sin(t1) - g.l2 * np.sin(t1 + t2)
@@ -201,11 +187,9 @@ def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.
 
 
 class PositionSearch:
-    """Position IK with t6 fixed over the limit box of (t1, t2): a ``grid_t1`` x ``grid_t2`` grid of exact
-    candidates (:func:`position_candidates`; the ``keep`` nearest q0), and a bounded Levenberg-Marquardt on
-    the position (closed-form Jacobian, the project's LM policy) from q0 and, where the grid found
-    nothing, from the ``lm_starts`` grid points nearest feasibility. Positions beyond a certified outer
-    bound are refused at once. "Nearest q0" is among these candidates, not over the solution surface."""
+    """Position IK with t6 fixed over the limit box of (t1, t2): a grid of exact candidates (the ``keep``
+    nearest q0) and the LM policy on the position from q0 and, where the grid found nothing, from the
+    ``lm_starts`` grid points nearest feasibility; positions beyond a certified outer bound are refused."""
 
     grid_t1 = 9
     grid_t2 = 13
@@ -213,9 +197,7 @@ class PositionSearch:
     lm_starts = 3
     lm_iterations = 40
     lm_tolerance = 1e-11
-    lm_stall = 8
-    """Trials (rejected ones count) without |e| below 0.99 of its best after which a start is given up (near
-    the workspace boundary progress is slow: with 2, 2 of 10,000 reachable Golem-III positions were lost)."""
+    lm_stall = 8  # trials without |e| below 0.99 of its best (slow near the workspace boundary)
     damping_factor = 0.1
 
     def __init__(self, geometry: StackedPlanarGeometry, lower: np.ndarray, upper: np.ndarray):
@@ -233,8 +215,8 @@ class PositionSearch:
                       axis=-1)
 
     def outside_outer_bound(self, positions: np.ndarray) -> np.ndarray:
-        """Certainly unreachable (B,): the gripper centre is within l4 + |(l5, l6)| of the t3-t4 axes'
-        crossing (height h, within l1 + l2 of the chest axis), whatever the limits."""
+        """Certainly unreachable (B,): farther than l4 + |(l5, l6)| from wherever the t3-t4 axes cross
+        (height h, within l1 + l2 of the chest axis)."""
         g = self.geometry
         vertical = np.abs(g.h - positions[:, 2])
         reach = g.l4 + g.forearm
@@ -243,8 +225,8 @@ class PositionSearch:
             np.hypot(positions[:, 0], positions[:, 1]) > horizontal * (1.0 + 1e-9))
 
     def candidates(self, positions: np.ndarray, q0: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
-        """Candidates (B, keep + 1 + lm_starts, 6) with t6 = ``yaw`` and their validity (exact, inside
-        the limits up to LIMIT_TOLERANCE for the grid ones, converged for the refined ones)."""
+        """Candidates (B, keep + 1 + lm_starts, 6) with t6 = ``yaw`` and their validity (exact and inside the
+        limits, or converged)."""
         count = len(positions)
         lower, upper = self.lower, self.upper
         grid1, grid2 = np.meshgrid(np.linspace(lower[0], upper[0], self.grid_t1),
@@ -278,10 +260,8 @@ class PositionSearch:
 
     def _refine(self, positions: np.ndarray, starts: np.ndarray,
                 use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Levenberg-Marquardt (:mod:`wbik.solvers.levenberg_marquardt`: lambda = damping_factor |e|^2 + mu,
-        a trial kept when it lowers |e|, joints at a limit frozen) on e = p(q) - p* over t1..t5 from starts
-        (B, S, 6) where ``use`` (B, S), until |e| <= lm_tolerance, a stall or ``lm_iterations`` trials;
-        returns (joints, converged to 1e-9 m)."""
+        """The LM policy on e = p(q) - p* over t1..t5 from starts (B, S, 6) where ``use``, until |e| <=
+        lm_tolerance, a stall or ``lm_iterations``: (joints, converged to 1e-9 m)."""
         count, seeds, _ = starts.shape
         q = starts.reshape(-1, 6).copy()
         target = np.repeat(positions, seeds, axis=0)
@@ -314,22 +294,19 @@ class PositionSearch:
 
 
 # --- the family's forms on any chain of its structure ------------------------------------------------
-GIMBAL_LOCK_SWEEP = 7
-"""Wrist rolls t6 tried (evenly over its range, besides q0's) for a pose at gimbal lock."""
+GIMBAL_LOCK_SWEEP = 7  # rolls t6 over its range (besides q0's) at gimbal lock
 
 
 def _finite_limits(chain) -> tuple[np.ndarray, np.ndarray]:
-    """The chain's limits with an infinite bound replaced by -pi or pi (a search needs a finite box)."""
+    """The chain's limits, an infinite bound replaced by -pi or pi."""
     lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)
     upper = np.where(np.isfinite(chain.upper), chain.upper, math.pi)
     return lower, upper
 
 
 class StackedPlanarPose(ClosedForm):
-    """Full poses in the family's frames and joints: ``triples`` Euler triples of the target rotation (t6 =
-    alpha with |alpha| <= pi/2, and alpha + pi when 2; a roll range of +-pi/2 needs one), 4 branches each;
-    at gimbal lock t6 is free: q0's t6 and GIMBAL_LOCK_SWEEP rolls over its range. Compiled kernel:
-    ``wbik/kernels/_stacked_planar.c``."""
+    """Full poses: ``triples`` Euler triples (t6 = alpha, |alpha| <= pi/2, and alpha + pi when 2), 4
+    branches each; at gimbal lock q0's t6 and GIMBAL_LOCK_SWEEP rolls. Kernel: ``_stacked_planar.c``."""
 
     target_kind = "pose"
 
@@ -369,8 +346,7 @@ class StackedPlanarPose(ClosedForm):
 
 
 class StackedPlanarPosition(ClosedForm):
-    """Positions with the wrist roll t6 held at ``yaw`` (rad, family joints; it does not move the gripper
-    centre): :class:`PositionSearch` over (t1, t2) in the chain's limits, ``chunk`` positions at a time."""
+    """Positions with the roll t6 held at ``yaw`` (rad): :class:`PositionSearch`, ``chunk`` at a time."""
 
     target_kind = "position"
     chunk = 256
@@ -392,8 +368,7 @@ class StackedPlanarPosition(ClosedForm):
 
 
 def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
-    """The roll joint's value for position targets: ``yaw`` (default: the nominal, inside the limits),
-    checked inside the chain's limits (``error`` otherwise)."""
+    """The roll joint's value for position targets: ``yaw`` (default the nominal), inside the limits."""
     if yaw is None:
         yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]))
     yaw = float(yaw)
@@ -406,12 +381,11 @@ def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
 # --- recognition --------------------------------------------------------------------------------------
 CANONICAL = recognition.Canonical((0.0, 0.0, HALF_PI, 0.0, -HALF_PI, HALF_PI), (-HALF_PI, 0.0, HALF_PI,
                                   -HALF_PI, 0.0, -HALF_PI), np.eye(4), rot_z(HALF_PI))
-"""The family's FK as DH rows (rho = 0), its gripper frame Rz(pi/2)."""
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """6R, axes 1-3 parallel, axis 4 meeting axis 3 at a right angle, 5 parallel to 4, 6 at a right angle
-    to 5, without a sideways offset of the forearm; positions only where the tip is on axis 6."""
+    """6R, axes 1-3 parallel, 4 meeting 3 at a right angle, 5 parallel to 4, 6 at a right angle to 5, the
+    forearm in the arm's plane; positions where the tip is on axis 6."""
     recognition.require_revolute(lines, 6)
     first, sign = recognition.first_frame(lines, np.eye(3))
     result = recognition.walk(lines, first, sign, CANONICAL.alphas[:5], (1.0,) * 5)

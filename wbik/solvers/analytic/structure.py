@@ -1,42 +1,34 @@
-"""A chain's kinematic structure as lines: T(q) = exp([xi_1] q_1) ... exp([xi_n] q_n) M (product of
-exponentials), joint k turning about (or sliding along) the line of unit direction ``axes[k]`` through
-``origins[k]`` (base frame, q = 0), M (``tip``) the tip's pose at q = 0, read from the chain's reduced
-model (:func:`wbik.solvers.task_error.serial_structure`). From them: the FK (:func:`poe_fk`), the lines with
-a joint locked (:func:`locked_lines`), EAIK's H and P (:func:`eaik_vectors`), what recognition matches.
-"""
+"""A chain's kinematic structure as lines: T(q) = exp([xi_1] q_1) ... exp([xi_n] q_n) M, joint k turning
+about (or sliding along) the line of unit direction ``axes[k]`` through ``origins[k]`` (base frame, q = 0),
+M (``tip``) the tip's pose at q = 0, read from the chain's reduced model."""
 
 from __future__ import annotations
 
 import math
-import threading
-import weakref
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from wbik.robot import ChainCache
 from wbik.solvers.task_error import joint_lines_at_zero
 from wbik.solvers.task_error import serial_structure
 
 STRUCTURE_TOLERANCE = 1e-9
 """Two axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, two lines
-meet (a length is zero) within this times the chain's length. URDFs write angles to ~12 digits (pi/2 as
-1.57079632679, 5e-12 off) while a real offset or tilt (a millimetre, a tenth of a degree) misses by
-orders of magnitude; the model agreement check (1e-9) judges the form built."""
+meet (a length is zero) within this x the chain's length: URDFs write angles to ~12 digits, a real offset
+or tilt misses by orders of magnitude."""
 
 
 @dataclass(frozen=True)
 class ChainLines:
-    """The joint lines of a chain at q = 0, in its base frame (see the module docstring)."""
+    """The joint lines of a chain at q = 0 in its base frame: unit ``axes`` (n, 3), a point of each line
+    ``origins`` (n, 3), the ``tip`` pose (4, 4), ``prismatic`` (n,)."""
 
     axes: np.ndarray
-    """(n, 3) unit joint directions."""
     origins: np.ndarray
-    """(n, 3) a point of each joint line (the joint frame's origin)."""
     tip: np.ndarray
-    """(4, 4) the tip's pose at q = 0."""
     prismatic: np.ndarray
-    """(n,) bool."""
 
     @property
     def count(self) -> int:
@@ -44,38 +36,53 @@ class ChainLines:
 
     @cached_property
     def length(self) -> float:
-        """The chain's size (m): base origin -> each joint origin -> tip, summed; the scale of the length
-        tolerances (at least 1e-3 m, so that a chain of coincident joints still has a scale)."""
+        """The chain's size (m): base origin -> each joint origin -> tip, at least 1e-3 m."""
         points = np.vstack((np.zeros(3), self.origins, self.tip[:3, 3]))
         return max(float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()), 1e-3)
 
+    def parallel(self, i: int, j: int) -> bool:
+        """Axes i and j are parallel: sin(angle) <= STRUCTURE_TOLERANCE."""
+        return float(np.linalg.norm(np.cross(self.axes[i], self.axes[j]))) <= STRUCTURE_TOLERANCE
 
-_LINES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-_LINES_LOCK = threading.Lock()
+    def meeting_point(self, i: int, j: int) -> np.ndarray | None:
+        """Where lines i and j meet (the midpoint of their closest points), None if they are parallel or
+        more than STRUCTURE_TOLERANCE x the chain's length apart."""
+        if self.parallel(i, j):
+            return None
+        a, b, offset = self.axes[i], self.axes[j], self.origins[j] - self.origins[i]
+        ab = float(a @ b)
+        denominator = 1.0 - ab * ab
+        s = (offset @ a - ab * (offset @ b)) / denominator
+        t = (ab * (offset @ a) - offset @ b) / denominator
+        on_i, on_j = self.origins[i] + s * a, self.origins[j] + t * b
+        if np.linalg.norm(on_i - on_j) > STRUCTURE_TOLERANCE * self.length:
+            return None
+        return 0.5 * (on_i + on_j)
+
+    def distance_to_line(self, point: np.ndarray, k: int) -> float:
+        offset = point - self.origins[k]
+        return float(np.linalg.norm(offset - (offset @ self.axes[k]) * self.axes[k]))
+
+
+_LINES = ChainCache()
 
 
 def chain_lines(chain) -> ChainLines:
-    """The chain's lines, computed once per chain: ``chain.lines`` where the chain carries its own
-    (a chain with a locked joint, :class:`wbik.solvers.analytic.redundancy.LockedChain`), else read from
-    its reduced model."""
+    """The chain's lines, once per chain: ``chain.lines`` where it carries its own (a chain with a locked
+    joint), else read from its reduced model."""
     own = getattr(chain, "lines", None)
     if isinstance(own, ChainLines):
         return own
-    with _LINES_LOCK:
-        cached = _LINES.get(chain)
-    if cached is not None:
+    if (cached := _LINES.get(chain)) is not None:
         return cached
     structure = serial_structure(chain)
     axes, origins, tip = joint_lines_at_zero(structure)
-    lines = ChainLines(axes, origins, tip, structure.prismatic.copy())
-    with _LINES_LOCK:
-        _LINES[chain] = lines
-    return lines
+    return _LINES.store(chain, ChainLines(axes, origins, tip, structure.prismatic.copy()))
 
 
 def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
-    """exp([xi_index] value) (4, 4): joint ``index`` moved by ``value`` (rad or m), in the base frame.
-    A turn by a about the line (h, c) is (Rot(h, a), c - Rot(h, a) c)."""
+    """exp([xi_index] value) (4, 4) in the base frame: a turn by a about the line (h, c) is (Rot(h, a),
+    c - Rot(h, a) c)."""
     transform = np.eye(4)
     axis = lines.axes[index]
     if lines.prismatic[index]:
@@ -96,9 +103,8 @@ def axis_rotation(axis: np.ndarray, angle) -> np.ndarray:
 
 
 def locked_lines(lines: ChainLines, index: int, value: float) -> ChainLines:
-    """The lines of the chain with joint ``index`` held at ``value``: exp([xi_k] v) moves every line
-    after it and the tip, T(q) = ... exp([xi_k] v) exp([xi_k+1] q_k+1) ... M
-    = ... exp([Ad xi_k+1] q_k+1) ... exp([xi_k] v) M."""
+    """The lines with joint ``index`` held at ``value``: exp([xi_k] v) moves every line after it and the tip,
+    ... exp([xi_k] v) exp([xi_k+1] q_k+1) ... M = ... exp([Ad xi_k+1] q_k+1) ... exp([xi_k] v) M."""
     moved = motion(lines, index, value)
     rotation, translation = moved[:3, :3], moved[:3, 3]
     keep = np.arange(lines.count) != index
@@ -109,8 +115,7 @@ def locked_lines(lines: ChainLines, index: int, value: float) -> ChainLines:
 
 
 def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tip positions (..., 3) and rotations (..., 3, 3) of joints q (..., n): the product of
-    exponentials, T = T_1(q_1) ... T_n(q_n) M."""
+    """Tip positions (..., 3) and rotations (..., 3, 3) of joints q (..., n): T_1(q_1) ... T_n(q_n) M."""
     q = np.asarray(q, dtype=float)
     shape = q.shape[:-1]
     rotation = np.broadcast_to(np.eye(3), shape + (3, 3))
@@ -129,8 +134,8 @@ def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def eaik_vectors(lines: ChainLines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """EAIK's description of the chain: axes H (n, 3), offsets P (n + 1, 3) between consecutive joint
-    origins (base -> joint 1, ..., joint n -> tip) and the tip rotation R0 at q = 0."""
+    """EAIK's description: axes H (n, 3), offsets P (n + 1, 3) between consecutive joint origins (base ->
+    joint 1, ..., joint n -> tip) and the tip rotation R0 at q = 0."""
     points = np.vstack((np.zeros(3), lines.origins, lines.tip[:3, 3]))
     return lines.axes.copy(), np.diff(points, axis=0), lines.tip[:3, :3].copy()
 

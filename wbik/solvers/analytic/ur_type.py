@@ -1,9 +1,8 @@
 """Family: UR-type 6R arms (UR3/UR5/UR10 and the like), every branch.
 
-Axes 2, 3 and 4 parallel, consecutive axes otherwise perpendicular; standard DH a = (0, a2, a3, 0, 0, 0),
-d = (d1, 0, 0, d4, d5, d6), alpha = (pi/2, 0, 0, pi/2, -pi/2, 0) (:class:`URGeometry`). ur_kinematics'
-closed form (ur5-riveting.md 1.2) on T = base_link -> ee_link turned into the DH frames, T_dh = B T E^T
-(B = Rz(pi), E = link6 -> ee_link). 8 branches, shoulder q1 x wrist q5 x elbow q3:
+Axes 2-4 parallel, consecutive axes otherwise perpendicular: DH a = (0, a2, a3, 0, 0, 0), d = (d1, 0, 0, d4,
+d5, d6), alpha = (pi/2, 0, 0, pi/2, -pi/2, 0). ur_kinematics' closed form (ur5-riveting.md 1.2) on T_dh = B
+T E^T (B = Rz(pi), E = link6 -> ee_link), 8 branches, shoulder q1 x wrist q5 x elbow q3:
 
 1. q1 = atan2(-b, a) +- acos(d4 / |(a, b)|), a = d6 T12 - T13, b = d6 T02 - T03;
 2. q5 = +-atan2(|s5|, c5), c5 = (T03 s1 - T13 c1 - d4) / d6, |s5| = |(T00 s1 - T10 c1, T01 s1 - T11 c1)|;
@@ -11,8 +10,6 @@ closed form (ur5-riveting.md 1.2) on T = base_link -> ee_link turned into the DH
    |s5| < WRIST_SINGULARITY;
 4. (q2, q3) the planar 2R of p13 = a2 (c2, s2) + a3 (c23, s23); q4 = atan2(c23 x04y - s23 x04x,
    c23 x04x + s23 x04y).
-
-Compiled kernel: ``wbik/kernels/_ur_type.c`` (:mod:`.compiled`).
 """
 
 from __future__ import annotations
@@ -23,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.solvers.analytic.recognition as recognition
+from wbik.dh import homogeneous
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
 from wbik.solvers.analytic.recognition import HALF_PI
@@ -39,17 +37,13 @@ try:
 except ImportError:  # not built (no C compiler at install time): the vectorised twin
     _ur_kernel = None
 
-BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])
-"""Rz(pi), exactly: the UR description's base_link -> link0 (the DH base)."""
-LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])
-"""The UR description's link6 (the DH flange) -> ee_link."""
+BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])  # Rz(pi) exactly: base_link -> link0 (the DH base)
+LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # link6 (DH flange) -> ee_link
 CANONICAL = recognition.Canonical((HALF_PI, 0.0, 0.0, HALF_PI, -HALF_PI, 0.0), (0.0,) * 6,
-                                  recognition.rotation4(BASE_TO_LINK0), recognition.rotation4(LINK6_TO_EE))
-"""The family's FK (base_link -> ee_link) as DH rows: Rz(pi) D(u) E."""
+                                  homogeneous(BASE_TO_LINK0), homogeneous(LINK6_TO_EE))
 FLANGE_SHARE, FLANGE_MINIMUM = 0.1, 0.01
-"""The form divides by d6, the wrist centre to the flange frame along axis 6, which any non-zero value
-describes (the tool takes the rest): the tip's own distance when at least FLANGE_MINIMUM of the chain's
-length, else FLANGE_SHARE of the length."""
+"""The form divides by d6 (wrist centre to flange along axis 6; the tool takes the rest): the tip's own
+distance when at least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length."""
 
 
 @dataclass(frozen=True)
@@ -91,9 +85,8 @@ def fk(geometry: URGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np.ndarray, q6_free: np.ndarray,
                       tolerance: float = COSINE_TOLERANCE) -> tuple[np.ndarray, np.ndarray]:
-    """All 8 branches for base_link -> ee_link poses, joint-major and batch-last: (Q (6, 8, B), real (8, B)),
-    q1 (+, -) x q5 (+, -) x q3 (+, -); ``q6_free`` (B,) at the wrist singularity. Intermediates keep the
-    batch last, (choices..., B): broadcasting along whole rows is the cheaper layout."""
+    """All 8 branches for base_link -> ee_link poses, joint-major and batch-last (the cheaper layout): (Q (6,
+    8, B), real (8, B)), q1 (+, -) x q5 (+, -) x q3 (+, -); ``q6_free`` (B,) at the wrist singularity."""
     d1, a2, a3, d4, d5, d6 = geometry.d1, geometry.a2, geometry.a3, geometry.d4, geometry.d5, geometry.d6
     count = len(positions)
     r = np.ascontiguousarray(rotations.reshape(count, 9).T)  # r[3 i + j] = R_ij, each (B,)
@@ -110,12 +103,8 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
     q1 = np.arctan2(-b, a) + np.stack((offset, -offset))
     c1, s1 = np.cos(q1), np.sin(q1)
 
-    # 2. wrist 2: (2, 2, B). cos q5 from the position (ur_kinematics); |sin q5| from the rotation,
-    # hypot(T00 s1 - T10 c1, T01 s1 - T11 c1) = |s5| |(c6, s6)|, which rounding moves by ~1e-16, whereas
-    # sqrt(1 - cos5^2) turns one ulp of cos5 into 1.5e-8 at q5 = 0 or pi (the singularity decision and
-    # q5 itself would then depend on the CPU's rounding). |cos5| <= 1 up to rounding of the terms of
-    # its numerator, relative to their size. q5 = +-atan2(|sin q5|, cos q5), so (cos, sin) of q5 are
-    # (cos5, +-|sin q5|) over their length (they enter only q4; no trigonometry).
+    # 2. wrist 2: (2, 2, B). cos q5 from the position, |sin q5| from the rotation (sqrt(1 - cos5^2) would
+    # turn one ulp of cos5 into 1.5e-8 at q5 = 0 or pi); (cos, sin) of q5 over their length enter only q4
     t03_s1, t13_c1 = t03 * s1, t13 * c1
     cos5, real5 = clamped_cosine((t03_s1 - t13_c1 - d4) / d6, tolerance,
                                  (np.abs(t03_s1) + np.abs(t13_c1) + d4) / d6)
@@ -159,8 +148,7 @@ def branches_by_joint(geometry: URGeometry, positions: np.ndarray, rotations: np
 
 
 class URArm(ClosedForm):
-    """Closed form of a UR-type arm's base_link -> ee_link chain (full poses, 8 branches); a binding sets
-    ``geometry``, a recognised chain passes it."""
+    """A UR-type arm's base_link -> ee_link (full poses, 8 branches); a binding sets ``geometry``."""
 
     target_kind = "pose"
     geometry: URGeometry
@@ -185,8 +173,7 @@ class URArm(ClosedForm):
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """6R, axes 2-4 parallel, axis 1 meeting axis 2 at a right angle, axis 5 meeting 4 and 6 at right
-    angles; full poses."""
+    """6R, axes 2-4 parallel, 1 meeting 2, 5 meeting 4 and 6, at right angles; full poses."""
     require(kind == "pose", "the family solves full poses only")
     recognition.require_revolute(lines, 6)
     first, sign = recognition.first_frame(lines, CANONICAL.base[:3, :3])

@@ -1,16 +1,10 @@
 """Family: a base yaw carrying a planar arm of parallel horizontal axes, every branch.
 
-The yaw q1 turns the arm plane, where a point is (r, z), r the signed horizontal distance along (cos q1,
-sin q1, 0): (x, y, z) is in the plane of q1 = atan2(y, x) at r = |(x, y)| and of q1 + pi at r = -|(x, y)|
-(:func:`shoulder_sides`); on the base axis the start's q1 is kept. Two members:
-
-- **yaw + planar 2R** (seed 001's arm, :class:`Yaw2RGeometry`): r = l2 c2 + l3 c23, z = l1 + l2 s2 + l3 s23;
-  positions: 2 sides x 2 elbows.
-- **yaw + planar 2R + wrist pitch** (the Pincher, :class:`PitchArmGeometry`): angles from the vertical,
-  wrist (r_w, z_w) = (a s2 + b s23, h + a c2 + b c23), tool point = wrist + t (cos psi, sin psi), pitch
-  psi = pi/2 - (q2 + q3 + q4); given q1 and psi, (q2, q3) is the planar 2R of the wrist (r_w signed) and
-  q4 = pi/2 - psi - q2 - q3. Tool frame: z = cos psi (c1, s1, 0) + sin psi (0, 0, 1), y = (s1, -c1, 0).
-  Positions (the pitch free): :class:`PitchArmPosition`.
+The yaw q1 turns the arm plane, where (x, y, z) is at r = |(x, y)| for q1 = atan2(y, x) and r = -|(x, y)|
+for q1 + pi (on the base axis the start's q1 is kept). Yaw + planar 2R (seed 001's arm): r = l2 c2 + l3 c23,
+z = l1 + l2 s2 + l3 s23. Yaw + planar 2R + wrist pitch (the Pincher), angles from the vertical: wrist
+(r_w, z_w) = (a s2 + b s23, h + a c2 + b c23), tool point = wrist + t (cos psi, sin psi), psi = pi/2 - (q2
++ q3 + q4); tool frame z = cos psi (c1, s1, 0) + sin psi (0, 0, 1), y = (s1, -c1, 0).
 """
 
 from __future__ import annotations
@@ -20,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.solvers.analytic.recognition as recognition
+from wbik.dh import homogeneous
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
@@ -33,18 +28,13 @@ from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
 from wbik.solvers.analytic.subproblems import clamped_acos
 from wbik.solvers.analytic.subproblems import planar_2r
 
-AXIS_RELATIVE_TOLERANCE = 1e-9
-"""Horizontal distance below which a target counts as on the base axis (q1 free), relative to the arm's
-length: FK of a pose on the axis leaves ~1e-16 m of rounding there, and keeping q0's q1 for a target
-r off the axis misses it by at most 2 r (1e-9 of the arm), far below the screening tolerance."""
+AXIS_RELATIVE_TOLERANCE = 1e-9  # x the arm's length: a target this near the base axis keeps q0's q1
 
 
 def shoulder_sides(positions: np.ndarray, start_yaw: np.ndarray | None = None,
                    axis_tolerance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """(yaws (B, 2), signed reaches (B, 2)): facing the point (atan2(y, x), +r), turned away (+ pi, -r).
-
-    With ``start_yaw`` (B,), a point within ``axis_tolerance`` of the base axis takes that yaw instead.
-    """
+    """(yaws (B, 2), signed reaches (B, 2)): facing the point (atan2(y, x), +r), turned away (+ pi, -r);
+    within ``axis_tolerance`` of the base axis, ``start_yaw`` (B,)."""
     reach = np.hypot(positions[:, 0], positions[:, 1])
     yaw = np.arctan2(positions[:, 1], positions[:, 0])
     if start_yaw is not None:
@@ -53,8 +43,7 @@ def shoulder_sides(positions: np.ndarray, start_yaw: np.ndarray | None = None,
 
 
 def yaw_planar_2r(yaw, along, across, first: float, second: float) -> tuple[np.ndarray, np.ndarray]:
-    """Both elbows of the planar 2R subproblem in the plane of ``yaw`` (all broadcast to shape S):
-    (Q (S, 2, 3) = (yaw, angle1, angle2), real (S, 2))."""
+    """Both elbows of the planar 2R in the plane of ``yaw`` (broadcast to S): (Q (S, 2, 3), real (S, 2))."""
     yaw, along, across = np.broadcast_arrays(yaw, along, across)
     angle1, angle2, real = planar_2r(along, across, first, second)
     q_all = np.stack((np.broadcast_to(yaw[..., None], angle1.shape), angle1, angle2), axis=-1)
@@ -64,8 +53,7 @@ def yaw_planar_2r(yaw, along, across, first: float, second: float) -> tuple[np.n
 # --- yaw + planar 2R ---------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Yaw2RGeometry:
-    """Base height l1 and link lengths l2, l3 (m) of a yaw + planar 2R arm (standard DH a = (0, l2, l3),
-    alpha = (pi/2, 0, 0), d = (l1, 0, 0))."""
+    """Base height l1 and links l2, l3 (m): DH a = (0, l2, l3), alpha = (pi/2, 0, 0), d = (l1, 0, 0)."""
 
     l1: float
     l2: float
@@ -121,8 +109,7 @@ class PitchArmGeometry:
 
 def pitch_arm_branches(g: PitchArmGeometry, yaw, signed_reach, height,
                        pitch) -> tuple[np.ndarray, np.ndarray]:
-    """Both elbow branches for a tool point at (signed_reach, height) of the plane of q1 = yaw with the
-    tool pitch ``pitch``. All inputs broadcast to a common shape S; returns (Q (S, 2, 4), real (S, 2))."""
+    """Both elbows for a tool point at (signed_reach, height), q1 = yaw, ``pitch``: (Q (S, 2, 4), real)."""
     yaw, signed_reach, height, pitch = np.broadcast_arrays(yaw, signed_reach, height, pitch)
     wrist_r = signed_reach - g.t * np.cos(pitch)
     wrist_z = height - g.h - g.t * np.sin(pitch)
@@ -152,8 +139,8 @@ def pitch_arm_fk(g: PitchArmGeometry, q: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 class PitchArmPose(ClosedForm):
-    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbow branches (K = 2);
-    a pose whose y axis is not horizontal, or off the arm plane of that yaw, has no real branch."""
+    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows; a pose whose y axis
+    is not horizontal, or off that yaw's plane, has none."""
 
     target_kind = "pose"
 
@@ -178,23 +165,15 @@ class PitchArmPose(ClosedForm):
         return pitch_arm_fk(self.geometry, q)
 
 
-PITCH_GRID = 48
-"""Pitches tried across the reachable arc when the nearest pitch has no branch inside the limits."""
-PITCH_BISECTIONS = 30
-"""Bisection steps from the best grid pitch toward the nearest pitch (arc width / 2^30 resolution)."""
-PITCH_TIE = 1e-9
-"""Pitches (rad) this close count as equal: q0's own pitch, and both shoulder sides equally near to it
-(the sides' arcs come from atan2(h, r) and atan2(h, -r), equal to pi - each other only up to rounding)."""
+PITCH_GRID = 48  # pitches tried across the arc when the nearest has no branch inside the limits
+PITCH_BISECTIONS = 30  # from the best grid pitch toward the nearest
+PITCH_TIE = 1e-9  # rad: pitches this close are equal (q0's, and the two sides' up to rounding)
 
 
 class PitchArmPosition(ClosedForm):
-    """Positions: the pitch nearest q0's (psi0 = pi/2 - (q2 + q3 + q4)) with a branch inside the limits.
-
-    Per shoulder side the reachable pitches form an arc (the wrist within a + b of the shoulder; a = b, so
-    the wrist's annulus has no hole): psi0 projected onto it first; on a side with no branch inside the
-    limits there, a grid of PITCH_GRID pitches across the arc, the nearest usable ones moved toward psi0 by
-    bisection to the edge of the usable set. The branches at the chosen pitch (both elbows, both sides when
-    equally near) go to the solver (K = 4)."""
+    """Positions: the pitch nearest q0's (psi0 = pi/2 - (q2 + q3 + q4)) with a branch inside the limits. Per
+    shoulder side the reachable pitches form an arc (a = b: no hole): psi0 projected onto it, else a grid
+    across it, the nearest usable pitch bisected toward psi0; the chosen pitch's branches (K = 4)."""
 
     target_kind = "position"
 
@@ -211,11 +190,9 @@ class PitchArmPosition(ClosedForm):
         return pitch_arm_fk(self.geometry, q)
 
     def _sides(self, positions: np.ndarray, q0: np.ndarray):
-        """Per target and side (front, back): yaw, signed reach, arc centre psi_T, half-width, reachable.
-
-        With T = (signed reach, z - h), the wrist T - t u(psi) is within a + b iff
-        cos(psi - psi_T) >= (|T|^2 + t^2 - (a + b)^2) / (2 t |T|) =: ratio; the arc is empty if ratio > 1.
-        """
+        """Per target and side: yaw, signed reach, arc centre psi_T, half-width, reachable. With T = (signed
+        reach, z - h), the wrist T - t u(psi) is within a + b iff cos(psi - psi_T) >= (|T|^2 + t^2 - (a +
+        b)^2) / (2 t |T|) =: ratio (empty above 1)."""
         g = self.geometry
         yaws, reaches = shoulder_sides(positions, q0[:, 0], self.axis_tolerance)
         height = (positions[:, 2] - g.h)[:, None]
@@ -234,10 +211,7 @@ class PitchArmPosition(ClosedForm):
         return wrapped, exact, exact & inside
 
     def _usable(self, yaws, reaches, heights, pitches):
-        """Branch exists and some 2 pi shift of it is inside the limits: (B, 2, M, 2), without wrapping.
-
-        (q - lower) mod 2 pi <= upper - lower  <=>  q + 2 pi k is in [lower, upper] for some integer k.
-        """
+        """A branch with a 2 pi shift in the limits (B, 2, M, 2): (q - lower) mod 2 pi <= upper - lower."""
         q_all, exact = pitch_arm_branches(self.geometry, yaws[..., None], reaches[..., None],
                                           heights[:, None, None], pitches)
         span = self.chain.upper - self.chain.lower + 2.0 * LIMIT_TOLERANCE  # as wrap_into_limits
@@ -245,12 +219,8 @@ class PitchArmPosition(ClosedForm):
         return exact & inside
 
     def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
-        """Where the nearest pitch has no branch inside the limits. Per side and per direction along the
-        arc, the grid pitch with such a branch closest to the nearest pitch, moved toward it by bisection
-        to the edge of the in-limits set; the better direction wins.
-
-        Pitches are centre + offset, |offset| <= half_width; returns (Q, exact, usable, pitch) per side.
-        """
+        """Where the nearest pitch has no branch inside the limits: per side and direction, the usable grid
+        pitch nearest it, bisected toward it, the better direction's (Q, exact, usable, pitch) per side."""
         grid = half_width[..., None] * np.linspace(-1.0, 1.0, PITCH_GRID)  # offsets (R, 2, M)
         usable_grid = np.any(self._usable(yaws, reaches, heights, centre[..., None] + grid), axis=-1)
         gap = grid - nearest_offset[..., None]
@@ -310,16 +280,13 @@ class PitchArmPosition(ClosedForm):
 
 # --- recognition --------------------------------------------------------------------------------------
 CANONICAL_2R = recognition.Canonical((HALF_PI, 0.0, 0.0), (0.0, 0.0, 0.0), np.eye(4), np.eye(4))
-"""The yaw + planar 2R's FK as DH rows."""
-NOA = recognition.rotation4([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
+NOA = homogeneous([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_PI, 0.0, 0.0), np.eye(4), NOA)
-"""The yaw + planar 2R + pitch's FK as DH rows, its tool frame "noa" a fixed rotation."""
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """A base axis meeting a planar 2R at a right angle with the tip in the plane (3R, positions), or a
-    planar 3R with the tip off the last axis (4R: full poses; positions when the links are equal and the
-    tip is in the plane)."""
+    """A base axis meeting a planar 2R at a right angle, the tip in the plane (3R, positions), or a planar
+    3R, the tip off the last axis (4R: full poses; positions with equal links, the tip in the plane)."""
     require(lines.count in (3, 4), f"it has {lines.count} joints, the family 3 (yaw + planar 2R) or 4 "
                                    "(yaw + planar 3R)")
     recognition.require_revolute(lines, lines.count)
