@@ -1,20 +1,12 @@
-"""Bioloid behaviours built on the whole-body step: turning in place, walking N steps then turning,
-and replaying the code's Roboplus keyframes (stairs, medium turns).
+"""Bioloid behaviours on the whole-body engine (:func:`wbik.apps.bioloid.step_wholebody.solve_phases`):
+turning in place, walking N steps then turning, and replaying the code's Roboplus keyframes.
 
-Whole-body behaviours are phase lists for :func:`wbik.apps.bioloid.step_wholebody.solve_phases`, so every
-sample holds its contacts exactly and keeps the CoM inside the support polygon by the margin.
-
-Turn in place by ``angle`` (positive = left) about the midpoint of the feet: for a left turn the
-CoM goes over the right foot and the left foot turns first, then the CoM goes over the left foot
-and the right foot follows; each sole is turned by ``angle`` about the vertical through the midpoint of
-the soles and put down, the pelvis yaw follows in two halves, and a last double-support phase
-re-centres the CoM between the feet.
-
-Keyframe replay (tasks/data/bioloid_keyframes.yaml, from the author's BioloidPosDef.h): each row
-of servo units becomes joint angles (:func:`wbik.apps.bioloid.servo.from_servo_units`); the robot is
-put with its lower sole flat on the ground and each row reports the other sole's height and tilt
-and the CoM margin over the lower sole (the stair geometry is not in the sources, so no step is
-modelled).
+A turn in place by ``angle`` (positive = left) turns each sole about the vertical through the feet's
+midpoint: the CoM over the right foot and the left one turned first (for a left turn), then the CoM
+over the left foot and the right one turned, the pelvis yaw following in two halves, and the CoM back
+between the feet. A keyframe replay (tasks/data/bioloid_keyframes.yaml, from BioloidPosDef.h) maps
+each row of servo units to joint angles and puts the lower sole flat on the ground; each row reports
+the other sole's height and tilt and the CoM margin (no step is modelled: the sources give none).
 """
 
 from __future__ import annotations
@@ -26,10 +18,12 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDE_NAME
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.gait import start_q
 from wbik.apps.bioloid.step_faithful import flatten_on_ground
 from wbik.apps.bioloid.step_faithful import place_on_anchor
 from wbik.apps.bioloid.step_wholebody import BodyPhase
@@ -38,6 +32,7 @@ from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
 from wbik.apps.bioloid.step_wholebody import com_over_phase
 from wbik.apps.bioloid.step_wholebody import current_soles
 from wbik.apps.bioloid.step_wholebody import pelvis_rotation
+from wbik.apps.bioloid.step_wholebody import recentre_goal
 from wbik.apps.bioloid.step_wholebody import sole_path
 from wbik.apps.bioloid.step_wholebody import sole_polygon
 from wbik.apps.bioloid.step_wholebody import solve_phases
@@ -49,29 +44,15 @@ from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 KEYFRAMES_PATH = data_dir("tasks") / "data" / "bioloid_keyframes.yaml"
-RAMP_INSET = 0.008
-"""A hand-over moves the CoM to this far inside the next stance sole (m), the hard margin being less."""
 
 
-def _rotated_about(placement: pin.SE3, centre: np.ndarray, angle: float) -> pin.SE3:
-    rotation = pin.utils.rotate("z", angle)
-    offset = placement.translation - centre
-    return pin.SE3(rotation @ placement.rotation, centre + rotation @ offset)
-
-
-def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters,
-                   divisions: int) -> BodyPhase:
+def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
     """Both feet down, the CoM back between the feet (where it is at the nominal stance, turned)."""
-    nominal_soles = current_soles(robot, robot.nominal)
-    nominal_mid = 0.5 * (nominal_soles["r"].translation + nominal_soles["l"].translation)
-    com_offset = robot.center_of_mass(robot.nominal)[:2] - nominal_mid[:2]
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
-    mid = 0.5 * (soles["r"].translation + soles["l"].translation)[:2]
-    goal = mid + pin.utils.rotate("z", heading)[:2, :2] @ com_offset
-    stance = {SOLE[s]: soles[s] for s in SIDES}
-    return BodyPhase("re-centre the CoM between the feet", stance,
+    return BodyPhase("re-centre the CoM between the feet", {SOLE[s]: soles[s] for s in SIDES},
                      pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
-                     com=ComRamp(goal=goal), divisions=divisions, speed_rpm=gait.servo_slow_rpm)
+                     com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions,
+                     speed_rpm=gait.servo_slow_rpm)
 
 
 def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: GaitParameters | None = None,
@@ -86,7 +67,9 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
     first = "l" if angle >= 0 else "r"
     second = OTHER[first]
-    turned = {side: _rotated_about(soles[side], centre, angle) for side in SIDES}
+    turn = pin.utils.rotate("z", angle)
+    turned = {side: pin.SE3(turn @ soles[side].rotation, centre + turn @ (soles[side].translation - centre))
+              for side in SIDES}
     n = gait.divisions
 
     def yaw_ramp(start: float, end: float):
@@ -94,23 +77,22 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
 
     half = heading + 0.5 * angle
     phases = [
-        com_over_phase(robot, f"shift the CoM over the {'right' if second == 'r' else 'left'} foot",
-                       {SOLE[s]: soles[s] for s in SIDES}, second, soles[second], RAMP_INSET,
+        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[second]} foot",
+                       {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
                        pelvis_rotation=yaw_ramp(heading, heading), divisions=n,
                        speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {'left' if first == 'l' else 'right'} foot", {SOLE[second]: soles[second]},
+        BodyPhase(f"turn the {SIDE_NAME[first]} foot", {SOLE[second]: soles[second]},
                   swing={SOLE[first]: sole_path(soles[first], turned[first], lift=lift)},
                   pelvis_rotation=yaw_ramp(heading, half), divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
-        com_over_phase(robot, f"shift the CoM over the {'left' if first == 'l' else 'right'} foot",
+        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[first]} foot",
                        {SOLE[second]: soles[second], SOLE[first]: turned[first]}, first, turned[first],
-                       RAMP_INSET, pelvis_rotation=yaw_ramp(half, half), divisions=n,
-                       speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {'right' if second == 'r' else 'left'} foot", {SOLE[first]: turned[first]},
+                       pelvis_rotation=yaw_ramp(half, half), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"turn the {SIDE_NAME[second]} foot", {SOLE[first]: turned[first]},
                   swing={SOLE[second]: sole_path(soles[second], turned[second], lift=lift)},
                   pelvis_rotation=yaw_ramp(half, heading + angle), divisions=2 * n,
                   speed_rpm=gait.servo_fast_rpm),
+        recentre_phase(robot, turned, gait),
     ]
-    phases.append(recentre_phase(robot, turned, gait, n))
     return phases, turned
 
 
@@ -118,7 +100,7 @@ def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | 
                   margin: float = 0.005, q0: np.ndarray | None = None,
                   backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Turn in place by ``angle_deg`` (positive = left) with the whole-body QP."""
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    q = start_q(robot, q0)
     phases, _ = turn_phases(robot, current_soles(robot, q), math.radians(angle_deg), gait)
     return solve_phases(robot, q, phases, margin, backend, name=f"turn_{angle_deg:g}deg")
 
@@ -135,29 +117,23 @@ def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: f
     side = "left" if str(first).lower() in ("left", "l") else "right"
     for _ in range(steps):
         step, soles = step_phases(robot, soles, gait, side, rear_lift)
-        for phase in step:
-            if isinstance(phase.com, ComRamp):
-                phase.com = ComRamp(phase.com.polygon, RAMP_INSET, footprint=phase.com.footprint)
         phases += step
         side = "right" if side == "left" else "left"
     if turn_deg:
         turn, soles = turn_phases(robot, soles, math.radians(turn_deg), gait)
-        phases += turn
-    else:
-        phases.append(recentre_phase(robot, soles, gait, gait.divisions))
-    return phases, soles
+        return phases + turn, soles
+    return [*phases, recentre_phase(robot, soles, gait)], soles
 
 
 def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
          margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Walk ``steps`` steps forward, then turn by ``turn_deg`` (positive = left), whole-body QP."""
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    q = start_q(robot, q0)
     phases, _ = walk_phases(robot, current_soles(robot, q), steps, turn_deg, gait, first, rear_lift)
     return solve_phases(robot, q, phases, margin, backend, name=f"walk_{steps}_turn_{turn_deg:g}")
 
 
-# --- keyframes -------------------------------------------------------------------------------
 def load_keyframes(path: str | Path | None = None) -> dict:
     """The keyframe file (see tasks/data/bioloid_keyframes.yaml for the format and provenance)."""
     import yaml
@@ -190,12 +166,9 @@ def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, l
 
 
 def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:
-    """Joint configurations of a keyframe behaviour and what each row does to the robot.
-
-    Per row: ``lower_sole`` (placed flat on the ground), the other sole's height (m) and tilt (deg)
-    above that ground, the CoM margin (m) over the lower sole alone and over both soles when the
-    other one is within 5 mm of the ground, and the joints beyond the URDF limits.
-    """
+    """Joint configurations of a keyframe behaviour and, per row, ``lower_sole`` (flat on the ground),
+    the other sole's height (m) and tilt (deg), the CoM margin (m) over the lower sole and over both
+    when the other is within 5 mm of the ground, and the joints beyond the URDF limits."""
     from wbik.apps.bioloid.servo import from_servo_units
 
     data = load_keyframes(path)
@@ -203,9 +176,8 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
     model = robot.model
     configurations, rows = [], []
     for index, row in enumerate(units):
-        angles = from_servo_units(row)
         q = robot.nominal.copy()
-        for joint, value in angles.items():
+        for joint, value in from_servo_units(row).items():
             q[model.joints[model.getJointId(joint)].idx_q] = value
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
         placed = {}

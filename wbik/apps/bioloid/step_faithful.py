@@ -1,22 +1,13 @@
 """(a) The thesis's step forward generated faithfully: closed-form leg IK per phase, per leg.
 
-As the code's ``StepForwardL`` does: every phase moves each leg's hip on a straight line between
-two key points (hip relative to that leg's own ankle), split into 5 divisions, and each division is
-solved by the foot -> hip closed form (eq. 10-22, pitch 20 deg, roll 0) for each leg on its own.
-The two legs never see each other, so the result is not a closed kinematic chain.
-
-Placing the robot in the world: the phase's anchor sole is held where it is planted on the ground,
-the pelvis pose follows from it by forward kinematics, and the other sole ends wherever the other
-leg's angles put it. Measured per sample (bioloid.md 4.5):
-
-- ``inconsistency``: in double support, the pose error of the other sole against where it is planted
-  (position in mm, rotation in deg). A planted sole is flat on the ground (z = 0, no roll or pitch)
-  at the x, y and yaw it had when it was put down; a dragged sole (phase 5) only has to stay on the
-  ground, so only its height and tilt count;
-- ``com_margin``: distance from the CoM ground projection to the boundary of the support polygon
-  of the planted soles (m, negative = outside);
-- ``clearance``: lowest sole corner of a lifted foot above the ground (m, negative = in the floor);
-- ``limit_excess``: how far any joint is beyond its URDF limit (rad).
+As the code's ``StepForwardL``: each leg's hip moves on a line between two key points (hip relative to
+that leg's ankle) in 5 divisions, each solved by the foot -> hip closed form (eq. 10-22, pitch 20 deg,
+roll 0) for each leg on its own, so the two legs do not form a closed chain. The phase's anchor sole
+stays planted; the other sole ends where the other leg puts it. Per sample (bioloid.md 4.5):
+``inconsistency`` (mm, deg), in double support the other sole's pose error against where it is planted
+(flat at z = 0 with its x, y, yaw; a dragged sole only has to stay on the ground); ``com_margin`` (m,
+negative outside) in the planted soles' polygon; ``clearance`` (m) of a lifted sole's lowest corner;
+``limit_excess`` (rad) beyond the URDF limits.
 """
 
 from __future__ import annotations
@@ -27,12 +18,13 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import ANKLE
-from wbik.apps.bioloid.gait import HIP
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.gait import pose_error
+from wbik.apps.bioloid.gait import sole_corners
+from wbik.apps.bioloid.gait import start_q
 from wbik.apps.bioloid.gait import step_forward_phases
 from wbik.apps.bioloid.servo import leg_ang_from_q
 from wbik.apps.bioloid.servo import leg_q_from_ang
@@ -40,9 +32,6 @@ from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 from wbik.robot_packages.bioloid.model import LEG_JOINTS
-
-__all__ = ["ANKLE", "HIP", "FaithfulStep", "flatten_on_ground", "leg_q_indices", "place_on_anchor",
-           "step_forward_faithful"]
 
 
 def leg_q_indices(robot: Robot, side: str) -> np.ndarray:
@@ -68,15 +57,10 @@ def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: p
     return q
 
 
-def _corners_world(robot: Robot, sole: str, placement: pin.SE3) -> np.ndarray:
-    corners = np.asarray(robot.soles[sole], dtype=float)
-    return corners @ placement.rotation.T + placement.translation
-
-
-def _pose_error(reached: pin.SE3, wanted: pin.SE3) -> tuple[float, float]:
-    position = float(np.linalg.norm(reached.translation - wanted.translation))
-    rotation = float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation)))
-    return position, rotation
+def _worst_inconsistency(samples: list[dict]) -> tuple[float | None, float | None]:
+    double = [s for s in samples if s["inconsistency_mm"] is not None]
+    return (max((s["inconsistency_mm"] for s in double), default=None),
+            max((s["inconsistency_deg"] for s in double), default=None))
 
 
 @dataclass
@@ -87,13 +71,12 @@ class FaithfulStep:
     samples: list[dict] = field(default_factory=list)
 
     def summary(self) -> dict:
-        double = [s for s in self.samples if s["inconsistency_mm"] is not None]
         lifted = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
         margins = [s["com_margin_m"] for s in self.samples]
+        worst_mm, worst_deg = _worst_inconsistency(self.samples)
         return {
             "samples": len(self.samples),
-            "max_inconsistency_mm": max((s["inconsistency_mm"] for s in double), default=0.0),
-            "max_inconsistency_deg": max((s["inconsistency_deg"] for s in double), default=0.0),
+            "max_inconsistency_mm": worst_mm or 0.0, "max_inconsistency_deg": worst_deg or 0.0,
             "min_com_margin_mm": 1e3 * min(margins),
             "samples_com_outside": int(sum(m < 0.0 for m in margins)),
             "min_clearance_mm": None if not lifted else 1e3 * min(lifted),
@@ -106,25 +89,20 @@ class FaithfulStep:
         rows = []
         for index, name in enumerate(self.motion.phase_names):
             chosen = [s for s in self.samples if s["phase"] == index]
-            double = [s for s in chosen if s["inconsistency_mm"] is not None]
-            rows.append({"phase": name,
-                         "max_inconsistency_mm": max((s["inconsistency_mm"] for s in double), default=None),
-                         "max_inconsistency_deg": max((s["inconsistency_deg"] for s in double), default=None),
+            worst_mm, worst_deg = _worst_inconsistency(chosen)
+            rows.append({"phase": name, "max_inconsistency_mm": worst_mm, "max_inconsistency_deg": worst_deg,
                          "min_com_margin_mm": 1e3 * min(s["com_margin_m"] for s in chosen)})
         return rows
 
 
 def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
                           q0: np.ndarray | None = None, round_degrees: bool = False) -> FaithfulStep:
-    """The code's StepForwardL (or its mirror, ``first="right"``) by the per-leg closed form.
-
-    ``q0``: the start (default the robot's nominal, both legs at Standing with 20 deg pitch; its
-    soles are where the feet are planted). ``round_degrees``: round the code's ang[] to whole
-    degrees as the C code does (default: exact angles).
-    """
+    """The code's StepForwardL (or its mirror, ``first="right"``) by the per-leg closed form from ``q0``
+    (default the nominal, whose soles are where the feet are planted); ``round_degrees``: round the
+    code's ang[] to whole degrees as the C code does."""
     gait = gait or GaitParameters()
     phases = step_forward_phases(gait, first)
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    q = start_q(robot, q0)
     legs = {side: leg_q_indices(robot, side) for side in SIDES}
     planted = {side: flatten_on_ground(robot.frame_placement(q, SOLE[side])) for side in SIDES}
     lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
@@ -153,7 +131,7 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                     down_soles[side] = planted[side]
                     continue
                 wanted = flatten_on_ground(reached) if side == phase.dragged else planted[side]
-                position, rotation = _pose_error(reached, wanted)
+                position, rotation = pose_error(reached, wanted)
                 sample["inconsistency_mm"] = 1e3 * position
                 sample["inconsistency_deg"] = float(np.degrees(rotation))
                 down_soles[side] = wanted
@@ -161,11 +139,10 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                     planted[side] = wanted
             if phase.lifted is not None:
                 reached = robot.frame_placement(q, SOLE[phase.lifted])
-                corners = _corners_world(robot, SOLE[phase.lifted], reached)
-                sample["clearance_m"] = float(np.min(corners[:, 2]))
+                sample["clearance_m"] = float(np.min(sole_corners(robot, SOLE[phase.lifted], reached)[:, 2]))
                 if division == gait.divisions:  # touchdown: planted where it comes down
                     planted[phase.lifted] = flatten_on_ground(reached)
-            points = np.vstack([_corners_world(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
+            points = np.vstack([sole_corners(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
             com = robot.center_of_mass(q)
             sample["com_margin_m"] = SupportPolygon(points).margin_of(com[:2])
             sample["com"] = com.tolist()
