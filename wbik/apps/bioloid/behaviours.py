@@ -1,12 +1,8 @@
 """Bioloid behaviours on the whole-body engine (:func:`wbik.apps.bioloid.step_wholebody.solve_phases`):
-turning in place, walking N steps then turning, and replaying the code's Roboplus keyframes.
-
-A turn in place by ``angle`` (positive = left) turns each sole about the vertical through the feet's
-midpoint: the CoM over the right foot and the left one turned first (for a left turn), then the CoM
-over the left foot and the right one turned, the pelvis yaw following in two halves, and the CoM back
-between the feet. A keyframe replay (tasks/data/bioloid_keyframes.yaml, from BioloidPosDef.h) maps
-each row of servo units to joint angles and puts the lower sole flat on the ground; each row reports
-the other sole's height and tilt and the CoM margin (no step is modelled: the sources give none).
+turning in place, walking N steps then turning, the thesis's half steps (bioloid.md 5.3) and the replay of
+the code's Roboplus keyframes. The half steps' Roboplus matrices are not in our sources: each is generated
+as the CoM over the foot that stays, the other foot lifted ``HALF_STEP_LIFT`` (ours; the thesis saw the
+foot "almost dragging", bioloid.md 7) and put down along its heading, the CoM back between the feet.
 """
 
 from __future__ import annotations
@@ -23,9 +19,9 @@ from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.gait import flatten_on_ground
+from wbik.apps.bioloid.gait import place_on_anchor
 from wbik.apps.bioloid.gait import start_q
-from wbik.apps.bioloid.step_faithful import flatten_on_ground
-from wbik.apps.bioloid.step_faithful import place_on_anchor
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
 from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
@@ -44,6 +40,13 @@ from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 KEYFRAMES_PATH = data_dir("tasks") / "data" / "bioloid_keyframes.yaml"
+HALF_STEP_LIFT = 0.015  # m, swing height (ours; the thesis says only "much less" than 40 mm)
+ALONG_TOLERANCE = 1e-4  # m, a foot counts as beside the other one within this along the heading
+HALF_STEPS: dict[str, tuple[str, str]] = {
+    # name -> (foot moved, where it ends: "ahead" of the other foot or "beside" it)
+    "WalkSR1": ("r", "ahead"), "WalkSR2": ("l", "beside"), "BackSR": ("r", "beside"),
+    "WalkSL1": ("l", "ahead"), "WalkSL2": ("r", "beside"), "BackSL": ("l", "beside"),
+}
 
 
 def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
@@ -105,14 +108,16 @@ def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | 
     return solve_phases(robot, q, phases, margin, backend, name=f"turn_{angle_deg:g}deg")
 
 
-def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: float = 0.0,
-                gait: GaitParameters | None = None, first: str = "left",
-                rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """``steps`` steps forward alternating feet (``first`` foot first), then a turn (if non-zero),
-    then a re-centring of the CoM."""
+def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
+         margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
+         backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
+    """Walk ``steps`` steps forward alternating feet (``first`` foot first), then turn by ``turn_deg``
+    (positive = left) or re-centre the CoM, whole-body QP."""
     gait = gait or GaitParameters()
     if steps < 0:
         raise InvalidConfigurationError(f"steps must be >= 0, got {steps}")
+    q = start_q(robot, q0)
+    soles = current_soles(robot, q)
     phases: list[BodyPhase] = []
     side = "left" if str(first).lower() in ("left", "l") else "right"
     for _ in range(steps):
@@ -120,18 +125,78 @@ def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: f
         phases += step
         side = "right" if side == "left" else "left"
     if turn_deg:
-        turn, soles = turn_phases(robot, soles, math.radians(turn_deg), gait)
-        return phases + turn, soles
-    return [*phases, recentre_phase(robot, soles, gait)], soles
-
-
-def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
-         margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
-         backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
-    """Walk ``steps`` steps forward, then turn by ``turn_deg`` (positive = left), whole-body QP."""
-    q = start_q(robot, q0)
-    phases, _ = walk_phases(robot, current_soles(robot, q), steps, turn_deg, gait, first, rear_lift)
+        phases += turn_phases(robot, soles, math.radians(turn_deg), gait)[0]
+    else:
+        phases.append(recentre_phase(robot, soles, gait))
     return solve_phases(robot, q, phases, margin, backend, name=f"walk_{steps}_turn_{turn_deg:g}")
+
+
+def along(soles: dict[str, pin.SE3], side: str) -> float:
+    """How far the ``side`` foot is ahead of the other one along the other foot's heading (m)."""
+    reference = soles[OTHER[side]]
+    return float(reference.rotation[:, 0] @ (soles[side].translation - reference.translation))
+
+
+def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: GaitParameters | None = None,
+                     length: float | None = None, lift: float = HALF_STEP_LIFT
+                     ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) from the planted ``soles``
+    ({"r": SE3, "l": SE3}) and the soles planted afterwards. InvalidConfigurationError when it does not
+    apply: WalkS*2 needs the moved foot behind, BackS* in front, WalkS*1 not ahead already."""
+    if name not in HALF_STEPS:
+        raise InvalidConfigurationError(f"unknown half step {name!r}; known: {', '.join(HALF_STEPS)}")
+    gait = gait or GaitParameters()
+    length = gait.step_length if length is None else float(length)
+    if not 0.0 < length <= 0.06:
+        raise InvalidConfigurationError(f"half step length must be in (0, 0.06] m, got {length}")
+    if not 0.0 <= lift <= 0.05:
+        raise InvalidConfigurationError(f"half step lift must be in [0, 0.05] m, got {lift}")
+    moved, ends = HALF_STEPS[name]
+    stays = OTHER[moved]
+    ahead = along(soles, moved)
+    foot = f"{name} brings the {SIDE_NAME[moved]} foot"
+    if name.startswith("Back") and ahead <= ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{foot} back from in front, but it is {ahead * 1e3:.1f} mm ahead of "
+                                        "the other one")
+    if name.endswith("2") and ahead >= -ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{foot} from behind, but it is {ahead * 1e3:.1f} mm ahead of the "
+                                        "other one")
+    if name.endswith("1") and ahead > ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{name} puts the {SIDE_NAME[moved]} foot forward from beside the "
+                                        f"other one, but it is already {ahead * 1e3:.1f} mm ahead")
+    start, other = soles[moved], soles[stays]
+    end = pin.SE3(start.rotation.copy(),
+                  start.translation + other.rotation[:, 0] * ((length if ends == "ahead" else 0.0) - ahead))
+    heading = yaw_of(other.rotation)
+    rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
+    after = {moved: end, stays: other}
+    n = gait.divisions
+    phases = [
+        com_over_phase(robot, f"{name}: CoM over the {SIDE_NAME[stays]} foot",
+                       {SOLE[moved]: start, SOLE[stays]: other}, stays, other,
+                       pelvis_rotation=rotation, divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"{name}: {SIDE_NAME[moved]} foot {'back' if name.startswith('Back') else 'forward'}",
+                  {SOLE[stays]: other}, swing={SOLE[moved]: sole_path(start, end, lift=lift)},
+                  pelvis_rotation=rotation, divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
+        BodyPhase(f"{name}: CoM between the feet", {SOLE[moved]: end, SOLE[stays]: other},
+                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)),
+                  divisions=n, speed_rpm=gait.servo_slow_rpm),
+    ]
+    return phases, after
+
+
+def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = None,
+                       gait: GaitParameters | None = None, margin: float = 0.005,
+                       length: float | None = None, lift: float = HALF_STEP_LIFT,
+                       backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
+    """Half steps one after the other from ``q0`` (default the nominal), solved sample by sample."""
+    q = start_q(robot, q0)
+    soles = current_soles(robot, q)
+    phases: list[BodyPhase] = []
+    for name in names:
+        more, soles = half_step_phases(robot, soles, name, gait, length, lift)
+        phases += more
+    return solve_phases(robot, q, phases, margin, backend, name="+".join(names))
 
 
 def load_keyframes(path: str | Path | None = None) -> dict:
@@ -203,7 +268,6 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
         configurations.append(q)
     times = np.cumsum(row_times)
     motion = SampledMotion(f"keyframes_{behaviour}", robot, np.array(configurations), np.arange(len(units)),
-                           [f"{p} row" for p in pages], [(r["lower_sole"],) for r in rows],
-                           {"source": data.get("source"), "times_s": times.tolist()})
+                           [f"{p} row" for p in pages], [(r["lower_sole"],) for r in rows])
     return {"behaviour": behaviour, "rows": rows, "units": units, "times_s": times, "motion": motion,
             "source": data.get("source")}

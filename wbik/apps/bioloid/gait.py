@@ -1,11 +1,8 @@
-"""The thesis's step forward: gait numbers (bioloid.md 4.4), key points and phases (5.1), and the
-sampled-motion record shared by the faithful and whole-body generators.
-
-A key point is the hip of a leg relative to that leg's ankle (the code's ``linearTrajHip`` frame: x
-forward, y left, z up; m). The code's ``StepForwardL`` has 5 phases of 5 divisions at 20 deg pitch:
-the hips over the right foot, the left foot lifted zd - zu = 40 mm, put down |xf| = 30 mm ahead, the
-hips over it, the rear foot dragged beside it; ``StepForwardR`` is taken as its mirror image (y -> -y,
-legs swapped). One step advances the robot 30 mm, a stride (L + R) 60 mm.
+"""The thesis's step forward (bioloid.md 4.4, 5.1): the code's gait numbers, key points (a leg's hip
+relative to its ankle: x forward, y left, z up, m) and the 5 phases of ``StepForwardL`` (``StepForwardR``
+taken as its mirror image); the sampled, timed motion the step generators produce; and (a), the step
+generated faithfully as the code does: each division solved by the foot -> hip closed form (eq. 10-22) for
+each leg on its own, so the legs do not form a closed chain, measured per sample (bioloid.md 4.5).
 """
 
 from __future__ import annotations
@@ -19,7 +16,13 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from wbik.apps.bioloid.servo import leg_ang_from_q
+from wbik.apps.bioloid.servo import leg_q_from_ang
+from wbik.apps.bioloid.servo import to_servo
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.robot import Robot
+from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
 SIDES = ("r", "l")
 SOLE = {"r": "r_sole", "l": "l_sole"}
@@ -119,10 +122,8 @@ class GaitParameters:
 
 @dataclass(frozen=True)
 class GaitPhase:
-    """One phase of a step: each leg's hip on a line from ``start`` to ``end`` (key points). ``down``:
-    the soles on the ground, ``lifted``: the sole in the air, ``dragged``: a sole sliding on the
-    ground, ``anchor``: the sole held when the faithful pose is placed in the world; the code's servo
-    speed and the sleep after the phase."""
+    """One phase of a step: each leg's hip on a line from ``start`` to ``end`` (key points), the sides
+    ``down``, ``lifted`` and ``dragged`` (sliding), the ``anchor`` sole held, the code's speed and pause."""
 
     name: str
     start: dict[str, np.ndarray]
@@ -181,9 +182,8 @@ def step_forward_phases(gait: GaitParameters | None = None, first: str = "left")
 
 @dataclass
 class SampledMotion:
-    """Whole-body configurations at the samples of a behaviour: ``q[k]`` the full configuration at
-    sample k (0: the start), ``phase[k]`` its index in ``phase_names`` (-1: the start), ``support[k]``
-    the soles on the ground."""
+    """Whole-body configurations ``q[k]`` at the samples (0: the start), the index of each one's phase in
+    ``phase_names`` (-1: the start) and its soles on the ground."""
 
     name: str
     robot: object
@@ -191,7 +191,6 @@ class SampledMotion:
     phase: np.ndarray
     phase_names: list[str]
     support: list[tuple[str, ...]]
-    info: dict = field(default_factory=dict)
 
     @property
     def joint_names(self) -> list[str]:
@@ -250,8 +249,6 @@ class TimedMotion:
 
     def servo_table(self, dt: float = 0.02) -> dict:
         """Servo goal positions (AX-12 units, IDs 1..18) every ``dt`` seconds, with clamping notes."""
-        from wbik.apps.bioloid.servo import to_servo
-
         if not dt > 0:
             raise InvalidConfigurationError(f"dt must be positive, got {dt}")
         times = np.unique(np.append(np.arange(0.0, self.duration, dt), self.duration))
@@ -281,11 +278,9 @@ class TimedMotion:
 
 def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law: str = "quintic",
                       mode: str = "segment") -> TimedMotion:
-    """Minimum-duration timing of the servo joints through every sample, one speed limit
-    ``speed_rpm`` for every servo (None: the URDF's AX-12 limits). ``mode="segment"``: a straight joint
-    line from sample to sample, rest to rest, like the code's divisions (inside the joint limits);
-    ``"waypoint"``: stops at phase ends only, a cubic spline through the samples (faster, but it may
-    overshoot a limit between samples)."""
+    """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
+    limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
+    ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
     from wbik.motion.path import JointPath
     from wbik.motion.timing import time_scale
 
@@ -301,3 +296,120 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     s = np.r_[0.0, np.cumsum(steps)] / np.sum(steps)
     path = JointPath(JointSet(motion.robot, limit), s, joints, waypoint_knots=motion.phase_end_samples())
     return TimedMotion(motion, time_scale(path, law, velocity_limit=limit, mode=mode), limit)
+
+
+def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
+    """The same x, y and yaw, on the ground (z = 0) and flat (no roll, no pitch)."""
+    rotation = placement.rotation
+    yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
+    flat = pin.utils.rotate("z", float(yaw))
+    return pin.SE3(flat, np.array([placement.translation[0], placement.translation[1], 0.0]))
+
+
+def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
+    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
+    q = q.copy()
+    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+    in_base = robot.frame_placement(q, anchor_frame)
+    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
+    return q
+
+
+def _worst_inconsistency(samples: list[dict]) -> tuple[float | None, float | None]:
+    double = [s for s in samples if s["inconsistency_mm"] is not None]
+    return (max((s["inconsistency_mm"] for s in double), default=None),
+            max((s["inconsistency_deg"] for s in double), default=None))
+
+
+@dataclass
+class FaithfulStep:
+    """The faithful motion and its per-sample measurements (see the module docstring)."""
+
+    motion: SampledMotion
+    samples: list[dict] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        lifted = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
+        margins = [s["com_margin_m"] for s in self.samples]
+        worst_mm, worst_deg = _worst_inconsistency(self.samples)
+        return {
+            "samples": len(self.samples),
+            "max_inconsistency_mm": worst_mm or 0.0, "max_inconsistency_deg": worst_deg or 0.0,
+            "min_com_margin_mm": 1e3 * min(margins),
+            "samples_com_outside": int(sum(m < 0.0 for m in margins)),
+            "min_clearance_mm": None if not lifted else 1e3 * min(lifted),
+            "max_limit_excess_deg": float(np.degrees(max(s["limit_excess_rad"] for s in self.samples))),
+            "unreachable_samples": int(sum(not s["reachable"] for s in self.samples)),
+            "per_phase": self.per_phase(),
+        }
+
+    def per_phase(self) -> list[dict]:
+        rows = []
+        for index, name in enumerate(self.motion.phase_names):
+            chosen = [s for s in self.samples if s["phase"] == index]
+            worst_mm, worst_deg = _worst_inconsistency(chosen)
+            rows.append({"phase": name, "max_inconsistency_mm": worst_mm, "max_inconsistency_deg": worst_deg,
+                         "min_com_margin_mm": 1e3 * min(s["com_margin_m"] for s in chosen)})
+        return rows
+
+
+def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
+                          q0: np.ndarray | None = None, round_degrees: bool = False) -> FaithfulStep:
+    """The code's StepForwardL (its mirror: ``first="right"``) by the per-leg closed form from ``q0`` (default
+    the nominal); ``round_degrees``: the code's ang[] rounded to whole degrees as the C code does."""
+    gait = gait or GaitParameters()
+    phases = step_forward_phases(gait, first)
+    q = start_q(robot, q0)
+    legs = {side: robot.chain(f"{SIDE_NAME[side]}_leg").q_index for side in SIDES}
+    planted = {side: flatten_on_ground(robot.frame_placement(q, SOLE[side])) for side in SIDES}
+    lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    joint_index = np.concatenate(list(legs.values()))
+
+    configurations, phase_of, support = [q.copy()], [-1], [("r_sole", "l_sole")]
+    samples: list[dict] = []
+    for index, phase in enumerate(phases):
+        for division in range(1, gait.divisions + 1):
+            fraction = division / gait.divisions
+            reachable = True
+            for side in SIDES:
+                point = phase.hip_point(side, fraction)
+                angles, ok = leg_foot_to_hip(point, 0.0, gait.pitch, gait.roll, side)
+                if round_degrees:
+                    angles = leg_q_from_ang(np.round(leg_ang_from_q(angles)))
+                q[legs[side]] = angles
+                reachable = reachable and bool(ok)
+            q = place_on_anchor(robot, q, SOLE[phase.anchor], planted[phase.anchor])
+            sample = {"phase": index, "division": division, "reachable": reachable,
+                      "inconsistency_mm": None, "inconsistency_deg": None, "clearance_m": None}
+            down_soles = {}
+            for side in phase.down:
+                reached = robot.frame_placement(q, SOLE[side])
+                if side == phase.anchor:
+                    down_soles[side] = planted[side]
+                    continue
+                wanted = flatten_on_ground(reached) if side == phase.dragged else planted[side]
+                position, rotation = pose_error(reached, wanted)
+                sample["inconsistency_mm"] = 1e3 * position
+                sample["inconsistency_deg"] = float(np.degrees(rotation))
+                down_soles[side] = wanted
+                if side == phase.dragged:
+                    planted[side] = wanted
+            if phase.lifted is not None:
+                reached = robot.frame_placement(q, SOLE[phase.lifted])
+                sample["clearance_m"] = float(np.min(sole_corners(robot, SOLE[phase.lifted], reached)[:, 2]))
+                if division == gait.divisions:  # touchdown: planted where it comes down
+                    planted[phase.lifted] = flatten_on_ground(reached)
+            points = np.vstack([sole_corners(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
+            com = robot.center_of_mass(q)
+            sample["com_margin_m"] = SupportPolygon(points).margin_of(com[:2])
+            sample["com"] = com.tolist()
+            joints = q[joint_index]
+            sample["limit_excess_rad"] = float(max(np.max(lower[joint_index] - joints),
+                                                   np.max(joints - upper[joint_index]), 0.0))
+            samples.append(sample)
+            configurations.append(q.copy())
+            phase_of.append(index)
+            support.append(tuple(SOLE[s] for s in phase.down))
+    motion = SampledMotion(f"step_forward_{first}_faithful", robot, np.array(configurations),
+                           np.array(phase_of), [p.name for p in phases], support)
+    return FaithfulStep(motion, samples)

@@ -1,14 +1,8 @@
-"""PlaCo's walk pattern generator on the same Bioloid URDF, for comparison with the whole-body step.
-
-The mesh-free URDF gets PlaCo's ``left_foot``, ``right_foot`` and ``trunk`` frames at ``l_sole``, ``r_sole``
-and ``pelvis``. PlaCo's naive planner puts steps of at most ``step_length`` toward a target ``steps *
-step_length`` ahead; its LIPM/ZMP generator plans the CoM at the standing CoM height, the trunk pitched
-20 deg, 40 mm foot rise, the 100 x 60 mm soles and a ZMP margin of ``margin`` (PlaCo's own bounds, no
-polygon of ours). Reported: the step lengths, the duration and, on a 10 ms grid, the margins of the CoM
-and of the plan's ZMP (c - c'' / omega^2) in the feet on the ground (a foot is down when PlaCo's foot
-trajectory has its sole within ``GROUND_TOLERANCE`` of the floor; docs/measurements.md, Bioloid PlaCo
-walk); the generator is dynamic, so the CoM may leave the polygon in single support. ``multibody_*``:
-PlaCo's IK following the plan, judged by :func:`wbik.motion.walking.figures.walk_figures`.
+"""PlaCo's walk pattern generator on the Bioloid's URDF, for comparison with the whole-body step: PlaCo's
+naive footstep plan and LIPM/ZMP walk (its own bounds from the soles and ``margin``), measured on a 10 ms
+grid (CoM and the plan's ZMP c - c'' / omega^2 in the feet on the ground: docs/measurements.md, Bioloid
+PlaCo walk) and, ``multibody_*``, as PlaCo's IK follows it (:func:`wbik.motion.walking.figures.walk_figures`);
+the animation is PlaCo's IK on the same plan, made again.
 """
 
 from __future__ import annotations
@@ -18,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.errors import InvalidConfigurationError
 from wbik.errors import RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
@@ -26,6 +21,8 @@ from wbik.robot_packages.bioloid.model import BioloidFacts
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
 GROUND_TOLERANCE = 1e-6  # m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground
+SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
+ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
 
 
 def placo_humanoid_urdf(robot: Robot) -> Path:
@@ -47,9 +44,8 @@ def humanoid(robot: Robot):
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
-    """(humanoid, parameters, footsteps, trajectory) of PlaCo's naive footstep plan of ``steps`` steps
-    straight ahead and its walk pattern generator; the walk's report and its animation
-    (wbik.apps.bioloid.placo_view) both plan with it. RobotDescriptionError when PlaCo cannot load it."""
+    """(humanoid, parameters, footsteps, trajectory) of PlaCo's plan of ``steps`` steps straight ahead;
+    RobotDescriptionError when PlaCo cannot load the humanoid."""
     from wbik.solvers.placo import import_placo
 
     placo = import_placo()
@@ -154,3 +150,24 @@ def _multibody(robot: Robot, trajectory, margin: float, dt: float, iterations: i
             "multibody_foot_slip_max_mm": 1e3 * figures["foot_slip_max_m"],
             "multibody_joint_velocity_peak_rad_s": figures["joint_velocity_peak_rad_s"],
             "multibody_joint_acceleration_peak_rad_s2": figures["joint_acceleration_peak_rad_s2"]}
+
+
+def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
+                         single_support_s: float = 0.5, footstep_x: list[float] | None = None):
+    """PlaCo's walk as PlaCo's IK follows it every ``SAMPLE_S`` (its soft tasks let the stance sole leave the
+    floor at times), a :class:`wbik.viz.animation.Animation`; ``footstep_x``: the report's footsteps (m),
+    which the re-planned ones must equal."""
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
+
+    walker, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
+    planned_x = [float(step.frame[0, 3]) for step in footsteps]
+    if footstep_x is not None and (len(planned_x) != len(footstep_x)
+                                   or not np.allclose(planned_x, footstep_x, atol=1e-9)):
+        raise InvalidConfigurationError(
+            f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
+            "placo_walk_animation no longer mirrors placo_walk")
+    times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
+    rows, support = follow_plan(robot, walker, trajectory, times, ITERATIONS)
+    return Animation(robot, times, rows, Overlays("pelvis", tuple(support), tuple(support)),
+                     "PlaCo walk pattern generator")

@@ -1,40 +1,35 @@
 """Scenario kinds of the Bioloid behaviours (tasks/bioloid_*.yaml, tasks/motion_bioloid_foot_sensors.yaml):
-their schemas, runners and printed reports, registered in ``SCENARIO_KINDS`` (:mod:`wbik.scenarios.kinds`).
-
-Each entry's figures are judged by :mod:`wbik.expectations` against the file's ``expect`` thresholds (SI),
-whose keys are those of the kind's rules below; a whole-body behaviour without them still expects what its
-generator guarantees (:func:`wholebody_defaults`). Defaults are those of the functions the keys feed
-(:func:`wbik.scenario_schema.default_of`). The animation plays the whole-body samples at their timed knot
-times, the faithful step's ``FAITHFUL_SAMPLE_S`` apart, the keyframes at their own times and PlaCo's walk
-on its 50 ms grid; the soles on the ground are each sample's support.
+schemas, runners and printed reports. Each entry is judged (:mod:`wbik.expectations`) against the file's
+``expect`` thresholds, keyed by the kind's rules below; a whole-body behaviour without them expects what its
+generator guarantees (:func:`wholebody_defaults`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from wbik.apps.bioloid.behaviours import HALF_STEPS
+from wbik.apps.bioloid.behaviours import half_step_phases
 from wbik.apps.bioloid.behaviours import replay_keyframes
 from wbik.apps.bioloid.behaviours import turn_in_place
 from wbik.apps.bioloid.behaviours import walk
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import TimedMotion
+from wbik.apps.bioloid.gait import step_forward_faithful
 from wbik.apps.bioloid.gait import time_scale_motion
-from wbik.apps.bioloid.half_steps import HALF_STEPS
-from wbik.apps.bioloid.half_steps import half_step_phases
-from wbik.apps.bioloid.placo_view import placo_walk_animation
 from wbik.apps.bioloid.placo_walk import placo_walk
+from wbik.apps.bioloid.placo_walk import placo_walk_animation
 from wbik.apps.bioloid.sensors import stance_loads
+from wbik.apps.bioloid.servo import SERVOS
 from wbik.apps.bioloid.servo import to_servo
 from wbik.apps.bioloid.stairs import Staircase
 from wbik.apps.bioloid.stairs import simulate_stairs
-from wbik.apps.bioloid.step_faithful import step_forward_faithful
 from wbik.apps.bioloid.step_wholebody import current_soles
 from wbik.apps.bioloid.step_wholebody import solve_phases
 from wbik.apps.bioloid.step_wholebody import step_forward_wholebody
 from wbik.expectations import ExpectationError
 from wbik.expectations import Rule
 from wbik.expectations import judge
-from wbik.robot_packages.bioloid.model import BioloidFacts
 from wbik.scenario_schema import START
 from wbik.scenario_schema import Boolean
 from wbik.scenario_schema import Key
@@ -224,12 +219,10 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     for behaviour in chosen:
         replay = replay_keyframes(run.robot, behaviour, spec["keyframes"])
         motion = replay["motion"]
-        names = motion.joint_names
-        servo_ids = motion.robot.require_facts(BioloidFacts, "the keyframe replay").servo_ids
         exact, clamped_rows = True, 0
         for units, angles in zip(replay["units"], motion.joint_matrix(), strict=True):
-            command = to_servo(dict(zip(names, angles, strict=True)))
-            clamped_ids = {servo_ids[joint] for joint in command.clamped}
+            command = to_servo(dict(zip(motion.joint_names, angles, strict=True)))
+            clamped_ids = {SERVOS[joint].servo_id for joint in command.clamped}
             clamped_rows += bool(clamped_ids)
             exact = exact and all(command.units[i] == int(u) for i, u in zip(range(1, 19), units, strict=True)
                                   if i not in clamped_ids)

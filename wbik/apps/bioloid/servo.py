@@ -1,16 +1,8 @@
-"""Bioloid joint angles (rad) <-> Dynamixel AX-12 positions (bioloid.md 1.2, 1.6, 2.4, 3.6).
-
-AX-12: 0..1023 units over 0..300 deg, unit 512 (150 deg) the centre. Every servo maps linearly,
-``servo_deg = offset + direction * degrees(q)`` with q the URDF joint angle: the code's conversion
-(IKAdjust6ServoLeg, IKAdjust3ServoArm) composed with the model's joint <-> thesis conversion. Legs: the
-code's ang[] (deg) = degrees(-q_yaw, -q_hip_roll, -q_hip_pitch, -q_knee, -q_ankle_pitch, +q_ankle_roll),
-then with legDir = +1 (right) / -1 (left): yaw = 150 - legDir 45 + ang0 (the horn mounting), hip roll =
-150 - ang1, hip pitch = 150 - legDir ang2, knee = 150 + legDir ang3, ankle pitch = 150 + legDir ang4,
-ankle roll = 150 - ang5. Right arm: base = theta1 + 62 (a 2 deg trim), shoulder = 150 - theta3, elbow =
-150 - theta5, q = (theta1, -theta3, -theta5); the left arm (ASSUMED: the thesis gives the right only) is
-its mirror, 300 - right (the ready pose is symmetric to 0.3 deg). Limits: the code's servo-degree limits,
-the left rolls mirrored too (the code keeps them unmirrored, bioloid.md 9.6; its own pipeline
-:func:`code_leg_servo_degrees` keeps them literally). Clamping is reported in :class:`ServoCommand`.
+"""Bioloid joint angles (rad) <-> Dynamixel AX-12 positions (0..1023 units over 0..300 deg; bioloid.md 1.2,
+1.6, 2.4, 3.6): ``servo_deg = offset + direction * degrees(q)`` per servo, the code's IKAdjust6ServoLeg and
+IKAdjust3ServoArm composed with the model's joint convention; the left arm (ASSUMED: the thesis gives the
+right only) mirrors the right, and the left rolls' limits are mirrored (the code's are not, bioloid.md 9.6;
+its own pipeline :func:`code_leg_servo_degrees` keeps them). Clamping is reported, never silent.
 """
 
 from __future__ import annotations

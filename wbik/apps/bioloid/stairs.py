@@ -1,26 +1,8 @@
-"""A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5).
-
-:class:`Staircase` is ours (the sources give no stair geometry): a 30 mm step is what the model's legs
-climb in one step, and a 160 mm tread takes the 100 mm sole, the heel overhang and room to walk up to
-the next riser. At every sample the Sharp beam (12 mm above the sole) is ray-cast on the steps and
-read through the folded curve, so the reading falls near the riser and rises again within about 34 mm
-of it; the soles standing on a surface carry the weight on their FSRs by
-:func:`~wbik.apps.bioloid.sensors.support_loads` (a sole in the air reads 0) and each foot board
-averages the last 3 samples. A sole may stand over a nose on its part behind the edge (at least
-``MIN_FOOTHOLD``): its FSRs over the void read nothing, and the CoM is held in the polygon cut there.
-
-:class:`StairStateMachine` is the code's logic, read after every half step of the walk WalkSR1,
-WalkSR2, WalkSL1, WalkSL2: both Sharps < 100 set the proximity flag; either > 120 with the flag or a
-climb made, and fewer than 3 climbs: up to 3 turns on diff = right - left beyond +-15, then StairReady
-and UpStair; after 3 climbs a foot whose FSR3 and FSR4 both read < 1000 twice in a row is a step down:
-BackS* first when it is the forward foot, then StairReady and DownStair.
-
-Ours: a trigger after a WalkS*1 first completes the pair (staggered feet would read as a heading);
-StairReady brings the toes ``READY_GAP`` from the riser, or ``DOWN_READY_OVERHANG`` over the nose
-before DownStair (less reach down); UpStair (:func:`climb_phases`) and DownStair
-(:func:`descend_phases`) are generated whole-body, every sample a QP solve verified by FK (the replayed
-keyframes leave our joint limits and know no step); the code's extra turn every 4th iteration (the real
-robot's drift) is left out; the medium turns turn by ``TURN_MEDIUM_DEG``.
+"""A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5): the
+code's state machine (:class:`StairStateMachine`) reads the Sharp beams ray-cast on the steps and the
+filtered FSRs after every half step and climbs, turns and goes down. Ours: the staircase, a trigger after
+a WalkS*1 first completing the pair, StairReady, UpStair and DownStair generated whole-body
+(:func:`stair_phases`; the replayed keyframes leave our joint limits), no drift turn, ``TURN_MEDIUM_DEG``.
 """
 
 from __future__ import annotations
@@ -30,11 +12,15 @@ from collections.abc import Callable
 from collections.abc import Sequence
 from dataclasses import dataclass
 from dataclasses import field
+from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
+from wbik.apps.bioloid.behaviours import along
+from wbik.apps.bioloid.behaviours import half_step_phases
 from wbik.apps.bioloid.behaviours import turn_phases
 from wbik.apps.bioloid.gait import OTHER
 from wbik.apps.bioloid.gait import SIDE_NAME
@@ -44,8 +30,6 @@ from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
 from wbik.apps.bioloid.gait import sole_corners
 from wbik.apps.bioloid.gait import start_q
-from wbik.apps.bioloid.half_steps import along
-from wbik.apps.bioloid.half_steps import half_step_phases
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
 from wbik.apps.bioloid.step_wholebody import clip_points
@@ -210,10 +194,8 @@ def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: n
     return max(near, 0.0)
 
 
-@dataclass
-class Decision:
-    """The state machine's answer to a read: ``action`` walk | up | back_then_down | down, and the
-    ``foot`` that detected a step down."""
+class Decision(NamedTuple):
+    """The state machine's answer to a read: walk | up | back_then_down | down, and the foot that felt it."""
 
     action: str
     foot: str | None = None
@@ -226,7 +208,6 @@ class StairStateMachine:
     climbs: int = MAX_CLIMBS
     stair_count: int = 0  # stairCont, 0 once the start button is released
     proximity: bool = False
-    turns_made: int = 0
     down: dict = field(default_factory=lambda: {side: sensors.StepDownDetector() for side in SIDES})
 
     def after_placement(self, sharp: dict[str, float], front_fsr: dict[str, Sequence[float]],
@@ -249,16 +230,13 @@ class StairStateMachine:
     def turn(sharp: dict[str, float]) -> str | None:
         """diff = right - left: > 15 'right' (RightTurnMedium), < -15 'left', else None."""
         diff = float(sharp["r"]) - float(sharp["l"])
-        if diff > SHARP_DIFFERENCE_THRESHOLD:
-            return "right"
-        if diff < -SHARP_DIFFERENCE_THRESHOLD:
-            return "left"
-        return None
+        if not abs(diff) > SHARP_DIFFERENCE_THRESHOLD:
+            return None
+        return "right" if diff > 0 else "left"
 
     def climbed(self) -> None:
         self.stair_count += 1
         self.proximity = False
-        self.turns_made = 0
 
     def descended(self) -> None:
         """A DownStair is done: the step-down detection starts over."""
@@ -287,49 +265,31 @@ def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
 
 
 def _moved(placement: pin.SE3, x: float | None = None, z: float | None = None) -> pin.SE3:
-    translation = placement.translation.copy()
-    if x is not None:
-        translation[0] = x
-    if z is not None:
-        translation[2] = z
-    return pin.SE3(placement.rotation.copy(), translation)
+    x0, y, z0 = placement.translation
+    return pin.SE3(placement.rotation.copy(), np.array([x0 if x is None else x, y, z0 if z is None else z]))
 
 
-def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
-                 gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """UpStair onto step ``step`` (1-based), ``first`` ("r"/"l") foot first, from the feet side by side
-    before its riser, each heel put ``HEEL_OVERHANG`` past the edge; the phases and the new soles."""
-    landing_x = stairs.edge_x(step) + HEEL_OVERHANG + 0.05
-    return _change_level(robot, soles, landing_x, stairs.tread_z(step), first, gait, f"UpStair {step}",
-                         f"tread {step}")
-
-
-def descend_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
-                   gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """DownStair from tread ``step`` (1-based) to the one below, ``first`` foot first, from the feet side
-    by side near its nose, each heel put ``DOWN_HEEL_GAP`` past the riser below; the phases and the new
-    soles."""
-    landing_x = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05
-    below = "the floor" if step == 1 else f"tread {step - 1}"
-    return _change_level(robot, soles, landing_x, stairs.tread_z(step - 1), first, gait, f"DownStair {step}",
-                         below)
-
-
-def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_new: float, first: str,
-                  gait: GaitParameters | None, label: str, surface: str
-                  ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """The CoM over one foot, ``first`` swung ``STEP_CLEARANCE`` above the higher tread onto
-    ``landing_x`` at height ``z_new``, the CoM over it, the other foot brought beside it, the CoM
-    between the feet."""
+def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
+                 gait: GaitParameters | None = None, down: bool = False
+                 ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """UpStair onto step ``step`` (1-based) from the feet side by side before its riser, the heels put
+    ``HEEL_OVERHANG`` past the edge, or (``down``) DownStair from tread ``step`` to the one below, from the
+    feet near its nose, the heels put ``DOWN_HEEL_GAP`` past the riser below: the CoM over one foot,
+    ``first`` ("r"/"l") swung ``STEP_CLEARANCE`` above the higher tread and put down, the CoM over it,
+    the other foot brought beside it, the CoM between the feet; the phases and the new soles."""
+    if down:
+        landing_x, z_new = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05, stairs.tread_z(step - 1)
+        label, surface = f"DownStair {step}", "the floor" if step == 1 else f"tread {step - 1}"
+    else:
+        landing_x, z_new = stairs.edge_x(step) + HEEL_OVERHANG + 0.05, stairs.tread_z(step)
+        label, surface = f"UpStair {step}", f"tread {step}"
     gait = gait or GaitParameters()
     second = OTHER[first]
     over = max(z_new, float(soles[first].translation[2])) + STEP_CLEARANCE
     n = gait.divisions
     heading = yaw_of(soles[second].rotation)
     rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
-    start_first, start_second = soles[first], soles[second]
-    land_first = _moved(start_first, x=landing_x, z=z_new)
-    land_second = _moved(start_second, x=landing_x, z=z_new)
+    after = {side: _moved(soles[side], x=landing_x, z=z_new) for side in (first, second)}
 
     def com_over(foot: str, contacts: dict[str, pin.SE3], divisions: int) -> BodyPhase:
         return com_over_phase(robot, f"{label}: CoM over the {SIDE_NAME[foot]} foot", dict(contacts), foot,
@@ -342,12 +302,11 @@ def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_n
                          swing={SOLE[foot]: path}, pelvis_rotation=rotation, divisions=3 * n,
                          speed_rpm=gait.servo_fast_rpm)
 
-    after = {first: land_first, second: land_second}
     phases = [
         com_over(second, {SOLE[s]: soles[s] for s in SIDES}, n),
-        onto(first, start_first, land_first, start_second),
-        com_over(first, {SOLE[second]: start_second, SOLE[first]: land_first}, 2 * n),
-        onto(second, start_second, land_second, land_first),
+        onto(first, soles[first], after[first], soles[second]),
+        com_over(first, {SOLE[second]: soles[second], SOLE[first]: after[first]}, 2 * n),
+        onto(second, soles[second], after[second], after[first]),
         BodyPhase(f"{label}: CoM between the feet", {SOLE[s]: after[s] for s in SIDES},
                   pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n,
                   speed_rpm=gait.servo_slow_rpm),
@@ -355,77 +314,20 @@ def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_n
     return phases, after
 
 
-def toe_gap(stairs: Staircase, sole: pin.SE3) -> float:
-    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one)."""
+def toes_gap(stairs: Staircase, sole: pin.SE3, down: bool = False) -> float:
+    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one) or, ``down``,
+    to the nose of the tread it stands on on the way down (negative: the toes are over it; inf: none)."""
     toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
-    for step in range(1, stairs.steps + 1):
-        if stairs.edge_x(step) >= toes - 1e-9:
-            return stairs.edge_x(step) - toes
-    return math.inf
+    if down:
+        level = stairs.step_at(sole.translation[0] - 0.05 * sole.rotation[0, 0])
+        return stairs.far_x(level) - toes if stairs.descend and level != 0 else math.inf
+    return next((stairs.edge_x(step) - toes for step in range(1, stairs.steps + 1)
+                 if stairs.edge_x(step) >= toes - 1e-9), math.inf)
 
 
-def nose_gap(stairs: Staircase, sole: pin.SE3) -> float:
-    """Distance (m) along x from the sole's toes to the nose of the tread it stands on, on the way
-    down (negative: the toes are over it; inf: no nose ahead)."""
-    toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
-    level = stairs.step_at(sole.translation[0] - 0.05 * sole.rotation[0, 0])
-    if not stairs.descend or level == 0:
-        return math.inf
-    return stairs.far_x(level) - toes
-
-
-@dataclass
 class StairRun:
-    """A simulated run: the motion, one record per sample, the states visited and the reads."""
-
-    motion: SampledMotion
-    samples: list[dict]
-    states: list[str]
-    reads: list[dict]
-    climbed: int
-    stairs: Staircase
-    margin: float
-    descended: int = 0
-
-    @property
-    def reached_top(self) -> bool:
-        return self.climbed == self.stairs.steps
-
-    @property
-    def reached_bottom(self) -> bool:
-        """Down every step again (a staircase that ``descend``s)."""
-        return self.stairs.descend and self.descended == self.stairs.steps
-
-    def scene_boxes(self) -> tuple:
-        """The steps as the viewer's boxes (wbik.viz.environment.SceneBox), lighter the higher."""
-        from wbik.viz.environment import STAIR_COLORS
-        from wbik.viz.environment import SceneBox
-
-        return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
-                                      color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])
-                     for index, (low, high) in enumerate(self.stairs.boxes()))
-
-    def summary(self) -> dict:
-        swing = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
-        solved = [s for s in self.samples if s["state"] != "start"]
-        return {
-            "samples": len(solved), "steps": self.stairs.steps, "climbed": self.climbed,
-            "reached_top": self.reached_top, "descended": self.descended,
-            "reached_bottom": self.reached_bottom,
-            "states_visited": list(dict.fromkeys(self.states)),
-            "behaviours_run": len(self.states),
-            "max_contact_error_m": max(s["contact_error_m"] for s in solved),
-            "max_contact_error_rad": max(s["contact_error_rad"] for s in solved),
-            "min_com_margin_m": min(s["com_margin_m"] for s in solved),
-            "max_limit_excess_rad": max(s["limit_excess_rad"] for s in solved),
-            "min_clearance_m": min(swing) if swing else None,
-            "max_penetration_m": max(s["penetration_m"] for s in self.samples),
-            "reads": len(self.reads),
-        }
-
-
-class _Simulator:
-    """The robot on the staircase: its configuration, foot boards and every sample recorded."""
+    """A simulated run (:func:`simulate_stairs`): the robot on the staircase, its foot boards, one record per
+    sample, the states visited, the reads and the motion."""
 
     def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
                  climbs: int, q0: np.ndarray):
@@ -434,15 +336,13 @@ class _Simulator:
         self.descended = 0
         self.q = q0.copy()
         self.boards = {side: sensors.MovingAverage(3) for side in SIDES}
-        self.configurations = [q0.copy()]
-        self.phase_of, self.phase_names, self.support = [-1], [], [tuple(SOLE[s] for s in SIDES)]
-        self.samples: list[dict] = []
-        self.states: list[str] = []
-        self.reads: list[dict] = []
-        start = {SOLE[s]: p for s, p in current_soles(robot, q0).items()}
+        self.configurations, self.phase_of, self.phase_names = [q0.copy()], [-1], []
+        self.support = [tuple(SOLE[s] for s in SIDES)]
+        self.samples, self.states, self.reads = [], [], []
+        start = sole_polygon(robot, {SOLE[s]: p for s, p in current_soles(robot, q0).items()})
         self._record(q0, "start", None, {"contact_error_m": 0.0, "contact_error_rad": 0.0,
-                                         "limit_excess_rad": 0.0, "com_margin_m": sole_polygon(robot, start)
-                                         .margin_of(robot.center_of_mass(q0)[:2])}, ())
+                                         "limit_excess_rad": 0.0,
+                                         "com_margin_m": start.margin_of(robot.center_of_mass(q0)[:2])}, ())
 
     def soles(self) -> dict[str, pin.SE3]:
         return current_soles(self.robot, self.q)
@@ -498,7 +398,7 @@ class _Simulator:
                              f"{0.1 - MIN_FOOTHOLD:.3f} m) at x = {placement.translation[0]:.3f} m")
         return found
 
-    def run(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
+    def solve(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
         """Solve a behaviour's phases and record every sample, after checking the new footholds; a sole
         over a nose holds the CoM with its part behind the edge only (each phase's ``clip_x``)."""
         for side, placement in soles_after.items():
@@ -513,16 +413,15 @@ class _Simulator:
                     phase.clip_x[sole] = edge
         self.states.append(state)
         result = solve_phases(self.robot, self.q, phases, self.margin, self.backend, name=state)
-        offset = len(self.phase_names)
-        self.phase_names += [p.name for p in phases]
-        for k, check in enumerate(result.checks):
-            q = result.motion.q[k + 1]
+        motion = result.motion
+        for q, check in zip(motion.q[1:], result.checks, strict=True):
             phase = phases[check["phase"]]
             self._record(q, state, phase.name, check, tuple(phase.swing))
-            self.configurations.append(q.copy())
-            self.phase_of.append(offset + check["phase"])
-            self.support.append(tuple(sorted(phase.stance)))
-        self.q = result.motion.q[-1].copy()
+        self.configurations += list(motion.q[1:])
+        self.phase_of += [len(self.phase_names) + index for index in motion.phase[1:]]
+        self.phase_names += motion.phase_names
+        self.support += motion.support[1:]
+        self.q = motion.q[-1].copy()
 
     def read(self, after: str) -> dict:
         """The state machine's inputs after ``after``: the last sample's Sharp and front FSR readings."""
@@ -537,18 +436,18 @@ class _Simulator:
 
     def half(self, name: str, length: float | None = None) -> None:
         phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length)
-        self.run(name, phases, after)
+        self.solve(name, phases, after)
 
     def stair_ready(self, cycle: int, down: bool) -> bool:
         """Our StairReady: both feet forward (two half steps led by the foot of the walk cycle at
         ``cycle``) until the toes are ``READY_GAP`` from the riser or, ``down``, ``DOWN_READY_OVERHANG``
         over the nose, unless they are there already; whether it stepped."""
-        soles = self.soles()
+        gaps = [toes_gap(self.stairs, sole, down) for sole in self.soles().values()]
         if down:
-            gap = max(nose_gap(self.stairs, soles[s]) for s in SIDES)
+            gap = max(gaps)
             length, needed, missing = gap + DOWN_READY_OVERHANG, gap > -DOWN_READY_OVERHANG + 1e-4, "nose"
         else:
-            gap = min(toe_gap(self.stairs, soles[s]) for s in SIDES)
+            gap = min(gaps)
             length, needed, missing = gap - READY_GAP, gap > READY_GAP + 1e-4, "riser"
         if not math.isfinite(gap):
             raise StairError(f"{'DownStair' if down else 'StairReady'}: no {missing} ahead of the feet")
@@ -559,10 +458,50 @@ class _Simulator:
             self.half(f"WalkS{first}2")
         return needed
 
+    @property
+    def climbed(self) -> int:
+        return self.machine.stair_count
+
+    @property
+    def reached_top(self) -> bool:
+        return self.climbed == self.stairs.steps
+
+    @property
+    def reached_bottom(self) -> bool:
+        """Down every step again (a staircase that ``descend``s)."""
+        return self.stairs.descend and self.descended == self.stairs.steps
+
+    def scene_boxes(self) -> tuple:
+        """The steps as the viewer's boxes (wbik.viz.environment.SceneBox), lighter the higher."""
+        from wbik.viz.environment import STAIR_COLORS
+        from wbik.viz.environment import SceneBox
+
+        return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
+                                      color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])
+                     for index, (low, high) in enumerate(self.stairs.boxes()))
+
+    def summary(self) -> dict:
+        swing = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
+        solved = [s for s in self.samples if s["state"] != "start"]
+        return {
+            "samples": len(solved), "steps": self.stairs.steps, "climbed": self.climbed,
+            "reached_top": self.reached_top, "descended": self.descended,
+            "reached_bottom": self.reached_bottom,
+            "states_visited": list(dict.fromkeys(self.states)),
+            "behaviours_run": len(self.states),
+            "max_contact_error_m": max(s["contact_error_m"] for s in solved),
+            "max_contact_error_rad": max(s["contact_error_rad"] for s in solved),
+            "min_com_margin_m": min(s["com_margin_m"] for s in solved),
+            "max_limit_excess_rad": max(s["limit_excess_rad"] for s in solved),
+            "min_clearance_m": min(swing) if swing else None,
+            "max_penetration_m": max(s["penetration_m"] for s in self.samples),
+            "reads": len(self.reads),
+        }
+
+    @cached_property
     def motion(self) -> SampledMotion:
         return SampledMotion("bioloid_stairs", self.robot, np.array(self.configurations),
-                             np.array(self.phase_of), self.phase_names, self.support,
-                             {"generator": "whole-body QP", "margin": self.margin})
+                             np.array(self.phase_of), self.phase_names, self.support)
 
 
 def _leading_foot(cycle: int) -> str:
@@ -581,51 +520,49 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
     gait = gait or GaitParameters()
     climbs = stairs.steps if climbs is None else int(climbs)
     descents = stairs.steps if stairs.descend and climbs == stairs.steps else 0
-    sim = _Simulator(robot, stairs, gait, margin, backend, climbs, start_q(robot, q0))
+    run = StairRun(robot, stairs, gait, margin, backend, climbs, start_q(robot, q0))
     cycle = 0
     for _ in range(max_decisions):
-        if sim.machine.stair_count >= climbs and sim.descended >= descents:
+        if run.climbed >= climbs and run.descended >= descents:
             break
         name = WALK_CYCLE[cycle % 4]
         cycle += 1
-        sim.half(name)
-        read = sim.read(name)
-        decision = sim.machine.after_placement(read["sharp_mm"], read["front_fsr_mv"], read["forward_foot"])
+        run.half(name)
+        read = run.read(name)
+        decision = run.machine.after_placement(read["sharp_mm"], read["front_fsr_mv"], read["forward_foot"])
         if decision.action in ("down", "back_then_down"):
             back = "BackS" + decision.foot.upper()
-            if sim.descended >= descents:  # a step down the staircase does not have: not generated
-                sim.states.append(back if decision.action == "back_then_down" else "DownStair")
+            if run.descended >= descents:  # a step down the staircase does not have: not generated
+                run.states.append(back if decision.action == "back_then_down" else "DownStair")
                 break
             if decision.action == "back_then_down":
-                sim.half(back)
+                run.half(back)
                 cycle = 0 if decision.foot == "r" else 2  # the next half step starts with this foot
-            heel = float(sole_corners(robot, SOLE["r"], robot.frame_placement(sim.q, SOLE["r"]))[:, 0].min())
+            heel = float(sole_corners(robot, SOLE["r"], run.soles()["r"])[:, 0].min())
             level = stairs.step_at(heel + 1e-6)
-            if sim.stair_ready(cycle, down=True):
+            if run.stair_ready(cycle, down=True):
                 cycle += 2
-            phases, after = descend_phases(robot, sim.soles(), stairs, level, _leading_foot(cycle), gait)
-            sim.run("DownStair", phases, after)
-            sim.descended += 1
-            sim.machine.descended()
-            sim.read("DownStair")
+            phases, after = stair_phases(robot, run.soles(), stairs, level, _leading_foot(cycle), gait, True)
+            run.solve("DownStair", phases, after)
+            run.descended += 1
+            run.machine.descended()
+            run.read("DownStair")
         elif decision.action == "up":
             if name in PAIR_END:  # ours: the feet side by side before the re-reads
-                sim.half(PAIR_END[name])
+                run.half(PAIR_END[name])
                 cycle += 1
-                sim.read(PAIR_END[name])
+                run.read(PAIR_END[name])
             for _turn in range(MAX_TURNS):
-                side = StairStateMachine.turn(sim.read("re-read")["sharp_mm"])
+                side = StairStateMachine.turn(run.read("re-read")["sharp_mm"])
                 if side is None:
                     break
                 angle = math.radians(TURN_MEDIUM_DEG) * (1 if side == "left" else -1)
-                phases, after = turn_phases(robot, sim.soles(), angle, gait)
-                sim.run("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
-                sim.machine.turns_made += 1
-            sim.stair_ready(cycle, down=False)
-            step = sim.machine.stair_count + 1
-            phases, after = climb_phases(robot, sim.soles(), stairs, step, _leading_foot(cycle), gait)
-            sim.run("UpStair", phases, after)
-            sim.machine.climbed()
-            sim.read("UpStair")
-    return StairRun(sim.motion(), sim.samples, sim.states, sim.reads, sim.machine.stair_count, stairs, margin,
-                    sim.descended)
+                phases, after = turn_phases(robot, run.soles(), angle, gait)
+                run.solve("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
+            run.stair_ready(cycle, down=False)
+            step = run.climbed + 1
+            phases, after = stair_phases(robot, run.soles(), stairs, step, _leading_foot(cycle), gait)
+            run.solve("UpStair", phases, after)
+            run.machine.climbed()
+            run.read("UpStair")
+    return run

@@ -1,14 +1,7 @@
-"""(b) The thesis's step forward as whole-body IK on the QP layer (wbik.qp), one QP solve per sample.
-
-The phases, key points and 5 divisions of the faithful version (:mod:`wbik.apps.bioloid.step_faithful`),
-each sample one configuration of the whole robot (free-flyer base + 18 joints). Hard, verified by FK
-afterwards: the soles on the ground held (a Contact each, to 1e-6 m / rad), a swing sole on its path,
-the CoM inside the support polygon shrunk by ``margin`` (at the last sample of a hand-over already the
-next stance sole's), joint limits, the arms at rest. Soft: each standing leg's hip toward its key point,
-the pelvis at 20 deg pitch and the feet's yaw, in a hand-over the CoM toward the next stance sole, a
-small posture term. The swing sole is lifted 40 mm, 20 mm ahead at the top of phase 2 and landed 30 mm
-ahead of the stance foot; the rear foot is dragged beside it (or lifted by ``rear_lift``).
-:func:`solve_phases` over :class:`BodyPhase` lists also drives the turns, walks, half steps and stairs.
+"""(b) The thesis's step forward as whole-body IK, one QP solve per sample (:func:`solve_phases` over
+:class:`BodyPhase` lists, also behind the turns, walks, half steps and stairs). Hard, verified by FK: the
+soles on the ground held, a swing sole on its path, the CoM ``margin`` inside the support, joint limits,
+arms at rest; soft: the key points' hips, the pelvis pitch and yaw, the CoM in a hand-over, a posture.
 """
 
 from __future__ import annotations
@@ -33,6 +26,7 @@ from wbik.apps.bioloid.gait import pose_error
 from wbik.apps.bioloid.gait import servo_joint_ids
 from wbik.apps.bioloid.gait import sole_corners
 from wbik.apps.bioloid.gait import start_q
+from wbik.apps.bioloid.gait import step_forward_phases
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import NoQPSolutionError
 from wbik.geometry import wrap_to_pi
@@ -66,14 +60,10 @@ Point = Callable[[float], np.ndarray]
 
 @dataclass
 class BodyPhase:
-    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1.
-
-    ``stance``: sole -> planted world pose (held); ``swing``: sole -> path s -> world pose (followed
-    exactly); ``hips``: hip frame -> s -> world target (soft); ``pelvis_rotation``: s -> world rotation
-    (soft); ``com``: s -> CoM xy target (soft); ``end_support``: the soles whose polygon holds the CoM at
-    the last sample (default the stance); ``clip_x``: sole -> world x where the ground under it ends (a
-    stair's nose), the support polygons holding only its part behind.
-    """
+    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1: soles held at their
+    ``stance`` poses or on their ``swing`` paths s -> pose; soft ``hips`` and ``com`` (xy) targets and
+    ``pelvis_rotation``, functions of s; ``end_support`` the soles holding the CoM at the last sample
+    (default the stance); ``clip_x`` sole -> x where the ground under it ends (a nose): the part held."""
 
     name: str
     stance: dict[str, pin.SE3]
@@ -135,23 +125,16 @@ def line(start: np.ndarray, end: np.ndarray) -> Point:
     return lambda s: start + (end - start) * s
 
 
-def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0, via: pin.SE3 | None = None) -> Path:
-    """A swing path from ``start`` to ``end``: straight lines through ``via`` (the code's two phases)
-    or one line plus a vertical bump ``lift * sin(pi s)``; the yaw turns linearly, the sole stays flat."""
-    def pose(a: pin.SE3, b: pin.SE3, s: float) -> pin.SE3:
-        yaw = yaw_of(a.rotation) + s * float(wrap_to_pi(yaw_of(b.rotation) - yaw_of(a.rotation)))
-        position = a.translation + s * (b.translation - a.translation)
-        return pin.SE3(pin.utils.rotate("z", yaw), position)
+def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0) -> Path:
+    """A swing path from ``start`` to ``end``: a line plus a vertical bump ``lift * sin(pi s)``, the yaw
+    turning linearly the short way, the sole flat."""
+    def pose(s: float) -> pin.SE3:
+        yaw = yaw_of(start.rotation) + s * float(wrap_to_pi(yaw_of(end.rotation) - yaw_of(start.rotation)))
+        position = start.translation + s * (end.translation - start.translation)
+        bump = np.array([0.0, 0.0, lift * math.sin(math.pi * s)])
+        return pin.SE3(pin.utils.rotate("z", yaw), position + bump)
 
-    if via is not None:
-        return lambda s: pose(start, via, 2 * s) if s <= 0.5 else pose(via, end, 2 * s - 1)
-
-    def bumped(s: float) -> pin.SE3:
-        placement = pose(start, end, s)
-        placement.translation = placement.translation + np.array([0.0, 0.0, lift * math.sin(math.pi * s)])
-        return placement
-
-    return bumped
+    return pose
 
 
 def _holds(check: dict) -> bool:
@@ -268,8 +251,7 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
             phase_of.append(index)
             support.append(tuple(sorted(phase.stance)))
     motion = SampledMotion(name, robot, np.array(configurations), np.array(phase_of),
-                           [p.name for p in phases], support,
-                           {"generator": "whole-body QP", "margin": margin})
+                           [p.name for p in phases], support)
     return WholeBodyMotion(motion, checks, margin, list(phases))
 
 
@@ -290,62 +272,48 @@ def recentre_goal(robot: Robot, soles: dict[str, pin.SE3]) -> np.ndarray:
 def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | None = None,
                 first: str = "left", rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
     """The 5 phases of one step forward, ``first`` foot first, from the planted ``soles`` ({"r": SE3,
-    "l": SE3}); returns the phases and the soles planted after the step."""
+    "l": SE3}), the standing legs' hips on the faithful step's key-point lines (:func:`step_forward_phases`,
+    with its servo speeds and pauses); the phases and the soles planted after the step."""
     gait = gait or GaitParameters()
     swing_side = "l" if str(first).lower() in ("left", "l") else "r"
     stance_side = OTHER[swing_side]
-    # the key points of the left step ("Right": the stance leg); the right step mirrors them (y -> -y)
-    mirror = np.array([1.0, -1.0, 1.0]) if swing_side == "r" else np.ones(3)
-    kp = {name: point * mirror for name, point in gait.key_points().items()}
-
+    table = step_forward_phases(gait, SIDE_NAME[swing_side])
     stance0, swing0 = soles[stance_side], soles[swing_side]
     heading = yaw_of(stance0.rotation)
-    pitch = gait.pitch
-    rotation = lambda s: pelvis_rotation(heading, pitch)  # noqa: E731
+    rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
     forward = stance0.rotation[:, 0]
-    lift = gait.lift_height
-    up = pin.SE3(swing0.rotation, swing0.translation + forward * (gait.xm - gait.xu) + np.array([0, 0, lift]))
+    up = pin.SE3(swing0.rotation,
+                 swing0.translation + forward * (gait.xm - gait.xu) + np.array([0, 0, gait.lift_height]))
     # land |xf| ahead of the stance foot, keeping the feet's lateral spacing
     ahead = float(forward @ (stance0.translation - swing0.translation)) + (gait.xm - gait.xf)
     landed = pin.SE3(swing0.rotation, swing0.translation + forward * ahead)
     beside = float(forward @ (landed.translation - stance0.translation))
     rear_end = pin.SE3(stance0.rotation, stance0.translation + forward * beside)
+    before, after = {stance_side: stance0, swing_side: swing0}, {stance_side: stance0, swing_side: landed}
 
-    def hips(side_points: dict[str, tuple[str, str]], stance: dict[str, pin.SE3]) -> dict[str, Point]:
-        targets = {}
-        for side, (a, b) in side_points.items():
-            sole = stance[SOLE[side]]
-            targets[HIP[side]] = line(hip_target(robot, sole, kp[a]), hip_target(robot, sole, kp[b]))
-        return targets
+    def options(index: int, planted: dict[str, pin.SE3]) -> dict:
+        """Phase ``index``'s hips of the legs standing (on their planted soles) and its timing."""
+        phase = table[index]
+        hips = {HIP[side]: line(hip_target(robot, planted[side], phase.start[side]),
+                                hip_target(robot, planted[side], phase.end[side]))
+                for side in phase.down if side != phase.dragged}
+        return {"hips": hips, "pelvis_rotation": rotation, "divisions": gait.divisions,
+                "speed_rpm": phase.speed_rpm, "pause_s": phase.pause_s}
 
-    both = {SOLE[stance_side]: stance0, SOLE[swing_side]: swing0}
     sw, st = SIDE_NAME[swing_side], SIDE_NAME[stance_side]
-    slow, fast = gait.servo_slow_rpm, gait.servo_fast_rpm
-    n = gait.divisions
-    on_stance = hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both)
-    after_landing = {SOLE[stance_side]: stance0, SOLE[swing_side]: landed}
-    phases = [
-        com_over_phase(robot, f"shift the hips over the {st} foot", dict(both), stance_side, stance0,
-                       hips=hips({stance_side: ("legDownStanding", "legDownMiddleRight"),
-                                  swing_side: ("legDownStanding", "legDownMiddleLeft")}, both),
-                       pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0),
+    return [
+        com_over_phase(robot, f"shift the hips over the {st} foot", {SOLE[s]: p for s, p in before.items()},
+                       stance_side, stance0, **options(0, before)),
         BodyPhase(f"lift the {sw} foot", {SOLE[stance_side]: stance0},
-                  swing={SOLE[swing_side]: sole_path(swing0, up)}, hips=on_stance,
-                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast),
+                  swing={SOLE[swing_side]: sole_path(swing0, up)}, **options(1, before)),
         BodyPhase(f"lower the {sw} foot ahead", {SOLE[stance_side]: stance0},
-                  swing={SOLE[swing_side]: sole_path(up, landed)}, hips=on_stance,
-                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast, pause_s=2.0),
-        com_over_phase(robot, f"move the hips over the front ({sw}) foot", dict(after_landing), swing_side,
-                       landed, hips=hips({stance_side: ("legDownMiddleRight", "legDownBackwardRight"),
-                                          swing_side: ("legDownForwardLeft", "legDownStanding")},
-                                         after_landing),
-                       pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=2.0),
+                  swing={SOLE[swing_side]: sole_path(up, landed)}, **options(2, before)),
+        com_over_phase(robot, f"move the hips over the front ({sw}) foot",
+                       {SOLE[s]: p for s, p in after.items()}, swing_side, landed, **options(3, after)),
         BodyPhase(f"bring the rear ({st}) foot beside the front one", {SOLE[swing_side]: landed},
                   swing={SOLE[stance_side]: sole_path(stance0, rear_end, lift=rear_lift)},
-                  hips=hips({swing_side: ("legDownStanding", "legDownStanding")}, after_landing),
-                  pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0),
-    ]
-    return phases, {stance_side: rear_end, swing_side: landed}
+                  **options(4, after)),
+    ], {stance_side: rear_end, swing_side: landed}
 
 
 def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) -> np.ndarray:
@@ -381,8 +349,8 @@ class ComRamp:
 
 def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: str, placement: pin.SE3,
                    inset: float = RAMP_INSET, **options) -> BodyPhase:
-    """A phase that ramps the CoM into the ``side`` sole's polygon (that sole at ``placement``) shrunk
-    by ``inset`` and ends supported by that sole alone; ``options``: the other BodyPhase fields."""
+    """A phase ramping the CoM ``inset`` into the ``side`` sole at ``placement``, ending supported by it
+    alone; ``options``: the other BodyPhase fields."""
     footprint = {SOLE[side]: placement}
     return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, footprint), inset, footprint=footprint),
                      end_support=(SOLE[side],), **options)

@@ -1,11 +1,6 @@
-"""``thesis_legs``: the Bioloid thesis's whole-body method (whole-body problems only).
-
-Each leg's closed form (foot -> hip, :mod:`wbik.robot_packages.bioloid.closed_form`) from its planted or
-targeted sole to the hip, the hip shifted horizontally until the CoM is over the target (a CoM task's,
-else where it started), the pelvis orientation and height and the arms kept. The shift s is a Newton
-iteration on e(s) = c_xy(s) - c*, with dc_xy/ds taken once by finite differences: s <- s - J^-1 e.
-Other tasks are listed in ``unsupported``; goal tasks it cannot place make the problem one it
-cannot express (:meth:`ThesisLegs.cannot_express`).
+"""``thesis_legs``: the Bioloid thesis's whole-body method. Each leg's closed form from its sole to the hip,
+the hip shifted horizontally (Newton on e(s) = c_xy(s) - c*, dc/ds once by finite differences) until the
+CoM is over the target; the pelvis orientation, its height and the arms are kept.
 """
 
 from __future__ import annotations
@@ -126,10 +121,8 @@ class ThesisLegs(Solver):
         robot, problem, q0 = self.robot, started.problem, started.q0
         legs = self._thread_state()
         targets = self._sole_targets(problem, q0, started.placements)
-        com_target = None
-        for task in problem.tasks:
-            if isinstance(task, ComTask) and task.goal:
-                com_target = task.target[:2].copy()
+        com_target = next((task.target[:2].copy() for task in reversed(problem.tasks)
+                           if isinstance(task, ComTask) and task.goal), None)  # the last one
         if com_target is None and started.polygon is not None:
             com_target = robot.center_of_mass(q0)[:2].copy()
         for task in problem.tasks:

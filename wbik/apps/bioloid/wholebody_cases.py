@@ -1,7 +1,5 @@
-"""The Bioloid's seeded whole-body cases for the whole-body study (registered in
-:data:`wbik.wholebody.cases.CASE_MODULES`; streams from :func:`wbik.wholebody.cases.case_rng`): the
-floating-base Bioloid (24 DOF, 100 x 60 mm soles) with a 5 mm CoM margin and the pelvis orientation kept
-(soft); each sampler's description says what it draws.
+"""The Bioloid's seeded whole-body cases (:data:`wbik.wholebody.cases.CASE_MODULES`): a 5 mm CoM margin and
+the pelvis orientation kept (soft); each sampler's description says what it draws.
 """
 
 from __future__ import annotations
