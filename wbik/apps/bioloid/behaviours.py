@@ -22,6 +22,9 @@ from wbik.apps.bioloid.gait import SampledMotion
 from wbik.apps.bioloid.gait import flatten_on_ground
 from wbik.apps.bioloid.gait import place_on_anchor
 from wbik.apps.bioloid.gait import start_q
+from wbik.apps.bioloid.servo import SERVOS
+from wbik.apps.bioloid.servo import from_servo_units
+from wbik.apps.bioloid.servo import to_servo
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
 from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
@@ -233,17 +236,19 @@ def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, l
 def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:
     """Joint configurations of a keyframe behaviour and, per row, ``lower_sole`` (flat on the ground),
     the other sole's height (m) and tilt (deg), the CoM margin (m) over the lower sole and over both
-    when the other is within 5 mm of the ground, and the joints beyond the URDF limits."""
-    from wbik.apps.bioloid.servo import from_servo_units
-
+    when the other is within 5 mm of the ground, the joints beyond the URDF limits, the servos its angles
+    clamp to (:func:`~wbik.apps.bioloid.servo.to_servo`) and whether the others map back to its units."""
     data = load_keyframes(path)
     units, row_times, pages = keyframe_rows(data, behaviour)
     model = robot.model
     configurations, rows = [], []
     for index, row in enumerate(units):
         q = robot.nominal.copy()
-        for joint, value in from_servo_units(row).items():
+        angles = from_servo_units(row)
+        for joint, value in angles.items():
             q[model.joints[model.getJointId(joint)].idx_q] = value
+        command = to_servo(angles)
+        clamped = {SERVOS[joint].servo_id for joint in command.clamped}
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
         placed = {}
         for side in SIDES:  # each sole flat on the ground in turn; keep the one with the other above
@@ -264,7 +269,9 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
                   if not model.lowerPositionLimit[i] - 1e-9 <= q[i] <= model.upperPositionLimit[i] + 1e-9]
         rows.append({"row": index, "page": pages[index], "lower_sole": SOLE[lower],
                      "other_sole_height_m": float(other.translation[2]), "other_sole_tilt_deg": tilt,
-                     "com_margin_single_m": single, "com_margin_both_m": both, "beyond_limits": beyond})
+                     "com_margin_single_m": single, "com_margin_both_m": both, "beyond_limits": beyond,
+                     "servos_clamped": sorted(clamped), "units_round_trip": all(
+                         command.units[i] == int(u) for i, u in enumerate(row, start=1) if i not in clamped)})
         configurations.append(q)
     times = np.cumsum(row_times)
     motion = SampledMotion(f"keyframes_{behaviour}", robot, np.array(configurations), np.arange(len(units)),

@@ -20,8 +20,6 @@ from wbik.apps.bioloid.gait import time_scale_motion
 from wbik.apps.bioloid.placo_walk import placo_walk
 from wbik.apps.bioloid.placo_walk import placo_walk_animation
 from wbik.apps.bioloid.sensors import stance_loads
-from wbik.apps.bioloid.servo import SERVOS
-from wbik.apps.bioloid.servo import to_servo
 from wbik.apps.bioloid.stairs import Staircase
 from wbik.apps.bioloid.stairs import simulate_stairs
 from wbik.apps.bioloid.step_wholebody import current_soles
@@ -219,20 +217,13 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     for behaviour in chosen:
         replay = replay_keyframes(run.robot, behaviour, spec["keyframes"])
         motion = replay["motion"]
-        exact, clamped_rows = True, 0
-        for units, angles in zip(replay["units"], motion.joint_matrix(), strict=True):
-            command = to_servo(dict(zip(motion.joint_names, angles, strict=True)))
-            clamped_ids = {SERVOS[joint].servo_id for joint in command.clamped}
-            clamped_rows += bool(clamped_ids)
-            exact = exact and all(command.units[i] == int(u) for i, u in zip(range(1, 19), units, strict=True)
-                                  if i not in clamped_ids)
         rows = replay["rows"]
         single = min(r["com_margin_single_m"] for r in rows)
         entry = {"name": f"keyframes {behaviour}", "rows": len(rows),
                  "duration_s": float(replay["times_s"][-1]),
-                 "units_round_trip_exact": bool(exact),
+                 "units_round_trip_exact": all(r["units_round_trip"] for r in rows),
                  "rows_beyond_urdf_limits": sum(bool(r["beyond_limits"]) for r in rows),
-                 "rows_beyond_servo_limits": clamped_rows,
+                 "rows_beyond_servo_limits": sum(bool(r["servos_clamped"]) for r in rows),
                  "max_other_sole_height_mm": 1e3 * max(r["other_sole_height_m"] for r in rows),
                  "min_com_margin_single_mm": 1e3 * single, "source": replay["source"]}
         wanted = {**expect, **(own.get(behaviour) or {})}

@@ -1,17 +1,10 @@
-"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, and
-the foot board's bus facts.
-
-FSR positions (ASSUMED; the thesis says only "near the corners", FSR1/FSR2 at the back, FSR3/FSR4 at
-the front): one at each corner of the model's sole (``robot.soles``), FSR1 = back left (-x, +y), FSR2
-= back right, FSR3 = front left, FSR4 = front right, in the sole frame (x forward, y left, z up). The
-centre of pressure is c = sum_i F_i p_i / sum_i F_i.
-
-Static loads: the weight W = m g on the FSRs of the soles in contact as point supports is statically
-indeterminate. Our model, a rigid body on equal linear springs with unilateral contact, takes the
-minimum-norm non-negative loads: min |F|^2 s.t. A F = W (1, c_x, c_y), F >= 0, A = [1 ...; x_i ...;
-y_i ...], with c the CoM projection, found exactly by enumerating the sets of unloaded supports. On a
-rectangle of half sizes (a, b), all loaded: F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b). The CoP of
-these loads is the CoM projection; outside the support polygon there is none (not static).
+"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, the foot
+board's bus. FSRs (ASSUMED: "near the corners") at the sole's corners, FSR1 back left, FSR2 back right, FSR3
+front left, FSR4 front right (sole frame: x forward, y left); CoP c = sum F_i p_i / sum F_i. Static loads:
+the weight W on the point supports of the soles in contact is statically indeterminate; as a rigid body on
+equal springs with unilateral contact, the loads are the minimum-norm ones, min |F|^2 s.t. A F = W (1, c_x,
+c_y), F >= 0 (c: the CoM projection), found by enumerating the unloaded sets; all loaded on a rectangle of
+half sizes (a, b): F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b). Outside the support polygon there are none.
 """
 
 from __future__ import annotations
