@@ -16,7 +16,7 @@ from scenario_pages import watch
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.apps.bioloid import half_steps
+from wbik.apps.bioloid import behaviours
 from wbik.apps.bioloid import sensors
 from wbik.apps.bioloid import stairs
 from wbik.apps.bioloid.stairs import Staircase
@@ -61,8 +61,8 @@ def test_half_step_balanced_contacts_held_by_fk(robot, name):
     margin = file_margin("bioloid_half_steps.yaml")
     q0 = robot.nominal
     if PRECEDING[name]:
-        q0 = half_steps.half_step_sequence(robot, PRECEDING[name], margin=margin).motion.q[-1]
-    result = half_steps.half_step(robot, name, q0, margin=margin)
+        q0 = behaviours.half_step_sequence(robot, PRECEDING[name], margin=margin).motion.q[-1]
+    result = behaviours.half_step_sequence(robot, [name], q0, margin=margin)
     motion = result.motion
     moved, shift = MOVED[name]
     other = "l_sole" if moved == "r_sole" else "r_sole"
@@ -82,16 +82,16 @@ def test_half_step_balanced_contacts_held_by_fk(robot, name):
     assert end - start[moved].translation == pytest.approx([shift, 0.0, 0.0], abs=1e-6)
     # a lifted foot really leaves the ground (15 mm bump) in the swing phase
     heights = [robot.frame_placement(q, moved).translation[2] for q in motion.q]
-    assert max(heights) == pytest.approx(half_steps.HALF_STEP_LIFT, abs=1e-6)
+    assert max(heights) == pytest.approx(behaviours.HALF_STEP_LIFT, abs=1e-6)
 
 
 def test_half_steps_refuse_the_wrong_start(robot):
     with pytest.raises(InvalidConfigurationError, match="from behind"):
-        half_steps.half_step(robot, "WalkSR2")
+        behaviours.half_step_sequence(robot, ["WalkSR2"])
     with pytest.raises(InvalidConfigurationError, match="back from in front"):
-        half_steps.half_step(robot, "BackSL")
+        behaviours.half_step_sequence(robot, ["BackSL"])
     with pytest.raises(InvalidConfigurationError, match="unknown half step"):
-        half_steps.half_step(robot, "WalkSX1")
+        behaviours.half_step_sequence(robot, ["WalkSX1"])
 
 
 # -- sensors: moving average, PSThreshold, the Sharp model ----------------------------------------

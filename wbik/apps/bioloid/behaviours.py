@@ -1,20 +1,8 @@
-"""Bioloid behaviours built on the whole-body step: turning in place, walking N steps then turning,
-and replaying the code's Roboplus keyframes (stairs, medium turns).
-
-Whole-body behaviours are phase lists for :func:`wbik.apps.bioloid.step_wholebody.solve_phases`, so every
-sample holds its contacts exactly and keeps the CoM inside the support polygon by the margin.
-
-Turn in place by ``angle`` (positive = left) about the midpoint of the feet: for a left turn the
-CoM goes over the right foot and the left foot turns first, then the CoM goes over the left foot
-and the right foot follows; each sole is turned by ``angle`` about the vertical through the midpoint of
-the soles and put down, the pelvis yaw follows in two halves, and a last double-support phase
-re-centres the CoM between the feet.
-
-Keyframe replay (tasks/data/bioloid_keyframes.yaml, from the author's BioloidPosDef.h): each row
-of servo units becomes joint angles (:func:`wbik.apps.bioloid.servo.from_servo_units`); the robot is
-put with its lower sole flat on the ground and each row reports the other sole's height and tilt
-and the CoM margin over the lower sole (the stair geometry is not in the sources, so no step is
-modelled).
+"""Bioloid behaviours on the whole-body engine (:func:`wbik.apps.bioloid.step_wholebody.solve_phases`):
+turning in place, walking N steps then turning, the thesis's half steps (bioloid.md 5.3) and the replay of
+the code's Roboplus keyframes. The half steps' Roboplus matrices are not in our sources: each is generated
+as the CoM over the foot that stays, the other foot lifted ``HALF_STEP_LIFT`` (ours; the thesis saw the
+foot "almost dragging", bioloid.md 7) and put down along its heading, the CoM back between the feet.
 """
 
 from __future__ import annotations
@@ -26,18 +14,24 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDE_NAME
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
-from wbik.apps.bioloid.step_faithful import flatten_on_ground
-from wbik.apps.bioloid.step_faithful import place_on_anchor
+from wbik.apps.bioloid.gait import flatten_on_ground
+from wbik.apps.bioloid.gait import place_on_anchor
+from wbik.apps.bioloid.gait import start_q
+from wbik.apps.bioloid.servo import SERVOS
+from wbik.apps.bioloid.servo import from_servo_units
+from wbik.apps.bioloid.servo import to_servo
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
 from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
 from wbik.apps.bioloid.step_wholebody import com_over_phase
 from wbik.apps.bioloid.step_wholebody import current_soles
 from wbik.apps.bioloid.step_wholebody import pelvis_rotation
+from wbik.apps.bioloid.step_wholebody import recentre_goal
 from wbik.apps.bioloid.step_wholebody import sole_path
 from wbik.apps.bioloid.step_wholebody import sole_polygon
 from wbik.apps.bioloid.step_wholebody import solve_phases
@@ -49,29 +43,22 @@ from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
 KEYFRAMES_PATH = data_dir("tasks") / "data" / "bioloid_keyframes.yaml"
-RAMP_INSET = 0.008
-"""A hand-over moves the CoM to this far inside the next stance sole (m), the hard margin being less."""
+HALF_STEP_LIFT = 0.015  # m, swing height (ours; the thesis says only "much less" than 40 mm)
+ALONG_TOLERANCE = 1e-4  # m, a foot counts as beside the other one within this along the heading
+HALF_STEPS: dict[str, tuple[str, str]] = {
+    # name -> (foot moved, where it ends: "ahead" of the other foot or "beside" it)
+    "WalkSR1": ("r", "ahead"), "WalkSR2": ("l", "beside"), "BackSR": ("r", "beside"),
+    "WalkSL1": ("l", "ahead"), "WalkSL2": ("r", "beside"), "BackSL": ("l", "beside"),
+}
 
 
-def _rotated_about(placement: pin.SE3, centre: np.ndarray, angle: float) -> pin.SE3:
-    rotation = pin.utils.rotate("z", angle)
-    offset = placement.translation - centre
-    return pin.SE3(rotation @ placement.rotation, centre + rotation @ offset)
-
-
-def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters,
-                   divisions: int) -> BodyPhase:
+def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
     """Both feet down, the CoM back between the feet (where it is at the nominal stance, turned)."""
-    nominal_soles = current_soles(robot, robot.nominal)
-    nominal_mid = 0.5 * (nominal_soles["r"].translation + nominal_soles["l"].translation)
-    com_offset = robot.center_of_mass(robot.nominal)[:2] - nominal_mid[:2]
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
-    mid = 0.5 * (soles["r"].translation + soles["l"].translation)[:2]
-    goal = mid + pin.utils.rotate("z", heading)[:2, :2] @ com_offset
-    stance = {SOLE[s]: soles[s] for s in SIDES}
-    return BodyPhase("re-centre the CoM between the feet", stance,
+    return BodyPhase("re-centre the CoM between the feet", {SOLE[s]: soles[s] for s in SIDES},
                      pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
-                     com=ComRamp(goal=goal), divisions=divisions, speed_rpm=gait.servo_slow_rpm)
+                     com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions,
+                     speed_rpm=gait.servo_slow_rpm)
 
 
 def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: GaitParameters | None = None,
@@ -86,7 +73,9 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
     first = "l" if angle >= 0 else "r"
     second = OTHER[first]
-    turned = {side: _rotated_about(soles[side], centre, angle) for side in SIDES}
+    turn = pin.utils.rotate("z", angle)
+    turned = {side: pin.SE3(turn @ soles[side].rotation, centre + turn @ (soles[side].translation - centre))
+              for side in SIDES}
     n = gait.divisions
 
     def yaw_ramp(start: float, end: float):
@@ -94,23 +83,22 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
 
     half = heading + 0.5 * angle
     phases = [
-        com_over_phase(robot, f"shift the CoM over the {'right' if second == 'r' else 'left'} foot",
-                       {SOLE[s]: soles[s] for s in SIDES}, second, soles[second], RAMP_INSET,
+        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[second]} foot",
+                       {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
                        pelvis_rotation=yaw_ramp(heading, heading), divisions=n,
                        speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {'left' if first == 'l' else 'right'} foot", {SOLE[second]: soles[second]},
+        BodyPhase(f"turn the {SIDE_NAME[first]} foot", {SOLE[second]: soles[second]},
                   swing={SOLE[first]: sole_path(soles[first], turned[first], lift=lift)},
                   pelvis_rotation=yaw_ramp(heading, half), divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
-        com_over_phase(robot, f"shift the CoM over the {'left' if first == 'l' else 'right'} foot",
+        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[first]} foot",
                        {SOLE[second]: soles[second], SOLE[first]: turned[first]}, first, turned[first],
-                       RAMP_INSET, pelvis_rotation=yaw_ramp(half, half), divisions=n,
-                       speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {'right' if second == 'r' else 'left'} foot", {SOLE[first]: turned[first]},
+                       pelvis_rotation=yaw_ramp(half, half), divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"turn the {SIDE_NAME[second]} foot", {SOLE[first]: turned[first]},
                   swing={SOLE[second]: sole_path(soles[second], turned[second], lift=lift)},
                   pelvis_rotation=yaw_ramp(half, heading + angle), divisions=2 * n,
                   speed_rpm=gait.servo_fast_rpm),
+        recentre_phase(robot, turned, gait),
     ]
-    phases.append(recentre_phase(robot, turned, gait, n))
     return phases, turned
 
 
@@ -118,46 +106,102 @@ def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | 
                   margin: float = 0.005, q0: np.ndarray | None = None,
                   backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """Turn in place by ``angle_deg`` (positive = left) with the whole-body QP."""
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    q = start_q(robot, q0)
     phases, _ = turn_phases(robot, current_soles(robot, q), math.radians(angle_deg), gait)
     return solve_phases(robot, q, phases, margin, backend, name=f"turn_{angle_deg:g}deg")
-
-
-def walk_phases(robot: Robot, soles: dict[str, pin.SE3], steps: int, turn_deg: float = 0.0,
-                gait: GaitParameters | None = None, first: str = "left",
-                rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """``steps`` steps forward alternating feet (``first`` foot first), then a turn (if non-zero),
-    then a re-centring of the CoM."""
-    gait = gait or GaitParameters()
-    if steps < 0:
-        raise InvalidConfigurationError(f"steps must be >= 0, got {steps}")
-    phases: list[BodyPhase] = []
-    side = "left" if str(first).lower() in ("left", "l") else "right"
-    for _ in range(steps):
-        step, soles = step_phases(robot, soles, gait, side, rear_lift)
-        for phase in step:
-            if isinstance(phase.com, ComRamp):
-                phase.com = ComRamp(phase.com.polygon, RAMP_INSET, footprint=phase.com.footprint)
-        phases += step
-        side = "right" if side == "left" else "left"
-    if turn_deg:
-        turn, soles = turn_phases(robot, soles, math.radians(turn_deg), gait)
-        phases += turn
-    else:
-        phases.append(recentre_phase(robot, soles, gait, gait.divisions))
-    return phases, soles
 
 
 def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
          margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
-    """Walk ``steps`` steps forward, then turn by ``turn_deg`` (positive = left), whole-body QP."""
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
-    phases, _ = walk_phases(robot, current_soles(robot, q), steps, turn_deg, gait, first, rear_lift)
+    """Walk ``steps`` steps forward alternating feet (``first`` foot first), then turn by ``turn_deg``
+    (positive = left) or re-centre the CoM, whole-body QP."""
+    gait = gait or GaitParameters()
+    if steps < 0:
+        raise InvalidConfigurationError(f"steps must be >= 0, got {steps}")
+    q = start_q(robot, q0)
+    soles = current_soles(robot, q)
+    phases: list[BodyPhase] = []
+    side = "left" if str(first).lower() in ("left", "l") else "right"
+    for _ in range(steps):
+        step, soles = step_phases(robot, soles, gait, side, rear_lift)
+        phases += step
+        side = "right" if side == "left" else "left"
+    if turn_deg:
+        phases += turn_phases(robot, soles, math.radians(turn_deg), gait)[0]
+    else:
+        phases.append(recentre_phase(robot, soles, gait))
     return solve_phases(robot, q, phases, margin, backend, name=f"walk_{steps}_turn_{turn_deg:g}")
 
 
-# --- keyframes -------------------------------------------------------------------------------
+def along(soles: dict[str, pin.SE3], side: str) -> float:
+    """How far the ``side`` foot is ahead of the other one along the other foot's heading (m)."""
+    reference = soles[OTHER[side]]
+    return float(reference.rotation[:, 0] @ (soles[side].translation - reference.translation))
+
+
+def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: GaitParameters | None = None,
+                     length: float | None = None, lift: float = HALF_STEP_LIFT
+                     ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) from the planted ``soles``
+    ({"r": SE3, "l": SE3}) and the soles planted afterwards. InvalidConfigurationError when it does not
+    apply: WalkS*2 needs the moved foot behind, BackS* in front, WalkS*1 not ahead already."""
+    if name not in HALF_STEPS:
+        raise InvalidConfigurationError(f"unknown half step {name!r}; known: {', '.join(HALF_STEPS)}")
+    gait = gait or GaitParameters()
+    length = gait.step_length if length is None else float(length)
+    if not 0.0 < length <= 0.06:
+        raise InvalidConfigurationError(f"half step length must be in (0, 0.06] m, got {length}")
+    if not 0.0 <= lift <= 0.05:
+        raise InvalidConfigurationError(f"half step lift must be in [0, 0.05] m, got {lift}")
+    moved, ends = HALF_STEPS[name]
+    stays = OTHER[moved]
+    ahead = along(soles, moved)
+    foot = f"{name} brings the {SIDE_NAME[moved]} foot"
+    if name.startswith("Back") and ahead <= ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{foot} back from in front, but it is {ahead * 1e3:.1f} mm ahead of "
+                                        "the other one")
+    if name.endswith("2") and ahead >= -ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{foot} from behind, but it is {ahead * 1e3:.1f} mm ahead of the "
+                                        "other one")
+    if name.endswith("1") and ahead > ALONG_TOLERANCE:
+        raise InvalidConfigurationError(f"{name} puts the {SIDE_NAME[moved]} foot forward from beside the "
+                                        f"other one, but it is already {ahead * 1e3:.1f} mm ahead")
+    start, other = soles[moved], soles[stays]
+    end = pin.SE3(start.rotation.copy(),
+                  start.translation + other.rotation[:, 0] * ((length if ends == "ahead" else 0.0) - ahead))
+    heading = yaw_of(other.rotation)
+    rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
+    after = {moved: end, stays: other}
+    n = gait.divisions
+    phases = [
+        com_over_phase(robot, f"{name}: CoM over the {SIDE_NAME[stays]} foot",
+                       {SOLE[moved]: start, SOLE[stays]: other}, stays, other,
+                       pelvis_rotation=rotation, divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(f"{name}: {SIDE_NAME[moved]} foot {'back' if name.startswith('Back') else 'forward'}",
+                  {SOLE[stays]: other}, swing={SOLE[moved]: sole_path(start, end, lift=lift)},
+                  pelvis_rotation=rotation, divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
+        BodyPhase(f"{name}: CoM between the feet", {SOLE[moved]: end, SOLE[stays]: other},
+                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)),
+                  divisions=n, speed_rpm=gait.servo_slow_rpm),
+    ]
+    return phases, after
+
+
+def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = None,
+                       gait: GaitParameters | None = None, margin: float = 0.005,
+                       length: float | None = None, lift: float = HALF_STEP_LIFT,
+                       backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
+    """Half steps one after the other from ``q0`` (default the nominal), solved sample by sample."""
+    q = start_q(robot, q0)
+    soles = current_soles(robot, q)
+    phases: list[BodyPhase] = []
+    for name in names:
+        more, soles = half_step_phases(robot, soles, name, gait, length, lift)
+        phases += more
+    return solve_phases(robot, q, phases, margin, backend, name="+".join(names))
+
+
 def load_keyframes(path: str | Path | None = None) -> dict:
     """The keyframe file (see tasks/data/bioloid_keyframes.yaml for the format and provenance)."""
     import yaml
@@ -190,23 +234,21 @@ def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, l
 
 
 def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:
-    """Joint configurations of a keyframe behaviour and what each row does to the robot.
-
-    Per row: ``lower_sole`` (placed flat on the ground), the other sole's height (m) and tilt (deg)
-    above that ground, the CoM margin (m) over the lower sole alone and over both soles when the
-    other one is within 5 mm of the ground, and the joints beyond the URDF limits.
-    """
-    from wbik.apps.bioloid.servo import from_servo_units
-
+    """Joint configurations of a keyframe behaviour and, per row, ``lower_sole`` (flat on the ground),
+    the other sole's height (m) and tilt (deg), the CoM margin (m) over the lower sole and over both
+    when the other is within 5 mm of the ground, the joints beyond the URDF limits, the servos its angles
+    clamp to (:func:`~wbik.apps.bioloid.servo.to_servo`) and whether the others map back to its units."""
     data = load_keyframes(path)
     units, row_times, pages = keyframe_rows(data, behaviour)
     model = robot.model
     configurations, rows = [], []
     for index, row in enumerate(units):
-        angles = from_servo_units(row)
         q = robot.nominal.copy()
+        angles = from_servo_units(row)
         for joint, value in angles.items():
             q[model.joints[model.getJointId(joint)].idx_q] = value
+        command = to_servo(angles)
+        clamped = {SERVOS[joint].servo_id for joint in command.clamped}
         q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
         placed = {}
         for side in SIDES:  # each sole flat on the ground in turn; keep the one with the other above
@@ -227,11 +269,12 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
                   if not model.lowerPositionLimit[i] - 1e-9 <= q[i] <= model.upperPositionLimit[i] + 1e-9]
         rows.append({"row": index, "page": pages[index], "lower_sole": SOLE[lower],
                      "other_sole_height_m": float(other.translation[2]), "other_sole_tilt_deg": tilt,
-                     "com_margin_single_m": single, "com_margin_both_m": both, "beyond_limits": beyond})
+                     "com_margin_single_m": single, "com_margin_both_m": both, "beyond_limits": beyond,
+                     "servos_clamped": sorted(clamped), "units_round_trip": all(
+                         command.units[i] == int(u) for i, u in enumerate(row, start=1) if i not in clamped)})
         configurations.append(q)
     times = np.cumsum(row_times)
     motion = SampledMotion(f"keyframes_{behaviour}", robot, np.array(configurations), np.arange(len(units)),
-                           [f"{p} row" for p in pages], [(r["lower_sole"],) for r in rows],
-                           {"source": data.get("source"), "times_s": times.tolist()})
+                           [f"{p} row" for p in pages], [(r["lower_sole"],) for r in rows])
     return {"behaviour": behaviour, "rows": rows, "units": units, "times_s": times, "motion": motion,
             "source": data.get("source")}

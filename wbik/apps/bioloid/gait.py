@@ -1,31 +1,8 @@
-"""The thesis's step forward: gait numbers (bioloid.md 4.4), key points and phases (5.1), and the
-sampled-motion record shared by the faithful and whole-body generators.
-
-Key points are the hip point of a leg relative to that leg's ankle point (the code's
-``linearTrajHip`` frame: x forward, y left, z up; negative x = foot ahead of the hip), in metres:
-
-==================  ====================  ===================  =====================
-name                right leg             left leg             code comment
-==================  ====================  ===================  =====================
-Standing            (xm, 0, zd)           (xm, 0, zd)          standing still
-Middle              (xm, ydIn, zd)        (xm, -ydOut, zd)     hips over the right foot
-UpMiddle            (xu, yu, zu)          (xu, -yu, zu)        foot lifted 40 mm
-DownForward         (xf, ydOut, zd)       (xf, -ydOut, zd)     foot down, 30 mm ahead
-DownBackward        (xb, 0, zd)           (xb, -ydOut, zd)     foot down, 30 mm behind
-==================  ====================  ===================  =====================
-
-The code's ``StepForwardL`` (5 phases, each ``linearTrajHip`` with pitch 20 deg and 5 divisions):
-
-1. R Standing -> MiddleRight, L Standing -> MiddleLeft (both feet down; 10 rpm, then 1 s);
-2. R stays, L MiddleLeft -> UpMiddleLeft (left foot lifted; 40 rpm);
-3. L UpMiddleLeft -> DownForwardLeft (left foot lands 30 mm ahead; then 10 rpm, 2 s);
-4. R MiddleRight -> DownBackwardRight, L DownForwardLeft -> Standing (both down; 2 s);
-5. R DownBackwardRight -> Standing, L stays (the rear foot is dragged, not lifted; 1 s).
-
-``StepForwardR`` is taken as the mirror image (y -> -y, legs swapped): the note details only L.
-Step length: the lifted foot lands |xf| = 30 mm ahead of the other foot and the rear foot is
-dragged the same 30 mm, so one step advances the robot 30 mm and a stride (L + R, each foot's
-successive placements) is 60 mm. Foot clearance zd - zu = 40 mm.
+"""The thesis's step forward (bioloid.md 4.4, 5.1): the code's gait numbers, key points (a leg's hip
+relative to its ankle: x forward, y left, z up, m) and the 5 phases of ``StepForwardL`` (``StepForwardR``
+taken as its mirror image); the sampled, timed motion the step generators produce; and (a), the step
+generated faithfully as the code does: each division solved by the foot -> hip closed form (eq. 10-22) for
+each leg on its own, so the legs do not form a closed chain, measured per sample (bioloid.md 4.5).
 """
 
 from __future__ import annotations
@@ -37,16 +14,43 @@ from dataclasses import field
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 
+from wbik.apps.bioloid.servo import leg_ang_from_q
+from wbik.apps.bioloid.servo import leg_q_from_ang
+from wbik.apps.bioloid.servo import to_servo
 from wbik.errors import InvalidConfigurationError
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.robot import Robot
+from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
 SIDES = ("r", "l")
 SOLE = {"r": "r_sole", "l": "l_sole"}
-ANKLE = {"r": "r_ankle", "l": "l_ankle"}
 HIP = {"r": "r_hip", "l": "l_hip"}
 OTHER = {"r": "l", "l": "r"}
-RPM = 2.0 * math.pi / 60.0
-"""rad/s per rpm."""
+SIDE_NAME = {"r": "right", "l": "left"}
+RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
+
+
+def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
+    """A copy of ``q0``, or of the robot's nominal configuration when None."""
+    return (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+
+
+def sole_corners(robot, sole: str, placement: pin.SE3) -> np.ndarray:
+    """The 4 corners (4, 3) of ``sole`` (``robot.soles``) at the world ``placement``."""
+    return np.asarray(robot.soles[sole], dtype=float) @ placement.rotation.T + placement.translation
+
+
+def pose_error(reached: pin.SE3, wanted: pin.SE3) -> tuple[float, float]:
+    """(position error in m, rotation angle in rad) of ``reached`` against ``wanted``."""
+    return (float(np.linalg.norm(reached.translation - wanted.translation)),
+            float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation))))
+
+
+def servo_joint_ids(model: pin.Model) -> list[int]:
+    """The model's one-variable joints (the servos), in model order."""
+    return [j for j in range(1, model.njoints) if model.joints[j].nq == 1]
 
 
 @dataclass(frozen=True)
@@ -87,21 +91,21 @@ class GaitParameters:
 
     @property
     def lift_height(self) -> float:
-        """Foot clearance zd - zu (m): 0.040."""
+        """Foot clearance zd - zu (m)."""
         return self.zd - self.zu
 
     @property
     def step_length(self) -> float:
-        """How far the lifted foot lands ahead of the other foot, and the rear foot is dragged (m)."""
+        """How far the lifted foot lands ahead of the other one, and the rear foot is dragged (m)."""
         return self.xm - self.xf
 
     @property
     def stride_length(self) -> float:
-        """A left step plus a right step: each foot advances twice the step length (m)."""
+        """A left step plus a right step (m)."""
         return 2.0 * self.step_length
 
     def key_points(self) -> dict[str, np.ndarray]:
-        """The code's key points (bioloid.md 4.4) by the code's names (hip relative to ankle, m)."""
+        """The code's key points by the code's names (hip relative to ankle, m)."""
         points = {
             "legDownForwardRight": (self.xf, self.yd_out, self.zd),
             "legDownBackwardRight": (self.xb, 0.0, self.zd),
@@ -118,18 +122,12 @@ class GaitParameters:
 
 @dataclass(frozen=True)
 class GaitPhase:
-    """One phase of a step: each leg's hip moves on a line between two key points (hip in ankle frame).
-
-    ``down``: soles on the ground; ``lifted``: the sole in the air (or None); ``dragged``: a sole
-    that slides on the ground (the code's phase 5); ``anchor``: the sole taken as fixed when the
-    faithful pose is placed in the world; ``speed_rpm`` and ``pause_s``: the code's servo speed
-    and the sleep after the phase.
-    """
+    """One phase of a step: each leg's hip on a line from ``start`` to ``end`` (key points), the sides
+    ``down``, ``lifted`` and ``dragged`` (sliding), the ``anchor`` sole held, the code's speed and pause."""
 
     name: str
     start: dict[str, np.ndarray]
     end: dict[str, np.ndarray]
-    labels: dict[str, tuple[str, str]]
     down: tuple[str, ...]
     lifted: str | None
     dragged: str | None
@@ -141,12 +139,15 @@ class GaitPhase:
         """The code's linear interpolation p1 + (p2 - p1) * fraction of one leg's hip."""
         return self.start[side] + (self.end[side] - self.start[side]) * fraction
 
-
-def _phase(name, right, left, down, lifted, dragged, anchor, speed, pause, points) -> GaitPhase:
-    return GaitPhase(name, {"r": points[right[0]], "l": points[left[0]]},
-                     {"r": points[right[1]], "l": points[left[1]]},
-                     {"r": (right[0], right[1]), "l": (left[0], left[1])},
-                     down, lifted, dragged, anchor, speed, pause)
+    def mirrored(self) -> GaitPhase:
+        """The mirror image (y -> -y): legs swapped, lateral coordinates negated."""
+        flip = np.array([1.0, -1.0, 1.0])
+        swap = {**OTHER, None: None}
+        return GaitPhase(self.name.replace("right", "@").replace("left", "right").replace("@", "left"),
+                         {OTHER[s]: p * flip for s, p in self.start.items()},
+                         {OTHER[s]: p * flip for s, p in self.end.items()},
+                         tuple(OTHER[s] for s in self.down), swap[self.lifted], swap[self.dragged],
+                         OTHER[self.anchor], self.speed_rpm, self.pause_s)
 
 
 def step_forward_phases(gait: GaitParameters | None = None, first: str = "left") -> list[GaitPhase]:
@@ -154,54 +155,35 @@ def step_forward_phases(gait: GaitParameters | None = None, first: str = "left")
     gait = gait or GaitParameters()
     k = gait.key_points()
     fast, slow = gait.servo_fast_rpm, gait.servo_slow_rpm
+
+    def phase(name, right, left, down, lifted, dragged, anchor, speed, pause) -> GaitPhase:
+        return GaitPhase(name, {"r": k[right[0]], "l": k[left[0]]}, {"r": k[right[1]], "l": k[left[1]]},
+                         down, lifted, dragged, anchor, speed, pause)
+
     phases = [
-        _phase("shift the hips over the right foot", ("legDownStanding", "legDownMiddleRight"),
-               ("legDownStanding", "legDownMiddleLeft"), ("r", "l"), None, None, "r", slow, 1.0, k),
-        _phase("lift the left foot", ("legDownMiddleRight", "legDownMiddleRight"),
-               ("legDownMiddleLeft", "legUpMiddleLeft"), ("r",), "l", None, "r", fast, 0.0, k),
-        _phase("lower the left foot ahead", ("legDownMiddleRight", "legDownMiddleRight"),
-               ("legUpMiddleLeft", "legDownForwardLeft"), ("r",), "l", None, "r", fast, 2.0, k),
-        _phase("move the hips over the front foot", ("legDownMiddleRight", "legDownBackwardRight"),
-               ("legDownForwardLeft", "legDownStanding"), ("r", "l"), None, None, "r", slow, 2.0, k),
-        _phase("drag the rear foot forward", ("legDownBackwardRight", "legDownStanding"),
-               ("legDownStanding", "legDownStanding"), ("r", "l"), None, "r", "l", slow, 1.0, k),
+        phase("shift the hips over the right foot", ("legDownStanding", "legDownMiddleRight"),
+              ("legDownStanding", "legDownMiddleLeft"), ("r", "l"), None, None, "r", slow, 1.0),
+        phase("lift the left foot", ("legDownMiddleRight", "legDownMiddleRight"),
+              ("legDownMiddleLeft", "legUpMiddleLeft"), ("r",), "l", None, "r", fast, 0.0),
+        phase("lower the left foot ahead", ("legDownMiddleRight", "legDownMiddleRight"),
+              ("legUpMiddleLeft", "legDownForwardLeft"), ("r",), "l", None, "r", fast, 2.0),
+        phase("move the hips over the front foot", ("legDownMiddleRight", "legDownBackwardRight"),
+              ("legDownForwardLeft", "legDownStanding"), ("r", "l"), None, None, "r", slow, 2.0),
+        phase("drag the rear foot forward", ("legDownBackwardRight", "legDownStanding"),
+              ("legDownStanding", "legDownStanding"), ("r", "l"), None, "r", "l", slow, 1.0),
     ]
     key = str(first).lower()
     if key in ("left", "l"):
         return phases
     if key in ("right", "r"):
-        return [mirror_phase(phase) for phase in phases]
+        return [phase.mirrored() for phase in phases]
     raise InvalidConfigurationError(f"first must be 'left' or 'right', got {first!r}")
-
-
-MIRROR_Y = np.array([1.0, -1.0, 1.0])
-
-
-def mirror_phase(phase: GaitPhase) -> GaitPhase:
-    """The mirror image (y -> -y) of a phase: legs swapped, lateral coordinates negated."""
-    def swap(side: str | None) -> str | None:
-        return None if side is None else OTHER[side]
-
-    def swap_name(name: str) -> str:
-        return name.replace("Right", "@").replace("Left", "Right").replace("@", "Left") + " (mirrored)"
-
-    return GaitPhase(
-        phase.name.replace("right", "@").replace("left", "right").replace("@", "left"),
-        {OTHER[s]: p * MIRROR_Y for s, p in phase.start.items()},
-        {OTHER[s]: p * MIRROR_Y for s, p in phase.end.items()},
-        {OTHER[s]: (swap_name(a), swap_name(b)) for s, (a, b) in phase.labels.items()},
-        tuple(OTHER[s] for s in phase.down), swap(phase.lifted), swap(phase.dragged), OTHER[phase.anchor],
-        phase.speed_rpm, phase.pause_s)
 
 
 @dataclass
 class SampledMotion:
-    """Whole-body configurations at the samples of a behaviour (the phase divisions).
-
-    ``q[k]`` is the full configuration (free-flyer base + 18 joints) at sample k (sample 0 is the
-    start), ``phase[k]`` the index into ``phase_names`` (-1 for the start) and ``support[k]`` the
-    soles on the ground at sample k.
-    """
+    """Whole-body configurations ``q[k]`` at the samples (0: the start), the index of each one's phase in
+    ``phase_names`` (-1: the start) and its soles on the ground."""
 
     name: str
     robot: object
@@ -209,35 +191,30 @@ class SampledMotion:
     phase: np.ndarray
     phase_names: list[str]
     support: list[tuple[str, ...]]
-    info: dict = field(default_factory=dict)
 
     @property
     def joint_names(self) -> list[str]:
-        model = self.robot.model
-        return [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        return [self.robot.model.names[j] for j in servo_joint_ids(self.robot.model)]
 
     def joint_matrix(self) -> np.ndarray:
         """(K, 18) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
         model = self.robot.model
-        index = [model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1]
-        return self.q[:, index]
+        return self.q[:, [model.joints[j].idx_q for j in servo_joint_ids(model)]]
 
     def phase_end_samples(self) -> list[int]:
         """Index of the last sample of every phase."""
-        ends = [k for k in range(1, len(self.phase)) if k + 1 == len(self.phase)
-                or self.phase[k + 1] != self.phase[k]]
-        return ends
+        count = len(self.phase)
+        return [k for k in range(1, count) if k + 1 == count or self.phase[k + 1] != self.phase[k]]
 
 
 class JointSet:
-    """The 18 servo joints of a robot seen as one "chain" for :func:`wbik.motion.time_scale`
-    (which reads only ``nq``, ``velocity_limit`` and ``joint_names``)."""
+    """The servo joints of a robot as one "chain" for :func:`wbik.motion.time_scale` (which reads
+    ``nq``, ``velocity_limit`` and ``joint_names``)."""
 
     def __init__(self, robot, velocity_limit: np.ndarray):
-        model = robot.model
         self.robot = robot
         self.name = "servos"
-        self.joint_names = [model.names[j] for j in range(1, model.njoints) if model.joints[j].nq == 1]
+        self.joint_names = [robot.model.names[j] for j in servo_joint_ids(robot.model)]
         self.nq = len(self.joint_names)
         self.velocity_limit = np.broadcast_to(np.asarray(velocity_limit, dtype=float), (self.nq,)).copy()
 
@@ -272,8 +249,6 @@ class TimedMotion:
 
     def servo_table(self, dt: float = 0.02) -> dict:
         """Servo goal positions (AX-12 units, IDs 1..18) every ``dt`` seconds, with clamping notes."""
-        from wbik.apps.bioloid.servo import to_servo
-
         if not dt > 0:
             raise InvalidConfigurationError(f"dt must be positive, got {dt}")
         times = np.unique(np.append(np.arange(0.0, self.duration, dt), self.duration))
@@ -303,28 +278,138 @@ class TimedMotion:
 
 def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law: str = "quintic",
                       mode: str = "segment") -> TimedMotion:
-    """Minimum-duration timing of the servo joints through every sample under a speed limit.
-
-    ``speed_rpm``: one limit for every servo (the code's 40 rpm by default; None = the URDF's
-    AX-12 no-load 114 rpm). ``mode="segment"`` (default) moves in a straight joint line from sample
-    to sample, rest to rest, like the code's divisions: every point stays inside the joint limits
-    (a box). ``mode="waypoint"`` stops only at phase ends and passes the samples inside a phase on a
-    cubic spline (faster, but the spline may overshoot a joint limit between samples).
-    """
+    """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
+    limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
+    ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
     from wbik.motion.path import JointPath
     from wbik.motion.timing import time_scale
 
     joints = motion.joint_matrix()
     model = motion.robot.model
     if speed_rpm is None:
-        index = [model.joints[j].idx_v for j in range(1, model.njoints) if model.joints[j].nq == 1]
-        limit = model.velocityLimit[index]
+        limit = model.velocityLimit[[model.joints[j].idx_v for j in servo_joint_ids(model)]]
     else:
         if not speed_rpm > 0:
             raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
         limit = np.full(joints.shape[1], speed_rpm * RPM)
-    steps = np.linalg.norm(np.diff(joints, axis=0), axis=1)
-    steps = np.maximum(steps, 1e-9)  # a sample that does not move still gets its own parameter value
+    steps = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)  # a still sample gets its own s
     s = np.r_[0.0, np.cumsum(steps)] / np.sum(steps)
     path = JointPath(JointSet(motion.robot, limit), s, joints, waypoint_knots=motion.phase_end_samples())
     return TimedMotion(motion, time_scale(path, law, velocity_limit=limit, mode=mode), limit)
+
+
+def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
+    """The same x, y and yaw, on the ground (z = 0) and flat (no roll, no pitch)."""
+    rotation = placement.rotation
+    yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
+    flat = pin.utils.rotate("z", float(yaw))
+    return pin.SE3(flat, np.array([placement.translation[0], placement.translation[1], 0.0]))
+
+
+def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
+    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
+    q = q.copy()
+    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+    in_base = robot.frame_placement(q, anchor_frame)
+    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
+    return q
+
+
+def _worst_inconsistency(samples: list[dict]) -> tuple[float | None, float | None]:
+    double = [s for s in samples if s["inconsistency_mm"] is not None]
+    return (max((s["inconsistency_mm"] for s in double), default=None),
+            max((s["inconsistency_deg"] for s in double), default=None))
+
+
+@dataclass
+class FaithfulStep:
+    """The faithful motion and its per-sample measurements (see the module docstring)."""
+
+    motion: SampledMotion
+    samples: list[dict] = field(default_factory=list)
+
+    def summary(self) -> dict:
+        lifted = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
+        margins = [s["com_margin_m"] for s in self.samples]
+        worst_mm, worst_deg = _worst_inconsistency(self.samples)
+        return {
+            "samples": len(self.samples),
+            "max_inconsistency_mm": worst_mm or 0.0, "max_inconsistency_deg": worst_deg or 0.0,
+            "min_com_margin_mm": 1e3 * min(margins),
+            "samples_com_outside": int(sum(m < 0.0 for m in margins)),
+            "min_clearance_mm": None if not lifted else 1e3 * min(lifted),
+            "max_limit_excess_deg": float(np.degrees(max(s["limit_excess_rad"] for s in self.samples))),
+            "unreachable_samples": int(sum(not s["reachable"] for s in self.samples)),
+            "per_phase": self.per_phase(),
+        }
+
+    def per_phase(self) -> list[dict]:
+        rows = []
+        for index, name in enumerate(self.motion.phase_names):
+            chosen = [s for s in self.samples if s["phase"] == index]
+            worst_mm, worst_deg = _worst_inconsistency(chosen)
+            rows.append({"phase": name, "max_inconsistency_mm": worst_mm, "max_inconsistency_deg": worst_deg,
+                         "min_com_margin_mm": 1e3 * min(s["com_margin_m"] for s in chosen)})
+        return rows
+
+
+def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, first: str = "left",
+                          q0: np.ndarray | None = None, round_degrees: bool = False) -> FaithfulStep:
+    """The code's StepForwardL (its mirror: ``first="right"``) by the per-leg closed form from ``q0`` (default
+    the nominal); ``round_degrees``: the code's ang[] rounded to whole degrees as the C code does."""
+    gait = gait or GaitParameters()
+    phases = step_forward_phases(gait, first)
+    q = start_q(robot, q0)
+    legs = {side: robot.chain(f"{SIDE_NAME[side]}_leg").q_index for side in SIDES}
+    planted = {side: flatten_on_ground(robot.frame_placement(q, SOLE[side])) for side in SIDES}
+    lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
+    joint_index = np.concatenate(list(legs.values()))
+
+    configurations, phase_of, support = [q.copy()], [-1], [("r_sole", "l_sole")]
+    samples: list[dict] = []
+    for index, phase in enumerate(phases):
+        for division in range(1, gait.divisions + 1):
+            fraction = division / gait.divisions
+            reachable = True
+            for side in SIDES:
+                point = phase.hip_point(side, fraction)
+                angles, ok = leg_foot_to_hip(point, 0.0, gait.pitch, gait.roll, side)
+                if round_degrees:
+                    angles = leg_q_from_ang(np.round(leg_ang_from_q(angles)))
+                q[legs[side]] = angles
+                reachable = reachable and bool(ok)
+            q = place_on_anchor(robot, q, SOLE[phase.anchor], planted[phase.anchor])
+            sample = {"phase": index, "division": division, "reachable": reachable,
+                      "inconsistency_mm": None, "inconsistency_deg": None, "clearance_m": None}
+            down_soles = {}
+            for side in phase.down:
+                reached = robot.frame_placement(q, SOLE[side])
+                if side == phase.anchor:
+                    down_soles[side] = planted[side]
+                    continue
+                wanted = flatten_on_ground(reached) if side == phase.dragged else planted[side]
+                position, rotation = pose_error(reached, wanted)
+                sample["inconsistency_mm"] = 1e3 * position
+                sample["inconsistency_deg"] = float(np.degrees(rotation))
+                down_soles[side] = wanted
+                if side == phase.dragged:
+                    planted[side] = wanted
+            if phase.lifted is not None:
+                reached = robot.frame_placement(q, SOLE[phase.lifted])
+                sample["clearance_m"] = float(np.min(sole_corners(robot, SOLE[phase.lifted], reached)[:, 2]))
+                if division == gait.divisions:  # touchdown: planted where it comes down
+                    planted[phase.lifted] = flatten_on_ground(reached)
+            points = np.vstack([sole_corners(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
+            com = robot.center_of_mass(q)
+            sample["com_margin_m"] = SupportPolygon(points).margin_of(com[:2])
+            sample["com"] = com.tolist()
+            joints = q[joint_index]
+            sample["limit_excess_rad"] = float(max(np.max(lower[joint_index] - joints),
+                                                   np.max(joints - upper[joint_index]), 0.0))
+            samples.append(sample)
+            configurations.append(q.copy())
+            phase_of.append(index)
+            support.append(tuple(SOLE[s] for s in phase.down))
+    motion = SampledMotion(f"step_forward_{first}_faithful", robot, np.array(configurations),
+                           np.array(phase_of), [p.name for p in phases], support)
+    return FaithfulStep(motion, samples)

@@ -1,28 +1,8 @@
-"""PlaCo's walk pattern generator on the same Bioloid URDF, for comparison with the whole-body step.
-
-PlaCo's ``HumanoidRobot`` looks for frames called ``left_foot``, ``right_foot`` and ``trunk``; the
-mesh-free copy of our URDF gets three fixed frames with those names at ``l_sole``, ``r_sole`` and
-``pelvis`` (nothing else changes). The footsteps come from PlaCo's naive planner (steps of at most
-``step_length`` toward a target ``steps * step_length`` ahead), the CoM from its LIPM/ZMP walk
-pattern generator at the robot's standing CoM height with the trunk pitched 20 deg and 40 mm foot
-rise, the 100 x 60 mm soles and a ZMP margin of ``margin``.
-
-Reported: the planned step lengths (between consecutive footsteps of opposite feet, and per foot), the
-duration, and on a 10 ms grid the margin of the CoM ground projection and of the plan's ZMP (the
-pendulum's, c - c'' / omega^2) in the support polygon of the feet on the ground at that time: a foot is
-down when PlaCo's own foot trajectory has its sole within ``GROUND_TOLERANCE`` of the floor. (PlaCo's
-``support_is_both(t)`` already answers "single support" at the switch instant, while the leaving foot is
-still flat on the floor and the ZMP is still between the feet: judged against the single sole, that
-instant shows the ZMP outside; docs/measurements.md, Bioloid PlaCo walk.) PlaCo hands no polygon of
-ours to PlaCo: the footsteps and the ZMP bounds are PlaCo's own, from ``foot_length``, ``foot_width``
-and ``zmp_margin``. PlaCo's generator is dynamic: it keeps the ZMP, not the CoM, inside the support (at
-its planning time steps), so the CoM may leave the polygon in single support, unlike the quasi-static
-whole-body step.
-
-The robot's own ZMP is reported too (``multibody_*``): PlaCo's IK (``WalkTasks``, 3 iterations per
-10 ms tick, as :mod:`wbik.apps.bioloid.placo_view` does at 50 ms) follows the plan, and the motion is
-judged by :func:`wbik.motion.walking.figures.walk_figures` (the multibody ZMP of its centroidal
-dynamics in the support, CoM tracking, slip, joint velocity and acceleration peaks).
+"""PlaCo's walk pattern generator on the Bioloid's URDF, for comparison with the whole-body step: PlaCo's
+naive footstep plan and LIPM/ZMP walk (its own bounds from the soles and ``margin``), measured on a 10 ms
+grid (CoM and the plan's ZMP c - c'' / omega^2 in the feet on the ground: docs/measurements.md, Bioloid
+PlaCo walk) and, ``multibody_*``, as PlaCo's IK follows it (:func:`wbik.motion.walking.figures.walk_figures`);
+the animation is PlaCo's IK on the same plan, made again.
 """
 
 from __future__ import annotations
@@ -32,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.errors import InvalidConfigurationError
 from wbik.errors import RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
@@ -39,8 +20,9 @@ from wbik.robot import write_cached_urdf
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
-GROUND_TOLERANCE = 1e-6
-"""m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground."""
+GROUND_TOLERANCE = 1e-6  # m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground
+SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
+ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
 
 
 def placo_humanoid_urdf(robot: Robot) -> Path:
@@ -54,21 +36,20 @@ def placo_humanoid_urdf(robot: Robot) -> Path:
     return write_cached_urdf(f"{robot.name}-placo-humanoid", text.replace("</robot>", extra + "</robot>"))
 
 
-def _foot_polygon(transform: np.ndarray, corners: np.ndarray) -> np.ndarray:
-    return (corners @ transform[:3, :3].T + transform[:3, 3])[:, :2]
+def humanoid(robot: Robot):
+    """PlaCo's ``HumanoidRobot`` of the Bioloid, at the nominal configuration."""
+    from wbik.solvers.placo import placo_robot
+
+    return placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
-    """PlaCo's humanoid standing at the nominal configuration, PlaCo's walk parameters for the
-    Bioloid, its naive footstep plan of ``steps`` steps straight ahead and the walk pattern
-    generator's trajectory: (humanoid, parameters, footsteps, trajectory). Shared by the walk's
-    report and its animation (wbik.apps.bioloid.placo_view), so both see the same plan; a
+    """(humanoid, parameters, footsteps, trajectory) of PlaCo's plan of ``steps`` steps straight ahead;
     RobotDescriptionError when PlaCo cannot load the humanoid."""
     from wbik.solvers.placo import import_placo
-    from wbik.solvers.placo import placo_robot
 
     placo = import_placo()
-    humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
+    walker = humanoid(robot)
     facts = robot.require_facts(BioloidFacts, "PlaCo's Bioloid walk")
     parameters = placo.HumanoidParameters()
     parameters.single_support_duration = single_support_s
@@ -84,7 +65,7 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
     parameters.feet_spacing = 2 * facts.hip_lateral
     parameters.zmp_margin = margin
     parameters.walk_max_dx_forward = step_length
-    left, right = humanoid.get_T_world_left(), humanoid.get_T_world_right()
+    left, right = walker.get_T_world_left(), walker.get_T_world_right()
     goal_left, goal_right = left.copy(), right.copy()
     goal_left[0, 3] += steps * step_length
     goal_right[0, 3] += steps * step_length
@@ -92,8 +73,25 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
     planner.configure(goal_left, goal_right)
     footsteps = planner.plan(placo.HumanoidRobot_Side.left, left, right)
     supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
-    trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, humanoid.com_world(), 0.0)
-    return humanoid, parameters, footsteps, trajectory
+    trajectory = placo.WalkPatternGenerator(walker, parameters).plan(supports, walker.com_world(), 0.0)
+    return walker, parameters, footsteps, trajectory
+
+
+def follow_plan(robot: Robot, walker, trajectory, times: np.ndarray, iterations: int,
+                settle: int = 50) -> tuple[np.ndarray, list[tuple[str, ...]]]:
+    """PlaCo's IK (``WalkTasks``) on ``trajectory`` at ``times``: ``settle`` solver iterations at the first
+    time, ``iterations`` at each later one; the configurations and the soles on the ground."""
+    from wbik.motion.walking.placo_pattern import WalkIK
+    from wbik.motion.walking.placo_pattern import soles_on_ground
+    from wbik.solvers.placo import placo_configuration
+
+    ik = WalkIK(walker)
+    rows, support = [], []
+    for index, t in enumerate(times):
+        ik.follow(trajectory, float(t), settle if index == 0 else iterations)
+        rows.append(placo_configuration(robot, walker))
+        support.append(soles_on_ground(trajectory, float(t), "l_sole", "r_sole", tolerance=GROUND_TOLERANCE))
+    return np.array(rows), support
 
 
 def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
@@ -113,58 +111,63 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
         per_foot[side] = [b - a for a, b in zip(positions[:-1], positions[1:], strict=True) if b - a > 1e-9]
     corners = np.asarray(robot.soles["l_sole"], dtype=float)
     com_margins, zmp_margins, single = [], [], []
-    times = np.arange(0.0, trajectory.t_end, dt)
     omega = math.sqrt(9.80665 / parameters.walk_com_height)  # LIPM: zmp = c - c'' / omega^2
-    for t in times:
+    for t in np.arange(0.0, trajectory.t_end, dt):
         feet = {"left": trajectory.get_T_world_left(t), "right": trajectory.get_T_world_right(t)}
         down = [f for f in feet.values() if abs(f[2, 3]) <= GROUND_TOLERANCE]
         if not down:  # never in a walk plan; fall back on PlaCo's support side
-            side = "left" if "left" in str(trajectory.support_side(t)).lower() else "right"
-            down = [feet[side]]
-        polygon = SupportPolygon(np.vstack([_foot_polygon(f, corners) for f in down]))
+            down = [feet["left" if "left" in str(trajectory.support_side(t)).lower() else "right"]]
+        polygon = SupportPolygon(np.vstack([(corners @ f[:3, :3].T + f[:3, 3])[:, :2] for f in down]))
         com_margins.append(polygon.margin_of(trajectory.get_p_world_CoM(t)[:2]))
         zmp_margins.append(polygon.margin_of(trajectory.get_p_world_ZMP(t, omega)[:2]))
         single.append(len(down) == 1)
     com_margins, zmp_margins, single = map(np.asarray, (com_margins, zmp_margins, single))
-    body = _multibody(robot, trajectory, parameters, margin, dt)
-    return {**body,
-        "planned": True, "footsteps": len(footsteps), "footstep_x_m": xs,
-        "max_step_advance_mm": 1e3 * max(advances, default=0.0),
-        "per_foot_advance_mm": {k: [1e3 * v for v in values] for k, values in per_foot.items()},
-        "duration_s": float(trajectory.t_end),
-        "min_com_margin_mm": 1e3 * float(np.min(com_margins)),
-        "min_com_margin_single_support_mm": (1e3 * float(np.min(com_margins[single]))
-                                             if single.any() else None),
-        "samples_com_outside": int(np.sum(com_margins < 0)),
-        "min_zmp_margin_mm": 1e3 * float(np.min(zmp_margins)),
-        "walk_com_height_m": parameters.walk_com_height,
-    }
+    return {**_multibody(robot, trajectory, margin, dt),
+            "planned": True, "footsteps": len(footsteps), "footstep_x_m": xs,
+            "max_step_advance_mm": 1e3 * max(advances, default=0.0),
+            "per_foot_advance_mm": {k: [1e3 * v for v in values] for k, values in per_foot.items()},
+            "duration_s": float(trajectory.t_end),
+            "min_com_margin_mm": 1e3 * float(np.min(com_margins)),
+            "min_com_margin_single_support_mm": (1e3 * float(np.min(com_margins[single]))
+                                                 if single.any() else None),
+            "samples_com_outside": int(np.sum(com_margins < 0)),
+            "min_zmp_margin_mm": 1e3 * float(np.min(zmp_margins)),
+            "walk_com_height_m": parameters.walk_com_height}
 
 
-def _multibody(robot: Robot, trajectory, parameters, margin: float, dt: float,
-               iterations: int = 3) -> dict:
+def _multibody(robot: Robot, trajectory, margin: float, dt: float, iterations: int = 3) -> dict:
     """PlaCo's IK on the plan every ``dt`` and the figures of the whole robot's motion (mm, rad/s)."""
     from wbik.motion.walking.figures import walk_figures
     from wbik.motion.walking.footsteps import Feet
-    from wbik.motion.walking.placo_pattern import WalkIK
-    from wbik.motion.walking.placo_pattern import soles_on_ground
-    from wbik.solvers.placo import placo_configuration
-    from wbik.solvers.placo import placo_robot
 
-    humanoid = placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
-    ik = WalkIK(humanoid)
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
-    rows, support, com = [], [], []
-    for index, t in enumerate(times):
-        ik.follow(trajectory, float(t), 50 if index == 0 else iterations)
-        rows.append(placo_configuration(robot, humanoid))
-        support.append(soles_on_ground(trajectory, float(t), "l_sole", "r_sole", tolerance=GROUND_TOLERANCE))
-        com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
-    figures, _ = walk_figures(robot, Feet("l_sole", "r_sole"), times, np.array(rows), support, 0.0, margin,
-                              np.array(com))
+    rows, support = follow_plan(robot, humanoid(robot), trajectory, times, iterations)
+    com = np.array([np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float) for t in times])
+    figures, _ = walk_figures(robot, Feet("l_sole", "r_sole"), times, rows, support, 0.0, margin, com)
     return {"multibody_zmp_margin_min_mm": 1e3 * figures["zmp_margin_min_m"],
             "multibody_zmp_margin_p5_mm": 1e3 * figures["zmp_margin_p5_m"],
             "multibody_com_error_max_mm": 1e3 * figures["com_error_max_m"],
             "multibody_foot_slip_max_mm": 1e3 * figures["foot_slip_max_m"],
             "multibody_joint_velocity_peak_rad_s": figures["joint_velocity_peak_rad_s"],
             "multibody_joint_acceleration_peak_rad_s2": figures["joint_acceleration_peak_rad_s2"]}
+
+
+def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
+                         single_support_s: float = 0.5, footstep_x: list[float] | None = None):
+    """PlaCo's walk as PlaCo's IK follows it every ``SAMPLE_S`` (its soft tasks let the stance sole leave the
+    floor at times), a :class:`wbik.viz.animation.Animation`; ``footstep_x``: the report's footsteps (m),
+    which the re-planned ones must equal."""
+    from wbik.viz.animation import Animation
+    from wbik.viz.animation import Overlays
+
+    walker, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
+    planned_x = [float(step.frame[0, 3]) for step in footsteps]
+    if footstep_x is not None and (len(planned_x) != len(footstep_x)
+                                   or not np.allclose(planned_x, footstep_x, atol=1e-9)):
+        raise InvalidConfigurationError(
+            f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
+            "placo_walk_animation no longer mirrors placo_walk")
+    times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
+    rows, support = follow_plan(robot, walker, trajectory, times, ITERATIONS)
+    return Animation(robot, times, rows, Overlays("pelvis", tuple(support), tuple(support)),
+                     "PlaCo walk pattern generator")

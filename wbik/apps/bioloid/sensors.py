@@ -1,29 +1,10 @@
-"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, and
-the foot board's bus facts.
-
-FSR positions (ASSUMED; the thesis says only "near the corners", FSR1/FSR2 at the back and
-FSR3/FSR4 at the front, bioloid.md 6.1): one FSR at each corner of the sole rectangle of the
-model (``robot.soles``, 100 x 60 mm in wbik.robot_packages.bioloid.model), ordered
-FSR1 = back left (-x, +y), FSR2 = back right (-x, -y), FSR3 = front left (+x, +y),
-FSR4 = front right (+x, -y), in the sole frame (x forward, y left, z up). The left/right order
-inside a pair is our choice; nothing in the thesis fixes it.
-
-Centre of pressure (the registers "centre of mass X/Y", whose formula the thesis omits):
-c = sum_i F_i p_i / sum_i F_i over the sensor positions p_i.
-
-Static stance loads: the weight W = m g is carried by the FSRs of the soles in contact, as point
-supports. The problem is statically indeterminate (3 equilibrium equations: sum F = W and
-sum F p_xy = W c_xy, with c the CoM projection). Our model: a rigid body on equal linear springs
-with unilateral contact, whose elastic energy sum F_i^2 / (2k) is the minimum over the
-equilibrium loads, i.e. the minimum-norm non-negative solution
-
-    min |F|^2  subject to  A F = (W, W c_x, W c_y),  F >= 0,  A = [1 ...; x_i ...; y_i ...].
-
-It is found exactly by enumerating the sets of unloaded supports (at most 2^8 for two feet).
-With all supports loaded, F = A^T (A A^T)^-1 b, linear in the CoM position; on a rectangle of
-half sizes (a, b) centred at the origin, F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b).
-By construction the CoP of these loads is the CoM projection; a projection outside the support
-polygon has no solution (the stance is not static).
+"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, the foot
+board's bus. FSRs (ASSUMED: "near the corners") at the sole's corners, FSR1 back left, FSR2 back right, FSR3
+front left, FSR4 front right (sole frame: x forward, y left); CoP c = sum F_i p_i / sum F_i. Static loads:
+the weight W on the point supports of the soles in contact is statically indeterminate; as a rigid body on
+equal springs with unilateral contact, the loads are the minimum-norm ones, min |F|^2 s.t. A F = W (1, c_x,
+c_y), F >= 0 (c: the CoM projection), found by enumerating the unloaded sets; all loaded on a rectangle of
+half sizes (a, b): F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b). Outside the support polygon there are none.
 """
 
 from __future__ import annotations
@@ -41,8 +22,6 @@ from wbik.robot import Robot
 GRAVITY = 9.81  # m/s^2
 FSR_NAMES = ("FSR1", "FSR2", "FSR3", "FSR4")
 
-# -- FSR geometry and centre of pressure -----------------------------------------------------------
-
 
 def fsr_positions(corners: np.ndarray) -> np.ndarray:
     """The 4 FSR positions (4, 3) in the sole frame, ordered FSR1..FSR4, from the sole's 4 corners."""
@@ -53,25 +32,20 @@ def fsr_positions(corners: np.ndarray) -> np.ndarray:
     front = corners[corners[:, 0] > np.mean(corners[:, 0])]
     if len(back) != 2 or len(front) != 2:
         raise RobotDescriptionError("sole corners must be two at the back (-x) and two at the front (+x)")
-    order = []
-    for pair in (back, front):
-        order.extend(pair[np.argsort(-pair[:, 1])])  # left (+y) first
-    return np.array(order)
+    return np.array([*back[np.argsort(-back[:, 1])], *front[np.argsort(-front[:, 1])]])  # left (+y) first
 
 
 def robot_fsr_positions(robot: Robot, sole: str) -> np.ndarray:
     """FSR positions of ``sole`` ('r_sole' or 'l_sole') from ``robot.soles``."""
-    corners = robot.soles
-    if sole not in corners:
+    if sole not in robot.soles:
         raise RobotDescriptionError(
-            f"{robot.name} has no sole {sole!r} in robot.soles; known: {sorted(corners)}")
-    return fsr_positions(corners[sole])
+            f"{robot.name} has no sole {sole!r} in robot.soles; known: {sorted(robot.soles)}")
+    return fsr_positions(robot.soles[sole])
 
 
 def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndarray | None:
-    """sum F_i p_i / sum F_i (in the frame of ``positions``); None when nothing presses (foot in the air).
-
-    ``loads`` are forces (N) or any quantity proportional to them; they must not be negative."""
+    """sum F_i p_i / sum F_i in the frame of ``positions``, for non-negative ``loads`` (N or any
+    proportional quantity); None when nothing presses (foot in the air)."""
     loads = np.asarray(loads, dtype=float)
     positions = np.asarray(positions, dtype=float)
     if loads.ndim != 1 or positions.ndim != 2 or len(loads) != len(positions):
@@ -85,14 +59,10 @@ def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndar
     return loads @ positions / total
 
 
-# -- statics ---------------------------------------------------------------------------------------
-
-
 def support_loads(points_xy: np.ndarray, weight: float, cop_xy: Sequence[float],
                   tolerance: float = 1e-9) -> np.ndarray:
-    """Minimum-norm non-negative point-support loads carrying ``weight`` with their CoP at ``cop_xy``.
-
-    Raises InvalidConfigurationError when ``cop_xy`` is outside the supports' convex hull."""
+    """Minimum-norm non-negative point-support loads carrying ``weight`` with their CoP at ``cop_xy``;
+    InvalidConfigurationError when ``cop_xy`` is outside the supports' convex hull."""
     points = np.asarray(points_xy, dtype=float)[:, :2]
     if not weight > 0:
         raise InvalidConfigurationError(f"weight must be positive, got {weight}")
@@ -141,10 +111,8 @@ class StanceLoads:
 
 def stance_loads(robot: Robot, q: np.ndarray, soles: Sequence[str] = ("r_sole", "l_sole"),
                  gravity: float = GRAVITY, contact_height: float = 1e-4) -> StanceLoads:
-    """Expected FSR loads when ``robot`` stands still at full configuration q.
-
-    Soles whose origin is within ``contact_height`` of the lowest sole are in contact; each must be
-    flat (z axis vertical within 1e-6). The weight is shared by their FSRs (support_loads)."""
+    """Expected FSR loads when ``robot`` stands still at q: the soles within ``contact_height`` of the
+    lowest one are in contact, each flat (z axis vertical to 1e-6), and share the weight."""
     placements = {sole: robot.frame_placement(q, sole) for sole in soles}
     ground = min(p.translation[2] for p in placements.values())
     contact = [s for s, p in placements.items() if p.translation[2] <= ground + contact_height]
@@ -153,24 +121,15 @@ def stance_loads(robot: Robot, q: np.ndarray, soles: Sequence[str] = ("r_sole", 
             raise InvalidConfigurationError(f"{sole} touches the ground but is not flat; static FSR loads "
                                             "need the soles flat on the floor")
     local = {sole: robot_fsr_positions(robot, sole) for sole in soles}
-    world = {sole: (placements[sole].rotation @ local[sole].T).T + placements[sole].translation
-             for sole in contact}
-    weight = robot.mass * gravity
+    stacked = np.vstack([((placements[sole].rotation @ local[sole].T).T + placements[sole].translation)[:, :2]
+                         for sole in contact])
     com_xy = robot.center_of_mass(q)[:2]
-    stacked = np.vstack([world[sole][:, :2] for sole in contact])
-    all_loads = support_loads(stacked, weight, com_xy)
+    all_loads = support_loads(stacked, robot.mass * gravity, com_xy)
     loads = {sole: np.zeros(4) for sole in soles}
     for index, sole in enumerate(contact):
         loads[sole] = all_loads[4 * index:4 * index + 4]
-    cop_sole = {}
-    for sole in soles:
-        cop = center_of_pressure(loads[sole], local[sole][:, :2])
-        cop_sole[sole] = None if cop is None else cop
-    cop_world = center_of_pressure(all_loads, stacked)
-    return StanceLoads(weight, com_xy, loads, cop_sole, cop_world)
-
-
-# -- the FSR voltage divider and the Sharp sensor ----------------------------------------------------
+    cop_sole = {sole: center_of_pressure(loads[sole], local[sole][:, :2]) for sole in soles}
+    return StanceLoads(robot.mass * gravity, com_xy, loads, cop_sole, center_of_pressure(all_loads, stacked))
 
 
 def fsr_divider_voltage(fsr_resistance_ohm, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
@@ -183,11 +142,14 @@ def fsr_divider_voltage(fsr_resistance_ohm, supply_v: float = 5.0, pulldown_ohm:
 
 SHARP_GAIN = 3027.4
 SHARP_EXPONENT = 1.2134
+SHARP_PEAK_MM = 60.0  # ASSUMED: where the output peaks (below 10 cm it falls: two distances, Fig. 18)
+SHARP_RANGE_MM = 800.0  # rated range 10-80 cm: nothing nearer on the beam reads this
+SHARP_MOUNT_XYZ = (0.05, 0.0, 0.012)  # ASSUMED: beam origin in the sole frame (m), at the toe, along +x
+FSR_ONE_NEWTON_OHM = 10e3  # ASSUMED force law: R = 10 kOhm * (1 N / F) (FSR-400 order; no curve given)
 
 
 def sharp_distance_mm(adc_value):
-    """Eq. 23: distance (mm) = (3027.4 / ADC)^1.2134 * 10. Valid 10-80 cm; below 10 cm a reading
-    has a second, nearer meaning (the curve folds back), see bioloid.md 6.2."""
+    """Eq. 23: distance (mm) = (3027.4 / ADC)^1.2134 * 10, valid 10-80 cm (below, the curve folds)."""
     adc = np.asarray(adc_value, dtype=float)
     if np.any(adc <= 0):
         raise InvalidConfigurationError("Sharp ADC values must be positive (zero means no reflection)")
@@ -202,23 +164,10 @@ def sharp_adc_value(distance_mm):
     return SHARP_GAIN / (distance / 10.0) ** (1.0 / SHARP_EXPONENT)
 
 
-# -- simulated readings: the Sharp's folded curve, its mount, the FSR's force law, the board's filter --
-
-SHARP_PEAK_MM = 60.0
-"""ASSUMED: true distance (mm) where the Sharp's output peaks. The thesis says only that below
-10 cm the voltage falls sharply, so one voltage has two distances (bioloid.md 6.2, Fig. 18)."""
-SHARP_RANGE_MM = 800.0
-"""Rated range 10-80 cm (bioloid.md 6.1); nothing nearer along the beam reads as this distance."""
-SHARP_MOUNT_XYZ = (0.05, 0.0, 0.012)
-"""ASSUMED: the Sharp's beam origin in the sole frame (m): at the toe (the front edge of the
-100 mm sole), centred, 12 mm above the sole, beam along the sole's +x (horizontal). The thesis
-says only that it is screwed to the front of the foot (bioloid.md 6.1)."""
-
-
 def sharp_adc_folded(true_distance_mm):
-    """ADC value for an object at ``true_distance_mm`` on the beam: Eq. 23 inverted at and beyond
-    ``SHARP_PEAK_MM``; below it the output falls linearly to 0 at 0 mm (our model of the fold);
-    beyond ``SHARP_RANGE_MM`` (or no object: inf) the value at the range limit."""
+    """ADC value for an object at ``true_distance_mm`` on the beam: Eq. 23 inverted from
+    ``SHARP_PEAK_MM`` on, falling linearly to 0 at 0 mm below it (our fold), the range limit's value
+    beyond ``SHARP_RANGE_MM`` (inf: no object)."""
     distance = np.asarray(true_distance_mm, dtype=float)
     if np.any(distance < 0) or np.any(np.isnan(distance)):
         raise InvalidConfigurationError("Sharp distances must be >= 0 (inf: nothing on the beam)")
@@ -229,12 +178,10 @@ def sharp_adc_folded(true_distance_mm):
 
 
 def sharp_reading_mm(true_distance_mm):
-    """What the foot board reports (Eq. 23 applied to the folded ADC value), mm. It falls with the
-    distance down to ``SHARP_PEAK_MM`` and rises again nearer: the state machine's 0-10 cm reading.
-    An object touching the sensor (ADC 0) reads as the range limit."""
+    """What the foot board reports (mm, Eq. 23 of the folded ADC value): it falls with the distance down
+    to ``SHARP_PEAK_MM`` and rises again nearer; an object touching the sensor reads the range limit."""
     adc = np.asarray(sharp_adc_folded(true_distance_mm), dtype=float)
-    safe = np.where(adc > 0, adc, sharp_adc_value(SHARP_RANGE_MM))
-    return sharp_distance_mm(safe)
+    return sharp_distance_mm(np.where(adc > 0, adc, sharp_adc_value(SHARP_RANGE_MM)))
 
 
 def sharp_ray(robot: Robot, q: np.ndarray, sole: str) -> tuple[np.ndarray, np.ndarray]:
@@ -244,17 +191,9 @@ def sharp_ray(robot: Robot, q: np.ndarray, sole: str) -> tuple[np.ndarray, np.nd
     return origin, placement.rotation[:, 0].copy()
 
 
-FSR_ONE_NEWTON_OHM = 10e3
-"""ASSUMED force law of the 7 mm FSRs: conductance proportional to force, R = 10 kOhm * (1 N / F)
-(the order of magnitude of the FSR-400 series; the thesis gives no curve). With the 10 kOhm
-pull-down and 5 V (bioloid.md 6.2) the reading is 5000 mV * F / (F + 1 N)."""
-
-
 def fsr_reading_mv(force_n, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
-    """The FSR divider voltage in mV for a force (N); 0 N (open sensor) reads 0 mV.
-
-    ASSUMED unit: the readings compared with PSThreshold = 1000 are taken as mV (the thesis plots
-    voltage; the units are not stated, bioloid.md 6.5)."""
+    """The FSR divider voltage (mV) for a force (N): 5000 mV * F / (F + 1 N) with the 10 kOhm pull-down
+    and 5 V; 0 N reads 0 mV. ASSUMED: PSThreshold = 1000 is in mV (the units are not stated)."""
     force = np.asarray(force_n, dtype=float)
     if np.any(force < 0) or not np.all(np.isfinite(force)):
         raise InvalidConfigurationError("FSR forces must be finite and >= 0")
@@ -263,8 +202,8 @@ def fsr_reading_mv(force_n, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
 
 
 class MovingAverage:
-    """The board's noise filter: the mean of the last ``window`` samples (3, bioloid.md 6.2);
-    fewer samples give the mean of those seen. Works on scalars or arrays (e.g. 4 FSRs)."""
+    """The board's noise filter: the mean of the last ``window`` samples (3, bioloid.md 6.2), or of
+    those seen; scalars or arrays (e.g. 4 FSRs)."""
 
     def __init__(self, window: int = 3):
         if int(window) != window or window < 1:
@@ -273,7 +212,7 @@ class MovingAverage:
         self.samples: list[np.ndarray] = []
 
     def add(self, value) -> np.ndarray:
-        """Add one sample; returns the filtered value."""
+        """Add one sample; the filtered value."""
         self.samples.append(np.asarray(value, dtype=float).copy())
         del self.samples[:-self.window]
         return self.value
@@ -285,15 +224,13 @@ class MovingAverage:
         return np.mean(self.samples, axis=0)
 
 
-PS_THRESHOLD = 1000.0
-"""PSThreshold (bioloid.md 5.6): a front FSR reads "no pressure" strictly below it."""
-PS_READS = 2
-"""Two consecutive low reads of both front sensors mean a step down (bioloid.md 6.5)."""
+PS_THRESHOLD = 1000.0  # PSThreshold (bioloid.md 5.6): a front FSR strictly below reads "no pressure"
+PS_READS = 2  # consecutive low reads of both front sensors that mean a step down (bioloid.md 6.5)
 
 
 class StepDownDetector:
-    """Step-down detection of one foot: FSR3 and FSR4 (the front pair) both < ``PS_THRESHOLD`` on
-    ``PS_READS`` consecutive reads; any read with a front sensor at or above it starts over."""
+    """One foot's step-down detection: FSR3 and FSR4 both < ``threshold`` on ``reads`` consecutive
+    reads; a read with a front sensor at or above it starts over."""
 
     def __init__(self, threshold: float = PS_THRESHOLD, reads: int = PS_READS):
         self.threshold = float(threshold)
@@ -302,21 +239,15 @@ class StepDownDetector:
 
     def update(self, fsr3: float, fsr4: float) -> bool:
         """One read of the filtered front sensors; True once the step down is detected."""
-        if fsr3 < self.threshold and fsr4 < self.threshold:
-            self.count += 1
-        else:
-            self.count = 0
+        self.count = self.count + 1 if fsr3 < self.threshold and fsr4 < self.threshold else 0
         return self.count >= self.reads
 
     def reset(self) -> None:
         self.count = 0
 
 
-# -- foot board bus (Dynamixel protocol 1.0 framing) -------------------------------------------------
-
 REGISTERS = {"sharp": 0x00, "fsr1": 0x02, "fsr2": 0x04, "fsr3": 0x06, "fsr4": 0x08,
-             "center_x": 0x0A, "center_y": 0x0C}
-"""Table 12: two bytes each, little-endian."""
+             "center_x": 0x0A, "center_y": 0x0C}  # Table 12: two bytes each, little-endian
 READ_INSTRUCTION = 0x02
 
 

@@ -1,25 +1,8 @@
-"""Bioloid joint angles (rad) <-> Dynamixel AX-12 positions (bioloid.md 1.2, 1.6, 2.4, 3.6).
-
-AX-12 position: 0..1023 units over 0..300 deg, 150 deg (unit 512) = centre. Every servo maps
-linearly: ``servo_deg = offset + direction * degrees(q)``, with q the URDF joint angle of
-:mod:`wbik.robot_packages.bioloid.model`. The table below is the code's conversion (IKAdjust6ServoLeg,
-IKAdjust3ServoArm) composed with the model's joint <-> thesis conversion:
-
-- legs, the code's ``ang[]`` (degrees) = [theta7, theta9, 90 - theta11, theta13 - 180,
-  90 - theta15, theta17] = degrees(-q_yaw, -q_hip_roll, -q_hip_pitch, -q_knee, -q_ankle_pitch,
-  +q_ankle_roll); then, with legDir = +1 (right) / -1 (left): yaw = 150 - legDir 45 + ang0
-  (the +-45 deg horn mounting), hip roll = 150 - ang1, hip pitch = 150 - legDir ang2,
-  knee = 150 + legDir ang3, ankle pitch = 150 + legDir ang4, ankle roll = 150 - ang5;
-- right arm: base = theta1 + 62 (152 - (90 - theta1): a 2 deg trim), shoulder = 150 - theta3,
-  elbow = 150 - theta5, with q = (theta1, -theta3, -theta5);
-- left arm (ASSUMED, the thesis formulates the right arm only): the mirror image of the right
-  arm's servo, 300 - right. The Robotis ready pose (bioloid.md 1.7) is mirror-symmetric under
-  this map to within 0.3 deg.
-
-Limits: the code's servo-degree limits (bioloid.md 1.6); on the left the roll joints are
-mirrored too (the code keeps them unmirrored, a bug listed in bioloid.md 9.6; the code's own
-pipeline :func:`code_leg_servo_degrees` keeps its literal limits). Clamping is reported in
-:class:`ServoCommand`, never silent.
+"""Bioloid joint angles (rad) <-> Dynamixel AX-12 positions (0..1023 units over 0..300 deg; bioloid.md 1.2,
+1.6, 2.4, 3.6): ``servo_deg = offset + direction * degrees(q)`` per servo, the code's IKAdjust6ServoLeg and
+IKAdjust3ServoArm composed with the model's joint convention; the left arm (ASSUMED: the thesis gives the
+right only) mirrors the right, and the left rolls' limits are mirrored (the code's are not, bioloid.md 9.6;
+its own pipeline :func:`code_leg_servo_degrees` keeps them). Clamping is reported, never silent.
 """
 
 from __future__ import annotations
@@ -35,7 +18,6 @@ from wbik.errors import InvalidConfigurationError
 
 FULL_SCALE_DEG = 300.0
 FULL_SCALE_UNITS = 1023
-CENTRE_DEG = 150.0
 DEG_PER_UNIT = FULL_SCALE_DEG / FULL_SCALE_UNITS
 
 
@@ -57,41 +39,30 @@ class ServoJoint:
         return math.radians((servo_deg - self.offset_deg) * self.direction)
 
 
-def _servo_table() -> dict[str, ServoJoint]:
-    rows = [
-        # joint, id, offset, direction, min, max (servo degrees)
-        ("r_shoulder_pitch", 1, 62.0, 1, 0.0, 300.0), ("l_shoulder_pitch", 2, 238.0, -1, 0.0, 300.0),
-        ("r_shoulder_roll", 3, 150.0, 1, 60.0, 240.0), ("l_shoulder_roll", 4, 150.0, 1, 60.0, 240.0),
-        ("r_elbow", 5, 150.0, 1, 60.0, 240.0), ("l_elbow", 6, 150.0, 1, 60.0, 240.0),
-        ("r_hip_yaw", 7, 105.0, -1, 55.0, 160.0), ("l_hip_yaw", 8, 195.0, -1, 140.0, 245.0),
-        ("r_hip_roll", 9, 150.0, 1, 100.0, 190.0), ("l_hip_roll", 10, 150.0, 1, 110.0, 200.0),
-        ("r_hip_pitch", 11, 150.0, 1, 50.0, 175.0), ("l_hip_pitch", 12, 150.0, -1, 125.0, 250.0),
-        ("r_knee", 13, 150.0, -1, 46.0, 160.0), ("l_knee", 14, 150.0, 1, 140.0, 254.0),
-        ("r_ankle_pitch", 15, 150.0, -1, 120.0, 210.0), ("l_ankle_pitch", 16, 150.0, 1, 90.0, 180.0),
-        ("r_ankle_roll", 17, 150.0, -1, 110.0, 180.0), ("l_ankle_roll", 18, 150.0, -1, 120.0, 190.0),
-    ]
-    return {row[0]: ServoJoint(*row) for row in rows}
-
-
-SERVOS = _servo_table()
-"""Joint name -> :class:`ServoJoint`, IDs 1..18."""
+SERVOS = {row[0]: ServoJoint(*row) for row in (  # joint, id, offset, direction, min, max (servo degrees)
+    ("r_shoulder_pitch", 1, 62.0, 1, 0.0, 300.0), ("l_shoulder_pitch", 2, 238.0, -1, 0.0, 300.0),
+    ("r_shoulder_roll", 3, 150.0, 1, 60.0, 240.0), ("l_shoulder_roll", 4, 150.0, 1, 60.0, 240.0),
+    ("r_elbow", 5, 150.0, 1, 60.0, 240.0), ("l_elbow", 6, 150.0, 1, 60.0, 240.0),
+    ("r_hip_yaw", 7, 105.0, -1, 55.0, 160.0), ("l_hip_yaw", 8, 195.0, -1, 140.0, 245.0),
+    ("r_hip_roll", 9, 150.0, 1, 100.0, 190.0), ("l_hip_roll", 10, 150.0, 1, 110.0, 200.0),
+    ("r_hip_pitch", 11, 150.0, 1, 50.0, 175.0), ("l_hip_pitch", 12, 150.0, -1, 125.0, 250.0),
+    ("r_knee", 13, 150.0, -1, 46.0, 160.0), ("l_knee", 14, 150.0, 1, 140.0, 254.0),
+    ("r_ankle_pitch", 15, 150.0, -1, 120.0, 210.0), ("l_ankle_pitch", 16, 150.0, 1, 90.0, 180.0),
+    ("r_ankle_roll", 17, 150.0, -1, 110.0, 180.0), ("l_ankle_roll", 18, 150.0, -1, 120.0, 190.0),
+)}
 BY_ID = {servo.servo_id: servo for servo in SERVOS.values()}
-
 READY_POSE_UNITS = (235, 788, 279, 744, 462, 561, 358, 666, 507, 516, 341, 682, 240, 783, 647, 376, 507, 516)
 """The code's Robot_ready_pos (bioloid.md 1.7): raw AX-12 units of IDs 1..18."""
-
 LEG_ORDER = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
-
-# the code's own leg limits (servo degrees), right and left, as written (rolls not mirrored)
-CODE_LEG_LIMITS = {
+CODE_LEG_LIMITS = {  # the code's own leg limits (servo degrees) as written (rolls not mirrored)
     "r": ((55, 160), (100, 190), (50, 175), (46, 160), (120, 210), (110, 180)),
     "l": ((140, 245), (100, 190), (125, 250), (140, 254), (90, 180), (110, 180)),
 }
-CODE_LEG_DEFAULTS = {"r": (105, 150, 150, 150, 150, 150), "l": (105, 150, 150, 150, 150, 150)}
-"""What the code writes for a value outside [0, 300]: 150, and 105 for the yaw (also on the left: a bug)."""
+CODE_LEG_DEFAULT = (105, 150, 150, 150, 150, 150)
+"""What the code writes for a value outside [0, 300] on either leg: 150, and 105 for the yaw (a bug on the
+left)."""
 
 
-# --- units <-> degrees <-> radians --------------------------------------------------------------
 def units_to_degrees(units) -> np.ndarray:
     """AX-12 units (0..1023) -> servo degrees (0..300)."""
     return np.asarray(units, dtype=float) * DEG_PER_UNIT
@@ -110,12 +81,9 @@ def c_round(value) -> np.ndarray:
 
 @dataclass
 class ServoCommand:
-    """Servo goal positions for a set of joints, with what had to be clamped.
-
-    ``degrees``/``units`` map servo ID -> position after clamping; ``clamped`` maps joint ->
-    (requested, applied) servo degrees; ``out_of_range`` lists joints whose request fell outside
-    the servo's 0..300 deg (the code calls those unreachable).
-    """
+    """Servo goal positions: ``degrees``/``units`` servo ID -> position after clamping, ``clamped``
+    joint -> (requested, applied) servo degrees, ``out_of_range`` the joints requested outside 0..300 deg
+    (the code calls them unreachable)."""
 
     degrees: dict[int, float] = field(default_factory=dict)
     units: dict[int, int] = field(default_factory=dict)
@@ -127,19 +95,16 @@ class ServoCommand:
         return not self.clamped and not self.out_of_range
 
 
-def _servo(joint: str) -> ServoJoint:
-    if joint not in SERVOS:
-        raise InvalidConfigurationError(f"{joint!r} is not a Bioloid servo joint; known: {', '.join(SERVOS)}")
-    return SERVOS[joint]
-
-
 def to_servo(joint_angles: Mapping[str, float]) -> ServoCommand:
     """Joint angles (rad, by joint name) -> clamped servo positions, with a report of the clamping."""
     command = ServoCommand()
     for joint, q in joint_angles.items():
-        servo = _servo(joint)
+        if joint not in SERVOS:
+            raise InvalidConfigurationError(f"{joint!r} is not a Bioloid servo joint; known: "
+                                            f"{', '.join(SERVOS)}")
         if not np.isfinite(q):
             raise InvalidConfigurationError(f"joint {joint!r} has a non-finite angle {q!r}")
+        servo = SERVOS[joint]
         requested = servo.servo_degrees(float(q))
         applied = min(max(requested, servo.min_deg), servo.max_deg)
         if not 0.0 <= requested <= FULL_SCALE_DEG:
@@ -169,31 +134,25 @@ def from_servo_units(units: Mapping[int, int] | np.ndarray) -> dict[str, float]:
     return angles
 
 
-# --- the code's ang[] convention and its integer pipelines ------------------------------------------
+LEG_ANG_SIGNS = np.array([-1, -1, -1, -1, -1, 1.0])  # the code's ang[] = degrees(q) * these
+
+
 def leg_ang_from_q(q) -> np.ndarray:
-    """Leg joint angles (..., 6) rad -> the code's ang[] (degrees): (-q0, -q1, -q2, -q3, -q4, +q5)."""
-    return np.degrees(np.asarray(q, dtype=float)) * np.array([-1, -1, -1, -1, -1, 1.0])
+    """Leg joint angles (..., 6) rad -> the code's ang[] (degrees)."""
+    return np.degrees(np.asarray(q, dtype=float)) * LEG_ANG_SIGNS
 
 
 def leg_q_from_ang(ang_deg) -> np.ndarray:
     """The code's ang[] (degrees) -> leg joint angles (rad)."""
-    return np.radians(np.asarray(ang_deg, dtype=float) * np.array([-1, -1, -1, -1, -1, 1.0]))
-
-
-def _side_key(side: str) -> str:
-    key = str(side).lower()
-    if key not in ("r", "l", "right", "left"):
-        raise InvalidConfigurationError(f"side must be 'right' or 'left', got {side!r}")
-    return key[0]
+    return np.radians(np.asarray(ang_deg, dtype=float) * LEG_ANG_SIGNS)
 
 
 def code_leg_servo_degrees(ang_deg, side: str) -> tuple[np.ndarray, list[str]]:
-    """The code's IKAdjust6ServoLeg on integer ang[]: servo degrees (6 ints) and what it changed.
-
-    Returns (servo degrees, notes); a note per joint clamped to the code's limits or reset to the
-    code's default because it fell outside 0..300.
-    """
-    side = _side_key(side)
+    """The code's IKAdjust6ServoLeg on integer ang[]: servo degrees (6 ints) and a note per joint
+    clamped to the code's limits or reset to its default (outside 0..300)."""
+    if str(side).lower() not in ("r", "l", "right", "left"):
+        raise InvalidConfigurationError(f"side must be 'right' or 'left', got {side!r}")
+    side = str(side).lower()[0]
     leg_dir = 1 if side == "r" else -1
     a = c_round(ang_deg)
     raw = [150 - leg_dir * 45 + a[0], 150 - a[1], 150 - leg_dir * a[2], 150 + leg_dir * a[3],
@@ -201,13 +160,13 @@ def code_leg_servo_degrees(ang_deg, side: str) -> tuple[np.ndarray, list[str]]:
     notes: list[str] = []
     servo = [_code_corrected(f"{side}_{name}", value, low, high, default, notes)
              for name, value, (low, high), default in zip(LEG_ORDER, raw, CODE_LEG_LIMITS[side],
-                                                          CODE_LEG_DEFAULTS[side], strict=True)]
+                                                          CODE_LEG_DEFAULT, strict=True)]
     return np.array(servo), notes
 
 
 def _code_corrected(name: str, value, low, high, default, notes: list[str]) -> int:
-    """A servo value as the author's code corrects it: outside 0..300 reset to ``default``, else
-    clamped to [low, high]; each correction noted."""
+    """A servo value as the author's code corrects it (outside 0..300 reset to ``default``, else clamped
+    to [low, high]), each correction noted."""
     if not 0 <= value <= 300:
         notes.append(f"{name}: {value} outside 0..300, reset to {default}")
         return int(default)
@@ -219,11 +178,9 @@ def _code_corrected(name: str, value, low, high, default, notes: list[str]) -> i
 
 
 def code_arm_servo_degrees(theta_deg) -> tuple[np.ndarray, list[str]]:
-    """The code's IKAdjust3ServoArm (right arm) on (theta1, theta3, theta5) degrees, with notes.
-
-    base = round(theta1) + 62 (range-checked only: the code never corrects it); shoulder and elbow
-    = 150 - round(theta): outside 0..300 -> 150, then clamped to [60, 240].
-    """
+    """The code's IKAdjust3ServoArm (right arm) on (theta1, theta3, theta5) degrees, with notes:
+    base = round(theta1) + 62 (never corrected), shoulder and elbow = 150 - round(theta), outside
+    0..300 -> 150, then clamped to [60, 240]."""
     t1, t3, t5 = c_round(theta_deg)
     base = 152 - (90 - t1)
     notes = [] if 0 <= base <= 300 else [f"base {base} outside 0..300 (the code leaves it)"]

@@ -1,68 +1,8 @@
-"""A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5).
-
-Staircase (ours: the sources give no stair geometry, bioloid.md 9.2). ``steps`` solid steps of
-``height`` (default 30 mm) and ``depth`` (default 160 mm) whose first riser is at x = ``start_x``,
-the last tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, faces along +x; with
-``descend``, the same steps down again after the platform (CEABOT's test: 3 up, then 3 down).
-Why these numbers: the sole is 100 mm long, so a tread must take the foot (100 mm) plus the heel
-overhang past the edge (10 mm) plus room to walk up to the next riser (50 mm); 30 mm is what the
-model's legs climb in one step (a 120 mm forward reach onto a tread 30 mm higher, single support,
-every joint inside its limits, the CoM inside the stance sole with the 5 mm margin; see the stair
-task's figures). The Sharp beam, 12 mm above the sole, sees a 30 mm riser.
-
-Sensors, from the robot's pose at every sample (the whole-body samples are the board's samples):
-
-- Sharp: the beam (:func:`wbik.apps.bioloid.sensors.sharp_ray`) is ray-cast on the step boxes; the true
-  distance goes through the folded curve (:func:`wbik.apps.bioloid.sensors.sharp_reading_mm`), so the
-  reading falls while the foot nears the riser and rises again within about 34 mm of it.
-- FSRs: the soles in contact (every corner on the surface under it, flat) carry the weight by
-  :func:`wbik.apps.bioloid.sensors.support_loads` at the CoM projection; a sole in the air reads 0. The
-  force law :func:`wbik.apps.bioloid.sensors.fsr_reading_mv` gives mV; each foot board keeps the moving
-  average of the last 3 samples (:class:`~wbik.apps.bioloid.sensors.MovingAverage`), and the state
-  machine reads the filtered values.
-
-The state machine (:class:`StairStateMachine`, the code's logic of bioloid.md 5.6 and 6.5): the
-robot walks with the half steps, alternating WalkSR1, WalkSR2, WalkSL1, WalkSL2, and reads both
-feet's sensors after every half step (each time a foot is put down):
-
-- both Sharp readings < 100 (SharpProximityThreshold): the proximity flag is set;
-- either reading > 120 (SharpInFrontThreshold) and (the flag or stairCont > 0) and stairCont < 3:
-  up to 3 re-reads, diff = right - left: > 15 (SharpDifferenceThreshold) RightTurnMedium, < -15
-  LeftTurnMedium, else no turn (so at most 3 turns); then StairReady, UpStair, stairCont + 1;
-- only once stairCont >= 3: a foot whose FSR3 and FSR4 both read < 1000 (PSThreshold) on 2
-  consecutive reads means a step down: BackS* first when that foot is the forward one, then DownStair.
-
-A sole may stand over a nose (the walk on a tread brings the forward foot past it; that is how the
-front FSRs come to read nothing): it stands on its part behind the edge, which rests on the nose.
-The FSRs over the void read nothing; the weight is carried by the FSRs on the tread and the nose
-line under the sole; the CoM is held in the support polygon cut at the edge (``BodyPhase.clip_x``),
-and a sole may not overhang by more than ``0.1 - MIN_FOOTHOLD`` m.
-
-Where we differ from the code, and why:
-
-- a trigger after a WalkS*1 (one foot 30 mm ahead) first completes the pair with WalkS*2: with the
-  feet staggered the two readings differ by the stagger, not by the heading, and the turn test
-  would fire on every approach (the code's Roboplus half steps are not in our sources);
-- StairReady is generated, not replayed: two half steps bring the toes to ``READY_GAP`` (5 mm) from
-  the riser; UpStair is generated too (:func:`climb_phases`): CoM over one foot, that foot's
-  partner lifted ``STEP_CLEARANCE`` above the next tread, carried over the edge and put down with
-  its heel ``HEEL_OVERHANG`` past it, CoM over the upper foot, the other foot brought up beside it,
-  CoM between the feet; every sample is a whole-body QP solve (contacts held on their treads, CoM in
-  the shrunk support polygon, limits), verified by FK. The replayed UpStair/DownStair keyframes
-  (tasks/data/bioloid_keyframes.yaml) leave our joint limits in 6 rows each and assume a step we do
-  not know; ours stay inside the limits by construction and follow the modelled step;
-- the code's extra LeftTurnMedium every 4th iteration (heading drift of the real robot, not in the
-  text) is left out: the simulated walk does not drift; the proximity flag is cleared after a climb;
-- DownStair is generated (:func:`descend_phases`; the seed's keyframes, as for UpStair, are not replayed):
-  our StairReady first brings the toes ``DOWN_READY_OVERHANG`` over the nose (less reach down for the
-  legs; with the toes 5 mm before it, the second foot's way down from a 200 mm platform left the model's
-  reach by 11 mm) unless they are that far over it; then CoM over one foot, the other one swung
-  ``STEP_CLEARANCE`` above the tread it leaves, over the nose and down onto the tread below with its heel
-  ``DOWN_HEEL_GAP`` past the riser, CoM over it, the other foot brought beside it, CoM between the feet;
-  every sample a whole-body QP solve, judged like the way up. The state machine's step-down detection
-  starts over after each DownStair, and the run ends on the floor beyond the staircase;
-- RightTurnMedium / LeftTurnMedium (Roboplus presets, angle not in the sources) are the whole-body
-  turn in place by ``TURN_MEDIUM_DEG`` (ours).
+"""A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5): the
+code's state machine (:class:`StairStateMachine`) reads the Sharp beams ray-cast on the steps and the
+filtered FSRs after every half step and climbs, turns and goes down. Ours: the staircase, a trigger after
+a WalkS*1 first completing the pair, StairReady, UpStair and DownStair generated whole-body
+(:func:`stair_phases`; the replayed keyframes leave our joint limits), no drift turn, ``TURN_MEDIUM_DEG``.
 """
 
 from __future__ import annotations
@@ -72,27 +12,31 @@ from collections.abc import Callable
 from collections.abc import Sequence
 from dataclasses import dataclass
 from dataclasses import field
+from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
+from wbik.apps.bioloid.behaviours import along
+from wbik.apps.bioloid.behaviours import half_step_phases
+from wbik.apps.bioloid.behaviours import turn_phases
 from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDE_NAME
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
-from wbik.apps.bioloid.half_steps import HALF_STEP_LIFT
-from wbik.apps.bioloid.half_steps import RAMP_INSET
-from wbik.apps.bioloid.half_steps import along
-from wbik.apps.bioloid.half_steps import half_step_phases
-from wbik.apps.bioloid.half_steps import recentre_goal
+from wbik.apps.bioloid.gait import sole_corners
+from wbik.apps.bioloid.gait import start_q
 from wbik.apps.bioloid.step_wholebody import BodyPhase
 from wbik.apps.bioloid.step_wholebody import ComRamp
 from wbik.apps.bioloid.step_wholebody import clip_points
 from wbik.apps.bioloid.step_wholebody import com_over_phase
 from wbik.apps.bioloid.step_wholebody import current_soles
 from wbik.apps.bioloid.step_wholebody import pelvis_rotation
+from wbik.apps.bioloid.step_wholebody import recentre_goal
 from wbik.apps.bioloid.step_wholebody import sole_polygon
 from wbik.apps.bioloid.step_wholebody import solve_phases
 from wbik.apps.bioloid.step_wholebody import yaw_of
@@ -104,40 +48,30 @@ from wbik.robot import Robot
 SHARP_PROXIMITY_THRESHOLD = 100.0
 SHARP_IN_FRONT_THRESHOLD = 120.0
 SHARP_DIFFERENCE_THRESHOLD = 15.0
-MAX_CLIMBS = 3
-"""The code climbs while stairCont < 3 and looks for a step down once stairCont >= 3."""
-MAX_TURNS = 3
-"""At most 3 turns before climbing (bioloid.md 5.6)."""
-STEP_QTY = 100
-"""The code's loop count (stepQty): the simulation stops after this many decisions."""
-TURN_MEDIUM_DEG = 10.0
-"""Our angle of RightTurnMedium / LeftTurnMedium (the Roboplus presets' angle is not in the sources)."""
-READY_GAP = 0.005
-"""m, StairReady brings the toes this close to the riser."""
-HEEL_OVERHANG = 0.010
-"""m, UpStair puts the heel this far past the step's edge."""
-STEP_CLEARANCE = 0.015
-"""m, UpStair lifts the sole this far above the next tread before carrying it over the edge (DownStair
-this far above the tread it leaves)."""
-DOWN_HEEL_GAP = 0.010
-"""m, DownStair puts the heel this far past the riser below the nose it comes over."""
-DOWN_READY_OVERHANG = 0.015
-"""m, before DownStair our StairReady brings the toes this far over the nose."""
-MIN_FOOTHOLD = 0.05
-"""m, a sole over a nose must stand on at least this much of its length."""
-SURFACE_TOLERANCE = 1e-6
-"""m, a sole corner this close to the surface under it touches it."""
+MAX_CLIMBS = 3  # the code climbs while stairCont < 3, then looks for a step down
+MAX_TURNS = 3  # turns before a climb (bioloid.md 5.6)
+STEP_QTY = 100  # the code's loop count (stepQty): the simulation stops after this many decisions
+TURN_MEDIUM_DEG = 10.0  # ours: the Roboplus presets' angle is not in the sources
+READY_GAP = 0.005  # m, StairReady brings the toes this close to the riser
+HEEL_OVERHANG = 0.010  # m, UpStair puts the heel this far past the step's edge
+STEP_CLEARANCE = 0.015  # m, a sole changing level passes this high above the higher tread
+DOWN_HEEL_GAP = 0.010  # m, DownStair puts the heel this far past the riser below the nose
+DOWN_READY_OVERHANG = 0.015  # m, before DownStair StairReady brings the toes this far over the nose
+MIN_FOOTHOLD = 0.05  # m, a sole over a nose stands on at least this much of its length
+SURFACE_TOLERANCE = 1e-6  # m, a sole corner this close to the surface under it touches it
+WALK_CYCLE = ("WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2")
+PAIR_END = {"WalkSR1": "WalkSR2", "WalkSL1": "WalkSL2"}
 
 
 class StairError(WbikError):
     """The simulated robot cannot go on: a foot would hit a riser, or the stairs are not climbed."""
 
 
-# -- geometry ---------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Staircase:
-    """``steps`` solid steps (see the module docstring); SI units. With ``descend`` the same steps go
-    down again after the top platform (the CEABOT structure: 3 up, 3 down)."""
+    """``steps`` solid steps of ``height`` and ``depth``, the first riser at x = ``start_x``, the last
+    tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, facing +x (SI units); with
+    ``descend`` the same steps go down again after the platform (CEABOT's test: 3 up, 3 down)."""
 
     steps: int = 3
     height: float = 0.030
@@ -162,8 +96,7 @@ class Staircase:
         return self.start_x + (step - 1) * self.depth
 
     def far_x(self, step: int) -> float:
-        """x where tread ``step`` ends ahead: its nose edge on the way down (``descend``), else the end
-        of the structure (the top platform's end)."""
+        """x where tread ``step`` ends ahead: its nose on the way down, else the top platform's end."""
         top_end = self.start_x + (self.steps - 1) * self.depth + self.top_depth
         return top_end + (self.steps - step) * self.depth if self.descend else top_end
 
@@ -198,11 +131,8 @@ class Staircase:
 
     def raycast(self, origin: np.ndarray, direction: np.ndarray) -> float:
         """Distance (m) along the unit ``direction`` to the first step face hit, inf if none."""
-        best = math.inf
-        for low, high in self.boxes():
-            hit = _ray_box(np.asarray(origin, float), np.asarray(direction, float), low, high)
-            best = min(best, hit)
-        return best
+        origin, direction = np.asarray(origin, float), np.asarray(direction, float)
+        return min((_ray_box(origin, direction, low, high) for low, high in self.boxes()), default=math.inf)
 
     def nose_edges(self) -> list[tuple[float, float]]:
         """(x, z) of every nose edge (the risers' tops): up, then down with ``descend``."""
@@ -212,12 +142,8 @@ class Staircase:
         return edges
 
     def edge_distance(self, corners: np.ndarray) -> float:
-        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge of a step that
-        is not under it (the height above an edge under the sole is the sole's height above the tread:
-        :meth:`penetration` checks that one; a sole lifting off a nose it stood over starts at 0).
-
-        The edges run along y across the stair; the sole is horizontal, so the distance is
-        hypot(height difference, gap in x between the edge and the sole's x range)."""
+        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge not under it:
+        hypot(height difference, x gap between the edge and the sole's x range)."""
         corners = np.asarray(corners, dtype=float)
         z = float(np.mean(corners[:, 2]))
         low, high = float(corners[:, 0].min()), float(corners[:, 0].max())
@@ -233,21 +159,10 @@ class Staircase:
         """How deep (m, >= 0) the lowest sole corner is below the surface under it."""
         return max(0.0, max(self.surface_z(c[0]) - c[2] for c in np.asarray(corners, dtype=float)))
 
-    def touching(self, corners: np.ndarray, tolerance: float = SURFACE_TOLERANCE) -> str | None:
-        """The surface a sole lies on (every corner on the surface under it, one surface), or None."""
-        corners = np.asarray(corners, dtype=float)
-        names = {self.surface_name(c[0]) for c in corners}
-        if len(names) != 1:
-            return None
-        if all(abs(c[2] - self.surface_z(c[0])) <= tolerance for c in corners):
-            return names.pop()
-        return None
-
     def foothold(self, corners: np.ndarray,
                  tolerance: float = SURFACE_TOLERANCE) -> tuple[str, float | None] | None:
         """Where a flat sole stands: (the surface under its heel, the x of the nose edge its toes are
-        over, or None when it lies wholly on the surface), or None when it does not stand (in the air,
-        tilted, or over a higher surface). A sole over a nose stands on the part behind the edge."""
+        over or None), or None when it does not stand (in the air, tilted, over a higher surface)."""
         corners = np.asarray(corners, dtype=float)
         z = float(np.mean(corners[:, 2]))
         if np.ptp(corners[:, 2]) > tolerance:
@@ -279,28 +194,8 @@ def _ray_box(origin: np.ndarray, direction: np.ndarray, low: np.ndarray, high: n
     return max(near, 0.0)
 
 
-def staircase_boxes(stairs: Staircase) -> tuple:
-    """The steps as the viewer's boxes (:class:`wbik.viz.environment.SceneBox`), one per step's solid
-    block, in wood browns, lighter the higher it is."""
-    from wbik.viz.environment import STAIR_COLORS
-    from wbik.viz.environment import SceneBox
-
-    return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
-                                  color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])
-                 for index, (low, high) in enumerate(stairs.boxes()))
-
-
-def sole_corners_world(robot: Robot, q: np.ndarray, sole: str) -> np.ndarray:
-    placement = robot.frame_placement(q, sole)
-    corners = np.asarray(robot.soles[sole], dtype=float)
-    return corners @ placement.rotation.T + placement.translation
-
-
-# -- the state machine ------------------------------------------------------------------------------
-@dataclass
-class Decision:
-    """What the state machine does after a read: ``action`` in walk | up | back_then_down | down;
-    ``foot`` is the foot that detected a step down."""
+class Decision(NamedTuple):
+    """The state machine's answer to a read: walk | up | back_then_down | down, and the foot that felt it."""
 
     action: str
     foot: str | None = None
@@ -313,7 +208,6 @@ class StairStateMachine:
     climbs: int = MAX_CLIMBS
     stair_count: int = 0  # stairCont, 0 once the start button is released
     proximity: bool = False
-    turns_made: int = 0
     down: dict = field(default_factory=lambda: {side: sensors.StepDownDetector() for side in SIDES})
 
     def after_placement(self, sharp: dict[str, float], front_fsr: dict[str, Sequence[float]],
@@ -336,16 +230,13 @@ class StairStateMachine:
     def turn(sharp: dict[str, float]) -> str | None:
         """diff = right - left: > 15 'right' (RightTurnMedium), < -15 'left', else None."""
         diff = float(sharp["r"]) - float(sharp["l"])
-        if diff > SHARP_DIFFERENCE_THRESHOLD:
-            return "right"
-        if diff < -SHARP_DIFFERENCE_THRESHOLD:
-            return "left"
-        return None
+        if not abs(diff) > SHARP_DIFFERENCE_THRESHOLD:
+            return None
+        return "right" if diff > 0 else "left"
 
     def climbed(self) -> None:
         self.stair_count += 1
         self.proximity = False
-        self.turns_made = 0
 
     def descended(self) -> None:
         """A DownStair is done: the step-down detection starts over."""
@@ -353,10 +244,9 @@ class StairStateMachine:
             detector.reset()
 
 
-# -- paths and the climb ---------------------------------------------------------------------------
 def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
-    """s in [0, 1] -> the pose at fraction s of the polyline's length through the poses' positions
-    (rotation of the first pose: the sole stays flat with its yaw)."""
+    """s in [0, 1] -> the pose at fraction s of the polyline's length through the poses' positions,
+    with the first pose's rotation (the sole stays flat with its yaw)."""
     points = np.array([p.translation for p in poses])
     lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
     total = float(lengths.sum())
@@ -375,72 +265,48 @@ def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
 
 
 def _moved(placement: pin.SE3, x: float | None = None, z: float | None = None) -> pin.SE3:
-    translation = placement.translation.copy()
-    if x is not None:
-        translation[0] = x
-    if z is not None:
-        translation[2] = z
-    return pin.SE3(placement.rotation.copy(), translation)
+    x0, y, z0 = placement.translation
+    return pin.SE3(placement.rotation.copy(), np.array([x0 if x is None else x, y, z0 if z is None else z]))
 
 
-def climb_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
-                 gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """UpStair onto step ``step`` (1-based), ``first`` ("r"/"l") foot first, from feet side by side
-    on the tread below with their toes before the riser; returns the phases and the new soles."""
-    landing_x = stairs.edge_x(step) + HEEL_OVERHANG + 0.05
-    return _change_level(robot, soles, landing_x, stairs.tread_z(step), first, gait, f"UpStair {step}",
-                         f"tread {step}")
-
-
-def descend_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
-                   gait: GaitParameters | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """DownStair from tread ``step`` (1-based) to the one below on the way down, ``first`` foot first,
-    from feet side by side on tread ``step`` near its nose (their toes before it or over it); each
-    foot is swung ``STEP_CLEARANCE`` above the upper tread, over the nose, and put down with its heel
-    ``DOWN_HEEL_GAP`` past the riser below; returns the phases and the new soles."""
-    landing_x = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05
-    below = "the floor" if step == 1 else f"tread {step - 1}"
-    return _change_level(robot, soles, landing_x, stairs.tread_z(step - 1), first, gait, f"DownStair {step}",
-                         below)
-
-
-def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_new: float, first: str,
-                  gait: GaitParameters | None, label: str, surface: str
-                  ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """The CoM over one foot, ``first`` swung over the nose onto ``landing_x`` at height ``z_new``, the
-    CoM over it, the other foot brought beside it, the CoM between the feet (UpStair, DownStair)."""
+def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
+                 gait: GaitParameters | None = None, down: bool = False
+                 ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """UpStair onto step ``step`` (1-based) from the feet side by side before its riser, the heels put
+    ``HEEL_OVERHANG`` past the edge, or (``down``) DownStair from tread ``step`` to the one below, from the
+    feet near its nose, the heels put ``DOWN_HEEL_GAP`` past the riser below: the CoM over one foot,
+    ``first`` ("r"/"l") swung ``STEP_CLEARANCE`` above the higher tread and put down, the CoM over it,
+    the other foot brought beside it, the CoM between the feet; the phases and the new soles."""
+    if down:
+        landing_x, z_new = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05, stairs.tread_z(step - 1)
+        label, surface = f"DownStair {step}", "the floor" if step == 1 else f"tread {step - 1}"
+    else:
+        landing_x, z_new = stairs.edge_x(step) + HEEL_OVERHANG + 0.05, stairs.tread_z(step)
+        label, surface = f"UpStair {step}", f"tread {step}"
     gait = gait or GaitParameters()
     second = OTHER[first]
     over = max(z_new, float(soles[first].translation[2])) + STEP_CLEARANCE
     n = gait.divisions
     heading = yaw_of(soles[second].rotation)
     rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
-    start_first, start_second = soles[first], soles[second]
-    land_first = _moved(start_first, x=landing_x, z=z_new)
-    land_second = _moved(start_second, x=landing_x, z=z_new)
-    names = {"r": "right", "l": "left"}
-
-    def path(start: pin.SE3, end: pin.SE3):
-        return polyline_path([start, _moved(start, z=over), _moved(end, z=over), end])
+    after = {side: _moved(soles[side], x=landing_x, z=z_new) for side in (first, second)}
 
     def com_over(foot: str, contacts: dict[str, pin.SE3], divisions: int) -> BodyPhase:
-        """The CoM shifted over ``foot`` (the soles of ``contacts`` held), slow servos."""
-        return com_over_phase(robot, f"{label}: CoM over the {names[foot]} foot", dict(contacts), foot,
-                              contacts[SOLE[foot]], RAMP_INSET, pelvis_rotation=rotation, divisions=divisions,
+        return com_over_phase(robot, f"{label}: CoM over the {SIDE_NAME[foot]} foot", dict(contacts), foot,
+                              contacts[SOLE[foot]], pelvis_rotation=rotation, divisions=divisions,
                               speed_rpm=gait.servo_slow_rpm)
 
     def onto(foot: str, start: pin.SE3, land: pin.SE3, standing: pin.SE3) -> BodyPhase:
-        """``foot`` swung from ``start`` over the nosing onto ``land``, the other one ``standing``."""
-        return BodyPhase(f"{label}: {names[foot]} foot onto {surface}",
-                         {SOLE[OTHER[foot]]: standing}, swing={SOLE[foot]: path(start, land)},
-                         pelvis_rotation=rotation, divisions=3 * n, speed_rpm=gait.servo_fast_rpm)
+        path = polyline_path([start, _moved(start, z=over), _moved(land, z=over), land])
+        return BodyPhase(f"{label}: {SIDE_NAME[foot]} foot onto {surface}", {SOLE[OTHER[foot]]: standing},
+                         swing={SOLE[foot]: path}, pelvis_rotation=rotation, divisions=3 * n,
+                         speed_rpm=gait.servo_fast_rpm)
 
-    after = {first: land_first, second: land_second}
     phases = [
         com_over(second, {SOLE[s]: soles[s] for s in SIDES}, n),
-        onto(first, start_first, land_first, start_second),
-        com_over(first, {SOLE[second]: start_second, SOLE[first]: land_first}, 2 * n),
-        onto(second, start_second, land_second, land_first),
+        onto(first, soles[first], after[first], soles[second]),
+        com_over(first, {SOLE[second]: soles[second], SOLE[first]: after[first]}, 2 * n),
+        onto(second, soles[second], after[second], after[first]),
         BodyPhase(f"{label}: CoM between the feet", {SOLE[s]: after[s] for s in SIDES},
                   pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n,
                   speed_rpm=gait.servo_slow_rpm),
@@ -448,52 +314,171 @@ def _change_level(robot: Robot, soles: dict[str, pin.SE3], landing_x: float, z_n
     return phases, after
 
 
-def toe_gap(stairs: Staircase, sole: pin.SE3) -> float:
-    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one)."""
+def toes_gap(stairs: Staircase, sole: pin.SE3, down: bool = False) -> float:
+    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one) or, ``down``,
+    to the nose of the tread it stands on on the way down (negative: the toes are over it; inf: none)."""
     toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
-    for step in range(1, stairs.steps + 1):
-        if stairs.edge_x(step) >= toes - 1e-9:
-            return stairs.edge_x(step) - toes
-    return math.inf
+    if down:
+        level = stairs.step_at(sole.translation[0] - 0.05 * sole.rotation[0, 0])
+        return stairs.far_x(level) - toes if stairs.descend and level != 0 else math.inf
+    return next((stairs.edge_x(step) - toes for step in range(1, stairs.steps + 1)
+                 if stairs.edge_x(step) >= toes - 1e-9), math.inf)
 
 
-def nose_gap(stairs: Staircase, sole: pin.SE3) -> float:
-    """Distance (m) along x from the sole's toes to the nose of the tread it stands on, on the way
-    down (negative: the toes are over it; inf: no nose ahead)."""
-    toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
-    heel = sole.translation[0] - 0.05 * sole.rotation[0, 0]
-    level = stairs.step_at(heel)
-    if not stairs.descend or level == 0:
-        return math.inf
-    return stairs.far_x(level) - toes
-
-
-# -- the simulation ---------------------------------------------------------------------------------
-@dataclass
 class StairRun:
-    """A simulated run: the motion, one record per sample, the states visited and the reads."""
+    """A simulated run (:func:`simulate_stairs`): the robot on the staircase, its foot boards, one record per
+    sample, the states visited, the reads and the motion."""
 
-    motion: SampledMotion
-    samples: list[dict]
-    states: list[str]
-    reads: list[dict]
-    climbed: int
-    stairs: Staircase
-    margin: float
-    descended: int = 0
+    def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
+                 climbs: int, q0: np.ndarray):
+        self.robot, self.stairs, self.gait, self.margin, self.backend = robot, stairs, gait, margin, backend
+        self.machine = StairStateMachine(climbs=climbs)
+        self.descended = 0
+        self.q = q0.copy()
+        self.boards = {side: sensors.MovingAverage(3) for side in SIDES}
+        self.configurations, self.phase_of, self.phase_names = [q0.copy()], [-1], []
+        self.support = [tuple(SOLE[s] for s in SIDES)]
+        self.samples, self.states, self.reads = [], [], []
+        start = sole_polygon(robot, {SOLE[s]: p for s, p in current_soles(robot, q0).items()})
+        self._record(q0, "start", None, {"contact_error_m": 0.0, "contact_error_rad": 0.0,
+                                         "limit_excess_rad": 0.0,
+                                         "com_margin_m": start.margin_of(robot.center_of_mass(q0)[:2])}, ())
+
+    def soles(self) -> dict[str, pin.SE3]:
+        return current_soles(self.robot, self.q)
+
+    def _record(self, q: np.ndarray, state: str, phase: str | None, check: dict,
+                swing: Sequence[str]) -> None:
+        """One sample's record: surfaces, Sharp and filtered FSR readings, CoM margin, clearance."""
+        robot, stairs = self.robot, self.stairs
+        placements = current_soles(robot, q)
+        corners = {side: sole_corners(robot, SOLE[side], placements[side]) for side in SIDES}
+        footholds = {side: stairs.foothold(corners[side]) for side in SIDES}
+        sharp_true = {side: 1e3 * stairs.raycast(*sensors.sharp_ray(robot, q, SOLE[side])) for side in SIDES}
+        contact = [side for side in SIDES if footholds[side] is not None]
+        forces = {side: np.zeros(4) for side in SIDES}
+        if contact:  # the FSRs over the surface carry the weight, with the nose under a sole over it
+            pressed, nose = [], []
+            for side in contact:
+                placement = placements[side]
+                points = (sensors.robot_fsr_positions(robot, SOLE[side]) @ placement.rotation.T
+                          + placement.translation)
+                edge = footholds[side][1]
+                pressed += [(side, index, point) for index, point in enumerate(points)
+                            if edge is None or point[0] <= edge]
+                if edge is not None:  # the sole rests on the nose: where its sides cross the edge line
+                    nose += [p for p in clip_points(corners[side][:, :2], edge) if abs(p[0] - edge) < 1e-12]
+            supports = np.array([p[:2] for _, _, p in pressed] + nose)
+            loads = sensors.support_loads(supports, robot.mass * sensors.GRAVITY, robot.center_of_mass(q)[:2])
+            for (side, index, _), load in zip(pressed, loads[:len(pressed)], strict=True):
+                forces[side][index] = load
+        fsr = {side: self.boards[side].add(sensors.fsr_reading_mv(forces[side])) for side in SIDES}
+        swing_sole = [s for s in SIDES if SOLE[s] in swing and footholds[s] is None]  # in the air
+        self.samples.append({
+            "state": state, "phase": phase, "support": sorted(SOLE[s] for s in contact),
+            "surfaces": {SOLE[s]: None if footholds[s] is None else footholds[s][0] for s in SIDES},
+            "sharp_mm": {SOLE[s]: float(sensors.sharp_reading_mm(sharp_true[s])) for s in SIDES},
+            "sharp_true_mm": {SOLE[s]: sharp_true[s] if math.isfinite(sharp_true[s]) else None
+                              for s in SIDES},
+            "fsr_mv": {SOLE[s]: fsr[s].tolist() for s in SIDES},
+            "com_margin_m": check["com_margin_m"],
+            "clearance_m": min((stairs.edge_distance(corners[s]) for s in swing_sole), default=None),
+            "penetration_m": max(stairs.penetration(corners[s]) for s in SIDES),
+            "contact_error_m": check["contact_error_m"], "contact_error_rad": check["contact_error_rad"],
+            "limit_excess_rad": check["limit_excess_rad"],
+            "swing": [SOLE[s] for s in swing_sole]})
+
+    def _foothold(self, sole: str, placement: pin.SE3) -> tuple[str, float | None]:
+        corners = sole_corners(self.robot, sole, placement)
+        found = self.stairs.foothold(corners, 1e-9)
+        if found is not None and found[1] is not None and found[1] - corners[:, 0].min() < MIN_FOOTHOLD:
+            found = None
+        if found is None:
+            raise StairError(f"the {sole} would be off a surface (into a riser, or over a nose by more than "
+                             f"{0.1 - MIN_FOOTHOLD:.3f} m) at x = {placement.translation[0]:.3f} m")
+        return found
+
+    def solve(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
+        """Solve a behaviour's phases and record every sample, after checking the new footholds; a sole
+        over a nose holds the CoM with its part behind the edge only (each phase's ``clip_x``)."""
+        for side, placement in soles_after.items():
+            try:
+                self._foothold(SOLE[side], placement)
+            except StairError as error:
+                raise StairError(f"{state}: {error}") from None
+        for phase in phases:
+            for sole, placement in phase.stance.items():
+                edge = self._foothold(sole, placement)[1]
+                if edge is not None:
+                    phase.clip_x[sole] = edge
+        self.states.append(state)
+        result = solve_phases(self.robot, self.q, phases, self.margin, self.backend, name=state)
+        motion = result.motion
+        for q, check in zip(motion.q[1:], result.checks, strict=True):
+            phase = phases[check["phase"]]
+            self._record(q, state, phase.name, check, tuple(phase.swing))
+        self.configurations += list(motion.q[1:])
+        self.phase_of += [len(self.phase_names) + index for index in motion.phase[1:]]
+        self.phase_names += motion.phase_names
+        self.support += motion.support[1:]
+        self.q = motion.q[-1].copy()
+
+    def read(self, after: str) -> dict:
+        """The state machine's inputs after ``after``: the last sample's Sharp and front FSR readings."""
+        last = self.samples[-1]
+        ahead = along(self.soles(), "r")
+        entry = {"after": after, "sharp_mm": {s: last["sharp_mm"][SOLE[s]] for s in SIDES},
+                 "front_fsr_mv": {s: last["fsr_mv"][SOLE[s]][2:] for s in SIDES},
+                 "forward_foot": None if abs(ahead) < 1e-4 else ("r" if ahead > 0 else "l"),
+                 "stair_count": self.machine.stair_count, "proximity": self.machine.proximity}
+        self.reads.append(entry)
+        return entry
+
+    def half(self, name: str, length: float | None = None) -> None:
+        phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length)
+        self.solve(name, phases, after)
+
+    def stair_ready(self, cycle: int, down: bool) -> bool:
+        """Our StairReady: both feet forward (two half steps led by the foot of the walk cycle at
+        ``cycle``) until the toes are ``READY_GAP`` from the riser or, ``down``, ``DOWN_READY_OVERHANG``
+        over the nose, unless they are there already; whether it stepped."""
+        gaps = [toes_gap(self.stairs, sole, down) for sole in self.soles().values()]
+        if down:
+            gap = max(gaps)
+            length, needed, missing = gap + DOWN_READY_OVERHANG, gap > -DOWN_READY_OVERHANG + 1e-4, "nose"
+        else:
+            gap = min(gaps)
+            length, needed, missing = gap - READY_GAP, gap > READY_GAP + 1e-4, "riser"
+        if not math.isfinite(gap):
+            raise StairError(f"{'DownStair' if down else 'StairReady'}: no {missing} ahead of the feet")
+        if needed:
+            first = _leading_foot(cycle).upper()
+            self.states.append("StairReady")
+            self.half(f"WalkS{first}1", length=length)
+            self.half(f"WalkS{first}2")
+        return needed
+
+    @property
+    def climbed(self) -> int:
+        return self.machine.stair_count
 
     @property
     def reached_top(self) -> bool:
         return self.climbed == self.stairs.steps
 
-    def scene_boxes(self) -> tuple:
-        """The staircase's steps as boxes for the viewer (wbik.viz.environment.SceneBox)."""
-        return staircase_boxes(self.stairs)
-
     @property
     def reached_bottom(self) -> bool:
         """Down every step again (a staircase that ``descend``s)."""
         return self.stairs.descend and self.descended == self.stairs.steps
+
+    def scene_boxes(self) -> tuple:
+        """The steps as the viewer's boxes (wbik.viz.environment.SceneBox), lighter the higher."""
+        from wbik.viz.environment import STAIR_COLORS
+        from wbik.viz.environment import SceneBox
+
+        return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
+                                      color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])
+                     for index, (low, high) in enumerate(self.stairs.boxes()))
 
     def summary(self) -> dict:
         swing = [s["clearance_m"] for s in self.samples if s["clearance_m"] is not None]
@@ -513,250 +498,71 @@ class StairRun:
             "reads": len(self.reads),
         }
 
-
-class _Simulator:
-    def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
-                 climbs: int, q0: np.ndarray):
-        self.robot, self.stairs, self.gait, self.margin, self.backend = robot, stairs, gait, margin, backend
-        self.machine = StairStateMachine(climbs=climbs)
-        self.descended = 0
-        self.q = q0.copy()
-        self.boards = {side: sensors.MovingAverage(3) for side in SIDES}
-        self.configurations = [q0.copy()]
-        self.phase_of, self.phase_names, self.support = [-1], [], [tuple(SOLE[s] for s in SIDES)]
-        self.samples: list[dict] = []
-        self.states: list[str] = []
-        self.reads: list[dict] = []
-        self._record(q0, "start", None, {"contacts_ok": True, "contact_error_m": 0.0,
-                                         "contact_error_rad": 0.0, "limit_excess_rad": 0.0,
-                                         "com_margin_m": sole_polygon(robot, {SOLE[s]: robot.frame_placement(
-                                             q0, SOLE[s]) for s in SIDES}).margin_of(
-                                             robot.center_of_mass(q0)[:2])}, ())
-
-    def soles(self) -> dict[str, pin.SE3]:
-        return current_soles(self.robot, self.q)
-
-    def _record(self, q: np.ndarray, state: str, phase: str | None, check: dict,
-                swing: Sequence[str]) -> None:
-        robot, stairs = self.robot, self.stairs
-        corners = {side: sole_corners_world(robot, q, SOLE[side]) for side in SIDES}
-        footholds = {side: stairs.foothold(corners[side]) for side in SIDES}
-        surfaces = {side: None if footholds[side] is None else footholds[side][0] for side in SIDES}
-        sharp_true = {side: 1e3 * stairs.raycast(*sensors.sharp_ray(robot, q, SOLE[side])) for side in SIDES}
-        sharp = {side: float(sensors.sharp_reading_mm(sharp_true[side])) for side in SIDES}
-        contact = [side for side in SIDES if surfaces[side] is not None]
-        forces = {side: np.zeros(4) for side in SIDES}
-        if contact:  # the FSRs over the surface carry the weight, with the nose under a sole over it
-            pressed, nose = [], []
-            for side in contact:
-                placement = robot.frame_placement(q, SOLE[side])
-                points = (sensors.robot_fsr_positions(robot, SOLE[side]) @ placement.rotation.T
-                          + placement.translation)
-                edge = footholds[side][1]
-                for index, point in enumerate(points):
-                    if edge is None or point[0] <= edge:
-                        pressed.append((side, index, point))
-                if edge is not None:  # the sole rests on the nose: where its sides cross the edge line
-                    outline = corners[side][:, :2]
-                    nose += [point for point in clip_points(outline, edge) if abs(point[0] - edge) < 1e-12]
-            supports = np.array([p[:2] for _, _, p in pressed] + nose)
-            loads = sensors.support_loads(supports, robot.mass * sensors.GRAVITY, robot.center_of_mass(q)[:2])
-            for (side, index, _), load in zip(pressed, loads[:len(pressed)], strict=True):
-                forces[side][index] = load
-        fsr = {side: self.boards[side].add(sensors.fsr_reading_mv(forces[side])) for side in SIDES}
-        swing_sole = [s for s in SIDES if SOLE[s] in swing and footholds[s] is None]  # in the air
-        clearance = min((stairs.edge_distance(corners[s]) for s in swing_sole), default=None)
-        self.samples.append({
-            "state": state, "phase": phase, "support": sorted(surfaces[s] and SOLE[s] for s in contact),
-            "surfaces": {SOLE[s]: surfaces[s] for s in SIDES},
-            "sharp_mm": {SOLE[s]: sharp[s] for s in SIDES},
-            "sharp_true_mm": {SOLE[s]: sharp_true[s] if math.isfinite(sharp_true[s]) else None
-                              for s in SIDES},
-            "fsr_mv": {SOLE[s]: fsr[s].tolist() for s in SIDES},
-            "com_margin_m": check["com_margin_m"], "clearance_m": clearance,
-            "penetration_m": max(stairs.penetration(corners[s]) for s in SIDES),
-            "contact_error_m": check["contact_error_m"], "contact_error_rad": check["contact_error_rad"],
-            "limit_excess_rad": check["limit_excess_rad"],
-            "swing": [SOLE[s] for s in swing_sole]})
-
-    def _foothold(self, sole: str, placement: pin.SE3, tolerance: float = 1e-9) -> tuple[str, float | None]:
-        corners = np.asarray(self.robot.soles[sole]) @ placement.rotation.T + placement.translation
-        found = self.stairs.foothold(corners, tolerance)
-        if found is not None and found[1] is not None and found[1] - corners[:, 0].min() < MIN_FOOTHOLD:
-            found = None
-        if found is None:
-            raise StairError(f"the {sole} would be off a surface (into a riser, or over a nose by more than "
-                             f"{0.1 - MIN_FOOTHOLD:.3f} m) at x = {placement.translation[0]:.3f} m")
-        return found
-
-    def run(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
-        """Solve a behaviour's phases and record every sample; check the new footholds. A sole standing
-        over a nose holds the CoM with its part behind the edge only (each phase's ``clip_x``)."""
-        for side, placement in soles_after.items():
-            try:
-                self._foothold(SOLE[side], placement)
-            except StairError as error:
-                raise StairError(f"{state}: {error}") from None
-        for phase in phases:
-            for sole, placement in phase.stance.items():
-                edge = self._foothold(sole, placement)[1]
-                if edge is not None:
-                    phase.clip_x[sole] = edge
-        self.states.append(state)
-        result = solve_phases(self.robot, self.q, phases, self.margin, self.backend, name=state)
-        offset = len(self.phase_names)
-        self.phase_names += [p.name for p in phases]
-        for k, check in enumerate(result.checks):
-            q = result.motion.q[k + 1]
-            phase = phases[check["phase"]]
-            self._record(q, state, phase.name, check, tuple(phase.swing))
-            self.configurations.append(q.copy())
-            self.phase_of.append(offset + check["phase"])
-            self.support.append(tuple(sorted(phase.stance)))
-        self.q = result.motion.q[-1].copy()
-
-    def read(self, after: str) -> dict:
-        last = self.samples[-1]
-        soles = self.soles()
-        ahead = along(soles, "r")
-        forward = None if abs(ahead) < 1e-4 else ("r" if ahead > 0 else "l")
-        entry = {"after": after, "sharp_mm": {s: last["sharp_mm"][SOLE[s]] for s in SIDES},
-                 "front_fsr_mv": {s: last["fsr_mv"][SOLE[s]][2:] for s in SIDES}, "forward_foot": forward,
-                 "stair_count": self.machine.stair_count, "proximity": self.machine.proximity}
-        self.reads.append(entry)
-        return entry
-
-    def half(self, name: str, length: float | None = None) -> None:
-        phases, after = half_step_phases(self.robot, self.soles(), name, self.gait, length, HALF_STEP_LIFT)
-        self.run(name, phases, after)
-
+    @cached_property
     def motion(self) -> SampledMotion:
         return SampledMotion("bioloid_stairs", self.robot, np.array(self.configurations),
-                             np.array(self.phase_of), self.phase_names, self.support,
-                             {"generator": "whole-body QP", "margin": self.margin})
+                             np.array(self.phase_of), self.phase_names, self.support)
 
 
-WALK_CYCLE = ("WalkSR1", "WalkSR2", "WalkSL1", "WalkSL2")
-PAIR_END = {"WalkSR1": "WalkSR2", "WalkSL1": "WalkSL2"}
+def _leading_foot(cycle: int) -> str:
+    """"r" when the walk cycle's half step at index ``cycle`` is led by the right foot, else "l"."""
+    return "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
 
 
 def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitParameters | None = None,
                     margin: float = 0.005, climbs: int | None = None, q0: np.ndarray | None = None,
-                    max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND,
-                    on_behaviour: Callable[[str], None] | None = None) -> StairRun:
+                    max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND) -> StairRun:
     """Walk toward the staircase with the half steps, sensing after each, and climb it as the state
-    machine decides; with a staircase that ``descend``s, walk on and go down each step it detects
-    (BackS* when the forward foot felt it, our StairReady, DownStair); stops on the floor beyond
-    the staircase, at the top (``climbs`` climbs, default the number of steps) when it does not
-    descend, or after ``max_decisions`` reads. Raises StairError when a foot would hit a riser."""
+    machine decides; with a staircase that ``descend``s, walk on and go down each step it detects.
+    Stops on the floor beyond, at the top (``climbs`` climbs, default every step) when it does not
+    descend, or after ``max_decisions`` reads. StairError when a foot would hit a riser."""
     stairs = stairs or Staircase()
     gait = gait or GaitParameters()
     climbs = stairs.steps if climbs is None else int(climbs)
     descents = stairs.steps if stairs.descend and climbs == stairs.steps else 0
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
-    sim = _Simulator(robot, stairs, gait, margin, backend, climbs, q)
+    run = StairRun(robot, stairs, gait, margin, backend, climbs, start_q(robot, q0))
     cycle = 0
     for _ in range(max_decisions):
-        if sim.machine.stair_count >= climbs and sim.descended >= descents:
+        if run.climbed >= climbs and run.descended >= descents:
             break
         name = WALK_CYCLE[cycle % 4]
         cycle += 1
-        sim.half(name)
-        if on_behaviour is not None:
-            on_behaviour(name)
-        decision = sim.machine.after_placement(**_machine_inputs(sim.read(name)))
+        run.half(name)
+        read = run.read(name)
+        decision = run.machine.after_placement(read["sharp_mm"], read["front_fsr_mv"], read["forward_foot"])
         if decision.action in ("down", "back_then_down"):
-            if sim.descended >= descents:
-                sim.states.append("BackS" + decision.foot.upper() if decision.action == "back_then_down"
-                                  else "DownStair")
-                break  # a step down the staircase does not have (``descend`` false): not generated
-            if decision.action == "back_then_down":
-                sim.half("BackS" + decision.foot.upper())
-                cycle = 0 if decision.foot == "r" else 2  # the next half step starts with this foot
-            heel = float(sole_corners_world(robot, sim.q, SOLE["r"])[:, 0].min())
-            level = stairs.step_at(heel + 1e-6)
-            cycle = _down_ready(sim, cycle)
-            first = _leading_foot(cycle)
-            phases, after = descend_phases(robot, sim.soles(), stairs, level, first, gait)
-            sim.run("DownStair", phases, after)
-            sim.descended += 1
-            sim.machine.descended()
-            sim.read("DownStair")
-            if on_behaviour is not None:
-                on_behaviour(f"DownStair {level}")
-            continue
-        if decision.action != "up":
-            continue
-        if name in PAIR_END:  # our addition: the feet side by side before the re-reads
-            sim.half(PAIR_END[name])
-            cycle += 1
-            sim.read(PAIR_END[name])
-        for _turn in range(MAX_TURNS):
-            entry = sim.read("re-read")
-            side = StairStateMachine.turn(entry["sharp_mm"])
-            if side is None:
+            back = "BackS" + decision.foot.upper()
+            if run.descended >= descents:  # a step down the staircase does not have: not generated
+                run.states.append(back if decision.action == "back_then_down" else "DownStair")
                 break
-            from wbik.apps.bioloid.behaviours import turn_phases
-
-            angle = math.radians(TURN_MEDIUM_DEG) * (1 if side == "left" else -1)
-            phases, after = turn_phases(robot, sim.soles(), angle, gait)
-            sim.run("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
-            sim.machine.turns_made += 1
-        _stair_ready(sim, cycle)
-        step = sim.machine.stair_count + 1
-        first = _leading_foot(cycle)
-        phases, after = climb_phases(robot, sim.soles(), stairs, step, first, gait)
-        sim.run("UpStair", phases, after)
-        sim.machine.climbed()
-        sim.read("UpStair")
-        if on_behaviour is not None:
-            on_behaviour(f"UpStair {step}")
-    return StairRun(sim.motion(), sim.samples, sim.states, sim.reads, sim.machine.stair_count, stairs, margin,
-                    sim.descended)
-
-
-def _machine_inputs(entry: dict) -> dict:
-    return {"sharp": entry["sharp_mm"], "front_fsr": entry["front_fsr_mv"],
-            "forward_foot": entry["forward_foot"]}
-
-
-def _leading_foot(cycle: int) -> str:
-    """"r" when the walk cycle's step at index ``cycle`` is led by the right foot (WalkSR...), else "l"."""
-    return "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
-
-
-def _feet_gap(sim: _Simulator, gap_of: Callable, pick: Callable, missing: str) -> float:
-    """``pick`` (min or max) over both soles of ``gap_of(stairs, sole)`` (m); StairError ``missing`` when
-    that is not finite (nothing ahead of the feet)."""
-    soles = sim.soles()
-    gap = pick(gap_of(sim.stairs, soles[s]) for s in SIDES)
-    if not math.isfinite(gap):
-        raise StairError(missing)
-    return gap
-
-
-def _ready_steps(sim: _Simulator, cycle: int, length: float) -> None:
-    """Our StairReady's two half steps, led by the foot of the walk cycle at ``cycle``, the first
-    ``length`` (m) long."""
-    first = _leading_foot(cycle).upper()
-    sim.states.append("StairReady")
-    sim.half(f"WalkS{first}1", length=length)
-    sim.half(f"WalkS{first}2")
-
-
-def _down_ready(sim: _Simulator, cycle: int) -> int:
-    """Our StairReady before DownStair: both feet forward (two half steps) until their toes are
-    ``DOWN_READY_OVERHANG`` over the nose, unless they are that far over it already (the shorter the
-    reach down, the more room the legs have); the next cycle index."""
-    gap = _feet_gap(sim, nose_gap, max, "DownStair: no nose ahead of the feet")
-    if gap > -DOWN_READY_OVERHANG + 1e-4:
-        _ready_steps(sim, cycle, gap + DOWN_READY_OVERHANG)
-        cycle += 2
-    return cycle
-
-
-def _stair_ready(sim: _Simulator, cycle: int) -> None:
-    """Our StairReady: both feet forward (two half steps) until the toes are READY_GAP from the riser."""
-    gap = _feet_gap(sim, toe_gap, min, "StairReady: no riser ahead of the feet")
-    if gap > READY_GAP + 1e-4:
-        _ready_steps(sim, cycle, gap - READY_GAP)
+            if decision.action == "back_then_down":
+                run.half(back)
+                cycle = 0 if decision.foot == "r" else 2  # the next half step starts with this foot
+            heel = float(sole_corners(robot, SOLE["r"], run.soles()["r"])[:, 0].min())
+            level = stairs.step_at(heel + 1e-6)
+            if run.stair_ready(cycle, down=True):
+                cycle += 2
+            phases, after = stair_phases(robot, run.soles(), stairs, level, _leading_foot(cycle), gait, True)
+            run.solve("DownStair", phases, after)
+            run.descended += 1
+            run.machine.descended()
+            run.read("DownStair")
+        elif decision.action == "up":
+            if name in PAIR_END:  # ours: the feet side by side before the re-reads
+                run.half(PAIR_END[name])
+                cycle += 1
+                run.read(PAIR_END[name])
+            for _turn in range(MAX_TURNS):
+                side = StairStateMachine.turn(run.read("re-read")["sharp_mm"])
+                if side is None:
+                    break
+                angle = math.radians(TURN_MEDIUM_DEG) * (1 if side == "left" else -1)
+                phases, after = turn_phases(robot, run.soles(), angle, gait)
+                run.solve("RightTurnMedium" if side == "right" else "LeftTurnMedium", phases, after)
+            run.stair_ready(cycle, down=False)
+            step = run.climbed + 1
+            phases, after = stair_phases(robot, run.soles(), stairs, step, _leading_foot(cycle), gait)
+            run.solve("UpStair", phases, after)
+            run.machine.climbed()
+            run.read("UpStair")
+    return run

@@ -1,28 +1,7 @@
-"""(b) The thesis's step forward as whole-body IK on the QP layer (wbik.qp), one QP solve per sample.
-
-Same phases, key points and 5 divisions as the faithful version (:mod:`wbik.apps.bioloid.step_faithful`),
-but every sample is one configuration of the whole robot (free-flyer base + 18 joints) solved with:
-
-hard (every sample, verified afterwards by FK)
-    - each sole on the ground is a Contact held at its planted pose (6 rows, to 1e-6 m / rad);
-    - a lifted or dragged sole follows its path exactly (a Contact at the path's pose);
-    - the CoM ground projection stays inside the support polygon of the soles on the ground
-      shrunk by ``margin``; at the last sample of a double-support phase that hands over to a
-      single-support one the polygon is already the next stance sole;
-    - joint position limits; the arms are held at their rest angles (as the code does).
-soft (least squares, weights below)
-    - each hip point of a leg on the ground toward its key point (hip relative to that ankle);
-    - the pelvis orientation: pitch 20 deg (and the yaw of the feet);
-    - in a double-support phase that hands over, the CoM toward the next stance sole's centre;
-    - a small posture term toward the nominal (keeps the hip yaw and the redundancy tame).
-
-The swing paths reuse the key points' sagittal numbers with the lateral spacing of the feet kept:
-lifted zd - zu = 40 mm and xm - xu = 20 mm ahead at the top of phase 2, landed xm - xf = 30 mm
-ahead of the stance foot in phase 3; in phase 5 the rear foot comes beside the front foot
-(dragged on the floor as in the code, or lifted by ``rear_lift``).
-
-The generic engine (:func:`solve_phases` over :class:`BodyPhase`) also drives the turn and walk
-behaviours (:mod:`wbik.apps.bioloid.behaviours`).
+"""(b) The thesis's step forward as whole-body IK, one QP solve per sample (:func:`solve_phases` over
+:class:`BodyPhase` lists, also behind the turns, walks, half steps and stairs). Hard, verified by FK: the
+soles on the ground held, a swing sole on its path, the CoM ``margin`` inside the support, joint limits,
+arms at rest; soft: the key points' hips, the pelvis pitch and yaw, the CoM in a hand-over, a posture.
 """
 
 from __future__ import annotations
@@ -38,10 +17,16 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.gait import HIP
 from wbik.apps.bioloid.gait import OTHER
+from wbik.apps.bioloid.gait import SIDE_NAME
 from wbik.apps.bioloid.gait import SIDES
 from wbik.apps.bioloid.gait import SOLE
 from wbik.apps.bioloid.gait import GaitParameters
 from wbik.apps.bioloid.gait import SampledMotion
+from wbik.apps.bioloid.gait import pose_error
+from wbik.apps.bioloid.gait import servo_joint_ids
+from wbik.apps.bioloid.gait import sole_corners
+from wbik.apps.bioloid.gait import start_q
+from wbik.apps.bioloid.gait import step_forward_phases
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import NoQPSolutionError
 from wbik.geometry import wrap_to_pi
@@ -61,14 +46,13 @@ from wbik.robot import Robot
 from wbik.robot_packages.bioloid.model import ARM_JOINTS
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
-CONTACT_TOLERANCE = 1e-6
-"""Contacts and swing paths must hold to this (m, rad) at every sample."""
+CONTACT_TOLERANCE = 1e-6  # m, rad: contacts and swing paths hold to this at every sample
 HIP_WEIGHT = 1.0
 PELVIS_ORIENTATION_WEIGHT = 0.02
 COM_WEIGHT = 10.0
 POSTURE_WEIGHT = 1e-4
-REPAIR_INSET = 0.0005
-"""A sample that ends with the CoM outside is repaired toward a point this far inside the margin (m)."""
+REPAIR_INSET = 0.0005  # m, a sample ending with the CoM outside is repaired this far inside the margin
+RAMP_INSET = 0.008  # m, a hand-over moves the CoM this far inside the next stance sole
 
 Path = Callable[[float], pin.SE3]
 Point = Callable[[float], np.ndarray]
@@ -76,16 +60,10 @@ Point = Callable[[float], np.ndarray]
 
 @dataclass
 class BodyPhase:
-    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1.
-
-    ``stance``: sole -> planted world pose (held fixed); ``swing``: sole -> path s -> world pose
-    (followed exactly); ``hips``: hip frame -> s -> world target (soft); ``pelvis_rotation``: s ->
-    world rotation of the pelvis (soft); ``com``: s -> CoM xy target (soft) or None; ``end_support``:
-    soles whose polygon holds the CoM at the last sample (default: the stance soles); ``on_ground``:
-    soles counted as support for the polygon (default: the stance soles); ``clip_x``: sole -> the world
-    x where the ground under that sole ends (a stair's nose: a sole over it stands on its part behind
-    it), so the phase's support polygons hold only that part of it.
-    """
+    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1: soles held at their
+    ``stance`` poses or on their ``swing`` paths s -> pose; soft ``hips`` and ``com`` (xy) targets and
+    ``pelvis_rotation``, functions of s; ``end_support`` the soles holding the CoM at the last sample
+    (default the stance); ``clip_x`` sole -> x where the ground under it ends (a nose): the part held."""
 
     name: str
     stance: dict[str, pin.SE3]
@@ -101,8 +79,8 @@ class BodyPhase:
 
 
 def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
-    """The part with x <= ``x_max`` (unchanged for None) of the convex polygon whose vertices, in
-    order, are ``points`` (k, 2): cut by one half-plane (Sutherland-Hodgman)."""
+    """The part with x <= ``x_max`` (all for None) of the convex polygon of vertices ``points`` (k, 2)
+    in order, cut by one half-plane (Sutherland-Hodgman)."""
     if x_max is None:
         return points
     vertices = np.asarray(points, dtype=float)
@@ -120,24 +98,16 @@ def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
 
 def sole_polygon(robot: Robot, placements: dict[str, pin.SE3],
                  clip_x: dict[str, float] | None = None) -> SupportPolygon:
-    """Support polygon of the given soles at the given world poses (their corners on the ground), each
-    sole cut at its ``clip_x`` (:func:`clip_points`; the corners of ``robot.soles`` go round the sole)."""
-    points = []
-    for sole, placement in placements.items():
-        corners = np.asarray(robot.soles[sole], dtype=float)
-        ground = (corners @ placement.rotation.T + placement.translation)[:, :2]
-        points.append(clip_points(ground, (clip_x or {}).get(sole)))
-    return SupportPolygon(np.vstack(points))
-
-
-def ankle_height(robot: Robot) -> float:
-    """Ankle axes -> sole (m): the Bioloid model's assumption (its BioloidFacts)."""
-    return robot.require_facts(BioloidFacts, "the Bioloid whole-body step").ankle_height
+    """Support polygon of the soles at the given world poses, each cut at its ``clip_x``."""
+    return SupportPolygon(np.vstack([clip_points(sole_corners(robot, sole, placement)[:, :2],
+                                                 (clip_x or {}).get(sole))
+                                     for sole, placement in placements.items()]))
 
 
 def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> np.ndarray:
     """World position of a hip given its key point (hip relative to the ankle, in the foot's axes)."""
-    ankle = sole_placement.translation + sole_placement.rotation @ np.array([0.0, 0.0, ankle_height(robot)])
+    height = robot.require_facts(BioloidFacts, "the Bioloid whole-body step").ankle_height
+    ankle = sole_placement.translation + sole_placement.rotation @ np.array([0.0, 0.0, height])
     return ankle + sole_placement.rotation @ key_point
 
 
@@ -155,23 +125,20 @@ def line(start: np.ndarray, end: np.ndarray) -> Point:
     return lambda s: start + (end - start) * s
 
 
-def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0, via: pin.SE3 | None = None) -> Path:
-    """A swing path from ``start`` to ``end``: straight lines through ``via`` (the code's two phases)
-    or one line plus a vertical bump ``lift * sin(pi s)``; the yaw turns linearly, the sole stays flat."""
-    def pose(a: pin.SE3, b: pin.SE3, s: float) -> pin.SE3:
-        yaw = yaw_of(a.rotation) + s * float(wrap_to_pi(yaw_of(b.rotation) - yaw_of(a.rotation)))
-        position = a.translation + s * (b.translation - a.translation)
-        return pin.SE3(pin.utils.rotate("z", yaw), position)
+def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0) -> Path:
+    """A swing path from ``start`` to ``end``: a line plus a vertical bump ``lift * sin(pi s)``, the yaw
+    turning linearly the short way, the sole flat."""
+    def pose(s: float) -> pin.SE3:
+        yaw = yaw_of(start.rotation) + s * float(wrap_to_pi(yaw_of(end.rotation) - yaw_of(start.rotation)))
+        position = start.translation + s * (end.translation - start.translation)
+        bump = np.array([0.0, 0.0, lift * math.sin(math.pi * s)])
+        return pin.SE3(pin.utils.rotate("z", yaw), position + bump)
 
-    if via is not None:
-        return lambda s: pose(start, via, 2 * s) if s <= 0.5 else pose(via, end, 2 * s - 1)
+    return pose
 
-    def bumped(s: float) -> pin.SE3:
-        placement = pose(start, end, s)
-        placement.translation = placement.translation + np.array([0.0, 0.0, lift * math.sin(math.pi * s)])
-        return placement
 
-    return bumped
+def _holds(check: dict) -> bool:
+    return check["contacts_ok"] and check["balance_ok"] and check["limits_ok"]
 
 
 @dataclass
@@ -185,7 +152,7 @@ class WholeBodyMotion:
 
     @property
     def passed(self) -> bool:
-        return all(c["contacts_ok"] and c["balance_ok"] and c["limits_ok"] for c in self.checks)
+        return all(_holds(c) for c in self.checks)
 
     def summary(self) -> dict:
         checks = self.checks
@@ -201,22 +168,16 @@ class WholeBodyMotion:
         }
 
 
-def arm_joints() -> list[str]:
-    return [f"{side}_{name}" for side in SIDES for name in ARM_JOINTS]
-
-
 def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon: SupportPolygon,
                   margin: float) -> dict:
     """Independent FK check of one sample: held soles, CoM margin, joint limits."""
     position_error, rotation_error = 0.0, 0.0
     for sole, wanted in held.items():
-        reached = robot.frame_placement(q, sole)
-        position_error = max(position_error, float(np.linalg.norm(reached.translation - wanted.translation)))
-        angle = float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation)))
-        rotation_error = max(rotation_error, angle)
+        position, angle = pose_error(robot.frame_placement(q, sole), wanted)
+        position_error, rotation_error = max(position_error, position), max(rotation_error, angle)
     com_margin = polygon.margin_of(robot.center_of_mass(q)[:2])
     model = robot.model
-    index = [model.joints[j].idx_q for j in range(1, model.njoints) if model.joints[j].nq == 1]
+    index = [model.joints[j].idx_q for j in servo_joint_ids(model)]
     joints = q[index]
     excess = float(max(np.max(model.lowerPositionLimit[index] - joints),
                        np.max(joints - model.upperPositionLimit[index]), 0.0))
@@ -228,15 +189,14 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
 
 def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], margin: float = 0.005,
                  backend: str = DEFAULT_BACKEND, name: str = "behaviour", max_iterations: int = 60,
-                 retries: int = 3,
-                 on_sample: Callable[[int, dict], None] | None = None) -> WholeBodyMotion:
+                 retries: int = 3) -> WholeBodyMotion:
     """Solve every sample of every phase from the previous sample's answer and verify it by FK."""
     if margin < 0:
         raise InvalidConfigurationError(f"the CoM margin must be >= 0, got {margin}")
     q = np.asarray(q0, dtype=float).copy()
     configurations, phase_of, support = [q.copy()], [-1], [tuple(phases[0].stance) if phases else ()]
     checks: list[dict] = []
-    locked = arm_joints()
+    locked = [f"{side}_{name}" for side in SIDES for name in ARM_JOINTS]
     for index, phase in enumerate(phases):
         if isinstance(phase.com, ComRamp) and phase.com.start is None:
             if phase.com.footprint is not None and phase.clip_x:
@@ -267,11 +227,10 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
             solution = problem.solve(q, max_iterations=max_iterations)
             check = verify_sample(robot, solution.q, held, active, margin)
             for _ in range(retries):
-                if check["contacts_ok"] and check["balance_ok"] and check["limits_ok"]:
+                if _holds(check):
                     break
-                # the IK loop keeps a step only if the task cost does not rise, so it cannot pay for
-                # pulling the CoM back inside: do that first with the CoM as the only goal, then
-                # solve again from the feasible point (the loop then stays feasible)
+                # the IK loop keeps a step only if the task cost does not rise, so it cannot pull the CoM
+                # back inside: do that first with the CoM as the only goal, then solve again from there
                 inside = nearest_inside(active, robot.center_of_mass(solution.q)[:2], margin + REPAIR_INSET)
                 repair = IKProblem(robot.model, [ComTask(np.r_[inside, 0.0], axes="xy", tolerance=1e-7,
                                                          name="com repair"), RegularizationTask(1e-8)],
@@ -288,14 +247,11 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
                 "pelvis_error_deg": math.degrees(errors.get("pelvis orientation", 0.0)),
                 "support": sorted(phase.stance)})
             checks.append(check)
-            if on_sample is not None:
-                on_sample(len(checks), check)
             configurations.append(q.copy())
             phase_of.append(index)
             support.append(tuple(sorted(phase.stance)))
     motion = SampledMotion(name, robot, np.array(configurations), np.array(phase_of),
-                           [p.name for p in phases], support,
-                           {"generator": "whole-body QP", "margin": margin})
+                           [p.name for p in phases], support)
     return WholeBodyMotion(motion, checks, margin, list(phases))
 
 
@@ -303,77 +259,65 @@ def current_soles(robot: Robot, q: np.ndarray) -> dict[str, pin.SE3]:
     return {side: robot.frame_placement(q, SOLE[side]) for side in SIDES}
 
 
+def recentre_goal(robot: Robot, soles: dict[str, pin.SE3]) -> np.ndarray:
+    """The CoM xy between the feet where the nominal stance has it, turned with the feet."""
+    nominal = current_soles(robot, robot.nominal)
+    offset = robot.center_of_mass(robot.nominal)[:2] - 0.5 * (nominal["r"].translation
+                                                             + nominal["l"].translation)[:2]
+    heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
+    middle = 0.5 * (soles["r"].translation + soles["l"].translation)[:2]
+    return middle + pin.utils.rotate("z", heading)[:2, :2] @ offset
+
+
 def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | None = None,
-                first: str = "left", rear_lift: float = 0.0,
-                ramp_inset: float = 0.008) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """The 5 phases of one step forward starting with the ``first`` foot, from the planted soles
-    ``soles`` ({"r": SE3, "l": SE3}); returns the phases and the soles planted after the step."""
+                first: str = "left", rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
+    """The 5 phases of one step forward, ``first`` foot first, from the planted ``soles`` ({"r": SE3,
+    "l": SE3}), the standing legs' hips on the faithful step's key-point lines (:func:`step_forward_phases`,
+    with its servo speeds and pauses); the phases and the soles planted after the step."""
     gait = gait or GaitParameters()
     swing_side = "l" if str(first).lower() in ("left", "l") else "r"
     stance_side = OTHER[swing_side]
-    key = gait.key_points()
-    mirror = np.array([1.0, -1.0, 1.0]) if swing_side == "r" else np.ones(3)
-    # key points of the left step ("Right" = the stance leg, "Left" = the swing leg); the right
-    # step uses their mirror image (y -> -y, legs swapped)
-    kp = {name: point * mirror for name, point in key.items()}
-
+    table = step_forward_phases(gait, SIDE_NAME[swing_side])
     stance0, swing0 = soles[stance_side], soles[swing_side]
     heading = yaw_of(stance0.rotation)
-    pitch = gait.pitch
-    rotation = lambda s: pelvis_rotation(heading, pitch)  # noqa: E731
+    rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
     forward = stance0.rotation[:, 0]
-    lift = gait.lift_height
-    up = pin.SE3(swing0.rotation, swing0.translation + forward * (gait.xm - gait.xu) + np.array([0, 0, lift]))
+    up = pin.SE3(swing0.rotation,
+                 swing0.translation + forward * (gait.xm - gait.xu) + np.array([0, 0, gait.lift_height]))
     # land |xf| ahead of the stance foot, keeping the feet's lateral spacing
     ahead = float(forward @ (stance0.translation - swing0.translation)) + (gait.xm - gait.xf)
     landed = pin.SE3(swing0.rotation, swing0.translation + forward * ahead)
     beside = float(forward @ (landed.translation - stance0.translation))
     rear_end = pin.SE3(stance0.rotation, stance0.translation + forward * beside)
+    before, after = {stance_side: stance0, swing_side: swing0}, {stance_side: stance0, swing_side: landed}
 
-    def hips(side_points: dict[str, tuple[str, str]], stance: dict[str, pin.SE3]) -> dict[str, Point]:
-        targets = {}
-        for side, (a, b) in side_points.items():
-            sole = stance[SOLE[side]]
-            targets[HIP[side]] = line(hip_target(robot, sole, kp[a]), hip_target(robot, sole, kp[b]))
-        return targets
+    def options(index: int, planted: dict[str, pin.SE3]) -> dict:
+        """Phase ``index``'s hips of the legs standing (on their planted soles) and its timing."""
+        phase = table[index]
+        hips = {HIP[side]: line(hip_target(robot, planted[side], phase.start[side]),
+                                hip_target(robot, planted[side], phase.end[side]))
+                for side in phase.down if side != phase.dragged}
+        return {"hips": hips, "pelvis_rotation": rotation, "divisions": gait.divisions,
+                "speed_rpm": phase.speed_rpm, "pause_s": phase.pause_s}
 
-    both = {SOLE[stance_side]: stance0, SOLE[swing_side]: swing0}
-    names = {"r": "right", "l": "left"}
-    sw, st = names[swing_side], names[stance_side]
-    slow, fast = gait.servo_slow_rpm, gait.servo_fast_rpm
-    n = gait.divisions
-    phases = [
-        com_over_phase(robot, f"shift the hips over the {st} foot", dict(both), stance_side, stance0,
-                       ramp_inset,
-                       hips=hips({stance_side: ("legDownStanding", "legDownMiddleRight"),
-                                  swing_side: ("legDownStanding", "legDownMiddleLeft")}, both),
-                       pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0),
+    sw, st = SIDE_NAME[swing_side], SIDE_NAME[stance_side]
+    return [
+        com_over_phase(robot, f"shift the hips over the {st} foot", {SOLE[s]: p for s, p in before.items()},
+                       stance_side, stance0, **options(0, before)),
         BodyPhase(f"lift the {sw} foot", {SOLE[stance_side]: stance0},
-                  swing={SOLE[swing_side]: sole_path(swing0, up)},
-                  hips=hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both),
-                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast),
+                  swing={SOLE[swing_side]: sole_path(swing0, up)}, **options(1, before)),
         BodyPhase(f"lower the {sw} foot ahead", {SOLE[stance_side]: stance0},
-                  swing={SOLE[swing_side]: sole_path(up, landed)},
-                  hips=hips({stance_side: ("legDownMiddleRight", "legDownMiddleRight")}, both),
-                  pelvis_rotation=rotation, divisions=n, speed_rpm=fast, pause_s=2.0),
-    ]
-    after_landing = {SOLE[stance_side]: stance0, SOLE[swing_side]: landed}
-    phases.append(com_over_phase(
-        robot, f"move the hips over the front ({sw}) foot", dict(after_landing), swing_side, landed,
-        ramp_inset,
-        hips=hips({stance_side: ("legDownMiddleRight", "legDownBackwardRight"),
-                   swing_side: ("legDownForwardLeft", "legDownStanding")}, after_landing),
-        pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=2.0))
-    phases.append(BodyPhase(
-        f"bring the rear ({st}) foot beside the front one", {SOLE[swing_side]: landed},
-        swing={SOLE[stance_side]: sole_path(stance0, rear_end, lift=rear_lift)},
-        hips=hips({swing_side: ("legDownStanding", "legDownStanding")}, after_landing),
-        pelvis_rotation=rotation, divisions=n, speed_rpm=slow, pause_s=1.0))
-    return phases, {stance_side: rear_end, swing_side: landed}
+                  swing={SOLE[swing_side]: sole_path(up, landed)}, **options(2, before)),
+        com_over_phase(robot, f"move the hips over the front ({sw}) foot",
+                       {SOLE[s]: p for s, p in after.items()}, swing_side, landed, **options(3, after)),
+        BodyPhase(f"bring the rear ({st}) foot beside the front one", {SOLE[swing_side]: landed},
+                  swing={SOLE[stance_side]: sole_path(stance0, rear_end, lift=rear_lift)},
+                  **options(4, after)),
+    ], {stance_side: rear_end, swing_side: landed}
 
 
 def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) -> np.ndarray:
-    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y): a 2-variable QP;
+    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y);
     InvalidConfigurationError when the shrunk polygon is empty."""
     try:
         return polygon.nearest_inside(point, margin)
@@ -382,18 +326,13 @@ def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) ->
 
 
 class ComRamp:
-    """CoM target s -> start + s (goal - start): ``start`` is the CoM when the phase begins and
-    ``goal`` the nearest point of ``polygon`` shrunk by ``inset`` (or ``goal`` if given).
-
-    The engine binds ``start`` (and the goal) from the configuration at the phase start.
-    """
+    """CoM target s -> start + s (goal - start). The engine binds ``start`` to the CoM at the phase
+    start and, without a ``goal``, the goal to the nearest point of ``polygon`` shrunk by ``inset``;
+    ``footprint``: the soles ``polygon`` is made of, so the engine can cut it (``BodyPhase.clip_x``)."""
 
     def __init__(self, polygon: SupportPolygon | None = None, inset: float = 0.0,
                  goal: np.ndarray | None = None, footprint: dict[str, pin.SE3] | None = None):
-        self.polygon = polygon
-        self.footprint = footprint
-        """The soles (world poses) ``polygon`` is made of, so the engine can cut it (BodyPhase.clip_x)."""
-        self.inset = float(inset)
+        self.polygon, self.footprint, self.inset = polygon, footprint, float(inset)
         self.goal = None if goal is None else np.asarray(goal, dtype=float)[:2]
         self.start: np.ndarray | None = None
 
@@ -409,9 +348,9 @@ class ComRamp:
 
 
 def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: str, placement: pin.SE3,
-                   inset: float, **options) -> BodyPhase:
-    """A phase that ramps the CoM into the ``side`` sole's polygon (that sole at ``placement``) shrunk
-    by ``inset`` and ends supported by that sole alone; ``options``: the other BodyPhase fields."""
+                   inset: float = RAMP_INSET, **options) -> BodyPhase:
+    """A phase ramping the CoM ``inset`` into the ``side`` sole at ``placement``, ending supported by it
+    alone; ``options``: the other BodyPhase fields."""
     footprint = {SOLE[side]: placement}
     return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, footprint), inset, footprint=footprint),
                      end_support=(SOLE[side],), **options)
@@ -421,6 +360,6 @@ def step_forward_wholebody(robot: Robot, gait: GaitParameters | None = None, fir
                            margin: float = 0.005, q0: np.ndarray | None = None, rear_lift: float = 0.0,
                            backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
     """One step forward (``first`` foot lifted first) solved sample by sample by the QP layer."""
-    q = (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
+    q = start_q(robot, q0)
     phases, _ = step_phases(robot, current_soles(robot, q), gait, first, rear_lift)
     return solve_phases(robot, q, phases, margin, backend, name=f"step_forward_{first}_wholebody")
