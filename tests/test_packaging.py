@@ -4,6 +4,8 @@ extras are ranges (no ``==``), each peer is an extra and ``all`` holds every one
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -70,3 +72,35 @@ def test_each_peer_is_an_extra_outside_the_core_and_all_holds_every_extra():
     assert canonicalize_name(everything.name) == "wbik"
     assert everything.extras == set(extras) - {"all", "dev"}
     assert "all" in (ROOT / "scripts" / "setup.sh").read_text()  # the README's set-up installs them all
+
+
+HEAVY_ON_FIRST_USE = ("placo", "pink", "mink", "mujoco", "eaik", "ik_geo", "pytracik", "PyKDL", "qpsolvers",
+                      "daqp", "osqp", "proxsuite", "quadprog", "matplotlib", "meshcat", "scipy", "yaml")
+"""What ``import wbik`` and ``wbik --help`` leave for the first call that needs it: every peer, every QP
+backend, plotting, the viewer, SciPy and YAML."""
+
+
+def _imported_by(code: str) -> set[str]:
+    """The top-level packages a fresh interpreter holds after running ``code``."""
+    shown = "import sys; print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))"
+    done = subprocess.run([sys.executable, "-c", f"{code}\n{shown}"], capture_output=True, text=True,
+                          check=True, timeout=120)
+    return set(done.stdout.split())
+
+
+def test_import_wbik_and_its_help_import_no_peer_backend_plotting_or_viewer():
+    loaded = _imported_by("import wbik")
+    assert {"wbik", "numpy", "pinocchio"} <= loaded  # (the check sees what is imported)
+    assert loaded.isdisjoint(HEAVY_ON_FIRST_USE), sorted(loaded & set(HEAVY_ON_FIRST_USE))
+    helped = _imported_by("import contextlib, io\nfrom wbik.cli import main\n"
+                          "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
+                          "    main(['--help'])")
+    assert helped.isdisjoint(HEAVY_ON_FIRST_USE), sorted(helped & set(HEAVY_ON_FIRST_USE))
+
+
+def test_the_first_qp_solve_imports_its_backend_where_it_is_needed():
+    loaded = _imported_by("import wbik\nfrom wbik.qp import IKProblem, PositionTask\n"
+                          "robot = wbik.load('ur5')\n"
+                          "problem = IKProblem(robot.model, [PositionTask('tool0', [0.4, 0.1, 0.4])])\n"
+                          "problem.solve(robot.nominal)")
+    assert "daqp" in loaded and "qpsolvers" not in loaded  # DAQP is called directly

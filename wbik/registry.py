@@ -30,7 +30,6 @@ from collections.abc import Callable
 from collections.abc import Iterable
 from collections.abc import Iterator
 from contextlib import contextmanager
-from importlib import metadata
 from types import ModuleType
 from typing import Generic
 from typing import Protocol
@@ -248,6 +247,8 @@ def plugin_modules(group: str | None) -> list[str]:
     applications that plug into a registry (see the module docstring)."""
     if group is None:
         return []
+    from importlib import metadata  # on a registry's first use: kept out of import wbik
+
     found = sorted(metadata.entry_points(group=group), key=lambda entry: (entry.name, entry.value))
     return [entry.value.split(":")[0] for entry in found]
 

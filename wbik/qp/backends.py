@@ -10,15 +10,17 @@ from __future__ import annotations
 
 import contextlib
 import warnings
+from typing import TYPE_CHECKING
 
 import numpy as np
-import qpsolvers
-from scipy import sparse
 
 from wbik.errors import MissingDependencyError
 from wbik.errors import NoQPSolutionError
 from wbik.kernels.twins import chosen
 from wbik.kernels.twins import compiled_twin
+
+if TYPE_CHECKING:
+    import qpsolvers
 
 _STACK_ROWS = compiled_twin("qp_rows", "stack_rows")
 _TIGHTEN_SLICE = compiled_twin("qp_rows", "tighten_slice")
@@ -43,15 +45,29 @@ DAQP_EXIT_FLAGS = {1: "optimal", 2: "soft optimal", -1: "infeasible", -2: "cycli
 """DAQP's exit flags (> 0: solved)."""
 
 
+def _qpsolvers():
+    """qpsolvers, imported on first use (it imports every backend it finds: a third of a second)."""
+    import qpsolvers
+
+    return qpsolvers
+
+
 def available() -> list[str]:
     """Backends installed here that qpsolvers can drive with dense matrices."""
-    return sorted(name for name in qpsolvers.available_solvers if name in BACKEND_OPTIONS)
+    return sorted(name for name in _qpsolvers().available_solvers if name in BACKEND_OPTIONS)
 
 
 def resolve(name: str) -> str:
     """A backend name ("fastest" and "default" allowed) checked against what is installed."""
     resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
-    if resolved not in qpsolvers.available_solvers:
+    if resolved == "daqp":  # called directly (below): qpsolvers is not needed for it
+        try:
+            import daqp  # noqa: F401
+        except ImportError:
+            pass
+        else:
+            return resolved
+    if resolved not in _qpsolvers().available_solvers:
         raise BackendUnavailableError(
             f"QP backend {name!r} is not installed; available here: {', '.join(available())}. "
             f"Install it with pip (e.g. 'pip install {resolved}') or pick one of those")
@@ -65,13 +81,14 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
     if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
-        problem = qpsolvers.Problem(sparse.csc_matrix(H), c, _csc(G), h, _csc(A), b, lb, ub)
+        problem = _qpsolvers().Problem(_csc(H), c, _csc(G), h, _csc(A), b, lb, ub)
         return _found_solution(backend, problem, quiet=True).x
-    return _found_solution(backend, qpsolvers.Problem(H, c, G, h, A, b, lb, ub), quiet=False).x
+    return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=False).x
 
 
 def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qpsolvers.Solution:
     """qpsolvers' solution with the backend's ``BACKEND_OPTIONS`` (warnings silenced when ``quiet``)."""
+    qpsolvers = _qpsolvers()
     try:
         with warnings.catch_warnings(action="ignore") if quiet else contextlib.nullcontext():
             solution = qpsolvers.solve_problem(problem, solver=backend, **BACKEND_OPTIONS.get(backend, {}))
@@ -86,7 +103,7 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
                      A: np.ndarray | None, b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), for the
     diagnoses of a failed solve; NoQPSolutionError when there is none."""
-    solution = _found_solution(backend, qpsolvers.Problem(H, c, G, h, A, b), quiet=True)
+    solution = _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
     # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
     # contradictory ones included, and reports an optimum 5 cm off them)
@@ -339,6 +356,8 @@ def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
 
 
 def _csc(matrix: np.ndarray | None):
+    from scipy import sparse
+
     return None if matrix is None else sparse.csc_matrix(matrix)
 
 

@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from dataclasses import field
 
 import numpy as np
-from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -245,6 +244,8 @@ class _Hierarchy:
                 gradient += weighted.T @ (scale[:, 0] * task.gain * error)
                 kept_eq.append(weighted)
             count = sum(len(b) for b in soft_b)
+            from scipy.linalg import block_diag  # kept out of import wbik
+
             H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
             c = np.concatenate((gradient, np.zeros(count)))
             blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]

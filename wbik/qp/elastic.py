@@ -13,7 +13,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linprog
 
 from wbik.qp.hard_rows import HardRows
 from wbik.qp.hard_rows import group_key
@@ -57,6 +56,8 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
     cost = np.concatenate((np.zeros(nv), np.ones(count)))
     constraints = np.hstack((matrix / scale, -np.eye(count) / scale))
     bounds = [(None, None)] * nv + [(0.0, None)] * count
+    from scipy.optimize import linprog  # on a failed step only: kept out of import wbik
+
     result = linprog(cost, A_ub=constraints, b_ub=upper / scale, bounds=bounds, method="highs")
     if result.status != 0:
         return None

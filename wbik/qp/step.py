@@ -16,7 +16,6 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.linalg import block_diag
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
@@ -260,6 +259,8 @@ class QPStep:
                 if rows is not None:
                     augmented.add(np.hstack((rows, np.zeros((len(bound_rows), count)))), bound_rows, equality)
             augmented.add(np.hstack((jacobian, -np.eye(count))), bound)
+            from scipy.linalg import block_diag  # kept out of import wbik
+
             hessian = block_diag(H, np.diag(weight))
             gradient = np.concatenate((c, np.zeros(count)))
             x = (backends.solve_precise(self.backend, hessian, gradient, augmented, self.hierarchy_slack)

@@ -18,8 +18,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
-from scipy.spatial import QhullError
 
 from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
@@ -88,6 +86,9 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
     spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
     if spread <= tolerance:
         raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
+    from scipy.spatial import ConvexHull  # kept out of import wbik
+    from scipy.spatial import QhullError
+
     try:
         hull = ConvexHull(points)  # 2-D: vertices counter-clockwise
     except QhullError as exc:  # not expected above the width test; never let a raw qhull error out
