@@ -18,12 +18,11 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import MINK_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Robot
 
-INSTALL = "pip install mink==1.3.0"
 _DROPPED = re.compile(r"<(visual|collision|inertial|mimic)\b[^>]*?/>"
                       r"|<(visual|collision|inertial|mimic)\b.*?</\2\s*>", re.DOTALL)
 _DROPPED_BUT_INERTIAL = re.compile(r"<(visual|collision|mimic)\b[^>]*?/>"
@@ -37,15 +36,13 @@ MUJOCO_MASS_EXTENSION = ('<mujoco><compiler fusestatic="false" discardvisual="tr
 kinematics nor in a CoM), bounds that leave a CoM unchanged to 1e-12 m."""
 
 
-def import_mink():
-    """(mink, mujoco), or MissingDependencyError with the install command."""
+def import_mink(what: str = "method 'mink'"):
+    """(mink, mujoco), or MissingDependencyError naming ``what`` needs them and the extra to install."""
     try:
         import mink
         import mujoco
     except ImportError as exc:
-        raise MissingDependencyError(
-            f"MuJoCo's IK (method 'mink') needs mink and MuJoCo ({exc}); install them with: "
-            f"{INSTALL}") from None
+        raise MINK_LIBRARY.error(what, exc) from None
     return mink, mujoco
 
 

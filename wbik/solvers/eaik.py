@@ -17,6 +17,7 @@ from time import perf_counter
 import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
+from wbik.dependencies import EAIK_LIBRARY
 from wbik.options import COUNT
 from wbik.solvers.analytic.closed_form import BranchLibrarySolver
 from wbik.solvers.analytic.eaik_family import EAIKForm
@@ -139,5 +140,6 @@ class EAIKSolver(BranchLibrarySolver):
 
 IK_METHODS = (
     IKMethod("eaik", EAIKSolver,
-             "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0"),
+             "EAIK 1.2.2: closed forms by subproblem decomposition, every branch, nearest to q0",
+             needs=EAIK_LIBRARY),
 )

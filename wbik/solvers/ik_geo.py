@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import IK_GEO_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.robot import Chain
 from wbik.robot import ChainCache
@@ -34,7 +34,6 @@ from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 
-INSTALL = "pip install ik-geo==1.0.3"
 WRIST = (3, 4, 5)
 
 
@@ -69,8 +68,7 @@ def _import_robot():
     try:
         from ik_geo import Robot
     except ImportError as exc:
-        raise MissingDependencyError(
-            f"method 'ik_geo' needs the ik-geo package ({exc}); install it with: {INSTALL}") from None
+        raise IK_GEO_LIBRARY.error("method 'ik_geo'", exc) from None
     return Robot
 
 
@@ -249,5 +247,6 @@ class IKGeoSolver(BranchLibrarySolver):
 
 IK_METHODS = (
     IKMethod("ik_geo", IKGeoSolver,
-             "IK-Geo 1.0.3: 6R closed forms by subproblem decomposition, every branch, nearest to q0"),
+             "IK-Geo 1.0.3: 6R closed forms by subproblem decomposition, every branch, nearest to q0",
+             needs=IK_GEO_LIBRARY),
 )

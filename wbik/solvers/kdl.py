@@ -16,7 +16,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import PYKDL_LIBRARY
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
@@ -26,8 +26,6 @@ from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target
 from wbik.targets import pose_error
 
-INSTALL_HINT = ("PyKDL (orocos KDL's Python binding) is not installed: it is not on PyPI. Install it with "
-                "`sudo apt-get install python3-pykdl`, then `bash scripts/setup.sh` to expose it in the venv")
 FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m, rotation entries)
 
 
@@ -36,7 +34,7 @@ def import_pykdl():
     try:
         import PyKDL
     except ImportError as exc:
-        raise MissingDependencyError(INSTALL_HINT) from exc
+        raise PYKDL_LIBRARY.error("method 'kdl'", exc) from None
     return PyKDL
 
 
@@ -168,7 +166,9 @@ def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:
 
 IK_METHODS = (
     IKMethod("kdl", KDLSolver,
-             "orocos KDL ChainIkSolverPos_NR_JL through PyKDL, one attempt from the seed"),
+             "orocos KDL ChainIkSolverPos_NR_JL through PyKDL, one attempt from the seed",
+             needs=PYKDL_LIBRARY),
     IKMethod("kdl_restarts", KDLRestartsSolver,
-             "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)"),
+             "orocos KDL NR_JL with random restarts until the timeout (MoveIt's way)",
+             needs=PYKDL_LIBRARY),
 )

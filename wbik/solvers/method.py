@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from wbik.dependencies import OptionalDependency
 from wbik.registry import RegistryError
 from wbik.solvers.base import Solver
 
@@ -14,11 +15,19 @@ SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot,
 @dataclass(frozen=True)
 class IKMethod:
     """An IK method: its ``name`` (``solver(name, ...)``, a study's ``method:``), its ``factory``
-    (``factory(robot, chain, **options)``, usually a Solver subclass) and a one-line ``description``."""
+    (``factory(robot, chain, **options)``, usually a Solver subclass), a one-line ``description`` and
+    the optional library it ``needs`` (None: the core install's)."""
 
     name: str
     factory: SolverFactory
     description: str = ""
+    needs: OptionalDependency | None = None
+
+    def missing(self) -> str | None:
+        """Why the method cannot be built here (its optional library is not installed), or None."""
+        if self.needs is None or self.needs.installed():
+            return None
+        return str(self.needs.error(f"method {self.name!r}"))
 
     def __post_init__(self) -> None:
         if not callable(self.factory):

@@ -101,7 +101,10 @@ def solver(method: str, robot: Robot | str, chain: str | None = None, *, base: s
     any model is built: an unknown one is an InvalidOptionError listing the method's options, a value of
     the wrong type an InvalidSettingError.
     """
-    factory = method_factory(method)
+    entry = IK_METHOD_REGISTRY.get(method)
+    if entry.missing():
+        raise entry.needs.error(f"method {method!r}")
+    factory = entry.factory
     source = f"wbik.solver({method!r})"
     schema = option_schema(factory, leading=2, owner=f"method {method!r}")  # robot, chain
     options = schema.check(options, "", Context(source, OPTION_ERRORS))

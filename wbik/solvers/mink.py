@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.qp.backends as backends
+from wbik.dependencies import MINK_LIBRARY
 from wbik.errors import InvalidSettingError
 from wbik.mujoco_model import MuJoCoBody
 from wbik.mujoco_model import import_mink
@@ -309,5 +310,6 @@ class MinkSolver(PeerSolver):
 IK_METHODS = (
     IKMethod("mink", MinkSolver,
              "mink 1.3 on MuJoCo (the same URDF): chain targets as its arm examples; whole bodies with "
-             "frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon"),
+             "frame / CoM / posture tasks, contacts as constraints; no hard CoM polygon",
+             needs=MINK_LIBRARY),
 )

@@ -14,7 +14,7 @@ from dataclasses import field
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import PINK_LIBRARY
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
 from wbik.qp.contacts import PointContact
@@ -214,8 +214,7 @@ class PinkSolver(PeerSolver):
         try:
             import pink  # noqa: F401
         except ImportError as exc:
-            raise MissingDependencyError("Pink is not installed: 'pip install pin-pink==4.4.0' (the dev "
-                                         "extra)") from exc
+            raise PINK_LIBRARY.error("method 'pink'", exc) from None
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 
@@ -245,5 +244,6 @@ class PinkSolver(PeerSolver):
 IK_METHODS = (
     IKMethod("pink", PinkSolver,
              "pin-pink 4.4: chain targets; whole bodies with frame / CoM / posture tasks, contacts as "
-             "constraints; no hard CoM polygon"),
+             "constraints; no hard CoM polygon",
+             needs=PINK_LIBRARY),
 )

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import PLACO_LIBRARY
 from wbik.errors import RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
@@ -47,12 +47,12 @@ from wbik.urdf import fixed_joints_renamed
 from wbik.wholebody.problem import StartedProblem
 
 
-def import_placo():
+def import_placo(what: str = "method 'placo'"):
+    """The placo module, or MissingDependencyError naming ``what`` needs it and the extra to install."""
     try:
         import placo
-    except ImportError as exc:  # pragma: no cover - placo is a pinned dependency
-        raise MissingDependencyError(
-            "PlaCo is not installed: 'pip install placo==0.10.2' (it needs pin==3.8.0 exactly)") from exc
+    except ImportError as exc:
+        raise PLACO_LIBRARY.error(what, exc) from None
     return placo
 
 
@@ -291,5 +291,6 @@ class PlacoSolver(PeerSolver):
 IK_METHODS = (
     IKMethod("placo", PlacoSolver,
              "PlaCo 0.10 KinematicsSolver on the same URDF: chain targets; whole bodies with its tasks, hard "
-             "contacts, hard clockwise CoM polygon, limits"),
+             "contacts, hard clockwise CoM polygon, limits",
+             needs=PLACO_LIBRARY),
 )

@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
+from wbik.dependencies import TRAC_IK_LIBRARY
 from wbik.errors import InvalidSettingError
-from wbik.errors import MissingDependencyError
 from wbik.errors import RobotDescriptionError
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
@@ -27,9 +27,7 @@ def import_pytracik():
     try:
         import pytracik
     except ImportError as exc:
-        raise MissingDependencyError(
-            "pytracik (TRAC-IK's Python binding) is not installed: `.venv/bin/pip install pytracik==0.0.3` "
-            "or `bash scripts/setup.sh`") from exc
+        raise TRAC_IK_LIBRARY.error("method 'trac_ik'", exc) from None
     return pytracik
 
 
@@ -87,5 +85,6 @@ class TracIKSolver(Solver):
 
 IK_METHODS = (
     IKMethod("trac_ik", TracIKSolver,
-             "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently"),
+             "TRAC-IK (pytracik): KDL NR_JL and SQP run concurrently",
+             needs=TRAC_IK_LIBRARY),
 )

@@ -48,7 +48,7 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
     RobotDescriptionError when PlaCo cannot load the humanoid."""
     from wbik.solvers.placo import import_placo
 
-    placo = import_placo()
+    placo = import_placo("the Bioloid's PlaCo walk")
     walker = humanoid(robot)
     facts = robot.require_facts(BioloidFacts, "PlaCo's Bioloid walk")
     parameters = placo.HumanoidParameters()

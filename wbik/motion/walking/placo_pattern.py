@@ -88,7 +88,7 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
                iterations: int = 3) -> PlacoWalk:
     """Plan the walk through ``footsteps`` with PlaCo's generator and follow it with its IK every ``dt``."""
-    placo = import_placo()
+    placo = import_placo("PlaCo's walk pattern generator")
     if setting not in SETTINGS:
         raise ValueError(f"setting must be one of {SETTINGS}, got {setting!r}")
     timing = timing or Timing()

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import EAIK_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
 from wbik.robot import Chain
@@ -28,16 +28,13 @@ from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.structure import eaik_vectors
 from wbik.solvers.analytic.structure import poe_fk
 
-INSTALL = "pip install EAIK==1.2.2"
-
 
 def import_eaik():
     """EAIK's HPRobot class, or MissingDependencyError with the install command."""
     try:
         from eaik.IK_HP import HPRobot
     except ImportError as exc:
-        raise MissingDependencyError(
-            f"method 'eaik' needs the EAIK package ({exc}); install it with: {INSTALL}") from None
+        raise EAIK_LIBRARY.error("method 'eaik' (and the analytic method's EAIK family)", exc) from None
     return HPRobot
 
 

@@ -1,0 +1,54 @@
+"""The optional libraries behind some methods, and the one message a missing one gets.
+
+wbik's core install holds what its core imports; each peer (PlaCo, Pink, mink, EAIK, IK-Geo,
+TRAC-IK) is an extra of the package (``pip install 'wbik[placo]'``; ``wbik[all]`` holds them all),
+and orocos KDL's binding comes from Debian. A method names the :class:`OptionalDependency` it needs
+(:class:`wbik.IKMethod`'s ``needs``): ``wbik methods`` shows whether it is installed, building the
+method without it raises :class:`~wbik.errors.MissingDependencyError` with :meth:`OptionalDependency.error`'s
+words, and a study reports the method as not applicable with the same words.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib.util import find_spec
+
+from wbik.errors import MissingDependencyError
+
+
+def extra(name: str) -> str:
+    """The command that installs the package's extra ``name``."""
+    return f"pip install 'wbik[{name}]' (in a clone, bash scripts/setup.sh installs every extra)"
+
+
+@dataclass(frozen=True)
+class OptionalDependency:
+    """An optional library: what it is called (``needs``), the modules it provides and how to install it."""
+
+    needs: str
+    modules: tuple[str, ...]
+    install: str
+
+    def installed(self) -> bool:
+        """Whether every module can be found (without importing it: listing methods stays quick)."""
+        try:
+            return all(find_spec(module) is not None for module in self.modules)
+        except (ImportError, ValueError):  # a parent package missing, or a broken one
+            return False
+
+    def error(self, what: str, cause: BaseException | None = None) -> MissingDependencyError:
+        """The error of ``what`` (e.g. "method 'placo'") without it; ``cause`` is the failed import."""
+        found = "" if cause is None else f" ({cause})"
+        return MissingDependencyError(f"{what} needs {self.needs}, which is not installed here{found}; "
+                                      f"install it with: {self.install}")
+
+
+PLACO_LIBRARY = OptionalDependency("PlaCo (0.10, which needs pin 3.8.0 exactly)", ("placo",), extra("placo"))
+PINK_LIBRARY = OptionalDependency("Pink", ("pink",), extra("pink"))
+MINK_LIBRARY = OptionalDependency("mink and MuJoCo", ("mink", "mujoco"), extra("mink"))
+EAIK_LIBRARY = OptionalDependency("EAIK", ("eaik",), extra("eaik"))
+IK_GEO_LIBRARY = OptionalDependency("ik-geo", ("ik_geo",), extra("ikgeo"))
+TRAC_IK_LIBRARY = OptionalDependency("pytracik (TRAC-IK's Python binding)", ("pytracik",), extra("tracik"))
+PYKDL_LIBRARY = OptionalDependency(
+    "PyKDL (orocos KDL's Python binding, not on PyPI)", ("PyKDL",),
+    "sudo apt-get install python3-pykdl, then bash scripts/setup.sh to expose it in the venv")
