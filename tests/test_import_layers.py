@@ -2,8 +2,8 @@
 
 Layers, from the bottom (see docs/architecture.md):
 
-- core (``LAYERS``, from the bottom): foundations (errors, validation, schema, options, geometry, files,
-  targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models, collision,
+- core (``LAYERS``, from the bottom): foundations (errors, dependencies, validation, schema, options,
+  geometry, files, targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models, collision,
   mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz, expectations,
   scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
@@ -35,8 +35,8 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
-CORE = ("wbik.errors", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry", "wbik.files",
-        "wbik.targets", "wbik.registry", "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data",
+CORE = ("wbik.errors", "wbik.dependencies", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry",
+        "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data",
         "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision",
         "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf",
         "wbik.kinematic_tree", "wbik.mujoco_model")
@@ -44,8 +44,8 @@ ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands", "wbik.catalog")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
-    ("wbik.errors", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry", "wbik.files",
-     "wbik.targets", "wbik.registry", "wbik.data", "wbik.kernels"),
+    ("wbik.errors", "wbik.dependencies", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry",
+     "wbik.files", "wbik.targets", "wbik.registry", "wbik.data", "wbik.kernels"),
     ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision",
      "wbik.mujoco_model"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),

@@ -65,6 +65,6 @@ def test_a_study_reports_the_method_not_applicable_with_the_same_words(monkeypat
     _hide(monkeypatch, "placo")
     study = study_from_dict({"name": "extras", "robot": "ur5", "chain": "arm", "target": "pose", "poses": 2,
                              "timeout_s": 0.05, "methods": ["analytic", "placo"]})
-    output = run_study(study, tmp_path / "out", backend="sequential", progress=False, log=lambda message: None)
+    output = run_study(study, tmp_path / "out", backend="sequential", progress=False, log=lambda _: None)
     reasons = json.loads((output / "ur5_arm_pose" / "not_applicable.json").read_text())
     assert reasons == {"placo": IK_METHOD_REGISTRY.get("placo").missing()}
