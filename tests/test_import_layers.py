@@ -3,8 +3,8 @@
 Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, dependencies, validation, schema, options,
-  geometry, files, targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models, collision,
-  mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz, expectations,
+  geometry, files, targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models,
+  collision, mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz, expectations,
   scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
   the core;
@@ -36,8 +36,8 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
 CORE = ("wbik.errors", "wbik.dependencies", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry",
-        "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models", "wbik.data",
-        "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision",
+        "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models",
+        "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision",
         "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf",
         "wbik.kinematic_tree", "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
