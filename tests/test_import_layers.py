@@ -4,8 +4,8 @@ Layers, from the bottom (see docs/architecture.md):
 
 - core (``LAYERS``, from the bottom): foundations (errors, dependencies, validation, schema, options,
   geometry, files, targets, registry, data, kernels); kinematics (dh, urdf, kinematic_tree, robot, models,
-  collision, mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz, expectations,
-  scenario_schema, scenarios);
+  collision, mujoco_model); solving (solvers, qp, wholebody); uses of solving (motion, study, viz,
+  expectations, scenario_schema, scenarios);
 - robot packages: ``wbik.robot_packages`` (each robot's model, URDF and closed-form binding), which use
   the core;
 - applications: ``wbik.apps`` (Golem-III, Pincher, Bioloid, riveting), which use the core and the
