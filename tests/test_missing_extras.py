@@ -68,3 +68,10 @@ def test_a_study_reports_the_method_not_applicable_with_the_same_words(monkeypat
     output = run_study(study, tmp_path / "out", backend="sequential", progress=False, log=lambda _: None)
     reasons = json.loads((output / "ur5_arm_pose" / "not_applicable.json").read_text())
     assert reasons == {"placo": IK_METHOD_REGISTRY.get("placo").missing()}
+
+
+def test_methods_installed_leaves_out_a_missing_one(monkeypatch):
+    everything = wbik.methods()
+    assert wbik.methods(installed=True) == everything  # every library is installed here
+    _hide(monkeypatch, "mink")
+    assert set(wbik.methods(installed=True)) == set(everything) - {"mink"}

@@ -65,9 +65,13 @@ def register(name: str, factory: SolverFactory | str, description: str = "") -> 
                       replace=IK_METHOD_REGISTRY.added_at_run_time(name) is not None)
 
 
-def methods() -> dict[str, str]:
-    """Registered method names with a one-line description."""
-    return IK_METHOD_REGISTRY.descriptions()
+def methods(installed: bool = False) -> dict[str, str]:
+    """Registered method names with a one-line description; with ``installed``, only those whose optional
+    library is installed here (``wbik methods`` says what the others need)."""
+    found = IK_METHOD_REGISTRY.descriptions()
+    if not installed:
+        return found
+    return {name: text for name, text in found.items() if IK_METHOD_REGISTRY.get(name).missing() is None}
 
 
 def budget_options(method: str, timeout_s: float, options: dict,
