@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PEER_DISTRIBUTIONS = ("placo", "mink", "mujoco", "pin-pink", "eaik", "ik-geo", "pytracik", "osqp", "proxsuite",
-                      "quadprog", "dask")
+PEER_DISTRIBUTIONS = ("placo", "mink", "mujoco", "pin-pink", "eaik", "ik-geo", "pytracik", "osqp",
+                      "proxsuite", "quadprog", "dask")
 CORE_DISTRIBUTIONS = ("pin", "numpy", "scipy", "qpsolvers", "daqp", "example-robot-data", "meshcat",
                       "matplotlib", "pyyaml", "tqdm", "wbik")
 
@@ -32,8 +32,8 @@ def core(tmp_path_factory) -> Path:
     _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", work / "dist", ROOT], work)
     wheel = next((work / "dist").glob("wbik-*.whl"))
     _run([sys.executable, "-m", "venv", work / "venv"], work)
-    _run([work / "venv/bin/python", "-m", "pip", "install", "-q", "--no-compile", "-c", ROOT / "requirements.lock",
-          wheel], work)
+    _run([work / "venv/bin/python", "-m", "pip", "install", "-q", "--no-compile", "-c",
+          ROOT / "requirements.lock", wheel], work)
     return work
 
 
@@ -54,8 +54,8 @@ def test_the_readmes_ten_lines_run_with_the_methods_installed(core):
     lines = block.group(1)
     loop = re.search(r"for method in (\(.*?\)):", lines)
     assert loop is not None and '"trac_ik"' in loop.group(1)  # the README names a method of an extra
-    runnable = lines.replace(loop.group(0),
-                             f"for method in [m for m in {loop.group(1)} if m in wbik.methods(installed=True)]:")
+    installed = f"[m for m in {loop.group(1)} if m in wbik.methods(installed=True)]"
+    runnable = lines.replace(loop.group(0), f"for method in {installed}:")
     (core / "ten_lines.py").write_text(runnable)
     printed = _run([core / "venv/bin/python", "ten_lines.py"], core).stdout.splitlines()
     assert [line.split()[:2] for line in printed] == [["analytic", "True"], ["bounded_lm", "True"]]
@@ -63,11 +63,11 @@ def test_the_readmes_ten_lines_run_with_the_methods_installed(core):
 
 def test_wbik_solve_and_a_missing_peer(core):
     wbik = core / "venv/bin/wbik"
-    answer = json.loads(_run([wbik, "solve", "ur5", "--chain", "arm", "--method", "bounded_lm", "--xyz", "0.4",
-                              "0.2", "0.3", "--json"], core).stdout)
+    target = ["--xyz", "0.4", "0.2", "0.3"]
+    solved = _run([wbik, "solve", "ur5", "--chain", "arm", "--method", "bounded_lm", *target, "--json"], core)
+    answer = json.loads(solved.stdout)
     assert answer["success"] and answer["position_error"] < 1e-6
-    refused = _run([wbik, "solve", "ur5", "--chain", "arm", "--method", "placo", "--xyz", "0.4", "0.2", "0.3"],
-                   core, check=False)
+    refused = _run([wbik, "solve", "ur5", "--chain", "arm", "--method", "placo", *target], core, check=False)
     assert refused.returncode != 0 and "pip install 'wbik[placo]'" in refused.stderr, refused.stderr
     listed = _run([wbik, "methods"], core).stdout
     for extra in ("placo", "pink", "mink", "eaik", "ikgeo", "tracik"):
