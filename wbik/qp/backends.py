@@ -70,8 +70,8 @@ def resolve(name: str) -> str:
     if resolved not in _qpsolvers().available_solvers:
         raise BackendUnavailableError(
             f"QP backend {name!r} is not installed; available here: {', '.join(available())}. "
-            f"Install it ('pip install {resolved}'; pip install 'wbik[backends]' installs osqp, proxsuite and "
-            f"quadprog) or pick one of those")
+            f"Install it ('pip install {resolved}'; pip install 'wbik[backends]' installs osqp, proxsuite "
+            f"and quadprog) or pick one of those")
     return resolved
 
 
