@@ -31,7 +31,7 @@ ZERO_FLOOR = 1e-18
 """Where exact zeros are drawn on logarithmic error axes."""
 
 
-def _save(figure, path: Path) -> Path:
+def save(figure, path: Path) -> Path:
     def write(handle) -> None:
         figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
 
@@ -88,7 +88,7 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("% solved (95 % interval)")
     axes.set_title(f"{title}: poses solved")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
@@ -110,7 +110,7 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("throughput (poses/s, solve_many over the case)")
     axes.set_title(f"{title}: throughput of batched methods")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
@@ -142,7 +142,7 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
     figure.suptitle(f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})", fontsize=10,
                     y=1.04)
     figure.tight_layout()
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -179,7 +179,7 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
     figure.tight_layout()
     if handles:
         solved.legend(handles, names, fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
-    return _save(figure, path)
+    return save(figure, path)
 
 
 BUDGET_STYLES = {"iterations": "-", "wall": "--", "none": ":"}
@@ -214,7 +214,7 @@ def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -
         axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
         poses = next(iter(curves.values())).poses
         axes.set_title(f"{title}: success versus budget ({poses} poses per point)")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
@@ -232,7 +232,7 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)
     figure.suptitle(f"{title} (solved poses; exact zeros drawn at {ZERO_FLOOR:g})", fontsize=10)
     figure.tight_layout()
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -260,7 +260,7 @@ def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Pa
     axes.set_xlim(0.4, len(labels) + 0.6)
     axes.set_ylabel("time (ms)")
     axes.set_title(f"{title}: time per pose (green solved, red not solved)")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -279,4 +279,4 @@ def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> P
     axes.set_xlabel("time (ms)")
     axes.set_ylabel("poses")
     axes.set_title(f"{title}: distribution of time per pose")
-    return _save(figure, path)
+    return save(figure, path)

@@ -48,6 +48,14 @@ class PoseSet:
                        data["rotations"] if "rotations" in data else None, data["q0"])
 
 
+def saved_extras(path: Path, prefix: str) -> dict[str, np.ndarray]:
+    """The arrays saved beside a case's poses under names ``prefix<name>``, by name ({} if none)."""
+    if not path.is_file():
+        return {}
+    with np.load(path, allow_pickle=False) as data:
+        return {key[len(prefix):]: data[key] for key in data.files if key.startswith(prefix)}
+
+
 def sample_joints(chain: Chain, count: int, seed: int) -> np.ndarray:
     """(count, n) joint vectors uniform inside the chain's limits."""
     return chain.random(np.random.default_rng(seed), count)

@@ -215,12 +215,9 @@ def coverage_blocks(summaries: dict[str, dict], parameters: dict, form: str, res
 
 def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path | None:
     """Step histograms of |q - q0| of every method's solved answers (one figure, shared bins)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from wbik.files import atomic_write_bytes
+    import wbik.study.figures as figures
 
     values = {}
     for label, rows in rows_by_method.items():
@@ -238,11 +235,4 @@ def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) 
     axes.set_ylabel("solved answers")
     axes.set_title(f"{title}: joint distance from the start")
     axes.legend(fontsize=8)
-
-    def write(handle) -> None:
-        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, write)
-    plt.close(figure)
-    return path
+    return figures.save(figure, path)

@@ -254,16 +254,16 @@ def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.nda
         for axis in [*error_axes(baseline), "time"]:
             if axis != "time" and f"err_{axis}" not in rows:
                 continue
-            a = significance_samples(baseline, axis)
-            b = significance_samples(rows, axis)
-            statistic, pvalue = mann_whitney(a, b)
-            a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-            table.append({
-                "method": label, "baseline": baseline_label, "axis": axis,
-                "n_baseline": int(a.size), "n_method": int(b.size),
-                "median_baseline": float(np.median(a)) if a.size else math.nan,
-                "median_method": float(np.median(b)) if b.size else math.nan,
-                "U": statistic, "p_value": pvalue,
-                "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False,
-            })
+            table.append(mann_whitney_row(label, baseline_label, axis, significance_samples(baseline, axis),
+                                          significance_samples(rows, axis)))
     return with_holm(table)
+
+
+def mann_whitney_row(method: str, baseline: str, axis: str, first: np.ndarray, second: np.ndarray) -> dict:
+    """The row of a Mann-Whitney U test of ``method``'s sample ``second`` against the baseline's ``first``."""
+    statistic, pvalue = mann_whitney(first, second)
+    a, b = first[np.isfinite(first)], second[np.isfinite(second)]
+    return {"method": method, "baseline": baseline, "axis": axis, "n_baseline": int(a.size),
+            "n_method": int(b.size), "median_baseline": float(np.median(a)) if a.size else math.nan,
+            "median_method": float(np.median(b)) if b.size else math.nan, "U": statistic, "p_value": pvalue,
+            "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False}

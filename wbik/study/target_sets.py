@@ -39,6 +39,7 @@ from wbik.study.context import chain_of
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import poses_of_joints
 from wbik.study.sampling import sample_joints
+from wbik.study.sampling import saved_extras
 from wbik.study.solution_coverage import COVERAGE_PARAMETERS
 from wbik.study.solution_coverage import closed_form_of
 from wbik.study.solution_coverage import coverage_blocks
@@ -95,13 +96,9 @@ def _plain(value):
 
 def read_drawing(path: Path) -> tuple[dict[str, np.ndarray], dict]:
     """(extras, facts) saved with a case's poses ({}, {} for poses of another kind)."""
-    if not path.is_file():
-        return {}, {}
-    with np.load(path, allow_pickle=False) as data:
-        extras = {key[len("drawn_"):]: data[key] for key in data.files
-                  if key.startswith("drawn_") and key != "drawn_facts"}
-        facts = json.loads(str(data["drawn_facts"])) if "drawn_facts" in data.files else {}
-    return extras, facts
+    extras = saved_extras(path, "drawn_")
+    facts = extras.pop("facts", None)
+    return extras, {} if facts is None else json.loads(str(facts))
 
 
 def target_stream(seed: int, name: str, index: int) -> np.random.Generator:
