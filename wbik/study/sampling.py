@@ -1,10 +1,6 @@
-"""The poses of a study: FK of random joint vectors inside the limits, so every pose has a solution.
-
-Joint vectors are drawn uniformly in [lower, upper] by ``numpy.random.default_rng(seed)``; they
-depend on the seed and the chain only, so a pose study and a position-only study with the same
-seed share the same positions, and pose i does not depend on how many poses
-are drawn. Start configurations q0 come from a second stream, ``default_rng([seed, 1])``.
-"""
+"""The poses of a study: FK of joint vectors uniform inside the limits (``default_rng(seed)``: pose i
+depends on the seed and the chain only, so pose and position studies of a seed share positions), so
+every pose has a solution; start configurations from ``default_rng([seed, 1])``."""
 
 from __future__ import annotations
 
