@@ -1,17 +1,6 @@
-"""The study's figures, drawn with matplotlib's Agg backend (no display needed).
-
-- bars of the share of poses solved per method, with their 95 % (Wilson) intervals;
-- box plots of |error| per axis over solved poses (log scale; exact zeros drawn at a floor), and
-  histograms of log10 |error| per axis and method;
-- box plots of time per method, solved and unsolved poses side by side (log scale);
-- a histogram of time per method (log bins);
-- time ECDFs per method: the share of calls that returned within t, and the share of poses solved
-  within t;
-- success versus budget per method, with 95 % bands (:mod:`wbik.study.budget_curves`);
-- the throughput of the methods with a batched path (poses/s of solve_many over the case).
-
-A method has the same colour in every figure of a case (:func:`colours`).
-"""
+"""The study's figures, drawn with matplotlib's Agg backend: the share solved with its intervals, |error| per
+axis (box plots and histograms), time (box plots, histogram, ECDFs), success versus budget, and the throughput
+of batched methods. A method has the same colour in every figure of a case (:func:`colours`)."""
 
 from __future__ import annotations
 
@@ -32,10 +21,9 @@ ZERO_FLOOR = 1e-18
 
 
 def save(figure, path: Path) -> Path:
-    def write(handle) -> None:
-        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
-
-    atomic_write_bytes(path, write)
+    """``figure`` as a PNG at ``path``, laid out once by matplotlib's constrained layout, then closed."""
+    figure.set_layout_engine("constrained")
+    atomic_write_bytes(path, lambda handle: figure.savefig(handle, format="png", dpi=110))
     plt.close(figure)
     return path
 
@@ -136,12 +124,12 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
         subplot.set_ylabel("poses", fontsize=8)
         subplot.tick_params(labelsize=7)
     handles, names = cells[0].get_legend_handles_labels()
-    if handles:
-        figure.legend(handles, names, loc="upper center", ncol=min(6, len(names)), fontsize=7,
-                      bbox_to_anchor=(0.5, 1.0))
-    figure.suptitle(f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})", fontsize=10,
-                    y=1.04)
-    figure.tight_layout()
+    heading = f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})"
+    if handles:  # the heading on the legend above the grid (an outside legend would cover a suptitle)
+        figure.legend(handles, names, loc="outside upper center", ncol=min(6, len(names)), fontsize=7,
+                      title=heading, title_fontsize=10, frameon=False)
+    else:
+        figure.suptitle(heading, fontsize=10)
     return save(figure, path)
 
 
@@ -176,7 +164,6 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
         axes.grid(True, which="both", alpha=0.25)
     handles, names = returned.get_legend_handles_labels()
     figure.suptitle(f"{title}: time per call (ECDF)", fontsize=11)
-    figure.tight_layout()
     if handles:
         solved.legend(handles, names, fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
     return save(figure, path)
@@ -231,7 +218,6 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)
     figure.suptitle(f"{title} (solved poses; exact zeros drawn at {ZERO_FLOOR:g})", fontsize=10)
-    figure.tight_layout()
     return save(figure, path)
 
 

@@ -539,8 +539,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
 
     labels = list(rows_by_method)
     colour = figures.colours(labels)
-    figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2),
-                                            constrained_layout=True)
+    figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2))
     for label in labels:
         success = rows_by_method[label]["point_success"].astype(bool)
         along.plot(np.arange(success.shape[1]), 100.0 * success.mean(axis=0), color=colour[label],
