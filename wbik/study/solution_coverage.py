@@ -1,23 +1,14 @@
-"""Solution coverage: which of a pose's solutions a method finds, measured against a complete closed
-form (:mod:`wbik.study.closed_form_branches`).
+"""Solution coverage: which of a pose's solutions a method finds, against a complete closed form
+(:mod:`wbik.study.closed_form_branches`). Per answer, computed in the worker:
 
-Per answer (columns of a chunk's rows, computed in the worker after the method's own solves):
-
-- ``start_distance``: |q - q0| (Euclidean over the joints, rad and m, no wrap: the motion the answer
-  asks of the robot from its start), NaN without joints;
-- ``same_branch``: 1 when a solved answer equals the closed form's branch nearest the start (what
-  ``analytic`` answers from the same q0: its branches wrapped into the limits nearest q0, the nearest
-  kept) within ``branch_tolerance`` on every joint, revolute joints modulo 2 pi; 0 when it is another
-  solution; -1 when the answer or the closed form did not solve the pose;
-- ``branch``: the index of the closed-form branch (those with a representative inside the limits) the
-  solved answer equals within ``branch_tolerance``, -1 for none; ``branches_in_limits`` how many there are;
-- restarts, on the case's first ``restart_targets`` poses (a random sample: targets are drawn
-  independently): the method solves the pose again from ``restarts`` starts uniform inside the limits,
-  the same starts for every method (seeded by the study's seed and the pose's index);
-  ``restart_solved`` counts the solved restarts, ``restart_branches`` the distinct closed-form branches
-  they equal and ``restart_others`` the distinct solutions among them equal to no branch (at a singular
-  pose two branches coincide, and an answer within the FK check's tolerance may lie farther than
-  ``branch_tolerance`` from the exact one), -1 on poses outside the sample.
+- ``start_distance``: |q - q0| (Euclidean over the joints, no wrap), NaN without joints;
+- ``same_branch``: 1 when a solved answer equals (within ``branch_tolerance``, revolute modulo 2 pi) the
+  branch nearest the start (``analytic``'s answer from the same q0), 0 for another solution, -1 unknown;
+- ``branch``: the index of the in-limit branch the solved answer equals (-1: none);
+  ``branches_in_limits``: how many there are;
+- on the case's first ``restart_targets`` poses, the pose solved again from ``restarts`` starts uniform
+  inside the limits (the same for every method): ``restart_solved``, ``restart_branches`` (distinct
+  branches reached) and ``restart_others`` (distinct solutions equal to no branch); -1 elsewhere.
 """
 
 from __future__ import annotations
@@ -80,8 +71,8 @@ def restart_starts(chain: Chain, seed: int, pose: int, count: int) -> np.ndarray
 def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarray, positions: np.ndarray,
                      rotations: np.ndarray, first_pose: int, seed: int, parameters: dict,
                      solve: Callable) -> dict[str, np.ndarray]:
-    """The coverage columns of a chunk (module docstring). ``columns``: the method's rows of the chunk
-    (``q``, ``success``); ``solve(target, q0)``: the method, for the restarts; ``seed``: the study's."""
+    """The coverage columns of a chunk from the method's rows ``columns``; ``solve(target, q0)``: the
+    method, for the restarts; ``seed``: the study's."""
     import pinocchio as pin
 
     count = len(q0)
@@ -119,8 +110,8 @@ def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarra
 
 def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolute: np.ndarray,
                        tolerance: float) -> tuple[int, int]:
-    """(how many distinct closed-form branches ``solutions`` equal, how many distinct solutions among
-    them equal no branch), equality within ``tolerance`` on every joint (revolute modulo 2 pi)."""
+    """(distinct branches ``solutions`` equal, distinct solutions among them equal to no branch), equal
+    within ``tolerance`` on every joint (revolute modulo 2 pi)."""
     matched: set[int] = set()
     others: list[np.ndarray] = []
     for q in solutions:
