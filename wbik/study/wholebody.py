@@ -20,9 +20,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 import wbik.study.results as store
+from wbik.errors import UnknownChainError
+from wbik.errors import UnsupportedError
 from wbik.schema import Key
 from wbik.schema import Text
 from wbik.schema import join
+from wbik.schema import option_schema
+from wbik.solvers.method import IKMethod
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+from wbik.solvers.method_registry import budget_options
+from wbik.solvers.method_registry import register_method
+from wbik.solvers.method_registry import solver as registered_solver
+from wbik.solvers.result import Tolerances
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
@@ -42,6 +51,12 @@ from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import _frozen
 from wbik.study.context import _robot
 from wbik.study.sampling import PoseSet
+from wbik.study.statistics import mann_whitney_row
+from wbik.study.statistics import summarize as base_summary
+from wbik.wholebody.cases import CASE_REGISTRY
+from wbik.wholebody.cases import CaseSampler
+from wbik.wholebody.cases import register_sampler
+from wbik.wholebody.cases import sample_case
 
 if TYPE_CHECKING:
     from wbik.schema import Context
@@ -74,8 +89,6 @@ STUDY_NOTE = (
 
 def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
     """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
-    from wbik.wholebody.cases import sample_case
-
     cases = [sample_case(scenario, seed, index) for index in range(count)]
     nq = cases[0].q0.size
     q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
@@ -84,20 +97,12 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
 
 def run_time_entries(scenario: str, method: str) -> tuple:
     """The sampler ``scenario`` and the method ``method`` if user code registered them at run time."""
-    from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-    from wbik.wholebody.cases import CASE_REGISTRY
-
     entries = (CASE_REGISTRY.added_at_run_time(scenario), IK_METHOD_REGISTRY.added_at_run_time(method))
     return tuple(entry for entry in entries if entry is not None)
 
 
 def register_run_time_entries(entries: tuple) -> None:
     """Register, in this process, the samplers and methods a task carries (replacing a namesake)."""
-    from wbik.solvers.method import IKMethod
-    from wbik.solvers.method_registry import register_method
-    from wbik.wholebody.cases import CaseSampler
-    from wbik.wholebody.cases import register_sampler
-
     for entry in entries:
         if isinstance(entry, CaseSampler):
             register_sampler(entry, replace=True)
@@ -130,15 +135,11 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
 
     # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         samplers = Text(lambda: tuple(CASE_REGISTRY.entries()))
         return {"scenario": Key(samplers, required=True, doc="the whole-body case sampler")}
 
     def entry(self, item: dict, path: str, ctx: Context) -> dict:
         """A whole-body case entry with its robot and name filled from the sampler."""
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         scenario = item["scenario"]
         robot = CASE_REGISTRY.entries()[scenario].robot
         if item.get("robot", robot) != robot:
@@ -151,13 +152,9 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
 
     def code_roots(self, case: CaseSpec) -> list:
         """The case's sampler."""
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         return [CASE_REGISTRY.get(case.scenario).sample]
 
     def method_option_schema(self, method: str) -> Map:
-        from wbik.schema import option_schema
-
         return option_schema(self.method_factory(method), leading=2)
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
@@ -168,7 +165,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         return sample_poses(case.scenario, study.poses_of(case), study.seed)
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-        from wbik.solvers.method_registry import budget_options
         return budget_options(method, timeout_s, options, problem=True)
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
@@ -180,31 +176,22 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: WholeBodyChunkTask):
         """The method's solver on the robot (UnsupportedError: a chain method given no chain)."""
-        from wbik.errors import UnknownChainError
-        from wbik.errors import UnsupportedError
-        from wbik.solvers.method_registry import solver
-        from wbik.solvers.result import Tolerances
-
         try:
-            return solver(task.method, _robot(task.robot, task.robot_params),
-                          tolerances=Tolerances(*task.tolerances), timeout_s=task.timeout_s, seed=task.seed,
-                          **dict(task.options))
+            return registered_solver(task.method, _robot(task.robot, task.robot_params),
+                                     tolerances=Tolerances(*task.tolerances), timeout_s=task.timeout_s,
+                                     seed=task.seed, **dict(task.options))
         except UnknownChainError as exc:
             raise UnsupportedError(f"method {task.method!r} solves chain targets and the case names no "
                                    f"chain: {exc}") from None
 
     def refusal(self, task: WholeBodyChunkTask, solver) -> str | None:
         """The method's own reason it cannot express the case's first problem."""
-        from wbik.wholebody.cases import sample_case
-
         case = sample_case(task.scenario, task.scenario_seed, task.first_pose)
         return solver.cannot_express(case.problem, task.q0[0])
 
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
         """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
         what was raised."""
-        from wbik.wholebody.cases import sample_case
-
         register_run_time_entries(task.wholebody_entries)
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
@@ -239,8 +226,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
         """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
-        from wbik.wholebody.cases import sample_case
-
         rows_by_method, not_applicable = case_rows(study, case, output)
         robot = _robot(case.robot, _frozen(case.robot_params))
         model = robot.model
@@ -263,8 +248,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         return {**analysis, "margin": margin, "robot": robot}
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         case = analysis["case"]
         summaries, rows_by_method = analysis["summaries"], analysis["rows"]
         margin, tolerances = analysis["margin"], study.tolerances
@@ -333,8 +316,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
 def summarize(rows: dict, margin: float) -> dict:
     """The usual summary (solved, times, err_task / err_contact over solved cases) plus the whole-body
     figures over all calls and over solved cases."""
-    from wbik.study.statistics import summarize as base_summary
-
     summary = base_summary(rows)
     success = rows["success"].astype(bool)
 
@@ -357,8 +338,6 @@ def summarize(rows: dict, margin: float) -> dict:
 
 def com_margin_test(baseline: str, rows_by_method: dict) -> list[dict]:
     """Mann-Whitney U of the CoM margin (all calls) of each method against the baseline."""
-    from wbik.study.statistics import mann_whitney_row
-
     if baseline not in rows_by_method or not np.isfinite(rows_by_method[baseline]["com_margin"]).any():
         return []
     first = rows_by_method[baseline]["com_margin"]
