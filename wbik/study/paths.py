@@ -19,6 +19,7 @@ point k from its answer at the last solved point. Rows: one per path, the per-po
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
 from typing import TYPE_CHECKING
@@ -298,16 +299,11 @@ class PathTargets(ChainTargets):
         watch = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
         form = closed_form_of(chain)
         form = None if isinstance(form, str) else form
-        columns = {
-            "point_success": np.zeros((count, points), dtype=bool),
-            "point_reason": np.full((count, points), "", dtype=object),
-            "point_time_s": np.full((count, points), np.nan),
-            "point_iterations": np.zeros((count, points), dtype=int),
-            "point_position_error": np.full((count, points), np.nan),
-            "point_rotation_error": np.full((count, points), np.nan),
-            "point_branch": np.full((count, points), -1, dtype=int),
-            "point_q": np.full((count, points, n), np.nan),
-        }
+        empty = {"success": False, "reason": "", "time_s": np.nan, "iterations": 0, "position_error": np.nan,
+                 "rotation_error": np.nan, "branch": -1}
+        columns = {f"point_{key}": np.full((count, points), value, dtype=object if key == "reason" else None)
+                   for key, value in empty.items()}
+        columns["point_q"] = np.full((count, points, n), np.nan)
         cpu = np.zeros(count)
         reruns = np.zeros(count, dtype=int)
         for path in range(count):
@@ -434,8 +430,10 @@ def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, br
     :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the answer at the last solved point)."""
     success = points["point_success"]
     count, _ = success.shape
-    metrics = [path_metrics(points["point_q"][i], success[i], jump,
-                            points["point_branch"][i] if branches_known else None) for i in range(count)]
+    metrics = [asdict(path_metrics(points["point_q"][i], success[i], jump,
+                                   points["point_branch"][i] if branches_known else None))
+               for i in range(count)]
+    whole = [m.pop("whole") for m in metrics]
     reasons = []
     last_q = np.full((count, points["point_q"].shape[2]), np.nan)
     for i in range(count):
@@ -445,21 +443,11 @@ def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, br
         solved = np.flatnonzero(success[i])
         if solved.size:
             last_q[i] = points["point_q"][i, solved[-1]]
-    return {
-        "pose": np.arange(first_path, first_path + count),
-        "success": np.array([m.whole for m in metrics], dtype=bool),
-        "reason": np.array(reasons, dtype=str),
-        "time_s": np.nansum(points["point_time_s"], axis=1),
-        "iterations": points["point_iterations"].sum(axis=1),
-        "points_solved": np.array([m.points_solved for m in metrics]),
-        "jumps": np.array([m.jumps for m in metrics], dtype=int),
-        "branch_changes": np.array([m.branch_changes for m in metrics], dtype=int),
-        "branches_known": np.full(count, branches_known),
-        "flips": np.array([m.flips for m in metrics], dtype=int),
-        "largest_step": np.array([m.largest_step for m in metrics]),
-        "length": np.array([m.length for m in metrics]),
-        "q": last_q,
-    }
+    return {"pose": np.arange(first_path, first_path + count), "success": np.array(whole, dtype=bool),
+            "reason": np.array(reasons, dtype=str), "time_s": np.nansum(points["point_time_s"], axis=1),
+            "iterations": points["point_iterations"].sum(axis=1),
+            **{key: np.array([m[key] for m in metrics]) for key in metrics[0]},
+            "branches_known": np.full(count, branches_known), "q": last_q}
 
 
 def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
