@@ -21,19 +21,24 @@ ZERO_FLOOR = 1e-18
 
 
 def save(figure, path: Path) -> Path:
-    """``figure`` as a PNG at ``path``, laid out once by matplotlib's constrained layout, then closed."""
-    figure.set_layout_engine("constrained")
-    atomic_write_bytes(path, lambda handle: figure.savefig(handle, format="png", dpi=110))
+    """``figure`` as a PNG at ``path``, trimmed to what it draws, then closed. Figures have a fixed layout
+    (no layout engine: its passes measure every tick label again); the trim measures once."""
+    def write(handle) -> None:
+        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
+
+    atomic_write_bytes(path, write)
     plt.close(figure)
     return path
 
 
 def _axis_grid(count: int, height: float) -> tuple[plt.Figure, list]:
-    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches, the cells left over
-    hidden: (figure, the ``count`` subplots in order)."""
+    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches with room for rotated
+    tick labels and a title between lines, the cells left over hidden: (figure, the ``count`` subplots)."""
     columns = 3
     lines = -(-count // columns)
-    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False)
+    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False,
+                                gridspec_kw={"hspace": 1.1 / height, "wspace": 0.25,
+                                             "top": 1 - 0.6 / (height * lines)})
     cells = [cell for line in grid for cell in line]
     for cell in cells[count:]:
         cell.set_visible(False)
@@ -124,12 +129,11 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
         subplot.set_ylabel("poses", fontsize=8)
         subplot.tick_params(labelsize=7)
     handles, names = cells[0].get_legend_handles_labels()
-    heading = f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})"
-    if handles:  # the heading on the legend above the grid (an outside legend would cover a suptitle)
-        figure.legend(handles, names, loc="outside upper center", ncol=min(6, len(names)), fontsize=7,
-                      title=heading, title_fontsize=10, frameon=False)
-    else:
-        figure.suptitle(heading, fontsize=10)
+    if handles:
+        figure.legend(handles, names, loc="upper center", ncol=min(6, len(names)), fontsize=7,
+                      bbox_to_anchor=(0.5, 1.0))
+    figure.suptitle(f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})", fontsize=10,
+                    y=1.0 + 0.2 / figure.get_figheight(), va="bottom")
     return save(figure, path)
 
 
@@ -139,7 +143,8 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
     which ends at the method's share solved."""
     labels = list(rows_by_method)
     colour = colours(labels)
-    figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True)
+    figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True,
+                                              gridspec_kw={"top": 0.82})
     for label in labels:
         rows = rows_by_method[label]
         times = rows["time_s"] * 1e3

@@ -527,7 +527,8 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
 
     labels = list(rows_by_method)
     colour = figures.colours(labels)
-    figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2))
+    figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2),
+                                            gridspec_kw={"wspace": 0.3})
     for label in labels:
         success = rows_by_method[label]["point_success"].astype(bool)
         along.plot(np.arange(success.shape[1]), 100.0 * success.mean(axis=0), color=colour[label],
