@@ -22,6 +22,7 @@ import math
 from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -54,6 +55,7 @@ from wbik.study.path_metrics import random_unit
 from wbik.study.path_metrics import slerped_rotations
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import saved_extras
+from wbik.study.statistics import finite_statistic
 from wbik.study.statistics import wilson_interval
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import choice
@@ -456,11 +458,6 @@ def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
     return np.logical_and.reduce(masks) if masks else np.zeros(0, dtype=bool)
 
 
-def _median(values: np.ndarray) -> float:
-    values = values[np.isfinite(values)]
-    return float(np.median(values)) if values.size else math.nan
-
-
 def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
     """One method's figures over a case's paths (summary.csv): whole paths (``solved``, with a Wilson
     interval), % points solved, flips, jumps, branch changes, largest steps, path lengths (of the paths
@@ -469,8 +466,7 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
     count, solved = int(whole.size), int(whole.sum())
     low, high = wilson_interval(solved, count)
     point_success = rows["point_success"].astype(bool)
-    point_ms = rows["point_time_s"][np.isfinite(rows["point_time_s"])] * 1e3
-    path_ms = rows["time_s"] * 1e3
+    point_ms = rows["point_time_s"] * 1e3
     return {
         "poses": count, "solved": solved, "percent_solved": 100.0 * solved / count if count else math.nan,
         "percent_solved_ci_low": 100.0 * low, "percent_solved_ci_high": 100.0 * high,
@@ -479,14 +475,13 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
         "paths_with_flips": int(np.sum(rows["flips"] > 0)), "flips": int(rows["flips"].sum()),
         "jumps": int(rows["jumps"].sum()), "branch_changes": int(rows["branch_changes"].sum()),
         "branches_known": bool(rows["branches_known"].all()) if count else False,
-        "largest_step_max": float(np.nanmax(rows["largest_step"])) if np.isfinite(rows["largest_step"]).any()
-        else math.nan,
-        "largest_step_median": _median(rows["largest_step"]),
-        "length_median": _median(rows["length"][whole]),
-        "length_common_median": _median(rows["length"][common]) if common.size == count else math.nan,
-        "time_point_median_ms": float(np.median(point_ms)) if point_ms.size else math.nan,
-        "time_point_p95_ms": float(np.percentile(point_ms, 95)) if point_ms.size else math.nan,
-        "time_all_median_ms": _median(path_ms),
+        "largest_step_max": finite_statistic(rows["largest_step"], np.max),
+        "largest_step_median": finite_statistic(rows["largest_step"]),
+        "length_median": finite_statistic(rows["length"][whole]),
+        "length_common_median": finite_statistic(rows["length"][common] if common.size == count else []),
+        "time_point_median_ms": finite_statistic(point_ms),
+        "time_point_p95_ms": finite_statistic(point_ms, partial(np.percentile, q=95)),
+        "time_all_median_ms": finite_statistic(rows["time_s"] * 1e3),
         "raised": int(sum(str(reason).startswith("raised") for reason in rows["point_reason"].ravel())),
         "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
     }

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import threading
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -26,6 +27,7 @@ from wbik.study.closed_form_branches import branch_index
 from wbik.study.closed_form_branches import complete_closed_form
 from wbik.study.closed_form_branches import in_limit_branches
 from wbik.study.closed_form_branches import joint_distance
+from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number
@@ -128,7 +130,6 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
     """One method's coverage figures from its rows (NaN where a figure has no samples)."""
     solved = rows["success"].astype(bool)
     distance = rows["start_distance"][solved]
-    distance = distance[np.isfinite(distance)]
     compared = rows["same_branch"] >= 0
     sampled = rows["restart_branches"] >= 0
     available = rows["branches_in_limits"][sampled]
@@ -152,8 +153,8 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "branches_available_mean": float(np.mean(available)) if sampled.any() else math.nan,
         "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
         if sampled.any() else math.nan,
-        "start_distance_median": float(np.median(distance)) if distance.size else math.nan,
-        "start_distance_p95": float(np.percentile(distance, 95)) if distance.size else math.nan,
+        "start_distance_median": finite_statistic(distance),
+        "start_distance_p95": finite_statistic(distance, partial(np.percentile, q=95)),
     }
 
 

@@ -107,6 +107,12 @@ def with_holm(tests: list[dict]) -> list[dict]:
     return adjusted
 
 
+def finite_statistic(values: np.ndarray, function=np.median) -> float:
+    """``function`` of the finite ``values`` as a float; NaN when there are none."""
+    values = np.asarray(values)[np.isfinite(values)]
+    return float(function(values)) if values.size else math.nan
+
+
 def _time_statistics(times_ms: np.ndarray) -> dict[str, float]:
     times_ms = times_ms[np.isfinite(times_ms)]
     if times_ms.size == 0:

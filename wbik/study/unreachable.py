@@ -35,6 +35,7 @@ from wbik.study.closed_form_branches import complete_closed_form
 from wbik.study.closed_form_branches import joint_distance
 from wbik.study.near_singularities import sigma_min
 from wbik.study.sampling import start_configurations
+from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import interval
@@ -228,17 +229,12 @@ def refusal_summary(rows: dict[str, np.ndarray], source: np.ndarray | None) -> d
     unreachable targets, overall and per source."""
     success = rows["success"].astype(bool)
     times = rows["time_s"] * 1e3
-
-    def statistic(mask, function=np.median) -> float:
-        values = times[mask][np.isfinite(times[mask])]
-        return float(function(values)) if values.size else float("nan")
-
     summary = {"targets": int(len(success)), "false_successes": int(success.sum()),
-               "refused": int((~success).sum()), "time_median_ms": statistic(slice(None)),
-               "time_p95_ms": statistic(slice(None), partial(np.percentile, q=95))}
+               "refused": int((~success).sum()), "time_median_ms": finite_statistic(times),
+               "time_p95_ms": finite_statistic(times, partial(np.percentile, q=95))}
     if source is not None and len(source) == len(success):
         for name, code in (("a", OUTSIDE_REACH), ("b", BEYOND_LIMITS)):
-            summary[f"time_median_ms_{name}"] = statistic(source == code)
+            summary[f"time_median_ms_{name}"] = finite_statistic(times[source == code])
     return summary
 
 

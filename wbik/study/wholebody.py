@@ -51,6 +51,7 @@ from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import _frozen
 from wbik.study.context import _robot
 from wbik.study.sampling import PoseSet
+from wbik.study.statistics import finite_statistic
 from wbik.study.statistics import mann_whitney_row
 from wbik.study.statistics import summarize as base_summary
 from wbik.wholebody.cases import CASE_REGISTRY
@@ -319,15 +320,11 @@ def summarize(rows: dict, margin: float) -> dict:
     summary = base_summary(rows)
     success = rows["success"].astype(bool)
 
-    def stat(values, function):
-        values = values[np.isfinite(values)]
-        return float(function(values)) if values.size else math.nan
-
     for group, mask in (("all", np.ones(success.size, dtype=bool)), ("solved", success)):
         for key, statistics in (("task_error", ("median", "max")), ("contact_drift", ("median", "max")),
                                 ("com_margin", ("median", "min")), ("limit_excess", ("max",))):
             for name in statistics:
-                summary[f"{key}_{group}_{name}"] = stat(rows[key][mask], getattr(np, name))
+                summary[f"{key}_{group}_{name}"] = finite_statistic(rows[key][mask], getattr(np, name))
     margins = rows["com_margin"]
     finite = np.isfinite(margins)
     summary["percent_com_margin_kept_all"] = (
