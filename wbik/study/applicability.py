@@ -10,13 +10,9 @@ file and propagates, as does any other error while building; an error while solv
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from wbik.errors import MissingDependencyError
 from wbik.errors import UnsupportedError
-
-if TYPE_CHECKING:
-    from wbik.study.case_kinds import ChunkTask
+from wbik.study.case_kinds import ChunkTask
 
 
 def not_applicable(task: ChunkTask) -> str | None:

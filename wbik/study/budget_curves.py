@@ -17,20 +17,17 @@ import shutil
 from dataclasses import dataclass
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
 from wbik.study.sampling import PoseSet
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import wilson_interval
-
-if TYPE_CHECKING:
-    from wbik.study.case_kinds import ChunkTask
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 FOLDER = "budget_curves"
 RECORD = "budget.json"

@@ -13,13 +13,11 @@ first joint's origin at q_1 = 0 (a revolute first joint does not move it) and s_
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
-if TYPE_CHECKING:
-    from wbik.robot import Chain
+from wbik.robot import Chain
 
 
 @dataclass(frozen=True)

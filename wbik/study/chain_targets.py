@@ -14,7 +14,6 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +21,9 @@ import wbik.study.results as store
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
+from wbik.robot import Chain
+from wbik.schema import Map
+from wbik.solvers.method import IKMethod
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
@@ -57,16 +59,11 @@ from wbik.study.reference import verdict
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import poses_of_joints
 from wbik.study.sampling import sample_joints
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import ALPHA
 from wbik.study.statistics import summarize
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
-    from wbik.schema import Map
-    from wbik.solvers.method import IKMethod
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 
 @dataclass(frozen=True)

@@ -15,7 +15,6 @@ the pose.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -23,9 +22,7 @@ import pinocchio as pin
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.geometry import wrap_to_pi
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
+from wbik.robot import Chain
 
 BRANCH_RESIDUAL = 1e-7
 """Model FK residual (m and rad) at or below which a closed-form branch solves the pose."""

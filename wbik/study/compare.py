@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 from dataclasses import field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
@@ -31,11 +30,9 @@ from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
 from wbik.study.blocks import fmt_p
+from wbik.study.regression_rule import RegressionRule
+from wbik.study.spec import Study
 from wbik.study.statistics import bootstrap_median_interval
-
-if TYPE_CHECKING:
-    from wbik.study.regression_rule import RegressionRule
-    from wbik.study.spec import Study
 
 TARGETS_RECORD = "targets.json"
 SETTINGS = ("seed", "start", "tolerances", "chunk_size", "timeout_s")

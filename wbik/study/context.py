@@ -5,13 +5,11 @@ from __future__ import annotations
 
 import threading
 import zlib
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 
 _LOCAL = threading.local()
 

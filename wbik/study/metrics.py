@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,9 +20,8 @@ from wbik.geometry import TAIT_BRYAN_SEQUENCES  # noqa: F401  (re-exported)
 from wbik.geometry import batch_exp3  # noqa: F401  (re-exported)
 from wbik.geometry import tait_bryan_angles  # noqa: F401  (re-exported)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
+from wbik.solvers.result import IKResult
 
-if TYPE_CHECKING:
-    from wbik.solvers.result import IKResult
 POSITION_AXES = ("x", "y", "z")
 ROTATION_VECTOR_AXES = ("rot_x", "rot_y", "rot_z")
 ANGLE_AXES = ("alpha", "beta", "gamma")

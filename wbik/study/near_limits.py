@@ -7,11 +7,10 @@ joint, as does a chain without a limited joint (the report says so).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from wbik.geometry import TWO_PI
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.target_parameters import Parameter
@@ -21,9 +20,6 @@ from wbik.study.target_parameters import number
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 
 def limited_joints(chain: Chain) -> np.ndarray:

@@ -10,10 +10,9 @@ that does not get there is replaced (at most ``attempts``).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.spec import StudyDefinitionError
@@ -23,9 +22,6 @@ from wbik.study.target_parameters import number
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 DIFFERENCE_STEP = 1e-6
 """Central-difference step of dJ/dq (rad or m)."""

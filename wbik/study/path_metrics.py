@@ -14,15 +14,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
+from wbik.study.closed_form_branches import ClosedFormBranches
 from wbik.study.closed_form_branches import joint_distance
-
-if TYPE_CHECKING:
-    from wbik.study.closed_form_branches import ClosedFormBranches
 
 
 def fractions(count: int) -> np.ndarray:

@@ -23,11 +23,12 @@ from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
 from functools import partial
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.robot import Chain
 from wbik.schema import Boolean
 from wbik.schema import Context
 from wbik.schema import Key
@@ -55,6 +56,8 @@ from wbik.study.path_metrics import random_unit
 from wbik.study.path_metrics import slerped_rotations
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import saved_extras
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import finite_statistic
 from wbik.study.statistics import wilson_interval
 from wbik.study.target_parameters import Parameter
@@ -62,13 +65,6 @@ from wbik.study.target_parameters import choice
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.robot import Chain
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
 
 PATH = "path"
 SHAPES = ("line", "circle")

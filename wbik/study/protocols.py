@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
@@ -34,6 +34,8 @@ from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import our_figures
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 from wbik.study.success_rules import FRAMES
 from wbik.study.success_rules import PERCENTILES
 from wbik.study.success_rules import RULES
@@ -43,12 +45,6 @@ from wbik.study.success_rules import failure_reason
 from wbik.study.success_rules import judge
 from wbik.study.target_parameters import choice
 from wbik.study.target_parameters import number
-
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
 
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)

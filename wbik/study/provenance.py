@@ -23,10 +23,8 @@ from datetime import UTC
 from datetime import datetime
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from wbik.study.spec import Study
+from wbik.study.spec import Study
 
 PROVENANCE = "provenance.json"
 PACKAGE = Path(__file__).resolve().parents[1]

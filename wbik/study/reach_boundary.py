@@ -9,10 +9,9 @@ a critical point of the position map on the box. The report gives their residual
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.target_parameters import Parameter
@@ -20,9 +19,6 @@ from wbik.study.target_parameters import integer
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 
 def reach_along(chain: Chain, direction: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:

@@ -12,7 +12,6 @@ import re
 from datetime import UTC
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import wbik.study.results as store
 from wbik.study.blocks import Block
@@ -20,13 +19,11 @@ from wbik.study.blocks import budget_semantics
 from wbik.study.blocks import fmt
 from wbik.study.case_kinds import case_kind
 from wbik.study.case_kinds import kinds_of
+from wbik.study.compare import Comparison
 from wbik.study.cpu_watch import threads_of
 from wbik.study.provenance import PROVENANCE
 from wbik.study.provenance import provenance_lines
 from wbik.study.spec import Study
-
-if TYPE_CHECKING:
-    from wbik.study.compare import Comparison
 
 
 def build_blocks(study: Study, output: Path, analyses: list[dict],

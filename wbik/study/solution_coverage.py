@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable
 from functools import partial
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.closed_form_branches import ClosedFormBranches
@@ -31,12 +33,6 @@ from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number
-
-if TYPE_CHECKING:
-    from collections.abc import Callable
-    from pathlib import Path
-
-    from wbik.robot import Chain
 
 COVERAGE_PARAMETERS = {
     "restarts": Parameter(8, "an integer >= 0 (starts per sampled pose)", integer(0, 1000),

@@ -15,12 +15,13 @@ import json
 import zlib
 from dataclasses import dataclass
 from dataclasses import field
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
 import wbik.study.results as store
 from wbik.files import json_plain
+from wbik.robot import Chain
 from wbik.schema import Key
 from wbik.study.blocks import Block
 from wbik.study.blocks import write_table
@@ -39,16 +40,11 @@ from wbik.study.solution_coverage import coverage_blocks
 from wbik.study.solution_coverage import coverage_columns
 from wbik.study.solution_coverage import coverage_summary
 from wbik.study.solution_coverage import distance_histogram
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import defaults
 from wbik.study.target_parameters import parameters_map
-
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.robot import Chain
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
 
 
 @dataclass

@@ -20,11 +20,11 @@ from __future__ import annotations
 
 from collections import Counter
 from functools import partial
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from wbik.geometry import TWO_PI
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.blocks import frequent_reasons
@@ -35,6 +35,7 @@ from wbik.study.closed_form_branches import complete_closed_form
 from wbik.study.closed_form_branches import joint_distance
 from wbik.study.near_singularities import sigma_min
 from wbik.study.sampling import start_configurations
+from wbik.study.spec import Study
 from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
@@ -44,10 +45,6 @@ from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import DrawnTargets
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
-    from wbik.study.spec import Study
 
 OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
 """The ``source`` of a target: (a) or (b) of the module docstring."""

@@ -15,14 +15,15 @@ import math
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 import wbik.study.results as store
 from wbik.errors import UnknownChainError
 from wbik.errors import UnsupportedError
+from wbik.schema import Context
 from wbik.schema import Key
+from wbik.schema import Map
 from wbik.schema import Text
 from wbik.schema import join
 from wbik.schema import option_schema
@@ -50,7 +51,11 @@ from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import _frozen
 from wbik.study.context import _robot
+from wbik.study.metrics import AngleConvention
 from wbik.study.sampling import PoseSet
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import finite_statistic
 from wbik.study.statistics import mann_whitney_row
 from wbik.study.statistics import summarize as base_summary
@@ -58,14 +63,6 @@ from wbik.wholebody.cases import CASE_REGISTRY
 from wbik.wholebody.cases import CaseSampler
 from wbik.wholebody.cases import register_sampler
 from wbik.wholebody.cases import sample_case
-
-if TYPE_CHECKING:
-    from wbik.schema import Context
-    from wbik.schema import Map
-    from wbik.study.metrics import AngleConvention
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 WHOLEBODY = "wholebody"
 ROW_COLUMNS = ("pose", "method", "success", "reason", "time_s", "iterations", "task_error",
