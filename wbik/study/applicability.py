@@ -1,11 +1,7 @@
-"""Which methods apply to a study case: typed checks made once per (case, method), before solving.
-
-A method is *not applicable*, with its own message, when building it (the kind's
-:meth:`~wbik.study.case_kinds.CaseKind.build`) raises :class:`~wbik.errors.UnsupportedError` or
-:class:`~wbik.errors.MissingDependencyError`, or when the built solver refuses the case's first pose (the
-kind's :meth:`~wbik.study.case_kinds.CaseKind.refusal`: a chain method its target kind, a whole-body method
-a goal task it cannot state). A QP backend the file names but that is not installed is a mistake in the
-file and propagates, as does any other error while building; an error while solving is recorded in its row.
+"""Which methods apply to a study case, decided once per (case, method) before solving: building the method
+raises :class:`~wbik.errors.UnsupportedError` or :class:`~wbik.errors.MissingDependencyError`, or the
+built solver refuses the case's first pose (:meth:`~wbik.study.case_kinds.CaseKind.refusal`). Any other
+error while building propagates.
 """
 
 from __future__ import annotations

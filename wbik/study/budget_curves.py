@@ -1,13 +1,8 @@
 """Success versus budget: each method solved again on a case's first ``poses`` targets at every budget of a
-grid (``budget_curves:`` in the study file, :class:`wbik.study.spec.BudgetCurveSpec`).
-
-Re-runs, not the full run's rows cut at a smaller budget: a wall-clock method's row says nothing of what it
-had found by then, and even our iteration-budgeted methods differ on a few poses (docs/guide/studies.md,
-"Success versus budget"). A closed form answers the same at any budget: its curve is its rows' success. The
-curve's budget replaces the method's own (``timeout_s`` and ``max_iterations``); every budget of a method
-uses the seed of its first chunk. Each (case, method, budget) is one task, written to
-``<case>/budget_curves/<method>/budget_NN.npz`` and resumed like a chunk (``budget.json`` records what it was
-computed with); ``budget_curves.csv`` holds a row per (method, budget).
+grid (``budget_curves:``, :class:`wbik.study.spec.BudgetCurveSpec`), since a run cut at a smaller budget is
+not a run given it (docs/guide/studies.md). The curve's budget replaces the method's own (``timeout_s``,
+``max_iterations``); a closed form's curve is its rows'. Each (case, method, budget) is a task written to
+``<case>/budget_curves/<method>/budget_NN.npz`` and resumed like a chunk; ``budget_curves.csv`` holds them.
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
-"""Kinds of study cases: what a kind does (:class:`CaseKind`), the common part of its chunk tasks
-(:class:`ChunkTask`) and where kinds are registered.
-
-A case's ``target:`` names its kind. The runner, the applicability check and the report know no kind:
-the case's kind samples its inputs, cuts them into chunk tasks, builds and solves (in the worker),
-refuses a method that does not apply, and analyses and reports the rows. A kind is declared in its
-module's ``CASE_KINDS`` tuple (``CASE_KINDS = (ChainTargets("pose"), ChainTargets("position"))``); the
-modules are listed in :data:`CASE_KIND_MODULES`, and :func:`register_case_kind` adds one at run time (a
-chunk task carries its kind object to the workers).
+"""Kinds of study cases (:class:`CaseKind`, a case's ``target:``), the common part of their chunk tasks
+(:class:`ChunkTask`) and their registry. The runner and the report know no kind: the case's kind samples its
+inputs, makes and solves its tasks, refuses a method that does not apply and reports its rows. A kind is
+declared in its module's ``CASE_KINDS`` tuple; :func:`register_case_kind` adds one at run time (a task
+carries its kind to the workers).
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """The regression gate: a study's run beside an earlier run of it on the same targets (``wbik study FILE -o
-NEW --compare-to OLD``), paired target by target (docs/guide/studies.md, "The regression gate").
-
-Each run folder records in ``targets.json`` (:func:`targets_record`) the settings that shape every row and,
-per case, its definition and a hash of its saved targets; when the two runs' differ, nothing is compared
-(the command exits 4). Then per case and method, under the study file's ``regression:`` rule
-(:class:`wbik.study.regression_rule.RegressionRule`): a method without a wall clock regressed when any target
-solved in OLD is unsolved now; a wall-clock method when McNemar's exact test on the discordant targets, b
-solved in OLD only and c now only, gives P(X >= b | X ~ B(b + c, 1/2)) below ``success_level``; time when
-the bootstrap 95 % interval of the median per-target ratio new / old lies above ``time_rise``; and a
-method or case of OLD that this run lacks regressed. Written: ``comparison.csv`` and the report's section.
+NEW --compare-to OLD``), paired target by target (docs/guide/studies.md, "The regression gate"). Runs whose
+``targets.json`` (:func:`targets_record`) differ are not compared (exit 4). Under the ``regression:`` rule
+a method without a wall clock regressed when any target solved in OLD is unsolved now; a wall-clock method
+when McNemar's exact one-sided test on the discordant targets gives p < ``success_level``; time when the
+bootstrap 95 % interval of the median per-target ratio new / old lies above ``time_rise``; a method or case
+of OLD this run lacks regressed.
 """
 
 from __future__ import annotations

@@ -1,10 +1,6 @@
-"""Wall-clock solves watched for CPU starvation, and the workers a method with threads of its own is run
-with (docs/guide/studies.md, "Budgets").
-
-A method budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved while the
-process's CPU time is measured; a solve that got less than ``STARVED_CPU_SHARE`` of wall time x the
-method's threads (TRAC-IK: 2) as CPU is run again, its answer discarded, with a stretched budget, up to
-``MAX_RERUNS`` times; such methods run with at most cores // threads workers.
+"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation, and the workers a method with threads
+of its own runs with: a solve given less CPU than ``STARVED_CPU_SHARE`` x threads x wall is run again with a
+stretched budget, up to ``MAX_RERUNS`` times (docs/guide/studies.md, "Budgets").
 """
 
 from __future__ import annotations

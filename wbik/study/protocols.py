@@ -1,14 +1,11 @@
-"""Benchmark protocols, the case kind ``protocol`` (``target: protocol``, or a case with ``success:``):
-chain targets judged by a published benchmark's success rule, with the peers' published figures beside
-ours::
+"""Benchmark protocols, the case kind ``protocol`` (a case with ``success:``): a ``pose`` case's targets and
+solves, each answer then judged by a published benchmark's success rule (:mod:`wbik.study.success_rules`),
+with the peers' published figures beside ours::
 
     success: {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}   # TRAC-IK's test
-    success: {per: norm, position: 0.005, rotation: 0.05}                      # cuRobo's, PyRoki's
     peers: [{solver: cuRobo v2, source: "its documentation", figures: {percent_solved: 100}}]
 
-The targets are a ``pose`` case's, solved as there under the shared check; then each answer is judged by
-the rule (:mod:`wbik.study.success_rules`): ``success`` is its verdict (what the tables and figures count),
-``check_success`` the shared check's. ``success`` enters the fingerprint; ``peers`` (report only) does not.
+``success`` is the rule's verdict, ``check_success`` the shared check's; ``peers`` are report only.
 """
 
 from __future__ import annotations

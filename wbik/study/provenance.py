@@ -1,11 +1,7 @@
-"""What made a study's rows: the wbik version and git commit, the machine, the command, and the code the
-rows come from (``provenance.json`` in the run folder; the report's head states it).
-
-The code is fingerprinted module by module (:func:`code_digests`) from roots (the runner and report, each
-case's kind and its ``code_roots``, each method's factory, the robot's builder) along the import graph,
-read with ``ast`` (imports in functions included, ``TYPE_CHECKING`` blocks not), and through compiled
-kernels ("wbik.kernels._name": its C source and the headers it includes). A module's digest hashes its
-syntax tree without docstrings, so an edit to words alone changes nothing.
+"""What made a study's rows (``provenance.json``, stated in the report's head): wbik's version and commit, the
+machine, the command and a code fingerprint: a digest of the syntax trees (docstrings aside) of the modules
+the rows come from, found along imports (function-level ones too, ``TYPE_CHECKING`` blocks not) from the
+runner, the cases' kinds, the methods' factories and the robots, and of the compiled kernels' C sources.
 """
 
 from __future__ import annotations

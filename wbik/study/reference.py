@@ -1,17 +1,14 @@
-"""What a study compares its figures with: published figures as a study file's ``reference:`` block gives
-them (the code knows no particular reference)::
+"""Published figures a study sets beside its own, as a case's ``reference:`` block gives them::
 
     reference:
       name: paper                       # "Beside the paper", columns "paper"
       source: "Smith et al. 2020, section 5"
       angles: {sequence: zyx, names: {x: paper_roll, y: paper_pitch, z: paper_yaw}}  # wbik.study.metrics
       figures: {analytic: {percent_solved: 94.0, time_median_ms: 1.95}}    # metrics of REFERENCE_METRICS
-      significance_source: "Table 3"
       significance: {kdl: {x: 0, paper_yaw: 6.0e-6, time: 0}}              # p-values against the baseline
-      notes: "where and why we differ"
 
 A percentage agrees within ``AGREEMENT_POINTS`` points; another figure is compared by the ratio ours /
-theirs ("same order" for 0.5 to 2); p-values agree when both are below, or both not below, ``ALPHA``.
+theirs; p-values agree when both are, or both are not, below ``ALPHA``.
 """
 
 from __future__ import annotations

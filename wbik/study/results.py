@@ -1,17 +1,12 @@
-"""Where a study's results live on disk, and how they are written and read back.
+"""Where a study's results live on disk (``runs/<study name>/``), written to a temporary name and renamed::
 
-Layout of an output folder (default ``runs/<study name>/``)::
-
-    study.json                         the definition that was run, with its fingerprint
-    <case>/poses.npz                   q_true, positions, rotations (pose targets), q0
-    <case>/chunks/<method>/chunk_00012.npz   raw rows of poses [12 * chunk_size, 13 * chunk_size)
-    <case>/chunks/<method>/method.json       the method's definition those chunks were computed with
-    <case>/not_applicable.json         {method label: why it does not apply}
-    <case>/raw.csv                     every row of every method, merged (written at the end)
-    <case>/summary.csv, significance.csv, figures/*.png
+    study.json                              the definition that was run, with its fingerprint
+    <case>/poses.npz                        q_true, positions, rotations (pose targets), q0
+    <case>/chunks/<method>/chunk_00012.npz  raw rows of poses [12 * chunk_size, 13 * chunk_size)
+    <case>/chunks/<method>/method.json      the method's definition those chunks were computed with
+    <case>/not_applicable.json              {method label: why it does not apply}
+    <case>/raw.csv, summary.csv, significance.csv, figures/*.png
     report.md, report.html
-
-Every file is written to a temporary name and renamed into place: a killed run leaves whole chunks or none.
 """
 
 from __future__ import annotations

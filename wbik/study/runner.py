@@ -1,12 +1,7 @@
-"""Running a study: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib, or Dask),
-resumable (docs/guide/studies.md).
-
-Each task's solver is seeded from (study seed, case, method, chunk), so its answer does not depend on the
-worker or the order. Whether a method applies to a case is decided once, before solving
-(:mod:`wbik.study.applicability`). The main process writes each chunk atomically as it arrives, so an
-interrupted run loses only the chunks in flight; a changed method is recomputed alone. Methods with threads
-of their own run after the others with fewer workers (:func:`wbik.study.cpu_watch.workers_for`); budget
-curves run after the rows (:mod:`wbik.study.budget_curves`); ``provenance.json`` records what made the rows.
+"""Running a study: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or Dask),
+resumable (docs/guide/studies.md). A task's solver is seeded from (study seed, case, method, chunk); the
+main process writes each chunk atomically as it arrives, and a changed method is recomputed alone. Methods
+with threads of their own run last with fewer workers; budget curves run after the rows.
 """
 
 from __future__ import annotations

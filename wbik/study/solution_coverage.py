@@ -1,14 +1,10 @@
 """Solution coverage: which of a pose's solutions a method finds, against a complete closed form
-(:mod:`wbik.study.closed_form_branches`). Per answer, computed in the worker:
-
-- ``start_distance``: |q - q0| (Euclidean over the joints, no wrap), NaN without joints;
-- ``same_branch``: 1 when a solved answer equals (within ``branch_tolerance``, revolute modulo 2 pi) the
-  branch nearest the start (``analytic``'s answer from the same q0), 0 for another solution, -1 unknown;
-- ``branch``: the index of the in-limit branch the solved answer equals (-1: none);
-  ``branches_in_limits``: how many there are;
-- on the case's first ``restart_targets`` poses, the pose solved again from ``restarts`` starts uniform
-  inside the limits (the same for every method): ``restart_solved``, ``restart_branches`` (distinct
-  branches reached) and ``restart_others`` (distinct solutions equal to no branch); -1 elsewhere.
+(:mod:`wbik.study.closed_form_branches`). Per answer: ``start_distance`` |q - q0|; ``same_branch`` (1: it is
+the branch nearest the start, ``analytic``'s answer; 0: another; -1: unknown); ``branch`` (the in-limit
+branch it equals, -1: none) and ``branches_in_limits``; and on the case's first ``restart_targets`` poses,
+solved again from ``restarts`` uniform starts, ``restart_solved``, ``restart_branches`` (distinct branches
+reached) and ``restart_others`` (distinct solutions equal to no branch). Equal: within
+``branch_tolerance`` on every joint, revolute modulo 2 pi.
 """
 
 from __future__ import annotations

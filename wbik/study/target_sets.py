@@ -1,12 +1,8 @@
-"""Target sets: chain targets drawn by a stated method, chosen per case (``targets: near_limits``, or
-``targets: {set: near_singularities, sigma_max: 1.0e-3}``; ``target: NAME`` alone is the set at its
-defaults), and the case kind ``uniform`` (FK of uniform joints, with the solution coverage).
-
-Each set is a case kind (:class:`TargetSetKind`) declared in its own module. It checks its parameters and
-fills in their defaults (so the fingerprint holds them), draws target i from its own stream
-(:func:`target_stream`: target i does not depend on how many are drawn), with what it measured
-(``extras``) and about the drawing (``facts``) saved beside the poses; a reachable set adds the solution
-coverage of :mod:`wbik.study.solution_coverage` to every method's rows.
+"""Target sets: chain targets drawn by a stated method, chosen per case (``targets: near_limits`` or
+``targets: {set: near_singularities, sigma_max: 1.0e-3}``), each a case kind (:class:`TargetSetKind`) with
+its parameters' defaults filled in; target i comes from its own stream (:func:`target_stream`), and what
+the drawing measured is saved beside the poses. Reachable sets add the solution coverage of
+:mod:`wbik.study.solution_coverage`; ``uniform`` is FK of uniform joints.
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
-"""Whole-body cases, the study's case kind ``wholebody`` (``target: wholebody``, ``scenario: <sampler>``).
-
-The cases of a sampler of :mod:`wbik.wholebody.cases` are saved as the usual ``poses.npz`` (q_true, each
-case's anchor point as ``positions``, q0); a worker rebuilds each from (sampler, study seed, index) and
-solves it with ``wbik.solver(method, robot).solve(problem, q0)`` under the one budget rule
-(:func:`wbik.solvers.method_registry.budget_options`). A method that cannot express the sampler's first
-problem (its ``cannot_express`` query) is not applicable. Rows: success, reason, time, iterations, task
-error, contact drift, CoM margin, limit excess, collision clearance, what the method could not express,
-q; ``err_task`` and ``err_contact`` feed the usual summary, tests and error figures.
+"""Whole-body cases, the study's case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
+:mod:`wbik.wholebody.cases` (saved as ``poses.npz``: q_true, anchor points, q0; a worker rebuilds each from
+sampler, seed and index), solved by ``wbik.solver(method, robot).solve(problem, q0)``. A method that cannot
+express the first problem is not applicable. ``err_task`` and ``err_contact`` feed the usual summary,
+tests and error figures.
 """
 
 from __future__ import annotations
