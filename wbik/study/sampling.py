@@ -68,12 +68,6 @@ def start_configurations(chain: Chain, count: int, seed: int, start: str) -> np.
     raise ValueError(f"unknown start {start!r}: nominal, mid_range or random")
 
 
-def sample_poses(chain: Chain, count: int, seed: int, target: str = "pose",
-                 start: str = "nominal") -> PoseSet:
-    """``count`` reachable targets of kind "pose" or "position" from FK of seeded random joints."""
-    return poses_of_joints(chain, sample_joints(chain, count, seed), seed, target, start)
-
-
 def poses_of_joints(chain: Chain, q_true: np.ndarray, seed: int, target: str = "pose",
                     start: str = "nominal") -> PoseSet:
     """The targets of kind "pose" or "position" that FK of the joint vectors ``q_true`` (count, n)
