@@ -243,15 +243,17 @@ def test_mann_whitney_p_values_match_scipy_on_the_raw_rows(serial_run):
         assert float(test["U"]) == expected.statistic
 
 
+CLOCKS = ("time_s", "cpu_s", "reruns", "batch_share_s")
+
+
 def _answers(output: Path, case: str, chunks: int) -> dict[str, dict[str, np.ndarray]]:
     """{label: rows} of every method with all its ``chunks`` chunk files, less the clocks (time_s, cpu_s,
-    reruns): the answers a report's raw.csv shows, without drawing the report."""
+    reruns, batch_share_s): the answers a report's raw.csv shows, without drawing the report."""
     rows = {}
     for folder in sorted((output / case / "chunks").iterdir()):
         found = load_method_rows(output, case, folder.name, chunks)
         if found is not None:
-            rows[folder.name] = {k: v for k, v in found.items()
-                                 if k not in ("time_s", "cpu_s", "reruns", "batch_share_s")}
+            rows[folder.name] = {k: v for k, v in found.items() if k not in CLOCKS}
     return rows
 
 

@@ -1,36 +1,31 @@
-"""The parts every case kind builds its report section from: blocks (headings, paragraphs, tables,
-images, lists, rendered by :mod:`wbik.study.report` to Markdown and HTML), number formats, a case's
-rows read back and its summary and significance tables written, the figures of every case, and the
-tables and paragraphs every case's section shares (solved and times per call with their 95 %
-intervals, status, significance with Holm's adjustment, reasons, success versus budget, throughput).
-"""
+"""What every case kind builds its report section from: blocks (rendered by :mod:`wbik.study.report`),
+number formats, a case's rows, tables and figures, and the tables and paragraphs every section shares."""
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.errors import WbikError
+from wbik.study.budget_curves import BudgetCurve
+from wbik.study.budget_curves import read_curves
+from wbik.study.case_kinds import CaseKind
 from wbik.study.context import chunk_count
 from wbik.study.cpu_watch import STARVED_CPU_SHARE
 from wbik.study.cpu_watch import threads_of
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import ALPHA
 from wbik.study.statistics import BOOTSTRAP_RESAMPLES
+from wbik.study.statistics import significance
 from wbik.study.statistics import with_holm
-
-if TYPE_CHECKING:
-    from wbik.study.budget_curves import BudgetCurve
-    from wbik.study.case_kinds import CaseKind
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 
 @dataclass
@@ -88,36 +83,53 @@ def case_rows(study: Study, case: CaseSpec, output: Path) -> tuple[dict, dict]:
     return rows_by_method, not_applicable
 
 
-def _write_csv(path: Path, header: list[str], rows: list[list]) -> None:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(header)
-    writer.writerows(rows)
-    store.atomic_write_text(path, buffer.getvalue())
+def write_table(path: Path, table: dict[str, dict]) -> None:
+    """``{label: {figure: value}}`` as a CSV with a row per method (``repr`` of numbers); none if empty."""
+    if table:
+        keys = list(next(iter(table.values())))
+        store.write_csv(path, ["method", *keys], [[label, *(v if isinstance(v, str) else repr(v)
+                                                            for v in (row[k] for k in keys))]
+                                                  for label, row in table.items()])
 
 
 def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[dict]) -> None:
-    """A case's summary.csv (a row per method: every summary figure, ``repr`` of numbers) and, with
-    tests, its significance.csv (a row per Mann-Whitney test, with its Holm-adjusted p-value)."""
-    if summaries:
-        keys = list(next(iter(summaries.values())))
-        _write_csv(directory / "summary.csv", ["method", *keys],
-                   [[label, *(s[k] if isinstance(s[k], str) else repr(s[k]) for k in keys)]
-                    for label, s in summaries.items()])
+    """A case's summary.csv (:func:`write_table`) and, with tests, its significance.csv (a row per
+    Mann-Whitney test, with its Holm-adjusted p-value)."""
+    write_table(directory / "summary.csv", summaries)
     if tests:
         tests = with_holm(tests)
         keys = list(tests[0])
-        _write_csv(directory / "significance.csv", keys, [[repr(t[k]) if isinstance(t[k], float) else t[k]
-                                                          for k in keys] for t in tests])
+        store.write_csv(directory / "significance.csv", keys,
+                        [[repr(t[k]) if isinstance(t[k], float) else t[k] for k in keys] for t in tests])
+
+
+def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, rows_by_method: dict,
+                  not_applicable: dict, summaries: dict, title: str, axes: list[str], angles=None,
+                  more_tests: Callable[[str], list[dict]] | None = None) -> dict:
+    """What every kind's analysis of a case holds, its tables and figures written: the Mann-Whitney tests
+    against the study's baseline (``more_tests(baseline)``: a kind's own), the budget curves and the
+    figures of :func:`case_figures` (titled ``title``, errors on ``axes``)."""
+    baseline = study.baseline if study.baseline in rows_by_method else None
+    tests = [*significance(baseline, rows_by_method), *(more_tests(baseline) if more_tests else [])] \
+        if baseline else []
+    directory = store.case_dir(output, case.name)
+    write_case_tables(directory, summaries, tests)
+    curves = read_curves(study, case, output, rows_by_method)
+    budget_kinds = {label: budget_kind(kind, study.method(label), study.timeout_of(study.method(label)))
+                    for label in rows_by_method}
+    images = case_figures(rows_by_method, summaries, title, directory / "figures", axes, angles, curves,
+                          budget_kinds)
+    return {"case": case, "rows": rows_by_method, "not_applicable": not_applicable, "summaries": summaries,
+            "tests": tests, "baseline": baseline, "axes": axes, "images": images, "curves": curves,
+            "budget_kinds": budget_kinds}
 
 
 def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
                  angles=None, curves: dict[str, BudgetCurve] | None = None,
                  budget_kinds: dict[str, str] | None = None) -> dict[str, Path]:
-    """The figures of every case (none without rows): poses solved with their intervals, errors per
-    axis of the solved poses (``error_names``; ``angles`` the reference's angle convention) as box
-    plots and histograms, time, its histogram and its ECDFs, and with ``curves`` success versus
-    budget (``budget_kinds``: label -> "iterations", "wall" or "none", :func:`budget_kind`)."""
+    """The figures of every case (none without rows): solved, errors per axis of the solved poses (box plots
+    and histograms), time (box plots, histogram, ECDFs), success versus budget with ``curves``, and the
+    throughput of batched methods."""
     if not rows_by_method:
         return {}
     import wbik.study.figures as figures
@@ -141,8 +153,6 @@ def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path
 def budget_kind(kind: CaseKind, method: MethodSpec, seconds: float) -> str:
     """How ``method`` is budgeted in a case of ``kind``: "none" (a closed form), "iterations" (our
     loops: CPU work, the same on any machine) or "wall" (a wall clock inside another library)."""
-    from wbik.errors import WbikError
-
     if kind.unbudgeted(method.method):
         return "none"
     try:
@@ -153,8 +163,7 @@ def budget_kind(kind: CaseKind, method: MethodSpec, seconds: float) -> str:
 
 
 def budget_semantics(kind: CaseKind, method: MethodSpec, seconds: float, workers: int | None = None) -> str:
-    """What ``method``'s budget measures, for the report's methods table: CPU work (iterations), a
-    wall clock (and, for a method with threads of its own, how it was given a core per thread)."""
+    """What ``method``'s budget measures, for the report's methods table."""
     kind_of_budget = budget_kind(kind, method, seconds)
     if kind_of_budget == "none":
         return "none: a fixed amount of work per call"
@@ -174,8 +183,7 @@ THROUGHPUT = "throughput (poses/s, solve_many over the case)"
 
 
 def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
-    """The throughput of the case's methods with a batched path (``solve_many`` of their own), its
-    table and figure; none when no method has one."""
+    """The throughput of the case's methods with a batched path (their own ``solve_many``), if any."""
     summaries = {label: s for label, s in analysis["summaries"].items()
                  if math.isfinite(s.get("throughput_poses_per_s", math.nan))}
     if not summaries:
@@ -195,8 +203,7 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
 
 
 def budget_blocks(study: Study, analysis: dict) -> list[Block]:
-    """The case's success-versus-budget table and figure (``analysis["curves"]``, label ->
-    :class:`~wbik.study.budget_curves.BudgetCurve`); none without curves."""
+    """The case's success-versus-budget table and figure, if it has curves."""
     curves = analysis.get("curves") or {}
     if not curves:
         return []
@@ -223,21 +230,17 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
             Block("image", "Success versus budget (95 % bands)", path=analysis["images"]["budget"])]
 
 
-
-
 SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved"),
                   ("% solved 95 % CI", lambda s: fmt_interval(s.get("percent_solved_ci_low"),
                                                               s.get("percent_solved_ci_high")))]
-"""The first columns of every case's table (:func:`summary_table`): solved of all, in %, and its
-Wilson 95 % interval."""
+"""The first columns of every case's table: solved of all, in %, and its Wilson 95 % interval."""
 
 _CALLS = {"all": "all calls", "solved": "solved", "unsolved": "not solved"}
 
 
 def time_columns(calls: str, *statistics: str) -> list[tuple[str, str]]:
-    """Columns of the time per call (ms) of ``calls`` ("all", "solved" or "unsolved"), one per
-    statistic of its summary ("median", "p95", "max", "mean"): ``("p95 ms (not solved)",
-    "time_unsolved_p95_ms")``."""
+    """Columns of the time per call (ms) of ``calls`` ("all", "solved", "unsolved"), one per statistic:
+    ``("p95 ms (not solved)", "time_unsolved_p95_ms")``."""
     return [(f"{statistic} ms ({_CALLS[calls]})", f"time_{calls}_{statistic}_ms") for statistic in statistics]
 
 
@@ -251,8 +254,7 @@ def median_interval_column(calls: str) -> tuple[str, object]:
 TIME_COLUMNS = [*time_columns("all", "median"), median_interval_column("all"),
                 *time_columns("solved", "median"), median_interval_column("solved"),
                 *time_columns("solved", "p95")]
-"""The first time columns of every case's table: the median time of all calls and its bootstrap
-95 % interval, then the median (and interval) and 95th percentile of the solved ones (ms per call)."""
+"""The median time of all calls and of the solved ones with their 95 % intervals, and the solved ones' p95."""
 
 INTERVALS_TEXT = (f"Intervals are 95 %: Wilson's score interval for the share solved, the percentile "
                   f"bootstrap ({BOOTSTRAP_RESAMPLES} resamples, fixed seed) for median times.")
@@ -260,9 +262,8 @@ INTERVALS_TEXT = (f"Intervals are 95 %: Wilson's score interval for the share so
 
 
 def summary_table(summaries: dict[str, dict], columns) -> Block:
-    """A table with a row per method: its label, then a cell per column ``(header, key)``:
-    ``fmt(summary[key])``, or ``(header, function)``: ``function(summary)`` (text as it is, a number
-    through ``fmt``)."""
+    """A row per method: its label, then per column ``(header, key)`` ``fmt(summary[key])``, or per
+    ``(header, function)`` ``function(summary)`` (text as it is, a number through ``fmt``)."""
     def cell(summary: dict, column) -> str:
         value = column(summary) if callable(column) else summary[column]
         return value if isinstance(value, str) else fmt(value)
@@ -288,9 +289,8 @@ def status_blocks(study: Study, analysis: dict) -> list[Block]:
 
 
 def significance_blocks(analysis: dict, samples: str) -> list[Block]:
-    """The Mann-Whitney p-values against the baseline, a row per method (``samples``: what each
-    test compares), adjusted for the methods compared by Holm's step-down procedure; none without
-    tests."""
+    """The Holm-adjusted Mann-Whitney p-values against the baseline, a row per method (``samples``: what
+    each test compares); none without tests."""
     if not analysis["tests"]:
         return []
     tests = with_holm(analysis["tests"])
@@ -308,6 +308,11 @@ def significance_blocks(analysis: dict, samples: str) -> list[Block]:
             Block("table", header=["method", *axes_tested],
                   rows=[[label, *(cells.get(axis, "-") for axis in axes_tested)]
                         for label, cells in by_method.items()])]
+
+
+def image_blocks(images: dict[str, Path], captions: dict[str, str]) -> list[Block]:
+    """The figures among ``images`` that ``captions`` names, in its order."""
+    return [Block("image", caption, path=images[key]) for key, caption in captions.items() if key in images]
 
 
 def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:

@@ -1,56 +1,28 @@
-"""Success versus budget: each method solved again on a sample of a case's targets at a grid of
-budgets (``budget_curves:`` in the study file, :class:`wbik.study.definition.BudgetCurveSpec`).
-
-Why re-runs, and not the full run's rows cut at a smaller budget: for that, a method's answer at
-budget B would have to be its full-budget run stopped at B. For a wall-clock method (KDL, TRAC-IK,
-PlaCo) nothing in a row says what it had found by then. For our iteration-budgeted ones it almost
-holds but not exactly: ``bounded_lm``'s vectorised batch phase counts 10 budget units per batch
-iteration but records 1 iteration, a budget that ends inside an attempt still checks that
-attempt's last step, and its ``solve_many`` re-solves a row whose budget ran out from scratch.
-A re-run and the cut rows do differ on a few poses at small budgets, for ``bounded_lm``, ``dls``
-and ``newton`` alike (the measurements: docs/measurements.md, budget_curves). So every budgeted method
-is re-run, on the same sample (the case's first ``poses`` targets) at every budget of the grid; a
-closed form (no budget) answers the same at any budget, and its curve is its rows' success on that
-sample.
-
-Budgets. The curve's budget replaces the method's in the study file (``timeout_s``, and
-``max_iterations`` in its options): our iteration-budgeted methods get the iterations that cost
-that long on the reference machine (so the curve is in CPU work, the same on any machine),
-wall-clock methods the wall budget, watched for CPU starvation as in the study's own rows
-(:mod:`wbik.study.cpu_watch`, threads counted). Each (case, method, budget) is one task solved in
-the study's workers, written to ``<case>/budget_curves/<method>/budget_NN.npz`` (the usual raw
-rows), and resumed like the study's chunks; ``budget.json`` beside them records what they were
-computed with (a changed method or grid recomputes that method's curve only). Seeds: every budget
-of a method uses the seed of the study's first chunk of that method, so a seeded method's curve
-differs between budgets by the budget alone.
-
-The case's ``budget_curves.csv`` holds a row per (method, budget): poses, solved, % solved with its
-Wilson 95 % interval, the median time of all calls and the CPU-starved re-runs.
+"""Success versus budget: each method solved again on a case's first ``poses`` targets at every budget of a
+grid (``budget_curves:``, :class:`wbik.study.spec.BudgetCurveSpec`), since a run cut at a smaller budget is
+not a run given it (docs/guide/studies.md). The curve's budget replaces the method's own (``timeout_s``,
+``max_iterations``); a closed form's curve is its rows'. Each (case, method, budget) is a task written to
+``<case>/budget_curves/<method>/budget_NN.npz`` and resumed like a chunk; ``budget_curves.csv`` holds them.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import shutil
 from dataclasses import dataclass
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import case_kind
 from wbik.study.sampling import PoseSet
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import wilson_interval
-
-if TYPE_CHECKING:
-    from wbik.study.case_kinds import ChunkTask
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 FOLDER = "budget_curves"
 RECORD = "budget.json"
@@ -100,11 +72,9 @@ def _record(study: Study, method: MethodSpec, poses: int) -> dict:
 
 
 def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
-    """(tasks still to run, rows already done, rows in total) of the study's budget curves. A task
-    is the kind's chunk task of the case's first targets for the method at one budget; its
-    ``chunk`` is the budget's index in the grid (its seed that of the method's first chunk).
-    Methods not applicable to a case, closed forms, and cases of a kind that says ``budget_curves =
-    False`` (its inputs are no targets a budget applies to) get none."""
+    """(tasks still to run, rows already done, rows in total) of the study's budget curves: the kind's task
+    of the case's first targets at each budget, its ``chunk`` the budget's index (its seed the first
+    chunk's). Not applicable methods, closed forms and kinds with ``budget_curves = False`` get none."""
     tasks: list[ChunkTask] = []
     done = total = 0
     for case in study.cases:
@@ -137,8 +107,8 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
 
 
 def read_curves(study: Study, case: CaseSpec, output: Path, rows_by_method: dict) -> dict[str, BudgetCurve]:
-    """The curves of ``case``'s methods whose every budget is on disk (a closed form's from its
-    rows), in the order of ``rows_by_method``; written to the case's ``budget_curves.csv``."""
+    """The curves of ``case``'s methods whose every budget is on disk (a closed form's from its rows), also
+    written to the case's ``budget_curves.csv``."""
     count = curve_poses(study, case)
     if count == 0 or not getattr(case_kind(case), "budget_curves", True):
         return {}
@@ -171,15 +141,12 @@ def read_curves(study: Study, case: CaseSpec, output: Path, rows_by_method: dict
 
 
 def _write_csv(path: Path, curves: dict[str, BudgetCurve]) -> None:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["method", "budget_ms", "poses", "solved", "percent_solved", "percent_solved_ci_low",
-                     "percent_solved_ci_high", "time_all_median_ms", "rerun", "unbudgeted"])
+    rows = []
     for label, curve in curves.items():
-        low, high = curve.interval()
-        for i, budget in enumerate(curve.budgets_ms):
-            writer.writerow([label, repr(float(budget)), curve.poses, int(curve.solved[i]),
-                             repr(float(curve.percent[i])), repr(float(low[i])), repr(float(high[i])),
-                             repr(float(curve.median_time_ms[i])), int(curve.reruns[i]),
-                             int(curve.unbudgeted)])
-    store.atomic_write_text(path, buffer.getvalue())
+        count = len(curve.budgets_ms)
+        columns = [[label] * count, curve.budgets_ms, [curve.poses] * count, curve.solved, curve.percent,
+                   *curve.interval(), curve.median_time_ms, curve.reruns, [int(curve.unbudgeted)] * count]
+        rows.extend(zip(*(store.csv_cells(column) for column in columns), strict=True))
+    store.write_csv(path, ["method", "budget_ms", "poses", "solved", "percent_solved",
+                           "percent_solved_ci_low", "percent_solved_ci_high", "time_all_median_ms", "rerun",
+                           "unbudgeted"], rows)

@@ -1,56 +1,41 @@
-"""Kinds of study cases: what a kind does (:class:`CaseKind`), the common part of its chunk tasks
-(:class:`ChunkTask`) and where kinds are registered.
-
-A case's ``target:`` in a study file names its kind: ``pose`` and ``position`` (targets of one chain,
-:mod:`wbik.study.chain_targets`), ``wholebody`` (whole-body problems of a case sampler,
-:mod:`wbik.study.wholebody`). The runner, the applicability check and the report know no kind: they
-ask the case's kind object to sample the case's inputs, cut them into chunk tasks, build and solve
-(in the worker), refuse a method that does not apply, and analyse and report the rows.
-
-A kind is declared where it lives, in that module's ``CASE_KINDS`` tuple::
-
-    CASE_KINDS = (ChainTargets("pose"), ChainTargets("position"))
-
-The modules holding kinds are listed by name in :data:`CASE_KIND_MODULES` and imported on first use
-(:class:`wbik.registry.DeclaredRegistry`); user code adds a kind with :func:`register_case_kind`. A
-chunk task carries its kind object, so a kind added at run time reaches the study's worker processes
-with the task (loky and Dask pickle with cloudpickle).
+"""Kinds of study cases (:class:`CaseKind`, a case's ``target:``), the common part of their chunk tasks
+(:class:`ChunkTask`) and their registry. The runner and the report know no kind: the case's kind samples its
+inputs, makes and solves its tasks, refuses a method that does not apply and reports its rows. A kind is
+declared in its module's ``CASE_KINDS`` tuple; :func:`register_case_kind` adds one at run time (a task
+carries its kind to the workers).
 """
 
 from __future__ import annotations
 
 from abc import ABC
 from abc import abstractmethod
+from collections.abc import Iterable
 from dataclasses import dataclass
 from dataclasses import field
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import WbikError
 from wbik.registry import DeclaredRegistry
+from wbik.schema import Context
+from wbik.schema import Key
+from wbik.schema import Map
+from wbik.study.context import _frozen
+from wbik.study.context import chunk_seed
+from wbik.study.metrics import AngleConvention
+from wbik.study.sampling import PoseSet
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 
-if TYPE_CHECKING:
-    from collections.abc import Iterable
-    from pathlib import Path
-
-    from wbik.schema import Context
-    from wbik.schema import Key
-    from wbik.schema import Map
-    from wbik.study.metrics import AngleConvention
-    from wbik.study.sampling import PoseSet
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
-
-__all__ = ["CASE_KIND_MODULES", "CASE_KIND_REGISTRY", "CaseKind", "ChunkTask", "case_kind", "case_kinds",
-           "kinds_of", "register_case_kind"]
+__all__ = ["CASE_KIND_MODULES", "CASE_KIND_REGISTRY", "CaseKind", "ChunkTask", "RegisteredMethods",
+           "case_kind", "case_kinds", "kinds_of", "register_case_kind"]
 
 
 @dataclass(frozen=True)
 class ChunkTask:
-    """What every chunk task holds (plain data, cheap to pickle); a kind's task class adds its own
-    payload (the targets, the sampler, what user code registered at run time, ...)."""
+    """What every chunk task holds (plain data, cheap to pickle); a kind's task class adds its payload."""
 
     kind: CaseKind  # solves the chunk in the worker (``kind.solve(task)``)
     case: str
@@ -66,8 +51,7 @@ class ChunkTask:
     first_pose: int
     q0: np.ndarray  # the start configuration of each pose of the chunk
     batch: bool = field(default=True, kw_only=True)
-    """Also time the method's batched path (``solve_many``) over the chunk, where it has one (the
-    throughput; not for budget curves)."""
+    """Also time the method's batched path (``solve_many``) over the chunk, where it has one."""
 
     @property
     def count(self) -> int:
@@ -82,10 +66,9 @@ class CaseKind(ABC):
     name: str
     """The case's ``target:`` in a study file (the registry's key)."""
     target: str
-    """What each input is: "pose" (position and rotation) or "position" for a chain solver, or the
-    kind's own word (whole-body problems: "wholebody")."""
+    """What each input is: "pose" or "position" for a chain solver, or the kind's own word ("wholebody")."""
     entry_keys: tuple[str, ...] = ()
-    """Keys of a study file's case entry that only this kind takes (they imply it without ``target:``)."""
+    """Keys of a case entry that only this kind takes (they imply it without ``target:``)."""
     methods_note: str = ""
     """A paragraph under the report's methods table when the study has cases of this kind."""
     study_note: str = ""
@@ -93,15 +76,12 @@ class CaseKind(ABC):
 
     # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
-        """The schema of the keys a case entry of this kind takes besides every case's
-        (:data:`wbik.study.definition.CASE_KEYS`): its own (``entry_keys``), and any common key it
-        reads otherwise (:mod:`wbik.schema` nodes, with their defaults)."""
+        """The schema nodes of the keys a case entry of this kind takes besides
+        :data:`wbik.study.definition.CASE_KEYS`."""
         return {}
 
     def entry(self, item: dict, path: str, ctx: Context) -> dict:
-        """A case entry of this kind, checked against its schema (defaults filled in), completed where
-        the kind knows more and checked across its keys (``ctx.fail`` naming the key's path for a
-        mistake)."""
+        """A checked case entry of this kind, completed and checked across its keys (``ctx.fail``)."""
         return item
 
     @abstractmethod
@@ -113,13 +93,11 @@ class CaseKind(ABC):
         """The keyword options ``method`` takes (None: any)."""
 
     def method_factory(self, method: str):
-        """What builds ``method``'s solver (a Solver subclass or a callable; None: not known here). Its
-        module is among those a report's code fingerprint starts from (:mod:`wbik.study.provenance`)."""
+        """What builds ``method``'s solver (None: not known here); a root of the code fingerprint."""
         return None
 
     def code_roots(self, case: CaseSpec) -> list:
-        """Objects besides the kind, its methods and its robot whose modules ``case``'s rows come from
-        (a sampler, ...), for the code fingerprint."""
+        """Objects besides the kind, its methods and robot whose modules ``case``'s rows come from."""
         return []
 
     def method_option_schema(self, method: str) -> Map | None:
@@ -128,8 +106,7 @@ class CaseKind(ABC):
 
     @abstractmethod
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
-        """The error axes of the kind's rows (their columns ``err_<axis>``), in report order;
-        ``angles``: a reference's Euler angles."""
+        """The error axes of the kind's rows (columns ``err_<axis>``); ``angles``: a reference's."""
 
     # -- sampling and tasks (main process) ---------------------------------------------------------
     @abstractmethod
@@ -145,8 +122,8 @@ class CaseKind(ABC):
         return False
 
     def budget_text(self, method: MethodSpec, seconds: float) -> str:
-        """The budget ``method`` is built with for a study budget of ``seconds``, for the report's
-        methods table: "N iterations (~T s)" for a loop of ours, "T s wall clock" else."""
+        """The budget ``method`` is built with, for the report's methods table: "N iterations (~T s)" for a
+        loop of ours, "T s wall clock" else."""
         try:
             timeout_s, options = self.budget(method.method, seconds, method.options)
         except WbikError:
@@ -164,11 +141,21 @@ class CaseKind(ABC):
              start: int, stop: int) -> ChunkTask:
         """The task of poses [start, stop) of ``case`` for ``method``."""
 
+    def chunk_fields(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
+                     start: int, stop: int) -> dict:
+        """The :class:`ChunkTask` fields of :meth:`task`, with the method's budget."""
+        timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
+        return {"kind": self, "case": case.name, "robot": case.robot,
+                "robot_params": _frozen(case.robot_params), "label": method.label, "method": method.method,
+                "options": _frozen(options), "timeout_s": timeout_s,
+                "tolerances": (study.tolerances["position"], study.tolerances["rotation"]),
+                "seed": chunk_seed(study.seed, case.name, method.label, chunk), "chunk": chunk,
+                "first_pose": start, "q0": poses.q0[start:stop]}
+
     # -- in the worker -----------------------------------------------------------------------------
     @abstractmethod
     def build(self, task: ChunkTask):
-        """The method's solver for ``task`` (raising a refusal of :mod:`wbik.study.applicability`
-        when it does not apply)."""
+        """The method's solver for ``task``, or a refusal of :mod:`wbik.study.applicability`."""
 
     @abstractmethod
     def refusal(self, task: ChunkTask, solver) -> str | None:
@@ -176,24 +163,38 @@ class CaseKind(ABC):
 
     @abstractmethod
     def solve(self, task: ChunkTask) -> dict[str, np.ndarray]:
-        """The rows of one chunk: equal-length columns, ``pose``, ``success``, ``reason``,
-        ``time_s``, ``iterations`` and ``q`` among them (written as the chunk's file)."""
+        """The rows of one chunk: equal-length columns, ``pose``, ``success``, ``reason``, ``time_s``,
+        ``iterations`` and ``q`` among them."""
 
     # -- the report --------------------------------------------------------------------------------
     @abstractmethod
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
-        """Write the case's raw.csv, summary.csv, significance.csv and figures; return the numbers
-        its report section shows (``case``, ``rows``, ``not_applicable``, ``summaries``, ``tests``,
-        ``baseline``, ``images`` and the kind's own)."""
+        """Write the case's raw.csv, summary.csv, significance.csv and figures; return what its section
+        shows (:func:`wbik.study.blocks.case_analysis`'s keys and the kind's own)."""
 
     @abstractmethod
     def blocks(self, study: Study, analysis: dict) -> list:
         """The case's section of the report."""
 
 
+class RegisteredMethods:
+    """The methods of a kind that runs the registered IK methods (:mod:`wbik.solvers.method_registry`)."""
+
+    def methods(self) -> dict[str, str]:
+        from wbik.solvers.method_registry import methods
+        return methods()
+
+    def method_options(self, method: str) -> set[str] | None:
+        from wbik.solvers.method_registry import solver_options
+        return solver_options(method)
+
+    def method_factory(self, method: str):
+        from wbik.solvers.method_registry import method_factory
+        return method_factory(method)
+
+
 CASE_KIND_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own (a new kind: its module plus
-one line there), user code a module by name or a kind (:func:`register_case_kind`)."""
+"""The registry's modules: :mod:`wbik.catalog` adds wbik's own, user code a module by name or a kind."""
 
 CASE_KIND_REGISTRY: DeclaredRegistry[CaseKind] = DeclaredRegistry(
     "study case kind", "CASE_KINDS", CASE_KIND_MODULES, "wbik.study.case_kinds.CASE_KIND_MODULES", CaseKind)

@@ -1,43 +1,28 @@
 """An upper bound of a chain's reach: no joint values (revolute angles inside their limits or not,
-prismatic joints inside theirs: their travel enters the bound) put the tip farther than ``radius``
-from ``centre``.
+prismatic joints inside theirs) put the tip farther than ``radius`` from ``centre``.
 
-Proof (triangle inequality). Let o_1, ..., o_k be the origins of the frames of the chain's joints
-from the first to the tip's parent joint (Pinocchio's joint frames: joint j's frame is its parent's
-moved by the fixed placement M_j = (R_j, t_j), then by the joint's motion), and p the tip's origin.
-For a revolute joint the motion is a rotation about an axis through the frame's origin; for a
-prismatic one a translation q_j along its axis. Then
+Proof (triangle inequality). With o_j the origins of the chain's joint frames (joint j's frame is its
+parent's moved by the fixed placement (R_j, t_j), then by the joint's motion) and p the tip's origin,
 
-    o_j - o_{j-1} = R_{j-1}(q) t_j + [prismatic j] q_j a_j      (R_{j-1}(q) a rotation, |a_j| = 1),
-    p - o_k = R_k(q) t_tip,
+    o_j - o_{j-1} = R_{j-1}(q) t_j + [prismatic j] q_j a_j,    p - o_k = R_k(q) t_tip,
 
-so |o_j - o_{j-1}| <= |t_j| + [prismatic j] max(|l_j|, |u_j|) and |p - o_k| = |t_tip|. The first
-joint's origin o_1 does not move with a revolute first joint (its axis passes through it); a prismatic
-one moves it by q_1 a_1. With centre c = o_1 at q_1 = 0 (base frame),
-
-    |p - c| <= [prismatic 1] s_1 + sum_{j=2..k} (|t_j| + [prismatic j] s_j) + |t_tip| = radius,
-    s_j = max(|l_j|, |u_j|) (a prismatic joint's largest travel),
-
-a sum of link lengths between consecutive joint origins. A target position farther than ``radius``
-from ``c`` is reached by no revolute angles at all, and by no prismatic values inside the limits.
+so |p - c| <= [prismatic 1] s_1 + sum_{j=2..k} (|t_j| + [prismatic j] s_j) + |t_tip| = radius, with c the
+first joint's origin at q_1 = 0 (a revolute first joint does not move it) and s_j = max(|l_j|, |u_j|).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
-if TYPE_CHECKING:
-    from wbik.robot import Chain
+from wbik.robot import Chain
 
 
 @dataclass(frozen=True)
 class ReachBound:
-    """|p(q) - centre| <= radius for every q with its prismatic joints inside their limits (base frame,
-    m); ``lengths``: the terms of the sum, joint by joint from the first, then the tip's offset."""
+    """|p(q) - centre| <= radius (base frame, m); ``lengths``: the terms of the sum, then the tip's offset."""
 
     centre: np.ndarray
     radius: float

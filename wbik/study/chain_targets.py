@@ -1,18 +1,10 @@
-"""Chain targets, the study's case kinds ``pose`` and ``position``: reachable targets of one chain
-(FK of seeded random joints inside the limits), solved by the IK methods.
+"""Chain targets, the study's case kinds ``pose`` and ``position``: reachable targets of one chain (FK of
+seeded random joints inside the limits, :mod:`wbik.study.sampling`), solved by the IK methods.
 
-- sampling: :func:`wbik.study.sampling.sample_poses` on the case's chain (by name, or between the
-  ``base`` and ``tip`` frames); a subclass draws other joints by overriding :meth:`ChainTargets.joints`;
-- solving (:meth:`ChainTargets.solve`, in the worker): one ``solve`` call per pose, timed alone (the
-  CPU watched for a wall-clock method, :mod:`wbik.study.cpu_watch`); a method with a batched path
-  (its own ``solve_many``) then solves the chunk again with ``solve_many`` for the throughput; an IK
-  method user code registered travels with the task;
-- applicability: a method that refuses the case's target kind (``check_target_kind``);
-- rows: success, reason, time, iterations, position/rotation error, CPU time, re-runs, the per-axis
-  errors of :func:`wbik.study.metrics.axis_errors`, q; for a batched method also ``batch_success``
-  (solve_many's verdict) and ``batch_share_s`` (the chunk's solve_many time / its poses);
-- the report section: poses solved and time per call, throughput of batched methods, error per
-  axis, significance, the figures beside a reference's (the case's ``reference:`` block).
+In the worker each pose is one timed ``solve`` call (a wall-clock method's with the CPU watched,
+:mod:`wbik.study.cpu_watch`); a method with a batched path of its own then solves the chunk again with
+``solve_many`` for the throughput. Rows: success, reason, time, iterations, errors (the per-axis ones of
+:func:`wbik.study.metrics.axis_errors`), CPU time, re-runs, q (and ``batch_success``, ``batch_share_s``).
 """
 
 from __future__ import annotations
@@ -22,7 +14,6 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -30,29 +21,29 @@ import wbik.study.results as store
 from wbik.errors import InvalidSettingError
 from wbik.errors import UnsupportedError
 from wbik.errors import WbikError
+from wbik.robot import Chain
+from wbik.schema import Map
+from wbik.solvers.method import IKMethod
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
 from wbik.study.blocks import Block
 from wbik.study.blocks import budget_blocks
-from wbik.study.blocks import budget_kind
-from wbik.study.blocks import case_figures
+from wbik.study.blocks import case_analysis
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_p
 from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import image_blocks
 from wbik.study.blocks import significance_blocks
 from wbik.study.blocks import status_blocks
 from wbik.study.blocks import summary_table
 from wbik.study.blocks import throughput_blocks
 from wbik.study.blocks import time_columns
-from wbik.study.blocks import write_case_tables
-from wbik.study.budget_curves import read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.case_kinds import ChunkTask
-from wbik.study.context import _frozen
+from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import chain_of
-from wbik.study.context import chunk_seed
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
 from wbik.study.cpu_watch import MAX_RERUNS
@@ -68,17 +59,11 @@ from wbik.study.reference import verdict
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import poses_of_joints
 from wbik.study.sampling import sample_joints
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
 from wbik.study.statistics import ALPHA
-from wbik.study.statistics import significance
 from wbik.study.statistics import summarize
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
-    from wbik.schema import Map
-    from wbik.solvers.method import IKMethod
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
 
 
 @dataclass(frozen=True)
@@ -90,10 +75,8 @@ class ChainChunkTask(ChunkTask):
     positions: np.ndarray
     rotations: np.ndarray | None
     registered: IKMethod | None = None
-    """The IK method when user code registered it at run time (``wbik.register``; None for one a
-    module of METHOD_MODULES declares): worker processes have their own registry, so the task carries it and
-    :meth:`ChainTargets.solve` registers it there (loky and Dask pickle with cloudpickle, so a class defined
-    in the user's script travels by value)."""
+    """The IK method when user code registered it at run time (``wbik.register``): the worker registers it
+    (cloudpickle carries a class of the user's script by value)."""
     base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
     tip: str | None = None
 
@@ -102,11 +85,11 @@ TARGETS = ("pose", "position")
 """What a chain solver can be given: full poses, or positions only."""
 
 
-class ChainTargets(CaseKind):
+class ChainTargets(RegisteredMethods, CaseKind):
     """Targets of one chain, full poses (``target`` "pose") or positions only ("position")."""
 
     sampled_from = "FK of uniform random joints inside the limits"
-    """How the targets were drawn, in the words of the case's report section."""
+    """How the targets were drawn, in the report's words."""
     methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
                     "study's time budget as an iteration budget (the iterations that cost that "
                     "long on the reference machine) and no wall clock, so their rows are the "
@@ -125,24 +108,10 @@ class ChainTargets(CaseKind):
         return f"{type(self).__name__}({self.name!r}, target={self.target!r})"
 
     def sampling_text(self, case: CaseSpec) -> str:
-        """How the case's targets were drawn, in the words of its report section (``sampled_from``;
-        a kind whose targets depend on the case's parameters says them)."""
+        """How the case's targets were drawn, in the report's words (a kind with parameters says them)."""
         return self.sampled_from
 
     # -- the study file ----------------------------------------------------------------------------
-    def methods(self) -> dict[str, str]:
-        from wbik.solvers.method_registry import methods
-        return methods()
-
-    def method_options(self, method: str) -> set[str] | None:
-        from wbik.solvers.method_registry import solver_options
-        return solver_options(method)
-
-    def method_factory(self, method: str):
-        from wbik.solvers.method_registry import method_factory
-
-        return method_factory(method)
-
     def method_option_schema(self, method: str) -> Map:
         from wbik.options import option_schema
 
@@ -171,25 +140,18 @@ class ChainTargets(CaseKind):
             return False
 
     task_type: type[ChainChunkTask] = ChainChunkTask
-    """The chunk task of this kind: a :class:`ChainChunkTask`, or a subclass whose own fields
-    :meth:`task_fields` gives."""
+    """The chunk task: a :class:`ChainChunkTask`, or a subclass whose own fields :meth:`task_fields` gives."""
 
     def task_fields(self, study: Study, case: CaseSpec) -> dict:
-        """The fields ``task_type`` adds to those of a :class:`ChainChunkTask`, for ``case`` (none here)."""
+        """The fields ``task_type`` adds to those of a :class:`ChainChunkTask` (none here)."""
         return {}
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> ChainChunkTask:
         from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-        timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
         return self.task_type(
-            kind=self, case=case.name, robot=case.robot, robot_params=_frozen(case.robot_params),
-            label=method.label, method=method.method, options=_frozen(options), timeout_s=timeout_s,
-            tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
-            seed=chunk_seed(study.seed, case.name, method.label, chunk), chunk=chunk, first_pose=start,
-            q0=poses.q0[start:stop], chain=case.chain,
-            angles=case.reference.angles if case.reference else None,
-            positions=poses.positions[start:stop],
+            **self.chunk_fields(study, case, method, poses, chunk, start, stop), chain=case.chain,
+            angles=case.reference.angles if case.reference else None, positions=poses.positions[start:stop],
             rotations=None if poses.rotations is None else poses.rotations[start:stop],
             registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip,
             **self.task_fields(study, case))
@@ -209,37 +171,36 @@ class ChainTargets(CaseKind):
             return str(exc)
         return None
 
-    def solve(self, task: ChainChunkTask) -> dict[str, np.ndarray]:
-        """Solve one chunk: one ``solve`` call per pose, each timed alone (``time_s`` is that call's
-        latency), a wall-clock method's with the CPU watched; then, for a method with a batched path
-        and ``task.batch``, the chunk's targets once more through ``solve_many`` (:func:`batch_columns`).
-
-        A pose on which the method raises gets success=False and reason "raised ...". Whether the
-        method applies was decided before (the runner's probe).
-        """
-        from wbik.targets import Target
-
-        if task.registered is not None:  # a method registered in the study's main process
+    def worker_solver(self, task: ChainChunkTask):
+        """The task's solver in a worker, its method registered there first if user code registered it."""
+        if task.registered is not None:
             from wbik.solvers.method_registry import register_method
             register_method(task.registered, replace=True)
-        solver = self.build(task)
+        return self.build(task)
+
+    def solve_one(self, task: ChainChunkTask, solver, target, q0: np.ndarray) -> tuple:
+        """(answer, CPU seconds (NaN: not measured), re-runs) of one timed ``solve`` call, a wall-clock
+        method's with the CPU watched; a raise is an unsolved answer whose reason says what was raised."""
+        try:
+            if task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted:
+                return solve_watching_the_cpu(solver, target, q0, task.timeout_s,
+                                              lambda budget: self.build(task, budget))
+            return solver.solve(target, q0), math.nan, 0
+        except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
+            return _raised(solver, exc), math.nan, 0
+
+    def solve(self, task: ChainChunkTask) -> dict[str, np.ndarray]:
+        """One chunk's rows: one timed ``solve`` call per pose (:meth:`solve_one`), then with ``task.batch``
+        the chunk once more through a batched path's ``solve_many`` (:func:`batch_columns`)."""
+        from wbik.targets import Target
+
+        solver = self.worker_solver(task)
         count = task.count
         targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                    for i in range(count)]
-        cpu_seconds = np.full(count, np.nan)
-        reruns = np.zeros(count, dtype=int)
-        watched = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
-        answers = []
-        for i, (target, q0) in enumerate(zip(targets, task.q0, strict=True)):
-            try:
-                if watched:
-                    answer, cpu_seconds[i], reruns[i] = solve_watching_the_cpu(
-                        solver, target, q0, task.timeout_s, lambda budget: self.build(task, budget))
-                else:
-                    answer = solver.solve(target, q0)
-            except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
-                answer = _raised(solver, exc)
-            answers.append(answer)
+        solved = [self.solve_one(task, solver, target, q0)
+                  for target, q0 in zip(targets, task.q0, strict=True)]
+        answers = [answer for answer, _, _ in solved]
         nq = solver.chain.nq
         columns = {
             "pose": np.arange(task.first_pose, task.first_pose + count),
@@ -250,8 +211,8 @@ class ChainTargets(CaseKind):
             "position_error": np.array([a.position_error for a in answers], dtype=float),
             "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
         }
-        columns["cpu_s"] = cpu_seconds
-        columns["reruns"] = reruns
+        columns["cpu_s"] = np.array([cpu for _, cpu, _ in solved], dtype=float)
+        columns["reruns"] = np.array([reruns for _, _, reruns in solved], dtype=int)
         columns.update(axis_errors(answers, task.rotations, task.angles))
         columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                                 dtype=float).reshape(count, nq)
@@ -269,19 +230,10 @@ class ChainTargets(CaseKind):
         directory, rows_by_method, not_applicable, chain = self.case_results(study, case, output)
         store.write_raw_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
         summaries = {label: summarize(rows) for label, rows in rows_by_method.items()}
-        baseline = study.baseline if study.baseline in rows_by_method else None
-        tests = significance(baseline, rows_by_method) if baseline else []
-        write_case_tables(directory, summaries, tests)
         angles = case.reference.angles if case.reference else None
-        error_names = self.axes(angles)
-        curves = read_curves(study, case, output, rows_by_method)
-        budget_kinds = {label: budget_kind(self, study.method(label), study.timeout_of(study.method(label)))
-                        for label in rows_by_method}
-        images = case_figures(rows_by_method, summaries, f"{case.robot}.{chain.name} ({case.target})",
-                              directory / "figures", error_names, angles, curves, budget_kinds)
-        return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
-                "summaries": summaries, "tests": tests, "baseline": baseline, "axes": error_names,
-                "images": images, "curves": curves, "budget_kinds": budget_kinds}
+        return {**case_analysis(self, study, case, output, rows_by_method, not_applicable, summaries,
+                                f"{case.robot}.{chain.name} ({case.target})", self.axes(angles), angles),
+                "chain": chain}
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
@@ -321,14 +273,12 @@ class ChainTargets(CaseKind):
         if reasons:
             blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
             blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
-        blocks.append(Block("image", "Poses solved per method", path=analysis["images"]["solved"]))
-        blocks.append(Block("image", "Time per pose", path=analysis["images"]["time"]))
-        blocks.append(Block("image", "Histogram of time per pose", path=analysis["images"]["time_histogram"]))
-        blocks.append(Block("image", "Time per call (ECDF): calls returned and poses solved within t",
-                            path=analysis["images"]["time_ecdf"]))
+        blocks.extend(image_blocks(analysis["images"], {
+            "solved": "Poses solved per method", "time": "Time per pose",
+            "time_histogram": "Histogram of time per pose",
+            "time_ecdf": "Time per call (ECDF): calls returned and poses solved within t"}))
         blocks.extend(throughput_blocks(study, analysis))
         blocks.extend(budget_blocks(study, analysis))
-
         blocks.append(Block("h3", "Error per axis (solved poses)"))
         blocks.append(Block("p", "Median |error| per axis, then the maximum. x, y, z in metres (reached - "
                                  "target, base axes); rot_* the rotation vector log3(R_target^T R_reached); "
@@ -342,10 +292,8 @@ class ChainTargets(CaseKind):
             table = [[f"{title}: {label}", *(fmt(summaries[label].get(f"err_{axis}_{statistic}"))
                                              for axis in analysis["axes"])] for label in labels]
             blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
-        blocks.append(Block("image", "Error per axis", path=analysis["images"]["errors"]))
-        blocks.append(Block("image", "Distribution of |error| per axis",
-                            path=analysis["images"]["error_histograms"]))
-
+        blocks.extend(image_blocks(analysis["images"], {
+            "errors": "Error per axis", "error_histograms": "Distribution of |error| per axis"}))
         blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, "
                                                     "and on the time of every pose"))
         blocks.extend(_reference_blocks(case, summaries, analysis["tests"]))
@@ -360,9 +308,8 @@ def has_batched_path(solver) -> bool:
 
 
 def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray]:
-    """The chunk solved again in one ``solve_many`` call, timed from outside: ``batch_success`` (its
-    verdict per pose) and ``batch_share_s`` (the call's wall time / the chunk's poses, so that the
-    case's sum is its solve_many time; NaN when it raised)."""
+    """The chunk solved again in one ``solve_many`` call: ``batch_success`` (its verdict per pose) and
+    ``batch_share_s`` (the call's wall time / the chunk's poses; NaN when it raised)."""
     count = len(targets)
     start = time.perf_counter()
     try:
@@ -375,6 +322,7 @@ def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray
 
 
 def _raised(solver, exc: BaseException):
+    """The unsolved answer of a solve that raised ``exc``."""
     from wbik.solvers.result import IKResult
     nan3 = np.full(3, np.nan)
     detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()

@@ -1,27 +1,20 @@
 """Every branch of a chain's closed form: what proves a pose unreachable inside the joint limits, and
 what the study's solution coverage compares numerical answers with.
 
-A closed form is *complete* here when ``analytic`` solves the chain's full poses without holding a
-joint (a 6-joint chain of a family wbik recognises, a robot's own bound form, or EAIK's
-decomposition): for a pose where the Jacobian is regular at every solution, its branches are every
-solution of FK(q) = T, each revolute angle modulo 2 pi. A 7-joint chain's form holds one joint at a
-value: its branches are the solutions at that value only, a sample of a one-dimensional set, so they
-prove nothing and cover nothing.
-
-Limits modulo 2 pi. A revolute angle q has a representative inside [l, u] iff its distance to the
-interval on the circle is 0:
+A closed form is *complete* when ``analytic`` solves the chain's full poses without holding a joint: where
+the Jacobian is regular at every solution, its branches are every solution of FK(q) = T (revolute angles
+modulo 2 pi). A revolute angle q has a representative inside [l, u] iff its *excess* is 0:
 
     x = (q - l) mod 2 pi,  w = u - l:   excess(q) = 0 if w >= 2 pi or x <= w,  else min(x - w, 2 pi - x)
 
-(a prismatic joint: the distance of q to [l, u]). A branch's *excess* is the largest joint excess: the
-branch has an in-limit representative iff its excess is 0. If every branch of a complete closed form
-has an excess of at least a margin, no configuration inside the limits reaches the pose.
+(a prismatic joint: its distance to [l, u]); a branch's excess is its largest joint excess. If every branch
+of a complete closed form has an excess of at least a margin, no configuration inside the limits reaches
+the pose.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -29,9 +22,7 @@ import pinocchio as pin
 from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.geometry import wrap_to_pi
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
+from wbik.robot import Chain
 
 BRANCH_RESIDUAL = 1e-7
 """Model FK residual (m and rad) at or below which a closed-form branch solves the pose."""
@@ -41,17 +32,15 @@ SAME_SOLUTION = 1e-6
 
 @dataclass(frozen=True)
 class ClosedFormBranches:
-    """A chain's complete closed form: ``solver`` (the ``analytic`` method on the chain) and its
-    ``family`` (its words: "ur_type", "bound:...", "eaik:...")."""
+    """A chain's complete closed form: ``solver`` (``analytic`` on the chain) and its ``family``."""
 
     chain: Chain
     solver: object
     family: str
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray) -> list[np.ndarray]:
-        """Per pose of a batch (positions (B, 3), rotations (B, 3, 3)), its distinct solutions (K, n),
-        as the closed form gives them (not wrapped into the limits), each checked by the model's FK
-        (residual <= BRANCH_RESIDUAL)."""
+        """Per pose of a batch, its distinct solutions (K, n) as the closed form gives them (not wrapped
+        into the limits), each checked by the model's FK (residual <= BRANCH_RESIDUAL)."""
         chain = self.chain
         form = self.solver.closed_form("pose")
         starts = np.broadcast_to(chain.nominal, (len(positions), chain.nq)).copy()
@@ -98,15 +87,13 @@ def residual(chain: Chain, q: np.ndarray, target: pin.SE3) -> float:
 
 
 def joint_distance(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
-    """Largest |q_i - other_i|, revolute joints modulo 2 pi (:func:`wbik.geometry.joint_gap`, vectorised
-    over leading axes)."""
+    """Largest |q_i - other_i|, revolute joints modulo 2 pi (:func:`wbik.geometry.joint_gap`, batched)."""
     difference = np.asarray(q, dtype=float) - other
     return np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference)), axis=-1)
 
 
 def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
-    """Per joint, how far q (..., n) is outside the limits, revolute joints modulo 2 pi (the module
-    docstring's formula); 0 where a representative is inside."""
+    """Per joint, the excess of q (..., n) over the limits (the module docstring's formula)."""
     q = np.asarray(q, dtype=float)
     lower, upper = chain.lower, chain.upper
     width = upper - lower
@@ -117,8 +104,7 @@ def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
 
 
 def branch_excess(branches: np.ndarray, chain: Chain) -> np.ndarray:
-    """Per branch (K, n), its largest joint excess (K,): 0 for a branch with a representative inside
-    the limits."""
+    """Per branch (K, n), its largest joint excess (K,)."""
     if len(branches) == 0:
         return np.zeros(0)
     return np.max(joint_excess(branches, chain), axis=-1)
@@ -130,8 +116,7 @@ def in_limit_branches(branches: np.ndarray, chain: Chain) -> np.ndarray:
 
 
 def branch_index(q: np.ndarray, branches: np.ndarray, revolute: np.ndarray, tolerance: float) -> int:
-    """The index of the branch within ``tolerance`` of q (revolute modulo 2 pi), the nearest if several;
-    -1 if none."""
+    """The index of the nearest branch within ``tolerance`` of q (revolute modulo 2 pi); -1 if none."""
     if len(branches) == 0 or not np.all(np.isfinite(q)):
         return -1
     distance = joint_distance(branches, q, revolute)

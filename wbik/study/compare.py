@@ -1,40 +1,20 @@
-"""The regression gate: a study's run beside an earlier run of it on the same targets (``wbik study
-FILE -o NEW --compare-to OLD``), paired target by target.
-
-Same targets first. Each run folder records in ``targets.json`` (:func:`targets_record`) the settings
-that shape every row (seed, start, tolerances, chunk size, default budget) and, per case, its
-definition and a hash of its saved targets and start configurations (``poses.npz``). When the two
-differ, on the settings or on a case both runs have, nothing is compared: the comparison is *refused*
-with what differs (the command exits 4).
-
-Then per case and method, pairing the two runs' rows by target (:func:`judge`), under the study file's
-``regression:`` rule (:class:`wbik.study.regression_rule.RegressionRule`):
-
-- success, a method without a wall clock (a closed form, or budgeted in iterations: the same rows on
-  any machine, the run's ``method.json`` says which): regressed when any target solved in OLD is
-  unsolved now (the pose ids are listed);
-- success, a wall-clock method (KDL, TRAC-IK, PlaCo, ...): McNemar's exact test on the discordant
-  targets, b solved in OLD only and c solved now only: regressed when the one-sided binomial p-value
-  P(X >= b | X ~ B(b + c, 1/2)) (``scipy.stats.binomtest``) is below ``success_level``;
-- time: the per-target ratio new / old of the time per call, over the targets both runs timed;
-  regressed when the percentile bootstrap 95 % interval of its median lies wholly above ``time_rise``;
-- a method OLD has rows of that this run has not (not in the study, not applicable, or
-  incomplete), and every method of a case OLD has and this run lacks, regressed.
-
-Written: ``comparison.csv`` in this run's folder and the report's "Compared with" section.
+"""The regression gate: a study's run beside an earlier run of it on the same targets (``wbik study FILE -o
+NEW --compare-to OLD``), paired target by target (docs/guide/studies.md, "The regression gate"). Runs whose
+``targets.json`` (:func:`targets_record`) differ are not compared (exit 4). Under the ``regression:`` rule
+a method without a wall clock regressed when any target solved in OLD is unsolved now; a wall-clock method
+when McNemar's exact one-sided test on the discordant targets gives p < ``success_level``; time when the
+bootstrap 95 % interval of the median per-target ratio new / old lies above ``time_rise``; a method or case
+of OLD this run lacks regressed.
 """
 
 from __future__ import annotations
 
-import csv
 import hashlib
-import io
 import json
 import math
 from dataclasses import dataclass
 from dataclasses import field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import stats
@@ -46,11 +26,9 @@ from wbik.study.blocks import case_rows
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
 from wbik.study.blocks import fmt_p
+from wbik.study.regression_rule import RegressionRule
+from wbik.study.spec import Study
 from wbik.study.statistics import bootstrap_median_interval
-
-if TYPE_CHECKING:
-    from wbik.study.regression_rule import RegressionRule
-    from wbik.study.spec import Study
 
 TARGETS_RECORD = "targets.json"
 SETTINGS = ("seed", "start", "tolerances", "chunk_size", "timeout_s")
@@ -73,9 +51,8 @@ def targets_digest(path: Path) -> str:
 
 
 def targets_record(study: Study, output: Path | None = None) -> dict:
-    """What shapes the rows of ``study``'s run in ``output``: the study's settings (:data:`SETTINGS`),
-    each case's definition (its poses resolved) and the hash of its saved targets (without ``output``:
-    the settings and definitions alone, before any target is drawn)."""
+    """What shapes the rows of ``study``'s run: its settings (:data:`SETTINGS`), each case's definition and,
+    with ``output``, the hash of its saved targets."""
     cases = {}
     for case, data in zip(study.cases, study.row_settings()["cases"], strict=True):
         data["poses"] = study.poses_of(case)
@@ -87,8 +64,7 @@ def targets_record(study: Study, output: Path | None = None) -> dict:
 
 
 def differences(old: dict, new: dict) -> list[str]:
-    """What differs between two runs' :func:`targets_record` (settings, and the cases both have; their
-    targets when both records hold them)."""
+    """What differs between two runs' :func:`targets_record` (settings, and the cases both have)."""
     settings = [f"{key}: {old['settings'].get(key)!r} in OLD, {new['settings'].get(key)!r} here"
                 for key in SETTINGS if old["settings"].get(key) != new["settings"].get(key)]
     found = list(settings)
@@ -130,8 +106,7 @@ class MethodComparison:
 
 @dataclass(frozen=True)
 class Comparison:
-    """This run against OLD under ``rule``; ``refused``: what differs when the targets do (nothing
-    compared)."""
+    """This run against OLD under ``rule``; ``refused``: what differs when the targets do."""
 
     old: Path
     rule: RegressionRule
@@ -145,8 +120,7 @@ class Comparison:
 
 
 def mcnemar_p(lost: int, gained: int) -> float:
-    """McNemar's exact one-sided p-value that success dropped: P(X >= lost), X ~ B(lost + gained, 1/2)
-    (1 when no target is discordant)."""
+    """McNemar's exact one-sided p-value that success dropped: P(X >= lost), X ~ B(lost + gained, 1/2)."""
     if lost + gained == 0:
         return 1.0
     return float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue)
@@ -160,8 +134,7 @@ def _poses(ids) -> str:
 
 def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: dict[str, np.ndarray],
           rule: RegressionRule) -> MethodComparison:
-    """One method's rows in OLD and here (the same targets, in pose order) paired target by target,
-    and the verdict under ``rule`` (module docstring)."""
+    """One method's rows in OLD and here (the same targets) paired target by target, and the verdict."""
     if not np.array_equal(old["pose"], new["pose"]):
         raise UsageError(f"case {case!r}, method {label!r}: the two runs' rows are of other poses")
     before, now = old["success"].astype(bool), new["success"].astype(bool)
@@ -198,8 +171,8 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
 
 
 def refusal_before_the_run(study: Study, old: Path) -> list[str]:
-    """What differs between ``study``'s settings and case definitions and those of the run in ``old``
-    (known before drawing a target, so a run on other targets need not run)."""
+    """What differs between ``study``'s settings and case definitions and the run in ``old``'s (known before
+    drawing a target)."""
     old_targets = store.read_json(Path(old) / TARGETS_RECORD)
     return [] if old_targets is None else differences(old_targets, targets_record(study))
 
@@ -230,8 +203,7 @@ def _definition_note(old: Path, output: Path, case: str, label: str) -> list[str
 
 
 def compare_runs(study: Study, output: Path, old: Path) -> Comparison:
-    """This run (``output``) of ``study`` against the run folder ``old`` under the study's
-    ``regression:`` rule; writes ``comparison.csv`` into ``output``."""
+    """This run (``output``) against the run folder ``old``; writes ``comparison.csv`` into ``output``."""
     old, output = Path(old), Path(output)
     if old.resolve() == output.resolve():
         raise UsageError(f"--compare-to {str(old)!r} is this run's own folder: pass the folder of an "
@@ -339,16 +311,11 @@ def summary_lines(comparison: Comparison) -> list[str]:
 
 
 def _write_csv(path: Path, comparison: Comparison) -> None:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["case", "method", "budget", "poses", "old_solved", "new_solved", "lost", "gained",
-                     "mcnemar_p", "time_ratio_median", "time_ratio_ci_low", "time_ratio_ci_high",
-                     "success_regressed", "time_regressed", "missing", "verdict", "lost_poses", "refused"])
-    for m in comparison.methods:
-        writer.writerow([m.case, m.label, m.budget, m.poses, m.old_solved, m.new_solved, len(m.lost),
-                         len(m.gained), repr(m.p_value), *(repr(value) for value in m.ratio),
-                         int(m.success_regressed), int(m.time_regressed), m.missing, m.verdict,
-                         " ".join(map(str, m.lost)), ""])
-    for reason in comparison.refused:
-        writer.writerow([""] * 17 + [reason])
-    store.atomic_write_text(path, buffer.getvalue())
+    rows = [[m.case, m.label, m.budget, m.poses, m.old_solved, m.new_solved, len(m.lost), len(m.gained),
+             repr(m.p_value), *(repr(value) for value in m.ratio), int(m.success_regressed),
+             int(m.time_regressed), m.missing, m.verdict, " ".join(map(str, m.lost)), ""]
+            for m in comparison.methods]
+    store.write_csv(path, ["case", "method", "budget", "poses", "old_solved", "new_solved", "lost", "gained",
+                           "mcnemar_p", "time_ratio_median", "time_ratio_ci_low", "time_ratio_ci_high",
+                           "success_regressed", "time_regressed", "missing", "verdict", "lost_poses",
+                           "refused"], [*rows, *([""] * 17 + [reason] for reason in comparison.refused)])

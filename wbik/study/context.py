@@ -1,35 +1,26 @@
-"""What the study's runner, applicability check, case kinds and report share: the robot a task runs
-on, the solver of a method, a method's solver budget, a chunk's seed, how many chunks a case has, and
-the plain-data form of a mapping.
-
-This module sits below :mod:`wbik.study.runner`, :mod:`wbik.study.applicability`,
-:mod:`wbik.study.report` and the case kinds (:mod:`wbik.study.case_kinds`): they import it, it
-imports none of them, so nothing here depends on the runner. The runner re-exports these names.
-"""
+"""What the study's runner, applicability check, case kinds and report share (and import from here, never
+from each other): a task's robot, a method's solver and budget, a chunk's seed and count."""
 
 from __future__ import annotations
 
 import threading
 import zlib
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 
 _LOCAL = threading.local()
 
 
 def _frozen(mapping: dict) -> tuple:
-    """A mapping as a sorted tuple of items (hashable, cheap to pickle, the same in every process)."""
+    """A mapping as a sorted tuple of items (hashable, the same in every process)."""
     return tuple(sorted(mapping.items()))
 
 
 def _robot(name: str, params: tuple):
-    """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe, and
-    a Dask worker may run several tasks in threads of one process)."""
+    """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe)."""
     cache = getattr(_LOCAL, "robots", None)
     if cache is None:
         cache = _LOCAL.robots = {}
@@ -43,15 +34,13 @@ def _robot(name: str, params: tuple):
 
 def case_chain(robot_name: str, robot_params: tuple, chain: str | None, base: str | None = None,
                tip: str | None = None):
-    """The chain of a case on the (per-thread cached) robot: by name, or between ``base`` and ``tip``
-    (registered under ``chain``)."""
+    """A case's chain on the per-thread robot: by name, or between ``base`` and ``tip`` (named ``chain``)."""
     robot = _robot(robot_name, robot_params)
     return robot.chain_between(base, tip, name=chain) if base is not None else robot.chain(chain)
 
 
 def chain_of(case: CaseSpec):
-    """The chain of a study case on the (per-thread cached) robot: :func:`case_chain` of its robot, robot
-    parameters, chain name, base and tip."""
+    """The chain of a study case (:func:`case_chain`)."""
     return case_chain(case.robot, _frozen(case.robot_params), case.chain, case.base, case.tip)
 
 
@@ -70,11 +59,9 @@ def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method:
 
 
 def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` seconds.
-
-    Ours: no wall clock and ``max_iterations`` = the iterations that cost ``timeout_s`` on the
-    reference machine (unless the study gives max_iterations itself). Others: the wall clock.
-    """
+    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` s: a loop of ours
+    gets no wall clock and the iterations that cost that long on the reference machine (unless the study
+    gives ``max_iterations``), any other method the wall clock."""
     from wbik.solvers.method_registry import method_factory
     factory = method_factory(method)
     if getattr(factory, "iteration_cost_s", None) is None:

@@ -1,16 +1,6 @@
-"""Wall-clock solves watched for CPU starvation, and the workers a method with threads of its own
-is run with.
-
-A method budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) answers differently
-when the machine is busy. Such a solve is run while the process's CPU time is measured beside its
-wall time; a solve that got less than ``STARVED_CPU_SHARE`` of the CPU it was meant to have is run
-again, its answer discarded, with its wall budget stretched, up to ``MAX_RERUNS`` times.
-
-The CPU a solve is meant to have is its wall time times the method's threads: TRAC-IK runs KDL's
-NR_JL and an SQP in two threads of its own (:data:`METHOD_THREADS`), so a TRAC-IK solve of wall
-time w is meant to have 2 w of CPU, one w per thread. The study runs such a method's tasks after
-the others, with at most cores // threads workers (:func:`workers_for`): on 2 cores, one worker, so
-TRAC-IK's two threads have a core each while nothing else of the study runs.
+"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation, and the workers a method with threads
+of its own runs with: a solve given less CPU than ``STARVED_CPU_SHARE`` x threads x wall is run again with a
+stretched budget, up to ``MAX_RERUNS`` times (docs/guide/studies.md, "Budgets").
 """
 
 from __future__ import annotations
@@ -26,16 +16,12 @@ STARVED_MIN_WALL_S = 0.001
 MAX_RERUNS = 3
 MAX_STRETCH = 20.0
 """A re-run's wall budget is at most this many times the study's."""
-METHOD_THREADS: dict[str, int] = {
-    "trac_ik": 2,  # KDL NR_JL and an SQP (NLopt), concurrently, each until the wall budget
-}
-"""Threads a method's solve keeps busy, for methods that run more than the caller's one (a solver
-class may say so itself with a ``threads`` attribute, which wins)."""
+METHOD_THREADS: dict[str, int] = {"trac_ik": 2}  # KDL NR_JL and an SQP (NLopt), side by side
+"""Threads a method's solve keeps busy beyond one (a solver class's ``threads`` attribute wins)."""
 
 
 def method_threads(method: str, factory=None) -> int:
-    """The threads a solve of ``method`` keeps busy: the solver class's ``threads`` attribute if it
-    has one (``factory``), else :data:`METHOD_THREADS`, else 1."""
+    """The threads a solve of ``method`` keeps busy: ``factory.threads``, else METHOD_THREADS, else 1."""
     declared = getattr(factory, "threads", None)
     if isinstance(declared, int) and declared >= 1:
         return declared
@@ -43,8 +29,7 @@ def method_threads(method: str, factory=None) -> int:
 
 
 def threads_of(method: str) -> int:
-    """The threads a solve of the registered chain method ``method`` keeps busy (1 for a name the
-    chain methods' registry does not know, e.g. a whole-body method)."""
+    """The threads a solve of the registered method ``method`` keeps busy (1 for an unknown name)."""
     from wbik.errors import WbikError
     from wbik.solvers.method_registry import method_factory
     try:
@@ -68,32 +53,21 @@ def usable_cores() -> int:
 
 
 def workers_for(threads: int, jobs: int, cores: int | None = None) -> int:
-    """The workers to run tasks of a method with ``threads`` threads when the study asks for
-    ``jobs``: max(1, min(jobs, cores // threads)), so every thread of every worker has a core."""
+    """The workers for a method of ``threads`` threads: max(1, min(jobs, cores // threads))."""
     cores = usable_cores() if cores is None else cores
     return max(1, min(jobs, cores // max(1, threads)))
 
 
 def starved(wall_s: float, cpu_s: float, threads: int = 1) -> bool:
-    """Whether a solve of wall time ``wall_s`` that got ``cpu_s`` of process CPU time was starved:
-    it ran at least STARVED_MIN_WALL_S and cpu < STARVED_CPU_SHARE x threads x wall."""
+    """Whether a solve was starved: wall >= STARVED_MIN_WALL_S, cpu < STARVED_CPU_SHARE x threads x wall."""
     return wall_s >= STARVED_MIN_WALL_S and cpu_s < STARVED_CPU_SHARE * threads * wall_s
 
 
 def solve_watching_the_cpu(solver, target, q0, timeout_s: float, rebuild: Callable[[float], object]) -> tuple:
-    """(answer, CPU seconds, re-runs) of a wall-clock solve whose budget is T = ``timeout_s``;
-    ``rebuild(budget)`` makes the same solver with another wall budget.
-
-    A solve is *starved* (:func:`starved`) when it ran for at least STARVED_MIN_WALL_S and the
-    process got less than STARVED_CPU_SHARE of k x its wall time as CPU time, k the method's threads
-    (:func:`solver_threads`; process CPU time counts TRAC-IK's own threads): the machine was busy.
-    Its answer is then discarded, whatever it was, and the solve is run again with its wall budget
-    stretched by k x wall / CPU (at most MAX_STRETCH x T), so that each thread gets about T of CPU,
-    up to MAX_RERUNS times. Keeping only answers of solves that had the CPU keeps the success rate
-    that of an idle machine: re-running only the failures would give a method with random restarts
-    of its own (TRAC-IK) a second draw, and re-running them for the missing CPU alone would replay
-    a seeded method's first restarts.
-    """
+    """(answer, CPU seconds, re-runs) of a wall-clock solve of budget T = ``timeout_s``: a starved solve's
+    answer is discarded, whatever it was (re-running failures only would give a method with random restarts
+    a second draw), and the solve run again by ``rebuild(budget)`` with its budget stretched by
+    threads x wall / CPU (at most MAX_STRETCH x T), up to MAX_RERUNS times."""
     threads = solver_threads(solver)
     reruns, current = 0, solver
     while True:

@@ -1,33 +1,11 @@
-"""Study definitions: what to compare, on what, how many times.
+"""Study definitions: what to compare, on what, how many times (docs/formats/study-files.md).
 
-A study file (YAML or TOML, in ``comparisons/``) names one or more *cases* (robot, chain, target
-kind) and the *methods* to run on each, with the number of poses, the seed, the time budget and
-the tolerances of the shared FK check. A single-case study may give ``robot``/``chain``/``target``
-at the top level instead of a ``cases`` list. Example::
-
-    name: panda_pose
-    robot: panda            # a built-in robot or a URDF path
-    chain: arm
-    target: pose            # or position
-    poses: 10000
-    seed: 2017
-    timeout_s: 0.005        # default budget of every method
-    tolerances: {position: 1.0e-6, rotation: 1.0e-6}
-    baseline: bounded_lm    # Mann-Whitney reference
-    methods:
-      - bounded_lm
-      - {label: kdl_15s, method: kdl, timeout_s: 15, note: "a published run's timeout"}
-    reference:              # published figures to set beside ours (wbik.study.reference)
-      name: paper
-      source: "a paper's Table 2"
-      figures: {kdl_15s: {percent_solved: 72.5, time_median_ms: 200}}
-
-The file is checked against the study schema (:func:`study_schema`, in the schema language of
-:mod:`wbik.schema`, the one of task files too): the study's keys, its methods (and their options'
-types), its cases, each with the keys of its kind (declared next to the kind,
-:meth:`wbik.study.case_kinds.CaseKind.entry_schema`). Every mistake raises a
-:class:`StudyDefinitionError` naming the file, the key's path (``cases[2].poses``) and what to write; an
-unknown key gets a "did you mean" guess.
+A study file (YAML or TOML, in ``comparisons/``) names one or more *cases* (robot, chain, target kind;
+a single-case study may give them at the top level) and the *methods* to run on each, with the number of
+poses, the seed, the time budget and the tolerances of the shared FK check. It is checked against the study
+schema (:func:`study_schema`, in the schema language of :mod:`wbik.schema`), each case with the keys of its
+kind (:meth:`wbik.study.case_kinds.CaseKind.entry_schema`); a mistake raises a
+:class:`StudyDefinitionError` naming the file, the key's path (``cases[2].poses``) and what to write.
 """
 
 from __future__ import annotations
@@ -81,15 +59,13 @@ from wbik.study.spec import Study
 from wbik.study.spec import StudyDefinitionError
 
 COMPARISONS_DIR = data_dir("comparisons")
-"""The ``comparisons/`` folder (study files; final reports under ``reports/``): the repository's, or
-the installed package's copy of its study files."""
+"""The ``comparisons/`` folder of study files (the repository's, or the installed package's copy)."""
 
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
 CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip",
              "targets"}
-"""The keys of a case entry every kind reads (a kind may take more: its ``entry_keys``). ``targets``
-names a target set (:func:`_target_set_kind`), whose kind checks and completes its parameters."""
+"""The keys of a case entry every kind reads (a kind may take more; ``targets`` names a target set)."""
 START_KINDS = ("nominal", "mid_range", "random")
 _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
@@ -142,10 +118,8 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
 
 # -- parsing -----------------------------------------------------------------------------------
 def load_study(path: str | Path | None = None) -> Study:
-    """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``); None: the default study.
-
-    A name of a shipped study (``default``, or ``comparisons/default.yaml``) that is no
-    file where it is run from is the shipped file (see :func:`wbik.data.study_path`)."""
+    """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``; a shipped study's name,
+    :func:`wbik.data.study_path`); None: the default study."""
     path = DEFAULT_STUDY if path is None else study_path(path)
     if not path.is_file():
         available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
@@ -167,8 +141,7 @@ def load_study(path: str | Path | None = None) -> Study:
 
 
 def study_from_dict(data, source: str = "study") -> Study:
-    """Validate plain data (as read from a file) against the study schema (:func:`study_schema`) into a
-    :class:`Study`; a mistake is a :class:`StudyDefinitionError` naming ``source`` and the key's path."""
+    """Plain data (as read from a file) validated into a :class:`Study` (mistakes name ``source``)."""
     if not isinstance(data, dict):
         raise StudyValueError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
                               f"got {type(data).__name__}")
@@ -233,9 +206,7 @@ def _real(what: str, **bounds) -> Number:
 
 
 def study_schema() -> Map:
-    """The schema of a study file: the study's keys, its methods and its cases, each case with the keys
-    of its kind (:meth:`wbik.study.case_kinds.CaseKind.entry_schema`); a single-case study gives the
-    case's keys at the top level. Defaults are those of :class:`Study` and of the blocks' classes."""
+    """The schema of a study file: its keys, methods and cases (or one case's keys at the top level)."""
     tolerances = dataclass_default(Study, "tolerances")
     keys = {
         "name": Key(LABEL, doc="the study's name (the output folder); default: the file's name"),
@@ -272,8 +243,8 @@ def study_schema() -> Map:
 
 
 def _across_keys(study: dict, path: str, ctx: Context) -> None:
-    """The study's name (default: the file's); its cases: ``cases:``, or the case whose keys are given
-    at the top level (checked as a case, paths from the top level); unique case names and labels."""
+    """The study's name (default: the file's), its cases (``cases:`` or the top level's case), unique case
+    names and labels."""
     if "name" not in study:
         study["name"] = LABEL.check(Path(ctx.source).stem, "name", ctx)
     case_keys = _case_keys()
@@ -354,8 +325,7 @@ def budget_curves_schema() -> Map:
 
 
 def _budget_curves(raw) -> BudgetCurveSpec:
-    """``budget_curves:`` checked: false/absent (none), true (BUDGET_CURVE_POSES poses), or
-    {poses, budgets_ms}."""
+    """``budget_curves:`` checked: false or absent (none), true (BUDGET_CURVE_POSES poses) or a mapping."""
     if raw is None or raw is False:
         return BudgetCurveSpec()
     if raw is True:
@@ -388,9 +358,8 @@ def case_schema(kind) -> Map:
 
 
 class CaseEntry(Node):
-    """A case entry of ``cases:``: its kind chosen (``target:``, a target set's ``targets:``, or a key
-    only one kind takes), checked against the kind's schema (:func:`case_schema`), completed by the
-    kind (:meth:`wbik.study.case_kinds.CaseKind.entry`), its reference read against the kind's axes."""
+    """A case entry of ``cases:``: its kind chosen (:func:`_case_kind`), checked against the kind's schema,
+    completed by the kind, its reference read against the kind's axes."""
 
     expected = "a mapping {robot, chain, target, ...}"
 
@@ -420,8 +389,7 @@ class CaseEntry(Node):
 
 
 def _reference(raw: dict | None, kind, path: str, ctx: Context) -> Reference | None:
-    """A case's checked ``reference:`` as a :class:`Reference`, its angles and p-values read against
-    ``kind``'s target and error axes; None when absent or empty."""
+    """A case's checked ``reference:`` as a :class:`Reference` (None when absent or empty)."""
     if not raw or not any(value not in (None, {}, "") for value in raw.values()):
         return None
     angles = _angles(raw.get("angles"), kind.target, join(path, "angles"), ctx)
@@ -474,8 +442,7 @@ def reference_schema() -> Map:
 
 
 def _angles(raw: dict | None, target: str, path: str, ctx: Context) -> AngleConvention | None:
-    """``reference.angles`` checked as an :class:`AngleConvention`: pose targets only, each column a
-    name no error column has."""
+    """``reference.angles`` as an :class:`AngleConvention`: pose targets only, new column names only."""
     if raw is None or raw == {}:
         return None
     if target != "pose":
@@ -510,8 +477,8 @@ def _case_keys() -> set[str]:
 
 
 def _case_kind(item: dict, path: str, ctx: Context):
-    """The kind of a case entry: its ``target:``, else the kind whose own key it holds, else
-    DEFAULT_TARGET; a key of another kind than the target's is an error."""
+    """The kind of a case entry: its ``target:`` (or ``targets:``), else the kind whose own key it holds,
+    else DEFAULT_TARGET."""
     from wbik.study.case_kinds import case_kinds
 
     kinds = case_kinds()
@@ -533,9 +500,8 @@ def _case_kind(item: dict, path: str, ctx: Context):
 
 
 def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
-    """The kind of a case entry naming a target set, ``targets: NAME`` or ``targets: {set: NAME, ...}``:
-    the registered kind whose ``target_set`` is NAME and whose target is the entry's ``target`` (pose
-    by default, or the kind's own name)."""
+    """The kind of an entry naming a target set (``targets: NAME`` or ``{set: NAME, ...}``) whose target is
+    the entry's ``target`` (default: pose)."""
     raw = item["targets"]
     if isinstance(raw, dict):
         name, key = raw.get("set"), join(path, "targets.set")
@@ -558,10 +524,8 @@ def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
 
 
 def check_schema(methods, cases, source: str) -> None:
-    """Check what the file names against the code, before any solving: every method's ``options``
-    against its option schema (names and types, ``methods[i].options.KEY``) as the first of the cases'
-    kinds that runs the method reads it (:meth:`~wbik.study.case_kinds.CaseKind.method_option_schema`),
-    every case's robot (a built-in name or an existing URDF file) and its ``robot_params``."""
+    """Check what the file names against the code, before any solving: every method's ``options`` against
+    its constructor (names and types), every case's robot and its ``robot_params`` against its builder."""
     from wbik.models import builder_parameters
     from wbik.models import robot_entries
     from wbik.models.erd import example_robot_name
@@ -602,8 +566,7 @@ def check_schema(methods, cases, source: str) -> None:
 
 
 def _no_unknown_keys(given, accepted: set[str], listed: set[str], what: str, whose: str) -> None:
-    """A StudyDefinitionError when ``given`` has keys ``accepted`` lacks: "{what} [the keys] for
-    {whose}: [``listed``, sorted]"."""
+    """A StudyDefinitionError when ``given`` has keys ``accepted`` lacks (``listed`` are named)."""
     unknown = sorted(set(given) - accepted)
     if unknown:
         raise StudyValueError(f"{what} {unknown} for {whose}: {', '.join(sorted(listed)) or '(none)'}")

@@ -1,17 +1,6 @@
-"""The study's figures, drawn with matplotlib's Agg backend (no display needed).
-
-- bars of the share of poses solved per method, with their 95 % (Wilson) intervals;
-- box plots of |error| per axis over solved poses (log scale; exact zeros drawn at a floor), and
-  histograms of log10 |error| per axis and method;
-- box plots of time per method, solved and unsolved poses side by side (log scale);
-- a histogram of time per method (log bins);
-- time ECDFs per method: the share of calls that returned within t, and the share of poses solved
-  within t;
-- success versus budget per method, with 95 % bands (:mod:`wbik.study.budget_curves`);
-- the throughput of the methods with a batched path (poses/s of solve_many over the case).
-
-A method has the same colour in every figure of a case (:func:`colours`).
-"""
+"""The study's figures, drawn with matplotlib's Agg backend: the share solved with its intervals, |error| per
+axis (box plots and histograms), time (box plots, histogram, ECDFs), success versus budget, and the throughput
+of batched methods. A method has the same colour in every figure of a case (:func:`colours`)."""
 
 from __future__ import annotations
 
@@ -31,7 +20,9 @@ ZERO_FLOOR = 1e-18
 """Where exact zeros are drawn on logarithmic error axes."""
 
 
-def _save(figure, path: Path) -> Path:
+def save(figure, path: Path) -> Path:
+    """``figure`` as a PNG at ``path``, trimmed to what it draws, then closed. Figures have a fixed layout
+    (no layout engine: its passes measure every tick label again); the trim measures once."""
     def write(handle) -> None:
         figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
 
@@ -41,11 +32,13 @@ def _save(figure, path: Path) -> Path:
 
 
 def _axis_grid(count: int, height: float) -> tuple[plt.Figure, list]:
-    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches, the cells left over
-    hidden: (figure, the ``count`` subplots in order)."""
+    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches with room for rotated
+    tick labels and a title between lines, the cells left over hidden: (figure, the ``count`` subplots)."""
     columns = 3
     lines = -(-count // columns)
-    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False)
+    figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False,
+                                gridspec_kw={"hspace": 1.1 / height, "wspace": 0.25,
+                                             "top": 1 - 0.6 / (height * lines)})
     cells = [cell for line in grid for cell in line]
     for cell in cells[count:]:
         cell.set_visible(False)
@@ -88,7 +81,7 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("% solved (95 % interval)")
     axes.set_title(f"{title}: poses solved")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
@@ -110,7 +103,7 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("throughput (poses/s, solve_many over the case)")
     axes.set_title(f"{title}: throughput of batched methods")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
@@ -140,9 +133,8 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
         figure.legend(handles, names, loc="upper center", ncol=min(6, len(names)), fontsize=7,
                       bbox_to_anchor=(0.5, 1.0))
     figure.suptitle(f"{title}: distribution of |error| (solved poses; zeros at {ZERO_FLOOR:g})", fontsize=10,
-                    y=1.04)
-    figure.tight_layout()
-    return _save(figure, path)
+                    y=1.0 + 0.2 / figure.get_figheight(), va="bottom")
+    return save(figure, path)
 
 
 def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -151,7 +143,8 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
     which ends at the method's share solved."""
     labels = list(rows_by_method)
     colour = colours(labels)
-    figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True)
+    figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True,
+                                              gridspec_kw={"top": 0.82})
     for label in labels:
         rows = rows_by_method[label]
         times = rows["time_s"] * 1e3
@@ -176,10 +169,9 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
         axes.grid(True, which="both", alpha=0.25)
     handles, names = returned.get_legend_handles_labels()
     figure.suptitle(f"{title}: time per call (ECDF)", fontsize=11)
-    figure.tight_layout()
     if handles:
         solved.legend(handles, names, fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
-    return _save(figure, path)
+    return save(figure, path)
 
 
 BUDGET_STYLES = {"iterations": "-", "wall": "--", "none": ":"}
@@ -214,7 +206,7 @@ def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -
         axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
         poses = next(iter(curves.values())).poses
         axes.set_title(f"{title}: success versus budget ({poses} poses per point)")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
@@ -231,8 +223,7 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)
     figure.suptitle(f"{title} (solved poses; exact zeros drawn at {ZERO_FLOOR:g})", fontsize=10)
-    figure.tight_layout()
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -260,7 +251,7 @@ def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Pa
     axes.set_xlim(0.4, len(labels) + 0.6)
     axes.set_ylabel("time (ms)")
     axes.set_title(f"{title}: time per pose (green solved, red not solved)")
-    return _save(figure, path)
+    return save(figure, path)
 
 
 def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -279,4 +270,4 @@ def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> P
     axes.set_xlabel("time (ms)")
     axes.set_ylabel("poses")
     axes.set_title(f"{title}: distribution of time per pose")
-    return _save(figure, path)
+    return save(figure, path)

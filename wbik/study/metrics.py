@@ -1,31 +1,18 @@
 """Per-axis errors of IK answers, in the study's own angles and in a reference's Euler angles.
 
-For a target (p*, R*) and the pose (p, R) reached by FK of a method's joints:
-
-- ``err_x, err_y, err_z`` = p - p* (m, base-frame axes);
-- ``err_rot_x, err_rot_y, err_rot_z`` = log3(R*^T R) (rad, rotation vector in the target frame);
-- ``err_alpha, err_beta, err_gamma``: differences of the study's own angles of
-  R = Rz(gamma) Ry(beta) Rx(alpha), wrapped to (-pi, pi];
-- ``err_<name>``: the same for the Tait-Bryan angles of a study file's ``reference.angles``
-  (:class:`AngleConvention`): a sequence of three distinct axes, e.g. "zyx" for
-  R = Rz(a_z) Ry(a_y) Rx(a_x), and a column name for the angle about each axis.
-
-Tait-Bryan angles of R = R_i(a_i) R_j(a_j) R_k(a_k) (sequence "ijk", axes i, j, k distinct): with
-d = +1 when (i, j, k) is an even permutation of (z, y, x) and -1 otherwise,
-
-    a_i = d atan2(r_jk, r_kk),   a_j = d atan2(-r_ik, hypot(r_kk, r_jk)),   a_k = d atan2(r_ij, r_ii)
-
-(relabelling the axes i, j, k as z, y, x by a permutation matrix P gives P R P^T =
-Rz(d a_i) Ry(d a_j) Rx(d a_k), since P R_a(t) P^T = R_Pa(det(P) t)). For "zyx": gamma = atan2(r21, r11),
-beta = atan2(-r31, sqrt(r11^2 + r21^2)), alpha = atan2(r32, r33). Near a_j = +-pi/2 (gimbal lock)
-these split one rotation between a_i and a_k arbitrarily; the rotation vector does not.
+For a target (p*, R*) and the pose (p, R) reached by FK of a method's joints: ``err_x, err_y, err_z`` =
+p - p* (m, base axes); ``err_rot_x, err_rot_y, err_rot_z`` = log3(R*^T R) (rad, target frame);
+``err_alpha, err_beta, err_gamma``: differences of the angles of R = Rz(gamma) Ry(beta) Rx(alpha),
+wrapped to (-pi, pi]; ``err_<name>``: the same for the Tait-Bryan angles of a study file's
+``reference.angles`` (:class:`AngleConvention`, e.g. "zyx" for R = Rz(a_z) Ry(a_y) Rx(a_x),
+:func:`wbik.geometry.tait_bryan_angles`). Near the middle angle's +-pi/2 (gimbal lock) Euler angles split
+one rotation arbitrarily; the rotation vector does not.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -33,9 +20,8 @@ from wbik.geometry import TAIT_BRYAN_SEQUENCES  # noqa: F401  (re-exported)
 from wbik.geometry import batch_exp3  # noqa: F401  (re-exported)
 from wbik.geometry import tait_bryan_angles  # noqa: F401  (re-exported)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
+from wbik.solvers.result import IKResult
 
-if TYPE_CHECKING:
-    from wbik.solvers.result import IKResult
 POSITION_AXES = ("x", "y", "z")
 ROTATION_VECTOR_AXES = ("rot_x", "rot_y", "rot_z")
 ANGLE_AXES = ("alpha", "beta", "gamma")
@@ -54,9 +40,8 @@ AXIS_DESCRIPTIONS = {
 
 @dataclass(frozen=True)
 class AngleConvention:
-    """A reference's Euler angles: R = R_i(a_i) R_j(a_j) R_k(a_k) for ``sequence`` "ijk" (one of
-    TAIT_BRYAN_SEQUENCES), and ``names``, (axis, column name) pairs in x, y, z order, for the angles
-    whose errors become columns ``err_<name>``."""
+    """A reference's Euler angles, R = R_i(a_i) R_j(a_j) R_k(a_k) for ``sequence`` "ijk", and ``names``,
+    (axis, column name) pairs in x, y, z order, of the angles whose errors become columns ``err_<name>``."""
 
     sequence: str
     names: tuple[tuple[str, str], ...]
@@ -72,8 +57,7 @@ class AngleConvention:
         return "R = " + " ".join(f"R{axis}({named.get(axis, '.')})" for axis in self.sequence)
 
     def study_angle(self, axis: str) -> str | None:
-        """The study's own angle (alpha, beta, gamma) equal to the reference's angle about ``axis``:
-        the same angle when the sequence is the study's, else None."""
+        """The study's own angle equal to the reference's angle about ``axis`` (None: another sequence)."""
         return ANGLE_AXES[_AXIS_INDEX[axis]] if self.sequence == STUDY_SEQUENCE else None
 
 
@@ -101,11 +85,8 @@ def axis_label(axis: str, angles: AngleConvention | None = None) -> str:
 
 def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None,
                 angles: AngleConvention | None = None) -> dict[str, np.ndarray]:
-    """Per-axis error columns ``err_<axis>`` for a batch of answers (NaN where no joints came back).
-
-    ``target_rotations`` (B, 3, 3) for pose targets, None for position-only ones; ``angles`` a
-    reference's Euler angles to add as columns.
-    """
+    """Per-axis error columns ``err_<axis>`` of a batch of answers (NaN where no joints came back);
+    ``target_rotations`` (B, 3, 3), None for position targets; ``angles``: a reference's, as more columns."""
     count = len(results)
     columns: dict[str, np.ndarray] = {}
     position = np.array([r.position_error_xyz for r in results], dtype=float).reshape(count, 3)

@@ -1,22 +1,16 @@
-"""The target set ``near_limits``: FK of joints of which ``joints`` lie within ``fraction`` of their
-range from a limit.
-
-Target i (its own stream, :func:`~wbik.study.target_sets.target_stream`): every joint uniform inside
-its limits [l, u], then ``joints`` distinct joints chosen uniformly among the eligible ones, each set
-to u - s (u - l) or l + s (u - l), the side by a fair coin, s uniform in [0, fraction]. Eligible
-(``eligible: limited``, the default) are the joints whose limits restrict the pose: prismatic joints
-and revolute joints whose range is shorter than 2 pi (near a limit of a joint with a range of 2 pi or
-more, the same pose is reached by an angle 2 pi away, inside the limits); ``eligible: all`` takes
-every joint; a chain without a limited joint falls back to all (the report says so).
+"""The target set ``near_limits``: FK of joints of which ``joints`` lie within ``fraction`` of their range
+from a limit: every joint uniform inside [l, u], then ``joints`` distinct eligible joints set to
+u - s (u - l) or l + s (u - l) (a fair coin), s uniform in [0, fraction]. Eligible (``limited``) are the
+joints whose limits restrict the pose: prismatic, or revolute with a range under 2 pi; ``all`` takes every
+joint, as does a chain without a limited joint (the report says so).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from wbik.geometry import TWO_PI
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.target_parameters import Parameter
@@ -26,9 +20,6 @@ from wbik.study.target_parameters import number
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 
 def limited_joints(chain: Chain) -> np.ndarray:

@@ -1,31 +1,18 @@
-"""The target set ``near_singularities``: FK of joints where the smallest singular value of the
-chain's 6 x n Jacobian is below ``sigma_max``.
+"""The target set ``near_singularities``: FK of joints where the smallest singular value of the chain's
+6 x n Jacobian J = [J_v; J_w] (units mixed, as it is) is below ``sigma_max``.
 
-sigma_min(q) is the smallest singular value of J(q) = [J_v; J_w] (tip velocity in base axes, m/rad,
-and angular velocity, rad/rad: the units mix, so the bound is on that matrix as it is). Where it is
-simple, with singular vectors u, v (J v = sigma_min u),
-
-    d sigma_min / d q_k = u^T (dJ/dq_k) v,
-
-dJ/dq_k by central differences (step 1e-6 rad or m). Target i (its own stream): a goal s uniform in
-[0, sigma_max) and joints uniform inside the limits; then Newton steps on the scalar equation
-sigma_min(q) = s along the gradient g,
-
-    dq = -(sigma_min(q) - s) g / |g|^2,
-
-each clipped into the limits and halved (up to 8 times) until it brings sigma_min nearer s, at most
-``steps`` steps, until sigma_min < sigma_max and |sigma_min - s| <= sigma_max / 10. A start that does
-not get there is replaced by another uniform one (at most ``attempts`` per target). The joints are
-then where the chain loses a direction of motion (an elbow stretched, a wrist's axes aligned, the wrist
-centre on the first axis: whichever singular set the start was nearest), up to sigma_max.
+With u, v the singular vectors of sigma_min, d sigma_min / d q_k = u^T (dJ/dq_k) v (central differences).
+Target i (its own stream): a goal s uniform in [0, sigma_max), joints uniform inside the limits, then Newton
+steps dq = -(sigma_min(q) - s) g / |g|^2 along the gradient g, each clipped into the limits and halved until
+it helps, until sigma_min < sigma_max and |sigma_min - s| <= sigma_max / 10 (at most ``steps``); a start
+that does not get there is replaced (at most ``attempts``).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.spec import StudyDefinitionError
@@ -35,9 +22,6 @@ from wbik.study.target_parameters import number
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 DIFFERENCE_STEP = 1e-6
 """Central-difference step of dJ/dq (rad or m)."""
@@ -64,7 +48,7 @@ def sigma_min_gradient(chain: Chain, q: np.ndarray) -> tuple[float, np.ndarray]:
 
 def drive_to_sigma(chain: Chain, q: np.ndarray, goal: float, bound: float,
                    steps: int) -> tuple[np.ndarray, float, int]:
-    """Newton steps on sigma_min(q) = goal from q (module docstring): (q, sigma_min(q), steps taken)."""
+    """Newton steps on sigma_min(q) = goal from q: (q, sigma_min(q), steps taken)."""
     sigma, gradient = sigma_min_gradient(chain, q)
     for step in range(steps):
         if sigma < bound and abs(sigma - goal) <= bound / 10.0:

@@ -1,12 +1,7 @@
-"""A study run owns its output folder: an exclusive lock, and no partial files left behind.
-
-The lock is ``fcntl.flock`` on ``<output>/.wbik-lock``, held for the whole run (the kernel drops it
-when the process dies, however it dies, so a killed run never leaves a stale lock). A second run
-into the same folder refuses at once with :class:`FolderBusyError`, naming the process that holds
-it; ``--fresh`` deletes a folder's contents only while holding its lock, and never the lock file.
-On taking the lock, temporary files of killed writers (``.NAME.PID.tmp``, see :mod:`wbik.files`)
-are removed: nobody else can be writing them.
-"""
+"""A study run owns its output folder: ``fcntl.flock`` on ``<output>/.wbik-lock`` for the whole run (the
+kernel drops it when the process dies, however it dies). A second run into the folder is refused with
+:class:`FolderBusyError`; ``--fresh`` empties the folder only while holding the lock; taking the lock
+removes the temporary files of killed writers (``.NAME.PID.tmp``, :mod:`wbik.files`)."""
 
 from __future__ import annotations
 

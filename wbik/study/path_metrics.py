@@ -1,40 +1,25 @@
-"""Paths of a path study: their shapes in the task space and the metrics of a joint path that follows them.
+"""Paths of a path study: their shapes in the task space and the metrics of a joint path following them.
 
-Shapes, from the tip pose (p0, R0) of a start configuration, N points, k = 0..N-1, s_k = k / (N - 1):
+Shapes from the tip pose (p0, R0), N points, s_k = k / (N - 1): a line of length L along d,
+p_k = p0 + s_k L d; a closed circle of radius r in the plane of the orthonormal u, v,
+p_k = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k; the orientation held, or slerped by phi
+about a, R_k = R0 exp3(s_k phi a).
 
-- a line of length L along a unit direction d: p_k = p0 + s_k L d;
-- a circle of radius r in the plane of the orthonormal u, v through the tip: centre c = p0 + r u and
-  p_k = c - r (u cos t_k - v sin t_k) = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k, so the
-  last point is the first (the circle is closed);
-- the orientation held, R_k = R0, or slerped by an angle phi about a unit axis a (in the tip frame),
-  R_k = R0 exp3(s_k phi a).
-
-Metrics of a joint path q_0..q_{N-1} (rad, m for a prismatic joint) of which some points are solved:
-the robot moves between consecutive *solved* points i < j (an unsolved point is skipped, the robot
-stays at its last solved configuration), by the step dq = q_j - q_i (no wrap: the motion the joints
-make). Then
-
-- largest step = max over steps of max_j |dq_j|;
-- length = sum over steps of sum_j |dq_j| (the joint-space path length, L1 over the joints);
-- a *jump* is a step with max_j |dq_j| > a threshold;
-- a *branch change* is a step between points whose closed-form branches (their indices among the
-  closed form's branches, :func:`branch_labels`) are known and differ;
-- a *flip* is a step that is a jump or a branch change.
+A joint path moves between consecutive *solved* points by dq = q_j - q_i (no wrap): its largest step is the
+largest max_j |dq_j|, its length the sum of sum_j |dq_j|; a *jump* is a step above a threshold, a *branch
+change* a step between known, different closed-form branches (:func:`branch_labels`), a *flip* either.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
+from wbik.study.closed_form_branches import ClosedFormBranches
 from wbik.study.closed_form_branches import joint_distance
-
-if TYPE_CHECKING:
-    from wbik.study.closed_form_branches import ClosedFormBranches
 
 
 def fractions(count: int) -> np.ndarray:
@@ -52,8 +37,7 @@ def random_unit(rng: np.random.Generator) -> np.ndarray:
 
 
 def random_plane(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Two orthonormal vectors (u, v) spanning a plane uniform among planes through the origin (Gram-Schmidt
-    of two random unit vectors)."""
+    """Orthonormal (u, v) spanning a plane uniform among planes through the origin (Gram-Schmidt)."""
     u = random_unit(rng)
     while True:
         w = random_unit(rng)
@@ -69,15 +53,14 @@ def line_points(start: np.ndarray, direction: np.ndarray, length: float, count: 
 
 
 def circle_points(start: np.ndarray, u: np.ndarray, v: np.ndarray, radius: float, count: int) -> np.ndarray:
-    """(N, 3): p_k = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k (the first and the last point
-    are p0)."""
+    """(N, 3): p_k = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k."""
     angles = 2.0 * math.pi * fractions(count)
     return (np.asarray(start, float) + radius * (np.outer(1.0 - np.cos(angles), u)
                                                  + np.outer(np.sin(angles), v)))
 
 
 def slerped_rotations(start: np.ndarray, axis: np.ndarray | None, angle: float, count: int) -> np.ndarray:
-    """(N, 3, 3): R_k = R0 exp3(s_k phi a); R0 at every point for ``axis`` None (the orientation held)."""
+    """(N, 3, 3): R_k = R0 exp3(s_k phi a); R0 at every point for ``axis`` None."""
     if axis is None or angle == 0.0:
         return np.broadcast_to(np.asarray(start, float), (count, 3, 3)).copy()
     return np.array([start @ pin.exp3(s * angle * np.asarray(axis, float)) for s in fractions(count)])
@@ -98,9 +81,8 @@ class PathMetrics:
 
 def path_metrics(q: np.ndarray, solved: np.ndarray, threshold: float,
                  branches: np.ndarray | None = None) -> PathMetrics:
-    """The metrics of the joint path ``q`` (N, n) whose points ``solved`` (N,) were solved; a jump is a
-    step larger than ``threshold`` (rad or m) on some joint; ``branches`` (N,): each point's closed-form
-    branch (-1: unknown), None where the chain has no complete closed form."""
+    """The metrics of the joint path ``q`` (N, n) whose points ``solved`` were solved; a jump is a step above
+    ``threshold`` (rad or m); ``branches`` (N,): each point's closed-form branch (-1: unknown), or None."""
     solved = np.asarray(solved, dtype=bool)
     count = solved.size
     indices = np.flatnonzero(solved)
@@ -121,14 +103,9 @@ def path_metrics(q: np.ndarray, solved: np.ndarray, threshold: float,
 
 def branch_labels(form: ClosedFormBranches, positions: np.ndarray, rotations: np.ndarray, q: np.ndarray,
                   solved: np.ndarray, tolerance: float) -> np.ndarray:
-    """(N,): for each solved point, the index of the closed-form branch its answer q equals within
-    ``tolerance`` on every joint (revolute joints modulo 2 pi), the nearest if several; -1 for an
-    unsolved point or an answer equal to no branch.
-
-    The index is the branch's place in the closed form's list of a pose's branches (for the UR family
-    the sign choices shoulder x wrist x elbow), the same choices at every pose: a joint path that stays
-    on one branch keeps its index unless it crosses a singularity where branches meet.
-    """
+    """(N,): per solved point, the index of the nearest closed-form branch its answer equals within
+    ``tolerance`` (revolute modulo 2 pi), -1 for none. The index is the branch's place in the closed form's
+    list (the same sign choices at every pose: shoulder x wrist x elbow for the UR family)."""
     chain = form.chain
     closed = form.solver.closed_form("pose")
     count = len(positions)

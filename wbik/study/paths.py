@@ -1,51 +1,34 @@
 """Path studies, the case kind ``path`` (``target: path``, or a case with a ``path:`` mapping): straight
 lines and circles in the task space of one chain, followed point by point by every method.
 
-A case's ``path:`` (:data:`PATH_PARAMETERS`; every value is written into the case's definition with its
-default filled in, so the results folder's fingerprint holds it)::
+A case's ``path:`` (:data:`PATH_PARAMETERS`, defaults filled in so the fingerprint holds them)::
 
     path: {shape: line, length: 0.2, points: 50, count: 20, orientation: hold, jump: 0.5}
     path: {shape: circle, radius: 0.1, points: 50, orientation: slerp, angle: 0.5}
 
-Drawing (main process, :func:`sample_paths`). Path i comes from its own stream
-``default_rng([seed, crc32("path"), i])``: a start configuration uniform inside the joint limits, its tip
-pose (p0, R0), then a line of ``length`` along a direction uniform on the sphere, or a circle of
-``radius`` in a plane through the tip uniform among planes, with the orientation held or slerped by
-``angle`` about an axis uniform on the sphere (:mod:`wbik.study.path_metrics`), cut into ``points``
-points, the first the tip pose. With ``reachable`` (the default) a path is kept only when every point
-has a *witness*, a configuration inside the limits that passes the shared check: ``bounded_lm`` from
-the previous point's witness, else from up to :data:`WITNESS_RESTARTS` random starts; otherwise the
-path is drawn again from the same stream, up to ``attempts`` times (a path that never passes is kept
-and counted as unverified in the report). The witness shows each point is reachable, not that one
-continuous joint path joins them all.
-
-Following (worker, :meth:`PathTargets.solve`): every method solves point 0 from the start
-configuration, then point k from its answer at the last solved point (a warm start: the robot stays
-where it was when a point fails). Wall-clock methods are watched for CPU starvation point by point
-(:mod:`wbik.study.cpu_watch`). Where the chain has a complete closed form
-(:func:`wbik.study.closed_form_branches.complete_closed_form`), each answer is labelled with its
-closed-form branch.
-
-Rows: one per path, with the per-point columns (``point_*``, arrays of the path's points) and the
-metrics of :func:`wbik.study.path_metrics.path_metrics`: share of points solved, whole path solved
-(``success``), jumps (a joint step above ``jump``), branch changes, flips (either), largest joint step,
-joint-space path length. The report section: a table per method, and a figure of the share of paths
-solved at each point beside the joint path lengths.
+Path i comes from its own stream (:func:`~wbik.study.target_sets.target_stream` of "path"): a start
+configuration uniform inside the limits, its tip pose, then the shape and orientation of
+:mod:`wbik.study.path_metrics` drawn from it. With ``reachable`` a path is kept only when every point has
+a witness configuration inside the limits passing the shared check (``bounded_lm`` from the previous
+point's witness, else from :data:`WITNESS_RESTARTS` random starts), else it is drawn again (at most
+``attempts`` times; then kept, counted unverified). Every method solves point 0 from the start, then
+point k from its answer at the last solved point. Rows: one per path, the per-point columns
+(``point_*``) and the metrics of :func:`wbik.study.path_metrics.path_metrics`.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 import math
-import zlib
+from dataclasses import asdict
 from dataclasses import dataclass
 from dataclasses import field
-from typing import TYPE_CHECKING
+from functools import partial
+from pathlib import Path
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.robot import Chain
 from wbik.schema import Boolean
 from wbik.schema import Context
 from wbik.schema import Key
@@ -64,7 +47,6 @@ from wbik.study.context import _frozen
 from wbik.study.context import chain_of
 from wbik.study.context import make_solver
 from wbik.study.context import solver_budget
-from wbik.study.cpu_watch import solve_watching_the_cpu
 from wbik.study.path_metrics import branch_labels
 from wbik.study.path_metrics import circle_points
 from wbik.study.path_metrics import line_points
@@ -73,18 +55,16 @@ from wbik.study.path_metrics import random_plane
 from wbik.study.path_metrics import random_unit
 from wbik.study.path_metrics import slerped_rotations
 from wbik.study.sampling import PoseSet
+from wbik.study.sampling import saved_extras
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
+from wbik.study.statistics import finite_statistic
 from wbik.study.statistics import wilson_interval
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import choice
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number
-
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.robot import Chain
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
+from wbik.study.target_sets import target_stream
 
 PATH = "path"
 SHAPES = ("line", "circle")
@@ -122,13 +102,11 @@ WITNESS_BUDGET_S = 0.02
 """The witness's budget per solve (an iteration budget, the same on any machine)."""
 WITNESS_RESTARTS = 10
 """Random starts tried at a point whose witness the previous point's does not reach."""
-STREAM = zlib.crc32(PATH.encode())
 
 
 def path_schema() -> Map:
-    """A case's ``path:``: the keys of its shape and orientation (PATH_PARAMETERS, defaults filled in)
-    and ``count``, the number of paths (absent when not given); a key of another shape or orientation
-    is refused by its path (``cases[1].path.radius``)."""
+    """A case's ``path:``: the keys of its shape and orientation, defaults filled in, and ``count`` (the
+    number of paths) if given; a key of another shape or orientation is refused."""
 
     def only_for(checked: dict, path: str, ctx: Context) -> None:
         for key, (decider, value) in ONLY_FOR.items():
@@ -147,13 +125,6 @@ def path_schema() -> Map:
                what="a mapping {shape: line|circle, length or radius, points, count, ...}")
 
 
-def path_parameters(raw, ctx: Context, path: str) -> tuple[dict, int | None]:
-    """A case's ``path:`` (``raw``) checked and completed with its defaults (the keys of its shape and
-    orientation only), and its ``count`` (None when not given)."""
-    checked = path_schema().check(raw, path, ctx)
-    return checked, checked.pop("count", None)
-
-
 def describe(parameters: dict) -> str:
     """The paths in words: "line of 0.2 m, 50 points, orientation held"."""
     shape = (f"line of {parameters['length']:g} m" if parameters["shape"] == "line"
@@ -164,11 +135,6 @@ def describe(parameters: dict) -> str:
 
 
 # -- drawing -----------------------------------------------------------------------------------------
-def path_stream(seed: int, index: int) -> np.random.Generator:
-    """The random stream of path ``index``: ``default_rng([seed, crc32("path"), index])``."""
-    return np.random.default_rng([seed, STREAM, index])
-
-
 def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q_start (n,), positions (N, 3), rotations (N, 3, 3)) of one path drawn from ``rng``."""
@@ -187,9 +153,8 @@ def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
 
 def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.ndarray, positions: np.ndarray,
                  rotations: np.ndarray) -> np.ndarray | None:
-    """(N, n) configurations inside the limits that reach every point (the shared check), each solved
-    from the previous one, else from up to WITNESS_RESTARTS random starts; None at the first point
-    none reaches."""
+    """(N, n) configurations inside the limits passing the shared check at every point, each solved from
+    the previous one, else from up to WITNESS_RESTARTS random starts; None at a point none reaches."""
     from wbik.targets import Target
 
     q, found = q_start, []
@@ -209,16 +174,15 @@ def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.nda
 
 @dataclass
 class PathSet(PoseSet):
-    """The paths of a case as a :class:`~wbik.study.sampling.PoseSet`: ``q_true`` and ``q0`` the start
-    configurations (count, n), ``positions`` (count, N, 3), ``rotations`` (count, N, 3, 3); beside them
-    the draws each path took, whether its witness was found and the witness's joint path length."""
+    """The paths of a case: ``q_true`` and ``q0`` the start configurations (count, n), ``positions``
+    (count, N, 3), ``rotations`` (count, N, 3, 3); the draws each took, whether its witness was found
+    and the witness's joint path length (saved as ``path_<name>``)."""
 
     draws: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     verified: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     witness_length: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
-        """The poses' arrays, then the draws, verified flags and witness lengths as ``path_<name>``."""
         return {"q_true": self.q_true, "positions": self.positions, "rotations": self.rotations,
                 "q0": self.q0, "path_draws": self.draws, "path_verified": self.verified,
                 "path_witness_length": self.witness_length}
@@ -233,7 +197,7 @@ def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=
     verified = np.zeros(count, dtype=bool)
     witness_length = np.full(count, np.nan)
     for index in range(count):
-        rng = path_stream(seed, index)
+        rng = target_stream(seed, PATH, index)
         for draw in range(1, parameters["attempts"] + 1):
             drawn = draw_path(chain, rng, parameters)
             draws[index] = draw
@@ -248,19 +212,11 @@ def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=
     return PathSet(q_start, positions, rotations, q_start.copy(), draws, verified, witness_length)
 
 
-def read_drawing(path: Path) -> dict[str, np.ndarray]:
-    """The draws, verified flags and witness lengths saved with a case's paths ({} if none)."""
-    if not path.is_file():
-        return {}
-    with np.load(path, allow_pickle=False) as data:
-        return {key[len("path_"):]: data[key] for key in data.files if key.startswith("path_")}
-
-
 # -- the kind ------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class PathChunkTask(ChainChunkTask):
-    """A chunk of paths: the chain chunk (``positions`` (k, N, 3), ``rotations`` (k, N, 3, 3), ``q0`` the
-    start configurations) and the flip criteria."""
+    """A chunk of paths (``positions`` (k, N, 3), ``rotations`` (k, N, 3, 3), ``q0`` the starts) and the
+    flip criteria."""
 
     jump: float = 0.5
     branch_tolerance: float = 1e-3
@@ -301,7 +257,11 @@ class PathTargets(ChainTargets):
 
     def parameters_of(self, case: CaseSpec) -> dict:
         """The case's path parameters (completed when it was read), else the defaults."""
-        return dict(case.path) if case.path else path_parameters(None, Context("defaults"), "path")[0]
+        if case.path:
+            return dict(case.path)
+        defaults = path_schema().check(None, "path", Context("defaults"))
+        defaults.pop("count", None)
+        return defaults
 
     def sampling_text(self, case: CaseSpec) -> str:
         return describe(self.parameters_of(case))
@@ -328,52 +288,31 @@ class PathTargets(ChainTargets):
     # -- in the worker -----------------------------------------------------------------------------
     def solve(self, task: PathChunkTask) -> dict[str, np.ndarray]:
         """Follow every path of the chunk (module docstring): the per-point columns and the metrics."""
-        from wbik.study.chain_targets import _raised
         from wbik.study.solution_coverage import closed_form_of
         from wbik.targets import Target
 
-        if task.registered is not None:
-            from wbik.solvers.method_registry import register_method
-            register_method(task.registered, replace=True)
-        solver = self.build(task)
+        solver = self.worker_solver(task)
         chain = solver.chain
         count, points, n = task.count, task.positions.shape[1], chain.nq
         watch = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
         form = closed_form_of(chain)
         form = None if isinstance(form, str) else form
-        columns = {
-            "point_success": np.zeros((count, points), dtype=bool),
-            "point_reason": np.full((count, points), "", dtype=object),
-            "point_time_s": np.full((count, points), np.nan),
-            "point_iterations": np.zeros((count, points), dtype=int),
-            "point_position_error": np.full((count, points), np.nan),
-            "point_rotation_error": np.full((count, points), np.nan),
-            "point_branch": np.full((count, points), -1, dtype=int),
-            "point_q": np.full((count, points, n), np.nan),
-        }
+        empty = {"success": False, "reason": "", "time_s": np.nan, "iterations": 0, "position_error": np.nan,
+                 "rotation_error": np.nan, "branch": -1}
+        columns = {f"point_{key}": np.full((count, points), value, dtype=object if key == "reason" else None)
+                   for key, value in empty.items()}
+        columns["point_q"] = np.full((count, points, n), np.nan)
         cpu = np.zeros(count)
         reruns = np.zeros(count, dtype=int)
         for path in range(count):
             q_previous = task.q0[path]
             for point in range(points):
                 target = Target(task.positions[path, point], task.rotations[path, point])
-                try:
-                    if watch:
-                        answer, seconds, again = solve_watching_the_cpu(
-                            solver, target, q_previous, task.timeout_s,
-                            lambda budget: self.build(task, budget))
-                        cpu[path] += seconds
-                        reruns[path] += again
-                    else:
-                        answer = solver.solve(target, q_previous)
-                except Exception as exc:  # noqa: BLE001 - recorded in the point's row
-                    answer = _raised(solver, exc)
-                columns["point_success"][path, point] = answer.success
-                columns["point_reason"][path, point] = answer.reason
-                columns["point_time_s"][path, point] = answer.time_s
-                columns["point_iterations"][path, point] = answer.iterations
-                columns["point_position_error"][path, point] = answer.position_error
-                columns["point_rotation_error"][path, point] = answer.rotation_error
+                answer, seconds, again = self.solve_one(task, solver, target, q_previous)
+                cpu[path] += 0.0 if math.isnan(seconds) else seconds
+                reruns[path] += again
+                for key in ("success", "reason", "time_s", "iterations", "position_error", "rotation_error"):
+                    columns[f"point_{key}"][path, point] = getattr(answer, key)
                 if answer.q is not None:
                     columns["point_q"][path, point] = answer.q
                 if answer.success:
@@ -388,14 +327,17 @@ class PathTargets(ChainTargets):
 
     # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
+        from wbik.study.solution_coverage import closed_form_of
+
         directory, rows_by_method, not_applicable, chain = self.case_results(study, case, output)
         write_point_csv(directory / "raw.csv", rows_by_method, chain.joint_names)
-        write_path_csv(directory / "paths.csv", rows_by_method)
+        store.write_csv(directory / "paths.csv", ["path", "method", "whole", *PATH_CSV_KEYS, "reason"],
+                        (row for label, rows in rows_by_method.items()
+                         for row in store.method_csv_rows(label, rows, ["success", *PATH_CSV_KEYS, "reason"],
+                                                          joints=False)))
         common = common_paths(rows_by_method)
         summaries = {label: path_summary(rows, common) for label, rows in rows_by_method.items()}
         write_case_tables(directory, summaries, [])
-        from wbik.study.solution_coverage import closed_form_of
-
         form = closed_form_of(chain)
         images = {}
         if rows_by_method:
@@ -403,7 +345,7 @@ class PathTargets(ChainTargets):
             images["paths"] = path_figure(rows_by_method, title, directory / "figures" / "paths.png")
         return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,
                 "summaries": summaries, "tests": [], "baseline": None, "images": images,
-                "drawing": read_drawing(directory / "poses.npz"), "common": int(common.sum()),
+                "drawing": saved_extras(directory / "poses.npz", "path_"), "common": int(common.sum()),
                 "closed_form": (f"not counted, {form}" if isinstance(form, str)
                                 else f"counted on the closed form {form.family}"),
                 "parameters": self.parameters_of(case)}
@@ -481,14 +423,15 @@ class PathTargets(ChainTargets):
 # -- rows and summaries --------------------------------------------------------------------------------
 def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, branches_known: bool
                  ) -> dict[str, np.ndarray]:
-    """The per-path columns of a chunk from its per-point columns: ``pose`` (the path's index),
-    ``success`` (whole path), ``reason`` (the first unsolved point's), ``time_s`` and ``iterations``
-    (sums over the points), the :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the answer at the
-    last solved point)."""
+    """The per-path columns of a chunk from its per-point ones: ``pose`` (the path's index), ``success``
+    (whole path), ``reason`` (the first unsolved point's), ``time_s`` and ``iterations`` (sums), the
+    :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the answer at the last solved point)."""
     success = points["point_success"]
     count, _ = success.shape
-    metrics = [path_metrics(points["point_q"][i], success[i], jump,
-                            points["point_branch"][i] if branches_known else None) for i in range(count)]
+    metrics = [asdict(path_metrics(points["point_q"][i], success[i], jump,
+                                   points["point_branch"][i] if branches_known else None))
+               for i in range(count)]
+    whole = [m.pop("whole") for m in metrics]
     reasons = []
     last_q = np.full((count, points["point_q"].shape[2]), np.nan)
     for i in range(count):
@@ -498,21 +441,11 @@ def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, br
         solved = np.flatnonzero(success[i])
         if solved.size:
             last_q[i] = points["point_q"][i, solved[-1]]
-    return {
-        "pose": np.arange(first_path, first_path + count),
-        "success": np.array([m.whole for m in metrics], dtype=bool),
-        "reason": np.array(reasons, dtype=str),
-        "time_s": np.nansum(points["point_time_s"], axis=1),
-        "iterations": points["point_iterations"].sum(axis=1),
-        "points_solved": np.array([m.points_solved for m in metrics]),
-        "jumps": np.array([m.jumps for m in metrics], dtype=int),
-        "branch_changes": np.array([m.branch_changes for m in metrics], dtype=int),
-        "branches_known": np.full(count, branches_known),
-        "flips": np.array([m.flips for m in metrics], dtype=int),
-        "largest_step": np.array([m.largest_step for m in metrics]),
-        "length": np.array([m.length for m in metrics]),
-        "q": last_q,
-    }
+    return {"pose": np.arange(first_path, first_path + count), "success": np.array(whole, dtype=bool),
+            "reason": np.array(reasons, dtype=str), "time_s": np.nansum(points["point_time_s"], axis=1),
+            "iterations": points["point_iterations"].sum(axis=1),
+            **{key: np.array([m[key] for m in metrics]) for key in metrics[0]},
+            "branches_known": np.full(count, branches_known), "q": last_q}
 
 
 def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
@@ -521,22 +454,15 @@ def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
     return np.logical_and.reduce(masks) if masks else np.zeros(0, dtype=bool)
 
 
-def _median(values: np.ndarray) -> float:
-    values = values[np.isfinite(values)]
-    return float(np.median(values)) if values.size else math.nan
-
-
 def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
-    """One method's figures over a case's paths (the keys of summary.csv): paths, whole paths
-    (``solved``, ``percent_solved`` and its Wilson 95 % interval), % points solved, flips, jumps, branch
-    changes, largest steps, path lengths (whole paths; ``common``: the paths every method solved whole),
-    times (per point, and per path as ``time_all_*``)."""
+    """One method's figures over a case's paths (summary.csv): whole paths (``solved``, with a Wilson
+    interval), % points solved, flips, jumps, branch changes, largest steps, path lengths (of the paths
+    solved whole; ``common``: those every method solved whole), times per point and per path."""
     whole = rows["success"].astype(bool)
     count, solved = int(whole.size), int(whole.sum())
     low, high = wilson_interval(solved, count)
     point_success = rows["point_success"].astype(bool)
-    point_ms = rows["point_time_s"][np.isfinite(rows["point_time_s"])] * 1e3
-    path_ms = rows["time_s"] * 1e3
+    point_ms = rows["point_time_s"] * 1e3
     return {
         "poses": count, "solved": solved, "percent_solved": 100.0 * solved / count if count else math.nan,
         "percent_solved_ci_low": 100.0 * low, "percent_solved_ci_high": 100.0 * high,
@@ -545,59 +471,42 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
         "paths_with_flips": int(np.sum(rows["flips"] > 0)), "flips": int(rows["flips"].sum()),
         "jumps": int(rows["jumps"].sum()), "branch_changes": int(rows["branch_changes"].sum()),
         "branches_known": bool(rows["branches_known"].all()) if count else False,
-        "largest_step_max": float(np.nanmax(rows["largest_step"])) if np.isfinite(rows["largest_step"]).any()
-        else math.nan,
-        "largest_step_median": _median(rows["largest_step"]),
-        "length_median": _median(rows["length"][whole]),
-        "length_common_median": _median(rows["length"][common]) if common.size == count else math.nan,
-        "time_point_median_ms": float(np.median(point_ms)) if point_ms.size else math.nan,
-        "time_point_p95_ms": float(np.percentile(point_ms, 95)) if point_ms.size else math.nan,
-        "time_all_median_ms": _median(path_ms),
+        "largest_step_max": finite_statistic(rows["largest_step"], np.max),
+        "largest_step_median": finite_statistic(rows["largest_step"]),
+        "length_median": finite_statistic(rows["length"][whole]),
+        "length_common_median": finite_statistic(rows["length"][common] if common.size == count else []),
+        "time_point_median_ms": finite_statistic(point_ms),
+        "time_point_p95_ms": finite_statistic(point_ms, partial(np.percentile, q=95)),
+        "time_all_median_ms": finite_statistic(rows["time_s"] * 1e3),
         "raised": int(sum(str(reason).startswith("raised") for reason in rows["point_reason"].ravel())),
         "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
     }
 
 
+PATH_CSV_KEYS = ("points_solved", "jumps", "branch_changes", "flips", "largest_step", "length", "time_s",
+                 "iterations")
+"""The columns of paths.csv (a row per path and method) between ``whole`` and ``reason``."""
+
+
 def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: list[str]) -> None:
-    """Every (path, point, method) row in one CSV: success, reason, time, iterations, errors, the step
-    from the last solved point (largest |dq|), the closed-form branch (-1: none or unknown), the joints."""
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["path", "point", "method", "success", "reason", "time_s", "iterations", "position_error",
-                     "rotation_error", "step", "branch", *(f"q_{name}" for name in joint_names)])
-    for label, rows in rows_by_method.items():
-        for i, path_index in enumerate(rows["pose"]):
-            previous = None
-            for k in range(rows["point_success"].shape[1]):
-                q = rows["point_q"][i, k]
-                solved = bool(rows["point_success"][i, k])
-                step = math.nan
-                if solved:
-                    if previous is not None:
-                        step = float(np.max(np.abs(q - previous)))
-                    previous = q
-                writer.writerow([int(path_index), k, label, int(solved), str(rows["point_reason"][i, k]),
-                                 repr(float(rows["point_time_s"][i, k])), int(rows["point_iterations"][i, k]),
-                                 repr(float(rows["point_position_error"][i, k])),
-                                 repr(float(rows["point_rotation_error"][i, k])), repr(step),
-                                 int(rows["point_branch"][i, k]), *(repr(float(v)) for v in q)])
-    store.atomic_write_text(path, buffer.getvalue())
+    """Every (path, point, method) row: success, reason, time, iterations, errors, the step from the last
+    solved point (largest |dq|), the closed-form branch (-1: none or unknown), the joints."""
+    keys = ("success", "reason", "time_s", "iterations", "position_error", "rotation_error")
 
+    def rows():
+        for label, rows in rows_by_method.items():
+            for i, path_index in enumerate(rows["pose"]):
+                solved = rows["point_success"][i].astype(bool)
+                q = rows["point_q"][i]
+                indices = np.flatnonzero(solved)
+                steps = np.full(solved.size, np.nan)
+                steps[indices[1:]] = np.max(np.abs(np.diff(q[indices], axis=0)), axis=1)
+                columns = [np.full(solved.size, path_index), np.arange(solved.size), [label] * solved.size,
+                           *(rows[f"point_{key}"][i] for key in keys), steps, rows["point_branch"][i], *q.T]
+                yield from zip(*(store.csv_cells(column) for column in columns), strict=True)
 
-def write_path_csv(path: Path, rows_by_method: dict[str, dict]) -> None:
-    """Every (path, method) row: whole, points solved, jumps, branch changes, flips, largest step,
-    length, time, iterations, reason."""
-    keys = ("points_solved", "jumps", "branch_changes", "flips", "largest_step", "length", "time_s",
-            "iterations")
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["path", "method", "whole", *keys, "reason"])
-    for label, rows in rows_by_method.items():
-        for i, path_index in enumerate(rows["pose"]):
-            writer.writerow([int(path_index), label, int(bool(rows["success"][i])),
-                             *(repr(float(rows[key][i])) if np.issubdtype(rows[key].dtype, np.floating)
-                               else int(rows[key][i]) for key in keys), str(rows["reason"][i])])
-    store.atomic_write_text(path, buffer.getvalue())
+    store.write_csv(path, ["path", "point", "method", *keys, "step", "branch",
+                           *(f"q_{name}" for name in joint_names)], rows())
 
 
 def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
@@ -610,7 +519,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     labels = list(rows_by_method)
     colour = figures.colours(labels)
     figure, (along, lengths) = plt.subplots(1, 2, figsize=(max(10.0, 1.0 * len(labels) + 7), 4.2),
-                                            constrained_layout=True)
+                                            gridspec_kw={"wspace": 0.3})
     for label in labels:
         success = rows_by_method[label]["point_success"].astype(bool)
         along.plot(np.arange(success.shape[1]), 100.0 * success.mean(axis=0), color=colour[label],
@@ -633,7 +542,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     lengths.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
     lengths.set_ylabel("joint path length, sum |dq| (rad), whole paths")
     figure.suptitle(title, fontsize=10)
-    return figures._save(figure, path)
+    return figures.save(figure, path)
 
 
 CASE_KINDS = (PathTargets(),)

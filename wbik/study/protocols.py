@@ -1,31 +1,18 @@
-"""Benchmark protocols, the case kind ``protocol`` (``target: protocol``, or a case with ``success:``):
-chain targets judged by a published benchmark's success rule, with the peers' published figures beside
-ours.
-
-A case's keys (besides those of every chain case, ``reference:`` included)::
+"""Benchmark protocols, the case kind ``protocol`` (a case with ``success:``): a ``pose`` case's targets and
+solves, each answer then judged by a published benchmark's success rule (:mod:`wbik.study.success_rules`),
+with the peers' published figures beside ours::
 
     success: {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}   # TRAC-IK's test
-    success: {per: norm, position: 0.005, rotation: 0.05}                      # cuRobo's, PyRoki's
-    peers:                      # published figures of solvers that are not methods of the study
-      - {solver: cuRobo v2, source: "its documentation, IK benchmark", figures: {percent_solved: 100}}
+    peers: [{solver: cuRobo v2, source: "its documentation", figures: {percent_solved: 100}}]
 
-The targets are the ``pose`` case's (FK of uniform joints inside the limits, the study's ``start``).
-Every method runs as in a ``pose`` case, under the shared check of the study's tolerances; then, in the
-worker, each answer is judged by the case's rule (:mod:`wbik.study.success_rules`): ``success`` is the
-rule's verdict (what the summaries, the error tables, the figures and the reference block count), and
-``check_success`` keeps the shared check's. The report adds the rule, how often the two verdicts differ,
-the position and rotation errors at p50, p98 and the maximum, and the ``peers`` table (each of their
-figures beside the best of ours under the same rule). ``success`` enters the fingerprint (the rows
-depend on it); ``peers`` does not.
+``success`` is the rule's verdict, ``check_success`` the shared check's; ``peers`` are report only.
 """
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
@@ -39,10 +26,13 @@ from wbik.schema import dataclass_default
 from wbik.schema import join
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
+from wbik.study.blocks import write_table
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.reference import REFERENCE_METRICS
 from wbik.study.reference import our_figures
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 from wbik.study.success_rules import FRAMES
 from wbik.study.success_rules import PERCENTILES
 from wbik.study.success_rules import RULES
@@ -53,19 +43,12 @@ from wbik.study.success_rules import judge
 from wbik.study.target_parameters import choice
 from wbik.study.target_parameters import number
 
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
-
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)
 
 
 def success_schema() -> Map:
-    """A case's ``success:``: {position, rotation, per, frame (per-axis rules only)}, defaults those of
-    :class:`~wbik.study.success_rules.SuccessRule`."""
+    """A case's ``success:`` {position, rotation, per, frame (per-axis rules only)}."""
 
     def frame_for_axis_rules(rule: dict, path: str, ctx: Context) -> None:
         if rule["per"] == "axis":
@@ -194,8 +177,8 @@ class ProtocolTargets(ChainTargets):
 
 
 def protocol_figures(rows: dict[str, np.ndarray]) -> dict:
-    """One method's figures under the rule: % solved by the rule and by the shared check, answers
-    passing one only, and the error percentiles (solved, all answers with joints)."""
+    """One method's figures under the rule: % solved by the rule and by the shared check, answers passing
+    one only, and the error percentiles (solved, all answers with joints)."""
     rule = rows["success"].astype(bool)
     check = rows["check_success"].astype(bool) if "check_success" in rows else rule
     count = max(int(rule.size), 1)
@@ -209,8 +192,7 @@ def protocol_figures(rows: dict[str, np.ndarray]) -> dict:
 
 
 def peer_blocks(peers: list[dict], summaries: dict[str, dict]) -> list[Block]:
-    """The peers' published figures, each beside the best of ours (the highest % solved, the lowest
-    time) under the case's rule."""
+    """The peers' published figures, each beside the best of ours (highest share, lowest time)."""
     if not peers:
         return []
     ours = {label: our_figures(summary) for label, summary in summaries.items()}
@@ -239,22 +221,17 @@ def peer_blocks(peers: list[dict], summaries: dict[str, dict]) -> list[Block]:
 
 def _write_csv(path: Path, protocol: dict[str, dict]) -> None:
     """protocol.csv: a row per method, the rule's and the check's verdicts and the error percentiles."""
-    if not protocol:
-        return
     names = [f"p{p:g}" for p in PERCENTILES]
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    header = ["method", "poses", "percent_rule", "percent_check", "check_only", "rule_only"]
-    for which in ("solved", "all"):
-        header += [f"position_{which}_{n}_m" for n in names] + [f"rotation_{which}_{n}_rad" for n in names]
-    writer.writerow(header)
+    table = {}
     for label, figures in protocol.items():
-        row = [label, figures["poses"], repr(figures["percent_rule"]), repr(figures["percent_check"]),
-               figures["check_only"], figures["rule_only"]]
+        row = {key: figures[key] for key in ("poses", "percent_rule", "percent_check", "check_only",
+                                             "rule_only")}
         for which in ("solved", "all"):
-            row += [repr(v) for v in (*figures[f"position_{which}"], *figures[f"rotation_{which}"])]
-        writer.writerow(row)
-    store.atomic_write_text(path, buffer.getvalue())
+            for error, unit in (("position", "m"), ("rotation", "rad")):
+                row.update({f"{error}_{which}_{name}_{unit}": value
+                            for name, value in zip(names, figures[f"{error}_{which}"], strict=True)})
+        table[label] = row
+    write_table(path, table)
 
 
 CASE_KINDS = (ProtocolTargets(),)

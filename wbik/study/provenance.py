@@ -1,16 +1,7 @@
-"""What made a study's rows: the wbik version and git commit, the machine, the command, and the code
-the rows come from (``provenance.json`` in the run folder, written by the run that computed rows; the
-report's head states it).
-
-The code is fingerprinted module by module (:func:`code_digests`). The roots are the study runner and
-report, each case's kind, the factory of each method (``CaseKind.method_factory``), the robot's builder
-and a kind's own roots (``CaseKind.code_roots``: a whole-body case's sampler); from them the import
-graph is followed through the source with ``ast`` (imports in functions included, ``TYPE_CHECKING``
-blocks not), and through the strings that bind code by name: "wbik.module:Class" (a robot's closed
-forms) and "wbik.kernels._name" (a compiled kernel, whose C source is hashed with the headers it
-includes). A module's digest hashes its syntax tree without docstrings (comments are not in it), so an
-edit to words alone changes nothing. Registries' lists of modules are not followed: a study depends on
-the methods it runs, not on every method there is.
+"""What made a study's rows (``provenance.json``, stated in the report's head): wbik's version and commit, the
+machine, the command and a code fingerprint: a digest of the syntax trees (docstrings aside) of the modules
+the rows come from, found along imports (function-level ones too, ``TYPE_CHECKING`` blocks not) from the
+runner, the cases' kinds, the methods' factories and the robots, and of the compiled kernels' C sources.
 """
 
 from __future__ import annotations
@@ -28,10 +19,8 @@ from datetime import UTC
 from datetime import datetime
 from importlib import metadata
 from pathlib import Path
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:
-    from wbik.study.spec import Study
+from wbik.study.spec import Study
 
 PROVENANCE = "provenance.json"
 PACKAGE = Path(__file__).resolve().parents[1]
@@ -59,7 +48,7 @@ def _is_type_checking(node: ast.If) -> bool:
 
 
 def references(tree: ast.AST) -> tuple[set[str], set[str]]:
-    """(wbik modules, kernel C files) a module's tree imports or binds by name (module docstring)."""
+    """(wbik modules, kernel C files) a module's tree imports."""
     modules: set[str] = set()
     kernels: set[str] = set()
 
@@ -88,7 +77,7 @@ def references(tree: ast.AST) -> tuple[set[str], set[str]]:
 
 
 def without_docstrings(tree: ast.Module) -> ast.Module:
-    """``tree`` with every statement that is a lone string (docstrings, attribute docstrings) removed."""
+    """``tree`` without its statements that are lone strings (docstrings)."""
     for node in ast.walk(tree):
         for name in ("body", "orelse", "finalbody"):
             body = getattr(node, name, None)
@@ -108,8 +97,7 @@ def _digest(data: bytes) -> str:
 
 
 def code_digests(roots) -> dict[str, str]:
-    """{module or kernel file: digest} of the modules reached from ``roots`` (module names) and the
-    kernels they name (module docstring)."""
+    """{module or kernel file: digest} of the modules reached from ``roots`` and the kernels they import."""
     digests: dict[str, str] = {}
     pending, kernels = list(roots), set()
     while pending:
@@ -135,9 +123,8 @@ def code_digests(roots) -> dict[str, str]:
 
 
 def code_roots(study: Study, machinery: Iterable[str]) -> list[str]:
-    """The modules the fingerprint of ``study``'s code starts from (module docstring): ``machinery`` (the
-    runner, which reaches the report), the robot registry, and per case its kind, the methods' solvers and
-    the robot's module."""
+    """The modules the fingerprint of ``study``'s code starts from: ``machinery`` (the runner), the robot
+    registry, and per case its kind, the methods' solvers and the robot's module."""
     from wbik.models import robot_entries
     from wbik.study.case_kinds import case_kind
 
@@ -160,8 +147,7 @@ def code_fingerprint(digests: dict[str, str]) -> str:
 
 
 def git_commit() -> str | None:
-    """The commit of the checkout the package runs from, "+ uncommitted changes" when tracked files
-    differ from it (None outside a git checkout)."""
+    """The commit of the package's checkout, "+ uncommitted changes" if tracked files differ; None: no git."""
     root = PACKAGE.parent
 
     def git(*args: str) -> str:
@@ -206,7 +192,7 @@ def command_line() -> str:
 
 
 def provenance(study: Study, machinery: Iterable[str]) -> dict:
-    """The record of what made ``study``'s rows in this process (``machinery``: see :func:`code_roots`)."""
+    """The record of what made ``study``'s rows in this process (``machinery``: :func:`code_roots`)."""
     try:
         version = metadata.version("wbik")
     except metadata.PackageNotFoundError:  # a source tree on the path, not installed

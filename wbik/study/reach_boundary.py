@@ -1,26 +1,17 @@
-"""The target set ``reach_boundary``: FK of joints that put the tip on the boundary of its reach,
-as far as it goes along a random direction.
+"""The target set ``reach_boundary``: FK of joints that put the tip as far as it goes along a random
+direction d (uniform on the sphere, its own stream per target).
 
-Target i (its own stream): a direction d uniform on the unit sphere (a normalised Gaussian vector);
-then the support function of the reachable positions in that direction,
-
-    h(d) = max_q d . p(q)   over the joint box [lower, upper],
-
-maximised by L-BFGS-B (scipy) from ``starts`` uniform starts, the gradient d(d . p)/dq = J_v(q)^T d
-(J_v: the tip's linear-velocity rows of the Jacobian, base axes); the best maximiser is kept. At the
-global maximum p(q*) is a support point of the reachable set, on its boundary; at a local maximum the
-first-order conditions (J_v^T d)_k = 0 on every joint off its limits (<= 0 at a lower limit, >= 0 at an
-upper one) still make q* a critical point of the position map restricted to the box: the reach
-envelope, or a limit's face of it. The target is the full pose FK(q*); the report gives the conditions'
-residual (the largest violation, m/rad) at every target.
+The support function h(d) = max_q d . p(q) over the joint box is maximised by L-BFGS-B from ``starts``
+uniform starts (gradient J_v(q)^T d), the best kept: at the global maximum p(q*) is on the boundary of the
+reachable set; a local maximum still satisfies the first-order conditions (J_v^T d)_k = 0 off the limits,
+a critical point of the position map on the box. The report gives their residual at every target.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.target_parameters import Parameter
@@ -28,9 +19,6 @@ from wbik.study.target_parameters import integer
 from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
 
 
 def reach_along(chain: Chain, direction: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:
@@ -41,8 +29,8 @@ def reach_along(chain: Chain, direction: np.ndarray, q: np.ndarray) -> tuple[flo
 
 def stationarity_residual(chain: Chain, direction: np.ndarray, q: np.ndarray,
                           tolerance: float = 1e-9) -> float:
-    """The largest violation of the first-order conditions of a maximum of d . p over the joint box:
-    |g_k| on a joint off its limits, max(-g_k, 0) at an upper limit, max(g_k, 0) at a lower one."""
+    """The largest violation of the first-order conditions of a maximum of d . p over the joint box: |g_k|
+    off the limits, max(-g_k, 0) at an upper limit, max(g_k, 0) at a lower one."""
     gradient = reach_along(chain, direction, q)[1]
     at_upper = q >= chain.upper - tolerance
     at_lower = q <= chain.lower + tolerance

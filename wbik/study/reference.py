@@ -1,25 +1,14 @@
-"""What a study compares its figures with: published figures (a paper's table, a report's chapter)
-as a study file's ``reference:`` block gives them. The code knows no particular reference::
+"""Published figures a study sets beside its own, as a case's ``reference:`` block gives them::
 
     reference:
-      name: paper                       # the report says "Beside the paper", columns "paper"
+      name: paper                       # "Beside the paper", columns "paper"
       source: "Smith et al. 2020, section 5"
-      angles:                           # the reference's Euler angles: extra per-axis error columns
-        sequence: zyx                   # R = Rz(a_z) Ry(a_y) Rx(a_x) (wbik.study.metrics)
-        names: {x: paper_roll, y: paper_pitch, z: paper_yaw}
-      figures:                          # method label -> {metric: value}, metrics of REFERENCE_METRICS
-        analytic: {percent_solved: 94.0, time_median_ms: 1.95}
-      significance_source: "Table 3"
-      significance:                     # method label -> {error axis or "time": p-value vs the baseline}
-        kdl: {x: 0, paper_yaw: 6.0e-6, time: 0}
-      notes: "where and why we differ"
+      angles: {sequence: zyx, names: {x: paper_roll, y: paper_pitch, z: paper_yaw}}  # wbik.study.metrics
+      figures: {analytic: {percent_solved: 94.0, time_median_ms: 1.95}}    # metrics of REFERENCE_METRICS
+      significance: {kdl: {x: 0, paper_yaw: 6.0e-6, time: 0}}              # p-values against the baseline
 
-``name`` is a noun the report puts after "the" ("Beside the paper", "the paper's p-values").
-
-Comparisons (:func:`verdict`): a percentage agrees when ours is within ``AGREEMENT_POINTS``
-percentage points of the reference's; another figure is compared by the ratio ours / theirs
-("same order" for 0.5 to 2). A p-value gives the same verdict when both are below, or both at or
-above, ``wbik.study.statistics.ALPHA``.
+A percentage agrees within ``AGREEMENT_POINTS`` points; another figure is compared by the ratio ours /
+theirs; p-values agree when both are, or both are not, below ``ALPHA``.
 """
 
 from __future__ import annotations
@@ -34,7 +23,7 @@ from wbik.study.statistics import ALPHA
 
 @dataclass(frozen=True)
 class ReferenceMetric:
-    """A figure a reference may quote: the summary.csv key it is compared with, in words, its unit."""
+    """A figure a reference may quote: the summary.csv key it is compared with, in words, and its unit."""
 
     summary_key: str
     description: str

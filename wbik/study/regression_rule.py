@@ -17,12 +17,9 @@ from wbik.schema import dataclass_default
 
 @dataclass(frozen=True)
 class RegressionRule:
-    """When ``wbik study --compare-to OLD`` calls a method worse than in OLD, on the same targets.
-
-    ``success_level``: the level of the one-sided exact paired test (McNemar's) on the targets a
-    wall-clock method solved in one run only (a method without a wall clock regresses on any target
-    it lost). ``time_rise``: a factor r >= 1; time regressed when the 95 % interval of the median
-    per-target time ratio new / old lies wholly above r; None: times are not gated."""
+    """When ``wbik study --compare-to OLD`` calls a method worse than in OLD: ``success_level``, the level
+    of McNemar's exact one-sided test of a wall-clock method's success; ``time_rise``, the factor r >= 1
+    the 95 % interval of the median per-target time ratio new / old must lie above (None: not gated)."""
 
     success_level: float = 0.05
     time_rise: float | None = 1.2

@@ -1,13 +1,7 @@
-"""The study report: tables and figures per case, our numbers beside a reference's (the study
-file's ``reference:`` block), in Markdown and in one self-contained HTML page (figures embedded as
-base64 PNG).
-
-The report is assembled once as a list of blocks (headings, paragraphs, tables, images) and
-rendered to both formats, so the two always say the same thing. Each case's section, and its
-merged ``raw.csv``, ``summary.csv``, ``significance.csv`` and figures, come from the case's kind
-(:mod:`wbik.study.case_kinds`); what every kind builds them from is :mod:`wbik.study.blocks`.
-With ``wbik study --compare-to OLD`` the report ends with the comparison of :mod:`wbik.study.compare`.
-"""
+"""The study report, assembled once as blocks (:mod:`wbik.study.blocks`) and rendered to Markdown and to
+one self-contained HTML page (figures embedded as base64 PNG), so the two say the same thing. Each case's
+section and files come from its kind (:mod:`wbik.study.case_kinds`); with ``--compare-to OLD`` the
+report ends with the comparison of :mod:`wbik.study.compare`."""
 
 from __future__ import annotations
 
@@ -18,7 +12,6 @@ import re
 from datetime import UTC
 from datetime import datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import wbik.study.results as store
 from wbik.study.blocks import Block
@@ -26,23 +19,13 @@ from wbik.study.blocks import budget_semantics
 from wbik.study.blocks import fmt
 from wbik.study.case_kinds import case_kind
 from wbik.study.case_kinds import kinds_of
+from wbik.study.compare import Comparison
 from wbik.study.cpu_watch import threads_of
 from wbik.study.provenance import PROVENANCE
 from wbik.study.provenance import provenance_lines
-from wbik.study.spec import CaseSpec
 from wbik.study.spec import Study
 
-if TYPE_CHECKING:
-    from wbik.study.compare import Comparison
 
-
-# -- per case ----------------------------------------------------------------------------------
-def analyse_case(study: Study, case: CaseSpec, output: Path) -> dict:
-    """Write raw.csv, summary.csv, significance.csv and the figures of one case; return the numbers."""
-    return case_kind(case).analyse(study, case, output)
-
-
-# -- the whole report --------------------------------------------------------------------------
 def build_blocks(study: Study, output: Path, analyses: list[dict],
                  comparison: Comparison | None = None) -> list[Block]:
     run = store.read_json(output / "run.json", {}) or {}
@@ -159,7 +142,7 @@ def write_report(study: Study, output: Path, comparison: Comparison | None = Non
     """Analyse every case and write ``report.md`` and ``report.html`` into ``output`` (with
     ``comparison``, its section at the end)."""
     output = Path(output)
-    analyses = [analyse_case(study, case, output) for case in study.cases]
+    analyses = [case_kind(case).analyse(study, case, output) for case in study.cases]
     blocks = build_blocks(study, output, analyses, comparison)
     markdown_path, html_path = output / "report.md", output / "report.html"
     store.atomic_write_text(markdown_path, render_markdown(blocks, output))

@@ -1,24 +1,20 @@
-"""Where a study's results live on disk, and how they are written and read back.
+"""Where a study's results live on disk (``runs/<study name>/``), written to a temporary name and renamed::
 
-Layout of an output folder (default ``runs/<study name>/``)::
-
-    study.json                         the definition that was run, with its fingerprint
-    <case>/poses.npz                   q_true, positions, rotations (pose targets), q0
-    <case>/chunks/<method>/chunk_00012.npz   raw rows of poses [12 * chunk_size, 13 * chunk_size)
-    <case>/chunks/<method>/method.json       the method's definition those chunks were computed with
-    <case>/not_applicable.json         {method label: why it does not apply}
-    <case>/raw.csv                     every row of every method, merged (written at the end)
-    <case>/summary.csv, significance.csv, figures/*.png
+    study.json                              the definition that was run, with its fingerprint
+    <case>/poses.npz                        q_true, positions, rotations (pose targets), q0
+    <case>/chunks/<method>/chunk_00012.npz  raw rows of poses [12 * chunk_size, 13 * chunk_size)
+    <case>/chunks/<method>/method.json      the method's definition those chunks were computed with
+    <case>/not_applicable.json              {method label: why it does not apply}
+    <case>/raw.csv, summary.csv, significance.csv, figures/*.png
     report.md, report.html
-
-Every file is written to a temporary name in the same folder and renamed into place, so a
-killed run leaves whole chunks or none, and a resumed run only computes the missing chunks.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import json
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -72,57 +68,60 @@ def error_columns(rows: dict[str, np.ndarray]) -> list[str]:
     return [key for key in rows if key.startswith("err_")]
 
 
-def write_raw_csv(path: Path, rows_by_method: dict[str, dict[str, np.ndarray]],
-                  joint_names: list[str]) -> None:
-    """Every (pose, method) row in one CSV: ROW_FIELDS, method, err_* columns, q_<joint> columns."""
-    if not rows_by_method:
-        atomic_write_text(path, "")
-        return
-    first = next(iter(rows_by_method.values()))
-    errors = error_columns(first)
-    header = ["pose", "method", *ROW_FIELDS[1:], *errors, *(f"q_{name}" for name in joint_names)]
-
+def write_csv(path: Path, header: list, rows: Iterable[list], lineterminator: str = "\n") -> None:
+    """``header`` then ``rows`` as a CSV, streamed to a temporary file renamed into place."""
     def write(handle) -> None:
-        import io
-
         text = io.TextIOWrapper(handle, encoding="utf-8", newline="")
-        writer = csv.writer(text)
+        writer = csv.writer(text, lineterminator=lineterminator)
         writer.writerow(header)
-        for label, rows in rows_by_method.items():
-            for i in range(len(rows["pose"])):
-                writer.writerow([int(rows["pose"][i]), label, int(bool(rows["success"][i])),
-                                 str(rows["reason"][i]), repr(float(rows["time_s"][i])),
-                                 int(rows["iterations"][i]), repr(float(rows["position_error"][i])),
-                                 repr(float(rows["rotation_error"][i])),
-                                 *(repr(float(rows[key][i])) for key in errors),
-                                 *(repr(float(v)) for v in rows["q"][i])])
+        writer.writerows(rows)
         text.flush()
         text.detach()
 
     atomic_write_bytes(path, write)
 
 
+def csv_cells(values) -> list:
+    """A column's CSV cells: floats by ``repr`` (every digit), booleans and integers as integers, text."""
+    values = np.asarray(values)
+    if values.dtype.kind == "f":
+        return [repr(value) for value in values.tolist()]
+    if values.dtype.kind in "biu":
+        return values.astype(int).tolist()
+    return [str(value) for value in values.tolist()]
+
+
+def method_csv_rows(label: str, rows: dict[str, np.ndarray], keys: Iterable[str], index: str = "pose",
+                    joints: bool = True) -> Iterable[list]:
+    """One method's CSV rows: ``rows[index]``, the label, the ``keys``' cells, then (``joints``) q's."""
+    count = len(rows[index])
+    columns = [rows[index], [label] * count, *(rows[key] for key in keys), *(rows["q"].T if joints else ())]
+    return zip(*(csv_cells(column) for column in columns), strict=True)
+
+
+def write_raw_csv(path: Path, rows_by_method: dict[str, dict[str, np.ndarray]],
+                  joint_names: list[str]) -> None:
+    """Every (pose, method) row in one CSV: ROW_FIELDS, method, err_* columns, q_<joint> columns."""
+    if not rows_by_method:
+        atomic_write_text(path, "")
+        return
+    keys = [*ROW_FIELDS[1:], *error_columns(next(iter(rows_by_method.values())))]
+    write_csv(path, ["pose", "method", *keys, *(f"q_{name}" for name in joint_names)],
+              (row for label, rows in rows_by_method.items() for row in method_csv_rows(label, rows, keys)),
+              lineterminator="\r\n")
+
+
 def read_raw_csv(path: Path) -> dict[str, dict[str, np.ndarray]]:
     """A merged raw.csv back into {method: {column: array}} (for checks and notebooks; no pandas)."""
     with open(path, newline="", encoding="utf-8") as handle:
-        reader = csv.DictReader(handle)
         grouped: dict[str, list[dict]] = {}
-        for row in reader:
+        for row in csv.DictReader(handle):
             grouped.setdefault(row["method"], []).append(row)
-    result = {}
-    for label, rows in grouped.items():
-        columns: dict[str, np.ndarray] = {}
-        for key in rows[0]:
-            if key == "method":
-                continue
-            values = [row[key] for row in rows]
-            if key == "reason":
-                columns[key] = np.array(values, dtype=str)
-            elif key in ("pose", "iterations"):
-                columns[key] = np.array(values, dtype=int)
-            elif key == "success":
-                columns[key] = np.array(values, dtype=int).astype(bool)
-            else:
-                columns[key] = np.array(values, dtype=float)
-        result[label] = columns
-    return result
+    types = {"reason": str, "pose": int, "iterations": int, "success": int}
+
+    def column(key: str, rows: list[dict]) -> np.ndarray:
+        values = np.array([row[key] for row in rows], dtype=types.get(key, float))
+        return values.astype(bool) if key == "success" else values
+
+    return {label: {key: column(key, rows) for key in rows[0] if key != "method"}
+            for label, rows in grouped.items()}

@@ -1,40 +1,7 @@
-"""Running a study: chunks of poses x methods, in parallel (joblib, or Dask), resumable.
-
-Work is cut into tasks (case, method, chunk of ``chunk_size`` poses). Each task builds its solver
-with a seed derived from (study seed, case, method, chunk), so a task's answer does not depend on
-which worker runs it or in which order. The runner knows no kind of case: the case's kind
-(:mod:`wbik.study.case_kinds`) samples its inputs, makes its tasks and solves them in the worker.
-
-Budgets (:func:`solver_budget`). A method whose loop is ours (``Solver.iteration_cost_s``) gets the
-study's time budget as an *iteration* budget, the iterations that cost that long on the reference
-machine, and no wall clock: its rows are the same on any machine and under any load. A method
-budgeted by a wall clock inside another library (KDL, TRAC-IK, PlaCo) is solved pose by pose while
-the process's CPU time is measured beside the wall time; a solve that got less than
-``STARVED_CPU_SHARE`` of its wall time as CPU (the machine was busy) is run again, its answer
-discarded, with its wall budget stretched by wall/CPU (x threads), up to ``MAX_RERUNS`` times
-(:mod:`wbik.study.cpu_watch`). Each row records its CPU time and its re-runs; the report counts
-them, and ``run.json`` records the machine's load.
-
-Methods with threads of their own (TRAC-IK: KDL and SQP side by side) are meant to have a core per
-thread: their CPU is judged against wall x threads, and with the loky backend their tasks run after
-the others' with at most cores // threads workers (:func:`wbik.study.cpu_watch.workers_for`; on 2
-cores one worker, so its two threads have the machine's two cores). ``run.json`` records the
-workers each group of tasks ran with.
-
-Budget curves (``budget_curves:``, :mod:`wbik.study.budget_curves`) are tasks too, run after the
-study's rows, written and resumed the same way.
-
-What made the rows (version, commit, machine, command, code fingerprint) goes to ``provenance.json``
-(:mod:`wbik.study.provenance`), rewritten by each run that computes rows.
-
-Workers return the rows; the main process writes each chunk atomically as it arrives (see
-:mod:`wbik.study.results`), so an interrupted run loses only the chunks in flight and a new run
-computes only the missing ones. Adding or changing a method in the study file recomputes that method
-only (each method's folder records its definition).
-
-Whether a method applies to a case is decided once per case in the main process, before solving,
-by the typed checks of :mod:`wbik.study.applicability`; a method that does not is recorded as "not
-applicable" with its message and gets no tasks.
+"""Running a study: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or Dask),
+resumable (docs/guide/studies.md). A task's solver is seeded from (study seed, case, method, chunk); the
+main process writes each chunk atomically as it arrives, and a changed method is recomputed alone. Methods
+with threads of their own run last with fewer workers; budget curves run after the rows.
 """
 
 from __future__ import annotations
@@ -118,13 +85,9 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
 
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
-    """Why ``method`` does not apply to ``case`` (None if it does), by the typed checks of
-    :func:`wbik.study.applicability.not_applicable` on the case's first pose.
-
-    A method whose construction raises a WbikError that is no refusal stops the study (the file asks
-    for something wrong); one that raises anything else is reported as "could not start" with the
-    exception, so one broken method does not stop a study of many.
-    """
+    """Why ``method`` does not apply to ``case`` (None if it does), on the case's first pose. A WbikError
+    that is no refusal stops the study (the file asks for something wrong); anything else is "could not
+    start", so one broken method does not stop a study of many."""
     task = _task(study, case, method, poses, 0, 0, 1)
     try:
         return not_applicable(task)
@@ -209,8 +172,6 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         with parallel_config(backend="loky", initializer=_exit_with_parent, initargs=(os.getpid(),)):
             yield from run(jobs)
         return
-    if backend != "dask":
-        raise StudyDefinitionError(f"unknown backend {backend!r}; choose one of {', '.join(BACKENDS)}")
     try:
         from dask.distributed import Client
         from dask.distributed import LocalCluster
@@ -234,9 +195,8 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
 
 def phases(tasks: list[ChunkTask], jobs: int, backend: str, cores: int | None = None
            ) -> list[tuple[int, list[ChunkTask]]]:
-    """``tasks`` as (workers, tasks) groups, run one after the other, most workers first: with the
-    loky backend a method of k threads runs with :func:`workers_for` (k, ``jobs``) workers, so every
-    thread has a core; other backends keep ``jobs`` (a Dask cluster's cores are its own)."""
+    """``tasks`` as (workers, tasks) groups, run one after the other, most workers first: with loky a
+    method of k threads runs with :func:`workers_for` (k, ``jobs``) workers; other backends keep ``jobs``."""
     groups: dict[int, list[ChunkTask]] = {}
     for task in tasks:
         workers = workers_for(threads_of(task.method), jobs, cores) if backend == "loky" else jobs
@@ -256,9 +216,8 @@ _WATCHDOG: list[threading.Thread] = []
 
 
 def _exit_with_parent(parent: int | None = None) -> None:
-    """In a worker process: a daemon thread that ends the process when its parent (``parent``, the
-    study's main process) dies, even by SIGKILL, which no handler sees: a killed study leaves no
-    worker computing for nobody. A worker that starts after its parent died exits at once."""
+    """In a worker process: a daemon thread that ends the process when its parent (the study's main
+    process) dies, even by SIGKILL: a killed study leaves no worker computing for nobody."""
     if _WATCHDOG:
         return
     parent = os.getppid() if parent is None else parent
@@ -301,9 +260,8 @@ def run_study(study: Study, output: Path | None = None, *, jobs: int = 2, backen
 
 @contextlib.contextmanager
 def _terminate_as_interrupt():
-    """SIGTERM and SIGINT raise KeyboardInterrupt in the main thread while the study runs (SIGINT
-    too, since a shell starts background jobs with it ignored), so joblib aborts and terminates its
-    worker processes (none is left running)."""
+    """SIGTERM and SIGINT (a shell starts background jobs with it ignored) raise KeyboardInterrupt in the
+    main thread while the study runs, so joblib terminates its workers."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -1,10 +1,6 @@
-"""The poses of a study: FK of random joint vectors inside the limits, so every pose has a solution.
-
-Joint vectors are drawn uniformly in [lower, upper] by ``numpy.random.default_rng(seed)``; they
-depend on the seed and the chain only, so a pose study and a position-only study with the same
-seed share the same positions, and pose i does not depend on how many poses
-are drawn. Start configurations q0 come from a second stream, ``default_rng([seed, 1])``.
-"""
+"""The poses of a study: FK of joint vectors uniform inside the limits (``default_rng(seed)``: pose i
+depends on the seed and the chain only, so pose and position studies of a seed share positions), so
+every pose has a solution; start configurations from ``default_rng([seed, 1])``."""
 
 from __future__ import annotations
 
@@ -48,6 +44,14 @@ class PoseSet:
                        data["rotations"] if "rotations" in data else None, data["q0"])
 
 
+def saved_extras(path: Path, prefix: str) -> dict[str, np.ndarray]:
+    """The arrays saved beside a case's poses under names ``prefix<name>``, by name ({} if none)."""
+    if not path.is_file():
+        return {}
+    with np.load(path, allow_pickle=False) as data:
+        return {key[len(prefix):]: data[key] for key in data.files if key.startswith(prefix)}
+
+
 def sample_joints(chain: Chain, count: int, seed: int) -> np.ndarray:
     """(count, n) joint vectors uniform inside the chain's limits."""
     return chain.random(np.random.default_rng(seed), count)
@@ -62,12 +66,6 @@ def start_configurations(chain: Chain, count: int, seed: int, start: str) -> np.
     if start == "random":
         return chain.random(np.random.default_rng([seed, 1]), count)
     raise ValueError(f"unknown start {start!r}: nominal, mid_range or random")
-
-
-def sample_poses(chain: Chain, count: int, seed: int, target: str = "pose",
-                 start: str = "nominal") -> PoseSet:
-    """``count`` reachable targets of kind "pose" or "position" from FK of seeded random joints."""
-    return poses_of_joints(chain, sample_joints(chain, count, seed), seed, target, start)
 
 
 def poses_of_joints(chain: Chain, q_true: np.ndarray, seed: int, target: str = "pose",

@@ -1,33 +1,23 @@
-"""Solution coverage: which of a pose's solutions a method finds, measured against a complete closed
-form (:mod:`wbik.study.closed_form_branches`).
-
-Per answer (columns of a chunk's rows, computed in the worker after the method's own solves):
-
-- ``start_distance``: |q - q0| (Euclidean over the joints, rad and m, no wrap: the motion the answer
-  asks of the robot from its start), NaN without joints;
-- ``same_branch``: 1 when a solved answer equals the closed form's branch nearest the start (what
-  ``analytic`` answers from the same q0: its branches wrapped into the limits nearest q0, the nearest
-  kept) within ``branch_tolerance`` on every joint, revolute joints modulo 2 pi; 0 when it is another
-  solution; -1 when the answer or the closed form did not solve the pose;
-- ``branch``: the index of the closed-form branch (those with a representative inside the limits) the
-  solved answer equals within ``branch_tolerance``, -1 for none; ``branches_in_limits`` how many there are;
-- restarts, on the case's first ``restart_targets`` poses (a random sample: targets are drawn
-  independently): the method solves the pose again from ``restarts`` starts uniform inside the limits,
-  the same starts for every method (seeded by the study's seed and the pose's index);
-  ``restart_solved`` counts the solved restarts, ``restart_branches`` the distinct closed-form branches
-  they equal and ``restart_others`` the distinct solutions among them equal to no branch (at a singular
-  pose two branches coincide, and an answer within the FK check's tolerance may lie farther than
-  ``branch_tolerance`` from the exact one), -1 on poses outside the sample.
+"""Solution coverage: which of a pose's solutions a method finds, against a complete closed form
+(:mod:`wbik.study.closed_form_branches`). Per answer: ``start_distance`` |q - q0|; ``same_branch`` (1: it is
+the branch nearest the start, ``analytic``'s answer; 0: another; -1: unknown); ``branch`` (the in-limit
+branch it equals, -1: none) and ``branches_in_limits``; and on the case's first ``restart_targets`` poses,
+solved again from ``restarts`` uniform starts, ``restart_solved``, ``restart_branches`` (distinct branches
+reached) and ``restart_others`` (distinct solutions equal to no branch). Equal: within
+``branch_tolerance`` on every joint, revolute modulo 2 pi.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from functools import partial
+from pathlib import Path
 
 import numpy as np
 
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.closed_form_branches import ClosedFormBranches
@@ -35,15 +25,10 @@ from wbik.study.closed_form_branches import branch_index
 from wbik.study.closed_form_branches import complete_closed_form
 from wbik.study.closed_form_branches import in_limit_branches
 from wbik.study.closed_form_branches import joint_distance
+from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import number
-
-if TYPE_CHECKING:
-    from collections.abc import Callable
-    from pathlib import Path
-
-    from wbik.robot import Chain
 
 COVERAGE_PARAMETERS = {
     "restarts": Parameter(8, "an integer >= 0 (starts per sampled pose)", integer(0, 1000),
@@ -80,8 +65,8 @@ def restart_starts(chain: Chain, seed: int, pose: int, count: int) -> np.ndarray
 def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarray, positions: np.ndarray,
                      rotations: np.ndarray, first_pose: int, seed: int, parameters: dict,
                      solve: Callable) -> dict[str, np.ndarray]:
-    """The coverage columns of a chunk (module docstring). ``columns``: the method's rows of the chunk
-    (``q``, ``success``); ``solve(target, q0)``: the method, for the restarts; ``seed``: the study's."""
+    """The coverage columns of a chunk from the method's rows ``columns``; ``solve(target, q0)``: the
+    method, for the restarts; ``seed``: the study's."""
     import pinocchio as pin
 
     count = len(q0)
@@ -119,8 +104,8 @@ def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarra
 
 def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolute: np.ndarray,
                        tolerance: float) -> tuple[int, int]:
-    """(how many distinct closed-form branches ``solutions`` equal, how many distinct solutions among
-    them equal no branch), equality within ``tolerance`` on every joint (revolute modulo 2 pi)."""
+    """(distinct branches ``solutions`` equal, distinct solutions among them equal to no branch), equal
+    within ``tolerance`` on every joint (revolute modulo 2 pi)."""
     matched: set[int] = set()
     others: list[np.ndarray] = []
     for q in solutions:
@@ -137,7 +122,6 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
     """One method's coverage figures from its rows (NaN where a figure has no samples)."""
     solved = rows["success"].astype(bool)
     distance = rows["start_distance"][solved]
-    distance = distance[np.isfinite(distance)]
     compared = rows["same_branch"] >= 0
     sampled = rows["restart_branches"] >= 0
     available = rows["branches_in_limits"][sampled]
@@ -161,8 +145,8 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "branches_available_mean": float(np.mean(available)) if sampled.any() else math.nan,
         "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
         if sampled.any() else math.nan,
-        "start_distance_median": float(np.median(distance)) if distance.size else math.nan,
-        "start_distance_p95": float(np.percentile(distance, 95)) if distance.size else math.nan,
+        "start_distance_median": finite_statistic(distance),
+        "start_distance_p95": finite_statistic(distance, partial(np.percentile, q=95)),
     }
 
 
@@ -215,12 +199,9 @@ def coverage_blocks(summaries: dict[str, dict], parameters: dict, form: str, res
 
 def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path | None:
     """Step histograms of |q - q0| of every method's solved answers (one figure, shared bins)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from wbik.files import atomic_write_bytes
+    import wbik.study.figures as figures
 
     values = {}
     for label, rows in rows_by_method.items():
@@ -238,11 +219,4 @@ def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) 
     axes.set_ylabel("solved answers")
     axes.set_title(f"{title}: joint distance from the start")
     axes.legend(fontsize=8)
-
-    def write(handle) -> None:
-        figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, write)
-    plt.close(figure)
-    return path
+    return figures.save(figure, path)

@@ -62,8 +62,8 @@ BUDGET_CURVE_POSES = 100
 
 @dataclass(frozen=True)
 class BudgetCurveSpec:
-    """``budget_curves:``: success against the budget, from the first ``poses`` targets of every case
-    solved again at each budget of ``budgets_ms`` (:mod:`wbik.study.budget_curves`); 0 poses: none."""
+    """``budget_curves:``: the first ``poses`` targets of every case solved again at each budget of
+    ``budgets_ms`` (:mod:`wbik.study.budget_curves`); 0 poses: none."""
 
     poses: int = 0
     budgets_ms: tuple[float, ...] = BUDGET_CURVE_MS
@@ -111,23 +111,20 @@ class Study:
         return _digest(self.row_settings())
 
     def row_settings(self) -> dict:
-        """What every method's results depend on: cases, poses, seed, start, chunking, tolerances and
-        the reference's angle columns (not the methods, descriptions, notes or the reference's
-        figures). The angle columns enter as ``angle_names``, keyed by the study's own angles when
-        the reference's sequence is the study's (results folders of files without a reference block
-        resume)."""
+        """What every method's results depend on: cases (a case's unset keys left out), poses, seed, start,
+        chunking, tolerances and the reference's angle columns as ``angle_names`` (not the methods, texts,
+        reference figures, peers, budget curves or regression rule)."""
         data = self.as_dict()
-        for key in ("description", "notes", "methods", "baseline", "timeout_s"):
-            data.pop(key)
-        for key in ("budget_curves", "regression"):  # what is measured beside the rows, how runs compare
+        for key in ("description", "notes", "methods", "baseline", "timeout_s", "budget_curves",
+                    "regression"):
             data.pop(key)
         for spec, case in zip(self.cases, data["cases"], strict=True):
             case.pop("reference")
+            case.pop("peers", None)
             case["angle_names"] = _fingerprint_angles(spec.reference.angles if spec.reference else None)
-            for key in ("scenario", "base", "tip", "targets", "path", "success"):  # a case's unset keys
-                if case.get(key) is None:  # are not hashed: a case hashes as a file without them
+            for key in ("scenario", "base", "tip", "targets", "path", "success"):
+                if case.get(key) is None:
                     case.pop(key, None)
-            case.pop("peers", None)  # report text, as the reference
         return data
 
     def method_fingerprint(self, method: MethodSpec) -> str:
@@ -139,6 +136,7 @@ class Study:
 
 
 def _fingerprint_angles(angles: AngleConvention | None) -> dict:
+    """The reference's angle columns, keyed by the study's own angles when its sequence is the study's."""
     if angles is None:
         return {}
     if angles.sequence == STUDY_SEQUENCE:

@@ -1,33 +1,12 @@
-"""Summary tables, confidence intervals and significance tests over a study's raw rows (numpy and
-scipy only).
+"""Summary tables, confidence intervals and significance tests over a study's raw rows (numpy and scipy).
 
-Per method: poses solved; time per call (ms) mean / median / p95 / min / max over all, solved and
-unsolved poses separately (the time to decide "no solution" is a figure of its own); per error axis
-over the *solved* poses: mean signed error, median / p95 / max of |e| and the fraction of exact
-zeros; for a method with a batched path, its throughput (:func:`throughput_figures`).
-
-Intervals (95 %, :data:`CONFIDENCE`):
-
-- the share of poses solved: Wilson's score interval (:func:`wilson_interval`). For k solved of n,
-  p = k/n and z = 1.96,
-
-      (p + z^2/2n -+ z sqrt(p(1-p)/n + z^2/4n^2)) / (1 + z^2/n).
-
-  Chosen over the bootstrap for proportions: it is never empty or degenerate at 0 or 100 %
-  (1000 of 1000 solved gives [99.6, 100] %, where every bootstrap resample also solves 1000 of
-  1000 and the percentile interval is the point [100, 100]), and its coverage stays near 95 % for
-  the rates near 100 % that the methods reach;
-- the median time: the percentile bootstrap (:func:`bootstrap_median_interval`): B = 2,000
-  resamples of the n times with replacement (a fixed seed, so a report is reproducible), the
-  median of each, the 2.5th and 97.5th percentiles of those B medians.
-
-Significance: the two-sided Mann-Whitney U test
-(``scipy.stats.mannwhitneyu(a, b, alternative="two-sided")``) of each method against the baseline,
-per error axis on |e| of the solved poses of each, and on the time of all poses. Each axis tests
-m methods against one baseline, m pairs: their p-values are adjusted for the m pairs by Holm's
-step-down procedure (:func:`holm`), which holds the family-wise error rate at ``ALPHA`` for any
-dependence between the tests (scipy's ``false_discovery_control`` is Benjamini-Hochberg, a
-false-discovery rate: not this).
+Per method: poses solved; time per call (ms) over all, solved and unsolved poses; per error axis over the
+solved poses, the mean signed error and |e|'s median, p95, max and share of exact zeros. Intervals are 95 %:
+Wilson's score interval for the share solved (not degenerate at 0 or 100 %, where the bootstrap is), the
+percentile bootstrap (2,000 resamples, a fixed seed) for the median time. Significance: the two-sided
+Mann-Whitney U test of each method against the baseline per axis (|e| of the solved poses) and on time,
+adjusted on each axis for the methods compared by Holm's step-down procedure (family-wise error ``ALPHA``
+under any dependence; docs/guide/studies.md).
 """
 
 from __future__ import annotations
@@ -38,7 +17,6 @@ import warnings
 import numpy as np
 from scipy import stats
 
-TIME_GROUPS = ("all", "solved", "unsolved")
 TIME_STATISTICS = ("mean", "median", "p95", "min", "max")
 ALPHA = 0.05
 CONFIDENCE = 0.95
@@ -56,11 +34,9 @@ def _z(confidence: float) -> float:
 
 
 def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
-    """Wilson's score interval (low, high) of a proportion, as fractions; (nan, nan) for no trials.
-
-    With p = k/n and z the normal quantile: centre (p + z^2/2n) / (1 + z^2/n), half-width
-    z sqrt(p(1-p)/n + z^2/4n^2) / (1 + z^2/n).
-    """
+    """Wilson's score interval (low, high) of k of n, as fractions ((nan, nan) for none): with p = k/n and
+    z the normal quantile, centre (p + z^2/2n) / (1 + z^2/n), half-width z sqrt(p(1-p)/n + z^2/4n^2) /
+    (1 + z^2/n)."""
     if count <= 0:
         return math.nan, math.nan
     z = _z(confidence)
@@ -75,8 +51,7 @@ def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) 
 
 def bootstrap_medians(values: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES,
                       seed: int = BOOTSTRAP_SEED) -> np.ndarray:
-    """The medians of ``resamples`` resamples of the finite ``values`` drawn with replacement
-    (empty when there are none)."""
+    """The medians of ``resamples`` resamples with replacement of the finite ``values`` (empty for none)."""
     values = np.asarray(values, dtype=float)
     values = values[np.isfinite(values)]
     if values.size == 0:
@@ -93,9 +68,8 @@ def bootstrap_medians(values: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES,
 def bootstrap_median_interval(values: np.ndarray, confidence: float = CONFIDENCE,
                               resamples: int = BOOTSTRAP_RESAMPLES,
                               seed: int = BOOTSTRAP_SEED) -> tuple[float, float]:
-    """The percentile bootstrap interval (low, high) of the median of the finite ``values``: the
-    (1 - c)/2 and (1 + c)/2 quantiles of the medians of ``resamples`` resamples; (nan, nan) when
-    there are no values."""
+    """The percentile bootstrap interval of the median of the finite ``values``: the (1 - c)/2 and (1 + c)/2
+    quantiles of the resamples' medians; (nan, nan) for none."""
     medians = bootstrap_medians(values, resamples, seed)
     if medians.size == 0:
         return math.nan, math.nan
@@ -105,11 +79,8 @@ def bootstrap_median_interval(values: np.ndarray, confidence: float = CONFIDENCE
 
 
 def holm(p_values) -> np.ndarray:
-    """Holm's step-down adjusted p-values, in the order given (NaN stays NaN and is not counted).
-
-    With the m finite p-values sorted, p_(1) <= ... <= p_(m): p~_(i) = min(1, max_{j <= i}
-    (m - j + 1) p_(j)). Rejecting where p~ < alpha is Holm's procedure at family-wise level alpha.
-    """
+    """Holm's step-down adjusted p-values in the order given (NaN stays NaN, not counted): with the m finite
+    ones sorted, p~_(i) = min(1, max_{j <= i} (m - j + 1) p_(j))."""
     p_values = np.asarray(p_values, dtype=float)
     adjusted = np.full(p_values.shape, np.nan)
     finite = np.flatnonzero(np.isfinite(p_values))
@@ -123,8 +94,8 @@ def holm(p_values) -> np.ndarray:
 
 
 def with_holm(tests: list[dict]) -> list[dict]:
-    """Copies of the test rows with ``p_holm`` and ``significant_holm``: Holm's adjustment over each
-    family, the tests of one axis against one baseline (one per method compared)."""
+    """Copies of the test rows with ``p_holm`` and ``significant_holm``, Holm's adjustment over each family
+    (the tests of one axis against one baseline)."""
     families: dict[tuple, list[int]] = {}
     for index, test in enumerate(tests):
         families.setdefault((test["baseline"], test["axis"]), []).append(index)
@@ -134,6 +105,12 @@ def with_holm(tests: list[dict]) -> list[dict]:
             adjusted[index]["p_holm"] = float(p_value)
             adjusted[index]["significant_holm"] = bool(p_value < ALPHA) if math.isfinite(p_value) else False
     return adjusted
+
+
+def finite_statistic(values: np.ndarray, function=np.median) -> float:
+    """``function`` of the finite ``values`` as a float; NaN when there are none."""
+    values = np.asarray(values)[np.isfinite(values)]
+    return float(function(values)) if values.size else math.nan
 
 
 def _time_statistics(times_ms: np.ndarray) -> dict[str, float]:
@@ -151,10 +128,8 @@ def error_axes(rows: dict[str, np.ndarray]) -> list[str]:
 
 
 def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
-    """Of the solves whose CPU time was measured (wall-clock methods, :mod:`wbik.study.cpu_watch`):
-    the median of process CPU time / wall time of the answer kept (about 1 for a method of one
-    thread that had a core, k for k threads with a core each), and how many were re-run the most
-    times allowed (their last answer kept, whether it had its CPU or not)."""
+    """Of the solves whose CPU time was measured (:mod:`wbik.study.cpu_watch`): the median CPU / wall of the
+    answers kept (about the method's threads), and how many were re-run the most times allowed."""
     from wbik.study.cpu_watch import MAX_RERUNS
 
     cpu = rows.get("cpu_s")
@@ -167,10 +142,9 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
-    """Of a method with a batched path (rows with ``batch_success`` and ``batch_share_s``,
-    :func:`wbik.study.chain_targets.batch_columns`): poses per second of ``solve_many`` over the
-    case, the % it solved, and the poses where its verdict differs from the per-call ``solve``'s.
-    NaN (and 0) for a method without one; NaN throughput when a solve_many call raised."""
+    """Of a method with a batched path (:func:`wbik.study.chain_targets.batch_columns`): poses per second of
+    ``solve_many`` over the case (NaN if a call raised), the % it solved, and the poses where its verdict
+    differs from ``solve``'s; NaN (and 0) without one."""
     batch = rows.get("batch_success")
     if batch is None:
         return {"throughput_poses_per_s": math.nan, "throughput_percent_solved": math.nan,
@@ -223,7 +197,7 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def mann_whitney(first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
-    """(U, two-sided p) of scipy's Mann-Whitney U test; NaN when a sample is empty."""
+    """(U, two-sided p) of scipy's Mann-Whitney U test of the finite values; NaN when a sample is empty."""
     first = first[np.isfinite(first)]
     second = second[np.isfinite(second)]
     if first.size == 0 or second.size == 0:
@@ -242,8 +216,7 @@ def significance_samples(rows: dict[str, np.ndarray], axis: str) -> np.ndarray:
 
 
 def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.ndarray]]) -> list[dict]:
-    """One row per (method, axis) of Mann-Whitney U against the baseline, axes then "time"; each
-    with its p-value adjusted for the methods compared on that axis (``p_holm``, :func:`with_holm`)."""
+    """A Mann-Whitney row per (method, axis) against the baseline, axes then "time", Holm-adjusted."""
     if baseline_label not in rows_by_method:
         return []
     baseline = rows_by_method[baseline_label]
@@ -254,16 +227,16 @@ def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.nda
         for axis in [*error_axes(baseline), "time"]:
             if axis != "time" and f"err_{axis}" not in rows:
                 continue
-            a = significance_samples(baseline, axis)
-            b = significance_samples(rows, axis)
-            statistic, pvalue = mann_whitney(a, b)
-            a, b = a[np.isfinite(a)], b[np.isfinite(b)]
-            table.append({
-                "method": label, "baseline": baseline_label, "axis": axis,
-                "n_baseline": int(a.size), "n_method": int(b.size),
-                "median_baseline": float(np.median(a)) if a.size else math.nan,
-                "median_method": float(np.median(b)) if b.size else math.nan,
-                "U": statistic, "p_value": pvalue,
-                "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False,
-            })
+            table.append(mann_whitney_row(label, baseline_label, axis, significance_samples(baseline, axis),
+                                          significance_samples(rows, axis)))
     return with_holm(table)
+
+
+def mann_whitney_row(method: str, baseline: str, axis: str, first: np.ndarray, second: np.ndarray) -> dict:
+    """The row of a Mann-Whitney U test of ``method``'s sample ``second`` against the baseline's ``first``."""
+    statistic, pvalue = mann_whitney(first, second)
+    a, b = first[np.isfinite(first)], second[np.isfinite(second)]
+    return {"method": method, "baseline": baseline, "axis": axis, "n_baseline": int(a.size),
+            "n_method": int(b.size), "median_baseline": float(np.median(a)) if a.size else math.nan,
+            "median_method": float(np.median(b)) if b.size else math.nan, "U": statistic, "p_value": pvalue,
+            "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False}

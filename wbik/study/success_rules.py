@@ -1,22 +1,10 @@
 """A study case's own success rule, applied to the errors of every answer beside the shared FK check.
 
-The shared check (``wbik.Tolerances``, unchanged) bounds norms: |p - p*| <= eps_p and |log3(R*^T R)|
-<= eps_r. Published benchmarks judge otherwise, and a case states its rule (``success:``) to set its
-figures beside theirs:
-
-- ``per: norm``: |e_p| <= position and |e_r| <= rotation (cuRobo's and PyRoki's thresholds, e.g. 5 mm
-  and 0.05 rad, applied to whatever a method returned, converged or not);
-- ``per: axis``: |e_p,i| <= position and |e_r,i| <= rotation on each axis i (TRAC-IK's test, KDL's
-  ``Equal(twist, Twist::Zero(), eps)``). Per-axis bounds depend on the frame the errors are written
-  in: ``frame: target`` (TRAC-IK's ``diffRelative``, the error in the target's frame:
-  e_p = R*^T (p - p*), e_r = log3(R*^T R)) or ``frame: base`` (e_p = p - p*, e_r = R* log3(R*^T R)).
-  Each per-axis bound b implies the norm bound sqrt(3) b, so a study run with the shared tolerances
-  sqrt(3) b lets every method stop where the per-axis rule could still hold, and the rule then
-  judges each answer.
-
-The errors come from the rows' per-axis columns (:func:`wbik.study.metrics.axis_errors`: ``err_x``..
-``err_z`` = p - p* in base axes, ``err_rot_x``.. = log3(R*^T R)) and the targets' rotations. An answer
-without joints fails every rule.
+``per: norm``: |e_p| <= position and |e_r| <= rotation (cuRobo's and PyRoki's thresholds). ``per: axis``:
+each component within its bound (TRAC-IK's test), the errors written in ``frame: target`` (e_p = R*^T
+(p - p*), e_r = log3(R*^T R)) or ``frame: base`` (e_p = p - p*, e_r = R* log3(R*^T R)); a per-axis bound b
+implies the norm bound sqrt(3) b. The errors come from the rows' per-axis columns
+(:func:`wbik.study.metrics.axis_errors`); an answer without joints fails every rule.
 """
 
 from __future__ import annotations
@@ -35,8 +23,8 @@ PERCENTILES = (50.0, 98.0, 100.0)
 
 @dataclass(frozen=True)
 class SuccessRule:
-    """Bounds on an answer's errors: ``position`` (m) and ``rotation`` (rad), on the norms (``per``
-    "norm") or on each axis ("axis") in ``frame`` ("target" or "base")."""
+    """Bounds ``position`` (m) and ``rotation`` (rad) on the norms (``per`` "norm") or on each axis ("axis")
+    in ``frame`` ("target" or "base")."""
 
     position: float
     rotation: float
@@ -44,7 +32,7 @@ class SuccessRule:
     frame: str = "target"
 
     def describe(self) -> str:
-        """The rule in words, e.g. "|e| <= 1e-05 m and <= 1e-05 rad on each axis of the target frame"."""
+        """The rule in words."""
         if self.per == "axis":
             return (f"every axis within {self.position:g} m and {self.rotation:g} rad (errors in the "
                     f"{self.frame} frame)")
@@ -53,8 +41,8 @@ class SuccessRule:
 
 def frame_errors(position_xyz: np.ndarray, rotation_xyz: np.ndarray, rotations: np.ndarray,
                  frame: str) -> tuple[np.ndarray, np.ndarray]:
-    """(e_p, e_r), each (B, 3), written in ``frame`` from the rows' p - p* (base axes) and
-    log3(R*^T R) (target axes), the targets' rotations R* (B, 3, 3)."""
+    """(e_p, e_r), each (B, 3), in ``frame`` from the rows' p - p* (base axes) and log3(R*^T R) (target
+    axes) and the targets' rotations R* (B, 3, 3)."""
     position_xyz = np.asarray(position_xyz, float)
     rotation_xyz = np.asarray(rotation_xyz, float)
     rotations = np.asarray(rotations, float)
@@ -67,9 +55,8 @@ def frame_errors(position_xyz: np.ndarray, rotation_xyz: np.ndarray, rotations: 
 
 def judge(rule: SuccessRule, position_xyz: np.ndarray, rotation_xyz: np.ndarray, rotations: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(passed (B,), worst ratio (B,), worst component (B,)) of each answer under ``rule``: the ratio
-    |error| / bound of its worst component (an index into :data:`AXES` for a per-axis rule; 0 position,
-    1 rotation for a norm rule), NaN where the answer has no joints (it fails)."""
+    """(passed, worst ratio |error| / bound, worst component), each (B,), of each answer under ``rule``; the
+    component indexes :data:`AXES` (a norm rule: 0 position, 1 rotation); NaN without joints (failed)."""
     position, rotation = frame_errors(position_xyz, rotation_xyz, rotations, rule.frame)
     if rule.per == "axis":
         ratios = np.hstack([np.abs(position) / rule.position, np.abs(rotation) / rule.rotation])

@@ -1,6 +1,5 @@
-"""The parameters of a study's target sets: what a case's ``targets:`` mapping may hold, with defaults,
-and their checks (a :class:`~wbik.study.definition.StudyDefinitionError` naming the key path, e.g.
-``cases[2].targets.fraction``)."""
+"""The parameters of a study's target sets and paths: what a case's ``targets:`` mapping may hold, with
+defaults, checked as schema nodes (a mistake names the key's path, e.g. ``cases[2].targets.fraction``)."""
 
 from __future__ import annotations
 
@@ -20,8 +19,7 @@ from wbik.schema import Text
 @dataclass(frozen=True)
 class Parameter:
     """One parameter of a target set (or a path): its ``default``, ``what`` it must be (for messages),
-    its ``check`` (a schema node: :func:`number`, :func:`integer`, :func:`interval`, :func:`choice`, or
-    any :class:`wbik.schema.Node`) and what it is for."""
+    its ``check`` (a :class:`wbik.schema.Node`) and what it is for."""
 
     default: object
     what: str
@@ -40,8 +38,7 @@ class Parameter:
 
 
 def number(low: float, high: float, *, low_open: bool = False, high_open: bool = False) -> Number:
-    """A number in [low, high] (ends open where asked; infinite ends: none), as a float; a string holding
-    one counts (YAML reads 1e-3 as a string)."""
+    """A number in [low, high] (ends open where asked), as a float; a string holding one counts."""
     bounds = {("gt" if low_open else "ge"): low if math.isfinite(low) else None,
               ("lt" if high_open else "le"): high if math.isfinite(high) else None}
     return Number(**bounds, strings=True, as_float=True)
@@ -63,20 +60,14 @@ def choice(*names: str) -> Text:
 
 
 def parameters_map(name: str, parameters: dict[str, Parameter]) -> Shorthand:
-    """A case's ``targets:``: the set's name, or a mapping with ``set:`` and the set ``name``'s
-    ``parameters``; checked, it is ``{"set": name, key: value}`` with every default filled in."""
+    """A case's ``targets:``, the set's name or a mapping with ``set:`` and its ``parameters``; checked, it
+    is ``{"set": name, key: value}`` with every default filled in."""
     keys = {"set": Key(Text((name,)), name, doc="the target set"),
             **{key: parameter.key for key, parameter in parameters.items()}}
     return Shorthand(Map(keys, what=f"a mapping {{set: {name}, ...its parameters}}"), "set",
                      what="a target set's name or a mapping {set: NAME, ...its parameters}")
 
 
-def checked_parameters(name: str, parameters: dict[str, Parameter], raw, ctx: Context, path: str) -> dict:
-    """A case's ``targets:`` (``raw``, None for the set's defaults) checked against the set ``name``'s
-    ``parameters`` and completed with their defaults: ``{"set": name, key: value}``."""
-    return parameters_map(name, parameters).check(name if raw is None else raw, path, ctx)
-
-
 def defaults(name: str, parameters: dict[str, Parameter]) -> dict:
     """The set's parameters at their defaults: ``{"set": name, key: default}``."""
-    return checked_parameters(name, parameters, None, Context("defaults"), "targets")
+    return parameters_map(name, parameters).check(name, "targets", Context("defaults"))

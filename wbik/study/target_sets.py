@@ -1,21 +1,8 @@
-"""Target sets: chain targets drawn by a stated method, chosen per case in a study file, and the
-case kind ``uniform`` (today's targets, with the solution coverage of the target sets).
-
-A case names its set with ``targets:`` (``targets: near_limits``, or a mapping with ``set:`` and the
-set's parameters: ``targets: {set: near_singularities, sigma_max: 1.0e-3}``); ``target: NAME`` alone
-is the set at its defaults. Each set is a case kind (:class:`TargetSetKind`, a
-:class:`~wbik.study.chain_targets.ChainTargets` of full poses) declared in its own module and
-registered in :data:`wbik.study.case_kinds.CASE_KIND_MODULES`: ``uniform`` here, ``near_limits``,
-``near_singularities``, ``reach_boundary`` and ``unreachable`` in modules of those names. A set:
-
-- checks its parameters (:mod:`wbik.study.target_parameters`) and fills in their defaults, so the
-  case's definition (and its fingerprint) holds every value the targets depend on;
-- draws the joints of its targets (:meth:`TargetSetKind.draw`) from the study's seed, target i from
-  its own stream ``default_rng([seed, stream, i])`` (target i does not depend on how many are
-  drawn), with what it measured on each (``extras``) and about the drawing (``facts``), all saved in
-  the case's ``poses.npz`` (:class:`DrawnTargets`): a run resumes on the same targets;
-- adds the solution coverage of :mod:`wbik.study.solution_coverage` to the rows of every method
-  (reachable sets), and to the report a section on how the targets were drawn and one on coverage.
+"""Target sets: chain targets drawn by a stated method, chosen per case (``targets: near_limits`` or
+``targets: {set: near_singularities, sigma_max: 1.0e-3}``), each a case kind (:class:`TargetSetKind`) with
+its parameters' defaults filled in; target i comes from its own stream (:func:`target_stream`), and what
+the drawing measured is saved beside the poses. Reachable sets add the solution coverage of
+:mod:`wbik.study.solution_coverage`; ``uniform`` is FK of uniform joints.
 """
 
 from __future__ import annotations
@@ -24,13 +11,16 @@ import json
 import zlib
 from dataclasses import dataclass
 from dataclasses import field
-from typing import TYPE_CHECKING
+from pathlib import Path
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.files import json_plain
+from wbik.robot import Chain
 from wbik.schema import Key
 from wbik.study.blocks import Block
+from wbik.study.blocks import write_table
 from wbik.study.chain_targets import ChainChunkTask
 from wbik.study.chain_targets import ChainTargets
 from wbik.study.context import _frozen
@@ -39,29 +29,24 @@ from wbik.study.context import chain_of
 from wbik.study.sampling import PoseSet
 from wbik.study.sampling import poses_of_joints
 from wbik.study.sampling import sample_joints
+from wbik.study.sampling import saved_extras
 from wbik.study.solution_coverage import COVERAGE_PARAMETERS
 from wbik.study.solution_coverage import closed_form_of
 from wbik.study.solution_coverage import coverage_blocks
 from wbik.study.solution_coverage import coverage_columns
 from wbik.study.solution_coverage import coverage_summary
 from wbik.study.solution_coverage import distance_histogram
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import Study
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import defaults
 from wbik.study.target_parameters import parameters_map
 
-if TYPE_CHECKING:
-    from pathlib import Path
-
-    from wbik.robot import Chain
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import Study
-
 
 @dataclass
 class Drawing:
-    """What a target set drew: the joints of its targets (count, n; NaN rows for targets no
-    configuration reaches), per-target measurements (``extras``, arrays of length count) and facts
-    about the drawing for the report (plain data)."""
+    """What a target set drew: the joints of its targets (count, n; NaN rows for unreachable ones),
+    per-target measurements (``extras``) and facts about the drawing for the report (plain data)."""
 
     q_true: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
@@ -70,43 +55,28 @@ class Drawing:
 
 @dataclass
 class DrawnTargets(PoseSet):
-    """A :class:`~wbik.study.sampling.PoseSet` with the drawing's extras and facts, saved beside the
-    poses (``drawn_<name>`` arrays and ``drawn_facts``, JSON); the runner reads the poses back."""
+    """A :class:`~wbik.study.sampling.PoseSet` with the drawing's extras and facts, saved beside the poses
+    (``drawn_<name>`` arrays and ``drawn_facts``, JSON)."""
 
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     facts: dict = field(default_factory=dict)
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
-        """The poses' arrays, then each extra as ``drawn_<name>`` and the facts as ``drawn_facts`` (JSON)."""
         arrays = super().saved_arrays()
         arrays.update({f"drawn_{name}": np.asarray(value) for name, value in self.extras.items()})
-        arrays["drawn_facts"] = np.array(json.dumps(self.facts, sort_keys=True, default=_plain))
+        arrays["drawn_facts"] = np.array(json.dumps(json_plain(self.facts), sort_keys=True, default=str))
         return arrays
-
-
-def _plain(value):
-    """JSON form of numpy scalars and arrays."""
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return str(value)
 
 
 def read_drawing(path: Path) -> tuple[dict[str, np.ndarray], dict]:
     """(extras, facts) saved with a case's poses ({}, {} for poses of another kind)."""
-    if not path.is_file():
-        return {}, {}
-    with np.load(path, allow_pickle=False) as data:
-        extras = {key[len("drawn_"):]: data[key] for key in data.files
-                  if key.startswith("drawn_") and key != "drawn_facts"}
-        facts = json.loads(str(data["drawn_facts"])) if "drawn_facts" in data.files else {}
-    return extras, facts
+    extras = saved_extras(path, "drawn_")
+    facts = extras.pop("facts", None)
+    return extras, {} if facts is None else json.loads(str(facts))
 
 
 def target_stream(seed: int, name: str, index: int) -> np.random.Generator:
-    """The random stream of target ``index`` of the set ``name``:
-    ``default_rng([seed, crc32(name), index])``."""
+    """The random stream of item ``index`` of ``name``: ``default_rng([seed, crc32(name), index])``."""
     return np.random.default_rng([seed, zlib.crc32(name.encode()), index])
 
 
@@ -119,14 +89,13 @@ class TargetSetChunkTask(ChainChunkTask):
 
 
 class TargetSetKind(ChainTargets):
-    """A target set of full poses, as a case kind (module docstring). A set implements
-    :meth:`draw` and :meth:`drawn_from`, declares its ``parameters`` (the coverage's are added for a
-    reachable set) and may add report blocks (:meth:`drawing_blocks`)."""
+    """A target set of full poses, as a case kind: it implements :meth:`draw` and :meth:`drawn_from`,
+    declares its ``parameters`` and may add report blocks (:meth:`drawing_blocks`)."""
 
     parameters: dict[str, Parameter] = {}
     """The set's own parameters (a case's ``targets:`` keys besides ``set``)."""
     reachable = True
-    """Whether every target is FK of joints inside the limits (then its rows get solution coverage)."""
+    """Whether every target is FK of joints inside the limits (its rows then get solution coverage)."""
 
     def __init__(self, name: str, target: str = "pose"):
         super().__init__(name, target)
@@ -207,7 +176,7 @@ class TargetSetKind(ChainTargets):
                                          else f"closed form {form.family} (complete: every branch)")
             analysis["coverage"] = {label: coverage_summary(rows) for label, rows in analysis["rows"].items()
                                     if "start_distance" in rows}
-            _write_rows_csv(directory / "coverage.csv", analysis["coverage"])
+            write_table(directory / "coverage.csv", analysis["coverage"])
             analysis["images"]["start_distance"] = distance_histogram(
                 analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
                 directory / "figures" / "start_distance.png")
@@ -228,23 +197,6 @@ class TargetSetKind(ChainTargets):
                                           parameters["restarts"] > 0 and parameters["restart_targets"] > 0,
                                           analysis["images"].get("start_distance")))
         return blocks
-
-
-def _write_rows_csv(path: Path, table: dict[str, dict]) -> None:
-    """{label: {figure: value}} as a CSV with a row per label."""
-    import csv
-    import io
-
-    from wbik.files import atomic_write_text
-
-    if not table:
-        return
-    keys = list(next(iter(table.values())))
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["method", *keys])
-    writer.writerows([[label, *(repr(values[key]) for key in keys)] for label, values in table.items()])
-    atomic_write_text(path, buffer.getvalue())
 
 
 class UniformTargets(TargetSetKind):

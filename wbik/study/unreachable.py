@@ -1,27 +1,17 @@
-"""The target set ``unreachable``: full poses no configuration inside the joint limits reaches, each
-with its proof; the report counts false successes, the reasons given and the time to refuse.
+"""The target set ``unreachable``: full poses no configuration inside the joint limits reaches, each with its
+proof; the report counts false successes, the reasons given and the time to refuse. Per target, a coin of
+weight ``beyond_limits`` chooses the source:
 
-Two sources, chosen per target by a coin of weight ``beyond_limits`` (its own stream):
-
-(a) **outside the reach**: a position at distance f R from the reach bound's centre c along a
-    uniform random direction, f uniform in ``reach_factor`` (> 1), with a uniform random rotation.
-    Proof: :mod:`wbik.study.chain_reach`, |p(q) - c| <= R for every q (triangle inequality over the
-    link lengths between consecutive joint origins), so no joint values reach it.
-
-(b) **reachable only outside the limits**: joints uniform inside the limits, then one eligible joint
-    set beyond a limit by delta uniform in ``beyond`` (rad or m; for a revolute joint at most half
-    its gap 2 pi - (u - l), the farthest an angle gets from the range on the circle); the target is
-    FK of those joints. Eligible: prismatic joints and revolute joints with a range shorter than
-    2 pi. Proof, on a chain with a complete closed form (:mod:`wbik.study.closed_form_branches`):
-    every branch of the closed form is computed (each checked by the model's FK), and the target is
-    kept only if (1) the generating joints are one of them (modulo 2 pi), (2) the Jacobian's smallest
-    singular value is at least ``sigma_proof`` at every branch (the solutions are isolated, so the
-    branches are all of them), and (3) every branch is at least ``proof_margin`` outside the limits
-    (revolute joints modulo 2 pi): then no configuration inside the limits reaches the target. A
-    candidate failing a condition is drawn again (at most ``attempts`` per target; then the target
-    comes from (a)). A numerical method proves nothing, so chains without a complete closed form
-    (7-joint arms: their closed forms hold a joint) draw every target from (a), and so do chains
-    with no eligible joint (every range 2 pi or more: every angle has a representative inside).
+(a) **outside the reach**: a position f R from the reach bound's centre along a uniform direction, f uniform
+    in ``reach_factor`` (> 1), a uniform rotation; proved by :mod:`wbik.study.chain_reach`;
+(b) **reachable only outside the limits**: FK of joints uniform inside the limits with one eligible joint
+    (prismatic, or revolute with a range under 2 pi) set beyond a limit by delta uniform in ``beyond`` (for a
+    revolute joint at most half its gap 2 pi - (u - l)). Proved on a chain with a complete closed form
+    (:mod:`wbik.study.closed_form_branches`): kept only if (1) the generating joints are one of its branches,
+    (2) the Jacobian's smallest singular value is at least ``sigma_proof`` at every branch (so the branches
+    are every solution) and (3) every branch is at least ``proof_margin`` outside the limits; else drawn
+    again (``attempts``, then from (a)). Chains without a complete closed form or an eligible joint draw
+    from (a) only.
 
 ``q_true`` holds the generating joints of (b) targets and NaN for (a) targets.
 """
@@ -29,11 +19,12 @@ Two sources, chosen per target by a coin of weight ``beyond_limits`` (its own st
 from __future__ import annotations
 
 from collections import Counter
-from typing import TYPE_CHECKING
+from functools import partial
 
 import numpy as np
 
 from wbik.geometry import TWO_PI
+from wbik.robot import Chain
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.blocks import frequent_reasons
@@ -44,6 +35,8 @@ from wbik.study.closed_form_branches import complete_closed_form
 from wbik.study.closed_form_branches import joint_distance
 from wbik.study.near_singularities import sigma_min
 from wbik.study.sampling import start_configurations
+from wbik.study.spec import Study
+from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter
 from wbik.study.target_parameters import integer
 from wbik.study.target_parameters import interval
@@ -52,10 +45,6 @@ from wbik.study.target_sets import Drawing
 from wbik.study.target_sets import DrawnTargets
 from wbik.study.target_sets import TargetSetKind
 from wbik.study.target_sets import target_stream
-
-if TYPE_CHECKING:
-    from wbik.robot import Chain
-    from wbik.study.spec import Study
 
 OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
 """The ``source`` of a target: (a) or (b) of the module docstring."""
@@ -69,8 +58,7 @@ REJECTIONS = {
 
 
 def eligible_joints(chain: Chain, beyond_low: float) -> np.ndarray:
-    """Joints that can be set beyond a limit by at least ``beyond_low`` with the angle still outside the
-    range on the circle: prismatic, or revolute with half its gap 2 pi - (u - l) above ``beyond_low``."""
+    """Joints that can be set ``beyond_low`` beyond a limit and stay outside the range on the circle."""
     gap = TWO_PI - (chain.upper - chain.lower)
     return np.flatnonzero(chain.is_prismatic | (gap / 2.0 > beyond_low))
 
@@ -86,8 +74,8 @@ def uniform_rotation(rng: np.random.Generator) -> np.ndarray:
 
 def prove_beyond_limits(chain: Chain, form: ClosedFormBranches, q: np.ndarray, position: np.ndarray,
                         rotation: np.ndarray, parameters: dict) -> tuple[str | None, np.ndarray]:
-    """(None if the pose FK(q) is proved unreachable inside the limits, else the rejection's key of
-    REJECTIONS; the closed form's branches), by the module docstring's conditions (1)-(3)."""
+    """(None if FK(q) is proved unreachable inside the limits by conditions (1)-(3), else the key of the
+    rejection in REJECTIONS; the closed form's branches)."""
     branches = form.branches(position[None], rotation[None])[0]
     revolute = ~chain.is_prismatic
     if not len(branches) or np.min(joint_distance(branches, q, revolute)) > GENERATING_BRANCH:
@@ -238,21 +226,12 @@ def refusal_summary(rows: dict[str, np.ndarray], source: np.ndarray | None) -> d
     unreachable targets, overall and per source."""
     success = rows["success"].astype(bool)
     times = rows["time_s"] * 1e3
-
-    def statistic(mask, which):
-        values = times[mask]
-        values = values[np.isfinite(values)]
-        if not values.size:
-            return float("nan")
-        return float(np.median(values)) if which == "median" else float(np.percentile(values, 95))
-
-    everything = np.ones(len(success), dtype=bool)
     summary = {"targets": int(len(success)), "false_successes": int(success.sum()),
-               "refused": int((~success).sum()),
-               "time_median_ms": statistic(everything, "median"), "time_p95_ms": statistic(everything, "p95")}
+               "refused": int((~success).sum()), "time_median_ms": finite_statistic(times),
+               "time_p95_ms": finite_statistic(times, partial(np.percentile, q=95))}
     if source is not None and len(source) == len(success):
         for name, code in (("a", OUTSIDE_REACH), ("b", BEYOND_LIMITS)):
-            summary[f"time_median_ms_{name}"] = statistic(source == code, "median")
+            summary[f"time_median_ms_{name}"] = finite_statistic(times[source == code])
     return summary
 
 
@@ -261,8 +240,8 @@ MOST_REASONS = 4
 
 
 def grouped_reasons(rows_by_method: dict) -> list[list]:
-    """[method, reason, targets]: each method's MOST_REASONS most frequent reasons (numbers replaced by
-    #), then one row counting the other reasons and how many kinds they are."""
+    """[method, reason, targets]: each method's MOST_REASONS most frequent reasons, then one row counting
+    the others and how many kinds they are."""
     every = max(len(rows["reason"]) for rows in rows_by_method.values())  # as many kinds as there can be
     by_method: dict[str, list] = {}
     for method, reason, count in frequent_reasons(rows_by_method, most=every):

@@ -1,22 +1,8 @@
-"""Whole-body cases, the study's case kind ``wholebody`` (``target: wholebody``, ``scenario:
-<sampler>``).
-
-The runner's chunking, resume, folder ownership and report machinery are reused; this module holds
-what differs for whole-body cases (:class:`WholeBodyCases`):
-
-- sampling (:func:`sample_poses`): the cases of a sampler of :mod:`wbik.wholebody.cases`,
-  stored as the usual ``poses.npz`` (q_true, the anchor point of each case as ``positions``, q0);
-  a worker rebuilds each case from (sampler, study seed, index), which is all a case depends on;
-- solving (:meth:`WholeBodyCases.solve`): ``wbik.solver(method, robot).solve(problem, q0)`` per case
-  (a sampler or method user code registered travels with the task and is registered in the worker
-  first, see :func:`run_time_entries`), budgets by the one rule
-  (:func:`wbik.solvers.method_registry.budget_options`); a method that cannot express the family's
-  first problem (its ``cannot_express`` query says why) is "not applicable"
-  (:meth:`WholeBodyCases.refusal`);
-- rows: success, reason, time, iterations, task error, contact drift, CoM margin, limit excess,
-  what the method could not express, q; ``err_task`` and ``err_contact`` feed the usual summary,
-  Mann-Whitney tests and error figures;
-- the report section of a whole-body case (:meth:`WholeBodyCases.blocks`).
+"""Whole-body cases, the study's case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
+:mod:`wbik.wholebody.cases` (saved as ``poses.npz``: q_true, anchor points, q0; a worker rebuilds each from
+sampler, seed and index), solved by ``wbik.solver(method, robot).solve(problem, q0)``. A method that cannot
+express the first problem is not applicable. ``err_task`` and ``err_contact`` feed the usual summary,
+tests and error figures.
 """
 
 from __future__ import annotations
@@ -25,67 +11,66 @@ import math
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 import wbik.study.results as store
+from wbik.errors import UnknownChainError
+from wbik.errors import UnsupportedError
+from wbik.options import option_schema
+from wbik.schema import Context
 from wbik.schema import Key
+from wbik.schema import Map
 from wbik.schema import Text
 from wbik.schema import join
+from wbik.solvers.method import IKMethod
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+from wbik.solvers.method_registry import budget_options
+from wbik.solvers.method_registry import register_method
+from wbik.solvers.method_registry import solver as registered_solver
+from wbik.solvers.result import Tolerances
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
 from wbik.study.blocks import Block
 from wbik.study.blocks import budget_blocks
-from wbik.study.blocks import budget_kind
-from wbik.study.blocks import case_figures
+from wbik.study.blocks import case_analysis
 from wbik.study.blocks import case_rows
 from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import image_blocks
 from wbik.study.blocks import significance_blocks
 from wbik.study.blocks import status_blocks
 from wbik.study.blocks import summary_table
 from wbik.study.blocks import time_columns
-from wbik.study.blocks import write_case_tables
-from wbik.study.budget_curves import read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.case_kinds import ChunkTask
+from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import _frozen
 from wbik.study.context import _robot
-from wbik.study.context import chunk_seed
+from wbik.study.metrics import AngleConvention
 from wbik.study.sampling import PoseSet
-
-if TYPE_CHECKING:
-    from wbik.schema import Context
-    from wbik.schema import Map
-    from wbik.study.metrics import AngleConvention
-    from wbik.study.spec import CaseSpec
-    from wbik.study.spec import MethodSpec
-    from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec
+from wbik.study.spec import MethodSpec
+from wbik.study.spec import Study
+from wbik.study.statistics import finite_statistic
+from wbik.study.statistics import mann_whitney_row
+from wbik.study.statistics import summarize as base_summary
+from wbik.wholebody.cases import CASE_REGISTRY
+from wbik.wholebody.cases import CaseSampler
+from wbik.wholebody.cases import register_sampler
+from wbik.wholebody.cases import sample_case
 
 WHOLEBODY = "wholebody"
-
-# The columns of a whole-body row in raw.csv (then q); a chunk's rows hold ROW_COLUMNS[2:].
-ROW_COLUMNS = (
-    "pose",
-    "method",
-    "success",
-    "reason",
-    "time_s",
-    "iterations",
-    "task_error",
-    "task_position_error",
-    "task_rotation_error",
-    "contact_drift",
-    "com_margin",
-    "limit_excess",
-    "collision_clearance",
-    "unsupported",
-)
-# The float columns among them (task_error .. collision_clearance).
-FLOAT_COLUMNS = ROW_COLUMNS[6:13]
+ROW_COLUMNS = ("pose", "method", "success", "reason", "time_s", "iterations", "task_error",
+               "task_position_error", "task_rotation_error", "contact_drift", "com_margin", "limit_excess",
+               "collision_clearance", "unsupported")
+"""The columns of a whole-body row in raw.csv (then q); a chunk's rows hold ``ROW_COLUMNS[2:]``."""
+COLUMN_TYPES = {"success": bool, "reason": str, "iterations": int, "unsupported": str}
+"""The types of a chunk's columns that are not floats."""
 ERROR_AXES = ("task", "contact")
 """The error axes of a whole-body row (``err_task``, ``err_contact``)."""
+FLOAT_ROWS = 7
+"""The float columns from ``task_error`` to ``collision_clearance``."""
 
 STUDY_NOTE = (
     "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
@@ -98,8 +83,6 @@ STUDY_NOTE = (
 
 def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
     """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
-    from wbik.wholebody.cases import sample_case
-
     cases = [sample_case(scenario, seed, index) for index in range(count)]
     nq = cases[0].q0.size
     q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
@@ -107,23 +90,13 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
 
 
 def run_time_entries(scenario: str, method: str) -> tuple:
-    """The sampler ``scenario`` and the method ``method`` among those user code registered at run time (a
-    worker process lacks them; the listed modules' own are left out)."""
-    from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-    from wbik.wholebody.cases import CASE_REGISTRY
-
+    """The sampler ``scenario`` and the method ``method`` if user code registered them at run time."""
     entries = (CASE_REGISTRY.added_at_run_time(scenario), IK_METHOD_REGISTRY.added_at_run_time(method))
     return tuple(entry for entry in entries if entry is not None)
 
 
 def register_run_time_entries(entries: tuple) -> None:
-    """Register, in this process, the samplers and methods a task carries (replacing a namesake: a
-    reused worker may hold an earlier study's)."""
-    from wbik.solvers.method import IKMethod
-    from wbik.solvers.method_registry import register_method
-    from wbik.wholebody.cases import CaseSampler
-    from wbik.wholebody.cases import register_sampler
-
+    """Register, in this process, the samplers and methods a task carries (replacing a namesake)."""
     for entry in entries:
         if isinstance(entry, CaseSampler):
             register_sampler(entry, replace=True)
@@ -140,14 +113,10 @@ class WholeBodyChunkTask(ChunkTask):
     scenario: str
     scenario_seed: int
     wholebody_entries: tuple = ()
-    """The case sampler (:class:`wbik.wholebody.cases.CaseSampler`) and method
-    (:class:`wbik.solvers.method.IKMethod`) of the chunk that user code registered at run
-    time (``register_sampler``, ``wbik.register``): carried to the worker, which
-    registers them before solving (:meth:`WholeBodyCases.solve`); empty when the listed modules
-    declare both."""
+    """The sampler and method user code registered at run time (:func:`run_time_entries`)."""
 
 
-class WholeBodyCases(CaseKind):
+class WholeBodyCases(RegisteredMethods, CaseKind):
     """Whole-body problems drawn by a case sampler (the case's ``scenario:``)."""
 
     name = WHOLEBODY
@@ -160,15 +129,11 @@ class WholeBodyCases(CaseKind):
 
     # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         samplers = Text(lambda: tuple(CASE_REGISTRY.entries()))
         return {"scenario": Key(samplers, required=True, doc="the whole-body case sampler")}
 
     def entry(self, item: dict, path: str, ctx: Context) -> dict:
         """A whole-body case entry with its robot and name filled from the sampler."""
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         scenario = item["scenario"]
         robot = CASE_REGISTRY.entries()[scenario].robot
         if item.get("robot", robot) != robot:
@@ -179,29 +144,12 @@ class WholeBodyCases(CaseKind):
                 ctx.says(join(path, key), "does not apply to a whole-body case")
         return {**item, "target": WHOLEBODY, "robot": robot, "name": item.get("name", scenario)}
 
-    def method_factory(self, method: str):
-        from wbik.solvers.method_registry import method_factory
-
-        return method_factory(method)
-
     def code_roots(self, case: CaseSpec) -> list:
         """The case's sampler."""
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         return [CASE_REGISTRY.get(case.scenario).sample]
 
     def method_option_schema(self, method: str) -> Map:
-        from wbik.options import option_schema
-
         return option_schema(self.method_factory(method), leading=2)
-
-    def methods(self) -> dict[str, str]:
-        from wbik.solvers.method_registry import methods
-        return methods()
-
-    def method_options(self, method: str) -> set[str]:
-        from wbik.solvers.method_registry import solver_options
-        return solver_options(method)
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return list(ERROR_AXES)
@@ -211,189 +159,100 @@ class WholeBodyCases(CaseKind):
         return sample_poses(case.scenario, study.poses_of(case), study.seed)
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-        from wbik.solvers.method_registry import budget_options
         return budget_options(method, timeout_s, options, problem=True)
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> WholeBodyChunkTask:
-        timeout_s, options = self.budget(method.method, study.timeout_of(method), method.options)
-        return WholeBodyChunkTask(
-            kind=self,
-            case=case.name,
-            robot=case.robot,
-            robot_params=_frozen(case.robot_params),
-            label=method.label,
-            method=method.method,
-            options=_frozen(options),
-            timeout_s=timeout_s,
-            tolerances=(study.tolerances["position"], study.tolerances["rotation"]),
-            seed=chunk_seed(study.seed, case.name, method.label, chunk),
-            chunk=chunk,
-            first_pose=start,
-            q0=poses.q0[start:stop],
-            scenario=case.scenario,
-            scenario_seed=study.seed,
-            wholebody_entries=run_time_entries(case.scenario, method.method),
-        )
+        return WholeBodyChunkTask(**self.chunk_fields(study, case, method, poses, chunk, start, stop),
+                                  scenario=case.scenario, scenario_seed=study.seed,
+                                  wholebody_entries=run_time_entries(case.scenario, method.method))
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: WholeBodyChunkTask):
         """The method's solver on the robot (UnsupportedError: a chain method given no chain)."""
-        from wbik.errors import UnknownChainError
-        from wbik.errors import UnsupportedError
-        from wbik.solvers.method_registry import solver
-        from wbik.solvers.result import Tolerances
-
         try:
-            return solver(task.method, _robot(task.robot, task.robot_params),
-                          tolerances=Tolerances(*task.tolerances), timeout_s=task.timeout_s, seed=task.seed,
-                          **dict(task.options))
+            return registered_solver(task.method, _robot(task.robot, task.robot_params),
+                                     tolerances=Tolerances(*task.tolerances), timeout_s=task.timeout_s,
+                                     seed=task.seed, **dict(task.options))
         except UnknownChainError as exc:
             raise UnsupportedError(f"method {task.method!r} solves chain targets and the case names no "
                                    f"chain: {exc}") from None
 
     def refusal(self, task: WholeBodyChunkTask, solver) -> str | None:
         """The method's own reason it cannot express the case's first problem."""
-        from wbik.wholebody.cases import sample_case
-
         case = sample_case(task.scenario, task.scenario_seed, task.first_pose)
         return solver.cannot_express(case.problem, task.q0[0])
 
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
-        """Solve the cases of one whole-body chunk (the method applies: the runner's probe decided it)."""
-        from wbik.wholebody.cases import sample_case
-
+        """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
+        what was raised."""
         register_run_time_entries(task.wholebody_entries)
-        robot = _robot(task.robot, task.robot_params)
+        nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
-        count = task.count
-        answers = []
-        for offset in range(count):
-            index = task.first_pose + offset
-            case = sample_case(task.scenario, task.scenario_seed, index)
+        rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
+        q_rows = []
+        for offset in range(task.count):
+            case = sample_case(task.scenario, task.scenario_seed, task.first_pose + offset)
             try:
                 answer = solver.solve(case.problem, task.q0[offset])
             except Exception as exc:  # noqa: BLE001 - recorded in the row, counted in the report
                 detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-                answers.append(("raised", detail))
-                continue
-            answers.append(answer)
-        nq = robot.model.nq
-        rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
-        q_rows = []
-        for answer in answers:
-            if isinstance(answer, tuple):
-                values = (False, f"raised {answer[1]}", math.nan, 0, *([math.nan] * 7), "")
-                q_rows.append(np.full(nq, np.nan))
+                values = (False, f"raised {detail}", math.nan, 0, *([math.nan] * FLOAT_ROWS), "")
+                answer = None
             else:
-                values = (
-                    answer.success,
-                    answer.reason,
-                    answer.time_s,
-                    answer.iterations,
-                    answer.task_error,
-                    _largest(answer.task_position_errors) if answer.q is not None else math.nan,
-                    _largest(answer.task_rotation_errors) if answer.q is not None else math.nan,
-                    answer.contact_drift,
-                    answer.com_margin,
-                    answer.limit_excess,
-                    answer.collision_clearance,
-                    "; ".join(answer.unsupported),
-                )
-                q_rows.append(np.full(nq, np.nan) if answer.q is None else answer.q)
+                joints = answer.q is not None
+                values = (answer.success, answer.reason, answer.time_s, answer.iterations, answer.task_error,
+                          _largest(answer.task_position_errors) if joints else math.nan,
+                          _largest(answer.task_rotation_errors) if joints else math.nan, answer.contact_drift,
+                          answer.com_margin, answer.limit_excess, answer.collision_clearance,
+                          "; ".join(answer.unsupported))
+            q_rows.append(np.full(nq, np.nan) if answer is None or answer.q is None else answer.q)
             for key, value in zip(rows, values, strict=True):
                 rows[key].append(value)
-        columns = {
-            "pose": np.arange(task.first_pose, task.first_pose + count),
-            "success": np.array(rows["success"], dtype=bool),
-            "reason": np.array(rows["reason"], dtype=str),
-            "time_s": np.array(rows["time_s"], dtype=float),
-            "iterations": np.array(rows["iterations"], dtype=int),
-        }
-        for key in FLOAT_COLUMNS:
-            columns[key] = np.array(rows[key], dtype=float)
-        columns["unsupported"] = np.array(rows["unsupported"], dtype=str)
-        columns["cpu_s"] = np.full(count, np.nan)
-        columns["reruns"] = np.zeros(count, dtype=int)
-        columns["err_task"] = columns["task_error"]
-        columns["err_contact"] = columns["contact_drift"]
-        columns["q"] = np.array(q_rows, dtype=float).reshape(count, nq)
+        columns = {"pose": np.arange(task.first_pose, task.first_pose + task.count),
+                   **{key: np.array(values, dtype=COLUMN_TYPES.get(key, float))
+                      for key, values in rows.items()}}
+        columns.update(cpu_s=np.full(task.count, np.nan), reruns=np.zeros(task.count, dtype=int),
+                       err_task=columns["task_error"], err_contact=columns["contact_drift"],
+                       q=np.array(q_rows, dtype=float).reshape(task.count, nq))
         return columns
 
+    # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
         """raw.csv, summary.csv, significance.csv and figures of one whole-body case; the numbers."""
-        from wbik.study.statistics import significance
-        from wbik.wholebody.cases import sample_case
-
-        directory = store.case_dir(output, case.name)
         rows_by_method, not_applicable = case_rows(study, case, output)
         robot = _robot(case.robot, _frozen(case.robot_params))
         model = robot.model
         joint_names = [model.names[j] for j in range(1, model.njoints) for _ in range(model.joints[j].nq)]
         if robot.has_floating_base:
-            joint_names = [
-                "base_x",
-                "base_y",
-                "base_z",
-                "base_qx",
-                "base_qy",
-                "base_qz",
-                "base_qw",
-                *joint_names[7:],
-            ]
-        write_raw_csv(directory / "raw.csv", rows_by_method, joint_names)
+            joint_names = ["base_x", "base_y", "base_z", "base_qx", "base_qy", "base_qz", "base_qw",
+                           *joint_names[7:]]
+        directory = store.case_dir(output, case.name)
+        store.write_csv(directory / "raw.csv", [*ROW_COLUMNS, *(f"q_{name}" for name in joint_names)],
+                        (row for label, rows in rows_by_method.items()
+                         for row in store.method_csv_rows(label, rows, ROW_COLUMNS[2:])))
         margin = sample_case(case.scenario, study.seed, 0).problem.margin
         summaries = {label: summarize(rows, margin) for label, rows in rows_by_method.items()}
-        baseline = study.baseline if study.baseline in rows_by_method else None
-        tests = (
-            (significance(baseline, rows_by_method) + com_margin_test(baseline, rows_by_method))
-            if baseline
-            else []
-        )
-        write_case_tables(directory, summaries, tests)
-        title, folder = f"{case.robot} {case.scenario}", directory / "figures"
-        curves = read_curves(study, case, output, rows_by_method)
-        budget_kinds = {label: budget_kind(self, study.method(label), study.timeout_of(study.method(label)))
-                        for label in rows_by_method}
-        images = case_figures(
-            rows_by_method, summaries, title, folder, self.axes(), None, curves, budget_kinds
-        )
-        if rows_by_method:
-            if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
-                images["com_margin"] = com_margin_boxplots(
-                    rows_by_method, margin, title, folder / "com_margin.png"
-                )
-        return {
-            "case": case,
-            "rows": rows_by_method,
-            "not_applicable": not_applicable,
-            "summaries": summaries,
-            "tests": tests,
-            "baseline": baseline,
-            "margin": margin,
-            "images": images,
-            "robot": robot,
-            "curves": curves,
-            "budget_kinds": budget_kinds,
-        }
+        title = f"{case.robot} {case.scenario}"
+        analysis = case_analysis(self, study, case, output, rows_by_method, not_applicable, summaries, title,
+                                 self.axes(), more_tests=lambda label: com_margin_test(label, rows_by_method))
+        if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
+            analysis["images"]["com_margin"] = com_margin_boxplots(rows_by_method, margin, title,
+                                                                   directory / "figures" / "com_margin.png")
+        return {**analysis, "margin": margin, "robot": robot}
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
-        from wbik.wholebody.cases import CASE_REGISTRY
-
         case = analysis["case"]
         summaries, rows_by_method = analysis["summaries"], analysis["rows"]
         margin, tolerances = analysis["margin"], study.tolerances
         blocks = [
             Block("h2", f"Case {case.name}: {case.robot}, whole body ({case.scenario})"),
-            Block(
-                "p",
-                f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
-                f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is "
-                "judged by the one shared whole-body check (wbik.solvers.check.check_problem): goal task "
-                f"errors by FK within {tolerances['position']:g} m / {tolerances['rotation']:g} rad, "
-                "contact drift within the same, CoM margin by FK against the support polygon of the "
-                "support soles at the answer, joint limits.",
-            ),
+            Block("p", f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
+                       f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer "
+                       "is judged by the one shared whole-body check (wbik.solvers.check.check_problem): "
+                       f"goal task errors by FK within {tolerances['position']:g} m / "
+                       f"{tolerances['rotation']:g} rad, contact drift within the same, CoM margin by FK "
+                       "against the support polygon of the support soles at the answer, joint limits."),
             *status_blocks(study, analysis),
         ]
         if not summaries:
@@ -413,24 +272,15 @@ class WholeBodyCases(CaseKind):
             ("max limit excess (all calls)", "limit_excess_all_max"),
             ("solved without", _solved_without),
         ]))
-        blocks.append(
-            Block(
-                "p",
-                "Task errors in m or rad (the larger of a task's position and rotation errors, the "
-                "largest over the goal tasks); contact drift in m or rad; CoM margin: distance of "
-                "the CoM's ground projection inside the support polygon (negative outside), NaN "
-                "('-') without a support polygon. 'All calls' counts every case, 'solved' only "
-                "those the shared check passed. " + INTERVALS_TEXT,
-            )
-        )
+        blocks.append(Block("p", "Task errors in m or rad (the larger of a task's position and rotation "
+                                 "errors, the largest over the goal tasks); contact drift in m or rad; CoM "
+                                 "margin: distance of the CoM's ground projection inside the support "
+                                 "polygon (negative outside), NaN ('-') without a support polygon. 'All "
+                                 "calls' counts every case, 'solved' only those the shared check passed. "
+                                 + INTERVALS_TEXT))
         if marked:
-            blocks.append(
-                Block(
-                    "p",
-                    "What each method could not express (it solved the problem without it; the check "
-                    "still judges everything):",
-                )
-            )
+            blocks.append(Block("p", "What each method could not express (it solved the problem without it; "
+                                     "the check still judges everything):"))
             blocks.append(Block("list", items=[f"{label}: {text}" for label, text in marked.items()]))
         blocks.append(Block("h3", "Time"))
         blocks.append(summary_table(summaries, [
@@ -441,25 +291,15 @@ class WholeBodyCases(CaseKind):
         ]))
         reasons = frequent_reasons(rows_by_method)
         if reasons:
-            blocks.append(
-                Block(
-                    "p",
-                    "Most frequent reasons for 'not solved' (as the methods and the check gave them; "
-                    "causes are not measured here):",
-                )
-            )
+            blocks.append(Block("p", "Most frequent reasons for 'not solved' (as the methods and the check "
+                                     "gave them; causes are not measured here):"))
             blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
-        for key, caption in (
-            ("solved", "Cases solved per method"),
-            ("errors", "Task error and contact drift (solved)"),
-            ("error_histograms", "Distribution of task error and contact drift (solved)"),
-            ("com_margin", "CoM margin per method (all calls)"),
-            ("time", "Time per case"),
-            ("time_histogram", "Histogram of time per case"),
-            ("time_ecdf", "Time per call (ECDF): calls returned and cases solved within t"),
-        ):
-            if key in analysis["images"]:
-                blocks.append(Block("image", caption, path=analysis["images"][key]))
+        blocks.extend(image_blocks(analysis["images"], {
+            "solved": "Cases solved per method", "errors": "Task error and contact drift (solved)",
+            "error_histograms": "Distribution of task error and contact drift (solved)",
+            "com_margin": "CoM margin per method (all calls)", "time": "Time per case",
+            "time_histogram": "Histogram of time per case",
+            "time_ecdf": "Time per call (ECDF): calls returned and cases solved within t"}))
         blocks.extend(budget_blocks(study, analysis))
         blocks.extend(significance_blocks(analysis, "task error and contact drift on the solved cases of "
                                                     "each method, time on every case, CoM margin on every "
@@ -467,96 +307,36 @@ class WholeBodyCases(CaseKind):
         return blocks
 
 
-# -- report ---------------------------------------------------------------------------------------------
-
-
-def write_raw_csv(path: Path, rows_by_method: dict, joint_names: list[str]) -> None:
-    import csv
-    import io
-
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow([*ROW_COLUMNS, *(f"q_{name}" for name in joint_names)])
-    for label, rows in rows_by_method.items():
-        for i in range(len(rows["pose"])):
-            writer.writerow(
-                [
-                    int(rows["pose"][i]),
-                    label,
-                    int(bool(rows["success"][i])),
-                    str(rows["reason"][i]),
-                    *(repr(float(rows[key][i])) for key in ROW_COLUMNS[4:5]),
-                    int(rows["iterations"][i]),
-                    *(repr(float(rows[key][i])) for key in FLOAT_COLUMNS),
-                    str(rows["unsupported"][i]),
-                    *(repr(float(v)) for v in rows["q"][i]),
-                ]
-            )
-    store.atomic_write_text(path, buffer.getvalue())
-
-
 def summarize(rows: dict, margin: float) -> dict:
     """The usual summary (solved, times, err_task / err_contact over solved cases) plus the whole-body
     figures over all calls and over solved cases."""
-    from wbik.study.statistics import summarize as base_summary
-
     summary = base_summary(rows)
     success = rows["success"].astype(bool)
 
-    def stat(values, function):
-        values = values[np.isfinite(values)]
-        return float(function(values)) if values.size else math.nan
-
     for group, mask in (("all", np.ones(success.size, dtype=bool)), ("solved", success)):
-        summary[f"task_error_{group}_median"] = stat(rows["task_error"][mask], np.median)
-        summary[f"task_error_{group}_max"] = stat(rows["task_error"][mask], np.max)
-        summary[f"contact_drift_{group}_median"] = stat(rows["contact_drift"][mask], np.median)
-        summary[f"contact_drift_{group}_max"] = stat(rows["contact_drift"][mask], np.max)
-        summary[f"com_margin_{group}_median"] = stat(rows["com_margin"][mask], np.median)
-        summary[f"com_margin_{group}_min"] = stat(rows["com_margin"][mask], np.min)
-        summary[f"limit_excess_{group}_max"] = stat(rows["limit_excess"][mask], np.max)
+        for key, statistics in (("task_error", ("median", "max")), ("contact_drift", ("median", "max")),
+                                ("com_margin", ("median", "min")), ("limit_excess", ("max",))):
+            for name in statistics:
+                summary[f"{key}_{group}_{name}"] = finite_statistic(rows[key][mask], getattr(np, name))
     margins = rows["com_margin"]
     finite = np.isfinite(margins)
     summary["percent_com_margin_kept_all"] = (
-        100.0 * float(np.mean(margins[finite] >= margin - 1e-9)) if finite.any() else math.nan
-    )
+        100.0 * float(np.mean(margins[finite] >= margin - 1e-9)) if finite.any() else math.nan)
     summary["unsupported"] = "; ".join(sorted({str(u) for u in rows["unsupported"] if str(u)}))
     return summary
 
 
 def com_margin_test(baseline: str, rows_by_method: dict) -> list[dict]:
     """Mann-Whitney U of the CoM margin (all calls) of each method against the baseline."""
-    from wbik.study.statistics import ALPHA
-    from wbik.study.statistics import mann_whitney
-
-    if baseline not in rows_by_method:
+    if baseline not in rows_by_method or not np.isfinite(rows_by_method[baseline]["com_margin"]).any():
         return []
-    a = rows_by_method[baseline]["com_margin"]
-    tests = []
-    for label, rows in rows_by_method.items():
-        if label == baseline or not np.isfinite(a).any():
-            continue
-        b = rows["com_margin"]
-        statistic, pvalue = mann_whitney(a, b)
-        fa, fb = a[np.isfinite(a)], b[np.isfinite(b)]
-        tests.append(
-            {
-                "method": label,
-                "baseline": baseline,
-                "axis": "com_margin_all_calls",
-                "n_baseline": int(fa.size),
-                "n_method": int(fb.size),
-                "median_baseline": float(np.median(fa)) if fa.size else math.nan,
-                "median_method": float(np.median(fb)) if fb.size else math.nan,
-                "U": statistic,
-                "p_value": pvalue,
-                "significant": bool(pvalue < ALPHA) if math.isfinite(pvalue) else False,
-            }
-        )
-    return tests
+    first = rows_by_method[baseline]["com_margin"]
+    return [mann_whitney_row(label, baseline, "com_margin_all_calls", first, rows["com_margin"])
+            for label, rows in rows_by_method.items() if label != baseline]
 
 
 def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: Path) -> Path:
+    """Box plots of the CoM margin (mm, all calls) per method, the required margin as a line."""
     import matplotlib.pyplot as plt
 
     import wbik.study.figures as figures
@@ -569,14 +349,13 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
         values = values[np.isfinite(values)]
         data.append(values if values.size else np.array([np.nan]))
     axes.boxplot(data, showfliers=True, flierprops={"markersize": 2})
-    axes.axhline(
-        margin * 1e3, color="tab:red", linestyle="--", linewidth=1, label=f"required {margin * 1e3:g} mm"
-    )
+    axes.axhline(margin * 1e3, color="tab:red", linestyle="--", linewidth=1,
+                 label=f"required {margin * 1e3:g} mm")
     axes.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
     axes.set_ylabel("CoM margin in the support polygon (mm)")
     axes.set_title(f"{title}: CoM margin by FK, all calls")
     axes.legend(fontsize=8)
-    return figures._save(figure, path)
+    return figures.save(figure, path)
 
 
 def _largest(errors: dict) -> float:
