@@ -1,5 +1,4 @@
-"""Scenario kind ``wholebody_ik``: a sequence of phases solved by the QP layer, each from the
-previous phase's answer (its schema, runner and printed report)::
+"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer::
 
     kind: wholebody_ik
     robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
@@ -8,68 +7,40 @@ previous phase's answer (its schema, runner and printed report)::
       - {frame: left_sole_link, size: [0.2, 0.12], centre: [-0.005, 0, 0]}   # a flat sole rectangle
       - {frame: FL_FOOT, point: [0, 0, 0]}                                   # a point foot
       - {frame: edge_link, corners: [[0.1, 0, 0], [-0.1, 0, 0]]}            # any contact points
-    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
-                                   # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
-    margin: 0.005                  # m, default CoM margin of the phases (default COM_MARGIN, 0.005)
-    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase (below)
+    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default" (wbik.qp.backends)
+    margin: 0.005                  # m, default CoM margin of the phases (COM_MARGIN)
+    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase
     collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
       self_collision: true         # pairs of the robot's own primitives (default true)
       robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
       boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8], rpy: [0, 0, 0]}]   # m, rad
-      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01); pairs
-                                   # closer than this at the nominal pose are left out (close by design)
+      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01; pairs closer at
+                                   # the nominal pose are left out)
       influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
     phases:
       - name: shift the CoM over the right foot
-        contacts: [r_sole, l_sole]  # frames held fixed (hard equality; a point foot: its position only)
+        contacts: [r_sole, l_sole]  # frames held fixed (a point foot: its position only)
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
         margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
         lock: [mb]                  # joints held at their value (optional)
-        acceleration_limit: 20      # rad/s^2, optional: each IK step a period of dt (s, default 1):
-        dt: 0.01                    # joint velocities change by at most a dt from step to step
-        tasks:
+        acceleration_limit: 20      # rad/s^2, optional: each IK step a period of dt (s, default 1)
+        dt: 0.01
+        tasks:                      # entries of wbik.qp.task_entries
           - {type: com, over: r_sole, axes: xy}
           - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
-        expect: {success: true}     # or {success: false}: a balanced best effort; see PHASE_RULES
+        expect: {success: true}     # keys of PHASE_RULES, SI; see wbik.expectations
 
-Task entries are those of :mod:`wbik.qp.task_entries` (``type`` frame | position | orientation |
-relative | com | posture | regularization, or any type registered there; ``target``, ``rpy``, ``keep``,
-``offset``, ``over``; options weight, position_weight, orientation_weight, axes, goal, priority,
-tolerance): each type's keys are those its :class:`~wbik.qp.task_entries.TaskEntry` declares. Every phase's
-answer is checked independently by FK: contacts, CoM margin in the support polygon, joint limits.
-The phase's ``expect`` block judges these figures (keys in ``PHASE_RULES``, thresholds SI); unless
-the block sets them, the phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin``
-inside the support polygon (when there is one) and no joint beyond its limit (1e-9), and with
-``collisions`` the minimum pair distance (coal, by FK) at least the safety distance
-(``collision_distance_min_m``). An ``expect`` value may be ``{threshold, expected_to_fail, why}``
-(see :mod:`wbik.expectations`).
-
-Contacts on a point foot (a sole with a single contact point) hold its position only: a point
-contact transmits no moment, so its rotation is free (:func:`wbik.qp.humanoid.contact_constraint`).
-The support polygon is the convex hull of the contact points of the support soles; a support that
-spans no area (two point feet) is refused as input of a phase (``phases[i].support``), and reported
-as a degenerate polygon (margin: minus the distance to it, failed) where an answer is checked.
-
-``methods`` (entries: a whole-body method name, or ``{method, label, options, max_iterations}``)
-compares methods of :mod:`wbik.wholebody` on every phase: each phase becomes a
-:class:`wbik.wholebody.WholeBody` (the same tasks, contacts held where they are at the phase's
-start, support, margin, ``min_distance`` pairs, joint position limits) solved from the same start
-by each method within the phase's ``max_iterations`` (unless the entry gives its own), and judged
-by the one shared check (:func:`wbik.solvers.check.check_problem`). Each phase's ``methods`` figure
-holds per label: success, reason, CoM margin, contact drift, task errors and the worst of them,
-time, iterations, and what the method could not express (``unsupported``: Pink and mink have no
-hard support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
-own QP's. ``lock`` and ``collisions`` are not part of a WholeBody problem, so a file with
-``methods`` may not use them.
-
-The report's figures: ``backend`` and one entry per phase in ``phases``; the animation goes from
-the start through every phase's answer.
+Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); unless ``expect``
+says otherwise a phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the
+support polygon, no joint beyond its limit (1e-9) and, with ``collisions``, every pair at least the safety
+distance apart (coal, by FK). ``methods`` (a name or ``{method, label, options, max_iterations}``) solves
+each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start; these comparisons
+are reported, not judged.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
 from wbik.expectations import Rule
 from wbik.expectations import evaluate
@@ -114,7 +85,7 @@ from wbik.schema import Number
 from wbik.schema import Text
 from wbik.schema import Vector
 
-__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "compare_methods",
+__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "phase_checks", "compare_methods",
            "format_method", "format_report", "run_wholebody_ik", "wholebody_schema"]
 
 CONTACT_TOLERANCE = 1e-6
@@ -223,39 +194,31 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 
 # -- the checks of one phase -----------------------------------------------------------------------
-def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.SE3],
-                        support: list[str], margin: float) -> dict:
-    """Independent FK checks of one solved configuration: contacts (a point foot: its position only),
-    CoM margin (a degenerate support: minus the distance to it, and not balanced), joint limits."""
-    from wbik.qp.constraint import bounded_joint_indices
-    from wbik.qp.humanoid import is_point_foot
-    from wbik.qp.humanoid import sole_corners
+def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
+    """The checks of a phase's answer from the shared check's measures (``solution``): each contact's
+    drift (m, rad; a point foot: its position only) as its constraint measures it, the CoM margin (None
+    without support), the limit excess; with ``collisions`` (CollisionAvoidance) the closest pair at the
+    answer (m, coal, by FK)."""
+    from wbik.qp.contacts import HeldFrame
     from wbik.qp.kinematics import Kinematics
-    from wbik.qp.support_polygon import DegenerateSupport
-    from wbik.qp.support_polygon import feet_support_region
 
-    contact_errors = {}
-    for frame, fixed in contact_placements.items():
-        reached = robot.frame_placement(q, frame)
-        contact_errors[frame] = {
-            "position": float(np.linalg.norm(reached.translation - fixed.translation)),
-            "rotation": 0.0 if is_point_foot(robot, frame) else
-            float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
-    contacts_ok = all(e["position"] <= CONTACT_TOLERANCE and e["rotation"] <= CONTACT_TOLERANCE
-                      for e in contact_errors.values())
-    com = robot.center_of_mass(q)
-    com_margin, degenerate = None, False
-    if support:
-        region = feet_support_region(Kinematics(robot.model, q), sole_corners(robot), support)
-        com_margin, degenerate = region.margin_of(com[:2]), isinstance(region, DegenerateSupport)
-    balance_ok = com_margin is None or (not degenerate and com_margin >= margin - 1e-9)
-    q_index, _ = bounded_joint_indices(robot.model)
-    lower, upper = robot.model.lowerPositionLimit[q_index], robot.model.upperPositionLimit[q_index]
-    joints = q[q_index]
-    limit_excess = float(max(np.max(lower - joints, initial=0.0), np.max(joints - upper, initial=0.0)))
-    return {"contact_errors": contact_errors, "contacts_ok": contacts_ok, "com": com.tolist(),
-            "com_margin": com_margin, "support_degenerate": degenerate, "balance_ok": balance_ok,
-            "limit_excess": limit_excess, "limits_ok": limit_excess <= 1e-9}
+    robot, q = problem.robot, solution.q
+    kinematics = Kinematics(robot.model, q)
+    contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
+                      for c in problem.start(q0, strict=False).constraints if isinstance(c, HeldFrame)}
+    margin = solution.com_margin
+    checks = {"contact_errors": contact_errors,
+              "contacts_ok": all(max(e.values()) <= CONTACT_TOLERANCE for e in contact_errors.values()),
+              "com": robot.center_of_mass(q).tolist(), "com_margin": None if np.isnan(margin) else margin,
+              "balance_ok": all(m.holds for m in solution.measures.values() if m.quantity == "CoM margin"),
+              "limit_excess": solution.limit_excess, "limits_ok": solution.limit_excess <= 1e-9}
+    if collisions is not None:
+        model = collisions.collision_model
+        closest = model.minimum(q)
+        checks["collision"] = ({"min_distance": None, "pair": None, "pairs": 0} if closest is None else
+                               {"min_distance": closest.distance, "pair": [closest.a, closest.b],
+                                "pairs": len(model.pairs)})
+    return checks
 
 
 def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
@@ -272,34 +235,21 @@ def phase_expectations(phase_expect: dict | None, margin: float, has_support: bo
     return expect
 
 
-def collision_setup(robot, collisions: dict | None):
-    """(model for the FK check, the QP constraint) of a checked ``collisions`` block, or (None, None).
-
-    Two CollisionModels of the same table: the check measures every pair by its own FK and coal
-    query, independent of the distances the constraint linearised."""
+def collision_avoidance(robot, collisions: dict | None):
+    """The QP constraint of a checked ``collisions`` block (None without one); a pair under the safety
+    distance at the nominal pose is close by design: left out."""
     if collisions is None:
-        return None, None
+        return None
     from wbik.collision import Obstacle
     from wbik.collision import robot_collision_model
     from wbik.qp.distances import CollisionAvoidance
-    def build():
-        boxes = [Obstacle(b["name"], tuple(b["size"]), tuple(b["xyz"]), tuple(b["rpy"]))
-                 for b in collisions["boxes"]]
-        # a pair under the safety distance at the nominal pose is close by design: left out
-        return robot_collision_model(robot, self_collision=collisions["self_collision"],
-                                     robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
-                                     contact_distance=collisions["safety_distance"])
 
-    return build(), CollisionAvoidance(build(), collisions["safety_distance"],
-                                       collisions["influence_distance"])
-
-
-def collision_check(model, q: np.ndarray) -> dict:
-    """Minimum signed distance over the checked pairs at q (m, coal by FK) and that pair."""
-    closest = model.minimum(q)
-    if closest is None:
-        return {"min_distance": None, "pair": None, "pairs": 0}
-    return {"min_distance": closest.distance, "pair": [closest.a, closest.b], "pairs": len(model.pairs)}
+    boxes = [Obstacle(box["name"], tuple(box["size"]), tuple(box["xyz"]), tuple(box["rpy"]))
+             for box in collisions["boxes"]]
+    model = robot_collision_model(robot, self_collision=collisions["self_collision"],
+                                  robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
+                                  contact_distance=collisions["safety_distance"])
+    return CollisionAvoidance(model, collisions["safety_distance"], collisions["influence_distance"])
 
 
 def phase_figures(success: bool, checks: dict) -> dict:
@@ -393,16 +343,12 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
     robot = run.robot
     q = start_of(spec, robot)
     start = q.copy()
-    collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
+    collision_constraint = collision_avoidance(robot, spec["collisions"])
     solvers: dict = {}
     for index, phase in enumerate(spec["phases"]):
-        name = phase["name"]
-        contacts = list(phase["contacts"])
-        support = list(phase["support"])
-        margin = float(phase["margin"])
+        margin, support = float(phase["margin"]), list(phase["support"])
         extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
             [collision_constraint] if collision_constraint is not None else [])
-        contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
         problem = phase_problem(robot, q, phase, index, extra, regularization=False)
         settings = ("qp", backend, float(phase["max_step"]), int(phase["max_iterations"]),
                     phase["regularization"])
@@ -413,19 +359,17 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
             solution = solvers[settings].solve(problem, q)
         except DegenerateSupportPolygonError as exc:
             raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
-        checks = check_configuration(robot, solution.q, contact_placements, support, margin)
-        if collision_model is not None:
-            checks["collision"] = collision_check(collision_model, solution.q)
+        checks = phase_checks(problem, q, solution, collision_constraint)
         expect = phase_expectations(phase["expect"], margin, bool(support),
                                     collision_constraint and collision_constraint.safety)
         expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
-                                f"phase {name!r} expect")
+                                f"phase {phase['name']!r} expect")
         entry = {
-            "name": name, "passed": verdict(expectations) != "FAILED", "success": solution.success,
+            "name": phase["name"], "passed": verdict(expectations) != "FAILED", "success": solution.success,
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
-            "expectations": expectations,
-            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist(),
+            "expectations": expectations, "contacts": list(phase["contacts"]), "support": support,
+            "margin": margin, "q": solution.q.tolist(),
             "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
         if spec["methods"]:
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
