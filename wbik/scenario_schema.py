@@ -1,13 +1,7 @@
-"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the
-keys the kinds share (one default each) and the check of a file, :func:`validate`.
-
-Each kind declares its schema next to its runner (:class:`wbik.scenarios.kinds.ScenarioKind`) in the
-language of :mod:`wbik.schema`; ``validate(spec, source)`` returns a copy with every default filled in,
-which the runner reads (``spec["margin"]``), so a default is written once: in the schema, or in the
-function or dataclass the key feeds (:func:`~wbik.schema.default_of`, :func:`~wbik.schema.from_dataclass`).
-A wrong value is a ``ScenarioValueError``, an unknown key an ``UnknownScenarioKeyError``
-(:mod:`wbik.scenarios.kinds`); an unknown robot or method, or a backend not installed, raises
-:mod:`wbik.errors`' own type.
+"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the keys
+the kinds share (one default each) and the check of a file, :func:`validate`, which returns a copy with
+every default filled in. A wrong value is a ``ScenarioValueError``, an unknown key an
+``UnknownScenarioKeyError``; an unknown robot or method, or a backend not installed, raises its own type.
 """
 
 from __future__ import annotations
@@ -46,12 +40,7 @@ from wbik.schema import got
 from wbik.schema import join
 from wbik.schema import short
 
-__all__ = ["COM_MARGIN", "FRAMES", "SCENARIO_ERRORS", "START", "Backend", "Method", "Robot", "apply_soles",
-           "backend_key", "check_robot_params", "common_keys", "expect_block", "kind_schema", "margin_key",
-           "soles_key", "time_laws", "timing_modes", "urdf_robot_params", "validate"]
-
 SCENARIO_ERRORS = Errors(ScenarioValueError, UnknownScenarioKeyError, ScenarioBudgetError)
-"""The errors a task file's check raises."""
 
 
 class Robot(Text):
@@ -127,7 +116,7 @@ FRAMES = ListOf(FRAME, what="frame names")
 
 def urdf_robot_params() -> Map:
     """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (``URDF_PARAMS`` of
-    :func:`wbik.models.load`); ``chains`` entries become :class:`wbik.robot.ChainSpec`."""
+    :func:`wbik.models.load`), ``chains`` made :class:`wbik.robot.ChainSpec`."""
     from wbik.models import URDF_PARAMS
 
     chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
@@ -151,9 +140,8 @@ def urdf_robot_params() -> Map:
 
 
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
-    """``robot_params`` checked as the options of the robot's builder (:func:`wbik.options.option_schema`,
-    an unknown one an InvalidOptionError), or for a robot loaded from a URDF path or example-robot-data
-    against :func:`urdf_robot_params`."""
+    """``robot_params`` checked as the options of the robot's builder, or for a robot loaded from a URDF
+    path or example-robot-data against :func:`urdf_robot_params`."""
     from wbik.models import robot_entries
 
     params, robot = spec.get("robot_params") or {}, spec.get("robot")
@@ -165,15 +153,13 @@ def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
 
 
 def common_keys(robot: Key, **more: Key) -> dict[str, Key]:
-    """The keys of every kind: ``kind``, ``name`` (''), ``robot``, ``robot_params`` ({}: its builder's
-    parameters, checked by :func:`check_robot_params`) and ``more``."""
+    """The keys of every kind (``kind``, ``name``, ``robot``, ``robot_params``) and ``more``."""
     return {"kind": Key(Text(), required=True), "name": Key(Text(), ""), "robot": robot,
             "robot_params": Key(Map(values=Anything()), {}), **more}
 
 
 def kind_schema(common: dict[str, Key], keys: dict[str, Key]) -> Map:
-    """A kind's schema: the ``common`` keys (:func:`common_keys`) and its own ``keys``; ``robot_params``
-    checked against the robot's builder."""
+    """A kind's schema: the ``common`` keys and its own, ``robot_params`` checked against the robot."""
     return Map({**common, **keys}, post=check_robot_params)
 
 
@@ -190,10 +176,8 @@ def margin_key() -> Key:
 
 
 def soles_key() -> Key:
-    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m), each ``{frame,
-    size: [length, width], centre: [x, y, z]}`` (a rectangle in the sole frame), ``{frame, corners:
-    [[x, y, z], ...]}`` (any contact points) or ``{frame, point: [x, y, z]}`` (a point foot); default none
-    (the robot's own). :func:`apply_soles` turns them into ``robot_params.soles``."""
+    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m, in the sole frame):
+    ``{frame, size: [length, width], centre}`` (a rectangle), ``{frame, corners}`` or ``{frame, point}``."""
 
     def one_shape(entry: dict, path: str, ctx: Context) -> None:
         shapes = [key for key in SOLE_SHAPES if key in entry]
@@ -212,12 +196,12 @@ def soles_key() -> Key:
 
 
 SOLE_SHAPES = ("size", "corners", "point")
-"""The keys of a ``soles`` entry that give its shape (one per sole)."""
+"""The keys of a ``soles`` entry that give its shape."""
 
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
-    """Checked ``soles`` entries (:func:`soles_key`) into ``robot_params.soles`` ({frame: (k, 3) contact
-    points}); a frame given twice, or soles given both ways, is refused by path."""
+    """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points}); a frame given
+    twice, or soles given both ways, is refused."""
     from wbik.models import builder_parameters
     from wbik.qp.support_polygon import sole_rectangle
 
@@ -264,8 +248,7 @@ def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:
 
 
 def validate(spec, source: str = "scenario") -> dict:
-    """``spec`` checked against its kind's schema (``source``, the file, starts every message): a new
-    dict with every default filled in."""
+    """``spec`` checked against its kind's schema (messages start with ``source``), defaults filled in."""
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "
                                 f"{', '.join(kind_names())}), {got(spec)}")

@@ -85,9 +85,6 @@ from wbik.schema import Number
 from wbik.schema import Text
 from wbik.schema import Vector
 
-__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "phase_checks", "compare_methods",
-           "format_method", "format_report", "run_wholebody_ik", "wholebody_schema"]
-
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
 
@@ -176,8 +173,8 @@ def _method_names() -> tuple[str, ...]:
 
 
 def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
-    """The ``methods`` entries as {method, label, options, max_iterations or None}: options checked by the
-    method's option schema (:func:`wbik.options.option_schema`), labels unique."""
+    """The ``methods`` entries as {method, label, options, max_iterations or None}, options checked by the
+    method's option schema, labels unique."""
     from wbik.solvers.method_registry import method_factory
     entries = []
     for index, item in enumerate(spec["methods"]):
@@ -223,8 +220,8 @@ def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
 
 def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
                        safety: float | None = None) -> dict:
-    """The phase's expect block over the defaults (see the module docstring); with a ``collisions``
-    block (``safety``, m) the minimum pair distance must also stay >= safety (less 1e-9 m)."""
+    """The phase's expect block over the defaults (see the module docstring; ``safety``: m, with
+    ``collisions``)."""
     expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
               "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
     if has_support:
@@ -264,8 +261,7 @@ def phase_figures(success: bool, checks: dict) -> dict:
 
 # -- the runner ------------------------------------------------------------------------------------
 def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: bool = True) -> list:
-    """The phase's tasks (targets at q) and, with ``regularization``, its regularisation; a bad entry
-    names the phase."""
+    """The phase's tasks (targets at q), with ``regularization`` its regularisation; errors name the entry."""
     tasks = []
     for number, entry in enumerate(phase["tasks"]):
         try:
@@ -283,8 +279,7 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: 
 
 
 def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
-    """The run of a checked spec; a sole the robot refuses (an unknown frame, bad points) is a
-    ScenarioValueError naming the ``soles`` entry."""
+    """The run of a checked spec; a sole the robot refuses is a ScenarioValueError naming its entry."""
     from wbik.errors import SoleError
 
     try:
@@ -296,9 +291,8 @@ def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
 
 
 def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
-    """The phase as a :class:`wbik.wholebody.problem.WholeBody` from q: its tasks, contacts held where they
-    are at q, support and margin, joint position limits, minimum distances, acceleration limits (IK steps:
-    periods of ``dt``) and ``extra`` (locked joints, collision avoidance)."""
+    """The phase as a :class:`wbik.wholebody.problem.WholeBody` from q, contacts held where they are at q,
+    joint position limits, IK steps of ``dt`` and the constraints ``extra`` (locked joints, collisions)."""
     from wbik.wholebody.problem import WholeBody
 
     return WholeBody(robot, _phase_tasks(robot, q, phase, index, regularization),
@@ -311,10 +305,8 @@ def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, re
 
 def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
                     solvers: dict, extra: list) -> dict[str, dict]:
-    """Each of ``methods`` on the phase as a :class:`wbik.wholebody.problem.WholeBody` from q (see the
-    module docstring; ``extra``: the phase's locked joints and collision avoidance), judged by the shared
-    check: {label: figures}. ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot
-    costs milliseconds to load)."""
+    """{label: figures} of each of ``methods`` on :func:`phase_problem` from q, judged by the shared check;
+    ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot takes ms to load)."""
     from wbik.solvers.method_registry import solver
 
     problem = phase_problem(robot, q, phase, index, extra)
@@ -331,9 +323,8 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 
 
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults) with
-    ``wbik.solver("qp", robot)``; the report and the animation from the start through every phase's
-    answer."""
+    """Solve the phases of a checked spec with ``wbik.solver("qp", robot)``: the report, animated from the
+    start through every phase's answer."""
     from wbik.qp.limits import LockedJoints
     from wbik.qp.support_polygon import DegenerateSupportPolygonError
     from wbik.solvers.method_registry import solver
@@ -394,37 +385,31 @@ def moved_frame(spec: dict) -> str | None:
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
-    each phase's support soles and contacts; a phase that started from elsewhere than the previous
-    answer (``continue_from: start``) is preceded by the way back there, on the previous stance. The
-    first frame a phase task moves is traced."""
+    """From the start through each phase's answer, ``PHASE_SECONDS`` each, with its support and contacts;
+    a phase continued from elsewhere (``continue_from: start``) is preceded by the way back there, on the
+    previous stance. The first frame a phase task moves is traced."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS
     from wbik.viz.scenario import SAMPLES_PER_PHASE
 
-    keyframes: list[np.ndarray] = []
-    support: list[tuple] = []
-    contacts: list[tuple] = []
+    stops = []  # (configuration, support, contacts) of each keyframe
     origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is
     for phase, entry in zip(spec["phases"], phases, strict=False):
-        if keyframes and not np.array_equal(origin, shown):
-            keyframes.append(origin)
-            support.append(support[-1])
-            contacts.append(contacts[-1])
+        if stops and not np.array_equal(origin, shown):
+            stops.append((origin, *stops[-1][1:]))
         shown = np.asarray(entry["q"], dtype=float)
-        keyframes.append(shown)
-        support.append(tuple(entry["support"]))
-        contacts.append(tuple(entry["contacts"]))
+        stops.append((shown, tuple(entry["support"]), tuple(entry["contacts"])))
         if phase["continue_from"] == "result":
             origin = shown
+    keyframes, support, contacts = zip(*stops, strict=True)
     return Animation.from_keyframes(
         robot, start, keyframes, PHASE_SECONDS, SAMPLES_PER_PHASE, support=support, contacts=contacts,
         trace_frame=moved_frame(spec), name=spec["name"])
 
 
 def format_method(label: str, figures: dict) -> str:
-    """One compared method's line: verdict of the shared check, CoM margin, worst goal task error,
-    contact drift, time and iterations, and what it could not express."""
+    """One compared method's line: verdict, CoM margin, worst task error, contact drift, time, iterations,
+    and what it could not express."""
     margin = figures["com_margin"]
     margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
     line = (f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
@@ -448,8 +433,7 @@ def _without_summary(reason: str, diagnosis: dict | None) -> str:
 
 
 def format_report(report: dict) -> str:
-    """The phase summary: solved or best effort, iterations, time, goal task errors, the compared
-    methods (with ``methods``), the checks."""
+    """The phase summary: solved or best effort, iterations, time, goal task errors, compared methods."""
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
