@@ -1,11 +1,6 @@
 """What stands around a robot in a scene: boxes fixed in the world (a staircase's steps, a table, a
-workpiece), drawn by the viewer with the robot.
-
-A :class:`SceneBox` is a box by its full side lengths, the world pose of its centre and a colour. A
-scenario's animation carries the boxes of its scene (:attr:`wbik.viz.animation.Animation.environment`);
-the viewer also draws the fixed obstacles a robot's package declares for its cell
-(``collision_obstacles()``, e.g. the UR5's table: :func:`robot_cell`). Boxes are keyed by name: a
-scenario's box of the same name as a cell obstacle replaces it.
+workpiece), by name: an animation's (:attr:`wbik.viz.animation.Animation.environment`) and those of the
+robot's cell (:func:`robot_cell`); a scenario's box replaces a cell's of the same name.
 """
 
 from __future__ import annotations
@@ -17,12 +12,9 @@ import numpy as np
 
 from wbik.errors import InvalidConfigurationError
 
-FLOOR_COLOR = 0x8C8C8C
-"""Grey: steps, floors."""
-TABLE_COLOR = 0xA0764A
-"""Wood brown: tables."""
-PART_COLOR = 0x5B7DB1
-"""Steel blue: workpieces."""
+FLOOR_COLOR = 0x8C8C8C  # grey: steps, floors
+TABLE_COLOR = 0xA0764A  # wood brown
+PART_COLOR = 0x5B7DB1  # steel blue: workpieces
 STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)
 """Wood browns for a staircase's steps, the lowest first (tests look for their hue)."""
 
@@ -76,8 +68,8 @@ class SceneBox:
 
 
 def robot_cell(robot) -> tuple[SceneBox, ...]:
-    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g.
-    the UR5's table), as boxes; none for a robot without a package or without such obstacles."""
+    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g. the
+    UR5's table), as boxes."""
     from wbik.models import robot_entries
 
     entry = robot_entries().get(getattr(robot, "name", ""))

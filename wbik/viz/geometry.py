@@ -1,10 +1,6 @@
-"""What a robot looks like: its URDF visuals, or a "stick" model built from its kinematics.
-
-Robots built from DH tables (pincher, arm3r) have no visual geometry, so every model can also be
-drawn as sticks: a cylinder from each joint's parent joint origin to the joint origin, one from each
-fixed frame's parent frame to the frame (tool and tip links), and a sphere at every joint.
-Sizes scale with the robot: the radius is ``STICK_RADIUS_RATIO`` times the robot's reach at
-its nominal configuration.
+"""What a robot looks like: its URDF visuals, or sticks built from its kinematics (robots from DH tables
+have no visuals): a cylinder from each joint or fixed frame's parent to it and a sphere at each joint, the
+radius ``STICK_RADIUS_RATIO`` times the robot's reach.
 """
 
 from __future__ import annotations
@@ -33,11 +29,8 @@ def robot_extent(robot: Robot, q: np.ndarray | None = None) -> float:
 
 
 def visual_model(robot: Robot, style: str = "auto") -> tuple[pin.GeometryModel, str]:
-    """The geometry to draw and the style used: ``"visual"`` (URDF) or ``"stick"``.
-
-    ``style="auto"`` takes the URDF visuals when the robot has any (and their meshes load),
-    sticks otherwise.
-    """
+    """The geometry to draw and its style: ``"visual"`` (URDF) or ``"stick"``; ``"auto"`` takes the URDF
+    visuals when the robot has loadable ones."""
     if style not in ("auto", "visual", "stick"):
         raise ValueError(f"style must be 'auto', 'visual' or 'stick', got {style!r}")
     if style in ("auto", "visual"):

@@ -1,14 +1,9 @@
 """A meshcat scene kept in this process, and its export to one self-contained HTML file.
 
-``SceneRecorder`` is a meshcat "window": ``meshcat.Visualizer(window=SceneRecorder())`` takes every
-``set_object`` / ``set_transform`` / ``set_property`` / ``set_animation`` / ``delete`` command and
-keeps the latest state of each scene-tree node, as the meshcat server does, without any server.
-``ServerWindow`` forwards the commands to a local meshcat server (zmq + tornado) and records them
-too, so a served scene can be exported the same way.
-
-The exported page inlines meshcat's JavaScript viewer (three.js included) and the scene commands
-as base64 msgpack, decoded synchronously in order: it fetches nothing, so it opens offline from
-``file://`` and inside a notebook ``iframe srcdoc``.
+``meshcat.Visualizer(window=SceneRecorder())`` keeps the latest state of each scene-tree node, as the
+meshcat server does, without a server; ``ServerWindow`` also forwards every command to a local server.
+The exported page inlines meshcat's viewer and the commands (base64 msgpack): it fetches nothing, so it
+opens offline and inside a notebook's ``iframe srcdoc``.
 """
 
 from __future__ import annotations
@@ -24,10 +19,8 @@ from pathlib import Path
 
 import umsgpack
 
-READY_MESSAGE = "wbik-scene-ready"
-"""Logged to the browser console once every scene command has been applied."""
-ERROR_MESSAGE = "wbik-page-error"
-"""Prefix of the console line the page logs for any uncaught JavaScript error."""
+READY_MESSAGE = "wbik-scene-ready"  # logged once every scene command is applied
+ERROR_MESSAGE = "wbik-page-error"  # the prefix of an uncaught JavaScript error's console line
 
 
 @dataclass
