@@ -13,10 +13,21 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import UnknownMethodError
 from wbik.errors import UnknownRobotError
 from wbik.errors import did_you_mean
+from wbik.models import URDF_PARAMS
+from wbik.models import builder_parameters
+from wbik.models import robot_entries
+from wbik.models.erd import example_robot_name
+from wbik.models.erd import example_robot_names
 from wbik.options import UnknownOptionError
 from wbik.options import option_schema
+from wbik.qp.backends import BACKEND_OPTIONS
+from wbik.qp.backends import DEFAULT
+from wbik.qp.backends import available
+from wbik.qp.backends import resolve
+from wbik.qp.support_polygon import sole_rectangle
 from wbik.qp.task_entries import FRAME
 from wbik.qp.task_entries import VECTOR3
+from wbik.robot import ChainSpec
 from wbik.scenarios.kinds import KIND_REGISTRY
 from wbik.scenarios.kinds import ScenarioBudgetError
 from wbik.scenarios.kinds import ScenarioFileError
@@ -39,6 +50,7 @@ from wbik.schema import Vector
 from wbik.schema import got
 from wbik.schema import join
 from wbik.schema import short
+from wbik.solvers.method_registry import methods
 
 SCENARIO_ERRORS = Errors(ScenarioValueError, UnknownScenarioKeyError, ScenarioBudgetError)
 
@@ -53,10 +65,6 @@ class Robot(Text):
         self.only = only
 
     def check(self, value, path, ctx):
-        from wbik.models import robot_entries
-        from wbik.models.erd import example_robot_name
-        from wbik.models.erd import example_robot_names
-
         known = list(robot_entries())
         if not isinstance(value, str):
             raise UnknownRobotError(short(value), known, hint=f"{ctx.source}: {path} must be {self.what}")
@@ -79,10 +87,6 @@ class Backend(Text):
     what = "a QP backend name"
 
     def check(self, value, path, ctx):
-        from wbik.qp.backends import BACKEND_OPTIONS
-        from wbik.qp.backends import available
-        from wbik.qp.backends import resolve
-
         known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
         if super().check(value, path, ctx) not in known:
             ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
@@ -100,7 +104,6 @@ class Method(Text):
     what = "an IK method name ('wbik methods' lists them)"
 
     def check(self, value, path, ctx):
-        from wbik.solvers.method_registry import methods
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
                                      hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
@@ -111,14 +114,11 @@ COM_MARGIN = 0.005
 """m, the default CoM margin inside the support polygon of every kind that keeps a robot balanced."""
 
 START = Either(Text(("nominal",)), Vector())
-FRAMES = ListOf(FRAME, what="frame names")
 
 
 def urdf_robot_params() -> Map:
     """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (``URDF_PARAMS`` of
     :func:`wbik.models.load`), ``chains`` made :class:`wbik.robot.ChainSpec`."""
-    from wbik.models import URDF_PARAMS
-
     chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
                  "tip": Key(FRAME, required=True), "joints": Key(ListOf(Text(what="a joint name")), []),
                  "description": Key(Text(), "")})
@@ -130,8 +130,6 @@ def urdf_robot_params() -> Map:
              "chains": ListOf(chain, what="chain mappings {name, base, tip, joints}")}
 
     def post(params: dict, path: str, ctx: Context) -> None:
-        from wbik.robot import ChainSpec
-
         if "chains" in params:
             params["chains"] = [ChainSpec(item["name"], item["base"], item["tip"], tuple(item["joints"]),
                                           item["description"]) for item in params["chains"]]
@@ -142,8 +140,6 @@ def urdf_robot_params() -> Map:
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
     """``robot_params`` checked as the options of the robot's builder, or for a robot loaded from a URDF
     path or example-robot-data against :func:`urdf_robot_params`."""
-    from wbik.models import robot_entries
-
     params, robot = spec.get("robot_params") or {}, spec.get("robot")
     if params and robot is not None:
         entry = robot_entries().get(robot)
@@ -165,8 +161,6 @@ def kind_schema(common: dict[str, Key], keys: dict[str, Key]) -> Map:
 
 def backend_key() -> Key:
     """``backend``: an installed QP backend, default :data:`wbik.qp.backends.DEFAULT`."""
-    from wbik.qp.backends import DEFAULT
-
     return Key(Backend(), DEFAULT)
 
 
@@ -202,9 +196,6 @@ SOLE_SHAPES = ("size", "corners", "point")
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points}); a frame given
     twice, or soles given both ways, is refused."""
-    from wbik.models import builder_parameters
-    from wbik.qp.support_polygon import sole_rectangle
-
     entries = spec.get("soles") or []
     if not entries:
         return

@@ -26,6 +26,7 @@ from wbik.expectations import ExpectationError
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
 from wbik.files import json_plain
+from wbik.models import load
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
 from wbik.registry import RegistryImportError
@@ -33,6 +34,7 @@ from wbik.schema import Refused
 from wbik.schema import SchemaBudgetError
 from wbik.schema import SchemaValueError
 from wbik.schema import UnknownKeyError
+from wbik.validation import finite_vector
 
 if TYPE_CHECKING:
     from wbik.robot import Robot
@@ -150,16 +152,12 @@ Runner = Callable[[dict, Progress], ScenarioReport]
 
 def robot_of(spec: dict) -> Robot:
     """The robot a checked spec names, built with its ``robot_params``."""
-    from wbik.models import load
-
     return load(spec["robot"], **spec["robot_params"])
 
 
 def start_of(spec: dict, owner) -> np.ndarray:
     """The configuration a checked spec's ``start`` names: "nominal" (of ``owner``, a robot or a chain) or
     as many finite numbers, else a ScenarioError."""
-    from wbik.validation import finite_vector
-
     start, nominal = spec["start"], owner.nominal
     if start == "nominal":
         return nominal.copy()

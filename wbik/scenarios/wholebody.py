@@ -2,52 +2,47 @@
 
     kind: wholebody_ik
     robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
-    robot_params: {floating_base: true}   # for a URDF path: wbik.load's parameters (typed)
-    soles:                         # feet of a URDF / example-robot-data robot (m, in the sole frame)
-      - {frame: left_sole_link, size: [0.2, 0.12], centre: [-0.005, 0, 0]}   # a flat sole rectangle
-      - {frame: FL_FOOT, point: [0, 0, 0]}                                   # a point foot
-      - {frame: edge_link, corners: [[0.1, 0, 0], [-0.1, 0, 0]]}            # any contact points
-    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default" (wbik.qp.backends)
-    margin: 0.005                  # m, default CoM margin of the phases (COM_MARGIN)
+    soles: [{frame: FL_FOOT, point: [0, 0, 0]}]   # feet of a URDF robot: size (a rectangle), corners, point
+    backend: daqp                  # a QP backend (wbik.qp.backends), "fastest" or "default"
+    margin: 0.005                  # m, the phases' default CoM margin
     methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase
-    collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
-      self_collision: true         # pairs of the robot's own primitives (default true)
-      robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
-      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8], rpy: [0, 0, 0]}]   # m, rad
-      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01; pairs closer at
-                                   # the nominal pose are left out)
-      influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
+    collisions:                    # optional: avoid collisions (own pairs, the cell's obstacles, boxes)
+      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8]}]   # m
+      safety_distance: 0.02        # m; pairs closer at the nominal pose are left out
     phases:
       - name: shift the CoM over the right foot
         contacts: [r_sole, l_sole]  # frames held fixed (a point foot: its position only)
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
-        margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
-        lock: [mb]                  # joints held at their value (optional)
-        acceleration_limit: 20      # rad/s^2, optional: each IK step a period of dt (s, default 1)
-        dt: 0.01
-        tasks:                      # entries of wbik.qp.task_entries
-          - {type: com, over: r_sole, axes: xy}
-          - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
-        expect: {success: true}     # keys of PHASE_RULES, SI; see wbik.expectations
+        lock: [mb]                  # joints held at their value
+        acceleration_limit: 20      # rad/s^2, each IK step a period of dt (s)
+        tasks: [{type: com, over: r_sole, axes: xy}]   # entries of wbik.qp.task_entries
+        expect: {success: true}     # keys of PHASE_RULES (SI units)
 
-Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); unless ``expect``
-says otherwise a phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the
-support polygon, no joint beyond its limit (1e-9) and, with ``collisions``, every pair at least the safety
-distance apart (coal, by FK). ``methods`` (a name or ``{method, label, options, max_iterations}``) solves
-each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start; these comparisons
-are reported, not judged.
+Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); by default a phase
+expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the support polygon, no joint
+beyond its limit and, with ``collisions``, every pair at least the safety distance apart (coal, by FK).
+``methods`` solves each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start:
+reported, not judged.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from wbik.collision import Obstacle
+from wbik.collision import robot_collision_model
+from wbik.errors import SoleError
 from wbik.expectations import Rule
 from wbik.expectations import evaluate
 from wbik.expectations import verdict
 from wbik.options import UnknownOptionError
 from wbik.options import option_schema
+from wbik.qp.contacts import HeldFrame
 from wbik.qp.diagnosis import report_lines
+from wbik.qp.distances import CollisionAvoidance
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import LockedJoints
+from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.qp.task_entries import FRAME
 from wbik.qp.task_entries import NON_NEGATIVE
 from wbik.qp.task_entries import POSITIVE
@@ -56,7 +51,6 @@ from wbik.qp.task_entries import TASK_ENTRY
 from wbik.qp.task_entries import VECTOR3
 from wbik.qp.task_entries import TaskEntryError
 from wbik.qp.task_entries import build_task
-from wbik.scenario_schema import FRAMES
 from wbik.scenario_schema import START
 from wbik.scenario_schema import Robot
 from wbik.scenario_schema import apply_soles
@@ -84,6 +78,11 @@ from wbik.schema import Map
 from wbik.schema import Number
 from wbik.schema import Text
 from wbik.schema import Vector
+from wbik.solvers.method_registry import method_factory
+from wbik.solvers.method_registry import methods
+from wbik.solvers.method_registry import solver
+from wbik.wholebody.problem import FRAMES
+from wbik.wholebody.problem import WholeBody
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
@@ -101,7 +100,6 @@ PHASE_RULES = {
 
 # -- the schema ------------------------------------------------------------------------------------
 def wholebody_schema() -> Map:
-    """The keys of a wholebody_ik file (see the module docstring)."""
     phase = Map({
         "name": Key(Text()),
         "contacts": Key(FRAMES, []),
@@ -119,7 +117,7 @@ def wholebody_schema() -> Map:
         "expect": Key(expect_block(PHASE_RULES), None),
         "continue_from": Key(Text(("result", "start")), "result"),
     })
-    collisions = Map({  # collision_setup; absent: no collision constraint
+    collisions = Map({
         "self_collision": Key(Boolean(), True),
         "robot_obstacles": Key(Boolean(), True),
         "boxes": Key(ListOf(Map({"name": Key(Text(), required=True),
@@ -129,7 +127,6 @@ def wholebody_schema() -> Map:
         "safety_distance": Key(Number(ge=0, unit="m"), 0.01),
         "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
     })
-
     method = Map({"method": Key(Text(_method_names), required=True), "label": Key(Text()),
                   "options": Key(Map(values=Anything()), {}),
                   "max_iterations": Key(Number(gt=0, integer=True, budget=True, nullable=True))})
@@ -168,14 +165,11 @@ def wholebody_schema() -> Map:
 
 
 def _method_names() -> tuple[str, ...]:
-    from wbik.solvers.method_registry import methods
     return tuple(sorted(methods()))
 
 
 def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
-    """The ``methods`` entries as {method, label, options, max_iterations or None}, options checked by the
-    method's option schema, labels unique."""
-    from wbik.solvers.method_registry import method_factory
+    """The ``methods`` entries as {method, label, options, max_iterations}, options checked, labels unique."""
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
@@ -192,13 +186,8 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 # -- the checks of one phase -----------------------------------------------------------------------
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
-    """The checks of a phase's answer from the shared check's measures (``solution``): each contact's
-    drift (m, rad; a point foot: its position only) as its constraint measures it, the CoM margin (None
-    without support), the limit excess; with ``collisions`` (CollisionAvoidance) the closest pair at the
-    answer (m, coal, by FK)."""
-    from wbik.qp.contacts import HeldFrame
-    from wbik.qp.kinematics import Kinematics
-
+    """The checks of a phase's answer from the shared check's measures (``solution``), each contact's drift
+    split in m and rad; with ``collisions`` (CollisionAvoidance) the closest pair at the answer."""
     robot, q = problem.robot, solution.q
     kinematics = Kinematics(robot.model, q)
     contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
@@ -220,8 +209,6 @@ def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
 
 def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
                        safety: float | None = None) -> dict:
-    """The phase's expect block over the defaults (see the module docstring; ``safety``: m, with
-    ``collisions``)."""
     expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
               "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
     if has_support:
@@ -233,14 +220,9 @@ def phase_expectations(phase_expect: dict | None, margin: float, has_support: bo
 
 
 def collision_avoidance(robot, collisions: dict | None):
-    """The QP constraint of a checked ``collisions`` block (None without one); a pair under the safety
-    distance at the nominal pose is close by design: left out."""
+    """The QP constraint of a checked ``collisions`` block (None without one)."""
     if collisions is None:
         return None
-    from wbik.collision import Obstacle
-    from wbik.collision import robot_collision_model
-    from wbik.qp.distances import CollisionAvoidance
-
     boxes = [Obstacle(box["name"], tuple(box["size"]), tuple(box["xyz"]), tuple(box["rpy"]))
              for box in collisions["boxes"]]
     model = robot_collision_model(robot, self_collision=collisions["self_collision"],
@@ -250,7 +232,6 @@ def collision_avoidance(robot, collisions: dict | None):
 
 
 def phase_figures(success: bool, checks: dict) -> dict:
-    """The judged figures of a phase (the ``figure`` names of PHASE_RULES)."""
     errors = checks["contact_errors"].values()
     return {"success": bool(success),
             "contact_error_m": max((e["position"] for e in errors), default=0.0),
@@ -261,7 +242,6 @@ def phase_figures(success: bool, checks: dict) -> dict:
 
 # -- the runner ------------------------------------------------------------------------------------
 def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: bool = True) -> list:
-    """The phase's tasks (targets at q), with ``regularization`` its regularisation; errors name the entry."""
     tasks = []
     for number, entry in enumerate(phase["tasks"]):
         try:
@@ -279,9 +259,6 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: 
 
 
 def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
-    """The run of a checked spec; a sole the robot refuses is a ScenarioValueError naming its entry."""
-    from wbik.errors import SoleError
-
     try:
         return KindRun(spec, "phases", on_progress, figures={"backend": spec["backend"]})
     except SoleError as exc:
@@ -291,10 +268,7 @@ def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
 
 
 def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
-    """The phase as a :class:`wbik.wholebody.problem.WholeBody` from q, contacts held where they are at q,
-    joint position limits, IK steps of ``dt`` and the constraints ``extra`` (locked joints, collisions)."""
-    from wbik.wholebody.problem import WholeBody
-
+    """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
     return WholeBody(robot, _phase_tasks(robot, q, phase, index, regularization),
                      contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
                      support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
@@ -305,10 +279,7 @@ def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, re
 
 def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
                     solvers: dict, extra: list) -> dict[str, dict]:
-    """{label: figures} of each of ``methods`` on :func:`phase_problem` from q, judged by the shared check;
-    ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot takes ms to load)."""
-    from wbik.solvers.method_registry import solver
-
+    """{label: figures} of ``methods`` on the phase from q; ``solvers`` keeps one per (label, budget)."""
     problem = phase_problem(robot, q, phase, index, extra)
     compared = {}
     for entry in methods:
@@ -323,12 +294,7 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 
 
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Solve the phases of a checked spec with ``wbik.solver("qp", robot)``: the report, animated from the
-    start through every phase's answer."""
-    from wbik.qp.limits import LockedJoints
-    from wbik.qp.support_polygon import DegenerateSupportPolygonError
-    from wbik.solvers.method_registry import solver
-
+    """Solve the phases of a checked spec with ``wbik.solver("qp", robot)``."""
     backend = spec["backend"]
     run = _kind_run(spec, on_progress)
     robot = run.robot
@@ -373,7 +339,7 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
 
 
 def moved_frame(spec: dict) -> str | None:
-    """The first frame a phase task moves (frame/position tasks that do not keep their pose)."""
+    """The first frame a phase's frame or position task moves."""
     for phase in spec.get("phases", []):
         contacts = set(phase.get("contacts", []))
         for task in phase.get("tasks", []):
@@ -385,9 +351,8 @@ def moved_frame(spec: dict) -> str | None:
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, ``PHASE_SECONDS`` each, with its support and contacts;
-    a phase continued from elsewhere (``continue_from: start``) is preceded by the way back there, on the
-    previous stance. The first frame a phase task moves is traced."""
+    """From the start through each phase's answer, with its support and contacts; a phase continued from
+    elsewhere (``continue_from: start``) is preceded by the way back there, on the previous stance."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS
     from wbik.viz.scenario import SAMPLES_PER_PHASE
@@ -408,32 +373,28 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
 
 
 def format_method(label: str, figures: dict) -> str:
-    """One compared method's line: verdict, CoM margin, worst task error, contact drift, time, iterations,
-    and what it could not express."""
+    """One compared method's lines: its verdict and figures, why it failed, what it could not express."""
     margin = figures["com_margin"]
     margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
-    line = (f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
-            f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
-            f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it")
+    lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
+             f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
+             f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it"]
     diagnosis = figures.get("diagnosis")
     if not figures["success"]:
-        line += f"\n        why: {_without_summary(figures['reason'], diagnosis)}"
-    for text in report_lines(diagnosis) if diagnosis else ():
-        line += f"\n        {text}"
-    for item in figures["unsupported"]:  # a peer's "unsupported by PEER: ...", or another method's words
-        said = item if item.startswith("unsupported by ") else f"cannot express: {item}"
-        line += f"\n        {said}"
-    return line
+        lines.append(f"        why: {_without_summary(figures['reason'], diagnosis)}")
+    lines += [f"        {text}" for text in (report_lines(diagnosis) if diagnosis else ())]
+    # a peer's "unsupported by PEER: ...", or another method's words
+    lines += [f"        {item if item.startswith('unsupported by ') else f'cannot express: {item}'}"
+              for item in figures["unsupported"]]
+    return "\n".join(lines)
 
 
 def _without_summary(reason: str, diagnosis: dict | None) -> str:
-    """The reason without the diagnosis's summary at its end (printed line by line instead)."""
     summary = (diagnosis or {}).get("summary") or ""
     return reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason
 
 
 def format_report(report: dict) -> str:
-    """The phase summary: solved or best effort, iterations, time, goal task errors, compared methods."""
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
@@ -441,8 +402,7 @@ def format_report(report: dict) -> str:
         reason = _without_summary(phase["reason"], diagnosis)
         text = (f"{'solved' if phase['success'] else 'best effort: ' + reason}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
-        for line in report_lines(diagnosis) if diagnosis else ():
-            text += f"\n      {line}"
+        text += "".join(f"\n      {line}" for line in (report_lines(diagnosis) if diagnosis else ()))
         if phase.get("methods"):
             text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
                 format_method(label, figures) for label, figures in phase["methods"].items())

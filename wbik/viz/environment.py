@@ -9,8 +9,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.models import robot_entries
 
 FLOOR_COLOR = 0x8C8C8C  # grey: steps, floors
 TABLE_COLOR = 0xA0764A  # wood brown
@@ -53,8 +55,6 @@ class SceneBox:
 
     def homogeneous(self) -> np.ndarray:
         """The 4 x 4 world pose of the box's centre."""
-        import pinocchio as pin
-
         pose = np.eye(4)
         pose[:3, :3] = pin.rpy.rpyToMatrix(*self.rpy)
         pose[:3, 3] = self.xyz
@@ -70,8 +70,6 @@ class SceneBox:
 def robot_cell(robot) -> tuple[SceneBox, ...]:
     """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g. the
     UR5's table), as boxes."""
-    from wbik.models import robot_entries
-
     entry = robot_entries().get(getattr(robot, "name", ""))
     if entry is None:
         return ()

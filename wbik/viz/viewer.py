@@ -7,9 +7,7 @@
 >>> viewer.export_html("ur5.html")         # self-contained page, opens offline
 
 ``Viewer(robot, server=True)`` also serves meshcat on localhost (``viewer.url``; ``close()`` or a ``with``
-block stops it); in a notebook the viewer shows itself inline. Robots without visuals are drawn as sticks
-(:mod:`wbik.viz.geometry`), the boxes of the robot's cell and of an animation's scene with them, the floor
-grid under the robot (at its soles, else under the lowest box), the camera framing it.
+block stops it); in a notebook the viewer shows itself inline.
 """
 
 from __future__ import annotations
@@ -25,6 +23,7 @@ import pinocchio as pin
 import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import UnsupportedError
+from wbik.models import load
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import contact_points
@@ -52,8 +51,7 @@ POLYGON_TOLERANCE = 0.005
 
 @dataclass(frozen=True)
 class SupportView:
-    """What ``show_com_and_polygon`` drew: CoM (m, world), support polygon (k, 2, counter-clockwise) at
-    height ``ground_z``, whether the CoM projects inside, its distance to the nearest edge (m, > 0 inside)."""
+    """What ``show_com_and_polygon`` drew (m, world): CoM, polygon (k, 2) at ``ground_z``, margin."""
 
     com: np.ndarray
     polygon: np.ndarray
@@ -64,8 +62,7 @@ class SupportView:
 
 @dataclass(frozen=True)
 class AnimationView:
-    """What ``play_animation`` drew: the sample count, the traced path (N, 3) or None, the CoM margin (m)
-    in the support polygon per sample (NaN with no sole down) or None without support overlays."""
+    """What ``play_animation`` drew: samples, the traced path (N, 3), the CoM margins (m), or None."""
 
     frames: int
     trace: np.ndarray | None
@@ -81,8 +78,8 @@ def _translation(position) -> np.ndarray:
 
 def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
                   tolerance: float = POLYGON_TOLERANCE) -> bool:
-    """The same soles at the same places (to ``tolerance`` m) as the ``previous`` stretch: every vertex of
-    each polygon near the other's outline (a hull of nearly aligned soles may have two more vertices)."""
+    """The same soles at the same places (to ``tolerance`` m): each polygon's vertices near the other's
+    outline (a hull of nearly aligned soles may have two more vertices)."""
     old_feet, old_vertices, old_z, _ = previous
     if old_feet != feet or abs(old_z - ground_z) > tolerance:
         return False
@@ -99,11 +96,7 @@ class Viewer:
         import meshcat
         from pinocchio.visualize import MeshcatVisualizer
 
-        if isinstance(robot, str):
-            from wbik.models import load
-
-            robot = load(robot)
-        self.robot = robot
+        self.robot = robot = load(robot) if isinstance(robot, str) else robot
         self.title = title or f"wbik: {robot.name}"
         self.window = ServerWindow() if server else SceneRecorder()
         self.meshcat = meshcat.Visualizer(window=self.window)
@@ -172,19 +165,17 @@ class Viewer:
     def frame_pose(self, frame: str, q: np.ndarray | None = None) -> pin.SE3:
         return self.robot.frame_placement(self.q if q is None else q, frame)
 
-    def _framing(self, configurations: Sequence[np.ndarray]) -> tuple[np.ndarray, float]:
-        """The middle of the frame origins over ``configurations`` (world, m) and the camera distance
-        that shows them whole (m): 1.6 times their extent."""
-        data, points = self.robot.model.createData(), []
-        for q in configurations:
-            pin.framesForwardKinematics(self.robot.model, data, q)
-            points.extend(placement.translation.copy() for placement in data.oMf)
+    def _framing(self, q: np.ndarray) -> tuple[np.ndarray, float]:
+        """The middle of the frame origins at q (world, m), and 1.6 times their extent (m)."""
+        data = self.robot.model.createData()
+        pin.framesForwardKinematics(self.robot.model, data, q)
+        points = [placement.translation.copy() for placement in data.oMf]
         low, high = np.min(points, axis=0), np.max(points, axis=0)
         return 0.5 * (low + high), 1.6 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
 
     def look_at(self, center: np.ndarray | None = None, distance: float | None = None) -> None:
         """Point the camera at ``center`` (default: the robot at the shown q) from ``distance`` (m) away."""
-        middle, far = self._framing([self.q])
+        middle, far = self._framing(self.q)
         self.meshcat["/Cameras/default"].set_transform(_translation(middle if center is None else center))
         # the camera sits in a y-up frame: (x, y, z)_three = (x, z, -y)_world, looking at the target
         direction = np.array([1.0, 0.8, 0.55])
@@ -206,8 +197,7 @@ class Viewer:
             self.environment[box.name] = box
 
     def ground_height(self, q: np.ndarray | None = None) -> float:
-        """The floor's height (m): the lowest sole contact point at q (default: the shown q), else the
-        bottom of the lowest box of the scene, else 0."""
+        """The floor's height (m): the lowest sole point at q, else the lowest box's bottom, else 0."""
         if self.robot.soles:
             kinematics = Kinematics(self.robot.model, self.q if q is None else q)
             return float(contact_points(kinematics, self.robot.soles, list(self.robot.soles))[:, 2].min())
@@ -216,8 +206,7 @@ class Viewer:
         return 0.0
 
     def place_grid(self, height: float | None = None) -> float:
-        """Put meshcat's floor grid at ``height`` (m; default :meth:`ground_height`), scaled by
-        ``grid_scale``; returns the height."""
+        """Put meshcat's floor grid at ``height`` (m; default :meth:`ground_height`); returns it."""
         height = self.ground_height() if height is None else float(height)
         transform = np.diag([self.grid_scale, self.grid_scale, self.grid_scale, 1.0])
         transform[2, 3] = height - 1e-4  # (just under the soles: they are not hidden by the grid)
@@ -226,7 +215,7 @@ class Viewer:
 
     @property
     def grid_scale(self) -> float:
-        """Of meshcat's 0.5 m cells: half the robot's extent (m), within [0.05, 1]."""
+        """The scale of meshcat's 0.5 m cells: half the robot's extent (m), within [0.05, 1]."""
         return float(min(1.0, max(0.05, 0.5 * self.extent)))
 
     # -- markers ----------------------------------------------------------------------------------
@@ -265,13 +254,11 @@ class Viewer:
         self.meshcat[path].set_object(line)
 
     def _outline(self, path: str, vertices: np.ndarray, ground_z: float, color: int) -> None:
-        """A polygon's closed outline just above the ground at height ``ground_z`` (m)."""
         self._line(path, np.column_stack([vertices, np.full(len(vertices), ground_z + 1e-4)]), color,
                    loop=True)
 
     def _support_polygon(self, kinematics: Kinematics, feet: Sequence[str]) -> tuple[SupportPolygon, float]:
-        """The support polygon of the soles ``feet`` at the kinematics' q, and its height (m): the mean
-        height of their contact points."""
+        """The support polygon of the soles ``feet`` and its height (m, their contact points' mean)."""
         corners = contact_points(kinematics, self.robot.soles, feet)
         return SupportPolygon(corners[:, :2]), float(np.mean(corners[:, 2]))
 
@@ -294,8 +281,8 @@ class Viewer:
 
     def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
                     color: int = TARGET_COLOR) -> pin.SE3:
-        """An IK target (anything ``wbik.targets.as_target`` takes; in the chain's base frame with
-        ``chain``, else the world): a translucent sphere, with axes for a pose. Returns its world pose."""
+        """An IK target (in the chain's base frame with ``chain``): a sphere, with axes for a pose; its world
+        pose."""
         target = as_target(target)
         placement = target.se3()
         chain = self._chain(chain)
@@ -325,8 +312,7 @@ class Viewer:
 
     def show_com_and_polygon(self, q: Sequence[float] | None = None,
                              feet: Sequence[str] | None = None) -> SupportView:
-        """The centre of mass, its ground projection, and the support polygon of the feet in contact (the
-        convex hull of their ``robot.soles`` contact points at q): green when the CoM projects inside."""
+        """The CoM, its ground projection and the support polygon of ``feet`` (green: the CoM inside)."""
         corners_by_sole = self.robot.soles
         if not corners_by_sole:
             raise UnsupportedError(
@@ -356,8 +342,7 @@ class Viewer:
     def animate(self, times: Sequence[float], qs: Sequence[Sequence[float]],
                 chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
                 repetitions: int = 1, play: bool = True) -> np.ndarray | None:
-        """Play a trajectory (q rows, full or of ``chain``) at its own times (s). With ``trace_frame``,
-        the frame's path is drawn with a marker riding along, and returned (N, 3, world); else None."""
+        """Play q rows (full, or of ``chain``) at their times (s); the path of ``trace_frame`` (N, 3)."""
         times = np.asarray(times, dtype=float).reshape(-1)
         rows = [self.full_configuration(q, chain) for q in qs]
         if len(rows) != len(times) or len(rows) == 0:
@@ -371,8 +356,7 @@ class Viewer:
 
     def _robot_keyframes(self, times: np.ndarray, rows: Sequence[np.ndarray], trace_frame: str | None,
                          fps: float):
-        """A meshcat Animation moving every robot geometry (and the trace marker), its keys (frames), and
-        the trace (or None)."""
+        """A meshcat Animation moving every robot geometry (and the trace marker), its keys, the trace."""
         import meshcat.animation
 
         model, data = self.robot.model, self.robot.model.createData()
@@ -403,7 +387,6 @@ class Viewer:
         return clip, keys, path
 
     def _track(self, clip, keys: Sequence[float], path: str, positions) -> None:
-        """Keyframes moving the node ``path`` to each of ``positions`` (world, m) at ``keys``."""
         for key, position in zip(keys, positions, strict=True):
             with clip.at_frame(self.meshcat, key) as frame:
                 frame[path].set_transform(_translation(position))
@@ -417,9 +400,7 @@ class Viewer:
 
     def play_animation(self, animation, fps: float = 30.0, repetitions: int = 1,
                        play: bool = True) -> AnimationView:
-        """Play a :class:`wbik.viz.animation.Animation` with its overlays: the traced frame, the CoM with
-        its ground projection (green inside the support polygon, red outside) and the soles' polygon at
-        each sample, markers on the frames in contact. One sample is shown still. Returns what was drawn."""
+        """Play a :class:`wbik.viz.animation.Animation` with its overlays (one sample: still)."""
         if animation.robot.model.nq != self.robot.model.nq:
             raise InvalidConfigurationError(
                 f"the animation is of {animation.robot.name} (nq = {animation.robot.model.nq}); this "
@@ -446,12 +427,11 @@ class Viewer:
         return AnimationView(animation.frames, trace, margins)
 
     def _camera_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray) -> None:
-        """The camera follows the robot: its target on the robot's middle, averaged over about half a
-        second of samples, at the distance that shows the robot whole at the start."""
-        self.look_at(*self._framing([rows[0]]))
+        """The camera follows the robot's middle, averaged over about half a second."""
+        self.look_at(*self._framing(rows[0]))
         if len(rows) < 2:
             return
-        centres = np.array([self._framing([q])[0] for q in rows])
+        centres = np.array([self._framing(q)[0] for q in rows])
         spacing = float(times[-1] - times[0]) / (len(times) - 1)
         width = max(1, int(round(0.25 / max(spacing, 1e-9))))
         padded = np.vstack([np.repeat(centres[:1], width, axis=0), centres,
@@ -461,7 +441,7 @@ class Viewer:
         self._track(clip, keys, "/Cameras/default", smooth)
 
     def _zmp_keyframes(self, clip, keys: list[float], zmp: np.ndarray) -> None:
-        """A ZMP marker on the ground moving with the samples (hidden where there is none) and its path."""
+        """A ZMP marker (hidden where there is none) and its path."""
         path = f"{ROOT}/zmp"
         self.meshcat[path].delete()
         finite = np.all(np.isfinite(zmp), axis=1)
@@ -475,8 +455,8 @@ class Viewer:
 
     def _support_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:
-        """CoM, its ground projection and one support polygon per stretch of samples on the same soles at
-        the same places (shown during its stretch); returns the CoM margins (m, NaN in the air)."""
+        """CoM, its ground projection and one support polygon per stretch on the same soles; the CoM margins
+        (m, NaN in the air)."""
         kinematics = Kinematics(self.robot.model)
         path = f"{ROOT}/support"
         self.meshcat[path].delete()
@@ -541,9 +521,8 @@ class Viewer:
 
     def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
              repetitions: int = 1) -> np.ndarray | None:
-        """Animate a trajectory object: ``wbik.motion.Trajectory`` or anything with ``times`` and
-        joint rows (``positions``, ``qs`` or ``q``; a chain's joints when it names its ``chain``,
-        else full configurations). The tip frame (``tip_frame``) is traced unless told otherwise."""
+        """Animate anything with ``times`` and joint rows (``positions``, ``qs`` or ``q``; of its ``chain`` if
+        it names one), its ``tip_frame`` traced unless told otherwise."""
         times = getattr(trajectory, "times", None)
         rows = next((getattr(trajectory, name) for name in ("positions", "qs", "q")
                      if getattr(trajectory, name, None) is not None), None)
