@@ -207,18 +207,6 @@ def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
     return checks
 
 
-def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
-                       safety: float | None = None) -> dict:
-    expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
-              "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
-    if has_support:
-        expect["com_margin_min_m"] = margin - 1e-9
-    if safety is not None:
-        expect["collision_distance_min_m"] = safety - 1e-9
-    expect.update(phase_expect or {})
-    return expect
-
-
 def collision_avoidance(robot, collisions: dict | None):
     """The QP constraint of a checked ``collisions`` block (None without one)."""
     if collisions is None:
@@ -231,17 +219,9 @@ def collision_avoidance(robot, collisions: dict | None):
     return CollisionAvoidance(model, collisions["safety_distance"], collisions["influence_distance"])
 
 
-def phase_figures(success: bool, checks: dict) -> dict:
-    errors = checks["contact_errors"].values()
-    return {"success": bool(success),
-            "contact_error_m": max((e["position"] for e in errors), default=0.0),
-            "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
-            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
-            "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
-
-
 # -- the runner ------------------------------------------------------------------------------------
-def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: bool = True) -> list:
+def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
+    """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
     tasks = []
     for number, entry in enumerate(phase["tasks"]):
         try:
@@ -250,26 +230,10 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: 
             raise ScenarioValueError(f"phases[{index}].tasks[{number}]: {exc}") from exc
     if not any(task.goal for task in tasks):
         raise ScenarioError(f"phase {phase['name']!r} has no goal task")
-    if not regularization:
-        return tasks
-    regularization = build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]})
-    regularization.priority = max(task.priority for task in tasks)  # the lowest level (see lowest_priority)
-    tasks.append(regularization)
-    return tasks
-
-
-def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
-    try:
-        return KindRun(spec, "phases", on_progress, figures={"backend": spec["backend"]})
-    except SoleError as exc:
-        index = next((i for i, entry in enumerate(spec["soles"]) if entry["frame"] == exc.sole), None)
-        where = f"soles[{index}].frame" if index is not None else "robot_params.soles"
-        raise ScenarioValueError(f"{where}: {exc}") from None
-
-
-def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
-    """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
-    return WholeBody(robot, _phase_tasks(robot, q, phase, index, regularization),
+    if regularization:  # on the lowest level (see lowest_priority)
+        tasks.append(build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]}))
+        tasks[-1].priority = max(task.priority for task in tasks[:-1])
+    return WholeBody(robot, tasks,
                      contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
                      support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
                      collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
@@ -296,7 +260,12 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Solve the phases of a checked spec with ``wbik.solver("qp", robot)``."""
     backend = spec["backend"]
-    run = _kind_run(spec, on_progress)
+    try:
+        run = KindRun(spec, "phases", on_progress, figures={"backend": backend})
+    except SoleError as exc:  # named by its soles entry
+        index = next((i for i, entry in enumerate(spec["soles"]) if entry["frame"] == exc.sole), None)
+        raise ScenarioValueError(f"{'robot_params.soles' if index is None else f'soles[{index}].frame'}: "
+                                 f"{exc}") from None
     robot = run.robot
     q = start_of(spec, robot)
     start = q.copy()
@@ -317,10 +286,20 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         except DegenerateSupportPolygonError as exc:
             raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
         checks = phase_checks(problem, q, solution, collision_constraint)
-        expect = phase_expectations(phase["expect"], margin, bool(support),
-                                    collision_constraint and collision_constraint.safety)
-        expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
-                                f"phase {phase['name']!r} expect")
+        errors = checks["contact_errors"].values()
+        figures = {"success": bool(solution.success),
+                   "contact_error_m": max((e["position"] for e in errors), default=0.0),
+                   "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
+                   "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
+                   "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
+        expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
+                  "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
+        if support:
+            expect["com_margin_min_m"] = margin - 1e-9
+        if collision_constraint is not None:
+            expect["collision_distance_min_m"] = collision_constraint.safety - 1e-9
+        expect.update(phase["expect"] or {})
+        expectations = evaluate(expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
         entry = {
             "name": phase["name"], "passed": verdict(expectations) != "FAILED", "success": solution.success,
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
