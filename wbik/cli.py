@@ -1,10 +1,6 @@
-"""The ``wbik`` command. Each subcommand is a module of :data:`SUBCOMMANDS` with ``HELP`` (its line in
-``wbik --help``), a docstring (its description), ``run(args) -> int``, optionally ``EPILOG`` and
-``add_arguments(parser)``; heavy imports stay inside ``run``.
-
-Exit codes: 0 done, 1 ran but not solved (or a scenario did not pass), 2 bad input or usage (argparse and
-every :class:`wbik.errors.WbikError`: ``wbik: error: <message>``, no traceback unless ``--debug``), 3
-internal error (any other exception: a bug).
+"""The ``wbik`` command: each subcommand is a module of :data:`SUBCOMMANDS` with ``HELP``, a docstring (its
+description), ``run(args) -> int``, optionally ``EPILOG`` and ``add_arguments(parser)``. Exit codes: 0 done,
+1 not solved, 2 bad input or usage (every :class:`wbik.errors.WbikError`), 3 internal error (a bug).
 """
 
 from __future__ import annotations

@@ -1,10 +1,7 @@
-"""Expectations of a scenario: figures judged against a task file's thresholds (SI units).
-
-A runner declares the figures it can judge as :class:`Rule` s keyed by the task file's expectation name
-(``com_margin_min_m: 0.005``: the figure ``com_margin_m`` must be >= 0.005). A value is the threshold, or
-``{threshold, expected_to_fail, why}``: a known failure (``why`` required) passes while the figure fails,
-and fails once it is met (as a strict xfail). :func:`evaluate` gives one check per expectation,
-:func:`verdict` PASSED, FAILED or informational (nothing checked).
+"""Expectations of a scenario: figures judged against a task file's thresholds (SI units), each keyed by
+its name (``com_margin_min_m: 0.005``: the :class:`Rule` of the figure ``com_margin_m``, >= 0.005). A value
+is the threshold or ``{threshold, expected_to_fail, why}``: a known failure passes while the figure fails,
+and fails once it is met (a strict xfail).
 """
 
 from __future__ import annotations

@@ -1,12 +1,7 @@
-"""Registries of named things that modules declare (IK methods, case samplers, scenario kinds, ...).
-
-A :class:`DeclaredRegistry` reads, on first use, the module-level tuple (its ``attribute``, e.g.
-``WHOLEBODY_CASES = (CaseSampler(...),)``) of the modules its sources give: functions giving modules
-(what wbik ships: :mod:`wbik.catalog`, through :func:`add_source`), module names (user code,
-:meth:`DeclaredRegistry.register_module`) and the modules named by the entry points of its ``plugins``
-group. A module that fails to import or declares no tuple, or a name declared twice, is an error naming
-it, never skipped. A fresh process (a study's worker) knows nothing user code added:
-:meth:`DeclaredRegistry.added_at_run_time` says which entries the work sent there must carry.
+"""Registries of named things that modules declare (IK methods, case samplers, scenario kinds, ...): on
+first use a :class:`DeclaredRegistry` reads the module-level tuple (``WHOLEBODY_CASES = (...)``) of the
+modules its sources give (wbik's, through :func:`add_source`; user modules; its entry points). A module
+that fails to import or declares none, or a name declared twice, is an error naming it, never skipped.
 """
 
 from __future__ import annotations
@@ -64,12 +59,9 @@ def source_label(source: Source) -> str:
 
 
 class DeclaredRegistry(Generic[Entry]):
-    """Entries of ``entry_type`` that its sources' modules declare (see the module docstring).
-
-    ``what`` names an entry in messages and in :func:`add_source`; ``modules``: the sources (the caller's
-    list, kept), defined at ``listed_in``; ``unknown(name, known)``: the error for a name nobody declares;
-    ``error`` / ``import_error``: the registry's own error types; ``plugins``: an entry-point group.
-    """
+    """Entries of ``entry_type`` its sources' modules declare as ``attribute``; ``what`` names an entry,
+    ``modules`` (the caller's list, kept) are the sources, ``listed_in`` where they are defined,
+    ``unknown(name, known)`` the error for a name nobody declares, ``plugins`` an entry-point group."""
 
     def __init__(self, what: str, attribute: str, modules: list[str], listed_in: str, entry_type: type[Entry],
                  unknown: Callable[[str, list[str]], WbikError] | None = None,

@@ -32,7 +32,7 @@ from wbik.errors import did_you_mean
 
 # -- errors -----------------------------------------------------------------------------------------
 class SchemaError(InvalidSettingError):
-    """A value that its schema refuses; the message names the source and the key's path."""
+    """A value its schema refuses; the message names the source and the key's path."""
 
 
 class SchemaValueError(SchemaError):
@@ -137,12 +137,11 @@ def unknown_keys(ctx: Context, path: str, given, known, error: type[WbikError] |
 
 
 # -- nodes ------------------------------------------------------------------------------------------
-NO_DEFAULT = object()
-"""A key's default when it has none (absent stays absent)."""
+NO_DEFAULT = object()  # a key's default when it has none: absent stays absent
 
 
 class Node:
-    """A value's rule: ``check(value, path, ctx)`` returns it (defaults filled) or raises."""
+    """A value's rule: ``check(value, path, ctx)`` returns it (defaults filled in) or raises."""
 
     expected = "a value"
 
@@ -400,8 +399,7 @@ class Refused(Node):
 
 @dataclass
 class Key:
-    """A key of a mapping: its rule, its default (filled in when absent), whether it is required, and
-    ``doc`` for the documentation's tables."""
+    """A mapping's key: its rule, its default (filled in when absent), required or not, a ``doc`` line."""
 
     node: Node
     default: object = NO_DEFAULT
@@ -470,11 +468,6 @@ class Variants(Node):
     def expected(self) -> str:
         return self.what
 
-    def variant(self, value) -> Node | None:
-        """The variant ``value`` selects (None: none)."""
-        name = self.select(value) if isinstance(value, Mapping) else None
-        return self.variants.get(name) if isinstance(name, str) else None
-
     def check(self, value, path, ctx):
         if not isinstance(value, Mapping):
             self.wrong(value, path, ctx)
@@ -542,8 +535,7 @@ def default_of(function: Callable, parameter: str):
 # -- reading a schema ---------------------------------------------------------------------------------
 def key_rows(node: Node, path: str = "", depth: int = 0,
              nesting: int = 6) -> Iterator[tuple[str, str, str, str]]:
-    """(key path, what it must be, default, doc) of a schema's keys, nested mappings, list items
-    (``cases[]``) and variants expanded: the documentation's tables."""
+    """(key path, what it must be, default, doc) of a schema's keys, nested ones expanded: docs tables."""
     if isinstance(node, Shorthand):
         node = node.node
     if isinstance(node, Map):

@@ -1,9 +1,5 @@
-"""Scenario files: declarative YAML (or JSON, TOML) that a user runs with ``wbik run FILE``.
-
-Every file names its ``kind`` (:mod:`wbik.scenarios.kinds`: ``wholebody_ik`` in
-:mod:`wbik.scenarios.wholebody`, the motion kinds in :mod:`wbik.motion.scenarios`, the applications'
-through the entry points ``wbik.scenario_kinds``), is checked against the kind's schema
-(:mod:`wbik.scenario_schema`) before anything runs, and its runner returns a :class:`ScenarioReport`.
+"""Scenario files: YAML (or JSON, TOML) a user runs with ``wbik run FILE``; each names its ``kind``
+(:mod:`wbik.scenarios.kinds`) and is checked against the kind's schema before anything runs.
 """
 
 from __future__ import annotations

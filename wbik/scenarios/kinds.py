@@ -1,11 +1,7 @@
-"""Scenario kinds: what a kind is (:class:`ScenarioKind`), what its runner returns (:class:`ScenarioReport`),
-their registry and the errors of a scenario file.
-
-A kind is declared next to its runner, in its module's ``SCENARIO_KINDS`` tuple; the modules holding kinds
-are the sources of :data:`KIND_REGISTRY` (:class:`wbik.registry.DeclaredRegistry`: one that fails to
-import, declares no kinds or declares a kind twice is an error naming it). User code adds a kind with
-:func:`register_kind`. A runner ``run(spec, on_progress) -> ScenarioReport`` gets the spec checked against
-the kind's schema, defaults filled in, and may call ``on_progress(report so far)`` after each phase.
+"""Scenario kinds: what a kind is (:class:`ScenarioKind`, declared next to its runner in its module's
+``SCENARIO_KINDS``), what its runner returns (:class:`ScenarioReport`), their registry and the errors of a
+scenario file. A runner ``run(spec, on_progress)`` gets the spec checked against the kind's schema and may
+call ``on_progress(report so far)`` after each phase.
 """
 
 from __future__ import annotations

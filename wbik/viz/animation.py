@@ -1,8 +1,6 @@
-"""``Animation``: what a scenario runner hands to the viewer besides its report: a robot (the runner's own,
-so ``robot_params`` hold), sample ``times`` (s, strictly increasing; one sample is a still picture), the
-full configuration at each sample, what to draw along (:class:`Overlays`) and the scene's fixed boxes
-(``environment``). The viewer plays it as meshcat keyframes, three.js interpolating between samples, so a
-runner gives its knots, not a dense grid.
+"""``Animation``: what a scenario runner hands to the viewer: its robot, sample times (s; one sample is a
+still picture), the full configuration at each, :class:`Overlays` and the scene's fixed boxes. three.js
+interpolates between samples, so a runner gives its knots, not a dense grid.
 """
 
 from __future__ import annotations

@@ -1,9 +1,5 @@
-"""A meshcat scene kept in this process, and its export to one self-contained HTML file.
-
-``meshcat.Visualizer(window=SceneRecorder())`` keeps the latest state of each scene-tree node, as the
-meshcat server does, without a server; ``ServerWindow`` also forwards every command to a local server.
-The exported page inlines meshcat's viewer and the commands (base64 msgpack): it fetches nothing, so it
-opens offline and inside a notebook's ``iframe srcdoc``.
+"""A meshcat scene kept in this process (the latest state of each node, as the server keeps it), and its
+export to one HTML page inlining meshcat's viewer and the commands: it opens offline and in an ``iframe``.
 """
 
 from __future__ import annotations

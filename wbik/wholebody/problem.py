@@ -63,15 +63,12 @@ PROBLEM = Map({"tasks": Key(ListOf(TASK_ENTRY, what="task entries"), []), "conta
 
 
 class WholeBody:
-    """A whole-body IK problem on one robot; ``constraints`` takes any constraint objects, the keywords list
-    the common ones.
-
-    ``contacts``: frame names (held at their pose at q0) or {frame: SE3}; a point foot (one contact point)
-    is held in position only. ``support``: soles (``robot.soles``) whose polygon holds the CoM ``margin``
-    (m) inside; default the contacts that are soles. ``limits``: "position", "position+velocity" (each IK
-    step a period of ``step_dt``, s) or "none". ``acceleration_limit``: rad/s^2 (one value or nv).
-    ``collisions``: minimum distances between frame origins, (frame_a, frame_b, m) or {frames, distance}.
-    """
+    """A whole-body IK problem on one robot: ``constraints`` takes any constraint objects, the keywords list
+    the common ones. ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (a point foot: its
+    position only); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the
+    contacts that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or
+    "none"; ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum
+    distances."""
 
     def __init__(self, robot: Robot, tasks: Sequence[Task] = (), contacts=(),
                  support: Sequence[str] | None = None, margin: float = 0.005,
