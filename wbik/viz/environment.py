@@ -71,9 +71,7 @@ def robot_cell(robot) -> tuple[SceneBox, ...]:
     """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g. the
     UR5's table), as boxes."""
     entry = robot_entries().get(getattr(robot, "name", ""))
-    if entry is None:
-        return ()
-    obstacles = getattr(entry.module(), "collision_obstacles", None)
+    obstacles = None if entry is None else getattr(entry.module(), "collision_obstacles", None)
     if obstacles is None:
         return ()
     return tuple(SceneBox(obstacle.name, tuple(obstacle.size), tuple(obstacle.xyz), tuple(obstacle.rpy),

@@ -55,11 +55,6 @@ def urdf_visuals(robot: Robot) -> pin.GeometryModel | None:
         return None
 
 
-def _rotation_z_to(direction: np.ndarray) -> np.ndarray:
-    """A rotation taking the z axis onto ``direction`` (unit vector)."""
-    return pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), direction).toRotationMatrix()
-
-
 def stick_segments(robot: Robot) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
     """(name, parent joint id, start, end) of every stick, the points in the parent joint's frame."""
     model = robot.model
@@ -89,7 +84,8 @@ def stick_model(robot: Robot, color: np.ndarray = STICK_COLOR) -> pin.GeometryMo
     geometry = pin.GeometryModel()
     for name, joint_id, start, end in stick_segments(robot):
         length = float(np.linalg.norm(end - start))
-        placement = pin.SE3(_rotation_z_to((end - start) / length), 0.5 * (start + end))
+        z_to_stick = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), (end - start) / length)
+        placement = pin.SE3(z_to_stick.toRotationMatrix(), 0.5 * (start + end))
         shape = pin.GeometryObject(name, joint_id, placement, coal.Cylinder(radius, length))
         shape.meshColor = np.asarray(color, dtype=float)
         geometry.addGeometryObject(shape)

@@ -72,16 +72,9 @@ class SceneRecorder:
 
     def commands(self) -> list[bytes]:
         """The packed commands that rebuild the scene: objects, properties, transforms, animations."""
-        out: list[bytes] = []
-        for node in self.root.walk():
-            if node.object is not None:
-                out.append(node.object)
-            out.extend(node.properties)
-            if node.transform is not None:
-                out.append(node.transform)
-            if node.animation is not None:
-                out.append(node.animation)
-        return out
+        return [command for node in self.root.walk()
+                for command in (node.object, *node.properties, node.transform, node.animation)
+                if command is not None]
 
     def html(self, title: str = "wbik") -> str:
         return scene_html(self.commands(), title)
