@@ -94,8 +94,7 @@ class DeclaredRegistry(Generic[Entry]):
         """This registry emptied, listing ``modules`` (default: a copy of its list), for the time of the
         block (for tests and for trying a list of modules); what it held is back afterwards."""
         with self._lock:
-            saved = (self.modules, self._declared_by_default, self._entries, self._origins, self._loaded,
-                     self._sources)
+            saved = dict(vars(self))
             self.modules = list(self.modules if modules is None else modules)
             self._declared_by_default = frozenset(self.modules)
             self._entries, self._origins, self._loaded, self._sources = {}, {}, set(), {}
@@ -103,8 +102,7 @@ class DeclaredRegistry(Generic[Entry]):
             yield self
         finally:
             with self._lock:
-                (self.modules, self._declared_by_default, self._entries, self._origins,
-                 self._loaded, self._sources) = saved
+                vars(self).update(saved)
 
     def entries(self) -> dict[str, Entry]:
         """Every entry by name (the listed modules imported on first use)."""

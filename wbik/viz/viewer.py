@@ -270,14 +270,13 @@ class Viewer:
                     scale: float | None = None) -> list[str]:
         """Axes of a chain's base, joint and tip frames (and any ``frames``) at the shown q."""
         chain = self._chain(chain) if chain is not None or len(self.robot.chains) != 1 else self.robot.chain()
-        names = list(frames)
-        if chain is not None:
-            names = [chain.base_frame, *chain.joint_names, chain.tip_frame, *names]
+        names = list(dict.fromkeys([chain.base_frame, *chain.joint_names, chain.tip_frame, *frames]
+                                   if chain is not None else frames))
         scale = 0.12 * self.extent if scale is None else scale
         self.clear("frames")
-        for name in dict.fromkeys(names):
+        for name in names:
             self._triad(f"{ROOT}/frames/{name}", self.frame_pose(name), scale)
-        return list(dict.fromkeys(names))
+        return names
 
     def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
                     color: int = TARGET_COLOR) -> pin.SE3:
@@ -295,20 +294,16 @@ class Viewer:
             self._triad(f"{path}/axes", placement, 0.15 * self.extent)
         return placement
 
-    def show_reached(self, pose, chain: Chain | str | None = None) -> pin.SE3:
-        """The pose a solver reached (blue), drawn like a target."""
-        return self.show_target(pose, chain, name="reached", color=REACHED_COLOR)
-
     def show_ik_result(self, result, target, chain: Chain | str) -> None:
         """A solver's answer: the robot at ``result.q``, the target and the chain's reached tip pose."""
         chain = self._chain(chain)
-        if result.q is None:
-            self.show_target(target, chain)
-            return
-        self.show(result.q, chain)
+        if result.q is not None:
+            self.show(result.q, chain)
         self.show_target(target, chain)
-        reached = chain.fk(np.asarray(result.q, dtype=float))
-        self.show_reached(reached if as_target(target).is_pose else reached.translation, chain)
+        if result.q is not None:  # the reached pose, in blue
+            reached = chain.fk(np.asarray(result.q, dtype=float))
+            self.show_target(reached if as_target(target).is_pose else reached.translation, chain, "reached",
+                             REACHED_COLOR)
 
     def show_com_and_polygon(self, q: Sequence[float] | None = None,
                              feet: Sequence[str] | None = None) -> SupportView:
