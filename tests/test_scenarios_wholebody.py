@@ -134,7 +134,7 @@ def test_bad_scenarios_raise_typed_errors(tmp_path):
         load_scenario(tmp_path / "missing.yaml")
     unknown = tmp_path / "x.yaml"
     unknown.write_text("kind: dance\nrobot: golem3\n")
-    with pytest.raises(ScenarioError, match="unknown scenario kind"):
+    with pytest.raises(ScenarioError, match="kind must be .*'wholebody_ik', got 'dance'"):
         run_scenario(unknown)
     bad_frame = tmp_path / "y.yaml"
     bad_frame.write_text("kind: wholebody_ik\nrobot: golem3\nphases:\n"

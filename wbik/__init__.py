@@ -5,13 +5,9 @@
 >>> solver = wbik.solver("dls", robot, chain="arm")
 >>> result = solver.solve(robot.chain("arm").fk(robot.chain("arm").nominal))
 
-One interface for chain targets and whole bodies: ``wbik.solver(method, robot, chain=...)`` solves a
-target on a chain, or a :class:`wbik.WholeBody` problem (tasks under open constraints), as the method
-allows; every answer is an :class:`IKResult` judged by one shared check.
-
-User code adds a method with ``wbik.register(name, Class)`` and a whole-body study case sampler with
-``wbik.register_sampler(wbik.CaseSampler(name, robot, sample))``; both reach a parallel study's worker
-processes. (Scenario kinds: ``wbik.scenarios.register_kind``, a layer above this package's facade.)
+``wbik.solver(method, robot, chain=...)`` solves a chain target or a :class:`wbik.WholeBody` problem; every
+answer is an :class:`IKResult` judged by one shared check. ``wbik.register`` adds a method,
+``wbik.register_sampler`` a study case sampler (both reach a parallel study's workers).
 """
 
 from wbik.catalog import install as _install_catalog

@@ -1,9 +1,6 @@
-"""Everything wbik ships, named here: the modules that declare its robots, IK methods, case samplers,
-scenario kinds, study case kinds and task entry types, in the core, the robot packages and the
-applications. Each function imports its modules by name when a registry first needs them; the facade
-adds them to the registries (:func:`wbik.registry.add_source`) when wbik is imported, so the core never
-imports a robot package or an application. A new method, robot, kind or sampler of wbik is its module
-plus one line here; user code registers its own with the registries' ``register`` functions.
+"""Everything wbik ships, named here: the modules declaring its robots, IK methods, case samplers, scenario
+kinds, study case kinds and task entry types, imported by name when a registry first needs them (the facade
+adds these sources on import, so the core never imports a robot package or an application).
 """
 
 from __future__ import annotations
@@ -82,7 +79,7 @@ def task_entry_types() -> tuple[ModuleType, ...]:
 SHIPPED = {"robot": robots, "IK method": ik_methods, "whole-body case sampler": case_samplers,
            "scenario kind": scenario_kinds, "study case kind": study_case_kinds,
            "task entry type": task_entry_types}
-"""Each registry (by what its entries are) and the function naming the modules wbik ships for it."""
+"""Each registry (by what its entries are) and the function naming wbik's modules for it."""
 
 
 def install() -> None:

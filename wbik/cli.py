@@ -1,18 +1,6 @@
-"""The ``wbik`` command. Each subcommand lives in ``wbik/commands/<name>.py`` (listed in
-:data:`SUBCOMMANDS`), which declares
-``HELP`` (its line in ``wbik --help``), a module docstring (the description ``wbik NAME --help``
-prints), optionally ``EPILOG`` and ``add_arguments(parser)``, and ``run(args) -> int``; heavy imports
-stay inside ``run``. The parser of each subcommand (with ``--debug`` and its ``run``) is made here.
-
-Exit codes (every subcommand):
-
-- 0: solved / done;
-- 1: ran, but not solved (an IK target not reached, a scenario that did not pass);
-- 2: bad input or usage (argparse errors and every :class:`wbik.errors.WbikError`);
-- 3: internal error (any other exception: a bug, please report it).
-
-Classes 1 and 2 print ``wbik: error: <message>`` to stderr and no traceback; ``--debug`` (before or
-after the subcommand) prints the traceback of errors of classes 2 and 3.
+"""The ``wbik`` command: each subcommand is a module of :data:`SUBCOMMANDS` with ``HELP``, a docstring (its
+description), ``run(args) -> int``, optionally ``EPILOG`` and ``add_arguments(parser)``. Exit codes: 0 done,
+1 not solved, 2 bad input or usage (every :class:`wbik.errors.WbikError`), 3 internal error (a bug).
 """
 
 from __future__ import annotations
@@ -35,13 +23,15 @@ import wbik.commands.view as view
 from wbik.errors import WbikError
 
 SUBCOMMANDS = (robots, methods, fk, solve, study, view, run, tasks)
-"""The subcommands' modules in ``wbik --help``'s order (a new subcommand: its module here)."""
+"""The subcommands' modules in ``wbik --help``'s order."""
 
-EXIT_OK, EXIT_NOT_SOLVED, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+EXIT_USAGE, EXIT_INTERNAL = 2, 3
+EXIT_BROKEN_PIPE = 141
+"""Standard output's reader went away (128 + SIGPIPE, what a shell reports)."""
 
 
 def checked_subcommand(module: ModuleType) -> ModuleType:
-    """``module`` if it has ``HELP``, a docstring and ``run`` (else an error, never skipped: exit code 3)."""
+    """``module`` if it has ``HELP``, a docstring and ``run``, else an error (exit code 3)."""
     missing = [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
                                      ("docstring", bool(module.__doc__)),
                                      ("run(args)", callable(getattr(module, "run", None)))) if not ok]
@@ -74,10 +64,6 @@ def build_parser() -> argparse.ArgumentParser:
                              help="print the traceback of errors (for bug reports)")
         command.set_defaults(run=module.run)
     return parser
-
-
-EXIT_BROKEN_PIPE = 141
-"""Exit status when standard output's reader went away (128 + SIGPIPE, what a shell reports)."""
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,8 +1,5 @@
-"""Typed errors. Every message says what was wrong and what to do about it.
-
-"No solution" is never an error: solvers return ``IKResult(success=False, reason=...)``.
-These exceptions are for input a caller must fix.
-"""
+"""Typed errors for input a caller must fix; each message says what was wrong and what to do about it.
+"No solution" is never an error: solvers return ``IKResult(success=False, reason=...)``."""
 
 from __future__ import annotations
 
@@ -81,8 +78,8 @@ class RobotDescriptionError(WbikError, ValueError):
 
 
 class SoleError(RobotDescriptionError):
-    """A sole (``robot.soles``) that is not a frame of the model or whose contact points are not finite
-    (k, 3) points; ``sole`` is its frame name."""
+    """A sole (``robot.soles``) that is no frame of the model, or whose contact points are not finite (k, 3)
+    points; ``sole`` is its frame name."""
 
     def __init__(self, message: str, sole: str = ""):
         self.sole = sole
@@ -101,10 +98,8 @@ class UnsupportedError(WbikError, NotImplementedError):
 
 
 class InvalidOptionError(WbikError, TypeError):
-    """A keyword option (of a solver, a robot builder, ...) that the callee does not accept.
-
-    ``accepted`` lists the options it does accept; the message names them.
-    """
+    """A keyword option (of a solver, a robot builder, ...) the callee does not take; ``accepted`` lists
+    those it takes."""
 
     def __init__(self, message: str, option: str = "", accepted: list[str] | tuple[str, ...] = ()):
         self.option = option
@@ -116,8 +111,7 @@ class InvalidOptionError(WbikError, TypeError):
 
 
 class InvalidSettingError(WbikError, ValueError):
-    """A setting (tolerance, time budget, seed, ...) of the wrong type or outside its allowed range;
-    the message gives the value and the range."""
+    """A setting (tolerance, time budget, seed, ...) of the wrong type or outside its allowed range."""
 
 
 class InvalidToleranceError(InvalidSettingError):
@@ -129,20 +123,14 @@ class InvalidBudgetError(InvalidSettingError):
 
 
 class UsageError(WbikError, ValueError):
-    """A command-line argument or path that cannot be used as given (e.g. a file where a folder
-    is needed, or nothing to report on)."""
+    """A command-line argument or path that cannot be used as given (a file where a folder is needed)."""
 
 
 class NoQPSolutionError(WbikError, RuntimeError):
-    """One QP step found no displacement: its hard constraints conflict at this configuration (or the
-    backend failed). ``backend`` names the QP solver and ``status`` keeps its own exit status;
-    ``conflict`` (from ``IKProblem.step``) the rows that conflict, an irreducible set found by an
-    elastic re-solve (:class:`wbik.qp.elastic.ConflictRow` entries; empty when the rows do hold
-    together and the backend failed numerically).
-
-    Raised by a single QP step (:mod:`wbik.qp.backends`, ``IKProblem.step``); ``IKProblem.solve``
-    turns it into a failed solution with the reason, so an IK call still returns, never raises it.
-    """
+    """One QP step found no displacement: its hard constraints conflict (or the ``backend`` failed, with
+    its own ``status``); ``conflict``: an irreducible set of conflicting rows
+    (:class:`wbik.qp.elastic.ConflictRow`, empty for a numerical failure). ``IKProblem.solve`` turns it
+    into a failed solution: an IK call returns, never raises it."""
 
     def __init__(self, message: str, backend: str = "", status: object = None, conflict: tuple = ()):
         self.backend = backend

@@ -1,21 +1,7 @@
-"""Expectations of a scenario: each figure that is good or bad, judged against a task-file threshold.
-
-A runner declares the figures it can judge as ``Rule``s keyed by the expectation name a task file
-uses (``com_margin_min_m: 0.005`` means "the figure ``com_margin_m`` must be >= 0.005"); the task
-file's ``expect:`` block gives the thresholds. A value is either the threshold itself or a mapping::
-
-    expect:
-      com_margin_min_m: 0.0
-      clearance_min_m:
-        threshold: 0.0
-        expected_to_fail: true        # the faithful reproduction is known to break it ...
-        why: the thesis's step is not a consistent closed chain   # ... and this says why (required)
-
-``evaluate`` returns one check per expectation: figure, threshold, ok (the figure meets the
-threshold) and passed (ok, or not ok and expected to fail). An expectation marked
-``expected_to_fail`` that is met anyway does not pass (as a strict xfail): the task file's reason is
-then out of date. ``verdict`` gives ``PASSED``, ``FAILED`` or ``informational`` (nothing checked).
-Unknown keys raise :class:`ExpectationError` naming the known ones. Thresholds are SI (m, rad, s).
+"""Expectations of a scenario: figures judged against a task file's thresholds (SI units), each keyed by
+its name (``com_margin_min_m: 0.005``: the :class:`Rule` of the figure ``com_margin_m``, >= 0.005). A value
+is the threshold or ``{threshold, expected_to_fail, why}``: a known failure passes while the figure fails,
+and fails once it is met (a strict xfail).
 """
 
 from __future__ import annotations
@@ -26,8 +12,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from wbik.errors import WbikError
-
-__all__ = ["ExpectationError", "Rule", "evaluate", "format_checks", "judge", "verdict"]
 
 OPERATORS = {">=": lambda a, b: a >= b, "<=": lambda a, b: a <= b, "==": lambda a, b: a == b}
 
@@ -101,8 +85,7 @@ def verdict(checks: Iterable[dict]) -> str:
 
 def judge(entry: dict, expect: Mapping | None, figures: Mapping[str, object], rules: Mapping[str, Rule],
           where: str = "expect") -> dict:
-    """Evaluate ``expect`` into a report entry: its ``expectations`` (the checks), ``verdict`` and
-    ``passed`` (not FAILED); the entry is returned."""
+    """``entry`` with the checks of ``expect`` (``expectations``), their ``verdict`` and ``passed``."""
     entry["expectations"] = evaluate(expect, figures, rules, where)
     entry["verdict"] = verdict(entry["expectations"])
     entry["passed"] = entry["verdict"] != "FAILED"

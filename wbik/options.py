@@ -1,12 +1,7 @@
-"""The keyword options a factory takes, as a schema (:mod:`wbik.schema`): those of
-``wbik.solver(method, robot, **options)``, of a study file's and of a task file's methods.
-
-Read from the factory's signature (:func:`option_schema`): for a class, the keyword parameters of
-``__init__`` along its hierarchy, as far as each ``__init__`` hands its ``**options`` on (a ``**kwargs``
-at the end of the chain: any other option goes too); each typed by its default, or for a None default by
-its ``X | None`` annotation (an integer, a number, true/false or text, null too for a None default);
-options the signature does not type take any value. ``timeout_s`` and ``seed`` are typed by what they
-are (:data:`TIMEOUT_S`, :data:`SEED`), the nodes the solvers check them with too.
+"""The keyword options a factory takes (``wbik.solver``'s, a study or task file's methods'), as a schema
+read from its signature (:func:`option_schema`): each option typed by its default, or for a None default
+by its ``X | None`` annotation, untyped ones taking any value; ``timeout_s`` and ``seed`` typed by what
+they are (:data:`TIMEOUT_S`, :data:`SEED`).
 """
 
 from __future__ import annotations
@@ -24,8 +19,6 @@ from wbik.schema import Node
 from wbik.schema import Number
 from wbik.schema import Text
 from wbik.schema import UnknownKeyError
-
-__all__ = ["COUNT", "OPTION_ERRORS", "SEED", "TIMEOUT_S", "Options", "UnknownOptionError", "option_schema"]
 
 TIMEOUT_S = Number(gt=0, unit="s", budget=True, as_float=True)
 """A time budget (s)."""
@@ -52,8 +45,7 @@ class UnknownOptionError(UnknownKeyError, InvalidOptionError):
 
 
 OPTION_ERRORS = Errors(unknown=UnknownOptionError)
-"""The errors of a Python call's options: an unknown one is an InvalidOptionError, a bad value an
-InvalidSettingError (a budget an InvalidBudgetError)."""
+"""A Python call's option errors: InvalidOptionError (unknown), InvalidSettingError (bad value)."""
 
 
 class Options(Map):
@@ -75,9 +67,9 @@ class Options(Map):
 
 def option_schema(factory: Callable, leading: int, skip: tuple[str, ...] = (), owner: str = "the factory",
                   unknown_error: type[UnknownKeyError] | None = None) -> Options:
-    """The keyword options of ``factory(*leading arguments, **options)`` less ``skip`` (see the module
-    docstring); ``owner`` names the factory in messages, ``unknown_error`` the error of an unknown one
-    (default the context's)."""
+    """The keyword options of ``factory(*leading arguments, **options)`` less ``skip``: for a class, those
+    of each ``__init__`` along its hierarchy as far as ``**options`` are handed on; ``owner`` names the
+    factory in messages."""
     functions = [factory] if not isinstance(factory, type) else [
         vars(klass)["__init__"] for klass in factory.__mro__[:-1] if "__init__" in vars(klass)]
     found: dict[str, inspect.Parameter] = {}

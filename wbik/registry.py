@@ -1,25 +1,7 @@
-"""Registries of named things that modules declare: each module declares what it provides, and the
-registry reads the modules its sources give on first use.
-
-A :class:`DeclaredRegistry` holds entries of one type (anything with a ``name``: an IK method, a case
-sampler, ...). Each declaring module holds its entries in a module-level tuple (the registry's
-``attribute``, e.g. ``WHOLEBODY_CASES``)::
-
-    WHOLEBODY_CASES = (CaseSampler("walk_com_shift", "my_biped", com_shift, "the CoM to ..."),)
-
-A registry's ``modules`` are its sources: a function giving modules (what wbik ships: :mod:`wbik.catalog`
-imports them by name and adds its functions with :func:`add_source`, so the core never imports a robot
-package or an application), or the name of a module (user code, :meth:`DeclaredRegistry.register_module`;
-installed plug-ins, the modules named by the entry points of the registry's ``plugins`` group,
-``[project.entry-points."wbik.GROUP"]`` in a package's pyproject.toml). Every source is read when the
-entries are first needed; one that fails to import, a module without the tuple, or a name declared twice
-is an error naming the module (:class:`RegistryError`, or the registry's own subclass of it), never
-skipped. User code adds an entry with :meth:`DeclaredRegistry.register`.
-
-A registry lives in one process. A fresh process (a study's worker) imports the listed modules
-again but knows nothing user code added; :meth:`DeclaredRegistry.added_at_run_time` says which
-entries those are, so whoever sends work to another process carries them with it, and the worker
-registers them there (``register(entry, replace=True)``).
+"""Registries of named things that modules declare (IK methods, case samplers, scenario kinds, ...): on
+first use a :class:`DeclaredRegistry` reads the module-level tuple (``WHOLEBODY_CASES = (...)``) of the
+modules its sources give (wbik's, through :func:`add_source`; user modules; its entry points). A module
+that fails to import or declares none, or a name declared twice, is an error naming it, never skipped.
 """
 
 from __future__ import annotations
@@ -38,8 +20,6 @@ from typing import TypeVar
 from wbik.errors import UnknownNameError
 from wbik.errors import WbikError
 
-__all__ = ["DeclaredRegistry", "RegistryError", "RegistryImportError", "add_source"]
-
 
 class RegistryError(WbikError):
     """A name declared twice, or a listed module that declares no entries of the registry's type."""
@@ -55,7 +35,7 @@ class Named(Protocol):
 
 Entry = TypeVar("Entry", bound=Named)
 Source = str | Callable[[], Iterable[ModuleType]]
-"""A module's name, or a function giving the declaring modules (imported by name inside it)."""
+"""A module's name, or a function giving the declaring modules."""
 
 _SHIPPED: dict[str, list[Source]] = {}
 _REGISTRIES: dict[str, DeclaredRegistry] = {}
@@ -63,8 +43,8 @@ _SHIPPED_LOCK = threading.Lock()
 
 
 def add_source(what: str, source: Callable[[], Iterable[ModuleType]]) -> None:
-    """Add ``source``, a function giving modules that declare entries, to the registry of ``what``s
-    (made now or later): how :mod:`wbik.catalog` lists what wbik ships."""
+    """Add ``source``, a function giving declaring modules, to the registry of ``what``s (made now or
+    later)."""
     with _SHIPPED_LOCK:
         _SHIPPED.setdefault(what, []).append(source)
         registry = _REGISTRIES.get(what)
@@ -78,31 +58,14 @@ def source_label(source: Source) -> str:
 
 
 class DeclaredRegistry(Generic[Entry]):
-    """Entries of ``entry_type`` declared by the modules its sources give (see the module docstring).
+    """Entries of ``entry_type`` its sources' modules declare as ``attribute``; ``what`` names an entry,
+    ``modules`` (the caller's list, kept) are the sources, ``listed_in`` where they are defined,
+    ``unknown(name, known)`` the error for a name nobody declares, ``plugins`` an entry-point group."""
 
-    ``what``: what an entry is, for messages ("whole-body case sampler"), and the name :func:`add_source`
-    adds sources by. ``attribute``: the tuple each declaring module holds. ``modules``: the sources (the
-    list itself is kept, so :meth:`register_module` appends to the caller's list). ``listed_in``: where
-    ``modules`` is defined, for messages. ``unknown``: the error for a name nobody declares, made from
-    (name, known names): an :class:`~wbik.errors.UnknownNameError` subclass, or a function. ``error`` /
-    ``import_error``: the error types raised for a clash or a module declaring nothing / for a
-    listed module that cannot be imported (a registry's own subclasses, so callers can catch its
-    errors alone). ``plugins``: an entry-point group whose entries name more modules to list (the
-    applications'; see the module docstring).
-    """
-
-    def __init__(
-        self,
-        what: str,
-        attribute: str,
-        modules: list[str],
-        listed_in: str,
-        entry_type: type[Entry],
-        unknown: Callable[[str, list[str]], WbikError] | None = None,
-        error: type[RegistryError] = RegistryError,
-        import_error: type[RegistryImportError] = RegistryImportError,
-        plugins: str | None = None,
-    ):
+    def __init__(self, what: str, attribute: str, modules: list[str], listed_in: str, entry_type: type[Entry],
+                 unknown: Callable[[str, list[str]], WbikError] | None = None,
+                 error: type[RegistryError] = RegistryError,
+                 import_error: type[RegistryImportError] = RegistryImportError, plugins: str | None = None):
         self.plugins = plugins
         modules.extend(name for name in plugin_modules(plugins) if name not in modules)
         with _SHIPPED_LOCK:
@@ -127,13 +90,10 @@ class DeclaredRegistry(Generic[Entry]):
 
     @contextmanager
     def isolated(self, modules: list[Source] | None = None) -> Iterator[DeclaredRegistry[Entry]]:
-        """This registry with nothing loaded, listing ``modules`` (default: a copy of its list), for
-        the time of the block; what it held is back afterwards. For tests and for trying a list of
-        modules: the functions made from its methods (``register_sampler = _SAMPLERS.register``)
-        see the isolated state."""
+        """This registry emptied, listing ``modules`` (default: a copy of its list), for the time of the
+        block (for tests and for trying a list of modules); what it held is back afterwards."""
         with self._lock:
-            saved = (self.modules, self._declared_by_default, self._entries, self._origins, self._loaded,
-                     self._sources)
+            saved = dict(vars(self))
             self.modules = list(self.modules if modules is None else modules)
             self._declared_by_default = frozenset(self.modules)
             self._entries, self._origins, self._loaded, self._sources = {}, {}, set(), {}
@@ -141,8 +101,7 @@ class DeclaredRegistry(Generic[Entry]):
             yield self
         finally:
             with self._lock:
-                (self.modules, self._declared_by_default, self._entries, self._origins,
-                 self._loaded, self._sources) = saved
+                vars(self).update(saved)
 
     def entries(self) -> dict[str, Entry]:
         """Every entry by name (the listed modules imported on first use)."""
@@ -168,10 +127,7 @@ class DeclaredRegistry(Generic[Entry]):
         return entries[name]
 
     def added_at_run_time(self, name: str) -> Entry | None:
-        """The entry ``name`` when user code added it (:meth:`register`, or :meth:`register_module`
-        of a module the list did not hold when this registry was made): a fresh process does not
-        have it, so work sent there carries it. None for an entry a listed module declares, and for
-        a name nobody registered."""
+        """The entry ``name`` when user code added it (a fresh process does not have it), else None."""
         entries = self.entries()
         with self._lock:
             if name not in entries or self._sources.get(name) in self._declared_by_default:
@@ -188,8 +144,7 @@ class DeclaredRegistry(Generic[Entry]):
             self._add(entry, "register()", replace)
 
     def register_module(self, module_name: str) -> None:
-        """Add the entries a module declares, by the module's name; it is imported now (an error if
-        it cannot be, and then nothing is added)."""
+        """Add the entries the module ``module_name`` declares (imported now; an error adds nothing)."""
         self.entries()
         with self._lock:
             self._load_once(module_name)
@@ -243,8 +198,7 @@ class DeclaredRegistry(Generic[Entry]):
 
 
 def plugin_modules(group: str | None) -> list[str]:
-    """The modules named by the entry points of ``group`` (none for None), sorted by entry name: the
-    applications that plug into a registry (see the module docstring)."""
+    """The modules named by the entry points of ``group`` (none for None), sorted by entry name."""
     if group is None:
         return []
     from importlib import metadata  # on a registry's first use: kept out of import wbik

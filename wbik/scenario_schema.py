@@ -1,13 +1,7 @@
-"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the
-keys the kinds share (one default each) and the check of a file, :func:`validate`.
-
-Each kind declares its schema next to its runner (:class:`wbik.scenarios.kinds.ScenarioKind`) in the
-language of :mod:`wbik.schema`; ``validate(spec, source)`` returns a copy with every default filled in,
-which the runner reads (``spec["margin"]``), so a default is written once: in the schema, or in the
-function or dataclass the key feeds (:func:`~wbik.schema.default_of`, :func:`~wbik.schema.from_dataclass`).
-A wrong value is a ``ScenarioValueError``, an unknown key an ``UnknownScenarioKeyError``
-(:mod:`wbik.scenarios.kinds`); an unknown robot or method, or a backend not installed, raises
-:mod:`wbik.errors`' own type.
+"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the keys
+the kinds share (one default each) and the check of a file, :func:`validate`, which returns a copy with
+every default filled in. A wrong value is a ``ScenarioValueError``, an unknown key an
+``UnknownScenarioKeyError``; an unknown robot or method, or a backend not installed, raises its own type.
 """
 
 from __future__ import annotations
@@ -19,10 +13,21 @@ from wbik.errors import MissingDependencyError
 from wbik.errors import UnknownMethodError
 from wbik.errors import UnknownRobotError
 from wbik.errors import did_you_mean
+from wbik.models import URDF_PARAMS
+from wbik.models import builder_parameters
+from wbik.models import robot_entries
+from wbik.models.erd import example_robot_name
+from wbik.models.erd import example_robot_names
 from wbik.options import UnknownOptionError
 from wbik.options import option_schema
+from wbik.qp.backends import BACKEND_OPTIONS
+from wbik.qp.backends import DEFAULT
+from wbik.qp.backends import available
+from wbik.qp.backends import resolve
+from wbik.qp.support_polygon import sole_rectangle
 from wbik.qp.task_entries import FRAME
 from wbik.qp.task_entries import VECTOR3
+from wbik.robot import ChainSpec
 from wbik.scenarios.kinds import KIND_REGISTRY
 from wbik.scenarios.kinds import ScenarioBudgetError
 from wbik.scenarios.kinds import ScenarioFileError
@@ -45,13 +50,9 @@ from wbik.schema import Vector
 from wbik.schema import got
 from wbik.schema import join
 from wbik.schema import short
-
-__all__ = ["COM_MARGIN", "FRAMES", "SCENARIO_ERRORS", "START", "Backend", "Method", "Robot", "apply_soles",
-           "backend_key", "check_robot_params", "common_keys", "expect_block", "kind_schema", "margin_key",
-           "soles_key", "time_laws", "timing_modes", "urdf_robot_params", "validate"]
+from wbik.solvers.method_registry import methods
 
 SCENARIO_ERRORS = Errors(ScenarioValueError, UnknownScenarioKeyError, ScenarioBudgetError)
-"""The errors a task file's check raises."""
 
 
 class Robot(Text):
@@ -64,10 +65,6 @@ class Robot(Text):
         self.only = only
 
     def check(self, value, path, ctx):
-        from wbik.models import robot_entries
-        from wbik.models.erd import example_robot_name
-        from wbik.models.erd import example_robot_names
-
         known = list(robot_entries())
         if not isinstance(value, str):
             raise UnknownRobotError(short(value), known, hint=f"{ctx.source}: {path} must be {self.what}")
@@ -90,10 +87,6 @@ class Backend(Text):
     what = "a QP backend name"
 
     def check(self, value, path, ctx):
-        from wbik.qp.backends import BACKEND_OPTIONS
-        from wbik.qp.backends import available
-        from wbik.qp.backends import resolve
-
         known = ["fastest", "default", *sorted(BACKEND_OPTIONS)]
         if super().check(value, path, ctx) not in known:
             ctx.fail(path, f"unknown QP backend {value!r}{did_you_mean(value, known)}; known: "
@@ -111,7 +104,6 @@ class Method(Text):
     what = "an IK method name ('wbik methods' lists them)"
 
     def check(self, value, path, ctx):
-        from wbik.solvers.method_registry import methods
         if not isinstance(value, str) or value not in methods():
             raise UnknownMethodError(value if isinstance(value, str) else short(value), list(methods()),
                                      hint=f"{ctx.source}: {path}{did_you_mean(value, methods())}")
@@ -122,14 +114,11 @@ COM_MARGIN = 0.005
 """m, the default CoM margin inside the support polygon of every kind that keeps a robot balanced."""
 
 START = Either(Text(("nominal",)), Vector())
-FRAMES = ListOf(FRAME, what="frame names")
 
 
 def urdf_robot_params() -> Map:
     """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (``URDF_PARAMS`` of
-    :func:`wbik.models.load`); ``chains`` entries become :class:`wbik.robot.ChainSpec`."""
-    from wbik.models import URDF_PARAMS
-
+    :func:`wbik.models.load`), ``chains`` made :class:`wbik.robot.ChainSpec`."""
     chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
                  "tip": Key(FRAME, required=True), "joints": Key(ListOf(Text(what="a joint name")), []),
                  "description": Key(Text(), "")})
@@ -141,8 +130,6 @@ def urdf_robot_params() -> Map:
              "chains": ListOf(chain, what="chain mappings {name, base, tip, joints}")}
 
     def post(params: dict, path: str, ctx: Context) -> None:
-        from wbik.robot import ChainSpec
-
         if "chains" in params:
             params["chains"] = [ChainSpec(item["name"], item["base"], item["tip"], tuple(item["joints"]),
                                           item["description"]) for item in params["chains"]]
@@ -151,11 +138,8 @@ def urdf_robot_params() -> Map:
 
 
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
-    """``robot_params`` checked as the options of the robot's builder (:func:`wbik.options.option_schema`,
-    an unknown one an InvalidOptionError), or for a robot loaded from a URDF path or example-robot-data
-    against :func:`urdf_robot_params`."""
-    from wbik.models import robot_entries
-
+    """``robot_params`` checked as the options of the robot's builder, or for a robot loaded from a URDF
+    path or example-robot-data against :func:`urdf_robot_params`."""
     params, robot = spec.get("robot_params") or {}, spec.get("robot")
     if params and robot is not None:
         entry = robot_entries().get(robot)
@@ -165,22 +149,18 @@ def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
 
 
 def common_keys(robot: Key, **more: Key) -> dict[str, Key]:
-    """The keys of every kind: ``kind``, ``name`` (''), ``robot``, ``robot_params`` ({}: its builder's
-    parameters, checked by :func:`check_robot_params`) and ``more``."""
+    """The keys of every kind (``kind``, ``name``, ``robot``, ``robot_params``) and ``more``."""
     return {"kind": Key(Text(), required=True), "name": Key(Text(), ""), "robot": robot,
             "robot_params": Key(Map(values=Anything()), {}), **more}
 
 
 def kind_schema(common: dict[str, Key], keys: dict[str, Key]) -> Map:
-    """A kind's schema: the ``common`` keys (:func:`common_keys`) and its own ``keys``; ``robot_params``
-    checked against the robot's builder."""
+    """A kind's schema: the ``common`` keys and its own, ``robot_params`` checked against the robot."""
     return Map({**common, **keys}, post=check_robot_params)
 
 
 def backend_key() -> Key:
     """``backend``: an installed QP backend, default :data:`wbik.qp.backends.DEFAULT`."""
-    from wbik.qp.backends import DEFAULT
-
     return Key(Backend(), DEFAULT)
 
 
@@ -190,10 +170,8 @@ def margin_key() -> Key:
 
 
 def soles_key() -> Key:
-    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m), each ``{frame,
-    size: [length, width], centre: [x, y, z]}`` (a rectangle in the sole frame), ``{frame, corners:
-    [[x, y, z], ...]}`` (any contact points) or ``{frame, point: [x, y, z]}`` (a point foot); default none
-    (the robot's own). :func:`apply_soles` turns them into ``robot_params.soles``."""
+    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m, in the sole frame):
+    ``{frame, size: [length, width], centre}`` (a rectangle), ``{frame, corners}`` or ``{frame, point}``."""
 
     def one_shape(entry: dict, path: str, ctx: Context) -> None:
         shapes = [key for key in SOLE_SHAPES if key in entry]
@@ -212,15 +190,12 @@ def soles_key() -> Key:
 
 
 SOLE_SHAPES = ("size", "corners", "point")
-"""The keys of a ``soles`` entry that give its shape (one per sole)."""
+"""The keys of a ``soles`` entry that give its shape."""
 
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
-    """Checked ``soles`` entries (:func:`soles_key`) into ``robot_params.soles`` ({frame: (k, 3) contact
-    points}); a frame given twice, or soles given both ways, is refused by path."""
-    from wbik.models import builder_parameters
-    from wbik.qp.support_polygon import sole_rectangle
-
+    """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points}); a frame given
+    twice, or soles given both ways, is refused."""
     entries = spec.get("soles") or []
     if not entries:
         return
@@ -264,8 +239,7 @@ def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:
 
 
 def validate(spec, source: str = "scenario") -> dict:
-    """``spec`` checked against its kind's schema (``source``, the file, starts every message): a new
-    dict with every default filled in."""
+    """``spec`` checked against its kind's schema (messages start with ``source``), defaults filled in."""
     if not isinstance(spec, Mapping):
         raise ScenarioFileError(f"{source}: a scenario is a mapping with a 'kind' (one of "
                                 f"{', '.join(kind_names())}), {got(spec)}")

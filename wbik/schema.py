@@ -1,21 +1,11 @@
-"""The schema language of wbik's inputs: keys, types, ranges, defaults and checking, with one way of
-saying what is wrong.
+"""The schema language of wbik's inputs (task and study files, task entries, whole-body problems, solver
+options): ``node.check(value, path, ctx)`` returns the value with its defaults filled in, or raises the
+source's error (:class:`Errors`, all :class:`~wbik.errors.InvalidSettingError`) in one message form,
+starting with the source and the key's path (``cases[2].poses``):
 
-Task files (:mod:`wbik.scenario_schema`), study files (:mod:`wbik.study.definition`), task entries
-(:mod:`wbik.qp.task_entries`), whole-body problems (:mod:`wbik.wholebody.problem`) and ``wbik.solver``'s
-options (:mod:`wbik.options`) declare what they read with these nodes. ``node.check(value, path, ctx)``
-returns the value with every default filled in, or raises a typed error whose message starts with the
-source (``ctx.source``: the file, or the Python call) and names the key's path (``cases[2].poses``):
-
-- ``{path} must be {what the node takes}, got {value} ({type})``: a wrong type, a value outside its
-  range, or not one of the allowed words (with a "did you mean" guess);
+- ``{path} must be {what the node takes}, got {value} ({type})`` (a "did you mean" for a word);
 - ``{key path}: {path} has unknown field(s) [...] (did you mean ...?); allowed: ...``;
-- ``{path}: {why}``: anything a check of its own refuses (:meth:`Context.fail`).
-
-Each source picks its error classes (:class:`Errors`), so a task file's refusal is a
-``ScenarioValueError`` and a study file's a ``StudyDefinitionError``; every schema error is an
-:class:`~wbik.errors.InvalidSettingError`. Domain nodes (robots, methods, task keys) live with their
-owners.
+- ``{path}: {why}`` (:meth:`Context.fail`).
 """
 
 from __future__ import annotations
@@ -39,16 +29,10 @@ from wbik.errors import WbikError
 from wbik.errors import closest_name
 from wbik.errors import did_you_mean
 
-__all__ = ["NO_DEFAULT", "Anything", "Boolean", "Constant", "Context", "Either", "Errors", "Instance",
-           "Interval", "Key", "ListOf", "Map", "Node", "Number", "Refused", "SchemaBudgetError",
-           "SchemaError", "SchemaValueError", "Shorthand", "Text", "UnknownKeyError", "Variants", "Vector",
-           "dataclass_default", "default_of", "from_dataclass", "got", "join", "key_rows",
-           "short", "unknown_keys"]
-
 
 # -- errors -----------------------------------------------------------------------------------------
 class SchemaError(InvalidSettingError):
-    """A value that its schema refuses; the message names the source and the key's path."""
+    """A value its schema refuses; the message names the source and the key's path."""
 
 
 class SchemaValueError(SchemaError):
@@ -73,8 +57,8 @@ class SchemaBudgetError(SchemaValueError, InvalidBudgetError):
 
 @dataclass(frozen=True)
 class Errors:
-    """The error classes a source raises: ``value`` (wrong values, missing keys), ``unknown`` (unknown
-    keys, made from (message, path, known keys)) and ``budget`` (:class:`Number` with ``budget=True``)."""
+    """A source's error classes: wrong values and missing keys, unknown keys (made from (message, path,
+    known keys)), budgets (:class:`Number` with ``budget=True``)."""
 
     value: type[WbikError] = SchemaValueError
     unknown: type[WbikError] = UnknownKeyError
@@ -83,8 +67,7 @@ class Errors:
 
 @dataclass
 class Context:
-    """Where a check runs: the source (a file or a Python call, the start of every message) and its
-    error classes."""
+    """Where a check runs: the source (a file, a Python call: every message starts with it), its errors."""
 
     source: str
     errors: Errors = field(default_factory=Errors)
@@ -115,7 +98,10 @@ def join(path: str, key) -> str:
 
 def short(value, limit: int = 60) -> str:
     """``repr(value)``, cut to ``limit`` characters."""
-    text = repr(value)
+    try:
+        text = repr(value)
+    except Exception:  # noqa: BLE001 - a hostile __repr__ must not hide the real error
+        text = f"<{type(value).__name__}>"
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
@@ -136,8 +122,7 @@ def _words(choices) -> str:
 
 def unknown_keys(ctx: Context, path: str, given, known, error: type[WbikError] | None = None,
                  words: str = "field(s)", allowed: str = "allowed") -> None:
-    """Refuse the keys of ``given`` that ``known`` lacks, all of them named, each with a "did you mean"
-    guess: "{their paths}: {path} has unknown {words} [...] (did you mean ...?); {allowed}: ..."."""
+    """Refuse the keys of ``given`` that ``known`` lacks, each named with a "did you mean" guess."""
     known = sorted(map(str, known))
     unknown = sorted((key for key in given if key not in known), key=str)
     if not unknown:
@@ -152,12 +137,11 @@ def unknown_keys(ctx: Context, path: str, given, known, error: type[WbikError] |
 
 
 # -- nodes ------------------------------------------------------------------------------------------
-NO_DEFAULT = object()
-"""A key's default when it has none (absent stays absent)."""
+NO_DEFAULT = object()  # a key's default when it has none: absent stays absent
 
 
 class Node:
-    """A value's rule: ``check(value, path, ctx)`` returns it (defaults filled) or raises."""
+    """A value's rule: ``check(value, path, ctx)`` returns it (defaults filled in) or raises."""
 
     expected = "a value"
 
@@ -168,8 +152,7 @@ class Node:
         ctx.must(path, self.expected, value, error)
 
     def checked(self, value, name: str, source: str, error: type[WbikError] | None = None):
-        """``value``, the argument ``name`` of the Python call ``source``, checked alone; ``error``: the
-        type of its refusal (default the schema's)."""
+        """``value``, the argument ``name`` of the Python call ``source``, checked (refused as ``error``)."""
         return self.check(value, name, Context(source, Errors(error, budget=error) if error else Errors()))
 
     def described(self, what: str) -> Node:
@@ -201,9 +184,8 @@ class Boolean(Node):
 
 
 class Text(Node):
-    """A string: one of ``choices`` when given (a tuple, or a function giving it), matching ``pattern``
-    when given, not empty with ``non_empty``; ``what`` says what it is in messages (a subclass's class
-    attribute, or the choices, unless given)."""
+    """A string: one of ``choices`` (a tuple, or a function giving it), matching ``pattern``, not empty
+    with ``non_empty``; ``what`` names it in messages (default: the choices, else the class's ``what``)."""
 
     what: str = "text"
 
@@ -243,9 +225,8 @@ class Text(Node):
 
 class Number(Node):
     """A finite real number (an int with ``integer``), optionally bounded (``gt``/``lt`` strict);
-    ``strings``: a string holding a number counts (PyYAML reads ``1e-6``, no dot, as a string);
-    ``as_float``: the value is returned as a float; ``finite=False``: infinities count; ``budget``: a
-    refusal is the context's budget error; ``what`` replaces the generated description in messages."""
+    ``strings``: a string holding one counts (PyYAML reads ``1e-6`` as a string); ``as_float``: returned
+    as a float; ``finite=False``: infinities count; ``budget``: refused as a budget error."""
 
     def __init__(self, ge: float | None = None, gt: float | None = None, le: float | None = None,
                  lt: float | None = None, integer: bool = False, nullable: bool = False, unit: str = "",
@@ -348,9 +329,8 @@ class ListOf(Node):
 
 
 class Either(Node):
-    """The first option that accepts the value; else the refusal of the one mapping option the value
-    shares keys with (it names the key), for a string the refusal of the one word option (its "did
-    you mean"), or an error listing every option (``what``, unless given, joins theirs)."""
+    """The first option that accepts the value; else the refusal of the one mapping option sharing its
+    keys, of the one word option for a string (its "did you mean"), or one listing every option."""
 
     def __init__(self, *options: Node, what: str = ""):
         self.options, self.what = options, what
@@ -419,8 +399,7 @@ class Refused(Node):
 
 @dataclass
 class Key:
-    """A key of a mapping: its rule, its default (filled in when absent), whether it is required and
-    what it is for (``doc``, the documentation's tables)."""
+    """A mapping's key: its rule, its default (filled in when absent), required or not, a ``doc`` line."""
 
     node: Node
     default: object = NO_DEFAULT
@@ -429,12 +408,8 @@ class Key:
 
 
 class Map(Node):
-    """A mapping with known keys (``keys``) and/or free keys whose values follow ``values``.
-
-    ``post(result, path, ctx)`` runs after the keys: cross-key checks and defaults that depend on
-    other keys. ``nullable``: null stands for an empty mapping. ``unknown_error``: the error of an
-    unknown key when not the context's; ``words`` and ``allowed`` the words of its message.
-    """
+    """A mapping with known ``keys`` and/or free keys whose values follow ``values``; ``post(result, path,
+    ctx)`` runs after the keys (cross-key checks and defaults); ``nullable``: null is an empty mapping."""
 
     words, allowed = "field(s)", "allowed"
 
@@ -478,8 +453,8 @@ class Map(Node):
 
 
 class Variants(Node):
-    """A mapping whose allowed keys depend on one of its values (``select`` names the variant);
-    ``variants``: {name: node}, or a function giving them (those registered when a value is checked)."""
+    """A mapping whose keys depend on the variant ``select`` names; ``variants``: {name: node}, or a
+    function giving them (read when a value is checked)."""
 
     def __init__(self, select: Callable[[Mapping], str | None],
                  variants: dict[str, Node] | Callable[[], dict[str, Node]], what: str, tag: str):
@@ -492,11 +467,6 @@ class Variants(Node):
     @property
     def expected(self) -> str:
         return self.what
-
-    def variant(self, value) -> Node | None:
-        """The variant ``value`` selects (None: none)."""
-        name = self.select(value) if isinstance(value, Mapping) else None
-        return self.variants.get(name) if isinstance(name, str) else None
 
     def check(self, value, path, ctx):
         if not isinstance(value, Mapping):
@@ -514,8 +484,7 @@ class Variants(Node):
 
 
 class Shorthand(Node):
-    """A mapping (``node``) that a single word may stand for: a string ``s`` is read as ``{key: s}``
-    (``methods: [dls]`` for ``[{method: dls}]``)."""
+    """A mapping a single word may stand for: ``s`` is ``{key: s}`` (``methods: [dls]``)."""
 
     def __init__(self, node: Map, key: str, what: str = ""):
         self.node, self.key, self.what = node, key, what
@@ -566,8 +535,7 @@ def default_of(function: Callable, parameter: str):
 # -- reading a schema ---------------------------------------------------------------------------------
 def key_rows(node: Node, path: str = "", depth: int = 0,
              nesting: int = 6) -> Iterator[tuple[str, str, str, str]]:
-    """(key path, what it must be, default, what it is for) of a schema's keys, nested mappings, list
-    items (``cases[]``) and variants expanded (the documentation's tables)."""
+    """(key path, what it must be, default, doc) of a schema's keys, nested ones expanded: docs tables."""
     if isinstance(node, Shorthand):
         node = node.node
     if isinstance(node, Map):

@@ -24,7 +24,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
-
     chain = load_robot_chain(args)[1]
     q = chain.check_q(args.q)
     if args.deg:

@@ -11,10 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-SCENARIO_SUFFIXES = (".yaml", ".yml", ".toml", ".json")
-"""A ROBOT argument with one of these suffixes is a scenario file (read by wbik.scenarios.load_scenario,
-which checks it against its kind's schema before it is run and played)."""
-
+from wbik.data import SCENARIO_SUFFIXES
 
 HELP = "show a robot or play a scenario in meshcat (browser), or export it"
 EPILOG = ("Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  wbik view pincher --html "
@@ -47,10 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def revolute_mask(model) -> np.ndarray:
     """True at the q indices of 1-DOF revolute joints (the ones --deg converts)."""
     mask = np.zeros(model.nq, dtype=bool)
-    for joint in model.joints[1:]:
-        name = joint.shortname()
-        if joint.nq == 1 and (name.startswith("JointModelR") and "Unbounded" not in name):
-            mask[joint.idx_q] = True
+    mask[[joint.idx_q for joint in model.joints[1:] if joint.nq == 1
+          and joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]] = True
     return mask
 
 

@@ -1,17 +1,5 @@
-"""Scenario files: declarative YAML (or JSON, TOML) that a user runs with ``wbik run FILE``.
-
-Every file has a ``kind`` and usually a ``robot``. A kind (:class:`ScenarioKind`, registered in
-:mod:`wbik.scenarios.kinds`) is declared next to its runner with its schema and its printed report:
-``wholebody_ik`` in :mod:`wbik.scenarios.wholebody`, the motion kinds in
-:mod:`wbik.motion.scenarios`; the applications (the Bioloid behaviours, the UR5 riveting cell, the
-Pincher and Golem-III motions) declare theirs in their own packages and plug them in through the
-entry-point group ``wbik.scenario_kinds``.
-
-Before anything runs, the file is checked against its kind's schema (:mod:`wbik.scenario_schema`:
-allowed keys, types, ranges and the one set of defaults), and the runner reads the checked copy.
-The runner returns a :class:`ScenarioReport` (the figures, the expectations' verdict, the animation
-``wbik view`` plays); :func:`run_scenario_report` returns it, :func:`run_scenario` its JSON form,
-and with ``output`` either writes the JSON after every phase, so an interruption loses nothing.
+"""Scenario files: YAML (or JSON, TOML) a user runs with ``wbik run FILE``; each names its ``kind``
+(:mod:`wbik.scenarios.kinds`) and is checked against the kind's schema before anything runs.
 """
 
 from __future__ import annotations
@@ -31,8 +19,7 @@ from wbik.scenarios.kinds import register_kind
 from wbik.scenarios.kinds import report_verdict
 
 __all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "format_report",
-           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_animated",
-           "run_scenario_report"]
+           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report"]
 
 
 def _read(path: Path):
@@ -68,8 +55,8 @@ def _read(path: Path):
 
 
 def load_scenario(path: str | Path) -> dict:
-    """Read a YAML/JSON/TOML scenario file, checked against its kind's schema (errors name the file
-    and the key); the file's own mapping is returned (``name`` defaults to the file's stem)."""
+    """A YAML/JSON/TOML scenario file's mapping (``name`` defaults to the file's stem), checked against its
+    kind's schema (errors name the file and the key)."""
     path = Path(path)
     spec = _read(path)
     if spec is None:
@@ -87,12 +74,8 @@ def load_scenario(path: str | Path) -> dict:
 
 def run_scenario_report(scenario: str | Path | dict, output: str | Path | None = None,
                         source: str | None = None) -> ScenarioReport:
-    """Run a scenario (file or dict): its kind's :class:`ScenarioReport`.
-
-    The scenario is checked against its kind's schema first (``source`` names it in errors; default
-    the file, or the dict's name); the runner gets the checked copy with the defaults filled in.
-    With ``output``, the JSON report (:meth:`ScenarioReport.as_dict`) is written after every phase.
-    """
+    """Run a scenario (file or dict) checked against its kind's schema (``source`` names it in errors):
+    its :class:`ScenarioReport`; with ``output`` the JSON report is written after every phase."""
     from wbik.scenario_schema import validate
 
     if isinstance(scenario, dict):
@@ -118,17 +101,8 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
 
 def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
                  source: str | None = None) -> dict:
-    """:func:`run_scenario_report` as the JSON report (a dict with ``passed``, ``verdict`` and the
-    kind's figures)."""
+    """:func:`run_scenario_report`'s JSON report."""
     return run_scenario_report(scenario, output, source).as_dict()
-
-
-def run_scenario_animated(scenario: str | Path | dict, output: str | Path | None = None,
-                          source: str | None = None) -> tuple[dict, object | None]:
-    """(the JSON report, the animation) of :func:`run_scenario_report`, for callers that unpack
-    both; new code reads the typed report's ``animation``."""
-    report = run_scenario_report(scenario, output, source)
-    return report.as_dict(), report.animation
 
 
 def format_report(report: ScenarioReport | dict) -> str:

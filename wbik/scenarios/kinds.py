@@ -1,26 +1,7 @@
-"""Scenario kinds: what a kind is (:class:`ScenarioKind`), what its runner returns
-(:class:`ScenarioReport`), where kinds are registered, and the errors of a scenario file
-(:class:`ScenarioError` and its kinds, the schema's refusals among them).
-
-A kind is declared where its runner lives, in that module's ``SCENARIO_KINDS`` tuple::
-
-    SCENARIO_KINDS = (
-        ScenarioKind("motion_joint", run_joint, schema=lambda: motion_schema("motion_joint"),
-                     format=format_report, summary="joint-space interpolation"),
-        ...
-    )
-
-The modules holding kinds are listed by name in ``KIND_MODULES`` (imported on first use, so the
-core names the applications' modules without importing them). Every one of them is imported when
-the kinds are first needed; a module that fails to import, has no ``SCENARIO_KINDS``, or declares
-a kind another module declares too is an error naming the module, never skipped. User code adds a
-kind with :func:`register_kind`; :data:`KIND_REGISTRY` is the registry itself (``entries()``,
-``get(name)``, ``register_module(name)``: the one registry pattern of
-:class:`wbik.registry.DeclaredRegistry`).
-
-A runner ``run(spec, on_progress) -> ScenarioReport`` gets the spec checked against the kind's
-schema (:func:`wbik.scenario_schema.validate`, defaults filled in) and may call
-``on_progress(report so far)`` after each phase; ``wbik run --output`` writes the report then.
+"""Scenario kinds: what a kind is (:class:`ScenarioKind`, declared next to its runner in its module's
+``SCENARIO_KINDS``), what its runner returns (:class:`ScenarioReport`), their registry and the errors of a
+scenario file. A runner ``run(spec, on_progress)`` gets the spec checked against the kind's schema and may
+call ``on_progress(report so far)`` after each phase.
 """
 
 from __future__ import annotations
@@ -41,6 +22,7 @@ from wbik.expectations import ExpectationError
 from wbik.expectations import format_checks
 from wbik.expectations import verdict
 from wbik.files import json_plain
+from wbik.models import load
 from wbik.registry import DeclaredRegistry
 from wbik.registry import RegistryError
 from wbik.registry import RegistryImportError
@@ -48,21 +30,16 @@ from wbik.schema import Refused
 from wbik.schema import SchemaBudgetError
 from wbik.schema import SchemaValueError
 from wbik.schema import UnknownKeyError
+from wbik.validation import finite_vector
 
 if TYPE_CHECKING:
     from wbik.robot import Robot
     from wbik.schema import Map
     from wbik.viz.animation import Animation
 
-__all__ = ["KIND_MODULES", "KIND_REGISTRY", "KindRun", "ScenarioBudgetError", "ScenarioError",
-           "ScenarioFileError", "ScenarioKind", "ScenarioKindError", "ScenarioKindImportError",
-           "ScenarioReport", "ScenarioValueError", "UnknownExpectationKeyError", "UnknownScenarioKeyError",
-           "format_entries", "json_default", "kind_names", "register_kind", "report_header", "report_verdict",
-           "robot_of", "start_of"]
-
 KIND_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own, user code a module by name,
-installed packages theirs through the entry-point group ``wbik.scenario_kinds``."""
+"""The registry's sources: wbik's own (:mod:`wbik.catalog`), user modules, entry points of
+``wbik.scenario_kinds``."""
 
 VERDICTS = ("PASSED", "FAILED", "informational")
 
@@ -103,14 +80,9 @@ class ScenarioKindImportError(ScenarioKindError, RegistryImportError, MissingDep
 # -- the report ------------------------------------------------------------------------------------
 @dataclass
 class ScenarioReport:
-    """What a kind's runner returns.
-
-    ``figures``: what the kind measured, JSON-friendly (a wholebody_ik run's ``phases``, a motion's
-    ``moves``, a Bioloid run's ``behaviours``, ...; each judged entry holds its ``expectations``
-    checks, see :mod:`wbik.expectations`). ``verdict``: the expectations' verdict over every check,
-    PASSED, FAILED or informational (nothing judged). ``animation``: what ``wbik view`` plays
-    (:class:`wbik.viz.animation.Animation`), None when the run has nothing to show.
-    """
+    """What a kind's runner returns: the ``figures`` it measured (JSON-friendly; each judged entry with its
+    ``expectations``), the ``verdict`` over them (PASSED, FAILED or informational: nothing judged) and the
+    ``animation`` ``wbik view`` plays (None: nothing to show)."""
 
     name: str
     kind: str
@@ -129,16 +101,14 @@ class ScenarioReport:
         return self.verdict != "FAILED"
 
     def add_entry(self, key: str, entry: dict) -> dict:
-        """Append a judged entry (with its ``expectations``) to ``figures[key]``; the verdict is then
-        the one over every entry of that list."""
+        """Append a judged entry to ``figures[key]``; the verdict is then the one over that list."""
         entries = self.figures.setdefault(key, [])
         entries.append(entry)
         self.verdict = verdict(check for item in entries for check in item["expectations"])
         return entry
 
     def as_dict(self) -> dict:
-        """The JSON report: name, kind, robot, the figures, passed, verdict and, with an animation,
-        its sample count ``animation_frames``."""
+        """The JSON report: name, kind, robot, the figures, passed, verdict (and ``animation_frames``)."""
         report = {"name": self.name, "kind": self.kind, "robot": self.robot, **self.figures,
                   "passed": self.passed, "verdict": self.verdict}
         if self.animation is not None:
@@ -147,8 +117,7 @@ class ScenarioReport:
 
     @classmethod
     def from_dict(cls, report: dict, animation: Animation | None = None) -> ScenarioReport:
-        """From a JSON report (name, kind, robot, passed, verdict and the figures): for runners that
-        build the dict themselves. ``passed`` false is FAILED whatever ``verdict`` says."""
+        """From a JSON report (for runners that build the dict); ``passed`` false is FAILED."""
         figures = {k: v for k, v in report.items()
                    if k not in ("name", "kind", "robot", "passed", "verdict", "animation_frames")}
         outcome = "FAILED" if not report.get("passed", True) else report.get("verdict", "informational")
@@ -179,16 +148,12 @@ Runner = Callable[[dict, Progress], ScenarioReport]
 
 def robot_of(spec: dict) -> Robot:
     """The robot a checked spec names, built with its ``robot_params``."""
-    from wbik.models import load
-
     return load(spec["robot"], **spec["robot_params"])
 
 
 def start_of(spec: dict, owner) -> np.ndarray:
-    """The configuration a checked spec's ``start`` names: "nominal" (a copy of ``owner.nominal``,
-    ``owner`` a robot or one of its chains) or as many finite numbers, else a ScenarioError."""
-    from wbik.validation import finite_vector
-
+    """The configuration a checked spec's ``start`` names: "nominal" (of ``owner``, a robot or a chain) or
+    as many finite numbers, else a ScenarioError."""
     start, nominal = spec["start"], owner.nominal
     if start == "nominal":
         return nominal.copy()
@@ -196,9 +161,8 @@ def start_of(spec: dict, owner) -> np.ndarray:
 
 
 class KindRun:
-    """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` list it
-    fills (after the run-wide ``figures``, if any), and the animations of the entries, played one
-    after the other ``pause`` s apart."""
+    """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` it fills (after the
+    run-wide ``figures``) and the entries' animations, played ``pause`` s apart."""
 
     def __init__(self, spec: dict, key: str, on_progress: Progress = None, pause: float = 0.5,
                  figures: dict | None = None):
@@ -233,9 +197,8 @@ def report_header(report: dict) -> str:
 
 
 def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> str:
-    """A printed report: its header line, then for each entry of ``report[key]`` the line ``[ok]``,
-    ``[FAIL]`` or ``[info]`` (nothing judged) ``NAME: describe(entry)`` (which may hold more lines)
-    and the entry's checks."""
+    """A printed report: the header, then per entry of ``report[key]`` ``[ok]``, ``[FAIL]`` or ``[info]``
+    ``NAME: describe(entry)`` and its checks."""
     lines = [report_header(report)]
     for entry in report.get(key, []):
         status = "info" if entry.get("verdict") == "informational" else ("ok" if entry["passed"] else "FAIL")
@@ -246,10 +209,9 @@ def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> s
 
 @dataclass(frozen=True)
 class ScenarioKind:
-    """A scenario kind: its ``name`` (the files' ``kind:``), its runner ``run(spec, on_progress) ->
-    ScenarioReport``, ``schema()`` building its :class:`wbik.schema.Map` (called once, on
-    first use), ``format(JSON report) -> str`` printing the report for ``wbik run`` (default: the
-    header line) and a one-line ``summary``."""
+    """A scenario kind: ``name`` (the files' ``kind:``), its runner, ``schema()`` building its
+    :class:`wbik.schema.Map` (once, on first use), ``format(JSON report) -> str`` for ``wbik run`` (default:
+    the header line) and a one-line ``summary``."""
 
     name: str
     run: Runner
@@ -259,7 +221,6 @@ class ScenarioKind:
 
     @cached_property
     def schema_map(self) -> Map:
-        """The kind's schema (built on first use)."""
         return self.schema()
 
     def takes(self, key: str) -> bool:

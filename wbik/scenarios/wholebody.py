@@ -1,82 +1,48 @@
-"""Scenario kind ``wholebody_ik``: a sequence of phases solved by the QP layer, each from the
-previous phase's answer (its schema, runner and printed report)::
+"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer::
 
     kind: wholebody_ik
     robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
-    robot_params: {floating_base: true}   # for a URDF path: wbik.load's parameters (typed)
-    soles:                         # feet of a URDF / example-robot-data robot (m, in the sole frame)
-      - {frame: left_sole_link, size: [0.2, 0.12], centre: [-0.005, 0, 0]}   # a flat sole rectangle
-      - {frame: FL_FOOT, point: [0, 0, 0]}                                   # a point foot
-      - {frame: edge_link, corners: [[0.1, 0, 0], [-0.1, 0, 0]]}            # any contact points
-    backend: daqp                  # osqp, daqp, quadprog, proxqp, "fastest" or "default"
-                                   # (default: wbik.qp.backends.DEFAULT, DAQP, the fastest measured)
-    margin: 0.005                  # m, default CoM margin of the phases (default COM_MARGIN, 0.005)
-    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase (below)
-    collisions:                    # optional: hard collision avoidance in every phase (wbik.collision)
-      self_collision: true         # pairs of the robot's own primitives (default true)
-      robot_obstacles: true        # the fixed obstacles its model lists, e.g. the UR5's table (default true)
-      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8], rpy: [0, 0, 0]}]   # m, rad
-      safety_distance: 0.02        # m, every pair at least this far apart (default 0.01); pairs
-                                   # closer than this at the nominal pose are left out (close by design)
-      influence_distance: 0.1      # m, pairs closer than this get a QP row (default 0.1)
+    soles: [{frame: FL_FOOT, point: [0, 0, 0]}]   # feet of a URDF robot: size (a rectangle), corners, point
+    backend: daqp                  # a QP backend (wbik.qp.backends), "fastest" or "default"
+    margin: 0.005                  # m, the phases' default CoM margin
+    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase
+    collisions:                    # optional: avoid collisions (own pairs, the cell's obstacles, boxes)
+      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8]}]   # m
+      safety_distance: 0.02        # m; pairs closer at the nominal pose are left out
     phases:
       - name: shift the CoM over the right foot
-        contacts: [r_sole, l_sole]  # frames held fixed (hard equality; a point foot: its position only)
+        contacts: [r_sole, l_sole]  # frames held fixed (a point foot: its position only)
         support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
-        margin: 0.005               # m, CoM at least this far inside the polygon (default: the file's)
-        lock: [mb]                  # joints held at their value (optional)
-        acceleration_limit: 20      # rad/s^2, optional: each IK step a period of dt (s, default 1):
-        dt: 0.01                    # joint velocities change by at most a dt from step to step
-        tasks:
-          - {type: com, over: r_sole, axes: xy}
-          - {type: orientation, frame: pelvis, keep: true, weight: 0.1, goal: false}
-        expect: {success: true}     # or {success: false}: a balanced best effort; see PHASE_RULES
+        lock: [mb]                  # joints held at their value
+        acceleration_limit: 20      # rad/s^2, each IK step a period of dt (s)
+        tasks: [{type: com, over: r_sole, axes: xy}]   # entries of wbik.qp.task_entries
+        expect: {success: true}     # keys of PHASE_RULES (SI units)
 
-Task entries are those of :mod:`wbik.qp.task_entries` (``type`` frame | position | orientation |
-relative | com | posture | regularization, or any type registered there; ``target``, ``rpy``, ``keep``,
-``offset``, ``over``; options weight, position_weight, orientation_weight, axes, goal, priority,
-tolerance): each type's keys are those its :class:`~wbik.qp.task_entries.TaskEntry` declares. Every phase's
-answer is checked independently by FK: contacts, CoM margin in the support polygon, joint limits.
-The phase's ``expect`` block judges these figures (keys in ``PHASE_RULES``, thresholds SI); unless
-the block sets them, the phase expects success, contacts held to 1e-6 m / rad, the CoM ``margin``
-inside the support polygon (when there is one) and no joint beyond its limit (1e-9), and with
-``collisions`` the minimum pair distance (coal, by FK) at least the safety distance
-(``collision_distance_min_m``). An ``expect`` value may be ``{threshold, expected_to_fail, why}``
-(see :mod:`wbik.expectations`).
-
-Contacts on a point foot (a sole with a single contact point) hold its position only: a point
-contact transmits no moment, so its rotation is free (:func:`wbik.qp.humanoid.contact_constraint`).
-The support polygon is the convex hull of the contact points of the support soles; a support that
-spans no area (two point feet) is refused as input of a phase (``phases[i].support``), and reported
-as a degenerate polygon (margin: minus the distance to it, failed) where an answer is checked.
-
-``methods`` (entries: a whole-body method name, or ``{method, label, options, max_iterations}``)
-compares methods of :mod:`wbik.wholebody` on every phase: each phase becomes a
-:class:`wbik.wholebody.WholeBody` (the same tasks, contacts held where they are at the phase's
-start, support, margin, ``min_distance`` pairs, joint position limits) solved from the same start
-by each method within the phase's ``max_iterations`` (unless the entry gives its own), and judged
-by the one shared check (:func:`wbik.solvers.check.check_problem`). Each phase's ``methods`` figure
-holds per label: success, reason, CoM margin, contact drift, task errors and the worst of them,
-time, iterations, and what the method could not express (``unsupported``: Pink and mink have no
-hard support polygon). These comparisons are reported, not judged: the phase's verdict is the kind's
-own QP's. ``lock`` and ``collisions`` are not part of a WholeBody problem, so a file with
-``methods`` may not use them.
-
-The report's figures: ``backend`` and one entry per phase in ``phases``; the animation goes from
-the start through every phase's answer.
+Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); by default a phase
+expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the support polygon, no joint
+beyond its limit and, with ``collisions``, every pair at least the safety distance apart (coal, by FK).
+``methods`` solves each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start:
+reported, not judged.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import pinocchio as pin
 
+from wbik.collision import Obstacle
+from wbik.collision import robot_collision_model
+from wbik.errors import SoleError
 from wbik.expectations import Rule
 from wbik.expectations import evaluate
 from wbik.expectations import verdict
 from wbik.options import UnknownOptionError
 from wbik.options import option_schema
+from wbik.qp.contacts import HeldFrame
 from wbik.qp.diagnosis import report_lines
+from wbik.qp.distances import CollisionAvoidance
+from wbik.qp.kinematics import Kinematics
+from wbik.qp.limits import LockedJoints
+from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.qp.task_entries import FRAME
 from wbik.qp.task_entries import NON_NEGATIVE
 from wbik.qp.task_entries import POSITIVE
@@ -85,7 +51,6 @@ from wbik.qp.task_entries import TASK_ENTRY
 from wbik.qp.task_entries import VECTOR3
 from wbik.qp.task_entries import TaskEntryError
 from wbik.qp.task_entries import build_task
-from wbik.scenario_schema import FRAMES
 from wbik.scenario_schema import START
 from wbik.scenario_schema import Robot
 from wbik.scenario_schema import apply_soles
@@ -113,9 +78,11 @@ from wbik.schema import Map
 from wbik.schema import Number
 from wbik.schema import Text
 from wbik.schema import Vector
-
-__all__ = ["CONTACT_TOLERANCE", "PHASE_RULES", "SCENARIO_KINDS", "check_configuration", "compare_methods",
-           "format_method", "format_report", "run_wholebody_ik", "wholebody_schema"]
+from wbik.solvers.method_registry import method_factory
+from wbik.solvers.method_registry import methods
+from wbik.solvers.method_registry import solver
+from wbik.wholebody.problem import FRAMES
+from wbik.wholebody.problem import WholeBody
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
@@ -133,7 +100,6 @@ PHASE_RULES = {
 
 # -- the schema ------------------------------------------------------------------------------------
 def wholebody_schema() -> Map:
-    """The keys of a wholebody_ik file (see the module docstring)."""
     phase = Map({
         "name": Key(Text()),
         "contacts": Key(FRAMES, []),
@@ -151,7 +117,7 @@ def wholebody_schema() -> Map:
         "expect": Key(expect_block(PHASE_RULES), None),
         "continue_from": Key(Text(("result", "start")), "result"),
     })
-    collisions = Map({  # collision_setup; absent: no collision constraint
+    collisions = Map({
         "self_collision": Key(Boolean(), True),
         "robot_obstacles": Key(Boolean(), True),
         "boxes": Key(ListOf(Map({"name": Key(Text(), required=True),
@@ -161,7 +127,6 @@ def wholebody_schema() -> Map:
         "safety_distance": Key(Number(ge=0, unit="m"), 0.01),
         "influence_distance": Key(Number(gt=0, unit="m"), 0.1),
     })
-
     method = Map({"method": Key(Text(_method_names), required=True), "label": Key(Text()),
                   "options": Key(Map(values=Anything()), {}),
                   "max_iterations": Key(Number(gt=0, integer=True, budget=True, nullable=True))})
@@ -200,14 +165,11 @@ def wholebody_schema() -> Map:
 
 
 def _method_names() -> tuple[str, ...]:
-    from wbik.solvers.method_registry import methods
     return tuple(sorted(methods()))
 
 
 def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
-    """The ``methods`` entries as {method, label, options, max_iterations or None}: options checked by the
-    method's option schema (:func:`wbik.options.option_schema`), labels unique."""
-    from wbik.solvers.method_registry import method_factory
+    """The ``methods`` entries as {method, label, options, max_iterations}, options checked, labels unique."""
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
@@ -223,99 +185,43 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 
 # -- the checks of one phase -----------------------------------------------------------------------
-def check_configuration(robot, q: np.ndarray, contact_placements: dict[str, pin.SE3],
-                        support: list[str], margin: float) -> dict:
-    """Independent FK checks of one solved configuration: contacts (a point foot: its position only),
-    CoM margin (a degenerate support: minus the distance to it, and not balanced), joint limits."""
-    from wbik.qp.constraint import bounded_joint_indices
-    from wbik.qp.humanoid import is_point_foot
-    from wbik.qp.humanoid import sole_corners
-    from wbik.qp.kinematics import Kinematics
-    from wbik.qp.support_polygon import DegenerateSupport
-    from wbik.qp.support_polygon import feet_support_region
-
-    contact_errors = {}
-    for frame, fixed in contact_placements.items():
-        reached = robot.frame_placement(q, frame)
-        contact_errors[frame] = {
-            "position": float(np.linalg.norm(reached.translation - fixed.translation)),
-            "rotation": 0.0 if is_point_foot(robot, frame) else
-            float(np.linalg.norm(pin.log3(fixed.rotation.T @ reached.rotation)))}
-    contacts_ok = all(e["position"] <= CONTACT_TOLERANCE and e["rotation"] <= CONTACT_TOLERANCE
-                      for e in contact_errors.values())
-    com = robot.center_of_mass(q)
-    com_margin, degenerate = None, False
-    if support:
-        region = feet_support_region(Kinematics(robot.model, q), sole_corners(robot), support)
-        com_margin, degenerate = region.margin_of(com[:2]), isinstance(region, DegenerateSupport)
-    balance_ok = com_margin is None or (not degenerate and com_margin >= margin - 1e-9)
-    q_index, _ = bounded_joint_indices(robot.model)
-    lower, upper = robot.model.lowerPositionLimit[q_index], robot.model.upperPositionLimit[q_index]
-    joints = q[q_index]
-    limit_excess = float(max(np.max(lower - joints, initial=0.0), np.max(joints - upper, initial=0.0)))
-    return {"contact_errors": contact_errors, "contacts_ok": contacts_ok, "com": com.tolist(),
-            "com_margin": com_margin, "support_degenerate": degenerate, "balance_ok": balance_ok,
-            "limit_excess": limit_excess, "limits_ok": limit_excess <= 1e-9}
+def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
+    """The checks of a phase's answer from the shared check's measures (``solution``), each contact's drift
+    split in m and rad; with ``collisions`` (CollisionAvoidance) the closest pair at the answer."""
+    robot, q = problem.robot, solution.q
+    kinematics = Kinematics(robot.model, q)
+    contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
+                      for c in problem.start(q0, strict=False).constraints if isinstance(c, HeldFrame)}
+    margin = solution.com_margin
+    checks = {"contact_errors": contact_errors,
+              "contacts_ok": all(max(e.values()) <= CONTACT_TOLERANCE for e in contact_errors.values()),
+              "com": robot.center_of_mass(q).tolist(), "com_margin": None if np.isnan(margin) else margin,
+              "balance_ok": all(m.holds for m in solution.measures.values() if m.quantity == "CoM margin"),
+              "limit_excess": solution.limit_excess, "limits_ok": solution.limit_excess <= 1e-9}
+    if collisions is not None:
+        model = collisions.collision_model
+        closest = model.minimum(q)
+        checks["collision"] = ({"min_distance": None, "pair": None, "pairs": 0} if closest is None else
+                               {"min_distance": closest.distance, "pair": [closest.a, closest.b],
+                                "pairs": len(model.pairs)})
+    return checks
 
 
-def phase_expectations(phase_expect: dict | None, margin: float, has_support: bool,
-                       safety: float | None = None) -> dict:
-    """The phase's expect block over the defaults (see the module docstring); with a ``collisions``
-    block (``safety``, m) the minimum pair distance must also stay >= safety (less 1e-9 m)."""
-    expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
-              "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
-    if has_support:
-        expect["com_margin_min_m"] = margin - 1e-9
-    if safety is not None:
-        expect["collision_distance_min_m"] = safety - 1e-9
-    expect.update(phase_expect or {})
-    return expect
-
-
-def collision_setup(robot, collisions: dict | None):
-    """(model for the FK check, the QP constraint) of a checked ``collisions`` block, or (None, None).
-
-    Two CollisionModels of the same table: the check measures every pair by its own FK and coal
-    query, independent of the distances the constraint linearised."""
+def collision_avoidance(robot, collisions: dict | None):
+    """The QP constraint of a checked ``collisions`` block (None without one)."""
     if collisions is None:
-        return None, None
-    from wbik.collision import Obstacle
-    from wbik.collision import robot_collision_model
-    from wbik.qp.distances import CollisionAvoidance
-    def build():
-        boxes = [Obstacle(b["name"], tuple(b["size"]), tuple(b["xyz"]), tuple(b["rpy"]))
-                 for b in collisions["boxes"]]
-        # a pair under the safety distance at the nominal pose is close by design: left out
-        return robot_collision_model(robot, self_collision=collisions["self_collision"],
-                                     robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
-                                     contact_distance=collisions["safety_distance"])
-
-    return build(), CollisionAvoidance(build(), collisions["safety_distance"],
-                                       collisions["influence_distance"])
-
-
-def collision_check(model, q: np.ndarray) -> dict:
-    """Minimum signed distance over the checked pairs at q (m, coal by FK) and that pair."""
-    closest = model.minimum(q)
-    if closest is None:
-        return {"min_distance": None, "pair": None, "pairs": 0}
-    return {"min_distance": closest.distance, "pair": [closest.a, closest.b], "pairs": len(model.pairs)}
-
-
-def phase_figures(success: bool, checks: dict) -> dict:
-    """The judged figures of a phase (the ``figure`` names of PHASE_RULES)."""
-    errors = checks["contact_errors"].values()
-    return {"success": bool(success),
-            "contact_error_m": max((e["position"] for e in errors), default=0.0),
-            "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
-            "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
-            "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
+        return None
+    boxes = [Obstacle(box["name"], tuple(box["size"]), tuple(box["xyz"]), tuple(box["rpy"]))
+             for box in collisions["boxes"]]
+    model = robot_collision_model(robot, self_collision=collisions["self_collision"],
+                                  robot_obstacles=collisions["robot_obstacles"], obstacles=boxes,
+                                  contact_distance=collisions["safety_distance"])
+    return CollisionAvoidance(model, collisions["safety_distance"], collisions["influence_distance"])
 
 
 # -- the runner ------------------------------------------------------------------------------------
-def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: bool = True) -> list:
-    """The phase's tasks (targets at q) and, with ``regularization``, its regularisation; a bad entry
-    names the phase."""
+def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
+    """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
     tasks = []
     for number, entry in enumerate(phase["tasks"]):
         try:
@@ -324,34 +230,10 @@ def _phase_tasks(robot, q: np.ndarray, phase: dict, index: int, regularization: 
             raise ScenarioValueError(f"phases[{index}].tasks[{number}]: {exc}") from exc
     if not any(task.goal for task in tasks):
         raise ScenarioError(f"phase {phase['name']!r} has no goal task")
-    if not regularization:
-        return tasks
-    regularization = build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]})
-    regularization.priority = max(task.priority for task in tasks)  # the lowest level (see lowest_priority)
-    tasks.append(regularization)
-    return tasks
-
-
-def _kind_run(spec: dict, on_progress: Progress) -> KindRun:
-    """The run of a checked spec; a sole the robot refuses (an unknown frame, bad points) is a
-    ScenarioValueError naming the ``soles`` entry."""
-    from wbik.errors import SoleError
-
-    try:
-        return KindRun(spec, "phases", on_progress, figures={"backend": spec["backend"]})
-    except SoleError as exc:
-        index = next((i for i, entry in enumerate(spec["soles"]) if entry["frame"] == exc.sole), None)
-        where = f"soles[{index}].frame" if index is not None else "robot_params.soles"
-        raise ScenarioValueError(f"{where}: {exc}") from None
-
-
-def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
-    """The phase as a :class:`wbik.wholebody.problem.WholeBody` from q: its tasks, contacts held where they
-    are at q, support and margin, joint position limits, minimum distances, acceleration limits (IK steps:
-    periods of ``dt``) and ``extra`` (locked joints, collision avoidance)."""
-    from wbik.wholebody.problem import WholeBody
-
-    return WholeBody(robot, _phase_tasks(robot, q, phase, index, regularization),
+    if regularization:  # on the lowest level (see lowest_priority)
+        tasks.append(build_task(robot, q, {"type": "regularization", "weight": phase["regularization"]}))
+        tasks[-1].priority = max(task.priority for task in tasks[:-1])
+    return WholeBody(robot, tasks,
                      contacts={frame: robot.frame_placement(q, frame) for frame in phase["contacts"]},
                      support=list(phase["support"]), margin=float(phase["margin"]), limits="position",
                      collisions=[(*item["frames"], item["distance"]) for item in phase["min_distance"]],
@@ -361,12 +243,7 @@ def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, re
 
 def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list[dict],
                     solvers: dict, extra: list) -> dict[str, dict]:
-    """Each of ``methods`` on the phase as a :class:`wbik.wholebody.problem.WholeBody` from q (see the
-    module docstring; ``extra``: the phase's locked joints and collision avoidance), judged by the shared
-    check: {label: figures}. ``solvers`` keeps one solver per (label, budget) for the run (a PlaCo robot
-    costs milliseconds to load)."""
-    from wbik.solvers.method_registry import solver
-
+    """{label: figures} of ``methods`` on the phase from q; ``solvers`` keeps one per (label, budget)."""
     problem = phase_problem(robot, q, phase, index, extra)
     compared = {}
     for entry in methods:
@@ -381,28 +258,23 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
 
 
 def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Solve the phases of a checked spec (:func:`wbik.scenario_schema.validate` filled the defaults) with
-    ``wbik.solver("qp", robot)``; the report and the animation from the start through every phase's
-    answer."""
-    from wbik.qp.limits import LockedJoints
-    from wbik.qp.support_polygon import DegenerateSupportPolygonError
-    from wbik.solvers.method_registry import solver
-
+    """Solve the phases of a checked spec with ``wbik.solver("qp", robot)``."""
     backend = spec["backend"]
-    run = _kind_run(spec, on_progress)
+    try:
+        run = KindRun(spec, "phases", on_progress, figures={"backend": backend})
+    except SoleError as exc:  # named by its soles entry
+        index = next((i for i, entry in enumerate(spec["soles"]) if entry["frame"] == exc.sole), None)
+        raise ScenarioValueError(f"{'robot_params.soles' if index is None else f'soles[{index}].frame'}: "
+                                 f"{exc}") from None
     robot = run.robot
     q = start_of(spec, robot)
     start = q.copy()
-    collision_model, collision_constraint = collision_setup(robot, spec["collisions"])
+    collision_constraint = collision_avoidance(robot, spec["collisions"])
     solvers: dict = {}
     for index, phase in enumerate(spec["phases"]):
-        name = phase["name"]
-        contacts = list(phase["contacts"])
-        support = list(phase["support"])
-        margin = float(phase["margin"])
+        margin, support = float(phase["margin"]), list(phase["support"])
         extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
             [collision_constraint] if collision_constraint is not None else [])
-        contact_placements = {frame: robot.frame_placement(q, frame) for frame in contacts}
         problem = phase_problem(robot, q, phase, index, extra, regularization=False)
         settings = ("qp", backend, float(phase["max_step"]), int(phase["max_iterations"]),
                     phase["regularization"])
@@ -413,19 +285,27 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
             solution = solvers[settings].solve(problem, q)
         except DegenerateSupportPolygonError as exc:
             raise ScenarioValueError(f"phases[{index}].support: {exc}") from None
-        checks = check_configuration(robot, solution.q, contact_placements, support, margin)
-        if collision_model is not None:
-            checks["collision"] = collision_check(collision_model, solution.q)
-        expect = phase_expectations(phase["expect"], margin, bool(support),
-                                    collision_constraint and collision_constraint.safety)
-        expectations = evaluate(expect, phase_figures(solution.success, checks), PHASE_RULES,
-                                f"phase {name!r} expect")
+        checks = phase_checks(problem, q, solution, collision_constraint)
+        errors = checks["contact_errors"].values()
+        figures = {"success": bool(solution.success),
+                   "contact_error_m": max((e["position"] for e in errors), default=0.0),
+                   "contact_error_rad": max((e["rotation"] for e in errors), default=0.0),
+                   "com_margin_m": checks["com_margin"], "limit_excess_rad": checks["limit_excess"],
+                   "collision_distance_m": (checks.get("collision") or {}).get("min_distance")}
+        expect = {"success": True, "contact_error_max_m": CONTACT_TOLERANCE,
+                  "contact_error_max_rad": CONTACT_TOLERANCE, "limit_excess_max_rad": 1e-9}
+        if support:
+            expect["com_margin_min_m"] = margin - 1e-9
+        if collision_constraint is not None:
+            expect["collision_distance_min_m"] = collision_constraint.safety - 1e-9
+        expect.update(phase["expect"] or {})
+        expectations = evaluate(expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
         entry = {
-            "name": name, "passed": verdict(expectations) != "FAILED", "success": solution.success,
+            "name": phase["name"], "passed": verdict(expectations) != "FAILED", "success": solution.success,
             "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
             "task_errors": solution.task_errors, "checks": checks, "expect": expect,
-            "expectations": expectations,
-            "contacts": contacts, "support": support, "margin": margin, "q": solution.q.tolist(),
+            "expectations": expectations, "contacts": list(phase["contacts"]), "support": support,
+            "margin": margin, "q": solution.q.tolist(),
             "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
         if spec["methods"]:
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
@@ -438,7 +318,7 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
 
 
 def moved_frame(spec: dict) -> str | None:
-    """The first frame a phase task moves (frame/position tasks that do not keep their pose)."""
+    """The first frame a phase's frame or position task moves."""
     for phase in spec.get("phases", []):
         contacts = set(phase.get("contacts", []))
         for task in phase.get("tasks", []):
@@ -450,62 +330,50 @@ def moved_frame(spec: dict) -> str | None:
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, ``PHASE_SECONDS`` each (wbik.viz.scenario), with
-    each phase's support soles and contacts; a phase that started from elsewhere than the previous
-    answer (``continue_from: start``) is preceded by the way back there, on the previous stance. The
-    first frame a phase task moves is traced."""
+    """From the start through each phase's answer, with its support and contacts; a phase continued from
+    elsewhere (``continue_from: start``) is preceded by the way back there, on the previous stance."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS
     from wbik.viz.scenario import SAMPLES_PER_PHASE
 
-    keyframes: list[np.ndarray] = []
-    support: list[tuple] = []
-    contacts: list[tuple] = []
+    stops = []  # (configuration, support, contacts) of each keyframe
     origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is
     for phase, entry in zip(spec["phases"], phases, strict=False):
-        if keyframes and not np.array_equal(origin, shown):
-            keyframes.append(origin)
-            support.append(support[-1])
-            contacts.append(contacts[-1])
+        if stops and not np.array_equal(origin, shown):
+            stops.append((origin, *stops[-1][1:]))
         shown = np.asarray(entry["q"], dtype=float)
-        keyframes.append(shown)
-        support.append(tuple(entry["support"]))
-        contacts.append(tuple(entry["contacts"]))
+        stops.append((shown, tuple(entry["support"]), tuple(entry["contacts"])))
         if phase["continue_from"] == "result":
             origin = shown
+    keyframes, support, contacts = zip(*stops, strict=True)
     return Animation.from_keyframes(
         robot, start, keyframes, PHASE_SECONDS, SAMPLES_PER_PHASE, support=support, contacts=contacts,
         trace_frame=moved_frame(spec), name=spec["name"])
 
 
 def format_method(label: str, figures: dict) -> str:
-    """One compared method's line: verdict of the shared check, CoM margin, worst goal task error,
-    contact drift, time and iterations, and what it could not express."""
+    """One compared method's lines: its verdict and figures, why it failed, what it could not express."""
     margin = figures["com_margin"]
     margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
-    line = (f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
-            f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
-            f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it")
+    lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
+             f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
+             f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it"]
     diagnosis = figures.get("diagnosis")
     if not figures["success"]:
-        line += f"\n        why: {_without_summary(figures['reason'], diagnosis)}"
-    for text in report_lines(diagnosis) if diagnosis else ():
-        line += f"\n        {text}"
-    for item in figures["unsupported"]:  # a peer's "unsupported by PEER: ...", or another method's words
-        said = item if item.startswith("unsupported by ") else f"cannot express: {item}"
-        line += f"\n        {said}"
-    return line
+        lines.append(f"        why: {_without_summary(figures['reason'], diagnosis)}")
+    lines += [f"        {text}" for text in (report_lines(diagnosis) if diagnosis else ())]
+    # a peer's "unsupported by PEER: ...", or another method's words
+    lines += [f"        {item if item.startswith('unsupported by ') else f'cannot express: {item}'}"
+              for item in figures["unsupported"]]
+    return "\n".join(lines)
 
 
 def _without_summary(reason: str, diagnosis: dict | None) -> str:
-    """The reason without the diagnosis's summary at its end (printed line by line instead)."""
     summary = (diagnosis or {}).get("summary") or ""
     return reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason
 
 
 def format_report(report: dict) -> str:
-    """The phase summary: solved or best effort, iterations, time, goal task errors, the compared
-    methods (with ``methods``), the checks."""
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
@@ -513,8 +381,7 @@ def format_report(report: dict) -> str:
         reason = _without_summary(phase["reason"], diagnosis)
         text = (f"{'solved' if phase['success'] else 'best effort: ' + reason}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
-        for line in report_lines(diagnosis) if diagnosis else ():
-            text += f"\n      {line}"
+        text += "".join(f"\n      {line}" for line in (report_lines(diagnosis) if diagnosis else ()))
         if phase.get("methods"):
             text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
                 format_method(label, figures) for label, figures in phase["methods"].items())

@@ -1,9 +1,5 @@
-"""Visualisation in meshcat: robots, frames, IK targets, CoM and support polygon, animations.
-
-``Viewer`` draws a scene (with or without a meshcat server); ``Viewer.export_html`` writes it as
-one self-contained HTML page; ``wbik.viz.browser`` renders such a page with headless Chromium;
-``wbik.viz.environment`` holds the fixed boxes drawn around a robot (a staircase, a table).
-"""
+"""Visualisation in meshcat: :class:`Viewer` draws robots, frames, IK targets, the CoM and support polygon
+and animations, with or without a server, and exports them as self-contained HTML pages."""
 
 from wbik.viz.environment import SceneBox
 from wbik.viz.scene import SceneRecorder

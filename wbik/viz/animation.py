@@ -1,18 +1,6 @@
-"""``Animation``: what a scenario runner hands to the viewer besides its report.
-
-A robot (the runner's own ``wbik.robot.Robot``, so ``robot_params`` hold), sample ``times`` (s,
-strictly increasing, a single sample is a still picture), the full configuration of the robot at
-each sample, and what to draw along (:class:`Overlays`): a traced frame, the soles on the ground at
-each sample (the viewer draws the CoM, its ground projection and the support polygon of those
-soles), the frames held in contact at each sample (markers), a ZMP at each sample (a marker on the
-ground, with its path), and the scene's fixed boxes (``environment``: a staircase, a table, a
-workpiece; :class:`wbik.viz.environment.SceneBox`).
-
-The viewer (:meth:`wbik.viz.viewer.Viewer.play_animation`) plays it as meshcat keyframes; three.js
-interpolates between samples, so a runner gives its knots, not a dense grid. Helpers build one from
-a chain's joint rows (:meth:`Animation.from_chain`), from keyframes interpolated on the
-configuration manifold (:meth:`Animation.from_keyframes`), join several (:meth:`Animation.then`)
-and thin a long one (:meth:`Animation.subsampled`, :meth:`Animation.limited`).
+"""``Animation``: what a scenario runner hands to the viewer: its robot, sample times (s; one sample is a
+still picture), the full configuration at each, :class:`Overlays` and the scene's fixed boxes. three.js
+interpolates between samples, so a runner gives its knots, not a dense grid.
 """
 
 from __future__ import annotations
@@ -44,10 +32,9 @@ def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
 
 @dataclass(frozen=True)
 class Overlays:
-    """What is drawn with the robot: ``trace_frame`` (its path as a line, a marker riding along);
-    ``support`` (soles on the ground per sample: CoM, ground projection, support polygon);
-    ``contacts`` (frames held in contact per sample: markers); ``zmp`` (K, 3) a ZMP per sample on the
-    ground (world, m; NaN rows where there is none)."""
+    """What is drawn with the robot: ``trace_frame``'s path; per sample the soles on the ground (``support``:
+    the CoM, its ground projection, their polygon), the frames in ``contacts`` and the ``zmp`` (K, 3; world,
+    m; NaN rows for none)."""
 
     trace_frame: str | None = None
     support: tuple[Feet, ...] | None = None
@@ -125,36 +112,30 @@ class Animation:
                        seconds: float = 1.0, samples: int = 30, support: Sequence[Feet] | None = None,
                        contacts: Sequence[Feet] | None = None, trace_frame: str | None = None,
                        name: str = "") -> Animation:
-        """From ``start`` through each keyframe, ``seconds`` each with ``samples`` samples,
-        interpolated on the configuration manifold (``pinocchio.interpolate``: a floating base
-        turns properly). ``support`` / ``contacts``: one entry per keyframe (the start takes the
-        first keyframe's)."""
+        """From ``start`` through each keyframe, ``seconds`` and ``samples`` samples each, interpolated on the
+        configuration manifold; ``support`` / ``contacts``: one entry per keyframe (the start takes the
+        first's)."""
         if samples < 1 or not seconds > 0:
             raise InvalidConfigurationError(f"keyframe animation needs samples >= 1 and seconds > 0, "
                                             f"got {samples} and {seconds}")
-        if not len(keyframes):
-            support = contacts = None
-        times, rows, feet, held = [0.0], [np.asarray(start, dtype=float)], [], []
+        def per_sample(entries):
+            if entries is None or not len(keyframes):
+                return None
+            return (entries[0], *(entry for entry in entries for _ in range(samples)))
+
+        times, rows = [0.0], [np.asarray(start, dtype=float)]
         previous = rows[0]
         for index, q in enumerate(keyframes):
             q = np.asarray(q, dtype=float)
             for step in range(1, samples + 1):
-                alpha = step / samples
-                rows.append(pin.interpolate(robot.model, previous, q, alpha))
-                times.append((index + alpha) * seconds)
-            feet.extend([support[index]] * samples if support is not None else [])
-            held.extend([contacts[index]] * samples if contacts is not None else [])
+                rows.append(pin.interpolate(robot.model, previous, q, step / samples))
+                times.append((index + step / samples) * seconds)
             previous = q
-        if support is not None and len(support):
-            feet.insert(0, support[0])
-        if contacts is not None and len(contacts):
-            held.insert(0, contacts[0])
-        overlays = Overlays(trace_frame, tuple(feet) if support is not None else None,
-                            tuple(held) if contacts is not None else None)
+        overlays = Overlays(trace_frame, per_sample(support), per_sample(contacts))
         return cls(robot, np.array(times), np.array(rows), overlays, name)
 
     def with_environment(self, boxes) -> Animation:
-        """The same animation with the scene's fixed boxes ``boxes`` (SceneBox) added (by name)."""
+        """The same animation with the scene's fixed boxes ``boxes`` added (by name)."""
         merged = {box.name: box for box in (*self.environment, *boxes)}
         return replace(self, environment=tuple(merged.values()))
 

@@ -1,10 +1,6 @@
-"""Render an exported page with headless Chromium: a screenshot and the console messages.
-
-Chromium is driven from its command line (no extra Python package): software WebGL
-(SwiftShader), no network services, a throw-away profile, console messages logged to stderr.
-The page must be a self-contained export (``Viewer.export_html``): it logs
-``scene.READY_MESSAGE`` once the scene is built and ``scene.ERROR_MESSAGE`` for any uncaught error.
-"""
+"""Render an exported page (``Viewer.export_html``) with headless Chromium, driven from its command line
+(software WebGL, no network, a throw-away profile): a screenshot and the console messages, where the page
+logs ``scene.READY_MESSAGE`` once built and ``scene.ERROR_MESSAGE`` for any uncaught error."""
 
 from __future__ import annotations
 
@@ -43,13 +39,8 @@ class RenderResult:
     @property
     def errors(self) -> list[str]:
         """Uncaught errors and messages that say error, apart from GPU performance notes."""
-        bad = []
-        for line in self.console:
-            if line.startswith(ERROR_MESSAGE) or line.startswith("Uncaught"):
-                bad.append(line)
-            elif "error" in line.lower() and "GL Driver Message" not in line:
-                bad.append(line)
-        return bad
+        return [line for line in self.console if line.startswith((ERROR_MESSAGE, "Uncaught"))
+                or ("error" in line.lower() and "GL Driver Message" not in line)]
 
 
 def find_chromium() -> str:
@@ -69,11 +60,8 @@ def find_chromium() -> str:
 
 def render(page: str | Path, screenshot: str | Path, width: int = 1000, height: int = 750,
            wait_ms: int = 4000, timeout_s: float = 90.0) -> RenderResult:
-    """Open ``page`` (a local HTML file) in headless Chromium and save a PNG screenshot.
-
-    ``wait_ms`` is Chromium's virtual-time budget: how long the page may run (load meshes, start
-    an animation) before the shot is taken.
-    """
+    """Open ``page`` (a local HTML file) in headless Chromium and save a PNG screenshot after ``wait_ms``
+    of virtual time (to load meshes, start an animation)."""
     executable = find_chromium()
     page = Path(page).resolve()
     screenshot = Path(screenshot).resolve()
@@ -90,11 +78,8 @@ def render(page: str | Path, screenshot: str | Path, width: int = 1000, height: 
         ]
         completed = subprocess.run(command, capture_output=True, text=True, timeout=timeout_s,
                                    stdin=subprocess.DEVNULL)
-    console = []
-    for line in completed.stderr.splitlines():
-        match = CONSOLE_LINE.search(line)
-        if match:
-            console.append(match.group("message"))
+    console = [match.group("message") for line in completed.stderr.splitlines()
+               if (match := CONSOLE_LINE.search(line))]
     if not screenshot.is_file():
         raise RuntimeError(f"Chromium made no screenshot of {page} (exit {completed.returncode}); "
                            f"its last messages:\n{completed.stderr[-2000:]}")

@@ -1,11 +1,6 @@
 """What stands around a robot in a scene: boxes fixed in the world (a staircase's steps, a table, a
-workpiece), drawn by the viewer with the robot.
-
-A :class:`SceneBox` is a box by its full side lengths, the world pose of its centre and a colour. A
-scenario's animation carries the boxes of its scene (:attr:`wbik.viz.animation.Animation.environment`);
-the viewer also draws the fixed obstacles a robot's package declares for its cell
-(``collision_obstacles()``, e.g. the UR5's table: :func:`robot_cell`). Boxes are keyed by name: a
-scenario's box of the same name as a cell obstacle replaces it.
+workpiece), by name: an animation's (:attr:`wbik.viz.animation.Animation.environment`) and those of the
+robot's cell (:func:`robot_cell`); a scenario's box replaces a cell's of the same name.
 """
 
 from __future__ import annotations
@@ -14,15 +9,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
+from wbik.models import robot_entries
 
-FLOOR_COLOR = 0x8C8C8C
-"""Grey: steps, floors."""
-TABLE_COLOR = 0xA0764A
-"""Wood brown: tables."""
-PART_COLOR = 0x5B7DB1
-"""Steel blue: workpieces."""
+FLOOR_COLOR = 0x8C8C8C  # grey: steps, floors
+TABLE_COLOR = 0xA0764A  # wood brown
+PART_COLOR = 0x5B7DB1  # steel blue: workpieces
 STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)
 """Wood browns for a staircase's steps, the lowest first (tests look for their hue)."""
 
@@ -61,8 +55,6 @@ class SceneBox:
 
     def homogeneous(self) -> np.ndarray:
         """The 4 x 4 world pose of the box's centre."""
-        import pinocchio as pin
-
         pose = np.eye(4)
         pose[:3, :3] = pin.rpy.rpyToMatrix(*self.rpy)
         pose[:3, 3] = self.xyz
@@ -76,14 +68,10 @@ class SceneBox:
 
 
 def robot_cell(robot) -> tuple[SceneBox, ...]:
-    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g.
-    the UR5's table), as boxes; none for a robot without a package or without such obstacles."""
-    from wbik.models import robot_entries
-
+    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g. the
+    UR5's table), as boxes."""
     entry = robot_entries().get(getattr(robot, "name", ""))
-    if entry is None:
-        return ()
-    obstacles = getattr(entry.module(), "collision_obstacles", None)
+    obstacles = None if entry is None else getattr(entry.module(), "collision_obstacles", None)
     if obstacles is None:
         return ()
     return tuple(SceneBox(obstacle.name, tuple(obstacle.size), tuple(obstacle.xyz), tuple(obstacle.rpy),

@@ -1,10 +1,6 @@
-"""What a robot looks like: its URDF visuals, or a "stick" model built from its kinematics.
-
-Robots built from DH tables (pincher, arm3r) have no visual geometry, so every model can also be
-drawn as sticks: a cylinder from each joint's parent joint origin to the joint origin, one from each
-fixed frame's parent frame to the frame (tool and tip links), and a sphere at every joint.
-Sizes scale with the robot: the radius is ``STICK_RADIUS_RATIO`` times the robot's reach at
-its nominal configuration.
+"""What a robot looks like: its URDF visuals, or sticks built from its kinematics (robots from DH tables
+have no visuals): a cylinder from each joint or fixed frame's parent to it and a sphere at each joint, the
+radius ``STICK_RADIUS_RATIO`` times the robot's reach.
 """
 
 from __future__ import annotations
@@ -33,11 +29,8 @@ def robot_extent(robot: Robot, q: np.ndarray | None = None) -> float:
 
 
 def visual_model(robot: Robot, style: str = "auto") -> tuple[pin.GeometryModel, str]:
-    """The geometry to draw and the style used: ``"visual"`` (URDF) or ``"stick"``.
-
-    ``style="auto"`` takes the URDF visuals when the robot has any (and their meshes load),
-    sticks otherwise.
-    """
+    """The geometry to draw and its style: ``"visual"`` (URDF) or ``"stick"``; ``"auto"`` takes the URDF
+    visuals when the robot has loadable ones."""
     if style not in ("auto", "visual", "stick"):
         raise ValueError(f"style must be 'auto', 'visual' or 'stick', got {style!r}")
     if style in ("auto", "visual"):
@@ -60,11 +53,6 @@ def urdf_visuals(robot: Robot) -> pin.GeometryModel | None:
         warnings.warn(f"{robot.name}: visual meshes did not load ({exc}); drawing sticks instead",
                       stacklevel=3)
         return None
-
-
-def _rotation_z_to(direction: np.ndarray) -> np.ndarray:
-    """A rotation taking the z axis onto ``direction`` (unit vector)."""
-    return pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), direction).toRotationMatrix()
 
 
 def stick_segments(robot: Robot) -> list[tuple[str, int, np.ndarray, np.ndarray]]:
@@ -96,7 +84,8 @@ def stick_model(robot: Robot, color: np.ndarray = STICK_COLOR) -> pin.GeometryMo
     geometry = pin.GeometryModel()
     for name, joint_id, start, end in stick_segments(robot):
         length = float(np.linalg.norm(end - start))
-        placement = pin.SE3(_rotation_z_to((end - start) / length), 0.5 * (start + end))
+        z_to_stick = pin.Quaternion.FromTwoVectors(np.array([0.0, 0.0, 1.0]), (end - start) / length)
+        placement = pin.SE3(z_to_stick.toRotationMatrix(), 0.5 * (start + end))
         shape = pin.GeometryObject(name, joint_id, placement, coal.Cylinder(radius, length))
         shape.meshColor = np.asarray(color, dtype=float)
         geometry.addGeometryObject(shape)

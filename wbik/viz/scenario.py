@@ -1,16 +1,5 @@
-"""Playing a scenario file (tasks/*.yaml) in the viewer: ``wbik view TASKFILE``.
-
-Every kind's runner returns a :class:`wbik.scenarios.ScenarioReport` whose ``animation``
-(:class:`wbik.viz.animation.Animation`: the robot, sample times, full configurations, overlays) the
-viewer plays, one path for every kind: its traced frame, the CoM and the support polygon of the
-soles on the ground at each sample, the contact frames.
-
-``wholebody_ik`` runs play from the start configuration through every phase, ``PHASE_SECONDS``
-each with ``SAMPLES_PER_PHASE`` samples, interpolated on the configuration manifold
-(``pinocchio.interpolate``, so a floating base turns properly; see
-:func:`wbik.scenarios.wholebody.wholebody_animation`). The other kinds give their own samples and
-times (see each runner).
-"""
+"""Playing a scenario file (tasks/*.yaml) in the viewer, ``wbik view TASKFILE``: its runner's report
+carries the animation (:class:`wbik.viz.animation.Animation`), one path for every kind."""
 
 from __future__ import annotations
 
@@ -18,10 +7,8 @@ from pathlib import Path
 
 from wbik.errors import UnsupportedError
 
-PHASE_SECONDS = 1.0
-"""s of playback per wholebody_ik phase."""
+PHASE_SECONDS = 1.0  # s of playback per wholebody_ik phase
 SAMPLES_PER_PHASE = 30
-"""Samples per wholebody_ik phase."""
 
 
 def scenario_animation(path: str | Path, spec: dict | None = None):

@@ -1,14 +1,5 @@
-"""A meshcat scene kept in this process, and its export to one self-contained HTML file.
-
-``SceneRecorder`` is a meshcat "window": ``meshcat.Visualizer(window=SceneRecorder())`` takes every
-``set_object`` / ``set_transform`` / ``set_property`` / ``set_animation`` / ``delete`` command and
-keeps the latest state of each scene-tree node, as the meshcat server does, without any server.
-``ServerWindow`` forwards the commands to a local meshcat server (zmq + tornado) and records them
-too, so a served scene can be exported the same way.
-
-The exported page inlines meshcat's JavaScript viewer (three.js included) and the scene commands
-as base64 msgpack, decoded synchronously in order: it fetches nothing, so it opens offline from
-``file://`` and inside a notebook ``iframe srcdoc``.
+"""A meshcat scene kept in this process (the latest state of each node, as the server keeps it), and its
+export to one HTML page inlining meshcat's viewer and the commands: it opens offline and in an ``iframe``.
 """
 
 from __future__ import annotations
@@ -24,10 +15,8 @@ from pathlib import Path
 
 import umsgpack
 
-READY_MESSAGE = "wbik-scene-ready"
-"""Logged to the browser console once every scene command has been applied."""
-ERROR_MESSAGE = "wbik-page-error"
-"""Prefix of the console line the page logs for any uncaught JavaScript error."""
+READY_MESSAGE = "wbik-scene-ready"  # logged once every scene command is applied
+ERROR_MESSAGE = "wbik-page-error"  # the prefix of an uncaught JavaScript error's console line
 
 
 @dataclass
@@ -83,16 +72,9 @@ class SceneRecorder:
 
     def commands(self) -> list[bytes]:
         """The packed commands that rebuild the scene: objects, properties, transforms, animations."""
-        out: list[bytes] = []
-        for node in self.root.walk():
-            if node.object is not None:
-                out.append(node.object)
-            out.extend(node.properties)
-            if node.transform is not None:
-                out.append(node.transform)
-            if node.animation is not None:
-                out.append(node.animation)
-        return out
+        return [command for node in self.root.walk()
+                for command in (node.object, *node.properties, node.transform, node.animation)
+                if command is not None]
 
     def html(self, title: str = "wbik") -> str:
         return scene_html(self.commands(), title)

@@ -6,17 +6,8 @@
 >>> viewer.animate(times, qs, trace_frame="tcp")
 >>> viewer.export_html("ur5.html")         # self-contained page, opens offline
 
-``Viewer(robot, server=True)`` also starts a meshcat server on localhost (``viewer.url``); close it
-with ``viewer.close()`` or a ``with`` block. In a notebook the viewer displays itself inline
-(``_repr_html_``, an iframe holding the exported page: no server needed).
-
-Robot geometry is loaded with Pinocchio's MeshcatVisualizer (meshes, primitives, URDF colours);
-robots without visuals are drawn as sticks (see ``wbik.viz.geometry``). The fixed boxes of the robot's
-cell (its package's ``collision_obstacles()``, the UR5's table) and of an animation's scene (a
-staircase, a workpiece: ``Animation.environment``) are drawn with it (:meth:`Viewer.show_environment`).
-Meshcat's floor grid is put under the robot: at the height of its soles when it has feet, else under
-the lowest box of the scene; the camera frames the robot (over the whole motion when an animation
-plays).
+``Viewer(robot, server=True)`` also serves meshcat on localhost (``viewer.url``; ``close()`` or a ``with``
+block stops it); in a notebook the viewer shows itself inline.
 """
 
 from __future__ import annotations
@@ -32,6 +23,7 @@ import pinocchio as pin
 import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError
 from wbik.errors import UnsupportedError
+from wbik.models import load
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.support_polygon import contact_points
@@ -54,15 +46,12 @@ OUTSIDE_COLOR = 0xDD2222
 CONTACT_COLOR = 0x2288EE
 ZMP_COLOR = 0xFF7F00
 POLYGON_TOLERANCE = 0.005
-"""m: an animation's support polygon is drawn anew when its soles change or move more than this
-(samples interpolated between solved keyframes let a held sole drift a little)."""
+"""m: a played support polygon is drawn anew when its soles change or move more than this."""
 
 
 @dataclass(frozen=True)
 class SupportView:
-    """What ``show_com_and_polygon`` drew: CoM (m, world), support polygon (k, 2) in the ground
-    plane (counter-clockwise, at height ``ground_z``), whether the CoM's ground projection is inside,
-    and its signed distance to the polygon's nearest edge (m, positive inside)."""
+    """What ``show_com_and_polygon`` drew (m, world): CoM, polygon (k, 2) at ``ground_z``, margin."""
 
     com: np.ndarray
     polygon: np.ndarray
@@ -73,28 +62,41 @@ class SupportView:
 
 @dataclass(frozen=True)
 class AnimationView:
-    """What ``play_animation`` drew: the number of samples, the traced frame's path (N, 3) or None,
-    and the CoM margin in the support polygon at each sample (m; NaN with no sole down), or None
-    without support overlays."""
+    """What ``play_animation`` drew: samples, the traced path (N, 3), the CoM margins (m), or None."""
 
     frames: int
     trace: np.ndarray | None
     com_margins: np.ndarray | None
 
 
+def _translation(position) -> np.ndarray:
+    """The 4 x 4 pose of a translation (world, m)."""
+    pose = np.eye(4)
+    pose[:3, 3] = position
+    return pose
+
+
+def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
+                  tolerance: float = POLYGON_TOLERANCE) -> bool:
+    """The same soles at the same places (to ``tolerance`` m): each polygon's vertices near the other's
+    outline (a hull of nearly aligned soles may have two more vertices)."""
+    old_feet, old_vertices, old_z, _ = previous
+    if old_feet != feet or abs(old_z - ground_z) > tolerance:
+        return False
+    old_polygon, polygon = SupportPolygon(old_vertices), SupportPolygon(vertices)
+    return (all(abs(old_polygon.margin_of(v)) <= tolerance for v in vertices)
+            and all(abs(polygon.margin_of(v)) <= tolerance for v in old_vertices))
+
+
 class Viewer:
-    """A robot scene in meshcat. See the module docstring for the workflow."""
+    """A robot scene in meshcat (see the module docstring)."""
 
     def __init__(self, robot: Robot | str, server: bool = False, style: str = "auto",
                  q: np.ndarray | None = None, title: str | None = None):
         import meshcat
         from pinocchio.visualize import MeshcatVisualizer
 
-        if isinstance(robot, str):
-            from wbik.models import load
-
-            robot = load(robot)
-        self.robot = robot
+        self.robot = robot = load(robot) if isinstance(robot, str) else robot
         self.title = title or f"wbik: {robot.name}"
         self.window = ServerWindow() if server else SceneRecorder()
         self.meshcat = meshcat.Visualizer(window=self.window)
@@ -163,49 +165,27 @@ class Viewer:
     def frame_pose(self, frame: str, q: np.ndarray | None = None) -> pin.SE3:
         return self.robot.frame_placement(self.q if q is None else q, frame)
 
-    def _frame_points(self, configurations: Sequence[np.ndarray]) -> np.ndarray:
-        """Every frame origin (world) at each of ``configurations``."""
+    def _framing(self, q: np.ndarray) -> tuple[np.ndarray, float]:
+        """The middle of the frame origins at q (world, m), and 1.6 times their extent (m)."""
         data = self.robot.model.createData()
-        points = []
-        for q in configurations:
-            pin.framesForwardKinematics(self.robot.model, data, q)
-            points.extend(placement.translation.copy() for placement in data.oMf)
-        return np.array(points)
+        pin.framesForwardKinematics(self.robot.model, data, q)
+        points = [placement.translation.copy() for placement in data.oMf]
+        low, high = np.min(points, axis=0), np.max(points, axis=0)
+        return 0.5 * (low + high), 1.6 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
 
-    def camera_distance(self, q: np.ndarray | None = None) -> float:
-        """How far (m) the camera stands from the robot to show it whole: 1.6 times its frames' extent."""
-        points = self._frame_points([self.q if q is None else q])
-        size = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
-        return 1.6 * max(size, 0.5 * self.extent, 1e-2)
-
-    def robot_centre(self, q: np.ndarray) -> np.ndarray:
-        """The middle of the robot's frame origins at q (world, m)."""
-        points = self._frame_points([q])
-        return 0.5 * (points.min(axis=0) + points.max(axis=0))
-
-    def look_at(self, center: np.ndarray | None = None, distance: float | None = None,
-                configurations: Sequence[np.ndarray] | None = None) -> None:
-        """Point the camera at ``center`` (default: the robot, at the shown q or over
-        ``configurations``) from ``distance`` (m) away."""
-        points = self._frame_points([self.q] if configurations is None else configurations)
-        low, high = points.min(axis=0), points.max(axis=0)
-        if center is None:
-            center = 0.5 * (low + high)
-        if distance is None:
-            distance = 1.6 * max(float(np.linalg.norm(high - low)), 0.5 * self.extent, 1e-2)
-        camera = np.eye(4)
-        camera[:3, 3] = center
-        self.meshcat["/Cameras/default"].set_transform(camera)
+    def look_at(self, center: np.ndarray | None = None, distance: float | None = None) -> None:
+        """Point the camera at ``center`` (default: the robot at the shown q) from ``distance`` (m) away."""
+        middle, far = self._framing(self.q)
+        self.meshcat["/Cameras/default"].set_transform(_translation(middle if center is None else center))
         # the camera sits in a y-up frame: (x, y, z)_three = (x, z, -y)_world, looking at the target
         direction = np.array([1.0, 0.8, 0.55])
-        position = distance * direction / np.linalg.norm(direction)
+        position = (far if distance is None else distance) * direction / np.linalg.norm(direction)
         self.meshcat["/Cameras/default/rotated/<object>"].set_property(
             "position", [float(position[0]), float(position[2]), float(-position[1])])
 
     # -- the scene around the robot ----------------------------------------------------------------
     def show_environment(self, boxes: Sequence[SceneBox]) -> None:
-        """Draw fixed boxes (a staircase's steps, a table, a workpiece) under ``wbik/environment``; a box
-        replaces a drawn one of the same name."""
+        """Draw fixed boxes (a staircase's steps, a table) under ``wbik/environment``, by name."""
         import meshcat.geometry as mg
 
         for box in boxes:
@@ -217,8 +197,7 @@ class Viewer:
             self.environment[box.name] = box
 
     def ground_height(self, q: np.ndarray | None = None) -> float:
-        """Where the floor is (m): the lowest sole contact point at q (default: the shown q) when the
-        robot has soles, else the bottom of the lowest box of the scene, else 0."""
+        """The floor's height (m): the lowest sole point at q, else the lowest box's bottom, else 0."""
         if self.robot.soles:
             kinematics = Kinematics(self.robot.model, self.q if q is None else q)
             return float(contact_points(kinematics, self.robot.soles, list(self.robot.soles))[:, 2].min())
@@ -227,8 +206,7 @@ class Viewer:
         return 0.0
 
     def place_grid(self, height: float | None = None) -> float:
-        """Put meshcat's floor grid at ``height`` (m; default :meth:`ground_height`), its cells scaled to
-        the robot (meshcat's 0.5 m cells times ``grid_scale``); returns the height."""
+        """Put meshcat's floor grid at ``height`` (m; default :meth:`ground_height`); returns it."""
         height = self.ground_height() if height is None else float(height)
         transform = np.diag([self.grid_scale, self.grid_scale, self.grid_scale, 1.0])
         transform[2, 3] = height - 1e-4  # (just under the soles: they are not hidden by the grid)
@@ -237,7 +215,7 @@ class Viewer:
 
     @property
     def grid_scale(self) -> float:
-        """The grid's scale: half the robot's extent (m), within [0.05, 1] (5 cm cells on the Bioloid)."""
+        """The scale of meshcat's 0.5 m cells: half the robot's extent (m), within [0.05, 1]."""
         return float(min(1.0, max(0.05, 0.5 * self.extent)))
 
     # -- markers ----------------------------------------------------------------------------------
@@ -265,9 +243,7 @@ class Viewer:
 
         material = mg.MeshLambertMaterial(color=color, opacity=opacity, transparent=opacity < 1.0)
         self.meshcat[path].set_object(mg.Sphere(radius), material)
-        transform = np.eye(4)
-        transform[:3, 3] = position
-        self.meshcat[path].set_transform(transform)
+        self.meshcat[path].set_transform(_translation(position))
 
     def _line(self, path: str, points: np.ndarray, color: int, loop: bool = False) -> None:
         import meshcat.geometry as mg
@@ -277,6 +253,15 @@ class Viewer:
         line = mg.LineLoop(geometry, material) if loop else mg.Line(geometry, material)
         self.meshcat[path].set_object(line)
 
+    def _outline(self, path: str, vertices: np.ndarray, ground_z: float, color: int) -> None:
+        self._line(path, np.column_stack([vertices, np.full(len(vertices), ground_z + 1e-4)]), color,
+                   loop=True)
+
+    def _support_polygon(self, kinematics: Kinematics, feet: Sequence[str]) -> tuple[SupportPolygon, float]:
+        """The support polygon of the soles ``feet`` and its height (m, their contact points' mean)."""
+        corners = contact_points(kinematics, self.robot.soles, feet)
+        return SupportPolygon(corners[:, :2]), float(np.mean(corners[:, 2]))
+
     def clear(self, name: str) -> None:
         """Remove a marker group: "frames", "target", "reached", "support", "trace"."""
         self.meshcat[f"{ROOT}/{name}"].delete()
@@ -285,62 +270,44 @@ class Viewer:
                     scale: float | None = None) -> list[str]:
         """Axes of a chain's base, joint and tip frames (and any ``frames``) at the shown q."""
         chain = self._chain(chain) if chain is not None or len(self.robot.chains) != 1 else self.robot.chain()
-        names = list(frames)
-        if chain is not None:
-            names = [chain.base_frame, *chain.joint_names, chain.tip_frame, *names]
+        names = list(dict.fromkeys([chain.base_frame, *chain.joint_names, chain.tip_frame, *frames]
+                                   if chain is not None else frames))
         scale = 0.12 * self.extent if scale is None else scale
         self.clear("frames")
-        for name in dict.fromkeys(names):
+        for name in names:
             self._triad(f"{ROOT}/frames/{name}", self.frame_pose(name), scale)
-        return list(dict.fromkeys(names))
+        return names
 
-    def _world_pose(self, pose, chain: Chain | str | None) -> tuple[pin.SE3, bool]:
-        """A target or pose in world coordinates (from the chain's base frame when ``chain`` is given)."""
-        target = as_target(pose)
+    def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
+                    color: int = TARGET_COLOR) -> pin.SE3:
+        """An IK target (in the chain's base frame with ``chain``): a sphere, with axes for a pose; its world
+        pose."""
+        target = as_target(target)
         placement = target.se3()
         chain = self._chain(chain)
         if chain is not None:
             placement = self.frame_pose(chain.base_frame) * placement
-        return placement, target.is_pose
-
-    def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
-                    color: int = TARGET_COLOR) -> pin.SE3:
-        """An IK target: a translucent sphere, with axes when it has an orientation.
-
-        ``target`` is anything ``wbik.targets.as_target`` takes, in the chain's base frame when
-        ``chain`` is given, else in the world. Returns the world placement drawn.
-        """
-        placement, is_pose = self._world_pose(target, chain)
         path = f"{ROOT}/{name}"
         self.meshcat[path].delete()
         self._sphere(f"{path}/point", placement.translation, 0.035 * self.extent, color, opacity=0.6)
-        if is_pose:
+        if target.is_pose:
             self._triad(f"{path}/axes", placement, 0.15 * self.extent)
         return placement
-
-    def show_reached(self, pose, chain: Chain | str | None = None) -> pin.SE3:
-        """The pose a solver reached (blue), drawn like a target."""
-        return self.show_target(pose, chain, name="reached", color=REACHED_COLOR)
 
     def show_ik_result(self, result, target, chain: Chain | str) -> None:
         """A solver's answer: the robot at ``result.q``, the target and the chain's reached tip pose."""
         chain = self._chain(chain)
-        if result.q is None:
-            self.show_target(target, chain)
-            return
-        self.show(result.q, chain)
+        if result.q is not None:
+            self.show(result.q, chain)
         self.show_target(target, chain)
-        reached = chain.fk(np.asarray(result.q, dtype=float))
-        self.show_reached(reached if as_target(target).is_pose else reached.translation, chain)
+        if result.q is not None:  # the reached pose, in blue
+            reached = chain.fk(np.asarray(result.q, dtype=float))
+            self.show_target(reached if as_target(target).is_pose else reached.translation, chain, "reached",
+                             REACHED_COLOR)
 
     def show_com_and_polygon(self, q: Sequence[float] | None = None,
                              feet: Sequence[str] | None = None) -> SupportView:
-        """The centre of mass, its ground projection, and the support polygon of the feet in contact.
-
-        The polygon is the convex hull of the sole rectangles ``robot.soles``
-        (corners in each sole frame) placed at q; it is green when the CoM projects inside, red
-        otherwise.
-        """
+        """The CoM, its ground projection and the support polygon of ``feet`` (green: the CoM inside)."""
         corners_by_sole = self.robot.soles
         if not corners_by_sole:
             raise UnsupportedError(
@@ -352,14 +319,10 @@ class Viewer:
             raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(corners_by_sole)}")
         if q is not None:
             self.show(q)
-        corners = contact_points(Kinematics(self.robot.model, self.q), corners_by_sole, feet)
-        ground_z = float(np.mean(corners[:, 2]))
-        support = SupportPolygon(corners[:, :2])
-        polygon = support.vertices
+        support, ground_z = self._support_polygon(Kinematics(self.robot.model, self.q), feet)
         com = self.robot.center_of_mass(self.q)
         margin = support.margin_of(com[:2])
-        inside = margin >= 0.0
-        color = INSIDE_COLOR if inside else OUTSIDE_COLOR
+        color = INSIDE_COLOR if margin >= 0.0 else OUTSIDE_COLOR
         path = f"{ROOT}/support"
         self.meshcat[path].delete()
         radius = 0.025 * self.extent
@@ -367,19 +330,14 @@ class Viewer:
         ground_point = np.array([com[0], com[1], ground_z])
         self._sphere(f"{path}/com_ground", ground_point, 0.6 * radius, color)
         self._line(f"{path}/plumb", np.array([com, ground_point]), COM_COLOR)
-        outline = np.column_stack([polygon, np.full(len(polygon), ground_z + 1e-4)])
-        self._line(f"{path}/polygon", outline, color, loop=True)
-        return SupportView(com, polygon, ground_z, bool(inside), float(margin))
+        self._outline(f"{path}/polygon", support.vertices, ground_z, color)
+        return SupportView(com, support.vertices, ground_z, bool(margin >= 0.0), float(margin))
 
     # -- animation --------------------------------------------------------------------------------
     def animate(self, times: Sequence[float], qs: Sequence[Sequence[float]],
                 chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
                 repetitions: int = 1, play: bool = True) -> np.ndarray | None:
-        """Play a trajectory (q rows, full or of ``chain``) at its own times (s).
-
-        With ``trace_frame``, the frame's path is drawn as a line and a marker rides along it;
-        returns that path (N, 3) in world coordinates, else None.
-        """
+        """Play q rows (full, or of ``chain``) at their times (s); the path of ``trace_frame`` (N, 3)."""
         times = np.asarray(times, dtype=float).reshape(-1)
         rows = [self.full_configuration(q, chain) for q in qs]
         if len(rows) != len(times) or len(rows) == 0:
@@ -387,52 +345,57 @@ class Viewer:
                 f"animate needs one configuration per time: got {len(times)} times and {len(rows)} rows")
         if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError("animation times must be finite and strictly increasing")
-        animation, trace = self._robot_keyframes(times, rows, trace_frame, fps)
-        self.meshcat.set_animation(animation, play=play, repetitions=repetitions)
+        clip, _, trace = self._robot_keyframes(times, rows, trace_frame, fps)
+        self.meshcat.set_animation(clip, play=play, repetitions=repetitions)
         return trace
 
     def _robot_keyframes(self, times: np.ndarray, rows: Sequence[np.ndarray], trace_frame: str | None,
                          fps: float):
-        """A meshcat Animation moving every robot geometry (and the trace marker); the trace or None."""
+        """A meshcat Animation moving every robot geometry (and the trace marker), its keys, the trace."""
         import meshcat.animation
 
         model, data = self.robot.model, self.robot.model.createData()
         geometry_data = self.geometry.createData()
         trace_id = self.robot.frame_id(trace_frame) if trace_frame else None
-        animation = meshcat.animation.Animation(default_framerate=fps)
+        clip = meshcat.animation.Animation(default_framerate=fps)
         nodes = [(geometry_id, self._pinocchio.getViewerNodeName(geometry_object, pin.GeometryType.VISUAL),
                   np.diag([*geometry_object.meshScale, 1.0]))
                  for geometry_id, geometry_object in enumerate(self.geometry.geometryObjects)]
+        keys = [float(time * fps) for time in times - times[0]]
         trace = []
-        for time, q in zip(times - times[0], rows, strict=True):
+        for key, q in zip(keys, rows, strict=True):
             pin.forwardKinematics(model, data, q)
             pin.updateGeometryPlacements(model, data, self.geometry, geometry_data)
-            with animation.at_frame(self.meshcat, float(time * fps)) as frame:
+            with clip.at_frame(self.meshcat, key) as frame:
                 for geometry_id, node, scale in nodes:
                     frame[node].set_transform(geometry_data.oMg[geometry_id].homogeneous @ scale)
-                if trace_id is not None:
-                    pin.updateFramePlacement(model, data, trace_id)
-                    position = data.oMf[trace_id].translation.copy()
-                    trace.append(position)
-                    marker = np.eye(4)
-                    marker[:3, 3] = position
-                    frame[f"{ROOT}/trace/marker"].set_transform(marker)
+            if trace_id is not None:
+                pin.updateFramePlacement(model, data, trace_id)
+                trace.append(data.oMf[trace_id].translation.copy())
         self.show(rows[0])
         if trace_id is None:
-            return animation, None
+            return clip, keys, None
+        self._track(clip, keys, f"{ROOT}/trace/marker", trace)
         path = np.array(trace)
         self._line(f"{ROOT}/trace/path", path, TRACE_COLOR)
         self._sphere(f"{ROOT}/trace/marker", path[0], 0.02 * self.extent, TRACE_COLOR)
-        return animation, path
+        return clip, keys, path
+
+    def _track(self, clip, keys: Sequence[float], path: str, positions) -> None:
+        for key, position in zip(keys, positions, strict=True):
+            with clip.at_frame(self.meshcat, key) as frame:
+                frame[path].set_transform(_translation(position))
+
+    def _visibility(self, clip, path: str, keys: list[float], visible: Sequence[bool]) -> None:
+        """Boolean ``visible`` keys where the value changes (three.js holds a boolean until the next key)."""
+        for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
+            if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
+                with clip.at_frame(self.meshcat[path], key) as frame:
+                    frame.set_property("visible", "boolean", bool(value))
 
     def play_animation(self, animation, fps: float = 30.0, repetitions: int = 1,
                        play: bool = True) -> AnimationView:
-        """Play a :class:`wbik.viz.animation.Animation` with its overlays: the traced frame, the
-        CoM with its ground projection (green inside the support polygon, red outside) and the
-        polygon of the soles on the ground at each sample, and markers on the frames in contact.
-
-        A one-sample animation is shown still (with its overlays). Returns what was drawn.
-        """
+        """Play a :class:`wbik.viz.animation.Animation` with its overlays (one sample: still)."""
         if animation.robot.model.nq != self.robot.model.nq:
             raise InvalidConfigurationError(
                 f"the animation is of {animation.robot.name} (nq = {animation.robot.model.nq}); this "
@@ -443,18 +406,15 @@ class Viewer:
         times = animation.times if not still else np.array([0.0, 1.0 / fps])
         if still:
             rows = rows * 2
-        clip, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
-        keys = [float(t * fps) for t in times - times[0]]
+        clip, keys, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
         self.show_environment(animation.environment)
         self.place_grid(self.ground_height(rows[0]))
         self._camera_keyframes(clip, keys, rows, times)
         if overlays.zmp is not None:
-            zmp = overlays.zmp if not still else np.vstack([overlays.zmp, overlays.zmp])
-            self._zmp_keyframes(clip, keys, zmp)
+            self._zmp_keyframes(clip, keys, overlays.zmp if not still else np.vstack([overlays.zmp] * 2))
         margins = None
         if overlays.support is not None and self.robot.soles:
-            support = overlays.support * (2 if still else 1)
-            margins = self._support_keyframes(clip, keys, rows, support)
+            margins = self._support_keyframes(clip, keys, rows, overlays.support * (2 if still else 1))
         if overlays.contacts is not None:
             self._contact_keyframes(clip, keys, rows, overlays.contacts * (2 if still else 1))
         self.show(rows[0])
@@ -462,119 +422,77 @@ class Viewer:
         return AnimationView(animation.frames, trace, margins)
 
     def _camera_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray) -> None:
-        """The camera follows the robot: its target on the robot's middle, averaged over about half a
-        second of samples, at the distance that shows the standing robot whole."""
-        self.look_at(center=self.robot_centre(rows[0]), distance=self.camera_distance(rows[0]))
+        """The camera follows the robot's middle, averaged over about half a second."""
+        self.look_at(*self._framing(rows[0]))
         if len(rows) < 2:
             return
-        centres = np.array([self.robot_centre(q) for q in rows])
+        centres = np.array([self._framing(q)[0] for q in rows])
         spacing = float(times[-1] - times[0]) / (len(times) - 1)
         width = max(1, int(round(0.25 / max(spacing, 1e-9))))
         padded = np.vstack([np.repeat(centres[:1], width, axis=0), centres,
                             np.repeat(centres[-1:], width, axis=0)])
         kernel = np.ones(2 * width + 1) / (2 * width + 1)
         smooth = np.column_stack([np.convolve(padded[:, axis], kernel, mode="valid") for axis in range(3)])
-        for key, centre in zip(keys, smooth, strict=True):
-            target = np.eye(4)
-            target[:3, 3] = centre
-            with clip.at_frame(self.meshcat, key) as frame:
-                frame["/Cameras/default"].set_transform(target)
+        self._track(clip, keys, "/Cameras/default", smooth)
 
     def _zmp_keyframes(self, clip, keys: list[float], zmp: np.ndarray) -> None:
-        """A ZMP marker on the ground moving with the samples (hidden where there is none) and its path."""
+        """A ZMP marker (hidden where there is none) and its path."""
         path = f"{ROOT}/zmp"
         self.meshcat[path].delete()
         finite = np.all(np.isfinite(zmp), axis=1)
         if not finite.any():
             return
-        first = zmp[int(np.argmax(finite))]
-        self._sphere(f"{path}/marker", first, 0.015 * self.extent, ZMP_COLOR)
+        self._sphere(f"{path}/marker", zmp[int(np.argmax(finite))], 0.015 * self.extent, ZMP_COLOR)
         self._line(f"{path}/path", zmp[finite] + [0.0, 0.0, 2e-4], ZMP_COLOR)
-        for key, point, ok in zip(keys, zmp, finite, strict=True):
-            if ok:
-                marker = np.eye(4)
-                marker[:3, 3] = point
-                with clip.at_frame(self.meshcat, key) as frame:
-                    frame[f"{path}/marker"].set_transform(marker)
-        self._visibility(clip, self.meshcat[f"{path}/marker"], keys, [bool(v) for v in finite])
-
-    @staticmethod
-    def _visibility(clip, path_node, keys: list[float], visible: Sequence[bool]) -> None:
-        """Boolean ``visible`` keys where the value changes (three.js holds a boolean until the next key)."""
-        for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
-            if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
-                with clip.at_frame(path_node, key) as frame:
-                    frame.set_property("visible", "boolean", bool(value))
+        self._track(clip, [key for key, ok in zip(keys, finite, strict=True) if ok], f"{path}/marker",
+                    zmp[finite])
+        self._visibility(clip, f"{path}/marker", keys, [bool(v) for v in finite])
 
     def _support_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:
-        """CoM, its ground projection and one support polygon per stretch of samples on the same
-        soles at the same places (shown only during its stretch); the CoM margins (m, NaN in the air)."""
-        corners_by_sole = self.robot.soles
+        """CoM, its ground projection and one support polygon per stretch on the same soles; the CoM margins
+        (m, NaN in the air)."""
         kinematics = Kinematics(self.robot.model)
         path = f"{ROOT}/support"
         self.meshcat[path].delete()
         radius = 0.025 * self.extent
-        polygons, segment_of, margins, coms, grounds = [], [], [], [], []
+        stretches, stretch_of, margins, coms, grounds = [], [], [], [], []
         for q, feet in zip(rows, support, strict=True):
             kinematics.update(q)
-            com = kinematics.com().copy()
-            feet = [foot for foot in feet if foot in corners_by_sole]
+            coms.append(kinematics.com().copy())
+            feet = [foot for foot in feet if foot in self.robot.soles]
             if not feet:
-                segment_of.append(-1)
+                stretch_of.append(-1)
                 margins.append(np.nan)
-                coms.append(com)
                 grounds.append(grounds[-1] if grounds else 0.0)
                 continue
-            corners = contact_points(kinematics, corners_by_sole, feet)
-            polygon = SupportPolygon(corners[:, :2])
-            ground_z = float(np.mean(corners[:, 2]))
-            if not polygons or not self._same_polygon(polygons[-1], tuple(feet), polygon.vertices, ground_z):
-                polygons.append((tuple(feet), polygon.vertices, ground_z, []))
-            polygons[-1][3].append(polygon.margin_of(com[:2]))
-            segment_of.append(len(polygons) - 1)
-            margins.append(polygon.margin_of(com[:2]))
-            coms.append(com)
+            polygon, ground_z = self._support_polygon(kinematics, feet)
+            if not stretches or not _same_polygon(stretches[-1], tuple(feet), polygon.vertices, ground_z):
+                stretches.append((tuple(feet), polygon.vertices, ground_z, []))
+            margins.append(polygon.margin_of(coms[-1][:2]))
+            stretches[-1][3].append(margins[-1])
+            stretch_of.append(len(stretches) - 1)
             grounds.append(ground_z)
         margins = np.array(margins, dtype=float)
         inside = [bool(m >= 0.0) for m in margins]  # NaN (no sole down) counts as outside
-        first = next((i for i, s in enumerate(segment_of) if s >= 0), 0)
+        first = next((i for i, s in enumerate(stretch_of) if s >= 0), 0)
         self._sphere(f"{path}/com", coms[0], radius, COM_COLOR)
         for name, color in (("com_ground_inside", INSIDE_COLOR), ("com_ground_outside", OUTSIDE_COLOR)):
             self._sphere(f"{path}/{name}", np.array([*coms[first][:2], grounds[first]]), 0.6 * radius, color)
-        for index, (_, vertices, ground_z, segment_margins) in enumerate(polygons):
-            color = INSIDE_COLOR if min(segment_margins) >= 0.0 else OUTSIDE_COLOR
-            outline = np.column_stack([vertices, np.full(len(vertices), ground_z + 1e-4)])
-            self._line(f"{path}/polygon_{index}", outline, color, loop=True)
-            self.meshcat[f"{path}/polygon_{index}"].set_property("visible", segment_of[0] == index)
-            self._visibility(clip, self.meshcat[f"{path}/polygon_{index}"], keys,
-                             [s == index for s in segment_of])
-        for key, com, ground_z in zip(keys, coms, grounds, strict=True):
-            marker, ground = np.eye(4), np.eye(4)
-            marker[:3, 3] = com
-            ground[:3, 3] = [com[0], com[1], ground_z]
-            with clip.at_frame(self.meshcat, key) as frame:
-                frame[f"{path}/com"].set_transform(marker)
-                frame[f"{path}/com_ground_inside"].set_transform(ground)
-                frame[f"{path}/com_ground_outside"].set_transform(ground)
+        for index, (_, vertices, ground_z, stretch_margins) in enumerate(stretches):
+            node, held = f"{path}/polygon_{index}", min(stretch_margins) >= 0.0
+            self._outline(node, vertices, ground_z, INSIDE_COLOR if held else OUTSIDE_COLOR)
+            self.meshcat[node].set_property("visible", stretch_of[0] == index)
+            self._visibility(clip, node, keys, [s == index for s in stretch_of])
+        grounded = [[com[0], com[1], ground_z] for com, ground_z in zip(coms, grounds, strict=True)]
+        self._track(clip, keys, f"{path}/com", coms)
+        self._track(clip, keys, f"{path}/com_ground_inside", grounded)
+        self._track(clip, keys, f"{path}/com_ground_outside", grounded)
         self.meshcat[f"{path}/com_ground_inside"].set_property("visible", inside[0])
         self.meshcat[f"{path}/com_ground_outside"].set_property("visible", not inside[0])
-        self._visibility(clip, self.meshcat[f"{path}/com_ground_inside"], keys, inside)
-        self._visibility(clip, self.meshcat[f"{path}/com_ground_outside"], keys, [not v for v in inside])
+        self._visibility(clip, f"{path}/com_ground_inside", keys, inside)
+        self._visibility(clip, f"{path}/com_ground_outside", keys, [not v for v in inside])
         return margins
-
-    @staticmethod
-    def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
-                      tolerance: float = POLYGON_TOLERANCE) -> bool:
-        """The same soles at the same places (to ``tolerance`` m) as the ``previous`` stretch."""
-        old_feet, old_vertices, old_z, _ = previous
-        if old_feet != feet or abs(old_z - ground_z) > tolerance:
-            return False
-        # every vertex of each polygon near the other's outline (a hull of nearly aligned soles may
-        # have two more vertices, on the edges of the aligned one)
-        old_polygon, polygon = SupportPolygon(old_vertices), SupportPolygon(vertices)
-        return (all(abs(old_polygon.margin_of(v)) <= tolerance for v in vertices)
-                and all(abs(polygon.margin_of(v)) <= tolerance for v in old_vertices))
 
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            contacts: Sequence[tuple[str, ...]]) -> None:
@@ -593,18 +511,13 @@ class Viewer:
             node = f"{path}/{name}"
             self._sphere(node, positions[name][0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
             self.meshcat[node].set_property("visible", name in contacts[0])
-            for key, position in zip(keys, positions[name], strict=True):
-                marker = np.eye(4)
-                marker[:3, 3] = position
-                with clip.at_frame(self.meshcat, key) as frame:
-                    frame[node].set_transform(marker)
-            self._visibility(clip, self.meshcat[node], keys, [name in held for held in contacts])
+            self._track(clip, keys, node, positions[name])
+            self._visibility(clip, node, keys, [name in held for held in contacts])
 
     def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
              repetitions: int = 1) -> np.ndarray | None:
-        """Animate a trajectory object: ``wbik.motion.Trajectory`` or anything with ``times`` and
-        joint rows (``positions``, ``qs`` or ``q``; a chain's joints when it names its ``chain``,
-        else full configurations). The tip frame (``tip_frame``) is traced unless told otherwise."""
+        """Animate anything with ``times`` and joint rows (``positions``, ``qs`` or ``q``; of its ``chain`` if
+        it names one), its ``tip_frame`` traced unless told otherwise."""
         times = getattr(trajectory, "times", None)
         rows = next((getattr(trajectory, name) for name in ("positions", "qs", "q")
                      if getattr(trajectory, name, None) is not None), None)
@@ -635,4 +548,4 @@ class Viewer:
 
     def _repr_html_(self) -> str:
         source = html_module.escape(self.html(), quote=True)
-        return (f'<iframe srcdoc="{source}" style="width: 100%; height: 480px; border: none"></iframe>')
+        return f'<iframe srcdoc="{source}" style="width: 100%; height: 480px; border: none"></iframe>'

@@ -1,12 +1,7 @@
-"""One whole-body problem: goal and soft tasks (:mod:`wbik.qp.tasks`) under hard constraints
-(:mod:`wbik.qp.constraint`), what every method that solves whole bodies is given, and what the shared
-check (:func:`wbik.solvers.check.check_problem`) judges an answer against.
-
-The constraints are open: ``constraints=[...]`` takes any constraint object (a contact, the CoM in the
-support polygon, joint, velocity and acceleration limits, minimum distances, collision avoidance, a
-class of the user's); the keywords ``contacts``, ``support``, ``margin``, ``limits``, ``collisions`` and
-``acceleration_limit`` are a short way of listing the common ones. A problem is a template: a solve
-starts a copy of it at q0 (:meth:`WholeBody.start`), where its contacts are held.
+"""One whole-body problem: goal and soft tasks (:mod:`wbik.qp.tasks`) under open hard constraints
+(:mod:`wbik.qp.constraint`): what every whole-body method is given and the shared check
+(:func:`wbik.solvers.check.check_problem`) judges. A problem is a template: a solve starts a copy of it
+at q0 (:meth:`WholeBody.start`), where its contacts are held.
 """
 
 from __future__ import annotations
@@ -55,7 +50,7 @@ COLLISION = Map({"frames": Key(ListOf(FRAME, min_items=2, what="2 frame names"),
                  "distance": Key(Number(ge=0, unit="m"), required=True)}, what="{frames: [a, b], distance}")
 KEYS = {"margin": Key(Number(ge=0, unit="m", as_float=True)), "limits": Key(Text(LIMITS)),
         "step_dt": Key(Number(gt=0, unit="s", as_float=True)), "name": Key(Text())}
-"""The nodes of the settings :class:`WholeBody` and :meth:`WholeBody.from_dict` share."""
+"""The settings :class:`WholeBody` and :meth:`WholeBody.from_dict` share."""
 ARGUMENTS = Map({"robot": Key(Instance(Robot, "a wbik.Robot")), **KEYS,
                  "tasks": Key(ListOf(Instance(Task, "a wbik.qp.tasks task (FrameTask, ComTask, ...)"))),
                  "constraints": Key(ListOf(Instance(Constraint, "a wbik.qp constraint (Contact, ...)")))})
@@ -68,17 +63,12 @@ PROBLEM = Map({"tasks": Key(ListOf(TASK_ENTRY, what="task entries"), []), "conta
 
 
 class WholeBody:
-    """A whole-body IK problem on one robot (see the module docstring).
-
-    ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (held there); a point foot (a sole
-    with one contact point) is held in position only. ``support``: soles whose contact points
-    (``robot.soles``) make the support polygon, the CoM kept ``margin`` (m) inside it; default the
-    contacts that are soles, ``[]`` for none. ``limits``: "position", "position+velocity" (each IK step
-    also bounded by v_max ``step_dt``) or "none". ``acceleration_limit``: rad/s^2 (one value or nv), each
-    IK step a period of ``step_dt`` (:class:`wbik.qp.limits.JointAccelerationLimits`). ``collisions``:
-    minimum distances between frame origins, (frame_a, frame_b, m) or {frames: [a, b], distance: m}.
-    ``constraints``: any further constraint objects. The arguments are checked by :data:`ARGUMENTS`.
-    """
+    """A whole-body IK problem on one robot: ``constraints`` takes any constraint objects, the keywords list
+    the common ones. ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (a point foot: its
+    position only); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the
+    contacts that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or
+    "none"; ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum
+    distances."""
 
     def __init__(self, robot: Robot, tasks: Sequence[Task] = (), contacts=(),
                  support: Sequence[str] | None = None, margin: float = 0.005,
@@ -179,10 +169,9 @@ class WholeBody:
         return [copy.deepcopy(task) for task in self.tasks]
 
     def start(self, q0, need_q0: bool = False, strict: bool = True) -> StartedProblem:
-        """A copy of the problem started at q0: tasks and constraints resolved there (contacts held where
-        they are, the support polygon of the soles there; a support spanning no area raises
-        DegenerateSupportPolygonError, unless not ``strict``: the check measures such a support).
-        ``need_q0``: refuse when a contact would be held at a start the caller did not give."""
+        """A copy started at q0: contacts held where they are, the soles' support polygon there (spanning no
+        area: DegenerateSupportPolygonError if ``strict``). ``need_q0``: refuse contacts held at a start
+        the caller did not give."""
         if need_q0 and any(placement is None for placement in self.contacts.values()):
             raise InvalidSettingError("checking this problem needs q0 to know where its contacts are held")
         q0 = self.check_q(q0)
@@ -199,9 +188,8 @@ class WholeBody:
     # -- from a task-file entry ---------------------------------------------------------------------
     @classmethod
     def from_dict(cls, robot: Robot, data: Mapping, q: np.ndarray | None = None) -> WholeBody:
-        """A problem from a task-file mapping (:data:`PROBLEM`: ``tasks`` as in a ``wholebody_ik`` phase,
-        ``collisions`` as [{frames: [a, b], distance: m}], the other keys as the arguments of the same
-        name), targets resolved at q (default: the robot's nominal)."""
+        """A problem from a task-file mapping (:data:`PROBLEM`: ``tasks`` as in a ``wholebody_ik`` phase, the
+        other keys as the arguments), targets resolved at q (default: the robot's nominal)."""
         source = "WholeBody.from_dict"
         if isinstance(data, Mapping):
             data = {key: value for key, value in data.items() if value is not None}
@@ -213,8 +201,7 @@ class WholeBody:
 
 @dataclass
 class StartedProblem:
-    """A problem as one solve started it at ``q0``: its tasks and constraints (copies) resolved there,
-    the ``kinematics`` at q0."""
+    """A problem as one solve started it at ``q0``: copies of its tasks and constraints, its kinematics."""
 
     problem: WholeBody
     q0: np.ndarray
@@ -240,8 +227,7 @@ class StartedProblem:
         return next((c.polygon for c in self.constraints if isinstance(c, CoMInSupportPolygon)), None)
 
     def items(self) -> list[tuple[str, object]]:
-        """(what, item) of every constraint and task, the constraints first, named as the problem names
-        them (what a peer translates, what a refusal names)."""
+        """(name, item) of every constraint, then every task, as the problem names them."""
         return ([(c.name, c) for c in self.constraints]
                 + [(f"task {name}", task)
                    for name, task in zip(self.problem.task_names, self.tasks, strict=True)])
