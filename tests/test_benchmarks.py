@@ -1,4 +1,4 @@
-"""The one benchmark command runs from a fresh clone and reports every speed goal of issue 16.
+"""The one benchmark command runs from a fresh clone and reports every speed goal it lists.
 
 Speed is not asserted here (it depends on the machine): the test checks that ``benchmarks/all.py
 --quick`` runs, that each goal has a row with finite figures measured in the same run, and that the

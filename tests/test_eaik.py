@@ -199,7 +199,8 @@ def test_bad_batch_threads():
 def test_missing_eaik_raises_missing_dependency(monkeypatch):
     monkeypatch.setitem(sys.modules, "eaik", None)
     monkeypatch.setitem(sys.modules, "eaik.IK_HP", None)
-    with pytest.raises(MissingDependencyError, match="pip install EAIK==1.2.2"):
+    monkeypatch.setitem(sys.modules, "eaik.pybindings", None)
+    with pytest.raises(MissingDependencyError, match=r"pip install 'wbik\[eaik\]'"):
         wbik.solver("eaik", load("ur5"), "ee")
 
 

@@ -22,8 +22,11 @@ EXTRAS = {"placo": "wbik[placo]", "pink": "wbik[pink]", "mink": "wbik[mink]", "e
 
 
 def _hide(monkeypatch, method: str) -> None:
+    """The method's libraries and every submodule already imported (a loaded ``eaik.IK_HP`` would be found
+    without its package) made not importable."""
     for module in IK_METHOD_REGISTRY.get(method).needs.modules:
-        monkeypatch.setitem(sys.modules, module, None)
+        for name in [module, *(loaded for loaded in sys.modules if loaded.startswith(module + "."))]:
+            monkeypatch.setitem(sys.modules, name, None)
 
 
 def test_every_peer_method_names_what_it_needs():

@@ -88,7 +88,7 @@ def test_clockwise_hard_polygon_keeps_the_pulled_com_inside(bench, start):
 
 
 def test_counter_clockwise_polygon_does_not(bench, start):
-    # as the benchmark used to hand it (counter-clockwise, not configured, so soft): the CoM leaves
+    # counter-clockwise and soft (PlaCo's default when not configured): the CoM leaves
     assert _solve_pulled(bench, *start, clockwise=False, hard=False) < -0.01
     # counter-clockwise and hard: every half-plane is inverted, no configuration satisfies them all
     with pytest.raises(RuntimeError, match="[Ii]nfeasible"):

@@ -126,9 +126,9 @@ def test_pin_stays_in_its_hole_during_insertion(cell):
 
 
 @pytest.mark.parametrize("name", ["h14", "h16", "h27"])
-def test_formerly_unreachable_holes_have_a_clear_route(cell, name):
-    """h14, h15, h16, h20, h21, h27 had no route before (the joint line came within 4.6 mm of the
-    workpiece and the QP found no retreat point); three of them, checked as densely as the run."""
+def test_holes_near_the_joint_line_have_a_clear_route(cell, name):
+    """h14, h15, h16, h20, h21, h27 need the retreat point (the direct joint line comes within 4.6 mm of
+    the workpiece); three of them, checked as densely as the run."""
     from wbik.apps.riveting.cycle import check_move
 
     robot, scene, collision, chain, limits, q_home = cell

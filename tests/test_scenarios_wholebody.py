@@ -1,4 +1,4 @@
-"""Whole-body scenario files (tasks/*.yaml) with the issue's numbers, checked independently by FK."""
+"""Whole-body scenario files (tasks/*.yaml) with their stated goals, checked independently by FK."""
 
 from pathlib import Path
 

@@ -49,6 +49,7 @@ MINK_LIBRARY = OptionalDependency("mink and MuJoCo", ("mink", "mujoco"), extra("
 EAIK_LIBRARY = OptionalDependency("EAIK", ("eaik",), extra("eaik"))
 IK_GEO_LIBRARY = OptionalDependency("ik-geo", ("ik_geo",), extra("ikgeo"))
 TRAC_IK_LIBRARY = OptionalDependency("pytracik (TRAC-IK's Python binding)", ("pytracik",), extra("tracik"))
+DASK_LIBRARY = OptionalDependency("dask.distributed", ("dask.distributed",), extra("dask"))
 PYKDL_LIBRARY = OptionalDependency(
     "PyKDL (orocos KDL's Python binding, not on PyPI)", ("PyKDL",),
     "sudo apt-get install python3-pykdl, then bash scripts/setup.sh to expose it in the venv")

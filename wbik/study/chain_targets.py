@@ -24,6 +24,7 @@ from wbik.errors import WbikError
 from wbik.robot import Chain
 from wbik.schema import Map
 from wbik.solvers.method import IKMethod
+from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import INTERVALS_TEXT
 from wbik.study.blocks import SOLVED_COLUMNS
 from wbik.study.blocks import TIME_COLUMNS
@@ -45,7 +46,6 @@ from wbik.study.case_kinds import ChunkTask
 from wbik.study.case_kinds import RegisteredMethods
 from wbik.study.context import chain_of
 from wbik.study.context import make_solver
-from wbik.study.context import solver_budget
 from wbik.study.cpu_watch import MAX_RERUNS
 from wbik.study.cpu_watch import solve_watching_the_cpu
 from wbik.study.metrics import STUDY_SEQUENCE
@@ -131,7 +131,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
         return poses_of_joints(chain, q_true, study.seed, self.target, study.start)
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-        return solver_budget(method, timeout_s, options)
+        return budget_options(method, timeout_s, options)
 
     def unbudgeted(self, method: str) -> bool:
         try:

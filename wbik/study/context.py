@@ -1,5 +1,5 @@
 """What the study's runner, applicability check, case kinds and report share (and import from here, never
-from each other): a task's robot, a method's solver and budget, a chunk's seed and count."""
+from each other): a task's robot, a chunk's seed and count."""
 
 from __future__ import annotations
 
@@ -56,19 +56,6 @@ def make_solver(robot_name: str, robot_params: tuple, chain: str | None, method:
         chain = case_chain(robot_name, robot_params, chain, base, tip).name
     return solver(method, robot, chain=chain, timeout_s=timeout_s,
                        tolerances=Tolerances(*tolerances), seed=seed, **options)
-
-
-def solver_budget(method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
-    """(timeout_s, options) to build ``method`` with for a study budget of ``timeout_s`` s: a loop of ours
-    gets no wall clock and the iterations that cost that long on the reference machine (unless the study
-    gives ``max_iterations``), any other method the wall clock."""
-    from wbik.solvers.method_registry import method_factory
-    factory = method_factory(method)
-    if getattr(factory, "iteration_cost_s", None) is None:
-        return timeout_s, options
-    if "max_iterations" in options:
-        return None, options
-    return None, {**options, "max_iterations": factory.iterations_for(timeout_s)}
 
 
 def chunk_seed(seed: int, case: str, label: str, chunk: int) -> int:

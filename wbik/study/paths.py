@@ -35,6 +35,7 @@ from wbik.schema import Key
 from wbik.schema import Map
 from wbik.schema import Number
 from wbik.schema import join
+from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import Block
 from wbik.study.blocks import fmt
 from wbik.study.blocks import fmt_interval
@@ -46,7 +47,6 @@ from wbik.study.chain_targets import ChainTargets
 from wbik.study.context import _frozen
 from wbik.study.context import chain_of
 from wbik.study.context import make_solver
-from wbik.study.context import solver_budget
 from wbik.study.path_metrics import branch_labels
 from wbik.study.path_metrics import circle_points
 from wbik.study.path_metrics import line_points
@@ -272,7 +272,7 @@ class PathTargets(ChainTargets):
         parameters = self.parameters_of(case)
         witness = None
         if parameters["reachable"]:
-            timeout_s, options = solver_budget(WITNESS_METHOD, WITNESS_BUDGET_S, {})
+            timeout_s, options = budget_options(WITNESS_METHOD, WITNESS_BUDGET_S, {})
             witness = make_solver(case.robot, _frozen(case.robot_params), case.chain, WITNESS_METHOD, options,
                                   timeout_s, (study.tolerances["position"], study.tolerances["rotation"]),
                                   study.seed, case.base, case.tip)

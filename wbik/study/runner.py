@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 import wbik.study.results as store
-from wbik.errors import MissingDependencyError
+from wbik.dependencies import DASK_LIBRARY
 from wbik.errors import WbikError
 from wbik.study.applicability import not_applicable
 from wbik.study.blocks import budget_kind
@@ -176,8 +176,7 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         from dask.distributed import Client
         from dask.distributed import LocalCluster
     except ImportError as exc:
-        raise MissingDependencyError(
-            "the dask backend needs dask[distributed]: .venv/bin/pip install 'dask[distributed]'") from exc
+        raise DASK_LIBRARY.error("the study's dask backend", exc) from None
     cluster = None
     if scheduler:
         client = Client(scheduler)
