@@ -23,11 +23,7 @@ import argparse
 
 import numpy as np
 
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import JointVelocityLimits
-from wbik.qp import PositionTask
-from wbik.qp import PostureTask
+from wbik.qp import IKProblem, JointPositionLimits, JointVelocityLimits, PositionTask, PostureTask
 from wbik.qp.limits import JointAccelerationLimits
 from wbik.robot import robot_from_urdf_text
 

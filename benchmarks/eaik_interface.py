@@ -36,8 +36,10 @@ from wbik.solvers.base import Solver
 from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ratios import Ratio  # noqa: E402
-from ratios import best_of_rounds  # noqa: E402
+from ratios import (
+    Ratio,  # noqa: E402
+    best_of_rounds,  # noqa: E402
+)
 
 ROUNDS = 9
 GOAL = 2.0

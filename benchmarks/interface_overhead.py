@@ -25,8 +25,10 @@ from wbik.solvers.base import Solver
 from wbik.solvers.result import Candidate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from ratios import Ratio  # noqa: E402
-from ratios import best_of_rounds  # noqa: E402
+from ratios import (
+    Ratio,  # noqa: E402
+    best_of_rounds,  # noqa: E402
+)
 
 BOUND_S = 10e-6
 """wbik's bound on the interface overhead per call."""

@@ -30,13 +30,15 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import OrientationTask
-from wbik.qp import PositionTask
-from wbik.qp import PostureTask
-from wbik.qp import RegularizationTask
+from wbik.qp import (
+    ComTask,
+    FrameTask,
+    IKProblem,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+)
 from wbik.qp.humanoid import stance_constraints
 from wbik.qp.support_polygon import sole_rectangle
 

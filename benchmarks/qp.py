@@ -46,16 +46,9 @@ import numpy as np
 import pinocchio as pin
 
 import wbik
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import OrientationTask
-from wbik.qp import RegularizationTask
-from wbik.qp import available_backends
-from wbik.qp.humanoid import stance_constraints
-from wbik.qp.humanoid import support_polygon
-from wbik.qp.problem import PHASES
-from wbik.qp.problem import SOLVE_PHASES
+from wbik.qp import ComTask, FrameTask, IKProblem, OrientationTask, RegularizationTask, available_backends
+from wbik.qp.humanoid import stance_constraints, support_polygon
+from wbik.qp.problem import PHASES, SOLVE_PHASES
 
 MARGIN = 0.005
 LIFT = np.array([0.0, 0.0, 0.04])
@@ -256,8 +249,7 @@ def com_margin_by_fk(robot, q, polygon) -> float:
 
 
 def placo_contender(robot, q_start, foot_target) -> Contender:
-    from wbik.solvers.placo import placo_configuration
-    from wbik.solvers.placo import set_placo_configuration
+    from wbik.solvers.placo import placo_configuration, set_placo_configuration
 
     setup = placo_problem(robot, q_start, foot_target)
     wrapper, solver, left = setup.wrapper, setup.solver, setup.left

@@ -9,8 +9,7 @@ is better (times) or from below when larger is better (success rates, throughput
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from collections.abc import Hashable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass
 
 UNITS = ("s/call", "s/pose", "s/step", "s/solve", "fraction", "poses/s", "Hz")

@@ -43,8 +43,7 @@ def setup(name: str):
     from wbik.motion.walking.scenario import _spec_objects
     from wbik.motion.walking.timeline import Timing
     from wbik.scenario_schema import validate
-    from wbik.scenarios.kinds import robot_of
-    from wbik.scenarios.kinds import start_of
+    from wbik.scenarios.kinds import robot_of, start_of
 
     spec = validate(spec_of(name), name)
     robot = robot_of(spec)
@@ -65,8 +64,7 @@ def ranges(values: list[float]) -> str:
 
 def measure(name: str, rounds: int) -> dict:
     from wbik.motion.walking.placo_pattern import placo_walk
-    from wbik.motion.walking.tracking import trunk_frame
-    from wbik.motion.walking.tracking import walk
+    from wbik.motion.walking.tracking import trunk_frame, walk
 
     robot, q0, command, timing, options, feet, settings = setup(name)
     figures = {"pattern_median": [], "step_median": [], "pattern_p95": [], "step_p95": [], "median": [],

@@ -13,12 +13,9 @@
 from pathlib import Path
 
 import numpy as np
-from IPython.display import Image
-from IPython.display import Markdown
-from IPython.display import display
+from IPython.display import Image, Markdown, display
 
-from wbik.study import load_study
-from wbik.study import run_study
+from wbik.study import load_study, run_study
 from wbik.study.blocks import case_rows
 from wbik.study.definition import with_overrides
 from wbik.study.reference import our_figures

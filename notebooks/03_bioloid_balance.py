@@ -17,8 +17,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.scenarios import format_report
-from wbik.scenarios import run_scenario
+from wbik.scenarios import format_report, run_scenario
 from wbik.viz import Viewer
 
 ROOT = next(folder for folder in (Path.cwd(), *Path.cwd().parents) if (folder / "pyproject.toml").exists())

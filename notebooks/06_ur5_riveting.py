@@ -11,8 +11,7 @@ import numpy as np
 import yaml
 
 from wbik.apps.riveting.cycle import simulate
-from wbik.apps.riveting.report import Cell
-from wbik.apps.riveting.report import run_config
+from wbik.apps.riveting.report import Cell, run_config
 from wbik.viz import Viewer
 
 spec = yaml.safe_load(open("../tasks/ur5_riveting.yaml"))

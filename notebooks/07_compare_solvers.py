@@ -19,8 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import wbik
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 
 robot = wbik.load(ROBOT)
 chain = robot.chain_between(BASE, TIP)

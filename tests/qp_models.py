@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.robot import ChainSpec
-from wbik.robot import robot_from_urdf_text
+from wbik.robot import ChainSpec, robot_from_urdf_text
 
 THIGH = SHANK = 0.10
 ANKLE_HEIGHT = 0.03

@@ -15,8 +15,7 @@ import pytest
 import umsgpack
 
 from wbik.scenarios import load_scenario
-from wbik.viz.scenario import animation_viewer
-from wbik.viz.scenario import scenario_animation
+from wbik.viz.scenario import animation_viewer, scenario_animation
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 MAX_HTML_BYTES = 20e6

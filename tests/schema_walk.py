@@ -3,15 +3,9 @@ node that checks it (tests/test_hostile_task_files.py, tests/test_hostile_study_
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
-from wbik.schema import Anything
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Refused
-from wbik.schema import Shorthand
-from wbik.schema import Variants
+from wbik.schema import Anything, ListOf, Map, Refused, Shorthand, Variants
 
 Chooser = Callable[[object, object], object | None]
 """(node, value) -> the node that checks ``value`` where the file's own check picks one, else None."""

@@ -9,8 +9,7 @@ import pytest
 from closed_form_checks import angle_difference
 
 import wbik
-from wbik.robot_packages.arm3r.model import DEFAULT_LENGTHS
-from wbik.robot_packages.arm3r.model import start_configuration
+from wbik.robot_packages.arm3r.model import DEFAULT_LENGTHS, start_configuration
 
 ROUND_TRIP_POSES = 10_000
 LENGTH_SETS = [DEFAULT_LENGTHS, tuple(np.random.default_rng(3).uniform(0.3, 3.0, 3).round(6)),

@@ -16,13 +16,11 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.analytic.batch import batch_targets
-from wbik.solvers.analytic.batch import evaluate_batch
+from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
 from wbik.solvers.analytic.solver import AnalyticSolver
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 ROBOTS = ("arm3r", "bioloid", "golem3", "pincher", "ur5")
 FORMS = [(robot, chain, kind) for robot in ROBOTS for chain, kind in sorted(wbik.load(robot).closed_forms)]
@@ -204,8 +202,7 @@ def test_a_closed_form_whose_fk_is_not_the_models_is_refused(monkeypatch):
 
     import wbik.solvers.analytic.solver as analytic
     from wbik.errors import RobotDescriptionError
-    from wbik.robot_packages.ur5.closed_form import UR5
-    from wbik.robot_packages.ur5.closed_form import UR5EndEffector
+    from wbik.robot_packages.ur5.closed_form import UR5, UR5EndEffector
     from wbik.solvers.analytic import model_agreement
 
     class Shifted(UR5EndEffector):

@@ -230,9 +230,7 @@ def test_kernel_is_its_twin(robot, arm):
     """The same decisions as the vectorised choice (branch, status, solve_all's branches) on random poses,
     at gimbal lock, at the joint limits and at singular poses; the same bits where NumPy's arctan2 and
     arccos are libm's, else within TWIN_TOLERANCE (SINGULAR_TOLERANCE at the singular poses)."""
-    from compiled_twins import SINGULAR_TOLERANCE
-    from compiled_twins import assert_twins_agree
-    from compiled_twins import numpy_is_libm
+    from compiled_twins import SINGULAR_TOLERANCE, assert_twins_agree, numpy_is_libm
 
     solver = wbik.solver("analytic", robot, chain=arm)
     assert solver.closed_form("pose").kernel is not None

@@ -8,14 +8,15 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from closed_form_checks import angle_difference
-from closed_form_checks import assert_pose_round_trip
+from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
-from wbik.robot_packages.pincher.closed_form import arm_plane_branches
-from wbik.robot_packages.pincher.closed_form import pose_from_position_pitch
-from wbik.robot_packages.pincher.closed_form import position_pitch_branches
-from wbik.robot_packages.pincher.closed_form import tool_fk
+from wbik.robot_packages.pincher.closed_form import (
+    arm_plane_branches,
+    pose_from_position_pitch,
+    position_pitch_branches,
+    tool_fk,
+)
 from wbik.solvers.analytic.closed_form import wrap_into_limits
 
 ROUND_TRIP_POSES = 10_000

@@ -14,26 +14,17 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.dh import DHJoint
-from wbik.dh import DHTable
-from wbik.errors import InvalidOptionError
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
+from wbik.dh import DHJoint, DHTable
+from wbik.errors import InvalidOptionError, InvalidSettingError, UnsupportedError
 from wbik.kernels import eaik as eaik_kernel
-from wbik.solvers.analytic import recognition
+from wbik.solvers.analytic import recognition, stacked_planar, ur_type, yaw_planar
 from wbik.solvers.analytic import solver as analytic
-from wbik.solvers.analytic import stacked_planar
-from wbik.solvers.analytic import ur_type
-from wbik.solvers.analytic import yaw_planar
 from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
-from wbik.solvers.analytic.structure import ChainLines
-from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
 
 POSES = 50
 FK_ERROR = 1e-9
@@ -421,8 +412,7 @@ def test_compiled_choice_of_one_target_is_the_vectorised_one(compiled_twins, nam
     """EAIK's family (the eaik method's compiled choice among EAIK's branches) and a held first or last
     joint (the 6-joint form's kernel on the moved target) solve one target through a kernel where built:
     the status and the branch of the vectorised choice, from the original joints and from random starts."""
-    from compiled_twins import TWIN_TOLERANCE
-    from compiled_twins import assert_twins_agree
+    from compiled_twins import TWIN_TOLERANCE, assert_twins_agree
 
     solver = wbik.solver("analytic", robot(name), chain)
     assert solver.closed_form("pose").kernel is not None

@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
-from wbik.solvers.analytic.subproblems import clamped_acos
-from wbik.solvers.analytic.subproblems import clamped_cosine
-from wbik.solvers.analytic.subproblems import planar_2r
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_acos, clamped_cosine, planar_2r
 
 
 def test_planar_2r_by_hand():

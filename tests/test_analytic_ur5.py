@@ -7,8 +7,7 @@ import time
 import numpy as np
 import pinocchio as pin
 import pytest
-from closed_form_checks import angle_difference
-from closed_form_checks import assert_pose_round_trip
+from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
 from wbik.robot_packages.ur5.closed_form import ee_fk

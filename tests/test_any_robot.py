@@ -14,9 +14,7 @@ import pytest
 
 import wbik
 from wbik.cli import main
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownChainError
-from wbik.errors import UnknownRobotError
+from wbik.errors import RobotDescriptionError, UnknownChainError, UnknownRobotError
 from wbik.study.definition import study_from_dict
 
 

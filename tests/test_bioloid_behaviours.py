@@ -11,11 +11,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.apps.bioloid.behaviours import keyframe_rows
-from wbik.apps.bioloid.behaviours import load_keyframes
-from wbik.apps.bioloid.behaviours import replay_keyframes
-from wbik.apps.bioloid.behaviours import turn_in_place
-from wbik.apps.bioloid.behaviours import walk
+from wbik.apps.bioloid.behaviours import keyframe_rows, load_keyframes, replay_keyframes, turn_in_place, walk
 from wbik.apps.bioloid.gait import time_scale_motion
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
@@ -119,8 +115,7 @@ def test_scenario_files_run_and_pass(name, tmp_path):
     import yaml
 
     import wbik.apps.bioloid.scenarios  # noqa: F401  registers the kinds
-    from wbik.scenarios import load_scenario
-    from wbik.scenarios import run_scenario
+    from wbik.scenarios import load_scenario, run_scenario
 
     spec = load_scenario(TASKS / f"{name}.yaml")
     if spec.get("export", {}).get("servo_csv"):

@@ -9,20 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from scenario_pages import check_page
-from scenario_pages import check_support
-from scenario_pages import quiet_spec
-from scenario_pages import watch
+from scenario_pages import check_page, check_support, quiet_spec, watch
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.apps.bioloid import behaviours
-from wbik.apps.bioloid import sensors
-from wbik.apps.bioloid import stairs
-from wbik.apps.bioloid.stairs import Staircase
-from wbik.apps.bioloid.stairs import StairStateMachine
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import WbikError
+from wbik.apps.bioloid import behaviours, sensors, stairs
+from wbik.apps.bioloid.stairs import Staircase, StairStateMachine
+from wbik.errors import InvalidConfigurationError, WbikError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 

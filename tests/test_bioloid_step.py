@@ -14,10 +14,12 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.apps.bioloid.gait import GaitParameters
-from wbik.apps.bioloid.gait import step_forward_faithful
-from wbik.apps.bioloid.gait import step_forward_phases
-from wbik.apps.bioloid.gait import time_scale_motion
+from wbik.apps.bioloid.gait import (
+    GaitParameters,
+    step_forward_faithful,
+    step_forward_phases,
+    time_scale_motion,
+)
 from wbik.apps.bioloid.step_wholebody import step_forward_wholebody
 
 SOLE_HALF = np.array([0.05, 0.03])  # bioloid model: 100 x 60 mm soles centred under the ankle

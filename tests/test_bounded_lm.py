@@ -214,8 +214,7 @@ def test_one_seed_and_batched_paths_take_the_same_steps(robot_name, chain_name, 
     Measured differences: 3e-14 (UR5), 1e-13 (Pincher, Panda), 1e-12 (Bioloid leg, position rows
     weighted x6.5), 2e-11 (Golem-III with its lift, weighted x3: a 7-joint system, rounding amplified
     by the small damping near the solution)."""
-    from wbik.solvers.bounded_lm import BATCH_ITERATION_UNITS
-    from wbik.solvers.bounded_lm import _CallDraws
+    from wbik.solvers.bounded_lm import BATCH_ITERATION_UNITS, _CallDraws
 
     solver = wbik.solver("bounded_lm", robot(robot_name), chain=chain_name, batch_size=1,
                          position_weight=weight, tolerances=Tolerances(1e-9, 1e-9))

@@ -83,8 +83,7 @@ def test_walk_scenario_page_draws_the_robot():
     """``wbik view tasks/bioloid_walk_turn.yaml --html``: the walk's page loads without errors and
     shows the Bioloid (the screenshot stays in tests/artifacts/bioloid_walk_turn.png)."""
     from wbik.scenarios import load_scenario
-    from wbik.viz.scenario import animation_viewer
-    from wbik.viz.scenario import scenario_animation
+    from wbik.viz.scenario import animation_viewer, scenario_animation
 
     task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_walk_turn.yaml"
     spec = load_scenario(task)
@@ -112,8 +111,7 @@ def test_stair_walk_page_shows_the_staircase_and_the_floor_under_the_feet():
     floor grid at the soles' height, the camera on the robot (one step up and down, to keep it short)."""
     from wbik.scenarios import load_scenario
     from wbik.viz.environment import STAIR_COLORS
-    from wbik.viz.scenario import animation_viewer
-    from wbik.viz.scenario import scenario_animation
+    from wbik.viz.scenario import animation_viewer, scenario_animation
 
     task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_stairs.yaml"
     spec = load_scenario(task)

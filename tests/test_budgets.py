@@ -21,9 +21,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.errors import InvalidBudgetError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
+from wbik.errors import InvalidBudgetError, UnsupportedError, WbikError
 from wbik.solvers.method_registry import method_factory
 
 BUDGET_S = 0.02

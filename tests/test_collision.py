@@ -11,24 +11,11 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.collision import CollisionModel
-from wbik.collision import Obstacle
-from wbik.collision import Primitive
-from wbik.collision import box
-from wbik.collision import capsule
-from wbik.collision import robot_collision_model
-from wbik.errors import InvalidSettingError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownFrameError
-from wbik.errors import WbikError
-from wbik.qp import CollisionAvoidance
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import Kinematics
-from wbik.qp import PositionTask
+from wbik.collision import CollisionModel, Obstacle, Primitive, box, capsule, robot_collision_model
+from wbik.errors import InvalidSettingError, RobotDescriptionError, UnknownFrameError, WbikError
+from wbik.qp import CollisionAvoidance, IKProblem, JointPositionLimits, Kinematics, PositionTask
 from wbik.scenario_schema import validate
-from wbik.scenarios import load_scenario
-from wbik.scenarios import run_scenario
+from wbik.scenarios import load_scenario, run_scenario
 from wbik.scenarios.kinds import ScenarioValueError
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"

@@ -12,18 +12,13 @@ import sys
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wbik import targets
-from wbik.kernels.twins import PURE_PYTHON_VARIABLE
-from wbik.kernels.twins import can_build
-from wbik.kernels.twins import pure_python
-from wbik.solvers.analytic import stacked_planar
-from wbik.solvers.analytic import ur_type
-from wbik.targets import MAX_POSITION
-from wbik.targets import ROTATION_TOLERANCE
+from wbik.kernels.twins import PURE_PYTHON_VARIABLE, can_build, pure_python
+from wbik.solvers.analytic import stacked_planar, ur_type
+from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE
 
 HAS_COMPILER = can_build()
 COMPILED_TWIN = pytest.mark.skipif(not HAS_COMPILER, reason="no C compiler here: no compiled twin to compare "
@@ -39,8 +34,7 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     from wbik import geometry
 
     assert (geometry._compiled_error_parts is not None) == HAS_COMPILER
-    from wbik.qp import step
-    from wbik.qp import tasks
+    from wbik.qp import step, tasks
 
     assert (tasks._FRAME_ROWS is not None) == HAS_COMPILER and (step._QUADRATIC is not None) == HAS_COMPILER
     from wbik.solvers import levenberg_marquardt

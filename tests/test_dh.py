@@ -8,8 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbik.dh import DHJoint
-from wbik.dh import DHTable
+from wbik.dh import DHJoint, DHTable
 from wbik.errors import RobotDescriptionError
 
 

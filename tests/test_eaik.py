@@ -15,9 +15,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.errors import InvalidSettingError
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidSettingError, MissingDependencyError, UnsupportedError
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 from wbik.targets import Target

@@ -16,8 +16,7 @@ import pytest
 
 import wbik
 from wbik.kernels import eaik as eaik_kernel
-from wbik.solvers.check import evaluate
-from wbik.solvers.check import evaluate_screened
+from wbik.solvers.check import evaluate, evaluate_screened
 from wbik.solvers.result import Candidate
 
 pytest.importorskip("eaik")

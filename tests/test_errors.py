@@ -88,11 +88,13 @@ def test_se3_target_is_accepted():
 
 
 def test_new_errors_keep_the_builtin_kinds():
-    from wbik.errors import InvalidBudgetError
-    from wbik.errors import InvalidOptionError
-    from wbik.errors import InvalidSettingError
-    from wbik.errors import InvalidToleranceError
-    from wbik.errors import UsageError
+    from wbik.errors import (
+        InvalidBudgetError,
+        InvalidOptionError,
+        InvalidSettingError,
+        InvalidToleranceError,
+        UsageError,
+    )
 
     assert issubclass(InvalidOptionError, TypeError) and issubclass(InvalidOptionError, wbik.WbikError)
     for error in (InvalidSettingError, InvalidToleranceError, InvalidBudgetError, UsageError):
@@ -116,9 +118,7 @@ def test_errors_keep_their_message_and_fields_across_processes():
     """A study worker's error reaches the main process by pickle: message and fields survive."""
     import pickle
 
-    from wbik.errors import InvalidOptionError
-    from wbik.errors import NoQPSolutionError
-    from wbik.errors import UnknownMethodError
+    from wbik.errors import InvalidOptionError, NoQPSolutionError, UnknownMethodError
 
     for error in (UnknownMethodError("x", ["dls", "qp"], hint="see wbik methods"),
                   InvalidOptionError("bad option 'y'", option="y", accepted=["a", "b"]),
@@ -129,8 +129,7 @@ def test_errors_keep_their_message_and_fields_across_processes():
 
 
 def test_did_you_mean_names_the_closest_choice_or_nothing():
-    from wbik.errors import closest_name
-    from wbik.errors import did_you_mean
+    from wbik.errors import closest_name, did_you_mean
 
     assert closest_name("bounded_ml", ["dls", "bounded_lm", "newton"]) == "bounded_lm"
     assert did_you_mean("bounded_ml", ["dls", "bounded_lm"]) == " (did you mean 'bounded_lm'?)"

@@ -16,17 +16,18 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.errors import InvalidBudgetError
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import InvalidOptionError
-from wbik.errors import InvalidTargetError
-from wbik.errors import InvalidToleranceError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
+from wbik.errors import (
+    InvalidBudgetError,
+    InvalidConfigurationError,
+    InvalidOptionError,
+    InvalidTargetError,
+    InvalidToleranceError,
+    RobotDescriptionError,
+    UnsupportedError,
+    WbikError,
+)
 from wbik.options import TIMEOUT_S
-from wbik.solvers.method_registry import methods
-from wbik.solvers.method_registry import solver_options
+from wbik.solvers.method_registry import methods, solver_options
 from wbik.solvers.result import Tolerances
 
 BARE = (ValueError, TypeError, KeyError, IndexError, AttributeError, RuntimeError)
@@ -310,8 +311,7 @@ def test_bad_study_files(tmp_path, body, words):
 ])
 def test_bad_option_values_stop_the_study_before_solving(tmp_path, method, words):
     """A bad-valued option or an uninstalled QP backend is an error in the file, not 'not applicable'."""
-    from wbik.study import load_study
-    from wbik.study import run_study
+    from wbik.study import load_study, run_study
     from wbik.study.spec import StudyDefinitionError
 
     path = tmp_path / "hostile.yaml"

@@ -12,27 +12,19 @@ import random
 
 import pytest
 import yaml
-from schema_walk import key_paths
-from schema_walk import written
+from schema_walk import key_paths, written
 
-from wbik.schema import Boolean
-from wbik.schema import Constant
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Interval
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Shorthand
-from wbik.schema import Text
+from wbik.schema import Boolean, Constant, Context, Either, Interval, ListOf, Map, Number, Shorthand, Text
 from wbik.study.case_kinds import kinds_of
-from wbik.study.definition import COMPARISONS_DIR
-from wbik.study.definition import CaseEntry
-from wbik.study.definition import _case_keys
-from wbik.study.definition import _case_kind
-from wbik.study.definition import case_schema
-from wbik.study.definition import load_study
-from wbik.study.definition import study_schema
+from wbik.study.definition import (
+    COMPARISONS_DIR,
+    CaseEntry,
+    _case_keys,
+    _case_kind,
+    case_schema,
+    load_study,
+    study_schema,
+)
 from wbik.study.spec import StudyDefinitionError
 
 FILES = sorted(COMPARISONS_DIR.glob("*.yaml"))

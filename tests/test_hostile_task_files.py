@@ -9,22 +9,14 @@ import math
 
 import pytest
 import yaml
-from schema_walk import key_paths
-from schema_walk import written
+from schema_walk import key_paths, written
 
 from wbik.data import shipped_tasks
 from wbik.errors import WbikError
 from wbik.qp.task_entries import AXES
 from wbik.scenario_schema import validate
 from wbik.scenarios.kinds import KIND_REGISTRY
-from wbik.schema import Boolean
-from wbik.schema import Either
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import Variants
-from wbik.schema import Vector
+from wbik.schema import Boolean, Either, ListOf, Map, Number, Text, Variants, Vector
 
 
 def _wrong_values(node) -> list:

@@ -16,8 +16,7 @@ import pytest
 
 import wbik
 from wbik.errors import UnsupportedError
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
-from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, chain_lines
 from wbik.targets import Target
 
 POSES = 100

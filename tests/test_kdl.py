@@ -13,8 +13,7 @@ import PyKDL  # part of the pinned environment (scripts/setup.sh)
 import pytest
 
 import wbik
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.solvers import kdl as kdl_module
 from wbik.solvers.result import Tolerances
 

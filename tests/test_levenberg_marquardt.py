@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wbik.solvers.levenberg_marquardt import JointBounds
-from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 
 POLICIES = [LevenbergMarquardt(), LevenbergMarquardt(max_step=0.2),
             LevenbergMarquardt(cost_weight=0.0, floor=1e-12, start=1e-3, increase=4.0, reject_floor=0.0,

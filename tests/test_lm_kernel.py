@@ -18,8 +18,7 @@ from compiled_twins import compared_with_its_twin
 import wbik
 from wbik.kernels.twins import PURE_PYTHON_VARIABLE
 from wbik.solvers import levenberg_marquardt as lm
-from wbik.solvers.levenberg_marquardt import JointBounds
-from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 from wbik.solvers.result import Tolerances
 
 pytestmark = compared_with_its_twin(lm._LM_TRIAL)

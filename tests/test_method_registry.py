@@ -8,17 +8,12 @@ import pytest
 
 import wbik
 from wbik.errors import UnknownMethodError
-from wbik.registry import DeclaredRegistry
-from wbik.registry import RegistryError
-from wbik.registry import RegistryImportError
+from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 from wbik.solvers import method_registry
 from wbik.solvers.base import Solver
 from wbik.solvers.dls import DampedLeastSquares
 from wbik.solvers.method import IKMethod
-from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-from wbik.solvers.method_registry import METHOD_MODULES
-from wbik.solvers.method_registry import register
-from wbik.solvers.method_registry import register_method
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY, METHOD_MODULES, register, register_method
 
 
 @pytest.fixture
@@ -101,10 +96,8 @@ def test_an_unknown_method_lists_the_known_ones():
 
 
 def test_option_schemas_follow_the_class_hierarchy_as_far_as_options_are_handed_on():
-    from wbik.errors import InvalidOptionError
-    from wbik.errors import InvalidSettingError
-    from wbik.options import OPTION_ERRORS
-    from wbik.options import option_schema
+    from wbik.errors import InvalidOptionError, InvalidSettingError
+    from wbik.options import OPTION_ERRORS, option_schema
     from wbik.schema import Context
 
     class Base:

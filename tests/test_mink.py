@@ -17,8 +17,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.mujoco_model import mujoco_urdf
 
 POSES = 100

@@ -12,8 +12,7 @@ import pytest
 import wbik
 from wbik.cli import main
 from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-from wbik.study import run_study
-from wbik.study import study_from_dict
+from wbik.study import run_study, study_from_dict
 
 EXTRAS = {"placo": "wbik[placo]", "pink": "wbik[pink]", "mink": "wbik[mink]", "eaik": "wbik[eaik]",
           "ik_geo": "wbik[ikgeo]", "trac_ik": "wbik[tracik]", "kdl": "python3-pykdl",

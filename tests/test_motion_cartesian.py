@@ -6,11 +6,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.motion import FunctionReference
-from wbik.motion import follow
-from wbik.motion import joint_path
-from wbik.motion import linear_path
-from wbik.motion import waypoint_path
+from wbik.motion import FunctionReference, follow, joint_path, linear_path, waypoint_path
 from wbik.targets import Target
 
 SEED_WAYPOINTS = [(2.0, -3.0, 3.0), (0.0, -2.0, 2.0), (0.0, -2.0, 5.0)]

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from wbik.errors import WbikError
-from wbik.motion.profiles import LAWS
-from wbik.motion.profiles import time_law
+from wbik.motion.profiles import LAWS, time_law
 
 TAU = np.linspace(0.0, 1.0, 200001)
 

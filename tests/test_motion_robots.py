@@ -138,8 +138,7 @@ def test_golem3_lift_only_where_the_arm_cannot_reach(golem):
 @pytest.mark.parametrize("name", sorted(p.name for p in TASKS.glob("motion_*.yaml")))
 def test_motion_scenario_files_run_and_pass(name, tmp_path):
     from wbik.motion.scenarios import format_report
-    from wbik.scenarios import load_scenario
-    from wbik.scenarios import run_scenario
+    from wbik.scenarios import load_scenario, run_scenario
 
     spec = load_scenario(TASKS / name)
     if "export" in spec:

@@ -5,11 +5,8 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import UnsupportedError
-from wbik.motion import joint_path
-from wbik.motion import time_scale
-from wbik.motion import waypoint_path
+from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.motion import joint_path, time_scale, waypoint_path
 
 VELOCITY = np.array([1.0, 0.6, 1.4])
 ACCELERATION = np.array([2.0, 1.5, 3.0])

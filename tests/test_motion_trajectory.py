@@ -7,10 +7,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.motion import joint_path
-from wbik.motion import make_trajectory
-from wbik.motion import time_scale
-from wbik.motion import waypoint_path
+from wbik.motion import joint_path, make_trajectory, time_scale, waypoint_path
 
 
 @pytest.fixture(scope="module")

@@ -11,8 +11,7 @@ import pytest
 import yaml
 
 import wbik
-from wbik.errors import InvalidOptionError
-from wbik.errors import InvalidSettingError
+from wbik.errors import InvalidOptionError, InvalidSettingError
 from wbik.scenario_schema import validate
 from wbik.scenarios.kinds import ScenarioValueError
 from wbik.study.definition import load_study

@@ -8,9 +8,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.qp.constraint import SLACK
-from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.constraint import Measure
+from wbik.qp.constraint import SLACK, InequalityConstraint, Measure
 from wbik.qp.rows import InequalityRows
 from wbik.qp.tasks import PositionTask
 from wbik.solvers.placo import PLACO

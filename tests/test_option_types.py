@@ -8,9 +8,7 @@ import pytest
 import wbik
 from wbik.errors import InvalidSettingError
 from wbik.options import option_schema
-from wbik.schema import Boolean
-from wbik.schema import Number
-from wbik.schema import Text
+from wbik.schema import Boolean, Number, Text
 from wbik.solvers.method_registry import method_factory
 
 

@@ -4,9 +4,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.solvers.placo import kinematic_urdf_path
-from wbik.solvers.placo import placo_configuration
-from wbik.solvers.placo import placo_robot
+from wbik.solvers.placo import kinematic_urdf_path, placo_configuration, placo_robot
 
 
 def test_kinematic_urdf_has_no_geometry_and_same_kinematics():

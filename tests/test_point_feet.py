@@ -11,13 +11,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import PositionTask
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import PointContact
-from wbik.qp.humanoid import contact_constraint
-from wbik.qp.humanoid import is_point_foot
+from wbik.qp import ComTask, FrameTask, PositionTask
+from wbik.qp.contacts import Contact, PointContact
+from wbik.qp.humanoid import contact_constraint, is_point_foot
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
 from wbik.solvers.check import check_problem

@@ -10,19 +10,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
 from wbik.errors import InvalidSettingError
-from wbik.qp import ComTask
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import JointVelocityLimits
-from wbik.qp import PositionTask
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import stopping_velocity
+from wbik.qp import ComTask, IKProblem, JointPositionLimits, JointVelocityLimits, PositionTask
+from wbik.qp.limits import JointAccelerationLimits, stopping_velocity
 from wbik.scenarios import load_scenario
 from wbik.scenarios.kinds import UnknownScenarioKeyError
 from wbik.wholebody.problem import WholeBody

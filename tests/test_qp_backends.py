@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from wbik.errors import NoQPSolutionError
-from wbik.qp import available_backends
-from wbik.qp import backends
+from wbik.qp import available_backends, backends
 
 
 def solved(function, *args):

@@ -26,19 +26,20 @@ import pytest
 
 import wbik
 from wbik.errors import NoQPSolutionError
-from wbik.qp import ComTask
-from wbik.qp import Contact
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import JointVelocityLimits
-from wbik.qp import PositionTask
-from wbik.qp import PostureTask
-from wbik.qp import RegularizationTask
+from wbik.qp import (
+    ComTask,
+    Contact,
+    IKProblem,
+    JointPositionLimits,
+    JointVelocityLimits,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+)
 from wbik.qp.elastic import conflict
 from wbik.qp.hard_rows import HardRows
 from wbik.qp.rows import RowLabel
-from wbik.robot import ChainSpec
-from wbik.robot import robot_from_urdf_text
+from wbik.robot import ChainSpec, robot_from_urdf_text
 from wbik.wholebody.problem import WholeBody
 
 LINK = 0.3

@@ -9,17 +9,12 @@ import pinocchio as pin
 import pytest
 from qp_models import build_biped
 
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import OrientationTask
-from wbik.qp import RegularizationTask
-from wbik.qp import backends
+from wbik.qp import FrameTask, IKProblem, OrientationTask, RegularizationTask, backends
 from wbik.qp.contacts import Contact
 from wbik.qp.humanoid import stance_constraints
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointPositionLimits
-from wbik.qp.problem import PHASES
-from wbik.qp.problem import SOLVE_PHASES
+from wbik.qp.problem import PHASES, SOLVE_PHASES
 from wbik.qp.step import Level
 
 

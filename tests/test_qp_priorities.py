@@ -15,18 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import PositionTask
-from wbik.qp import PostureTask
-from wbik.qp import RegularizationTask
-from wbik.qp.tasks import PositionBoxTask
-from wbik.qp.tasks import Task
+from wbik.qp import IKProblem, JointPositionLimits, PositionTask, PostureTask, RegularizationTask
+from wbik.qp.tasks import PositionBoxTask, Task
 
 AGREE = 1e-8
 """A level's errors with and without the levels below it (see the module docstring)."""

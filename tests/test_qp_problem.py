@@ -6,19 +6,20 @@ import pytest
 from qp_models import build_biped
 
 import wbik
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import JointPositionLimits
-from wbik.qp import JointVelocityLimits
-from wbik.qp import MinimumDistance
-from wbik.qp import OrientationTask
-from wbik.qp import PositionTask
-from wbik.qp import PostureTask
-from wbik.qp import RegularizationTask
-from wbik.qp import available_backends
-from wbik.qp.humanoid import stance_constraints
-from wbik.qp.humanoid import support_polygon
+from wbik.qp import (
+    ComTask,
+    FrameTask,
+    IKProblem,
+    JointPositionLimits,
+    JointVelocityLimits,
+    MinimumDistance,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    available_backends,
+)
+from wbik.qp.humanoid import stance_constraints, support_polygon
 
 
 @pytest.fixture(scope="module")

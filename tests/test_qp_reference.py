@@ -8,17 +8,9 @@ import pytest
 
 import wbik
 from wbik.errors import NoQPSolutionError
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import OrientationTask
-from wbik.qp import PostureTask
-from wbik.qp import RegularizationTask
-from wbik.qp import backends
+from wbik.qp import ComTask, FrameTask, IKProblem, OrientationTask, PostureTask, RegularizationTask, backends
 from wbik.qp.humanoid import stance_constraints
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import EqualityRows
-from wbik.qp.rows import InequalityRows
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows
 
 
 def reference_step(problem: IKProblem, q: np.ndarray, dt: float = 1.0, tasks=None,

@@ -11,12 +11,8 @@ from wbik.qp.constraint import Constraint
 from wbik.qp.contacts import Contact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import EqualityRows
-from wbik.qp.rows import InequalityRows
-from wbik.qp.rows import as_index
+from wbik.qp.limits import JointPositionLimits, JointVelocityLimits
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, as_index
 from wbik.qp.support_polygon import SupportPolygon
 
 

@@ -6,13 +6,15 @@ import pytest
 from qp_models import build_biped
 
 import wbik
-from wbik.qp import ComTask
-from wbik.qp import FrameTask
-from wbik.qp import Kinematics
-from wbik.qp import OrientationTask
-from wbik.qp import PositionTask
-from wbik.qp import RelativeFrameTask
-from wbik.qp import SupportPolygon
+from wbik.qp import (
+    ComTask,
+    FrameTask,
+    Kinematics,
+    OrientationTask,
+    PositionTask,
+    RelativeFrameTask,
+    SupportPolygon,
+)
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.distances import MinimumDistance
 

@@ -18,8 +18,7 @@ import pytest
 import wbik
 from wbik.solvers.dls import DampedLeastSquares
 from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-from wbik.study import load_study
-from wbik.study import run_study
+from wbik.study import load_study, run_study
 from wbik.study.results import read_raw_csv
 
 NAME = "user_dls_in_workers"
@@ -84,8 +83,7 @@ methods: [{METHOD}, qp]
 def tool_reach(rng: np.random.Generator, index: int):
     """A user's sampler on the UR5: the tool to the point of a random arm configuration."""
     from wbik.qp.tasks import PositionTask
-    from wbik.wholebody.cases import WholeBodyCase
-    from wbik.wholebody.cases import cached_robot
+    from wbik.wholebody.cases import WholeBodyCase, cached_robot
     from wbik.wholebody.problem import WholeBody
 
     robot = cached_robot("ur5")
@@ -130,8 +128,7 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
     from wbik.solvers import method_registry
     from wbik.solvers.method import IKMethod
     from wbik.study import study_from_dict
-    from wbik.study.runner import pending_tasks
-    from wbik.study.runner import solve_chunk
+    from wbik.study.runner import pending_tasks, solve_chunk
     from wbik.wholebody import cases
 
     isolated = contextlib.ExitStack()

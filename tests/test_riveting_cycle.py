@@ -5,9 +5,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.apps.riveting.cycle import NoiseModel
-from wbik.apps.riveting.cycle import RunConfig
-from wbik.apps.riveting.cycle import simulate
+from wbik.apps.riveting.cycle import NoiseModel, RunConfig, simulate
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
 from wbik.apps.riveting.thesis import ThesisPlanner

@@ -18,9 +18,11 @@ from wbik.apps.riveting.report import run_task
 from wbik.apps.riveting.task_states import State
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
-from riveting_full_run import CYCLE_STATES  # noqa: E402
-from riveting_full_run import TASK  # noqa: E402
-from riveting_full_run import failed_checks  # noqa: E402
+from riveting_full_run import (
+    CYCLE_STATES,  # noqa: E402
+    TASK,  # noqa: E402
+    failed_checks,  # noqa: E402
+)
 
 
 def _spec(planners: tuple[str, ...], **changes) -> dict:

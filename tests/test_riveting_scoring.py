@@ -3,10 +3,7 @@
 import numpy as np
 import pytest
 
-from wbik.apps.riveting.scoring import band
-from wbik.apps.riveting.scoring import localisation_points
-from wbik.apps.riveting.scoring import rivet_points
-from wbik.apps.riveting.scoring import score
+from wbik.apps.riveting.scoring import band, localisation_points, rivet_points, score
 
 
 @pytest.mark.parametrize(("mm", "deg", "points"), [

@@ -3,16 +3,11 @@
 import numpy as np
 import pytest
 
-from wbik.apps.riveting.cost import UNIT_COST_S
-from wbik.apps.riveting.cost import PlanningCost
-from wbik.apps.riveting.cycle import RunConfig
-from wbik.apps.riveting.cycle import simulate
+from wbik.apps.riveting.cost import UNIT_COST_S, PlanningCost
+from wbik.apps.riveting.cycle import RunConfig, simulate
 from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.task_states import State
-from wbik.apps.riveting.task_states import StateTransitionError
-from wbik.apps.riveting.task_states import TaskStateMachine
-from wbik.apps.riveting.task_states import state_of_move
+from wbik.apps.riveting.task_states import State, StateTransitionError, TaskStateMachine, state_of_move
 from wbik.errors import WbikError
 
 CYCLE = [State.DETECTING_HOLE_POSE, State.GOING_HOLE_GUESS, State.MOVING_INTO_HOLE, State.RIVETING,

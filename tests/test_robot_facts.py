@@ -13,14 +13,11 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.errors import InvalidOptionError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import SoleError
+from wbik.errors import InvalidOptionError, RobotDescriptionError, SoleError
 from wbik.qp.humanoid import support_polygon
 from wbik.robot_packages.arm3r.closed_form import arm3r_position
 from wbik.robot_packages.arm3r.model import URDF_PATH as ARM3R_URDF
-from wbik.robot_packages.arm3r.model import Arm3RFacts
-from wbik.robot_packages.arm3r.model import dh_table
+from wbik.robot_packages.arm3r.model import Arm3RFacts, dh_table
 from wbik.robot_packages.bioloid.model import URDF_PATH as BIOLOID_URDF
 from wbik.robot_packages.bioloid.model import BioloidFacts
 

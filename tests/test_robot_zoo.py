@@ -17,8 +17,7 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.kinematic_tree import longest_chain
 from wbik.models.erd import example_robot_names
 from wbik.solvers.method_registry import budget_options

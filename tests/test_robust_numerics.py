@@ -31,18 +31,19 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
 from wbik.qp.humanoid import sole_corners
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.support_polygon import DegenerateSupport
-from wbik.qp.support_polygon import DegenerateSupportPolygonError
-from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.support_polygon import contact_points
-from wbik.qp.support_polygon import support_region
+from wbik.qp.support_polygon import (
+    DegenerateSupport,
+    DegenerateSupportPolygonError,
+    SupportPolygon,
+    contact_points,
+    support_region,
+)
 from wbik.robot_packages.bioloid.model import ALPHA
 from wbik.solvers.analytic.closed_form import wrap_into_limits
 

@@ -12,16 +12,12 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from compiled_twins import compared_with_its_twin
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
 from wbik.kernels.twins import PURE_PYTHON_VARIABLE
-from wbik.qp import FrameTask
-from wbik.qp import IKProblem
-from wbik.qp import OrientationTask
-from wbik.qp import RegularizationTask
+from wbik.qp import FrameTask, IKProblem, OrientationTask, RegularizationTask
 from wbik.qp import step as qp_step
 from wbik.qp import tasks as qp_tasks
 from wbik.qp.humanoid import stance_constraints

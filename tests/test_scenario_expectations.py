@@ -13,13 +13,8 @@ from pathlib import Path
 import pytest
 
 from wbik.errors import WbikError
-from wbik.expectations import ExpectationError
-from wbik.expectations import Rule
-from wbik.expectations import evaluate
-from wbik.expectations import verdict
-from wbik.scenarios import format_report
-from wbik.scenarios import load_scenario
-from wbik.scenarios import run_scenario
+from wbik.expectations import ExpectationError, Rule, evaluate, verdict
+from wbik.scenarios import format_report, load_scenario, run_scenario
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 RULES = {"margin_min_m": Rule("margin_m", ">=", "m"), "ok": Rule("ok", "==")}
@@ -112,8 +107,7 @@ def test_motion_fails_on_a_tightened_knot_tolerance():
 
 
 def test_riveting_expectations_judge_a_run_and_check_keys_before_simulating():
-    from wbik.apps.riveting.report import _check_expect_keys
-    from wbik.apps.riveting.report import judge
+    from wbik.apps.riveting.report import _check_expect_keys, judge
 
     summary = {"score": {"total": 22}, "collisions": 0, "rivets": 9, "failed_plans": 0,
                "min_clearance_links_mm": 12.0}

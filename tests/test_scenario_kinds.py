@@ -20,23 +20,19 @@ import pytest
 
 import wbik
 from wbik.errors import MissingDependencyError
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import validate
-from wbik.scenarios import ScenarioKind
-from wbik.scenarios import ScenarioReport
-from wbik.scenarios import format_report
+from wbik.scenario_schema import Robot, common_keys, validate
+from wbik.scenarios import (
+    ScenarioKind,
+    ScenarioReport,
+    format_report,
+    load_scenario,
+    register_kind,
+    run_scenario,
+    run_scenario_report,
+)
 from wbik.scenarios import kinds as registry
-from wbik.scenarios import load_scenario
-from wbik.scenarios import register_kind
-from wbik.scenarios import run_scenario
-from wbik.scenarios import run_scenario_report
-from wbik.scenarios.kinds import ScenarioValueError
-from wbik.scenarios.kinds import UnknownScenarioKeyError
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Refused
+from wbik.scenarios.kinds import ScenarioValueError, UnknownScenarioKeyError
+from wbik.schema import Key, Map, Number, Refused
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 EXPECTED_KINDS = {
@@ -263,9 +259,7 @@ def test_riveting_refuses_robot_params_by_name(tmp_path):
 
 def test_kinds_use_the_one_declared_registry_and_its_errors_are_registry_errors(fresh_registry, tmp_path,
                                                                                    monkeypatch):
-    from wbik.registry import DeclaredRegistry
-    from wbik.registry import RegistryError
-    from wbik.registry import RegistryImportError
+    from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
 
     assert isinstance(registry.KIND_REGISTRY, DeclaredRegistry)
     assert registry.KIND_REGISTRY.modules is registry.KIND_MODULES  # register_module appends to them

@@ -13,22 +13,25 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from wbik.errors import InvalidBudgetError
-from wbik.errors import InvalidOptionError
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnknownMethodError
-from wbik.errors import UnknownRobotError
-from wbik.errors import WbikError
+from wbik.errors import (
+    InvalidBudgetError,
+    InvalidOptionError,
+    MissingDependencyError,
+    UnknownMethodError,
+    UnknownRobotError,
+    WbikError,
+)
 from wbik.expectations import ExpectationError
 from wbik.scenario_schema import validate
-from wbik.scenarios import load_scenario
-from wbik.scenarios import run_scenario
-from wbik.scenarios.kinds import KIND_REGISTRY
-from wbik.scenarios.kinds import ScenarioBudgetError
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioFileError
-from wbik.scenarios.kinds import ScenarioValueError
-from wbik.scenarios.kinds import UnknownScenarioKeyError
+from wbik.scenarios import load_scenario, run_scenario
+from wbik.scenarios.kinds import (
+    KIND_REGISTRY,
+    ScenarioBudgetError,
+    ScenarioError,
+    ScenarioFileError,
+    ScenarioValueError,
+    UnknownScenarioKeyError,
+)
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 WBIK = Path(sys.executable).parent / "wbik"

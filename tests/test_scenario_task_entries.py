@@ -13,8 +13,7 @@ import pytest
 import wbik
 from wbik.errors import InvalidSettingError
 from wbik.qp import tasks as T
-from wbik.qp.task_entries import TaskEntryError
-from wbik.qp.task_entries import build_task
+from wbik.qp.task_entries import TaskEntryError, build_task
 
 
 @pytest.fixture(scope="module")

@@ -18,8 +18,7 @@ import pinocchio as pin
 import pytest
 from scipy.spatial import ConvexHull
 
-from wbik.scenarios import load_scenario
-from wbik.scenarios import run_scenario_report
+from wbik.scenarios import load_scenario, run_scenario_report
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 TOLERANCE = 1e-6  # m and rad: the shared check's default tolerances

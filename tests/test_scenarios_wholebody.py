@@ -7,9 +7,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.scenarios import ScenarioError
-from wbik.scenarios import load_scenario
-from wbik.scenarios import run_scenario
+from wbik.scenarios import ScenarioError, load_scenario, run_scenario
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 

@@ -23,12 +23,8 @@ import pytest
 import wbik
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic import ur_type
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
-from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.closed_form import _wrap_by_shifts
-from wbik.solvers.analytic.closed_form import wrap_into_limits
-from wbik.solvers.analytic.subproblems import planar_2r
-from wbik.solvers.analytic.subproblems import planar_2r_elbow
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm, _wrap_by_shifts, wrap_into_limits
+from wbik.solvers.analytic.subproblems import planar_2r, planar_2r_elbow
 
 
 def _rule(q, reference, lower, upper, revolute):
@@ -280,9 +276,7 @@ def test_batch_targets_accepts_what_the_fast_se3_check_accepts(ur5):
     """The vectorised SE3 check decides target by target as ``as_target``'s fast path: rotations and
     positions just inside and just outside each bound (unit columns, orthogonality, det, position)."""
     from wbik.solvers.analytic.batch import _valid_se3
-    from wbik.targets import MAX_POSITION
-    from wbik.targets import ROTATION_TOLERANCE
-    from wbik.targets import _plain_se3_target
+    from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, _plain_se3_target
 
     chain = ur5["ee"].chain
     rng = np.random.default_rng(27)

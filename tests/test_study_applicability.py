@@ -7,13 +7,10 @@ import json
 
 import pytest
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-from wbik.solvers.method_registry import register
-from wbik.study import run_study
-from wbik.study import study_from_dict
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY, register
+from wbik.study import run_study, study_from_dict
 from wbik.study.results import read_raw_csv
 
 CASE = "ur5_arm_pose"
@@ -115,8 +112,7 @@ def test_check_target_kind_refuses_exactly_what_solve_refuses(robot_name, chain_
     """The capability query the study asks agrees with solve() on both target kinds, for every
     method that can be built on the chain."""
     import wbik
-    from wbik.errors import MissingDependencyError
-    from wbik.errors import UnsupportedError
+    from wbik.errors import MissingDependencyError, UnsupportedError
 
     robot = wbik.load(robot_name)
     chain = robot.chain(chain_name)

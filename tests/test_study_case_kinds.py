@@ -9,13 +9,9 @@ import pickle
 import numpy as np
 import pytest
 
-from wbik.study import run_study
-from wbik.study import study_from_dict
-from wbik.study.case_kinds import CASE_KIND_REGISTRY
-from wbik.study.case_kinds import case_kinds
-from wbik.study.case_kinds import register_case_kind
-from wbik.study.chain_targets import ChainChunkTask
-from wbik.study.chain_targets import ChainTargets
+from wbik.study import run_study, study_from_dict
+from wbik.study.case_kinds import CASE_KIND_REGISTRY, case_kinds, register_case_kind
+from wbik.study.chain_targets import ChainChunkTask, ChainTargets
 from wbik.study.context import case_chain
 from wbik.study.results import read_raw_csv
 from wbik.study.runner import pending_tasks

@@ -20,8 +20,7 @@ from wbik.cli import main
 from wbik.errors import UnsupportedError
 from wbik.solvers.dls import DampedLeastSquares
 from wbik.study import study_from_dict
-from wbik.study.compare import judge
-from wbik.study.compare import mcnemar_p
+from wbik.study.compare import judge, mcnemar_p
 from wbik.study.regression_rule import RegressionRule
 from wbik.study.results import read_raw_csv
 from wbik.study.spec import StudyDefinitionError

@@ -9,14 +9,14 @@ import pytest
 
 import wbik
 from wbik.geometry import wrap_to_pi
-from wbik.study.closed_form_branches import complete_closed_form
-from wbik.study.closed_form_branches import in_limit_branches
-from wbik.study.closed_form_branches import joint_distance
+from wbik.study.closed_form_branches import complete_closed_form, in_limit_branches, joint_distance
 from wbik.study.context import case_chain
-from wbik.study.solution_coverage import coverage_columns
-from wbik.study.solution_coverage import coverage_summary
-from wbik.study.solution_coverage import distinct_solutions
-from wbik.study.solution_coverage import restart_starts
+from wbik.study.solution_coverage import (
+    coverage_columns,
+    coverage_summary,
+    distinct_solutions,
+    restart_starts,
+)
 
 PARAMETERS = {"restarts": 6, "restart_targets": 1, "branch_tolerance": 1e-3}
 

@@ -4,10 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from wbik.study.definition import COMPARISONS_DIR
-from wbik.study.definition import load_study
-from wbik.study.definition import study_from_dict
-from wbik.study.definition import with_overrides
+from wbik.study.definition import COMPARISONS_DIR, load_study, study_from_dict, with_overrides
 from wbik.study.spec import StudyDefinitionError
 
 MINIMAL = {"name": "tiny", "robot": "arm3r", "chain": "arm", "target": "position", "poses": 10,

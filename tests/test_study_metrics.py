@@ -10,13 +10,15 @@ from scipy.spatial.transform import Rotation
 from wbik.errors import InvalidSettingError
 from wbik.geometry import batch_exp3 as exp3
 from wbik.solvers.result import IKResult
-from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
-from wbik.study.metrics import AngleConvention
-from wbik.study.metrics import axes
-from wbik.study.metrics import axis_errors
-from wbik.study.metrics import axis_label
-from wbik.study.metrics import tait_bryan_angles
-from wbik.study.metrics import wrap_angle
+from wbik.study.metrics import (
+    TAIT_BRYAN_SEQUENCES,
+    AngleConvention,
+    axes,
+    axis_errors,
+    axis_label,
+    tait_bryan_angles,
+    wrap_angle,
+)
 
 YAW_PITCH_ROLL = AngleConvention("zyx", (("x", "yaw"), ("y", "pitch"), ("z", "roll")))
 """Names for the study's own angles (alpha about x 'yaw', beta 'pitch', gamma about z 'roll')."""

@@ -12,11 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from wbik.study import load_study
-from wbik.study import run_study
-from wbik.study.ownership import LOCK_NAME
-from wbik.study.ownership import FolderBusyError
-from wbik.study.ownership import FolderLock
+from wbik.study import load_study, run_study
+from wbik.study.ownership import LOCK_NAME, FolderBusyError, FolderLock
 
 ROOT = Path(__file__).resolve().parents[1]
 WBIK = str(Path(sys.executable).with_name("wbik"))

@@ -10,16 +10,16 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbik.study import run_study
-from wbik.study import study_from_dict
-from wbik.study.path_metrics import branch_labels
-from wbik.study.path_metrics import circle_points
-from wbik.study.path_metrics import line_points
-from wbik.study.path_metrics import path_metrics
-from wbik.study.path_metrics import random_plane
-from wbik.study.path_metrics import slerped_rotations
-from wbik.study.paths import describe
-from wbik.study.paths import sample_paths
+from wbik.study import run_study, study_from_dict
+from wbik.study.path_metrics import (
+    branch_labels,
+    circle_points,
+    line_points,
+    path_metrics,
+    random_plane,
+    slerped_rotations,
+)
+from wbik.study.paths import describe, sample_paths
 from wbik.study.spec import StudyDefinitionError
 from wbik.targets import Target
 

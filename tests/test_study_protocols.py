@@ -11,17 +11,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from wbik.study import load_study
-from wbik.study import run_study
-from wbik.study import study_from_dict
+from wbik.study import load_study, run_study, study_from_dict
 from wbik.study.definition import with_overrides
 from wbik.study.results import read_raw_csv
 from wbik.study.spec import StudyDefinitionError
-from wbik.study.success_rules import SuccessRule
-from wbik.study.success_rules import error_percentiles
-from wbik.study.success_rules import failure_reason
-from wbik.study.success_rules import frame_errors
-from wbik.study.success_rules import judge
+from wbik.study.success_rules import SuccessRule, error_percentiles, failure_reason, frame_errors, judge
 
 BOUND = 1e-5
 AXIS = SuccessRule(BOUND, BOUND, per="axis", frame="target")

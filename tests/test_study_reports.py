@@ -13,8 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from wbik.study import load_study
-from wbik.study import provenance
+from wbik.study import load_study, provenance
 from wbik.study.definition import COMPARISONS_DIR
 from wbik.study.provenance import code_digests
 from wbik.study.runner import study_code_roots

@@ -16,10 +16,8 @@ from scipy import stats
 import wbik
 from wbik.cli import main
 from wbik.solvers.dls import DampedLeastSquares
-from wbik.study import load_study
-from wbik.study import run_study
-from wbik.study.results import load_method_rows
-from wbik.study.results import read_raw_csv
+from wbik.study import load_study, run_study
+from wbik.study.results import load_method_rows, read_raw_csv
 
 STUDY = """
 name: small
@@ -102,9 +100,7 @@ def test_the_run_records_what_made_its_rows(serial_run):
     import numpy
     import pinocchio
 
-    from wbik.study.provenance import code_digests
-    from wbik.study.provenance import code_fingerprint
-    from wbik.study.provenance import command_line
+    from wbik.study.provenance import code_digests, code_fingerprint, command_line
     from wbik.study.runner import study_code_roots
 
     record = json.loads((serial_run / "provenance.json").read_text())

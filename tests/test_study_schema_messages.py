@@ -6,9 +6,7 @@ from __future__ import annotations
 import pytest
 
 from wbik.study.definition import check_schema
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import StudyDefinitionError
+from wbik.study.spec import CaseSpec, MethodSpec, StudyDefinitionError
 
 
 def test_an_unknown_method_option_is_named_with_the_method_s_own_options():

@@ -9,14 +9,16 @@ import math
 import numpy as np
 import pytest
 
-from wbik.study.statistics import BOOTSTRAP_RESAMPLES
-from wbik.study.statistics import bootstrap_median_interval
-from wbik.study.statistics import bootstrap_medians
-from wbik.study.statistics import holm
-from wbik.study.statistics import significance
-from wbik.study.statistics import summarize
-from wbik.study.statistics import wilson_interval
-from wbik.study.statistics import with_holm
+from wbik.study.statistics import (
+    BOOTSTRAP_RESAMPLES,
+    bootstrap_median_interval,
+    bootstrap_medians,
+    holm,
+    significance,
+    summarize,
+    wilson_interval,
+    with_holm,
+)
 
 
 @pytest.mark.parametrize(("solved", "count", "low", "high"), [

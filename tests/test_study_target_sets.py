@@ -8,15 +8,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from wbik.study import run_study
-from wbik.study import study_from_dict
+from wbik.study import run_study, study_from_dict
 from wbik.study.case_kinds import case_kinds
 from wbik.study.context import case_chain
-from wbik.study.near_limits import limit_distance
-from wbik.study.near_limits import limited_joints
+from wbik.study.near_limits import limit_distance, limited_joints
 from wbik.study.near_singularities import sigma_min
-from wbik.study.reach_boundary import reach_along
-from wbik.study.reach_boundary import stationarity_residual
+from wbik.study.reach_boundary import reach_along, stationarity_residual
 from wbik.study.runner import pending_tasks
 from wbik.study.spec import StudyDefinitionError
 from wbik.study.target_parameters import defaults

@@ -12,18 +12,14 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.study import run_study
-from wbik.study import study_from_dict
+from wbik.study import run_study, study_from_dict
 from wbik.study.case_kinds import case_kinds
 from wbik.study.chain_reach import reach_bound
-from wbik.study.closed_form_branches import branch_excess
-from wbik.study.closed_form_branches import complete_closed_form
-from wbik.study.closed_form_branches import joint_excess
+from wbik.study.closed_form_branches import branch_excess, complete_closed_form, joint_excess
 from wbik.study.context import case_chain
 from wbik.study.results import read_raw_csv
 from wbik.study.target_parameters import defaults
-from wbik.study.unreachable import BEYOND_LIMITS
-from wbik.study.unreachable import OUTSIDE_REACH
+from wbik.study.unreachable import BEYOND_LIMITS, OUTSIDE_REACH
 
 OURS = ("bounded_lm", "dls", "newton", "qp", "analytic")
 

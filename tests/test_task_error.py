@@ -8,9 +8,7 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.solvers.task_error import batch_se3_error
-from wbik.solvers.task_error import se3_error
-from wbik.solvers.task_error import task_error
+from wbik.solvers.task_error import batch_se3_error, se3_error, task_error
 from wbik.targets import Target
 
 

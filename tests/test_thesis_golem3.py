@@ -11,11 +11,8 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.apps.golem3.thesis_solvers import SWEEP_POINTS
-from wbik.apps.golem3.thesis_solvers import sweep_order
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
+from wbik.apps.golem3.thesis_solvers import SWEEP_POINTS, sweep_order
+from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate
 

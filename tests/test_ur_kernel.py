@@ -13,15 +13,16 @@ import functools
 
 import numpy as np
 import pytest
-from compiled_twins import SINGULAR_TOLERANCE
-from compiled_twins import TWIN_TOLERANCE
-from compiled_twins import assert_same_bits_without_avx512
-from compiled_twins import assert_twins_agree
-from compiled_twins import compared_with_its_twin
-from compiled_twins import compiled_nearest
-from compiled_twins import numpy_is_libm
-from hypothesis import given
-from hypothesis import settings
+from compiled_twins import (
+    SINGULAR_TOLERANCE,
+    TWIN_TOLERANCE,
+    assert_same_bits_without_avx512,
+    assert_twins_agree,
+    compared_with_its_twin,
+    compiled_nearest,
+    numpy_is_libm,
+)
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import wbik
@@ -236,8 +237,7 @@ def test_solve_all_results_from_the_kernels_arrays(solvers, chain_name):
     import sys
     import tracemalloc
 
-    from wbik.solvers.result import IKResult
-    from wbik.solvers.result import Tolerances
+    from wbik.solvers.result import IKResult, Tolerances
     solver = solvers[chain_name]
     chain = solver.chain
     kernel = solver.closed_form("pose").kernel

@@ -13,11 +13,7 @@ either way), and its full run's verdict is scripts/riveting_full_run.py's.
 from __future__ import annotations
 
 import pytest
-from scenario_pages import TASKS
-from scenario_pages import check_page
-from scenario_pages import check_support
-from scenario_pages import quiet_spec
-from scenario_pages import watch
+from scenario_pages import TASKS, check_page, check_support, quiet_spec, watch
 
 TASK_FILES = sorted(TASKS.glob("*.yaml"))
 RIVETING = TASKS / "ur5_riveting.yaml"

@@ -21,12 +21,8 @@ import pytest
 import umsgpack
 
 import wbik
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnknownRobotError
-from wbik.errors import UnsupportedError
-from wbik.viz import SceneRecorder
-from wbik.viz import Viewer
+from wbik.errors import InvalidConfigurationError, MissingDependencyError, UnknownRobotError, UnsupportedError
+from wbik.viz import SceneRecorder, Viewer
 from wbik.viz.geometry import stick_segments
 
 L1, L2, L3 = 3.0, 2.0, 2.0  # arm3r's default lengths (arm3r.md worked example)
@@ -308,8 +304,7 @@ phases:
 
 
 def test_cli_view_plays_a_scenario_file(tmp_path):
-    from wbik.viz.scenario import PHASE_SECONDS
-    from wbik.viz.scenario import SAMPLES_PER_PHASE
+    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
     task = tmp_path / "shift.yaml"
     task.write_text(SCENARIO)
@@ -332,8 +327,7 @@ def test_cli_view_plays_a_scenario_file(tmp_path):
 
 
 def test_animation_checks_its_samples_and_thins_joins_them():
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
+    from wbik.viz.animation import Animation, Overlays
 
     robot = wbik.load("arm3r")
     rows = np.tile(robot.nominal, (5, 1))
@@ -354,8 +348,7 @@ def test_animation_checks_its_samples_and_thins_joins_them():
 def test_played_walk_shows_the_support_of_each_sample():
     """Bioloid standing, first on both soles then (as far as the overlay says) on the right one: two
     polygons, each visible only during its own samples, the CoM's ground marker turns red."""
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
+    from wbik.viz.animation import Animation, Overlays
 
     robot = wbik.load("bioloid")
     rows = np.array([robot.nominal] * 3)  # the robot stands still; only the soles called down change

@@ -17,21 +17,20 @@ from scipy.spatial import ConvexHull
 
 import wbik
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking import Feet
-from wbik.motion.walking import PreviewController
-from wbik.motion.walking import StepCommand
-from wbik.motion.walking import Timing
-from wbik.motion.walking import multibody_zmp
-from wbik.motion.walking import plan_footsteps
-from wbik.motion.walking import trajectory_derivatives
-from wbik.motion.walking import walk_pattern
+from wbik.motion.walking import (
+    Feet,
+    PreviewController,
+    StepCommand,
+    Timing,
+    multibody_zmp,
+    plan_footsteps,
+    trajectory_derivatives,
+    walk_pattern,
+)
 from wbik.motion.walking.multibody_zmp import zmp_from_base_wrench
 from wbik.motion.walking.pattern import PreviewSettings
-from wbik.motion.walking.swing import bump
-from wbik.motion.walking.swing import quintic
-from wbik.motion.walking.swing import swing_pose
-from wbik.motion.walking.tracking import TrackingSettings
-from wbik.motion.walking.tracking import walk
+from wbik.motion.walking.swing import bump, quintic, swing_pose
+from wbik.motion.walking.tracking import TrackingSettings, walk
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 GRAVITY = 9.80665
@@ -230,8 +229,7 @@ def test_walk_figures_judge_the_motion_on_the_full_model(bioloid, feet, short_wa
 
 # -- the task files ---------------------------------------------------------------------------------
 def run_file(name: str, keep, compare=None):
-    from wbik.scenarios import load_scenario
-    from wbik.scenarios import run_scenario
+    from wbik.scenarios import load_scenario, run_scenario
 
     spec = load_scenario(TASKS / name)
     spec["walks"] = [spec["walks"][i] for i in keep]

@@ -10,13 +10,8 @@ import pytest
 from scipy.spatial import ConvexHull
 
 import wbik
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
+from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask
 from wbik.solvers.check import check_problem
 from wbik.solvers.peer import NO_POLYGON
 from wbik.wholebody.problem import WholeBody
@@ -225,8 +220,7 @@ def test_pink_results_carry_the_no_hard_polygon_mark_and_are_judged_by_the_same_
 
 
 def test_samplers_are_deterministic_per_index():
-    from wbik.wholebody.cases import CASE_REGISTRY
-    from wbik.wholebody.cases import sample_case
+    from wbik.wholebody.cases import CASE_REGISTRY, sample_case
 
     for name in CASE_REGISTRY.entries():
         first, again = sample_case(name, 11, 3), sample_case(name, 11, 3)
@@ -236,8 +230,7 @@ def test_samplers_are_deterministic_per_index():
 
 # -- the whole-body study ------------------------------------------------------------------------------------
 def test_whole_body_study_runs_and_reports(tmp_path):
-    from wbik.study import run_study
-    from wbik.study import study_from_dict
+    from wbik.study import run_study, study_from_dict
     from wbik.study.results import read_json
 
     study = study_from_dict({

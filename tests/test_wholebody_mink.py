@@ -16,8 +16,7 @@ import pytest
 import wbik
 from wbik.mujoco_model import random_configurations
 from wbik.qp.support_polygon import sole_rectangle
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import PositionTask
+from wbik.qp.tasks import ComTask, PositionTask
 from wbik.wholebody.problem import WholeBody
 
 pytest.importorskip("mink")

@@ -16,16 +16,9 @@ import pytest
 import wbik
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.peers import PeerForms
-from wbik.qp.peers import Unsupported
-from wbik.qp.peers import largest_weight
-from wbik.qp.task_entries import FRAME
-from wbik.qp.task_entries import TASK_ENTRY_REGISTRY
-from wbik.qp.task_entries import TaskEntry
-from wbik.qp.task_entries import build_task
-from wbik.qp.task_entries import register_task_entry
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import Task
+from wbik.qp.peers import PeerForms, Unsupported, largest_weight
+from wbik.qp.task_entries import FRAME, TASK_ENTRY_REGISTRY, TaskEntry, build_task, register_task_entry
+from wbik.qp.tasks import FrameTask, Task
 from wbik.registry import RegistryError
 from wbik.scenarios import run_scenario
 from wbik.schema import Number
@@ -200,8 +193,7 @@ def test_peers_list_priorities_and_constraints_they_cannot_state():
 def test_a_posture_on_some_joints_moves_those_joints_only(method):
     """A posture on the left elbow alone (weight 1, 0.3 rad away) beside a small reach of the right hand:
     every method brings that elbow to its reference, and none has anything to say against the task."""
-    from wbik.qp.tasks import PositionTask
-    from wbik.qp.tasks import PostureTask
+    from wbik.qp.tasks import PositionTask, PostureTask
     from wbik.wholebody.problem import WholeBody
 
     bioloid = wbik.load("bioloid")

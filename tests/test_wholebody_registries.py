@@ -16,17 +16,12 @@ import pytest
 import wbik
 import wbik.wholebody
 from wbik.qp.tasks import PositionTask
-from wbik.registry import RegistryError
-from wbik.registry import RegistryImportError
+from wbik.registry import RegistryError, RegistryImportError
 from wbik.solvers import method_registry as methods
 from wbik.solvers.method import IKMethod
 from wbik.solvers.qp import QPSolver
 from wbik.wholebody import cases
-from wbik.wholebody.cases import CASE_REGISTRY
-from wbik.wholebody.cases import CaseSampler
-from wbik.wholebody.cases import WholeBodyCase
-from wbik.wholebody.cases import register_sampler
-from wbik.wholebody.cases import sample_case
+from wbik.wholebody.cases import CASE_REGISTRY, CaseSampler, WholeBodyCase, register_sampler, sample_case
 from wbik.wholebody.problem import WholeBody
 
 SEED_ROBOTS = re.compile(r"golem|bioloid|pincher|ur5|arm3r|thesis", re.IGNORECASE)
@@ -132,8 +127,7 @@ def test_user_code_registers_a_sampler_on_any_robot_and_gets_the_seeded_stream(i
 
     import csv
 
-    from wbik.study import run_study
-    from wbik.study import study_from_dict
+    from wbik.study import run_study, study_from_dict
 
     study = study_from_dict({"name": "user_sampler", "seed": 7, "poses": 2, "timeout_s": 0.05,
                              "cases": [{"target": "wholebody", "scenario": "tool_reach"}],

@@ -12,14 +12,11 @@ import math
 
 import numpy as np
 import pinocchio as pin
-from hypothesis import assume
-from hypothesis import given
-from hypothesis import settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from wbik.apps.bioloid.step_wholebody import sole_path
-from wbik.geometry import TWO_PI
-from wbik.geometry import wrap_to_pi
+from wbik.geometry import TWO_PI, wrap_to_pi
 
 
 def test_the_boundary_belongs_to_plus_pi():

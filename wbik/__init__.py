@@ -11,35 +11,28 @@ answer is an :class:`IKResult` judged by one shared check. ``wbik.register`` add
 """
 
 from wbik.catalog import install as _install_catalog
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import InvalidRotationError
-from wbik.errors import InvalidTargetError
-from wbik.errors import MissingDependencyError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownChainError
-from wbik.errors import UnknownFrameError
-from wbik.errors import UnknownMethodError
-from wbik.errors import UnknownRobotError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
-from wbik.models import load
-from wbik.models import robots
-from wbik.robot import Chain
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
+from wbik.errors import (
+    InvalidConfigurationError,
+    InvalidRotationError,
+    InvalidTargetError,
+    MissingDependencyError,
+    RobotDescriptionError,
+    UnknownChainError,
+    UnknownFrameError,
+    UnknownMethodError,
+    UnknownRobotError,
+    UnsupportedError,
+    WbikError,
+)
+from wbik.models import load, robots
+from wbik.robot import Chain, ChainSpec, Robot
 from wbik.solvers.base import Solver
 from wbik.solvers.check import check_problem
 from wbik.solvers.method import IKMethod
-from wbik.solvers.method_registry import methods
-from wbik.solvers.method_registry import register
-from wbik.solvers.method_registry import solver
-from wbik.solvers.result import IKResult
-from wbik.solvers.result import Tolerances
-from wbik.targets import Target
-from wbik.targets import as_target
-from wbik.wholebody.cases import CaseSampler
-from wbik.wholebody.cases import WholeBodyCase
-from wbik.wholebody.cases import register_sampler
+from wbik.solvers.method_registry import methods, register, solver
+from wbik.solvers.result import IKResult, Tolerances
+from wbik.targets import Target, as_target
+from wbik.wholebody.cases import CaseSampler, WholeBodyCase, register_sampler
 from wbik.wholebody.problem import WholeBody
 
 _install_catalog()  # what wbik ships, imported by name when a registry first needs it

@@ -10,17 +10,14 @@ Jacobian (world axes) of p moving with x's joint. SI units.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import coal
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownFrameError
-from wbik.errors import UnsupportedError
+from wbik.errors import RobotDescriptionError, UnknownFrameError, UnsupportedError
 from wbik.kinematic_tree import frame_index
 from wbik.models import robot_entries
 

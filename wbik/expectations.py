@@ -7,8 +7,7 @@ and fails once it is met (a strict xfail).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from wbik.errors import WbikError

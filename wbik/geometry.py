@@ -15,8 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidSettingError
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.kernels.twins import chosen, compiled_twin
 
 
 def wrap_to_pi(angle):

@@ -8,8 +8,7 @@ from dataclasses import dataclass
 
 import pinocchio as pin
 
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownFrameError
+from wbik.errors import RobotDescriptionError, UnknownFrameError
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,7 @@ import math
 import re
 import threading
 import weakref
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np

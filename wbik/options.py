@@ -10,15 +10,7 @@ import inspect
 from collections.abc import Callable
 
 from wbik.errors import InvalidOptionError
-from wbik.schema import Anything
-from wbik.schema import Boolean
-from wbik.schema import Errors
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Node
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import UnknownKeyError
+from wbik.schema import Anything, Boolean, Errors, Key, Map, Node, Number, Text, UnknownKeyError
 
 TIMEOUT_S = Number(gt=0, unit="s", budget=True, as_float=True)
 """A time budget (s)."""

@@ -8,17 +8,12 @@ from __future__ import annotations
 
 import importlib
 import threading
-from collections.abc import Callable
-from collections.abc import Iterable
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from types import ModuleType
-from typing import Generic
-from typing import Protocol
-from typing import TypeVar
+from typing import Generic, Protocol, TypeVar
 
-from wbik.errors import UnknownNameError
-from wbik.errors import WbikError
+from wbik.errors import UnknownNameError, WbikError
 
 
 class RegistryError(WbikError):

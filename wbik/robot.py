@@ -13,33 +13,28 @@ import math
 import os
 import threading
 import weakref
-from collections.abc import Mapping
-from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import SoleError
-from wbik.errors import UnknownChainError
-from wbik.errors import UnknownFrameError
-from wbik.errors import UnsupportedError
-from wbik.errors import did_you_mean
+from wbik.errors import (
+    InvalidConfigurationError,
+    RobotDescriptionError,
+    SoleError,
+    UnknownChainError,
+    UnknownFrameError,
+    UnsupportedError,
+    did_you_mean,
+)
 from wbik.files import atomic_write_text
 from wbik.geometry import wrap_to_pi
-from wbik.kinematic_tree import chain_path
-from wbik.kinematic_tree import leaf_frames
-from wbik.urdf import Mimic
-from wbik.urdf import angles_of
-from wbik.urdf import parse_urdf
-from wbik.urdf import reduced_model
+from wbik.kinematic_tree import chain_path, leaf_frames
+from wbik.urdf import Mimic, angles_of, parse_urdf, reduced_model
 from wbik.validation import numeric_array
 
 _CHAIN_BUILD_LOCK = threading.Lock()

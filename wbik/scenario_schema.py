@@ -9,47 +9,40 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnknownMethodError
-from wbik.errors import UnknownRobotError
-from wbik.errors import did_you_mean
-from wbik.models import URDF_PARAMS
-from wbik.models import builder_parameters
-from wbik.models import robot_entries
-from wbik.models.erd import example_robot_name
-from wbik.models.erd import example_robot_names
-from wbik.options import UnknownOptionError
-from wbik.options import option_schema
-from wbik.qp.backends import BACKEND_OPTIONS
-from wbik.qp.backends import DEFAULT
-from wbik.qp.backends import available
-from wbik.qp.backends import resolve
+from wbik.errors import MissingDependencyError, UnknownMethodError, UnknownRobotError, did_you_mean
+from wbik.models import URDF_PARAMS, builder_parameters, robot_entries
+from wbik.models.erd import example_robot_name, example_robot_names
+from wbik.options import UnknownOptionError, option_schema
+from wbik.qp.backends import BACKEND_OPTIONS, DEFAULT, available, resolve
 from wbik.qp.support_polygon import sole_rectangle
-from wbik.qp.task_entries import FRAME
-from wbik.qp.task_entries import VECTOR3
+from wbik.qp.task_entries import FRAME, VECTOR3
 from wbik.robot import ChainSpec
-from wbik.scenarios.kinds import KIND_REGISTRY
-from wbik.scenarios.kinds import ScenarioBudgetError
-from wbik.scenarios.kinds import ScenarioFileError
-from wbik.scenarios.kinds import ScenarioValueError
-from wbik.scenarios.kinds import UnknownExpectationKeyError
-from wbik.scenarios.kinds import UnknownScenarioKeyError
-from wbik.scenarios.kinds import kind_names
-from wbik.schema import Anything
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Errors
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Refused
-from wbik.schema import Text
-from wbik.schema import Vector
-from wbik.schema import got
-from wbik.schema import join
-from wbik.schema import short
+from wbik.scenarios.kinds import (
+    KIND_REGISTRY,
+    ScenarioBudgetError,
+    ScenarioFileError,
+    ScenarioValueError,
+    UnknownExpectationKeyError,
+    UnknownScenarioKeyError,
+    kind_names,
+)
+from wbik.schema import (
+    Anything,
+    Boolean,
+    Context,
+    Either,
+    Errors,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    Refused,
+    Text,
+    Vector,
+    got,
+    join,
+    short,
+)
 from wbik.solvers.method_registry import methods
 
 SCENARIO_ERRORS = Errors(ScenarioValueError, UnknownScenarioKeyError, ScenarioBudgetError)
@@ -218,8 +211,7 @@ def apply_soles(spec: dict, path: str, ctx: Context) -> None:
 
 def time_laws() -> tuple[str, ...]:
     """The time-law names a ``timing.law`` takes (wbik.motion.profiles)."""
-    from wbik.motion.profiles import ALIASES
-    from wbik.motion.profiles import LAWS
+    from wbik.motion.profiles import ALIASES, LAWS
 
     return (*LAWS, *ALIASES)
 

@@ -15,19 +15,10 @@ import inspect
 import math
 import numbers
 import re
-from collections.abc import Callable
-from collections.abc import Iterator
-from collections.abc import Mapping
-from dataclasses import MISSING
-from dataclasses import dataclass
-from dataclasses import field
-from dataclasses import fields
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import MISSING, dataclass, field, fields
 
-from wbik.errors import InvalidBudgetError
-from wbik.errors import InvalidSettingError
-from wbik.errors import WbikError
-from wbik.errors import closest_name
-from wbik.errors import did_you_mean
+from wbik.errors import InvalidBudgetError, InvalidSettingError, WbikError, closest_name, did_you_mean
 
 
 # -- errors -----------------------------------------------------------------------------------------

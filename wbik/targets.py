@@ -9,11 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidRotationError
-from wbik.errors import InvalidTargetError
+from wbik.errors import InvalidRotationError, InvalidTargetError
 from wbik.geometry import rotation_error
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.validation import numeric_array
 
 ROTATION_TOLERANCE = 1e-6

@@ -7,9 +7,7 @@ import json
 
 import numpy as np
 
-from wbik.commands.arguments import add_json_argument
-from wbik.commands.arguments import add_robot_arguments
-from wbik.commands.arguments import load_robot_chain
+from wbik.commands.arguments import add_json_argument, add_robot_arguments, load_robot_chain
 
 HELP = "forward kinematics of a chain"
 

@@ -16,8 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from wbik.models import load
-    from wbik.models import robots
+    from wbik.models import load, robots
 
     listing = {}
     for name, description in robots().items():

@@ -23,11 +23,8 @@ def run(args: argparse.Namespace) -> int:
 
     from wbik.data import task_path
     from wbik.errors import UsageError
-    from wbik.scenarios import format_report
-    from wbik.scenarios import load_scenario
-    from wbik.scenarios import run_scenario_report
-    from wbik.scenarios.kinds import KIND_REGISTRY
-    from wbik.scenarios.kinds import json_default
+    from wbik.scenarios import format_report, load_scenario, run_scenario_report
+    from wbik.scenarios.kinds import KIND_REGISTRY, json_default
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "

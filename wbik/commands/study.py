@@ -63,8 +63,7 @@ def check_output_folder(output: Path | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from wbik.errors import UsageError
-    from wbik.study import load_study
-    from wbik.study import run_study
+    from wbik.study import load_study, run_study
     from wbik.study.definition import with_overrides
     from wbik.study.report import write_report
     from wbik.study.runner import default_output

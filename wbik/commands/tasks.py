@@ -15,8 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     import yaml
 
-    from wbik.data import data_dir
-    from wbik.data import shipped_tasks
+    from wbik.data import data_dir, shipped_tasks
 
     tasks = shipped_tasks()
     if args.paths:

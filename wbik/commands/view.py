@@ -53,8 +53,7 @@ def build_viewer(args: argparse.Namespace, server: bool):
     """The Viewer for ``args``: a robot scene, or a scenario's animation."""
     import pinocchio as pin
 
-    from wbik.errors import InvalidTargetError
-    from wbik.errors import UnknownRobotError
+    from wbik.errors import InvalidTargetError, UnknownRobotError
     from wbik.models import load
     from wbik.viz import Viewer
 
@@ -118,8 +117,7 @@ def run(args: argparse.Namespace) -> int:
             viewer.export_html(html_path)
             print(f"wrote {html_path} (self-contained: open it in any browser, no server needed)")
         if args.screenshot is not None:
-            from wbik.viz.browser import find_chromium
-            from wbik.viz.browser import render
+            from wbik.viz.browser import find_chromium, render
 
             find_chromium()  # fail early, with the install hint, before exporting
             page = html_path or args.screenshot.with_suffix(".html")

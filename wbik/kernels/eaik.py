@@ -13,8 +13,7 @@ import math
 import numpy as np
 
 from wbik.geometry import TWO_PI
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.kernels.twins import chosen, compiled_twin
 
 _INVERSE_TURN = 1.0 / TWO_PI
 _TURN_SQUARED = TWO_PI * TWO_PI

@@ -13,12 +13,9 @@ from pathlib import Path
 from types import ModuleType
 
 import wbik.models.erd as erd
-from wbik.errors import InvalidOptionError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownRobotError
+from wbik.errors import InvalidOptionError, RobotDescriptionError, UnknownRobotError
 from wbik.registry import DeclaredRegistry
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
+from wbik.robot import Robot, robot_from_urdf_text
 
 
 @dataclass(frozen=True)

@@ -8,9 +8,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnknownRobotError
+from wbik.errors import MissingDependencyError, RobotDescriptionError, UnknownRobotError
 
 
 def _robots_loader():

@@ -8,21 +8,12 @@
 >>> trajectory = motion.make_trajectory(motion.time_scale(path, "quintic", velocity_limit=1.0))
 """
 
-from wbik.motion.cartesian import FunctionReference
-from wbik.motion.cartesian import PolylineReference
-from wbik.motion.cartesian import follow
-from wbik.motion.cartesian import linear_path
-from wbik.motion.cartesian import waypoint_path
+from wbik.motion.cartesian import FunctionReference, PolylineReference, follow, linear_path, waypoint_path
 from wbik.motion.joint import joint_path
-from wbik.motion.path import JointPath
-from wbik.motion.path import tracking_errors
-from wbik.motion.profiles import LAWS
-from wbik.motion.profiles import TimeLaw
-from wbik.motion.profiles import time_law
-from wbik.motion.timing import TimedPath
-from wbik.motion.timing import time_scale
-from wbik.motion.trajectory import Trajectory
-from wbik.motion.trajectory import make_trajectory
+from wbik.motion.path import JointPath, tracking_errors
+from wbik.motion.profiles import LAWS, TimeLaw, time_law
+from wbik.motion.timing import TimedPath, time_scale
+from wbik.motion.trajectory import Trajectory, make_trajectory
 
 __all__ = ["LAWS", "FunctionReference", "JointPath", "PolylineReference", "TimeLaw", "TimedPath",
            "Trajectory", "follow", "joint_path", "linear_path", "make_trajectory", "time_law",

@@ -10,15 +10,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import InvalidTargetError
-from wbik.motion.path import JointPath
-from wbik.motion.path import TaskReference
+from wbik.errors import InvalidConfigurationError, InvalidTargetError
+from wbik.motion.path import JointPath, TaskReference
 from wbik.solvers.base import Solver
 from wbik.solvers.path import interpolate
 from wbik.solvers.result import IKResult
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 DEFAULT_JUMP_THRESHOLD = 0.5
 """Largest joint change between two knots (rad or m) before a knot is called a jump."""

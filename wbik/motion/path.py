@@ -3,8 +3,7 @@ task reference of a Cartesian path (the tip pose wanted at each s)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np

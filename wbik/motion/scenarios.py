@@ -11,8 +11,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.expectations import Rule
-from wbik.expectations import judge
+from wbik.expectations import Rule, judge
 from wbik.files import json_plain
 from wbik.motion.cartesian import waypoint_path
 from wbik.motion.joint import joint_path
@@ -20,30 +19,27 @@ from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
 from wbik.motion.trajectory import make_trajectory
 from wbik.qp.task_entries import VECTOR3
-from wbik.scenario_schema import START
-from wbik.scenario_schema import Method
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import kind_schema
-from wbik.scenario_schema import time_laws
-from wbik.scenario_schema import timing_modes
-from wbik.scenarios.kinds import KindRun
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import ScenarioValueError
-from wbik.scenarios.kinds import format_entries
-from wbik.scenarios.kinds import start_of
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import Vector
-from wbik.schema import default_of
+from wbik.scenario_schema import (
+    START,
+    Method,
+    Robot,
+    common_keys,
+    expect_block,
+    kind_schema,
+    time_laws,
+    timing_modes,
+)
+from wbik.scenarios.kinds import (
+    KindRun,
+    Progress,
+    ScenarioError,
+    ScenarioKind,
+    ScenarioReport,
+    ScenarioValueError,
+    format_entries,
+    start_of,
+)
+from wbik.schema import Either, Key, ListOf, Map, Number, Text, Vector, default_of
 from wbik.solvers.method_registry import solver
 from wbik.validation import finite_vector
 from wbik.viz.animation import Animation

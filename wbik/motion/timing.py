@@ -14,11 +14,9 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 from scipy.optimize import minimize_scalar
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.motion.path import JointPath
-from wbik.motion.profiles import TimeLaw
-from wbik.motion.profiles import time_law
+from wbik.motion.profiles import TimeLaw, time_law
 
 GRID_POINTS = 4001  # the dense tau grid of a multi-knot piece
 MODES = ("global", "waypoint", "segment")

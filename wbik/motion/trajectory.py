@@ -9,17 +9,14 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
-from wbik.files import atomic_write_text
-from wbik.files import json_plain
-from wbik.motion.path import nanmax
-from wbik.motion.path import tracking_errors
+from wbik.files import atomic_write_text, json_plain
+from wbik.motion.path import nanmax, tracking_errors
 from wbik.motion.timing import TimedPath
 
 

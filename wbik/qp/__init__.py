@@ -15,41 +15,33 @@ pattern generator stays the reference for gait.
 
 from wbik.qp.backends import available as available_backends
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.constraint import BoundConstraint
-from wbik.qp.constraint import Constraint
-from wbik.qp.constraint import EqualityConstraint
-from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import PointContact
+from wbik.qp.constraint import BoundConstraint, Constraint, EqualityConstraint, InequalityConstraint
+from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.diagnosis import Diagnosis
-from wbik.qp.distances import CollisionAvoidance
-from wbik.qp.distances import MinimumDistance
+from wbik.qp.distances import CollisionAvoidance, MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.limits import LockedJoints
-from wbik.qp.problem import IKProblem
-from wbik.qp.problem import QPSolution
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import EqualityRows
-from wbik.qp.rows import InequalityRows
-from wbik.qp.rows import RowLabel
-from wbik.qp.support_polygon import DegenerateSupport
-from wbik.qp.support_polygon import DegenerateSupportPolygonError
-from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.support_polygon import convex_hull
-from wbik.qp.support_polygon import feet_support_polygon
-from wbik.qp.tasks import ComBoxTask
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionBoxTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import RelativeFrameTask
-from wbik.qp.tasks import Task
+from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
+from wbik.qp.problem import IKProblem, QPSolution
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, RowLabel
+from wbik.qp.support_polygon import (
+    DegenerateSupport,
+    DegenerateSupportPolygonError,
+    SupportPolygon,
+    convex_hull,
+    feet_support_polygon,
+)
+from wbik.qp.tasks import (
+    ComBoxTask,
+    ComTask,
+    FrameTask,
+    OrientationTask,
+    PositionBoxTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    RelativeFrameTask,
+    Task,
+)
 
 __all__ = [
     "BoundConstraint", "BoundRows", "CoMInSupportPolygon", "CollisionAvoidance", "ComBoxTask", "ComTask",

@@ -14,10 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import NoQPSolutionError
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.errors import MissingDependencyError, NoQPSolutionError
+from wbik.kernels.twins import chosen, compiled_twin
 
 if TYPE_CHECKING:
     import qpsolvers

@@ -6,17 +6,15 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from wbik.qp.constraint import SLACK
-from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.constraint import Measure
-from wbik.qp.constraint import StartViolation
+from wbik.qp.constraint import SLACK, InequalityConstraint, Measure, StartViolation
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import InequalityRows
-from wbik.qp.rows import RowLabel
-from wbik.qp.support_polygon import DegenerateSupport
-from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.support_polygon import feet_support_polygon
-from wbik.qp.support_polygon import feet_support_region
+from wbik.qp.rows import InequalityRows, RowLabel
+from wbik.qp.support_polygon import (
+    DegenerateSupport,
+    SupportPolygon,
+    feet_support_polygon,
+    feet_support_region,
+)
 
 
 class CoMInSupportPolygon(InequalityConstraint):

@@ -10,18 +10,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from dataclasses import asdict
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import EqualityRows
-from wbik.qp.rows import InequalityRows
-from wbik.qp.rows import RowLabel
-from wbik.qp.rows import Rows
+from wbik.qp.rows import BoundRows, EqualityRows, InequalityRows, RowLabel, Rows
 
 SLACK = 1e-9
 """How far (m or rad) a configuration may be past a constraint's edge and still satisfy it (rounding)."""

@@ -7,14 +7,10 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.qp.constraint import EqualityConstraint
-from wbik.qp.constraint import Measure
-from wbik.qp.constraint import StepBox
+from wbik.qp.constraint import EqualityConstraint, Measure, StepBox
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import EqualityRows
-from wbik.qp.rows import RowLabel
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import PositionTask
+from wbik.qp.rows import EqualityRows, RowLabel
+from wbik.qp.tasks import FrameTask, PositionTask
 
 
 class HeldFrame(EqualityConstraint):

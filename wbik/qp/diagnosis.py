@@ -12,22 +12,15 @@ would achieve; ``stationary``: nothing blocks and no step helps (out of reach, o
 
 from __future__ import annotations
 
-from dataclasses import asdict
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
-from wbik.qp.constraint import StartViolation
-from wbik.qp.constraint import StepBox
-from wbik.qp.elastic import ConflictRow
-from wbik.qp.elastic import conflict
-from wbik.qp.elastic import describe_rows
-from wbik.qp.hard_rows import HardRows
-from wbik.qp.hard_rows import group_key
-from wbik.qp.hard_rows import step_rows
+from wbik.qp.constraint import StartViolation, StepBox
+from wbik.qp.elastic import ConflictRow, conflict, describe_rows
+from wbik.qp.hard_rows import HardRows, group_key, step_rows
 from wbik.qp.rows import RowLabel
 from wbik.qp.tasks import Task
 

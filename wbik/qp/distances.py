@@ -4,15 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError
-from wbik.errors import RobotDescriptionError
-from wbik.qp.constraint import SLACK
-from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.constraint import Measure
-from wbik.qp.constraint import StartViolation
+from wbik.errors import InvalidSettingError, RobotDescriptionError
+from wbik.qp.constraint import SLACK, InequalityConstraint, Measure, StartViolation
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import InequalityRows
-from wbik.qp.rows import RowLabel
+from wbik.qp.rows import InequalityRows, RowLabel
 from wbik.schema import Number
 
 

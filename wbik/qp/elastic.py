@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.qp.hard_rows import HardRows
-from wbik.qp.hard_rows import group_key
+from wbik.qp.hard_rows import HardRows, group_key
 from wbik.qp.rows import RowLabel
 
 CONFLICT_TOLERANCE = 1e-9

@@ -15,10 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.qp.backends import split_rows
-from wbik.qp.constraint import STEP_BOX
-from wbik.qp.constraint import tangent_names
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import RowLabel
+from wbik.qp.constraint import STEP_BOX, tangent_names
+from wbik.qp.rows import BoundRows, RowLabel
 
 INFINITE = 1e29
 """A bound at or beyond this is no bound (the stack writes 1e30 for none)."""

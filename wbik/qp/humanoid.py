@@ -12,12 +12,10 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import Constraint
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import PointContact
+from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointPositionLimits
-from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.support_polygon import feet_support_polygon
+from wbik.qp.support_polygon import SupportPolygon, feet_support_polygon
 from wbik.robot import Robot
 
 

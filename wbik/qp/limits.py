@@ -2,23 +2,22 @@
 
 from __future__ import annotations
 
-from collections.abc import Collection
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
-from wbik.qp.constraint import SLACK
-from wbik.qp.constraint import BoundConstraint
-from wbik.qp.constraint import Measure
-from wbik.qp.constraint import StartViolation
-from wbik.qp.constraint import bounded_joint_indices
-from wbik.qp.constraint import tangent_names
+from wbik.qp.constraint import (
+    SLACK,
+    BoundConstraint,
+    Measure,
+    StartViolation,
+    bounded_joint_indices,
+    tangent_names,
+)
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.rows import BoundRows
-from wbik.qp.rows import RowLabel
-from wbik.qp.rows import as_index
+from wbik.qp.rows import BoundRows, RowLabel, as_index
 
 
 class RateLimits(BoundConstraint):

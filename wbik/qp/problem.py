@@ -13,8 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -22,21 +21,13 @@ import pinocchio as pin
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.constraint import BoundConstraint
-from wbik.qp.constraint import Constraint
-from wbik.qp.constraint import EqualityConstraint
-from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.diagnosis import Diagnosis
-from wbik.qp.diagnosis import StartViolation
-from wbik.qp.diagnosis import diagnose
-from wbik.qp.diagnosis import start_violations
+from wbik.qp.constraint import BoundConstraint, Constraint, EqualityConstraint, InequalityConstraint
+from wbik.qp.diagnosis import Diagnosis, StartViolation, diagnose, start_violations
 from wbik.qp.elastic import conflict
 from wbik.qp.hard_rows import step_rows
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointPositionLimits
-from wbik.qp.step import PHASES
-from wbik.qp.step import QPStep
-from wbik.qp.step import lap
+from wbik.qp.step import PHASES, QPStep, lap
 from wbik.qp.tasks import Task
 
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]

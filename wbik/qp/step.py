@@ -19,8 +19,7 @@ import numpy as np
 
 import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.constraint import Constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.tasks import Task

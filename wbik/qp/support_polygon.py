@@ -12,9 +12,7 @@ it are degenerate (:class:`DegenerateSupportPolygonError`). The checks that judg
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from collections.abc import Mapping
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -86,8 +84,10 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
     spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
     if spread <= tolerance:
         raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
-    from scipy.spatial import ConvexHull  # kept out of import wbik
-    from scipy.spatial import QhullError
+    from scipy.spatial import (
+        ConvexHull,  # kept out of import wbik
+        QhullError,
+    )
 
     try:
         hull = ConvexHull(points)  # 2-D: vertices counter-clockwise

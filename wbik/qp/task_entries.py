@@ -28,40 +28,41 @@ key). A module declares its types in a ``TASK_ENTRIES`` tuple listed in :data:`T
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from collections.abc import Mapping
-from dataclasses import dataclass
-from dataclasses import field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import UnknownFrameError
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import RelativeFrameTask
-from wbik.qp.tasks import Task
-from wbik.registry import DeclaredRegistry
-from wbik.registry import RegistryError
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Errors
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Node
-from wbik.schema import Number
-from wbik.schema import SchemaValueError
-from wbik.schema import Text
-from wbik.schema import UnknownKeyError
-from wbik.schema import Variants
-from wbik.schema import Vector
+from wbik.qp.tasks import (
+    ComTask,
+    FrameTask,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    RelativeFrameTask,
+    Task,
+)
+from wbik.registry import DeclaredRegistry, RegistryError
+from wbik.schema import (
+    Boolean,
+    Context,
+    Either,
+    Errors,
+    Key,
+    ListOf,
+    Map,
+    Node,
+    Number,
+    SchemaValueError,
+    Text,
+    UnknownKeyError,
+    Variants,
+    Vector,
+)
 
 __all__ = ["AXES", "FRAME", "NON_NEGATIVE", "POSITIVE", "TASK_ENTRIES", "TASK_ENTRY", "TASK_ENTRY_MODULES",
            "TASK_ENTRY_REGISTRY", "TASK_OPTIONS", "VECTOR3", "TaskEntry", "TaskEntryError", "build_task",

@@ -19,10 +19,8 @@ from functools import partial
 import numpy as np
 import pinocchio as pin
 
-from wbik.geometry import rotation_error
-from wbik.geometry import rotation_error_jacobian
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.geometry import rotation_error, rotation_error_jacobian
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.qp.kinematics import Kinematics
 
 _FRAME_ROWS = compiled_twin("qp_rows", "frame_rows")

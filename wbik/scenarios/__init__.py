@@ -8,15 +8,17 @@ import json
 from pathlib import Path
 
 from wbik.files import atomic_write_text
-from wbik.scenarios.kinds import KIND_REGISTRY
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioFileError
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import json_default
-from wbik.scenarios.kinds import kind_names
-from wbik.scenarios.kinds import register_kind
-from wbik.scenarios.kinds import report_verdict
+from wbik.scenarios.kinds import (
+    KIND_REGISTRY,
+    ScenarioError,
+    ScenarioFileError,
+    ScenarioKind,
+    ScenarioReport,
+    json_default,
+    kind_names,
+    register_kind,
+    report_verdict,
+)
 
 __all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "format_report",
            "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report"]

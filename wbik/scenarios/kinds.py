@@ -7,29 +7,18 @@ call ``on_progress(report so far)`` after each phase.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from wbik.errors import InvalidBudgetError
-from wbik.errors import MissingDependencyError
-from wbik.errors import WbikError
-from wbik.errors import did_you_mean
-from wbik.expectations import ExpectationError
-from wbik.expectations import format_checks
-from wbik.expectations import verdict
+from wbik.errors import InvalidBudgetError, MissingDependencyError, WbikError, did_you_mean
+from wbik.expectations import ExpectationError, format_checks, verdict
 from wbik.files import json_plain
 from wbik.models import load
-from wbik.registry import DeclaredRegistry
-from wbik.registry import RegistryError
-from wbik.registry import RegistryImportError
-from wbik.schema import Refused
-from wbik.schema import SchemaBudgetError
-from wbik.schema import SchemaValueError
-from wbik.schema import UnknownKeyError
+from wbik.registry import DeclaredRegistry, RegistryError, RegistryImportError
+from wbik.schema import Refused, SchemaBudgetError, SchemaValueError, UnknownKeyError
 from wbik.validation import finite_vector
 
 if TYPE_CHECKING:

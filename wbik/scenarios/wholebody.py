@@ -29,60 +29,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.collision import Obstacle
-from wbik.collision import robot_collision_model
+from wbik.collision import Obstacle, robot_collision_model
 from wbik.errors import SoleError
-from wbik.expectations import Rule
-from wbik.expectations import evaluate
-from wbik.expectations import verdict
-from wbik.options import UnknownOptionError
-from wbik.options import option_schema
+from wbik.expectations import Rule, evaluate, verdict
+from wbik.options import UnknownOptionError, option_schema
 from wbik.qp.contacts import HeldFrame
 from wbik.qp.diagnosis import report_lines
 from wbik.qp.distances import CollisionAvoidance
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import LockedJoints
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
-from wbik.qp.task_entries import FRAME
-from wbik.qp.task_entries import NON_NEGATIVE
-from wbik.qp.task_entries import POSITIVE
-from wbik.qp.task_entries import REGULARIZATION_WEIGHT
-from wbik.qp.task_entries import TASK_ENTRY
-from wbik.qp.task_entries import VECTOR3
-from wbik.qp.task_entries import TaskEntryError
-from wbik.qp.task_entries import build_task
-from wbik.scenario_schema import START
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import apply_soles
-from wbik.scenario_schema import backend_key
-from wbik.scenario_schema import check_robot_params
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import margin_key
-from wbik.scenario_schema import soles_key
-from wbik.scenarios.kinds import KindRun
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import ScenarioValueError
-from wbik.scenarios.kinds import format_entries
-from wbik.scenarios.kinds import start_of
-from wbik.schema import Anything
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import Vector
-from wbik.solvers.method_registry import method_factory
-from wbik.solvers.method_registry import methods
-from wbik.solvers.method_registry import solver
-from wbik.wholebody.problem import FRAMES
-from wbik.wholebody.problem import WholeBody
+from wbik.qp.task_entries import (
+    FRAME,
+    NON_NEGATIVE,
+    POSITIVE,
+    REGULARIZATION_WEIGHT,
+    TASK_ENTRY,
+    VECTOR3,
+    TaskEntryError,
+    build_task,
+)
+from wbik.scenario_schema import (
+    START,
+    Robot,
+    apply_soles,
+    backend_key,
+    check_robot_params,
+    common_keys,
+    expect_block,
+    margin_key,
+    soles_key,
+)
+from wbik.scenarios.kinds import (
+    KindRun,
+    Progress,
+    ScenarioError,
+    ScenarioKind,
+    ScenarioReport,
+    ScenarioValueError,
+    format_entries,
+    start_of,
+)
+from wbik.schema import Anything, Boolean, Context, Either, Key, ListOf, Map, Number, Text, Vector
+from wbik.solvers.method_registry import method_factory, methods, solver
+from wbik.wholebody.problem import FRAMES, WholeBody
 
 CONTACT_TOLERANCE = 1e-6
 """Contacts must hold to this (m for the position error, rad for the rotation error)."""
@@ -333,8 +323,7 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
     """From the start through each phase's answer, with its support and contacts; a phase continued from
     elsewhere (``continue_from: start``) is preceded by the way back there, on the previous stance."""
     from wbik.viz.animation import Animation
-    from wbik.viz.scenario import PHASE_SECONDS
-    from wbik.viz.scenario import SAMPLES_PER_PHASE
+    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
     stops = []  # (configuration, support, contacts) of each keyframe
     origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is

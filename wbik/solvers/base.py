@@ -13,40 +13,27 @@ import hashlib
 import math
 import threading
 import time
-from collections.abc import Iterable
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidBudgetError
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import InvalidOptionError
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
-from wbik.options import COUNT
-from wbik.options import SEED
-from wbik.options import TIMEOUT_S
+from wbik.errors import (
+    InvalidBudgetError,
+    InvalidConfigurationError,
+    InvalidOptionError,
+    InvalidSettingError,
+    UnsupportedError,
+)
+from wbik.options import COUNT, SEED, TIMEOUT_S
 from wbik.qp.constraint import Constraint
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.limits import LockedJoints
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.robot import Chain
-from wbik.robot import Robot
-from wbik.solvers.check import check_problem
-from wbik.solvers.check import evaluate
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.solvers.result import Tolerances
-from wbik.solvers.result import checked_tolerances
-from wbik.targets import Target
-from wbik.targets import as_target
-from wbik.wholebody.problem import StartedProblem
-from wbik.wholebody.problem import WholeBody
+from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
+from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
+from wbik.robot import Chain, Robot
+from wbik.solvers.check import check_problem, evaluate
+from wbik.solvers.result import Candidate, IKResult, Tolerances, checked_tolerances
+from wbik.targets import Target, as_target
+from wbik.wholebody.problem import StartedProblem, WholeBody
 
 DEFAULT_TIMEOUT_S = 0.005  # s: TRAC-IK's benchmark protocol and MoveIt's KDL default
 STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)

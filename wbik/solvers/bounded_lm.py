@@ -23,21 +23,19 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
-from wbik.solvers.levenberg_marquardt import JointBounds
-from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
-from wbik.solvers.levenberg_marquardt import Workspace
-from wbik.solvers.levenberg_marquardt import batch_cost
-from wbik.solvers.levenberg_marquardt import keep_better
+from wbik.solvers.levenberg_marquardt import (
+    JointBounds,
+    LevenbergMarquardt,
+    Workspace,
+    batch_cost,
+    keep_better,
+)
 from wbik.solvers.method import IKMethod
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.solvers.seeds import seed_library
-from wbik.solvers.seeds import seed_table
-from wbik.solvers.task_error import converged
-from wbik.solvers.task_error import serial_structure
+from wbik.solvers.result import Candidate, IKResult
+from wbik.solvers.seeds import seed_library, seed_table
+from wbik.solvers.task_error import converged, serial_structure
 from wbik.solvers.vectorised_chain import VectorisedChain
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _IDENTITY = np.eye(3)

@@ -16,14 +16,9 @@ import pinocchio as pin
 from wbik.geometry import error_parts
 from wbik.qp.kinematics import Kinematics
 from wbik.robot import Chain
-from wbik.solvers.result import NAN3
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.solvers.result import Tolerances
-from wbik.targets import Target
-from wbik.targets import pose_target
-from wbik.wholebody.problem import StartedProblem
-from wbik.wholebody.problem import WholeBody
+from wbik.solvers.result import NAN3, Candidate, IKResult, Tolerances
+from wbik.targets import Target, pose_target
+from wbik.wholebody.problem import StartedProblem, WholeBody
 
 try:  # numpy's clip ufunc: np.clip's Python wrapper costs more than the ufunc on a few joints
     from numpy._core.umath import clip as _clip_ufunc

@@ -12,12 +12,10 @@ import time
 import numpy as np
 
 from wbik.solvers.base import Solver
-from wbik.solvers.levenberg_marquardt import JointBounds
-from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
-from wbik.solvers.task_error import converged
-from wbik.solvers.task_error import task_error
+from wbik.solvers.task_error import converged, task_error
 from wbik.targets import Target
 
 

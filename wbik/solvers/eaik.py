@@ -20,18 +20,12 @@ import wbik.kernels.eaik as eaik_kernel
 from wbik.dependencies import EAIK_LIBRARY
 from wbik.options import COUNT
 from wbik.solvers.analytic.closed_form import BranchLibrarySolver
-from wbik.solvers.analytic.eaik_family import EAIKForm
-from wbik.solvers.analytic.eaik_family import eaik_structure
+from wbik.solvers.analytic.eaik_family import EAIKForm, eaik_structure
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.check import evaluate
-from wbik.solvers.check import evaluate_screened
+from wbik.solvers.check import evaluate, evaluate_screened
 from wbik.solvers.method import IKMethod
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.targets import Target
-from wbik.targets import as_target
-from wbik.targets import plain_pose_matrix
-from wbik.targets import pose_target
+from wbik.solvers.result import Candidate, IKResult
+from wbik.targets import Target, as_target, plain_pose_matrix, pose_target
 
 
 class EAIKSolver(BranchLibrarySolver):

@@ -19,17 +19,16 @@ import numpy as np
 
 from wbik.dependencies import IK_GEO_LIBRARY
 from wbik.errors import UnsupportedError
-from wbik.robot import Chain
-from wbik.robot import ChainCache
-from wbik.solvers.analytic.closed_form import PROBE_POSES
-from wbik.solvers.analytic.closed_form import PROBE_REQUIRED
-from wbik.solvers.analytic.closed_form import PROBE_SEED
-from wbik.solvers.analytic.closed_form import PROBE_TOLERANCE
-from wbik.solvers.analytic.closed_form import BranchLibrarySolver
-from wbik.solvers.analytic.closed_form import fk_residual
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
-from wbik.solvers.analytic.structure import ChainLines
-from wbik.solvers.analytic.structure import chain_lines
+from wbik.robot import Chain, ChainCache
+from wbik.solvers.analytic.closed_form import (
+    PROBE_POSES,
+    PROBE_REQUIRED,
+    PROBE_SEED,
+    PROBE_TOLERANCE,
+    BranchLibrarySolver,
+    fk_residual,
+)
+from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.targets import Target

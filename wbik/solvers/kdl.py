@@ -23,8 +23,7 @@ from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
-from wbik.targets import Target
-from wbik.targets import pose_error
+from wbik.targets import Target, pose_error
 
 FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m, rotation entries)
 

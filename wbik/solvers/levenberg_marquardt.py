@@ -17,8 +17,7 @@ import numpy as np
 from scipy.linalg.lapack import dposv
 
 from wbik.geometry import TWO_PI
-from wbik.kernels.twins import chosen
-from wbik.kernels.twins import compiled_twin
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.solvers.check import clip_to_limits
 
 _LM_TRIAL = compiled_twin("lm_trial", "lm_trial")  # LevenbergMarquardt.trial's (None: not built)

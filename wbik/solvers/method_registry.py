@@ -17,18 +17,13 @@ from __future__ import annotations
 import importlib
 import inspect
 
-from wbik.errors import InvalidOptionError
-from wbik.errors import UnknownMethodError
-from wbik.options import OPTION_ERRORS
-from wbik.options import option_schema
-from wbik.registry import DeclaredRegistry
-from wbik.registry import RegistryError
+from wbik.errors import InvalidOptionError, UnknownMethodError
+from wbik.options import OPTION_ERRORS, option_schema
+from wbik.registry import DeclaredRegistry, RegistryError
 from wbik.robot import Robot
-from wbik.schema import Context
-from wbik.schema import got
+from wbik.schema import Context, got
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod
-from wbik.solvers.method import SolverFactory
+from wbik.solvers.method import IKMethod, SolverFactory
 
 __all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "budget_options", "method_factory", "methods",
            "register", "register_method", "solver", "solver_options"]

@@ -10,8 +10,7 @@ levels. A chain target runs as mink's arm examples do: the tip's frame task unde
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from functools import cache
 
 import numpy as np
@@ -20,38 +19,34 @@ import pinocchio as pin
 import wbik.qp.backends as backends
 from wbik.dependencies import MINK_LIBRARY
 from wbik.errors import InvalidSettingError
-from wbik.mujoco_model import MuJoCoBody
-from wbik.mujoco_model import import_mink
-from wbik.mujoco_model import mujoco_body
+from wbik.mujoco_model import MuJoCoBody, import_mink, mujoco_body
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import PointContact
+from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.limits import LockedJoints
-from wbik.qp.peers import PeerForms
-from wbik.qp.peers import frame_weights
-from wbik.qp.peers import largest_weight
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import RelativeFrameTask
+from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
+from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.tasks import (
+    ComTask,
+    FrameTask,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    RelativeFrameTask,
+)
 from wbik.schema import Number
 from wbik.solvers.method import IKMethod
-from wbik.solvers.peer import NO_POLYGON
-from wbik.solvers.peer import PeerSolver
-from wbik.solvers.peer import SolveIKProblem
-from wbik.solvers.peer import com_form
-from wbik.solvers.peer import contact_form
-from wbik.solvers.peer import frame_form
-from wbik.solvers.peer import orientation_form
-from wbik.solvers.peer import raise_damping
-from wbik.solvers.peer import stalled
+from wbik.solvers.peer import (
+    NO_POLYGON,
+    PeerSolver,
+    SolveIKProblem,
+    com_form,
+    contact_form,
+    frame_form,
+    orientation_form,
+    raise_damping,
+    stalled,
+)
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.wholebody.problem import StartedProblem

@@ -16,8 +16,7 @@ import scipy.linalg
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
-from wbik.solvers.task_error import converged
-from wbik.solvers.task_error import task_error
+from wbik.solvers.task_error import converged, task_error
 from wbik.targets import Target
 
 

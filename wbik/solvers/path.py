@@ -7,8 +7,7 @@ sub-point is recorded and the path carries on from the last good joints.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
@@ -17,8 +16,7 @@ from wbik.errors import InvalidConfigurationError
 from wbik.geometry import rotation_error
 from wbik.solvers.base import Solver
 from wbik.solvers.result import IKResult
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 
 @dataclass

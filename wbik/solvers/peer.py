@@ -7,30 +7,20 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import HeldFrame
+from wbik.qp.contacts import Contact, HeldFrame
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.peers import PeerForms
-from wbik.qp.peers import Unsupported
-from wbik.qp.peers import frame_weights
-from wbik.qp.peers import largest_weight
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import Task
+from wbik.qp.peers import PeerForms, Unsupported, frame_weights, largest_weight
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, RegularizationTask, Task
 from wbik.solvers.base import Solver
 from wbik.solvers.result import Candidate
-from wbik.wholebody.problem import StartedProblem
-from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.problem import StartedProblem, WholeBody
 
 NO_POLYGON = "support polygon as a hard CoM constraint"  # what a method without one lists as unsupported
 

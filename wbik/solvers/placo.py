@@ -19,31 +19,25 @@ import pinocchio as pin
 from wbik.dependencies import PLACO_LIBRARY
 from wbik.errors import RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import PointContact
+from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.limits import LockedJoints
-from wbik.qp.peers import PeerForms
-from wbik.qp.peers import frame_weights
-from wbik.qp.peers import largest_weight
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import RelativeFrameTask
-from wbik.robot import Robot
-from wbik.robot import write_cached_urdf
+from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
+from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.tasks import (
+    ComTask,
+    FrameTask,
+    OrientationTask,
+    PositionTask,
+    PostureTask,
+    RegularizationTask,
+    RelativeFrameTask,
+)
+from wbik.robot import Robot, write_cached_urdf
 from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.result import Candidate
-from wbik.urdf import continuous_as_revolute
-from wbik.urdf import fixed_joints_renamed
+from wbik.urdf import continuous_as_revolute, fixed_joints_renamed
 from wbik.wholebody.problem import StartedProblem
 
 

@@ -15,20 +15,15 @@ import pinocchio as pin
 
 import wbik.qp.backends as backends
 from wbik.qp.diagnosis import last_solve_diagnosis
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import JointPositionLimits, JointVelocityLimits
 from wbik.qp.problem import IKProblem
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import lowest_priority
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
+from wbik.solvers.result import Candidate, IKResult
 from wbik.targets import Target
-from wbik.wholebody.problem import StartedProblem
-from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.problem import StartedProblem, WholeBody
 
 
 class QPSolver(Solver):

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError
-from wbik.errors import InvalidToleranceError
+from wbik.errors import InvalidSettingError, InvalidToleranceError
 from wbik.files import json_plain
 from wbik.schema import Number
 

@@ -19,9 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
-from wbik.geometry import batch_log3
-from wbik.geometry import pose_error
-from wbik.geometry import rotation_error_jacobian
+from wbik.geometry import batch_log3, pose_error, rotation_error_jacobian
 from wbik.robot import Chain
 from wbik.targets import Target
 

@@ -12,8 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.dependencies import TRAC_IK_LIBRARY
-from wbik.errors import InvalidSettingError
-from wbik.errors import RobotDescriptionError
+from wbik.errors import InvalidSettingError, RobotDescriptionError
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.task_error import LEVI_CIVITA
-from wbik.solvers.task_error import batch_se3_error
-from wbik.solvers.task_error import serial_structure
+from wbik.solvers.task_error import LEVI_CIVITA, batch_se3_error, serial_structure
 
 
 class VectorisedChain:

@@ -5,14 +5,9 @@ check, beside the figures of a published reference when the study file gives the
 >>> run_study(with_overrides(load_study("comparisons/default.yaml"), poses=50))  # doctest: +SKIP
 """
 
-from wbik.study.definition import load_study
-from wbik.study.definition import study_from_dict
-from wbik.study.definition import with_overrides
+from wbik.study.definition import load_study, study_from_dict, with_overrides
 from wbik.study.runner import run_study
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.spec import StudyDefinitionError
+from wbik.study.spec import CaseSpec, MethodSpec, Study, StudyDefinitionError
 
 __all__ = ["CaseSpec", "MethodSpec", "Study", "StudyDefinitionError", "load_study", "run_study",
            "study_from_dict", "with_overrides"]

@@ -6,8 +6,7 @@ error while building propagates.
 
 from __future__ import annotations
 
-from wbik.errors import MissingDependencyError
-from wbik.errors import UnsupportedError
+from wbik.errors import MissingDependencyError, UnsupportedError
 from wbik.study.case_kinds import ChunkTask
 
 

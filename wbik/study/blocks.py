@@ -13,19 +13,12 @@ import numpy as np
 
 import wbik.study.results as store
 from wbik.errors import WbikError
-from wbik.study.budget_curves import BudgetCurve
-from wbik.study.budget_curves import read_curves
+from wbik.study.budget_curves import BudgetCurve, read_curves
 from wbik.study.case_kinds import CaseKind
 from wbik.study.context import chunk_count
-from wbik.study.cpu_watch import STARVED_CPU_SHARE
-from wbik.study.cpu_watch import threads_of
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.statistics import ALPHA
-from wbik.study.statistics import BOOTSTRAP_RESAMPLES
-from wbik.study.statistics import significance
-from wbik.study.statistics import with_holm
+from wbik.study.cpu_watch import STARVED_CPU_SHARE, threads_of
+from wbik.study.spec import CaseSpec, MethodSpec, Study
+from wbik.study.statistics import ALPHA, BOOTSTRAP_RESAMPLES, significance, with_holm
 
 
 @dataclass

@@ -9,19 +9,15 @@ from __future__ import annotations
 
 import math
 import shutil
-from dataclasses import dataclass
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 import wbik.study.results as store
-from wbik.study.case_kinds import ChunkTask
-from wbik.study.case_kinds import case_kind
+from wbik.study.case_kinds import ChunkTask, case_kind
 from wbik.study.sampling import PoseSet
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec, MethodSpec, Study
 from wbik.study.statistics import wilson_interval
 
 FOLDER = "budget_curves"

@@ -7,27 +7,20 @@ carries its kind to the workers).
 
 from __future__ import annotations
 
-from abc import ABC
-from abc import abstractmethod
+from abc import ABC, abstractmethod
 from collections.abc import Iterable
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import WbikError
 from wbik.registry import DeclaredRegistry
-from wbik.schema import Context
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.study.context import _frozen
-from wbik.study.context import chunk_seed
+from wbik.schema import Context, Key, Map
+from wbik.study.context import _frozen, chunk_seed
 from wbik.study.metrics import AngleConvention
 from wbik.study.sampling import PoseSet
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec, MethodSpec, Study
 
 __all__ = ["CASE_KIND_MODULES", "CASE_KIND_REGISTRY", "CaseKind", "ChunkTask", "RegisteredMethods",
            "case_kind", "case_kinds", "kinds_of", "register_case_kind"]

@@ -18,52 +18,38 @@ from pathlib import Path
 import numpy as np
 
 import wbik.study.results as store
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
-from wbik.errors import WbikError
+from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.robot import Chain
 from wbik.schema import Map
 from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import budget_options
-from wbik.study.blocks import INTERVALS_TEXT
-from wbik.study.blocks import SOLVED_COLUMNS
-from wbik.study.blocks import TIME_COLUMNS
-from wbik.study.blocks import Block
-from wbik.study.blocks import budget_blocks
-from wbik.study.blocks import case_analysis
-from wbik.study.blocks import case_rows
-from wbik.study.blocks import fmt
-from wbik.study.blocks import fmt_p
-from wbik.study.blocks import frequent_reasons
-from wbik.study.blocks import image_blocks
-from wbik.study.blocks import significance_blocks
-from wbik.study.blocks import status_blocks
-from wbik.study.blocks import summary_table
-from wbik.study.blocks import throughput_blocks
-from wbik.study.blocks import time_columns
-from wbik.study.case_kinds import CaseKind
-from wbik.study.case_kinds import ChunkTask
-from wbik.study.case_kinds import RegisteredMethods
-from wbik.study.context import chain_of
-from wbik.study.context import make_solver
-from wbik.study.cpu_watch import MAX_RERUNS
-from wbik.study.cpu_watch import solve_watching_the_cpu
-from wbik.study.metrics import STUDY_SEQUENCE
-from wbik.study.metrics import AngleConvention
+from wbik.study.blocks import (
+    INTERVALS_TEXT,
+    SOLVED_COLUMNS,
+    TIME_COLUMNS,
+    Block,
+    budget_blocks,
+    case_analysis,
+    case_rows,
+    fmt,
+    fmt_p,
+    frequent_reasons,
+    image_blocks,
+    significance_blocks,
+    status_blocks,
+    summary_table,
+    throughput_blocks,
+    time_columns,
+)
+from wbik.study.case_kinds import CaseKind, ChunkTask, RegisteredMethods
+from wbik.study.context import chain_of, make_solver
+from wbik.study.cpu_watch import MAX_RERUNS, solve_watching_the_cpu
+from wbik.study.metrics import STUDY_SEQUENCE, AngleConvention, axis_errors
 from wbik.study.metrics import axes as case_axes
-from wbik.study.metrics import axis_errors
-from wbik.study.reference import REFERENCE_METRICS
-from wbik.study.reference import our_figures
-from wbik.study.reference import same_significance
-from wbik.study.reference import verdict
-from wbik.study.sampling import PoseSet
-from wbik.study.sampling import poses_of_joints
-from wbik.study.sampling import sample_joints
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.statistics import ALPHA
-from wbik.study.statistics import summarize
+from wbik.study.reference import REFERENCE_METRICS, our_figures, same_significance, verdict
+from wbik.study.sampling import PoseSet, poses_of_joints, sample_joints
+from wbik.study.spec import CaseSpec, MethodSpec, Study
+from wbik.study.statistics import ALPHA, summarize
 
 
 @dataclass(frozen=True)

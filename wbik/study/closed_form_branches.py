@@ -20,8 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import UnsupportedError
-from wbik.geometry import TWO_PI
-from wbik.geometry import wrap_to_pi
+from wbik.geometry import TWO_PI, wrap_to_pi
 from wbik.robot import Chain
 
 BRANCH_RESIDUAL = 1e-7

@@ -12,8 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -21,11 +20,7 @@ from scipy import stats
 
 import wbik.study.results as store
 from wbik.errors import UsageError
-from wbik.study.blocks import Block
-from wbik.study.blocks import case_rows
-from wbik.study.blocks import fmt
-from wbik.study.blocks import fmt_interval
-from wbik.study.blocks import fmt_p
+from wbik.study.blocks import Block, case_rows, fmt, fmt_interval, fmt_p
 from wbik.study.regression_rule import RegressionRule
 from wbik.study.spec import Study
 from wbik.study.statistics import bootstrap_median_interval

@@ -8,8 +8,7 @@ import zlib
 
 import numpy as np
 
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import Study
+from wbik.study.spec import CaseSpec, Study
 
 _LOCAL = threading.local()
 

@@ -12,51 +12,53 @@ from __future__ import annotations
 
 import re
 import tomllib
-from dataclasses import fields
-from dataclasses import replace
+from dataclasses import fields, replace
 from pathlib import Path
 
 import yaml
 
-from wbik.data import data_dir
-from wbik.data import study_path
+from wbik.data import data_dir, study_path
 from wbik.errors import did_you_mean
 from wbik.options import Options
-from wbik.schema import Anything
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Errors
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Node
-from wbik.schema import Number
-from wbik.schema import SchemaBudgetError
-from wbik.schema import SchemaValueError
-from wbik.schema import Shorthand
-from wbik.schema import Text
-from wbik.schema import UnknownKeyError
-from wbik.schema import dataclass_default
-from wbik.schema import join
-from wbik.schema import unknown_keys
-from wbik.study.metrics import ANGLE_AXES
-from wbik.study.metrics import POSITION_AXES
-from wbik.study.metrics import ROTATION_VECTOR_AXES
-from wbik.study.metrics import TAIT_BRYAN_SEQUENCES
-from wbik.study.metrics import AngleConvention
-from wbik.study.reference import REFERENCE_METRICS
-from wbik.study.reference import Reference
-from wbik.study.regression_rule import regression_rule
-from wbik.study.regression_rule import regression_schema
-from wbik.study.spec import BUDGET_CURVE_MS
-from wbik.study.spec import BUDGET_CURVE_POSES
-from wbik.study.spec import DEFAULT_TARGET
-from wbik.study.spec import BudgetCurveSpec
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.spec import StudyDefinitionError
+from wbik.schema import (
+    Anything,
+    Boolean,
+    Context,
+    Either,
+    Errors,
+    Key,
+    ListOf,
+    Map,
+    Node,
+    Number,
+    SchemaBudgetError,
+    SchemaValueError,
+    Shorthand,
+    Text,
+    UnknownKeyError,
+    dataclass_default,
+    join,
+    unknown_keys,
+)
+from wbik.study.metrics import (
+    ANGLE_AXES,
+    POSITION_AXES,
+    ROTATION_VECTOR_AXES,
+    TAIT_BRYAN_SEQUENCES,
+    AngleConvention,
+)
+from wbik.study.reference import REFERENCE_METRICS, Reference
+from wbik.study.regression_rule import regression_rule, regression_schema
+from wbik.study.spec import (
+    BUDGET_CURVE_MS,
+    BUDGET_CURVE_POSES,
+    DEFAULT_TARGET,
+    BudgetCurveSpec,
+    CaseSpec,
+    MethodSpec,
+    Study,
+    StudyDefinitionError,
+)
 
 COMPARISONS_DIR = data_dir("comparisons")
 """The ``comparisons/`` folder of study files (the repository's, or the installed package's copy)."""
@@ -526,12 +528,9 @@ def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
 def check_schema(methods, cases, source: str) -> None:
     """Check what the file names against the code, before any solving: every method's ``options`` against
     its constructor (names and types), every case's robot and its ``robot_params`` against its builder."""
-    from wbik.models import builder_parameters
-    from wbik.models import robot_entries
-    from wbik.models.erd import example_robot_name
-    from wbik.models.erd import example_robot_names
-    from wbik.study.case_kinds import case_kinds
-    from wbik.study.case_kinds import kinds_of
+    from wbik.models import builder_parameters, robot_entries
+    from wbik.models.erd import example_robot_name, example_robot_names
+    from wbik.study.case_kinds import case_kinds, kinds_of
 
     study_settings = {"timeout_s", "tolerances", "seed"}  # every method takes these from the study
     kinds = kinds_of(cases) or list(case_kinds().values())

@@ -16,9 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.geometry import TAIT_BRYAN_SEQUENCES  # noqa: F401  (re-exported)
-from wbik.geometry import batch_exp3  # noqa: F401  (re-exported)
-from wbik.geometry import tait_bryan_angles  # noqa: F401  (re-exported)
+from wbik.geometry import (
+    TAIT_BRYAN_SEQUENCES,  # noqa: F401  (re-exported)
+    batch_exp3,  # noqa: F401  (re-exported)
+    tait_bryan_angles,  # noqa: F401  (re-exported)
+)
 from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
 from wbik.solvers.result import IKResult
 

@@ -11,15 +11,9 @@ import numpy as np
 
 from wbik.geometry import TWO_PI
 from wbik.robot import Chain
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import choice
-from wbik.study.target_parameters import integer
-from wbik.study.target_parameters import number
-from wbik.study.target_sets import Drawing
-from wbik.study.target_sets import TargetSetKind
-from wbik.study.target_sets import target_stream
+from wbik.study.blocks import Block, fmt
+from wbik.study.target_parameters import Parameter, choice, integer, number
+from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
 
 def limited_joints(chain: Chain) -> np.ndarray:

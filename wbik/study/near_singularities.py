@@ -13,15 +13,10 @@ from __future__ import annotations
 import numpy as np
 
 from wbik.robot import Chain
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
+from wbik.study.blocks import Block, fmt
 from wbik.study.spec import StudyDefinitionError
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import integer
-from wbik.study.target_parameters import number
-from wbik.study.target_sets import Drawing
-from wbik.study.target_sets import TargetSetKind
-from wbik.study.target_sets import target_stream
+from wbik.study.target_parameters import Parameter, integer, number
+from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
 DIFFERENCE_STEP = 1e-6
 """Central-difference step of dJ/dq (rad or m)."""

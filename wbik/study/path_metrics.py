@@ -18,8 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.study.closed_form_branches import ClosedFormBranches
-from wbik.study.closed_form_branches import joint_distance
+from wbik.study.closed_form_branches import ClosedFormBranches, joint_distance
 
 
 def fractions(count: int) -> np.ndarray:

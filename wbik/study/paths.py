@@ -19,9 +19,7 @@ point k from its answer at the last solved point. Rows: one per path, the per-po
 from __future__ import annotations
 
 import math
-from dataclasses import asdict
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import asdict, dataclass, field
 from functools import partial
 from pathlib import Path
 
@@ -29,41 +27,24 @@ import numpy as np
 
 import wbik.study.results as store
 from wbik.robot import Chain
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import join
+from wbik.schema import Boolean, Context, Key, Map, Number, join
 from wbik.solvers.method_registry import budget_options
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.blocks import fmt_interval
-from wbik.study.blocks import frequent_reasons
-from wbik.study.blocks import status_blocks
-from wbik.study.blocks import write_case_tables
-from wbik.study.chain_targets import ChainChunkTask
-from wbik.study.chain_targets import ChainTargets
-from wbik.study.context import _frozen
-from wbik.study.context import chain_of
-from wbik.study.context import make_solver
-from wbik.study.path_metrics import branch_labels
-from wbik.study.path_metrics import circle_points
-from wbik.study.path_metrics import line_points
-from wbik.study.path_metrics import path_metrics
-from wbik.study.path_metrics import random_plane
-from wbik.study.path_metrics import random_unit
-from wbik.study.path_metrics import slerped_rotations
-from wbik.study.sampling import PoseSet
-from wbik.study.sampling import saved_extras
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import Study
-from wbik.study.statistics import finite_statistic
-from wbik.study.statistics import wilson_interval
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import choice
-from wbik.study.target_parameters import integer
-from wbik.study.target_parameters import number
+from wbik.study.blocks import Block, fmt, fmt_interval, frequent_reasons, status_blocks, write_case_tables
+from wbik.study.chain_targets import ChainChunkTask, ChainTargets
+from wbik.study.context import _frozen, chain_of, make_solver
+from wbik.study.path_metrics import (
+    branch_labels,
+    circle_points,
+    line_points,
+    path_metrics,
+    random_plane,
+    random_unit,
+    slerped_rotations,
+)
+from wbik.study.sampling import PoseSet, saved_extras
+from wbik.study.spec import CaseSpec, Study
+from wbik.study.statistics import finite_statistic, wilson_interval
+from wbik.study.target_parameters import Parameter, choice, integer, number
 from wbik.study.target_sets import target_stream
 
 PATH = "path"

@@ -17,31 +17,21 @@ from pathlib import Path
 import numpy as np
 
 import wbik.study.results as store
-from wbik.schema import Context
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Text
-from wbik.schema import dataclass_default
-from wbik.schema import join
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.blocks import write_table
-from wbik.study.chain_targets import ChainChunkTask
-from wbik.study.chain_targets import ChainTargets
-from wbik.study.reference import REFERENCE_METRICS
-from wbik.study.reference import our_figures
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import Study
-from wbik.study.success_rules import FRAMES
-from wbik.study.success_rules import PERCENTILES
-from wbik.study.success_rules import RULES
-from wbik.study.success_rules import SuccessRule
-from wbik.study.success_rules import error_percentiles
-from wbik.study.success_rules import failure_reason
-from wbik.study.success_rules import judge
-from wbik.study.target_parameters import choice
-from wbik.study.target_parameters import number
+from wbik.schema import Context, Key, ListOf, Map, Text, dataclass_default, join
+from wbik.study.blocks import Block, fmt, write_table
+from wbik.study.chain_targets import ChainChunkTask, ChainTargets
+from wbik.study.reference import REFERENCE_METRICS, our_figures
+from wbik.study.spec import CaseSpec, Study
+from wbik.study.success_rules import (
+    FRAMES,
+    PERCENTILES,
+    RULES,
+    SuccessRule,
+    error_percentiles,
+    failure_reason,
+    judge,
+)
+from wbik.study.target_parameters import choice, number
 
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)

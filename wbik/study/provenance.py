@@ -15,8 +15,7 @@ import shlex
 import subprocess
 import sys
 from collections.abc import Iterable
-from datetime import UTC
-from datetime import datetime
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 

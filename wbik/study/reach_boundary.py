@@ -12,13 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from wbik.robot import Chain
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import integer
-from wbik.study.target_sets import Drawing
-from wbik.study.target_sets import TargetSetKind
-from wbik.study.target_sets import target_stream
+from wbik.study.blocks import Block, fmt
+from wbik.study.target_parameters import Parameter, integer
+from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
 
 def reach_along(chain: Chain, direction: np.ndarray, q: np.ndarray) -> tuple[float, np.ndarray]:

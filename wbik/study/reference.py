@@ -14,8 +14,7 @@ theirs; p-values agree when both are, or both are not, below ``ALPHA``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 from wbik.study.metrics import AngleConvention
 from wbik.study.statistics import ALPHA

@@ -7,12 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wbik.schema import Constant
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import dataclass_default
+from wbik.schema import Constant, Either, Key, Map, Number, dataclass_default
 
 
 @dataclass(frozen=True)

@@ -9,20 +9,15 @@ import base64
 import html
 import json
 import re
-from datetime import UTC
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 
 import wbik.study.results as store
-from wbik.study.blocks import Block
-from wbik.study.blocks import budget_semantics
-from wbik.study.blocks import fmt
-from wbik.study.case_kinds import case_kind
-from wbik.study.case_kinds import kinds_of
+from wbik.study.blocks import Block, budget_semantics, fmt
+from wbik.study.case_kinds import case_kind, kinds_of
 from wbik.study.compare import Comparison
 from wbik.study.cpu_watch import threads_of
-from wbik.study.provenance import PROVENANCE
-from wbik.study.provenance import provenance_lines
+from wbik.study.provenance import PROVENANCE, provenance_lines
 from wbik.study.spec import Study
 
 

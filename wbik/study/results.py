@@ -19,8 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.files import atomic_write_bytes
-from wbik.files import atomic_write_text
+from wbik.files import atomic_write_bytes, atomic_write_text
 
 ROW_FIELDS = ("pose", "success", "reason", "time_s", "iterations", "position_error", "rotation_error")
 """Columns of every raw row before the per-axis errors and the joints."""

@@ -23,25 +23,15 @@ from wbik.dependencies import DASK_LIBRARY
 from wbik.errors import WbikError
 from wbik.study.applicability import not_applicable
 from wbik.study.blocks import budget_kind
-from wbik.study.budget_curves import budget_path
-from wbik.study.budget_curves import budget_tasks
-from wbik.study.case_kinds import ChunkTask
-from wbik.study.case_kinds import case_kind
-from wbik.study.compare import TARGETS_RECORD
-from wbik.study.compare import targets_record
+from wbik.study.budget_curves import budget_path, budget_tasks
+from wbik.study.case_kinds import ChunkTask, case_kind
+from wbik.study.compare import TARGETS_RECORD, targets_record
 from wbik.study.context import chunk_count
-from wbik.study.cpu_watch import threads_of
-from wbik.study.cpu_watch import usable_cores
-from wbik.study.cpu_watch import workers_for
+from wbik.study.cpu_watch import threads_of, usable_cores, workers_for
 from wbik.study.ownership import FolderLock
-from wbik.study.provenance import PROVENANCE
-from wbik.study.provenance import code_roots
-from wbik.study.provenance import provenance
+from wbik.study.provenance import PROVENANCE, code_roots, provenance
 from wbik.study.sampling import PoseSet
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.spec import StudyDefinitionError
+from wbik.study.spec import CaseSpec, MethodSpec, Study, StudyDefinitionError
 
 BACKENDS = ("loky", "sequential", "dask")
 
@@ -159,9 +149,7 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         for task in tasks:
             yield task, solve_chunk(task)
         return
-    from joblib import Parallel
-    from joblib import delayed
-    from joblib import parallel_config
+    from joblib import Parallel, delayed, parallel_config
 
     def run(n_jobs: int):
         parallel = Parallel(n_jobs=n_jobs, return_as="generator_unordered", batch_size=1,
@@ -173,8 +161,7 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
             yield from run(jobs)
         return
     try:
-        from dask.distributed import Client
-        from dask.distributed import LocalCluster
+        from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise DASK_LIBRARY.error("the study's dask backend", exc) from None
     cluster = None

@@ -18,17 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from wbik.robot import Chain
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.closed_form_branches import ClosedFormBranches
-from wbik.study.closed_form_branches import branch_index
-from wbik.study.closed_form_branches import complete_closed_form
-from wbik.study.closed_form_branches import in_limit_branches
-from wbik.study.closed_form_branches import joint_distance
+from wbik.study.blocks import Block, fmt
+from wbik.study.closed_form_branches import (
+    ClosedFormBranches,
+    branch_index,
+    complete_closed_form,
+    in_limit_branches,
+    joint_distance,
+)
 from wbik.study.statistics import finite_statistic
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import integer
-from wbik.study.target_parameters import number
+from wbik.study.target_parameters import Parameter, integer, number
 
 COVERAGE_PARAMETERS = {
     "restarts": Parameter(8, "an integer >= 0 (starts per sampled pose)", integer(0, 1000),

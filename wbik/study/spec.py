@@ -5,13 +5,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import asdict, dataclass, field
 
 from wbik.errors import WbikError
-from wbik.study.metrics import STUDY_SEQUENCE
-from wbik.study.metrics import AngleConvention
+from wbik.study.metrics import STUDY_SEQUENCE, AngleConvention
 from wbik.study.reference import Reference
 from wbik.study.regression_rule import RegressionRule
 

@@ -6,14 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from wbik.schema import Context
-from wbik.schema import Interval
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Node
-from wbik.schema import Number
-from wbik.schema import Shorthand
-from wbik.schema import Text
+from wbik.schema import Context, Interval, Key, Map, Node, Number, Shorthand, Text
 
 
 @dataclass(frozen=True)

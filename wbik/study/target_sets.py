@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import json
 import zlib
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -19,28 +18,20 @@ import wbik.study.results as store
 from wbik.files import json_plain
 from wbik.robot import Chain
 from wbik.schema import Key
-from wbik.study.blocks import Block
-from wbik.study.blocks import write_table
-from wbik.study.chain_targets import ChainChunkTask
-from wbik.study.chain_targets import ChainTargets
-from wbik.study.context import _frozen
-from wbik.study.context import case_chain
-from wbik.study.context import chain_of
-from wbik.study.sampling import PoseSet
-from wbik.study.sampling import poses_of_joints
-from wbik.study.sampling import sample_joints
-from wbik.study.sampling import saved_extras
-from wbik.study.solution_coverage import COVERAGE_PARAMETERS
-from wbik.study.solution_coverage import closed_form_of
-from wbik.study.solution_coverage import coverage_blocks
-from wbik.study.solution_coverage import coverage_columns
-from wbik.study.solution_coverage import coverage_summary
-from wbik.study.solution_coverage import distance_histogram
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import Study
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import defaults
-from wbik.study.target_parameters import parameters_map
+from wbik.study.blocks import Block, write_table
+from wbik.study.chain_targets import ChainChunkTask, ChainTargets
+from wbik.study.context import _frozen, case_chain, chain_of
+from wbik.study.sampling import PoseSet, poses_of_joints, sample_joints, saved_extras
+from wbik.study.solution_coverage import (
+    COVERAGE_PARAMETERS,
+    closed_form_of,
+    coverage_blocks,
+    coverage_columns,
+    coverage_summary,
+    distance_histogram,
+)
+from wbik.study.spec import CaseSpec, Study
+from wbik.study.target_parameters import Parameter, defaults, parameters_map
 
 
 @dataclass

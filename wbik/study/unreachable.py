@@ -25,26 +25,20 @@ import numpy as np
 
 from wbik.geometry import TWO_PI
 from wbik.robot import Chain
-from wbik.study.blocks import Block
-from wbik.study.blocks import fmt
-from wbik.study.blocks import frequent_reasons
+from wbik.study.blocks import Block, fmt, frequent_reasons
 from wbik.study.chain_reach import reach_bound
-from wbik.study.closed_form_branches import ClosedFormBranches
-from wbik.study.closed_form_branches import branch_excess
-from wbik.study.closed_form_branches import complete_closed_form
-from wbik.study.closed_form_branches import joint_distance
+from wbik.study.closed_form_branches import (
+    ClosedFormBranches,
+    branch_excess,
+    complete_closed_form,
+    joint_distance,
+)
 from wbik.study.near_singularities import sigma_min
 from wbik.study.sampling import start_configurations
 from wbik.study.spec import Study
 from wbik.study.statistics import finite_statistic
-from wbik.study.target_parameters import Parameter
-from wbik.study.target_parameters import integer
-from wbik.study.target_parameters import interval
-from wbik.study.target_parameters import number
-from wbik.study.target_sets import Drawing
-from wbik.study.target_sets import DrawnTargets
-from wbik.study.target_sets import TargetSetKind
-from wbik.study.target_sets import target_stream
+from wbik.study.target_parameters import Parameter, integer, interval, number
+from wbik.study.target_sets import Drawing, DrawnTargets, TargetSetKind, target_stream
 
 OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
 """The ``source`` of a target: (a) or (b) of the module docstring."""

@@ -15,50 +15,36 @@ from pathlib import Path
 import numpy as np
 
 import wbik.study.results as store
-from wbik.errors import UnknownChainError
-from wbik.errors import UnsupportedError
+from wbik.errors import UnknownChainError, UnsupportedError
 from wbik.options import option_schema
-from wbik.schema import Context
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Text
-from wbik.schema import join
+from wbik.schema import Context, Key, Map, Text, join
 from wbik.solvers.method import IKMethod
-from wbik.solvers.method_registry import IK_METHOD_REGISTRY
-from wbik.solvers.method_registry import budget_options
-from wbik.solvers.method_registry import register_method
+from wbik.solvers.method_registry import IK_METHOD_REGISTRY, budget_options, register_method
 from wbik.solvers.method_registry import solver as registered_solver
 from wbik.solvers.result import Tolerances
-from wbik.study.blocks import INTERVALS_TEXT
-from wbik.study.blocks import SOLVED_COLUMNS
-from wbik.study.blocks import TIME_COLUMNS
-from wbik.study.blocks import Block
-from wbik.study.blocks import budget_blocks
-from wbik.study.blocks import case_analysis
-from wbik.study.blocks import case_rows
-from wbik.study.blocks import frequent_reasons
-from wbik.study.blocks import image_blocks
-from wbik.study.blocks import significance_blocks
-from wbik.study.blocks import status_blocks
-from wbik.study.blocks import summary_table
-from wbik.study.blocks import time_columns
-from wbik.study.case_kinds import CaseKind
-from wbik.study.case_kinds import ChunkTask
-from wbik.study.case_kinds import RegisteredMethods
-from wbik.study.context import _frozen
-from wbik.study.context import _robot
+from wbik.study.blocks import (
+    INTERVALS_TEXT,
+    SOLVED_COLUMNS,
+    TIME_COLUMNS,
+    Block,
+    budget_blocks,
+    case_analysis,
+    case_rows,
+    frequent_reasons,
+    image_blocks,
+    significance_blocks,
+    status_blocks,
+    summary_table,
+    time_columns,
+)
+from wbik.study.case_kinds import CaseKind, ChunkTask, RegisteredMethods
+from wbik.study.context import _frozen, _robot
 from wbik.study.metrics import AngleConvention
 from wbik.study.sampling import PoseSet
-from wbik.study.spec import CaseSpec
-from wbik.study.spec import MethodSpec
-from wbik.study.spec import Study
-from wbik.study.statistics import finite_statistic
-from wbik.study.statistics import mann_whitney_row
+from wbik.study.spec import CaseSpec, MethodSpec, Study
+from wbik.study.statistics import finite_statistic, mann_whitney_row
 from wbik.study.statistics import summarize as base_summary
-from wbik.wholebody.cases import CASE_REGISTRY
-from wbik.wholebody.cases import CaseSampler
-from wbik.wholebody.cases import register_sampler
-from wbik.wholebody.cases import sample_case
+from wbik.wholebody.cases import CASE_REGISTRY, CaseSampler, register_sampler, sample_case
 
 WHOLEBODY = "wholebody"
 ROW_COLUMNS = ("pose", "method", "success", "reason", "time_s", "iterations", "task_error",

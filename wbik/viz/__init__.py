@@ -2,10 +2,7 @@
 and animations, with or without a server, and exports them as self-contained HTML pages."""
 
 from wbik.viz.environment import SceneBox
-from wbik.viz.scene import SceneRecorder
-from wbik.viz.scene import ServerWindow
-from wbik.viz.scene import scene_html
-from wbik.viz.viewer import SupportView
-from wbik.viz.viewer import Viewer
+from wbik.viz.scene import SceneRecorder, ServerWindow, scene_html
+from wbik.viz.viewer import SupportView, Viewer
 
 __all__ = ["SceneBox", "SceneRecorder", "ServerWindow", "SupportView", "Viewer", "scene_html"]

@@ -9,13 +9,11 @@ import re
 import shutil
 import subprocess
 import tempfile
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from wbik.errors import MissingDependencyError
-from wbik.viz.scene import ERROR_MESSAGE
-from wbik.viz.scene import READY_MESSAGE
+from wbik.viz.scene import ERROR_MESSAGE, READY_MESSAGE
 
 CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 INSTALL_HINT = ("install it with 'bash scripts/setup.sh' (Debian packages chromium and chromium-driver), "

@@ -8,8 +8,7 @@ import base64
 import contextlib
 import io
 import json
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 

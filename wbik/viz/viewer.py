@@ -21,19 +21,14 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.viz.geometry as robot_geometry
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.models import load
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.support_polygon import contact_points
-from wbik.robot import Chain
-from wbik.robot import Robot
+from wbik.qp.support_polygon import SupportPolygon, contact_points
+from wbik.robot import Chain, Robot
 from wbik.targets import as_target
-from wbik.viz.environment import SceneBox
-from wbik.viz.environment import robot_cell
-from wbik.viz.scene import SceneRecorder
-from wbik.viz.scene import ServerWindow
+from wbik.viz.environment import SceneBox, robot_cell
+from wbik.viz.scene import SceneRecorder, ServerWindow
 
 ROOT = "wbik"
 ROBOT_NODE = f"{ROOT}/robot"

@@ -8,41 +8,24 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import InvalidSettingError
-from wbik.errors import RobotDescriptionError
+from wbik.errors import InvalidConfigurationError, InvalidSettingError, RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import Constraint
-from wbik.qp.contacts import Contact
-from wbik.qp.contacts import HeldFrame
-from wbik.qp.contacts import PointContact
+from wbik.qp.contacts import Contact, HeldFrame, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.kinematics import Kinematics
-from wbik.qp.limits import JointAccelerationLimits
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
+from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
-from wbik.qp.task_entries import FRAME
-from wbik.qp.task_entries import TASK_ENTRY
-from wbik.qp.task_entries import build_task
+from wbik.qp.task_entries import FRAME, TASK_ENTRY, build_task
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Instance
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import Vector
+from wbik.schema import Context, Either, Instance, Key, ListOf, Map, Number, Text, Vector
 
 LIMITS = ("position", "position+velocity", "none")
 FRAMES = ListOf(FRAME, what="frame names")

@@ -13,30 +13,32 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import OTHER
-from wbik.apps.bioloid.gait import SIDE_NAME
-from wbik.apps.bioloid.gait import SIDES
-from wbik.apps.bioloid.gait import SOLE
-from wbik.apps.bioloid.gait import GaitParameters
-from wbik.apps.bioloid.gait import SampledMotion
-from wbik.apps.bioloid.gait import flatten_on_ground
-from wbik.apps.bioloid.gait import place_on_anchor
-from wbik.apps.bioloid.gait import start_q
-from wbik.apps.bioloid.servo import SERVOS
-from wbik.apps.bioloid.servo import from_servo_units
-from wbik.apps.bioloid.servo import to_servo
-from wbik.apps.bioloid.step_wholebody import BodyPhase
-from wbik.apps.bioloid.step_wholebody import ComRamp
-from wbik.apps.bioloid.step_wholebody import WholeBodyMotion
-from wbik.apps.bioloid.step_wholebody import com_over_phase
-from wbik.apps.bioloid.step_wholebody import current_soles
-from wbik.apps.bioloid.step_wholebody import pelvis_rotation
-from wbik.apps.bioloid.step_wholebody import recentre_goal
-from wbik.apps.bioloid.step_wholebody import sole_path
-from wbik.apps.bioloid.step_wholebody import sole_polygon
-from wbik.apps.bioloid.step_wholebody import solve_phases
-from wbik.apps.bioloid.step_wholebody import step_phases
-from wbik.apps.bioloid.step_wholebody import yaw_of
+from wbik.apps.bioloid.gait import (
+    OTHER,
+    SIDE_NAME,
+    SIDES,
+    SOLE,
+    GaitParameters,
+    SampledMotion,
+    flatten_on_ground,
+    place_on_anchor,
+    start_q,
+)
+from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
+from wbik.apps.bioloid.step_wholebody import (
+    BodyPhase,
+    ComRamp,
+    WholeBodyMotion,
+    com_over_phase,
+    current_soles,
+    pelvis_rotation,
+    recentre_goal,
+    sole_path,
+    sole_polygon,
+    solve_phases,
+    step_phases,
+    yaw_of,
+)
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND

@@ -9,16 +9,13 @@ from __future__ import annotations
 
 import csv
 import math
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.servo import leg_ang_from_q
-from wbik.apps.bioloid.servo import leg_q_from_ang
-from wbik.apps.bioloid.servo import to_servo
+from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot

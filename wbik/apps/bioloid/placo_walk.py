@@ -12,11 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import RobotDescriptionError
+from wbik.errors import InvalidConfigurationError, RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.robot import Robot
-from wbik.robot import write_cached_urdf
+from wbik.robot import Robot, write_cached_urdf
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
 FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
@@ -81,8 +79,7 @@ def follow_plan(robot: Robot, walker, trajectory, times: np.ndarray, iterations:
                 settle: int = 50) -> tuple[np.ndarray, list[tuple[str, ...]]]:
     """PlaCo's IK (``WalkTasks``) on ``trajectory`` at ``times``: ``settle`` solver iterations at the first
     time, ``iterations`` at each later one; the configurations and the soles on the ground."""
-    from wbik.motion.walking.placo_pattern import WalkIK
-    from wbik.motion.walking.placo_pattern import soles_on_ground
+    from wbik.motion.walking.placo_pattern import WalkIK, soles_on_ground
     from wbik.solvers.placo import placo_configuration
 
     ik = WalkIK(walker)
@@ -157,8 +154,7 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
     """PlaCo's walk as PlaCo's IK follows it every ``SAMPLE_S`` (its soft tasks let the stance sole leave the
     floor at times), a :class:`wbik.viz.animation.Animation`; ``footstep_x``: the report's footsteps (m),
     which the re-planned ones must equal."""
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
+    from wbik.viz.animation import Animation, Overlays
 
     walker, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
     planned_x = [float(step.frame[0, 3]) for step in footsteps]

@@ -8,50 +8,27 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.apps.bioloid.behaviours import HALF_STEPS
-from wbik.apps.bioloid.behaviours import half_step_phases
-from wbik.apps.bioloid.behaviours import replay_keyframes
-from wbik.apps.bioloid.behaviours import turn_in_place
-from wbik.apps.bioloid.behaviours import walk
-from wbik.apps.bioloid.gait import GaitParameters
-from wbik.apps.bioloid.gait import TimedMotion
-from wbik.apps.bioloid.gait import step_forward_faithful
-from wbik.apps.bioloid.gait import time_scale_motion
-from wbik.apps.bioloid.placo_walk import placo_walk
-from wbik.apps.bioloid.placo_walk import placo_walk_animation
+from wbik.apps.bioloid.behaviours import HALF_STEPS, half_step_phases, replay_keyframes, turn_in_place, walk
+from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, step_forward_faithful, time_scale_motion
+from wbik.apps.bioloid.placo_walk import placo_walk, placo_walk_animation
 from wbik.apps.bioloid.sensors import stance_loads
-from wbik.apps.bioloid.stairs import Staircase
-from wbik.apps.bioloid.stairs import simulate_stairs
-from wbik.apps.bioloid.step_wholebody import current_soles
-from wbik.apps.bioloid.step_wholebody import solve_phases
-from wbik.apps.bioloid.step_wholebody import step_forward_wholebody
-from wbik.expectations import ExpectationError
-from wbik.expectations import Rule
-from wbik.expectations import judge
-from wbik.scenario_schema import START
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import backend_key
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import kind_schema
-from wbik.scenario_schema import margin_key
-from wbik.scenario_schema import time_laws
-from wbik.scenario_schema import timing_modes
-from wbik.scenarios.kinds import KindRun
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import format_entries
-from wbik.scenarios.kinds import start_of
+from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
+from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases, step_forward_wholebody
+from wbik.expectations import ExpectationError, Rule, judge
+from wbik.scenario_schema import (
+    START,
+    Robot,
+    backend_key,
+    common_keys,
+    expect_block,
+    kind_schema,
+    margin_key,
+    time_laws,
+    timing_modes,
+)
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
-from wbik.schema import Boolean
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import default_of
-from wbik.schema import from_dataclass
+from wbik.schema import Boolean, Key, ListOf, Map, Number, Text, default_of, from_dataclass
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
@@ -133,8 +110,7 @@ def _final_soles(robot, q: np.ndarray) -> dict:
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
     """A sampled motion at ``times``, its soles on the ground the support and contacts of each sample."""
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
+    from wbik.viz.animation import Animation, Overlays
 
     times = np.asarray(times, dtype=float)
     keep = np.r_[np.diff(times) > 0, True]  # a sample that did not move has the next one's time
@@ -293,8 +269,7 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """The FSR loads and CoP of the static stance at ``start``, one still sample on both soles."""
-    from wbik.viz.animation import Animation
-    from wbik.viz.animation import Overlays
+    from wbik.viz.animation import Animation, Overlays
 
     run = KindRun(spec, "moves", on_progress)
     robot = run.robot

@@ -15,8 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import RobotDescriptionError
+from wbik.errors import InvalidConfigurationError, RobotDescriptionError
 from wbik.robot import Robot
 
 GRAVITY = 9.81  # m/s^2

@@ -8,10 +8,8 @@ a WalkS*1 first completing the pair, StairReady, UpStair and DownStair generated
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import NamedTuple
 
@@ -19,29 +17,30 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
-from wbik.apps.bioloid.behaviours import along
-from wbik.apps.bioloid.behaviours import half_step_phases
-from wbik.apps.bioloid.behaviours import turn_phases
-from wbik.apps.bioloid.gait import OTHER
-from wbik.apps.bioloid.gait import SIDE_NAME
-from wbik.apps.bioloid.gait import SIDES
-from wbik.apps.bioloid.gait import SOLE
-from wbik.apps.bioloid.gait import GaitParameters
-from wbik.apps.bioloid.gait import SampledMotion
-from wbik.apps.bioloid.gait import sole_corners
-from wbik.apps.bioloid.gait import start_q
-from wbik.apps.bioloid.step_wholebody import BodyPhase
-from wbik.apps.bioloid.step_wholebody import ComRamp
-from wbik.apps.bioloid.step_wholebody import clip_points
-from wbik.apps.bioloid.step_wholebody import com_over_phase
-from wbik.apps.bioloid.step_wholebody import current_soles
-from wbik.apps.bioloid.step_wholebody import pelvis_rotation
-from wbik.apps.bioloid.step_wholebody import recentre_goal
-from wbik.apps.bioloid.step_wholebody import sole_polygon
-from wbik.apps.bioloid.step_wholebody import solve_phases
-from wbik.apps.bioloid.step_wholebody import yaw_of
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import WbikError
+from wbik.apps.bioloid.behaviours import along, half_step_phases, turn_phases
+from wbik.apps.bioloid.gait import (
+    OTHER,
+    SIDE_NAME,
+    SIDES,
+    SOLE,
+    GaitParameters,
+    SampledMotion,
+    sole_corners,
+    start_q,
+)
+from wbik.apps.bioloid.step_wholebody import (
+    BodyPhase,
+    ComRamp,
+    clip_points,
+    com_over_phase,
+    current_soles,
+    pelvis_rotation,
+    recentre_goal,
+    sole_polygon,
+    solve_phases,
+    yaw_of,
+)
+from wbik.errors import InvalidConfigurationError, WbikError
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -473,8 +472,7 @@ class StairRun:
 
     def scene_boxes(self) -> tuple:
         """The steps as the viewer's boxes (wbik.viz.environment.SceneBox), lighter the higher."""
-        from wbik.viz.environment import STAIR_COLORS
-        from wbik.viz.environment import SceneBox
+        from wbik.viz.environment import STAIR_COLORS, SceneBox
 
         return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
                                       color=STAIR_COLORS[min(index, len(STAIR_COLORS) - 1)])

@@ -7,44 +7,37 @@ arms at rest; soft: the key points' hips, the pelvis pitch and yaw, the CoM in a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from collections.abc import Sequence
-from dataclasses import dataclass
-from dataclasses import field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import HIP
-from wbik.apps.bioloid.gait import OTHER
-from wbik.apps.bioloid.gait import SIDE_NAME
-from wbik.apps.bioloid.gait import SIDES
-from wbik.apps.bioloid.gait import SOLE
-from wbik.apps.bioloid.gait import GaitParameters
-from wbik.apps.bioloid.gait import SampledMotion
-from wbik.apps.bioloid.gait import pose_error
-from wbik.apps.bioloid.gait import servo_joint_ids
-from wbik.apps.bioloid.gait import sole_corners
-from wbik.apps.bioloid.gait import start_q
-from wbik.apps.bioloid.gait import step_forward_phases
-from wbik.errors import InvalidConfigurationError
-from wbik.errors import NoQPSolutionError
+from wbik.apps.bioloid.gait import (
+    HIP,
+    OTHER,
+    SIDE_NAME,
+    SIDES,
+    SOLE,
+    GaitParameters,
+    SampledMotion,
+    pose_error,
+    servo_joint_ids,
+    sole_corners,
+    start_q,
+    step_forward_phases,
+)
+from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import LockedJoints
+from wbik.qp.limits import JointPositionLimits, LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
-from wbik.robot_packages.bioloid.model import ARM_JOINTS
-from wbik.robot_packages.bioloid.model import BioloidFacts
+from wbik.robot_packages.bioloid.model import ARM_JOINTS, BioloidFacts
 
 CONTACT_TOLERANCE = 1e-6  # m, rad: contacts and swing paths hold to this at every sample
 HIP_WEIGHT = 1.0

@@ -12,19 +12,13 @@ import pinocchio as pin
 
 from wbik.errors import UnsupportedError
 from wbik.geometry import rotation_angle
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RegularizationTask
-from wbik.qp.tasks import Task
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RegularizationTask, Task
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import solver
 from wbik.solvers.peer import NO_POLYGON
 from wbik.solvers.result import Candidate
-from wbik.wholebody.problem import StartedProblem
-from wbik.wholebody.problem import WholeBody
+from wbik.wholebody.problem import StartedProblem, WholeBody
 
 LEGS = {"r": ("right_leg", "r_sole", "r_hip"), "l": ("left_leg", "l_sole", "l_hip")}
 SOLES = ("r_sole", "l_sole")

@@ -9,20 +9,12 @@ from functools import lru_cache
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.bioloid.gait import OTHER
-from wbik.apps.bioloid.gait import SOLE
-from wbik.qp.humanoid import stance_constraints
-from wbik.qp.humanoid import support_polygon
+from wbik.apps.bioloid.gait import OTHER, SOLE
+from wbik.qp.humanoid import stance_constraints, support_polygon
 from wbik.qp.problem import IKProblem
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PositionTask
-from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PositionTask, RegularizationTask
 from wbik.robot import Robot
-from wbik.wholebody.cases import CaseSampler
-from wbik.wholebody.cases import WholeBodyCase
-from wbik.wholebody.cases import cached_robot
+from wbik.wholebody.cases import CaseSampler, WholeBodyCase, cached_robot
 from wbik.wholebody.problem import WholeBody
 
 ROBOT = "bioloid"

@@ -14,13 +14,11 @@ from collections.abc import Sequence
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD
-from wbik.motion.cartesian import PolylineReference
+from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD, PolylineReference
 from wbik.motion.path import JointPath
 from wbik.robot import Robot
 from wbik.solvers.method_registry import solver as make_solver
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 ARM, ARM_WITH_LIFT = "right_arm", "right_arm_lift"
 

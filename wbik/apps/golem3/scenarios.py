@@ -5,27 +5,22 @@ judged like any motion (:mod:`wbik.motion.scenarios`) and by ``expect: {lift: bo
 
 from __future__ import annotations
 
-from wbik.apps.golem3.approach import ARM_WITH_LIFT
-from wbik.apps.golem3.approach import approach
+from wbik.apps.golem3.approach import ARM_WITH_LIFT, approach
 from wbik.expectations import Rule
-from wbik.motion.scenarios import MOVE_RULES
-from wbik.motion.scenarios import MoveRun
-from wbik.motion.scenarios import common_motion_keys
-from wbik.motion.scenarios import format_report
-from wbik.motion.scenarios import pose_of
-from wbik.motion.scenarios import samples_key
-from wbik.motion.scenarios import solving_keys
-from wbik.motion.scenarios import vector_of
+from wbik.motion.scenarios import (
+    MOVE_RULES,
+    MoveRun,
+    common_motion_keys,
+    format_report,
+    pose_of,
+    samples_key,
+    solving_keys,
+    vector_of,
+)
 from wbik.qp.task_entries import VECTOR3
 from wbik.scenario_schema import kind_schema
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import start_of
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import Map
-from wbik.schema import Vector
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
+from wbik.schema import Either, Key, Map, Vector
 
 APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}
 """A motion's expectations and ``lift``: whether the torso lift moved."""

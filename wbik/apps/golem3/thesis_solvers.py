@@ -26,25 +26,15 @@ import time
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import wrap_to_pi
-from wbik.robot_packages.golem3.closed_form import mirror_positions
-from wbik.robot_packages.golem3.closed_form import mirror_rotations
-from wbik.robot_packages.golem3.closed_form import right_arm_coordinates
-from wbik.robot_packages.golem3.model import L1
-from wbik.robot_packages.golem3.model import L2
-from wbik.robot_packages.golem3.model import L4
-from wbik.robot_packages.golem3.model import L5
-from wbik.robot_packages.golem3.model import L6
-from wbik.robot_packages.golem3.model import RHO
-from wbik.robot_packages.golem3.model import H
+from wbik.robot_packages.golem3.closed_form import mirror_positions, mirror_rotations, right_arm_coordinates
+from wbik.robot_packages.golem3.model import L1, L2, L4, L5, L6, RHO, H
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
 from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.targets import Target, as_target
 
 THESIS_CHECK_TOLERANCE = 1e-3  # the code's acceptance: |FK - input| on x, y, z (m), yaw and pitch (rad)
 SWEEP_STEP = 0.01  # rad between two swept magnitudes (the code's increment)

@@ -8,9 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from wbik.qp.tasks import PositionTask
-from wbik.wholebody.cases import CaseSampler
-from wbik.wholebody.cases import WholeBodyCase
-from wbik.wholebody.cases import cached_robot
+from wbik.wholebody.cases import CaseSampler, WholeBodyCase, cached_robot
 from wbik.wholebody.problem import WholeBody
 
 

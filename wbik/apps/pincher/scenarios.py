@@ -9,29 +9,19 @@ import math
 from collections.abc import Mapping
 
 import wbik.apps.pincher.teleoperation as teleoperation
-from wbik.motion.scenarios import MOVE_RULES
-from wbik.motion.scenarios import MoveRun
-from wbik.motion.scenarios import common_motion_keys
-from wbik.motion.scenarios import format_report
-from wbik.motion.scenarios import samples_key
-from wbik.motion.scenarios import solving_keys
-from wbik.motion.scenarios import timing_node
-from wbik.motion.scenarios import vector_of
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import kind_schema
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import start_of
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import Variants
-from wbik.schema import Vector
+from wbik.motion.scenarios import (
+    MOVE_RULES,
+    MoveRun,
+    common_motion_keys,
+    format_report,
+    samples_key,
+    solving_keys,
+    timing_node,
+    vector_of,
+)
+from wbik.scenario_schema import expect_block, kind_schema
+from wbik.scenarios.kinds import Progress, ScenarioError, ScenarioKind, ScenarioReport, start_of
+from wbik.schema import Either, Key, ListOf, Map, Number, Text, Variants, Vector
 
 
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:

@@ -15,8 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD
-from wbik.motion.cartesian import follow
+from wbik.motion.cartesian import DEFAULT_JUMP_THRESHOLD, follow
 from wbik.motion.joint import joint_path
 from wbik.motion.path import JointPath
 from wbik.robot import Chain

@@ -13,8 +13,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
-from wbik.apps.riveting.scene import Hole
-from wbik.apps.riveting.scene import Scene
+from wbik.apps.riveting.scene import Hole, Scene
 from wbik.robot import Robot
 
 EXACT_BELOW = 0.05  # m, the bounding-sphere bound under which a distance is exact

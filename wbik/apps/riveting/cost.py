@@ -13,8 +13,7 @@ docs/measurements.md, riveting cost. ``python -m wbik.apps.riveting.cost`` print
 from __future__ import annotations
 
 import timeit
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -61,9 +60,7 @@ class CountingCollision:
 def calibrate(repeats: int = 200) -> dict[str, float]:
     """Median wall time (s) of each operation on this machine, in the default riveting cell."""
     from wbik.apps.riveting.collision import CollisionModel
-    from wbik.apps.riveting.moves import Limits
-    from wbik.apps.riveting.moves import samples
-    from wbik.apps.riveting.moves import timed_move
+    from wbik.apps.riveting.moves import Limits, samples, timed_move
     from wbik.apps.riveting.plan import Insertion
     from wbik.apps.riveting.scene import build_scene
     from wbik.models import load

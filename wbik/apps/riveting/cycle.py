@@ -13,26 +13,17 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.apps.riveting.moves import Move
-from wbik.apps.riveting.moves import dwell
-from wbik.apps.riveting.moves import samples
-from wbik.apps.riveting.plan import TRIGGER
-from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.plan import Planner
-from wbik.apps.riveting.plan import tcp_errors
-from wbik.apps.riveting.scene import Hole
-from wbik.apps.riveting.scene import Scene
+from wbik.apps.riveting.moves import Move, dwell, samples
+from wbik.apps.riveting.plan import TRIGGER, Insertion, Planner, tcp_errors
+from wbik.apps.riveting.scene import Hole, Scene
 from wbik.apps.riveting.scoring import score
-from wbik.apps.riveting.task_states import State
-from wbik.apps.riveting.task_states import TaskStateMachine
-from wbik.apps.riveting.task_states import state_of_move
+from wbik.apps.riveting.task_states import State, TaskStateMachine, state_of_move
 
 
 @dataclass(frozen=True)

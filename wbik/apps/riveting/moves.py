@@ -4,19 +4,15 @@ which the run checks them."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import cache
 
 import numpy as np
 
 from wbik.motion.path import JointPath
-from wbik.motion.timing import Piece
-from wbik.motion.timing import TimedPath
-from wbik.motion.timing import time_scale
+from wbik.motion.timing import Piece, TimedPath, time_scale
 from wbik.robot import Chain
-from wbik.solvers.analytic.structure import chain_lines
-from wbik.solvers.analytic.structure import poe_fk
+from wbik.solvers.analytic.structure import chain_lines, poe_fk
 
 
 @dataclass

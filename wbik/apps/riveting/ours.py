@@ -18,19 +18,10 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import PIN
-from wbik.apps.riveting.cost import CountingCollision
-from wbik.apps.riveting.cost import PlanningCost
-from wbik.apps.riveting.moves import Move
-from wbik.apps.riveting.moves import backward
-from wbik.apps.riveting.moves import dwell
-from wbik.apps.riveting.moves import split
-from wbik.apps.riveting.moves import timed_move
-from wbik.apps.riveting.plan import TRIGGER
-from wbik.apps.riveting.plan import CyclePlan
-from wbik.apps.riveting.plan import Planner
-from wbik.apps.riveting.plan import hole_pose
-from wbik.apps.riveting.qp_terms import ToolAxisTask
-from wbik.apps.riveting.qp_terms import WorkpieceClearance
+from wbik.apps.riveting.cost import CountingCollision, PlanningCost
+from wbik.apps.riveting.moves import Move, backward, dwell, split, timed_move
+from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner, hole_pose
+from wbik.apps.riveting.qp_terms import ToolAxisTask, WorkpieceClearance
 from wbik.apps.riveting.scene import Hole
 from wbik.errors import NoQPSolutionError
 from wbik.motion.profiles import time_law

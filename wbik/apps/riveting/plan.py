@@ -7,18 +7,14 @@ home]; the cycle runner adds load_rivet at home.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.apps.riveting.moves import Limits
-from wbik.apps.riveting.moves import Move
-from wbik.apps.riveting.moves import timed_move
-from wbik.apps.riveting.scene import Hole
-from wbik.apps.riveting.scene import Scene
+from wbik.apps.riveting.moves import Limits, Move, timed_move
+from wbik.apps.riveting.scene import Hole, Scene
 from wbik.robot import Robot
 from wbik.solvers.analytic.closed_form import wrap_into_limits
 from wbik.solvers.method_registry import solver

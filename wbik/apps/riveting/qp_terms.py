@@ -16,8 +16,7 @@ import pinocchio as pin
 
 from wbik.apps.riveting.collision import CollisionModel
 from wbik.qp.constraint import InequalityConstraint
-from wbik.qp.kinematics import LWA
-from wbik.qp.kinematics import Kinematics
+from wbik.qp.kinematics import LWA, Kinematics
 from wbik.qp.rows import InequalityRows
 from wbik.qp.tasks import Task
 

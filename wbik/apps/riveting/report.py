@@ -15,22 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from wbik.apps.riveting.collision import CollisionModel
-from wbik.apps.riveting.cycle import NoiseModel
-from wbik.apps.riveting.cycle import RunConfig
-from wbik.apps.riveting.cycle import RunResult
-from wbik.apps.riveting.cycle import simulate
+from wbik.apps.riveting.cycle import NoiseModel, RunConfig, RunResult, simulate
 from wbik.apps.riveting.moves import Limits
 from wbik.apps.riveting.ours import QPPlanner
-from wbik.apps.riveting.plan import Insertion
-from wbik.apps.riveting.plan import Planner
-from wbik.apps.riveting.scene import Scene
-from wbik.apps.riveting.scene import build_scene
+from wbik.apps.riveting.plan import Insertion, Planner
+from wbik.apps.riveting.scene import Scene, build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
-from wbik.expectations import ExpectationError
-from wbik.expectations import Rule
-from wbik.expectations import evaluate
-from wbik.expectations import format_checks
-from wbik.expectations import verdict
+from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.models import load
 from wbik.scenarios.kinds import report_verdict
 from wbik.solvers.method_registry import solver

@@ -14,36 +14,30 @@ from dataclasses import fields
 
 import numpy as np
 
-from wbik.apps.riveting.report import RIVETING_RULES
-from wbik.apps.riveting.report import format_text
-from wbik.apps.riveting.report import run_task
-from wbik.apps.riveting.report import write_report
-from wbik.errors import WbikError
-from wbik.errors import did_you_mean
-from wbik.qp.task_entries import NON_NEGATIVE
-from wbik.qp.task_entries import POSITIVE
-from wbik.qp.task_entries import VECTOR3
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import backend_key
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import time_laws
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioError
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import UnknownExpectationKeyError
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Refused
-from wbik.schema import Text
-from wbik.schema import Variants
-from wbik.schema import Vector
-from wbik.schema import from_dataclass
+from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
+from wbik.errors import WbikError, did_you_mean
+from wbik.qp.task_entries import NON_NEGATIVE, POSITIVE, VECTOR3
+from wbik.scenario_schema import Robot, backend_key, common_keys, expect_block, time_laws
+from wbik.scenarios.kinds import (
+    Progress,
+    ScenarioError,
+    ScenarioKind,
+    ScenarioReport,
+    UnknownExpectationKeyError,
+)
+from wbik.schema import (
+    Context,
+    Either,
+    Key,
+    ListOf,
+    Map,
+    Number,
+    Refused,
+    Text,
+    Variants,
+    Vector,
+    from_dataclass,
+)
 
 ANIMATION_SECONDS = 40.0
 ANIMATION_SAMPLE_S = 0.1
@@ -78,9 +72,7 @@ def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def scene_boxes(scene) -> tuple:
     """The cell's table and workpiece (a wbik.apps.riveting.scene.Scene) as the viewer's boxes."""
-    from wbik.viz.environment import PART_COLOR
-    from wbik.viz.environment import TABLE_COLOR
-    from wbik.viz.environment import SceneBox
+    from wbik.viz.environment import PART_COLOR, TABLE_COLOR, SceneBox
 
     return (SceneBox("table", scene.table_size, scene.table_box_center, color=TABLE_COLOR),
             SceneBox("workpiece", scene.workpiece_size, scene.workpiece_center, color=PART_COLOR))
@@ -106,8 +98,7 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
 
 def riveting_schema() -> Map:
     """The keys of a ur5_riveting file (see the module docstring and wbik.apps.riveting.report)."""
-    from wbik.apps.riveting.cycle import NoiseModel
-    from wbik.apps.riveting.cycle import RunConfig
+    from wbik.apps.riveting.cycle import NoiseModel, RunConfig
     from wbik.apps.riveting.plan import Insertion
 
     run = {item.name: item.default for item in fields(RunConfig)}

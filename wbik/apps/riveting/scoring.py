@@ -18,8 +18,7 @@ trigger_rivet against the true hole's inserted pose, position (m) and tool-axis 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 
 import numpy as np
 

@@ -21,15 +21,9 @@ import pinocchio as pin
 
 from wbik.apps.riveting.collision import PIN
 from wbik.apps.riveting.cost import PlanningCost
-from wbik.apps.riveting.moves import Move
-from wbik.apps.riveting.moves import dwell
-from wbik.apps.riveting.moves import samples
-from wbik.apps.riveting.moves import timed_move
-from wbik.apps.riveting.plan import TRIGGER
-from wbik.apps.riveting.plan import CyclePlan
-from wbik.apps.riveting.plan import Planner
-from wbik.apps.riveting.scene import FACE_NORMALS
-from wbik.apps.riveting.scene import Hole
+from wbik.apps.riveting.moves import Move, dwell, samples, timed_move
+from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
+from wbik.apps.riveting.scene import FACE_NORMALS, Hole
 
 ROLL_CANDIDATES = 12
 TEACH_CLEARANCE = 0.015  # m to workpiece and table that a taught q_int keeps

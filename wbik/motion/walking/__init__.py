@@ -4,17 +4,11 @@ motion (``figures``); the quasi-static gait and PlaCo's generator walk the same 
 and ``scenario`` is the ``walk`` scenario kind.
 """
 
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import Footstep
-from wbik.motion.walking.footsteps import StepCommand
-from wbik.motion.walking.footsteps import plan_footsteps
-from wbik.motion.walking.multibody_zmp import multibody_zmp
-from wbik.motion.walking.multibody_zmp import trajectory_derivatives
-from wbik.motion.walking.pattern import WalkPattern
-from wbik.motion.walking.pattern import walk_pattern
+from wbik.motion.walking.footsteps import Feet, Footstep, StepCommand, plan_footsteps
+from wbik.motion.walking.multibody_zmp import multibody_zmp, trajectory_derivatives
+from wbik.motion.walking.pattern import WalkPattern, walk_pattern
 from wbik.motion.walking.preview import PreviewController
-from wbik.motion.walking.timeline import Timing
-from wbik.motion.walking.timeline import timeline
+from wbik.motion.walking.timeline import Timing, timeline
 
 __all__ = ["Feet", "Footstep", "PreviewController", "StepCommand", "Timing", "WalkPattern", "multibody_zmp",
            "plan_footsteps", "timeline", "trajectory_derivatives", "walk_pattern"]

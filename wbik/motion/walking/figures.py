@@ -10,13 +10,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import centre_frame
-from wbik.motion.walking.footsteps import sole_points
-from wbik.motion.walking.footsteps import yaw_of
-from wbik.motion.walking.multibody_zmp import actuated_joints
-from wbik.motion.walking.multibody_zmp import multibody_zmp
-from wbik.motion.walking.multibody_zmp import trajectory_derivatives
+from wbik.motion.walking.footsteps import Feet, centre_frame, sole_points, yaw_of
+from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
 from wbik.qp.support_polygon import support_region
 from wbik.robot import Robot
 

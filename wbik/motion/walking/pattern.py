@@ -6,29 +6,26 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.control_loop import without_cyclic_gc
-from wbik.motion.walking.footsteps import SIDES
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import Footstep
-from wbik.motion.walking.footsteps import StepCommand
-from wbik.motion.walking.footsteps import centre_frame
-from wbik.motion.walking.footsteps import plan_footsteps
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import (
+    SIDES,
+    Feet,
+    Footstep,
+    StepCommand,
+    centre_frame,
+    plan_footsteps,
+    yaw_of,
+)
 from wbik.motion.walking.preview import PreviewController
 from wbik.motion.walking.swing import swing_pose
-from wbik.motion.walking.timeline import Phase
-from wbik.motion.walking.timeline import Timing
-from wbik.motion.walking.timeline import phase_at
-from wbik.motion.walking.timeline import timeline
-from wbik.motion.walking.zmp_reference import ZmpReference
-from wbik.motion.walking.zmp_reference import sole_centres
+from wbik.motion.walking.timeline import Phase, Timing, phase_at, timeline
+from wbik.motion.walking.zmp_reference import ZmpReference, sole_centres
 from wbik.robot import Robot
 
 SETTLED_M = 0.002  # m: the CoM this close to the final reference ...

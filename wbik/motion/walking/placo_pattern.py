@@ -6,23 +6,15 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from wbik.errors import RobotDescriptionError
-from wbik.motion.walking.footsteps import OTHER
-from wbik.motion.walking.footsteps import SIDES
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep
 from wbik.motion.walking.timeline import Timing
-from wbik.robot import Robot
-from wbik.robot import write_cached_urdf
-from wbik.solvers.placo import import_placo
-from wbik.solvers.placo import kinematic_urdf_path
-from wbik.solvers.placo import placo_configuration
-from wbik.solvers.placo import placo_robot
+from wbik.robot import Robot, write_cached_urdf
+from wbik.solvers.placo import import_placo, kinematic_urdf_path, placo_configuration, placo_robot
 
 GROUND_TOLERANCE = 1e-6  # m: a sole this close to the ground is on it
 SETTINGS = ("placo", "ours")

@@ -11,50 +11,29 @@ import math
 import numpy as np
 
 from wbik.collision import capsule
-from wbik.expectations import Rule
-from wbik.expectations import judge
+from wbik.expectations import Rule, judge
 from wbik.motion.walking.figures import walk_figures
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import StepCommand
-from wbik.motion.walking.footsteps import sole_polygon
+from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon
 from wbik.motion.walking.pattern import PreviewSettings
 from wbik.motion.walking.placo_pattern import placo_walk
-from wbik.motion.walking.static_gait import retimed
-from wbik.motion.walking.static_gait import static_gait
+from wbik.motion.walking.static_gait import retimed, static_gait
 from wbik.motion.walking.timeline import Timing
-from wbik.motion.walking.tracking import TrackingSettings
-from wbik.motion.walking.tracking import leg_collision_model
-from wbik.motion.walking.tracking import trunk_frame
-from wbik.motion.walking.tracking import walk
-from wbik.qp.task_entries import FRAME
-from wbik.qp.task_entries import VECTOR3
-from wbik.scenario_schema import START
-from wbik.scenario_schema import Robot
-from wbik.scenario_schema import apply_soles
-from wbik.scenario_schema import backend_key
-from wbik.scenario_schema import check_robot_params
-from wbik.scenario_schema import common_keys
-from wbik.scenario_schema import expect_block
-from wbik.scenario_schema import margin_key
-from wbik.scenario_schema import soles_key
-from wbik.scenarios.kinds import KindRun
-from wbik.scenarios.kinds import Progress
-from wbik.scenarios.kinds import ScenarioKind
-from wbik.scenarios.kinds import ScenarioReport
-from wbik.scenarios.kinds import format_entries
-from wbik.scenarios.kinds import start_of
-from wbik.schema import Boolean
-from wbik.schema import Context
-from wbik.schema import Either
-from wbik.schema import Key
-from wbik.schema import ListOf
-from wbik.schema import Map
-from wbik.schema import Number
-from wbik.schema import Text
-from wbik.schema import default_of
-from wbik.schema import from_dataclass
-from wbik.viz.animation import Animation
-from wbik.viz.animation import Overlays
+from wbik.motion.walking.tracking import TrackingSettings, leg_collision_model, trunk_frame, walk
+from wbik.qp.task_entries import FRAME, VECTOR3
+from wbik.scenario_schema import (
+    START,
+    Robot,
+    apply_soles,
+    backend_key,
+    check_robot_params,
+    common_keys,
+    expect_block,
+    margin_key,
+    soles_key,
+)
+from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
+from wbik.schema import Boolean, Context, Either, Key, ListOf, Map, Number, Text, default_of, from_dataclass
+from wbik.viz.animation import Animation, Overlays
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 

@@ -7,9 +7,7 @@ to rest at ``speed_rpm``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from dataclasses import field
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -18,25 +16,16 @@ import pinocchio as pin
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.path import JointPath
 from wbik.motion.timing import time_scale
-from wbik.motion.walking.footsteps import OTHER
-from wbik.motion.walking.footsteps import SIDES
-from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.footsteps import Footstep
-from wbik.motion.walking.footsteps import mean_yaw
-from wbik.motion.walking.footsteps import sole_polygon
+from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.swing import swing_pose
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import LockedJoints
+from wbik.qp.limits import JointPositionLimits, LockedJoints
 from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import ComTask, OrientationTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm

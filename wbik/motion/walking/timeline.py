@@ -9,8 +9,7 @@ from dataclasses import dataclass
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import OTHER
-from wbik.motion.walking.footsteps import Footstep
+from wbik.motion.walking.footsteps import OTHER, Footstep
 
 
 @dataclass(frozen=True)

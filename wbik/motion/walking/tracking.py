@@ -7,36 +7,25 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
-from dataclasses import field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.collision import CollisionModel
-from wbik.errors import NoQPSolutionError
-from wbik.errors import UnsupportedError
+from wbik.errors import NoQPSolutionError, UnsupportedError
 from wbik.models import robot_entries
 from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.multibody_zmp import multibody_zmp
-from wbik.motion.walking.multibody_zmp import trajectory_derivatives
-from wbik.motion.walking.pattern import SETTLE_MAX_S
-from wbik.motion.walking.pattern import WalkPattern
-from wbik.motion.walking.pattern import walk_pattern
+from wbik.motion.walking.multibody_zmp import multibody_zmp, trajectory_derivatives
+from wbik.motion.walking.pattern import SETTLE_MAX_S, WalkPattern, walk_pattern
 from wbik.motion.walking.swing import quintic
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.contacts import Contact
 from wbik.qp.distances import CollisionAvoidance
-from wbik.qp.limits import JointPositionLimits
-from wbik.qp.limits import JointVelocityLimits
-from wbik.qp.limits import LockedJoints
+from wbik.qp.limits import JointPositionLimits, JointVelocityLimits, LockedJoints
 from wbik.qp.problem import IKProblem
-from wbik.qp.tasks import ComTask
-from wbik.qp.tasks import FrameTask
-from wbik.qp.tasks import OrientationTask
-from wbik.qp.tasks import PostureTask
-from wbik.qp.tasks import RegularizationTask
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
 
 

@@ -8,8 +8,7 @@ from dataclasses import dataclass
 
 from wbik.dh import DHTable
 from wbik.robot import Chain
-from wbik.solvers.analytic.yaw_planar import Yaw2RGeometry
-from wbik.solvers.analytic.yaw_planar import Yaw2RPosition
+from wbik.solvers.analytic.yaw_planar import Yaw2RGeometry, Yaw2RPosition
 
 
 @dataclass(frozen=True)

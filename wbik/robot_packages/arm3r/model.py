@@ -11,14 +11,10 @@ import math
 import numpy as np
 
 from wbik.data import description_file
-from wbik.dh import DHJoint
-from wbik.dh import DHTable
+from wbik.dh import DHJoint, DHTable
 from wbik.errors import RobotDescriptionError
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages.arm3r.closed_form import Arm3RFacts
-from wbik.robot_packages.arm3r.closed_form import arm3r_position
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages.arm3r.closed_form import Arm3RFacts, arm3r_position
 from wbik.validation import numeric_array
 
 DEFAULT_LENGTHS = (3.0, 2.0, 2.0)

@@ -15,12 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.errors import InvalidTargetError
-from wbik.geometry import rot_x
-from wbik.geometry import rot_y
-from wbik.geometry import rot_z
+from wbik.geometry import rot_x, rot_y, rot_z
 from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.subproblems import clamped_acos
-from wbik.solvers.analytic.subproblems import clamped_cosine
+from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
 
 L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675  # the seed's arm lengths (m)
 FOREARM = 0.0745

@@ -20,32 +20,31 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.collision import box
-from wbik.collision import capsule
+from wbik.collision import box, capsule
 from wbik.data import description_file
 from wbik.errors import RobotDescriptionError
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
 from wbik.robot_packages.bioloid.closed_form import ALPHA as ALPHA
-from wbik.robot_packages.bioloid.closed_form import ARM_JOINTS
-from wbik.robot_packages.bioloid.closed_form import FOREARM
-from wbik.robot_packages.bioloid.closed_form import L0
-from wbik.robot_packages.bioloid.closed_form import L1
-from wbik.robot_packages.bioloid.closed_form import L2
-from wbik.robot_packages.bioloid.closed_form import L3
-from wbik.robot_packages.bioloid.closed_form import L7
-from wbik.robot_packages.bioloid.closed_form import L8
-from wbik.robot_packages.bioloid.closed_form import LEG_JOINTS
-from wbik.robot_packages.bioloid.closed_form import LF
-from wbik.robot_packages.bioloid.closed_form import MIRROR_SIGN
-from wbik.robot_packages.bioloid.closed_form import TOOL_CODE
+from wbik.robot_packages.bioloid.closed_form import (
+    ARM_JOINTS,
+    FOREARM,
+    L0,
+    L1,
+    L2,
+    L3,
+    L7,
+    L8,
+    LEG_JOINTS,
+    LF,
+    MIRROR_SIGN,
+    TOOL_CODE,
+    ArmPosition,
+    BioloidFacts,
+    LegPose,
+    LegPosition,
+    arm_lengths,
+)
 from wbik.robot_packages.bioloid.closed_form import TOOL_THESIS as TOOL_THESIS
-from wbik.robot_packages.bioloid.closed_form import ArmPosition
-from wbik.robot_packages.bioloid.closed_form import BioloidFacts
-from wbik.robot_packages.bioloid.closed_form import LegPose
-from wbik.robot_packages.bioloid.closed_form import LegPosition
-from wbik.robot_packages.bioloid.closed_form import arm_lengths
 from wbik.schema import Number
 
 # ASSUMPTIONS (not in the seed), m

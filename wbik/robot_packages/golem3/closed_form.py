@@ -12,12 +12,13 @@ import numpy as np
 
 from wbik.errors import InvalidConfigurationError
 from wbik.robot import Chain
-from wbik.solvers.analytic.aligned import AlignedForm
-from wbik.solvers.analytic.aligned import FamilyChain
-from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
-from wbik.solvers.analytic.stacked_planar import StackedPlanarPose
-from wbik.solvers.analytic.stacked_planar import StackedPlanarPosition
-from wbik.solvers.analytic.stacked_planar import held_roll
+from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
+from wbik.solvers.analytic.stacked_planar import (
+    StackedPlanarGeometry,
+    StackedPlanarPose,
+    StackedPlanarPosition,
+    held_roll,
+)
 
 RIGHT_JOINTS = ("m10", "m11", "m12", "m13", "m14")
 LEFT_JOINTS = ("m20", "m21", "m22", "m23", "m24")

@@ -25,23 +25,17 @@ from pathlib import Path
 
 import numpy as np
 
-from wbik.collision import box
-from wbik.collision import capsule
-from wbik.collision import sphere
+from wbik.collision import box, capsule, sphere
 from wbik.data import description_file
-from wbik.dh import DHJoint
-from wbik.dh import joint_xml
-from wbik.dh import link_xml
-from wbik.dh import rot_z
-from wbik.dh import trans
-from wbik.dh import urdf_document
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot_packages.golem3.closed_form import LEFT_JOINTS
-from wbik.robot_packages.golem3.closed_form import RIGHT_JOINTS
-from wbik.robot_packages.golem3.closed_form import Golem3Facts
-from wbik.robot_packages.golem3.closed_form import golem3_pose
-from wbik.robot_packages.golem3.closed_form import golem3_position
+from wbik.dh import DHJoint, joint_xml, link_xml, rot_z, trans, urdf_document
+from wbik.robot import ChainSpec, Robot
+from wbik.robot_packages.golem3.closed_form import (
+    LEFT_JOINTS,
+    RIGHT_JOINTS,
+    Golem3Facts,
+    golem3_pose,
+    golem3_position,
+)
 from wbik.solvers.analytic.stacked_planar import StackedPlanarGeometry
 from wbik.urdf import parse_urdf
 

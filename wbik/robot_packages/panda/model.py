@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.models.erd import package_dirs
-from wbik.models.erd import urdf_path
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
+from wbik.models.erd import package_dirs, urdf_path
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
 
 READY = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398, 0.02, 0.02])
 

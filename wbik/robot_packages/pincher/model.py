@@ -12,16 +12,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.data import description_file
-from wbik.dh import DHJoint
-from wbik.dh import DHTable
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages.pincher.closed_form import BASE_HEIGHT
-from wbik.robot_packages.pincher.closed_form import LINK
-from wbik.robot_packages.pincher.closed_form import WRIST_TO_TOOL
-from wbik.robot_packages.pincher.closed_form import pincher_pose
-from wbik.robot_packages.pincher.closed_form import pincher_position
+from wbik.dh import DHJoint, DHTable
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages.pincher.closed_form import (
+    BASE_HEIGHT,
+    LINK,
+    WRIST_TO_TOOL,
+    pincher_pose,
+    pincher_position,
+)
 
 LIMIT = math.radians(150.0)
 AX12_SPEED = 114 * 2 * math.pi / 60  # rad/s, AX-12 no-load speed at 12 V

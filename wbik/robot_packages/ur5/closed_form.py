@@ -5,11 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from wbik.solvers.analytic.aligned import AlignedForm
-from wbik.solvers.analytic.aligned import with_tool
-from wbik.solvers.analytic.ur_type import URArm
-from wbik.solvers.analytic.ur_type import URGeometry
-from wbik.solvers.analytic.ur_type import fk
+from wbik.solvers.analytic.aligned import AlignedForm, with_tool
+from wbik.solvers.analytic.ur_type import URArm, URGeometry, fk
 
 UR5 = URGeometry(d1=0.089159, a2=-0.42500, a3=-0.39225, d4=0.10915, d5=0.09465, d6=0.0823)
 """ur_kinematics' UR5 numbers (m), as example-robot-data's URDF."""

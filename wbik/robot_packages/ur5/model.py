@@ -7,16 +7,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.collision import Obstacle
-from wbik.collision import capsule
+from wbik.collision import Obstacle, capsule
 from wbik.data import description_file
-from wbik.models.erd import package_dirs
-from wbik.models.erd import urdf_path
-from wbik.robot import ChainSpec
-from wbik.robot import Robot
-from wbik.robot import robot_from_urdf_text
-from wbik.robot_packages.ur5.closed_form import UR5EndEffector
-from wbik.robot_packages.ur5.closed_form import ur5_tool
+from wbik.models.erd import package_dirs, urdf_path
+from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
+from wbik.robot_packages.ur5.closed_form import UR5EndEffector, ur5_tool
 
 JOINTS = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")

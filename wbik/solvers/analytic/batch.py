@@ -12,17 +12,15 @@ from wbik.errors import UnsupportedError
 from wbik.geometry import batch_log3
 from wbik.robot import Chain
 from wbik.solvers.analytic.aligned import times
-from wbik.solvers.check import CLIPPED_REASON
-from wbik.solvers.check import clip_to_limits
-from wbik.solvers.check import fk_check_reason
-from wbik.solvers.check import invalid_joints_reason
-from wbik.solvers.check import no_joints
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.solvers.result import Tolerances
-from wbik.targets import MAX_POSITION
-from wbik.targets import ROTATION_TOLERANCE
-from wbik.targets import as_target
+from wbik.solvers.check import (
+    CLIPPED_REASON,
+    clip_to_limits,
+    fk_check_reason,
+    invalid_joints_reason,
+    no_joints,
+)
+from wbik.solvers.result import Candidate, IKResult, Tolerances
+from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, as_target
 
 
 def _valid_se3(matrices: np.ndarray) -> bool:

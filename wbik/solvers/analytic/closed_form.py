@@ -9,16 +9,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from wbik.geometry import TWO_PI
-from wbik.geometry import joint_gap
+from wbik.geometry import TWO_PI, joint_gap
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.targets import Target
-from wbik.targets import as_target
-from wbik.targets import pose_error
+from wbik.solvers.result import Candidate, IKResult
+from wbik.targets import Target, as_target, pose_error
 
 LIMIT_TOLERANCE = 1e-9
 """Angle (rad) a closed-form joint may leave its limits by and count as inside (set onto the limit)."""

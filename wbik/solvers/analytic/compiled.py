@@ -12,10 +12,8 @@ from typing import NamedTuple
 import numpy as np
 
 from wbik.kernels.twins import pure_python
-from wbik.solvers.analytic.closed_form import BRANCH_MERGE
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
-from wbik.solvers.result import IKResult
-from wbik.solvers.result import Tolerances
+from wbik.solvers.analytic.closed_form import BRANCH_MERGE, LIMIT_TOLERANCE
+from wbik.solvers.result import IKResult, Tolerances
 
 
 class Alignment(NamedTuple):

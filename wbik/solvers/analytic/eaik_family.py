@@ -15,18 +15,17 @@ import wbik.kernels.eaik as eaik_kernel
 from wbik.dependencies import EAIK_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
-from wbik.robot import Chain
-from wbik.robot import ChainCache
-from wbik.solvers.analytic.closed_form import BOUND_SLACK
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
-from wbik.solvers.analytic.closed_form import PROBE_POSES
-from wbik.solvers.analytic.closed_form import PROBE_REQUIRED
-from wbik.solvers.analytic.closed_form import PROBE_SEED
-from wbik.solvers.analytic.closed_form import PROBE_TOLERANCE
-from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.structure import chain_lines
-from wbik.solvers.analytic.structure import eaik_vectors
-from wbik.solvers.analytic.structure import poe_fk
+from wbik.robot import Chain, ChainCache
+from wbik.solvers.analytic.closed_form import (
+    BOUND_SLACK,
+    LIMIT_TOLERANCE,
+    PROBE_POSES,
+    PROBE_REQUIRED,
+    PROBE_SEED,
+    PROBE_TOLERANCE,
+    ClosedForm,
+)
+from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
 
 
 def import_eaik():

@@ -15,22 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.dh import rot_x
-from wbik.dh import rot_z
-from wbik.dh import trans
-from wbik.errors import InvalidOptionError
-from wbik.errors import MissingDependencyError
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnsupportedError
-from wbik.solvers.analytic.aligned import AlignedForm
-from wbik.solvers.analytic.aligned import FamilyChain
+from wbik.dh import rot_x, rot_z, trans
+from wbik.errors import InvalidOptionError, MissingDependencyError, RobotDescriptionError, UnsupportedError
+from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
-from wbik.solvers.analytic.structure import ChainLines
-from wbik.solvers.analytic.structure import angle_between
-from wbik.solvers.analytic.structure import chain_lines
+from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, angle_between, chain_lines
 
 HALF_PI = 0.5 * math.pi
 

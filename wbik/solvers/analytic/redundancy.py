@@ -12,20 +12,12 @@ import threading
 
 import numpy as np
 
-from wbik.errors import InvalidSettingError
-from wbik.errors import UnsupportedError
+from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.recognition import Family
-from wbik.solvers.analytic.recognition import Recognised
-from wbik.solvers.analytic.recognition import recognise_eaik
-from wbik.solvers.analytic.recognition import recognise_family
-from wbik.solvers.analytic.structure import ChainLines
-from wbik.solvers.analytic.structure import axis_rotation
-from wbik.solvers.analytic.structure import chain_lines
-from wbik.solvers.analytic.structure import locked_lines
-from wbik.solvers.analytic.structure import poe_fk
+from wbik.solvers.analytic.recognition import Family, Recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
 
 REDUNDANCY_MODES = ("seed", "grid")
 DEFAULT_GRID_SIZE = 16  # held values over the range in "grid" mode (~0.35 rad apart on 2 pi)

@@ -8,25 +8,22 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from wbik.errors import RobotDescriptionError
-from wbik.errors import UnsupportedError
+from wbik.errors import RobotDescriptionError, UnsupportedError
 from wbik.geometry import joint_gap
 from wbik.robot import Chain
-from wbik.solvers.analytic.batch import batch_targets
-from wbik.solvers.analytic.batch import evaluate_batch
-from wbik.solvers.analytic.closed_form import BRANCH_MERGE
-from wbik.solvers.analytic.closed_form import Choice
-from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.closed_form import kernel_failure_reason
-from wbik.solvers.analytic.closed_form import no_solution_reason
-from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
+from wbik.solvers.analytic.closed_form import (
+    BRANCH_MERGE,
+    Choice,
+    ClosedForm,
+    kernel_failure_reason,
+    no_solution_reason,
+    wrap_into_limits,
+)
 from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.recognition import Recognised
-from wbik.solvers.analytic.recognition import recognise_eaik
-from wbik.solvers.analytic.recognition import recognise_family
-from wbik.solvers.analytic.redundancy import check_redundancy_options
-from wbik.solvers.analytic.redundancy import lock_redundant_joint
+from wbik.solvers.analytic.recognition import Recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.redundancy import check_redundancy_options, lock_redundant_joint
 from wbik.solvers.analytic.stacked_planar import STACKED_PLANAR
 from wbik.solvers.analytic.structure import chain_lines
 from wbik.solvers.analytic.ur_type import UR_TYPE
@@ -34,10 +31,8 @@ from wbik.solvers.analytic.yaw_planar import YAW_PLANAR
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
 from wbik.solvers.method import IKMethod
-from wbik.solvers.result import Candidate
-from wbik.solvers.result import IKResult
-from wbik.targets import Target
-from wbik.targets import as_target
+from wbik.solvers.result import Candidate, IKResult
+from wbik.targets import Target, as_target
 
 FAMILIES = (UR_TYPE, YAW_PLANAR, STACKED_PLANAR)  # recognition's order (a new family: its module, one entry)
 

@@ -29,19 +29,11 @@ from wbik.dh import rot_z
 from wbik.errors import InvalidOptionError
 from wbik.geometry import wrap_to_pi
 from wbik.solvers.analytic.aligned import FamilyChain
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
-from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
-from wbik.solvers.analytic.recognition import HALF_PI
-from wbik.solvers.analytic.recognition import require
-from wbik.solvers.analytic.recognition import small
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
-from wbik.solvers.analytic.subproblems import clamped_cosine
-from wbik.solvers.analytic.subproblems import planar_2r
-from wbik.solvers.levenberg_marquardt import JointBounds
-from wbik.solvers.levenberg_marquardt import LevenbergMarquardt
-from wbik.solvers.levenberg_marquardt import batch_cost
-from wbik.solvers.levenberg_marquardt import keep_better
+from wbik.solvers.analytic.recognition import HALF_PI, require, small
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r
+from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, batch_cost, keep_better
 
 try:
     import wbik.kernels._stacked_planar as _stacked_kernel

@@ -11,8 +11,7 @@ from functools import cached_property
 import numpy as np
 
 from wbik.robot import ChainCache
-from wbik.solvers.task_error import joint_lines_at_zero
-from wbik.solvers.task_error import serial_structure
+from wbik.solvers.task_error import joint_lines_at_zero, serial_structure
 
 STRUCTURE_TOLERANCE = 1e-9
 """Two axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, two lines

@@ -23,14 +23,14 @@ import wbik.solvers.analytic.recognition as recognition
 from wbik.dh import homogeneous
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
-from wbik.solvers.analytic.recognition import HALF_PI
-from wbik.solvers.analytic.recognition import require
-from wbik.solvers.analytic.recognition import small
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
-from wbik.solvers.analytic.subproblems import WRIST_SINGULARITY
-from wbik.solvers.analytic.subproblems import clamped_acos
-from wbik.solvers.analytic.subproblems import clamped_cosine
-from wbik.solvers.analytic.subproblems import planar_2r_elbow
+from wbik.solvers.analytic.recognition import HALF_PI, require, small
+from wbik.solvers.analytic.subproblems import (
+    COSINE_TOLERANCE,
+    WRIST_SINGULARITY,
+    clamped_acos,
+    clamped_cosine,
+    planar_2r_elbow,
+)
 
 try:
     import wbik.kernels._ur_type as _ur_kernel

@@ -18,15 +18,9 @@ from wbik.dh import homogeneous
 from wbik.errors import InvalidConfigurationError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Chain
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE
-from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.closed_form import wrap_into_limits
-from wbik.solvers.analytic.recognition import HALF_PI
-from wbik.solvers.analytic.recognition import require
-from wbik.solvers.analytic.recognition import small
-from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE
-from wbik.solvers.analytic.subproblems import clamped_acos
-from wbik.solvers.analytic.subproblems import planar_2r
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm, wrap_into_limits
+from wbik.solvers.analytic.recognition import HALF_PI, require, small
+from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_acos, planar_2r
 
 AXIS_RELATIVE_TOLERANCE = 1e-9  # x the arm's length: a target this near the base axis keeps q0's q1
 
