@@ -16,7 +16,6 @@ of several loops to limit that).
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
 import os
 import platform
@@ -26,14 +25,19 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import closed_forms_vs_eaik  # noqa: E402
+import eaik_interface  # noqa: E402
+import interface_overhead  # noqa: E402
+import numerical  # noqa: E402
+import qp  # noqa: E402
 from ratios import Ratio  # noqa: E402
 
 BENCHMARKS = {  # name -> module in benchmarks/ with ratios(quick)
-    "overhead": "interface_overhead",
-    "closed_forms": "closed_forms_vs_eaik",
-    "eaik": "eaik_interface",
-    "numerical": "numerical",
-    "qp": "qp",
+    "overhead": interface_overhead,
+    "closed_forms": closed_forms_vs_eaik,
+    "eaik": eaik_interface,
+    "numerical": numerical,
+    "qp": qp,
 }
 
 
@@ -75,11 +79,11 @@ def format_table(results: list[tuple[str, Ratio]]) -> str:
 def run(names: list[str], quick: bool) -> list[tuple[str, Ratio]]:
     results: list[tuple[str, Ratio]] = []
     for name in names:
-        module = importlib.import_module(BENCHMARKS[name])
+        module = BENCHMARKS[name]
         started = time.perf_counter()
         ratios = module.ratios(quick=quick)
         if not ratios or not all(isinstance(ratio, Ratio) for ratio in ratios):
-            raise TypeError(f"{BENCHMARKS[name]}.ratios() must return a non-empty list of Ratio")
+            raise TypeError(f"{module.__name__}.ratios() must return a non-empty list of Ratio")
         print(f"  {name}: {len(ratios)} ratios in {time.perf_counter() - started:.1f} s", file=sys.stderr)
         results.extend((name, ratio) for ratio in ratios)
     return results
