@@ -21,10 +21,16 @@ if [ ${#names[@]} -eq 0 ]; then
 fi
 
 for name in "${names[@]}"; do
+  [ -f "$STUDIES/$name.yaml" ] || { echo "make_reports: no study file $STUDIES/$name.yaml for report $name" >&2; exit 2; }
+done
+# every study first, the reports copied after: the checkout stays as it was committed while the rows are
+# made, so each report's provenance names a clean commit
+for name in "${names[@]}"; do
   study="$STUDIES/$name.yaml"
-  [ -f "$study" ] || { echo "make_reports: no study file $study for report $name" >&2; exit 2; }
   echo "== $name: $WBIK study $study -o $RUNS/$name --fresh $*" >&2
   "$WBIK" study "$study" -o "$RUNS/$name" --fresh --no-progress "$@"
+done
+for name in "${names[@]}"; do
   rm -rf "${REPORTS:?}/$name"
   mkdir -p "$REPORTS/$name"
   tar -C "$RUNS/$name" --exclude=chunks --exclude=budget_curves --exclude=poses.npz --exclude=raw.csv \
