@@ -1,12 +1,6 @@
-"""The riveting cell: a UR5 on a table, a box workpiece with 33 holes on three faces, rivet_home.
-
-The seed gives none of these numbers: ours are in tasks/ur5_riveting.yaml (DEFAULT_SCENE repeats them).
-World = the UR5's ``base_link`` (x forward, z up), the table top at z = 0. Holes lie in rows on the top
-face (normal +z) and the two sides (-y "right", +y "left"), named h0..h32 as in the thesis's code. A hole
-frame has its origin at the opening's centre and z INTO the hole; its x axis is -z (world) on the sides
-and -x on the top. Holes are blind cylinders, ``hole_diameter`` 6 mm (0.5 mm of radial clearance around
-the 5 mm tool) and ``hole_depth`` 10 mm.
-"""
+"""The riveting cell (numbers in tasks/ur5_riveting.yaml, repeated by DEFAULT_SCENE): a UR5 at the world
+origin on a table (top z = 0), a box workpiece with holes h0..h32 in rows on its top and side faces. A hole
+frame: origin at the opening, z into the (blind) hole, x -z (world) on the sides and -x on the top."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""The EuRoC client's state machine (ur5-riveting.md 6.4): the thesis's seven states (Annex B) and the
-seed's transitions. The cycle runner (:mod:`wbik.apps.riveting.cycle`) enters each state before the moves
-that belong to it (:func:`state_of_move`) and records every visit with its simulated time; any other
-transition raises :class:`StateTransitionError`.
-"""
+"""The EuRoC client's state machine (ur5-riveting.md 6.4): the thesis's seven states (Annex B) and the seed's
+transitions; the cycle runner enters each state before its moves (:func:`state_of_move`)."""
 
 from __future__ import annotations
 
