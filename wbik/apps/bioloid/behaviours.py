@@ -220,13 +220,9 @@ def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, l
         raise InvalidConfigurationError(
             f"unknown keyframe behaviour {behaviour!r}; known: {', '.join(behaviours)}")
     spec = behaviours[behaviour]
-    units, times, pages = [], [], []
-    for page, row_time in zip(spec["pages"], spec["row_time_s"], strict=True):
-        for row in data["pages"][page]:
-            units.append(row)
-            times.append(float(row_time))
-            pages.append(page)
-    return np.asarray(units, dtype=int), np.asarray(times), pages
+    rows = [(row, float(dt), page) for page, dt in zip(spec["pages"], spec["row_time_s"], strict=True)
+            for row in data["pages"][page]]
+    return np.asarray([r[0] for r in rows], dtype=int), np.asarray([r[1] for r in rows]), [r[2] for r in rows]
 
 
 def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:

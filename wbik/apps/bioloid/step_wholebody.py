@@ -52,9 +52,9 @@ Point = Callable[[float], np.ndarray]
 
 @dataclass
 class BodyPhase:
-    """One phase, sampled at s = 1/divisions, ..., 1: soles held at ``stance`` or on ``swing`` paths; soft
-    ``hips``, ``com`` (xy) and ``pelvis_rotation`` targets of s; ``end_support``: the soles holding the CoM
-    at the last sample (default the stance); ``clip_x``: sole -> x where the ground under it ends."""
+    """One phase, sampled at s = 1/divisions, ..., 1: soles held at ``stance`` or on ``swing`` paths, soft
+    targets of s; ``end_support``: the soles holding the CoM at the last sample; ``clip_x``: sole -> x where
+    the ground under it ends."""
 
     name: str
     stance: dict[str, pin.SE3]
@@ -193,8 +193,7 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
         for division in range(1, phase.divisions + 1):
             s = division / phase.divisions
             active = end_polygon if division == phase.divisions else polygon
-            held = dict(phase.stance)
-            held.update({sole: path(s) for sole, path in phase.swing.items()})
+            held = {**phase.stance, **{sole: path(s) for sole, path in phase.swing.items()}}
             constraints = [Contact(sole, placement) for sole, placement in held.items()]
             constraints += [CoMInSupportPolygon(active, margin), JointPositionLimits(),
                             LockedJoints(locked)]

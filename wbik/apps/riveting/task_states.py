@@ -58,8 +58,7 @@ class TaskStateMachine:
         self.visits: list[tuple[float, str]] = [(float(time), self.state.name)]
 
     def go(self, state: State, time: float, retry: bool = False) -> None:
-        """Enter ``state`` at simulated ``time`` (s); staying in the same state is no new visit,
-        unless ``retry`` (DETECTING_HOLE_POSE's self-transition after a failed detection or plan)."""
+        """Enter ``state`` at simulated ``time`` (s); staying is no new visit unless ``retry``."""
         if state == self.state and not retry:
             return
         if state not in TRANSITIONS[self.state]:
