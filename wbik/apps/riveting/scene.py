@@ -16,6 +16,7 @@ FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 
                 "left": np.array([0.0, 1.0, 0.0])}
 FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),  # of the hole frames
                "left": np.array([0.0, 0.0, -1.0])}
+EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 DEFAULT_SCENE = {
     "table": {"top_z": 0.0, "center": [0.3, 0.0], "size": [1.4, 1.2, 0.05]},
@@ -158,9 +159,6 @@ def build_scene(spec: dict | None = None) -> Scene:
                   float(merged["hole_depth"]), holes, rivet_home)
     _check_holes(scene)
     return scene
-
-
-EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 
 def _check_holes(scene: Scene) -> None:
