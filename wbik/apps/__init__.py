@@ -1,3 +1,1 @@
-"""Applications built on the core: Golem-III grasp approach and thesis solvers, Pincher
-teleoperation, Bioloid behaviours, UR5 riveting. Their scenario kinds are registered in
-:func:`wbik.catalog.scenario_kinds`."""
+"""Applications on the core: Golem-III, Pincher, Bioloid, UR5 riveting (kinds in wbik.catalog)."""

@@ -1,2 +1,1 @@
-"""Bioloid application: servo map, foot sensors, gait, the thesis step and walks, half steps,
-stairs, PlaCo walk, and their scenario kinds (robot model: wbik.robot_packages.bioloid.model)."""
+"""Bioloid application: servo map, foot sensors, gait, steps, walks, half steps, stairs, PlaCo walk."""

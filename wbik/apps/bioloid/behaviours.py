@@ -1,9 +1,5 @@
-"""Bioloid behaviours on the whole-body engine (:func:`wbik.apps.bioloid.step_wholebody.solve_phases`):
-turning in place, walking N steps then turning, the thesis's half steps (bioloid.md 5.3) and the replay of
-the code's Roboplus keyframes. The half steps' Roboplus matrices are not in our sources: each is generated
-as the CoM over the foot that stays, the other foot lifted ``HALF_STEP_LIFT`` (ours; the thesis saw the
-foot "almost dragging", bioloid.md 7) and put down along its heading, the CoM back between the feet.
-"""
+"""Bioloid behaviours on the whole-body engine: turning in place, walking then turning, the thesis's half
+steps (bioloid.md 5.3; generated, their Roboplus matrices are not in our sources) and the keyframe replay."""
 
 from __future__ import annotations
 
@@ -37,10 +33,10 @@ from wbik.apps.bioloid.step_wholebody import (
     sole_polygon,
     solve_phases,
     step_phases,
-    yaw_of,
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
+from wbik.motion.walking.footsteps import yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -55,7 +51,7 @@ HALF_STEPS: dict[str, tuple[str, str]] = {
 
 
 def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
-    """Both feet down, the CoM back between the feet (where it is at the nominal stance, turned)."""
+    """Both feet down, the CoM back between the feet."""
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
     return BodyPhase("re-centre the CoM between the feet", {SOLE[s]: soles[s] for s in SIDES},
                      pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
@@ -116,8 +112,7 @@ def turn_in_place(robot: Robot, angle_deg: float = 20.0, gait: GaitParameters | 
 def walk(robot: Robot, steps: int = 4, turn_deg: float = 0.0, gait: GaitParameters | None = None,
          margin: float = 0.005, q0: np.ndarray | None = None, first: str = "left", rear_lift: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
-    """Walk ``steps`` steps forward alternating feet (``first`` foot first), then turn by ``turn_deg``
-    (positive = left) or re-centre the CoM, whole-body QP."""
+    """``steps`` steps forward, ``first`` foot first, then a turn by ``turn_deg`` (+ left) or re-centring."""
     gait = gait or GaitParameters()
     if steps < 0:
         raise InvalidConfigurationError(f"steps must be >= 0, got {steps}")
@@ -145,9 +140,8 @@ def along(soles: dict[str, pin.SE3], side: str) -> float:
 def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: GaitParameters | None = None,
                      length: float | None = None, lift: float = HALF_STEP_LIFT
                      ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) from the planted ``soles``
-    ({"r": SE3, "l": SE3}) and the soles planted afterwards. InvalidConfigurationError when it does not
-    apply: WalkS*2 needs the moved foot behind, BackS* in front, WalkS*1 not ahead already."""
+    """Phases of the half step ``name`` (a key of ``HALF_STEPS``) and the soles after it;
+    InvalidConfigurationError when the moved foot is not where the half step starts from."""
     if name not in HALF_STEPS:
         raise InvalidConfigurationError(f"unknown half step {name!r}; known: {', '.join(HALF_STEPS)}")
     gait = gait or GaitParameters()
@@ -194,7 +188,7 @@ def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = N
                        gait: GaitParameters | None = None, margin: float = 0.005,
                        length: float | None = None, lift: float = HALF_STEP_LIFT,
                        backend: str = DEFAULT_BACKEND) -> WholeBodyMotion:
-    """Half steps one after the other from ``q0`` (default the nominal), solved sample by sample."""
+    """Half steps one after the other from ``q0`` (default the nominal)."""
     q = start_q(robot, q0)
     soles = current_soles(robot, q)
     phases: list[BodyPhase] = []
@@ -226,20 +220,14 @@ def keyframe_rows(data: dict, behaviour: str) -> tuple[np.ndarray, np.ndarray, l
         raise InvalidConfigurationError(
             f"unknown keyframe behaviour {behaviour!r}; known: {', '.join(behaviours)}")
     spec = behaviours[behaviour]
-    units, times, pages = [], [], []
-    for page, row_time in zip(spec["pages"], spec["row_time_s"], strict=True):
-        for row in data["pages"][page]:
-            units.append(row)
-            times.append(float(row_time))
-            pages.append(page)
-    return np.asarray(units, dtype=int), np.asarray(times), pages
+    rows = [(row, float(dt), page) for page, dt in zip(spec["pages"], spec["row_time_s"], strict=True)
+            for row in data["pages"][page]]
+    return np.asarray([r[0] for r in rows], dtype=int), np.asarray([r[1] for r in rows]), [r[2] for r in rows]
 
 
 def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = None) -> dict:
-    """Joint configurations of a keyframe behaviour and, per row, ``lower_sole`` (flat on the ground),
-    the other sole's height (m) and tilt (deg), the CoM margin (m) over the lower sole and over both
-    when the other is within 5 mm of the ground, the joints beyond the URDF limits, the servos its angles
-    clamp to (:func:`~wbik.apps.bioloid.servo.to_servo`) and whether the others map back to its units."""
+    """A keyframe behaviour's configurations, its lower sole flat on the ground, and per row the other
+    sole's height (m) and tilt (deg), CoM margins (m), joints beyond the URDF limits, servos clamped."""
     data = load_keyframes(path)
     units, row_times, pages = keyframe_rows(data, behaviour)
     model = robot.model

@@ -1,9 +1,5 @@
-"""PlaCo's walk pattern generator on the Bioloid's URDF, for comparison with the whole-body step: PlaCo's
-naive footstep plan and LIPM/ZMP walk (its own bounds from the soles and ``margin``), measured on a 10 ms
-grid (CoM and the plan's ZMP c - c'' / omega^2 in the feet on the ground: docs/measurements.md, Bioloid
-PlaCo walk) and, ``multibody_*``, as PlaCo's IK follows it (:func:`wbik.motion.walking.figures.walk_figures`);
-the animation is PlaCo's IK on the same plan, made again.
-"""
+"""PlaCo's walk pattern generator on the Bioloid's URDF: its LIPM/ZMP plan measured on a 10 ms grid and,
+``multibody_*``, as PlaCo's IK follows it (docs/measurements.md, Bioloid PlaCo walk)."""
 
 from __future__ import annotations
 
@@ -42,8 +38,7 @@ def humanoid(robot: Robot):
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
-    """(humanoid, parameters, footsteps, trajectory) of PlaCo's plan of ``steps`` steps straight ahead;
-    RobotDescriptionError when PlaCo cannot load the humanoid."""
+    """(humanoid, parameters, footsteps, trajectory) of PlaCo's plan of ``steps`` steps straight ahead."""
     from wbik.solvers.placo import import_placo
 
     placo = import_placo("the Bioloid's PlaCo walk")
@@ -77,8 +72,8 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
 
 def follow_plan(robot: Robot, walker, trajectory, times: np.ndarray, iterations: int,
                 settle: int = 50) -> tuple[np.ndarray, list[tuple[str, ...]]]:
-    """PlaCo's IK (``WalkTasks``) on ``trajectory`` at ``times``: ``settle`` solver iterations at the first
-    time, ``iterations`` at each later one; the configurations and the soles on the ground."""
+    """PlaCo's IK on ``trajectory`` at ``times`` (``settle`` iterations first, then ``iterations`` each);
+    the configurations and the soles on the ground."""
     from wbik.motion.walking.placo_pattern import WalkIK, soles_on_ground
     from wbik.solvers.placo import placo_configuration
 
@@ -151,9 +146,8 @@ def _multibody(robot: Robot, trajectory, margin: float, dt: float, iterations: i
 
 def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
-    """PlaCo's walk as PlaCo's IK follows it every ``SAMPLE_S`` (its soft tasks let the stance sole leave the
-    floor at times), a :class:`wbik.viz.animation.Animation`; ``footstep_x``: the report's footsteps (m),
-    which the re-planned ones must equal."""
+    """PlaCo's walk as its IK follows it every ``SAMPLE_S``; the re-planned footsteps must equal the
+    report's ``footstep_x`` (m)."""
     from wbik.viz.animation import Animation, Overlays
 
     walker, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)

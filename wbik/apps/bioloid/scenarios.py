@@ -1,8 +1,5 @@
-"""Scenario kinds of the Bioloid behaviours (tasks/bioloid_*.yaml, tasks/motion_bioloid_foot_sensors.yaml):
-schemas, runners and printed reports. Each entry is judged (:mod:`wbik.expectations`) against the file's
-``expect`` thresholds, keyed by the kind's rules below; a whole-body behaviour without them expects what its
-generator guarantees (:func:`wholebody_defaults`).
-"""
+"""Scenario kinds of the Bioloid behaviours: schemas, runners and printed reports, each entry judged against
+the file's ``expect`` (a whole-body behaviour by default against its generator's guarantees)."""
 
 from __future__ import annotations
 
@@ -78,19 +75,16 @@ STANCE_RULES = {"cop_error_max_m": Rule("cop_minus_com_m", "<=", "m")}  # static
 
 
 def sample_guarantees(margin: float) -> dict:
-    """What a whole-body generator guarantees at every sample by FK: contacts held, the CoM ``margin``
-    inside the support, no joint beyond its limit (to 1e-9)."""
+    """What a whole-body generator guarantees at every sample by FK."""
     return {"contact_error_max_m": CONTACT_TOLERANCE, "contact_error_max_rad": CONTACT_TOLERANCE,
             "com_margin_min_m": margin - 1e-9, "limit_excess_max_rad": 1e-9}
 
 
 def wholebody_defaults(margin: float) -> dict:
-    """Every sample's guarantees, and the timed servo trajectory under the speed limit."""
     return {**sample_guarantees(margin), "velocity_ratio_max": 1.0 + VELOCITY_TOLERANCE}
 
 
 class _Behaviours(KindRun):
-    """A Bioloid run in progress: the report's ``behaviours``, and the spec's gait, margin and expect."""
 
     def __init__(self, spec: dict, on_progress: Progress = None):
         super().__init__(spec, "behaviours", on_progress)
@@ -109,7 +103,6 @@ def _final_soles(robot, q: np.ndarray) -> dict:
 
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
-    """A sampled motion at ``times``, its soles on the ground the support and contacts of each sample."""
     from wbik.viz.animation import Animation, Overlays
 
     times = np.asarray(times, dtype=float)
@@ -119,7 +112,6 @@ def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
 
 
 def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[dict, object]:
-    """The judged entry of a whole-body result (summary, timing, servo export) and its animation."""
     timed = _timed(spec, result.motion)
     entry = {"name": name, "generator": "wholebody", **result.summary(), "duration_s": timed.duration,
              "speed_rpm": spec["timing"]["speed_rpm"],
@@ -192,7 +184,6 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                                f"replayed; replayed: {chosen}")
     for behaviour in chosen:
         replay = replay_keyframes(run.robot, behaviour, spec["keyframes"])
-        motion = replay["motion"]
         rows = replay["rows"]
         single = min(r["com_margin_single_m"] for r in rows)
         entry = {"name": f"keyframes {behaviour}", "rows": len(rows),
@@ -205,7 +196,7 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         wanted = {**expect, **(own.get(behaviour) or {})}
         run.add(judge(entry, wanted, {**entry, "min_com_margin_single_m": single}, KEYFRAME_RULES,
                       f"expect ({behaviour})"),
-                _motion_animation(motion, replay["times_s"], f"keyframes {behaviour}"))
+                _motion_animation(replay["motion"], replay["times_s"], f"keyframes {behaviour}"))
     return run.finished()
 
 
@@ -227,7 +218,6 @@ def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """The half steps of ``sequence`` one after the other, each judged like a whole-body behaviour."""
     run = _Behaviours(spec, on_progress)
     robot = run.robot
     q = robot.nominal.copy()
@@ -243,8 +233,6 @@ def run_half_steps(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """The sensor-driven stair behaviour (:func:`wbik.apps.bioloid.stairs.simulate_stairs`): the states,
-    the reads the state machine decided on and one record per sample; the staircase in the animation."""
     run = _Behaviours(spec, on_progress)
     margin = run.margin
     stairs = Staircase(**spec["stairs"])
@@ -268,7 +256,6 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """The FSR loads and CoP of the static stance at ``start``, one still sample on both soles."""
     from wbik.viz.animation import Animation, Overlays
 
     run = KindRun(spec, "moves", on_progress)
@@ -285,7 +272,6 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
 
 
 def format_report(report: dict) -> str:
-    """One line per behaviour with the figures that matter, and its checks."""
     hidden = ("name", "passed", "per_phase", "source", "final_soles", "expectations", "verdict")
     return format_entries(report, "behaviours", lambda entry: ", ".join(
         f"{k} {_short(v)}" for k, v in entry.items() if k not in hidden))
@@ -300,12 +286,10 @@ def _short(value) -> str:
 
 
 def format_stance(report: dict) -> str:
-    """The stance's CoP - CoM gap and its check."""
     return format_entries(report, "moves", lambda move: f"CoP - CoM {move['cop_minus_com_m']:.2e} m")
 
 
 def bioloid_schema(kind: str) -> Map:
-    """The keys of a Bioloid kind's file."""
     common = common_keys(robot=Key(Robot(only=("bioloid",)), "bioloid"))
     margin = {"margin": margin_key()}
     gait = {"gait": Key(Map(from_dataclass(GaitParameters).keys, nullable=True), {})}

@@ -1,11 +1,6 @@
-"""Bioloid foot sensors (bioloid.md section 6): four FSRs per sole, the Sharp distance sensor, the foot
-board's bus. FSRs (ASSUMED: "near the corners") at the sole's corners, FSR1 back left, FSR2 back right, FSR3
-front left, FSR4 front right (sole frame: x forward, y left); CoP c = sum F_i p_i / sum F_i. Static loads:
-the weight W on the point supports of the soles in contact is statically indeterminate; as a rigid body on
-equal springs with unilateral contact, the loads are the minimum-norm ones, min |F|^2 s.t. A F = W (1, c_x,
-c_y), F >= 0 (c: the CoM projection), found by enumerating the unloaded sets; all loaded on a rectangle of
-half sizes (a, b): F_i = W/4 (1 + s_xi c_x / a + s_yi c_y / b). Outside the support polygon there are none.
-"""
+"""Bioloid foot sensors (bioloid.md 6): four FSRs per sole (ASSUMED at its corners: FSR1 back left, FSR2
+back right, FSR3 front left, FSR4 front right), the Sharp distance sensor, the foot board's bus. Static
+loads (rigid body on equal springs, unilateral): min |F|^2 s.t. A F = W (1, c_x, c_y), F >= 0."""
 
 from __future__ import annotations
 
@@ -43,8 +38,7 @@ def robot_fsr_positions(robot: Robot, sole: str) -> np.ndarray:
 
 
 def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndarray | None:
-    """sum F_i p_i / sum F_i in the frame of ``positions``, for non-negative ``loads`` (N or any
-    proportional quantity); None when nothing presses (foot in the air)."""
+    """sum F_i p_i / sum F_i in the frame of ``positions``; None when nothing presses."""
     loads = np.asarray(loads, dtype=float)
     positions = np.asarray(positions, dtype=float)
     if loads.ndim != 1 or positions.ndim != 2 or len(loads) != len(positions):
@@ -60,8 +54,8 @@ def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndar
 
 def support_loads(points_xy: np.ndarray, weight: float, cop_xy: Sequence[float],
                   tolerance: float = 1e-9) -> np.ndarray:
-    """Minimum-norm non-negative point-support loads carrying ``weight`` with their CoP at ``cop_xy``;
-    InvalidConfigurationError when ``cop_xy`` is outside the supports' convex hull."""
+    """Minimum-norm loads >= 0 carrying ``weight`` with their CoP at ``cop_xy`` (enumerating the unloaded
+    sets); InvalidConfigurationError when ``cop_xy`` is outside the supports' hull."""
     points = np.asarray(points_xy, dtype=float)[:, :2]
     if not weight > 0:
         raise InvalidConfigurationError(f"weight must be positive, got {weight}")
@@ -110,8 +104,7 @@ class StanceLoads:
 
 def stance_loads(robot: Robot, q: np.ndarray, soles: Sequence[str] = ("r_sole", "l_sole"),
                  gravity: float = GRAVITY, contact_height: float = 1e-4) -> StanceLoads:
-    """Expected FSR loads when ``robot`` stands still at q: the soles within ``contact_height`` of the
-    lowest one are in contact, each flat (z axis vertical to 1e-6), and share the weight."""
+    """Expected FSR loads standing still at q on the (flat) soles within ``contact_height`` of the lowest."""
     placements = {sole: robot.frame_placement(q, sole) for sole in soles}
     ground = min(p.translation[2] for p in placements.values())
     contact = [s for s, p in placements.items() if p.translation[2] <= ground + contact_height]
@@ -164,9 +157,8 @@ def sharp_adc_value(distance_mm):
 
 
 def sharp_adc_folded(true_distance_mm):
-    """ADC value for an object at ``true_distance_mm`` on the beam: Eq. 23 inverted from
-    ``SHARP_PEAK_MM`` on, falling linearly to 0 at 0 mm below it (our fold), the range limit's value
-    beyond ``SHARP_RANGE_MM`` (inf: no object)."""
+    """ADC value for an object at ``true_distance_mm`` (inf: none): Eq. 23 inverted from ``SHARP_PEAK_MM``
+    to ``SHARP_RANGE_MM``, linear to 0 below the peak (our fold)."""
     distance = np.asarray(true_distance_mm, dtype=float)
     if np.any(distance < 0) or np.any(np.isnan(distance)):
         raise InvalidConfigurationError("Sharp distances must be >= 0 (inf: nothing on the beam)")
@@ -177,8 +169,7 @@ def sharp_adc_folded(true_distance_mm):
 
 
 def sharp_reading_mm(true_distance_mm):
-    """What the foot board reports (mm, Eq. 23 of the folded ADC value): it falls with the distance down
-    to ``SHARP_PEAK_MM`` and rises again nearer; an object touching the sensor reads the range limit."""
+    """What the foot board reports (mm): Eq. 23 of the folded ADC value (touching: the range limit)."""
     adc = np.asarray(sharp_adc_folded(true_distance_mm), dtype=float)
     return sharp_distance_mm(np.where(adc > 0, adc, sharp_adc_value(SHARP_RANGE_MM)))
 
@@ -191,8 +182,7 @@ def sharp_ray(robot: Robot, q: np.ndarray, sole: str) -> tuple[np.ndarray, np.nd
 
 
 def fsr_reading_mv(force_n, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
-    """The FSR divider voltage (mV) for a force (N): 5000 mV * F / (F + 1 N) with the 10 kOhm pull-down
-    and 5 V; 0 N reads 0 mV. ASSUMED: PSThreshold = 1000 is in mV (the units are not stated)."""
+    """FSR divider voltage (mV) for a force (N): 5000 F / (F + 1 N) (ASSUMED: PSThreshold is in mV)."""
     force = np.asarray(force_n, dtype=float)
     if np.any(force < 0) or not np.all(np.isfinite(force)):
         raise InvalidConfigurationError("FSR forces must be finite and >= 0")
@@ -201,8 +191,7 @@ def fsr_reading_mv(force_n, supply_v: float = 5.0, pulldown_ohm: float = 10e3):
 
 
 class MovingAverage:
-    """The board's noise filter: the mean of the last ``window`` samples (3, bioloid.md 6.2), or of
-    those seen; scalars or arrays (e.g. 4 FSRs)."""
+    """The board's noise filter: the mean of the last ``window`` samples (bioloid.md 6.2)."""
 
     def __init__(self, window: int = 3):
         if int(window) != window or window < 1:
@@ -211,7 +200,6 @@ class MovingAverage:
         self.samples: list[np.ndarray] = []
 
     def add(self, value) -> np.ndarray:
-        """Add one sample; the filtered value."""
         self.samples.append(np.asarray(value, dtype=float).copy())
         del self.samples[:-self.window]
         return self.value
@@ -228,8 +216,7 @@ PS_READS = 2  # consecutive low reads of both front sensors that mean a step dow
 
 
 class StepDownDetector:
-    """One foot's step-down detection: FSR3 and FSR4 both < ``threshold`` on ``reads`` consecutive
-    reads; a read with a front sensor at or above it starts over."""
+    """Step down detected when FSR3 and FSR4 are both < ``threshold`` on ``reads`` consecutive reads."""
 
     def __init__(self, threshold: float = PS_THRESHOLD, reads: int = PS_READS):
         self.threshold = float(threshold)
@@ -237,7 +224,6 @@ class StepDownDetector:
         self.count = 0
 
     def update(self, fsr3: float, fsr4: float) -> bool:
-        """One read of the filtered front sensors; True once the step down is detected."""
         self.count = self.count + 1 if fsr3 < self.threshold and fsr4 < self.threshold else 0
         return self.count >= self.reads
 
@@ -245,8 +231,6 @@ class StepDownDetector:
         self.count = 0
 
 
-REGISTERS = {"sharp": 0x00, "fsr1": 0x02, "fsr2": 0x04, "fsr3": 0x06, "fsr4": 0x08,
-             "center_x": 0x0A, "center_y": 0x0C}  # Table 12: two bytes each, little-endian
 READ_INSTRUCTION = 0x02
 
 

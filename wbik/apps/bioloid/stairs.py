@@ -1,9 +1,6 @@
 """A simulated staircase and the thesis's sensor-driven stair behaviour (bioloid.md 5.2, 5.6, 6.5): the
-code's state machine (:class:`StairStateMachine`) reads the Sharp beams ray-cast on the steps and the
-filtered FSRs after every half step and climbs, turns and goes down. Ours: the staircase, a trigger after
-a WalkS*1 first completing the pair, StairReady, UpStair and DownStair generated whole-body
-(:func:`stair_phases`; the replayed keyframes leave our joint limits), no drift turn, ``TURN_MEDIUM_DEG``.
-"""
+state machine reads the ray-cast Sharp beams and filtered FSRs after every half step and climbs, turns and
+goes down; StairReady, UpStair and DownStair are generated whole-body (:func:`stair_phases`)."""
 
 from __future__ import annotations
 
@@ -38,9 +35,9 @@ from wbik.apps.bioloid.step_wholebody import (
     recentre_goal,
     sole_polygon,
     solve_phases,
-    yaw_of,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
+from wbik.motion.walking.footsteps import yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -68,9 +65,8 @@ class StairError(WbikError):
 
 @dataclass(frozen=True)
 class Staircase:
-    """``steps`` solid steps of ``height`` and ``depth``, the first riser at x = ``start_x``, the last
-    tread a platform ``top_depth`` long, ``width`` wide, centred on y = 0, facing +x (SI units); with
-    ``descend`` the same steps go down again after the platform (CEABOT's test: 3 up, 3 down)."""
+    """``steps`` solid steps (m) from the first riser at x = ``start_x``, facing +x, centred on y = 0, the
+    last tread a ``top_depth`` platform; ``descend``: the same steps go down after it (CEABOT's test)."""
 
     steps: int = 3
     height: float = 0.030
@@ -100,12 +96,10 @@ class Staircase:
         return top_end + (self.steps - step) * self.depth if self.descend else top_end
 
     def tread_z(self, step: int) -> float:
-        """Height of tread ``step`` (0 = the floor)."""
         return step * self.height
 
     @property
     def end_x(self) -> float:
-        """x where the structure ends (the floor beyond)."""
         return self.far_x(1)
 
     def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -141,8 +135,7 @@ class Staircase:
         return edges
 
     def edge_distance(self, corners: np.ndarray) -> float:
-        """Distance (m) from a flat sole (its 4 world corners) to the nearest nose edge not under it:
-        hypot(height difference, x gap between the edge and the sole's x range)."""
+        """Distance (m) from a flat sole (4 world corners) to the nearest nose edge not under it."""
         corners = np.asarray(corners, dtype=float)
         z = float(np.mean(corners[:, 2]))
         low, high = float(corners[:, 0].min()), float(corners[:, 0].max())
@@ -160,8 +153,8 @@ class Staircase:
 
     def foothold(self, corners: np.ndarray,
                  tolerance: float = SURFACE_TOLERANCE) -> tuple[str, float | None] | None:
-        """Where a flat sole stands: (the surface under its heel, the x of the nose edge its toes are
-        over or None), or None when it does not stand (in the air, tilted, over a higher surface)."""
+        """(surface under the heel, x of the nose edge under the toes or None), or None when the sole
+        does not stand (in the air, tilted, over a higher surface)."""
         corners = np.asarray(corners, dtype=float)
         z = float(np.mean(corners[:, 2]))
         if np.ptp(corners[:, 2]) > tolerance:
@@ -211,8 +204,7 @@ class StairStateMachine:
 
     def after_placement(self, sharp: dict[str, float], front_fsr: dict[str, Sequence[float]],
                         forward_foot: str | None = None) -> Decision:
-        """One read after a half step: ``sharp`` {"r", "l"} readings (mm), ``front_fsr`` {"r", "l"}
-        filtered (FSR3, FSR4) readings, ``forward_foot`` the foot in front (None: side by side)."""
+        """One read: Sharp mm and filtered (FSR3, FSR4) per side, the foot in front (None: side by side)."""
         right, left = float(sharp["r"]), float(sharp["l"])
         if right < SHARP_PROXIMITY_THRESHOLD and left < SHARP_PROXIMITY_THRESHOLD:
             self.proximity = True
@@ -238,14 +230,12 @@ class StairStateMachine:
         self.proximity = False
 
     def descended(self) -> None:
-        """A DownStair is done: the step-down detection starts over."""
         for detector in self.down.values():
             detector.reset()
 
 
 def polyline_path(poses: Sequence[pin.SE3]) -> Callable[[float], pin.SE3]:
-    """s in [0, 1] -> the pose at fraction s of the polyline's length through the poses' positions,
-    with the first pose's rotation (the sole stays flat with its yaw)."""
+    """s in [0, 1] -> the pose at fraction s of the polyline through the poses, the first one's rotation."""
     points = np.array([p.translation for p in poses])
     lengths = np.linalg.norm(np.diff(points, axis=0), axis=1)
     total = float(lengths.sum())
@@ -271,11 +261,9 @@ def _moved(placement: pin.SE3, x: float | None = None, z: float | None = None) -
 def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, step: int, first: str,
                  gait: GaitParameters | None = None, down: bool = False
                  ) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """UpStair onto step ``step`` (1-based) from the feet side by side before its riser, the heels put
-    ``HEEL_OVERHANG`` past the edge, or (``down``) DownStair from tread ``step`` to the one below, from the
-    feet near its nose, the heels put ``DOWN_HEEL_GAP`` past the riser below: the CoM over one foot,
-    ``first`` ("r"/"l") swung ``STEP_CLEARANCE`` above the higher tread and put down, the CoM over it,
-    the other foot brought beside it, the CoM between the feet; the phases and the new soles."""
+    """UpStair onto step ``step`` (heels ``HEEL_OVERHANG`` past its edge) or, ``down``, DownStair from it
+    (heels ``DOWN_HEEL_GAP`` past the riser below), ``first`` foot first, each swung ``STEP_CLEARANCE``
+    above the higher tread; the phases and the new soles."""
     if down:
         landing_x, z_new = stairs.far_x(step) + DOWN_HEEL_GAP + 0.05, stairs.tread_z(step - 1)
         label, surface = f"DownStair {step}", "the floor" if step == 1 else f"tread {step - 1}"
@@ -314,8 +302,8 @@ def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
 
 
 def toes_gap(stairs: Staircase, sole: pin.SE3, down: bool = False) -> float:
-    """Distance (m) along x from the sole's toes to the next riser ahead (inf past the last one) or, ``down``,
-    to the nose of the tread it stands on on the way down (negative: the toes are over it; inf: none)."""
+    """x distance (m) from the toes to the next riser or, ``down``, to the nose of the tread under the
+    heel (negative: the toes are over it); inf when there is none."""
     toes = sole.translation[0] + 0.05 * sole.rotation[0, 0]
     if down:
         level = stairs.step_at(sole.translation[0] - 0.05 * sole.rotation[0, 0])
@@ -325,8 +313,7 @@ def toes_gap(stairs: Staircase, sole: pin.SE3, down: bool = False) -> float:
 
 
 class StairRun:
-    """A simulated run (:func:`simulate_stairs`): the robot on the staircase, its foot boards, one record per
-    sample, the states visited, the reads and the motion."""
+    """A simulated run (:func:`simulate_stairs`): one record per sample, the states, the reads, the motion."""
 
     def __init__(self, robot: Robot, stairs: Staircase, gait: GaitParameters, margin: float, backend: str,
                  climbs: int, q0: np.ndarray):
@@ -348,7 +335,6 @@ class StairRun:
 
     def _record(self, q: np.ndarray, state: str, phase: str | None, check: dict,
                 swing: Sequence[str]) -> None:
-        """One sample's record: surfaces, Sharp and filtered FSR readings, CoM margin, clearance."""
         robot, stairs = self.robot, self.stairs
         placements = current_soles(robot, q)
         corners = {side: sole_corners(robot, SOLE[side], placements[side]) for side in SIDES}
@@ -398,8 +384,7 @@ class StairRun:
         return found
 
     def solve(self, state: str, phases: list[BodyPhase], soles_after: dict[str, pin.SE3]) -> None:
-        """Solve a behaviour's phases and record every sample, after checking the new footholds; a sole
-        over a nose holds the CoM with its part behind the edge only (each phase's ``clip_x``)."""
+        """Check the footholds, solve the phases (a sole over a nose supports behind it) and record."""
         for side, placement in soles_after.items():
             try:
                 self._foothold(SOLE[side], placement)
@@ -423,7 +408,6 @@ class StairRun:
         self.q = motion.q[-1].copy()
 
     def read(self, after: str) -> dict:
-        """The state machine's inputs after ``after``: the last sample's Sharp and front FSR readings."""
         last = self.samples[-1]
         ahead = along(self.soles(), "r")
         entry = {"after": after, "sharp_mm": {s: last["sharp_mm"][SOLE[s]] for s in SIDES},
@@ -438,9 +422,8 @@ class StairRun:
         self.solve(name, phases, after)
 
     def stair_ready(self, cycle: int, down: bool) -> bool:
-        """Our StairReady: both feet forward (two half steps led by the foot of the walk cycle at
-        ``cycle``) until the toes are ``READY_GAP`` from the riser or, ``down``, ``DOWN_READY_OVERHANG``
-        over the nose, unless they are there already; whether it stepped."""
+        """Our StairReady: two half steps bringing the toes ``READY_GAP`` from the riser or, ``down``,
+        ``DOWN_READY_OVERHANG`` over the nose, unless they are there; whether it stepped."""
         gaps = [toes_gap(self.stairs, sole, down) for sole in self.soles().values()]
         if down:
             gap = max(gaps)
@@ -467,11 +450,9 @@ class StairRun:
 
     @property
     def reached_bottom(self) -> bool:
-        """Down every step again (a staircase that ``descend``s)."""
         return self.stairs.descend and self.descended == self.stairs.steps
 
     def scene_boxes(self) -> tuple:
-        """The steps as the viewer's boxes (wbik.viz.environment.SceneBox), lighter the higher."""
         from wbik.viz.environment import STAIR_COLORS, SceneBox
 
         return tuple(SceneBox.between(f"stair step {index + 1}", low, high,
@@ -503,17 +484,14 @@ class StairRun:
 
 
 def _leading_foot(cycle: int) -> str:
-    """"r" when the walk cycle's half step at index ``cycle`` is led by the right foot, else "l"."""
     return "r" if WALK_CYCLE[cycle % 4].startswith("WalkSR") else "l"
 
 
 def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitParameters | None = None,
                     margin: float = 0.005, climbs: int | None = None, q0: np.ndarray | None = None,
                     max_decisions: int = STEP_QTY, backend: str = DEFAULT_BACKEND) -> StairRun:
-    """Walk toward the staircase with the half steps, sensing after each, and climb it as the state
-    machine decides; with a staircase that ``descend``s, walk on and go down each step it detects.
-    Stops on the floor beyond, at the top (``climbs`` climbs, default every step) when it does not
-    descend, or after ``max_decisions`` reads. StairError when a foot would hit a riser."""
+    """Half steps toward the staircase, climbing (and with ``descend`` going down) as the state machine
+    decides after each, until done or ``max_decisions`` reads; StairError when a foot would hit a riser."""
     stairs = stairs or Staircase()
     gait = gait or GaitParameters()
     climbs = stairs.steps if climbs is None else int(climbs)

@@ -1,8 +1,6 @@
-"""(b) The thesis's step forward as whole-body IK, one QP solve per sample (:func:`solve_phases` over
-:class:`BodyPhase` lists, also behind the turns, walks, half steps and stairs). Hard, verified by FK: the
-soles on the ground held, a swing sole on its path, the CoM ``margin`` inside the support, joint limits,
-arms at rest; soft: the key points' hips, the pelvis pitch and yaw, the CoM in a hand-over, a posture.
-"""
+"""The thesis's step forward as whole-body IK, one QP solve per sample (:func:`solve_phases`, also behind
+the turns, walks, half steps and stairs): contacts, CoM ``margin`` and joint limits hard and verified by FK;
+hips, pelvis orientation, CoM ramp and posture soft."""
 
 from __future__ import annotations
 
@@ -29,6 +27,7 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
+from wbik.motion.walking.footsteps import yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
@@ -53,10 +52,9 @@ Point = Callable[[float], np.ndarray]
 
 @dataclass
 class BodyPhase:
-    """One phase of a whole-body behaviour, sampled at s = 1/divisions, ..., 1: soles held at their
-    ``stance`` poses or on their ``swing`` paths s -> pose; soft ``hips`` and ``com`` (xy) targets and
-    ``pelvis_rotation``, functions of s; ``end_support`` the soles holding the CoM at the last sample
-    (default the stance); ``clip_x`` sole -> x where the ground under it ends (a nose): the part held."""
+    """One phase, sampled at s = 1/divisions, ..., 1: soles held at ``stance`` or on ``swing`` paths, soft
+    targets of s; ``end_support``: the soles holding the CoM at the last sample; ``clip_x``: sole -> x where
+    the ground under it ends."""
 
     name: str
     stance: dict[str, pin.SE3]
@@ -72,8 +70,7 @@ class BodyPhase:
 
 
 def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
-    """The part with x <= ``x_max`` (all for None) of the convex polygon of vertices ``points`` (k, 2)
-    in order, cut by one half-plane (Sutherland-Hodgman)."""
+    """The part x <= ``x_max`` (all for None) of a convex polygon (k, 2) (Sutherland-Hodgman)."""
     if x_max is None:
         return points
     vertices = np.asarray(points, dtype=float)
@@ -104,10 +101,6 @@ def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> 
     return ankle + sole_placement.rotation @ key_point
 
 
-def yaw_of(rotation: np.ndarray) -> float:
-    return float(math.atan2(rotation[1, 0], rotation[0, 0]))
-
-
 def pelvis_rotation(yaw: float, pitch: float) -> np.ndarray:
     """Pelvis orientation: yaw about the world z, then the torso pitch about the turned y axis."""
     return pin.utils.rotate("z", yaw) @ pin.utils.rotate("y", pitch)
@@ -119,8 +112,7 @@ def line(start: np.ndarray, end: np.ndarray) -> Point:
 
 
 def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0) -> Path:
-    """A swing path from ``start`` to ``end``: a line plus a vertical bump ``lift * sin(pi s)``, the yaw
-    turning linearly the short way, the sole flat."""
+    """Flat swing path: a line plus ``lift * sin(pi s)`` up, the yaw turning linearly the short way."""
     def pose(s: float) -> pin.SE3:
         yaw = yaw_of(start.rotation) + s * float(wrap_to_pi(yaw_of(end.rotation) - yaw_of(start.rotation)))
         position = start.translation + s * (end.translation - start.translation)
@@ -201,8 +193,7 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
         for division in range(1, phase.divisions + 1):
             s = division / phase.divisions
             active = end_polygon if division == phase.divisions else polygon
-            held = dict(phase.stance)
-            held.update({sole: path(s) for sole, path in phase.swing.items()})
+            held = {**phase.stance, **{sole: path(s) for sole, path in phase.swing.items()}}
             constraints = [Contact(sole, placement) for sole, placement in held.items()]
             constraints += [CoMInSupportPolygon(active, margin), JointPositionLimits(),
                             LockedJoints(locked)]
@@ -222,8 +213,7 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
             for _ in range(retries):
                 if _holds(check):
                     break
-                # the IK loop keeps a step only if the task cost does not rise, so it cannot pull the CoM
-                # back inside: do that first with the CoM as the only goal, then solve again from there
+                # the IK loop never raises its task cost, so pull the CoM inside alone first, then re-solve
                 inside = nearest_inside(active, robot.center_of_mass(solution.q)[:2], margin + REPAIR_INSET)
                 repair = IKProblem(robot.model, [ComTask(np.r_[inside, 0.0], axes="xy", tolerance=1e-7,
                                                          name="com repair"), RegularizationTask(1e-8)],
@@ -264,9 +254,8 @@ def recentre_goal(robot: Robot, soles: dict[str, pin.SE3]) -> np.ndarray:
 
 def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | None = None,
                 first: str = "left", rear_lift: float = 0.0) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
-    """The 5 phases of one step forward, ``first`` foot first, from the planted ``soles`` ({"r": SE3,
-    "l": SE3}), the standing legs' hips on the faithful step's key-point lines (:func:`step_forward_phases`,
-    with its servo speeds and pauses); the phases and the soles planted after the step."""
+    """The 5 phases of one step forward, ``first`` foot first, the standing hips on the faithful step's
+    key-point lines (:func:`step_forward_phases`); the phases and the soles planted after it."""
     gait = gait or GaitParameters()
     swing_side = "l" if str(first).lower() in ("left", "l") else "r"
     stance_side = OTHER[swing_side]
@@ -285,7 +274,6 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
     before, after = {stance_side: stance0, swing_side: swing0}, {stance_side: stance0, swing_side: landed}
 
     def options(index: int, planted: dict[str, pin.SE3]) -> dict:
-        """Phase ``index``'s hips of the legs standing (on their planted soles) and its timing."""
         phase = table[index]
         hips = {HIP[side]: line(hip_target(robot, planted[side], phase.start[side]),
                                 hip_target(robot, planted[side], phase.end[side]))
@@ -310,8 +298,7 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
 
 
 def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) -> np.ndarray:
-    """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y);
-    InvalidConfigurationError when the shrunk polygon is empty."""
+    """Nearest point to ``point`` of the polygon shrunk by ``margin``; InvalidConfigurationError if empty."""
     try:
         return polygon.nearest_inside(point, margin)
     except NoQPSolutionError as error:
@@ -319,9 +306,8 @@ def nearest_inside(polygon: SupportPolygon, point: np.ndarray, margin: float) ->
 
 
 class ComRamp:
-    """CoM target s -> start + s (goal - start). The engine binds ``start`` to the CoM at the phase
-    start and, without a ``goal``, the goal to the nearest point of ``polygon`` shrunk by ``inset``;
-    ``footprint``: the soles ``polygon`` is made of, so the engine can cut it (``BodyPhase.clip_x``)."""
+    """CoM target s -> start + s (goal - start), ``start`` bound to the CoM at the phase start; without a
+    ``goal``, the nearest point of ``polygon`` (of the soles ``footprint``) shrunk by ``inset``."""
 
     def __init__(self, polygon: SupportPolygon | None = None, inset: float = 0.0,
                  goal: np.ndarray | None = None, footprint: dict[str, pin.SE3] | None = None):
@@ -342,8 +328,7 @@ class ComRamp:
 
 def com_over_phase(robot: Robot, name: str, stance: dict[str, pin.SE3], side: str, placement: pin.SE3,
                    inset: float = RAMP_INSET, **options) -> BodyPhase:
-    """A phase ramping the CoM ``inset`` into the ``side`` sole at ``placement``, ending supported by it
-    alone; ``options``: the other BodyPhase fields."""
+    """A phase ramping the CoM ``inset`` into the ``side`` sole, ending on it alone."""
     footprint = {SOLE[side]: placement}
     return BodyPhase(name, stance, com=ComRamp(sole_polygon(robot, footprint), inset, footprint=footprint),
                      end_support=(SOLE[side],), **options)

@@ -1,11 +1,6 @@
-"""Golem-III approach (golem3.md): reach a grasp pose along a straight line without moving the slow torso
-lift (``mb``, 0.005 m/s) unless the arm cannot reach.
-
-Each sample of the line (base_link frame) is first solved with the 6-DOF ``right_arm`` (torso_link ->
-r_eef), the lift held, the target moved into the torso frame; only when that fails (or jumps) with the
-7-DOF ``right_arm_lift`` (mb first) from the previous joints. The path is on the 7-DOF chain;
-``info['lift_samples']`` lists the samples that used the lift, ``info['lift_travel_m']`` how far it moved.
-"""
+"""Golem-III approach (golem3.md): a straight line to a grasp pose, each sample solved with the 6-DOF
+``right_arm`` (the slow torso lift ``mb`` held) and, only when that fails or jumps, with the 7-DOF
+``right_arm_lift``; ``info['lift_samples']`` and ``info['lift_travel_m']`` tell what the lift did."""
 
 from __future__ import annotations
 
@@ -33,8 +28,8 @@ def torso_placement(robot: Robot, q_lift: np.ndarray):
 def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method: str = "dls",
              jump_threshold: float = DEFAULT_JUMP_THRESHOLD, lift_method: str | None = None,
              **solver_options) -> JointPath:
-    """Straight line from the gripper pose at q0 (mb, m0, m10..m14) to ``grasp`` (pose in base_link);
-    ``method`` solves the arm, ``lift_method`` (default: the same, 'dls' for 'analytic') the 7-DOF chain."""
+    """Straight line from the gripper at q0 (mb, m0, m10..m14) to ``grasp`` (base_link); ``lift_method``
+    (default ``method``, 'dls' for 'analytic') solves the 7-DOF chain."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     arm_solver = make_solver(method, robot, chain=ARM, **solver_options)

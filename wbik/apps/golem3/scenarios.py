@@ -1,7 +1,5 @@
-"""The ``golem3_approach`` scenario kind: from ``start`` (mb, m0, m10..m14) to ``grasp`` ({position, rpy} in
-base_link, or {from_joints: [7 values]}) along a straight line (:func:`wbik.apps.golem3.approach.approach`),
-judged like any motion (:mod:`wbik.motion.scenarios`) and by ``expect: {lift: bool}``.
-"""
+"""The ``golem3_approach`` scenario kind: from ``start`` to ``grasp`` ({position, rpy} in base_link, or
+{from_joints}) along a straight line, judged like any motion and by ``expect: {lift: bool}``."""
 
 from __future__ import annotations
 
@@ -22,12 +20,10 @@ from wbik.scenario_schema import kind_schema
 from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
 from wbik.schema import Either, Key, Map, Vector
 
-APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}
-"""A motion's expectations and ``lift``: whether the torso lift moved."""
+APPROACH_RULES = {**MOVE_RULES, "lift": Rule("lift", "==")}  # lift: whether the torso lift moved
 
 
 def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """One move: the approach, timed and judged like any motion (``lift`` among its figures)."""
     run = MoveRun(spec, on_progress, APPROACH_RULES)
     chain = run.robot.chain(ARM_WITH_LIFT)
     grasp = spec["grasp"]
@@ -42,7 +38,6 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def approach_schema() -> Map:
-    """The keys of a ``golem3_approach`` file; ``samples`` defaults to approach()'s."""
     grasp = Either(Map({"from_joints": Key(Vector(), required=True)}),
                    Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
     keys = {**solving_keys(), **samples_key(approach), "grasp": Key(grasp, required=True)}

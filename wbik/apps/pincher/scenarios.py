@@ -1,7 +1,5 @@
-"""The ``pincher_motion`` scenario kind: ``moves`` ({jog: JOINT, delta_deg: D}, {plane_line: {start_xy_mm,
-goal_xy_mm}}, {automatic: {}}) run one after another, each from the previous end, with their own ``timing``,
-``tolerance`` and ``expect`` over the scenario's (those of :mod:`wbik.motion.scenarios`).
-"""
+"""The ``pincher_motion`` scenario kind: ``moves`` (jog, plane_line, automatic) run one after another from
+the previous end, each with its own ``timing``, ``tolerance`` and ``expect`` over the scenario's."""
 
 from __future__ import annotations
 
@@ -25,7 +23,6 @@ from wbik.schema import Either, Key, ListOf, Map, Number, Text, Variants, Vector
 
 
 def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    """Each move from where the previous one ended; one entry per move, the moves' animations chained."""
     from wbik.solvers.method_registry import solver
     run = MoveRun(spec, on_progress)
     ik = solver(spec["method"], run.robot, timeout_s=float(spec["timeout_s"]))
@@ -53,7 +50,6 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def pincher_schema() -> Map:
-    """The keys of a ``pincher_motion`` file; ``samples`` defaults are those of the move builders."""
     common = common_motion_keys()
     own = {"timing": Key(timing_node()), "tolerance": Key(common["tolerance"].node),
            "expect": Key(expect_block(MOVE_RULES))}

@@ -1,11 +1,6 @@
 """PhantomX Pincher moves of the seed's teleoperation (pincher.md): joint jog, straight TCP lines in the
-reduced working plane, and the automatic mode's path. Metres and radians (mm and deg only in names).
-
-The working plane (our reading of "joint 2 keeps the arm parallel to the floor; reach 305 mm over 300 deg"):
-the TCP moves at the shoulder height z = 137 mm, the tool horizontal (q2 + q3 + q4 = 90 deg) and pointing
-away from the base axis (the only yaw a 4-DOF arm has there). Stretched flat the arm reaches 105 + 105 + 95
-= 305 mm; folded (elbow limit 150 deg) 149.4 mm; the base turns +-150 deg.
-"""
+working plane (our reading of the seed: the TCP at shoulder height, the tool horizontal pointing away from
+the base axis) and the automatic mode's path."""
 
 from __future__ import annotations
 
@@ -26,21 +21,19 @@ PLANE_HEIGHT = 0.137  # m, shoulder height d1
 PLANE_REACH = 0.105 + 0.105 + 0.095  # m, arm stretched flat
 PLANE_MIN_RADIUS = 0.095 + 2 * 0.105 * math.cos(math.radians(75.0))  # m, elbow folded to 150 deg
 PLANE_SECTOR = math.radians(150.0)  # rad, |base angle| limit
+# the automatic mode's pick-and-place cycle (ours: the seed gives none), (x, y, z, tool pitch) points
 AUTOMATIC_CYCLE = (
     (0.15, 0.0, 0.12, -math.pi / 2),
     *((0.15 * math.cos(angle), 0.15 * math.sin(angle), z, -math.pi / 2)
       for angle in (-0.698, 0.698) for z in (0.10, 0.04, 0.10)),
     (0.15, 0.0, 0.12, -math.pi / 2),
 )
-"""The automatic mode's pick-and-place cycle, (x, y, z, tool pitch) points (our choice; the seed gives none):
-home over the base front, tool down, a pick at -40 deg and a place at +40 deg, 0.15 m out, down to 0.04 m."""
-HOME_SEED = np.array([0.0, 0.5, 1.2, 1.44])
-"""Joints from which the cycle's first point (home) is solved: elbow up."""
+HOME_SEED = np.array([0.0, 0.5, 1.2, 1.44])  # elbow up: the joints the cycle's home is solved from
 
 
 def tool_rotation(chain: Chain, yaw: float, pitch: float) -> np.ndarray:
-    """Rotation of 'noa' for base angle ``yaw`` and tool pitch ``pitch`` above the horizontal (rad): FK of
-    (yaw, pi/2, 0, -pitch), as it depends only on q1 and q2 + q3 + q4 = pi/2 - pitch (pincher.md)."""
+    """Rotation of 'noa' for base angle ``yaw`` and tool pitch above the horizontal (rad), q2 + q3 + q4
+    = pi/2 - pitch."""
     return chain.fk(np.array([yaw, math.pi / 2, 0.0, -pitch])).rotation.copy()
 
 
@@ -60,8 +53,8 @@ def jog(chain: Chain, q: Sequence[float], joint: int | str, delta: float, sample
 
 
 class ToolPathReference:
-    """Straight segments through (x, y, z, pitch) points, each an equal share of s, the pitch linear along
-    a segment and the yaw atan2(y, x): poses a 4-DOF Pincher can take (a slerp between two generally not)."""
+    """Straight segments through (x, y, z, pitch) points, equal shares of s, the yaw atan2(y, x): poses a
+    4-DOF Pincher can take."""
 
     def __init__(self, chain: Chain, points: Sequence[Sequence[float]]):
         self.chain = chain
@@ -95,8 +88,7 @@ def plane_reason(xy: Sequence[float]) -> str:
 
 def tool_path(solver: Solver, points: Sequence[Sequence[float]], samples: int = 10,
               q0: Sequence[float] | None = None, jump_threshold: float = DEFAULT_JUMP_THRESHOLD) -> JointPath:
-    """Straight TCP segments through (x, y, z, pitch) points, ``samples`` sub-points each, the first solved
-    from ``q0`` (default: elbow up, pointing at it), every other from the previous one."""
+    """Straight TCP segments through (x, y, z, pitch) points, ``samples`` each, from ``q0``."""
     reference = ToolPathReference(solver.chain, points)
     x, y = reference.points[0, :2]
     elbow_up = np.array([math.atan2(y, x), 0.3 + math.pi / 2, -0.6, 0.3])
@@ -117,8 +109,7 @@ def tool_path(solver: Solver, points: Sequence[Sequence[float]], samples: int = 
 def plane_line(solver: Solver, start_xy: Sequence[float], goal_xy: Sequence[float], samples: int = 20,
                q0: Sequence[float] | None = None,
                jump_threshold: float = DEFAULT_JUMP_THRESHOLD) -> JointPath:
-    """Straight TCP line from start_xy to goal_xy (m) in the working plane; samples outside its reachable
-    band go into ``info['outside_plane']`` with the reason."""
+    """Straight TCP line in the working plane (m); samples outside it in ``info['outside_plane']``."""
     start, goal = np.asarray(start_xy, dtype=float), np.asarray(goal_xy, dtype=float)
     points = [(*start, PLANE_HEIGHT, 0.0), (*goal, PLANE_HEIGHT, 0.0)]
     path = tool_path(solver, points, samples, q0, jump_threshold)

@@ -1,9 +1,6 @@
-"""Distances of the riveting cell: the UR5's meshes and the rivet tool's primitives (coal, placed by
-Pinocchio) against the workpiece's solid envelope (holes filled in: distances can only under-report) and
-the table; the pin against the envelope with its nearest hole cut out (:func:`hole_model`). A geometry
-whose bounding sphere is over ``exact_below`` from an obstacle reports that bound (``exact`` False), a
-nearer one its exact coal distance, computed only when a query needs it.
-"""
+"""Distances of the riveting cell: the UR5's meshes and the tool's primitives (coal) against the workpiece's
+solid envelope and the table; the pin against the envelope with its nearest hole cut out. A geometry whose
+bounding sphere is over ``exact_below`` away reports that bound, a nearer one its exact distance (lazily)."""
 
 from __future__ import annotations
 
@@ -37,10 +34,8 @@ def _box(low, high, frame: pin.SE3) -> Obstacle:
 
 
 def hole_model(scene: Scene, hole: Hole, sides: int = 12, tile_half: float = 0.008) -> list[Obstacle]:
-    """The workpiece envelope with ``hole`` cut out, as boxes in the world. In the hole frame (z into the
-    hole, surface at 0): 4 beside the tile |x|, |y| <= ``tile_half`` (m), 1 under it past the hole's depth
-    and ``sides`` whose inner faces make a regular polygon of the hole's radius as inradius (0.5 mm of
-    radial clearance for a centred 5 mm pin in a 6 mm hole)."""
+    """The workpiece envelope with ``hole`` cut out, as world boxes: 4 around the tile |x|, |y| <=
+    ``tile_half`` (hole frame), 1 under it past the depth, ``sides`` walls of the hole's inradius."""
     frame = hole.placement
     corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
     local = (scene.workpiece_center + corners * scene.workpiece_half - frame.translation) @ frame.rotation
@@ -76,8 +71,8 @@ def _bounds(shape) -> tuple[np.ndarray, float, coal.Box]:
 
 @dataclass
 class GeometryDistance:
-    """Distance of one robot geometry to an obstacle (``exact`` False: a lower bound, no points); the nearest
-    point on the robot (world) and the unit direction in which moving it increases the distance."""
+    """Distance of a robot geometry to an obstacle (``exact`` False: a lower bound), its nearest point
+    (world) and the unit direction that increases the distance."""
 
     geometry: str
     distance: float
@@ -101,8 +96,7 @@ class _Entry:
 
 @dataclass
 class Clearance:
-    """Distances at one configuration, per robot geometry, to the workpiece and to the table; each is
-    computed when a query first needs it (the placements are kept: later queries change nothing)."""
+    """Distances at one configuration per robot geometry to workpiece and table, computed when needed."""
 
     collision: CollisionModel
     placements: list[pin.SE3]
@@ -124,9 +118,8 @@ class Clearance:
         return entry.box if entry.box > level + SKIP_MARGIN else self._distance(entry).distance
 
     def minimum(self, which: str = "all", start: float = np.inf, floor: float = np.inf) -> float:
-        """min(start, the smallest distance of ``which``): to the workpiece of "all" geometries, of the
-        "tool" (flange box, holder, pin) or of the "links"; to the "table"; or to both ("cell"). Exact when
-        at most ``floor``; above it, some value above ``floor`` (enough to compare with it)."""
+        """min(start, smallest distance of ``which``: a key of WHICH), exact up to ``floor`` (above it,
+        some value above ``floor``)."""
         best = start
         for entry in sorted((e for e in self.entries if WHICH[which](e)), key=lambda entry: entry.bound):
             best = min(best, self._value(entry, min(best, floor)))
@@ -164,9 +157,8 @@ class CollisionModel:
         self._result = coal.DistanceResult()
 
     def joint_reach(self) -> np.ndarray:
-        """R (nq,): per joint, a bound (m) on the distance from its axis of any robot point it moves (the
-        joint offsets down the chain plus the geometry's bounding sphere). A joint change dq moves no
-        point by more than sum_j |dq_j| R_j, so a clearance d at q stays >= d - sum_j |dq_j| R_j."""
+        """R (nq,): per joint, a bound (m) on the distance from its axis of any point it moves, so a joint
+        change dq moves no point by more than sum_j |dq_j| R_j."""
         model = self.model
         reach = np.zeros(model.nq)
         for obj, (center, radius, _) in zip(self.geometry.geometryObjects, self._bounds, strict=True):
@@ -185,14 +177,12 @@ class CollisionModel:
                              self._request, self._result)
 
     def box_bound(self, entry: _Entry, placement: pin.SE3) -> float:
-        """Lower bound of an entry's distance: its geometry's bounding box against the obstacle (the
-        envelope for the pin: the hole model lies inside it)."""
+        """Lower bound of an entry's distance: its bounding box against the obstacle ."""
         center, _, box = self._bounds[entry.index]
         return self._distance(box, placement * pin.SE3(np.eye(3), center), self.obstacles[entry.obstacle][:2])
 
     def exact(self, entry: _Entry, placement: pin.SE3) -> GeometryDistance:
-        """Exact distance of an entry's geometry to its obstacle: the pin against the boxes around its
-        nearest hole, every other geometry against the envelope or the table."""
+        """Exact distance of an entry's geometry (the pin's to its nearest hole's model)."""
         obj = self.geometry.geometryObjects[entry.index]
         obstacles = [self.obstacles[entry.obstacle][:2]]
         if entry.obstacle == "workpiece" and entry.index == self.pin_index:

@@ -1,14 +1,6 @@
-"""A deterministic cost model of planning time, so that planning can be charged to the 300 s run.
-
-Wall time depends on the machine's load, so a plan's charged time is its counted operations times
-calibrated unit costs (s): ``ik`` (one closed-form UR5 solve, all branches or the one nearest a seed),
-``clearance`` (one distance query of the robot against workpiece and table), ``line_timing`` and
-``spline_timing`` (minimum-time scaling of a two-knot line, of a multi-knot spline), ``line_estimate``
-(the closed-form minimum time of a line), ``grid_points`` (one point of the fine time grid bounding a
-route's motion between its checked samples) and ``qp_iteration`` (one QP step). UNIT_COST_S holds the
-medians :func:`calibrate` measured, rounded up (``line_estimate`` and ``qp_iteration`` are estimates);
-docs/measurements.md, riveting cost. ``python -m wbik.apps.riveting.cost`` prints this machine's.
-"""
+"""A deterministic cost model of planning time, charged to the 300 s run: a plan's counted operations times
+calibrated unit costs ``UNIT_COST_S`` (s; docs/measurements.md, riveting cost). ``python -m
+wbik.apps.riveting.cost`` prints this machine's."""
 
 from __future__ import annotations
 

@@ -1,13 +1,7 @@
-"""The riveting run: cycle after cycle for ``duration`` s of simulated time, driven by the EuRoC client's
-state machine (:mod:`wbik.apps.riveting.task_states`), every move checked densely for collisions.
-
-A cycle: load_rivet at rivet_home; hole_guess, a hole not riveted yet drawn by the seeded rng, its frame
-moved by Gaussian noise (``NoiseModel``; under half the hole spacing, so the nearest hole is the true one);
-the plan for the nearest hole, charged to the clock as a ``plan`` dwell of its counted cost
-(:mod:`wbik.apps.riveting.cost`); the planner's moves. A rivet counts when triggered in time in the true
-hole within the tolerances and the cycle touched nothing: no geometry's workpiece distance went from > 0
-to <= 0 at the samples (2 mm of tcp motion and 0.01 rad apart, 0.2 mm at the hole).
-"""
+"""The riveting run: cycles for ``duration`` s of simulated time, driven by the EuRoC client's state machine.
+A cycle: load_rivet; hole_guess (a remaining hole drawn by the seeded rng, its frame perturbed by
+``NoiseModel``); the plan for the nearest hole, charged as a ``plan`` dwell of its counted cost; the moves.
+A rivet counts when triggered in time in the true hole within the tolerances with no contact event."""
 
 from __future__ import annotations
 
@@ -126,8 +120,8 @@ class RunResult:
 
 
 def check_move(move: Move, chain, collision: CollisionModel, previous: dict[str, bool]) -> MoveCheck:
-    """Sample a move densely and measure every sample; ``previous`` carries across moves whether each
-    geometry was clear of the workpiece at the last sample (a contact event: clear, then touching)."""
+    """Measure a move's samples; ``previous``: whether each geometry was clear at the last sample (a
+    contact event is clear, then touching)."""
     times, rows = samples(move, chain)
     tool_min = link_min = table_min = np.inf
     colliding = []
@@ -156,7 +150,6 @@ def simulate(planner: Planner, scene: Scene, collision: CollisionModel, insertio
     clock = 0.0
 
     def run(moves: list[Move]) -> list[MoveCheck]:
-        """Check the moves, each in its state, and add them to the timeline."""
         nonlocal clock
         checks = []
         for move in moves:

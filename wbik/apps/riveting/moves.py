@@ -1,6 +1,5 @@
-"""Moves of a riveting cycle: rest-to-rest joint paths timed under the joint velocity and acceleration
-limits (:func:`wbik.motion.time_scale`, or stretched to a longer fixed duration), dwells, and the samples at
-which the run checks them."""
+"""Moves of a riveting cycle: rest-to-rest joint paths timed under the joint limits (or stretched to a
+fixed duration), dwells, and the samples at which the run checks them."""
 
 from __future__ import annotations
 
@@ -17,10 +16,7 @@ from wbik.solvers.analytic.structure import chain_lines, poe_fk
 
 @dataclass
 class Move:
-    """One step of a cycle: a timed joint path, or a dwell at ``hold`` for ``duration`` seconds.
-
-    ``offset`` (s): where the move starts on ``timed`` (a part of one blended motion); ``reverse``: run
-    ``timed`` backward (time laws are symmetric, so the limits still hold)."""
+    """A timed joint path (from ``offset`` s on ``timed``, ``reverse``: backward) or a dwell at ``hold``."""
 
     name: str
     duration: float
@@ -74,8 +70,7 @@ def joint_path_through(chain: Chain, knots: np.ndarray) -> JointPath:
 
 def timed_move(name: str, chain: Chain, knots: np.ndarray, limits: Limits, duration: float | None = None,
                fine: bool = False) -> Move:
-    """A rest-to-rest move through ``knots``: minimum time under ``limits``, or ``duration`` if longer (the
-    same path and law, slowed down uniformly)."""
+    """A rest-to-rest move through ``knots``: minimum time under ``limits``, or ``duration`` if longer."""
     knots = np.asarray(knots, dtype=float)
     if np.max(np.abs(knots[-1] - knots[0])) < 1e-12 and len(knots) <= 2:
         return Move(name, 0.0, hold=knots[0].copy(), fine=fine)
@@ -109,10 +104,8 @@ def dwell(name: str, q: np.ndarray, duration: float) -> Move:
 
 def samples(move: Move, chain: Chain, step: float = 0.002, angle_step: float = 0.01,
             fine_step: float = 0.0002, resolution: float = 5e-4) -> tuple[np.ndarray, np.ndarray]:
-    """(local times, joint rows) at which to check a move: of its points every ``resolution`` s, the one
-    before the tcp (``chain.fk``) or a joint has moved ``step`` m (``fine_step`` for fine moves) or
-    ``angle_step`` rad since the last one kept, and the end points. The batch product-of-exponentials FK
-    (within 1e-9 m of ``chain.fk``) picks the points that may have moved, ``chain.fk`` decides."""
+    """(local times, joint rows) at which to check a move: on a ``resolution`` s grid, the point before the
+    tcp has moved ``step`` m (``fine_step`` if fine) or a joint ``angle_step`` rad, and the end points."""
     if move.timed is None or move.duration <= 0:
         return np.array([0.0]), move.evaluate(0.0)
     count = max(int(np.ceil(move.duration / resolution)), 2) + 1

@@ -1,13 +1,7 @@
-"""Our planner, per hole from rivet_home, deterministic: approach configurations at ``rolls`` rolls about
-the hole axis (the 5-D task's free roll), every closed-form branch kept if ``minimum_clearance`` clear;
-routes to each, the joint line or one spline through a retreat configuration of the same roll and branch
-``retreats`` out on the axis, ranked by a closed-form time estimate and checked best first
-(:meth:`QPPlanner._path_clearance`) until one keeps ``line_clearance``; the insertion on the axis by closed
-form every ``knot_spacing``, blended with the route when faster; retract and return run the same motions
-backward. Fallback: the QP path (wbik.qp) of the 5-D task under the workpiece clearance constraint. Why
-closed-form retreats: docs/measurements.md, riveting planner. Every IK, clearance query, timing and grid
-point is counted (:mod:`wbik.apps.riveting.cost`).
-"""
+"""Our planner, per hole, deterministic: closed-form approach configurations at ``rolls`` rolls about the
+hole axis; routes (the joint line, or through a retreat out on the axis) ranked by a closed-form time
+estimate and checked densely best first; the insertion by closed form along the axis, blended when faster;
+fallback: the QP path under the workpiece clearance constraint (docs/measurements.md, riveting planner)."""
 
 from __future__ import annotations
 
@@ -63,8 +57,7 @@ class QPPlanner(Planner):
         self.law = time_law(self.limits.law)
 
     def _branches(self, pose: pin.SE3, near: np.ndarray) -> list[tuple[int, np.ndarray]]:
-        """(branch index in the solver's order, q) of every closed-form solution of a 6-D tcp pose,
-        wrapped nearest ``near``."""
+        """(branch index, q wrapped nearest ``near``) of every closed-form solution of a tcp pose."""
         self.cost.add("ik")
         return [(branch, self.wrap(result.q, near))
                 for branch, result in enumerate(self.analytic.solve_all(pose)) if result.success]
@@ -88,10 +81,9 @@ class QPPlanner(Planner):
         return timed_move(name, self.chain, knots, self.limits, fine=fine)
 
     def _path_clearance(self, move: Move, minimum: float, skip: tuple[str, ...] = ()) -> tuple[bool, float]:
-        """(clear, smallest sampled distance) of a move, walked from its end (where a bad route fails
-        soonest). Every sample keeps ``minimum``; from a sample at distance d the next is the farthest grid
-        time at which no robot point can have moved by more than d - CERTIFIED - slack (the joint-reach
-        bound), so the whole move keeps CERTIFIED from workpiece and table, not only the samples."""
+        """(clear, smallest sampled distance) of a move, walked from its end. Every sample keeps ``minimum``;
+        the next one is the farthest grid time at which no point can have moved by more than d - CERTIFIED -
+        slack (:meth:`CollisionModel.joint_reach`), so the whole move keeps CERTIFIED."""
         count = max(int(np.ceil(move.duration / GRID_DT)), 2) + 1
         self.cost.add("grid_points", count)
         times = np.linspace(0.0, move.duration, count)[::-1]
@@ -128,8 +120,8 @@ class QPPlanner(Planner):
         return routes
 
     def _insertion(self, hole: Hole, roll: float, q_approach: np.ndarray) -> np.ndarray | None:
-        """Knots on the axis from the approach pose to the inserted pose, same roll and branch; None on a
-        branch jump or when the links (not the pin) lose ``line_clearance`` at the bottom."""
+        """Knots on the axis from the approach to the inserted pose, same roll and branch; None on a branch
+        jump or when the links lose ``line_clearance`` at the bottom."""
         total = self.insertion.standoff + self.insertion.depth
         count = max(int(np.ceil(total / self.knot_spacing)), 1)
         knots = [q_approach]
@@ -142,10 +134,8 @@ class QPPlanner(Planner):
         return np.array(knots) if self._clear(knots[-1], self.line_clearance, skip=(PIN,)) else None
 
     def _blended(self, route: _Route, approach: Move, insertion: np.ndarray) -> tuple[Move, Move] | None:
-        """Route and insertion as one motion cut at the approach knot into the approach and insert moves;
-        None if that is not faster than stopping at the approach pose (one global time law slows a path
-        with a sharp turn) or if the links lose ``line_clearance`` along it (the pin's fit in the hole
-        is the run's fine check)."""
+        """Route and insertion as one motion split at the approach knot; None if not faster than stopping
+        there or if the links lose ``line_clearance`` along it."""
         full = self._timed("approach and insert", np.vstack([route.knots, insertion[1:]]))
         if full.duration >= approach.duration + self._line_time(insertion[0], insertion[-1]):
             return None
@@ -180,8 +170,7 @@ class QPPlanner(Planner):
         return None
 
     def _search(self, hole: Hole, routes: list[_Route], insertions: dict) -> tuple[tuple | None, int, float]:
-        """(route, approach move, insertion knots, worst clearance) of the best clear route, the routes
-        checked and the best clearance seen."""
+        """((route, approach, insertion, clearance) of the best clear route, routes checked, best seen)."""
         checked, worst_seen, static = 0, -np.inf, {}
         for route in routes:
             if checked >= MAX_ROUTE_CHECKS:
@@ -204,7 +193,6 @@ class QPPlanner(Planner):
         return None, checked, worst_seen
 
     def _fallback(self, hole: Hole, route: _Route, insertion: np.ndarray | None, q_home: np.ndarray):
-        """The QP path to the best-ranked approach configuration, as the search's answer, or None."""
         if insertion is None:
             insertion = self._insertion(hole, route.roll, route.knots[-1])
         if insertion is None:

@@ -1,9 +1,6 @@
-"""What both planners share: the insertion geometry, the plan of one cycle and the planner interface.
-
-A cycle goes rivet_home -> [the planner's way] -> approach pose (on the hole axis, the tool tip
-``standoff`` outside the opening) -> insert (tip ``depth`` inside) -> trigger_rivet -> retract -> [way
-home]; the cycle runner adds load_rivet at home.
-"""
+"""What both planners share: the insertion geometry, the plan of one cycle and the planner interface. A
+cycle: rivet_home -> approach pose (tip ``standoff`` outside) -> insert (tip ``depth`` inside) ->
+trigger_rivet -> retract -> rivet_home."""
 
 from __future__ import annotations
 
@@ -46,8 +43,7 @@ class Insertion:
 
 @dataclass
 class CyclePlan:
-    """The moves of one cycle (home -> hole -> home) or a failure with its reason; the planning's measured
-    wall time (reported, never charged) and its counted cost (charged, :mod:`wbik.apps.riveting.cost`)."""
+    """The moves of one cycle or a failure's reason; planning wall time (reported), counted cost (charged)."""
 
     hole: Hole
     moves: list[Move] = field(default_factory=list)
@@ -59,8 +55,7 @@ class CyclePlan:
 
 
 class Planner:
-    """Base class: ``setup(q_home)`` once, then ``plan(hole, q_home)`` per cycle and
-    ``go_home(q_from, q_home)`` for the first move of the run."""
+    """``setup(q_home)`` once, ``go_home`` as the run's first move, then ``plan(hole, q_home)`` per cycle."""
 
     name = "planner"
 
@@ -91,8 +86,7 @@ class Planner:
 
 
 def tcp_errors(chain, q: np.ndarray, wanted: pin.SE3) -> tuple[float, float, float, float]:
-    """(position error, lateral error, depth error along the axis (+ = too deep), axis angle) of the
-    tcp at q against ``wanted`` (m, m, m, rad); roll about the tool axis is not an error."""
+    """(position, lateral, depth (+ too deep) errors (m), axis angle (rad)) of the tcp at q vs ``wanted``."""
     reached = chain.fk(q)
     axis = wanted.rotation[:, 2]
     offset = reached.translation - wanted.translation

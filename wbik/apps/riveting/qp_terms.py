@@ -1,13 +1,9 @@
-"""Two QP terms for riveting, on top of :mod:`wbik.qp`.
+"""Two QP terms for riveting.
 
-ToolAxisTask (5 rows): with p the tcp position, z the tool axis and (x*, y*, z*) the target's axes,
-e = [p - p*; x* . z; y* . z] is zero when the tcp is at p* with z parallel to z* (roll free; the sign
-z . z* > 0 is checked apart). As dz/dt = w x z, the Jacobian rows are [J_v; (z x x*)^T J_w; (z x y*)^T J_w].
-
-WorkpieceClearance: each robot geometry at exact distance d < ``activation``, nearest point p and unit
-direction n away from the workpiece, keeps -n^T J_p dq <= d - d_min - safety, with
-J_p = J_v(joint) - [p - o_joint]x J_w(joint) the velocity of the material point p.
-"""
+ToolAxisTask: e = [p - p*; x* . z; y* . z] (tcp position p, tool axis z, target axes x*, y*; roll free),
+Jacobian [J_v; (z x x*)^T J_w; (z x y*)^T J_w]. WorkpieceClearance: each geometry at exact distance d <
+``activation``, nearest point p, unit direction n away, keeps -n^T J_p dq <= d - d_min - safety, J_p the
+velocity Jacobian of the material point p."""
 
 from __future__ import annotations
 

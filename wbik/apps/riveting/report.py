@@ -1,10 +1,5 @@
-"""Run the riveting task for each planner of a task file and report (dict, text, Markdown).
-
-Task file keys (tasks/ur5_riveting.yaml holds every number): ``duration_s``, ``seed``, ``max_cycles``,
-``limits``, ``insertion``, ``noise``, ``scene`` (:mod:`wbik.apps.riveting.scene`), ``planners`` ({name,
-planner: thesis | ours, options...}) and ``expect`` ({planner name: {key of RIVETING_RULES: threshold}},
-judged by :mod:`wbik.expectations`).
-"""
+"""Run the riveting task for each planner of a task file (tasks/ur5_riveting.yaml) and report it (dict, text,
+Markdown); ``expect``: {planner name: {key of RIVETING_RULES: threshold}}."""
 
 from __future__ import annotations
 

@@ -1,12 +1,5 @@
-"""Scenario kind ``ur5_riveting`` (``wbik run tasks/ur5_riveting.yaml``): its schema, runner and printed
-report (:func:`wbik.apps.riveting.report.format_text`).
-
-The report holds every planner's summary, Table 5 score and cycles, the settings and the expectations'
-checks; ``report_folder`` also writes report.json and report.md there. Defaults are those of the riveting
-dataclasses and planner classes (``backend`` is the scenario-wide QP backend) and DEFAULT_SCENE. The
-animation (what ``wbik view`` plays) is the first planner's first ``ANIMATION_SECONDS`` (going home and
-the first cycle) every ``ANIMATION_SAMPLE_S``: all runs at this rate would add some 12 MB.
-"""
+"""Scenario kind ``ur5_riveting``: schema, runner and printed report. The animation is the first planner's
+first ``ANIMATION_SECONDS`` every ``ANIMATION_SAMPLE_S`` (all runs would add some 12 MB)."""
 
 from __future__ import annotations
 
@@ -80,8 +73,7 @@ def scene_boxes(scene) -> tuple:
 
 def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
                        sample_s: float = ANIMATION_SAMPLE_S):
-    """The first ``seconds`` of a planner's run (a wbik.apps.riveting.cycle.RunResult) every ``sample_s``,
-    the chain's tip traced."""
+    """The first ``seconds`` of a planner's RunResult every ``sample_s``."""
     from wbik.viz.animation import Animation
 
     timeline = result.timeline
@@ -97,7 +89,6 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
 
 
 def riveting_schema() -> Map:
-    """The keys of a ur5_riveting file (see the module docstring and wbik.apps.riveting.report)."""
     from wbik.apps.riveting.cycle import NoiseModel, RunConfig
     from wbik.apps.riveting.plan import Insertion
 

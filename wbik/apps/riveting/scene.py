@@ -1,12 +1,6 @@
-"""The riveting cell: a UR5 on a table, a box workpiece with 33 holes on three faces, rivet_home.
-
-The seed gives none of these numbers: ours are in tasks/ur5_riveting.yaml (DEFAULT_SCENE repeats them).
-World = the UR5's ``base_link`` (x forward, z up), the table top at z = 0. Holes lie in rows on the top
-face (normal +z) and the two sides (-y "right", +y "left"), named h0..h32 as in the thesis's code. A hole
-frame has its origin at the opening's centre and z INTO the hole; its x axis is -z (world) on the sides
-and -x on the top. Holes are blind cylinders, ``hole_diameter`` 6 mm (0.5 mm of radial clearance around
-the 5 mm tool) and ``hole_depth`` 10 mm.
-"""
+"""The riveting cell (numbers in tasks/ur5_riveting.yaml, repeated by DEFAULT_SCENE): a UR5 at the world
+origin on a table (top z = 0), a box workpiece with holes h0..h32 in rows on its top and side faces. A hole
+frame: origin at the opening, z into the (blind) hole, x -z (world) on the sides and -x on the top."""
 
 from __future__ import annotations
 
@@ -22,6 +16,7 @@ FACE_NORMALS = {"top": np.array([0.0, 0.0, 1.0]), "right": np.array([0.0, -1.0, 
                 "left": np.array([0.0, 1.0, 0.0])}
 FACE_X_AXES = {"top": np.array([-1.0, 0.0, 0.0]), "right": np.array([0.0, 0.0, -1.0]),  # of the hole frames
                "left": np.array([0.0, 0.0, -1.0])}
+EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 DEFAULT_SCENE = {
     "table": {"top_z": 0.0, "center": [0.3, 0.0], "size": [1.4, 1.2, 0.05]},
@@ -164,9 +159,6 @@ def build_scene(spec: dict | None = None) -> Scene:
                   float(merged["hole_depth"]), holes, rivet_home)
     _check_holes(scene)
     return scene
-
-
-EDGE_MARGIN = 0.015  # m between a hole's axis and the face's edges (room for the hole model)
 
 
 def _check_holes(scene: Scene) -> None:

@@ -1,19 +1,8 @@
-"""The EuRoC scoring of the riveting task, Table 5 of the thesis, 30 points:
-
-| Sub-task                      | Interval                                  | Points         |
-|-------------------------------|-------------------------------------------|----------------|
-| mean hole-localisation error  | > 5 mm or 5 deg                           | 0              |
-|                               | between 1.5 and 5 mm, or 3 to 5 deg       | 2              |
-|                               | between 0.3 and 1.5 mm, or 1 to 3 deg     | 5              |
-|                               | < 0.3 mm or 1 deg                         | 10             |
-| rivets done correctly (300 s) | 0-4 / 5-9 / 10-14 / 15 or more            | 0 / 2 / 5 / 10 |
-| robot-workpiece collisions    | > 0 / 0                                   | 0 / 10         |
-
-Our reading (the seed is ambiguous, ur5-riveting.md 2.4): the localisation score is the worse of the
-position and the angle bands, a boundary value goes to the worse band ("< 0.3 mm" is strict, only "> 5"
-scores 0), and no rivet scores 0. A rivet's localisation error (our definition, 7.3): the tcp at
-trigger_rivet against the true hole's inserted pose, position (m) and tool-axis angle (rad).
-"""
+"""The EuRoC scoring of the riveting task (the thesis's Table 5, 30 points): a mean localisation error under
+0.3 mm and 1 deg 10, to 1.5 mm / 3 deg 5, to 5 mm / 5 deg 2, else 0; 15, 10 or 5 rivets in 300 s 10, 5 or 2;
+no collision 10. Our reading (ur5-riveting.md 2.4): the worse of the two bands, a boundary value in the worse
+band, no rivet no localisation points; a rivet's error is the tcp at trigger_rivet against the true hole's
+inserted pose."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""The EuRoC client's state machine (ur5-riveting.md 6.4): the thesis's seven states (Annex B) and the
-seed's transitions. The cycle runner (:mod:`wbik.apps.riveting.cycle`) enters each state before the moves
-that belong to it (:func:`state_of_move`) and records every visit with its simulated time; any other
-transition raises :class:`StateTransitionError`.
-"""
+"""The EuRoC client's state machine (ur5-riveting.md 6.4): the thesis's seven states (Annex B) and the seed's
+transitions; the cycle runner enters each state before its moves (:func:`state_of_move`)."""
 
 from __future__ import annotations
 
@@ -61,8 +58,7 @@ class TaskStateMachine:
         self.visits: list[tuple[float, str]] = [(float(time), self.state.name)]
 
     def go(self, state: State, time: float, retry: bool = False) -> None:
-        """Enter ``state`` at simulated ``time`` (s); staying in the same state is no new visit,
-        unless ``retry`` (DETECTING_HOLE_POSE's self-transition after a failed detection or plan)."""
+        """Enter ``state`` at simulated ``time`` (s); staying is no new visit unless ``retry``."""
         if state == self.state and not retry:
             return
         if state not in TRANSITIONS[self.state]:

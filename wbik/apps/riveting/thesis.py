@@ -1,18 +1,8 @@
-"""The thesis's planner (ur5-riveting.md section 4): closed-form UR5 IK and joint lines through a taught
-intermediate configuration q_int per face.
-
-Cycle: rivet_home -> q_int (1 s) -> sleep 2 s -> approach pose -> inserted pose -> trigger -> approach
-pose -> q_int -> rivet_home (``return_via: intermediate``; the printed code's ``direct`` return from the
-approach pose cuts through the workpiece for the left face). Targets are the hole frames turned by a
-per-face roll. The seed gives no q_int; we teach one per face as the author did by hand: the tcp
-``intermediate_distance`` out from the centroid of the face's holes along its normal, pointing at the
-face, with the roll and IK branch that keep TEACH_CLEARANCE, reach every hole of the face, move the joints
-least from rivet_home and whose lines home -> q_int -> each approach pose keep LINE_CLEARANCE.
-
-Timing ``thesis``: the client's fixed durations (1 s to q_int, the sleep, ``move_time`` per move_to,
-stretched if the limits need longer); the default 5.8 s makes a cycle 33 s, the thesis's 9 rivets in 300 s
-(ur5-riveting.md 5). Timing ``optimal``: the same paths at minimum time, no sleep.
-"""
+"""The thesis's planner (ur5-riveting.md 4): closed-form UR5 IK and joint lines rivet_home -> q_int ->
+approach -> insert -> trigger -> retract -> q_int -> rivet_home. The seed gives no q_int: one is taught per
+face, ``intermediate_distance`` out from its holes' centroid, the roll and branch keeping TEACH_CLEARANCE and
+LINE_CLEARANCE that move the joints least. Timing ``thesis``: the client's fixed durations (``move_time`` 5.8
+s: 9 rivets in 300 s, ur5-riveting.md 5); ``optimal``: minimum time, no sleep."""
 
 from __future__ import annotations
 
@@ -88,8 +78,8 @@ class ThesisPlanner(Planner):
             for hole in self.scene.holes_of(face))
 
     def _face_cost(self, face: str, roll: float, q_int: np.ndarray, q_home: np.ndarray) -> float | None:
-        """Largest joint move home -> q_int plus the mean one q_int -> approach; None if a hole is out of
-        reach or its inserted configuration touches the workpiece (the pin aside)."""
+        """Largest joint move home -> q_int plus the mean q_int -> approach; None if a hole is out of reach
+        or touched when inserted."""
         holes = self.scene.holes_of(face)
         cost = float(np.max(np.abs(q_int - q_home)))
         for hole in holes:
