@@ -1,8 +1,5 @@
-"""Straight-line and waypoint Cartesian paths (positions on lines, rotations on geodesics), solved by
-any IK method from the previous knot's joints. A step max_j |q_k,j - q_(k-1),j| above ``jump_threshold``
-(rad or m) is a suspected branch jump: the interval is halved up to ``refinements`` times, and a jump or
-miss that persists is reported in ``JointPath.jumps`` / ``reasons``.
-"""
+"""Straight-line and waypoint Cartesian paths solved by continuation; a step max_j |dq_j| above
+``jump_threshold`` (rad or m) halves the interval up to ``refinements`` times, else is a reported jump."""
 
 from __future__ import annotations
 
@@ -17,8 +14,7 @@ from wbik.solvers.path import interpolate
 from wbik.solvers.result import IKResult
 from wbik.targets import Target, as_target
 
-DEFAULT_JUMP_THRESHOLD = 0.5
-"""Largest joint change between two knots (rad or m) before a knot is called a jump."""
+DEFAULT_JUMP_THRESHOLD = 0.5  # rad or m: the largest joint change between two knots
 
 
 class PolylineReference:

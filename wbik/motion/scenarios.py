@@ -1,8 +1,5 @@
-"""Scenario kinds of robot motions: ``motion_joint`` (joint-space interpolation) and ``motion_cartesian``
-(straight lines through waypoints), one entry per move in ``moves``. By default a move expects success,
-its peak joint speed within the limits and its Cartesian knots tracked to ``tolerance``. Applications
-build their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`.
-"""
+"""Scenario kinds ``motion_joint`` and ``motion_cartesian``, one entry per move; applications build
+their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`."""
 
 from __future__ import annotations
 
@@ -117,11 +114,10 @@ class MoveRun(KindRun):
 
     def finished(self) -> ScenarioReport:
         """The report; the last move's trajectory written where ``export`` says (paths in the figures)."""
-        export = self.spec["export"]
-        if "csv" in export:
-            self.report.figures["csv"] = str(self.trajectory.write_csv(Path(export["csv"])))
-        if "json" in export:
-            self.report.figures["json"] = str(self.trajectory.write_json(Path(export["json"])))
+        for kind in ("csv", "json"):
+            if kind in self.spec["export"]:
+                file = Path(self.spec["export"][kind])
+                self.report.figures[kind] = str(getattr(self.trajectory, f"write_{kind}")(file))
         return super().finished()
 
 

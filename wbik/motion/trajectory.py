@@ -1,7 +1,5 @@
-"""The trajectory object: times, joints, the tip path achieved and its tracking error, written as a ROS
-``trajectory_msgs/JointTrajectory`` (JSON, with a ``wbik`` block) or CSV (``time_s``, the joints, their
-``_velocity`` and ``_acceleration``, ``tip_x/y/z``, ``position_error_m``, ``rotation_error_rad``).
-"""
+"""The trajectory object: times, joints, the tip path achieved and its tracking error, written as ROS
+``trajectory_msgs/JointTrajectory`` JSON or CSV."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""What a walk is judged by, on the full model, from its configurations alone (whichever generator
-made them): the multibody ZMP's margin in the support polygon, CoM tracking, foot slip, swing
-clearance, joint limits, velocity and acceleration peaks, the legs' distance, distance and speed.
-"""
+"""What a walk is judged by on the full model, from its configurations alone: multibody ZMP margin,
+CoM error, foot slip, swing clearance, joint limits and peaks, leg distance, distance and speed."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics.
-
-v_k = (d+ - d-) / (2 dt) and a_k = (d+ + d-) / dt^2 with d+ = q_(k+1) (-) q_k, d- = q_(k-1) (-) q_k; the
-centroidal momentum rate gives the contact wrench f = m c'' - m g, n = dL/dt about the CoM c, and the
-ZMP on z = z_g is p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z, p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z
-(NaN when f_z <= 0).
-"""
+"""The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics: with the contact
+wrench f = m c'' - m g, n = dL/dt about the CoM c, p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z,
+p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z (NaN when f_z <= 0)."""
 
 from __future__ import annotations
 

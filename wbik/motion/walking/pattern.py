@@ -1,6 +1,5 @@
-"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control stepped
-tick by tick as on line; the walk ends once the CoM has settled over its final reference.
-"""
+"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control tick by
+tick, until the CoM has settled over its final reference."""
 
 from __future__ import annotations
 

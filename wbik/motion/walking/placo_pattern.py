@@ -1,6 +1,4 @@
-"""PlaCo's walk pattern generator on our footsteps, followed by PlaCo's own IK (``WalkTasks``), at
-PlaCo's settings (``"placo"``) or at our timing and ZMP margin (``"ours"``).
-"""
+"""PlaCo's walk pattern generator and IK (``WalkTasks``) on our footsteps, at PlaCo's settings or ours."""
 
 from __future__ import annotations
 

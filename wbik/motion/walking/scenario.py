@@ -1,12 +1,10 @@
-"""The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
-against ``expect`` (by default the multibody ZMP ``margin`` inside the support and no QP failure), and
-compared on the same footsteps with the quasi-static gait (``static``; ``static_balanced``: slowed until
-its multibody ZMP keeps the margin) and PlaCo's generator (``placo``, ``placo_ours``).
-"""
+"""The ``walk`` scenario kind: dynamic walks judged on the full model, compared on the same footsteps
+with the quasi-static gait and PlaCo's generator."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 
 import numpy as np
 
@@ -37,7 +35,7 @@ from wbik.viz.animation import Animation, Overlays
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 
-WALK_RULES = {
+WALK_RULES = {  # a walk on the full model, and its speed against the static gait on the same footsteps
     "zmp_margin_min_m": Rule("zmp_margin_min_m", ">=", "m"),
     "zmp_margin_p5_min_m": Rule("zmp_margin_p5_m", ">=", "m"),
     "com_error_max_m": Rule("com_error_max_m", "<=", "m"),
@@ -50,12 +48,10 @@ WALK_RULES = {
     "qp_failures_max": Rule("qp_failures", "<="),
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
 }
-"""A walk on the full model, and its speed against the static gait on the same footsteps."""
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
 ANIMATION_SAMPLE_S = 0.02  # s between two samples of the animation (the viewer interpolates)
-STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))
-"""rpm tried by ``static_balanced``, fastest first."""
+STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))  # rpm tried by static_balanced
 
 
 def _spec_objects(spec: dict, robot):
@@ -100,9 +96,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                                "wholebody_step": _ticks(motion.step_time_s[1:]),
                                "both": _ticks(motion.tick_time_s[1:])},
                  "collision_pairs": motion.collision_pairs,
-                 "settings": {"single_support_s": timing.single_support_s,
-                              "double_support_s": timing.double_support_s, "start_s": timing.start_s,
-                              "end_s": timing.end_s, "dt": spec["dt"], "clearance_m": spec["clearance"],
+                 "settings": {**asdict(timing), "dt": spec["dt"], "clearance_m": spec["clearance"],
                               "com_height_m": pattern.com_height,
                               "filter_iterations": spec["filter_iterations"]}}
         solved: dict = {}  # what this walk's comparisons share
@@ -110,15 +104,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                     for label in item["compare"]}
         if compared:
             entry["compared"] = compared
-            static = compared.get("static")
-            if static is not None:
-                entry["speed_ratio_vs_static"] = static["duration_s"] / entry["duration_s"]
-            balanced = compared.get("static_balanced")
-            if balanced is not None and balanced.get("duration_s"):
-                entry["speed_ratio_vs_static_balanced"] = balanced["duration_s"] / entry["duration_s"]
-        wanted = {"zmp_margin_min_m": margin, "qp_failures_max": 0} if spec["expect"] is None else dict(
-            spec["expect"])
-        wanted.update(item["expect"] or {})
+        for label in ("static", "static_balanced"):
+            if compared.get(label, {}).get("duration_s"):
+                entry[f"speed_ratio_vs_{label}"] = compared[label]["duration_s"] / entry["duration_s"]
+        default = {"zmp_margin_min_m": margin, "qp_failures_max": 0}
+        wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
         judge(entry, wanted, entry, WALK_RULES, f"walks[{entry['name']!r}] expect")
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,

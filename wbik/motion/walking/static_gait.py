@@ -1,8 +1,5 @@
-"""The quasi-static gait on given footsteps (the seed's balance strategy, for comparison): per footstep
-the CoM moves over the stance sole, then the other foot swings, every sample a converged whole-body IK
-with the CoM ``margin`` inside the support polygon; timed like servos, straight joint lines from rest
-to rest at ``speed_rpm``.
-"""
+"""The quasi-static gait on given footsteps: CoM over the stance sole then swing, every sample a
+converged whole-body IK with the CoM ``margin`` inside the support, timed like servos at ``speed_rpm``."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""Swing-foot trajectories: the quintic s(tau) between the footholds (position and rotation) plus a
-bump of ``clearance`` in height; zero velocity and acceleration at lift-off and touch-down."""
+"""Swing-foot poses: a quintic between the footholds plus a ``clearance`` bump, at rest at both ends."""
 
 from __future__ import annotations
 

@@ -1,7 +1,5 @@
-"""The ZMP reference of a walk: at the stance sole's centre in single support, from one sole to the next
-in double support (a quintic in time), from the CoM's start to the first sole and to between the last
-two at the ends.
-"""
+"""The ZMP reference: the stance sole's centre in single support, a quintic from sole to sole in double
+support, from the CoM's start and to between the last two soles at the ends."""
 
 from __future__ import annotations
 
