@@ -41,7 +41,7 @@ from wbik.solvers.method_registry import solver
 from wbik.validation import finite_vector
 from wbik.viz.animation import Animation
 
-MOVE_RULES = {
+MOVE_RULES = {  # the expectations of one move (jumps: joint steps above the jump threshold)
     "success": Rule("success", "=="),
     "knot_error_max_m": Rule("max_knot_position_error", "<=", "m"),
     "knot_error_max_rad": Rule("max_knot_rotation_error", "<=", "rad"),
@@ -49,7 +49,6 @@ MOVE_RULES = {
     "jumps_max": Rule("jumps", "<="),
     "waypoints_reached": Rule("waypoints_reached", "=="),
 }
-"""Expectations of one move (``jumps``: joint steps above the jump threshold)."""
 
 
 def vector_of(value, size: int, what: str) -> np.ndarray:

@@ -16,14 +16,8 @@ from wbik.robot import Robot
 
 def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
     """(first, last) index of every run of True."""
-    runs, first = [], None
-    for index, flag in enumerate([*flags, False]):
-        if flag and first is None:
-            first = index
-        elif not flag and first is not None:
-            runs.append((first, index - 1))
-            first = None
-    return runs
+    edges = np.diff(np.r_[0, np.asarray(flags, dtype=int), 0])
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1, strict=True))
 
 
 def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],

@@ -61,9 +61,9 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
 
 
 def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                         ground_z: float = 0.0, data: pin.Data | None = None) -> np.ndarray:
+                         ground_z: float = 0.0) -> np.ndarray:
     """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
-    data = model.createData() if data is None else data
+    data = model.createData()
     tau = pin.rnea(model, data, q, v, a)
     pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)
     wrench = data.oMi[1].act(pin.Force(tau[:6]))
