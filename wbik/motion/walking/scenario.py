@@ -132,12 +132,10 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
         figures: dict = {"generator": "quasi-static gait (CoM over the stance sole, "
                                       f"{margin * 1e3:g} mm margin, one IK per division)"}
         if label == "static":
-            times, qs, support = gait.resample(dt)
-            found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
-            figures.update({"timing": f"servo speed {gait.info['speed_rpm']:g} rpm, rest at every sample",
-                            "samples_solved": len(gait.q) - 1,
-                            "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found})
-            return figures
+            found, _ = walk_figures(robot, feet, *gait.resample(dt), pattern.ground_z, margin)
+            return {**figures, "timing": f"servo speed {gait.info['speed_rpm']:g} rpm, rest at every sample",
+                    "samples_solved": len(gait.q) - 1,
+                    "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found}
         return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
     placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
                        timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
@@ -154,9 +152,8 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
     """The static gait at the fastest of ``STATIC_SPEEDS`` (stops at phase ends) that keeps the margin."""
     base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
     for rpm in STATIC_SPEEDS:
-        timed = retimed(base, rpm, "waypoint")
-        times, qs, support = timed.resample(dt)
-        found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
+        found, _ = walk_figures(robot, feet, *retimed(base, rpm, "waypoint").resample(dt), pattern.ground_z,
+                                margin)
         if found["zmp_margin_min_m"] >= margin:
             return {"timing": f"servo speed {rpm:.3g} rpm, stops at phase ends only", "speed_rpm": rpm,
                     **found}
