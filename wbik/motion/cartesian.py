@@ -80,9 +80,8 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
         raise InvalidConfigurationError("s values must be an increasing sequence of at least two numbers")
     if jump_threshold <= 0:
         raise InvalidConfigurationError(f"jump_threshold must be positive, got {jump_threshold}")
-    knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [True], {}, []
     first = solver.solve(reference.target(float(s_values[0])), q)
-    solved[0] = bool(first.success)
+    knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [bool(first.success)], {}, []
     if not first.success:
         reasons[0] = f"start pose: {first.reason}"
     for s_to in s_values[1:]:
@@ -115,8 +114,7 @@ def linear_path(solver: Solver, q0: Sequence[float], goal, samples: int = 10,
 
 def waypoint_path(solver: Solver, q0: Sequence[float], waypoints: Sequence, samples: int = 10,
                   jump_threshold: float = DEFAULT_JUMP_THRESHOLD, refinements: int = 3) -> JointPath:
-    """Straight segments from the tip pose at q0 through ``waypoints``, each split into ``samples``
-    sub-points k / samples, k = 1..samples (the last one the waypoint itself)."""
+    """Straight segments from the tip pose at q0 through ``waypoints``, each in ``samples`` equal steps."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     q0 = solver.chain.check_q(q0)

@@ -23,9 +23,8 @@ def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
 def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],
                  ground_z: float = 0.0, margin: float = 0.0, com_reference: np.ndarray | None = None,
                  collision_model=None) -> tuple[dict, dict]:
-    """(figures, series) of configurations ``qs`` at ``times`` with the soles ``support`` on the ground:
-    the figures JSON-friendly (SI; the margin positive inside, -inf without a ZMP), the series per sample
-    ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
+    """(figures, series) of ``qs`` at ``times``, soles ``support`` down: figures JSON-friendly (SI, margin
+    positive inside, -inf without a ZMP), series ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
     model, data = robot.model, robot.model.createData()
     times, qs = np.asarray(times, dtype=float), np.asarray(qs, dtype=float)
     velocity, acceleration = trajectory_derivatives(model, qs, float(np.median(np.diff(times))))

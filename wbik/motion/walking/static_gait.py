@@ -30,8 +30,7 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 @dataclass
 class StaticGait:
-    """The samples ``q`` (K, nq), the soles on the ground at each, the sole each stands on (``anchor``) and
-    where, the timing, and the CoM's margin in the support polygon (m)."""
+    """Samples ``q`` (K, nq), soles down, the sole each stands on (``anchor``) and where, CoM margin (m)."""
 
     robot: Robot
     q: np.ndarray
@@ -163,8 +162,7 @@ def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode:
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
-    """The same samples timed at another servo speed (rpm) and mode ("segment": rest at every sample;
-    "waypoint": at phase ends only)."""
+    """The samples at ``speed_rpm``, at rest at every sample ("segment") or phase end ("waypoint")."""
     if not speed_rpm > 0:
         raise InvalidConfigurationError(f"speed_rpm must be > 0, got {speed_rpm}")
     if gait.info.get("mode") == mode:
