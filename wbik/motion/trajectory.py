@@ -60,10 +60,8 @@ class Trajectory:
         """A JSON-friendly dict in the shape of trajectory_msgs/JointTrajectory (+ a 'wbik' block)."""
         points = []
         for index, time in enumerate(self.times):
-            seconds = math.floor(time)
-            nanoseconds = int(round((time - seconds) * 1e9))
-            if nanoseconds == 1_000_000_000:
-                seconds, nanoseconds = seconds + 1, 0
+            whole = math.floor(time)
+            seconds, nanoseconds = divmod(whole * 10**9 + round((time - whole) * 1e9), 10**9)
             points.append({"positions": self.positions[index].tolist(),
                            "velocities": self.velocities[index].tolist(),
                            "accelerations": self.accelerations[index].tolist(),

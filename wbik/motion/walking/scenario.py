@@ -73,8 +73,7 @@ def _ticks(times: np.ndarray) -> dict:
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Every walk of a checked spec."""
     run = KindRun(spec, "walks", on_progress, figures={"backend": spec["backend"]})
-    robot = run.robot
-    q0 = start_of(spec, robot)
+    robot, q0 = run.robot, start_of(spec, run.robot)
     feet, _, preview, settings = _spec_objects(spec, robot)
     collisions = leg_collision_model(robot, feet, settings.leg_capsules) if settings.self_collision else None
     margin = float(spec["margin"])
