@@ -209,26 +209,25 @@ def samples_key(function) -> dict[str, Key]:
     return {"samples": Key(Number(ge=1, integer=True), default_of(function, "samples"))}
 
 
-def motion_schema(kind: str) -> Map:
-    """The keys of a generic motion kind's file."""
-    if kind == "motion_joint":
-        keys = {**samples_key(joint_path), **chain_keys(),
-                "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
-    elif kind == "motion_cartesian":
-        waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving_keys(), **samples_key(waypoint_path),
-                **chain_keys(),
-                "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
-                                 required=True),
-                "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}
-    else:
-        raise ValueError(f"not a motion kind: {kind!r}")
-    return kind_schema(common_motion_keys(), keys)
+def joint_schema() -> Map:
+    """The keys of a ``motion_joint`` file."""
+    configurations = Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)
+    return kind_schema(common_motion_keys(),
+                       {**samples_key(joint_path), **chain_keys(), "configurations": configurations})
+
+
+def cartesian_schema() -> Map:
+    """The keys of a ``motion_cartesian`` file."""
+    waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
+    return kind_schema(common_motion_keys(), {
+        **solving_keys(), **samples_key(waypoint_path), **chain_keys(),
+        "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"), required=True),
+        "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))})
 
 
 SCENARIO_KINDS = (
-    ScenarioKind("motion_joint", run_joint, lambda: motion_schema("motion_joint"), format_report,
+    ScenarioKind("motion_joint", run_joint, joint_schema, format_report,
                  "joint-space interpolation through configurations"),
-    ScenarioKind("motion_cartesian", run_cartesian, lambda: motion_schema("motion_cartesian"), format_report,
+    ScenarioKind("motion_cartesian", run_cartesian, cartesian_schema, format_report,
                  "straight Cartesian lines through waypoints"),
 )

@@ -102,9 +102,8 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         tasks = [ComTask(np.r_[com_xy, com_height], axes="xy", weight=10.0, tolerance=1e-7, name="com"),
                  OrientationTask(trunk, rotation, weight=0.02, goal=False, name="trunk"),
                  PostureTask(q0, weight=1e-4, priority=1), RegularizationTask(1e-8)]
-        constraints = [Contact(frame, placement) for frame, placement in held.items()]
-        constraints += [CoMInSupportPolygon(polygon, margin), *common]
-        problem = IKProblem(model, tasks, constraints, backend=backend, max_step=0.1)
+        constraints = [*(Contact(f, p) for f, p in held.items()), CoMInSupportPolygon(polygon, margin)]
+        problem = IKProblem(model, tasks, constraints + common, backend=backend, max_step=0.1)
         q = problem.solve(q, max_iterations=60).q.copy()
         rows.append(q.copy())
         support.append(on_ground)
@@ -155,10 +154,9 @@ def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode:
     joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
     lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
     s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
-    limit = speed_rpm * RPM
     chain = SimpleNamespace(nq=joints.shape[1])  # the 1-DOF joints, as time_scale sees a chain
     path = JointPath(chain, s, joints, waypoint_knots=list(phase_ends))
-    return time_scale(path, "quintic", velocity_limit=limit, mode=mode)
+    return time_scale(path, "quintic", velocity_limit=speed_rpm * RPM, mode=mode)
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
