@@ -97,9 +97,7 @@ class StepCommand:
 
     @property
     def first_side(self) -> str:
-        if self.first is not None:
-            return self.first
-        return "right" if (self.lateral or self.turn_deg) < 0 else "left"
+        return self.first or ("right" if (self.lateral or self.turn_deg) < 0 else "left")
 
     @property
     def kind(self) -> str:

@@ -162,22 +162,18 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
 def format_report(report: dict) -> str:
     """Per walk: its figures, the compared generators' and the checks."""
     def describe(entry: dict) -> str:
-        text = (f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
-                f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
-                f"({entry['speed_m_s'] * 1e3:.0f} mm/s)\n"
-                f"      {_line('ours', entry)}")
         ticks = entry["tick_time"]["both"]
-        text += (f"\n      per 10 ms tick (pattern + whole-body step): "
-                 f"median {ticks['median_s'] * 1e3:.3f} ms, "
-                 f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms")
-        for label, figures in entry.get("compared", {}).items():
-            text += f"\n      {_line(label, figures)}"
+        lines = [f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
+                 f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
+                 f"({entry['speed_m_s'] * 1e3:.0f} mm/s)", _line("ours", entry),
+                 f"per 10 ms tick (pattern + whole-body step): median {ticks['median_s'] * 1e3:.3f} ms, "
+                 f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms",
+                 *(_line(label, figures) for label, figures in entry.get("compared", {}).items())]
         if "speed_ratio_vs_static" in entry:
-            text += f"\n      speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x"
-            if "speed_ratio_vs_static_balanced" in entry:
-                slowed = entry["speed_ratio_vs_static_balanced"]
-                text += f" (vs the static gait slowed until balanced: {slowed:.1f}x)"
-        return text
+            slowed = entry.get("speed_ratio_vs_static_balanced")
+            lines.append(f"speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x" + (
+                "" if slowed is None else f" (vs the static gait slowed until balanced: {slowed:.1f}x)"))
+        return "\n      ".join(lines)
 
     return format_entries(report, "walks", describe)
 
