@@ -1,5 +1,6 @@
-"""Scenario kinds ``motion_joint`` and ``motion_cartesian``, one entry per move; applications build
-their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`."""
+"""Scenario kinds ``motion_joint`` and ``motion_cartesian``, one entry per move, by default expected to
+succeed within the joint speed limits, Cartesian knots to ``tolerance``; applications build their own
+motion kinds on :class:`MoveRun` and :func:`common_motion_keys`."""
 
 from __future__ import annotations
 

@@ -79,6 +79,8 @@ class Trajectory:
         return Path(path)
 
     def write_csv(self, path: str | Path) -> Path:
+        """Columns time_s, the joints, their _velocity and _acceleration, tip_x/y/z, position_error_m,
+        rotation_error_rad."""
         names = self.joint_names
         text = io.StringIO()
         writer = csv.writer(text)

@@ -1,5 +1,5 @@
-"""The ``walk`` scenario kind: dynamic walks judged on the full model, compared on the same footsteps
-with the quasi-static gait and PlaCo's generator."""
+"""The ``walk`` scenario kind: dynamic walks judged on the full model (by default: the multibody ZMP
+``margin`` inside the support, no QP failure), compared with the static gait and PlaCo's generator."""
 
 from __future__ import annotations
 
