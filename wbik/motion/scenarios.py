@@ -85,11 +85,10 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
     figures = {"success": bool(path.success), "max_velocity_over_limit": velocity_ratio,
                "max_knot_position_error": summary["max_knot_position_error"],
                "max_knot_rotation_error": summary["max_knot_rotation_error"],
-               "jumps": len(summary["jumps"] or [])}
+               "jumps": len(summary["jumps"] or []), **(extra_figures or {})}
     defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
     if (spec["expect"] or {}).get("success", True) and summary["max_knot_position_error"] is not None:
         defaults.update(knot_error_max_m=tolerance, knot_error_max_rad=tolerance)  # Cartesian knots
-    figures.update(extra_figures or {})
     wanted = {**defaults, **(extra_defaults or {}), **(spec["expect"] or {})}
     return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect"), trajectory
 

@@ -8,7 +8,7 @@ import pinocchio as pin
 
 def quintic(tau):
     """10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1] (clipped; a float or an array)."""
-    tau = np.clip(tau, 0.0, 1.0)
+    tau = np.clip(tau, 0.0, 1.0) if isinstance(tau, np.ndarray) else min(max(tau, 0.0), 1.0)  # a float: fast
     return tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau))
 
 
