@@ -23,9 +23,8 @@ def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple
                                         f"needed, got shape {qs.shape}")
     if not dt > 0:
         raise InvalidConfigurationError(f"dt must be > 0, got {dt}")
-    count = len(qs)
-    velocity, acceleration = np.zeros((count, model.nv)), np.zeros((count, model.nv))
-    for k in range(1, count - 1):
+    velocity, acceleration = np.zeros((len(qs), model.nv)), np.zeros((len(qs), model.nv))
+    for k in range(1, len(qs) - 1):
         ahead = pin.difference(model, qs[k], qs[k + 1])
         behind = pin.difference(model, qs[k], qs[k - 1])
         velocity[k] = (ahead - behind) / (2.0 * dt)
