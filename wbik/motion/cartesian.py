@@ -1,8 +1,5 @@
-"""Straight-line and waypoint Cartesian paths (positions on lines, rotations on geodesics), solved by
-any IK method from the previous knot's joints. A step max_j |q_k,j - q_(k-1),j| above ``jump_threshold``
-(rad or m) is a suspected branch jump: the interval is halved up to ``refinements`` times, and a jump or
-miss that persists is reported in ``JointPath.jumps`` / ``reasons``.
-"""
+"""Straight-line and waypoint Cartesian paths solved by continuation; a step max_j |dq_j| above
+``jump_threshold`` (rad or m) halves the interval up to ``refinements`` times, else is a reported jump."""
 
 from __future__ import annotations
 
@@ -17,8 +14,7 @@ from wbik.solvers.path import interpolate
 from wbik.solvers.result import IKResult
 from wbik.targets import Target, as_target
 
-DEFAULT_JUMP_THRESHOLD = 0.5
-"""Largest joint change between two knots (rad or m) before a knot is called a jump."""
+DEFAULT_JUMP_THRESHOLD = 0.5  # rad or m: the largest joint change between two knots
 
 
 class PolylineReference:
@@ -84,9 +80,8 @@ def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], 
         raise InvalidConfigurationError("s values must be an increasing sequence of at least two numbers")
     if jump_threshold <= 0:
         raise InvalidConfigurationError(f"jump_threshold must be positive, got {jump_threshold}")
-    knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [True], {}, []
     first = solver.solve(reference.target(float(s_values[0])), q)
-    solved[0] = bool(first.success)
+    knots_s, knots_q, solved, reasons, jumps = [float(s_values[0])], [q.copy()], [bool(first.success)], {}, []
     if not first.success:
         reasons[0] = f"start pose: {first.reason}"
     for s_to in s_values[1:]:
@@ -119,8 +114,7 @@ def linear_path(solver: Solver, q0: Sequence[float], goal, samples: int = 10,
 
 def waypoint_path(solver: Solver, q0: Sequence[float], waypoints: Sequence, samples: int = 10,
                   jump_threshold: float = DEFAULT_JUMP_THRESHOLD, refinements: int = 3) -> JointPath:
-    """Straight segments from the tip pose at q0 through ``waypoints``, each split into ``samples``
-    sub-points k / samples, k = 1..samples (the last one the waypoint itself)."""
+    """Straight segments from the tip pose at q0 through ``waypoints``, each in ``samples`` equal steps."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     q0 = solver.chain.check_q(q0)

@@ -21,8 +21,7 @@ def _checked(chain: Chain, q: Sequence[float], what: str) -> np.ndarray:
 
 
 def joint_path(chain: Chain, configurations: Sequence[Sequence[float]], samples: int = 10) -> JointPath:
-    """Straight lines in joint space through ``configurations`` (at least two, inside the limits, so
-    every knot is), each segment split into ``samples`` steps (its end included)."""
+    """Joint-space lines through ``configurations`` (two or more, in limits), ``samples`` steps per line."""
     if samples < 1:
         raise InvalidConfigurationError(f"samples must be at least 1, got {samples}")
     if len(configurations) < 2:

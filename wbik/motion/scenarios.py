@@ -1,8 +1,6 @@
-"""Scenario kinds of robot motions: ``motion_joint`` (joint-space interpolation) and ``motion_cartesian``
-(straight lines through waypoints), one entry per move in ``moves``. By default a move expects success,
-its peak joint speed within the limits and its Cartesian knots tracked to ``tolerance``. Applications
-build their own motion kinds on :class:`MoveRun` and :func:`common_motion_keys`.
-"""
+"""Scenario kinds ``motion_joint`` and ``motion_cartesian``, one entry per move, by default expected to
+succeed within the joint speed limits, Cartesian knots to ``tolerance``; applications build their own
+motion kinds on :class:`MoveRun` and :func:`common_motion_keys`."""
 
 from __future__ import annotations
 
@@ -44,7 +42,7 @@ from wbik.solvers.method_registry import solver
 from wbik.validation import finite_vector
 from wbik.viz.animation import Animation
 
-MOVE_RULES = {
+MOVE_RULES = {  # the expectations of one move (jumps: joint steps above the jump threshold)
     "success": Rule("success", "=="),
     "knot_error_max_m": Rule("max_knot_position_error", "<=", "m"),
     "knot_error_max_rad": Rule("max_knot_rotation_error", "<=", "rad"),
@@ -52,7 +50,6 @@ MOVE_RULES = {
     "jumps_max": Rule("jumps", "<="),
     "waypoints_reached": Rule("waypoints_reached", "=="),
 }
-"""Expectations of one move (``jumps``: joint steps above the jump threshold)."""
 
 
 def vector_of(value, size: int, what: str) -> np.ndarray:
@@ -88,11 +85,10 @@ def timed_move(spec: dict, path: JointPath, name: str, extra_figures: dict | Non
     figures = {"success": bool(path.success), "max_velocity_over_limit": velocity_ratio,
                "max_knot_position_error": summary["max_knot_position_error"],
                "max_knot_rotation_error": summary["max_knot_rotation_error"],
-               "jumps": len(summary["jumps"] or [])}
+               "jumps": len(summary["jumps"] or []), **(extra_figures or {})}
     defaults = {"success": True, "velocity_ratio_max": 1.0 + 1e-9}
     if (spec["expect"] or {}).get("success", True) and summary["max_knot_position_error"] is not None:
         defaults.update(knot_error_max_m=tolerance, knot_error_max_rad=tolerance)  # Cartesian knots
-    figures.update(extra_figures or {})
     wanted = {**defaults, **(extra_defaults or {}), **(spec["expect"] or {})}
     return judge(entry, wanted, figures, rules, f"{spec['name'] or spec['kind']} expect"), trajectory
 
@@ -117,11 +113,10 @@ class MoveRun(KindRun):
 
     def finished(self) -> ScenarioReport:
         """The report; the last move's trajectory written where ``export`` says (paths in the figures)."""
-        export = self.spec["export"]
-        if "csv" in export:
-            self.report.figures["csv"] = str(self.trajectory.write_csv(Path(export["csv"])))
-        if "json" in export:
-            self.report.figures["json"] = str(self.trajectory.write_json(Path(export["json"])))
+        for kind in ("csv", "json"):
+            if kind in self.spec["export"]:
+                file = Path(self.spec["export"][kind])
+                self.report.figures[kind] = str(getattr(self.trajectory, f"write_{kind}")(file))
         return super().finished()
 
 
@@ -214,26 +209,25 @@ def samples_key(function) -> dict[str, Key]:
     return {"samples": Key(Number(ge=1, integer=True), default_of(function, "samples"))}
 
 
-def motion_schema(kind: str) -> Map:
-    """The keys of a generic motion kind's file."""
-    if kind == "motion_joint":
-        keys = {**samples_key(joint_path), **chain_keys(),
-                "configurations": Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)}
-    elif kind == "motion_cartesian":
-        waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
-        keys = {**solving_keys(), **samples_key(waypoint_path),
-                **chain_keys(),
-                "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"),
-                                 required=True),
-                "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))}
-    else:
-        raise ValueError(f"not a motion kind: {kind!r}")
-    return kind_schema(common_motion_keys(), keys)
+def joint_schema() -> Map:
+    """The keys of a ``motion_joint`` file."""
+    configurations = Key(ListOf(Vector(), min_items=2, what="joint vectors"), required=True)
+    return kind_schema(common_motion_keys(),
+                       {**samples_key(joint_path), **chain_keys(), "configurations": configurations})
+
+
+def cartesian_schema() -> Map:
+    """The keys of a ``motion_cartesian`` file."""
+    waypoint = Either(VECTOR3, Map({"position": Key(VECTOR3, required=True), "rpy": Key(VECTOR3)}))
+    return kind_schema(common_motion_keys(), {
+        **solving_keys(), **samples_key(waypoint_path), **chain_keys(),
+        "waypoints": Key(ListOf(waypoint, min_items=1, what="[x, y, z] or {position, rpy}"), required=True),
+        "jump_threshold": Key(Number(gt=0, unit="rad"), default_of(waypoint_path, "jump_threshold"))})
 
 
 SCENARIO_KINDS = (
-    ScenarioKind("motion_joint", run_joint, lambda: motion_schema("motion_joint"), format_report,
+    ScenarioKind("motion_joint", run_joint, joint_schema, format_report,
                  "joint-space interpolation through configurations"),
-    ScenarioKind("motion_cartesian", run_cartesian, lambda: motion_schema("motion_cartesian"), format_report,
+    ScenarioKind("motion_cartesian", run_cartesian, cartesian_schema, format_report,
                  "straight Cartesian lines through waypoints"),
 )

@@ -1,7 +1,5 @@
-"""The trajectory object: times, joints, the tip path achieved and its tracking error, written as a ROS
-``trajectory_msgs/JointTrajectory`` (JSON, with a ``wbik`` block) or CSV (``time_s``, the joints, their
-``_velocity`` and ``_acceleration``, ``tip_x/y/z``, ``position_error_m``, ``rotation_error_rad``).
-"""
+"""The trajectory object: times, joints, the tip path achieved and its tracking error, written as ROS
+``trajectory_msgs/JointTrajectory`` JSON or CSV."""
 
 from __future__ import annotations
 
@@ -62,10 +60,8 @@ class Trajectory:
         """A JSON-friendly dict in the shape of trajectory_msgs/JointTrajectory (+ a 'wbik' block)."""
         points = []
         for index, time in enumerate(self.times):
-            seconds = math.floor(time)
-            nanoseconds = int(round((time - seconds) * 1e9))
-            if nanoseconds == 1_000_000_000:
-                seconds, nanoseconds = seconds + 1, 0
+            whole = math.floor(time)
+            seconds, nanoseconds = divmod(whole * 10**9 + round((time - whole) * 1e9), 10**9)
             points.append({"positions": self.positions[index].tolist(),
                            "velocities": self.velocities[index].tolist(),
                            "accelerations": self.accelerations[index].tolist(),
@@ -83,6 +79,8 @@ class Trajectory:
         return Path(path)
 
     def write_csv(self, path: str | Path) -> Path:
+        """Columns time_s, the joints, their _velocity and _acceleration, tip_x/y/z, position_error_m,
+        rotation_error_rad."""
         names = self.joint_names
         text = io.StringIO()
         writer = csv.writer(text)

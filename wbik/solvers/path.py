@@ -1,8 +1,5 @@
-"""Path following by continuation (seed 001): the segment from P_a to the next waypoint P_b is split into
-sub-points P_a + (k / substeps) (P_b - P_a), k = 1..substeps (the last the waypoint itself), rotations along
-the geodesic R_a exp(k / substeps log(R_a^T R_b)), each solved from the previous solution. A failed
-sub-point is recorded and the path carries on from the last good joints.
-"""
+"""Path following by continuation: sub-points P_a + (k / substeps) (P_b - P_a), rotations
+R_a exp(k / substeps log(R_a^T R_b)), each solved from the last good joints (failures recorded)."""
 
 from __future__ import annotations
 

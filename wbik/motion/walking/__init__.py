@@ -1,8 +1,5 @@
 """Dynamic walking: footsteps -> support timeline -> ZMP reference -> CoM by preview control -> swing
-feet -> one whole-body QP step per control tick (``tracking``), judged by the multibody ZMP of the
-motion (``figures``); the quasi-static gait and PlaCo's generator walk the same footsteps for comparison,
-and ``scenario`` is the ``walk`` scenario kind.
-"""
+feet -> one whole-body QP step per tick, judged by the motion's multibody ZMP."""
 
 from wbik.motion.walking.footsteps import Feet, Footstep, StepCommand, plan_footsteps
 from wbik.motion.walking.multibody_zmp import multibody_zmp, trajectory_derivatives

@@ -1,7 +1,5 @@
-"""What a walk is judged by, on the full model, from its configurations alone (whichever generator
-made them): the multibody ZMP's margin in the support polygon, CoM tracking, foot slip, swing
-clearance, joint limits, velocity and acceleration peaks, the legs' distance, distance and speed.
-"""
+"""What a walk is judged by on the full model, from its configurations alone: multibody ZMP margin,
+CoM error, foot slip, swing clearance, joint limits and peaks, leg distance, distance and speed."""
 
 from __future__ import annotations
 
@@ -18,33 +16,22 @@ from wbik.robot import Robot
 
 def _stretches(flags: list[bool]) -> list[tuple[int, int]]:
     """(first, last) index of every run of True."""
-    runs, first = [], None
-    for index, flag in enumerate([*flags, False]):
-        if flag and first is None:
-            first = index
-        elif not flag and first is not None:
-            runs.append((first, index - 1))
-            first = None
-    return runs
+    edges = np.diff(np.r_[0, np.asarray(flags, dtype=int), 0])
+    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1, strict=True))
 
 
 def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, support: list[tuple[str, ...]],
                  ground_z: float = 0.0, margin: float = 0.0, com_reference: np.ndarray | None = None,
                  collision_model=None) -> tuple[dict, dict]:
-    """(figures, series) of configurations ``qs`` at ``times`` with the soles ``support`` on the ground:
-    the figures JSON-friendly (SI; the margin positive inside, -inf without a ZMP), the series per sample
-    ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
-    model = robot.model
-    data = model.createData()
-    times = np.asarray(times, dtype=float)
-    qs = np.asarray(qs, dtype=float)
-    dt = float(np.median(np.diff(times)))
-    velocity, acceleration = trajectory_derivatives(model, qs, dt)
+    """(figures, series) of ``qs`` at ``times``, soles ``support`` down: figures JSON-friendly (SI, margin
+    positive inside, -inf without a ZMP), series ``zmp`` (K, 3) and ``zmp_margin`` (K,)."""
+    model, data = robot.model, robot.model.createData()
+    times, qs = np.asarray(times, dtype=float), np.asarray(qs, dtype=float)
+    velocity, acceleration = trajectory_derivatives(model, qs, float(np.median(np.diff(times))))
     zmp = multibody_zmp(model, qs, velocity, acceleration, ground_z, data)
     frames = {frame: model.getFrameId(frame) for frame in feet.frames}
     placements = {frame: [] for frame in feet.frames}
-    com = np.zeros((len(qs), 3))
-    margins = np.zeros(len(qs))
+    com, margins = np.zeros((len(qs), 3)), np.zeros(len(qs))
     lowest = {frame: np.zeros(len(qs)) for frame in feet.frames}
     regions: dict[tuple, object] = {}  # support polygons by soles and their placements (to 1 um)
     for k, q in enumerate(qs):
@@ -65,10 +52,10 @@ def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, su
         region = regions.get(key)
         finite = bool(np.all(np.isfinite(zmp[k])))
         margins[k] = region.margin_of(zmp[k]) if (region is not None and finite) else -math.inf
-    figures = {"samples": len(qs), "duration_s": float(times[-1] - times[0])}
     finite_margins = margins[np.isfinite(margins)]
     worst = int(np.argmin(margins))
-    figures.update({
+    figures = {
+        "samples": len(qs), "duration_s": float(times[-1] - times[0]),
         "zmp_margin_min_m": float(margins.min()),
         "zmp_margin_min_at_s": float(times[worst] - times[0]),
         "zmp_margin_min_support": list(support[worst]),
@@ -76,7 +63,7 @@ def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, su
         "zmp_margin_median_m": float(np.median(finite_margins)) if finite_margins.size else None,
         "samples_zmp_under_margin": int(np.sum(margins < margin)),
         "samples_without_zmp": int(np.sum(~np.all(np.isfinite(zmp), axis=1))),
-    })
+    }
     if com_reference is not None:
         error = np.linalg.norm(com - np.asarray(com_reference, dtype=float), axis=1)
         figures["com_error_max_m"] = float(error.max())

@@ -1,8 +1,5 @@
-"""Footsteps: where each foot is put down. A centre frame between the feet moves by
-C_i = C_(i-1) * SE3(Rz(d_theta), (dx, dy, 0)) per step and the stepping foot lands at its start offset
-from it (sideways, the leading foot another dy out); a closing step brings the trailing foot back beside
-the other. SI units; angles in radians except ``turn_deg``.
-"""
+"""Footsteps: the centre frame between the feet moves by C_i = C_(i-1) SE3(Rz(d_theta), (dx, dy, 0)) per
+step, the stepping foot lands at its start offset from it, and a closing step brings the feet together."""
 
 from __future__ import annotations
 
@@ -100,9 +97,7 @@ class StepCommand:
 
     @property
     def first_side(self) -> str:
-        if self.first is not None:
-            return self.first
-        return "right" if (self.lateral or self.turn_deg) < 0 else "left"
+        return self.first or ("right" if (self.lateral or self.turn_deg) < 0 else "left")
 
     @property
     def kind(self) -> str:

@@ -1,10 +1,6 @@
-"""The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics.
-
-v_k = (d+ - d-) / (2 dt) and a_k = (d+ + d-) / dt^2 with d+ = q_(k+1) (-) q_k, d- = q_(k-1) (-) q_k; the
-centroidal momentum rate gives the contact wrench f = m c'' - m g, n = dL/dt about the CoM c, and the
-ZMP on z = z_g is p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z, p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z
-(NaN when f_z <= 0).
-"""
+"""The ZMP of the whole robot along a joint trajectory, from its centroidal dynamics: with the contact
+wrench f = m c'' - m g, n = dL/dt about the CoM c, p_x = c_x - ((c_z - z_g) f_x + n_y) / f_z,
+p_y = c_y - ((c_z - z_g) f_y - n_x) / f_z (NaN when f_z <= 0)."""
 
 from __future__ import annotations
 
@@ -27,9 +23,8 @@ def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple
                                         f"needed, got shape {qs.shape}")
     if not dt > 0:
         raise InvalidConfigurationError(f"dt must be > 0, got {dt}")
-    count = len(qs)
-    velocity, acceleration = np.zeros((count, model.nv)), np.zeros((count, model.nv))
-    for k in range(1, count - 1):
+    velocity, acceleration = np.zeros((len(qs), model.nv)), np.zeros((len(qs), model.nv))
+    for k in range(1, len(qs) - 1):
         ahead = pin.difference(model, qs[k], qs[k + 1])
         behind = pin.difference(model, qs[k], qs[k - 1])
         velocity[k] = (ahead - behind) / (2.0 * dt)
@@ -65,9 +60,9 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
 
 
 def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                         ground_z: float = 0.0, data: pin.Data | None = None) -> np.ndarray:
+                         ground_z: float = 0.0) -> np.ndarray:
     """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
-    data = model.createData() if data is None else data
+    data = model.createData()
     tau = pin.rnea(model, data, q, v, a)
     pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)
     wrench = data.oMi[1].act(pin.Force(tau[:6]))

@@ -1,6 +1,5 @@
-"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control stepped
-tick by tick as on line; the walk ends once the CoM has settled over its final reference.
-"""
+"""The walk pattern: every reference of a walk on the control grid, the CoM by preview control tick by
+tick, until the CoM has settled over its final reference."""
 
 from __future__ import annotations
 
@@ -28,8 +27,7 @@ from wbik.motion.walking.timeline import Phase, Timing, phase_at, timeline
 from wbik.motion.walking.zmp_reference import ZmpReference, sole_centres
 from wbik.robot import Robot
 
-SETTLED_M = 0.002  # m: the CoM this close to the final reference ...
-SETTLED_M_S = 0.01  # m/s: ... and this slow has settled
+SETTLED_M, SETTLED_M_S = 0.002, 0.01  # m, m/s: the CoM this close to its last reference and this slow
 SETTLE_MAX_S = 1.0  # s: the longest the pattern waits for it after the last phase
 
 
@@ -44,8 +42,8 @@ class PreviewSettings:
 
 @dataclass
 class WalkPattern:
-    """References at the ticks ``times`` (K,) (``support[k]``: the sole frames on the ground, ``swing[k]``:
-    the swinging side) and each tick's computing time, by the wall clock and in CPU time."""
+    """References at the ticks ``times`` (K,) (``support[k]``: soles down, ``swing[k]``: the swinging side)
+    and each tick's computing time (wall clock, CPU)."""
 
     robot: Robot
     feet: Feet
@@ -86,9 +84,8 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
                  zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
-    """The pattern of a walk from ``q0``, standing; ``clearance`` the swing height (m), ``com_height`` z_c
-    (m), ``zmp_forward`` the ZMP target ahead of each sole's centre (m), ``zmp_offset`` (K, 2) added to
-    the reference the pendulum tracks (the dynamics filter)."""
+    """The pattern of a walk from ``q0``: ``clearance`` swing height, ``com_height`` z_c, ``zmp_forward`` the
+    ZMP ahead of each sole's centre (m); ``zmp_offset`` (K, 2) added to the pendulum's reference."""
     if not (math.isfinite(dt) and dt > 0):
         raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
     if not (math.isfinite(clearance) and clearance >= 0):
@@ -119,9 +116,8 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     state = controller.start(com0[:2])
     com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw = [], [], np.zeros(longest)
-    ticks, cpu = np.zeros(longest), np.zeros(longest)
-    count = longest
+    support, swing, count = [], [], longest
+    yaw, ticks, cpu = (np.zeros(longest) for _ in range(3))
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
         for k in range(longest):
             tick, tick_cpu = time.perf_counter(), time.thread_time()
@@ -145,9 +141,8 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
             if count == k + 1:
                 break
     com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
-    yaw, ticks, cpu = yaw[:count], ticks[:count], cpu[:count]
     com[:, 2] = ground_z + height
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
-                       acceleration, feet_poses, support, swing, np.unwrap(yaw), ticks, float(clearance),
-                       {"omega": controller.omega, "preview_steps": horizon}, cpu)
+                       acceleration, feet_poses, support, swing, np.unwrap(yaw[:count]), ticks[:count],
+                       float(clearance), {"omega": controller.omega, "preview_steps": horizon}, cpu[:count])

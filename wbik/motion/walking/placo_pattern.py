@@ -1,6 +1,4 @@
-"""PlaCo's walk pattern generator on our footsteps, followed by PlaCo's own IK (``WalkTasks``), at
-PlaCo's settings (``"placo"``) or at our timing and ZMP margin (``"ours"``).
-"""
+"""PlaCo's walk pattern generator and IK (``WalkTasks``) on our footsteps, at PlaCo's settings or ours."""
 
 from __future__ import annotations
 
@@ -29,7 +27,6 @@ class PlacoWalk:
     q: np.ndarray
     support: list[tuple[str, ...]]
     com: np.ndarray
-    lipm_zmp: np.ndarray
     tick_time_s: np.ndarray
     plan_time_s: float
     parameters: dict = field(default_factory=dict)
@@ -118,8 +115,7 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     plan_time = time.perf_counter() - tick
     ik = WalkIK(humanoid)
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
-    omega = math.sqrt(9.80665 / parameters.walk_com_height)
-    rows, support, com, zmp, ticks = [], [], [], [], []
+    rows, support, com, ticks = [], [], [], []
     for index, t in enumerate(times):
         tick = time.perf_counter()
         ik.follow(trajectory, float(t), SETTLE_ITERATIONS if index == 0 else iterations)
@@ -127,7 +123,6 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
         rows.append(placo_configuration(robot, humanoid))
         support.append(soles_on_ground(trajectory, float(t), feet.left, feet.right, ground))
         com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
-        zmp.append(np.asarray(trajectory.get_p_world_ZMP(float(t), omega), dtype=float)[:2])
     used = {"setting": setting, "single_support_s": parameters.single_support_duration,
             "double_support_s": parameters.double_support_duration(),
             "start_end_s": parameters.startend_double_support_duration(), "dt": parameters.dt(),
@@ -135,5 +130,4 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
             "walk_foot_height_m": parameters.walk_foot_height,
             "walk_com_height_m": parameters.walk_com_height,
             "ik_iterations_per_tick": iterations}
-    return PlacoWalk(times, np.array(rows), support, np.array(com), np.array(zmp), np.array(ticks), plan_time,
-                     used)
+    return PlacoWalk(times, np.array(rows), support, np.array(com), np.array(ticks), plan_time, used)

@@ -1,9 +1,6 @@
-"""The CoM from the ZMP reference: Kajita's preview controller on the cart-table model (ICRA 2003).
-
-Per axis the jerk u drives x = (c, c', c''), x_(k+1) = A x_k + B u_k, and the ZMP is p = c - (z_c / g) c'';
-minimising sum Q e^2 + R (delta u)^2, e = p - p_ref, with the error's integral in the state gives
-u_k = -G_i sum e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j).
-"""
+"""Kajita's preview controller (ICRA 2003) on the cart-table model: per axis the jerk u drives
+x = (c, c', c''), x_(k+1) = A x_k + B u_k, p = c - (z_c / g) c''; minimising sum Q e^2 + R (delta u)^2,
+e = p - p_ref, gives u_k = -G_i sum e_i - G_x x_k - sum_(j=1..N) G_d(j) p_ref(k + j)."""
 
 from __future__ import annotations
 
@@ -31,13 +28,11 @@ class PreviewRun:
 class PreviewController:
     """Preview control: ``dt``, ``horizon_s`` (s), ``com_height`` z_c (m), weights ``q`` (error), ``r``."""
 
-    def __init__(self, dt: float, com_height: float, horizon_s: float = 1.0, q: float = 1.0, r: float = 1e-6,
-                 gravity: float = GRAVITY):
-        for name, value in (("dt", dt), ("com_height", com_height), ("horizon_s", horizon_s), ("q", q),
-                            ("r", r)):
+    def __init__(self, dt: float, com_height: float, horizon_s: float = 1.0, q: float = 1.0, r: float = 1e-6):
+        for name, value in dict(dt=dt, com_height=com_height, horizon_s=horizon_s, q=q, r=r).items():
             if not (math.isfinite(value) and value > 0):
                 raise InvalidConfigurationError(f"preview control: {name} must be > 0, got {value}")
-        self.dt, self.com_height, self.gravity = float(dt), float(com_height), float(gravity)
+        self.dt, self.com_height, self.gravity = float(dt), float(com_height), GRAVITY
         self.steps = max(1, int(round(horizon_s / dt)))
         T = self.dt
         self.A = np.array([[1.0, T, T * T / 2], [0.0, 1.0, T], [0.0, 0.0, 1.0]])

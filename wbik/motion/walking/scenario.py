@@ -1,12 +1,10 @@
-"""The ``walk`` scenario kind: dynamic walks of any biped from a task file, judged on the full model
-against ``expect`` (by default the multibody ZMP ``margin`` inside the support and no QP failure), and
-compared on the same footsteps with the quasi-static gait (``static``; ``static_balanced``: slowed until
-its multibody ZMP keeps the margin) and PlaCo's generator (``placo``, ``placo_ours``).
-"""
+"""The ``walk`` scenario kind: dynamic walks judged on the full model (by default: the multibody ZMP
+``margin`` inside the support, no QP failure), compared with the static gait and PlaCo's generator."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import asdict
 
 import numpy as np
 
@@ -37,7 +35,7 @@ from wbik.viz.animation import Animation, Overlays
 
 __all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
 
-WALK_RULES = {
+WALK_RULES = {  # a walk on the full model, and its speed against the static gait on the same footsteps
     "zmp_margin_min_m": Rule("zmp_margin_min_m", ">=", "m"),
     "zmp_margin_p5_min_m": Rule("zmp_margin_p5_m", ">=", "m"),
     "com_error_max_m": Rule("com_error_max_m", "<=", "m"),
@@ -50,12 +48,10 @@ WALK_RULES = {
     "qp_failures_max": Rule("qp_failures", "<="),
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
 }
-"""A walk on the full model, and its speed against the static gait on the same footsteps."""
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
 ANIMATION_SAMPLE_S = 0.02  # s between two samples of the animation (the viewer interpolates)
-STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))
-"""rpm tried by ``static_balanced``, fastest first."""
+STATIC_SPEEDS = tuple(40.0 / math.sqrt(2.0) ** n for n in range(12))  # rpm tried by static_balanced
 
 
 def _spec_objects(spec: dict, robot):
@@ -77,8 +73,7 @@ def _ticks(times: np.ndarray) -> dict:
 def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     """Every walk of a checked spec."""
     run = KindRun(spec, "walks", on_progress, figures={"backend": spec["backend"]})
-    robot = run.robot
-    q0 = start_of(spec, robot)
+    robot, q0 = run.robot, start_of(spec, run.robot)
     feet, _, preview, settings = _spec_objects(spec, robot)
     collisions = leg_collision_model(robot, feet, settings.leg_capsules) if settings.self_collision else None
     margin = float(spec["margin"])
@@ -100,9 +95,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                                "wholebody_step": _ticks(motion.step_time_s[1:]),
                                "both": _ticks(motion.tick_time_s[1:])},
                  "collision_pairs": motion.collision_pairs,
-                 "settings": {"single_support_s": timing.single_support_s,
-                              "double_support_s": timing.double_support_s, "start_s": timing.start_s,
-                              "end_s": timing.end_s, "dt": spec["dt"], "clearance_m": spec["clearance"],
+                 "settings": {**asdict(timing), "dt": spec["dt"], "clearance_m": spec["clearance"],
                               "com_height_m": pattern.com_height,
                               "filter_iterations": spec["filter_iterations"]}}
         solved: dict = {}  # what this walk's comparisons share
@@ -110,15 +103,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                     for label in item["compare"]}
         if compared:
             entry["compared"] = compared
-            static = compared.get("static")
-            if static is not None:
-                entry["speed_ratio_vs_static"] = static["duration_s"] / entry["duration_s"]
-            balanced = compared.get("static_balanced")
-            if balanced is not None and balanced.get("duration_s"):
-                entry["speed_ratio_vs_static_balanced"] = balanced["duration_s"] / entry["duration_s"]
-        wanted = {"zmp_margin_min_m": margin, "qp_failures_max": 0} if spec["expect"] is None else dict(
-            spec["expect"])
-        wanted.update(item["expect"] or {})
+        for label in ("static", "static_balanced"):
+            if compared.get(label, {}).get("duration_s"):
+                entry[f"speed_ratio_vs_{label}"] = compared[label]["duration_s"] / entry["duration_s"]
+        default = {"zmp_margin_min_m": margin, "qp_failures_max": 0}
+        wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
         judge(entry, wanted, entry, WALK_RULES, f"walks[{entry['name']!r}] expect")
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
@@ -142,12 +131,10 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
         figures: dict = {"generator": "quasi-static gait (CoM over the stance sole, "
                                       f"{margin * 1e3:g} mm margin, one IK per division)"}
         if label == "static":
-            times, qs, support = gait.resample(dt)
-            found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
-            figures.update({"timing": f"servo speed {gait.info['speed_rpm']:g} rpm, rest at every sample",
-                            "samples_solved": len(gait.q) - 1,
-                            "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found})
-            return figures
+            found, _ = walk_figures(robot, feet, *gait.resample(dt), pattern.ground_z, margin)
+            return {**figures, "timing": f"servo speed {gait.info['speed_rpm']:g} rpm, rest at every sample",
+                    "samples_solved": len(gait.q) - 1,
+                    "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found}
         return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
     placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
                        timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
@@ -164,9 +151,8 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
     """The static gait at the fastest of ``STATIC_SPEEDS`` (stops at phase ends) that keeps the margin."""
     base = retimed(gait, STATIC_SPEEDS[0], "waypoint")
     for rpm in STATIC_SPEEDS:
-        timed = retimed(base, rpm, "waypoint")
-        times, qs, support = timed.resample(dt)
-        found, _ = walk_figures(robot, feet, times, qs, support, pattern.ground_z, margin)
+        found, _ = walk_figures(robot, feet, *retimed(base, rpm, "waypoint").resample(dt), pattern.ground_z,
+                                margin)
         if found["zmp_margin_min_m"] >= margin:
             return {"timing": f"servo speed {rpm:.3g} rpm, stops at phase ends only", "speed_rpm": rpm,
                     **found}
@@ -176,22 +162,18 @@ def _balanced(gait, robot, feet, pattern, margin, dt) -> dict:
 def format_report(report: dict) -> str:
     """Per walk: its figures, the compared generators' and the checks."""
     def describe(entry: dict) -> str:
-        text = (f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
-                f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
-                f"({entry['speed_m_s'] * 1e3:.0f} mm/s)\n"
-                f"      {_line('ours', entry)}")
         ticks = entry["tick_time"]["both"]
-        text += (f"\n      per 10 ms tick (pattern + whole-body step): "
-                 f"median {ticks['median_s'] * 1e3:.3f} ms, "
-                 f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms")
-        for label, figures in entry.get("compared", {}).items():
-            text += f"\n      {_line(label, figures)}"
+        lines = [f"{entry['footsteps']} footsteps, {entry['distance_m'] * 1e3:.0f} mm, "
+                 f"turn {entry['turn_deg']:.1f} deg in {entry['duration_s']:.2f} s "
+                 f"({entry['speed_m_s'] * 1e3:.0f} mm/s)", _line("ours", entry),
+                 f"per 10 ms tick (pattern + whole-body step): median {ticks['median_s'] * 1e3:.3f} ms, "
+                 f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms",
+                 *(_line(label, figures) for label, figures in entry.get("compared", {}).items())]
         if "speed_ratio_vs_static" in entry:
-            text += f"\n      speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x"
-            if "speed_ratio_vs_static_balanced" in entry:
-                slowed = entry["speed_ratio_vs_static_balanced"]
-                text += f" (vs the static gait slowed until balanced: {slowed:.1f}x)"
-        return text
+            slowed = entry.get("speed_ratio_vs_static_balanced")
+            lines.append(f"speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x" + (
+                "" if slowed is None else f" (vs the static gait slowed until balanced: {slowed:.1f}x)"))
+        return "\n      ".join(lines)
 
     return format_entries(report, "walks", describe)
 

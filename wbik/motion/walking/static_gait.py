@@ -1,8 +1,5 @@
-"""The quasi-static gait on given footsteps (the seed's balance strategy, for comparison): per footstep
-the CoM moves over the stance sole, then the other foot swings, every sample a converged whole-body IK
-with the CoM ``margin`` inside the support polygon; timed like servos, straight joint lines from rest
-to rest at ``speed_rpm``.
-"""
+"""The quasi-static gait on given footsteps: CoM over the stance sole then swing, every sample a
+converged whole-body IK with the CoM ``margin`` inside the support, timed like servos at ``speed_rpm``."""
 
 from __future__ import annotations
 
@@ -33,8 +30,7 @@ RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 @dataclass
 class StaticGait:
-    """The samples ``q`` (K, nq), the soles on the ground at each, the sole each stands on (``anchor``) and
-    where, the timing, and the CoM's margin in the support polygon (m)."""
+    """Samples ``q`` (K, nq), soles down, the sole each stands on (``anchor``) and where, CoM margin (m)."""
 
     robot: Robot
     q: np.ndarray
@@ -106,9 +102,8 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
         tasks = [ComTask(np.r_[com_xy, com_height], axes="xy", weight=10.0, tolerance=1e-7, name="com"),
                  OrientationTask(trunk, rotation, weight=0.02, goal=False, name="trunk"),
                  PostureTask(q0, weight=1e-4, priority=1), RegularizationTask(1e-8)]
-        constraints = [Contact(frame, placement) for frame, placement in held.items()]
-        constraints += [CoMInSupportPolygon(polygon, margin), *common]
-        problem = IKProblem(model, tasks, constraints, backend=backend, max_step=0.1)
+        constraints = [*(Contact(f, p) for f, p in held.items()), CoMInSupportPolygon(polygon, margin)]
+        problem = IKProblem(model, tasks, constraints + common, backend=backend, max_step=0.1)
         q = problem.solve(q, max_iterations=60).q.copy()
         rows.append(q.copy())
         support.append(on_ground)
@@ -159,15 +154,13 @@ def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode:
     joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
     lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
     s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
-    limit = speed_rpm * RPM
     chain = SimpleNamespace(nq=joints.shape[1])  # the 1-DOF joints, as time_scale sees a chain
     path = JointPath(chain, s, joints, waypoint_knots=list(phase_ends))
-    return time_scale(path, "quintic", velocity_limit=limit, mode=mode)
+    return time_scale(path, "quintic", velocity_limit=speed_rpm * RPM, mode=mode)
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
-    """The same samples timed at another servo speed (rpm) and mode ("segment": rest at every sample;
-    "waypoint": at phase ends only)."""
+    """The samples at ``speed_rpm``, at rest at every sample ("segment") or phase end ("waypoint")."""
     if not speed_rpm > 0:
         raise InvalidConfigurationError(f"speed_rpm must be > 0, got {speed_rpm}")
     if gait.info.get("mode") == mode:

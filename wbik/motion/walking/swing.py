@@ -1,5 +1,4 @@
-"""Swing-foot trajectories: the quintic s(tau) between the footholds (position and rotation) plus a
-bump of ``clearance`` in height; zero velocity and acceleration at lift-off and touch-down."""
+"""Swing-foot poses: a quintic between the footholds plus a ``clearance`` bump, at rest at both ends."""
 
 from __future__ import annotations
 
@@ -7,9 +6,9 @@ import numpy as np
 import pinocchio as pin
 
 
-def quintic(tau: float) -> float:
-    """10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1] (clipped)."""
-    tau = min(max(tau, 0.0), 1.0)
+def quintic(tau):
+    """10 tau^3 - 15 tau^4 + 6 tau^5 on [0, 1] (clipped; a float or an array)."""
+    tau = np.clip(tau, 0.0, 1.0) if isinstance(tau, np.ndarray) else min(max(tau, 0.0), 1.0)  # a float: fast
     return tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau))
 
 

@@ -1,7 +1,5 @@
-"""Whole-body tracking of a walk pattern: one QP step per control tick toward the pattern's next tick
-(footholds, joint limits, leg self-collision hard; CoM, swing sole, trunk, posture soft), and the
-dynamics filter p_ref' = p_ref + sum (p_ref - p_multibody), faded in over the first double support.
-"""
+"""Whole-body tracking of a walk pattern, one QP step per tick, and the dynamics filter
+p_ref' = p_ref + sum (p_ref - p_multibody), faded in over the first double support."""
 
 from __future__ import annotations
 
@@ -82,8 +80,7 @@ def trunk_frame(robot: Robot, settings: TrackingSettings) -> str:
 
 
 def leg_collision_model(robot: Robot, feet: Feet, capsules: tuple = ()):
-    """The collision model of the package's primitives and ``capsules``, left-leg against right-leg pairs
-    only; None without shapes."""
+    """The collision model of the package's primitives and ``capsules``, left against right leg only."""
     entry = robot_entries().get(robot.name)
     listed = getattr(entry.module(), "collision_primitives", None) if entry is not None else None
     if listed is None and not capsules:
@@ -143,11 +140,9 @@ class Tracker:
         self._trunk_heading0 = math.atan2(trunk[1, 0], trunk[0, 0])
         self._trunk_level = pin.utils.rotate("z", -self._trunk_heading0) @ trunk  # pitch and roll only
         self.q0 = np.asarray(q0, dtype=float).copy()
-        self.constraints = [JointPositionLimits()]
-        if settings.velocity_limits:
-            self.constraints.append(JointVelocityLimits())
-        if settings.locked:
-            self.constraints.append(LockedJoints(list(settings.locked)))
+        velocity = [JointVelocityLimits()] if settings.velocity_limits else []
+        locked = [LockedJoints(list(settings.locked))] if settings.locked else []
+        self.constraints = [JointPositionLimits(), *velocity, *locked]
         self.collision_model = (leg_collision_model(robot, feet, settings.leg_capsules)
                                 if settings.self_collision else None)
         if self.collision_model is not None and self.collision_model.pairs:
@@ -163,14 +158,11 @@ class Tracker:
 
     def stage(self, stance: tuple[str, ...], swing: str | None) -> _Stage:
         key = (tuple(sorted(stance)), swing)
-        if key not in self._stages:
-            self._stages[key] = _Stage(self, key[0], swing, self.q0)
-        return self._stages[key]
+        return self._stages.get(key) or self._stages.setdefault(key, _Stage(self, key[0], swing, self.q0))
 
     def step(self, q: np.ndarray, pattern: WalkPattern, k: int) -> np.ndarray:
         """q_(k+1) from q_k toward the pattern's tick k + 1 (NoQPSolutionError when the QP has none)."""
-        stance = pattern.stance(k)
-        swing = pattern.swing[k]
+        stance, swing = pattern.stance(k), pattern.swing[k]
         stage = self.stage(tuple(stance), swing)
         for frame, placement in stance.items():
             foothold = stage.footholds[frame]
@@ -185,8 +177,7 @@ class Tracker:
 
 def track(robot: Robot, pattern: WalkPattern, q0: np.ndarray, settings: TrackingSettings | None = None,
           backend: str = DEFAULT_BACKEND) -> WalkMotion:
-    """Every tick of ``pattern`` tracked from ``q0``; a tick whose QP has no solution keeps the
-    configuration (listed in ``failed``)."""
+    """Every tick of ``pattern`` tracked from ``q0``; a tick without a QP solution keeps q (``failed``)."""
     tracker = Tracker(robot, pattern.feet, q0, settings, backend)
     q = np.asarray(q0, dtype=float).copy()
     rows, times, cpu, failed = [q.copy()], np.zeros(pattern.ticks), np.zeros(pattern.ticks), []
@@ -208,8 +199,8 @@ def walk(robot: Robot, q0: np.ndarray, steps, timing, dt: float = 0.01, clearanc
          settings: TrackingSettings | None = None, filter_iterations: int = 1, zmp_forward: float = 0.0,
          backend: str = DEFAULT_BACKEND) -> WalkMotion:
     """Plan and track a walk, with ``filter_iterations`` passes of the dynamics filter."""
-    options = {"dt": dt, "clearance": clearance, "feet": feet, "preview": preview, "com_height": com_height,
-               "zmp_forward": zmp_forward}
+    options = dict(dt=dt, clearance=clearance, feet=feet, preview=preview, com_height=com_height,
+                   zmp_forward=zmp_forward)
     pattern = walk_pattern(robot, q0, steps, timing, **options)
     motion = track(robot, pattern, q0, settings, backend)
     longest = int(round((pattern.phases[-1].end + SETTLE_MAX_S) / dt)) + 1
@@ -218,9 +209,8 @@ def walk(robot: Robot, q0: np.ndarray, steps, timing, dt: float = 0.01, clearanc
     for _ in range(int(filter_iterations)):
         velocity, acceleration = trajectory_derivatives(robot.model, motion.q, pattern.dt)
         measured = multibody_zmp(robot.model, motion.q, velocity, acceleration, pattern.ground_z)
-        ticks = pattern.ticks
-        offset[:ticks] += window[:ticks] * np.nan_to_num(pattern.zmp_reference - measured)
-        offset[ticks:] = offset[ticks - 1]
+        offset[:pattern.ticks] += window[:pattern.ticks] * np.nan_to_num(pattern.zmp_reference - measured)
+        offset[pattern.ticks:] = offset[pattern.ticks - 1]
         pattern = walk_pattern(robot, q0, pattern.footsteps, timing, zmp_offset=offset, **options)
         motion = track(robot, pattern, q0, settings, backend)
     motion.info["filter_iterations"] = int(filter_iterations)

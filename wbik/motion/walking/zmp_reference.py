@@ -1,7 +1,5 @@
-"""The ZMP reference of a walk: at the stance sole's centre in single support, from one sole to the next
-in double support (a quintic in time), from the CoM's start to the first sole and to between the last
-two at the ends.
-"""
+"""The ZMP reference: the stance sole's centre in single support, a quintic from sole to sole in double
+support, from the CoM's start and to between the last two soles at the ends."""
 
 from __future__ import annotations
 
@@ -10,10 +8,10 @@ from collections.abc import Callable
 import numpy as np
 import pinocchio as pin
 
+from wbik.motion.walking.swing import quintic
 from wbik.motion.walking.timeline import Phase
 
-Centre = Callable[[str, pin.SE3], np.ndarray]
-"""(side, sole placement) -> the sole's centre on the ground (x, y)."""
+Centre = Callable[[str, pin.SE3], np.ndarray]  # (side, sole placement) -> the sole's centre (x, y)
 
 
 def sole_centres(robot, feet, forward: float = 0.0) -> Centre:
@@ -24,14 +22,12 @@ def sole_centres(robot, feet, forward: float = 0.0) -> Centre:
 
 
 class ZmpReference:
-    """p_ref(t) (x, y) of the phases."""
+    """p_ref(t) (x, y) of the phases, from ``start``."""
 
-    def __init__(self, phases: list[Phase], centre: Centre, start: np.ndarray, end: np.ndarray | None = None):
+    def __init__(self, phases: list[Phase], centre: Centre, start: np.ndarray):
         singles = [phase for phase in phases if phase.single]
         stance_centres = [centre(phase.stance[0], phase.feet[phase.stance[0]]) for phase in singles]
-        last = phases[-1].feet
-        final = (0.5 * (centre("left", last["left"]) + centre("right", last["right"])) if end is None
-                 else np.asarray(end, dtype=float)[:2])
+        final = 0.5 * (centre("left", phases[-1].feet["left"]) + centre("right", phases[-1].feet["right"]))
         ends = [t for phase in singles for t in (phase.start, phase.end)]
         self.knot_times = np.array([phases[0].start, *ends, phases[-1].end])
         self.knot_points = np.array([np.asarray(start, dtype=float)[:2],
@@ -47,8 +43,6 @@ class ZmpReference:
         knots = self.knot_times
         index = np.clip(np.searchsorted(knots, times, side="right") - 1, 0, len(knots) - 2)
         span = knots[index + 1] - knots[index]
-        tau = np.clip((times - knots[index]) / np.where(span > 0, span, 1.0), 0.0, 1.0)
-        tau = np.where(span > 0, tau, 1.0)
-        s = tau * tau * tau * (10.0 + tau * (-15.0 + 6.0 * tau))
+        s = quintic(np.where(span > 0, (times - knots[index]) / np.where(span > 0, span, 1.0), 1.0))
         start, end = self.knot_points[index], self.knot_points[index + 1]
         return start + s[:, None] * (end - start)
