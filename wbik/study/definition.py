@@ -313,9 +313,9 @@ def _budget_curves(raw) -> BudgetCurveSpec:
     return BudgetCurveSpec(poses=raw["poses"], budgets_ms=tuple(sorted(set(raw["budgets_ms"]))))
 
 
-def case_schema(kind) -> Map:
-    """The schema of a case entry of ``kind``: every case's keys (CASE_KEYS but ``targets``), the kind's."""
-    common = {
+def _common_case_keys() -> dict[str, Key]:
+    """The keys every case entry takes (CASE_KEYS but ``targets``, a target set kind's)."""
+    return {
         "name": Key(LABEL, doc="the case's name; default: robot_chain_target"),
         "robot": Key(Text(non_empty=True, what="a robot name or URDF path"),
                      doc="a built-in robot, example-robot-data:NAME or a URDF path"),
@@ -329,7 +329,11 @@ def case_schema(kind) -> Map:
         **{key: Key(Text(non_empty=True, nullable=True, what="a frame name"),
                     doc="a chain named by its frames") for key in ("base", "tip")},
     }
-    return Map({**common, **kind.entry_schema()}, what="a mapping {robot, chain, target, ...}")
+
+
+def case_schema(kind) -> Map:
+    """The schema of a case entry of ``kind``: every case's keys and the kind's own."""
+    return Map({**_common_case_keys(), **kind.entry_schema()}, what="a mapping {robot, chain, target, ...}")
 
 
 class CaseEntry(Node):
