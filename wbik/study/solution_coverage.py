@@ -1,6 +1,9 @@
 """Solution coverage: which of a pose's solutions a method finds, against a complete closed form
-(:mod:`wbik.study.closed_form_branches`; docs/guide/studies.md). Two solutions are equal within
-``branch_tolerance`` on every joint, revolute modulo 2 pi; -1 in a column: unknown or none."""
+(:mod:`wbik.study.closed_form_branches`). Columns: ``start_distance`` |q - q0|, ``same_branch`` (1: the
+branch nearest the start, 0: another), ``branch`` (the in-limit branch it equals), ``branches_in_limits``;
+on the first ``restart_targets`` poses, solved again from ``restarts`` starts, ``restart_solved``,
+``restart_branches`` and ``restart_others`` (solutions equal to no branch). Equal: within
+``branch_tolerance`` on every joint, revolute modulo 2 pi; -1: unknown or none."""
 
 from __future__ import annotations
 
