@@ -1,14 +1,7 @@
-"""An upper bound of a chain's reach: no joint values (revolute angles inside their limits or not,
-prismatic joints inside theirs) put the tip farther than ``radius`` from ``centre``.
-
-Proof (triangle inequality). With o_j the origins of the chain's joint frames (joint j's frame is its
-parent's moved by the fixed placement (R_j, t_j), then by the joint's motion) and p the tip's origin,
-
-    o_j - o_{j-1} = R_{j-1}(q) t_j + [prismatic j] q_j a_j,    p - o_k = R_k(q) t_tip,
-
-so |p - c| <= [prismatic 1] s_1 + sum_{j=2..k} (|t_j| + [prismatic j] s_j) + |t_tip| = radius, with c the
-first joint's origin at q_1 = 0 (a revolute first joint does not move it) and s_j = max(|l_j|, |u_j|).
-"""
+"""An upper bound of a chain's reach for any revolute angles (prismatic joints inside their limits), by
+the triangle inequality over o_j - o_{j-1} = R_{j-1}(q) t_j + [prismatic j] q_j a_j and p - o_k = R_k t_tip:
+|p - c| <= [prismatic 1] s_1 + sum_{j=2..k} (|t_j| + [prismatic j] s_j) + |t_tip|, with o_j the joint
+origins, c the first one at q_1 = 0 and s_j = max(|l_j|, |u_j|)."""
 
 from __future__ import annotations
 
@@ -30,15 +23,10 @@ class ReachBound:
 
 
 def reach_bound(chain: Chain) -> ReachBound:
-    """The chain's reach bound (module docstring), from its reduced model."""
+    """The chain's reach bound, from its reduced model."""
     model = chain.model
     tip = model.frames[chain.tip_id]
-    path = []
-    joint = tip.parentJoint
-    while joint > 0:
-        path.append(joint)
-        joint = model.parents[joint]
-    path.reverse()
+    path = list(model.supports[tip.parentJoint])[1:]  # the joints from the root to the tip's
     travel = np.maximum(np.abs(chain.lower), np.abs(chain.upper))
     index = {model.getJointId(name): k for k, name in enumerate(chain.joint_names)}
     lengths = []

@@ -1,16 +1,6 @@
-"""Every branch of a chain's closed form: what proves a pose unreachable inside the joint limits, and
-what the study's solution coverage compares numerical answers with.
-
-A closed form is *complete* when ``analytic`` solves the chain's full poses without holding a joint: where
-the Jacobian is regular at every solution, its branches are every solution of FK(q) = T (revolute angles
-modulo 2 pi). A revolute angle q has a representative inside [l, u] iff its *excess* is 0:
-
-    x = (q - l) mod 2 pi,  w = u - l:   excess(q) = 0 if w >= 2 pi or x <= w,  else min(x - w, 2 pi - x)
-
-(a prismatic joint: its distance to [l, u]); a branch's excess is its largest joint excess. If every branch
-of a complete closed form has an excess of at least a margin, no configuration inside the limits reaches
-the pose.
-"""
+"""Every branch of a chain's closed form. A closed form is *complete* when ``analytic`` solves full poses
+without holding a joint: where the Jacobian is regular at every solution, its branches are every solution
+(revolute modulo 2 pi), so branches all outside the limits prove a pose unreachable inside them."""
 
 from __future__ import annotations
 
@@ -23,10 +13,8 @@ from wbik.errors import UnsupportedError
 from wbik.geometry import TWO_PI, wrap_to_pi
 from wbik.robot import Chain
 
-BRANCH_RESIDUAL = 1e-7
-"""Model FK residual (m and rad) at or below which a closed-form branch solves the pose."""
-SAME_SOLUTION = 1e-6
-"""Two branches whose joints differ by less than this (rad or m, revolute modulo 2 pi) are one."""
+BRANCH_RESIDUAL = 1e-7  # model FK residual (m and rad) at or below which a branch solves the pose
+SAME_SOLUTION = 1e-6  # branches whose joints differ by less (rad or m, revolute modulo 2 pi) are one
 
 
 @dataclass(frozen=True)
@@ -37,14 +25,19 @@ class ClosedFormBranches:
     solver: object
     family: str
 
-    def branches(self, positions: np.ndarray, rotations: np.ndarray) -> list[np.ndarray]:
-        """Per pose of a batch, its distinct solutions (K, n) as the closed form gives them (not wrapped
-        into the limits), each checked by the model's FK (residual <= BRANCH_RESIDUAL)."""
+    def all_branches(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(q (B, K, n), real (B, K)): the closed form's every branch of each pose, in its list's order."""
         chain = self.chain
-        form = self.solver.closed_form("pose")
         starts = np.broadcast_to(chain.nominal, (len(positions), chain.nq)).copy()
         with np.errstate(invalid="ignore"):
-            q_all, real = form.branches(np.asarray(positions, float), np.asarray(rotations, float), starts)
+            return self.solver.closed_form("pose").branches(np.asarray(positions, float),
+                                                            np.asarray(rotations, float), starts)
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray) -> list[np.ndarray]:
+        """Per pose, its distinct solutions (K, n) as the closed form gives them (not wrapped into the
+        limits) whose model FK residual is at most BRANCH_RESIDUAL."""
+        chain = self.chain
+        q_all, real = self.all_branches(positions, rotations)
         revolute = ~chain.is_prismatic
         found = []
         for index in range(len(positions)):
@@ -67,9 +60,7 @@ def complete_closed_form(chain: Chain) -> ClosedFormBranches | str:
     try:
         solver = make_solver("analytic", chain.robot, chain=chain.name)
         form = solver.closed_form("pose")
-    except UnsupportedError as exc:
-        return f"no closed form of full poses ({exc})"
-    except ImportError as exc:  # an optional library of a family (EAIK) is missing
+    except (UnsupportedError, ImportError) as exc:  # ImportError: a family's optional library (EAIK)
         return f"no closed form of full poses ({exc})"
     family = solver.families.get("pose", "")
     if isinstance(form, LockedJointForm):
@@ -92,7 +83,9 @@ def joint_distance(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> fl
 
 
 def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
-    """Per joint, the excess of q (..., n) over the limits (the module docstring's formula)."""
+    """Per joint, the excess of q (..., n) over [l, u], 0 iff it has a representative inside: revolute,
+    x = (q - l) mod 2 pi, w = u - l: 0 if w >= 2 pi or x <= w, else min(x - w, 2 pi - x); prismatic, the
+    distance to [l, u]."""
     q = np.asarray(q, dtype=float)
     lower, upper = chain.lower, chain.upper
     width = upper - lower

@@ -1,12 +1,5 @@
-"""Study definitions: what to compare, on what, how many times (docs/formats/study-files.md).
-
-A study file (YAML or TOML, in ``comparisons/``) names one or more *cases* (robot, chain, target kind;
-a single-case study may give them at the top level) and the *methods* to run on each, with the number of
-poses, the seed, the time budget and the tolerances of the shared FK check. It is checked against the study
-schema (:func:`study_schema`, in the schema language of :mod:`wbik.schema`), each case with the keys of its
-kind (:meth:`wbik.study.case_kinds.CaseKind.entry_schema`); a mistake raises a
-:class:`StudyDefinitionError` naming the file, the key's path (``cases[2].poses``) and what to write.
-"""
+"""Study files (YAML or TOML, docs/formats/study-files.md): their schema, read into a :class:`Study`; a
+mistake raises a :class:`StudyDefinitionError` naming the file, the key's path and what to write."""
 
 from __future__ import annotations
 
@@ -61,8 +54,6 @@ from wbik.study.spec import (
 )
 
 COMPARISONS_DIR = data_dir("comparisons")
-"""The ``comparisons/`` folder of study files (the repository's, or the installed package's copy)."""
-
 DEFAULT_STUDY = COMPARISONS_DIR / "default.yaml"
 
 CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "reference", "base", "tip",
@@ -77,38 +68,37 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
                    chunk_size: int | None = None, seed: int | None = None,
                    name: str | None = None, budget_curve_poses: int | None = None) -> Study:
     """A copy of ``study`` with command-line overrides applied (and validated)."""
-    original = study
+    cli = Context("command line", STUDY_ERRORS)
     if methods:
-        unknown = [m for m in methods if m not in {s.label for s in original.methods}]
+        unknown = [m for m in methods if m not in {s.label for s in study.methods}]
         if unknown:
             raise StudyDefinitionError(
-                f"--methods names {unknown} which study {original.name!r} does not have; its labels: "
-                f"{', '.join(s.label for s in original.methods)}")
-        study = replace(study, methods=tuple(s for s in original.methods if s.label in methods))
+                f"--methods names {unknown} which study {study.name!r} does not have; its labels: "
+                f"{', '.join(s.label for s in study.methods)}")
+        study = replace(study, methods=tuple(s for s in study.methods if s.label in methods))
         if study.baseline not in methods:
             study = replace(study, baseline=study.methods[0].label)
     if robot is not None or chain is not None:
         if len(study.cases) != 1:
             raise StudyDefinitionError("--robot/--chain apply to single-case studies only")
         case = study.cases[0]
-        new_robot = robot or case.robot
-        case = replace(case, robot=new_robot, chain=chain if chain is not None else
-                       (case.chain if robot is None else None),
-                       name=_case_name(new_robot, chain if chain is not None else case.chain,
-                                       case.target) if robot is not None else case.name,
-                       robot_params={} if robot is not None else case.robot_params,
-                       reference=None if robot is not None else case.reference)
+        if robot is None:
+            case = replace(case, chain=chain)
+        else:
+            case = replace(case, robot=robot or case.robot, chain=chain, robot_params={}, reference=None,
+                           name=_case_name(robot or case.robot, case.chain if chain is None else chain,
+                                           case.target))
         study = replace(study, cases=(case,))
         check_schema((), study.cases, "command line")
     if poses is not None:
-        study = replace(study, poses=_positive_int(poses, "--poses", "command line"),
+        study = replace(study, poses=_count().check(poses, "--poses", cli),
                         cases=tuple(replace(c, poses=None) for c in study.cases))
     if chunk_size is not None:
-        study = replace(study, chunk_size=_positive_int(chunk_size, "--chunk-size", "command line"))
+        study = replace(study, chunk_size=_count().check(chunk_size, "--chunk-size", cli))
     if seed is not None:
         study = replace(study, seed=int(seed))
     if name is not None:
-        study = replace(study, name=_label(name, "--name", "command line"))
+        study = replace(study, name=LABEL.check(name, "--name", cli))
     if budget_curve_poses is not None:
         if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
                 or budget_curve_poses < 0:
@@ -118,7 +108,6 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
     return study
 
 
-# -- parsing -----------------------------------------------------------------------------------
 def load_study(path: str | Path | None = None) -> Study:
     """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``; a shipped study's name,
     :func:`wbik.data.study_path`); None: the default study."""
@@ -133,10 +122,7 @@ def load_study(path: str | Path | None = None) -> Study:
         raise StudyDefinitionError(f"{path}: not a text file (byte {exc.start} is not UTF-8); a study file "
                                    "is YAML or TOML text") from None
     try:
-        if path.suffix.lower() == ".toml":
-            data = tomllib.loads(text)
-        else:
-            data = yaml.safe_load(text)
+        data = tomllib.loads(text) if path.suffix.lower() == ".toml" else yaml.safe_load(text)
     except (yaml.YAMLError, tomllib.TOMLDecodeError) as exc:
         raise StudyDefinitionError(f"{path}: not valid {path.suffix.lstrip('.').upper()}: {exc}") from exc
     return study_from_dict(data, source=str(path))
@@ -152,7 +138,7 @@ def study_from_dict(data, source: str = "study") -> Study:
     methods = [MethodSpec(label=item["label"], method=item["method"], options=dict(item["options"]),
                           timeout_s=item["timeout_s"], note=item["note"] or "")
                for item in checked["methods"]]
-    cases = [CaseSpec(**{key: item[key] for key in _CASE_FIELDS if key in item})
+    cases = [CaseSpec(**{f.name: item[f.name] for f in fields(CaseSpec) if f.name in item})
              for item in checked["cases"]]
     check_schema(methods, cases, source)
     labels = [m.label for m in methods]
@@ -175,10 +161,6 @@ def study_from_dict(data, source: str = "study") -> Study:
                  notes=checked["notes"] or "", source=source)
 
 
-_CASE_FIELDS = tuple(item.name for item in fields(CaseSpec))
-
-
-# -- the schema ------------------------------------------------------------------------------------
 class StudyValueError(StudyDefinitionError, SchemaValueError):
     """A value of a study file that its schema refuses (wrong type, outside its range, a missing key)."""
 
@@ -192,10 +174,7 @@ class StudyBudgetError(StudyValueError, SchemaBudgetError):
 
 
 STUDY_ERRORS = Errors(StudyValueError, UnknownStudyKeyError, StudyBudgetError)
-"""The errors a study file's check raises (each a :class:`StudyDefinitionError`)."""
-
 LABEL = Text(pattern=_LABEL.pattern, what="a name of letters, digits, '_', '-' or '.' (it names files)")
-"""A study's, a case's or a method's name."""
 
 
 def _count(what: str = "a positive integer", nullable: bool = False) -> Number:
@@ -245,8 +224,7 @@ def study_schema() -> Map:
 
 
 def _across_keys(study: dict, path: str, ctx: Context) -> None:
-    """The study's name (default: the file's), its cases (``cases:`` or the top level's case), unique case
-    names and labels."""
+    """The study's name (default: the file's), its cases (``cases:`` or the top level's), unique names."""
     if "name" not in study:
         study["name"] = LABEL.check(Path(ctx.source).stem, "name", ctx)
     case_keys = _case_keys()
@@ -336,7 +314,7 @@ def _budget_curves(raw) -> BudgetCurveSpec:
 
 
 def _common_case_keys() -> dict[str, Key]:
-    """The keys every case entry takes (CASE_KEYS; ``targets`` is a target set kind's)."""
+    """The keys every case entry takes (CASE_KEYS but ``targets``, a target set kind's)."""
     return {
         "name": Key(LABEL, doc="the case's name; default: robot_chain_target"),
         "robot": Key(Text(non_empty=True, what="a robot name or URDF path"),
@@ -355,13 +333,11 @@ def _common_case_keys() -> dict[str, Key]:
 
 def case_schema(kind) -> Map:
     """The schema of a case entry of ``kind``: every case's keys and the kind's own."""
-    return Map({**_common_case_keys(), **kind.entry_schema()},
-               what="a mapping {robot, chain, target, ...}")
+    return Map({**_common_case_keys(), **kind.entry_schema()}, what="a mapping {robot, chain, target, ...}")
 
 
 class CaseEntry(Node):
-    """A case entry of ``cases:``: its kind chosen (:func:`_case_kind`), checked against the kind's schema,
-    completed by the kind, its reference read against the kind's axes."""
+    """A case entry of ``cases:``, checked against the schema of its kind (:func:`_case_kind`)."""
 
     expected = "a mapping {robot, chain, target, ...}"
 
@@ -479,8 +455,7 @@ def _case_keys() -> set[str]:
 
 
 def _case_kind(item: dict, path: str, ctx: Context):
-    """The kind of a case entry: its ``target:`` (or ``targets:``), else the kind whose own key it holds,
-    else DEFAULT_TARGET."""
+    """A case entry's kind: its ``target:`` (or ``targets:``), else the owner of a key, else the default."""
     from wbik.study.case_kinds import case_kinds
 
     kinds = case_kinds()
@@ -502,8 +477,7 @@ def _case_kind(item: dict, path: str, ctx: Context):
 
 
 def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
-    """The kind of an entry naming a target set (``targets: NAME`` or ``{set: NAME, ...}``) whose target is
-    the entry's ``target`` (default: pose)."""
+    """The kind of an entry naming a target set (``targets: NAME`` or ``{set: NAME, ...}``)."""
     raw = item["targets"]
     if isinstance(raw, dict):
         name, key = raw.get("set"), join(path, "targets.set")
@@ -526,8 +500,7 @@ def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
 
 
 def check_schema(methods, cases, source: str) -> None:
-    """Check what the file names against the code, before any solving: every method's ``options`` against
-    its constructor (names and types), every case's robot and its ``robot_params`` against its builder."""
+    """Every method's ``options`` against its constructor, every case's robot and ``robot_params``."""
     from wbik.models import builder_parameters, robot_entries
     from wbik.models.erd import example_robot_name, example_robot_names
     from wbik.study.case_kinds import case_kinds, kinds_of
@@ -558,22 +531,8 @@ def check_schema(methods, cases, source: str) -> None:
             raise StudyDefinitionError(
                 f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
                 f"({', '.join(robot_entries())}), example-robot-data:NAME nor an existing URDF file")
-        accepted = builder_parameters(case.robot)
-        _no_unknown_keys(case.robot_params, accepted, accepted,
-                         f"{source}: case {case.name!r}: robot_params has unknown key(s)",
-                         f"robot {case.robot!r}; its parameters")
-
-
-def _no_unknown_keys(given, accepted: set[str], listed: set[str], what: str, whose: str) -> None:
-    """A StudyDefinitionError when ``given`` has keys ``accepted`` lacks (``listed`` are named)."""
-    unknown = sorted(set(given) - accepted)
-    if unknown:
-        raise StudyValueError(f"{what} {unknown} for {whose}: {', '.join(sorted(listed)) or '(none)'}")
-
-
-def _label(value, field_name: str, source: str) -> str:
-    return LABEL.check(value, field_name, Context(source, STUDY_ERRORS))
-
-
-def _positive_int(value, field_name: str, source: str) -> int:
-    return _count().check(value, field_name, Context(source, STUDY_ERRORS))
+        unknown = sorted(set(case.robot_params) - (accepted := builder_parameters(case.robot)))
+        if unknown:
+            raise StudyValueError(f"{source}: case {case.name!r}: robot_params has unknown key(s) {unknown} "
+                                  f"for robot {case.robot!r}; its parameters: "
+                                  f"{', '.join(sorted(accepted)) or '(none)'}")

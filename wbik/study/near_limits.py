@@ -1,9 +1,5 @@
-"""The target set ``near_limits``: FK of joints of which ``joints`` lie within ``fraction`` of their range
-from a limit: every joint uniform inside [l, u], then ``joints`` distinct eligible joints set to
-u - s (u - l) or l + s (u - l) (a fair coin), s uniform in [0, fraction]. Eligible (``limited``) are the
-joints whose limits restrict the pose: prismatic, or revolute with a range under 2 pi; ``all`` takes every
-joint, as does a chain without a limited joint (the report says so).
-"""
+"""The target set ``near_limits``: FK of uniform joints, ``joints`` of them then set to u - s (u - l) or
+l + s (u - l) (a fair coin), s uniform in [0, ``fraction``]."""
 
 from __future__ import annotations
 
@@ -27,7 +23,7 @@ def limit_distance(q: np.ndarray, chain: Chain) -> np.ndarray:
 
 
 class NearLimits(TargetSetKind):
-    """Targets from joints near their limits (module docstring)."""
+    """Targets from joints near their limits."""
 
     parameters = {
         "fraction": Parameter(0.02, "a number in (0, 0.5] (a share of the joint's range)",
@@ -39,7 +35,7 @@ class NearLimits(TargetSetKind):
     }
 
     def eligible(self, chain: Chain, parameters: dict) -> tuple[np.ndarray, bool]:
-        """(the joints that may be put near a limit, whether the limited ones fell back to all)."""
+        """(the joints that may be put near a limit, whether a chain without limited ones takes all)."""
         if parameters["eligible"] == "all":
             return np.arange(chain.nq), False
         limited = limited_joints(chain)

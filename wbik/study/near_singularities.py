@@ -1,12 +1,5 @@
 """The target set ``near_singularities``: FK of joints where the smallest singular value of the chain's
-6 x n Jacobian J = [J_v; J_w] (units mixed, as it is) is below ``sigma_max``.
-
-With u, v the singular vectors of sigma_min, d sigma_min / d q_k = u^T (dJ/dq_k) v (central differences).
-Target i (its own stream): a goal s uniform in [0, sigma_max), joints uniform inside the limits, then Newton
-steps dq = -(sigma_min(q) - s) g / |g|^2 along the gradient g, each clipped into the limits and halved until
-it helps, until sigma_min < sigma_max and |sigma_min - s| <= sigma_max / 10 (at most ``steps``); a start
-that does not get there is replaced (at most ``attempts``).
-"""
+6 x n Jacobian is below ``sigma_max``, reached by Newton steps from uniform joints (docs/guide/studies.md)."""
 
 from __future__ import annotations
 
@@ -18,8 +11,7 @@ from wbik.study.spec import StudyDefinitionError
 from wbik.study.target_parameters import Parameter, integer, number
 from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
-DIFFERENCE_STEP = 1e-6
-"""Central-difference step of dJ/dq (rad or m)."""
+DIFFERENCE_STEP = 1e-6  # central-difference step of dJ/dq (rad or m)
 
 
 def sigma_min(chain: Chain, q: np.ndarray) -> float:
@@ -32,18 +24,15 @@ def sigma_min_gradient(chain: Chain, q: np.ndarray) -> tuple[float, np.ndarray]:
     jacobian = chain.fk_jacobian(q)[1]
     left, values, right = np.linalg.svd(jacobian, full_matrices=False)
     u, v = left[:, -1], right[-1]
-    gradient = np.empty(chain.nq)
-    for k in range(chain.nq):
-        step = np.zeros(chain.nq)
-        step[k] = DIFFERENCE_STEP
-        difference = chain.fk_jacobian(q + step)[1] - chain.fk_jacobian(q - step)[1]
-        gradient[k] = u @ difference @ v / (2.0 * DIFFERENCE_STEP)
-    return float(values[-1]), gradient
+    gradient = np.array([u @ (chain.fk_jacobian(q + step)[1] - chain.fk_jacobian(q - step)[1]) @ v
+                         for step in DIFFERENCE_STEP * np.eye(chain.nq)])
+    return float(values[-1]), gradient / (2.0 * DIFFERENCE_STEP)
 
 
 def drive_to_sigma(chain: Chain, q: np.ndarray, goal: float, bound: float,
                    steps: int) -> tuple[np.ndarray, float, int]:
-    """Newton steps on sigma_min(q) = goal from q: (q, sigma_min(q), steps taken)."""
+    """Newton steps dq = -(sigma_min(q) - goal) g / |g|^2, clipped into the limits and halved until they
+    help, until sigma_min < bound and |sigma_min - goal| <= bound / 10: (q, sigma_min(q), steps taken)."""
     sigma, gradient = sigma_min_gradient(chain, q)
     for step in range(steps):
         if sigma < bound and abs(sigma - goal) <= bound / 10.0:
@@ -66,7 +55,7 @@ def drive_to_sigma(chain: Chain, q: np.ndarray, goal: float, bound: float,
 
 
 class NearSingularities(TargetSetKind):
-    """Targets from joints near a singularity (module docstring)."""
+    """Targets from joints near a singularity."""
 
     parameters = {
         "sigma_max": Parameter(1e-3, "a positive number (a bound on the Jacobian's smallest singular value)",

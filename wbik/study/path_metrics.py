@@ -1,14 +1,5 @@
-"""Paths of a path study: their shapes in the task space and the metrics of a joint path following them.
-
-Shapes from the tip pose (p0, R0), N points, s_k = k / (N - 1): a line of length L along d,
-p_k = p0 + s_k L d; a closed circle of radius r in the plane of the orthonormal u, v,
-p_k = p0 + r (u (1 - cos t_k) + v sin t_k), t_k = 2 pi s_k; the orientation held, or slerped by phi
-about a, R_k = R0 exp3(s_k phi a).
-
-A joint path moves between consecutive *solved* points by dq = q_j - q_i (no wrap): its largest step is the
-largest max_j |dq_j|, its length the sum of sum_j |dq_j|; a *jump* is a step above a threshold, a *branch
-change* a step between known, different closed-form branches (:func:`branch_labels`), a *flip* either.
-"""
+"""Paths of a path study: their shapes from the tip pose (p0, R0) at s_k = k / (N - 1), and the metrics of a
+joint path following them (steps dq = q_j - q_i between consecutive solved points, no wrap)."""
 
 from __future__ import annotations
 
@@ -67,7 +58,8 @@ def slerped_rotations(start: np.ndarray, axis: np.ndarray | None, angle: float, 
 
 @dataclass(frozen=True)
 class PathMetrics:
-    """What a joint path did along one path (see the module docstring)."""
+    """What a joint path did: a jump is a step above a threshold, a branch change a step between known,
+    different closed-form branches, a flip either."""
 
     points_solved: float  # share of the points solved, in [0, 1]
     whole: bool  # every point solved
@@ -80,8 +72,8 @@ class PathMetrics:
 
 def path_metrics(q: np.ndarray, solved: np.ndarray, threshold: float,
                  branches: np.ndarray | None = None) -> PathMetrics:
-    """The metrics of the joint path ``q`` (N, n) whose points ``solved`` were solved; a jump is a step above
-    ``threshold`` (rad or m); ``branches`` (N,): each point's closed-form branch (-1: unknown), or None."""
+    """The metrics of the joint path ``q`` (N, n) at its ``solved`` points; a jump: a step above ``threshold``
+    (rad or m); ``branches`` (N,): each point's closed-form branch (-1: unknown), or None."""
     solved = np.asarray(solved, dtype=bool)
     count = solved.size
     indices = np.flatnonzero(solved)
@@ -102,17 +94,11 @@ def path_metrics(q: np.ndarray, solved: np.ndarray, threshold: float,
 
 def branch_labels(form: ClosedFormBranches, positions: np.ndarray, rotations: np.ndarray, q: np.ndarray,
                   solved: np.ndarray, tolerance: float) -> np.ndarray:
-    """(N,): per solved point, the index of the nearest closed-form branch its answer equals within
-    ``tolerance`` (revolute modulo 2 pi), -1 for none. The index is the branch's place in the closed form's
-    list (the same sign choices at every pose: shoulder x wrist x elbow for the UR family)."""
-    chain = form.chain
-    closed = form.solver.closed_form("pose")
-    count = len(positions)
-    starts = np.broadcast_to(chain.nominal, (count, chain.nq)).copy()
-    with np.errstate(invalid="ignore"):
-        q_all, real = closed.branches(np.asarray(positions, float), np.asarray(rotations, float), starts)
-    revolute = ~chain.is_prismatic
-    labels = np.full(count, -1, dtype=int)
+    """(N,): per solved point, the place in the closed form's list (the same sign choices at every pose) of
+    the nearest branch its answer equals within ``tolerance`` (revolute modulo 2 pi), -1 for none."""
+    q_all, real = form.all_branches(positions, rotations)
+    revolute = ~form.chain.is_prismatic
+    labels = np.full(len(positions), -1, dtype=int)
     for index in np.flatnonzero(np.asarray(solved, dtype=bool)):
         with np.errstate(invalid="ignore"):
             distance = joint_distance(q_all[index], q[index], revolute)

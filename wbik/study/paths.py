@@ -1,20 +1,5 @@
-"""Path studies, the case kind ``path`` (``target: path``, or a case with a ``path:`` mapping): straight
-lines and circles in the task space of one chain, followed point by point by every method.
-
-A case's ``path:`` (:data:`PATH_PARAMETERS`, defaults filled in so the fingerprint holds them)::
-
-    path: {shape: line, length: 0.2, points: 50, count: 20, orientation: hold, jump: 0.5}
-    path: {shape: circle, radius: 0.1, points: 50, orientation: slerp, angle: 0.5}
-
-Path i comes from its own stream (:func:`~wbik.study.target_sets.target_stream` of "path"): a start
-configuration uniform inside the limits, its tip pose, then the shape and orientation of
-:mod:`wbik.study.path_metrics` drawn from it. With ``reachable`` a path is kept only when every point has
-a witness configuration inside the limits passing the shared check (``bounded_lm`` from the previous
-point's witness, else from :data:`WITNESS_RESTARTS` random starts), else it is drawn again (at most
-``attempts`` times; then kept, counted unverified). Every method solves point 0 from the start, then
-point k from its answer at the last solved point. Rows: one per path, the per-point columns
-(``point_*``) and the metrics of :func:`wbik.study.path_metrics.path_metrics`.
-"""
+"""The case kind ``path`` (a case with a ``path:`` mapping): lines and circles in the task space of one
+chain, followed point by point by every method (docs/guide/studies.md, "Path studies")."""
 
 from __future__ import annotations
 
@@ -74,20 +59,15 @@ PATH_PARAMETERS = {
     "branch_tolerance": Parameter(1e-3, "a number in (0, 0.5] (rad or m)", number(0.0, 0.5, low_open=True),
                                   "largest joint difference of an answer and the closed-form branch it is"),
 }
-"""What a case's ``path:`` may hold (``count``, the number of paths, besides: the case's ``poses``)."""
+# parameters of one shape or orientation only: key -> (the deciding key, its value)
 ONLY_FOR = {"length": ("shape", "line"), "radius": ("shape", "circle"), "angle": ("orientation", "slerp")}
-"""Parameters that apply to one shape or orientation only: key -> (the deciding key, its value)."""
-
 WITNESS_METHOD = "bounded_lm"
-WITNESS_BUDGET_S = 0.02
-"""The witness's budget per solve (an iteration budget, the same on any machine)."""
-WITNESS_RESTARTS = 10
-"""Random starts tried at a point whose witness the previous point's does not reach."""
+WITNESS_BUDGET_S = 0.02  # per solve: an iteration budget, the same on any machine
+WITNESS_RESTARTS = 10  # random starts at a point the previous point's witness does not reach
 
 
 def path_schema() -> Map:
-    """A case's ``path:``: the keys of its shape and orientation, defaults filled in, and ``count`` (the
-    number of paths) if given; a key of another shape or orientation is refused."""
+    """A case's ``path:`` with its defaults, and ``count`` (the number of paths) if given."""
 
     def only_for(checked: dict, path: str, ctx: Context) -> None:
         for key, (decider, value) in ONLY_FOR.items():
@@ -115,7 +95,6 @@ def describe(parameters: dict) -> str:
     return f"{shape}, {parameters['points']} points, {turn}"
 
 
-# -- drawing -----------------------------------------------------------------------------------------
 def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(q_start (n,), positions (N, 3), rotations (N, 3, 3)) of one path drawn from ``rng``."""
@@ -134,8 +113,8 @@ def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
 
 def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.ndarray, positions: np.ndarray,
                  rotations: np.ndarray) -> np.ndarray | None:
-    """(N, n) configurations inside the limits passing the shared check at every point, each solved from
-    the previous one, else from up to WITNESS_RESTARTS random starts; None at a point none reaches."""
+    """(N, n) configurations passing the shared check at every point, each solved from the previous one
+    (else from random starts); None at a point none reaches."""
     from wbik.targets import Target
 
     q, found = q_start, []
@@ -155,9 +134,8 @@ def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.nda
 
 @dataclass
 class PathSet(PoseSet):
-    """The paths of a case: ``q_true`` and ``q0`` the start configurations (count, n), ``positions``
-    (count, N, 3), ``rotations`` (count, N, 3, 3); the draws each took, whether its witness was found
-    and the witness's joint path length (saved as ``path_<name>``)."""
+    """Paths: starts ``q_true`` = ``q0`` (count, n), ``positions`` (count, N, 3), ``rotations``
+    (count, N, 3, 3), and per path its draws, whether a witness was found, the witness's length."""
 
     draws: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     verified: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
@@ -170,7 +148,7 @@ class PathSet(PoseSet):
 
 
 def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=None) -> PathSet:
-    """``count`` paths (module docstring); ``witness``: the solver of the witnesses (None: no check)."""
+    """``count`` paths; ``witness``: the solver of the witnesses (None: no check)."""
     n, points = chain.nq, parameters["points"]
     q_start = np.empty((count, n))
     positions, rotations = np.empty((count, points, 3)), np.empty((count, points, 3, 3))
@@ -193,26 +171,22 @@ def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=
     return PathSet(q_start, positions, rotations, q_start.copy(), draws, verified, witness_length)
 
 
-# -- the kind ------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class PathChunkTask(ChainChunkTask):
-    """A chunk of paths (``positions`` (k, N, 3), ``rotations`` (k, N, 3, 3), ``q0`` the starts) and the
-    flip criteria."""
+    """A chunk of paths (``positions`` (k, N, 3), ``rotations`` (k, N, 3, 3)) and the flip criteria."""
 
     jump: float = 0.5
     branch_tolerance: float = 1e-3
 
 
 class PathTargets(ChainTargets):
-    """Paths in the task space of one chain, followed point by point (module docstring)."""
+    """Paths in the task space of one chain, followed point by point."""
 
     entry_keys = ("path",)
-    sampled_from = "lines and circles from the tip pose of a start configuration uniform inside the limits"
 
     def __init__(self, name: str = PATH):
         super().__init__(name, target="pose")
 
-    # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
         return {"path": Key(path_schema(), {}, doc="the path's shape and parameters")}
 
@@ -237,7 +211,6 @@ class PathTargets(ChainTargets):
         return completed
 
     def parameters_of(self, case: CaseSpec) -> dict:
-        """The case's path parameters (completed when it was read), else the defaults."""
         if case.path:
             return dict(case.path)
         defaults = path_schema().check(None, "path", Context("defaults"))
@@ -247,7 +220,6 @@ class PathTargets(ChainTargets):
     def sampling_text(self, case: CaseSpec) -> str:
         return describe(self.parameters_of(case))
 
-    # -- sampling and tasks ------------------------------------------------------------------------
     def sample(self, study: Study, case: CaseSpec) -> PathSet:
         chain = chain_of(case)
         parameters = self.parameters_of(case)
@@ -262,13 +234,11 @@ class PathTargets(ChainTargets):
     task_type = PathChunkTask
 
     def task_fields(self, study: Study, case: CaseSpec) -> dict:
-        """The case's flip criteria (``jump``, ``branch_tolerance``)."""
         parameters = self.parameters_of(case)
         return {"jump": parameters["jump"], "branch_tolerance": parameters["branch_tolerance"]}
 
-    # -- in the worker -----------------------------------------------------------------------------
     def solve(self, task: PathChunkTask) -> dict[str, np.ndarray]:
-        """Follow every path of the chunk (module docstring): the per-point columns and the metrics."""
+        """Every path of the chunk followed: the per-point columns (``point_*``) and the path metrics."""
         from wbik.study.solution_coverage import closed_form_of
         from wbik.targets import Target
 
@@ -306,7 +276,6 @@ class PathTargets(ChainTargets):
         return {**path_columns(columns, task.first_pose, task.jump, form is not None),
                 "cpu_s": np.where(watch, cpu, np.nan), "reruns": reruns, **columns}
 
-    # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
         from wbik.study.solution_coverage import closed_form_of
 
@@ -334,10 +303,9 @@ class PathTargets(ChainTargets):
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
         chain, parameters = analysis["chain"], analysis["parameters"]
-        count = study.poses_of(case)
         drawing = analysis["drawing"]
-        words = (f"{count} paths (seed {study.seed}), each a {describe(parameters)}: from the tip pose of a "
-                 "start configuration uniform inside the limits, ")
+        words = (f"{study.poses_of(case)} paths (seed {study.seed}), each a {describe(parameters)}: from the "
+                 "tip pose of a start configuration uniform inside the limits, ")
         words += ("in a direction uniform on the sphere" if parameters["shape"] == "line"
                   else "in a plane through the tip uniform among planes (the last point is the first)")
         if parameters["orientation"] == "slerp":
@@ -355,9 +323,7 @@ class PathTargets(ChainTargets):
                     f"configuration inside the limits passing the shared check ({WITNESS_METHOD} from the "
                     f"previous point's witness, else from up to {WITNESS_RESTARTS} random starts). "
                     f"{int(np.sum(draws - 1))} drawn paths were rejected on the way")
-            if draws.size:
-                text += f" (at most {int(draws.max())} draws for one path)"
-            text += "."
+            text += (f" (at most {int(draws.max())} draws for one path)" if draws.size else "") + "."
             if unverified:
                 text += (f" {unverified} path(s) found no witness in {parameters['attempts']} draws and were "
                          "kept unverified.")
@@ -401,12 +367,10 @@ class PathTargets(ChainTargets):
         return blocks
 
 
-# -- rows and summaries --------------------------------------------------------------------------------
 def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, branches_known: bool
                  ) -> dict[str, np.ndarray]:
-    """The per-path columns of a chunk from its per-point ones: ``pose`` (the path's index), ``success``
-    (whole path), ``reason`` (the first unsolved point's), ``time_s`` and ``iterations`` (sums), the
-    :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the answer at the last solved point)."""
+    """A chunk's per-path columns from its per-point ones: ``success`` (whole path), ``reason`` (the first
+    unsolved point's), sums, the :class:`~wbik.study.path_metrics.PathMetrics`, ``q`` (the last answer)."""
     success = points["point_success"]
     count, _ = success.shape
     metrics = [asdict(path_metrics(points["point_q"][i], success[i], jump,
@@ -436,9 +400,7 @@ def common_paths(rows_by_method: dict[str, dict]) -> np.ndarray:
 
 
 def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
-    """One method's figures over a case's paths (summary.csv): whole paths (``solved``, with a Wilson
-    interval), % points solved, flips, jumps, branch changes, largest steps, path lengths (of the paths
-    solved whole; ``common``: those every method solved whole), times per point and per path."""
+    """One method's figures over a case's paths (summary.csv); ``common``: the paths all solved whole."""
     whole = rows["success"].astype(bool)
     count, solved = int(whole.size), int(whole.sum())
     low, high = wilson_interval(solved, count)
@@ -466,12 +428,10 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
 
 PATH_CSV_KEYS = ("points_solved", "jumps", "branch_changes", "flips", "largest_step", "length", "time_s",
                  "iterations")
-"""The columns of paths.csv (a row per path and method) between ``whole`` and ``reason``."""
 
 
 def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: list[str]) -> None:
-    """Every (path, point, method) row: success, reason, time, iterations, errors, the step from the last
-    solved point (largest |dq|), the closed-form branch (-1: none or unknown), the joints."""
+    """raw.csv: a row per (path, point, method), with the step from the last solved point and the branch."""
     keys = ("success", "reason", "time_s", "iterations", "position_error", "rotation_error")
 
     def rows():
@@ -491,8 +451,7 @@ def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: li
 
 
 def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
-    """Left: % of the paths whose point k each method solved, against k. Right: the joint path length of
-    each path a method solved whole (a box per method, log scale)."""
+    """% of the paths solved at point k against k; a box per method of the whole paths' joint lengths."""
     import matplotlib.pyplot as plt
 
     import wbik.study.figures as figures

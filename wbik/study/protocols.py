@@ -1,12 +1,6 @@
-"""Benchmark protocols, the case kind ``protocol`` (a case with ``success:``): a ``pose`` case's targets and
-solves, each answer then judged by a published benchmark's success rule (:mod:`wbik.study.success_rules`),
-with the peers' published figures beside ours::
-
-    success: {per: axis, position: 1.0e-5, rotation: 1.0e-5, frame: target}   # TRAC-IK's test
-    peers: [{solver: cuRobo v2, source: "its documentation", figures: {percent_solved: 100}}]
-
-``success`` is the rule's verdict, ``check_success`` the shared check's; ``peers`` are report only.
-"""
+"""The case kind ``protocol`` (a case with ``success:``): a ``pose`` case whose answers a benchmark's success
+rule judges (:mod:`wbik.study.success_rules`; ``check_success`` keeps the shared check's verdict), beside
+the ``peers:``' published figures."""
 
 from __future__ import annotations
 
@@ -76,14 +70,13 @@ class ProtocolChunkTask(ChainChunkTask):
 
 
 class ProtocolTargets(ChainTargets):
-    """Chain targets judged by a benchmark's success rule (module docstring)."""
+    """Chain targets judged by a benchmark's success rule."""
 
     entry_keys = ("success", "peers")
 
     def __init__(self, name: str = PROTOCOL):
         super().__init__(name, target="pose")
 
-    # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
         return {"success": Key(success_schema(), required=True, doc="the case's success rule"),
                 "peers": Key(peers_schema(), [], doc="peers' published figures (report only)")}
@@ -94,14 +87,11 @@ class ProtocolTargets(ChainTargets):
 
     @staticmethod
     def rule_of(case: CaseSpec) -> SuccessRule:
-        """The case's success rule."""
         return SuccessRule(**case.success)
 
-    # -- tasks and solving -------------------------------------------------------------------------
     task_type = ProtocolChunkTask
 
     def task_fields(self, study: Study, case: CaseSpec) -> dict:
-        """The case's success rule as (position, rotation, per, frame)."""
         rule = self.rule_of(case)
         return {"rule": (rule.position, rule.rotation, rule.per, rule.frame)}
 
@@ -122,7 +112,6 @@ class ProtocolTargets(ChainTargets):
         columns["reason"] = reasons.astype(str)
         return columns
 
-    # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
         analysis = super().analyse(study, case, output)
         protocol = {label: protocol_figures(rows) for label, rows in analysis["rows"].items()}
@@ -167,8 +156,8 @@ class ProtocolTargets(ChainTargets):
 
 
 def protocol_figures(rows: dict[str, np.ndarray]) -> dict:
-    """One method's figures under the rule: % solved by the rule and by the shared check, answers passing
-    one only, and the error percentiles (solved, all answers with joints)."""
+    """One method's % solved by the rule and by the shared check, answers passing one only, and the error
+    percentiles (solved, all answers with joints)."""
     rule = rows["success"].astype(bool)
     check = rows["check_success"].astype(bool) if "check_success" in rows else rule
     count = max(int(rule.size), 1)

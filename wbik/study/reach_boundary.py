@@ -1,11 +1,5 @@
-"""The target set ``reach_boundary``: FK of joints that put the tip as far as it goes along a random
-direction d (uniform on the sphere, its own stream per target).
-
-The support function h(d) = max_q d . p(q) over the joint box is maximised by L-BFGS-B from ``starts``
-uniform starts (gradient J_v(q)^T d), the best kept: at the global maximum p(q*) is on the boundary of the
-reachable set; a local maximum still satisfies the first-order conditions (J_v^T d)_k = 0 off the limits,
-a critical point of the position map on the box. The report gives their residual at every target.
-"""
+"""The target set ``reach_boundary``: FK of joints maximising the tip's reach d . p(q) along a direction d
+uniform on the sphere, over the joint box (L-BFGS-B, best of ``starts``; docs/guide/studies.md)."""
 
 from __future__ import annotations
 
@@ -13,6 +7,7 @@ import numpy as np
 
 from wbik.robot import Chain
 from wbik.study.blocks import Block, fmt
+from wbik.study.path_metrics import random_unit
 from wbik.study.target_parameters import Parameter, integer
 from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
@@ -25,8 +20,7 @@ def reach_along(chain: Chain, direction: np.ndarray, q: np.ndarray) -> tuple[flo
 
 def stationarity_residual(chain: Chain, direction: np.ndarray, q: np.ndarray,
                           tolerance: float = 1e-9) -> float:
-    """The largest violation of the first-order conditions of a maximum of d . p over the joint box: |g_k|
-    off the limits, max(-g_k, 0) at an upper limit, max(g_k, 0) at a lower one."""
+    """The largest violation of the first-order conditions of a maximum of d . p over the joint box."""
     gradient = reach_along(chain, direction, q)[1]
     at_upper = q >= chain.upper - tolerance
     at_lower = q <= chain.lower + tolerance
@@ -57,7 +51,7 @@ def farthest_along(chain: Chain, direction: np.ndarray, starts: np.ndarray) -> n
 
 
 class ReachBoundary(TargetSetKind):
-    """Targets on the reach envelope (module docstring)."""
+    """Targets on the reach envelope."""
 
     parameters = {
         "starts": Parameter(4, "an integer >= 1 (L-BFGS-B starts per target)", integer(1, 1000),
@@ -74,8 +68,7 @@ class ReachBoundary(TargetSetKind):
         support, residual = np.empty(count), np.empty(count)
         for i in range(count):
             rng = target_stream(seed, self.target_set, i)
-            direction = rng.normal(size=3)
-            direction /= np.linalg.norm(direction)
+            direction = random_unit(rng)
             starts = rng.uniform(chain.lower, chain.upper, size=(parameters["starts"], chain.nq))
             q[i] = farthest_along(chain, direction, starts)
             directions[i] = direction

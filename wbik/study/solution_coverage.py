@@ -1,11 +1,9 @@
 """Solution coverage: which of a pose's solutions a method finds, against a complete closed form
-(:mod:`wbik.study.closed_form_branches`). Per answer: ``start_distance`` |q - q0|; ``same_branch`` (1: it is
-the branch nearest the start, ``analytic``'s answer; 0: another; -1: unknown); ``branch`` (the in-limit
-branch it equals, -1: none) and ``branches_in_limits``; and on the case's first ``restart_targets`` poses,
-solved again from ``restarts`` uniform starts, ``restart_solved``, ``restart_branches`` (distinct branches
-reached) and ``restart_others`` (distinct solutions equal to no branch). Equal: within
-``branch_tolerance`` on every joint, revolute modulo 2 pi.
-"""
+(:mod:`wbik.study.closed_form_branches`). Columns: ``start_distance`` |q - q0|, ``same_branch`` (1: the
+branch nearest the start, 0: another), ``branch`` (the in-limit branch it equals), ``branches_in_limits``;
+on the first ``restart_targets`` poses, solved again from ``restarts`` starts, ``restart_solved``,
+``restart_branches`` and ``restart_others`` (solutions equal to no branch). Equal: within
+``branch_tolerance`` on every joint, revolute modulo 2 pi; -1: unknown or none."""
 
 from __future__ import annotations
 
@@ -37,19 +35,13 @@ COVERAGE_PARAMETERS = {
     "branch_tolerance": Parameter(1e-3, "a number in (0, 0.5] (rad or m)", number(0, 0.5, low_open=True),
                                   "largest joint difference (revolute modulo 2 pi) of two equal solutions"),
 }
-"""The parameters of every reachable target set for its solution coverage."""
-
-RESTART_STREAM = 0x5EED
-"""The random stream of the restarts' starts: ``default_rng([seed, RESTART_STREAM, pose])``."""
-
+RESTART_STREAM = 0x5EED  # the restarts' starts: default_rng([seed, RESTART_STREAM, pose])
 _LOCAL = threading.local()
 
 
 def closed_form_of(chain: Chain) -> ClosedFormBranches | str:
     """:func:`complete_closed_form` of the chain, built once per thread."""
-    cache = getattr(_LOCAL, "forms", None)
-    if cache is None:
-        cache = _LOCAL.forms = {}
+    cache = _LOCAL.__dict__.setdefault("forms", {})
     key = (id(chain.robot), chain.name)
     if key not in cache:
         cache[key] = complete_closed_form(chain)
@@ -64,8 +56,7 @@ def restart_starts(chain: Chain, seed: int, pose: int, count: int) -> np.ndarray
 def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarray, positions: np.ndarray,
                      rotations: np.ndarray, first_pose: int, seed: int, parameters: dict,
                      solve: Callable) -> dict[str, np.ndarray]:
-    """The coverage columns of a chunk from the method's rows ``columns``; ``solve(target, q0)``: the
-    method, for the restarts; ``seed``: the study's."""
+    """A chunk's coverage columns from the method's rows ``columns``; ``solve(target, q0)``: the method."""
     import pinocchio as pin
 
     count = len(q0)
@@ -103,8 +94,7 @@ def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarra
 
 def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolute: np.ndarray,
                        tolerance: float) -> tuple[int, int]:
-    """(distinct branches ``solutions`` equal, distinct solutions among them equal to no branch), equal
-    within ``tolerance`` on every joint (revolute modulo 2 pi)."""
+    """(distinct branches ``solutions`` equal, distinct solutions among them equal to no branch)."""
     matched: set[int] = set()
     others: list[np.ndarray] = []
     for q in solutions:
@@ -116,7 +106,6 @@ def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolu
     return len(matched), len(others)
 
 
-# -- the report ------------------------------------------------------------------------------------------
 def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
     """One method's coverage figures from its rows (NaN where a figure has no samples)."""
     solved = rows["success"].astype(bool)

@@ -1,11 +1,5 @@
-"""A study case's own success rule, applied to the errors of every answer beside the shared FK check.
-
-``per: norm``: |e_p| <= position and |e_r| <= rotation (cuRobo's and PyRoki's thresholds). ``per: axis``:
-each component within its bound (TRAC-IK's test), the errors written in ``frame: target`` (e_p = R*^T
-(p - p*), e_r = log3(R*^T R)) or ``frame: base`` (e_p = p - p*, e_r = R* log3(R*^T R)); a per-axis bound b
-implies the norm bound sqrt(3) b. The errors come from the rows' per-axis columns
-(:func:`wbik.study.metrics.axis_errors`); an answer without joints fails every rule.
-"""
+"""A study case's own success rule on every answer's errors, beside the shared FK check: bounds on the norms
+(``per: norm``) or on each axis (``per: axis``, TRAC-IK's test); an answer without joints fails every rule."""
 
 from __future__ import annotations
 
@@ -15,16 +9,13 @@ import numpy as np
 
 RULES = ("norm", "axis")
 FRAMES = ("target", "base")
-AXES = ("x", "y", "z", "rot_x", "rot_y", "rot_z")
-"""The six error components a per-axis rule bounds, in column order."""
-PERCENTILES = (50.0, 98.0, 100.0)
-"""The percentiles of the position and rotation errors a case with a rule reports (100: the maximum)."""
+AXES = ("x", "y", "z", "rot_x", "rot_y", "rot_z")  # the components a per-axis rule bounds
+PERCENTILES = (50.0, 98.0, 100.0)  # of the errors a case with a rule reports (100: the maximum)
 
 
 @dataclass(frozen=True)
 class SuccessRule:
-    """Bounds ``position`` (m) and ``rotation`` (rad) on the norms (``per`` "norm") or on each axis ("axis")
-    in ``frame`` ("target" or "base")."""
+    """Bounds ``position`` (m) and ``rotation`` (rad) on the norms or on each axis in ``frame``."""
 
     position: float
     rotation: float
@@ -41,11 +32,10 @@ class SuccessRule:
 
 def frame_errors(position_xyz: np.ndarray, rotation_xyz: np.ndarray, rotations: np.ndarray,
                  frame: str) -> tuple[np.ndarray, np.ndarray]:
-    """(e_p, e_r), each (B, 3), in ``frame`` from the rows' p - p* (base axes) and log3(R*^T R) (target
-    axes) and the targets' rotations R* (B, 3, 3)."""
-    position_xyz = np.asarray(position_xyz, float)
-    rotation_xyz = np.asarray(rotation_xyz, float)
-    rotations = np.asarray(rotations, float)
+    """(e_p, e_r) (B, 3) from p - p* (base axes) and log3(R*^T R) (target axes), with R* (B, 3, 3): target,
+    (R*^T (p - p*), log3(R*^T R)); base, (p - p*, R* log3(R*^T R))."""
+    position_xyz, rotation_xyz, rotations = (np.asarray(array, float)
+                                             for array in (position_xyz, rotation_xyz, rotations))
     if frame == "target":
         return np.einsum("bji,bj->bi", rotations, position_xyz), rotation_xyz
     if frame == "base":

@@ -1,5 +1,4 @@
-"""The parameters of a study's target sets and paths: what a case's ``targets:`` mapping may hold, with
-defaults, checked as schema nodes (a mistake names the key's path, e.g. ``cases[2].targets.fraction``)."""
+"""The parameters of a study's target sets and paths, with defaults, checked as schema nodes."""
 
 from __future__ import annotations
 
@@ -11,8 +10,7 @@ from wbik.schema import Context, Interval, Key, Map, Node, Number, Shorthand, Te
 
 @dataclass(frozen=True)
 class Parameter:
-    """One parameter of a target set (or a path): its ``default``, ``what`` it must be (for messages),
-    its ``check`` (a :class:`wbik.schema.Node`) and what it is for."""
+    """A target set's or a path's parameter: ``default``, ``what`` it must be (messages), ``check``."""
 
     default: object
     what: str
@@ -53,8 +51,7 @@ def choice(*names: str) -> Text:
 
 
 def parameters_map(name: str, parameters: dict[str, Parameter]) -> Shorthand:
-    """A case's ``targets:``, the set's name or a mapping with ``set:`` and its ``parameters``; checked, it
-    is ``{"set": name, key: value}`` with every default filled in."""
+    """A case's ``targets:``, the set's name or a mapping ``{set: name, key: value}``, defaults filled in."""
     keys = {"set": Key(Text((name,)), name, doc="the target set"),
             **{key: parameter.key for key, parameter in parameters.items()}}
     return Shorthand(Map(keys, what=f"a mapping {{set: {name}, ...its parameters}}"), "set",

@@ -1,15 +1,13 @@
-"""Target sets: chain targets drawn by a stated method, chosen per case (``targets: near_limits`` or
-``targets: {set: near_singularities, sigma_max: 1.0e-3}``), each a case kind (:class:`TargetSetKind`) with
-its parameters' defaults filled in; target i comes from its own stream (:func:`target_stream`), and what
-the drawing measured is saved beside the poses. Reachable sets add the solution coverage of
-:mod:`wbik.study.solution_coverage`; ``uniform`` is FK of uniform joints.
-"""
+"""Target sets (``targets: near_limits`` or ``{set: near_singularities, sigma_max: 1.0e-3}``): chain targets
+drawn by a stated method, each a case kind (:class:`TargetSetKind`); reachable sets add the solution coverage
+(:mod:`wbik.study.solution_coverage`)."""
 
 from __future__ import annotations
 
 import json
 import zlib
 from dataclasses import dataclass, field
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +19,7 @@ from wbik.schema import Key
 from wbik.study.blocks import Block, write_table
 from wbik.study.chain_targets import ChainChunkTask, ChainTargets
 from wbik.study.context import _frozen, case_chain, chain_of
-from wbik.study.sampling import PoseSet, poses_of_joints, sample_joints, saved_extras
+from wbik.study.sampling import PoseSet, poses_of_joints, sample_joints, saved_extras, start_configurations
 from wbik.study.solution_coverage import (
     COVERAGE_PARAMETERS,
     closed_form_of,
@@ -36,8 +34,7 @@ from wbik.study.target_parameters import Parameter, defaults, parameters_map
 
 @dataclass
 class Drawing:
-    """What a target set drew: the joints of its targets (count, n; NaN rows for unreachable ones),
-    per-target measurements (``extras``) and facts about the drawing for the report (plain data)."""
+    """The joints drawn (count, n; NaN for unreachable targets), per-target ``extras``, report ``facts``."""
 
     q_true: np.ndarray
     extras: dict[str, np.ndarray] = field(default_factory=dict)
@@ -46,8 +43,7 @@ class Drawing:
 
 @dataclass
 class DrawnTargets(PoseSet):
-    """A :class:`~wbik.study.sampling.PoseSet` with the drawing's extras and facts, saved beside the poses
-    (``drawn_<name>`` arrays and ``drawn_facts``, JSON)."""
+    """Poses with the drawing's extras and facts (saved as ``drawn_<name>`` arrays and ``drawn_facts``)."""
 
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     facts: dict = field(default_factory=dict)
@@ -80,13 +76,10 @@ class TargetSetChunkTask(ChainChunkTask):
 
 
 class TargetSetKind(ChainTargets):
-    """A target set of full poses, as a case kind: it implements :meth:`draw` and :meth:`drawn_from`,
-    declares its ``parameters`` and may add report blocks (:meth:`drawing_blocks`)."""
+    """A target set of full poses as a case kind: its ``parameters``, :meth:`draw` and :meth:`drawn_from`."""
 
-    parameters: dict[str, Parameter] = {}
-    """The set's own parameters (a case's ``targets:`` keys besides ``set``)."""
-    reachable = True
-    """Whether every target is FK of joints inside the limits (its rows then get solution coverage)."""
+    parameters: dict[str, Parameter] = {}  # a case's ``targets:`` keys besides ``set``
+    reachable = True  # every target is FK of joints inside the limits (then: solution coverage)
 
     def __init__(self, name: str, target: str = "pose"):
         super().__init__(name, target)
@@ -97,7 +90,6 @@ class TargetSetKind(ChainTargets):
         """The set's parameters and, for a reachable set, the coverage's."""
         return {**self.parameters, **(COVERAGE_PARAMETERS if self.reachable else {})}
 
-    # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
         return {"targets": Key(parameters_map(self.target_set, self.all_parameters), self.target_set,
                                doc="the target set and its parameters")}
@@ -106,13 +98,12 @@ class TargetSetKind(ChainTargets):
         """The case's parameters (its ``targets:``, completed when it was read), else the defaults."""
         return dict(case.targets) if case.targets else defaults(self.target_set, self.all_parameters)
 
-    # -- drawing -----------------------------------------------------------------------------------
     def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
         """The joints of ``count`` targets, with their measurements and the drawing's facts."""
         raise NotImplementedError
 
     def drawn_from(self, parameters: dict) -> str:
-        """How the targets are drawn, for the report's words (the parameters' values said)."""
+        """How the targets are drawn, in the report's words."""
         return self.sampled_from
 
     def sampling_text(self, case: CaseSpec) -> str:
@@ -125,37 +116,34 @@ class TargetSetKind(ChainTargets):
         return self.drawn_targets(chain, drawing, study, parameters)
 
     def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
-        """The targets FK of the drawing's joints reaches, with the study's starts."""
-        poses = poses_of_joints(chain, drawing.q_true, study.seed, self.target, study.start)
-        return DrawnTargets(poses.q_true, poses.positions, poses.rotations, poses.q0, drawing.extras,
+        """The drawing's targets (its extras' ``positions`` and ``rotations``, else FK of its joints), with
+        the study's starts."""
+        extras = dict(drawing.extras)
+        if "positions" in extras:
+            poses = PoseSet(drawing.q_true, extras.pop("positions"), extras.pop("rotations"),
+                            start_configurations(chain, len(drawing.q_true), study.seed, study.start))
+        else:
+            poses = poses_of_joints(chain, drawing.q_true, study.seed, self.target, study.start)
+        return DrawnTargets(poses.q_true, poses.positions, poses.rotations, poses.q0, extras,
                             {"parameters": parameters, "seed": study.seed, **drawing.facts})
 
     task_type = TargetSetChunkTask
 
     def task_fields(self, study: Study, case: CaseSpec) -> dict:
-        """The set's parameters and the study's seed."""
         return {"parameters": _frozen(self.parameters_of(case)), "study_seed": study.seed}
 
-    # -- in the worker -----------------------------------------------------------------------------
     def solve(self, task: TargetSetChunkTask) -> dict[str, np.ndarray]:
         """The chain rows, and for a reachable set the solution coverage's columns."""
         columns = super().solve(task)
         if not self.reachable:
             return columns
         chain = case_chain(task.robot, task.robot_params, task.chain, task.base, task.tip)
-        solver = None
-
-        def solve(target, q0):
-            nonlocal solver
-            if solver is None:
-                solver = self.build(task)
-            return solver.solve(target, q0)
-
+        solver = cache(lambda: self.build(task))  # built at the first restart
         columns.update(coverage_columns(chain, columns, task.q0, task.positions, task.rotations,
-                                        task.first_pose, task.study_seed, dict(task.parameters), solve))
+                                        task.first_pose, task.study_seed, dict(task.parameters),
+                                        lambda target, q0: solver().solve(target, q0)))
         return columns
 
-    # -- the report --------------------------------------------------------------------------------
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:
         analysis = super().analyse(study, case, output)
         directory = store.case_dir(output, case.name)
@@ -191,8 +179,7 @@ class TargetSetKind(ChainTargets):
 
 
 class UniformTargets(TargetSetKind):
-    """Today's targets, FK of uniform joints inside the limits (the same joints as a ``pose`` case
-    with the same seed), with the solution coverage of the target sets."""
+    """FK of uniform joints inside the limits (a ``pose`` case's, same seed), with solution coverage."""
 
     sampled_from = "FK of uniform random joints inside the limits"
 

@@ -1,20 +1,7 @@
-"""The target set ``unreachable``: full poses no configuration inside the joint limits reaches, each with its
-proof; the report counts false successes, the reasons given and the time to refuse. Per target, a coin of
-weight ``beyond_limits`` chooses the source:
-
-(a) **outside the reach**: a position f R from the reach bound's centre along a uniform direction, f uniform
-    in ``reach_factor`` (> 1), a uniform rotation; proved by :mod:`wbik.study.chain_reach`;
-(b) **reachable only outside the limits**: FK of joints uniform inside the limits with one eligible joint
-    (prismatic, or revolute with a range under 2 pi) set beyond a limit by delta uniform in ``beyond`` (for a
-    revolute joint at most half its gap 2 pi - (u - l)). Proved on a chain with a complete closed form
-    (:mod:`wbik.study.closed_form_branches`): kept only if (1) the generating joints are one of its branches,
-    (2) the Jacobian's smallest singular value is at least ``sigma_proof`` at every branch (so the branches
-    are every solution) and (3) every branch is at least ``proof_margin`` outside the limits; else drawn
-    again (``attempts``, then from (a)). Chains without a complete closed form or an eligible joint draw
-    from (a) only.
-
-``q_true`` holds the generating joints of (b) targets and NaN for (a) targets.
-"""
+"""The target set ``unreachable``: poses no configuration inside the limits reaches, each proved (a) outside
+the reach bound (:mod:`wbik.study.chain_reach`) or (b) reachable only with a joint beyond its limit, by a
+complete closed form (:mod:`wbik.study.closed_form_branches`); docs/guide/studies.md gives the proofs.
+``q_true`` holds the generating joints of (b) targets, NaN for (a) targets."""
 
 from __future__ import annotations
 
@@ -34,16 +21,14 @@ from wbik.study.closed_form_branches import (
     joint_distance,
 )
 from wbik.study.near_singularities import sigma_min
-from wbik.study.sampling import start_configurations
+from wbik.study.path_metrics import random_unit
 from wbik.study.spec import Study
 from wbik.study.statistics import finite_statistic
 from wbik.study.target_parameters import Parameter, integer, interval, number
-from wbik.study.target_sets import Drawing, DrawnTargets, TargetSetKind, target_stream
+from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
-OUTSIDE_REACH, BEYOND_LIMITS = 0, 1
-"""The ``source`` of a target: (a) or (b) of the module docstring."""
-GENERATING_BRANCH = 1e-6
-"""How near (rad or m, revolute modulo 2 pi) a branch must be to the generating joints to be them."""
+OUTSIDE_REACH, BEYOND_LIMITS = 0, 1  # a target's source: (a) or (b)
+GENERATING_BRANCH = 1e-6  # rad or m (revolute modulo 2 pi): a branch this near the generating joints is them
 REJECTIONS = {
     "missing": "the closed form does not return the generating joints",
     "singular": "a solution where the Jacobian is (nearly) singular",
@@ -68,8 +53,7 @@ def uniform_rotation(rng: np.random.Generator) -> np.ndarray:
 
 def prove_beyond_limits(chain: Chain, form: ClosedFormBranches, q: np.ndarray, position: np.ndarray,
                         rotation: np.ndarray, parameters: dict) -> tuple[str | None, np.ndarray]:
-    """(None if FK(q) is proved unreachable inside the limits by conditions (1)-(3), else the key of the
-    rejection in REJECTIONS; the closed form's branches)."""
+    """(None if FK(q) is proved unreachable inside the limits, else a key of REJECTIONS; the branches)."""
     branches = form.branches(position[None], rotation[None])[0]
     revolute = ~chain.is_prismatic
     if not len(branches) or np.min(joint_distance(branches, q, revolute)) > GENERATING_BRANCH:
@@ -82,7 +66,7 @@ def prove_beyond_limits(chain: Chain, form: ClosedFormBranches, q: np.ndarray, p
 
 
 class Unreachable(TargetSetKind):
-    """Proved unreachable targets (module docstring)."""
+    """Proved unreachable targets."""
 
     reachable = False
     parameters = {
@@ -136,8 +120,7 @@ class Unreachable(TargetSetKind):
                     branch_count[i] = len(branches)
                     continue
                 fell_back += 1
-            direction = rng.normal(size=3)
-            direction /= np.linalg.norm(direction)
+            direction = random_unit(rng)
             factor = rng.uniform(*parameters["reach_factor"])
             positions[i] = bound.centre + factor * bound.radius * direction
             rotations[i] = uniform_rotation(rng)
@@ -178,15 +161,6 @@ class Unreachable(TargetSetKind):
             rejections[rejection] += 1
         return None
 
-    def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
-        extras = dict(drawing.extras)
-        positions, rotations = extras.pop("positions"), extras.pop("rotations")
-        count = len(positions)
-        return DrawnTargets(drawing.q_true, positions, rotations,
-                            start_configurations(chain, count, study.seed, study.start), extras,
-                            {"parameters": parameters, "seed": study.seed, **drawing.facts})
-
-    # -- the report --------------------------------------------------------------------------------
     def drawing_blocks(self, analysis: dict) -> list[Block]:
         facts = analysis["facts"]
         if not facts:
@@ -229,13 +203,11 @@ def refusal_summary(rows: dict[str, np.ndarray], source: np.ndarray | None) -> d
     return summary
 
 
-MOST_REASONS = 4
-"""Reasons shown per method in the unreachable targets' section; the rest are counted together."""
+MOST_REASONS = 4  # reasons shown per method; the rest are counted together
 
 
 def grouped_reasons(rows_by_method: dict) -> list[list]:
-    """[method, reason, targets]: each method's MOST_REASONS most frequent reasons, then one row counting
-    the others and how many kinds they are."""
+    """[method, reason, targets]: each method's MOST_REASONS most frequent reasons, then the others."""
     every = max(len(rows["reason"]) for rows in rows_by_method.values())  # as many kinds as there can be
     by_method: dict[str, list] = {}
     for method, reason, count in frequent_reasons(rows_by_method, most=every):
