@@ -1,28 +1,7 @@
-"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer::
-
-    kind: wholebody_ik
-    robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
-    soles: [{frame: FL_FOOT, point: [0, 0, 0]}]   # feet of a URDF robot: size (a rectangle), corners, point
-    backend: daqp                  # a QP backend (wbik.qp.backends), "fastest" or "default"
-    margin: 0.005                  # m, the phases' default CoM margin
-    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase
-    collisions:                    # optional: avoid collisions (own pairs, the cell's obstacles, boxes)
-      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8]}]   # m
-      safety_distance: 0.02        # m; pairs closer at the nominal pose are left out
-    phases:
-      - name: shift the CoM over the right foot
-        contacts: [r_sole, l_sole]  # frames held fixed (a point foot: its position only)
-        support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
-        lock: [mb]                  # joints held at their value
-        acceleration_limit: 20      # rad/s^2, each IK step a period of dt (s)
-        tasks: [{type: com, over: r_sole, axes: xy}]   # entries of wbik.qp.task_entries
-        expect: {success: true}     # keys of PHASE_RULES (SI units)
-
-Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); by default a phase
-expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the support polygon, no joint
-beyond its limit and, with ``collisions``, every pair at least the safety distance apart (coal, by FK).
-``methods`` solves each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start:
-reported, not judged.
+"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer
+(keys: docs/formats/task-files.md). By default a phase expects success, contacts held to 1e-6 m / rad, the
+CoM ``margin`` inside the support polygon, no joint beyond its limit and, with ``collisions``, every pair
+at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged).
 """
 
 from __future__ import annotations
