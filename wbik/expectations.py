@@ -1,8 +1,5 @@
-"""Expectations of a scenario: figures judged against a task file's thresholds (SI units), each keyed by
-its name (``com_margin_min_m: 0.005``: the :class:`Rule` of the figure ``com_margin_m``, >= 0.005). A value
-is the threshold or ``{threshold, expected_to_fail, why}``: a known failure passes while the figure fails,
-and fails once it is met (a strict xfail).
-"""
+"""Figures judged against a task file's thresholds (``com_margin_min_m: 0.005``: ``com_margin_m`` >= 0.005).
+A value is the threshold or ``{threshold, expected_to_fail, why}`` (a strict xfail)."""
 
 from __future__ import annotations
 

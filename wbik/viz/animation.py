@@ -1,7 +1,5 @@
-"""``Animation``: what a scenario runner hands to the viewer: its robot, sample times (s; one sample is a
-still picture), the full configuration at each, :class:`Overlays` and the scene's fixed boxes. three.js
-interpolates between samples, so a runner gives its knots, not a dense grid.
-"""
+"""``Animation``: what a scenario runner hands to the viewer: sample times (s; one sample: a still), the
+full configuration at each, :class:`Overlays` and fixed boxes (three.js interpolates: give knots)."""
 
 from __future__ import annotations
 
@@ -30,9 +28,8 @@ def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
 
 @dataclass(frozen=True)
 class Overlays:
-    """What is drawn with the robot: ``trace_frame``'s path; per sample the soles on the ground (``support``:
-    the CoM, its ground projection, their polygon), the frames in ``contacts`` and the ``zmp`` (K, 3; world,
-    m; NaN rows for none)."""
+    """Drawn with the robot: ``trace_frame``'s path; per sample the soles down (``support``: with the CoM),
+    the frames in ``contacts`` and the ``zmp`` (K, 3; world, m; NaN rows for none)."""
 
     trace_frame: str | None = None
     support: tuple[Feet, ...] | None = None
@@ -110,9 +107,8 @@ class Animation:
                        seconds: float = 1.0, samples: int = 30, support: Sequence[Feet] | None = None,
                        contacts: Sequence[Feet] | None = None, trace_frame: str | None = None,
                        name: str = "") -> Animation:
-        """From ``start`` through each keyframe, ``seconds`` and ``samples`` samples each, interpolated on the
-        configuration manifold; ``support`` / ``contacts``: one entry per keyframe (the start takes the
-        first's)."""
+        """From ``start`` through each keyframe (``seconds``, ``samples`` samples each, on the configuration
+        manifold); ``support`` / ``contacts``: one entry per keyframe (the start takes the first's)."""
         if samples < 1 or not seconds > 0:
             raise InvalidConfigurationError(f"keyframe animation needs samples >= 1 and seconds > 0, "
                                             f"got {samples} and {seconds}")

@@ -1,6 +1,4 @@
-"""A meshcat scene kept in this process (the latest state of each node, as the server keeps it), and its
-export to one HTML page inlining meshcat's viewer and the commands: it opens offline and in an ``iframe``.
-"""
+"""A meshcat scene kept in this process (each node's latest state) and its export to one offline HTML page."""
 
 from __future__ import annotations
 
