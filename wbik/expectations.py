@@ -89,9 +89,7 @@ def judge(entry: dict, expect: Mapping | None, figures: Mapping[str, object], ru
 
 
 def _value(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    return str(value)
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def format_checks(checks: Iterable[dict], indent: str = "      ") -> list[str]:

@@ -53,8 +53,7 @@ from wbik.schema import Anything, Boolean, Context, Either, Key, ListOf, Map, Nu
 from wbik.solvers.method_registry import method_factory, methods, solver
 from wbik.wholebody.problem import FRAMES, WholeBody
 
-CONTACT_TOLERANCE = 1e-6
-"""Contacts must hold to this (m for the position error, rad for the rotation error)."""
+CONTACT_TOLERANCE = 1e-6  # m for a contact's position error, rad for its rotation error
 
 PHASE_RULES = {
     "success": Rule("success", "=="),
@@ -63,8 +62,7 @@ PHASE_RULES = {
     "com_margin_min_m": Rule("com_margin_m", ">=", "m"),
     "limit_excess_max_rad": Rule("limit_excess_rad", "<=", "rad"),
     "collision_distance_min_m": Rule("collision_distance_m", ">=", "m"),
-}
-"""Expectations of a wholebody_ik phase (limit excess is in m for a prismatic joint)."""
+}  # (the limit excess of a prismatic joint is in m)
 
 
 # -- the schema ------------------------------------------------------------------------------------
@@ -155,8 +153,8 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 # -- the checks of one phase -----------------------------------------------------------------------
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
-    """The checks of a phase's answer from the shared check's measures (``solution``), each contact's drift
-    split in m and rad; with ``collisions`` (CollisionAvoidance) the closest pair at the answer."""
+    """The checks of a phase's answer (the shared check's ``solution``): contact drifts in m and rad, CoM,
+    limits and, with ``collisions`` (CollisionAvoidance), the closest pair."""
     robot, q = problem.robot, solution.q
     kinematics = Kinematics(robot.model, q)
     contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
@@ -288,19 +286,14 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
 
 def moved_frame(spec: dict) -> str | None:
     """The first frame a phase's frame or position task moves."""
-    for phase in spec.get("phases", []):
-        contacts = set(phase.get("contacts", []))
-        for task in phase.get("tasks", []):
-            frame = task.get("frame")
-            if task.get("type") in ("frame", "position") and frame and frame not in contacts \
-                    and not task.get("keep"):
-                return frame
-    return None
+    return next((task["frame"] for phase in spec.get("phases", []) for task in phase.get("tasks", [])
+                 if task.get("type") in ("frame", "position") and task.get("frame")
+                 and task["frame"] not in phase.get("contacts", []) and not task.get("keep")), None)
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, with its support and contacts; a phase continued from
-    elsewhere (``continue_from: start``) is preceded by the way back there, on the previous stance."""
+    """From the start through each phase's answer, with its support and contacts (and the way back to
+    where a ``continue_from: start`` phase begins)."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
@@ -320,7 +313,7 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
 
 
 def format_method(label: str, figures: dict) -> str:
-    """One compared method's lines: its verdict and figures, why it failed, what it could not express."""
+    """A compared method's verdict and figures, why it failed, what it could not express."""
     margin = figures["com_margin"]
     margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
     lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "

@@ -122,9 +122,7 @@ class Viewer:
 
     # -- configurations ---------------------------------------------------------------------------
     def _chain(self, chain: Chain | str | None) -> Chain | None:
-        if chain is None or isinstance(chain, Chain):
-            return chain
-        return self.robot.chain(chain)
+        return chain if chain is None or isinstance(chain, Chain) else self.robot.chain(chain)
 
     def full_configuration(self, q: Sequence[float] | None, chain: Chain | str | None = None) -> np.ndarray:
         """Full q from a full configuration or from one chain's joint values (others as shown now)."""
@@ -388,23 +386,21 @@ class Viewer:
             raise InvalidConfigurationError(
                 f"the animation is of {animation.robot.name} (nq = {animation.robot.model.nq}); this "
                 f"viewer shows {self.robot.name} (nq = {self.robot.model.nq})")
-        rows = list(animation.configurations)
-        overlays = animation.overlays
-        still = animation.frames == 1
-        times = animation.times if not still else np.array([0.0, 1.0 / fps])
-        if still:
-            rows = rows * 2
+        overlays, still = animation.overlays, animation.frames == 1
+        repeat = 2 if still else 1  # a still picture: two equal samples
+        rows = list(animation.configurations) * repeat
+        times = np.array([0.0, 1.0 / fps]) if still else animation.times
         clip, keys, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
         self.show_environment(animation.environment)
         self.place_grid(self.ground_height(rows[0]))
         self._camera_keyframes(clip, keys, rows, times)
         if overlays.zmp is not None:
-            self._zmp_keyframes(clip, keys, overlays.zmp if not still else np.vstack([overlays.zmp] * 2))
+            self._zmp_keyframes(clip, keys, np.vstack([overlays.zmp] * repeat))
         margins = None
         if overlays.support is not None and self.robot.soles:
-            margins = self._support_keyframes(clip, keys, rows, overlays.support * (2 if still else 1))
+            margins = self._support_keyframes(clip, keys, rows, overlays.support * repeat)
         if overlays.contacts is not None:
-            self._contact_keyframes(clip, keys, rows, overlays.contacts * (2 if still else 1))
+            self._contact_keyframes(clip, keys, rows, overlays.contacts * repeat)
         self.show(rows[0])
         self.meshcat.set_animation(clip, play=play and not still, repetitions=repetitions)
         return AnimationView(animation.frames, trace, margins)
