@@ -39,8 +39,7 @@ class Overlays:
 
 @dataclass(frozen=True)
 class Animation:
-    """Full configurations of ``robot`` at ``times`` (s), with :class:`Overlays` and the scene's fixed
-    boxes (``environment``)."""
+    """Full configurations of ``robot`` at ``times`` (s), :class:`Overlays` and fixed boxes."""
 
     robot: object
     times: np.ndarray
@@ -143,23 +142,20 @@ class Animation:
             raise InvalidConfigurationError(f"pause between animations must be > 0 s, got {pause}")
         times = np.concatenate([self.times, other.times - other.times[0] + self.times[-1] + pause])
 
-        def joined(a, b, count_a, count_b):
-            if a is None and b is None:
+        def joined(overlay: str):  # both parts; where one has none: no feet, NaN ZMP rows
+            parts = [(getattr(part.overlays, overlay), part.frames) for part in (self, other)]
+            if all(value is None for value, _ in parts):
                 return None
-            return (a or ((),) * count_a) + (b or ((),) * count_b)
+            if overlay == "zmp":
+                return np.vstack([np.full((n, 3), np.nan) if value is None else value for value, n in parts])
+            return sum((((),) * n if value is None else value for value, n in parts), ())
 
-        mine, theirs = self.overlays, other.overlays
-        zmp = None
-        if mine.zmp is not None or theirs.zmp is not None:
-            zmp = np.vstack([mine.zmp if mine.zmp is not None else np.full((self.frames, 3), np.nan),
-                             theirs.zmp if theirs.zmp is not None else np.full((other.frames, 3), np.nan)])
-        overlays = Overlays(mine.trace_frame or theirs.trace_frame,
-                            joined(mine.support, theirs.support, self.frames, other.frames),
-                            joined(mine.contacts, theirs.contacts, self.frames, other.frames), zmp)
+        overlays = Overlays(self.overlays.trace_frame or other.overlays.trace_frame, joined("support"),
+                            joined("contacts"), joined("zmp"))
+        rows = np.vstack([self.configurations, other.configurations])
         name = " + ".join(n for n in (self.name, other.name) if n)
-        boxes = {box.name: box for box in (*self.environment, *other.environment)}
-        return Animation(self.robot, times, np.vstack([self.configurations, other.configurations]),
-                         overlays, name, tuple(boxes.values()))
+        both = replace(self, times=times, configurations=rows, overlays=overlays, name=name)
+        return both.with_environment(other.environment)
 
     def subsampled(self, every: int) -> Animation:
         """Every ``every``-th sample (the last one kept)."""
