@@ -52,12 +52,10 @@ class SceneRecorder:
         if kind == "set_object":
             node = self.node(path)
             node.object, node.properties = packed, []
-        elif kind == "set_transform":
-            self.node(path).transform = packed
+        elif kind in ("set_transform", "set_animation"):  # the node's transform or animation
+            setattr(self.node(path), kind.removeprefix("set_"), packed)
         elif kind == "set_property":
             self.node(path).properties.append(packed)
-        elif kind == "set_animation":
-            self.node(path).animation = packed
         elif kind == "delete":
             parts = _split(path)
             if not parts:
