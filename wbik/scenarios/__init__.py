@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import tomllib
 from pathlib import Path
 
 from wbik.files import atomic_write_text
@@ -44,8 +45,6 @@ def _read(path: Path):
         if suffix == ".json":
             return json.loads(text)
         if suffix == ".toml":
-            import tomllib
-
             return tomllib.loads(text)
         import yaml
 

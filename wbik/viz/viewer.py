@@ -294,15 +294,13 @@ class Viewer:
     def show_com_and_polygon(self, q: Sequence[float] | None = None,
                              feet: Sequence[str] | None = None) -> SupportView:
         """The CoM, its ground projection and the support polygon of ``feet`` (green: the CoM inside)."""
-        corners_by_sole = self.robot.soles
-        if not corners_by_sole:
-            raise UnsupportedError(
-                f"{self.robot.name} declares no sole rectangles (robot.soles); "
-                "a support polygon needs feet: try the bioloid")
-        feet = list(corners_by_sole) if feet is None else list(feet)
-        unknown = [foot for foot in feet if foot not in corners_by_sole]
-        if unknown:
-            raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(corners_by_sole)}")
+        soles = self.robot.soles
+        if not soles:
+            raise UnsupportedError(f"{self.robot.name} declares no sole rectangles (robot.soles); "
+                                   "a support polygon needs feet: try the bioloid")
+        feet = list(soles) if feet is None else list(feet)
+        if unknown := [foot for foot in feet if foot not in soles]:
+            raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(soles)}")
         if q is not None:
             self.show(q)
         support, ground_z = self._support_polygon(Kinematics(self.robot.model, self.q), feet)
