@@ -5,9 +5,8 @@
 >>> solver = wbik.solver("dls", robot, chain="arm")
 >>> result = solver.solve(robot.chain("arm").fk(robot.chain("arm").nominal))
 
-``wbik.solver(method, robot, chain=...)`` solves a chain target or a :class:`wbik.WholeBody` problem; every
-answer is an :class:`IKResult` judged by one shared check. ``wbik.register`` adds a method,
-``wbik.register_sampler`` a study case sampler (both reach a parallel study's workers).
+A solver solves a chain target or a :class:`wbik.WholeBody` problem; every :class:`IKResult` is judged by
+one shared check. ``wbik.register`` adds a method, ``wbik.register_sampler`` a study case sampler.
 """
 
 from wbik.catalog import install as _install_catalog

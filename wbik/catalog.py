@@ -1,7 +1,5 @@
-"""Everything wbik ships, named here: the modules declaring its robots, IK methods, case samplers, scenario
-kinds, study case kinds and task entry types, imported by name when a registry first needs them (the facade
-adds these sources on import, so the core never imports a robot package or an application).
-"""
+"""The modules declaring what wbik ships (robots, IK methods, case samplers, scenario kinds, study case
+kinds, task entry types), imported when a registry first needs them."""
 
 from __future__ import annotations
 
@@ -79,10 +77,9 @@ def task_entry_types() -> tuple[ModuleType, ...]:
 SHIPPED = {"robot": robots, "IK method": ik_methods, "whole-body case sampler": case_samplers,
            "scenario kind": scenario_kinds, "study case kind": study_case_kinds,
            "task entry type": task_entry_types}
-"""Each registry (by what its entries are) and the function naming wbik's modules for it."""
 
 
 def install() -> None:
-    """Add the shipped modules to the registries (the facade does, once)."""
+    """Add the shipped modules (``SHIPPED``: per registry, the function naming them) to the registries."""
     for what, source in SHIPPED.items():
         add_source(what, source)

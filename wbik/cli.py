@@ -1,7 +1,5 @@
-"""The ``wbik`` command: each subcommand is a module of :data:`SUBCOMMANDS` with ``HELP``, a docstring (its
-description), ``run(args) -> int``, optionally ``EPILOG`` and ``add_arguments(parser)``. Exit codes: 0 done,
-1 not solved, 2 bad input or usage (every :class:`wbik.errors.WbikError`), 3 internal error (a bug).
-"""
+"""The ``wbik`` command: each subcommand is a module of :data:`SUBCOMMANDS` with ``HELP``, a docstring,
+``run(args) -> int``, optionally ``EPILOG`` and ``add_arguments(parser)``."""
 
 from __future__ import annotations
 
@@ -22,12 +20,9 @@ import wbik.commands.tasks as tasks
 import wbik.commands.view as view
 from wbik.errors import WbikError
 
-SUBCOMMANDS = (robots, methods, fk, solve, study, view, run, tasks)
-"""The subcommands' modules in ``wbik --help``'s order."""
-
+SUBCOMMANDS = (robots, methods, fk, solve, study, view, run, tasks)  # in ``wbik --help``'s order
 EXIT_USAGE, EXIT_INTERNAL = 2, 3
-EXIT_BROKEN_PIPE = 141
-"""Standard output's reader went away (128 + SIGPIPE, what a shell reports)."""
+EXIT_BROKEN_PIPE = 141  # standard output's reader went away (128 + SIGPIPE)
 
 
 def checked_subcommand(module: ModuleType) -> ModuleType:

@@ -1,8 +1,5 @@
-"""Expectations of a scenario: figures judged against a task file's thresholds (SI units), each keyed by
-its name (``com_margin_min_m: 0.005``: the :class:`Rule` of the figure ``com_margin_m``, >= 0.005). A value
-is the threshold or ``{threshold, expected_to_fail, why}``: a known failure passes while the figure fails,
-and fails once it is met (a strict xfail).
-"""
+"""Figures judged against a task file's thresholds (``com_margin_min_m: 0.005``: ``com_margin_m`` >= 0.005).
+A value is the threshold or ``{threshold, expected_to_fail, why}`` (a strict xfail)."""
 
 from __future__ import annotations
 
@@ -92,9 +89,7 @@ def judge(entry: dict, expect: Mapping | None, figures: Mapping[str, object], ru
 
 
 def _value(value) -> str:
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    return str(value)
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
 def format_checks(checks: Iterable[dict], indent: str = "      ") -> list[str]:

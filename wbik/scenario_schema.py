@@ -1,8 +1,5 @@
-"""The schemas of scenario files (tasks/*.yaml): the nodes of robots, methods and QP backends, the keys
-the kinds share (one default each) and the check of a file, :func:`validate`, which returns a copy with
-every default filled in. A wrong value is a ``ScenarioValueError``, an unknown key an
-``UnknownScenarioKeyError``; an unknown robot or method, or a backend not installed, raises its own type.
-"""
+"""The schemas of scenario files: nodes of robots, methods and QP backends, the keys the kinds share and
+:func:`validate`, the check of a file (a copy with every default filled in)."""
 
 from __future__ import annotations
 
@@ -103,15 +100,13 @@ class Method(Text):
         return value
 
 
-COM_MARGIN = 0.005
-"""m, the default CoM margin inside the support polygon of every kind that keeps a robot balanced."""
+COM_MARGIN = 0.005  # m, the default CoM margin inside the support polygon
 
 START = Either(Text(("nominal",)), Vector())
 
 
 def urdf_robot_params() -> Map:
-    """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data (``URDF_PARAMS`` of
-    :func:`wbik.models.load`), ``chains`` made :class:`wbik.robot.ChainSpec`."""
+    """The ``robot_params`` of a robot loaded from a URDF path or example-robot-data."""
     chain = Map({"name": Key(Text(), required=True), "base": Key(FRAME, required=True),
                  "tip": Key(FRAME, required=True), "joints": Key(ListOf(Text(what="a joint name")), []),
                  "description": Key(Text(), "")})
@@ -131,8 +126,7 @@ def urdf_robot_params() -> Map:
 
 
 def check_robot_params(spec: dict, path: str, ctx: Context) -> None:
-    """``robot_params`` checked as the options of the robot's builder, or for a robot loaded from a URDF
-    path or example-robot-data against :func:`urdf_robot_params`."""
+    """``robot_params`` checked as the options of the robot's builder (or :func:`urdf_robot_params`)."""
     params, robot = spec.get("robot_params") or {}, spec.get("robot")
     if params and robot is not None:
         entry = robot_entries().get(robot)
@@ -163,8 +157,7 @@ def margin_key() -> Key:
 
 
 def soles_key() -> Key:
-    """``soles``: the feet of a robot loaded from a URDF path or example-robot-data (m, in the sole frame):
-    ``{frame, size: [length, width], centre}`` (a rectangle), ``{frame, corners}`` or ``{frame, point}``."""
+    """``soles`` of a URDF robot (m, sole frame): ``{frame, size: [l, w], centre}``, corners or point."""
 
     def one_shape(entry: dict, path: str, ctx: Context) -> None:
         shapes = [key for key in SOLE_SHAPES if key in entry]
@@ -182,13 +175,11 @@ def soles_key() -> Key:
     return Key(ListOf(sole, what="sole mappings {frame, size | corners | point}"), [])
 
 
-SOLE_SHAPES = ("size", "corners", "point")
-"""The keys of a ``soles`` entry that give its shape."""
+SOLE_SHAPES = ("size", "corners", "point")  # the keys of a ``soles`` entry that give its shape
 
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
-    """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points}); a frame given
-    twice, or soles given both ways, is refused."""
+    """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points})."""
     entries = spec.get("soles") or []
     if not entries:
         return

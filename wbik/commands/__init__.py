@@ -1,2 +1,1 @@
-"""The ``wbik`` command's subcommands, one module each (:mod:`wbik.cli` lists them), and the arguments
-several of them take (:mod:`wbik.commands.arguments`)."""
+"""The ``wbik`` command's subcommands, one module each (:mod:`wbik.cli` lists them)."""

@@ -6,8 +6,7 @@ import argparse
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
-    """ROBOT (a built-in name, ``example-robot-data:NAME`` or a URDF path) and the chain: ``--chain``
-    (default: the robot's only chain) or ``--base`` and ``--tip`` (the joints between them)."""
+    """ROBOT and its chain: ``--chain`` (default: the only one) or ``--base`` and ``--tip``."""
     parser.add_argument("robot", help="built-in robot name (see 'wbik robots'), example-robot-data:NAME "
                         "(e.g. example-robot-data:talos) or a URDF path")
     parser.add_argument("--chain", help="chain name (default: the robot's only chain)")
@@ -16,8 +15,7 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_robot_chain(args: argparse.Namespace):
-    """(robot, chain) named by ROBOT and ``--chain`` or ``--base``/``--tip``; UsageError for a half or
-    doubled chain choice."""
+    """(robot, chain) named by ROBOT and ``--chain`` or ``--base``/``--tip`` (else a UsageError)."""
     from wbik.errors import UsageError
     from wbik.models import load
 

@@ -67,8 +67,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def solver_family(solver, kind: str) -> str | None:
-    """Which closed form solves the chain, for a method that says: ``analytic``'s family of this target
-    kind (e.g. "ur_type", "bound:module:Class"), ``eaik``'s kinematic class; None for the others."""
+    """The closed form solving the chain (``analytic``'s family for this target kind, ``eaik``'s class)."""
     families = getattr(solver, "families", None)
     if isinstance(families, dict):
         return families.get(kind)

@@ -64,7 +64,9 @@ def check_output_folder(output: Path | None) -> None:
 def run(args: argparse.Namespace) -> int:
     from wbik.errors import UsageError
     from wbik.study import load_study, run_study
+    from wbik.study.compare import compare_runs, refusal_before_the_run, summary_lines
     from wbik.study.definition import with_overrides
+    from wbik.study.ownership import FolderLock
     from wbik.study.report import write_report
     from wbik.study.runner import default_output
 
@@ -83,16 +85,11 @@ def run(args: argparse.Namespace) -> int:
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
         budget_curve_poses=getattr(args, "budget_curves", None))
-    from wbik.study.ownership import FolderLock
-
-    if compare_to is not None:  # other settings or cases: nothing to compare, so nothing to run
-        from wbik.study.compare import refusal_before_the_run
-
-        differs = refusal_before_the_run(study, compare_to)
-        if differs:
-            print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",
-                             *(f"  {line}" for line in differs)]))
-            return EXIT_OTHER_TARGETS
+    # other settings or cases: nothing to compare, so nothing to run
+    if compare_to is not None and (differs := refusal_before_the_run(study, compare_to)):
+        print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",
+                         *(f"  {line}" for line in differs)]))
+        return EXIT_OTHER_TARGETS
     if args.report_only:
         output = args.output or default_output(study)
         check_output_folder(output)
@@ -107,8 +104,6 @@ def run(args: argparse.Namespace) -> int:
     if args.report_only or compare_to is not None:
         with FolderLock(output):  # not while a run is writing into it
             if compare_to is not None:
-                from wbik.study.compare import compare_runs
-
                 comparison = compare_runs(study, output, compare_to)
             markdown, html = write_report(study, output, comparison)
     else:
@@ -116,8 +111,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"report: {markdown}\n        {html}")
     if comparison is None:
         return 0
-    from wbik.study.compare import summary_lines
-
     print("\n".join(summary_lines(comparison)))
     if comparison.refused:
         return EXIT_OTHER_TARGETS

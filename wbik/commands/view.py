@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def revolute_mask(model) -> np.ndarray:
-    """True at the q indices of 1-DOF revolute joints (the ones --deg converts)."""
+    """True at the q indices of 1-DOF bounded revolute joints (the ones --deg converts)."""
     mask = np.zeros(model.nq, dtype=bool)
     mask[[joint.idx_q for joint in model.joints[1:] if joint.nq == 1
           and joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]] = True

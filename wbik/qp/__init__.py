@@ -4,13 +4,8 @@
 >>> solution = problem.solve(robot.nominal)        # iterate to convergence (IK)
 >>> dq = problem.step(q, dt=0.01)                   # or one QP step (control), v = dq / dt
 
-Against PlaCo (method ``placo``, the reference): contacts are equality rows of every step in both, ours
-add Newton projections, converge only with every contact within 1e-10 and verify the answer by FK; the
-CoM rows against the shrunk polygon get a few micrometres of safety and an FK check; priorities are strict
-levels (a QP each, keeping the levels above to 1e-10) besides weights, for equality and inequality tasks
-alike; a failure says what blocks the goals and which rows conflict; acceleration limits leave room to
-brake; the IK loop is a trust region with merit acceptance (PlaCo's solve() is one step). PlaCo's walk
-pattern generator stays the reference for gait.
+Priorities are strict levels (a QP each) besides weights; contacts are held by Newton projections and
+every answer is verified by FK.
 """
 
 from wbik.qp.backends import available as available_backends

@@ -1,9 +1,5 @@
-"""The robot packages shipped with wbik: per robot, ``model.py`` (``build(**params) -> Robot``, which
-writes or loads its URDF, and its collision primitives) and, where one exists, its closed-form binding
-(``closed_form.py``). The descriptions written for this project lie in the repository's ``urdf/``
-(:func:`wbik.data.description_file`). ``ROBOTS`` declares them to :mod:`wbik.models`, each with a
-function importing its model by name: a new robot package is one entry here.
-"""
+"""The robot packages shipped with wbik (per robot ``model.py`` with ``build(**params) -> Robot``), declared
+to :mod:`wbik.models` by ``ROBOTS``: a new robot package is one entry here."""
 
 from __future__ import annotations
 
@@ -12,37 +8,31 @@ from wbik.models import RobotEntry
 
 def _golem3():
     import wbik.robot_packages.golem3.model as model
-
     return model
 
 
 def _pincher():
     import wbik.robot_packages.pincher.model as model
-
     return model
 
 
 def _bioloid():
     import wbik.robot_packages.bioloid.model as model
-
     return model
 
 
 def _arm3r():
     import wbik.robot_packages.arm3r.model as model
-
     return model
 
 
 def _ur5():
     import wbik.robot_packages.ur5.model as model
-
     return model
 
 
 def _panda():
     import wbik.robot_packages.panda.model as model
-
     return model
 
 

@@ -1,10 +1,9 @@
-"""Scenario files: YAML (or JSON, TOML) a user runs with ``wbik run FILE``; each names its ``kind``
-(:mod:`wbik.scenarios.kinds`) and is checked against the kind's schema before anything runs.
-"""
+"""Scenario files (YAML, JSON or TOML) run with ``wbik run FILE``, checked against their kind's schema."""
 
 from __future__ import annotations
 
 import json
+import tomllib
 from pathlib import Path
 
 from wbik.files import atomic_write_text
@@ -46,8 +45,6 @@ def _read(path: Path):
         if suffix == ".json":
             return json.loads(text)
         if suffix == ".toml":
-            import tomllib
-
             return tomllib.loads(text)
         import yaml
 
@@ -57,8 +54,7 @@ def _read(path: Path):
 
 
 def load_scenario(path: str | Path) -> dict:
-    """A YAML/JSON/TOML scenario file's mapping (``name`` defaults to the file's stem), checked against its
-    kind's schema (errors name the file and the key)."""
+    """A scenario file's mapping (``name`` defaults to the file's stem), checked against its kind's schema."""
     path = Path(path)
     spec = _read(path)
     if spec is None:
@@ -76,8 +72,7 @@ def load_scenario(path: str | Path) -> dict:
 
 def run_scenario_report(scenario: str | Path | dict, output: str | Path | None = None,
                         source: str | None = None) -> ScenarioReport:
-    """Run a scenario (file or dict) checked against its kind's schema (``source`` names it in errors):
-    its :class:`ScenarioReport`; with ``output`` the JSON report is written after every phase."""
+    """The :class:`ScenarioReport` of a scenario (file or dict); ``output``: the JSON report, each phase."""
     from wbik.scenario_schema import validate
 
     if isinstance(scenario, dict):

@@ -1,8 +1,5 @@
-"""Scenario kinds: what a kind is (:class:`ScenarioKind`, declared next to its runner in its module's
-``SCENARIO_KINDS``), what its runner returns (:class:`ScenarioReport`), their registry and the errors of a
-scenario file. A runner ``run(spec, on_progress)`` gets the spec checked against the kind's schema and may
-call ``on_progress(report so far)`` after each phase.
-"""
+"""Scenario kinds (:class:`ScenarioKind`, declared in a module's ``SCENARIO_KINDS``), what a runner
+``run(checked spec, on_progress)`` returns (:class:`ScenarioReport`), their registry and the errors."""
 
 from __future__ import annotations
 
@@ -26,10 +23,7 @@ if TYPE_CHECKING:
     from wbik.schema import Map
     from wbik.viz.animation import Animation
 
-KIND_MODULES: list = []
-"""The registry's sources: wbik's own (:mod:`wbik.catalog`), user modules, entry points of
-``wbik.scenario_kinds``."""
-
+KIND_MODULES: list = []  # the registry's sources besides wbik.catalog and entry points
 VERDICTS = ("PASSED", "FAILED", "informational")
 
 
@@ -69,9 +63,8 @@ class ScenarioKindImportError(ScenarioKindError, RegistryImportError, MissingDep
 # -- the report ------------------------------------------------------------------------------------
 @dataclass
 class ScenarioReport:
-    """What a kind's runner returns: the ``figures`` it measured (JSON-friendly; each judged entry with its
-    ``expectations``), the ``verdict`` over them (PASSED, FAILED or informational: nothing judged) and the
-    ``animation`` ``wbik view`` plays (None: nothing to show)."""
+    """A runner's ``figures`` (JSON-friendly, judged entries with their ``expectations``), the ``verdict``
+    over them (PASSED, FAILED or informational) and the ``animation`` ``wbik view`` plays (or None)."""
 
     name: str
     kind: str
@@ -118,9 +111,7 @@ def report_verdict(report: dict | ScenarioReport) -> str:
     """PASSED / FAILED / informational of a report (a JSON report's ``passed`` false is FAILED)."""
     if isinstance(report, ScenarioReport):
         return report.verdict
-    if not report.get("passed"):
-        return "FAILED"
-    return report.get("verdict", "PASSED")
+    return report.get("verdict", "PASSED") if report.get("passed") else "FAILED"
 
 
 def json_default(value):
@@ -141,8 +132,7 @@ def robot_of(spec: dict) -> Robot:
 
 
 def start_of(spec: dict, owner) -> np.ndarray:
-    """The configuration a checked spec's ``start`` names: "nominal" (of ``owner``, a robot or a chain) or
-    as many finite numbers, else a ScenarioError."""
+    """A checked spec's ``start``: "nominal" (of ``owner``, a robot or a chain) or as many numbers."""
     start, nominal = spec["start"], owner.nominal
     if start == "nominal":
         return nominal.copy()
@@ -150,8 +140,8 @@ def start_of(spec: dict, owner) -> np.ndarray:
 
 
 class KindRun:
-    """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` it fills (after the
-    run-wide ``figures``) and the entries' animations, played ``pause`` s apart."""
+    """A runner's work in progress: the spec's robot, the report whose ``figures[key]`` it fills and the
+    entries' animations, played ``pause`` s apart."""
 
     def __init__(self, spec: dict, key: str, on_progress: Progress = None, pause: float = 0.5,
                  figures: dict | None = None):
@@ -186,8 +176,7 @@ def report_header(report: dict) -> str:
 
 
 def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> str:
-    """A printed report: the header, then per entry of ``report[key]`` ``[ok]``, ``[FAIL]`` or ``[info]``
-    ``NAME: describe(entry)`` and its checks."""
+    """The header, then per entry of ``report[key]``: ``[ok|FAIL|info] NAME: describe(entry)``, its checks."""
     lines = [report_header(report)]
     for entry in report.get(key, []):
         status = "info" if entry.get("verdict") == "informational" else ("ok" if entry["passed"] else "FAIL")
@@ -198,9 +187,8 @@ def format_entries(report: dict, key: str, describe: Callable[[dict], str]) -> s
 
 @dataclass(frozen=True)
 class ScenarioKind:
-    """A scenario kind: ``name`` (the files' ``kind:``), its runner, ``schema()`` building its
-    :class:`wbik.schema.Map` (once, on first use), ``format(JSON report) -> str`` for ``wbik run`` (default:
-    the header line) and a one-line ``summary``."""
+    """A scenario kind: ``name`` (the files' ``kind:``), its runner, ``schema()`` building its Map (once),
+    ``format(JSON report) -> str`` for ``wbik run`` (default: the header line) and a one-line ``summary``."""
 
     name: str
     run: Runner
@@ -233,8 +221,7 @@ KIND_REGISTRY: DeclaredRegistry[ScenarioKind] = DeclaredRegistry(
 )
 
 
-register_kind = KIND_REGISTRY.register
-"""Add a kind from user code (``replace`` an existing one of that name only when asked)."""
+register_kind = KIND_REGISTRY.register  # a kind from user code (``replace=True`` to replace one)
 
 
 def kind_names() -> list[str]:

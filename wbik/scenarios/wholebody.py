@@ -1,28 +1,7 @@
-"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer::
-
-    kind: wholebody_ik
-    robot: bioloid                 # a built-in name, example-robot-data:NAME or a .urdf path
-    soles: [{frame: FL_FOOT, point: [0, 0, 0]}]   # feet of a URDF robot: size (a rectangle), corners, point
-    backend: daqp                  # a QP backend (wbik.qp.backends), "fastest" or "default"
-    margin: 0.005                  # m, the phases' default CoM margin
-    methods: [qp, placo, pink, mink]   # optional: whole-body methods compared on every phase
-    collisions:                    # optional: avoid collisions (own pairs, the cell's obstacles, boxes)
-      boxes: [{name: shelf, size: [0.4, 0.3, 0.02], xyz: [0.6, 0.0, 0.8]}]   # m
-      safety_distance: 0.02        # m; pairs closer at the nominal pose are left out
-    phases:
-      - name: shift the CoM over the right foot
-        contacts: [r_sole, l_sole]  # frames held fixed (a point foot: its position only)
-        support: [r_sole, l_sole]   # soles of the support polygon (default: the contacts)
-        lock: [mb]                  # joints held at their value
-        acceleration_limit: 20      # rad/s^2, each IK step a period of dt (s)
-        tasks: [{type: com, over: r_sole, axes: xy}]   # entries of wbik.qp.task_entries
-        expect: {success: true}     # keys of PHASE_RULES (SI units)
-
-Every answer is judged by the shared check (:func:`wbik.solvers.check.check_problem`); by default a phase
-expects success, contacts held to 1e-6 m / rad, the CoM ``margin`` inside the support polygon, no joint
-beyond its limit and, with ``collisions``, every pair at least the safety distance apart (coal, by FK).
-``methods`` solves each phase as a :class:`wbik.wholebody.WholeBody` by each method from the same start:
-reported, not judged.
+"""Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer
+(keys: docs/formats/task-files.md). By default a phase expects success, contacts held to 1e-6 m / rad, the
+CoM ``margin`` inside the support polygon, no joint beyond its limit and, with ``collisions``, every pair
+at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged).
 """
 
 from __future__ import annotations
@@ -74,8 +53,7 @@ from wbik.schema import Anything, Boolean, Context, Either, Key, ListOf, Map, Nu
 from wbik.solvers.method_registry import method_factory, methods, solver
 from wbik.wholebody.problem import FRAMES, WholeBody
 
-CONTACT_TOLERANCE = 1e-6
-"""Contacts must hold to this (m for the position error, rad for the rotation error)."""
+CONTACT_TOLERANCE = 1e-6  # m for a contact's position error, rad for its rotation error
 
 PHASE_RULES = {
     "success": Rule("success", "=="),
@@ -84,8 +62,7 @@ PHASE_RULES = {
     "com_margin_min_m": Rule("com_margin_m", ">=", "m"),
     "limit_excess_max_rad": Rule("limit_excess_rad", "<=", "rad"),
     "collision_distance_min_m": Rule("collision_distance_m", ">=", "m"),
-}
-"""Expectations of a wholebody_ik phase (limit excess is in m for a prismatic joint)."""
+}  # (the limit excess of a prismatic joint is in m)
 
 
 # -- the schema ------------------------------------------------------------------------------------
@@ -176,8 +153,8 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 # -- the checks of one phase -----------------------------------------------------------------------
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
-    """The checks of a phase's answer from the shared check's measures (``solution``), each contact's drift
-    split in m and rad; with ``collisions`` (CollisionAvoidance) the closest pair at the answer."""
+    """The checks of a phase's answer (the shared check's ``solution``): contact drifts in m and rad, CoM,
+    limits and, with ``collisions`` (CollisionAvoidance), the closest pair."""
     robot, q = problem.robot, solution.q
     kinematics = Kinematics(robot.model, q)
     contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
@@ -309,19 +286,14 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
 
 def moved_frame(spec: dict) -> str | None:
     """The first frame a phase's frame or position task moves."""
-    for phase in spec.get("phases", []):
-        contacts = set(phase.get("contacts", []))
-        for task in phase.get("tasks", []):
-            frame = task.get("frame")
-            if task.get("type") in ("frame", "position") and frame and frame not in contacts \
-                    and not task.get("keep"):
-                return frame
-    return None
+    return next((task["frame"] for phase in spec.get("phases", []) for task in phase.get("tasks", [])
+                 if task.get("type") in ("frame", "position") and task.get("frame")
+                 and task["frame"] not in phase.get("contacts", []) and not task.get("keep")), None)
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, with its support and contacts; a phase continued from
-    elsewhere (``continue_from: start``) is preceded by the way back there, on the previous stance."""
+    """From the start through each phase's answer, with its support and contacts (and the way back to
+    where a ``continue_from: start`` phase begins)."""
     from wbik.viz.animation import Animation
     from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
@@ -341,7 +313,7 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
 
 
 def format_method(label: str, figures: dict) -> str:
-    """One compared method's lines: its verdict and figures, why it failed, what it could not express."""
+    """A compared method's verdict and figures, why it failed, what it could not express."""
     margin = figures["com_margin"]
     margin_text = "no support" if margin is None or margin != margin else f"CoM margin {margin * 1e3:.1f} mm"
     lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "

@@ -1,7 +1,5 @@
-"""``Animation``: what a scenario runner hands to the viewer: its robot, sample times (s; one sample is a
-still picture), the full configuration at each, :class:`Overlays` and the scene's fixed boxes. three.js
-interpolates between samples, so a runner gives its knots, not a dense grid.
-"""
+"""``Animation``: what a scenario runner hands to the viewer: sample times (s; one sample: a still), the
+full configuration at each, :class:`Overlays` and fixed boxes (three.js interpolates: give knots)."""
 
 from __future__ import annotations
 
@@ -30,9 +28,8 @@ def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
 
 @dataclass(frozen=True)
 class Overlays:
-    """What is drawn with the robot: ``trace_frame``'s path; per sample the soles on the ground (``support``:
-    the CoM, its ground projection, their polygon), the frames in ``contacts`` and the ``zmp`` (K, 3; world,
-    m; NaN rows for none)."""
+    """Drawn with the robot: ``trace_frame``'s path; per sample the soles down (``support``: with the CoM),
+    the frames in ``contacts`` and the ``zmp`` (K, 3; world, m; NaN rows for none)."""
 
     trace_frame: str | None = None
     support: tuple[Feet, ...] | None = None
@@ -42,8 +39,7 @@ class Overlays:
 
 @dataclass(frozen=True)
 class Animation:
-    """Full configurations of ``robot`` at ``times`` (s), with :class:`Overlays` and the scene's fixed
-    boxes (``environment``)."""
+    """Full configurations of ``robot`` at ``times`` (s), :class:`Overlays` and fixed boxes."""
 
     robot: object
     times: np.ndarray
@@ -110,9 +106,8 @@ class Animation:
                        seconds: float = 1.0, samples: int = 30, support: Sequence[Feet] | None = None,
                        contacts: Sequence[Feet] | None = None, trace_frame: str | None = None,
                        name: str = "") -> Animation:
-        """From ``start`` through each keyframe, ``seconds`` and ``samples`` samples each, interpolated on the
-        configuration manifold; ``support`` / ``contacts``: one entry per keyframe (the start takes the
-        first's)."""
+        """From ``start`` through each keyframe (``seconds``, ``samples`` samples each, on the configuration
+        manifold); ``support`` / ``contacts``: one entry per keyframe (the start takes the first's)."""
         if samples < 1 or not seconds > 0:
             raise InvalidConfigurationError(f"keyframe animation needs samples >= 1 and seconds > 0, "
                                             f"got {samples} and {seconds}")
@@ -147,23 +142,20 @@ class Animation:
             raise InvalidConfigurationError(f"pause between animations must be > 0 s, got {pause}")
         times = np.concatenate([self.times, other.times - other.times[0] + self.times[-1] + pause])
 
-        def joined(a, b, count_a, count_b):
-            if a is None and b is None:
+        def joined(overlay: str):  # both parts; where one has none: no feet, NaN ZMP rows
+            parts = [(getattr(part.overlays, overlay), part.frames) for part in (self, other)]
+            if all(value is None for value, _ in parts):
                 return None
-            return (a or ((),) * count_a) + (b or ((),) * count_b)
+            if overlay == "zmp":
+                return np.vstack([np.full((n, 3), np.nan) if value is None else value for value, n in parts])
+            return sum((((),) * n if value is None else value for value, n in parts), ())
 
-        mine, theirs = self.overlays, other.overlays
-        zmp = None
-        if mine.zmp is not None or theirs.zmp is not None:
-            zmp = np.vstack([mine.zmp if mine.zmp is not None else np.full((self.frames, 3), np.nan),
-                             theirs.zmp if theirs.zmp is not None else np.full((other.frames, 3), np.nan)])
-        overlays = Overlays(mine.trace_frame or theirs.trace_frame,
-                            joined(mine.support, theirs.support, self.frames, other.frames),
-                            joined(mine.contacts, theirs.contacts, self.frames, other.frames), zmp)
+        overlays = Overlays(self.overlays.trace_frame or other.overlays.trace_frame, joined("support"),
+                            joined("contacts"), joined("zmp"))
+        rows = np.vstack([self.configurations, other.configurations])
         name = " + ".join(n for n in (self.name, other.name) if n)
-        boxes = {box.name: box for box in (*self.environment, *other.environment)}
-        return Animation(self.robot, times, np.vstack([self.configurations, other.configurations]),
-                         overlays, name, tuple(boxes.values()))
+        both = replace(self, times=times, configurations=rows, overlays=overlays, name=name)
+        return both.with_environment(other.environment)
 
     def subsampled(self, every: int) -> Animation:
         """Every ``every``-th sample (the last one kept)."""

@@ -1,6 +1,5 @@
-"""Render an exported page (``Viewer.export_html``) with headless Chromium, driven from its command line
-(software WebGL, no network, a throw-away profile): a screenshot and the console messages, where the page
-logs ``scene.READY_MESSAGE`` once built and ``scene.ERROR_MESSAGE`` for any uncaught error."""
+"""Render an exported page with headless Chromium (software WebGL, no network, a throw-away profile): a
+screenshot and the console messages."""
 
 from __future__ import annotations
 
@@ -58,8 +57,7 @@ def find_chromium() -> str:
 
 def render(page: str | Path, screenshot: str | Path, width: int = 1000, height: int = 750,
            wait_ms: int = 4000, timeout_s: float = 90.0) -> RenderResult:
-    """Open ``page`` (a local HTML file) in headless Chromium and save a PNG screenshot after ``wait_ms``
-    of virtual time (to load meshes, start an animation)."""
+    """Screenshot a local HTML ``page`` (PNG) after ``wait_ms`` of virtual time in headless Chromium."""
     executable = find_chromium()
     page = Path(page).resolve()
     screenshot = Path(screenshot).resolve()

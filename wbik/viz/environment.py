@@ -1,7 +1,5 @@
-"""What stands around a robot in a scene: boxes fixed in the world (a staircase's steps, a table, a
-workpiece), by name: an animation's (:attr:`wbik.viz.animation.Animation.environment`) and those of the
-robot's cell (:func:`robot_cell`); a scenario's box replaces a cell's of the same name.
-"""
+"""Boxes fixed in the world around a robot (a staircase's steps, a table, a workpiece), by name: an
+animation's and those of the robot's cell (:func:`robot_cell`)."""
 
 from __future__ import annotations
 
@@ -17,8 +15,7 @@ from wbik.models import robot_entries
 FLOOR_COLOR = 0x8C8C8C  # grey: steps, floors
 TABLE_COLOR = 0xA0764A  # wood brown
 PART_COLOR = 0x5B7DB1  # steel blue: workpieces
-STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)
-"""Wood browns for a staircase's steps, the lowest first (tests look for their hue)."""
+STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)  # wood browns, the lowest step first
 
 
 @dataclass(frozen=True)
@@ -68,8 +65,7 @@ class SceneBox:
 
 
 def robot_cell(robot) -> tuple[SceneBox, ...]:
-    """The fixed obstacles the robot's package declares for its cell (``collision_obstacles()``, e.g. the
-    UR5's table), as boxes."""
+    """The obstacles of the robot's cell (its package's ``collision_obstacles()``) as boxes."""
     entry = robot_entries().get(getattr(robot, "name", ""))
     obstacles = None if entry is None else getattr(entry.module(), "collision_obstacles", None)
     if obstacles is None:

@@ -1,7 +1,5 @@
-"""What a robot looks like: its URDF visuals, or sticks built from its kinematics (robots from DH tables
-have no visuals): a cylinder from each joint or fixed frame's parent to it and a sphere at each joint, the
-radius ``STICK_RADIUS_RATIO`` times the robot's reach.
-"""
+"""What a robot looks like: its URDF visuals, or sticks from its kinematics (cylinders between frames,
+spheres at the joints, radius ``STICK_RADIUS_RATIO`` times the robot's reach)."""
 
 from __future__ import annotations
 
@@ -12,8 +10,7 @@ import pinocchio as pin
 
 from wbik.robot import Robot
 
-STICK_COLOR = np.array([0.91, 0.45, 0.10, 1.0])
-"""Orange, RGBA in [0, 1]; the browser test looks for this colour."""
+STICK_COLOR = np.array([0.91, 0.45, 0.10, 1.0])  # orange, RGBA in [0, 1]
 JOINT_COLOR = np.array([0.20, 0.25, 0.35, 1.0])
 STICK_RADIUS_RATIO = 0.02
 MINIMUM_SEGMENT = 1e-6
@@ -29,8 +26,7 @@ def robot_extent(robot: Robot, q: np.ndarray | None = None) -> float:
 
 
 def visual_model(robot: Robot, style: str = "auto") -> tuple[pin.GeometryModel, str]:
-    """The geometry to draw and its style: ``"visual"`` (URDF) or ``"stick"``; ``"auto"`` takes the URDF
-    visuals when the robot has loadable ones."""
+    """The geometry to draw and its style, ``"visual"`` (URDF) or ``"stick"`` (``"auto"``: visual if any)."""
     if style not in ("auto", "visual", "stick"):
         raise ValueError(f"style must be 'auto', 'visual' or 'stick', got {style!r}")
     if style in ("auto", "visual"):

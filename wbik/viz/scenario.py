@@ -1,5 +1,4 @@
-"""Playing a scenario file (tasks/*.yaml) in the viewer, ``wbik view TASKFILE``: its runner's report
-carries the animation (:class:`wbik.viz.animation.Animation`), one path for every kind."""
+"""Playing a scenario file in the viewer (``wbik view TASKFILE``): its report carries the animation."""
 
 from __future__ import annotations
 
@@ -12,8 +11,7 @@ SAMPLES_PER_PHASE = 30
 
 
 def scenario_animation(path: str | Path, spec: dict | None = None):
-    """Run the scenario in ``path`` (or the already loaded ``spec``, ``path`` naming it in errors):
-    (its :class:`wbik.scenarios.ScenarioReport`, the animation to play)."""
+    """(report, animation) of the scenario in ``path`` (or of the loaded ``spec`` ``path`` names)."""
     from wbik.scenarios import run_scenario_report
 
     report = run_scenario_report(Path(path) if spec is None else spec, source=str(path))

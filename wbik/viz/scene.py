@@ -1,6 +1,4 @@
-"""A meshcat scene kept in this process (the latest state of each node, as the server keeps it), and its
-export to one HTML page inlining meshcat's viewer and the commands: it opens offline and in an ``iframe``.
-"""
+"""A meshcat scene kept in this process (each node's latest state) and its export to one offline HTML page."""
 
 from __future__ import annotations
 
@@ -54,12 +52,10 @@ class SceneRecorder:
         if kind == "set_object":
             node = self.node(path)
             node.object, node.properties = packed, []
-        elif kind == "set_transform":
-            self.node(path).transform = packed
+        elif kind in ("set_transform", "set_animation"):  # the node's transform or animation
+            setattr(self.node(path), kind.removeprefix("set_"), packed)
         elif kind == "set_property":
             self.node(path).properties.append(packed)
-        elif kind == "set_animation":
-            self.node(path).animation = packed
         elif kind == "delete":
             parts = _split(path)
             if not parts:

@@ -1,13 +1,11 @@
 """``Viewer``: a robot in meshcat, with frames, IK targets, CoM and support polygon, animations.
-
 >>> viewer = Viewer("ur5")                 # no server: the scene is kept in this process
 >>> viewer.show(q)                         # full configuration, or one chain's joint values
 >>> viewer.show_target(target, chain="arm")
 >>> viewer.animate(times, qs, trace_frame="tcp")
 >>> viewer.export_html("ur5.html")         # self-contained page, opens offline
 
-``Viewer(robot, server=True)`` also serves meshcat on localhost (``viewer.url``; ``close()`` or a ``with``
-block stops it); in a notebook the viewer shows itself inline.
+``Viewer(robot, server=True)`` also serves meshcat on localhost (``viewer.url``; ``close()`` stops it).
 """
 
 from __future__ import annotations
@@ -66,9 +64,7 @@ class AnimationView:
 
 def _translation(position) -> np.ndarray:
     """The 4 x 4 pose of a translation (world, m)."""
-    pose = np.eye(4)
-    pose[:3, 3] = position
-    return pose
+    return pin.SE3(np.eye(3), np.asarray(position, dtype=float)).homogeneous
 
 
 def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
@@ -126,9 +122,7 @@ class Viewer:
 
     # -- configurations ---------------------------------------------------------------------------
     def _chain(self, chain: Chain | str | None) -> Chain | None:
-        if chain is None or isinstance(chain, Chain):
-            return chain
-        return self.robot.chain(chain)
+        return chain if chain is None or isinstance(chain, Chain) else self.robot.chain(chain)
 
     def full_configuration(self, q: Sequence[float] | None, chain: Chain | str | None = None) -> np.ndarray:
         """Full q from a full configuration or from one chain's joint values (others as shown now)."""
@@ -218,17 +212,15 @@ class Viewer:
         """Three cylinders along the frame's x (red), y (green), z (blue) axes."""
         import meshcat.geometry as mg
 
-        radius = 0.06 * scale
-        # meshcat cylinders run along their local y axis; rotate it onto each frame axis
-        to_axis = {"x": pin.rpy.rpyToMatrix(0.0, 0.0, -np.pi / 2), "y": np.eye(3),
-                   "z": pin.rpy.rpyToMatrix(np.pi / 2, 0.0, 0.0)}
-        colors = {"x": 0xDD2222, "y": 0x22BB22, "z": 0x2244DD}
         node = self.meshcat[path]
-        for index, axis in enumerate("xyz"):
+        # meshcat cylinders run along their local y axis; rotate it onto each frame axis
+        for index, (axis, rotation, color) in enumerate((("x", (0.0, 0.0, -np.pi / 2), 0xDD2222),
+                                                         ("y", (0.0, 0.0, 0.0), 0x22BB22),
+                                                         ("z", (np.pi / 2, 0.0, 0.0), 0x2244DD))):
             transform = np.eye(4)
-            transform[:3, :3] = to_axis[axis]
+            transform[:3, :3] = pin.rpy.rpyToMatrix(*rotation)
             transform[index, 3] = 0.5 * scale
-            node[axis].set_object(mg.Cylinder(scale, radius), mg.MeshLambertMaterial(color=colors[axis]))
+            node[axis].set_object(mg.Cylinder(scale, 0.06 * scale), mg.MeshLambertMaterial(color=color))
             node[axis].set_transform(transform)
         node.set_transform(placement.homogeneous)
 
@@ -275,8 +267,7 @@ class Viewer:
 
     def show_target(self, target, chain: Chain | str | None = None, name: str = "target",
                     color: int = TARGET_COLOR) -> pin.SE3:
-        """An IK target (in the chain's base frame with ``chain``): a sphere, with axes for a pose; its world
-        pose."""
+        """An IK target (in ``chain``'s base frame): a sphere, with axes for a pose; its world pose."""
         target = as_target(target)
         placement = target.se3()
         chain = self._chain(chain)
@@ -303,15 +294,13 @@ class Viewer:
     def show_com_and_polygon(self, q: Sequence[float] | None = None,
                              feet: Sequence[str] | None = None) -> SupportView:
         """The CoM, its ground projection and the support polygon of ``feet`` (green: the CoM inside)."""
-        corners_by_sole = self.robot.soles
-        if not corners_by_sole:
-            raise UnsupportedError(
-                f"{self.robot.name} declares no sole rectangles (robot.soles); "
-                "a support polygon needs feet: try the bioloid")
-        feet = list(corners_by_sole) if feet is None else list(feet)
-        unknown = [foot for foot in feet if foot not in corners_by_sole]
-        if unknown:
-            raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(corners_by_sole)}")
+        soles = self.robot.soles
+        if not soles:
+            raise UnsupportedError(f"{self.robot.name} declares no sole rectangles (robot.soles); "
+                                   "a support polygon needs feet: try the bioloid")
+        feet = list(soles) if feet is None else list(feet)
+        if unknown := [foot for foot in feet if foot not in soles]:
+            raise UnsupportedError(f"no sole rectangle for {unknown}; known soles: {list(soles)}")
         if q is not None:
             self.show(q)
         support, ground_z = self._support_polygon(Kinematics(self.robot.model, self.q), feet)
@@ -395,23 +384,21 @@ class Viewer:
             raise InvalidConfigurationError(
                 f"the animation is of {animation.robot.name} (nq = {animation.robot.model.nq}); this "
                 f"viewer shows {self.robot.name} (nq = {self.robot.model.nq})")
-        rows = list(animation.configurations)
-        overlays = animation.overlays
-        still = animation.frames == 1
-        times = animation.times if not still else np.array([0.0, 1.0 / fps])
-        if still:
-            rows = rows * 2
+        overlays, still = animation.overlays, animation.frames == 1
+        repeat = 2 if still else 1  # a still picture: two equal samples
+        rows = list(animation.configurations) * repeat
+        times = np.array([0.0, 1.0 / fps]) if still else animation.times
         clip, keys, trace = self._robot_keyframes(times, rows, overlays.trace_frame, fps)
         self.show_environment(animation.environment)
         self.place_grid(self.ground_height(rows[0]))
         self._camera_keyframes(clip, keys, rows, times)
         if overlays.zmp is not None:
-            self._zmp_keyframes(clip, keys, overlays.zmp if not still else np.vstack([overlays.zmp] * 2))
+            self._zmp_keyframes(clip, keys, np.vstack([overlays.zmp] * repeat))
         margins = None
         if overlays.support is not None and self.robot.soles:
-            margins = self._support_keyframes(clip, keys, rows, overlays.support * (2 if still else 1))
+            margins = self._support_keyframes(clip, keys, rows, overlays.support * repeat)
         if overlays.contacts is not None:
-            self._contact_keyframes(clip, keys, rows, overlays.contacts * (2 if still else 1))
+            self._contact_keyframes(clip, keys, rows, overlays.contacts * repeat)
         self.show(rows[0])
         self.meshcat.set_animation(clip, play=play and not still, repetitions=repetitions)
         return AnimationView(animation.frames, trace, margins)
@@ -445,8 +432,7 @@ class Viewer:
 
     def _support_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:
-        """CoM, its ground projection and one support polygon per stretch on the same soles; the CoM margins
-        (m, NaN in the air)."""
+        """CoM, its ground point and a polygon per stretch on the same soles; CoM margins (m, NaN: in air)."""
         kinematics = Kinematics(self.robot.model)
         path = f"{ROOT}/support"
         self.meshcat[path].delete()
@@ -481,12 +467,10 @@ class Viewer:
             self._visibility(clip, node, keys, [s == index for s in stretch_of])
         grounded = [[com[0], com[1], ground_z] for com, ground_z in zip(coms, grounds, strict=True)]
         self._track(clip, keys, f"{path}/com", coms)
-        self._track(clip, keys, f"{path}/com_ground_inside", grounded)
-        self._track(clip, keys, f"{path}/com_ground_outside", grounded)
-        self.meshcat[f"{path}/com_ground_inside"].set_property("visible", inside[0])
-        self.meshcat[f"{path}/com_ground_outside"].set_property("visible", not inside[0])
-        self._visibility(clip, f"{path}/com_ground_inside", keys, inside)
-        self._visibility(clip, f"{path}/com_ground_outside", keys, [not v for v in inside])
+        for name, shown in (("com_ground_inside", inside), ("com_ground_outside", [not v for v in inside])):
+            self._track(clip, keys, f"{path}/{name}", grounded)
+            self.meshcat[f"{path}/{name}"].set_property("visible", shown[0])
+            self._visibility(clip, f"{path}/{name}", keys, shown)
         return margins
 
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
@@ -522,9 +506,8 @@ class Viewer:
                 "('positions', 'qs' or 'q')")
         rows = np.asarray(rows, dtype=float)
         chain = getattr(trajectory, "chain", None)
-        if rows.ndim != 2 or rows.shape[1] == self.robot.model.nq:
-            chain = None
-        elif isinstance(chain, str) and chain not in self.robot.chains:
+        if rows.ndim != 2 or rows.shape[1] == self.robot.model.nq or (isinstance(chain, str)
+                                                                     and chain not in self.robot.chains):
             chain = None
         trace = trace_frame if trace_frame is not None else getattr(trajectory, "tip_frame", None)
         return self.animate(times, rows, chain=chain, trace_frame=trace, fps=fps, repetitions=repetitions)
