@@ -25,6 +25,7 @@ NAME = "user_dls_in_workers"
 
 STUDY = f"""
 name: registered
+figures: false
 robot: arm3r
 chain: arm
 target: position
@@ -70,6 +71,7 @@ METHOD = "user_qp_in_workers"
 
 WHOLEBODY_STUDY = f"""
 name: registered_wholebody
+figures: false
 seed: 5
 poses: 12
 chunk_size: 3

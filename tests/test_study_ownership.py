@@ -20,6 +20,7 @@ WBIK = str(Path(sys.executable).with_name("wbik"))
 
 STUDY = """
 name: ownership
+figures: false
 robot: golem3
 chain: right_arm
 target: pose

@@ -92,6 +92,26 @@ def test_files_appear(serial_run):
     assert "src='http" not in html and 'src="http' not in html
 
 
+def test_a_report_without_figures_has_the_same_tables(serial_run, tmp_path):
+    """``--no-figures``: the report's tables, no figure drawn or embedded; the rows and summaries the same
+    (a copy of the run, its report rebuilt from its rows)."""
+    import shutil
+
+    copy = tmp_path / "out"
+    shutil.copytree(serial_run, copy)
+    shutil.rmtree(copy / "ur5_arm_pose" / "figures")
+    shutil.rmtree(copy / "arm3r_arm_position" / "figures")
+    study_file = _write(tmp_path, STUDY)
+    assert main(["study", str(study_file), "-o", str(copy), "--report-only", "--no-figures"]) == 0
+    html = (copy / "report.html").read_text()
+    assert "data:image/png" not in html and "figures/" not in (copy / "report.md").read_text()
+    for case in ("ur5_arm_pose", "arm3r_arm_position"):
+        assert not (copy / case / "figures").exists()
+        for name in ("raw.csv", "summary.csv"):
+            assert (copy / case / name).read_bytes() == (serial_run / case / name).read_bytes(), (case, name)
+    assert "## Case ur5_arm_pose" in (copy / "report.md").read_text()
+
+
 def test_the_run_records_what_made_its_rows(serial_run):
     """provenance.json: the version, the commit, the machine, the command and the code fingerprint of the
     study's code as computed from the source; the report's head says them."""

@@ -98,7 +98,7 @@ def test_chains_without_a_proof_of_the_second_source_draw_outside_the_reach():
 
 def test_our_methods_report_no_false_success_and_the_report_says_why_they_refused(tmp_path):
     study = study_from_dict({
-        "name": "unreachable", "seed": 3, "poses": 10, "chunk_size": 5, "timeout_s": 0.005,
+        "name": "unreachable", "seed": 3, "poses": 10, "chunk_size": 5, "timeout_s": 0.005, "figures": False,
         "cases": [{"robot": "golem3", "chain": "right_arm",
                    "targets": {"set": "unreachable", "beyond_limits": 0.6}}],
         "methods": list(OURS)}, source="t.yaml")

@@ -46,6 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--budget-curves", type=int, metavar="POSES",
                         help="success-versus-budget curves on this many poses per case (0: none; "
                              "default: the study file's budget_curves:)")
+    parser.add_argument("--no-figures", action="store_true",
+                        help="write the report's tables without its figures (quicker; the rows are the same)")
     parser.add_argument("--compare-to", type=Path, metavar="OLD",
                         help="compare with the output folder of an earlier run of the study on the same "
                              "targets; exit 1 when a method regressed (the study file's regression: rule), "
@@ -84,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
     study = with_overrides(load_study(args.file),
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
-        budget_curve_poses=getattr(args, "budget_curves", None))
+        budget_curve_poses=getattr(args, "budget_curves", None),
+        figures=False if getattr(args, "no_figures", False) else None)
     # other settings or cases: nothing to compare, so nothing to run
     if compare_to is not None and (differs := refusal_before_the_run(study, compare_to)):
         print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",

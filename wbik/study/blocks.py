@@ -111,7 +111,7 @@ def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, ro
     budget_kinds = {label: budget_kind(kind, study.method(label), study.timeout_of(study.method(label)))
                     for label in rows_by_method}
     images = case_figures(rows_by_method, summaries, title, directory / "figures", axes, angles, curves,
-                          budget_kinds)
+                          budget_kinds) if study.figures else {}
     return {"case": case, "rows": rows_by_method, "not_applicable": not_applicable, "summaries": summaries,
             "tests": tests, "baseline": baseline, "axes": axes, "images": images, "curves": curves,
             "budget_kinds": budget_kinds}
@@ -191,8 +191,8 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
             summary_table(summaries, [(THROUGHPUT, "throughput_poses_per_s"),
                                       ("% solved (solve_many)", "throughput_percent_solved"),
                                       ("disagree", "throughput_disagreements")]),
-            Block("image", "Throughput of batched methods (poses/s, solve_many over the case)",
-                  path=analysis["images"]["throughput"])]
+            *image_blocks(analysis["images"], {
+                "throughput": "Throughput of batched methods (poses/s, solve_many over the case)"})]
 
 
 def budget_blocks(study: Study, analysis: dict) -> list[Block]:
@@ -220,7 +220,7 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
                        "(timeout_s and max_iterations)."),
             Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in budgets), "re-run"],
                   rows=rows),
-            Block("image", "Success versus budget (95 % bands)", path=analysis["images"]["budget"])]
+            *image_blocks(analysis["images"], {"budget": "Success versus budget (95 % bands)"})]
 
 
 SOLVED_COLUMNS = [("solved", lambda s: f"{s['solved']}/{s['poses']}"), ("% solved", "percent_solved"),

@@ -66,7 +66,8 @@ _LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 def with_overrides(study: Study, *, poses: int | None = None, methods: list[str] | None = None,
                    robot: str | None = None, chain: str | None = None,
                    chunk_size: int | None = None, seed: int | None = None,
-                   name: str | None = None, budget_curve_poses: int | None = None) -> Study:
+                   name: str | None = None, budget_curve_poses: int | None = None,
+                   figures: bool | None = None) -> Study:
     """A copy of ``study`` with command-line overrides applied (and validated)."""
     cli = Context("command line", STUDY_ERRORS)
     if methods:
@@ -105,6 +106,8 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
             raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
                                        f"(0: none), got {budget_curve_poses!r}")
         study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
+    if figures is not None:
+        study = replace(study, figures=bool(figures))
     return study
 
 
@@ -157,7 +160,8 @@ def study_from_dict(data, source: str = "study") -> Study:
                  seed=checked["seed"], timeout_s=checked["timeout_s"], tolerances=checked["tolerances"],
                  start=checked["start"], baseline=baseline, chunk_size=checked["chunk_size"],
                  budget_curves=_budget_curves(checked["budget_curves"]),
-                 regression=regression_rule(checked["regression"]), description=checked["description"] or "",
+                 regression=regression_rule(checked["regression"]), figures=checked["figures"],
+                 description=checked["description"] or "",
                  notes=checked["notes"] or "", source=source)
 
 
@@ -217,6 +221,7 @@ def study_schema() -> Map:
                                     what="true, false or {poses: 100, budgets_ms: [0.2, 1, 5, 20]}"), None,
                              doc="success versus budget"),
         "regression": Key(regression_schema(), {}, doc="the rule of wbik study --compare-to"),
+        "figures": Key(Boolean(), True, doc="the report's figures (false: tables only, quicker)"),
         **{key: Key(Anything("one case's key (see a case)"), doc="a single-case study's case key")
            for key in sorted(_case_keys() - {"name", "poses"})},
     }

@@ -290,7 +290,7 @@ class PathTargets(ChainTargets):
         write_case_tables(directory, summaries, [])
         form = closed_form_of(chain)
         images = {}
-        if rows_by_method:
+        if rows_by_method and study.figures:
             title = f"{case.robot}.{chain.name} ({self.sampling_text(case)})"
             images["paths"] = path_figure(rows_by_method, title, directory / "figures" / "paths.png")
         return {"case": case, "chain": chain, "rows": rows_by_method, "not_applicable": not_applicable,

@@ -80,6 +80,7 @@ class Study:
     chunk_size: int = 100
     budget_curves: BudgetCurveSpec = field(default_factory=BudgetCurveSpec)
     regression: RegressionRule = field(default_factory=RegressionRule)
+    figures: bool = True  # the report's PNG figures (a CI gate may leave them out: the rows are the same)
     description: str = ""
     notes: str = ""
     source: str = ""  # the file it came from (not part of the fingerprint)
@@ -110,10 +111,10 @@ class Study:
     def row_settings(self) -> dict:
         """What every method's results depend on: cases (a case's unset keys left out), poses, seed, start,
         chunking, tolerances and the reference's angle columns as ``angle_names`` (not the methods, texts,
-        reference figures, peers, budget curves or regression rule)."""
+        reference figures, peers, budget curves, regression rule or figures)."""
         data = self.as_dict()
         for key in ("description", "notes", "methods", "baseline", "timeout_s", "budget_curves",
-                    "regression"):
+                    "regression", "figures"):
             data.pop(key)
         for spec, case in zip(self.cases, data["cases"], strict=True):
             case.pop("reference")

@@ -156,6 +156,7 @@ class TargetSetKind(ChainTargets):
             analysis["coverage"] = {label: coverage_summary(rows) for label, rows in analysis["rows"].items()
                                     if "start_distance" in rows}
             write_table(directory / "coverage.csv", analysis["coverage"])
+        if self.reachable and analysis["rows"] and study.figures:
             analysis["images"]["start_distance"] = distance_histogram(
                 analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
                 directory / "figures" / "start_distance.png")

@@ -222,7 +222,7 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         title = f"{case.robot} {case.scenario}"
         analysis = case_analysis(self, study, case, output, rows_by_method, not_applicable, summaries, title,
                                  self.axes(), more_tests=lambda label: com_margin_test(label, rows_by_method))
-        if any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
+        if study.figures and any(np.isfinite(rows["com_margin"]).any() for rows in rows_by_method.values()):
             analysis["images"]["com_margin"] = com_margin_boxplots(rows_by_method, margin, title,
                                                                    directory / "figures" / "com_margin.png")
         return {**analysis, "margin": margin, "robot": robot}
