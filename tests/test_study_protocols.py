@@ -125,7 +125,7 @@ def test_the_presets_load_as_their_protocols_say():
 
 @pytest.mark.parametrize("name", ["tracik_protocol", "curobo_thresholds"])
 def test_the_presets_run_at_a_few_poses(name, tmp_path):
-    study = with_overrides(load_study(f"comparisons/{name}.yaml"), poses=4)
+    study = with_overrides(load_study(f"comparisons/{name}.yaml"), poses=4, figures=False)
     output = run_study(study, tmp_path / name, jobs=2, backend="loky", progress=False,
                        log=lambda message: None)
     report = (output / "report.md").read_text()
