@@ -12,12 +12,13 @@ from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
 from wbik.robot_packages.pincher.closed_form import (
+    PINCHER,
     arm_plane_branches,
     pose_from_position_pitch,
     position_pitch_branches,
-    tool_fk,
 )
 from wbik.solvers.analytic.closed_form import wrap_into_limits
+from wbik.solvers.analytic.yaw_planar import pitch_arm_fk
 
 ROUND_TRIP_POSES = 10_000
 
@@ -41,7 +42,7 @@ def test_seed_example_position_and_pitch():
     assert valid.all()
     np.testing.assert_allclose(np.degrees(branches[0, 0]), [53.1301, 81.0504, 28.7724, -79.8228], atol=1e-4)
     # every branch (both elbows, both shoulder sides) reaches the point with the seed's tool pitch
-    positions, rotations = tool_fk(branches[0])
+    positions, rotations = pitch_arm_fk(PINCHER, branches[0])
     np.testing.assert_allclose(positions, np.tile([0.150, 0.200, 0.200], (4, 1)), atol=1e-12)
     np.testing.assert_allclose(np.degrees(np.arcsin(rotations[:, 2, 2])), 60.0, atol=1e-9)
 
@@ -58,7 +59,7 @@ def test_seed_example_through_the_solver(solver):
 def test_seed_fk_check_closed_form_and_round_trip(solver):
     """pincher.md: q = [15, 30, 45, 60] deg gives p = [213.5636, 57.2242, 187.9335] mm and this R."""
     q = np.radians([15.0, 30.0, 45.0, 60.0])
-    position, rotation = tool_fk(q)
+    position, rotation = pitch_arm_fk(PINCHER, q)
     np.testing.assert_allclose(position * 1000.0, [213.5636, 57.2242, 187.9335], atol=1e-4)
     np.testing.assert_allclose(rotation, [[0.6830, 0.2588, 0.6830], [0.1830, -0.9659, 0.1830],
                                           [0.7071, 0.0, -0.7071]], atol=1e-4)
@@ -70,7 +71,7 @@ def test_seed_fk_check_closed_form_and_round_trip(solver):
 
 def test_closed_form_fk_equals_pinocchio(solver, samples):
     joints, poses = samples
-    positions, rotations = tool_fk(joints[:500])
+    positions, rotations = pitch_arm_fk(PINCHER, joints[:500])
     for position, rotation, pose in zip(positions, rotations, poses[:500], strict=True):
         np.testing.assert_allclose(position, pose.translation, atol=1e-12)
         np.testing.assert_allclose(rotation, pose.rotation, atol=1e-12)

@@ -10,7 +10,6 @@ import pytest
 from closed_form_checks import angle_difference, assert_pose_round_trip
 
 import wbik
-from wbik.robot_packages.ur5.closed_form import ee_fk
 
 ROUND_TRIP_POSES = 10_000
 CHAINS = ["ee", "arm"]
@@ -30,7 +29,7 @@ def test_zero_configuration_by_hand(solvers):
     """At q = 0 the URDF offsets add up: x = 0.425 + 0.39225, y = 0.13585 - 0.1197 + 0.093 + 0.0823,
     z = 0.089159 - 0.09465 (ee_link in base_link); the tcp is 0.13 m further along ee_link's x."""
     expected = np.array([0.81725, 0.19145, -0.005491])
-    position, _ = ee_fk(np.zeros(6))
+    position, _ = solvers["ee"].closed_form("pose").fk(np.zeros(6))
     np.testing.assert_allclose(position, expected, atol=1e-12)
     np.testing.assert_allclose(solvers["ee"].chain.fk(np.zeros(6)).translation, expected, atol=1e-12)
     tool_position, _ = solvers["arm"].closed_form("pose").fk(np.zeros(6))

@@ -276,7 +276,7 @@ def test_batch_targets_accepts_what_the_fast_se3_check_accepts(ur5):
     """The vectorised SE3 check decides target by target as ``as_target``'s fast path: rotations and
     positions just inside and just outside each bound (unit columns, orthogonality, det, position)."""
     from wbik.solvers.analytic.batch import _valid_se3
-    from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, _plain_se3_target
+    from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, plain_pose_matrix
 
     chain = ur5["ee"].chain
     rng = np.random.default_rng(27)
@@ -292,8 +292,8 @@ def test_batch_targets_accepts_what_the_fast_se3_check_accepts(ur5):
     cases.append(pin.SE3(-poses[0].rotation, poses[0].translation))
     cases.append(pin.SE3(poses[0].rotation, np.array([np.nan, 0.0, 0.0])))
     for case in cases:
-        assert _valid_se3(case.homogeneous[None]) == (_plain_se3_target(case) is not None)
-    accepted = [case for case in cases if _plain_se3_target(case) is not None]
+        assert _valid_se3(case.homogeneous[None]) == (plain_pose_matrix(case) is not None)
+    accepted = [case for case in cases if plain_pose_matrix(case) is not None]
     assert 0 < len(accepted) < len(cases)
     assert _valid_se3(np.array([case.homogeneous for case in accepted]))
 

@@ -29,14 +29,9 @@ class UnknownNameError(WbikError, KeyError):
     kind = "name"
 
     def __init__(self, name: str, known: list[str] | tuple[str, ...] = (), hint: str = ""):
-        self.name = name
-        self.known = sorted(known)
-        self.hint = hint
-        known_text = ", ".join(self.known) if self.known else "(none)"
-        message = f"unknown {self.kind} {name!r}; known {self.kind}s: {known_text}"
-        if hint:
-            message += f". {hint}"
-        super().__init__(message)
+        self.name, self.known, self.hint = name, sorted(known), hint
+        message = f"unknown {self.kind} {name!r}; known {self.kind}s: {', '.join(self.known) or '(none)'}"
+        super().__init__(message + (f". {hint}" if hint else ""))
 
     def __str__(self) -> str:  # KeyError would quote the message
         return self.args[0]
@@ -85,9 +80,6 @@ class SoleError(RobotDescriptionError):
         self.sole = sole
         super().__init__(message)
 
-    def __reduce__(self):
-        return type(self), (self.args[0], self.sole)
-
 
 class MissingDependencyError(WbikError, ImportError):
     """An optional dependency (PyKDL, Chromium, ...) is not installed; says how to get it."""
@@ -102,12 +94,8 @@ class InvalidOptionError(WbikError, TypeError):
     those it takes."""
 
     def __init__(self, message: str, option: str = "", accepted: list[str] | tuple[str, ...] = ()):
-        self.option = option
-        self.accepted = sorted(accepted)
+        self.option, self.accepted = option, sorted(accepted)
         super().__init__(message)
-
-    def __reduce__(self):
-        return type(self), (self.args[0], self.option, self.accepted)
 
 
 class InvalidSettingError(WbikError, ValueError):
@@ -133,7 +121,5 @@ class NoQPSolutionError(WbikError, RuntimeError):
     into a failed solution: an IK call returns, never raises it."""
 
     def __init__(self, message: str, backend: str = "", status: object = None, conflict: tuple = ()):
-        self.backend = backend
-        self.status = status
-        self.conflict = tuple(conflict)
+        self.backend, self.status, self.conflict = backend, status, tuple(conflict)
         super().__init__(message)

@@ -27,13 +27,12 @@ from wbik.errors import (
     RobotDescriptionError,
     SoleError,
     UnknownChainError,
-    UnknownFrameError,
     UnsupportedError,
     did_you_mean,
 )
 from wbik.files import atomic_write_text
 from wbik.geometry import wrap_to_pi
-from wbik.kinematic_tree import chain_path, leaf_frames
+from wbik.kinematic_tree import chain_path, frame_index, leaf_frames
 from wbik.urdf import Mimic, angles_of, parse_urdf, reduced_model
 from wbik.validation import numeric_array
 
@@ -46,12 +45,11 @@ class PerThreadData:
     def __get__(self, owner, owner_type=None) -> pin.Data:
         if owner is None:
             return self
-        local = owner._local
         try:
-            return local.data
+            return owner._local.data
         except AttributeError:
-            data = local.data = owner.model.createData()
-            return data
+            owner._local.data = owner.model.createData()
+            return owner._local.data
 
 
 CachedT = TypeVar("CachedT")
@@ -340,9 +338,7 @@ class Robot:
         return [frame.name for frame in self.model.frames]
 
     def frame_id(self, name: str) -> int:
-        if not self.model.existFrame(name):
-            raise UnknownFrameError(name, self.frame_names)
-        return self.model.getFrameId(name)
+        return frame_index(self.model, name)
 
     def chain(self, name: str | None = None) -> Chain:
         """The chain called ``name`` (the only chain, if the robot has one and name is None)."""

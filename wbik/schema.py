@@ -34,12 +34,8 @@ class UnknownKeyError(SchemaError):
     """A key the mapping does not read; ``path`` is where, ``known`` the keys allowed there."""
 
     def __init__(self, message: str, path: str = "", known: list[str] | tuple[str, ...] = ()):
-        self.path = path
-        self.known = sorted(known)
+        self.path, self.known = path, sorted(known)
         super().__init__(message)
-
-    def __reduce__(self):
-        return type(self), (self.args[0], self.path, self.known)
 
 
 class SchemaBudgetError(SchemaValueError, InvalidBudgetError):
@@ -185,21 +181,17 @@ class Text(Node):
         self._choices = choices
         self.nullable, self.non_empty = nullable, non_empty
         self.pattern = re.compile(pattern) if pattern else None
-        self._what = what
+        if what:
+            self.what = what
 
     @property
     def choices(self) -> tuple | None:
         return self._choices() if callable(self._choices) else self._choices
 
-    def described(self, what: str) -> Text:
-        node = copy.copy(self)
-        node._what = what
-        return node
-
     @property
     def expected(self) -> str:
         choices = self.choices
-        text = self._what or (_words(choices) if choices else self.what)
+        text = vars(self).get("what") or (_words(choices) if choices else self.what)
         return text + (" or null" if self.nullable else "")
 
     def check(self, value, path, ctx):

@@ -78,12 +78,6 @@ def pose_target(matrix: np.ndarray) -> Target:
     return Target(matrix[:3, 3], matrix[:3, :3])
 
 
-def _plain_se3_target(value: pin.SE3) -> Target | None:
-    """as_target's fast path for an SE3, None where it does not apply."""
-    matrix = plain_pose_matrix(value)
-    return None if matrix is None else pose_target(matrix)
-
-
 def _plain_array_target(value: np.ndarray) -> Target | None:
     """The fast path for a float64 array (a 3-vector within the bound, or a 4x4 pose), None otherwise."""
     if value.dtype != np.float64:
@@ -135,7 +129,7 @@ def as_target(value, rotation=None) -> Target:
     3-vector (a position; ``rotation`` optionally adds an orientation)."""
     if rotation is None:
         kind = type(value)
-        if kind is pin.SE3:  # _plain_se3_target, inline on the most common path
+        if kind is pin.SE3:  # the most common path, inline
             matrix = plain_pose_matrix(value)
             if matrix is not None:
                 return Target(matrix[:3, 3], matrix[:3, :3])

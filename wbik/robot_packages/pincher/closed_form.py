@@ -44,11 +44,6 @@ def pose_from_position_pitch(position, pitch: float) -> pin.SE3:
     return pin.SE3(np.column_stack((np.cross(side, approach), side, approach)), position)
 
 
-def tool_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form FK of the noa frame for joints (..., 4): positions (..., 3), rotations (..., 3, 3)."""
-    return family.pitch_arm_fk(PINCHER, q)
-
-
 def pincher_pose(chain) -> family.PitchArmPose:
     """Full poses: q1 and the pitch from the rotation, 2 elbow branches."""
     return family.PitchArmPose(chain, PINCHER)

@@ -3,18 +3,11 @@ the fixed ee_link -> tcp transform on chain ``arm``."""
 
 from __future__ import annotations
 
-import numpy as np
-
 from wbik.solvers.analytic.aligned import AlignedForm, with_tool
-from wbik.solvers.analytic.ur_type import URArm, URGeometry, fk
+from wbik.solvers.analytic.ur_type import URArm, URGeometry
 
 UR5 = URGeometry(d1=0.089159, a2=-0.42500, a3=-0.39225, d4=0.10915, d5=0.09465, d6=0.0823)
 """ur_kinematics' UR5 numbers (m), as example-robot-data's URDF."""
-
-
-def ee_fk(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Closed-form FK base_link -> ee_link of the UR5, joints (..., 6)."""
-    return fk(UR5, q)
 
 
 class UR5EndEffector(URArm):
