@@ -76,11 +76,9 @@ def _points(p, what: str) -> np.ndarray:
 
 def _side(side: str) -> str:
     key = str(side).lower()
-    if key in ("r", "right"):
-        return "r"
-    if key in ("l", "left"):
-        return "l"
-    raise InvalidTargetError(f"side must be 'right'/'r' or 'left'/'l', got {side!r}")
+    if key not in ("r", "right", "l", "left"):
+        raise InvalidTargetError(f"side must be 'right'/'r' or 'left'/'l', got {side!r}")
+    return key[0]
 
 
 @dataclass(frozen=True)
