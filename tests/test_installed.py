@@ -176,9 +176,9 @@ def test_robots_write_no_urdf_until_a_library_asks_for_a_file(monkeypatch, tmp_p
     assert robot.urdf_path is None
     wbik.solver("trac_ik", robot)  # TRAC-IK reads the URDF text
     assert not (tmp_path / "cache").exists()
-    path = robot.urdf_file()  # what PlaCo's loader (a file reader) gets
+    path = write_cached_urdf(robot.name, robot.urdf_text)  # what PlaCo's loader (a file reader) gets
     assert path.parent == tmp_path / "cache" / "urdf" and path.read_text() == robot.urdf_text
-    assert robot.urdf_file() == path == write_cached_urdf(robot.name, robot.urdf_text)
+    assert write_cached_urdf(robot.name, robot.urdf_text) == path  # content-addressed: one file
 
 
 def test_building_the_wheel_warns_of_nothing_in_our_metadata(installed):

@@ -14,11 +14,12 @@ given: reachable poses (FK of random joints inside the limits), 3 per chain, 5 m
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import wbik
 from wbik.errors import MissingDependencyError, UnsupportedError
-from wbik.kinematic_tree import longest_chain
+from wbik.kinematic_tree import ancestors, leaf_frames
 from wbik.models.erd import example_robot_names
 from wbik.solvers.method_registry import budget_options
 
@@ -96,6 +97,23 @@ def _method_row(robot, chain, targets, method: str) -> dict:
         else:
             answers.append("solved")
     return {"poses": answers}
+
+
+def longest_chain(model: pin.Model) -> tuple[str, str] | None:
+    """(base, tip) frames of the chain with the most 1-DOF joints from the root body to a leaf body (an
+    arm or a leg of an unknown robot); None for a robot without such a joint."""
+    root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
+    bases = [frame.name for frame in model.frames
+             if frame.type == pin.FrameType.BODY and frame.parentJoint == root]
+    if not bases:
+        return None
+    best, best_count = None, 0
+    for tip in leaf_frames(model):
+        line = ancestors(model, model.frames[model.getFrameId(tip)].parentJoint)
+        count = sum(1 for joint_id in line if joint_id > root and model.joints[joint_id].nq == 1)
+        if count > best_count:
+            best, best_count = tip, count
+    return None if best is None else (bases[0], best)
 
 
 @pytest.fixture(scope="module")

@@ -1,12 +1,6 @@
-"""The optional libraries behind some methods, and the one message a missing one gets.
-
-wbik's core install holds what its core imports; each peer (PlaCo, Pink, mink, EAIK, IK-Geo,
-TRAC-IK) is an extra of the package (``pip install 'wbik[placo]'``; ``wbik[all]`` holds them all),
-and orocos KDL's binding comes from Debian. A method names the :class:`OptionalDependency` it needs
-(:class:`wbik.IKMethod`'s ``needs``): ``wbik methods`` shows whether it is installed, building the
-method without it raises :class:`~wbik.errors.MissingDependencyError` with :meth:`OptionalDependency.error`'s
-words, and a study reports the method as not applicable with the same words.
-"""
+"""The optional libraries behind some methods (each peer an extra: ``pip install 'wbik[placo]'``,
+``wbik[all]`` for all; orocos KDL's binding from Debian), named by a method's ``needs``, and the one message
+a missing one gets (:meth:`OptionalDependency.error`), raised and reported by a study alike."""
 
 from __future__ import annotations
 

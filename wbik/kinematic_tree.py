@@ -72,19 +72,3 @@ def chain_path(model: pin.Model, base: str, tip: str, mimic: Mapping[str, object
         raise RobotDescriptionError(f"no movable joint lies between {base!r} and {tip!r}")
     return ChainPath(tuple(joints), tuple(locked))
 
-
-def longest_chain(model: pin.Model) -> tuple[str, str] | None:
-    """(base, tip) frames of the chain with the most 1-DOF joints from the root body to a leaf body (an
-    arm or a leg of an unknown robot); None for a robot without such a joint."""
-    root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
-    bases = [frame.name for frame in model.frames
-             if frame.type == pin.FrameType.BODY and frame.parentJoint == root]
-    if not bases:
-        return None
-    best, best_count = None, 0
-    for tip in leaf_frames(model):
-        line = ancestors(model, model.frames[model.getFrameId(tip)].parentJoint)
-        count = sum(1 for joint_id in line if joint_id > root and model.joints[joint_id].nq == 1)
-        if count > best_count:
-            best, best_count = tip, count
-    return None if best is None else (bases[0], best)

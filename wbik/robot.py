@@ -318,12 +318,6 @@ class Robot:
             f"{needed_by} needs a robot with {kind.__name__}; robot {self.name!r} has {has}. Load the robot "
             f"through its package (wbik.load(name)) or pass facts={kind.__name__}(...)")
 
-    def urdf_file(self) -> Path:
-        """``urdf_path``, or else ``urdf_text`` written to :func:`cache_dir` on first use."""
-        if self.urdf_path is None:
-            self.urdf_path = write_cached_urdf(self.name, self.urdf_text)
-        return self.urdf_path
-
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, nq={self.model.nq}, nv={self.model.nv}, chains={list(self.chains)})"
 

@@ -497,14 +497,12 @@ def from_dataclass(cls, nodes: dict[str, Node] | None = None) -> Map:
 
 def dataclass_default(cls, name: str):
     """The default of the dataclass ``cls``'s field ``name`` (its default factory called)."""
-    for item in fields(cls):
-        if item.name == name:
-            if item.default is not MISSING:
-                return item.default
-            if item.default_factory is not MISSING:
-                return item.default_factory()
-            raise TypeError(f"{cls.__qualname__}.{name} has no default")
-    raise TypeError(f"{cls.__qualname__} has no field {name!r}")
+    item = {item.name: item for item in fields(cls)}[name]
+    if item.default_factory is not MISSING:
+        return item.default_factory()
+    if item.default is MISSING:
+        raise TypeError(f"{cls.__qualname__}.{name} has no default")
+    return item.default
 
 
 def default_of(function: Callable, parameter: str):
