@@ -32,7 +32,7 @@ from wbik.errors import (
 )
 from wbik.files import atomic_write_text
 from wbik.geometry import wrap_to_pi
-from wbik.kinematic_tree import chain_path, frame_index, leaf_frames
+from wbik.kinematic_tree import ChainPath, chain_path, frame_index, leaf_frames
 from wbik.urdf import Mimic, angles_of, parse_urdf, reduced_model
 from wbik.validation import numeric_array
 
@@ -101,12 +101,9 @@ class Chain:
         full = robot.model
         for frame in (spec.base_frame, spec.tip_frame):
             robot.frame_id(frame)  # raises UnknownFrameError with the known names
-        self.locked_mimic: tuple[str, ...] = ()
-        if spec.joints:
-            self.joint_names = list(spec.joints)
-        else:
-            path = chain_path(full, spec.base_frame, spec.tip_frame, robot.mimic)
-            self.joint_names, self.locked_mimic = list(path.joints), path.locked_mimic
+        path = (ChainPath(spec.joints) if spec.joints
+                else chain_path(full, spec.base_frame, spec.tip_frame, robot.mimic))
+        self.joint_names, self.locked_mimic = list(path.joints), path.locked_mimic
         joint_ids = []
         for joint in self.joint_names:
             if not full.existJointName(joint):
@@ -144,8 +141,8 @@ class Chain:
         self.velocity_limit = robot.model.velocityLimit[self.v_index].copy()
         self.nominal = robot.nominal[self.q_index].copy()
         self.mid_range = 0.5 * (self.lower + self.upper)
-        self.is_prismatic = np.array(
-            [full.joints[j].shortname().startswith("JointModelP") for j in joint_ids])
+        self.is_prismatic = np.array([full.joints[j].shortname().startswith("JointModelP")
+                                      for j in joint_ids])
         self.continuous = np.array([name in robot.continuous_joints for name in self.joint_names], dtype=bool)
         self.any_continuous = bool(self.continuous.any())
         self.unbounded_lower = np.where(self.continuous, -np.inf, self.lower)

@@ -137,29 +137,21 @@ def as_target(value, rotation=None) -> Target:
             _plain_given_target(value) if kind is Target else None
         if plain is not None:
             return plain
-    if isinstance(value, Target):
-        if rotation is not None:
-            raise InvalidTargetError("give the rotation inside the Target or separately, not both")
-        return Target(_finite_array(value.position, (3,), "position", MAX_POSITION),
-                      None if value.rotation is None else check_rotation(value.rotation))
-    if isinstance(value, pin.SE3):
-        if rotation is not None:
-            raise InvalidTargetError("an SE3 target already has a rotation; do not pass rotation= too")
-        return Target(_finite_array(value.translation, (3,), "position", MAX_POSITION),
-                      check_rotation(value.rotation))
-    array = numeric_array(value, f"a target ({TARGET_FORMS})", InvalidTargetError)
-    if array.shape == (4, 4):
-        if rotation is not None:
-            raise InvalidTargetError("a 4x4 target already has a rotation; do not pass rotation= too")
-        matrix = _finite_array(array, (4, 4), "homogeneous matrix")
-        if not np.allclose(matrix[3], [0.0, 0.0, 0.0, 1.0]):
-            raise InvalidTargetError(f"last row of a 4x4 pose must be [0, 0, 0, 1], got {matrix[3]}")
-        return Target(_finite_array(matrix[:3, 3], (3,), "position", MAX_POSITION),
-                      check_rotation(matrix[:3, :3]))
-    if array.shape != (3,):
-        raise InvalidTargetError(f"a target must be {TARGET_FORMS}; got an array of shape {array.shape}")
-    position = _finite_array(array, (3,), "position", MAX_POSITION)
-    return Target(position, None if rotation is None else check_rotation(rotation))
+    if isinstance(value, Target | pin.SE3):
+        position, given = value.position if isinstance(value, Target) else value.translation, value.rotation
+    else:
+        array = numeric_array(value, f"a target ({TARGET_FORMS})", InvalidTargetError)
+        if array.shape not in ((3,), (4, 4)):
+            raise InvalidTargetError(f"a target must be {TARGET_FORMS}; got an array of shape {array.shape}")
+        if array.shape == (4, 4) and not np.allclose(array[3], [0.0, 0.0, 0.0, 1.0]):
+            raise InvalidTargetError(f"last row of a 4x4 pose must be [0, 0, 0, 1], got {array[3]}")
+        position, given = (array[:3, 3], array[:3, :3]) if array.shape == (4, 4) else (array, None)
+    if rotation is not None and (given is not None or isinstance(value, Target)):
+        raise InvalidTargetError("the rotation is given twice, inside the target (a Target, an SE3 or a 4x4 "
+                                 "matrix) and as rotation=; give it once")
+    given = given if rotation is None else rotation
+    return Target(_finite_array(position, (3,), "position", MAX_POSITION),
+                  None if given is None else check_rotation(given))
 
 
 def pose_error(reached: pin.SE3, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
