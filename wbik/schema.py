@@ -70,8 +70,7 @@ class Context:
 
     def must(self, path: str, expected: str, value, error: type[WbikError] | None = None, hint: str = ""):
         """Refuse the value at ``path``: "{source}: {path} must be {expected}, got {value} ({type})"."""
-        raise (error or self.errors.value)(
-            f"{self.source}: {path or 'the top level'} must be {expected}, {got(value)}{hint}")
+        self.says(path, f"must be {expected}, {got(value)}{hint}", error)
 
     def says(self, path: str, sentence: str, error: type[WbikError] | None = None):
         """Refuse the value at ``path`` with a sentence going on from it: "{source}: {path} {sentence}"."""
@@ -154,20 +153,6 @@ class Anything(Node):
 
     def __init__(self, expected: str = "a value"):
         self.expected = expected
-
-
-class Boolean(Node):
-    def __init__(self, nullable: bool = False):
-        self.nullable = nullable
-
-    @property
-    def expected(self) -> str:
-        return "true, false or null" if self.nullable else "true or false"
-
-    def check(self, value, path, ctx):
-        if not isinstance(value, bool) and not (value is None and self.nullable):
-            self.wrong(value, path, ctx)
-        return value
 
 
 class Text(Node):
@@ -359,15 +344,20 @@ class Constant(Node):
 
 
 class Instance(Node):
-    """A Python object of class ``kind`` (an argument of a Python call)."""
+    """A Python object of class ``kind`` (an argument of a Python call); ``nullable``: or None."""
 
-    def __init__(self, kind: type | tuple[type, ...], expected: str):
-        self.kind, self.expected = kind, expected
+    def __init__(self, kind: type | tuple[type, ...], expected: str, nullable: bool = False):
+        self.kind, self.expected, self.nullable = kind, expected, nullable
 
     def check(self, value, path, ctx):
-        if not isinstance(value, self.kind):
+        if not isinstance(value, self.kind) and not (value is None and self.nullable):
             self.wrong(value, path, ctx)
         return value
+
+
+class Boolean(Instance):
+    def __init__(self, nullable: bool = False):
+        super().__init__(bool, "true, false or null" if nullable else "true or false", nullable)
 
 
 class Refused(Node):
@@ -414,7 +404,7 @@ class Map(Node):
             self.wrong(value, path, ctx)
         for key in value:
             if not isinstance(key, str):
-                ctx.fail(join(path, key), f"keys must be strings, got {short(key)} ({type(key).__name__})")
+                ctx.fail(join(path, key), f"keys must be strings, {got(key)}")
         if self.values is None:
             unknown_keys(ctx, path, value, self.keys, self.unknown_error, self.words, self.allowed)
         result = {}
