@@ -44,10 +44,7 @@ PREFIXES = ("example-robot-data:", "erd:")
 
 def example_robot_name(name: str) -> str | None:
     """The example-robot-data robot named by ``name`` ("example-robot-data:NAME" or "erd:NAME"), or None."""
-    for prefix in PREFIXES:
-        if name.startswith(prefix):
-            return name[len(prefix):]
-    return None
+    return next((name[len(prefix):] for prefix in PREFIXES if name.startswith(prefix)), None)
 
 
 def example_robot_names() -> list[str]:

@@ -23,6 +23,7 @@ import pinocchio as pin
 from wbik.collision import box, capsule
 from wbik.data import description_file
 from wbik.errors import RobotDescriptionError
+from wbik.qp.support_polygon import sole_rectangle
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
 from wbik.robot_packages.bioloid.closed_form import ALPHA as ALPHA
 from wbik.robot_packages.bioloid.closed_form import (
@@ -53,6 +54,7 @@ HIP_DROP = 0.031  # pelvis origin -> hip roll/pitch intersection, down: the code
 ANKLE_HEIGHT = 0.0295  # ankle axes -> sole: the code's unlabelled L9
 CHEST_HEIGHT = 0.090  # pelvis origin -> chest centre (the arm frame), up: ~0.30 m shoulders
 SOLE_LENGTH, SOLE_WIDTH = 0.100, 0.060  # sole rectangle, centred under the ankle
+SOLES = {sole: sole_rectangle(SOLE_LENGTH, SOLE_WIDTH) for sole in ("r_sole", "l_sole")}
 
 SERVO_MASS = 0.0546  # AX-12A (kg), bkop/BIOLOID_TYPE_A_DYN_MODEL_RTB (bioloid.md 1.8)
 AX12_SPEED = 114 * 2 * math.pi / 60  # no-load speed at 12 V (rad/s)
@@ -266,13 +268,6 @@ def _nominal(model: pin.Model, pitch: float, arm_q: np.ndarray) -> np.ndarray:
 ARM_REST_Q = np.radians([88.0, -40.0, 90.0])  # right arm rest: the code's angDescanso {150, 110, 240}
 
 
-def sole_corners() -> dict[str, np.ndarray]:
-    """{sole frame: the (4, 3) corners (m) of the SOLE_LENGTH x SOLE_WIDTH rectangle}."""
-    a, b = SOLE_LENGTH / 2, SOLE_WIDTH / 2
-    corners = np.array([[a, b, 0.0], [-a, b, 0.0], [-a, -b, 0.0], [a, -b, 0.0]])
-    return {"r_sole": corners.copy(), "l_sole": corners.copy()}
-
-
 def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robot:
     """The Bioloid on a free-flyer base: ``tool_length`` (m) 0.0255 (the code's) or 0.070 (the
     thesis's), ``pitch`` the nominal standing pose's torso pitch (rad)."""
@@ -290,7 +285,7 @@ def build(tool_length: float = TOOL_CODE, pitch: float = STANDING_PITCH) -> Robo
         hip_lateral=HIP_LATERAL, hip_drop=HIP_DROP, ankle_height=ANKLE_HEIGHT, chest_height=CHEST_HEIGHT,
         sole_size=(SOLE_LENGTH, SOLE_WIDTH))
     return robot_from_urdf_text("bioloid", text, chain_specs(), nominal=nominal, floating_base=True,
-                                urdf_path=path, soles=sole_corners(), closed_forms=CLOSED_FORMS, facts=facts)
+                                urdf_path=path, soles=SOLES, closed_forms=CLOSED_FORMS, facts=facts)
 
 
 def collision_primitives(robot: Robot | None = None) -> list:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from wbik.data import description_file
-from wbik.dh import DHJoint, DHTable
+from wbik.dh import DHJoint, DHTable, homogeneous
 from wbik.robot import ChainSpec, Robot, robot_from_urdf_text
 from wbik.robot_packages.pincher.closed_form import (
     BASE_HEIGHT,
@@ -35,14 +35,12 @@ def dh_table() -> DHTable:
         return DHJoint(a=a, alpha=alpha, d=d, theta=theta, lower=-LIMIT, upper=LIMIT,
                        velocity=AX12_SPEED, effort=1.5, name=name)
 
-    tool = np.eye(4)
-    tool[:3, :3] = TOOL_ROTATION
     return DHTable([
         row(0.0, -math.pi / 2, BASE_HEIGHT, 0.0, "joint1"),
         row(LINK, 0.0, 0.0, -math.pi / 2, "joint2"),
         row(LINK, 0.0, 0.0, 0.0, "joint3"),
         row(WRIST_TO_TOOL, 0.0, 0.0, 0.0, "joint4"),
-    ], tool=tool)
+    ], tool=homogeneous(TOOL_ROTATION))
 
 
 @dataclass(frozen=True)
