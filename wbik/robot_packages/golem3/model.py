@@ -72,10 +72,8 @@ FINGER_SPREAD = 0.03  # m either side of the forearm axis
 
 def arm_dh_rows() -> list[DHJoint]:
     """The thesis table (right arm), rows 1..6; row 6 keeps only 0.2 m of l6, the tool the rest."""
-    lower, upper = ARM_LOWER, ARM_UPPER
-
     def row(i: int, a: float, alpha: float, d: float, theta: float, name: str) -> DHJoint:
-        return DHJoint(a=a, alpha=alpha, d=d, theta=theta, lower=lower[i], upper=upper[i],
+        return DHJoint(a=a, alpha=alpha, d=d, theta=theta, lower=ARM_LOWER[i], upper=ARM_UPPER[i],
                        velocity=ARM_VELOCITY, effort=30.0, name=name)
 
     half_pi = math.pi / 2
