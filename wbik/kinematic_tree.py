@@ -50,17 +50,15 @@ def chain_path(model: pin.Model, base: str, tip: str, mimic: Mapping[str, object
     tip_joint = model.frames[frame_index(model, tip)].parentJoint
     line = ancestors(model, tip_joint)
     if base_joint != 0 and base_joint not in line:
-        upstream = [model.frames[f].name for f in range(len(model.frames))
-                    if model.frames[f].type == pin.FrameType.BODY
-                    and model.frames[f].parentJoint in [0, *line]][:6]
+        upstream = [frame.name for frame in model.frames
+                    if frame.type == pin.FrameType.BODY and frame.parentJoint in [0, *line]][:6]
         raise RobotDescriptionError(
             f"frame {base!r} is not upstream of {tip!r}: a chain's base must not move with its joints. "
             f"Frames upstream of {tip!r} include {upstream}")
     below_base = line[:line.index(base_joint)] if base_joint in line else line
     joints, locked = [], []
     for joint_id in reversed(below_base):
-        name = model.names[joint_id]
-        joint = model.joints[joint_id]
+        name, joint = model.names[joint_id], model.joints[joint_id]
         if joint.nq != 1 or joint.nv != 1:
             kind = joint.shortname().removeprefix("JointModel")
             raise RobotDescriptionError(

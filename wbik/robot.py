@@ -416,8 +416,7 @@ def _joint_kind(joint) -> str:
 def check_model(model: pin.Model, source: str = "URDF") -> None:
     """RobotDescriptionError naming a joint with a zero axis, a NaN limit or lower above upper."""
     for joint_id in range(1, model.njoints):
-        joint = model.joints[joint_id]
-        name = model.names[joint_id]
+        joint, name = model.joints[joint_id], model.names[joint_id]
         axis = getattr(joint.extract(), "axis", None)
         if axis is not None and not np.linalg.norm(axis) > 1e-12:
             raise RobotDescriptionError(
