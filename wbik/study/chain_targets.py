@@ -186,19 +186,13 @@ class ChainTargets(RegisteredMethods, CaseKind):
                    for i in range(count)]
         solved = [self.solve_one(task, solver, target, q0)
                   for target, q0 in zip(targets, task.q0, strict=True)]
-        answers = [answer for answer, _, _ in solved]
+        answers, cpu, reruns = zip(*solved, strict=True)
         nq = solver.chain.nq
-        columns = {
-            "pose": np.arange(task.first_pose, task.first_pose + count),
-            "success": np.array([a.success for a in answers], dtype=bool),
-            "reason": np.array([a.reason for a in answers], dtype=str),
-            "time_s": np.array([a.time_s for a in answers], dtype=float),
-            "iterations": np.array([a.iterations for a in answers], dtype=int),
-            "position_error": np.array([a.position_error for a in answers], dtype=float),
-            "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
-        }
-        columns["cpu_s"] = np.array([cpu for _, cpu, _ in solved], dtype=float)
-        columns["reruns"] = np.array([reruns for _, _, reruns in solved], dtype=int)
+        types = (bool, str, float, int, float, float)  # of ROW_FIELDS after "pose"
+        columns = {"pose": np.arange(task.first_pose, task.first_pose + count),
+                   **{key: np.array([getattr(a, key) for a in answers], dtype=dtype)
+                      for key, dtype in zip(store.ROW_FIELDS[1:], types, strict=True)},
+                   "cpu_s": np.array(cpu, dtype=float), "reruns": np.array(reruns, dtype=int)}
         columns.update(axis_errors(answers, task.rotations, task.angles))
         columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                                 dtype=float).reshape(count, nq)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +27,7 @@ from wbik.study.path_metrics import (
 )
 from wbik.study.sampling import PoseSet, saved_extras
 from wbik.study.spec import CaseSpec, Study
-from wbik.study.statistics import finite_statistic, wilson_interval
+from wbik.study.statistics import P95, finite_statistic, wilson_interval
 from wbik.study.target_parameters import Parameter, choice, integer, number
 from wbik.study.target_sets import target_stream
 
@@ -419,7 +418,7 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
         "length_median": finite_statistic(rows["length"][whole]),
         "length_common_median": finite_statistic(rows["length"][common] if common.size == count else []),
         "time_point_median_ms": finite_statistic(point_ms),
-        "time_point_p95_ms": finite_statistic(point_ms, partial(np.percentile, q=95)),
+        "time_point_p95_ms": finite_statistic(point_ms, P95),
         "time_all_median_ms": finite_statistic(rows["time_s"] * 1e3),
         "raised": int(sum(str(reason).startswith("raised") for reason in rows["point_reason"].ravel())),
         "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,

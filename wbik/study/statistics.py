@@ -13,11 +13,17 @@ from __future__ import annotations
 
 import math
 import warnings
+from functools import partial
 
 import numpy as np
 from scipy import stats
 
-TIME_STATISTICS = ("mean", "median", "p95", "min", "max")
+P95 = partial(np.percentile, q=95)
+"""The 95th percentile of an array."""
+TIME_STATISTICS = {"mean": np.mean, "median": np.median, "p95": P95, "min": np.min, "max": np.max}
+ERROR_STATISTICS = {"mean": np.mean, "abs_median": np.median, "abs_p95": P95, "abs_max": np.max,
+                    "zero_fraction": lambda magnitude: np.mean(magnitude == 0.0)}
+"""Per error axis: the signed error's mean, then figures of |e|."""
 ALPHA = 0.05
 CONFIDENCE = 0.95
 """The level of every interval of the summaries."""
@@ -113,15 +119,6 @@ def finite_statistic(values: np.ndarray, function=np.median) -> float:
     return float(function(values)) if values.size else math.nan
 
 
-def _time_statistics(times_ms: np.ndarray) -> dict[str, float]:
-    times_ms = times_ms[np.isfinite(times_ms)]
-    if times_ms.size == 0:
-        return {name: math.nan for name in TIME_STATISTICS}
-    return {"mean": float(np.mean(times_ms)), "median": float(np.median(times_ms)),
-            "p95": float(np.percentile(times_ms, 95)), "min": float(np.min(times_ms)),
-            "max": float(np.max(times_ms))}
-
-
 def error_axes(rows: dict[str, np.ndarray]) -> list[str]:
     """The error axes present in a method's rows (column names without ``err_``)."""
     return [key[4:] for key in rows if key.startswith("err_")]
@@ -174,8 +171,8 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
     low, high = wilson_interval(solved, count)
     summary["percent_solved_ci_low"], summary["percent_solved_ci_high"] = 100.0 * low, 100.0 * high
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success), ("unsolved", ~success)):
-        for name, value in _time_statistics(times_ms[mask]).items():
-            summary[f"time_{group}_{name}_ms"] = value
+        for name, function in TIME_STATISTICS.items():
+            summary[f"time_{group}_{name}_ms"] = finite_statistic(times_ms[mask], function)
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success)):
         low, high = bootstrap_median_interval(times_ms[mask])
         summary[f"time_{group}_median_ci_low_ms"], summary[f"time_{group}_median_ci_high_ms"] = low, high
@@ -185,14 +182,9 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
                                                if finite_times.size else math.nan)
     for axis in error_axes(rows):
         values = rows[f"err_{axis}"][success]
-        values = values[np.isfinite(values)]
-        magnitude = np.abs(values)
-        empty = values.size == 0
-        summary[f"err_{axis}_mean"] = math.nan if empty else float(np.mean(values))
-        summary[f"err_{axis}_abs_median"] = math.nan if empty else float(np.median(magnitude))
-        summary[f"err_{axis}_abs_p95"] = math.nan if empty else float(np.percentile(magnitude, 95))
-        summary[f"err_{axis}_abs_max"] = math.nan if empty else float(np.max(magnitude))
-        summary[f"err_{axis}_zero_fraction"] = math.nan if empty else float(np.mean(magnitude == 0.0))
+        for name, function in ERROR_STATISTICS.items():
+            summary[f"err_{axis}_{name}"] = finite_statistic(values if name == "mean" else np.abs(values),
+                                                             function)
     return summary
 
 
