@@ -318,6 +318,14 @@ def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
     return reasons
 
 
+def reason_blocks(rows_by_method: dict, text: str, unit: str) -> list[Block]:
+    """``text`` over the table of :func:`frequent_reasons` (``unit``: what is counted); none without any."""
+    reasons = frequent_reasons(rows_by_method)
+    if not reasons:
+        return []
+    return [Block("p", text), Block("table", header=["method", "reason", unit], rows=reasons)]
+
+
 def _reason_kind(reason: str) -> str:
     """A reason without its numbers, so that similar failures are counted together."""
     words = []

@@ -1,9 +1,6 @@
-"""Success versus budget: each method solved again on a case's first ``poses`` targets at every budget of a
-grid (``budget_curves:``, :class:`wbik.study.spec.BudgetCurveSpec`), since a run cut at a smaller budget is
-not a run given it (docs/guide/studies.md). The curve's budget replaces the method's own (``timeout_s``,
-``max_iterations``); a closed form's curve is its rows'. Each (case, method, budget) is a task written to
-``<case>/budget_curves/<method>/budget_NN.npz`` and resumed like a chunk; ``budget_curves.csv`` holds them.
-"""
+"""Success versus budget (``budget_curves:``): each method solved again on a case's first ``poses``
+targets at every budget of a grid, the budget replacing its own (a run cut short is not a run given a
+smaller budget); each (case, method, budget) is a task resumed like a chunk."""
 
 from __future__ import annotations
 

@@ -1,9 +1,6 @@
 """Kinds of study cases (:class:`CaseKind`, a case's ``target:``), the common part of their chunk tasks
-(:class:`ChunkTask`) and their registry. The runner and the report know no kind: the case's kind samples its
-inputs, makes and solves its tasks, refuses a method that does not apply and reports its rows. A kind is
-declared in its module's ``CASE_KINDS`` tuple; :func:`register_case_kind` adds one at run time (a task
-carries its kind to the workers).
-"""
+(:class:`ChunkTask`) and their registry: a kind samples a case's inputs, solves its tasks and reports its
+rows; the runner and the report know no kind."""
 
 from __future__ import annotations
 

@@ -1,11 +1,6 @@
-"""Chain targets, the study's case kinds ``pose`` and ``position``: reachable targets of one chain (FK of
-seeded random joints inside the limits, :mod:`wbik.study.sampling`), solved by the IK methods.
-
-In the worker each pose is one timed ``solve`` call (a wall-clock method's with the CPU watched,
-:mod:`wbik.study.cpu_watch`); a method with a batched path of its own then solves the chunk again with
-``solve_many`` for the throughput. Rows: success, reason, time, iterations, errors (the per-axis ones of
-:func:`wbik.study.metrics.axis_errors`), CPU time, re-runs, q (and ``batch_success``, ``batch_share_s``).
-"""
+"""Chain targets, the study's case kinds ``pose`` and ``position``: FK of seeded random joints of one
+chain inside the limits (:mod:`wbik.study.sampling`), each solved by one timed ``solve`` call (CPU watched
+for wall-clock methods, :mod:`wbik.study.cpu_watch`), then by ``solve_many`` where a method has its own."""
 
 from __future__ import annotations
 
@@ -33,8 +28,8 @@ from wbik.study.blocks import (
     case_rows,
     fmt,
     fmt_p,
-    frequent_reasons,
     image_blocks,
+    reason_blocks,
     significance_blocks,
     status_blocks,
     summary_table,
@@ -249,10 +244,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
                                  f"at most {MAX_RERUNS} times (the last answer is kept); 'CPU / wall': the "
                                  "median share of CPU the kept answers had (about the method's threads "
                                  "when each had a core). " + INTERVALS_TEXT))
-        reasons = frequent_reasons(rows_by_method)
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
-            blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
+        blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved':", "poses"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Poses solved per method", "time": "Time per pose",
             "time_histogram": "Histogram of time per pose",

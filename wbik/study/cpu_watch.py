@@ -1,7 +1,5 @@
-"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation, and the workers a method with threads
-of its own runs with: a solve given less CPU than ``STARVED_CPU_SHARE`` x threads x wall is run again with a
-stretched budget, up to ``MAX_RERUNS`` times (docs/guide/studies.md, "Budgets").
-"""
+"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation: a solve given less CPU than
+``STARVED_CPU_SHARE`` x threads x wall is run again with a stretched budget, up to ``MAX_RERUNS`` times."""
 
 from __future__ import annotations
 

@@ -1,6 +1,5 @@
-"""The study's figures, drawn with matplotlib's Agg backend: the share solved with its intervals, |error| per
-axis (box plots and histograms), time (box plots, histogram, ECDFs), success versus budget, and the throughput
-of batched methods. A method has the same colour in every figure of a case (:func:`colours`)."""
+"""The study's figures (matplotlib, Agg backend); a method has the same colour in every figure of a case
+(:func:`colours`)."""
 
 from __future__ import annotations
 

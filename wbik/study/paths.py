@@ -13,7 +13,7 @@ import wbik.study.results as store
 from wbik.robot import Chain
 from wbik.schema import Boolean, Context, Key, Map, Number, join
 from wbik.solvers.method_registry import budget_options
-from wbik.study.blocks import Block, fmt, fmt_interval, frequent_reasons, status_blocks, write_case_tables
+from wbik.study.blocks import Block, fmt, fmt_interval, reason_blocks, status_blocks, write_case_tables
 from wbik.study.chain_targets import ChainChunkTask, ChainTargets
 from wbik.study.context import _frozen, chain_of, make_solver
 from wbik.study.path_metrics import (
@@ -355,11 +355,8 @@ class PathTargets(ChainTargets):
             f"changes: {analysis['closed_form']}. Path length: sum over the steps of sum_j |dq_j| (rad), "
             "median over the paths the method solved whole, and over the paths every method solved whole. "
             "Times are per call of the method alone; a path's time is the sum over its points.")))
-        reasons = frequent_reasons(analysis["rows"])
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for a path not solved whole (its first unsolved "
-                                     "point's):"))
-            blocks.append(Block("table", header=["method", "reason", "paths"], rows=reasons))
+        blocks.extend(reason_blocks(analysis["rows"], "Most frequent reasons for a path not solved whole "
+                                    "(its first unsolved point's):", "paths"))
         if "paths" in analysis["images"]:
             blocks.append(Block("image", "Paths solved at each point, and joint path length per method",
                                 path=analysis["images"]["paths"]))

@@ -1,7 +1,5 @@
-"""The study report, assembled once as blocks (:mod:`wbik.study.blocks`) and rendered to Markdown and to
-one self-contained HTML page (figures embedded as base64 PNG), so the two say the same thing. Each case's
-section and files come from its kind (:mod:`wbik.study.case_kinds`); with ``--compare-to OLD`` the
-report ends with the comparison of :mod:`wbik.study.compare`."""
+"""The study report: blocks (:mod:`wbik.study.blocks`) rendered to Markdown and to one self-contained
+HTML page (figures embedded as base64 PNG); each case's section comes from its kind."""
 
 from __future__ import annotations
 

@@ -1,8 +1,5 @@
-"""Running a study: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or Dask),
-resumable (docs/guide/studies.md). A task's solver is seeded from (study seed, case, method, chunk); the
-main process writes each chunk atomically as it arrives, and a changed method is recomputed alone. Methods
-with threads of their own run last with fewer workers; budget curves run after the rows.
-"""
+"""Running a study, resumably: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or
+Dask), each chunk written as it arrives; a changed method is recomputed alone (docs/guide/studies.md)."""
 
 from __future__ import annotations
 

@@ -1,13 +1,6 @@
-"""Summary tables, confidence intervals and significance tests over a study's raw rows (numpy and scipy).
-
-Per method: poses solved; time per call (ms) over all, solved and unsolved poses; per error axis over the
-solved poses, the mean signed error and |e|'s median, p95, max and share of exact zeros. Intervals are 95 %:
-Wilson's score interval for the share solved (not degenerate at 0 or 100 %, where the bootstrap is), the
-percentile bootstrap (2,000 resamples, a fixed seed) for the median time. Significance: the two-sided
-Mann-Whitney U test of each method against the baseline per axis (|e| of the solved poses) and on time,
-adjusted on each axis for the methods compared by Holm's step-down procedure (family-wise error ``ALPHA``
-under any dependence; docs/guide/studies.md).
-"""
+"""Summary tables, 95 % intervals and significance tests over a study's raw rows: Wilson's score
+interval for the share solved, the percentile bootstrap (fixed seed) for the median time, the two-sided
+Mann-Whitney U test against the baseline, Holm-adjusted per axis (docs/guide/studies.md)."""
 
 from __future__ import annotations
 

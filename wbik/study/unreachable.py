@@ -1,7 +1,6 @@
-"""The target set ``unreachable``: poses no configuration inside the limits reaches, each proved (a) outside
-the reach bound (:mod:`wbik.study.chain_reach`) or (b) reachable only with a joint beyond its limit, by a
-complete closed form (:mod:`wbik.study.closed_form_branches`); docs/guide/studies.md gives the proofs.
-``q_true`` holds the generating joints of (b) targets, NaN for (a) targets."""
+"""The target set ``unreachable``: poses no configuration inside the limits reaches, each proved (a)
+outside the reach bound (:mod:`wbik.study.chain_reach`) or (b) reachable only with a joint beyond its limit,
+by a complete closed form; docs/guide/studies.md gives the proofs."""
 
 from __future__ import annotations
 

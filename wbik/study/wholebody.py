@@ -1,9 +1,6 @@
-"""Whole-body cases, the study's case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
-:mod:`wbik.wholebody.cases` (saved as ``poses.npz``: q_true, anchor points, q0; a worker rebuilds each from
-sampler, seed and index), solved by ``wbik.solver(method, robot).solve(problem, q0)``. A method that cannot
-express the first problem is not applicable. ``err_task`` and ``err_contact`` feed the usual summary,
-tests and error figures.
-"""
+"""Whole-body cases, the case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
+:mod:`wbik.wholebody.cases` (a worker rebuilds each from sampler, seed and index), solved by
+``wbik.solver(method, robot).solve(problem, q0)``."""
 
 from __future__ import annotations
 
@@ -30,8 +27,8 @@ from wbik.study.blocks import (
     budget_blocks,
     case_analysis,
     case_rows,
-    frequent_reasons,
     image_blocks,
+    reason_blocks,
     significance_blocks,
     status_blocks,
     summary_table,
@@ -175,8 +172,7 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         register_run_time_entries(task.wholebody_entries)
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
-        rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
-        q_rows = []
+        rows, q_rows = [], []
         for offset in range(task.count):
             case = sample_case(task.scenario, task.scenario_seed, task.first_pose + offset)
             try:
@@ -193,11 +189,10 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
                           answer.com_margin, answer.limit_excess, answer.collision_clearance,
                           "; ".join(answer.unsupported))
             q_rows.append(np.full(nq, np.nan) if answer is None or answer.q is None else answer.q)
-            for key, value in zip(rows, values, strict=True):
-                rows[key].append(value)
+            rows.append(values)
         columns = {"pose": np.arange(task.first_pose, task.first_pose + task.count),
                    **{key: np.array(values, dtype=COLUMN_TYPES.get(key, float))
-                      for key, values in rows.items()}}
+                      for key, values in zip(ROW_COLUMNS[2:], zip(*rows, strict=True), strict=True)}}
         columns.update(cpu_s=np.full(task.count, np.nan), reruns=np.zeros(task.count, dtype=int),
                        err_task=columns["task_error"], err_contact=columns["contact_drift"],
                        q=np.array(q_rows, dtype=float).reshape(task.count, nq))
@@ -275,11 +270,8 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
             ("median iterations (all calls)", "iterations_median"),
             ("exceptions", "raised"),
         ]))
-        reasons = frequent_reasons(rows_by_method)
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for 'not solved' (as the methods and the check "
-                                     "gave them; causes are not measured here):"))
-            blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
+        blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved' (as the methods "
+                                    "and the check gave them; causes are not measured here):", "cases"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Cases solved per method", "errors": "Task error and contact drift (solved)",
             "error_histograms": "Distribution of task error and contact drift (solved)",
