@@ -12,6 +12,7 @@ import yaml
 
 from wbik.data import data_dir, study_path
 from wbik.errors import did_you_mean
+from wbik.geometry import TAIT_BRYAN_SEQUENCES
 from wbik.options import Options
 from wbik.schema import (
     Anything,
@@ -33,13 +34,7 @@ from wbik.schema import (
     join,
     unknown_keys,
 )
-from wbik.study.metrics import (
-    ANGLE_AXES,
-    POSITION_AXES,
-    ROTATION_VECTOR_AXES,
-    TAIT_BRYAN_SEQUENCES,
-    AngleConvention,
-)
+from wbik.study.metrics import ANGLE_AXES, POSITION_AXES, ROTATION_VECTOR_AXES, AngleConvention
 from wbik.study.reference import REFERENCE_METRICS, Reference
 from wbik.study.regression_rule import regression_rule, regression_schema
 from wbik.study.spec import (

@@ -12,10 +12,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from wbik.files import atomic_write_bytes  # noqa: E402
-from wbik.study.metrics import (
-    AngleConvention,  # noqa: E402
-    axis_label,  # noqa: E402
-)
+from wbik.study.metrics import AngleConvention, axis_label  # noqa: E402
 
 ZERO_FLOOR = 1e-18
 """Where exact zeros are drawn on logarithmic error axes."""
