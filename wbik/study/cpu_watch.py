@@ -37,11 +37,6 @@ def threads_of(method: str) -> int:
     return method_threads(method, factory)
 
 
-def solver_threads(solver) -> int:
-    """The threads a solve of the built ``solver`` keeps busy (:func:`method_threads`)."""
-    return method_threads(getattr(solver, "name", ""), type(solver))
-
-
 def usable_cores() -> int:
     """The cores this process may run on (its CPU affinity where the OS says, else the CPU count)."""
     try:
@@ -66,7 +61,7 @@ def solve_watching_the_cpu(solver, target, q0, timeout_s: float, rebuild: Callab
     answer is discarded, whatever it was (re-running failures only would give a method with random restarts
     a second draw), and the solve run again by ``rebuild(budget)`` with its budget stretched by
     threads x wall / CPU (at most MAX_STRETCH x T), up to MAX_RERUNS times."""
-    threads = solver_threads(solver)
+    threads = method_threads(getattr(solver, "name", ""), type(solver))
     reruns, current = 0, solver
     while True:
         cpu_start = time.process_time()

@@ -49,6 +49,12 @@ def _solved_errors(rows: dict, axis: str) -> np.ndarray:
     return magnitude[np.isfinite(magnitude)]
 
 
+def boxes(axes, samples: list[np.ndarray], **options) -> dict:
+    """Box plots of ``samples`` on ``axes``, small fliers shown, an empty sample drawn as NaN."""
+    return axes.boxplot([values if values.size else np.array([np.nan]) for values in samples],
+                        showfliers=True, flierprops={"markersize": 2}, **options)
+
+
 def colours(labels) -> dict[str, tuple]:
     """A colour per method label, in order: tab20's ten darker shades, then its ten lighter ones."""
     palette = plt.get_cmap("tab20").colors
@@ -212,11 +218,8 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
     labels = list(rows_by_method)
     figure, cells = _axis_grid(len(axes_names), 3.2)
     for subplot, axis in zip(cells, axes_names, strict=True):
-        data = []
-        for label in labels:
-            values = _solved_errors(rows_by_method[label], axis)
-            data.append(np.maximum(values, ZERO_FLOOR) if values.size else np.array([np.nan]))
-        subplot.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+        boxes(subplot, [np.maximum(_solved_errors(rows, axis), ZERO_FLOOR)
+              for rows in rows_by_method.values()])
         subplot.set_yscale("log")
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)

@@ -65,11 +65,8 @@ class FolderLock:
                 entry.unlink()
 
 
-def remove_temporaries(folder: Path) -> int:
-    """Remove the ``.NAME.PID.tmp`` files under ``folder`` (left by killed writers); return how many."""
-    removed = 0
+def remove_temporaries(folder: Path) -> None:
+    """Remove the ``.NAME.PID.tmp`` files under ``folder`` (left by killed writers)."""
     for path in Path(folder).rglob(".*.tmp"):
         if path.is_file():
             path.unlink(missing_ok=True)
-            removed += 1
-    return removed

@@ -464,13 +464,9 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     along.set_ylabel("% of paths solved at the point")
     along.set_ylim(-2, 102)
     along.legend(fontsize=7)
-    data = []
-    for label in labels:
-        rows = rows_by_method[label]
-        values = rows["length"][rows["success"].astype(bool)]
-        values = values[np.isfinite(values) & (values > 0)]
-        data.append(values if values.size else np.array([np.nan]))
-    boxes = lengths.boxplot(data, showfliers=True, flierprops={"markersize": 2}, patch_artist=True)
+    whole = [rows["length"][rows["success"].astype(bool)] for rows in rows_by_method.values()]
+    boxes = figures.boxes(lengths, [values[np.isfinite(values) & (values > 0)] for values in whole],
+                          patch_artist=True)
     for patch, label in zip(boxes["boxes"], labels, strict=True):
         patch.set_facecolor(colour[label])
         patch.set_alpha(0.6)

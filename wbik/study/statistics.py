@@ -27,18 +27,13 @@ _BOOTSTRAP_BLOCK = 2_000_000
 """Resampled values drawn at a time (memory: 8 bytes each)."""
 
 
-def _z(confidence: float) -> float:
-    """The standard normal quantile of a two-sided ``confidence`` interval (1.96 at 95 %)."""
-    return float(stats.norm.ppf(0.5 + confidence / 2.0))
-
-
 def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
     """Wilson's score interval (low, high) of k of n, as fractions ((nan, nan) for none): with p = k/n and
     z the normal quantile, centre (p + z^2/2n) / (1 + z^2/n), half-width z sqrt(p(1-p)/n + z^2/4n^2) /
     (1 + z^2/n)."""
     if count <= 0:
         return math.nan, math.nan
-    z = _z(confidence)
+    z = float(stats.norm.ppf(0.5 + confidence / 2.0))  # 1.96 at 95 %
     p = successes / count
     denominator = 1.0 + z * z / count
     centre = (p + z * z / (2.0 * count)) / denominator
@@ -181,18 +176,6 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
     return summary
 
 
-def mann_whitney(first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
-    """(U, two-sided p) of scipy's Mann-Whitney U test of the finite values; NaN when a sample is empty."""
-    first = first[np.isfinite(first)]
-    second = second[np.isfinite(second)]
-    if first.size == 0 or second.size == 0:
-        return math.nan, math.nan
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        result = stats.mannwhitneyu(first, second, alternative="two-sided")
-    return float(result.statistic), float(result.pvalue)
-
-
 def significance_samples(rows: dict[str, np.ndarray], axis: str) -> np.ndarray:
     """The sample compared for one axis: |e| of solved poses, or the time (ms) of every pose."""
     if axis == "time":
@@ -218,9 +201,15 @@ def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.nda
 
 
 def mann_whitney_row(method: str, baseline: str, axis: str, first: np.ndarray, second: np.ndarray) -> dict:
-    """The row of a Mann-Whitney U test of ``method``'s sample ``second`` against the baseline's ``first``."""
-    statistic, pvalue = mann_whitney(first, second)
+    """The row of scipy's two-sided Mann-Whitney U test of ``method``'s sample ``second`` against the
+    baseline's ``first``, on their finite values (U and p NaN when a sample is empty)."""
     a, b = first[np.isfinite(first)], second[np.isfinite(second)]
+    statistic = pvalue = math.nan
+    if a.size and b.size:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            result = stats.mannwhitneyu(a, b, alternative="two-sided")
+        statistic, pvalue = float(result.statistic), float(result.pvalue)
     return {"method": method, "baseline": baseline, "axis": axis, "n_baseline": int(a.size),
             "n_method": int(b.size), "median_baseline": float(np.median(a)) if a.size else math.nan,
             "median_method": float(np.median(b)) if b.size else math.nan, "U": statistic, "p_value": pvalue,

@@ -321,12 +321,8 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
 
     labels = list(rows_by_method)
     figure, axes = plt.subplots(figsize=(max(6.0, 1.1 * len(labels) + 2), 4.0))
-    data = []
-    for label in labels:
-        values = rows_by_method[label]["com_margin"] * 1e3
-        values = values[np.isfinite(values)]
-        data.append(values if values.size else np.array([np.nan]))
-    axes.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+    margins = [rows["com_margin"] * 1e3 for rows in rows_by_method.values()]
+    figures.boxes(axes, [values[np.isfinite(values)] for values in margins])
     axes.axhline(margin * 1e3, color="tab:red", linestyle="--", linewidth=1,
                  label=f"required {margin * 1e3:g} mm")
     axes.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
