@@ -99,9 +99,8 @@ def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[d
 def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, rows_by_method: dict,
                   not_applicable: dict, summaries: dict, title: str, axes: list[str], angles=None,
                   more_tests: Callable[[str], list[dict]] | None = None) -> dict:
-    """What every kind's analysis of a case holds, its tables and figures written: the Mann-Whitney tests
-    against the study's baseline (``more_tests(baseline)``: a kind's own), the budget curves and the
-    figures of :func:`case_figures` (titled ``title``, errors on ``axes``)."""
+    """What every kind's analysis of a case holds, its tables and figures written: the tests against the
+    baseline (``more_tests(baseline)``: a kind's own), the budget curves and :func:`case_figures`."""
     baseline = study.baseline if study.baseline in rows_by_method else None
     tests = [*significance(baseline, rows_by_method), *(more_tests(baseline) if more_tests else [])] \
         if baseline else []
@@ -120,9 +119,7 @@ def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, ro
 def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
                  angles=None, curves: dict[str, BudgetCurve] | None = None,
                  budget_kinds: dict[str, str] | None = None) -> dict[str, Path]:
-    """The figures of every case (none without rows): solved, errors per axis of the solved poses (box plots
-    and histograms), time (box plots, histogram, ECDFs), success versus budget with ``curves``, and the
-    throughput of batched methods."""
+    """The figures of every case (none without rows), by name: solved, errors, time, budget, throughput."""
     if not rows_by_method:
         return {}
     import wbik.study.figures as figures

@@ -65,9 +65,8 @@ def _record(study: Study, method: MethodSpec, poses: int) -> dict:
 
 
 def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
-    """(tasks still to run, rows already done, rows in total) of the study's budget curves: the kind's task
-    of the case's first targets at each budget, its ``chunk`` the budget's index (its seed the first
-    chunk's). Not applicable methods, closed forms and kinds with ``budget_curves = False`` get none."""
+    """(tasks still to run, rows already done, rows in total) of the budget curves: a task per budget, its
+    ``chunk`` the budget's index; none for closed forms, refused methods or kinds without curves."""
     tasks: list[ChunkTask] = []
     done = total = 0
     for case in study.cases:

@@ -57,9 +57,8 @@ def starved(wall_s: float, cpu_s: float, threads: int = 1) -> bool:
 
 
 def solve_watching_the_cpu(solver, target, q0, timeout_s: float, rebuild: Callable[[float], object]) -> tuple:
-    """(answer, CPU seconds, re-runs) of a wall-clock solve of budget T = ``timeout_s``: a starved solve's
-    answer is discarded, whatever it was (re-running failures only would give a method with random restarts
-    a second draw), and the solve run again by ``rebuild(budget)`` with its budget stretched by
+    """(answer, CPU seconds, re-runs) of a wall-clock solve of budget T: a starved solve's answer, whatever
+    it was, is discarded and the solve run again by ``rebuild(budget)`` with the budget stretched by
     threads x wall / CPU (at most MAX_STRETCH x T), up to MAX_RERUNS times."""
     threads = method_threads(getattr(solver, "name", ""), type(solver))
     reruns, current = 0, solver

@@ -19,8 +19,7 @@ ZERO_FLOOR = 1e-18
 
 
 def save(figure, path: Path) -> Path:
-    """``figure`` as a PNG at ``path``, trimmed to what it draws, then closed. Figures have a fixed layout
-    (no layout engine: its passes measure every tick label again); the trim measures once."""
+    """``figure`` as a PNG at ``path``, trimmed to what it draws (no layout engine), then closed."""
     def write(handle) -> None:
         figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
 
@@ -30,8 +29,7 @@ def save(figure, path: Path) -> Path:
 
 
 def _axis_grid(count: int, height: float) -> tuple[plt.Figure, list]:
-    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches with room for rotated
-    tick labels and a title between lines, the cells left over hidden: (figure, the ``count`` subplots)."""
+    """(figure, its ``count`` subplots), three to a line, each 4.2 x ``height`` inches, the rest hidden."""
     columns = 3
     lines = -(-count // columns)
     figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False,
@@ -142,9 +140,8 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
 
 
 def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
-    """Two ECDFs of time per method (log time axis): left, the share of calls that returned within
-    t, F(t) = #{time <= t} / n; right, the share of poses solved within t, #{solved, time <= t} / n,
-    which ends at the method's share solved."""
+    """Two ECDFs of time per method (log time axis): the share of calls returned within t,
+    #{time <= t} / n, and the share of poses solved within t, #{solved, time <= t} / n."""
     labels = list(rows_by_method)
     colour = colours(labels)
     figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True,
@@ -183,9 +180,8 @@ BUDGET_STYLES = {"iterations": "-", "wall": "--", "none": ":"}
 
 
 def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -> Path:
-    """% solved against the budget (ms, log axis) per method (``curves``: label -> BudgetCurve),
-    a 95 % (Wilson) band around each; ``kinds`` label -> "iterations", "wall" or "none" (a closed
-    form: a flat line) sets the line style."""
+    """% solved against the budget (ms, log axis) per method with its 95 % (Wilson) band; ``kinds``
+    (label -> "iterations", "wall" or "none") sets the line style."""
     labels = list(curves)
     colour = colours(labels)
     figure, axes = plt.subplots(figsize=(9.0, 5.0))

@@ -132,8 +132,7 @@ def render_html(blocks: list[Block], title: str) -> str:
 
 
 def write_report(study: Study, output: Path, comparison: Comparison | None = None) -> tuple[Path, Path]:
-    """Analyse every case and write ``report.md`` and ``report.html`` into ``output`` (with
-    ``comparison``, its section at the end)."""
+    """Analyse every case and write ``report.md`` and ``report.html`` (``comparison``'s section last)."""
     output = Path(output)
     analyses = [case_kind(case).analyse(study, case, output) for case in study.cases]
     blocks = build_blocks(study, output, analyses, comparison)

@@ -72,9 +72,8 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
 
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
-    """Why ``method`` does not apply to ``case`` (None if it does), on the case's first pose. A WbikError
-    that is no refusal stops the study (the file asks for something wrong); anything else is "could not
-    start", so one broken method does not stop a study of many."""
+    """Why ``method`` does not apply to ``case`` (None if it does), on its first pose: a WbikError that is
+    no refusal stops the study, any other error is "could not start" (one broken method stops nothing)."""
     task = _task(study, case, method, poses, 0, 0, 1)
     try:
         return not_applicable(task)

@@ -127,9 +127,8 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
-    """Of a method with a batched path (:func:`wbik.study.chain_targets.batch_columns`): poses per second of
-    ``solve_many`` over the case (NaN if a call raised), the % it solved, and the poses where its verdict
-    differs from ``solve``'s; NaN (and 0) without one."""
+    """Of a method with a batched path: poses per second of ``solve_many`` (NaN if a call raised), the %
+    it solved, and the poses where its verdict differs from ``solve``'s; NaN (and 0) without one."""
     batch = rows.get("batch_success")
     if batch is None:
         return {"throughput_poses_per_s": math.nan, "throughput_percent_solved": math.nan,
