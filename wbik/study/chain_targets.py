@@ -16,7 +16,6 @@ import wbik.study.results as store
 from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.robot import Chain
 from wbik.schema import Map
-from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import (
     INTERVALS_TEXT,
@@ -55,9 +54,6 @@ class ChainChunkTask(ChunkTask):
     angles: AngleConvention | None  # the reference's Euler angles: extra error columns
     positions: np.ndarray
     rotations: np.ndarray | None
-    registered: IKMethod | None = None
-    """The IK method when user code registered it at run time (``wbik.register``): the worker registers it
-    (cloudpickle carries a class of the user's script by value)."""
     base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
     tip: str | None = None
 
@@ -129,13 +125,11 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> ChainChunkTask:
-        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
         return self.task_type(
             **self.chunk_fields(study, case, method, poses, chunk, start, stop), chain=case.chain,
             angles=case.reference.angles if case.reference else None, positions=poses.positions[start:stop],
             rotations=None if poses.rotations is None else poses.rotations[start:stop],
-            registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip,
-            **self.task_fields(study, case))
+            base=case.base, tip=case.tip, **self.task_fields(study, case))
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: ChainChunkTask, timeout_s: float | None = None):
@@ -151,13 +145,6 @@ class ChainTargets(RegisteredMethods, CaseKind):
         except UnsupportedError as exc:
             return str(exc)
         return None
-
-    def worker_solver(self, task: ChainChunkTask):
-        """The task's solver in a worker, its method registered there first if user code registered it."""
-        if task.registered is not None:
-            from wbik.solvers.method_registry import register_method
-            register_method(task.registered, replace=True)
-        return self.build(task)
 
     def solve_one(self, task: ChainChunkTask, solver, target, q0: np.ndarray) -> tuple:
         """(answer, CPU seconds (NaN: not measured), re-runs) of one timed ``solve`` call, a wall-clock
@@ -175,7 +162,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
         the chunk once more through a batched path's ``solve_many`` (:func:`batch_columns`)."""
         from wbik.targets import Target
 
-        solver = self.worker_solver(task)
+        solver = self.build(task)
         count = task.count
         targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                    for i in range(count)]

@@ -241,7 +241,7 @@ class PathTargets(ChainTargets):
         from wbik.study.solution_coverage import closed_form_of
         from wbik.targets import Target
 
-        solver = self.worker_solver(task)
+        solver = self.build(task)
         chain = solver.chain
         count, points, n = task.count, task.positions.shape[1], chain.nq
         watch = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted

@@ -35,6 +35,7 @@ BACKENDS = ("loky", "sequential", "dask")
 
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     """The rows of one chunk, solved by the task's case kind (in a worker, or here)."""
+    task.kind.register_entries(task.registered)
     return task.kind.solve(task)
 
 

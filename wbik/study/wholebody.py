@@ -15,8 +15,7 @@ import wbik.study.results as store
 from wbik.errors import UnknownChainError, UnsupportedError
 from wbik.options import option_schema
 from wbik.schema import Context, Key, Map, Text, join
-from wbik.solvers.method import IKMethod
-from wbik.solvers.method_registry import IK_METHOD_REGISTRY, budget_options, register_method
+from wbik.solvers.method_registry import budget_options
 from wbik.solvers.method_registry import solver as registered_solver
 from wbik.solvers.result import Tolerances
 from wbik.study.blocks import (
@@ -72,31 +71,12 @@ def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
     return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
 
 
-def run_time_entries(scenario: str, method: str) -> tuple:
-    """The sampler ``scenario`` and the method ``method`` if user code registered them at run time."""
-    entries = (CASE_REGISTRY.added_at_run_time(scenario), IK_METHOD_REGISTRY.added_at_run_time(method))
-    return tuple(entry for entry in entries if entry is not None)
-
-
-def register_run_time_entries(entries: tuple) -> None:
-    """Register, in this process, the samplers and methods a task carries (replacing a namesake)."""
-    for entry in entries:
-        if isinstance(entry, CaseSampler):
-            register_sampler(entry, replace=True)
-        elif isinstance(entry, IKMethod):
-            register_method(entry, replace=True)
-        else:
-            raise TypeError(f"a whole-body task carries samplers and methods, got {type(entry).__name__}")
-
-
 @dataclass(frozen=True)
 class WholeBodyChunkTask(ChunkTask):
     """A chunk of whole-body cases: the sampler and the study seed rebuild them in the worker."""
 
     scenario: str
     scenario_seed: int
-    wholebody_entries: tuple = ()
-    """The sampler and method user code registered at run time (:func:`run_time_entries`)."""
 
 
 class WholeBodyCases(RegisteredMethods, CaseKind):
@@ -147,8 +127,17 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> WholeBodyChunkTask:
         return WholeBodyChunkTask(**self.chunk_fields(study, case, method, poses, chunk, start, stop),
-                                  scenario=case.scenario, scenario_seed=study.seed,
-                                  wholebody_entries=run_time_entries(case.scenario, method.method))
+                                  scenario=case.scenario, scenario_seed=study.seed)
+
+    def run_time_entries(self, case: CaseSpec, method: str) -> tuple:
+        """The case's sampler and the method, those user code registered at run time."""
+        sampler = CASE_REGISTRY.added_at_run_time(case.scenario)
+        return (*(() if sampler is None else (sampler,)), *super().run_time_entries(case, method))
+
+    def register_entries(self, entries: tuple) -> None:
+        super().register_entries(tuple(entry for entry in entries if not isinstance(entry, CaseSampler)))
+        for sampler in (entry for entry in entries if isinstance(entry, CaseSampler)):
+            register_sampler(sampler, replace=True)
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: WholeBodyChunkTask):
@@ -169,7 +158,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
         """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
         what was raised."""
-        register_run_time_entries(task.wholebody_entries)
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
         rows, q_rows = [], []
