@@ -66,14 +66,9 @@ def fmt_p(value: float) -> str:
 def case_rows(study: Study, case: CaseSpec, output: Path) -> tuple[dict, dict]:
     """({label: rows} of the methods with every chunk present, {label: not-applicable message})."""
     not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
-    rows_by_method = {}
-    for method in study.methods:
-        if method.label in not_applicable:
-            continue
-        rows = store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
-        if rows is not None:
-            rows_by_method[method.label] = rows
-    return rows_by_method, not_applicable
+    loaded = {method.label: store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
+              for method in study.methods if method.label not in not_applicable}
+    return {label: rows for label, rows in loaded.items() if rows is not None}, not_applicable
 
 
 def write_table(path: Path, table: dict[str, dict]) -> None:
@@ -91,9 +86,8 @@ def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[d
     write_table(directory / "summary.csv", summaries)
     if tests:
         tests = with_holm(tests)
-        keys = list(tests[0])
-        store.write_csv(directory / "significance.csv", keys,
-                        [[repr(t[k]) if isinstance(t[k], float) else t[k] for k in keys] for t in tests])
+        store.write_csv(directory / "significance.csv", list(tests[0]),
+                        [[repr(v) if isinstance(v, float) else v for v in test.values()] for test in tests])
 
 
 def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, rows_by_method: dict,

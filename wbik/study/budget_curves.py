@@ -70,14 +70,12 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
     tasks: list[ChunkTask] = []
     done = total = 0
     for case in study.cases:
-        count = curve_poses(study, case)
+        count, kind = curve_poses(study, case), case_kind(case)
         directory = store.case_dir(output, case.name)
-        takes_curves = getattr(case_kind(case), "budget_curves", True)
-        if count == 0 or not takes_curves or not (directory / "poses.npz").is_file():
+        if count == 0 or not getattr(kind, "budget_curves", True) or not (directory / "poses.npz").is_file():
             continue
         poses = PoseSet.load(directory / "poses.npz")
         refused = store.read_json(directory / "not_applicable.json", {}) or {}
-        kind = case_kind(case)
         for method in study.methods:
             if method.label in refused or kind.unbudgeted(method.method):
                 continue
@@ -101,11 +99,10 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
 def read_curves(study: Study, case: CaseSpec, output: Path, rows_by_method: dict) -> dict[str, BudgetCurve]:
     """The curves of ``case``'s methods whose every budget is on disk (a closed form's from its rows), also
     written to the case's ``budget_curves.csv``."""
-    count = curve_poses(study, case)
-    if count == 0 or not getattr(case_kind(case), "budget_curves", True):
+    count, kind = curve_poses(study, case), case_kind(case)
+    if count == 0 or not getattr(kind, "budget_curves", True):
         return {}
     budgets = np.array(study.budget_curves.budgets_ms, dtype=float)
-    kind = case_kind(case)
     curves: dict[str, BudgetCurve] = {}
     for label, rows in rows_by_method.items():
         method = study.method(label)

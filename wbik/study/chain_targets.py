@@ -199,9 +199,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
-        chain = analysis["chain"]
-        summaries = analysis["summaries"]
-        rows_by_method = analysis["rows"]
+        chain, summaries, rows_by_method = analysis["chain"], analysis["summaries"], analysis["rows"]
         blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {case.target} targets"),
                   Block("p", f"{study.poses_of(case)} {case.target} targets from {self.sampling_text(case)} "
                              f"(seed {study.seed}); chain {chain.base_frame} -> "
@@ -245,12 +243,12 @@ class ChainTargets(RegisteredMethods, CaseKind):
                                  + _reference_angles_text(case) + "; radians. Near beta = +-90 deg (gimbal "
                                  "lock) a tiny rotation can show as large, opposite alpha and gamma errors; "
                                  "the rotation vector has no such artefact."))
-        labels = list(summaries)
+        axes = analysis["axes"]
         for statistic, title in (("abs_median", "median |e|"), ("abs_max", "max |e|"),
                                  ("zero_fraction", "fraction exactly 0")):
-            table = [[f"{title}: {label}", *(fmt(summaries[label].get(f"err_{axis}_{statistic}"))
-                                             for axis in analysis["axes"])] for label in labels]
-            blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
+            table = [[f"{title}: {label}", *(fmt(summary.get(f"err_{axis}_{statistic}")) for axis in axes)]
+                     for label, summary in summaries.items()]
+            blocks.append(Block("table", header=["method", *axes], rows=table))
         blocks.extend(image_blocks(analysis["images"], {
             "errors": "Error per axis", "error_histograms": "Distribution of |error| per axis"}))
         blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, "

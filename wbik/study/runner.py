@@ -75,7 +75,7 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
     """Why ``method`` does not apply to ``case`` (None if it does), on its first pose: a WbikError that is
     no refusal stops the study, any other error is "could not start" (one broken method stops nothing)."""
-    task = _task(study, case, method, poses, 0, 0, 1)
+    task = case_kind(case).task(study, case, method, poses, 0, 0, 1)
     try:
         return not_applicable(task)
     except WbikError as exc:  # the study file asks for something wrong: say so before any solving
@@ -85,11 +85,6 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
     except Exception as exc:  # noqa: BLE001 - a broken method must not stop the other methods
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return f"could not start (a bug to report): {detail}"
-
-
-def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
-          stop: int) -> ChunkTask:
-    return case_kind(case).task(study, case, method, poses, chunk, start, stop)
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
@@ -118,7 +113,7 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
                 if store.chunk_path(output, case.name, method.label, chunk).is_file():
                     done_rows += stop - start
                 else:
-                    tasks.append(_task(study, case, method, poses, chunk, start, stop))
+                    tasks.append(case_kind(case).task(study, case, method, poses, chunk, start, stop))
     store.write_json(output / TARGETS_RECORD, targets_record(study, output))
     return tasks, done_rows, total_rows
 
