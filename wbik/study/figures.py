@@ -60,6 +60,15 @@ def colours(labels) -> dict[str, tuple]:
     return {label: order[index % len(order)] for index, label in enumerate(labels)}
 
 
+def _bars(labels: list[str], values: np.ndarray, colour: dict, smallest_width: float) -> tuple:
+    """(figure, axes, positions) of a bar per label in its colour, the labels under the bars."""
+    figure, axes = plt.subplots(figsize=(max(smallest_width, 0.9 * len(labels) + 2), 4.0))
+    positions = np.arange(len(labels))
+    axes.bar(positions, values, color=[colour[label] for label in labels], alpha=0.85)
+    axes.set_xticks(positions, labels, rotation=30, ha="right")
+    return figure, axes, positions
+
+
 def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     """% solved per method, with its 95 % interval (``percent_solved_ci_low``/``_high``) as a whisker
     and as text under the figure's value."""
@@ -67,10 +76,7 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     percent = np.array([summaries[label]["percent_solved"] for label in labels], dtype=float)
     low = np.array([summaries[label].get("percent_solved_ci_low", np.nan) for label in labels], dtype=float)
     high = np.array([summaries[label].get("percent_solved_ci_high", np.nan) for label in labels], dtype=float)
-    figure, axes = plt.subplots(figsize=(max(5.0, 0.9 * len(labels) + 2), 4.0))
-    positions = np.arange(len(labels))
-    colour = colours(labels)
-    axes.bar(positions, percent, color=[colour[label] for label in labels], alpha=0.85)
+    figure, axes, positions = _bars(labels, percent, colours(labels), 5.0)
     whiskers = np.nan_to_num(np.vstack([percent - low, high - percent]), nan=0.0)
     axes.errorbar(positions, percent, yerr=np.maximum(whiskers, 0.0), fmt="none", ecolor="black",
                   elinewidth=1.2, capsize=4)
@@ -80,7 +86,6 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
         axes.text(x, min(top, 100.0) + 1.5, f"{value:.1f} %{interval}", ha="center", va="bottom", fontsize=7)
     axes.set_ylim(0, 118)
     axes.set_yticks(np.arange(0, 101, 20))
-    axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("% solved (95 % interval)")
     axes.set_title(f"{title}: poses solved")
     return save(figure, path)
@@ -89,12 +94,9 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     """Poses per second of solve_many over the case (log scale) of the methods that have one
     (``throughput_poses_per_s`` finite), the share it solved written above each bar."""
-    colour = colours(summaries)
     labels = [label for label, s in summaries.items() if np.isfinite(s.get("throughput_poses_per_s", np.nan))]
     rates = np.array([summaries[label]["throughput_poses_per_s"] for label in labels], dtype=float)
-    figure, axes = plt.subplots(figsize=(max(4.0, 0.9 * len(labels) + 2), 4.0))
-    positions = np.arange(len(labels))
-    axes.bar(positions, rates, color=[colour[label] for label in labels], alpha=0.85)
+    figure, axes, positions = _bars(labels, rates, colours(summaries), 4.0)
     for x, label, rate in zip(positions, labels, rates, strict=True):
         solved = summaries[label]["throughput_percent_solved"]
         axes.text(x, rate * 1.15, f"{rate:.3g}/s\n{solved:.1f} % solved", ha="center", va="bottom",
@@ -102,7 +104,6 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_yscale("log")
     if rates.size:
         axes.set_ylim(rates.min() / 10, rates.max() * 10)
-    axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("throughput (poses/s, solve_many over the case)")
     axes.set_title(f"{title}: throughput of batched methods")
     return save(figure, path)

@@ -301,8 +301,7 @@ class PathTargets(ChainTargets):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
-        chain, parameters = analysis["chain"], analysis["parameters"]
-        drawing = analysis["drawing"]
+        chain, parameters, drawing = analysis["chain"], analysis["parameters"], analysis["drawing"]
         words = (f"{study.poses_of(case)} paths (seed {study.seed}), each a {describe(parameters)}: from the "
                  "tip pose of a start configuration uniform inside the limits, ")
         words += ("in a direction uniform on the sphere" if parameters["shape"] == "line"
