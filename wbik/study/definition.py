@@ -3,7 +3,6 @@ mistake raises a :class:`StudyDefinitionError` naming the file, the key's path a
 
 from __future__ import annotations
 
-import re
 import tomllib
 from dataclasses import fields, replace
 from pathlib import Path
@@ -55,7 +54,6 @@ CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "refer
              "targets"}
 """The keys of a case entry every kind reads (a kind may take more; ``targets`` names a target set)."""
 START_KINDS = ("nominal", "mid_range", "random")
-_LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
 def with_overrides(study: Study, *, poses: int | None = None, methods: list[str] | None = None,
@@ -173,7 +171,8 @@ class StudyBudgetError(StudyValueError, SchemaBudgetError):
 
 
 STUDY_ERRORS = Errors(StudyValueError, UnknownStudyKeyError, StudyBudgetError)
-LABEL = Text(pattern=_LABEL.pattern, what="a name of letters, digits, '_', '-' or '.' (it names files)")
+LABEL = Text(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$",
+             what="a name of letters, digits, '_', '-' or '.' (it names files)")
 
 
 def _count(what: str = "a positive integer", nullable: bool = False) -> Number:
