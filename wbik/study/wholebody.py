@@ -63,14 +63,6 @@ STUDY_NOTE = (
 )
 
 
-def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
-    """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
-    cases = [sample_case(scenario, seed, index) for index in range(count)]
-    nq = cases[0].q0.size
-    q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
-    return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
-
-
 @dataclass(frozen=True)
 class WholeBodyChunkTask(ChunkTask):
     """A chunk of whole-body cases: the sampler and the study seed rebuild them in the worker."""
@@ -119,7 +111,11 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
 
     # -- sampling and tasks ------------------------------------------------------------------------
     def sample(self, study: Study, case: CaseSpec) -> PoseSet:
-        return sample_poses(case.scenario, study.poses_of(case), study.seed)
+        """The case's whole-body cases as a PoseSet (anchor points as positions, no rotations)."""
+        cases = [sample_case(case.scenario, study.seed, index) for index in range(study.poses_of(case))]
+        nq = cases[0].q0.size
+        q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
+        return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
         return budget_options(method, timeout_s, options, problem=True)
