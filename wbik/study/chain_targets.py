@@ -276,11 +276,11 @@ def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray
 
 def _raised(solver, exc: BaseException):
     """The unsolved answer of a solve that raised ``exc``."""
-    from wbik.solvers.result import IKResult
-    nan3 = np.full(3, np.nan)
+    from wbik.solvers.check import no_joints
+    from wbik.solvers.result import Candidate
+
     detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-    return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),
-                    float("nan"), 0, solver.name)
+    return no_joints(f"raised {detail}", math.nan, Candidate(None), solver.name)
 
 
 def _reference_angles_text(case: CaseSpec) -> str:
