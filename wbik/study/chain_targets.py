@@ -98,9 +98,13 @@ class ChainTargets(RegisteredMethods, CaseKind):
         return case_axes(self.target, angles)
 
     # -- sampling and tasks ------------------------------------------------------------------------
+    def joints(self, chain: Chain, count: int, seed: int) -> np.ndarray:
+        """(count, n) joint vectors whose FK are the targets: uniform inside the chain's limits."""
+        return sample_joints(chain, count, seed)
+
     def sample(self, study: Study, case: CaseSpec) -> PoseSet:
         chain = chain_of(case)
-        q_true = sample_joints(chain, study.poses_of(case), study.seed)
+        q_true = self.joints(chain, study.poses_of(case), study.seed)
         return poses_of_joints(chain, q_true, study.seed, self.target, study.start)
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
