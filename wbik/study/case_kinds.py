@@ -193,6 +193,11 @@ class RegisteredMethods:
         from wbik.solvers.method_registry import method_factory
         return method_factory(method)
 
+    def method_option_schema(self, method: str) -> Map:
+        """The types of ``method``'s keyword options (its factory's), less the study's settings."""
+        from wbik.options import option_schema
+        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
+
     def run_time_entries(self, case: CaseSpec, method: str) -> tuple:
         from wbik.solvers.method_registry import IK_METHOD_REGISTRY
         entry = IK_METHOD_REGISTRY.added_at_run_time(method)

@@ -15,7 +15,6 @@ import numpy as np
 import wbik.study.results as store
 from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.robot import Chain
-from wbik.schema import Map
 from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import (
     INTERVALS_TEXT,
@@ -89,11 +88,6 @@ class ChainTargets(RegisteredMethods, CaseKind):
         return self.sampled_from
 
     # -- the study file ----------------------------------------------------------------------------
-    def method_option_schema(self, method: str) -> Map:
-        from wbik.options import option_schema
-
-        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
-
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return case_axes(self.target, angles)
 

@@ -13,8 +13,7 @@ import numpy as np
 
 import wbik.study.results as store
 from wbik.errors import UnknownChainError, UnsupportedError
-from wbik.options import option_schema
-from wbik.schema import Context, Key, Map, Text, join
+from wbik.schema import Context, Key, Text, join
 from wbik.solvers.method_registry import budget_options
 from wbik.solvers.method_registry import solver as registered_solver
 from wbik.solvers.result import Tolerances
@@ -102,9 +101,6 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     def code_roots(self, case: CaseSpec) -> list:
         """The case's sampler."""
         return [CASE_REGISTRY.get(case.scenario).sample]
-
-    def method_option_schema(self, method: str) -> Map:
-        return option_schema(self.method_factory(method), leading=2)
 
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return list(ERROR_AXES)
