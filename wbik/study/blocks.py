@@ -163,9 +163,6 @@ def budget_semantics(kind: CaseKind, method: MethodSpec, seconds: float, workers
             f"budget")
 
 
-THROUGHPUT = "throughput (poses/s, solve_many over the case)"
-
-
 def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
     """The throughput of the case's methods with a batched path (their own ``solve_many``), if any."""
     summaries = {label: s for label, s in analysis["summaries"].items()
@@ -179,9 +176,10 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
                        "time of its calls) and the share it solved. A throughput of batches, no time of "
                        "a call. Every other table and figure of this case counts the per-call solve; "
                        "'disagree' counts the poses whose verdict differs between solve and solve_many."),
-            summary_table(summaries, [(THROUGHPUT, "throughput_poses_per_s"),
-                                      ("% solved (solve_many)", "throughput_percent_solved"),
-                                      ("disagree", "throughput_disagreements")]),
+            summary_table(summaries, [
+                ("throughput (poses/s, solve_many over the case)", "throughput_poses_per_s"),
+                ("% solved (solve_many)", "throughput_percent_solved"),
+                ("disagree", "throughput_disagreements")]),
             *image_blocks(analysis["images"], {
                 "throughput": "Throughput of batched methods (poses/s, solve_many over the case)"})]
 

@@ -265,10 +265,6 @@ def _cells(m: MethodComparison) -> list[str]:
             fmt_p(m.p_value), fmt(m.ratio[0]), fmt_interval(m.ratio[1], m.ratio[2]), m.verdict]
 
 
-HEADER = ["case", "method", "budget", "solved OLD", "solved", "lost", "gained", "McNemar p",
-          "time ratio new/old (median)", "95 % CI", "verdict"]
-
-
 def comparison_blocks(comparison: Comparison) -> list[Block]:
     """The report's section: the rule, then a row per case and method (or why nothing was compared)."""
     blocks = [Block("h2", f"Compared with {comparison.old}")]
@@ -281,7 +277,9 @@ def comparison_blocks(comparison: Comparison) -> list[Block]:
                         "wbik.study.compare) " + (f"{len(regressions)} regression(s): {named}." if regressions
                                                   else "No regression.")))
     blocks.extend(Block("p", note + ".") for note in comparison.notes)
-    blocks.append(Block("table", header=HEADER, rows=[_cells(m) for m in comparison.methods]))
+    blocks.append(Block("table", header=["case", "method", "budget", "solved OLD", "solved", "lost", "gained",
+                                         "McNemar p", "time ratio new/old (median)", "95 % CI", "verdict"],
+                        rows=[_cells(m) for m in comparison.methods]))
     return blocks
 
 
