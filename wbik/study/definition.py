@@ -94,11 +94,9 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
     if name is not None:
         study = replace(study, name=LABEL.check(name, "--name", cli))
     if budget_curve_poses is not None:
-        if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
-                or budget_curve_poses < 0:
-            raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
-                                       f"(0: none), got {budget_curve_poses!r}")
-        study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
+        poses_or_none = Number(integer=True, ge=0, what="a number of poses >= 0 (0: none)")
+        study = replace(study, budget_curves=replace(study.budget_curves, poses=poses_or_none.check(
+            budget_curve_poses, "--budget-curves", cli)))
     if figures is not None:
         study = replace(study, figures=bool(figures))
     return study
