@@ -170,10 +170,10 @@ def test_a_registered_sampler_and_wholebody_method_run_in_loky_workers(tmp_path,
     # without the entries it carries, a task fails in a fresh process: the carrying is what works
     tasks, _, _ = pending_tasks(study, tmp_path / "again", log=lambda message: None)
     task = next(t for t in tasks if t.method == METHOD)
-    assert {type(entry).__name__ for entry in task.wholebody_entries} == {"CaseSampler", "IKMethod"}
-    assert next(t for t in tasks if t.method == "qp").wholebody_entries == (sampler,)
+    assert {type(entry).__name__ for entry in task.registered} == {"CaseSampler", "IKMethod"}
+    assert next(t for t in tasks if t.method == "qp").registered == (sampler,)
     with ProcessPoolExecutor(max_workers=1) as fresh_process:
         for carried, missing in (((), METHOD), ((method,), SAMPLER)):  # the solver is built first
             with pytest.raises(UnknownNameError, match=missing):
-                fresh_process.submit(solve_chunk, replace(task, wholebody_entries=carried)).result()
+                fresh_process.submit(solve_chunk, replace(task, registered=carried)).result()
         assert len(fresh_process.submit(solve_chunk, task).result()["pose"]) == 3  # the same process

@@ -8,17 +8,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from wbik.errors import InvalidSettingError
+from wbik.geometry import TAIT_BRYAN_SEQUENCES, tait_bryan_angles
 from wbik.geometry import batch_exp3 as exp3
+from wbik.geometry import wrap_to_pi as wrap_angle
 from wbik.solvers.result import IKResult
-from wbik.study.metrics import (
-    TAIT_BRYAN_SEQUENCES,
-    AngleConvention,
-    axes,
-    axis_errors,
-    axis_label,
-    tait_bryan_angles,
-    wrap_angle,
-)
+from wbik.study.metrics import AngleConvention, axes, axis_errors, axis_label
 
 YAW_PITCH_ROLL = AngleConvention("zyx", (("x", "yaw"), ("y", "pitch"), ("z", "roll")))
 """Names for the study's own angles (alpha about x 'yaw', beta 'pitch', gamma about z 'roll')."""

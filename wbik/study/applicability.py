@@ -1,8 +1,6 @@
-"""Which methods apply to a study case, decided once per (case, method) before solving: building the method
-raises :class:`~wbik.errors.UnsupportedError` or :class:`~wbik.errors.MissingDependencyError`, or the
-built solver refuses the case's first pose (:meth:`~wbik.study.case_kinds.CaseKind.refusal`). Any other
-error while building propagates.
-"""
+"""Which methods apply to a study case, decided once per (case, method) before solving: building the
+method raises :class:`~wbik.errors.UnsupportedError` or :class:`~wbik.errors.MissingDependencyError`, or
+the built solver refuses the case's first pose; any other error propagates."""
 
 from __future__ import annotations
 

@@ -66,14 +66,9 @@ def fmt_p(value: float) -> str:
 def case_rows(study: Study, case: CaseSpec, output: Path) -> tuple[dict, dict]:
     """({label: rows} of the methods with every chunk present, {label: not-applicable message})."""
     not_applicable = store.read_json(store.case_dir(output, case.name) / "not_applicable.json", {}) or {}
-    rows_by_method = {}
-    for method in study.methods:
-        if method.label in not_applicable:
-            continue
-        rows = store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
-        if rows is not None:
-            rows_by_method[method.label] = rows
-    return rows_by_method, not_applicable
+    loaded = {method.label: store.load_method_rows(output, case.name, method.label, chunk_count(study, case))
+              for method in study.methods if method.label not in not_applicable}
+    return {label: rows for label, rows in loaded.items() if rows is not None}, not_applicable
 
 
 def write_table(path: Path, table: dict[str, dict]) -> None:
@@ -91,17 +86,15 @@ def write_case_tables(directory: Path, summaries: dict[str, dict], tests: list[d
     write_table(directory / "summary.csv", summaries)
     if tests:
         tests = with_holm(tests)
-        keys = list(tests[0])
-        store.write_csv(directory / "significance.csv", keys,
-                        [[repr(t[k]) if isinstance(t[k], float) else t[k] for k in keys] for t in tests])
+        store.write_csv(directory / "significance.csv", list(tests[0]),
+                        [[repr(v) if isinstance(v, float) else v for v in test.values()] for test in tests])
 
 
 def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, rows_by_method: dict,
                   not_applicable: dict, summaries: dict, title: str, axes: list[str], angles=None,
                   more_tests: Callable[[str], list[dict]] | None = None) -> dict:
-    """What every kind's analysis of a case holds, its tables and figures written: the Mann-Whitney tests
-    against the study's baseline (``more_tests(baseline)``: a kind's own), the budget curves and the
-    figures of :func:`case_figures` (titled ``title``, errors on ``axes``)."""
+    """What every kind's analysis of a case holds, its tables and figures written: the tests against the
+    baseline (``more_tests(baseline)``: a kind's own), the budget curves and :func:`case_figures`."""
     baseline = study.baseline if study.baseline in rows_by_method else None
     tests = [*significance(baseline, rows_by_method), *(more_tests(baseline) if more_tests else [])] \
         if baseline else []
@@ -120,9 +113,7 @@ def case_analysis(kind: CaseKind, study: Study, case: CaseSpec, output: Path, ro
 def case_figures(rows_by_method: dict, summaries: dict, title: str, folder: Path, error_names: list[str],
                  angles=None, curves: dict[str, BudgetCurve] | None = None,
                  budget_kinds: dict[str, str] | None = None) -> dict[str, Path]:
-    """The figures of every case (none without rows): solved, errors per axis of the solved poses (box plots
-    and histograms), time (box plots, histogram, ECDFs), success versus budget with ``curves``, and the
-    throughput of batched methods."""
+    """The figures of every case (none without rows), by name: solved, errors, time, budget, throughput."""
     if not rows_by_method:
         return {}
     import wbik.study.figures as figures
@@ -172,9 +163,6 @@ def budget_semantics(kind: CaseKind, method: MethodSpec, seconds: float, workers
             f"budget")
 
 
-THROUGHPUT = "throughput (poses/s, solve_many over the case)"
-
-
 def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
     """The throughput of the case's methods with a batched path (their own ``solve_many``), if any."""
     summaries = {label: s for label, s in analysis["summaries"].items()
@@ -188,9 +176,10 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
                        "time of its calls) and the share it solved. A throughput of batches, no time of "
                        "a call. Every other table and figure of this case counts the per-call solve; "
                        "'disagree' counts the poses whose verdict differs between solve and solve_many."),
-            summary_table(summaries, [(THROUGHPUT, "throughput_poses_per_s"),
-                                      ("% solved (solve_many)", "throughput_percent_solved"),
-                                      ("disagree", "throughput_disagreements")]),
+            summary_table(summaries, [
+                ("throughput (poses/s, solve_many over the case)", "throughput_poses_per_s"),
+                ("% solved (solve_many)", "throughput_percent_solved"),
+                ("disagree", "throughput_disagreements")]),
             *image_blocks(analysis["images"], {
                 "throughput": "Throughput of batched methods (poses/s, solve_many over the case)"})]
 
@@ -316,6 +305,14 @@ def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
         for reason, count in Counter(_reason_kind(r) for r in failed).most_common(most):
             reasons.append([label, reason, count])
     return reasons
+
+
+def reason_blocks(rows_by_method: dict, text: str, unit: str) -> list[Block]:
+    """``text`` over the table of :func:`frequent_reasons` (``unit``: what is counted); none without any."""
+    reasons = frequent_reasons(rows_by_method)
+    if not reasons:
+        return []
+    return [Block("p", text), Block("table", header=["method", "reason", unit], rows=reasons)]
 
 
 def _reason_kind(reason: str) -> str:

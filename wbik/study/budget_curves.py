@@ -1,9 +1,6 @@
-"""Success versus budget: each method solved again on a case's first ``poses`` targets at every budget of a
-grid (``budget_curves:``, :class:`wbik.study.spec.BudgetCurveSpec`), since a run cut at a smaller budget is
-not a run given it (docs/guide/studies.md). The curve's budget replaces the method's own (``timeout_s``,
-``max_iterations``); a closed form's curve is its rows'. Each (case, method, budget) is a task written to
-``<case>/budget_curves/<method>/budget_NN.npz`` and resumed like a chunk; ``budget_curves.csv`` holds them.
-"""
+"""Success versus budget (``budget_curves:``): each method solved again on a case's first ``poses``
+targets at every budget of a grid, the budget replacing its own (a run cut short is not a run given a
+smaller budget); each (case, method, budget) is a task resumed like a chunk."""
 
 from __future__ import annotations
 
@@ -68,20 +65,17 @@ def _record(study: Study, method: MethodSpec, poses: int) -> dict:
 
 
 def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
-    """(tasks still to run, rows already done, rows in total) of the study's budget curves: the kind's task
-    of the case's first targets at each budget, its ``chunk`` the budget's index (its seed the first
-    chunk's). Not applicable methods, closed forms and kinds with ``budget_curves = False`` get none."""
+    """(tasks still to run, rows already done, rows in total) of the budget curves: a task per budget, its
+    ``chunk`` the budget's index; none for closed forms, refused methods or kinds without curves."""
     tasks: list[ChunkTask] = []
     done = total = 0
     for case in study.cases:
-        count = curve_poses(study, case)
+        count, kind = curve_poses(study, case), case_kind(case)
         directory = store.case_dir(output, case.name)
-        takes_curves = getattr(case_kind(case), "budget_curves", True)
-        if count == 0 or not takes_curves or not (directory / "poses.npz").is_file():
+        if count == 0 or not getattr(kind, "budget_curves", True) or not (directory / "poses.npz").is_file():
             continue
         poses = PoseSet.load(directory / "poses.npz")
         refused = store.read_json(directory / "not_applicable.json", {}) or {}
-        kind = case_kind(case)
         for method in study.methods:
             if method.label in refused or kind.unbudgeted(method.method):
                 continue
@@ -105,11 +99,10 @@ def budget_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask]
 def read_curves(study: Study, case: CaseSpec, output: Path, rows_by_method: dict) -> dict[str, BudgetCurve]:
     """The curves of ``case``'s methods whose every budget is on disk (a closed form's from its rows), also
     written to the case's ``budget_curves.csv``."""
-    count = curve_poses(study, case)
-    if count == 0 or not getattr(case_kind(case), "budget_curves", True):
+    count, kind = curve_poses(study, case), case_kind(case)
+    if count == 0 or not getattr(kind, "budget_curves", True):
         return {}
     budgets = np.array(study.budget_curves.budgets_ms, dtype=float)
-    kind = case_kind(case)
     curves: dict[str, BudgetCurve] = {}
     for label, rows in rows_by_method.items():
         method = study.method(label)

@@ -1,9 +1,6 @@
 """Kinds of study cases (:class:`CaseKind`, a case's ``target:``), the common part of their chunk tasks
-(:class:`ChunkTask`) and their registry. The runner and the report know no kind: the case's kind samples its
-inputs, makes and solves its tasks, refuses a method that does not apply and reports its rows. A kind is
-declared in its module's ``CASE_KINDS`` tuple; :func:`register_case_kind` adds one at run time (a task
-carries its kind to the workers).
-"""
+(:class:`ChunkTask`) and their registry: a kind samples a case's inputs, solves its tasks and reports its
+rows; the runner and the report know no kind."""
 
 from __future__ import annotations
 
@@ -45,6 +42,8 @@ class ChunkTask:
     q0: np.ndarray  # the start configuration of each pose of the chunk
     batch: bool = field(default=True, kw_only=True)
     """Also time the method's batched path (``solve_many``) over the chunk, where it has one."""
+    registered: tuple = field(default=(), kw_only=True)
+    """What user code registered at run time that the chunk needs (:meth:`CaseKind.run_time_entries`)."""
 
     @property
     def count(self) -> int:
@@ -143,7 +142,16 @@ class CaseKind(ABC):
                 "options": _frozen(options), "timeout_s": timeout_s,
                 "tolerances": (study.tolerances["position"], study.tolerances["rotation"]),
                 "seed": chunk_seed(study.seed, case.name, method.label, chunk), "chunk": chunk,
-                "first_pose": start, "q0": poses.q0[start:stop]}
+                "first_pose": start, "q0": poses.q0[start:stop],
+                "registered": self.run_time_entries(case, method.method)}
+
+    def run_time_entries(self, case: CaseSpec, method: str) -> tuple:
+        """What user code registered at run time (``wbik.register``) that the tasks of ``case`` for
+        ``method`` need: a task carries it to the workers, which register it (:meth:`register_entries`)."""
+        return ()
+
+    def register_entries(self, entries: tuple) -> None:  # noqa: B027 - a hook, none by default
+        """Register, in this process, the entries a task carries (replacing a namesake)."""
 
     # -- in the worker -----------------------------------------------------------------------------
     @abstractmethod
@@ -184,6 +192,21 @@ class RegisteredMethods:
     def method_factory(self, method: str):
         from wbik.solvers.method_registry import method_factory
         return method_factory(method)
+
+    def method_option_schema(self, method: str) -> Map:
+        """The types of ``method``'s keyword options (its factory's), less the study's settings."""
+        from wbik.options import option_schema
+        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
+
+    def run_time_entries(self, case: CaseSpec, method: str) -> tuple:
+        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
+        entry = IK_METHOD_REGISTRY.added_at_run_time(method)
+        return () if entry is None else (entry,)
+
+    def register_entries(self, entries: tuple) -> None:
+        from wbik.solvers.method_registry import register_method
+        for entry in entries:
+            register_method(entry, replace=True)
 
 
 CASE_KIND_MODULES: list = []

@@ -1,11 +1,6 @@
-"""Chain targets, the study's case kinds ``pose`` and ``position``: reachable targets of one chain (FK of
-seeded random joints inside the limits, :mod:`wbik.study.sampling`), solved by the IK methods.
-
-In the worker each pose is one timed ``solve`` call (a wall-clock method's with the CPU watched,
-:mod:`wbik.study.cpu_watch`); a method with a batched path of its own then solves the chunk again with
-``solve_many`` for the throughput. Rows: success, reason, time, iterations, errors (the per-axis ones of
-:func:`wbik.study.metrics.axis_errors`), CPU time, re-runs, q (and ``batch_success``, ``batch_share_s``).
-"""
+"""Chain targets, the study's case kinds ``pose`` and ``position``: FK of seeded random joints of one
+chain inside the limits (:mod:`wbik.study.sampling`), each solved by one timed ``solve`` call (CPU watched
+for wall-clock methods, :mod:`wbik.study.cpu_watch`), then by ``solve_many`` where a method has its own."""
 
 from __future__ import annotations
 
@@ -20,8 +15,6 @@ import numpy as np
 import wbik.study.results as store
 from wbik.errors import InvalidSettingError, UnsupportedError, WbikError
 from wbik.robot import Chain
-from wbik.schema import Map
-from wbik.solvers.method import IKMethod
 from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import (
     INTERVALS_TEXT,
@@ -33,8 +26,8 @@ from wbik.study.blocks import (
     case_rows,
     fmt,
     fmt_p,
-    frequent_reasons,
     image_blocks,
+    reason_blocks,
     significance_blocks,
     status_blocks,
     summary_table,
@@ -60,9 +53,6 @@ class ChainChunkTask(ChunkTask):
     angles: AngleConvention | None  # the reference's Euler angles: extra error columns
     positions: np.ndarray
     rotations: np.ndarray | None
-    registered: IKMethod | None = None
-    """The IK method when user code registered it at run time (``wbik.register``): the worker registers it
-    (cloudpickle carries a class of the user's script by value)."""
     base: str | None = None  # a chain named by its base and tip frames (``chain`` is its name)
     tip: str | None = None
 
@@ -98,11 +88,6 @@ class ChainTargets(RegisteredMethods, CaseKind):
         return self.sampled_from
 
     # -- the study file ----------------------------------------------------------------------------
-    def method_option_schema(self, method: str) -> Map:
-        from wbik.options import option_schema
-
-        return option_schema(self.method_factory(method), leading=2, skip=("timeout_s", "tolerances", "seed"))
-
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return case_axes(self.target, angles)
 
@@ -134,13 +119,11 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> ChainChunkTask:
-        from wbik.solvers.method_registry import IK_METHOD_REGISTRY
         return self.task_type(
             **self.chunk_fields(study, case, method, poses, chunk, start, stop), chain=case.chain,
             angles=case.reference.angles if case.reference else None, positions=poses.positions[start:stop],
             rotations=None if poses.rotations is None else poses.rotations[start:stop],
-            registered=IK_METHOD_REGISTRY.added_at_run_time(method.method), base=case.base, tip=case.tip,
-            **self.task_fields(study, case))
+            base=case.base, tip=case.tip, **self.task_fields(study, case))
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: ChainChunkTask, timeout_s: float | None = None):
@@ -156,13 +139,6 @@ class ChainTargets(RegisteredMethods, CaseKind):
         except UnsupportedError as exc:
             return str(exc)
         return None
-
-    def worker_solver(self, task: ChainChunkTask):
-        """The task's solver in a worker, its method registered there first if user code registered it."""
-        if task.registered is not None:
-            from wbik.solvers.method_registry import register_method
-            register_method(task.registered, replace=True)
-        return self.build(task)
 
     def solve_one(self, task: ChainChunkTask, solver, target, q0: np.ndarray) -> tuple:
         """(answer, CPU seconds (NaN: not measured), re-runs) of one timed ``solve`` call, a wall-clock
@@ -180,25 +156,19 @@ class ChainTargets(RegisteredMethods, CaseKind):
         the chunk once more through a batched path's ``solve_many`` (:func:`batch_columns`)."""
         from wbik.targets import Target
 
-        solver = self.worker_solver(task)
+        solver = self.build(task)
         count = task.count
         targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                    for i in range(count)]
         solved = [self.solve_one(task, solver, target, q0)
                   for target, q0 in zip(targets, task.q0, strict=True)]
-        answers = [answer for answer, _, _ in solved]
+        answers, cpu, reruns = zip(*solved, strict=True)
         nq = solver.chain.nq
-        columns = {
-            "pose": np.arange(task.first_pose, task.first_pose + count),
-            "success": np.array([a.success for a in answers], dtype=bool),
-            "reason": np.array([a.reason for a in answers], dtype=str),
-            "time_s": np.array([a.time_s for a in answers], dtype=float),
-            "iterations": np.array([a.iterations for a in answers], dtype=int),
-            "position_error": np.array([a.position_error for a in answers], dtype=float),
-            "rotation_error": np.array([a.rotation_error for a in answers], dtype=float),
-        }
-        columns["cpu_s"] = np.array([cpu for _, cpu, _ in solved], dtype=float)
-        columns["reruns"] = np.array([reruns for _, _, reruns in solved], dtype=int)
+        types = (bool, str, float, int, float, float)  # of ROW_FIELDS after "pose"
+        columns = {"pose": np.arange(task.first_pose, task.first_pose + count),
+                   **{key: np.array([getattr(a, key) for a in answers], dtype=dtype)
+                      for key, dtype in zip(store.ROW_FIELDS[1:], types, strict=True)},
+                   "cpu_s": np.array(cpu, dtype=float), "reruns": np.array(reruns, dtype=int)}
         columns.update(axis_errors(answers, task.rotations, task.angles))
         columns["q"] = np.array([np.full(nq, np.nan) if a.q is None else a.q for a in answers],
                                 dtype=float).reshape(count, nq)
@@ -223,9 +193,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
-        chain = analysis["chain"]
-        summaries = analysis["summaries"]
-        rows_by_method = analysis["rows"]
+        chain, summaries, rows_by_method = analysis["chain"], analysis["summaries"], analysis["rows"]
         blocks = [Block("h2", f"Case {case.name}: {case.robot}.{chain.name}, {case.target} targets"),
                   Block("p", f"{study.poses_of(case)} {case.target} targets from {self.sampling_text(case)} "
                              f"(seed {study.seed}); chain {chain.base_frame} -> "
@@ -255,10 +223,7 @@ class ChainTargets(RegisteredMethods, CaseKind):
                                  f"at most {MAX_RERUNS} times (the last answer is kept); 'CPU / wall': the "
                                  "median share of CPU the kept answers had (about the method's threads "
                                  "when each had a core). " + INTERVALS_TEXT))
-        reasons = frequent_reasons(rows_by_method)
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for 'not solved':"))
-            blocks.append(Block("table", header=["method", "reason", "poses"], rows=reasons))
+        blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved':", "poses"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Poses solved per method", "time": "Time per pose",
             "time_histogram": "Histogram of time per pose",
@@ -272,12 +237,12 @@ class ChainTargets(RegisteredMethods, CaseKind):
                                  + _reference_angles_text(case) + "; radians. Near beta = +-90 deg (gimbal "
                                  "lock) a tiny rotation can show as large, opposite alpha and gamma errors; "
                                  "the rotation vector has no such artefact."))
-        labels = list(summaries)
+        axes = analysis["axes"]
         for statistic, title in (("abs_median", "median |e|"), ("abs_max", "max |e|"),
                                  ("zero_fraction", "fraction exactly 0")):
-            table = [[f"{title}: {label}", *(fmt(summaries[label].get(f"err_{axis}_{statistic}"))
-                                             for axis in analysis["axes"])] for label in labels]
-            blocks.append(Block("table", header=["method", *analysis["axes"]], rows=table))
+            table = [[f"{title}: {label}", *(fmt(summary.get(f"err_{axis}_{statistic}")) for axis in axes)]
+                     for label, summary in summaries.items()]
+            blocks.append(Block("table", header=["method", *axes], rows=table))
         blocks.extend(image_blocks(analysis["images"], {
             "errors": "Error per axis", "error_histograms": "Distribution of |error| per axis"}))
         blocks.extend(significance_blocks(analysis, "per axis on |e| of the solved poses of each method, "
@@ -309,11 +274,11 @@ def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray
 
 def _raised(solver, exc: BaseException):
     """The unsolved answer of a solve that raised ``exc``."""
-    from wbik.solvers.result import IKResult
-    nan3 = np.full(3, np.nan)
+    from wbik.solvers.check import no_joints
+    from wbik.solvers.result import Candidate
+
     detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-    return IKResult(None, False, f"raised {detail}", float("nan"), float("nan"), nan3, nan3.copy(),
-                    float("nan"), 0, solver.name)
+    return no_joints(f"raised {detail}", math.nan, Candidate(None), solver.name)
 
 
 def _reference_angles_text(case: CaseSpec) -> str:

@@ -1,11 +1,6 @@
-"""The regression gate: a study's run beside an earlier run of it on the same targets (``wbik study FILE -o
-NEW --compare-to OLD``), paired target by target (docs/guide/studies.md, "The regression gate"). Runs whose
-``targets.json`` (:func:`targets_record`) differ are not compared (exit 4). Under the ``regression:`` rule
-a method without a wall clock regressed when any target solved in OLD is unsolved now; a wall-clock method
-when McNemar's exact one-sided test on the discordant targets gives p < ``success_level``; time when the
-bootstrap 95 % interval of the median per-target ratio new / old lies above ``time_rise``; a method or case
-of OLD this run lacks regressed.
-"""
+"""The regression gate (``wbik study FILE -o NEW --compare-to OLD``): a run beside an earlier run on the
+same targets (``targets.json``), paired target by target and judged by the study's ``regression:`` rule
+(:func:`rule_text`; docs/guide/studies.md, "The regression gate")."""
 
 from __future__ import annotations
 
@@ -270,10 +265,6 @@ def _cells(m: MethodComparison) -> list[str]:
             fmt_p(m.p_value), fmt(m.ratio[0]), fmt_interval(m.ratio[1], m.ratio[2]), m.verdict]
 
 
-HEADER = ["case", "method", "budget", "solved OLD", "solved", "lost", "gained", "McNemar p",
-          "time ratio new/old (median)", "95 % CI", "verdict"]
-
-
 def comparison_blocks(comparison: Comparison) -> list[Block]:
     """The report's section: the rule, then a row per case and method (or why nothing was compared)."""
     blocks = [Block("h2", f"Compared with {comparison.old}")]
@@ -286,7 +277,9 @@ def comparison_blocks(comparison: Comparison) -> list[Block]:
                         "wbik.study.compare) " + (f"{len(regressions)} regression(s): {named}." if regressions
                                                   else "No regression.")))
     blocks.extend(Block("p", note + ".") for note in comparison.notes)
-    blocks.append(Block("table", header=HEADER, rows=[_cells(m) for m in comparison.methods]))
+    blocks.append(Block("table", header=["case", "method", "budget", "solved OLD", "solved", "lost", "gained",
+                                         "McNemar p", "time ratio new/old (median)", "95 % CI", "verdict"],
+                        rows=[_cells(m) for m in comparison.methods]))
     return blocks
 
 

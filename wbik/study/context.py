@@ -20,9 +20,7 @@ def _frozen(mapping: dict) -> tuple:
 
 def _robot(name: str, params: tuple):
     """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe)."""
-    cache = getattr(_LOCAL, "robots", None)
-    if cache is None:
-        cache = _LOCAL.robots = {}
+    cache = _LOCAL.__dict__.setdefault("robots", {})
     key = (name, params)
     if key not in cache:
         from wbik.models import load

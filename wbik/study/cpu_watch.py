@@ -1,7 +1,5 @@
-"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation, and the workers a method with threads
-of its own runs with: a solve given less CPU than ``STARVED_CPU_SHARE`` x threads x wall is run again with a
-stretched budget, up to ``MAX_RERUNS`` times (docs/guide/studies.md, "Budgets").
-"""
+"""Wall-clock solves (KDL, TRAC-IK, PlaCo) watched for CPU starvation: a solve given less CPU than
+``STARVED_CPU_SHARE`` x threads x wall is run again with a stretched budget, up to ``MAX_RERUNS`` times."""
 
 from __future__ import annotations
 
@@ -39,11 +37,6 @@ def threads_of(method: str) -> int:
     return method_threads(method, factory)
 
 
-def solver_threads(solver) -> int:
-    """The threads a solve of the built ``solver`` keeps busy (:func:`method_threads`)."""
-    return method_threads(getattr(solver, "name", ""), type(solver))
-
-
 def usable_cores() -> int:
     """The cores this process may run on (its CPU affinity where the OS says, else the CPU count)."""
     try:
@@ -64,11 +57,10 @@ def starved(wall_s: float, cpu_s: float, threads: int = 1) -> bool:
 
 
 def solve_watching_the_cpu(solver, target, q0, timeout_s: float, rebuild: Callable[[float], object]) -> tuple:
-    """(answer, CPU seconds, re-runs) of a wall-clock solve of budget T = ``timeout_s``: a starved solve's
-    answer is discarded, whatever it was (re-running failures only would give a method with random restarts
-    a second draw), and the solve run again by ``rebuild(budget)`` with its budget stretched by
+    """(answer, CPU seconds, re-runs) of a wall-clock solve of budget T: a starved solve's answer, whatever
+    it was, is discarded and the solve run again by ``rebuild(budget)`` with the budget stretched by
     threads x wall / CPU (at most MAX_STRETCH x T), up to MAX_RERUNS times."""
-    threads = solver_threads(solver)
+    threads = method_threads(getattr(solver, "name", ""), type(solver))
     reruns, current = 0, solver
     while True:
         cpu_start = time.process_time()

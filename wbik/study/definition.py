@@ -3,7 +3,6 @@ mistake raises a :class:`StudyDefinitionError` naming the file, the key's path a
 
 from __future__ import annotations
 
-import re
 import tomllib
 from dataclasses import fields, replace
 from pathlib import Path
@@ -12,6 +11,7 @@ import yaml
 
 from wbik.data import data_dir, study_path
 from wbik.errors import did_you_mean
+from wbik.geometry import TAIT_BRYAN_SEQUENCES
 from wbik.options import Options
 from wbik.schema import (
     Anything,
@@ -33,13 +33,7 @@ from wbik.schema import (
     join,
     unknown_keys,
 )
-from wbik.study.metrics import (
-    ANGLE_AXES,
-    POSITION_AXES,
-    ROTATION_VECTOR_AXES,
-    TAIT_BRYAN_SEQUENCES,
-    AngleConvention,
-)
+from wbik.study.metrics import ANGLE_AXES, POSITION_AXES, ROTATION_VECTOR_AXES, AngleConvention
 from wbik.study.reference import REFERENCE_METRICS, Reference
 from wbik.study.regression_rule import regression_rule, regression_schema
 from wbik.study.spec import (
@@ -60,7 +54,6 @@ CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "refer
              "targets"}
 """The keys of a case entry every kind reads (a kind may take more; ``targets`` names a target set)."""
 START_KINDS = ("nominal", "mid_range", "random")
-_LABEL = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 
 
 def with_overrides(study: Study, *, poses: int | None = None, methods: list[str] | None = None,
@@ -101,11 +94,9 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
     if name is not None:
         study = replace(study, name=LABEL.check(name, "--name", cli))
     if budget_curve_poses is not None:
-        if isinstance(budget_curve_poses, bool) or not isinstance(budget_curve_poses, int) \
-                or budget_curve_poses < 0:
-            raise StudyDefinitionError(f"command line: --budget-curves must be a number of poses >= 0 "
-                                       f"(0: none), got {budget_curve_poses!r}")
-        study = replace(study, budget_curves=replace(study.budget_curves, poses=budget_curve_poses))
+        poses_or_none = Number(integer=True, ge=0, what="a number of poses >= 0 (0: none)")
+        study = replace(study, budget_curves=replace(study.budget_curves, poses=poses_or_none.check(
+            budget_curve_poses, "--budget-curves", cli)))
     if figures is not None:
         study = replace(study, figures=bool(figures))
     return study
@@ -178,7 +169,8 @@ class StudyBudgetError(StudyValueError, SchemaBudgetError):
 
 
 STUDY_ERRORS = Errors(StudyValueError, UnknownStudyKeyError, StudyBudgetError)
-LABEL = Text(pattern=_LABEL.pattern, what="a name of letters, digits, '_', '-' or '.' (it names files)")
+LABEL = Text(pattern=r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$",
+             what="a name of letters, digits, '_', '-' or '.' (it names files)")
 
 
 def _count(what: str = "a positive integer", nullable: bool = False) -> Number:

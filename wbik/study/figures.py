@@ -1,6 +1,5 @@
-"""The study's figures, drawn with matplotlib's Agg backend: the share solved with its intervals, |error| per
-axis (box plots and histograms), time (box plots, histogram, ECDFs), success versus budget, and the throughput
-of batched methods. A method has the same colour in every figure of a case (:func:`colours`)."""
+"""The study's figures (matplotlib, Agg backend); a method has the same colour in every figure of a case
+(:func:`colours`)."""
 
 from __future__ import annotations
 
@@ -13,18 +12,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from wbik.files import atomic_write_bytes  # noqa: E402
-from wbik.study.metrics import (
-    AngleConvention,  # noqa: E402
-    axis_label,  # noqa: E402
-)
+from wbik.study.metrics import AngleConvention, axis_label  # noqa: E402
 
 ZERO_FLOOR = 1e-18
 """Where exact zeros are drawn on logarithmic error axes."""
 
 
 def save(figure, path: Path) -> Path:
-    """``figure`` as a PNG at ``path``, trimmed to what it draws, then closed. Figures have a fixed layout
-    (no layout engine: its passes measure every tick label again); the trim measures once."""
+    """``figure`` as a PNG at ``path``, trimmed to what it draws (no layout engine), then closed."""
     def write(handle) -> None:
         figure.savefig(handle, format="png", dpi=110, bbox_inches="tight")
 
@@ -34,8 +29,7 @@ def save(figure, path: Path) -> Path:
 
 
 def _axis_grid(count: int, height: float) -> tuple[plt.Figure, list]:
-    """A figure of ``count`` subplots, three to a line, each 4.2 x ``height`` inches with room for rotated
-    tick labels and a title between lines, the cells left over hidden: (figure, the ``count`` subplots)."""
+    """(figure, its ``count`` subplots), three to a line, each 4.2 x ``height`` inches, the rest hidden."""
     columns = 3
     lines = -(-count // columns)
     figure, grid = plt.subplots(lines, columns, figsize=(4.2 * columns, height * lines), squeeze=False,
@@ -53,11 +47,26 @@ def _solved_errors(rows: dict, axis: str) -> np.ndarray:
     return magnitude[np.isfinite(magnitude)]
 
 
+def boxes(axes, samples: list[np.ndarray], **options) -> dict:
+    """Box plots of ``samples`` on ``axes``, small fliers shown, an empty sample drawn as NaN."""
+    return axes.boxplot([values if values.size else np.array([np.nan]) for values in samples],
+                        showfliers=True, flierprops={"markersize": 2}, **options)
+
+
 def colours(labels) -> dict[str, tuple]:
     """A colour per method label, in order: tab20's ten darker shades, then its ten lighter ones."""
     palette = plt.get_cmap("tab20").colors
     order = [*palette[0::2], *palette[1::2]]
     return {label: order[index % len(order)] for index, label in enumerate(labels)}
+
+
+def _bars(labels: list[str], values: np.ndarray, colour: dict, smallest_width: float) -> tuple:
+    """(figure, axes, positions) of a bar per label in its colour, the labels under the bars."""
+    figure, axes = plt.subplots(figsize=(max(smallest_width, 0.9 * len(labels) + 2), 4.0))
+    positions = np.arange(len(labels))
+    axes.bar(positions, values, color=[colour[label] for label in labels], alpha=0.85)
+    axes.set_xticks(positions, labels, rotation=30, ha="right")
+    return figure, axes, positions
 
 
 def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
@@ -67,10 +76,7 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     percent = np.array([summaries[label]["percent_solved"] for label in labels], dtype=float)
     low = np.array([summaries[label].get("percent_solved_ci_low", np.nan) for label in labels], dtype=float)
     high = np.array([summaries[label].get("percent_solved_ci_high", np.nan) for label in labels], dtype=float)
-    figure, axes = plt.subplots(figsize=(max(5.0, 0.9 * len(labels) + 2), 4.0))
-    positions = np.arange(len(labels))
-    colour = colours(labels)
-    axes.bar(positions, percent, color=[colour[label] for label in labels], alpha=0.85)
+    figure, axes, positions = _bars(labels, percent, colours(labels), 5.0)
     whiskers = np.nan_to_num(np.vstack([percent - low, high - percent]), nan=0.0)
     axes.errorbar(positions, percent, yerr=np.maximum(whiskers, 0.0), fmt="none", ecolor="black",
                   elinewidth=1.2, capsize=4)
@@ -80,7 +86,6 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
         axes.text(x, min(top, 100.0) + 1.5, f"{value:.1f} %{interval}", ha="center", va="bottom", fontsize=7)
     axes.set_ylim(0, 118)
     axes.set_yticks(np.arange(0, 101, 20))
-    axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("% solved (95 % interval)")
     axes.set_title(f"{title}: poses solved")
     return save(figure, path)
@@ -89,12 +94,9 @@ def solved_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     """Poses per second of solve_many over the case (log scale) of the methods that have one
     (``throughput_poses_per_s`` finite), the share it solved written above each bar."""
-    colour = colours(summaries)
     labels = [label for label, s in summaries.items() if np.isfinite(s.get("throughput_poses_per_s", np.nan))]
     rates = np.array([summaries[label]["throughput_poses_per_s"] for label in labels], dtype=float)
-    figure, axes = plt.subplots(figsize=(max(4.0, 0.9 * len(labels) + 2), 4.0))
-    positions = np.arange(len(labels))
-    axes.bar(positions, rates, color=[colour[label] for label in labels], alpha=0.85)
+    figure, axes, positions = _bars(labels, rates, colours(summaries), 4.0)
     for x, label, rate in zip(positions, labels, rates, strict=True):
         solved = summaries[label]["throughput_percent_solved"]
         axes.text(x, rate * 1.15, f"{rate:.3g}/s\n{solved:.1f} % solved", ha="center", va="bottom",
@@ -102,7 +104,6 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
     axes.set_yscale("log")
     if rates.size:
         axes.set_ylim(rates.min() / 10, rates.max() * 10)
-    axes.set_xticks(positions, labels, rotation=30, ha="right")
     axes.set_ylabel("throughput (poses/s, solve_many over the case)")
     axes.set_title(f"{title}: throughput of batched methods")
     return save(figure, path)
@@ -140,9 +141,8 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
 
 
 def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
-    """Two ECDFs of time per method (log time axis): left, the share of calls that returned within
-    t, F(t) = #{time <= t} / n; right, the share of poses solved within t, #{solved, time <= t} / n,
-    which ends at the method's share solved."""
+    """Two ECDFs of time per method (log time axis): the share of calls returned within t,
+    #{time <= t} / n, and the share of poses solved within t, #{solved, time <= t} / n."""
     labels = list(rows_by_method)
     colour = colours(labels)
     figure, (returned, solved) = plt.subplots(1, 2, figsize=(12.0, 4.2), sharex=True,
@@ -181,9 +181,8 @@ BUDGET_STYLES = {"iterations": "-", "wall": "--", "none": ":"}
 
 
 def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -> Path:
-    """% solved against the budget (ms, log axis) per method (``curves``: label -> BudgetCurve),
-    a 95 % (Wilson) band around each; ``kinds`` label -> "iterations", "wall" or "none" (a closed
-    form: a flat line) sets the line style."""
+    """% solved against the budget (ms, log axis) per method with its 95 % (Wilson) band; ``kinds``
+    (label -> "iterations", "wall" or "none") sets the line style."""
     labels = list(curves)
     colour = colours(labels)
     figure, axes = plt.subplots(figsize=(9.0, 5.0))
@@ -216,11 +215,8 @@ def error_boxplots(rows_by_method: dict[str, dict], axes_names: list[str], title
     labels = list(rows_by_method)
     figure, cells = _axis_grid(len(axes_names), 3.2)
     for subplot, axis in zip(cells, axes_names, strict=True):
-        data = []
-        for label in labels:
-            values = _solved_errors(rows_by_method[label], axis)
-            data.append(np.maximum(values, ZERO_FLOOR) if values.size else np.array([np.nan]))
-        subplot.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+        boxes(subplot, [np.maximum(_solved_errors(rows, axis), ZERO_FLOOR)
+              for rows in rows_by_method.values()])
         subplot.set_yscale("log")
         subplot.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right", fontsize=7)
         subplot.set_title(f"|error| {axis_label(axis, angles)}", fontsize=9)

@@ -16,12 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.geometry import (
-    TAIT_BRYAN_SEQUENCES,  # noqa: F401  (re-exported)
-    batch_exp3,  # noqa: F401  (re-exported)
-    tait_bryan_angles,  # noqa: F401  (re-exported)
-)
-from wbik.geometry import wrap_to_pi as wrap_angle  # angles to (-pi, pi]
+from wbik.geometry import batch_exp3, tait_bryan_angles, wrap_to_pi
 from wbik.solvers.result import IKResult
 
 POSITION_AXES = ("x", "y", "z")
@@ -90,27 +85,23 @@ def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None
     """Per-axis error columns ``err_<axis>`` of a batch of answers (NaN where no joints came back);
     ``target_rotations`` (B, 3, 3), None for position targets; ``angles``: a reference's, as more columns."""
     count = len(results)
-    columns: dict[str, np.ndarray] = {}
     position = np.array([r.position_error_xyz for r in results], dtype=float).reshape(count, 3)
-    for index, axis in enumerate(POSITION_AXES):
-        columns[f"err_{axis}"] = position[:, index]
+    columns = {f"err_{axis}": position[:, index] for index, axis in enumerate(POSITION_AXES)}
     if target_rotations is None:
         return columns
     vector = np.array([r.rotation_error_xyz for r in results], dtype=float).reshape(count, 3)
-    for index, axis in enumerate(ROTATION_VECTOR_AXES):
-        columns[f"err_{axis}"] = vector[:, index]
+    columns.update({f"err_{axis}": vector[:, index] for index, axis in enumerate(ROTATION_VECTOR_AXES)})
     reached = target_rotations @ batch_exp3(np.nan_to_num(vector))
     missing = ~np.all(np.isfinite(vector), axis=1)
 
     def differences(sequence: str) -> np.ndarray:
-        difference = wrap_angle(tait_bryan_angles(reached, sequence) - tait_bryan_angles(target_rotations,
+        difference = wrap_to_pi(tait_bryan_angles(reached, sequence) - tait_bryan_angles(target_rotations,
                                                                                          sequence))
         difference[missing] = np.nan
         return difference
 
     own = differences(STUDY_SEQUENCE)
-    for index, axis in enumerate(ANGLE_AXES):
-        columns[f"err_{axis}"] = own[:, index]
+    columns.update({f"err_{axis}": own[:, index] for index, axis in enumerate(ANGLE_AXES)})
     if angles:
         theirs = own if angles.sequence == STUDY_SEQUENCE else differences(angles.sequence)
         for axis, name in angles.names:

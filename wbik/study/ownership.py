@@ -1,7 +1,5 @@
-"""A study run owns its output folder: ``fcntl.flock`` on ``<output>/.wbik-lock`` for the whole run (the
-kernel drops it when the process dies, however it dies). A second run into the folder is refused with
-:class:`FolderBusyError`; ``--fresh`` empties the folder only while holding the lock; taking the lock
-removes the temporary files of killed writers (``.NAME.PID.tmp``, :mod:`wbik.files`)."""
+"""A study run owns its output folder: ``fcntl.flock`` on ``<output>/.wbik-lock`` for the whole run (dropped
+when the process dies); a second run into the folder raises :class:`FolderBusyError`."""
 
 from __future__ import annotations
 
@@ -67,11 +65,8 @@ class FolderLock:
                 entry.unlink()
 
 
-def remove_temporaries(folder: Path) -> int:
-    """Remove the ``.NAME.PID.tmp`` files under ``folder`` (left by killed writers); return how many."""
-    removed = 0
+def remove_temporaries(folder: Path) -> None:
+    """Remove the ``.NAME.PID.tmp`` files under ``folder`` (left by killed writers)."""
     for path in Path(folder).rglob(".*.tmp"):
         if path.is_file():
             path.unlink(missing_ok=True)
-            removed += 1
-    return removed

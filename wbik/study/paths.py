@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +13,7 @@ import wbik.study.results as store
 from wbik.robot import Chain
 from wbik.schema import Boolean, Context, Key, Map, Number, join
 from wbik.solvers.method_registry import budget_options
-from wbik.study.blocks import Block, fmt, fmt_interval, frequent_reasons, status_blocks, write_case_tables
+from wbik.study.blocks import Block, fmt, fmt_interval, reason_blocks, status_blocks, write_case_tables
 from wbik.study.chain_targets import ChainChunkTask, ChainTargets
 from wbik.study.context import _frozen, chain_of, make_solver
 from wbik.study.path_metrics import (
@@ -28,7 +27,7 @@ from wbik.study.path_metrics import (
 )
 from wbik.study.sampling import PoseSet, saved_extras
 from wbik.study.spec import CaseSpec, Study
-from wbik.study.statistics import finite_statistic, wilson_interval
+from wbik.study.statistics import P95, finite_statistic, wilson_interval
 from wbik.study.target_parameters import Parameter, choice, integer, number
 from wbik.study.target_sets import target_stream
 
@@ -242,7 +241,7 @@ class PathTargets(ChainTargets):
         from wbik.study.solution_coverage import closed_form_of
         from wbik.targets import Target
 
-        solver = self.worker_solver(task)
+        solver = self.build(task)
         chain = solver.chain
         count, points, n = task.count, task.positions.shape[1], chain.nq
         watch = task.timeout_s is not None and solver.timeout_s is not None and solver.budgeted
@@ -302,8 +301,7 @@ class PathTargets(ChainTargets):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         case: CaseSpec = analysis["case"]
-        chain, parameters = analysis["chain"], analysis["parameters"]
-        drawing = analysis["drawing"]
+        chain, parameters, drawing = analysis["chain"], analysis["parameters"], analysis["drawing"]
         words = (f"{study.poses_of(case)} paths (seed {study.seed}), each a {describe(parameters)}: from the "
                  "tip pose of a start configuration uniform inside the limits, ")
         words += ("in a direction uniform on the sphere" if parameters["shape"] == "line"
@@ -356,11 +354,8 @@ class PathTargets(ChainTargets):
             f"changes: {analysis['closed_form']}. Path length: sum over the steps of sum_j |dq_j| (rad), "
             "median over the paths the method solved whole, and over the paths every method solved whole. "
             "Times are per call of the method alone; a path's time is the sum over its points.")))
-        reasons = frequent_reasons(analysis["rows"])
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for a path not solved whole (its first unsolved "
-                                     "point's):"))
-            blocks.append(Block("table", header=["method", "reason", "paths"], rows=reasons))
+        blocks.extend(reason_blocks(analysis["rows"], "Most frequent reasons for a path not solved whole "
+                                    "(its first unsolved point's):", "paths"))
         if "paths" in analysis["images"]:
             blocks.append(Block("image", "Paths solved at each point, and joint path length per method",
                                 path=analysis["images"]["paths"]))
@@ -419,7 +414,7 @@ def path_summary(rows: dict[str, np.ndarray], common: np.ndarray) -> dict:
         "length_median": finite_statistic(rows["length"][whole]),
         "length_common_median": finite_statistic(rows["length"][common] if common.size == count else []),
         "time_point_median_ms": finite_statistic(point_ms),
-        "time_point_p95_ms": finite_statistic(point_ms, partial(np.percentile, q=95)),
+        "time_point_p95_ms": finite_statistic(point_ms, P95),
         "time_all_median_ms": finite_statistic(rows["time_s"] * 1e3),
         "raised": int(sum(str(reason).startswith("raised") for reason in rows["point_reason"].ravel())),
         "rerun": int(np.sum(rows["reruns"] > 0)) if "reruns" in rows else 0,
@@ -468,13 +463,9 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     along.set_ylabel("% of paths solved at the point")
     along.set_ylim(-2, 102)
     along.legend(fontsize=7)
-    data = []
-    for label in labels:
-        rows = rows_by_method[label]
-        values = rows["length"][rows["success"].astype(bool)]
-        values = values[np.isfinite(values) & (values > 0)]
-        data.append(values if values.size else np.array([np.nan]))
-    boxes = lengths.boxplot(data, showfliers=True, flierprops={"markersize": 2}, patch_artist=True)
+    whole = [rows["length"][rows["success"].astype(bool)] for rows in rows_by_method.values()]
+    boxes = figures.boxes(lengths, [values[np.isfinite(values) & (values > 0)] for values in whole],
+                          patch_artist=True)
     for patch, label in zip(boxes["boxes"], labels, strict=True):
         patch.set_facecolor(colour[label])
         patch.set_alpha(0.6)

@@ -1,8 +1,6 @@
-"""What made a study's rows (``provenance.json``, stated in the report's head): wbik's version and commit, the
-machine, the command and a code fingerprint: a digest of the syntax trees (docstrings aside) of the modules
-the rows come from, found along imports (function-level ones too, ``TYPE_CHECKING`` blocks not) from the
-runner, the cases' kinds, the methods' factories and the robots, and of the compiled kernels' C sources.
-"""
+"""What made a study's rows (``provenance.json``): wbik's version and commit, the machine, the command and
+a code fingerprint, a digest of the syntax trees (docstrings aside) of the modules the rows come from
+(followed along imports) and of the compiled kernels' C sources."""
 
 from __future__ import annotations
 

@@ -12,9 +12,8 @@ from wbik.schema import Constant, Either, Key, Map, Number, dataclass_default
 
 @dataclass(frozen=True)
 class RegressionRule:
-    """When ``wbik study --compare-to OLD`` calls a method worse than in OLD: ``success_level``, the level
-    of McNemar's exact one-sided test of a wall-clock method's success; ``time_rise``, the factor r >= 1
-    the 95 % interval of the median per-target time ratio new / old must lie above (None: not gated)."""
+    """When ``--compare-to OLD`` calls a method worse: ``success_level``, the level of McNemar's test of a
+    wall-clock method's success; ``time_rise``, the factor the interval of the time ratio must exceed."""
 
     success_level: float = 0.05
     time_rise: float | None = 1.2

@@ -1,7 +1,5 @@
-"""The study report, assembled once as blocks (:mod:`wbik.study.blocks`) and rendered to Markdown and to
-one self-contained HTML page (figures embedded as base64 PNG), so the two say the same thing. Each case's
-section and files come from its kind (:mod:`wbik.study.case_kinds`); with ``--compare-to OLD`` the
-report ends with the comparison of :mod:`wbik.study.compare`."""
+"""The study report: blocks (:mod:`wbik.study.blocks`) rendered to Markdown and to one self-contained
+HTML page (figures embedded as base64 PNG); each case's section comes from its kind."""
 
 from __future__ import annotations
 
@@ -134,8 +132,7 @@ def render_html(blocks: list[Block], title: str) -> str:
 
 
 def write_report(study: Study, output: Path, comparison: Comparison | None = None) -> tuple[Path, Path]:
-    """Analyse every case and write ``report.md`` and ``report.html`` into ``output`` (with
-    ``comparison``, its section at the end)."""
+    """Analyse every case and write ``report.md`` and ``report.html`` (``comparison``'s section last)."""
     output = Path(output)
     analyses = [case_kind(case).analyse(study, case, output) for case in study.cases]
     blocks = build_blocks(study, output, analyses, comparison)

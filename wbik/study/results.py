@@ -63,10 +63,6 @@ def load_method_rows(output: Path, case_name: str, label: str,
     return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
 
 
-def error_columns(rows: dict[str, np.ndarray]) -> list[str]:
-    return [key for key in rows if key.startswith("err_")]
-
-
 def write_csv(path: Path, header: list, rows: Iterable[list], lineterminator: str = "\n") -> None:
     """``header`` then ``rows`` as a CSV, streamed to a temporary file renamed into place."""
     def write(handle) -> None:
@@ -104,7 +100,7 @@ def write_raw_csv(path: Path, rows_by_method: dict[str, dict[str, np.ndarray]],
     if not rows_by_method:
         atomic_write_text(path, "")
         return
-    keys = [*ROW_FIELDS[1:], *error_columns(next(iter(rows_by_method.values())))]
+    keys = [*ROW_FIELDS[1:], *(key for key in next(iter(rows_by_method.values())) if key.startswith("err_"))]
     write_csv(path, ["pose", "method", *keys, *(f"q_{name}" for name in joint_names)],
               (row for label, rows in rows_by_method.items() for row in method_csv_rows(label, rows, keys)),
               lineterminator="\r\n")

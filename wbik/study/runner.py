@@ -1,8 +1,5 @@
-"""Running a study: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or Dask),
-resumable (docs/guide/studies.md). A task's solver is seeded from (study seed, case, method, chunk); the
-main process writes each chunk atomically as it arrives, and a changed method is recomputed alone. Methods
-with threads of their own run last with fewer workers; budget curves run after the rows.
-"""
+"""Running a study, resumably: tasks (case, method, chunk of ``chunk_size`` poses) in parallel (joblib or
+Dask), each chunk written as it arrives; a changed method is recomputed alone (docs/guide/studies.md)."""
 
 from __future__ import annotations
 
@@ -38,6 +35,7 @@ BACKENDS = ("loky", "sequential", "dask")
 
 def solve_chunk(task: ChunkTask) -> dict[str, np.ndarray]:
     """The rows of one chunk, solved by the task's case kind (in a worker, or here)."""
+    task.kind.register_entries(task.registered)
     return task.kind.solve(task)
 
 
@@ -75,10 +73,9 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
 
 
 def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> str | None:
-    """Why ``method`` does not apply to ``case`` (None if it does), on the case's first pose. A WbikError
-    that is no refusal stops the study (the file asks for something wrong); anything else is "could not
-    start", so one broken method does not stop a study of many."""
-    task = _task(study, case, method, poses, 0, 0, 1)
+    """Why ``method`` does not apply to ``case`` (None if it does), on its first pose: a WbikError that is
+    no refusal stops the study, any other error is "could not start" (one broken method stops nothing)."""
+    task = case_kind(case).task(study, case, method, poses, 0, 0, 1)
     try:
         return not_applicable(task)
     except WbikError as exc:  # the study file asks for something wrong: say so before any solving
@@ -88,11 +85,6 @@ def probe(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet) -> s
     except Exception as exc:  # noqa: BLE001 - a broken method must not stop the other methods
         detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
         return f"could not start (a bug to report): {detail}"
-
-
-def _task(study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int, start: int,
-          stop: int) -> ChunkTask:
-    return case_kind(case).task(study, case, method, poses, chunk, start, stop)
 
 
 def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask], int, int]:
@@ -121,7 +113,7 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
                 if store.chunk_path(output, case.name, method.label, chunk).is_file():
                     done_rows += stop - start
                 else:
-                    tasks.append(_task(study, case, method, poses, chunk, start, stop))
+                    tasks.append(case_kind(case).task(study, case, method, poses, chunk, start, stop))
     store.write_json(output / TARGETS_RECORD, targets_record(study, output))
     return tasks, done_rows, total_rows
 

@@ -73,11 +73,8 @@ def poses_of_joints(chain: Chain, q_true: np.ndarray, seed: int, target: str = "
     """The targets of kind "pose" or "position" that FK of the joint vectors ``q_true`` (count, n)
     reaches, with the study's start configurations."""
     count = len(q_true)
-    positions = np.empty((count, 3))
-    rotations = np.empty((count, 3, 3))
-    for index, q in enumerate(q_true):
-        placement = chain.fk(q)
-        positions[index] = placement.translation
-        rotations[index] = placement.rotation
+    placements = [chain.fk(q) for q in q_true]
+    positions = np.array([placement.translation for placement in placements], dtype=float).reshape(count, 3)
+    rotations = np.array([placement.rotation for placement in placements], dtype=float).reshape(count, 3, 3)
     return PoseSet(q_true, positions, rotations if target == "pose" else None,
                    start_configurations(chain, count, seed, start))

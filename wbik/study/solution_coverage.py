@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
-from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +23,7 @@ from wbik.study.closed_form_branches import (
     in_limit_branches,
     joint_distance,
 )
-from wbik.study.statistics import finite_statistic
+from wbik.study.statistics import P95, finite_statistic
 from wbik.study.target_parameters import Parameter, integer, number
 
 COVERAGE_PARAMETERS = {
@@ -134,7 +133,7 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
         if sampled.any() else math.nan,
         "start_distance_median": finite_statistic(distance),
-        "start_distance_p95": finite_statistic(distance, partial(np.percentile, q=95)),
+        "start_distance_p95": finite_statistic(distance, P95),
     }
 
 

@@ -109,9 +109,8 @@ class Study:
         return _digest(self.row_settings())
 
     def row_settings(self) -> dict:
-        """What every method's results depend on: cases (a case's unset keys left out), poses, seed, start,
-        chunking, tolerances and the reference's angle columns as ``angle_names`` (not the methods, texts,
-        reference figures, peers, budget curves, regression rule or figures)."""
+        """What every method's results depend on: cases (unset keys left out, the reference's angle columns
+        as ``angle_names``), poses, seed, start, chunking and tolerances."""
         data = self.as_dict()
         for key in ("description", "notes", "methods", "baseline", "timeout_s", "budget_curves",
                     "regression", "figures"):

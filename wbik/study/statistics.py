@@ -1,23 +1,22 @@
-"""Summary tables, confidence intervals and significance tests over a study's raw rows (numpy and scipy).
-
-Per method: poses solved; time per call (ms) over all, solved and unsolved poses; per error axis over the
-solved poses, the mean signed error and |e|'s median, p95, max and share of exact zeros. Intervals are 95 %:
-Wilson's score interval for the share solved (not degenerate at 0 or 100 %, where the bootstrap is), the
-percentile bootstrap (2,000 resamples, a fixed seed) for the median time. Significance: the two-sided
-Mann-Whitney U test of each method against the baseline per axis (|e| of the solved poses) and on time,
-adjusted on each axis for the methods compared by Holm's step-down procedure (family-wise error ``ALPHA``
-under any dependence; docs/guide/studies.md).
-"""
+"""Summary tables, 95 % intervals and significance tests over a study's raw rows: Wilson's score
+interval for the share solved, the percentile bootstrap (fixed seed) for the median time, the two-sided
+Mann-Whitney U test against the baseline, Holm-adjusted per axis (docs/guide/studies.md)."""
 
 from __future__ import annotations
 
 import math
 import warnings
+from functools import partial
 
 import numpy as np
 from scipy import stats
 
-TIME_STATISTICS = ("mean", "median", "p95", "min", "max")
+P95 = partial(np.percentile, q=95)
+"""The 95th percentile of an array."""
+TIME_STATISTICS = {"mean": np.mean, "median": np.median, "p95": P95, "min": np.min, "max": np.max}
+ERROR_STATISTICS = {"mean": np.mean, "abs_median": np.median, "abs_p95": P95, "abs_max": np.max,
+                    "zero_fraction": lambda magnitude: np.mean(magnitude == 0.0)}
+"""Per error axis: the signed error's mean, then figures of |e|."""
 ALPHA = 0.05
 CONFIDENCE = 0.95
 """The level of every interval of the summaries."""
@@ -28,18 +27,13 @@ _BOOTSTRAP_BLOCK = 2_000_000
 """Resampled values drawn at a time (memory: 8 bytes each)."""
 
 
-def _z(confidence: float) -> float:
-    """The standard normal quantile of a two-sided ``confidence`` interval (1.96 at 95 %)."""
-    return float(stats.norm.ppf(0.5 + confidence / 2.0))
-
-
 def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) -> tuple[float, float]:
     """Wilson's score interval (low, high) of k of n, as fractions ((nan, nan) for none): with p = k/n and
     z the normal quantile, centre (p + z^2/2n) / (1 + z^2/n), half-width z sqrt(p(1-p)/n + z^2/4n^2) /
     (1 + z^2/n)."""
     if count <= 0:
         return math.nan, math.nan
-    z = _z(confidence)
+    z = float(stats.norm.ppf(0.5 + confidence / 2.0))  # 1.96 at 95 %
     p = successes / count
     denominator = 1.0 + z * z / count
     centre = (p + z * z / (2.0 * count)) / denominator
@@ -113,15 +107,6 @@ def finite_statistic(values: np.ndarray, function=np.median) -> float:
     return float(function(values)) if values.size else math.nan
 
 
-def _time_statistics(times_ms: np.ndarray) -> dict[str, float]:
-    times_ms = times_ms[np.isfinite(times_ms)]
-    if times_ms.size == 0:
-        return {name: math.nan for name in TIME_STATISTICS}
-    return {"mean": float(np.mean(times_ms)), "median": float(np.median(times_ms)),
-            "p95": float(np.percentile(times_ms, 95)), "min": float(np.min(times_ms)),
-            "max": float(np.max(times_ms))}
-
-
 def error_axes(rows: dict[str, np.ndarray]) -> list[str]:
     """The error axes present in a method's rows (column names without ``err_``)."""
     return [key[4:] for key in rows if key.startswith("err_")]
@@ -142,9 +127,8 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 
 def throughput_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
-    """Of a method with a batched path (:func:`wbik.study.chain_targets.batch_columns`): poses per second of
-    ``solve_many`` over the case (NaN if a call raised), the % it solved, and the poses where its verdict
-    differs from ``solve``'s; NaN (and 0) without one."""
+    """Of a method with a batched path: poses per second of ``solve_many`` (NaN if a call raised), the %
+    it solved, and the poses where its verdict differs from ``solve``'s; NaN (and 0) without one."""
     batch = rows.get("batch_success")
     if batch is None:
         return {"throughput_poses_per_s": math.nan, "throughput_percent_solved": math.nan,
@@ -174,8 +158,8 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
     low, high = wilson_interval(solved, count)
     summary["percent_solved_ci_low"], summary["percent_solved_ci_high"] = 100.0 * low, 100.0 * high
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success), ("unsolved", ~success)):
-        for name, value in _time_statistics(times_ms[mask]).items():
-            summary[f"time_{group}_{name}_ms"] = value
+        for name, function in TIME_STATISTICS.items():
+            summary[f"time_{group}_{name}_ms"] = finite_statistic(times_ms[mask], function)
     for group, mask in (("all", np.ones(count, dtype=bool)), ("solved", success)):
         low, high = bootstrap_median_interval(times_ms[mask])
         summary[f"time_{group}_median_ci_low_ms"], summary[f"time_{group}_median_ci_high_ms"] = low, high
@@ -185,27 +169,10 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
                                                if finite_times.size else math.nan)
     for axis in error_axes(rows):
         values = rows[f"err_{axis}"][success]
-        values = values[np.isfinite(values)]
-        magnitude = np.abs(values)
-        empty = values.size == 0
-        summary[f"err_{axis}_mean"] = math.nan if empty else float(np.mean(values))
-        summary[f"err_{axis}_abs_median"] = math.nan if empty else float(np.median(magnitude))
-        summary[f"err_{axis}_abs_p95"] = math.nan if empty else float(np.percentile(magnitude, 95))
-        summary[f"err_{axis}_abs_max"] = math.nan if empty else float(np.max(magnitude))
-        summary[f"err_{axis}_zero_fraction"] = math.nan if empty else float(np.mean(magnitude == 0.0))
+        for name, function in ERROR_STATISTICS.items():
+            summary[f"err_{axis}_{name}"] = finite_statistic(values if name == "mean" else np.abs(values),
+                                                             function)
     return summary
-
-
-def mann_whitney(first: np.ndarray, second: np.ndarray) -> tuple[float, float]:
-    """(U, two-sided p) of scipy's Mann-Whitney U test of the finite values; NaN when a sample is empty."""
-    first = first[np.isfinite(first)]
-    second = second[np.isfinite(second)]
-    if first.size == 0 or second.size == 0:
-        return math.nan, math.nan
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        result = stats.mannwhitneyu(first, second, alternative="two-sided")
-    return float(result.statistic), float(result.pvalue)
 
 
 def significance_samples(rows: dict[str, np.ndarray], axis: str) -> np.ndarray:
@@ -233,9 +200,15 @@ def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.nda
 
 
 def mann_whitney_row(method: str, baseline: str, axis: str, first: np.ndarray, second: np.ndarray) -> dict:
-    """The row of a Mann-Whitney U test of ``method``'s sample ``second`` against the baseline's ``first``."""
-    statistic, pvalue = mann_whitney(first, second)
+    """The row of scipy's two-sided Mann-Whitney U test of ``method``'s sample ``second`` against the
+    baseline's ``first``, on their finite values (U and p NaN when a sample is empty)."""
     a, b = first[np.isfinite(first)], second[np.isfinite(second)]
+    statistic = pvalue = math.nan
+    if a.size and b.size:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            result = stats.mannwhitneyu(a, b, alternative="two-sided")
+        statistic, pvalue = float(result.statistic), float(result.pvalue)
     return {"method": method, "baseline": baseline, "axis": axis, "n_baseline": int(a.size),
             "n_method": int(b.size), "median_baseline": float(np.median(a)) if a.size else math.nan,
             "median_method": float(np.median(b)) if b.size else math.nan, "U": statistic, "p_value": pvalue,

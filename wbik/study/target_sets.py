@@ -182,8 +182,6 @@ class TargetSetKind(ChainTargets):
 class UniformTargets(TargetSetKind):
     """FK of uniform joints inside the limits (a ``pose`` case's, same seed), with solution coverage."""
 
-    sampled_from = "FK of uniform random joints inside the limits"
-
     def draw(self, chain: Chain, count: int, seed: int, parameters: dict) -> Drawing:
         return Drawing(sample_joints(chain, count, seed))
 

@@ -1,12 +1,10 @@
-"""The target set ``unreachable``: poses no configuration inside the limits reaches, each proved (a) outside
-the reach bound (:mod:`wbik.study.chain_reach`) or (b) reachable only with a joint beyond its limit, by a
-complete closed form (:mod:`wbik.study.closed_form_branches`); docs/guide/studies.md gives the proofs.
-``q_true`` holds the generating joints of (b) targets, NaN for (a) targets."""
+"""The target set ``unreachable``: poses no configuration inside the limits reaches, each proved (a)
+outside the reach bound (:mod:`wbik.study.chain_reach`) or (b) reachable only with a joint beyond its limit,
+by a complete closed form; docs/guide/studies.md gives the proofs."""
 
 from __future__ import annotations
 
 from collections import Counter
-from functools import partial
 
 import numpy as np
 
@@ -23,7 +21,7 @@ from wbik.study.closed_form_branches import (
 from wbik.study.near_singularities import sigma_min
 from wbik.study.path_metrics import random_unit
 from wbik.study.spec import Study
-from wbik.study.statistics import finite_statistic
+from wbik.study.statistics import P95, finite_statistic
 from wbik.study.target_parameters import Parameter, integer, interval, number
 from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
@@ -196,7 +194,7 @@ def refusal_summary(rows: dict[str, np.ndarray], source: np.ndarray | None) -> d
     times = rows["time_s"] * 1e3
     summary = {"targets": int(len(success)), "false_successes": int(success.sum()),
                "refused": int((~success).sum()), "time_median_ms": finite_statistic(times),
-               "time_p95_ms": finite_statistic(times, partial(np.percentile, q=95))}
+               "time_p95_ms": finite_statistic(times, P95)}
     if source is not None and len(source) == len(success):
         for name, code in (("a", OUTSIDE_REACH), ("b", BEYOND_LIMITS)):
             summary[f"time_median_ms_{name}"] = finite_statistic(times[source == code])

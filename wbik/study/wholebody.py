@@ -1,9 +1,6 @@
-"""Whole-body cases, the study's case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
-:mod:`wbik.wholebody.cases` (saved as ``poses.npz``: q_true, anchor points, q0; a worker rebuilds each from
-sampler, seed and index), solved by ``wbik.solver(method, robot).solve(problem, q0)``. A method that cannot
-express the first problem is not applicable. ``err_task`` and ``err_contact`` feed the usual summary,
-tests and error figures.
-"""
+"""Whole-body cases, the case kind ``wholebody`` (``scenario: <sampler>``): the cases of a sampler of
+:mod:`wbik.wholebody.cases` (a worker rebuilds each from sampler, seed and index), solved by
+``wbik.solver(method, robot).solve(problem, q0)``."""
 
 from __future__ import annotations
 
@@ -16,10 +13,8 @@ import numpy as np
 
 import wbik.study.results as store
 from wbik.errors import UnknownChainError, UnsupportedError
-from wbik.options import option_schema
-from wbik.schema import Context, Key, Map, Text, join
-from wbik.solvers.method import IKMethod
-from wbik.solvers.method_registry import IK_METHOD_REGISTRY, budget_options, register_method
+from wbik.schema import Context, Key, Text, join
+from wbik.solvers.method_registry import budget_options
 from wbik.solvers.method_registry import solver as registered_solver
 from wbik.solvers.result import Tolerances
 from wbik.study.blocks import (
@@ -30,8 +25,8 @@ from wbik.study.blocks import (
     budget_blocks,
     case_analysis,
     case_rows,
-    frequent_reasons,
     image_blocks,
+    reason_blocks,
     significance_blocks,
     status_blocks,
     summary_table,
@@ -67,39 +62,12 @@ STUDY_NOTE = (
 )
 
 
-def sample_poses(scenario: str, count: int, seed: int) -> PoseSet:
-    """``count`` cases of ``scenario`` as a PoseSet (anchor points as positions, no rotations)."""
-    cases = [sample_case(scenario, seed, index) for index in range(count)]
-    nq = cases[0].q0.size
-    q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
-    return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
-
-
-def run_time_entries(scenario: str, method: str) -> tuple:
-    """The sampler ``scenario`` and the method ``method`` if user code registered them at run time."""
-    entries = (CASE_REGISTRY.added_at_run_time(scenario), IK_METHOD_REGISTRY.added_at_run_time(method))
-    return tuple(entry for entry in entries if entry is not None)
-
-
-def register_run_time_entries(entries: tuple) -> None:
-    """Register, in this process, the samplers and methods a task carries (replacing a namesake)."""
-    for entry in entries:
-        if isinstance(entry, CaseSampler):
-            register_sampler(entry, replace=True)
-        elif isinstance(entry, IKMethod):
-            register_method(entry, replace=True)
-        else:
-            raise TypeError(f"a whole-body task carries samplers and methods, got {type(entry).__name__}")
-
-
 @dataclass(frozen=True)
 class WholeBodyChunkTask(ChunkTask):
     """A chunk of whole-body cases: the sampler and the study seed rebuild them in the worker."""
 
     scenario: str
     scenario_seed: int
-    wholebody_entries: tuple = ()
-    """The sampler and method user code registered at run time (:func:`run_time_entries`)."""
 
 
 class WholeBodyCases(RegisteredMethods, CaseKind):
@@ -134,15 +102,16 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         """The case's sampler."""
         return [CASE_REGISTRY.get(case.scenario).sample]
 
-    def method_option_schema(self, method: str) -> Map:
-        return option_schema(self.method_factory(method), leading=2)
-
     def axes(self, angles: AngleConvention | None = None) -> list[str]:
         return list(ERROR_AXES)
 
     # -- sampling and tasks ------------------------------------------------------------------------
     def sample(self, study: Study, case: CaseSpec) -> PoseSet:
-        return sample_poses(case.scenario, study.poses_of(case), study.seed)
+        """The case's whole-body cases as a PoseSet (anchor points as positions, no rotations)."""
+        cases = [sample_case(case.scenario, study.seed, index) for index in range(study.poses_of(case))]
+        nq = cases[0].q0.size
+        q_true = np.array([np.full(nq, np.nan) if c.q_true is None else c.q_true for c in cases])
+        return PoseSet(q_true, np.array([c.anchor for c in cases]), None, np.array([c.q0 for c in cases]))
 
     def budget(self, method: str, timeout_s: float, options: dict) -> tuple[float | None, dict]:
         return budget_options(method, timeout_s, options, problem=True)
@@ -150,8 +119,17 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     def task(self, study: Study, case: CaseSpec, method: MethodSpec, poses: PoseSet, chunk: int,
              start: int, stop: int) -> WholeBodyChunkTask:
         return WholeBodyChunkTask(**self.chunk_fields(study, case, method, poses, chunk, start, stop),
-                                  scenario=case.scenario, scenario_seed=study.seed,
-                                  wholebody_entries=run_time_entries(case.scenario, method.method))
+                                  scenario=case.scenario, scenario_seed=study.seed)
+
+    def run_time_entries(self, case: CaseSpec, method: str) -> tuple:
+        """The case's sampler and the method, those user code registered at run time."""
+        sampler = CASE_REGISTRY.added_at_run_time(case.scenario)
+        return (*(() if sampler is None else (sampler,)), *super().run_time_entries(case, method))
+
+    def register_entries(self, entries: tuple) -> None:
+        super().register_entries(tuple(entry for entry in entries if not isinstance(entry, CaseSampler)))
+        for sampler in (entry for entry in entries if isinstance(entry, CaseSampler)):
+            register_sampler(sampler, replace=True)
 
     # -- in the worker -----------------------------------------------------------------------------
     def build(self, task: WholeBodyChunkTask):
@@ -172,11 +150,9 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
         """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
         what was raised."""
-        register_run_time_entries(task.wholebody_entries)
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
-        rows: dict[str, list] = {key: [] for key in ROW_COLUMNS[2:]}
-        q_rows = []
+        rows, q_rows = [], []
         for offset in range(task.count):
             case = sample_case(task.scenario, task.scenario_seed, task.first_pose + offset)
             try:
@@ -193,11 +169,10 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
                           answer.com_margin, answer.limit_excess, answer.collision_clearance,
                           "; ".join(answer.unsupported))
             q_rows.append(np.full(nq, np.nan) if answer is None or answer.q is None else answer.q)
-            for key, value in zip(rows, values, strict=True):
-                rows[key].append(value)
+            rows.append(values)
         columns = {"pose": np.arange(task.first_pose, task.first_pose + task.count),
                    **{key: np.array(values, dtype=COLUMN_TYPES.get(key, float))
-                      for key, values in rows.items()}}
+                      for key, values in zip(ROW_COLUMNS[2:], zip(*rows, strict=True), strict=True)}}
         columns.update(cpu_s=np.full(task.count, np.nan), reruns=np.zeros(task.count, dtype=int),
                        err_task=columns["task_error"], err_contact=columns["contact_drift"],
                        q=np.array(q_rows, dtype=float).reshape(task.count, nq))
@@ -275,11 +250,8 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
             ("median iterations (all calls)", "iterations_median"),
             ("exceptions", "raised"),
         ]))
-        reasons = frequent_reasons(rows_by_method)
-        if reasons:
-            blocks.append(Block("p", "Most frequent reasons for 'not solved' (as the methods and the check "
-                                     "gave them; causes are not measured here):"))
-            blocks.append(Block("table", header=["method", "reason", "cases"], rows=reasons))
+        blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved' (as the methods "
+                                    "and the check gave them; causes are not measured here):", "cases"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Cases solved per method", "errors": "Task error and contact drift (solved)",
             "error_histograms": "Distribution of task error and contact drift (solved)",
@@ -329,12 +301,8 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
 
     labels = list(rows_by_method)
     figure, axes = plt.subplots(figsize=(max(6.0, 1.1 * len(labels) + 2), 4.0))
-    data = []
-    for label in labels:
-        values = rows_by_method[label]["com_margin"] * 1e3
-        values = values[np.isfinite(values)]
-        data.append(values if values.size else np.array([np.nan]))
-    axes.boxplot(data, showfliers=True, flierprops={"markersize": 2})
+    margins = [rows["com_margin"] * 1e3 for rows in rows_by_method.values()]
+    figures.boxes(axes, [values[np.isfinite(values)] for values in margins])
     axes.axhline(margin * 1e3, color="tab:red", linestyle="--", linewidth=1,
                  label=f"required {margin * 1e3:g} mm")
     axes.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
