@@ -29,7 +29,7 @@ from wbik.solvers.analytic.closed_form import (
     fk_residual,
 )
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 
@@ -64,11 +64,7 @@ FAMILIES = (
 
 def _import_robot():
     """IK-Geo's Robot class, or MissingDependencyError with the install command."""
-    try:
-        from ik_geo import Robot
-    except ImportError as exc:
-        raise IK_GEO_LIBRARY.error("method 'ik_geo'", exc) from None
-    return Robot
+    return import_optional(IK_GEO_LIBRARY, "method 'ik_geo'", "ik_geo").Robot
 
 
 class IKGeoPanic(Exception):

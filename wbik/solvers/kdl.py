@@ -20,7 +20,7 @@ from wbik.dependencies import PYKDL_LIBRARY
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, pose_error
@@ -30,11 +30,7 @@ FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m,
 
 def import_pykdl():
     """The PyKDL module, or MissingDependencyError saying how to install it."""
-    try:
-        import PyKDL
-    except ImportError as exc:
-        raise PYKDL_LIBRARY.error("method 'kdl'", exc) from None
-    return PyKDL
+    return import_optional(PYKDL_LIBRARY, "method 'kdl'", "PyKDL")
 
 
 def kdl_frame(kdl, matrix: np.ndarray):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -10,6 +11,15 @@ from wbik.registry import RegistryError
 from wbik.solvers.base import Solver
 
 SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot, chain, **options)
+
+
+def import_optional(library: OptionalDependency, what: str, module: str):
+    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it and how to
+    install it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise library.error(what, exc) from None
 
 
 @dataclass(frozen=True)

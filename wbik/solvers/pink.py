@@ -28,7 +28,7 @@ from wbik.qp.tasks import (
     RegularizationTask,
     RelativeFrameTask,
 )
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.peer import (
     NO_POLYGON,
     PeerSolver,
@@ -208,10 +208,7 @@ class PinkSolver(PeerSolver):
 
     def __init__(self, robot, chain=None, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
         super().__init__(robot, chain, **options)
-        try:
-            import pink  # noqa: F401
-        except ImportError as exc:
-            raise PINK_LIBRARY.error("method 'pink'", exc) from None
+        import_optional(PINK_LIBRARY, "method 'pink'", "pink")
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 

@@ -34,7 +34,7 @@ from wbik.qp.tasks import (
     RelativeFrameTask,
 )
 from wbik.robot import Robot, write_cached_urdf
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.result import Candidate
 from wbik.urdf import continuous_as_revolute, fixed_joints_renamed
@@ -43,11 +43,7 @@ from wbik.wholebody.problem import StartedProblem
 
 def import_placo(what: str = "method 'placo'"):
     """The placo module, or MissingDependencyError naming ``what`` needs it and the extra to install."""
-    try:
-        import placo
-    except ImportError as exc:
-        raise PLACO_LIBRARY.error(what, exc) from None
-    return placo
+    return import_optional(PLACO_LIBRARY, what, "placo")
 
 
 PLACO_CONTINUOUS_LIMIT = 100.0  # rad, a continuous joint's limits in PlaCo: 16 turns, never binding

@@ -14,20 +14,12 @@ import pinocchio as pin
 from wbik.dependencies import TRAC_IK_LIBRARY
 from wbik.errors import InvalidSettingError, RobotDescriptionError
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.urdf import with_massless_root
 
 SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
-
-
-def import_pytracik():
-    try:
-        import pytracik
-    except ImportError as exc:
-        raise TRAC_IK_LIBRARY.error("method 'trac_ik'", exc) from None
-    return pytracik
 
 
 class TracIKSolver(Solver):
@@ -43,7 +35,7 @@ class TracIKSolver(Solver):
         super().__init__(robot, chain, **options)
         if solve_type not in SOLVE_TYPES:
             raise InvalidSettingError(f"solve_type must be one of {SOLVE_TYPES}, got {solve_type!r}")
-        self.pytracik = import_pytracik()
+        self.pytracik = import_optional(TRAC_IK_LIBRARY, "method 'trac_ik'", "pytracik")
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.solve_type = solve_type

@@ -26,15 +26,13 @@ from wbik.solvers.analytic.closed_form import (
     ClosedForm,
 )
 from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
+from wbik.solvers.method import import_optional
 
 
 def import_eaik():
     """EAIK's HPRobot class, or MissingDependencyError with the install command."""
-    try:
-        from eaik.IK_HP import HPRobot
-    except ImportError as exc:
-        raise EAIK_LIBRARY.error("method 'eaik' (and the analytic method's EAIK family)", exc) from None
-    return HPRobot
+    return import_optional(EAIK_LIBRARY, "method 'eaik' (and the analytic method's EAIK family)",
+                           "eaik.IK_HP").HPRobot
 
 
 @dataclass(frozen=True)
