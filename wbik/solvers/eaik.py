@@ -1,11 +1,9 @@
-"""Method ``eaik``: EAIK 1.2.2's closed forms (``pip install EAIK==1.2.2``; Ostermeier et al.), every branch
-of a full pose on a 1R..6R chain EAIK decomposes into subproblems, built from the chain's own reduced model
-(:mod:`wbik.solvers.analytic.eaik_family`). ``solve`` returns the branch nearest q0, wrapped into the limits,
-whose FK reaches the target within 1e-7, chosen by ``choose`` (:mod:`wbik.kernels.eaik`); ``solve_many``
-makes one ``IK_batched`` call. Of the built-in chains EAIK takes the UR5 ``arm`` and ``ee``, the Bioloid legs
-and arms, arm3r (full poses only) and the Panda with joint 4, 5, 6 or 7 locked; it refuses the Golem-III
-arms and the Panda with joint 1, 2 or 3 locked ("6R-Unknown Kinematic Class"), the 7R Panda, the Golem-III
-arm with its prismatic lift, and the Pincher (EAIK returns q1 = 0 in every branch: the probe refuses it).
+"""Method ``eaik``: EAIK 1.2.2's closed forms (Ostermeier et al.), every branch of a full pose on a 1R..6R
+chain EAIK decomposes (:mod:`wbik.solvers.analytic.eaik_family`); ``solve`` returns the branch nearest q0,
+wrapped into the limits, whose FK reaches the target within 1e-7 (:mod:`wbik.kernels.eaik`), ``solve_many``
+makes one ``IK_batched`` call. Of the built-in chains it takes the UR5 ``arm`` and ``ee``, the Bioloid legs
+and arms, arm3r and the Panda with joint 4, 5, 6 or 7 locked; it refuses the Golem-III arms, the Panda
+with joint 1, 2 or 3 locked, the 7R Panda and the Pincher (q1 = 0 in every branch: the probe refuses it).
 """
 
 from __future__ import annotations

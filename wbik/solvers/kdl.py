@@ -1,11 +1,7 @@
-"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the chain's serial structure
-(P_0, then one segment per joint; its FK held to Pinocchio's to 1e-12 when the solver is made).
-
-NR_JL: dq from the pseudo-inverse velocity solver (SVD), q <- q + dq clamped into the limits, until every
-twist component is below ``epsilon`` or ``max_iterations`` pass. ``kdl``: one attempt from the seed (the
-Golem-III thesis's and the TRAC-IK paper's "KDL"); ``kdl_restarts``: MoveIt's KDL plugin, random restarts
-until the time budget is used up. Full poses only: NR_JL drives the whole twist to zero, and KDL's weighted
-solvers (ChainIkSolverVel_wdls, ChainIkSolverPos_LMA) crash PyKDL 1.5.1 under numpy 2.
+"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL on the chain's serial structure (its FK held to
+Pinocchio's to 1e-12): pseudo-inverse steps clamped into the limits until every twist component is below
+``epsilon``. ``kdl``: one attempt from the seed; ``kdl_restarts``: MoveIt's KDL plugin, random restarts
+until the time budget is used up. Full poses only (KDL's weighted solvers crash PyKDL 1.5.1 under numpy 2).
 """
 
 from __future__ import annotations

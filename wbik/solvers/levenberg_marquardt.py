@@ -1,12 +1,10 @@
 """The one Levenberg-Marquardt policy of wbik's iterative methods, for one configuration and for a batch.
 
-A step is dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e, lambda = w |e|^2 + mu (w =
-``cost_weight``, mu the base damping), by Cholesky on the smaller system, capped at ``max_step`` and
-projected into the limits (:class:`JointBounds`); a clipped joint on a bound pushed outwards is frozen and
-the step recomputed without it. A trial lowering |e|^2 is accepted (mu <- max(decrease mu, floor)), else
-mu <- increase max(mu, reject_floor). A run stalls when its best cost has not fallen below ``progress`` x
-its previous best in ``stall`` iterations, or mu exceeds ``max_damping``. The ``*_batch`` twins make the
-same decisions element by element.
+dq = -J^T (J J^T + lambda I)^-1 e (Cholesky on the smaller system), lambda = w |e|^2 + mu, capped at
+``max_step`` and projected into the limits, a joint pushed outwards on its bound frozen. An accepted trial
+(lower |e|^2) sets mu <- max(decrease mu, floor), a rejected one mu <- increase max(mu, reject_floor). A run
+stalls when its best cost has not fallen below ``progress`` x its previous best in ``stall`` iterations,
+or mu exceeds ``max_damping``.
 """
 
 from __future__ import annotations

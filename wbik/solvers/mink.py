@@ -1,10 +1,8 @@
-"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`)
-for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`): sites'
-FrameTask, ComTask, PostureTask (costs the square roots of our weights), our :func:`site_position_task` for
-some axes, contacts as equality constraints, locked joints a DofFreezingTask there, ConfigurationLimit and
-VelocityLimit at dt = ``step_dt``; no support polygon, acceleration limits, minimum distances or priority
-levels. A chain target runs as mink's arm examples do: the tip's frame task under a VelocityLimit of
-``max_step`` per step (docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
+"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`),
+and mink's forms of wbik's tasks and constraints (:data:`MINK`): contacts as equality constraints, locked
+joints a DofFreezingTask; no support polygon, acceleration limits, minimum distances or priority levels. A
+chain target runs as mink's arm examples do: a VelocityLimit of ``max_step`` per step, damping
+``chain_damping`` (docs/measurements.md, mink).
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
-"""Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
-wbik's tasks and constraints (:data:`PINK`): FrameTask (position or orientation only: the other half at cost
-0), RelativeFrameTask, ComTask, PostureTask, costs the square roots of our weights; contacts and locked
-joints as equality constraints; ConfigurationLimit and VelocityLimit at dt = ``step_dt``. No hard CoM polygon
-(listed in ``unsupported``), acceleration limits, minimum distances or strict priority levels.
+"""Method ``pink``: pin-pink 4.4's differential IK, and Pink's forms of wbik's tasks and constraints
+(:data:`PINK`; costs the square roots of our weights, contacts and locked joints equality constraints). No
+hard CoM polygon, acceleration limits, minimum distances or strict priority levels.
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
-"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry, continuous joints
-revolute with wide limits), for chain targets and whole bodies, and PlaCo's forms of wbik's tasks and
-constraints (:data:`PLACO`): its soft tasks with our weights, contacts as hard tasks, the support polygon as
-its hard CoM polygon constraint, its limits, locked joints masked; no acceleration limits, minimum distances
-or strict priority levels. One ``solve(True)`` per iteration of our loop.
+"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry), and PlaCo's forms of
+wbik's tasks and constraints (:data:`PLACO`): soft tasks with our weights, hard contacts, the hard CoM
+polygon, its limits, locked joints masked; no acceleration limits, minimum distances or priority levels.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers) on chain targets (a frame or
-position task under the chain's limits and, with ``velocity_dt``, velocity limits x dt) and whole bodies
-(their tasks, goals at half the check's tolerances, a ``regularization`` on the lowest level). Options:
-``backend`` (a qpsolvers name, "fastest" or "default": DAQP), ``max_iterations``, ``max_step`` (trust region
-per step, rad or m), ``lm_damping``, ``diagnose`` (a failed result's ``diagnosis``,
-:class:`wbik.qp.diagnosis.Diagnosis`, made after the timed solve, its summary ending ``reason``).
+"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`) on chain targets and whole bodies (goals
+at half the check's tolerances, a ``regularization`` on the lowest level). Options: ``backend`` (a
+qpsolvers name, "fastest" or "default": DAQP), ``max_step`` (per step, rad or m), ``lm_damping``,
+``velocity_dt``, ``diagnose`` (a failed result's :class:`wbik.qp.diagnosis.Diagnosis`).
 """
 
 from __future__ import annotations

@@ -1,13 +1,7 @@
-"""The task error e(q) of the iterative methods and its Jacobian, the pose-error convention of
-:mod:`wbik.geometry` in two forms, and the chain's serial structure.
-
-For a target (R*, p*) and the reached tip pose (R, p) in the chain's base frame, ``dls`` and ``newton``
-iterate on e = [p - p* ; log3(R*^T R)] (:func:`task_error`; the first three rows for a position target)
-with the Jacobian [J_v ; Jlog3(R*^T R) R^T J_w]. ``bounded_lm`` iterates on its SE(3) form
-(:func:`se3_error`), e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ; phi], phi = log3(R*^T R), V(phi)^-1 =
-I - [phi]x / 2 + (1 - (theta / 2) cot(theta / 2)) / theta^2 [phi]x^2: the same rotation part, the position
-part in target axes bent along the screw motion (they vanish together), with the tip-axes Jacobian (the
-measurements: docs/measurements.md, bounded_lm).
+"""The task error of the iterative methods and the chain's serial structure. ``dls`` and ``newton`` iterate
+on e = [p - p* ; log3(R*^T R)] (:func:`task_error`; 3 rows for a position) with the Jacobian [J_v ;
+Jlog3(R*^T R) R^T J_w]; ``bounded_lm`` on the SE(3) form e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ;
+phi], phi = log3(R*^T R): the same rotation part, both vanishing together.
 """
 
 from __future__ import annotations

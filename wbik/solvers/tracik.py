@@ -1,7 +1,5 @@
-"""TRAC-IK through pytracik, on the robot's URDF and the chain's base/tip links, with the chain's limits:
-KDL's NR_JL with random restarts and an SQP run concurrently, its wall-clock budget fixed with its object (one
-per thread), its restarts from an unseedable C++ random state (answers vary with the run and the load).
-``epsilon``: its per-component twist tolerance (default the shared tolerance / sqrt(3)). Full poses only.
+"""TRAC-IK through pytracik on the robot's URDF: KDL's NR_JL with random restarts and an SQP run concurrently,
+from an unseedable C++ random state (answers vary with the run and the load). Full poses only.
 """
 
 from __future__ import annotations
@@ -23,7 +21,8 @@ SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
 
 
 class TracIKSolver(Solver):
-    """TRAC-IK (pytracik): ``solve_type`` one of Speed (default), Distance, Manip1, Manip2."""
+    """TRAC-IK (pytracik): ``solve_type`` one of Speed (default), Distance, Manip1, Manip2; ``epsilon``: its
+    per-component twist tolerance (default the shared tolerance / sqrt(3))."""
 
     name = "trac_ik"
     supports_position_only = False
