@@ -1,7 +1,6 @@
-"""EAIK 1.2.2's decomposition as a closed form: ``analytic``'s fallback for full poses and the ``eaik``
-method's chain model. EAIK is built from the chain's joint lines at q = 0 (axes H, offsets P) with the tip's
-rotation at q = 0 as its end-effector rotation, so a target goes to EAIK as it is; the FK is the lines'
-product of exponentials. EAIK's claimed decomposition is probed (it gets some wrong, e.g. the Pincher's).
+"""EAIK 1.2.2's decomposition as a closed form (``analytic``'s fallback for full poses, ``eaik``'s model):
+EAIK built from the joint lines at q = 0 with the tip's rotation as its end effector's, its claimed
+decomposition probed (it gets some wrong, e.g. the Pincher's).
 """
 
 from __future__ import annotations

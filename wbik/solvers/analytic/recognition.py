@@ -1,10 +1,7 @@
-"""The closed-form family of a chain, recognised from its joint lines at q = 0 (generic part).
-
-Each registered :class:`Family` (a name and a matcher) is tried in order. A matcher lays standard DH frames
-along the lines (:func:`walk`), each axis directed so the twist angles are the family's, and reads off a,
-d, the DH angle at q = 0 and each joint's sign. With the family's FK as DH rows T_f(u) = B D(u + o_f) E
-(:class:`Canonical`), the chain is T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1 T(0): the
-form through :class:`~.aligned.AlignedForm`, refused where its FK is not the model's.
+"""The closed-form family of a chain, recognised from its joint lines at q = 0. A matcher lays DH frames
+along the lines (:func:`walk`) with the family's twist angles and reads off a, d, the angles at q = 0 and
+each joint's sign; with the family's FK T_f(u) = B D(u + o_f) E (:class:`Canonical`), the chain is
+T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1 T(0) (:class:`~.aligned.AlignedForm`).
 """
 
 from __future__ import annotations

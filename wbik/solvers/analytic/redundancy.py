@@ -1,8 +1,6 @@
-"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v, the other six
-(:class:`LockedChain`) solved by a recognised family or EAIK, v put back in every branch. Per target
-(``redundancy``), v = q0_k (``"seed"``) or also ``grid_size`` values over its range (``"grid"``). Holding the
-first or last joint moves only the base or the tool: one form built at v = 0 solves every v with the target
-moved; a joint in between needs a form per value (kept).
+"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v = q0_k (``"seed"``), also at
+``grid_size`` values (``"grid"``), the other six solved by a family or EAIK. Holding the first or last joint
+moves only the base or the tool (one form, the target moved); a joint in between needs a form per value.
 """
 
 from __future__ import annotations

@@ -81,12 +81,9 @@ def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
 
 
 class AnalyticSolver(Solver):
-    """Closed-form IK behind the common interface (see the package docstring). ``families`` names per
-    target kind what solves the chain ("bound:<module:Name>", "ur_type", "yaw_planar", "stacked_planar",
-    "eaik:<EAIK's class>", with a held joint); a chain with neither kind is refused when the solver is
-    built, a missing kind when asked for (UnsupportedError saying why). ``solve`` and ``solve_all`` go
-    through the shared check, ``solve_many`` through its batched twin (:func:`~.batch.evaluate_batch`).
-    """
+    """Closed-form IK. ``families`` names per target kind what solves the chain ("bound:<module:Name>",
+    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with a held joint); a chain with
+    neither kind is refused when built, a missing kind when asked for (UnsupportedError saying why)."""
 
     name = "analytic"
     budgeted = False
