@@ -10,7 +10,6 @@ import numpy as np
 
 from wbik.errors import RobotDescriptionError, UnsupportedError
 from wbik.geometry import joint_gap
-from wbik.robot import Chain
 from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
 from wbik.solvers.analytic.closed_form import (
     BRANCH_MERGE,
@@ -72,10 +71,7 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
     return reasons
 
 
-TARGET_KINDS = ("pose", "position")
-
-
-def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
+def _closed_form(chain, kind: str, **options) -> ClosedForm:
     """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
     return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
 
@@ -111,7 +107,7 @@ class AnalyticSolver(Solver):
         """Per target kind: the bound form's name (built on first use), the form recognised now, or why
         there is none; UnsupportedError when no kind has one."""
         reasons = {}
-        for kind in TARGET_KINDS:
+        for kind in ("pose", "position"):
             binding = self.robot.closed_forms.get((self.chain.name, kind))
             if binding is not None and self.redundancy["joint"] is None:
                 name = getattr(binding, "__qualname__", type(binding).__name__)
@@ -140,11 +136,7 @@ class AnalyticSolver(Solver):
     def _form_of(self, target: Target) -> ClosedForm:
         """The closed form of the target's kind."""
         kind = "position" if target.rotation is None else "pose"
-        form = self._forms.get(kind)
-        if form is None:
-            self.check_target_kind(kind)  # builds and caches the form
-            form = self._forms[kind]
-        return form
+        return self._forms.get(kind) or self.closed_form(kind)
 
     def closed_form(self, kind: str) -> ClosedForm:
         """The closed form of ``kind`` targets (the bound one built and checked on first use);
