@@ -56,8 +56,7 @@ class IterationBudget:
     @classmethod
     def budget_options(cls, timeout_s: float, options: dict,
                        problem: bool = False) -> tuple[float | None, dict]:
-        """(timeout_s, options) for a budget of ``timeout_s``: ours get the equivalent ``max_iterations``
-        (unless given) and no wall clock, the others the wall clock."""
+        """(timeout_s, options) for a budget of ``timeout_s``: ours as ``max_iterations``, others' as is."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             return timeout_s, dict(options)
@@ -124,8 +123,8 @@ class Solver(IterationBudget):
         return None
 
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
-        """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal), or a
-        :class:`~wbik.wholebody.problem.WholeBody` from q0 (default: the robot's nominal)."""
+        """Solve a target (SE3, 4x4, 3-vector or Target) or a :class:`~wbik.wholebody.problem.WholeBody`
+        from q0 (default: the nominal)."""
         if isinstance(target, WholeBody):
             return self.solve_problem(target, q0)
         target = as_target(target)
@@ -246,8 +245,7 @@ class Solver(IterationBudget):
                          constraints=[JointPositionLimits(unbounded=continuous), *locked, *constraints])
 
     def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
-        """A whole-body problem within ``max_iterations``: a chain method solves the chain target it stands
-        for (:meth:`cannot_express`) and returns the whole configuration."""
+        """A whole-body problem: a chain method solves the chain target it stands for."""
         chain = self.chain
         task = next(task for task in started.tasks if task.goal)
         world = task.target if isinstance(task, FrameTask) else pin.SE3(np.eye(3), task.target)

@@ -119,8 +119,7 @@ def check_problem(started: StartedProblem | WholeBody, q, tolerances: Tolerances
                   q0: np.ndarray | None = None, method: str = "", time_s: float = math.nan,
                   iterations: int = 0, reason: str = "", unsupported: Sequence[str] = (),
                   extra: dict | None = None) -> IKResult:
-    """The shared check of q on a whole-body problem as a method started it, or a WholeBody started at
-    ``q0``."""
+    """The shared check of q on a whole-body problem as started, or a WholeBody started at ``q0``."""
     tolerances = tolerances or Tolerances()
     if isinstance(started, WholeBody):
         started = started.start(started.robot.nominal if q0 is None else q0, need_q0=q0 is None, strict=False)

@@ -70,8 +70,7 @@ class EAIKSolver(BranchLibrarySolver):
 
     def _choose(self, q_all: np.ndarray, target: Target,
                 q0: np.ndarray) -> tuple[Candidate, np.ndarray | None]:
-        """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, by ``choose``; its
-        4 x 4 tip pose), else (:meth:`_pick`'s reason, None)."""
+        """(``choose``'s branch, its 4 x 4 tip pose), else (:meth:`_pick`'s reason, None)."""
         if len(q_all):
             out = np.empty(len(q0) + 24)
             if self._kernel_choose(self._params, q_all, q0, self._target_pose(target), out):
@@ -80,8 +79,7 @@ class EAIKSolver(BranchLibrarySolver):
         return self._pick(q_all, target, q0), None
 
     def solve(self, target, q0=None) -> IKResult:
-        """:meth:`Solver.solve` on one path: EAIK's call on the target's own 4 x 4 matrix, one ``choose``
-        call, the shared check on the pose and errors it wrote (a Target made only where needed)."""
+        """:meth:`Solver.solve` on one path: EAIK on the target's own matrix, one ``choose``, the check."""
         pose = plain_pose_matrix(target)
         if pose is None:
             target = as_target(target)

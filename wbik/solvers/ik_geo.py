@@ -169,8 +169,7 @@ def ik_geo_structure(chain: Chain) -> IKGeoStructure:
 
 
 def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
-    """(how many of PROBE_POSES FK poses of seeded random joints IK-Geo reproduces, worst miss); stops
-    once the family can no longer reach PROBE_REQUIRED."""
+    """(how many of PROBE_POSES FK poses of seeded random joints IK-Geo reproduces, worst miss)."""
     robot = structure.robot()
     reproduced, worst, missed = 0, 0.0, 0
     for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):

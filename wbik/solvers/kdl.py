@@ -76,8 +76,7 @@ def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0
 
 
 class KDLSolver(Solver):
-    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed: ``epsilon`` (default the shared
-    tolerance / sqrt(3): its per-component test implies the shared norm test), ``max_iterations`` (100)."""
+    """KDL NR_JL, one attempt from the seed; ``epsilon`` default: the shared tolerance / sqrt(3)."""
 
     name = "kdl"
     supports_position_only = False

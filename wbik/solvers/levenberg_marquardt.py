@@ -85,8 +85,7 @@ class LevenbergMarquardt:
 
     def trial(self, jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
               bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
-        """The next trial inside the limits from J (m, n), e (m,), |e|^2 and mu at q (n,); ``workspace``
-        (:meth:`workspace`, one per run and thread) saves the system's allocation."""
+        """The next trial inside the limits from J (m, n), e (m,), |e|^2 and mu at q (n,)."""
         damping = self.cost_weight * cost + base
         descent = _descent(jacobian, error, damping, workspace)  # dq = -descent
         if self.max_step is not None:
@@ -105,9 +104,8 @@ class LevenbergMarquardt:
         return inside
 
     def trial_function(self, bounds: JointBounds):
-        """:meth:`trial` for these bounds through the compiled twin where built and not switched off by
-        ``WBIK_PURE_PYTHON=1`` (read now): the same decisions, sums in C; :meth:`trial` where its Cholesky
-        fails, over 32 rows or joints, and for other bounds."""
+        """:meth:`trial` for these bounds through the compiled twin (unless ``WBIK_PURE_PYTHON=1``), Python
+        where it declines."""
         kernel = chosen(None, _LM_TRIAL, "lm_trial")
         if kernel is None:
             return self.trial

@@ -14,8 +14,7 @@ SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot,
 
 
 def import_optional(library: OptionalDependency, what: str, module: str):
-    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it and how to
-    install it."""
+    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it."""
     try:
         return importlib.import_module(module)
     except ImportError as exc:

@@ -61,8 +61,7 @@ def methods(installed: bool = False) -> dict[str, str]:
 
 def budget_options(method: str, timeout_s: float, options: dict,
                    problem: bool = False) -> tuple[float | None, dict]:
-    """(timeout_s, options) to build ``method`` with for a budget of ``timeout_s`` (s) on chain targets or
-    whole-body problems: :meth:`Solver.budget_options`."""
+    """(timeout_s, options) of ``method`` for a budget of ``timeout_s``: :meth:`Solver.budget_options`."""
     factory = method_factory(method)
     rule = getattr(factory, "budget_options", None)
     return (timeout_s, dict(options)) if rule is None else rule(timeout_s, options, problem)

@@ -105,8 +105,7 @@ def _site_position_class():
 
 
 def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: float):
-    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost`` per
-    row), also an equality constraint (a point foot: all three rows)."""
+    """A mink task on a site's world position (m) on the axes ``rows``, ``cost`` on each."""
     rows = np.asarray(rows, dtype=int)
     return _site_position_class()(site, target, rows, np.full(rows.size, float(cost)))
 

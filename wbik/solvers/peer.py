@@ -81,8 +81,7 @@ class PeerSolver(Solver):
 
     def _peer_loop(self, step: Callable[[np.ndarray], tuple[np.ndarray, str]], started: StartedProblem,
                    deadline: float, max_iterations: int, with_polygon: bool = True) -> Candidate:
-        """Our loop around a peer's QP step ``step(q)`` -> (next q, a reason to stop or ""), until
-        :meth:`_converged`, the time budget, a reason or ``max_iterations``."""
+        """Our loop around a peer's step ``step(q)`` -> (next q, a reason to stop or "")."""
         monitor = Kinematics(started.problem.robot.model, started.q0)
         q = started.q0.copy()
         for iteration in range(1, max_iterations + 1):
@@ -100,8 +99,7 @@ class PeerSolver(Solver):
 
 @dataclass
 class SolveIKProblem:
-    """What the forms of a peer solving by ``solve_ik(configuration, tasks, dt, damping, limits,
-    constraints)`` (Pink, mink) add to, with wbik's ``kinematics`` at the start and the step ``dt`` (s)."""
+    """What the forms of a peer solving by ``solve_ik`` (Pink, mink) add to; ``dt``: the step (s)."""
 
     kinematics: Kinematics
     dt: float

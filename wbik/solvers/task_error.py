@@ -42,9 +42,8 @@ def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
 
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
-    """log6(T*^-1 T) (B, 6) of reached poses (R (B, 3, 3), p (B, 3)) against one target (R* (3, 3), p* (3,))
-    or one each ((B, 3, 3), (B, 3)): with t = R*^T (p - p*), V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2
-    + c (phi . t) phi, c = (1 - (theta / 2) cot(theta / 2)) / theta^2."""
+    """log6(T*^-1 T) (B, 6) of reached poses against one target or one each: t = R*^T (p - p*), V(phi)^-1 t
+    = (1 - c theta^2) t - (phi x t) / 2 + c (phi . t) phi, c = (1 - (theta / 2) cot(theta / 2)) / theta^2."""
     if target_rotation.ndim == 2:
         phi = batch_log3(np.matmul(target_rotation.T, rotation))
         offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row

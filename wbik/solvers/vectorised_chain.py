@@ -14,9 +14,8 @@ from wbik.solvers.task_error import LEVI_CIVITA, batch_se3_error, serial_structu
 
 
 class VectorisedChain:
-    """Residuals and Jacobians of B configurations, the residual of ``bounded_lm``'s one-seed path.
-    Jacobian column k in base axes: [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic); Jacobians
-    come transposed (B, n, m), position rows (and errors) weighted by ``position_weight``."""
+    """Residuals and transposed Jacobians (B, n, m) of B configurations, position rows weighted by
+    ``position_weight``: column k [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic)."""
 
     def __init__(self, chain, position_weight: float = 1.0):
         structure = serial_structure(chain)
@@ -51,9 +50,8 @@ class VectorisedChain:
 
     def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """(e (B, m), J^T (B, n, m)) against one goal in the base frame (p* (3,), R* (3, 3)) or one per
-        row ((B, 3), (B, 3, 3)). Pose: e = log6(T*^-1 T) and the tip-axes Jacobian, both turned into base
-        axes (R e, R J); position: e = w (p - p*) with the linear rows in base axes."""
+        """(e (B, m), J^T (B, n, m)) against one goal or one per row: e = log6(T*^-1 T) with the tip-axes
+        Jacobian, both turned into base axes, or e = w (p - p*) with the linear rows."""
         size, n = q.shape
         frames = self.frames(q)
         axes = frames[:, :n, :3, 2]

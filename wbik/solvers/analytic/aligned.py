@@ -119,8 +119,7 @@ class AlignedForm(ClosedForm):
 
 
 def with_tool(chain, flange_form, flange_chain: str) -> AlignedForm:
-    """``flange_form`` (a form of chain ``flange_chain``, the same base and joints) with the tool fixed to
-    its tip: T = T_flange X, X read from the model at the nominal configuration."""
+    """``flange_form`` (of chain ``flange_chain``, the same base and joints) with the tool: T_flange X."""
     flange = chain.robot.chain(flange_chain)
     if flange.joint_names != chain.joint_names or flange.base_frame != chain.base_frame:
         raise InvalidConfigurationError(

@@ -128,8 +128,7 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
 
 # --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
-    """:func:`no_solution_reason` of a kernel's failure code: 0 (no real branch), -1 (none inside the
-    limits), -2 (none passes the screen)."""
+    """:func:`no_solution_reason` of a kernel's code: 0 (no real branch), -1 (none in the limits), -2."""
     return no_solution_reason(outcome != 0, outcome == -2)
 
 
@@ -151,9 +150,8 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
 
 
 class BranchLibrarySolver(Solver):
-    """A method over a closed-form library's raw branches (``eaik``, ``ik_geo``; full poses, no budget):
-    :meth:`_library_branches` gives the branches (K, n) of a target in our joints, ``library`` names it.
-    EAIK's and IK-Geo's least-squares flags are not trusted: the FK screen decides."""
+    """A method over a closed-form library's branches (``eaik``, ``ik_geo``): :meth:`_library_branches`
+    gives them (K, n) in our joints; the FK screen, not the library's least-squares flags, decides."""
 
     budgeted = False
     supports_position_only = False
@@ -169,8 +167,7 @@ class BranchLibrarySolver(Solver):
         return self._library_branches(target)
 
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 once wrapped into the limits whose FK reaches the target within
-        SCREEN_TOLERANCE; where none does, why."""
+        """The branch nearest q0, wrapped into the limits, that passes the FK screen; else why none."""
         chain, library = self.chain, self.library
         outside = "(target outside the workspace)"
         if len(q_all) == 0:
@@ -196,8 +193,7 @@ class BranchLibrarySolver(Solver):
         return self._pick(self._library_branches(target), target, q0)
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch inside the limits (wrapped nearest the nominal configuration; within
-        BRANCH_MERGE of one kept: dropped) that passes the shared check."""
+        """Every distinct branch, wrapped into the limits nearest the nominal, passing the shared check."""
         target = as_target(target)
         self._check_target_kind(target)
         start = time.perf_counter()
@@ -215,8 +211,7 @@ class BranchLibrarySolver(Solver):
 
 
 class Choice(NamedTuple):
-    """The vectorised choice: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and ``usable``
-    (B, K), the form's FK of q (``reached_p``, ``reached_r``; zeros where not found)."""
+    """The vectorised choice: ``q`` (B, n) where ``found``, masks (B, K), the form's FK of q."""
 
     q: np.ndarray
     found: np.ndarray

@@ -60,8 +60,7 @@ class Family:
 
 @dataclass(frozen=True)
 class Recognised:
-    """A chain's recognised closed form, its family ("ur_type", ..., "eaik:<EAIK's class>", a held joint
-    named after it) and its parameters in words."""
+    """A chain's recognised closed form, its family and its parameters in words."""
 
     form: ClosedForm
     family: str
@@ -217,8 +216,7 @@ def small(value: float, lines: ChainLines) -> bool:
 
 # --- trying the families ------------------------------------------------------------------------------
 def recognise_family(chain, kind: str, options: dict | None, families: tuple[Family, ...]) -> Recognised:
-    """The first of ``families`` the chain matches whose form agrees with the model's FK; UnsupportedError
-    listing why none did."""
+    """The first of ``families`` the chain matches with the model's FK; UnsupportedError saying why none."""
     options = dict(options or {})
     lines = chain_lines(chain)
     reasons = []
@@ -240,8 +238,7 @@ def recognise_family(chain, kind: str, options: dict | None, families: tuple[Fam
 
 
 def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
-    """EAIK's decomposition as a closed form (full poses), or UnsupportedError saying why; ``probe=False``
-    (a chain rebuilt per held value) skips the probe and the model agreement."""
+    """EAIK's decomposition as a closed form, or UnsupportedError; ``probe=False`` skips the checks."""
     if kind != "pose":
         raise UnsupportedError("EAIK: solves full poses only")
     try:

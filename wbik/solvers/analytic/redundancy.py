@@ -56,8 +56,7 @@ class LockedChain:
 
 
 def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
-    """``"grid"`` mode's ``grid_size`` values over the joint's range ([-pi, pi] where a bound is infinite;
-    a full turn without its last value)."""
+    """``"grid"`` mode's values over the joint's range ([-pi, pi] where infinite; a turn without its end)."""
     low, high = float(chain.lower[index]), float(chain.upper[index])
     if not (math.isfinite(low) and math.isfinite(high)):
         low, high = -math.pi, math.pi
@@ -189,8 +188,8 @@ class LockedJointForm(ClosedForm):
         return poe_fk(self.lines, q)
 
 class HeldChoice:
-    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint at the start's value: the
-    target moved, the 6-joint form's kernel, the value put back."""
+    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint: the target moved, the 6-joint
+    form's kernel."""
 
     def __init__(self, form: LockedJointForm):
         self.form, self.index = form, form.index
@@ -231,7 +230,7 @@ def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
 def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict,
                          families: tuple[Family, ...]) -> Recognised:
     """The closed form holding ``redundancy["joint"]``, by default the first of the last, the first, the
-    others from the tip whose holding leaves a closed form; UnsupportedError saying why none."""
+    others from the tip that leaves one; UnsupportedError saying why none."""
     mode = redundancy.get("mode", "seed")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")

@@ -46,8 +46,7 @@ def refusal(chain, reasons: dict[str, list[str]]) -> str:
 
 def refusal_reasons(chain, kind: str, options: dict | None = None,
                     redundancy: dict | None = None) -> Recognised | list[str]:
-    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, EAIK's decomposition,
-    one joint held by ``redundancy``'s options), or the reasons, one per way tried."""
+    """The closed form recognised for ``kind`` targets (a family, EAIK, a joint held), or the reasons."""
     try:
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
@@ -104,8 +103,7 @@ class AnalyticSolver(Solver):
         self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())  # no isfinite pass then
 
     def _recognise_forms(self) -> None:
-        """Per target kind: the bound form's name (built on first use), the form recognised now, or why
-        there is none; UnsupportedError when no kind has one."""
+        """Per target kind the bound form, the recognised one or why none; UnsupportedError if none."""
         reasons = {}
         for kind in ("pose", "position"):
             binding = self.robot.closed_forms.get((self.chain.name, kind))
@@ -139,8 +137,7 @@ class AnalyticSolver(Solver):
         return self._forms.get(kind) or self.closed_form(kind)
 
     def closed_form(self, kind: str) -> ClosedForm:
-        """The closed form of ``kind`` targets (the bound one built and checked on first use);
-        UnsupportedError saying why where the chain has none."""
+        """The closed form of ``kind`` targets (a bound one built on first use), else UnsupportedError."""
         if kind not in self._forms:
             if kind in self._refusals:
                 raise UnsupportedError(self._refusals[kind])
@@ -150,8 +147,7 @@ class AnalyticSolver(Solver):
         return self._forms[kind]
 
     def _wrapped_by_joint(self, form: ClosedForm, positions, rotations, q0s):
-        """Every branch of a batch wrapped into the limits nearest q0, joint-major and batch-last: (Q (n, K,
-        B), real (K, B), usable (K, B): real, inside the limits and finite)."""
+        """Every branch wrapped into the limits nearest q0: (Q (n, K, B), real (K, B), usable (K, B))."""
         q_all, real = form.branches_by_joint(positions, rotations, q0s)
         lower, upper, revolute = self._limits_by_joint
         q_all, in_limits = wrap_into_limits(q_all, _by_joint(q0s), lower, upper, revolute, axis=0)
@@ -176,8 +172,7 @@ class AnalyticSolver(Solver):
         return residual, reached_p, reached_r
 
     def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
-        """The nearest screened branch per target: the nearest of every target screened at once, where it
-        misses (rare) the next ones by distance."""
+        """The nearest branch per target that passes the screen (the next ones by distance where it fails)."""
         q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
         squares = q_all - _by_joint(q0s)
         squares *= squares
@@ -266,8 +261,7 @@ class AnalyticSolver(Solver):
         return np.array(self._batch_starts(q0s, count))
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch (BRANCH_MERGE) inside the limits, wrapped nearest the nominal configuration,
-        passing the screen and the check (with a kernel, its batched rule), in branch order."""
+        """Every distinct branch, wrapped into the limits nearest the nominal, passing the check."""
         target = as_target(target)
         form = self._form_of(target)
         nominal = self.chain.nominal

@@ -290,8 +290,7 @@ def _finite_limits(chain) -> tuple[np.ndarray, np.ndarray]:
 
 
 class StackedPlanarPose(ClosedForm):
-    """Full poses: ``triples`` rolls (alpha, and alpha + pi when 2), 4 branches each; at gimbal lock q0's
-    t6 and GIMBAL_LOCK_SWEEP rolls."""
+    """Full poses: ``triples`` rolls (alpha, alpha + pi), 4 branches each; a sweep of t6 at gimbal lock."""
 
     target_kind = "pose"
 

@@ -130,8 +130,7 @@ def pitch_arm_fk(g: PitchArmGeometry, q: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 class PitchArmPose(ClosedForm):
-    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows; a pose whose y axis
-    is not horizontal, or off that yaw's plane, has none."""
+    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows."""
 
     target_kind = "pose"
 
@@ -208,8 +207,7 @@ class PitchArmPosition(ClosedForm):
         return exact & inside
 
     def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
-        """Per side, the usable grid pitch nearest the nearest one, bisected toward it: (Q, exact, usable,
-        pitch)."""
+        """Per side, the usable grid pitch nearest, bisected toward it: (Q, exact, usable, pitch)."""
         grid = half_width[..., None] * np.linspace(-1.0, 1.0, PITCH_GRID)  # offsets (R, 2, M)
         usable_grid = np.any(self._usable(yaws, reaches, heights, centre[..., None] + grid), axis=-1)
         gap = grid - nearest_offset[..., None]
@@ -274,8 +272,7 @@ CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_P
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """A base axis meeting a planar 2R (3R, positions) or 3R (4R; positions with equal links) at a right
-    angle."""
+    """A base axis meeting a planar 2R (3R, positions) or 3R (4R) at a right angle."""
     require(lines.count in (3, 4), f"it has {lines.count} joints, the family 3 (yaw + planar 2R) or 4 "
                                    "(yaw + planar 3R)")
     recognition.require_revolute(lines, lines.count)
