@@ -31,8 +31,7 @@ from wbik.targets import Target, as_target
 from wbik.wholebody.problem import StartedProblem, WholeBody
 
 DEFAULT_TIMEOUT_S = 0.005  # s: TRAC-IK's benchmark protocol and MoveIt's KDL default
-STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
-"""Constraints that shape the steps, not the answer: a chain method solves without them."""
+STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)  # shape steps, not answers: chains drop them
 
 
 class IterationBudget:

@@ -16,21 +16,16 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate, IKResult
 from wbik.targets import Target, as_target, pose_error
 
-LIMIT_TOLERANCE = 1e-9
-"""Angle (rad) a closed-form joint may leave its limits by and count as inside (set onto the limit)."""
-BRANCH_MERGE = 1e-6
-"""Branches whose joints differ by less (rad, modulo 2 pi) are one solution in ``solve_all``."""
+LIMIT_TOLERANCE = 1e-9  # rad a closed-form joint may leave its limits by and count as inside (set onto it)
+BRANCH_MERGE = 1e-6  # branches whose joints differ by less (rad, modulo 2 pi) are one in ``solve_all``
+# per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the reference
+# below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)
 BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
-"""Per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the
-reference below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)."""
-SCREEN_TOLERANCE = 1e-7
-"""Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+SCREEN_TOLERANCE = 1e-7  # closed-form FK residual (m and rad) above which a branch is dropped
+# a library's decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
+# PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints
 PROBE_POSES, PROBE_REQUIRED, PROBE_SEED, PROBE_TOLERANCE = 8, 6, 0, 1e-6
-"""A library's claimed decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
-PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints."""
-NEAREST_MARGIN = 1e-9
-"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - this takes it."""
-_NEAREST_BOUND = math.pi - NEAREST_MARGIN
+_NEAREST_BOUND = math.pi - 1e-9  # a 2 pi shift inside the limits and nearer than this is the nearest
 _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 

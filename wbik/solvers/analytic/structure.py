@@ -13,10 +13,9 @@ import numpy as np
 from wbik.robot import ChainCache
 from wbik.solvers.task_error import joint_lines_at_zero, serial_structure
 
+# axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, lines meet (a
+# length is zero) within this x the chain's length: URDFs write angles to ~12 digits
 STRUCTURE_TOLERANCE = 1e-9
-"""Two axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, two lines
-meet (a length is zero) within this x the chain's length: URDFs write angles to ~12 digits, a real offset
-or tilt misses by orders of magnitude."""
 
 
 @dataclass(frozen=True)

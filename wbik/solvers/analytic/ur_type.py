@@ -41,9 +41,9 @@ BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])  # Rz(pi) exactly: base_link -> link0
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # link6 (DH flange) -> ee_link
 CANONICAL = recognition.Canonical((HALF_PI, 0.0, 0.0, HALF_PI, -HALF_PI, 0.0), (0.0,) * 6,
                                   homogeneous(BASE_TO_LINK0), homogeneous(LINK6_TO_EE))
+# the form divides by d6 (wrist centre to flange; the tool takes the rest): the tip's own distance when at
+# least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length
 FLANGE_SHARE, FLANGE_MINIMUM = 0.1, 0.01
-"""The form divides by d6 (wrist centre to flange along axis 6; the tool takes the rest): the tip's own
-distance when at least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length."""
 
 
 @dataclass(frozen=True)
