@@ -361,7 +361,7 @@ class BoundedLMSolver(Solver):
         age = np.zeros(count, dtype=int)
         while rows.size:
             done = self._passes_rows(error)
-            over = spent[rows] >= self.max_iterations
+            over = (spent[rows] >= self.max_iterations) | failed[rows]  # failed: out of seeds
             if done.any() or over.any():
                 solution[rows[done]] = q[done]
                 failed[rows[over & ~done]] = True
@@ -382,19 +382,10 @@ class BoundedLMSolver(Solver):
             if not ended.size:
                 continue
             self._queue_seeds(queue, rows[ended], q0, entries, table_first, positions, rotations)
-            restart, exhausted = [], []
-            for local in ended:
-                seeds = queue[rows[local]]
-                (restart if seeds else exhausted).append(local)
-            if exhausted:
-                failed[rows[exhausted]] = True
-                keep = np.ones(rows.size, dtype=bool)
-                keep[exhausted] = False
-                restart = [int(np.count_nonzero(keep[:local])) for local in restart]
-                rows, q, error, transposed, cost, damping, best, since, age = (
-                    array[keep] for array in (rows, q, error, transposed, cost, damping, best, since, age))
-            if restart:
-                restart = np.array(restart)
+            seeded = np.array([bool(queue[row]) for row in rows[ended]])
+            failed[rows[ended[~seeded]]] = True  # dropped at the next iteration's start
+            restart = ended[seeded]
+            if restart.size:
                 renewed = rows[restart]
                 q[restart] = [queue[row].pop(0) for row in renewed]
                 attempts[renewed] += 1
