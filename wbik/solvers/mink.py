@@ -16,7 +16,6 @@ import pinocchio as pin
 
 import wbik.qp.backends as backends
 from wbik.dependencies import MINK_LIBRARY
-from wbik.errors import InvalidSettingError
 from wbik.mujoco_model import MuJoCoBody, import_mink, mujoco_body
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
@@ -219,9 +218,7 @@ class MinkSolver(PeerSolver):
         self.damping = Number(ge=0, as_float=True).checked(damping, "damping", "MinkSolver")
         self.chain_damping = Number(ge=0, as_float=True).checked(chain_damping, "chain_damping", "MinkSolver")
         self.limit_gain = Number(gt=0, le=1, as_float=True).checked(limit_gain, "limit_gain", "MinkSolver")
-        self.max_step = float(max_step)
-        if not self.max_step > 0.0:  # NaN, zero or negative
-            raise InvalidSettingError(f"max_step must be a number > 0 (math.inf: no bound), got {max_step!r}")
+        self.max_step = Number(gt=0, as_float=True, finite=False).checked(max_step, "max_step", "MinkSolver")
         chain = self._chain if self._chain is not None or len(robot.chains) != 1 else self.chain
         self.built = (mujoco_body(robot) if chain is None else
                       mujoco_body(robot, masses=False, frames=[chain.base_frame, chain.tip_frame]))
@@ -236,28 +233,6 @@ class MinkSolver(PeerSolver):
         if id(body) not in state:
             state[id(body)] = self.mink.Configuration(body.model, body.qpos(self.robot.nominal))
         return state[id(body)]
-
-    def mink_com(self, q: np.ndarray) -> np.ndarray:
-        """mink's centre of mass (m, world) at wbik's configuration q, as its ComTask reads it."""
-        body = mujoco_body(self.robot)
-        configuration = self._configuration(body)
-        configuration.update(body.qpos(np.asarray(q, dtype=float)))
-        return configuration.data.subtree_com[1].copy()
-
-    def mink_placement(self, q: np.ndarray, frame: str, masses: bool = True) -> pin.SE3:
-        """mink's world placement of a wbik frame (its site) at wbik's configuration q."""
-        body = mujoco_body(self.robot, masses, frames=[frame])
-        configuration = self._configuration(body)
-        configuration.update(body.qpos(np.asarray(q, dtype=float)))
-        return pin.SE3(configuration.get_transform_frame_to_world(body.site(frame), "site").as_matrix())
-
-    def mink_fk(self, q: np.ndarray) -> pin.SE3:
-        """MuJoCo's pose of the chain's tip in its base frame at chain joints q (the others nominal)."""
-        chain = self.chain
-        full = chain.full_configuration(chain.check_q(q))
-        base, tip = (self.mink_placement(full, frame, masses=False)
-                     for frame in (chain.base_frame, chain.tip_frame))
-        return base.actInv(tip)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         chain = self.chain

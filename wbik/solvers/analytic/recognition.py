@@ -102,6 +102,11 @@ class Walk:
     a: list[float]
     alpha: list[float]
 
+    def add(self, frame: np.ndarray, theta: float, d: float, a: float, alpha: float) -> None:
+        for values, value in zip((self.frames, self.theta, self.d, self.a, self.alpha),
+                                 (frame, theta, d, a, alpha), strict=True):
+            values.append(value)
+
 
 def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[float, ...],
          a_signs: tuple[float, ...]) -> Walk:
@@ -147,12 +152,9 @@ def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[
             sign = 1.0 if (plus > 0.0) == (alpha > 0.0) else -1.0
         new_z = sign * axis
         theta = math.atan2(float(np.dot(np.cross(x_previous, x), z)), float(np.dot(x_previous, x)))
-        result.frames.append(_frame(x, new_z, new_origin))
         result.signs.append(sign)
-        result.theta.append(theta)
-        result.d.append(d)
-        result.a.append(a)
-        result.alpha.append(math.atan2(float(np.dot(np.cross(z, new_z), x)), float(np.dot(z, new_z))))
+        result.add(_frame(x, new_z, new_origin), theta, d, a,
+                   math.atan2(float(np.dot(np.cross(z, new_z), x)), float(np.dot(z, new_z))))
     return result
 
 
@@ -166,11 +168,7 @@ def tip_offset(lines: ChainLines, frame: np.ndarray) -> tuple[float, np.ndarray]
 def close_walk(result: Walk, theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     """Append the last DH row: F_n = F_n-1 Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
     frame = result.frames[-1] @ rot_z(theta) @ trans(z=d) @ trans(x=a) @ rot_x(alpha)
-    result.frames.append(frame)
-    result.theta.append(theta)
-    result.d.append(d)
-    result.a.append(a)
-    result.alpha.append(alpha)
+    result.add(frame, theta, d, a, alpha)
     return frame
 
 
