@@ -13,6 +13,7 @@ import math
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -39,14 +40,6 @@ _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
 FIRST_QUERY = 3  # library entries asked for by a call's first k-d tree query (the rest by a second)
 BATCH_ITERATION_UNITS = 10  # budget units of one batch iteration (32 seeds): its time over one seed's
-
-
-@dataclass
-class _ThreadState:
-    """A thread's Pinocchio Data and LM workspaces by residual size."""
-
-    data: pin.Data
-    workspaces: dict
 
 
 @dataclass
@@ -127,8 +120,9 @@ class BoundedLMSolver(Solver):
         self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
                              else None)
 
-    def _new_thread_state(self) -> _ThreadState:
-        return _ThreadState(self._model.createData(), {})
+    def _new_thread_state(self) -> SimpleNamespace:
+        """This thread's Pinocchio Data and LM workspaces by residual size."""
+        return SimpleNamespace(data=self._model.createData(), workspaces={})
 
     def _workspace(self, rows: int) -> Workspace:
         """This thread's buffers for the damped system of an m = ``rows`` residual."""

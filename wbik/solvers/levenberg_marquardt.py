@@ -63,9 +63,8 @@ class JointBounds:
 
 @dataclass(frozen=True)
 class LevenbergMarquardt:
-    """The policy's numbers (see the module docstring): ``start`` is the first base damping (None:
-    ``floor``), ``stall=0`` turns the progress test off, ``max_damping`` or ``max_step`` None: no test, no
-    cap (rad or m)."""
+    """The policy's numbers: ``start``, the first mu (None: ``floor``); ``stall=0``: no progress test;
+    ``max_damping``, ``max_step`` (rad or m) None: none."""
 
     cost_weight: float = 0.01
     floor: float = 1e-6

@@ -23,9 +23,8 @@ def import_optional(library: OptionalDependency, what: str, module: str):
 
 @dataclass(frozen=True)
 class IKMethod:
-    """An IK method: its ``name`` (``solver(name, ...)``, a study's ``method:``), its ``factory``
-    (``factory(robot, chain, **options)``, usually a Solver subclass), a one-line ``description`` and
-    the optional library it ``needs`` (None: the core install's)."""
+    """An IK method: its ``name``, its ``factory(robot, chain, **options)`` (usually a Solver subclass), a
+    one-line ``description`` and the optional library it ``needs``."""
 
     name: str
     factory: SolverFactory

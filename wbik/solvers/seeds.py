@@ -1,7 +1,5 @@
-"""The seed sets of ``bounded_lm``'s restarts, built once per chain from a fixed random stream and cached.
-
-The distance^2 of a seed with tip pose (p_i, R_i) to a target (p*, R*) is w^2 |p* - p_i|^2 + 3 -
-trace(R*^T R_i) (the second term ~ angle^2, comparable with a residual's |e|^2), w the position weight.
+"""The seed sets of ``bounded_lm``'s restarts, built once per chain from a fixed random stream: a seed's
+distance^2 to a target is w^2 |p* - p_i|^2 + 3 - trace(R*^T R_i) (~ angle^2), w the position weight.
 """
 
 from __future__ import annotations

@@ -1,9 +1,7 @@
-"""Task residuals and Jacobians of B configurations of a serial chain in a fixed number of numpy calls.
-
-Each joint frame is turned so that its axis is z (Q_k e_z = a_k). Then T(q) = F_1 A_1(q_1) ... A_n(q_n)
-with F_1 = P_0 Q_1, A_k = Z(q_k) Q_k^T P_k Q_{k+1} (Q_{n+1} = I) and Z(q) = I + f(q) K + g(q) K^2, K the
-cross-product matrix of e_z, f = sin, g = 1 - cos (revolute), or Z(q) = I + q E_z (prismatic, g = 0):
-every A_k = [1, f, g] [C0; C1; C2]_k comes from one matrix product, then n products down the chain.
+"""Task residuals and Jacobians of B configurations of a serial chain in a fixed number of numpy calls: with
+each joint frame turned so its axis is z, T(q) = F_1 A_1(q_1) ... A_n(q_n), A_k = Z(q_k) Q_k^T P_k Q_{k+1},
+Z(q) = I + f K + g K^2 (f = sin q, g = 1 - cos q, K = [e_z]x; prismatic: I + q E_z): every A_k = [1, f, g]
+[C0; C1; C2]_k from one matrix product, then n products down the chain.
 """
 
 from __future__ import annotations

@@ -1,7 +1,5 @@
 """A closed form's compiled choice: its family's C kernel (``wbik/kernels/_<family>.c``) doing what
-:class:`~.solver.AnalyticSolver`'s vectorised choice (its twin) does, on one parameter vector (the family's
-numbers, the chain's limits, an :class:`Alignment`); ``solve_many`` and ``solve_all`` check in C by the
-batched rule with the form's FK."""
+:class:`~.solver.AnalyticSolver`'s vectorised choice does, on one parameter vector."""
 
 from __future__ import annotations
 
