@@ -28,7 +28,6 @@ class FamilyChain:
         low, high = signs * chain.lower + offsets, signs * chain.upper + offsets
         self.lower, self.upper = np.minimum(low, high), np.maximum(low, high)
         self.nominal = signs * chain.nominal + offsets
-        self.mid_range = 0.5 * (self.lower + self.upper)
 
     @property
     def nq(self) -> int:

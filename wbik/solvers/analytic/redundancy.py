@@ -29,12 +29,11 @@ class LockedChain:
         self.parent, self.index, self.value = chain, index, float(value)
         keep = np.arange(chain.nq) != index
         self.robot = chain.robot
-        self.held = chain.joint_names[index]
-        self.name = f"{chain.name} with {self.held} at {self.value:.6g}"
+        self.name = f"{chain.name} with {chain.joint_names[index]} at {self.value:.6g}"
         self.base_frame, self.tip_frame = chain.base_frame, chain.tip_frame
         self.joint_names = [name for name, kept in zip(chain.joint_names, keep, strict=True) if kept]
         self.lower, self.upper = chain.lower[keep].copy(), chain.upper[keep].copy()
-        self.nominal, self.mid_range = chain.nominal[keep].copy(), chain.mid_range[keep].copy()
+        self.nominal = chain.nominal[keep].copy()
         self.is_prismatic = np.asarray(chain.is_prismatic)[keep].copy()
         self.lines = locked_lines(chain_lines(chain), index, self.value)
 
