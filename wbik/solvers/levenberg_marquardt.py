@@ -142,10 +142,8 @@ class LevenbergMarquardt:
     def update(self, accepted: bool, base: float, cost: float, best: float, since: int
                ) -> tuple[float, float, int, bool]:
         """After a trial: (base damping, best cost, iterations since progress, stalled?)."""
-        if accepted:
-            base = max(base * self.decrease, self.floor)
-        else:
-            base = max(base, self.reject_floor) * self.increase
+        base = (max(base * self.decrease, self.floor) if accepted
+                else max(base, self.reject_floor) * self.increase)
         if cost < self.progress * best:
             best, since = cost, 0
         else:
@@ -224,10 +222,7 @@ def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
         system.reshape(-1)[::system.shape[0] + 1] += damping
     else:
         system = workspace.system
-        if small:
-            np.dot(transpose, jacobian, out=system)
-        else:
-            np.dot(jacobian, transpose, out=system)
+        np.dot(*((transpose, jacobian) if small else (jacobian, transpose)), out=system)
         workspace.diagonal += damping
     if small:
         right = transpose.dot(error)

@@ -78,10 +78,7 @@ def placo_robot(robot: Robot, q: np.ndarray | None = None, humanoid_urdf: Path |
 def set_placo_configuration(robot: Robot, wrapper, q: np.ndarray) -> None:
     """Copy a full wbik configuration into PlaCo (joint by joint, by name; base pose if floating)."""
     model = robot.model
-    if robot.has_floating_base:
-        wrapper.set_T_world_fbase(pin.XYZQUATToSE3(q[:7]).homogeneous)
-    else:
-        wrapper.set_T_world_fbase(np.eye(4))
+    wrapper.set_T_world_fbase(pin.XYZQUATToSE3(q[:7]).homogeneous if robot.has_floating_base else np.eye(4))
     for joint_id in range(1, model.njoints):
         joint = model.joints[joint_id]
         if joint.nq == 1:

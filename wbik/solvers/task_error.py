@@ -21,10 +21,7 @@ from wbik.targets import Target
 def task_error(chain: Chain, target: Target, q: np.ndarray, with_jacobian: bool = True
                ) -> tuple[np.ndarray, np.ndarray | None]:
     """(e, de/dq) at q in the convention's form; the Jacobian is None when ``with_jacobian`` is False."""
-    if with_jacobian:
-        pose, jacobian = chain.fk_jacobian(q)
-    else:
-        pose, jacobian = chain.fk(q), None
+    pose, jacobian = chain.fk_jacobian(q) if with_jacobian else (chain.fk(q), None)
     rotation = pose.rotation
     error = pose_error(rotation, pose.translation, target.rotation, target.position)
     if jacobian is None:

@@ -87,11 +87,8 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
     inside = clip_to_limits(q, chain.lower, chain.upper)
-    if measured is not None:
-        position_xyz, rotation_xyz, position_norm, rotation_norm = measured
-    else:
-        position_xyz, rotation_xyz, position_norm, rotation_norm = _measure(
-            form, positions, rotations, q, inside, finite, reached)
+    position_xyz, rotation_xyz, position_norm, rotation_norm = measured or _measure(
+        form, positions, rotations, q, inside, finite, reached)
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
     p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
     results = [IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra)
