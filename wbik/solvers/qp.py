@@ -71,13 +71,11 @@ class QPSolver(Solver):
             constraints.append(JointVelocityLimits())
         tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
         regularization = RegularizationTask(1e-9)
-        state = {}
-        for kind, task in (("pose", FrameTask(chain.tip_frame, pin.SE3.Identity(), tolerance=tolerance)),
-                           ("position", PositionTask(chain.tip_frame, np.zeros(3), tolerance=tolerance))):
-            state[kind] = (task, IKProblem(chain.model, [task, regularization], constraints,
-                                           backend=self.backend, max_step=self.max_step,
-                                           lm_damping=self.lm_damping))
-        return state
+        tasks = {"pose": FrameTask(chain.tip_frame, pin.SE3.Identity(), tolerance=tolerance),
+                 "position": PositionTask(chain.tip_frame, np.zeros(3), tolerance=tolerance)}
+        return {kind: (task, IKProblem(chain.model, [task, regularization], constraints, backend=self.backend,
+                                       max_step=self.max_step, lm_damping=self.lm_damping))
+                for kind, task in tasks.items()}
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         world_target = self.chain.base_placement * target.se3()
