@@ -35,9 +35,8 @@ STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)  # shape steps, no
 
 
 class IterationBudget:
-    """The one budget rule: a method whose loop is ours (an iteration cost, s, per chain target and per
-    whole-body problem; None: wall clock) runs ``max_iterations``, else the iterations costing about
-    ``timeout_s`` or the default budget on the reference machine (docs/measurements.md)."""
+    """The one budget rule: a method whose loop is ours (an iteration cost set, s) runs ``max_iterations``,
+    else the iterations costing about ``timeout_s`` or the default budget (docs/measurements.md)."""
 
     iteration_cost_s: float | None = None
     default_budget_s: float = DEFAULT_TIMEOUT_S
@@ -122,8 +121,7 @@ class Solver(IterationBudget):
         return None
 
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
-        """Solve a target (SE3, 4x4, 3-vector or Target) or a :class:`~wbik.wholebody.problem.WholeBody`
-        from q0 (default: the nominal)."""
+        """Solve a target (SE3, 4x4, 3-vector or Target) or a WholeBody from q0 (default: the nominal)."""
         if isinstance(target, WholeBody):
             return self.solve_problem(target, q0)
         target = as_target(target)

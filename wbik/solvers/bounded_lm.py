@@ -292,8 +292,7 @@ class BoundedLMSolver(Solver):
                 "the target may be out of reach")
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """Solve a batch, without ``timeout_s`` all together (:meth:`_solve_rows`; answers may differ from
-        :meth:`solve`'s)."""
+        """Solve a batch, without ``timeout_s`` all together (answers may differ from :meth:`solve`'s)."""
         targets = list(targets)
         starts = self._batch_starts(q0s, len(targets))
         if self.timeout_s is not None or self._vectorised is None or len(targets) < 2:

@@ -99,9 +99,7 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
 def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
                       tolerances: Tolerances, time_s: float, method: str) -> IKResult:
     """The shared check of joints a compiled choice wrote: ``parts`` (n + 24) holds q, their 4 x 4 tip pose
-    and the batched check's errors (e_p, e_R, |e_p|, |e_R|); ``target``: a Target or a pose's 4 x 4 matrix.
-    A full pose within the tolerances (no continuous joints) gets views of ``parts``, the rest
-    :func:`evaluate`."""
+    and the batched check's errors (e_p, e_R, |e_p|, |e_R|); ``target``: a Target or a pose's matrix."""
     joints = len(chain.lower)
     q = parts[:joints]
     if not chain.any_continuous and (type(target) is np.ndarray or target.rotation is not None):

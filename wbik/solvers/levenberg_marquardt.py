@@ -103,8 +103,7 @@ class LevenbergMarquardt:
         return inside
 
     def trial_function(self, bounds: JointBounds):
-        """:meth:`trial` for these bounds through the compiled twin (unless ``WBIK_PURE_PYTHON=1``), Python
-        where it declines."""
+        """:meth:`trial` for these bounds through the compiled twin (unless ``WBIK_PURE_PYTHON=1``)."""
         kernel = chosen(None, _LM_TRIAL, "lm_trial")
         if kernel is None:
             return self.trial

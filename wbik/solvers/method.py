@@ -23,8 +23,7 @@ def import_optional(library: OptionalDependency, what: str, module: str):
 
 @dataclass(frozen=True)
 class IKMethod:
-    """An IK method: its ``name``, its ``factory(robot, chain, **options)`` (usually a Solver subclass), a
-    one-line ``description`` and the optional library it ``needs``."""
+    """An IK method: ``name``, ``factory(robot, chain, **options)``, ``description``, the library it needs."""
 
     name: str
     factory: SolverFactory

@@ -52,11 +52,9 @@ NAN3 = (math.nan, math.nan, math.nan)
 
 @dataclass(slots=True)
 class IKResult:
-    """The answer of every method. ``q``: None without joint values, else inside the limits, the errors
-    measured on it by FK: the largest goal's (m, rad), reached - target (base axes) and log3(R*^T R) (NaN
-    for a whole-body problem). Whole-body problems also fill ``task_errors`` (goal -> its largest error)
-    and its parts, ``measures`` (constraint -> :class:`wbik.qp.constraint.Measure`), ``unsupported`` (what
-    the method solved without) and ``diagnosis`` (:class:`wbik.qp.diagnosis.Diagnosis` of a failure)."""
+    """The answer of every method: ``q`` (None without joints, else inside the limits) and its errors by FK,
+    the largest goal's (m, rad), reached - target and log3(R*^T R) (NaN for a whole-body problem, which also
+    fills ``task_errors``, ``measures``, ``unsupported`` and ``diagnosis`` of a failure)."""
 
     q: np.ndarray | None
     success: bool

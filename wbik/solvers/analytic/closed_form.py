@@ -30,10 +30,8 @@ _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 
 class ClosedForm:
-    """A closed-form solver of one chain: ``branches`` and ``fk`` (vectorised over a batch), an optional
-    compiled ``kernel`` of the same choice (a :class:`.compiled.CompiledForm` serves ``solve``,
-    ``solve_many`` and ``solve_all``; another, with ``nearest_into`` only, ``solve``). ``target_kind``:
-    "pose" or "position"."""
+    """A closed-form solver of one chain: ``branches`` and ``fk`` over a batch, an optional compiled
+    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
@@ -66,11 +64,9 @@ class ClosedForm:
 # --- wrapping into the limits --------------------------------------------------------------------
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                      revolute: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
-    """Revolute angles shifted by multiples of 2 pi into [lower, upper] nearest ``reference``, and the
-    in-limits mask over the joint ``axis`` (everything broadcasts to q). The rule: of the shifts 0, +-2 pi,
-    +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest (the first on a tie), set into the
-    limits; an angle without one stays (mask False). round((r - q) / 2 pi) turns first, the rest by
-    :func:`_wrap_by_shifts`."""
+    """Revolute angles shifted into [lower, upper] nearest ``reference`` and the in-limits mask over the
+    joint ``axis``: of the shifts 0, +-2 pi, +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest
+    (the first on a tie), set into the limits; an angle without one stays (mask False)."""
     q = np.asarray(q, dtype=float)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
     fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)

@@ -52,8 +52,7 @@ class CompiledForm:
 
     def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
                      references: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``nearest_into`` for a batch without the GIL: (joints (B, 6), errors (B, 8), (branches, picked) (B,
-        2)); rows not picked are zeros."""
+        """``nearest_into`` for a batch without the GIL: (joints, errors (B, 8), (branches, picked))."""
         count = len(positions)
         q, errors, info = np.empty((count, 6)), np.empty((count, 8)), np.empty((count, 2))
         contiguous = np.ascontiguousarray
@@ -64,8 +63,7 @@ class CompiledForm:
 
     def distinct(self, position: np.ndarray, rotation: np.ndarray,
                  reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``solve_all``'s branches (k, 6) wrapped nearest ``reference`` and their errors (k, 8): e_p, e_R,
-        their norms."""
+        """``solve_all``'s branches (k, 6) wrapped nearest ``reference`` and their errors (k, 8)."""
         out, errors = np.empty((self.branches, 6)), np.empty((self.branches, 8))
         count = self.extension.distinct(self.params, position, rotation, reference, out, errors)
         return out[:count], errors[:count]

@@ -187,8 +187,7 @@ class LockedJointForm(ClosedForm):
         return poe_fk(self.lines, q)
 
 class HeldChoice:
-    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint: the target moved, the 6-joint
-    form's kernel."""
+    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint (the target moved)."""
 
     def __init__(self, form: LockedJointForm):
         self.form, self.index = form, form.index
