@@ -24,7 +24,6 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.levenberg_marquardt import (
     JointBounds,
     LevenbergMarquardt,
-    Workspace,
     batch_cost,
     keep_better,
 )
@@ -124,13 +123,6 @@ class BoundedLMSolver(Solver):
         """This thread's Pinocchio Data and LM workspaces by residual size."""
         return SimpleNamespace(data=self._model.createData(), workspaces={})
 
-    def _workspace(self, rows: int) -> Workspace:
-        """This thread's buffers for the damped system of an m = ``rows`` residual."""
-        workspaces = self._thread_state().workspaces
-        if rows not in workspaces:
-            workspaces[rows] = self.policy.workspace(rows, self.chain.nq)
-        return workspaces[rows]
-
     def _goal(self, target: Target) -> pin.SE3:
         """T*^-1: the inverse of the target in the scaled model's world frame (lengths x w)."""
         position = self.position_weight * target.position
@@ -182,7 +174,8 @@ class BoundedLMSolver(Solver):
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         clock = deadline < math.inf
         error, jacobian = evaluate(q)
-        workspace = self._workspace(error.shape[0])
+        workspaces, rows = self._thread_state().workspaces, error.shape[0]  # this thread's, per residual size
+        workspace = workspaces.get(rows) or workspaces.setdefault(rows, policy.workspace(rows, self.chain.nq))
         cost = float(error.dot(error))
         damping = policy.first_damping
         best_cost, since_progress = cost, 0

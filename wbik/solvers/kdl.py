@@ -134,7 +134,8 @@ class KDLRestartsSolver(KDLSolver):
             q, _ = self.attempt(frame, q_seed)
             now = time.perf_counter()
             attempts += 1
-            position_error, rotation_error = errors(self.chain, target, q)
+            position, rotation = pose_error(self.chain.fk(q), target)  # as the shared check measures them
+            position_error, rotation_error = float(np.linalg.norm(position)), float(np.linalg.norm(rotation))
             if position_error <= self.tolerances.position and rotation_error <= self.tolerances.rotation:
                 return Candidate(q, attempts, "", {"attempts": attempts})
             error = position_error + rotation_error
@@ -146,12 +147,6 @@ class KDLRestartsSolver(KDLSolver):
             if rng is None:
                 rng = self._call_rng(target, q0)
             q_seed = self.chain.random(rng)
-
-
-def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:
-    """(position error norm, rotation error norm) of q, as the shared FK check measures them."""
-    position, rotation = pose_error(chain.fk(q), target)
-    return float(np.linalg.norm(position)), 0.0 if rotation is None else float(np.linalg.norm(rotation))
 
 
 IK_METHODS = (

@@ -206,13 +206,6 @@ class AnalyticSolver(Solver):
                 retry, order = retry[~passed], order[:, ~passed]
         return Choice(chosen, found, real.T, usable.T, reached_p, reached_r)
 
-    @staticmethod
-    def _reasons(choice: Choice) -> list[str]:
-        """Each target's failure reason ("" where found)."""
-        any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
-        return ["" if ok else no_solution_reason(r, u)
-                for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
-
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         form = self._form_of(target)
         rotation = None if form.target_kind == "position" else target.rotation
@@ -234,7 +227,8 @@ class AnalyticSolver(Solver):
         count = len(positions)
         if not count:
             return []
-        q0_array = self._start_array(q0s, count)
+        q0_array = (np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy() if q0s is None
+                    else np.array(self._batch_starts(q0s, count)))
         form = self.closed_form("position" if rotations is None else "pose")
         form_rotations = rotations if form.target_kind == "pose" else None
         start = time.perf_counter()
@@ -250,15 +244,12 @@ class AnalyticSolver(Solver):
         choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
         extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
-        return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found,
-                              self._reasons(choice), self.tolerances, per_pose, self.name, extras,
+        any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
+        reasons = ["" if ok else no_solution_reason(r, u)
+                   for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
+        return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found, reasons,
+                              self.tolerances, per_pose, self.name, extras,
                               reached=(choice.reached_p, choice.reached_r))
-
-    def _start_array(self, q0s, count: int) -> np.ndarray:
-        """Starts (count, n): the chain's nominal, one start for all, or one per target."""
-        if q0s is None:
-            return np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy()
-        return np.array(self._batch_starts(q0s, count))
 
     def solve_all(self, target) -> list[IKResult]:
         """Every distinct branch, wrapped into the limits nearest the nominal, passing the check."""
