@@ -21,7 +21,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
-from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.peers import PeerForms, largest_weight
 from wbik.qp.tasks import (
     ComTask,
     FrameTask,
@@ -61,11 +61,14 @@ class MinkProblem(SolveIKProblem):
     body: MuJoCoBody = field(kw_only=True)
     limit_gain: float = field(default=0.95, kw_only=True)
 
-    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost,
+                   reference: str | None = None):
         import mink
 
-        added = mink.FrameTask(self.body.site(frame), "site", position_cost=position_cost,
-                               orientation_cost=orientation_cost)
+        costs = {"position_cost": position_cost, "orientation_cost": orientation_cost}
+        site = self.body.site(frame)
+        added = (mink.FrameTask(site, "site", **costs) if reference is None
+                 else mink.RelativeFrameTask(site, "site", self.body.site(reference), "site", **costs))
         added.set_target(mink.SE3.from_matrix(target.homogeneous))
         return added
 
@@ -111,22 +114,11 @@ def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: fl
 
 # -- mink's forms of the tasks and constraints ------------------------------------------------------------
 MINK.form(FrameTask)(frame_form)
+MINK.form(RelativeFrameTask)(frame_form)
 MINK.form(OrientationTask)(orientation_form)
 MINK.form(ComTask)(com_form)
 MINK.form(RegularizationTask)(raise_damping)
 MINK.form(Contact)(contact_form)
-
-
-@MINK.form(RelativeFrameTask)
-def _relative(task: RelativeFrameTask, mink_problem: MinkProblem) -> None:
-    import mink
-
-    position, orientation = frame_weights(task)
-    body = mink_problem.body
-    added = mink.RelativeFrameTask(body.site(task.frame), "site", body.site(task.reference_frame), "site",
-                                   position_cost=math.sqrt(position), orientation_cost=math.sqrt(orientation))
-    added.set_target(mink.SE3.from_matrix(task.target.homogeneous))
-    mink_problem.tasks.append(added)
 
 
 @MINK.form(PositionTask)

@@ -16,7 +16,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
-from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.peers import PeerForms, largest_weight
 from wbik.qp.tasks import (
     ComTask,
     FrameTask,
@@ -54,10 +54,14 @@ class PinkProblem(SolveIKProblem):
 
     model: pin.Model = field(kw_only=True)
 
-    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost,
+                   reference: str | None = None):
         from pink.tasks import FrameTask as PinkFrameTask
+        from pink.tasks import RelativeFrameTask as PinkRelativeFrameTask
 
-        added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
+        costs = {"position_cost": position_cost, "orientation_cost": orientation_cost}
+        added = (PinkFrameTask(frame, **costs) if reference is None
+                 else PinkRelativeFrameTask(frame, reference, **costs))
         added.set_target(target)
         return added
 
@@ -69,21 +73,11 @@ class PinkProblem(SolveIKProblem):
 
 # -- Pink's forms of the tasks and constraints ------------------------------------------------------------
 PINK.form(FrameTask)(frame_form)
+PINK.form(RelativeFrameTask)(frame_form)
 PINK.form(OrientationTask)(orientation_form)
 PINK.form(ComTask)(com_form)
 PINK.form(RegularizationTask)(raise_damping)
 PINK.form(Contact)(contact_form)
-
-
-@PINK.form(RelativeFrameTask)
-def _relative(task: RelativeFrameTask, pink: PinkProblem) -> None:
-    from pink.tasks import RelativeFrameTask as PinkRelativeFrameTask
-
-    position, orientation = frame_weights(task)
-    added = PinkRelativeFrameTask(task.frame, task.reference_frame, position_cost=math.sqrt(position),
-                                  orientation_cost=math.sqrt(orientation))
-    added.set_target(task.target)
-    pink.tasks.append(added)
 
 
 @PINK.form(PositionTask)
