@@ -176,13 +176,13 @@ def test_full_turn_joints_wrap_instead_of_clip():
     q = chain.mid_range.copy()
     q[0] = chain.upper[0] + 0.3  # shoulder pan, range [-2 pi, 2 pi]
     q[2] = chain.upper[2] + 0.3  # elbow, range [-pi, pi]: also one full turn
-    projected = solver.project(q)
+    projected = solver.bounds.project(q)
     assert chain.in_limits(projected, tolerance=0.0)
     turns = (projected - q) / (2 * np.pi)
     assert np.allclose(turns, np.round(turns)) and round(turns[0]) != 0 and round(turns[2]) != 0
     assert np.allclose(chain.fk(projected).homogeneous, chain.fk(q).homogeneous, atol=1e-12)
     pincher = wbik.solver("bounded_lm", robot("pincher"))
-    assert np.allclose(pincher.project(np.full(4, 3.0)), pincher.chain.upper)  # +-150 deg: clipped
+    assert np.allclose(pincher.bounds.project(np.full(4, 3.0)), pincher.chain.upper)  # +-150 deg: clipped
 
 
 def test_scaled_model_scales_lengths_only(rng):

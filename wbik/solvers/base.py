@@ -1,11 +1,6 @@
-"""The one solver interface of every method, on chain targets and whole-body problems.
-
-A method subclasses :class:`Solver` and implements ``_solve(target, q0, deadline)`` -> Candidate; the base
-validates input, times the call, and the shared check (:mod:`wbik.solvers.check`) decides ``success``. A
-:class:`~wbik.wholebody.problem.WholeBody` goes to ``_solve_problem``: the whole-body methods
-(``takes_problems``) formulate it, the chain methods take one that is a chain target in disguise and refuse
-others with a typed reason.
-"""
+"""The one solver interface of every method: a method implements ``_solve(target, q0, deadline)`` (and,
+taking whole-body problems, ``_solve_problem``); the base validates input, times the call, and the shared
+check (:mod:`wbik.solvers.check`) decides ``success``."""
 
 from __future__ import annotations
 
@@ -36,16 +31,12 @@ from wbik.targets import Target, as_target
 from wbik.wholebody.problem import StartedProblem, WholeBody
 
 DEFAULT_TIMEOUT_S = 0.005  # s: TRAC-IK's benchmark protocol and MoveIt's KDL default
-STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)
-"""Constraints that shape the steps, not the answer: a chain method solves without them."""
+STEP_SHAPING = (JointVelocityLimits, JointAccelerationLimits)  # shape steps, not answers: chains drop them
 
 
 class IterationBudget:
-    """The one budget rule. A method whose loop is ours (an iteration cost set) is budgeted in iterations,
-    so its answer does not depend on the load: ``max_iterations``, else the iterations costing about
-    ``timeout_s`` (or the default budget) on the reference machine (docs/measurements.md). Costs (s per
-    iteration) and default budgets are per chain target (``iteration_cost_s``, None: wall clock) and per
-    whole-body problem (``problem_iteration_cost_s``, None: takes none)."""
+    """The one budget rule: a method whose loop is ours (an iteration cost set, s) runs ``max_iterations``,
+    else the iterations costing about ``timeout_s`` or the default budget (docs/measurements.md)."""
 
     iteration_cost_s: float | None = None
     default_budget_s: float = DEFAULT_TIMEOUT_S
@@ -63,8 +54,7 @@ class IterationBudget:
     @classmethod
     def budget_options(cls, timeout_s: float, options: dict,
                        problem: bool = False) -> tuple[float | None, dict]:
-        """(timeout_s, options) for a budget of ``timeout_s``: ours get the equivalent ``max_iterations``
-        (unless given) and no wall clock, the others the wall clock."""
+        """(timeout_s, options) for a budget of ``timeout_s``: ours as ``max_iterations``, others' as is."""
         cost = cls.problem_iteration_cost_s if problem else cls.iteration_cost_s
         if cost is None:
             return timeout_s, dict(options)
@@ -81,13 +71,10 @@ class IterationBudget:
 
 
 class Solver(IterationBudget):
-    """Base class of every IK method of one robot (see the module docstring).
-
-    ``chain``: the chain a chain target is solved on (default the robot's only chain). ``_solve`` stops at
-    ``deadline`` (``time.perf_counter()``, ``math.inf`` without a wall clock) with its best effort and a
-    reason. Mutable state is kept per thread and restarts draw from the call's own stream
-    (:meth:`_call_rng`), so an answer depends on (seed, target, q0) only, in any order, from any thread.
-    """
+    """Base class of every IK method of one robot; ``chain``: where chain targets are solved (default the
+    robot's only chain). ``_solve`` stops at ``deadline`` (``time.perf_counter()``, ``math.inf``: none) with
+    its best effort and a reason. State is per thread and restarts draw from the call's own stream
+    (:meth:`_call_rng`): an answer depends on (seed, target, q0) only."""
 
     name = "base"
     supports_position_only = True
@@ -124,7 +111,7 @@ class Solver(IterationBudget):
         return f"{type(self).__name__}({where})"
 
     def _thread_state(self):
-        """This thread's mutable working objects (peer solvers, QP problems, buffers), built on first use."""
+        """This thread's mutable working objects, built on first use."""
         state = getattr(self._local, "state", None)
         if state is None:
             state = self._local.state = self._new_thread_state()
@@ -133,19 +120,8 @@ class Solver(IterationBudget):
     def _new_thread_state(self):
         return None
 
-    @property
-    def budget(self) -> str:
-        """The budget in words, e.g. "200 iterations" or "0.005 s"."""
-        parts = []
-        if self.iteration_cost_s is not None:
-            parts.append(f"{self.max_iterations} iterations")
-        if self.timeout_s is not None:
-            parts.append(f"{self.timeout_s:g} s")
-        return " or ".join(parts)
-
     def solve(self, target, q0: Sequence[float] | None = None) -> IKResult:
-        """Solve one target (SE3, 4x4, 3-vector or Target) from q0 (default: the chain's nominal), or a
-        :class:`~wbik.wholebody.problem.WholeBody` from q0 (default: the robot's nominal)."""
+        """Solve a target (SE3, 4x4, 3-vector or Target) or a WholeBody from q0 (default: the nominal)."""
         if isinstance(target, WholeBody):
             return self.solve_problem(target, q0)
         target = as_target(target)
@@ -266,8 +242,7 @@ class Solver(IterationBudget):
                          constraints=[JointPositionLimits(unbounded=continuous), *locked, *constraints])
 
     def _solve_problem(self, started: StartedProblem, deadline: float, max_iterations: int) -> Candidate:
-        """A whole-body problem within ``max_iterations``: a chain method solves the chain target it stands
-        for (:meth:`cannot_express`) and returns the whole configuration."""
+        """A whole-body problem: a chain method solves the chain target it stands for."""
         chain = self.chain
         task = next(task for task in started.tasks if task.goal)
         world = task.target if isinstance(task, FrameTask) else pin.SE3(np.eye(3), task.target)

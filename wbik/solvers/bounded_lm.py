@@ -1,13 +1,10 @@
 """Ours: joint-limit-bounded Levenberg-Marquardt with restarts (``bounded_lm``).
 
-An attempt iterates the policy of :mod:`wbik.solvers.levenberg_marquardt` (lambda = w |e|^2 + mu) on the
-SE(3) form of the pose error, e = log6(T*^-1 T) with the tip-axes Jacobian (e = p - p* for a position),
-position rows weighted by ``position_weight``, until the FK check passes, a stall or
-``attempt_iterations``. Restarts spend the iteration budget (single-seed iterations; a batch iteration
-costs ``BATCH_ITERATION_UNITS``): q0 and the seed table's nearest entry, the nearer first, then the seed
-library's nearest entries (:mod:`wbik.solvers.seeds`), then ``batch_size`` seeds advancing together
-(:mod:`wbik.solvers.vectorised_chain`), a stalled one replaced from the call's own random stream, so an
-answer depends on the inputs and ``seed`` only. Defaults and costs: docs/measurements.md, bounded_lm.
+An attempt iterates :mod:`wbik.solvers.levenberg_marquardt`'s policy on e = log6(T*^-1 T) with the tip-axes
+Jacobian (e = p - p* for a position), position rows weighted by ``position_weight``. Restarts spend the
+iteration budget: q0 and the seed table's nearest entry, the seed library's nearest entries
+(:mod:`wbik.solvers.seeds`), then ``batch_size`` seeds together, a stalled one replaced from the call's own
+random stream. Defaults and costs: docs/measurements.md, bounded_lm.
 """
 
 from __future__ import annotations
@@ -16,6 +13,7 @@ import math
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -26,7 +24,6 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.levenberg_marquardt import (
     JointBounds,
     LevenbergMarquardt,
-    Workspace,
     batch_cost,
     keep_better,
 )
@@ -40,18 +37,8 @@ from wbik.targets import Target, as_target
 _LOCAL, _WORLD_ALIGNED = pin.ReferenceFrame.LOCAL, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
-FIRST_QUERY = 3
-"""Library entries asked for by a call's first k-d tree query (the rest, if needed, by a second)."""
-BATCH_ITERATION_UNITS = 10
-"""Budget units of one batch iteration (32 seeds): its time over a single-seed iteration's."""
-
-
-@dataclass
-class _ThreadState:
-    """A thread's Pinocchio Data and LM workspaces by residual size."""
-
-    data: pin.Data
-    workspaces: dict
+FIRST_QUERY = 3  # library entries asked for by a call's first k-d tree query (the rest by a second)
+BATCH_ITERATION_UNITS = 10  # budget units of one batch iteration (32 seeds): its time over one seed's
 
 
 @dataclass
@@ -76,25 +63,17 @@ class _CallDraws:
 
 
 class BoundedLMSolver(Solver):
-    """Bounded LM with restarts (see the module docstring). Options, besides the base ones:
-
-    max_iterations: the budget in single-seed iterations (default: those costing about 5 ms on the
-    reference machine); attempt_iterations, stall, progress: end of an attempt (30 iterations; 3 without
-    a 10 % drop); damping, cost_weight, decrease, increase: mu floor, w, mu factors on accept/reject
-    (:class:`LevenbergMarquardt`); max_step: cap on the largest joint step (rad or m; None: none);
-    position_weight: w of the position rows (default 1 / the chain's length, at least 1);
-    single_attempts: one-seed attempts before the batch (12); batch_size: seeds per batch (32; 1: one at a
-    time); library_size: seed-library entries (8192; 0: uniform restarts); library_share: share of the
-    first batch from the library (0.5); candidates: a uniform restart is the best of this many draws (3);
-    table_size, table_margin: seed-table entries (1024; 0: none) and the share of each range kept off
-    the limits (0.1).
-    """
+    """Bounded LM with restarts. Options: ``max_iterations`` (single-seed iterations; default about 5 ms);
+    ``attempt_iterations``, ``stall``, ``progress``: an attempt's end; ``damping``, ``cost_weight``,
+    ``decrease``, ``increase``, ``max_step``: :class:`LevenbergMarquardt`'s; ``position_weight`` (default 1 /
+    the chain's length, at least 1); ``single_attempts`` before the batch; ``batch_size`` (1: one at a
+    time); ``library_size`` (0: uniform restarts), ``library_share`` of the first batch; ``candidates``: a
+    uniform restart is the best of this many draws; ``table_size`` (0: none), ``table_margin``: the share
+    of each range kept off the limits."""
 
     name = "bounded_lm"
-    table_first = 0.1
-    """The seed-table entry goes before q0 when its distance^2 is under this x |e(q0)|^2."""
-    iteration_cost_s = 20e-6
-    """One single-seed iteration of the Python trial, kept for the compiled one (the same budget)."""
+    table_first = 0.1  # the seed-table entry goes before q0 when its distance^2 < this x |e(q0)|^2
+    iteration_cost_s = 20e-6  # a single-seed iteration of the Python trial (the compiled one keeps it)
 
     def __init__(self, robot, chain=None, *, max_iterations: int | None = None,
                  attempt_iterations: int = 30, stall: int = 3,
@@ -140,19 +119,9 @@ class BoundedLMSolver(Solver):
         self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
                              else None)
 
-    def _new_thread_state(self) -> _ThreadState:
-        return _ThreadState(self._model.createData(), {})
-
-    def _workspace(self, rows: int) -> Workspace:
-        """This thread's buffers for the damped system of an m = ``rows`` residual."""
-        workspaces = self._thread_state().workspaces
-        if rows not in workspaces:
-            workspaces[rows] = self.policy.workspace(rows, self.chain.nq)
-        return workspaces[rows]
-
-    def project(self, q: np.ndarray) -> np.ndarray:
-        """Wrap full-turn revolute joints by 2 pi into their range, clip the others."""
-        return self.bounds.project(q)
+    def _new_thread_state(self) -> SimpleNamespace:
+        """This thread's Pinocchio Data and LM workspaces by residual size."""
+        return SimpleNamespace(data=self._model.createData(), workspaces={})
 
     def _goal(self, target: Target) -> pin.SE3:
         """T*^-1: the inverse of the target in the scaled model's world frame (lengths x w)."""
@@ -166,9 +135,9 @@ class BoundedLMSolver(Solver):
         return pin.SE3(rotation_t, -rotation_t.dot(position))
 
     def _residual(self, goal_inverse: pin.SE3, pose: bool, with_jacobian: bool = True):
-        """The function q -> (e, J or None) on this thread's Data: pose, e = log6(T*^-1 T) and the tip-axes
-        Jacobian; position, e = p - p* and the world-aligned linear rows. Lengths x w: the scaled model at
-        D q (D = w on prismatic joints, 1 on revolute ones), Jacobian J D."""
+        """q -> (e, J or None) on this thread's Data: e = log6(T*^-1 T) and the tip-axes Jacobian, or e =
+        p - p* and the world-aligned linear rows; lengths x w (the scaled model at D q, J D; D = w on
+        prismatic joints)."""
         model, data, tip, scale = self._model, self._thread_state().data, self.chain.tip_id, self._joint_scale
         kinematics = pin.computeJointJacobians if with_jacobian else pin.forwardKinematics
         placement, frame_jacobian, log6 = pin.updateFramePlacement, pin.getFrameJacobian, pin.log6
@@ -205,7 +174,8 @@ class BoundedLMSolver(Solver):
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         clock = deadline < math.inf
         error, jacobian = evaluate(q)
-        workspace = self._workspace(error.shape[0])
+        workspaces, rows = self._thread_state().workspaces, error.shape[0]  # this thread's, per residual size
+        workspace = workspaces.get(rows) or workspaces.setdefault(rows, policy.workspace(rows, self.chain.nq))
         cost = float(error.dot(error))
         damping = policy.first_damping
         best_cost, since_progress = cost, 0
@@ -315,10 +285,7 @@ class BoundedLMSolver(Solver):
                 "the target may be out of reach")
 
     def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
-        """Solve a batch, without ``timeout_s`` vectorised over the targets (:meth:`_solve_rows`): each
-        runs :meth:`solve`'s attempts from its seeds in one row, all rows together, and one they leave
-        unsolved goes to :meth:`solve` (the answer may be another solution than :meth:`solve`'s).
-        ``time_s``: the run's time shared equally."""
+        """Solve a batch, without ``timeout_s`` all together (answers may differ from :meth:`solve`'s)."""
         targets = list(targets)
         starts = self._batch_starts(q0s, len(targets))
         if self.timeout_s is not None or self._vectorised is None or len(targets) < 2:
@@ -353,9 +320,8 @@ class BoundedLMSolver(Solver):
         return accepted, cost, q, error, transposed
 
     def _solve_rows(self, targets: list[Target], q0: np.ndarray, results: list, slots: list[int]) -> None:
-        """Targets of one kind, one row each, advanced together; answers written to results[slots]. A row
-        runs :meth:`solve`'s ``single_attempts`` first seeds (:meth:`_queue_seeds`), each attempt ending
-        as in :meth:`_attempt`; a row whose seeds or budget run out is left to :meth:`solve`."""
+        """Targets of one kind advanced together, answers into results[slots]: per row :meth:`solve`'s first
+        seeds (:meth:`_queue_seeds`), attempts ending as in :meth:`_attempt`; then :meth:`solve`."""
         started = time.perf_counter()
         count, pose = len(targets), targets[0].is_pose
         kinematics, policy, bounds = self._vectorised, self.policy, self.bounds
@@ -381,7 +347,7 @@ class BoundedLMSolver(Solver):
         age = np.zeros(count, dtype=int)
         while rows.size:
             done = self._passes_rows(error)
-            over = spent[rows] >= self.max_iterations
+            over = (spent[rows] >= self.max_iterations) | failed[rows]  # failed: out of seeds
             if done.any() or over.any():
                 solution[rows[done]] = q[done]
                 failed[rows[over & ~done]] = True
@@ -402,19 +368,10 @@ class BoundedLMSolver(Solver):
             if not ended.size:
                 continue
             self._queue_seeds(queue, rows[ended], q0, entries, table_first, positions, rotations)
-            restart, exhausted = [], []
-            for local in ended:
-                seeds = queue[rows[local]]
-                (restart if seeds else exhausted).append(local)
-            if exhausted:
-                failed[rows[exhausted]] = True
-                keep = np.ones(rows.size, dtype=bool)
-                keep[exhausted] = False
-                restart = [int(np.count_nonzero(keep[:local])) for local in restart]
-                rows, q, error, transposed, cost, damping, best, since, age = (
-                    array[keep] for array in (rows, q, error, transposed, cost, damping, best, since, age))
-            if restart:
-                restart = np.array(restart)
+            seeded = np.array([bool(queue[row]) for row in rows[ended]])
+            failed[rows[ended[~seeded]]] = True  # dropped at the next iteration's start
+            restart = ended[seeded]
+            if restart.size:
                 renewed = rows[restart]
                 q[restart] = [queue[row].pop(0) for row in renewed]
                 attempts[renewed] += 1
@@ -460,9 +417,8 @@ class BoundedLMSolver(Solver):
 
     def _solve_batch(self, target: Target, seeds: np.ndarray, deadline: float, attempts: int,
                      iterations: int, best: tuple[np.ndarray, float], draws: _CallDraws) -> Candidate:
-        """The same LM on ``batch_size`` seeds at once, ``seeds`` first, then random ones. A seed that
-        stalls or has run ``attempt_iterations`` is replaced by a fresh one in the next trial evaluation
-        (its cost set to infinity so the fresh point is accepted)."""
+        """The same LM on ``batch_size`` seeds at once, ``seeds`` first, then random ones; an ended seed is
+        replaced by a fresh one in the next trial (its cost set to infinity so the fresh one is accepted)."""
         kinematics, size = self._vectorised, self.batch_size
         goal_position = target.position
         goal_rotation = target.rotation

@@ -1,8 +1,6 @@
-"""The shared check: one rule decides ``success`` for every method. An answer succeeds when every goal is
-within the :class:`Tolerances` and every hard constraint holds, measured by FK on the model, whatever the
-method thinks: :func:`evaluate` for a chain target (joints clipped into the limits, the pose error of
-:mod:`wbik.geometry`), :func:`check_problem` for a whole-body problem (each goal task's error, each
-constraint's :meth:`~wbik.qp.constraint.Constraint.measure`).
+"""The shared check: an answer succeeds when every goal is within the :class:`Tolerances` and every hard
+constraint holds, measured by FK on the model whatever the method thinks: :func:`evaluate` for a chain
+target, :func:`check_problem` for a whole-body problem.
 """
 
 from __future__ import annotations
@@ -55,11 +53,8 @@ def clip_to_limits(q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> np.nd
 def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tolerances,
              time_s: float, method: str, reached: np.ndarray | None = None) -> IKResult:
     """The shared FK check: clip into the limits, e_p = p - p* (base axes), e_R = log3(R*^T R), success.
-    Written for the per-call path: one clip, one FK, one call for the arithmetic, one log3.
-
     ``reached``: ``chain.fk(candidate.q).homogeneous`` as the method computed it, used only when the
-    joints checked are ``candidate.q`` bit for bit (inside the limits, none wrapped).
-    """
+    joints checked are ``candidate.q`` bit for bit."""
     q = candidate.q
     if q is None:
         return no_joints(candidate.reason or "no solution", time_s, candidate, method)
@@ -103,12 +98,8 @@ def evaluate(chain: Chain, target: Target, candidate: Candidate, tolerances: Tol
 
 def evaluate_screened(chain: Chain, target: Target | np.ndarray, parts: np.ndarray, extra: dict,
                       tolerances: Tolerances, time_s: float, method: str) -> IKResult:
-    """The shared check of joints a compiled choice wrote, with its errors: ``parts`` (n + 24) holds q (n),
-    their 4 x 4 tip pose (16) and the batched check's errors (8: e_p, e_R, |e_p|, |e_R|, e_R by
-    :func:`wbik.geometry.batch_log3`); ``target``: the Target or a full pose's 4 x 4 matrix. A full pose
-    on a chain without continuous joints within the tolerances gets an IKResult of views of ``parts``;
-    anything else goes to :func:`evaluate` with the tip pose as ``reached``.
-    """
+    """The shared check of joints a compiled choice wrote: ``parts`` (n + 24) holds q, their 4 x 4 tip pose
+    and the batched check's errors (e_p, e_R, |e_p|, |e_R|); ``target``: a Target or a pose's matrix."""
     joints = len(chain.lower)
     q = parts[:joints]
     if not chain.any_continuous and (type(target) is np.ndarray or target.rotation is not None):
@@ -126,8 +117,7 @@ def check_problem(started: StartedProblem | WholeBody, q, tolerances: Tolerances
                   q0: np.ndarray | None = None, method: str = "", time_s: float = math.nan,
                   iterations: int = 0, reason: str = "", unsupported: Sequence[str] = (),
                   extra: dict | None = None) -> IKResult:
-    """The shared check of configuration q on a whole-body problem: ``started`` as a method started it
-    (contacts held where they were), or the WholeBody, then started at ``q0``."""
+    """The shared check of q on a whole-body problem as started, or a WholeBody started at ``q0``."""
     tolerances = tolerances or Tolerances()
     if isinstance(started, WholeBody):
         started = started.start(started.robot.nominal if q0 is None else q0, need_q0=q0 is None, strict=False)

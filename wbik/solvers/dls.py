@@ -1,8 +1,6 @@
-"""Damped least squares: dq = -J^T (J J^T + lambda I)^-1 e on the pose error e = [p - p*; log3(R*^T R)]
-with its exact Jacobian (:func:`wbik.solvers.task_error.task_error`), the policy of
-:mod:`wbik.solvers.levenberg_marquardt` with a constant damping from ``damping`` (x0.3 down to 1e-12 on an
-accepted step, x4 on a rejected one; joints clipped, never wrapped). Stops on the shared tolerance, a stall
-(lambda above 1e6), ``max_iterations`` (default: about 5 ms on the reference machine) or ``timeout_s``.
+"""Damped least squares: dq = -J^T (J J^T + lambda I)^-1 e on the pose error (:mod:`wbik.solvers.task_error`),
+lambda from ``damping``, x0.3 (down to 1e-12) on an accepted step, x4 on a rejected one; joints clipped.
+Stops on the shared tolerance, a stall (lambda above 1e6) or the budget.
 """
 
 from __future__ import annotations

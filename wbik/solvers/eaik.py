@@ -1,11 +1,9 @@
-"""Method ``eaik``: EAIK 1.2.2's closed forms (``pip install EAIK==1.2.2``; Ostermeier et al.), every branch
-of a full pose on a 1R..6R chain EAIK decomposes into subproblems, built from the chain's own reduced model
-(:mod:`wbik.solvers.analytic.eaik_family`). ``solve`` returns the branch nearest q0, wrapped into the limits,
-whose FK reaches the target within 1e-7, chosen by ``choose`` (:mod:`wbik.kernels.eaik`); ``solve_many``
-makes one ``IK_batched`` call. Of the built-in chains EAIK takes the UR5 ``arm`` and ``ee``, the Bioloid legs
-and arms, arm3r (full poses only) and the Panda with joint 4, 5, 6 or 7 locked; it refuses the Golem-III
-arms and the Panda with joint 1, 2 or 3 locked ("6R-Unknown Kinematic Class"), the 7R Panda, the Golem-III
-arm with its prismatic lift, and the Pincher (EAIK returns q1 = 0 in every branch: the probe refuses it).
+"""Method ``eaik``: EAIK 1.2.2's closed forms (Ostermeier et al.), every branch of a full pose on a 1R..6R
+chain EAIK decomposes (:mod:`wbik.solvers.analytic.eaik_family`); ``solve`` returns the branch nearest q0,
+wrapped into the limits, whose FK reaches the target within 1e-7 (:mod:`wbik.kernels.eaik`), ``solve_many``
+makes one ``IK_batched`` call. Of the built-in chains it takes the UR5 ``arm`` and ``ee``, the Bioloid legs
+and arms, arm3r and the Panda with joint 4, 5, 6 or 7 locked; it refuses the Golem-III arms, the Panda
+with joint 1, 2 or 3 locked, the 7R Panda and the Pincher (q1 = 0 in every branch: the probe refuses it).
 """
 
 from __future__ import annotations
@@ -72,8 +70,7 @@ class EAIKSolver(BranchLibrarySolver):
 
     def _choose(self, q_all: np.ndarray, target: Target,
                 q0: np.ndarray) -> tuple[Candidate, np.ndarray | None]:
-        """(the branch nearest q0, wrapped into the limits, whose FK passes the screen, by ``choose``; its
-        4 x 4 tip pose), else (:meth:`_pick`'s reason, None)."""
+        """(``choose``'s branch, its 4 x 4 tip pose), else (:meth:`_pick`'s reason, None)."""
         if len(q_all):
             out = np.empty(len(q0) + 24)
             if self._kernel_choose(self._params, q_all, q0, self._target_pose(target), out):
@@ -82,8 +79,7 @@ class EAIKSolver(BranchLibrarySolver):
         return self._pick(q_all, target, q0), None
 
     def solve(self, target, q0=None) -> IKResult:
-        """:meth:`Solver.solve` on one path: EAIK's call on the target's own 4 x 4 matrix, one ``choose``
-        call, the shared check on the pose and errors it wrote (a Target made only where needed)."""
+        """:meth:`Solver.solve` on one path: EAIK on the target's own matrix, one ``choose``, the check."""
         pose = plain_pose_matrix(target)
         if pose is None:
             target = as_target(target)

@@ -1,14 +1,10 @@
 """Method ``ik_geo``: IK-Geo's subproblem solvers for 6R arms (PyPI ``ik-geo`` 1.0.3; Elias and Wen,
-arXiv:2211.05737) behind the one interface, the branch chosen as ``eaik`` chooses.
+arXiv:2211.05737), the branch chosen as ``eaik`` chooses.
 
-IK-Geo takes H (6, 3) and P (7, 3), joint axes and offsets at q = 0 from the chain's reduced model, and the
-kinematic family the caller names; its solvers read a family's relations from P being exactly zero and one
-shared h, so joint points are moved along their axes onto the intersections and parallel axes share a
-direction. Asked for T_target @ diag(R0^T, 1), rotations transposed for its binding. :data:`FAMILIES` are
-tried on the chain and the reversed chain (the inverse pose), the first whose relations hold and whose
-branches reproduce 6 of 8 seeded FK poses kept: the UR3/UR5/UR10, the Kinova Jaco, the Panda with joint 4,
-5, 6 or 7 locked; chains of other than 6 joints, prismatic joints and 6R chains only a search fits (the
-Golem-III arms) are refused (docs/measurements.md, ik_geo). A search without a bracket panics in Rust.
+IK-Geo takes the axes H (6, 3) and offsets P (7, 3) at q = 0, joint points moved onto the intersections
+and parallel axes sharing a direction (it reads a family's relations from exact zeros), and the family.
+:data:`FAMILIES` are tried on the chain and the reversed chain, the first whose relations hold and whose
+branches reproduce 6 of 8 seeded FK poses kept (docs/measurements.md, ik_geo).
 """
 
 from __future__ import annotations
@@ -29,7 +25,7 @@ from wbik.solvers.analytic.closed_form import (
     fk_residual,
 )
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 
@@ -64,11 +60,7 @@ FAMILIES = (
 
 def _import_robot():
     """IK-Geo's Robot class, or MissingDependencyError with the install command."""
-    try:
-        from ik_geo import Robot
-    except ImportError as exc:
-        raise IK_GEO_LIBRARY.error("method 'ik_geo'", exc) from None
-    return Robot
+    return import_optional(IK_GEO_LIBRARY, "method 'ik_geo'", "ik_geo").Robot
 
 
 class IKGeoPanic(Exception):
@@ -177,8 +169,7 @@ def ik_geo_structure(chain: Chain) -> IKGeoStructure:
 
 
 def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
-    """(how many of PROBE_POSES FK poses of seeded random joints IK-Geo reproduces, worst miss); stops
-    once the family can no longer reach PROBE_REQUIRED."""
+    """(how many of PROBE_POSES FK poses of seeded random joints IK-Geo reproduces, worst miss)."""
     robot = structure.robot()
     reproduced, worst, missed = 0, 0.0, 0
     for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):

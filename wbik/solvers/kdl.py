@@ -1,11 +1,7 @@
-"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL, on a KDL chain built from the chain's serial structure
-(P_0, then one segment per joint; its FK held to Pinocchio's to 1e-12 when the solver is made).
-
-NR_JL: dq from the pseudo-inverse velocity solver (SVD), q <- q + dq clamped into the limits, until every
-twist component is below ``epsilon`` or ``max_iterations`` pass. ``kdl``: one attempt from the seed (the
-Golem-III thesis's and the TRAC-IK paper's "KDL"); ``kdl_restarts``: MoveIt's KDL plugin, random restarts
-until the time budget is used up. Full poses only: NR_JL drives the whole twist to zero, and KDL's weighted
-solvers (ChainIkSolverVel_wdls, ChainIkSolverPos_LMA) crash PyKDL 1.5.1 under numpy 2.
+"""orocos KDL's ChainIkSolverPos_NR_JL through PyKDL on the chain's serial structure (its FK held to
+Pinocchio's to 1e-12): pseudo-inverse steps clamped into the limits until every twist component is below
+``epsilon``. ``kdl``: one attempt from the seed; ``kdl_restarts``: MoveIt's KDL plugin, random restarts
+until the time budget is used up. Full poses only (KDL's weighted solvers crash PyKDL 1.5.1 under numpy 2).
 """
 
 from __future__ import annotations
@@ -20,7 +16,7 @@ from wbik.dependencies import PYKDL_LIBRARY
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, pose_error
@@ -30,11 +26,7 @@ FK_AGREEMENT = 1e-12  # largest difference of KDL's and Pinocchio's tip pose (m,
 
 def import_pykdl():
     """The PyKDL module, or MissingDependencyError saying how to install it."""
-    try:
-        import PyKDL
-    except ImportError as exc:
-        raise PYKDL_LIBRARY.error("method 'kdl'", exc) from None
-    return PyKDL
+    return import_optional(PYKDL_LIBRARY, "method 'kdl'", "PyKDL")
 
 
 def kdl_frame(kdl, matrix: np.ndarray):
@@ -84,8 +76,7 @@ def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0
 
 
 class KDLSolver(Solver):
-    """orocos KDL ChainIkSolverPos_NR_JL, one attempt from the seed: ``epsilon`` (default the shared
-    tolerance / sqrt(3): its per-component test implies the shared norm test), ``max_iterations`` (100)."""
+    """KDL NR_JL, one attempt from the seed; ``epsilon`` default: the shared tolerance / sqrt(3)."""
 
     name = "kdl"
     supports_position_only = False
@@ -143,7 +134,8 @@ class KDLRestartsSolver(KDLSolver):
             q, _ = self.attempt(frame, q_seed)
             now = time.perf_counter()
             attempts += 1
-            position_error, rotation_error = errors(self.chain, target, q)
+            position, rotation = pose_error(self.chain.fk(q), target)  # as the shared check measures them
+            position_error, rotation_error = float(np.linalg.norm(position)), float(np.linalg.norm(rotation))
             if position_error <= self.tolerances.position and rotation_error <= self.tolerances.rotation:
                 return Candidate(q, attempts, "", {"attempts": attempts})
             error = position_error + rotation_error
@@ -155,12 +147,6 @@ class KDLRestartsSolver(KDLSolver):
             if rng is None:
                 rng = self._call_rng(target, q0)
             q_seed = self.chain.random(rng)
-
-
-def errors(chain: Chain, target: Target, q: np.ndarray) -> tuple[float, float]:
-    """(position error norm, rotation error norm) of q, as the shared FK check measures them."""
-    position, rotation = pose_error(chain.fk(q), target)
-    return float(np.linalg.norm(position)), 0.0 if rotation is None else float(np.linalg.norm(rotation))
 
 
 IK_METHODS = (

@@ -1,12 +1,10 @@
 """The one Levenberg-Marquardt policy of wbik's iterative methods, for one configuration and for a batch.
 
-A step is dq = -(J^T J + lambda I)^-1 J^T e = -J^T (J J^T + lambda I)^-1 e, lambda = w |e|^2 + mu (w =
-``cost_weight``, mu the base damping), by Cholesky on the smaller system, capped at ``max_step`` and
-projected into the limits (:class:`JointBounds`); a clipped joint on a bound pushed outwards is frozen and
-the step recomputed without it. A trial lowering |e|^2 is accepted (mu <- max(decrease mu, floor)), else
-mu <- increase max(mu, reject_floor). A run stalls when its best cost has not fallen below ``progress`` x
-its previous best in ``stall`` iterations, or mu exceeds ``max_damping``. The ``*_batch`` twins make the
-same decisions element by element.
+dq = -J^T (J J^T + lambda I)^-1 e (Cholesky on the smaller system), lambda = w |e|^2 + mu, capped at
+``max_step`` and projected into the limits, a joint pushed outwards on its bound frozen. An accepted trial
+(lower |e|^2) sets mu <- max(decrease mu, floor), a rejected one mu <- increase max(mu, reject_floor). A run
+stalls when its best cost has not fallen below ``progress`` x its previous best in ``stall`` iterations,
+or mu exceeds ``max_damping``.
 """
 
 from __future__ import annotations
@@ -65,9 +63,8 @@ class JointBounds:
 
 @dataclass(frozen=True)
 class LevenbergMarquardt:
-    """The policy's numbers (see the module docstring): ``start`` is the first base damping (None:
-    ``floor``), ``stall=0`` turns the progress test off, ``max_damping`` or ``max_step`` None: no test, no
-    cap (rad or m)."""
+    """The policy's numbers: ``start``, the first mu (None: ``floor``); ``stall=0``: no progress test;
+    ``max_damping``, ``max_step`` (rad or m) None: none."""
 
     cost_weight: float = 0.01
     floor: float = 1e-6
@@ -87,8 +84,7 @@ class LevenbergMarquardt:
 
     def trial(self, jacobian: np.ndarray, error: np.ndarray, cost: float, base: float, q: np.ndarray,
               bounds: JointBounds, workspace: Workspace | None = None) -> np.ndarray:
-        """The next trial inside the limits from J (m, n), e (m,), |e|^2 and mu at q (n,); ``workspace``
-        (:meth:`workspace`, one per run and thread) saves the system's allocation."""
+        """The next trial inside the limits from J (m, n), e (m,), |e|^2 and mu at q (n,)."""
         damping = self.cost_weight * cost + base
         descent = _descent(jacobian, error, damping, workspace)  # dq = -descent
         if self.max_step is not None:
@@ -107,9 +103,7 @@ class LevenbergMarquardt:
         return inside
 
     def trial_function(self, bounds: JointBounds):
-        """:meth:`trial` for these bounds through the compiled twin where built and not switched off by
-        ``WBIK_PURE_PYTHON=1`` (read now): the same decisions, sums in C; :meth:`trial` where its Cholesky
-        fails, over 32 rows or joints, and for other bounds."""
+        """:meth:`trial` for these bounds through the compiled twin (unless ``WBIK_PURE_PYTHON=1``)."""
         kernel = chosen(None, _LM_TRIAL, "lm_trial")
         if kernel is None:
             return self.trial
@@ -147,10 +141,8 @@ class LevenbergMarquardt:
     def update(self, accepted: bool, base: float, cost: float, best: float, since: int
                ) -> tuple[float, float, int, bool]:
         """After a trial: (base damping, best cost, iterations since progress, stalled?)."""
-        if accepted:
-            base = max(base * self.decrease, self.floor)
-        else:
-            base = max(base, self.reject_floor) * self.increase
+        base = (max(base * self.decrease, self.floor) if accepted
+                else max(base, self.reject_floor) * self.increase)
         if cost < self.progress * best:
             best, since = cost, 0
         else:
@@ -229,10 +221,7 @@ def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
         system.reshape(-1)[::system.shape[0] + 1] += damping
     else:
         system = workspace.system
-        if small:
-            np.dot(transpose, jacobian, out=system)
-        else:
-            np.dot(jacobian, transpose, out=system)
+        np.dot(*((transpose, jacobian) if small else (jacobian, transpose)), out=system)
         workspace.diagonal += damping
     if small:
         right = transpose.dot(error)

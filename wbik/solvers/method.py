@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -12,11 +13,17 @@ from wbik.solvers.base import Solver
 SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot, chain, **options)
 
 
+def import_optional(library: OptionalDependency, what: str, module: str):
+    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise library.error(what, exc) from None
+
+
 @dataclass(frozen=True)
 class IKMethod:
-    """An IK method: its ``name`` (``solver(name, ...)``, a study's ``method:``), its ``factory``
-    (``factory(robot, chain, **options)``, usually a Solver subclass), a one-line ``description`` and
-    the optional library it ``needs`` (None: the core install's)."""
+    """An IK method: ``name``, ``factory(robot, chain, **options)``, ``description``, the library it needs."""
 
     name: str
     factory: SolverFactory

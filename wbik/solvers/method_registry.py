@@ -1,15 +1,10 @@
 """The IK method registry: ``solver(method, robot, chain, **options)``.
 
-A method is declared where its class lives, in that module's ``IK_METHODS`` tuple of
-:class:`IKMethod` (name, :class:`~wbik.solvers.base.Solver` subclass, one-line description); the
-modules holding methods are listed by name in :data:`METHOD_MODULES` and imported on first use (see
-:class:`wbik.registry.DeclaredRegistry`: a module that fails to import, declares none, or declares
-a name another declares too is an error naming it). User code adds a method with :func:`register`
-(``wbik.register(name, MySolver)``); :data:`IK_METHOD_REGISTRY` is the registry itself (a module of
-methods: ``IK_METHOD_REGISTRY.register_module(name)``).
-
-A method's own optional library (PyKDL, pytracik, PlaCo, EAIK) is imported when a solver is built,
-not when its module is, so listing a method costs no optional dependency.
+A module declares its methods in an ``IK_METHODS`` tuple of :class:`IKMethod`; the modules are listed in
+:data:`METHOD_MODULES` and imported on first use (:class:`wbik.registry.DeclaredRegistry`). User code adds
+a method with :func:`register` (``wbik.register(name, MySolver)``) or a module of methods with
+``IK_METHOD_REGISTRY.register_module(name)``. A method's optional library is imported when a solver is
+built, so listing methods needs none.
 """
 
 from __future__ import annotations
@@ -29,9 +24,8 @@ __all__ = ["IKMethod", "IK_METHOD_REGISTRY", "METHOD_MODULES", "budget_options",
            "register", "register_method", "solver", "solver_options"]
 
 METHOD_MODULES: list = []
-"""The sources of the registry's modules: :mod:`wbik.catalog` adds wbik's own (a new module of methods:
-one line there), user code a module by name (``IK_METHOD_REGISTRY.register_module``), installed
-packages theirs through the entry-point group ``wbik.ik_methods``."""
+"""The registry's modules: wbik's own (:mod:`wbik.catalog`), user code's (``register_module``), installed
+packages' (entry-point group ``wbik.ik_methods``)."""
 
 IK_METHOD_REGISTRY: DeclaredRegistry[IKMethod] = DeclaredRegistry(
     "IK method", "IK_METHODS", METHOD_MODULES, "wbik.solvers.method_registry.METHOD_MODULES", IKMethod,
@@ -44,11 +38,8 @@ register_method = IK_METHOD_REGISTRY.register
 
 def register(name: str, factory: SolverFactory | str, description: str = "") -> None:
     """Add a method from user code: ``factory`` is a Solver subclass, a callable
-    ``factory(robot, chain, **options)`` or a "package.module:Class" path (imported now).
-
-    Registering a name again replaces what user code registered under it (re-running a notebook
-    cell works); a method a wbik module declares is not replaced this way (use
-    ``register_method(IKMethod(...), replace=True)`` to shadow one on purpose)."""
+    ``factory(robot, chain, **options)`` or a "package.module:Class" path (imported now). A name user code
+    registered is replaced, a declared one only by ``register_method(IKMethod(...), replace=True)``."""
     if isinstance(factory, str):
         module_name, _, attribute = factory.partition(":")
         try:
@@ -61,8 +52,7 @@ def register(name: str, factory: SolverFactory | str, description: str = "") -> 
 
 
 def methods(installed: bool = False) -> dict[str, str]:
-    """Registered method names with a one-line description; with ``installed``, only those whose optional
-    library is installed here (``wbik methods`` says what the others need)."""
+    """Registered method names with a one-line description; ``installed``: only those usable here."""
     found = IK_METHOD_REGISTRY.descriptions()
     if not installed:
         return found
@@ -71,35 +61,28 @@ def methods(installed: bool = False) -> dict[str, str]:
 
 def budget_options(method: str, timeout_s: float, options: dict,
                    problem: bool = False) -> tuple[float | None, dict]:
-    """(timeout_s, options) to build ``method`` with for a budget of ``timeout_s`` seconds on chain targets
-    or (``problem``) whole-body problems: the one budget rule, :meth:`Solver.budget_options`."""
+    """(timeout_s, options) of ``method`` for a budget of ``timeout_s``: :meth:`Solver.budget_options`."""
     factory = method_factory(method)
     rule = getattr(factory, "budget_options", None)
     return (timeout_s, dict(options)) if rule is None else rule(timeout_s, options, problem)
 
 
 def method_factory(method: str) -> SolverFactory:
-    """The factory (usually the Solver subclass) of ``method``; UnknownMethodError listing the known
-    methods if nobody registered it."""
+    """The factory of ``method``; UnknownMethodError listing the known methods."""
     return IK_METHOD_REGISTRY.get(method).factory
 
 
 def solver_options(method: str) -> set[str] | None:
-    """Keyword options ``solver(method, robot, chain, **options)`` accepts (timeout_s, tolerances,
-    seed and the method's own; :func:`wbik.options.option_schema`). None: the factory takes any keyword."""
+    """Keyword options ``solver(method, ...)`` accepts (None: any keyword)."""
     return option_schema(method_factory(method), leading=2).accepted  # robot, chain
 
 
 def solver(method: str, robot: Robot | str, chain: str | None = None, *, base: str | None = None,
            tip: str | None = None, **options) -> Solver:
     """Make a solver: ``wbik.solver("dls", wbik.load("ur5"), chain="arm", timeout_s=0.01)``; a chain by
-    name, or by its ``base`` and ``tip`` frames (every joint between them). Its ``solve`` takes a chain
-    target or a whole-body problem (:class:`wbik.WholeBody`), as the method allows.
-
-    Options are checked against the method's option schema (:func:`wbik.options.option_schema`) before
-    any model is built: an unknown one is an InvalidOptionError listing the method's options, a value of
-    the wrong type an InvalidSettingError.
-    """
+    name, or by its ``base`` and ``tip`` frames. Options are checked against the method's option schema
+    first: an unknown one is an InvalidOptionError listing the method's options, a value of the wrong type
+    an InvalidSettingError."""
     entry = IK_METHOD_REGISTRY.get(method)
     if entry.missing():
         raise entry.needs.error(f"method {method!r}")

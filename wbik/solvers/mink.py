@@ -1,10 +1,8 @@
-"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`)
-for chain targets and whole bodies, and mink's forms of wbik's tasks and constraints (:data:`MINK`): sites'
-FrameTask, ComTask, PostureTask (costs the square roots of our weights), our :func:`site_position_task` for
-some axes, contacts as equality constraints, locked joints a DofFreezingTask there, ConfigurationLimit and
-VelocityLimit at dt = ``step_dt``; no support polygon, acceleration limits, minimum distances or priority
-levels. A chain target runs as mink's arm examples do: the tip's frame task under a VelocityLimit of
-``max_step`` per step (docs/measurements.md, mink), the other joints frozen, damping ``chain_damping``.
+"""Method ``mink``: mink 1.3's differential IK on MuJoCo's model of the same URDF (:mod:`wbik.mujoco_model`),
+and mink's forms of wbik's tasks and constraints (:data:`MINK`): contacts as equality constraints, locked
+joints a DofFreezingTask; no support polygon, acceleration limits, minimum distances or priority levels. A
+chain target runs as mink's arm examples do: a VelocityLimit of ``max_step`` per step, damping
+``chain_damping`` (docs/measurements.md, mink).
 """
 
 from __future__ import annotations
@@ -18,13 +16,12 @@ import pinocchio as pin
 
 import wbik.qp.backends as backends
 from wbik.dependencies import MINK_LIBRARY
-from wbik.errors import InvalidSettingError
 from wbik.mujoco_model import MuJoCoBody, import_mink, mujoco_body
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
-from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.peers import PeerForms, largest_weight
 from wbik.qp.tasks import (
     ComTask,
     FrameTask,
@@ -64,11 +61,14 @@ class MinkProblem(SolveIKProblem):
     body: MuJoCoBody = field(kw_only=True)
     limit_gain: float = field(default=0.95, kw_only=True)
 
-    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost,
+                   reference: str | None = None):
         import mink
 
-        added = mink.FrameTask(self.body.site(frame), "site", position_cost=position_cost,
-                               orientation_cost=orientation_cost)
+        costs = {"position_cost": position_cost, "orientation_cost": orientation_cost}
+        site = self.body.site(frame)
+        added = (mink.FrameTask(site, "site", **costs) if reference is None
+                 else mink.RelativeFrameTask(site, "site", self.body.site(reference), "site", **costs))
         added.set_target(mink.SE3.from_matrix(target.homogeneous))
         return added
 
@@ -107,30 +107,18 @@ def _site_position_class():
 
 
 def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: float):
-    """A mink task on a site's world position on the axes ``rows`` (target in the world, m; ``cost`` per
-    row), also an equality constraint (a point foot: all three rows)."""
+    """A mink task on a site's world position (m) on the axes ``rows``, ``cost`` on each."""
     rows = np.asarray(rows, dtype=int)
     return _site_position_class()(site, target, rows, np.full(rows.size, float(cost)))
 
 
 # -- mink's forms of the tasks and constraints ------------------------------------------------------------
 MINK.form(FrameTask)(frame_form)
+MINK.form(RelativeFrameTask)(frame_form)
 MINK.form(OrientationTask)(orientation_form)
 MINK.form(ComTask)(com_form)
 MINK.form(RegularizationTask)(raise_damping)
 MINK.form(Contact)(contact_form)
-
-
-@MINK.form(RelativeFrameTask)
-def _relative(task: RelativeFrameTask, mink_problem: MinkProblem) -> None:
-    import mink
-
-    position, orientation = frame_weights(task)
-    body = mink_problem.body
-    added = mink.RelativeFrameTask(body.site(task.frame), "site", body.site(task.reference_frame), "site",
-                                   position_cost=math.sqrt(position), orientation_cost=math.sqrt(orientation))
-    added.set_target(mink.SE3.from_matrix(task.target.homogeneous))
-    mink_problem.tasks.append(added)
 
 
 @MINK.form(PositionTask)
@@ -222,9 +210,7 @@ class MinkSolver(PeerSolver):
         self.damping = Number(ge=0, as_float=True).checked(damping, "damping", "MinkSolver")
         self.chain_damping = Number(ge=0, as_float=True).checked(chain_damping, "chain_damping", "MinkSolver")
         self.limit_gain = Number(gt=0, le=1, as_float=True).checked(limit_gain, "limit_gain", "MinkSolver")
-        self.max_step = float(max_step)
-        if not self.max_step > 0.0:  # NaN, zero or negative
-            raise InvalidSettingError(f"max_step must be a number > 0 (math.inf: no bound), got {max_step!r}")
+        self.max_step = Number(gt=0, as_float=True, finite=False).checked(max_step, "max_step", "MinkSolver")
         chain = self._chain if self._chain is not None or len(robot.chains) != 1 else self.chain
         self.built = (mujoco_body(robot) if chain is None else
                       mujoco_body(robot, masses=False, frames=[chain.base_frame, chain.tip_frame]))
@@ -239,28 +225,6 @@ class MinkSolver(PeerSolver):
         if id(body) not in state:
             state[id(body)] = self.mink.Configuration(body.model, body.qpos(self.robot.nominal))
         return state[id(body)]
-
-    def mink_com(self, q: np.ndarray) -> np.ndarray:
-        """mink's centre of mass (m, world) at wbik's configuration q, as its ComTask reads it."""
-        body = mujoco_body(self.robot)
-        configuration = self._configuration(body)
-        configuration.update(body.qpos(np.asarray(q, dtype=float)))
-        return configuration.data.subtree_com[1].copy()
-
-    def mink_placement(self, q: np.ndarray, frame: str, masses: bool = True) -> pin.SE3:
-        """mink's world placement of a wbik frame (its site) at wbik's configuration q."""
-        body = mujoco_body(self.robot, masses, frames=[frame])
-        configuration = self._configuration(body)
-        configuration.update(body.qpos(np.asarray(q, dtype=float)))
-        return pin.SE3(configuration.get_transform_frame_to_world(body.site(frame), "site").as_matrix())
-
-    def mink_fk(self, q: np.ndarray) -> pin.SE3:
-        """MuJoCo's pose of the chain's tip in its base frame at chain joints q (the others nominal)."""
-        chain = self.chain
-        full = chain.full_configuration(chain.check_q(q))
-        base, tip = (self.mink_placement(full, frame, masses=False)
-                     for frame in (chain.base_frame, chain.tip_frame))
-        return base.actInv(tip)
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         chain = self.chain

@@ -1,9 +1,7 @@
-"""Newton-Raphson IK (seed 001, arm3r.md) for n revolute/prismatic joints and any target kind:
-q <- clip(q - x), J x = e, e the pose error [p - p*; log3(R*^T R)] (3 rows for a position target) with its
-exact Jacobian; x by LU with partial pivoting where J is square and regular, else J^+ e. Stops on the
-shared tolerance, ``max_iterations`` (default: about 5 ms on the reference machine), ``timeout_s``, or a
-stall (the best error not 0.1 % lower in ``stall_iterations``: out of reach, a limit or a singularity).
-Steps longer than ``max_step`` (norm, rad or m; None: pure Newton) are scaled down.
+"""Newton-Raphson IK (seed 001, arm3r.md): q <- clip(q - x), J x = e on the pose error (3 rows for a
+position), x by LU where J is square and regular, else J^+ e; steps scaled down to ``max_step`` (None: pure
+Newton). Stops on the shared tolerance, the budget, or a stall (the best error not 0.1 % lower in
+``stall_iterations``).
 """
 
 from __future__ import annotations

@@ -17,7 +17,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, HeldFrame
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.peers import PeerForms, Unsupported, frame_weights, largest_weight
-from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, RegularizationTask, Task
+from wbik.qp.tasks import ComTask, FrameTask, OrientationTask, RegularizationTask, RelativeFrameTask, Task
 from wbik.solvers.base import Solver
 from wbik.solvers.result import Candidate
 from wbik.wholebody.problem import StartedProblem, WholeBody
@@ -81,8 +81,7 @@ class PeerSolver(Solver):
 
     def _peer_loop(self, step: Callable[[np.ndarray], tuple[np.ndarray, str]], started: StartedProblem,
                    deadline: float, max_iterations: int, with_polygon: bool = True) -> Candidate:
-        """Our loop around a peer's QP step ``step(q)`` -> (next q, a reason to stop or ""), until
-        :meth:`_converged`, the time budget, a reason or ``max_iterations``."""
+        """Our loop around a peer's step ``step(q)`` -> (next q, a reason to stop or "")."""
         monitor = Kinematics(started.problem.robot.model, started.q0)
         q = started.q0.copy()
         for iteration in range(1, max_iterations + 1):
@@ -100,8 +99,7 @@ class PeerSolver(Solver):
 
 @dataclass
 class SolveIKProblem:
-    """What the forms of a peer solving by ``solve_ik(configuration, tasks, dt, damping, limits,
-    constraints)`` (Pink, mink) add to, with wbik's ``kinematics`` at the start and the step ``dt`` (s)."""
+    """What the forms of a peer solving by ``solve_ik`` (Pink, mink) add to; ``dt``: the step (s)."""
 
     kinematics: Kinematics
     dt: float
@@ -110,8 +108,10 @@ class SolveIKProblem:
     constraints: list = field(default_factory=list)
     limits: list = field(default_factory=list)
 
-    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
-        """The peer's frame task on ``frame`` toward ``target`` (costs per axis or one for all)."""
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost,
+                   reference: str | None = None):
+        """The peer's frame task on ``frame`` (in ``reference``'s frame if given) toward ``target`` (costs
+        per axis or one for all)."""
         raise NotImplementedError
 
     def com_task(self, cost: np.ndarray):
@@ -119,11 +119,11 @@ class SolveIKProblem:
         raise NotImplementedError
 
 
-def frame_form(task: FrameTask, problem: SolveIKProblem) -> None:
-    """A frame task as the peer's, costs the square roots of its weights."""
+def frame_form(task: FrameTask | RelativeFrameTask, problem: SolveIKProblem) -> None:
+    """A frame task (or a relative one) as the peer's, costs the square roots of its weights."""
     position, orientation = frame_weights(task)
     problem.tasks.append(problem.frame_task(task.frame, task.target, math.sqrt(position),
-                                            math.sqrt(orientation)))
+                                            math.sqrt(orientation), getattr(task, "reference_frame", None)))
 
 
 def orientation_form(task: OrientationTask, problem: SolveIKProblem) -> None:

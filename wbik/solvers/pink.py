@@ -1,8 +1,6 @@
-"""Method ``pink``: pin-pink 4.4's differential IK on chain targets and whole bodies, and Pink's forms of
-wbik's tasks and constraints (:data:`PINK`): FrameTask (position or orientation only: the other half at cost
-0), RelativeFrameTask, ComTask, PostureTask, costs the square roots of our weights; contacts and locked
-joints as equality constraints; ConfigurationLimit and VelocityLimit at dt = ``step_dt``. No hard CoM polygon
-(listed in ``unsupported``), acceleration limits, minimum distances or strict priority levels.
+"""Method ``pink``: pin-pink 4.4's differential IK, and Pink's forms of wbik's tasks and constraints
+(:data:`PINK`; costs the square roots of our weights, contacts and locked joints equality constraints). No
+hard CoM polygon, acceleration limits, minimum distances or strict priority levels.
 """
 
 from __future__ import annotations
@@ -18,7 +16,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
-from wbik.qp.peers import PeerForms, frame_weights, largest_weight
+from wbik.qp.peers import PeerForms, largest_weight
 from wbik.qp.tasks import (
     ComTask,
     FrameTask,
@@ -28,7 +26,7 @@ from wbik.qp.tasks import (
     RegularizationTask,
     RelativeFrameTask,
 )
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.peer import (
     NO_POLYGON,
     PeerSolver,
@@ -56,10 +54,14 @@ class PinkProblem(SolveIKProblem):
 
     model: pin.Model = field(kw_only=True)
 
-    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost):
+    def frame_task(self, frame: str, target: pin.SE3, position_cost, orientation_cost,
+                   reference: str | None = None):
         from pink.tasks import FrameTask as PinkFrameTask
+        from pink.tasks import RelativeFrameTask as PinkRelativeFrameTask
 
-        added = PinkFrameTask(frame, position_cost=position_cost, orientation_cost=orientation_cost)
+        costs = {"position_cost": position_cost, "orientation_cost": orientation_cost}
+        added = (PinkFrameTask(frame, **costs) if reference is None
+                 else PinkRelativeFrameTask(frame, reference, **costs))
         added.set_target(target)
         return added
 
@@ -71,21 +73,11 @@ class PinkProblem(SolveIKProblem):
 
 # -- Pink's forms of the tasks and constraints ------------------------------------------------------------
 PINK.form(FrameTask)(frame_form)
+PINK.form(RelativeFrameTask)(frame_form)
 PINK.form(OrientationTask)(orientation_form)
 PINK.form(ComTask)(com_form)
 PINK.form(RegularizationTask)(raise_damping)
 PINK.form(Contact)(contact_form)
-
-
-@PINK.form(RelativeFrameTask)
-def _relative(task: RelativeFrameTask, pink: PinkProblem) -> None:
-    from pink.tasks import RelativeFrameTask as PinkRelativeFrameTask
-
-    position, orientation = frame_weights(task)
-    added = PinkRelativeFrameTask(task.frame, task.reference_frame, position_cost=math.sqrt(position),
-                                  orientation_cost=math.sqrt(orientation))
-    added.set_target(task.target)
-    pink.tasks.append(added)
 
 
 @PINK.form(PositionTask)
@@ -208,10 +200,7 @@ class PinkSolver(PeerSolver):
 
     def __init__(self, robot, chain=None, *, qp_solver: str = "daqp", damping: float = 1e-6, **options):
         super().__init__(robot, chain, **options)
-        try:
-            import pink  # noqa: F401
-        except ImportError as exc:
-            raise PINK_LIBRARY.error("method 'pink'", exc) from None
+        import_optional(PINK_LIBRARY, "method 'pink'", "pink")
         self.qp_solver = str(qp_solver)
         self.damping = float(damping)
 

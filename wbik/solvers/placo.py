@@ -1,8 +1,6 @@
-"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry, continuous joints
-revolute with wide limits), for chain targets and whole bodies, and PlaCo's forms of wbik's tasks and
-constraints (:data:`PLACO`): its soft tasks with our weights, contacts as hard tasks, the support polygon as
-its hard CoM polygon constraint, its limits, locked joints masked; no acceleration limits, minimum distances
-or strict priority levels. One ``solve(True)`` per iteration of our loop.
+"""Method ``placo``: PlaCo's KinematicsSolver on the robot's URDF (without geometry), and PlaCo's forms of
+wbik's tasks and constraints (:data:`PLACO`): soft tasks with our weights, hard contacts, the hard CoM
+polygon, its limits, locked joints masked; no acceleration limits, minimum distances or priority levels.
 """
 
 from __future__ import annotations
@@ -34,7 +32,7 @@ from wbik.qp.tasks import (
     RelativeFrameTask,
 )
 from wbik.robot import Robot, write_cached_urdf
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.result import Candidate
 from wbik.urdf import continuous_as_revolute, fixed_joints_renamed
@@ -43,11 +41,7 @@ from wbik.wholebody.problem import StartedProblem
 
 def import_placo(what: str = "method 'placo'"):
     """The placo module, or MissingDependencyError naming ``what`` needs it and the extra to install."""
-    try:
-        import placo
-    except ImportError as exc:
-        raise PLACO_LIBRARY.error(what, exc) from None
-    return placo
+    return import_optional(PLACO_LIBRARY, what, "placo")
 
 
 PLACO_CONTINUOUS_LIMIT = 100.0  # rad, a continuous joint's limits in PlaCo: 16 turns, never binding
@@ -84,10 +78,7 @@ def placo_robot(robot: Robot, q: np.ndarray | None = None, humanoid_urdf: Path |
 def set_placo_configuration(robot: Robot, wrapper, q: np.ndarray) -> None:
     """Copy a full wbik configuration into PlaCo (joint by joint, by name; base pose if floating)."""
     model = robot.model
-    if robot.has_floating_base:
-        wrapper.set_T_world_fbase(pin.XYZQUATToSE3(q[:7]).homogeneous)
-    else:
-        wrapper.set_T_world_fbase(np.eye(4))
+    wrapper.set_T_world_fbase(pin.XYZQUATToSE3(q[:7]).homogeneous if robot.has_floating_base else np.eye(4))
     for joint_id in range(1, model.njoints):
         joint = model.joints[joint_id]
         if joint.nq == 1:

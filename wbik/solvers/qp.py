@@ -1,9 +1,7 @@
-"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`, qpsolvers) on chain targets (a frame or
-position task under the chain's limits and, with ``velocity_dt``, velocity limits x dt) and whole bodies
-(their tasks, goals at half the check's tolerances, a ``regularization`` on the lowest level). Options:
-``backend`` (a qpsolvers name, "fastest" or "default": DAQP), ``max_iterations``, ``max_step`` (trust region
-per step, rad or m), ``lm_damping``, ``diagnose`` (a failed result's ``diagnosis``,
-:class:`wbik.qp.diagnosis.Diagnosis`, made after the timed solve, its summary ending ``reason``).
+"""Method ``qp``: our task QP (:class:`wbik.qp.problem.IKProblem`) on chain targets and whole bodies (goals
+at half the check's tolerances, a ``regularization`` on the lowest level). Options: ``backend`` (a
+qpsolvers name, "fastest" or "default": DAQP), ``max_step`` (per step, rad or m), ``lm_damping``,
+``velocity_dt``, ``diagnose`` (a failed result's :class:`wbik.qp.diagnosis.Diagnosis`).
 """
 
 from __future__ import annotations
@@ -73,13 +71,11 @@ class QPSolver(Solver):
             constraints.append(JointVelocityLimits())
         tolerance = 0.5 * min(self.tolerances.position, self.tolerances.rotation)
         regularization = RegularizationTask(1e-9)
-        state = {}
-        for kind, task in (("pose", FrameTask(chain.tip_frame, pin.SE3.Identity(), tolerance=tolerance)),
-                           ("position", PositionTask(chain.tip_frame, np.zeros(3), tolerance=tolerance))):
-            state[kind] = (task, IKProblem(chain.model, [task, regularization], constraints,
-                                           backend=self.backend, max_step=self.max_step,
-                                           lm_damping=self.lm_damping))
-        return state
+        tasks = {"pose": FrameTask(chain.tip_frame, pin.SE3.Identity(), tolerance=tolerance),
+                 "position": PositionTask(chain.tip_frame, np.zeros(3), tolerance=tolerance)}
+        return {kind: (task, IKProblem(chain.model, [task, regularization], constraints, backend=self.backend,
+                                       max_step=self.max_step, lm_damping=self.lm_damping))
+                for kind, task in tasks.items()}
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         world_target = self.chain.base_placement * target.se3()

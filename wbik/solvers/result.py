@@ -52,16 +52,9 @@ NAN3 = (math.nan, math.nan, math.nan)
 
 @dataclass(slots=True)
 class IKResult:
-    """The answer of every method, to a chain target or a whole-body problem.
-
-    ``q``: None only without joint values, else inside the limits, every error measured on it by FK.
-    ``position_error`` / ``rotation_error``: the largest goal's (m, rad); ``position_error_xyz``: reached -
-    target (base axes), ``rotation_error_xyz``: log3(R_target^T R_reached) (zeros for a position target, NaN
-    for a whole-body problem). Whole-body problems also fill ``task_errors`` (goal -> max(position m,
-    rotation rad)) and its parts, ``measures`` (constraint -> :class:`wbik.qp.constraint.Measure`),
-    ``unsupported`` (what the method solved without) and ``diagnosis`` (:class:`wbik.qp.diagnosis.Diagnosis`
-    of a failure; its summary ends ``reason``).
-    """
+    """The answer of every method: ``q`` (None without joints, else inside the limits) and its errors by FK,
+    the largest goal's (m, rad), reached - target and log3(R*^T R) (NaN for a whole-body problem, which also
+    fills ``task_errors``, ``measures``, ``unsupported`` and ``diagnosis`` of a failure)."""
 
     q: np.ndarray | None
     success: bool

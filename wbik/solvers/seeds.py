@@ -1,7 +1,5 @@
-"""The seed sets of ``bounded_lm``'s restarts, built once per chain from a fixed random stream and cached.
-
-The distance^2 of a seed with tip pose (p_i, R_i) to a target (p*, R*) is w^2 |p* - p_i|^2 + 3 -
-trace(R*^T R_i) (the second term ~ angle^2, comparable with a residual's |e|^2), w the position weight.
+"""The seed sets of ``bounded_lm``'s restarts, built once per chain from a fixed random stream: a seed's
+distance^2 to a target is w^2 |p* - p_i|^2 + 3 - trace(R*^T R_i) (~ angle^2), w the position weight.
 """
 
 from __future__ import annotations
@@ -30,8 +28,7 @@ class SeedLibrary:
     position_tree: cKDTree
 
     def query(self, position: np.ndarray, rotation: np.ndarray | None, weight: float, count: int):
-        """cKDTree.query's (distances, indices) of the ``count`` entries nearest one target (position (3,),
-        rotation (3, 3) or None) or each of B targets ((B, 3), (B, 3, 3) or None)."""
+        """cKDTree.query's (distances, indices) of the ``count`` entries nearest one target or each of B."""
         point = weight * position
         if rotation is None:
             return self.position_tree.query(point, k=count)
@@ -55,9 +52,8 @@ def seed_library(chain, size: int, weight: float, kinematics: VectorisedChain | 
 
 @dataclass(frozen=True)
 class SeedTable:
-    """A small set of configurations q (N, n) searched by brute force (one matrix-vector product costs
-    less than a k-d tree query): distance^2 = offset_i - features_i . [w p*, vec R*] + w^2 |p*|^2 + 3,
-    features_i = [2 w p_i, vec R_i], offset_i = w^2 |p_i|^2."""
+    """Configurations q (N, n) searched by brute force: distance^2 = offset_i - features_i . [w p*, vec R*] +
+    w^2 |p*|^2 + 3, features_i = [2 w p_i, vec R_i], offset_i = w^2 |p_i|^2."""
 
     q: np.ndarray
     features: np.ndarray  # (N, 12)
@@ -66,8 +62,7 @@ class SeedTable:
 
     def nearest_rows(self, positions: np.ndarray, rotations: np.ndarray | None, weight: float,
                      chunk: int = 256) -> tuple[np.ndarray, np.ndarray]:
-        """The entry nearest each of B targets (positions (B, 3), rotations (B, 3, 3) or None) and its
-        distance^2: (q (B, n), (B,)), one matrix product per ``chunk`` targets."""
+        """The entry nearest each of B targets and its distance^2: (q (B, n), (B,))."""
         if not len(self.q):
             return self.q[:0], np.zeros(0)
         weighted = weight * positions
@@ -97,9 +92,8 @@ class SeedTable:
 
 def seed_table(chain, size: int, weight: float, kinematics: VectorisedChain | None,
                margin: float) -> SeedTable:
-    """The chain's table: ``size`` configurations uniform inside the limits shrunk by ``margin`` x the
-    range at both ends (an attempt from near a limit fails more often; full-turn joints: the whole turn),
-    cached per (chain, size, weight, margin)."""
+    """The chain's table, cached: ``size`` configurations uniform inside the limits shrunk by ``margin`` x
+    the range at both ends (full-turn joints: the whole turn)."""
     cache = _CACHE.setdefault(chain, {})
     key = ("table", size, weight, margin)
     if key not in cache:

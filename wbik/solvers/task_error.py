@@ -1,13 +1,7 @@
-"""The task error e(q) of the iterative methods and its Jacobian, the pose-error convention of
-:mod:`wbik.geometry` in two forms, and the chain's serial structure.
-
-For a target (R*, p*) and the reached tip pose (R, p) in the chain's base frame, ``dls`` and ``newton``
-iterate on e = [p - p* ; log3(R*^T R)] (:func:`task_error`; the first three rows for a position target)
-with the Jacobian [J_v ; Jlog3(R*^T R) R^T J_w]. ``bounded_lm`` iterates on its SE(3) form
-(:func:`se3_error`), e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ; phi], phi = log3(R*^T R), V(phi)^-1 =
-I - [phi]x / 2 + (1 - (theta / 2) cot(theta / 2)) / theta^2 [phi]x^2: the same rotation part, the position
-part in target axes bent along the screw motion (they vanish together), with the tip-axes Jacobian (the
-measurements: docs/measurements.md, bounded_lm).
+"""The task error of the iterative methods and the chain's serial structure. ``dls`` and ``newton`` iterate
+on e = [p - p* ; log3(R*^T R)] (:func:`task_error`; 3 rows for a position) with the Jacobian [J_v ;
+Jlog3(R*^T R) R^T J_w]; ``bounded_lm`` on the SE(3) form e = log6(T*^-1 T) = [V(phi)^-1 R*^T (p - p*) ;
+phi], phi = log3(R*^T R): the same rotation part, both vanishing together.
 """
 
 from __future__ import annotations
@@ -27,10 +21,7 @@ from wbik.targets import Target
 def task_error(chain: Chain, target: Target, q: np.ndarray, with_jacobian: bool = True
                ) -> tuple[np.ndarray, np.ndarray | None]:
     """(e, de/dq) at q in the convention's form; the Jacobian is None when ``with_jacobian`` is False."""
-    if with_jacobian:
-        pose, jacobian = chain.fk_jacobian(q)
-    else:
-        pose, jacobian = chain.fk(q), None
+    pose, jacobian = chain.fk_jacobian(q) if with_jacobian else (chain.fk(q), None)
     rotation = pose.rotation
     error = pose_error(rotation, pose.translation, target.rotation, target.position)
     if jacobian is None:
@@ -48,9 +39,8 @@ def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
 
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
-    """log6(T*^-1 T) (B, 6) of reached poses (R (B, 3, 3), p (B, 3)) against one target (R* (3, 3), p* (3,))
-    or one each ((B, 3, 3), (B, 3)): with t = R*^T (p - p*), V(phi)^-1 t = (1 - c theta^2) t - (phi x t) / 2
-    + c (phi . t) phi, c = (1 - (theta / 2) cot(theta / 2)) / theta^2."""
+    """log6(T*^-1 T) (B, 6) of reached poses against one target or one each: t = R*^T (p - p*), V(phi)^-1 t
+    = (1 - c theta^2) t - (phi x t) / 2 + c (phi . t) phi, c = (1 - (theta / 2) cot(theta / 2)) / theta^2."""
     if target_rotation.ndim == 2:
         phi = batch_log3(np.matmul(target_rotation.T, rotation))
         offset = (translation - target_position) @ target_rotation  # R*^T (p - p*), row by row

@@ -1,7 +1,5 @@
-"""TRAC-IK through pytracik, on the robot's URDF and the chain's base/tip links, with the chain's limits:
-KDL's NR_JL with random restarts and an SQP run concurrently, its wall-clock budget fixed with its object (one
-per thread), its restarts from an unseedable C++ random state (answers vary with the run and the load).
-``epsilon``: its per-component twist tolerance (default the shared tolerance / sqrt(3)). Full poses only.
+"""TRAC-IK through pytracik on the robot's URDF: KDL's NR_JL with random restarts and an SQP run concurrently,
+from an unseedable C++ random state (answers vary with the run and the load). Full poses only.
 """
 
 from __future__ import annotations
@@ -14,7 +12,7 @@ import pinocchio as pin
 from wbik.dependencies import TRAC_IK_LIBRARY
 from wbik.errors import InvalidSettingError, RobotDescriptionError
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod
+from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.urdf import with_massless_root
@@ -22,16 +20,9 @@ from wbik.urdf import with_massless_root
 SOLVE_TYPES = ("Speed", "Distance", "Manip1", "Manip2")
 
 
-def import_pytracik():
-    try:
-        import pytracik
-    except ImportError as exc:
-        raise TRAC_IK_LIBRARY.error("method 'trac_ik'", exc) from None
-    return pytracik
-
-
 class TracIKSolver(Solver):
-    """TRAC-IK (pytracik): ``solve_type`` one of Speed (default), Distance, Manip1, Manip2."""
+    """TRAC-IK (pytracik): ``solve_type`` one of Speed (default), Distance, Manip1, Manip2; ``epsilon``: its
+    per-component twist tolerance (default the shared tolerance / sqrt(3))."""
 
     name = "trac_ik"
     supports_position_only = False
@@ -43,7 +34,7 @@ class TracIKSolver(Solver):
         super().__init__(robot, chain, **options)
         if solve_type not in SOLVE_TYPES:
             raise InvalidSettingError(f"solve_type must be one of {SOLVE_TYPES}, got {solve_type!r}")
-        self.pytracik = import_pytracik()
+        self.pytracik = import_optional(TRAC_IK_LIBRARY, "method 'trac_ik'", "pytracik")
         tolerance = min(self.tolerances.position, self.tolerances.rotation)
         self.epsilon = float(epsilon) if epsilon is not None else tolerance / math.sqrt(3.0)
         self.solve_type = solve_type

@@ -1,9 +1,7 @@
-"""Task residuals and Jacobians of B configurations of a serial chain in a fixed number of numpy calls.
-
-Each joint frame is turned so that its axis is z (Q_k e_z = a_k). Then T(q) = F_1 A_1(q_1) ... A_n(q_n)
-with F_1 = P_0 Q_1, A_k = Z(q_k) Q_k^T P_k Q_{k+1} (Q_{n+1} = I) and Z(q) = I + f(q) K + g(q) K^2, K the
-cross-product matrix of e_z, f = sin, g = 1 - cos (revolute), or Z(q) = I + q E_z (prismatic, g = 0):
-every A_k = [1, f, g] [C0; C1; C2]_k comes from one matrix product, then n products down the chain.
+"""Task residuals and Jacobians of B configurations of a serial chain in a fixed number of numpy calls: with
+each joint frame turned so its axis is z, T(q) = F_1 A_1(q_1) ... A_n(q_n), A_k = Z(q_k) Q_k^T P_k Q_{k+1},
+Z(q) = I + f K + g K^2 (f = sin q, g = 1 - cos q, K = [e_z]x; prismatic: I + q E_z): every A_k = [1, f, g]
+[C0; C1; C2]_k from one matrix product, then n products down the chain.
 """
 
 from __future__ import annotations
@@ -14,9 +12,8 @@ from wbik.solvers.task_error import LEVI_CIVITA, batch_se3_error, serial_structu
 
 
 class VectorisedChain:
-    """Residuals and Jacobians of B configurations, the residual of ``bounded_lm``'s one-seed path.
-    Jacobian column k in base axes: [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic); Jacobians
-    come transposed (B, n, m), position rows (and errors) weighted by ``position_weight``."""
+    """Residuals and transposed Jacobians (B, n, m) of B configurations, position rows weighted by
+    ``position_weight``: column k [z_k x (p - o_k); z_k] (revolute) or [z_k; 0] (prismatic)."""
 
     def __init__(self, chain, position_weight: float = 1.0):
         structure = serial_structure(chain)
@@ -51,9 +48,8 @@ class VectorisedChain:
 
     def evaluate(self, q: np.ndarray, goal_position: np.ndarray, goal_rotation: np.ndarray | None
                  ) -> tuple[np.ndarray, np.ndarray]:
-        """(e (B, m), J^T (B, n, m)) against one goal in the base frame (p* (3,), R* (3, 3)) or one per
-        row ((B, 3), (B, 3, 3)). Pose: e = log6(T*^-1 T) and the tip-axes Jacobian, both turned into base
-        axes (R e, R J); position: e = w (p - p*) with the linear rows in base axes."""
+        """(e (B, m), J^T (B, n, m)) against one goal or one per row: e = log6(T*^-1 T) with the tip-axes
+        Jacobian, both turned into base axes, or e = w (p - p*) with the linear rows."""
         size, n = q.shape
         frames = self.frames(q)
         axes = frames[:, :n, :3, 2]

@@ -28,7 +28,6 @@ class FamilyChain:
         low, high = signs * chain.lower + offsets, signs * chain.upper + offsets
         self.lower, self.upper = np.minimum(low, high), np.maximum(low, high)
         self.nominal = signs * chain.nominal + offsets
-        self.mid_range = 0.5 * (self.lower + self.upper)
 
     @property
     def nq(self) -> int:
@@ -119,8 +118,7 @@ class AlignedForm(ClosedForm):
 
 
 def with_tool(chain, flange_form, flange_chain: str) -> AlignedForm:
-    """``flange_form`` (a form of chain ``flange_chain``, the same base and joints) with the tool fixed to
-    its tip: T = T_flange X, X read from the model at the nominal configuration."""
+    """``flange_form`` (of chain ``flange_chain``, the same base and joints) with the tool: T_flange X."""
     flange = chain.robot.chain(flange_chain)
     if flange.joint_names != chain.joint_names or flange.base_frame != chain.base_frame:
         raise InvalidConfigurationError(

@@ -24,8 +24,7 @@ from wbik.targets import MAX_POSITION, ROTATION_TOLERANCE, as_target
 
 
 def _valid_se3(matrices: np.ndarray) -> bool:
-    """Every 4x4 pose passes as_target's check of an SE3 (position bound, unit and orthogonal columns,
-    det +1), its arithmetic term by term: exactly the targets ``as_target``'s fast path accepts."""
+    """Every 4x4 pose passes ``as_target``'s check of an SE3, its arithmetic term by term."""
     (a, b, c, x, d, e, f, y, g, h, i, z) = matrices.reshape(-1, 16)[:, :12].T
     bound, tolerance = MAX_POSITION, ROTATION_TOLERANCE
     low, high = 1.0 - tolerance, 1.0 + tolerance
@@ -41,8 +40,7 @@ def _valid_se3(matrices: np.ndarray) -> bool:
 
 
 def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | None]:
-    """(positions (B, 3), rotations (B, 3, 3) or None) of a batch of user targets; ``as_target``'s and
-    ``solver.check_target_kind``'s errors, UnsupportedError for a batch mixing poses and positions."""
+    """(positions (B, 3), rotations (B, 3, 3) or None) of user targets; UnsupportedError for a mixed batch."""
     values = list(values)
     if not values:
         return np.zeros((0, 3)), None
@@ -84,17 +82,13 @@ def evaluate_batch(chain: Chain, form, positions: np.ndarray, rotations: np.ndar
                    method: str, extras: list[dict], reached: tuple[np.ndarray, np.ndarray] | None = None,
                    measured: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
                    ) -> list[IKResult]:
-    """:func:`wbik.solvers.check.evaluate` for a batch, by ``form.fk``: q (B, n) where ``found``, the
-    method's ``reasons``; ``reached``: ``form.fk(q)`` already computed, ``measured``: the errors of q
-    already measured by this rule (a kernel's: e_p, e_R, their norms)."""
+    """:func:`wbik.solvers.check.evaluate` for a batch, by ``form.fk``; ``reached``: ``form.fk(q)``,
+    ``measured``: the errors (e_p, e_R, their norms), where already computed."""
     q = np.asarray(q, dtype=float)
     finite = np.all(np.isfinite(q), axis=1)
     inside = clip_to_limits(q, chain.lower, chain.upper)
-    if measured is not None:
-        position_xyz, rotation_xyz, position_norm, rotation_norm = measured
-    else:
-        position_xyz, rotation_xyz, position_norm, rotation_norm = _measure(
-            form, positions, rotations, q, inside, finite, reached)
+    position_xyz, rotation_xyz, position_norm, rotation_norm = measured or _measure(
+        form, positions, rotations, q, inside, finite, reached)
     success = (position_norm <= tolerances.position) & (rotation_norm <= tolerances.rotation)
     p_norms, r_norms = position_norm.tolist(), rotation_norm.tolist()
     results = [IKResult(joints, True, "", p_norm, r_norm, p_xyz, r_xyz, time_s, 1, method, extra)

@@ -16,29 +16,22 @@ from wbik.solvers.check import evaluate
 from wbik.solvers.result import Candidate, IKResult
 from wbik.targets import Target, as_target, pose_error
 
-LIMIT_TOLERANCE = 1e-9
-"""Angle (rad) a closed-form joint may leave its limits by and count as inside (set onto the limit)."""
-BRANCH_MERGE = 1e-6
-"""Branches whose joints differ by less (rad, modulo 2 pi) are one solution in ``solve_all``."""
+LIMIT_TOLERANCE = 1e-9  # rad a closed-form joint may leave its limits by and count as inside (set onto it)
+BRANCH_MERGE = 1e-6  # branches whose joints differ by less (rad, modulo 2 pi) are one in ``solve_all``
+# per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the reference
+# below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)
 BOUND_SLACK = 2.0 * math.pi * LIMIT_TOLERANCE + LIMIT_TOLERANCE ** 2
-"""Per joint, how much setting a wrapped angle onto its limit can lower its squared distance to the
-reference below remainder(q - r, 2 pi)^2 (the ``eaik`` method's branch and bound)."""
-SCREEN_TOLERANCE = 1e-7
-"""Closed-form FK residual (m and rad) above which a branch is dropped before the shared check."""
+SCREEN_TOLERANCE = 1e-7  # closed-form FK residual (m and rad) above which a branch is dropped
+# a library's decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
+# PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints
 PROBE_POSES, PROBE_REQUIRED, PROBE_SEED, PROBE_TOLERANCE = 8, 6, 0, 1e-6
-"""A library's claimed decomposition is kept when its branches reproduce (to PROBE_TOLERANCE, m and rad)
-PROBE_REQUIRED of PROBE_POSES FK poses of seeded random joints."""
-NEAREST_MARGIN = 1e-9
-"""An angle whose nearest 2 pi shift is inside the limits and nearer than pi - this takes it."""
-_NEAREST_BOUND = math.pi - NEAREST_MARGIN
+_NEAREST_BOUND = math.pi - 1e-9  # a 2 pi shift inside the limits and nearer than this is the nearest
 _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 
 class ClosedForm:
-    """A closed-form solver of one chain: ``branches`` and ``fk`` (vectorised over a batch), an optional
-    compiled ``kernel`` of the same choice (a :class:`.compiled.CompiledForm` serves ``solve``,
-    ``solve_many`` and ``solve_all``; another, with ``nearest_into`` only, ``solve``). ``target_kind``:
-    "pose" or "position"."""
+    """A closed-form solver of one chain: ``branches`` and ``fk`` over a batch, an optional compiled
+    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
@@ -71,11 +64,9 @@ class ClosedForm:
 # --- wrapping into the limits --------------------------------------------------------------------
 def wrap_into_limits(q: np.ndarray, reference: np.ndarray, lower: np.ndarray, upper: np.ndarray,
                      revolute: np.ndarray, axis: int = -1) -> tuple[np.ndarray, np.ndarray]:
-    """Revolute angles shifted by multiples of 2 pi into [lower, upper] nearest ``reference``, and the
-    in-limits mask over the joint ``axis`` (everything broadcasts to q). The rule: of the shifts 0, +-2 pi,
-    +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest (the first on a tie), set into the
-    limits; an angle without one stays (mask False). round((r - q) / 2 pi) turns first, the rest by
-    :func:`_wrap_by_shifts`."""
+    """Revolute angles shifted into [lower, upper] nearest ``reference`` and the in-limits mask over the
+    joint ``axis``: of the shifts 0, +-2 pi, +-4 pi inside the limits (within LIMIT_TOLERANCE), the nearest
+    (the first on a tie), set into the limits; an angle without one stays (mask False)."""
     q = np.asarray(q, dtype=float)
     low, high = lower - LIMIT_TOLERANCE, upper + LIMIT_TOLERANCE
     fixed = None if np.all(revolute) else ~np.asarray(revolute, dtype=bool)
@@ -128,8 +119,7 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
 
 # --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
-    """:func:`no_solution_reason` of a kernel's failure code: 0 (no real branch), -1 (none inside the
-    limits), -2 (none passes the screen)."""
+    """:func:`no_solution_reason` of a kernel's code: 0 (no real branch), -1 (none in the limits), -2."""
     return no_solution_reason(outcome != 0, outcome == -2)
 
 
@@ -151,9 +141,8 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
 
 
 class BranchLibrarySolver(Solver):
-    """A method over a closed-form library's raw branches (``eaik``, ``ik_geo``; full poses, no budget):
-    :meth:`_library_branches` gives the branches (K, n) of a target in our joints, ``library`` names it.
-    EAIK's and IK-Geo's least-squares flags are not trusted: the FK screen decides."""
+    """A method over a closed-form library's branches (``eaik``, ``ik_geo``): :meth:`_library_branches`
+    gives them (K, n) in our joints; the FK screen, not the library's least-squares flags, decides."""
 
     budgeted = False
     supports_position_only = False
@@ -169,8 +158,7 @@ class BranchLibrarySolver(Solver):
         return self._library_branches(target)
 
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
-        """The branch nearest q0 once wrapped into the limits whose FK reaches the target within
-        SCREEN_TOLERANCE; where none does, why."""
+        """The branch nearest q0, wrapped into the limits, that passes the FK screen; else why none."""
         chain, library = self.chain, self.library
         outside = "(target outside the workspace)"
         if len(q_all) == 0:
@@ -196,8 +184,7 @@ class BranchLibrarySolver(Solver):
         return self._pick(self._library_branches(target), target, q0)
 
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch inside the limits (wrapped nearest the nominal configuration; within
-        BRANCH_MERGE of one kept: dropped) that passes the shared check."""
+        """Every distinct branch, wrapped into the limits nearest the nominal, passing the shared check."""
         target = as_target(target)
         self._check_target_kind(target)
         start = time.perf_counter()
@@ -215,8 +202,7 @@ class BranchLibrarySolver(Solver):
 
 
 class Choice(NamedTuple):
-    """The vectorised choice: joints ``q`` (B, n) where ``found`` (B,), the masks ``real`` and ``usable``
-    (B, K), the form's FK of q (``reached_p``, ``reached_r``; zeros where not found)."""
+    """The vectorised choice: ``q`` (B, n) where ``found``, masks (B, K), the form's FK of q."""
 
     q: np.ndarray
     found: np.ndarray

@@ -1,7 +1,5 @@
 """A closed form's compiled choice: its family's C kernel (``wbik/kernels/_<family>.c``) doing what
-:class:`~.solver.AnalyticSolver`'s vectorised choice (its twin) does, on one parameter vector (the family's
-numbers, the chain's limits, an :class:`Alignment`); ``solve_many`` and ``solve_all`` check in C by the
-batched rule with the form's FK."""
+:class:`~.solver.AnalyticSolver`'s vectorised choice does, on one parameter vector."""
 
 from __future__ import annotations
 
@@ -54,8 +52,7 @@ class CompiledForm:
 
     def nearest_many(self, positions: np.ndarray, rotations: np.ndarray,
                      references: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``nearest_into`` for a batch without the GIL: (joints (B, 6), errors (B, 8) as :meth:`distinct`'s,
-        (real branches, outcome 1 where picked) (B, 2)); rows not picked are zeros."""
+        """``nearest_into`` for a batch without the GIL: (joints, errors (B, 8), (branches, picked))."""
         count = len(positions)
         q, errors, info = np.empty((count, 6)), np.empty((count, 8)), np.empty((count, 2))
         contiguous = np.ascontiguousarray
@@ -66,8 +63,7 @@ class CompiledForm:
 
     def distinct(self, position: np.ndarray, rotation: np.ndarray,
                  reference: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``solve_all``'s branches (k, 6) wrapped nearest ``reference`` and the batched check's errors of
-        each (k, 8): e_p, e_R (``geometry.batch_log3``'s formula), their norms."""
+        """``solve_all``'s branches (k, 6) wrapped nearest ``reference`` and their errors (k, 8)."""
         out, errors = np.empty((self.branches, 6)), np.empty((self.branches, 8))
         count = self.extension.distinct(self.params, position, rotation, reference, out, errors)
         return out[:count], errors[:count]

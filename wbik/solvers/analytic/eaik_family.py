@@ -1,7 +1,6 @@
-"""EAIK 1.2.2's decomposition as a closed form: ``analytic``'s fallback for full poses and the ``eaik``
-method's chain model. EAIK is built from the chain's joint lines at q = 0 (axes H, offsets P) with the tip's
-rotation at q = 0 as its end-effector rotation, so a target goes to EAIK as it is; the FK is the lines'
-product of exponentials. EAIK's claimed decomposition is probed (it gets some wrong, e.g. the Pincher's).
+"""EAIK 1.2.2's decomposition as a closed form (``analytic``'s fallback for full poses, ``eaik``'s model):
+EAIK built from the joint lines at q = 0 with the tip's rotation as its end effector's, its claimed
+decomposition probed (it gets some wrong, e.g. the Pincher's).
 """
 
 from __future__ import annotations
@@ -26,15 +25,13 @@ from wbik.solvers.analytic.closed_form import (
     ClosedForm,
 )
 from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
+from wbik.solvers.method import import_optional
 
 
 def import_eaik():
     """EAIK's HPRobot class, or MissingDependencyError with the install command."""
-    try:
-        from eaik.IK_HP import HPRobot
-    except ImportError as exc:
-        raise EAIK_LIBRARY.error("method 'eaik' (and the analytic method's EAIK family)", exc) from None
-    return HPRobot
+    return import_optional(EAIK_LIBRARY, "method 'eaik' (and the analytic method's EAIK family)",
+                           "eaik.IK_HP").HPRobot
 
 
 @dataclass(frozen=True)
@@ -51,8 +48,7 @@ _STRUCTURES = ChainCache()
 
 
 def eaik_structure(chain: Chain) -> EAIKStructure:
-    """H, P and R0 of ``chain`` with EAIK's verdict, once per chain; UnsupportedError naming the chain and
-    EAIK's reason when EAIK cannot solve it."""
+    """:func:`eaik_verdict`, UnsupportedError naming the chain."""
     try:
         return eaik_verdict(chain)
     except UnsupportedError as refused:
@@ -61,9 +57,8 @@ def eaik_structure(chain: Chain) -> EAIKStructure:
 
 
 def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
-    """:func:`eaik_structure` of any chain-like object with joint lines (a Chain, or one with a locked
-    joint), UnsupportedError saying only why. ``probe``: check EAIK's branches on seeded FK poses (cached
-    per chain; unprobed: a chain rebuilt at each value of a locked joint)."""
+    """H, P and R0 of a chain-like object with EAIK's verdict (UnsupportedError saying why); ``probe``:
+    check EAIK's branches on seeded FK poses (the result then cached per chain)."""
     HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
     if probe:
         cached = _STRUCTURES.get(chain)
@@ -109,8 +104,7 @@ def _probe(chain: Chain, robot, structure: EAIKStructure) -> tuple[int, float]:
 
 
 def eaik_robot(structure):
-    """An EAIK robot of a verdict's H and P whose end-effector rotation is the tip's at q = 0 (HPRobot's is
-    the identity): it takes our target poses as they are."""
+    """An EAIK robot of a verdict's H and P with the tip's rotation at q = 0 (our poses as they are)."""
     import_eaik()  # MissingDependencyError with the install command
     from eaik.pybindings import EAIK
 
@@ -118,8 +112,7 @@ def eaik_robot(structure):
 
 
 class EAIKForm(ClosedForm):
-    """Full poses through EAIK's decomposition (UnsupportedError, saying why, where EAIK refuses the chain).
-    ``structure``: a verdict already reached, else :func:`eaik_verdict`; ``params``: the compiled choice's."""
+    """Full poses through EAIK's decomposition; ``structure``: a verdict already reached."""
 
     target_kind = "pose"
 
@@ -169,16 +162,14 @@ class EAIKForm(ClosedForm):
 
 
 class EAIKChoice:
-    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches, then the ``eaik`` method's compiled
-    choice (``wbik/kernels/_eaik.c``), the choice the vectorised one makes."""
+    """``solve``'s kernel of an :class:`EAIKForm`: EAIK's branches, the ``eaik`` method's compiled choice."""
 
     def __init__(self, form: EAIKForm):
         self.form, self.joints, self.params = form, form.chain.nq, form.params
 
     def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
                      out: np.ndarray) -> int:
-        """The chosen branch into ``out``: the number of EAIK's branches, else 0, -1 or -2 (as
-        :class:`~.compiled.CompiledForm`)."""
+        """As :class:`~.compiled.CompiledForm`'s."""
         pose = EAIKForm.pose(position, rotation)
         q_all = self.form.robot().calculate_IK(pose).Q
         if not len(q_all):

@@ -13,8 +13,7 @@ MODEL_SAMPLES = 16  # seeded joint vectors inside the limits ([-pi, pi] where on
 
 
 def check_fk_against_model(form) -> None:
-    """RobotDescriptionError unless ``form.fk`` is the model's FK within MODEL_AGREEMENT (positions only
-    for a form of position targets)."""
+    """RobotDescriptionError unless ``form.fk`` is the model's within MODEL_AGREEMENT."""
     positions_only = form.target_kind == "position"
     chain = form.chain
     lower = np.where(np.isfinite(chain.lower), chain.lower, -math.pi)

@@ -1,10 +1,7 @@
-"""The closed-form family of a chain, recognised from its joint lines at q = 0 (generic part).
-
-Each registered :class:`Family` (a name and a matcher) is tried in order. A matcher lays standard DH frames
-along the lines (:func:`walk`), each axis directed so the twist angles are the family's, and reads off a,
-d, the DH angle at q = 0 and each joint's sign. With the family's FK as DH rows T_f(u) = B D(u + o_f) E
-(:class:`Canonical`), the chain is T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1 T(0): the
-form through :class:`~.aligned.AlignedForm`, refused where its FK is not the model's.
+"""The closed-form family of a chain, recognised from its joint lines at q = 0. A matcher lays DH frames
+along the lines (:func:`walk`) with the family's twist angles and reads off a, d, the angles at q = 0 and
+each joint's sign; with the family's FK T_f(u) = B D(u + o_f) E (:class:`Canonical`), the chain is
+T(q) = G T_f(s q + o - o_f) X, G = F_0 B^-1, X = E^-1 F_n^-1 T(0) (:class:`~.aligned.AlignedForm`).
 """
 
 from __future__ import annotations
@@ -63,8 +60,7 @@ class Family:
 
 @dataclass(frozen=True)
 class Recognised:
-    """A chain's recognised closed form, its family ("ur_type", ..., "eaik:<EAIK's class>", a held joint
-    named after it) and its parameters in words."""
+    """A chain's recognised closed form, its family and its parameters in words."""
 
     form: ClosedForm
     family: str
@@ -105,6 +101,11 @@ class Walk:
     d: list[float]
     a: list[float]
     alpha: list[float]
+
+    def add(self, frame: np.ndarray, theta: float, d: float, a: float, alpha: float) -> None:
+        for values, value in zip((self.frames, self.theta, self.d, self.a, self.alpha),
+                                 (frame, theta, d, a, alpha), strict=True):
+            values.append(value)
 
 
 def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[float, ...],
@@ -151,12 +152,9 @@ def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[
             sign = 1.0 if (plus > 0.0) == (alpha > 0.0) else -1.0
         new_z = sign * axis
         theta = math.atan2(float(np.dot(np.cross(x_previous, x), z)), float(np.dot(x_previous, x)))
-        result.frames.append(_frame(x, new_z, new_origin))
         result.signs.append(sign)
-        result.theta.append(theta)
-        result.d.append(d)
-        result.a.append(a)
-        result.alpha.append(math.atan2(float(np.dot(np.cross(z, new_z), x)), float(np.dot(z, new_z))))
+        result.add(_frame(x, new_z, new_origin), theta, d, a,
+                   math.atan2(float(np.dot(np.cross(z, new_z), x)), float(np.dot(z, new_z))))
     return result
 
 
@@ -170,11 +168,7 @@ def tip_offset(lines: ChainLines, frame: np.ndarray) -> tuple[float, np.ndarray]
 def close_walk(result: Walk, theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     """Append the last DH row: F_n = F_n-1 Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
     frame = result.frames[-1] @ rot_z(theta) @ trans(z=d) @ trans(x=a) @ rot_x(alpha)
-    result.frames.append(frame)
-    result.theta.append(theta)
-    result.d.append(d)
-    result.a.append(a)
-    result.alpha.append(alpha)
+    result.add(frame, theta, d, a, alpha)
     return frame
 
 
@@ -220,8 +214,7 @@ def small(value: float, lines: ChainLines) -> bool:
 
 # --- trying the families ------------------------------------------------------------------------------
 def recognise_family(chain, kind: str, options: dict | None, families: tuple[Family, ...]) -> Recognised:
-    """The first of ``families`` the chain matches whose form agrees with the model's FK; UnsupportedError
-    listing why none did."""
+    """The first of ``families`` the chain matches with the model's FK; UnsupportedError saying why none."""
     options = dict(options or {})
     lines = chain_lines(chain)
     reasons = []
@@ -243,8 +236,7 @@ def recognise_family(chain, kind: str, options: dict | None, families: tuple[Fam
 
 
 def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
-    """EAIK's decomposition as a closed form (full poses), or UnsupportedError saying why; ``probe=False``
-    (a chain rebuilt per held value) skips the probe and the model agreement."""
+    """EAIK's decomposition as a closed form, or UnsupportedError; ``probe=False`` skips the checks."""
     if kind != "pose":
         raise UnsupportedError("EAIK: solves full poses only")
     try:

@@ -1,8 +1,6 @@
-"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v, the other six
-(:class:`LockedChain`) solved by a recognised family or EAIK, v put back in every branch. Per target
-(``redundancy``), v = q0_k (``"seed"``) or also ``grid_size`` values over its range (``"grid"``). Holding the
-first or last joint moves only the base or the tool: one form built at v = 0 solves every v with the target
-moved; a joint in between needs a form per value (kept).
+"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v = q0_k (``"seed"``), also at
+``grid_size`` values (``"grid"``), the other six solved by a family or EAIK. Holding the first or last joint
+moves only the base or the tool (one form, the target moved); a joint in between needs a form per value.
 """
 
 from __future__ import annotations
@@ -31,12 +29,11 @@ class LockedChain:
         self.parent, self.index, self.value = chain, index, float(value)
         keep = np.arange(chain.nq) != index
         self.robot = chain.robot
-        self.held = chain.joint_names[index]
-        self.name = f"{chain.name} with {self.held} at {self.value:.6g}"
+        self.name = f"{chain.name} with {chain.joint_names[index]} at {self.value:.6g}"
         self.base_frame, self.tip_frame = chain.base_frame, chain.tip_frame
         self.joint_names = [name for name, kept in zip(chain.joint_names, keep, strict=True) if kept]
         self.lower, self.upper = chain.lower[keep].copy(), chain.upper[keep].copy()
-        self.nominal, self.mid_range = chain.nominal[keep].copy(), chain.mid_range[keep].copy()
+        self.nominal = chain.nominal[keep].copy()
         self.is_prismatic = np.asarray(chain.is_prismatic)[keep].copy()
         self.lines = locked_lines(chain_lines(chain), index, self.value)
 
@@ -58,8 +55,7 @@ class LockedChain:
 
 
 def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
-    """``"grid"`` mode's ``grid_size`` values over the joint's range ([-pi, pi] where a bound is infinite;
-    a full turn without its last value)."""
+    """``"grid"`` mode's values over the joint's range ([-pi, pi] where infinite; a turn without its end)."""
     low, high = float(chain.lower[index]), float(chain.upper[index])
     if not (math.isfinite(low) and math.isfinite(high)):
         low, high = -math.pi, math.pi
@@ -191,8 +187,7 @@ class LockedJointForm(ClosedForm):
         return poe_fk(self.lines, q)
 
 class HeldChoice:
-    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint at the start's value: the
-    target moved, the 6-joint form's kernel, the value put back."""
+    """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint (the target moved)."""
 
     def __init__(self, form: LockedJointForm):
         self.form, self.index = form, form.index
@@ -233,7 +228,7 @@ def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
 def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict,
                          families: tuple[Family, ...]) -> Recognised:
     """The closed form holding ``redundancy["joint"]``, by default the first of the last, the first, the
-    others from the tip whose holding leaves a closed form; UnsupportedError saying why none."""
+    others from the tip that leaves one; UnsupportedError saying why none."""
     mode = redundancy.get("mode", "seed")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")

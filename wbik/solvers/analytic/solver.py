@@ -10,7 +10,6 @@ import numpy as np
 
 from wbik.errors import RobotDescriptionError, UnsupportedError
 from wbik.geometry import joint_gap
-from wbik.robot import Chain
 from wbik.solvers.analytic.batch import batch_targets, evaluate_batch
 from wbik.solvers.analytic.closed_form import (
     BRANCH_MERGE,
@@ -47,8 +46,7 @@ def refusal(chain, reasons: dict[str, list[str]]) -> str:
 
 def refusal_reasons(chain, kind: str, options: dict | None = None,
                     redundancy: dict | None = None) -> Recognised | list[str]:
-    """The closed form recognised for ``kind`` targets (a family of :data:`FAMILIES`, EAIK's decomposition,
-    one joint held by ``redundancy``'s options), or the reasons, one per way tried."""
+    """The closed form recognised for ``kind`` targets (a family, EAIK, a joint held), or the reasons."""
     try:
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
@@ -72,21 +70,15 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
     return reasons
 
 
-TARGET_KINDS = ("pose", "position")
-
-
-def _closed_form(chain: Chain, kind: str, **options) -> ClosedForm:
+def _closed_form(chain, kind: str, **options) -> ClosedForm:
     """The closed form the robot binds to (chain, kind), built (the caller checks it)."""
     return chain.robot.closed_forms[(chain.name, kind)](chain, **options)
 
 
 class AnalyticSolver(Solver):
-    """Closed-form IK behind the common interface (see the package docstring). ``families`` names per
-    target kind what solves the chain ("bound:<module:Name>", "ur_type", "yaw_planar", "stacked_planar",
-    "eaik:<EAIK's class>", with a held joint); a chain with neither kind is refused when the solver is
-    built, a missing kind when asked for (UnsupportedError saying why). ``solve`` and ``solve_all`` go
-    through the shared check, ``solve_many`` through its batched twin (:func:`~.batch.evaluate_batch`).
-    """
+    """Closed-form IK. ``families`` names per target kind what solves the chain ("bound:<module:Name>",
+    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with a held joint); a chain with
+    neither kind is refused when built, a missing kind when asked for (UnsupportedError saying why)."""
 
     name = "analytic"
     budgeted = False
@@ -111,10 +103,9 @@ class AnalyticSolver(Solver):
         self._finite_limits = bool(np.isfinite(self._limits_by_joint[:2]).all())  # no isfinite pass then
 
     def _recognise_forms(self) -> None:
-        """Per target kind: the bound form's name (built on first use), the form recognised now, or why
-        there is none; UnsupportedError when no kind has one."""
+        """Per target kind the bound form, the recognised one or why none; UnsupportedError if none."""
         reasons = {}
-        for kind in TARGET_KINDS:
+        for kind in ("pose", "position"):
             binding = self.robot.closed_forms.get((self.chain.name, kind))
             if binding is not None and self.redundancy["joint"] is None:
                 name = getattr(binding, "__qualname__", type(binding).__name__)
@@ -143,15 +134,10 @@ class AnalyticSolver(Solver):
     def _form_of(self, target: Target) -> ClosedForm:
         """The closed form of the target's kind."""
         kind = "position" if target.rotation is None else "pose"
-        form = self._forms.get(kind)
-        if form is None:
-            self.check_target_kind(kind)  # builds and caches the form
-            form = self._forms[kind]
-        return form
+        return self._forms.get(kind) or self.closed_form(kind)
 
     def closed_form(self, kind: str) -> ClosedForm:
-        """The closed form of ``kind`` targets (the bound one built and checked on first use);
-        UnsupportedError saying why where the chain has none."""
+        """The closed form of ``kind`` targets (a bound one built on first use), else UnsupportedError."""
         if kind not in self._forms:
             if kind in self._refusals:
                 raise UnsupportedError(self._refusals[kind])
@@ -161,8 +147,7 @@ class AnalyticSolver(Solver):
         return self._forms[kind]
 
     def _wrapped_by_joint(self, form: ClosedForm, positions, rotations, q0s):
-        """Every branch of a batch wrapped into the limits nearest q0, joint-major and batch-last: (Q (n, K,
-        B), real (K, B), usable (K, B): real, inside the limits and finite)."""
+        """Every branch wrapped into the limits nearest q0: (Q (n, K, B), real (K, B), usable (K, B))."""
         q_all, real = form.branches_by_joint(positions, rotations, q0s)
         lower, upper, revolute = self._limits_by_joint
         q_all, in_limits = wrap_into_limits(q_all, _by_joint(q0s), lower, upper, revolute, axis=0)
@@ -187,8 +172,7 @@ class AnalyticSolver(Solver):
         return residual, reached_p, reached_r
 
     def _choose(self, form: ClosedForm, positions, rotations, q0s) -> Choice:
-        """The nearest screened branch per target: the nearest of every target screened at once, where it
-        misses (rare) the next ones by distance."""
+        """The nearest branch per target that passes the screen (the next ones by distance where it fails)."""
         q_all, real, usable = self._wrapped_by_joint(form, positions, rotations, q0s)
         squares = q_all - _by_joint(q0s)
         squares *= squares
@@ -222,13 +206,6 @@ class AnalyticSolver(Solver):
                 retry, order = retry[~passed], order[:, ~passed]
         return Choice(chosen, found, real.T, usable.T, reached_p, reached_r)
 
-    @staticmethod
-    def _reasons(choice: Choice) -> list[str]:
-        """Each target's failure reason ("" where found)."""
-        any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
-        return ["" if ok else no_solution_reason(r, u)
-                for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
-
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         form = self._form_of(target)
         rotation = None if form.target_kind == "position" else target.rotation
@@ -250,7 +227,8 @@ class AnalyticSolver(Solver):
         count = len(positions)
         if not count:
             return []
-        q0_array = self._start_array(q0s, count)
+        q0_array = (np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy() if q0s is None
+                    else np.array(self._batch_starts(q0s, count)))
         form = self.closed_form("position" if rotations is None else "pose")
         form_rotations = rotations if form.target_kind == "pose" else None
         start = time.perf_counter()
@@ -266,19 +244,15 @@ class AnalyticSolver(Solver):
         choice = self._choose(form, positions, form_rotations, q0_array)
         per_pose = (time.perf_counter() - start) / count
         extras = [{"branches": branches, "batched": True} for branches in choice.real.sum(axis=1).tolist()]
-        return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found,
-                              self._reasons(choice), self.tolerances, per_pose, self.name, extras,
+        any_real, any_usable = choice.real.any(axis=1).tolist(), choice.usable.any(axis=1).tolist()
+        reasons = ["" if ok else no_solution_reason(r, u)
+                   for ok, r, u in zip(choice.found.tolist(), any_real, any_usable, strict=True)]
+        return evaluate_batch(self.chain, form, positions, rotations, choice.q, choice.found, reasons,
+                              self.tolerances, per_pose, self.name, extras,
                               reached=(choice.reached_p, choice.reached_r))
 
-    def _start_array(self, q0s, count: int) -> np.ndarray:
-        """Starts (count, n): the chain's nominal, one start for all, or one per target."""
-        if q0s is None:
-            return np.broadcast_to(self.chain.nominal, (count, self.chain.nq)).copy()
-        return np.array(self._batch_starts(q0s, count))
-
     def solve_all(self, target) -> list[IKResult]:
-        """Every distinct branch (BRANCH_MERGE) inside the limits, wrapped nearest the nominal configuration,
-        passing the screen and the check (with a kernel, its batched rule), in branch order."""
+        """Every distinct branch, wrapped into the limits nearest the nominal, passing the check."""
         target = as_target(target)
         form = self._form_of(target)
         nominal = self.chain.nominal

@@ -1,8 +1,7 @@
 """Family: a horizontal planar 3R carrying a vertical planar 2R and a roll (the Golem-III arm), every branch.
 
-Axes 1-3 vertical and parallel, 4-5 horizontal and parallel, 6 the forearm roll; with links l1, l2 in the
-horizontal plane at height h, l4 (at angle rho) and the forearm offset (l5, l6) in the vertical one, the
-gripper centre and rotation are (golem3.md, thesis ch. 4.1)::
+Links l1, l2 in the horizontal plane at height h, l4 (at angle rho) and the forearm offset (l5, l6) in the
+vertical one; the gripper centre and rotation (golem3.md, thesis ch. 4.1)::
 
     l3 = l4 sin(t4+rho) + l5 sin(t4+t5) + l6 cos(t4+t5)
     x  = l1 sin t1 + l2 sin(t1+t2) + l3 cos(gamma)
@@ -10,11 +9,9 @@ gripper centre and rotation are (golem3.md, thesis ch. 4.1)::
     z  = h - l4 cos(t4+rho) - l5 cos(t4+t5) + l6 sin(t4+t5)
     R  = Rz(gamma) Ry(beta) Rx(alpha),  gamma = t1+t2+t3, beta = -t4-t5, alpha = t6
 
-Pose IK: alpha = t6 from R Rx(-alpha) = Rz(gamma) Ry(beta) (|alpha| <= pi/2, or also alpha + pi), then
-beta and gamma (at gimbal lock t6 is free: a sweep); z fixes cos(t4 + rho), l3 follows, and (x, y) minus
-the l3 link is the planar 2R of (t1, t2): at most 4 real branches per roll. Position IK: t6 = ``yaw``; for
-fixed (t1, t2) the rest is closed form (:func:`position_candidates`), :class:`PositionSearch` searches
-(t1, t2).
+Pose IK: alpha = t6 from R Rx(-alpha) = Rz(gamma) Ry(beta), then beta, gamma; z fixes cos(t4 + rho), l3
+follows, and (x, y) minus the l3 link is the planar 2R of (t1, t2): 4 branches per roll. Position IK: t6 =
+``yaw``, :class:`PositionSearch` over (t1, t2), the rest in closed form (:func:`position_candidates`).
 """
 
 from __future__ import annotations
@@ -179,9 +176,8 @@ def position_candidates(g: StackedPlanarGeometry, positions: np.ndarray, t1: np.
 
 
 class PositionSearch:
-    """Position IK with t6 fixed over the limit box of (t1, t2): a grid of exact candidates (the ``keep``
-    nearest q0) and the LM policy on the position from q0 and, where the grid found nothing, from the
-    ``lm_starts`` grid points nearest feasibility; positions beyond a certified outer bound are refused."""
+    """Position IK with t6 fixed: a grid over (t1, t2) of exact candidates (the ``keep`` nearest q0) and LM
+    from q0 and, where the grid found nothing, the ``lm_starts`` grid points nearest feasibility."""
 
     grid_t1 = 9
     grid_t2 = 13
@@ -207,8 +203,7 @@ class PositionSearch:
                       axis=-1)
 
     def outside_outer_bound(self, positions: np.ndarray) -> np.ndarray:
-        """Certainly unreachable (B,): farther than l4 + |(l5, l6)| from wherever the t3-t4 axes cross
-        (height h, within l1 + l2 of the chest axis)."""
+        """Certainly unreachable (B,): farther than l4 + |(l5, l6)| from where the t3-t4 axes can cross."""
         g = self.geometry
         vertical = np.abs(g.h - positions[:, 2])
         reach = g.l4 + g.forearm
@@ -217,8 +212,7 @@ class PositionSearch:
             np.hypot(positions[:, 0], positions[:, 1]) > horizontal * (1.0 + 1e-9))
 
     def candidates(self, positions: np.ndarray, q0: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray]:
-        """Candidates (B, keep + 1 + lm_starts, 6) with t6 = ``yaw`` and their validity (exact and inside the
-        limits, or converged)."""
+        """Candidates (B, keep + 1 + lm_starts, 6) with t6 = ``yaw`` and their validity."""
         count = len(positions)
         lower, upper = self.lower, self.upper
         grid1, grid2 = np.meshgrid(np.linspace(lower[0], upper[0], self.grid_t1),
@@ -252,8 +246,7 @@ class PositionSearch:
 
     def _refine(self, positions: np.ndarray, starts: np.ndarray,
                 use: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The LM policy on e = p(q) - p* over t1..t5 from starts (B, S, 6) where ``use``, until |e| <=
-        lm_tolerance, a stall or ``lm_iterations``: (joints, converged to 1e-9 m)."""
+        """LM on e = p(q) - p* over t1..t5 from starts (B, S, 6) where ``use``: (joints, converged)."""
         count, seeds, _ = starts.shape
         q = starts.reshape(-1, 6).copy()
         target = np.repeat(positions, seeds, axis=0)
@@ -297,8 +290,7 @@ def _finite_limits(chain) -> tuple[np.ndarray, np.ndarray]:
 
 
 class StackedPlanarPose(ClosedForm):
-    """Full poses: ``triples`` Euler triples (t6 = alpha, |alpha| <= pi/2, and alpha + pi when 2), 4
-    branches each; at gimbal lock q0's t6 and GIMBAL_LOCK_SWEEP rolls. Kernel: ``_stacked_planar.c``."""
+    """Full poses: ``triples`` rolls (alpha, alpha + pi), 4 branches each; a sweep of t6 at gimbal lock."""
 
     target_kind = "pose"
 
@@ -376,8 +368,7 @@ CANONICAL = recognition.Canonical((0.0, 0.0, HALF_PI, 0.0, -HALF_PI, HALF_PI), (
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """6R, axes 1-3 parallel, 4 meeting 3 at a right angle, 5 parallel to 4, 6 at a right angle to 5, the
-    forearm in the arm's plane; positions where the tip is on axis 6."""
+    """6R, axes 1-3 parallel, 4 meeting 3 at a right angle, 5 parallel to 4, 6 at a right angle to 5."""
     recognition.require_revolute(lines, 6)
     first, sign = recognition.first_frame(lines, np.eye(3))
     result = recognition.walk(lines, first, sign, CANONICAL.alphas[:5], (1.0,) * 5)

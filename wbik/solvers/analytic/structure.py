@@ -13,10 +13,9 @@ import numpy as np
 from wbik.robot import ChainCache
 from wbik.solvers.task_error import joint_lines_at_zero, serial_structure
 
+# axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, lines meet (a
+# length is zero) within this x the chain's length: URDFs write angles to ~12 digits
 STRUCTURE_TOLERANCE = 1e-9
-"""Two axes are parallel (perpendicular) when the sine (cosine) of their angle is at most this, two lines
-meet (a length is zero) within this x the chain's length: URDFs write angles to ~12 digits, a real offset
-or tilt misses by orders of magnitude."""
 
 
 @dataclass(frozen=True)
@@ -44,8 +43,7 @@ class ChainLines:
         return float(np.linalg.norm(np.cross(self.axes[i], self.axes[j]))) <= STRUCTURE_TOLERANCE
 
     def meeting_point(self, i: int, j: int) -> np.ndarray | None:
-        """Where lines i and j meet (the midpoint of their closest points), None if they are parallel or
-        more than STRUCTURE_TOLERANCE x the chain's length apart."""
+        """Where lines i and j meet (their closest points' midpoint), None if parallel or apart."""
         if self.parallel(i, j):
             return None
         a, b, offset = self.axes[i], self.axes[j], self.origins[j] - self.origins[i]
@@ -67,8 +65,7 @@ _LINES = ChainCache()
 
 
 def chain_lines(chain) -> ChainLines:
-    """The chain's lines, once per chain: ``chain.lines`` where it carries its own (a chain with a locked
-    joint), else read from its reduced model."""
+    """The chain's lines (its own ``lines``, else read from its reduced model once per chain)."""
     own = getattr(chain, "lines", None)
     if isinstance(own, ChainLines):
         return own
@@ -80,8 +77,7 @@ def chain_lines(chain) -> ChainLines:
 
 
 def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
-    """exp([xi_index] value) (4, 4) in the base frame: a turn by a about the line (h, c) is (Rot(h, a),
-    c - Rot(h, a) c)."""
+    """exp([xi_index] value) (4, 4): a turn by a about the line (h, c) is (Rot(h, a), c - Rot(h, a) c)."""
     transform = np.eye(4)
     axis = lines.axes[index]
     if lines.prismatic[index]:
@@ -133,8 +129,7 @@ def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def eaik_vectors(lines: ChainLines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """EAIK's description: axes H (n, 3), offsets P (n + 1, 3) between consecutive joint origins (base ->
-    joint 1, ..., joint n -> tip) and the tip rotation R0 at q = 0."""
+    """EAIK's axes H (n, 3), offsets P (n + 1, 3) between consecutive origins and tip rotation R0 at q = 0."""
     points = np.vstack((np.zeros(3), lines.origins, lines.tip[:3, 3]))
     return lines.axes.copy(), np.diff(points, axis=0), lines.tip[:3, :3].copy()
 

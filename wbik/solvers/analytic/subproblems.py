@@ -5,12 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-COSINE_TOLERANCE = 1e-9
-"""How far a cosine may leave [-1, 1] (a target on the workspace boundary, rounded) and its angle count as
-real (clamped: the limb moves by at most this x its length)."""
-WRIST_SINGULARITY = 1e-8
-"""|sin| of a spherical wrist's middle joint (the UR-type's q5) below which the last joint is free
-(ur_kinematics' threshold): q0's q6 is kept there."""
+COSINE_TOLERANCE = 1e-9  # how far a cosine may leave [-1, 1] and its angle count as real (clamped)
+WRIST_SINGULARITY = 1e-8  # |sin q5| below which a spherical wrist's last joint is free (q0's is kept)
 
 
 def clamped_cosine(value, tolerance: float = COSINE_TOLERANCE, scale=None) -> tuple[np.ndarray, np.ndarray]:

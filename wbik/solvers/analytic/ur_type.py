@@ -1,8 +1,6 @@
-"""Family: UR-type 6R arms (UR3/UR5/UR10 and the like), every branch.
-
-Axes 2-4 parallel, consecutive axes otherwise perpendicular: DH a = (0, a2, a3, 0, 0, 0), d = (d1, 0, 0, d4,
-d5, d6), alpha = (pi/2, 0, 0, pi/2, -pi/2, 0). ur_kinematics' closed form (ur5-riveting.md 1.2) on T_dh = B
-T E^T (B = Rz(pi), E = link6 -> ee_link), 8 branches, shoulder q1 x wrist q5 x elbow q3:
+"""Family: UR-type 6R arms (UR3/UR5/UR10 and the like), every branch: DH a = (0, a2, a3, 0, 0, 0), d = (d1,
+0, 0, d4, d5, d6), alpha = (pi/2, 0, 0, pi/2, -pi/2, 0). ur_kinematics' closed form (ur5-riveting.md 1.2) on
+T_dh = B T E^T (B = Rz(pi), E = link6 -> ee_link), 8 branches, shoulder q1 x wrist q5 x elbow q3:
 
 1. q1 = atan2(-b, a) +- acos(d4 / |(a, b)|), a = d6 T12 - T13, b = d6 T02 - T03;
 2. q5 = +-atan2(|s5|, c5), c5 = (T03 s1 - T13 c1 - d4) / d6, |s5| = |(T00 s1 - T10 c1, T01 s1 - T11 c1)|;
@@ -41,9 +39,9 @@ BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])  # Rz(pi) exactly: base_link -> link0
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # link6 (DH flange) -> ee_link
 CANONICAL = recognition.Canonical((HALF_PI, 0.0, 0.0, HALF_PI, -HALF_PI, 0.0), (0.0,) * 6,
                                   homogeneous(BASE_TO_LINK0), homogeneous(LINK6_TO_EE))
+# the form divides by d6 (wrist centre to flange; the tool takes the rest): the tip's own distance when at
+# least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length
 FLANGE_SHARE, FLANGE_MINIMUM = 0.1, 0.01
-"""The form divides by d6 (wrist centre to flange along axis 6; the tool takes the rest): the tip's own
-distance when at least FLANGE_MINIMUM x the chain's length, else FLANGE_SHARE x the length."""
 
 
 @dataclass(frozen=True)

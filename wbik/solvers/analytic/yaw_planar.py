@@ -1,10 +1,7 @@
-"""Family: a base yaw carrying a planar arm of parallel horizontal axes, every branch.
-
-The yaw q1 turns the arm plane, where (x, y, z) is at r = |(x, y)| for q1 = atan2(y, x) and r = -|(x, y)|
-for q1 + pi (on the base axis the start's q1 is kept). Yaw + planar 2R (seed 001's arm): r = l2 c2 + l3 c23,
-z = l1 + l2 s2 + l3 s23. Yaw + planar 2R + wrist pitch (the Pincher), angles from the vertical: wrist
-(r_w, z_w) = (a s2 + b s23, h + a c2 + b c23), tool point = wrist + t (cos psi, sin psi), psi = pi/2 - (q2
-+ q3 + q4); tool frame z = cos psi (c1, s1, 0) + sin psi (0, 0, 1), y = (s1, -c1, 0).
+"""Family: a base yaw carrying a planar arm of parallel horizontal axes, every branch. The yaw turns the arm
+plane: r = |(x, y)| at q1 = atan2(y, x), -|(x, y)| at q1 + pi. Yaw + planar 2R: r = l2 c2 + l3 c23, z = l1 +
+l2 s2 + l3 s23. Yaw + planar 2R + pitch (the Pincher): wrist (a s2 + b s23, h + a c2 + b c23), tool point =
+wrist + t (cos psi, sin psi), psi = pi/2 - (q2 + q3 + q4).
 """
 
 from __future__ import annotations
@@ -133,8 +130,7 @@ def pitch_arm_fk(g: PitchArmGeometry, q: np.ndarray) -> tuple[np.ndarray, np.nda
 
 
 class PitchArmPose(ClosedForm):
-    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows; a pose whose y axis
-    is not horizontal, or off that yaw's plane, has none."""
+    """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows."""
 
     target_kind = "pose"
 
@@ -165,9 +161,8 @@ PITCH_TIE = 1e-9  # rad: pitches this close are equal (q0's, and the two sides' 
 
 
 class PitchArmPosition(ClosedForm):
-    """Positions: the pitch nearest q0's (psi0 = pi/2 - (q2 + q3 + q4)) with a branch inside the limits. Per
-    shoulder side the reachable pitches form an arc (a = b: no hole): psi0 projected onto it, else a grid
-    across it, the nearest usable pitch bisected toward psi0; the chosen pitch's branches (K = 4)."""
+    """Positions: the pitch nearest q0's with a branch inside the limits. Per shoulder side the reachable
+    pitches form an arc: q0's projected onto it, else the nearest usable grid pitch bisected toward it."""
 
     target_kind = "position"
 
@@ -184,9 +179,8 @@ class PitchArmPosition(ClosedForm):
         return pitch_arm_fk(self.geometry, q)
 
     def _sides(self, positions: np.ndarray, q0: np.ndarray):
-        """Per target and side: yaw, signed reach, arc centre psi_T, half-width, reachable. With T = (signed
-        reach, z - h), the wrist T - t u(psi) is within a + b iff cos(psi - psi_T) >= (|T|^2 + t^2 - (a +
-        b)^2) / (2 t |T|) =: ratio (empty above 1)."""
+        """Per target and side: yaw, signed reach, arc centre psi_T, half-width, reachable: with T = (reach,
+        z - h), cos(psi - psi_T) >= (|T|^2 + t^2 - (a + b)^2) / (2 t |T|) (empty above 1)."""
         g = self.geometry
         yaws, reaches = shoulder_sides(positions, q0[:, 0], self.axis_tolerance)
         height = (positions[:, 2] - g.h)[:, None]
@@ -213,8 +207,7 @@ class PitchArmPosition(ClosedForm):
         return exact & inside
 
     def _search_pitch(self, yaws, reaches, heights, centre, half_width, nearest_offset, pitch0, q0):
-        """Where the nearest pitch has no branch inside the limits: per side and direction, the usable grid
-        pitch nearest it, bisected toward it, the better direction's (Q, exact, usable, pitch) per side."""
+        """Per side, the usable grid pitch nearest, bisected toward it: (Q, exact, usable, pitch)."""
         grid = half_width[..., None] * np.linspace(-1.0, 1.0, PITCH_GRID)  # offsets (R, 2, M)
         usable_grid = np.any(self._usable(yaws, reaches, heights, centre[..., None] + grid), axis=-1)
         gap = grid - nearest_offset[..., None]
@@ -279,8 +272,7 @@ CANONICAL_PITCH = recognition.Canonical((-HALF_PI, 0.0, 0.0, 0.0), (0.0, -HALF_P
 
 
 def match(lines, kind: str, options: dict) -> recognition.Match:
-    """A base axis meeting a planar 2R at a right angle, the tip in the plane (3R, positions), or a planar
-    3R, the tip off the last axis (4R: full poses; positions with equal links, the tip in the plane)."""
+    """A base axis meeting a planar 2R (3R, positions) or 3R (4R) at a right angle."""
     require(lines.count in (3, 4), f"it has {lines.count} joints, the family 3 (yaw + planar 2R) or 4 "
                                    "(yaw + planar 3R)")
     recognition.require_revolute(lines, lines.count)
