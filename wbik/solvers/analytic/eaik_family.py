@@ -153,15 +153,24 @@ class EAIKForm(ClosedForm):
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._solutions(positions, rotations, exact=False)
+
+    def exact_branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                       q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """EAIK's least-squares solutions (``is_LS``) marked not real."""
+        return self._solutions(positions, rotations, exact=True)
+
+    def _solutions(self, positions: np.ndarray, rotations: np.ndarray,
+                   exact: bool) -> tuple[np.ndarray, np.ndarray]:
         robot, joints = self.robot(), self.chain.nq
-        solutions = [np.asarray(robot.calculate_IK(self.pose(p, r)).Q, dtype=float).reshape(-1, joints)
-                     for p, r in zip(positions, rotations, strict=True)]
-        width = max((len(q) for q in solutions), default=0) or 1
+        solutions = [robot.calculate_IK(self.pose(p, r)) for p, r in zip(positions, rotations, strict=True)]
+        width = max((len(solution.Q) for solution in solutions), default=0) or 1
         q_all = np.full((len(positions), width, joints), np.nan)
         real = np.zeros((len(positions), width), dtype=bool)
-        for index, q in enumerate(solutions):
-            q_all[index, :len(q)] = q
-            real[index, :len(q)] = True
+        for index, solution in enumerate(solutions):
+            count = len(solution.Q)
+            q_all[index, :count] = np.asarray(solution.Q, dtype=float).reshape(count, joints)
+            real[index, :count] = ~np.asarray(solution.is_LS, dtype=bool) if exact else True
         return q_all, real
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
