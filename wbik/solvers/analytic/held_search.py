@@ -3,10 +3,11 @@
 With joint k held at v the other six have a closed form, so every branch q_b(v) is exact wherever it is
 real; a pose is solved at v when some branch is real, inside the limits and passes the screen. The
 feasible values form intervals of k's range. The search evaluates the start's value and a grid over the
-range in one batch; where no value passes, it zooms on the values nearest to passing (the smallest
-violation: the FK residual plus how far the joints are outside their limits), a narrower grid each
-level, until one passes or the interval is below :data:`ZOOM_FLOOR`. Every passing branch found goes back
-to the solver, which takes the one nearest the start (``solve``) or the distinct ones (``solve_all``).
+range in one batch; where no value passes, a grid :data:`DENSER` times finer; then it zooms on the values
+nearest to passing (the smallest violation: the FK residual plus how far the joints are outside their
+limits), a narrower grid each level, until one passes or the interval is below :data:`ZOOM_FLOOR`. Every
+passing branch found goes back to the solver, which takes the one nearest the start (``solve``) or the
+distinct ones (``solve_all``).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ import numpy as np
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
 
+DENSER = 4
+"""Where no value of the grid passes, a grid this many times finer over the range comes next."""
 ZOOM_CANDIDATES = 3
 """Values (the least violating) each zoom level searches around."""
 ZOOM_POINTS = 9
@@ -56,12 +59,20 @@ class HeldJointSearch:
             if passing.any():
                 return wrapped[passing], np.ones(int(passing.sum()), dtype=bool)
             evaluated.append((wrapped, real))
+            if len(evaluated) == 1:  # a feasible interval narrower than the grid: a finer grid first
+                values = self._grid(DENSER * len(self.form.grid))
+                spacing /= DENSER
+                continue
             if spacing < ZOOM_FLOOR:
                 break
             violation = self._violation(raw, real, position, rotation).reshape(len(values), -1).min(axis=1)
             values = self._zoom(values, violation, spacing)
             spacing = 2.0 * spacing / (ZOOM_POINTS - 1)
         return np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated])
+
+    def _grid(self, count: int) -> np.ndarray:
+        """``count`` values over the held joint's range (a full turn without its last value)."""
+        return np.linspace(self.low, self.high, count, endpoint=not self.full_turn)
 
     def _violation(self, q: np.ndarray, real: np.ndarray, position: np.ndarray,
                    rotation: np.ndarray | None) -> np.ndarray:
