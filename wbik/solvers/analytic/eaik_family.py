@@ -15,6 +15,7 @@ import wbik.kernels.eaik as eaik_kernel
 from wbik.dependencies import EAIK_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
+from wbik.peer_output import captured_output
 from wbik.robot import Chain, ChainCache
 from wbik.solvers.analytic.closed_form import (
     BOUND_SLACK,
@@ -75,12 +76,14 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
         raise UnsupportedError(f"EAIK takes revolute joints only, {names} prismatic")
     H, P, tip_rotation = eaik_vectors(lines)
     try:
-        robot = HPRobot(H, P)
+        with captured_output("EAIK") as printed:
+            robot = HPRobot(H, P)
+            family, known = robot.getKinematicFamily(), robot.hasKnownDecomposition()
     except RuntimeError as exc:
         raise UnsupportedError(f"EAIK says {str(exc).strip()!r} ({chain.nq} joints)") from None
-    family = robot.getKinematicFamily()
-    if not robot.hasKnownDecomposition():
-        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})")
+    if not known:
+        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})"
+                               f"{printed.reason()}")
     result = EAIKStructure(H, P, tip_rotation.T.copy(), family)
     if not probe:
         return result
@@ -114,7 +117,8 @@ def eaik_robot(structure):
     import_eaik()  # MissingDependencyError with the install command
     from eaik.pybindings import EAIK
 
-    return EAIK.Robot(structure.H.T, structure.P.T, structure.tip_rotation_t.T, [], True)
+    with captured_output("EAIK"):
+        return EAIK.Robot(structure.H.T, structure.P.T, structure.tip_rotation_t.T, [], True)
 
 
 class EAIKForm(ClosedForm):
