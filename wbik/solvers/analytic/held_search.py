@@ -1,28 +1,26 @@
 """The held joint of a 7-joint arm searched, not guessed (``redundancy="search"``, the default).
 
 With joint k held at v the other six have a closed form, so every branch q_b(v) is exact wherever it is
-real; a pose is solved at v when some branch is real, inside the limits and passes the screen. The
-feasible values form intervals of k's range. The search evaluates the start's value and a grid over the
-range in one batch; where no value passes, a grid :data:`DENSER` times finer; then it zooms on the values
-nearest to passing (the smallest violation: the FK residual plus how far the joints are outside their
-limits), a narrower grid each level, until one passes or the interval is below :data:`ZOOM_FLOOR`. Every
-passing branch found goes back to the solver, which takes the one nearest the start (``solve``) or the
-distinct ones (``solve_all``).
+real; a pose is solved at v when some branch is real, inside the limits and passes the solver's screen
+(its FK residual). The feasible values form intervals of k's range, some far narrower than a coarse grid's
+spacing. The search evaluates the start's value and a grid over the range in one batch; where no value
+passes, a grid :data:`DENSER` times finer; then it zooms on the local minima of the violation (how far
+the joints are outside their limits plus the FK residual), a narrower grid each level, until a branch
+passes or the interval is below :data:`ZOOM_FLOOR`. Every passing branch found goes back to the solver,
+which takes the one nearest the start (``solve``) or the distinct ones (``solve_all``).
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
 
-DENSER = 4
+DENSER = 8
 """Where no value of the grid passes, a grid this many times finer over the range comes next."""
 ZOOM_CANDIDATES = 3
-"""Values (the least violating) each zoom level searches around."""
+"""Local minima of the violation (the least violating) each zoom level searches around."""
 ZOOM_POINTS = 9
 """Values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing."""
 ZOOM_FLOOR = 1e-6
@@ -55,9 +53,11 @@ class HeldJointSearch:
                                               q0[None], values[None], exact=True)
             raw, real = raw[0], real[0] & np.all(np.isfinite(raw[0]), axis=-1)
             wrapped, inside = wrap_into_limits(raw, q0, self.lower, self.upper, self.revolute)
-            passing = real & inside
-            if passing.any():
-                return wrapped[passing], np.ones(int(passing.sum()), dtype=bool)
+            candidates = np.flatnonzero(real & inside)
+            residual = self._residual(wrapped[candidates], position, rotation)
+            screened = residual <= self.form.screen_tolerance
+            if screened.any():
+                return wrapped[candidates[screened]], np.ones(int(screened.sum()), dtype=bool)
             evaluated.append((wrapped, real))
             if len(evaluated) == 1:  # a feasible interval narrower than the grid: a finer grid first
                 values = self._grid(DENSER * len(self.form.grid))
@@ -65,7 +65,9 @@ class HeldJointSearch:
                 continue
             if spacing < ZOOM_FLOOR:
                 break
-            violation = self._violation(raw, real, position, rotation).reshape(len(values), -1).min(axis=1)
+            violation = self._violation(raw, real, position, rotation)
+            violation[candidates] += residual  # inside the limits, real, yet off the target
+            violation = violation.reshape(len(values), -1).min(axis=1)
             values = self._zoom(values, violation, spacing)
             spacing = 2.0 * spacing / (ZOOM_POINTS - 1)
         return np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated])
@@ -80,15 +82,20 @@ class HeldJointSearch:
         plus, for an approximate branch, its FK residual (m and rad); inf for non-finite joints."""
         violation = self._limit_excess(q)
         approximate = ~real & np.all(np.isfinite(q), axis=-1)
-        if approximate.any():
-            reached_p, reached_r = self.form.fk(q[approximate])
-            residual = np.linalg.norm(reached_p - position, axis=-1)
-            if rotation is not None:
-                cosine = (np.einsum("kij,ij->k", reached_r, rotation) - 1.0) / 2.0
-                residual = np.maximum(residual, np.arccos(np.clip(cosine, -1.0, 1.0)))
-            violation[approximate] += residual
+        violation[approximate] += self._residual(q[approximate], position, rotation)
         violation[~np.all(np.isfinite(q), axis=-1)] = np.inf
         return violation
+
+    def _residual(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
+        """max(|p - p*|, angle(R*^T R)) of joints q (m, n) by the form's FK, as the solver screens."""
+        if not len(q):
+            return np.zeros(0)
+        reached_p, reached_r = self.form.fk(q)
+        residual = np.linalg.norm(reached_p - position, axis=-1)
+        if rotation is not None:
+            cosine = (np.einsum("kij,ij->k", reached_r, rotation) - 1.0) / 2.0
+            residual = np.maximum(residual, np.arccos(np.clip(cosine, -1.0, 1.0)))
+        return residual
 
     def _limit_excess(self, q: np.ndarray) -> np.ndarray:
         """Per branch, the sum over joints of how far (rad or m) each is outside its limits, a revolute
@@ -104,18 +111,17 @@ class HeldJointSearch:
         return np.sum(outside, axis=-1)
 
     def _zoom(self, values: np.ndarray, violation: np.ndarray, spacing: float) -> np.ndarray:
-        """The next level's values: ZOOM_POINTS over [v - h, v + h] (h = ``spacing``) around each of the
-        ZOOM_CANDIDATES least violating values, inside the held joint's range."""
-        order = np.argsort(violation, kind="stable")
-        centres: list[float] = []
-        for index in order[:ZOOM_CANDIDATES]:
-            if not math.isfinite(violation[index]):
-                break
-            centres.append(float(values[index]))
-        if not centres:
-            centres = [float(values[0])]
+        """The next level's values: ZOOM_POINTS over [v - h, v + h] (h = ``spacing``) around the
+        ZOOM_CANDIDATES least violating local minima of the violation along the held joint's range."""
+        order = np.argsort(values, kind="stable")
+        ordered, along = values[order], violation[order]
+        left = np.r_[np.inf, along[:-1]]
+        right = np.r_[along[1:], np.inf]
+        minima = np.flatnonzero((along <= left) & (along <= right) & np.isfinite(along))
+        best = minima[np.argsort(along[minima], kind="stable")[:ZOOM_CANDIDATES]]
+        centres = ordered[best] if len(best) else values[:1]
         offsets = np.linspace(-spacing, spacing, ZOOM_POINTS)
-        zoomed = (np.asarray(centres)[:, None] + offsets).reshape(-1)
+        zoomed = (centres[:, None] + offsets).reshape(-1)
         if self.full_turn:
             zoomed = self.low + np.mod(zoomed - self.low, TWO_PI)
         return np.clip(zoomed, self.low, self.high)
