@@ -474,7 +474,7 @@ def test_redundancy_options_are_checked():
 
 BATCHED = [(f"erd:{UR_URDFS[1]}", None, "pose", {}), ("bare:pincher", "arm", "position", {}),
            ("bare:golem3", "left_arm", "pose", {}), ("bare:bioloid", "right_leg", "pose", {}),
-           ("panda", "arm", "pose", {"redundancy": "grid", "grid_size": 8}),
+           ("panda", "arm", "pose", {"redundancy": "grid", "grid_size": 8}), ("panda", "arm", "pose", {}),
            ("panda", "arm", "pose", {"redundant_joint": 4}), ("bare:golem3", "right_arm_lift", "pose", {})]
 
 

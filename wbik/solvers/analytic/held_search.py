@@ -43,11 +43,19 @@ class HeldJointSearch:
     def branches(self, position: np.ndarray, rotation: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(Q (K, n), real (K,)) of one target: every passing branch found, else every branch evaluated."""
+        q, passed, _ = self.run(position, rotation, q0)
+        return q, passed
+
+    def run(self, position: np.ndarray, rotation: np.ndarray | None,
+            q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """(Q (K, n) wrapped nearest q0, passed (K,), outcome): the passing branches found (all passed,
+        outcome their count), else every branch evaluated (real where real; outcome 0 without a real one,
+        -1 without one inside the limits, -2 without one passing the screen)."""
         k = self.form.index
         seed = min(max(float(q0[k]), float(self.lower[k])), float(self.upper[k]))
         values = np.concatenate(([seed], self.form.grid))
         spacing = (self.high - self.low) / max(len(self.form.grid), 1)
-        evaluated = []
+        evaluated, outcome = [], 0
         while True:
             raw, real = self.form.branches_at(position[None], None if rotation is None else rotation[None],
                                               q0[None], values[None], exact=True)
@@ -57,7 +65,9 @@ class HeldJointSearch:
             residual = self._residual(wrapped[candidates], position, rotation)
             screened = residual <= self.form.screen_tolerance
             if screened.any():
-                return wrapped[candidates[screened]], np.ones(int(screened.sum()), dtype=bool)
+                count = int(screened.sum())
+                return wrapped[candidates[screened]], np.ones(count, dtype=bool), count
+            outcome = min(outcome, -2 if len(candidates) else -1 if real.any() else 0)
             evaluated.append((wrapped, real))
             if len(evaluated) == 1:  # a feasible interval narrower than the grid: a finer grid first
                 values = self._grid(DENSER * len(self.form.grid))
@@ -70,7 +80,8 @@ class HeldJointSearch:
             violation = violation.reshape(len(values), -1).min(axis=1)
             values = self._zoom(values, violation, spacing)
             spacing = 2.0 * spacing / (ZOOM_POINTS - 1)
-        return np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated])
+        return (np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated]),
+                outcome)
 
     def _grid(self, count: int) -> np.ndarray:
         """``count`` values over the held joint's range (a full turn without its last value)."""
@@ -125,3 +136,22 @@ class HeldJointSearch:
         if self.full_turn:
             zoomed = self.low + np.mod(zoomed - self.low, TWO_PI)
         return np.clip(zoomed, self.low, self.high)
+
+
+class SearchChoice:
+    """``solve``'s kernel of a searched held joint: of the branches the search passed (screened), the one
+    nearest the start, as the solver's vectorised choice takes it."""
+
+    def __init__(self, search: HeldJointSearch):
+        self.search = search
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray | None, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """The chosen branch into ``out``: the number of passing branches, else 0, -1 or -2 (as
+        :class:`~.compiled.CompiledForm`)."""
+        q, _, outcome = self.search.run(position, rotation, reference)
+        if outcome > 0:
+            squares = q - reference
+            squares *= squares
+            out[:] = q[int(np.argmin(np.sqrt(np.add.reduce(squares, axis=1))))]
+        return outcome

@@ -16,7 +16,7 @@ import numpy as np
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm
-from wbik.solvers.analytic.held_search import HeldJointSearch
+from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import Family, Recognised, recognise_eaik, recognise_family
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
@@ -109,6 +109,8 @@ class LockedJointForm(ClosedForm):
         one_value = self.moves is not None and not len(self.grid)
         self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
         self.search = HeldJointSearch(self) if mode == "search" else None
+        if self.search is not None:
+            self.kernel = SearchChoice(self.search)
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
