@@ -40,12 +40,6 @@ class HeldJointSearch:
         self.low, self.high = float(form.range[0]), float(form.range[1])
         self.full_turn = bool(self.revolute[k]) and self.high - self.low >= TWO_PI - 1e-12
 
-    def branches(self, position: np.ndarray, rotation: np.ndarray | None,
-                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(Q (K, n), real (K,)) of one target: every passing branch found, else every branch evaluated."""
-        q, passed, _ = self.run(position, rotation, q0)
-        return q, passed
-
     def run(self, position: np.ndarray, rotation: np.ndarray | None,
             q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
         """(Q (K, n) wrapped nearest q0, passed (K,), outcome): the passing branches found (all passed,

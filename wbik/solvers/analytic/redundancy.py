@@ -62,9 +62,7 @@ class LockedChain:
 def held_range(chain, index: int) -> tuple[float, float]:
     """The held joint's range: its limits, [-pi, pi] where a bound is infinite."""
     low, high = float(chain.lower[index]), float(chain.upper[index])
-    if not (math.isfinite(low) and math.isfinite(high)):
-        return -math.pi, math.pi
-    return low, high
+    return (low, high) if math.isfinite(low) and math.isfinite(high) else (-math.pi, math.pi)
 
 
 def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
@@ -72,9 +70,7 @@ def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
     a full turn without its last value)."""
     low, high = held_range(chain, index)
     full_turn = not chain.is_prismatic[index] and high - low >= TWO_PI - 1e-12
-    if mode == "seed":
-        return np.zeros(0)
-    return np.linspace(low, high, grid_size, endpoint=not full_turn)
+    return np.zeros(0) if mode == "seed" else np.linspace(low, high, grid_size, endpoint=not full_turn)
 
 
 class LockedJointForm(ClosedForm):
@@ -176,14 +172,8 @@ class LockedJointForm(ClosedForm):
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.search is None:
             return self.branches_at(positions, rotations, q0, self.values(q0))
-        parts = [self.search.branches(positions[i], None if rotations is None else rotations[i], q0[i])
-                 for i in range(len(positions))]
-        width = max(len(q) for q, _ in parts)
-        q_all = np.full((len(parts), width, self.chain.nq), np.nan)
-        real = np.zeros((len(parts), width), dtype=bool)
-        for row, (q, found) in enumerate(parts):
-            q_all[row, :len(q)], real[row, :len(q)] = q, found
-        return q_all, real
+        return _stacked([self.search.run(positions[i], None if rotations is None else rotations[i], q0[i])[:2]
+                         for i in range(len(positions))], self.chain.nq)
 
     def branches_at(self, positions: np.ndarray, rotations: np.ndarray | None, q0: np.ndarray,
                     values: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -203,16 +193,13 @@ class LockedJointForm(ClosedForm):
                 form = self._form_at(value)
                 target = row // per_target
                 if form is None:
-                    parts.append((np.full((1, 1, self.chain.nq - 1), np.nan), np.zeros((1, 1), dtype=bool)))
+                    parts.append((np.full((1, self.chain.nq - 1), np.nan), np.zeros(1, dtype=bool)))
                     continue
-                parts.append(form.branches(positions[target:target + 1],
-                                           None if rotations is None else rotations[target:target + 1],
-                                           sub_starts[row:row + 1]))
-            width = max(q.shape[1] for q, _ in parts)
-            sub_q = np.full((len(parts), width, self.chain.nq - 1), np.nan)
-            sub_real = np.zeros((len(parts), width), dtype=bool)
-            for row, (q, real) in enumerate(parts):
-                sub_q[row, :q.shape[1]], sub_real[row, :q.shape[1]] = q[0], real[0]
+                q, real = form.branches(positions[target:target + 1],
+                                        None if rotations is None else rotations[target:target + 1],
+                                        sub_starts[row:row + 1])
+                parts.append((q[0], real[0]))
+            sub_q, sub_real = _stacked(parts, self.chain.nq - 1)
         held = np.broadcast_to(flat[:, None, None], sub_q.shape[:2] + (1,))
         q_all = np.concatenate((sub_q[..., :self.index], held, sub_q[..., self.index:]), axis=-1)
         width = q_all.shape[1]
@@ -220,6 +207,15 @@ class LockedJointForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
+
+def _stacked(parts: list[tuple[np.ndarray, np.ndarray]], joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max K_i, n), padded with NaN."""
+    width = max(len(q) for q, _ in parts)
+    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
+    for row, (q, flags) in enumerate(parts):
+        q_all[row, :len(q)], real[row, :len(q)] = q, flags
+    return q_all, real
+
 
 class HeldChoice:
     """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint at the start's value: the
