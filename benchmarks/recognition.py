@@ -6,8 +6,8 @@ joint on a 7-joint arm), the time to build the solver (recognition and the model
 included), and over --poses FK poses of random joints inside the limits (seeded): how many ``solve``
 reaches within the shared tolerances and 1e-9 of FK error, and the median wall time of ``solve``
 (``IKResult.time_s``, the method's time). Seed robots are loaded with their bindings removed. Starts:
-the chain's nominal configuration; for 7-joint arms holding the start's value ("seed"), the original
-joints (the start an arm tracking a path has), and the grid over the held joint from the nominal start.
+the chain's nominal configuration; for 7-joint arms (the held joint searched, the default) also the
+original joints (the start an arm tracking a path has), and the grid over the held joint.
 
     .venv/bin/python benchmarks/recognition.py [--poses 200]
 """
@@ -74,10 +74,12 @@ ARMS = [  # (label, robot factory, chain, target kind, solver options, start)
     ("talos_left_arm.urdf, 6R", talos_arm6, "arm", "pose", {}, "nominal"),
     ("kinova Jaco2 6R (continuous joints)", kinova, "arm", "pose", {}, "nominal"),
     ("panda.arm 7R", lambda: wbik.load("panda"), "arm", "pose", {}, "original"),
+    ("panda.arm 7R", lambda: wbik.load("panda"), "arm", "pose", {}, "nominal"),
     ("panda.arm 7R grid", lambda: wbik.load("panda"), "arm", "pose", {"redundancy": "grid"}, "nominal"),
     ("panda.arm 7R joint 5", lambda: wbik.load("panda"), "arm", "pose", {"redundant_joint": "panda_joint5"},
      "original"),
     ("talos left arm 7R", talos7, "left_arm", "pose", {}, "original"),
+    ("talos left arm 7R", talos7, "left_arm", "pose", {}, "nominal"),
     ("talos left arm 7R grid", talos7, "left_arm", "pose", {"redundancy": "grid"}, "nominal"),
     ("golem3.right_arm_lift P+6R", lambda: bare("golem3"), "right_arm_lift", "pose", {}, "original"),
     ("golem3.right_arm_lift grid", lambda: bare("golem3"), "right_arm_lift", "pose", {"redundancy": "grid"},

@@ -367,7 +367,7 @@ def test_seven_joint_arms_hold_a_joint_at_the_start(name, chain, held):
     """Holding q0's value of the default joint: from the original joints every pose is solved and the
     original joints come back (the branch at distance 0)."""
     solver = wbik.solver("analytic", robot(name), chain)
-    assert solver.family.endswith(f"with {held} held (seed)")
+    assert solver.family.endswith(f"with {held} held (search)")
     solved, _ = round_trip(solver, "pose", from_original=True, every_branch=False)
     assert solved == POSES
     chain_ = solver.chain
@@ -381,7 +381,7 @@ def test_seven_joint_arms_sweep_the_held_joint_from_far_starts(name, chain):
     """From the nominal start a held value rarely suits a random pose; the grid over the joint's range
     finds a branch for most (measured: Panda 49/50, Talos 47/50) where the start's value alone does not
     (Panda 18/50, Talos 11/50)."""
-    seed_only = wbik.solver("analytic", robot(name), chain)
+    seed_only = wbik.solver("analytic", robot(name), chain, redundancy="seed")
     grid = wbik.solver("analytic", robot(name), chain, redundancy="grid", grid_size=16)
     assert grid.family.endswith("held (grid)")
     from_seed, _ = round_trip(seed_only, "pose", seed=7, every_branch=False)
@@ -389,10 +389,44 @@ def test_seven_joint_arms_sweep_the_held_joint_from_far_starts(name, chain):
     assert from_grid >= 0.9 * POSES and from_grid > from_seed
 
 
+SEARCHED = [("erd:panda", "panda_link0", "panda_link8"),
+            ("erd:talos", "torso_2_link", "gripper_left_base_link"), ("erd:icub", "chest", "l_hand"),
+            ("erd:tiago_dual", "torso_lift_link", "arm_left_tool_link"),
+            ("erd:pr2", "torso_lift_link", "l_gripper_palm_link")]
+
+
+@pytest.mark.parametrize(("name", "base", "tip"), SEARCHED, ids=[s[0][4:] for s in SEARCHED])
+def test_seven_joint_arms_search_the_held_joint_by_default(name, base, tip):
+    """Default options on a chain named by base and tip, from the nominal start: the held joint searched
+    solves at least 99 of 100 random poses (joints inside the limits), and its answer is never farther from
+    the start than the branch holding the start's value (the search evaluates that value first)."""
+    arm = wbik.load(name)
+    searched = wbik.solver("analytic", arm, base=base, tip=tip)
+    seed_only = wbik.solver("analytic", arm, base=base, tip=tip, redundancy="seed")
+    assert searched.family.endswith("held (search)")
+    chain = searched.chain
+    solved = 0
+    for q in chain.random(np.random.default_rng(11), 100):
+        target = chain.fk(q)
+        result = searched.solve(target)
+        if result.success and chain.in_limits(result.q) and fk_error(chain, result.q, target) < FK_ERROR:
+            solved += 1
+        held = seed_only.solve(target)
+        if held.success:
+            assert result.success
+            nominal = chain.nominal
+            assert np.linalg.norm(result.q - nominal) <= np.linalg.norm(held.q - nominal) + 1e-9
+    assert solved >= 99
+    branches = searched.solve_all(chain.fk(chain.random(np.random.default_rng(12))))
+    assert branches and all(branch.success for branch in branches)
+    for i, one in enumerate(branches):
+        assert all(angle_gap(one.q, other.q) >= 1e-6 for other in branches[:i])
+
+
 def test_a_middle_joint_held_is_rebuilt_per_value():
     """The Panda's joint 5 held (EAIK's 6R-SPHERICAL_SECOND_TWO_PARALLEL per value): from the original
     joints every pose is solved, and the same value again reuses the built form."""
-    solver = wbik.solver("analytic", robot("panda"), "arm", redundant_joint="panda_joint5")
+    solver = wbik.solver("analytic", robot("panda"), "arm", redundant_joint="panda_joint5", redundancy="seed")
     assert solver.family == "eaik:6R-SPHERICAL_SECOND_TWO_PARALLEL with panda_joint5 held (seed)"
     solved, _ = round_trip(solver, "pose", from_original=True, every_branch=False)
     assert solved == POSES
@@ -414,7 +448,7 @@ def test_compiled_choice_of_one_target_is_the_vectorised_one(compiled_twins, nam
     the status and the branch of the vectorised choice, from the original joints and from random starts."""
     from compiled_twins import TWIN_TOLERANCE, assert_twins_agree
 
-    solver = wbik.solver("analytic", robot(name), chain)
+    solver = wbik.solver("analytic", robot(name), chain, redundancy="seed")  # a held joint's kernel
     assert solver.closed_form("pose").kernel is not None
     chain_ = solver.chain
     rng = np.random.default_rng(9)
@@ -433,12 +467,14 @@ def test_redundancy_options_are_checked():
         with pytest.raises(InvalidSettingError, match=word):
             wbik.solver("analytic", panda, "arm", **options)
     held = wbik.solver("analytic", panda, "arm", redundant_joint=-1)
-    assert held.family.endswith("panda_joint7 held (seed)")
+    assert held.family.endswith("panda_joint7 held (search)")
+    middle = wbik.solver("analytic", panda, "arm", redundant_joint="panda_joint5")
+    assert middle.family.endswith("panda_joint5 held (grid)")  # a middle joint: a form per value
 
 
 BATCHED = [(f"erd:{UR_URDFS[1]}", None, "pose", {}), ("bare:pincher", "arm", "position", {}),
            ("bare:golem3", "left_arm", "pose", {}), ("bare:bioloid", "right_leg", "pose", {}),
-           ("panda", "arm", "pose", {"redundancy": "grid", "grid_size": 8}),
+           ("panda", "arm", "pose", {"redundancy": "grid", "grid_size": 8}), ("panda", "arm", "pose", {}),
            ("panda", "arm", "pose", {"redundant_joint": 4}), ("bare:golem3", "right_arm_lift", "pose", {})]
 
 

@@ -11,6 +11,7 @@ import pinocchio as pin
 
 from wbik.dependencies import TRAC_IK_LIBRARY
 from wbik.errors import InvalidSettingError, RobotDescriptionError
+from wbik.peer_output import captured_output
 from wbik.solvers.base import Solver
 from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.result import Candidate
@@ -45,17 +46,18 @@ class TracIKSolver(Solver):
     def _new_thread_state(self):
         """This thread's TRAC-IK object (one is not safe to call from two threads)."""
         chain_ = self.chain
-        solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, self._urdf_text,
-                                       self.timeout_s, self.epsilon,
-                                       getattr(self.pytracik.SolveType, self.solve_type))
-        joints = self.pytracik.get_num_joints(solver)
+        with captured_output("TRAC-IK") as printed:
+            solver = self.pytracik.TRAC_IK(chain_.base_frame, chain_.tip_frame, self._urdf_text,
+                                           self.timeout_s, self.epsilon,
+                                           getattr(self.pytracik.SolveType, self.solve_type))
+            joints = self.pytracik.get_num_joints(solver)
         if joints != chain_.nq:
             urdf = self.robot.urdf_path or f"the URDF of {self.robot.name!r}"
             raise RobotDescriptionError(
                 f"TRAC-IK finds {joints} movable joints between {chain_.base_frame!r} and "
                 f"{chain_.tip_frame!r} in {urdf}, the chain {chain_.name!r} has {chain_.nq} "
                 f"{chain_.joint_names}; TRAC-IK needs URDF links as base/tip and every joint between "
-                "them in the chain")
+                f"them in the chain{printed.reason()}")
         # a revolute joint whose bounds reach float's extremes is continuous to TRAC-IK
         extreme = float(np.finfo(np.float32).max)
         lower = np.where(chain_.continuous, -extreme, chain_.lower)

@@ -52,6 +52,12 @@ class ClosedForm:
         q_all, real = self.branches(positions, rotations, q0)
         return np.ascontiguousarray(q_all.transpose(2, 1, 0)), np.ascontiguousarray(real.T)
 
+    def exact_branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                       q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`branches` with ``real`` False also where the form knows a branch only approximates the
+        target (a library's least-squares solutions)."""
+        return self.branches(positions, rotations, q0)
+
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
         raise NotImplementedError

@@ -14,6 +14,7 @@ import wbik.kernels.eaik as eaik_kernel
 from wbik.dependencies import EAIK_LIBRARY
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
+from wbik.peer_output import captured_output
 from wbik.robot import Chain, ChainCache
 from wbik.solvers.analytic.closed_form import (
     BOUND_SLACK,
@@ -70,12 +71,14 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
         raise UnsupportedError(f"EAIK takes revolute joints only, {names} prismatic")
     H, P, tip_rotation = eaik_vectors(lines)
     try:
-        robot = HPRobot(H, P)
+        with captured_output("EAIK") as printed:
+            robot = HPRobot(H, P)
+            family, known = robot.getKinematicFamily(), robot.hasKnownDecomposition()
     except RuntimeError as exc:
         raise UnsupportedError(f"EAIK says {str(exc).strip()!r} ({chain.nq} joints)") from None
-    family = robot.getKinematicFamily()
-    if not robot.hasKnownDecomposition():
-        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})")
+    if not known:
+        raise UnsupportedError(f"EAIK knows no decomposition for its kinematic family ({family!r})"
+                               f"{printed.reason()}")
     result = EAIKStructure(H, P, tip_rotation.T.copy(), family)
     if not probe:
         return result
@@ -108,7 +111,8 @@ def eaik_robot(structure):
     import_eaik()  # MissingDependencyError with the install command
     from eaik.pybindings import EAIK
 
-    return EAIK.Robot(structure.H.T, structure.P.T, structure.tip_rotation_t.T, [], True)
+    with captured_output("EAIK"):
+        return EAIK.Robot(structure.H.T, structure.P.T, structure.tip_rotation_t.T, [], True)
 
 
 class EAIKForm(ClosedForm):
@@ -146,15 +150,24 @@ class EAIKForm(ClosedForm):
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return self._solutions(positions, rotations, exact=False)
+
+    def exact_branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                       q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """EAIK's least-squares solutions (``is_LS``) marked not real."""
+        return self._solutions(positions, rotations, exact=True)
+
+    def _solutions(self, positions: np.ndarray, rotations: np.ndarray,
+                   exact: bool) -> tuple[np.ndarray, np.ndarray]:
         robot, joints = self.robot(), self.chain.nq
-        solutions = [np.asarray(robot.calculate_IK(self.pose(p, r)).Q, dtype=float).reshape(-1, joints)
-                     for p, r in zip(positions, rotations, strict=True)]
-        width = max((len(q) for q in solutions), default=0) or 1
+        solutions = [robot.calculate_IK(self.pose(p, r)) for p, r in zip(positions, rotations, strict=True)]
+        width = max((len(solution.Q) for solution in solutions), default=0) or 1
         q_all = np.full((len(positions), width, joints), np.nan)
         real = np.zeros((len(positions), width), dtype=bool)
-        for index, q in enumerate(solutions):
-            q_all[index, :len(q)] = q
-            real[index, :len(q)] = True
+        for index, solution in enumerate(solutions):
+            count = len(solution.Q)
+            q_all[index, :count] = np.asarray(solution.Q, dtype=float).reshape(count, joints)
+            real[index, :count] = ~np.asarray(solution.is_LS, dtype=bool) if exact else True
         return q_all, real
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

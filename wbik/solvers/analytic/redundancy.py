@@ -1,6 +1,7 @@
-"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v = q0_k (``"seed"``), also at
-``grid_size`` values (``"grid"``), the other six solved by a family or EAIK. Holding the first or last joint
-moves only the base or the tool (one form, the target moved); a joint in between needs a form per value.
+"""A 7-joint chain in closed form, as IKFast's free joint: joint k held at v, the other six solved by a
+family or EAIK. v is searched over the joint's range (``"search"``, :mod:`.held_search`), or v = q0_k
+(``"seed"``), or q0_k and ``grid_size`` values (``"grid"``). Holding the first or last joint moves only the
+base or the tool (one form, the target moved); a joint in between needs a form per value.
 """
 
 from __future__ import annotations
@@ -13,12 +14,13 @@ import numpy as np
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import Family, Recognised, recognise_eaik, recognise_family
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
 
-REDUNDANCY_MODES = ("seed", "grid")
-DEFAULT_GRID_SIZE = 16  # held values over the range in "grid" mode (~0.35 rad apart on 2 pi)
+REDUNDANCY_MODES = ("search", "seed", "grid")
+DEFAULT_GRID_SIZE = 16  # held values over the range in "grid" and "search" (~0.4 rad apart on 2 pi)
 KEPT_FORMS = 256  # forms kept for a joint held in the middle (the grid's values recur)
 
 
@@ -54,30 +56,37 @@ class LockedChain:
         return rng.uniform(self.lower, self.upper, size=shape)
 
 
-def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
-    """``"grid"`` mode's values over the joint's range ([-pi, pi] where infinite; a turn without its end)."""
+def held_range(chain, index: int) -> tuple[float, float]:
+    """The held joint's range: its limits, [-pi, pi] where a bound is infinite."""
     low, high = float(chain.lower[index]), float(chain.upper[index])
-    if not (math.isfinite(low) and math.isfinite(high)):
-        low, high = -math.pi, math.pi
+    return (low, high) if math.isfinite(low) and math.isfinite(high) else (-math.pi, math.pi)
+
+
+def held_values(chain, index: int, mode: str, grid_size: int) -> np.ndarray:
+    """"grid" and "search" modes' values over the range (:func:`held_range`; a turn without its end)."""
+    low, high = held_range(chain, index)
     full_turn = not chain.is_prismatic[index] and high - low >= TWO_PI - 1e-12
-    return np.linspace(low, high, grid_size, endpoint=not full_turn) if mode == "grid" else np.zeros(0)
+    return np.zeros(0) if mode == "seed" else np.linspace(low, high, grid_size, endpoint=not full_turn)
 
 
 class LockedJointForm(ClosedForm):
     """A chain solved with joint ``index`` held; UnsupportedError where the rest has no closed form."""
 
     def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
-                 options: dict | None = None, mode: str = "seed", grid_size: int = DEFAULT_GRID_SIZE):
+                 options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE):
         super().__init__(chain)
+        last = index == chain.nq - 1
+        self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
+        """What the held joint moves where one form serves every value: the base, the tool, or None."""
+        if mode == "search" and self.moves is None:
+            mode = "grid"  # a joint in the middle needs a form per value: its grid, not a search
         self.index, self.mode, self.kind = index, mode, kind
         self.options = dict(options or {})
         self.target_kind = kind
         self.lines: ChainLines = chain_lines(chain)
         self.revolute = not chain.is_prismatic[index]
+        self.range = held_range(chain, index)
         self.grid = held_values(chain, index, mode, grid_size)
-        last = index == chain.nq - 1
-        self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
-        """What the held joint moves where one form serves every value: the base, the tool, or None."""
         self.families = families
         value = 0.0 if self.moves else float(np.clip(chain.nominal[index], chain.lower[index],
                                                      chain.upper[index]))
@@ -91,6 +100,9 @@ class LockedJointForm(ClosedForm):
         """What is tried at another value of a joint in the middle (a family, EAIK): what served first."""
         one_value = self.moves is not None and not len(self.grid)
         self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
+        self.search = HeldJointSearch(self) if mode == "search" else None
+        if self.search is not None:
+            self.kernel = SearchChoice(self.search)
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
@@ -154,30 +166,36 @@ class LockedJointForm(ClosedForm):
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        values = self.values(q0)
+        if self.search is None:
+            return self.branches_at(positions, rotations, q0, self.values(q0))
+        return _stacked([self.search.run(positions[i], None if rotations is None else rotations[i], q0[i])[:2]
+                         for i in range(len(positions))], self.chain.nq)
+
+    def branches_at(self, positions: np.ndarray, rotations: np.ndarray | None, q0: np.ndarray,
+                    values: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """Every branch with the joint held at each of ``values`` (B, V): (Q (B, V K, n), real (B, V K));
+        ``exact``: the 6-joint form's :meth:`~.ClosedForm.exact_branches`."""
         count, per_target = values.shape
         sub_starts = np.repeat(np.delete(q0, self.index, axis=1), per_target, axis=0)
         flat = values.reshape(-1)
         if self.moves is not None:
             repeated = None if rotations is None else np.repeat(rotations, per_target, axis=0)
             moved_p, moved_r = self.moved_targets(np.repeat(positions, per_target, axis=0), repeated, flat)
-            sub_q, sub_real = self.sub.form.branches(moved_p, moved_r, sub_starts)
+            solve = self.sub.form.exact_branches if exact else self.sub.form.branches
+            sub_q, sub_real = solve(moved_p, moved_r, sub_starts)
         else:
             parts = []
             for row, value in enumerate(flat.tolist()):
                 form = self._form_at(value)
                 target = row // per_target
                 if form is None:
-                    parts.append((np.full((1, 1, self.chain.nq - 1), np.nan), np.zeros((1, 1), dtype=bool)))
+                    parts.append((np.full((1, self.chain.nq - 1), np.nan), np.zeros(1, dtype=bool)))
                     continue
-                parts.append(form.branches(positions[target:target + 1],
-                                           None if rotations is None else rotations[target:target + 1],
-                                           sub_starts[row:row + 1]))
-            width = max(q.shape[1] for q, _ in parts)
-            sub_q = np.full((len(parts), width, self.chain.nq - 1), np.nan)
-            sub_real = np.zeros((len(parts), width), dtype=bool)
-            for row, (q, real) in enumerate(parts):
-                sub_q[row, :q.shape[1]], sub_real[row, :q.shape[1]] = q[0], real[0]
+                q, real = form.branches(positions[target:target + 1],
+                                        None if rotations is None else rotations[target:target + 1],
+                                        sub_starts[row:row + 1])
+                parts.append((q[0], real[0]))
+            sub_q, sub_real = _stacked(parts, self.chain.nq - 1)
         held = np.broadcast_to(flat[:, None, None], sub_q.shape[:2] + (1,))
         q_all = np.concatenate((sub_q[..., :self.index], held, sub_q[..., self.index:]), axis=-1)
         width = q_all.shape[1]
@@ -185,6 +203,15 @@ class LockedJointForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
+
+def _stacked(parts: list[tuple[np.ndarray, np.ndarray]], joints: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max K_i, n), padded with NaN."""
+    width = max(len(q) for q, _ in parts)
+    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
+    for row, (q, flags) in enumerate(parts):
+        q_all[row, :len(q)], real[row, :len(q)] = q, flags
+    return q_all, real
+
 
 class HeldChoice:
     """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint (the target moved)."""
@@ -229,7 +256,7 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
                          families: tuple[Family, ...]) -> Recognised:
     """The closed form holding ``redundancy["joint"]``, by default the first of the last, the first, the
     others from the tip that leaves one; UnsupportedError saying why none."""
-    mode = redundancy.get("mode", "seed")
+    mode = redundancy.get("mode", "search")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")
     count = chain.nq
@@ -247,7 +274,7 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
             first_reason = first_reason or f"holding {chain.joint_names[candidate]}: {refused}"
             continue
         check_fk_against_model(form)
-        family = f"{form.family} with {chain.joint_names[candidate]} held ({mode})"
+        family = f"{form.family} with {chain.joint_names[candidate]} held ({form.mode})"
         return Recognised(form, family, form.parameters)
     if index is not None:
         raise UnsupportedError(first_reason)

@@ -84,11 +84,12 @@ class AnalyticSolver(Solver):
     budgeted = False
 
     def __init__(self, robot, chain=None, closed_form_options: dict[str, dict] | None = None,
-                 redundant_joint: str | int | None = None, redundancy: str = "seed",
+                 redundant_joint: str | int | None = None, redundancy: str = "search",
                  grid_size: int = 16, **options):
         """``closed_form_options``: keyword arguments per target kind, e.g. ``{"position": {"yaw": 0.3}}``.
         A 7-joint chain holds ``redundant_joint`` (name or index; default: the first that leaves a closed
-        form) at the start's value (``redundancy="seed"``) or also at ``grid_size`` values (``"grid"``)."""
+        form), searched over its range (``redundancy="search"``, starting from a grid of ``grid_size``
+        values), at the start's value (``"seed"``) or also at ``grid_size`` values (``"grid"``)."""
         super().__init__(robot, chain, **options)
         self._forms: dict[str, ClosedForm] = {}
         self.closed_form_options = dict(closed_form_options or {})

@@ -33,6 +33,13 @@ class ChainLines:
         return len(self.axes)
 
     @cached_property
+    def rotation_terms(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per joint, K = [axis]x and K @ K (n, 3, 3), as :func:`axis_rotation` builds them."""
+        skews = [_skew(axis) for axis in self.axes]
+        return (np.array(skews).reshape(-1, 3, 3),
+                np.array([skew @ skew for skew in skews]).reshape(-1, 3, 3))
+
+    @cached_property
     def length(self) -> float:
         """The chain's size (m): base origin -> each joint origin -> tip, at least 1e-3 m."""
         points = np.vstack((np.zeros(3), self.origins, self.tip[:3, 3]))
@@ -91,10 +98,15 @@ def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
 
 def axis_rotation(axis: np.ndarray, angle) -> np.ndarray:
     """Rot(axis, angle) = I + sin(a) K + (1 - cos(a)) K^2, K = [axis]x; angles (...) -> (..., 3, 3)."""
-    x, y, z = axis
-    skew = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    skew = _skew(axis)
     angle = np.asarray(angle, dtype=float)[..., None, None]
     return np.eye(3) + np.sin(angle) * skew + (1.0 - np.cos(angle)) * (skew @ skew)
+
+
+def _skew(axis: np.ndarray) -> np.ndarray:
+    """[axis]x, the cross-product matrix."""
+    x, y, z = axis
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
 def locked_lines(lines: ChainLines, index: int, value: float) -> ChainLines:
@@ -113,6 +125,10 @@ def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tip positions (..., 3) and rotations (..., 3, 3) of joints q (..., n): T_1(q_1) ... T_n(q_n) M."""
     q = np.asarray(q, dtype=float)
     shape = q.shape[:-1]
+    skews, squares = lines.rotation_terms
+    joints_first = (slice(None),) + (None,) * len(shape)
+    angles = np.moveaxis(q, -1, 0)[..., None, None]
+    turns = np.eye(3) + np.sin(angles) * skews[joints_first] + (1.0 - np.cos(angles)) * squares[joints_first]
     rotation = np.broadcast_to(np.eye(3), shape + (3, 3))
     position = np.zeros(shape + (3,))
     for k in range(lines.count):
@@ -120,7 +136,7 @@ def poe_fk(lines: ChainLines, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if lines.prismatic[k]:
             position = position + np.einsum("...ij,j->...i", rotation, axis) * q[..., k, None]
             continue
-        turn = axis_rotation(axis, q[..., k])
+        turn = turns[k]  # axis_rotation(axis, q[..., k]), every joint's at once
         offset = lines.origins[k] - np.einsum("...ij,j->...i", turn, lines.origins[k])
         position = position + np.einsum("...ij,...j->...i", rotation, offset)
         rotation = rotation @ turn

@@ -1,0 +1,151 @@
+"""The held joint of a 7-joint arm searched, not guessed (``redundancy="search"``, the default).
+
+With joint k held at v the other six have a closed form, so every branch q_b(v) is exact wherever it is
+real; a pose is solved at v when some branch is real, inside the limits and passes the solver's screen
+(its FK residual). The feasible values form intervals of k's range, some far narrower than a coarse grid's
+spacing. The search evaluates the start's value and a grid over the range in one batch; where no value
+passes, a grid :data:`DENSER` times finer; then it zooms on the local minima of the violation (how far
+the joints are outside their limits plus the FK residual), a narrower grid each level, until a branch
+passes or the interval is below :data:`ZOOM_FLOOR`. Every passing branch found goes back to the solver,
+which takes the one nearest the start (``solve``) or the distinct ones (``solve_all``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from wbik.geometry import TWO_PI
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
+
+DENSER = 8
+"""Where no value of the grid passes, a grid this many times finer over the range comes next."""
+ZOOM_CANDIDATES = 3
+"""Local minima of the violation (the least violating) each zoom level searches around."""
+ZOOM_POINTS = 9
+"""Values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing."""
+ZOOM_FLOOR = 1e-6
+"""Half-width (rad or m) below which the zoom stops: the limits and the screen are this fine."""
+
+
+class HeldJointSearch:
+    """The search over the held joint of a :class:`~.redundancy.LockedJointForm` whose one 6-joint form
+    serves every value (the first or last joint held)."""
+
+    def __init__(self, form):
+        self.form = form
+        chain = form.chain
+        self.lower, self.upper = chain.lower, chain.upper
+        self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
+        k = form.index
+        self.low, self.high = float(form.range[0]), float(form.range[1])
+        self.full_turn = bool(self.revolute[k]) and self.high - self.low >= TWO_PI - 1e-12
+
+    def run(self, position: np.ndarray, rotation: np.ndarray | None,
+            q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+        """(Q (K, n) wrapped nearest q0, passed (K,), outcome): the passing branches found (all passed,
+        outcome their count), else every branch evaluated (real where real; outcome 0 without a real one,
+        -1 without one inside the limits, -2 without one passing the screen)."""
+        k = self.form.index
+        seed = min(max(float(q0[k]), float(self.lower[k])), float(self.upper[k]))
+        values = np.concatenate(([seed], self.form.grid))
+        spacing = (self.high - self.low) / max(len(self.form.grid), 1)
+        evaluated, outcome = [], 0
+        while True:
+            raw, real = self.form.branches_at(position[None], None if rotation is None else rotation[None],
+                                              q0[None], values[None], exact=True)
+            raw, real = raw[0], real[0] & np.all(np.isfinite(raw[0]), axis=-1)
+            wrapped, inside = wrap_into_limits(raw, q0, self.lower, self.upper, self.revolute)
+            candidates = np.flatnonzero(real & inside)
+            residual = self._residual(wrapped[candidates], position, rotation)
+            screened = residual <= self.form.screen_tolerance
+            if screened.any():
+                count = int(screened.sum())
+                return wrapped[candidates[screened]], np.ones(count, dtype=bool), count
+            outcome = min(outcome, -2 if len(candidates) else -1 if real.any() else 0)
+            evaluated.append((wrapped, real))
+            if len(evaluated) == 1:  # a feasible interval narrower than the grid: a finer grid first
+                values = self._grid(DENSER * len(self.form.grid))
+                spacing /= DENSER
+                continue
+            if spacing < ZOOM_FLOOR:
+                break
+            violation = self._violation(raw, real, position, rotation)
+            violation[candidates] += residual  # inside the limits, real, yet off the target
+            violation = violation.reshape(len(values), -1).min(axis=1)
+            values = self._zoom(values, violation, spacing)
+            spacing = 2.0 * spacing / (ZOOM_POINTS - 1)
+        return (np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated]),
+                outcome)
+
+    def _grid(self, count: int) -> np.ndarray:
+        """``count`` values over the held joint's range (a full turn without its last value)."""
+        return np.linspace(self.low, self.high, count, endpoint=not self.full_turn)
+
+    def _violation(self, q: np.ndarray, real: np.ndarray, position: np.ndarray,
+                   rotation: np.ndarray | None) -> np.ndarray:
+        """Per branch, how far it is from passing: the joints outside their limits (:meth:`_limit_excess`)
+        plus, for an approximate branch, its FK residual (m and rad); inf for non-finite joints."""
+        violation = self._limit_excess(q)
+        approximate = ~real & np.all(np.isfinite(q), axis=-1)
+        violation[approximate] += self._residual(q[approximate], position, rotation)
+        violation[~np.all(np.isfinite(q), axis=-1)] = np.inf
+        return violation
+
+    def _residual(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
+        """max(|p - p*|, angle(R*^T R)) of joints q (m, n) by the form's FK, as the solver screens."""
+        if not len(q):
+            return np.zeros(0)
+        reached_p, reached_r = self.form.fk(q)
+        residual = np.linalg.norm(reached_p - position, axis=-1)
+        if rotation is not None:
+            cosine = (np.einsum("kij,ij->k", reached_r, rotation) - 1.0) / 2.0
+            residual = np.maximum(residual, np.arccos(np.clip(cosine, -1.0, 1.0)))
+        return residual
+
+    def _limit_excess(self, q: np.ndarray) -> np.ndarray:
+        """Per branch, the sum over joints of how far (rad or m) each is outside its limits, a revolute
+        joint at its nearest 2 pi shift."""
+        below, above = self.lower - q, q - self.upper
+        outside = np.maximum(np.maximum(below, above), 0.0)
+        if self.revolute.any():
+            turns = np.round((0.5 * (self.lower + self.upper) - q) / TWO_PI)
+            shifted = q + np.where(np.isfinite(turns), turns, 0.0) * TWO_PI
+            wrapped = np.maximum(np.maximum(self.lower - shifted, shifted - self.upper), 0.0)
+            outside = np.where(self.revolute, np.minimum(outside, wrapped), outside)
+        outside = np.maximum(outside - LIMIT_TOLERANCE, 0.0)
+        return np.sum(outside, axis=-1)
+
+    def _zoom(self, values: np.ndarray, violation: np.ndarray, spacing: float) -> np.ndarray:
+        """The next level's values: ZOOM_POINTS over [v - h, v + h] (h = ``spacing``) around the
+        ZOOM_CANDIDATES least violating local minima of the violation along the held joint's range."""
+        order = np.argsort(values, kind="stable")
+        ordered, along = values[order], violation[order]
+        left = np.r_[np.inf, along[:-1]]
+        right = np.r_[along[1:], np.inf]
+        minima = np.flatnonzero((along <= left) & (along <= right) & np.isfinite(along))
+        best = minima[np.argsort(along[minima], kind="stable")[:ZOOM_CANDIDATES]]
+        centres = ordered[best] if len(best) else values[:1]
+        offsets = np.linspace(-spacing, spacing, ZOOM_POINTS)
+        zoomed = (centres[:, None] + offsets).reshape(-1)
+        if self.full_turn:
+            zoomed = self.low + np.mod(zoomed - self.low, TWO_PI)
+        return np.clip(zoomed, self.low, self.high)
+
+
+class SearchChoice:
+    """``solve``'s kernel of a searched held joint: of the branches the search passed (screened), the one
+    nearest the start, as the solver's vectorised choice takes it."""
+
+    def __init__(self, search: HeldJointSearch):
+        self.search = search
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray | None, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """The chosen branch into ``out``: the number of passing branches, else 0, -1 or -2 (as
+        :class:`~.compiled.CompiledForm`)."""
+        q, _, outcome = self.search.run(position, rotation, reference)
+        if outcome > 0:
+            squares = q - reference
+            squares *= squares
+            out[:] = q[int(np.argmin(np.sqrt(np.add.reduce(squares, axis=1))))]
+        return outcome
