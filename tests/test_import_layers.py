@@ -35,17 +35,17 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[1] / "wbik"
 
-CORE = ("wbik.errors", "wbik.dependencies", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry",
-        "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels", "wbik.robot", "wbik.dh", "wbik.models",
-        "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion", "wbik.study", "wbik.viz", "wbik.collision",
-        "wbik.wholebody", "wbik.scenario_schema", "wbik.expectations", "wbik.scenarios", "wbik.urdf",
-        "wbik.kinematic_tree", "wbik.mujoco_model")
+CORE = ("wbik.errors", "wbik.dependencies", "wbik.peer_output", "wbik.validation", "wbik.schema",
+        "wbik.options", "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry", "wbik.kernels",
+        "wbik.robot", "wbik.dh", "wbik.models", "wbik.data", "wbik.solvers", "wbik.qp", "wbik.motion",
+        "wbik.study", "wbik.viz", "wbik.collision", "wbik.wholebody", "wbik.scenario_schema",
+        "wbik.expectations", "wbik.scenarios", "wbik.urdf", "wbik.kinematic_tree", "wbik.mujoco_model")
 ROBOT_PACKAGES = ("wbik.robot_packages",)
 APPLICATIONS = ("wbik.apps", *ROBOT_PACKAGES)  # what the core must not import (robot packages too)
 ENTRY_POINTS = ("wbik.cli", "wbik.commands", "wbik.catalog")
 LAYERS = (  # the core's layers, from the bottom; a module imports its own layer and those below
-    ("wbik.errors", "wbik.dependencies", "wbik.validation", "wbik.schema", "wbik.options", "wbik.geometry",
-     "wbik.files", "wbik.targets", "wbik.registry", "wbik.data", "wbik.kernels"),
+    ("wbik.errors", "wbik.dependencies", "wbik.peer_output", "wbik.validation", "wbik.schema", "wbik.options",
+     "wbik.geometry", "wbik.files", "wbik.targets", "wbik.registry", "wbik.data", "wbik.kernels"),
     ("wbik.dh", "wbik.urdf", "wbik.kinematic_tree", "wbik.robot", "wbik.models", "wbik.collision",
      "wbik.mujoco_model"),
     ("wbik.solvers", "wbik.qp", "wbik.wholebody"),
