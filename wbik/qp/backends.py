@@ -59,11 +59,9 @@ def resolve(name: str) -> str:
     """A backend name ("fastest" and "default" allowed) checked against what is installed."""
     resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
     if resolved == "daqp":  # called directly (below): qpsolvers is not needed for it
-        try:
+        with contextlib.suppress(ImportError):
             import daqp  # noqa: F401
-        except ImportError:
-            pass
-        else:
+
             return resolved
     if resolved not in _qpsolvers().available_solvers:
         raise BackendUnavailableError(

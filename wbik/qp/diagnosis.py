@@ -117,9 +117,7 @@ class Diagnosis:
     def reason_with_summary(self, reason: str) -> str:
         """``reason`` with this diagnosis's summary at its end ("; " between them when both are given)."""
         text = self.summary()
-        if not text:
-            return reason
-        return f"{reason}; {text}" if reason else text
+        return f"{reason}; {text}" if reason and text else reason or text
 
 
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
@@ -145,10 +143,8 @@ def _start_text(texts: str, clipped: bool) -> str:
 
 
 def _amount(value: float, unit: str) -> str:
-    if unit == "m":
-        return f"{value * 1e3:.3g} mm"
-    if unit == "rad":
-        return f"{value * 1e3:.3g} mrad"
+    if unit in ("m", "rad"):
+        return f"{value * 1e3:.3g} m{unit}"
     return f"{value:.3g} ({unit})" if unit else f"{value:.3g}"
 
 
@@ -214,7 +210,7 @@ class _Hierarchy:
         G0, h0, A0, b0 = kept_rows.split()
         inequality_index = np.flatnonzero(keep)[~kept_rows.equality]
         equality_index = np.flatnonzero(keep)[kept_rows.equality]
-        extra_G, extra_h = [], []
+        extra_G, extra_h = ([], []) if G0 is None else ([G0], [h0])  # the rows, then those levels keep
         dq, duals = np.zeros(nv), []
         for entries, damping in self.levels[:upto + 1]:
             hessian, gradient = np.eye(nv) * damping, np.zeros(nv)
@@ -241,8 +237,7 @@ class _Hierarchy:
 
             H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
             c = np.concatenate((gradient, np.zeros(count)))
-            blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]
-            blocks_h = [] if G0 is None else [h0]
+            blocks_G, blocks_h = [], []
             if extra_G:
                 padding = np.zeros((sum(len(h) for h in extra_h), count))
                 blocks_G.append(np.hstack((np.vstack(extra_G), padding)))
@@ -312,10 +307,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     threshold = max(1e-12, ACTIVE * float(multipliers.max(initial=0.0)))
     groups: dict[tuple, list[int]] = {}
     for index in np.flatnonzero(multipliers > threshold).tolist():
-        label = rows.labels[index]
-        if isinstance(label.owner, StepBox):
-            continue
-        groups.setdefault(group_key(label), []).append(index)
+        if not isinstance(rows.labels[index].owner, StepBox):
+            groups.setdefault(group_key(rows.labels[index]), []).append(index)
     masks = []
     for indices in groups.values():  # (a group: every row of one constraint's subject and side)
         mask = np.isin(np.arange(len(rows)), indices)
@@ -328,8 +321,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
                                           float(multipliers[indices].max()), base - residual(relaxed)))
     unmet_tasks = {id(task) for _, _, task in unmet}
     for level_index, (entries, _) in enumerate(hierarchy.levels[:deepest + 1]):
-        for entry in entries:
-            task = entry[0]
+        for task, *_ in entries:
             if id(task) in unmet_tasks and len(unmet) == 1:
                 continue
             try:
@@ -387,11 +379,8 @@ def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str,
 
 
 def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
-    advice = []
-    for conflict_task in diagnosis.tasks[:1]:
-        advice.append(conflict_task.advice)
-    for blocker in diagnosis.blockers[:2]:
-        advice.append(blocker.label.owner.advice(blocker.label))
+    advice = [task.advice for task in diagnosis.tasks[:1]]
+    advice += [blocker.label.owner.advice(blocker.label) for blocker in diagnosis.blockers[:2]]
     scale = sum(diagnosis.goals.values())
     if diagnosis.step_gain > max(1e-9, 1e-3 * scale) and "no convergence" in reason:
         advice.append("the steps still reduce the goal error: a larger budget (max_iterations) goes further")

@@ -1,12 +1,6 @@
-"""The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 until the goals are met.
-
-``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates them under a
-trust region with merit acceptance until every goal task is under its tolerance and every contact holds
-(Newton projections, :meth:`IKProblem.project`, where a step's contact rows are not enough), or stalls
-at the best effort, and verifies its answer by FK. A solve that does not succeed explains itself
-(``QPSolution.diagnosis``, :mod:`wbik.qp.diagnosis`); a step whose hard constraints conflict raises
-NoQPSolutionError with ``conflict``, the rows that conflict (:mod:`wbik.qp.elastic`).
-"""
+"""The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 under a trust region until the goals are
+met and the contacts hold (Newton projections), or at the best effort; answers verified by FK, a failed
+solve diagnosed (:mod:`wbik.qp.diagnosis`)."""
 
 from __future__ import annotations
 
@@ -140,10 +134,9 @@ class IKProblem:
 
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
-        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with ``conflict``, the
-        hard rows that conflict) when the QP has no solution. For control, v = dq / dt is the joint velocity
-        for one period dt; ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the
-        previous step's dq / dt); ``profile``: a dict to which the seconds of each ``PHASES`` are added."""
+        """The QP displacement dq at q (default: the current q), v = dq / dt for control; NoQPSolutionError
+        (``conflict``: the hard rows that conflict) without a solution. ``velocity`` (nv): the joint velocity
+        for acceleration limits (default: the last dq / dt); ``profile``: seconds per ``PHASES`` added."""
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q, clip=False)
@@ -193,9 +186,8 @@ class IKProblem:
         for _ in range(max_iterations):
             if self._equalities_met(tolerance):
                 return True
-            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps
-            # every bound (limits, locked joints, velocities) and, by FK, the inequalities (the CoM in
-            # its polygon: this step knows nothing of them); otherwise the QP with every constraint
+            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps every
+            # bound and, by FK, the inequalities; otherwise the QP with every constraint
             rows = [c.equality(kinematics) for c in equalities]
             A, b = rows[0] if len(rows) == 1 else (np.vstack([r.A for r in rows]),
                                                      np.concatenate([r.b for r in rows]))
@@ -250,10 +242,7 @@ class IKProblem:
         return all(constraint.violation(self.kinematics) <= tolerance for constraint in self._equalities)
 
     def _inequality_violation(self) -> float:
-        total = 0
-        for constraint in self._inequalities:
-            total += constraint.violation(self.kinematics)
-        return total
+        return sum(constraint.violation(self.kinematics) for constraint in self._inequalities)
 
     def _checks(self) -> tuple[float, bool, float]:
         """(merit, goals met, inequality violation) at the current q."""

@@ -129,10 +129,6 @@ class Level:
         """(J, -g e) of the inequality tasks: their rows J dq + w... as J dq - w <= -g e."""
         return self.inequality_jacobian, -self.inequality_gain * self.inequality_error
 
-    def weighted_rows(self) -> np.ndarray:
-        """sqrt(w) J, in a reused buffer."""
-        return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
-
     def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
         """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping), c = (sqrt(w) J)^T (g sqrt(w) e)
         in reused buffers; ``weighted`` holds sqrt(w) J afterwards."""
@@ -140,7 +136,7 @@ class Level:
             self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
                                      self.diagonal, damping, self.weighted, self.hessian, self.gradient)
             return self.hessian, self.gradient
-        weighted = self.weighted_rows()
+        weighted = np.multiply(self.jacobian, self.row_scale, out=self.weighted)
         H = weighted.T.dot(weighted, out=self.hessian)
         self._hessian_diagonal += self.diagonal + damping
         scaled_error = np.multiply(self.error, self.error_scale, out=self._scaled_error)

@@ -128,9 +128,6 @@ class SupportPolygon:
         """Distance from ``point`` (x, y) to the boundary, positive inside, negative outside."""
         return float((self.offsets - self.normals @ np.asarray(point, dtype=float)[:2]).min())
 
-    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
-        return self.margin_of(point) >= margin
-
     def halfplanes(self, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(N, d - margin): the polygon shrunk by ``margin`` as N x <= d - margin."""
         return self.normals, self.offsets - margin
@@ -170,9 +167,6 @@ class DegenerateSupport:
         along = 0.0 if length_squared == 0.0 else min(max(float((point - start) @ direction) / length_squared,
                                                           0.0), 1.0)
         return 0.0 - float(np.hypot(*(point - start - along * direction)))  # (0.0, not -0.0, on it)
-
-    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
-        return False
 
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:

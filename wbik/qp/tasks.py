@@ -134,6 +134,40 @@ class _FrameTaskBase(Task):
                                           placement.rotation)
             self._compiled_for = kinematics
 
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.placement(self.frame_id).translation
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.jacobian(self.frame_id)[:3]
+
+
+class _ComPoint(Task):
+    """The centre of mass as a task's point (world, m)."""
+
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com()
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com_jacobian()
+
+
+class _AxesTask(Task):
+    """A point (``_point``) toward ``target`` (world, m) on some axes: e = (p - p*)[axes]."""
+
+    unit = "m"
+
+    def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
+        self.rows = axis_rows(axes)
+        self.dimension = len(self.rows)
+        super().__init__(**options)
+        self.target = np.asarray(target, dtype=float).reshape(3).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return (self._point(kinematics) - self.target)[self.rows]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return self._point_jacobian(kinematics)[self.rows]
+
 
 class _PoseTask(_FrameTaskBase):
     """A 6-row pose task: ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad
@@ -195,22 +229,11 @@ class FrameTask(_PoseTask):
         _fill_rotation(kinematics, frame_id, placement.rotation, target.rotation, jacobian[3:], error[3:])
 
 
-class PositionTask(_FrameTaskBase):
+class PositionTask(_AxesTask, _FrameTaskBase):
     """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
 
-    unit = "m"
-
     def __init__(self, frame: str, target: Sequence[float], axes: str = "xyz", **options):
-        self.rows = axis_rows(axes)
-        self.dimension = len(self.rows)
-        super().__init__(frame, **options)
-        self.target = np.asarray(target, dtype=float).reshape(3).copy()
-
-    def error(self, kinematics: Kinematics) -> np.ndarray:
-        return (kinematics.placement(self.frame_id).translation - self.target)[self.rows]
-
-    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.jacobian(self.frame_id)[self.rows]
+        super().__init__(target, axes, frame=frame, **options)
 
 
 class OrientationTask(_FrameTaskBase):
@@ -278,22 +301,8 @@ class RelativeFrameTask(_PoseTask):
         return np.vstack((linear, angular))
 
 
-class ComTask(Task):
+class ComTask(_AxesTask, _ComPoint):
     """Centre of mass in the world, optionally on some axes only: e = (c - c*)[axes]."""
-
-    unit = "m"
-
-    def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
-        self.rows = axis_rows(axes)
-        self.dimension = len(self.rows)
-        super().__init__(**options)
-        self.target = np.asarray(target, dtype=float).reshape(3).copy()
-
-    def error(self, kinematics: Kinematics) -> np.ndarray:
-        return (kinematics.com() - self.target)[self.rows]
-
-    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com_jacobian()[self.rows]
 
 
 class PostureTask(Task):
@@ -359,7 +368,7 @@ class RegularizationTask(Task):
 
 class _BoxTask(Task):
     """A point inside an axis-aligned box (world, m), as an inequality task: e = [p - upper; lower - p]
-    on the box's finite sides (each row <= 0 inside). Subclasses give ``_point`` and its Jacobian."""
+    on the box's finite sides (each row <= 0 inside), p its ``_point``."""
 
     inequality = True
 
@@ -396,19 +405,7 @@ class PositionBoxTask(_BoxTask, _FrameTaskBase):
                  **options):
         super().__init__(lower, upper, frame=frame, **options)
 
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.placement(self.frame_id).translation
 
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.jacobian(self.frame_id)[:3]
-
-
-class ComBoxTask(_BoxTask):
+class ComBoxTask(_BoxTask, _ComPoint):
     """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
     level: an inequality task."""
-
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com()
-
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com_jacobian()

@@ -19,6 +19,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import Constraint
 from wbik.qp.contacts import Contact, HeldFrame, PointContact
 from wbik.qp.distances import MinimumDistance
+from wbik.qp.humanoid import contact_constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
@@ -85,15 +86,8 @@ class WholeBody:
         if isinstance(contacts, str):
             contacts = [contacts]
         held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
-        made: list[HeldFrame] = []
-        for frame, placement in held.items():
-            placement = None if placement is None else pin.SE3(placement)
-            sole = self.robot.soles.get(str(frame))
-            if sole is not None and len(sole) == 1:  # a point foot: its position only
-                made.append(PointContact(str(frame), None if placement is None else placement.translation))
-            else:
-                made.append(Contact(str(frame), placement))
-        return made
+        return [contact_constraint(self.robot, str(frame), None if placement is None else pin.SE3(placement))
+                for frame, placement in held.items()]
 
     def _support(self, support, contacts: list[str], margin: float) -> list[Constraint]:
         soles = self.robot.soles
