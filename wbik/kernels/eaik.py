@@ -25,16 +25,11 @@ def parameters(joints: int, lower, upper, slack: float, limit_tolerance: float, 
     """float64 values in bytes: ``slack`` (the bound's), ``limit_tolerance``, ``screen_tolerance``, lower
     (n), upper (n), and from ``lines`` (:class:`~wbik.solvers.analytic.structure.ChainLines`; zeros
     without, for ``order`` only) the joint axes (n x 3), origins (n x 3) and tip pose at q = 0 (R, p)."""
-    if lines is None:
-        axes, origins, tip = np.zeros((joints, 3)), np.zeros((joints, 3)), np.eye(4)
-    else:
-        axes, origins, tip = lines.axes, lines.origins, lines.tip
-    tip = np.asarray(tip, dtype=float)
-    params = np.concatenate((
-        [slack, limit_tolerance, screen_tolerance], np.asarray(lower, dtype=float),
-        np.asarray(upper, dtype=float), np.asarray(axes, dtype=float).ravel(),
-        np.asarray(origins, dtype=float).ravel(), tip[:3, :3].ravel(), tip[:3, 3]))
-    return params.tobytes()
+    axes, origins, tip = ((np.zeros((joints, 3)), np.zeros((joints, 3)), np.eye(4)) if lines is None
+                          else (lines.axes, lines.origins, lines.tip))
+    tip = np.asarray(tip, dtype=float)[:3]
+    values = (slack, limit_tolerance, screen_tolerance), lower, upper, axes, origins, tip[:, :3], tip[:, 3]
+    return np.concatenate([np.ravel(value) for value in values], dtype=float).tobytes()
 
 
 def wrapped_python(raw: list[float], reference: list[float], lower: list[float], upper: list[float],

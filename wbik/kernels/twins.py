@@ -42,42 +42,32 @@ PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 
 @dataclass(frozen=True)
 class Kernel:
-    """One compiled kernel: ``name``, its extension (None where not built), what it computes, where its
-    Python twin lives, and the goal rows of ``benchmarks/all.py`` it moves."""
+    """One compiled kernel (what it computes: its C file's header): ``name``, its extension (None where not
+    built), where its Python twin lives, and the goal rows of ``benchmarks/all.py`` it moves."""
 
     name: str
     extension: ModuleType | None
-    computes: str
     python_twin: str
     goal_rows: tuple[str, ...]
 
 
 KERNELS = (
     Kernel("pose", _pose,
-           "as_target's fast-path test of a pose; the shared FK check's arithmetic "
-           "(p - p*, |p - p*|, R*^T R)",
            "wbik.targets._python_accepts_plain_se3, wbik.geometry._python_error_parts",
            ("interface overhead", "Golem-III closed-form solve")),
     Kernel("ur_type", _ur_type,
-           "the UR-type closed form's choice: branches, wrapping into the limits, screen, nearest branch",
            "wbik.solvers.analytic.ur_type.branches_by_joint with "
            "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
            ("UR5 closed-form solve", "UR5 closed-form solve_all", "UR5 closed-form solve_many")),
     Kernel("stacked_planar", _stacked_planar,
-           "the stacked-planar (Golem-III arm) pose closed form's choice, as the UR-type kernel's",
            "wbik.solvers.analytic.stacked_planar.StackedPlanarPose.branches with "
            "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
            ("Golem-III closed-form solve",)),
-    Kernel("eaik", _eaik,
-           "the eaik method's choice among EAIK's branches: order, wrapping, FK screen, check arithmetic",
-           "wbik.kernels.eaik (order_python, choose_python)",
-           ("eaik method solve",)),
+    Kernel("eaik", _eaik, "wbik.kernels.eaik (order_python, choose_python)", ("eaik method solve",)),
     Kernel("qp_rows", _qp_rows,
-           "the QP step's frame-task rows, each priority level's H and c, the constraint stack's copies",
            "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends (Pinocchio and NumPy)",
            ("whole-body QP step", "converged whole-body IK")),
     Kernel("lm_trial", _lm_trial,
-           "one damped, bounded Levenberg-Marquardt trial of bounded_lm",
            "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK)",
            ("bounded_lm mean time",)),
 )

@@ -1,10 +1,6 @@
-"""QP backends through qpsolvers, selected by name; DAQP called directly on reused buffers.
-
-Every QP step solves  min 1/2 x^T H x + c^T x  s.t.  G x <= h, A x = b, lb <= x <= ub  with dense
-matrices. ``BACKEND_OPTIONS`` sets tolerances tight enough for IK to 1e-6; the default is DAQP, the
-fastest on these small dense QPs (``benchmarks/qp.py``, docs/benchmarks.md). A backend that finds no
-minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status.
-"""
+"""Dense QP backends by name:  min 1/2 x^T H x + c^T x  s.t.  G x <= h, A x = b, lb <= x <= ub, through
+qpsolvers (tolerances in ``BACKEND_OPTIONS``) or DAQP, the default, called directly on reused buffers. No
+minimiser: :class:`wbik.errors.NoQPSolutionError` with the backend's status."""
 
 from __future__ import annotations
 
@@ -102,8 +98,7 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
     diagnoses of a failed solve; NoQPSolutionError when there is none."""
     solution = _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
-    # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
-    # contradictory ones included, and reports an optimum 5 cm off them)
+    # (DAQP reduces dependent equality rows away, contradictory ones included: an "optimum" off them)
     broken = max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
                  float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)
     if broken > 1e-6:
@@ -117,10 +112,9 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
 
 
 class StackedConstraints:
-    """lb <= x <= ub, G x <= h and A x = b as DAQP takes them, in buffers reused (and grown) from one QP
-    to the next: ``lower <= [I; M] x <= upper``, the first n entries the simple bounds, then one row of M
-    per constraint row (an equality: ``sense`` 5, lower = upper). Each ``add`` is recorded (``_layout``):
-    where the next QP repeats it, the sense and lower bounds already written there are kept."""
+    """lb <= x <= ub, G x <= h and A x = b as DAQP takes them, ``lower <= [I; M] x <= upper`` (an equality
+    row: ``sense`` 5, lower = upper), in buffers reused from one QP to the next (the sense and lower bounds
+    kept where the next QP repeats an ``add``)."""
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
@@ -260,9 +254,8 @@ def split_rows(matrix: np.ndarray, upper: np.ndarray, equality: np.ndarray) -> t
 
 
 class DaqpWorkspace:
-    """DAQP workspaces (``daqp.Model``: no set-up allocations, the previous active set as the warm
-    start), one per constraint layout (the ``sense`` pattern); the QP is strictly convex, so the
-    minimiser does not depend on the start."""
+    """One ``daqp.Model`` per constraint layout (the ``sense`` pattern), warm-started from the previous
+    active set (the QP is strictly convex: the minimiser does not depend on it)."""
 
     def __init__(self):
         import daqp
@@ -314,10 +307,9 @@ def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
 
 def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
                   tolerance: float, workspace: DaqpWorkspace | None = None) -> np.ndarray:
-    """The minimiser with every inequality row held to ``tolerance`` (a level's kept rows): DAQP warm
-    (``workspace``), then cold at that primal tolerance, then cold at its default; the first answer
-    that holds the rows, else the one that breaks them least (docs/measurements.md). Other backends
-    are solved once (tight tolerances in ``BACKEND_OPTIONS``)."""
+    """The minimiser with every inequality row held to ``tolerance``: DAQP warm, then cold at that primal
+    tolerance, then at its default, the first that holds the rows or else the least breaking one
+    (docs/measurements.md); another backend once."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     rows = constraints.inequality_rows()

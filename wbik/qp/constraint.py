@@ -1,9 +1,6 @@
-"""What every hard constraint is: typed rows for one QP step over dq (nv), a measure of a configuration
-by FK for the shared check, and words for its own rows.
-
-A constraint derives from ``BoundConstraint`` (``bounds(k, dt)``), ``EqualityConstraint`` (``equality(k)``,
-also projected onto by the IK loop) or ``InequalityConstraint`` (``inequality(k)``). It puts its rows in
-words (``labels``, ``row_text``, ``blocker_text``, ``advice``): the diagnoses never ask for its kind.
+"""Hard constraints: typed rows for one QP step over dq (nv) from ``BoundConstraint.bounds``,
+``EqualityConstraint.equality`` or ``InequalityConstraint.inequality``, a measure by FK for the shared
+check, and words for their own rows (``labels``, ``row_text``, ``blocker_text``, ``advice``).
 """
 
 from __future__ import annotations

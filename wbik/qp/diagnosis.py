@@ -1,13 +1,10 @@
 """Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
 
-Made when a solve fails (``IKProblem.diagnose``), from the QP step at the answer q with its labelled hard
-rows (:func:`wbik.qp.hard_rows.step_rows`). With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised
-error (|max(0, .)| for an inequality task), the levels are solved with every row (dq*, with the rows'
-multipliers) and again without each group of active rows (a joint's bound on one side, a contact, a
-polygon edge, a pair) and without each other task: the ``gain`` r(dq*) - r(dq* without it) ranks the
-``blockers`` and the ``tasks`` in conflict. ``step_gain`` = sum_g |e_g| - r(dq*) is what one more step
-would achieve; ``stationary``: nothing blocks and no step helps (out of reach, or a local minimum);
-``infeasible``: the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
+With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised error, the step's levels over its labelled
+hard rows (:func:`wbik.qp.hard_rows.step_rows`) are solved with every row (dq*) and without each group of
+active rows or each other task: the ``gain`` r(dq*) - r(without it) ranks the ``blockers`` and ``tasks``.
+``step_gain`` = sum_g |e_g| - r(dq*); ``stationary``: nothing blocks and no step helps; ``infeasible``:
+the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
 """
 
 from __future__ import annotations
@@ -121,9 +118,8 @@ class Diagnosis:
 
 
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
-    """(diagnosis, reason) of the ``(problem, solution)`` a method's QP solve left in ``local.last``
-    (cleared here): a failed result, with ``diagnose``, gets its diagnosis and the summary at the end of
-    ``reason``; any other, what the start broke (None: nothing, or no QP solve) and ``reason``."""
+    """(diagnosis, reason) of the ``(problem, solution)`` left in ``local.last`` (cleared): a failed one,
+    with ``diagnose``, is diagnosed and summarised in ``reason``; another keeps what its start broke."""
     last = getattr(local, "last", None)
     if last is None:
         return None, reason
@@ -338,10 +334,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
             diagnosis.tasks.append(TaskConflict(task.name, task.priority, task.goal, gain, held,
                                                 _task_advice(task, level_index, goal_level, held, step)))
     diagnosis.tasks.sort(key=lambda t: -t.gain)
-    # a blocker holds the goals back on its own: with the non-goal task that conflicts most with them
-    # left out as well (a posture on their level), relaxing it must still bring them closer; an active
-    # row whose relaxation does not (it holds back other tasks only), or brings them under 1 % of the
-    # largest gain closer, is left out
+    # a blocker must still bring the goals closer with the non-goal task that conflicts most with them
+    # left out as well, and by at least 1 % of the largest gain
     top = next((t for t in diagnosis.tasks if not t.goal), None)
     if top is not None:
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)

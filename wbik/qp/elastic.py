@@ -1,10 +1,8 @@
 """Why a step has no solution: a small set of its hard rows that conflict, by an elastic re-solve.
 
-Every row of the step (:class:`wbik.qp.hard_rows.HardRows`, M dq <= u; an equality as two rows) gets a
-slack s >= 0 in the LP  min sum_i s_i  s.t.  M dq - s <= u  (scipy's HiGHS), whose optimum is 0 exactly
-when the rows are compatible. Otherwise its dual y is a Farkas certificate (the rows with y_i > 0 cannot
-hold together), shrunk by a deletion filter to an irreducible infeasible subsystem: without any one of
-its rows the rest hold. A row's ``violation`` is its slack in the elastic optimum (m or rad of the step).
+Every row M dq <= u (an equality as two) gets a slack s >= 0 in the LP  min sum_i s_i  s.t.  M dq - s <= u
+(HiGHS), 0 exactly when the rows are compatible; otherwise its dual is a Farkas certificate, shrunk by a
+deletion filter to an irreducible infeasible subsystem. A row's ``violation``: its slack (m or rad).
 """
 
 from __future__ import annotations

@@ -1,15 +1,12 @@
-"""The hard rows of one QP step, each with its label: what the diagnoses of a failed solve read.
+"""The hard rows of one QP step, each with its label, for the diagnoses of a failed solve.
 
-:func:`step_rows` rebuilds the step's stacked system (:class:`wbik.qp.backends.StackedConstraints`) at the
-kinematics' q as rows M dq <= u (or = u), one :class:`~wbik.qp.rows.RowLabel` each: every finite bound
-is its own row (+dq_j <= ub_j, -dq_j <= -lb_j), labelled by the constraint that set it (the step box,
-:data:`wbik.qp.constraint.STEP_BOX`, where none is tighter). The values are those the backend saw;
-violated inequality rows are relaxed to "do not get worse" (h -> max(h, 0)) unless ``relax`` is False.
+:func:`step_rows` rebuilds the step's stacked system as rows M dq <= u (or = u), as the backend saw them:
+every finite bound its own row (+dq_j <= ub_j, -dq_j <= -lb_j) labelled by the constraint that set it (or
+the step box), violated inequality rows relaxed to h -> max(h, 0) unless ``relax`` is False.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,11 +31,8 @@ class HardRows:
     def __len__(self) -> int:
         return len(self.labels)
 
-    def subset(self, keep: np.ndarray | Iterable[int]) -> HardRows:
-        """The rows ``keep`` (a boolean mask or indices)."""
-        keep = np.asarray(keep)
-        if keep.dtype != bool:
-            keep = np.isin(np.arange(len(self)), keep)
+    def subset(self, keep: np.ndarray) -> HardRows:
+        """The rows of the boolean mask ``keep``."""
         return HardRows(self.matrix[keep], self.upper[keep], self.equality[keep],
                         [label for label, kept in zip(self.labels, keep.tolist(), strict=True) if kept])
 
@@ -75,11 +69,10 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
         labels = constraint.labels(kinematics, rows)
         if isinstance(rows, BoundRows):
             indices = np.arange(nv)[rows.index]
-            lower = np.broadcast_to(np.asarray(rows.lower, dtype=float), indices.shape)
-            upper = np.broadcast_to(np.asarray(rows.upper, dtype=float), indices.shape)
-            for j, low, high, (low_label, high_label) in zip(indices.tolist(), lower.tolist(), upper.tolist(),
-                                                             labels, strict=True):
-                candidates[j].append((low, high, low_label, high_label))
+            lower, upper = (np.broadcast_to(np.asarray(value, dtype=float), indices.shape).tolist()
+                            for value in rows[1:])
+            for j, low, high, pair in zip(indices.tolist(), lower, upper, labels, strict=True):
+                candidates[j].append((low, high, *pair))
         else:
             count = len(rows[1])
             if len(labels) != count:  # (a constraint whose labels do not match its rows: generic ones)

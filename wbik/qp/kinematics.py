@@ -1,9 +1,6 @@
-"""Kinematics: one Pinocchio model/data pair evaluated at one configuration, shared by every task.
-
-``update(q)`` runs forward kinematics and the joint Jacobians once; placements, frame Jacobians and the
-CoM are read from them. Jacobians are LOCAL_WORLD_ALIGNED (rows [v; w] in world axes, v at the frame
-origin: dp = J[:3] dq); ``local_jacobian`` gives the LOCAL form (R^T v; R^T w).
-"""
+"""Kinematics: one Pinocchio model/data pair at one configuration, shared by every task: ``update(q)``
+runs FK and the joint Jacobians once, placements, frame Jacobians (LOCAL_WORLD_ALIGNED: dp = J[:3] dq)
+and the CoM are read from them."""
 
 from __future__ import annotations
 

@@ -1,18 +1,14 @@
 """How other IK libraries (peers: PlaCo, Pink, mink) express wbik's QP tasks and constraints.
 
-Each peer has a registry of *forms* keyed by class, beside its method (``PLACO`` in
-:mod:`wbik.solvers.placo`, ``PINK``, ``MINK``): a form's ``build(item, target)`` adds the item to the
-peer's problem being built, or says why the peer cannot state it (:meth:`PeerForms.cannot`). A class
-takes its nearest base class's form; an item without one is listed in the result's ``unsupported``
-(:class:`Unsupported`). A new task registers its forms beside its class::
+Each peer has forms keyed by class beside its method (``PLACO`` in :mod:`wbik.solvers.placo`, ``PINK``,
+``MINK``): ``build(item, target)`` adds an item to the peer's problem, or the peer says why it cannot; a
+class takes its nearest base's form, an item without one is ``unsupported``. A new task's forms::
 
     @PINK.form(HeightTask)
     def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.solvers.pink.PinkProblem
         pink.tasks.append(...)
 
     PLACO.cannot(HeightTask, "PlaCo has no ...")
-
-Nothing here imports a peer: a form imports its library when it runs.
 """
 
 from __future__ import annotations

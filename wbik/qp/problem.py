@@ -61,9 +61,9 @@ class QPSolution:
 
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
-    ``constraint_tolerance``: what ``solve`` verifies on its answer (m for contacts); ``max_step``: the
-    trust region on every tangent component of one IK step (rad or m); ``progress``: five kept steps in a
-    row that lower the merit by less than this fraction end the loop at the best effort."""
+    ``constraint_tolerance``: what ``solve`` verifies on its answer (m); ``max_step``: the trust region on
+    each tangent component of a step (rad or m); ``progress``: five kept steps in a row that lower the merit
+    by less than this fraction end the loop."""
 
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
@@ -222,8 +222,7 @@ class IKProblem:
                 for level in self._step.levels for index, task in enumerate(level.tasks)}
 
     def _merit_and_goals(self) -> tuple[float, bool]:
-        """(merit: the weighted task cost, lower levels scaled down by 1e-6 each; every goal task under its
-        tolerance), from the step's task rows at q."""
+        """(merit: the task cost, each lower level scaled by 1e-6; every goal task under its tolerance)."""
         self._step.fill_tasks()
         cost, goals_met = 0.0, True
         for index, level in enumerate(self._step.levels):
@@ -266,12 +265,10 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact within
-        ``equality_tolerance``. A step is kept when it does not raise the merit (the task cost) and keeps
-        the inequalities by FK (or reduces their violation when q0 breaks them); else the trust region
-        shrinks. Newton projections (:meth:`project`) bring the contacts back where the steps do not. A
-        radius or step under ``stall`` ends the loop at the best effort. ``profile``: a dict to which the
-        seconds of ``PHASES`` and ``SOLVE_PHASES`` are added; ``diagnose``: a failed solve is diagnosed."""
+        """QP steps from q0 until every goal task is under its tolerance and every contact within
+        ``equality_tolerance``: a step is kept when it lowers the merit and keeps the inequalities by FK
+        (:meth:`_trial`), else the trust region shrinks; a radius or step under ``stall`` ends the loop.
+        ``profile``: seconds per ``PHASES`` and ``SOLVE_PHASES``; ``diagnose``: diagnose a failed solve."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)

@@ -3,10 +3,9 @@
     min_dq  sum_k w_k |J_k dq + g_k e_k|^2 + (mu0 + mu |e|^2) |dq|^2
     s.t.    the constraints' rows (A dq = b, G dq <= h, lower <= dq <= upper) and |dq_i| <= radius
 
-The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) keeps far steps short and vanishes at the
-solution. Level k keeps what the levels above achieved (:meth:`QPStep.keep`); its inequality tasks are
-solved with slacks w (min weight |w|^2 s.t. J dq + g e <= w). No solution at the first level raises
-NoQPSolutionError; a lower level whose backend fails keeps the step of the levels above.
+The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) vanishes at the solution. Level k keeps what
+the levels above achieved (:meth:`QPStep.keep`); inequality tasks take slacks w (min weight |w|^2 s.t.
+J dq + g e <= w). No solution at the first level raises NoQPSolutionError; a later one keeps the step.
 """
 
 from __future__ import annotations

@@ -1,13 +1,9 @@
 """Support polygon: the convex hull of the soles' contact points on the ground, as half-planes.
 
-Stored counter-clockwise, edge i from v_i to v_{i+1} has the outward unit normal n_i and offset
-d_i = n_i . v_i: the inside is N x <= d, shrunk by a margin m it is N x <= d - m, and
-``margin_of(x) = min_i (d_i - n_i . x)`` is the distance to the boundary (negative outside). The hull is
-qhull's, with every decision at one length tolerance, ``HULL_RELATIVE_TOLERANCE`` times the points'
-scale (the larger of their extent and their largest coordinate): a vertex that close to its neighbours'
-segment or to its neighbour is dropped, and points whose spread across their main direction is within
-it are degenerate (:class:`DegenerateSupportPolygonError`). The checks that judge an answer take a
-:class:`DegenerateSupport` (the segment or point the points collapse to, containing nothing) instead.
+Counter-clockwise, edge i (v_i to v_{i+1}) has the outward unit normal n_i and d_i = n_i . v_i: the inside
+shrunk by a margin m is N x <= d - m, and ``margin_of(x) = min_i (d_i - n_i . x)`` (negative outside).
+The hull is qhull's, pruned at :func:`hull_tolerance`; points spanning no area at it raise
+:class:`DegenerateSupportPolygonError`, or give a :class:`DegenerateSupport` for the checks.
 """
 
 from __future__ import annotations

@@ -102,7 +102,6 @@ class _FrameTaskBase(Task):
         self.frame = frame
         self.frame_id = -1
         self._compiled_rows, self._compiled_for = None, None
-        # picked once, as a closed form picks its kernel (WBIK_PURE_PYTHON=1 is read here)
         self._kernel = chosen(None, _FRAME_ROWS, "qp_rows") if self.kernel_rows is not None else None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 

@@ -1,9 +1,6 @@
-"""Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``).
-
-A :class:`CaseSampler` draws case ``index`` of its family from the stream :func:`case_rng` makes, so a
-case depends only on (sampler name, seed, index). Samplers are declared in a module's ``WHOLEBODY_CASES``
-tuple (modules listed in :data:`CASE_MODULES`) or added with :func:`register_sampler`; :data:`CASE_REGISTRY`
-is the registry itself (:class:`wbik.registry.DeclaredRegistry`).
+"""Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``): case
+``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`).
+Samplers are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`.
 """
 
 from __future__ import annotations
