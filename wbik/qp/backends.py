@@ -94,8 +94,7 @@ def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qp
 
 def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
                      A: np.ndarray | None, b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), for the
-    diagnoses of a failed solve; NoQPSolutionError when there is none."""
+    """(x, z, y): the minimiser and the multipliers of G x <= h and A x = b; NoQPSolutionError."""
     solution = _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
     # (DAQP reduces dependent equality rows away, contradictory ones included: an "optimum" off them)

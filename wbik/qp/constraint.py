@@ -52,8 +52,7 @@ class StartViolation:
 
 
 class Describer:
-    """Words for the rows of one source of rows (a constraint, the step box); a constraint overrides
-    what its rows mean."""
+    """Words for the rows of one source of rows (a constraint, the step box)."""
 
     name = "constraint"
     label_kind = "inequality"
@@ -222,8 +221,7 @@ def tangent_names(model: pin.Model) -> list[str]:
 
 
 def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
-    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits, but for the
-    joints named in ``unbounded``."""
+    """(q indices, v indices) of the 1-DOF joints with finite limits, but the ``unbounded`` ones."""
     q_index, v_index = [], []
     for joint_id, joint in enumerate(model.joints):
         if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded:

@@ -71,8 +71,7 @@ class HeldFrame(EqualityConstraint):
 
 
 class Contact(HeldFrame):
-    """A frame held at a fixed world ``placement`` (default: where the problem starts), a flat foot on the
-    ground: J dq = -e, 6 rows."""
+    """A frame held at a world ``placement`` (default: at the start), a flat foot: J dq = -e, 6 rows."""
 
     def __init__(self, frame: str, placement: pin.SE3 | None = None):
         self.frame = frame

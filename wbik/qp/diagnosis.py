@@ -162,8 +162,7 @@ def report_lines(data: dict) -> list[str]:
 
 
 def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
-    """The hard constraints q0 breaks, as each constraint judges it (joints outside their limits on q0
-    itself, inequalities at the clipped q the kinematics stand at)."""
+    """The hard constraints q0 breaks, as each constraint judges it."""
     return [found for constraint in problem.constraints
             for found in constraint.start_violations(problem.kinematics, q0)]
 
@@ -198,8 +197,7 @@ class _Hierarchy:
 
     def solve(self, upto: int, drop_rows: np.ndarray | None = None, drop_task: Task | None = None
               ) -> tuple[np.ndarray, list[np.ndarray]]:
-        """dq through levels 0..upto and, per level, the multipliers of the labelled rows (zero for
-        dropped rows). Raises NoQPSolutionError."""
+        """dq through levels 0..upto, and per level the rows' multipliers; NoQPSolutionError."""
         nv, rows = self.nv, self.rows
         keep = np.ones(len(rows), dtype=bool) if drop_rows is None else ~drop_rows
         kept_rows = rows.subset(keep)
@@ -266,8 +264,7 @@ class _Hierarchy:
 
 
 def diagnose(problem, reason: str = "", start: list[StartViolation] | None = None) -> Diagnosis:
-    """The diagnosis at the configuration ``problem`` (an :class:`wbik.qp.problem.IKProblem`) stands at
-    (see the module docstring)."""
+    """The diagnosis at the configuration an IKProblem ``problem`` stands at (see the module docstring)."""
     step = problem.qp
     step.fill_tasks()
     diagnosis = Diagnosis(start=list(start or []))

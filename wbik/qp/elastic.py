@@ -35,8 +35,7 @@ class ConflictRow:
 
 
 def describe_rows(rows: Sequence[ConflictRow]) -> str:
-    """The rows in words, as their constraints say them; rows of one subject that their constraint names
-    together (a contact's axes) in one phrase."""
+    """The rows in words, as their constraints say them (a contact's axes in one phrase)."""
     groups: dict[tuple, list[RowLabel]] = {}
     for row in rows:
         groups.setdefault(group_key(row.label), []).append(row.label)

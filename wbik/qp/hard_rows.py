@@ -41,8 +41,7 @@ class HardRows:
         return split_rows(self.matrix, self.upper, self.equality)
 
     def as_inequalities(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(M', u', owner): every equality row as two inequality rows (M dq <= u, -M dq <= -u);
-        ``owner`` maps each row of M' to its row here."""
+        """(M', u', owner): each equality row as two inequality rows; ``owner``: each row's index here."""
         equality = np.flatnonzero(self.equality)
         matrix = np.vstack((self.matrix, -self.matrix[equality]))
         upper = np.concatenate((self.upper, -self.upper[equality]))
@@ -58,8 +57,7 @@ def group_key(label: RowLabel) -> tuple[str, str, str, str]:
 
 
 def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
-    """The labelled rows of ``step`` (a :class:`wbik.qp.step.QPStep`) at its kinematics' q (see the
-    module docstring); ``radius``: the step box."""
+    """The labelled rows of a QPStep ``step`` at its q (see the module docstring); ``radius``: the box."""
     stack = step.build_constraints(dt, radius)
     kinematics, nv = step.kinematics, step.nv
     general: list[RowLabel] = []

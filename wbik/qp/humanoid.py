@@ -32,8 +32,7 @@ def is_point_foot(robot: Robot, frame: str) -> bool:
 
 
 def contact_constraint(robot: Robot, frame: str, placement: pin.SE3 | None = None) -> Contact | PointContact:
-    """The hard contact of ``frame`` held at ``placement`` (default: where the problem starts): a
-    :class:`PointContact` for a point foot, else a 6-row :class:`Contact`."""
+    """The hard contact of ``frame`` at ``placement`` (default: at the start), a point foot's by position."""
     if is_point_foot(robot, frame):
         return PointContact(frame, None if placement is None else placement.translation)
     return Contact(frame, placement)

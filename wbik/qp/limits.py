@@ -38,8 +38,7 @@ class RateLimits(BoundConstraint):
 
 
 class JointPositionLimits(BoundConstraint):
-    """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the ``unbounded`` ones (continuous joints,
-    whose answers are wrapped instead)."""
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the continuous ``unbounded`` ones."""
 
     name = "joint position limits"
     label_kind = "joint limit"

@@ -55,8 +55,7 @@ class PeerForm:
 
 
 class PeerForms:
-    """The forms of one peer, by class: ``peer`` names it as its method does ("pink"), ``title`` as its
-    authors do ("Pink")."""
+    """The forms of one peer, by class; ``peer``: its method's name, ``title``: its authors'."""
 
     def __init__(self, peer: str, title: str):
         self.peer, self.title = peer, title

@@ -160,13 +160,11 @@ class IKProblem:
         return dq
 
     def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
-        """The hard rows of the step at the current q that conflict (an irreducible set,
-        :func:`wbik.qp.elastic.conflict`; empty when they hold together). For a failed step only."""
+        """The conflicting hard rows of a failed step at q (:func:`wbik.qp.elastic.conflict`; empty: none)."""
         return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
 
     def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
-        """Why the solve stopped at the current q (:mod:`wbik.qp.diagnosis`); ``solution`` (the one this
-        q was returned in) gives the loop's reason and the start's violations."""
+        """Why the solve stopped at q; ``solution`` (the one q was returned in) gives its reason and start."""
         if solution is not None and not self._stands_at(solution.q):
             self.kinematics.update(solution.q)
         self._step.refresh()

@@ -76,8 +76,6 @@ class Level:
         self.inequality_error = np.zeros(inequality_stop)
         self.inequality_weight = _joined([task.weight for task in self.inequalities])
         self.inequality_gain = _joined([np.full(task.dimension, task.gain) for task in self.inequalities])
-        self._inequality_rows = [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
-                                 for task, rows in inequality_rows]
         self.inequality_goal_errors = [(task, self.inequality_error[rows]) for task, rows in inequality_rows
                                        if task.goal]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
@@ -87,6 +85,8 @@ class Level:
         self._hessian_diagonal = self.hessian.ravel()[:: nv + 1]  # a view of H's diagonal
         # each task's rows and each goal's error as views of the buffers (no slicing per fill)
         self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in stacked_rows]
+        self._task_rows += [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
+                            for task, rows in inequality_rows]
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
         self.weight = _joined([task.weight for task in stacked])
         self.row_scale = np.sqrt(self.weight)[:, None]
@@ -97,13 +97,9 @@ class Level:
     def fill(self, kinematics: Kinematics) -> None:
         for task, jacobian, error in self._task_rows:
             task.fill(kinematics, jacobian, error)
-        for task, jacobian, error in self._inequality_rows:
-            jacobian[:] = task.jacobian(kinematics)
-            error[:] = task.error(kinematics)
 
     def goal_cost(self) -> float:
-        """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2; max(0, e) for an
-        inequality task)."""
+        """sum |e|^2 over the goal tasks (|max(0, e)|^2 for an inequality task)."""
         cost = 0.0
         for _, error in self.goal_errors:
             cost += float(error.dot(error))
@@ -113,8 +109,7 @@ class Level:
         return cost
 
     def error_norm(self, index: int) -> float:
-        """|e| of ``tasks[index]`` at the last fill (0 for a regularisation; |max(0, e)| for an
-        inequality task)."""
+        """|e| of ``tasks[index]`` at the last fill (|max(0, e)| for an inequality task)."""
         rows = self.slices[index]
         if rows is None:
             rows = self.inequality_slices[index]
@@ -185,8 +180,7 @@ class QPStep:
 
     def build_constraints(self, dt: float, radius: float,
                           recover: bool = True) -> backends.StackedConstraints:
-        """Every constraint's rows at the current q, stacked; ``recover``: a joint outside its range moves
-        back as fast as its other bounds allow (``StackedConstraints.close_box``)."""
+        """Every constraint's rows at q, stacked; ``recover``: see ``StackedConstraints.close_box``."""
         stack = self.stack
         stack.clear(radius)
         kinematics = self.kinematics
@@ -198,8 +192,7 @@ class QPStep:
 
     def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None,
               recover: bool = True) -> np.ndarray:
-        """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution.
-        ``recover``: see :meth:`build_constraints`."""
+        """dq at the kinematics' q (``recover``: see :meth:`build_constraints`); NoQPSolutionError."""
         tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
         tick = lap(profile, "constraints", tick)

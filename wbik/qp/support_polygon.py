@@ -98,8 +98,7 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
 
 
 class SupportPolygon:
-    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d;
-    DegenerateSupportPolygonError (a ValueError) for points that span no area."""
+    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d."""
 
     def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
         points = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -129,8 +128,7 @@ class SupportPolygon:
         return self.normals, self.offsets - margin
 
     def nearest_inside(self, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point`` (NoQPSolutionError when
-        the shrunk polygon is empty)."""
+        """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y); NoQPSolutionError."""
         import wbik.qp.backends as backends
 
         normals, offsets = self.halfplanes(margin)
@@ -205,8 +203,7 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
 
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
-    """Support polygon of the feet in contact: hull of their contact points projected on the ground
-    (DegenerateSupportPolygonError naming the soles when they span no area)."""
+    """Support polygon of the soles in contact (their contact points on the ground)."""
     frames = list(frames)
     points = contact_points(kinematics, corners, frames)
     counts = {frame: len(np.asarray(corners[frame], dtype=float).reshape(-1, 3)) for frame in frames}

@@ -234,8 +234,7 @@ TASK_ENTRY = Variants(lambda entry: entry.get("type"),
 
 
 def build_task(robot, q: np.ndarray, entry: Mapping, source: str = "task entry") -> Task:
-    """The :mod:`wbik.qp.tasks` task of one entry (checked against :data:`TASK_ENTRY`, ``source`` naming
-    it), its target resolved at configuration q."""
+    """The task of one entry (checked, ``source`` naming it), its target resolved at configuration q."""
     entry = TASK_ENTRY.check(entry, "", Context(source, TASK_ENTRY_ERRORS))
     declared = TASK_ENTRY_REGISTRY.get(entry["type"])
     options = {key: entry[key] for key in declared.options if key in entry}

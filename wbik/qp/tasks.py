@@ -106,8 +106,7 @@ class _FrameTaskBase(Task):
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def __getstate__(self) -> dict:
-        """Without the compiled rows (views of one Kinematics' data) nor the target's views; ``start``
-        and ``__setstate__`` make them again."""
+        """Without the views of one Kinematics' data nor the target's (``start`` makes them again)."""
         state = dict(self.__dict__)
         for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
             state.pop(name, None)
@@ -169,8 +168,7 @@ class _AxesTask(Task):
 
 
 class _PoseTask(_FrameTaskBase):
-    """A 6-row pose task: ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad
-    differ in scale)."""
+    """A 6-row pose task; ``position_weight`` and ``orientation_weight`` weigh its halves."""
 
     dimension = 6
     unit = "m, rad"
@@ -406,5 +404,4 @@ class PositionBoxTask(_BoxTask, _FrameTaskBase):
 
 
 class ComBoxTask(_BoxTask, _ComPoint):
-    """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
-    level: an inequality task."""
+    """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly."""

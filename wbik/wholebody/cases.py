@@ -20,8 +20,7 @@ __all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cac
            "register_sampler", "sample_case"]
 
 CASE_MODULES: list = []
-"""The modules that declare samplers (:mod:`wbik.catalog` adds the applications'; installed packages add
-theirs through the entry-point group ``wbik.case_samplers``)."""
+"""The modules that declare samplers (also the entry-point group ``wbik.case_samplers``)."""
 
 
 @dataclass

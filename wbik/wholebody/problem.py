@@ -165,8 +165,7 @@ class WholeBody:
     # -- from a task-file entry ---------------------------------------------------------------------
     @classmethod
     def from_dict(cls, robot: Robot, data: Mapping, q: np.ndarray | None = None) -> WholeBody:
-        """A problem from a task-file mapping (:data:`PROBLEM`: ``tasks`` as in a ``wholebody_ik`` phase, the
-        other keys as the arguments), targets resolved at q (default: the robot's nominal)."""
+        """A problem from a task-file mapping (:data:`PROBLEM`), targets resolved at q (default: nominal)."""
         source = "WholeBody.from_dict"
         if isinstance(data, Mapping):
             data = {key: value for key, value in data.items() if value is not None}
