@@ -92,9 +92,8 @@ def can_build() -> bool:
 
 
 def pure_python(kernel: str | None = None) -> bool:
-    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: for every
-    twin). Read when a kernel is picked (at import of :mod:`wbik.targets` and :mod:`wbik.geometry`, or
-    when the solver, closed form or QP piece using it is made)."""
+    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: for every twin),
+    read when a kernel is picked (at import, or when the piece using it is made)."""
     value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
     if value == "1":
         return True

@@ -170,8 +170,7 @@ class StackedConstraints:
             ub[index] = np.minimum(ub[index], upper)
 
     def close_box(self, toward_rest: bool = False) -> None:
-        """Where a coordinate's bounds leave no room (lb > ub): lb <- ub; with ``toward_rest`` the bound
-        nearest to no motion instead (ub <- max(ub, min(lb, 0)), then lb <- min(lb, ub)), so that a joint
+        """Where lb > ub: lb <- ub; with ``toward_rest`` ub <- max(ub, min(lb, 0)) first, so that a joint
         outside its range moves back as fast as its other bounds allow."""
         lb, ub = self._lb, self._ub
         if toward_rest:

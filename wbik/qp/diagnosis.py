@@ -231,11 +231,8 @@ class _Hierarchy:
 
             H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
             c = np.concatenate((gradient, np.zeros(count)))
-            blocks_G, blocks_h = [], []
-            if extra_G:
-                padding = np.zeros((sum(len(h) for h in extra_h), count))
-                blocks_G.append(np.hstack((np.vstack(extra_G), padding)))
-                blocks_h.append(np.concatenate(extra_h))
+            blocks_G = [np.hstack((block, np.zeros((len(block), count)))) for block in extra_G]
+            blocks_h = list(extra_h)
             if count:
                 J_soft = np.vstack(soft_J)
                 blocks_G.append(np.hstack((J_soft, -np.eye(count))))

@@ -62,10 +62,9 @@ class MinimumDistance(InequalityConstraint):
 
 
 class CollisionAvoidance(InequalityConstraint):
-    """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m): for
-    each pair closer than ``influence_distance`` (m), with the coal distance d and normal n (a -> b),
-    n^T (J_a - J_b) dq <= gain (d - safety - padding), the velocity-damper form of Pink / mink / PlaCo
-    (``padding``, m, absorbs the linearisation's second-order error)."""
+    """Each pair of a :class:`wbik.collision.CollisionModel` nearer than ``influence_distance`` (m), with
+    coal's distance d and normal n (a -> b): n^T (J_a - J_b) dq <= gain (d - safety - padding), the velocity
+    damper of Pink / mink / PlaCo (``safety_distance``, ``padding``: m)."""
 
     label_kind = "collision"
     quantity = "clearance"

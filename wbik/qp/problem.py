@@ -251,9 +251,8 @@ class IKProblem:
 
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
-        """(kept, merit, goals met, inequality violation) at the current q: kept when it does not raise the
-        merit and keeps the inequalities by FK, or, while the kept iterate breaks inequalities, when it
-        reduces their violation whatever the merit (the constraints come first)."""
+        """(kept, merit, goals met, inequality violation) at q: kept when it keeps the merit and the
+        inequalities by FK or, while the kept iterate breaks inequalities, when it reduces their violation."""
         trial_merit, goals_met, trial_violation = self._timed(profile, "checks", self._checks)
         if violation > 0.0:
             return trial_violation < violation, trial_merit, goals_met, trial_violation

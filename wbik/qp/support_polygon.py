@@ -164,9 +164,8 @@ class DegenerateSupport:
 
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
-    """The support polygon of finite 2D contact points, or the :class:`DegenerateSupport` they collapse to
-    (for checks that report a margin instead of raising): their two extreme points along their main
-    direction, or one point when these are within the hull tolerance."""
+    """The support polygon of finite 2D points, or the :class:`DegenerateSupport` they collapse to: their
+    extreme points along their main direction, or one point when these are within the hull tolerance."""
     try:
         return SupportPolygon(points)
     except DegenerateSupportPolygonError as exc:

@@ -48,11 +48,10 @@ PROBLEM = Map({"tasks": Key(ListOf(TASK_ENTRY, what="task entries"), []), "conta
 
 class WholeBody:
     """A whole-body IK problem on one robot: ``constraints`` takes any constraint objects, the keywords list
-    the common ones. ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (a point foot: its
-    position only); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the
-    contacts that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or
-    "none"; ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum
-    distances."""
+    the common ones. ``contacts``: frame names (held where they are at q0) or {frame: SE3} (a point foot: its
+    position); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the contacts
+    that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or "none";
+    ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum distances."""
 
     def __init__(self, robot: Robot, tasks: Sequence[Task] = (), contacts=(),
                  support: Sequence[str] | None = None, margin: float = 0.005,
@@ -146,9 +145,8 @@ class WholeBody:
         return [copy.deepcopy(task) for task in self.tasks]
 
     def start(self, q0, need_q0: bool = False, strict: bool = True) -> StartedProblem:
-        """A copy started at q0: contacts held where they are, the soles' support polygon there (spanning no
-        area: DegenerateSupportPolygonError if ``strict``). ``need_q0``: refuse contacts held at a start
-        the caller did not give."""
+        """A copy started at q0 (contacts held there; a degenerate support polygon raises if ``strict``);
+        ``need_q0``: refuse contacts held at a start the caller did not give."""
         if need_q0 and any(placement is None for placement in self.contacts.values()):
             raise InvalidSettingError("checking this problem needs q0 to know where its contacts are held")
         q0 = self.check_q(q0)
