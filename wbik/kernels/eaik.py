@@ -36,8 +36,7 @@ def wrapped_python(raw: list[float], reference: list[float], lower: list[float],
                    tolerance: float) -> tuple[float, list[float]] | None:
     """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it) or None when a
     joint has no 2 pi shift inside them (:func:`~wbik.solvers.analytic.closed_form.wrap_one_into_limits`)."""
-    wrapped = []
-    total = 0.0
+    wrapped, total = [], 0.0
     for value, ref, low, high in zip(raw, reference, lower, upper, strict=True):
         low_tolerant, high_tolerant = low - tolerance, high + tolerance
         turns = float(round((ref - value) / TWO_PI))

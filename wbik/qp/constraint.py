@@ -69,7 +69,7 @@ class Describer:
         return f"{label.constraint} {label.subject}{' ' + label.side if label.side else ''}"
 
     def group_text(self, labels: list[RowLabel]) -> str:
-        """Rows of one subject named together (only for ``groups_rows``)."""
+        """Rows of one subject named together (the first alone unless ``groups_rows``)."""
         return self.row_text(labels[0])
 
     def blocker_text(self, label: RowLabel) -> str:

@@ -45,16 +45,14 @@ class HeldFrame(EqualityConstraint):
                        f"contact {self.frame} drifted {position:.3g} m, {rotation:.3g} rad")
 
     def row_text(self, label: RowLabel) -> str:
-        drift = (f", drift {abs(label.value) * 1e3:.3g} {'mm' if label.unit == 'm' else 'mrad'}"
-                 if math.isfinite(label.value) else "")
+        drift = f", drift {abs(label.value) * 1e3:.3g} m{label.unit}" if math.isfinite(label.value) else ""
         return f"contact {label.subject} ({label.side}{drift})"
 
     def group_text(self, labels: list[RowLabel]) -> str:
         if len(labels) == 1:
             return self.row_text(labels[0])
         drifts = [abs(label.value) for label in labels if math.isfinite(label.value)]
-        unit = "mm" if labels[0].unit == "m" else "mrad"
-        drift = f"; drift up to {max(drifts) * 1e3:.3g} {unit}" if drifts else ""
+        drift = f"; drift up to {max(drifts) * 1e3:.3g} m{labels[0].unit}" if drifts else ""
         return f"contact {labels[0].subject} ({', '.join(label.side for label in labels)}{drift})"
 
     def blocker_text(self, label: RowLabel) -> str:

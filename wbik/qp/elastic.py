@@ -39,8 +39,7 @@ def describe_rows(rows: Sequence[ConflictRow]) -> str:
     groups: dict[tuple, list[RowLabel]] = {}
     for row in rows:
         groups.setdefault(group_key(row.label), []).append(row.label)
-    return "; ".join(labels[0].owner.group_text(labels) if labels[0].owner.groups_rows else labels[0].text
-                     for labels in groups.values())
+    return "; ".join(labels[0].owner.group_text(labels) for labels in groups.values())
 
 
 def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, np.ndarray] | None:

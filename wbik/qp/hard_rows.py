@@ -77,23 +77,18 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
                 labels = [constraint.label(f"row {i}") for i in range(count)]
             general.extend(labels)
     names = tangent_names(kinematics.model)
-    lb, ub = stack.lower[:nv].copy(), stack.upper[:nv].copy()
-    matrices, uppers, labels = [], [], []
-    for j in range(nv):
-        for side, value in (("lower", lb[j]), ("upper", ub[j])):
-            if abs(value) >= INFINITE:
-                continue
-            label = _bound_label(candidates[j], side, value, radius, names[j])
-            row = np.zeros(nv)
-            row[j] = 1.0 if side == "upper" else -1.0
-            matrices.append(row)
-            uppers.append(value if side == "upper" else -value)
-            labels.append(label)
+    sides = (("lower", -1.0, stack.lower), ("upper", 1.0, stack.upper))
+    bounds = [(j, side, sign, bound[j]) for j in range(nv) for side, sign, bound in sides
+              if abs(bound[j]) < INFINITE]  # each finite bound a row: sign dq_j <= sign bound
+    bound_matrix = np.zeros((len(bounds), nv))
+    for row, (j, _, sign, _) in enumerate(bounds):
+        bound_matrix[row, j] = sign
+    uppers = [sign * value for _, _, sign, value in bounds]
+    labels = [_bound_label(candidates[j], side, value, radius, names[j]) for j, side, _, value in bounds]
     equality = stack.sense[nv:] == 5
     upper = stack.upper[nv:].copy()
     if relax:
         upper[~equality] = np.maximum(upper[~equality], 0.0)
-    bound_matrix = np.array(matrices).reshape(-1, nv)
     return HardRows(np.vstack((bound_matrix, stack.matrix)), np.concatenate((uppers, upper)),
                     np.concatenate((np.zeros(len(uppers), dtype=bool), equality)), labels + general)
 

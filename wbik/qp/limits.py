@@ -74,9 +74,7 @@ class JointPositionLimits(BoundConstraint):
 
     def violation(self, kinematics: Kinematics) -> float:
         q = kinematics.q[self._q_rows]
-        if q.size == 0:
-            return 0.0
-        return float(max((self.lower - q).max(), (q - self.upper).max(), 0.0))
+        return float(max((self.lower - q).max(initial=0.0), (q - self.upper).max(initial=0.0)))
 
     def measure(self, kinematics: Kinematics, tolerances) -> Measure:
         self.bind(kinematics.model)

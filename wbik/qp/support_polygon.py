@@ -80,10 +80,7 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
     spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
     if spread <= tolerance:
         raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
-    from scipy.spatial import (
-        ConvexHull,  # kept out of import wbik
-        QhullError,
-    )
+    from scipy.spatial import ConvexHull, QhullError  # kept out of import wbik
 
     try:
         hull = ConvexHull(points)  # 2-D: vertices counter-clockwise
@@ -113,11 +110,8 @@ class SupportPolygon:
         self.offsets = np.einsum("ij,ij->i", self.normals, self.vertices)
 
     def __repr__(self) -> str:
-        return f"SupportPolygon({len(self.vertices)} vertices, centroid {self.centroid.round(4).tolist()})"
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return self.vertices.mean(axis=0)
+        centroid = self.vertices.mean(axis=0).round(4).tolist()
+        return f"SupportPolygon({len(self.vertices)} vertices, centroid {centroid})"
 
     def margin_of(self, point: np.ndarray) -> float:
         """Distance from ``point`` (x, y) to the boundary, positive inside, negative outside."""

@@ -1,14 +1,8 @@
-"""Tasks: the soft objectives of the QP.
-
-A task has an error e(q) (m rows, zero when it is done) and its Jacobian J = de/dq (m x nv); in one QP
-step it costs weight |J dq + gain e|^2 (``weight``: a scalar or one value per row). ``priority`` is its
-level in a strict hierarchy (0 first, :mod:`wbik.qp.step`); ``goal`` tasks decide convergence (|e| under
-``tolerance``). An *inequality* task (:class:`PositionBoxTask`, :class:`ComBoxTask`) wants e <= 0 row by
-row: it costs weight max(0, J dq + gain e)^2 and its error is max(0, e). A posture belongs on the lowest
-level (docs/guide/wholebody.md, "Priorities"); a regularisation weighs the step and never moves the answer.
-
-Rotation errors are :mod:`wbik.geometry`'s: e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill``,
-the step's path, writes J and e together (compiled where built).
+"""Tasks, the soft objectives of the QP: an error e(q) (m rows, 0 when done) and J = de/dq (m x nv), costing
+weight |J dq + gain e|^2 in a step (``weight``: a scalar or one per row). ``priority``: its level in a strict
+hierarchy (0 first); ``goal`` tasks decide convergence (|e| under ``tolerance``). An *inequality* task wants
+e <= 0 row by row: it costs weight max(0, J dq + gain e)^2, its error is max(0, e). Rotation errors are
+e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill`` writes J and e together (compiled where built).
 """
 
 from __future__ import annotations
