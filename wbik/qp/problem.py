@@ -50,14 +50,6 @@ class QPSolution:
     start_violations: list[StartViolation] = field(default_factory=list)
     diagnosis: Diagnosis | None = None
 
-    def as_dict(self) -> dict:
-        return {"success": self.success, "converged": self.converged, "feasible": self.feasible,
-                "iterations": self.iterations, "reason": self.reason, "time_s": self.time_s,
-                "q": [float(v) for v in self.q], "task_errors": self.task_errors,
-                "violations": self.violations, "com_margins": self.com_margins,
-                "start_violations": [v.as_dict() for v in self.start_violations],
-                "diagnosis": None if self.diagnosis is None else self.diagnosis.as_dict()}
-
 
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
@@ -88,17 +80,12 @@ class IKProblem:
         self._bounds = [c for c in self.constraints if isinstance(c, BoundConstraint)]
         self._box = backends.StackedConstraints(self.nv, capacity=1)
         self._inequalities = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
-        self._step = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
-                            self.lm_damping, self.hierarchy_slack)
+        self.qp = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
+                         self.lm_damping, self.hierarchy_slack)
         self._started = False
         # constraints that remember the steps taken (acceleration limits: the previous velocity)
         self._memories = [c for c in self.constraints if type(c).stepped is not Constraint.stepped]
         self._start_violations: list[StartViolation] = []
-
-    @property
-    def qp(self) -> QPStep:
-        """The QP step this problem iterates (its levels and constraints at the current q)."""
-        return self._step
 
     def start(self, q: np.ndarray, clip: bool = True) -> None:
         """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
@@ -107,7 +94,7 @@ class IKProblem:
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
             item.start(self.kinematics)
-        self._step.start()
+        self.qp.start()
         self._started = True
 
     def clip(self, q: np.ndarray) -> np.ndarray:
@@ -148,10 +135,10 @@ class IKProblem:
         if velocity is not None:
             for constraint in self._memories:
                 constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()
-        self._step.refresh()  # a caller may have moved a task's target since the last step
+        self.qp.refresh()  # a caller may have moved a task's target since the last step
         radius = self.max_step if max_step is None else max_step
         try:
-            dq = self._step.solve(dt, radius, profile)
+            dq = self.qp.solve(dt, radius, profile)
         except NoQPSolutionError as exc:
             exc.conflict = tuple(self.conflict(dt, radius))
             raise
@@ -161,13 +148,13 @@ class IKProblem:
 
     def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
         """The conflicting hard rows of a failed step at q (:func:`wbik.qp.elastic.conflict`; empty: none)."""
-        return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
+        return conflict(step_rows(self.qp, dt, self.max_step if max_step is None else max_step))
 
     def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
         """Why the solve stopped at q; ``solution`` (the one q was returned in) gives its reason and start."""
         if solution is not None and not self._stands_at(solution.q):
             self.kinematics.update(solution.q)
-        self._step.refresh()
+        self.qp.refresh()
         return diagnose(self, solution.reason if solution is not None else "",
                         solution.start_violations if solution is not None else self._start_violations)
 
@@ -207,7 +194,7 @@ class IKProblem:
                     continue
                 kinematics.update(q)  # it broke an inequality: the QP's projection instead
             try:
-                dq = self._step.minimum_norm(self._step.build_constraints(1.0, self.max_step, recover=False))
+                dq = self.qp.minimum_norm(self.qp.build_constraints(1.0, self.max_step, recover=False))
             except NoQPSolutionError:
                 return False
             kinematics.update(self.clip(kinematics.integrate(dq)))
@@ -215,15 +202,15 @@ class IKProblem:
 
     def task_errors(self) -> dict[str, float]:
         """|e| per task name at the current q."""
-        self._step.fill_tasks()
+        self.qp.fill_tasks()
         return {task.name: level.error_norm(index)
-                for level in self._step.levels for index, task in enumerate(level.tasks)}
+                for level in self.qp.levels for index, task in enumerate(level.tasks)}
 
     def _merit_and_goals(self) -> tuple[float, bool]:
         """(merit: the task cost, each lower level scaled by 1e-6; every goal task under its tolerance)."""
-        self._step.fill_tasks()
+        self.qp.fill_tasks()
         cost, goals_met = 0.0, True
-        for index, level in enumerate(self._step.levels):
+        for index, level in enumerate(self.qp.levels):
             error = level.error
             cost += float(level.weight.dot(error * error)) * 1e-6 ** index
             goals_met = goals_met and all(math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
@@ -277,7 +264,7 @@ class IKProblem:
         self._timed(profile, "projection", self.project, tolerance)
         q = kinematics.q.copy()
         if profile is not None:  # the first step's task rows, filled here for the merit
-            self._timed(profile, "tasks", self._step.fill_tasks)
+            self._timed(profile, "tasks", self.qp.fill_tasks)
         merit, goals_met, violation = self._timed(profile, "checks", self._checks)
         # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
         self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
@@ -299,7 +286,7 @@ class IKProblem:
                 reason = "time budget used up"
                 break
             try:
-                dq = self._step.solve(1.0, radius, profile, recover=False)  # (iterates are inside the limits)
+                dq = self.qp.solve(1.0, radius, profile, recover=False)  # (iterates are inside the limits)
             except NoQPSolutionError as exc:
                 if iteration > 1 and not self._equalities_met(tolerance) and self._timed(
                         profile, "projection", self.project, tolerance) and self._inequality_violation() \
@@ -320,7 +307,7 @@ class IKProblem:
             kinematics.update(self._clipped(pin.integrate(self.model, q, dq)))
             tick = lap(profile, "kinematics", tick)
             if profile is not None:  # the next step's task rows, filled here for the merit
-                self._step.fill_tasks()
+                self.qp.fill_tasks()
             lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if not kept and not self._equalities_met(tolerance) and self._timed(

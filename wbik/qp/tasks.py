@@ -82,8 +82,7 @@ def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, 
                    jacobian: np.ndarray, error: np.ndarray) -> None:
     """``rotation_error(R, R*)`` into ``error`` and ``rotation_error_jacobian`` into ``jacobian`` (3
     rows of a C-contiguous buffer), sharing M = R*^T R; R^T J_w is the LOCAL Jacobian's angular part."""
-    # (ndarray.dot rather than @ or np.dot: the same product, with less call overhead on 3 x 3)
-    relative = target.T.dot(rotation)
+    relative = target.T.dot(rotation)  # (ndarray.dot: less call overhead than @ on 3 x 3)
     error[:] = pin.log3(relative)
     pin.Jlog3(relative).dot(kinematics.local_jacobian(frame_id)[3:], out=jacobian)
 
@@ -307,8 +306,7 @@ class PostureTask(Task):
         self.joint_names = None if joints is None else list(joints)
         self.rows = np.zeros(0, dtype=int)
         self.dimension = 0
-        options.setdefault("weight", 1e-3)
-        self._weight_option = options.pop("weight")
+        self._weight_option = options.pop("weight", 1e-3)
         super().__init__(**options)
 
     def start(self, kinematics: Kinematics) -> None:

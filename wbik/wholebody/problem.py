@@ -114,10 +114,6 @@ class WholeBody:
                 for c in self._of(HeldFrame)}
 
     @property
-    def point_contacts(self) -> frozenset[str]:
-        return frozenset(c.frame for c in self._of(PointContact))
-
-    @property
     def support(self) -> list[str]:
         return [frame for c in self._of(CoMInSupportPolygon) for frame in (c.soles or ())]
 
