@@ -1,9 +1,8 @@
-"""The per-call choice of the ``eaik`` method in two twins with the same bits: :func:`order_python` and
-:func:`choose_python` here, ``wbik.kernels._eaik`` in C (docs/benchmarks.md). ``order`` writes EAIK's
-branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch and
-bound (bound: :func:`bound_python`; a wrapped branch comes out once at most the next bound less
-``params[0]`` away; ties in the bounds' order) and returns how many; ``choose`` writes the first of them
-whose FK (:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
+"""The per-call choice of the ``eaik`` method, bit for bit as ``wbik.kernels._eaik`` in C: ``order`` writes
+EAIK's branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch
+and bound (:func:`bound_python`; a wrapped branch comes out once at most the next bound less ``params[0]``
+away; ties in the bounds' order) and returns how many; ``choose`` writes the first whose FK
+(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
 """
 
 from __future__ import annotations

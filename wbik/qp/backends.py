@@ -73,10 +73,9 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     """The minimiser; raises NoQPSolutionError (with the backend's status) when there is none."""
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
-    if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
-        problem = _qpsolvers().Problem(_csc(H), c, _csc(G), h, _csc(A), b, lb, ub)
-        return _found_solution(backend, problem, quiet=True).x
-    return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=False).x
+    sparse = backend == "osqp"  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
+    H, G, A = (_csc(matrix) if sparse else matrix for matrix in (H, G, A))
+    return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=sparse).x
 
 
 def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qpsolvers.Solution:
@@ -103,10 +102,9 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
     if broken > 1e-6:
         raise NoQPSolutionError(f"{backend} returned a point that breaks its rows by {broken:.3g}", backend,
                                 "infeasible")
-    count_g = 0 if G is None else G.shape[0]
-    count_a = 0 if A is None else A.shape[0]
-    z = np.zeros(count_g) if solution.z is None else np.asarray(solution.z, dtype=float).reshape(count_g)
-    y = np.zeros(count_a) if solution.y is None else np.asarray(solution.y, dtype=float).reshape(count_a)
+    counts = (0 if G is None else len(G), 0 if A is None else len(A))
+    z, y = (np.zeros(count) if duals is None else np.asarray(duals, dtype=float).reshape(count)
+            for duals, count in zip((solution.z, solution.y), counts, strict=True))
     return x, z, y
 
 

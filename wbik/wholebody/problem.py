@@ -66,7 +66,11 @@ class WholeBody:
         if not any(task.goal for task in self.tasks):
             ctx.fail("tasks", "need at least one goal task (posture and regularisation are not goals)")
         self.acceleration_limit = _acceleration(robot, acceleration_limit, ctx)
-        made = self._contacts(contacts)
+        if isinstance(contacts, str):
+            contacts = [contacts]
+        held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
+        made: list[Constraint] = [contact_constraint(robot, str(frame), None if at is None else pin.SE3(at))
+                                  for frame, at in held.items()]
         made += self._support(support, [c.frame for c in made], checked["margin"])
         if limits != "none":
             made.append(JointPositionLimits())
@@ -80,13 +84,6 @@ class WholeBody:
             robot.frame_id(frame)  # UnknownFrameError names the frames
         names = [task.name for task in self.tasks]
         self.task_names = [name if names.count(name) == 1 else f"{name}#{i}" for i, name in enumerate(names)]
-
-    def _contacts(self, contacts) -> list[HeldFrame]:
-        if isinstance(contacts, str):
-            contacts = [contacts]
-        held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
-        return [contact_constraint(self.robot, str(frame), None if placement is None else pin.SE3(placement))
-                for frame, placement in held.items()]
 
     def _support(self, support, contacts: list[str], margin: float) -> list[Constraint]:
         soles = self.robot.soles
