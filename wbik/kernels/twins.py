@@ -42,8 +42,7 @@ PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 
 @dataclass(frozen=True)
 class Kernel:
-    """One compiled kernel (what it computes: its C file's header): ``name``, its extension (None where not
-    built), where its Python twin lives, and the goal rows of ``benchmarks/all.py`` it moves."""
+    """One compiled kernel (its C file says what it computes), its Python twin and goal rows it moves."""
 
     name: str
     extension: ModuleType | None
@@ -92,8 +91,7 @@ def can_build() -> bool:
 
 
 def pure_python(kernel: str | None = None) -> bool:
-    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: for every twin),
-    read when a kernel is picked (at import, or when the piece using it is made)."""
+    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: every twin's)."""
     value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
     if value == "1":
         return True

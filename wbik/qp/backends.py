@@ -250,8 +250,7 @@ def split_rows(matrix: np.ndarray, upper: np.ndarray, equality: np.ndarray) -> t
 
 
 class DaqpWorkspace:
-    """One ``daqp.Model`` per constraint layout (the ``sense`` pattern), warm-started from the previous
-    active set (the QP is strictly convex: the minimiser does not depend on it)."""
+    """One ``daqp.Model`` per constraint layout (``sense``), warm-started from the last active set."""
 
     def __init__(self):
         import daqp

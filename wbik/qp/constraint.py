@@ -206,8 +206,7 @@ STEP_BOX = StepBox()
 
 
 def tangent_names(model: pin.Model) -> list[str]:
-    """A name per tangent coordinate (nv): a 1-DOF joint's name; "<joint> x" ... "<joint> rz" for a
-    free flyer's six; "<joint>[i]" for another multi-DOF joint's."""
+    """A name per tangent coordinate: the joint's; "<joint> x" ... "rz" (free flyer) or "<joint>[i]"."""
     names = [""] * model.nv
     for joint_id in range(1, model.njoints):
         joint, name = model.joints[joint_id], model.names[joint_id]

@@ -108,8 +108,7 @@ class Contact(HeldFrame):
 
 
 class PointContact(HeldFrame):
-    """A frame's origin held at a fixed world ``position`` (m; default: where the problem starts), its
-    rotation free (a point foot on the ground): J_v dq = -(p - p*), 3 rows."""
+    """A frame's origin held at ``position`` (m; default: at the start), a point foot: J_v dq = -(p - p*)."""
 
     def __init__(self, frame: str, position: np.ndarray | None = None):
         self.frame = frame

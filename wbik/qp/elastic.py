@@ -63,8 +63,7 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
 
 def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
              max_rows: int = 60) -> list[ConflictRow]:
-    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``); with
-    more than ``max_rows`` candidates the certificate's rows, not shrunk."""
+    """An irreducible set of ``rows`` that conflict (empty: none; unshrunk above ``max_rows``)."""
     matrix, upper, owner = rows.as_inequalities()
     found = _elastic(matrix, upper)
     if found is None or found[0] <= tolerance:

@@ -94,8 +94,7 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
 
 
 def _bound_label(candidates: list, side: str, value: float, radius: float, name: str) -> RowLabel:
-    """The label of the bound ``value`` on one side of a coordinate: the constraint that set it (the
-    closest of ``candidates``, preferring a constraint to the step box on a tie)."""
+    """The label of the constraint that set ``value`` (the closest candidate, else the step box)."""
     lower_side = side == "lower"
     best, best_gap = None, np.inf
     for low, high, low_label, high_label in candidates:

@@ -17,8 +17,7 @@ _VERSIONS = itertools.count()
 
 
 class Kinematics:
-    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities;
-    ``version``, unique across all instances, changes with every ``update`` (a cache key)."""
+    """Model, data and the configuration ``q`` (nq); ``version``, unique, changes with every ``update``."""
 
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model

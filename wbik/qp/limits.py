@@ -105,8 +105,7 @@ class JointPositionLimits(BoundConstraint):
 
 
 class JointVelocityLimits(RateLimits):
-    """|dq_i| <= v_max,i ``period`` dt on the joints with a positive finite velocity limit (``limit``:
-    nv values, default the model's; ``period``: the time one IK step stands for, s)."""
+    """|dq_i| <= v_max,i ``period`` dt (``limit``: nv values, default the model's; ``period``: s)."""
 
     name = "joint velocity limits"
     label_kind = "velocity limit"

@@ -27,8 +27,7 @@ from wbik.qp.tasks import Task
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]
 
 SOLVE_PHASES = ("start", "projection", "checks", "report")
-"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: q0's set-up, the Newton
-projections onto the contacts, the FK checks of each trial configuration, the final report."""
+"""What ``IKProblem.solve``'s ``profile`` also times: set-up, projections, FK checks, report."""
 
 
 @dataclass
@@ -88,8 +87,7 @@ class IKProblem:
         self._start_violations: list[StartViolation] = []
 
     def start(self, q: np.ndarray, clip: bool = True) -> None:
-        """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
-        the joint limits (``solve`` does; a control ``step`` moves such a joint back at its bounds' pace)."""
+        """Start the tasks and constraints at q, first clipped into the joint limits if ``clip``."""
         q = self.clip(np.asarray(q, dtype=float)) if clip else np.array(q, dtype=float)
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
@@ -296,8 +294,6 @@ class IKProblem:
                     merit, goals_met, violation = self._checks()
                     radius = self.max_step
                     continue
-                if not self._stands_at(q):
-                    kinematics.update(q)
                 reason = (f"the QP has no solution ({exc}): the constraints conflict at this configuration"
                           if iteration == 1 else
                           f"best effort: {self.backend} found no further step (radius {radius:.2g})")

@@ -45,8 +45,8 @@ def _joined(arrays: list[np.ndarray]) -> np.ndarray:
 
 
 def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None], list[tuple], int]:
-    """Per task, its rows among the level's stacked rows (None: none there), the (task, rows) pairs, the
-    count: of the inequality tasks, or of the others but those with a constant diagonal."""
+    """Per task its rows among the level's (None: none), the (task, rows) pairs and the count: of the
+    inequality tasks, or of the others but those with a constant diagonal."""
     slices, stop = [], 0
     for task in tasks:
         if task.inequality if inequality else not task.inequality and task.constant_diagonal() is None:

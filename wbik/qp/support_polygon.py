@@ -42,8 +42,7 @@ def _deviation(before: np.ndarray, here: np.ndarray, after: np.ndarray) -> float
 
 
 def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Drop, one at a time and the least significant first, vertices within ``tolerance`` of the segment
-    joining their neighbours or of the previous vertex (the polygon stays convex and counter-clockwise)."""
+    """Drop vertices within ``tolerance`` of their neighbours' segment or of the previous one, least first."""
     while len(vertices) >= 3:
         count = len(vertices)
         deviations = [_deviation(vertices[i - 1], here, vertices[(i + 1) % count])
@@ -56,8 +55,7 @@ def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
 
 
 def hull_tolerance(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> float:
-    """The length tolerance of a point set (k, 2): ``relative_tolerance`` times the larger of its extent
-    and its largest coordinate (m); 0 only for points that are all at the origin."""
+    """``relative_tolerance`` times the larger of the points' (k, 2) extent and largest coordinate (m)."""
     if points.size == 0:
         return 0.0
     scale = max(float(np.max(np.ptp(points, axis=0))), float(np.max(np.abs(points))))
@@ -140,8 +138,7 @@ class SupportPolygon:
 
 @dataclass(frozen=True)
 class DegenerateSupport:
-    """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``; it
-    contains no point (balance on a line is not robust)."""
+    """Support spanning no area: ``vertices`` a segment (2, 2) or a point (1, 2), and ``why``."""
 
     vertices: np.ndarray
     why: str
@@ -174,8 +171,8 @@ def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
 
 
 def sole_rectangle(length: float, width: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """The 4 corners (4, 3), counter-clockwise, of a ``length`` (x) by ``width`` (y) sole rectangle
-    centred on ``centre`` in its sole frame (m): ``robot.soles`` entries for a flat foot."""
+    """The 4 corners (4, 3), counter-clockwise, of a ``length`` by ``width`` sole centred on ``centre``
+    (m, in the sole frame): ``robot.soles`` entries for a flat foot."""
     half = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
     return half * [0.5 * float(length), 0.5 * float(width), 0.0] + np.asarray(centre, dtype=float).reshape(3)
 

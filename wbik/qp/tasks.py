@@ -296,8 +296,7 @@ class ComTask(_AxesTask, _ComPoint):
 
 
 class PostureTask(Task):
-    """Joints toward a reference configuration: e = (q (-) q_ref) on the tangent rows of ``joints``
-    (default: all but a floating base, whose pose is for the other tasks to decide)."""
+    """Joints toward a reference: e = (q (-) q_ref) on the rows of ``joints`` (default: all, not a base)."""
 
     goal = False
 
@@ -385,8 +384,7 @@ class _BoxTask(Task):
 
 
 class PositionBoxTask(_BoxTask, _FrameTaskBase):
-    """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
-    level: an inequality task (e.g. a hand above a table, priority above a reach)."""
+    """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly."""
 
     unit = "m"
 

@@ -138,8 +138,7 @@ class WholeBody:
         return [copy.deepcopy(task) for task in self.tasks]
 
     def start(self, q0, need_q0: bool = False, strict: bool = True) -> StartedProblem:
-        """A copy started at q0 (contacts held there; a degenerate support polygon raises if ``strict``);
-        ``need_q0``: refuse contacts held at a start the caller did not give."""
+        """A copy started at q0 (``strict``: a degenerate polygon raises; ``need_q0``: no contact open)."""
         if need_q0 and any(placement is None for placement in self.contacts.values()):
             raise InvalidSettingError("checking this problem needs q0 to know where its contacts are held")
         q0 = self.check_q(q0)
