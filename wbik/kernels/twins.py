@@ -1,7 +1,5 @@
-"""wbik's compiled kernels (``_<name>.c`` here, built by ``setup.py`` where a C compiler exists), their
-Python twins and the switch between them: ``WBIK_PURE_PYTHON=1`` runs every Python twin, a comma-separated
-list of kernel names (``eaik,pose``) those only (docs/benchmarks.md).
-"""
+"""wbik's compiled kernels (``_<name>.c``, built where a C compiler exists) and their Python twins:
+``WBIK_PURE_PYTHON=1`` runs every twin, a comma-separated list (``eaik,pose``) those only."""
 
 from __future__ import annotations
 

@@ -74,7 +74,10 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
     sparse = backend == "osqp"  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
-    H, G, A = (_csc(matrix) if sparse else matrix for matrix in (H, G, A))
+    if sparse:
+        from scipy.sparse import csc_matrix  # kept out of import wbik
+
+        H, G, A = (None if matrix is None else csc_matrix(matrix) for matrix in (H, G, A))
     return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=sparse).x
 
 
@@ -337,12 +340,6 @@ def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
     if workspace is not None:
         return workspace.solve(H, c, constraints)
     return _cold_daqp(H, c, constraints)
-
-
-def _csc(matrix: np.ndarray | None):
-    from scipy import sparse
-
-    return None if matrix is None else sparse.csc_matrix(matrix)
 
 
 def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray:

@@ -1,10 +1,9 @@
 """Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
 
-With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised error, the step's levels over its labelled
-hard rows (:func:`wbik.qp.hard_rows.step_rows`) are solved with every row (dq*) and without each group of
-active rows or each other task: the ``gain`` r(dq*) - r(without it) ranks the ``blockers`` and ``tasks``.
-``step_gain`` = sum_g |e_g| - r(dq*); ``stationary``: nothing blocks and no step helps; ``infeasible``:
-the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
+With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised error, the step's levels are solved with
+every hard row (dq*) and without each group of active rows or each other task: r(dq*) - r(without it), the
+``gain``, ranks ``blockers`` and ``tasks``; ``step_gain`` = sum_g |e_g| - r(dq*); ``stationary``: nothing
+blocks, no step helps; ``infeasible``: the conflicting rows (:mod:`wbik.qp.elastic`).
 """
 
 from __future__ import annotations
@@ -178,15 +177,10 @@ class _Hierarchy:
         for level in step.levels:
             damping = problem.damping + problem.lm_damping * level.goal_cost()
             entries = []
-            for task, rows_eq, rows_in in zip(level.tasks, level.slices, level.inequality_slices,
-                                              strict=True):
-                if rows_eq is not None:
-                    entries.append((task, False, level.jacobian[rows_eq].copy(), level.error[rows_eq].copy()))
-                elif rows_in is not None:
-                    entries.append((task, True, level.inequality_jacobian[rows_in].copy(),
-                                    level.inequality_error[rows_in].copy()))
-                else:
-                    entries.append((task, None, None, None))
+            for index, task in enumerate(level.tasks):
+                inequality, jacobian, error = level.rows_of(index)
+                copies = (None, None) if inequality is None else (jacobian.copy(), error.copy())
+                entries.append((task, inequality, *copies))
             self.levels.append((entries, damping))
 
     @staticmethod

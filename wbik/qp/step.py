@@ -108,16 +108,20 @@ class Level:
             cost += float(excess.dot(excess))
         return cost
 
+    def rows_of(self, index: int) -> tuple[bool | None, np.ndarray | None, np.ndarray | None]:
+        """(inequality, J, e) of ``tasks[index]`` at the last fill (views; None: on H's diagonal)."""
+        if (rows := self.slices[index]) is not None:
+            return False, self.jacobian[rows], self.error[rows]
+        if (rows := self.inequality_slices[index]) is not None:
+            return True, self.inequality_jacobian[rows], self.inequality_error[rows]
+        return None, None, None
+
     def error_norm(self, index: int) -> float:
         """|e| of ``tasks[index]`` at the last fill (|max(0, e)| for an inequality task)."""
-        rows = self.slices[index]
-        if rows is None:
-            rows = self.inequality_slices[index]
-            if rows is None:
-                return 0.0
-            excess = np.maximum(self.inequality_error[rows], 0.0)
-            return math.sqrt(excess.dot(excess))
-        return math.sqrt(self.error[rows].dot(self.error[rows]))
+        inequality, _, error = self.rows_of(index)
+        if inequality:
+            error = np.maximum(error, 0.0)
+        return 0.0 if error is None else math.sqrt(error.dot(error))
 
     def inequality_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(J, -g e) of the inequality tasks: their rows J dq + w... as J dq - w <= -g e."""

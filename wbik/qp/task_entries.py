@@ -1,7 +1,6 @@
 """Task entries: the mapping form of a QP task (a ``wholebody_ik`` phase, ``WholeBody.from_dict``).
 
-``build_task(robot, q, entry)`` turns one entry into a :mod:`wbik.qp.tasks` task whose target is
-resolved at the configuration q (world frame, m and rad)::
+``build_task(robot, q, entry)`` makes the task, its target resolved at q (world frame, m and rad)::
 
     {type: frame, frame: r_hand, target: [x, y, z], rpy: [r, p, y]}   # absolute pose
     {type: position, frame: r_hand, offset: [0.04, 0, 0]}              # start position + offset
@@ -16,9 +15,8 @@ placement with ``offset`` added to its position (world axes) and ``rpy`` replaci
 or nothing: the start placement); a relative one the same in the reference frame's axes, ``rpy`` only with
 ``target``. A CoM target is ``target``, or the start CoM under ``over``'s origin, or plus ``offset``.
 
-A :class:`TaskEntry` declares an entry type; :data:`TASK_ENTRY` checks entries (:class:`TaskEntryError`
-naming the key). Modules declare types in a ``TASK_ENTRIES`` tuple (:data:`TASK_ENTRY_MODULES`), user
-code with :func:`register_task_entry`.
+A :class:`TaskEntry` declares an entry type: in a module's ``TASK_ENTRIES`` (:data:`TASK_ENTRY_MODULES`)
+or by :func:`register_task_entry`.
 """
 
 from __future__ import annotations

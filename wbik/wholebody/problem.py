@@ -1,8 +1,5 @@
-"""One whole-body problem: goal and soft tasks (:mod:`wbik.qp.tasks`) under open hard constraints
-(:mod:`wbik.qp.constraint`): what every whole-body method is given and the shared check
-(:func:`wbik.solvers.check.check_problem`) judges. A problem is a template: a solve starts a copy of it
-at q0 (:meth:`WholeBody.start`), where its contacts are held.
-"""
+"""One whole-body problem, tasks (:mod:`wbik.qp.tasks`) under hard constraints (:mod:`wbik.qp.constraint`),
+as every whole-body method gets it and the shared check judges it; a solve starts a copy at q0."""
 
 from __future__ import annotations
 
@@ -71,7 +68,14 @@ class WholeBody:
         held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
         made: list[Constraint] = [contact_constraint(robot, str(frame), None if at is None else pin.SE3(at))
                                   for frame, at in held.items()]
-        made += self._support(support, [c.frame for c in made], checked["margin"])
+        soles = robot.soles
+        support = [c.frame for c in made if c.frame in soles] if support is None else support
+        support = [str(frame) for frame in ([support] if isinstance(support, str) else support)]
+        if missing := [frame for frame in support if frame not in soles]:
+            raise RobotDescriptionError(f"support frames {missing} have no sole contact points on "
+                                        f"{robot.name!r} (robot.soles lists {sorted(soles)})")
+        if support:
+            made.append(CoMInSupportPolygon(margin=checked["margin"], soles={f: soles[f] for f in support}))
         if limits != "none":
             made.append(JointPositionLimits())
         if limits == "position+velocity":
@@ -84,16 +88,6 @@ class WholeBody:
             robot.frame_id(frame)  # UnknownFrameError names the frames
         names = [task.name for task in self.tasks]
         self.task_names = [name if names.count(name) == 1 else f"{name}#{i}" for i, name in enumerate(names)]
-
-    def _support(self, support, contacts: list[str], margin: float) -> list[Constraint]:
-        soles = self.robot.soles
-        support = [f for f in contacts if f in soles] if support is None else support
-        support = [str(frame) for frame in ([support] if isinstance(support, str) else support)]
-        missing = [frame for frame in support if frame not in soles]
-        if missing:
-            raise RobotDescriptionError(f"support frames {missing} have no sole contact points on "
-                                        f"{self.robot.name!r} (robot.soles lists {sorted(soles)})")
-        return [CoMInSupportPolygon(margin=margin, soles={f: soles[f] for f in support})] if support else []
 
     def __repr__(self) -> str:
         return (f"WholeBody({self.robot.name}, {len(self.tasks)} tasks, contacts={list(self.contacts)}, "
