@@ -112,9 +112,8 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
 
 
 class StackedConstraints:
-    """lb <= x <= ub, G x <= h and A x = b as DAQP takes them, ``lower <= [I; M] x <= upper`` (an equality
-    row: ``sense`` 5, lower = upper), in buffers reused from one QP to the next (the sense and lower bounds
-    kept where the next QP repeats an ``add``)."""
+    """lb <= x <= ub, G x <= h, A x = b as DAQP takes them, ``lower <= [I; M] x <= upper`` (equality rows:
+    ``sense`` 5), in buffers reused from one QP to the next."""
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
@@ -305,9 +304,8 @@ def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
 
 def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
                   tolerance: float, workspace: DaqpWorkspace | None = None) -> np.ndarray:
-    """The minimiser with every inequality row held to ``tolerance``: DAQP warm, then cold at that primal
-    tolerance, then at its default, the first that holds the rows or else the least breaking one
-    (docs/measurements.md); another backend once."""
+    """The minimiser holding every inequality row to ``tolerance``: DAQP warm, cold at that primal tolerance,
+    cold at its default, the first that holds or else the least breaking (docs/measurements.md)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     rows = constraints.inequality_rows()

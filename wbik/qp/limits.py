@@ -139,9 +139,8 @@ class JointVelocityLimits(RateLimits):
 class JointAccelerationLimits(RateLimits):
     """|dq/dt - v_prev| <= a_max dt on the joints with a positive finite acceleration limit, and room to brake
     before a position limit: -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q) (:func:`stopping_velocity`).
-    ``v_prev`` (``velocity``, nv; zeros at first): the previous step's dq / dt, or a measured one.
-    ``acceleration_limit``: rad/s^2 (m/s^2 prismatic), one value (none on a floating base) or nv values
-    (inf or 0: none); ``period``: one IK step's time (s)."""
+    ``v_prev`` (``velocity``, nv): the last step's dq / dt, or measured. ``acceleration_limit``: rad/s^2,
+    one value (none on a floating base) or nv (inf or 0: none); ``period``: one IK step's time (s)."""
 
     name = "joint acceleration limits"
     label_kind = "acceleration limit"

@@ -32,9 +32,8 @@ SOLVE_PHASES = ("start", "projection", "checks", "report")
 
 @dataclass
 class QPSolution:
-    """Outcome of ``IKProblem.solve``: ``task_errors`` |e| per task name at q; ``violations`` per
-    constraint (> 0: violated; m or rad); ``com_margins`` the CoM's distance to each polygon's boundary (m,
-    positive inside); ``start_violations`` what q0 broke; ``diagnosis`` why a failed solve stopped there."""
+    """Outcome of ``IKProblem.solve``: |e| per task, violation per constraint (> 0: violated; m or rad), CoM
+    margin per polygon (m, > 0 inside), what q0 broke and, for a failed solve, its ``diagnosis``."""
 
     q: np.ndarray
     success: bool
@@ -158,9 +157,8 @@ class IKProblem:
 
     def project(self, tolerance: float = 1e-12, max_iterations: int = 6,
                 violation: float | None = None) -> bool:
-        """Newton steps onto the contacts from the current q: min |dq|^2 s.t. J_c dq = -e_c and the
-        other constraints. True when every contact holds to ``tolerance`` afterwards. ``violation``:
-        the inequality violation at q, if known (measured here otherwise): no step may raise it."""
+        """Newton steps onto the contacts, min |dq|^2 s.t. J_c dq = -e_c and the other constraints: whether
+        they hold to ``tolerance`` then. No step raises the inequality ``violation`` (default: measured)."""
         equalities = self._equalities
         if not equalities:
             return True
@@ -247,10 +245,9 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """QP steps from q0 until every goal task is under its tolerance and every contact within
-        ``equality_tolerance``: a step is kept when it lowers the merit and keeps the inequalities by FK
-        (:meth:`_trial`), else the trust region shrinks; a radius or step under ``stall`` ends the loop.
-        ``profile``: seconds per ``PHASES`` and ``SOLVE_PHASES``; ``diagnose``: diagnose a failed solve."""
+        """QP steps from q0 until the goal tasks are under their tolerance and the contacts within
+        ``equality_tolerance``; a step not kept (:meth:`_trial`) shrinks the trust region, a radius or step
+        under ``stall`` ends the loop. ``profile``: seconds per ``PHASES`` and ``SOLVE_PHASES``."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)

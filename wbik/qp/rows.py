@@ -49,10 +49,9 @@ Rows = EqualityRows | InequalityRows | BoundRows
 
 @dataclass(frozen=True)
 class RowLabel:
-    """What one row stands for: ``constraint`` (its name), ``kind`` (its owner's word for its rows),
-    ``subject`` (a joint, contact frame, polygon edge or pair), ``side`` ("lower"/"upper" of a bound,
-    a contact's axis), ``value`` and ``bound`` in ``unit`` where the row was made (NaN: none), and
-    ``owner``, the constraint (or step box) that puts the row in words."""
+    """What one row stands for: its ``constraint``'s name and ``kind``, its ``subject`` (a joint, contact,
+    edge, pair), ``side`` (of a bound, a contact's axis), ``value`` and ``bound`` in ``unit`` (NaN: none),
+    and ``owner``, the constraint (or step box) that puts the row in words."""
 
     constraint: str
     kind: str
