@@ -187,11 +187,6 @@ order_compiled = compiled_twin("eaik", "order")
 choose_compiled = compiled_twin("eaik", "choose")
 
 
-def built() -> bool:
-    """Whether the extension was built at install time."""
-    return choose_compiled is not None
-
-
 def twins() -> tuple:
     """(order, choose) to run now: the compiled twins unless not built or ``WBIK_PURE_PYTHON=1``."""
     return chosen(order_python, order_compiled, "eaik"), chosen(choose_python, choose_compiled, "eaik")

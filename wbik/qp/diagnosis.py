@@ -20,8 +20,7 @@ from wbik.qp.hard_rows import HardRows, group_key, step_rows
 from wbik.qp.rows import RowLabel
 from wbik.qp.tasks import Task
 
-__all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines",
-           "start_violations"]
+__all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines"]
 
 ACTIVE = 1e-7
 """A row is active when its multiplier exceeds this fraction of the largest one (and 1e-12)."""
@@ -158,12 +157,6 @@ def report_lines(data: dict) -> list[str]:
             lines += [f"  - {item['text']}: {_amount(item['gain'], unit)}" for item in data[key]]
     lines += [f"to converge: {item}" for item in data.get("advice", [])]
     return lines
-
-
-def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
-    """The hard constraints q0 breaks, as each constraint judges it."""
-    return [found for constraint in problem.constraints
-            for found in constraint.start_violations(problem.kinematics, q0)]
 
 
 class _Hierarchy:

@@ -16,7 +16,7 @@ import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import BoundConstraint, Constraint, EqualityConstraint, InequalityConstraint
-from wbik.qp.diagnosis import Diagnosis, StartViolation, diagnose, start_violations
+from wbik.qp.diagnosis import Diagnosis, StartViolation, diagnose
 from wbik.qp.elastic import conflict
 from wbik.qp.hard_rows import step_rows
 from wbik.qp.kinematics import Kinematics
@@ -262,7 +262,9 @@ class IKProblem:
             self._timed(profile, "tasks", self.qp.fill_tasks)
         merit, goals_met, violation = self._timed(profile, "checks", self._checks)
         # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
-        self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
+        self._start_violations = ([found for constraint in self.constraints
+                                   for found in constraint.start_violations(kinematics, q0)]
+                                  if outside or violation > 1e-9 else [])
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
         for iteration in range(1, max_iterations + 1):
             if goals_met:
