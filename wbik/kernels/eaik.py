@@ -33,8 +33,7 @@ def parameters(joints: int, lower, upper, slack: float, limit_tolerance: float, 
 
 def wrapped_python(raw: list[float], reference: list[float], lower: list[float], upper: list[float],
                    tolerance: float) -> tuple[float, list[float]] | None:
-    """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it) or None when a
-    joint has no 2 pi shift inside them (:func:`~wbik.solvers.analytic.closed_form.wrap_one_into_limits`)."""
+    """(squared distance, ``raw`` wrapped into the limits nearest ``reference``), or None if it cannot be."""
     wrapped, total = [], 0.0
     for value, ref, low, high in zip(raw, reference, lower, upper, strict=True):
         low_tolerant, high_tolerant = low - tolerance, high + tolerance

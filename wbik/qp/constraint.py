@@ -21,8 +21,7 @@ SLACK = 1e-9
 
 @dataclass(frozen=True)
 class Measure:
-    """How a configuration stands against one constraint: ``value`` of its ``quantity`` in ``unit``
-    (e.g. the CoM margin 0.012 m), whether it ``holds``, and ``failure``, the words of a breach."""
+    """How a configuration stands against a constraint: ``value`` of ``quantity``, ``holds``, ``failure``."""
 
     constraint: str
     quantity: str

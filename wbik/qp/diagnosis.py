@@ -30,8 +30,7 @@ SHOWN = 3
 
 @dataclass(frozen=True)
 class Blocker:
-    """A hard constraint active at the answer that holds the goals back: its first row's label, the
-    number of its rows, its largest multiplier and its ``gain`` (see the module docstring)."""
+    """An active hard constraint that holds the goals back: its first row's label, rows, multiplier, gain."""
 
     label: RowLabel
     rows: int

@@ -50,8 +50,7 @@ class HardRows:
 
 
 def group_key(label: RowLabel) -> tuple[str, str, str, str]:
-    """Rows that a diagnosis names together: a bound by its coordinate and side, the rows of a subject
-    its owner ``groups_rows`` (a contact's axes) and any other row by its subject (an edge, a pair)."""
+    """Rows a diagnosis names together: a bound by coordinate and side, any other row by its subject."""
     side = label.side if label.side in ("lower", "upper") and not label.owner.groups_rows else ""
     return label.constraint, label.kind, label.subject, side
 

@@ -46,8 +46,7 @@ def support_polygon(robot: Robot, q: np.ndarray, soles: Sequence[str]) -> Suppor
 def stance_constraints(robot: Robot, q: np.ndarray, contacts: Sequence[str],
                        support: Sequence[str] | None = None, margin: float = 0.005,
                        with_limits: bool = True) -> list[Constraint]:
-    """Hard constraints of a stance at q: contacts, CoM in the shrunk support polygon of the ``support``
-    soles (default: the contacts; none: no balance constraint), joint limits."""
+    """A stance's hard constraints at q: contacts, CoM in the ``support`` soles' polygon, joint limits."""
     constraints: list[Constraint] = [contact_constraint(robot, frame) for frame in contacts]
     support = list(contacts if support is None else support)
     if support:

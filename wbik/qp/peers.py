@@ -28,8 +28,7 @@ Build = Callable[[Any, Any], None]
 
 
 class Unsupported(str):
-    """What a peer could not express: the text "unsupported by PEER: WHAT: WHY" (a ``str``), with
-    ``peer``, ``what`` (the item: "task NAME", a constraint's name) and ``why`` as attributes."""
+    """What a peer could not express: "unsupported by PEER: WHAT: WHY", with those as attributes."""
 
     peer: str
     what: str
@@ -46,8 +45,7 @@ class Unsupported(str):
 
 @dataclass(frozen=True)
 class PeerForm:
-    """How one peer expresses the items of one class: ``build(item, target)``, or None when it cannot,
-    with ``why``; ``refuse(item)`` optionally says why one particular item cannot be (None: it can)."""
+    """How a peer expresses one class's items: ``build(item, target)`` or None and ``why``; ``refuse``."""
 
     build: Build | None = None
     why: str = ""

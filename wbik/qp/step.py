@@ -58,8 +58,7 @@ def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None]
 
 
 class Level:
-    """The tasks of one priority level: their stacked rows J (m x nv) and e (m), unweighted, with the
-    scales sqrt(w) and g sqrt(w); the tasks' summed ``constant_diagonal``; the inequality tasks' rows."""
+    """A priority level's tasks: their stacked rows J (m x nv), e (m), scales sqrt(w) and g sqrt(w)."""
 
     def __init__(self, tasks: list[Task], nv: int):
         self.tasks = tasks

@@ -68,13 +68,11 @@ class Task:
         error[:] = self.error(kinematics)
 
     def constant_diagonal(self) -> np.ndarray | None:
-        """The weights w of a task whose rows are always J = I, e = 0 (added to H's diagonal, not
-        stacked as nv rows); None for any other task."""
+        """The weights w of a task with rows J = I, e = 0 (added to H's diagonal); None for any other task."""
         return None
 
     def error_parts(self, error: np.ndarray) -> tuple[float | None, float | None]:
-        """(position part m or None, rotation part rad or None) of an error, as the whole-body check
-        judges it: by default its norm, as a position (in the task's own unit)."""
+        """(position part m, rotation part rad; None: none) of an error, as the check judges it."""
         return float(np.linalg.norm(error)), None
 
 

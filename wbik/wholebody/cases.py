@@ -25,8 +25,7 @@ CASE_MODULES: list = []
 
 @dataclass
 class WholeBodyCase:
-    """One seeded case: ``problem`` solved from ``q0``; ``anchor`` (3,) the main target point (m,
-    world); ``q_true`` the configuration the targets came from, when there is one."""
+    """One seeded case: ``problem`` from ``q0``, ``anchor`` (3,), its main target point, and ``q_true``."""
 
     problem: WholeBody
     q0: np.ndarray
