@@ -170,8 +170,7 @@ class StackedConstraints:
             ub[index] = np.minimum(ub[index], upper)
 
     def close_box(self, toward_rest: bool = False) -> None:
-        """Where lb > ub: lb <- ub; with ``toward_rest`` ub <- max(ub, min(lb, 0)) first, so that a joint
-        outside its range moves back as fast as its other bounds allow."""
+        """Where lb > ub: lb <- ub; ``toward_rest``: ub <- max(ub, min(lb, 0)) first (back at full pace)."""
         lb, ub = self._lb, self._ub
         if toward_rest:
             scratch = self._scratch
@@ -281,8 +280,7 @@ class DaqpWorkspace:
 
 
 DAQP_RETRY = {"eps_prox": 1e-12}
-"""DAQP's settings for a second try after "infeasible" or "cycling": proximal-point iterations, which
-solve the nearly degenerate QPs its active-set iterations give up on (docs/measurements.md)."""
+"""DAQP's second try after "infeasible" or "cycling": proximal-point iterations (docs/measurements.md)."""
 
 
 def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,

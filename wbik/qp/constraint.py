@@ -33,8 +33,7 @@ class Measure:
 
 @dataclass(frozen=True)
 class StartViolation:
-    """A hard constraint the start configuration breaks, in words (``text``); ``clipped`` when the loop
-    clips it away before the first step (a joint outside its limits), else the steps repair it."""
+    """A hard constraint q0 breaks, in words; ``clipped``: clipped before the first step, else repaired."""
 
     constraint: str
     kind: str

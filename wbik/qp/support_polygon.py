@@ -17,8 +17,7 @@ from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
 
 HULL_RELATIVE_TOLERANCE = 1e-9
-"""Hull tolerance relative to the scale of the point set: vertices that rounding alone separates from an
-edge or from each other are merged; real corners are millimetres apart."""
+"""Hull tolerance relative to the points' scale: what rounding alone separates is merged."""
 
 
 class DegenerateSupportPolygonError(RobotDescriptionError):
