@@ -340,15 +340,10 @@ def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
 
 def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray:
     """DAQP called directly (the same call qpsolvers makes, without its checks and conversions)."""
-    n = c.size
-    stack = StackedConstraints(n, sum(m.shape[0] for m in (G, A) if m is not None) or 1)
+    stack = StackedConstraints(c.size, sum(m.shape[0] for m in (G, A) if m is not None) or 1)
     lower, upper = stack.clear(1e30)
-    if lb is not None:
-        lower[:] = lb
-    if ub is not None:
-        upper[:] = ub
-    if G is not None:
-        stack.add(G, h)
-    if A is not None:
-        stack.add(A, b, equality=True)
+    lower[:], upper[:] = -1e30 if lb is None else lb, 1e30 if ub is None else ub
+    for rows, bound, equality in ((G, h, False), (A, b, True)):
+        if rows is not None:
+            stack.add(rows, bound, equality)
     return _cold_daqp(np.ascontiguousarray(H), np.ascontiguousarray(c), stack)
