@@ -9,7 +9,7 @@ import itertools
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import UnknownFrameError
+from wbik.kinematic_tree import frame_index
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -49,9 +49,7 @@ class Kinematics:
     def frame_id(self, name: str) -> int:
         frame_id = self._frame_ids.get(name)
         if frame_id is None:
-            if not self.model.existFrame(name):
-                raise UnknownFrameError(name, [frame.name for frame in self.model.frames])
-            frame_id = self._frame_ids[name] = self.model.getFrameId(name)
+            frame_id = self._frame_ids[name] = frame_index(self.model, name)
         return frame_id
 
     def update(self, q: np.ndarray) -> None:
