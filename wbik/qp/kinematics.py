@@ -38,9 +38,8 @@ class Kinematics:
         """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin."""
 
     def __getstate__(self) -> dict:
-        state = dict(self.__dict__)
-        del state["_placements"], state["joint_jacobians"]
-        return state
+        return {name: value for name, value in self.__dict__.items()
+                if name not in ("_placements", "joint_jacobians")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)

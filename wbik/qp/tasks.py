@@ -98,10 +98,8 @@ class _FrameTaskBase(Task):
 
     def __getstate__(self) -> dict:
         """Without the views of one Kinematics' data nor the target's (``start`` makes them again)."""
-        state = dict(self.__dict__)
-        for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
-            state.pop(name, None)
-        return state
+        views = ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation")
+        return {name: value for name, value in self.__dict__.items() if name not in views}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
