@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import sysconfig
@@ -10,30 +11,19 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-try:  # each extension is built where a C compiler exists (setup.py); None where it is not
+_pose = _ur_type = _stacked_planar = _eaik = _qp_rows = _lm_trial = None  # where not built (no C compiler)
+with contextlib.suppress(ImportError):
     import wbik.kernels._pose as _pose
-except ImportError:
-    _pose = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._ur_type as _ur_type
-except ImportError:
-    _ur_type = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._stacked_planar as _stacked_planar
-except ImportError:
-    _stacked_planar = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._eaik as _eaik
-except ImportError:
-    _eaik = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._qp_rows as _qp_rows
-except ImportError:
-    _qp_rows = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._lm_trial as _lm_trial
-except ImportError:
-    _lm_trial = None
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 

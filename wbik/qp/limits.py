@@ -25,6 +25,11 @@ class RateLimits(BoundConstraint):
 
     rate = ""
     per_step = ""
+    velocity: np.ndarray | None = None  # (nv) the velocity now, for a constraint that keeps it
+
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        now = [np.nan] * len(self.limit) if self.velocity is None else self.velocity[self.v_index].tolist()
+        return self.v_index.tolist(), now, (-self.limit).tolist(), self.limit.tolist()
 
     def row_text(self, label: RowLabel) -> str:
         return f"{self.rate} limit of {label.subject} ({label.side}, {abs(label.bound):.3g} {self.unit})"
@@ -132,9 +137,6 @@ class JointVelocityLimits(RateLimits):
         step = self.limit * (self.period * dt)
         return BoundRows(self.v_index, -step, step)
 
-    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
-        return self.v_index.tolist(), [np.nan] * len(self.limit), (-self.limit).tolist(), self.limit.tolist()
-
 
 class JointAccelerationLimits(RateLimits):
     """|dq/dt - v_prev| <= a_max dt on the joints with a positive finite acceleration limit, and room to brake
@@ -188,10 +190,6 @@ class JointAccelerationLimits(RateLimits):
 
     def stepped(self, dq: np.ndarray, dt: float) -> None:
         self.velocity = np.asarray(dq, dtype=float) / dt
-
-    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
-        return (self.v_index.tolist(), self.velocity[self.v_index].tolist(), (-self.limit).tolist(),
-                self.limit.tolist())
 
 
 def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:
