@@ -125,9 +125,7 @@ def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> t
     if not success and diagnose:
         diagnosis = problem.diagnose(solution)
         return diagnosis, diagnosis.reason_with_summary(reason)
-    if solution.start_violations:
-        return Diagnosis(start=list(solution.start_violations)), reason
-    return None, reason
+    return (Diagnosis(start=list(solution.start_violations)) if solution.start_violations else None), reason
 
 
 def _start_text(texts: str, clipped: bool) -> str:
