@@ -199,17 +199,16 @@ class _Hierarchy:
                 if inequality is None:
                     hessian += np.diag(task.constant_diagonal())
                     kept_eq.append(np.diag(np.sqrt(task.constant_diagonal())))
-                    continue
-                scale = np.sqrt(task.weight)[:, None]
-                if inequality:
+                elif inequality:
                     soft_J.append(jacobian)
                     soft_b.append(-task.gain * error)
                     soft_w.append(np.maximum(task.weight, damping))
-                    continue
-                weighted = scale * jacobian
-                hessian += weighted.T @ weighted
-                gradient += weighted.T @ (scale[:, 0] * task.gain * error)
-                kept_eq.append(weighted)
+                else:
+                    scale = np.sqrt(task.weight)[:, None]
+                    weighted = scale * jacobian
+                    hessian += weighted.T @ weighted
+                    gradient += weighted.T @ (scale[:, 0] * task.gain * error)
+                    kept_eq.append(weighted)
             count = sum(len(b) for b in soft_b)
             from scipy.linalg import block_diag  # kept out of import wbik
 
@@ -218,9 +217,9 @@ class _Hierarchy:
             blocks_G = [np.hstack((block, np.zeros((len(block), count)))) for block in extra_G]
             blocks_h = list(extra_h)
             if count:
-                J_soft = np.vstack(soft_J)
+                J_soft, bound = np.vstack(soft_J), np.concatenate(soft_b)
                 blocks_G.append(np.hstack((J_soft, -np.eye(count))))
-                blocks_h.append(np.concatenate(soft_b))
+                blocks_h.append(bound)
             G = np.vstack(blocks_G) if blocks_G else None
             h = np.concatenate(blocks_h) if blocks_h else None
             A = None if A0 is None else np.hstack((A0, np.zeros((len(b0), count))))
@@ -238,7 +237,6 @@ class _Hierarchy:
                 extra_G += [kept, -kept]
                 extra_h += [achieved + self.slack, -achieved + self.slack]
             if count:
-                bound = np.concatenate(soft_b)
                 extra_G.append(J_soft)
                 extra_h.append(np.maximum(J_soft @ dq - bound, 0.0) + bound + self.slack)
         return dq, duals
