@@ -83,6 +83,4 @@ def pure_python(kernel: str | None = None) -> bool:
     value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
     if value == "1":
         return True
-    if kernel is None or not value:
-        return False
-    return kernel in {word.strip() for word in value.split(",")}
+    return kernel is not None and bool(value) and kernel in {word.strip() for word in value.split(",")}

@@ -333,9 +333,7 @@ def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
     """``solve`` with the constraints already stacked (DAQP takes the buffers, in ``workspace`` if given)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
-    if workspace is not None:
-        return workspace.solve(H, c, constraints)
-    return _cold_daqp(H, c, constraints)
+    return _cold_daqp(H, c, constraints) if workspace is None else workspace.solve(H, c, constraints)
 
 
 def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray:

@@ -118,9 +118,8 @@ class CollisionAvoidance(InequalityConstraint):
                 continue
             rows.append(-self.collision_model.distance_gradient(kinematics.data, pair))
             bounds.append(self.gain * (pair.distance - target))
-        if not rows:  # nothing near: one row that always holds
-            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
-        return InequalityRows(np.array(rows), np.array(bounds))
+        return (InequalityRows(np.array(rows), np.array(bounds)) if rows
+                else InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1)))  # (none near: one that holds)
 
     def violation(self, kinematics: Kinematics) -> float:
         closest = self.minimum(kinematics)

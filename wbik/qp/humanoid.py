@@ -33,9 +33,8 @@ def is_point_foot(robot: Robot, frame: str) -> bool:
 
 def contact_constraint(robot: Robot, frame: str, placement: pin.SE3 | None = None) -> Contact | PointContact:
     """The hard contact of ``frame`` at ``placement`` (default: at the start), a point foot's by position."""
-    if is_point_foot(robot, frame):
-        return PointContact(frame, None if placement is None else placement.translation)
-    return Contact(frame, placement)
+    return (PointContact(frame, None if placement is None else placement.translation)
+            if is_point_foot(robot, frame) else Contact(frame, placement))
 
 
 def support_polygon(robot: Robot, q: np.ndarray, soles: Sequence[str]) -> SupportPolygon:

@@ -210,6 +210,5 @@ def feet_support_region(kinematics: Kinematics, corners: Mapping[str, np.ndarray
     """:func:`feet_support_polygon`, or the :class:`DegenerateSupport` its points collapse to."""
     frames = list(frames)
     region = support_region(contact_points(kinematics, corners, frames)[:, :2])
-    if isinstance(region, DegenerateSupport):
-        return DegenerateSupport(region.vertices, f"support soles {frames}: {region.why}")
-    return region
+    return (DegenerateSupport(region.vertices, f"support soles {frames}: {region.why}")
+            if isinstance(region, DegenerateSupport) else region)

@@ -308,10 +308,9 @@ class PostureTask(Task):
         model = kinematics.model
         if self.reference.shape != (model.nq,):
             raise ValueError(f"posture reference has {self.reference.size} values, the model nq = {model.nq}")
-        if self.joint_names is None:  # (all but a floating base: joint 1 with nv = 6)
-            self.rows = np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
-        else:
-            self.rows = np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names])
+        self.rows = (np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
+                     if self.joint_names is None  # (all but a floating base: joint 1 with nv = 6)
+                     else np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names]))
         self.dimension = len(self.rows)
         self.weight = np.broadcast_to(np.asarray(self._weight_option, float), (self.dimension,)).copy()
         self._jacobian = np.zeros((self.dimension, model.nv))
