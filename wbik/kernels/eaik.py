@@ -95,8 +95,7 @@ def order_python(params: bytes, branches: np.ndarray, reference: np.ndarray, out
             written += 1
         if last:
             break
-        wrapped = wrapped_python(raws[ranked[rank]], ref, lower, upper, tolerance)
-        if wrapped is not None:
+        if (wrapped := wrapped_python(raws[ranked[rank]], ref, lower, upper, tolerance)) is not None:
             pending.append((wrapped[0], rank, wrapped[1]))
     return written
 

@@ -100,9 +100,8 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
     solution = _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
     # (DAQP reduces dependent equality rows away, contradictory ones included: an "optimum" off them)
-    broken = max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
-                 float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)
-    if broken > 1e-6:
+    if (broken := max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
+                      float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)) > 1e-6:
         raise NoQPSolutionError(f"{backend} returned a point that breaks its rows by {broken:.3g}", backend,
                                 "infeasible")
     counts = (0 if G is None else len(G), 0 if A is None else len(A))

@@ -312,8 +312,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     diagnosis.tasks.sort(key=lambda t: -t.gain)
     # a blocker must still bring the goals closer with the non-goal task that conflicts most with them
     # left out as well, and by at least 1 % of the largest gain
-    top = next((t for t in diagnosis.tasks if not t.goal), None)
-    if top is not None:
+    if (top := next((t for t in diagnosis.tasks if not t.goal), None)) is not None:
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
         alone = 0.0
         try:
@@ -351,8 +350,7 @@ def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str,
 def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
     advice = [task.advice for task in diagnosis.tasks[:1]]
     advice += [blocker.label.owner.advice(blocker.label) for blocker in diagnosis.blockers[:2]]
-    scale = sum(diagnosis.goals.values())
-    if diagnosis.step_gain > max(1e-9, 1e-3 * scale) and "no convergence" in reason:
+    if diagnosis.step_gain > max(1e-9, 1e-3 * sum(diagnosis.goals.values())) and "no convergence" in reason:
         advice.append("the steps still reduce the goal error: a larger budget (max_iterations) goes further")
     if diagnosis.stationary:
         advice.append("no constraint is active and no task conflicts: the goal error is at a stationary "

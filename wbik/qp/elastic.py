@@ -65,8 +65,7 @@ def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
              max_rows: int = 60) -> list[ConflictRow]:
     """An irreducible set of ``rows`` that conflict (empty: none; unshrunk above ``max_rows``)."""
     matrix, upper, owner = rows.as_inequalities()
-    found = _elastic(matrix, upper)
-    if found is None or found[0] <= tolerance:
+    if (found := _elastic(matrix, upper)) is None or found[0] <= tolerance:
         return []
     _, slacks, duals = found
     support = np.flatnonzero(duals > 1e-9)
@@ -77,8 +76,7 @@ def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
         kept = list(order)
         for candidate in list(order):
             trial = [row for row in kept if row != candidate]
-            found_without = _elastic(matrix[trial], upper[trial])
-            if found_without is not None and found_without[0] > tolerance:
+            if (without := _elastic(matrix[trial], upper[trial])) is not None and without[0] > tolerance:
                 kept = trial
         order = np.array(kept, dtype=int)
     return [ConflictRow(rows.labels[owner[index]], float(slacks[index]))

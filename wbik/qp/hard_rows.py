@@ -98,10 +98,8 @@ def _bound_label(candidates: list, side: str, value: float, radius: float, name:
     best, best_gap = None, np.inf
     for low, high, low_label, high_label in candidates:
         bound, label = (low, low_label) if lower_side else (high, high_label)
-        gap = abs(bound - value)
-        if gap < best_gap:
+        if (gap := abs(bound - value)) < best_gap:
             best, best_gap = label, gap
-    box_gap = abs(abs(value) - radius)
-    if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and box_gap <= best_gap):
+    if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and abs(abs(value) - radius) <= best_gap):
         return STEP_BOX.label(name, side, float("nan"), radius, "")
     return best

@@ -47,8 +47,7 @@ def stance_constraints(robot: Robot, q: np.ndarray, contacts: Sequence[str],
                        with_limits: bool = True) -> list[Constraint]:
     """A stance's hard constraints at q: contacts, CoM in the ``support`` soles' polygon, joint limits."""
     constraints: list[Constraint] = [contact_constraint(robot, frame) for frame in contacts]
-    support = list(contacts if support is None else support)
-    if support:
+    if support := list(contacts if support is None else support):
         constraints.append(CoMInSupportPolygon(support_polygon(robot, q, support), margin))
     if with_limits:
         constraints.append(JointPositionLimits())

@@ -184,8 +184,7 @@ class IKProblem:
                     allowed = max(self._inequality_violation() if violation is None else violation, 0.0)
                 q = kinematics.q.copy()
                 kinematics.update(kinematics.integrate(dq))
-                after = self._inequality_violation()
-                if after <= allowed + 1e-15:
+                if (after := self._inequality_violation()) <= allowed + 1e-15:
                     allowed = after
                     continue
                 kinematics.update(q)  # it broke an inequality: the QP's projection instead

@@ -74,8 +74,7 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
         raise _degenerate(points, f"they coincide (within the tolerance {tolerance:.3g} m)")
     centred = points - points.mean(axis=0)
     _, _, axes = np.linalg.svd(centred, full_matrices=False)
-    spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
-    if spread <= tolerance:
+    if (spread := float(np.ptp(centred @ axes[-1]))) <= tolerance:  # the width across the main direction
         raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
     from scipy.spatial import ConvexHull, QhullError  # kept out of import wbik
 

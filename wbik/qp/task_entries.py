@@ -106,12 +106,10 @@ class TaskEntry:
         if not (isinstance(self.task, type) and issubclass(self.task, Task)):
             raise RegistryError(f"task entry {self.name!r}: task must be a wbik.qp.tasks.Task subclass, "
                                 f"got {self.task!r}")
-        unknown = [key for key in (*self.required, *self.options) if key not in self.keys
-                   and key not in TASK_OPTIONS]
-        if unknown:
+        if unknown := [key for key in (*self.required, *self.options) if key not in self.keys
+                       and key not in TASK_OPTIONS]:
             raise RegistryError(f"task entry {self.name!r}: {unknown} are neither its keys nor task options")
-        loose = {key: node for key, node in self.keys.items() if not isinstance(node, Node)}
-        if loose:
+        if loose := {key: node for key, node in self.keys.items() if not isinstance(node, Node)}:
             raise RegistryError(f"task entry {self.name!r}: each key is a wbik.schema node (FRAME, VECTOR3, "
                                 f"Number(...), ...), got {loose}")
 
