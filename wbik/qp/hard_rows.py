@@ -71,8 +71,7 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
             for j, low, high, pair in zip(indices.tolist(), lower, upper, labels, strict=True):
                 candidates[j].append((low, high, *pair))
         else:
-            count = len(rows[1])
-            if len(labels) != count:  # (a constraint whose labels do not match its rows: generic ones)
+            if len(labels) != (count := len(rows[1])):  # (labels that do not match the rows: generic ones)
                 labels = [constraint.label(f"row {i}") for i in range(count)]
             general.extend(labels)
     names = tangent_names(kinematics.model)

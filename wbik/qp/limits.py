@@ -69,8 +69,7 @@ class JointPositionLimits(BoundConstraint):
 
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
-        rows = self._q_rows
-        if isinstance(rows, slice):  # a view: clipped in place
+        if isinstance(rows := self._q_rows, slice):  # a view: clipped in place
             view = q[rows]
             np.maximum(view, self.lower, out=view)
             np.minimum(view, self.upper, out=view)

@@ -153,8 +153,7 @@ class DegenerateSupport:
 
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
-    """The support polygon of finite 2D points, or the :class:`DegenerateSupport` they collapse to: their
-    extreme points along their main direction, or one point when these are within the hull tolerance."""
+    """The support polygon of finite 2D points, else the :class:`DegenerateSupport` of their extremes."""
     try:
         return SupportPolygon(points)
     except DegenerateSupportPolygonError as exc:
