@@ -80,7 +80,6 @@ def can_build() -> bool:
 
 def pure_python(kernel: str | None = None) -> bool:
     """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: every twin's)."""
-    value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
-    if value == "1":
+    if (value := os.environ.get(PURE_PYTHON_VARIABLE, "").strip()) == "1":
         return True
     return kernel is not None and bool(value) and kernel in {word.strip() for word in value.split(",")}

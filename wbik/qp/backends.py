@@ -262,8 +262,7 @@ class DaqpWorkspace:
         if constraints.rows == 0:  # (daqp.Model.update cannot take an empty general matrix)
             return _cold_daqp(H, c, constraints)
         matrix, upper, lower, sense, key = constraints.in_use()
-        model = self._models.get(key)
-        if model is None:
+        if (model := self._models.get(key)) is None:
             model = self._new_model()
             if model.setup(H, c, matrix, upper, lower, sense)[0] < 0:
                 return _cold_daqp(H, c, constraints)

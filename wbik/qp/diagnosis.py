@@ -117,8 +117,7 @@ class Diagnosis:
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
     """(diagnosis, reason) of the ``(problem, solution)`` left in ``local.last`` (cleared): a failed one,
     with ``diagnose``, is diagnosed and summarised in ``reason``; another keeps what its start broke."""
-    last = getattr(local, "last", None)
-    if last is None:
+    if (last := getattr(local, "last", None)) is None:
         return None, reason
     problem, solution = last
     local.last = None

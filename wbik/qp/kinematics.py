@@ -46,8 +46,7 @@ class Kinematics:
         self._views()
 
     def frame_id(self, name: str) -> int:
-        frame_id = self._frame_ids.get(name)
-        if frame_id is None:
+        if (frame_id := self._frame_ids.get(name)) is None:
             frame_id = self._frame_ids[name] = frame_index(self.model, name)
         return frame_id
 
@@ -66,8 +65,7 @@ class Kinematics:
 
     def support_columns(self, frame_id: int) -> np.ndarray:
         """Tangent indices (int64) of the joints that move a frame (its Jacobian's other columns are 0)."""
-        columns = self._support_columns.get(frame_id)
-        if columns is None:
+        if (columns := self._support_columns.get(frame_id)) is None:
             model = self.model
             joints = [model.joints[joint] for joint in model.supports[model.frames[frame_id].parentJoint][1:]]
             indices = (index for joint in joints for index in range(joint.idx_v, joint.idx_v + joint.nv))

@@ -94,8 +94,7 @@ class PeerForms:
 
     def refusal(self, item) -> str | None:
         """Why this peer cannot express ``item`` (a task or a constraint), or None when it can."""
-        form = self.lookup(type(item))
-        if form is None:
+        if (form := self.lookup(type(item))) is None:
             return (f"{self.title} has no form for {type(item).__name__} (a form registers with "
                     f"{self.peer.upper()}.form of wbik.solvers.{self.peer})")
         if form.build is None:
@@ -104,8 +103,7 @@ class PeerForms:
 
     def build(self, item, target) -> None:
         """Add ``item`` to ``target`` through its form (:meth:`refusal` must be None)."""
-        form = self.lookup(type(item))
-        if form is None or form.build is None:
+        if (form := self.lookup(type(item))) is None or form.build is None:
             raise RegistryError(f"{self.title} cannot express {item!r}: {self.refusal(item)}")
         form.build(item, target)
 

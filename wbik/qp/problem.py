@@ -159,8 +159,7 @@ class IKProblem:
                 violation: float | None = None) -> bool:
         """Newton steps onto the contacts, min |dq|^2 s.t. J_c dq = -e_c and the other constraints: whether
         they hold to ``tolerance`` then. No step raises the inequality ``violation`` (default: measured)."""
-        equalities = self._equalities
-        if not equalities:
+        if not (equalities := self._equalities):
             return True
         kinematics = self.kinematics
         allowed = None
