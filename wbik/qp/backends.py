@@ -53,8 +53,7 @@ def available() -> list[str]:
 
 def resolve(name: str) -> str:
     """A backend name ("fastest" and "default" allowed) checked against what is installed."""
-    resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
-    if resolved == "daqp":  # called directly (below): qpsolvers is not needed for it
+    if (resolved := {"fastest": FASTEST, "default": DEFAULT}.get(name, name)) == "daqp":  # (no qpsolvers)
         with contextlib.suppress(ImportError):
             import daqp  # noqa: F401
 
@@ -111,8 +110,7 @@ def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray |
 
 
 class StackedConstraints:
-    """lb <= x <= ub, G x <= h, A x = b as DAQP takes them, ``lower <= [I; M] x <= upper`` (equality rows:
-    ``sense`` 5), in buffers reused from one QP to the next."""
+    """G x <= h, A x = b and bounds as DAQP takes them, ``lower <= [I; M] x <= upper``, in reused buffers."""
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
@@ -179,8 +177,7 @@ class StackedConstraints:
 
     def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
         """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""
-        count = matrix.shape[0]
-        if self.rows + count > self._matrix.shape[0]:
+        if self.rows + (count := matrix.shape[0]) > self._matrix.shape[0]:
             self._grow(2 * (self.rows + count))
         start, stop = self.rows, self.rows + count
         first, last = self.n + start, self.n + stop

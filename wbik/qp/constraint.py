@@ -219,11 +219,9 @@ def tangent_names(model: pin.Model) -> list[str]:
 
 def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
     """(q indices, v indices) of the 1-DOF joints with finite limits, but the ``unbounded`` ones."""
-    q_index, v_index = [], []
-    for joint_id, joint in enumerate(model.joints):
-        if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded:
-            low, high = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
-            if np.isfinite(low) and np.isfinite(high) and high - low < 1e10:
-                q_index.append(joint.idx_q)
-                v_index.append(joint.idx_v)
-    return np.array(q_index, dtype=int), np.array(v_index, dtype=int)
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+    joints = [joint for joint_id, joint in enumerate(model.joints)
+              if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded
+              and np.isfinite(lower[joint.idx_q]) and np.isfinite(upper[joint.idx_q])
+              and upper[joint.idx_q] - lower[joint.idx_q] < 1e10]
+    return np.array([j.idx_q for j in joints], dtype=int), np.array([j.idx_v for j in joints], dtype=int)

@@ -35,8 +35,7 @@ class WholeBodyCase:
 
 @dataclass(frozen=True)
 class CaseSampler:
-    """A family of seeded cases: its ``name`` (the study file's ``scenario:``), its ``robot`` (a name
-    :func:`wbik.load` takes), ``sample(rng, index) -> WholeBodyCase`` and a one-sentence ``description``."""
+    """A family of seeded cases: ``name`` (``scenario:``), ``robot``, ``sample(rng, index)``, description."""
 
     name: str
     robot: str

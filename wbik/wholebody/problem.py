@@ -188,9 +188,8 @@ class StartedProblem:
 
     def items(self) -> list[tuple[str, object]]:
         """(name, item) of every constraint, then every task, as the problem names them."""
-        return ([(c.name, c) for c in self.constraints]
-                + [(f"task {name}", task)
-                   for name, task in zip(self.problem.task_names, self.tasks, strict=True)])
+        tasks = zip(self.problem.task_names, self.tasks, strict=True)
+        return [(c.name, c) for c in self.constraints] + [(f"task {name}", task) for name, task in tasks]
 
 
 def _acceleration(robot: Robot, value, ctx: Context) -> float | np.ndarray | None:
