@@ -126,8 +126,7 @@ class Constraint(Describer):
 
     def start_violations(self, kinematics: Kinematics, q0: np.ndarray) -> list[StartViolation]:
         """What the start q0 breaks (the kinematics stand at q0 clipped into the joint limits)."""
-        violation = float(self.violation(kinematics))
-        if violation <= SLACK:
+        if (violation := float(self.violation(kinematics))) <= SLACK:
             return []
         text = f"{self.name} violated by {violation:.3g}"
         return [self.start_violation(self.name, violation, 0.0, "m", text)]

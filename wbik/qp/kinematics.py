@@ -83,8 +83,7 @@ class Kinematics:
         return pin.getFrameJacobian(self.model, self.data, frame_id, LOCAL)
 
     def _update_com(self) -> None:
-        # uses the joint Jacobians already in data (no second forward pass)
-        pin.jacobianCenterOfMass(self.model, self.data, False)
+        pin.jacobianCenterOfMass(self.model, self.data, False)  # (data's joint Jacobians: no second pass)
         self._com_ready = True
 
     def com(self) -> np.ndarray:
