@@ -56,9 +56,7 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
     result = linprog(cost, A_ub=constraints, b_ub=upper / scale, bounds=bounds, method="highs")
     if result.status != 0:
         return None
-    slacks = result.x[nv:]
-    duals = -np.asarray(result.ineqlin.marginals, dtype=float) / scale
-    return float(result.fun), slacks, duals
+    return float(result.fun), result.x[nv:], -np.asarray(result.ineqlin.marginals, dtype=float) / scale
 
 
 def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,

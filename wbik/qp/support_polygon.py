@@ -101,8 +101,7 @@ class SupportPolygon:
         self.vertex_labels = [str(labels[i]) if named else f"vertex {k}" for k, i in enumerate(nearest)]
         """Each vertex's name: its contact point's label (``labels``, one per point), else "vertex i"."""
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
-        lengths = np.linalg.norm(edges, axis=1)
-        self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / lengths[:, None]
+        self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / np.linalg.norm(edges, axis=1)[:, None]
         self.offsets = np.einsum("ij,ij->i", self.normals, self.vertices)
 
     def __repr__(self) -> str:
