@@ -193,7 +193,7 @@ def test_the_qp_ik_gives_the_same_answer_with_either_twin(bioloid, monkeypatch):
     python_problem, _ = balance_problem(bioloid)
     python = python_problem.solve(q0)
     assert python_problem.tasks[0]._compiled_rows is None
-    assert python_problem._step.levels[0]._compiled_quadratic is None
+    assert python_problem.qp.levels[0]._compiled_quadratic is None
     assert compiled.success and python.success
     # (identical here; a last-bit decision may differ on another CPU: an iteration more, the same tolerance)
     assert abs(compiled.iterations - python.iterations) <= 1

@@ -1,2 +1,1 @@
-"""wbik's compiled kernels (``_<name>.c`` beside this file) and their Python twins: :mod:`wbik.kernels.twins`
-lists them and picks which runs."""
+"""wbik's compiled kernels (``_<name>.c``) and their Python twins (:mod:`wbik.kernels.twins`)."""

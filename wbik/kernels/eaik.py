@@ -1,9 +1,8 @@
-"""The per-call choice of the ``eaik`` method in two twins with the same bits: :func:`order_python` and
-:func:`choose_python` here, ``wbik.kernels._eaik`` in C (docs/benchmarks.md). ``order`` writes EAIK's
-branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch and
-bound (bound: :func:`bound_python`; a wrapped branch comes out once at most the next bound less
-``params[0]`` away; ties in the bounds' order) and returns how many; ``choose`` writes the first of them
-whose FK (:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
+"""The per-call choice of the ``eaik`` method, bit for bit as ``wbik.kernels._eaik`` in C: ``order`` writes
+EAIK's branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch
+and bound (:func:`bound_python`; a wrapped branch comes out once at most the next bound less ``params[0]``
+away; ties in the bounds' order) and returns how many; ``choose`` writes the first whose FK
+(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
 """
 
 from __future__ import annotations
@@ -25,24 +24,17 @@ def parameters(joints: int, lower, upper, slack: float, limit_tolerance: float, 
     """float64 values in bytes: ``slack`` (the bound's), ``limit_tolerance``, ``screen_tolerance``, lower
     (n), upper (n), and from ``lines`` (:class:`~wbik.solvers.analytic.structure.ChainLines`; zeros
     without, for ``order`` only) the joint axes (n x 3), origins (n x 3) and tip pose at q = 0 (R, p)."""
-    if lines is None:
-        axes, origins, tip = np.zeros((joints, 3)), np.zeros((joints, 3)), np.eye(4)
-    else:
-        axes, origins, tip = lines.axes, lines.origins, lines.tip
-    tip = np.asarray(tip, dtype=float)
-    params = np.concatenate((
-        [slack, limit_tolerance, screen_tolerance], np.asarray(lower, dtype=float),
-        np.asarray(upper, dtype=float), np.asarray(axes, dtype=float).ravel(),
-        np.asarray(origins, dtype=float).ravel(), tip[:3, :3].ravel(), tip[:3, 3]))
-    return params.tobytes()
+    axes, origins, tip = ((np.zeros((joints, 3)), np.zeros((joints, 3)), np.eye(4)) if lines is None
+                          else (lines.axes, lines.origins, lines.tip))
+    tip = np.asarray(tip, dtype=float)[:3]
+    values = (slack, limit_tolerance, screen_tolerance), lower, upper, axes, origins, tip[:, :3], tip[:, 3]
+    return np.concatenate([np.ravel(value) for value in values], dtype=float).tobytes()
 
 
 def wrapped_python(raw: list[float], reference: list[float], lower: list[float], upper: list[float],
                    tolerance: float) -> tuple[float, list[float]] | None:
-    """(squared distance to ``reference``, ``raw`` wrapped into the limits nearest to it) or None when a
-    joint has no 2 pi shift inside them (:func:`~wbik.solvers.analytic.closed_form.wrap_one_into_limits`)."""
-    wrapped = []
-    total = 0.0
+    """(squared distance, ``raw`` wrapped into the limits nearest ``reference``), or None if it cannot be."""
+    wrapped, total = [], 0.0
     for value, ref, low, high in zip(raw, reference, lower, upper, strict=True):
         low_tolerant, high_tolerant = low - tolerance, high + tolerance
         turns = float(round((ref - value) / TWO_PI))
@@ -103,8 +95,7 @@ def order_python(params: bytes, branches: np.ndarray, reference: np.ndarray, out
             written += 1
         if last:
             break
-        wrapped = wrapped_python(raws[ranked[rank]], ref, lower, upper, tolerance)
-        if wrapped is not None:
+        if (wrapped := wrapped_python(raws[ranked[rank]], ref, lower, upper, tolerance)) is not None:
             pending.append((wrapped[0], rank, wrapped[1]))
     return written
 
@@ -192,11 +183,6 @@ def choose_python(params: bytes, branches: np.ndarray, reference: np.ndarray, ta
 
 order_compiled = compiled_twin("eaik", "order")
 choose_compiled = compiled_twin("eaik", "choose")
-
-
-def built() -> bool:
-    """Whether the extension was built at install time."""
-    return choose_compiled is not None
 
 
 def twins() -> tuple:

@@ -1,10 +1,9 @@
-"""wbik's compiled kernels (``_<name>.c`` here, built by ``setup.py`` where a C compiler exists), their
-Python twins and the switch between them: ``WBIK_PURE_PYTHON=1`` runs every Python twin, a comma-separated
-list of kernel names (``eaik,pose``) those only (docs/benchmarks.md).
-"""
+"""wbik's compiled kernels (``_<name>.c``, built where a C compiler exists) and their Python twins:
+``WBIK_PURE_PYTHON=1`` runs every twin, a comma-separated list (``eaik,pose``) those only."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import sysconfig
@@ -12,72 +11,50 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-try:  # each extension is built where a C compiler exists (setup.py); None where it is not
+_pose = _ur_type = _stacked_planar = _eaik = _qp_rows = _lm_trial = None  # where not built (no C compiler)
+with contextlib.suppress(ImportError):
     import wbik.kernels._pose as _pose
-except ImportError:
-    _pose = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._ur_type as _ur_type
-except ImportError:
-    _ur_type = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._stacked_planar as _stacked_planar
-except ImportError:
-    _stacked_planar = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._eaik as _eaik
-except ImportError:
-    _eaik = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._qp_rows as _qp_rows
-except ImportError:
-    _qp_rows = None
-try:
+with contextlib.suppress(ImportError):
     import wbik.kernels._lm_trial as _lm_trial
-except ImportError:
-    _lm_trial = None
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 
 
 @dataclass(frozen=True)
 class Kernel:
-    """One compiled kernel: ``name``, its extension (None where not built), what it computes, where its
-    Python twin lives, and the goal rows of ``benchmarks/all.py`` it moves."""
+    """One compiled kernel (its C file says what it computes), its Python twin and goal rows it moves."""
 
     name: str
     extension: ModuleType | None
-    computes: str
     python_twin: str
     goal_rows: tuple[str, ...]
 
 
 KERNELS = (
     Kernel("pose", _pose,
-           "as_target's fast-path test of a pose; the shared FK check's arithmetic "
-           "(p - p*, |p - p*|, R*^T R)",
            "wbik.targets._python_accepts_plain_se3, wbik.geometry._python_error_parts",
            ("interface overhead", "Golem-III closed-form solve")),
     Kernel("ur_type", _ur_type,
-           "the UR-type closed form's choice: branches, wrapping into the limits, screen, nearest branch",
            "wbik.solvers.analytic.ur_type.branches_by_joint with "
            "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
            ("UR5 closed-form solve", "UR5 closed-form solve_all", "UR5 closed-form solve_many")),
     Kernel("stacked_planar", _stacked_planar,
-           "the stacked-planar (Golem-III arm) pose closed form's choice, as the UR-type kernel's",
            "wbik.solvers.analytic.stacked_planar.StackedPlanarPose.branches with "
            "wbik.solvers.analytic.solver.AnalyticSolver._choose (the vectorised choice)",
            ("Golem-III closed-form solve",)),
-    Kernel("eaik", _eaik,
-           "the eaik method's choice among EAIK's branches: order, wrapping, FK screen, check arithmetic",
-           "wbik.kernels.eaik (order_python, choose_python)",
-           ("eaik method solve",)),
+    Kernel("eaik", _eaik, "wbik.kernels.eaik (order_python, choose_python)", ("eaik method solve",)),
     Kernel("qp_rows", _qp_rows,
-           "the QP step's frame-task rows, each priority level's H and c, the constraint stack's copies",
            "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends (Pinocchio and NumPy)",
            ("whole-body QP step", "converged whole-body IK")),
     Kernel("lm_trial", _lm_trial,
-           "one damped, bounded Levenberg-Marquardt trial of bounded_lm",
            "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK)",
            ("bounded_lm mean time",)),
 )
@@ -102,12 +79,7 @@ def can_build() -> bool:
 
 
 def pure_python(kernel: str | None = None) -> bool:
-    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: for every
-    twin). Read when a kernel is picked (at import of :mod:`wbik.targets` and :mod:`wbik.geometry`, or
-    when the solver, closed form or QP piece using it is made)."""
-    value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
-    if value == "1":
+    """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: every twin's)."""
+    if (value := os.environ.get(PURE_PYTHON_VARIABLE, "").strip()) == "1":
         return True
-    if kernel is None or not value:
-        return False
-    return kernel in {word.strip() for word in value.split(",")}
+    return kernel is not None and bool(value) and kernel in {word.strip() for word in value.split(",")}

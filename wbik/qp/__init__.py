@@ -43,8 +43,7 @@ __all__ = [
     "Constraint", "Contact", "DegenerateSupport", "DegenerateSupportPolygonError", "Diagnosis",
     "EqualityConstraint", "EqualityRows", "FrameTask", "IKProblem", "InequalityConstraint", "InequalityRows",
     "JointAccelerationLimits", "JointPositionLimits", "JointVelocityLimits", "Kinematics", "LockedJoints",
-    "MinimumDistance",
-    "OrientationTask", "PointContact", "PositionBoxTask", "PositionTask", "PostureTask", "QPSolution",
-    "RegularizationTask", "RelativeFrameTask", "RowLabel", "SupportPolygon", "Task", "available_backends",
-    "convex_hull", "feet_support_polygon",
+    "MinimumDistance", "OrientationTask", "PointContact", "PositionBoxTask", "PositionTask", "PostureTask",
+    "QPSolution", "RegularizationTask", "RelativeFrameTask", "RowLabel", "SupportPolygon", "Task",
+    "available_backends", "convex_hull", "feet_support_polygon",
 ]

@@ -1,10 +1,6 @@
-"""QP backends through qpsolvers, selected by name; DAQP called directly on reused buffers.
-
-Every QP step solves  min 1/2 x^T H x + c^T x  s.t.  G x <= h, A x = b, lb <= x <= ub  with dense
-matrices. ``BACKEND_OPTIONS`` sets tolerances tight enough for IK to 1e-6; the default is DAQP, the
-fastest on these small dense QPs (``benchmarks/qp.py``, docs/benchmarks.md). A backend that finds no
-minimiser raises :class:`wbik.errors.NoQPSolutionError` with its own status.
-"""
+"""Dense QP backends by name:  min 1/2 x^T H x + c^T x  s.t.  G x <= h, A x = b, lb <= x <= ub, through
+qpsolvers (tolerances in ``BACKEND_OPTIONS``) or DAQP, the default, called directly on reused buffers. No
+minimiser: :class:`wbik.errors.NoQPSolutionError` with the backend's status."""
 
 from __future__ import annotations
 
@@ -57,13 +53,10 @@ def available() -> list[str]:
 
 def resolve(name: str) -> str:
     """A backend name ("fastest" and "default" allowed) checked against what is installed."""
-    resolved = {"fastest": FASTEST, "default": DEFAULT}.get(name, name)
-    if resolved == "daqp":  # called directly (below): qpsolvers is not needed for it
-        try:
+    if (resolved := {"fastest": FASTEST, "default": DEFAULT}.get(name, name)) == "daqp":  # (no qpsolvers)
+        with contextlib.suppress(ImportError):
             import daqp  # noqa: F401
-        except ImportError:
-            pass
-        else:
+
             return resolved
     if resolved not in _qpsolvers().available_solvers:
         raise BackendUnavailableError(
@@ -79,10 +72,12 @@ def solve(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: n
     """The minimiser; raises NoQPSolutionError (with the backend's status) when there is none."""
     if backend == "daqp":
         return _solve_daqp(H, c, G, h, A, b, lb, ub)
-    if backend == "osqp":  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
-        problem = _qpsolvers().Problem(_csc(H), c, _csc(G), h, _csc(A), b, lb, ub)
-        return _found_solution(backend, problem, quiet=True).x
-    return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=False).x
+    sparse = backend == "osqp"  # OSQP is sparse: hand it CSC matrices and keep its notices quiet
+    if sparse:
+        from scipy.sparse import csc_matrix  # kept out of import wbik
+
+        H, G, A = (None if matrix is None else csc_matrix(matrix) for matrix in (H, G, A))
+    return _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b, lb, ub), quiet=sparse).x
 
 
 def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qpsolvers.Solution:
@@ -100,29 +95,22 @@ def _found_solution(backend: str, problem: qpsolvers.Problem, quiet: bool) -> qp
 
 def solve_with_duals(backend: str, H: np.ndarray, c: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
                      A: np.ndarray | None, b: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(x, z, y): the minimiser and the multipliers of G x <= h (z >= 0) and A x = b (y), for the
-    diagnoses of a failed solve; NoQPSolutionError when there is none."""
+    """(x, z, y): the minimiser and the multipliers of G x <= h and A x = b; NoQPSolutionError."""
     solution = _found_solution(backend, _qpsolvers().Problem(H, c, G, h, A, b), quiet=True)
     x = np.asarray(solution.x, dtype=float)
-    # (a backend may return a point that breaks the rows: DAQP reduces dependent equality rows away,
-    # contradictory ones included, and reports an optimum 5 cm off them)
-    broken = max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
-                 float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)
-    if broken > 1e-6:
+    # (DAQP reduces dependent equality rows away, contradictory ones included: an "optimum" off them)
+    if (broken := max(float(np.max(G @ x - h, initial=0.0)) if G is not None else 0.0,
+                      float(np.max(np.abs(A @ x - b), initial=0.0)) if A is not None else 0.0)) > 1e-6:
         raise NoQPSolutionError(f"{backend} returned a point that breaks its rows by {broken:.3g}", backend,
                                 "infeasible")
-    count_g = 0 if G is None else G.shape[0]
-    count_a = 0 if A is None else A.shape[0]
-    z = np.zeros(count_g) if solution.z is None else np.asarray(solution.z, dtype=float).reshape(count_g)
-    y = np.zeros(count_a) if solution.y is None else np.asarray(solution.y, dtype=float).reshape(count_a)
+    counts = (0 if G is None else len(G), 0 if A is None else len(A))
+    z, y = (np.zeros(count) if duals is None else np.asarray(duals, dtype=float).reshape(count)
+            for duals, count in zip((solution.z, solution.y), counts, strict=True))
     return x, z, y
 
 
 class StackedConstraints:
-    """lb <= x <= ub, G x <= h and A x = b as DAQP takes them, in buffers reused (and grown) from one QP
-    to the next: ``lower <= [I; M] x <= upper``, the first n entries the simple bounds, then one row of M
-    per constraint row (an equality: ``sense`` 5, lower = upper). Each ``add`` is recorded (``_layout``):
-    where the next QP repeats it, the sense and lower bounds already written there are kept."""
+    """G x <= h, A x = b and bounds as DAQP takes them, ``lower <= [I; M] x <= upper``, in reused buffers."""
 
     def __init__(self, n: int, capacity: int = 16):
         self.n = n
@@ -179,9 +167,7 @@ class StackedConstraints:
             ub[index] = np.minimum(ub[index], upper)
 
     def close_box(self, toward_rest: bool = False) -> None:
-        """Where a coordinate's bounds leave no room (lb > ub): lb <- ub; with ``toward_rest`` the bound
-        nearest to no motion instead (ub <- max(ub, min(lb, 0)), then lb <- min(lb, ub)), so that a joint
-        outside its range moves back as fast as its other bounds allow."""
+        """Where lb > ub: lb <- ub; ``toward_rest``: ub <- max(ub, min(lb, 0)) first (back at full pace)."""
         lb, ub = self._lb, self._ub
         if toward_rest:
             scratch = self._scratch
@@ -191,8 +177,7 @@ class StackedConstraints:
 
     def add(self, matrix: np.ndarray, upper: np.ndarray, equality: bool = False) -> None:
         """Rows ``matrix x <= upper`` (or ``= upper`` when ``equality``)."""
-        count = matrix.shape[0]
-        if self.rows + count > self._matrix.shape[0]:
+        if self.rows + (count := matrix.shape[0]) > self._matrix.shape[0]:
             self._grow(2 * (self.rows + count))
         start, stop = self.rows, self.rows + count
         first, last = self.n + start, self.n + stop
@@ -262,9 +247,7 @@ def split_rows(matrix: np.ndarray, upper: np.ndarray, equality: np.ndarray) -> t
 
 
 class DaqpWorkspace:
-    """DAQP workspaces (``daqp.Model``: no set-up allocations, the previous active set as the warm
-    start), one per constraint layout (the ``sense`` pattern); the QP is strictly convex, so the
-    minimiser does not depend on the start."""
+    """One ``daqp.Model`` per constraint layout (``sense``), warm-started from the last active set."""
 
     def __init__(self):
         import daqp
@@ -276,8 +259,7 @@ class DaqpWorkspace:
         if constraints.rows == 0:  # (daqp.Model.update cannot take an empty general matrix)
             return _cold_daqp(H, c, constraints)
         matrix, upper, lower, sense, key = constraints.in_use()
-        model = self._models.get(key)
-        if model is None:
+        if (model := self._models.get(key)) is None:
             model = self._new_model()
             if model.setup(H, c, matrix, upper, lower, sense)[0] < 0:
                 return _cold_daqp(H, c, constraints)
@@ -293,8 +275,7 @@ class DaqpWorkspace:
 
 
 DAQP_RETRY = {"eps_prox": 1e-12}
-"""DAQP's settings for a second try after "infeasible" or "cycling": proximal-point iterations, which
-solve the nearly degenerate QPs its active-set iterations give up on (docs/measurements.md)."""
+"""DAQP's second try after "infeasible" or "cycling": proximal-point iterations (docs/measurements.md)."""
 
 
 def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
@@ -316,10 +297,8 @@ def _cold_daqp(H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
 
 def solve_precise(backend: str, H: np.ndarray, c: np.ndarray, constraints: StackedConstraints,
                   tolerance: float, workspace: DaqpWorkspace | None = None) -> np.ndarray:
-    """The minimiser with every inequality row held to ``tolerance`` (a level's kept rows): DAQP warm
-    (``workspace``), then cold at that primal tolerance, then cold at its default; the first answer
-    that holds the rows, else the one that breaks them least (docs/measurements.md). Other backends
-    are solved once (tight tolerances in ``BACKEND_OPTIONS``)."""
+    """The minimiser holding every inequality row to ``tolerance``: DAQP warm, cold at that primal tolerance,
+    cold at its default, the first that holds or else the least breaking (docs/measurements.md)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
     rows = constraints.inequality_rows()
@@ -349,28 +328,15 @@ def solve_stacked(backend: str, H: np.ndarray, c: np.ndarray, constraints: Stack
     """``solve`` with the constraints already stacked (DAQP takes the buffers, in ``workspace`` if given)."""
     if backend != "daqp":
         return solve(backend, H, c, *constraints.split())
-    if workspace is not None:
-        return workspace.solve(H, c, constraints)
-    return _cold_daqp(H, c, constraints)
-
-
-def _csc(matrix: np.ndarray | None):
-    from scipy import sparse
-
-    return None if matrix is None else sparse.csc_matrix(matrix)
+    return _cold_daqp(H, c, constraints) if workspace is None else workspace.solve(H, c, constraints)
 
 
 def _solve_daqp(H, c, G, h, A, b, lb, ub) -> np.ndarray:
     """DAQP called directly (the same call qpsolvers makes, without its checks and conversions)."""
-    n = c.size
-    stack = StackedConstraints(n, sum(m.shape[0] for m in (G, A) if m is not None) or 1)
+    stack = StackedConstraints(c.size, sum(m.shape[0] for m in (G, A) if m is not None) or 1)
     lower, upper = stack.clear(1e30)
-    if lb is not None:
-        lower[:] = lb
-    if ub is not None:
-        upper[:] = ub
-    if G is not None:
-        stack.add(G, h)
-    if A is not None:
-        stack.add(A, b, equality=True)
+    lower[:], upper[:] = -1e30 if lb is None else lb, 1e30 if ub is None else ub
+    for rows, bound, equality in ((G, h, False), (A, b, True)):
+        if rows is not None:
+            stack.add(rows, bound, equality)
     return _cold_daqp(np.ascontiguousarray(H), np.ascontiguousarray(c), stack)

@@ -18,10 +18,9 @@ from wbik.qp.support_polygon import (
 
 
 class CoMInSupportPolygon(InequalityConstraint):
-    """The ground projection of the CoM inside the support polygon shrunk by ``margin`` (m), linearised:
-    N (c_xy + J_com,xy dq) <= d - margin - safety, one row per edge (``safety`` absorbs the second-order
-    error). The polygon is ``polygon``, or the hull of the contact points of ``soles`` (``robot.soles``)
-    where the problem starts; the measure takes the soles' polygon at the configuration judged."""
+    """The CoM's ground projection inside the support polygon shrunk by ``margin`` (m), linearised:
+    N (c_xy + J_com,xy dq) <= d - margin - safety per edge. The polygon is ``polygon``, or that of ``soles``
+    (``robot.soles``) at the start and, for the measure, at the configuration judged."""
 
     label_kind = "support polygon"
     quantity = "CoM margin"

@@ -1,9 +1,6 @@
-"""What every hard constraint is: typed rows for one QP step over dq (nv), a measure of a configuration
-by FK for the shared check, and words for its own rows.
-
-A constraint derives from ``BoundConstraint`` (``bounds(k, dt)``), ``EqualityConstraint`` (``equality(k)``,
-also projected onto by the IK loop) or ``InequalityConstraint`` (``inequality(k)``). It puts its rows in
-words (``labels``, ``row_text``, ``blocker_text``, ``advice``): the diagnoses never ask for its kind.
+"""Hard constraints: typed rows for one QP step over dq (nv) from ``BoundConstraint.bounds``,
+``EqualityConstraint.equality`` or ``InequalityConstraint.inequality``, a measure by FK for the shared
+check, and words for their own rows (``labels``, ``row_text``, ``blocker_text``, ``advice``).
 """
 
 from __future__ import annotations
@@ -24,8 +21,7 @@ SLACK = 1e-9
 
 @dataclass(frozen=True)
 class Measure:
-    """How a configuration stands against one constraint: ``value`` of its ``quantity`` in ``unit``
-    (e.g. the CoM margin 0.012 m), whether it ``holds``, and ``failure``, the words of a breach."""
+    """How a configuration stands against a constraint: ``value`` of ``quantity``, ``holds``, ``failure``."""
 
     constraint: str
     quantity: str
@@ -37,8 +33,7 @@ class Measure:
 
 @dataclass(frozen=True)
 class StartViolation:
-    """A hard constraint the start configuration breaks, in words (``text``); ``clipped`` when the loop
-    clips it away before the first step (a joint outside its limits), else the steps repair it."""
+    """A hard constraint q0 breaks, in words; ``clipped``: clipped before the first step, else repaired."""
 
     constraint: str
     kind: str
@@ -55,8 +50,7 @@ class StartViolation:
 
 
 class Describer:
-    """Words for the rows of one source of rows (a constraint, the step box); a constraint overrides
-    what its rows mean."""
+    """Words for the rows of one source of rows (a constraint, the step box)."""
 
     name = "constraint"
     label_kind = "inequality"
@@ -73,7 +67,7 @@ class Describer:
         return f"{label.constraint} {label.subject}{' ' + label.side if label.side else ''}"
 
     def group_text(self, labels: list[RowLabel]) -> str:
-        """Rows of one subject named together (only for ``groups_rows``)."""
+        """Rows of one subject named together (the first alone unless ``groups_rows``)."""
         return self.row_text(labels[0])
 
     def blocker_text(self, label: RowLabel) -> str:
@@ -132,8 +126,7 @@ class Constraint(Describer):
 
     def start_violations(self, kinematics: Kinematics, q0: np.ndarray) -> list[StartViolation]:
         """What the start q0 breaks (the kinematics stand at q0 clipped into the joint limits)."""
-        violation = float(self.violation(kinematics))
-        if violation <= SLACK:
+        if (violation := float(self.violation(kinematics))) <= SLACK:
             return []
         text = f"{self.name} violated by {violation:.3g}"
         return [self.start_violation(self.name, violation, 0.0, "m", text)]
@@ -210,8 +203,7 @@ STEP_BOX = StepBox()
 
 
 def tangent_names(model: pin.Model) -> list[str]:
-    """A name per tangent coordinate (nv): a 1-DOF joint's name; "<joint> x" ... "<joint> rz" for a
-    free flyer's six; "<joint>[i]" for another multi-DOF joint's."""
+    """A name per tangent coordinate: the joint's; "<joint> x" ... "rz" (free flyer) or "<joint>[i]"."""
     names = [""] * model.nv
     for joint_id in range(1, model.njoints):
         joint, name = model.joints[joint_id], model.names[joint_id]
@@ -225,13 +217,10 @@ def tangent_names(model: pin.Model) -> list[str]:
 
 
 def bounded_joint_indices(model: pin.Model, unbounded: Collection[str] = ()) -> tuple[np.ndarray, np.ndarray]:
-    """(q indices, v indices) of the 1-DOF joints (revolute, prismatic) with finite limits, but for the
-    joints named in ``unbounded``."""
-    q_index, v_index = [], []
-    for joint_id, joint in enumerate(model.joints):
-        if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded:
-            low, high = model.lowerPositionLimit[joint.idx_q], model.upperPositionLimit[joint.idx_q]
-            if np.isfinite(low) and np.isfinite(high) and high - low < 1e10:
-                q_index.append(joint.idx_q)
-                v_index.append(joint.idx_v)
-    return np.array(q_index, dtype=int), np.array(v_index, dtype=int)
+    """(q indices, v indices) of the 1-DOF joints with finite limits, but the ``unbounded`` ones."""
+    lower, upper = model.lowerPositionLimit, model.upperPositionLimit
+    joints = [joint for joint_id, joint in enumerate(model.joints)
+              if joint_id and joint.nq == 1 and joint.nv == 1 and model.names[joint_id] not in unbounded
+              and np.isfinite(lower[joint.idx_q]) and np.isfinite(upper[joint.idx_q])
+              and upper[joint.idx_q] - lower[joint.idx_q] < 1e10]
+    return np.array([j.idx_q for j in joints], dtype=int), np.array([j.idx_v for j in joints], dtype=int)

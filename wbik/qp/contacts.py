@@ -45,16 +45,14 @@ class HeldFrame(EqualityConstraint):
                        f"contact {self.frame} drifted {position:.3g} m, {rotation:.3g} rad")
 
     def row_text(self, label: RowLabel) -> str:
-        drift = (f", drift {abs(label.value) * 1e3:.3g} {'mm' if label.unit == 'm' else 'mrad'}"
-                 if math.isfinite(label.value) else "")
+        drift = f", drift {abs(label.value) * 1e3:.3g} m{label.unit}" if math.isfinite(label.value) else ""
         return f"contact {label.subject} ({label.side}{drift})"
 
     def group_text(self, labels: list[RowLabel]) -> str:
         if len(labels) == 1:
             return self.row_text(labels[0])
         drifts = [abs(label.value) for label in labels if math.isfinite(label.value)]
-        unit = "mm" if labels[0].unit == "m" else "mrad"
-        drift = f"; drift up to {max(drifts) * 1e3:.3g} {unit}" if drifts else ""
+        drift = f"; drift up to {max(drifts) * 1e3:.3g} m{labels[0].unit}" if drifts else ""
         return f"contact {labels[0].subject} ({', '.join(label.side for label in labels)}{drift})"
 
     def blocker_text(self, label: RowLabel) -> str:
@@ -71,8 +69,7 @@ class HeldFrame(EqualityConstraint):
 
 
 class Contact(HeldFrame):
-    """A frame held at a fixed world ``placement`` (default: where the problem starts), a flat foot on the
-    ground: J dq = -e, 6 rows."""
+    """A frame held at a world ``placement`` (default: at the start), a flat foot: J dq = -e, 6 rows."""
 
     def __init__(self, frame: str, placement: pin.SE3 | None = None):
         self.frame = frame
@@ -111,8 +108,7 @@ class Contact(HeldFrame):
 
 
 class PointContact(HeldFrame):
-    """A frame's origin held at a fixed world ``position`` (m; default: where the problem starts), its
-    rotation free (a point foot on the ground): J_v dq = -(p - p*), 3 rows."""
+    """A frame's origin held at ``position`` (m; default: at the start), a point foot: J_v dq = -(p - p*)."""
 
     def __init__(self, frame: str, position: np.ndarray | None = None):
         self.frame = frame

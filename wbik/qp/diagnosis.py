@@ -1,13 +1,9 @@
 """Why a QP solve did not succeed: what blocks the goal tasks at the answer, in words a user can act on.
 
-Made when a solve fails (``IKProblem.diagnose``), from the QP step at the answer q with its labelled hard
-rows (:func:`wbik.qp.hard_rows.step_rows`). With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised
-error (|max(0, .)| for an inequality task), the levels are solved with every row (dq*, with the rows'
-multipliers) and again without each group of active rows (a joint's bound on one side, a contact, a
-polygon edge, a pair) and without each other task: the ``gain`` r(dq*) - r(dq* without it) ranks the
-``blockers`` and the ``tasks`` in conflict. ``step_gain`` = sum_g |e_g| - r(dq*) is what one more step
-would achieve; ``stationary``: nothing blocks and no step helps (out of reach, or a local minimum);
-``infeasible``: the step's conflicting rows (:mod:`wbik.qp.elastic`); ``start``: what q0 broke.
+With r(dq) = sum_g |e_g + J_g dq| the unmet goals' linearised error, the step's levels are solved with
+every hard row (dq*) and without each group of active rows or each other task: r(dq*) - r(without it), the
+``gain``, ranks ``blockers`` and ``tasks``; ``step_gain`` = sum_g |e_g| - r(dq*); ``stationary``: nothing
+blocks, no step helps; ``infeasible``: the conflicting rows (:mod:`wbik.qp.elastic`).
 """
 
 from __future__ import annotations
@@ -24,8 +20,7 @@ from wbik.qp.hard_rows import HardRows, group_key, step_rows
 from wbik.qp.rows import RowLabel
 from wbik.qp.tasks import Task
 
-__all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines",
-           "start_violations"]
+__all__ = ["Blocker", "Diagnosis", "StartViolation", "TaskConflict", "diagnose", "report_lines"]
 
 ACTIVE = 1e-7
 """A row is active when its multiplier exceeds this fraction of the largest one (and 1e-12)."""
@@ -35,8 +30,7 @@ SHOWN = 3
 
 @dataclass(frozen=True)
 class Blocker:
-    """A hard constraint active at the answer that holds the goals back: its first row's label, the
-    number of its rows, its largest multiplier and its ``gain`` (see the module docstring)."""
+    """An active hard constraint that holds the goals back: its first row's label, rows, multiplier, gain."""
 
     label: RowLabel
     rows: int
@@ -117,26 +111,20 @@ class Diagnosis:
     def reason_with_summary(self, reason: str) -> str:
         """``reason`` with this diagnosis's summary at its end ("; " between them when both are given)."""
         text = self.summary()
-        if not text:
-            return reason
-        return f"{reason}; {text}" if reason else text
+        return f"{reason}; {text}" if reason and text else reason or text
 
 
 def last_solve_diagnosis(local, success: bool, diagnose: bool, reason: str) -> tuple[Diagnosis | None, str]:
-    """(diagnosis, reason) of the ``(problem, solution)`` a method's QP solve left in ``local.last``
-    (cleared here): a failed result, with ``diagnose``, gets its diagnosis and the summary at the end of
-    ``reason``; any other, what the start broke (None: nothing, or no QP solve) and ``reason``."""
-    last = getattr(local, "last", None)
-    if last is None:
+    """(diagnosis, reason) of the ``(problem, solution)`` left in ``local.last`` (cleared): a failed one,
+    with ``diagnose``, is diagnosed and summarised in ``reason``; another keeps what its start broke."""
+    if (last := getattr(local, "last", None)) is None:
         return None, reason
     problem, solution = last
     local.last = None
     if not success and diagnose:
         diagnosis = problem.diagnose(solution)
         return diagnosis, diagnosis.reason_with_summary(reason)
-    if solution.start_violations:
-        return Diagnosis(start=list(solution.start_violations)), reason
-    return None, reason
+    return (Diagnosis(start=list(solution.start_violations)) if solution.start_violations else None), reason
 
 
 def _start_text(texts: str, clipped: bool) -> str:
@@ -145,10 +133,8 @@ def _start_text(texts: str, clipped: bool) -> str:
 
 
 def _amount(value: float, unit: str) -> str:
-    if unit == "m":
-        return f"{value * 1e3:.3g} mm"
-    if unit == "rad":
-        return f"{value * 1e3:.3g} mrad"
+    if unit in ("m", "rad"):
+        return f"{value * 1e3:.3g} m{unit}"
     return f"{value:.3g} ({unit})" if unit else f"{value:.3g}"
 
 
@@ -169,13 +155,6 @@ def report_lines(data: dict) -> list[str]:
     return lines
 
 
-def start_violations(problem, q0: np.ndarray) -> list[StartViolation]:
-    """The hard constraints q0 breaks, as each constraint judges it (joints outside their limits on q0
-    itself, inequalities at the clipped q the kinematics stand at)."""
-    return [found for constraint in problem.constraints
-            for found in constraint.start_violations(problem.kinematics, q0)]
-
-
 class _Hierarchy:
     """The step's levels as a QP per level over the labelled rows, with rows or one task left out."""
 
@@ -187,15 +166,10 @@ class _Hierarchy:
         for level in step.levels:
             damping = problem.damping + problem.lm_damping * level.goal_cost()
             entries = []
-            for task, rows_eq, rows_in in zip(level.tasks, level.slices, level.inequality_slices,
-                                              strict=True):
-                if rows_eq is not None:
-                    entries.append((task, False, level.jacobian[rows_eq].copy(), level.error[rows_eq].copy()))
-                elif rows_in is not None:
-                    entries.append((task, True, level.inequality_jacobian[rows_in].copy(),
-                                    level.inequality_error[rows_in].copy()))
-                else:
-                    entries.append((task, None, None, None))
+            for index, task in enumerate(level.tasks):
+                inequality, jacobian, error = level.rows_of(index)
+                copies = (None, None) if inequality is None else (jacobian.copy(), error.copy())
+                entries.append((task, inequality, *copies))
             self.levels.append((entries, damping))
 
     @staticmethod
@@ -206,15 +180,14 @@ class _Hierarchy:
 
     def solve(self, upto: int, drop_rows: np.ndarray | None = None, drop_task: Task | None = None
               ) -> tuple[np.ndarray, list[np.ndarray]]:
-        """dq through levels 0..upto and, per level, the multipliers of the labelled rows (zero for
-        dropped rows). Raises NoQPSolutionError."""
+        """dq through levels 0..upto, and per level the rows' multipliers; NoQPSolutionError."""
         nv, rows = self.nv, self.rows
         keep = np.ones(len(rows), dtype=bool) if drop_rows is None else ~drop_rows
         kept_rows = rows.subset(keep)
         G0, h0, A0, b0 = kept_rows.split()
         inequality_index = np.flatnonzero(keep)[~kept_rows.equality]
         equality_index = np.flatnonzero(keep)[kept_rows.equality]
-        extra_G, extra_h = [], []
+        extra_G, extra_h = ([], []) if G0 is None else ([G0], [h0])  # the rows, then those levels keep
         dq, duals = np.zeros(nv), []
         for entries, damping in self.levels[:upto + 1]:
             hessian, gradient = np.eye(nv) * damping, np.zeros(nv)
@@ -225,32 +198,27 @@ class _Hierarchy:
                 if inequality is None:
                     hessian += np.diag(task.constant_diagonal())
                     kept_eq.append(np.diag(np.sqrt(task.constant_diagonal())))
-                    continue
-                scale = np.sqrt(task.weight)[:, None]
-                if inequality:
+                elif inequality:
                     soft_J.append(jacobian)
                     soft_b.append(-task.gain * error)
                     soft_w.append(np.maximum(task.weight, damping))
-                    continue
-                weighted = scale * jacobian
-                hessian += weighted.T @ weighted
-                gradient += weighted.T @ (scale[:, 0] * task.gain * error)
-                kept_eq.append(weighted)
+                else:
+                    scale = np.sqrt(task.weight)[:, None]
+                    weighted = scale * jacobian
+                    hessian += weighted.T @ weighted
+                    gradient += weighted.T @ (scale[:, 0] * task.gain * error)
+                    kept_eq.append(weighted)
             count = sum(len(b) for b in soft_b)
             from scipy.linalg import block_diag  # kept out of import wbik
 
             H = block_diag(hessian, np.diag(np.concatenate(soft_w)) if count else np.zeros((0, 0)))
             c = np.concatenate((gradient, np.zeros(count)))
-            blocks_G = [] if G0 is None else [np.hstack((G0, np.zeros((len(h0), count))))]
-            blocks_h = [] if G0 is None else [h0]
-            if extra_G:
-                padding = np.zeros((sum(len(h) for h in extra_h), count))
-                blocks_G.append(np.hstack((np.vstack(extra_G), padding)))
-                blocks_h.append(np.concatenate(extra_h))
+            blocks_G = [np.hstack((block, np.zeros((len(block), count)))) for block in extra_G]
+            blocks_h = list(extra_h)
             if count:
-                J_soft = np.vstack(soft_J)
+                J_soft, bound = np.vstack(soft_J), np.concatenate(soft_b)
                 blocks_G.append(np.hstack((J_soft, -np.eye(count))))
-                blocks_h.append(np.concatenate(soft_b))
+                blocks_h.append(bound)
             G = np.vstack(blocks_G) if blocks_G else None
             h = np.concatenate(blocks_h) if blocks_h else None
             A = None if A0 is None else np.hstack((A0, np.zeros((len(b0), count))))
@@ -268,15 +236,13 @@ class _Hierarchy:
                 extra_G += [kept, -kept]
                 extra_h += [achieved + self.slack, -achieved + self.slack]
             if count:
-                bound = np.concatenate(soft_b)
                 extra_G.append(J_soft)
                 extra_h.append(np.maximum(J_soft @ dq - bound, 0.0) + bound + self.slack)
         return dq, duals
 
 
 def diagnose(problem, reason: str = "", start: list[StartViolation] | None = None) -> Diagnosis:
-    """The diagnosis at the configuration ``problem`` (an :class:`wbik.qp.problem.IKProblem`) stands at
-    (see the module docstring)."""
+    """The diagnosis at the configuration an IKProblem ``problem`` stands at (see the module docstring)."""
     step = problem.qp
     step.fill_tasks()
     diagnosis = Diagnosis(start=list(start or []))
@@ -312,10 +278,8 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     threshold = max(1e-12, ACTIVE * float(multipliers.max(initial=0.0)))
     groups: dict[tuple, list[int]] = {}
     for index in np.flatnonzero(multipliers > threshold).tolist():
-        label = rows.labels[index]
-        if isinstance(label.owner, StepBox):
-            continue
-        groups.setdefault(group_key(label), []).append(index)
+        if not isinstance(rows.labels[index].owner, StepBox):
+            groups.setdefault(group_key(rows.labels[index]), []).append(index)
     masks = []
     for indices in groups.values():  # (a group: every row of one constraint's subject and side)
         mask = np.isin(np.arange(len(rows)), indices)
@@ -328,8 +292,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
                                           float(multipliers[indices].max()), base - residual(relaxed)))
     unmet_tasks = {id(task) for _, _, task in unmet}
     for level_index, (entries, _) in enumerate(hierarchy.levels[:deepest + 1]):
-        for entry in entries:
-            task = entry[0]
+        for task, *_ in entries:
             if id(task) in unmet_tasks and len(unmet) == 1:
                 continue
             try:
@@ -346,12 +309,9 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
             diagnosis.tasks.append(TaskConflict(task.name, task.priority, task.goal, gain, held,
                                                 _task_advice(task, level_index, goal_level, held, step)))
     diagnosis.tasks.sort(key=lambda t: -t.gain)
-    # a blocker holds the goals back on its own: with the non-goal task that conflicts most with them
-    # left out as well (a posture on their level), relaxing it must still bring them closer; an active
-    # row whose relaxation does not (it holds back other tasks only), or brings them under 1 % of the
-    # largest gain closer, is left out
-    top = next((t for t in diagnosis.tasks if not t.goal), None)
-    if top is not None:
+    # a blocker must still bring the goals closer with the non-goal task that conflicts most with them
+    # left out as well, and by at least 1 % of the largest gain
+    if (top := next((t for t in diagnosis.tasks if not t.goal), None)) is not None:
         task = next(e[0] for entries, _ in hierarchy.levels for e in entries if e[0].name == top.task)
         alone = 0.0
         try:
@@ -387,13 +347,9 @@ def _task_advice(task: Task, level_index: int, goal_level: int, held: tuple[str,
 
 
 def _advice(diagnosis: Diagnosis, reason: str, problem) -> list[str]:
-    advice = []
-    for conflict_task in diagnosis.tasks[:1]:
-        advice.append(conflict_task.advice)
-    for blocker in diagnosis.blockers[:2]:
-        advice.append(blocker.label.owner.advice(blocker.label))
-    scale = sum(diagnosis.goals.values())
-    if diagnosis.step_gain > max(1e-9, 1e-3 * scale) and "no convergence" in reason:
+    advice = [task.advice for task in diagnosis.tasks[:1]]
+    advice += [blocker.label.owner.advice(blocker.label) for blocker in diagnosis.blockers[:2]]
+    if diagnosis.step_gain > max(1e-9, 1e-3 * sum(diagnosis.goals.values())) and "no convergence" in reason:
         advice.append("the steps still reduce the goal error: a larger budget (max_iterations) goes further")
     if diagnosis.stationary:
         advice.append("no constraint is active and no task conflicts: the goal error is at a stationary "

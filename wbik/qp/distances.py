@@ -62,10 +62,9 @@ class MinimumDistance(InequalityConstraint):
 
 
 class CollisionAvoidance(InequalityConstraint):
-    """Every checked pair of a :class:`wbik.collision.CollisionModel` keeps ``safety_distance`` (m): for
-    each pair closer than ``influence_distance`` (m), with the coal distance d and normal n (a -> b),
-    n^T (J_a - J_b) dq <= gain (d - safety - padding), the velocity-damper form of Pink / mink / PlaCo
-    (``padding``, m, absorbs the linearisation's second-order error)."""
+    """Each pair of a :class:`wbik.collision.CollisionModel` nearer than ``influence_distance`` (m), with
+    coal's distance d and normal n (a -> b): n^T (J_a - J_b) dq <= gain (d - safety - padding), the velocity
+    damper of Pink / mink / PlaCo (``safety_distance``, ``padding``: m)."""
 
     label_kind = "collision"
     quantity = "clearance"
@@ -119,9 +118,8 @@ class CollisionAvoidance(InequalityConstraint):
                 continue
             rows.append(-self.collision_model.distance_gradient(kinematics.data, pair))
             bounds.append(self.gain * (pair.distance - target))
-        if not rows:  # nothing near: one row that always holds
-            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
-        return InequalityRows(np.array(rows), np.array(bounds))
+        return (InequalityRows(np.array(rows), np.array(bounds)) if rows
+                else InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1)))  # (none near: one that holds)
 
     def violation(self, kinematics: Kinematics) -> float:
         closest = self.minimum(kinematics)

@@ -1,10 +1,8 @@
 """Why a step has no solution: a small set of its hard rows that conflict, by an elastic re-solve.
 
-Every row of the step (:class:`wbik.qp.hard_rows.HardRows`, M dq <= u; an equality as two rows) gets a
-slack s >= 0 in the LP  min sum_i s_i  s.t.  M dq - s <= u  (scipy's HiGHS), whose optimum is 0 exactly
-when the rows are compatible. Otherwise its dual y is a Farkas certificate (the rows with y_i > 0 cannot
-hold together), shrunk by a deletion filter to an irreducible infeasible subsystem: without any one of
-its rows the rest hold. A row's ``violation`` is its slack in the elastic optimum (m or rad of the step).
+Every row M dq <= u (an equality as two) gets a slack s >= 0 in the LP  min sum_i s_i  s.t.  M dq - s <= u
+(HiGHS), 0 exactly when the rows are compatible; otherwise its dual is a Farkas certificate, shrunk by a
+deletion filter to an irreducible infeasible subsystem. A row's ``violation``: its slack (m or rad).
 """
 
 from __future__ import annotations
@@ -37,13 +35,11 @@ class ConflictRow:
 
 
 def describe_rows(rows: Sequence[ConflictRow]) -> str:
-    """The rows in words, as their constraints say them; rows of one subject that their constraint names
-    together (a contact's axes) in one phrase."""
+    """The rows in words, as their constraints say them (a contact's axes in one phrase)."""
     groups: dict[tuple, list[RowLabel]] = {}
     for row in rows:
         groups.setdefault(group_key(row.label), []).append(row.label)
-    return "; ".join(labels[0].owner.group_text(labels) if labels[0].owner.groups_rows else labels[0].text
-                     for labels in groups.values())
+    return "; ".join(labels[0].owner.group_text(labels) for labels in groups.values())
 
 
 def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, np.ndarray] | None:
@@ -60,18 +56,14 @@ def _elastic(matrix: np.ndarray, upper: np.ndarray) -> tuple[float, np.ndarray, 
     result = linprog(cost, A_ub=constraints, b_ub=upper / scale, bounds=bounds, method="highs")
     if result.status != 0:
         return None
-    slacks = result.x[nv:]
-    duals = -np.asarray(result.ineqlin.marginals, dtype=float) / scale
-    return float(result.fun), slacks, duals
+    return float(result.fun), result.x[nv:], -np.asarray(result.ineqlin.marginals, dtype=float) / scale
 
 
 def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
              max_rows: int = 60) -> list[ConflictRow]:
-    """An irreducible set of ``rows`` that conflict (empty when they hold together, to ``tolerance``); with
-    more than ``max_rows`` candidates the certificate's rows, not shrunk."""
+    """An irreducible set of ``rows`` that conflict (empty: none; unshrunk above ``max_rows``)."""
     matrix, upper, owner = rows.as_inequalities()
-    found = _elastic(matrix, upper)
-    if found is None or found[0] <= tolerance:
+    if (found := _elastic(matrix, upper)) is None or found[0] <= tolerance:
         return []
     _, slacks, duals = found
     support = np.flatnonzero(duals > 1e-9)
@@ -82,8 +74,7 @@ def conflict(rows: HardRows, tolerance: float = CONFLICT_TOLERANCE,
         kept = list(order)
         for candidate in list(order):
             trial = [row for row in kept if row != candidate]
-            found_without = _elastic(matrix[trial], upper[trial])
-            if found_without is not None and found_without[0] > tolerance:
+            if (without := _elastic(matrix[trial], upper[trial])) is not None and without[0] > tolerance:
                 kept = trial
         order = np.array(kept, dtype=int)
     return [ConflictRow(rows.labels[owner[index]], float(slacks[index]))

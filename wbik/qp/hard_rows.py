@@ -1,15 +1,12 @@
-"""The hard rows of one QP step, each with its label: what the diagnoses of a failed solve read.
+"""The hard rows of one QP step, each with its label, for the diagnoses of a failed solve.
 
-:func:`step_rows` rebuilds the step's stacked system (:class:`wbik.qp.backends.StackedConstraints`) at the
-kinematics' q as rows M dq <= u (or = u), one :class:`~wbik.qp.rows.RowLabel` each: every finite bound
-is its own row (+dq_j <= ub_j, -dq_j <= -lb_j), labelled by the constraint that set it (the step box,
-:data:`wbik.qp.constraint.STEP_BOX`, where none is tighter). The values are those the backend saw;
-violated inequality rows are relaxed to "do not get worse" (h -> max(h, 0)) unless ``relax`` is False.
+:func:`step_rows` rebuilds the step's stacked system as rows M dq <= u (or = u), as the backend saw them:
+every finite bound its own row (+dq_j <= ub_j, -dq_j <= -lb_j) labelled by the constraint that set it (or
+the step box), violated inequality rows relaxed to h -> max(h, 0) unless ``relax`` is False.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,11 +31,8 @@ class HardRows:
     def __len__(self) -> int:
         return len(self.labels)
 
-    def subset(self, keep: np.ndarray | Iterable[int]) -> HardRows:
-        """The rows ``keep`` (a boolean mask or indices)."""
-        keep = np.asarray(keep)
-        if keep.dtype != bool:
-            keep = np.isin(np.arange(len(self)), keep)
+    def subset(self, keep: np.ndarray) -> HardRows:
+        """The rows of the boolean mask ``keep``."""
         return HardRows(self.matrix[keep], self.upper[keep], self.equality[keep],
                         [label for label, kept in zip(self.labels, keep.tolist(), strict=True) if kept])
 
@@ -47,8 +41,7 @@ class HardRows:
         return split_rows(self.matrix, self.upper, self.equality)
 
     def as_inequalities(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(M', u', owner): every equality row as two inequality rows (M dq <= u, -M dq <= -u);
-        ``owner`` maps each row of M' to its row here."""
+        """(M', u', owner): each equality row as two inequality rows; ``owner``: each row's index here."""
         equality = np.flatnonzero(self.equality)
         matrix = np.vstack((self.matrix, -self.matrix[equality]))
         upper = np.concatenate((self.upper, -self.upper[equality]))
@@ -57,15 +50,13 @@ class HardRows:
 
 
 def group_key(label: RowLabel) -> tuple[str, str, str, str]:
-    """Rows that a diagnosis names together: a bound by its coordinate and side, the rows of a subject
-    its owner ``groups_rows`` (a contact's axes) and any other row by its subject (an edge, a pair)."""
+    """Rows a diagnosis names together: a bound by coordinate and side, any other row by its subject."""
     side = label.side if label.side in ("lower", "upper") and not label.owner.groups_rows else ""
     return label.constraint, label.kind, label.subject, side
 
 
 def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
-    """The labelled rows of ``step`` (a :class:`wbik.qp.step.QPStep`) at its kinematics' q (see the
-    module docstring); ``radius``: the step box."""
+    """The labelled rows of a QPStep ``step`` at its q (see the module docstring); ``radius``: the box."""
     stack = step.build_constraints(dt, radius)
     kinematics, nv = step.kinematics, step.nv
     general: list[RowLabel] = []
@@ -75,49 +66,39 @@ def step_rows(step, dt: float, radius: float, relax: bool = True) -> HardRows:
         labels = constraint.labels(kinematics, rows)
         if isinstance(rows, BoundRows):
             indices = np.arange(nv)[rows.index]
-            lower = np.broadcast_to(np.asarray(rows.lower, dtype=float), indices.shape)
-            upper = np.broadcast_to(np.asarray(rows.upper, dtype=float), indices.shape)
-            for j, low, high, (low_label, high_label) in zip(indices.tolist(), lower.tolist(), upper.tolist(),
-                                                             labels, strict=True):
-                candidates[j].append((low, high, low_label, high_label))
+            lower, upper = (np.broadcast_to(np.asarray(value, dtype=float), indices.shape).tolist()
+                            for value in rows[1:])
+            for j, low, high, pair in zip(indices.tolist(), lower, upper, labels, strict=True):
+                candidates[j].append((low, high, *pair))
         else:
-            count = len(rows[1])
-            if len(labels) != count:  # (a constraint whose labels do not match its rows: generic ones)
+            if len(labels) != (count := len(rows[1])):  # (labels that do not match the rows: generic ones)
                 labels = [constraint.label(f"row {i}") for i in range(count)]
             general.extend(labels)
     names = tangent_names(kinematics.model)
-    lb, ub = stack.lower[:nv].copy(), stack.upper[:nv].copy()
-    matrices, uppers, labels = [], [], []
-    for j in range(nv):
-        for side, value in (("lower", lb[j]), ("upper", ub[j])):
-            if abs(value) >= INFINITE:
-                continue
-            label = _bound_label(candidates[j], side, value, radius, names[j])
-            row = np.zeros(nv)
-            row[j] = 1.0 if side == "upper" else -1.0
-            matrices.append(row)
-            uppers.append(value if side == "upper" else -value)
-            labels.append(label)
+    sides = (("lower", -1.0, stack.lower), ("upper", 1.0, stack.upper))
+    bounds = [(j, side, sign, bound[j]) for j in range(nv) for side, sign, bound in sides
+              if abs(bound[j]) < INFINITE]  # each finite bound a row: sign dq_j <= sign bound
+    bound_matrix = np.zeros((len(bounds), nv))
+    for row, (j, _, sign, _) in enumerate(bounds):
+        bound_matrix[row, j] = sign
+    uppers = [sign * value for _, _, sign, value in bounds]
+    labels = [_bound_label(candidates[j], side, value, radius, names[j]) for j, side, _, value in bounds]
     equality = stack.sense[nv:] == 5
     upper = stack.upper[nv:].copy()
     if relax:
         upper[~equality] = np.maximum(upper[~equality], 0.0)
-    bound_matrix = np.array(matrices).reshape(-1, nv)
     return HardRows(np.vstack((bound_matrix, stack.matrix)), np.concatenate((uppers, upper)),
                     np.concatenate((np.zeros(len(uppers), dtype=bool), equality)), labels + general)
 
 
 def _bound_label(candidates: list, side: str, value: float, radius: float, name: str) -> RowLabel:
-    """The label of the bound ``value`` on one side of a coordinate: the constraint that set it (the
-    closest of ``candidates``, preferring a constraint to the step box on a tie)."""
+    """The label of the constraint that set ``value`` (the closest candidate, else the step box)."""
     lower_side = side == "lower"
     best, best_gap = None, np.inf
     for low, high, low_label, high_label in candidates:
         bound, label = (low, low_label) if lower_side else (high, high_label)
-        gap = abs(bound - value)
-        if gap < best_gap:
+        if (gap := abs(bound - value)) < best_gap:
             best, best_gap = label, gap
-    box_gap = abs(abs(value) - radius)
-    if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and box_gap <= best_gap):
+    if best is None or (best_gap > 1e-12 * (1.0 + abs(value)) and abs(abs(value) - radius) <= best_gap):
         return STEP_BOX.label(name, side, float("nan"), radius, "")
     return best

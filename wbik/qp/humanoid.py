@@ -32,11 +32,9 @@ def is_point_foot(robot: Robot, frame: str) -> bool:
 
 
 def contact_constraint(robot: Robot, frame: str, placement: pin.SE3 | None = None) -> Contact | PointContact:
-    """The hard contact of ``frame`` held at ``placement`` (default: where the problem starts): a
-    :class:`PointContact` for a point foot, else a 6-row :class:`Contact`."""
-    if is_point_foot(robot, frame):
-        return PointContact(frame, None if placement is None else placement.translation)
-    return Contact(frame, placement)
+    """The hard contact of ``frame`` at ``placement`` (default: at the start), a point foot's by position."""
+    return (PointContact(frame, None if placement is None else placement.translation)
+            if is_point_foot(robot, frame) else Contact(frame, placement))
 
 
 def support_polygon(robot: Robot, q: np.ndarray, soles: Sequence[str]) -> SupportPolygon:
@@ -47,11 +45,9 @@ def support_polygon(robot: Robot, q: np.ndarray, soles: Sequence[str]) -> Suppor
 def stance_constraints(robot: Robot, q: np.ndarray, contacts: Sequence[str],
                        support: Sequence[str] | None = None, margin: float = 0.005,
                        with_limits: bool = True) -> list[Constraint]:
-    """Hard constraints of a stance at q: contacts, CoM in the shrunk support polygon of the ``support``
-    soles (default: the contacts; none: no balance constraint), joint limits."""
+    """A stance's hard constraints at q: contacts, CoM in the ``support`` soles' polygon, joint limits."""
     constraints: list[Constraint] = [contact_constraint(robot, frame) for frame in contacts]
-    support = list(contacts if support is None else support)
-    if support:
+    if support := list(contacts if support is None else support):
         constraints.append(CoMInSupportPolygon(support_polygon(robot, q, support), margin))
     if with_limits:
         constraints.append(JointPositionLimits())

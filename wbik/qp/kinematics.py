@@ -1,9 +1,6 @@
-"""Kinematics: one Pinocchio model/data pair evaluated at one configuration, shared by every task.
-
-``update(q)`` runs forward kinematics and the joint Jacobians once; placements, frame Jacobians and the
-CoM are read from them. Jacobians are LOCAL_WORLD_ALIGNED (rows [v; w] in world axes, v at the frame
-origin: dp = J[:3] dq); ``local_jacobian`` gives the LOCAL form (R^T v; R^T w).
-"""
+"""Kinematics: one Pinocchio model/data pair at one configuration, shared by every task: ``update(q)``
+runs FK and the joint Jacobians once, placements, frame Jacobians (LOCAL_WORLD_ALIGNED: dp = J[:3] dq)
+and the CoM are read from them."""
 
 from __future__ import annotations
 
@@ -12,7 +9,7 @@ import itertools
 import numpy as np
 import pinocchio as pin
 
-from wbik.errors import UnknownFrameError
+from wbik.kinematic_tree import frame_index
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 LOCAL = pin.ReferenceFrame.LOCAL
@@ -20,8 +17,7 @@ _VERSIONS = itertools.count()
 
 
 class Kinematics:
-    """Model, data and the current configuration ``q`` (nq), with lazily computed quantities;
-    ``version``, unique across all instances, changes with every ``update`` (a cache key)."""
+    """Model, data and the configuration ``q`` (nq); ``version``, unique, changes with every ``update``."""
 
     def __init__(self, model: pin.Model, q: np.ndarray | None = None):
         self.model = model
@@ -42,20 +38,16 @@ class Kinematics:
         """(6, nv) view of data.J: every joint's Jacobian in world axes at the world origin."""
 
     def __getstate__(self) -> dict:
-        state = dict(self.__dict__)
-        del state["_placements"], state["joint_jacobians"]
-        return state
+        return {name: value for name, value in self.__dict__.items()
+                if name not in ("_placements", "joint_jacobians")}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._views()
 
     def frame_id(self, name: str) -> int:
-        frame_id = self._frame_ids.get(name)
-        if frame_id is None:
-            if not self.model.existFrame(name):
-                raise UnknownFrameError(name, [frame.name for frame in self.model.frames])
-            frame_id = self._frame_ids[name] = self.model.getFrameId(name)
+        if (frame_id := self._frame_ids.get(name)) is None:
+            frame_id = self._frame_ids[name] = frame_index(self.model, name)
         return frame_id
 
     def update(self, q: np.ndarray) -> None:
@@ -73,8 +65,7 @@ class Kinematics:
 
     def support_columns(self, frame_id: int) -> np.ndarray:
         """Tangent indices (int64) of the joints that move a frame (its Jacobian's other columns are 0)."""
-        columns = self._support_columns.get(frame_id)
-        if columns is None:
+        if (columns := self._support_columns.get(frame_id)) is None:
             model = self.model
             joints = [model.joints[joint] for joint in model.supports[model.frames[frame_id].parentJoint][1:]]
             indices = (index for joint in joints for index in range(joint.idx_v, joint.idx_v + joint.nv))
@@ -92,8 +83,7 @@ class Kinematics:
         return pin.getFrameJacobian(self.model, self.data, frame_id, LOCAL)
 
     def _update_com(self) -> None:
-        # uses the joint Jacobians already in data (no second forward pass)
-        pin.jacobianCenterOfMass(self.model, self.data, False)
+        pin.jacobianCenterOfMass(self.model, self.data, False)  # (data's joint Jacobians: no second pass)
         self._com_ready = True
 
     def com(self) -> np.ndarray:

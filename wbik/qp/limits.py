@@ -25,6 +25,11 @@ class RateLimits(BoundConstraint):
 
     rate = ""
     per_step = ""
+    velocity: np.ndarray | None = None  # (nv) the velocity now, for a constraint that keeps it
+
+    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
+        now = [np.nan] * len(self.limit) if self.velocity is None else self.velocity[self.v_index].tolist()
+        return self.v_index.tolist(), now, (-self.limit).tolist(), self.limit.tolist()
 
     def row_text(self, label: RowLabel) -> str:
         return f"{self.rate} limit of {label.subject} ({label.side}, {abs(label.bound):.3g} {self.unit})"
@@ -38,8 +43,7 @@ class RateLimits(BoundConstraint):
 
 
 class JointPositionLimits(BoundConstraint):
-    """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the ``unbounded`` ones (continuous joints,
-    whose answers are wrapped instead)."""
+    """q_min <= q + dq <= q_max on every bounded 1-DOF joint but the continuous ``unbounded`` ones."""
 
     name = "joint position limits"
     label_kind = "joint limit"
@@ -65,8 +69,7 @@ class JointPositionLimits(BoundConstraint):
 
     def clip(self, q: np.ndarray) -> None:
         """Clip q (nq) into the limits, in place."""
-        rows = self._q_rows
-        if isinstance(rows, slice):  # a view: clipped in place
+        if isinstance(rows := self._q_rows, slice):  # a view: clipped in place
             view = q[rows]
             np.maximum(view, self.lower, out=view)
             np.minimum(view, self.upper, out=view)
@@ -75,9 +78,7 @@ class JointPositionLimits(BoundConstraint):
 
     def violation(self, kinematics: Kinematics) -> float:
         q = kinematics.q[self._q_rows]
-        if q.size == 0:
-            return 0.0
-        return float(max((self.lower - q).max(), (q - self.upper).max(), 0.0))
+        return float(max((self.lower - q).max(initial=0.0), (q - self.upper).max(initial=0.0)))
 
     def measure(self, kinematics: Kinematics, tolerances) -> Measure:
         self.bind(kinematics.model)
@@ -108,8 +109,7 @@ class JointPositionLimits(BoundConstraint):
 
 
 class JointVelocityLimits(RateLimits):
-    """|dq_i| <= v_max,i ``period`` dt on the joints with a positive finite velocity limit (``limit``:
-    nv values, default the model's; ``period``: the time one IK step stands for, s)."""
+    """|dq_i| <= v_max,i ``period`` dt (``limit``: nv values, default the model's; ``period``: s)."""
 
     name = "joint velocity limits"
     label_kind = "velocity limit"
@@ -136,20 +136,12 @@ class JointVelocityLimits(RateLimits):
         step = self.limit * (self.period * dt)
         return BoundRows(self.v_index, -step, step)
 
-    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
-        return self.v_index.tolist(), [np.nan] * len(self.limit), (-self.limit).tolist(), self.limit.tolist()
-
 
 class JointAccelerationLimits(RateLimits):
-    """|dq/dt - v_prev| <= a_max dt on the joints with a positive finite acceleration limit, and room to
-    brake before a position limit: -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q), v_stop(d) the
-    largest velocity from which braking at a_max, one period at a time, stops within d
-    (:func:`stopping_velocity`).
-
-    ``v_prev`` (``velocity``, nv; zeros at first) is the previous step's dq / dt (:meth:`stepped`; set
-    it for a measured one): bounding its change removes the chatter of an active set switching near a
-    limit (``benchmarks/chatter.py``). ``acceleration_limit``: rad/s^2 (m/s^2 prismatic), one value
-    (none on a floating base) or nv values (inf or 0: none); ``period``: one IK step's time (s)."""
+    """|dq/dt - v_prev| <= a_max dt on the joints with a positive finite acceleration limit, and room to brake
+    before a position limit: -dt v_stop(q - q_min) <= dq <= dt v_stop(q_max - q) (:func:`stopping_velocity`).
+    ``v_prev`` (``velocity``, nv): the last step's dq / dt, or measured. ``acceleration_limit``: rad/s^2,
+    one value (none on a floating base) or nv (inf or 0: none); ``period``: one IK step's time (s)."""
 
     name = "joint acceleration limits"
     label_kind = "acceleration limit"
@@ -197,10 +189,6 @@ class JointAccelerationLimits(RateLimits):
 
     def stepped(self, dq: np.ndarray, dt: float) -> None:
         self.velocity = np.asarray(dq, dtype=float) / dt
-
-    def label_values(self, kinematics: Kinematics, rows: BoundRows) -> tuple[list, list, list, list]:
-        return (self.v_index.tolist(), self.velocity[self.v_index].tolist(), (-self.limit).tolist(),
-                self.limit.tolist())
 
 
 def stopping_velocity(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:

@@ -1,18 +1,14 @@
 """How other IK libraries (peers: PlaCo, Pink, mink) express wbik's QP tasks and constraints.
 
-Each peer has a registry of *forms* keyed by class, beside its method (``PLACO`` in
-:mod:`wbik.solvers.placo`, ``PINK``, ``MINK``): a form's ``build(item, target)`` adds the item to the
-peer's problem being built, or says why the peer cannot state it (:meth:`PeerForms.cannot`). A class
-takes its nearest base class's form; an item without one is listed in the result's ``unsupported``
-(:class:`Unsupported`). A new task registers its forms beside its class::
+Each peer has forms keyed by class beside its method (``PLACO`` in :mod:`wbik.solvers.placo`, ``PINK``,
+``MINK``): ``build(item, target)`` adds an item to the peer's problem, or the peer says why it cannot; a
+class takes its nearest base's form, an item without one is ``unsupported``. A new task's forms::
 
     @PINK.form(HeightTask)
     def height_in_pink(task: HeightTask, pink) -> None:   # pink: wbik.solvers.pink.PinkProblem
         pink.tasks.append(...)
 
     PLACO.cannot(HeightTask, "PlaCo has no ...")
-
-Nothing here imports a peer: a form imports its library when it runs.
 """
 
 from __future__ import annotations
@@ -32,8 +28,7 @@ Build = Callable[[Any, Any], None]
 
 
 class Unsupported(str):
-    """What a peer could not express: the text "unsupported by PEER: WHAT: WHY" (a ``str``), with
-    ``peer``, ``what`` (the item: "task NAME", a constraint's name) and ``why`` as attributes."""
+    """What a peer could not express: "unsupported by PEER: WHAT: WHY", with those as attributes."""
 
     peer: str
     what: str
@@ -50,8 +45,7 @@ class Unsupported(str):
 
 @dataclass(frozen=True)
 class PeerForm:
-    """How one peer expresses the items of one class: ``build(item, target)``, or None when it cannot,
-    with ``why``; ``refuse(item)`` optionally says why one particular item cannot be (None: it can)."""
+    """How a peer expresses one class's items: ``build(item, target)`` or None and ``why``; ``refuse``."""
 
     build: Build | None = None
     why: str = ""
@@ -59,8 +53,7 @@ class PeerForm:
 
 
 class PeerForms:
-    """The forms of one peer, by class: ``peer`` names it as its method does ("pink"), ``title`` as its
-    authors do ("Pink")."""
+    """The forms of one peer, by class; ``peer``: its method's name, ``title``: its authors'."""
 
     def __init__(self, peer: str, title: str):
         self.peer, self.title = peer, title
@@ -101,8 +94,7 @@ class PeerForms:
 
     def refusal(self, item) -> str | None:
         """Why this peer cannot express ``item`` (a task or a constraint), or None when it can."""
-        form = self.lookup(type(item))
-        if form is None:
+        if (form := self.lookup(type(item))) is None:
             return (f"{self.title} has no form for {type(item).__name__} (a form registers with "
                     f"{self.peer.upper()}.form of wbik.solvers.{self.peer})")
         if form.build is None:
@@ -111,8 +103,7 @@ class PeerForms:
 
     def build(self, item, target) -> None:
         """Add ``item`` to ``target`` through its form (:meth:`refusal` must be None)."""
-        form = self.lookup(type(item))
-        if form is None or form.build is None:
+        if (form := self.lookup(type(item))) is None or form.build is None:
             raise RegistryError(f"{self.title} cannot express {item!r}: {self.refusal(item)}")
         form.build(item, target)
 

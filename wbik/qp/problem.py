@@ -1,12 +1,6 @@
-"""The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 until the goals are met.
-
-``IKProblem.step`` is one QP step (for control: v = dq / dt); ``IKProblem.solve`` iterates them under a
-trust region with merit acceptance until every goal task is under its tolerance and every contact holds
-(Newton projections, :meth:`IKProblem.project`, where a step's contact rows are not enough), or stalls
-at the best effort, and verifies its answer by FK. A solve that does not succeed explains itself
-(``QPSolution.diagnosis``, :mod:`wbik.qp.diagnosis`); a step whose hard constraints conflict raises
-NoQPSolutionError with ``conflict``, the rows that conflict (:mod:`wbik.qp.elastic`).
-"""
+"""The IK loop: QP steps (:mod:`wbik.qp.step`) iterated from q0 under a trust region until the goals are
+met and the contacts hold (Newton projections), or at the best effort; answers verified by FK, a failed
+solve diagnosed (:mod:`wbik.qp.diagnosis`)."""
 
 from __future__ import annotations
 
@@ -22,7 +16,7 @@ import wbik.qp.backends as backends
 from wbik.errors import NoQPSolutionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import BoundConstraint, Constraint, EqualityConstraint, InequalityConstraint
-from wbik.qp.diagnosis import Diagnosis, StartViolation, diagnose, start_violations
+from wbik.qp.diagnosis import Diagnosis, StartViolation, diagnose
 from wbik.qp.elastic import conflict
 from wbik.qp.hard_rows import step_rows
 from wbik.qp.kinematics import Kinematics
@@ -33,15 +27,13 @@ from wbik.qp.tasks import Task
 __all__ = ["PHASES", "SOLVE_PHASES", "IKProblem", "QPSolution"]
 
 SOLVE_PHASES = ("start", "projection", "checks", "report")
-"""What ``IKProblem.solve``'s ``profile`` times besides its steps' ``PHASES``: q0's set-up, the Newton
-projections onto the contacts, the FK checks of each trial configuration, the final report."""
+"""What ``IKProblem.solve``'s ``profile`` also times: set-up, projections, FK checks, report."""
 
 
 @dataclass
 class QPSolution:
-    """Outcome of ``IKProblem.solve``: ``task_errors`` |e| per task name at q; ``violations`` per
-    constraint (> 0: violated; m or rad); ``com_margins`` the CoM's distance to each polygon's boundary (m,
-    positive inside); ``start_violations`` what q0 broke; ``diagnosis`` why a failed solve stopped there."""
+    """Outcome of ``IKProblem.solve``: |e| per task, violation per constraint (> 0: violated; m or rad), CoM
+    margin per polygon (m, > 0 inside), what q0 broke and, for a failed solve, its ``diagnosis``."""
 
     q: np.ndarray
     success: bool
@@ -56,20 +48,12 @@ class QPSolution:
     start_violations: list[StartViolation] = field(default_factory=list)
     diagnosis: Diagnosis | None = None
 
-    def as_dict(self) -> dict:
-        return {"success": self.success, "converged": self.converged, "feasible": self.feasible,
-                "iterations": self.iterations, "reason": self.reason, "time_s": self.time_s,
-                "q": [float(v) for v in self.q], "task_errors": self.task_errors,
-                "violations": self.violations, "com_margins": self.com_margins,
-                "start_violations": [v.as_dict() for v in self.start_violations],
-                "diagnosis": None if self.diagnosis is None else self.diagnosis.as_dict()}
-
 
 class IKProblem:
     """Tasks and constraints on one Pinocchio model, solved by a QP backend (qpsolvers name).
-    ``constraint_tolerance``: what ``solve`` verifies on its answer (m for contacts); ``max_step``: the
-    trust region on every tangent component of one IK step (rad or m); ``progress``: five kept steps in a
-    row that lower the merit by less than this fraction end the loop at the best effort."""
+    ``constraint_tolerance``: what ``solve`` verifies on its answer (m); ``max_step``: the trust region on
+    each tangent component of a step (rad or m); ``progress``: five kept steps in a row that lower the merit
+    by less than this fraction end the loop."""
 
     def __init__(self, model: pin.Model, tasks: Sequence[Task], constraints: Sequence[Constraint] = (),
                  *, backend: str = backends.DEFAULT, damping: float = 1e-9, lm_damping: float = 1e-3,
@@ -94,26 +78,20 @@ class IKProblem:
         self._bounds = [c for c in self.constraints if isinstance(c, BoundConstraint)]
         self._box = backends.StackedConstraints(self.nv, capacity=1)
         self._inequalities = [c for c in self.constraints if isinstance(c, InequalityConstraint)]
-        self._step = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
-                            self.lm_damping, self.hierarchy_slack)
+        self.qp = QPStep(self.kinematics, self.tasks, self.constraints, self.backend, self.damping,
+                         self.lm_damping, self.hierarchy_slack)
         self._started = False
         # constraints that remember the steps taken (acceleration limits: the previous velocity)
         self._memories = [c for c in self.constraints if type(c).stepped is not Constraint.stepped]
         self._start_violations: list[StartViolation] = []
 
-    @property
-    def qp(self) -> QPStep:
-        """The QP step this problem iterates (its levels and constraints at the current q)."""
-        return self._step
-
     def start(self, q: np.ndarray, clip: bool = True) -> None:
-        """Set the configuration and start the tasks and constraints there; ``clip``: first clip q into
-        the joint limits (``solve`` does; a control ``step`` moves such a joint back at its bounds' pace)."""
+        """Start the tasks and constraints at q, first clipped into the joint limits if ``clip``."""
         q = self.clip(np.asarray(q, dtype=float)) if clip else np.array(q, dtype=float)
         self.kinematics.update(q)
         for item in (*self.tasks, *self.constraints):
             item.start(self.kinematics)
-        self._step.start()
+        self.qp.start()
         self._started = True
 
     def clip(self, q: np.ndarray) -> np.ndarray:
@@ -140,10 +118,9 @@ class IKProblem:
 
     def step(self, q: np.ndarray | None = None, dt: float = 1.0, max_step: float | None = None,
              profile: dict[str, float] | None = None, velocity: np.ndarray | None = None) -> np.ndarray:
-        """The QP displacement dq at q (default: the current q); NoQPSolutionError (with ``conflict``, the
-        hard rows that conflict) when the QP has no solution. For control, v = dq / dt is the joint velocity
-        for one period dt; ``velocity`` (nv): the joint velocity now, for acceleration limits (default: the
-        previous step's dq / dt); ``profile``: a dict to which the seconds of each ``PHASES`` are added."""
+        """The QP displacement dq at q (default: the current q), v = dq / dt for control; NoQPSolutionError
+        (``conflict``: the hard rows that conflict) without a solution. ``velocity`` (nv): the joint velocity
+        for acceleration limits (default: the last dq / dt); ``profile``: seconds per ``PHASES`` added."""
         tick = time.perf_counter() if profile is not None else 0.0
         if not self._started:
             self.start(self.kinematics.q if q is None else q, clip=False)
@@ -155,10 +132,10 @@ class IKProblem:
         if velocity is not None:
             for constraint in self._memories:
                 constraint.velocity = np.asarray(velocity, dtype=float).reshape(self.nv).copy()
-        self._step.refresh()  # a caller may have moved a task's target since the last step
+        self.qp.refresh()  # a caller may have moved a task's target since the last step
         radius = self.max_step if max_step is None else max_step
         try:
-            dq = self._step.solve(dt, radius, profile)
+            dq = self.qp.solve(dt, radius, profile)
         except NoQPSolutionError as exc:
             exc.conflict = tuple(self.conflict(dt, radius))
             raise
@@ -167,35 +144,30 @@ class IKProblem:
         return dq
 
     def conflict(self, dt: float = 1.0, max_step: float | None = None) -> list:
-        """The hard rows of the step at the current q that conflict (an irreducible set,
-        :func:`wbik.qp.elastic.conflict`; empty when they hold together). For a failed step only."""
-        return conflict(step_rows(self._step, dt, self.max_step if max_step is None else max_step))
+        """The conflicting hard rows of a failed step at q (:func:`wbik.qp.elastic.conflict`; empty: none)."""
+        return conflict(step_rows(self.qp, dt, self.max_step if max_step is None else max_step))
 
     def diagnose(self, solution: QPSolution | None = None) -> Diagnosis:
-        """Why the solve stopped at the current q (:mod:`wbik.qp.diagnosis`); ``solution`` (the one this
-        q was returned in) gives the loop's reason and the start's violations."""
+        """Why the solve stopped at q; ``solution`` (the one q was returned in) gives its reason and start."""
         if solution is not None and not self._stands_at(solution.q):
             self.kinematics.update(solution.q)
-        self._step.refresh()
+        self.qp.refresh()
         return diagnose(self, solution.reason if solution is not None else "",
                         solution.start_violations if solution is not None else self._start_violations)
 
     def project(self, tolerance: float = 1e-12, max_iterations: int = 6,
                 violation: float | None = None) -> bool:
-        """Newton steps onto the contacts from the current q: min |dq|^2 s.t. J_c dq = -e_c and the
-        other constraints. True when every contact holds to ``tolerance`` afterwards. ``violation``:
-        the inequality violation at q, if known (measured here otherwise): no step may raise it."""
-        equalities = self._equalities
-        if not equalities:
+        """Newton steps onto the contacts, min |dq|^2 s.t. J_c dq = -e_c and the other constraints: whether
+        they hold to ``tolerance`` then. No step raises the inequality ``violation`` (default: measured)."""
+        if not (equalities := self._equalities):
             return True
         kinematics = self.kinematics
         allowed = None
         for _ in range(max_iterations):
             if self._equalities_met(tolerance):
                 return True
-            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps
-            # every bound (limits, locked joints, velocities) and, by FK, the inequalities (the CoM in
-            # its polygon: this step knows nothing of them); otherwise the QP with every constraint
+            # cheap first: the minimum-norm Newton step dq = A^T (A A^T)^-1 b, kept if it keeps every
+            # bound and, by FK, the inequalities; otherwise the QP with every constraint
             rows = [c.equality(kinematics) for c in equalities]
             A, b = rows[0] if len(rows) == 1 else (np.vstack([r.A for r in rows]),
                                                      np.concatenate([r.b for r in rows]))
@@ -211,13 +183,12 @@ class IKProblem:
                     allowed = max(self._inequality_violation() if violation is None else violation, 0.0)
                 q = kinematics.q.copy()
                 kinematics.update(kinematics.integrate(dq))
-                after = self._inequality_violation()
-                if after <= allowed + 1e-15:
+                if (after := self._inequality_violation()) <= allowed + 1e-15:
                     allowed = after
                     continue
                 kinematics.update(q)  # it broke an inequality: the QP's projection instead
             try:
-                dq = self._step.minimum_norm(self._step.build_constraints(1.0, self.max_step, recover=False))
+                dq = self.qp.minimum_norm(self.qp.build_constraints(1.0, self.max_step, recover=False))
             except NoQPSolutionError:
                 return False
             kinematics.update(self.clip(kinematics.integrate(dq)))
@@ -225,16 +196,15 @@ class IKProblem:
 
     def task_errors(self) -> dict[str, float]:
         """|e| per task name at the current q."""
-        self._step.fill_tasks()
+        self.qp.fill_tasks()
         return {task.name: level.error_norm(index)
-                for level in self._step.levels for index, task in enumerate(level.tasks)}
+                for level in self.qp.levels for index, task in enumerate(level.tasks)}
 
     def _merit_and_goals(self) -> tuple[float, bool]:
-        """(merit: the weighted task cost, lower levels scaled down by 1e-6 each; every goal task under its
-        tolerance), from the step's task rows at q."""
-        self._step.fill_tasks()
+        """(merit: the task cost, each lower level scaled by 1e-6; every goal task under its tolerance)."""
+        self.qp.fill_tasks()
         cost, goals_met = 0.0, True
-        for index, level in enumerate(self._step.levels):
+        for index, level in enumerate(self.qp.levels):
             error = level.error
             cost += float(level.weight.dot(error * error)) * 1e-6 ** index
             goals_met = goals_met and all(math.sqrt(float(goal_error.dot(goal_error))) <= task.tolerance
@@ -250,10 +220,7 @@ class IKProblem:
         return all(constraint.violation(self.kinematics) <= tolerance for constraint in self._equalities)
 
     def _inequality_violation(self) -> float:
-        total = 0
-        for constraint in self._inequalities:
-            total += constraint.violation(self.kinematics)
-        return total
+        return sum(constraint.violation(self.kinematics) for constraint in self._inequalities)
 
     def _checks(self) -> tuple[float, bool, float]:
         """(merit, goals met, inequality violation) at the current q."""
@@ -265,9 +232,8 @@ class IKProblem:
 
     def _trial(self, merit: float, violation: float,
                profile: dict[str, float] | None = None) -> tuple[bool, float, bool, float]:
-        """(kept, merit, goals met, inequality violation) at the current q: kept when it does not raise the
-        merit and keeps the inequalities by FK, or, while the kept iterate breaks inequalities, when it
-        reduces their violation whatever the merit (the constraints come first)."""
+        """(kept, merit, goals met, inequality violation) at q: kept when it keeps the merit and the
+        inequalities by FK or, while the kept iterate breaks inequalities, when it reduces their violation."""
         trial_merit, goals_met, trial_violation = self._timed(profile, "checks", self._checks)
         if violation > 0.0:
             return trial_violation < violation, trial_merit, goals_met, trial_violation
@@ -277,12 +243,9 @@ class IKProblem:
     def solve(self, q0: np.ndarray, max_iterations: int = 200, deadline: float | None = None,
               equality_tolerance: float = 1e-10, stall: float = 1e-12,
               profile: dict[str, float] | None = None, diagnose: bool = True) -> QPSolution:
-        """Iterate QP steps from q0 until every goal task is under its tolerance and every contact within
-        ``equality_tolerance``. A step is kept when it does not raise the merit (the task cost) and keeps
-        the inequalities by FK (or reduces their violation when q0 breaks them); else the trust region
-        shrinks. Newton projections (:meth:`project`) bring the contacts back where the steps do not. A
-        radius or step under ``stall`` ends the loop at the best effort. ``profile``: a dict to which the
-        seconds of ``PHASES`` and ``SOLVE_PHASES`` are added; ``diagnose``: a failed solve is diagnosed."""
+        """QP steps from q0 until the goal tasks are under their tolerance and the contacts within
+        ``equality_tolerance``; a step not kept (:meth:`_trial`) shrinks the trust region, a radius or step
+        under ``stall`` ends the loop. ``profile``: seconds per ``PHASES`` and ``SOLVE_PHASES``."""
         start_time = time.perf_counter()
         q0 = np.asarray(q0, dtype=float)
         self.start(q0)
@@ -294,10 +257,12 @@ class IKProblem:
         self._timed(profile, "projection", self.project, tolerance)
         q = kinematics.q.copy()
         if profile is not None:  # the first step's task rows, filled here for the merit
-            self._timed(profile, "tasks", self._step.fill_tasks)
+            self._timed(profile, "tasks", self.qp.fill_tasks)
         merit, goals_met, violation = self._timed(profile, "checks", self._checks)
         # what the start breaks: joints outside their limits (clipped), inequalities (repaired first)
-        self._start_violations = start_violations(self, q0) if outside or violation > 1e-9 else []
+        self._start_violations = ([found for constraint in self.constraints
+                                   for found in constraint.start_violations(kinematics, q0)]
+                                  if outside or violation > 1e-9 else [])
         radius, slow, reason, converged, iteration = self.max_step, 0, "", False, 0
         for iteration in range(1, max_iterations + 1):
             if goals_met:
@@ -316,7 +281,7 @@ class IKProblem:
                 reason = "time budget used up"
                 break
             try:
-                dq = self._step.solve(1.0, radius, profile, recover=False)  # (iterates are inside the limits)
+                dq = self.qp.solve(1.0, radius, profile, recover=False)  # (iterates are inside the limits)
             except NoQPSolutionError as exc:
                 if iteration > 1 and not self._equalities_met(tolerance) and self._timed(
                         profile, "projection", self.project, tolerance) and self._inequality_violation() \
@@ -326,8 +291,6 @@ class IKProblem:
                     merit, goals_met, violation = self._checks()
                     radius = self.max_step
                     continue
-                if not self._stands_at(q):
-                    kinematics.update(q)
                 reason = (f"the QP has no solution ({exc}): the constraints conflict at this configuration"
                           if iteration == 1 else
                           f"best effort: {self.backend} found no further step (radius {radius:.2g})")
@@ -337,7 +300,7 @@ class IKProblem:
             kinematics.update(self._clipped(pin.integrate(self.model, q, dq)))
             tick = lap(profile, "kinematics", tick)
             if profile is not None:  # the next step's task rows, filled here for the merit
-                self._step.fill_tasks()
+                self.qp.fill_tasks()
             lap(profile, "tasks", tick)
             kept, trial_merit, trial_goals_met, trial_violation = self._trial(merit, violation, profile)
             if not kept and not self._equalities_met(tolerance) and self._timed(

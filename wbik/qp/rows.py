@@ -1,8 +1,5 @@
-"""Typed rows: what a hard constraint contributes to one QP step over the tangent displacement dq.
-
-``EqualityRows(A, b)``: A dq = b; ``InequalityRows(G, h)``: G dq <= h; ``BoundRows(index, lower,
-upper)``: lower <= dq[index] <= upper. Each writes itself into the stacked QP (``add_to``, which copies
-the arrays: a constraint may reuse them). A :class:`RowLabel` names one row, for the diagnoses.
+"""Typed rows of a hard constraint for one QP step over dq, each written into the stacked QP by ``add_to``
+(a copy: a constraint may reuse its arrays); a :class:`RowLabel` names one row, for the diagnoses.
 """
 
 from __future__ import annotations
@@ -52,10 +49,9 @@ Rows = EqualityRows | InequalityRows | BoundRows
 
 @dataclass(frozen=True)
 class RowLabel:
-    """What one row stands for: ``constraint`` (its name), ``kind`` (its owner's word for its rows),
-    ``subject`` (a joint, contact frame, polygon edge or pair), ``side`` ("lower"/"upper" of a bound,
-    a contact's axis), ``value`` and ``bound`` in ``unit`` where the row was made (NaN: none), and
-    ``owner``, the constraint (or step box) that puts the row in words."""
+    """What one row stands for: its ``constraint``'s name and ``kind``, its ``subject`` (a joint, contact,
+    edge, pair), ``side`` (of a bound, a contact's axis), ``value`` and ``bound`` in ``unit`` (NaN: none),
+    and ``owner``, the constraint (or step box) that puts the row in words."""
 
     constraint: str
     kind: str

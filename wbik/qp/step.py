@@ -3,10 +3,9 @@
     min_dq  sum_k w_k |J_k dq + g_k e_k|^2 + (mu0 + mu |e|^2) |dq|^2
     s.t.    the constraints' rows (A dq = b, G dq <= h, lower <= dq <= upper) and |dq_i| <= radius
 
-The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) keeps far steps short and vanishes at the
-solution. Level k keeps what the levels above achieved (:meth:`QPStep.keep`); its inequality tasks are
-solved with slacks w (min weight |w|^2 s.t. J dq + g e <= w). No solution at the first level raises
-NoQPSolutionError; a lower level whose backend fails keeps the step of the levels above.
+The Levenberg-Marquardt term mu |e|^2 (e: the level's goals) vanishes at the solution. Level k keeps what
+the levels above achieved (:meth:`QPStep.keep`); inequality tasks take slacks w (min weight |w|^2 s.t.
+J dq + g e <= w). No solution at the first level raises NoQPSolutionError; a later one keeps the step.
 """
 
 from __future__ import annotations
@@ -46,8 +45,8 @@ def _joined(arrays: list[np.ndarray]) -> np.ndarray:
 
 
 def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None], list[tuple], int]:
-    """Per task, its rows among the level's stacked rows (None: none there), the (task, rows) pairs, the
-    count: of the inequality tasks, or of the others but those with a constant diagonal."""
+    """Per task its rows among the level's (None: none), the (task, rows) pairs and the count: of the
+    inequality tasks, or of the others but those with a constant diagonal."""
     slices, stop = [], 0
     for task in tasks:
         if task.inequality if inequality else not task.inequality and task.constant_diagonal() is None:
@@ -59,8 +58,7 @@ def _row_slices(tasks: list[Task], inequality: bool) -> tuple[list[slice | None]
 
 
 class Level:
-    """The tasks of one priority level: their stacked rows J (m x nv) and e (m), unweighted, with the
-    scales sqrt(w) and g sqrt(w); the tasks' summed ``constant_diagonal``; the inequality tasks' rows."""
+    """A priority level's tasks: their stacked rows J (m x nv), e (m), scales sqrt(w) and g sqrt(w)."""
 
     def __init__(self, tasks: list[Task], nv: int):
         self.tasks = tasks
@@ -77,8 +75,6 @@ class Level:
         self.inequality_error = np.zeros(inequality_stop)
         self.inequality_weight = _joined([task.weight for task in self.inequalities])
         self.inequality_gain = _joined([np.full(task.dimension, task.gain) for task in self.inequalities])
-        self._inequality_rows = [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
-                                 for task, rows in inequality_rows]
         self.inequality_goal_errors = [(task, self.inequality_error[rows]) for task, rows in inequality_rows
                                        if task.goal]
         self.jacobian, self.error = np.zeros((stop, nv)), np.zeros(stop)
@@ -88,6 +84,8 @@ class Level:
         self._hessian_diagonal = self.hessian.ravel()[:: nv + 1]  # a view of H's diagonal
         # each task's rows and each goal's error as views of the buffers (no slicing per fill)
         self._task_rows = [(task, self.jacobian[rows], self.error[rows]) for task, rows in stacked_rows]
+        self._task_rows += [(task, self.inequality_jacobian[rows], self.inequality_error[rows])
+                            for task, rows in inequality_rows]
         self.goal_errors = [(task, self.error[rows]) for task, rows in stacked_rows if task.goal]
         self.weight = _joined([task.weight for task in stacked])
         self.row_scale = np.sqrt(self.weight)[:, None]
@@ -98,13 +96,9 @@ class Level:
     def fill(self, kinematics: Kinematics) -> None:
         for task, jacobian, error in self._task_rows:
             task.fill(kinematics, jacobian, error)
-        for task, jacobian, error in self._inequality_rows:
-            jacobian[:] = task.jacobian(kinematics)
-            error[:] = task.error(kinematics)
 
     def goal_cost(self) -> float:
-        """sum |e|^2 over the goal tasks (the Levenberg-Marquardt term's |e|^2; max(0, e) for an
-        inequality task)."""
+        """sum |e|^2 over the goal tasks (|max(0, e)|^2 for an inequality task)."""
         cost = 0.0
         for _, error in self.goal_errors:
             cost += float(error.dot(error))
@@ -113,25 +107,24 @@ class Level:
             cost += float(excess.dot(excess))
         return cost
 
+    def rows_of(self, index: int) -> tuple[bool | None, np.ndarray | None, np.ndarray | None]:
+        """(inequality, J, e) of ``tasks[index]`` at the last fill (views; None: on H's diagonal)."""
+        if (rows := self.slices[index]) is not None:
+            return False, self.jacobian[rows], self.error[rows]
+        if (rows := self.inequality_slices[index]) is not None:
+            return True, self.inequality_jacobian[rows], self.inequality_error[rows]
+        return None, None, None
+
     def error_norm(self, index: int) -> float:
-        """|e| of ``tasks[index]`` at the last fill (0 for a regularisation; |max(0, e)| for an
-        inequality task)."""
-        rows = self.slices[index]
-        if rows is None:
-            rows = self.inequality_slices[index]
-            if rows is None:
-                return 0.0
-            excess = np.maximum(self.inequality_error[rows], 0.0)
-            return math.sqrt(excess.dot(excess))
-        return math.sqrt(self.error[rows].dot(self.error[rows]))
+        """|e| of ``tasks[index]`` at the last fill (|max(0, e)| for an inequality task)."""
+        inequality, _, error = self.rows_of(index)
+        if inequality:
+            error = np.maximum(error, 0.0)
+        return 0.0 if error is None else math.sqrt(error.dot(error))
 
     def inequality_rows(self) -> tuple[np.ndarray, np.ndarray]:
         """(J, -g e) of the inequality tasks: their rows J dq + w... as J dq - w <= -g e."""
         return self.inequality_jacobian, -self.inequality_gain * self.inequality_error
-
-    def weighted_rows(self) -> np.ndarray:
-        """sqrt(w) J, in a reused buffer."""
-        return np.multiply(self.jacobian, self.row_scale, out=self.weighted)
 
     def quadratic(self, damping: float) -> tuple[np.ndarray, np.ndarray]:
         """H = (sqrt(w) J)^T (sqrt(w) J) + diag(constant diagonal + damping), c = (sqrt(w) J)^T (g sqrt(w) e)
@@ -140,7 +133,7 @@ class Level:
             self._compiled_quadratic(self.jacobian, self._row_scale, self.error, self.error_scale,
                                      self.diagonal, damping, self.weighted, self.hessian, self.gradient)
             return self.hessian, self.gradient
-        weighted = self.weighted_rows()
+        weighted = np.multiply(self.jacobian, self.row_scale, out=self.weighted)
         H = weighted.T.dot(weighted, out=self.hessian)
         self._hessian_diagonal += self.diagonal + damping
         scaled_error = np.multiply(self.error, self.error_scale, out=self._scaled_error)
@@ -190,8 +183,7 @@ class QPStep:
 
     def build_constraints(self, dt: float, radius: float,
                           recover: bool = True) -> backends.StackedConstraints:
-        """Every constraint's rows at the current q, stacked; ``recover``: a joint outside its range moves
-        back as fast as its other bounds allow (``StackedConstraints.close_box``)."""
+        """Every constraint's rows at q, stacked; ``recover``: see ``StackedConstraints.close_box``."""
         stack = self.stack
         stack.clear(radius)
         kinematics = self.kinematics
@@ -203,8 +195,7 @@ class QPStep:
 
     def solve(self, dt: float, radius: float, profile: dict[str, float] | None = None,
               recover: bool = True) -> np.ndarray:
-        """dq at the kinematics' q; raises NoQPSolutionError when a level's QP has no solution.
-        ``recover``: see :meth:`build_constraints`."""
+        """dq at the kinematics' q (``recover``: see :meth:`build_constraints`); NoQPSolutionError."""
         tick = time.perf_counter() if profile is not None else 0.0
         stack = self.build_constraints(dt, radius, recover)
         tick = lap(profile, "constraints", tick)

@@ -1,13 +1,9 @@
 """Support polygon: the convex hull of the soles' contact points on the ground, as half-planes.
 
-Stored counter-clockwise, edge i from v_i to v_{i+1} has the outward unit normal n_i and offset
-d_i = n_i . v_i: the inside is N x <= d, shrunk by a margin m it is N x <= d - m, and
-``margin_of(x) = min_i (d_i - n_i . x)`` is the distance to the boundary (negative outside). The hull is
-qhull's, with every decision at one length tolerance, ``HULL_RELATIVE_TOLERANCE`` times the points'
-scale (the larger of their extent and their largest coordinate): a vertex that close to its neighbours'
-segment or to its neighbour is dropped, and points whose spread across their main direction is within
-it are degenerate (:class:`DegenerateSupportPolygonError`). The checks that judge an answer take a
-:class:`DegenerateSupport` (the segment or point the points collapse to, containing nothing) instead.
+Counter-clockwise, edge i (v_i to v_{i+1}) has the outward unit normal n_i and d_i = n_i . v_i: the inside
+shrunk by a margin m is N x <= d - m, and ``margin_of(x) = min_i (d_i - n_i . x)`` (negative outside).
+The hull is qhull's, pruned at :func:`hull_tolerance`; points spanning no area at it raise
+:class:`DegenerateSupportPolygonError`, or give a :class:`DegenerateSupport` for the checks.
 """
 
 from __future__ import annotations
@@ -21,8 +17,7 @@ from wbik.errors import RobotDescriptionError
 from wbik.qp.kinematics import Kinematics
 
 HULL_RELATIVE_TOLERANCE = 1e-9
-"""Hull tolerance relative to the scale of the point set: vertices that rounding alone separates from an
-edge or from each other are merged; real corners are millimetres apart."""
+"""Hull tolerance relative to the points' scale: what rounding alone separates is merged."""
 
 
 class DegenerateSupportPolygonError(RobotDescriptionError):
@@ -46,8 +41,7 @@ def _deviation(before: np.ndarray, here: np.ndarray, after: np.ndarray) -> float
 
 
 def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Drop, one at a time and the least significant first, vertices within ``tolerance`` of the segment
-    joining their neighbours or of the previous vertex (the polygon stays convex and counter-clockwise)."""
+    """Drop vertices within ``tolerance`` of their neighbours' segment or of the previous one, least first."""
     while len(vertices) >= 3:
         count = len(vertices)
         deviations = [_deviation(vertices[i - 1], here, vertices[(i + 1) % count])
@@ -60,8 +54,7 @@ def _prune(vertices: list[np.ndarray], tolerance: float) -> list[np.ndarray]:
 
 
 def hull_tolerance(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> float:
-    """The length tolerance of a point set (k, 2): ``relative_tolerance`` times the larger of its extent
-    and its largest coordinate (m); 0 only for points that are all at the origin."""
+    """``relative_tolerance`` times the larger of the points' (k, 2) extent and largest coordinate (m)."""
     if points.size == 0:
         return 0.0
     scale = max(float(np.max(np.ptp(points, axis=0))), float(np.max(np.abs(points))))
@@ -81,13 +74,9 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
         raise _degenerate(points, f"they coincide (within the tolerance {tolerance:.3g} m)")
     centred = points - points.mean(axis=0)
     _, _, axes = np.linalg.svd(centred, full_matrices=False)
-    spread = float(np.ptp(centred @ axes[-1]))  # width across the main direction
-    if spread <= tolerance:
+    if (spread := float(np.ptp(centred @ axes[-1]))) <= tolerance:  # the width across the main direction
         raise _degenerate(points, f"they lie on one line (width {spread:.3g} <= tolerance {tolerance:.3g})")
-    from scipy.spatial import (
-        ConvexHull,  # kept out of import wbik
-        QhullError,
-    )
+    from scipy.spatial import ConvexHull, QhullError  # kept out of import wbik
 
     try:
         hull = ConvexHull(points)  # 2-D: vertices counter-clockwise
@@ -102,8 +91,7 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
 
 
 class SupportPolygon:
-    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d;
-    DegenerateSupportPolygonError (a ValueError) for points that span no area."""
+    """A convex polygon in the ground plane (x, y) with its half-plane form N x <= d."""
 
     def __init__(self, points: np.ndarray, labels: Sequence[str] | None = None):
         points = np.asarray(points, dtype=float).reshape(-1, 2)
@@ -113,31 +101,23 @@ class SupportPolygon:
         self.vertex_labels = [str(labels[i]) if named else f"vertex {k}" for k, i in enumerate(nearest)]
         """Each vertex's name: its contact point's label (``labels``, one per point), else "vertex i"."""
         edges = np.roll(self.vertices, -1, axis=0) - self.vertices
-        lengths = np.linalg.norm(edges, axis=1)
-        self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / lengths[:, None]
+        self.normals = np.column_stack((edges[:, 1], -edges[:, 0])) / np.linalg.norm(edges, axis=1)[:, None]
         self.offsets = np.einsum("ij,ij->i", self.normals, self.vertices)
 
     def __repr__(self) -> str:
-        return f"SupportPolygon({len(self.vertices)} vertices, centroid {self.centroid.round(4).tolist()})"
-
-    @property
-    def centroid(self) -> np.ndarray:
-        return self.vertices.mean(axis=0)
+        centroid = self.vertices.mean(axis=0).round(4).tolist()
+        return f"SupportPolygon({len(self.vertices)} vertices, centroid {centroid})"
 
     def margin_of(self, point: np.ndarray) -> float:
         """Distance from ``point`` (x, y) to the boundary, positive inside, negative outside."""
         return float((self.offsets - self.normals @ np.asarray(point, dtype=float)[:2]).min())
-
-    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
-        return self.margin_of(point) >= margin
 
     def halfplanes(self, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """(N, d - margin): the polygon shrunk by ``margin`` as N x <= d - margin."""
         return self.normals, self.offsets - margin
 
     def nearest_inside(self, point: np.ndarray, margin: float = 0.0) -> np.ndarray:
-        """The point (x, y) of the polygon shrunk by ``margin`` nearest to ``point`` (NoQPSolutionError when
-        the shrunk polygon is empty)."""
+        """The point of the polygon shrunk by ``margin`` nearest to ``point`` (x, y); NoQPSolutionError."""
         import wbik.qp.backends as backends
 
         normals, offsets = self.halfplanes(margin)
@@ -155,8 +135,7 @@ class SupportPolygon:
 
 @dataclass(frozen=True)
 class DegenerateSupport:
-    """Support that spans no area: ``vertices`` (2, 2) a segment or (1, 2) a point, and ``why``; it
-    contains no point (balance on a line is not robust)."""
+    """Support spanning no area: ``vertices`` a segment (2, 2) or a point (1, 2), and ``why``."""
 
     vertices: np.ndarray
     why: str
@@ -171,14 +150,9 @@ class DegenerateSupport:
                                                           0.0), 1.0)
         return 0.0 - float(np.hypot(*(point - start - along * direction)))  # (0.0, not -0.0, on it)
 
-    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
-        return False
-
 
 def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
-    """The support polygon of finite 2D contact points, or the :class:`DegenerateSupport` they collapse to
-    (for checks that report a margin instead of raising): their two extreme points along their main
-    direction, or one point when these are within the hull tolerance."""
+    """The support polygon of finite 2D points, else the :class:`DegenerateSupport` of their extremes."""
     try:
         return SupportPolygon(points)
     except DegenerateSupportPolygonError as exc:
@@ -193,8 +167,8 @@ def support_region(points: np.ndarray) -> SupportPolygon | DegenerateSupport:
 
 
 def sole_rectangle(length: float, width: float, centre=(0.0, 0.0, 0.0)) -> np.ndarray:
-    """The 4 corners (4, 3), counter-clockwise, of a ``length`` (x) by ``width`` (y) sole rectangle
-    centred on ``centre`` in its sole frame (m): ``robot.soles`` entries for a flat foot."""
+    """The 4 corners (4, 3), counter-clockwise, of a ``length`` by ``width`` sole centred on ``centre``
+    (m, in the sole frame): ``robot.soles`` entries for a flat foot."""
     half = np.array([[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]])
     return half * [0.5 * float(length), 0.5 * float(width), 0.0] + np.asarray(centre, dtype=float).reshape(3)
 
@@ -215,8 +189,7 @@ def contact_points(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
 
 def feet_support_polygon(kinematics: Kinematics, corners: Mapping[str, np.ndarray],
                          frames: Iterable[str]) -> SupportPolygon:
-    """Support polygon of the feet in contact: hull of their contact points projected on the ground
-    (DegenerateSupportPolygonError naming the soles when they span no area)."""
+    """Support polygon of the soles in contact (their contact points on the ground)."""
     frames = list(frames)
     points = contact_points(kinematics, corners, frames)
     counts = {frame: len(np.asarray(corners[frame], dtype=float).reshape(-1, 3)) for frame in frames}
@@ -234,6 +207,5 @@ def feet_support_region(kinematics: Kinematics, corners: Mapping[str, np.ndarray
     """:func:`feet_support_polygon`, or the :class:`DegenerateSupport` its points collapse to."""
     frames = list(frames)
     region = support_region(contact_points(kinematics, corners, frames)[:, :2])
-    if isinstance(region, DegenerateSupport):
-        return DegenerateSupport(region.vertices, f"support soles {frames}: {region.why}")
-    return region
+    return (DegenerateSupport(region.vertices, f"support soles {frames}: {region.why}")
+            if isinstance(region, DegenerateSupport) else region)

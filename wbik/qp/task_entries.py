@@ -1,7 +1,6 @@
 """Task entries: the mapping form of a QP task (a ``wholebody_ik`` phase, ``WholeBody.from_dict``).
 
-``build_task(robot, q, entry)`` turns one entry into a :mod:`wbik.qp.tasks` task whose target is
-resolved at the configuration q (world frame, m and rad)::
+``build_task(robot, q, entry)`` makes the task, its target resolved at q (world frame, m and rad)::
 
     {type: frame, frame: r_hand, target: [x, y, z], rpy: [r, p, y]}   # absolute pose
     {type: position, frame: r_hand, offset: [0.04, 0, 0]}              # start position + offset
@@ -11,19 +10,13 @@ resolved at the configuration q (world frame, m and rad)::
     {type: posture, reference: nominal | start, joints: [...]}
     {type: regularization, weight: 1e-6}
 
-A frame-like target (frame, position, orientation) is ``target`` (position; the rotation is ``rpy``
-if given, else the start's), or the start placement with ``offset`` added to its position (world
-axes) and ``rpy`` replacing its rotation; ``keep: true`` (or nothing) holds the start placement.
-A relative target is the child's placement in the reference frame at q, or ``target`` [+ ``rpy``],
-or that placement with ``offset`` added (reference axes). A CoM target is ``target``, or the
-start CoM with ``over``'s origin as its x and y, or the start CoM plus ``offset``. Options passed to the
-task: weight, goal, priority, tolerance, gain, name (and position_weight, orientation_weight for frame).
+A frame-like target is ``target`` (the rotation ``rpy`` if given, else the start's), or the start
+placement with ``offset`` added to its position (world axes) and ``rpy`` replacing its rotation (``keep``
+or nothing: the start placement); a relative one the same in the reference frame's axes, ``rpy`` only with
+``target``. A CoM target is ``target``, or the start CoM under ``over``'s origin, or plus ``offset``.
 
-A :class:`TaskEntry` declares an entry type: its ``type``, the task class, its builder, its own keys (each
-a :mod:`wbik.schema` node) and those it requires. :data:`TASK_ENTRY`, one variant per type, checks an
-entry in task files, ``WholeBody.from_dict`` and :func:`build_task` (a :class:`TaskEntryError` naming the
-key). A module declares its types in a ``TASK_ENTRIES`` tuple listed in :data:`TASK_ENTRY_MODULES`
-(:class:`wbik.registry.DeclaredRegistry`); user code adds one with :func:`register_task_entry`.
+A :class:`TaskEntry` declares an entry type: in a module's ``TASK_ENTRIES`` (:data:`TASK_ENTRY_MODULES`)
+or by :func:`register_task_entry`.
 """
 
 from __future__ import annotations
@@ -66,7 +59,7 @@ from wbik.schema import (
 
 __all__ = ["AXES", "FRAME", "NON_NEGATIVE", "POSITIVE", "TASK_ENTRIES", "TASK_ENTRY", "TASK_ENTRY_MODULES",
            "TASK_ENTRY_REGISTRY", "TASK_OPTIONS", "VECTOR3", "TaskEntry", "TaskEntryError", "build_task",
-           "com_target", "frame_target", "register_task_entry", "relative_target"]
+           "com_target", "frame_target", "register_task_entry"]
 
 TASK_OPTIONS = ("weight", "goal", "priority", "tolerance", "gain", "name")
 """Keys every task type passes to its :class:`wbik.qp.tasks.Task` (unless its entry says otherwise)."""
@@ -113,12 +106,10 @@ class TaskEntry:
         if not (isinstance(self.task, type) and issubclass(self.task, Task)):
             raise RegistryError(f"task entry {self.name!r}: task must be a wbik.qp.tasks.Task subclass, "
                                 f"got {self.task!r}")
-        unknown = [key for key in (*self.required, *self.options) if key not in self.keys
-                   and key not in TASK_OPTIONS]
-        if unknown:
+        if unknown := [key for key in (*self.required, *self.options) if key not in self.keys
+                       and key not in TASK_OPTIONS]:
             raise RegistryError(f"task entry {self.name!r}: {unknown} are neither its keys nor task options")
-        loose = {key: node for key, node in self.keys.items() if not isinstance(node, Node)}
-        if loose:
+        if loose := {key: node for key, node in self.keys.items() if not isinstance(node, Node)}:
             raise RegistryError(f"task entry {self.name!r}: each key is a wbik.schema node (FRAME, VECTOR3, "
                                 f"Number(...), ...), got {loose}")
 
@@ -136,29 +127,20 @@ def _placement(robot, q: np.ndarray, frame: str) -> pin.SE3:
         raise TaskEntryError(str(exc)) from exc
 
 
-def frame_target(robot, q: np.ndarray, entry: Mapping, frame: str) -> pin.SE3:
-    """World target of a frame-like entry (keep / offset / target [+ rpy]), see the module notes."""
+def frame_target(robot, q: np.ndarray, entry: Mapping, frame: str, reference: str | None = None) -> pin.SE3:
+    """Target of a frame-like entry in the world, or in ``reference``'s axes (see the module notes)."""
     start = _placement(robot, q, frame)
+    if reference is not None:
+        start = _placement(robot, q, reference).actInv(start)
     if "target" in entry:
         rotation = pin.rpy.rpyToMatrix(*entry["rpy"]) if "rpy" in entry else start.rotation
         return pin.SE3(rotation, np.array(entry["target"], dtype=float))
     placement = start.copy()
     if "offset" in entry:
         placement.translation = start.translation + np.array(entry["offset"], dtype=float)
-    if "rpy" in entry:
+    if "rpy" in entry and reference is None:
         placement.rotation = pin.rpy.rpyToMatrix(*entry["rpy"])
     return placement
-
-
-def relative_target(robot, q: np.ndarray, entry: Mapping, frame: str, reference: str) -> pin.SE3:
-    """``frame`` in ``reference`` axes: the placement at q, or target [+ rpy], or + offset."""
-    relative = _placement(robot, q, reference).actInv(_placement(robot, q, frame))
-    if "target" in entry:
-        rotation = pin.rpy.rpyToMatrix(*entry["rpy"]) if "rpy" in entry else relative.rotation
-        return pin.SE3(rotation, np.array(entry["target"], dtype=float))
-    if "offset" in entry:
-        relative.translation = relative.translation + np.array(entry["offset"], dtype=float)
-    return relative
 
 
 def com_target(robot, q: np.ndarray, entry: Mapping) -> np.ndarray:
@@ -189,7 +171,7 @@ def _orientation(robot, q, entry, options) -> OrientationTask:
 
 def _relative(robot, q, entry, options) -> RelativeFrameTask:
     frame, reference = entry["frame"], entry["reference"]
-    return RelativeFrameTask(frame, reference, relative_target(robot, q, entry, frame, reference), **options)
+    return RelativeFrameTask(frame, reference, frame_target(robot, q, entry, frame, reference), **options)
 
 
 def _com(robot, q, entry, options) -> ComTask:
@@ -248,8 +230,7 @@ TASK_ENTRY = Variants(lambda entry: entry.get("type"),
 
 
 def build_task(robot, q: np.ndarray, entry: Mapping, source: str = "task entry") -> Task:
-    """The :mod:`wbik.qp.tasks` task of one entry (checked against :data:`TASK_ENTRY`, ``source`` naming
-    it), its target resolved at configuration q."""
+    """The task of one entry (checked, ``source`` naming it), its target resolved at configuration q."""
     entry = TASK_ENTRY.check(entry, "", Context(source, TASK_ENTRY_ERRORS))
     declared = TASK_ENTRY_REGISTRY.get(entry["type"])
     options = {key: entry[key] for key in declared.options if key in entry}

@@ -1,14 +1,8 @@
-"""Tasks: the soft objectives of the QP.
-
-A task has an error e(q) (m rows, zero when it is done) and its Jacobian J = de/dq (m x nv); in one QP
-step it costs weight |J dq + gain e|^2 (``weight``: a scalar or one value per row). ``priority`` is its
-level in a strict hierarchy (0 first, :mod:`wbik.qp.step`); ``goal`` tasks decide convergence (|e| under
-``tolerance``). An *inequality* task (:class:`PositionBoxTask`, :class:`ComBoxTask`) wants e <= 0 row by
-row: it costs weight max(0, J dq + gain e)^2 and its error is max(0, e). A posture belongs on the lowest
-level (docs/guide/wholebody.md, "Priorities"); a regularisation weighs the step and never moves the answer.
-
-Rotation errors are :mod:`wbik.geometry`'s: e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill``,
-the step's path, writes J and e together (compiled where built).
+"""Tasks, the soft objectives of the QP: an error e(q) (m rows, 0 when done) and J = de/dq (m x nv), costing
+weight |J dq + gain e|^2 in a step (``weight``: a scalar or one per row). ``priority``: its level in a strict
+hierarchy (0 first); ``goal`` tasks decide convergence (|e| under ``tolerance``). An *inequality* task wants
+e <= 0 row by row: it costs weight max(0, J dq + gain e)^2, its error is max(0, e). Rotation errors are
+e_R = log3(R*^T R), de_R/dq = Jlog3(R*^T R) R^T J_w; ``fill`` writes J and e together (compiled where built).
 """
 
 from __future__ import annotations
@@ -74,13 +68,11 @@ class Task:
         error[:] = self.error(kinematics)
 
     def constant_diagonal(self) -> np.ndarray | None:
-        """The weights w of a task whose rows are always J = I, e = 0 (added to H's diagonal, not
-        stacked as nv rows); None for any other task."""
+        """The weights w of a task with rows J = I, e = 0 (added to H's diagonal); None for any other task."""
         return None
 
     def error_parts(self, error: np.ndarray) -> tuple[float | None, float | None]:
-        """(position part m or None, rotation part rad or None) of an error, as the whole-body check
-        judges it: by default its norm, as a position (in the task's own unit)."""
+        """(position part m, rotation part rad; None: none) of an error, as the check judges it."""
         return float(np.linalg.norm(error)), None
 
 
@@ -88,8 +80,7 @@ def _fill_rotation(kinematics: Kinematics, frame_id: int, rotation: np.ndarray, 
                    jacobian: np.ndarray, error: np.ndarray) -> None:
     """``rotation_error(R, R*)`` into ``error`` and ``rotation_error_jacobian`` into ``jacobian`` (3
     rows of a C-contiguous buffer), sharing M = R*^T R; R^T J_w is the LOCAL Jacobian's angular part."""
-    # (ndarray.dot rather than @ or np.dot: the same product, with less call overhead on 3 x 3)
-    relative = target.T.dot(rotation)
+    relative = target.T.dot(rotation)  # (ndarray.dot: less call overhead than @ on 3 x 3)
     error[:] = pin.log3(relative)
     pin.Jlog3(relative).dot(kinematics.local_jacobian(frame_id)[3:], out=jacobian)
 
@@ -102,17 +93,13 @@ class _FrameTaskBase(Task):
         self.frame = frame
         self.frame_id = -1
         self._compiled_rows, self._compiled_for = None, None
-        # picked once, as a closed form picks its kernel (WBIK_PURE_PYTHON=1 is read here)
         self._kernel = chosen(None, _FRAME_ROWS, "qp_rows") if self.kernel_rows is not None else None
         super().__init__(name=options.pop("name", None) or f"{type(self).__name__}[{frame}]", **options)
 
     def __getstate__(self) -> dict:
-        """Without the compiled rows (views of one Kinematics' data) nor the target's views; ``start``
-        and ``__setstate__`` make them again."""
-        state = dict(self.__dict__)
-        for name in ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation"):
-            state.pop(name, None)
-        return state
+        """Without the views of one Kinematics' data nor the target's (``start`` makes them again)."""
+        views = ("_compiled_rows", "_compiled_for", "_target_translation", "_target_rotation")
+        return {name: value for name, value in self.__dict__.items() if name not in views}
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
@@ -134,10 +121,43 @@ class _FrameTaskBase(Task):
                                           placement.rotation)
             self._compiled_for = kinematics
 
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.placement(self.frame_id).translation
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.jacobian(self.frame_id)[:3]
+
+
+class _ComPoint(Task):
+    """The centre of mass as a task's point (world, m)."""
+
+    def _point(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com()
+
+    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return kinematics.com_jacobian()
+
+
+class _AxesTask(Task):
+    """A point (``_point``) toward ``target`` (world, m) on some axes: e = (p - p*)[axes]."""
+
+    unit = "m"
+
+    def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
+        self.rows = axis_rows(axes)
+        self.dimension = len(self.rows)
+        super().__init__(**options)
+        self.target = np.asarray(target, dtype=float).reshape(3).copy()
+
+    def error(self, kinematics: Kinematics) -> np.ndarray:
+        return (self._point(kinematics) - self.target)[self.rows]
+
+    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
+        return self._point_jacobian(kinematics)[self.rows]
+
 
 class _PoseTask(_FrameTaskBase):
-    """A 6-row pose task: ``position_weight`` and ``orientation_weight`` weigh the two halves (m and rad
-    differ in scale)."""
+    """A 6-row pose task; ``position_weight`` and ``orientation_weight`` weigh its halves."""
 
     dimension = 6
     unit = "m, rad"
@@ -195,22 +215,11 @@ class FrameTask(_PoseTask):
         _fill_rotation(kinematics, frame_id, placement.rotation, target.rotation, jacobian[3:], error[3:])
 
 
-class PositionTask(_FrameTaskBase):
+class PositionTask(_AxesTask, _FrameTaskBase):
     """Position of a frame's origin in the world, optionally on some axes only: e = (p - p*)[axes]."""
 
-    unit = "m"
-
     def __init__(self, frame: str, target: Sequence[float], axes: str = "xyz", **options):
-        self.rows = axis_rows(axes)
-        self.dimension = len(self.rows)
-        super().__init__(frame, **options)
-        self.target = np.asarray(target, dtype=float).reshape(3).copy()
-
-    def error(self, kinematics: Kinematics) -> np.ndarray:
-        return (kinematics.placement(self.frame_id).translation - self.target)[self.rows]
-
-    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.jacobian(self.frame_id)[self.rows]
+        super().__init__(target, axes, frame=frame, **options)
 
 
 class OrientationTask(_FrameTaskBase):
@@ -278,27 +287,12 @@ class RelativeFrameTask(_PoseTask):
         return np.vstack((linear, angular))
 
 
-class ComTask(Task):
+class ComTask(_AxesTask, _ComPoint):
     """Centre of mass in the world, optionally on some axes only: e = (c - c*)[axes]."""
-
-    unit = "m"
-
-    def __init__(self, target: Sequence[float], axes: str = "xyz", **options):
-        self.rows = axis_rows(axes)
-        self.dimension = len(self.rows)
-        super().__init__(**options)
-        self.target = np.asarray(target, dtype=float).reshape(3).copy()
-
-    def error(self, kinematics: Kinematics) -> np.ndarray:
-        return (kinematics.com() - self.target)[self.rows]
-
-    def jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com_jacobian()[self.rows]
 
 
 class PostureTask(Task):
-    """Joints toward a reference configuration: e = (q (-) q_ref) on the tangent rows of ``joints``
-    (default: all but a floating base, whose pose is for the other tasks to decide)."""
+    """Joints toward a reference: e = (q (-) q_ref) on the rows of ``joints`` (default: all, not a base)."""
 
     goal = False
 
@@ -307,18 +301,16 @@ class PostureTask(Task):
         self.joint_names = None if joints is None else list(joints)
         self.rows = np.zeros(0, dtype=int)
         self.dimension = 0
-        options.setdefault("weight", 1e-3)
-        self._weight_option = options.pop("weight")
+        self._weight_option = options.pop("weight", 1e-3)
         super().__init__(**options)
 
     def start(self, kinematics: Kinematics) -> None:
         model = kinematics.model
         if self.reference.shape != (model.nq,):
             raise ValueError(f"posture reference has {self.reference.size} values, the model nq = {model.nq}")
-        if self.joint_names is None:  # (all but a floating base: joint 1 with nv = 6)
-            self.rows = np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
-        else:
-            self.rows = np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names])
+        self.rows = (np.arange(6 if model.njoints > 1 and model.joints[1].nv == 6 else 0, model.nv)
+                     if self.joint_names is None  # (all but a floating base: joint 1 with nv = 6)
+                     else np.array([model.joints[model.getJointId(name)].idx_v for name in self.joint_names]))
         self.dimension = len(self.rows)
         self.weight = np.broadcast_to(np.asarray(self._weight_option, float), (self.dimension,)).copy()
         self._jacobian = np.zeros((self.dimension, model.nv))
@@ -359,7 +351,7 @@ class RegularizationTask(Task):
 
 class _BoxTask(Task):
     """A point inside an axis-aligned box (world, m), as an inequality task: e = [p - upper; lower - p]
-    on the box's finite sides (each row <= 0 inside). Subclasses give ``_point`` and its Jacobian."""
+    on the box's finite sides (each row <= 0 inside), p its ``_point``."""
 
     inequality = True
 
@@ -387,8 +379,7 @@ class _BoxTask(Task):
 
 
 class PositionBoxTask(_BoxTask, _FrameTaskBase):
-    """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly at its
-    level: an inequality task (e.g. a hand above a table, priority above a reach)."""
+    """A frame's origin inside the box [lower, upper] (world, m; None or inf: no side), softly."""
 
     unit = "m"
 
@@ -396,19 +387,6 @@ class PositionBoxTask(_BoxTask, _FrameTaskBase):
                  **options):
         super().__init__(lower, upper, frame=frame, **options)
 
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.placement(self.frame_id).translation
 
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.jacobian(self.frame_id)[:3]
-
-
-class ComBoxTask(_BoxTask):
-    """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly at its
-    level: an inequality task."""
-
-    def _point(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com()
-
-    def _point_jacobian(self, kinematics: Kinematics) -> np.ndarray:
-        return kinematics.com_jacobian()
+class ComBoxTask(_BoxTask, _ComPoint):
+    """The centre of mass inside the box [lower, upper] (world, m; None or inf: no side), softly."""

@@ -1,2 +1,1 @@
-"""Whole-body problems (:class:`~wbik.wholebody.problem.WholeBody`) and the study's seeded case samplers
-(:mod:`wbik.wholebody.cases`)."""
+"""Whole-body problems (:class:`~wbik.wholebody.problem.WholeBody`) and seeded case samplers."""

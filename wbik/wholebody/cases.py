@@ -1,9 +1,6 @@
-"""Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``).
-
-A :class:`CaseSampler` draws case ``index`` of its family from the stream :func:`case_rng` makes, so a
-case depends only on (sampler name, seed, index). Samplers are declared in a module's ``WHOLEBODY_CASES``
-tuple (modules listed in :data:`CASE_MODULES`) or added with :func:`register_sampler`; :data:`CASE_REGISTRY`
-is the registry itself (:class:`wbik.registry.DeclaredRegistry`).
+"""Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``): case
+``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`).
+Samplers are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`.
 """
 
 from __future__ import annotations
@@ -23,14 +20,12 @@ __all__ = ["CASE_MODULES", "CASE_REGISTRY", "CaseSampler", "WholeBodyCase", "cac
            "register_sampler", "sample_case"]
 
 CASE_MODULES: list = []
-"""The modules that declare samplers (:mod:`wbik.catalog` adds the applications'; installed packages add
-theirs through the entry-point group ``wbik.case_samplers``)."""
+"""The modules that declare samplers (also the entry-point group ``wbik.case_samplers``)."""
 
 
 @dataclass
 class WholeBodyCase:
-    """One seeded case: ``problem`` solved from ``q0``; ``anchor`` (3,) the main target point (m,
-    world); ``q_true`` the configuration the targets came from, when there is one."""
+    """One seeded case: ``problem`` from ``q0``, ``anchor`` (3,), its main target point, and ``q_true``."""
 
     problem: WholeBody
     q0: np.ndarray
@@ -40,8 +35,7 @@ class WholeBodyCase:
 
 @dataclass(frozen=True)
 class CaseSampler:
-    """A family of seeded cases: its ``name`` (the study file's ``scenario:``), its ``robot`` (a name
-    :func:`wbik.load` takes), ``sample(rng, index) -> WholeBodyCase`` and a one-sentence ``description``."""
+    """A family of seeded cases: ``name`` (``scenario:``), ``robot``, ``sample(rng, index)``, description."""
 
     name: str
     robot: str

@@ -1,8 +1,5 @@
-"""One whole-body problem: goal and soft tasks (:mod:`wbik.qp.tasks`) under open hard constraints
-(:mod:`wbik.qp.constraint`): what every whole-body method is given and the shared check
-(:func:`wbik.solvers.check.check_problem`) judges. A problem is a template: a solve starts a copy of it
-at q0 (:meth:`WholeBody.start`), where its contacts are held.
-"""
+"""One whole-body problem, tasks (:mod:`wbik.qp.tasks`) under hard constraints (:mod:`wbik.qp.constraint`),
+as every whole-body method gets it and the shared check judges it; a solve starts a copy at q0."""
 
 from __future__ import annotations
 
@@ -19,6 +16,7 @@ from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.constraint import Constraint
 from wbik.qp.contacts import Contact, HeldFrame, PointContact
 from wbik.qp.distances import MinimumDistance
+from wbik.qp.humanoid import contact_constraint
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits
 from wbik.qp.support_polygon import DegenerateSupportPolygonError
@@ -47,11 +45,10 @@ PROBLEM = Map({"tasks": Key(ListOf(TASK_ENTRY, what="task entries"), []), "conta
 
 class WholeBody:
     """A whole-body IK problem on one robot: ``constraints`` takes any constraint objects, the keywords list
-    the common ones. ``contacts``: frame names (held at their pose at q0) or {frame: SE3} (a point foot: its
-    position only); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the
-    contacts that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or
-    "none"; ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum
-    distances."""
+    the common ones. ``contacts``: frame names (held where they are at q0) or {frame: SE3} (a point foot: its
+    position); ``support``: soles holding the CoM ``margin`` (m) inside their polygon (default: the contacts
+    that are soles); ``limits``: "position", "position+velocity" (IK steps of ``step_dt``, s) or "none";
+    ``acceleration_limit``: rad/s^2 (one or nv); ``collisions``: (frame_a, frame_b, m) minimum distances."""
 
     def __init__(self, robot: Robot, tasks: Sequence[Task] = (), contacts=(),
                  support: Sequence[str] | None = None, margin: float = 0.005,
@@ -66,8 +63,19 @@ class WholeBody:
         if not any(task.goal for task in self.tasks):
             ctx.fail("tasks", "need at least one goal task (posture and regularisation are not goals)")
         self.acceleration_limit = _acceleration(robot, acceleration_limit, ctx)
-        made = self._contacts(contacts)
-        made += self._support(support, [c.frame for c in made], checked["margin"])
+        if isinstance(contacts, str):
+            contacts = [contacts]
+        held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
+        made: list[Constraint] = [contact_constraint(robot, str(frame), None if at is None else pin.SE3(at))
+                                  for frame, at in held.items()]
+        soles = robot.soles
+        support = [c.frame for c in made if c.frame in soles] if support is None else support
+        support = [str(frame) for frame in ([support] if isinstance(support, str) else support)]
+        if missing := [frame for frame in support if frame not in soles]:
+            raise RobotDescriptionError(f"support frames {missing} have no sole contact points on "
+                                        f"{robot.name!r} (robot.soles lists {sorted(soles)})")
+        if support:
+            made.append(CoMInSupportPolygon(margin=checked["margin"], soles={f: soles[f] for f in support}))
         if limits != "none":
             made.append(JointPositionLimits())
         if limits == "position+velocity":
@@ -80,30 +88,6 @@ class WholeBody:
             robot.frame_id(frame)  # UnknownFrameError names the frames
         names = [task.name for task in self.tasks]
         self.task_names = [name if names.count(name) == 1 else f"{name}#{i}" for i, name in enumerate(names)]
-
-    def _contacts(self, contacts) -> list[HeldFrame]:
-        if isinstance(contacts, str):
-            contacts = [contacts]
-        held = dict(contacts) if isinstance(contacts, Mapping) else dict.fromkeys(contacts)
-        made: list[HeldFrame] = []
-        for frame, placement in held.items():
-            placement = None if placement is None else pin.SE3(placement)
-            sole = self.robot.soles.get(str(frame))
-            if sole is not None and len(sole) == 1:  # a point foot: its position only
-                made.append(PointContact(str(frame), None if placement is None else placement.translation))
-            else:
-                made.append(Contact(str(frame), placement))
-        return made
-
-    def _support(self, support, contacts: list[str], margin: float) -> list[Constraint]:
-        soles = self.robot.soles
-        support = [f for f in contacts if f in soles] if support is None else support
-        support = [str(frame) for frame in ([support] if isinstance(support, str) else support)]
-        missing = [frame for frame in support if frame not in soles]
-        if missing:
-            raise RobotDescriptionError(f"support frames {missing} have no sole contact points on "
-                                        f"{self.robot.name!r} (robot.soles lists {sorted(soles)})")
-        return [CoMInSupportPolygon(margin=margin, soles={f: soles[f] for f in support})] if support else []
 
     def __repr__(self) -> str:
         return (f"WholeBody({self.robot.name}, {len(self.tasks)} tasks, contacts={list(self.contacts)}, "
@@ -119,10 +103,6 @@ class WholeBody:
         return {c.frame: (c.fixed_placement if isinstance(c, Contact) else
                           None if c.fixed_position is None else pin.SE3(np.eye(3), c.fixed_position))
                 for c in self._of(HeldFrame)}
-
-    @property
-    def point_contacts(self) -> frozenset[str]:
-        return frozenset(c.frame for c in self._of(PointContact))
 
     @property
     def support(self) -> list[str]:
@@ -152,9 +132,7 @@ class WholeBody:
         return [copy.deepcopy(task) for task in self.tasks]
 
     def start(self, q0, need_q0: bool = False, strict: bool = True) -> StartedProblem:
-        """A copy started at q0: contacts held where they are, the soles' support polygon there (spanning no
-        area: DegenerateSupportPolygonError if ``strict``). ``need_q0``: refuse contacts held at a start
-        the caller did not give."""
+        """A copy started at q0 (``strict``: a degenerate polygon raises; ``need_q0``: no contact open)."""
         if need_q0 and any(placement is None for placement in self.contacts.values()):
             raise InvalidSettingError("checking this problem needs q0 to know where its contacts are held")
         q0 = self.check_q(q0)
@@ -171,8 +149,7 @@ class WholeBody:
     # -- from a task-file entry ---------------------------------------------------------------------
     @classmethod
     def from_dict(cls, robot: Robot, data: Mapping, q: np.ndarray | None = None) -> WholeBody:
-        """A problem from a task-file mapping (:data:`PROBLEM`: ``tasks`` as in a ``wholebody_ik`` phase, the
-        other keys as the arguments), targets resolved at q (default: the robot's nominal)."""
+        """A problem from a task-file mapping (:data:`PROBLEM`), targets resolved at q (default: nominal)."""
         source = "WholeBody.from_dict"
         if isinstance(data, Mapping):
             data = {key: value for key, value in data.items() if value is not None}
@@ -211,9 +188,8 @@ class StartedProblem:
 
     def items(self) -> list[tuple[str, object]]:
         """(name, item) of every constraint, then every task, as the problem names them."""
-        return ([(c.name, c) for c in self.constraints]
-                + [(f"task {name}", task)
-                   for name, task in zip(self.problem.task_names, self.tasks, strict=True)])
+        tasks = zip(self.problem.task_names, self.tasks, strict=True)
+        return [(c.name, c) for c in self.constraints] + [(f"task {name}", task) for name, task in tasks]
 
 
 def _acceleration(robot: Robot, value, ctx: Context) -> float | np.ndarray | None:
