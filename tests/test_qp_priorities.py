@@ -4,11 +4,12 @@ levels above it leave free (wbik.qp.step), and never changing what they achieved
 The property is checked on one QP step with tasks of constant rows (J, e) drawn at random, the first
 level feasible by construction (its targets are met by a displacement inside the step box): with the
 levels below it or without them, its linearised errors (|J dq + g e| for an equality task,
-|max(0, J dq + g e)| for an inequality task) agree to 1e-8, and an inequality task is never made
-worse by more. DAQP, a dual active-set solver, holds the rows a level leaves to the ones below it far
-inside its primal tolerance (1e-6 by default): in 1500 random stacks the largest change was 3e-10 on
-the first level and 5e-10 below it, the largest seen 1.6e-9 (first of four levels, seed 3937). Then
-the same on a robot: a reach above a posture, a floor (an inequality task) above a reach.
+|max(0, J dq + g e)| for an inequality task) agree to a tenth of DAQP's primal tolerance (1e-6 by
+default), and an inequality task is never made worse by more. DAQP, a dual active-set solver, holds the
+rows a level leaves to the ones below it far inside that tolerance: over 1,200 random stacks (seeds 0-399,
+two to four levels) the largest change was 1.9e-8 (the third of four levels, seed 231), the next 4.7e-9;
+a leak between levels moves a residual by the rows' own scale (0.1). Then the same on a robot: a reach
+above a posture, a floor (an inequality task) above a reach.
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ import wbik
 from wbik.qp import IKProblem, JointPositionLimits, PositionTask, PostureTask, RegularizationTask
 from wbik.qp.tasks import PositionBoxTask, Task
 
-AGREE = 1e-8
-"""A level's errors with and without the levels below it (see the module docstring)."""
+AGREE = 1e-7
+"""A level's errors with and without the levels below it: a tenth of DAQP's primal tolerance (see the module
+docstring)."""
 
 
 class ConstantTask(Task):
