@@ -20,14 +20,13 @@ from wbik.apps.bioloid.gait import (
     GaitParameters,
     SampledMotion,
     pose_error,
-    servo_joint_ids,
-    sole_corners,
     start_q,
     step_forward_phases,
 )
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import sole_points, yaw_of
+from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
@@ -89,7 +88,7 @@ def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
 def sole_polygon(robot: Robot, placements: dict[str, pin.SE3],
                  clip_x: dict[str, float] | None = None) -> SupportPolygon:
     """Support polygon of the soles at the given world poses, each cut at its ``clip_x``."""
-    return SupportPolygon(np.vstack([clip_points(sole_corners(robot, sole, placement)[:, :2],
+    return SupportPolygon(np.vstack([clip_points(sole_points(robot, sole, placement)[:, :2],
                                                  (clip_x or {}).get(sole))
                                      for sole, placement in placements.items()]))
 
@@ -162,7 +161,7 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
         position_error, rotation_error = max(position_error, position), max(rotation_error, angle)
     com_margin = polygon.margin_of(robot.center_of_mass(q)[:2])
     model = robot.model
-    index = [model.joints[j].idx_q for j in servo_joint_ids(model)]
+    index = [model.joints[j].idx_q for j in actuated_joints(model)]
     joints = q[index]
     excess = float(max(np.max(model.lowerPositionLimit[index] - joints),
                        np.max(joints - model.upperPositionLimit[index]), 0.0))
