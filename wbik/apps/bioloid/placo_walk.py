@@ -4,37 +4,26 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError, RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.robot import Robot, write_cached_urdf
+from wbik.robot import Robot
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
-FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
 GROUND_TOLERANCE = 1e-6  # m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground
 SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
 ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
 
 
-def placo_humanoid_urdf(robot: Robot) -> Path:
-    """Mesh-free URDF with PlaCo's humanoid frame names added as fixed frames."""
-    from wbik.solvers.placo import kinematic_urdf_path
-
-    text = kinematic_urdf_path(robot).read_text()
-    extra = "".join(
-        f'  <link name="{name}"/>\n  <joint name="{name}_frame" type="fixed"><parent link="{parent}"/>'
-        f'<child link="{name}"/><origin xyz="0 0 0" rpy="0 0 0"/></joint>\n' for name, parent in FRAMES)
-    return write_cached_urdf(f"{robot.name}-placo-humanoid", text.replace("</robot>", extra + "</robot>"))
-
-
 def humanoid(robot: Robot):
     """PlaCo's ``HumanoidRobot`` of the Bioloid, at the nominal configuration."""
+    from wbik.motion.walking.footsteps import Feet
+    from wbik.motion.walking.placo_pattern import humanoid_urdf
     from wbik.solvers.placo import placo_robot
 
-    return placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
+    return placo_robot(robot, humanoid_urdf=humanoid_urdf(robot, Feet("l_sole", "r_sole"), "pelvis"))
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
