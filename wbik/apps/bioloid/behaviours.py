@@ -17,7 +17,6 @@ from wbik.apps.bioloid.gait import (
     GaitParameters,
     SampledMotion,
     flatten_on_ground,
-    place_on_anchor,
     start_q,
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
@@ -36,7 +35,7 @@ from wbik.apps.bioloid.step_wholebody import (
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import placed_on, yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -243,7 +242,7 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
         placed = {}
         for side in SIDES:  # each sole flat on the ground in turn; keep the one with the other above
             ground_side = flatten_on_ground(robot.frame_placement(q, SOLE[side]))
-            q_side = place_on_anchor(robot, q, SOLE[side], ground_side)
+            q_side = placed_on(robot, q, SOLE[side], ground_side)
             placed[side] = (q_side, ground_side, robot.frame_placement(q_side, SOLE[OTHER[side]]))
         lower = max(SIDES, key=lambda side: placed[side][2].translation[2])
         q, ground, other = placed[lower]

@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import sole_points
+from wbik.motion.walking.footsteps import placed_on, sole_points
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
@@ -279,15 +279,6 @@ def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
     return pin.SE3(flat, np.array([placement.translation[0], placement.translation[1], 0.0]))
 
 
-def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
-    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
-    q = q.copy()
-    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
-    in_base = robot.frame_placement(q, anchor_frame)
-    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
-    return q
-
-
 def _worst_inconsistency(samples: list[dict]) -> tuple[float | None, float | None]:
     double = [s for s in samples if s["inconsistency_mm"] is not None]
     return (max((s["inconsistency_mm"] for s in double), default=None),
@@ -351,7 +342,7 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                     angles = leg_q_from_ang(np.round(leg_ang_from_q(angles)))
                 q[legs[side]] = angles
                 reachable = reachable and bool(ok)
-            q = place_on_anchor(robot, q, SOLE[phase.anchor], planted[phase.anchor])
+            q = placed_on(robot, q, SOLE[phase.anchor], planted[phase.anchor])
             sample = {"phase": index, "division": division, "reachable": reachable,
                       "inconsistency_mm": None, "inconsistency_deg": None, "clearance_m": None}
             down_soles = {}

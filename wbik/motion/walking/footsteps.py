@@ -127,6 +127,15 @@ def sole_points(robot: Robot, frame: str, placement: pin.SE3) -> np.ndarray:
     return np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
 
 
+def placed_on(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
+    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
+    q = q.copy()
+    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+    in_base = robot.frame_placement(q, anchor_frame)
+    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
+    return q
+
+
 def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3]) -> SupportPolygon:
     """The support polygon of the soles (frame -> placement) on the ground."""
     return SupportPolygon(np.vstack([sole_points(robot, frame, p)[:, :2] for frame, p in placements.items()]))

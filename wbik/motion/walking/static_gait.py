@@ -11,7 +11,7 @@ import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.timing import time_samples
-from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, sole_polygon
+from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, placed_on, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.swing import swing_pose
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
@@ -51,18 +51,12 @@ class StaticGait:
         joints, _, _ = self.timed.evaluate(times)
         knots = np.asarray(self.timed.knot_times, dtype=float)
         rows, support = [], []
-        data = model.createData()
         for t, values in zip(times, joints, strict=True):
             # the sample this stretch of the timing moves to
             segment = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)) + 1
             q = self.q[segment].copy()
             q[actuated] = values
-            q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
-            pin.framesForwardKinematics(model, data, q)
-            sole = data.oMf[model.getFrameId(self.anchor[segment])]
-            base = self.anchor_placement[segment] * sole.inverse()
-            q[:7] = pin.SE3ToXYZQUAT(base)
-            rows.append(q)
+            rows.append(placed_on(self.robot, q, self.anchor[segment], self.anchor_placement[segment]))
             support.append(self.support[segment])
         return times, np.array(rows), support
 
