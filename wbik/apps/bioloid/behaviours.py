@@ -29,13 +29,12 @@ from wbik.apps.bioloid.step_wholebody import (
     pelvis_rotation,
     recentre_goal,
     sole_path,
-    sole_polygon,
     solve_phases,
     step_phases,
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import placed_on, yaw_of
+from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

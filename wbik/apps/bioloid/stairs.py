@@ -27,16 +27,14 @@ from wbik.apps.bioloid.gait import (
 from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
     ComRamp,
-    clip_points,
     com_over_phase,
     current_soles,
     pelvis_rotation,
     recentre_goal,
-    sole_polygon,
     solve_phases,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
-from wbik.motion.walking.footsteps import sole_points, yaw_of
+from wbik.motion.walking.footsteps import clip_points, sole_points, sole_polygon, yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

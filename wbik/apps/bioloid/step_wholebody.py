@@ -25,7 +25,7 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
-from wbik.motion.walking.footsteps import sole_points, yaw_of
+from wbik.motion.walking.footsteps import sole_polygon, yaw_of
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
@@ -66,31 +66,6 @@ class BodyPhase:
     speed_rpm: float = 40.0
     pause_s: float = 0.0
     clip_x: dict[str, float] = field(default_factory=dict)
-
-
-def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
-    """The part x <= ``x_max`` (all for None) of a convex polygon (k, 2) (Sutherland-Hodgman)."""
-    if x_max is None:
-        return points
-    vertices = np.asarray(points, dtype=float)
-    kept = []
-    for index, current in enumerate(vertices):
-        following = vertices[(index + 1) % len(vertices)]
-        inside, next_inside = current[0] <= x_max, following[0] <= x_max
-        if inside:
-            kept.append(current)
-        if inside != next_inside:
-            fraction = (x_max - current[0]) / (following[0] - current[0])
-            kept.append(current + fraction * (following - current))
-    return np.array(kept)
-
-
-def sole_polygon(robot: Robot, placements: dict[str, pin.SE3],
-                 clip_x: dict[str, float] | None = None) -> SupportPolygon:
-    """Support polygon of the soles at the given world poses, each cut at its ``clip_x``."""
-    return SupportPolygon(np.vstack([clip_points(sole_points(robot, sole, placement)[:, :2],
-                                                 (clip_x or {}).get(sole))
-                                     for sole, placement in placements.items()]))
 
 
 def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> np.ndarray:
