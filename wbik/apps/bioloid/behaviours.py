@@ -48,11 +48,13 @@ HALF_STEPS: dict[str, tuple[str, str]] = {
 }
 
 
-def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
-    """Both feet down, the CoM back between the feet."""
+def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters,
+                   name: str = "re-centre the CoM between the feet", rotation=None) -> BodyPhase:
+    """Both feet down, the CoM back between the feet, the pelvis at ``rotation`` (s -> R; default: the
+    feet's mean heading)."""
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
-    return BodyPhase("re-centre the CoM between the feet", {SOLE[s]: soles[s] for s in SIDES},
-                     pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
+    return BodyPhase(name, {SOLE[s]: soles[s] for s in SIDES},
+                     pelvis_rotation=rotation or (lambda s: pelvis_rotation(heading, gait.pitch)),
                      com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions,
                      speed_rpm=gait.servo_slow_rpm)
 

@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
-from wbik.apps.bioloid.behaviours import along, half_step_phases, turn_phases
+from wbik.apps.bioloid.behaviours import along, half_step_phases, recentre_phase, turn_phases
 from wbik.apps.bioloid.gait import (
     OTHER,
     SIDE_NAME,
@@ -26,11 +26,9 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
-    ComRamp,
     com_over_phase,
     current_soles,
     pelvis_rotation,
-    recentre_goal,
     solve_phases,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
@@ -291,9 +289,7 @@ def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
         onto(first, soles[first], after[first], soles[second]),
         com_over(first, {SOLE[second]: soles[second], SOLE[first]: after[first]}, 2 * n),
         onto(second, soles[second], after[second], after[first]),
-        BodyPhase(f"{label}: CoM between the feet", {SOLE[s]: after[s] for s in SIDES},
-                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n,
-                  speed_rpm=gait.servo_slow_rpm),
+        recentre_phase(robot, after, gait, f"{label}: CoM between the feet", rotation),
     ]
     return phases, after
 
