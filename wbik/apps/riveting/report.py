@@ -69,13 +69,20 @@ class Cell:
         return planner
 
 
+def run_config(spec: dict, **overrides) -> RunConfig:
+    """The run's settings from a task file, with ``overrides``."""
+    values = {"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
+              "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {}))}
+    values.update(overrides)
+    return RunConfig(**values)
+
+
 def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
              keep: dict[str, RunResult] | None = None) -> dict:
     """Every planner of the task file on the same seeded hole sequence; the report dict."""
     _check_expect_keys(spec)
     cell = Cell(spec)
-    config = RunConfig(float(spec.get("duration_s", 300.0)), int(spec.get("seed", 2015)),
-                       spec.get("max_cycles"), NoiseModel(**spec.get("noise", {})))
+    config = run_config(spec)
     report = {"name": spec.get("name", ""), "kind": spec.get("kind", "ur5_riveting"),
               "robot": cell.robot.name,
               "settings": {"duration_s": config.duration, "seed": config.seed,
