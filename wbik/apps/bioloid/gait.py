@@ -17,9 +17,8 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import placed_on, sole_points
+from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints
-from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -345,17 +344,17 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
             q = placed_on(robot, q, SOLE[phase.anchor], planted[phase.anchor])
             sample = {"phase": index, "division": division, "reachable": reachable,
                       "inconsistency_mm": None, "inconsistency_deg": None, "clearance_m": None}
-            down_soles = {}
+            down_soles = {}  # sole frame -> where it stands
             for side in phase.down:
                 reached = robot.frame_placement(q, SOLE[side])
                 if side == phase.anchor:
-                    down_soles[side] = planted[side]
+                    down_soles[SOLE[side]] = planted[side]
                     continue
                 wanted = flatten_on_ground(reached) if side == phase.dragged else planted[side]
                 position, rotation = pose_error(reached, wanted)
                 sample["inconsistency_mm"] = 1e3 * position
                 sample["inconsistency_deg"] = float(np.degrees(rotation))
-                down_soles[side] = wanted
+                down_soles[SOLE[side]] = wanted
                 if side == phase.dragged:
                     planted[side] = wanted
             if phase.lifted is not None:
@@ -363,9 +362,8 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                 sample["clearance_m"] = float(np.min(sole_points(robot, SOLE[phase.lifted], reached)[:, 2]))
                 if division == gait.divisions:  # touchdown: planted where it comes down
                     planted[phase.lifted] = flatten_on_ground(reached)
-            points = np.vstack([sole_points(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
             com = robot.center_of_mass(q)
-            sample["com_margin_m"] = SupportPolygon(points).margin_of(com[:2])
+            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(com[:2])
             sample["com"] = com.tolist()
             joints = q[joint_index]
             sample["limit_excess_rad"] = float(max(np.max(lower[joint_index] - joints),
