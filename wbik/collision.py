@@ -20,6 +20,7 @@ import pinocchio as pin
 from wbik.errors import RobotDescriptionError, UnknownFrameError, UnsupportedError
 from wbik.kinematic_tree import frame_index
 from wbik.models import robot_entries
+from wbik.validation import finite_vector
 
 SHAPES = ("capsule", "box", "sphere")
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -82,12 +83,8 @@ class PairDistance:
     joint_b: int
 
 
-def _finite(values, count: int, what: str, positive: bool = False) -> np.ndarray:
-    array = np.asarray(values, dtype=float).reshape(-1) if not isinstance(values, str) else np.array([])
-    if array.shape != (count,) or not np.all(np.isfinite(array)) or (positive and np.any(array <= 0)):
-        sign = "positive " if positive else ""
-        raise RobotDescriptionError(f"{what} must be {count} {sign}finite numbers (m / rad), got {values!r}")
-    return array
+def _numbers(values, count: int, what: str, positive: bool = False) -> np.ndarray:
+    return finite_vector(values, count, f"{what} (m / rad)", RobotDescriptionError, positive)
 
 
 class CollisionModel:
@@ -109,11 +106,10 @@ class CollisionModel:
         self.obstacle_names: set[str] = set()
         for primitive in primitives:
             self._add(self._geometry_object(primitive))
-        for obstacle in obstacles:
-            size = _finite(obstacle.size, 3, f"obstacle {obstacle.name!r} size", positive=True)
-            rotation = pin.rpy.rpyToMatrix(*_finite(obstacle.rpy, 3, f"obstacle {obstacle.name!r} rpy"))
-            placement = pin.SE3(rotation, _finite(obstacle.xyz, 3, f"obstacle {obstacle.name!r} xyz"))
-            self._add(pin.GeometryObject(obstacle.name, 0, 0, placement, coal.Box(*size)))
+        for obstacle in obstacles:  # a box on the world frame
+            world_box = Primitive(obstacle.name, model.frames[0].name, "box", obstacle.size, obstacle.xyz,
+                                  obstacle.rpy)
+            self._add(self._geometry_object(world_box, "obstacle"))
             self.obstacle_names.add(obstacle.name)
         self.names = [g.name for g in self.geometry.geometryObjects]
         self.excluded: dict[tuple[str, str], str] = {}
@@ -135,7 +131,7 @@ class CollisionModel:
     def _point(self, point: Point, frame_id: int, what: str) -> np.ndarray:
         """A capsule end in the frame ``frame_id``: a point, or the origin of a frame fixed in it."""
         if not isinstance(point, str):
-            return _finite(point, 3, what)
+            return _numbers(point, 3, what)
         other = frame_index(self.model, point)
         local = self.data.oMf[frame_id].actInv(self.data.oMf[other].translation)
         data = self.model.createData()
@@ -148,17 +144,17 @@ class CollisionModel:
                 "capsule end must be fixed on its link (the child joint's origin or a point)")
         return local
 
-    def _geometry_object(self, primitive: Primitive) -> pin.GeometryObject:
-        what = f"collision primitive {primitive.name!r}"
+    def _geometry_object(self, primitive: Primitive, kind: str = "collision primitive") -> pin.GeometryObject:
+        what = f"{kind} {primitive.name!r}"
         if primitive.shape not in SHAPES:
             raise RobotDescriptionError(f"{what}: shape {primitive.shape!r} is not one of "
                                         f"{', '.join(SHAPES)}")
         frame_id = frame_index(self.model, primitive.frame)
         frame = self.model.frames[frame_id]
-        rotation = pin.rpy.rpyToMatrix(*_finite(primitive.rpy, 3, f"{what} rpy"))
-        center = _finite(primitive.xyz, 3, f"{what} xyz")
+        rotation = pin.rpy.rpyToMatrix(*_numbers(primitive.rpy, 3, f"{what} rpy"))
+        center = _numbers(primitive.xyz, 3, f"{what} xyz")
         if primitive.shape == "capsule":
-            (radius,) = _finite(primitive.size, 1, f"{what} size (radius)", positive=True)
+            (radius,) = _numbers(primitive.size, 1, f"{what} size (radius)", positive=True)
             if primitive.start is None or primitive.end is None:
                 raise RobotDescriptionError(f"{what}: a capsule needs a start and an end")
             start = self._point(primitive.start, frame_id, f"{what} start")
@@ -170,9 +166,9 @@ class CollisionModel:
             center = 0.5 * (start + end)
             shape = coal.Capsule(radius, length)
         elif primitive.shape == "box":
-            shape = coal.Box(*_finite(primitive.size, 3, f"{what} size", positive=True))
+            shape = coal.Box(*_numbers(primitive.size, 3, f"{what} size", positive=True))
         else:
-            (radius,) = _finite(primitive.size, 1, f"{what} size (radius)", positive=True)
+            (radius,) = _numbers(primitive.size, 1, f"{what} size (radius)", positive=True)
             shape = coal.Sphere(radius)
         placement = frame.placement * pin.SE3(rotation, center)
         return pin.GeometryObject(primitive.name, frame.parentJoint, frame_id, placement, shape)

@@ -37,12 +37,13 @@ def numeric_array(value, what: str, error: type[WbikError], shape: tuple[int, ..
     return array
 
 
-def finite_vector(value, size: int, what: str, error: type[WbikError]) -> np.ndarray:
-    """``value`` flattened into a float vector of ``size`` finite numbers, else ``error``."""
+def finite_vector(value, size: int, what: str, error: type[WbikError], positive: bool = False) -> np.ndarray:
+    """``value`` flattened to ``size`` finite numbers (> 0 if ``positive``), else ``error``."""
     try:
         array = np.asarray(value, dtype=float).reshape(-1)
     except (TypeError, ValueError, OverflowError):
-        array = None
-    if array is None or array.shape != (size,) or not np.all(np.isfinite(array)):
-        raise error(f"{what} must be {size} finite numbers, got {short(value, 80)}")
+        array = np.array([])
+    if (isinstance(value, str) or array.shape != (size,) or not np.all(np.isfinite(array))
+            or (positive and np.any(array <= 0))):
+        raise error(f"{what} must be {size} {'positive ' * positive}finite numbers, got {short(value, 80)}")
     return array

@@ -9,6 +9,7 @@ else a dense grid refined by a bounded scalar search).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 from scipy.interpolate import CubicSpline
@@ -160,3 +161,13 @@ def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=N
     if clock <= 0:
         raise InvalidConfigurationError("the path does not move: every knot is the same configuration")
     return TimedPath(path, law, mode, pieces, knot_times, clock, velocity, acceleration)
+
+
+def time_samples(joints: np.ndarray, velocity_limit, law: str = "quintic", mode: str = "segment",
+                 waypoint_knots=()) -> TimedPath:
+    """The shortest timing through joint samples (K, n), s along their joint-space polyline (a still
+    sample gets its own s)."""
+    steps = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
+    s = np.r_[0.0, np.cumsum(steps)] / np.sum(steps)
+    path = JointPath(SimpleNamespace(nq=joints.shape[1]), s, joints, waypoint_knots=list(waypoint_knots))
+    return time_scale(path, law, velocity_limit=velocity_limit, mode=mode)

@@ -17,7 +17,6 @@ from wbik.apps.bioloid.gait import (
     GaitParameters,
     SampledMotion,
     flatten_on_ground,
-    place_on_anchor,
     start_q,
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
@@ -30,13 +29,12 @@ from wbik.apps.bioloid.step_wholebody import (
     pelvis_rotation,
     recentre_goal,
     sole_path,
-    sole_polygon,
     solve_phases,
     step_phases,
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -50,11 +48,13 @@ HALF_STEPS: dict[str, tuple[str, str]] = {
 }
 
 
-def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters) -> BodyPhase:
-    """Both feet down, the CoM back between the feet."""
+def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters,
+                   name: str = "re-centre the CoM between the feet", rotation=None) -> BodyPhase:
+    """Both feet down, the CoM back between the feet, the pelvis at ``rotation`` (s -> R; default: the
+    feet's mean heading)."""
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
-    return BodyPhase("re-centre the CoM between the feet", {SOLE[s]: soles[s] for s in SIDES},
-                     pelvis_rotation=lambda s: pelvis_rotation(heading, gait.pitch),
+    return BodyPhase(name, {SOLE[s]: soles[s] for s in SIDES},
+                     pelvis_rotation=rotation or (lambda s: pelvis_rotation(heading, gait.pitch)),
                      com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions,
                      speed_rpm=gait.servo_slow_rpm)
 
@@ -243,7 +243,7 @@ def replay_keyframes(robot: Robot, behaviour: str, path: str | Path | None = Non
         placed = {}
         for side in SIDES:  # each sole flat on the ground in turn; keep the one with the other above
             ground_side = flatten_on_ground(robot.frame_placement(q, SOLE[side]))
-            q_side = place_on_anchor(robot, q, SOLE[side], ground_side)
+            q_side = placed_on(robot, q, SOLE[side], ground_side)
             placed[side] = (q_side, ground_side, robot.frame_placement(q_side, SOLE[OTHER[side]]))
         lower = max(SIDES, key=lambda side: placed[side][2].translation[2])
         q, ground, other = placed[lower]

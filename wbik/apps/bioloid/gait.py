@@ -17,7 +17,8 @@ import pinocchio as pin
 
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
-from wbik.qp.support_polygon import SupportPolygon
+from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
+from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -34,20 +35,10 @@ def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
     return (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
 
 
-def sole_corners(robot, sole: str, placement: pin.SE3) -> np.ndarray:
-    """The 4 corners (4, 3) of ``sole`` (``robot.soles``) at the world ``placement``."""
-    return np.asarray(robot.soles[sole], dtype=float) @ placement.rotation.T + placement.translation
-
-
 def pose_error(reached: pin.SE3, wanted: pin.SE3) -> tuple[float, float]:
     """(position error in m, rotation angle in rad) of ``reached`` against ``wanted``."""
     return (float(np.linalg.norm(reached.translation - wanted.translation)),
             float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation))))
-
-
-def servo_joint_ids(model: pin.Model) -> list[int]:
-    """The model's one-variable joints (the servos), in model order."""
-    return [j for j in range(1, model.njoints) if model.joints[j].nq == 1]
 
 
 @dataclass(frozen=True)
@@ -191,29 +182,17 @@ class SampledMotion:
 
     @property
     def joint_names(self) -> list[str]:
-        return [self.robot.model.names[j] for j in servo_joint_ids(self.robot.model)]
+        return [self.robot.model.names[j] for j in actuated_joints(self.robot.model)]
 
     def joint_matrix(self) -> np.ndarray:
         """(K, 18) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
         model = self.robot.model
-        return self.q[:, [model.joints[j].idx_q for j in servo_joint_ids(model)]]
+        return self.q[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
 
     def phase_end_samples(self) -> list[int]:
         """Index of the last sample of every phase."""
         count = len(self.phase)
         return [k for k in range(1, count) if k + 1 == count or self.phase[k + 1] != self.phase[k]]
-
-
-class JointSet:
-    """The servo joints of a robot as one "chain" for :func:`wbik.motion.time_scale` (which reads
-    ``nq``, ``velocity_limit`` and ``joint_names``)."""
-
-    def __init__(self, robot, velocity_limit: np.ndarray):
-        self.robot = robot
-        self.name = "servos"
-        self.joint_names = [robot.model.names[j] for j in servo_joint_ids(robot.model)]
-        self.nq = len(self.joint_names)
-        self.velocity_limit = np.broadcast_to(np.asarray(velocity_limit, dtype=float), (self.nq,)).copy()
 
 
 @dataclass
@@ -278,21 +257,17 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
     ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
-    from wbik.motion.path import JointPath
-    from wbik.motion.timing import time_scale
+    from wbik.motion.timing import time_samples
 
     joints = motion.joint_matrix()
     model = motion.robot.model
     if speed_rpm is None:
-        limit = model.velocityLimit[[model.joints[j].idx_v for j in servo_joint_ids(model)]]
+        limit = model.velocityLimit[[model.joints[j].idx_v for j in actuated_joints(model)]]
     else:
         if not speed_rpm > 0:
             raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
         limit = np.full(joints.shape[1], speed_rpm * RPM)
-    steps = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)  # a still sample gets its own s
-    s = np.r_[0.0, np.cumsum(steps)] / np.sum(steps)
-    path = JointPath(JointSet(motion.robot, limit), s, joints, waypoint_knots=motion.phase_end_samples())
-    return TimedMotion(motion, time_scale(path, law, velocity_limit=limit, mode=mode), limit)
+    return TimedMotion(motion, time_samples(joints, limit, law, mode, motion.phase_end_samples()), limit)
 
 
 def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
@@ -301,15 +276,6 @@ def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
     yaw = np.arctan2(rotation[1, 0], rotation[0, 0])
     flat = pin.utils.rotate("z", float(yaw))
     return pin.SE3(flat, np.array([placement.translation[0], placement.translation[1], 0.0]))
-
-
-def place_on_anchor(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
-    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
-    q = q.copy()
-    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
-    in_base = robot.frame_placement(q, anchor_frame)
-    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
-    return q
 
 
 def _worst_inconsistency(samples: list[dict]) -> tuple[float | None, float | None]:
@@ -375,30 +341,29 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                     angles = leg_q_from_ang(np.round(leg_ang_from_q(angles)))
                 q[legs[side]] = angles
                 reachable = reachable and bool(ok)
-            q = place_on_anchor(robot, q, SOLE[phase.anchor], planted[phase.anchor])
+            q = placed_on(robot, q, SOLE[phase.anchor], planted[phase.anchor])
             sample = {"phase": index, "division": division, "reachable": reachable,
                       "inconsistency_mm": None, "inconsistency_deg": None, "clearance_m": None}
-            down_soles = {}
+            down_soles = {}  # sole frame -> where it stands
             for side in phase.down:
                 reached = robot.frame_placement(q, SOLE[side])
                 if side == phase.anchor:
-                    down_soles[side] = planted[side]
+                    down_soles[SOLE[side]] = planted[side]
                     continue
                 wanted = flatten_on_ground(reached) if side == phase.dragged else planted[side]
                 position, rotation = pose_error(reached, wanted)
                 sample["inconsistency_mm"] = 1e3 * position
                 sample["inconsistency_deg"] = float(np.degrees(rotation))
-                down_soles[side] = wanted
+                down_soles[SOLE[side]] = wanted
                 if side == phase.dragged:
                     planted[side] = wanted
             if phase.lifted is not None:
                 reached = robot.frame_placement(q, SOLE[phase.lifted])
-                sample["clearance_m"] = float(np.min(sole_corners(robot, SOLE[phase.lifted], reached)[:, 2]))
+                sample["clearance_m"] = float(np.min(sole_points(robot, SOLE[phase.lifted], reached)[:, 2]))
                 if division == gait.divisions:  # touchdown: planted where it comes down
                     planted[phase.lifted] = flatten_on_ground(reached)
-            points = np.vstack([sole_corners(robot, SOLE[s], p)[:, :2] for s, p in down_soles.items()])
             com = robot.center_of_mass(q)
-            sample["com_margin_m"] = SupportPolygon(points).margin_of(com[:2])
+            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(com[:2])
             sample["com"] = com.tolist()
             joints = q[joint_index]
             sample["limit_excess_rad"] = float(max(np.max(lower[joint_index] - joints),

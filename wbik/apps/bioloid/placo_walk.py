@@ -4,37 +4,26 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError, RobotDescriptionError
 from wbik.qp.support_polygon import SupportPolygon
-from wbik.robot import Robot, write_cached_urdf
+from wbik.robot import Robot
 from wbik.robot_packages.bioloid.model import BioloidFacts
 
-FRAMES = (("left_foot", "l_sole"), ("right_foot", "r_sole"), ("trunk", "pelvis"))
 GROUND_TOLERANCE = 1e-6  # m: a sole this close to the floor (by PlaCo's foot trajectory) is on the ground
 SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
 ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
 
 
-def placo_humanoid_urdf(robot: Robot) -> Path:
-    """Mesh-free URDF with PlaCo's humanoid frame names added as fixed frames."""
-    from wbik.solvers.placo import kinematic_urdf_path
-
-    text = kinematic_urdf_path(robot).read_text()
-    extra = "".join(
-        f'  <link name="{name}"/>\n  <joint name="{name}_frame" type="fixed"><parent link="{parent}"/>'
-        f'<child link="{name}"/><origin xyz="0 0 0" rpy="0 0 0"/></joint>\n' for name, parent in FRAMES)
-    return write_cached_urdf(f"{robot.name}-placo-humanoid", text.replace("</robot>", extra + "</robot>"))
-
-
 def humanoid(robot: Robot):
     """PlaCo's ``HumanoidRobot`` of the Bioloid, at the nominal configuration."""
+    from wbik.motion.walking.footsteps import Feet
+    from wbik.motion.walking.placo_pattern import humanoid_urdf
     from wbik.solvers.placo import placo_robot
 
-    return placo_robot(robot, humanoid_urdf=placo_humanoid_urdf(robot))
+    return placo_robot(robot, humanoid_urdf=humanoid_urdf(robot, Feet("l_sole", "r_sole"), "pelvis"))
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
@@ -68,22 +57,6 @@ def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, singl
     supports = placo.FootstepsPlanner.make_supports(footsteps, 0.0, True, True, True)
     trajectory = placo.WalkPatternGenerator(walker, parameters).plan(supports, walker.com_world(), 0.0)
     return walker, parameters, footsteps, trajectory
-
-
-def follow_plan(robot: Robot, walker, trajectory, times: np.ndarray, iterations: int,
-                settle: int = 50) -> tuple[np.ndarray, list[tuple[str, ...]]]:
-    """PlaCo's IK on ``trajectory`` at ``times`` (``settle`` iterations first, then ``iterations`` each);
-    the configurations and the soles on the ground."""
-    from wbik.motion.walking.placo_pattern import WalkIK, soles_on_ground
-    from wbik.solvers.placo import placo_configuration
-
-    ik = WalkIK(walker)
-    rows, support = [], []
-    for index, t in enumerate(times):
-        ik.follow(trajectory, float(t), settle if index == 0 else iterations)
-        rows.append(placo_configuration(robot, walker))
-        support.append(soles_on_ground(trajectory, float(t), "l_sole", "r_sole", tolerance=GROUND_TOLERANCE))
-    return np.array(rows), support
 
 
 def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
@@ -131,9 +104,10 @@ def _multibody(robot: Robot, trajectory, margin: float, dt: float, iterations: i
     """PlaCo's IK on the plan every ``dt`` and the figures of the whole robot's motion (mm, rad/s)."""
     from wbik.motion.walking.figures import walk_figures
     from wbik.motion.walking.footsteps import Feet
+    from wbik.motion.walking.placo_pattern import follow_plan
 
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
-    rows, support = follow_plan(robot, humanoid(robot), trajectory, times, iterations)
+    rows, support, _ = follow_plan(robot, humanoid(robot), trajectory, times, iterations, "l_sole", "r_sole")
     com = np.array([np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float) for t in times])
     figures, _ = walk_figures(robot, Feet("l_sole", "r_sole"), times, rows, support, 0.0, margin, com)
     return {"multibody_zmp_margin_min_mm": 1e3 * figures["zmp_margin_min_m"],
@@ -148,6 +122,7 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
                          single_support_s: float = 0.5, footstep_x: list[float] | None = None):
     """PlaCo's walk as its IK follows it every ``SAMPLE_S``; the re-planned footsteps must equal the
     report's ``footstep_x`` (m)."""
+    from wbik.motion.walking.placo_pattern import follow_plan
     from wbik.viz.animation import Animation, Overlays
 
     walker, _, footsteps, trajectory = plan_walk(robot, steps, step_length, margin, single_support_s)
@@ -158,6 +133,6 @@ def placo_walk_animation(robot, steps: int = 4, step_length: float = 0.03, margi
             f"PlaCo's re-planned footsteps {planned_x} differ from the report's {list(footstep_x)}: "
             "placo_walk_animation no longer mirrors placo_walk")
     times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
-    rows, support = follow_plan(robot, walker, trajectory, times, ITERATIONS)
+    rows, support, _ = follow_plan(robot, walker, trajectory, times, ITERATIONS, "l_sole", "r_sole")
     return Animation(robot, times, rows, Overlays("pelvis", tuple(support), tuple(support)),
                      "PlaCo walk pattern generator")

@@ -80,10 +80,6 @@ def sample_guarantees(margin: float) -> dict:
             "com_margin_min_m": margin - 1e-9, "limit_excess_max_rad": 1e-9}
 
 
-def wholebody_defaults(margin: float) -> dict:
-    return {**sample_guarantees(margin), "velocity_ratio_max": 1.0 + VELOCITY_TOLERANCE}
-
-
 class _Behaviours(KindRun):
 
     def __init__(self, spec: dict, on_progress: Progress = None):
@@ -126,7 +122,8 @@ def _timed_entry(spec: dict, result, name: str, expect: dict | None) -> tuple[di
     entry.pop("passed", None)
     figures = {**entry, "min_com_margin_m": entry["min_com_margin_mm"] / 1e3,
                "max_servo_clamp_rad": max(entry["servo_clamped"].values(), default=0.0)}
-    wanted = {**wholebody_defaults(float(spec["margin"])), **(expect or {})}
+    wanted = {**sample_guarantees(float(spec["margin"])), "velocity_ratio_max": 1.0 + VELOCITY_TOLERANCE,
+              **(expect or {})}
     animation = _motion_animation(result.motion, timed.sample_times, name, trace_frame="pelvis")
     return judge(entry, wanted, figures, WHOLEBODY_RULES, f"{name} expect"), animation
 

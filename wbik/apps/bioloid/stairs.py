@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
-from wbik.apps.bioloid.behaviours import along, half_step_phases, turn_phases
+from wbik.apps.bioloid.behaviours import along, half_step_phases, recentre_phase, turn_phases
 from wbik.apps.bioloid.gait import (
     OTHER,
     SIDE_NAME,
@@ -22,22 +22,17 @@ from wbik.apps.bioloid.gait import (
     SOLE,
     GaitParameters,
     SampledMotion,
-    sole_corners,
     start_q,
 )
 from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
-    ComRamp,
-    clip_points,
     com_over_phase,
     current_soles,
     pelvis_rotation,
-    recentre_goal,
-    sole_polygon,
     solve_phases,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import clip_points, sole_points, sole_polygon, yaw_of
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -294,9 +289,7 @@ def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
         onto(first, soles[first], after[first], soles[second]),
         com_over(first, {SOLE[second]: soles[second], SOLE[first]: after[first]}, 2 * n),
         onto(second, soles[second], after[second], after[first]),
-        BodyPhase(f"{label}: CoM between the feet", {SOLE[s]: after[s] for s in SIDES},
-                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n,
-                  speed_rpm=gait.servo_slow_rpm),
+        recentre_phase(robot, after, gait, f"{label}: CoM between the feet", rotation),
     ]
     return phases, after
 
@@ -337,7 +330,7 @@ class StairRun:
                 swing: Sequence[str]) -> None:
         robot, stairs = self.robot, self.stairs
         placements = current_soles(robot, q)
-        corners = {side: sole_corners(robot, SOLE[side], placements[side]) for side in SIDES}
+        corners = {side: sole_points(robot, SOLE[side], placements[side]) for side in SIDES}
         footholds = {side: stairs.foothold(corners[side]) for side in SIDES}
         sharp_true = {side: 1e3 * stairs.raycast(*sensors.sharp_ray(robot, q, SOLE[side])) for side in SIDES}
         contact = [side for side in SIDES if footholds[side] is not None]
@@ -374,7 +367,7 @@ class StairRun:
             "swing": [SOLE[s] for s in swing_sole]})
 
     def _foothold(self, sole: str, placement: pin.SE3) -> tuple[str, float | None]:
-        corners = sole_corners(self.robot, sole, placement)
+        corners = sole_points(self.robot, sole, placement)
         found = self.stairs.foothold(corners, 1e-9)
         if found is not None and found[1] is not None and found[1] - corners[:, 0].min() < MIN_FOOTHOLD:
             found = None
@@ -514,7 +507,7 @@ def simulate_stairs(robot: Robot, stairs: Staircase | None = None, gait: GaitPar
             if decision.action == "back_then_down":
                 run.half(back)
                 cycle = 0 if decision.foot == "r" else 2  # the next half step starts with this foot
-            heel = float(sole_corners(robot, SOLE["r"], run.soles()["r"])[:, 0].min())
+            heel = float(sole_points(robot, SOLE["r"], run.soles()["r"])[:, 0].min())
             level = stairs.step_at(heel + 1e-6)
             if run.stair_ready(cycle, down=True):
                 cycle += 2

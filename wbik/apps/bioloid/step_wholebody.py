@@ -20,14 +20,13 @@ from wbik.apps.bioloid.gait import (
     GaitParameters,
     SampledMotion,
     pose_error,
-    servo_joint_ids,
-    sole_corners,
     start_q,
     step_forward_phases,
 )
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
-from wbik.motion.walking.footsteps import yaw_of
+from wbik.motion.walking.footsteps import sole_polygon, yaw_of
+from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
@@ -67,31 +66,6 @@ class BodyPhase:
     speed_rpm: float = 40.0
     pause_s: float = 0.0
     clip_x: dict[str, float] = field(default_factory=dict)
-
-
-def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
-    """The part x <= ``x_max`` (all for None) of a convex polygon (k, 2) (Sutherland-Hodgman)."""
-    if x_max is None:
-        return points
-    vertices = np.asarray(points, dtype=float)
-    kept = []
-    for index, current in enumerate(vertices):
-        following = vertices[(index + 1) % len(vertices)]
-        inside, next_inside = current[0] <= x_max, following[0] <= x_max
-        if inside:
-            kept.append(current)
-        if inside != next_inside:
-            fraction = (x_max - current[0]) / (following[0] - current[0])
-            kept.append(current + fraction * (following - current))
-    return np.array(kept)
-
-
-def sole_polygon(robot: Robot, placements: dict[str, pin.SE3],
-                 clip_x: dict[str, float] | None = None) -> SupportPolygon:
-    """Support polygon of the soles at the given world poses, each cut at its ``clip_x``."""
-    return SupportPolygon(np.vstack([clip_points(sole_corners(robot, sole, placement)[:, :2],
-                                                 (clip_x or {}).get(sole))
-                                     for sole, placement in placements.items()]))
 
 
 def hip_target(robot: Robot, sole_placement: pin.SE3, key_point: np.ndarray) -> np.ndarray:
@@ -162,7 +136,7 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
         position_error, rotation_error = max(position_error, position), max(rotation_error, angle)
     com_margin = polygon.margin_of(robot.center_of_mass(q)[:2])
     model = robot.model
-    index = [model.joints[j].idx_q for j in servo_joint_ids(model)]
+    index = [model.joints[j].idx_q for j in actuated_joints(model)]
     joints = q[index]
     excess = float(max(np.max(model.lowerPositionLimit[index] - joints),
                        np.max(joints - model.upperPositionLimit[index]), 0.0))

@@ -158,13 +158,6 @@ def _fate_counts(fate: np.ndarray) -> dict[str, int]:
     return {key: int(np.sum(fate == code)) for key, code in ends.items()}
 
 
-def _fates(fate: np.ndarray, arguments: np.ndarray) -> dict:
-    """Counts of the branches' fates and the most negative square-root argument met."""
-    negative = np.where(arguments < 0.0, arguments, np.inf)
-    return {**_fate_counts(fate),
-            "min_negative_sqrt_argument": float(np.min(negative)) if np.isfinite(negative).any() else None}
-
-
 class ThesisLiteralSolver(_ThesisGolem3):
     """``thesis_literal``: the thesis's 6-DOF closed form as written (see the module docstring)."""
 
@@ -177,7 +170,9 @@ class ThesisLiteralSolver(_ThesisGolem3):
         yaw, pitch, roll = thesis_angles(rotation)
         q, fate, arguments = thesis_branches(*position, yaw, pitch, roll, self.right_lower, self.right_upper)
         accepted = fate == ACCEPTED
-        extra = {"branches": int(accepted.sum()), **_fates(fate, arguments)}
+        negative = arguments[arguments < 0.0]  # the square-root arguments that discarded a branch
+        extra = {"branches": int(accepted.sum()), **_fate_counts(fate),
+                 "min_negative_sqrt_argument": float(np.min(negative)) if negative.size else None}
         if not accepted.any():
             reason = (f"no solution (thesis closed form): of 8 branches {extra['negative_sqrt']} had a "
                       f"negative square-root argument, {extra['outside_limits']} a joint outside the "

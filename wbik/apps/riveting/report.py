@@ -110,14 +110,10 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
     return report
 
 
-def planner_names(spec: dict) -> list[str]:
-    return [entry.get("name", entry.get("planner", "ours"))
-            for entry in spec.get("planners", DEFAULT_PLANNERS)]
-
-
 def _check_expect_keys(spec: dict) -> None:
     """Unknown planners or keys in ``expect`` raise before minutes of simulation."""
-    planners = planner_names(spec)
+    planners = [entry.get("name", entry.get("planner", "ours"))
+                for entry in spec.get("planners", DEFAULT_PLANNERS)]
     for name, wanted in _expect(spec.get("expect")).items():
         if name not in planners:
             raise ExpectationError(f"expect names planner {name!r}; the planners are {planners}")

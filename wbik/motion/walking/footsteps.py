@@ -127,9 +127,38 @@ def sole_points(robot: Robot, frame: str, placement: pin.SE3) -> np.ndarray:
     return np.asarray(robot.soles[frame]) @ placement.rotation.T + placement.translation
 
 
-def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3]) -> SupportPolygon:
-    """The support polygon of the soles (frame -> placement) on the ground."""
-    return SupportPolygon(np.vstack([sole_points(robot, frame, p)[:, :2] for frame, p in placements.items()]))
+def placed_on(robot: Robot, q: np.ndarray, anchor_frame: str, placement: pin.SE3) -> np.ndarray:
+    """q with the floating base moved so that ``anchor_frame`` is at ``placement`` (world)."""
+    q = q.copy()
+    q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
+    in_base = robot.frame_placement(q, anchor_frame)
+    q[:7] = pin.SE3ToXYZQUAT(placement * in_base.inverse())
+    return q
+
+
+def clip_points(points: np.ndarray, x_max: float | None) -> np.ndarray:
+    """The part x <= ``x_max`` (all for None) of a convex polygon (k, 2) (Sutherland-Hodgman)."""
+    if x_max is None:
+        return points
+    vertices = np.asarray(points, dtype=float)
+    kept = []
+    for index, current in enumerate(vertices):
+        following = vertices[(index + 1) % len(vertices)]
+        inside, next_inside = current[0] <= x_max, following[0] <= x_max
+        if inside:
+            kept.append(current)
+        if inside != next_inside:
+            fraction = (x_max - current[0]) / (following[0] - current[0])
+            kept.append(current + fraction * (following - current))
+    return np.array(kept)
+
+
+def sole_polygon(robot: Robot, placements: Mapping[str, pin.SE3],
+                 clip_x: Mapping[str, float] | None = None) -> SupportPolygon:
+    """The support polygon of the soles (frame -> placement) on the ground, each cut at its ``clip_x``."""
+    cut = clip_x or {}
+    return SupportPolygon(np.vstack([clip_points(sole_points(robot, frame, p)[:, :2], cut.get(frame))
+                                     for frame, p in placements.items()]))
 
 
 def plan_footsteps(start: Mapping[str, pin.SE3], command: StepCommand, feet: Feet) -> list[Footstep]:

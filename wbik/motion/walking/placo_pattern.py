@@ -72,6 +72,21 @@ def soles_on_ground(trajectory, t: float, left: str, right: str, ground: float =
     return tuple(sole for sole, pose in poses if abs(pose[2, 3] - ground) <= tolerance)
 
 
+def follow_plan(robot: Robot, humanoid, trajectory, times: np.ndarray, iterations: int, left: str, right: str,
+                ground: float = 0.0) -> tuple[np.ndarray, list[tuple[str, ...]], np.ndarray]:
+    """PlaCo's IK on ``trajectory`` at ``times`` (SETTLE_ITERATIONS first, then ``iterations`` each): the
+    configurations, the soles ``left`` and ``right`` on the ground and each tick's IK time (s)."""
+    ik = WalkIK(humanoid)
+    rows, support, ticks = [], [], []
+    for index, t in enumerate(times):
+        tick = time.perf_counter()
+        ik.follow(trajectory, float(t), SETTLE_ITERATIONS if index == 0 else iterations)
+        ticks.append(time.perf_counter() - tick)
+        rows.append(placo_configuration(robot, humanoid))
+        support.append(soles_on_ground(trajectory, float(t), left, right, ground))
+    return np.array(rows), support, np.array(ticks)
+
+
 def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Feet, trunk: str,
                setting: str = "ours", timing: Timing | None = None, clearance: float = 0.02,
                zmp_margin: float = 0.005, horizon_s: float = 1.0, dt: float = 0.01,
@@ -113,16 +128,10 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     supports = placo.FootstepsPlanner.make_supports(placo_steps, 0.0, True, True, True)
     trajectory = placo.WalkPatternGenerator(humanoid, parameters).plan(supports, com0, 0.0)
     plan_time = time.perf_counter() - tick
-    ik = WalkIK(humanoid)
     times = np.arange(0.0, trajectory.t_end + 0.5 * dt, dt)
-    rows, support, com, ticks = [], [], [], []
-    for index, t in enumerate(times):
-        tick = time.perf_counter()
-        ik.follow(trajectory, float(t), SETTLE_ITERATIONS if index == 0 else iterations)
-        ticks.append(time.perf_counter() - tick)
-        rows.append(placo_configuration(robot, humanoid))
-        support.append(soles_on_ground(trajectory, float(t), feet.left, feet.right, ground))
-        com.append(np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float))
+    rows, support, ticks = follow_plan(robot, humanoid, trajectory, times, iterations, feet.left, feet.right,
+                                       ground)
+    com = [np.asarray(trajectory.get_p_world_CoM(float(t)), dtype=float) for t in times]
     used = {"setting": setting, "single_support_s": parameters.single_support_duration,
             "double_support_s": parameters.double_support_duration(),
             "start_end_s": parameters.startend_double_support_duration(), "dt": parameters.dt(),
@@ -130,4 +139,4 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
             "walk_foot_height_m": parameters.walk_foot_height,
             "walk_com_height_m": parameters.walk_com_height,
             "ik_iterations_per_tick": iterations}
-    return PlacoWalk(times, np.array(rows), support, np.array(com), np.array(ticks), plan_time, used)
+    return PlacoWalk(times, rows, support, np.array(com), ticks, plan_time, used)

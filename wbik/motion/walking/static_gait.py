@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.path import JointPath
-from wbik.motion.timing import time_scale
-from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, sole_polygon
+from wbik.motion.timing import time_samples
+from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, placed_on, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.swing import swing_pose
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
@@ -53,18 +51,12 @@ class StaticGait:
         joints, _, _ = self.timed.evaluate(times)
         knots = np.asarray(self.timed.knot_times, dtype=float)
         rows, support = [], []
-        data = model.createData()
         for t, values in zip(times, joints, strict=True):
             # the sample this stretch of the timing moves to
             segment = int(np.clip(np.searchsorted(knots, t, side="right") - 1, 0, len(knots) - 2)) + 1
             q = self.q[segment].copy()
             q[actuated] = values
-            q[:7] = pin.SE3ToXYZQUAT(pin.SE3.Identity())
-            pin.framesForwardKinematics(model, data, q)
-            sole = data.oMf[model.getFrameId(self.anchor[segment])]
-            base = self.anchor_placement[segment] * sole.inverse()
-            q[:7] = pin.SE3ToXYZQUAT(base)
-            rows.append(q)
+            rows.append(placed_on(self.robot, q, self.anchor[segment], self.anchor_placement[segment]))
             support.append(self.support[segment])
         return times, np.array(rows), support
 
@@ -152,11 +144,7 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
 def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
     """The shortest quintic timing of the samples' 1-DOF joints at ``speed_rpm``."""
     joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
-    lengths = np.maximum(np.linalg.norm(np.diff(joints, axis=0), axis=1), 1e-9)
-    s = np.r_[0.0, np.cumsum(lengths)] / np.sum(lengths)
-    chain = SimpleNamespace(nq=joints.shape[1])  # the 1-DOF joints, as time_scale sees a chain
-    path = JointPath(chain, s, joints, waypoint_knots=list(phase_ends))
-    return time_scale(path, "quintic", velocity_limit=speed_rpm * RPM, mode=mode)
+    return time_samples(joints, speed_rpm * RPM, "quintic", mode, phase_ends)
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
