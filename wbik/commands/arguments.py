@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import json
+
+from wbik.files import json_plain
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,3 +35,9 @@ def load_robot_chain(args: argparse.Namespace):
 def add_json_argument(parser: argparse.ArgumentParser) -> None:
     """``--json``: print JSON instead of the text summary."""
     parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def print_json(data) -> int:
+    """Print ``data`` as indented JSON (NumPy values made plain); 0, the exit code of a printed answer."""
+    print(json.dumps(json_plain(data), indent=2))
+    return 0

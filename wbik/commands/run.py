@@ -5,7 +5,8 @@
 from __future__ import annotations
 
 import argparse
-import json
+
+from wbik.commands.arguments import print_json
 
 HELP = "run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)"
 
@@ -24,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
     from wbik.data import task_path
     from wbik.errors import UsageError
     from wbik.scenarios import format_report, load_scenario, run_scenario_report
-    from wbik.scenarios.kinds import KIND_REGISTRY, json_default
+    from wbik.scenarios.kinds import KIND_REGISTRY
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
         spec["backend"] = args.backend
     report = run_scenario_report(spec, output=args.output, source=taskfile)  # checks the backend too
     if args.json:
-        print(json.dumps(report.as_dict(), indent=2, default=json_default))
+        print_json(report.as_dict())
     else:
         print(format_report(report))
     return 0 if report.passed else 1  # 1: ran, but did not pass

@@ -319,30 +319,33 @@ def format_method(label: str, figures: dict) -> str:
     lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
              f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
              f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it"]
-    diagnosis = figures.get("diagnosis")
+    reason, diagnosis = split_diagnosis(figures["reason"], figures.get("diagnosis"))
     if not figures["success"]:
-        lines.append(f"        why: {_without_summary(figures['reason'], diagnosis)}")
-    lines += [f"        {text}" for text in (report_lines(diagnosis) if diagnosis else ())]
+        lines.append(f"        why: {reason}")
+    lines += [f"        {text}" for text in diagnosis]
     # a peer's "unsupported by PEER: ...", or another method's words
     lines += [f"        {item if item.startswith('unsupported by ') else f'cannot express: {item}'}"
               for item in figures["unsupported"]]
     return "\n".join(lines)
 
 
-def _without_summary(reason: str, diagnosis: dict | None) -> str:
-    summary = (diagnosis or {}).get("summary") or ""
-    return reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason
+def split_diagnosis(reason: str, diagnosis: dict | None) -> tuple[str, list[str]]:
+    """``reason`` without the QP diagnosis summary at its end, and the diagnosis (JSON form) as lines."""
+    if not diagnosis:
+        return reason, []
+    summary = diagnosis.get("summary") or ""
+    return (reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason,
+            report_lines(diagnosis))
 
 
 def format_report(report: dict) -> str:
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
-        diagnosis = phase.get("diagnosis")
-        reason = _without_summary(phase["reason"], diagnosis)
+        reason, diagnosis = split_diagnosis(phase["reason"], phase.get("diagnosis"))
         text = (f"{'solved' if phase['success'] else 'best effort: ' + reason}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
-        text += "".join(f"\n      {line}" for line in (report_lines(diagnosis) if diagnosis else ()))
+        text += "".join(f"\n      {line}" for line in diagnosis)
         if phase.get("methods"):
             text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
                 format_method(label, figures) for label, figures in phase["methods"].items())
