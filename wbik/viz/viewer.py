@@ -25,6 +25,7 @@ from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon, contact_points
 from wbik.robot import Chain, Robot
 from wbik.targets import as_target
+from wbik.viz.animation import Animation
 from wbik.viz.environment import SceneBox, robot_cell
 from wbik.viz.scene import SceneRecorder, ServerWindow
 
@@ -322,14 +323,9 @@ class Viewer:
                 chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
                 repetitions: int = 1, play: bool = True) -> np.ndarray | None:
         """Play q rows (full, or of ``chain``) at their times (s); the path of ``trace_frame`` (N, 3)."""
-        times = np.asarray(times, dtype=float).reshape(-1)
         rows = [self.full_configuration(q, chain) for q in qs]
-        if len(rows) != len(times) or len(rows) == 0:
-            raise InvalidConfigurationError(
-                f"animate needs one configuration per time: got {len(times)} times and {len(rows)} rows")
-        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
-            raise InvalidConfigurationError("animation times must be finite and strictly increasing")
-        clip, _, trace = self._robot_keyframes(times, rows, trace_frame, fps)
+        checked = Animation(self.robot, times, rows, name="animate")  # one row per time, times increasing
+        clip, _, trace = self._robot_keyframes(checked.times, list(checked.configurations), trace_frame, fps)
         self.meshcat.set_animation(clip, play=play, repetitions=repetitions)
         return trace
 
@@ -371,7 +367,9 @@ class Viewer:
                 frame[path].set_transform(_translation(position))
 
     def _visibility(self, clip, path: str, keys: list[float], visible: Sequence[bool]) -> None:
-        """Boolean ``visible`` keys where the value changes (three.js holds a boolean until the next key)."""
+        """Shown as ``visible[0]``, then a key where the value changes (three.js holds a boolean until the
+        next key)."""
+        self.meshcat[path].set_property("visible", bool(visible[0]))
         for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
             if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
                 with clip.at_frame(self.meshcat[path], key) as frame:
@@ -457,40 +455,29 @@ class Viewer:
         margins = np.array(margins, dtype=float)
         inside = [bool(m >= 0.0) for m in margins]  # NaN (no sole down) counts as outside
         first = next((i for i, s in enumerate(stretch_of) if s >= 0), 0)
+        grounded = [[com[0], com[1], ground_z] for com, ground_z in zip(coms, grounds, strict=True)]
         self._sphere(f"{path}/com", coms[0], radius, COM_COLOR)
-        for name, color in (("com_ground_inside", INSIDE_COLOR), ("com_ground_outside", OUTSIDE_COLOR)):
-            self._sphere(f"{path}/{name}", np.array([*coms[first][:2], grounds[first]]), 0.6 * radius, color)
+        self._track(clip, keys, f"{path}/com", coms)
+        for name, color, shown in (("com_ground_inside", INSIDE_COLOR, inside),
+                                   ("com_ground_outside", OUTSIDE_COLOR, [not v for v in inside])):
+            self._sphere(f"{path}/{name}", grounded[first], 0.6 * radius, color)
+            self._track(clip, keys, f"{path}/{name}", grounded)
+            self._visibility(clip, f"{path}/{name}", keys, shown)
         for index, (_, vertices, ground_z, stretch_margins) in enumerate(stretches):
             node, held = f"{path}/polygon_{index}", min(stretch_margins) >= 0.0
             self._outline(node, vertices, ground_z, INSIDE_COLOR if held else OUTSIDE_COLOR)
-            self.meshcat[node].set_property("visible", stretch_of[0] == index)
             self._visibility(clip, node, keys, [s == index for s in stretch_of])
-        grounded = [[com[0], com[1], ground_z] for com, ground_z in zip(coms, grounds, strict=True)]
-        self._track(clip, keys, f"{path}/com", coms)
-        for name, shown in (("com_ground_inside", inside), ("com_ground_outside", [not v for v in inside])):
-            self._track(clip, keys, f"{path}/{name}", grounded)
-            self.meshcat[f"{path}/{name}"].set_property("visible", shown[0])
-            self._visibility(clip, f"{path}/{name}", keys, shown)
         return margins
 
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            contacts: Sequence[tuple[str, ...]]) -> None:
         """A marker on each frame while it is held in contact."""
-        model, data = self.robot.model, self.robot.model.createData()
         path = f"{ROOT}/contacts"
         self.meshcat[path].delete()
-        frames = list(dict.fromkeys(name for held in contacts for name in held))
-        ids = {name: self.robot.frame_id(name) for name in frames}
-        positions = {name: [] for name in frames}
-        for q in rows:
-            pin.framesForwardKinematics(model, data, q)
-            for name in frames:
-                positions[name].append(data.oMf[ids[name]].translation.copy())
-        for name in frames:
-            node = f"{path}/{name}"
-            self._sphere(node, positions[name][0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
-            self.meshcat[node].set_property("visible", name in contacts[0])
-            self._track(clip, keys, node, positions[name])
+        for name in dict.fromkeys(name for held in contacts for name in held):
+            node, positions = f"{path}/{name}", [self.frame_pose(name, q).translation for q in rows]
+            self._sphere(node, positions[0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
+            self._track(clip, keys, node, positions)
             self._visibility(clip, node, keys, [name in held for held in contacts])
 
     def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
