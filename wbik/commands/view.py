@@ -55,13 +55,13 @@ def build_viewer(args: argparse.Namespace, server: bool):
 
     from wbik.errors import InvalidTargetError, UnknownRobotError
     from wbik.models import load
-    from wbik.viz import Viewer
+    from wbik.viz.viewer import Viewer, animation_viewer
 
     source = Path(args.robot)
     if source.suffix.lower() in SCENARIO_SUFFIXES:
-        from wbik.viz.scenario import scenario_viewer
+        from wbik.scenarios import scenario_animation
 
-        return scenario_viewer(source, server=server, style=args.style)
+        return animation_viewer(scenario_animation(source)[1], server, args.style, f"wbik: {source.stem}")
     try:
         robot = load(args.robot)
     except UnknownRobotError as exc:

@@ -6,6 +6,7 @@ import json
 import tomllib
 from pathlib import Path
 
+from wbik.errors import UnsupportedError
 from wbik.files import atomic_write_text
 from wbik.scenarios.kinds import (
     KIND_REGISTRY,
@@ -20,7 +21,8 @@ from wbik.scenarios.kinds import (
 )
 
 __all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "format_report",
-           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report"]
+           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report",
+           "scenario_animation"]
 
 
 def _read(path: Path):
@@ -60,13 +62,11 @@ def load_scenario(path: str | Path) -> dict:
     if spec is None:
         raise ScenarioFileError(f"{path}: the file is empty (only comments or null); a scenario is "
                                 f"a mapping with a 'kind' (one of {', '.join(kind_names())})")
-    if not isinstance(spec, dict):
-        raise ScenarioFileError(f"{path}: a scenario is a mapping with a 'kind' (one of "
-                                f"{', '.join(kind_names())}), got a {type(spec).__name__}")
     from wbik.scenario_schema import validate  # (it imports this package's kinds)
 
-    spec.setdefault("name", path.stem)
-    validate(spec, str(path))
+    if isinstance(spec, dict):
+        spec.setdefault("name", path.stem)
+    validate(spec, str(path))  # (a ScenarioFileError for anything but a mapping)
     return spec
 
 
@@ -100,6 +100,15 @@ def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
                  source: str | None = None) -> dict:
     """:func:`run_scenario_report`'s JSON report."""
     return run_scenario_report(scenario, output, source).as_dict()
+
+
+def scenario_animation(path: str | Path, spec: dict | None = None):
+    """(report, animation) of the scenario in ``path`` (or of the loaded ``spec`` ``path`` names)."""
+    report = run_scenario_report(Path(path) if spec is None else spec, source=str(path))
+    if report.animation is None:
+        raise UnsupportedError(f"the {report.kind!r} scenario in {path} produced no configurations to play "
+                               f"(verdict {report.verdict})")
+    return report, report.animation
 
 
 def format_report(report: ScenarioReport | dict) -> str:

@@ -54,6 +54,8 @@ from wbik.solvers.method_registry import method_factory, methods, solver
 from wbik.wholebody.problem import FRAMES, WholeBody
 
 CONTACT_TOLERANCE = 1e-6  # m for a contact's position error, rad for its rotation error
+PHASE_SECONDS = 1.0  # s of playback per phase
+SAMPLES_PER_PHASE = 30
 
 PHASE_RULES = {
     "success": Rule("success", "=="),
@@ -295,7 +297,6 @@ def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]
     """From the start through each phase's answer, with its support and contacts (and the way back to
     where a ``continue_from: start`` phase begins)."""
     from wbik.viz.animation import Animation
-    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
     stops = []  # (configuration, support, contacts) of each keyframe
     origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is

@@ -3,7 +3,6 @@ full configuration at each, :class:`Overlays` and fixed boxes (three.js interpol
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -165,14 +164,6 @@ class Animation:
         if index[-1] != self.frames - 1:
             index = np.append(index, self.frames - 1)
         return self._take(index)
-
-    def limited(self, max_frames: int) -> Animation:
-        """At most ``max_frames`` samples (evenly thinned; unchanged when already short enough)."""
-        if max_frames < 2:
-            raise InvalidConfigurationError(f"an animation needs at least 2 frames, got max {max_frames}")
-        if self.frames <= max_frames:
-            return self
-        return self.subsampled(math.ceil((self.frames - 1) / (max_frames - 1)))
 
     def _take(self, index: np.ndarray) -> Animation:
         def pick(rows):

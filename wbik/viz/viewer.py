@@ -514,3 +514,12 @@ class Viewer:
     def _repr_html_(self) -> str:
         source = html_module.escape(self.html(), quote=True)
         return f'<iframe srcdoc="{source}" style="width: 100%; height: 480px; border: none"></iframe>'
+
+
+def animation_viewer(animation: Animation, server: bool = False, style: str = "auto",
+                     title: str | None = None) -> Viewer:
+    """A Viewer playing ``animation`` (with a meshcat server when ``server``)."""
+    viewer = Viewer(animation.robot, server=server, style=style,
+                    title=title or f"wbik: {animation.name or animation.robot.name}")
+    viewer.play_animation(animation)
+    return viewer
