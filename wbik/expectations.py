@@ -48,8 +48,7 @@ def evaluate(expect: Mapping | None, figures: Mapping[str, object], rules: Mappi
              where: str = "expect") -> list[dict]:
     """One check per key of ``expect`` (see the module docstring); ``figures`` holds the values."""
     expect = dict(expect or {})
-    unknown = sorted(set(expect) - set(rules))
-    if unknown:
+    if unknown := sorted(set(expect) - set(rules)):
         raise ExpectationError(f"{where}: unknown expectation key(s) {unknown}; known keys: {sorted(rules)}")
     checks = []
     for key, value in expect.items():

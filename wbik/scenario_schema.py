@@ -9,6 +9,8 @@ from pathlib import Path
 from wbik.errors import MissingDependencyError, UnknownMethodError, UnknownRobotError, did_you_mean
 from wbik.models import URDF_PARAMS, builder_parameters, robot_entries
 from wbik.models.erd import example_robot_name, example_robot_names
+from wbik.motion.profiles import ALIASES, LAWS
+from wbik.motion.timing import MODES
 from wbik.options import UnknownOptionError, option_schema
 from wbik.qp.backends import BACKEND_OPTIONS, DEFAULT, available, resolve
 from wbik.qp.support_polygon import sole_rectangle
@@ -200,18 +202,8 @@ def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     spec["robot_params"] = {**(spec.get("robot_params") or {}), "soles": points}
 
 
-def time_laws() -> tuple[str, ...]:
-    """The time-law names a ``timing.law`` takes (wbik.motion.profiles)."""
-    from wbik.motion.profiles import ALIASES, LAWS
-
-    return (*LAWS, *ALIASES)
-
-
-def timing_modes() -> tuple[str, ...]:
-    """The ``timing.mode`` words (wbik.motion.timing.MODES)."""
-    from wbik.motion.timing import MODES
-
-    return MODES
+time_laws = (*LAWS, *ALIASES)  # the time-law names a ``timing.law`` takes
+timing_modes = MODES  # the ``timing.mode`` words
 
 
 def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:

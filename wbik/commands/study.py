@@ -1,12 +1,8 @@
-"""Run a study file from comparisons/ (default: comparisons/default.yaml; a file's description: says what
-it compares, its reference: block the published figures it is set beside): raw rows, summary,
-Mann-Whitney tests, figures and a Markdown + HTML report in the output folder. An interrupted run
-resumes where it stopped when run again with the same output folder.
+"""Run a study file (default: comparisons/default.yaml): raw rows, summary, Mann-Whitney tests, figures and
+a Markdown + HTML report in the output folder, where an interrupted run resumes when run again.
 
-With ``--compare-to OLD`` (the output folder of an earlier run on the same targets) the report gains
-a comparison with OLD, per case and method, paired target by target, and the command exits 1 when a
-method regressed under the study file's ``regression:`` rule (:mod:`wbik.study.compare`), 4 when the
-two runs' targets or settings differ (nothing compared): a regression gate for CI."""
+With ``--compare-to OLD`` (an earlier run's output folder) the report compares the runs target by target,
+per case and method: a regression gate for CI (the study file's ``regression:`` rule; exit codes below)."""
 
 from __future__ import annotations
 
@@ -16,8 +12,7 @@ from pathlib import Path
 HELP = "run a comparison study of IK methods and write its report"
 EPILOG = ("Exit codes: 0 done (no regression), 1 a method regressed against --compare-to OLD, 2 bad input "
           "or usage, 3 internal error, 4 OLD's targets or settings differ from this run's (not compared).")
-EXIT_OTHER_TARGETS = 4
-"""--compare-to OLD holds a run on other targets or settings: nothing was compared."""
+EXIT_OTHER_TARGETS = 4  # --compare-to OLD holds a run on other targets or settings: nothing compared
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

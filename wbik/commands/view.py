@@ -41,14 +41,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="serve this long then stop (default: until Ctrl-C)")
 
 
-def revolute_mask(model) -> np.ndarray:
-    """True at the q indices of 1-DOF bounded revolute joints (the ones --deg converts)."""
-    mask = np.zeros(model.nq, dtype=bool)
-    mask[[joint.idx_q for joint in model.joints[1:] if joint.nq == 1
-          and joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]] = True
-    return mask
-
-
 def build_viewer(args: argparse.Namespace, server: bool):
     """The Viewer for ``args``: a robot scene, or a scenario's animation."""
     import pinocchio as pin
@@ -72,13 +64,14 @@ def build_viewer(args: argparse.Namespace, server: bool):
     chain = robot.chain(args.chain) if args.chain else None
     if args.q is not None:
         q = np.asarray(args.q, dtype=float)
-        if args.deg:
-            if chain is not None or q.size != robot.model.nq:
-                values_chain = chain or robot.chain()
-                q = values_chain.check_q(q)
-                q = np.where(values_chain.is_prismatic, q, np.radians(q))
-            else:
-                q = np.where(revolute_mask(robot.model), np.radians(q), q)
+        if args.deg and (chain is not None or q.size != robot.model.nq):  # one chain's values
+            values_chain = chain or robot.chain()
+            q = values_chain.check_q(q)
+            q = np.where(values_chain.is_prismatic, q, np.radians(q))
+        elif args.deg:  # the full configuration's 1-DOF bounded revolute joints
+            revolute = [joint.idx_q for joint in robot.model.joints[1:] if joint.nq == 1 and
+                        joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]
+            q[revolute] = np.radians(q[revolute])
         viewer.show(q, chain)
     if args.frames:
         viewer.show_frames(chain)
@@ -86,10 +79,8 @@ def build_viewer(args: argparse.Namespace, server: bool):
         values = np.asarray(args.target, dtype=float)
         if values.size not in (3, 6):
             raise InvalidTargetError(f"--target takes X Y Z or X Y Z ROLL PITCH YAW; got {values.size}")
-        target = values[:3]
-        if values.size == 6:
-            angles = np.radians(values[3:]) if args.deg else values[3:]
-            target = pin.SE3(pin.rpy.rpyToMatrix(*angles), values[:3])
+        angles = np.radians(values[3:]) if args.deg else values[3:]
+        target = pin.SE3(pin.rpy.rpyToMatrix(*angles), values[:3]) if values.size == 6 else values[:3]
         viewer.show_target(target, chain or robot.chain())
     if args.com:
         support = viewer.show_com_and_polygon()
@@ -112,17 +103,14 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--seconds must be >= 0, got {args.seconds}")
     if offline:
         viewer = build_viewer(args, server=False)
-        html_path = args.html
-        if html_path is not None:
-            viewer.export_html(html_path)
-            print(f"wrote {html_path} (self-contained: open it in any browser, no server needed)")
+        if args.html is not None:
+            viewer.export_html(args.html)
+            print(f"wrote {args.html} (self-contained: open it in any browser, no server needed)")
         if args.screenshot is not None:
             from wbik.viz.browser import find_chromium, render
 
             find_chromium()  # fail early, with the install hint, before exporting
-            page = html_path or args.screenshot.with_suffix(".html")
-            if html_path is None:
-                viewer.export_html(page)
+            page = args.html or viewer.export_html(args.screenshot.with_suffix(".html"))
             result = render(page, args.screenshot)
             print(f"wrote {args.screenshot}" + (f" (page errors: {result.errors})" if result.errors else ""))
         return 0

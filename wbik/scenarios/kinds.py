@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, reduce
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -162,10 +162,8 @@ class KindRun:
 
     def finished(self) -> ScenarioReport:
         """The report, with the entries' animations one after the other (None without any)."""
-        joined = self.animations[0] if self.animations else None
-        for animation in self.animations[1:]:
-            joined = joined.then(animation, pause=self.pause)
-        self.report.animation = joined
+        self.report.animation = reduce(lambda first, then: first.then(then, pause=self.pause),
+                                       self.animations) if self.animations else None
         return self.report
 
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from wbik.collision import Obstacle, robot_collision_model
 from wbik.errors import SoleError
-from wbik.expectations import Rule, evaluate, verdict
+from wbik.expectations import Rule, judge
 from wbik.options import UnknownOptionError, option_schema
 from wbik.qp.contacts import HeldFrame
 from wbik.qp.diagnosis import report_lines
@@ -268,14 +268,13 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         if collision_constraint is not None:
             expect["collision_distance_min_m"] = collision_constraint.safety - 1e-9
         expect.update(phase["expect"] or {})
-        expectations = evaluate(expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
-        entry = {
-            "name": phase["name"], "passed": verdict(expectations) != "FAILED", "success": solution.success,
-            "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
-            "task_errors": solution.task_errors, "checks": checks, "expect": expect,
-            "expectations": expectations, "contacts": list(phase["contacts"]), "support": support,
+        entry = judge({
+            "name": phase["name"], "success": solution.success, "reason": solution.reason,
+            "iterations": solution.iterations, "time_s": solution.time_s, "task_errors": solution.task_errors,
+            "checks": checks, "expect": expect, "contacts": list(phase["contacts"]), "support": support,
             "margin": margin, "q": solution.q.tolist(),
-            "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
+            "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict(),
+        }, expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
         if spec["methods"]:
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
         run.add(entry)
