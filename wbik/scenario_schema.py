@@ -182,8 +182,7 @@ SOLE_SHAPES = ("size", "corners", "point")  # the keys of a ``soles`` entry that
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points})."""
-    entries = spec.get("soles") or []
-    if not entries:
+    if not (entries := spec.get("soles")):
         return
     if "soles" not in builder_parameters(spec["robot"]):
         ctx.fail(join(path, "soles"), f"robot {spec['robot']!r} declares its own soles (robot.soles); "

@@ -74,15 +74,14 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--report-only reads the results in the output folder; --fresh would delete "
                          "them: give one or the other")
 
-    compare_to = getattr(args, "compare_to", None)
+    compare_to = args.compare_to
     if compare_to is not None and not (compare_to / "study.json").is_file():
         raise UsageError(f"--compare-to {str(compare_to)!r} holds no results of a study (no study.json): "
                          "pass the output folder of an earlier 'wbik study' run")
     study = with_overrides(load_study(args.file),
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
-        budget_curve_poses=getattr(args, "budget_curves", None),
-        figures=False if getattr(args, "no_figures", False) else None)
+        budget_curve_poses=args.budget_curves, figures=False if args.no_figures else None)
     # other settings or cases: nothing to compare, so nothing to run
     if compare_to is not None and (differs := refusal_before_the_run(study, compare_to)):
         print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",

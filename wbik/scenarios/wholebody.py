@@ -114,8 +114,7 @@ def wholebody_schema() -> Map:
                          "needs a top-level 'collisions' block (the pairs whose distance it judges)")
             entry.setdefault("name", f"phase {index + 1}")
             entry.setdefault("support", list(entry["contacts"]))
-            if entry.get("margin") is None:
-                entry["margin"] = spec["margin"]
+            entry.setdefault("margin", spec["margin"])
             for item_index, item in enumerate(entry["min_distance"]):
                 if len(item["frames"]) != 2:
                     ctx.fail(f"phases[{index}].min_distance[{item_index}].frames",
@@ -245,11 +244,10 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
             [collision_constraint] if collision_constraint is not None else [])
         problem = phase_problem(robot, q, phase, index, extra, regularization=False)
-        settings = ("qp", backend, float(phase["max_step"]), int(phase["max_iterations"]),
-                    phase["regularization"])
-        if settings not in solvers:
-            solvers[settings] = solver("qp", robot, backend=backend, max_step=settings[2],
-                                       max_iterations=settings[3], regularization=settings[4])
+        settings = (float(phase["max_step"]), int(phase["max_iterations"]), phase["regularization"])
+        if settings not in solvers:  # (compare_methods keeps its solvers by (label, budget))
+            solvers[settings] = solver("qp", robot, backend=backend, max_step=settings[0],
+                                       max_iterations=settings[1], regularization=settings[2])
         try:
             solution = solvers[settings].solve(problem, q)
         except DegenerateSupportPolygonError as exc:

@@ -63,12 +63,10 @@ class Animation:
         if np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError(f"animation {self.name!r}: times must be strictly increasing")
         overlays = self.overlays
-        zmp = overlays.zmp
-        if zmp is not None:
-            zmp = np.asarray(zmp, dtype=float)
-            if zmp.shape != (len(times), 3):
-                raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
-                                                f"sample ({len(times)}, 3), got {zmp.shape}")
+        zmp = None if overlays.zmp is None else np.asarray(overlays.zmp, dtype=float)
+        if zmp is not None and zmp.shape != (len(times), 3):
+            raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
+                                            f"sample ({len(times)}, 3), got {zmp.shape}")
         boxes = tuple(self.environment)
         if not all(isinstance(box, SceneBox) for box in boxes):
             raise InvalidConfigurationError(f"animation {self.name!r}: environment items must be SceneBox")
