@@ -32,11 +32,6 @@ def load_robot_chain(args: argparse.Namespace):
     return robot, chain
 
 
-def add_json_argument(parser: argparse.ArgumentParser) -> None:
-    """``--json``: print JSON instead of the text summary."""
-    parser.add_argument("--json", action="store_true", help="print JSON")
-
-
 def print_json(data) -> int:
     """Print ``data`` as indented JSON (NumPy values made plain); 0, the exit code of a printed answer."""
     print(json.dumps(json_plain(data), indent=2))

@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from wbik.commands.arguments import add_json_argument, add_robot_arguments, load_robot_chain, print_json
+from wbik.commands.arguments import add_robot_arguments, load_robot_chain, print_json
 
 HELP = "forward kinematics of a chain"
 
@@ -15,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_arguments(parser)
     parser.add_argument("--q", type=float, nargs="+", required=True, help="joint values, chain order")
     parser.add_argument("--deg", action="store_true", help="revolute joint values are in degrees")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import argparse
 
-from wbik.commands.arguments import add_json_argument, print_json
+from wbik.commands.arguments import print_json
 
 HELP = "list the built-in robots (and their chains with -v)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-v", "--verbose", action="store_true", help="load each robot and list its chains")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:

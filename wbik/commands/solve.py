@@ -7,7 +7,7 @@ import argparse
 
 import numpy as np
 
-from wbik.commands.arguments import add_json_argument, add_robot_arguments, load_robot_chain, print_json
+from wbik.commands.arguments import add_robot_arguments, load_robot_chain, print_json
 
 HELP = "solve IK for one target"
 
@@ -22,7 +22,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--q0", type=float, nargs="+", help="start / current joints (default: nominal)")
     parser.add_argument("--timeout", type=float, default=0.05, help="time budget in s (default 0.05)")
     parser.add_argument("--all", action="store_true", help="every solution (closed-form methods)")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,6 +6,8 @@ import json
 import tomllib
 from pathlib import Path
 
+import yaml
+
 from wbik.errors import UnsupportedError
 from wbik.files import atomic_write_text
 from wbik.scenarios.kinds import (
@@ -44,13 +46,7 @@ def _read(path: Path):
                                 f"(one of {', '.join(kind_names())})")
     suffix = path.suffix.lower()
     try:
-        if suffix == ".json":
-            return json.loads(text)
-        if suffix == ".toml":
-            return tomllib.loads(text)
-        import yaml
-
-        return yaml.safe_load(text)
+        return {".json": json.loads, ".toml": tomllib.loads}.get(suffix, yaml.safe_load)(text)
     except Exception as exc:  # yaml, json and tomllib raise several types
         raise ScenarioFileError(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
 

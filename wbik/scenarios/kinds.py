@@ -27,7 +27,6 @@ KIND_MODULES: list = []  # the registry's sources besides wbik.catalog and entry
 VERDICTS = ("PASSED", "FAILED", "informational")
 
 
-# -- errors -----------------------------------------------------------------------------------------
 class ScenarioError(WbikError, ValueError):
     """A scenario file that cannot be read or names something that does not exist."""
 
@@ -60,7 +59,6 @@ class ScenarioKindImportError(ScenarioKindError, RegistryImportError, MissingDep
     """A module of scenario kinds that cannot be imported."""
 
 
-# -- the report ------------------------------------------------------------------------------------
 @dataclass
 class ScenarioReport:
     """A runner's ``figures`` (JSON-friendly, judged entries with their ``expectations``), the ``verdict``
@@ -121,7 +119,6 @@ def json_default(value):
     raise TypeError(f"not JSON serialisable: {type(value)}")
 
 
-# -- the kinds -------------------------------------------------------------------------------------
 Progress = Callable[[ScenarioReport], None] | None
 Runner = Callable[[dict, Progress], ScenarioReport]
 

@@ -67,7 +67,6 @@ PHASE_RULES = {
 }  # (the limit excess of a prismatic joint is in m)
 
 
-# -- the schema ------------------------------------------------------------------------------------
 def wholebody_schema() -> Map:
     phase = Map({
         "name": Key(Text()),
@@ -152,7 +151,6 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     return entries
 
 
-# -- the checks of one phase -----------------------------------------------------------------------
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
     """The checks of a phase's answer (the shared check's ``solution``): contact drifts in m and rad, CoM,
     limits and, with ``collisions`` (CollisionAvoidance), the closest pair."""
@@ -187,7 +185,6 @@ def collision_avoidance(robot, collisions: dict | None):
     return CollisionAvoidance(model, collisions["safety_distance"], collisions["influence_distance"])
 
 
-# -- the runner ------------------------------------------------------------------------------------
 def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
     """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
     tasks = []

@@ -87,7 +87,6 @@ class Animation:
         """Seconds from the first sample to the last (0 for a still picture)."""
         return float(self.times[-1] - self.times[0])
 
-    # -- building ---------------------------------------------------------------------------------
     @classmethod
     def from_chain(cls, robot, chain, times, rows, reference: np.ndarray | None = None,
                    overlays: Overlays | None = None, name: str = "") -> Animation:
@@ -129,7 +128,6 @@ class Animation:
         merged = {box.name: box for box in (*self.environment, *boxes)}
         return replace(self, environment=tuple(merged.values()))
 
-    # -- combining and thinning -------------------------------------------------------------------
     def then(self, other: Animation, pause: float = 0.5) -> Animation:
         """This animation, then ``other`` starting ``pause`` s after this one ends."""
         if other.robot.model.nq != self.robot.model.nq or other.robot.name != self.robot.name:

@@ -404,13 +404,10 @@ class Viewer:
     def _camera_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray) -> None:
         """The camera follows the robot's middle, averaged over about half a second."""
         self.look_at(*self._framing(rows[0]))
-        if len(rows) < 2:
-            return
         centres = np.array([self._framing(q)[0] for q in rows])
         spacing = float(times[-1] - times[0]) / (len(times) - 1)
         width = max(1, int(round(0.25 / max(spacing, 1e-9))))
-        padded = np.vstack([np.repeat(centres[:1], width, axis=0), centres,
-                            np.repeat(centres[-1:], width, axis=0)])
+        padded = np.pad(centres, ((width, width), (0, 0)), mode="edge")
         kernel = np.ones(2 * width + 1) / (2 * width + 1)
         smooth = np.column_stack([np.convolve(padded[:, axis], kernel, mode="valid") for axis in range(3)])
         self._track(clip, keys, "/Cameras/default", smooth)
