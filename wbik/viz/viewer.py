@@ -20,6 +20,7 @@ import pinocchio as pin
 
 import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.files import atomic_write_text
 from wbik.models import load
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon, contact_points
@@ -72,7 +73,7 @@ def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_
                   tolerance: float = POLYGON_TOLERANCE) -> bool:
     """The same soles at the same places (to ``tolerance`` m): each polygon's vertices near the other's
     outline (a hull of nearly aligned soles may have two more vertices)."""
-    old_feet, old_vertices, old_z, _ = previous
+    old_feet, old_vertices, old_z = previous
     if old_feet != feet or abs(old_z - ground_z) > tolerance:
         return False
     old_polygon, polygon = SupportPolygon(old_vertices), SupportPolygon(vertices)
@@ -104,7 +105,6 @@ class Viewer:
         self.place_grid()
         self.look_at()
 
-    # -- life cycle -------------------------------------------------------------------------------
     @property
     def url(self) -> str | None:
         """The meshcat server's local URL (None without a server)."""
@@ -121,7 +121,6 @@ class Viewer:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    # -- configurations ---------------------------------------------------------------------------
     def _chain(self, chain: Chain | str | None) -> Chain | None:
         return chain if chain is None or isinstance(chain, Chain) else self.robot.chain(chain)
 
@@ -173,7 +172,6 @@ class Viewer:
         self.meshcat["/Cameras/default/rotated/<object>"].set_property(
             "position", [float(position[0]), float(position[2]), float(-position[1])])
 
-    # -- the scene around the robot ----------------------------------------------------------------
     def show_environment(self, boxes: Sequence[SceneBox]) -> None:
         """Draw fixed boxes (a staircase's steps, a table) under ``wbik/environment``, by name."""
         import meshcat.geometry as mg
@@ -208,7 +206,6 @@ class Viewer:
         """The scale of meshcat's 0.5 m cells: half the robot's extent (m), within [0.05, 1]."""
         return float(min(1.0, max(0.05, 0.5 * self.extent)))
 
-    # -- markers ----------------------------------------------------------------------------------
     def _triad(self, path: str, placement: pin.SE3, scale: float) -> None:
         """Three cylinders along the frame's x (red), y (green), z (blue) axes."""
         import meshcat.geometry as mg
@@ -318,7 +315,6 @@ class Viewer:
         self._outline(f"{path}/polygon", support.vertices, ground_z, color)
         return SupportView(com, support.vertices, ground_z, bool(margin >= 0.0), float(margin))
 
-    # -- animation --------------------------------------------------------------------------------
     def animate(self, times: Sequence[float], qs: Sequence[Sequence[float]],
                 chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
                 repetitions: int = 1, play: bool = True) -> np.ndarray | None:
@@ -444,9 +440,8 @@ class Viewer:
                 continue
             polygon, ground_z = self._support_polygon(kinematics, feet)
             if not stretches or not _same_polygon(stretches[-1], tuple(feet), polygon.vertices, ground_z):
-                stretches.append((tuple(feet), polygon.vertices, ground_z, []))
+                stretches.append((tuple(feet), polygon.vertices, ground_z))
             margins.append(polygon.margin_of(coms[-1][:2]))
-            stretches[-1][3].append(margins[-1])
             stretch_of.append(len(stretches) - 1)
             grounds.append(ground_z)
         margins = np.array(margins, dtype=float)
@@ -460,10 +455,11 @@ class Viewer:
             self._sphere(f"{path}/{name}", grounded[first], 0.6 * radius, color)
             self._track(clip, keys, f"{path}/{name}", grounded)
             self._visibility(clip, f"{path}/{name}", keys, shown)
-        for index, (_, vertices, ground_z, stretch_margins) in enumerate(stretches):
-            node, held = f"{path}/polygon_{index}", min(stretch_margins) >= 0.0
+        for index, (_, vertices, ground_z) in enumerate(stretches):
+            node, shown = f"{path}/polygon_{index}", [s == index for s in stretch_of]
+            held = min(margins[shown]) >= 0.0
             self._outline(node, vertices, ground_z, INSIDE_COLOR if held else OUTSIDE_COLOR)
-            self._visibility(clip, node, keys, [s == index for s in stretch_of])
+            self._visibility(clip, node, keys, shown)
         return margins
 
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
@@ -496,17 +492,14 @@ class Viewer:
         trace = trace_frame if trace_frame is not None else getattr(trajectory, "tip_frame", None)
         return self.animate(times, rows, chain=chain, trace_frame=trace, fps=fps, repetitions=repetitions)
 
-    # -- export -----------------------------------------------------------------------------------
     def html(self) -> str:
         """The scene (and animation) as one self-contained HTML page."""
         return self.window.html(self.title)
 
     def export_html(self, path: str | Path) -> Path:
         """Write the self-contained page to ``path`` (folders created); returns the path."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(self.html(), encoding="utf-8")
-        return path
+        atomic_write_text(Path(path), self.html())
+        return Path(path)
 
     def _repr_html_(self) -> str:
         source = html_module.escape(self.html(), quote=True)
