@@ -109,6 +109,4 @@ def run(args: argparse.Namespace) -> int:
     if comparison is None:
         return 0
     print("\n".join(summary_lines(comparison)))
-    if comparison.refused:
-        return EXIT_OTHER_TARGETS
-    return 1 if comparison.regressions else 0
+    return EXIT_OTHER_TARGETS if comparison.refused else int(bool(comparison.regressions))

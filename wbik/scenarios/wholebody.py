@@ -152,8 +152,7 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
 
 
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
-    """The checks of a phase's answer (the shared check's ``solution``): contact drifts in m and rad, CoM,
-    limits and, with ``collisions`` (CollisionAvoidance), the closest pair."""
+    """A phase's checks: contact drifts (m, rad), CoM, limits and, with ``collisions``, the closest pair."""
     robot, q = problem.robot, solution.q
     kinematics = Kinematics(robot.model, q)
     contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
@@ -288,8 +287,8 @@ def moved_frame(spec: dict) -> str | None:
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, with its support and contacts (and the way back to
-    where a ``continue_from: start`` phase begins)."""
+    """From the start through each phase's answer, with its support and contacts (and back to the start
+    of a ``continue_from: start`` phase)."""
     from wbik.viz.animation import Animation
 
     stops = []  # (configuration, support, contacts) of each keyframe

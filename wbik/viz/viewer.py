@@ -71,8 +71,7 @@ def _translation(position) -> np.ndarray:
 
 def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
                   tolerance: float = POLYGON_TOLERANCE) -> bool:
-    """The same soles at the same places (to ``tolerance`` m): each polygon's vertices near the other's
-    outline (a hull of nearly aligned soles may have two more vertices)."""
+    """The same soles at the same places: each polygon's vertices within ``tolerance`` m of the other's."""
     old_feet, old_vertices, old_z = previous
     if old_feet != feet or abs(old_z - ground_z) > tolerance:
         return False
@@ -363,8 +362,7 @@ class Viewer:
                 frame[path].set_transform(_translation(position))
 
     def _visibility(self, clip, path: str, keys: list[float], visible: Sequence[bool]) -> None:
-        """Shown as ``visible[0]``, then a key where the value changes (three.js holds a boolean until the
-        next key)."""
+        """``path`` shown as ``visible[0]``, then keyed where ``visible`` changes (three.js holds it)."""
         self.meshcat[path].set_property("visible", bool(visible[0]))
         for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
             if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
