@@ -5,6 +5,7 @@ stops it."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -101,8 +102,8 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{option} {str(path)!r} is a folder; it names the file to write")
     if args.seconds is not None and not args.seconds >= 0:
         raise UsageError(f"--seconds must be >= 0, got {args.seconds}")
+    viewer = build_viewer(args, server=not offline)
     if offline:
-        viewer = build_viewer(args, server=False)
         if args.html is not None:
             viewer.export_html(args.html)
             print(f"wrote {args.html} (self-contained: open it in any browser, no server needed)")
@@ -114,8 +115,7 @@ def run(args: argparse.Namespace) -> int:
             result = render(page, args.screenshot)
             print(f"wrote {args.screenshot}" + (f" (page errors: {result.errors})" if result.errors else ""))
         return 0
-    viewer = build_viewer(args, server=True)
-    try:
+    with viewer, contextlib.suppress(KeyboardInterrupt):  # Ctrl-C stops the server
         print(f"meshcat viewer for {viewer.title.removeprefix('wbik: ')}: {viewer.url}")
         if args.open:
             import webbrowser
@@ -127,9 +127,5 @@ def run(args: argparse.Namespace) -> int:
             print("serving; press Ctrl-C to stop", flush=True)
             while True:
                 time.sleep(3600)
-        time.sleep(max(args.seconds, 0.0))
-    except KeyboardInterrupt:
-        pass
-    finally:
-        viewer.close()
+        time.sleep(args.seconds)
     return 0

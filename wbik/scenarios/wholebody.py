@@ -140,8 +140,7 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
-        entry.setdefault("label", entry["method"])
-        entry.setdefault("max_iterations", None)
+        entry = {"label": entry["method"], "max_iterations": None, **entry}
         options = option_schema(method_factory(entry["method"]), 2, skip=("max_iterations",),
                                 owner=f"method {entry['method']!r}", unknown_error=UnknownOptionError)
         entry["options"] = options.check(entry["options"], f"methods[{index}].options", ctx)

@@ -129,16 +129,14 @@ class Viewer:
             return self.q.copy()
         values = np.asarray(q, dtype=float).reshape(-1)
         chain = self._chain(chain)
-        if chain is not None:
-            return chain.full_configuration(chain.check_q(values), reference=self.q)
-        if values.shape == (self.robot.model.nq,):
+        if chain is None and values.shape == (self.robot.model.nq,):
             if not np.all(np.isfinite(values)):
                 raise InvalidConfigurationError(f"joint values contain NaN or inf: {values.tolist()}")
             return values.copy()
-        if len(self.robot.chains) == 1:
-            only = self.robot.chain()
-            if values.shape == (only.nq,):
-                return only.full_configuration(only.check_q(values), reference=self.q)
+        if chain is None and len(self.robot.chains) == 1 and values.size == self.robot.chain().nq:
+            chain = self.robot.chain()  # the only chain's values
+        if chain is not None:
+            return chain.full_configuration(chain.check_q(values), reference=self.q)
         raise InvalidConfigurationError(
             f"{self.robot.name} has nq = {self.robot.model.nq} ({self.robot.model.nq} values for the full "
             f"configuration); got {values.size} values. For one chain's joints pass chain=NAME "
