@@ -156,17 +156,12 @@ class Animation:
         """Every ``every``-th sample (the last one kept)."""
         if int(every) != every or every < 1:
             raise InvalidConfigurationError(f"subsample step must be a positive integer, got {every}")
-        index = np.arange(0, self.frames, int(every))
-        if index[-1] != self.frames - 1:
-            index = np.append(index, self.frames - 1)
-        return self._take(index)
+        index = np.unique(np.append(np.arange(0, self.frames, int(every)), self.frames - 1))
 
-    def _take(self, index: np.ndarray) -> Animation:
         def pick(rows):
             return None if rows is None else tuple(rows[i] for i in index)
 
-        zmp = self.overlays.zmp
-        overlays = replace(self.overlays, support=pick(self.overlays.support),
-                           contacts=pick(self.overlays.contacts), zmp=None if zmp is None else zmp[index])
-        return Animation(self.robot, self.times[index], self.configurations[index], overlays, self.name,
-                         self.environment)
+        overlays = self.overlays
+        return replace(self, times=self.times[index], configurations=self.configurations[index],
+                       overlays=replace(overlays, support=pick(overlays.support),
+                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp)))
