@@ -1,5 +1,4 @@
-"""The schemas of scenario files: nodes of robots, methods and QP backends, the keys the kinds share and
-:func:`validate`, the check of a file (a copy with every default filled in)."""
+"""Scenario file schemas: robot, method and QP backend nodes, the keys kinds share, and :func:`validate`."""
 
 from __future__ import annotations
 

@@ -61,7 +61,6 @@ def build_viewer(args: argparse.Namespace, server: bool):
         raise UnknownRobotError(args.robot, exc.known, hint="Pass a built-in name ('wbik robots' lists "
                                 "them), the path of a .urdf file, or a scenario file (.yaml)") from None
     viewer = Viewer(robot, server=server, style=args.style)
-    robot = viewer.robot
     chain = robot.chain(args.chain) if args.chain else None
     if args.q is not None:
         q = np.asarray(args.q, dtype=float)

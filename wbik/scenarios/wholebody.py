@@ -1,8 +1,7 @@
 """Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer
 (keys: docs/formats/task-files.md). By default a phase expects success, contacts held to 1e-6 m / rad, the
 CoM ``margin`` inside the support polygon, no joint beyond its limit and, with ``collisions``, every pair
-at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged).
-"""
+at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""Render an exported page with headless Chromium (software WebGL, no network, a throw-away profile): a
-screenshot and the console messages."""
+"""The screenshot and console messages of an exported page in headless Chromium (software WebGL, offline)."""
 
 from __future__ import annotations
 

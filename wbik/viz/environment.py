@@ -1,5 +1,4 @@
-"""Boxes fixed in the world around a robot (a staircase's steps, a table, a workpiece), by name: an
-animation's and those of the robot's cell (:func:`robot_cell`)."""
+"""Named boxes fixed in the world (stair steps, a table, a workpiece): an animation's or a robot cell's."""
 
 from __future__ import annotations
 

@@ -1,5 +1,4 @@
-"""What a robot looks like: its URDF visuals, or sticks from its kinematics (cylinders between frames,
-spheres at the joints, radius ``STICK_RADIUS_RATIO`` times the robot's reach)."""
+"""A robot's look: its URDF visuals, or sticks from its kinematics (cylinders between frames, joint balls)."""
 
 from __future__ import annotations
 
