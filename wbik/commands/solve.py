@@ -37,8 +37,7 @@ def run(args: argparse.Namespace) -> int:
     robot, chain = load_robot_chain(args)
     solver = make_solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)
-    target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
-              else Target(position))
+    target = pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None else Target(position)
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
     family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:

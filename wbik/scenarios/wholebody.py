@@ -214,8 +214,7 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
         if (label, budget) not in solvers:
             solvers[label, budget] = solver(entry["method"], robot, max_iterations=budget, **entry["options"])
         result = solvers[label, budget].solve(problem, q)
-        compared[label] = {**result.as_dict(), "task_error": result.task_error,
-                           "max_iterations": budget}
+        compared[label] = {**result.as_dict(), "task_error": result.task_error, "max_iterations": budget}
     return compared
 
 

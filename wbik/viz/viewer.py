@@ -477,9 +477,8 @@ class Viewer:
         rows = next((getattr(trajectory, name) for name in ("positions", "qs", "q")
                      if getattr(trajectory, name, None) is not None), None)
         if times is None or rows is None:
-            raise UnsupportedError(
-                f"cannot play a {type(trajectory).__name__}: it needs 'times' and joint rows "
-                "('positions', 'qs' or 'q')")
+            raise UnsupportedError(f"cannot play a {type(trajectory).__name__}: it needs 'times' and joint "
+                                   "rows ('positions', 'qs' or 'q')")
         rows = np.asarray(rows, dtype=float)
         chain = getattr(trajectory, "chain", None)
         if rows.ndim != 2 or rows.shape[1] == self.robot.model.nq or (isinstance(chain, str)
