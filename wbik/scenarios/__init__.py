@@ -71,13 +71,9 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
     """The :class:`ScenarioReport` of a scenario (file or dict); ``output``: the JSON report, each phase."""
     from wbik.scenario_schema import validate
 
-    if isinstance(scenario, dict):
-        spec = scenario
-        source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"
-    else:
-        spec = load_scenario(scenario)
-        source = source or str(scenario)
-    checked = validate(spec, source)
+    spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
+    named = str(scenario) if spec is not scenario else f"scenario {spec.get('name') or spec.get('kind')!r}"
+    checked = validate(spec, source or named)
     kind = KIND_REGISTRY.get(checked["kind"])
 
     def write(report: ScenarioReport) -> None:
