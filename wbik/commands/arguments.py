@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from wbik.errors import UsageError
 from wbik.files import json_plain
 
 
@@ -19,7 +20,6 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_robot_chain(args: argparse.Namespace):
     """(robot, chain) named by ROBOT and ``--chain`` or ``--base``/``--tip`` (else a UsageError)."""
-    from wbik.errors import UsageError
     from wbik.models import load
 
     base, tip = getattr(args, "base", None), getattr(args, "tip", None)

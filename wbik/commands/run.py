@@ -1,12 +1,12 @@
-"""Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). Prints a summary;
---output writes the JSON report after every phase. A task shipped with wbik is also found by its name
-(wbik run bioloid_balance); 'wbik tasks' lists them."""
+"""Run a scenario file (YAML, JSON or TOML; its 'kind' selects the runner) or a shipped task by its name
+(wbik run bioloid_balance; 'wbik tasks' lists them). --output writes the JSON report after every phase."""
 
 from __future__ import annotations
 
 import argparse
 
 from wbik.commands.arguments import print_json
+from wbik.errors import UsageError
 
 HELP = "run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)"
 
@@ -23,7 +23,6 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from wbik.data import task_path
-    from wbik.errors import UsageError
     from wbik.scenarios import format_report, load_scenario, run_scenario_report
     from wbik.scenarios.kinds import KIND_REGISTRY
 

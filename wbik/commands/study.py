@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from wbik.errors import UsageError
+
 HELP = "run a comparison study of IK methods and write its report"
 EPILOG = ("Exit codes: 0 done (no regression), 1 a method regressed against --compare-to OLD, 2 bad input "
           "or usage, 3 internal error, 4 OLD's targets or settings differ from this run's (not compared).")
@@ -51,15 +53,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def check_output_folder(output: Path | None) -> None:
     """UsageError if ``--output`` names something that cannot be the output folder."""
-    from wbik.errors import UsageError
-
     if output is not None and output.exists() and not output.is_dir():
         raise UsageError(f"--output {str(output)!r} is an existing file; the study writes a folder of "
                          "results there: pass a folder path (new or from an earlier run)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from wbik.errors import UsageError
     from wbik.study import load_study, run_study
     from wbik.study.compare import compare_runs, refusal_before_the_run, summary_lines
     from wbik.study.definition import with_overrides

@@ -1,6 +1,5 @@
-"""Show ROBOT (built-in name or URDF path) at a configuration, or play the motion of a TASKFILE
-(tasks/*.yaml). Without --html/--screenshot a local meshcat server starts and its URL is printed; Ctrl-C
-stops it."""
+"""Show ROBOT (built-in name or URDF path) at a configuration, or play a TASKFILE's motion (tasks/*.yaml).
+Without --html/--screenshot a local meshcat server starts and prints its URL; Ctrl-C stops it."""
 
 from __future__ import annotations
 
@@ -13,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from wbik.data import SCENARIO_SUFFIXES
+from wbik.errors import InvalidTargetError, UnknownRobotError, UsageError
 
 HELP = "show a robot or play a scenario in meshcat (browser), or export it"
 EPILOG = ("Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  wbik view pincher --html "
@@ -46,7 +46,6 @@ def build_viewer(args: argparse.Namespace, server: bool):
     """The Viewer for ``args``: a robot scene, or a scenario's animation."""
     import pinocchio as pin
 
-    from wbik.errors import InvalidTargetError, UnknownRobotError
     from wbik.models import load
     from wbik.viz.viewer import Viewer, animation_viewer
 
@@ -91,8 +90,6 @@ def build_viewer(args: argparse.Namespace, server: bool):
 
 
 def run(args: argparse.Namespace) -> int:
-    from wbik.errors import UsageError
-
     offline = args.html is not None or args.screenshot is not None
     if args.open and offline:
         raise UsageError("--open serves the scene; it does not go with --html/--screenshot")

@@ -212,9 +212,7 @@ class Viewer:
         for index, (axis, rotation, color) in enumerate((("x", (0.0, 0.0, -np.pi / 2), 0xDD2222),
                                                          ("y", (0.0, 0.0, 0.0), 0x22BB22),
                                                          ("z", (np.pi / 2, 0.0, 0.0), 0x2244DD))):
-            transform = np.eye(4)
-            transform[:3, :3] = pin.rpy.rpyToMatrix(*rotation)
-            transform[index, 3] = 0.5 * scale
+            transform = pin.SE3(pin.rpy.rpyToMatrix(*rotation), 0.5 * scale * np.eye(3)[index]).homogeneous
             node[axis].set_object(mg.Cylinder(scale, 0.06 * scale), mg.MeshLambertMaterial(color=color))
             node[axis].set_transform(transform)
         node.set_transform(placement.homogeneous)
