@@ -14,8 +14,8 @@ import pinocchio as pin
 import pytest
 import umsgpack
 
-from wbik.scenarios import load_scenario
-from wbik.viz.scenario import animation_viewer, scenario_animation
+from wbik.scenarios import load_scenario, scenario_animation
+from wbik.viz.viewer import animation_viewer
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 MAX_HTML_BYTES = 20e6

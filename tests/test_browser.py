@@ -82,8 +82,8 @@ def test_bioloid_com_and_support_polygon_page():
 def test_walk_scenario_page_draws_the_robot():
     """``wbik view tasks/bioloid_walk_turn.yaml --html``: the walk's page loads without errors and
     shows the Bioloid (the screenshot stays in tests/artifacts/bioloid_walk_turn.png)."""
-    from wbik.scenarios import load_scenario
-    from wbik.viz.scenario import animation_viewer, scenario_animation
+    from wbik.scenarios import load_scenario, scenario_animation
+    from wbik.viz.viewer import animation_viewer
 
     task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_walk_turn.yaml"
     spec = load_scenario(task)
@@ -109,9 +109,9 @@ def wood_pixels(image: np.ndarray) -> int:
 def test_stair_walk_page_shows_the_staircase_and_the_floor_under_the_feet():
     """``wbik view tasks/bioloid_stairs.yaml``: the page draws the staircase (not only the robot), the
     floor grid at the soles' height, the camera on the robot (one step up and down, to keep it short)."""
-    from wbik.scenarios import load_scenario
+    from wbik.scenarios import load_scenario, scenario_animation
     from wbik.viz.environment import STAIR_COLORS
-    from wbik.viz.scenario import animation_viewer, scenario_animation
+    from wbik.viz.viewer import animation_viewer
 
     task = Path(__file__).resolve().parents[1] / "tasks" / "bioloid_stairs.yaml"
     spec = load_scenario(task)

@@ -126,7 +126,7 @@ def test_a_runner_returns_a_typed_report_with_the_animation_it_plays():
     assert report.verdict == "PASSED" and report.passed
     phases = report.figures["phases"]
     assert len(phases) == 2 and all(p["passed"] for p in phases)
-    # from the start through each phase: one sample at t = 0, then 30 per phase (wbik.viz.scenario)
+    # from the start through each phase: one sample at t = 0, then 30 per phase (wbik.scenarios.wholebody)
     assert report.animation.frames == 1 + 2 * 30
     np.testing.assert_allclose(report.animation.configurations[-1], phases[-1]["q"], atol=1e-12)
     as_json = report.as_dict()

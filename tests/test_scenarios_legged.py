@@ -185,7 +185,7 @@ def test_solo12_animation_returns_to_the_start_between_phases_that_start_there(s
     """Phases with continue_from: start are each played from the standing pose: the animation's
     keyframes are answer 1, start, answer 2, start, ..., answer 6 (answer 5 is followed by the start,
     from which the three-feet phase was solved)."""
-    from wbik.viz.scenario import SAMPLES_PER_PHASE
+    from wbik.scenarios.wholebody import SAMPLES_PER_PHASE
 
     animation = solo.report.animation
     keyframes = animation.configurations[::SAMPLES_PER_PHASE]

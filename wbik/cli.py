@@ -27,10 +27,9 @@ EXIT_BROKEN_PIPE = 141  # standard output's reader went away (128 + SIGPIPE)
 
 def checked_subcommand(module: ModuleType) -> ModuleType:
     """``module`` if it has ``HELP``, a docstring and ``run``, else an error (exit code 3)."""
-    missing = [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
-                                     ("docstring", bool(module.__doc__)),
-                                     ("run(args)", callable(getattr(module, "run", None)))) if not ok]
-    if missing:
+    if missing := [what for what, ok in (("HELP", isinstance(getattr(module, "HELP", None), str)),
+                                         ("docstring", bool(module.__doc__)),
+                                         ("run(args)", callable(getattr(module, "run", None)))) if not ok]:
         raise ImportError(f"{module.__name__} has no {', '.join(missing)}; every subcommand module needs "
                           "them (see wbik.cli)", name=module.__name__)
     return module

@@ -29,32 +29,23 @@ class Rule:
             raise ValueError(f"unknown operator {self.op!r}; use one of {sorted(OPERATORS)}")
 
 
-def _entry(key: str, value, where: str) -> tuple[object, bool, str]:
-    if isinstance(value, Mapping):
-        unknown = set(value) - {"threshold", "expected_to_fail", "why"}
-        if unknown or "threshold" not in value:
-            raise ExpectationError(
-                f"{where}: expectation {key!r} as a mapping needs 'threshold' and may have "
-                f"'expected_to_fail' and 'why'; got keys {sorted(value)}")
-        expected_to_fail = bool(value.get("expected_to_fail", False))
-        why = str(value.get("why", "") or "")
-        if expected_to_fail and not why.strip():
-            raise ExpectationError(f"{where}: expectation {key!r} is expected_to_fail but gives no 'why'")
-        return value["threshold"], expected_to_fail, why
-    return value, False, ""
-
-
 def evaluate(expect: Mapping | None, figures: Mapping[str, object], rules: Mapping[str, Rule],
              where: str = "expect") -> list[dict]:
     """One check per key of ``expect`` (see the module docstring); ``figures`` holds the values."""
     expect = dict(expect or {})
-    unknown = sorted(set(expect) - set(rules))
-    if unknown:
+    if unknown := sorted(set(expect) - set(rules)):
         raise ExpectationError(f"{where}: unknown expectation key(s) {unknown}; known keys: {sorted(rules)}")
     checks = []
     for key, value in expect.items():
         rule = rules[key]
-        threshold, expected_to_fail, why = _entry(key, value, where)
+        entry = value if isinstance(value, Mapping) else {"threshold": value}
+        if set(entry) - {"threshold", "expected_to_fail", "why"} or "threshold" not in entry:
+            raise ExpectationError(f"{where}: expectation {key!r} as a mapping needs 'threshold' and may "
+                                   f"have 'expected_to_fail' and 'why'; got keys {sorted(entry)}")
+        threshold, expected_to_fail = entry["threshold"], bool(entry.get("expected_to_fail", False))
+        why = str(entry.get("why", "") or "")
+        if expected_to_fail and not why.strip():
+            raise ExpectationError(f"{where}: expectation {key!r} is expected_to_fail but gives no 'why'")
         numeric = isinstance(threshold, (int, float)) and not isinstance(threshold, bool)
         if not (numeric or (rule.op == "==" and isinstance(threshold, bool))):
             wanted = "a number or a bool" if rule.op == "==" else "a number"

@@ -1,5 +1,4 @@
-"""The schemas of scenario files: nodes of robots, methods and QP backends, the keys the kinds share and
-:func:`validate`, the check of a file (a copy with every default filled in)."""
+"""Scenario file schemas: robot, method and QP backend nodes, the keys kinds share, and :func:`validate`."""
 
 from __future__ import annotations
 
@@ -9,6 +8,8 @@ from pathlib import Path
 from wbik.errors import MissingDependencyError, UnknownMethodError, UnknownRobotError, did_you_mean
 from wbik.models import URDF_PARAMS, builder_parameters, robot_entries
 from wbik.models.erd import example_robot_name, example_robot_names
+from wbik.motion.profiles import ALIASES, LAWS
+from wbik.motion.timing import MODES
 from wbik.options import UnknownOptionError, option_schema
 from wbik.qp.backends import BACKEND_OPTIONS, DEFAULT, available, resolve
 from wbik.qp.support_polygon import sole_rectangle
@@ -180,8 +181,7 @@ SOLE_SHAPES = ("size", "corners", "point")  # the keys of a ``soles`` entry that
 
 def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     """Checked ``soles`` entries into ``robot_params.soles`` ({frame: (k, 3) contact points})."""
-    entries = spec.get("soles") or []
-    if not entries:
+    if not (entries := spec.get("soles")):
         return
     if "soles" not in builder_parameters(spec["robot"]):
         ctx.fail(join(path, "soles"), f"robot {spec['robot']!r} declares its own soles (robot.soles); "
@@ -200,18 +200,8 @@ def apply_soles(spec: dict, path: str, ctx: Context) -> None:
     spec["robot_params"] = {**(spec.get("robot_params") or {}), "soles": points}
 
 
-def time_laws() -> tuple[str, ...]:
-    """The time-law names a ``timing.law`` takes (wbik.motion.profiles)."""
-    from wbik.motion.profiles import ALIASES, LAWS
-
-    return (*LAWS, *ALIASES)
-
-
-def timing_modes() -> tuple[str, ...]:
-    """The ``timing.mode`` words (wbik.motion.timing.MODES)."""
-    from wbik.motion.timing import MODES
-
-    return MODES
+time_laws = (*LAWS, *ALIASES)  # the time-law names a ``timing.law`` takes
+timing_modes = MODES  # the ``timing.mode`` words
 
 
 def expect_block(rules: Mapping, nullable: bool = True, **more: Key) -> Map:

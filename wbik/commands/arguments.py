@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import json
+
+from wbik.errors import UsageError
+from wbik.files import json_plain
 
 
 def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
@@ -16,7 +20,6 @@ def add_robot_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_robot_chain(args: argparse.Namespace):
     """(robot, chain) named by ROBOT and ``--chain`` or ``--base``/``--tip`` (else a UsageError)."""
-    from wbik.errors import UsageError
     from wbik.models import load
 
     base, tip = getattr(args, "base", None), getattr(args, "tip", None)
@@ -29,6 +32,7 @@ def load_robot_chain(args: argparse.Namespace):
     return robot, chain
 
 
-def add_json_argument(parser: argparse.ArgumentParser) -> None:
-    """``--json``: print JSON instead of the text summary."""
-    parser.add_argument("--json", action="store_true", help="print JSON")
+def print_json(data) -> int:
+    """Print ``data`` as indented JSON (NumPy values made plain); 0, the exit code of a printed answer."""
+    print(json.dumps(json_plain(data), indent=2))
+    return 0

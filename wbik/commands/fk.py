@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
-from wbik.commands.arguments import add_json_argument, add_robot_arguments, load_robot_chain
+from wbik.commands.arguments import add_robot_arguments, load_robot_chain, print_json
 
 HELP = "forward kinematics of a chain"
 
@@ -16,7 +15,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_robot_arguments(parser)
     parser.add_argument("--q", type=float, nargs="+", required=True, help="joint values, chain order")
     parser.add_argument("--deg", action="store_true", help="revolute joint values are in degrees")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,8 +31,7 @@ def run(args: argparse.Namespace) -> int:
            "q": q.tolist(), "position": pose.translation.tolist(), "rotation": pose.rotation.tolist(),
            "rpy": rpy.tolist(), "in_limits": chain.in_limits(q)}
     if args.json:
-        print(json.dumps(out, indent=2))
-        return 0
+        return print_json(out)
     print(f"{chain.tip_frame} in {chain.base_frame} at q = {np.array2string(q, precision=6)}")
     print(f"  position (m): {np.array2string(pose.translation, precision=6)}")
     print(f"  rpy (rad):    {np.array2string(rpy, precision=6)}  (R = Rz(y) Ry(p) Rx(r))")

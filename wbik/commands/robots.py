@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import json
 
-from wbik.commands.arguments import add_json_argument
+from wbik.commands.arguments import print_json
 
 HELP = "list the built-in robots (and their chains with -v)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-v", "--verbose", action="store_true", help="load each robot and list its chains")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -27,8 +26,7 @@ def run(args: argparse.Namespace) -> int:
                                            "joints": list(spec.joints)} for spec in robot.chains.values()}
         listing[name] = entry
     if args.json:
-        print(json.dumps(listing, indent=2))
-        return 0
+        return print_json(listing)
     for name, entry in listing.items():
         print(f"{name:10s} {entry['description']}")
         for chain, spec in entry.get("chains", {}).items():

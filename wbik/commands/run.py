@@ -1,11 +1,12 @@
-"""Run a YAML/JSON scenario file. Its 'kind' selects the runner (wholebody_ik, ...). Prints a summary;
---output writes the JSON report after every phase. A task shipped with wbik is also found by its name
-(wbik run bioloid_balance); 'wbik tasks' lists them."""
+"""Run a scenario file (YAML, JSON or TOML; its 'kind' selects the runner) or a shipped task by its name
+(wbik run bioloid_balance; 'wbik tasks' lists them). --output writes the JSON report after every phase."""
 
 from __future__ import annotations
 
 import argparse
-import json
+
+from wbik.commands.arguments import print_json
+from wbik.errors import UsageError
 
 HELP = "run a scenario file (e.g. tasks/bioloid_balance.yaml, or a shipped task's name)"
 
@@ -22,9 +23,8 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from wbik.data import task_path
-    from wbik.errors import UsageError
     from wbik.scenarios import format_report, load_scenario, run_scenario_report
-    from wbik.scenarios.kinds import KIND_REGISTRY, json_default
+    from wbik.scenarios.kinds import KIND_REGISTRY
 
     if args.output is not None and Path(args.output).is_dir():
         raise UsageError(f"--output {args.output!r} is a folder; it names the JSON report file, "
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
         spec["backend"] = args.backend
     report = run_scenario_report(spec, output=args.output, source=taskfile)  # checks the backend too
     if args.json:
-        print(json.dumps(report.as_dict(), indent=2, default=json_default))
+        print_json(report.as_dict())
     else:
         print(format_report(report))
     return 0 if report.passed else 1  # 1: ran, but did not pass

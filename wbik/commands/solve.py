@@ -4,11 +4,10 @@ the joints, the errors (shared FK check) and the time."""
 from __future__ import annotations
 
 import argparse
-import json
 
 import numpy as np
 
-from wbik.commands.arguments import add_json_argument, add_robot_arguments, load_robot_chain
+from wbik.commands.arguments import add_robot_arguments, load_robot_chain, print_json
 
 HELP = "solve IK for one target"
 
@@ -23,13 +22,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--q0", type=float, nargs="+", help="start / current joints (default: nominal)")
     parser.add_argument("--timeout", type=float, default=0.05, help="time budget in s (default 0.05)")
     parser.add_argument("--all", action="store_true", help="every solution (closed-form methods)")
-    add_json_argument(parser)
+    parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def run(args: argparse.Namespace) -> int:
     import pinocchio as pin
 
     from wbik.options import TIMEOUT_S
+    from wbik.scenarios.wholebody import split_diagnosis
     from wbik.solvers.method_registry import solver as make_solver
     from wbik.targets import Target
 
@@ -37,21 +37,17 @@ def run(args: argparse.Namespace) -> int:
     robot, chain = load_robot_chain(args)
     solver = make_solver(args.method, robot, chain=chain.name, timeout_s=timeout)
     position = np.array(args.xyz)
-    target = (pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None
-              else Target(position))
+    target = pin.SE3(pin.rpy.rpyToMatrix(*args.rpy), position) if args.rpy is not None else Target(position)
     results = solver.solve_all(target) if args.all else [solver.solve(target, args.q0)]
     family = solver_family(solver, "position" if args.rpy is None else "pose")
     if args.json:
         payload = [dict(r.as_dict(), **({"family": family} if family else {})) for r in results]
-        print(json.dumps(payload if args.all else payload[0], indent=2))
+        print_json(payload if args.all else payload[0])
     else:
         if not results:
             print("no solution")
-        for result in results:
-            diagnosis = result.diagnosis
-            reason = result.reason
-            if diagnosis is not None and diagnosis.summary():  # (printed below, line by line)
-                reason = reason.removesuffix(diagnosis.summary()).rstrip("; ")
+        for result in results:  # the diagnosis's summary printed below it, line by line
+            reason, diagnosis = split_diagnosis(result.reason, result.as_dict().get("diagnosis"))
             status = "solved" if result.success else f"NOT solved: {reason}"
             solved_by = f" (closed form: {family})" if family else ""
             print(f"{result.method} on {robot.name}.{solver.chain.name}{solved_by}: {status}")
@@ -61,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"  position error {result.position_error:.3e} m, rotation error "
                   f"{result.rotation_error:.3e} rad, {result.iterations} iterations, "
                   f"{result.time_s * 1e3:.3f} ms")
-            for line in diagnosis.lines() if diagnosis is not None else ():
+            for line in diagnosis:
                 print(f"  {line}")
     return 0 if results and all(r.success for r in results) else 1  # 1: ran, but not solved
 

@@ -1,23 +1,20 @@
-"""Run a study file from comparisons/ (default: comparisons/default.yaml; a file's description: says what
-it compares, its reference: block the published figures it is set beside): raw rows, summary,
-Mann-Whitney tests, figures and a Markdown + HTML report in the output folder. An interrupted run
-resumes where it stopped when run again with the same output folder.
+"""Run a study file (default: comparisons/default.yaml): raw rows, summary, Mann-Whitney tests, figures and
+a Markdown + HTML report in the output folder, where an interrupted run resumes when run again.
 
-With ``--compare-to OLD`` (the output folder of an earlier run on the same targets) the report gains
-a comparison with OLD, per case and method, paired target by target, and the command exits 1 when a
-method regressed under the study file's ``regression:`` rule (:mod:`wbik.study.compare`), 4 when the
-two runs' targets or settings differ (nothing compared): a regression gate for CI."""
+With ``--compare-to OLD`` (an earlier run's output folder) the report compares the runs target by target,
+per case and method: a regression gate for CI (the study file's ``regression:`` rule; exit codes below)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+from wbik.errors import UsageError
+
 HELP = "run a comparison study of IK methods and write its report"
 EPILOG = ("Exit codes: 0 done (no regression), 1 a method regressed against --compare-to OLD, 2 bad input "
           "or usage, 3 internal error, 4 OLD's targets or settings differ from this run's (not compared).")
-EXIT_OTHER_TARGETS = 4
-"""--compare-to OLD holds a run on other targets or settings: nothing was compared."""
+EXIT_OTHER_TARGETS = 4  # --compare-to OLD holds a run on other targets or settings: nothing compared
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -56,15 +53,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def check_output_folder(output: Path | None) -> None:
     """UsageError if ``--output`` names something that cannot be the output folder."""
-    from wbik.errors import UsageError
-
     if output is not None and output.exists() and not output.is_dir():
         raise UsageError(f"--output {str(output)!r} is an existing file; the study writes a folder of "
                          "results there: pass a folder path (new or from an earlier run)")
 
 
 def run(args: argparse.Namespace) -> int:
-    from wbik.errors import UsageError
     from wbik.study import load_study, run_study
     from wbik.study.compare import compare_runs, refusal_before_the_run, summary_lines
     from wbik.study.definition import with_overrides
@@ -79,15 +73,14 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--report-only reads the results in the output folder; --fresh would delete "
                          "them: give one or the other")
 
-    compare_to = getattr(args, "compare_to", None)
+    compare_to = args.compare_to
     if compare_to is not None and not (compare_to / "study.json").is_file():
         raise UsageError(f"--compare-to {str(compare_to)!r} holds no results of a study (no study.json): "
                          "pass the output folder of an earlier 'wbik study' run")
     study = with_overrides(load_study(args.file),
         poses=args.poses, methods=[m.strip() for m in args.methods.split(",")] if args.methods else None,
         robot=args.robot, chain=args.chain, chunk_size=args.chunk_size, seed=args.seed, name=args.name,
-        budget_curve_poses=getattr(args, "budget_curves", None),
-        figures=False if getattr(args, "no_figures", False) else None)
+        budget_curve_poses=args.budget_curves, figures=False if args.no_figures else None)
     # other settings or cases: nothing to compare, so nothing to run
     if compare_to is not None and (differs := refusal_before_the_run(study, compare_to)):
         print("\n".join([f"not compared with {compare_to}: the runs' targets differ (nothing run):",
@@ -115,6 +108,4 @@ def run(args: argparse.Namespace) -> int:
     if comparison is None:
         return 0
     print("\n".join(summary_lines(comparison)))
-    if comparison.refused:
-        return EXIT_OTHER_TARGETS
-    return 1 if comparison.regressions else 0
+    return EXIT_OTHER_TARGETS if comparison.refused else int(bool(comparison.regressions))

@@ -1,10 +1,10 @@
-"""Show ROBOT (built-in name or URDF path) at a configuration, or play the motion of a TASKFILE
-(tasks/*.yaml). Without --html/--screenshot a local meshcat server starts and its URL is printed; Ctrl-C
-stops it."""
+"""Show ROBOT (built-in name or URDF path) at a configuration, or play a TASKFILE's motion (tasks/*.yaml).
+Without --html/--screenshot a local meshcat server starts and prints its URL; Ctrl-C stops it."""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from wbik.data import SCENARIO_SUFFIXES
+from wbik.errors import InvalidTargetError, UnknownRobotError, UsageError
 
 HELP = "show a robot or play a scenario in meshcat (browser), or export it"
 EPILOG = ("Examples: wbik view ur5 --q 0 -1.57 1.57 -1.57 -1.57 0 --frames;  wbik view pincher --html "
@@ -41,44 +42,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="serve this long then stop (default: until Ctrl-C)")
 
 
-def revolute_mask(model) -> np.ndarray:
-    """True at the q indices of 1-DOF bounded revolute joints (the ones --deg converts)."""
-    mask = np.zeros(model.nq, dtype=bool)
-    mask[[joint.idx_q for joint in model.joints[1:] if joint.nq == 1
-          and joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]] = True
-    return mask
-
-
 def build_viewer(args: argparse.Namespace, server: bool):
     """The Viewer for ``args``: a robot scene, or a scenario's animation."""
     import pinocchio as pin
 
-    from wbik.errors import InvalidTargetError, UnknownRobotError
     from wbik.models import load
-    from wbik.viz import Viewer
+    from wbik.viz.viewer import Viewer, animation_viewer
 
     source = Path(args.robot)
     if source.suffix.lower() in SCENARIO_SUFFIXES:
-        from wbik.viz.scenario import scenario_viewer
+        from wbik.scenarios import scenario_animation
 
-        return scenario_viewer(source, server=server, style=args.style)
+        return animation_viewer(scenario_animation(source)[1], server, args.style, f"wbik: {source.stem}")
     try:
         robot = load(args.robot)
     except UnknownRobotError as exc:
         raise UnknownRobotError(args.robot, exc.known, hint="Pass a built-in name ('wbik robots' lists "
                                 "them), the path of a .urdf file, or a scenario file (.yaml)") from None
     viewer = Viewer(robot, server=server, style=args.style)
-    robot = viewer.robot
     chain = robot.chain(args.chain) if args.chain else None
     if args.q is not None:
         q = np.asarray(args.q, dtype=float)
-        if args.deg:
-            if chain is not None or q.size != robot.model.nq:
-                values_chain = chain or robot.chain()
-                q = values_chain.check_q(q)
-                q = np.where(values_chain.is_prismatic, q, np.radians(q))
-            else:
-                q = np.where(revolute_mask(robot.model), np.radians(q), q)
+        if args.deg and (chain is not None or q.size != robot.model.nq):  # one chain's values
+            values_chain = chain or robot.chain()
+            q = values_chain.check_q(q)
+            q = np.where(values_chain.is_prismatic, q, np.radians(q))
+        elif args.deg:  # the full configuration's 1-DOF bounded revolute joints
+            revolute = [joint.idx_q for joint in robot.model.joints[1:] if joint.nq == 1 and
+                        joint.shortname().startswith("JointModelR") and "Unbounded" not in joint.shortname()]
+            q[revolute] = np.radians(q[revolute])
         viewer.show(q, chain)
     if args.frames:
         viewer.show_frames(chain)
@@ -86,10 +78,8 @@ def build_viewer(args: argparse.Namespace, server: bool):
         values = np.asarray(args.target, dtype=float)
         if values.size not in (3, 6):
             raise InvalidTargetError(f"--target takes X Y Z or X Y Z ROLL PITCH YAW; got {values.size}")
-        target = values[:3]
-        if values.size == 6:
-            angles = np.radians(values[3:]) if args.deg else values[3:]
-            target = pin.SE3(pin.rpy.rpyToMatrix(*angles), values[:3])
+        angles = np.radians(values[3:]) if args.deg else values[3:]
+        target = pin.SE3(pin.rpy.rpyToMatrix(*angles), values[:3]) if values.size == 6 else values[:3]
         viewer.show_target(target, chain or robot.chain())
     if args.com:
         support = viewer.show_com_and_polygon()
@@ -100,8 +90,6 @@ def build_viewer(args: argparse.Namespace, server: bool):
 
 
 def run(args: argparse.Namespace) -> int:
-    from wbik.errors import UsageError
-
     offline = args.html is not None or args.screenshot is not None
     if args.open and offline:
         raise UsageError("--open serves the scene; it does not go with --html/--screenshot")
@@ -110,24 +98,20 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{option} {str(path)!r} is a folder; it names the file to write")
     if args.seconds is not None and not args.seconds >= 0:
         raise UsageError(f"--seconds must be >= 0, got {args.seconds}")
+    viewer = build_viewer(args, server=not offline)
     if offline:
-        viewer = build_viewer(args, server=False)
-        html_path = args.html
-        if html_path is not None:
-            viewer.export_html(html_path)
-            print(f"wrote {html_path} (self-contained: open it in any browser, no server needed)")
+        if args.html is not None:
+            viewer.export_html(args.html)
+            print(f"wrote {args.html} (self-contained: open it in any browser, no server needed)")
         if args.screenshot is not None:
             from wbik.viz.browser import find_chromium, render
 
             find_chromium()  # fail early, with the install hint, before exporting
-            page = html_path or args.screenshot.with_suffix(".html")
-            if html_path is None:
-                viewer.export_html(page)
+            page = args.html or viewer.export_html(args.screenshot.with_suffix(".html"))
             result = render(page, args.screenshot)
             print(f"wrote {args.screenshot}" + (f" (page errors: {result.errors})" if result.errors else ""))
         return 0
-    viewer = build_viewer(args, server=True)
-    try:
+    with viewer, contextlib.suppress(KeyboardInterrupt):  # Ctrl-C stops the server
         print(f"meshcat viewer for {viewer.title.removeprefix('wbik: ')}: {viewer.url}")
         if args.open:
             import webbrowser
@@ -139,9 +123,5 @@ def run(args: argparse.Namespace) -> int:
             print("serving; press Ctrl-C to stop", flush=True)
             while True:
                 time.sleep(3600)
-        time.sleep(max(args.seconds, 0.0))
-    except KeyboardInterrupt:
-        pass
-    finally:
-        viewer.close()
+        time.sleep(args.seconds)
     return 0

@@ -6,6 +6,9 @@ import json
 import tomllib
 from pathlib import Path
 
+import yaml
+
+from wbik.errors import UnsupportedError
 from wbik.files import atomic_write_text
 from wbik.scenarios.kinds import (
     KIND_REGISTRY,
@@ -20,7 +23,8 @@ from wbik.scenarios.kinds import (
 )
 
 __all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "format_report",
-           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report"]
+           "load_scenario", "register_kind", "report_verdict", "run_scenario", "run_scenario_report",
+           "scenario_animation"]
 
 
 def _read(path: Path):
@@ -42,13 +46,7 @@ def _read(path: Path):
                                 f"(one of {', '.join(kind_names())})")
     suffix = path.suffix.lower()
     try:
-        if suffix == ".json":
-            return json.loads(text)
-        if suffix == ".toml":
-            return tomllib.loads(text)
-        import yaml
-
-        return yaml.safe_load(text)
+        return {".json": json.loads, ".toml": tomllib.loads}.get(suffix, yaml.safe_load)(text)
     except Exception as exc:  # yaml, json and tomllib raise several types
         raise ScenarioFileError(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
 
@@ -60,13 +58,11 @@ def load_scenario(path: str | Path) -> dict:
     if spec is None:
         raise ScenarioFileError(f"{path}: the file is empty (only comments or null); a scenario is "
                                 f"a mapping with a 'kind' (one of {', '.join(kind_names())})")
-    if not isinstance(spec, dict):
-        raise ScenarioFileError(f"{path}: a scenario is a mapping with a 'kind' (one of "
-                                f"{', '.join(kind_names())}), got a {type(spec).__name__}")
     from wbik.scenario_schema import validate  # (it imports this package's kinds)
 
-    spec.setdefault("name", path.stem)
-    validate(spec, str(path))
+    if isinstance(spec, dict):
+        spec.setdefault("name", path.stem)
+    validate(spec, str(path))  # (a ScenarioFileError for anything but a mapping)
     return spec
 
 
@@ -75,13 +71,9 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
     """The :class:`ScenarioReport` of a scenario (file or dict); ``output``: the JSON report, each phase."""
     from wbik.scenario_schema import validate
 
-    if isinstance(scenario, dict):
-        spec = scenario
-        source = source or f"scenario {spec.get('name') or spec.get('kind')!r}"
-    else:
-        spec = load_scenario(scenario)
-        source = source or str(scenario)
-    checked = validate(spec, source)
+    spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
+    named = str(scenario) if spec is not scenario else f"scenario {spec.get('name') or spec.get('kind')!r}"
+    checked = validate(spec, source or named)
     kind = KIND_REGISTRY.get(checked["kind"])
 
     def write(report: ScenarioReport) -> None:
@@ -100,6 +92,15 @@ def run_scenario(scenario: str | Path | dict, output: str | Path | None = None,
                  source: str | None = None) -> dict:
     """:func:`run_scenario_report`'s JSON report."""
     return run_scenario_report(scenario, output, source).as_dict()
+
+
+def scenario_animation(path: str | Path, spec: dict | None = None):
+    """(report, animation) of the scenario in ``path`` (or of the loaded ``spec`` ``path`` names)."""
+    report = run_scenario_report(Path(path) if spec is None else spec, source=str(path))
+    if report.animation is None:
+        raise UnsupportedError(f"the {report.kind!r} scenario in {path} produced no configurations to play "
+                               f"(verdict {report.verdict})")
+    return report, report.animation
 
 
 def format_report(report: ScenarioReport | dict) -> str:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, reduce
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -27,7 +27,6 @@ KIND_MODULES: list = []  # the registry's sources besides wbik.catalog and entry
 VERDICTS = ("PASSED", "FAILED", "informational")
 
 
-# -- errors -----------------------------------------------------------------------------------------
 class ScenarioError(WbikError, ValueError):
     """A scenario file that cannot be read or names something that does not exist."""
 
@@ -60,7 +59,6 @@ class ScenarioKindImportError(ScenarioKindError, RegistryImportError, MissingDep
     """A module of scenario kinds that cannot be imported."""
 
 
-# -- the report ------------------------------------------------------------------------------------
 @dataclass
 class ScenarioReport:
     """A runner's ``figures`` (JSON-friendly, judged entries with their ``expectations``), the ``verdict``
@@ -121,7 +119,6 @@ def json_default(value):
     raise TypeError(f"not JSON serialisable: {type(value)}")
 
 
-# -- the kinds -------------------------------------------------------------------------------------
 Progress = Callable[[ScenarioReport], None] | None
 Runner = Callable[[dict, Progress], ScenarioReport]
 
@@ -162,10 +159,8 @@ class KindRun:
 
     def finished(self) -> ScenarioReport:
         """The report, with the entries' animations one after the other (None without any)."""
-        joined = self.animations[0] if self.animations else None
-        for animation in self.animations[1:]:
-            joined = joined.then(animation, pause=self.pause)
-        self.report.animation = joined
+        self.report.animation = reduce(lambda first, then: first.then(then, pause=self.pause),
+                                       self.animations) if self.animations else None
         return self.report
 
 

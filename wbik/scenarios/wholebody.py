@@ -1,8 +1,7 @@
 """Scenario kind ``wholebody_ik``: phases solved by the QP layer, each from the previous phase's answer
 (keys: docs/formats/task-files.md). By default a phase expects success, contacts held to 1e-6 m / rad, the
 CoM ``margin`` inside the support polygon, no joint beyond its limit and, with ``collisions``, every pair
-at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged).
-"""
+at least the safety distance apart; ``methods`` are compared on every phase (reported, not judged)."""
 
 from __future__ import annotations
 
@@ -10,7 +9,7 @@ import numpy as np
 
 from wbik.collision import Obstacle, robot_collision_model
 from wbik.errors import SoleError
-from wbik.expectations import Rule, evaluate, verdict
+from wbik.expectations import Rule, judge
 from wbik.options import UnknownOptionError, option_schema
 from wbik.qp.contacts import HeldFrame
 from wbik.qp.diagnosis import report_lines
@@ -54,6 +53,8 @@ from wbik.solvers.method_registry import method_factory, methods, solver
 from wbik.wholebody.problem import FRAMES, WholeBody
 
 CONTACT_TOLERANCE = 1e-6  # m for a contact's position error, rad for its rotation error
+PHASE_SECONDS = 1.0  # s of playback per phase
+SAMPLES_PER_PHASE = 30
 
 PHASE_RULES = {
     "success": Rule("success", "=="),
@@ -65,7 +66,6 @@ PHASE_RULES = {
 }  # (the limit excess of a prismatic joint is in m)
 
 
-# -- the schema ------------------------------------------------------------------------------------
 def wholebody_schema() -> Map:
     phase = Map({
         "name": Key(Text()),
@@ -112,8 +112,7 @@ def wholebody_schema() -> Map:
                          "needs a top-level 'collisions' block (the pairs whose distance it judges)")
             entry.setdefault("name", f"phase {index + 1}")
             entry.setdefault("support", list(entry["contacts"]))
-            if entry.get("margin") is None:
-                entry["margin"] = spec["margin"]
+            entry.setdefault("margin", spec["margin"])
             for item_index, item in enumerate(entry["min_distance"]):
                 if len(item["frames"]) != 2:
                     ctx.fail(f"phases[{index}].min_distance[{item_index}].frames",
@@ -140,8 +139,7 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     entries = []
     for index, item in enumerate(spec["methods"]):
         entry = {"method": item, "options": {}} if isinstance(item, str) else dict(item)
-        entry.setdefault("label", entry["method"])
-        entry.setdefault("max_iterations", None)
+        entry = {"label": entry["method"], "max_iterations": None, **entry}
         options = option_schema(method_factory(entry["method"]), 2, skip=("max_iterations",),
                                 owner=f"method {entry['method']!r}", unknown_error=UnknownOptionError)
         entry["options"] = options.check(entry["options"], f"methods[{index}].options", ctx)
@@ -151,10 +149,8 @@ def _checked_methods(spec: dict, ctx: Context) -> list[dict]:
     return entries
 
 
-# -- the checks of one phase -----------------------------------------------------------------------
 def phase_checks(problem, q0: np.ndarray, solution, collisions=None) -> dict:
-    """The checks of a phase's answer (the shared check's ``solution``): contact drifts in m and rad, CoM,
-    limits and, with ``collisions`` (CollisionAvoidance), the closest pair."""
+    """A phase's checks: contact drifts (m, rad), CoM, limits and, with ``collisions``, the closest pair."""
     robot, q = problem.robot, solution.q
     kinematics = Kinematics(robot.model, q)
     contact_errors = {c.frame: dict(zip(("position", "rotation"), c.drift(kinematics), strict=True))
@@ -186,7 +182,6 @@ def collision_avoidance(robot, collisions: dict | None):
     return CollisionAvoidance(model, collisions["safety_distance"], collisions["influence_distance"])
 
 
-# -- the runner ------------------------------------------------------------------------------------
 def phase_problem(robot, q: np.ndarray, phase: dict, index: int, extra: list, regularization: bool = True):
     """The phase as a WholeBody from q (contacts held there), with the constraints ``extra``."""
     tasks = []
@@ -219,8 +214,7 @@ def compare_methods(robot, q: np.ndarray, phase: dict, index: int, methods: list
         if (label, budget) not in solvers:
             solvers[label, budget] = solver(entry["method"], robot, max_iterations=budget, **entry["options"])
         result = solvers[label, budget].solve(problem, q)
-        compared[label] = {**result.as_dict(), "task_error": result.task_error,
-                           "max_iterations": budget}
+        compared[label] = {**result.as_dict(), "task_error": result.task_error, "max_iterations": budget}
     return compared
 
 
@@ -243,11 +237,10 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         extra = ([LockedJoints(list(phase["lock"]))] if phase["lock"] else []) + (
             [collision_constraint] if collision_constraint is not None else [])
         problem = phase_problem(robot, q, phase, index, extra, regularization=False)
-        settings = ("qp", backend, float(phase["max_step"]), int(phase["max_iterations"]),
-                    phase["regularization"])
-        if settings not in solvers:
-            solvers[settings] = solver("qp", robot, backend=backend, max_step=settings[2],
-                                       max_iterations=settings[3], regularization=settings[4])
+        settings = (float(phase["max_step"]), int(phase["max_iterations"]), phase["regularization"])
+        if settings not in solvers:  # (compare_methods keeps its solvers by (label, budget))
+            solvers[settings] = solver("qp", robot, backend=backend, max_step=settings[0],
+                                       max_iterations=settings[1], regularization=settings[2])
         try:
             solution = solvers[settings].solve(problem, q)
         except DegenerateSupportPolygonError as exc:
@@ -266,14 +259,13 @@ def run_wholebody_ik(spec: dict, on_progress: Progress = None) -> ScenarioReport
         if collision_constraint is not None:
             expect["collision_distance_min_m"] = collision_constraint.safety - 1e-9
         expect.update(phase["expect"] or {})
-        expectations = evaluate(expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
-        entry = {
-            "name": phase["name"], "passed": verdict(expectations) != "FAILED", "success": solution.success,
-            "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
-            "task_errors": solution.task_errors, "checks": checks, "expect": expect,
-            "expectations": expectations, "contacts": list(phase["contacts"]), "support": support,
+        entry = judge({
+            "name": phase["name"], "success": solution.success, "reason": solution.reason,
+            "iterations": solution.iterations, "time_s": solution.time_s, "task_errors": solution.task_errors,
+            "checks": checks, "expect": expect, "contacts": list(phase["contacts"]), "support": support,
             "margin": margin, "q": solution.q.tolist(),
-            "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict()}
+            "diagnosis": None if solution.diagnosis is None else solution.diagnosis.as_dict(),
+        }, expect, figures, PHASE_RULES, f"phase {phase['name']!r} expect")
         if spec["methods"]:
             entry["methods"] = compare_methods(robot, q, phase, index, spec["methods"], solvers, extra)
         run.add(entry)
@@ -292,10 +284,9 @@ def moved_frame(spec: dict) -> str | None:
 
 
 def wholebody_animation(robot, spec: dict, start: np.ndarray, phases: list[dict]):
-    """From the start through each phase's answer, with its support and contacts (and the way back to
-    where a ``continue_from: start`` phase begins)."""
+    """From the start through each phase's answer, with its support and contacts (and back to the start
+    of a ``continue_from: start`` phase)."""
     from wbik.viz.animation import Animation
-    from wbik.viz.scenario import PHASE_SECONDS, SAMPLES_PER_PHASE
 
     stops = []  # (configuration, support, contacts) of each keyframe
     origin = shown = np.asarray(start, dtype=float)  # where the next phase starts, where the robot is
@@ -319,30 +310,33 @@ def format_method(label: str, figures: dict) -> str:
     lines = [f"      {label}: {'solved' if figures['success'] else 'not solved'}; {margin_text}, worst task "
              f"error {figures['task_error']:.2e}, contact drift {figures['contact_drift']:.1e}, "
              f"{figures['time_s'] * 1e3:.1f} ms, {figures['iterations']} it"]
-    diagnosis = figures.get("diagnosis")
+    reason, diagnosis = split_diagnosis(figures["reason"], figures.get("diagnosis"))
     if not figures["success"]:
-        lines.append(f"        why: {_without_summary(figures['reason'], diagnosis)}")
-    lines += [f"        {text}" for text in (report_lines(diagnosis) if diagnosis else ())]
+        lines.append(f"        why: {reason}")
+    lines += [f"        {text}" for text in diagnosis]
     # a peer's "unsupported by PEER: ...", or another method's words
     lines += [f"        {item if item.startswith('unsupported by ') else f'cannot express: {item}'}"
               for item in figures["unsupported"]]
     return "\n".join(lines)
 
 
-def _without_summary(reason: str, diagnosis: dict | None) -> str:
-    summary = (diagnosis or {}).get("summary") or ""
-    return reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason
+def split_diagnosis(reason: str, diagnosis: dict | None) -> tuple[str, list[str]]:
+    """``reason`` without the QP diagnosis summary at its end, and the diagnosis (JSON form) as lines."""
+    if not diagnosis:
+        return reason, []
+    summary = diagnosis.get("summary") or ""
+    return (reason.removesuffix(summary).rstrip("; ") if summary and reason.endswith(summary) else reason,
+            report_lines(diagnosis))
 
 
 def format_report(report: dict) -> str:
     def describe(phase: dict) -> str:
         goal_errors = ", ".join(f"{k} {v:.2e}" for k, v in phase["task_errors"].items()
                                 if not k.startswith("Regularization"))
-        diagnosis = phase.get("diagnosis")
-        reason = _without_summary(phase["reason"], diagnosis)
+        reason, diagnosis = split_diagnosis(phase["reason"], phase.get("diagnosis"))
         text = (f"{'solved' if phase['success'] else 'best effort: ' + reason}; "
                 f"{phase['iterations']} it, {phase['time_s'] * 1e3:.1f} ms\n      task errors: {goal_errors}")
-        text += "".join(f"\n      {line}" for line in (report_lines(diagnosis) if diagnosis else ()))
+        text += "".join(f"\n      {line}" for line in diagnosis)
         if phase.get("methods"):
             text += "\n    compared (wbik.wholebody, the shared check):\n" + "\n".join(
                 format_method(label, figures) for label, figures in phase["methods"].items())

@@ -1,5 +1,4 @@
-"""Visualisation in meshcat: :class:`Viewer` draws robots, frames, IK targets, the CoM and support polygon
-and animations, with or without a server, and exports them as self-contained HTML pages."""
+"""Meshcat visualisation: :class:`Viewer` (robots, targets, CoM, animations; served or exported as HTML)."""
 
 from wbik.viz.environment import SceneBox
 from wbik.viz.scene import SceneRecorder, ServerWindow, scene_html

@@ -3,7 +3,6 @@ full configuration at each, :class:`Overlays` and fixed boxes (three.js interpol
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
@@ -64,12 +63,10 @@ class Animation:
         if np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError(f"animation {self.name!r}: times must be strictly increasing")
         overlays = self.overlays
-        zmp = overlays.zmp
-        if zmp is not None:
-            zmp = np.asarray(zmp, dtype=float)
-            if zmp.shape != (len(times), 3):
-                raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
-                                                f"sample ({len(times)}, 3), got {zmp.shape}")
+        zmp = None if overlays.zmp is None else np.asarray(overlays.zmp, dtype=float)
+        if zmp is not None and zmp.shape != (len(times), 3):
+            raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
+                                            f"sample ({len(times)}, 3), got {zmp.shape}")
         boxes = tuple(self.environment)
         if not all(isinstance(box, SceneBox) for box in boxes):
             raise InvalidConfigurationError(f"animation {self.name!r}: environment items must be SceneBox")
@@ -90,7 +87,6 @@ class Animation:
         """Seconds from the first sample to the last (0 for a still picture)."""
         return float(self.times[-1] - self.times[0])
 
-    # -- building ---------------------------------------------------------------------------------
     @classmethod
     def from_chain(cls, robot, chain, times, rows, reference: np.ndarray | None = None,
                    overlays: Overlays | None = None, name: str = "") -> Animation:
@@ -132,7 +128,6 @@ class Animation:
         merged = {box.name: box for box in (*self.environment, *boxes)}
         return replace(self, environment=tuple(merged.values()))
 
-    # -- combining and thinning -------------------------------------------------------------------
     def then(self, other: Animation, pause: float = 0.5) -> Animation:
         """This animation, then ``other`` starting ``pause`` s after this one ends."""
         if other.robot.model.nq != self.robot.model.nq or other.robot.name != self.robot.name:
@@ -161,25 +156,12 @@ class Animation:
         """Every ``every``-th sample (the last one kept)."""
         if int(every) != every or every < 1:
             raise InvalidConfigurationError(f"subsample step must be a positive integer, got {every}")
-        index = np.arange(0, self.frames, int(every))
-        if index[-1] != self.frames - 1:
-            index = np.append(index, self.frames - 1)
-        return self._take(index)
+        index = np.unique(np.append(np.arange(0, self.frames, int(every)), self.frames - 1))
 
-    def limited(self, max_frames: int) -> Animation:
-        """At most ``max_frames`` samples (evenly thinned; unchanged when already short enough)."""
-        if max_frames < 2:
-            raise InvalidConfigurationError(f"an animation needs at least 2 frames, got max {max_frames}")
-        if self.frames <= max_frames:
-            return self
-        return self.subsampled(math.ceil((self.frames - 1) / (max_frames - 1)))
-
-    def _take(self, index: np.ndarray) -> Animation:
         def pick(rows):
             return None if rows is None else tuple(rows[i] for i in index)
 
-        zmp = self.overlays.zmp
-        overlays = replace(self.overlays, support=pick(self.overlays.support),
-                           contacts=pick(self.overlays.contacts), zmp=None if zmp is None else zmp[index])
-        return Animation(self.robot, self.times[index], self.configurations[index], overlays, self.name,
-                         self.environment)
+        overlays = self.overlays
+        return replace(self, times=self.times[index], configurations=self.configurations[index],
+                       overlays=replace(overlays, support=pick(overlays.support),
+                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp)))

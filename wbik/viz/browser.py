@@ -1,5 +1,4 @@
-"""Render an exported page with headless Chromium (software WebGL, no network, a throw-away profile): a
-screenshot and the console messages."""
+"""The screenshot and console messages of an exported page in headless Chromium (software WebGL, offline)."""
 
 from __future__ import annotations
 
@@ -26,8 +25,6 @@ class RenderResult:
 
     screenshot: Path
     console: list[str] = field(default_factory=list)
-    returncode: int = 0
-    stderr: str = ""
 
     @property
     def ready(self) -> bool:
@@ -42,15 +39,12 @@ class RenderResult:
 
 def find_chromium() -> str:
     """Path of a Chromium executable, or MissingDependencyError saying how to install one."""
-    override = os.environ.get("WBIK_CHROMIUM")
-    if override:
+    if override := os.environ.get("WBIK_CHROMIUM"):
         if shutil.which(override) or Path(override).is_file():
             return shutil.which(override) or override
         raise MissingDependencyError(f"WBIK_CHROMIUM={override!r} is not an executable; {INSTALL_HINT}")
-    for name in CANDIDATES:
-        path = shutil.which(name)
-        if path:
-            return path
+    if path := next(filter(None, map(shutil.which, CANDIDATES)), None):
+        return path
     raise MissingDependencyError(f"no Chromium browser found (looked for {', '.join(CANDIDATES)}); "
                                  f"{INSTALL_HINT}")
 
@@ -79,4 +73,4 @@ def render(page: str | Path, screenshot: str | Path, width: int = 1000, height: 
     if not screenshot.is_file():
         raise RuntimeError(f"Chromium made no screenshot of {page} (exit {completed.returncode}); "
                            f"its last messages:\n{completed.stderr[-2000:]}")
-    return RenderResult(screenshot, console, completed.returncode, completed.stderr)
+    return RenderResult(screenshot, console)

@@ -1,5 +1,4 @@
-"""Boxes fixed in the world around a robot (a staircase's steps, a table, a workpiece), by name: an
-animation's and those of the robot's cell (:func:`robot_cell`)."""
+"""Named boxes fixed in the world (stair steps, a table, a workpiece): an animation's or a robot cell's."""
 
 from __future__ import annotations
 
@@ -52,10 +51,7 @@ class SceneBox:
 
     def homogeneous(self) -> np.ndarray:
         """The 4 x 4 world pose of the box's centre."""
-        pose = np.eye(4)
-        pose[:3, :3] = pin.rpy.rpyToMatrix(*self.rpy)
-        pose[:3, 3] = self.xyz
-        return pose
+        return pin.SE3(pin.rpy.rpyToMatrix(*self.rpy), np.array(self.xyz)).homogeneous
 
     def corners(self) -> np.ndarray:
         """The 8 corners (8, 3) in the world."""

@@ -1,5 +1,4 @@
-"""What a robot looks like: its URDF visuals, or sticks from its kinematics (cylinders between frames,
-spheres at the joints, radius ``STICK_RADIUS_RATIO`` times the robot's reach)."""
+"""A robot's look: its URDF visuals, or sticks from its kinematics (cylinders between frames, joint balls)."""
 
 from __future__ import annotations
 
@@ -85,8 +84,7 @@ def stick_model(robot: Robot, color: np.ndarray = STICK_COLOR) -> pin.GeometryMo
         shape = pin.GeometryObject(name, joint_id, placement, coal.Cylinder(radius, length))
         shape.meshColor = np.asarray(color, dtype=float)
         geometry.addGeometryObject(shape)
-    first_joint = 2 if robot.has_floating_base else 1
-    for joint_id in range(first_joint, robot.model.njoints):
+    for joint_id in range(2 if robot.has_floating_base else 1, robot.model.njoints):  # (not the free flyer)
         sphere = pin.GeometryObject(f"joint_{robot.model.names[joint_id]}", joint_id, pin.SE3.Identity(),
                                     coal.Sphere(1.6 * radius))
         sphere.meshColor = JOINT_COLOR.copy()

@@ -20,11 +20,13 @@ import pinocchio as pin
 
 import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError, UnsupportedError
+from wbik.files import atomic_write_text
 from wbik.models import load
 from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon, contact_points
 from wbik.robot import Chain, Robot
 from wbik.targets import as_target
+from wbik.viz.animation import Animation
 from wbik.viz.environment import SceneBox, robot_cell
 from wbik.viz.scene import SceneRecorder, ServerWindow
 
@@ -69,9 +71,8 @@ def _translation(position) -> np.ndarray:
 
 def _same_polygon(previous, feet: tuple[str, ...], vertices: np.ndarray, ground_z: float,
                   tolerance: float = POLYGON_TOLERANCE) -> bool:
-    """The same soles at the same places (to ``tolerance`` m): each polygon's vertices near the other's
-    outline (a hull of nearly aligned soles may have two more vertices)."""
-    old_feet, old_vertices, old_z, _ = previous
+    """The same soles at the same places: each polygon's vertices within ``tolerance`` m of the other's."""
+    old_feet, old_vertices, old_z = previous
     if old_feet != feet or abs(old_z - ground_z) > tolerance:
         return False
     old_polygon, polygon = SupportPolygon(old_vertices), SupportPolygon(vertices)
@@ -103,7 +104,6 @@ class Viewer:
         self.place_grid()
         self.look_at()
 
-    # -- life cycle -------------------------------------------------------------------------------
     @property
     def url(self) -> str | None:
         """The meshcat server's local URL (None without a server)."""
@@ -120,7 +120,6 @@ class Viewer:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    # -- configurations ---------------------------------------------------------------------------
     def _chain(self, chain: Chain | str | None) -> Chain | None:
         return chain if chain is None or isinstance(chain, Chain) else self.robot.chain(chain)
 
@@ -130,16 +129,14 @@ class Viewer:
             return self.q.copy()
         values = np.asarray(q, dtype=float).reshape(-1)
         chain = self._chain(chain)
-        if chain is not None:
-            return chain.full_configuration(chain.check_q(values), reference=self.q)
-        if values.shape == (self.robot.model.nq,):
+        if chain is None and values.shape == (self.robot.model.nq,):
             if not np.all(np.isfinite(values)):
                 raise InvalidConfigurationError(f"joint values contain NaN or inf: {values.tolist()}")
             return values.copy()
-        if len(self.robot.chains) == 1:
-            only = self.robot.chain()
-            if values.shape == (only.nq,):
-                return only.full_configuration(only.check_q(values), reference=self.q)
+        if chain is None and len(self.robot.chains) == 1 and values.size == self.robot.chain().nq:
+            chain = self.robot.chain()  # the only chain's values
+        if chain is not None:
+            return chain.full_configuration(chain.check_q(values), reference=self.q)
         raise InvalidConfigurationError(
             f"{self.robot.name} has nq = {self.robot.model.nq} ({self.robot.model.nq} values for the full "
             f"configuration); got {values.size} values. For one chain's joints pass chain=NAME "
@@ -172,7 +169,6 @@ class Viewer:
         self.meshcat["/Cameras/default/rotated/<object>"].set_property(
             "position", [float(position[0]), float(position[2]), float(-position[1])])
 
-    # -- the scene around the robot ----------------------------------------------------------------
     def show_environment(self, boxes: Sequence[SceneBox]) -> None:
         """Draw fixed boxes (a staircase's steps, a table) under ``wbik/environment``, by name."""
         import meshcat.geometry as mg
@@ -207,7 +203,6 @@ class Viewer:
         """The scale of meshcat's 0.5 m cells: half the robot's extent (m), within [0.05, 1]."""
         return float(min(1.0, max(0.05, 0.5 * self.extent)))
 
-    # -- markers ----------------------------------------------------------------------------------
     def _triad(self, path: str, placement: pin.SE3, scale: float) -> None:
         """Three cylinders along the frame's x (red), y (green), z (blue) axes."""
         import meshcat.geometry as mg
@@ -217,9 +212,7 @@ class Viewer:
         for index, (axis, rotation, color) in enumerate((("x", (0.0, 0.0, -np.pi / 2), 0xDD2222),
                                                          ("y", (0.0, 0.0, 0.0), 0x22BB22),
                                                          ("z", (np.pi / 2, 0.0, 0.0), 0x2244DD))):
-            transform = np.eye(4)
-            transform[:3, :3] = pin.rpy.rpyToMatrix(*rotation)
-            transform[index, 3] = 0.5 * scale
+            transform = pin.SE3(pin.rpy.rpyToMatrix(*rotation), 0.5 * scale * np.eye(3)[index]).homogeneous
             node[axis].set_object(mg.Cylinder(scale, 0.06 * scale), mg.MeshLambertMaterial(color=color))
             node[axis].set_transform(transform)
         node.set_transform(placement.homogeneous)
@@ -317,19 +310,13 @@ class Viewer:
         self._outline(f"{path}/polygon", support.vertices, ground_z, color)
         return SupportView(com, support.vertices, ground_z, bool(margin >= 0.0), float(margin))
 
-    # -- animation --------------------------------------------------------------------------------
     def animate(self, times: Sequence[float], qs: Sequence[Sequence[float]],
                 chain: Chain | str | None = None, trace_frame: str | None = None, fps: float = 30.0,
                 repetitions: int = 1, play: bool = True) -> np.ndarray | None:
         """Play q rows (full, or of ``chain``) at their times (s); the path of ``trace_frame`` (N, 3)."""
-        times = np.asarray(times, dtype=float).reshape(-1)
         rows = [self.full_configuration(q, chain) for q in qs]
-        if len(rows) != len(times) or len(rows) == 0:
-            raise InvalidConfigurationError(
-                f"animate needs one configuration per time: got {len(times)} times and {len(rows)} rows")
-        if not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
-            raise InvalidConfigurationError("animation times must be finite and strictly increasing")
-        clip, _, trace = self._robot_keyframes(times, rows, trace_frame, fps)
+        checked = Animation(self.robot, times, rows, name="animate")  # one row per time, times increasing
+        clip, _, trace = self._robot_keyframes(checked.times, list(checked.configurations), trace_frame, fps)
         self.meshcat.set_animation(clip, play=play, repetitions=repetitions)
         return trace
 
@@ -371,7 +358,8 @@ class Viewer:
                 frame[path].set_transform(_translation(position))
 
     def _visibility(self, clip, path: str, keys: list[float], visible: Sequence[bool]) -> None:
-        """Boolean ``visible`` keys where the value changes (three.js holds a boolean until the next key)."""
+        """``path`` shown as ``visible[0]``, then keyed where ``visible`` changes (three.js holds it)."""
+        self.meshcat[path].set_property("visible", bool(visible[0]))
         for index, (key, value) in enumerate(zip(keys, visible, strict=True)):
             if index == 0 or value != visible[index - 1] or index == len(keys) - 1:
                 with clip.at_frame(self.meshcat[path], key) as frame:
@@ -406,13 +394,10 @@ class Viewer:
     def _camera_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray) -> None:
         """The camera follows the robot's middle, averaged over about half a second."""
         self.look_at(*self._framing(rows[0]))
-        if len(rows) < 2:
-            return
         centres = np.array([self._framing(q)[0] for q in rows])
         spacing = float(times[-1] - times[0]) / (len(times) - 1)
         width = max(1, int(round(0.25 / max(spacing, 1e-9))))
-        padded = np.vstack([np.repeat(centres[:1], width, axis=0), centres,
-                            np.repeat(centres[-1:], width, axis=0)])
+        padded = np.pad(centres, ((width, width), (0, 0)), mode="edge")
         kernel = np.ones(2 * width + 1) / (2 * width + 1)
         smooth = np.column_stack([np.convolve(padded[:, axis], kernel, mode="valid") for axis in range(3)])
         self._track(clip, keys, "/Cameras/default", smooth)
@@ -449,48 +434,37 @@ class Viewer:
                 continue
             polygon, ground_z = self._support_polygon(kinematics, feet)
             if not stretches or not _same_polygon(stretches[-1], tuple(feet), polygon.vertices, ground_z):
-                stretches.append((tuple(feet), polygon.vertices, ground_z, []))
+                stretches.append((tuple(feet), polygon.vertices, ground_z))
             margins.append(polygon.margin_of(coms[-1][:2]))
-            stretches[-1][3].append(margins[-1])
             stretch_of.append(len(stretches) - 1)
             grounds.append(ground_z)
         margins = np.array(margins, dtype=float)
         inside = [bool(m >= 0.0) for m in margins]  # NaN (no sole down) counts as outside
         first = next((i for i, s in enumerate(stretch_of) if s >= 0), 0)
-        self._sphere(f"{path}/com", coms[0], radius, COM_COLOR)
-        for name, color in (("com_ground_inside", INSIDE_COLOR), ("com_ground_outside", OUTSIDE_COLOR)):
-            self._sphere(f"{path}/{name}", np.array([*coms[first][:2], grounds[first]]), 0.6 * radius, color)
-        for index, (_, vertices, ground_z, stretch_margins) in enumerate(stretches):
-            node, held = f"{path}/polygon_{index}", min(stretch_margins) >= 0.0
-            self._outline(node, vertices, ground_z, INSIDE_COLOR if held else OUTSIDE_COLOR)
-            self.meshcat[node].set_property("visible", stretch_of[0] == index)
-            self._visibility(clip, node, keys, [s == index for s in stretch_of])
         grounded = [[com[0], com[1], ground_z] for com, ground_z in zip(coms, grounds, strict=True)]
+        self._sphere(f"{path}/com", coms[0], radius, COM_COLOR)
         self._track(clip, keys, f"{path}/com", coms)
-        for name, shown in (("com_ground_inside", inside), ("com_ground_outside", [not v for v in inside])):
+        for name, color, shown in (("com_ground_inside", INSIDE_COLOR, inside),
+                                   ("com_ground_outside", OUTSIDE_COLOR, [not v for v in inside])):
+            self._sphere(f"{path}/{name}", grounded[first], 0.6 * radius, color)
             self._track(clip, keys, f"{path}/{name}", grounded)
-            self.meshcat[f"{path}/{name}"].set_property("visible", shown[0])
             self._visibility(clip, f"{path}/{name}", keys, shown)
+        for index, (_, vertices, ground_z) in enumerate(stretches):
+            node, shown = f"{path}/polygon_{index}", [s == index for s in stretch_of]
+            held = min(margins[shown]) >= 0.0
+            self._outline(node, vertices, ground_z, INSIDE_COLOR if held else OUTSIDE_COLOR)
+            self._visibility(clip, node, keys, shown)
         return margins
 
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            contacts: Sequence[tuple[str, ...]]) -> None:
         """A marker on each frame while it is held in contact."""
-        model, data = self.robot.model, self.robot.model.createData()
         path = f"{ROOT}/contacts"
         self.meshcat[path].delete()
-        frames = list(dict.fromkeys(name for held in contacts for name in held))
-        ids = {name: self.robot.frame_id(name) for name in frames}
-        positions = {name: [] for name in frames}
-        for q in rows:
-            pin.framesForwardKinematics(model, data, q)
-            for name in frames:
-                positions[name].append(data.oMf[ids[name]].translation.copy())
-        for name in frames:
-            node = f"{path}/{name}"
-            self._sphere(node, positions[name][0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
-            self.meshcat[node].set_property("visible", name in contacts[0])
-            self._track(clip, keys, node, positions[name])
+        for name in dict.fromkeys(name for held in contacts for name in held):
+            node, positions = f"{path}/{name}", [self.frame_pose(name, q).translation for q in rows]
+            self._sphere(node, positions[0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)
+            self._track(clip, keys, node, positions)
             self._visibility(clip, node, keys, [name in held for held in contacts])
 
     def play(self, trajectory, trace_frame: str | None = None, fps: float = 30.0,
@@ -501,9 +475,8 @@ class Viewer:
         rows = next((getattr(trajectory, name) for name in ("positions", "qs", "q")
                      if getattr(trajectory, name, None) is not None), None)
         if times is None or rows is None:
-            raise UnsupportedError(
-                f"cannot play a {type(trajectory).__name__}: it needs 'times' and joint rows "
-                "('positions', 'qs' or 'q')")
+            raise UnsupportedError(f"cannot play a {type(trajectory).__name__}: it needs 'times' and joint "
+                                   "rows ('positions', 'qs' or 'q')")
         rows = np.asarray(rows, dtype=float)
         chain = getattr(trajectory, "chain", None)
         if rows.ndim != 2 or rows.shape[1] == self.robot.model.nq or (isinstance(chain, str)
@@ -512,18 +485,24 @@ class Viewer:
         trace = trace_frame if trace_frame is not None else getattr(trajectory, "tip_frame", None)
         return self.animate(times, rows, chain=chain, trace_frame=trace, fps=fps, repetitions=repetitions)
 
-    # -- export -----------------------------------------------------------------------------------
     def html(self) -> str:
         """The scene (and animation) as one self-contained HTML page."""
         return self.window.html(self.title)
 
     def export_html(self, path: str | Path) -> Path:
         """Write the self-contained page to ``path`` (folders created); returns the path."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(self.html(), encoding="utf-8")
-        return path
+        atomic_write_text(Path(path), self.html())
+        return Path(path)
 
     def _repr_html_(self) -> str:
         source = html_module.escape(self.html(), quote=True)
         return f'<iframe srcdoc="{source}" style="width: 100%; height: 480px; border: none"></iframe>'
+
+
+def animation_viewer(animation: Animation, server: bool = False, style: str = "auto",
+                     title: str | None = None) -> Viewer:
+    """A Viewer playing ``animation`` (with a meshcat server when ``server``)."""
+    viewer = Viewer(animation.robot, server=server, style=style,
+                    title=title or f"wbik: {animation.name or animation.robot.name}")
+    viewer.play_animation(animation)
+    return viewer
