@@ -31,14 +31,18 @@ _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 class ClosedForm:
     """A closed-form solver of one chain: ``branches`` and ``fk`` over a batch, an optional compiled
-    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"."""
+    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"; ``geometry_fk``: a family's
+    fk(geometry, q), :meth:`fk` of ``geometry``."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
     kernel = None
+    geometry_fk = None
 
-    def __init__(self, chain: Chain):
+    def __init__(self, chain: Chain, geometry=None):
         self.chain = chain
+        if geometry is not None:
+            self.geometry = geometry
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +64,9 @@ class ClosedForm:
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
-        raise NotImplementedError
+        if self.geometry_fk is None:
+            raise NotImplementedError
+        return self.geometry_fk(self.geometry, q)
 
     def compiled(self, chain, alignment, screen_tolerance: float):
         """This form's compiled choice on ``chain`` through ``alignment`` (None: the identity), or None."""

@@ -293,10 +293,11 @@ class StackedPlanarPose(ClosedForm):
     """Full poses: ``triples`` rolls (alpha, alpha + pi), 4 branches each; a sweep of t6 at gimbal lock."""
 
     target_kind = "pose"
+    geometry_fk = staticmethod(fk)
 
     def __init__(self, chain, geometry: StackedPlanarGeometry, triples: int = 2):
-        super().__init__(chain)
-        self.geometry, self.triples = geometry, triples
+        super().__init__(chain, geometry)
+        self.triples = triples
         lower, upper = _finite_limits(chain)
         self.roll_limits = (float(lower[5]), float(upper[5]))
         self.roll_sweep = np.linspace(lower[5], upper[5], GIMBAL_LOCK_SWEEP)
@@ -319,9 +320,6 @@ class StackedPlanarPose(ClosedForm):
         count = len(positions)
         return q_all.reshape(count, -1, 6), (real & real_roll[..., None]).reshape(count, -1)
 
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return fk(self.geometry, q)
-
     def compiled(self, chain, alignment, screen_tolerance: float):
         g = self.geometry
         numbers = (g.l1, g.l2, g.l4, g.l5, g.l6, g.h, g.rho, COSINE_TOLERANCE, GIMBAL_LOCK, self.triples,
@@ -334,10 +332,10 @@ class StackedPlanarPosition(ClosedForm):
 
     target_kind = "position"
     chunk = 256
+    geometry_fk = staticmethod(fk)
 
     def __init__(self, chain, geometry: StackedPlanarGeometry, yaw: float):
-        super().__init__(chain)
-        self.geometry = geometry
+        super().__init__(chain, geometry)
         self.yaw = float(yaw)
         self.search = PositionSearch(geometry, *_finite_limits(chain))
 
@@ -346,9 +344,6 @@ class StackedPlanarPosition(ClosedForm):
         parts = [self.search.candidates(positions[i:i + self.chunk], q0[i:i + self.chunk], self.yaw)
                  for i in range(0, len(positions), self.chunk)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
-
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return fk(self.geometry, q)
 
 
 def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
