@@ -17,14 +17,10 @@ import numpy as np
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
 
-DENSER = 8
-"""Where no value of the grid passes, a grid this many times finer over the range comes next."""
-ZOOM_CANDIDATES = 3
-"""Local minima of the violation (the least violating) each zoom level searches around."""
-ZOOM_POINTS = 9
-"""Values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing."""
-ZOOM_FLOOR = 1e-6
-"""Half-width (rad or m) below which the zoom stops: the limits and the screen are this fine."""
+DENSER = 8  # where no value of the grid passes, a grid this many times finer over the range comes next
+ZOOM_CANDIDATES = 3  # local minima of the violation (the least violating) each zoom level searches around
+ZOOM_POINTS = 9  # values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing
+ZOOM_FLOOR = 1e-6  # half-width (rad or m) below which the zoom stops: the limits and the screen are as fine
 
 
 class HeldJointSearch:
@@ -36,9 +32,8 @@ class HeldJointSearch:
         chain = form.chain
         self.lower, self.upper = chain.lower, chain.upper
         self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
-        k = form.index
         self.low, self.high = float(form.range[0]), float(form.range[1])
-        self.full_turn = bool(self.revolute[k]) and self.high - self.low >= TWO_PI - 1e-12
+        self.full_turn = bool(self.revolute[form.index]) and self.high - self.low >= TWO_PI - 1e-12
 
     def run(self, position: np.ndarray, rotation: np.ndarray | None,
             q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import threading
+from itertools import compress
 
 import numpy as np
 
@@ -76,8 +77,8 @@ class LockedJointForm(ClosedForm):
                  options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE):
         super().__init__(chain)
         last = index == chain.nq - 1
+        # what the held joint moves where one form serves every value: the base, the tool, or None
         self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
-        """What the held joint moves where one form serves every value: the base, the tool, or None."""
         if mode == "search" and self.moves is None:
             mode = "grid"  # a joint in the middle needs a form per value: its grid, not a search
         self.index, self.mode, self.kind = index, mode, kind
@@ -96,8 +97,7 @@ class LockedJointForm(ClosedForm):
         self._forms: dict[float, ClosedForm | None] = {value: self.sub.form}
         self._lock = threading.Lock()
         eaik = self.family.startswith("eaik:")
-        self._per_value = (not eaik, eaik)
-        """What is tried at another value of a joint in the middle (a family, EAIK): what served first."""
+        self._per_value = (not eaik, eaik)  # tried at another value of a middle joint: what served first
         one_value = self.moves is not None and not len(self.grid)
         self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
         self.search = HeldJointSearch(self) if mode == "search" else None
@@ -107,14 +107,11 @@ class LockedJointForm(ClosedForm):
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
         reasons = []
-        if ways[0]:
+        recognisers = (lambda: recognise_family(locked, self.kind, self.options, self.families),
+                       lambda: recognise_eaik(locked, self.kind, probe=probe))
+        for recognise in compress(recognisers, ways):
             try:
-                return recognise_family(locked, self.kind, self.options, self.families)
-            except UnsupportedError as refused:
-                reasons.append(str(refused))
-        if ways[1]:
-            try:
-                return recognise_eaik(locked, self.kind, probe=probe)
+                return recognise()
             except UnsupportedError as refused:
                 reasons.append(str(refused))
         raise UnsupportedError("; ".join(reasons))
