@@ -17,7 +17,13 @@ from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.recognition import Family, Recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.recognition import (
+    Family,
+    Recognised,
+    first_recognised,
+    recognise_eaik,
+    recognise_family,
+)
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
 
 REDUNDANCY_MODES = ("search", "seed", "grid")
@@ -106,15 +112,12 @@ class LockedJointForm(ClosedForm):
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
-        reasons = []
         recognisers = (lambda: recognise_family(locked, self.kind, self.options, self.families),
                        lambda: recognise_eaik(locked, self.kind, probe=probe))
-        for recognise in compress(recognisers, ways):
-            try:
-                return recognise()
-            except UnsupportedError as refused:
-                reasons.append(str(refused))
-        raise UnsupportedError("; ".join(reasons))
+        found = first_recognised(*compress(recognisers, ways))
+        if isinstance(found, list):
+            raise UnsupportedError("; ".join(found))
+        return found
 
     def _form_at(self, value: float) -> ClosedForm | None:
         """The 6-joint form with a middle joint held at ``value``, None where it has none."""
