@@ -1,14 +1,9 @@
-"""The held joint of a 7-joint arm searched, not guessed (``redundancy="search"``, the default).
-
-With joint k held at v the other six have a closed form, so every branch q_b(v) is exact wherever it is
-real; a pose is solved at v when some branch is real, inside the limits and passes the solver's screen
-(its FK residual). The feasible values form intervals of k's range, some far narrower than a coarse grid's
-spacing. The search evaluates the start's value and a grid over the range in one batch; where no value
-passes, a grid :data:`DENSER` times finer; then it zooms on the local minima of the violation (how far
-the joints are outside their limits plus the FK residual), a narrower grid each level, until a branch
-passes or the interval is below :data:`ZOOM_FLOOR`. Every passing branch found goes back to the solver,
-which takes the one nearest the start (``solve``) or the distinct ones (``solve_all``).
-"""
+"""The held joint k of a 7-joint arm searched (``redundancy="search"``, the default): held at v, the other
+six have a closed form, and v solves a pose when a branch is real, inside the limits and passes the solver's
+FK screen. The start's value and a grid over k's range go in one batch; where none passes, a grid
+:data:`DENSER` times finer; then grids zoomed on the local minima of the violation (limit excess plus FK
+residual), until a branch passes or the interval is below :data:`ZOOM_FLOOR`. The passing branches go back
+to the solver (the nearest the start for ``solve``, the distinct ones for ``solve_all``)."""
 
 from __future__ import annotations
 
