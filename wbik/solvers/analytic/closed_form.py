@@ -129,6 +129,16 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
     return best, in_limits
 
 
+def stacked_branches(parts: list[tuple[np.ndarray, np.ndarray]], joints: int
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max(K_i, 1), n), padded with NaN."""
+    width = max((len(q) for q, _ in parts), default=0) or 1
+    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
+    for row, (q, flags) in enumerate(parts):
+        q_all[row, :len(q)], real[row, :len(q)] = q, flags
+    return q_all, real
+
+
 # --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------
 def kernel_failure_reason(outcome: int) -> str:
     """:func:`no_solution_reason` of a kernel's code: 0 (no real branch), -1 (none in the limits), -2."""

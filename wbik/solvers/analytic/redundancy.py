@@ -14,7 +14,7 @@ import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
 from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import (
@@ -168,8 +168,8 @@ class LockedJointForm(ClosedForm):
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.search is None:
             return self.branches_at(positions, rotations, q0, self.values(q0))
-        return _stacked([self.search.run(positions[i], None if rotations is None else rotations[i], q0[i])[:2]
-                         for i in range(len(positions))], self.chain.nq)
+        return stacked_branches([self.search.run(positions[i], None if rotations is None else rotations[i],
+                                                 q0[i])[:2] for i in range(len(positions))], self.chain.nq)
 
     def branches_at(self, positions: np.ndarray, rotations: np.ndarray | None, q0: np.ndarray,
                     values: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +195,7 @@ class LockedJointForm(ClosedForm):
                                         None if rotations is None else rotations[target:target + 1],
                                         sub_starts[row:row + 1])
                 parts.append((q[0], real[0]))
-            sub_q, sub_real = _stacked(parts, self.chain.nq - 1)
+            sub_q, sub_real = stacked_branches(parts, self.chain.nq - 1)
         held = np.broadcast_to(flat[:, None, None], sub_q.shape[:2] + (1,))
         q_all = np.concatenate((sub_q[..., :self.index], held, sub_q[..., self.index:]), axis=-1)
         width = q_all.shape[1]
@@ -203,15 +203,6 @@ class LockedJointForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
-
-def _stacked(parts: list[tuple[np.ndarray, np.ndarray]], joints: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max K_i, n), padded with NaN."""
-    width = max(len(q) for q, _ in parts)
-    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
-    for row, (q, flags) in enumerate(parts):
-        q_all[row, :len(q)], real[row, :len(q)] = q, flags
-    return q_all, real
-
 
 class HeldChoice:
     """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint (the target moved)."""
