@@ -82,9 +82,8 @@ class LockedJointForm(ClosedForm):
     def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
                  options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE):
         super().__init__(chain)
-        last = index == chain.nq - 1
         # what the held joint moves where one form serves every value: the base, the tool, or None
-        self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
+        self.moves = "base" if index == 0 else "tool" if index == chain.nq - 1 and kind == "pose" else None
         if mode == "search" and self.moves is None:
             mode = "grid"  # a joint in the middle needs a form per value: its grid, not a search
         self.index, self.mode, self.kind = index, mode, kind

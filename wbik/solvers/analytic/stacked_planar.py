@@ -348,9 +348,7 @@ class StackedPlanarPosition(ClosedForm):
 
 def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
     """The roll joint's value for position targets: ``yaw`` (default the nominal), inside the limits."""
-    if yaw is None:
-        yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]))
-    yaw = float(yaw)
+    yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]) if yaw is None else yaw)
     if not math.isfinite(yaw) or not chain.lower[5] <= yaw <= chain.upper[5]:
         raise error(f"yaw (the roll joint {chain.joint_names[5]}) must be inside [{chain.lower[5]}, "
                     f"{chain.upper[5]}] rad, got {yaw}")
