@@ -32,7 +32,7 @@ _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 class ClosedForm:
     """A closed-form solver of one chain: ``branches`` and ``fk`` over a batch, an optional compiled
     ``kernel`` of the same choice; ``target_kind``: "pose" or "position"; ``geometry_fk``: a family's
-    fk(geometry, q), :meth:`fk` of ``geometry``."""
+    ``fk(geometry, q)``, which :meth:`fk` applies to ``self.geometry``."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
