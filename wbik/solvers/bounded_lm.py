@@ -420,8 +420,7 @@ class BoundedLMSolver(Solver):
         """The same LM on ``batch_size`` seeds at once, ``seeds`` first, then random ones; an ended seed is
         replaced by a fresh one in the next trial (its cost set to infinity so the fresh one is accepted)."""
         kinematics, size = self._vectorised, self.batch_size
-        goal_position = target.position
-        goal_rotation = target.rotation
+        goal_position, goal_rotation = target.position, target.rotation
         policy, bounds = self.policy, self.bounds
         sure_cost, maybe_cost = self._sure_cost, self._maybe_cost
         spent, budget = iterations, self.max_iterations  # budget units: single-seed iterations

@@ -171,8 +171,8 @@ def ik_geo_structure(chain: Chain) -> IKGeoStructure:
 def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
     """(how many of PROBE_POSES FK poses of seeded random joints IK-Geo reproduces, worst miss)."""
     robot = structure.robot()
-    reproduced, worst, missed = 0, 0.0, 0
-    for q in chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES):
+    reproduced, worst = 0, 0.0
+    for tried, q in enumerate(chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES), 1):
         pose = chain.fk(q)
         target = Target(pose.translation.copy(), pose.rotation.copy())
         try:
@@ -181,12 +181,9 @@ def _probe(chain: Chain, structure: IKGeoStructure) -> tuple[int, float]:
         except IKGeoPanic:
             miss = np.inf
         worst = max(worst, miss)
-        if miss <= PROBE_TOLERANCE:
-            reproduced += 1
-        else:
-            missed += 1
-            if missed > PROBE_POSES - PROBE_REQUIRED:
-                break
+        reproduced += miss <= PROBE_TOLERANCE
+        if tried - reproduced > PROBE_POSES - PROBE_REQUIRED:  # too many missed already
+            break
     return reproduced, worst
 
 

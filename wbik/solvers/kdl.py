@@ -112,9 +112,7 @@ class KDLSolver(Solver):
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         q, code = self.attempt(kdl_frame(self.kdl, target.se3().homogeneous), self.chain.clip(q0))
-        reason = ""
-        if code < 0:
-            reason = f"KDL NR_JL returned {code} ({self._thread_state().pose.strError(code)})"
+        reason = f"KDL NR_JL returned {code} ({self._thread_state().pose.strError(code)})" if code < 0 else ""
         return Candidate(q, 1, reason, {"kdl_code": code})
 
 

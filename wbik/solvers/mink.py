@@ -18,30 +18,18 @@ import wbik.qp.backends as backends
 from wbik.dependencies import MINK_LIBRARY
 from wbik.mujoco_model import MuJoCoBody, import_mink, mujoco_body
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.contacts import Contact, PointContact
+from wbik.qp.contacts import PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
 from wbik.qp.peers import PeerForms, largest_weight
-from wbik.qp.tasks import (
-    ComTask,
-    FrameTask,
-    OrientationTask,
-    PositionTask,
-    PostureTask,
-    RegularizationTask,
-    RelativeFrameTask,
-)
+from wbik.qp.tasks import PositionTask, PostureTask
 from wbik.schema import Number
 from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import (
     NO_POLYGON,
     PeerSolver,
     SolveIKProblem,
-    com_form,
-    contact_form,
-    frame_form,
-    orientation_form,
-    raise_damping,
+    solve_ik_forms,
     stalled,
 )
 from wbik.solvers.result import Candidate
@@ -51,7 +39,8 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "MinkProblem", "MinkSolver", "site_position_task"]
 
 
-MINK = PeerForms("mink", "mink")  # mink's forms of tasks and constraints (a user's: @MINK.form(MyTask))
+# mink's forms of tasks and constraints (a user's: @MINK.form(MyTask)); the shared ones in solve_ik_forms
+MINK = solve_ik_forms(PeerForms("mink", "mink"))
 
 
 @dataclass
@@ -113,14 +102,6 @@ def site_position_task(site: str, target: np.ndarray, rows: np.ndarray, cost: fl
 
 
 # -- mink's forms of the tasks and constraints ------------------------------------------------------------
-MINK.form(FrameTask)(frame_form)
-MINK.form(RelativeFrameTask)(frame_form)
-MINK.form(OrientationTask)(orientation_form)
-MINK.form(ComTask)(com_form)
-MINK.form(RegularizationTask)(raise_damping)
-MINK.form(Contact)(contact_form)
-
-
 @MINK.form(PositionTask)
 def _position(task: PositionTask, mink_problem: MinkProblem) -> None:
     target = np.zeros(3)

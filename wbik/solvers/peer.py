@@ -164,6 +164,16 @@ def raise_damping(task: RegularizationTask, problem: SolveIKProblem) -> None:
     problem.damping = max(problem.damping, largest_weight(task, 0.0))
 
 
+def solve_ik_forms(forms: PeerForms) -> PeerForms:
+    """``forms`` with what the ``solve_ik`` peers (Pink, mink) state alike: frame, relative frame,
+    orientation and CoM tasks, a regularisation as damping, contacts as equality constraints."""
+    for kind, build in ((FrameTask, frame_form), (RelativeFrameTask, frame_form),
+                        (OrientationTask, orientation_form), (ComTask, com_form),
+                        (RegularizationTask, raise_damping), (Contact, contact_form)):
+        forms.form(kind)(build)
+    return forms
+
+
 def lowest_priority(tasks: list[Task]) -> int:
     """The priority of the lowest level of ``tasks`` (0 without): where a regularisation goes."""
     return max((task.priority for task in tasks), default=0)

@@ -13,30 +13,18 @@ import pinocchio as pin
 
 from wbik.dependencies import PINK_LIBRARY
 from wbik.qp.balance import CoMInSupportPolygon
-from wbik.qp.contacts import Contact, PointContact
+from wbik.qp.contacts import PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
 from wbik.qp.peers import PeerForms, largest_weight
-from wbik.qp.tasks import (
-    ComTask,
-    FrameTask,
-    OrientationTask,
-    PositionTask,
-    PostureTask,
-    RegularizationTask,
-    RelativeFrameTask,
-)
+from wbik.qp.tasks import PositionTask, PostureTask
 from wbik.solvers.method import IKMethod, import_optional
 from wbik.solvers.peer import (
     NO_POLYGON,
     PeerSolver,
     SolveIKProblem,
     axis_costs,
-    com_form,
-    contact_form,
-    frame_form,
-    orientation_form,
-    raise_damping,
+    solve_ik_forms,
     stalled,
 )
 from wbik.solvers.result import Candidate
@@ -45,7 +33,8 @@ from wbik.wholebody.problem import StartedProblem
 __all__ = ["IK_METHODS", "PinkProblem", "PinkSolver", "pink_locked_joints", "pink_point_contact"]
 
 
-PINK = PeerForms("pink", "Pink")  # Pink's forms of tasks and constraints (a user's: @PINK.form(MyTask))
+# Pink's forms of tasks and constraints (a user's: @PINK.form(MyTask)); the shared ones in solve_ik_forms
+PINK = solve_ik_forms(PeerForms("pink", "Pink"))
 
 
 @dataclass
@@ -72,14 +61,6 @@ class PinkProblem(SolveIKProblem):
 
 
 # -- Pink's forms of the tasks and constraints ------------------------------------------------------------
-PINK.form(FrameTask)(frame_form)
-PINK.form(RelativeFrameTask)(frame_form)
-PINK.form(OrientationTask)(orientation_form)
-PINK.form(ComTask)(com_form)
-PINK.form(RegularizationTask)(raise_damping)
-PINK.form(Contact)(contact_form)
-
-
 @PINK.form(PositionTask)
 def _position(task: PositionTask, pink: PinkProblem) -> None:
     """A FrameTask with cost on the task's axes only, the start's rotation as the (costless) target's."""

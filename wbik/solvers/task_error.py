@@ -32,11 +32,6 @@ def task_error(chain: Chain, target: Target, q: np.ndarray, with_jacobian: bool 
     return error, jacobian
 
 
-def se3_error(reached: pin.SE3, target_inverse: pin.SE3) -> np.ndarray:
-    """The SE(3) form log6(T*^-1 T) (6,), given T*^-1."""
-    return pin.log6(target_inverse * reached).vector
-
-
 def batch_se3_error(rotation: np.ndarray, translation: np.ndarray, target_rotation: np.ndarray,
                     target_position: np.ndarray) -> np.ndarray:
     """log6(T*^-1 T) (B, 6) of reached poses against one target or one each: t = R*^T (p - p*), V(phi)^-1 t

@@ -54,10 +54,8 @@ def batch_targets(values: Iterable, solver) -> tuple[np.ndarray, np.ndarray | No
         solver.check_target_kind(kind)  # once per kind, in the order the batch first holds them
     if len({target.is_pose for target in targets}) != 1:
         raise UnsupportedError("a batch must hold only full poses or only positions")
-    positions = np.array([target.position for target in targets])
-    if not targets[0].is_pose:
-        return positions, None
-    return positions, np.array([target.rotation for target in targets])
+    rotations = np.array([target.rotation for target in targets]) if targets[0].is_pose else None
+    return np.array([target.position for target in targets]), rotations
 
 
 def _measure(form, positions: np.ndarray, rotations: np.ndarray | None, q: np.ndarray, inside: np.ndarray,

@@ -31,14 +31,18 @@ _SHIFTS = (0.0, TWO_PI, -TWO_PI, 2 * TWO_PI, -2 * TWO_PI)
 
 class ClosedForm:
     """A closed-form solver of one chain: ``branches`` and ``fk`` over a batch, an optional compiled
-    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"."""
+    ``kernel`` of the same choice; ``target_kind``: "pose" or "position"; ``geometry_fk``: a family's
+    ``fk(geometry, q)``, which :meth:`fk` applies to ``self.geometry``."""
 
     target_kind = "pose"
     screen_tolerance = SCREEN_TOLERANCE
     kernel = None
+    geometry_fk = None
 
-    def __init__(self, chain: Chain):
+    def __init__(self, chain: Chain, geometry=None):
         self.chain = chain
+        if geometry is not None:
+            self.geometry = geometry
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -60,7 +64,9 @@ class ClosedForm:
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Closed-form FK of joints (..., n): positions (..., 3) and rotations (..., 3, 3)."""
-        raise NotImplementedError
+        if self.geometry_fk is None:
+            raise NotImplementedError
+        return self.geometry_fk(self.geometry, q)
 
     def compiled(self, chain, alignment, screen_tolerance: float):
         """This form's compiled choice on ``chain`` through ``alignment`` (None: the identity), or None."""
@@ -121,6 +127,16 @@ def _wrap_by_shifts(q: np.ndarray, reference: np.ndarray, low: np.ndarray, high:
         np.copyto(best_distance, distance, where=better)
         in_limits |= ok
     return best, in_limits
+
+
+def stacked_branches(parts: list[tuple[np.ndarray, np.ndarray]], joints: int
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max(K_i, 1), n), padded with NaN."""
+    width = max((len(q) for q, _ in parts), default=0) or 1
+    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
+    for row, (q, flags) in enumerate(parts):
+        q_all[row, :len(q)], real[row, :len(q)] = q, flags
+    return q_all, real
 
 
 # --- reasons, and the choice among a library's branches (eaik, ik_geo) ------------------------------

@@ -24,6 +24,7 @@ from wbik.solvers.analytic.closed_form import (
     PROBE_SEED,
     PROBE_TOLERANCE,
     ClosedForm,
+    stacked_branches,
 )
 from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
 from wbik.solvers.method import import_optional
@@ -161,14 +162,9 @@ class EAIKForm(ClosedForm):
                    exact: bool) -> tuple[np.ndarray, np.ndarray]:
         robot, joints = self.robot(), self.chain.nq
         solutions = [robot.calculate_IK(self.pose(p, r)) for p, r in zip(positions, rotations, strict=True)]
-        width = max((len(solution.Q) for solution in solutions), default=0) or 1
-        q_all = np.full((len(positions), width, joints), np.nan)
-        real = np.zeros((len(positions), width), dtype=bool)
-        for index, solution in enumerate(solutions):
-            count = len(solution.Q)
-            q_all[index, :count] = np.asarray(solution.Q, dtype=float).reshape(count, joints)
-            real[index, :count] = ~np.asarray(solution.is_LS, dtype=bool) if exact else True
-        return q_all, real
+        parts = [(np.asarray(s.Q, dtype=float).reshape(len(s.Q), joints),
+                  ~np.asarray(s.is_LS, dtype=bool) if exact else True) for s in solutions]
+        return stacked_branches(parts, joints)
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)

@@ -1,14 +1,9 @@
-"""The held joint of a 7-joint arm searched, not guessed (``redundancy="search"``, the default).
-
-With joint k held at v the other six have a closed form, so every branch q_b(v) is exact wherever it is
-real; a pose is solved at v when some branch is real, inside the limits and passes the solver's screen
-(its FK residual). The feasible values form intervals of k's range, some far narrower than a coarse grid's
-spacing. The search evaluates the start's value and a grid over the range in one batch; where no value
-passes, a grid :data:`DENSER` times finer; then it zooms on the local minima of the violation (how far
-the joints are outside their limits plus the FK residual), a narrower grid each level, until a branch
-passes or the interval is below :data:`ZOOM_FLOOR`. Every passing branch found goes back to the solver,
-which takes the one nearest the start (``solve``) or the distinct ones (``solve_all``).
-"""
+"""The held joint k of a 7-joint arm searched (``redundancy="search"``, the default): held at v, the other
+six have a closed form, and v solves a pose when a branch is real, inside the limits and passes the solver's
+FK screen. The start's value and a grid over k's range go in one batch; where none passes, a grid
+:data:`DENSER` times finer; then grids zoomed on the local minima of the violation (limit excess plus FK
+residual), until a branch passes or the interval is below :data:`ZOOM_FLOOR`. The passing branches go back
+to the solver (the nearest the start for ``solve``, the distinct ones for ``solve_all``)."""
 
 from __future__ import annotations
 
@@ -17,14 +12,10 @@ import numpy as np
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
 
-DENSER = 8
-"""Where no value of the grid passes, a grid this many times finer over the range comes next."""
-ZOOM_CANDIDATES = 3
-"""Local minima of the violation (the least violating) each zoom level searches around."""
-ZOOM_POINTS = 9
-"""Values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing."""
-ZOOM_FLOOR = 1e-6
-"""Half-width (rad or m) below which the zoom stops: the limits and the screen are this fine."""
+DENSER = 8  # where no value of the grid passes, a grid this many times finer over the range comes next
+ZOOM_CANDIDATES = 3  # local minima of the violation (the least violating) each zoom level searches around
+ZOOM_POINTS = 9  # values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing
+ZOOM_FLOOR = 1e-6  # half-width (rad or m) below which the zoom stops: the limits and the screen are as fine
 
 
 class HeldJointSearch:
@@ -36,9 +27,8 @@ class HeldJointSearch:
         chain = form.chain
         self.lower, self.upper = chain.lower, chain.upper
         self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
-        k = form.index
         self.low, self.high = float(form.range[0]), float(form.range[1])
-        self.full_turn = bool(self.revolute[k]) and self.high - self.low >= TWO_PI - 1e-12
+        self.full_turn = bool(self.revolute[form.index]) and self.high - self.low >= TWO_PI - 1e-12
 
     def run(self, position: np.ndarray, rotation: np.ndarray | None,
             q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:

@@ -246,3 +246,14 @@ def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
     if probe:
         check_fk_against_model(form)
     return Recognised(form, f"eaik:{form.family}")
+
+
+def first_recognised(*recognisers: Callable[[], Recognised]) -> Recognised | list[str]:
+    """The first closed form of ``recognisers`` (tried in order), else each one's UnsupportedError reason."""
+    reasons = []
+    for recognise in recognisers:
+        try:
+            return recognise()
+        except UnsupportedError as refused:
+            reasons.append(str(refused))
+    return reasons

@@ -8,15 +8,22 @@ from __future__ import annotations
 
 import math
 import threading
+from itertools import compress
 
 import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
 from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.recognition import Family, Recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.recognition import (
+    Family,
+    Recognised,
+    first_recognised,
+    recognise_eaik,
+    recognise_family,
+)
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
 
 REDUNDANCY_MODES = ("search", "seed", "grid")
@@ -75,9 +82,8 @@ class LockedJointForm(ClosedForm):
     def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
                  options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE):
         super().__init__(chain)
-        last = index == chain.nq - 1
-        self.moves = "base" if index == 0 else "tool" if last and kind == "pose" else None
-        """What the held joint moves where one form serves every value: the base, the tool, or None."""
+        # what the held joint moves where one form serves every value: the base, the tool, or None
+        self.moves = "base" if index == 0 else "tool" if index == chain.nq - 1 and kind == "pose" else None
         if mode == "search" and self.moves is None:
             mode = "grid"  # a joint in the middle needs a form per value: its grid, not a search
         self.index, self.mode, self.kind = index, mode, kind
@@ -96,8 +102,7 @@ class LockedJointForm(ClosedForm):
         self._forms: dict[float, ClosedForm | None] = {value: self.sub.form}
         self._lock = threading.Lock()
         eaik = self.family.startswith("eaik:")
-        self._per_value = (not eaik, eaik)
-        """What is tried at another value of a joint in the middle (a family, EAIK): what served first."""
+        self._per_value = (not eaik, eaik)  # tried at another value of a middle joint: what served first
         one_value = self.moves is not None and not len(self.grid)
         self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
         self.search = HeldJointSearch(self) if mode == "search" else None
@@ -106,18 +111,12 @@ class LockedJointForm(ClosedForm):
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
-        reasons = []
-        if ways[0]:
-            try:
-                return recognise_family(locked, self.kind, self.options, self.families)
-            except UnsupportedError as refused:
-                reasons.append(str(refused))
-        if ways[1]:
-            try:
-                return recognise_eaik(locked, self.kind, probe=probe)
-            except UnsupportedError as refused:
-                reasons.append(str(refused))
-        raise UnsupportedError("; ".join(reasons))
+        recognisers = (lambda: recognise_family(locked, self.kind, self.options, self.families),
+                       lambda: recognise_eaik(locked, self.kind, probe=probe))
+        found = first_recognised(*compress(recognisers, ways))
+        if isinstance(found, list):
+            raise UnsupportedError("; ".join(found))
+        return found
 
     def _form_at(self, value: float) -> ClosedForm | None:
         """The 6-joint form with a middle joint held at ``value``, None where it has none."""
@@ -168,8 +167,8 @@ class LockedJointForm(ClosedForm):
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.search is None:
             return self.branches_at(positions, rotations, q0, self.values(q0))
-        return _stacked([self.search.run(positions[i], None if rotations is None else rotations[i], q0[i])[:2]
-                         for i in range(len(positions))], self.chain.nq)
+        return stacked_branches([self.search.run(positions[i], None if rotations is None else rotations[i],
+                                                 q0[i])[:2] for i in range(len(positions))], self.chain.nq)
 
     def branches_at(self, positions: np.ndarray, rotations: np.ndarray | None, q0: np.ndarray,
                     values: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +194,7 @@ class LockedJointForm(ClosedForm):
                                         None if rotations is None else rotations[target:target + 1],
                                         sub_starts[row:row + 1])
                 parts.append((q[0], real[0]))
-            sub_q, sub_real = _stacked(parts, self.chain.nq - 1)
+            sub_q, sub_real = stacked_branches(parts, self.chain.nq - 1)
         held = np.broadcast_to(flat[:, None, None], sub_q.shape[:2] + (1,))
         q_all = np.concatenate((sub_q[..., :self.index], held, sub_q[..., self.index:]), axis=-1)
         width = q_all.shape[1]
@@ -203,15 +202,6 @@ class LockedJointForm(ClosedForm):
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return poe_fk(self.lines, q)
-
-def _stacked(parts: list[tuple[np.ndarray, np.ndarray]], joints: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row branches (K_i, n) and real flags (K_i,) as one batch (B, max K_i, n), padded with NaN."""
-    width = max(len(q) for q, _ in parts)
-    q_all, real = np.full((len(parts), width, joints), np.nan), np.zeros((len(parts), width), dtype=bool)
-    for row, (q, flags) in enumerate(parts):
-        q_all[row, :len(q)], real[row, :len(q)] = q, flags
-    return q_all, real
-
 
 class HeldChoice:
     """``solve``'s kernel of a :class:`LockedJointForm` holding an end joint (the target moved)."""

@@ -21,7 +21,7 @@ from wbik.solvers.analytic.closed_form import (
 )
 from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.recognition import Recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.recognition import Recognised, first_recognised, recognise_eaik, recognise_family
 from wbik.solvers.analytic.redundancy import check_redundancy_options, lock_redundant_joint
 from wbik.solvers.analytic.stacked_planar import STACKED_PLANAR
 from wbik.solvers.analytic.structure import chain_lines
@@ -51,23 +51,13 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
         chain_lines(chain)
     except RobotDescriptionError as unreadable:
         return [f"its joint lines cannot be read ({unreadable})"]
-    reasons = []
     redundancy = dict(redundancy or {})
-    if redundancy.get("joint") is None:
-        try:
-            return recognise_family(chain, kind, options, FAMILIES)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-        try:
-            return recognise_eaik(chain, kind)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-    if redundancy.get("joint") is not None or chain.nq >= 7:
-        try:
-            return lock_redundant_joint(chain, kind, options, redundancy, FAMILIES)
-        except UnsupportedError as refused:
-            reasons.append(str(refused))
-    return reasons
+    held = redundancy.get("joint") is not None
+    recognisers = [] if held else [lambda: recognise_family(chain, kind, options, FAMILIES),
+                                   lambda: recognise_eaik(chain, kind)]
+    if held or chain.nq >= 7:
+        recognisers.append(lambda: lock_redundant_joint(chain, kind, options, redundancy, FAMILIES))
+    return first_recognised(*recognisers)
 
 
 def _closed_form(chain, kind: str, **options) -> ClosedForm:

@@ -293,10 +293,11 @@ class StackedPlanarPose(ClosedForm):
     """Full poses: ``triples`` rolls (alpha, alpha + pi), 4 branches each; a sweep of t6 at gimbal lock."""
 
     target_kind = "pose"
+    geometry_fk = staticmethod(fk)
 
     def __init__(self, chain, geometry: StackedPlanarGeometry, triples: int = 2):
-        super().__init__(chain)
-        self.geometry, self.triples = geometry, triples
+        super().__init__(chain, geometry)
+        self.triples = triples
         lower, upper = _finite_limits(chain)
         self.roll_limits = (float(lower[5]), float(upper[5]))
         self.roll_sweep = np.linspace(lower[5], upper[5], GIMBAL_LOCK_SWEEP)
@@ -319,9 +320,6 @@ class StackedPlanarPose(ClosedForm):
         count = len(positions)
         return q_all.reshape(count, -1, 6), (real & real_roll[..., None]).reshape(count, -1)
 
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return fk(self.geometry, q)
-
     def compiled(self, chain, alignment, screen_tolerance: float):
         g = self.geometry
         numbers = (g.l1, g.l2, g.l4, g.l5, g.l6, g.h, g.rho, COSINE_TOLERANCE, GIMBAL_LOCK, self.triples,
@@ -334,10 +332,10 @@ class StackedPlanarPosition(ClosedForm):
 
     target_kind = "position"
     chunk = 256
+    geometry_fk = staticmethod(fk)
 
     def __init__(self, chain, geometry: StackedPlanarGeometry, yaw: float):
-        super().__init__(chain)
-        self.geometry = geometry
+        super().__init__(chain, geometry)
         self.yaw = float(yaw)
         self.search = PositionSearch(geometry, *_finite_limits(chain))
 
@@ -347,15 +345,10 @@ class StackedPlanarPosition(ClosedForm):
                  for i in range(0, len(positions), self.chunk)]
         return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return fk(self.geometry, q)
-
 
 def held_roll(chain, yaw: float | None, error=InvalidOptionError) -> float:
     """The roll joint's value for position targets: ``yaw`` (default the nominal), inside the limits."""
-    if yaw is None:
-        yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]))
-    yaw = float(yaw)
+    yaw = float(np.clip(chain.nominal[5], chain.lower[5], chain.upper[5]) if yaw is None else yaw)
     if not math.isfinite(yaw) or not chain.lower[5] <= yaw <= chain.upper[5]:
         raise error(f"yaw (the roll joint {chain.joint_names[5]}) must be inside [{chain.lower[5]}, "
                     f"{chain.upper[5]}] rad, got {yaw}")

@@ -151,18 +151,15 @@ class URArm(ClosedForm):
     target_kind = "pose"
     geometry: URGeometry
 
+    geometry_fk = staticmethod(fk)
+
     def __init__(self, chain, geometry: URGeometry | None = None):
-        super().__init__(chain)
-        if geometry is not None:
-            self.geometry = geometry
+        super().__init__(chain, geometry)
         self.kernel = self.compiled(chain, None, self.screen_tolerance)
 
     def branches_by_joint(self, positions: np.ndarray, rotations: np.ndarray | None,
                           q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return branches_by_joint(self.geometry, positions, rotations, q0[:, 5])
-
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return fk(self.geometry, q)
 
     def compiled(self, chain, alignment, screen_tolerance: float):
         g = self.geometry

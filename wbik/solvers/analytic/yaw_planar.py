@@ -133,10 +133,7 @@ class PitchArmPose(ClosedForm):
     """Full poses: q1 from the tool y axis, the pitch from the approach axis, 2 elbows."""
 
     target_kind = "pose"
-
-    def __init__(self, chain: Chain, geometry: PitchArmGeometry):
-        super().__init__(chain)
-        self.geometry = geometry
+    geometry_fk = staticmethod(pitch_arm_fk)
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -151,9 +148,6 @@ class PitchArmPose(ClosedForm):
         consistent = (np.abs(rotations[:, 2, 1]) <= tolerance) & (off_plane <= tolerance)
         return q_all, real & consistent[:, None]
 
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return pitch_arm_fk(self.geometry, q)
-
 
 PITCH_GRID = 48  # pitches tried across the arc when the nearest has no branch inside the limits
 PITCH_BISECTIONS = 30  # from the best grid pitch toward the nearest
@@ -165,18 +159,16 @@ class PitchArmPosition(ClosedForm):
     pitches form an arc: q0's projected onto it, else the nearest usable grid pitch bisected toward it."""
 
     target_kind = "position"
+    geometry_fk = staticmethod(pitch_arm_fk)
 
     def __init__(self, chain: Chain, geometry: PitchArmGeometry):
-        super().__init__(chain)
-        self.geometry = g = geometry
+        super().__init__(chain, geometry)
+        g = geometry
         if g.a != g.b:
             raise InvalidConfigurationError(
                 f"the pitch search needs equal links (a wrist annulus without a hole), got {g.a} and {g.b}")
         self._revolute = ~chain.is_prismatic
         self.axis_tolerance = AXIS_RELATIVE_TOLERANCE * (g.a + g.b + g.t)
-
-    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return pitch_arm_fk(self.geometry, q)
 
     def _sides(self, positions: np.ndarray, q0: np.ndarray):
         """Per target and side: yaw, signed reach, arc centre psi_T, half-width, reachable: with T = (reach,
