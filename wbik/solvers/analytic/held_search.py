@@ -7,6 +7,8 @@ to the solver (the nearest the start for ``solve``, the distinct ones for ``solv
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from wbik.geometry import TWO_PI
@@ -30,11 +32,12 @@ class HeldJointSearch:
         self.low, self.high = float(form.range[0]), float(form.range[1])
         self.full_turn = bool(self.revolute[form.index]) and self.high - self.low >= TWO_PI - 1e-12
 
-    def run(self, position: np.ndarray, rotation: np.ndarray | None,
-            q0: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    def run(self, position: np.ndarray, rotation: np.ndarray | None, q0: np.ndarray,
+            nearest: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
         """(Q (K, n) wrapped nearest q0, passed (K,), outcome): the passing branches found (all passed,
-        outcome their count), else every branch evaluated (real where real; outcome 0 without a real one,
-        -1 without one inside the limits, -2 without one passing the screen)."""
+        outcome their count; ``nearest``: only the one nearest q0, screened in order of distance by the
+        model's FK), else every branch evaluated (real where real; outcome 0 without a real one, -1 without
+        one inside the limits, -2 without one passing the screen)."""
         k = self.form.index
         seed = min(max(float(q0[k]), float(self.lower[k])), float(self.upper[k]))
         values = np.concatenate(([seed], self.form.grid))
@@ -46,6 +49,10 @@ class HeldJointSearch:
             raw, real = raw[0], real[0] & np.all(np.isfinite(raw[0]), axis=-1)
             wrapped, inside = wrap_into_limits(raw, q0, self.lower, self.upper, self.revolute)
             candidates = np.flatnonzero(real & inside)
+            if nearest and len(candidates):
+                first = self._nearest_screened(wrapped[candidates], q0, position, rotation)
+                if first is not None:
+                    return first[None], np.ones(1, dtype=bool), len(candidates)
             residual = self._residual(wrapped[candidates], position, rotation)
             screened = residual <= self.form.screen_tolerance
             if screened.any():
@@ -80,6 +87,21 @@ class HeldJointSearch:
         violation[approximate] += self._residual(q[approximate], position, rotation)
         violation[~np.all(np.isfinite(q), axis=-1)] = np.inf
         return violation
+
+    def _nearest_screened(self, q: np.ndarray, q0: np.ndarray, position: np.ndarray,
+                          rotation: np.ndarray | None) -> np.ndarray | None:
+        """Of joints q (m, n), the nearest q0 (Euclidean, the first on a tie) that the screen passes."""
+        squares = q - q0
+        squares *= squares
+        for index in np.argsort(np.sqrt(np.add.reduce(squares, axis=1)), kind="stable"):
+            reached = self.form.chain.fk(q[index])
+            error = float(np.linalg.norm(reached.translation - position))
+            if rotation is not None:
+                cosine = (float(np.vdot(reached.rotation, rotation)) - 1.0) / 2.0
+                error = max(error, math.acos(min(1.0, max(-1.0, cosine))))
+            if error <= self.form.screen_tolerance:
+                return q[index]
+        return None
 
     def _residual(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
         """max(|p - p*|, angle(R*^T R)) of joints q (m, n) by the form's FK, as the solver screens."""
@@ -133,9 +155,7 @@ class SearchChoice:
                      out: np.ndarray) -> int:
         """The chosen branch into ``out``: the number of passing branches, else 0, -1 or -2 (as
         :class:`~.compiled.CompiledForm`)."""
-        q, _, outcome = self.search.run(position, rotation, reference)
+        q, _, outcome = self.search.run(position, rotation, reference, nearest=True)
         if outcome > 0:
-            squares = q - reference
-            squares *= squares
-            out[:] = q[int(np.argmin(np.sqrt(np.add.reduce(squares, axis=1))))]
+            out[:] = q[0]
         return outcome
