@@ -222,25 +222,20 @@ def _paired(study: Study, output: Path, old: Path, old_study: dict, old_targets:
         chunks = -(-poses // chunk_size)
         old_rows = {label: rows for label in labels
                     if (rows := store.load_method_rows(old, name, label, chunks)) is not None}
-        if name not in cases:
-            methods.extend(MethodComparison(name, label, _budget(old, name, label), poses,
-                                            int(rows["success"].sum()), missing="case not in this run",
-                                            verdict="REGRESSION: its case is not in this run")
-                           for label, rows in old_rows.items())
-            continue
-        new_rows, refused = case_rows(study, cases[name], output)
+        new_rows, refused = case_rows(study, cases[name], output) if name in cases else ({}, {})
         for label, rows in old_rows.items():
             if label in new_rows:
                 methods.append(judge(name, label, _budget(output, name, label), rows, new_rows[label],
                                      study.regression))
                 notes.extend(_definition_note(old, output, name, label))
                 continue
-            in_study = label in {m.label for m in study.methods}
-            why = (f"not applicable here: {refused[label]}" if label in refused
-                   else "incomplete here" if in_study else "not in this run's study")
+            why = ("case not in this run" if name not in cases
+                   else f"not applicable here: {refused[label]}" if label in refused
+                   else "incomplete here" if label in {m.label for m in study.methods}
+                   else "not in this run's study")
+            verdict = "REGRESSION: its case is not in this run" if name not in cases else f"REGRESSION: {why}"
             methods.append(MethodComparison(name, label, _budget(old, name, label), poses,
-                                            int(rows["success"].sum()), missing=why,
-                                            verdict=f"REGRESSION: {why}"))
+                                            int(rows["success"].sum()), missing=why, verdict=verdict))
         notes.extend(f"{name}/{label} is not in OLD (nothing to compare)" for label in new_rows
                      if label not in old_rows)
     notes.extend(f"OLD has no case {name!r} (nothing to compare)" for name in cases

@@ -424,17 +424,14 @@ def _angles(raw: dict | None, target: str, path: str, ctx: Context) -> AngleConv
         ctx.fail(path, f"Euler angles apply to pose targets only, this case's target is {target!r} (leave "
                        "angles: out)")
     taken = {*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES}
-    columns: list[tuple[str, str]] = []
-    for axis in POSITION_AXES:
-        column = raw["names"].get(axis)
-        if column is None:
-            continue
+    names = raw["names"]
+    columns = tuple((axis, names[axis]) for axis in POSITION_AXES if names.get(axis) is not None)
+    for axis, column in columns:
         if column in taken:
             ctx.fail(f"{path}.names.{axis}", f"{column!r} is already an error column "
                                             f"({', '.join(sorted(taken))}); choose another name")
         taken.add(column)
-        columns.append((axis, column))
-    return AngleConvention(sequence=raw["sequence"], names=tuple(columns))
+    return AngleConvention(sequence=raw["sequence"], names=columns)
 
 
 def _case_name(robot: str, chain: str | None, target: str) -> str:
