@@ -129,12 +129,8 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
         raise UsageError(f"case {case!r}, method {label!r}: the two runs' rows are of other poses")
     before, now = old["success"].astype(bool), new["success"].astype(bool)
     lost, gained = old["pose"][before & ~now], old["pose"][~before & now]
-    p_value = math.nan
-    if budget in DETERMINISTIC:
-        success_regressed = lost.size > 0
-    else:
-        p_value = mcnemar_p(lost.size, gained.size)
-        success_regressed = p_value < rule.success_level
+    p_value = math.nan if budget in DETERMINISTIC else mcnemar_p(lost.size, gained.size)
+    success_regressed = lost.size > 0 if budget in DETERMINISTIC else p_value < rule.success_level
     timed = np.isfinite(old["time_s"]) & np.isfinite(new["time_s"]) & (old["time_s"] > 0)
     ratios = new["time_s"][timed] / old["time_s"][timed]
     ratio = (float(np.median(ratios)), *bootstrap_median_interval(ratios)) if ratios.size else \
