@@ -407,10 +407,8 @@ class Map(Node):
                 ctx.fail(join(path, key), f"keys must be strings, {got(key)}")
         if self.values is None:
             unknown_keys(ctx, path, value, self.keys, self.unknown_error, self.words, self.allowed)
-        result = {}
-        for key, item in value.items():
-            rule = self.keys.get(key)
-            result[key] = (rule.node if rule is not None else self.values).check(item, join(path, key), ctx)
+        nodes = {key: self.keys[key].node if key in self.keys else self.values for key in value}
+        result = {key: nodes[key].check(item, join(path, key), ctx) for key, item in value.items()}
         for key, rule in self.keys.items():
             if key in result:
                 continue

@@ -191,14 +191,11 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
         return []
     first = next(iter(curves.values()))
     budgets = list(first.budgets_ms)
-    rows = []
-    for label, curve in curves.items():
-        low, high = curve.interval()
-        cells = [f"{fmt(p)} {fmt_interval(lo, hi)}"
-                 for p, lo, hi in zip(curve.percent, low, high, strict=True)]
-        reruns = int(curve.reruns.sum())
-        rows.append([label, analysis.get("budget_kinds", {}).get(label, ""), *cells,
-                     "flat (closed form)" if curve.unbudgeted else str(reruns)])
+    kinds = analysis.get("budget_kinds", {})
+    rows = [[label, kinds.get(label, ""), *(f"{fmt(p)} {fmt_interval(lo, hi)}" for p, lo, hi
+                                            in zip(curve.percent, *curve.interval(), strict=True)),
+             "flat (closed form)" if curve.unbudgeted else str(int(curve.reruns.sum()))]
+            for label, curve in curves.items()]
     return [Block("h3", "Success versus budget"),
             Block("p", f"% solved (Wilson 95 % interval) of the case's first {first.poses} targets, each "
                        "method solved again at every budget (wbik.study.budget_curves: a run stopped early "

@@ -114,10 +114,8 @@ def read_curves(study: Study, case: CaseSpec, output: Path, rows_by_method: dict
                                         unbudgeted=True)
             continue
         record = store.read_json(store.case_dir(output, case.name) / FOLDER / label / RECORD)
-        if record != _record(study, method, count):
-            continue
         paths = [budget_path(output, case.name, label, index) for index in range(budgets.size)]
-        if not all(path.is_file() for path in paths):
+        if record != _record(study, method, count) or not all(path.is_file() for path in paths):
             continue
         parts = [store.read_chunk(path) for path in paths]
         curves[label] = BudgetCurve(

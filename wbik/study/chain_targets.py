@@ -313,14 +313,10 @@ def _reference_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> lis
             table.append([label, f"{described.description} ({described.unit})", fmt(value), fmt(our), judged])
     if table:
         blocks.append(Block("table", header=["method", "metric", name, "ours", "comparison"], rows=table))
-    ours = {(t["method"], t["axis"]): t for t in tests}
-    rows = []
-    for label, axes in reference.significance.items():
-        for axis, p_value in axes.items():
-            test = ours.get((label, axis))
-            our_p = test["p_value"] if test else None
-            rows.append([label, axis, fmt_p(p_value), fmt_p(our_p) if our_p is not None else "-",
-                         same_significance(p_value, our_p)])
+    ours = {(t["method"], t["axis"]): t["p_value"] for t in tests}
+    rows = [[label, axis, fmt_p(p_value), fmt_p(ours.get((label, axis))),
+             same_significance(p_value, ours.get((label, axis)))]
+            for label, axes in reference.significance.items() for axis, p_value in axes.items()]
     if rows:
         where = f" ({reference.significance_source})" if reference.significance_source else ""
         blocks.append(Block("p", f"Mann-Whitney p-values against the baseline, the {name}'s{where} "

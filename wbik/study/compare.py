@@ -129,12 +129,8 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
         raise UsageError(f"case {case!r}, method {label!r}: the two runs' rows are of other poses")
     before, now = old["success"].astype(bool), new["success"].astype(bool)
     lost, gained = old["pose"][before & ~now], old["pose"][~before & now]
-    p_value = math.nan
-    if budget in DETERMINISTIC:
-        success_regressed = lost.size > 0
-    else:
-        p_value = mcnemar_p(lost.size, gained.size)
-        success_regressed = p_value < rule.success_level
+    p_value = math.nan if budget in DETERMINISTIC else mcnemar_p(lost.size, gained.size)
+    success_regressed = lost.size > 0 if budget in DETERMINISTIC else p_value < rule.success_level
     timed = np.isfinite(old["time_s"]) & np.isfinite(new["time_s"]) & (old["time_s"] > 0)
     ratios = new["time_s"][timed] / old["time_s"][timed]
     ratio = (float(np.median(ratios)), *bootstrap_median_interval(ratios)) if ratios.size else \
@@ -222,25 +218,20 @@ def _paired(study: Study, output: Path, old: Path, old_study: dict, old_targets:
         chunks = -(-poses // chunk_size)
         old_rows = {label: rows for label in labels
                     if (rows := store.load_method_rows(old, name, label, chunks)) is not None}
-        if name not in cases:
-            methods.extend(MethodComparison(name, label, _budget(old, name, label), poses,
-                                            int(rows["success"].sum()), missing="case not in this run",
-                                            verdict="REGRESSION: its case is not in this run")
-                           for label, rows in old_rows.items())
-            continue
-        new_rows, refused = case_rows(study, cases[name], output)
+        new_rows, refused = case_rows(study, cases[name], output) if name in cases else ({}, {})
         for label, rows in old_rows.items():
             if label in new_rows:
                 methods.append(judge(name, label, _budget(output, name, label), rows, new_rows[label],
                                      study.regression))
                 notes.extend(_definition_note(old, output, name, label))
                 continue
-            in_study = label in {m.label for m in study.methods}
-            why = (f"not applicable here: {refused[label]}" if label in refused
-                   else "incomplete here" if in_study else "not in this run's study")
+            why = ("case not in this run" if name not in cases
+                   else f"not applicable here: {refused[label]}" if label in refused
+                   else "incomplete here" if label in {m.label for m in study.methods}
+                   else "not in this run's study")
+            verdict = "REGRESSION: its case is not in this run" if name not in cases else f"REGRESSION: {why}"
             methods.append(MethodComparison(name, label, _budget(old, name, label), poses,
-                                            int(rows["success"].sum()), missing=why,
-                                            verdict=f"REGRESSION: {why}"))
+                                            int(rows["success"].sum()), missing=why, verdict=verdict))
         notes.extend(f"{name}/{label} is not in OLD (nothing to compare)" for label in new_rows
                      if label not in old_rows)
     notes.extend(f"OLD has no case {name!r} (nothing to compare)" for name in cases

@@ -87,18 +87,15 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
     if poses is not None:
         study = replace(study, poses=_count().check(poses, "--poses", cli),
                         cases=tuple(replace(c, poses=None) for c in study.cases))
-    if chunk_size is not None:
-        study = replace(study, chunk_size=_count().check(chunk_size, "--chunk-size", cli))
-    if seed is not None:
-        study = replace(study, seed=int(seed))
-    if name is not None:
-        study = replace(study, name=LABEL.check(name, "--name", cli))
+    changes = {"chunk_size": None if chunk_size is None else _count().check(chunk_size, "--chunk-size", cli),
+               "seed": None if seed is None else int(seed),
+               "name": None if name is None else LABEL.check(name, "--name", cli),
+               "figures": None if figures is None else bool(figures)}
+    study = replace(study, **{key: value for key, value in changes.items() if value is not None})
     if budget_curve_poses is not None:
         poses_or_none = Number(integer=True, ge=0, what="a number of poses >= 0 (0: none)")
         study = replace(study, budget_curves=replace(study.budget_curves, poses=poses_or_none.check(
             budget_curve_poses, "--budget-curves", cli)))
-    if figures is not None:
-        study = replace(study, figures=bool(figures))
     return study
 
 
@@ -147,12 +144,10 @@ def study_from_dict(data, source: str = "study") -> Study:
                 ctx.fail(where, f"case {case.name!r}: the reference figures name method {label!r}, which is "
                                 f"not a method label of the study{did_you_mean(label, labels)}; known: "
                                 f"{', '.join(labels)}")
-    return Study(name=checked["name"], cases=tuple(cases), methods=tuple(methods), poses=checked["poses"],
-                 seed=checked["seed"], timeout_s=checked["timeout_s"], tolerances=checked["tolerances"],
-                 start=checked["start"], baseline=baseline, chunk_size=checked["chunk_size"],
-                 budget_curves=_budget_curves(checked["budget_curves"]),
-                 regression=regression_rule(checked["regression"]), figures=checked["figures"],
-                 description=checked["description"] or "",
+    plain = ("name", "poses", "seed", "timeout_s", "tolerances", "start", "chunk_size", "figures")
+    return Study(**{key: checked[key] for key in plain}, cases=tuple(cases), methods=tuple(methods),
+                 baseline=baseline, budget_curves=_budget_curves(checked["budget_curves"]),
+                 regression=regression_rule(checked["regression"]), description=checked["description"] or "",
                  notes=checked["notes"] or "", source=source)
 
 
@@ -424,17 +419,14 @@ def _angles(raw: dict | None, target: str, path: str, ctx: Context) -> AngleConv
         ctx.fail(path, f"Euler angles apply to pose targets only, this case's target is {target!r} (leave "
                        "angles: out)")
     taken = {*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES}
-    columns: list[tuple[str, str]] = []
-    for axis in POSITION_AXES:
-        column = raw["names"].get(axis)
-        if column is None:
-            continue
+    names = raw["names"]
+    columns = tuple((axis, names[axis]) for axis in POSITION_AXES if names.get(axis) is not None)
+    for axis, column in columns:
         if column in taken:
             ctx.fail(f"{path}.names.{axis}", f"{column!r} is already an error column "
                                             f"({', '.join(sorted(taken))}); choose another name")
         taken.add(column)
-        columns.append((axis, column))
-    return AngleConvention(sequence=raw["sequence"], names=tuple(columns))
+    return AngleConvention(sequence=raw["sequence"], names=columns)
 
 
 def _case_name(robot: str, chain: str | None, target: str) -> str:

@@ -117,11 +117,8 @@ def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], tit
     colour = colours(labels)
     figure, cells = _axis_grid(len(axes_names), 3.0)
     for subplot, axis in zip(cells, axes_names, strict=True):
-        values = {}
-        for label in labels:
-            magnitude = _solved_errors(rows_by_method[label], axis)
-            if magnitude.size:
-                values[label] = np.log10(np.maximum(magnitude, ZERO_FLOOR))
+        magnitudes = {label: _solved_errors(rows, axis) for label, rows in rows_by_method.items()}
+        values = {label: np.log10(np.maximum(m, ZERO_FLOOR)) for label, m in magnitudes.items() if m.size}
         if values:
             everything = np.concatenate(list(values.values()))
             bins = np.linspace(everything.min(), everything.max() + 1e-9, 40)
@@ -194,19 +191,17 @@ def budget_curves(curves: dict, kinds: dict[str, str], title: str, path: Path) -
                   color=colour[label], linewidth=1.4, label=f"{label} ({kinds.get(label, 'wall')})")
         axes.fill_between(curve.budgets_ms, low, high, color=colour[label], alpha=0.12, linewidth=0)
     axes.set_xscale("log")
-    if labels:
-        budgets = next(iter(curves.values())).budgets_ms
-        axes.set_xticks(budgets, [f"{value:g}" for value in budgets])
-        axes.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
     axes.set_ylim(-2, 102)
     axes.set_xlabel("budget per solve (ms): the iterations that cost that long for 'iterations', "
                     "wall clock for 'wall'")
     axes.set_ylabel("% solved (95 % band)")
     axes.grid(True, which="both", alpha=0.25)
     if labels:
+        first = next(iter(curves.values()))
+        axes.set_xticks(first.budgets_ms, [f"{value:g}" for value in first.budgets_ms])
+        axes.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
         axes.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
-        poses = next(iter(curves.values())).poses
-        axes.set_title(f"{title}: success versus budget ({poses} poses per point)")
+        axes.set_title(f"{title}: success versus budget ({first.poses} poses per point)")
     return save(figure, path)
 
 

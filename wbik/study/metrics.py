@@ -60,11 +60,9 @@ class AngleConvention:
 
 def axes(target_kind: str, angles: AngleConvention | None = None) -> list[str]:
     """Error axes of a case, in column order (without the ``err_`` prefix)."""
-    names = list(POSITION_AXES)
-    if target_kind == "pose":
-        names += list(ROTATION_VECTOR_AXES) + list(ANGLE_AXES)
-        names += angles.columns if angles else []
-    return names
+    if target_kind != "pose":
+        return list(POSITION_AXES)
+    return [*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES, *(angles.columns if angles else [])]
 
 
 def axis_label(axis: str, angles: AngleConvention | None = None) -> str:
@@ -74,9 +72,8 @@ def axis_label(axis: str, angles: AngleConvention | None = None) -> str:
     for about, name in angles.names if angles else ():
         if name == axis:
             same = angles.study_angle(about)
-            if same:
-                return f"{name} (= {same}, rad)"
-            return f"{name} (about {about} in {angles.describe()}, rad)"
+            return (f"{name} (= {same}, rad)" if same
+                    else f"{name} (about {about} in {angles.describe()}, rad)")
     return axis
 
 
@@ -104,6 +101,5 @@ def axis_errors(results: Sequence[IKResult], target_rotations: np.ndarray | None
     columns.update({f"err_{axis}": own[:, index] for index, axis in enumerate(ANGLE_AXES)})
     if angles:
         theirs = own if angles.sequence == STUDY_SEQUENCE else differences(angles.sequence)
-        for axis, name in angles.names:
-            columns[f"err_{name}"] = theirs[:, _AXIS_INDEX[axis]]
+        columns.update({f"err_{name}": theirs[:, _AXIS_INDEX[axis]] for axis, name in angles.names})
     return columns

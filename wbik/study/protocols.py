@@ -107,9 +107,7 @@ class ProtocolTargets(ChainTargets):
         for index in np.flatnonzero(checked & ~passed & np.isfinite(worst)):
             reasons[index] = failure_reason(rule, float(worst[index]), int(component[index]))
         reasons[passed] = ""
-        columns["check_success"] = checked
-        columns["success"] = passed
-        columns["reason"] = reasons.astype(str)
+        columns.update(check_success=checked, success=passed, reason=reasons.astype(str))
         return columns
 
     def analyse(self, study: Study, case: CaseSpec, output: Path) -> dict:

@@ -32,10 +32,7 @@ def source_of(module: str) -> Path | None:
     if parts[0] != "wbik":
         return None
     base = PACKAGE.joinpath(*parts[1:])
-    for path in (base / "__init__.py", base.with_suffix(".py")):
-        if path.is_file():
-            return path
-    return None
+    return next((path for path in (base / "__init__.py", base.with_suffix(".py")) if path.is_file()), None)
 
 
 def _is_type_checking(node: ast.If) -> bool:

@@ -81,15 +81,12 @@ def verdict(metric: str, theirs: float, ours: float | None) -> str:
         return "not measured (method not run)"
     if REFERENCE_METRICS[metric].unit == "%":
         difference = ours - theirs
-        if abs(difference) <= AGREEMENT_POINTS:
-            return f"agrees ({difference:+.1f} points)"
-        return f"differs by {difference:+.1f} points"
+        return (f"agrees ({difference:+.1f} points)" if abs(difference) <= AGREEMENT_POINTS
+                else f"differs by {difference:+.1f} points")
     if theirs == 0:
         return "-"
     ratio = ours / theirs
-    if 0.5 <= ratio <= 2.0:
-        return f"same order (x{ratio:.2g})"
-    return f"{'faster' if ratio < 1 else 'slower'} (x{ratio:.2g})"
+    return f"{'same order' if 0.5 <= ratio <= 2.0 else 'faster' if ratio < 1 else 'slower'} (x{ratio:.2g})"
 
 
 def same_significance(theirs: float, ours: float | None) -> str:

@@ -83,11 +83,9 @@ def render_markdown(blocks: list[Block], base: Path) -> str:
         elif block.kind == "list":
             lines += [f"- {item}" for item in block.items] + [""]
         elif block.kind == "table":
-            lines.append("| " + " | ".join(str(h) for h in block.header) + " |")
-            lines.append("|" + "---|" * len(block.header))
-            for row in block.rows:
-                lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in row) + " |")
-            lines.append("")
+            rows = [" | ".join(str(c).replace("|", "\\|") for c in row) for row in block.rows]
+            lines += [f"| {' | '.join(map(str, block.header))} |", "|" + "---|" * len(block.header),
+                      *(f"| {row} |" for row in rows), ""]
         elif block.kind == "image":
             lines += [f"![{block.text}]({block.path.relative_to(base).as_posix()})", ""]
     return "\n".join(lines)

@@ -48,13 +48,12 @@ def prepare_output(study: Study, output: Path, fresh: bool, lock: FolderLock) ->
     """Refuse to mix results of a different study unless ``fresh`` (which empties the folder we hold)."""
     record = output / "study.json"
     previous = store.read_json(record)
-    if previous is not None and previous.get("fingerprint") != study.fingerprint():
-        if not fresh:
-            raise StudyDefinitionError(
-                f"{output} holds results of a study with other cases, poses, seed, start, chunk size or "
-                f"tolerances (fingerprint {previous.get('fingerprint')} != {study.fingerprint()}); pass "
-                "--fresh to delete them, or --output to write elsewhere. (Adding, removing or changing "
-                "methods is fine: only the changed methods are recomputed.)")
+    if previous is not None and previous.get("fingerprint") != study.fingerprint() and not fresh:
+        raise StudyDefinitionError(
+            f"{output} holds results of a study with other cases, poses, seed, start, chunk size or "
+            f"tolerances (fingerprint {previous.get('fingerprint')} != {study.fingerprint()}); pass "
+            "--fresh to delete them, or --output to write elsewhere. (Adding, removing or changing "
+            "methods is fine: only the changed methods are recomputed.)")
     if fresh:
         lock.clear()
     store.write_json(record, {"fingerprint": study.fingerprint(), "source": study.source,
@@ -156,12 +155,9 @@ def _execute(tasks: list[ChunkTask], jobs: int, backend: str, scheduler: str | N
         from dask.distributed import Client, LocalCluster
     except ImportError as exc:
         raise DASK_LIBRARY.error("the study's dask backend", exc) from None
-    cluster = None
-    if scheduler:
-        client = Client(scheduler)
-    else:
-        cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
+    cluster = None if scheduler else LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True,
+                                                  dashboard_address=None)
+    client = Client(scheduler or cluster)
     try:
         with parallel_config(backend="dask"):
             yield from run(-1)

@@ -59,10 +59,8 @@ def sample_joints(chain: Chain, count: int, seed: int) -> np.ndarray:
 
 def start_configurations(chain: Chain, count: int, seed: int, start: str) -> np.ndarray:
     """(count, n) q0: the chain's nominal, its mid-range, or uniform random inside the limits."""
-    if start == "nominal":
-        return np.tile(chain.nominal, (count, 1))
-    if start == "mid_range":
-        return np.tile(chain.mid_range, (count, 1))
+    if start in ("nominal", "mid_range"):
+        return np.tile(getattr(chain, start), (count, 1))
     if start == "random":
         return chain.random(np.random.default_rng([seed, 1]), count)
     raise ValueError(f"unknown start {start!r}: nominal, mid_range or random")

@@ -190,11 +190,10 @@ def distance_histogram(rows_by_method: dict[str, dict], title: str, path: Path) 
 
     import wbik.study.figures as figures
 
-    values = {}
-    for label, rows in rows_by_method.items():
-        solved = rows["start_distance"][rows["success"].astype(bool)]
-        values[label] = solved[np.isfinite(solved)]
-    everything = np.concatenate([v for v in values.values()]) if values else np.zeros(0)
+    solved = {label: rows["start_distance"][rows["success"].astype(bool)]
+              for label, rows in rows_by_method.items()}
+    values = {label: v[np.isfinite(v)] for label, v in solved.items()}
+    everything = np.concatenate(list(values.values())) if values else np.zeros(0)
     if everything.size == 0:
         return None
     figure, axes = plt.subplots(figsize=(7.0, 4.0))

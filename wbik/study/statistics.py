@@ -187,16 +187,10 @@ def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.nda
     if baseline_label not in rows_by_method:
         return []
     baseline = rows_by_method[baseline_label]
-    table = []
-    for label, rows in rows_by_method.items():
-        if label == baseline_label:
-            continue
-        for axis in [*error_axes(baseline), "time"]:
-            if axis != "time" and f"err_{axis}" not in rows:
-                continue
-            table.append(mann_whitney_row(label, baseline_label, axis, significance_samples(baseline, axis),
-                                          significance_samples(rows, axis)))
-    return with_holm(table)
+    return with_holm([mann_whitney_row(label, baseline_label, axis, significance_samples(baseline, axis),
+                                       significance_samples(rows, axis))
+                      for label, rows in rows_by_method.items() if label != baseline_label
+                      for axis in [*error_axes(baseline), "time"] if axis == "time" or f"err_{axis}" in rows])
 
 
 def mann_whitney_row(method: str, baseline: str, axis: str, first: np.ndarray, second: np.ndarray) -> dict:

@@ -226,15 +226,11 @@ URDF_PATH = description_file("bioloid.urdf")
 
 
 def chain_specs() -> list[ChainSpec]:
-    specs = []
-    for side, word in (("r", "right"), ("l", "left")):
-        specs.append(ChainSpec(f"{word}_leg", f"{side}_hip", f"{side}_ankle",
-                               tuple(f"{side}_{j}" for j in LEG_JOINTS),
-                               f"{word} hip point -> {word} ankle point (6 joints)"))
-        specs.append(ChainSpec(f"{word}_arm", "chest", f"{side}_hand",
-                               tuple(f"{side}_{j}" for j in ARM_JOINTS),
-                               f"chest centre -> {word} hand tip (3 joints)"))
-    return specs
+    return [spec for side, word in (("r", "right"), ("l", "left")) for spec in (
+        ChainSpec(f"{word}_leg", f"{side}_hip", f"{side}_ankle", tuple(f"{side}_{j}" for j in LEG_JOINTS),
+                  f"{word} hip point -> {word} ankle point (6 joints)"),
+        ChainSpec(f"{word}_arm", "chest", f"{side}_hand", tuple(f"{side}_{j}" for j in ARM_JOINTS),
+                  f"chest centre -> {word} hand tip (3 joints)"))]
 
 
 def standing_leg_angles(hip_height: float = STANDING_HIP_HEIGHT, pitch: float = STANDING_PITCH) -> np.ndarray:
