@@ -159,7 +159,8 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
     if not np.all(np.isfinite(q)):
         return math.inf
     position_xyz, rotation_xyz = pose_error(chain.fk(q), target)
-    return max(float(np.linalg.norm(position_xyz)), float(np.linalg.norm(rotation_xyz)))
+    rotation = 0.0 if rotation_xyz is None else float(np.linalg.norm(rotation_xyz))
+    return max(float(np.linalg.norm(position_xyz)), rotation)
 
 
 class BranchLibrarySolver(Solver):

@@ -1,18 +1,17 @@
 """The held joint k of a 7-joint arm searched (``redundancy="search"``, the default): held at v, the other
-six have a closed form, and v solves a pose when a branch is real, inside the limits and passes the solver's
-FK screen. The start's value and a grid over k's range go in one batch; where none passes, a grid
-:data:`DENSER` times finer; then grids zoomed on the local minima of the violation (limit excess plus FK
-residual), until a branch passes or the interval is below :data:`ZOOM_FLOOR`. The passing branches go back
-to the solver (the nearest the start for ``solve``, the distinct ones for ``solve_all``)."""
+six have a closed form, and v solves a pose when a branch is real, inside the limits and passes the FK
+screen (by the model's FK). The start's value and a grid over k's range go in one batch; where none passes,
+a grid :data:`DENSER` times finer; then grids zoomed on the local minima of the violation (limit excess
+plus FK residual), until a branch passes or the interval is below :data:`ZOOM_FLOOR`. The passing branches
+go back to the solver (the nearest the start for ``solve``, the distinct ones for ``solve_all``)."""
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, wrap_into_limits
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, fk_residual, wrap_into_limits
+from wbik.targets import Target
 
 DENSER = 8  # where no value of the grid passes, a grid this many times finer over the range comes next
 ZOOM_CANDIDATES = 3  # local minima of the violation (the least violating) each zoom level searches around
@@ -35,14 +34,14 @@ class HeldJointSearch:
     def run(self, position: np.ndarray, rotation: np.ndarray | None, q0: np.ndarray,
             nearest: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
         """(Q (K, n) wrapped nearest q0, passed (K,), outcome): the passing branches found (all passed,
-        outcome their count; ``nearest``: only the one nearest q0, screened in order of distance by the
-        model's FK), else every branch evaluated (real where real; outcome 0 without a real one, -1 without
-        one inside the limits, -2 without one passing the screen)."""
+        outcome their count; ``nearest``: only the one nearest q0, screened in order of distance), else every
+        branch evaluated (real where real; outcome 0 without a real one, -1 without one inside the limits, -2
+        without one passing the screen)."""
         k = self.form.index
         seed = min(max(float(q0[k]), float(self.lower[k])), float(self.upper[k]))
         values = np.concatenate(([seed], self.form.grid))
         spacing = (self.high - self.low) / max(len(self.form.grid), 1)
-        evaluated, outcome = [], 0
+        evaluated, outcome, target = [], 0, Target(position, rotation)
         while True:
             raw, real = self.form.branches_at(position[None], None if rotation is None else rotation[None],
                                               q0[None], values[None], exact=True)
@@ -50,10 +49,12 @@ class HeldJointSearch:
             wrapped, inside = wrap_into_limits(raw, q0, self.lower, self.upper, self.revolute)
             candidates = np.flatnonzero(real & inside)
             if nearest and len(candidates):
-                first = self._nearest_screened(wrapped[candidates], q0, position, rotation)
-                if first is not None:
-                    return first[None], np.ones(1, dtype=bool), len(candidates)
-            residual = self._residual(wrapped[candidates], position, rotation)
+                squares = wrapped[candidates] - q0
+                squares *= squares
+                for index in candidates[np.argsort(np.sqrt(np.add.reduce(squares, axis=1)), kind="stable")]:
+                    if fk_residual(self.form.chain, wrapped[index], target) <= self.form.screen_tolerance:
+                        return wrapped[index][None], np.ones(1, dtype=bool), len(candidates)
+            residual = np.array([fk_residual(self.form.chain, q, target) for q in wrapped[candidates]])
             screened = residual <= self.form.screen_tolerance
             if screened.any():
                 count = int(screened.sum())
@@ -66,7 +67,7 @@ class HeldJointSearch:
                 continue
             if spacing < ZOOM_FLOOR:
                 break
-            violation = self._violation(raw, real, position, rotation)
+            violation = self._violation(raw, real, target)
             violation[candidates] += residual  # inside the limits, real, yet off the target
             violation = violation.reshape(len(values), -1).min(axis=1)
             values = self._zoom(values, violation, spacing)
@@ -74,45 +75,27 @@ class HeldJointSearch:
         return (np.concatenate([q for q, _ in evaluated]), np.concatenate([r for _, r in evaluated]),
                 outcome)
 
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray | None, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """``solve``'s kernel: the passing branch nearest ``reference`` into ``out``; the number of candidate
+        branches, else 0, -1 or -2 (as :class:`~.compiled.CompiledForm`)."""
+        q, _, outcome = self.run(position, rotation, reference, nearest=True)
+        if outcome > 0:
+            out[:] = q[0]
+        return outcome
+
     def _grid(self, count: int) -> np.ndarray:
         """``count`` values over the held joint's range (a full turn without its last value)."""
         return np.linspace(self.low, self.high, count, endpoint=not self.full_turn)
 
-    def _violation(self, q: np.ndarray, real: np.ndarray, position: np.ndarray,
-                   rotation: np.ndarray | None) -> np.ndarray:
+    def _violation(self, q: np.ndarray, real: np.ndarray, target: Target) -> np.ndarray:
         """Per branch, how far it is from passing: the joints outside their limits (:meth:`_limit_excess`)
         plus, for an approximate branch, its FK residual (m and rad); inf for non-finite joints."""
         violation = self._limit_excess(q)
         approximate = ~real & np.all(np.isfinite(q), axis=-1)
-        violation[approximate] += self._residual(q[approximate], position, rotation)
+        violation[approximate] += [fk_residual(self.form.chain, row, target) for row in q[approximate]]
         violation[~np.all(np.isfinite(q), axis=-1)] = np.inf
         return violation
-
-    def _nearest_screened(self, q: np.ndarray, q0: np.ndarray, position: np.ndarray,
-                          rotation: np.ndarray | None) -> np.ndarray | None:
-        """Of joints q (m, n), the nearest q0 (Euclidean, the first on a tie) that the screen passes."""
-        squares = q - q0
-        squares *= squares
-        for index in np.argsort(np.sqrt(np.add.reduce(squares, axis=1)), kind="stable"):
-            reached = self.form.chain.fk(q[index])
-            error = float(np.linalg.norm(reached.translation - position))
-            if rotation is not None:
-                cosine = (float(np.vdot(reached.rotation, rotation)) - 1.0) / 2.0
-                error = max(error, math.acos(min(1.0, max(-1.0, cosine))))
-            if error <= self.form.screen_tolerance:
-                return q[index]
-        return None
-
-    def _residual(self, q: np.ndarray, position: np.ndarray, rotation: np.ndarray | None) -> np.ndarray:
-        """max(|p - p*|, angle(R*^T R)) of joints q (m, n) by the form's FK, as the solver screens."""
-        if not len(q):
-            return np.zeros(0)
-        reached_p, reached_r = self.form.fk(q)
-        residual = np.linalg.norm(reached_p - position, axis=-1)
-        if rotation is not None:
-            cosine = (np.einsum("kij,ij->k", reached_r, rotation) - 1.0) / 2.0
-            residual = np.maximum(residual, np.arccos(np.clip(cosine, -1.0, 1.0)))
-        return residual
 
     def _limit_excess(self, q: np.ndarray) -> np.ndarray:
         """Per branch, the sum over joints of how far (rad or m) each is outside its limits, a revolute
@@ -142,20 +125,3 @@ class HeldJointSearch:
         if self.full_turn:
             zoomed = self.low + np.mod(zoomed - self.low, TWO_PI)
         return np.clip(zoomed, self.low, self.high)
-
-
-class SearchChoice:
-    """``solve``'s kernel of a searched held joint: of the branches the search passed (screened), the one
-    nearest the start, as the solver's vectorised choice takes it."""
-
-    def __init__(self, search: HeldJointSearch):
-        self.search = search
-
-    def nearest_into(self, position: np.ndarray, rotation: np.ndarray | None, reference: np.ndarray,
-                     out: np.ndarray) -> int:
-        """The chosen branch into ``out``: the number of passing branches, else 0, -1 or -2 (as
-        :class:`~.compiled.CompiledForm`)."""
-        q, _, outcome = self.search.run(position, rotation, reference, nearest=True)
-        if outcome > 0:
-            out[:] = q[0]
-        return outcome

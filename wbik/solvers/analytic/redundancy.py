@@ -15,7 +15,7 @@ import numpy as np
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
-from wbik.solvers.analytic.held_search import HeldJointSearch, SearchChoice
+from wbik.solvers.analytic.held_search import HeldJointSearch
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.recognition import (
     Family,
@@ -104,10 +104,9 @@ class LockedJointForm(ClosedForm):
         eaik = self.family.startswith("eaik:")
         self._per_value = (not eaik, eaik)  # tried at another value of a middle joint: what served first
         one_value = self.moves is not None and not len(self.grid)
-        self.kernel = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
         self.search = HeldJointSearch(self) if mode == "search" else None
-        if self.search is not None:
-            self.kernel = SearchChoice(self.search)
+        held = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
+        self.kernel = self.search or held
 
     def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
         """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
