@@ -488,11 +488,10 @@ def check_schema(methods, cases, source: str) -> None:
         kind = next((kind for kind in kinds if spec.method in kind.methods()), kinds[0])
         try:
             schema = kind.method_option_schema(spec.method)
-            names = kind.method_options(spec.method) if schema is None else None
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
-        if schema is None:  # a kind that does not type its options: their names
-            schema = Options(dict.fromkeys(names or (), Key(Anything())), names is None)
+        if schema is None:  # a kind that takes any options
+            continue
         options = Options({name: key for name, key in schema.keys.items() if name not in study_settings},
                           schema.values is not None, f"method {spec.method!r} ({spec.label})")
         options.check({key: value for key, value in spec.options.items() if key not in study_settings},
