@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import wbik
-from wbik.geometry import wrap_to_pi
-from wbik.study.closed_form_branches import complete_closed_form, in_limit_branches, joint_distance
+from wbik.geometry import joint_gap, wrap_to_pi
+from wbik.study.closed_form_branches import complete_closed_form, in_limit_branches
 from wbik.study.context import case_chain
 from wbik.study.solution_coverage import (
     coverage_columns,
@@ -44,8 +44,8 @@ def test_the_pose_has_eight_distinct_branches_each_reaching_it(ur5, branches):
     for i, q in enumerate(branches):
         assert chain.fk(q).isApprox(target, 1e-9)
         others = np.delete(branches, i, axis=0)
-        assert np.min(joint_distance(others, q, revolute)) > 0.1  # distinct, modulo 2 pi
-    assert np.min(joint_distance(branches, q_true, revolute)) < 1e-9  # the generating joints are one
+        assert np.min(joint_gap(others, q, revolute)) > 0.1  # distinct, modulo 2 pi
+    assert np.min(joint_gap(branches, q_true, revolute)) < 1e-9  # the generating joints are one
 
 
 def _nearest_by_hand(branches: np.ndarray, chain, start: np.ndarray) -> int:
@@ -75,7 +75,7 @@ def test_coverage_columns_match_a_hand_computed_chunk(ur5, branches):
     positions = np.tile(target.translation, (3, 1))
     rotations = np.tile(target.rotation, (3, 1, 1))
     out = coverage_columns(chain, columns, q0, positions, rotations, 0, 17, PARAMETERS, nearest_branch_answer)
-    index_of = {i: int(np.argmin(joint_distance(branches, b, revolute))) for i, b in enumerate(branches)}
+    index_of = {i: int(np.argmin(joint_gap(branches, b, revolute))) for i, b in enumerate(branches)}
     assert out["branches_in_limits"].tolist() == [8, 8, 8]
     assert out["branch"].tolist() == [index_of[2], index_of[5], -1]  # 2 pi apart is the same branch
     assert out["same_branch"].tolist() == [1, 0, -1]  # start 0.05 rad from branch 2: its nearest is branch 2

@@ -1,15 +1,19 @@
 """Atomic file writes (a temporary file per process next to the destination, renamed into place: a
-reader sees the old file or the new one, never a partial write) and the plain values JSON takes."""
+reader sees the old file or the new one, never a partial write), the plain values JSON takes, and the
+reading of YAML/JSON/TOML data files."""
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
+import yaml
 
 
 def json_plain(value, finite: bool = False):
@@ -46,3 +50,29 @@ def atomic_write_bytes(path: Path, writer: Callable[[BinaryIO], object]) -> None
 
 def atomic_write_text(path: Path, text: str) -> None:
     atomic_write_bytes(path, lambda handle: handle.write(text.encode()))
+
+
+def read_data_file(path: Path, error: type[Exception], kind: str, shape: str, missing: str = ""):
+    """The parsed content of a YAML, JSON or TOML text file (by its suffix; YAML otherwise), or ``error``
+    saying what is wrong: ``kind`` names the file ("scenario"), ``shape`` what its content must be
+    ("a scenario is a mapping ..."), ``missing`` ends a missing file's message."""
+    if path.is_dir():
+        raise error(f"{kind} file {str(path)!r} is a directory; pass a YAML/JSON/TOML {kind} file")
+    if not path.is_file():
+        raise error(f"{kind} file {str(path)!r} does not exist{missing}")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason}); a {kind} file is "
+                    "YAML/JSON/TOML text") from None
+    except OSError as exc:
+        raise error(f"cannot read {kind} file {str(path)!r}: {exc.strerror}") from None
+    suffix = path.suffix.lower()
+    parse = {".json": json.loads, ".toml": tomllib.loads}.get(suffix, yaml.safe_load)
+    try:
+        data = parse(text) if text.strip() else None
+    except Exception as exc:  # yaml, json and tomllib raise several types
+        raise error(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
+    if data is None:
+        raise error(f"{path}: the file is empty (or only comments or null); {shape}")
+    return data

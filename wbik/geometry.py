@@ -23,10 +23,11 @@ def wrap_to_pi(angle):
     return np.pi - np.mod(np.pi - np.asarray(angle, dtype=float), 2.0 * np.pi)
 
 
-def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
-    """Largest joint difference |q_i - other_i|, revolute joints taken modulo 2 pi."""
+def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float | np.ndarray:
+    """Largest joint difference |q_i - other_i| over the last axis (a float for vectors (n,), an array
+    for (..., n)), revolute joints taken modulo 2 pi."""
     difference = np.asarray(q, dtype=float) - other
-    return float(np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference))))
+    return np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference)), axis=-1)
 
 
 TWO_PI = 2.0 * math.pi

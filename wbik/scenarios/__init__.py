@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import json
-import tomllib
 from pathlib import Path
 
-import yaml
-
 from wbik.errors import UnsupportedError
-from wbik.files import atomic_write_text
+from wbik.files import atomic_write_text, read_data_file
 from wbik.scenarios.kinds import (
     KIND_REGISTRY,
     ScenarioError,
@@ -27,41 +24,20 @@ __all__ = ["KIND_REGISTRY", "ScenarioError", "ScenarioKind", "ScenarioReport", "
            "scenario_animation"]
 
 
-def _read(path: Path):
-    """The parsed content of a scenario file, or a ScenarioFileError saying what is wrong with it."""
-    if path.is_dir():
-        raise ScenarioFileError(f"scenario file {str(path)!r} is a directory; pass a YAML/JSON/TOML "
-                                "scenario file, e.g. tasks/bioloid_balance.yaml")
-    if not path.is_file():
-        raise ScenarioFileError(f"scenario file {str(path)!r} does not exist")
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ScenarioFileError(f"{path}: not UTF-8 text (byte {exc.start}: {exc.reason}); a scenario is "
-                                "a YAML/JSON/TOML text file") from None
-    except OSError as exc:
-        raise ScenarioFileError(f"cannot read scenario file {str(path)!r}: {exc.strerror}") from None
-    if not text.strip():
-        raise ScenarioFileError(f"{path}: the file is empty; a scenario is a mapping with a 'kind' "
-                                f"(one of {', '.join(kind_names())})")
-    suffix = path.suffix.lower()
-    try:
-        return {".json": json.loads, ".toml": tomllib.loads}.get(suffix, yaml.safe_load)(text)
-    except Exception as exc:  # yaml, json and tomllib raise several types
-        raise ScenarioFileError(f"{path}: not valid {suffix.lstrip('.').upper() or 'YAML'}: {exc}") from None
+def _spec(path: Path):
+    """A scenario file's content (``name`` defaults to the file's stem), not yet checked."""
+    spec = read_data_file(path, ScenarioFileError, "scenario",
+                          f"a scenario is a mapping with a 'kind' (one of {', '.join(kind_names())})")
+    if isinstance(spec, dict):
+        spec.setdefault("name", path.stem)
+    return spec
 
 
 def load_scenario(path: str | Path) -> dict:
     """A scenario file's mapping (``name`` defaults to the file's stem), checked against its kind's schema."""
-    path = Path(path)
-    spec = _read(path)
-    if spec is None:
-        raise ScenarioFileError(f"{path}: the file is empty (only comments or null); a scenario is "
-                                f"a mapping with a 'kind' (one of {', '.join(kind_names())})")
     from wbik.scenario_schema import validate  # (it imports this package's kinds)
 
-    if isinstance(spec, dict):
-        spec.setdefault("name", path.stem)
+    spec = _spec(Path(path))
     validate(spec, str(path))  # (a ScenarioFileError for anything but a mapping)
     return spec
 
@@ -71,7 +47,7 @@ def run_scenario_report(scenario: str | Path | dict, output: str | Path | None =
     """The :class:`ScenarioReport` of a scenario (file or dict); ``output``: the JSON report, each phase."""
     from wbik.scenario_schema import validate
 
-    spec = scenario if isinstance(scenario, dict) else load_scenario(scenario)
+    spec = scenario if isinstance(scenario, dict) else _spec(Path(scenario))
     named = str(scenario) if spec is not scenario else f"scenario {spec.get('name') or spec.get('kind')!r}"
     checked = validate(spec, source or named)
     kind = KIND_REGISTRY.get(checked["kind"])

@@ -80,10 +80,6 @@ class CaseKind(ABC):
     def methods(self) -> dict[str, str]:
         """The methods a case of this kind can run: {name: description}."""
 
-    @abstractmethod
-    def method_options(self, method: str) -> set[str] | None:
-        """The keyword options ``method`` takes (None: any)."""
-
     def method_factory(self, method: str):
         """What builds ``method``'s solver (None: not known here); a root of the code fingerprint."""
         return None
@@ -93,7 +89,7 @@ class CaseKind(ABC):
         return []
 
     def method_option_schema(self, method: str) -> Map | None:
-        """The types of ``method``'s options (:func:`wbik.options.option_schema`; None: unchecked)."""
+        """The keyword options ``method`` takes, typed (:func:`wbik.options.option_schema`; None: any)."""
         return None
 
     @abstractmethod
@@ -184,10 +180,6 @@ class RegisteredMethods:
     def methods(self) -> dict[str, str]:
         from wbik.solvers.method_registry import methods
         return methods()
-
-    def method_options(self, method: str) -> set[str] | None:
-        from wbik.solvers.method_registry import solver_options
-        return solver_options(method)
 
     def method_factory(self, method: str):
         from wbik.solvers.method_registry import method_factory

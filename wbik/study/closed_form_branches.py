@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import UnsupportedError
-from wbik.geometry import TWO_PI, wrap_to_pi
+from wbik.geometry import TWO_PI, joint_gap
 from wbik.robot import Chain
 
 BRANCH_RESIDUAL = 1e-7  # model FK residual (m and rad) at or below which a branch solves the pose
@@ -46,7 +46,7 @@ class ClosedFormBranches:
             for q in q_all[index][real[index]]:
                 if not np.all(np.isfinite(q)) or residual(chain, q, target) > BRANCH_RESIDUAL:
                     continue
-                if not any(joint_distance(q, other, revolute) < SAME_SOLUTION for other in distinct):
+                if not any(joint_gap(q, other, revolute) < SAME_SOLUTION for other in distinct):
                     distinct.append(q)
             found.append(np.array(distinct).reshape(len(distinct), chain.nq))
         return found
@@ -74,12 +74,6 @@ def residual(chain: Chain, q: np.ndarray, target: pin.SE3) -> float:
     reached = chain.fk(q)
     position = float(np.linalg.norm(reached.translation - target.translation))
     return max(position, float(np.linalg.norm(pin.log3(target.rotation.T @ reached.rotation))))
-
-
-def joint_distance(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float:
-    """Largest |q_i - other_i|, revolute joints modulo 2 pi (:func:`wbik.geometry.joint_gap`, batched)."""
-    difference = np.asarray(q, dtype=float) - other
-    return np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference)), axis=-1)
 
 
 def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
@@ -111,6 +105,6 @@ def branch_index(q: np.ndarray, branches: np.ndarray, revolute: np.ndarray, tole
     """The index of the nearest branch within ``tolerance`` of q (revolute modulo 2 pi); -1 if none."""
     if len(branches) == 0 or not np.all(np.isfinite(q)):
         return -1
-    distance = joint_distance(branches, q, revolute)
+    distance = joint_gap(branches, q, revolute)
     nearest = int(np.argmin(distance))
     return nearest if distance[nearest] <= tolerance else -1

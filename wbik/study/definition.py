@@ -3,14 +3,12 @@ mistake raises a :class:`StudyDefinitionError` naming the file, the key's path a
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import fields, replace
 from pathlib import Path
 
-import yaml
-
 from wbik.data import data_dir, study_path
 from wbik.errors import did_you_mean
+from wbik.files import read_data_file
 from wbik.geometry import TAIT_BRYAN_SEQUENCES
 from wbik.options import Options
 from wbik.schema import (
@@ -54,6 +52,7 @@ CASE_KEYS = {"name", "robot", "chain", "target", "robot_params", "poses", "refer
              "targets"}
 """The keys of a case entry every kind reads (a kind may take more; ``targets`` names a target set)."""
 START_KINDS = ("nominal", "mid_range", "random")
+SHAPE = "a study is a mapping of fields (name, robot, methods, ...)"
 
 
 def with_overrides(study: Study, *, poses: int | None = None, methods: list[str] | None = None,
@@ -103,27 +102,16 @@ def load_study(path: str | Path | None = None) -> Study:
     """Read and validate a study file (``.yaml``/``.yml`` or ``.toml``; a shipped study's name,
     :func:`wbik.data.study_path`); None: the default study."""
     path = DEFAULT_STUDY if path is None else study_path(path)
-    if not path.is_file():
-        available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
-        raise StudyDefinitionError(f"study file {str(path)!r} does not exist; the studies shipped in "
-                                   f"{COMPARISONS_DIR}: {', '.join(available) or '(none)'}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise StudyDefinitionError(f"{path}: not a text file (byte {exc.start} is not UTF-8); a study file "
-                                   "is YAML or TOML text") from None
-    try:
-        data = tomllib.loads(text) if path.suffix.lower() == ".toml" else yaml.safe_load(text)
-    except (yaml.YAMLError, tomllib.TOMLDecodeError) as exc:
-        raise StudyDefinitionError(f"{path}: not valid {path.suffix.lstrip('.').upper()}: {exc}") from exc
+    available = sorted(p.name for p in COMPARISONS_DIR.glob("*.y*ml")) if COMPARISONS_DIR.is_dir() else []
+    data = read_data_file(path, StudyDefinitionError, "study", SHAPE, f"; the studies shipped in "
+                          f"{COMPARISONS_DIR}: {', '.join(available) or '(none)'}")
     return study_from_dict(data, source=str(path))
 
 
 def study_from_dict(data, source: str = "study") -> Study:
     """Plain data (as read from a file) validated into a :class:`Study` (mistakes name ``source``)."""
     if not isinstance(data, dict):
-        raise StudyValueError(f"{source}: a study is a mapping of fields (name, robot, methods, ...), "
-                              f"got {type(data).__name__}")
+        raise StudyValueError(f"{source}: {SHAPE}, got {type(data).__name__}")
     ctx = Context(source, STUDY_ERRORS)
     checked = study_schema().check(data, "", ctx)
     methods = [MethodSpec(label=item["label"], method=item["method"], options=dict(item["options"]),
@@ -500,11 +488,10 @@ def check_schema(methods, cases, source: str) -> None:
         kind = next((kind for kind in kinds if spec.method in kind.methods()), kinds[0])
         try:
             schema = kind.method_option_schema(spec.method)
-            names = kind.method_options(spec.method) if schema is None else None
         except ImportError:  # an optional dependency is missing: the runner reports it per method
             continue
-        if schema is None:  # a kind that does not type its options: their names
-            schema = Options(dict.fromkeys(names or (), Key(Anything())), names is None)
+        if schema is None:  # a kind that takes any options
+            continue
         options = Options({name: key for name, key in schema.keys.items() if name not in study_settings},
                           schema.values is not None, f"method {spec.method!r} ({spec.label})")
         options.check({key: value for key, value in spec.options.items() if key not in study_settings},

@@ -7,8 +7,9 @@ import numpy as np
 
 from wbik.geometry import TWO_PI
 from wbik.robot import Chain
+from wbik.schema import Text
 from wbik.study.blocks import Block, fmt
-from wbik.study.target_parameters import Parameter, choice, integer, number
+from wbik.study.target_parameters import Parameter, integer, number
 from wbik.study.target_sets import Drawing, TargetSetKind, target_stream
 
 
@@ -30,7 +31,7 @@ class NearLimits(TargetSetKind):
                               number(0.0, 0.5, low_open=True), "how near a limit, as a share of the range"),
         "joints": Parameter(1, "an integer >= 1 (joints near a limit per target)", integer(1),
                             "joints put near a limit per target"),
-        "eligible": Parameter("limited", "'limited' or 'all'", choice("limited", "all"),
+        "eligible": Parameter("limited", "'limited' or 'all'", Text(("limited", "all")),
                               "which joints may be put near a limit"),
     }
 

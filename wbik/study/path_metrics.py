@@ -9,7 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
-from wbik.study.closed_form_branches import ClosedFormBranches, joint_distance
+from wbik.geometry import joint_gap
+from wbik.study.closed_form_branches import ClosedFormBranches
 
 
 def fractions(count: int) -> np.ndarray:
@@ -101,7 +102,7 @@ def branch_labels(form: ClosedFormBranches, positions: np.ndarray, rotations: np
     labels = np.full(len(positions), -1, dtype=int)
     for index in np.flatnonzero(np.asarray(solved, dtype=bool)):
         with np.errstate(invalid="ignore"):
-            distance = joint_distance(q_all[index], q[index], revolute)
+            distance = joint_gap(q_all[index], q[index], revolute)
         distance = np.where(real[index] & np.isfinite(distance), distance, np.inf)
         nearest = int(np.argmin(distance))
         if distance[nearest] <= tolerance:

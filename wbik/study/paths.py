@@ -11,7 +11,7 @@ import numpy as np
 
 import wbik.study.results as store
 from wbik.robot import Chain
-from wbik.schema import Boolean, Context, Key, Map, Number, join
+from wbik.schema import Boolean, Context, Key, Map, Number, Text, join
 from wbik.solvers.method_registry import budget_options
 from wbik.study.blocks import Block, fmt, fmt_interval, reason_blocks, status_blocks, write_case_tables
 from wbik.study.chain_targets import ChainChunkTask, ChainTargets
@@ -28,7 +28,7 @@ from wbik.study.path_metrics import (
 from wbik.study.sampling import PoseSet, saved_extras
 from wbik.study.spec import CaseSpec, Study
 from wbik.study.statistics import P95, finite_statistic, wilson_interval
-from wbik.study.target_parameters import Parameter, choice, integer, number
+from wbik.study.target_parameters import Parameter, integer, number
 from wbik.study.target_sets import target_stream
 
 PATH = "path"
@@ -37,14 +37,14 @@ ORIENTATIONS = ("hold", "slerp")
 
 
 PATH_PARAMETERS = {
-    "shape": Parameter("line", "'line' or 'circle'", choice(*SHAPES), "the path's shape"),
+    "shape": Parameter("line", "'line' or 'circle'", Text(SHAPES), "the path's shape"),
     "length": Parameter(0.2, "a length in m, in (0, 10]", number(0.0, 10.0, low_open=True),
                         "a line's length (m)"),
     "radius": Parameter(0.1, "a radius in m, in (0, 5]", number(0.0, 5.0, low_open=True),
                         "a circle's radius (m)"),
     "points": Parameter(50, "an integer in [2, 10000] (points per path, the start included)",
                         integer(2, 10_000), "points per path, the start included"),
-    "orientation": Parameter("hold", "'hold' or 'slerp'", choice(*ORIENTATIONS),
+    "orientation": Parameter("hold", "'hold' or 'slerp'", Text(ORIENTATIONS),
                              "the orientation held, or slerped by angle about a random axis"),
     "angle": Parameter(0.5, "an angle in rad, in (0, pi]", number(0.0, math.pi, low_open=True),
                        "the rotation from the first to the last point (rad)"),

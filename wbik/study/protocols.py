@@ -25,7 +25,7 @@ from wbik.study.success_rules import (
     failure_reason,
     judge,
 )
-from wbik.study.target_parameters import choice, number
+from wbik.study.target_parameters import number
 
 PROTOCOL = "protocol"
 _BOUND = number(0.0, 1.0e3, low_open=True)
@@ -43,9 +43,9 @@ def success_schema() -> Map:
     keys = {key: Key(_BOUND.described(f"a positive bound in {unit} (at most 1000)"), required=True,
                      doc=f"the bound on the {key} error ({unit})")
             for key, unit in (("position", "m"), ("rotation", "rad"))}
-    keys["per"] = Key(choice(*RULES), dataclass_default(SuccessRule, "per"),
+    keys["per"] = Key(Text(RULES), dataclass_default(SuccessRule, "per"),
                       doc="norm: the error norms; axis: each of the six components")
-    keys["frame"] = Key(choice(*FRAMES).described("'target' (TRAC-IK's) or 'base'"),
+    keys["frame"] = Key(Text(FRAMES).described("'target' (TRAC-IK's) or 'base'"),
                         doc="the frame of a per-axis rule")
     return Map(keys, post=frame_for_axis_rules,
                what="a mapping {position: m, rotation: rad, per: norm|axis, frame: target|base}, e.g. "

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from wbik.geometry import joint_gap
 from wbik.robot import Chain
 from wbik.study.blocks import Block, fmt
 from wbik.study.closed_form_branches import (
@@ -21,7 +22,6 @@ from wbik.study.closed_form_branches import (
     branch_index,
     complete_closed_form,
     in_limit_branches,
-    joint_distance,
 )
 from wbik.study.statistics import P95, finite_statistic
 from wbik.study.target_parameters import Parameter, integer, number
@@ -78,7 +78,7 @@ def coverage_columns(chain: Chain, columns: dict[str, np.ndarray], q0: np.ndarra
         if success[i]:
             out["branch"][i] = branch_index(q[i], every[i], revolute, tolerance)
             if nearest[i].success:
-                out["same_branch"][i] = int(joint_distance(q[i], nearest[i].q, revolute) <= tolerance)
+                out["same_branch"][i] = int(joint_gap(q[i], nearest[i].q, revolute) <= tolerance)
         pose = first_pose + i
         if pose < parameters["restart_targets"] and parameters["restarts"] > 0:
             target = pin.SE3(rotations[i], positions[i])
@@ -100,7 +100,7 @@ def distinct_solutions(solutions: list[np.ndarray], branches: np.ndarray, revolu
         index = branch_index(q, branches, revolute, tolerance)
         if index >= 0:
             matched.add(index)
-        elif not any(joint_distance(q, other, revolute) <= tolerance for other in others):
+        elif not any(joint_gap(q, other, revolute) <= tolerance for other in others):
             others.append(q)
     return len(matched), len(others)
 

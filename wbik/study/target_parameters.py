@@ -45,11 +45,6 @@ def interval(low: float, high: float) -> Interval:
     return Interval(low, high, strings=True)
 
 
-def choice(*names: str) -> Text:
-    """One of ``names``."""
-    return Text(names)
-
-
 def parameters_map(name: str, parameters: dict[str, Parameter]) -> Shorthand:
     """A case's ``targets:``, the set's name or a mapping ``{set: name, key: value}``, defaults filled in."""
     keys = {"set": Key(Text((name,)), name, doc="the target set"),

@@ -8,7 +8,7 @@ from collections import Counter
 
 import numpy as np
 
-from wbik.geometry import TWO_PI
+from wbik.geometry import TWO_PI, joint_gap
 from wbik.robot import Chain
 from wbik.study.blocks import Block, fmt, frequent_reasons
 from wbik.study.chain_reach import reach_bound
@@ -16,7 +16,6 @@ from wbik.study.closed_form_branches import (
     ClosedFormBranches,
     branch_excess,
     complete_closed_form,
-    joint_distance,
 )
 from wbik.study.near_singularities import sigma_min
 from wbik.study.path_metrics import random_unit
@@ -54,7 +53,7 @@ def prove_beyond_limits(chain: Chain, form: ClosedFormBranches, q: np.ndarray, p
     """(None if FK(q) is proved unreachable inside the limits, else a key of REJECTIONS; the branches)."""
     branches = form.branches(position[None], rotation[None])[0]
     revolute = ~chain.is_prismatic
-    if not len(branches) or np.min(joint_distance(branches, q, revolute)) > GENERATING_BRANCH:
+    if not len(branches) or np.min(joint_gap(branches, q, revolute)) > GENERATING_BRANCH:
         return "missing", branches
     if min(sigma_min(chain, branch) for branch in branches) < parameters["sigma_proof"]:
         return "singular", branches
