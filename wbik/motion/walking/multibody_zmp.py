@@ -66,13 +66,3 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
         force = data.dhg.linear - data.mass[0] * gravity
         zmp[k] = zmp_of_wrench(force, data.dhg.angular, data.com[0], float(heights[k]))
     return zmp
-
-
-def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                         ground_z: float = 0.0) -> np.ndarray:
-    """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
-    data = model.createData()
-    tau = pin.rnea(model, data, q, v, a)
-    pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)
-    wrench = data.oMi[1].act(pin.Force(tau[:6]))
-    return zmp_of_wrench(wrench.linear, wrench.angular, np.zeros(3), ground_z)
