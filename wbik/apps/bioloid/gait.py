@@ -27,7 +27,6 @@ SOLE = {"r": "r_sole", "l": "l_sole"}
 HIP = {"r": "r_hip", "l": "l_hip"}
 OTHER = {"r": "l", "l": "r"}
 SIDE_NAME = {"r": "right", "l": "left"}
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 
 def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
@@ -257,7 +256,7 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
     ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
-    from wbik.motion.timing import time_samples
+    from wbik.motion.timing import RPM, time_samples
 
     joints = motion.joint_matrix()
     model = motion.robot.model
