@@ -314,8 +314,7 @@ class LegPosition(LegPose):
     def branches(self, positions, rotations, q0):
         identity = np.broadcast_to(np.eye(3), (len(positions), 3, 3))
         q_parallel, ok_parallel = leg_branches(-positions, identity)
-        r_hip = np.swapaxes(leg_fk(q0)[1], -1, -2)
-        q_kept, ok_kept = leg_branches(-np.einsum("bij,bj->bi", r_hip, positions), r_hip)
+        q_kept, ok_kept = super().branches(positions, leg_fk(q0)[1], q0)
         q_hip, ok_hip = leg_position_branches_keeping_ankle(positions, q0)
         return (np.concatenate([q_parallel, q_kept, q_hip], 1),
                 np.concatenate([ok_parallel, ok_kept, ok_hip], 1))
