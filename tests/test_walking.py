@@ -27,7 +27,7 @@ from wbik.motion.walking import (
     trajectory_derivatives,
     walk_pattern,
 )
-from wbik.motion.walking.multibody_zmp import zmp_from_base_wrench
+from wbik.motion.walking.multibody_zmp import zmp_of_wrench
 from wbik.motion.walking.pattern import PreviewSettings
 from wbik.motion.walking.swing import bump, quintic, swing_pose
 from wbik.motion.walking.tracking import TrackingSettings, walk
@@ -36,6 +36,16 @@ TASKS = Path(__file__).resolve().parents[1] / "tasks"
 GRAVITY = 9.80665
 ARMS = tuple(f"{s}_{n}" for s in "rl" for n in ("shoulder_pitch", "shoulder_roll", "elbow"))
 TIMING = Timing(0.2, 0.05, 0.3, 0.3)
+
+
+def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
+                         ground_z: float = 0.0) -> np.ndarray:
+    """The ZMP from the free flyer's RNEA wrench: an independent path to multibody_zmp's."""
+    data = model.createData()
+    tau = pin.rnea(model, data, q, v, a)
+    pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)
+    wrench = data.oMi[1].act(pin.Force(tau[:6]))
+    return zmp_of_wrench(wrench.linear, wrench.angular, np.zeros(3), ground_z)
 
 
 @pytest.fixture(scope="module")

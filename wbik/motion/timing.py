@@ -19,6 +19,8 @@ from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.motion.path import JointPath
 from wbik.motion.profiles import TimeLaw, time_law
 
+RPM = 2.0 * np.pi / 60.0  # rad/s per rpm
+
 GRID_POINTS = 4001  # the dense tau grid of a multi-knot piece
 MODES = ("global", "waypoint", "segment")
 

@@ -242,9 +242,11 @@ class Viewer:
         corners = contact_points(kinematics, self.robot.soles, feet)
         return SupportPolygon(corners[:, :2]), float(np.mean(corners[:, 2]))
 
-    def clear(self, name: str) -> None:
-        """Remove a marker group: "frames", "target", "reached", "support", "trace"."""
-        self.meshcat[f"{ROOT}/{name}"].delete()
+    def clear(self, name: str) -> str:
+        """Remove a marker group ("frames", "target", "reached", "support", "trace"); its node path."""
+        path = f"{ROOT}/{name}"
+        self.meshcat[path].delete()
+        return path
 
     def show_frames(self, chain: Chain | str | None = None, frames: Sequence[str] = (),
                     scale: float | None = None) -> list[str]:
@@ -266,8 +268,7 @@ class Viewer:
         chain = self._chain(chain)
         if chain is not None:
             placement = self.frame_pose(chain.base_frame) * placement
-        path = f"{ROOT}/{name}"
-        self.meshcat[path].delete()
+        path = self.clear(name)
         self._sphere(f"{path}/point", placement.translation, 0.035 * self.extent, color, opacity=0.6)
         if target.is_pose:
             self._triad(f"{path}/axes", placement, 0.15 * self.extent)
@@ -300,8 +301,7 @@ class Viewer:
         com = self.robot.center_of_mass(self.q)
         margin = support.margin_of(com[:2])
         color = INSIDE_COLOR if margin >= 0.0 else OUTSIDE_COLOR
-        path = f"{ROOT}/support"
-        self.meshcat[path].delete()
+        path = self.clear("support")
         radius = 0.025 * self.extent
         self._sphere(f"{path}/com", com, radius, COM_COLOR)
         ground_point = np.array([com[0], com[1], ground_z])
@@ -404,8 +404,7 @@ class Viewer:
 
     def _zmp_keyframes(self, clip, keys: list[float], zmp: np.ndarray) -> None:
         """A ZMP marker (hidden where there is none) and its path."""
-        path = f"{ROOT}/zmp"
-        self.meshcat[path].delete()
+        path = self.clear("zmp")
         finite = np.all(np.isfinite(zmp), axis=1)
         if not finite.any():
             return
@@ -419,8 +418,7 @@ class Viewer:
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:
         """CoM, its ground point and a polygon per stretch on the same soles; CoM margins (m, NaN: in air)."""
         kinematics = Kinematics(self.robot.model)
-        path = f"{ROOT}/support"
-        self.meshcat[path].delete()
+        path = self.clear("support")
         radius = 0.025 * self.extent
         stretches, stretch_of, margins, coms, grounds = [], [], [], [], []
         for q, feet in zip(rows, support, strict=True):
@@ -459,8 +457,7 @@ class Viewer:
     def _contact_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            contacts: Sequence[tuple[str, ...]]) -> None:
         """A marker on each frame while it is held in contact."""
-        path = f"{ROOT}/contacts"
-        self.meshcat[path].delete()
+        path = self.clear("contacts")
         for name in dict.fromkeys(name for held in contacts for name in held):
             node, positions = f"{path}/{name}", [self.frame_pose(name, q).translation for q in rows]
             self._sphere(node, positions[0], 0.02 * self.extent, CONTACT_COLOR, opacity=0.8)

@@ -59,6 +59,27 @@ def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters
                      speed_rpm=gait.servo_slow_rpm)
 
 
+def both_feet_phases(robot: Robot, soles: dict[str, pin.SE3], after: dict[str, pin.SE3], first: str,
+                     gait: GaitParameters, names: list[str], paths: list, rotations: list,
+                     swing_divisions: int, shift_divisions: int) -> list[BodyPhase]:
+    """Five phases moving both feet from ``soles`` to ``after``, ``first`` first: the CoM over the other
+    foot, ``first`` on ``paths[0]``, the CoM over it, the other on ``paths[1]``, the CoM between the feet;
+    ``rotations``: the pelvis's per phase, divisions in units of ``gait.divisions``."""
+    second, n = OTHER[first], gait.divisions
+    return [
+        com_over_phase(robot, names[0], {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
+                       pelvis_rotation=rotations[0], divisions=n, speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(names[1], {SOLE[second]: soles[second]}, swing={SOLE[first]: paths[0]},
+                  pelvis_rotation=rotations[1], divisions=swing_divisions * n, speed_rpm=gait.servo_fast_rpm),
+        com_over_phase(robot, names[2], {SOLE[second]: soles[second], SOLE[first]: after[first]}, first,
+                       after[first], pelvis_rotation=rotations[2], divisions=shift_divisions * n,
+                       speed_rpm=gait.servo_slow_rpm),
+        BodyPhase(names[3], {SOLE[first]: after[first]}, swing={SOLE[second]: paths[1]},
+                  pelvis_rotation=rotations[3], divisions=swing_divisions * n, speed_rpm=gait.servo_fast_rpm),
+        recentre_phase(robot, after, gait, names[4], rotations[4]),
+    ]
+
+
 def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: GaitParameters | None = None,
                 lift: float | None = None) -> tuple[list[BodyPhase], dict[str, pin.SE3]]:
     """Phases turning in place by ``angle`` (rad, positive = left) from the planted ``soles``."""
@@ -74,29 +95,15 @@ def turn_phases(robot: Robot, soles: dict[str, pin.SE3], angle: float, gait: Gai
     turn = pin.utils.rotate("z", angle)
     turned = {side: pin.SE3(turn @ soles[side].rotation, centre + turn @ (soles[side].translation - centre))
               for side in SIDES}
-    n = gait.divisions
-
-    def yaw_ramp(start: float, end: float):
-        return lambda s: pelvis_rotation(start + s * (end - start), gait.pitch)
-
     half = heading + 0.5 * angle
-    phases = [
-        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[second]} foot",
-                       {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
-                       pelvis_rotation=yaw_ramp(heading, heading), divisions=n,
-                       speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {SIDE_NAME[first]} foot", {SOLE[second]: soles[second]},
-                  swing={SOLE[first]: sole_path(soles[first], turned[first], lift=lift)},
-                  pelvis_rotation=yaw_ramp(heading, half), divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
-        com_over_phase(robot, f"shift the CoM over the {SIDE_NAME[first]} foot",
-                       {SOLE[second]: soles[second], SOLE[first]: turned[first]}, first, turned[first],
-                       pelvis_rotation=yaw_ramp(half, half), divisions=n, speed_rpm=gait.servo_slow_rpm),
-        BodyPhase(f"turn the {SIDE_NAME[second]} foot", {SOLE[first]: turned[first]},
-                  swing={SOLE[second]: sole_path(soles[second], turned[second], lift=lift)},
-                  pelvis_rotation=yaw_ramp(half, heading + angle), divisions=2 * n,
-                  speed_rpm=gait.servo_fast_rpm),
-        recentre_phase(robot, turned, gait),
-    ]
+    ramps = [(heading, heading), (heading, half), (half, half), (half, heading + angle)]
+    phases = both_feet_phases(
+        robot, soles, turned, first, gait,
+        [f"shift the CoM over the {SIDE_NAME[second]} foot", f"turn the {SIDE_NAME[first]} foot",
+         f"shift the CoM over the {SIDE_NAME[first]} foot", f"turn the {SIDE_NAME[second]} foot",
+         "re-centre the CoM between the feet"],
+        [sole_path(soles[side], turned[side], lift=lift) for side in (first, second)],
+        [lambda s, a=a, b=b: pelvis_rotation(a + s * (b - a), gait.pitch) for a, b in ramps] + [None], 2, 1)
     return phases, turned
 
 

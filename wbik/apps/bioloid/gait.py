@@ -18,7 +18,7 @@ import pinocchio as pin
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
-from wbik.motion.walking.multibody_zmp import actuated_joints
+from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -27,7 +27,6 @@ SOLE = {"r": "r_sole", "l": "l_sole"}
 HIP = {"r": "r_hip", "l": "l_hip"}
 OTHER = {"r": "l", "l": "r"}
 SIDE_NAME = {"r": "right", "l": "left"}
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 
 def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
@@ -257,7 +256,7 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
     ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
-    from wbik.motion.timing import time_samples
+    from wbik.motion.timing import RPM, time_samples
 
     joints = motion.joint_matrix()
     model = motion.robot.model
@@ -325,7 +324,6 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
     q = start_q(robot, q0)
     legs = {side: robot.chain(f"{SIDE_NAME[side]}_leg").q_index for side in SIDES}
     planted = {side: flatten_on_ground(robot.frame_placement(q, SOLE[side])) for side in SIDES}
-    lower, upper = robot.model.lowerPositionLimit, robot.model.upperPositionLimit
     joint_index = np.concatenate(list(legs.values()))
 
     configurations, phase_of, support = [q.copy()], [-1], [("r_sole", "l_sole")]
@@ -365,9 +363,7 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
             com = robot.center_of_mass(q)
             sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(com[:2])
             sample["com"] = com.tolist()
-            joints = q[joint_index]
-            sample["limit_excess_rad"] = float(max(np.max(lower[joint_index] - joints),
-                                                   np.max(joints - upper[joint_index]), 0.0))
+            sample["limit_excess_rad"] = limit_excess(robot.model, q, joint_index)
             samples.append(sample)
             configurations.append(q.copy())
             phase_of.append(index)

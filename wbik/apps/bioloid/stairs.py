@@ -14,7 +14,7 @@ import numpy as np
 import pinocchio as pin
 
 import wbik.apps.bioloid.sensors as sensors
-from wbik.apps.bioloid.behaviours import along, half_step_phases, recentre_phase, turn_phases
+from wbik.apps.bioloid.behaviours import along, both_feet_phases, half_step_phases, turn_phases
 from wbik.apps.bioloid.gait import (
     OTHER,
     SIDE_NAME,
@@ -26,7 +26,6 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.apps.bioloid.step_wholebody import (
     BodyPhase,
-    com_over_phase,
     current_soles,
     pelvis_rotation,
     solve_phases,
@@ -268,29 +267,15 @@ def stair_phases(robot: Robot, soles: dict[str, pin.SE3], stairs: Staircase, ste
     gait = gait or GaitParameters()
     second = OTHER[first]
     over = max(z_new, float(soles[first].translation[2])) + STEP_CLEARANCE
-    n = gait.divisions
     heading = yaw_of(soles[second].rotation)
     rotation = lambda s: pelvis_rotation(heading, gait.pitch)  # noqa: E731
     after = {side: _moved(soles[side], x=landing_x, z=z_new) for side in (first, second)}
-
-    def com_over(foot: str, contacts: dict[str, pin.SE3], divisions: int) -> BodyPhase:
-        return com_over_phase(robot, f"{label}: CoM over the {SIDE_NAME[foot]} foot", dict(contacts), foot,
-                              contacts[SOLE[foot]], pelvis_rotation=rotation, divisions=divisions,
-                              speed_rpm=gait.servo_slow_rpm)
-
-    def onto(foot: str, start: pin.SE3, land: pin.SE3, standing: pin.SE3) -> BodyPhase:
-        path = polyline_path([start, _moved(start, z=over), _moved(land, z=over), land])
-        return BodyPhase(f"{label}: {SIDE_NAME[foot]} foot onto {surface}", {SOLE[OTHER[foot]]: standing},
-                         swing={SOLE[foot]: path}, pelvis_rotation=rotation, divisions=3 * n,
-                         speed_rpm=gait.servo_fast_rpm)
-
-    phases = [
-        com_over(second, {SOLE[s]: soles[s] for s in SIDES}, n),
-        onto(first, soles[first], after[first], soles[second]),
-        com_over(first, {SOLE[second]: soles[second], SOLE[first]: after[first]}, 2 * n),
-        onto(second, soles[second], after[second], after[first]),
-        recentre_phase(robot, after, gait, f"{label}: CoM between the feet", rotation),
-    ]
+    names = [f"{label}: CoM over the {SIDE_NAME[second]} foot", f"{label}: {SIDE_NAME[first]} foot onto "
+             f"{surface}", f"{label}: CoM over the {SIDE_NAME[first]} foot",
+             f"{label}: {SIDE_NAME[second]} foot onto {surface}", f"{label}: CoM between the feet"]
+    paths = [polyline_path([soles[s], _moved(soles[s], z=over), _moved(after[s], z=over), after[s]])
+             for s in (first, second)]
+    phases = both_feet_phases(robot, soles, after, first, gait, names, paths, [rotation] * 5, 3, 2)
     return phases, after
 
 

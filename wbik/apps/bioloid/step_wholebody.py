@@ -26,7 +26,7 @@ from wbik.apps.bioloid.gait import (
 from wbik.errors import InvalidConfigurationError, NoQPSolutionError
 from wbik.geometry import wrap_to_pi
 from wbik.motion.walking.footsteps import sole_polygon, yaw_of
-from wbik.motion.walking.multibody_zmp import actuated_joints
+from wbik.motion.walking.multibody_zmp import limit_excess
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact
@@ -135,11 +135,7 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
         position, angle = pose_error(robot.frame_placement(q, sole), wanted)
         position_error, rotation_error = max(position_error, position), max(rotation_error, angle)
     com_margin = polygon.margin_of(robot.center_of_mass(q)[:2])
-    model = robot.model
-    index = [model.joints[j].idx_q for j in actuated_joints(model)]
-    joints = q[index]
-    excess = float(max(np.max(model.lowerPositionLimit[index] - joints),
-                       np.max(joints - model.upperPositionLimit[index]), 0.0))
+    excess = limit_excess(robot.model, q)
     return {"contact_error_m": position_error, "contact_error_rad": rotation_error,
             "contacts_ok": position_error <= CONTACT_TOLERANCE and rotation_error <= CONTACT_TOLERANCE,
             "com_margin_m": com_margin, "balance_ok": com_margin >= margin - 1e-9,

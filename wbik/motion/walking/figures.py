@@ -9,7 +9,12 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.motion.walking.footsteps import Feet, centre_frame, sole_points, yaw_of
-from wbik.motion.walking.multibody_zmp import actuated_joints, multibody_zmp, trajectory_derivatives
+from wbik.motion.walking.multibody_zmp import (
+    actuated_joints,
+    limit_excess,
+    multibody_zmp,
+    trajectory_derivatives,
+)
 from wbik.qp.support_polygon import support_region
 from wbik.robot import Robot
 
@@ -93,12 +98,8 @@ def walk_figures(robot: Robot, feet: Feet, times: np.ndarray, qs: np.ndarray, su
     finite_limit = np.where(np.isfinite(limit) & (limit > 0) & (limit < 1e10), limit, np.inf)
     names = [model.names[j] for j in joint_ids]
     peak_joint = int(np.argmax(speeds.max(axis=0)))
-    q_index = np.array([model.joints[j].idx_q for j in joint_ids])
-    joints = qs[:, q_index]
-    excess = max(np.max(model.lowerPositionLimit[q_index] - joints),
-                 np.max(joints - model.upperPositionLimit[q_index]), 0.0)
     figures.update({
-        "joint_limit_excess_max_rad": float(excess),
+        "joint_limit_excess_max_rad": limit_excess(model, qs),
         "joint_velocity_peak_rad_s": float(speeds.max()),
         "joint_velocity_peak_joint": names[peak_joint],
         "joint_velocity_over_limit": float(np.max(speeds / finite_limit)),

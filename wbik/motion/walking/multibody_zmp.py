@@ -15,6 +15,15 @@ def actuated_joints(model: pin.Model) -> list[int]:
     return [j for j in range(1, model.njoints) if model.joints[j].nq == 1]
 
 
+def limit_excess(model: pin.Model, q: np.ndarray, index=None) -> float:
+    """How far the worst entry ``index`` (default the 1-DOF joints') of q (..., nq) is outside its limits
+    (rad, m for a prismatic joint; 0 inside)."""
+    index = [model.joints[j].idx_q for j in actuated_joints(model)] if index is None else index
+    joints = q[..., index]
+    return float(max(np.max(model.lowerPositionLimit[index] - joints),
+                     np.max(joints - model.upperPositionLimit[index]), 0.0))
+
+
 def trajectory_derivatives(model: pin.Model, qs: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """(v, a), each (K, nv), of configurations ``qs`` (K, nq) sampled every ``dt`` s."""
     qs = np.asarray(qs, dtype=float)
@@ -57,13 +66,3 @@ def multibody_zmp(model: pin.Model, qs: np.ndarray, velocities: np.ndarray, acce
         force = data.dhg.linear - data.mass[0] * gravity
         zmp[k] = zmp_of_wrench(force, data.dhg.angular, data.com[0], float(heights[k]))
     return zmp
-
-
-def zmp_from_base_wrench(model: pin.Model, q: np.ndarray, v: np.ndarray, a: np.ndarray,
-                         ground_z: float = 0.0) -> np.ndarray:
-    """The same ZMP from the free flyer's RNEA wrench (an independent path, for checks)."""
-    data = model.createData()
-    tau = pin.rnea(model, data, q, v, a)
-    pin.forwardKinematics(model, data, q)  # (RNEA works in the joints' frames; it leaves oMi alone)
-    wrench = data.oMi[1].act(pin.Force(tau[:6]))
-    return zmp_of_wrench(wrench.linear, wrench.angular, np.zeros(3), ground_z)

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
-from wbik.motion.timing import time_samples
+from wbik.motion.timing import RPM, time_samples
 from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep, mean_yaw, placed_on, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints
 from wbik.motion.walking.swing import swing_pose
@@ -22,8 +22,6 @@ from wbik.qp.problem import IKProblem
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.qp.tasks import ComTask, OrientationTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
-
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 
 
 @dataclass

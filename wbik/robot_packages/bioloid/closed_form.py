@@ -18,6 +18,7 @@ from wbik.errors import InvalidTargetError
 from wbik.geometry import rot_x, rot_y, rot_z
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.subproblems import clamped_acos, clamped_cosine
+from wbik.validation import numeric_array
 
 L0, L1, L2, L3 = 0.047, 0.0145, 0.025, 0.0675  # the seed's arm lengths (m)
 FOREARM = 0.0745
@@ -66,11 +67,9 @@ ARM_MIRROR = np.array([MIRROR_SIGN[joint] for joint in ARM_JOINTS])
 
 
 def _points(p, what: str) -> np.ndarray:
-    array = np.asarray(p, dtype=float)
+    array = numeric_array(p, what, InvalidTargetError)
     if array.shape[-1:] != (3,):
         raise InvalidTargetError(f"{what} must have 3 coordinates (shape (..., 3)), got shape {array.shape}")
-    if not np.all(np.isfinite(array)):
-        raise InvalidTargetError(f"{what} contains NaN or inf")
     return array
 
 
@@ -263,33 +262,28 @@ class ArmPosition(ClosedForm):
     """Hand position of ``right_arm``/``left_arm`` (chest frame): 4 exact branches, thesis first."""
 
     target_kind = "position"
+    geometry_fk = staticmethod(lambda side_lengths, q: arm_fk(q, *side_lengths))
 
     def __init__(self, chain):
-        super().__init__(chain)
-        self.side = "l" if chain.joint_names[0].startswith("l_") else "r"
-        self.lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
+        lengths = chain.robot.require_facts(BioloidFacts, "the Bioloid arm closed form").arm_lengths
+        super().__init__(chain, ("l" if chain.joint_names[0].startswith("l_") else "r", lengths))
 
     def branches(self, positions, rotations, q0):
-        branches = [arm_ik(positions, self.side, self.lengths, other_elbow, base_flip)
+        branches = [arm_ik(positions, *self.geometry, other_elbow, base_flip)
                     for base_flip in (False, True) for other_elbow in (False, True)]
         return np.stack([q for q, _ in branches], 1), np.stack([real for _, real in branches], 1)
-
-    def fk(self, q):
-        return arm_fk(q, self.side, self.lengths)
 
 
 class LegPose(ClosedForm):
     """Ankle pose in the hip frame (``right_leg``/``left_leg``): the foot -> hip problem inverted."""
 
-    target_kind = "pose"
+    geometry = None  # both legs: THIGH, SHANK
+    geometry_fk = staticmethod(lambda _, q: leg_fk(q))
 
     def branches(self, positions, rotations, q0):
         r_hip = np.swapaxes(rotations, -1, -2)
         p_hip = -np.einsum("bij,bj->bi", r_hip, positions)
         return leg_branches(p_hip, r_hip)
-
-    def fk(self, q):
-        return leg_fk(q)
 
 
 def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -311,7 +305,7 @@ def leg_position_branches_keeping_ankle(p_ankle: np.ndarray, q0: np.ndarray) -> 
     return np.stack(solutions, 1), np.repeat(reachable[:, None], len(solutions), axis=1)
 
 
-class LegPosition(ClosedForm):
+class LegPosition(LegPose):
     """Ankle position in the hip frame, 12 branches: foot parallel to the hip (0-3, branch 0 the
     thesis's), foot at q0's orientation (4-7), q0's hip yaw and ankle joints kept (8-11)."""
 
@@ -320,11 +314,7 @@ class LegPosition(ClosedForm):
     def branches(self, positions, rotations, q0):
         identity = np.broadcast_to(np.eye(3), (len(positions), 3, 3))
         q_parallel, ok_parallel = leg_branches(-positions, identity)
-        r_hip = np.swapaxes(leg_fk(q0)[1], -1, -2)
-        q_kept, ok_kept = leg_branches(-np.einsum("bij,bj->bi", r_hip, positions), r_hip)
+        q_kept, ok_kept = super().branches(positions, leg_fk(q0)[1], q0)
         q_hip, ok_hip = leg_position_branches_keeping_ankle(positions, q0)
         return (np.concatenate([q_parallel, q_kept, q_hip], 1),
                 np.concatenate([ok_parallel, ok_kept, ok_hip], 1))
-
-    def fk(self, q):
-        return leg_fk(q)
