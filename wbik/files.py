@@ -7,13 +7,11 @@ from __future__ import annotations
 import json
 import math
 import os
-import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import BinaryIO
 
 import numpy as np
-import yaml
 
 
 def json_plain(value, finite: bool = False):
@@ -67,6 +65,10 @@ def read_data_file(path: Path, error: type[Exception], kind: str, shape: str, mi
                     "YAML/JSON/TOML text") from None
     except OSError as exc:
         raise error(f"cannot read {kind} file {str(path)!r}: {exc.strerror}") from None
+    import tomllib  # on first use: ``import wbik`` stays quick
+
+    import yaml
+
     suffix = path.suffix.lower()
     parse = {".json": json.loads, ".toml": tomllib.loads}.get(suffix, yaml.safe_load)
     try:
