@@ -585,3 +585,18 @@ def test_cli_solve_names_the_family(capsys):
     assert main([*arguments, "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["family"] == "ur_type"
     assert math.isfinite(rpy[0])
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), noise=st.floats(-1e-12, 1e-12))
+def test_the_held_joint_search_does_not_hinge_on_the_last_bits_of_the_target(seed, noise):
+    """A pose and the same pose moved by a relative 1e-12 (position and a rotation of that angle): the same
+    verdict, and answers a continuous function of the target away from the grid's decisions (within 1e-6)."""
+    solver = wbik.solver("analytic", robot("panda"), "arm")
+    chain = solver.chain
+    pose = chain.fk(chain.random(np.random.default_rng(seed)))
+    moved = pin.SE3(pose.rotation @ pin.exp3(np.full(3, noise)), pose.translation * (1.0 + noise))
+    first, second = solver.solve(pose), solver.solve(moved)
+    assert first.success == second.success
+    if first.success:
+        assert angle_gap(first.q, second.q) < 1e-6
