@@ -27,6 +27,7 @@ from wbik.qp.tasks import FrameTask, PositionTask, RegularizationTask
 from wbik.robot import Chain, Robot
 from wbik.solvers.check import check_problem, evaluate
 from wbik.solvers.result import Candidate, IKResult, Tolerances, checked_tolerances
+from wbik.solvers.workers import solve_in_workers
 from wbik.targets import Target, as_target
 from wbik.wholebody.problem import StartedProblem, WholeBody
 
@@ -159,9 +160,19 @@ class Solver(IterationBudget):
                              iterations=candidate.iterations, reason=candidate.reason,
                              unsupported=unsupported, extra=candidate.extra)
 
-    def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None) -> list[IKResult]:
-        """Solve a batch; ``q0s`` is one start for all, one per target, or None."""
+    def solve_many(self, targets: Iterable, q0s: np.ndarray | Sequence | None = None,
+                   workers: int = 1) -> list[IKResult]:
+        """Solve a batch; ``q0s`` is one start for all, one per target, or None. ``workers`` > 1 splits the
+        batch over that many forked processes (:mod:`wbik.solvers.workers`), with the same answers."""
         targets = list(targets)
+        workers = min(COUNT.checked(workers, "workers", "solve_many"), max(len(targets), 1))
+        if workers == 1:
+            return self._solve_targets(targets, q0s)
+        self._batch_starts(q0s, len(targets))  # a bad start raises here, not in a worker
+        return solve_in_workers(self, targets, q0s, workers)
+
+    def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
+        """The batch in this process: ``solve`` per target (a method with a batched path overrides it)."""
         starts = self._batch_starts(q0s, len(targets))
         return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
 

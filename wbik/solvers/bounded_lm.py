@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterable
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -284,7 +283,7 @@ class BoundedLMSolver(Solver):
         return (f"{spent} used up after {attempts} attempts (best task error {best_error:.3g}); "
                 "the target may be out of reach")
 
-    def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
+    def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """Solve a batch, without ``timeout_s`` all together (answers may differ from :meth:`solve`'s)."""
         targets = list(targets)
         starts = self._batch_starts(q0s, len(targets))

@@ -9,7 +9,6 @@ with joint 1, 2 or 3 locked, the 7R Panda and the Pincher (q1 = 0 in every branc
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
 from time import perf_counter
 
 import numpy as np
@@ -107,7 +106,7 @@ class EAIKSolver(BranchLibrarySolver):
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         return self._choose(self._library_branches(target), target, q0)[0]
 
-    def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
+    def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """One EAIK ``IK_batched`` call, branches picked as in ``solve``; per-pose time = total / B."""
         targets = [as_target(t) for t in targets]
         if not targets:

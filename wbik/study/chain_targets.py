@@ -252,10 +252,10 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
 
 def has_batched_path(solver) -> bool:
-    """Whether ``solver`` has a batched path of its own (its class overrides ``Solver.solve_many``)."""
+    """Whether ``solver`` has a batched path of its own (its class overrides ``Solver._solve_targets``)."""
     from wbik.solvers.base import Solver
 
-    return type(solver).solve_many is not Solver.solve_many
+    return type(solver)._solve_targets is not Solver._solve_targets
 
 
 def batch_columns(solver, targets: list, q0: np.ndarray) -> dict[str, np.ndarray]:

@@ -4,7 +4,6 @@ a chain gets (bound by its robot, else recognised from its structure)."""
 from __future__ import annotations
 
 import time
-from collections.abc import Iterable
 
 import numpy as np
 
@@ -212,7 +211,7 @@ class AnalyticSolver(Solver):
             return Candidate(None, 1, no_solution_reason(bool(choice.real.any()), bool(choice.usable.any())))
         return Candidate(choice.q[0], 1, extra={"branches": int(choice.real.sum())})
 
-    def solve_many(self, targets: Iterable, q0s=None) -> list[IKResult]:
+    def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """One choice (the kernel where built) and one batched check; per-pose time = the choice's / B."""
         positions, rotations = batch_targets(targets, self)
         count = len(positions)
