@@ -206,3 +206,33 @@ def test_solver_runs_the_python_twin_when_asked(monkeypatch, setting):
     compiled_result = solver.solve(solver.chain.fk(solver.chain.nominal))
     assert python_result.success and compiled_result.success
     assert python_result.q.tobytes() == compiled_result.q.tobytes()
+
+
+def test_the_held_joint_search_choice_twins_agree_on_seven_joints_and_many_branches(monkeypatch):
+    """The held-joint search of a 7-joint arm hands the choice every real branch of its first batch (up to
+    256 rows of 7 joints): both twins give the same bits, and ``solve`` gives the same answers with either."""
+    robot = wbik.load("example-robot-data:panda")
+    solver = wbik.solver("analytic", robot, base="panda_link0", tip="panda_link8")
+    search = solver.closed_form("pose").search
+    chain = solver.chain
+    rows_seen, found = 0, 0
+    for index, q in enumerate(chain.random(np.random.default_rng(11), 40)):
+        target = chain.fk(q)
+        q0 = chain.nominal if index % 2 else q + 0.3
+        values = np.concatenate(([q0[search.form.index]], search.form.grid))
+        raw, real = search.form.branches_at(target.translation[None], target.rotation[None], q0[None],
+                                            values[None], exact=True)
+        branches = raw[0][real[0] & np.all(np.isfinite(raw[0]), axis=-1)]
+        rows_seen = max(rows_seen, len(branches))
+        outs = []
+        for choose in (eaik_kernel.choose_python, eaik_kernel.choose_compiled):
+            out = np.full(chain.nq + 24, -7.0)
+            outs.append((choose(search.params, branches, q0, target.homogeneous, out), out.tobytes()))
+        assert outs[0] == outs[1]
+        found += outs[0][0]
+    assert rows_seen > 64 and found >= 35  # more rows than one EAIK call gives, and the found path runs
+    targets = [chain.fk(q) for q in chain.random(np.random.default_rng(12), 20)]
+    compiled = [solver.solve(t, chain.nominal).q for t in targets]
+    monkeypatch.setattr(search, "choose", eaik_kernel.choose_python)
+    python = [solver.solve(t, chain.nominal).q for t in targets]
+    assert all(np.array_equal(a, b) for a, b in zip(compiled, python, strict=True))

@@ -22,8 +22,8 @@
 #define PY_MAX(a, b) ((b) > (a) ? (b) : (a))
 #define PY_MIN(a, b) ((b) < (a) ? (b) : (a))
 
-#define MAX_JOINTS 6
-#define MAX_BRANCHES 64
+#define MAX_JOINTS 7
+#define MAX_BRANCHES 256
 
 /* The parameters of wbik.kernels.eaik.parameters, float64 values packed in a bytes
  * object (read without the buffer protocol's cost): the slack of the bounds (n BOUND_SLACK),
@@ -210,7 +210,7 @@ static int read_branches(PyObject *params, PyObject *branches_object, PyObject *
     int joints = -1;
     Py_buffer *reference = &views[0], *branches = &views[1];
     if (reference->ndim != 1 || reference->shape[0] < 1 || reference->shape[0] > MAX_JOINTS) {
-        PyErr_SetString(PyExc_TypeError, "reference: expected a (n,) float64 array, 1 <= n <= 6");
+        PyErr_SetString(PyExc_TypeError, "reference: expected a (n,) float64 array, 1 <= n <= 7");
     } else if (branches->ndim != 2 || branches->shape[1] != reference->shape[0]
                || branches->shape[0] > MAX_BRANCHES) {
         PyErr_Format(PyExc_TypeError, "branches: expected a (K, %d) float64 array, K <= %d",

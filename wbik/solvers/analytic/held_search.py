@@ -10,13 +10,15 @@ from __future__ import annotations
 import numpy as np
 
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, fk_residual, wrap_into_limits
+from wbik.kernels import eaik as choice_kernel
+from wbik.solvers.analytic.closed_form import BOUND_SLACK, LIMIT_TOLERANCE, fk_residual, wrap_into_limits
 from wbik.targets import Target
 
 DENSER = 8  # where no value of the grid passes, a grid this many times finer over the range comes next
 ZOOM_CANDIDATES = 3  # local minima of the violation (the least violating) each zoom level searches around
 ZOOM_POINTS = 9  # values per zoomed interval [v - h, v + h]; the next level's h is this level's spacing
 ZOOM_FLOOR = 1e-6  # half-width (rad or m) below which the zoom stops: the limits and the screen are as fine
+CHOICE_ROWS = 256  # real branches the compiled choice takes at once (``MAX_BRANCHES`` of ``_eaik.c``)
 
 
 class HeldJointSearch:
@@ -30,6 +32,12 @@ class HeldJointSearch:
         self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
         self.low, self.high = float(form.range[0]), float(form.range[1])
         self.full_turn = bool(self.revolute[form.index]) and self.high - self.low >= TWO_PI - 1e-12
+        # the ``eaik`` method's choice (wrapped nearest first, screened by the lines' FK) for ``nearest``,
+        # on revolute joints only (it turns every joint)
+        self.choose = choice_kernel.twins()[1] if self.revolute.all() else None
+        self.params = choice_kernel.parameters(chain.nq, chain.lower.tolist(), chain.upper.tolist(),
+                                               chain.nq * BOUND_SLACK, LIMIT_TOLERANCE, form.lines,
+                                               form.screen_tolerance)
 
     def run(self, position: np.ndarray, rotation: np.ndarray | None, q0: np.ndarray,
             nearest: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
@@ -42,13 +50,19 @@ class HeldJointSearch:
         values = np.concatenate(([seed], self.form.grid))
         spacing = (self.high - self.low) / max(len(self.form.grid), 1)
         evaluated, outcome, target = [], 0, Target(position, rotation)
+        pose = None if rotation is None else np.vstack((np.c_[rotation, position], (0.0, 0.0, 0.0, 1.0)))
+        choosing = nearest and self.choose is not None and pose is not None
+        chosen = np.empty(len(q0) + 24)
         while True:
             raw, real = self.form.branches_at(position[None], None if rotation is None else rotation[None],
                                               q0[None], values[None], exact=True)
             raw, real = raw[0], real[0] & np.all(np.isfinite(raw[0]), axis=-1)
+            by_choice = choosing and int(real.sum()) <= CHOICE_ROWS
+            if by_choice and self.choose(self.params, raw[real], q0, pose, chosen):
+                return chosen[None, :len(q0)].copy(), np.ones(1, dtype=bool), int(real.sum())
             wrapped, inside = wrap_into_limits(raw, q0, self.lower, self.upper, self.revolute)
             candidates = np.flatnonzero(real & inside)
-            if nearest and len(candidates):
+            if nearest and not by_choice and len(candidates):
                 squares = wrapped[candidates] - q0
                 squares *= squares
                 for index in candidates[np.argsort(np.sqrt(np.add.reduce(squares, axis=1)), kind="stable")]:
@@ -56,7 +70,7 @@ class HeldJointSearch:
                         return wrapped[index][None], np.ones(1, dtype=bool), len(candidates)
             residual = np.array([fk_residual(self.form.chain, q, target) for q in wrapped[candidates]])
             screened = residual <= self.form.screen_tolerance
-            if screened.any():
+            if screened.any() and not by_choice:
                 count = int(screened.sum())
                 return wrapped[candidates[screened]], np.ones(count, dtype=bool), count
             outcome = min(outcome, -2 if len(candidates) else -1 if real.any() else 0)
