@@ -7,7 +7,7 @@ import numpy as np
 
 from wbik.apps.bioloid.behaviours import HALF_STEPS, half_step_phases, replay_keyframes, turn_in_place, walk
 from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, step_forward_faithful, time_scale_motion
-from wbik.apps.bioloid.placo_walk import placo_walk, placo_walk_animation
+from wbik.apps.bioloid.placo_walk import placo_walk
 from wbik.apps.bioloid.sensors import stance_loads
 from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
 from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases, step_forward_wholebody
@@ -200,15 +200,11 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     run = _Behaviours(spec, on_progress)
     steps, length = int(spec["steps"]), float(spec["step_length"])
-    result = placo_walk(run.robot, steps=steps, step_length=length, margin=run.margin)
+    result, animation = placo_walk(run.robot, steps=steps, step_length=length, margin=run.margin)
     figures = {**result}
     for key in ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min"):
         if f"{key}_mm" in result:
             figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
-    animation = None
-    if result.get("planned"):
-        animation = placo_walk_animation(run.robot, steps=steps, step_length=length, margin=run.margin,
-                                         footstep_x=result["footstep_x_m"])
     entry = {"name": "PlaCo walk pattern generator", **result}
     run.add(judge(entry, {"planned": True, **run.expect}, figures, PLACO_WALK_RULES, "expect"), animation)
     return run.finished()
