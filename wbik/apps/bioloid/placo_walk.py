@@ -3,16 +3,22 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
+import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
-from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 
 SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
 ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
+
+
+def _advances(xs: list[float]) -> list[float]:
+    """The forward moves (m) between successive footsteps at ``xs`` (m), those of more than 1 nm."""
+    return [b - a for a, b in itertools.pairwise(xs) if b - a > 1e-9]
 
 
 def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
@@ -32,6 +38,7 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     """Plan a straight walk with PlaCo and measure it (see the module docstring): the figures, and the
     animation of PlaCo's IK following the plan every ``SAMPLE_S`` (None if PlaCo cannot load the robot)."""
     from wbik.motion.walking.figures import walk_figures
+    from wbik.motion.walking.footsteps import sole_polygon
     from wbik.motion.walking.placo_pattern import soles_on_ground
     from wbik.viz.animation import Animation, Overlays
 
@@ -42,20 +49,16 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     trajectory = plan.trajectory
     xs = [float(step.frame[0, 3]) for step in plan.footsteps]
     sides = [str(step.side) for step in plan.footsteps]
-    advances = [b - a for a, b in zip(xs[:-1], xs[1:], strict=True) if b - a > 1e-9]
-    per_foot = {}
-    for side in set(sides):
-        positions = [x for x, s in zip(xs, sides, strict=True) if s == side]
-        per_foot[side] = [b - a for a, b in zip(positions[:-1], positions[1:], strict=True) if b - a > 1e-9]
-    corners = np.asarray(robot.soles["l_sole"], dtype=float)
+    per_foot = {side: _advances([x for x, s in zip(xs, sides, strict=True) if s == side])
+                for side in set(sides)}
     com_margins, zmp_margins, single = [], [], []
     omega = math.sqrt(9.80665 / plan.parameters.walk_com_height)  # LIPM: zmp = c - c'' / omega^2
     for t in np.arange(0.0, trajectory.t_end, dt):
-        down = list(soles_on_ground(trajectory, t, plan.feet).values())
+        down = soles_on_ground(trajectory, t, plan.feet)
         if not down:  # never in a walk plan; fall back on PlaCo's support side
-            left = "left" in str(trajectory.support_side(t)).lower()
-            down = [trajectory.get_T_world_left(t) if left else trajectory.get_T_world_right(t)]
-        polygon = SupportPolygon(np.vstack([(corners @ f[:3, :3].T + f[:3, 3])[:, :2] for f in down]))
+            sole = plan.feet.frame("left" if "left" in str(trajectory.support_side(t)).lower() else "right")
+            down = {sole: soles_on_ground(trajectory, t, plan.feet, tolerance=math.inf)[sole]}
+        polygon = sole_polygon(robot, {sole: pin.SE3(pose) for sole, pose in down.items()})
         com_margins.append(polygon.margin_of(trajectory.get_p_world_CoM(t)[:2]))
         zmp_margins.append(polygon.margin_of(trajectory.get_p_world_ZMP(t, omega)[:2]))
         single.append(len(down) == 1)
@@ -63,14 +66,12 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
     walk = plan.walk(dt, 3)
     figures, _ = walk_figures(robot, plan.feet, walk.times, walk.q, walk.support, plan.ground, margin,
                               walk.com)
-    report = {"multibody_zmp_margin_min_mm": 1e3 * figures["zmp_margin_min_m"],
-              "multibody_zmp_margin_p5_mm": 1e3 * figures["zmp_margin_p5_m"],
-              "multibody_com_error_max_mm": 1e3 * figures["com_error_max_m"],
-              "multibody_foot_slip_max_mm": 1e3 * figures["foot_slip_max_m"],
-              "multibody_joint_velocity_peak_rad_s": figures["joint_velocity_peak_rad_s"],
-              "multibody_joint_acceleration_peak_rad_s2": figures["joint_acceleration_peak_rad_s2"],
+    report = {**{f"multibody_{name[:-2]}_mm": 1e3 * figures[name]
+                 for name in ("zmp_margin_min_m", "zmp_margin_p5_m", "com_error_max_m", "foot_slip_max_m")},
+              **{f"multibody_{name}": figures[name]
+                 for name in ("joint_velocity_peak_rad_s", "joint_acceleration_peak_rad_s2")},
               "planned": True, "footsteps": len(xs), "footstep_x_m": xs,
-              "max_step_advance_mm": 1e3 * max(advances, default=0.0),
+              "max_step_advance_mm": 1e3 * max(_advances(xs), default=0.0),
               "per_foot_advance_mm": {k: [1e3 * v for v in values] for k, values in per_foot.items()},
               "duration_s": float(trajectory.t_end),
               "min_com_margin_mm": 1e3 * float(np.min(com_margins)),

@@ -199,12 +199,9 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     run = _Behaviours(spec, on_progress)
-    steps, length = int(spec["steps"]), float(spec["step_length"])
-    result, animation = placo_walk(run.robot, steps=steps, step_length=length, margin=run.margin)
-    figures = {**result}
-    for key in ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min"):
-        if f"{key}_mm" in result:
-            figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
+    result, animation = placo_walk(run.robot, int(spec["steps"]), float(spec["step_length"]), run.margin)
+    scaled = ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min")
+    figures = {**result, **{f"{key}_m": result[f"{key}_mm"] / 1e3 for key in scaled if f"{key}_mm" in result}}
     entry = {"name": "PlaCo walk pattern generator", **result}
     run.add(judge(entry, {"planned": True, **run.expect}, figures, PLACO_WALK_RULES, "expect"), animation)
     return run.finished()
