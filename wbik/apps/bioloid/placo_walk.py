@@ -63,7 +63,7 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
         zmp_margins.append(polygon.margin_of(trajectory.get_p_world_ZMP(t, omega)[:2]))
         single.append(len(down) == 1)
     com_margins, zmp_margins, single = map(np.asarray, (com_margins, zmp_margins, single))
-    walk = plan.walk(dt, 3)
+    walk = plan.follow(np.arange(0.0, trajectory.t_end + 0.5 * dt, dt), 3)
     figures, _ = walk_figures(robot, plan.feet, walk.times, walk.q, walk.support, plan.ground, margin,
                               walk.com)
     report = {**{f"multibody_{name[:-2]}_mm": 1e3 * figures[name]
@@ -81,6 +81,7 @@ def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: 
               "min_zmp_margin_mm": 1e3 * float(np.min(zmp_margins)),
               "walk_com_height_m": plan.parameters.walk_com_height}
     times = np.append(np.arange(0.0, trajectory.t_end, SAMPLE_S), trajectory.t_end)
-    rows, support, _ = plan.follow(times, ITERATIONS)
-    return report, Animation(robot, times, rows, Overlays("pelvis", tuple(support), tuple(support)),
+    shown = plan.follow(times, ITERATIONS)
+    support = tuple(shown.support)
+    return report, Animation(robot, times, shown.q, Overlays("pelvis", support, support),
                              "PlaCo walk pattern generator")

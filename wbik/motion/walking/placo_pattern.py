@@ -71,15 +71,14 @@ class PlacoPlan:
     ground: float
     plan_time_s: float
 
-    def follow(self, times: np.ndarray, iterations: int
-               ) -> tuple[np.ndarray, list[tuple[str, ...]], np.ndarray]:
+    def follow(self, times: np.ndarray, iterations: int) -> PlacoWalk:
         """PlaCo's IK from ``q0`` along the plan at ``times`` (SETTLE_ITERATIONS first, then ``iterations``
-        each): the configurations, the soles on the ground and each tick's IK time (s)."""
+        each), with the soles on the ground and the planned CoM."""
         humanoid = placo_robot(self.robot, self.q0, humanoid_urdf=self.urdf)
         solver = humanoid.make_solver()
         tasks = import_placo().WalkTasks()
         tasks.initialize_tasks(solver, humanoid)
-        rows, support, ticks = [], [], []
+        rows, support, com, ticks = [], [], [], []
         for index, t in enumerate(map(float, times)):
             tick = time.perf_counter()
             tasks.update_tasks_from_trajectory(self.trajectory, t)
@@ -90,14 +89,8 @@ class PlacoPlan:
             ticks.append(time.perf_counter() - tick)
             rows.append(placo_configuration(self.robot, humanoid))
             support.append(tuple(soles_on_ground(self.trajectory, t, self.feet, self.ground)))
-        return np.array(rows), support, np.array(ticks)
-
-    def walk(self, dt: float, iterations: int) -> PlacoWalk:
-        """The plan followed by PlaCo's IK every ``dt`` (s), end included, with the planned CoM."""
-        times = np.arange(0.0, self.trajectory.t_end + 0.5 * dt, dt)
-        rows, support, ticks = self.follow(times, iterations)
-        com = [np.asarray(self.trajectory.get_p_world_CoM(float(t)), dtype=float) for t in times]
-        return PlacoWalk(times, rows, support, np.array(com), ticks, self.plan_time_s)
+            com.append(np.asarray(self.trajectory.get_p_world_CoM(t), dtype=float))
+        return PlacoWalk(times, np.array(rows), support, np.array(com), np.array(ticks), self.plan_time_s)
 
 
 def placo_plan(robot: Robot, q0: np.ndarray, footsteps: list[Footstep] | float, feet: Feet, trunk: str,
@@ -160,7 +153,8 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
             "startend_double_support_ratio": timing.start_s / timing.single_support_s,
             "planned_timesteps": max(steps, int(round(horizon_s / dt))), "zmp_margin": float(zmp_margin)}
     plan = placo_plan(robot, q0, footsteps, feet, trunk, clearance, **(ours if setting == "ours" else {}))
-    walk, used = plan.walk(dt, iterations), plan.parameters
+    walk = plan.follow(np.arange(0.0, plan.trajectory.t_end + 0.5 * dt, dt), iterations)
+    used = plan.parameters
     walk.parameters = {"setting": setting, "single_support_s": used.single_support_duration,
                        "double_support_s": used.double_support_duration(),
                        "start_end_s": used.startend_double_support_duration(), "dt": used.dt(),
