@@ -10,8 +10,17 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
+from wbik.motion.walking.figures import walk_figures
+from wbik.motion.walking.footsteps import Feet, sole_polygon
+from wbik.motion.walking.placo_pattern import placo_plan, soles_on_ground
 from wbik.robot import Robot
+from wbik.viz.animation import Animation, Overlays
 
+PARAMETERS = {"single_support_timesteps": 10, "double_support_ratio": 0.2, "planned_timesteps": 48,
+              "startend_double_support_ratio": 1.5, "walk_trunk_pitch": math.radians(20.0),
+              "walk_foot_rise_ratio": 0.2}
+"""PlaCo's ``HumanoidParameters`` for the Bioloid, besides those of the robot (sole size, feet spacing, CoM
+height) and of the walk asked for."""
 SAMPLE_S = 0.05  # s between two samples of the animation (PlaCo's own plan is on a 10 ms grid)
 ITERATIONS = 10  # solver iterations per sample of the animation after the first (each from the previous)
 
@@ -21,29 +30,14 @@ def _advances(xs: list[float]) -> list[float]:
     return [b - a for a, b in itertools.pairwise(xs) if b - a > 1e-9]
 
 
-def plan_walk(robot: Robot, steps: int, step_length: float, margin: float, single_support_s: float):
-    """PlaCo's plan (``PlacoPlan``) of ``steps`` steps straight ahead from the nominal stance."""
-    from wbik.motion.walking.footsteps import Feet
-    from wbik.motion.walking.placo_pattern import placo_plan
-
-    return placo_plan(robot, robot.nominal, steps * step_length, Feet("l_sole", "r_sole"), "pelvis", 0.04,
-                      single_support_duration=single_support_s, single_support_timesteps=10,
-                      double_support_ratio=0.2, startend_double_support_ratio=1.5, planned_timesteps=48,
-                      walk_trunk_pitch=math.radians(20.0), walk_foot_rise_ratio=0.2, zmp_margin=margin,
-                      walk_max_dx_forward=step_length)
-
-
 def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
                single_support_s: float = 0.5, dt: float = 0.01):
     """Plan a straight walk with PlaCo and measure it (see the module docstring): the figures, and the
     animation of PlaCo's IK following the plan every ``SAMPLE_S`` (None if PlaCo cannot load the robot)."""
-    from wbik.motion.walking.figures import walk_figures
-    from wbik.motion.walking.footsteps import sole_polygon
-    from wbik.motion.walking.placo_pattern import soles_on_ground
-    from wbik.viz.animation import Animation, Overlays
-
     try:
-        plan = plan_walk(robot, steps, step_length, margin, single_support_s)
+        plan = placo_plan(robot, robot.nominal, steps * step_length, Feet("l_sole", "r_sole"), "pelvis", 0.04,
+                          single_support_duration=single_support_s, zmp_margin=margin,
+                          walk_max_dx_forward=step_length, **PARAMETERS)
     except RobotDescriptionError as exc:
         return {"planned": False, "reason": f"PlaCo cannot load the humanoid: {exc}"}, None
     trajectory = plan.trajectory
