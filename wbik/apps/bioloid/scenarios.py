@@ -26,6 +26,7 @@ from wbik.scenario_schema import (
 from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 from wbik.schema import Boolean, Key, ListOf, Map, Number, Text, default_of, from_dataclass
+from wbik.viz.animation import Animation, Overlays
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
@@ -99,8 +100,6 @@ def _final_soles(robot, q: np.ndarray) -> dict:
 
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
-    from wbik.viz.animation import Animation, Overlays
-
     times = np.asarray(times, dtype=float)
     keep = np.r_[np.diff(times) > 0, True]  # a sample that did not move has the next one's time
     support = tuple(tuple(feet) for feet, kept in zip(motion.support, keep, strict=True) if kept)
@@ -246,8 +245,6 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.viz.animation import Animation, Overlays
-
     run = KindRun(spec, "moves", on_progress)
     robot = run.robot
     q = start_of(spec, robot)
