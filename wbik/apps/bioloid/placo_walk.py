@@ -31,7 +31,7 @@ def _advances(xs: list[float]) -> list[float]:
 
 
 def placo_walk(robot: Robot, steps: int = 4, step_length: float = 0.03, margin: float = 0.005,
-               single_support_s: float = 0.5, dt: float = 0.01):
+               single_support_s: float = 0.5, dt: float = 0.01) -> tuple[dict, Animation | None]:
     """Plan a straight walk with PlaCo and measure it (see the module docstring): the figures, and the
     animation of PlaCo's IK following the plan every ``SAMPLE_S`` (None if PlaCo cannot load the robot)."""
     try:
