@@ -7,7 +7,7 @@ import numpy as np
 
 from wbik.apps.bioloid.behaviours import HALF_STEPS, half_step_phases, replay_keyframes, turn_in_place, walk
 from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, step_forward_faithful, time_scale_motion
-from wbik.apps.bioloid.placo_walk import placo_walk, placo_walk_animation
+from wbik.apps.bioloid.placo_walk import placo_walk
 from wbik.apps.bioloid.sensors import stance_loads
 from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
 from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases, step_forward_wholebody
@@ -26,6 +26,7 @@ from wbik.scenario_schema import (
 from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport, format_entries, start_of
 from wbik.scenarios.wholebody import CONTACT_TOLERANCE
 from wbik.schema import Boolean, Key, ListOf, Map, Number, Text, default_of, from_dataclass
+from wbik.viz.animation import Animation, Overlays
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
@@ -99,8 +100,6 @@ def _final_soles(robot, q: np.ndarray) -> dict:
 
 
 def _motion_animation(motion, times, name: str, trace_frame: str | None = None):
-    from wbik.viz.animation import Animation, Overlays
-
     times = np.asarray(times, dtype=float)
     keep = np.r_[np.diff(times) > 0, True]  # a sample that did not move has the next one's time
     support = tuple(tuple(feet) for feet, kept in zip(motion.support, keep, strict=True) if kept)
@@ -199,16 +198,9 @@ def run_keyframes(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def run_placo_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     run = _Behaviours(spec, on_progress)
-    steps, length = int(spec["steps"]), float(spec["step_length"])
-    result = placo_walk(run.robot, steps=steps, step_length=length, margin=run.margin)
-    figures = {**result}
-    for key in ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min"):
-        if f"{key}_mm" in result:
-            figures[f"{key}_m"] = result[f"{key}_mm"] / 1e3
-    animation = None
-    if result.get("planned"):
-        animation = placo_walk_animation(run.robot, steps=steps, step_length=length, margin=run.margin,
-                                         footstep_x=result["footstep_x_m"])
+    result, animation = placo_walk(run.robot, int(spec["steps"]), float(spec["step_length"]), run.margin)
+    scaled = ("max_step_advance", "min_com_margin", "min_zmp_margin", "multibody_zmp_margin_min")
+    figures = {**result, **{f"{key}_m": result[f"{key}_mm"] / 1e3 for key in scaled if f"{key}_mm" in result}}
     entry = {"name": "PlaCo walk pattern generator", **result}
     run.add(judge(entry, {"planned": True, **run.expect}, figures, PLACO_WALK_RULES, "expect"), animation)
     return run.finished()
@@ -253,8 +245,6 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioReport:
-    from wbik.viz.animation import Animation, Overlays
-
     run = KindRun(spec, "moves", on_progress)
     robot = run.robot
     q = start_of(spec, robot)
