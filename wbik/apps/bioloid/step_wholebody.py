@@ -63,8 +63,6 @@ class BodyPhase:
     com: Point | None = None
     end_support: tuple[str, ...] | None = None
     divisions: int = 5
-    speed_rpm: float = 40.0
-    pause_s: float = 0.0
     clip_x: dict[str, float] = field(default_factory=dict)
 
 
@@ -248,8 +246,7 @@ def step_phases(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters | 
         hips = {HIP[side]: line(hip_target(robot, planted[side], phase.start[side]),
                                 hip_target(robot, planted[side], phase.end[side]))
                 for side in phase.down if side != phase.dragged}
-        return {"hips": hips, "pelvis_rotation": rotation, "divisions": gait.divisions,
-                "speed_rpm": phase.speed_rpm, "pause_s": phase.pause_s}
+        return {"hips": hips, "pelvis_rotation": rotation, "divisions": gait.divisions}
 
     sw, st = SIDE_NAME[swing_side], SIDE_NAME[stance_side]
     return [
