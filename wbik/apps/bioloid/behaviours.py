@@ -21,8 +21,6 @@ from wbik.apps.bioloid.gait import (
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
 from wbik.apps.bioloid.step_wholebody import (
-    BodyPhase,
-    ComRamp,
     WholeBodyMotion,
     com_over_phase,
     current_soles,
@@ -35,6 +33,7 @@ from wbik.apps.bioloid.step_wholebody import (
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
+from wbik.motion.walking.static_gait import BodyPhase, ComRamp
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

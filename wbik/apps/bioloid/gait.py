@@ -19,6 +19,7 @@ from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
+from wbik.motion.walking.static_gait import phase_ends, pose_error
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -32,12 +33,6 @@ SIDE_NAME = {"r": "right", "l": "left"}
 def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
     """A copy of ``q0``, or of the robot's nominal configuration when None."""
     return (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
-
-
-def pose_error(reached: pin.SE3, wanted: pin.SE3) -> tuple[float, float]:
-    """(position error in m, rotation angle in rad) of ``reached`` against ``wanted``."""
-    return (float(np.linalg.norm(reached.translation - wanted.translation)),
-            float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation))))
 
 
 @dataclass(frozen=True)
@@ -190,8 +185,7 @@ class SampledMotion:
 
     def phase_end_samples(self) -> list[int]:
         """Index of the last sample of every phase."""
-        count = len(self.phase)
-        return [k for k in range(1, count) if k + 1 == count or self.phase[k + 1] != self.phase[k]]
+        return phase_ends(self.phase)
 
 
 @dataclass
