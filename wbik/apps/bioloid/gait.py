@@ -354,9 +354,7 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                 sample["clearance_m"] = float(np.min(sole_points(robot, SOLE[phase.lifted], reached)[:, 2]))
                 if division == gait.divisions:  # touchdown: planted where it comes down
                     planted[phase.lifted] = flatten_on_ground(reached)
-            com = robot.center_of_mass(q)
-            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(com[:2])
-            sample["com"] = com.tolist()
+            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(robot.center_of_mass(q)[:2])
             sample["limit_excess_rad"] = limit_excess(robot.model, q, joint_index)
             samples.append(sample)
             configurations.append(q.copy())

@@ -154,11 +154,10 @@ def quasi_static_motion(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase
             q = solution.q.copy()
             errors = solution.task_errors
             check.update({
-                "phase": index, "division": division, "qp_feasible": solution.feasible,
-                "reason": solution.reason, "iterations": solution.iterations, "time_s": solution.time_s,
+                "phase": index, "division": division, "reason": solution.reason,
+                "iterations": solution.iterations, "time_s": solution.time_s,
                 "hip_error_m": max((errors[f"hip {f}"] for f in phase.hips), default=0.0),
-                "pelvis_error_deg": math.degrees(errors.get("pelvis orientation", 0.0)),
-                "support": sorted(phase.stance)})
+                "pelvis_error_deg": math.degrees(errors.get("pelvis orientation", 0.0))})
             checks.append(check)
             configurations.append(q.copy())
             phase_of.append(index)
