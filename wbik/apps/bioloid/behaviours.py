@@ -32,6 +32,7 @@ from wbik.apps.bioloid.step_wholebody import (
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
+from wbik.files import read_data_file
 from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
 from wbik.motion.walking.static_gait import BodyPhase, ComRamp
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
@@ -203,12 +204,8 @@ def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = N
 
 def load_keyframes(path: str | Path | None = None) -> dict:
     """The keyframe file (see tasks/data/bioloid_keyframes.yaml for the format and provenance)."""
-    import yaml
-
     path = Path(path) if path is not None else KEYFRAMES_PATH
-    if not path.is_file():
-        raise InvalidConfigurationError(f"keyframe file {str(path)!r} does not exist")
-    data = yaml.safe_load(path.read_text())
+    data = read_data_file(path, InvalidConfigurationError, "keyframe", "it holds pages and behaviours")
     for name, rows in data.get("pages", {}).items():
         array = np.asarray(rows)
         if array.ndim != 2 or array.shape[1] != 18 or np.any(array < 0) or np.any(array > 1023):
