@@ -19,7 +19,7 @@ from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
 from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
-from wbik.motion.walking.static_gait import phase_ends, pose_error
+from wbik.motion.walking.static_gait import actuated_timing, phase_ends, pose_error
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -250,17 +250,10 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
     ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
-    from wbik.motion.timing import RPM, time_samples
-
-    joints = motion.joint_matrix()
-    model = motion.robot.model
-    if speed_rpm is None:
-        limit = model.velocityLimit[[model.joints[j].idx_v for j in actuated_joints(model)]]
-    else:
-        if not speed_rpm > 0:
-            raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
-        limit = np.full(joints.shape[1], speed_rpm * RPM)
-    return TimedMotion(motion, time_samples(joints, limit, law, mode, motion.phase_end_samples()), limit)
+    if speed_rpm is not None and not speed_rpm > 0:
+        raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
+    timed = actuated_timing(motion.robot.model, motion.q, speed_rpm, mode, motion.phase_end_samples(), law)
+    return TimedMotion(motion, timed, timed.velocity_limit)
 
 
 def flatten_on_ground(placement: pin.SE3) -> pin.SE3:

@@ -261,17 +261,19 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
     configurations, phase_of, support, checks = quasi_static_motion(robot, q, phases, tasks, margin, backend,
                                                                     retries=0, locked=locked)
     ends = phase_ends(phase_of)
-    timed = _timed(robot.model, configurations, speed_rpm, "segment", ends)
+    timed = actuated_timing(robot.model, configurations, speed_rpm, "segment", ends)
     return StaticGait(robot, configurations, support, [anchors[p + 1] for p in phase_of], timed,
                       np.array([np.nan] + [c["com_margin_m"] for c in checks]),
                       {"divisions": divisions, "speed_rpm": speed_rpm, "margin": margin, "inset": inset,
                        "mode": "segment", "phase_ends": ends})
 
 
-def _timed(model: pin.Model, configurations: np.ndarray, speed_rpm: float, mode: str, phase_ends: list[int]):
-    """The shortest quintic timing of the samples' 1-DOF joints at ``speed_rpm``."""
-    joints = configurations[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
-    return time_samples(joints, speed_rpm * RPM, "quintic", mode, phase_ends)
+def actuated_timing(model: pin.Model, configurations: np.ndarray, speed_rpm: float | None, mode: str,
+                    phase_ends: list[int], law: str = "quintic"):
+    """The shortest timing of the samples' 1-DOF joints at ``speed_rpm`` (None: the URDF's limits)."""
+    joints = [model.joints[j] for j in actuated_joints(model)]
+    limit = model.velocityLimit[[joint.idx_v for joint in joints]] if speed_rpm is None else speed_rpm * RPM
+    return time_samples(configurations[:, [joint.idx_q for joint in joints]], limit, law, mode, phase_ends)
 
 
 def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> StaticGait:
@@ -281,7 +283,7 @@ def retimed(gait: StaticGait, speed_rpm: float, mode: str = "segment") -> Static
     if gait.info.get("mode") == mode:
         timed = scaled_timing(gait.timed, gait.info["speed_rpm"] / speed_rpm)
     else:
-        timed = _timed(gait.robot.model, gait.q, speed_rpm, mode, gait.info["phase_ends"])
+        timed = actuated_timing(gait.robot.model, gait.q, speed_rpm, mode, gait.info["phase_ends"])
     return replace(gait, timed=timed, info={**gait.info, "speed_rpm": speed_rpm, "mode": mode})
 
 
