@@ -37,8 +37,8 @@ Point = Callable[[float], np.ndarray]
 @dataclass
 class BodyPhase:
     """One phase, sampled at s = 1/divisions, ..., 1: soles held at ``stance`` or on ``swing`` paths, soft
-    targets of s; ``end_support``: the soles holding the CoM at the last sample; ``clip_x``: sole -> x where
-    the ground under it ends."""
+    targets of s (``hips``: frame -> position, the trunk's ``pelvis_rotation``, the ``com`` xy);
+    ``end_support``: the soles holding the CoM at the last sample; ``clip_x``: sole -> x where ground ends."""
 
     name: str
     stance: dict[str, pin.SE3]
