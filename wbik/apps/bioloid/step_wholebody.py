@@ -79,16 +79,15 @@ class WholeBodyMotion:
         return all(holds(c) for c in self.checks)
 
     def summary(self) -> dict:
-        checks = self.checks
         return {
-            "samples": len(checks), "passed": self.passed, "margin_mm": 1e3 * self.margin,
-            "max_contact_error_m": max(c["contact_error_m"] for c in checks),
-            "max_contact_error_rad": max(c["contact_error_rad"] for c in checks),
-            "min_com_margin_mm": 1e3 * min(c["com_margin_m"] for c in checks),
-            "max_limit_excess_rad": max(c["limit_excess_rad"] for c in checks),
-            "max_hip_error_mm": 1e3 * max(c["hip_error_m"] for c in checks),
-            "max_pelvis_orientation_error_deg": max(c["pelvis_error_deg"] for c in checks),
-            "solve_time_s": sum(c["time_s"] for c in checks),
+            "samples": len(self.checks), "passed": self.passed, "margin_mm": 1e3 * self.margin,
+            "max_contact_error_m": max(c["contact_error_m"] for c in self.checks),
+            "max_contact_error_rad": max(c["contact_error_rad"] for c in self.checks),
+            "min_com_margin_mm": 1e3 * min(c["com_margin_m"] for c in self.checks),
+            "max_limit_excess_rad": max(c["limit_excess_rad"] for c in self.checks),
+            "max_hip_error_mm": 1e3 * max(c["hip_error_m"] for c in self.checks),
+            "max_pelvis_orientation_error_deg": max(c["pelvis_error_deg"] for c in self.checks),
+            "solve_time_s": sum(c["time_s"] for c in self.checks),
         }
 
 
