@@ -15,13 +15,11 @@ from wbik.apps.bioloid.gait import (
     SIDES,
     SOLE,
     GaitParameters,
-    SampledMotion,
     flatten_on_ground,
     start_q,
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
 from wbik.apps.bioloid.step_wholebody import (
-    WholeBodyMotion,
     com_over_phase,
     current_soles,
     pelvis_rotation,
@@ -34,7 +32,7 @@ from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
 from wbik.files import read_data_file
 from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
-from wbik.motion.walking.static_gait import BodyPhase, ComRamp
+from wbik.motion.walking.static_gait import BodyPhase, ComRamp, SampledMotion, WholeBodyMotion
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

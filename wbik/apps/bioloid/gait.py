@@ -18,8 +18,8 @@ import pinocchio as pin
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
-from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
-from wbik.motion.walking.static_gait import actuated_timing, phase_ends, pose_error
+from wbik.motion.walking.multibody_zmp import limit_excess
+from wbik.motion.walking.static_gait import SampledMotion, actuated_timing, pose_error
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -160,32 +160,6 @@ def step_forward_phases(gait: GaitParameters | None = None, first: str = "left")
     if key in ("right", "r"):
         return [phase.mirrored() for phase in phases]
     raise InvalidConfigurationError(f"first must be 'left' or 'right', got {first!r}")
-
-
-@dataclass
-class SampledMotion:
-    """Whole-body configurations ``q[k]`` at the samples (0: the start), the index of each one's phase in
-    ``phase_names`` (-1: the start) and its soles on the ground."""
-
-    name: str
-    robot: object
-    q: np.ndarray
-    phase: np.ndarray
-    phase_names: list[str]
-    support: list[tuple[str, ...]]
-
-    @property
-    def joint_names(self) -> list[str]:
-        return [self.robot.model.names[j] for j in actuated_joints(self.robot.model)]
-
-    def joint_matrix(self) -> np.ndarray:
-        """(K, 18) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
-        model = self.robot.model
-        return self.q[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
-
-    def phase_end_samples(self) -> list[int]:
-        """Index of the last sample of every phase."""
-        return phase_ends(self.phase)
 
 
 @dataclass

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
@@ -18,13 +17,19 @@ from wbik.apps.bioloid.gait import (
     SIDES,
     SOLE,
     GaitParameters,
-    SampledMotion,
     start_q,
     step_forward_phases,
 )
 from wbik.geometry import wrap_to_pi
 from wbik.motion.walking.footsteps import sole_polygon, yaw_of
-from wbik.motion.walking.static_gait import BodyPhase, ComRamp, Path, Point, holds, quasi_static_motion
+from wbik.motion.walking.static_gait import (
+    BodyPhase,
+    ComRamp,
+    Path,
+    Point,
+    WholeBodyMotion,
+    quasi_static_motion,
+)
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.tasks import ComTask, OrientationTask, PositionTask, PostureTask, RegularizationTask
 from wbik.robot import Robot
@@ -65,32 +70,6 @@ def sole_path(start: pin.SE3, end: pin.SE3, lift: float = 0.0) -> Path:
     return pose
 
 
-@dataclass
-class WholeBodyMotion:
-    """The solved samples with their FK checks (one dict per sample after the start)."""
-
-    motion: SampledMotion
-    checks: list[dict]
-    margin: float
-    phases: list[BodyPhase]
-
-    @property
-    def passed(self) -> bool:
-        return all(holds(c) for c in self.checks)
-
-    def summary(self) -> dict:
-        return {
-            "samples": len(self.checks), "passed": self.passed, "margin_mm": 1e3 * self.margin,
-            "max_contact_error_m": max(c["contact_error_m"] for c in self.checks),
-            "max_contact_error_rad": max(c["contact_error_rad"] for c in self.checks),
-            "min_com_margin_mm": 1e3 * min(c["com_margin_m"] for c in self.checks),
-            "max_limit_excess_rad": max(c["limit_excess_rad"] for c in self.checks),
-            "max_hip_error_mm": 1e3 * max(c["hip_error_m"] for c in self.checks),
-            "max_pelvis_orientation_error_deg": max(c["pelvis_error_deg"] for c in self.checks),
-            "solve_time_s": sum(c["time_s"] for c in self.checks),
-        }
-
-
 def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], margin: float = 0.005,
                  backend: str = DEFAULT_BACKEND, name: str = "behaviour", max_iterations: int = 60,
                  retries: int = 3) -> WholeBodyMotion:
@@ -110,10 +89,8 @@ def solve_phases(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase], marg
         return [*chosen, PostureTask(robot.nominal, weight=POSTURE_WEIGHT), RegularizationTask(1e-8)]
 
     locked = [f"{side}_{joint}" for side in SIDES for joint in ARM_JOINTS]
-    q, phase_of, support, checks = quasi_static_motion(robot, q0, phases, tasks, margin, backend,
-                                                       max_iterations, retries, locked)
-    motion = SampledMotion(name, robot, q, phase_of, [p.name for p in phases], support)
-    return WholeBodyMotion(motion, checks, margin, list(phases))
+    return quasi_static_motion(robot, q0, phases, tasks, margin, backend, max_iterations, retries, locked,
+                               name)
 
 
 def current_soles(robot: Robot, q: np.ndarray) -> dict[str, pin.SE3]:

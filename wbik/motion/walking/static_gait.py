@@ -108,14 +108,66 @@ def verify_sample(robot: Robot, q: np.ndarray, held: dict[str, pin.SE3], polygon
             "limit_excess_rad": excess, "limits_ok": excess <= 1e-9}
 
 
+@dataclass
+class SampledMotion:
+    """Whole-body configurations ``q[k]`` at the samples (0: the start), the index of each one's phase in
+    ``phase_names`` (-1: the start) and its soles on the ground."""
+
+    name: str
+    robot: object
+    q: np.ndarray
+    phase: np.ndarray
+    phase_names: list[str]
+    support: list[tuple[str, ...]]
+
+    @property
+    def joint_names(self) -> list[str]:
+        return [self.robot.model.names[j] for j in actuated_joints(self.robot.model)]
+
+    def joint_matrix(self) -> np.ndarray:
+        """(K, n) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
+        model = self.robot.model
+        return self.q[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
+
+    def phase_end_samples(self) -> list[int]:
+        """Index of the last sample of every phase."""
+        count = len(self.phase)
+        return [k for k in range(1, count) if k + 1 == count or self.phase[k + 1] != self.phase[k]]
+
+
+@dataclass
+class WholeBodyMotion:
+    """The solved samples with their FK checks (one dict per sample after the start)."""
+
+    motion: SampledMotion
+    checks: list[dict]
+    margin: float
+    phases: list[BodyPhase]
+
+    @property
+    def passed(self) -> bool:
+        return all(holds(c) for c in self.checks)
+
+    def summary(self) -> dict:
+        return {
+            "samples": len(self.checks), "passed": self.passed, "margin_mm": 1e3 * self.margin,
+            "max_contact_error_m": max(c["contact_error_m"] for c in self.checks),
+            "max_contact_error_rad": max(c["contact_error_rad"] for c in self.checks),
+            "min_com_margin_mm": 1e3 * min(c["com_margin_m"] for c in self.checks),
+            "max_limit_excess_rad": max(c["limit_excess_rad"] for c in self.checks),
+            "max_hip_error_mm": 1e3 * max(c["hip_error_m"] for c in self.checks),
+            "max_pelvis_orientation_error_deg": max(c["pelvis_error_deg"] for c in self.checks),
+            "solve_time_s": sum(c["time_s"] for c in self.checks),
+        }
+
+
 def quasi_static_motion(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase],
                         tasks: Callable[[BodyPhase, float, np.ndarray | None], list], margin: float = 0.005,
                         backend: str = DEFAULT_BACKEND, max_iterations: int = 60, retries: int = 3,
-                        locked: Sequence[str] = ()) -> tuple[np.ndarray, np.ndarray, list, list[dict]]:
+                        locked: Sequence[str] = (), name: str = "behaviour") -> WholeBodyMotion:
     """Every sample of every phase solved from the previous answer, ``tasks(phase, s, CoM xy target or
     None)`` soft and ``locked`` joints held, and verified by FK (a failed one repaired up to ``retries``
-    times): the configurations (K, nq), each one's phase (-1: the start), its soles down, one check per
-    sample after the start."""
+    times)."""
     if margin < 0:
         raise InvalidConfigurationError(f"the CoM margin must be >= 0, got {margin}")
     q = np.asarray(q0, dtype=float).copy()
@@ -162,13 +214,9 @@ def quasi_static_motion(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase
             configurations.append(q.copy())
             phase_of.append(index)
             support.append(tuple(sorted(phase.stance)))
-    return np.array(configurations), np.array(phase_of), support, checks
-
-
-def phase_ends(phase_of: np.ndarray) -> list[int]:
-    """Index of the last sample of every phase (``phase_of``: each sample's phase, the start's first)."""
-    count = len(phase_of)
-    return [k for k in range(1, count) if k + 1 == count or phase_of[k + 1] != phase_of[k]]
+    motion = SampledMotion(name, robot, np.array(configurations), np.array(phase_of),
+                           [phase.name for phase in phases], support)
+    return WholeBodyMotion(motion, checks, margin, list(phases))
 
 
 @dataclass
@@ -258,12 +306,12 @@ def static_gait(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: F
                 OrientationTask(trunk, phase.pelvis_rotation(s), weight=0.02, goal=False, name="trunk"),
                 PostureTask(q0, weight=1e-4, priority=1), RegularizationTask(1e-8)]
 
-    configurations, phase_of, support, checks = quasi_static_motion(robot, q, phases, tasks, margin, backend,
-                                                                    retries=0, locked=locked)
-    ends = phase_ends(phase_of)
-    timed = actuated_timing(robot.model, configurations, speed_rpm, "segment", ends)
-    return StaticGait(robot, configurations, support, [anchors[p + 1] for p in phase_of], timed,
-                      np.array([np.nan] + [c["com_margin_m"] for c in checks]),
+    solved = quasi_static_motion(robot, q, phases, tasks, margin, backend, retries=0, locked=locked,
+                                 name="static gait")
+    motion, ends = solved.motion, solved.motion.phase_end_samples()
+    timed = actuated_timing(robot.model, motion.q, speed_rpm, "segment", ends)
+    return StaticGait(robot, motion.q, motion.support, [anchors[p + 1] for p in motion.phase], timed,
+                      np.array([np.nan] + [c["com_margin_m"] for c in solved.checks]),
                       {"divisions": divisions, "speed_rpm": speed_rpm, "margin": margin, "inset": inset,
                        "mode": "segment", "phase_ends": ends})
 
