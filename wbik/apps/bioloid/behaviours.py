@@ -15,15 +15,11 @@ from wbik.apps.bioloid.gait import (
     SIDES,
     SOLE,
     GaitParameters,
-    SampledMotion,
     flatten_on_ground,
     start_q,
 )
 from wbik.apps.bioloid.servo import SERVOS, from_servo_units, to_servo
 from wbik.apps.bioloid.step_wholebody import (
-    BodyPhase,
-    ComRamp,
-    WholeBodyMotion,
     com_over_phase,
     current_soles,
     pelvis_rotation,
@@ -34,7 +30,9 @@ from wbik.apps.bioloid.step_wholebody import (
 )
 from wbik.data import data_dir
 from wbik.errors import InvalidConfigurationError
+from wbik.files import read_data_file
 from wbik.motion.walking.footsteps import placed_on, sole_polygon, yaw_of
+from wbik.motion.walking.static_gait import BodyPhase, ComRamp, SampledMotion, WholeBodyMotion
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 
@@ -55,8 +53,7 @@ def recentre_phase(robot: Robot, soles: dict[str, pin.SE3], gait: GaitParameters
     heading = 0.5 * (yaw_of(soles["r"].rotation) + yaw_of(soles["l"].rotation))
     return BodyPhase(name, {SOLE[s]: soles[s] for s in SIDES},
                      pelvis_rotation=rotation or (lambda s: pelvis_rotation(heading, gait.pitch)),
-                     com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions,
-                     speed_rpm=gait.servo_slow_rpm)
+                     com=ComRamp(goal=recentre_goal(robot, soles)), divisions=gait.divisions)
 
 
 def both_feet_phases(robot: Robot, soles: dict[str, pin.SE3], after: dict[str, pin.SE3], first: str,
@@ -68,14 +65,13 @@ def both_feet_phases(robot: Robot, soles: dict[str, pin.SE3], after: dict[str, p
     second, n = OTHER[first], gait.divisions
     return [
         com_over_phase(robot, names[0], {SOLE[s]: soles[s] for s in SIDES}, second, soles[second],
-                       pelvis_rotation=rotations[0], divisions=n, speed_rpm=gait.servo_slow_rpm),
+                       pelvis_rotation=rotations[0], divisions=n),
         BodyPhase(names[1], {SOLE[second]: soles[second]}, swing={SOLE[first]: paths[0]},
-                  pelvis_rotation=rotations[1], divisions=swing_divisions * n, speed_rpm=gait.servo_fast_rpm),
+                  pelvis_rotation=rotations[1], divisions=swing_divisions * n),
         com_over_phase(robot, names[2], {SOLE[second]: soles[second], SOLE[first]: after[first]}, first,
-                       after[first], pelvis_rotation=rotations[2], divisions=shift_divisions * n,
-                       speed_rpm=gait.servo_slow_rpm),
+                       after[first], pelvis_rotation=rotations[2], divisions=shift_divisions * n),
         BodyPhase(names[3], {SOLE[first]: after[first]}, swing={SOLE[second]: paths[1]},
-                  pelvis_rotation=rotations[3], divisions=swing_divisions * n, speed_rpm=gait.servo_fast_rpm),
+                  pelvis_rotation=rotations[3], divisions=swing_divisions * n),
         recentre_phase(robot, after, gait, names[4], rotations[4]),
     ]
 
@@ -180,13 +176,12 @@ def half_step_phases(robot: Robot, soles: dict[str, pin.SE3], name: str, gait: G
     phases = [
         com_over_phase(robot, f"{name}: CoM over the {SIDE_NAME[stays]} foot",
                        {SOLE[moved]: start, SOLE[stays]: other}, stays, other,
-                       pelvis_rotation=rotation, divisions=n, speed_rpm=gait.servo_slow_rpm),
+                       pelvis_rotation=rotation, divisions=n),
         BodyPhase(f"{name}: {SIDE_NAME[moved]} foot {'back' if name.startswith('Back') else 'forward'}",
                   {SOLE[stays]: other}, swing={SOLE[moved]: sole_path(start, end, lift=lift)},
-                  pelvis_rotation=rotation, divisions=2 * n, speed_rpm=gait.servo_fast_rpm),
+                  pelvis_rotation=rotation, divisions=2 * n),
         BodyPhase(f"{name}: CoM between the feet", {SOLE[moved]: end, SOLE[stays]: other},
-                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)),
-                  divisions=n, speed_rpm=gait.servo_slow_rpm),
+                  pelvis_rotation=rotation, com=ComRamp(goal=recentre_goal(robot, after)), divisions=n),
     ]
     return phases, after
 
@@ -207,12 +202,8 @@ def half_step_sequence(robot: Robot, names: list[str], q0: np.ndarray | None = N
 
 def load_keyframes(path: str | Path | None = None) -> dict:
     """The keyframe file (see tasks/data/bioloid_keyframes.yaml for the format and provenance)."""
-    import yaml
-
     path = Path(path) if path is not None else KEYFRAMES_PATH
-    if not path.is_file():
-        raise InvalidConfigurationError(f"keyframe file {str(path)!r} does not exist")
-    data = yaml.safe_load(path.read_text())
+    data = read_data_file(path, InvalidConfigurationError, "keyframe", "it holds pages and behaviours")
     for name, rows in data.get("pages", {}).items():
         array = np.asarray(rows)
         if array.ndim != 2 or array.shape[1] != 18 or np.any(array < 0) or np.any(array > 1023):

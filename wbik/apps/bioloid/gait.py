@@ -18,7 +18,8 @@ import pinocchio as pin
 from wbik.apps.bioloid.servo import leg_ang_from_q, leg_q_from_ang, to_servo
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.footsteps import placed_on, sole_points, sole_polygon
-from wbik.motion.walking.multibody_zmp import actuated_joints, limit_excess
+from wbik.motion.walking.multibody_zmp import limit_excess
+from wbik.motion.walking.static_gait import SampledMotion, actuated_timing, pose_error
 from wbik.robot import Robot
 from wbik.robot_packages.bioloid.closed_form import leg_foot_to_hip
 
@@ -32,12 +33,6 @@ SIDE_NAME = {"r": "right", "l": "left"}
 def start_q(robot, q0: np.ndarray | None = None) -> np.ndarray:
     """A copy of ``q0``, or of the robot's nominal configuration when None."""
     return (robot.nominal if q0 is None else np.asarray(q0, dtype=float)).copy()
-
-
-def pose_error(reached: pin.SE3, wanted: pin.SE3) -> tuple[float, float]:
-    """(position error in m, rotation angle in rad) of ``reached`` against ``wanted``."""
-    return (float(np.linalg.norm(reached.translation - wanted.translation)),
-            float(np.linalg.norm(pin.log3(wanted.rotation.T @ reached.rotation))))
 
 
 @dataclass(frozen=True)
@@ -168,33 +163,6 @@ def step_forward_phases(gait: GaitParameters | None = None, first: str = "left")
 
 
 @dataclass
-class SampledMotion:
-    """Whole-body configurations ``q[k]`` at the samples (0: the start), the index of each one's phase in
-    ``phase_names`` (-1: the start) and its soles on the ground."""
-
-    name: str
-    robot: object
-    q: np.ndarray
-    phase: np.ndarray
-    phase_names: list[str]
-    support: list[tuple[str, ...]]
-
-    @property
-    def joint_names(self) -> list[str]:
-        return [self.robot.model.names[j] for j in actuated_joints(self.robot.model)]
-
-    def joint_matrix(self) -> np.ndarray:
-        """(K, 18) joint angles (rad) in ``joint_names`` order (the floating base left out)."""
-        model = self.robot.model
-        return self.q[:, [model.joints[j].idx_q for j in actuated_joints(model)]]
-
-    def phase_end_samples(self) -> list[int]:
-        """Index of the last sample of every phase."""
-        count = len(self.phase)
-        return [k for k in range(1, count) if k + 1 == count or self.phase[k + 1] != self.phase[k]]
-
-
-@dataclass
 class TimedMotion:
     """A sampled motion with a timing of its servo joints (the floating base is not commanded)."""
 
@@ -256,17 +224,10 @@ def time_scale_motion(motion: SampledMotion, speed_rpm: float | None = 40.0, law
     """Minimum-duration timing of the servos through every sample at ``speed_rpm`` (None: the URDF's
     limits): ``mode="segment"`` rests at every sample like the code's divisions (inside the joint limits),
     ``"waypoint"`` at phase ends only (faster; the spline may overshoot a limit between samples)."""
-    from wbik.motion.timing import RPM, time_samples
-
-    joints = motion.joint_matrix()
-    model = motion.robot.model
-    if speed_rpm is None:
-        limit = model.velocityLimit[[model.joints[j].idx_v for j in actuated_joints(model)]]
-    else:
-        if not speed_rpm > 0:
-            raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
-        limit = np.full(joints.shape[1], speed_rpm * RPM)
-    return TimedMotion(motion, time_samples(joints, limit, law, mode, motion.phase_end_samples()), limit)
+    if speed_rpm is not None and not speed_rpm > 0:
+        raise InvalidConfigurationError(f"speed_rpm must be positive, got {speed_rpm}")
+    timed = actuated_timing(motion.robot.model, motion.q, speed_rpm, mode, motion.phase_end_samples(), law)
+    return TimedMotion(motion, timed, timed.velocity_limit)
 
 
 def flatten_on_ground(placement: pin.SE3) -> pin.SE3:
@@ -360,9 +321,7 @@ def step_forward_faithful(robot: Robot, gait: GaitParameters | None = None, firs
                 sample["clearance_m"] = float(np.min(sole_points(robot, SOLE[phase.lifted], reached)[:, 2]))
                 if division == gait.divisions:  # touchdown: planted where it comes down
                     planted[phase.lifted] = flatten_on_ground(reached)
-            com = robot.center_of_mass(q)
-            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(com[:2])
-            sample["com"] = com.tolist()
+            sample["com_margin_m"] = sole_polygon(robot, down_soles).margin_of(robot.center_of_mass(q)[:2])
             sample["limit_excess_rad"] = limit_excess(robot.model, q, joint_index)
             samples.append(sample)
             configurations.append(q.copy())

@@ -21,17 +21,16 @@ from wbik.apps.bioloid.gait import (
     SIDES,
     SOLE,
     GaitParameters,
-    SampledMotion,
     start_q,
 )
 from wbik.apps.bioloid.step_wholebody import (
-    BodyPhase,
     current_soles,
     pelvis_rotation,
     solve_phases,
 )
 from wbik.errors import InvalidConfigurationError, WbikError
 from wbik.motion.walking.footsteps import clip_points, sole_points, sole_polygon, yaw_of
+from wbik.motion.walking.static_gait import BodyPhase, SampledMotion
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.robot import Robot
 

@@ -56,8 +56,6 @@ class WalkPattern:
     zmp_reference: np.ndarray
     lipm_zmp: np.ndarray
     com: np.ndarray
-    com_velocity: np.ndarray
-    com_acceleration: np.ndarray
     feet_poses: dict[str, list[pin.SE3]]
     support: list[tuple[str, ...]]
     swing: list[str | None]
@@ -114,7 +112,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
         tracked[:used] += offset[:used]
         tracked[used:] += offset[used - 1]
     state = controller.start(com0[:2])
-    com, velocity, acceleration = (np.zeros((longest, 3)) for _ in range(3))
+    com, acceleration = np.zeros((longest, 3)), np.zeros((longest, 2))
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
     support, swing, count = [], [], longest
     yaw, ticks, cpu = (np.zeros(longest) for _ in range(3))
@@ -122,7 +120,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
         for k in range(longest):
             tick, tick_cpu = time.perf_counter(), time.thread_time()
             t = k * dt
-            com[k, :2], velocity[k, :2], acceleration[k, :2] = state.x
+            com[k, :2], _, acceleration[k] = state.x
             if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
                     and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
                 count = k + 1
@@ -140,9 +138,9 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
             ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
             if count == k + 1:
                 break
-    com, velocity, acceleration = com[:count], velocity[:count], acceleration[:count]
+    com = com[:count]
     com[:, 2] = ground_z + height
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
-                       targets[:count], controller.zmp_of(com[:, :2], acceleration[:, :2]), com, velocity,
-                       acceleration, feet_poses, support, swing, np.unwrap(yaw[:count]), ticks[:count],
-                       float(clearance), {"omega": controller.omega, "preview_steps": horizon}, cpu[:count])
+                       targets[:count], controller.zmp_of(com[:, :2], acceleration[:count]), com, feet_poses,
+                       support, swing, np.unwrap(yaw[:count]), ticks[:count], float(clearance),
+                       {"omega": controller.omega, "preview_steps": horizon}, cpu[:count])
