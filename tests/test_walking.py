@@ -197,7 +197,7 @@ def test_finite_differences_are_exact_for_a_constant_twist():
 def short_walk(bioloid):
     settings = TrackingSettings(trunk="pelvis", locked=ARMS)
     return walk(bioloid, bioloid.nominal, StepCommand(3, 0.03), TIMING, clearance=0.015, settings=settings,
-                filter_iterations=1, zmp_forward=0.015, preview=PreviewSettings(r=1e-5))
+                zmp_forward=0.015, preview=PreviewSettings(r=1e-5))
 
 
 def test_stance_feet_do_not_slip_and_the_swing_lands_on_its_footstep(bioloid, short_walk):
@@ -326,3 +326,45 @@ def test_a_robot_without_package_shapes_gets_its_legs_kept_apart_from_the_task_f
     assert len(model.pairs) == 4  # thigh and shin of one leg against thigh and shin of the other
     assert min(pair.distance for pair in model.distances(robot.nominal)) > 0.04
     assert leg_collision_model(robot, feet) is None  # without them: no shapes, no pairs
+
+
+# -- the feedforward from the plan --------------------------------------------------------------------------
+def test_the_start_leaves_rest_and_meets_the_reference_where_the_first_step_begins():
+    """p = xi - xi'/omega with xi(0) = c0 and xi'(0) = 0 starts at the CoM; at T_s, xi' = omega (xi_s -
+    p_ref(T_s)) gives p = p_ref(T_s); in between, the reference moves by less than it did."""
+    from wbik.motion.walking.feedforward import rest_start
+
+    omega, com = math.sqrt(9.80665 / 0.2), np.array([0.001, 0.002, 0.2])
+    gaps = []
+    for dt in (0.01, 0.001):  # the start's 0.3 s at two rates
+        ticks = int(round(0.3 / dt))
+        t = dt * np.arange(int(round(2.0 / dt)))
+        reference = np.column_stack([0.02 * np.tanh(5 * t), -0.03 * np.clip(t / 0.2, 0, 1)])
+        shaped = rest_start(reference, com, ticks, omega, dt)
+        assert shaped[0] == pytest.approx(com[:2], abs=1e-12)
+        assert np.array_equal(shaped[ticks:], reference[ticks:])
+        gaps.append(np.abs(shaped[ticks - 1] - reference[ticks]).max())
+    assert gaps[1] < 0.2 * gaps[0] and gaps[1] < 1e-4  # the gap is one tick of motion: continuous at T_s
+
+
+def test_the_feedforward_keeps_the_multibody_zmp_inside_in_one_pass(bioloid):
+    """The sideways walk of tasks/bioloid_walk_dynamic.yaml: without the feedforward its multibody ZMP comes
+    within 1 mm of the sole's edge; with it (one plan, one tracking pass) it keeps the file's 5 mm."""
+    from wbik.motion.walking.figures import walk_figures
+    from wbik.scenarios import load_scenario
+
+    spec = load_scenario(TASKS / "bioloid_walk_dynamic.yaml")
+    item = spec["walks"][2]
+    assert item["name"].startswith("sideways")
+    settings = TrackingSettings(trunk=spec["trunk"], locked=tuple(spec["locked"]))
+    timing = Timing(**{**spec["timing"], **item["timing"]})
+    margins = {}
+    for feedforward in (False, True):
+        motion = walk(bioloid, bioloid.nominal, StepCommand(item["steps"], 0.0, item["lateral"]), timing,
+                      clearance=spec["clearance"], settings=settings, zmp_forward=spec["zmp_forward"],
+                      preview=PreviewSettings(**spec["preview"]), feedforward=feedforward)
+        pattern = motion.pattern
+        figures, _ = walk_figures(bioloid, Feet.of(bioloid), pattern.times, motion.q, pattern.support)
+        margins[feedforward] = figures["zmp_margin_min_m"]
+        assert motion.failed == []
+    assert margins[False] < 0.002 and margins[True] >= 0.005

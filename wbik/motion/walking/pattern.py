@@ -12,6 +12,7 @@ import pinocchio as pin
 
 from wbik.errors import InvalidConfigurationError
 from wbik.motion.walking.control_loop import without_cyclic_gc
+from wbik.motion.walking.feedforward import SwingMomentum, rest_start
 from wbik.motion.walking.footsteps import (
     SIDES,
     Feet,
@@ -81,13 +82,17 @@ class WalkPattern:
 def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footstep], timing: Timing,
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
-                 zmp_offset: np.ndarray | None = None, zmp_forward: float = 0.0) -> WalkPattern:
+                 zmp_forward: float = 0.0, rest: bool = False, momentum: SwingMomentum | None = None
+                 ) -> WalkPattern:
     """The pattern of a walk from ``q0``: ``clearance`` swing height, ``com_height`` z_c, ``zmp_forward`` the
-    ZMP ahead of each sole's centre (m); ``zmp_offset`` (K, 2) added to the pendulum's reference."""
+    ZMP ahead of each sole's centre (m); the pendulum's reference started from ``rest`` and shifted by the
+    swing leg's ``momentum`` (:mod:`wbik.motion.walking.feedforward`). ``info["plan_cpu_s"]``: the CPU
+    time of the plan made before the first tick (feet, reference, feedforward)."""
     if not (math.isfinite(dt) and dt > 0):
         raise InvalidConfigurationError(f"dt must be > 0 s, got {dt}")
     if not (math.isfinite(clearance) and clearance >= 0):
         raise InvalidConfigurationError(f"the swing clearance must be >= 0 m, got {clearance}")
+    planning = time.thread_time()
     feet = feet or Feet.of(robot)
     preview = preview or PreviewSettings()
     start = {side: robot.frame_placement(q0, feet.frame(side)) for side in SIDES}
@@ -102,45 +107,45 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     horizon = controller.steps
     longest = planned + int(round(SETTLE_MAX_S / dt))
     targets = reference(dt * np.arange(longest + horizon + 1))
-    tracked = targets.copy()
-    if zmp_offset is not None:
-        offset = np.asarray(zmp_offset, dtype=float)
-        if offset.ndim != 2 or offset.shape[1] != 2 or len(offset) < planned:
-            raise InvalidConfigurationError(f"zmp_offset must have ({planned}, 2) values at least, got "
-                                            f"{offset.shape}")
-        used = min(len(offset), longest)
-        tracked[:used] += offset[:used]
-        tracked[used:] += offset[used - 1]
+    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
+    support, swing, yaw = [], [], np.zeros(longest)
+    for k in range(longest):  # the feet of every tick, from the footsteps
+        t = k * dt
+        phase = phase_at(phases, t)
+        poses = dict(phase.feet)
+        if phase.swing is not None:
+            poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
+                                                 phase.fraction(t), clearance)
+        for side in SIDES:
+            feet_poses[side].append(poses[side])
+        support.append(tuple(feet.frame(side) for side in phase.stance))
+        swing.append(phase.swing.side if phase.swing is not None else None)
+        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+    tracked = rest_start(targets, com0, int(round(phases[0].end / dt)), controller.omega, dt) if rest \
+        else targets.copy()
+    if momentum is not None:
+        swinging = [None if side is None else feet_poses[side][k] for k, side in enumerate(swing)]
+        tracked[:longest] += momentum.zmp_shift(swing, swinging, np.unwrap(yaw) - yaw[0], dt)
+    planning = time.thread_time() - planning
     state = controller.start(com0[:2])
     com, acceleration = np.zeros((longest, 3)), np.zeros((longest, 2))
-    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, count = [], [], longest
-    yaw, ticks, cpu = (np.zeros(longest) for _ in range(3))
+    ticks, cpu, count = np.zeros(longest), np.zeros(longest), longest
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
         for k in range(longest):
             tick, tick_cpu = time.perf_counter(), time.thread_time()
-            t = k * dt
             com[k, :2], _, acceleration[k] = state.x
             if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
                     and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
                 count = k + 1
-            phase = phase_at(phases, t)
-            poses = dict(phase.feet)
-            if phase.swing is not None:
-                poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
-                                                     phase.fraction(t), clearance)
-            for side in SIDES:
-                feet_poses[side].append(poses[side])
-            support.append(tuple(feet.frame(side) for side in phase.stance))
-            swing.append(phase.swing.side if phase.swing is not None else None)
-            yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
             state.step(tracked[k + 1:k + 1 + horizon], tracked[k])
             ticks[k], cpu[k] = time.perf_counter() - tick, time.thread_time() - tick_cpu
             if count == k + 1:
                 break
     com = com[:count]
     com[:, 2] = ground_z + height
+    info = {"omega": controller.omega, "preview_steps": horizon, "plan_cpu_s": planning}
+    feet_poses = {side: poses[:count] for side, poses in feet_poses.items()}
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:count]), com, feet_poses,
-                       support, swing, np.unwrap(yaw[:count]), ticks[:count], float(clearance),
-                       {"omega": controller.omega, "preview_steps": horizon}, cpu[:count])
+                       support[:count], swing[:count], np.unwrap(yaw[:count]), ticks[:count],
+                       float(clearance), info, cpu[:count])

@@ -81,8 +81,7 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         command = StepCommand(item["steps"], item["length"], item["lateral"], item["turn_deg"], item["first"])
         timing = Timing(**{**spec["timing"], **(item["timing"] or {})})
         motion = walk(robot, q0, command, timing, spec["dt"], spec["clearance"], feet, preview,
-                      spec["com_height"], settings, spec["filter_iterations"], spec["zmp_forward"],
-                      spec["backend"])
+                      spec["com_height"], settings, spec["zmp_forward"], spec["backend"], spec["feedforward"])
         pattern = motion.pattern
         figures, series = walk_figures(robot, feet, pattern.times, motion.q, pattern.support,
                                        pattern.ground_z, margin, pattern.com, collisions)
@@ -94,10 +93,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                  "tick_time": {"pattern": _ticks(pattern.tick_time_s[1:]),
                                "wholebody_step": _ticks(motion.step_time_s[1:]),
                                "both": _ticks(motion.tick_time_s[1:])},
+                 "plan_cpu_s": pattern.info["plan_cpu_s"],
                  "collision_pairs": motion.collision_pairs,
                  "settings": {**asdict(timing), "dt": spec["dt"], "clearance_m": spec["clearance"],
                               "com_height_m": pattern.com_height,
-                              "filter_iterations": spec["filter_iterations"]}}
+                              "feedforward": spec["feedforward"]}}
         solved: dict = {}  # what this walk's comparisons share
         compared = {label: _compare(label, spec, robot, q0, pattern, feet, timing, settings, margin, solved)
                     for label in item["compare"]}
@@ -252,8 +252,8 @@ def walk_schema() -> Map:
                 "zmp_forward": Key(Number(unit="m"), default_of(walk, "zmp_forward")),
                 "com_height": Key(Number(gt=0, nullable=True, unit="m"), None),
                 "preview": Key(Map(from_dataclass(PreviewSettings).keys, nullable=True), {}),
-                "filter_iterations": Key(Number(ge=0, le=5, integer=True),
-                                         default_of(walk, "filter_iterations")),
+                "feedforward": Key(Boolean(), default_of(walk, "feedforward"),
+                                   doc="the reference from rest and with the swing leg's angular momentum"),
                 "tracking": Key(tracking, {}),
                 "margin": margin_key(),
                 "backend": backend_key(),

@@ -1,5 +1,4 @@
-"""Whole-body tracking of a walk pattern, one QP step per tick, and the dynamics filter
-p_ref' = p_ref + sum (p_ref - p_multibody), faded in over the first double support."""
+"""Whole-body tracking of a walk pattern, one QP step per tick."""
 
 from __future__ import annotations
 
@@ -14,10 +13,9 @@ from wbik.collision import CollisionModel
 from wbik.errors import NoQPSolutionError, UnsupportedError
 from wbik.models import robot_entries
 from wbik.motion.walking.control_loop import without_cyclic_gc
+from wbik.motion.walking.feedforward import SwingMomentum
 from wbik.motion.walking.footsteps import Feet
-from wbik.motion.walking.multibody_zmp import multibody_zmp, trajectory_derivatives
-from wbik.motion.walking.pattern import SETTLE_MAX_S, WalkPattern, walk_pattern
-from wbik.motion.walking.swing import quintic
+from wbik.motion.walking.pattern import WalkPattern, walk_pattern
 from wbik.qp.backends import DEFAULT as DEFAULT_BACKEND
 from wbik.qp.contacts import Contact
 from wbik.qp.distances import CollisionAvoidance
@@ -196,22 +194,17 @@ def track(robot: Robot, pattern: WalkPattern, q0: np.ndarray, settings: Tracking
 
 def walk(robot: Robot, q0: np.ndarray, steps, timing, dt: float = 0.01, clearance: float = 0.02,
          feet: Feet | None = None, preview=None, com_height: float | None = None,
-         settings: TrackingSettings | None = None, filter_iterations: int = 1, zmp_forward: float = 0.0,
-         backend: str = DEFAULT_BACKEND) -> WalkMotion:
-    """Plan and track a walk, with ``filter_iterations`` passes of the dynamics filter."""
-    options = dict(dt=dt, clearance=clearance, feet=feet, preview=preview, com_height=com_height,
-                   zmp_forward=zmp_forward)
-    pattern = walk_pattern(robot, q0, steps, timing, **options)
+         settings: TrackingSettings | None = None, zmp_forward: float = 0.0, backend: str = DEFAULT_BACKEND,
+         feedforward: bool = True) -> WalkMotion:
+    """Plan a walk and track it; with ``feedforward`` the pendulum's reference starts from rest and carries
+    the swing leg's angular momentum (:mod:`wbik.motion.walking.feedforward`), from the plan alone."""
+    settings = settings or TrackingSettings()
+    feet = feet or Feet.of(robot)
+    trunk = trunk_frame(robot, settings)
+    momentum = SwingMomentum(robot, q0, feet, trunk, settings.locked) if feedforward else None
+    pattern = walk_pattern(robot, q0, steps, timing, dt=dt, clearance=clearance, feet=feet, preview=preview,
+                           com_height=com_height, zmp_forward=zmp_forward, rest=feedforward,
+                           momentum=momentum)
     motion = track(robot, pattern, q0, settings, backend)
-    longest = int(round((pattern.phases[-1].end + SETTLE_MAX_S) / dt)) + 1
-    offset = np.zeros((longest, 2))
-    window = np.array([quintic(k * dt / pattern.phases[0].end) for k in range(longest)])[:, None]
-    for _ in range(int(filter_iterations)):
-        velocity, acceleration = trajectory_derivatives(robot.model, motion.q, pattern.dt)
-        measured = multibody_zmp(robot.model, motion.q, velocity, acceleration, pattern.ground_z)
-        offset[:pattern.ticks] += window[:pattern.ticks] * np.nan_to_num(pattern.zmp_reference - measured)
-        offset[pattern.ticks:] = offset[pattern.ticks - 1]
-        pattern = walk_pattern(robot, q0, pattern.footsteps, timing, zmp_offset=offset, **options)
-        motion = track(robot, pattern, q0, settings, backend)
-    motion.info["filter_iterations"] = int(filter_iterations)
+    motion.info["feedforward"] = feedforward
     return motion
