@@ -161,9 +161,13 @@ class EAIKForm(ClosedForm):
     def _solutions(self, positions: np.ndarray, rotations: np.ndarray,
                    exact: bool) -> tuple[np.ndarray, np.ndarray]:
         robot, joints = self.robot(), self.chain.nq
-        solutions = [robot.calculate_IK(self.pose(p, r)) for p, r in zip(positions, rotations, strict=True)]
-        parts = [(np.asarray(s.Q, dtype=float).reshape(len(s.Q), joints),
-                  ~np.asarray(s.is_LS, dtype=bool) if exact else True) for s in solutions]
+        poses = np.zeros((len(positions), 4, 4))  # as :meth:`pose`, all at once
+        poses[:, :3, :3], poses[:, :3, 3], poses[:, 3, 3] = rotations, positions, 1.0
+        parts = []
+        for pose in poses:
+            solution = robot.calculate_IK(pose)
+            q, exact_flags = np.asarray(solution.Q, dtype=float), ~np.asarray(solution.is_LS, dtype=bool)
+            parts.append((q.reshape(len(q), joints), exact_flags if exact else True))
         return stacked_branches(parts, joints)
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
