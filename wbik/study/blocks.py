@@ -275,10 +275,9 @@ def significance_blocks(analysis: dict, samples: str) -> list[Block]:
     tests = with_holm(analysis["tests"])
     by_method: dict[str, dict] = {}
     for test in tests:
-        mark = "*" if test["significant_holm"] else ""
-        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_holm"]) + mark
-    axes_tested = list(dict.fromkeys(t["axis"] for t in tests))
-    pairs = len(by_method)
+        by_method.setdefault(test["method"], {})[test["axis"]] = (fmt_p(test["p_holm"])
+                                                                  + ("*" if test["significant_holm"] else ""))
+    axes_tested, pairs = list(dict.fromkeys(t["axis"] for t in tests)), len(by_method)
     return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided, Holm)"),
             Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; adjusted for the {pairs} method(s) "
                        f"compared with {analysis['baseline']} on each axis by Holm's step-down procedure "
@@ -298,9 +297,9 @@ def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
     """[method, reason kind, count] of the ``most`` most frequent reasons for 'not solved' per method."""
     reasons = []
     for label, rows in rows_by_method.items():
-        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
-        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(most):
-            reasons.append([label, reason, count])
+        kinds = Counter(_reason_kind(str(r)) for r, ok in zip(rows["reason"], rows["success"], strict=True)
+                        if not ok)
+        reasons.extend([label, reason, count] for reason, count in kinds.most_common(most))
     return reasons
 
 

@@ -464,11 +464,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     along.set_ylim(-2, 102)
     along.legend(fontsize=7)
     whole = [rows["length"][rows["success"].astype(bool)] for rows in rows_by_method.values()]
-    boxes = figures.boxes(lengths, [values[np.isfinite(values) & (values > 0)] for values in whole],
-                          patch_artist=True)
-    for patch, label in zip(boxes["boxes"], labels, strict=True):
-        patch.set_facecolor(colour[label])
-        patch.set_alpha(0.6)
+    figures.boxes(lengths, [figures.positive(length) for length in whole], list(colour.values()), alpha=0.6)
     lengths.set_yscale("log")
     lengths.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
     lengths.set_ylabel("joint path length, sum |dq| (rad), whole paths")

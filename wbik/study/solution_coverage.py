@@ -125,13 +125,12 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "percent_on_a_branch": share(int(np.sum(rows["branch"][solved] >= 0)), int(solved.sum()))
         if np.any(rows["branches_in_limits"] >= 0) else math.nan,
         "restart_targets": int(sampled.sum()),
-        "restart_solved_mean": float(np.mean(rows["restart_solved"][sampled])) if sampled.any() else math.nan,
-        "branches_reached_mean": float(np.mean(reached)) if sampled.any() else math.nan,
+        "restart_solved_mean": finite_statistic(rows["restart_solved"][sampled], np.mean),
+        "branches_reached_mean": finite_statistic(reached, np.mean),
         "branches_reached_max": int(np.max(reached)) if sampled.any() else -1,
-        "others_mean": float(np.mean(rows["restart_others"][sampled])) if sampled.any() else math.nan,
-        "branches_available_mean": float(np.mean(available)) if sampled.any() else math.nan,
-        "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
-        if sampled.any() else math.nan,
+        "others_mean": finite_statistic(rows["restart_others"][sampled], np.mean),
+        "branches_available_mean": finite_statistic(available, np.mean),
+        "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available))),
         "start_distance_median": finite_statistic(distance),
         "start_distance_p95": finite_statistic(distance, P95),
     }

@@ -156,10 +156,10 @@ class TargetSetKind(ChainTargets):
             analysis["coverage"] = {label: coverage_summary(rows) for label, rows in analysis["rows"].items()
                                     if "start_distance" in rows}
             write_table(directory / "coverage.csv", analysis["coverage"])
-        if self.reachable and analysis["rows"] and study.figures:
-            analysis["images"]["start_distance"] = distance_histogram(
-                analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
-                directory / "figures" / "start_distance.png")
+            if study.figures:
+                analysis["images"]["start_distance"] = distance_histogram(
+                    analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
+                    directory / "figures" / "start_distance.png")
         return analysis
 
     def drawing_blocks(self, analysis: dict) -> list[Block]:
@@ -168,8 +168,7 @@ class TargetSetKind(ChainTargets):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         blocks = super().blocks(study, analysis)
-        drawn = self.drawing_blocks(analysis)
-        if drawn:
+        if drawn := self.drawing_blocks(analysis):
             blocks[2:2] = [Block("h3", "How the targets were drawn"), *drawn]
         if analysis.get("coverage"):
             parameters = analysis["parameters"]

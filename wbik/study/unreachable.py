@@ -100,10 +100,8 @@ class Unreachable(TargetSetKind):
                        "representative inside the limits")
         q_true = np.full((count, chain.nq), np.nan)
         positions, rotations = np.empty((count, 3)), np.empty((count, 3, 3))
-        source = np.full(count, OUTSIDE_REACH)
-        distance = np.full(count, np.nan)
-        excess = np.full(count, np.nan)
-        branch_count = np.full(count, -1)
+        source, branch_count = np.full(count, OUTSIDE_REACH), np.full(count, -1)
+        distance, excess = np.full(count, np.nan), np.full(count, np.nan)
         rejections: Counter = Counter()
         fell_back = 0
         for i in range(count):
@@ -180,9 +178,8 @@ class Unreachable(TargetSetKind):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         blocks = super().blocks(study, analysis)
-        refusals = refusal_blocks(analysis)
         at = next((i for i, block in enumerate(blocks) if block.text == "Poses solved and time"), len(blocks))
-        blocks[at:at] = refusals
+        blocks[at:at] = refusal_blocks(analysis)
         return blocks
 
 
@@ -227,14 +224,12 @@ def refusal_blocks(analysis: dict) -> list[Block]:
     source = analysis["extras"].get("source")
     pose_source = source[rows_by_method[next(iter(rows_by_method))]["pose"]] if source is not None else None
     summaries = {label: refusal_summary(rows, pose_source) for label, rows in rows_by_method.items()}
-    analysis["refusals"] = summaries
     counts = ", ".join(f"{int(np.sum(source == code))} {name}" for name, code in
                        (("outside the reach (a)", OUTSIDE_REACH), ("beyond the limits (b)", BEYOND_LIMITS))) \
         if source is not None else ""
     table = [[label, s["targets"], s["false_successes"], s["refused"], fmt(s["time_median_ms"]),
               fmt(s["time_p95_ms"]), fmt(s.get("time_median_ms_a")), fmt(s.get("time_median_ms_b"))]
              for label, s in summaries.items()]
-    reasons = grouped_reasons(rows_by_method)
     return [Block("h3", "Unreachable targets: false successes, time to refuse, reasons"),
             Block("p", f"Every target is proved unreachable inside the limits ({counts}). A false success is "
                        "a method's answer that passes the shared FK check on such a target (none can, unless "
@@ -243,7 +238,7 @@ def refusal_blocks(analysis: dict) -> list[Block]:
                                    "p95 ms", "median ms (a)", "median ms (b)"], rows=table),
             Block("p", f"Reasons given (numbers replaced by #; the {MOST_REASONS} most frequent per method, "
                        "then the others together):"),
-            Block("table", header=["method", "reason", "targets"], rows=reasons)]
+            Block("table", header=["method", "reason", "targets"], rows=grouped_reasons(rows_by_method))]
 
 
 CASE_KINDS = (Unreachable("unreachable"),)
