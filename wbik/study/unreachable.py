@@ -12,11 +12,7 @@ from wbik.geometry import TWO_PI, joint_gap
 from wbik.robot import Chain
 from wbik.study.blocks import Block, fmt, frequent_reasons
 from wbik.study.chain_reach import reach_bound
-from wbik.study.closed_form_branches import (
-    ClosedFormBranches,
-    branch_excess,
-    complete_closed_form,
-)
+from wbik.study.closed_form_branches import ClosedFormBranches, branch_excess, complete_closed_form
 from wbik.study.near_singularities import sigma_min
 from wbik.study.path_metrics import random_unit
 from wbik.study.spec import Study
