@@ -170,12 +170,10 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
     if not summaries:
         return []
     return [Block("h3", "Throughput of batched methods"),
-            Block("p", f"Methods with a batched path were given the case's targets once more through "
-                       f"solve_many, in its chunks of {study.chunk_size} poses, after their per-call rows: "
-                       "poses per second of solve_many over the case (the case's poses / the summed wall "
-                       "time of its calls) and the share it solved. A throughput of batches, no time of "
-                       "a call. Every other table and figure of this case counts the per-call solve; "
-                       "'disagree' counts the poses whose verdict differs between solve and solve_many."),
+            Block("p", f"Methods with a batched path solved the case's targets again through solve_many, "
+                       f"in chunks of {study.chunk_size} poses: the case's poses / the summed wall time of "
+                       "the calls, and the share solved; 'disagree': poses whose verdict differs from "
+                       "solve's. Every other table and figure counts the per-call solve."),
             summary_table(summaries, [
                 ("throughput (poses/s, solve_many over the case)", "throughput_poses_per_s"),
                 ("% solved (solve_many)", "throughput_percent_solved"),
@@ -198,12 +196,10 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
             for label, curve in curves.items()]
     return [Block("h3", "Success versus budget"),
             Block("p", f"% solved (Wilson 95 % interval) of the case's first {first.poses} targets, each "
-                       "method solved again at every budget (wbik.study.budget_curves: a run stopped early "
-                       "is not the same as a run given a smaller budget, so none is read off the full run). "
-                       "'iterations': the iterations that cost that long on the reference machine (CPU "
-                       "work); 'wall': a wall clock, CPU-starved solves re-run; 'none': a closed form, "
-                       "its rows at every budget. The curve's budget replaces the study file's "
-                       "(timeout_s and max_iterations)."),
+                       "method solved again at every budget, which replaces the study file's timeout_s and "
+                       "max_iterations (wbik.study.budget_curves). 'iterations': the iterations that cost "
+                       "that long on the reference machine; 'wall': a wall clock, CPU-starved solves re-run; "
+                       "'none': a closed form, its rows at every budget."),
             Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in budgets), "re-run"],
                   rows=rows),
             *image_blocks(analysis["images"], {"budget": "Success versus budget (95 % bands)"})]

@@ -36,7 +36,7 @@ from wbik.study.blocks import (
 )
 from wbik.study.case_kinds import CaseKind, ChunkTask, RegisteredMethods
 from wbik.study.context import chain_of, make_solver
-from wbik.study.cpu_watch import MAX_RERUNS, solve_watching_the_cpu
+from wbik.study.cpu_watch import MAX_RERUNS, STARVED_CPU_SHARE, solve_watching_the_cpu
 from wbik.study.metrics import STUDY_SEQUENCE, AngleConvention, axis_errors
 from wbik.study.metrics import axes as case_axes
 from wbik.study.reference import REFERENCE_METRICS, our_figures, same_significance, verdict
@@ -214,15 +214,13 @@ class ChainTargets(RegisteredMethods, CaseKind):
             (f"re-run {MAX_RERUNS} times", lambda s: s.get("rerun_exhausted", 0)),
             ("CPU / wall (median)", lambda s: s.get("cpu_per_wall_median")),
         ]))
-        blocks.append(Block("p", "Times are per call of the method alone. \"All calls\" counts every pose; "
+        blocks.append(Block("p", "Times are per call of the method alone; \"all calls\" counts every pose, "
                                  "\"solved\" and \"not solved\" split them by the shared FK check. "
-                                 "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that got less "
-                                 "than 80 % of their wall time in CPU time (the machine was busy; a method "
-                                 "with threads of its own: of wall time x its threads, wbik.study.cpu_watch) "
-                                 "and were run again, their answer discarded, with a stretched wall budget, "
-                                 f"at most {MAX_RERUNS} times (the last answer is kept); 'CPU / wall': the "
-                                 "median share of CPU the kept answers had (about the method's threads "
-                                 "when each had a core). " + INTERVALS_TEXT))
+                                 "\"Re-run\": wall-clock solves given less CPU time than "
+                                 f"{STARVED_CPU_SHARE:g} x wall time (x the method's threads; "
+                                 "wbik.study.cpu_watch), solved again with a stretched budget, at most "
+                                 f"{MAX_RERUNS} times, the last answer kept; 'CPU / wall': the kept answers' "
+                                 "median share of CPU. " + INTERVALS_TEXT))
         blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved':", "poses"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Poses solved per method", "time": "Time per pose",

@@ -14,7 +14,7 @@ import wbik.study.results as store
 from wbik.study.blocks import Block, budget_semantics, fmt
 from wbik.study.case_kinds import case_kind, kinds_of
 from wbik.study.compare import Comparison, comparison_blocks
-from wbik.study.cpu_watch import threads_of
+from wbik.study.cpu_watch import STARVED_CPU_SHARE, threads_of
 from wbik.study.provenance import PROVENANCE, provenance_lines
 from wbik.study.spec import Study
 
@@ -48,12 +48,11 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
                                budget_semantics(budget_kind, m, study.timeout_of(m), workers.get(m.method)),
                                json.dumps(m.options) if m.options else "", m.note] for m in study.methods]))
     if threaded := sorted({m.method for m in study.methods if threads_of(m.method) > 1}):
-        blocks.append(Block("p", f"Methods with threads of their own ({', '.join(threaded)}; TRAC-IK runs "
-                                 "KDL and an SQP side by side) are meant to have a core per thread: they "
-                                 "run after the other methods with at most cores / threads worker "
-                                 f"processes ({run.get('cores', '?')} cores here; the loky backend), and a "
-                                 "solve of theirs counts as CPU-starved when the process got less than "
-                                 "0.8 x threads x its wall time as CPU (wbik.study.cpu_watch)."))
+        blocks.append(Block("p", f"Methods with threads of their own ({', '.join(threaded)}) run after the "
+                                 "others with at most cores / threads worker processes "
+                                 f"({run.get('cores', '?')} cores here; the loky backend); a solve of theirs "
+                                 f"is CPU-starved below {STARVED_CPU_SHARE:g} x threads x wall time of CPU "
+                                 "(wbik.study.cpu_watch)."))
     blocks.extend(Block("p", note) for note in dict.fromkeys(kind.methods_note for kind in kinds) if note)
     load = run.get("load_average_before"), run.get("load_average_after")
     if any(value is not None for value in load):
