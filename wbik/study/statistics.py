@@ -46,8 +46,7 @@ def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) 
 def bootstrap_medians(values: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES,
                       seed: int = BOOTSTRAP_SEED) -> np.ndarray:
     """The medians of ``resamples`` resamples with replacement of the finite ``values`` (empty for none)."""
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
+    values = np.asarray(values, dtype=float)[np.isfinite(values)]
     if values.size == 0:
         return np.zeros(0)
     rng = np.random.default_rng(seed)
