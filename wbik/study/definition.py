@@ -263,8 +263,7 @@ class MethodName(Text):
     def check(self, value, path, ctx):
         if not isinstance(value, str):
             self.wrong(value, path, ctx)
-        known = self.choices
-        if value not in known:
+        if value not in (known := self.choices):
             ctx.fail(path, f"unknown method {value!r}{did_you_mean(value, known)}; known: {', '.join(known)}")
         return value
 
