@@ -66,12 +66,11 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     sampled_from = "FK of uniform random joints inside the limits"
     """How the targets were drawn, in the report's words."""
-    methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
-                    "study's time budget as an iteration budget (the iterations that cost that "
-                    "long on the reference machine) and no wall clock, so their rows are the "
-                    "same on any machine and under any load. KDL, TRAC-IK and PlaCo are "
-                    "budgeted by wall-clock time inside their libraries; TRAC-IK also restarts "
-                    "from random seeds of its own, so its rows vary from run to run.")
+    methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the study's time "
+                    "budget as the iterations that cost that long on the reference machine, no wall clock: "
+                    "their rows are the same on any machine and load. KDL, TRAC-IK and PlaCo are budgeted by "
+                    "wall-clock time inside their libraries; TRAC-IK also restarts from random seeds of its "
+                    "own, so its rows vary from run to run.")
 
     def __init__(self, name: str, target: str | None = None):
         self.name = name
