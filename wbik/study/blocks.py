@@ -301,8 +301,7 @@ def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
 
 def reason_blocks(rows_by_method: dict, text: str, unit: str) -> list[Block]:
     """``text`` over the table of :func:`frequent_reasons` (``unit``: what is counted); none without any."""
-    reasons = frequent_reasons(rows_by_method)
-    if not reasons:
+    if not (reasons := frequent_reasons(rows_by_method)):
         return []
     return [Block("p", text), Block("table", header=["method", "reason", unit], rows=reasons)]
 

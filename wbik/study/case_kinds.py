@@ -119,9 +119,8 @@ class CaseKind(ABC):
         if self.unbudgeted(method.method):
             return "none (closed form)"
         if timeout_s is None:
-            if "max_iterations" in method.options:
-                return f"{options['max_iterations']} iterations (set in the file)"
-            return f"{options['max_iterations']} iterations (~{seconds:g} s)"
+            how = "set in the file" if "max_iterations" in method.options else f"~{seconds:g} s"
+            return f"{options['max_iterations']} iterations ({how})"
         return f"{seconds:g} s wall clock"
 
     @abstractmethod

@@ -158,9 +158,9 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
         rows = rows_by_method[label]
         times = rows["time_s"] * 1e3
         finite = np.isfinite(times) & (times > 0)
-        count = times.size
-        if not finite.any() or count == 0:
+        if not finite.any():
             continue
+        count = times.size
         order = np.sort(times[finite])
         returned.step(order, np.arange(1, order.size + 1) / count, where="post", color=colour[label],
                       linewidth=1.3, label=label)

@@ -161,8 +161,7 @@ def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=
             draws[index] = draw
             if witness is None or not parameters["reachable"]:
                 break
-            joints = witness_path(witness, chain, rng, *drawn)
-            if joints is not None:
+            if (joints := witness_path(witness, chain, rng, *drawn)) is not None:
                 verified[index] = True
                 witness_length[index] = float(np.abs(np.diff(joints, axis=0)).sum())
                 break
@@ -375,10 +374,8 @@ def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, br
     reasons = []
     last_q = np.full((count, points["point_q"].shape[2]), np.nan)
     for i in range(count):
-        unsolved = np.flatnonzero(~success[i])
-        first = int(unsolved[0]) if unsolved.size else -1
-        reasons.append("" if first < 0 else f"point {first}: {points['point_reason'][i, first]}")
-        solved = np.flatnonzero(success[i])
+        missed, solved = np.flatnonzero(~success[i]), np.flatnonzero(success[i])
+        reasons.append(f"point {missed[0]}: {points['point_reason'][i, missed[0]]}" if missed.size else "")
         if solved.size:
             last_q[i] = points["point_q"][i, solved[-1]]
     return {"pose": np.arange(first_path, first_path + count), "success": np.array(whole, dtype=bool),

@@ -128,8 +128,7 @@ def code_roots(study: Study, machinery: Iterable[str]) -> list[str]:
         kind = case_kind(case)
         objects += [type(kind), *kind.code_roots(case)]
         objects += [kind.method_factory(method.method) for method in study.methods]
-        entry = robot_entries().get(case.robot)
-        if entry is not None:
+        if (entry := robot_entries().get(case.robot)) is not None:
             roots.add(entry.module().__name__)
     roots.update(getattr(item, "__module__", None) or "" for item in objects if item is not None)
     return sorted(root for root in roots if source_of(root))

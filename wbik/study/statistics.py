@@ -116,8 +116,7 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
     answers kept (about the method's threads), and how many were re-run the most times allowed."""
     from wbik.study.cpu_watch import MAX_RERUNS
 
-    cpu = rows.get("cpu_s")
-    if cpu is None:
+    if (cpu := rows.get("cpu_s")) is None:
         return {"cpu_per_wall_median": math.nan, "rerun_exhausted": 0}
     measured = np.isfinite(cpu) & np.isfinite(rows["time_s"]) & (rows["time_s"] > 0)
     share = cpu[measured] / rows["time_s"][measured]

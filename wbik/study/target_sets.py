@@ -49,10 +49,8 @@ class DrawnTargets(PoseSet):
     facts: dict = field(default_factory=dict)
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
-        arrays = super().saved_arrays()
-        arrays.update({f"drawn_{name}": np.asarray(value) for name, value in self.extras.items()})
-        arrays["drawn_facts"] = np.array(json.dumps(json_plain(self.facts), sort_keys=True, default=str))
-        return arrays
+        return {**super().saved_arrays(), **{f"drawn_{k}": np.asarray(v) for k, v in self.extras.items()},
+                "drawn_facts": np.array(json.dumps(json_plain(self.facts), sort_keys=True, default=str))}
 
 
 def read_drawing(path: Path) -> tuple[dict[str, np.ndarray], dict]:

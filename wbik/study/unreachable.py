@@ -205,8 +205,7 @@ def grouped_reasons(rows_by_method: dict) -> list[list]:
     table = []
     for method, rows in by_method.items():
         table.extend(rows[:MOST_REASONS])
-        rest = rows[MOST_REASONS:]
-        if rest:
+        if rest := rows[MOST_REASONS:]:
             kinds = f"{len(rest)} kind{'s' if len(rest) > 1 else ''}"
             table.append([method, f"other reasons ({kinds})", sum(row[2] for row in rest)])
     return table
