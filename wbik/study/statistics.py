@@ -51,11 +51,9 @@ def bootstrap_medians(values: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES,
         return np.zeros(0)
     rng = np.random.default_rng(seed)
     per_block = max(1, _BOOTSTRAP_BLOCK // values.size)
-    medians = []
-    for start in range(0, resamples, per_block):
-        count = min(per_block, resamples - start)
-        medians.append(np.median(values[rng.integers(0, values.size, (count, values.size))], axis=1))
-    return np.concatenate(medians)
+    draws = (rng.integers(0, values.size, (min(per_block, resamples - start), values.size))
+             for start in range(0, resamples, per_block))
+    return np.concatenate([np.median(values[draw], axis=1) for draw in draws])
 
 
 def bootstrap_median_interval(values: np.ndarray, confidence: float = CONFIDENCE,
