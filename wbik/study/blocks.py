@@ -44,9 +44,7 @@ def fmt(value, digits: int = 3) -> str:
         return "-"
     if value == 0:
         return "0"
-    if 1e-3 <= abs(value) < 1e5:
-        return f"{value:.{digits}g}"
-    return f"{value:.{digits - 1}e}"
+    return f"{value:.{digits}g}" if 1e-3 <= abs(value) < 1e5 else f"{value:.{digits - 1}e}"
 
 
 def fmt_interval(low, high, digits: int = 3) -> str:

@@ -91,9 +91,7 @@ def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
 
 def branch_excess(branches: np.ndarray, chain: Chain) -> np.ndarray:
     """Per branch (K, n), its largest joint excess (K,)."""
-    if len(branches) == 0:
-        return np.zeros(0)
-    return np.max(joint_excess(branches, chain), axis=-1)
+    return np.max(joint_excess(branches, chain), axis=-1) if len(branches) else np.zeros(0)
 
 
 def in_limit_branches(branches: np.ndarray, chain: Chain) -> np.ndarray:

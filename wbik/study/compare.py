@@ -111,9 +111,8 @@ class Comparison:
 
 def mcnemar_p(lost: int, gained: int) -> float:
     """McNemar's exact one-sided p-value that success dropped: P(X >= lost), X ~ B(lost + gained, 1/2)."""
-    if lost + gained == 0:
-        return 1.0
-    return float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue)
+    return (float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue) if lost + gained
+            else 1.0)
 
 
 def _poses(ids) -> str:

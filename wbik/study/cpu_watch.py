@@ -21,9 +21,7 @@ METHOD_THREADS: dict[str, int] = {"trac_ik": 2}  # KDL NR_JL and an SQP (NLopt),
 def method_threads(method: str, factory=None) -> int:
     """The threads a solve of ``method`` keeps busy: ``factory.threads``, else METHOD_THREADS, else 1."""
     declared = getattr(factory, "threads", None)
-    if isinstance(declared, int) and declared >= 1:
-        return declared
-    return METHOD_THREADS.get(method, 1)
+    return declared if isinstance(declared, int) and declared >= 1 else METHOD_THREADS.get(method, 1)
 
 
 def threads_of(method: str) -> int:

@@ -57,9 +57,8 @@ class AngleConvention:
 
 def axes(target_kind: str, angles: AngleConvention | None = None) -> list[str]:
     """Error axes of a case, in column order (without the ``err_`` prefix)."""
-    if target_kind != "pose":
-        return list(POSITION_AXES)
-    return [*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES, *(angles.columns if angles else [])]
+    return (list(POSITION_AXES) if target_kind != "pose"
+            else [*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES, *(angles.columns if angles else [])])
 
 
 def axis_label(axis: str, angles: AngleConvention | None = None) -> str:

@@ -79,9 +79,7 @@ def csv_cells(values) -> list:
     values = np.asarray(values)
     if values.dtype.kind == "f":
         return [repr(value) for value in values.tolist()]
-    if values.dtype.kind in "biu":
-        return values.astype(int).tolist()
-    return [str(value) for value in values.tolist()]
+    return values.astype(int).tolist() if values.dtype.kind in "biu" else [str(v) for v in values.tolist()]
 
 
 def method_csv_rows(label: str, rows: dict[str, np.ndarray], keys: Iterable[str], index: str = "pose",

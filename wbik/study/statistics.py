@@ -173,9 +173,8 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 def significance_samples(rows: dict[str, np.ndarray], axis: str) -> np.ndarray:
     """The sample compared for one axis: |e| of solved poses, or the time (ms) of every pose."""
-    if axis == "time":
-        return rows["time_s"] * 1e3
-    return np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
+    return (rows["time_s"] * 1e3 if axis == "time"
+            else np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)]))
 
 
 def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.ndarray]]) -> list[dict]:

@@ -77,6 +77,5 @@ def failure_reason(rule: SuccessRule, worst: float, component: int) -> str:
 def error_percentiles(values: np.ndarray, percentiles=PERCENTILES) -> list[float]:
     """The ``percentiles`` of the finite ``values`` (NaN for none)."""
     values = np.asarray(values, float)[np.isfinite(values)]
-    if values.size == 0:
-        return [float("nan")] * len(percentiles)
-    return [float(v) for v in np.percentile(values, percentiles)]
+    return ([float(v) for v in np.percentile(values, percentiles)] if values.size
+            else [float("nan")] * len(percentiles))
