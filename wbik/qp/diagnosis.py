@@ -59,8 +59,7 @@ class TaskConflict:
 
     @property
     def text(self) -> str:
-        what = "goal" if self.goal else "not a goal"
-        return f"task {self.task} (priority {self.priority}, {what})"
+        return f"task {self.task} (priority {self.priority}, {'goal' if self.goal else 'not a goal'})"
 
     def as_dict(self) -> dict:
         return {**asdict(self), "holds_back": list(self.holds_back), "text": self.text}

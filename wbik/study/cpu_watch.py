@@ -45,8 +45,7 @@ def usable_cores() -> int:
 
 def workers_for(threads: int, jobs: int, cores: int | None = None) -> int:
     """The workers for a method of ``threads`` threads: max(1, min(jobs, cores // threads))."""
-    cores = usable_cores() if cores is None else cores
-    return max(1, min(jobs, cores // max(1, threads)))
+    return max(1, min(jobs, (usable_cores() if cores is None else cores) // max(1, threads)))
 
 
 def starved(wall_s: float, cpu_s: float, threads: int = 1) -> bool:

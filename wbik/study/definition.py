@@ -451,10 +451,8 @@ def _case_kind(item: dict, path: str, ctx: Context):
 def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
     """The kind of an entry naming a target set (``targets: NAME`` or ``{set: NAME, ...}``)."""
     raw = item["targets"]
-    if isinstance(raw, dict):
-        name, key = raw.get("set"), join(path, "targets.set")
-    else:
-        name, key = raw, join(path, "targets")
+    name, key = ((raw.get("set"), join(path, "targets.set")) if isinstance(raw, dict)
+                 else (raw, join(path, "targets")))
     sets: dict[str, list] = {}
     for kind in kinds.values():
         if getattr(kind, "target_set", None):

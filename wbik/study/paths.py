@@ -106,8 +106,7 @@ def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
         u, v = random_plane(rng)
         positions = circle_points(tip.translation, u, v, parameters["radius"], count)
     axis = random_unit(rng) if parameters["orientation"] == "slerp" else None
-    rotations = slerped_rotations(tip.rotation, axis, parameters.get("angle", 0.0), count)
-    return q_start, positions, rotations
+    return q_start, positions, slerped_rotations(tip.rotation, axis, parameters.get("angle", 0.0), count)
 
 
 def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.ndarray, positions: np.ndarray,

@@ -180,8 +180,7 @@ def machine() -> dict:
 
 def command_line() -> str:
     """The command this process runs, as typed (``wbik study ...`` for the console script)."""
-    program = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
-    return shlex.join([program, *sys.argv[1:]])
+    return shlex.join([Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python", *sys.argv[1:]])
 
 
 def provenance(study: Study, machinery: Iterable[str]) -> dict:

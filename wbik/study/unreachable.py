@@ -31,8 +31,7 @@ REJECTIONS = {
 
 def eligible_joints(chain: Chain, beyond_low: float) -> np.ndarray:
     """Joints that can be set ``beyond_low`` beyond a limit and stay outside the range on the circle."""
-    gap = TWO_PI - (chain.upper - chain.lower)
-    return np.flatnonzero(chain.is_prismatic | (gap / 2.0 > beyond_low))
+    return np.flatnonzero(chain.is_prismatic | ((TWO_PI - (chain.upper - chain.lower)) / 2.0 > beyond_low))
 
 
 def uniform_rotation(rng: np.random.Generator) -> np.ndarray:
