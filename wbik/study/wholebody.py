@@ -160,10 +160,10 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
             else:
                 joints = answer.q is not None
                 values = (answer.success, answer.reason, answer.time_s, answer.iterations, answer.task_error,
-                          _largest(answer.task_position_errors) if joints else math.nan,
-                          _largest(answer.task_rotation_errors) if joints else math.nan, answer.contact_drift,
-                          answer.com_margin, answer.limit_excess, answer.collision_clearance,
-                          "; ".join(answer.unsupported))
+                          max(answer.task_position_errors.values(), default=0.0) if joints else math.nan,
+                          max(answer.task_rotation_errors.values(), default=0.0) if joints else math.nan,
+                          answer.contact_drift, answer.com_margin, answer.limit_excess,
+                          answer.collision_clearance, "; ".join(answer.unsupported))
             q_rows.append(np.full(nq, np.nan) if answer is None or answer.q is None else answer.q)
             rows.append(values)
         columns = {"pose": np.arange(task.first_pose, task.first_pose + task.count),
@@ -305,11 +305,6 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
     axes.set_title(f"{title}: CoM margin by FK, all calls")
     axes.legend(fontsize=8)
     return figures.save(figure, path)
-
-
-def _largest(errors: dict) -> float:
-    """The largest of a result's per-task errors (0 without goal tasks)."""
-    return max(errors.values(), default=0.0)
 
 
 def _solved_without(summary: dict) -> str:
