@@ -159,9 +159,8 @@ class ChainTargets(RegisteredMethods, CaseKind):
         count = task.count
         targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                    for i in range(count)]
-        solved = [self.solve_one(task, solver, target, q0)
-                  for target, q0 in zip(targets, task.q0, strict=True)]
-        answers, cpu, reruns = zip(*solved, strict=True)
+        answers, cpu, reruns = zip(*(self.solve_one(task, solver, target, q0)
+                                     for target, q0 in zip(targets, task.q0, strict=True)), strict=True)
         nq = solver.chain.nq
         types = (bool, str, float, int, float, float)  # of ROW_FIELDS after "pose"
         columns = {"pose": np.arange(task.first_pose, task.first_pose + count),
