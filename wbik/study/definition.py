@@ -350,10 +350,8 @@ def _reference(raw: dict | None, kind, path: str, ctx: Context) -> Reference | N
     for label, row in raw["significance"].items():
         unknown_keys(ctx, join(path, f"significance.{label}"), row, axes)
     texts = {key: raw.get(key) or "" for key in ("name", "source", "significance_source", "notes")}
-    return Reference(name=texts["name"].strip() or dataclass_default(Reference, "name"),
-                     source=texts["source"], angles=angles, figures=raw["figures"],
-                     significance=raw["significance"],
-                     significance_source=texts["significance_source"], notes=texts["notes"])
+    texts["name"] = texts["name"].strip() or dataclass_default(Reference, "name")
+    return Reference(**texts, angles=angles, figures=raw["figures"], significance=raw["significance"])
 
 
 ANGLES_EXAMPLE = "e.g. {sequence: zyx, names: {x: yaw, y: pitch, z: roll}} for R = Rz(roll) Ry(pitch) Rx(yaw)"

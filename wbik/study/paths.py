@@ -259,7 +259,7 @@ class PathTargets(ChainTargets):
                 answer, seconds, again = self.solve_one(task, solver, target, q_previous)
                 cpu[path] += 0.0 if math.isnan(seconds) else seconds
                 reruns[path] += again
-                for key in ("success", "reason", "time_s", "iterations", "position_error", "rotation_error"):
+                for key in store.ROW_FIELDS[1:]:
                     columns[f"point_{key}"][path, point] = getattr(answer, key)
                 if answer.q is not None:
                     columns["point_q"][path, point] = answer.q
@@ -423,7 +423,7 @@ PATH_CSV_KEYS = ("points_solved", "jumps", "branch_changes", "flips", "largest_s
 
 def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: list[str]) -> None:
     """raw.csv: a row per (path, point, method), with the step from the last solved point and the branch."""
-    keys = ("success", "reason", "time_s", "iterations", "position_error", "rotation_error")
+    keys = store.ROW_FIELDS[1:]
 
     def rows():
         for label, rows in rows_by_method.items():
