@@ -76,14 +76,10 @@ def without_docstrings(tree: ast.Module) -> ast.Module:
         for name in ("body", "orelse", "finalbody"):
             body = getattr(node, name, None)
             if isinstance(body, list) and body and isinstance(body[0], ast.stmt):
-                kept = [statement for statement in body if not _is_string(statement)]
+                kept = [s for s in body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant)
+                                                and isinstance(s.value.value, str))]
                 setattr(node, name, kept or ([ast.Pass()] if name == "body" else []))
     return tree
-
-
-def _is_string(statement: ast.stmt) -> bool:
-    return isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant) and \
-        isinstance(statement.value.value, str)
 
 
 def _digest(data: bytes) -> str:
