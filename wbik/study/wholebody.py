@@ -271,10 +271,8 @@ def summarize(rows: dict, margin: float) -> dict:
                                 ("com_margin", ("median", "min")), ("limit_excess", ("max",))):
             for name in statistics:
                 summary[f"{key}_{group}_{name}"] = finite_statistic(rows[key][mask], getattr(np, name))
-    margins = rows["com_margin"]
-    finite = np.isfinite(margins)
-    summary["percent_com_margin_kept_all"] = (
-        100.0 * float(np.mean(margins[finite] >= margin - 1e-9)) if finite.any() else math.nan)
+    summary["percent_com_margin_kept_all"] = finite_statistic(
+        rows["com_margin"], lambda margins: 100.0 * float(np.mean(margins >= margin - 1e-9)))
     summary["unsupported"] = "; ".join(sorted({str(u) for u in rows["unsupported"] if str(u)}))
     return summary
 
