@@ -68,8 +68,7 @@ class CaseKind(ABC):
 
     # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
-        """The schema nodes of the keys a case entry of this kind takes besides
-        :data:`wbik.study.definition.CASE_KEYS`."""
+        """Schema nodes of this kind's own case-entry keys (besides definition's ``CASE_KEYS``)."""
         return {}
 
     def entry(self, item: dict, path: str, ctx: Context) -> dict:

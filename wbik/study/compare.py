@@ -156,8 +156,7 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
 
 
 def refusal_before_the_run(study: Study, old: Path) -> list[str]:
-    """What differs between ``study``'s settings and case definitions and the run in ``old``'s (known before
-    drawing a target)."""
+    """What differs in ``study``'s settings and case definitions from the run in ``old`` (before sampling)."""
     old_targets = store.read_json(Path(old) / TARGETS_RECORD)
     return [] if old_targets is None else differences(old_targets, targets_record(study))
 

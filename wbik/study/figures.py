@@ -53,8 +53,7 @@ def positive(values: np.ndarray) -> np.ndarray:
 
 
 def boxes(axes, samples: list[np.ndarray], fill: list | None = None, alpha: float = 0.5, **options) -> dict:
-    """Box plots of ``samples`` on ``axes``, small fliers shown, an empty sample drawn as NaN; ``fill``: a
-    colour per box."""
+    """Box plots of ``samples`` (small fliers, an empty sample as NaN); ``fill``: a colour per box."""
     drawn = axes.boxplot([values if values.size else np.array([np.nan]) for values in samples],
                          showfliers=True, flierprops={"markersize": 2}, patch_artist=bool(fill), **options)
     for patch, colour in zip(drawn["boxes"], fill or [], strict=fill is not None):
@@ -121,8 +120,7 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 
 def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
                      angles: AngleConvention | None = None) -> Path:
-    """Histograms of log10 |error| per axis (solved poses), a step line per method; exact zeros
-    counted at the ZERO_FLOOR bin."""
+    """Step histograms of log10 |error| per axis and method (solved poses), exact zeros at ZERO_FLOOR."""
     labels = list(rows_by_method)
     colour = colours(labels)
     figure, cells = _axis_grid(len(axes_names), 3.0)

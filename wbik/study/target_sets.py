@@ -114,8 +114,7 @@ class TargetSetKind(ChainTargets):
         return self.drawn_targets(chain, drawing, study, parameters)
 
     def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
-        """The drawing's targets (its extras' ``positions`` and ``rotations``, else FK of its joints), with
-        the study's starts."""
+        """The drawing's targets (extras' ``positions``/``rotations``, else FK of its joints), with q0s."""
         extras = dict(drawing.extras)
         if "positions" in extras:
             poses = PoseSet(drawing.q_true, extras.pop("positions"), extras.pop("rotations"),

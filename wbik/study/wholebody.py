@@ -144,8 +144,7 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         return solver.cannot_express(case.problem, task.q0[0])
 
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
-        """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
-        what was raised."""
+        """One whole-body chunk's rows; a case the method raises on is unsolved, its reason the raise."""
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
         rows, q_rows = [], []
