@@ -175,9 +175,8 @@ def coverage_blocks(summaries: dict[str, dict], parameters: dict, form: str, res
                     fmt(s["others_mean"])]
         rows.append([*row, fmt(s["start_distance_median"]), fmt(s["start_distance_p95"])])
     blocks.append(Block("table", header=header, rows=rows))
-    blocks.append(Block("p", "|q - q0|: Euclidean norm over the joints of a solved answer's joints minus "
-                             "the start (rad, and m for prismatic joints; no wrap: the motion asked of the "
-                             "robot)."))
+    blocks.append(Block("p", "|q - q0|: the Euclidean norm of a solved answer's joints minus the start (rad, "
+                             "m for prismatic joints; no wrap: the motion asked of the robot)."))
     if histogram is not None:
         blocks.append(Block("image", "Joint distance from the start (solved answers)", path=histogram))
     return blocks
