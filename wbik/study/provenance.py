@@ -5,6 +5,7 @@ a code fingerprint, a digest of the syntax trees (docstrings aside) of the modul
 from __future__ import annotations
 
 import ast
+import contextlib
 import hashlib
 import os
 import platform
@@ -153,12 +154,10 @@ def git_commit() -> str | None:
 
 def cpu_model() -> str:
     """The CPU's model name (Linux's /proc/cpuinfo, else what platform says)."""
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine()
 
 
