@@ -186,7 +186,6 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
     if not curves:
         return []
     first = next(iter(curves.values()))
-    budgets = list(first.budgets_ms)
     kinds = analysis.get("budget_kinds", {})
     rows = [[label, kinds.get(label, ""), *(f"{fmt(p)} {fmt_interval(lo, hi)}" for p, lo, hi
                                             in zip(curve.percent, *curve.interval(), strict=True)),
@@ -198,7 +197,7 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
                        "max_iterations (wbik.study.budget_curves). 'iterations': the iterations that cost "
                        "that long on the reference machine; 'wall': a wall clock, CPU-starved solves re-run; "
                        "'none': a closed form, its rows at every budget."),
-            Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in budgets), "re-run"],
+            Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in first.budgets_ms), "re-run"],
                   rows=rows),
             *image_blocks(analysis["images"], {"budget": "Success versus budget (95 % bands)"})]
 
