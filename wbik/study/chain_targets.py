@@ -301,7 +301,8 @@ def _reference_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> lis
     for label, metrics in reference.figures.items():
         ours = our_figures(summaries[label]) if label in summaries else {}
         for metric, value in metrics.items():
-            described, our = REFERENCE_METRICS[metric], ours.get(metric)
+            described = REFERENCE_METRICS[metric]
+            our = ours.get(metric)
             unmeasured = label in summaries and (our is None or not math.isfinite(our))
             judged = "no such poses in our run" if unmeasured else verdict(metric, value, our)
             table.append([label, f"{described.description} ({described.unit})", fmt(value), fmt(our), judged])

@@ -95,8 +95,10 @@ class Unreachable(TargetSetKind):
                        "representative inside the limits")
         q_true = np.full((count, chain.nq), np.nan)
         positions, rotations = np.empty((count, 3)), np.empty((count, 3, 3))
-        source, branch_count = np.full(count, OUTSIDE_REACH), np.full(count, -1)
-        distance, excess = np.full(count, np.nan), np.full(count, np.nan)
+        source = np.full(count, OUTSIDE_REACH)
+        distance = np.full(count, np.nan)
+        excess = np.full(count, np.nan)
+        branch_count = np.full(count, -1)
         rejections: Counter = Counter()
         fell_back = 0
         for i in range(count):
