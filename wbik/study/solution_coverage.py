@@ -41,8 +41,7 @@ _LOCAL = threading.local()
 def closed_form_of(chain: Chain) -> ClosedFormBranches | str:
     """:func:`complete_closed_form` of the chain, built once per thread."""
     cache = _LOCAL.__dict__.setdefault("forms", {})
-    key = (id(chain.robot), chain.name)
-    if key not in cache:
+    if (key := (id(chain.robot), chain.name)) not in cache:
         cache[key] = complete_closed_form(chain)
     return cache[key]
 
