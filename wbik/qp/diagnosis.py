@@ -59,8 +59,7 @@ class TaskConflict:
 
     @property
     def text(self) -> str:
-        what = "goal" if self.goal else "not a goal"
-        return f"task {self.task} (priority {self.priority}, {what})"
+        return f"task {self.task} (priority {self.priority}, {'goal' if self.goal else 'not a goal'})"
 
     def as_dict(self) -> dict:
         return {**asdict(self), "holds_back": list(self.holds_back), "text": self.text}
@@ -255,8 +254,7 @@ def diagnose(problem, reason: str = "", start: list[StartViolation] | None = Non
     rows = step_rows(step, 1.0, problem.max_step)
     try:
         hierarchy = _Hierarchy(problem, rows)
-        upto = deepest if unmet else len(step.levels) - 1
-        dq, duals = hierarchy.solve(upto)
+        dq, duals = hierarchy.solve(deepest if unmet else len(step.levels) - 1)
     except NoQPSolutionError:
         diagnosis.infeasible = conflict(rows)
         labels = [row.label for row in diagnosis.infeasible]

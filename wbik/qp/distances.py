@@ -105,8 +105,7 @@ class CollisionAvoidance(InequalityConstraint):
         return min(self.distances(kinematics), key=lambda d: d.distance, default=None)
 
     def labels(self, kinematics: Kinematics, rows) -> list[RowLabel]:
-        near = [pair for pair in self.distances(kinematics) if pair.distance < self.influence]
-        if not near:
+        if not (near := [pair for pair in self.distances(kinematics) if pair.distance < self.influence]):
             return [self.label("no pair within the influence distance")]
         return [self.label(f"{pair.a}-{pair.b}", "", float(pair.distance), self.safety, "m") for pair in near]
 

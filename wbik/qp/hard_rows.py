@@ -45,8 +45,7 @@ class HardRows:
         equality = np.flatnonzero(self.equality)
         matrix = np.vstack((self.matrix, -self.matrix[equality]))
         upper = np.concatenate((self.upper, -self.upper[equality]))
-        owner = np.concatenate((np.arange(len(self)), equality))
-        return matrix, upper, owner
+        return matrix, upper, np.concatenate((np.arange(len(self)), equality))
 
 
 def group_key(label: RowLabel) -> tuple[str, str, str, str]:

@@ -57,8 +57,7 @@ def hull_tolerance(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE
     """``relative_tolerance`` times the larger of the points' (k, 2) extent and largest coordinate (m)."""
     if points.size == 0:
         return 0.0
-    scale = max(float(np.max(np.ptp(points, axis=0))), float(np.max(np.abs(points))))
-    return relative_tolerance * scale
+    return relative_tolerance * max(float(np.max(np.ptp(points, axis=0))), float(np.max(np.abs(points))))
 
 
 def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TOLERANCE) -> np.ndarray:
@@ -86,8 +85,7 @@ def convex_hull(points: np.ndarray, relative_tolerance: float = HULL_RELATIVE_TO
     if len(vertices) < 3:
         raise _degenerate(points, "their hull is a segment at the tolerance")
     vertices = np.array(vertices)
-    first = np.lexsort((vertices[:, 1], vertices[:, 0]))[0]
-    return np.roll(vertices, -first, axis=0)
+    return np.roll(vertices, -np.lexsort((vertices[:, 1], vertices[:, 0]))[0], axis=0)
 
 
 class SupportPolygon:

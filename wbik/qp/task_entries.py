@@ -233,5 +233,4 @@ def build_task(robot, q: np.ndarray, entry: Mapping, source: str = "task entry")
     """The task of one entry (checked, ``source`` naming it), its target resolved at configuration q."""
     entry = TASK_ENTRY.check(entry, "", Context(source, TASK_ENTRY_ERRORS))
     declared = TASK_ENTRY_REGISTRY.get(entry["type"])
-    options = {key: entry[key] for key in declared.options if key in entry}
-    return declared.build(robot, q, entry, options)
+    return declared.build(robot, q, entry, {key: entry[key] for key in declared.options if key in entry})

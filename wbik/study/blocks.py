@@ -44,9 +44,7 @@ def fmt(value, digits: int = 3) -> str:
         return "-"
     if value == 0:
         return "0"
-    if 1e-3 <= abs(value) < 1e5:
-        return f"{value:.{digits}g}"
-    return f"{value:.{digits - 1}e}"
+    return f"{value:.{digits}g}" if 1e-3 <= abs(value) < 1e5 else f"{value:.{digits - 1}e}"
 
 
 def fmt_interval(low, high, digits: int = 3) -> str:
@@ -170,12 +168,10 @@ def throughput_blocks(study: Study, analysis: dict) -> list[Block]:
     if not summaries:
         return []
     return [Block("h3", "Throughput of batched methods"),
-            Block("p", f"Methods with a batched path were given the case's targets once more through "
-                       f"solve_many, in its chunks of {study.chunk_size} poses, after their per-call rows: "
-                       "poses per second of solve_many over the case (the case's poses / the summed wall "
-                       "time of its calls) and the share it solved. A throughput of batches, no time of "
-                       "a call. Every other table and figure of this case counts the per-call solve; "
-                       "'disagree' counts the poses whose verdict differs between solve and solve_many."),
+            Block("p", f"Methods with a batched path solved the case's targets again through solve_many, "
+                       f"in chunks of {study.chunk_size} poses: the case's poses / the summed wall time of "
+                       "the calls, and the share solved; 'disagree': poses whose verdict differs from "
+                       "solve's. Every other table and figure counts the per-call solve."),
             summary_table(summaries, [
                 ("throughput (poses/s, solve_many over the case)", "throughput_poses_per_s"),
                 ("% solved (solve_many)", "throughput_percent_solved"),
@@ -190,7 +186,6 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
     if not curves:
         return []
     first = next(iter(curves.values()))
-    budgets = list(first.budgets_ms)
     kinds = analysis.get("budget_kinds", {})
     rows = [[label, kinds.get(label, ""), *(f"{fmt(p)} {fmt_interval(lo, hi)}" for p, lo, hi
                                             in zip(curve.percent, *curve.interval(), strict=True)),
@@ -198,13 +193,11 @@ def budget_blocks(study: Study, analysis: dict) -> list[Block]:
             for label, curve in curves.items()]
     return [Block("h3", "Success versus budget"),
             Block("p", f"% solved (Wilson 95 % interval) of the case's first {first.poses} targets, each "
-                       "method solved again at every budget (wbik.study.budget_curves: a run stopped early "
-                       "is not the same as a run given a smaller budget, so none is read off the full run). "
-                       "'iterations': the iterations that cost that long on the reference machine (CPU "
-                       "work); 'wall': a wall clock, CPU-starved solves re-run; 'none': a closed form, "
-                       "its rows at every budget. The curve's budget replaces the study file's "
-                       "(timeout_s and max_iterations)."),
-            Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in budgets), "re-run"],
+                       "method solved again at every budget, which replaces the study file's timeout_s and "
+                       "max_iterations (wbik.study.budget_curves). 'iterations': the iterations that cost "
+                       "that long on the reference machine; 'wall': a wall clock, CPU-starved solves re-run; "
+                       "'none': a closed form, its rows at every budget."),
+            Block("table", header=["method", "budget", *(f"{fmt(b)} ms" for b in first.budgets_ms), "re-run"],
                   rows=rows),
             *image_blocks(analysis["images"], {"budget": "Success versus budget (95 % bands)"})]
 
@@ -275,10 +268,9 @@ def significance_blocks(analysis: dict, samples: str) -> list[Block]:
     tests = with_holm(analysis["tests"])
     by_method: dict[str, dict] = {}
     for test in tests:
-        mark = "*" if test["significant_holm"] else ""
-        by_method.setdefault(test["method"], {})[test["axis"]] = fmt_p(test["p_holm"]) + mark
-    axes_tested = list(dict.fromkeys(t["axis"] for t in tests))
-    pairs = len(by_method)
+        by_method.setdefault(test["method"], {})[test["axis"]] = (fmt_p(test["p_holm"])
+                                                                  + ("*" if test["significant_holm"] else ""))
+    axes_tested, pairs = list(dict.fromkeys(t["axis"] for t in tests)), len(by_method)
     return [Block("h3", f"Significance against {analysis['baseline']} (Mann-Whitney U, two-sided, Holm)"),
             Block("p", f"p-values of scipy.stats.mannwhitneyu: {samples}; adjusted for the {pairs} method(s) "
                        f"compared with {analysis['baseline']} on each axis by Holm's step-down procedure "
@@ -298,16 +290,15 @@ def frequent_reasons(rows_by_method: dict, most: int = 3) -> list[list]:
     """[method, reason kind, count] of the ``most`` most frequent reasons for 'not solved' per method."""
     reasons = []
     for label, rows in rows_by_method.items():
-        failed = [str(r) for r, ok in zip(rows["reason"], rows["success"], strict=True) if not ok]
-        for reason, count in Counter(_reason_kind(r) for r in failed).most_common(most):
-            reasons.append([label, reason, count])
+        kinds = Counter(_reason_kind(str(r)) for r, ok in zip(rows["reason"], rows["success"], strict=True)
+                        if not ok)
+        reasons.extend([label, reason, count] for reason, count in kinds.most_common(most))
     return reasons
 
 
 def reason_blocks(rows_by_method: dict, text: str, unit: str) -> list[Block]:
     """``text`` over the table of :func:`frequent_reasons` (``unit``: what is counted); none without any."""
-    reasons = frequent_reasons(rows_by_method)
-    if not reasons:
+    if not (reasons := frequent_reasons(rows_by_method)):
         return []
     return [Block("p", text), Block("table", header=["method", "reason", unit], rows=reasons)]
 

@@ -68,8 +68,7 @@ class CaseKind(ABC):
 
     # -- the study file ----------------------------------------------------------------------------
     def entry_schema(self) -> dict[str, Key]:
-        """The schema nodes of the keys a case entry of this kind takes besides
-        :data:`wbik.study.definition.CASE_KEYS`."""
+        """Schema nodes of this kind's own case-entry keys (besides definition's ``CASE_KEYS``)."""
         return {}
 
     def entry(self, item: dict, path: str, ctx: Context) -> dict:
@@ -119,9 +118,8 @@ class CaseKind(ABC):
         if self.unbudgeted(method.method):
             return "none (closed form)"
         if timeout_s is None:
-            if "max_iterations" in method.options:
-                return f"{options['max_iterations']} iterations (set in the file)"
-            return f"{options['max_iterations']} iterations (~{seconds:g} s)"
+            how = "set in the file" if "max_iterations" in method.options else f"~{seconds:g} s"
+            return f"{options['max_iterations']} iterations ({how})"
         return f"{seconds:g} s wall clock"
 
     @abstractmethod

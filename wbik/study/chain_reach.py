@@ -29,11 +29,9 @@ def reach_bound(chain: Chain) -> ReachBound:
     path = list(model.supports[tip.parentJoint])[1:]  # the joints from the root to the tip's
     travel = np.maximum(np.abs(chain.lower), np.abs(chain.upper))
     index = {model.getJointId(name): k for k, name in enumerate(chain.joint_names)}
-    lengths = []
-    for position, joint in enumerate(path):
-        link = 0.0 if position == 0 else float(np.linalg.norm(model.jointPlacements[joint].translation))
-        slide = float(travel[index[joint]]) if chain.is_prismatic[index[joint]] else 0.0
-        lengths.append(link + slide)
+    lengths = [(0.0 if position == 0 else float(np.linalg.norm(model.jointPlacements[joint].translation)))
+               + (float(travel[index[joint]]) if chain.is_prismatic[index[joint]] else 0.0)  # link + slide
+               for position, joint in enumerate(path)]
     lengths.append(float(np.linalg.norm(tip.placement.translation)))
     data = model.createData()
     pin.forwardKinematics(model, data, pin.neutral(model))

@@ -36,7 +36,7 @@ from wbik.study.blocks import (
 )
 from wbik.study.case_kinds import CaseKind, ChunkTask, RegisteredMethods
 from wbik.study.context import chain_of, make_solver
-from wbik.study.cpu_watch import MAX_RERUNS, solve_watching_the_cpu
+from wbik.study.cpu_watch import MAX_RERUNS, STARVED_CPU_SHARE, solve_watching_the_cpu
 from wbik.study.metrics import STUDY_SEQUENCE, AngleConvention, axis_errors
 from wbik.study.metrics import axes as case_axes
 from wbik.study.reference import REFERENCE_METRICS, our_figures, same_significance, verdict
@@ -66,12 +66,11 @@ class ChainTargets(RegisteredMethods, CaseKind):
 
     sampled_from = "FK of uniform random joints inside the limits"
     """How the targets were drawn, in the report's words."""
-    methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the "
-                    "study's time budget as an iteration budget (the iterations that cost that "
-                    "long on the reference machine) and no wall clock, so their rows are the "
-                    "same on any machine and under any load. KDL, TRAC-IK and PlaCo are "
-                    "budgeted by wall-clock time inside their libraries; TRAC-IK also restarts "
-                    "from random seeds of its own, so its rows vary from run to run.")
+    methods_note = ("Budgets: methods whose loop is ours (bounded_lm, dls, newton, qp) get the study's time "
+                    "budget as the iterations that cost that long on the reference machine, no wall clock: "
+                    "their rows are the same on any machine and load. KDL, TRAC-IK and PlaCo are budgeted by "
+                    "wall-clock time inside their libraries; TRAC-IK also restarts from random seeds of its "
+                    "own, so its rows vary from run to run.")
 
     def __init__(self, name: str, target: str | None = None):
         self.name = name
@@ -160,9 +159,8 @@ class ChainTargets(RegisteredMethods, CaseKind):
         count = task.count
         targets = [Target(task.positions[i], None if task.rotations is None else task.rotations[i])
                    for i in range(count)]
-        solved = [self.solve_one(task, solver, target, q0)
-                  for target, q0 in zip(targets, task.q0, strict=True)]
-        answers, cpu, reruns = zip(*solved, strict=True)
+        answers, cpu, reruns = zip(*(self.solve_one(task, solver, target, q0)
+                                     for target, q0 in zip(targets, task.q0, strict=True)), strict=True)
         nq = solver.chain.nq
         types = (bool, str, float, int, float, float)  # of ROW_FIELDS after "pose"
         columns = {"pose": np.arange(task.first_pose, task.first_pose + count),
@@ -214,15 +212,13 @@ class ChainTargets(RegisteredMethods, CaseKind):
             (f"re-run {MAX_RERUNS} times", lambda s: s.get("rerun_exhausted", 0)),
             ("CPU / wall (median)", lambda s: s.get("cpu_per_wall_median")),
         ]))
-        blocks.append(Block("p", "Times are per call of the method alone. \"All calls\" counts every pose; "
+        blocks.append(Block("p", "Times are per call of the method alone; \"all calls\" counts every pose, "
                                  "\"solved\" and \"not solved\" split them by the shared FK check. "
-                                 "\"Re-run\" counts wall-clock solves (KDL, TRAC-IK, PlaCo) that got less "
-                                 "than 80 % of their wall time in CPU time (the machine was busy; a method "
-                                 "with threads of its own: of wall time x its threads, wbik.study.cpu_watch) "
-                                 "and were run again, their answer discarded, with a stretched wall budget, "
-                                 f"at most {MAX_RERUNS} times (the last answer is kept); 'CPU / wall': the "
-                                 "median share of CPU the kept answers had (about the method's threads "
-                                 "when each had a core). " + INTERVALS_TEXT))
+                                 "\"Re-run\": wall-clock solves given less CPU time than "
+                                 f"{STARVED_CPU_SHARE:g} x wall time (x the method's threads; "
+                                 "wbik.study.cpu_watch), solved again with a stretched budget, at most "
+                                 f"{MAX_RERUNS} times, the last answer kept; 'CPU / wall': the kept answers' "
+                                 "median share of CPU. " + INTERVALS_TEXT))
         blocks.extend(reason_blocks(rows_by_method, "Most frequent reasons for 'not solved':", "poses"))
         blocks.extend(image_blocks(analysis["images"], {
             "solved": "Poses solved per method", "time": "Time per pose",
@@ -307,9 +303,8 @@ def _reference_blocks(case: CaseSpec, summaries: dict, tests: list[dict]) -> lis
         for metric, value in metrics.items():
             described = REFERENCE_METRICS[metric]
             our = ours.get(metric)
-            judged = verdict(metric, value, our)
-            if label in summaries and (our is None or not math.isfinite(our)):
-                judged = "no such poses in our run"
+            unmeasured = label in summaries and (our is None or not math.isfinite(our))
+            judged = "no such poses in our run" if unmeasured else verdict(metric, value, our)
             table.append([label, f"{described.description} ({described.unit})", fmt(value), fmt(our), judged])
     if table:
         blocks.append(Block("table", header=["method", "metric", name, "ours", "comparison"], rows=table))

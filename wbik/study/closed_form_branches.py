@@ -85,15 +85,12 @@ def joint_excess(q: np.ndarray, chain: Chain) -> np.ndarray:
     width = upper - lower
     x = np.mod(q - lower, TWO_PI)
     circular = np.where((width >= TWO_PI) | (x <= width), 0.0, np.minimum(x - width, TWO_PI - x))
-    straight = np.maximum(lower - q, 0.0) + np.maximum(q - upper, 0.0)
-    return np.where(chain.is_prismatic, straight, circular)
+    return np.where(chain.is_prismatic, np.maximum(lower - q, 0.0) + np.maximum(q - upper, 0.0), circular)
 
 
 def branch_excess(branches: np.ndarray, chain: Chain) -> np.ndarray:
     """Per branch (K, n), its largest joint excess (K,)."""
-    if len(branches) == 0:
-        return np.zeros(0)
-    return np.max(joint_excess(branches, chain), axis=-1)
+    return np.max(joint_excess(branches, chain), axis=-1) if len(branches) else np.zeros(0)
 
 
 def in_limit_branches(branches: np.ndarray, chain: Chain) -> np.ndarray:

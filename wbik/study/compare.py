@@ -111,9 +111,8 @@ class Comparison:
 
 def mcnemar_p(lost: int, gained: int) -> float:
     """McNemar's exact one-sided p-value that success dropped: P(X >= lost), X ~ B(lost + gained, 1/2)."""
-    if lost + gained == 0:
-        return 1.0
-    return float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue)
+    return (float(stats.binomtest(lost, lost + gained, 0.5, alternative="greater").pvalue) if lost + gained
+            else 1.0)
 
 
 def _poses(ids) -> str:
@@ -157,18 +156,9 @@ def judge(case: str, label: str, budget: str, old: dict[str, np.ndarray], new: d
 
 
 def refusal_before_the_run(study: Study, old: Path) -> list[str]:
-    """What differs between ``study``'s settings and case definitions and the run in ``old``'s (known before
-    drawing a target)."""
+    """What differs in ``study``'s settings and case definitions from the run in ``old`` (before sampling)."""
     old_targets = store.read_json(Path(old) / TARGETS_RECORD)
     return [] if old_targets is None else differences(old_targets, targets_record(study))
-
-
-def _old_record(old: Path, name: str) -> dict | None:
-    record = store.read_json(old / name)
-    if name == "study.json" and record is None:
-        raise UsageError(f"--compare-to {str(old)!r} holds no results of a study (no study.json): pass the "
-                         "output folder of an earlier 'wbik study' run")
-    return record
 
 
 def _method_record(folder: Path, case: str, label: str) -> dict:
@@ -181,10 +171,9 @@ def _budget(folder: Path, case: str, label: str) -> str:
 
 def _definition_note(old: Path, output: Path, case: str, label: str) -> list[str]:
     """A note when ``label`` ran with another definition in OLD (its method, options or budget)."""
-    before, now = (_method_record(folder, case, label) for folder in (old, output))
-    keys = ("method", "options", "timeout_s")
-    changed = [f"{key} {before.get('method', {}).get(key)!r} -> {now.get('method', {}).get(key)!r}"
-               for key in keys if before.get("method", {}).get(key) != now.get("method", {}).get(key)]
+    before, now = (_method_record(folder, case, label).get("method", {}) for folder in (old, output))
+    changed = [f"{key} {before.get(key)!r} -> {now.get(key)!r}" for key in ("method", "options", "timeout_s")
+               if before.get(key) != now.get(key)]
     return [f"{case}/{label} is defined otherwise than in OLD: {', '.join(changed)}"] if changed else []
 
 
@@ -194,16 +183,15 @@ def compare_runs(study: Study, output: Path, old: Path) -> Comparison:
     if old.resolve() == output.resolve():
         raise UsageError(f"--compare-to {str(old)!r} is this run's own folder: pass the folder of an "
                          "earlier run")
-    old_study = _old_record(old, "study.json").get("study", {})
-    old_targets = _old_record(old, TARGETS_RECORD)
-    new_targets = store.read_json(output / TARGETS_RECORD)
-    if old_targets is None:
-        comparison = Comparison(old, study.regression, refused=[
-            f"OLD has no {TARGETS_RECORD} (the record of its targets): run its study again with this wbik"])
-    elif differences(old_targets, new_targets):
-        comparison = Comparison(old, study.regression, refused=differences(old_targets, new_targets))
-    else:
-        comparison = _paired(study, output, old, old_study, old_targets)
+    if (old_study := store.read_json(old / "study.json")) is None:
+        raise UsageError(f"--compare-to {str(old)!r} holds no results of a study (no study.json): pass the "
+                         "output folder of an earlier 'wbik study' run")
+    old_targets = store.read_json(old / TARGETS_RECORD)
+    refused = (differences(old_targets, store.read_json(output / TARGETS_RECORD)) if old_targets is not None
+               else [f"OLD has no {TARGETS_RECORD} (the record of its targets): run its study again with "
+                     "this wbik"])
+    comparison = (Comparison(old, study.regression, refused=refused) if refused
+                  else _paired(study, output, old, old_study.get("study", {}), old_targets))
     _write_csv(output / "comparison.csv", comparison)
     return comparison
 

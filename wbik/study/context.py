@@ -21,8 +21,7 @@ def _frozen(mapping: dict) -> tuple:
 def _robot(name: str, params: tuple):
     """The robot, loaded once per worker thread (a Robot's Pinocchio data is not thread-safe)."""
     cache = _LOCAL.__dict__.setdefault("robots", {})
-    key = (name, params)
-    if key not in cache:
+    if (key := (name, params)) not in cache:
         from wbik.models import load
 
         cache[key] = load(name, **dict(params))

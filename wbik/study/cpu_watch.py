@@ -21,9 +21,7 @@ METHOD_THREADS: dict[str, int] = {"trac_ik": 2}  # KDL NR_JL and an SQP (NLopt),
 def method_threads(method: str, factory=None) -> int:
     """The threads a solve of ``method`` keeps busy: ``factory.threads``, else METHOD_THREADS, else 1."""
     declared = getattr(factory, "threads", None)
-    if isinstance(declared, int) and declared >= 1:
-        return declared
-    return METHOD_THREADS.get(method, 1)
+    return declared if isinstance(declared, int) and declared >= 1 else METHOD_THREADS.get(method, 1)
 
 
 def threads_of(method: str) -> int:
@@ -47,8 +45,7 @@ def usable_cores() -> int:
 
 def workers_for(threads: int, jobs: int, cores: int | None = None) -> int:
     """The workers for a method of ``threads`` threads: max(1, min(jobs, cores // threads))."""
-    cores = usable_cores() if cores is None else cores
-    return max(1, min(jobs, cores // max(1, threads)))
+    return max(1, min(jobs, (usable_cores() if cores is None else cores) // max(1, threads)))
 
 
 def starved(wall_s: float, cpu_s: float, threads: int = 1) -> bool:

@@ -63,8 +63,7 @@ def with_overrides(study: Study, *, poses: int | None = None, methods: list[str]
     """A copy of ``study`` with command-line overrides applied (and validated)."""
     cli = Context("command line", STUDY_ERRORS)
     if methods:
-        unknown = [m for m in methods if m not in {s.label for s in study.methods}]
-        if unknown:
+        if unknown := [m for m in methods if m not in {s.label for s in study.methods}]:
             raise StudyDefinitionError(
                 f"--methods names {unknown} which study {study.name!r} does not have; its labels: "
                 f"{', '.join(s.label for s in study.methods)}")
@@ -224,8 +223,7 @@ def _across_keys(study: dict, path: str, ctx: Context) -> None:
     if len(set(names)) != len(names):
         ctx.fail("cases", f"case names must be unique (give each a name:), got {names}")
     labels = [method["label"] for method in study["methods"]]
-    repeated = sorted({label for label in labels if labels.count(label) > 1})
-    if repeated:
+    if repeated := sorted({label for label in labels if labels.count(label) > 1}):
         ctx.fail("methods", f"method labels must be unique; repeated: {repeated} (give each variant its own "
                             "label:)")
 
@@ -263,8 +261,7 @@ class MethodName(Text):
     def check(self, value, path, ctx):
         if not isinstance(value, str):
             self.wrong(value, path, ctx)
-        known = self.choices
-        if value not in known:
+        if value not in (known := self.choices):
             ctx.fail(path, f"unknown method {value!r}{did_you_mean(value, known)}; known: {', '.join(known)}")
         return value
 
@@ -335,9 +332,7 @@ class CaseEntry(Node):
         if robot is None:
             ctx.says(join(path, "robot"),
                      "is required: a built-in robot, example-robot-data:NAME or a URDF path")
-        chain = item.get("chain")
-        if base is not None and chain is None:
-            chain = f"{base}_to_{tip}"
+        chain = f"{base}_to_{tip}" if base is not None and item.get("chain") is None else item.get("chain")
         item["chain"], item["target"] = chain, kind.name
         if "name" not in item:
             item["name"] = LABEL.check(_case_name(robot, chain, kind.name), join(path, "name"), ctx)
@@ -355,10 +350,8 @@ def _reference(raw: dict | None, kind, path: str, ctx: Context) -> Reference | N
     for label, row in raw["significance"].items():
         unknown_keys(ctx, join(path, f"significance.{label}"), row, axes)
     texts = {key: raw.get(key) or "" for key in ("name", "source", "significance_source", "notes")}
-    return Reference(name=texts["name"].strip() or dataclass_default(Reference, "name"),
-                     source=texts["source"], angles=angles, figures=raw["figures"],
-                     significance=raw["significance"],
-                     significance_source=texts["significance_source"], notes=texts["notes"])
+    texts["name"] = texts["name"].strip() or dataclass_default(Reference, "name")
+    return Reference(**texts, angles=angles, figures=raw["figures"], significance=raw["significance"])
 
 
 ANGLES_EXAMPLE = "e.g. {sequence: zyx, names: {x: yaw, y: pitch, z: roll}} for R = Rz(roll) Ry(pitch) Rx(yaw)"
@@ -456,10 +449,8 @@ def _case_kind(item: dict, path: str, ctx: Context):
 def _target_set_kind(item: dict, kinds: dict, path: str, ctx: Context):
     """The kind of an entry naming a target set (``targets: NAME`` or ``{set: NAME, ...}``)."""
     raw = item["targets"]
-    if isinstance(raw, dict):
-        name, key = raw.get("set"), join(path, "targets.set")
-    else:
-        name, key = raw, join(path, "targets")
+    name, key = ((raw.get("set"), join(path, "targets.set")) if isinstance(raw, dict)
+                 else (raw, join(path, "targets")))
     sets: dict[str, list] = {}
     for kind in kinds.values():
         if getattr(kind, "target_set", None):
@@ -507,8 +498,7 @@ def check_schema(methods, cases, source: str) -> None:
             raise StudyDefinitionError(
                 f"{source}: case {case.name!r}: robot {case.robot!r} is neither a built-in robot "
                 f"({', '.join(robot_entries())}), example-robot-data:NAME nor an existing URDF file")
-        unknown = sorted(set(case.robot_params) - (accepted := builder_parameters(case.robot)))
-        if unknown:
+        if unknown := sorted(set(case.robot_params) - (accepted := builder_parameters(case.robot))):
             raise StudyValueError(f"{source}: case {case.name!r}: robot_params has unknown key(s) {unknown} "
                                   f"for robot {case.robot!r}; its parameters: "
                                   f"{', '.join(sorted(accepted)) or '(none)'}")

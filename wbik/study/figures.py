@@ -47,10 +47,19 @@ def _solved_errors(rows: dict, axis: str) -> np.ndarray:
     return magnitude[np.isfinite(magnitude)]
 
 
-def boxes(axes, samples: list[np.ndarray], **options) -> dict:
-    """Box plots of ``samples`` on ``axes``, small fliers shown, an empty sample drawn as NaN."""
-    return axes.boxplot([values if values.size else np.array([np.nan]) for values in samples],
-                        showfliers=True, flierprops={"markersize": 2}, **options)
+def positive(values: np.ndarray) -> np.ndarray:
+    """The finite values > 0 of ``values`` (what a logarithmic axis draws)."""
+    return values[np.isfinite(values) & (values > 0)]
+
+
+def boxes(axes, samples: list[np.ndarray], fill: list | None = None, alpha: float = 0.5, **options) -> dict:
+    """Box plots of ``samples`` (small fliers, an empty sample as NaN); ``fill``: a colour per box."""
+    drawn = axes.boxplot([values if values.size else np.array([np.nan]) for values in samples],
+                         showfliers=True, flierprops={"markersize": 2}, patch_artist=bool(fill), **options)
+    for patch, colour in zip(drawn["boxes"], fill or [], strict=fill is not None):
+        patch.set_facecolor(colour)
+        patch.set_alpha(alpha)
+    return drawn
 
 
 def colours(labels) -> dict[str, tuple]:
@@ -111,8 +120,7 @@ def throughput_bars(summaries: dict[str, dict], title: str, path: Path) -> Path:
 
 def error_histograms(rows_by_method: dict[str, dict], axes_names: list[str], title: str, path: Path,
                      angles: AngleConvention | None = None) -> Path:
-    """Histograms of log10 |error| per axis (solved poses), a step line per method; exact zeros
-    counted at the ZERO_FLOOR bin."""
+    """Step histograms of log10 |error| per axis and method (solved poses), exact zeros at ZERO_FLOOR."""
     labels = list(rows_by_method)
     colour = colours(labels)
     figure, cells = _axis_grid(len(axes_names), 3.0)
@@ -148,9 +156,9 @@ def time_ecdf(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
         rows = rows_by_method[label]
         times = rows["time_s"] * 1e3
         finite = np.isfinite(times) & (times > 0)
-        count = times.size
-        if not finite.any() or count == 0:
+        if not finite.any():
             continue
+        count = times.size
         order = np.sort(times[finite])
         returned.step(order, np.arange(1, order.size + 1) / count, where="post", color=colour[label],
                       linewidth=1.3, label=label)
@@ -227,18 +235,13 @@ def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Pa
         rows = rows_by_method[label]
         success = rows["success"].astype(bool)
         for offset, mask, colour in ((-0.18, success, "tab:green"), (0.18, ~success, "tab:red")):
-            values = rows["time_s"][mask] * 1e3
-            values = values[np.isfinite(values) & (values > 0)]
+            values = positive(rows["time_s"][mask] * 1e3)
             if values.size:
                 data.append(values)
                 positions.append(index + 1 + offset)
                 colours.append(colour)
     if data:
-        boxes = axes.boxplot(data, positions=positions, widths=0.3, patch_artist=True, showfliers=True,
-                             flierprops={"markersize": 2})
-        for patch, colour in zip(boxes["boxes"], colours, strict=True):
-            patch.set_facecolor(colour)
-            patch.set_alpha(0.5)
+        boxes(axes, data, colours, positions=positions, widths=0.3)
     axes.set_yscale("log")
     axes.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
     axes.set_xlim(0.4, len(labels) + 0.6)
@@ -250,14 +253,12 @@ def time_boxplots(rows_by_method: dict[str, dict], title: str, path: Path) -> Pa
 def time_histogram(rows_by_method: dict[str, dict], title: str, path: Path) -> Path:
     figure, axes = plt.subplots(figsize=(7.0, 4.0))
     colour = colours(rows_by_method)
-    all_times = np.concatenate([rows["time_s"] * 1e3 for rows in rows_by_method.values()])
-    all_times = all_times[np.isfinite(all_times) & (all_times > 0)]
+    all_times = positive(np.concatenate([rows["time_s"] * 1e3 for rows in rows_by_method.values()]))
     if all_times.size:
         bins = np.logspace(np.log10(all_times.min()), np.log10(all_times.max()) + 1e-9, 50)
         for label, rows in rows_by_method.items():
-            times = rows["time_s"] * 1e3
-            times = times[np.isfinite(times) & (times > 0)]
-            axes.hist(times, bins=bins, histtype="step", linewidth=1.4, label=label, color=colour[label])
+            axes.hist(positive(rows["time_s"] * 1e3), bins=bins, histtype="step", linewidth=1.4, label=label,
+                      color=colour[label])
         axes.set_xscale("log")
         axes.legend(fontsize=8)
     axes.set_xlabel("time (ms)")

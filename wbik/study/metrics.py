@@ -27,12 +27,9 @@ STUDY_SEQUENCE = "zyx"
 """The sequence of the study's own angles (see ANGLE_AXES)."""
 _AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
-AXIS_DESCRIPTIONS = {
-    "x": "x (m)", "y": "y (m)", "z": "z (m)",
-    "rot_x": "rotation vector x (rad)",
-    "rot_y": "rotation vector y (rad)", "rot_z": "rotation vector z (rad)",
-    "alpha": "alpha, about x (rad)", "beta": "beta, about y (rad)", "gamma": "gamma, about z (rad)",
-}
+AXIS_DESCRIPTIONS = {**{axis: f"{axis} (m)" for axis in POSITION_AXES},
+                     **{f"rot_{axis}": f"rotation vector {axis} (rad)" for axis in POSITION_AXES},
+                     **{angle: f"{angle}, about {'xyz'[i]} (rad)" for i, angle in enumerate(ANGLE_AXES)}}
 
 
 @dataclass(frozen=True)
@@ -60,9 +57,8 @@ class AngleConvention:
 
 def axes(target_kind: str, angles: AngleConvention | None = None) -> list[str]:
     """Error axes of a case, in column order (without the ``err_`` prefix)."""
-    if target_kind != "pose":
-        return list(POSITION_AXES)
-    return [*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES, *(angles.columns if angles else [])]
+    return (list(POSITION_AXES) if target_kind != "pose"
+            else [*POSITION_AXES, *ROTATION_VECTOR_AXES, *ANGLE_AXES, *(angles.columns if angles else [])])
 
 
 def axis_label(axis: str, angles: AngleConvention | None = None) -> str:

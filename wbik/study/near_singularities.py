@@ -97,8 +97,7 @@ class NearSingularities(TargetSetKind):
 
     def drawing_blocks(self, analysis: dict) -> list[Block]:
         extras = analysis["extras"]
-        sigma = extras.get("sigma_min")
-        if sigma is None or not sigma.size:
+        if (sigma := extras.get("sigma_min")) is None or not sigma.size:
             return []
         bound = analysis["parameters"]["sigma_max"]
         attempts, steps = extras["attempts"], extras["steps"]

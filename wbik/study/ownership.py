@@ -28,8 +28,7 @@ class FolderLock:
         if self.folder.exists() and not self.folder.is_dir():
             raise WbikError(f"{self.folder} is a file; a study writes into a folder: pass another --output")
         self.folder.mkdir(parents=True, exist_ok=True)
-        path = self.folder / LOCK_NAME
-        handle = open(path, "a+")  # noqa: SIM115 - held open for the lock's lifetime
+        handle = open(self.folder / LOCK_NAME, "a+")  # noqa: SIM115 - held open for the lock's lifetime
         try:
             fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:

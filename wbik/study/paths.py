@@ -106,8 +106,7 @@ def draw_path(chain: Chain, rng: np.random.Generator, parameters: dict
         u, v = random_plane(rng)
         positions = circle_points(tip.translation, u, v, parameters["radius"], count)
     axis = random_unit(rng) if parameters["orientation"] == "slerp" else None
-    rotations = slerped_rotations(tip.rotation, axis, parameters.get("angle", 0.0), count)
-    return q_start, positions, rotations
+    return q_start, positions, slerped_rotations(tip.rotation, axis, parameters.get("angle", 0.0), count)
 
 
 def witness_path(solver, chain: Chain, rng: np.random.Generator, q_start: np.ndarray, positions: np.ndarray,
@@ -161,8 +160,7 @@ def sample_paths(chain: Chain, count: int, seed: int, parameters: dict, witness=
             draws[index] = draw
             if witness is None or not parameters["reachable"]:
                 break
-            joints = witness_path(witness, chain, rng, *drawn)
-            if joints is not None:
+            if (joints := witness_path(witness, chain, rng, *drawn)) is not None:
                 verified[index] = True
                 witness_length[index] = float(np.abs(np.diff(joints, axis=0)).sum())
                 break
@@ -261,7 +259,7 @@ class PathTargets(ChainTargets):
                 answer, seconds, again = self.solve_one(task, solver, target, q_previous)
                 cpu[path] += 0.0 if math.isnan(seconds) else seconds
                 reruns[path] += again
-                for key in ("success", "reason", "time_s", "iterations", "position_error", "rotation_error"):
+                for key in store.ROW_FIELDS[1:]:
                     columns[f"point_{key}"][path, point] = getattr(answer, key)
                 if answer.q is not None:
                     columns["point_q"][path, point] = answer.q
@@ -375,10 +373,8 @@ def path_columns(points: dict[str, np.ndarray], first_path: int, jump: float, br
     reasons = []
     last_q = np.full((count, points["point_q"].shape[2]), np.nan)
     for i in range(count):
-        unsolved = np.flatnonzero(~success[i])
-        first = int(unsolved[0]) if unsolved.size else -1
-        reasons.append("" if first < 0 else f"point {first}: {points['point_reason'][i, first]}")
-        solved = np.flatnonzero(success[i])
+        missed, solved = np.flatnonzero(~success[i]), np.flatnonzero(success[i])
+        reasons.append(f"point {missed[0]}: {points['point_reason'][i, missed[0]]}" if missed.size else "")
         if solved.size:
             last_q[i] = points["point_q"][i, solved[-1]]
     return {"pose": np.arange(first_path, first_path + count), "success": np.array(whole, dtype=bool),
@@ -427,7 +423,7 @@ PATH_CSV_KEYS = ("points_solved", "jumps", "branch_changes", "flips", "largest_s
 
 def write_point_csv(path: Path, rows_by_method: dict[str, dict], joint_names: list[str]) -> None:
     """raw.csv: a row per (path, point, method), with the step from the last solved point and the branch."""
-    keys = ("success", "reason", "time_s", "iterations", "position_error", "rotation_error")
+    keys = store.ROW_FIELDS[1:]
 
     def rows():
         for label, rows in rows_by_method.items():
@@ -464,11 +460,7 @@ def path_figure(rows_by_method: dict[str, dict], title: str, path: Path) -> Path
     along.set_ylim(-2, 102)
     along.legend(fontsize=7)
     whole = [rows["length"][rows["success"].astype(bool)] for rows in rows_by_method.values()]
-    boxes = figures.boxes(lengths, [values[np.isfinite(values) & (values > 0)] for values in whole],
-                          patch_artist=True)
-    for patch, label in zip(boxes["boxes"], labels, strict=True):
-        patch.set_facecolor(colour[label])
-        patch.set_alpha(0.6)
+    figures.boxes(lengths, [figures.positive(length) for length in whole], list(colour.values()), alpha=0.6)
     lengths.set_yscale("log")
     lengths.set_xticks(np.arange(1, len(labels) + 1), labels, rotation=30, ha="right")
     lengths.set_ylabel("joint path length, sum |dq| (rad), whole paths")

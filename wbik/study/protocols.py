@@ -123,7 +123,7 @@ class ProtocolTargets(ChainTargets):
             return blocks
         rule: SuccessRule = analysis["rule"]
         tolerances = study.tolerances
-        section = [Block("h3", "Success rule"),
+        blocks[2:2] = [Block("h3", "Success rule"),
                    Block("p", f"Solved here means: {rule.describe()}, judged on every answer with joints, "
                               "converged or not. The methods ran under the shared check of "
                               f"{tolerances['position']:g} m / {tolerances['rotation']:g} rad (norms): what "
@@ -137,7 +137,6 @@ class ProtocolTargets(ChainTargets):
                          rows=[[label, fmt(figures["percent_rule"]), fmt(figures["percent_check"]),
                                 str(figures["check_only"]), str(figures["rule_only"])]
                                for label, figures in analysis["protocol"].items()])]
-        blocks[2:2] = section
         names = ", ".join(f"p{p:g}" if p < 100 else "max" for p in PERCENTILES)
         blocks.append(Block("h3", f"Errors at percentiles ({names})"))
         blocks.append(Block("p", "Position error |p - p*| (mm) and rotation error |log3(R*^T R)| (rad) of "

@@ -5,6 +5,7 @@ a code fingerprint, a digest of the syntax trees (docstrings aside) of the modul
 from __future__ import annotations
 
 import ast
+import contextlib
 import hashlib
 import os
 import platform
@@ -76,14 +77,10 @@ def without_docstrings(tree: ast.Module) -> ast.Module:
         for name in ("body", "orelse", "finalbody"):
             body = getattr(node, name, None)
             if isinstance(body, list) and body and isinstance(body[0], ast.stmt):
-                kept = [statement for statement in body if not _is_string(statement)]
+                kept = [s for s in body if not (isinstance(s, ast.Expr) and isinstance(s.value, ast.Constant)
+                                                and isinstance(s.value.value, str))]
                 setattr(node, name, kept or ([ast.Pass()] if name == "body" else []))
     return tree
-
-
-def _is_string(statement: ast.stmt) -> bool:
-    return isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Constant) and \
-        isinstance(statement.value.value, str)
 
 
 def _digest(data: bytes) -> str:
@@ -128,8 +125,7 @@ def code_roots(study: Study, machinery: Iterable[str]) -> list[str]:
         kind = case_kind(case)
         objects += [type(kind), *kind.code_roots(case)]
         objects += [kind.method_factory(method.method) for method in study.methods]
-        entry = robot_entries().get(case.robot)
-        if entry is not None:
+        if (entry := robot_entries().get(case.robot)) is not None:
             roots.add(entry.module().__name__)
     roots.update(getattr(item, "__module__", None) or "" for item in objects if item is not None)
     return sorted(root for root in roots if source_of(root))
@@ -158,12 +154,10 @@ def git_commit() -> str | None:
 
 def cpu_model() -> str:
     """The CPU's model name (Linux's /proc/cpuinfo, else what platform says)."""
-    try:
+    with contextlib.suppress(OSError):
         for line in Path("/proc/cpuinfo").read_text().splitlines():
             if line.startswith("model name"):
                 return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
     return platform.processor() or platform.machine()
 
 
@@ -181,8 +175,7 @@ def machine() -> dict:
 
 def command_line() -> str:
     """The command this process runs, as typed (``wbik study ...`` for the console script)."""
-    program = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python"
-    return shlex.join([program, *sys.argv[1:]])
+    return shlex.join([Path(sys.argv[0]).name if sys.argv and sys.argv[0] else "python", *sys.argv[1:]])
 
 
 def provenance(study: Study, machinery: Iterable[str]) -> dict:

@@ -13,8 +13,8 @@ from pathlib import Path
 import wbik.study.results as store
 from wbik.study.blocks import Block, budget_semantics, fmt
 from wbik.study.case_kinds import case_kind, kinds_of
-from wbik.study.compare import Comparison
-from wbik.study.cpu_watch import threads_of
+from wbik.study.compare import Comparison, comparison_blocks
+from wbik.study.cpu_watch import STARVED_CPU_SHARE, threads_of
 from wbik.study.provenance import PROVENANCE, provenance_lines
 from wbik.study.spec import Study
 
@@ -25,7 +25,7 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
     blocks = [Block("h1", f"Study {study.name}")]
     if study.description:
         blocks.append(Block("p", study.description.strip()))
-    facts = [
+    blocks.append(Block("list", items=[
         f"definition: {study.source} (fingerprint {study.fingerprint()})",
         "poses per case: " + ", ".join(f"{c.name} {study.poses_of(c)}" for c in study.cases)
         + f"; seed {study.seed}",
@@ -37,8 +37,7 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
         f"({fmt(run.get('total_seconds'))} s of solving over all runs of this folder); "
         f"report written {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
         *provenance_lines(store.read_json(output / PROVENANCE, {}) or {}),
-    ]
-    blocks.append(Block("list", items=facts))
+    ]))
     blocks.append(Block("h2", "Methods"))
     kinds = kinds_of(study.cases)
     budget_kind = kinds[0]  # states the budgets of the methods table (the first kind in registry order)
@@ -48,14 +47,12 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
                         rows=[[m.label, m.method, budget_kind.budget_text(m, study.timeout_of(m)),
                                budget_semantics(budget_kind, m, study.timeout_of(m), workers.get(m.method)),
                                json.dumps(m.options) if m.options else "", m.note] for m in study.methods]))
-    threaded = sorted({m.method for m in study.methods if threads_of(m.method) > 1})
-    if threaded:
-        blocks.append(Block("p", f"Methods with threads of their own ({', '.join(threaded)}; TRAC-IK runs "
-                                 "KDL and an SQP side by side) are meant to have a core per thread: they "
-                                 "run after the other methods with at most cores / threads worker "
-                                 f"processes ({run.get('cores', '?')} cores here; the loky backend), and a "
-                                 "solve of theirs counts as CPU-starved when the process got less than "
-                                 "0.8 x threads x its wall time as CPU (wbik.study.cpu_watch)."))
+    if threaded := sorted({m.method for m in study.methods if threads_of(m.method) > 1}):
+        blocks.append(Block("p", f"Methods with threads of their own ({', '.join(threaded)}) run after the "
+                                 "others with at most cores / threads worker processes "
+                                 f"({run.get('cores', '?')} cores here; the loky backend); a solve of theirs "
+                                 f"is CPU-starved below {STARVED_CPU_SHARE:g} x threads x wall time of CPU "
+                                 "(wbik.study.cpu_watch)."))
     blocks.extend(Block("p", note) for note in dict.fromkeys(kind.methods_note for kind in kinds) if note)
     load = run.get("load_average_before"), run.get("load_average_after")
     if any(value is not None for value in load):
@@ -67,8 +64,6 @@ def build_blocks(study: Study, output: Path, analyses: list[dict],
     for analysis in analyses:
         blocks.extend(case_kind(analysis["case"]).blocks(study, analysis))
     if comparison is not None:
-        from wbik.study.compare import comparison_blocks
-
         blocks.extend(comparison_blocks(comparison))
     return blocks
 

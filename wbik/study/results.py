@@ -54,12 +54,10 @@ def read_chunk(path: Path) -> dict[str, np.ndarray]:
 def load_method_rows(output: Path, case_name: str, label: str,
                      chunk_count: int) -> dict[str, np.ndarray] | None:
     """The rows of one method, in pose order, from its chunk files; None if any chunk is missing."""
-    parts = []
-    for chunk in range(chunk_count):
-        path = chunk_path(output, case_name, label, chunk)
-        if not path.is_file():
-            return None
-        parts.append(read_chunk(path))
+    paths = [chunk_path(output, case_name, label, chunk) for chunk in range(chunk_count)]
+    if not all(path.is_file() for path in paths):
+        return None
+    parts = [read_chunk(path) for path in paths]
     return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
 
 
@@ -81,9 +79,7 @@ def csv_cells(values) -> list:
     values = np.asarray(values)
     if values.dtype.kind == "f":
         return [repr(value) for value in values.tolist()]
-    if values.dtype.kind in "biu":
-        return values.astype(int).tolist()
-    return [str(value) for value in values.tolist()]
+    return values.astype(int).tolist() if values.dtype.kind in "biu" else [str(v) for v in values.tolist()]
 
 
 def method_csv_rows(label: str, rows: dict[str, np.ndarray], keys: Iterable[str], index: str = "pose",

@@ -66,8 +66,7 @@ def case_poses(study: Study, case: CaseSpec, output: Path) -> PoseSet:
     if path.is_file():
         return PoseSet.load(path)
     poses = case_kind(case).sample(study, case)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    poses.save(path)
+    poses.save(path)  # (its folder made on the way)
     return poses
 
 
@@ -92,18 +91,16 @@ def pending_tasks(study: Study, output: Path, log=print) -> tuple[list[ChunkTask
     done_rows = total_rows = 0
     for case in study.cases:
         poses = case_poses(study, case, output)
-        directory = store.case_dir(output, case.name)
         not_applicable: dict[str, str] = {}
         applicable = []
         for method in study.methods:
             _forget_if_changed(study, case, method, output, log)
-            reason = probe(study, case, method, poses)
-            if reason is None:
+            if (reason := probe(study, case, method, poses)) is None:
                 applicable.append(method)
             else:
                 not_applicable[method.label] = reason
                 log(f"  {case.name}: {method.label} not applicable: {reason}")
-        store.write_json(directory / "not_applicable.json", not_applicable)
+        store.write_json(store.case_dir(output, case.name) / "not_applicable.json", not_applicable)
         for chunk in range(chunk_count(study, case)):
             start = chunk * study.chunk_size
             stop = min(start + study.chunk_size, len(poses))

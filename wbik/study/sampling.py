@@ -27,15 +27,12 @@ class PoseSet:
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
         """The arrays :meth:`save` writes, by name: q_true, positions, q0 and rotations (when given)."""
-        arrays = {"q_true": self.q_true, "positions": self.positions, "q0": self.q0}
-        if self.rotations is not None:
-            arrays["rotations"] = self.rotations
-        return arrays
+        rotations = {} if self.rotations is None else {"rotations": self.rotations}
+        return {"q_true": self.q_true, "positions": self.positions, "q0": self.q0, **rotations}
 
     def save(self, path: Path) -> None:
         """Write :meth:`saved_arrays` atomically (temporary file renamed into place)."""
-        arrays = self.saved_arrays()
-        atomic_write_bytes(path, lambda handle: np.savez(handle, **arrays))
+        atomic_write_bytes(path, lambda handle: np.savez(handle, **self.saved_arrays()))
 
     @classmethod
     def load(cls, path: Path) -> PoseSet:

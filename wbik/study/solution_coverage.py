@@ -41,8 +41,7 @@ _LOCAL = threading.local()
 def closed_form_of(chain: Chain) -> ClosedFormBranches | str:
     """:func:`complete_closed_form` of the chain, built once per thread."""
     cache = _LOCAL.__dict__.setdefault("forms", {})
-    key = (id(chain.robot), chain.name)
-    if key not in cache:
+    if (key := (id(chain.robot), chain.name)) not in cache:
         cache[key] = complete_closed_form(chain)
     return cache[key]
 
@@ -125,13 +124,12 @@ def coverage_summary(rows: dict[str, np.ndarray]) -> dict[str, float]:
         "percent_on_a_branch": share(int(np.sum(rows["branch"][solved] >= 0)), int(solved.sum()))
         if np.any(rows["branches_in_limits"] >= 0) else math.nan,
         "restart_targets": int(sampled.sum()),
-        "restart_solved_mean": float(np.mean(rows["restart_solved"][sampled])) if sampled.any() else math.nan,
-        "branches_reached_mean": float(np.mean(reached)) if sampled.any() else math.nan,
+        "restart_solved_mean": finite_statistic(rows["restart_solved"][sampled], np.mean),
+        "branches_reached_mean": finite_statistic(reached, np.mean),
         "branches_reached_max": int(np.max(reached)) if sampled.any() else -1,
-        "others_mean": float(np.mean(rows["restart_others"][sampled])) if sampled.any() else math.nan,
-        "branches_available_mean": float(np.mean(available)) if sampled.any() else math.nan,
-        "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available)))
-        if sampled.any() else math.nan,
+        "others_mean": finite_statistic(rows["restart_others"][sampled], np.mean),
+        "branches_available_mean": finite_statistic(available, np.mean),
+        "percent_branches_reached": share(float(np.sum(reached)), float(np.sum(available))),
         "start_distance_median": finite_statistic(distance),
         "start_distance_p95": finite_statistic(distance, P95),
     }
@@ -176,9 +174,8 @@ def coverage_blocks(summaries: dict[str, dict], parameters: dict, form: str, res
                     fmt(s["others_mean"])]
         rows.append([*row, fmt(s["start_distance_median"]), fmt(s["start_distance_p95"])])
     blocks.append(Block("table", header=header, rows=rows))
-    blocks.append(Block("p", "|q - q0|: Euclidean norm over the joints of a solved answer's joints minus "
-                             "the start (rad, and m for prismatic joints; no wrap: the motion asked of the "
-                             "robot)."))
+    blocks.append(Block("p", "|q - q0|: the Euclidean norm of a solved answer's joints minus the start (rad, "
+                             "m for prismatic joints; no wrap: the motion asked of the robot)."))
     if histogram is not None:
         blocks.append(Block("image", "Joint distance from the start (solved answers)", path=histogram))
     return blocks

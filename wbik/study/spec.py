@@ -92,9 +92,8 @@ class Study:
         return self.timeout_s if method.timeout_s is None else method.timeout_s
 
     def method(self, label: str) -> MethodSpec:
-        for spec in self.methods:
-            if spec.label == label:
-                return spec
+        if (spec := next((m for m in self.methods if m.label == label), None)) is not None:
+            return spec
         raise StudyDefinitionError(f"study {self.name!r} has no method labelled {label!r}; "
                                    f"labels: {', '.join(m.label for m in self.methods)}")
 

@@ -46,17 +46,14 @@ def wilson_interval(successes: int, count: int, confidence: float = CONFIDENCE) 
 def bootstrap_medians(values: np.ndarray, resamples: int = BOOTSTRAP_RESAMPLES,
                       seed: int = BOOTSTRAP_SEED) -> np.ndarray:
     """The medians of ``resamples`` resamples with replacement of the finite ``values`` (empty for none)."""
-    values = np.asarray(values, dtype=float)
-    values = values[np.isfinite(values)]
+    values = np.asarray(values, dtype=float)[np.isfinite(values)]
     if values.size == 0:
         return np.zeros(0)
     rng = np.random.default_rng(seed)
     per_block = max(1, _BOOTSTRAP_BLOCK // values.size)
-    medians = []
-    for start in range(0, resamples, per_block):
-        count = min(per_block, resamples - start)
-        medians.append(np.median(values[rng.integers(0, values.size, (count, values.size))], axis=1))
-    return np.concatenate(medians)
+    draws = (rng.integers(0, values.size, (min(per_block, resamples - start), values.size))
+             for start in range(0, resamples, per_block))
+    return np.concatenate([np.median(values[draw], axis=1) for draw in draws])
 
 
 def bootstrap_median_interval(values: np.ndarray, confidence: float = CONFIDENCE,
@@ -117,8 +114,7 @@ def _cpu_figures(rows: dict[str, np.ndarray]) -> dict[str, float]:
     answers kept (about the method's threads), and how many were re-run the most times allowed."""
     from wbik.study.cpu_watch import MAX_RERUNS
 
-    cpu = rows.get("cpu_s")
-    if cpu is None:
+    if (cpu := rows.get("cpu_s")) is None:
         return {"cpu_per_wall_median": math.nan, "rerun_exhausted": 0}
     measured = np.isfinite(cpu) & np.isfinite(rows["time_s"]) & (rows["time_s"] > 0)
     share = cpu[measured] / rows["time_s"][measured]
@@ -177,9 +173,8 @@ def summarize(rows: dict[str, np.ndarray]) -> dict[str, float]:
 
 def significance_samples(rows: dict[str, np.ndarray], axis: str) -> np.ndarray:
     """The sample compared for one axis: |e| of solved poses, or the time (ms) of every pose."""
-    if axis == "time":
-        return rows["time_s"] * 1e3
-    return np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)])
+    return (rows["time_s"] * 1e3 if axis == "time"
+            else np.abs(rows[f"err_{axis}"][rows["success"].astype(bool)]))
 
 
 def significance(baseline_label: str, rows_by_method: dict[str, dict[str, np.ndarray]]) -> list[dict]:

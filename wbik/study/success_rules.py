@@ -58,8 +58,7 @@ def judge(rule: SuccessRule, position_xyz: np.ndarray, rotation_xyz: np.ndarray,
     missing = ~np.all(np.isfinite(ratios), axis=1)
     worst_axis = np.argmax(np.nan_to_num(ratios, nan=np.inf), axis=1)
     worst = np.where(missing, np.nan, ratios[np.arange(len(ratios)), worst_axis])
-    passed = ~missing & (np.nan_to_num(worst, nan=np.inf) <= 1.0)
-    return passed, worst, worst_axis
+    return ~missing & (np.nan_to_num(worst, nan=np.inf) <= 1.0), worst, worst_axis
 
 
 def failure_reason(rule: SuccessRule, worst: float, component: int) -> str:
@@ -76,8 +75,6 @@ def failure_reason(rule: SuccessRule, worst: float, component: int) -> str:
 
 def error_percentiles(values: np.ndarray, percentiles=PERCENTILES) -> list[float]:
     """The ``percentiles`` of the finite ``values`` (NaN for none)."""
-    values = np.asarray(values, float)
-    values = values[np.isfinite(values)]
-    if values.size == 0:
-        return [float("nan")] * len(percentiles)
-    return [float(v) for v in np.percentile(values, percentiles)]
+    values = np.asarray(values, float)[np.isfinite(values)]
+    return ([float(v) for v in np.percentile(values, percentiles)] if values.size
+            else [float("nan")] * len(percentiles))

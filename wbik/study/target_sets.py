@@ -49,10 +49,8 @@ class DrawnTargets(PoseSet):
     facts: dict = field(default_factory=dict)
 
     def saved_arrays(self) -> dict[str, np.ndarray]:
-        arrays = super().saved_arrays()
-        arrays.update({f"drawn_{name}": np.asarray(value) for name, value in self.extras.items()})
-        arrays["drawn_facts"] = np.array(json.dumps(json_plain(self.facts), sort_keys=True, default=str))
-        return arrays
+        return {**super().saved_arrays(), **{f"drawn_{k}": np.asarray(v) for k, v in self.extras.items()},
+                "drawn_facts": np.array(json.dumps(json_plain(self.facts), sort_keys=True, default=str))}
 
 
 def read_drawing(path: Path) -> tuple[dict[str, np.ndarray], dict]:
@@ -116,8 +114,7 @@ class TargetSetKind(ChainTargets):
         return self.drawn_targets(chain, drawing, study, parameters)
 
     def drawn_targets(self, chain: Chain, drawing: Drawing, study: Study, parameters: dict) -> DrawnTargets:
-        """The drawing's targets (its extras' ``positions`` and ``rotations``, else FK of its joints), with
-        the study's starts."""
+        """The drawing's targets (extras' ``positions``/``rotations``, else FK of its joints), with q0s."""
         extras = dict(drawing.extras)
         if "positions" in extras:
             poses = PoseSet(drawing.q_true, extras.pop("positions"), extras.pop("rotations"),
@@ -156,10 +153,10 @@ class TargetSetKind(ChainTargets):
             analysis["coverage"] = {label: coverage_summary(rows) for label, rows in analysis["rows"].items()
                                     if "start_distance" in rows}
             write_table(directory / "coverage.csv", analysis["coverage"])
-        if self.reachable and analysis["rows"] and study.figures:
-            analysis["images"]["start_distance"] = distance_histogram(
-                analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
-                directory / "figures" / "start_distance.png")
+            if study.figures:
+                analysis["images"]["start_distance"] = distance_histogram(
+                    analysis["rows"], f"{case.robot}.{analysis['chain'].name} ({case.target})",
+                    directory / "figures" / "start_distance.png")
         return analysis
 
     def drawing_blocks(self, analysis: dict) -> list[Block]:
@@ -168,8 +165,7 @@ class TargetSetKind(ChainTargets):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         blocks = super().blocks(study, analysis)
-        drawn = self.drawing_blocks(analysis)
-        if drawn:
+        if drawn := self.drawing_blocks(analysis):
             blocks[2:2] = [Block("h3", "How the targets were drawn"), *drawn]
         if analysis.get("coverage"):
             parameters = analysis["parameters"]

@@ -12,11 +12,7 @@ from wbik.geometry import TWO_PI, joint_gap
 from wbik.robot import Chain
 from wbik.study.blocks import Block, fmt, frequent_reasons
 from wbik.study.chain_reach import reach_bound
-from wbik.study.closed_form_branches import (
-    ClosedFormBranches,
-    branch_excess,
-    complete_closed_form,
-)
+from wbik.study.closed_form_branches import ClosedFormBranches, branch_excess, complete_closed_form
 from wbik.study.near_singularities import sigma_min
 from wbik.study.path_metrics import random_unit
 from wbik.study.spec import Study
@@ -35,8 +31,7 @@ REJECTIONS = {
 
 def eligible_joints(chain: Chain, beyond_low: float) -> np.ndarray:
     """Joints that can be set ``beyond_low`` beyond a limit and stay outside the range on the circle."""
-    gap = TWO_PI - (chain.upper - chain.lower)
-    return np.flatnonzero(chain.is_prismatic | (gap / 2.0 > beyond_low))
+    return np.flatnonzero(chain.is_prismatic | ((TWO_PI - (chain.upper - chain.lower)) / 2.0 > beyond_low))
 
 
 def uniform_rotation(rng: np.random.Generator) -> np.ndarray:
@@ -180,9 +175,8 @@ class Unreachable(TargetSetKind):
 
     def blocks(self, study: Study, analysis: dict) -> list[Block]:
         blocks = super().blocks(study, analysis)
-        refusals = refusal_blocks(analysis)
         at = next((i for i, block in enumerate(blocks) if block.text == "Poses solved and time"), len(blocks))
-        blocks[at:at] = refusals
+        blocks[at:at] = refusal_blocks(analysis)
         return blocks
 
 
@@ -212,8 +206,7 @@ def grouped_reasons(rows_by_method: dict) -> list[list]:
     table = []
     for method, rows in by_method.items():
         table.extend(rows[:MOST_REASONS])
-        rest = rows[MOST_REASONS:]
-        if rest:
+        if rest := rows[MOST_REASONS:]:
             kinds = f"{len(rest)} kind{'s' if len(rest) > 1 else ''}"
             table.append([method, f"other reasons ({kinds})", sum(row[2] for row in rest)])
     return table
@@ -227,14 +220,12 @@ def refusal_blocks(analysis: dict) -> list[Block]:
     source = analysis["extras"].get("source")
     pose_source = source[rows_by_method[next(iter(rows_by_method))]["pose"]] if source is not None else None
     summaries = {label: refusal_summary(rows, pose_source) for label, rows in rows_by_method.items()}
-    analysis["refusals"] = summaries
     counts = ", ".join(f"{int(np.sum(source == code))} {name}" for name, code in
                        (("outside the reach (a)", OUTSIDE_REACH), ("beyond the limits (b)", BEYOND_LIMITS))) \
         if source is not None else ""
     table = [[label, s["targets"], s["false_successes"], s["refused"], fmt(s["time_median_ms"]),
               fmt(s["time_p95_ms"]), fmt(s.get("time_median_ms_a")), fmt(s.get("time_median_ms_b"))]
              for label, s in summaries.items()]
-    reasons = grouped_reasons(rows_by_method)
     return [Block("h3", "Unreachable targets: false successes, time to refuse, reasons"),
             Block("p", f"Every target is proved unreachable inside the limits ({counts}). A false success is "
                        "a method's answer that passes the shared FK check on such a target (none can, unless "
@@ -243,7 +234,7 @@ def refusal_blocks(analysis: dict) -> list[Block]:
                                    "p95 ms", "median ms (a)", "median ms (b)"], rows=table),
             Block("p", f"Reasons given (numbers replaced by #; the {MOST_REASONS} most frequent per method, "
                        "then the others together):"),
-            Block("table", header=["method", "reason", "targets"], rows=reasons)]
+            Block("table", header=["method", "reason", "targets"], rows=grouped_reasons(rows_by_method))]
 
 
 CASE_KINDS = (Unreachable("unreachable"),)

@@ -53,14 +53,6 @@ ERROR_AXES = ("task", "contact")
 FLOAT_ROWS = 7
 """The float columns from ``task_error`` to ``collision_clearance``."""
 
-STUDY_NOTE = (
-    "Whole-body cases: every whole-body method runs a loop of ours (our QP, a peer's single QP step "
-    "iterated by our loop, or a method's own iteration), so every method is budgeted in iterations: "
-    "the study's time budget divided by the method's measured cost per iteration (its "
-    "problem_iteration_cost_s, wbik.solvers.base.IterationBudget), no wall clock; the rows are the same "
-    "on any machine (times aside)."
-)
-
 
 @dataclass(frozen=True)
 class WholeBodyChunkTask(ChunkTask):
@@ -76,7 +68,11 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
     name = WHOLEBODY
     target = WHOLEBODY
     entry_keys = ("scenario",)
-    study_note = STUDY_NOTE
+    study_note = ("Whole-body cases: every method runs a loop of ours (our QP, a peer's single QP step "
+                  "iterated by our loop, or a method's own iteration), budgeted in iterations: the study's "
+                  "time budget / the method's cost per iteration (problem_iteration_cost_s, "
+                  "wbik.solvers.base.IterationBudget), no wall clock; the rows are the same on any machine "
+                  "(times aside).")
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -148,8 +144,7 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         return solver.cannot_express(case.problem, task.q0[0])
 
     def solve(self, task: WholeBodyChunkTask) -> dict[str, np.ndarray]:
-        """The rows of one whole-body chunk; a case on which the method raises is unsolved, its reason
-        what was raised."""
+        """One whole-body chunk's rows; a case the method raises on is unsolved, its reason the raise."""
         nq = _robot(task.robot, task.robot_params).model.nq
         solver = self.build(task)
         rows, q_rows = [], []
@@ -164,10 +159,10 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
             else:
                 joints = answer.q is not None
                 values = (answer.success, answer.reason, answer.time_s, answer.iterations, answer.task_error,
-                          _largest(answer.task_position_errors) if joints else math.nan,
-                          _largest(answer.task_rotation_errors) if joints else math.nan, answer.contact_drift,
-                          answer.com_margin, answer.limit_excess, answer.collision_clearance,
-                          "; ".join(answer.unsupported))
+                          max(answer.task_position_errors.values(), default=0.0) if joints else math.nan,
+                          max(answer.task_rotation_errors.values(), default=0.0) if joints else math.nan,
+                          answer.contact_drift, answer.com_margin, answer.limit_excess,
+                          answer.collision_clearance, "; ".join(answer.unsupported))
             q_rows.append(np.full(nq, np.nan) if answer is None or answer.q is None else answer.q)
             rows.append(values)
         columns = {"pose": np.arange(task.first_pose, task.first_pose + task.count),
@@ -208,12 +203,12 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
         margin, tolerances = analysis["margin"], study.tolerances
         blocks = [
             Block("h2", f"Case {case.name}: {case.robot}, whole body ({case.scenario})"),
-            Block("p", f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} "
-                       f"(seed {study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer "
-                       "is judged by the one shared whole-body check (wbik.solvers.check.check_problem): "
-                       f"goal task errors by FK within {tolerances['position']:g} m / "
-                       f"{tolerances['rotation']:g} rad, contact drift within the same, CoM margin by FK "
-                       "against the support polygon of the support soles at the answer, joint limits."),
+            Block("p", f"{study.poses_of(case)} whole-body cases from the sampler {case.scenario} (seed "
+                       f"{study.seed}): {CASE_REGISTRY.get(case.scenario).description}. Every answer is "
+                       "judged by the shared whole-body check (wbik.solvers.check.check_problem): goal task "
+                       f"errors and contact drift by FK within {tolerances['position']:g} m / "
+                       f"{tolerances['rotation']:g} rad, the CoM margin in the support soles' polygon at the "
+                       "answer, joint limits."),
             *status_blocks(study, analysis),
         ]
         if not summaries:
@@ -233,12 +228,11 @@ class WholeBodyCases(RegisteredMethods, CaseKind):
             ("max limit excess (all calls)", "limit_excess_all_max"),
             ("solved without", _solved_without),
         ]))
-        blocks.append(Block("p", "Task errors in m or rad (the larger of a task's position and rotation "
-                                 "errors, the largest over the goal tasks); contact drift in m or rad; CoM "
-                                 "margin: distance of the CoM's ground projection inside the support "
-                                 "polygon (negative outside), NaN ('-') without a support polygon. 'All "
-                                 "calls' counts every case, 'solved' only those the shared check passed. "
-                                 + INTERVALS_TEXT))
+        blocks.append(Block("p", "Task error: the largest over the goal tasks of a task's larger position "
+                                 "(m) or rotation (rad) error; contact drift in m or rad; CoM margin: the "
+                                 "distance of the CoM's ground projection inside the support polygon "
+                                 "(negative outside; '-' without one). 'All calls' counts every case, "
+                                 "'solved' those the shared check passed. " + INTERVALS_TEXT))
         if marked:
             blocks.append(Block("p", "What each method could not express (it solved the problem without it; "
                                      "the check still judges everything):"))
@@ -276,10 +270,8 @@ def summarize(rows: dict, margin: float) -> dict:
                                 ("com_margin", ("median", "min")), ("limit_excess", ("max",))):
             for name in statistics:
                 summary[f"{key}_{group}_{name}"] = finite_statistic(rows[key][mask], getattr(np, name))
-    margins = rows["com_margin"]
-    finite = np.isfinite(margins)
-    summary["percent_com_margin_kept_all"] = (
-        100.0 * float(np.mean(margins[finite] >= margin - 1e-9)) if finite.any() else math.nan)
+    summary["percent_com_margin_kept_all"] = finite_statistic(
+        rows["com_margin"], lambda margins: 100.0 * float(np.mean(margins >= margin - 1e-9)))
     summary["unsupported"] = "; ".join(sorted({str(u) for u in rows["unsupported"] if str(u)}))
     return summary
 
@@ -310,11 +302,6 @@ def com_margin_boxplots(rows_by_method: dict, margin: float, title: str, path: P
     axes.set_title(f"{title}: CoM margin by FK, all calls")
     axes.legend(fontsize=8)
     return figures.save(figure, path)
-
-
-def _largest(errors: dict) -> float:
-    """The largest of a result's per-task errors (0 without goal tasks)."""
-    return max(errors.values(), default=0.0)
 
 
 def _solved_without(summary: dict) -> str:
