@@ -200,10 +200,8 @@ class CollisionModel:
         distance, robot_point, obstacle_point, normal = best
         offset = robot_point - obstacle_point
         norm = np.linalg.norm(offset)
-        if distance > 1e-6 and norm > 1e-9:
-            direction = offset / norm
-        else:
-            direction = -normal / max(np.linalg.norm(normal), 1e-12)
+        direction = (offset / norm if distance > 1e-6 and norm > 1e-9
+                     else -normal / max(np.linalg.norm(normal), 1e-12))
         return GeometryDistance(entry.name, float(distance), True, robot_point, direction, obj.parentJoint)
 
     def clearance(self, q: np.ndarray, table: bool = True, skip: tuple[str, ...] = ()) -> Clearance:

@@ -150,9 +150,8 @@ class QPPlanner(Planner):
         """Trust-region QP steps from q_start toward the 5-D target under the clearance constraint."""
         task = ToolAxisTask(self.chain.tip_frame, target, tolerance=TASK_TOLERANCE)
         constraints = [JointPositionLimits(), WorkpieceClearance(self.collision, self.minimum_clearance)]
-        model = self.robot.model
-        problem = IKProblem(model, [task, RegularizationTask(1e-9)], constraints, backend=self.backend,
-                            max_step=0.2)
+        problem = IKProblem(self.robot.model, [task, RegularizationTask(1e-9)], constraints,
+                            backend=self.backend, max_step=0.2)
         problem.start(q_start)
         q = q_start.copy()
         knots = [q.copy()]
@@ -162,7 +161,7 @@ class QPPlanner(Planner):
                 dq = problem.step(q, max_step=self.max_step)
             except NoQPSolutionError:
                 return None
-            q = problem.clip(pin.integrate(model, q, dq))
+            q = problem.clip(pin.integrate(self.robot.model, q, dq))
             knots.append(q.copy())
             problem.kinematics.update(q)
             if np.linalg.norm(task.error(problem.kinematics)) < 1e-6:

@@ -112,9 +112,12 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
 
 def _check_expect_keys(spec: dict) -> None:
     """Unknown planners or keys in ``expect`` raise before minutes of simulation."""
+    expect = spec.get("expect") or {}
+    if not isinstance(expect, dict):
+        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
     planners = [entry.get("name", entry.get("planner", "ours"))
                 for entry in spec.get("planners", DEFAULT_PLANNERS)]
-    for name, wanted in _expect(spec.get("expect")).items():
+    for name, wanted in expect.items():
         if name not in planners:
             raise ExpectationError(f"expect names planner {name!r}; the planners are {planners}")
         unknown = set(wanted or {}) - set(RIVETING_RULES)
@@ -123,20 +126,11 @@ def _check_expect_keys(spec: dict) -> None:
                                    f"known keys: {sorted(RIVETING_RULES)}")
 
 
-def _expect(expect) -> dict:
-    if not isinstance(expect or {}, dict):
-        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
-    return expect or {}
-
-
 def judge(report: dict, expect: dict | None) -> dict:
     """Check every planner's run against ``expect`` (``checks``, ``verdict``, ``passed``)."""
     checks = []
-    for name, wanted in _expect(expect).items():
-        summary = report["runs"].get(name, {}).get("summary")
-        if summary is None:
-            raise ExpectationError(f"expect names planner {name!r}, which did not run; "
-                                   f"ran: {sorted(report['runs'])}")
+    for name, wanted in (expect or {}).items():
+        summary = report["runs"][name]["summary"]
         figures = {**summary, "score": summary["score"]["total"]}
         for key in ("min_clearance_tool", "min_clearance_links", "min_clearance_table", "max_lateral_error",
                     "max_depth_error"):

@@ -7,7 +7,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
+from wbik.apps.riveting.report import DEFAULT_PLANNERS, RIVETING_RULES, format_text, run_task, write_report
 from wbik.errors import WbikError, did_you_mean
 from wbik.qp.task_entries import NON_NEGATIVE, POSITIVE, VECTOR3
 from wbik.scenario_schema import Robot, backend_key, common_keys, expect_block, time_laws
@@ -142,8 +142,7 @@ def riveting_schema() -> Map:
         "insertion": Key(Map(from_dataclass(Insertion, {"depth": POSITIVE}).keys, nullable=True), {}),
         "noise": Key(Map(from_dataclass(NoiseModel, noise).keys, nullable=True), {}),
         "scene": Key(scene),
-        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"),
-                        [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]),
+        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"), DEFAULT_PLANNERS),
         "expect": Key(Map(values=expect_block(RIVETING_RULES), nullable=True), None),
     }, post=post)
 
