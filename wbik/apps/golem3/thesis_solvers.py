@@ -132,6 +132,7 @@ class _ThesisGolem3(Solver):
                 f"method {self.name!r} is the Golem-III thesis's solver: it applies to golem3's "
                 f"{' and '.join(GOLEM3_CHAINS)} only, not {self.robot.name}.{self.chain.name}")
         self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(self.chain)
+        self.flip = np.r_[-1.0 if self.mirrored else 1.0, np.ones(5)]  # m0 negated between the arms
 
     def _right_target(self, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
         """Position and rotation in right-arm coordinates (M p, M R M, M = diag(1, -1, 1))."""
@@ -142,14 +143,8 @@ class _ThesisGolem3(Solver):
 
     def _pick(self, q: np.ndarray, accepted: np.ndarray, q0: np.ndarray) -> np.ndarray:
         """The accepted branch nearest q0 (right-arm q (K, 6), mask (K,)), in the chain's joints."""
-        reference = q0.copy()
-        if self.mirrored:
-            reference[0] = -reference[0]
         candidates = q[accepted]
-        best = candidates[np.argmin(np.linalg.norm(candidates - reference, axis=1))].copy()
-        if self.mirrored:
-            best[0] = -best[0]
-        return best
+        return candidates[np.argmin(np.linalg.norm(candidates - self.flip * q0, axis=1))] * self.flip
 
 
 def _fate_counts(fate: np.ndarray) -> dict[str, int]:
@@ -188,11 +183,8 @@ class ThesisLiteralSolver(_ThesisGolem3):
         self._check_target_kind(target)
         position, rotation = self._right_target(target)
         q, fate, _ = thesis_branches(*position, *thesis_angles(rotation), self.right_lower, self.right_upper)
-        branches = q[fate == ACCEPTED]
-        if self.mirrored:
-            branches[:, 0] = -branches[:, 0]
         results = [evaluate(self.chain, target, Candidate(branch, 1), self.tolerances, 0.0, self.name)
-                   for branch in branches]
+                   for branch in q[fate == ACCEPTED] * self.flip]
         return [result for result in results if result.success]
 
 
