@@ -40,10 +40,7 @@ def wrapped_python(raw: list[float], reference: list[float], lower: list[float],
         turns = float(round((ref - value) / TWO_PI))
         shifted = value + turns * TWO_PI
         if low_tolerant <= shifted <= high_tolerant and -2.0 <= turns <= 2.0:
-            if shifted > high:
-                shifted = high
-            elif shifted < low:
-                shifted = low
+            shifted = min(max(shifted, low), high)  # max and min keep their first argument on a tie
         else:
             best, best_distance = None, math.inf
             for shift in _SHIFTS:

@@ -79,12 +79,10 @@ def check_parameters(name_or_path: str | Path, params: dict) -> None:
 
 
 def load(name_or_path: str | Path, **params) -> Robot:
-    """A built-in robot by name (``params`` go to its builder), a robot example-robot-data ships
-    (``"example-robot-data:talos"`` or ``"erd:talos"``: its loader's floating base, its SRDF reference
-    posture as the nominal) or a URDF file path. With a URDF, ``params`` are :data:`URDF_PARAMS`
-    (:func:`wbik.robot.robot_from_urdf_text`). Unknown parameters raise InvalidOptionError, bad values
-    RobotDescriptionError.
-    """
+    """A built-in robot by name (``params`` go to its builder), an example-robot-data robot (``"erd:talos"``
+    or ``"example-robot-data:talos"``: its loader's floating base, its SRDF reference posture as the nominal)
+    or a URDF file path (``params``: :data:`URDF_PARAMS`). Unknown parameters raise InvalidOptionError, bad
+    values RobotDescriptionError."""
     if not isinstance(name_or_path, str | Path):
         raise UnknownRobotError(repr(name_or_path), list(robot_entries()),
                                 hint="pass a robot name (a string) or the path of a .urdf file")

@@ -45,14 +45,10 @@ class Trajectory:
     def max_position_error(self) -> float | None:
         return nanmax(self.position_errors)
 
-    @property
-    def max_rotation_error(self) -> float | None:
-        return nanmax(self.rotation_errors)
-
     def summary(self) -> dict:
         return {"robot": self.robot, "chain": self.chain, "points": int(len(self.times)),
                 "duration_s": self.duration, "max_position_error_m": self.max_position_error,
-                "max_rotation_error_rad": self.max_rotation_error,
+                "max_rotation_error_rad": nanmax(self.rotation_errors),
                 "max_abs_velocity": np.max(np.abs(self.velocities), axis=0).tolist(),
                 **{k: v for k, v in self.info.items() if k != "path"}}
 
