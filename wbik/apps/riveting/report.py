@@ -18,7 +18,7 @@ from wbik.apps.riveting.scene import Scene, build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.models import load
-from wbik.scenarios.kinds import report_verdict
+from wbik.scenarios.kinds import json_default, report_verdict
 from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
@@ -199,8 +199,6 @@ def format_markdown(report: dict) -> str:
 
 def write_report(report: dict, folder: str | Path) -> list[Path]:
     """report.json and report.md in ``folder``."""
-    from wbik.scenarios.kinds import json_default
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "report.json", folder / "report.md"]
