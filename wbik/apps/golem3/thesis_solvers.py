@@ -41,8 +41,7 @@ SWEEP_STEP = 0.01  # rad between two swept magnitudes (the code's increment)
 SWEEP_MAGNITUDES = 300  # per axis: 0, 0.01, ..., 2.99, each but 0 with both signs
 SWEEP_POINTS = (2 * SWEEP_MAGNITUDES - 1) ** 2  # closed-form evaluations of the whole sweep: 599 x 599
 GOLEM3_CHAINS = ("right_arm", "left_arm")
-NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)
-"""Fate of a branch, in the order the thesis meets them."""
+NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)  # a branch's fate, in order
 
 
 def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
@@ -250,4 +249,3 @@ IK_METHODS = (
     IKMethod("thesis_sweep", ThesisSweepSolver,
              "the Golem-III thesis's position-only roll/pitch sweep of its closed form (Golem-III)"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

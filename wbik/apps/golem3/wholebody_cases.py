@@ -27,4 +27,3 @@ WHOLEBODY_CASES = (
                 "both grippers to their positions at a uniform random configuration of every joint "
                 "(lift mb and chest yaw m0 shared); joint position limits; fixed base"),
 )
-"""The Golem-III's whole-body case sampler."""
