@@ -4,7 +4,6 @@ the previous end, each with its own ``timing``, ``tolerance`` and ``expect`` ove
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 
 import wbik.apps.pincher.teleoperation as teleoperation
 from wbik.motion.scenarios import (
@@ -61,13 +60,8 @@ def pincher_schema() -> Map:
         "automatic": Map({"automatic": Key(Map(samples_key(teleoperation.automatic_path), nullable=True),
                                            required=True), **own}),
     }
-
-    def move_kind(move: Mapping) -> str | None:
-        found = [name for name in moves if name in move]
-        return found[0] if len(found) == 1 else (None if not found else "+".join(found))
-
-    move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
-                                      "{automatic: {}}", "move")
+    move = Variants(lambda move: "+".join(name for name in moves if name in move) or None, moves,
+                    "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or {automatic: {}}", "move")
     keys = {**solving_keys(), "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
     return kind_schema(common, keys)
 
