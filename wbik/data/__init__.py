@@ -1,7 +1,6 @@
 """The data files wbik ships: scenario files (``tasks/``), study definitions (``comparisons/``) and the
 robot descriptions written for this project (``urdf/``): the repository's top-level folders, or their
-copies at ``wbik/data/<folder>/`` in a built wheel (setup.py).
-"""
+copies at ``wbik/data/<folder>/`` in a built wheel (setup.py)."""
 
 from __future__ import annotations
 

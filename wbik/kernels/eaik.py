@@ -2,8 +2,7 @@
 EAIK's branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch
 and bound (:func:`bound_python`; a wrapped branch comes out once at most the next bound less ``params[0]``
 away; ties in the bounds' order) and returns how many; ``choose`` writes the first whose FK
-(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
-"""
+(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """Robots by name, and ``load``: each module of ``ROBOT_MODULES`` declares ``ROBOTS``, a tuple of
 :class:`RobotEntry` (``wbik.robot_packages`` the built-in ones); user code adds one with
-:func:`register_robot`. ``load`` also takes a URDF path or ``"example-robot-data:NAME"``.
-"""
+:func:`register_robot`. ``load`` also takes a URDF path or ``"example-robot-data:NAME"``."""
 
 from __future__ import annotations
 

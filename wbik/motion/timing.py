@@ -3,8 +3,7 @@
 Pieces from rest to rest (``mode``: ``global`` one, ``waypoint`` one per waypoint segment, ``segment`` one
 per knot interval) each follow a time law along a cubic spline q(u), u = s(tau), and last
 T = max(max |q'_j s'| / v_j, sqrt(max |q''_j s'^2 + q'_j s''| / a_j)) over tau (closed form for two knots,
-else a dense grid refined by a bounded scalar search).
-"""
+else a dense grid refined by a bounded scalar search)."""
 
 from __future__ import annotations
 

@@ -16,8 +16,7 @@ not in the text). A target rotation R is read as Rz(gamma) Ry(beta) Rx(alpha), |
 each 0, +0.01, -0.01, ..., +2.99, -2.99 rad (magnitudes accumulated by repeated addition, as the code),
 at most 599 x 599 closed-form evaluations; the first (roll, pitch) with a solution wins. Blocks of sweep
 points are evaluated at once, the first point in sweep order taken, so answer and iteration count are
-those of the one-at-a-time loop. Left arm: targets mirrored, solved as right-arm ones, m0 negated back.
-"""
+those of the one-at-a-time loop. Left arm: targets mirrored, solved as right-arm ones, m0 negated back."""
 
 from __future__ import annotations
 
