@@ -1,7 +1,6 @@
 """Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``): case
-``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`).
-Samplers are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`.
-"""
+``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`). Samplers
+are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`."""
 
 from __future__ import annotations
 

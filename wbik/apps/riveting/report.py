@@ -71,10 +71,9 @@ class Cell:
 
 def run_config(spec: dict, **overrides) -> RunConfig:
     """The run's settings from a task file, with ``overrides``."""
-    values = {"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
-              "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {}))}
-    values.update(overrides)
-    return RunConfig(**values)
+    return RunConfig(**{"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
+                        "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {})),
+                        **overrides})
 
 
 def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
