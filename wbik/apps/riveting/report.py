@@ -130,11 +130,9 @@ def judge(report: dict, expect: dict | None) -> dict:
     checks = []
     for name, wanted in (expect or {}).items():
         summary = report["runs"][name]["summary"]
-        figures = {**summary, "score": summary["score"]["total"]}
-        for key in ("min_clearance_tool", "min_clearance_links", "min_clearance_table", "max_lateral_error",
-                    "max_depth_error"):
-            value = summary.get(f"{key}_mm")
-            figures[f"{key}_m"] = None if value is None else value / 1e3
+        figures = {**summary, "score": summary["score"]["total"],  # and every *_mm figure in m as *_m
+                   **{key[:-3] + "_m": None if value is None else value / 1e3
+                      for key, value in summary.items() if key.endswith("_mm")}}
         checks += [{"planner": name, **check}
                    for check in evaluate(wanted, figures, RIVETING_RULES, f"expect.{name}")]
     report["checks"] = checks
