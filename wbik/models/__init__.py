@@ -103,10 +103,9 @@ def load(name_or_path: str | Path, **params) -> Robot:
         return robot_from_urdf_text(params.pop("name", name), text, urdf_path=urdf, **params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
-        if path.is_dir():
-            raise RobotDescriptionError(f"URDF path {str(path)!r} is a directory; pass a .urdf file")
         if not path.is_file():
-            raise RobotDescriptionError(f"URDF file {str(path)!r} does not exist")
+            raise RobotDescriptionError(f"URDF path {str(path)!r} is a directory; pass a .urdf file"
+                                        if path.is_dir() else f"URDF file {str(path)!r} does not exist")
         check_parameters(path, params)
         try:
             text = path.read_text(encoding="utf-8")

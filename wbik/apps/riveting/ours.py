@@ -141,10 +141,9 @@ class QPPlanner(Planner):
             return None
         at = float(full.timed.knot_times[len(route.knots) - 1])
         approach, insert = split(full, at, ("approach", "insert"), (False, True))
-        if self._path_clearance(approach, self.line_clearance)[0] \
-                and self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0]:
-            return approach, insert
-        return None
+        clear = (self._path_clearance(approach, self.line_clearance)[0]
+                 and self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0])
+        return (approach, insert) if clear else None
 
     def _qp_path(self, target: pin.SE3, q_start: np.ndarray, q_end: np.ndarray) -> np.ndarray | None:
         """Trust-region QP steps from q_start toward the 5-D target under the clearance constraint."""

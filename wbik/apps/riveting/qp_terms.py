@@ -66,9 +66,8 @@ class WorkpieceClearance(InequalityConstraint):
             point_jacobian = jacobian[:3] - pin.skew(item.robot_point - origin) @ jacobian[3:]
             rows.append(-(item.direction @ point_jacobian))
             bounds.append(item.distance - self.minimum - self.safety)
-        if not rows:
-            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
-        return InequalityRows(np.array(rows), np.array(bounds))
+        return (InequalityRows(np.array(rows), np.array(bounds)) if rows
+                else InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1)))
 
     def violation(self, kinematics: Kinematics) -> float:
         distances = [d.distance for d in self._distances(kinematics)]
