@@ -61,8 +61,7 @@ def builder_parameters(name_or_path: str | Path) -> set[str]:
     """The keyword parameters ``load(name_or_path, **params)`` accepts (robot_params of a study)."""
     entry = robot_entries().get(str(name_or_path))
     if entry is not None:
-        builder = entry.module().build
-        return {p.name for p in inspect.signature(builder).parameters.values()
+        return {p.name for p in inspect.signature(entry.module().build).parameters.values()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     return set(URDF_PARAMS)
 
