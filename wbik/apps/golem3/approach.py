@@ -30,9 +30,8 @@ def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method
     lift_solver = make_solver(lift_method, robot, chain=ARM_WITH_LIFT, **solver_options)
     lift_chain = lift_solver.chain
     q = lift_chain.check_q(q0)
-    goal = as_target(grasp)
     start = lift_chain.fk(q)
-    reference = PolylineReference([Target(start.translation.copy(), start.rotation.copy()), goal])
+    reference = PolylineReference([Target(start.translation.copy(), start.rotation.copy()), as_target(grasp)])
     rows, solved, reasons, jumps, lift_samples = [q.copy()], [True], {}, [], []
     for k in range(1, samples + 1):
         target = reference.target(k / samples)

@@ -23,8 +23,7 @@ class ToolAxisTask(Task):
     dimension = 5
 
     def __init__(self, frame: str, target: pin.SE3, **options):
-        self.frame = frame
-        self.frame_id = -1
+        self.frame, self.frame_id = frame, -1
         options.setdefault("name", f"ToolAxisTask[{frame}]")
         super().__init__(**options)
         self.target = target.copy()
