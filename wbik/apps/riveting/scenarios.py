@@ -81,11 +81,9 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
     end = min(seconds, timeline[-1][0] + timeline[-1][1].duration)
     times = np.append(np.arange(0.0, end, sample_s), end)
     times = times[np.r_[True, np.diff(times) > 1e-9]]
-    rows = []
-    for t, index in zip(times, np.searchsorted([start for start, _ in timeline], times, side="right") - 1,
-                        strict=True):
-        start, move = timeline[index]
-        rows.append(move.evaluate(min(t - start, move.duration))[0])
+    indices = np.searchsorted([start for start, _ in timeline], times, side="right") - 1
+    rows = [move.evaluate(min(t - start, move.duration))[0]
+            for t, (start, move) in zip(times, [timeline[i] for i in indices], strict=True)]
     return Animation.from_chain(chain.robot, chain, times, np.array(rows), name=f"riveting, {result.planner}")
 
 
