@@ -57,8 +57,7 @@ class TimeLaw:
         for _ in range(60):
             middle = 0.5 * (low + high)
             below = self.s(middle) < s
-            low = np.where(below, middle, low)
-            high = np.where(below, high, middle)
+            low, high = np.where(below, middle, low), np.where(below, high, middle)
         tau = 0.5 * (low + high)
         return np.where(s >= 1.0, 1.0, np.where(s <= 0.0, 0.0, tau))
 
