@@ -113,9 +113,7 @@ def make_trajectory(timed: TimedPath, dt: float | None = None, times=None) -> Tr
         position_errors = rotation_errors = np.full(len(times), np.nan)
     info = {"time_law": timed.law.name, "timing_mode": timed.mode,
             "velocity_limit": timed.velocity_limit.tolist(),
-            "acceleration_limit": None if timed.acceleration_limit is None
-            else timed.acceleration_limit.tolist(),
-            "path": timed.path.summary()}
+            "acceleration_limit": json_plain(timed.acceleration_limit), "path": timed.path.summary()}
     return Trajectory(chain.robot.name, chain.name, chain.base_frame, chain.tip_frame,
                       list(chain.joint_names), times, positions, velocities, accelerations,
                       np.array([pose.translation for pose in tips]),
