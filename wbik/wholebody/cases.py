@@ -11,6 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from wbik.models import load
 from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot
 from wbik.wholebody.problem import WholeBody
@@ -56,8 +57,6 @@ def case_rng(name: str, seed: int, index: int) -> np.random.Generator:
 @lru_cache(maxsize=8)
 def cached_robot(name: str) -> Robot:
     """The built-in robot ``name``, loaded once per process (samplers build many cases on it)."""
-    from wbik.models import load
-
     return load(name)
 
 
