@@ -1,7 +1,6 @@
 """The data files wbik ships: scenario files (``tasks/``), study definitions (``comparisons/``) and the
 robot descriptions written for this project (``urdf/``): the repository's top-level folders, or their
-copies at ``wbik/data/<folder>/`` in a built wheel (setup.py).
-"""
+copies at ``wbik/data/<folder>/`` in a built wheel (setup.py)."""
 
 from __future__ import annotations
 
@@ -24,10 +23,8 @@ def data_dir(folder: str) -> Path:
 
 
 def _shipped(folder: str, suffixes: tuple[str, ...]) -> dict[str, Path]:
-    root = data_dir(folder)
-    paths = sorted(p for p in root.glob("*") if p.is_file() and p.suffix.lower() in suffixes) \
-        if root.is_dir() else []
-    return {path.stem: path for path in paths}
+    paths = sorted(data_dir(folder).glob("*"))
+    return {path.stem: path for path in paths if path.is_file() and path.suffix.lower() in suffixes}
 
 
 def shipped_tasks() -> dict[str, Path]:
@@ -47,9 +44,7 @@ def _resolve(name_or_path: str | Path, shipped: dict[str, Path], folder: str) ->
     if path.exists() or path.parent not in (Path("."), Path(folder)):
         return path
     candidate = shipped.get(path.stem if path.suffix else path.name)
-    if candidate is not None and (not path.suffix or candidate.name == path.name):
-        return candidate
-    return path
+    return candidate if candidate is not None and (not path.suffix or candidate.name == path.name) else path
 
 
 def task_path(name_or_path: str | Path) -> Path:

@@ -2,8 +2,7 @@
 EAIK's branches (K, n), wrapped into the limits nearest the reference, into ``out`` nearest first by branch
 and bound (:func:`bound_python`; a wrapped branch comes out once at most the next bound less ``params[0]``
 away; ties in the bounds' order) and returns how many; ``choose`` writes the first whose FK
-(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors.
-"""
+(:func:`poe_python`) passes the screen (:func:`screen_values`): joints, tip pose, check errors."""
 
 from __future__ import annotations
 
@@ -40,10 +39,7 @@ def wrapped_python(raw: list[float], reference: list[float], lower: list[float],
         turns = float(round((ref - value) / TWO_PI))
         shifted = value + turns * TWO_PI
         if low_tolerant <= shifted <= high_tolerant and -2.0 <= turns <= 2.0:
-            if shifted > high:
-                shifted = high
-            elif shifted < low:
-                shifted = low
+            shifted = min(max(shifted, low), high)  # max and min keep their first argument on a tie
         else:
             best, best_distance = None, math.inf
             for shift in _SHIFTS:

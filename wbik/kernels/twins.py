@@ -80,6 +80,5 @@ def can_build() -> bool:
 
 def pure_python(kernel: str | None = None) -> bool:
     """Whether ``WBIK_PURE_PYTHON`` asks for ``kernel``'s Python twin (without ``kernel``: every twin's)."""
-    if (value := os.environ.get(PURE_PYTHON_VARIABLE, "").strip()) == "1":
-        return True
-    return kernel is not None and bool(value) and kernel in {word.strip() for word in value.split(",")}
+    value = os.environ.get(PURE_PYTHON_VARIABLE, "").strip()
+    return value == "1" or (kernel is not None and kernel in {word.strip() for word in value.split(",")})

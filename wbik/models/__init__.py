@@ -1,7 +1,6 @@
 """Robots by name, and ``load``: each module of ``ROBOT_MODULES`` declares ``ROBOTS``, a tuple of
 :class:`RobotEntry` (``wbik.robot_packages`` the built-in ones); user code adds one with
-:func:`register_robot`. ``load`` also takes a URDF path or ``"example-robot-data:NAME"``.
-"""
+:func:`register_robot`. ``load`` also takes a URDF path or ``"example-robot-data:NAME"``."""
 
 from __future__ import annotations
 
@@ -62,8 +61,7 @@ def builder_parameters(name_or_path: str | Path) -> set[str]:
     """The keyword parameters ``load(name_or_path, **params)`` accepts (robot_params of a study)."""
     entry = robot_entries().get(str(name_or_path))
     if entry is not None:
-        builder = entry.module().build
-        return {p.name for p in inspect.signature(builder).parameters.values()
+        return {p.name for p in inspect.signature(entry.module().build).parameters.values()
                 if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
     return set(URDF_PARAMS)
 
@@ -79,12 +77,10 @@ def check_parameters(name_or_path: str | Path, params: dict) -> None:
 
 
 def load(name_or_path: str | Path, **params) -> Robot:
-    """A built-in robot by name (``params`` go to its builder), a robot example-robot-data ships
-    (``"example-robot-data:talos"`` or ``"erd:talos"``: its loader's floating base, its SRDF reference
-    posture as the nominal) or a URDF file path. With a URDF, ``params`` are :data:`URDF_PARAMS`
-    (:func:`wbik.robot.robot_from_urdf_text`). Unknown parameters raise InvalidOptionError, bad values
-    RobotDescriptionError.
-    """
+    """A built-in robot by name (``params`` go to its builder), an example-robot-data robot (``"erd:talos"``
+    or ``"example-robot-data:talos"``: its loader's floating base, its SRDF reference posture as the nominal)
+    or a URDF file path (``params``: :data:`URDF_PARAMS`). Unknown parameters raise InvalidOptionError, bad
+    values RobotDescriptionError."""
     if not isinstance(name_or_path, str | Path):
         raise UnknownRobotError(repr(name_or_path), list(robot_entries()),
                                 hint="pass a robot name (a string) or the path of a .urdf file")
@@ -106,10 +102,9 @@ def load(name_or_path: str | Path, **params) -> Robot:
         return robot_from_urdf_text(params.pop("name", name), text, urdf_path=urdf, **params)
     path = Path(key).expanduser()
     if path.suffix.lower() in (".urdf", ".xml") or path.exists():
-        if path.is_dir():
-            raise RobotDescriptionError(f"URDF path {str(path)!r} is a directory; pass a .urdf file")
         if not path.is_file():
-            raise RobotDescriptionError(f"URDF file {str(path)!r} does not exist")
+            raise RobotDescriptionError(f"URDF path {str(path)!r} is a directory; pass a .urdf file"
+                                        if path.is_dir() else f"URDF file {str(path)!r} does not exist")
         check_parameters(path, params)
         try:
             text = path.read_text(encoding="utf-8")

@@ -35,8 +35,7 @@ def urdf_path(relative: str | Path) -> Path:
 
 def package_dirs() -> list[str]:
     """Folders that resolve ``package://example-robot-data/robots/...`` mesh paths."""
-    share = robots_dir().parents[1]
-    return [str(share), str(robots_dir().parent)]
+    return [str(robots_dir().parents[1]), str(robots_dir().parent)]
 
 
 PREFIXES = ("example-robot-data:", "erd:")
@@ -85,8 +84,7 @@ def reference_posture(robot: ExampleRobot, text: str) -> np.ndarray | None:
     """The SRDF's reference posture (the loader's ``q0``) in Pinocchio's own parse of the URDF, or None."""
     if robot.srdf is None or robot.reference_posture is None:
         return None
-    model = pin.buildModelFromXML(text, pin.JointModelFreeFlyer()) if robot.floating_base else \
-        pin.buildModelFromXML(text)
+    model = pin.buildModelFromXML(text, *([pin.JointModelFreeFlyer()] if robot.floating_base else []))
     pin.loadReferenceConfigurations(model, str(robot.srdf), False)
     if robot.reference_posture not in model.referenceConfigurations:
         return None

@@ -64,9 +64,7 @@ def _advance(solver: Solver, reference: TaskReference, s_from: float, q_from: np
     qs = [q_from, *(result.q for _, result in refined)]
     clean = all(result.success for _, result in refined) and all(
         _step(a, b) <= threshold for a, b in zip(qs[:-1], qs[1:], strict=True))
-    if clean or (not direct.success and refined[-1][1].success):
-        return refined
-    return [(s_to, direct)]
+    return refined if clean or (not direct.success and refined[-1][1].success) else [(s_to, direct)]
 
 
 def follow(solver: Solver, reference: TaskReference, s_values: Sequence[float], q0: Sequence[float],

@@ -6,8 +6,7 @@ d2q/dt2 = (q''(s) s'^2 + q'(s) s'') / T^2.
 - ``linear``:  s = tau (s' jumps at the ends: unbounded acceleration, no acceleration limit);
 - ``cubic``:   s = 3 tau^2 - 2 tau^3 (rest to rest; peak s' = 3/2, peak |s''| = 6);
 - ``quintic`` (alias ``minimum_jerk``): s = 10 tau^3 - 15 tau^4 + 6 tau^5 (zero acceleration at
-  both ends too; peak s' = 15/8, peak |s''| = 10 / sqrt(3)).
-"""
+  both ends too; peak s' = 15/8, peak |s''| = 10 / sqrt(3))."""
 
 from __future__ import annotations
 
@@ -58,8 +57,7 @@ class TimeLaw:
         for _ in range(60):
             middle = 0.5 * (low + high)
             below = self.s(middle) < s
-            low = np.where(below, middle, low)
-            high = np.where(below, high, middle)
+            low, high = np.where(below, middle, low), np.where(below, high, middle)
         tau = 0.5 * (low + high)
         return np.where(s >= 1.0, 1.0, np.where(s <= 0.0, 0.0, tau))
 

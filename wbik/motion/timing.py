@@ -3,8 +3,7 @@
 Pieces from rest to rest (``mode``: ``global`` one, ``waypoint`` one per waypoint segment, ``segment`` one
 per knot interval) each follow a time law along a cubic spline q(u), u = s(tau), and last
 T = max(max |q'_j s'| / v_j, sqrt(max |q''_j s'^2 + q'_j s''| / a_j)) over tau (closed form for two knots,
-else a dense grid refined by a bounded scalar search).
-"""
+else a dense grid refined by a bounded scalar search)."""
 
 from __future__ import annotations
 
@@ -146,12 +145,8 @@ def time_scale(path: JointPath, law: str | TimeLaw = "quintic", velocity_limit=N
     last = len(path.s) - 1
     if last < 1:
         raise InvalidConfigurationError("a path needs at least two knots to be timed")
-    if mode == "global":
-        breaks = [0, last]
-    elif mode == "segment":
-        breaks = list(range(last + 1))
-    else:
-        breaks = sorted({0, last, *[k for k in path.waypoint_knots if 0 < k < last]})
+    breaks = {"global": [0, last], "segment": list(range(last + 1)),
+              "waypoint": sorted({0, last, *[k for k in path.waypoint_knots if 0 < k < last]})}[mode]
     pieces, knot_times, clock = [], np.zeros(last + 1), 0.0
     for first, end in zip(breaks[:-1], breaks[1:], strict=True):
         s = path.s[first:end + 1]

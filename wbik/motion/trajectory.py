@@ -45,14 +45,10 @@ class Trajectory:
     def max_position_error(self) -> float | None:
         return nanmax(self.position_errors)
 
-    @property
-    def max_rotation_error(self) -> float | None:
-        return nanmax(self.rotation_errors)
-
     def summary(self) -> dict:
         return {"robot": self.robot, "chain": self.chain, "points": int(len(self.times)),
                 "duration_s": self.duration, "max_position_error_m": self.max_position_error,
-                "max_rotation_error_rad": self.max_rotation_error,
+                "max_rotation_error_rad": nanmax(self.rotation_errors),
                 "max_abs_velocity": np.max(np.abs(self.velocities), axis=0).tolist(),
                 **{k: v for k, v in self.info.items() if k != "path"}}
 
@@ -117,9 +113,7 @@ def make_trajectory(timed: TimedPath, dt: float | None = None, times=None) -> Tr
         position_errors = rotation_errors = np.full(len(times), np.nan)
     info = {"time_law": timed.law.name, "timing_mode": timed.mode,
             "velocity_limit": timed.velocity_limit.tolist(),
-            "acceleration_limit": None if timed.acceleration_limit is None
-            else timed.acceleration_limit.tolist(),
-            "path": timed.path.summary()}
+            "acceleration_limit": json_plain(timed.acceleration_limit), "path": timed.path.summary()}
     return Trajectory(chain.robot.name, chain.name, chain.base_frame, chain.tip_frame,
                       list(chain.joint_names), times, positions, velocities, accelerations,
                       np.array([pose.translation for pose in tips]),

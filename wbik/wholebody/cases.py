@@ -1,7 +1,6 @@
 """Seeded whole-body cases for the whole-body study (``target: wholebody``, ``scenario: <sampler>``): case
-``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`).
-Samplers are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`.
-"""
+``index`` of a :class:`CaseSampler` depends only on (sampler name, seed, index) (:func:`case_rng`). Samplers
+are declared in a module's ``WHOLEBODY_CASES`` (:data:`CASE_MODULES`) or by :func:`register_sampler`."""
 
 from __future__ import annotations
 
@@ -12,6 +11,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from wbik.models import load
 from wbik.registry import DeclaredRegistry
 from wbik.robot import Robot
 from wbik.wholebody.problem import WholeBody
@@ -57,8 +57,6 @@ def case_rng(name: str, seed: int, index: int) -> np.random.Generator:
 @lru_cache(maxsize=8)
 def cached_robot(name: str) -> Robot:
     """The built-in robot ``name``, loaded once per process (samplers build many cases on it)."""
-    from wbik.models import load
-
     return load(name)
 
 

@@ -24,6 +24,7 @@ from wbik.qp.task_entries import FRAME, TASK_ENTRY, build_task
 from wbik.qp.tasks import Task
 from wbik.robot import Robot
 from wbik.schema import Context, Either, Instance, Key, ListOf, Map, Number, Text, Vector
+from wbik.validation import finite_vector
 
 LIMITS = ("position", "position+velocity", "none")
 FRAMES = ListOf(FRAME, what="frame names")
@@ -121,11 +122,9 @@ class WholeBody:
         return [(name, task) for name, task in zip(self.task_names, self.tasks, strict=True) if task.goal]
 
     def check_q(self, q, what: str = "q0") -> np.ndarray:
-        array = np.asarray(q, dtype=float).reshape(-1) if q is not None else None
-        if array is None or array.shape != (self.robot.model.nq,) or not np.all(np.isfinite(array)):
-            raise InvalidConfigurationError(
-                f"{what} must be {self.robot.model.nq} finite values for {self.robot.name!r}, got {q!r}")
-        return array.copy()
+        """A copy of ``q`` as the robot's nq finite numbers, else InvalidConfigurationError."""
+        nq, name = self.robot.model.nq, f"{what} of {self.robot.name!r}"
+        return finite_vector(q, nq, name, InvalidConfigurationError).copy()
 
     def copied_tasks(self) -> list[Task]:
         """Fresh copies of the tasks (a task keeps buffers and frame ids: one copy per solve)."""

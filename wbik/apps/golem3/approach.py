@@ -18,13 +18,6 @@ from wbik.targets import Target, as_target
 ARM, ARM_WITH_LIFT = "right_arm", "right_arm_lift"
 
 
-def torso_placement(robot: Robot, q_lift: np.ndarray):
-    """Pose of torso_link in base_link for the 7-DOF chain configuration (mb, m0, m10..m14)."""
-    chain = robot.chain(ARM_WITH_LIFT)
-    full = chain.full_configuration(q_lift)
-    return robot.frame_placement(full, chain.base_frame).actInv(robot.frame_placement(full, "torso_link"))
-
-
 def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method: str = "dls",
              jump_threshold: float = DEFAULT_JUMP_THRESHOLD, lift_method: str | None = None,
              **solver_options) -> JointPath:
@@ -37,13 +30,14 @@ def approach(robot: Robot, q0: Sequence[float], grasp, samples: int = 20, method
     lift_solver = make_solver(lift_method, robot, chain=ARM_WITH_LIFT, **solver_options)
     lift_chain = lift_solver.chain
     q = lift_chain.check_q(q0)
-    goal = as_target(grasp)
     start = lift_chain.fk(q)
-    reference = PolylineReference([Target(start.translation.copy(), start.rotation.copy()), goal])
+    reference = PolylineReference([Target(start.translation.copy(), start.rotation.copy()), as_target(grasp)])
     rows, solved, reasons, jumps, lift_samples = [q.copy()], [True], {}, [], []
     for k in range(1, samples + 1):
         target = reference.target(k / samples)
-        torso = torso_placement(robot, q)
+        full = lift_chain.full_configuration(q)
+        base = robot.frame_placement(full, lift_chain.base_frame)
+        torso = base.actInv(robot.frame_placement(full, "torso_link"))  # torso_link in base_link
         in_torso = Target(torso.actInv(target.se3()).translation,
                           None if target.rotation is None else torso.rotation.T @ target.rotation)
         arm = arm_solver.solve(in_torso, q[1:])

@@ -27,10 +27,8 @@ def run_golem3(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     run = MoveRun(spec, on_progress, APPROACH_RULES)
     chain = run.robot.chain(ARM_WITH_LIFT)
     grasp = spec["grasp"]
-    if "from_joints" in grasp:
-        goal = chain.fk(vector_of(grasp["from_joints"], chain.nq, "grasp from_joints"))
-    else:
-        goal = pose_of(grasp, "grasp")
+    goal = (chain.fk(vector_of(grasp["from_joints"], chain.nq, "grasp from_joints")) if "from_joints" in grasp
+            else pose_of(grasp, "grasp"))
     path = approach(run.robot, start_of(spec, chain), goal, int(spec["samples"]), spec["method"],
                     timeout_s=float(spec["timeout_s"]))
     run.move(chain, path, "approach", {"lift": bool(path.info["lift_samples"])})

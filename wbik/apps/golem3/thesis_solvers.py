@@ -16,8 +16,7 @@ not in the text). A target rotation R is read as Rz(gamma) Ry(beta) Rx(alpha), |
 each 0, +0.01, -0.01, ..., +2.99, -2.99 rad (magnitudes accumulated by repeated addition, as the code),
 at most 599 x 599 closed-form evaluations; the first (roll, pitch) with a solution wins. Blocks of sweep
 points are evaluated at once, the first point in sweep order taken, so answer and iteration count are
-those of the one-at-a-time loop. Left arm: targets mirrored, solved as right-arm ones, m0 negated back.
-"""
+those of the one-at-a-time loop. Left arm: targets mirrored, solved as right-arm ones, m0 negated back."""
 
 from __future__ import annotations
 
@@ -41,8 +40,7 @@ SWEEP_STEP = 0.01  # rad between two swept magnitudes (the code's increment)
 SWEEP_MAGNITUDES = 300  # per axis: 0, 0.01, ..., 2.99, each but 0 with both signs
 SWEEP_POINTS = (2 * SWEEP_MAGNITUDES - 1) ** 2  # closed-form evaluations of the whole sweep: 599 x 599
 GOLEM3_CHAINS = ("right_arm", "left_arm")
-NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)
-"""Fate of a branch, in the order the thesis meets them."""
+NO_BRANCH, NEGATIVE_SQRT, OUTSIDE_LIMITS, CHECK_FAILED, ACCEPTED = range(5)  # a branch's fate, in order
 
 
 def thesis_branches(x, y, z, yaw, pitch, roll, lower, upper):
@@ -132,6 +130,7 @@ class _ThesisGolem3(Solver):
                 f"method {self.name!r} is the Golem-III thesis's solver: it applies to golem3's "
                 f"{' and '.join(GOLEM3_CHAINS)} only, not {self.robot.name}.{self.chain.name}")
         self.mirrored, self.right_lower, self.right_upper = right_arm_coordinates(self.chain)
+        self.flip = np.r_[-1.0 if self.mirrored else 1.0, np.ones(5)]  # m0 negated between the arms
 
     def _right_target(self, target: Target) -> tuple[np.ndarray, np.ndarray | None]:
         """Position and rotation in right-arm coordinates (M p, M R M, M = diag(1, -1, 1))."""
@@ -142,14 +141,8 @@ class _ThesisGolem3(Solver):
 
     def _pick(self, q: np.ndarray, accepted: np.ndarray, q0: np.ndarray) -> np.ndarray:
         """The accepted branch nearest q0 (right-arm q (K, 6), mask (K,)), in the chain's joints."""
-        reference = q0.copy()
-        if self.mirrored:
-            reference[0] = -reference[0]
         candidates = q[accepted]
-        best = candidates[np.argmin(np.linalg.norm(candidates - reference, axis=1))].copy()
-        if self.mirrored:
-            best[0] = -best[0]
-        return best
+        return candidates[np.argmin(np.linalg.norm(candidates - self.flip * q0, axis=1))] * self.flip
 
 
 def _fate_counts(fate: np.ndarray) -> dict[str, int]:
@@ -188,11 +181,8 @@ class ThesisLiteralSolver(_ThesisGolem3):
         self._check_target_kind(target)
         position, rotation = self._right_target(target)
         q, fate, _ = thesis_branches(*position, *thesis_angles(rotation), self.right_lower, self.right_upper)
-        branches = q[fate == ACCEPTED]
-        if self.mirrored:
-            branches[:, 0] = -branches[:, 0]
         results = [evaluate(self.chain, target, Candidate(branch, 1), self.tolerances, 0.0, self.name)
-                   for branch in branches]
+                   for branch in q[fate == ACCEPTED] * self.flip]
         return [result for result in results if result.success]
 
 
@@ -258,4 +248,3 @@ IK_METHODS = (
     IKMethod("thesis_sweep", ThesisSweepSolver,
              "the Golem-III thesis's position-only roll/pitch sweep of its closed form (Golem-III)"),
 )
-"""The methods this module declares to :mod:`wbik.solvers.method_registry`."""

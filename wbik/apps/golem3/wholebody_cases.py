@@ -1,7 +1,5 @@
-"""The Golem-III's seeded whole-body case ``golem3_two_grippers`` (fixed base): both grippers to the
-positions they have at a uniform random configuration of every joint (lift mb and chest yaw m0 shared), from
-the nominal; joint position limits only (the lift's 5 mm/s velocity limit would cap every IK step at 5 mm).
-"""
+"""The Golem-III's seeded whole-body case (:data:`WHOLEBODY_CASES`), from the nominal; joint position limits
+only (the lift's 5 mm/s velocity limit would cap every IK step at 5 mm)."""
 
 from __future__ import annotations
 
@@ -27,4 +25,3 @@ WHOLEBODY_CASES = (
                 "both grippers to their positions at a uniform random configuration of every joint "
                 "(lift mb and chest yaw m0 shared); joint position limits; fixed base"),
 )
-"""The Golem-III's whole-body case sampler."""

@@ -4,7 +4,6 @@ the previous end, each with its own ``timing``, ``tolerance`` and ``expect`` ove
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 
 import wbik.apps.pincher.teleoperation as teleoperation
 from wbik.motion.scenarios import (
@@ -18,7 +17,7 @@ from wbik.motion.scenarios import (
     vector_of,
 )
 from wbik.scenario_schema import expect_block, kind_schema
-from wbik.scenarios.kinds import Progress, ScenarioError, ScenarioKind, ScenarioReport, start_of
+from wbik.scenarios.kinds import Progress, ScenarioKind, ScenarioReport, start_of
 from wbik.schema import Either, Key, ListOf, Map, Number, Text, Variants, Vector
 
 
@@ -28,7 +27,7 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
     ik = solver(spec["method"], run.robot, timeout_s=float(spec["timeout_s"]))
     chain = ik.chain
     q = start_of(spec, chain)
-    for index, move in enumerate(spec["moves"]):
+    for move in spec["moves"]:  # the schema's variants: jog, plane_line or automatic
         if "jog" in move:
             path = teleoperation.jog(chain, q, move["jog"], math.radians(float(move["delta_deg"])),
                                      int(move["samples"]))
@@ -39,11 +38,9 @@ def run_pincher(spec: dict, on_progress: Progress = None) -> ScenarioReport:
             goal = vector_of(line["goal_xy_mm"], 2, "goal_xy_mm") / 1000.0
             path = teleoperation.plane_line(ik, start, goal, int(line["samples"]), q0=q)
             name = f"plane line {line['start_xy_mm']} -> {line['goal_xy_mm']} mm"
-        elif "automatic" in move:
+        else:
             path = teleoperation.automatic_path(ik, int(move["automatic"]["samples"]))
             name = "automatic cycle"
-        else:
-            raise ScenarioError(f"pincher move {index + 1} must be jog, plane_line or automatic: {move!r}")
         run.move(chain, path, name, spec={**spec, **move})
         q = path.q[-1].copy()
     return run.finished()
@@ -63,13 +60,8 @@ def pincher_schema() -> Map:
         "automatic": Map({"automatic": Key(Map(samples_key(teleoperation.automatic_path), nullable=True),
                                            required=True), **own}),
     }
-
-    def move_kind(move: Mapping) -> str | None:
-        found = [name for name in moves if name in move]
-        return found[0] if len(found) == 1 else (None if not found else "+".join(found))
-
-    move = Variants(move_kind, moves, "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or "
-                                      "{automatic: {}}", "move")
+    move = Variants(lambda move: "+".join(name for name in moves if name in move) or None, moves,
+                    "a move: {jog: JOINT, delta_deg: D}, {plane_line: {...}} or {automatic: {}}", "move")
     keys = {**solving_keys(), "moves": Key(ListOf(move, min_items=1, what="moves"), required=True)}
     return kind_schema(common, keys)
 

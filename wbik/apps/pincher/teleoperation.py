@@ -96,9 +96,8 @@ def tool_path(solver: Solver, points: Sequence[Sequence[float]], samples: int = 
     first = solver.solve(reference.target(0.0), q0)
     q_start = first.q if first.q is not None else q0
     count = reference.segments * samples
-    waypoint_s = [(k + 1) / reference.segments for k in range(reference.segments)]
     path = follow(solver, reference, np.arange(count + 1) / count, q_start, jump_threshold,
-                  waypoint_s=waypoint_s)
+                  waypoint_s=[(k + 1) / reference.segments for k in range(reference.segments)])
     if not first.success:
         path.solved[0] = False
         path.reasons[0] = f"start: {first.reason}"

@@ -139,8 +139,7 @@ class CollisionModel:
 
     def __init__(self, robot: Robot, scene: Scene, exact_below: float = EXACT_BELOW):
         self.robot, self.scene, self.exact_below = robot, scene, float(exact_below)
-        self.model = robot.model
-        self.data = robot.model.createData()
+        self.model, self.data = robot.model, robot.model.createData()
         self.geometry = pin.buildGeomFromUrdfString(robot.model, robot.urdf_text, pin.GeometryType.COLLISION,
                                                     package_dirs=list(robot.package_dirs))
         self.geometry_data = pin.GeometryData(self.geometry)
@@ -153,8 +152,7 @@ class CollisionModel:
         self.obstacles = {kind: (coal.Box(*size), coal.Transform3s(np.eye(3), center), center, 0.5 * size)
                           for kind, size, center in cell}
         self._hole_models: dict[int, list[Obstacle]] = {}
-        self._request = coal.DistanceRequest()
-        self._result = coal.DistanceResult()
+        self._request, self._result = coal.DistanceRequest(), coal.DistanceResult()
 
     def joint_reach(self) -> np.ndarray:
         """R (nq,): per joint, a bound (m) on the distance from its axis of any point it moves, so a joint
@@ -200,10 +198,8 @@ class CollisionModel:
         distance, robot_point, obstacle_point, normal = best
         offset = robot_point - obstacle_point
         norm = np.linalg.norm(offset)
-        if distance > 1e-6 and norm > 1e-9:
-            direction = offset / norm
-        else:
-            direction = -normal / max(np.linalg.norm(normal), 1e-12)
+        direction = (offset / norm if distance > 1e-6 and norm > 1e-9
+                     else -normal / max(np.linalg.norm(normal), 1e-12))
         return GeometryDistance(entry.name, float(distance), True, robot_point, direction, obj.parentJoint)
 
     def clearance(self, q: np.ndarray, table: bool = True, skip: tuple[str, ...] = ()) -> Clearance:

@@ -9,7 +9,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from wbik.apps.riveting.collision import CollisionModel
+from wbik.apps.riveting.moves import Limits, samples, timed_move
+from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.scene import build_scene
 from wbik.errors import InvalidSettingError
+from wbik.models import load
+from wbik.solvers.method_registry import solver
 
 UNIT_COST_S = {
     "ik": 7.0e-4,
@@ -51,13 +57,6 @@ class CountingCollision:
 
 def calibrate(repeats: int = 200) -> dict[str, float]:
     """Median wall time (s) of each operation on this machine, in the default riveting cell."""
-    from wbik.apps.riveting.collision import CollisionModel
-    from wbik.apps.riveting.moves import Limits, samples, timed_move
-    from wbik.apps.riveting.plan import Insertion
-    from wbik.apps.riveting.scene import build_scene
-    from wbik.models import load
-    from wbik.solvers.method_registry import solver
-
     robot, scene = load("ur5"), build_scene()
     collision, chain = CollisionModel(robot, scene), robot.chain("arm")
     limits = Limits(chain.velocity_limit, 5.0)

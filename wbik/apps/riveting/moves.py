@@ -30,9 +30,8 @@ class Move:
     def evaluate(self, t: np.ndarray) -> np.ndarray:
         """Joint rows at local times t in [0, duration]."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        if self.timed is None:
-            return np.repeat(self.hold[None], len(t), axis=0)
-        return self.timed.evaluate(self.local_times(t))[0]
+        return (np.repeat(self.hold[None], len(t), axis=0) if self.timed is None
+                else self.timed.evaluate(self.local_times(t))[0])
 
     def local_times(self, t: np.ndarray) -> np.ndarray:
         """Times on ``timed`` of the move's local times t."""

@@ -141,18 +141,16 @@ class QPPlanner(Planner):
             return None
         at = float(full.timed.knot_times[len(route.knots) - 1])
         approach, insert = split(full, at, ("approach", "insert"), (False, True))
-        if self._path_clearance(approach, self.line_clearance)[0] \
-                and self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0]:
-            return approach, insert
-        return None
+        clear = (self._path_clearance(approach, self.line_clearance)[0]
+                 and self._path_clearance(insert, self.line_clearance, skip=(PIN,))[0])
+        return (approach, insert) if clear else None
 
     def _qp_path(self, target: pin.SE3, q_start: np.ndarray, q_end: np.ndarray) -> np.ndarray | None:
         """Trust-region QP steps from q_start toward the 5-D target under the clearance constraint."""
         task = ToolAxisTask(self.chain.tip_frame, target, tolerance=TASK_TOLERANCE)
         constraints = [JointPositionLimits(), WorkpieceClearance(self.collision, self.minimum_clearance)]
-        model = self.robot.model
-        problem = IKProblem(model, [task, RegularizationTask(1e-9)], constraints, backend=self.backend,
-                            max_step=0.2)
+        problem = IKProblem(self.robot.model, [task, RegularizationTask(1e-9)], constraints,
+                            backend=self.backend, max_step=0.2)
         problem.start(q_start)
         q = q_start.copy()
         knots = [q.copy()]
@@ -162,7 +160,7 @@ class QPPlanner(Planner):
                 dq = problem.step(q, max_step=self.max_step)
             except NoQPSolutionError:
                 return None
-            q = problem.clip(pin.integrate(model, q, dq))
+            q = problem.clip(pin.integrate(self.robot.model, q, dq))
             knots.append(q.copy())
             problem.kinematics.update(q)
             if np.linalg.norm(task.error(problem.kinematics)) < 1e-6:

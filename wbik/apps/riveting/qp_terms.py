@@ -23,8 +23,7 @@ class ToolAxisTask(Task):
     dimension = 5
 
     def __init__(self, frame: str, target: pin.SE3, **options):
-        self.frame = frame
-        self.frame_id = -1
+        self.frame, self.frame_id = frame, -1
         options.setdefault("name", f"ToolAxisTask[{frame}]")
         super().__init__(**options)
         self.target = target.copy()
@@ -66,9 +65,8 @@ class WorkpieceClearance(InequalityConstraint):
             point_jacobian = jacobian[:3] - pin.skew(item.robot_point - origin) @ jacobian[3:]
             rows.append(-(item.direction @ point_jacobian))
             bounds.append(item.distance - self.minimum - self.safety)
-        if not rows:
-            return InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1))
-        return InequalityRows(np.array(rows), np.array(bounds))
+        return (InequalityRows(np.array(rows), np.array(bounds)) if rows
+                else InequalityRows(np.zeros((1, kinematics.nv)), np.ones(1)))
 
     def violation(self, kinematics: Kinematics) -> float:
         distances = [d.distance for d in self._distances(kinematics)]

@@ -18,7 +18,7 @@ from wbik.apps.riveting.scene import Scene, build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.models import load
-from wbik.scenarios.kinds import report_verdict
+from wbik.scenarios.kinds import json_default, report_verdict
 from wbik.solvers.method_registry import solver
 
 PLANNERS = {"thesis": ThesisPlanner, "ours": QPPlanner}
@@ -71,10 +71,9 @@ class Cell:
 
 def run_config(spec: dict, **overrides) -> RunConfig:
     """The run's settings from a task file, with ``overrides``."""
-    values = {"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
-              "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {}))}
-    values.update(overrides)
-    return RunConfig(**values)
+    return RunConfig(**{"duration": float(spec.get("duration_s", 300.0)), "seed": int(spec.get("seed", 2015)),
+                        "max_cycles": spec.get("max_cycles"), "noise": NoiseModel(**spec.get("noise", {})),
+                        **overrides})
 
 
 def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
@@ -112,9 +111,12 @@ def run_task(spec: dict, on_progress: Callable[[dict], None] | None = None,
 
 def _check_expect_keys(spec: dict) -> None:
     """Unknown planners or keys in ``expect`` raise before minutes of simulation."""
+    expect = spec.get("expect") or {}
+    if not isinstance(expect, dict):
+        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
     planners = [entry.get("name", entry.get("planner", "ours"))
                 for entry in spec.get("planners", DEFAULT_PLANNERS)]
-    for name, wanted in _expect(spec.get("expect")).items():
+    for name, wanted in expect.items():
         if name not in planners:
             raise ExpectationError(f"expect names planner {name!r}; the planners are {planners}")
         unknown = set(wanted or {}) - set(RIVETING_RULES)
@@ -123,25 +125,14 @@ def _check_expect_keys(spec: dict) -> None:
                                    f"known keys: {sorted(RIVETING_RULES)}")
 
 
-def _expect(expect) -> dict:
-    if not isinstance(expect or {}, dict):
-        raise ExpectationError(f"ur5_riveting: 'expect' must be a mapping of planner names, got {expect!r}")
-    return expect or {}
-
-
 def judge(report: dict, expect: dict | None) -> dict:
     """Check every planner's run against ``expect`` (``checks``, ``verdict``, ``passed``)."""
     checks = []
-    for name, wanted in _expect(expect).items():
-        summary = report["runs"].get(name, {}).get("summary")
-        if summary is None:
-            raise ExpectationError(f"expect names planner {name!r}, which did not run; "
-                                   f"ran: {sorted(report['runs'])}")
-        figures = {**summary, "score": summary["score"]["total"]}
-        for key in ("min_clearance_tool", "min_clearance_links", "min_clearance_table", "max_lateral_error",
-                    "max_depth_error"):
-            value = summary.get(f"{key}_mm")
-            figures[f"{key}_m"] = None if value is None else value / 1e3
+    for name, wanted in (expect or {}).items():
+        summary = report["runs"][name]["summary"]
+        figures = {**summary, "score": summary["score"]["total"],  # and every *_mm figure in m as *_m
+                   **{key[:-3] + "_m": None if value is None else value / 1e3
+                      for key, value in summary.items() if key.endswith("_mm")}}
         checks += [{"planner": name, **check}
                    for check in evaluate(wanted, figures, RIVETING_RULES, f"expect.{name}")]
     report["checks"] = checks
@@ -205,8 +196,6 @@ def format_markdown(report: dict) -> str:
 
 def write_report(report: dict, folder: str | Path) -> list[Path]:
     """report.json and report.md in ``folder``."""
-    from wbik.scenarios.kinds import json_default
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = [folder / "report.json", folder / "report.md"]

@@ -7,8 +7,12 @@ from dataclasses import fields
 
 import numpy as np
 
-from wbik.apps.riveting.report import RIVETING_RULES, format_text, run_task, write_report
+from wbik.apps.riveting.cycle import NoiseModel, RunConfig
+from wbik.apps.riveting.plan import Insertion
+from wbik.apps.riveting.report import DEFAULT_PLANNERS, RIVETING_RULES, format_text, run_task, write_report
+from wbik.apps.riveting.scene import build_scene
 from wbik.errors import WbikError, did_you_mean
+from wbik.models import load
 from wbik.qp.task_entries import NON_NEGATIVE, POSITIVE, VECTOR3
 from wbik.scenario_schema import Robot, backend_key, common_keys, expect_block, time_laws
 from wbik.scenarios.kinds import (
@@ -54,9 +58,6 @@ def run_riveting(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         write_report(result, spec["report_folder"])
     report = ScenarioReport.from_dict(result)
     if kept:
-        from wbik.apps.riveting.scene import build_scene
-        from wbik.models import load
-
         robot = load(spec["robot"])  # the robot of wbik.apps.riveting.report.Cell, arm chain "arm"
         animation = riveting_animation(robot.chain("arm"), next(iter(kept.values())))
         report.animation = animation.with_environment(scene_boxes(build_scene(spec.get("scene"))))
@@ -80,18 +81,13 @@ def riveting_animation(chain, result, seconds: float = ANIMATION_SECONDS,
     end = min(seconds, timeline[-1][0] + timeline[-1][1].duration)
     times = np.append(np.arange(0.0, end, sample_s), end)
     times = times[np.r_[True, np.diff(times) > 1e-9]]
-    rows = []
-    for t, index in zip(times, np.searchsorted([start for start, _ in timeline], times, side="right") - 1,
-                        strict=True):
-        start, move = timeline[index]
-        rows.append(move.evaluate(min(t - start, move.duration))[0])
+    indices = np.searchsorted([start for start, _ in timeline], times, side="right") - 1
+    rows = [move.evaluate(min(t - start, move.duration))[0]
+            for t, (start, move) in zip(times, [timeline[i] for i in indices], strict=True)]
     return Animation.from_chain(chain.robot, chain, times, np.array(rows), name=f"riveting, {result.planner}")
 
 
 def riveting_schema() -> Map:
-    from wbik.apps.riveting.cycle import NoiseModel, RunConfig
-    from wbik.apps.riveting.plan import Insertion
-
     run = {item.name: item.default for item in fields(RunConfig)}
     position = Map({"position": Key(VECTOR3), "rpy": Key(VECTOR3)})
     rows = ListOf(Map({"x": Key(Vector(), required=True), "y": Key(Number(unit="m")),
@@ -142,8 +138,7 @@ def riveting_schema() -> Map:
         "insertion": Key(Map(from_dataclass(Insertion, {"depth": POSITIVE}).keys, nullable=True), {}),
         "noise": Key(Map(from_dataclass(NoiseModel, noise).keys, nullable=True), {}),
         "scene": Key(scene),
-        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"),
-                        [{"name": "thesis", "planner": "thesis"}, {"name": "ours"}]),
+        "planners": Key(ListOf(planner, min_items=1, what="planner mappings"), DEFAULT_PLANNERS),
         "expect": Key(Map(values=expect_block(RIVETING_RULES), nullable=True), None),
     }, post=post)
 

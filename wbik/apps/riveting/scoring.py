@@ -20,9 +20,8 @@ MAXIMUM = 30
 
 def band(value: float, bounds: Sequence[float]) -> int:
     """0 if value < bounds[0]; k if bounds[k-1] <= value <= bounds[k]; len(bounds) above the last."""
-    if value < bounds[0]:
-        return 0
-    return next((index for index in range(1, len(bounds)) if value <= bounds[index]), len(bounds))
+    return 0 if value < bounds[0] else next(
+        (index for index in range(1, len(bounds)) if value <= bounds[index]), len(bounds))
 
 
 def localisation_points(position_error_mm: float | None, angle_error_deg: float | None) -> int:

@@ -31,11 +31,9 @@ class ThesisPlanner(Planner):
             raise ValueError(f"thesis planner timing must be 'thesis' or 'optimal', got {timing!r}")
         if return_via not in ("direct", "intermediate"):
             raise ValueError(f"return_via must be 'direct' or 'intermediate', got {return_via!r}")
-        self.timing, self.return_via = timing, return_via
+        self.timing, self.return_via, self.sleep = timing, return_via, float(sleep)
         self.intermediate_distance = float(intermediate_distance)
-        self.intermediate_time = float(intermediate_time)
-        self.sleep = float(sleep)
-        self.move_time = float(move_time)
+        self.intermediate_time, self.move_time = float(intermediate_time), float(move_time)
         self.intermediate: dict[str, np.ndarray] = {}  # q_int and roll per face
         self.roll: dict[str, float] = {}
 
@@ -49,9 +47,7 @@ class ThesisPlanner(Planner):
             candidates = []
             for roll in np.linspace(0.0, 2.0 * np.pi, ROLL_CANDIDATES, endpoint=False):
                 pose = pin.SE3(hole_rotation @ pin.rpy.rpyToMatrix(0.0, 0.0, roll), position)
-                for result in self.analytic.solve_all(pose):
-                    if not result.success:
-                        continue
+                for result in (r for r in self.analytic.solve_all(pose) if r.success):
                     q_int = self.wrap(self.analytic.chain.clip(result.q), q_home)
                     if not self._clear(q_int, TEACH_CLEARANCE):
                         continue
