@@ -172,13 +172,8 @@ class BranchLibrarySolver(Solver):
     library = ""
 
     def _library_branches(self, target: Target) -> np.ndarray:
-        raise NotImplementedError
-
-    def raw_branches(self, target) -> np.ndarray:
         """The library's branches (K, n) of a target as it returns them (not wrapped, not screened)."""
-        target = as_target(target)
-        self._check_target_kind(target)
-        return self._library_branches(target)
+        raise NotImplementedError
 
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
         """The branch nearest q0, wrapped into the limits, that passes the FK screen; else why none."""
