@@ -38,8 +38,7 @@ _SHIPPED_LOCK = threading.Lock()
 
 
 def add_source(what: str, source: Callable[[], Iterable[ModuleType]]) -> None:
-    """Add ``source``, a function giving declaring modules, to the registry of ``what``s (made now or
-    later)."""
+    """Add ``source``, a function giving declaring modules, to the registry of ``what``s (now or later)."""
     with _SHIPPED_LOCK:
         _SHIPPED.setdefault(what, []).append(source)
         registry = _REGISTRIES.get(what)

@@ -134,8 +134,7 @@ def _attributes(tag_text: str) -> dict[str, str]:
 
 
 def mimic_joints(text: str) -> dict[str, Mimic]:
-    """{follower: Mimic} of URDF text's joints with a ``<mimic>``, read with regular expressions (URDF
-    readers accept files a strict XML parser refuses)."""
+    """{follower: Mimic} of URDF text's ``<mimic>`` joints, read as leniently as URDF readers do."""
     text = _COMMENT.sub("", text)
     mimics = {}
     for attributes, body in _JOINT_BLOCK.findall(text):
@@ -178,8 +177,7 @@ _BOUND_ATTRIBUTE = re.compile(r"""\s(lower|upper)\s*=\s*(["']).*?\2""", re.DOTAL
 
 
 def continuous_as_revolute(text: str, limit: float) -> str:
-    """URDF text with every continuous joint revolute in [-limit, limit] (effort and velocity kept), for
-    libraries that read the URDF themselves."""
+    """URDF text with every continuous joint revolute in [-limit, limit] (effort and velocity kept)."""
 
     def one_joint(match: re.Match) -> str:
         attributes, body = match.group(1), match.group(2)
