@@ -105,11 +105,6 @@ class IKResult:
         """The largest goal task error (m or rad), NaN without joints."""
         return max(self.task_errors.values(), default=0.0) if self.q is not None else math.nan
 
-    @property
-    def complete(self) -> bool:
-        """True when the method expressed the whole problem (nothing in ``unsupported``)."""
-        return not self.unsupported
-
     def as_dict(self) -> dict:
         """JSON-friendly dictionary (a whole-body problem's result with its task errors and measures)."""
         values = {"method": self.method, "success": self.success, "reason": self.reason,

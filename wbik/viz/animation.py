@@ -82,11 +82,6 @@ class Animation:
         """Number of samples."""
         return len(self.times)
 
-    @property
-    def duration(self) -> float:
-        """Seconds from the first sample to the last (0 for a still picture)."""
-        return float(self.times[-1] - self.times[0])
-
     @classmethod
     def from_chain(cls, robot, chain, times, rows, reference: np.ndarray | None = None,
                    overlays: Overlays | None = None, name: str = "") -> Animation:
@@ -151,17 +146,3 @@ class Animation:
         name = " + ".join(n for n in (self.name, other.name) if n)
         both = replace(self, times=times, configurations=rows, overlays=overlays, name=name)
         return both.with_environment(other.environment)
-
-    def subsampled(self, every: int) -> Animation:
-        """Every ``every``-th sample (the last one kept)."""
-        if int(every) != every or every < 1:
-            raise InvalidConfigurationError(f"subsample step must be a positive integer, got {every}")
-        index = np.unique(np.append(np.arange(0, self.frames, int(every)), self.frames - 1))
-
-        def pick(rows):
-            return None if rows is None else tuple(rows[i] for i in index)
-
-        overlays = self.overlays
-        return replace(self, times=self.times[index], configurations=self.configurations[index],
-                       overlays=replace(overlays, support=pick(overlays.support),
-                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp)))
