@@ -195,13 +195,6 @@ def leg_thesis_angles(p_hip, yaw=0.0, pitch=0.0, roll=0.0) -> LegAngles:
     return LegAngles(gamma, beta, theta7, theta9, theta11, theta13, theta15, theta17, reachable)
 
 
-def thesis_hip_rotation(theta17, yaw=0.0, pitch=0.0, roll=0.0) -> np.ndarray:
-    """Hip orientation in the ankle frame reached by eq. 10-22: Rx(-theta17) Ry(pitch) Rx(theta17 + roll)
-    Rz(yaw)."""
-    theta17 = np.asarray(theta17, dtype=float)
-    return rot_x(-theta17) @ rot_y(pitch + 0 * theta17) @ rot_x(theta17 + roll) @ rot_z(yaw + 0 * theta17)
-
-
 def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
                     side: str = "right") -> tuple[np.ndarray, np.ndarray]:
     """(q (..., 6), reachable) putting the hip at ``p_hip`` (ankle frame, m) with the thesis's yaw, pitch,
@@ -209,12 +202,6 @@ def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
     _side(side)
     angles = leg_thesis_angles(p_hip, yaw, pitch, roll)
     return angles.q, angles.reachable
-
-
-def leg_hip_to_foot(p_ankle, side: str = "right") -> tuple[np.ndarray, np.ndarray]:
-    """(q, reachable) placing the ankle at ``p_ankle`` (hip frame, m), foot parallel to the hip (the
-    code's IK6ServoLegtoFoot: foot -> hip of -p_ankle)."""
-    return leg_foot_to_hip(-_points(p_ankle, "ankle target"), 0.0, 0.0, 0.0, side)
 
 
 THIGH = np.array([-L7, 0.0, -L8])
