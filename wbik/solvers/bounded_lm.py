@@ -285,7 +285,6 @@ class BoundedLMSolver(Solver):
 
     def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """Solve a batch, without ``timeout_s`` all together (answers may differ from :meth:`solve`'s)."""
-        targets = list(targets)
         starts = self._batch_starts(q0s, len(targets))
         if self.timeout_s is not None or self._vectorised is None or len(targets) < 2:
             return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]

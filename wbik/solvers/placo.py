@@ -115,10 +115,10 @@ class PlacoProblem:
 
 def clockwise(polygon) -> list[np.ndarray]:
     """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them."""
-    vertices = [np.array(v, dtype=float) for v in polygon.vertices]
-    x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
+    vertices = np.array(polygon.vertices, dtype=float)
+    x, y = vertices[:, 0], vertices[:, 1]
     area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-    return vertices[::-1] if area > 0 else vertices
+    return list(vertices[::-1] if area > 0 else vertices)
 
 
 def _soft_on_axes(added, task) -> None:
