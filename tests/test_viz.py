@@ -338,7 +338,8 @@ def test_animation_checks_its_samples_and_thins_joins_them():
     with pytest.raises(InvalidConfigurationError, match="one entry per sample"):
         Animation(robot, np.arange(5.0), rows, Overlays(support=[()] * 4))
     animation = Animation(robot, np.arange(5.0), rows, Overlays(contacts=[("tip",)] * 5))
-    thin = Animation(robot, [0.0, 3.0, 4.0], rows[:3], Overlays(contacts=[("tip",)] * 3))
+    thin = animation.subsampled(3)
+    assert list(thin.times) == [0.0, 3.0, 4.0] and len(thin.overlays.contacts) == 3
     joined = animation.then(thin, pause=0.5)
     assert list(joined.times[4:]) == [4.0, 4.5, 7.5, 8.5]
 

@@ -146,3 +146,17 @@ class Animation:
         name = " + ".join(n for n in (self.name, other.name) if n)
         both = replace(self, times=times, configurations=rows, overlays=overlays, name=name)
         return both.with_environment(other.environment)
+
+    def subsampled(self, every: int) -> Animation:
+        """Every ``every``-th sample (the last one kept)."""
+        if int(every) != every or every < 1:
+            raise InvalidConfigurationError(f"subsample step must be a positive integer, got {every}")
+        index = np.unique(np.append(np.arange(0, self.frames, int(every)), self.frames - 1))
+
+        def pick(rows):
+            return None if rows is None else tuple(rows[i] for i in index)
+
+        overlays = self.overlays
+        return replace(self, times=self.times[index], configurations=self.configurations[index],
+                       overlays=replace(overlays, support=pick(overlays.support),
+                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp)))
