@@ -202,8 +202,7 @@ MASSLESS_ROOT = "wbik_massless_root"
 
 
 def with_massless_root(text: str) -> str:
-    """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a new massless
-    root link (KDL ignores a root link's inertia and warns on every parse)."""
+    """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a massless root."""
     uncommented = _COMMENT.sub("", text)
     children = {match.group(2) for match in _CHILD.finditer(uncommented)}
     for match in _LINK_BLOCK.finditer(uncommented):
@@ -255,8 +254,7 @@ _NAME_ATTRIBUTE = re.compile(r"""(\bname\s*=\s*)(["'])(.*?)\2""", re.DOTALL)
 
 
 def fixed_joints_renamed(text: str) -> str:
-    """URDF text whose fixed joints named like a link are renamed ``NAME_joint``, as :func:`angle_model`
-    renames their frames (for PlaCo, which looks frames up by name)."""
+    """URDF text whose fixed joints named like a link are renamed ``NAME_joint`` (as :func:`angle_model`)."""
     uncommented = _COMMENT.sub("", text)
     links = {_attributes(match.group(1)).get("name") for match in _LINK_BLOCK.finditer(uncommented)}
 

@@ -119,8 +119,7 @@ def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip
 
 def arm_ik(p_hand, side: str = "right", lengths=None, other_elbow: bool = False,
            base_flip: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (branch flags as in
-    :func:`arm_thesis_angles`)."""
+    """Joints (..., 3) of the arm chain (chest -> hand), reachable mask (flags: :func:`arm_thesis_angles`)."""
     side = _side(side)
     p = _points(p_hand, "hand target")
     if side == "l":
