@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import MINK_LIBRARY
+from wbik.dependencies import MINK_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Robot
@@ -37,12 +37,7 @@ kinematics nor in a CoM), bounds that leave a CoM unchanged to 1e-12 m."""
 
 def import_mink(what: str = "method 'mink'"):
     """(mink, mujoco), or MissingDependencyError naming ``what`` needs them and the extra to install."""
-    try:
-        import mink
-        import mujoco
-    except ImportError as exc:
-        raise MINK_LIBRARY.error(what, exc) from None
-    return mink, mujoco
+    return import_optional(MINK_LIBRARY, what, "mink"), import_optional(MINK_LIBRARY, what, "mujoco")
 
 
 def mujoco_urdf(text: str, masses: bool = False) -> str:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.dependencies import IK_GEO_LIBRARY
+from wbik.dependencies import IK_GEO_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.robot import Chain, ChainCache
 from wbik.solvers.analytic.closed_form import (
@@ -25,7 +25,7 @@ from wbik.solvers.analytic.closed_form import (
     fk_residual,
 )
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 

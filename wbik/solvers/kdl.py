@@ -12,11 +12,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from wbik.dependencies import PYKDL_LIBRARY
+from wbik.dependencies import PYKDL_LIBRARY, import_optional
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, pose_error

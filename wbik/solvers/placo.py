@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import PLACO_LIBRARY
+from wbik.dependencies import PLACO_LIBRARY, import_optional
 from wbik.errors import RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
@@ -32,7 +32,7 @@ from wbik.qp.tasks import (
     RelativeFrameTask,
 )
 from wbik.robot import Robot, write_cached_urdf
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.result import Candidate
 from wbik.urdf import continuous_as_revolute, fixed_joints_renamed

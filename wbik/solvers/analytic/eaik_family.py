@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
-from wbik.dependencies import EAIK_LIBRARY
+from wbik.dependencies import EAIK_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
 from wbik.peer_output import captured_output
@@ -27,7 +27,6 @@ from wbik.solvers.analytic.closed_form import (
     stacked_branches,
 )
 from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
-from wbik.solvers.method import import_optional
 
 
 def import_eaik():
