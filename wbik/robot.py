@@ -382,8 +382,7 @@ class Robot:
 
 def cache_dir() -> Path:
     """``$WBIK_CACHE_DIR``, else ``$XDG_CACHE_HOME/wbik``, else ``~/.cache/wbik`` (not created here)."""
-    override = os.environ.get("WBIK_CACHE_DIR")
-    if override:
+    if override := os.environ.get("WBIK_CACHE_DIR"):
         return Path(override).expanduser()
     xdg = os.environ.get("XDG_CACHE_HOME")
     base = Path(xdg).expanduser() if xdg and Path(xdg).is_absolute() else Path.home() / ".cache"

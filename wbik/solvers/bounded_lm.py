@@ -290,8 +290,7 @@ class BoundedLMSolver(Solver):
             return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
         converted = [as_target(target) for target in targets]
         for target in converted:
-            if not (self.supports_pose if target.is_pose else self.supports_position_only):
-                self._check_target_kind(target)
+            self._check_target_kind(target)
         q_starts = np.array([self.chain.nominal if q0 is None else q0 for q0 in starts])
         results: list[IKResult | None] = [None] * len(targets)
         for pose in (True, False):

@@ -61,10 +61,8 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
     """H, P and R0 of a chain-like object with EAIK's verdict (UnsupportedError saying why); ``probe``:
     check EAIK's branches on seeded FK poses (the result then cached per chain)."""
     HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
-    if probe:
-        cached = _STRUCTURES.get(chain)
-        if cached is not None:
-            return cached
+    if probe and (cached := _STRUCTURES.get(chain)) is not None:
+        return cached
     lines = chain_lines(chain)
     if lines.prismatic.any():
         names = [n for n, p in zip(chain.joint_names, lines.prismatic, strict=True) if p]

@@ -381,8 +381,7 @@ def match(lines, kind: str, options: dict) -> recognition.Match:
         recognition.no_options(options, "stacked_planar pose")
         return recognition.Match("stacked_planar", lambda chain: StackedPlanarPose(chain, geometry), *aligned,
                                  parameters)
-    unknown = set(options) - {"yaw"}
-    if unknown:
+    if unknown := set(options) - {"yaw"}:
         raise InvalidOptionError(f"the recognised stacked_planar position form takes the option 'yaw' (the "
                                  f"roll joint's value, rad), not {sorted(unknown)}",
                                  option=sorted(unknown)[0], accepted=["yaw"])
