@@ -36,8 +36,7 @@ class Target:
 
     def se3(self) -> pin.SE3:
         """The target as an SE3 (identity rotation for a position only)."""
-        rotation = np.eye(3) if self.rotation is None else self.rotation
-        return pin.SE3(rotation, self.position)
+        return pin.SE3(np.eye(3) if self.rotation is None else self.rotation, self.position)
 
 
 def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:

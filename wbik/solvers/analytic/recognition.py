@@ -181,8 +181,7 @@ def aligned(canonical: Canonical, lines: ChainLines, result: Walk) -> tuple[np.n
     """(G, X, s, o) of a finished walk: G = F_0 B^-1, X = E^-1 F_n^-1 T(0), o = theta0 - o_f."""
     base = result.frames[0] @ np.linalg.inv(canonical.base)
     tool = np.linalg.inv(canonical.tool) @ np.linalg.inv(result.frames[-1]) @ lines.tip
-    offsets = np.array(result.theta) - np.array(canonical.offsets)
-    return base, tool, np.array(result.signs), offsets
+    return base, tool, np.array(result.signs), np.array(result.theta) - np.array(canonical.offsets)
 
 
 # --- what matchers check ----------------------------------------------------------------------------
