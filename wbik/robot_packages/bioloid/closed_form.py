@@ -240,8 +240,7 @@ def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.n
             a = np.arctan2(sign * m[:, 0, 2], sign * m[:, 2, 2])
             c_angle = np.arctan2(sign * m[:, 1, 0], sign * m[:, 1, 1])
             solutions.append(np.stack([-c_angle, -b, -a, knee, q15, q17], -1))
-    q_all = np.stack(solutions, 1)
-    return q_all, np.repeat(reachable[:, None], len(solutions), axis=1)
+    return np.stack(solutions, 1), np.repeat(reachable[:, None], len(solutions), axis=1)
 
 
 class ArmPosition(ClosedForm):
