@@ -70,7 +70,7 @@ def check_page(animation, viewer, commands: list[dict], size: int) -> None:
         keys = next(track for track in clip["tracks"] if track["name"] == ".position")["keys"]
         assert len(keys) == samples
         if animation.frames > 1:
-            assert keys[-1]["time"] / clip["fps"] == pytest.approx(animation.duration)
+            assert keys[-1]["time"] / clip["fps"] == pytest.approx(animation.times[-1] - animation.times[0])
         for key, q in ((keys[0], first), (keys[-1], last)):
             pin.forwardKinematics(model, data, q)
             pin.updateGeometryPlacements(model, data, geometry, geometry_data)

@@ -14,6 +14,7 @@ import pytest
 
 import wbik
 from wbik.errors import InvalidTargetError
+from wbik.geometry import rot_x, rot_y, rot_z
 from wbik.models import load
 from wbik.robot_packages.bioloid import closed_form as ik
 from wbik.robot_packages.bioloid import model as bioloid
@@ -138,7 +139,8 @@ def test_thesis_leg_ik_is_exact_for_its_orientation(robot):
     points = rng.uniform([-0.03, -0.03, 0.10], [0.03, 0.03, 0.145], (50, 3))
     yaw, pitch, roll = (rng.uniform(-0.3, 0.3, 50) for _ in range(3))
     a = ik.leg_thesis_angles(points, yaw, pitch, roll)
-    rotations = ik.thesis_hip_rotation(a.theta17, yaw, pitch, roll)
+    t17 = a.theta17
+    rotations = rot_x(-t17) @ rot_y(pitch) @ rot_x(t17 + roll) @ rot_z(yaw)  # eq. 10-22's hip orientation
     for i in range(50):
         hip = chain.fk(a.q[i]).inverse()
         np.testing.assert_allclose(hip.translation, points[i], atol=1e-12)
@@ -175,7 +177,7 @@ def test_leg_batch_equals_scalar():
 def test_hip_to_foot_keeps_the_foot_parallel(robot):
     chain = robot.chain("left_leg")
     target = np.array([0.02, 0.015, -0.12])
-    q, ok = ik.leg_hip_to_foot(target, "left")
+    q, ok = ik.leg_foot_to_hip(-target, side="left")  # the code's IK6ServoLegtoFoot: foot -> hip of -p
     reached = chain.fk(q)
     np.testing.assert_allclose(reached.translation, target, atol=1e-12)
     np.testing.assert_allclose(reached.rotation, np.eye(3), atol=1e-12)

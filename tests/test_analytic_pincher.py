@@ -13,12 +13,11 @@ from closed_form_checks import angle_difference, assert_pose_round_trip
 import wbik
 from wbik.robot_packages.pincher.closed_form import (
     PINCHER,
-    arm_plane_branches,
     pose_from_position_pitch,
     position_pitch_branches,
 )
 from wbik.solvers.analytic.closed_form import wrap_into_limits
-from wbik.solvers.analytic.yaw_planar import pitch_arm_fk
+from wbik.solvers.analytic.yaw_planar import pitch_arm_branches, pitch_arm_fk
 
 ROUND_TRIP_POSES = 10_000
 
@@ -111,7 +110,8 @@ def test_position_rule_takes_the_nearest_pitch_with_a_branch_in_limits(solver):
         reach = math.hypot(target[0], target[1])
         best = np.inf
         for side_yaw, side_reach, side_pitch in ((yaw, reach, grid), (yaw + math.pi, -reach, grid)):
-            branches, valid = arm_plane_branches(np.full_like(grid, side_yaw), np.full_like(grid, side_reach),
+            branches, valid = pitch_arm_branches(PINCHER, np.full_like(grid, side_yaw),
+                                                 np.full_like(grid, side_reach),
                                                  np.full_like(grid, target[2]), side_pitch)
             _, inside = wrap_into_limits(branches, q0, chain.lower, chain.upper, ~chain.is_prismatic)
             ok = (valid & inside).any(axis=1)

@@ -162,7 +162,7 @@ def test_ur5_joints_beyond_pi_come_back_from_a_start_beside_them():
     result = solver.solve(target, q + 0.01)
     assert result.success
     np.testing.assert_allclose(result.q, q, atol=1e-7)
-    assert np.all(np.abs(solver.raw_branches(target)) <= np.pi + 1e-9)
+    assert np.all(np.abs(solver._library_branches(target)) <= np.pi + 1e-9)
 
 
 @pytest.mark.parametrize(("robot_name", "chain_name", "word"), REFUSED,
@@ -270,7 +270,7 @@ def test_choice_is_the_nearest_branch_rule(name):
     starts[::5] = [chain.nominal] * len(starts[::5])
     counts = {"found": 0, "none": 0}
     for target, q0 in zip(targets, starts, strict=True):
-        q_all = solver.raw_branches(target)
+        q_all = solver._library_branches(target)
         chosen, _ = solver._choose(q_all, target, q0)
         expected = _rule_choice(solver, q_all, target, q0)
         assert (chosen.q is None) == (expected.q is None)

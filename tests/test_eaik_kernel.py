@@ -18,6 +18,7 @@ import wbik
 from wbik.kernels import eaik as eaik_kernel
 from wbik.solvers.check import evaluate, evaluate_screened
 from wbik.solvers.result import Candidate
+from wbik.targets import as_target
 
 pytest.importorskip("eaik")
 pytestmark = pytest.mark.skipif(eaik_kernel.choose_compiled is None, reason="the C extension is not built")
@@ -43,7 +44,7 @@ def _cases(solver, count=300):
     rng = np.random.default_rng(21)
     lower, upper = chain.lower, chain.upper
     for index, q in enumerate(chain.random(rng, count)):
-        q_all = solver.raw_branches(chain.fk(q))
+        q_all = solver._library_branches(as_target(chain.fk(q)))
         q0 = chain.random(rng, 1)[0]
         if index % 4 == 1:
             q0 = np.where(rng.random(chain.nq) < 0.5, lower, upper)  # starts on the limits

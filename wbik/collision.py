@@ -61,7 +61,7 @@ def sphere(name: str, frame: str, radius: float, xyz: Sequence[float] = (0.0, 0.
 
 @dataclass(frozen=True)
 class Obstacle:
-    """A box fixed in the world: full side lengths ``size``, centre ``xyz``, orientation ``rpy``."""
+    """A box fixed in the world: full side lengths ``size``, centre ``xyz`` (m), orientation ``rpy`` (rad)."""
 
     name: str
     size: tuple[float, float, float]

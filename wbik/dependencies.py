@@ -4,6 +4,7 @@ a missing one gets (:meth:`OptionalDependency.error`), raised and reported by a 
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass
 from importlib.util import find_spec
 
@@ -35,6 +36,14 @@ class OptionalDependency:
         found = "" if cause is None else f" ({cause})"
         return MissingDependencyError(f"{what} needs {self.needs}, which is not installed here{found}; "
                                       f"install it with: {self.install}")
+
+
+def import_optional(library: OptionalDependency, what: str, module: str):
+    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise library.error(what, exc) from None
 
 
 PLACO_LIBRARY = OptionalDependency("PlaCo (0.10, which needs pin 3.8.0 exactly)", ("placo",), extra("placo"))

@@ -70,9 +70,6 @@ class DHJoint:
             return trans(x=self.a) @ rot_x(self.alpha)
         return np.eye(4)
 
-    def motion(self, q: float) -> np.ndarray:
-        return rot_z(q) if self.type == "revolute" else trans(z=q)
-
 
 @dataclass
 class DHTable:
@@ -98,15 +95,6 @@ class DHTable:
                     f"joint {index}: lower limit {joint.lower} is above upper limit {joint.upper}")
         self.base = np.asarray(self.base, dtype=float)
         self.tool = np.asarray(self.tool, dtype=float)
-
-    def transform(self, q: Sequence[float]) -> np.ndarray:
-        """Base-to-tool 4x4 for joint values q, multiplied out row by row."""
-        if len(q) != len(self.joints):
-            raise RobotDescriptionError(f"expected {len(self.joints)} joint values, got {len(q)}")
-        total = self.base.copy()
-        for joint, value in zip(self.joints, q, strict=True):
-            total = total @ joint.pre(self.convention) @ joint.motion(value) @ joint.post(self.convention)
-        return total @ self.tool
 
     def urdf(self, name: str = "dh_robot", base_link: str = "base_link", tip_link: str = "tool",
              link_mass: float = 0.1) -> str:

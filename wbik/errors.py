@@ -73,8 +73,7 @@ class RobotDescriptionError(WbikError, ValueError):
 
 
 class SoleError(RobotDescriptionError):
-    """A sole (``robot.soles``) that is no frame of the model, or whose contact points are not finite (k, 3)
-    points; ``sole`` is its frame name."""
+    """A sole that is no frame of the model or has non-finite (k, 3) contact points; ``sole``: its frame."""
 
     def __init__(self, message: str, sole: str = ""):
         self.sole = sole
@@ -90,8 +89,7 @@ class UnsupportedError(WbikError, NotImplementedError):
 
 
 class InvalidOptionError(WbikError, TypeError):
-    """A keyword option (of a solver, a robot builder, ...) the callee does not take; ``accepted`` lists
-    those it takes."""
+    """A keyword option the callee does not take; ``accepted``: the options it takes."""
 
     def __init__(self, message: str, option: str = "", accepted: list[str] | tuple[str, ...] = ()):
         self.option, self.accepted = option, sorted(accepted)

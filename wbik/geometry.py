@@ -24,8 +24,7 @@ def wrap_to_pi(angle):
 
 
 def joint_gap(q: np.ndarray, other: np.ndarray, revolute: np.ndarray) -> float | np.ndarray:
-    """Largest joint difference |q_i - other_i| over the last axis (a float for vectors (n,), an array
-    for (..., n)), revolute joints taken modulo 2 pi."""
+    """max |q_i - other_i| over the last axis (float for (n,), array for (..., n)), revolute modulo 2 pi."""
     difference = np.asarray(q, dtype=float) - other
     return np.max(np.where(revolute, np.abs(wrap_to_pi(difference)), np.abs(difference)), axis=-1)
 

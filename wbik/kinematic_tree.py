@@ -13,8 +13,7 @@ from wbik.errors import RobotDescriptionError, UnknownFrameError
 
 @dataclass(frozen=True)
 class ChainPath:
-    """The 1-DOF joints moving the tip relative to the base (base to tip), and the mimic joints on that
-    line, locked."""
+    """The 1-DOF joints moving the tip relative to the base (base to tip), the mimic joints between locked."""
 
     joints: tuple[str, ...]
     locked_mimic: tuple[str, ...] = ()

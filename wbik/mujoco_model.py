@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import MINK_LIBRARY
+from wbik.dependencies import MINK_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.geometry import wrap_to_pi
 from wbik.robot import Robot
@@ -37,17 +37,11 @@ kinematics nor in a CoM), bounds that leave a CoM unchanged to 1e-12 m."""
 
 def import_mink(what: str = "method 'mink'"):
     """(mink, mujoco), or MissingDependencyError naming ``what`` needs them and the extra to install."""
-    try:
-        import mink
-        import mujoco
-    except ImportError as exc:
-        raise MINK_LIBRARY.error(what, exc) from None
-    return mink, mujoco
+    return import_optional(MINK_LIBRARY, what, "mink"), import_optional(MINK_LIBRARY, what, "mujoco")
 
 
 def mujoco_urdf(text: str, masses: bool = False) -> str:
-    """The robot's URDF for MuJoCo (see the module docstring), read with regular expressions (URDF
-    readers accept files a strict XML parser refuses)."""
+    """The robot's URDF for MuJoCo (see the module docstring), read as leniently as URDF readers do."""
     text = (_DROPPED_BUT_INERTIAL if masses else _DROPPED).sub("", text)
     text = re.sub(r"<mujoco\b.*?</mujoco\s*>|<mujoco\b[^>]*/>", "", text, flags=re.DOTALL)
     match = _ROBOT_TAG.search(text)
@@ -202,8 +196,7 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
 
 
 def random_configurations(robot: Robot, count: int, seed: int) -> list[np.ndarray]:
-    """``count`` seeded configurations inside the joint limits cut to [-pi, pi], the base anywhere within
-    1 m with any orientation."""
+    """``count`` seeded configurations in the limits cut to [-pi, pi]; the base within 1 m, any rotation."""
     rng = np.random.default_rng(seed)
     model = robot.model
     lower = np.maximum(model.lowerPositionLimit, -math.pi)

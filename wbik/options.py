@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable
+from functools import partial
 
 from wbik.errors import InvalidOptionError
 from wbik.schema import Anything, Boolean, Errors, Key, Map, Node, Number, Text, UnknownKeyError
@@ -20,12 +21,8 @@ COUNT = Number(integer=True, ge=1)
 """A count (threads, grid points, ...)."""
 _NAMED = {"timeout_s": Number(gt=0, unit="s", budget=True, as_float=True, nullable=True), "seed": SEED,
           "tolerances": Anything("wbik.Tolerances(position=..., rotation=...)")}
-_TYPED: dict[str, Callable[[bool], Node]] = {
-    "bool": lambda nullable: Boolean(nullable=nullable),
-    "int": lambda nullable: Number(integer=True, nullable=nullable),
-    "float": lambda nullable: Number(nullable=nullable, finite=False),
-    "str": lambda nullable: Text(nullable=nullable),
-}
+_TYPED: dict[str, Callable[..., Node]] = {"bool": Boolean, "int": partial(Number, integer=True),
+                                          "float": partial(Number, finite=False), "str": Text}
 
 
 class UnknownOptionError(UnknownKeyError, InvalidOptionError):
@@ -85,4 +82,4 @@ def _node(parameter: inspect.Parameter) -> Node:
     if default is None and isinstance(parameter.annotation, str):
         words = {part.strip() for part in parameter.annotation.split("|")} - {"None"}
         kind = next(iter(words)) if len(words) == 1 else None
-    return _TYPED[kind](default is None) if kind in _TYPED else Anything()
+    return _TYPED[kind](nullable=default is None) if kind in _TYPED else Anything()

@@ -38,8 +38,7 @@ _SHIPPED_LOCK = threading.Lock()
 
 
 def add_source(what: str, source: Callable[[], Iterable[ModuleType]]) -> None:
-    """Add ``source``, a function giving declaring modules, to the registry of ``what``s (made now or
-    later)."""
+    """Add ``source``, a function giving declaring modules, to the registry of ``what``s (now or later)."""
     with _SHIPPED_LOCK:
         _SHIPPED.setdefault(what, []).append(source)
         registry = _REGISTRIES.get(what)
@@ -169,8 +168,7 @@ class DeclaredRegistry(Generic[Entry]):
             raise self.error(f"{module_name} is listed in {self.listed_in} but has no {self.attribute} "
                              f"tuple of {self.entry_type.__name__}")
         names = [entry.name for entry in declared]
-        twice = sorted({name for name in names if names.count(name) > 1})
-        if twice:
+        if twice := sorted({name for name in names if names.count(name) > 1}):
             raise self.error(f"{module_name} declares the {self.what}(s) {', '.join(twice)} twice")
         for entry in declared:  # all or nothing: check every name before adding any
             self._check_new(entry, module_name)

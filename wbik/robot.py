@@ -56,8 +56,7 @@ CachedT = TypeVar("CachedT")
 
 
 class ChainCache:
-    """A value per chain, shared by threads: weakly keyed, read and stored under a lock, computed by the
-    caller between :meth:`get` and :meth:`store`."""
+    """A value per chain, shared by threads, weakly keyed; the caller computes it between get and store."""
 
     def __init__(self) -> None:
         self._values: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -383,8 +382,7 @@ class Robot:
 
 def cache_dir() -> Path:
     """``$WBIK_CACHE_DIR``, else ``$XDG_CACHE_HOME/wbik``, else ``~/.cache/wbik`` (not created here)."""
-    override = os.environ.get("WBIK_CACHE_DIR")
-    if override:
+    if override := os.environ.get("WBIK_CACHE_DIR"):
         return Path(override).expanduser()
     xdg = os.environ.get("XDG_CACHE_HOME")
     base = Path(xdg).expanduser() if xdg and Path(xdg).is_absolute() else Path.home() / ".cache"
@@ -392,8 +390,7 @@ def cache_dir() -> Path:
 
 
 def write_cached_urdf(name: str, text: str) -> Path:
-    """URDF text written once to a content-addressed file in ``cache_dir()/urdf`` (for libraries that
-    read files, e.g. PlaCo)."""
+    """URDF text written once to a content-addressed file in ``cache_dir()/urdf`` (for PlaCo and the like)."""
     digest = hashlib.sha1(text.encode()).hexdigest()[:12]
     folder = cache_dir() / "urdf"
     folder.mkdir(parents=True, exist_ok=True)
@@ -433,8 +430,7 @@ def check_model(model: pin.Model, source: str = "URDF") -> None:
 
 
 def serial_chain_spec(model: pin.Model, name: str = "default", mimic: Mapping = ()) -> ChainSpec | None:
-    """Chain from the root body to the last body of a single serial chain; None for a tree or a model
-    without a 1-DOF joint after the base."""
+    """The chain from the root body to the last body of a serial model; None for a tree or no 1-DOF joint."""
     root = 1 if model.njoints > 1 and model.joints[1].shortname() == "JointModelFreeFlyer" else 0
     children = [model.parents[j] for j in range(root + 1, model.njoints) if model.names[j] not in mimic]
     if len(children) != len(set(children)):

@@ -424,8 +424,7 @@ class Map(Node):
 
 
 class Variants(Node):
-    """A mapping whose keys depend on the variant ``select`` names; ``variants``: {name: node}, or a
-    function giving them (read when a value is checked)."""
+    """A mapping whose keys depend on the variant ``select`` names; ``variants``: {name: node} or a getter."""
 
     def __init__(self, select: Callable[[Mapping], str | None],
                  variants: dict[str, Node] | Callable[[], dict[str, Node]], what: str, tag: str):

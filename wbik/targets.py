@@ -36,17 +36,12 @@ class Target:
 
     def se3(self) -> pin.SE3:
         """The target as an SE3 (identity rotation for a position only)."""
-        rotation = np.eye(3) if self.rotation is None else self.rotation
-        return pin.SE3(rotation, self.position)
-
-
-def _finite_array(value, shape: tuple[int, ...], what: str, max_abs: float | None = None) -> np.ndarray:
-    return numeric_array(value, what, InvalidTargetError, shape=shape, max_abs=max_abs)
+        return pin.SE3(np.eye(3) if self.rotation is None else self.rotation, self.position)
 
 
 def check_rotation(rotation, tolerance: float = ROTATION_TOLERANCE) -> np.ndarray:
     """``rotation`` as a float array, or InvalidRotationError if it is not in SO(3)."""
-    matrix = _finite_array(rotation, (3, 3), "rotation")
+    matrix = numeric_array(rotation, "rotation", InvalidTargetError, shape=(3, 3))
     with np.errstate(over="ignore", invalid="ignore"):  # huge entries: inf, still refused below
         orthogonality = float(np.max(np.abs(matrix.T @ matrix - np.eye(3))))
         determinant = float(np.linalg.det(matrix))
@@ -150,7 +145,7 @@ def as_target(value, rotation=None) -> Target:
         raise InvalidTargetError("the rotation is given twice, inside the target (a Target, an SE3 or a 4x4 "
                                  "matrix) and as rotation=; give it once")
     given = given if rotation is None else rotation
-    return Target(_finite_array(position, (3,), "position", MAX_POSITION),
+    return Target(numeric_array(position, "position", InvalidTargetError, shape=(3,), max_abs=MAX_POSITION),
                   None if given is None else check_rotation(given))
 
 

@@ -134,8 +134,7 @@ def _attributes(tag_text: str) -> dict[str, str]:
 
 
 def mimic_joints(text: str) -> dict[str, Mimic]:
-    """{follower: Mimic} of URDF text's joints with a ``<mimic>``, read with regular expressions (URDF
-    readers accept files a strict XML parser refuses)."""
+    """{follower: Mimic} of URDF text's ``<mimic>`` joints, read as leniently as URDF readers do."""
     text = _COMMENT.sub("", text)
     mimics = {}
     for attributes, body in _JOINT_BLOCK.findall(text):
@@ -178,8 +177,7 @@ _BOUND_ATTRIBUTE = re.compile(r"""\s(lower|upper)\s*=\s*(["']).*?\2""", re.DOTAL
 
 
 def continuous_as_revolute(text: str, limit: float) -> str:
-    """URDF text with every continuous joint revolute in [-limit, limit] (effort and velocity kept), for
-    libraries that read the URDF themselves."""
+    """URDF text with every continuous joint revolute in [-limit, limit] (effort and velocity kept)."""
 
     def one_joint(match: re.Match) -> str:
         attributes, body = match.group(1), match.group(2)
@@ -204,8 +202,7 @@ MASSLESS_ROOT = "wbik_massless_root"
 
 
 def with_massless_root(text: str) -> str:
-    """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a new massless
-    root link (KDL ignores a root link's inertia and warns on every parse)."""
+    """URDF text whose root link, if it has an ``<inertial>``, hangs by a fixed joint from a massless root."""
     uncommented = _COMMENT.sub("", text)
     children = {match.group(2) for match in _CHILD.finditer(uncommented)}
     for match in _LINK_BLOCK.finditer(uncommented):
@@ -257,8 +254,7 @@ _NAME_ATTRIBUTE = re.compile(r"""(\bname\s*=\s*)(["'])(.*?)\2""", re.DOTALL)
 
 
 def fixed_joints_renamed(text: str) -> str:
-    """URDF text whose fixed joints named like a link are renamed ``NAME_joint``, as :func:`angle_model`
-    renames their frames (for PlaCo, which looks frames up by name)."""
+    """URDF text whose fixed joints named like a link are renamed ``NAME_joint`` (as :func:`angle_model`)."""
     uncommented = _COMMENT.sub("", text)
     links = {_attributes(match.group(1)).get("name") for match in _LINK_BLOCK.finditer(uncommented)}
 

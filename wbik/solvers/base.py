@@ -147,8 +147,7 @@ class Solver(IterationBudget):
                                       f"{self.robot.name!r}")
         q_start = problem.check_q(self.robot.nominal if q0 is None else q0)
         if not self.takes_problems:
-            why = self.cannot_express(problem, q_start)
-            if why:
+            if why := self.cannot_express(problem, q_start):
                 raise UnsupportedError(f"method {self.name!r} cannot solve this problem: {why}")
         started = problem.start(q_start)
         unsupported = self.unsupported(problem)

@@ -285,14 +285,12 @@ class BoundedLMSolver(Solver):
 
     def _solve_targets(self, targets: list, q0s) -> list[IKResult]:
         """Solve a batch, without ``timeout_s`` all together (answers may differ from :meth:`solve`'s)."""
-        targets = list(targets)
         starts = self._batch_starts(q0s, len(targets))
         if self.timeout_s is not None or self._vectorised is None or len(targets) < 2:
             return [self.solve(target, q0) for target, q0 in zip(targets, starts, strict=True)]
         converted = [as_target(target) for target in targets]
         for target in converted:
-            if not (self.supports_pose if target.is_pose else self.supports_position_only):
-                self._check_target_kind(target)
+            self._check_target_kind(target)
         q_starts = np.array([self.chain.nominal if q0 is None else q0 for q0 in starts])
         results: list[IKResult | None] = [None] * len(targets)
         for pose in (True, False):

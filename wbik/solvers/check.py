@@ -153,8 +153,7 @@ def check_problem(started: StartedProblem | WholeBody, q, tolerances: Tolerances
                     failures.append(f"task {name} {part} error {error:.3g} {unit}")
     measures = {}
     for constraint in started.constraints:
-        measure = constraint.measure(kinematics, tolerances)
-        if measure is not None:
+        if (measure := constraint.measure(kinematics, tolerances)) is not None:
             measures[measure.constraint] = measure
             if not measure.holds:
                 failures.append(measure.failure)

@@ -25,8 +25,7 @@ class DampedLeastSquares(Solver):
                  **options):
         super().__init__(robot, chain, **options)
         self.max_iterations = self._iteration_budget(max_iterations)
-        self.initial_damping = float(damping)
-        self.policy = LevenbergMarquardt(cost_weight=0.0, floor=1e-12, start=self.initial_damping,
+        self.policy = LevenbergMarquardt(cost_weight=0.0, floor=1e-12, start=float(damping),
                                          decrease=0.3, increase=4.0, reject_floor=0.0, stall=0,
                                          max_damping=1e6)
         self.bounds = JointBounds(self.chain.lower, self.chain.upper)  # clipped, never wrapped

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from wbik.dependencies import IK_GEO_LIBRARY
+from wbik.dependencies import IK_GEO_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.robot import Chain, ChainCache
 from wbik.solvers.analytic.closed_form import (
@@ -25,7 +25,7 @@ from wbik.solvers.analytic.closed_form import (
     fk_residual,
 )
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, chain_lines
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 
@@ -111,8 +111,7 @@ def _structure_for(lines: ChainLines, family: Family, reverse: bool) -> IKGeoStr
         points[[a, b, c]] = centre
     if family.intersecting is not None:
         a, b = (index(k) for k in family.intersecting)
-        meeting = lines.meeting_point(a, b)
-        if meeting is None:
+        if (meeting := lines.meeting_point(a, b)) is None:
             return None
         points[[a, b]] = meeting
     axes = lines.axes.copy()
@@ -154,8 +153,7 @@ def ik_geo_structure(chain: Chain) -> IKGeoStructure:
     tried = []
     for family in FAMILIES:
         for reverse in (False, True) if family.name != "gen_six_dof" else (False,):
-            structure = _structure_for(lines, family, reverse)
-            if structure is None:
+            if (structure := _structure_for(lines, family, reverse)) is None:
                 continue
             reproduced, miss = _probe(chain, structure)
             if reproduced >= PROBE_REQUIRED:

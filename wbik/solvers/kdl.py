@@ -12,11 +12,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from wbik.dependencies import PYKDL_LIBRARY
+from wbik.dependencies import PYKDL_LIBRARY, import_optional
 from wbik.errors import RobotDescriptionError
 from wbik.robot import Chain
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.solvers.task_error import serial_structure
 from wbik.targets import Target, pose_error
@@ -56,8 +56,8 @@ def joint_array(kdl, values: np.ndarray):
     return array
 
 
-def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0) -> float:
-    """Largest difference between KDL and Pinocchio tip poses at random joints; raises if > 1e-12."""
+def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0) -> None:
+    """RobotDescriptionError where KDL's and Pinocchio's tip poses at random joints differ by > 1e-12."""
     kdl = import_pykdl()
     fk_solver = kdl.ChainFkSolverPos_recursive(kdl_chain_)
     worst = 0.0
@@ -72,7 +72,6 @@ def check_fk_agreement(chain: Chain, kdl_chain_, samples: int = 5, seed: int = 0
     if worst > FK_AGREEMENT:
         raise RobotDescriptionError(
             f"KDL chain built from {chain!r} disagrees with Pinocchio's FK by {worst:.3g}")
-    return worst
 
 
 class KDLSolver(Solver):

@@ -237,8 +237,7 @@ def _descent(jacobian: np.ndarray, error: np.ndarray, damping: float,
 
 def _frozen_descent(jacobian: np.ndarray, error: np.ndarray, damping: float, free: np.ndarray,
                     workspace: Workspace | None) -> np.ndarray:
-    """:func:`_descent` on the ``free`` joints only; the normal equations are the workspace's last
-    system's free rows and columns."""
+    """:func:`_descent` on the ``free`` joints: the free rows and columns of the workspace's last system."""
     rows, columns = jacobian.shape
     if workspace is None or columns > rows:
         return _descent(jacobian[:, free], error, damping)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -11,14 +10,6 @@ from wbik.registry import RegistryError
 from wbik.solvers.base import Solver
 
 SolverFactory = Callable[..., Solver]  # a Solver subclass or any factory(robot, chain, **options)
-
-
-def import_optional(library: OptionalDependency, what: str, module: str):
-    """``module`` of an optional library, or MissingDependencyError saying ``what`` needs it."""
-    try:
-        return importlib.import_module(module)
-    except ImportError as exc:
-        raise library.error(what, exc) from None
 
 
 @dataclass(frozen=True)

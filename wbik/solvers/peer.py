@@ -45,8 +45,7 @@ class PeerSolver(Solver):
         items = [(c.name, c) for c in problem.constraints] + [
             (f"task {name}", task) for name, task in zip(problem.task_names, problem.tasks, strict=True)]
         for what, item in items:
-            why = self.forms.refusal(item)
-            if why is not None:
+            if (why := self.forms.refusal(item)) is not None:
                 missing.append(Unsupported(self.name, what, why))
         return missing
 

@@ -11,14 +11,14 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import PINK_LIBRARY
+from wbik.dependencies import PINK_LIBRARY, import_optional
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import PointContact
 from wbik.qp.distances import MinimumDistance
 from wbik.qp.limits import JointAccelerationLimits, JointPositionLimits, JointVelocityLimits, LockedJoints
 from wbik.qp.peers import PeerForms, largest_weight
 from wbik.qp.tasks import PositionTask, PostureTask
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import (
     NO_POLYGON,
     PeerSolver,

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import PLACO_LIBRARY
+from wbik.dependencies import PLACO_LIBRARY, import_optional
 from wbik.errors import RobotDescriptionError
 from wbik.qp.balance import CoMInSupportPolygon
 from wbik.qp.contacts import Contact, PointContact
@@ -32,7 +32,7 @@ from wbik.qp.tasks import (
     RelativeFrameTask,
 )
 from wbik.robot import Robot, write_cached_urdf
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.peer import PeerSolver
 from wbik.solvers.result import Candidate
 from wbik.urdf import continuous_as_revolute, fixed_joints_renamed
@@ -115,10 +115,10 @@ class PlacoProblem:
 
 def clockwise(polygon) -> list[np.ndarray]:
     """The polygon's vertices clockwise, as PlaCo's CoMPolygonConstraint wants them."""
-    vertices = [np.array(v, dtype=float) for v in polygon.vertices]
-    x, y = np.array([v[0] for v in vertices]), np.array([v[1] for v in vertices])
+    vertices = np.array(polygon.vertices, dtype=float)
+    x, y = vertices[:, 0], vertices[:, 1]
     area = 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-    return vertices[::-1] if area > 0 else vertices
+    return list(vertices[::-1] if area > 0 else vertices)
 
 
 def _soft_on_axes(added, task) -> None:

@@ -105,15 +105,10 @@ class IKResult:
         """The largest goal task error (m or rad), NaN without joints."""
         return max(self.task_errors.values(), default=0.0) if self.q is not None else math.nan
 
-    @property
-    def complete(self) -> bool:
-        """True when the method expressed the whole problem (nothing in ``unsupported``)."""
-        return not self.unsupported
-
     def as_dict(self) -> dict:
         """JSON-friendly dictionary (a whole-body problem's result with its task errors and measures)."""
         values = {"method": self.method, "success": self.success, "reason": self.reason,
-                  "q": None if self.q is None else self.q, "time_s": self.time_s,
+                  "q": self.q, "time_s": self.time_s,
                   "iterations": self.iterations}
         if self.task_errors:
             values.update(task_errors=self.task_errors, contact_drift=self.contact_drift,

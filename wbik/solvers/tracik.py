@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from wbik.dependencies import TRAC_IK_LIBRARY
+from wbik.dependencies import TRAC_IK_LIBRARY, import_optional
 from wbik.errors import InvalidSettingError, RobotDescriptionError
 from wbik.peer_output import captured_output
 from wbik.solvers.base import Solver
-from wbik.solvers.method import IKMethod, import_optional
+from wbik.solvers.method import IKMethod
 from wbik.solvers.result import Candidate
 from wbik.targets import Target
 from wbik.urdf import with_massless_root

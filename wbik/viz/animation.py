@@ -82,11 +82,6 @@ class Animation:
         """Number of samples."""
         return len(self.times)
 
-    @property
-    def duration(self) -> float:
-        """Seconds from the first sample to the last (0 for a still picture)."""
-        return float(self.times[-1] - self.times[0])
-
     @classmethod
     def from_chain(cls, robot, chain, times, rows, reference: np.ndarray | None = None,
                    overlays: Overlays | None = None, name: str = "") -> Animation:

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from wbik.collision import Obstacle
 from wbik.errors import InvalidConfigurationError
 from wbik.models import robot_entries
 
@@ -18,14 +19,9 @@ STAIR_COLORS = (0x8B5A2B, 0xA0693A, 0xB57A48, 0xC98B57, 0xDB9C66)  # wood browns
 
 
 @dataclass(frozen=True)
-class SceneBox:
-    """A box fixed in the world: ``size`` (full side lengths, m), centre ``xyz`` (m) and orientation
-    ``rpy`` (rad), RGB ``color`` and ``opacity`` in (0, 1]."""
+class SceneBox(Obstacle):
+    """An :class:`~wbik.collision.Obstacle` drawn in RGB ``color`` with ``opacity`` in (0, 1]."""
 
-    name: str
-    size: tuple[float, float, float]
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
     color: int = FLOOR_COLOR
     opacity: float = 1.0
 
@@ -66,6 +62,5 @@ def robot_cell(robot) -> tuple[SceneBox, ...]:
     obstacles = None if entry is None else getattr(entry.module(), "collision_obstacles", None)
     if obstacles is None:
         return ()
-    return tuple(SceneBox(obstacle.name, tuple(obstacle.size), tuple(obstacle.xyz), tuple(obstacle.rpy),
-                          TABLE_COLOR if "table" in obstacle.name else FLOOR_COLOR)
+    return tuple(SceneBox(**vars(obstacle), color=TABLE_COLOR if "table" in obstacle.name else FLOOR_COLOR)
                  for obstacle in obstacles())

@@ -119,8 +119,7 @@ def arm_thesis_angles(p_hand, lengths=None, other_elbow: bool = False, base_flip
 
 def arm_ik(p_hand, side: str = "right", lengths=None, other_elbow: bool = False,
            base_flip: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Joint angles (..., 3) of the arm chain (chest -> hand) and the reachable mask (branch flags as in
-    :func:`arm_thesis_angles`)."""
+    """Joints (..., 3) of the arm chain (chest -> hand), reachable mask (flags: :func:`arm_thesis_angles`)."""
     side = _side(side)
     p = _points(p_hand, "hand target")
     if side == "l":
@@ -195,13 +194,6 @@ def leg_thesis_angles(p_hip, yaw=0.0, pitch=0.0, roll=0.0) -> LegAngles:
     return LegAngles(gamma, beta, theta7, theta9, theta11, theta13, theta15, theta17, reachable)
 
 
-def thesis_hip_rotation(theta17, yaw=0.0, pitch=0.0, roll=0.0) -> np.ndarray:
-    """Hip orientation in the ankle frame reached by eq. 10-22: Rx(-theta17) Ry(pitch) Rx(theta17 + roll)
-    Rz(yaw)."""
-    theta17 = np.asarray(theta17, dtype=float)
-    return rot_x(-theta17) @ rot_y(pitch + 0 * theta17) @ rot_x(theta17 + roll) @ rot_z(yaw + 0 * theta17)
-
-
 def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
                     side: str = "right") -> tuple[np.ndarray, np.ndarray]:
     """(q (..., 6), reachable) putting the hip at ``p_hip`` (ankle frame, m) with the thesis's yaw, pitch,
@@ -209,12 +201,6 @@ def leg_foot_to_hip(p_hip, yaw=0.0, pitch=0.0, roll=0.0,
     _side(side)
     angles = leg_thesis_angles(p_hip, yaw, pitch, roll)
     return angles.q, angles.reachable
-
-
-def leg_hip_to_foot(p_ankle, side: str = "right") -> tuple[np.ndarray, np.ndarray]:
-    """(q, reachable) placing the ankle at ``p_ankle`` (hip frame, m), foot parallel to the hip (the
-    code's IK6ServoLegtoFoot: foot -> hip of -p_ankle)."""
-    return leg_foot_to_hip(-_points(p_ankle, "ankle target"), 0.0, 0.0, 0.0, side)
 
 
 THIGH = np.array([-L7, 0.0, -L8])
@@ -254,8 +240,7 @@ def leg_branches(p_hip: np.ndarray, r_hip: np.ndarray) -> tuple[np.ndarray, np.n
             a = np.arctan2(sign * m[:, 0, 2], sign * m[:, 2, 2])
             c_angle = np.arctan2(sign * m[:, 1, 0], sign * m[:, 1, 1])
             solutions.append(np.stack([-c_angle, -b, -a, knee, q15, q17], -1))
-    q_all = np.stack(solutions, 1)
-    return q_all, np.repeat(reachable[:, None], len(solutions), axis=1)
+    return np.stack(solutions, 1), np.repeat(reachable[:, None], len(solutions), axis=1)
 
 
 class ArmPosition(ClosedForm):

@@ -35,8 +35,7 @@ class Golem3Facts:
 
 
 def right_arm_coordinates(chain: Chain) -> tuple[bool, np.ndarray, np.ndarray]:
-    """(mirrored, lower, upper): whether ``chain`` is the left arm, and its limits in right-arm
-    coordinates (m0 -> -m0 on the left)."""
+    """(mirrored: ``chain`` is the left arm, its lower and upper limits in right-arm terms (m0 -> -m0))."""
     mirrored = any(name in chain.joint_names for name in LEFT_JOINTS)
     lower, upper = chain.lower.copy(), chain.upper.copy()
     if mirrored:

@@ -13,9 +13,8 @@ arm is the thesis table, A = Rz(theta) Tz(d) Tx(a) Rx(alpha) (m)::
     6    90 deg  0            l6 = 0.4   t6 - 90 deg     (m14)
     6'   tool: Rz(90 deg)
 
-so r_eef's rotation in torso_link is Rz(t1+t2+t3) Ry(-t4-t5) Rx(t6). ASSUMPTION: the left arm is the
-right one mirrored across y = 0 of torso_link (M = diag(1, -1, 1): transforms M X M, axes -M a, the
-shared m0 not mirrored): T_left(m0, q) = M T_right(-m0, q) M, with the right arm's limits.
+so r_eef's rotation in torso_link is Rz(t1+t2+t3) Ry(-t4-t5) Rx(t6). ASSUMPTION: the left arm mirrors the
+right across y = 0 of torso_link, T_left(m0, q) = M T_right(-m0, q) M, M = diag(1, -1, 1) (:data:`HEADER`).
 """
 
 from __future__ import annotations

@@ -17,12 +17,6 @@ WRIST_TO_TOOL = 0.095  # m
 PINCHER = family.PitchArmGeometry(h=BASE_HEIGHT, a=LINK, b=LINK, t=WRIST_TO_TOOL)
 
 
-def arm_plane_branches(yaw, signed_reach, height, pitch) -> tuple[np.ndarray, np.ndarray]:
-    """Both elbow branches for a tool point at (signed_reach, height) of the plane of q1 = yaw with tool
-    pitch ``pitch`` (broadcast to a shape S): (Q (S, 2, 4), real (S, 2))."""
-    return family.pitch_arm_branches(PINCHER, yaw, signed_reach, height, pitch)
-
-
 def position_pitch_branches(positions: np.ndarray, pitches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The seed's inverse for [px, py, pz] (B, 3) (m) and pitch theta (B,) (rad): (Q (B, 4, 4), real
     (B, 4)), q1 = atan2(py, px) (elbow q3 >= 0, then <= 0), then q1 + pi with pitch pi - theta; unwrapped."""
@@ -30,7 +24,7 @@ def position_pitch_branches(positions: np.ndarray, pitches: np.ndarray) -> tuple
     pitches = np.atleast_1d(np.asarray(pitches, dtype=float))
     yaws, reaches = family.shoulder_sides(positions)
     side_pitches = np.stack((pitches, np.pi - pitches), axis=1)
-    q_all, real = arm_plane_branches(yaws, reaches, positions[:, 2, None], side_pitches)
+    q_all, real = family.pitch_arm_branches(PINCHER, yaws, reaches, positions[:, 2, None], side_pitches)
     count = len(positions)
     return q_all.reshape(count, 4, 4), real.reshape(count, 4)
 

@@ -24,8 +24,7 @@ CLOSED_FORMS = {("ee", "pose"): UR5EndEffector, ("arm", "pose"): ur5_tool}
 
 @dataclass(frozen=True)
 class UR5Facts:
-    """The riveting tool the UR5 carries (``robot.facts``, ur5-riveting.md): ee_link -> tcp length and
-    pin diameter (m)."""
+    """The UR5's riveting tool (``robot.facts``, ur5-riveting.md): ee_link -> tcp length, pin diameter (m)."""
 
     tool_length: float
     tool_diameter: float

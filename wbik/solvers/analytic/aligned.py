@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from wbik.errors import InvalidConfigurationError
+from wbik.robot import Chain
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import Alignment
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE
@@ -29,9 +30,7 @@ class FamilyChain:
         self.lower, self.upper = np.minimum(low, high), np.maximum(low, high)
         self.nominal = signs * chain.nominal + offsets
 
-    @property
-    def nq(self) -> int:
-        return len(self.joint_names)
+    nq = Chain.nq  # len(joint_names)
 
 
 def snapped_offsets(offsets) -> np.ndarray:

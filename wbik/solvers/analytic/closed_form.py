@@ -58,8 +58,7 @@ class ClosedForm:
 
     def exact_branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                        q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`branches` with ``real`` False also where the form knows a branch only approximates the
-        target (a library's least-squares solutions)."""
+        """:meth:`branches`, ``real`` False also where a branch only approximates the target."""
         return self.branches(positions, rotations, q0)
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -164,21 +163,15 @@ def fk_residual(chain: Chain, q: np.ndarray, target: Target) -> float:
 
 
 class BranchLibrarySolver(Solver):
-    """A method over a closed-form library's branches (``eaik``, ``ik_geo``): :meth:`_library_branches`
-    gives them (K, n) in our joints; the FK screen, not the library's least-squares flags, decides."""
+    """A method choosing among a closed-form library's branches (``eaik``, ``ik_geo``) by the FK screen."""
 
     budgeted = False
     supports_position_only = False
     library = ""
 
     def _library_branches(self, target: Target) -> np.ndarray:
-        raise NotImplementedError
-
-    def raw_branches(self, target) -> np.ndarray:
         """The library's branches (K, n) of a target as it returns them (not wrapped, not screened)."""
-        target = as_target(target)
-        self._check_target_kind(target)
-        return self._library_branches(target)
+        raise NotImplementedError
 
     def _pick(self, q_all: np.ndarray, target: Target, q0: np.ndarray) -> Candidate:
         """The branch nearest q0, wrapped into the limits, that passes the FK screen; else why none."""

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import wbik.kernels.eaik as eaik_kernel
-from wbik.dependencies import EAIK_LIBRARY
+from wbik.dependencies import EAIK_LIBRARY, import_optional
 from wbik.errors import UnsupportedError
 from wbik.kernels.twins import pure_python
 from wbik.peer_output import captured_output
@@ -27,7 +27,6 @@ from wbik.solvers.analytic.closed_form import (
     stacked_branches,
 )
 from wbik.solvers.analytic.structure import chain_lines, eaik_vectors, poe_fk
-from wbik.solvers.method import import_optional
 
 
 def import_eaik():
@@ -62,10 +61,8 @@ def eaik_verdict(chain, probe: bool = True) -> EAIKStructure:
     """H, P and R0 of a chain-like object with EAIK's verdict (UnsupportedError saying why); ``probe``:
     check EAIK's branches on seeded FK poses (the result then cached per chain)."""
     HPRobot = import_eaik()  # first, so a missing EAIK is reported also for a cached chain
-    if probe:
-        cached = _STRUCTURES.get(chain)
-        if cached is not None:
-            return cached
+    if probe and (cached := _STRUCTURES.get(chain)) is not None:
+        return cached
     lines = chain_lines(chain)
     if lines.prismatic.any():
         names = [n for n, p in zip(chain.joint_names, lines.prismatic, strict=True) if p]

@@ -151,10 +151,9 @@ def walk(lines: ChainLines, first: np.ndarray, first_sign: float, alphas: tuple[
             plus = math.atan2(float(np.dot(cross, x)), cosine)  # alpha if z_i = +h
             sign = 1.0 if (plus > 0.0) == (alpha > 0.0) else -1.0
         new_z = sign * axis
-        theta = math.atan2(float(np.dot(np.cross(x_previous, x), z)), float(np.dot(x_previous, x)))
+        theta = angle_about(z, x_previous, x)
         result.signs.append(sign)
-        result.add(_frame(x, new_z, new_origin), theta, d, a,
-                   math.atan2(float(np.dot(np.cross(z, new_z), x)), float(np.dot(z, new_z))))
+        result.add(_frame(x, new_z, new_origin), theta, d, a, angle_about(x, z, new_z))
     return result
 
 
@@ -182,8 +181,7 @@ def aligned(canonical: Canonical, lines: ChainLines, result: Walk) -> tuple[np.n
     """(G, X, s, o) of a finished walk: G = F_0 B^-1, X = E^-1 F_n^-1 T(0), o = theta0 - o_f."""
     base = result.frames[0] @ np.linalg.inv(canonical.base)
     tool = np.linalg.inv(canonical.tool) @ np.linalg.inv(result.frames[-1]) @ lines.tip
-    offsets = np.array(result.theta) - np.array(canonical.offsets)
-    return base, tool, np.array(result.signs), offsets
+    return base, tool, np.array(result.signs), np.array(result.theta) - np.array(canonical.offsets)
 
 
 # --- what matchers check ----------------------------------------------------------------------------

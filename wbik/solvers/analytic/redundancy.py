@@ -14,6 +14,7 @@ import numpy as np
 
 from wbik.errors import InvalidSettingError, UnsupportedError
 from wbik.geometry import TWO_PI
+from wbik.robot import Chain
 from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
 from wbik.solvers.analytic.held_search import HeldJointSearch
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
@@ -46,9 +47,8 @@ class LockedChain:
         self.is_prismatic = np.asarray(chain.is_prismatic)[keep].copy()
         self.lines = locked_lines(chain_lines(chain), index, self.value)
 
-    @property
-    def nq(self) -> int:
-        return len(self.joint_names)
+    nq = Chain.nq  # len(joint_names)
+    random = Chain.random  # uniform joints inside the limits
 
     def full(self, q: np.ndarray) -> np.ndarray:
         """The parent's joints (..., n + 1) with the held value inserted."""
@@ -57,10 +57,6 @@ class LockedChain:
     def fk(self, q: np.ndarray):
         """The tip pose (pin.SE3) at joints q (n,), the parent's FK."""
         return self.parent.fk(self.full(q))
-
-    def random(self, rng: np.random.Generator, count: int | None = None) -> np.ndarray:
-        shape = (self.nq,) if count is None else (count, self.nq)
-        return rng.uniform(self.lower, self.upper, size=shape)
 
 
 def held_range(chain, index: int) -> tuple[float, float]:

@@ -25,6 +25,7 @@ import wbik.solvers.analytic.recognition as recognition
 from wbik.dh import rot_z
 from wbik.errors import InvalidOptionError
 from wbik.geometry import wrap_to_pi
+from wbik.kernels.twins import KERNELS
 from wbik.solvers.analytic.aligned import FamilyChain
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
@@ -32,10 +33,7 @@ from wbik.solvers.analytic.recognition import HALF_PI, require, small
 from wbik.solvers.analytic.subproblems import COSINE_TOLERANCE, clamped_cosine, planar_2r
 from wbik.solvers.levenberg_marquardt import JointBounds, LevenbergMarquardt, batch_cost, keep_better
 
-try:
-    import wbik.kernels._stacked_planar as _stacked_kernel
-except ImportError:  # not built (no C compiler at install time): the vectorised twin
-    _stacked_kernel = None
+_stacked_kernel = next(k.extension for k in KERNELS if k.name == "stacked_planar")  # None: not built
 
 GIMBAL_LOCK = 1e-9  # |cos(beta)| = hypot(R32, R33) below which t6 is free
 
@@ -381,8 +379,7 @@ def match(lines, kind: str, options: dict) -> recognition.Match:
         recognition.no_options(options, "stacked_planar pose")
         return recognition.Match("stacked_planar", lambda chain: StackedPlanarPose(chain, geometry), *aligned,
                                  parameters)
-    unknown = set(options) - {"yaw"}
-    if unknown:
+    if unknown := set(options) - {"yaw"}:
         raise InvalidOptionError(f"the recognised stacked_planar position form takes the option 'yaw' (the "
                                  f"roll joint's value, rad), not {sorted(unknown)}",
                                  option=sorted(unknown)[0], accepted=["yaw"])

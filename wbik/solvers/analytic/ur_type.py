@@ -19,6 +19,7 @@ import numpy as np
 
 import wbik.solvers.analytic.recognition as recognition
 from wbik.dh import homogeneous
+from wbik.kernels.twins import KERNELS
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.compiled import compiled_form
 from wbik.solvers.analytic.recognition import HALF_PI, require, small
@@ -30,10 +31,7 @@ from wbik.solvers.analytic.subproblems import (
     planar_2r_elbow,
 )
 
-try:
-    import wbik.kernels._ur_type as _ur_kernel
-except ImportError:  # not built (no C compiler at install time): the vectorised twin
-    _ur_kernel = None
+_ur_kernel = next(k.extension for k in KERNELS if k.name == "ur_type")  # None where not built: the twin
 
 BASE_TO_LINK0 = np.diag([-1.0, -1.0, 1.0])  # Rz(pi) exactly: base_link -> link0 (the DH base)
 LINK6_TO_EE = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]])  # link6 (DH flange) -> ee_link
