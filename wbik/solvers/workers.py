@@ -1,18 +1,21 @@
 """A batch split over worker processes: ``solve_many(targets, q0s, workers=N)`` solves N contiguous parts
 of the batch at once in processes forked from this one, each running the method's own batched path on its
-part, and joins the answers in order. The solver is inherited by the fork, never pickled; targets and
-answers travel by pickle (about 30 us an answer), so a part pays only where a pose costs more than that.
-The processes are forked on a solver's first such call and kept for its later calls until it is garbage
-collected (they see the solver as it was then)."""
+part, and joins the answers in order. The solver is inherited by the fork, never pickled; SE3 targets
+travel as one array of 4 x 4 matrices and the answers as columns (a field's arrays stacked, its numbers in
+one array), a few microseconds an answer, so a part pays where a pose costs more than that. The processes
+are forked on a solver's first such call and kept for its later calls until it is garbage collected (they
+see the solver as it was then)."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import multiprocessing
 import weakref
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
+import pinocchio as pin
 
 LOGGER = logging.getLogger("wbik.workers")
 
@@ -34,9 +37,12 @@ def solve_in_workers(solver, targets: list, q0s, workers: int) -> list:
     per_row = q0s is not None and np.ndim(q0s) == 2
     executor = _pool(solver, workers)
     parts = [part for part in np.array_split(np.arange(len(targets)), workers) if len(part)]
-    futures = [executor.submit(_solve_part, id(solver), [targets[i] for i in part],
+    se3 = all(type(target) is pin.SE3 for target in targets)
+    matrices = np.array([target.homogeneous for target in targets]) if se3 else None
+    futures = [executor.submit(_solve_part, id(solver),
+                               matrices[part] if matrices is not None else [targets[i] for i in part],
                                np.asarray(q0s)[part] if per_row else q0s) for part in parts]
-    return [answer for future in futures for answer in future.result()]
+    return [answer for future in futures for answer in _rows(*future.result())]
 
 
 def _pool(solver, workers: int) -> ProcessPoolExecutor:
@@ -57,6 +63,42 @@ def _pool(solver, workers: int) -> ProcessPoolExecutor:
     return executor
 
 
-def _solve_part(key: int, targets: list, q0s) -> list:
-    """In a worker: the inherited solver's batched path on its part."""
-    return _INHERITED[key]._solve_targets(targets, q0s)
+def _solve_part(key: int, targets, q0s) -> tuple:
+    """In a worker: the inherited solver's batched path on its part (4 x 4 matrices: SE3 targets), the
+    answers as :func:`_columns`."""
+    if isinstance(targets, np.ndarray):
+        targets = [pin.SE3(matrix) for matrix in targets]
+    return _columns(_INHERITED[key]._solve_targets(targets, q0s))
+
+
+def _columns(answers: list) -> tuple:
+    """(the answers' dataclass, {field: (how, values)}): arrays of one shape and dtype stacked ("rows"),
+    numbers of one type in one array ("numbers"), anything else as the list; or (None, answers)."""
+    if not answers or len({type(answer) for answer in answers}) != 1:
+        return None, answers
+    columns = {}
+    for name in (item.name for item in dataclasses.fields(answers[0])):
+        values = [getattr(answer, name) for answer in answers]
+        first = values[0]
+        if isinstance(first, np.ndarray) and all(isinstance(value, np.ndarray) and value.shape == first.shape
+                                                 and value.dtype == first.dtype for value in values):
+            columns[name] = ("rows", np.stack(values))
+        elif type(first) in (bool, int, float) and all(type(value) is type(first) for value in values):
+            columns[name] = ("numbers", np.array(values))
+        elif (first is None or type(first) is str or first in ({}, [])) and \
+                all(type(value) is type(first) and value == first for value in values):
+            columns[name] = ("same", first)  # a method's name, None, an empty mapping or list
+        else:
+            columns[name] = ("list", values)
+    return type(answers[0]), columns
+
+
+def _rows(kind, columns) -> list:
+    """The answers of :func:`_columns` back as objects (a stacked array's rows, Python numbers)."""
+    if kind is None:
+        return columns
+    count = next(len(data) for how, data in columns.values() if how != "same")
+    fields = [list(data) if how == "rows" else data.tolist() if how == "numbers" else
+              [type(data)() for _ in range(count)] if how == "same" and data in ({}, []) else
+              [data] * count if how == "same" else data for how, data in columns.values()]
+    return [kind(*row) for row in zip(*fields, strict=True)]  # the fields in their declared order
