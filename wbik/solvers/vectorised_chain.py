@@ -10,6 +10,11 @@ import numpy as np
 
 from wbik.solvers.task_error import LEVI_CIVITA, batch_se3_error, serial_structure
 
+# rows of the (B, 2n) x (2n, 16n) product per BLAS call: under OpenBLAS's threading threshold
+# (M N K <= 4 x 65536) for chains of up to 8 joints: a large batch wakes no second thread, which would
+# then spin between the calls
+ROWS_PER_PRODUCT = 128
+
 
 class VectorisedChain:
     """Residuals and transposed Jacobians (B, n, m) of B configurations, position rows weighted by
@@ -88,7 +93,11 @@ class VectorisedChain:
         np.subtract(1.0, coefficients[:, n:], out=coefficients[:, n:])
         if self.any_prismatic:
             coefficients[:, :n][:, self.prismatic] = q[:, self.prismatic]
-        steps = (coefficients.dot(self.linear) + self.constant).reshape(size, n, 4, 4)
+        steps = np.empty((size, 16 * n))
+        for first in range(0, size, ROWS_PER_PRODUCT):  # row blocks: OpenBLAS keeps each on one thread
+            np.dot(coefficients[first:first + ROWS_PER_PRODUCT], self.linear,
+                   out=steps[first:first + ROWS_PER_PRODUCT])
+        steps = (steps + self.constant).reshape(size, n, 4, 4)
         frames = np.empty((size, n + 1, 4, 4))
         frames[:, 0] = self.first
         frames[:, 1] = steps[:, 0]
