@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from pathlib import Path
@@ -38,6 +37,7 @@ import numpy as np
 import wbik
 from wbik.errors import WbikError
 from wbik.solvers.result import Tolerances
+from wbik.solvers.workers import usable_cores
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ratios import Ratio  # noqa: E402
@@ -126,11 +126,6 @@ def solve_many_throughput(robot_name: str, chain_name: str, count: int, seed: in
     results = solver.solve_many(poses, chain.mid_range, workers=workers)
     wall, cpu = time.perf_counter() - started, time.process_time() - cpu
     return count / max(wall, cpu), count / wall, sum(result.success for result in results) / count, results
-
-
-def usable_cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
 
 def ratios(quick: bool = False) -> list[Ratio]:

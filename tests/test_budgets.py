@@ -79,8 +79,8 @@ THREADED_METHODS = {"trac_ik": 2}
 """Methods that compute in threads of their own, and how many (TRAC-IK runs KDL and SQP side by side,
 both busy until the deadline on a target out of reach): judged by the process's CPU time shared out
 over those threads, which is each thread's own time when they ran alike (idle, 2.0 CPU seconds a wall
-second; on a busy machine 1.0-2.0 measured). The others compute in the calling thread and are judged by its CPU time,
-which leaves out OpenBLAS's worker threads (they spin for ~0.1 s after a large product, e.g.
+second; on a busy machine 1.0-2.0 measured). The others compute in the calling thread and are judged by
+its CPU time, which leaves out OpenBLAS's worker threads (they spin for ~0.1 s after a large product, e.g.
 building bounded_lm's seed library, and would count against the method on a busy machine)."""
 
 

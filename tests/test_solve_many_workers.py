@@ -1,6 +1,6 @@
 """``solve_many(..., workers=N)`` splits a batch over forked processes: the answers are those of one process,
 bit for bit and in order, for a method's own batched path (bounded_lm's vectorised rows, analytic's choice)
-and for the per-target path; the parts are solved in other processes; bad counts and bad starts are refused
+and for the per-target path; the parts are solved in other processes, each with BLAS on its share of the cores; bad counts and bad starts are refused
 in the caller, before any process is forked."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ import os
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info
 
 import wbik
 from wbik.errors import InvalidConfigurationError, InvalidSettingError
@@ -56,6 +57,8 @@ def test_the_parts_run_in_other_processes(rng):
         def _solve(self, target, q0, deadline):
             candidate = super()._solve(target, q0, deadline)
             candidate.extra["pid"] = os.getpid()
+            candidate.extra["blas_threads"] = {pool["num_threads"] for pool in threadpool_info()
+                                               if pool["user_api"] == "blas"}
             return candidate
 
     with IK_METHOD_REGISTRY.isolated():
@@ -64,6 +67,8 @@ def test_the_parts_run_in_other_processes(rng):
         answers = solver.solve_many(_poses(solver.chain, 6, rng), workers=2)
     processes = [a.extra["pid"] for a in answers]
     assert os.getpid() not in processes
+    share = max(1, workers.usable_cores() // 2)  # each worker's BLAS on its share of the cores
+    assert all(a.extra["blas_threads"] <= {share} for a in answers)
     assert processes[:3] == [processes[0]] * 3 and processes[3:] == [processes[3]] * 3  # a half per task
     pool = workers._POOLS[solver][0]
     assert workers._POOLS[solver][1] == 2 and len(pool._processes) == 2  # two forked, whichever took a half

@@ -11,11 +11,13 @@ from __future__ import annotations
 import dataclasses
 import logging
 import multiprocessing
+import os
 import weakref
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import pinocchio as pin
+from threadpoolctl import threadpool_limits
 
 LOGGER = logging.getLogger("wbik.workers")
 
@@ -52,7 +54,8 @@ def _pool(solver, workers: int) -> ProcessPoolExecutor:
         return kept[0]
     if kept is not None:
         kept[0].shutdown(wait=False, cancel_futures=True)
-    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"))
+    executor = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork"),
+                                   initializer=_share_cores, initargs=(workers,))
     _INHERITED[id(solver)] = solver
     try:  # a fork-context pool forks all its processes at the first submit
         executor.submit(int).result()
@@ -61,6 +64,20 @@ def _pool(solver, workers: int) -> ProcessPoolExecutor:
     _POOLS[solver] = (executor, workers)
     weakref.finalize(solver, executor.shutdown, wait=False, cancel_futures=True)
     return executor
+
+
+def usable_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the OS says, else the CPU count)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def _share_cores(workers: int) -> None:
+    """In a worker: BLAS and LAPACK on at most its share of the cores (one of two workers on 2 cores: one
+    thread), so that the library's own threads do not spin on the cores the other workers compute on."""
+    threadpool_limits(max(1, usable_cores() // workers), user_api="blas")
 
 
 def _solve_part(key: int, targets, q0s) -> tuple:

@@ -3,9 +3,10 @@
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable
+
+from wbik.solvers.workers import usable_cores
 
 STARVED_CPU_SHARE = 0.8
 """A wall-clock solve that got less CPU time than this share of wall time x threads is run again."""
@@ -33,14 +34,6 @@ def threads_of(method: str) -> int:
     except WbikError:
         factory = None
     return method_threads(method, factory)
-
-
-def usable_cores() -> int:
-    """The cores this process may run on (its CPU affinity where the OS says, else the CPU count)."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return max(1, os.cpu_count() or 1)
 
 
 def workers_for(threads: int, jobs: int, cores: int | None = None) -> int:

@@ -166,7 +166,7 @@ def machine() -> dict:
     import numpy
     import pinocchio
 
-    from wbik.study.cpu_watch import usable_cores
+    from wbik.solvers.workers import usable_cores
 
     return {"cpu": cpu_model(), "cpu_count": os.cpu_count(), "usable_cores": usable_cores(),
             "os": platform.platform(), "python": platform.python_version(), "numpy": numpy.__version__,

@@ -18,13 +18,14 @@ import numpy as np
 import wbik.study.results as store
 from wbik.dependencies import DASK_LIBRARY
 from wbik.errors import WbikError
+from wbik.solvers.workers import usable_cores
 from wbik.study.applicability import not_applicable
 from wbik.study.blocks import budget_kind
 from wbik.study.budget_curves import budget_path, budget_tasks
 from wbik.study.case_kinds import ChunkTask, case_kind
 from wbik.study.compare import TARGETS_RECORD, targets_record
 from wbik.study.context import chunk_count
-from wbik.study.cpu_watch import threads_of, usable_cores, workers_for
+from wbik.study.cpu_watch import threads_of, workers_for
 from wbik.study.ownership import FolderLock
 from wbik.study.provenance import PROVENANCE, code_roots, provenance
 from wbik.study.sampling import PoseSet
