@@ -4,14 +4,18 @@ loads (rigid body on equal springs, unilateral): min |F|^2 s.t. A F = W (1, c_x,
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from qpsolvers import solve_qp
 
 from wbik.errors import InvalidConfigurationError, RobotDescriptionError
 from wbik.robot import Robot
+
+QP_TOLERANCE = 1e-7
+"""Shares of the weight below which DAQP's answer counts a sensor unloaded, and its equality residual
+above which the CoP counts as outside the supports (DAQP's own tolerances are about 1e-9)."""
 
 GRAVITY = 9.81  # m/s^2
 FSR_NAMES = ("FSR1", "FSR2", "FSR3", "FSR4")
@@ -54,33 +58,29 @@ def center_of_pressure(loads: Sequence[float], positions: np.ndarray) -> np.ndar
 
 def support_loads(points_xy: np.ndarray, weight: float, cop_xy: Sequence[float],
                   tolerance: float = 1e-9) -> np.ndarray:
-    """Minimum-norm loads >= 0 carrying ``weight`` with their CoP at ``cop_xy`` (enumerating the unloaded
-    sets); InvalidConfigurationError when ``cop_xy`` is outside the supports' hull."""
+    """Minimum-norm loads >= 0 carrying ``weight`` with their CoP at ``cop_xy``: min |f|^2 s.t. A f = w (1,
+    cop), f >= 0 with A = (1; x; y), a QP (DAQP) whose loaded set then gives the exact least-norm loads
+    A_S^T (A_S A_S^T)^+ b; InvalidConfigurationError when ``cop_xy`` is outside the supports' hull."""
     points = np.asarray(points_xy, dtype=float)[:, :2]
     if not weight > 0:
         raise InvalidConfigurationError(f"weight must be positive, got {weight}")
     count = len(points)
     matrix = np.vstack((np.ones(count), points[:, 0], points[:, 1]))
-    rhs = weight * np.array([1.0, cop_xy[0], cop_xy[1]])
-    best, best_norm = None, np.inf
-    for size in range(count, 0, -1):
-        for free in itertools.combinations(range(count), size):
-            sub = matrix[:, free]
-            loads_free = sub.T @ np.linalg.pinv(sub @ sub.T) @ rhs
-            if np.any(loads_free < -tolerance * weight):
-                continue
-            if np.linalg.norm(sub @ loads_free - rhs) > tolerance * weight * (1.0 + np.abs(rhs[1:]).max()):
-                continue
-            norm = float(loads_free @ loads_free)
-            if norm < best_norm:
-                best = np.zeros(count)
-                best[list(free)] = np.maximum(loads_free, 0.0)
-                best_norm = norm
-    if best is None:
+    rhs = np.array([1.0, cop_xy[0], cop_xy[1]])  # per newton of weight
+    shares = solve_qp(np.eye(count), np.zeros(count), A=matrix, b=rhs, lb=np.zeros(count), solver="daqp")
+    residual = np.inf if shares is None else np.linalg.norm(matrix @ shares - rhs)
+    if residual > QP_TOLERANCE * (1.0 + np.abs(rhs[1:]).max()):
         raise InvalidConfigurationError(
             f"the CoM projection {np.asarray(cop_xy).tolist()} is outside the support polygon: "
             "no non-negative support loads balance the weight (the stance is not static)")
-    return best
+    loaded = np.flatnonzero(shares > QP_TOLERANCE)
+    sub = matrix[:, loaded]
+    exact = sub.T @ np.linalg.pinv(sub @ sub.T) @ rhs
+    scale = 1.0 + np.abs(rhs[1:]).max()
+    if np.all(exact >= -tolerance) and np.linalg.norm(sub @ exact - rhs) <= tolerance * scale:
+        shares = np.zeros(count)
+        shares[loaded] = np.maximum(exact, 0.0)
+    return weight * shares
 
 
 @dataclass

@@ -190,7 +190,7 @@ def quasi_static_motion(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase
                             *([LockedJoints(list(locked))] if locked else [])]
             problem = IKProblem(robot.model, tasks(phase, s, None if phase.com is None else phase.com(s)),
                                 constraints, backend=backend, max_step=0.1, progress=1e-6)
-            solution = problem.solve(q, max_iterations=max_iterations)
+            solution = problem.solve(q, max_iterations=max_iterations, diagnose=False)
             check = verify_sample(robot, solution.q, held, active, margin)
             for _ in range(retries):
                 if holds(check):
@@ -200,8 +200,8 @@ def quasi_static_motion(robot: Robot, q0: np.ndarray, phases: Sequence[BodyPhase
                 repair = IKProblem(robot.model, [ComTask(np.r_[inside, 0.0], axes="xy", tolerance=1e-7,
                                                          name="com repair"), RegularizationTask(1e-8)],
                                    constraints, backend=backend, max_step=0.1)
-                repaired = repair.solve(solution.q, max_iterations=max_iterations)
-                solution = problem.solve(repaired.q, max_iterations=max_iterations)
+                repaired = repair.solve(solution.q, max_iterations=max_iterations, diagnose=False)
+                solution = problem.solve(repaired.q, max_iterations=max_iterations, diagnose=False)
                 check = verify_sample(robot, solution.q, held, active, margin)
             q = solution.q.copy()
             errors = solution.task_errors
