@@ -7,6 +7,8 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
+from wbik.errors import InvalidSettingError
+
 FOLDERS = ("tasks", "comparisons", "urdf")
 SCENARIO_SUFFIXES = (".yaml", ".yml", ".json", ".toml")
 STUDY_SUFFIXES = (".yaml", ".yml", ".toml")
@@ -15,7 +17,7 @@ STUDY_SUFFIXES = (".yaml", ".yml", ".toml")
 def data_dir(folder: str) -> Path:
     """The folder ``tasks``, ``comparisons`` or ``urdf``: the wheel's copy, else the source tree's."""
     if folder not in FOLDERS:
-        raise ValueError(f"unknown data folder {folder!r}; one of {', '.join(FOLDERS)}")
+        raise InvalidSettingError(f"unknown data folder {folder!r}; one of {', '.join(FOLDERS)}")
     packaged = files(__name__) / folder
     if isinstance(packaged, Path) and packaged.is_dir():  # a wheel installed on a file system
         return packaged

@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import InvalidSettingError
 from wbik.robot import Robot
 
 STICK_COLOR = np.array([0.91, 0.45, 0.10, 1.0])  # orange, RGBA in [0, 1]
@@ -27,7 +28,7 @@ def robot_extent(robot: Robot, q: np.ndarray | None = None) -> float:
 def visual_model(robot: Robot, style: str = "auto") -> tuple[pin.GeometryModel, str]:
     """The geometry to draw and its style, ``"visual"`` (URDF) or ``"stick"`` (``"auto"``: visual if any)."""
     if style not in ("auto", "visual", "stick"):
-        raise ValueError(f"style must be 'auto', 'visual' or 'stick', got {style!r}")
+        raise InvalidSettingError(f"style must be 'auto', 'visual' or 'stick', got {style!r}")
     if style in ("auto", "visual"):
         geometry = urdf_visuals(robot)
         if geometry is not None and geometry.ngeoms > 0:

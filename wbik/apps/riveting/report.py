@@ -16,6 +16,7 @@ from wbik.apps.riveting.ours import QPPlanner
 from wbik.apps.riveting.plan import Insertion, Planner
 from wbik.apps.riveting.scene import Scene, build_scene
 from wbik.apps.riveting.thesis import ThesisPlanner
+from wbik.errors import InvalidConfigurationError, InvalidSettingError
 from wbik.expectations import ExpectationError, Rule, evaluate, format_checks, verdict
 from wbik.models import load
 from wbik.scenarios.kinds import json_default, report_verdict
@@ -54,7 +55,7 @@ class Cell:
         self.insertion = Insertion(**spec.get("insertion", {}))
         home = solver("analytic", self.robot, chain="arm").solve(self.scene.rivet_home, self.robot.nominal)
         if not home.success:
-            raise ValueError(f"rivet_home is not reachable: {home.reason}")
+            raise InvalidConfigurationError(f"rivet_home is not reachable: {home.reason}")
         self.q_home = home.q
 
     def planner(self, entry: dict) -> Planner:
@@ -62,7 +63,7 @@ class Cell:
         options = {k: v for k, v in entry.items() if k not in ("name", "planner")}
         kind = entry.get("planner", "ours")
         if kind not in PLANNERS:
-            raise ValueError(f"unknown planner {kind!r}; planners: {sorted(PLANNERS)}")
+            raise InvalidSettingError(f"unknown planner {kind!r}; planners: {sorted(PLANNERS)}")
         planner = PLANNERS[kind](self.robot, self.scene, self.collision, self.limits, self.insertion,
                                  **options)
         planner.name = entry.get("name", kind)

@@ -14,6 +14,7 @@ from wbik.apps.riveting.cost import PlanningCost
 from wbik.apps.riveting.moves import Move, dwell, samples, timed_move
 from wbik.apps.riveting.plan import TRIGGER, CyclePlan, Planner
 from wbik.apps.riveting.scene import FACE_NORMALS, Hole
+from wbik.errors import InvalidSettingError
 
 ROLL_CANDIDATES = 12
 TEACH_CLEARANCE = 0.015  # m to workpiece and table that a taught q_int keeps
@@ -28,9 +29,9 @@ class ThesisPlanner(Planner):
                  return_via: str = "intermediate", **options):
         super().__init__(*args, **options)
         if timing not in ("thesis", "optimal"):
-            raise ValueError(f"thesis planner timing must be 'thesis' or 'optimal', got {timing!r}")
+            raise InvalidSettingError(f"thesis planner timing must be 'thesis' or 'optimal', got {timing!r}")
         if return_via not in ("direct", "intermediate"):
-            raise ValueError(f"return_via must be 'direct' or 'intermediate', got {return_via!r}")
+            raise InvalidSettingError(f"return_via must be 'direct' or 'intermediate', got {return_via!r}")
         self.timing, self.return_via, self.sleep = timing, return_via, float(sleep)
         self.intermediate_distance = float(intermediate_distance)
         self.intermediate_time, self.move_time = float(intermediate_time), float(move_time)

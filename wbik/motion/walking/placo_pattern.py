@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from wbik.errors import RobotDescriptionError
+from wbik.errors import InvalidSettingError, RobotDescriptionError
 from wbik.motion.walking.footsteps import OTHER, SIDES, Feet, Footstep
 from wbik.motion.walking.timeline import Timing
 from wbik.robot import Robot, write_cached_urdf
@@ -145,7 +145,7 @@ def placo_walk(robot: Robot, q0: np.ndarray, footsteps: list[Footstep], feet: Fe
     """Plan the walk through ``footsteps`` with PlaCo's generator (``setting`` "placo": its own timing and ZMP
     margin; "ours": ``timing``, ``horizon_s`` and ``zmp_margin``) and follow it with its IK every ``dt``."""
     if setting not in SETTINGS:
-        raise ValueError(f"setting must be one of {SETTINGS}, got {setting!r}")
+        raise InvalidSettingError(f"setting must be one of {SETTINGS}, got {setting!r}")
     timing = timing or Timing()
     steps = max(1, int(round(timing.single_support_s / dt)))
     ours = {"single_support_duration": timing.single_support_s, "single_support_timesteps": steps,
