@@ -15,18 +15,18 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 GOALS = {  # a phrase of each goal's row -> rows expected
-    "interface overhead <= 10 us": 5,
-    "UR5 closed-form solve <= 2x EAIK": 1,
+    "interface overhead <= 5 us": 5,
+    "UR5 closed-form solve <= 1.5x EAIK": 1,
     "UR5 closed-form solve_all <= 3x EAIK": 1,
     "UR5 closed-form solve_many": 1,
-    "Golem-III closed-form solve <= 25 us": 1,
-    "eaik method solve <= 2x EAIK's own call": 2,
-    "bounded_lm mean time <= 0.5x TRAC-IK": 5,
+    "Golem-III closed-form solve <= 20 us": 1,
+    "eaik method solve <= 1.5x EAIK's own call": 2,
+    "bounded_lm mean time <= 0.4x TRAC-IK": 5,
     "bounded_lm success >= TRAC-IK": 5,
     "solve_many throughput": 4,
-    "whole-body QP step <= 2x PlaCo": 1,
+    "whole-body QP step <= 1.2x PlaCo": 2,
     "whole-body QP step faster than Pink": 1,
-    "converged whole-body IK <= 3x PlaCo": 1,
+    "converged whole-body IK <= 2x PlaCo": 1,
     "converged whole-body IK faster than Pink": 1,
     "at least 5 kHz per step": 1,
 }
