@@ -1,0 +1,205 @@
+"""A 7-joint arm whose neighbouring axes pass close by without meeting (a general 6R remains whichever joint
+is held): solved through a nearby arm (:data:`NEARBY_ARMS`), some axes moved along their common normal
+onto the one before (by at most :data:`NEARBY_SHARE` of the chain's length), which a held joint and a
+family or EAIK solve in closed form; its branches, at the held joint's start value and a grid over its
+range, are refined by Newton on the chain itself (min-norm steps on all 7 joints, e = log6(T*^-1 T)), the
+nearest first; a denser grid where none reaches the target inside the limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import UnsupportedError
+from wbik.geometry import TWO_PI
+from wbik.robot import Chain
+from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm, stacked_branches, wrap_into_limits
+from wbik.solvers.analytic.held_search import DENSER, limit_excess
+from wbik.solvers.analytic.recognition import Recognised
+from wbik.solvers.analytic.redundancy import held_values, lock_redundant_joint
+from wbik.solvers.analytic.structure import ChainLines, chain_lines, poe_fk
+from wbik.solvers.vectorised_chain import VectorisedChain
+
+# the nearby arms tried, in order: their name and the axes moved onto the previous one (0-based)
+NEARBY_ARMS = (("axes 1, 2, 3 meeting and axes 5, 6 meeting", (1, 2, 5)),
+               ("axes 2, 3 meeting and axes 5, 6, 7 meeting", (2, 5, 6)),
+               ("every two neighbouring axes meeting", (1, 2, 3, 4, 5, 6)))
+NEARBY_SHARE = 0.1  # offsets between neighbouring axes up to this x the chain's length are closed
+NEAREST_FIRST = 6  # nearby branches refined first (the nearest the start, inside the limits or nearly)
+NEWTON_STEPS = 12  # Newton steps at most per refinement
+STEP_LIMIT = 0.3  # rad: the largest joint change of one step (the step scaled down)
+CONVERGED = 1e-12  # |e| (m and rad) at which a branch is refined
+FREE_STEPS, PROGRESS = 3, 0.5  # a row stalls after FREE_STEPS steps where |e| falls less than 2 x a step
+NEAR_LIMITS = 0.3  # rad: how far outside the limits a nearby branch may be and still be refined first
+
+
+def nearby_lines(lines: ChainLines, moved: tuple[int, ...]) -> tuple[ChainLines, float]:
+    """The lines with each axis k of ``moved`` (0-based, from the base) moved along its common normal with
+    axis k - 1 onto it (a parallel pair left), and the largest move (m)."""
+    origins = lines.origins.copy()
+    largest = 0.0
+    for k in moved:
+        normal = np.cross(lines.axes[k - 1], lines.axes[k])
+        size = float(np.linalg.norm(normal))
+        if size <= 1e-9:
+            continue
+        normal /= size
+        gap = float((origins[k - 1] - origins[k]) @ normal)
+        origins[k] += gap * normal
+        largest = max(largest, abs(gap))
+    return ChainLines(lines.axes.copy(), origins, lines.tip.copy(), lines.prismatic.copy()), largest
+
+
+class NearbyChain:
+    """What a closed form reads of a chain, with the nearby arm's lines (its FK their product)."""
+
+    def __init__(self, chain, lines: ChainLines):
+        self.parent, self.robot, self.lines = chain, chain.robot, lines
+        self.name = f"{chain.name} (nearby arm)"
+        self.base_frame, self.tip_frame = chain.base_frame, chain.tip_frame
+        self.joint_names, self.is_prismatic = list(chain.joint_names), np.asarray(chain.is_prismatic)
+        self.lower, self.upper, self.nominal = chain.lower, chain.upper, chain.nominal
+
+    nq = Chain.nq
+    random = Chain.random
+
+    def fk(self, q: np.ndarray) -> pin.SE3:
+        position, rotation = poe_fk(self.lines, np.asarray(q, dtype=float))
+        return pin.SE3(rotation, position)
+
+
+class NearbyArmForm(ClosedForm):
+    """The chain solved through its nearby arm's closed form (``near``), Newton-refined on the chain."""
+
+    def __init__(self, chain, near: Recognised, lines: ChainLines, grid_size: int):
+        super().__init__(chain)
+        self.near, self.lines = near.form, lines
+        self.index = self.near.index
+        self.grid = held_values(chain, self.index, "grid", grid_size)
+        self.dense = held_values(chain, self.index, "grid", DENSER * grid_size)
+        self.vectorised = VectorisedChain(chain)
+        self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
+        self.kernel = NearbyChoice(self)
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return poe_fk(self.lines, q)
+
+    def nearby_branches(self, positions: np.ndarray, rotations: np.ndarray, q0: np.ndarray,
+                        values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nearby arm's branches (B, K, 7) with the held joint at ``values`` (V,), its first value the
+        start's own (clipped), and their masks (B, K): finite, and exact (EAIK's least-squares ones not)."""
+        starts = np.clip(q0[:, self.index], self.chain.lower[self.index], self.chain.upper[self.index])
+        held = np.concatenate((starts[:, None], np.broadcast_to(values, (len(q0), len(values)))), axis=1)
+        q, exact = self.near.branches_at(positions, rotations, q0, held, exact=True)
+        finite = np.all(np.isfinite(q), axis=-1)
+        return q, finite, exact & finite
+
+    def refine(self, q: np.ndarray, positions: np.ndarray, rotations: np.ndarray, first: bool = False
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Newton on the chain from joints q (M, 7) towards targets (M, ...): (q, converged (M,)). A step is
+        -J^+ e plus the pull into the limits (joints at their 2 pi shift nearest the limits' middle) projected
+        onto J's null space (the self-motion, which leaves the pose), J^+ = J^T (J J^T)^-1, scaled to at most
+        STEP_LIMIT; until every row converged inside the limits or stalls (after :data:`FREE_STEPS`, |e| +
+        limit excess not below :data:`PROGRESS` x the last), or with ``first`` one row converged inside, at
+        most NEWTON_STEPS."""
+        damping = 1e-14 * np.eye(6)
+        lower, upper, revolute = self.chain.lower, self.chain.upper, self.revolute
+        middle = 0.5 * (lower + upper)
+        last = np.full(len(q), np.inf)
+        for count in range(NEWTON_STEPS + 1):
+            error, transposed = self.vectorised.evaluate(q, positions, rotations)
+            near_middle = q + revolute * TWO_PI * np.round((middle - q) / TWO_PI)
+            pull = near_middle - np.clip(near_middle, lower, upper)
+            size = np.abs(error).max(axis=1)
+            measure = size + np.abs(pull).sum(axis=1)
+            done = size <= CONVERGED
+            finished = done & (measure <= CONVERGED + LIMIT_TOLERANCE)
+            stalled = (measure > PROGRESS * last) & (count >= FREE_STEPS)
+            if count == NEWTON_STEPS or np.all(finished | stalled) or (first and finished.any()):
+                return q, done
+            last = measure
+            normal = np.swapaxes(transposed, 1, 2) @ transposed + damping
+            task = np.einsum("mki,mk->mi", transposed, pull)  # J pull
+            solved = np.linalg.solve(normal, np.stack((error, task), axis=-1))  # (M, 6, 2)
+            moves = transposed @ solved  # J^+ e and J^+ J pull (M, 7, 2)
+            change = moves[..., 0] + pull - moves[..., 1]
+            largest = np.abs(change).max(axis=1, keepdims=True)
+            q = q - change * np.minimum(1.0, STEP_LIMIT / np.maximum(largest, 1e-300))
+        return q, done
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Every nearby branch at the start's held value and the grid, refined (real: converged)."""
+        near_q, real, _ = self.nearby_branches(positions, rotations, q0, self.grid)
+        rows, columns = np.nonzero(real)
+        refined, converged = self.refine(near_q[rows, columns], positions[rows], rotations[rows])
+        return stacked_branches([(refined[rows == b], converged[rows == b]) for b in range(len(q0))],
+                                self.chain.nq)
+
+
+class NearbyChoice:
+    """``solve``'s kernel of a :class:`NearbyArmForm`: the nearest passing refined branch, staged."""
+
+    def __init__(self, form: NearbyArmForm):
+        self.form = form
+        chain = form.chain
+        self.lower, self.upper = chain.lower, chain.upper
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """The passing branch nearest ``reference`` into ``out``: its count of candidates, else 0 (no
+        nearby branch), -1 (none refined inside the limits) or -2 (none refined)."""
+        form, outcome = self.form, 0
+        for values in (form.grid, form.dense):
+            near_q, finite, exact = form.nearby_branches(position[None], rotation[None], reference[None],
+                                                         values)
+            near_q, exact = near_q[0][finite[0]], exact[0][finite[0]]
+            if not len(near_q):
+                continue
+            outcome = outcome or -2
+            shifted = near_q + form.revolute * TWO_PI * np.round((reference - near_q) / TWO_PI)
+            excess = limit_excess(near_q, self.lower, self.upper, form.revolute)
+            order = np.lexsort((np.linalg.norm(shifted - reference, axis=1), ~exact, excess > NEAR_LIMITS))
+            for part in (order[:NEAREST_FIRST], order[NEAREST_FIRST:]):
+                if not len(part):
+                    continue
+                count = len(part)
+                q, converged = form.refine(shifted[part], np.broadcast_to(position, (count, 3)),
+                                           np.broadcast_to(rotation, (count, 3, 3)), first=True)
+                q, inside = wrap_into_limits(q, reference, self.lower, self.upper, form.revolute)
+                if converged.any():
+                    outcome = -1
+                passing = np.flatnonzero(converged & inside)
+                if len(passing):
+                    best = passing[np.argmin(np.linalg.norm(q[passing] - reference, axis=1))]
+                    out[:] = q[best]
+                    return len(near_q)
+        return outcome
+
+
+def nearby_arm(chain, kind: str, options: dict | None, redundancy: dict, families) -> Recognised:
+    """The 7-joint chain's :class:`NearbyArmForm` through the first of :data:`NEARBY_ARMS` with a closed
+    form, or UnsupportedError saying why none."""
+    if kind != "pose" or chain.nq != 7:
+        raise UnsupportedError("the nearby arm refined by Newton: for full poses of 7-joint chains")
+    lines = chain_lines(chain)
+    if lines.prismatic.any():
+        raise UnsupportedError("the nearby arm refined by Newton: for revolute joints only")
+    reasons = []
+    for name, moved in NEARBY_ARMS:
+        near_lines, largest = nearby_lines(lines, moved)
+        if largest > NEARBY_SHARE * lines.length:
+            reasons.append(f"{name}: axes moved by {1e3 * largest:.3g} mm, more than {NEARBY_SHARE:g} x the "
+                           f"chain's length ({1e3 * lines.length:.4g} mm)")
+            continue
+        try:
+            near = lock_redundant_joint(NearbyChain(chain, near_lines), kind, options,
+                                        {**redundancy, "mode": "grid"}, families)
+        except UnsupportedError as refused:
+            reasons.append(f"{name} (axes moved by up to {1e3 * largest:.3g} mm): {refused}")
+            continue
+        form = NearbyArmForm(chain, near, lines, redundancy.get("grid_size", 16))
+        family = (f"nearby arm with {name} (axes moved by up to {1e3 * largest:.3g} mm): "
+                  f"{near.family.replace(' (grid)', '')}, Newton-refined on the chain")
+        return Recognised(form, family, near.parameters)
+    raise UnsupportedError("no nearby arm has a closed form (" + "; ".join(reasons) + ")")
