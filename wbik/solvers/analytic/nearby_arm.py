@@ -129,26 +129,26 @@ class NearbyArmForm(ClosedForm):
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Every nearby branch at the start's held value and the grid, refined (real: converged)."""
-        near_q, real, _ = self.nearby_branches(positions, rotations, q0, self.grid)
-        rows, columns = np.nonzero(real)
-        refined, converged = self.refine(near_q[rows, columns], positions[rows], rotations[rows])
-        return stacked_branches([(refined[rows == b], converged[rows == b]) for b in range(len(q0))],
-                                self.chain.nq)
+        """Per target the refined branches :meth:`NearbyChoice.run` finds first (all real)."""
+        parts = [self.kernel.run(positions[b], rotations[b], q0[b])[0] for b in range(len(q0))]
+        return stacked_branches([(q, np.ones(len(q), dtype=bool)) for q in parts], self.chain.nq)
 
 
 class NearbyChoice:
-    """``solve``'s kernel of a :class:`NearbyArmForm`: the nearest passing refined branch, staged."""
+    """The staged choice of a :class:`NearbyArmForm` (``solve``'s kernel): the nearby branches at the grid
+    (then the dense grid), the nearest :data:`NEAREST_FIRST` (inside the limits or nearly, exact first)
+    refined first, then the others, until one converges inside the limits."""
 
     def __init__(self, form: NearbyArmForm):
         self.form = form
         chain = form.chain
         self.lower, self.upper = chain.lower, chain.upper
 
-    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
-                     out: np.ndarray) -> int:
-        """The passing branch nearest ``reference`` into ``out``: its count of candidates, else 0 (no
-        nearby branch), -1 (none refined inside the limits) or -2 (none refined)."""
+    def run(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+            nearest: bool = False) -> tuple[np.ndarray, int]:
+        """(the refined branches inside the limits (K, 7), wrapped nearest ``reference``, of the first batch
+        with any; ``nearest``: only the nearest of the rows refined first), outcome: the number of nearby
+        branches, else 0 (none), -1 (none refined inside the limits) or -2 (none refined)."""
         form, outcome = self.form, 0
         for values in (form.grid, form.dense):
             near_q, finite, exact = form.nearby_branches(position[None], rotation[None], reference[None],
@@ -165,15 +165,23 @@ class NearbyChoice:
                     continue
                 count = len(part)
                 q, converged = form.refine(shifted[part], np.broadcast_to(position, (count, 3)),
-                                           np.broadcast_to(rotation, (count, 3, 3)), first=True)
+                                           np.broadcast_to(rotation, (count, 3, 3)), first=nearest)
                 q, inside = wrap_into_limits(q, reference, self.lower, self.upper, form.revolute)
                 if converged.any():
                     outcome = -1
                 passing = np.flatnonzero(converged & inside)
+                if len(passing) and nearest:
+                    passing = passing[[np.argmin(np.linalg.norm(q[passing] - reference, axis=1))]]
                 if len(passing):
-                    best = passing[np.argmin(np.linalg.norm(q[passing] - reference, axis=1))]
-                    out[:] = q[best]
-                    return len(near_q)
+                    return q[passing], len(near_q)
+        return np.zeros((0, len(reference))), outcome
+
+    def nearest_into(self, position: np.ndarray, rotation: np.ndarray, reference: np.ndarray,
+                     out: np.ndarray) -> int:
+        """``solve``'s kernel: the branch :meth:`run` chooses into ``out``, its outcome."""
+        q, outcome = self.run(position, rotation, reference, nearest=True)
+        if len(q):
+            out[:] = q[0]
         return outcome
 
 
