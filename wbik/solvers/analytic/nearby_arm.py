@@ -2,8 +2,9 @@
 is held): solved through a nearby arm (:data:`NEARBY_ARMS`), some axes moved along their common normal
 onto the one before (by at most :data:`NEARBY_SHARE` of the chain's length), which a held joint and a
 family or EAIK solve in closed form; its branches, at the held joint's start value and a grid over its
-range, are refined by Newton on the chain itself (min-norm steps on all 7 joints, e = log6(T*^-1 T)), the
-nearest first; a denser grid where none reaches the target inside the limits."""
+range (``redundancy="grid"``), then a denser grid where none reaches the target inside the limits
+(``"search"``, the default), or the start's value alone (``"seed"``), are refined by Newton on the chain
+itself (min-norm steps on all 7 joints, e = log6(T*^-1 T)), the nearest first."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ from wbik.robot import Chain
 from wbik.solvers.analytic.closed_form import LIMIT_TOLERANCE, ClosedForm, stacked_branches, wrap_into_limits
 from wbik.solvers.analytic.held_search import DENSER, limit_excess
 from wbik.solvers.analytic.recognition import Recognised
-from wbik.solvers.analytic.redundancy import held_values, lock_redundant_joint
+from wbik.solvers.analytic.redundancy import DEFAULT_GRID_SIZE, held_values, lock_redundant_joint
 from wbik.solvers.analytic.structure import ChainLines, chain_lines, poe_fk
 from wbik.solvers.vectorised_chain import VectorisedChain
 
@@ -24,7 +25,7 @@ from wbik.solvers.vectorised_chain import VectorisedChain
 NEARBY_ARMS = (("axes 1, 2, 3 meeting and axes 5, 6 meeting", (1, 2, 5)),
                ("axes 2, 3 meeting and axes 5, 6, 7 meeting", (2, 5, 6)),
                ("every two neighbouring axes meeting", (1, 2, 3, 4, 5, 6)))
-NEARBY_SHARE = 0.1  # offsets between neighbouring axes up to this x the chain's length are closed
+NEARBY_SHARE = 0.1  # an axis moves by at most this x the chain's length
 NEAREST_FIRST = 6  # nearby branches refined first (the nearest the start, inside the limits or nearly)
 NEWTON_STEPS = 12  # Newton steps at most per refinement
 STEP_LIMIT = 0.3  # rad: the largest joint change of one step (the step scaled down)
@@ -71,12 +72,14 @@ class NearbyChain:
 class NearbyArmForm(ClosedForm):
     """The chain solved through its nearby arm's closed form (``near``), Newton-refined on the chain."""
 
-    def __init__(self, chain, near: Recognised, lines: ChainLines, grid_size: int):
+    def __init__(self, chain, near: Recognised, lines: ChainLines, mode: str, grid_size: int):
         super().__init__(chain)
         self.near, self.lines = near.form, lines
         self.index = self.near.index
-        self.grid = held_values(chain, self.index, "grid", grid_size)
-        self.dense = held_values(chain, self.index, "grid", DENSER * grid_size)
+        # the held values besides the start's: none ("seed"), the grid ("grid"), then a denser one ("search")
+        sizes = (grid_size, DENSER * grid_size) if mode == "search" else (grid_size,)
+        self.held = [held_values(chain, self.index, "grid" if mode == "search" else mode, size)
+                     for size in sizes]
         self.vectorised = VectorisedChain(chain)
         self.revolute = ~np.asarray(chain.is_prismatic, dtype=bool)
         self.kernel = NearbyChoice(self)
@@ -99,32 +102,31 @@ class NearbyArmForm(ClosedForm):
         """Newton on the chain from joints q (M, 7) towards targets (M, ...): (q, converged (M,)). A step is
         -J^+ e plus the pull into the limits (joints at their 2 pi shift nearest the limits' middle) projected
         onto J's null space (the self-motion, which leaves the pose), J^+ = J^T (J J^T)^-1, scaled to at most
-        STEP_LIMIT; until every row converged inside the limits or stalls (after :data:`FREE_STEPS`, |e| +
-        limit excess not below :data:`PROGRESS` x the last), or with ``first`` one row converged inside, at
-        most NEWTON_STEPS."""
+        STEP_LIMIT each; until every row converged inside the limits or stalls (after :data:`FREE_STEPS`, |e|,
+        or once converged the limit excess, not below :data:`PROGRESS` x the last), or with ``first`` one row
+        converged inside, at most NEWTON_STEPS."""
         damping = 1e-14 * np.eye(6)
         lower, upper, revolute = self.chain.lower, self.chain.upper, self.revolute
         middle = 0.5 * (lower + upper)
-        last = np.full(len(q), np.inf)
+        last_size = last_excess = np.full(len(q), np.inf)
         for count in range(NEWTON_STEPS + 1):
             error, transposed = self.vectorised.evaluate(q, positions, rotations)
             near_middle = q + revolute * TWO_PI * np.round((middle - q) / TWO_PI)
             pull = near_middle - np.clip(near_middle, lower, upper)
-            size = np.abs(error).max(axis=1)
-            measure = size + np.abs(pull).sum(axis=1)
+            size, excess = np.abs(error).max(axis=1), np.abs(pull).sum(axis=1)
             done = size <= CONVERGED
-            finished = done & (measure <= CONVERGED + LIMIT_TOLERANCE)
-            stalled = (measure > PROGRESS * last) & (count >= FREE_STEPS)
+            finished = done & (excess <= LIMIT_TOLERANCE)
+            stalled = np.where(done, excess > PROGRESS * last_excess, size > PROGRESS * last_size)
+            stalled &= count >= FREE_STEPS
             if count == NEWTON_STEPS or np.all(finished | stalled) or (first and finished.any()):
                 return q, done
-            last = measure
+            last_size, last_excess = size, excess
             normal = np.swapaxes(transposed, 1, 2) @ transposed + damping
             task = np.einsum("mki,mk->mi", transposed, pull)  # J pull
             solved = np.linalg.solve(normal, np.stack((error, task), axis=-1))  # (M, 6, 2)
             moves = transposed @ solved  # J^+ e and J^+ J pull (M, 7, 2)
-            change = moves[..., 0] + pull - moves[..., 1]
-            largest = np.abs(change).max(axis=1, keepdims=True)
-            q = q - change * np.minimum(1.0, STEP_LIMIT / np.maximum(largest, 1e-300))
+            newton, inward = moves[..., 0], pull - moves[..., 1]
+            q = q - _limited(newton) - _limited(inward)
         return q, done
 
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
@@ -132,6 +134,12 @@ class NearbyArmForm(ClosedForm):
         """Per target the refined branches :meth:`NearbyChoice.run` finds first (all real)."""
         parts = [self.kernel.run(positions[b], rotations[b], q0[b])[0] for b in range(len(q0))]
         return stacked_branches([(q, np.ones(len(q), dtype=bool)) for q in parts], self.chain.nq)
+
+
+def _limited(step: np.ndarray) -> np.ndarray:
+    """Steps (M, n) scaled down to at most STEP_LIMIT in any joint."""
+    largest = np.abs(step).max(axis=1, keepdims=True)
+    return step * np.minimum(1.0, STEP_LIMIT / np.maximum(largest, 1e-300))
 
 
 class NearbyChoice:
@@ -150,7 +158,7 @@ class NearbyChoice:
         with any; ``nearest``: only the nearest of the rows refined first), outcome: the number of nearby
         branches, else 0 (none), -1 (none refined inside the limits) or -2 (none refined)."""
         form, outcome = self.form, 0
-        for values in (form.grid, form.dense):
+        for values in form.held:
             near_q, finite, exact = form.nearby_branches(position[None], rotation[None], reference[None],
                                                          values)
             near_q, exact = near_q[0][finite[0]], exact[0][finite[0]]
@@ -206,8 +214,9 @@ def nearby_arm(chain, kind: str, options: dict | None, redundancy: dict, familie
         except UnsupportedError as refused:
             reasons.append(f"{name} (axes moved by up to {1e3 * largest:.3g} mm): {refused}")
             continue
-        form = NearbyArmForm(chain, near, lines, redundancy.get("grid_size", 16))
+        mode = redundancy.get("mode", "search")
+        form = NearbyArmForm(chain, near, lines, mode, redundancy.get("grid_size", DEFAULT_GRID_SIZE))
         family = (f"nearby arm with {name} (axes moved by up to {1e3 * largest:.3g} mm): "
-                  f"{near.family.replace(' (grid)', '')}, Newton-refined on the chain")
+                  f"{near.family.replace('(grid)', f'({mode})')}, Newton-refined on the chain")
         return Recognised(form, family, near.parameters)
     raise UnsupportedError("no nearby arm has a closed form (" + "; ".join(reasons) + ")")
