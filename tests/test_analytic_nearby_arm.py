@@ -11,7 +11,9 @@ import pytest
 
 import wbik
 from wbik.errors import UnsupportedError
+from wbik.solvers.analytic import nearby_arm as nearby_arm_module
 from wbik.solvers.analytic.nearby_arm import NEARBY_ARMS, NearbyArmForm, nearby_lines
+from wbik.solvers.analytic.solver import FAMILIES
 from wbik.solvers.analytic.structure import chain_lines
 
 ARMS = {"alex": ("example-robot-data:alex_nub_hands", "Torso", "RightGripperYawLink"),
@@ -90,3 +92,10 @@ def test_an_unreachable_target_is_a_failure_with_a_reason(arm):
 def test_positions_are_refused_saying_the_nearby_arm_needs_full_poses(arm):
     with pytest.raises(UnsupportedError, match="nearby arm refined by Newton: for full poses"):
         arm.closed_form("position")
+
+
+def test_a_nearby_arm_too_far_from_the_chain_is_refused_saying_how_far(arm, monkeypatch):
+    monkeypatch.setattr(nearby_arm_module, "NEARBY_SHARE", 1e-3)
+    with pytest.raises(UnsupportedError, match=r"no nearby arm has a closed form \(axes 1, 2, 3 meeting.*"
+                                               r"mm, more than 0.001 x the chain's length"):
+        nearby_arm_module.nearby_arm(arm.chain, "pose", {}, {}, FAMILIES)
