@@ -88,7 +88,7 @@ class NearbyArmForm(ClosedForm):
         return poe_fk(self.lines, q)
 
     def nearby_branches(self, positions: np.ndarray, rotations: np.ndarray, q0: np.ndarray,
-                        values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                        values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The nearby arm's branches (B, K, 7) with the held joint at ``values`` (V,), its first value the
         start's own (clipped), and their masks (B, K): finite, and exact (EAIK's least-squares ones not)."""
         starts = np.clip(q0[:, self.index], self.chain.lower[self.index], self.chain.upper[self.index])
@@ -213,6 +213,9 @@ def nearby_arm(chain, kind: str, options: dict | None, redundancy: dict, familie
                                         {**redundancy, "mode": "grid"}, families)
         except UnsupportedError as refused:
             reasons.append(f"{name} (axes moved by up to {1e3 * largest:.3g} mm): {refused}")
+            continue
+        if near.form.moves is None:  # a middle joint held: a closed form per held value, too slow to search
+            reasons.append(f"{name}: only with a middle joint held ({near.family})")
             continue
         mode = redundancy.get("mode", "search")
         form = NearbyArmForm(chain, near, lines, mode, redundancy.get("grid_size", DEFAULT_GRID_SIZE))
