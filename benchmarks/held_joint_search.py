@@ -9,6 +9,7 @@ calls), and the wall time of ``solve`` per call (median and 95th percentile over
 as the range over runs.
 
     .venv/bin/python benchmarks/held_joint_search.py [--poses 500] [--runs 3] [--modes search seed grid]
+        [--arms "Alex right arm" ...]
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ ARMS = (  # (label, robot, base, tip)
     ("Tiago arm", "example-robot-data:tiago", "torso_lift_link", "arm_tool_link"),
     ("Tiago dual left arm", "example-robot-data:tiago_dual", "torso_lift_link", "arm_left_tool_link"),
     ("PR2 left arm", "example-robot-data:pr2", "torso_lift_link", "l_gripper_palm_link"),
+    ("Alex right arm", "example-robot-data:alex_nub_hands", "Torso", "RightGripperYawLink"),
+    ("Tiago Pro right arm", "example-robot-data:tiago_pro", "torso_lift_link", "arm_right_tool_link"),
 )
 
 
@@ -56,11 +59,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--modes", nargs="+", default=["search", "seed", "grid"],
                         choices=["search", "seed", "grid"])
+    parser.add_argument("--arms", nargs="+", choices=[arm[0] for arm in ARMS], help="(default: every arm)")
     arguments = parser.parse_args(argv)
     if arguments.poses < 1 or arguments.runs < 1:
         parser.error("--poses and --runs must be positive")
     print(f"{'arm':22s} {'mode':7s} {'solved %':>11s} {'median ms':>12s} {'p95 ms':>12s}  family")
     for label, name, base, tip in ARMS:
+        if arguments.arms and label not in arguments.arms:
+            continue
         robot = wbik.load(name)
         for mode in arguments.modes:
             solver = wbik.solver("analytic", robot, base=base, tip=tip, redundancy=mode)

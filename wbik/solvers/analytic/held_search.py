@@ -103,26 +103,13 @@ class HeldJointSearch:
         return np.linspace(self.low, self.high, count, endpoint=not self.full_turn)
 
     def _violation(self, q: np.ndarray, real: np.ndarray, target: Target) -> np.ndarray:
-        """Per branch, how far it is from passing: the joints outside their limits (:meth:`_limit_excess`)
+        """Per branch, how far it is from passing: the joints outside their limits (:func:`limit_excess`)
         plus, for an approximate branch, its FK residual (m and rad); inf for non-finite joints."""
-        violation = self._limit_excess(q)
+        violation = limit_excess(q, self.lower, self.upper, self.revolute)
         approximate = ~real & np.all(np.isfinite(q), axis=-1)
         violation[approximate] += [fk_residual(self.form.chain, row, target) for row in q[approximate]]
         violation[~np.all(np.isfinite(q), axis=-1)] = np.inf
         return violation
-
-    def _limit_excess(self, q: np.ndarray) -> np.ndarray:
-        """Per branch, the sum over joints of how far (rad or m) each is outside its limits, a revolute
-        joint at its nearest 2 pi shift."""
-        below, above = self.lower - q, q - self.upper
-        outside = np.maximum(np.maximum(below, above), 0.0)
-        if self.revolute.any():
-            turns = np.round((0.5 * (self.lower + self.upper) - q) / TWO_PI)
-            shifted = q + np.where(np.isfinite(turns), turns, 0.0) * TWO_PI
-            wrapped = np.maximum(np.maximum(self.lower - shifted, shifted - self.upper), 0.0)
-            outside = np.where(self.revolute, np.minimum(outside, wrapped), outside)
-        outside = np.maximum(outside - LIMIT_TOLERANCE, 0.0)
-        return np.sum(outside, axis=-1)
 
     def _zoom(self, values: np.ndarray, violation: np.ndarray, spacing: float) -> np.ndarray:
         """The next level's values: ZOOM_POINTS over [v - h, v + h] (h = ``spacing``) around the
@@ -139,3 +126,17 @@ class HeldJointSearch:
         if self.full_turn:
             zoomed = self.low + np.mod(zoomed - self.low, TWO_PI)
         return np.clip(zoomed, self.low, self.high)
+
+
+def limit_excess(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, revolute: np.ndarray) -> np.ndarray:
+    """Per branch (..., n), the sum over joints of how far (rad or m) each is outside its limits, a revolute
+    joint at its 2 pi shift nearest the middle of its limits."""
+    below, above = lower - q, q - upper
+    outside = np.maximum(np.maximum(below, above), 0.0)
+    if revolute.any():
+        turns = np.round((0.5 * (lower + upper) - q) / TWO_PI)
+        shifted = q + np.where(np.isfinite(turns), turns, 0.0) * TWO_PI
+        wrapped = np.maximum(np.maximum(lower - shifted, shifted - upper), 0.0)
+        outside = np.where(revolute, np.minimum(outside, wrapped), outside)
+    outside = np.maximum(outside - LIMIT_TOLERANCE, 0.0)
+    return np.sum(outside, axis=-1)

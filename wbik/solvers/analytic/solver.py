@@ -20,6 +20,7 @@ from wbik.solvers.analytic.closed_form import (
 )
 from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
+from wbik.solvers.analytic.nearby_arm import nearby_arm
 from wbik.solvers.analytic.recognition import Recognised, first_recognised, recognise_eaik, recognise_family
 from wbik.solvers.analytic.redundancy import check_redundancy_options, lock_redundant_joint
 from wbik.solvers.analytic.stacked_planar import STACKED_PLANAR
@@ -56,6 +57,7 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
                                    lambda: recognise_eaik(chain, kind)]
     if held or chain.nq >= 7:
         recognisers.append(lambda: lock_redundant_joint(chain, kind, options, redundancy, FAMILIES))
+        recognisers.append(lambda: nearby_arm(chain, kind, options, redundancy, FAMILIES))
     return first_recognised(*recognisers)
 
 
