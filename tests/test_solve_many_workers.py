@@ -1,7 +1,7 @@
 """``solve_many(..., workers=N)`` splits a batch over forked processes: the answers are those of one process,
 bit for bit and in order, for a method's own batched path (bounded_lm's vectorised rows, analytic's choice)
-and for the per-target path; the parts are solved in other processes, each with BLAS on its share of the cores; bad counts and bad starts are refused
-in the caller, before any process is forked."""
+and for the per-target path; the parts are solved in other processes, each with BLAS on its share of the
+cores; bad counts and bad starts are refused in the caller, before any process is forked."""
 
 from __future__ import annotations
 
