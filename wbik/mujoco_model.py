@@ -106,7 +106,7 @@ class MuJoCoBody:
         return self.sites[frame]
 
 
-def _carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
+def carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
     """(URDF link carrying the frame, None for the world; the frame's pose in it): the first link frame up
     its parent frames on the same joint, else a link frame on its joint."""
     model = robot.model
@@ -138,7 +138,8 @@ def _massless_while_welded(body) -> None:
         _massless_while_welded(child)
 
 
-def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
+def robot_spec(robot: Robot, mujoco, masses: bool):
+    """(MjSpec of the robot, {wbik frame: site name}), not compiled: a scene may add to it."""
     model = robot.model
     try:
         spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf_text, masses=masses))
@@ -156,7 +157,7 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
             _massless_while_welded(body)
     sites = {}
     for name in dict.fromkeys(frame.name for frame in model.frames):
-        link, placement = _carrier(robot, robot.frame_id(name))
+        link, placement = carrier(robot, robot.frame_id(name))
         body = spec.worldbody if link is None else spec.body(link)
         if body is None:
             raise UnsupportedError(f"frame {name!r}: MuJoCo has no body {link!r}")
@@ -164,6 +165,12 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
         quaternion = pin.Quaternion(placement.rotation)
         body.add_site(name=sites[name], pos=placement.translation.tolist(),
                       quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
+    return spec, sites
+
+
+def compiled_body(robot: Robot, spec, sites: dict[str, str], mujoco) -> MuJoCoBody:
+    """The compiled ``spec`` of ``robot`` (:func:`robot_spec`, perhaps in a scene) with its index maps."""
+    model = robot.model
     try:
         compiled = spec.compile()
     except ValueError as exc:
@@ -252,7 +259,7 @@ def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
             previous = mujoco.get_mju_user_warning()
             mujoco.set_mju_user_warning(warnings.append)
             try:
-                body = _compile(robot, mujoco, masses)
+                body = compiled_body(robot, *robot_spec(robot, mujoco, masses), mujoco)
             except UnsupportedError as refused:
                 raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
             finally:
