@@ -87,7 +87,7 @@ class Simulation:
                               forcerange=[-limit, limit], forcelimited=True)
         self.body = compiled_body(robot, spec, sites, mujoco)
         self.model, self.data = self.body.model, mujoco.MjData(self.body.model)
-        self.target_index = np.array([model.joints[j].idx_q for j in self.joints])
+        self.target_index = np.array([model.joints[j].idx_q for j in self.joints], dtype=int)
         self.sole_geoms = {mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, f"sole:{sole}"): sole
                            for sole in robot.soles}
         self.sole_sites = {sole: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, sites[sole])
