@@ -105,3 +105,36 @@ def test_a_short_walk_reports_its_physics_open_and_closed_loop():
     assert checks["physics_fell"]["figure"] is physics["fell"]
     assert checks["physics_cop_margin_min_m"]["threshold"] == 0.004  # the walk's margin
     assert checks["physics_cop_margin_min_m"]["figure"] == physics["cop_margin_min_m"]
+
+
+def test_the_stabiliser_corrects_against_the_measured_errors_only(bioloid):
+    from wbik.motion.walking import StepCommand, Timing
+    from wbik.motion.walking.stabiliser import Stabiliser, StabiliserGains
+    from wbik.motion.walking.tracking import Tracker, TrackingSettings, walk
+
+    settings = TrackingSettings(trunk="pelvis")
+    motion = walk(bioloid, bioloid.nominal, StepCommand(1, 0.01), Timing(0.2, 0.05, 0.3, 0.3), clearance=0.01,
+                  settings=settings)
+    pattern, now = motion.pattern, 40
+    gains = StabiliserGains(dcm=0.5, attitude=0.5, time_constant_s=0.0)  # no low-pass: one tick's answer
+
+    def corrections(q, v):
+        return Stabiliser(Tracker(bioloid, pattern.feet, bioloid.nominal, settings), pattern, gains
+                          ).corrections(q, v, now)
+
+    q = motion.q[now]
+    v = pin.difference(bioloid.model, motion.q[now - 1], q) / pattern.dt
+    offset, rotation = corrections(q, v)  # the plan as measured: (almost) nothing to correct
+    assert np.linalg.norm(offset) < 1e-3 and np.linalg.norm(pin.log3(rotation)) < 1e-3
+    moved = q.copy()
+    moved[0] += 0.02  # the whole robot 20 mm ahead: the CoM is where it should be over its feet
+    np.testing.assert_allclose(corrections(moved, v)[0], offset, atol=1e-12)
+    faster = v.copy()
+    faster[:3] += pin.Quaternion(q[6], *q[3:6]).toRotationMatrix().T @ [0.1, 0.0, 0.0]  # 0.1 m/s forward
+    shifted = corrections(q, faster)[0] - offset
+    assert shifted[0] == pytest.approx(-0.5 * 0.1 / pattern.info["omega"], rel=1e-6)
+    assert abs(shifted[1]) < 1e-9
+    pitched = q.copy()
+    pitched[3:7] = (pin.Quaternion(pin.utils.rotate("y", 0.02)) * pin.Quaternion(q[6], *q[3:6])).coeffs()
+    turned = pin.log3(corrections(pitched, v)[1] @ rotation.T)
+    np.testing.assert_allclose(turned, [0.0, -0.5 * 0.02, 0.0], atol=1e-4)

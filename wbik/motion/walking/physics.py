@@ -157,28 +157,30 @@ class Simulation:
         return SupportPolygon(np.vstack(points)[:, :2])
 
     def run(self, q_target: np.ndarray, duration: float, measured: Measured) -> bool:
-        """Servo targets of ``q_target`` held for ``duration`` s (one control tick); into ``measured`` the
-        margin of the tick's CoP (of the contact impulses over the tick) inside the soles pressed during
-        it, and the worst margin of any physics step's CoP; False once it has fallen."""
+        """Servo targets of ``q_target`` reached over ``duration`` s (one control tick); into ``measured`` the
+        margin of the tick's CoP inside the soles pressed during it and the worst margin of a physics step's
+        CoP inside the soles it pressed (the soles where they are at the tick's end); False once fallen."""
         if measured.fell_at_s is not None:
             return False
         start, end = self.target, self._targets(q_target)
         steps = max(1, int(round(duration / self.model.opt.timestep)))
-        impulse, moment, pressed = 0.0, np.zeros(2), set()
+        impulse, moment, pressed = 0.0, np.zeros(2), {}
         for step in range(1, steps + 1):
             self.data.ctrl[:] = start + (end - start) * (step / steps)
             self.mujoco.mj_step(self.model, self.data)
             self.time += self.model.opt.timestep
             total, step_moment, soles = self.contact_forces()
             if total > 0:
-                impulse, moment, pressed = impulse + total, moment + step_moment, pressed | soles
-                margin = self.support(sorted(soles)).margin_of(step_moment / total)
-                measured.step_margin_min = min(measured.step_margin_min, margin)
+                impulse, moment = impulse + total, moment + step_moment
+                pressed.setdefault(tuple(sorted(soles)), []).append(step_moment / total)
             if self.data.subtree_com[0][2] - self.ground_z < FALLEN_HEIGHT_RATIO * self.start_height:
                 measured.fell_at_s = self.time
                 return False
         self.target = end
+        for soles, cops in pressed.items():
+            polygon = self.support(list(soles))
+            measured.step_margin_min = min(measured.step_margin_min, *(polygon.margin_of(p) for p in cops))
+        every = sorted(set().union(*pressed))
         measured.times.append(self.time)
-        measured.margins.append(self.support(sorted(pressed)).margin_of(moment / impulse) if impulse > 0
-                                else math.nan)
+        measured.margins.append(self.support(every).margin_of(moment / impulse) if impulse > 0 else math.nan)
         return True
