@@ -11,6 +11,8 @@ import math
 import re
 import threading
 import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,6 +53,20 @@ def mujoco_urdf(text: str, masses: bool = False) -> str:
 
 
 _WARNINGS_LOCK = threading.Lock()
+
+
+@contextmanager
+def captured_warnings(mujoco, into: list[str]) -> Iterator[None]:
+    """MuJoCo's warnings appended to ``into``, not printed, inside the block."""
+    with _WARNINGS_LOCK:
+        previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(into.append)
+        try:
+            yield
+        finally:
+            mujoco.set_mju_user_warning(previous)
+
+
 FREE_JOINT = "wbik_free_base"
 SITE_PREFIX = "wbik:"
 AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 4, 0, 1e-9
@@ -255,15 +271,11 @@ def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
         body = known[1]
     else:
         warnings: list[str] = []
-        with _WARNINGS_LOCK:  # MuJoCo's warnings into the list, not printed, while it compiles
-            previous = mujoco.get_mju_user_warning()
-            mujoco.set_mju_user_warning(warnings.append)
-            try:
+        try:
+            with captured_warnings(mujoco, warnings):
                 body = compiled_body(robot, *robot_spec(robot, mujoco, masses), mujoco)
-            except UnsupportedError as refused:
-                raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
-            finally:
-                mujoco.set_mju_user_warning(previous)
+        except UnsupportedError as refused:
+            raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
         body.warnings = tuple(warnings)
         with _BODIES_LOCK:
             _BODIES[key] = (weakref.ref(robot), body)

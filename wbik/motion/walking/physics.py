@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from wbik.mujoco_model import carrier, compiled_body, import_mink, robot_spec
+from wbik.mujoco_model import MuJoCoBody, captured_warnings, carrier, compiled_body, import_mink, robot_spec
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 
@@ -65,15 +65,35 @@ class Simulation:
                  timestep: float = 0.001, friction: float = 1.0):
         _, mujoco = import_mink("the walk's physics")
         self.mujoco, self.robot, self.servos, self.ground_z = mujoco, robot, servos, float(ground_z)
+        model = robot.model
+        self.joints = [j for j in range(2 if robot.has_floating_base else 1, model.njoints)]
+        warnings: list[str] = []
+        with captured_warnings(mujoco, warnings):
+            self.body = self._scene(timestep, friction)
+        self.body.warnings = tuple(warnings)
+        self.model, self.data = self.body.model, mujoco.MjData(self.body.model)
+        self.target_index = np.array([model.joints[j].idx_q for j in self.joints], dtype=int)
+        named, kinds = mujoco.mj_name2id, mujoco.mjtObj
+        self.sole_geoms = {named(self.model, kinds.mjOBJ_GEOM, f"sole:{sole}"): sole for sole in robot.soles}
+        self.sole_sites = {sole: named(self.model, kinds.mjOBJ_SITE, self.body.sites[sole])
+                           for sole in robot.soles}
+        self.mass = float(self.model.body_subtreemass[0])
+        self.time, self._force = 0.0, np.zeros(6)
+        self.data.qpos[:] = self.body.qpos(q)
+        self.data.ctrl[:] = self.target = self._targets(q)
+        mujoco.mj_forward(self.model, self.data)
+        self.start_height = self.com()[2] - self.ground_z
+
+    def _scene(self, timestep: float, friction: float) -> MuJoCoBody:
+        """The robot, its servos, the floor and the sole boxes, compiled."""
+        mujoco, robot, servos, model = self.mujoco, self.robot, self.servos, self.robot.model
         spec, sites = robot_spec(robot, mujoco, masses=True)
         spec.option.timestep = timestep
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1], pos=[0, 0, ground_z],
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1], pos=[0, 0, self.ground_z],
                                 friction=[friction, 0.005, 0.0001])
         for sole, corners in robot.soles.items():
             self._add_sole(spec, sole, np.asarray(corners, dtype=float), friction)
-        model = robot.model
-        self.joints = [j for j in range(2 if robot.has_floating_base else 1, model.njoints)]
         for j in self.joints:
             name = model.names[j]
             limit = model.effortLimit[model.joints[j].idx_v] if servos.torque_limit is None \
@@ -85,19 +105,7 @@ class Simulation:
                               gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
                               gainprm=[servos.kp] + [0] * 9, biasprm=[0, -servos.kp, -servos.kv] + [0] * 7,
                               forcerange=[-limit, limit], forcelimited=True)
-        self.body = compiled_body(robot, spec, sites, mujoco)
-        self.model, self.data = self.body.model, mujoco.MjData(self.body.model)
-        self.target_index = np.array([model.joints[j].idx_q for j in self.joints], dtype=int)
-        self.sole_geoms = {mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_GEOM, f"sole:{sole}"): sole
-                           for sole in robot.soles}
-        self.sole_sites = {sole: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SITE, sites[sole])
-                           for sole in robot.soles}
-        self.mass = float(self.model.body_subtreemass[0])
-        self.time, self._force = 0.0, np.zeros(6)
-        self.data.qpos[:] = self.body.qpos(q)
-        self.data.ctrl[:] = self.target = self._targets(q)
-        mujoco.mj_forward(self.model, self.data)
-        self.start_height = self.com()[2] - self.ground_z
+        return compiled_body(robot, spec, sites, mujoco)
 
     def _add_sole(self, spec, sole: str, corners: np.ndarray, friction: float) -> None:
         """A box spanning the sole's corners, its underside on their plane (z = 0 of the sole frame)."""
