@@ -11,6 +11,8 @@ import math
 import re
 import threading
 import weakref
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,6 +53,20 @@ def mujoco_urdf(text: str, masses: bool = False) -> str:
 
 
 _WARNINGS_LOCK = threading.Lock()
+
+
+@contextmanager
+def captured_warnings(mujoco, into: list[str]) -> Iterator[None]:
+    """MuJoCo's warnings appended to ``into``, not printed, inside the block."""
+    with _WARNINGS_LOCK:
+        previous = mujoco.get_mju_user_warning()
+        mujoco.set_mju_user_warning(into.append)
+        try:
+            yield
+        finally:
+            mujoco.set_mju_user_warning(previous)
+
+
 FREE_JOINT = "wbik_free_base"
 SITE_PREFIX = "wbik:"
 AGREEMENT_POSES, AGREEMENT_SEED, AGREEMENT_TOLERANCE = 4, 0, 1e-9
@@ -106,7 +122,7 @@ class MuJoCoBody:
         return self.sites[frame]
 
 
-def _carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
+def carrier(robot: Robot, frame_id: int) -> tuple[str | None, pin.SE3]:
     """(URDF link carrying the frame, None for the world; the frame's pose in it): the first link frame up
     its parent frames on the same joint, else a link frame on its joint."""
     model = robot.model
@@ -138,7 +154,8 @@ def _massless_while_welded(body) -> None:
         _massless_while_welded(child)
 
 
-def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
+def robot_spec(robot: Robot, mujoco, masses: bool):
+    """(MjSpec of the robot, {wbik frame: site name}), not compiled: a scene may add to it."""
     model = robot.model
     try:
         spec = mujoco.MjSpec.from_string(mujoco_urdf(robot.urdf_text, masses=masses))
@@ -156,7 +173,7 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
             _massless_while_welded(body)
     sites = {}
     for name in dict.fromkeys(frame.name for frame in model.frames):
-        link, placement = _carrier(robot, robot.frame_id(name))
+        link, placement = carrier(robot, robot.frame_id(name))
         body = spec.worldbody if link is None else spec.body(link)
         if body is None:
             raise UnsupportedError(f"frame {name!r}: MuJoCo has no body {link!r}")
@@ -164,6 +181,12 @@ def _compile(robot: Robot, mujoco, masses: bool) -> MuJoCoBody:
         quaternion = pin.Quaternion(placement.rotation)
         body.add_site(name=sites[name], pos=placement.translation.tolist(),
                       quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z])
+    return spec, sites
+
+
+def compiled_body(robot: Robot, spec, sites: dict[str, str], mujoco) -> MuJoCoBody:
+    """The compiled ``spec`` of ``robot`` (:func:`robot_spec`, perhaps in a scene) with its index maps."""
+    model = robot.model
     try:
         compiled = spec.compile()
     except ValueError as exc:
@@ -248,15 +271,11 @@ def mujoco_body(robot: Robot, masses: bool = True, frames=None) -> MuJoCoBody:
         body = known[1]
     else:
         warnings: list[str] = []
-        with _WARNINGS_LOCK:  # MuJoCo's warnings into the list, not printed, while it compiles
-            previous = mujoco.get_mju_user_warning()
-            mujoco.set_mju_user_warning(warnings.append)
-            try:
-                body = _compile(robot, mujoco, masses)
-            except UnsupportedError as refused:
-                raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
-            finally:
-                mujoco.set_mju_user_warning(previous)
+        try:
+            with captured_warnings(mujoco, warnings):
+                body = compiled_body(robot, *robot_spec(robot, mujoco, masses), mujoco)
+        except UnsupportedError as refused:
+            raise UnsupportedError(f"MuJoCo cannot take {robot.name}: {refused}") from None
         body.warnings = tuple(warnings)
         with _BODIES_LOCK:
             _BODIES[key] = (weakref.ref(robot), body)

@@ -13,10 +13,12 @@ from wbik.expectations import Rule, judge
 from wbik.motion.walking.figures import walk_figures
 from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon
 from wbik.motion.walking.pattern import PreviewSettings
+from wbik.motion.walking.physics import Servos
 from wbik.motion.walking.placo_pattern import placo_walk
+from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures
 from wbik.motion.walking.static_gait import retimed, static_gait
 from wbik.motion.walking.timeline import Timing
-from wbik.motion.walking.tracking import TrackingSettings, leg_collision_model, trunk_frame, walk
+from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
 from wbik.qp.task_entries import FRAME, VECTOR3
 from wbik.scenario_schema import (
     START,
@@ -47,6 +49,8 @@ WALK_RULES = {  # a walk on the full model, and its speed against the static gai
     "leg_distance_min_m": Rule("leg_distance_min_m", ">=", "m"),
     "qp_failures_max": Rule("qp_failures", "<="),
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
+    "physics_fell": Rule("physics_fell", "=="),
+    "physics_cop_margin_min_m": Rule("physics_cop_margin_min_m", ">=", "m"),
 }
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
@@ -108,12 +112,24 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
                 entry[f"speed_ratio_vs_{label}"] = compared[label]["duration_s"] / entry["duration_s"]
         default = {"zmp_margin_min_m": margin, "qp_failures_max": 0}
         wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
-        judge(entry, wanted, entry, WALK_RULES, f"walks[{entry['name']!r}] expect")
+        judged = dict(entry)
+        if spec["physics"] is not None:  # in physics too: standing, the CoP as far inside as the ZMP
+            tracker = Tracker(robot, feet, q0, settings, spec["backend"])
+            entry["physics"] = physics_figures(motion, tracker, q0, _physics_settings(spec["physics"]))
+            wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
+            judged.update(physics_fell=entry["physics"]["fell"],
+                          physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
+        judge(entry, wanted, judged, WALK_RULES, f"walks[{entry['name']!r}] expect")
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
                                                                        series["zmp"]), entry["name"])
         run.add(entry, animation.subsampled(max(1, round(ANIMATION_SAMPLE_S / pattern.dt))))
     return run.finished()
+
+
+def _physics_settings(given: dict) -> PhysicsSettings:
+    return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
+                           given["timestep"], given["friction"], given["settle_s"])
 
 
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
@@ -169,6 +185,8 @@ def format_report(report: dict) -> str:
                  f"per 10 ms tick (pattern + whole-body step): median {ticks['median_s'] * 1e3:.3f} ms, "
                  f"p95 {ticks['p95_s'] * 1e3:.3f} ms, max {ticks['max_s'] * 1e3:.3f} ms",
                  *(_line(label, figures) for label, figures in entry.get("compared", {}).items())]
+        if "physics" in entry:
+            lines.append(_physics_line(entry["physics"]))
         if "speed_ratio_vs_static" in entry:
             slowed = entry.get("speed_ratio_vs_static_balanced")
             lines.append(f"speed vs static gait: {entry['speed_ratio_vs_static']:.2f}x" + (
@@ -176,6 +194,20 @@ def format_report(report: dict) -> str:
         return "\n      ".join(lines)
 
     return format_entries(report, "walks", describe)
+
+
+def _physics_line(physics: dict) -> str:
+    def run(figures: dict) -> str:
+        fell = f"FELL at {figures['fell_at_s']:.2f} s" if figures["fell"] else "stood"
+        margin = figures["cop_margin_min_m"]
+        return (f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm, "
+                f"{figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm")
+
+    ticks = physics["tick_cpu"]
+    return (f"physics: closed loop {run(physics)} (controller CPU per tick median "
+            f"{ticks['median_s'] * 1e3:.2f} ms, p95 {ticks['p95_s'] * 1e3:.2f} ms); open loop "
+            f"{run(physics['open_loop'])}; "
+            f"push {physics['push_impulse_n_s']:g} N s")
 
 
 def _line(label: str, figures: dict) -> str:
@@ -228,6 +260,19 @@ def walk_schema() -> Map:
                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)}, nullable=True)
     placo = Map({"iterations": Key(Number(ge=1, integer=True), default_of(placo_walk, "iterations"))},
                 nullable=True)
+    physics = Map({"servos": Key(from_dataclass(Servos, {
+                       "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
+                       "damping": Number(ge=0, unit="N m s/rad"),
+                       "torque_limit": Number(gt=0, nullable=True, unit="N m"),
+                       "armature": Number(ge=0, unit="kg m^2"), "resolution": Number(ge=0, unit="rad")}),
+                                 required=True),
+                   "stabiliser": Key(from_dataclass(StabiliserGains, {
+                       "dcm": Number(ge=0), "attitude": Number(ge=0),
+                       "time_constant_s": Number(ge=0, unit="s"),
+                       "com_offset_max": Number(ge=0, unit="m")}), {}),
+                   **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
+                       ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
+                       ("settle_s", Number(ge=0, unit="s")))}}, nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")
 
@@ -258,6 +303,7 @@ def walk_schema() -> Map:
                 "margin": margin_key(),
                 "backend": backend_key(),
                 "static": Key(static, {}), "placo": Key(placo, {}), "walks": Key(walks, required=True),
+                "physics": Key(physics, None, doc="the walk in MuJoCo, closed and open loop"),
                 "expect": Key(expect_block(WALK_RULES), None)}, post=post)
 
 

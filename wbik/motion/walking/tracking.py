@@ -158,16 +158,19 @@ class Tracker:
         key = (tuple(sorted(stance)), swing)
         return self._stages.get(key) or self._stages.setdefault(key, _Stage(self, key[0], swing, self.q0))
 
-    def step(self, q: np.ndarray, pattern: WalkPattern, k: int) -> np.ndarray:
-        """q_(k+1) from q_k toward the pattern's tick k + 1 (NoQPSolutionError when the QP has none)."""
+    def step(self, q: np.ndarray, pattern: WalkPattern, k: int, com_offset: np.ndarray | None = None,
+             trunk_correction: np.ndarray | None = None) -> np.ndarray:
+        """q_(k+1) from q_k toward the pattern's tick k + 1 (NoQPSolutionError when the QP has none); the CoM
+        target moved by ``com_offset`` (m), the trunk's turned by ``trunk_correction`` (a rotation, world)."""
         stance, swing = pattern.stance(k), pattern.swing[k]
         stage = self.stage(tuple(stance), swing)
         for frame, placement in stance.items():
             foothold = stage.footholds[frame]
             if not np.array_equal(foothold.placement.homogeneous, placement.homogeneous):
                 foothold.placement = placement
-        stage.com.target[:] = pattern.com[k]
-        stage.trunk.target = self.trunk_rotation(pattern.trunk_yaw[k] - pattern.trunk_yaw[0])
+        stage.com.target[:] = pattern.com[k] if com_offset is None else pattern.com[k] + com_offset
+        trunk = self.trunk_rotation(pattern.trunk_yaw[k] - pattern.trunk_yaw[0])
+        stage.trunk.target = trunk if trunk_correction is None else trunk_correction @ trunk
         if swing is not None:
             stage.swing.target = pattern.feet_poses[swing][k]
         return pin.integrate(self.robot.model, q, stage.problem.step(q, dt=pattern.dt))

@@ -1,0 +1,194 @@
+"""The robot in MuJoCo's physics: its links with their masses and inertias (its URDF), a flat floor, a thin
+box under each sole (``robot.soles``), a position servo on every 1-DOF joint, torque
+clip(kp (target - q) - kv q', +-limit) - damping q' (``damping``: a motor's back-EMF, stall torque /
+no-load speed). Each control tick's target, rounded to the servo's resolution, is reached at constant speed
+over the tick (a goal position with a moving speed, as Dynamixels take them). The centre of pressure of a
+tick: p = sum f_n r / sum f_n over its physics steps and sole-floor contacts (normal force f_n at r)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.mujoco_model import MuJoCoBody, captured_warnings, carrier, compiled_body, import_mink, robot_spec
+from wbik.qp.support_polygon import SupportPolygon
+from wbik.robot import Robot
+
+SOLE_THICKNESS = 0.004  # m: the sole boxes, their underside on the sole's plane
+FALLEN_HEIGHT_RATIO = 0.75  # fallen: the CoM below this fraction of its starting height above the floor
+
+
+@dataclass(frozen=True)
+class Servos:
+    """Position servos: gains ``kp`` (N m/rad) and ``kv`` (N m s/rad) inside the ``torque_limit`` (N m; None:
+    the URDF's effort limits), ``damping`` (N m s/rad) outside it, ``armature`` (the rotor's inertia through
+    the gears, kg m^2), ``resolution`` (rad)."""
+
+    kp: float
+    kv: float = 0.0
+    damping: float = 0.0
+    torque_limit: float | None = None
+    armature: float = 0.0
+    resolution: float = 0.0
+
+
+@dataclass
+class Measured:
+    """What the physics measured over a run: each tick's CoP margin inside the soles pressed during it, the
+    worst margin of a single physics step's CoP, and when it fell (the CoM below ``FALLEN_HEIGHT_RATIO``)."""
+
+    times: list = field(default_factory=list)
+    margins: list = field(default_factory=list)
+    """Each tick's end (s) and the margin of its CoP (m; NaN: no sole pressed)."""
+    fell_at_s: float | None = None
+    step_margin_min: float = math.inf
+
+    def figures(self) -> dict:
+        margins = np.asarray(self.margins, dtype=float)
+        worst = None if np.all(np.isnan(margins)) else int(np.nanargmin(margins))
+        return {"fell": self.fell_at_s is not None, "fell_at_s": self.fell_at_s,
+                "cop_margin_min_m": None if worst is None else float(margins[worst]),
+                "cop_margin_min_at_s": None if worst is None else float(self.times[worst]),
+                "cop_margin_p5_m": None if worst is None else float(np.nanpercentile(margins, 5)),
+                "cop_margin_min_per_step_m": (self.step_margin_min if math.isfinite(self.step_margin_min)
+                                              else None),
+                "ticks_without_contact": int(np.isnan(margins).sum())}
+
+
+class Simulation:
+    """``robot`` standing at ``q`` on the floor z = ``ground_z``, its servos holding q."""
+
+    def __init__(self, robot: Robot, servos: Servos, q: np.ndarray, ground_z: float = 0.0,
+                 timestep: float = 0.001, friction: float = 1.0):
+        _, mujoco = import_mink("the walk's physics")
+        self.mujoco, self.robot, self.servos, self.ground_z = mujoco, robot, servos, float(ground_z)
+        model = robot.model
+        self.joints = [j for j in range(2 if robot.has_floating_base else 1, model.njoints)]
+        warnings: list[str] = []
+        with captured_warnings(mujoco, warnings):
+            self.body = self._scene(timestep, friction)
+        self.body.warnings = tuple(warnings)
+        self.model, self.data = self.body.model, mujoco.MjData(self.body.model)
+        self.target_index = np.array([model.joints[j].idx_q for j in self.joints], dtype=int)
+        named, kinds = mujoco.mj_name2id, mujoco.mjtObj
+        self.sole_geoms = {named(self.model, kinds.mjOBJ_GEOM, f"sole:{sole}"): sole for sole in robot.soles}
+        self.sole_sites = {sole: named(self.model, kinds.mjOBJ_SITE, self.body.sites[sole])
+                           for sole in robot.soles}
+        self.mass = float(self.model.body_subtreemass[0])
+        self.time, self._force = 0.0, np.zeros(6)
+        self.data.qpos[:] = self.body.qpos(q)
+        self.data.ctrl[:] = self.target = self._targets(q)
+        mujoco.mj_forward(self.model, self.data)
+        self.start_height = self.com()[2] - self.ground_z
+
+    def _scene(self, timestep: float, friction: float) -> MuJoCoBody:
+        """The robot, its servos, the floor and the sole boxes, compiled."""
+        mujoco, robot, servos, model = self.mujoco, self.robot, self.servos, self.robot.model
+        spec, sites = robot_spec(robot, mujoco, masses=True)
+        spec.option.timestep = timestep
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1], pos=[0, 0, self.ground_z],
+                                friction=[friction, 0.005, 0.0001])
+        for sole, corners in robot.soles.items():
+            self._add_sole(spec, sole, np.asarray(corners, dtype=float), friction)
+        for j in self.joints:
+            name = model.names[j]
+            limit = model.effortLimit[model.joints[j].idx_v] if servos.torque_limit is None \
+                else servos.torque_limit
+            joint = spec.joint(name)
+            joint.armature, joint.damping = servos.armature, [servos.damping, 0.0, 0.0]
+            joint.actfrcrange, joint.actfrclimited = [-limit, limit], True  # not the URDF's effort
+            spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+                              gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
+                              gainprm=[servos.kp] + [0] * 9, biasprm=[0, -servos.kp, -servos.kv] + [0] * 7,
+                              forcerange=[-limit, limit], forcelimited=True)
+        return compiled_body(robot, spec, sites, mujoco)
+
+    def _add_sole(self, spec, sole: str, corners: np.ndarray, friction: float) -> None:
+        """A box spanning the sole's corners, its underside on their plane (z = 0 of the sole frame)."""
+        link, placement = carrier(self.robot, self.robot.frame_id(sole))
+        low, high = corners.min(axis=0), corners.max(axis=0)
+        half = np.append((high - low)[:2] / 2, SOLE_THICKNESS / 2)
+        centre = placement.act(np.append((high + low)[:2] / 2, low[2] + SOLE_THICKNESS / 2))
+        quaternion = pin.Quaternion(placement.rotation)
+        body = spec.worldbody if link is None else spec.body(link)
+        body.add_geom(type=self.mujoco.mjtGeom.mjGEOM_BOX, name=f"sole:{sole}", size=half.tolist(),
+                      pos=centre.tolist(), quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z],
+                      friction=[friction, 0.005, 0.0001])
+
+    def _targets(self, q: np.ndarray) -> np.ndarray:
+        targets = np.asarray(q, dtype=float)[self.target_index]
+        step = self.servos.resolution
+        return np.round(targets / step) * step if step > 0 else targets
+
+    def com(self) -> np.ndarray:
+        """The simulated robot's CoM (world, m)."""
+        return self.data.subtree_com[0].copy()
+
+    def state(self) -> tuple[np.ndarray, np.ndarray]:
+        """(q, v) in wbik's conventions (the base's velocity in its own frame, as Pinocchio's)."""
+        q = self.body.q(self.data.qpos)
+        v = np.zeros(self.robot.model.nv)
+        v[self.body.v_index] = self.data.qvel[self.body.dof_index]
+        if self.body.base_dof is not None:
+            linear = self.data.qvel[self.body.base_dof:self.body.base_dof + 3]
+            v[:3] = pin.Quaternion(q[6], *q[3:6]).toRotationMatrix().T @ linear
+            v[3:6] = self.data.qvel[self.body.base_dof + 3:self.body.base_dof + 6]
+        return q, v
+
+    def contact_forces(self) -> tuple[float, np.ndarray, set[str]]:
+        """(sum of the sole-floor normal forces f_n (N), sum f_n r (x, y), the soles pressed)."""
+        mujoco, data = self.mujoco, self.data
+        total, moment, soles = 0.0, np.zeros(2), set()
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            sole = self.sole_geoms.get(contact.geom1) or self.sole_geoms.get(contact.geom2)
+            if sole is None:
+                continue
+            mujoco.mj_contactForce(self.model, data, i, self._force)
+            if self._force[0] > 0:
+                total += self._force[0]
+                moment += self._force[0] * contact.pos[:2]
+                soles.add(sole)
+        return total, moment, soles
+
+    def support(self, soles: list[str]) -> SupportPolygon:
+        """The polygon of the simulated soles ``soles`` projected on the floor."""
+        points = []
+        for sole in soles:
+            site = self.sole_sites[sole]
+            rotation = self.data.site_xmat[site].reshape(3, 3)
+            points.append(np.asarray(self.robot.soles[sole]) @ rotation.T + self.data.site_xpos[site])
+        return SupportPolygon(np.vstack(points)[:, :2])
+
+    def run(self, q_target: np.ndarray, duration: float, measured: Measured) -> bool:
+        """Servo targets of ``q_target`` reached over ``duration`` s (one control tick); into ``measured`` the
+        margin of the tick's CoP inside the soles pressed during it and the worst margin of a physics step's
+        CoP inside the soles it pressed (the soles where they are at the tick's end); False once fallen."""
+        if measured.fell_at_s is not None:
+            return False
+        start, end = self.target, self._targets(q_target)
+        steps = max(1, int(round(duration / self.model.opt.timestep)))
+        impulse, moment, pressed = 0.0, np.zeros(2), {}
+        for step in range(1, steps + 1):
+            self.data.ctrl[:] = start + (end - start) * (step / steps)
+            self.mujoco.mj_step(self.model, self.data)
+            self.time += self.model.opt.timestep
+            total, step_moment, soles = self.contact_forces()
+            if total > 0:
+                impulse, moment = impulse + total, moment + step_moment
+                pressed.setdefault(tuple(sorted(soles)), []).append(step_moment / total)
+            if self.data.subtree_com[0][2] - self.ground_z < FALLEN_HEIGHT_RATIO * self.start_height:
+                measured.fell_at_s = self.time
+                return False
+        self.target = end
+        for soles, cops in pressed.items():
+            polygon = self.support(list(soles))
+            measured.step_margin_min = min(measured.step_margin_min, *(polygon.margin_of(p) for p in cops))
+        every = sorted(set().union(*pressed))
+        measured.times.append(self.time)
+        measured.margins.append(self.support(every).margin_of(moment / impulse) if impulse > 0 else math.nan)
+        return True

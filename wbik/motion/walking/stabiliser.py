@@ -1,0 +1,126 @@
+"""A walk played in physics (:mod:`wbik.motion.walking.physics`), open loop (the planned joints as the servos'
+targets) or closed loop: every tick the controller reads the simulated present state (q, v) and steps the
+whole-body QP toward the plan with two corrections of Kajita's stabiliser, CoM and body inclination:
+the CoM target moved by -K_dcm e (low-passed, at most ``com_offset_max``), e = (c - s) - (c_d - s_d) +
+(c' - c_d') / omega the error of the divergent component of motion relative to the stance soles (s measured,
+s_d planned); the trunk's target turned by -K_att times the trunk's measured roll and pitch error."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from wbik.errors import NoQPSolutionError
+from wbik.motion.walking.control_loop import without_cyclic_gc
+from wbik.motion.walking.pattern import WalkPattern
+from wbik.motion.walking.physics import Measured, Servos, Simulation
+from wbik.motion.walking.tracking import Tracker, WalkMotion
+
+
+@dataclass(frozen=True)
+class StabiliserGains:
+    """``dcm``: CoM offset per m of divergent-component error, low-passed with ``time_constant_s``, at most
+    ``com_offset_max`` (m); ``attitude``: trunk correction per rad of roll or pitch error."""
+
+    dcm: float = 0.1
+    attitude: float = 0.5
+    time_constant_s: float = 0.05
+    com_offset_max: float = 0.02
+
+
+@dataclass(frozen=True)
+class PhysicsSettings:
+    """The walk in physics: ``servos``, the stabiliser's ``gains``, the physics ``timestep`` (s), the floor's
+    ``friction``, ``settle_s`` (s) the last command held after the walk."""
+
+    servos: Servos
+    gains: StabiliserGains = StabiliserGains()
+    timestep: float = 0.001
+    friction: float = 1.0
+    settle_s: float = 1.0
+
+
+class Stabiliser:
+    """The corrections of one walk's tracking from the measured state, tick by tick."""
+
+    def __init__(self, tracker: Tracker, pattern: WalkPattern, gains: StabiliserGains):
+        self.tracker, self.pattern, self.gains = tracker, pattern, gains
+        self.robot = tracker.robot
+        self.data = self.robot.model.createData()
+        self.trunk = self.robot.frame_id(tracker.trunk)
+        self.offset = np.zeros(3)
+
+    def corrections(self, q: np.ndarray, v: np.ndarray, now: int) -> tuple[np.ndarray, np.ndarray]:
+        """(CoM offset (m), trunk correction (rotation)) from the state (q, v) measured at tick ``now``."""
+        model, data, pattern, gains = self.robot.model, self.data, self.pattern, self.gains
+        com = pin.centerOfMass(model, data, q, v)
+        pin.framesForwardKinematics(model, data, q)
+        stance = np.mean([data.oMf[self.robot.frame_id(f)].translation for f in pattern.support[now]], axis=0)
+        planned = np.mean([p.translation for p in pattern.stance(now).values()], axis=0)
+        velocity = (pattern.com[now] - pattern.com[max(now - 1, 0)]) / pattern.dt
+        omega = pattern.info["omega"]
+        error = com - stance - (pattern.com[now] - planned) + (data.vcom[0] - velocity) / omega
+        wanted = np.zeros(3)
+        wanted[:2] = np.clip(-gains.dcm * error[:2], -gains.com_offset_max, gains.com_offset_max)
+        self.offset += (wanted - self.offset) * min(1.0, pattern.dt / max(gains.time_constant_s, 1e-9))
+        trunk = self.tracker.trunk_rotation(pattern.trunk_yaw[now] - pattern.trunk_yaw[0])
+        tilt = pin.log3(data.oMf[self.trunk].rotation @ trunk.T)
+        tilt[2] = 0.0
+        return self.offset.copy(), pin.exp3(-gains.attitude * tilt)
+
+
+def play_open_loop(sim: Simulation, pattern: WalkPattern, planned: np.ndarray, settle_s: float) -> Measured:
+    """The planned configurations as the servos' targets, one per tick, the last held ``settle_s``."""
+    measured = Measured()
+    for k in range(1, len(planned) + int(round(settle_s / pattern.dt))):
+        if not sim.run(planned[min(k, len(planned) - 1)], pattern.dt, measured):
+            break
+    return measured
+
+
+def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0: np.ndarray,
+                     gains: StabiliserGains, settle_s: float) -> tuple[Measured, np.ndarray]:
+    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP)."""
+    stabiliser = Stabiliser(tracker, pattern, gains)
+    measured, command, last = Measured(), np.asarray(q0, dtype=float).copy(), pattern.ticks - 1
+    cpu = []
+    with without_cyclic_gc():
+        for k in range(1, pattern.ticks + int(round(settle_s / pattern.dt))):
+            started = time.thread_time()
+            offset, rotation = stabiliser.corrections(*sim.state(), min(k - 1, last))
+            try:
+                command = tracker.step(command, pattern, min(k, last), offset, rotation)
+            except NoQPSolutionError:
+                pass  # the servos keep the last command
+            cpu.append(time.thread_time() - started)
+            if not sim.run(command, pattern.dt, measured):
+                break
+    return measured, np.array(cpu)
+
+
+def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray, settings: PhysicsSettings) -> dict:
+    """The walk in physics, closed loop (its figures) and open loop (``open_loop``); no push."""
+    pattern = motion.pattern
+
+    def scene() -> Simulation:
+        return Simulation(pattern.robot, settings.servos, motion.q[0], pattern.ground_z, settings.timestep,
+                          settings.friction)
+
+    def figures(sim: Simulation, measured: Measured) -> dict:
+        travel = sim.state()[0][:2] - motion.q[0][:2]
+        return {**measured.figures(), "base_travel_m": float(np.linalg.norm(travel)),
+                "planned_travel_m": float(np.linalg.norm(motion.q[-1][:2] - motion.q[0][:2]))}
+
+    sim = scene()
+    closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s)
+    closed_figures = figures(sim, closed)
+    sim = scene()
+    open_figures = figures(sim, play_open_loop(sim, pattern, motion.q, settings.settle_s))
+    ticks = {"median_s": float(np.median(cpu)), "p95_s": float(np.percentile(cpu, 95)),
+             "max_s": float(np.max(cpu))}
+    return {**closed_figures, "push_impulse_n_s": 0.0, "tick_cpu": ticks, "open_loop": open_figures,
+            "servos": asdict(settings.servos), "stabiliser": asdict(settings.gains),
+            "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass}
