@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
 from wbik.solvers.levenberg_marquardt import (
@@ -38,6 +39,7 @@ _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
 FIRST_QUERY = 3  # library entries asked for by a call's first k-d tree query (the rest by a second)
 BATCH_ITERATION_UNITS = 10  # budget units of one batch iteration (32 seeds): its time over one seed's
+_LM_ATTEMPT = compiled_twin("lm_attempt", "lm_attempt")  # _attempt's on a pose target (None: not built)
 
 
 @dataclass
@@ -117,6 +119,27 @@ class BoundedLMSolver(Solver):
         scales_travel = chain_.is_prismatic.any() and self.position_weight != 1.0
         self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
                              else None)
+        self._compiled = self._compiled_arrays()
+
+    def _compiled_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The compiled attempt's (chain, joints, settings) (its C file says what they hold), or None
+        where it is not built, switched off or not for this chain: the Python loop."""
+        kinematics, policy, bounds = self._vectorised, self.policy, self.bounds
+        if (chosen(None, _LM_ATTEMPT, "lm_attempt") is None or kinematics is None
+                or self._joint_scale is not None or kinematics.n > 32):
+            return None
+        n, linear = kinematics.n, kinematics.linear
+        steps = [linear[row, 16 * (row % n):16 * (row % n + 1)] for row in range(2 * n)]  # C1, then C2
+        chain = np.vstack([kinematics.first.reshape(1, 16), kinematics.constant.reshape(n, 16), *steps])
+        joints = np.array([bounds.lower, bounds.upper, bounds.wraps, kinematics.prismatic], dtype=float)
+        settings = np.array([
+            self.position_weight, policy.cost_weight, policy.floor, policy.decrease, policy.increase,
+            policy.reject_floor, policy.progress, policy.stall,
+            math.inf if policy.max_damping is None else policy.max_damping,
+            -1.0 if policy.max_step is None else policy.max_step, policy.first_damping, self._sure_cost,
+            self._maybe_cost, 0.5 * self.tolerances.position * self.position_weight,
+            0.5 * self.tolerances.rotation, self.attempt_iterations], dtype=float)
+        return chain, joints, settings
 
     def _new_thread_state(self) -> SimpleNamespace:
         """This thread's Pinocchio Data and LM workspaces by residual size."""
@@ -164,6 +187,21 @@ class BoundedLMSolver(Solver):
             return error, jacobian if pose else jacobian[:3]
 
         return residual
+
+    def _attempt_function(self, target: Target, goal_inverse: pin.SE3, pose: bool):
+        """(q, deadline, budget) -> :meth:`_attempt`'s answer, by the compiled twin on a pose where built."""
+        evaluate = self._residual(goal_inverse, pose)
+        if self._compiled is None or not pose:
+            return lambda q, deadline, budget: self._attempt(evaluate, q, deadline, budget)
+        kernel, (chain, joints, settings), n = _LM_ATTEMPT, self._compiled, self.chain.nq
+        goal = np.concatenate((target.rotation.reshape(9), target.position))
+
+        def attempt(q: np.ndarray, deadline: float, budget: int) -> tuple[np.ndarray, bool, int, float]:
+            last = np.empty(n)
+            answer = kernel(chain, joints, settings, goal, q, budget, deadline, last)
+            return self._attempt(evaluate, q, deadline, budget) if answer is None else (last, *answer)
+
+        return attempt
 
     def _attempt(self, evaluate, q: np.ndarray, deadline: float, budget: int
                  ) -> tuple[np.ndarray, bool, int, float]:
@@ -241,7 +279,7 @@ class BoundedLMSolver(Solver):
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
         goal_inverse = self._goal(target)
         pose = target.is_pose
-        evaluate = self._residual(goal_inverse, pose)
+        attempt = self._attempt_function(target, goal_inverse, pose)
         q_start = self.bounds.project(q0)
         seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start)
         best_q, best_error = q_start, math.inf
@@ -266,7 +304,7 @@ class BoundedLMSolver(Solver):
             else:
                 draws = draws or _CallDraws(self, target, q0)
                 q_seed = self._next_seed(goal_inverse, pose, draws)
-            q, ok, used, error = self._attempt(evaluate, q_seed, deadline, self.max_iterations - iterations)
+            q, ok, used, error = attempt(q_seed, deadline, self.max_iterations - iterations)
             attempts += 1
             iterations += used
             if ok:
