@@ -190,8 +190,8 @@ class BoundedLMSolver(Solver):
 
     def _attempt_function(self, target: Target, goal_inverse: pin.SE3, pose: bool):
         """(q, deadline, budget) -> :meth:`_attempt`'s answer, by the compiled twin on a pose where built."""
-        evaluate = self._residual(goal_inverse, pose)
         if self._compiled is None or not pose:
+            evaluate = self._residual(goal_inverse, pose)
             return lambda q, deadline, budget: self._attempt(evaluate, q, deadline, budget)
         kernel, (chain, joints, settings), n = _LM_ATTEMPT, self._compiled, self.chain.nq
         goal = np.concatenate((target.rotation.reshape(9), target.position))
@@ -199,7 +199,9 @@ class BoundedLMSolver(Solver):
         def attempt(q: np.ndarray, deadline: float, budget: int) -> tuple[np.ndarray, bool, int, float]:
             last = np.empty(n)
             answer = kernel(chain, joints, settings, goal, q, budget, deadline, last)
-            return self._attempt(evaluate, q, deadline, budget) if answer is None else (last, *answer)
+            if answer is None:  # a path only the Python loop has (its C file says which)
+                return self._attempt(self._residual(goal_inverse, pose), q, deadline, budget)
+            return last, *answer
 
         return attempt
 
@@ -261,14 +263,17 @@ class BoundedLMSolver(Solver):
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
-    def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray
-                     ) -> tuple[list[np.ndarray], bool]:
+    def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray,
+                     attempt) -> tuple[list[np.ndarray], bool]:
         """The first seeds and whether q0 is still to come: [q0, the table's nearest entry], or [the entry]
         when nearer than ``table_first`` x |e(q0)|^2 (q0 then after the library's nearest entry)."""
         if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
             return [q_start], False
-        error = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
-        cost = float(error.dot(error))
+        if pose and self._compiled is not None:  # |e(q0)| from the compiled attempt, no iteration
+            cost = attempt(q_start, math.inf, 0)[3] ** 2
+        else:
+            error = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
+            cost = float(error.dot(error))
         if cost <= self._sure_cost:  # q0 passes already
             return [q_start], False
         entry, distance2 = self._table.nearest(target, self.position_weight)
@@ -281,7 +286,7 @@ class BoundedLMSolver(Solver):
         pose = target.is_pose
         attempt = self._attempt_function(target, goal_inverse, pose)
         q_start = self.bounds.project(q0)
-        seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start)
+        seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start, attempt)
         best_q, best_error = q_start, math.inf
         attempts, iterations, taken, queries = 0, 0, 0, 0  # taken: library entries handed out so far
         draws = None  # the call's random seeds, drawn only if needed
