@@ -49,10 +49,9 @@ class BuildPyWithData(build_py):
 COMPILE_ARGS = ["-O2", "-ffp-contract=off", "-fno-fast-math", "-fno-builtin-sin", "-fno-builtin-cos"]
 """The Python twins' bits: no fused multiply-add, no reassociation, and libm's own sin and cos (not a
 merged sincos), as CPython's math module calls them (the C files say why)."""
-KERNELS = ("pose", "ur_type", "stacked_planar", "eaik", "qp_rows", "lm_trial", "lm_attempt")
+KERNELS = ("pose", "ur_type", "stacked_planar", "eaik", "qp_rows", "lm_trial")
 """wbik.kernels.KERNELS by name: each is wbik/kernels/_<name>.c, built as wbik.kernels._<name>."""
-EXTENSIONS = [Extension(f"wbik.kernels._{name}", [f"wbik/kernels/_{name}.c"], depends=["wbik/kernels/_buffers.h", "wbik/kernels/_pose_errors.h", "wbik/kernels/_closed_form.h",
-                                                                            "wbik/kernels/_lm_trial.h"],
+EXTENSIONS = [Extension(f"wbik.kernels._{name}", [f"wbik/kernels/_{name}.c"], depends=["wbik/kernels/_buffers.h", "wbik/kernels/_pose_errors.h", "wbik/kernels/_closed_form.h"],
                         extra_compile_args=COMPILE_ARGS, libraries=["m"], optional=True) for name in KERNELS]
 
 setup(cmdclass={"build_py": BuildPyWithData}, ext_modules=EXTENSIONS)

@@ -1,5 +1,5 @@
-"""The compiled bounded_lm attempt (``wbik/kernels/_lm_attempt.c``) against its Python twin: the loop of
-:meth:`BoundedLMSolver._attempt` on Pinocchio's kinematics with the Python trial (``WBIK_PURE_PYTHON=1``).
+"""The compiled bounded_lm attempt (``lm_attempt`` of ``wbik/kernels/_lm_trial.c``) against its Python twin:
+the loop of :meth:`BoundedLMSolver._attempt` on Pinocchio's kinematics with the Python trial.
 
 The kernel's forward kinematics sums in another order than Pinocchio's, its trial in index order (LAPACK
 in its own): on the TRAC-IK protocol's poses (measured on 2,000 of each chain below: identical verdicts and

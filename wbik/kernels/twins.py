@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 
-_pose = _ur_type = _stacked_planar = _eaik = _qp_rows = _lm_trial = _lm_attempt = None  # where not built
+_pose = _ur_type = _stacked_planar = _eaik = _qp_rows = _lm_trial = None  # where not built (no C compiler)
 with contextlib.suppress(ImportError):
     import wbik.kernels._pose as _pose
 with contextlib.suppress(ImportError):
@@ -24,8 +24,6 @@ with contextlib.suppress(ImportError):
     import wbik.kernels._qp_rows as _qp_rows
 with contextlib.suppress(ImportError):
     import wbik.kernels._lm_trial as _lm_trial
-with contextlib.suppress(ImportError):
-    import wbik.kernels._lm_attempt as _lm_attempt
 
 PURE_PYTHON_VARIABLE = "WBIK_PURE_PYTHON"
 
@@ -57,11 +55,8 @@ KERNELS = (
            "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends (Pinocchio and NumPy)",
            ("whole-body QP step", "converged whole-body IK")),
     Kernel("lm_trial", _lm_trial,
-           "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK)",
-           ("bounded_lm mean time",)),
-    Kernel("lm_attempt", _lm_attempt,
-           "wbik.solvers.bounded_lm.BoundedLMSolver._attempt (on Pinocchio's kinematics, the trial above and "
-           "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.update)",
+           "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK), "
+           "wbik.solvers.bounded_lm.BoundedLMSolver._attempt (on Pinocchio's kinematics)",
            ("bounded_lm mean time",)),
 )
 """Every compiled kernel of wbik (tests/test_compiled.py checks that each C file here is listed)."""

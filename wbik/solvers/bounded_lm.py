@@ -39,7 +39,7 @@ _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
 FIRST_QUERY = 3  # library entries asked for by a call's first k-d tree query (the rest by a second)
 BATCH_ITERATION_UNITS = 10  # budget units of one batch iteration (32 seeds): its time over one seed's
-_LM_ATTEMPT = compiled_twin("lm_attempt", "lm_attempt")  # _attempt's on a pose target (None: not built)
+_LM_ATTEMPT = compiled_twin("lm_trial", "lm_attempt")  # _attempt's on a pose target (None: not built)
 
 
 @dataclass
@@ -125,7 +125,7 @@ class BoundedLMSolver(Solver):
         """The compiled attempt's (chain, joints, settings) (its C file says what they hold), or None
         where it is not built, switched off or not for this chain: the Python loop."""
         kinematics, policy, bounds = self._vectorised, self.policy, self.bounds
-        if (chosen(None, _LM_ATTEMPT, "lm_attempt") is None or kinematics is None
+        if (chosen(None, _LM_ATTEMPT, "lm_trial") is None or kinematics is None
                 or self._joint_scale is not None or kinematics.n > 32):
             return None
         n, linear = kinematics.n, kinematics.linear
