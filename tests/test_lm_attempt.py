@@ -64,9 +64,10 @@ def test_a_rotation_error_near_pi_hands_the_attempt_to_the_python_twin(monkeypat
     chain = compiled.chain
     seed = chain.mid_range + 0.3
     target = as_target(chain.fk(seed) * pin.SE3(pin.utils.rotate("z", math.pi), np.zeros(3)))
-    goal = np.concatenate((target.rotation.reshape(9), target.position))
-    assert bounded_lm._LM_ATTEMPT(*compiled._compiled, goal, seed, 30, math.inf, np.empty(chain.nq)) is None
-    ours, theirs = (solver._attempt_function(target, solver._goal(target), True)(seed, math.inf, 30)
+    last = np.empty(chain.nq)
+    assert bounded_lm._LM_ATTEMPT(*compiled._compiled, target.rotation, target.position, seed, 30, math.inf,
+                                  last) is None
+    ours, theirs = (solver._attempt_function(target, True)(seed, math.inf, 30)
                     for solver in (compiled, python))
     assert ours[1:3] == theirs[1:3] and np.abs(ours[0] - theirs[0]).max() <= 1e-9
 
@@ -75,12 +76,12 @@ def test_bad_arguments_are_refused_with_the_argument_named(monkeypatch):
     compiled, _ = both_solvers("pincher:arm", monkeypatch)
     chain_array, joints, settings = compiled._compiled
     q, pose = compiled.chain.mid_range, compiled.chain.fk(compiled.chain.mid_range + 0.2)
-    goal = np.concatenate((pose.rotation.reshape(9), pose.translation))
-    good = [chain_array, joints, settings, goal, q, 30, math.inf, np.empty(4)]
+    good = [chain_array, joints, settings, pose.rotation, pose.translation, q, 30, math.inf, np.empty(4)]
     assert isinstance(bounded_lm._LM_ATTEMPT(*good), tuple)
     for index, bad, name in [(0, chain_array[1:], "chain"), (1, joints[:3], "joints"),
-                             (2, settings[1:], "settings"), (3, goal[:9], "goal"), (4, q[:3], "q"),
-                             (7, np.empty(3), "out"), (6, "soon", "deadline")]:
+                             (2, settings[1:], "settings"), (3, np.eye(4), "rotation"),
+                             (4, np.zeros(2), "position"), (5, q[:3], "q"), (8, np.empty(3), "out"),
+                             (7, "soon", "deadline")]:
         arguments = list(good)
         arguments[index] = bad
         with pytest.raises(TypeError, match=name):

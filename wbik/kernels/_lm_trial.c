@@ -339,7 +339,8 @@ static int residual(const Problem *p, const double *q, double *e, double *J)
     const double phi[3] = {vee[0] * scale, vee[1] * scale, vee[2] * scale};
     const double theta2 = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2];
     const double half = 0.5 * sqrt(theta2);
-    const double c = theta2 < 1e-6 ? 1.0 / 12.0 + theta2 / 720.0 : (1.0 - half / tan(half)) / (4.0 * half * half);
+    const double c = theta2 < 1e-6 ? 1.0 / 12.0 + theta2 / 720.0
+                                   : (1.0 - half / tan(half)) / (4.0 * half * half);
     const double along = c * (phi[0] * offset[0] + phi[1] * offset[1] + phi[2] * offset[2]);
     const double cross[3] = {phi[1] * offset[2] - phi[2] * offset[1], phi[2] * offset[0] - phi[0] * offset[2],
                              phi[0] * offset[1] - phi[1] * offset[0]};
@@ -429,14 +430,15 @@ static int attempt(const Problem *p, double *q, long budget, double deadline, lo
     return passes(s, e);
 }
 
-/* lm_attempt(chain, joints, settings, goal, q, budget, deadline, out) -> (converged, iterations, |e|) or
- * None (the Python twin decides). chain (3n + 1, 16): F, then C0, C1, C2 by joint; joints (4, n): lower,
- * upper, wraps (1.0 / 0.0), prismatic (1.0 / 0.0); settings (SETTINGS,): the enum's order, MAX_DAMPING inf and
- * MAX_STEP < 0 for none; goal (12,): R* row-major, p* (the chain's base frame); all C-contiguous float64;
- * q (n,) the seed; budget: iterations; deadline: perf_counter seconds (inf: none); out (n,): the last q. */
+/* lm_attempt(chain, joints, settings, rotation, position, q, budget, deadline, out) -> (converged,
+ * iterations, |e|) or None (the Python twin decides). chain (3n + 1, 16): F, then C0, C1, C2 by joint;
+ * joints (4, n): lower, upper, wraps (1.0 / 0.0), prismatic (1.0 / 0.0); settings (SETTINGS,): the enum's
+ * order, MAX_DAMPING inf and MAX_STEP < 0 for none (those three C-contiguous float64); rotation (3, 3) and
+ * position (3,): the target in the chain's base frame; q (n,) the seed; budget: iterations; deadline:
+ * perf_counter seconds (inf: none); out (n,): the last q. */
 static PyObject *lm_attempt(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (check_count("lm_attempt", nargs, 8) < 0)
+    if (check_count("lm_attempt", nargs, 9) < 0)
         return NULL;
     Py_buffer views[3];
     if (float64_view(args[1], &views[1], 0, "joints") < 0)
@@ -447,9 +449,9 @@ static PyObject *lm_attempt(PyObject *self, PyObject *const *args, Py_ssize_t na
         PyErr_SetString(PyExc_TypeError, "joints: expected a (4, n) float64 array, n <= 32");
         return NULL;
     }
-    long budget = PyLong_AsLong(args[5]);
+    long budget = PyLong_AsLong(args[6]);
     double deadline;
-    if ((budget == -1 && PyErr_Occurred()) || read_float(args[6], &deadline, "deadline") < 0)
+    if ((budget == -1 && PyErr_Occurred()) || read_float(args[7], &deadline, "deadline") < 0)
         return NULL;
     if (contiguous_view(args[0], &views[0], (3 * n + 1) * 16, 0, "chain") < 0)
         return NULL;
@@ -473,16 +475,15 @@ static PyObject *lm_attempt(PyObject *self, PyObject *const *args, Py_ssize_t na
     for (Py_ssize_t j = 0; j < n; j++)
         if (joints[2 * n + j] != 0.0)
             p.wraps = joints + 2 * n;
-    double goal[12], q[MAX_SIZE], cost = 0.0;
+    double q[MAX_SIZE], cost = 0.0;
     long used = 0;
     int outcome = -2;
-    if (read_doubles(args[3], goal, 12, 0, "goal") == 0 && read_doubles(args[4], q, n, 0, "q") == 0) {
-        memcpy(p.goal_rotation, goal, 9 * sizeof(double));
-        memcpy(p.goal_position, goal + 9, 3 * sizeof(double));
+    if (read_doubles(args[3], p.goal_rotation, 3, 3, "rotation") == 0
+        && read_doubles(args[4], p.goal_position, 3, 0, "position") == 0
+        && read_doubles(args[5], q, n, 0, "q") == 0)
         outcome = attempt(&p, q, budget, deadline, &used, &cost);
-    }
     release_views(views, 3);
-    if (outcome == -2 || (outcome >= 0 && write_doubles(args[7], q, n, "out") < 0))
+    if (outcome == -2 || (outcome >= 0 && write_doubles(args[8], q, n, "out") < 0))
         return NULL;
     if (outcome == -1)
         Py_RETURN_NONE;
@@ -494,8 +495,8 @@ static PyMethodDef methods[] = {
      "lm_trial(jacobian, error, damping, q, lower, upper, wraps, max_step, out) -> bool: one bounded "
      "Levenberg-Marquardt trial (False: let the Python twin decide)"},
     {"lm_attempt", (PyCFunction)(void (*)(void))lm_attempt, METH_FASTCALL,
-     "lm_attempt(chain, joints, settings, goal, q, budget, deadline, out) -> (converged, iterations, |e|) "
-     "or None: one bounded_lm attempt on a pose target (None: let the Python twin decide)"},
+     "lm_attempt(chain, joints, settings, rotation, position, q, budget, deadline, out) -> (converged, "
+     "iterations, |e|) or None: one bounded_lm attempt on a pose target (None: let the Python twin decide)"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef module = {PyModuleDef_HEAD_INIT, "_lm_trial",

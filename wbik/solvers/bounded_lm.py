@@ -188,19 +188,19 @@ class BoundedLMSolver(Solver):
 
         return residual
 
-    def _attempt_function(self, target: Target, goal_inverse: pin.SE3, pose: bool):
+    def _attempt_function(self, target: Target, pose: bool):
         """(q, deadline, budget) -> :meth:`_attempt`'s answer, by the compiled twin on a pose where built."""
         if self._compiled is None or not pose:
-            evaluate = self._residual(goal_inverse, pose)
+            evaluate = self._residual(self._goal(target), pose)
             return lambda q, deadline, budget: self._attempt(evaluate, q, deadline, budget)
         kernel, (chain, joints, settings), n = _LM_ATTEMPT, self._compiled, self.chain.nq
-        goal = np.concatenate((target.rotation.reshape(9), target.position))
+        rotation, position = target.rotation, target.position
 
         def attempt(q: np.ndarray, deadline: float, budget: int) -> tuple[np.ndarray, bool, int, float]:
             last = np.empty(n)
-            answer = kernel(chain, joints, settings, goal, q, budget, deadline, last)
+            answer = kernel(chain, joints, settings, rotation, position, q, budget, deadline, last)
             if answer is None:  # a path only the Python loop has (its C file says which)
-                return self._attempt(self._residual(goal_inverse, pose), q, deadline, budget)
+                return self._attempt(self._residual(self._goal(target), pose), q, deadline, budget)
             return last, *answer
 
         return attempt
@@ -236,12 +236,12 @@ class BoundedLMSolver(Solver):
                 return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), limit, math.sqrt(cost)
 
-    def _next_seed(self, goal_inverse: pin.SE3, pose: bool, draws: _CallDraws) -> np.ndarray:
+    def _next_seed(self, target: Target, pose: bool, draws: _CallDraws) -> np.ndarray:
         """A random seed inside the limits: the best of ``candidates`` uniform draws by |e|."""
         if self.candidates <= 1:
             return draws.take(1)[0].copy()
         seeds = draws.take(self.candidates)
-        evaluate = self._residual(goal_inverse, pose, with_jacobian=False)
+        evaluate = self._residual(self._goal(target), pose, with_jacobian=False)
         best, best_cost = seeds[0], math.inf
         for seed in seeds:
             error = evaluate(seed)[0]
@@ -263,8 +263,8 @@ class BoundedLMSolver(Solver):
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
-    def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray,
-                     attempt) -> tuple[list[np.ndarray], bool]:
+    def _first_seeds(self, target: Target, pose: bool, q_start: np.ndarray, attempt
+                     ) -> tuple[list[np.ndarray], bool]:
         """The first seeds and whether q0 is still to come: [q0, the table's nearest entry], or [the entry]
         when nearer than ``table_first`` x |e(q0)|^2 (q0 then after the library's nearest entry)."""
         if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
@@ -272,7 +272,7 @@ class BoundedLMSolver(Solver):
         if pose and self._compiled is not None:  # |e(q0)| from the compiled attempt, no iteration
             cost = attempt(q_start, math.inf, 0)[3] ** 2
         else:
-            error = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
+            error = self._residual(self._goal(target), pose, with_jacobian=False)(q_start)[0]
             cost = float(error.dot(error))
         if cost <= self._sure_cost:  # q0 passes already
             return [q_start], False
@@ -282,11 +282,10 @@ class BoundedLMSolver(Solver):
         return [q_start, entry], False
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        goal_inverse = self._goal(target)
         pose = target.is_pose
-        attempt = self._attempt_function(target, goal_inverse, pose)
+        attempt = self._attempt_function(target, pose)
         q_start = self.bounds.project(q0)
-        seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start, attempt)
+        seeds, q0_later = self._first_seeds(target, pose, q_start, attempt)
         best_q, best_error = q_start, math.inf
         attempts, iterations, taken, queries = 0, 0, 0, 0  # taken: library entries handed out so far
         draws = None  # the call's random seeds, drawn only if needed
@@ -308,7 +307,7 @@ class BoundedLMSolver(Solver):
                 q_seed = seeds.pop(0)
             else:
                 draws = draws or _CallDraws(self, target, q0)
-                q_seed = self._next_seed(goal_inverse, pose, draws)
+                q_seed = self._next_seed(target, pose, draws)
             q, ok, used, error = attempt(q_seed, deadline, self.max_iterations - iterations)
             attempts += 1
             iterations += used
