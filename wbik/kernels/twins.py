@@ -63,9 +63,10 @@ KERNELS = (
 
 
 def compiled_twin(kernel: str, name: str):
-    """The function ``name`` of ``kernel``'s extension, or None where it is not built."""
+    """The function ``name`` of ``kernel``'s extension, or None where it is not built (or built from an
+    older C file without it: rebuild)."""
     extension = next(k.extension for k in KERNELS if k.name == kernel)
-    return None if extension is None else getattr(extension, name)
+    return getattr(extension, name, None)
 
 
 def chosen(python, compiled, kernel: str):
