@@ -40,6 +40,9 @@ def test_the_extensions_are_built_where_a_compiler_exists():
     from wbik.solvers import levenberg_marquardt
 
     assert (levenberg_marquardt._LM_TRIAL is not None) == HAS_COMPILER
+    from wbik.solvers import bounded_lm
+
+    assert (bounded_lm._LM_ATTEMPT is not None) == HAS_COMPILER  # (None too from a stale build: rebuild)
     assert geometry.error_parts is (geometry._python_error_parts if pure_python("pose") or not HAS_COMPILER
                                     else geometry._compiled_error_parts)
     expected = targets._python_accepts_plain_se3 if pure_python("pose") or not HAS_COMPILER else \

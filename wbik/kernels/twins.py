@@ -55,16 +55,18 @@ KERNELS = (
            "wbik.qp.tasks, wbik.qp.step, wbik.qp.backends (Pinocchio and NumPy)",
            ("whole-body QP step", "converged whole-body IK")),
     Kernel("lm_trial", _lm_trial,
-           "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK)",
+           "wbik.solvers.levenberg_marquardt.LevenbergMarquardt.trial (NumPy and LAPACK), "
+           "wbik.solvers.bounded_lm.BoundedLMSolver._attempt (on Pinocchio's kinematics)",
            ("bounded_lm mean time",)),
 )
 """Every compiled kernel of wbik (tests/test_compiled.py checks that each C file here is listed)."""
 
 
 def compiled_twin(kernel: str, name: str):
-    """The function ``name`` of ``kernel``'s extension, or None where it is not built."""
+    """The function ``name`` of ``kernel``'s extension, or None where it is not built (or built from an
+    older C file without it: rebuild)."""
     extension = next(k.extension for k in KERNELS if k.name == kernel)
-    return None if extension is None else getattr(extension, name)
+    return getattr(extension, name, None)
 
 
 def chosen(python, compiled, kernel: str):

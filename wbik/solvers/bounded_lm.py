@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from wbik.errors import RobotDescriptionError
+from wbik.kernels.twins import chosen, compiled_twin
 from wbik.solvers.base import Solver
 from wbik.solvers.check import evaluate
 from wbik.solvers.levenberg_marquardt import (
@@ -38,6 +39,7 @@ _IDENTITY = np.eye(3)
 _IDENTITY.flags.writeable = False
 FIRST_QUERY = 3  # library entries asked for by a call's first k-d tree query (the rest by a second)
 BATCH_ITERATION_UNITS = 10  # budget units of one batch iteration (32 seeds): its time over one seed's
+_LM_ATTEMPT = compiled_twin("lm_trial", "lm_attempt")  # _attempt's on a pose target (None: not built)
 
 
 @dataclass
@@ -117,6 +119,27 @@ class BoundedLMSolver(Solver):
         scales_travel = chain_.is_prismatic.any() and self.position_weight != 1.0
         self._joint_scale = (np.where(chain_.is_prismatic, self.position_weight, 1.0) if scales_travel
                              else None)
+        self._compiled = self._compiled_arrays()
+
+    def _compiled_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """The compiled attempt's (chain, joints, settings) (its C file says what they hold), or None
+        where it is not built, switched off or not for this chain: the Python loop."""
+        kinematics, policy, bounds = self._vectorised, self.policy, self.bounds
+        if (chosen(None, _LM_ATTEMPT, "lm_trial") is None or kinematics is None
+                or self._joint_scale is not None or kinematics.n > 32):
+            return None
+        n, linear = kinematics.n, kinematics.linear
+        steps = [linear[row, 16 * (row % n):16 * (row % n + 1)] for row in range(2 * n)]  # C1, then C2
+        chain = np.vstack([kinematics.first.reshape(1, 16), kinematics.constant.reshape(n, 16), *steps])
+        joints = np.array([bounds.lower, bounds.upper, bounds.wraps, kinematics.prismatic], dtype=float)
+        settings = np.array([
+            self.position_weight, policy.cost_weight, policy.floor, policy.decrease, policy.increase,
+            policy.reject_floor, policy.progress, policy.stall,
+            math.inf if policy.max_damping is None else policy.max_damping,
+            -1.0 if policy.max_step is None else policy.max_step, policy.first_damping, self._sure_cost,
+            self._maybe_cost, 0.5 * self.tolerances.position * self.position_weight,
+            0.5 * self.tolerances.rotation, self.attempt_iterations], dtype=float)
+        return chain, joints, settings
 
     def _new_thread_state(self) -> SimpleNamespace:
         """This thread's Pinocchio Data and LM workspaces by residual size."""
@@ -165,6 +188,23 @@ class BoundedLMSolver(Solver):
 
         return residual
 
+    def _attempt_function(self, target: Target, pose: bool):
+        """(q, deadline, budget) -> :meth:`_attempt`'s answer, by the compiled twin on a pose where built."""
+        if self._compiled is None or not pose:
+            evaluate = self._residual(self._goal(target), pose)
+            return lambda q, deadline, budget: self._attempt(evaluate, q, deadline, budget)
+        kernel, (chain, joints, settings), n = _LM_ATTEMPT, self._compiled, self.chain.nq
+        rotation, position = target.rotation, target.position
+
+        def attempt(q: np.ndarray, deadline: float, budget: int) -> tuple[np.ndarray, bool, int, float]:
+            last = np.empty(n)
+            answer = kernel(chain, joints, settings, rotation, position, q, budget, deadline, last)
+            if answer is None:  # a path only the Python loop has (its C file says which)
+                return self._attempt(self._residual(self._goal(target), pose), q, deadline, budget)
+            return last, *answer
+
+        return attempt
+
     def _attempt(self, evaluate, q: np.ndarray, deadline: float, budget: int
                  ) -> tuple[np.ndarray, bool, int, float]:
         """LM from q for at most ``budget`` iterations: (last q, converged?, iterations, |e|)."""
@@ -196,12 +236,12 @@ class BoundedLMSolver(Solver):
                 return q, False, iteration, math.sqrt(cost)
         return q, self._passes(error), limit, math.sqrt(cost)
 
-    def _next_seed(self, goal_inverse: pin.SE3, pose: bool, draws: _CallDraws) -> np.ndarray:
+    def _next_seed(self, target: Target, pose: bool, draws: _CallDraws) -> np.ndarray:
         """A random seed inside the limits: the best of ``candidates`` uniform draws by |e|."""
         if self.candidates <= 1:
             return draws.take(1)[0].copy()
         seeds = draws.take(self.candidates)
-        evaluate = self._residual(goal_inverse, pose, with_jacobian=False)
+        evaluate = self._residual(self._goal(target), pose, with_jacobian=False)
         best, best_cost = seeds[0], math.inf
         for seed in seeds:
             error = evaluate(seed)[0]
@@ -223,14 +263,17 @@ class BoundedLMSolver(Solver):
         """The shared check on a (position-weighted) error."""
         return converged(error, self.tolerances.position * self.position_weight, self.tolerances.rotation)
 
-    def _first_seeds(self, target: Target, goal_inverse: pin.SE3, pose: bool, q_start: np.ndarray
+    def _first_seeds(self, target: Target, pose: bool, q_start: np.ndarray, attempt
                      ) -> tuple[list[np.ndarray], bool]:
         """The first seeds and whether q0 is still to come: [q0, the table's nearest entry], or [the entry]
         when nearer than ``table_first`` x |e(q0)|^2 (q0 then after the library's nearest entry)."""
         if self._table.q.shape[0] == 0 or self.single_attempts <= 1:
             return [q_start], False
-        error = self._residual(goal_inverse, pose, with_jacobian=False)(q_start)[0]
-        cost = float(error.dot(error))
+        if pose and self._compiled is not None:  # |e(q0)| from the compiled attempt, no iteration
+            cost = attempt(q_start, math.inf, 0)[3] ** 2
+        else:
+            error = self._residual(self._goal(target), pose, with_jacobian=False)(q_start)[0]
+            cost = float(error.dot(error))
         if cost <= self._sure_cost:  # q0 passes already
             return [q_start], False
         entry, distance2 = self._table.nearest(target, self.position_weight)
@@ -239,11 +282,10 @@ class BoundedLMSolver(Solver):
         return [q_start, entry], False
 
     def _solve(self, target: Target, q0: np.ndarray, deadline: float) -> Candidate:
-        goal_inverse = self._goal(target)
         pose = target.is_pose
-        evaluate = self._residual(goal_inverse, pose)
+        attempt = self._attempt_function(target, pose)
         q_start = self.bounds.project(q0)
-        seeds, q0_later = self._first_seeds(target, goal_inverse, pose, q_start)
+        seeds, q0_later = self._first_seeds(target, pose, q_start, attempt)
         best_q, best_error = q_start, math.inf
         attempts, iterations, taken, queries = 0, 0, 0, 0  # taken: library entries handed out so far
         draws = None  # the call's random seeds, drawn only if needed
@@ -265,8 +307,8 @@ class BoundedLMSolver(Solver):
                 q_seed = seeds.pop(0)
             else:
                 draws = draws or _CallDraws(self, target, q0)
-                q_seed = self._next_seed(goal_inverse, pose, draws)
-            q, ok, used, error = self._attempt(evaluate, q_seed, deadline, self.max_iterations - iterations)
+                q_seed = self._next_seed(target, pose, draws)
+            q, ok, used, error = attempt(q_seed, deadline, self.max_iterations - iterations)
             attempts += 1
             iterations += used
             if ok:
