@@ -18,6 +18,7 @@ from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
+from wbik.solvers.analytic.one_d_search import TwoParallelForm
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, angle_between, chain_lines
 
 HALF_PI = 0.5 * math.pi
@@ -244,6 +245,23 @@ def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
     if probe:
         check_fk_against_model(form)
     return Recognised(form, f"eaik:{form.family}")
+
+
+def recognise_search(chain, kind: str) -> Recognised:
+    """A 6R chain's search-based form (:mod:`.one_d_search`), or UnsupportedError saying why none."""
+    lines = chain_lines(chain)
+    if kind != "pose":
+        raise UnsupportedError("search: solves full poses only")
+    if lines.count != 6 or lines.prismatic.any():
+        raise UnsupportedError(f"search: for 6 revolute joints (this chain has {lines.count} joints"
+                               f"{', a prismatic one' if lines.prismatic.any() else ''})")
+    if not lines.parallel(1, 2):
+        raise UnsupportedError("search: axes 2 and 3 are not parallel (the 1-D search's structure); no two "
+                               "neighbouring axes parallel or meeting leaves a general 6R, which needs "
+                               "IK-Geo's 2-D search (not provided)")
+    form = TwoParallelForm(chain, lines)
+    check_fk_against_model(form)
+    return Recognised(form, form.family)
 
 
 def first_recognised(*recognisers: Callable[[], Recognised]) -> Recognised | list[str]:

@@ -1,0 +1,98 @@
+"""``analytic``'s search-based geometric forms (wbik.solvers.analytic.one_d_search) on the arms no family or
+EAIK decomposition solves. Targets are FK poses (Pinocchio) of seeded random joints inside the limits;
+answers are judged by Pinocchio's FK again, never by the code under test."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import wbik
+from wbik.errors import UnsupportedError
+from wbik.geometry import joint_gap
+from wbik.solvers.analytic.closed_form import BRANCH_MERGE
+from wbik.solvers.analytic.one_d_search import TwoParallelForm
+from wbik.solvers.analytic.structure import chain_lines
+
+BRAVO = ("example-robot-data:bravo7_no_ee", "link1", "end_effector_ball")
+POSES = 30
+
+
+def fk_error(chain, q: np.ndarray, target: pin.SE3) -> float:
+    reached = chain.fk(q)
+    return max(float(np.linalg.norm(reached.translation - target.translation)),
+               float(np.linalg.norm(pin.log3(target.rotation.T @ reached.rotation))))
+
+
+@pytest.fixture(scope="module")
+def bravo():
+    name, base, tip = BRAVO
+    return wbik.solver("analytic", wbik.load(name), base=base, tip=tip)
+
+
+def test_bravo_gets_the_two_parallel_search(bravo):
+    assert bravo.family == "search: joints 2 and 3 parallel (1-D)"
+    assert isinstance(bravo.closed_form("pose"), TwoParallelForm)
+
+
+def test_bravo_solves_reachable_poses_to_the_shared_tolerance(bravo):
+    chain = bravo.chain
+    joints = chain.random(np.random.default_rng(11), POSES)
+    solved = 0
+    for q in joints:
+        target = chain.fk(q)
+        result = bravo.solve(target, q0=chain.nominal)
+        if result.success:
+            solved += 1
+            assert fk_error(chain, result.q, target) <= 1e-6
+            assert np.all(result.q >= chain.lower - 1e-9) and np.all(result.q <= chain.upper + 1e-9)
+    assert solved >= POSES - 1  # the benchmark measures the share on 500 poses (at least 99 %)
+
+
+def test_bravo_solve_all_branches_are_distinct_and_reach_the_target(bravo):
+    chain = bravo.chain
+    revolute = ~chain.is_prismatic
+    counts = []
+    for q in chain.random(np.random.default_rng(12), 6):
+        target = chain.fk(q)
+        results = bravo.solve_all(target)
+        counts.append(len(results))
+        for index, result in enumerate(results):
+            assert result.success and fk_error(chain, result.q, target) <= 1e-6
+            for other in results[:index]:
+                assert joint_gap(result.q, other.q, revolute) >= BRANCH_MERGE
+    assert sum(count >= 1 for count in counts) >= 5
+
+
+def test_every_branch_of_the_form_reproduces_its_root(bravo):
+    """The form's branches at a target are joint vectors whose FK (the lines' product of exponentials,
+    checked against Pinocchio) reaches the target, and the joints the target was made from are among them."""
+    chain, form = bravo.chain, bravo.closed_form("pose")
+    q = chain.random(np.random.default_rng(13), 1)[0]
+    target = chain.fk(q)
+    branches, real = form.branches(target.translation[None], target.rotation[None], chain.nominal[None])
+    found = branches[0][real[0]]
+    errors = [fk_error(chain, branch, target) for branch in found]
+    assert min(errors) <= 1e-9
+    assert min(joint_gap(branch, q, ~chain.is_prismatic) for branch in found) <= 1e-6
+
+
+def test_unreachable_target_is_a_failure_with_a_reason(bravo):
+    chain = bravo.chain
+    target = chain.fk(chain.nominal)
+    far = pin.SE3(target.rotation, target.translation + np.array([2.0, 0.0, 0.0]))  # 2 m beyond a 0.5 m arm
+    result = bravo.solve(far, q0=chain.nominal)
+    assert not result.success and "unreachable" in result.reason
+
+
+def test_a_general_6r_is_refused_saying_which_search_it_needs():
+    """The Tiago Pro arm with its last joint held leaves no neighbouring axes parallel or meeting."""
+    robot = wbik.load("example-robot-data:tiago_pro")
+    with pytest.raises(UnsupportedError, match="2-D search"):
+        wbik.solver("analytic", robot, base="torso_lift_link", tip="arm_right_tool_link")
+
+
+def test_the_search_form_is_only_for_axes_two_and_three_parallel():
+    lines = chain_lines(wbik.solver("dls", wbik.load(BRAVO[0]), base=BRAVO[1], tip=BRAVO[2]).chain)
+    assert lines.parallel(1, 2) and not lines.parallel(0, 1) and not lines.parallel(2, 3)

@@ -1,0 +1,220 @@
+"""Search-based geometric closed forms (IK-Geo's 1-D search): a 6R arm without a closed form, one joint
+angle x searched, the other five by subproblems at each x, up to four branches, each with a scalar error
+e(x) that is zero where the branch reaches the target. A grid of x (intervals where a branch's angles jump
+or an error nears zero split once more), a sign change of e along a branch (branches matched between
+neighbouring samples by their angles) brackets a root; vectorised secant steps kept inside the bracket refine
+it to :data:`ROOT_TOLERANCE`; the joints at the roots are the form's branches (the solver screens them by FK
+as every form's).
+
+- :class:`TwoParallelForm`: axes 2 and 3 parallel; x = q6, (q1, q4) by SP6, q2 + q3 by SP1, e = |v| - |p23|.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wbik.geometry import TWO_PI
+from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
+from wbik.solvers.analytic.structure import ChainLines, axis_rotation, eaik_vectors, poe_fk
+from wbik.solvers.analytic.subproblems import circle_terms, cross, dot, rotate, sp1, sp6
+
+SAMPLES = 96  # grid values of the searched joint over a full turn (fewer over a narrower range, at least 8)
+SMOOTH = 0.15  # rad: an interval where a branch's angles move more is split in SPLIT, at most LEVELS times
+SPLIT, LEVELS = 4, 1
+NEAR = 0.05  # x the chain's length: an interval with an end's error below is split too (close pairs of roots)
+MATCH = 0.6  # rad: a branch at the next sample is the same branch when its angles moved less than this
+ROOT_TOLERANCE = 1e-12  # |e| (m or 1) or the last step (rad) at which a root is refined
+REFINE_STEPS = 12  # secant steps at most per root
+
+
+class OneDSearchForm(ClosedForm):
+    """A 6R chain's search form: :meth:`evaluate` gives, at searched values x (M,) and targets (M, ...), the
+    branches' errors e (M, K), matching angles (M, K, 2) and, with ``full``, their joints (M, K, 6)."""
+
+    searched = 0  # the searched joint's index
+    family = ""
+
+    def __init__(self, chain, lines: ChainLines):
+        super().__init__(chain)
+        self.lines = lines
+        self.near = NEAR * lines.length
+        self.axes, self.offsets, self.tip_rotation = eaik_vectors(lines)
+        low, high = float(chain.lower[self.searched]), float(chain.upper[self.searched])
+        self.full_turn = not (math.isfinite(low) and math.isfinite(high)) or high - low >= TWO_PI - 1e-12
+        if self.full_turn:
+            self.grid = np.linspace(-math.pi, math.pi, SAMPLES, endpoint=False)
+        else:
+            self.grid = np.linspace(low, high, max(8, math.ceil(SAMPLES * (high - low) / TWO_PI) + 1))
+
+    def evaluate(self, x, positions, rotations, full: bool = False):
+        raise NotImplementedError
+
+    def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                 q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rotations = rotations @ self.tip_rotation.T  # R06, and p06 from joint 1's point to joint 6's
+        positions = positions - np.einsum("bij,j->bi", rotations, self.offsets[-1]) - self.offsets[0]
+        roots, targets, anchors = self._brackets(positions, rotations)
+        if not len(roots):
+            return stacked_branches([(np.zeros((0, 6)), np.zeros(0, dtype=bool))] * len(positions), 6)
+        e, anchor, q = self.evaluate(roots, positions[targets], rotations[targets], full=True)
+        chosen = _nearest_branch(anchor, anchors)
+        rows = np.arange(len(roots))
+        q = q[rows, chosen]
+        parts = [(q[targets == b], np.ones(int((targets == b).sum()), dtype=bool))
+                 for b in range(len(positions))]
+        return stacked_branches(parts, 6)
+
+    def _samples(self, positions: np.ndarray, rotations: np.ndarray):
+        """The grid per target, each interval where a branch moves more than :data:`SMOOTH` or the number
+        of branches changes split in :data:`SPLIT` up to :data:`LEVELS` times: (x, target, e, anchor), ordered
+        by target then x."""
+        count = len(positions)
+        x, target = np.tile(self.grid, count), np.repeat(np.arange(count), len(self.grid))
+        e, anchor = self.evaluate(x, positions[target], rotations[target])[:2]
+        for _ in range(LEVELS):
+            following, end, _ = self._pairs(x, target)
+            moved = _moved(anchor[following], anchor)  # (pairs, K now, K next)
+            real_now, real_next = np.isfinite(e), np.isfinite(e)[following]
+            near = np.abs(np.where(np.isfinite(e), e, np.inf)).min(axis=1) < self.near
+            jumpy = (np.where(real_now, moved.min(axis=2), 0.0).max(axis=1) > SMOOTH) | \
+                (np.where(real_next, moved.min(axis=1), 0.0).max(axis=1) > SMOOTH) | \
+                (real_now.sum(axis=1) != real_next.sum(axis=1)) | near | near[following]
+            split = np.flatnonzero(jumpy)
+            if not len(split):
+                break
+            fractions = np.arange(1, SPLIT) / SPLIT
+            new_x = (x[split, None] + (end[split] - x[split])[:, None] * fractions).reshape(-1)
+            if self.full_turn:
+                new_x = _wrapped(new_x)
+            new_target = np.repeat(target[split], SPLIT - 1)
+            new_e, new_anchor = self.evaluate(new_x, positions[new_target], rotations[new_target])[:2]
+            x, target = np.concatenate((x, new_x)), np.concatenate((target, new_target))
+            e, anchor = np.concatenate((e, new_e)), np.concatenate((anchor, new_anchor))
+            order = np.lexsort((x, target))
+            x, target, e, anchor = x[order], target[order], e[order], anchor[order]
+        return x, target, e, anchor
+
+    def _pairs(self, x: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per sample its neighbour's index (the target's first after its last on a full turn, else itself),
+        the neighbour's x (unwrapped) and whether the pair is an interval."""
+        following = np.arange(1, len(x) + 1)
+        last = np.r_[target[1:] != target[:-1], True]
+        firsts = np.flatnonzero(np.r_[True, target[1:] != target[:-1]])
+        following[last] = firsts if self.full_turn else np.flatnonzero(last)
+        end = x[following] + np.where(last & self.full_turn, TWO_PI, 0.0)
+        return following, end, ~last | self.full_turn
+
+    def _brackets(self, positions: np.ndarray, rotations: np.ndarray):
+        """The refined roots x (R,), their targets (R,) and the matching angles of their branches (R, 2)."""
+        x, targets, e, anchor = self._samples(positions, rotations)
+        following, end, interval = self._pairs(x, targets)
+        moved = _moved(anchor[following], anchor)
+        match = np.argmin(moved, axis=-1)
+        matched = (np.take_along_axis(moved, match[..., None], -1)[..., 0] < MATCH) & interval[:, None]
+        e_match = np.take_along_axis(e[following], match, -1)
+        crossing = matched & (np.sign(e) * np.sign(e_match) <= 0.0) & np.isfinite(e) & np.isfinite(e_match)
+        pair, branch = np.nonzero(crossing)
+        low, high, target = x[pair], end[pair], targets[pair]
+        e_low, e_high = e[pair, branch], e_match[pair, branch]
+        anchors = anchor[pair, branch]
+        # secant steps on the last two values, kept inside the bracket (regula falsi where they leave it)
+        last_x, last_e, x_now, e_now = low, e_low, high, e_high
+        roots = low.copy()
+        for _ in range(REFINE_STEPS):
+            if not len(low):
+                break
+            x = _secant(last_x, last_e, x_now, e_now)
+            outside = ~((x > np.minimum(low, high)) & (x < np.maximum(low, high)))
+            x = np.where(outside, _secant(low, e_low, high, e_high), x)
+            e_x, anchor_x = self.evaluate(x, positions[target], rotations[target])[:2]
+            chosen = _nearest_branch(anchor_x, anchors)
+            rows = np.arange(len(x))
+            value = e_x[rows, chosen]
+            anchors = np.where(np.isfinite(anchor_x[rows, chosen]), anchor_x[rows, chosen], anchors)
+            roots = x
+            if np.all((np.abs(value) <= ROOT_TOLERANCE) | ~np.isfinite(value)
+                      | (np.abs(x - x_now) <= ROOT_TOLERANCE)):
+                break
+            same = np.sign(value) == np.sign(e_high)
+            high, e_high = np.where(same, x, high), np.where(same, value, e_high)
+            low, e_low = np.where(same, low, x), np.where(same, e_low, value)
+            last_x, last_e, x_now, e_now = x_now, e_now, x, value
+        return roots, target, anchors
+
+    def exact_branches(self, positions, rotations, q0):
+        return self.branches(positions, rotations, q0)
+
+    def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return poe_fk(self.lines, q)
+
+
+def _secant(x0: np.ndarray, e0: np.ndarray, x1: np.ndarray, e1: np.ndarray) -> np.ndarray:
+    """Where the line through (x0, e0) and (x1, e1) crosses zero (x0 where it is flat)."""
+    slope = e1 - e0
+    return np.where(slope != 0.0, x0 - e0 * (x1 - x0) / np.where(slope == 0.0, 1.0, slope), x0)
+
+
+def _wrapped(angle: np.ndarray) -> np.ndarray:
+    return np.remainder(angle + math.pi, TWO_PI) - math.pi
+
+
+def _moved(following: np.ndarray, anchor: np.ndarray) -> np.ndarray:
+    """How far (rad, the largest angle) each branch (M, K, A) moved to each of the next (M, K', A):
+    (M, K, K'), inf where either is missing."""
+    moved = np.abs(_wrapped(following[:, None, :, :] - anchor[:, :, None, :])).max(axis=-1)
+    return np.where(np.isnan(moved), np.inf, moved)
+
+
+def _nearest_branch(anchor: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Per row the branch (of K) whose angles (M, K, A) are nearest ``reference`` (M, A)."""
+    return np.argmin(_moved(anchor, reference[:, None, :])[:, 0], axis=-1)
+
+
+class TwoParallelForm(OneDSearchForm):
+    """Axes 2 and 3 parallel (IK-Geo's ``IK_2_parallel``, searched at the other end: the wrist's last joint,
+    which a near-spherical wrist leaves well conditioned). At x = q6, R05 = R06 R6^T and
+    w = p06 - R05 p56 = R1 (p12 + R2 p23 + R23 p34 + R23 R4 p45); h2 . R23 = h2 . gives
+    h2 . R1^T w - h2 . R4 p45 = h2 . (p12 + p23 + p34) and h2 . R1^T R05 h5 - h2 . R4 h5 = 0: (q1, q4) by
+    SP6; q2 + q3 = SP1(R4 h5 -> R1^T R05 h5 about h2); e = |v| - |p23| with v = R1^T w - p12
+    - R23 (p34 + R4 p45) = R2 p23; q2 = SP1(p23 -> v), q5 from R5 = (R1 R23 R4)^T R05."""
+
+    searched = 5
+    family = "search: joints 2 and 3 parallel (1-D)"
+
+    def __init__(self, chain, lines: ChainLines):
+        super().__init__(chain, lines)
+        h, p = self.axes, self.offsets
+        k = -h[0]  # h . Rot(k, q1) u = u . (columns (sin, cos) + along) for u = w, R05 h5
+        self.q1_columns = np.stack((cross(h[1], k), h[1] - dot(h[1], k) * k), axis=-1)
+        self.q1_along = dot(h[1], k) * k
+        terms = [circle_terms(h[1], h[3], v) for v in (p[4], h[4])]
+        self.q4_block = -np.stack([a for a, _ in terms])
+        self.rest = np.array((dot(h[1], p[1] + p[2] + p[3]) + terms[0][1], terms[1][1]))
+        normal = cross(h[4], np.eye(3)[np.argmin(np.abs(h[4]))])
+        self.normal5 = normal / np.linalg.norm(normal)  # a direction across axis 5, for q5 by SP1
+
+    def evaluate(self, x, positions, rotations, full: bool = False):
+        h, p = self.axes, self.offsets
+        wrist = rotations @ axis_rotation(h[5], -x)  # R05 = R06 R6^T (M, 3, 3)
+        w = positions - wrist @ p[5]
+        wrist_h5 = wrist @ h[4]
+        vectors = np.stack((w, wrist_h5), axis=-2)  # (M, 2, 3)
+        first = vectors @ self.q1_columns  # (M, 2, 2)
+        rest = self.rest - vectors @ self.q1_along
+        q1, q4, real = sp6(first, np.broadcast_to(self.q4_block, first.shape), rest)
+        base_w = rotate(-h[0], q1, w[:, None])  # R1^T w (M, K, 3)
+        base_h5 = rotate(-h[0], q1, wrist_h5[:, None])  # R1^T R05 h5
+        q23 = sp1(rotate(h[3], q4, h[4]), base_h5, h[1])
+        v = base_w - p[1] - rotate(h[1], q23, p[3] + rotate(h[3], q4, p[4]))
+        e = np.where(real, np.sqrt(dot(v, v)) - np.linalg.norm(p[2]), np.nan)
+        anchor = np.where(real[..., None], np.stack((q1, q4), axis=-1), np.nan)
+        if not full:
+            return e, anchor, None
+        q2 = sp1(p[2], v, h[1])
+        arm = axis_rotation(h[0], q1) @ axis_rotation(h[1], q23) @ axis_rotation(h[3], q4)  # R1 R23 R4
+        turned = np.einsum("mkji,mjl,l->mki", arm, wrist, self.normal5)  # R5 n5
+        q5 = sp1(self.normal5, turned, h[4])
+        joints = np.stack((q1, q2, q23 - q2, q4, q5, np.broadcast_to(x[:, None], q2.shape)), axis=-1)
+        return e, anchor, joints
