@@ -96,3 +96,38 @@ def test_a_general_6r_is_refused_saying_which_search_it_needs():
 def test_the_search_form_is_only_for_axes_two_and_three_parallel():
     lines = chain_lines(wbik.solver("dls", wbik.load(BRAVO[0]), base=BRAVO[1], tip=BRAVO[2]).chain)
     assert lines.parallel(1, 2) and not lines.parallel(0, 1) and not lines.parallel(2, 3)
+
+
+def test_baxter_holds_its_first_joint_and_searches_the_rest():
+    """Baxter's right arm with right_s0 held leaves axes 1, 2 and 5, 6 meeting: the held search runs the
+    1-D search at each held value."""
+    solver = wbik.solver("analytic", wbik.load("example-robot-data:baxter"), base="torso",
+                         tip="right_gripper_base_link")
+    assert solver.family == "search: axes 1, 2 and axes 5, 6 meet (1-D) with right_s0 held (search)"
+    chain = solver.chain
+    solved = 0
+    for q in chain.random(np.random.default_rng(14), 8):
+        target = chain.fk(q)
+        result = solver.solve(target, q0=chain.nominal)
+        if result.success:
+            solved += 1
+            assert fk_error(chain, result.q, target) <= 1e-6
+    assert solved >= 7
+
+
+def test_the_intersecting_search_finds_the_joints_a_pose_was_made_from():
+    """The 6R left by holding Baxter's first joint: among the form's branches, the joints of the pose."""
+    from wbik.solvers.analytic.one_d_search import TwoIntersectingForm
+    from wbik.solvers.analytic.redundancy import LockedChain
+
+    chain = wbik.solver("dls", wbik.load("example-robot-data:baxter"), base="torso",
+                        tip="right_gripper_base_link").chain
+    locked = LockedChain(chain, 0, 0.3)
+    form = TwoIntersectingForm(locked, locked.lines)
+    for q in locked.random(np.random.default_rng(15), 5):
+        target = locked.fk(q)
+        branches, real = form.branches(target.translation[None], target.rotation[None], q[None])
+        found = branches[0][real[0]]
+        assert min(joint_gap(branch, q, np.ones(6, dtype=bool)) for branch in found) <= 1e-6
+        errors = np.array([fk_error(locked, branch, target) for branch in found])
+        assert not np.any((errors > 1e-6) & (errors < 1e-3))  # a refined root is a solution, not a near miss

@@ -7,6 +7,8 @@ it to :data:`ROOT_TOLERANCE`; the joints at the roots are the form's branches (t
 as every form's).
 
 - :class:`TwoParallelForm`: axes 2 and 3 parallel; x = q6, (q1, q4) by SP6, q2 + q3 by SP1, e = |v| - |p23|.
+- :class:`TwoIntersectingForm`: axes 1, 2 and axes 5, 6 meet; x = q4 or q3, the other by SP3, (q1, q2) by
+  SP2, e = the wrist's alignment, (q5, q6) by SP1.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ import numpy as np
 
 from wbik.geometry import TWO_PI
 from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
-from wbik.solvers.analytic.structure import ChainLines, axis_rotation, eaik_vectors, poe_fk
-from wbik.solvers.analytic.subproblems import circle_terms, cross, dot, rotate, sp1, sp6
+from wbik.solvers.analytic.structure import ChainLines, axis_rotation, eaik_vectors, poe_fk, skew
+from wbik.solvers.analytic.subproblems import circle_terms, cross, dot, rotate, sp1, sp2, sp3, sp6
 
 SAMPLES = 96  # grid values of the searched joint over a full turn (fewer over a narrower range, at least 8)
 SMOOTH = 0.15  # rad: an interval where a branch's angles move more is split in SPLIT, at most LEVELS times
@@ -51,10 +53,13 @@ class OneDSearchForm(ClosedForm):
     def evaluate(self, x, positions, rotations, full: bool = False):
         raise NotImplementedError
 
+    def prepared(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The targets as :meth:`evaluate` takes them: the tip's position, R06 = R R0^T."""
+        return positions, rotations @ self.tip_rotation.T
+
     def branches(self, positions: np.ndarray, rotations: np.ndarray | None,
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rotations = rotations @ self.tip_rotation.T  # R06, and p06 from joint 1's point to joint 6's
-        positions = positions - np.einsum("bij,j->bi", rotations, self.offsets[-1]) - self.offsets[0]
+        positions, rotations = self.prepared(positions, rotations)
         roots, targets, anchors = self._brackets(positions, rotations)
         if not len(roots):
             return stacked_branches([(np.zeros((0, 6)), np.zeros(0, dtype=bool))] * len(positions), 6)
@@ -186,28 +191,40 @@ class TwoParallelForm(OneDSearchForm):
     def __init__(self, chain, lines: ChainLines):
         super().__init__(chain, lines)
         h, p = self.axes, self.offsets
-        k = -h[0]  # h . Rot(k, q1) u = u . (columns (sin, cos) + along) for u = w, R05 h5
+        k = -h[0]  # h2 . Rot(k, q1) u = u . (columns (sin, cos) + along) for u = w, R05 h5
         self.q1_columns = np.stack((cross(h[1], k), h[1] - dot(h[1], k) * k), axis=-1)
         self.q1_along = dot(h[1], k) * k
+        self.q1_axis, self.q1_across = k, -skew(k)  # u @ q1_across = k x u
         terms = [circle_terms(h[1], h[3], v) for v in (p[4], h[4])]
         self.q4_block = -np.stack([a for a, _ in terms])
         self.rest = np.array((dot(h[1], p[1] + p[2] + p[3]) + terms[0][1], terms[1][1]))
+        self.wrist_vectors = np.stack((p[5], h[4]), axis=-1)  # R05 @ this: R05 p56, R05 h5
+        elbow = np.stack((h[4], p[4]))  # Rot(h4, q4) (h5, p45) = along + sin q4 across + cos q4 (v - along)
+        along = np.outer(elbow @ h[3], h[3])
+        self.elbow = (along, elbow @ -skew(h[3]), elbow - along)
         normal = cross(h[4], np.eye(3)[np.argmin(np.abs(h[4]))])
         self.normal5 = normal / np.linalg.norm(normal)  # a direction across axis 5, for q5 by SP1
+
+    def prepared(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """p06 (from joint 1's point to joint 6's) and R06."""
+        rotations = rotations @ self.tip_rotation.T
+        return positions - rotations @ self.offsets[-1] - self.offsets[0], rotations
 
     def evaluate(self, x, positions, rotations, full: bool = False):
         h, p = self.axes, self.offsets
         wrist = rotations @ axis_rotation(h[5], -x)  # R05 = R06 R6^T (M, 3, 3)
-        w = positions - wrist @ p[5]
-        wrist_h5 = wrist @ h[4]
-        vectors = np.stack((w, wrist_h5), axis=-2)  # (M, 2, 3)
-        first = vectors @ self.q1_columns  # (M, 2, 2)
-        rest = self.rest - vectors @ self.q1_along
-        q1, q4, real = sp6(first, np.broadcast_to(self.q4_block, first.shape), rest)
-        base_w = rotate(-h[0], q1, w[:, None])  # R1^T w (M, K, 3)
-        base_h5 = rotate(-h[0], q1, wrist_h5[:, None])  # R1^T R05 h5
-        q23 = sp1(rotate(h[3], q4, h[4]), base_h5, h[1])
-        v = base_w - p[1] - rotate(h[1], q23, p[3] + rotate(h[3], q4, p[4]))
+        moved = wrist @ self.wrist_vectors
+        vectors = np.stack((positions - moved[..., 0], moved[..., 1]), axis=-2)  # w, R05 h5 (M, 2, 3)
+        q1, q4, real = sp6(vectors @ self.q1_columns, self.q4_block, self.rest - vectors @ self.q1_along)
+        # R1^T (w, R05 h5) (M, K, 2, 3), Rot(h4, q4) (h5, p45) (M, K, 2, 3)
+        along = (vectors @ self.q1_axis)[..., None] * self.q1_axis
+        across, rest = vectors @ self.q1_across, vectors - along
+        base = along[:, None] + np.sin(q1)[..., None, None] * across[:, None] + \
+            np.cos(q1)[..., None, None] * rest[:, None]
+        fixed, turning, staying = self.elbow
+        elbow = fixed + np.sin(q4)[..., None, None] * turning + np.cos(q4)[..., None, None] * staying
+        q23 = sp1(elbow[..., 0, :], base[..., 1, :], h[1])
+        v = base[..., 0, :] - p[1] - rotate(h[1], q23, p[3] + elbow[..., 1, :])
         e = np.where(real, np.sqrt(dot(v, v)) - np.linalg.norm(p[2]), np.nan)
         anchor = np.where(real[..., None], np.stack((q1, q4), axis=-1), np.nan)
         if not full:
@@ -218,3 +235,51 @@ class TwoParallelForm(OneDSearchForm):
         q5 = sp1(self.normal5, turned, h[4])
         joints = np.stack((q1, q2, q23 - q2, q4, q5, np.broadcast_to(x[:, None], q2.shape)), axis=-1)
         return e, anchor, joints
+
+
+class TwoIntersectingForm(OneDSearchForm):
+    """Axes 1, 2 meet at S and axes 5, 6 at W (IK-Geo's SP3-SP2-SP1 search): W's place at the target, W*,
+    is |W* - S| from S whatever q1, q2; at x = q4 (or q3), |e3(q3) e4(q4) W - S| = |W* - S| gives q3 (or q4)
+    by SP3, Rot(h2, q2) (e3 e4 W - S) = Rot(-h1, q1) (W* - S) gives (q1, q2) by SP2, and the wrist's
+    alignment e = h5 . R04^T R06 h6 - h5 . h6 vanishes where (q5, q6) exist: both by SP1. The joint searched
+    is the one whose turn moves W less (a short lever solved by SP3 would swing)."""
+
+    family = "search: axes 1, 2 and axes 5, 6 meet (1-D)"
+
+    def __init__(self, chain, lines: ChainLines):
+        self.shoulder, wrist = lines.meeting_point(0, 1), lines.meeting_point(4, 5)
+        self.searched = 3 if lines.distance_to_line(wrist, 3) < lines.distance_to_line(wrist, 2) else 2
+        super().__init__(chain, lines)
+        self.wrist, self.wrist_from_tip = wrist, wrist - lines.tip[:3, 3]  # W* = p + R06 (W - p_tip(0))
+        self.alignment = dot(self.axes[4], self.axes[5])
+
+    def evaluate(self, x, positions, rotations, full: bool = False):
+        h, origins, shoulder, count = self.axes, self.lines.origins, self.shoulder, len(x)
+        wrist_target = positions + rotations @ self.wrist_from_tip  # W* (M, 3)
+        reach = np.sqrt(dot(wrist_target - shoulder, wrist_target - shoulder))
+        if self.searched == 3:  # W turned by q4 = x, then q3 by SP3 about line 3
+            turned = rotate(h[3], x, self.wrist - origins[3]) + origins[3] - origins[2]  # e4 W - c3
+            q3, real3 = sp3(turned, shoulder - origins[2], h[2], reach)  # (M, 2)
+            q4 = np.broadcast_to(x[:, None], q3.shape)
+            placed = rotate(h[2], q3, turned[:, None]) + origins[2] - shoulder  # e3 e4 W - S (M, 2, 3)
+        else:  # S turned back by q3 = x, then q4 by SP3 about line 4
+            moved = rotate(h[2], -x, shoulder - origins[2]) + origins[2] - origins[3]  # e3^-1 S - c4
+            q4, real3 = sp3(self.wrist - origins[3], moved, h[3], reach)
+            q3 = np.broadcast_to(x[:, None], q4.shape)
+            elbow = rotate(h[3], q4, self.wrist - origins[3]) + origins[3] - origins[2]
+            placed = rotate(h[2], x[:, None], elbow) + origins[2] - shoulder
+        q2, q1, real = sp2(placed, (wrist_target - shoulder)[:, None], h[1], -h[0])  # (M, 2, 2)
+        q1, q2 = q1.reshape(count, 4), q2.reshape(count, 4)
+        real = np.repeat(real & real3[:, None], 2, axis=-1)  # SP2's two pairs are real where its SP4 is
+        q3, q4 = np.repeat(q3, 2, axis=-1), np.repeat(q4, 2, axis=-1)
+        arm = axis_rotation(h[0], q1) @ axis_rotation(h[1], q2) @ axis_rotation(h[2], q3) @ \
+            axis_rotation(h[3], q4)  # R04 (M, 4, 3, 3)
+        rest = np.swapaxes(arm, -1, -2) @ rotations[:, None]  # R04^T R06 = R5 R6
+        e = np.where(real, h[4] @ rest @ h[5] - self.alignment, np.nan)
+        solved = q3 if self.searched == 3 else q4
+        anchor = np.where(real[..., None], np.stack((q1, q2, solved), axis=-1), np.nan)
+        if not full:
+            return e, anchor, None
+        q5 = sp1(h[5], rest @ h[5], h[4])
+        q6 = sp1(h[4], np.swapaxes(rest, -1, -2) @ h[4], -h[5])
+        return e, anchor, np.stack((q1, q2, q3, q4, q5, q6), axis=-1)

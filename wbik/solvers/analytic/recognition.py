@@ -18,7 +18,7 @@ from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
 from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.one_d_search import TwoParallelForm
+from wbik.solvers.analytic.one_d_search import TwoIntersectingForm, TwoParallelForm
 from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, angle_between, chain_lines
 
 HALF_PI = 0.5 * math.pi
@@ -255,11 +255,14 @@ def recognise_search(chain, kind: str) -> Recognised:
     if lines.count != 6 or lines.prismatic.any():
         raise UnsupportedError(f"search: for 6 revolute joints (this chain has {lines.count} joints"
                                f"{', a prismatic one' if lines.prismatic.any() else ''})")
-    if not lines.parallel(1, 2):
-        raise UnsupportedError("search: axes 2 and 3 are not parallel (the 1-D search's structure); no two "
-                               "neighbouring axes parallel or meeting leaves a general 6R, which needs "
-                               "IK-Geo's 2-D search (not provided)")
-    form = TwoParallelForm(chain, lines)
+    if lines.parallel(1, 2):
+        form = TwoParallelForm(chain, lines)
+    elif lines.meeting_point(0, 1) is not None and lines.meeting_point(4, 5) is not None:
+        form = TwoIntersectingForm(chain, lines)
+    else:
+        raise UnsupportedError("search: neither axes 2 and 3 parallel nor axes 1, 2 and 5, 6 meeting (the "
+                               "1-D searches' structures); a general 6R needs IK-Geo's 2-D search (not "
+                               "provided)")
     check_fk_against_model(form)
     return Recognised(form, form.family)
 

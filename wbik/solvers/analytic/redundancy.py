@@ -262,7 +262,8 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
                 form = LockedJointForm(chain, candidate, kind, families, options, mode, grid_size, ways)
             except UnsupportedError as refused:
                 first_reasons[attempt] = first_reasons[attempt] or \
-                    f"holding {chain.joint_names[candidate]}: {refused}"
+                    f"holding {chain.joint_names[candidate]}: {refused}" + \
+                    (", the held joint searched too: 3-D in all" if attempt else "")
                 continue
             check_fk_against_model(form)
             family = f"{form.family} with {chain.joint_names[candidate]} held ({form.mode})"

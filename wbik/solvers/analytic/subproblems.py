@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from wbik.solvers.analytic.structure import skew
+
 COSINE_TOLERANCE = 1e-9  # how far a cosine may leave [-1, 1] and its angle count as real (clamped)
 ROOT_IMAGINARY = 1e-6  # |Im q| below which a root of a trigonometric polynomial counts as real (polished)
 WRIST_SINGULARITY = 1e-8  # |sin q5| below which a spherical wrist's last joint is free (q0's is kept)
@@ -65,21 +67,32 @@ def dot(a, b) -> np.ndarray:
 def rotate(axis, angle, p) -> np.ndarray:
     """Rot(k, q) p = k (k.p) + sin q (k x p) - cos q (k x (k x p)) (Rodrigues, k = ``axis``)."""
     angle = np.asarray(angle, dtype=float)[..., None]
-    k_cross_p = cross(axis, p)
-    along = np.asarray(axis) * dot(axis, p)[..., None]
-    return along + np.sin(angle) * k_cross_p + np.cos(angle) * (np.asarray(p) - along)
+    p = np.asarray(p, dtype=float)
+    along, k_cross_p = _along_and_across(axis, p)
+    return along + np.sin(angle) * k_cross_p + np.cos(angle) * (p - along)
+
+
+def _along_and_across(axis, p) -> tuple[np.ndarray, np.ndarray]:
+    """k (k . p) and k x p (one axis (3,) by matrix products, else elementwise)."""
+    axis = np.asarray(axis, dtype=float)
+    if axis.ndim == 1:
+        return (p @ axis)[..., None] * axis, p @ -skew(axis)
+    return axis * dot(axis, p)[..., None], cross(axis, p)
 
 
 def circle_terms(h, k, p) -> tuple[np.ndarray, np.ndarray]:
-    """h . Rot(k, q) p = A . (sin q, cos q) + c: (A (..., 2), c (...))."""
-    k_cross_p = cross(k, p)
-    return np.stack((dot(h, k_cross_p), -dot(h, cross(k, k_cross_p))), axis=-1), dot(h, k) * dot(k, p)
+    """h . Rot(k, q) p = A . (sin q, cos q) + c: (A (..., 2), c (...)), A = (h . k x p, h . p - c)."""
+    p = np.asarray(p, dtype=float)
+    along, k_cross_p = _along_and_across(k, p)
+    constant = dot(h, along)
+    return np.stack((dot(h, k_cross_p), dot(h, p) - constant), axis=-1), constant
 
 
 def sp1(p1, p2, k) -> np.ndarray:
     """SP1, circle and point: q with Rot(k, q) p1 = p2 (least squares where none)."""
-    terms, _ = circle_terms(p2, k, p1)
-    return np.arctan2(terms[..., 0], terms[..., 1])
+    p1 = np.asarray(p1, dtype=float)
+    along, k_cross_p = _along_and_across(k, p1)
+    return np.arctan2(dot(p2, k_cross_p), dot(p2, p1 - along))
 
 
 def sp4(h, p, k, d) -> tuple[np.ndarray, np.ndarray]:
