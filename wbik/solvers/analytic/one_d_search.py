@@ -2,8 +2,8 @@
 angle x searched, the other five by subproblems at each x, up to four branches, each with a scalar error
 e(x) that is zero where the branch reaches the target. A grid of x (intervals where a branch's angles jump
 or an error nears zero split once more), a sign change of e along a branch (branches matched between
-neighbouring samples by their angles) brackets a root; vectorised secant steps kept inside the bracket refine
-it to :data:`ROOT_TOLERANCE`; the joints at the roots are the form's branches (the solver screens them by FK
+neighbouring samples by their angles) brackets a root; vectorised Newton steps kept inside the bracket refine
+it; the joints at the roots are the form's branches (the solver screens them by FK
 as every form's).
 
 - :class:`TwoParallelForm`: axes 2 and 3 parallel; x = q6, (q1, q4) by SP6, q2 + q3 by SP1, e = |v| - |p23|.
@@ -28,7 +28,10 @@ SPLIT, LEVELS = 4, 1
 NEAR = 0.05  # x the chain's length: an interval with an end's error below is split too (close pairs of roots)
 MATCH = 0.6  # rad: a branch at the next sample is the same branch when its angles moved less than this
 ROOT_TOLERANCE = 1e-12  # |e| (m or 1) or the last step (rad) at which a root is refined
-REFINE_STEPS = 12  # secant steps at most per root
+REFINE_STEPS = 10  # Newton steps at most per root (a bracket over a jump of e does not converge)
+SLOPE_STEP = 1e-7  # rad: the forward difference giving e's slope
+FINAL_POLISH = 8  # Newton steps on SP6's roots at the refined roots (slow near a double root)
+NEWTON_LAST, LAST_STEP = 1e-7, 1e-6  # |e| (m or 1) and |step| (rad) from which one more step is the last
 
 
 class OneDSearchForm(ClosedForm):
@@ -83,6 +86,7 @@ class OneDSearchForm(ClosedForm):
             moved = _moved(anchor[following], anchor)  # (pairs, K now, K next)
             real_now, real_next = np.isfinite(e), np.isfinite(e)[following]
             near = np.abs(np.where(np.isfinite(e), e, np.inf)).min(axis=1) < self.near
+            near |= _dips(e, moved, following)
             jumpy = (np.where(real_now, moved.min(axis=2), 0.0).max(axis=1) > SMOOTH) | \
                 (np.where(real_next, moved.min(axis=1), 0.0).max(axis=1) > SMOOTH) | \
                 (real_now.sum(axis=1) != real_next.sum(axis=1)) | near | near[following]
@@ -124,28 +128,34 @@ class OneDSearchForm(ClosedForm):
         low, high, target = x[pair], end[pair], targets[pair]
         e_low, e_high = e[pair, branch], e_match[pair, branch]
         anchors = anchor[pair, branch]
-        # secant steps on the last two values, kept inside the bracket (regula falsi where they leave it)
-        last_x, last_e, x_now, e_now = low, e_low, high, e_high
-        roots = low.copy()
+        # Newton steps (the slope by a forward difference in the same batch), kept inside the bracket (regula
+        # falsi where they leave it); a step from |e| <= NEWTON_LAST is the last (its error ~ e^2)
+        roots, found = _secant(low, e_low, high, e_high), anchors.copy()
+        index, x, targets = np.arange(len(low)), roots.copy(), target
         for _ in range(REFINE_STEPS):
-            if not len(low):
+            count = len(index)
+            if not count:
                 break
-            x = _secant(last_x, last_e, x_now, e_now)
-            outside = ~((x > np.minimum(low, high)) & (x < np.maximum(low, high)))
-            x = np.where(outside, _secant(low, e_low, high, e_high), x)
-            e_x, anchor_x = self.evaluate(x, positions[target], rotations[target])[:2]
-            chosen = _nearest_branch(anchor_x, anchors)
-            rows = np.arange(len(x))
-            value = e_x[rows, chosen]
-            anchors = np.where(np.isfinite(anchor_x[rows, chosen]), anchor_x[rows, chosen], anchors)
-            roots = x
-            if np.all((np.abs(value) <= ROOT_TOLERANCE) | ~np.isfinite(value)
-                      | (np.abs(x - x_now) <= ROOT_TOLERANCE)):
-                break
+            rows = np.r_[targets, targets]
+            e_x, anchor_x = self.evaluate(np.r_[x, x + SLOPE_STEP], positions[rows], rotations[rows])[:2]
+            chosen = _nearest_branch(anchor_x, np.r_[anchors, anchors])
+            values = e_x[np.arange(2 * count), chosen]
+            value, slope = values[:count], (values[count:] - values[:count]) / SLOPE_STEP
+            picked = anchor_x[np.arange(count), chosen[:count]]
+            anchors = np.where(np.isfinite(picked), picked, anchors)
             same = np.sign(value) == np.sign(e_high)
             high, e_high = np.where(same, x, high), np.where(same, value, e_high)
             low, e_low = np.where(same, low, x), np.where(same, e_low, value)
-            last_x, last_e, x_now, e_now = x_now, e_now, x, value
+            step = value / np.where(slope == 0.0, np.inf, slope)
+            newton = x - step
+            inside = (newton >= np.minimum(low, high)) & (newton <= np.maximum(low, high))
+            x = np.where(inside, newton, _secant(low, e_low, high, e_high))
+            roots[index], found[index] = x, anchors
+            last = (np.abs(value) <= NEWTON_LAST) & (np.abs(step) <= LAST_STEP)  # quadratic from here
+            keep = np.isfinite(value) & ~(inside & (last | (np.abs(step) <= ROOT_TOLERANCE)))
+            index, x, targets, anchors = index[keep], x[keep], targets[keep], anchors[keep]
+            low, high, e_low, e_high = low[keep], high[keep], e_low[keep], e_high[keep]
+        anchors = found
         return roots, target, anchors
 
     def exact_branches(self, positions, rotations, q0):
@@ -159,6 +169,21 @@ def _secant(x0: np.ndarray, e0: np.ndarray, x1: np.ndarray, e1: np.ndarray) -> n
     """Where the line through (x0, e0) and (x1, e1) crosses zero (x0 where it is flat)."""
     slope = e1 - e0
     return np.where(slope != 0.0, x0 - e0 * (x1 - x0) / np.where(slope == 0.0, 1.0, slope), x0)
+
+
+def _dips(e: np.ndarray, moved: np.ndarray, following: np.ndarray) -> np.ndarray:
+    """Per sample, whether a branch's |e| is at a local minimum along it without a sign change (a close
+    pair of roots may hide between the samples), branches matched as in :meth:`OneDSearchForm._brackets`."""
+    match = np.argmin(moved, axis=-1)
+    matched = np.take_along_axis(moved, match[..., None], -1)[..., 0] < MATCH
+    e_next = np.where(matched, np.take_along_axis(e[following], match, -1), np.nan)
+    e_previous = np.full(e.shape, np.nan)
+    rows, branches = np.nonzero(matched)
+    e_previous[following[rows], match[rows, branches]] = e[rows, branches]
+    with np.errstate(invalid="ignore"):
+        dip = (np.abs(e) < np.abs(e_next)) & (np.abs(e) < np.abs(e_previous)) & \
+            (np.sign(e) == np.sign(e_next)) & (np.sign(e) == np.sign(e_previous))
+    return dip.any(axis=1)
 
 
 def _wrapped(angle: np.ndarray) -> np.ndarray:
@@ -215,7 +240,8 @@ class TwoParallelForm(OneDSearchForm):
         wrist = rotations @ axis_rotation(h[5], -x)  # R05 = R06 R6^T (M, 3, 3)
         moved = wrist @ self.wrist_vectors
         vectors = np.stack((positions - moved[..., 0], moved[..., 1]), axis=-2)  # w, R05 h5 (M, 2, 3)
-        q1, q4, real = sp6(vectors @ self.q1_columns, self.q4_block, self.rest - vectors @ self.q1_along)
+        q1, q4, real = sp6(vectors @ self.q1_columns, self.q4_block, self.rest - vectors @ self.q1_along,
+                           FINAL_POLISH if full else 2)
         # R1^T (w, R05 h5) (M, K, 2, 3), Rot(h4, q4) (h5, p45) (M, K, 2, 3)
         along = (vectors @ self.q1_axis)[..., None] * self.q1_axis
         across, rest = vectors @ self.q1_across, vectors - along

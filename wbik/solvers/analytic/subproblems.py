@@ -176,7 +176,7 @@ def quartic_roots(coefficients: np.ndarray) -> np.ndarray:
     return np.where(tiny[..., None], biquadratic, general) - 0.25 * b[..., None]
 
 
-def sp6(first, second, rest) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sp6(first, second, rest, polish: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SP6 in its linear form: (q1, q2) (..., 4) with F x1 + S x2 = rest, x_i = (sin q_i, cos q_i), F and S
     (..., 2, 2), rest (..., 2), and the real mask: the better-conditioned block G eliminated (K the other),
     x_j = M x_i + m (M = -G^-1 K, m = G^-1 rest), and |M x_i + m|^2 = 1 a trigonometric quadratic in q_i."""
@@ -200,7 +200,7 @@ def sp6(first, second, rest) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     linear_s, linear_c = 2.0 * (m0 * big00 + m1 * big10), 2.0 * (m0 * big01 + m1 * big11)
     with np.errstate(invalid="ignore", divide="ignore"):  # a degenerate quartic's NaN roots: not real
         solved, real = trig_quadratic_roots((0.5 * (q00 + q11) + m0 * m0 + m1 * m1 - 1.0, linear_c, linear_s,
-                                             0.5 * (q11 - q00), q01))
+                                             0.5 * (q11 - q00), q01), polish)
     real &= np.isfinite(solved)
     sine, cosine = np.sin(solved), np.cos(solved)
     other = np.arctan2(big00[..., None] * sine + big01[..., None] * cosine + m0[..., None],
