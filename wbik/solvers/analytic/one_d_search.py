@@ -1,10 +1,10 @@
 """Search-based geometric closed forms (IK-Geo's 1-D search): a 6R arm without a closed form, one joint
 angle x searched, the other five by subproblems at each x, up to four branches, each with a scalar error
-e(x) that is zero where the branch reaches the target. A grid of x (intervals where a branch's angles jump
-or an error nears zero split once more), a sign change of e along a branch (branches matched between
-neighbouring samples by their angles) brackets a root; vectorised Newton steps kept inside the bracket refine
-it; the joints at the roots are the form's branches (the solver screens them by FK
-as every form's).
+e(x) that is zero where the branch reaches the target. A grid of x (intervals where a branch's angles jump,
+an error nears zero or |e| has a local minimum split once more), a sign change of e along a branch
+(branches matched between neighbouring samples by their angles) brackets a root; vectorised Newton steps
+kept inside the bracket refine it; the joints at the roots are the form's branches (the solver screens them
+by FK as every form's).
 
 - :class:`TwoParallelForm`: axes 2 and 3 parallel; x = q6, (q1, q4) by SP6, q2 + q3 by SP1, e = |v| - |p23|.
 - :class:`TwoIntersectingForm`: axes 1, 2 and axes 5, 6 meet; x = q4 or q3, the other by SP3, (q1, q2) by
@@ -27,7 +27,7 @@ SMOOTH = 0.15  # rad: an interval where a branch's angles move more is split in 
 SPLIT, LEVELS = 4, 1
 NEAR = 0.05  # x the chain's length: an interval with an end's error below is split too (close pairs of roots)
 MATCH = 0.6  # rad: a branch at the next sample is the same branch when its angles moved less than this
-ROOT_TOLERANCE = 1e-12  # |e| (m or 1) or the last step (rad) at which a root is refined
+ROOT_TOLERANCE = 1e-12  # rad: a Newton step this small ends a root's refinement
 REFINE_STEPS = 10  # Newton steps at most per root (a bracket over a jump of e does not converge)
 SLOPE_STEP = 1e-7  # rad: the forward difference giving e's slope
 FINAL_POLISH = 8  # Newton steps on SP6's roots at the refined roots (slow near a double root)
@@ -36,7 +36,7 @@ NEWTON_LAST, LAST_STEP = 1e-7, 1e-6  # |e| (m or 1) and |step| (rad) from which 
 
 class OneDSearchForm(ClosedForm):
     """A 6R chain's search form: :meth:`evaluate` gives, at searched values x (M,) and targets (M, ...), the
-    branches' errors e (M, K), matching angles (M, K, 2) and, with ``full``, their joints (M, K, 6)."""
+    branches' errors e (M, K), matching angles (M, K, A) and, with ``full``, their joints (M, K, 6)."""
 
     searched = 0  # the searched joint's index
     family = ""
@@ -116,7 +116,7 @@ class OneDSearchForm(ClosedForm):
         return following, end, ~last | self.full_turn
 
     def _brackets(self, positions: np.ndarray, rotations: np.ndarray):
-        """The refined roots x (R,), their targets (R,) and the matching angles of their branches (R, 2)."""
+        """The refined roots x (R,), their targets (R,) and the matching angles of their branches (R, A)."""
         x, targets, e, anchor = self._samples(positions, rotations)
         following, end, interval = self._pairs(x, targets)
         moved = _moved(anchor[following], anchor)
