@@ -25,7 +25,7 @@ from wbik.solvers.analytic.subproblems import circle_terms, cross, dot, rotate, 
 SAMPLES = 96  # grid values of the searched joint over a full turn (fewer over a narrower range, at least 8)
 SMOOTH = 0.15  # rad: an interval where a branch's angles move more is split in SPLIT, at most LEVELS times
 SPLIT, LEVELS = 4, 1
-NEAR = 0.05  # x the chain's length: an interval with an end's error below is split too (close pairs of roots)
+NEAR = 0.01  # x the chain's length: an interval with an end's error below is split too (close pairs of roots)
 MATCH = 0.6  # rad: a branch at the next sample is the same branch when its angles moved less than this
 ROOT_TOLERANCE = 1e-12  # rad: a Newton step this small ends a root's refinement
 REFINE_STEPS = 10  # Newton steps at most per root (a bracket over a jump of e does not converge)
@@ -40,6 +40,7 @@ class OneDSearchForm(ClosedForm):
 
     searched = 0  # the searched joint's index
     family = ""
+    samples = SAMPLES
 
     def __init__(self, chain, lines: ChainLines):
         super().__init__(chain)
@@ -49,9 +50,9 @@ class OneDSearchForm(ClosedForm):
         low, high = float(chain.lower[self.searched]), float(chain.upper[self.searched])
         self.full_turn = not (math.isfinite(low) and math.isfinite(high)) or high - low >= TWO_PI - 1e-12
         if self.full_turn:
-            self.grid = np.linspace(-math.pi, math.pi, SAMPLES, endpoint=False)
+            self.grid = np.linspace(-math.pi, math.pi, self.samples, endpoint=False)
         else:
-            self.grid = np.linspace(low, high, max(8, math.ceil(SAMPLES * (high - low) / TWO_PI) + 1))
+            self.grid = np.linspace(low, high, max(8, math.ceil(self.samples * (high - low) / TWO_PI) + 1))
 
     def evaluate(self, x, positions, rotations, full: bool = False):
         raise NotImplementedError
@@ -271,6 +272,7 @@ class TwoIntersectingForm(OneDSearchForm):
     is the one whose turn moves W less (a short lever solved by SP3 would swing)."""
 
     family = "search: axes 1, 2 and axes 5, 6 meet (1-D)"
+    samples = 32  # its error, the wrist's alignment, is smooth: a coarser grid serves
 
     def __init__(self, chain, lines: ChainLines):
         self.shoulder, wrist = lines.meeting_point(0, 1), lines.meeting_point(4, 5)
