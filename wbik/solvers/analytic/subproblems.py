@@ -8,6 +8,7 @@ import numpy as np
 from wbik.solvers.analytic.structure import skew
 
 COSINE_TOLERANCE = 1e-9  # how far a cosine may leave [-1, 1] and its angle count as real (clamped)
+DOUBLE_ANGLE = 1e-6  # |a1| + |b1| relative below which a trigonometric quadratic starts from its 2q part
 ROOT_IMAGINARY = 1e-6  # |Im q| below which a root of a trigonometric polynomial counts as real (polished)
 WRIST_SINGULARITY = 1e-8  # |sin q5| below which a spherical wrist's last joint is free (q0's is kept)
 
@@ -124,16 +125,23 @@ def trig_quadratic_roots(coefficients, polish: int = 2) -> tuple[np.ndarray, np.
     """Real roots q (..., 4) of f(q) = a0 + a1 cos q + b1 sin q + a2 cos 2q + b2 sin 2q (``coefficients``:
     (a0, a1, b1, a2, b2), arrays (...)) and their mask: with q = s + 2 atan(t) a quartic in t (s among 0,
     pi/2, the one giving the larger leading coefficient f(s + pi)), by Ferrari, then ``polish`` Newton steps
-    (cos 2q = 2 c^2 - 1, sin 2q = 2 s c)."""
+    (cos 2q = 2 c^2 - 1, sin 2q = 2 s c). Where the whole batch has a1, b1 near 0 (a robot's symmetry), the
+    start is the roots of a0 + r cos(2q - phi): (phi +- acos(-a0 / r)) / 2 (+ pi), without the quartic."""
     a0, a1, b1, a2, b2 = (np.asarray(value, dtype=float) for value in coefficients)
-    quarter = np.abs(a0 - a1 + a2) < np.abs(a0 - b1 - a2)  # s = pi/2: (a1, b1, a2, b2) to (b1, -a1, -a2, -b2)
-    a1s, b1s = np.where(quarter, b1, a1), np.where(quarter, -a1, b1)
-    a2s, b2s = np.where(quarter, -a2, a2), np.where(quarter, -b2, b2)
-    # (1 + t^2)^2 f with cos q = (1 - t^2) / (1 + t^2), sin q = 2t / (1 + t^2)
-    t = quartic_roots((a0 - a1s + a2s, 2 * b1s - 4 * b2s, 2 * a0 - 6 * a2s, 2 * b1s + 4 * b2s,
-                       a0 + a1s + a2s))
-    nearly_real = 2.0 * np.abs(t.imag) <= ROOT_IMAGINARY * (1.0 + np.abs(t) ** 2)  # |Im q| to first order
-    q = 2.0 * np.arctan(t.real) + np.where(quarter, 0.5 * np.pi, 0.0)[..., None]
+    if np.all(np.abs(a1) + np.abs(b1) <= DOUBLE_ANGLE * (np.abs(a0) + np.abs(a2) + np.abs(b2))):
+        radius, phase = np.hypot(a2, b2), np.arctan2(b2, a2)
+        half = 0.5 * np.arccos(np.clip(-a0 / np.where(radius == 0.0, 1.0, radius), -1.0, 1.0))
+        q = (0.5 * phase)[..., None] + np.stack((half, -half, half + np.pi, np.pi - half), axis=-1)
+        nearly_real = (np.abs(a0) <= radius * (1.0 + COSINE_TOLERANCE))[..., None]
+    else:
+        quarter = np.abs(a0 - a1 + a2) < np.abs(a0 - b1 - a2)  # s = pi/2: (a1, b1, a2, b2) to (b1, -a1, ...)
+        a1s, b1s = np.where(quarter, b1, a1), np.where(quarter, -a1, b1)
+        a2s, b2s = np.where(quarter, -a2, a2), np.where(quarter, -b2, b2)
+        # (1 + t^2)^2 f with cos q = (1 - t^2) / (1 + t^2), sin q = 2t / (1 + t^2)
+        t = quartic_roots((a0 - a1s + a2s, 2 * b1s - 4 * b2s, 2 * a0 - 6 * a2s, 2 * b1s + 4 * b2s,
+                           a0 + a1s + a2s))
+        nearly_real = 2.0 * np.abs(t.imag) <= ROOT_IMAGINARY * (1.0 + np.abs(t) ** 2)  # |Im q| to first order
+        q = 2.0 * np.arctan(t.real) + np.where(quarter, 0.5 * np.pi, 0.0)[..., None]
     a0, a1, b1, a2, b2 = (value[..., None] for value in (a0, a1, b1, a2, b2))
     for step in range(polish + 1):
         c, s = np.cos(q), np.sin(q)
