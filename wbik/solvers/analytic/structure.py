@@ -37,7 +37,7 @@ class ChainLines:
         """Per joint, K = [axis]x and K @ K (n, 3, 3), as :func:`axis_rotation` builds them."""
         skews = [skew(axis) for axis in self.axes]
         return (np.array(skews).reshape(-1, 3, 3),
-                np.array([skew @ skew for skew in skews]).reshape(-1, 3, 3))
+                np.array([matrix @ matrix for matrix in skews]).reshape(-1, 3, 3))
 
     @cached_property
     def length(self) -> float:
