@@ -31,7 +31,7 @@ ROOT_TOLERANCE = 1e-12  # rad: a Newton step this small ends a root's refinement
 REFINE_STEPS = 10  # Newton steps at most per root (a bracket over a jump of e does not converge)
 SLOPE_STEP = 1e-7  # rad: the forward difference giving e's slope
 FINAL_POLISH = 8  # Newton steps on SP6's roots at the refined roots (slow near a double root)
-NEWTON_LAST, LAST_STEP = 1e-7, 1e-6  # |e| (m or 1) and |step| (rad) from which one more step is the last
+NEWTON_LAST, LAST_STEP = 1e-5, 1e-4  # |e| (m or 1) and |step| (rad) from which one more step is the last
 
 
 class OneDSearchForm(ClosedForm):
