@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from wbik.geometry import TWO_PI
-from wbik.solvers.analytic.closed_form import ClosedForm, stacked_branches
+from wbik.solvers.analytic.closed_form import ClosedForm
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, eaik_vectors, poe_fk, skew
 from wbik.solvers.analytic.subproblems import circle_terms, cross, dot, rotate, sp1, sp2, sp3, sp6
 
@@ -36,7 +36,8 @@ NEWTON_LAST, LAST_STEP = 1e-5, 1e-4  # |e| (m or 1) and |step| (rad) from which 
 
 class OneDSearchForm(ClosedForm):
     """A 6R chain's search form: :meth:`evaluate` gives, at searched values x (M,) and targets (M, ...), the
-    branches' errors e (M, K), matching angles (M, K, A) and, with ``full``, their joints (M, K, 6)."""
+    branches' errors e (M, K), matching angles (M, K, A) in [-pi, pi] and, with ``full``, their joints
+    (M, K, 6)."""
 
     searched = 0  # the searched joint's index
     family = ""
@@ -65,15 +66,16 @@ class OneDSearchForm(ClosedForm):
                  q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         positions, rotations = self.prepared(positions, rotations)
         roots, targets, anchors = self._brackets(positions, rotations)
-        if not len(roots):
-            return stacked_branches([(np.zeros((0, 6)), np.zeros(0, dtype=bool))] * len(positions), 6)
-        e, anchor, q = self.evaluate(roots, positions[targets], rotations[targets], full=True)
-        chosen = _nearest_branch(anchor, anchors)
-        rows = np.arange(len(roots))
-        q = q[rows, chosen]
-        parts = [(q[targets == b], np.ones(int((targets == b).sum()), dtype=bool))
-                 for b in range(len(positions))]
-        return stacked_branches(parts, 6)
+        counts = np.bincount(targets, minlength=len(positions))
+        q_all = np.full((len(positions), max(int(counts.max(initial=0)), 1), 6), np.nan)
+        real = np.zeros(q_all.shape[:2], dtype=bool)
+        if len(roots):
+            e, anchor, q = self.evaluate(roots, positions[targets], rotations[targets], full=True)
+            order = np.argsort(targets, kind="stable")
+            rank = np.arange(len(roots)) - (np.cumsum(counts) - counts)[targets[order]]  # among its target's
+            q_all[targets[order], rank] = q[order, _nearest_branch(anchor, anchors)[order]]
+            real[targets[order], rank] = True
+        return q_all, real
 
     def _samples(self, positions: np.ndarray, rotations: np.ndarray):
         """The grid per target, each interval where a branch moves more than :data:`SMOOTH` or the number
@@ -193,8 +195,10 @@ def _wrapped(angle: np.ndarray) -> np.ndarray:
 
 def _moved(following: np.ndarray, anchor: np.ndarray) -> np.ndarray:
     """How far (rad, the largest angle) each branch (M, K, A) moved to each of the next (M, K', A):
-    (M, K, K'), inf where either is missing."""
-    moved = np.abs(_wrapped(following[:, None, :, :] - anchor[:, :, None, :])).max(axis=-1)
+    (M, K, K'), inf where either is missing; angles in [-pi, pi] (as :meth:`OneDSearchForm.evaluate`
+    gives them)."""
+    moved = np.abs(following[:, None, :, :] - anchor[:, :, None, :])
+    moved = np.minimum(moved, TWO_PI - moved).max(axis=-1)
     return np.where(np.isnan(moved), np.inf, moved)
 
 
@@ -253,7 +257,7 @@ class TwoParallelForm(OneDSearchForm):
         q23 = sp1(elbow[..., 0, :], base[..., 1, :], h[1])
         v = base[..., 0, :] - p[1] - rotate(h[1], q23, p[3] + elbow[..., 1, :])
         e = np.where(real, np.sqrt(dot(v, v)) - np.linalg.norm(p[2]), np.nan)
-        anchor = np.where(real[..., None], np.stack((q1, q4), axis=-1), np.nan)
+        anchor = np.where(real[..., None], _wrapped(np.stack((q1, q4), axis=-1)), np.nan)
         if not full:
             return e, anchor, None
         q2 = sp1(p[2], v, h[1])
@@ -300,14 +304,15 @@ class TwoIntersectingForm(OneDSearchForm):
         q1, q2 = q1.reshape(count, 4), q2.reshape(count, 4)
         real = np.repeat(real & real3[:, None], 2, axis=-1)  # SP2's two pairs are real where its SP4 is
         q3, q4 = np.repeat(q3, 2, axis=-1), np.repeat(q4, 2, axis=-1)
+        turned_h5 = rotate(h[0], q1, rotate(h[1], q2, rotate(h[2], q3, rotate(h[3], q4, h[4]))))  # R04 h5
+        e = np.where(real, dot(turned_h5, (rotations @ h[5])[:, None]) - self.alignment, np.nan)
+        solved = q3 if self.searched == 3 else q4
+        anchor = np.where(real[..., None], _wrapped(np.stack((q1, q2, solved), axis=-1)), np.nan)
+        if not full:
+            return e, anchor, None
         arm = axis_rotation(h[0], q1) @ axis_rotation(h[1], q2) @ axis_rotation(h[2], q3) @ \
             axis_rotation(h[3], q4)  # R04 (M, 4, 3, 3)
         rest = np.swapaxes(arm, -1, -2) @ rotations[:, None]  # R04^T R06 = R5 R6
-        e = np.where(real, h[4] @ rest @ h[5] - self.alignment, np.nan)
-        solved = q3 if self.searched == 3 else q4
-        anchor = np.where(real[..., None], np.stack((q1, q2, solved), axis=-1), np.nan)
-        if not full:
-            return e, anchor, None
         q5 = sp1(h[5], rest @ h[5], h[4])
         q6 = sp1(h[4], np.swapaxes(rest, -1, -2) @ h[4], -h[5])
         return e, anchor, np.stack((q1, q2, q3, q4, q5, q6), axis=-1)
