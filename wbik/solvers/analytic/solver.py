@@ -72,8 +72,9 @@ def _closed_form(chain, kind: str, **options) -> ClosedForm:
 
 class AnalyticSolver(Solver):
     """Closed-form IK. ``families`` names per target kind what solves the chain ("bound:<module:Name>",
-    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with a held joint); a chain with
-    neither kind is refused when built, a missing kind when asked for (UnsupportedError saying why)."""
+    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", "search: <structure> (1-D)", with a
+    held joint); a chain with neither kind is refused when built, a missing kind when asked for
+    (UnsupportedError saying why)."""
 
     name = "analytic"
     budgeted = False
