@@ -131,3 +131,14 @@ def test_the_intersecting_search_finds_the_joints_a_pose_was_made_from():
         assert min(joint_gap(branch, q, np.ones(6, dtype=bool)) for branch in found) <= 1e-6
         errors = np.array([fk_error(locked, branch, target) for branch in found])
         assert not np.any((errors > 1e-6) & (errors < 1e-3))  # a refined root is a solution, not a near miss
+
+
+def test_a_search_form_that_misses_fk_poses_is_refused(monkeypatch):
+    """The form is probed on FK poses of random joints when recognised: one that finds no root is refused."""
+    def nothing(self, x, positions, rotations, full=False):
+        return np.full((len(x), 4), np.nan), np.full((len(x), 4, 2), np.nan), np.full((len(x), 4, 6), np.nan)
+
+    monkeypatch.setattr(TwoParallelForm, "evaluate", nothing)
+    name, base, tip = BRAVO
+    with pytest.raises(UnsupportedError, match="reproduces 0 of 8 FK poses"):
+        wbik.solver("analytic", wbik.load(name), base=base, tip=tip)

@@ -15,11 +15,23 @@ import numpy as np
 from wbik.dh import rot_x, rot_z, trans
 from wbik.errors import InvalidOptionError, MissingDependencyError, RobotDescriptionError, UnsupportedError
 from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
-from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import (
+    PROBE_POSES,
+    PROBE_REQUIRED,
+    PROBE_SEED,
+    PROBE_TOLERANCE,
+    ClosedForm,
+)
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.one_d_search import TwoIntersectingForm, TwoParallelForm
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, angle_between, chain_lines
+from wbik.solvers.analytic.structure import (
+    STRUCTURE_TOLERANCE,
+    ChainLines,
+    angle_between,
+    chain_lines,
+    poe_fk,
+)
 
 HALF_PI = 0.5 * math.pi
 
@@ -264,6 +276,16 @@ def recognise_search(chain, kind: str) -> Recognised:
                                "1-D searches' structures); a general 6R needs IK-Geo's 2-D search (not "
                                "provided)")
     check_fk_against_model(form)
+    joints = chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES)
+    positions, rotations = poe_fk(lines, joints)
+    branches, real = form.branches(positions, rotations, joints)
+    reached_p, reached_r = poe_fk(lines, np.where(real[..., None], branches, 0.0))
+    miss = np.maximum(np.linalg.norm(reached_p - positions[:, None], axis=-1),
+                      np.abs(reached_r - rotations[:, None]).max(axis=(-2, -1)))
+    reproduced = int(np.sum(np.any(real & (miss <= PROBE_TOLERANCE), axis=1)))
+    if reproduced < PROBE_REQUIRED:
+        raise UnsupportedError(f"search: {form.family} reproduces {reproduced} of {PROBE_POSES} FK poses of "
+                               "random joints")
     return Recognised(form, form.family)
 
 
