@@ -112,8 +112,9 @@ class OneDSearchForm(ClosedForm):
         """Per sample its neighbour's index (the target's first after its last on a full turn, else itself),
         the neighbour's x (unwrapped) and whether the pair is an interval."""
         following = np.arange(1, len(x) + 1)
-        last = np.r_[target[1:] != target[:-1], True]
-        firsts = np.flatnonzero(np.r_[True, target[1:] != target[:-1]])
+        last = np.ones(len(x), dtype=bool)
+        np.not_equal(target[1:], target[:-1], out=last[:-1])
+        firsts = np.flatnonzero(np.roll(last, 1))
         following[last] = firsts if self.full_turn else np.flatnonzero(last)
         end = x[following] + np.where(last & self.full_turn, TWO_PI, 0.0)
         return following, end, ~last | self.full_turn
@@ -139,9 +140,10 @@ class OneDSearchForm(ClosedForm):
             count = len(index)
             if not count:
                 break
-            rows = np.r_[targets, targets]
-            e_x, anchor_x = self.evaluate(np.r_[x, x + SLOPE_STEP], positions[rows], rotations[rows])[:2]
-            chosen = _nearest_branch(anchor_x, np.r_[anchors, anchors])
+            rows = np.concatenate((targets, targets))
+            e_x, anchor_x = self.evaluate(np.concatenate((x, x + SLOPE_STEP)), positions[rows],
+                                          rotations[rows])[:2]
+            chosen = _nearest_branch(anchor_x, np.concatenate((anchors, anchors)))
             values = e_x[np.arange(2 * count), chosen]
             value, slope = values[:count], (values[count:] - values[:count]) / SLOPE_STEP
             picked = anchor_x[np.arange(count), chosen[:count]]
