@@ -1,5 +1,6 @@
 """Subproblems shared by the closed forms (the bottom layer, as in IK-Geo and EAIK), on arrays of any
-leading batch shape: clamped cosines and the planar two-link arm."""
+leading batch shape: clamped cosines, the planar two-link arm, and IK-Geo's SP1-SP4 and SP6 (its linear
+form, through a trigonometric quadratic's roots) on the joint lines' vectors."""
 
 from __future__ import annotations
 
