@@ -55,7 +55,8 @@ class OneDSearchForm(ClosedForm):
         else:
             self.grid = np.linspace(low, high, max(8, math.ceil(self.samples * (high - low) / TWO_PI) + 1))
 
-    def evaluate(self, x, positions, rotations, full: bool = False):
+    def evaluate(self, x: np.ndarray, positions: np.ndarray, rotations: np.ndarray,
+                 full: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         raise NotImplementedError
 
     def prepared(self, positions: np.ndarray, rotations: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -163,7 +164,8 @@ class OneDSearchForm(ClosedForm):
         anchors = found
         return roots, target, anchors
 
-    def exact_branches(self, positions, rotations, q0):
+    def exact_branches(self, positions: np.ndarray, rotations: np.ndarray | None,
+                       q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return self.branches(positions, rotations, q0)
 
     def fk(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -242,7 +244,8 @@ class TwoParallelForm(OneDSearchForm):
         rotations = rotations @ self.tip_rotation.T
         return positions - rotations @ self.offsets[-1] - self.offsets[0], rotations
 
-    def evaluate(self, x, positions, rotations, full: bool = False):
+    def evaluate(self, x: np.ndarray, positions: np.ndarray, rotations: np.ndarray,
+                 full: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         h, p = self.axes, self.offsets
         wrist = rotations @ axis_rotation(h[5], -x)  # R05 = R06 R6^T (M, 3, 3)
         moved = wrist @ self.wrist_vectors
@@ -287,7 +290,8 @@ class TwoIntersectingForm(OneDSearchForm):
         self.wrist, self.wrist_from_tip = wrist, wrist - lines.tip[:3, 3]  # W* = p + R06 (W - p_tip(0))
         self.alignment = dot(self.axes[4], self.axes[5])
 
-    def evaluate(self, x, positions, rotations, full: bool = False):
+    def evaluate(self, x: np.ndarray, positions: np.ndarray, rotations: np.ndarray,
+                 full: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         h, origins, shoulder, count = self.axes, self.lines.origins, self.shoulder, len(x)
         wrist_target = positions + rotations @ self.wrist_from_tip  # W* (M, 3)
         reach = np.sqrt(dot(wrist_target - shoulder, wrist_target - shoulder))
