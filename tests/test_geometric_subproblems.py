@@ -97,3 +97,25 @@ def test_quartic_roots_match_numpy():
         found, expected = quartic_roots(coefficients[:, None])[0], np.roots(coefficients)
         assert np.abs(found[:, None] - expected[None, :]).min(axis=0).max() < 1e-7  # each root found
         assert np.abs(found[:, None] - expected[None, :]).min(axis=1).max() < 1e-7  # and nothing else
+
+
+def test_trig_quadratic_roots_by_the_quartic_and_by_the_double_angle():
+    """Roots of a0 + a1 cos q + b1 sin q + a2 cos 2q + b2 sin 2q built from two known roots: f = (cos q - cos
+    r1)(cos q - cos r2) turned; and f of 2q alone (a1 = b1 = 0), whose four roots are known in closed form."""
+    from wbik.solvers.analytic.subproblems import trig_quadratic_roots
+
+    rng = np.random.default_rng(5)
+    r1, r2 = rng.uniform(0.1, 3.0, (2, COUNT))
+    # (cos q - c1)(cos q - c2) = cos^2 q - (c1 + c2) cos q + c1 c2, cos^2 q = (1 + cos 2q) / 2
+    c1, c2 = np.cos(r1), np.cos(r2)
+    found, real = trig_quadratic_roots((0.5 + c1 * c2, -(c1 + c2), np.zeros(COUNT), np.full(COUNT, 0.5),
+                                        np.zeros(COUNT)))
+    for root in (r1, -r1, r2, -r2):
+        assert np.all(np.where(real, np.abs(np.angle(np.exp(1j * (found - root[:, None])))), np.inf)
+                      .min(axis=1) < 1e-6)
+    phase, angle = rng.uniform(-np.pi, np.pi, (2, COUNT))
+    a0 = -np.cos(2 * angle - phase)  # f(q) = a0 + cos(2q - phase) vanishes at q = angle
+    found, real = trig_quadratic_roots((a0, np.zeros(COUNT), np.zeros(COUNT), np.cos(phase), np.sin(phase)))
+    assert real.all() and _gap(found, angle).max() < 1e-9
+    values = a0[:, None] + np.cos(2 * found - phase[:, None])
+    assert np.abs(values).max() < 1e-9

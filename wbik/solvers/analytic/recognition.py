@@ -15,10 +15,23 @@ import numpy as np
 from wbik.dh import rot_x, rot_z, trans
 from wbik.errors import InvalidOptionError, MissingDependencyError, RobotDescriptionError, UnsupportedError
 from wbik.solvers.analytic.aligned import AlignedForm, FamilyChain
-from wbik.solvers.analytic.closed_form import ClosedForm
+from wbik.solvers.analytic.closed_form import (
+    PROBE_POSES,
+    PROBE_REQUIRED,
+    PROBE_SEED,
+    PROBE_TOLERANCE,
+    ClosedForm,
+)
 from wbik.solvers.analytic.eaik_family import EAIKForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
-from wbik.solvers.analytic.structure import STRUCTURE_TOLERANCE, ChainLines, angle_between, chain_lines
+from wbik.solvers.analytic.one_d_search import TwoIntersectingForm, TwoParallelForm
+from wbik.solvers.analytic.structure import (
+    STRUCTURE_TOLERANCE,
+    ChainLines,
+    angle_between,
+    chain_lines,
+    poe_fk,
+)
 
 HALF_PI = 0.5 * math.pi
 
@@ -244,6 +257,36 @@ def recognise_eaik(chain, kind: str, probe: bool = True) -> Recognised:
     if probe:
         check_fk_against_model(form)
     return Recognised(form, f"eaik:{form.family}")
+
+
+def recognise_search(chain, kind: str) -> Recognised:
+    """A 6R chain's search-based form (:mod:`.one_d_search`), or UnsupportedError saying why none."""
+    lines = chain_lines(chain)
+    if kind != "pose":
+        raise UnsupportedError("search: solves full poses only")
+    if lines.count != 6 or lines.prismatic.any():
+        raise UnsupportedError(f"search: for 6 revolute joints (this chain has {lines.count} joints"
+                               f"{', a prismatic one' if lines.prismatic.any() else ''})")
+    if lines.parallel(1, 2):
+        form = TwoParallelForm(chain, lines)
+    elif lines.meeting_point(0, 1) is not None and lines.meeting_point(4, 5) is not None:
+        form = TwoIntersectingForm(chain, lines)
+    else:
+        raise UnsupportedError("search: neither axes 2 and 3 parallel nor axes 1, 2 and 5, 6 meeting (the "
+                               "1-D searches' structures); a general 6R needs IK-Geo's 2-D search (not "
+                               "provided)")
+    check_fk_against_model(form)
+    joints = chain.random(np.random.default_rng(PROBE_SEED), PROBE_POSES)
+    positions, rotations = poe_fk(lines, joints)
+    branches, real = form.branches(positions, rotations, joints)
+    reached_p, reached_r = poe_fk(lines, np.where(real[..., None], branches, 0.0))
+    miss = np.maximum(np.linalg.norm(reached_p - positions[:, None], axis=-1),
+                      np.abs(reached_r - rotations[:, None]).max(axis=(-2, -1)))
+    reproduced = int(np.sum(np.any(real & (miss <= PROBE_TOLERANCE), axis=1)))
+    if reproduced < PROBE_REQUIRED:
+        raise UnsupportedError(f"search: {form.family} reproduces {reproduced} of {PROBE_POSES} FK poses of "
+                               "random joints")
+    return Recognised(form, form.family)
 
 
 def first_recognised(*recognisers: Callable[[], Recognised]) -> Recognised | list[str]:

@@ -24,6 +24,7 @@ from wbik.solvers.analytic.recognition import (
     first_recognised,
     recognise_eaik,
     recognise_family,
+    recognise_search,
 )
 from wbik.solvers.analytic.structure import ChainLines, axis_rotation, chain_lines, locked_lines, poe_fk
 
@@ -76,7 +77,8 @@ class LockedJointForm(ClosedForm):
     """A chain solved with joint ``index`` held; UnsupportedError where the rest has no closed form."""
 
     def __init__(self, chain, index: int, kind: str, families: tuple[Family, ...],
-                 options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE):
+                 options: dict | None = None, mode: str = "search", grid_size: int = DEFAULT_GRID_SIZE,
+                 ways: tuple[bool, bool, bool] = (True, True, False)):
         super().__init__(chain)
         # what the held joint moves where one form serves every value: the base, the tool, or None
         self.moves = "base" if index == 0 else "tool" if index == chain.nq - 1 and kind == "pose" else None
@@ -92,22 +94,24 @@ class LockedJointForm(ClosedForm):
         self.families = families
         value = 0.0 if self.moves else float(np.clip(chain.nominal[index], chain.lower[index],
                                                      chain.upper[index]))
-        self.sub = self._recognise(LockedChain(chain, index, value), (True, True))
+        self.sub = self._recognise(LockedChain(chain, index, value), ways)
         self.family, self.parameters = self.sub.family, self.sub.parameters
         self.screen_tolerance = self.sub.form.screen_tolerance
         self._forms: dict[float, ClosedForm | None] = {value: self.sub.form}
         self._lock = threading.Lock()
-        eaik = self.family.startswith("eaik:")
-        self._per_value = (not eaik, eaik)  # tried at another value of a middle joint: what served first
+        served = tuple(self.family.startswith(prefix) for prefix in ("eaik:", "search:"))
+        self._per_value = (not any(served), *served)  # tried at another value of a middle joint: what served
         one_value = self.moves is not None and not len(self.grid)
         self.search = HeldJointSearch(self) if mode == "search" else None
         held = HeldChoice(self) if one_value and self.sub.form.kernel is not None else None
         self.kernel = self.search or held
 
-    def _recognise(self, locked: LockedChain, ways: tuple[bool, bool], probe: bool = True) -> Recognised:
-        """A family of ``families`` (where ``ways[0]``), else EAIK (``ways[1]``) solving the 6-joint chain."""
+    def _recognise(self, locked: LockedChain, ways: tuple[bool, bool, bool],
+                   probe: bool = True) -> Recognised:
+        """A family of ``families``, EAIK, a search form (where ``ways`` says) solving the 6-joint chain."""
         recognisers = (lambda: recognise_family(locked, self.kind, self.options, self.families),
-                       lambda: recognise_eaik(locked, self.kind, probe=probe))
+                       lambda: recognise_eaik(locked, self.kind, probe=probe),
+                       lambda: recognise_search(locked, self.kind))
         found = first_recognised(*compress(recognisers, ways))
         if isinstance(found, list):
             raise UnsupportedError("; ".join(found))
@@ -251,16 +255,20 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
         candidates = [count - 1, 0, *range(count - 2, 0, -1)]
     else:
         candidates = [index]
-    first_reason = ""
-    for candidate in candidates:
-        try:
-            form = LockedJointForm(chain, candidate, kind, families, options, mode, grid_size)
-        except UnsupportedError as refused:
-            first_reason = first_reason or f"holding {chain.joint_names[candidate]}: {refused}"
-            continue
-        check_fk_against_model(form)
-        family = f"{form.family} with {chain.joint_names[candidate]} held ({form.mode})"
-        return Recognised(form, family, form.parameters)
+    first_reasons = ["", ""]
+    for attempt, ways in enumerate(((True, True, False), (False, False, True))):  # a search form last
+        for candidate in candidates if not attempt else [k for k in candidates if k in (0, count - 1)]:
+            try:
+                form = LockedJointForm(chain, candidate, kind, families, options, mode, grid_size, ways)
+            except UnsupportedError as refused:
+                first_reasons[attempt] = first_reasons[attempt] or \
+                    f"holding {chain.joint_names[candidate]}: {refused}" + \
+                    (", the held joint searched too: 3-D in all" if attempt else "")
+                continue
+            check_fk_against_model(form)
+            family = f"{form.family} with {chain.joint_names[candidate]} held ({form.mode})"
+            return Recognised(form, family, form.parameters)
+    first_reason = "; ".join(first_reasons)
     if index is not None:
         raise UnsupportedError(first_reason)
     raise UnsupportedError(f"holding any one joint leaves no chain with a closed form ({first_reason})")

@@ -21,7 +21,13 @@ from wbik.solvers.analytic.closed_form import (
 from wbik.solvers.analytic.compiled import CompiledForm
 from wbik.solvers.analytic.model_agreement import check_fk_against_model
 from wbik.solvers.analytic.nearby_arm import nearby_arm
-from wbik.solvers.analytic.recognition import Recognised, first_recognised, recognise_eaik, recognise_family
+from wbik.solvers.analytic.recognition import (
+    Recognised,
+    first_recognised,
+    recognise_eaik,
+    recognise_family,
+    recognise_search,
+)
 from wbik.solvers.analytic.redundancy import check_redundancy_options, lock_redundant_joint
 from wbik.solvers.analytic.stacked_planar import STACKED_PLANAR
 from wbik.solvers.analytic.structure import chain_lines
@@ -54,7 +60,7 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
     redundancy = dict(redundancy or {})
     held = redundancy.get("joint") is not None
     recognisers = [] if held else [lambda: recognise_family(chain, kind, options, FAMILIES),
-                                   lambda: recognise_eaik(chain, kind)]
+                                   lambda: recognise_eaik(chain, kind), lambda: recognise_search(chain, kind)]
     if held or chain.nq >= 7:
         recognisers.append(lambda: lock_redundant_joint(chain, kind, options, redundancy, FAMILIES))
         recognisers.append(lambda: nearby_arm(chain, kind, options, redundancy, FAMILIES))
@@ -68,8 +74,9 @@ def _closed_form(chain, kind: str, **options) -> ClosedForm:
 
 class AnalyticSolver(Solver):
     """Closed-form IK. ``families`` names per target kind what solves the chain ("bound:<module:Name>",
-    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", with a held joint); a chain with
-    neither kind is refused when built, a missing kind when asked for (UnsupportedError saying why)."""
+    "ur_type", "yaw_planar", "stacked_planar", "eaik:<EAIK's class>", "search: <structure> (1-D)", with a
+    held joint); a chain with neither kind is refused when built, a missing kind when asked for
+    (UnsupportedError saying why)."""
 
     name = "analytic"
     budgeted = False

@@ -35,9 +35,9 @@ class ChainLines:
     @cached_property
     def rotation_terms(self) -> tuple[np.ndarray, np.ndarray]:
         """Per joint, K = [axis]x and K @ K (n, 3, 3), as :func:`axis_rotation` builds them."""
-        skews = [_skew(axis) for axis in self.axes]
+        skews = [skew(axis) for axis in self.axes]
         return (np.array(skews).reshape(-1, 3, 3),
-                np.array([skew @ skew for skew in skews]).reshape(-1, 3, 3))
+                np.array([matrix @ matrix for matrix in skews]).reshape(-1, 3, 3))
 
     @cached_property
     def length(self) -> float:
@@ -98,12 +98,12 @@ def motion(lines: ChainLines, index: int, value: float) -> np.ndarray:
 
 def axis_rotation(axis: np.ndarray, angle) -> np.ndarray:
     """Rot(axis, angle) = I + sin(a) K + (1 - cos(a)) K^2, K = [axis]x; angles (...) -> (..., 3, 3)."""
-    skew = _skew(axis)
+    cross_matrix = skew(axis)
     angle = np.asarray(angle, dtype=float)[..., None, None]
-    return np.eye(3) + np.sin(angle) * skew + (1.0 - np.cos(angle)) * (skew @ skew)
+    return np.eye(3) + np.sin(angle) * cross_matrix + (1.0 - np.cos(angle)) * (cross_matrix @ cross_matrix)
 
 
-def _skew(axis: np.ndarray) -> np.ndarray:
+def skew(axis: np.ndarray) -> np.ndarray:
     """[axis]x, the cross-product matrix."""
     x, y, z = axis
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])

@@ -1,11 +1,15 @@
 """Subproblems shared by the closed forms (the bottom layer, as in IK-Geo and EAIK), on arrays of any
-leading batch shape: clamped cosines and the planar two-link arm."""
+leading batch shape: clamped cosines, the planar two-link arm, and IK-Geo's SP1-SP4 and SP6 (its linear
+form, through a trigonometric quadratic's roots) on the joint lines' vectors."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from wbik.solvers.analytic.structure import skew
+
 COSINE_TOLERANCE = 1e-9  # how far a cosine may leave [-1, 1] and its angle count as real (clamped)
+DOUBLE_ANGLE = 1e-6  # |a1| + |b1| relative below which a trigonometric quadratic starts from its 2q part
 ROOT_IMAGINARY = 1e-6  # |Im q| below which a root of a trigonometric polynomial counts as real (polished)
 WRIST_SINGULARITY = 1e-8  # |sin q5| below which a spherical wrist's last joint is free (q0's is kept)
 
@@ -65,21 +69,32 @@ def dot(a, b) -> np.ndarray:
 def rotate(axis, angle, p) -> np.ndarray:
     """Rot(k, q) p = k (k.p) + sin q (k x p) - cos q (k x (k x p)) (Rodrigues, k = ``axis``)."""
     angle = np.asarray(angle, dtype=float)[..., None]
-    k_cross_p = cross(axis, p)
-    along = np.asarray(axis) * dot(axis, p)[..., None]
-    return along + np.sin(angle) * k_cross_p + np.cos(angle) * (np.asarray(p) - along)
+    p = np.asarray(p, dtype=float)
+    along, k_cross_p = _along_and_across(axis, p)
+    return along + np.sin(angle) * k_cross_p + np.cos(angle) * (p - along)
+
+
+def _along_and_across(axis, p) -> tuple[np.ndarray, np.ndarray]:
+    """k (k . p) and k x p (one axis (3,) by matrix products, else elementwise)."""
+    axis = np.asarray(axis, dtype=float)
+    if axis.ndim == 1:
+        return (p @ axis)[..., None] * axis, p @ -skew(axis)
+    return axis * dot(axis, p)[..., None], cross(axis, p)
 
 
 def circle_terms(h, k, p) -> tuple[np.ndarray, np.ndarray]:
-    """h . Rot(k, q) p = A . (sin q, cos q) + c: (A (..., 2), c (...))."""
-    k_cross_p = cross(k, p)
-    return np.stack((dot(h, k_cross_p), -dot(h, cross(k, k_cross_p))), axis=-1), dot(h, k) * dot(k, p)
+    """h . Rot(k, q) p = A . (sin q, cos q) + c: (A (..., 2), c (...)), A = (h . k x p, h . p - c)."""
+    p = np.asarray(p, dtype=float)
+    along, k_cross_p = _along_and_across(k, p)
+    constant = dot(h, along)
+    return np.stack((dot(h, k_cross_p), dot(h, p) - constant), axis=-1), constant
 
 
 def sp1(p1, p2, k) -> np.ndarray:
     """SP1, circle and point: q with Rot(k, q) p1 = p2 (least squares where none)."""
-    terms, _ = circle_terms(p2, k, p1)
-    return np.arctan2(terms[..., 0], terms[..., 1])
+    p1 = np.asarray(p1, dtype=float)
+    along, k_cross_p = _along_and_across(k, p1)
+    return np.arctan2(dot(p2, k_cross_p), dot(p2, p1 - along))
 
 
 def sp4(h, p, k, d) -> tuple[np.ndarray, np.ndarray]:
@@ -107,33 +122,38 @@ def sp2(p1, p2, k1, k2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return first, sp1(np.asarray(p2)[..., None, :], turned, np.asarray(k2)[..., None, :]), real
 
 
-def trig_quadratic_roots(coefficients: np.ndarray, polish: int = 2) -> tuple[np.ndarray, np.ndarray]:
-    """Real roots q (..., 4) of f(q) = a0 + a1 cos q + b1 sin q + a2 cos 2q + b2 sin 2q (``coefficients``
-    (..., 5) in that order) and their mask: with q = s + 2 atan(t) a quartic in t (s among 0, pi/2, the one
-    giving the larger leading coefficient f(s + pi)), by Ferrari, then ``polish`` Newton steps on f."""
-    a0, a1, b1, a2, b2 = np.moveaxis(np.asarray(coefficients, dtype=float), -1, 0)
-    shift = np.where(np.abs(a0 - a1 + a2) >= np.abs(a0 - b1 - a2), 0.0, 0.5 * np.pi)
-    c, s, c2, s2 = np.cos(shift), np.sin(shift), np.cos(2 * shift), np.sin(2 * shift)
-    a1s, b1s, a2s, b2s = a1 * c + b1 * s, b1 * c - a1 * s, a2 * c2 + b2 * s2, b2 * c2 - a2 * s2
-    # (1 + t^2)^2 f with cos q = (1 - t^2) / (1 + t^2), sin q = 2t / (1 + t^2)
-    quartic = np.stack((a0 - a1s + a2s, 2 * b1s - 4 * b2s, 2 * a0 - 6 * a2s, 2 * b1s + 4 * b2s,
-                        a0 + a1s + a2s))
-    t = quartic_roots(quartic)
-    q = shift[..., None] + 2.0 * np.arctan(t.real)
-    nearly_real = 2.0 * np.abs(t.imag) <= ROOT_IMAGINARY * (1.0 + np.abs(t) ** 2)  # |Im q| to first order
-    coefficients = np.stack((a0, a1, b1, a2, b2), axis=-1)[..., None, :]
-    for _ in range(polish):
-        value, slope = _trig_quadratic(coefficients, q)
+def trig_quadratic_roots(coefficients, polish: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """Real roots q (..., 4) of f(q) = a0 + a1 cos q + b1 sin q + a2 cos 2q + b2 sin 2q (``coefficients``:
+    (a0, a1, b1, a2, b2), arrays (...)) and their mask: with q = s + 2 atan(t) a quartic in t (s among 0,
+    pi/2, the one giving the larger leading coefficient f(s + pi)), by Ferrari, then ``polish`` Newton steps
+    (cos 2q = 2 c^2 - 1, sin 2q = 2 s c). Where the whole batch has a1, b1 near 0 (a robot's symmetry), the
+    start is the roots of a0 + r cos(2q - phi): (phi +- acos(-a0 / r)) / 2 (+ pi), without the quartic."""
+    a0, a1, b1, a2, b2 = (np.asarray(value, dtype=float) for value in coefficients)
+    if np.all(np.abs(a1) + np.abs(b1) <= DOUBLE_ANGLE * (np.abs(a0) + np.abs(a2) + np.abs(b2))):
+        radius, phase = np.hypot(a2, b2), np.arctan2(b2, a2)
+        half = 0.5 * np.arccos(np.clip(-a0 / np.where(radius == 0.0, 1.0, radius), -1.0, 1.0))
+        q = (0.5 * phase)[..., None] + np.stack((half, -half, half + np.pi, np.pi - half), axis=-1)
+        nearly_real = (np.abs(a0) <= radius * (1.0 + COSINE_TOLERANCE))[..., None]
+    else:
+        quarter = np.abs(a0 - a1 + a2) < np.abs(a0 - b1 - a2)  # s = pi/2: (a1, b1, a2, b2) to (b1, -a1, ...)
+        a1s, b1s = np.where(quarter, b1, a1), np.where(quarter, -a1, b1)
+        a2s, b2s = np.where(quarter, -a2, a2), np.where(quarter, -b2, b2)
+        # (1 + t^2)^2 f with cos q = (1 - t^2) / (1 + t^2), sin q = 2t / (1 + t^2)
+        t = quartic_roots((a0 - a1s + a2s, 2 * b1s - 4 * b2s, 2 * a0 - 6 * a2s, 2 * b1s + 4 * b2s,
+                           a0 + a1s + a2s))
+        nearly_real = 2.0 * np.abs(t.imag) <= ROOT_IMAGINARY * (1.0 + np.abs(t) ** 2)  # |Im q| to first order
+        q = 2.0 * np.arctan(t.real) + np.where(quarter, 0.5 * np.pi, 0.0)[..., None]
+    a0, a1, b1, a2, b2 = (value[..., None] for value in (a0, a1, b1, a2, b2))
+    for step in range(polish + 1):
+        c, s = np.cos(q), np.sin(q)
+        c2, s2 = 2.0 * c * c - 1.0, 2.0 * s * c
+        value = a0 + a1 * c + b1 * s + a2 * c2 + b2 * s2
+        if step == polish:
+            break
+        slope = b1 * c - a1 * s + 2.0 * (b2 * c2 - a2 * s2)
         q = q - value / np.where(slope == 0.0, 1.0, slope)
-    value, _ = _trig_quadratic(coefficients, q)
-    scale = np.abs(coefficients).sum(axis=-1)
+    scale = np.abs(a0) + np.abs(a1) + np.abs(b1) + np.abs(a2) + np.abs(b2)
     return q, nearly_real & (np.abs(value) <= 1e-7 * scale)
-
-
-def _trig_quadratic(coefficients: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a0, a1, b1, a2, b2 = np.moveaxis(coefficients, -1, 0)
-    c, s, c2, s2 = np.cos(q), np.sin(q), np.cos(2 * q), np.sin(2 * q)
-    return a0 + a1 * c + b1 * s + a2 * c2 + b2 * s2, b1 * c - a1 * s + 2 * (b2 * c2 - a2 * s2)
 
 
 def quartic_roots(coefficients: np.ndarray) -> np.ndarray:
@@ -165,38 +185,34 @@ def quartic_roots(coefficients: np.ndarray) -> np.ndarray:
     return np.where(tiny[..., None], biquadratic, general) - 0.25 * b[..., None]
 
 
-def sp6(first, second, rest) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def sp6(first, second, rest, polish: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """SP6 in its linear form: (q1, q2) (..., 4) with F x1 + S x2 = rest, x_i = (sin q_i, cos q_i), F and S
-    (..., 2, 2), rest (..., 2), and the real mask: the better-conditioned block eliminated, x_j = M x_i + m,
-    and |M x_i + m|^2 = 1 a trigonometric quadratic in q_i (:func:`trig_quadratic_roots`)."""
-    first, second = np.asarray(first, dtype=float), np.asarray(second, dtype=float)
-    swap = np.abs(_det(first)) * _square(second) > np.abs(_det(second)) * _square(first)
-    kept = np.where(swap[..., None, None], second, first)  # the angle solved for
-    gone = np.where(swap[..., None, None], first, second)  # the block inverted
-    det = _det(gone)
-    det = np.where(det == 0.0, 1e-300, det)
-    inverse = np.stack((np.stack((gone[..., 1, 1], -gone[..., 0, 1]), -1),
-                        np.stack((-gone[..., 1, 0], gone[..., 0, 0]), -1)), -2) / det[..., None, None]
-    m = np.einsum("...ij,...j->...i", inverse, rest)
-    big_m = -inverse @ kept
-    quadratic = np.swapaxes(big_m, -1, -2) @ big_m  # x^T Q x with x = (s, c)
-    linear = 2.0 * np.einsum("...i,...ij->...j", m, big_m)
-    constant = 0.5 * (quadratic[..., 0, 0] + quadratic[..., 1, 1]) + dot(m, m) - 1.0
-    coefficients = np.stack((constant, linear[..., 1], linear[..., 0], 0.5 * (quadratic[..., 1, 1]
-                             - quadratic[..., 0, 0]), quadratic[..., 0, 1]), axis=-1)
+    (..., 2, 2), rest (..., 2), and the real mask: the better-conditioned block G eliminated (K the other),
+    x_j = M x_i + m (M = -G^-1 K, m = G^-1 rest), and |M x_i + m|^2 = 1 a trigonometric quadratic in q_i."""
+    first, second, rest = (np.asarray(value, dtype=float) for value in (first, second, rest))
+    f00, f01, f10, f11 = first[..., 0, 0], first[..., 0, 1], first[..., 1, 0], first[..., 1, 1]
+    s00, s01, s10, s11 = second[..., 0, 0], second[..., 0, 1], second[..., 1, 0], second[..., 1, 1]
+    f_det, s_det = f00 * f11 - f01 * f10, s00 * s11 - s01 * s10
+    f_size = f00 * f00 + f01 * f01 + f10 * f10 + f11 * f11
+    s_size = s00 * s00 + s01 * s01 + s10 * s10 + s11 * s11
+    swap = np.abs(f_det) * s_size > np.abs(s_det) * f_size  # F inverted, q2 solved for
+    k00, k01, k10, k11 = (np.where(swap, b, a) for a, b in ((f00, s00), (f01, s01), (f10, s10), (f11, s11)))
+    g00, g01, g10, g11 = (np.where(swap, a, b) for a, b in ((f00, s00), (f01, s01), (f10, s10), (f11, s11)))
+    det = np.where(swap, f_det, s_det)
+    scale = 1.0 / np.where(det == 0.0, 1e-300, det)
+    r0, r1 = rest[..., 0], rest[..., 1]
+    m0, m1 = (g11 * r0 - g01 * r1) * scale, (g00 * r1 - g10 * r0) * scale
+    big00, big01 = (g01 * k10 - g11 * k00) * scale, (g01 * k11 - g11 * k01) * scale
+    big10, big11 = (g10 * k00 - g00 * k10) * scale, (g10 * k01 - g00 * k11) * scale
+    q00, q11 = big00 * big00 + big10 * big10, big01 * big01 + big11 * big11
+    q01 = big00 * big01 + big10 * big11
+    linear_s, linear_c = 2.0 * (m0 * big00 + m1 * big10), 2.0 * (m0 * big01 + m1 * big11)
     with np.errstate(invalid="ignore", divide="ignore"):  # a degenerate quartic's NaN roots: not real
-        solved, real = trig_quadratic_roots(coefficients)
+        solved, real = trig_quadratic_roots((0.5 * (q00 + q11) + m0 * m0 + m1 * m1 - 1.0, linear_c, linear_s,
+                                             0.5 * (q11 - q00), q01), polish)
     real &= np.isfinite(solved)
-    unit = np.stack((np.sin(solved), np.cos(solved)), -1)
-    x = np.einsum("...ij,...kj->...ki", big_m, unit) + m[..., None, :]
-    other = np.arctan2(x[..., 0], x[..., 1])
+    sine, cosine = np.sin(solved), np.cos(solved)
+    other = np.arctan2(big00[..., None] * sine + big01[..., None] * cosine + m0[..., None],
+                       big10[..., None] * sine + big11[..., None] * cosine + m1[..., None])
     swap = swap[..., None]
     return np.where(swap, other, solved), np.where(swap, solved, other), real
-
-
-def _det(matrix: np.ndarray) -> np.ndarray:
-    return matrix[..., 0, 0] * matrix[..., 1, 1] - matrix[..., 0, 1] * matrix[..., 1, 0]
-
-
-def _square(matrix: np.ndarray) -> np.ndarray:
-    return np.einsum("...ij,...ij->...", matrix, matrix)
