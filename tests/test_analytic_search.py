@@ -99,12 +99,14 @@ def test_the_search_form_is_only_for_axes_two_and_three_parallel():
     assert lines.parallel(1, 2) and not lines.parallel(0, 1) and not lines.parallel(2, 3)
 
 
-def test_baxter_holds_its_first_joint_and_searches_the_rest():
-    """Baxter's right arm with right_s0 held leaves axes 1, 2 and 5, 6 meeting: the held search runs the
-    1-D search at each held value."""
-    solver = wbik.solver("analytic", wbik.load("example-robot-data:baxter"), base="torso",
-                         tip="right_gripper_base_link")
-    assert solver.family == "search: axes 1, 2 and axes 5, 6 meet (1-D) with right_s0 held (search)"
+def test_baxter_without_its_first_joint_is_searched_in_1d():
+    """Baxter's right arm from the link after right_s0: a 6R whose axes 1, 2 and 5, 6 meet (the whole
+    7-joint arm takes a nearby arm first: a held joint, no search inside)."""
+    robot = wbik.load("example-robot-data:baxter")
+    solver = wbik.solver("analytic", robot, base="right_upper_shoulder", tip="right_gripper_base_link")
+    assert solver.family == "search: axes 1, 2 and axes 5, 6 meet (1-D)"
+    assert wbik.solver("analytic", robot, base="torso", tip="right_gripper_base_link").family.startswith(
+        "nearby arm")
     chain = solver.chain
     solved = 0
     for q in chain.random(np.random.default_rng(14), 8):

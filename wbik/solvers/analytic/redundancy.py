@@ -241,10 +241,15 @@ def check_redundancy_options(chain, joint, mode: str, grid_size) -> int | None:
                               f"or index one (0..{chain.nq - 1}), got {joint!r}")
 
 
+HELD_WAYS = ((True, True, False), (False, False, True))
+"""What may solve the chain left with a joint held, tried in turn: a family or EAIK, then a search form."""
+
+
 def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dict,
-                         families: tuple[Family, ...]) -> Recognised:
+                         families: tuple[Family, ...], attempts: tuple[int, ...] = (0, 1)) -> Recognised:
     """The closed form holding ``redundancy["joint"]``, by default the first of the last, the first, the
-    others from the tip that leaves one; UnsupportedError saying why none."""
+    others from the tip that leaves one, solved by the ``attempts`` of :data:`HELD_WAYS`; UnsupportedError
+    saying why none."""
     mode = redundancy.get("mode", "search")
     grid_size = redundancy.get("grid_size", DEFAULT_GRID_SIZE)
     index = redundancy.get("joint")
@@ -256,7 +261,8 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
     else:
         candidates = [index]
     first_reasons = ["", ""]
-    for attempt, ways in enumerate(((True, True, False), (False, False, True))):  # a search form last
+    for attempt in attempts:
+        ways = HELD_WAYS[attempt]
         for candidate in candidates if not attempt else [k for k in candidates if k in (0, count - 1)]:
             try:
                 form = LockedJointForm(chain, candidate, kind, families, options, mode, grid_size, ways)
@@ -268,7 +274,7 @@ def lock_redundant_joint(chain, kind: str, options: dict | None, redundancy: dic
             check_fk_against_model(form)
             family = f"{form.family} with {chain.joint_names[candidate]} held ({form.mode})"
             return Recognised(form, family, form.parameters)
-    first_reason = "; ".join(first_reasons)
+    first_reason = "; ".join(filter(None, first_reasons))
     if index is not None:
         raise UnsupportedError(first_reason)
     raise UnsupportedError(f"holding any one joint leaves no chain with a closed form ({first_reason})")
