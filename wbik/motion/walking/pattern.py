@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,17 +39,6 @@ class PreviewSettings:
     horizon_s: float = 1.0
     q: float = 1.0
     r: float = 1e-6
-
-
-@dataclass(frozen=True)
-class Replan:
-    """What re-planning a walk from one of its ticks needs: its ``timing``, the soles' ZMP ``centre``, the
-    preview ``controller``, the feedforward's ``zmp_shift`` (reference tracked minus the footsteps')."""
-
-    timing: Timing
-    centre: Callable
-    controller: PreviewController
-    zmp_shift: np.ndarray
 
 
 @dataclass
@@ -91,25 +79,6 @@ class WalkPattern:
         return {frame: self.feet_poses[self.feet.side(frame)][k] for frame in self.support[k]}
 
 
-def feet_at_ticks(phases: list[Phase], feet: Feet, dt: float, count: int, clearance: float):
-    """(each side's sole pose, the soles down, the swinging side, the feet's yaw) at ``count`` ticks."""
-    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw = [], [], np.zeros(count)
-    for k in range(count):
-        t = k * dt
-        phase = phase_at(phases, t)
-        poses = dict(phase.feet)
-        if phase.swing is not None:
-            poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
-                                                 phase.fraction(t), clearance)
-        for side in SIDES:
-            feet_poses[side].append(poses[side])
-        support.append(tuple(feet.frame(side) for side in phase.stance))
-        swing.append(phase.swing.side if phase.swing is not None else None)
-        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
-    return feet_poses, support, swing, yaw
-
-
 def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footstep], timing: Timing,
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
@@ -138,7 +107,20 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     horizon = controller.steps
     longest = planned + int(round(SETTLE_MAX_S / dt))
     targets = reference(dt * np.arange(longest + horizon + 1))
-    feet_poses, support, swing, yaw = feet_at_ticks(phases, feet, dt, longest, clearance)
+    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
+    support, swing, yaw = [], [], np.zeros(longest)
+    for k in range(longest):  # the feet of every tick, from the footsteps
+        t = k * dt
+        phase = phase_at(phases, t)
+        poses = dict(phase.feet)
+        if phase.swing is not None:
+            poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
+                                                 phase.fraction(t), clearance)
+        for side in SIDES:
+            feet_poses[side].append(poses[side])
+        support.append(tuple(feet.frame(side) for side in phase.stance))
+        swing.append(phase.swing.side if phase.swing is not None else None)
+        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
     tracked = rest_start(targets, com0, int(round(phases[0].end / dt)), controller.omega, dt) if rest \
         else targets.copy()
     if momentum is not None:
@@ -161,8 +143,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                 break
     com = com[:count]
     com[:, 2] = ground_z + height
-    info = {"omega": controller.omega, "preview_steps": horizon, "plan_cpu_s": planning,
-            "replan": Replan(timing, reference.centre, controller, tracked - targets)}
+    info = {"omega": controller.omega, "preview_steps": horizon, "plan_cpu_s": planning}
     feet_poses = {side: poses[:count] for side, poses in feet_poses.items()}
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:count]), com, feet_poses,

@@ -8,7 +8,6 @@ s_d planned); the trunk's target turned by -K_att times the trunk's measured rol
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -54,20 +53,16 @@ class Stabiliser:
         self.trunk = self.robot.frame_id(tracker.trunk)
         self.offset = np.zeros(3)
 
-    def dcm_error(self, q: np.ndarray, v: np.ndarray, now: int) -> np.ndarray:
-        """e (m, world) from the state (q, v) measured at tick ``now`` (into ``data``: CoM, velocity, FK)."""
-        model, data, pattern = self.robot.model, self.data, self.pattern
+    def corrections(self, q: np.ndarray, v: np.ndarray, now: int) -> tuple[np.ndarray, np.ndarray]:
+        """(CoM offset (m), trunk correction (rotation)) from the state (q, v) measured at tick ``now``."""
+        model, data, pattern, gains = self.robot.model, self.data, self.pattern, self.gains
         com = pin.centerOfMass(model, data, q, v)
         pin.framesForwardKinematics(model, data, q)
         stance = np.mean([data.oMf[self.robot.frame_id(f)].translation for f in pattern.support[now]], axis=0)
         planned = np.mean([p.translation for p in pattern.stance(now).values()], axis=0)
         velocity = (pattern.com[now] - pattern.com[max(now - 1, 0)]) / pattern.dt
-        return com - stance - (pattern.com[now] - planned) + (data.vcom[0] - velocity) / pattern.info["omega"]
-
-    def corrections(self, q: np.ndarray, v: np.ndarray, now: int) -> tuple[np.ndarray, np.ndarray]:
-        """(CoM offset (m), trunk correction (rotation)) from the state (q, v) measured at tick ``now``."""
-        data, pattern, gains = self.data, self.pattern, self.gains
-        error = self.dcm_error(q, v, now)
+        omega = pattern.info["omega"]
+        error = com - stance - (pattern.com[now] - planned) + (data.vcom[0] - velocity) / omega
         wanted = np.zeros(3)
         wanted[:2] = np.clip(-gains.dcm * error[:2], -gains.com_offset_max, gains.com_offset_max)
         self.offset += (wanted - self.offset) * min(1.0, pattern.dt / max(gains.time_constant_s, 1e-9))
@@ -75,10 +70,6 @@ class Stabiliser:
         tilt = pin.log3(data.oMf[self.trunk].rotation @ trunk.T)
         tilt[2] = 0.0
         return self.offset.copy(), pin.exp3(-gains.attitude * tilt)
-
-
-Adapt = Callable[[Stabiliser, np.ndarray, np.ndarray, int], "WalkPattern | None"]
-"""(stabiliser, q, v measured at tick k, k) -> the pattern re-planned from tick k, or None."""
 
 
 def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: float) -> Measured:
@@ -91,20 +82,15 @@ def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: fl
 
 
 def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0: np.ndarray,
-                     gains: StabiliserGains, settle_s: float, adapt: Adapt | None = None
-                     ) -> tuple[Measured, np.ndarray]:
-    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP); with
-    ``adapt`` the pattern re-planned from the state measured whenever it returns one (the steps adapted)."""
+                     gains: StabiliserGains, settle_s: float) -> tuple[Measured, np.ndarray]:
+    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP)."""
     stabiliser = Stabiliser(tracker, pattern, gains)
     measured, command, last = Measured(), np.asarray(q0, dtype=float).copy(), pattern.ticks - 1
     cpu = []
     with without_cyclic_gc():
         for k in range(1, pattern.ticks + int(round(settle_s / pattern.dt))):
             started = time.thread_time()
-            state = sim.state()
-            if adapt is not None and k - 1 <= last:
-                pattern = stabiliser.pattern = adapt(stabiliser, *state, k - 1) or pattern
-            offset, rotation = stabiliser.corrections(*state, min(k - 1, last))
+            offset, rotation = stabiliser.corrections(*sim.state(), min(k - 1, last))
             try:
                 command = tracker.step(command, pattern, min(k, last), offset, rotation)
             except NoQPSolutionError:
