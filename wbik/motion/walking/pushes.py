@@ -18,7 +18,7 @@ from wbik.motion.walking.tracking import Tracker, WalkMotion
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
 """Push directions in the frame of the walk's start heading (x ahead, y to the left)."""
 
-Play = Callable[["Push | None"], tuple[Simulation, Measured]]
+Play = Callable[[Push | None], tuple[Simulation, Measured]]
 """One run of a walk in a fresh scene, pushed or not."""
 
 
