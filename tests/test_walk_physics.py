@@ -13,7 +13,9 @@ import pinocchio as pin
 import pytest
 
 import wbik
-from wbik.motion.walking.physics import Measured, Servos, Simulation
+from wbik.errors import InvalidSettingError
+from wbik.motion.walking.physics import Measured, Push, Servos, Simulation
+from wbik.motion.walking.pushes import PushSettings, largest_recovered, push_in, single_supports
 from wbik.robot import robot_from_urdf_text
 
 pytest.importorskip("mujoco")
@@ -91,7 +93,9 @@ def test_a_short_walk_reports_its_physics_open_and_closed_loop():
             "timing": {"single_support_s": 0.25, "double_support_s": 0.1, "start_s": 0.3, "end_s": 0.3},
             "clearance": 0.015, "margin": 0.004, "preview": {"horizon_s": 1.0, "q": 1.0, "r": 1.0e-5},
             "physics": {"servos": {"kp": AX12.kp, "damping": AX12.damping, "torque_limit": AX12.torque_limit,
-                                   "armature": AX12.armature}, "settle_s": 0.2},
+                                   "armature": AX12.armature}, "settle_s": 0.2,
+                        "push": {"impulse_n_s": 0.05, "step": 1, "duration_s": 0.05, "directions": ["left"],
+                                 "search_up_to_n_s": 0.1, "resolution_n_s": 0.1}},
             "walks": [{"steps": 1, "length": 0.01}]}
     report = run_scenario(spec, source="one step")
     json.dumps(report)
@@ -99,12 +103,19 @@ def test_a_short_walk_reports_its_physics_open_and_closed_loop():
     physics = walk["physics"]
     for figures in (physics, physics["open_loop"]):
         assert isinstance(figures["fell"], bool) and figures["cop_margin_min_m"] is not None
-    assert physics["push_impulse_n_s"] == 0.0
+    assert physics["push_impulse_n_s"] == 0.0  # the runs above: unpushed
+    pushed = physics["pushed"]["left"]  # a small push sideways, halfway through the single support
+    assert pushed["push_impulse_n_s"] == 0.05 and not pushed["fell"]
+    assert pushed["at_s"] == pytest.approx(0.3 + 0.5 * 0.25, abs=0.006)
+    assert physics["push"]["body"] == "pelvis"
+    for figures in (physics, physics["open_loop"]):
+        assert figures["largest_push_recovered_n_s"]["left"] in (0.0, 0.1)
     assert 0 < physics["tick_cpu"]["median_s"] <= physics["tick_cpu"]["p95_s"]
     checks = {check["name"]: check for check in walk["expectations"]}
     assert checks["physics_fell"]["figure"] is physics["fell"]
     assert checks["physics_cop_margin_min_m"]["threshold"] == 0.004  # the walk's margin
     assert checks["physics_cop_margin_min_m"]["figure"] == physics["cop_margin_min_m"]
+    assert checks["physics_pushed_fell"]["figure"] is False
 
 
 def test_the_stabiliser_corrects_against_the_measured_errors_only(bioloid):
@@ -138,3 +149,35 @@ def test_the_stabiliser_corrects_against_the_measured_errors_only(bioloid):
     pitched[3:7] = (pin.Quaternion(pin.utils.rotate("y", 0.02)) * pin.Quaternion(q[6], *q[3:6])).coeffs()
     turned = pin.log3(corrections(pitched, v)[1] @ rotation.T)
     np.testing.assert_allclose(turned, [0.0, -0.5 * 0.02, 0.0], atol=1e-4)
+
+
+def test_a_push_gives_its_impulse_to_a_free_body():
+    robot = robot_from_urdf_text("block", BLOCK, floating_base=True, soles={"sole": [
+        [0.05, 0.03, 0.0], [-0.05, 0.03, 0.0], [-0.05, -0.03, 0.0], [0.05, -0.03, 0.0]]})
+    push = Push("block", (3.0, 4.0), 1.5, at_s=0.0123, duration_s=0.0456)  # not on the 1 ms steps
+    steps = np.arange(0.0, 0.2, 1e-3)
+    assert sum(np.linalg.norm(push.force(t, 1e-3)) * 1e-3 for t in steps) == pytest.approx(1.5, rel=1e-9)
+    q = robot.nominal.copy()
+    q[2] = 1.0  # in the air: no contact during the push
+    sim = Simulation(robot, Servos(1.0), q)
+    sim.push = push
+    held(sim, q, 0.1)
+    velocity = sim.data.qvel[:3]  # the block's origin; pushed at its CoM, it does not turn
+    np.testing.assert_allclose(velocity[:2], [1.5 / 2.0 * 0.6, 1.5 / 2.0 * 0.8], rtol=1e-6)
+    with pytest.raises(InvalidSettingError):
+        Push("block", (0.0, 0.0), 1.0, 0.0, 0.1)
+
+
+def test_a_push_falls_in_the_single_support_asked_and_the_search_brackets_the_largest():
+    support = [("l", "r")] * 3 + [("l",)] * 4 + [("l", "r")] * 2 + [("r",)] * 6 + [("l", "r")]
+    assert single_supports(support) == [(3, 7), (9, 15)]
+    settings = PushSettings(impulse_n_s=2.0, step=2, phase=0.5, directions=("left",))
+    push = push_in(settings, support, 0.01, "trunk", np.pi / 2, "left", 2.0)  # heading +y: left is -x
+    assert push.at_s == pytest.approx(0.12) and np.allclose(push.direction, (-1.0, 0.0))
+    with pytest.raises(InvalidSettingError):
+        push_in(PushSettings(1.0, step=3), support, 0.01, "trunk", 0.0, "left", 1.0)
+    with pytest.raises(InvalidSettingError):
+        PushSettings(1.0, directions=("up",))
+    tried = []
+    found = largest_recovered(lambda impulse: tried.append(impulse) or impulse <= 0.37, 1.0, 0.01)
+    assert 0.36 <= found <= 0.37 and len(tried) == 8  # the upper bound, then 7 halvings of 1.0 to < 0.01

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from wbik.errors import InvalidSettingError
 from wbik.mujoco_model import MuJoCoBody, captured_warnings, carrier, compiled_body, import_mink, robot_spec
 from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
@@ -33,6 +34,33 @@ class Servos:
     torque_limit: float | None = None
     armature: float = 0.0
     resolution: float = 0.0
+
+
+@dataclass(frozen=True)
+class Push:
+    """A horizontal force on the link ``body`` at its CoM along ``direction`` (world x, y), constant over
+    [``at_s``, ``at_s`` + ``duration_s``) of the walk's time, its impulse ``impulse_n_s`` (N s)."""
+
+    body: str
+    direction: tuple[float, float]
+    impulse_n_s: float
+    at_s: float
+    duration_s: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise InvalidSettingError(f"a push lasts > 0 s, got {self.duration_s}")
+        if not (math.isfinite(self.impulse_n_s) and self.impulse_n_s >= 0):
+            raise InvalidSettingError(f"a push's impulse is >= 0 N s, got {self.impulse_n_s}")
+        if not (len(self.direction) == 2 and np.all(np.isfinite(self.direction))
+                and np.hypot(*self.direction) > 0):
+            raise InvalidSettingError(f"a push's direction is a nonzero (x, y), got {self.direction}")
+
+    def force(self, start: float, step: float) -> np.ndarray:
+        """The mean force (N, world) over the physics step [start, start + step): the impulse exact."""
+        overlap = min(start + step, self.at_s + self.duration_s) - max(start, self.at_s)
+        unit = np.asarray(self.direction, dtype=float) / np.hypot(*self.direction)
+        return np.append(unit, 0.0) * (self.impulse_n_s / self.duration_s) * max(overlap, 0.0) / step
 
 
 @dataclass
@@ -79,6 +107,7 @@ class Simulation:
                            for sole in robot.soles}
         self.mass = float(self.model.body_subtreemass[0])
         self.time, self._force = 0.0, np.zeros(6)
+        self.push: Push | None = None
         self.data.qpos[:] = self.body.qpos(q)
         self.data.ctrl[:] = self.target = self._targets(q)
         mujoco.mj_forward(self.model, self.data)
@@ -123,6 +152,14 @@ class Simulation:
         targets = np.asarray(q, dtype=float)[self.target_index]
         step = self.servos.resolution
         return np.round(targets / step) * step if step > 0 else targets
+
+    def pushed(self, push: Push) -> None:
+        """The push's force over the coming physics step on its body (``xfrc_applied``)."""
+        body = self.mujoco.mj_name2id(self.model, self.mujoco.mjtObj.mjOBJ_BODY, push.body)
+        if body < 0:
+            raise InvalidSettingError(f"no body {push.body!r} to push; give a link of "
+                                            f"{self.robot.name!r}")
+        self.data.xfrc_applied[body, :3] = push.force(self.time, self.model.opt.timestep)
 
     def com(self) -> np.ndarray:
         """The simulated robot's CoM (world, m)."""
@@ -175,6 +212,8 @@ class Simulation:
         impulse, moment, pressed = 0.0, np.zeros(2), {}
         for step in range(1, steps + 1):
             self.data.ctrl[:] = start + (end - start) * (step / steps)
+            if self.push is not None:
+                self.pushed(self.push)
             self.mujoco.mj_step(self.model, self.data)
             self.time += self.model.opt.timestep
             total, step_moment, soles = self.contact_forces()

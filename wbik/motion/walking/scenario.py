@@ -11,14 +11,16 @@ import numpy as np
 from wbik.collision import capsule
 from wbik.expectations import Rule, judge
 from wbik.motion.walking.figures import walk_figures
-from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon
+from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon, yaw_of
 from wbik.motion.walking.pattern import PreviewSettings
 from wbik.motion.walking.physics import Servos
 from wbik.motion.walking.placo_pattern import placo_walk
+from wbik.motion.walking.pushes import DIRECTIONS, PushSettings, physics_compared, players, push_description
 from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures
 from wbik.motion.walking.static_gait import retimed, static_gait
 from wbik.motion.walking.timeline import Timing
 from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
+from wbik.mujoco_model import carrier
 from wbik.qp.task_entries import FRAME, VECTOR3
 from wbik.scenario_schema import (
     START,
@@ -51,6 +53,7 @@ WALK_RULES = {  # a walk on the full model, and its speed against the static gai
     "speed_ratio_min": Rule("speed_ratio_vs_static", ">="),
     "physics_fell": Rule("physics_fell", "=="),
     "physics_cop_margin_min_m": Rule("physics_cop_margin_min_m", ">=", "m"),
+    "physics_pushed_fell": Rule("physics_pushed_fell", "=="),
 }
 
 COMPARED = ("static", "static_balanced", "placo", "placo_ours")
@@ -114,11 +117,13 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
         judged = dict(entry)
         if spec["physics"] is not None:  # in physics too: standing, the CoP as far inside as the ZMP
-            tracker = Tracker(robot, feet, q0, settings, spec["backend"])
-            entry["physics"] = physics_figures(motion, tracker, q0, _physics_settings(spec["physics"]))
+            entry["physics"] = _in_physics(spec, motion, q0, feet, settings, solved)
             wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
             judged.update(physics_fell=entry["physics"]["fell"],
                           physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
+            if "pushed" in entry["physics"]:
+                wanted = {"physics_pushed_fell": False, **wanted}
+                judged["physics_pushed_fell"] = any(f["fell"] for f in entry["physics"]["pushed"].values())
         judge(entry, wanted, judged, WALK_RULES, f"walks[{entry['name']!r}] expect")
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
@@ -130,6 +135,25 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 def _physics_settings(given: dict) -> PhysicsSettings:
     return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
                            given["timestep"], given["friction"], given["settle_s"])
+
+
+def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict) -> dict:
+    """The walk in physics, closed and open loop, PlaCo's compared walks open loop, each pushed if asked."""
+    robot, pattern, physics = motion.pattern.robot, motion.pattern, _physics_settings(spec["physics"])
+    given = spec["physics"]["push"]
+    push = None if given is None else PushSettings(**{**given, "directions": tuple(given["directions"])})
+    tracker = Tracker(robot, feet, q0, settings, spec["backend"])
+    figures = physics_figures(motion, tracker, q0, physics)
+    placo = {label: solved[label] for label in ("placo", "placo_ours") if label in solved}
+    plays = players(motion, lambda: Tracker(robot, feet, q0, settings, spec["backend"]), q0, physics, placo)
+    walks = {"closed_loop": (pattern.support, pattern.dt, motion.q), "open_loop": (pattern.support,
+             pattern.dt, motion.q), **{label: (walk.support, float(walk.times[1] - walk.times[0]), walk.q)
+                                       for label, walk in placo.items()}}
+    body = carrier(robot, robot.frame_id(tracker.trunk))[0]
+    physics_compared(figures, plays, walks, push, body, yaw_of(robot.frame_placement(q0, feet.left).rotation))
+    if push is not None:
+        figures["push"] = push_description(push, body)
+    return figures
 
 
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
@@ -152,9 +176,11 @@ def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings,
                     "samples_solved": len(gait.q) - 1,
                     "com_margin_min_m": float(np.nanmin(gait.com_margin_m)), **found}
         return {**figures, **_balanced(gait, robot, feet, pattern, margin, dt)}
-    placo = placo_walk(robot, q0, pattern.footsteps, feet, trunk, "placo" if label == "placo" else "ours",
-                       timing, spec["clearance"], margin, spec["preview"]["horizon_s"], dt,
-                       spec["placo"]["iterations"])
+    if label not in solved:  # kept for the walk in physics
+        solved[label] = placo_walk(robot, q0, pattern.footsteps, feet, trunk,
+                                   "placo" if label == "placo" else "ours", timing, spec["clearance"], margin,
+                                   spec["preview"]["horizon_s"], dt, spec["placo"]["iterations"])
+    placo = solved[label]
     found, _ = walk_figures(robot, feet, placo.times, placo.q, placo.support, pattern.ground_z, margin,
                             placo.com)
     setting = "defaults" if label == "placo" else "ours"
@@ -200,14 +226,31 @@ def _physics_line(physics: dict) -> str:
     def run(figures: dict) -> str:
         fell = f"FELL at {figures['fell_at_s']:.2f} s" if figures["fell"] else "stood"
         margin = figures["cop_margin_min_m"]
-        return (f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm, "
-                f"{figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm")
+        travel = (f", {figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm"
+                  if "base_travel_m" in figures else "")
+        return f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm{travel}"
 
     ticks = physics["tick_cpu"]
-    return (f"physics: closed loop {run(physics)} (controller CPU per tick median "
+    line = (f"physics: closed loop {run(physics)} (controller CPU per tick median "
             f"{ticks['median_s'] * 1e3:.2f} ms, p95 {ticks['p95_s'] * 1e3:.2f} ms); open loop "
             f"{run(physics['open_loop'])}; "
             f"push {physics['push_impulse_n_s']:g} N s")
+    line += "".join(f"\n      physics, {label} open loop: {run(figures)}"
+                    for label, figures in physics.get("compared", {}).items())
+    if "push" in physics:
+        push = physics["push"]
+        line += "".join(f"\n      pushed {direction} {figures['push_impulse_n_s']:g} N s over "
+                        f"{push['duration_s']:g} s at {push['body']} ({figures['at_s']:.2f} s), closed loop: "
+                        f"{run(figures)}"
+                        for direction, figures in physics["pushed"].items())
+        runs = {"closed loop": physics, "open loop": physics["open_loop"], **physics.get("compared", {})}
+        largest = [f"{label} " + " / ".join(f"{value:.3g}" for value in found.values())
+                   for label, found in ((label, figures.get("largest_push_recovered_n_s"))
+                                        for label, figures in runs.items()) if found]
+        if largest:
+            line += (f"\n      largest push recovered ({' / '.join(push['directions'])}, N s): "
+                     + ", ".join(largest))
+    return line
 
 
 def _line(label: str, figures: dict) -> str:
@@ -270,6 +313,13 @@ def walk_schema() -> Map:
                        "dcm": Number(ge=0), "attitude": Number(ge=0),
                        "time_constant_s": Number(ge=0, unit="s"),
                        "com_offset_max": Number(ge=0, unit="m")}), {}),
+                   "push": Key(from_dataclass(PushSettings, {
+                       "impulse_n_s": Number(ge=0, unit="N s"), "step": Number(ge=1, integer=True),
+                       "phase": Number(ge=0, le=1), "duration_s": Number(gt=0, unit="s"),
+                       "directions": ListOf(Text(tuple(DIRECTIONS))),
+                       "search_up_to_n_s": Number(ge=0, unit="N s"),
+                       "resolution_n_s": Number(ge=0, unit="N s")}), None,
+                               doc="pushes on the trunk, and the search for the largest recovered"),
                    **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
                        ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
                        ("settle_s", Number(ge=0, unit="s")))}}, nullable=True)

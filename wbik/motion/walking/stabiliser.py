@@ -72,11 +72,11 @@ class Stabiliser:
         return self.offset.copy(), pin.exp3(-gains.attitude * tilt)
 
 
-def play_open_loop(sim: Simulation, pattern: WalkPattern, planned: np.ndarray, settle_s: float) -> Measured:
-    """The planned configurations as the servos' targets, one per tick, the last held ``settle_s``."""
+def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: float) -> Measured:
+    """The planned configurations as the servos' targets, one per ``dt`` (s), the last held ``settle_s``."""
     measured = Measured()
-    for k in range(1, len(planned) + int(round(settle_s / pattern.dt))):
-        if not sim.run(planned[min(k, len(planned) - 1)], pattern.dt, measured):
+    for k in range(1, len(planned) + int(round(settle_s / dt))):
+        if not sim.run(planned[min(k, len(planned) - 1)], dt, measured):
             break
     return measured
 
@@ -118,7 +118,7 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray, settin
     closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s)
     closed_figures = figures(sim, closed)
     sim = scene()
-    open_figures = figures(sim, play_open_loop(sim, pattern, motion.q, settings.settle_s))
+    open_figures = figures(sim, play_open_loop(sim, pattern.dt, motion.q, settings.settle_s))
     ticks = {"median_s": float(np.median(cpu)), "p95_s": float(np.percentile(cpu, 95)),
              "max_s": float(np.max(cpu))}
     return {**closed_figures, "push_impulse_n_s": 0.0, "tick_cpu": ticks, "open_loop": open_figures,
