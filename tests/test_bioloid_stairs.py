@@ -262,6 +262,17 @@ def test_stair_scenario_goes_up_and_down_again(tmp_path):
         before = [r for r in reads[:index] if r["after"] not in ("DownStair", "UpStair")][-2:]
         assert any(all(max(r["front_fsr_mv"][side]) < sensors.PS_THRESHOLD for r in before) for side in "rl")
     assert animation.frames <= len(entry["per_sample"])
+    # in MuJoCo: the figures judged as the file declares, per behaviour run in time order from t = 0
+    physics = entry["physics"]
+    checks = {check["name"]: check for check in entry["expectations"]}
+    assert checks["physics_fell"]["figure"] is physics["fell"]
+    assert checks["physics_cop_margin_min_m"]["figure"] == physics["cop_margin_min_m"]
+    runs = physics["per_behaviour"]
+    assert runs[0]["behaviour"] == "WalkSR1" and runs[0]["from_s"] == pytest.approx(0.0, abs=1e-9)
+    assert all(a["to_s"] == pytest.approx(b["from_s"], abs=1e-9) for a, b in zip(runs, runs[1:]))
+    assert 0 <= physics["simulated_s"] - runs[-1]["to_s"] < physics["tick_s"]  # a fall ends a tick early
+    assert min(r["cop_margin_min_m"] for r in runs) == physics["cop_margin_min_m"]
+    assert physics["fell"] == (physics["simulated_s"] < physics["planned_s"])
 
 
 def test_a_foot_into_a_riser_is_refused(robot):

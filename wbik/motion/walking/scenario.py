@@ -35,7 +35,8 @@ from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport
 from wbik.schema import Boolean, Context, Either, Key, ListOf, Map, Number, Text, default_of, from_dataclass
 from wbik.viz.animation import Animation, Overlays
 
-__all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
+__all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "physics_keys",
+           "walk_schema"]
 
 WALK_RULES = {  # a walk on the full model, and its speed against the static gait on the same footsteps
     "zmp_margin_min_m": Rule("zmp_margin_min_m", ">=", "m"),
@@ -231,6 +232,19 @@ def _line(label: str, figures: dict) -> str:
 
 
 # -- the schema ------------------------------------------------------------------------------------
+def physics_keys() -> dict[str, Key]:
+    """The keys of a ``physics`` block every scene shares: ``servos`` (:class:`Servos`), ``timestep``,
+    ``friction``, ``settle_s`` (:class:`PhysicsSettings`)."""
+    servos = from_dataclass(Servos, {
+        "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
+        "damping": Number(ge=0, unit="N m s/rad"), "torque_limit": Number(gt=0, nullable=True, unit="N m"),
+        "armature": Number(ge=0, unit="kg m^2"), "resolution": Number(ge=0, unit="rad")})
+    return {"servos": Key(servos, required=True),
+            **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
+                ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
+                ("settle_s", Number(ge=0, unit="s")))}}
+
+
 def walk_schema() -> Map:
     """The keys of a ``walk`` file."""
     defaults = TrackingSettings()
@@ -260,19 +274,11 @@ def walk_schema() -> Map:
                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)}, nullable=True)
     placo = Map({"iterations": Key(Number(ge=1, integer=True), default_of(placo_walk, "iterations"))},
                 nullable=True)
-    physics = Map({"servos": Key(from_dataclass(Servos, {
-                       "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
-                       "damping": Number(ge=0, unit="N m s/rad"),
-                       "torque_limit": Number(gt=0, nullable=True, unit="N m"),
-                       "armature": Number(ge=0, unit="kg m^2"), "resolution": Number(ge=0, unit="rad")}),
-                                 required=True),
+    physics = Map({**physics_keys(),
                    "stabiliser": Key(from_dataclass(StabiliserGains, {
                        "dcm": Number(ge=0), "attitude": Number(ge=0),
                        "time_constant_s": Number(ge=0, unit="s"),
-                       "com_offset_max": Number(ge=0, unit="m")}), {}),
-                   **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
-                       ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
-                       ("settle_s", Number(ge=0, unit="s")))}}, nullable=True)
+                       "com_offset_max": Number(ge=0, unit="m")}), {})}, nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")
 
