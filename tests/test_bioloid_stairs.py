@@ -269,7 +269,8 @@ def test_stair_scenario_goes_up_and_down_again(tmp_path):
     assert checks["physics_cop_margin_min_m"]["figure"] == physics["cop_margin_min_m"]
     runs = physics["per_behaviour"]
     assert runs[0]["behaviour"] == "WalkSR1" and runs[0]["from_s"] == pytest.approx(0.0, abs=1e-9)
-    assert all(a["to_s"] == pytest.approx(b["from_s"], abs=1e-9) for a, b in zip(runs, runs[1:]))
+    for before, after in zip(runs[:-1], runs[1:], strict=True):
+        assert before["to_s"] == pytest.approx(after["from_s"], abs=1e-9)
     assert 0 <= physics["simulated_s"] - runs[-1]["to_s"] < physics["tick_s"]  # a fall ends a tick early
     assert min(r["cop_margin_min_m"] for r in runs) == physics["cop_margin_min_m"]
     assert physics["fell"] == (physics["simulated_s"] < physics["planned_s"])

@@ -47,6 +47,11 @@ class Measured:
     """Each tick's end (s) and the margin of its CoP (m; NaN: no sole pressed)."""
     fell_at_s: float | None = None
     step_margin_min: float = math.inf
+    configurations: list = field(default_factory=list)
+    cops: list = field(default_factory=list)
+    """Each tick's end: the simulated configuration (wbik's q) and the tick's CoP (world, m; NaN: none)."""
+    pushes: list = field(default_factory=list)
+    """The pushes applied (:class:`wbik.viz.animation.PushArrow`: frame, start, end (s), force (N))."""
 
     def figures(self) -> dict:
         margins = np.asarray(self.margins, dtype=float)
@@ -206,4 +211,7 @@ class Simulation:
         every = sorted(set().union(*pressed))
         measured.times.append(self.time)
         measured.margins.append(self.support(every).margin_of(moment / impulse) if impulse > 0 else math.nan)
+        measured.configurations.append(self.body.q(self.data.qpos))
+        sole_z = np.mean([self.data.site_xpos[self.sole_sites[sole]][2] for sole in every]) if every else 0.0
+        measured.cops.append(np.append(moment / impulse, sole_z) if impulse > 0 else np.full(3, math.nan))
         return True

@@ -13,7 +13,7 @@ from wbik.expectations import Rule, judge
 from wbik.motion.walking.figures import walk_figures
 from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon
 from wbik.motion.walking.pattern import PreviewSettings
-from wbik.motion.walking.physics import Servos
+from wbik.motion.walking.physics import Measured, Servos
 from wbik.motion.walking.placo_pattern import placo_walk
 from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures
 from wbik.motion.walking.static_gait import retimed, static_gait
@@ -114,9 +114,11 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         default = {"zmp_margin_min_m": margin, "qp_failures_max": 0}
         wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
         judged = dict(entry)
+        simulated = None
         if spec["physics"] is not None:  # in physics too: standing, the CoP as far inside as the ZMP
             tracker = Tracker(robot, feet, q0, settings, spec["backend"])
-            entry["physics"] = physics_figures(motion, tracker, q0, _physics_settings(spec["physics"]))
+            entry["physics"], simulated = physics_figures(motion, tracker, q0,
+                                                          _physics_settings(spec["physics"]))
             wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
             judged.update(physics_fell=entry["physics"]["fell"],
                           physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
@@ -124,8 +126,23 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
                                                                        series["zmp"]), entry["name"])
+        if simulated is not None and simulated.configurations:
+            name = f"{entry['name']} (simulated, closed loop)"
+            animation = animation.then(simulated_animation(animation, simulated, name))
         run.add(entry, animation.subsampled(max(1, round(ANIMATION_SAMPLE_S / pattern.dt))))
     return run.finished()
+
+
+def simulated_animation(planned: Animation, simulated: Measured, name: str) -> Animation:
+    """The simulated robot tick by tick with the measured CoP and the pushes, the plan's support and ZMP at
+    the same times (its last sample's after its end)."""
+    times = np.asarray(simulated.times)
+    index = np.minimum(np.searchsorted(planned.times, times - 1e-9), planned.frames - 1)
+    support = None if planned.overlays.support is None else tuple(planned.overlays.support[k] for k in index)
+    zmp = None if planned.overlays.zmp is None else planned.overlays.zmp[index]
+    overlays = Overlays(planned.overlays.trace_frame, support, support, zmp, np.array(simulated.cops),
+                        tuple(simulated.pushes))
+    return Animation(planned.robot, times, np.array(simulated.configurations), overlays, name)
 
 
 def _physics_settings(given: dict) -> PhysicsSettings:
