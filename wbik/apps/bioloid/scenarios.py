@@ -14,7 +14,7 @@ from wbik.apps.bioloid.stairs_physics import stairs_physics
 from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases, step_forward_wholebody
 from wbik.expectations import ExpectationError, Rule, judge
 from wbik.motion.walking.physics import Servos
-from wbik.motion.walking.scenario import physics_keys
+from wbik.motion.walking.scenario import physics_keys, simulated_animation
 from wbik.motion.walking.stabiliser import PhysicsSettings
 from wbik.scenario_schema import (
     START,
@@ -34,6 +34,7 @@ from wbik.viz.animation import Animation, Overlays
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
+SIMULATED_SAMPLE_TICKS = 5  # physics ticks between two samples of the simulated stairs' animation
 
 # the faithful step: the mismatch a non-closed chain shows, CoM margin, lifted sole above the floor, limits
 FAITHFUL_RULES = {
@@ -244,16 +245,19 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
              "states": climb.states, "reads": climb.reads, "per_sample": climb.samples}
     wanted = {"reached_top": True, **({"reached_bottom": True} if stairs.descend else {}),
               **sample_guarantees(margin), **run.expect}
-    judged = dict(summary)
+    judged, simulated = dict(summary), None
     if spec["physics"] is not None:  # in MuJoCo too: standing, the CoP `margin` inside the soles pressed
         given = spec["physics"]
         settings = PhysicsSettings(Servos(**given["servos"]), timestep=given["timestep"],
                                    friction=given["friction"], settle_s=given["settle_s"])
-        entry["physics"] = stairs_physics(climb, timed, settings)
+        entry["physics"], simulated = stairs_physics(climb, timed, settings)
         wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
         judged.update(physics_fell=entry["physics"]["fell"],
                       physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
     animation = _motion_animation(climb.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
+    if simulated is not None and simulated.configurations:
+        played = simulated_animation(animation, simulated, "simulated, open loop")
+        animation = animation.then(played.subsampled(SIMULATED_SAMPLE_TICKS))
     run.add(judge(entry, wanted, judged, STAIR_RULES, "expect"),
             animation.with_environment(climb.scene_boxes()))
     return run.finished()

@@ -25,9 +25,9 @@ def behaviour_of(sample: dict) -> str:
     return (sample["phase"] or sample["state"]).split(":")[0]
 
 
-def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings) -> dict:
-    """The run's figures in physics: fell, the CoP margin (overall and per behaviour run), the base's
-    distance to the planned one at the end."""
+def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings) -> tuple[dict, Measured]:
+    """The run's figures in physics (fell, the CoP margin overall and per behaviour run, the base's distance
+    to the planned one at the end) and what it measured tick by tick."""
     robot, motion = run.robot, timed.motion
     sim = Simulation(robot, settings.servos, motion.q[0], 0.0, settings.timestep, settings.friction,
                      run.stairs.boxes())
@@ -58,4 +58,4 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
             "final_base_error_m": float(np.linalg.norm(final[:3] - motion.q[-1][:3])),
             "simulated_s": float(sim.time), "planned_s": timed.duration, "tick_s": TICK_S,
             "servos": asdict(settings.servos), "timestep_s": settings.timestep, "friction": settings.friction,
-            "mass_kg": sim.mass}
+            "mass_kg": sim.mass}, measured
