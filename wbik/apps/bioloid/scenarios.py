@@ -288,14 +288,17 @@ def format_report(report: dict) -> str:
 
 
 def _physics_line(physics: dict) -> str:
-    """Fell or stood, the CoP margin overall and per behaviour run (mm; '-': no sole pressed)."""
+    """Fell or stood, the CoP margin overall and per behaviour run (mm; '-': no sole pressed), the base's
+    distance to the plan at each run's end."""
     def mm(value) -> str:
         return "-" if value is None else f"{value * 1e3:.1f}"
 
     fell = f"FELL at {physics['fell_at_s']:.2f} s" if physics["fell"] else "stood"
-    runs = "; ".join(f"{b['behaviour']} {mm(b['cop_margin_min_m'])}" for b in physics["per_behaviour"])
+    runs = "; ".join(f"{b['behaviour']} {mm(b['cop_margin_min_m'])} ({mm(b['base_error_m'])})"
+                     for b in physics["per_behaviour"])
     return (f"physics (open loop, {physics['simulated_s']:.2f} of {physics['planned_s']:.2f} s): {fell}, "
-            f"CoP margin min {mm(physics['cop_margin_min_m'])} mm, per behaviour (mm): {runs}")
+            f"CoP margin min {mm(physics['cop_margin_min_m'])} mm; per behaviour, mm: CoP margin min (the "
+            f"base off the plan at its end): {runs}")
 
 
 def _short(value) -> str:

@@ -26,8 +26,9 @@ def behaviour_of(sample: dict) -> str:
 
 
 def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings) -> tuple[dict, Measured]:
-    """The run's figures in physics (fell, the CoP margin overall and per behaviour run, the base's distance
-    to the planned one at the end) and what it measured tick by tick."""
+    """The run's figures in physics (fell, the CoP margin overall and per behaviour run with the base's
+    horizontal distance to the planned one at its end, the base's distance at the end) and what it measured
+    tick by tick."""
     robot, motion = run.robot, timed.motion
     sim = Simulation(robot, settings.servos, motion.q[0], 0.0, settings.timestep, settings.friction,
                      run.stairs.boxes())
@@ -48,10 +49,13 @@ def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings)
     for label, group in groupby(tick_labels):
         count = len(list(group))
         span = margins[start:start + count]
+        last = start + count - 1
+        planned = motion.q[min(sample_of[last], len(motion.q) - 1)]
         per_behaviour.append({
             "behaviour": label, "from_s": float(measured.times[start] - TICK_S),
-            "to_s": float(measured.times[start + count - 1]),
-            "cop_margin_min_m": None if np.all(np.isnan(span)) else float(np.nanmin(span))})
+            "to_s": float(measured.times[last]),
+            "cop_margin_min_m": None if np.all(np.isnan(span)) else float(np.nanmin(span)),
+            "base_error_m": float(np.linalg.norm(measured.configurations[last][:2] - planned[:2]))})
         start += count
     final, _ = sim.state()
     return {**measured.figures(), "per_behaviour": per_behaviour,
