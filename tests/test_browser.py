@@ -137,7 +137,7 @@ def test_stair_walk_page_shows_the_staircase_and_the_floor_under_the_feet():
 
 
 def test_simulated_walk_page_draws_the_cop_and_a_push_arrow():
-    """A walk with ``physics``: the planned walk, then the simulated one with its measured CoP; a push record
+    """A walk with ``physics`` plays as simulated, with its measured CoP beside the planned ZMP; a push record
     is drawn as an arrow ending on the pushed frame while it lasts (one short step, to keep it fast)."""
     from dataclasses import replace
 
@@ -153,10 +153,11 @@ def test_simulated_walk_page_draws_the_cop_and_a_push_arrow():
                         "settle_s": 0.2},
             "walks": [{"steps": 1, "length": 0.01}]}
     animation = run_scenario_report(spec, source="one step").animation
-    cop = animation.overlays.cop
-    simulated = ~np.all(np.isnan(cop), axis=1)  # the planned part has no measured CoP
-    assert simulated.any() and not simulated[0] and simulated[-1]
     assert animation.name.endswith("(simulated, closed loop)")
+    assert not np.isnan(animation.overlays.cop).any() and not np.isnan(animation.overlays.zmp).all()
+    planned = animation.robot.frame_placement(animation.configurations[0], "pelvis").translation
+    assert 0 < np.linalg.norm(planned - animation.robot.frame_placement(animation.robot.nominal, "pelvis")
+                              .translation) < 0.01  # the simulated robot, a tick after the start
     push = PushArrow("pelvis", 0.0, float(animation.times[-1] - animation.times[0]), (0.0, -15.0, 0.0))
     pushed = replace(animation, overlays=replace(animation.overlays, pushes=(push,)))
     viewer = animation_viewer(pushed)

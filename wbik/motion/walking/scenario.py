@@ -126,9 +126,8 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
                                                                        series["zmp"]), entry["name"])
-        if simulated is not None and simulated.configurations:
-            name = f"{entry['name']} (simulated, closed loop)"
-            animation = animation.then(simulated_animation(animation, simulated, name))
+        if simulated is not None and simulated.configurations:  # the simulated robot instead of the plan
+            animation = simulated_animation(animation, simulated, f"{entry['name']} (simulated, closed loop)")
         run.add(entry, animation.subsampled(max(1, round(ANIMATION_SAMPLE_S / pattern.dt))))
     return run.finished()
 
