@@ -133,15 +133,16 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 
 def simulated_animation(planned: Animation, simulated: Measured, name: str) -> Animation:
-    """The simulated robot tick by tick with the measured CoP and the pushes, the plan's support and ZMP at
-    the same times (its last sample's after its end)."""
-    times = np.asarray(simulated.times)
+    """The simulated robot tick by tick up to the plan's end (the settling after it is in the figures only)
+    with the measured CoP and the pushes, the plan's support and ZMP at the same times."""
+    kept = int(np.searchsorted(simulated.times, planned.times[-1] + 1e-9))
+    times = np.asarray(simulated.times[:kept])
     index = np.minimum(np.searchsorted(planned.times, times - 1e-9), planned.frames - 1)
     support = None if planned.overlays.support is None else tuple(planned.overlays.support[k] for k in index)
     zmp = None if planned.overlays.zmp is None else planned.overlays.zmp[index]
-    overlays = Overlays(planned.overlays.trace_frame, support, support, zmp, np.array(simulated.cops),
+    overlays = Overlays(planned.overlays.trace_frame, support, support, zmp, np.array(simulated.cops[:kept]),
                         tuple(simulated.pushes))
-    return Animation(planned.robot, times, np.array(simulated.configurations), overlays, name)
+    return Animation(planned.robot, times, np.array(simulated.configurations[:kept]), overlays, name)
 
 
 def _physics_settings(given: dict) -> PhysicsSettings:
