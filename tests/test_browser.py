@@ -134,3 +134,35 @@ def test_stair_walk_page_shows_the_staircase_and_the_floor_under_the_feet():
     grid = next(c for c in commands if c["path"] == "/Grid")
     matrix = np.array(grid["matrix"]).reshape(4, 4).T  # meshcat sends column-major
     assert matrix[2, 3] == pytest.approx(-1e-4, abs=1e-9) and matrix[0, 0] == pytest.approx(viewer.grid_scale)
+
+
+def test_simulated_walk_page_draws_the_cop_and_a_push_arrow():
+    """A walk with ``physics`` plays as simulated, with its measured CoP beside the planned ZMP; a push record
+    is drawn as an arrow ending on the pushed frame while it lasts (one short step, to keep it fast)."""
+    from dataclasses import replace
+
+    from wbik.scenarios import run_scenario_report
+    from wbik.viz.animation import PushArrow
+    from wbik.viz.viewer import animation_viewer
+
+    arms = [f"{s}_{n}" for s in "rl" for n in ("shoulder_pitch", "shoulder_roll", "elbow")]
+    spec = {"kind": "walk", "name": "one step", "robot": "bioloid", "trunk": "pelvis", "locked": arms,
+            "timing": {"single_support_s": 0.25, "double_support_s": 0.1, "start_s": 0.3, "end_s": 0.3},
+            "clearance": 0.015, "margin": 0.004, "preview": {"horizon_s": 1.0, "q": 1.0, "r": 1.0e-5},
+            "physics": {"servos": {"kp": 37.05, "damping": 0.243, "torque_limit": 1.5, "armature": 1e-3},
+                        "settle_s": 0.2},
+            "walks": [{"steps": 1, "length": 0.01}]}
+    animation = run_scenario_report(spec, source="one step").animation
+    assert animation.name.endswith("(simulated, closed loop)")
+    assert not np.isnan(animation.overlays.cop).any() and not np.isnan(animation.overlays.zmp).all()
+    planned = animation.robot.frame_placement(animation.configurations[0], "pelvis").translation
+    assert 0 < np.linalg.norm(planned - animation.robot.frame_placement(animation.robot.nominal, "pelvis")
+                              .translation) < 0.01  # the simulated robot, a tick after the start
+    push = PushArrow("pelvis", 0.0, float(animation.times[-1] - animation.times[0]), (0.0, -15.0, 0.0))
+    pushed = replace(animation, overlays=replace(animation.overlays, pushes=(push,)))
+    viewer = animation_viewer(pushed)
+    image = render_checked(viewer, "bioloid_walk_simulated_push")
+    viewer.meshcat["wbik/pushes"].set_property("visible", False)
+    without = render_checked(viewer, "bioloid_walk_simulated_without_push")
+    changed = np.count_nonzero(np.abs(image - without).sum(axis=2) > 60)
+    assert changed > 300, f"only {changed} pixels change when the push arrow is hidden: no arrow drawn"

@@ -368,3 +368,32 @@ def test_played_walk_shows_the_support_of_each_sample():
     assert visible("support/polygon_1") == [(0.0, False), (20.0, True)]
     assert visible("support/com_ground_outside") == [(0.0, False), (20.0, True)]
     assert visible("contacts/l_sole") == [(0.0, True), (20.0, False)]
+
+
+def test_a_push_is_an_arrow_on_its_frame_while_it_lasts_and_joins_shift_it():
+    from wbik.viz.animation import Animation, Overlays, PushArrow
+
+    robot = wbik.load("bioloid")
+    with pytest.raises(InvalidConfigurationError, match="non-zero force"):
+        PushArrow("pelvis", 0.0, 1.0, (0.0, 0.0, 0.0))
+    rows = np.array([robot.nominal] * 3)
+    cop = np.array([[0.0, 0.0, 0.0], [np.nan] * 3, [0.01, 0.0, 0.0]])
+    pushed = Animation(robot, [0.0, 1.0, 2.0], rows, Overlays(cop=cop, pushes=(PushArrow(
+        "pelvis", 0.5, 1.5, (0.0, -20.0, 0.0)),)))
+    joined = Animation(robot, [0.0, 1.0, 2.0], rows).then(pushed, pause=0.5)
+    assert joined.overlays.pushes[0].start_s == pytest.approx(3.0)  # 2.5 s later (it starts at 2.5 s)
+    assert np.all(np.isnan(joined.overlays.cop[:3])) and joined.overlays.cop[5, 0] == 0.01
+    viewer = Viewer(robot)
+    viewer.play_animation(pushed, fps=10)
+    clips = {entry["path"]: entry["clip"] for entry in
+             umsgpack.unpackb(viewer.window.root.animation)["animations"]}
+    tracks = {t["name"]: t["keys"] for t in clips["/meshcat/wbik/pushes/0"]["tracks"]}
+    assert [(key["time"], key["value"]) for key in tracks[".visible"]] == [
+        (0.0, False), (10.0, True), (20.0, False)]  # shown at the sample in [0.5, 1.5] s only
+    x, y, z, w = tracks[".quaternion"][0]["value"]  # meshcat keys a pose as position and quaternion
+    rotation = pin.Quaternion(w, x, y, z).toRotationMatrix()
+    np.testing.assert_allclose(rotation[:, 1], [0.0, -1.0, 0.0], atol=1e-12)  # the arrow along the force
+    tip_gap = robot.frame_placement(robot.nominal, "pelvis").translation - tracks[".position"][0]["value"]
+    assert tip_gap[1] < 0 and np.allclose(tip_gap[[0, 2]], 0.0, atol=1e-12)  # short of the frame, before it
+    cop_track = {t["name"] for t in clips["/meshcat/wbik/cop/marker"]["tracks"]}
+    assert ".visible" in cop_track  # hidden at the sample without contact

@@ -26,14 +26,40 @@ def _per_sample(value, count: int, what: str) -> tuple[Feet, ...] | None:
 
 
 @dataclass(frozen=True)
+class PushArrow:
+    """A push on ``frame`` from ``start_s`` to ``end_s`` (s), ``force_n`` (world, N), drawn as an arrow."""
+
+    frame: str
+    start_s: float
+    end_s: float
+    force_n: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        force = np.asarray(self.force_n, dtype=float).reshape(-1)
+        if force.shape != (3,) or not np.all(np.isfinite(force)) or not np.any(force):
+            raise InvalidConfigurationError(f"a push needs a finite, non-zero force (x, y, z) in N, "
+                                            f"got {self.force_n}")
+        if not self.end_s >= self.start_s:
+            raise InvalidConfigurationError(f"a push ends after it starts, got {self.start_s} to "
+                                            f"{self.end_s} s")
+        object.__setattr__(self, "force_n", tuple(float(f) for f in force))
+
+    def shifted(self, seconds: float) -> PushArrow:
+        return replace(self, start_s=self.start_s + seconds, end_s=self.end_s + seconds)
+
+
+@dataclass(frozen=True)
 class Overlays:
     """Drawn with the robot: ``trace_frame``'s path; per sample the soles down (``support``: with the CoM),
-    the frames in ``contacts`` and the ``zmp`` (K, 3; world, m; NaN rows for none)."""
+    the frames in ``contacts``, the ``zmp`` and the measured ``cop`` (K, 3; world, m; NaN rows for none);
+    the ``pushes``."""
 
     trace_frame: str | None = None
     support: tuple[Feet, ...] | None = None
     contacts: tuple[Feet, ...] | None = None
     zmp: np.ndarray | None = None
+    cop: np.ndarray | None = None
+    pushes: tuple[PushArrow, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -63,10 +89,16 @@ class Animation:
         if np.any(np.diff(times) <= 0):
             raise InvalidConfigurationError(f"animation {self.name!r}: times must be strictly increasing")
         overlays = self.overlays
-        zmp = None if overlays.zmp is None else np.asarray(overlays.zmp, dtype=float)
-        if zmp is not None and zmp.shape != (len(times), 3):
-            raise InvalidConfigurationError(f"animation {self.name!r}: the ZMP needs one (x, y, z) per "
-                                            f"sample ({len(times)}, 3), got {zmp.shape}")
+        points = {}
+        for what in ("zmp", "cop"):
+            value = getattr(overlays, what)
+            points[what] = None if value is None else np.asarray(value, dtype=float)
+            if value is not None and points[what].shape != (len(times), 3):
+                raise InvalidConfigurationError(f"animation {self.name!r}: the {what.upper()} needs one "
+                                                f"(x, y, z) per sample ({len(times)}, 3), got "
+                                                f"{points[what].shape}")
+        if not all(isinstance(push, PushArrow) for push in overlays.pushes):
+            raise InvalidConfigurationError(f"animation {self.name!r}: pushes must be PushArrow")
         boxes = tuple(self.environment)
         if not all(isinstance(box, SceneBox) for box in boxes):
             raise InvalidConfigurationError(f"animation {self.name!r}: environment items must be SceneBox")
@@ -75,7 +107,8 @@ class Animation:
         object.__setattr__(self, "environment", boxes)
         object.__setattr__(self, "overlays", replace(
             overlays, support=_per_sample(overlays.support, len(times), "support"),
-            contacts=_per_sample(overlays.contacts, len(times), "contacts"), zmp=zmp))
+            contacts=_per_sample(overlays.contacts, len(times), "contacts"), **points,
+            pushes=tuple(overlays.pushes)))
 
     @property
     def frames(self) -> int:
@@ -136,12 +169,13 @@ class Animation:
             parts = [(getattr(part.overlays, overlay), part.frames) for part in (self, other)]
             if all(value is None for value, _ in parts):
                 return None
-            if overlay == "zmp":
+            if overlay in ("zmp", "cop"):
                 return np.vstack([np.full((n, 3), np.nan) if value is None else value for value, n in parts])
             return sum((((),) * n if value is None else value for value, n in parts), ())
 
+        later = tuple(push.shifted(times[self.frames] - other.times[0]) for push in other.overlays.pushes)
         overlays = Overlays(self.overlays.trace_frame or other.overlays.trace_frame, joined("support"),
-                            joined("contacts"), joined("zmp"))
+                            joined("contacts"), joined("zmp"), joined("cop"), self.overlays.pushes + later)
         rows = np.vstack([self.configurations, other.configurations])
         name = " + ".join(n for n in (self.name, other.name) if n)
         both = replace(self, times=times, configurations=rows, overlays=overlays, name=name)
@@ -159,4 +193,5 @@ class Animation:
         overlays = self.overlays
         return replace(self, times=self.times[index], configurations=self.configurations[index],
                        overlays=replace(overlays, support=pick(overlays.support),
-                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp)))
+                                        contacts=pick(overlays.contacts), zmp=pick(overlays.zmp),
+                                        cop=pick(overlays.cop)))

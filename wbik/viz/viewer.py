@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+import wbik.viz.arrows as arrows
 import wbik.viz.geometry as robot_geometry
 from wbik.errors import InvalidConfigurationError, UnsupportedError
 from wbik.files import atomic_write_text
@@ -26,7 +27,7 @@ from wbik.qp.kinematics import Kinematics
 from wbik.qp.support_polygon import SupportPolygon, contact_points
 from wbik.robot import Chain, Robot
 from wbik.targets import as_target
-from wbik.viz.animation import Animation
+from wbik.viz.animation import Animation, PushArrow
 from wbik.viz.environment import SceneBox, robot_cell
 from wbik.viz.scene import SceneRecorder, ServerWindow
 
@@ -40,6 +41,10 @@ INSIDE_COLOR = 0x22AA44
 OUTSIDE_COLOR = 0xDD2222
 CONTACT_COLOR = 0x2288EE
 ZMP_COLOR = 0xFF7F00
+COP_COLOR = 0x00CCCC  # the measured centre of pressure (physics)
+PUSH_COLOR = 0xE0115F
+PUSH_ARROW_RATIO = 0.5  # a push arrow's length: this fraction of the robot's extent
+PUSH_GAP_RATIO = 0.15  # its tip this fraction of the extent short of the pushed frame (outside the body)
 POLYGON_TOLERANCE = 0.005
 """m: a played support polygon is drawn anew when its soles change or move more than this."""
 
@@ -353,9 +358,11 @@ class Viewer:
         return clip, keys, path
 
     def _track(self, clip, keys: Sequence[float], path: str, positions) -> None:
+        """``path`` keyed at each position (world, m) or 4 x 4 pose."""
         for key, position in zip(keys, positions, strict=True):
             with clip.at_frame(self.meshcat, key) as frame:
-                frame[path].set_transform(_translation(position))
+                pose = position if np.shape(position) == (4, 4) else _translation(position)
+                frame[path].set_transform(pose)
 
     def _visibility(self, clip, path: str, keys: list[float], visible: Sequence[bool]) -> None:
         """``path`` shown as ``visible[0]``, then keyed where ``visible`` changes (three.js holds it)."""
@@ -380,8 +387,11 @@ class Viewer:
         self.show_environment(animation.environment)
         self.place_grid(self.ground_height(rows[0]))
         self._camera_keyframes(clip, keys, rows, times)
-        if overlays.zmp is not None:
-            self._zmp_keyframes(clip, keys, np.vstack([overlays.zmp] * repeat))
+        for name, points, color in (("zmp", overlays.zmp, ZMP_COLOR), ("cop", overlays.cop, COP_COLOR)):
+            if points is not None:
+                self._point_keyframes(clip, keys, np.vstack([points] * repeat), name, color)
+        if overlays.pushes:
+            self._push_keyframes(clip, keys, rows, times, overlays.pushes)
         margins = None
         if overlays.support is not None and self.robot.soles:
             margins = self._support_keyframes(clip, keys, rows, overlays.support * repeat)
@@ -402,17 +412,35 @@ class Viewer:
         smooth = np.column_stack([np.convolve(padded[:, axis], kernel, mode="valid") for axis in range(3)])
         self._track(clip, keys, "/Cameras/default", smooth)
 
-    def _zmp_keyframes(self, clip, keys: list[float], zmp: np.ndarray) -> None:
-        """A ZMP marker (hidden where there is none) and its path."""
-        path = self.clear("zmp")
-        finite = np.all(np.isfinite(zmp), axis=1)
+    def _point_keyframes(self, clip, keys: list[float], points: np.ndarray, name: str, color: int) -> None:
+        """A marker of a point per sample (the ZMP, the CoP; hidden where there is none) and its path."""
+        path = self.clear(name)
+        finite = np.all(np.isfinite(points), axis=1)
         if not finite.any():
             return
-        self._sphere(f"{path}/marker", zmp[int(np.argmax(finite))], 0.015 * self.extent, ZMP_COLOR)
-        self._line(f"{path}/path", zmp[finite] + [0.0, 0.0, 2e-4], ZMP_COLOR)
+        self._sphere(f"{path}/marker", points[int(np.argmax(finite))], 0.015 * self.extent, color)
+        self._line(f"{path}/path", points[finite] + [0.0, 0.0, 2e-4], color)
         self._track(clip, [key for key, ok in zip(keys, finite, strict=True) if ok], f"{path}/marker",
-                    zmp[finite])
+                    points[finite])
         self._visibility(clip, f"{path}/marker", keys, [bool(v) for v in finite])
+
+    def _push_keyframes(self, clip, keys: list[float], rows: list[np.ndarray], times: np.ndarray,
+                        pushes: Sequence[PushArrow]) -> None:
+        """Each push an arrow ending on its frame, shown from its start to its end."""
+        import meshcat.geometry as mg
+
+        path = self.clear("pushes")
+        for index, push in enumerate(pushes):
+            node = self.meshcat[f"{path}/{index}"]
+            for part, geometry, pose in arrows.arrow_parts(PUSH_ARROW_RATIO * self.extent):
+                node[part].set_object(geometry, mg.MeshLambertMaterial(color=PUSH_COLOR))
+                node[part].set_transform(pose)
+            poses = [arrows.arrow_pose(self.frame_pose(push.frame, q).translation, push.force_n,
+                                       PUSH_GAP_RATIO * self.extent) for q in rows]
+            node.set_transform(poses[0])
+            self._track(clip, keys, f"{path}/{index}", poses)
+            during = (times - times[0] >= push.start_s - 1e-9) & (times - times[0] <= push.end_s + 1e-9)
+            self._visibility(clip, f"{path}/{index}", keys, [bool(v) for v in during])
 
     def _support_keyframes(self, clip, keys: list[float], rows: list[np.ndarray],
                            support: Sequence[tuple[str, ...]]) -> np.ndarray:

@@ -10,8 +10,12 @@ from wbik.apps.bioloid.gait import GaitParameters, TimedMotion, step_forward_fai
 from wbik.apps.bioloid.placo_walk import placo_walk
 from wbik.apps.bioloid.sensors import stance_loads
 from wbik.apps.bioloid.stairs import Staircase, simulate_stairs
+from wbik.apps.bioloid.stairs_physics import stairs_physics
 from wbik.apps.bioloid.step_wholebody import current_soles, solve_phases, step_forward_wholebody
 from wbik.expectations import ExpectationError, Rule, judge
+from wbik.motion.walking.physics import Servos
+from wbik.motion.walking.scenario import physics_keys, simulated_animation
+from wbik.motion.walking.stabiliser import PhysicsSettings
 from wbik.scenario_schema import (
     START,
     Robot,
@@ -30,6 +34,7 @@ from wbik.viz.animation import Animation, Overlays
 
 VELOCITY_TOLERANCE = 1e-9
 FAITHFUL_SAMPLE_S = 0.2  # s between two samples of the faithful step's animation (it is not timed)
+SIMULATED_SAMPLE_TICKS = 5  # physics ticks between two samples of the simulated stairs' animation
 
 # the faithful step: the mismatch a non-closed chain shows, CoM margin, lifted sole above the floor, limits
 FAITHFUL_RULES = {
@@ -71,6 +76,8 @@ STAIR_RULES = {  # the top (and the floor beyond), the samples, the swing sole's
     **SAMPLE_RULES,
     "clearance_min_m": Rule("min_clearance_m", ">=", "m"),
     "penetration_max_m": Rule("max_penetration_m", "<=", "m"),
+    "physics_fell": Rule("physics_fell", "=="),
+    "physics_cop_margin_min_m": Rule("physics_cop_margin_min_m", ">=", "m"),
 }
 STANCE_RULES = {"cop_error_max_m": Rule("cop_minus_com_m", "<=", "m")}  # statics: the CoP is the CoM's
 
@@ -238,8 +245,20 @@ def run_stairs(spec: dict, on_progress: Progress = None) -> ScenarioReport:
              "states": climb.states, "reads": climb.reads, "per_sample": climb.samples}
     wanted = {"reached_top": True, **({"reached_bottom": True} if stairs.descend else {}),
               **sample_guarantees(margin), **run.expect}
+    judged, simulated = dict(summary), None
+    if spec["physics"] is not None:  # in MuJoCo too: standing, the CoP `margin` inside the soles pressed
+        given = spec["physics"]
+        settings = PhysicsSettings(Servos(**given["servos"]), timestep=given["timestep"],
+                                   friction=given["friction"], settle_s=given["settle_s"])
+        entry["physics"], simulated = stairs_physics(climb, timed, settings)
+        wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
+        judged.update(physics_fell=entry["physics"]["fell"],
+                      physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
     animation = _motion_animation(climb.motion, timed.sample_times, "bioloid stairs", trace_frame="pelvis")
-    run.add(judge(entry, wanted, dict(summary), STAIR_RULES, "expect"),
+    if simulated is not None and simulated.configurations:
+        played = simulated_animation(animation, simulated, "simulated, open loop")
+        animation = animation.then(played.subsampled(SIMULATED_SAMPLE_TICKS))
+    run.add(judge(entry, wanted, judged, STAIR_RULES, "expect"),
             animation.with_environment(climb.scene_boxes()))
     return run.finished()
 
@@ -259,9 +278,27 @@ def run_stance_sensors(spec: dict, on_progress: Progress = None) -> ScenarioRepo
 
 
 def format_report(report: dict) -> str:
-    hidden = ("name", "passed", "per_phase", "source", "final_soles", "expectations", "verdict")
-    return format_entries(report, "behaviours", lambda entry: ", ".join(
-        f"{k} {_short(v)}" for k, v in entry.items() if k not in hidden))
+    hidden = ("name", "passed", "per_phase", "source", "final_soles", "expectations", "verdict", "physics")
+
+    def describe(entry: dict) -> str:
+        line = ", ".join(f"{k} {_short(v)}" for k, v in entry.items() if k not in hidden)
+        return line if "physics" not in entry else f"{line}\n      {_physics_line(entry['physics'])}"
+
+    return format_entries(report, "behaviours", describe)
+
+
+def _physics_line(physics: dict) -> str:
+    """Fell or stood, the CoP margin overall and per behaviour run (mm; '-': no sole pressed), the base's
+    distance to the plan at each run's end."""
+    def mm(value) -> str:
+        return "-" if value is None else f"{value * 1e3:.1f}"
+
+    fell = f"FELL at {physics['fell_at_s']:.2f} s" if physics["fell"] else "stood"
+    runs = "; ".join(f"{b['behaviour']} {mm(b['cop_margin_min_m'])} ({mm(b['base_error_m'])})"
+                     for b in physics["per_behaviour"])
+    return (f"physics (open loop, {physics['simulated_s']:.2f} of {physics['planned_s']:.2f} s): {fell}, "
+            f"CoP margin min {mm(physics['cop_margin_min_m'])} mm; per behaviour, mm: CoP margin min (the "
+            f"base off the plan at its end): {runs}")
 
 
 def _short(value) -> str:
@@ -326,6 +363,8 @@ def bioloid_schema(kind: str) -> Map:
                 "stairs": Key(Map(from_dataclass(Staircase, {"descend": Boolean()}).keys, nullable=True), {}),
                 "climbs": Key(Number(ge=1, integer=True, nullable=True),
                               default_of(simulate_stairs, "climbs")),
+                "physics": Key(Map(physics_keys(), nullable=True), None,
+                               doc="the run in MuJoCo on the staircase's boxes, open loop"),
                 "expect": Key(expect_block(STAIR_RULES), None)}
     elif kind == "bioloid_placo_walk":
         keys = {**margin, "steps": Key(Number(ge=1, integer=True), default_of(placo_walk, "steps")),

@@ -3,11 +3,13 @@ box under each sole (``robot.soles``), a position servo on every 1-DOF joint, to
 clip(kp (target - q) - kv q', +-limit) - damping q' (``damping``: a motor's back-EMF, stall torque /
 no-load speed). Each control tick's target, rounded to the servo's resolution, is reached at constant speed
 over the tick (a goal position with a moving speed, as Dynamixels take them). The centre of pressure of a
-tick: p = sum f_n r / sum f_n over its physics steps and sole-floor contacts (normal force f_n at r)."""
+tick: p = sum f_n r / sum f_n over its physics steps and sole contacts (normal force f_n at r). Optional
+terrain: solid boxes on the floor (a staircase's steps), the soles' contacts with them counted too."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,7 +21,7 @@ from wbik.qp.support_polygon import SupportPolygon
 from wbik.robot import Robot
 
 SOLE_THICKNESS = 0.004  # m: the sole boxes, their underside on the sole's plane
-FALLEN_HEIGHT_RATIO = 0.75  # fallen: the CoM below this fraction of its starting height above the floor
+FALLEN_HEIGHT_RATIO = 0.75  # fallen: the CoM below this fraction of its starting height above the ground
 
 
 @dataclass(frozen=True)
@@ -73,6 +75,11 @@ class Measured:
     """Each tick's end (s) and the margin of its CoP (m; NaN: no sole pressed)."""
     fell_at_s: float | None = None
     step_margin_min: float = math.inf
+    configurations: list = field(default_factory=list)
+    cops: list = field(default_factory=list)
+    """Each tick's end: the simulated configuration (wbik's q) and the tick's CoP (world, m; NaN: none)."""
+    pushes: list = field(default_factory=list)
+    """The pushes applied (:class:`wbik.viz.animation.PushArrow`: frame, start, end (s), force (N))."""
 
     def figures(self) -> dict:
         margins = np.asarray(self.margins, dtype=float)
@@ -87,12 +94,15 @@ class Measured:
 
 
 class Simulation:
-    """``robot`` standing at ``q`` on the floor z = ``ground_z``, its servos holding q."""
+    """``robot`` standing at ``q`` on the floor z = ``ground_z``, its servos holding q; ``boxes``: (lower,
+    upper) corners (m) of solid boxes on the floor (the ground under a point: the highest top over it)."""
 
     def __init__(self, robot: Robot, servos: Servos, q: np.ndarray, ground_z: float = 0.0,
-                 timestep: float = 0.001, friction: float = 1.0):
+                 timestep: float = 0.001, friction: float = 1.0,
+                 boxes: Sequence[tuple[np.ndarray, np.ndarray]] = ()):
         _, mujoco = import_mink("the walk's physics")
         self.mujoco, self.robot, self.servos, self.ground_z = mujoco, robot, servos, float(ground_z)
+        self.boxes = [(np.asarray(low, dtype=float), np.asarray(high, dtype=float)) for low, high in boxes]
         model = robot.model
         self.joints = [j for j in range(2 if robot.has_floating_base else 1, model.njoints)]
         warnings: list[str] = []
@@ -111,7 +121,7 @@ class Simulation:
         self.data.qpos[:] = self.body.qpos(q)
         self.data.ctrl[:] = self.target = self._targets(q)
         mujoco.mj_forward(self.model, self.data)
-        self.start_height = self.com()[2] - self.ground_z
+        self.start_height = self.com_height()
 
     def _scene(self, timestep: float, friction: float) -> MuJoCoBody:
         """The robot, its servos, the floor and the sole boxes, compiled."""
@@ -121,6 +131,10 @@ class Simulation:
         spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
         spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 1], pos=[0, 0, self.ground_z],
                                 friction=[friction, 0.005, 0.0001])
+        for index, (low, high) in enumerate(self.boxes):
+            spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, name=f"terrain:{index}",
+                                    size=((high - low) / 2).tolist(), pos=((high + low) / 2).tolist(),
+                                    friction=[friction, 0.005, 0.0001])
         for sole, corners in robot.soles.items():
             self._add_sole(spec, sole, np.asarray(corners, dtype=float), friction)
         for j in self.joints:
@@ -165,6 +179,12 @@ class Simulation:
         """The simulated robot's CoM (world, m)."""
         return self.data.subtree_com[0].copy()
 
+    def com_height(self) -> float:
+        """Height (m) of the CoM above the ground under it (the floor or the highest box there)."""
+        com = self.data.subtree_com[0]
+        tops = [high[2] for low, high in self.boxes if np.all((low[:2] <= com[:2]) & (com[:2] <= high[:2]))]
+        return float(com[2] - max([self.ground_z, *tops]))
+
     def state(self) -> tuple[np.ndarray, np.ndarray]:
         """(q, v) in wbik's conventions (the base's velocity in its own frame, as Pinocchio's)."""
         q = self.body.q(self.data.qpos)
@@ -177,7 +197,7 @@ class Simulation:
         return q, v
 
     def contact_forces(self) -> tuple[float, np.ndarray, set[str]]:
-        """(sum of the sole-floor normal forces f_n (N), sum f_n r (x, y), the soles pressed)."""
+        """(sum of the soles' normal forces f_n (N), sum f_n r (x, y), the soles pressed)."""
         mujoco, data = self.mujoco, self.data
         total, moment, soles = 0.0, np.zeros(2), set()
         for i in range(data.ncon):
@@ -220,7 +240,7 @@ class Simulation:
             if total > 0:
                 impulse, moment = impulse + total, moment + step_moment
                 pressed.setdefault(tuple(sorted(soles)), []).append(step_moment / total)
-            if self.data.subtree_com[0][2] - self.ground_z < FALLEN_HEIGHT_RATIO * self.start_height:
+            if self.com_height() < FALLEN_HEIGHT_RATIO * self.start_height:
                 measured.fell_at_s = self.time
                 return False
         self.target = end
@@ -230,4 +250,7 @@ class Simulation:
         every = sorted(set().union(*pressed))
         measured.times.append(self.time)
         measured.margins.append(self.support(every).margin_of(moment / impulse) if impulse > 0 else math.nan)
+        measured.configurations.append(self.body.q(self.data.qpos))
+        sole_z = np.mean([self.data.site_xpos[self.sole_sites[sole]][2] for sole in every]) if every else 0.0
+        measured.cops.append(np.append(moment / impulse, sole_z) if impulse > 0 else np.full(3, math.nan))
         return True

@@ -14,6 +14,7 @@ from wbik.motion.walking.physics import Measured, Push, Simulation
 from wbik.motion.walking.placo_pattern import PlacoWalk
 from wbik.motion.walking.stabiliser import PhysicsSettings, play_closed_loop, play_open_loop
 from wbik.motion.walking.tracking import Tracker, WalkMotion
+from wbik.viz.animation import PushArrow
 
 DIRECTIONS = {"forward": (1.0, 0.0), "backward": (-1.0, 0.0), "left": (0.0, 1.0), "right": (0.0, -1.0)}
 """Push directions in the frame of the walk's start heading (x ahead, y to the left)."""
@@ -83,9 +84,11 @@ def largest_recovered(recovers: Callable[[float], bool], up_to: float, resolutio
 
 
 def push_figures(play: Play, settings: PushSettings, support: list[tuple], dt: float, body: str,
-                 heading: float, stated: bool = True) -> dict:
-    """Per direction: the run with the stated push (``stated``) and the largest push recovered."""
+                 heading: float, stated: bool = True) -> tuple[dict, Measured | None]:
+    """Per direction: the run with the stated push (``stated``) and the largest push recovered; and the first
+    stated run, its push recorded as an arrow on ``body``."""
     found: dict = {}
+    first: Measured | None = None
     for direction in settings.directions:
         def push(impulse: float, direction: str = direction) -> Push:
             return push_in(settings, support, dt, body, heading, direction, impulse)
@@ -93,13 +96,18 @@ def push_figures(play: Play, settings: PushSettings, support: list[tuple], dt: f
         entry = found.setdefault(direction, {})
         if stated:
             applied = push(settings.impulse_n_s)
-            entry.update(push_impulse_n_s=applied.impulse_n_s, at_s=applied.at_s,
-                         **play(applied)[1].figures())
+            measured = play(applied)[1]
+            entry.update(push_impulse_n_s=applied.impulse_n_s, at_s=applied.at_s, **measured.figures())
+            if first is None and applied.impulse_n_s > 0:
+                first = measured
+                force = applied.force(applied.at_s, applied.duration_s)
+                measured.pushes.append(PushArrow(body, applied.at_s, applied.at_s + applied.duration_s,
+                                                 tuple(force.tolist())))
         if settings.search_up_to_n_s > 0:
             entry["largest_push_recovered_n_s"] = largest_recovered(
                 lambda impulse, push=push: play(push(impulse))[1].fell_at_s is None,
                 settings.search_up_to_n_s, settings.resolution_n_s)
-    return found
+    return found, first
 
 
 def push_description(settings: PushSettings, body: str) -> dict:
@@ -134,11 +142,12 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
 
 
 def physics_compared(physics: dict, plays: dict[str, Play], walks: dict[str, tuple[list, float, np.ndarray]],
-                     push: PushSettings | None, body: str, heading: float) -> None:
+                     push: PushSettings | None, body: str, heading: float) -> Measured | None:
     """Into a walk's ``physics`` figures: each compared run's unpushed figures (``compared``: the plays other
     than ``closed_loop`` and ``open_loop``), and with a ``push`` per run and direction the largest push
     recovered (and the closed loop's run with the stated push); ``walks[label]``: (soles down per tick,
-    dt (s), planned q)."""
+    dt (s), planned q). Returns the closed loop's first run with the stated push (None without one)."""
+    shown = None
     for label, play in plays.items():
         if label == "closed_loop":
             target = physics
@@ -153,9 +162,10 @@ def physics_compared(physics: dict, plays: dict[str, Play], walks: dict[str, tup
         if push is None:
             continue
         support, dt, _ = walks[label]
-        found = push_figures(play, push, support, dt, body, heading, stated=label == "closed_loop")
+        found, first = push_figures(play, push, support, dt, body, heading, stated=label == "closed_loop")
         if label == "closed_loop":
-            target["pushed"] = found
+            target["pushed"], shown = found, first
         if push.search_up_to_n_s > 0:
             target["largest_push_recovered_n_s"] = {direction: figures.get("largest_push_recovered_n_s")
                                                 for direction, figures in found.items()}
+    return shown

@@ -13,7 +13,7 @@ from wbik.expectations import Rule, judge
 from wbik.motion.walking.figures import walk_figures
 from wbik.motion.walking.footsteps import Feet, StepCommand, sole_polygon, yaw_of
 from wbik.motion.walking.pattern import PreviewSettings
-from wbik.motion.walking.physics import Servos
+from wbik.motion.walking.physics import Measured, Servos
 from wbik.motion.walking.placo_pattern import placo_walk
 from wbik.motion.walking.pushes import DIRECTIONS, PushSettings, physics_compared, players, push_description
 from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures
@@ -37,7 +37,8 @@ from wbik.scenarios.kinds import KindRun, Progress, ScenarioKind, ScenarioReport
 from wbik.schema import Boolean, Context, Either, Key, ListOf, Map, Number, Text, default_of, from_dataclass
 from wbik.viz.animation import Animation, Overlays
 
-__all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "walk_schema"]
+__all__ = ["COMPARED", "SCENARIO_KINDS", "WALK_RULES", "format_report", "run_walk", "physics_keys",
+           "walk_schema"]
 
 WALK_RULES = {  # a walk on the full model, and its speed against the static gait on the same footsteps
     "zmp_margin_min_m": Rule("zmp_margin_min_m", ">=", "m"),
@@ -116,8 +117,9 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         default = {"zmp_margin_min_m": margin, "qp_failures_max": 0}
         wanted = {**(default if spec["expect"] is None else spec["expect"]), **(item["expect"] or {})}
         judged = dict(entry)
+        simulated = None
         if spec["physics"] is not None:  # in physics too: standing, the CoP as far inside as the ZMP
-            entry["physics"] = _in_physics(spec, motion, q0, feet, settings, solved)
+            entry["physics"], simulated = _in_physics(spec, motion, q0, feet, settings, solved)
             wanted = {"physics_fell": False, "physics_cop_margin_min_m": margin, **wanted}
             judged.update(physics_fell=entry["physics"]["fell"],
                           physics_cop_margin_min_m=entry["physics"]["cop_margin_min_m"])
@@ -128,8 +130,23 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
         support = tuple(tuple(s) for s in pattern.support)
         animation = Animation(robot, pattern.times, motion.q, Overlays(settings.trunk, support, support,
                                                                        series["zmp"]), entry["name"])
+        if simulated is not None and simulated.configurations:  # the simulated robot instead of the plan
+            animation = simulated_animation(animation, simulated, f"{entry['name']} (simulated, closed loop)")
         run.add(entry, animation.subsampled(max(1, round(ANIMATION_SAMPLE_S / pattern.dt))))
     return run.finished()
+
+
+def simulated_animation(planned: Animation, simulated: Measured, name: str) -> Animation:
+    """The simulated robot tick by tick up to the plan's end (the settling after it is in the figures only)
+    with the measured CoP and the pushes, the plan's support and ZMP at the same times."""
+    kept = int(np.searchsorted(simulated.times, planned.times[-1] + 1e-9))
+    times = np.asarray(simulated.times[:kept])
+    index = np.minimum(np.searchsorted(planned.times, times - 1e-9), planned.frames - 1)
+    support = None if planned.overlays.support is None else tuple(planned.overlays.support[k] for k in index)
+    zmp = None if planned.overlays.zmp is None else planned.overlays.zmp[index]
+    overlays = Overlays(planned.overlays.trace_frame, support, support, zmp, np.array(simulated.cops[:kept]),
+                        tuple(simulated.pushes))
+    return Animation(planned.robot, times, np.array(simulated.configurations[:kept]), overlays, name)
 
 
 def _physics_settings(given: dict) -> PhysicsSettings:
@@ -137,23 +154,26 @@ def _physics_settings(given: dict) -> PhysicsSettings:
                            given["timestep"], given["friction"], given["settle_s"])
 
 
-def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict) -> dict:
-    """The walk in physics, closed and open loop, PlaCo's compared walks open loop, each pushed if asked."""
+def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict
+                ) -> tuple[dict, Measured]:
+    """The walk in physics, closed and open loop, PlaCo's compared walks open loop, each pushed if asked: the
+    figures and the closed loop's run to play (with the first stated push where there is one)."""
     robot, pattern, physics = motion.pattern.robot, motion.pattern, _physics_settings(spec["physics"])
     given = spec["physics"]["push"]
     push = None if given is None else PushSettings(**{**given, "directions": tuple(given["directions"])})
     tracker = Tracker(robot, feet, q0, settings, spec["backend"])
-    figures = physics_figures(motion, tracker, q0, physics)
+    figures, simulated = physics_figures(motion, tracker, q0, physics)
     placo = {label: solved[label] for label in ("placo", "placo_ours") if label in solved}
     plays = players(motion, lambda: Tracker(robot, feet, q0, settings, spec["backend"]), q0, physics, placo)
     walks = {"closed_loop": (pattern.support, pattern.dt, motion.q), "open_loop": (pattern.support,
              pattern.dt, motion.q), **{label: (walk.support, float(walk.times[1] - walk.times[0]), walk.q)
                                        for label, walk in placo.items()}}
     body = carrier(robot, robot.frame_id(tracker.trunk))[0]
-    physics_compared(figures, plays, walks, push, body, yaw_of(robot.frame_placement(q0, feet.left).rotation))
+    pushed = physics_compared(figures, plays, walks, push, body,
+                              yaw_of(robot.frame_placement(q0, feet.left).rotation))
     if push is not None:
         figures["push"] = push_description(push, body)
-    return figures
+    return figures, simulated if pushed is None else pushed
 
 
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
@@ -274,6 +294,19 @@ def _line(label: str, figures: dict) -> str:
 
 
 # -- the schema ------------------------------------------------------------------------------------
+def physics_keys() -> dict[str, Key]:
+    """The keys of a ``physics`` block every scene shares: ``servos`` (:class:`Servos`), ``timestep``,
+    ``friction``, ``settle_s`` (:class:`PhysicsSettings`)."""
+    servos = from_dataclass(Servos, {
+        "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
+        "damping": Number(ge=0, unit="N m s/rad"), "torque_limit": Number(gt=0, nullable=True, unit="N m"),
+        "armature": Number(ge=0, unit="kg m^2"), "resolution": Number(ge=0, unit="rad")})
+    return {"servos": Key(servos, required=True),
+            **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
+                ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
+                ("settle_s", Number(ge=0, unit="s")))}}
+
+
 def walk_schema() -> Map:
     """The keys of a ``walk`` file."""
     defaults = TrackingSettings()
@@ -303,12 +336,7 @@ def walk_schema() -> Map:
                   "inset": Key(Number(ge=0, unit="m", nullable=True), None)}, nullable=True)
     placo = Map({"iterations": Key(Number(ge=1, integer=True), default_of(placo_walk, "iterations"))},
                 nullable=True)
-    physics = Map({"servos": Key(from_dataclass(Servos, {
-                       "kp": Number(gt=0, unit="N m/rad"), "kv": Number(ge=0, unit="N m s/rad"),
-                       "damping": Number(ge=0, unit="N m s/rad"),
-                       "torque_limit": Number(gt=0, nullable=True, unit="N m"),
-                       "armature": Number(ge=0, unit="kg m^2"), "resolution": Number(ge=0, unit="rad")}),
-                                 required=True),
+    physics = Map({**physics_keys(),
                    "stabiliser": Key(from_dataclass(StabiliserGains, {
                        "dcm": Number(ge=0), "attitude": Number(ge=0),
                        "time_constant_s": Number(ge=0, unit="s"),
@@ -319,10 +347,8 @@ def walk_schema() -> Map:
                        "directions": ListOf(Text(tuple(DIRECTIONS))),
                        "search_up_to_n_s": Number(ge=0, unit="N s"),
                        "resolution_n_s": Number(ge=0, unit="N s")}), None,
-                               doc="pushes on the trunk, and the search for the largest recovered"),
-                   **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
-                       ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
-                       ("settle_s", Number(ge=0, unit="s")))}}, nullable=True)
+                               doc="pushes on the trunk, and the search for the largest recovered")},
+                  nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")
 

@@ -101,8 +101,10 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
     return measured, np.array(cpu)
 
 
-def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray, settings: PhysicsSettings) -> dict:
-    """The walk in physics, closed loop (its figures) and open loop (``open_loop``); no push."""
+def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
+                    settings: PhysicsSettings) -> tuple[dict, Measured]:
+    """The walk in physics, closed loop (its figures) and open loop (``open_loop``), no push; and what the
+    closed loop measured (its simulated configurations, CoP points and pushes)."""
     pattern = motion.pattern
 
     def scene() -> Simulation:
@@ -123,4 +125,4 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray, settin
              "max_s": float(np.max(cpu))}
     return {**closed_figures, "push_impulse_n_s": 0.0, "tick_cpu": ticks, "open_loop": open_figures,
             "servos": asdict(settings.servos), "stabiliser": asdict(settings.gains),
-            "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass}
+            "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass}, closed

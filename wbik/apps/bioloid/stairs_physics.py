@@ -1,0 +1,65 @@
+"""The stair run in MuJoCo (:mod:`wbik.motion.walking.physics`): the staircase's steps as solid boxes, the
+planned motion timed as the stairs report times it (:func:`time_scale_motion`) played open loop, one servo
+target per ``TICK_S``; the CoP margin per behaviour run (a half step, UpStair 2, DownStair 1, ...)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from itertools import groupby
+
+import numpy as np
+
+from wbik.apps.bioloid.gait import TimedMotion
+from wbik.apps.bioloid.stairs import StairRun
+from wbik.motion.walking.multibody_zmp import actuated_joints
+from wbik.motion.walking.physics import Measured, Simulation
+from wbik.motion.walking.stabiliser import PhysicsSettings
+
+TICK_S = 0.01  # s between two servo targets
+HELD = "held at the end"  # the label of the ticks after the motion (``settle_s``)
+
+
+def behaviour_of(sample: dict) -> str:
+    """A sample's behaviour: its phase name up to the colon ("UpStair 2", "WalkSR1"), or its state."""
+    return (sample["phase"] or sample["state"]).split(":")[0]
+
+
+def stairs_physics(run: StairRun, timed: TimedMotion, settings: PhysicsSettings) -> tuple[dict, Measured]:
+    """The run's figures in physics (fell, the CoP margin overall and per behaviour run with the base's
+    horizontal distance to the planned one at its end, the base's distance at the end) and what it measured
+    tick by tick."""
+    robot, motion = run.robot, timed.motion
+    sim = Simulation(robot, settings.servos, motion.q[0], 0.0, settings.timestep, settings.friction,
+                     run.stairs.boxes())
+    columns = [robot.model.joints[j].idx_q for j in actuated_joints(robot.model)]
+    ticks = TICK_S * np.arange(1, int(math.ceil((timed.duration + settings.settle_s) / TICK_S)) + 1)
+    angles, _ = timed.evaluate(np.minimum(ticks, timed.duration))
+    measured, q = Measured(), motion.q[0].copy()
+    for row in angles:
+        q[columns] = row
+        if not sim.run(q, TICK_S, measured):
+            break
+    knots = timed.sample_times
+    labels = [behaviour_of(sample) for sample in run.samples]
+    margins = np.asarray(measured.margins, dtype=float)
+    sample_of = np.searchsorted(knots, np.asarray(measured.times) - 1e-9)  # a tick ending in (t_k-1, t_k]
+    tick_labels = [labels[k] if k < len(labels) else HELD for k in sample_of]
+    per_behaviour, start = [], 0
+    for label, group in groupby(tick_labels):
+        count = len(list(group))
+        span = margins[start:start + count]
+        last = start + count - 1
+        planned = motion.q[min(sample_of[last], len(motion.q) - 1)]
+        per_behaviour.append({
+            "behaviour": label, "from_s": float(measured.times[start] - TICK_S),
+            "to_s": float(measured.times[last]),
+            "cop_margin_min_m": None if np.all(np.isnan(span)) else float(np.nanmin(span)),
+            "base_error_m": float(np.linalg.norm(measured.configurations[last][:2] - planned[:2]))})
+        start += count
+    final, _ = sim.state()
+    return {**measured.figures(), "per_behaviour": per_behaviour,
+            "final_base_error_m": float(np.linalg.norm(final[:3] - motion.q[-1][:3])),
+            "simulated_s": float(sim.time), "planned_s": timed.duration, "tick_s": TICK_S,
+            "servos": asdict(settings.servos), "timestep_s": settings.timestep, "friction": settings.friction,
+            "mass_kg": sim.mass}, measured
