@@ -129,7 +129,8 @@ def run_walk(spec: dict, on_progress: Progress = None) -> ScenarioReport:
 
 def _physics_settings(given: dict) -> PhysicsSettings:
     return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
-                           given["timestep"], given["friction"], given["settle_s"])
+                           given["timestep"], given["friction"], given["settle_s"],
+                           given["torque_feedforward"])
 
 
 def _compare(label: str, spec: dict, robot, q0, pattern, feet, timing, settings, margin,
@@ -207,7 +208,8 @@ def _physics_line(physics: dict) -> str:
     return (f"physics: closed loop {run(physics)} (controller CPU per tick median "
             f"{ticks['median_s'] * 1e3:.2f} ms, p95 {ticks['p95_s'] * 1e3:.2f} ms); open loop "
             f"{run(physics['open_loop'])}; "
-            f"push {physics['push_impulse_n_s']:g} N s")
+            f"push {physics['push_impulse_n_s']:g} N s"
+            + ("; the planned joint torques fed forward" if physics.get("torque_feedforward") else ""))
 
 
 def _line(label: str, figures: dict) -> str:
@@ -272,7 +274,8 @@ def walk_schema() -> Map:
                        "com_offset_max": Number(ge=0, unit="m")}), {}),
                    **{name: Key(node, getattr(PhysicsSettings(Servos(1.0)), name)) for name, node in (
                        ("timestep", Number(gt=0, le=0.01, unit="s")), ("friction", Number(gt=0)),
-                       ("settle_s", Number(ge=0, unit="s")))}}, nullable=True)
+                       ("settle_s", Number(ge=0, unit="s")), ("torque_feedforward", Boolean()))}},
+                  nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")
 
