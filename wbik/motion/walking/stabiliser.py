@@ -45,7 +45,7 @@ class PhysicsSettings:
     timestep: float = 0.001
     friction: float = 1.0
     settle_s: float = 1.0
-    torque_feedforward: bool = False
+    torque_feedforward: bool = True
 
 
 class Stabiliser:
