@@ -181,3 +181,26 @@ def test_a_push_falls_in_the_single_support_asked_and_the_search_brackets_the_la
     tried = []
     found = largest_recovered(lambda impulse: tried.append(impulse) or impulse <= 0.37, 1.0, 0.01)
     assert 0.36 <= found <= 0.37 and len(tried) == 8  # the upper bound, then 7 halvings of 1.0 to < 0.01
+
+
+def test_the_planned_torques_over_kp_keep_a_compliant_servo_on_its_target(bioloid):
+    from wbik.motion.walking import StepCommand, Timing
+    from wbik.motion.walking.planned_torques import planned_torques
+    from wbik.motion.walking.tracking import TrackingSettings, walk
+
+    motion = walk(bioloid, bioloid.nominal, StepCommand(1, 0.01), Timing(0.2, 0.05, 0.3, 0.3), clearance=0.01,
+                  settings=TrackingSettings(trunk="pelvis"))
+    q = motion.q[0]  # at rest on both feet
+    servos = Servos(kp=AX12.kp, damping=AX12.damping, torque_limit=AX12.torque_limit, armature=AX12.armature)
+    joints = Simulation(bioloid, servos, q).joints
+    torques = planned_torques(motion.pattern, motion.q, joints, servos.armature)
+    assert np.all(np.abs(torques) < 100.0) and np.abs(torques[0]).max() > 0.1  # the legs carry the weight
+    sags = []
+    for lead in (None, torques[0] / servos.kp):
+        sim = Simulation(bioloid, servos, q)
+        measured = Measured()
+        for _ in range(50):
+            sim.run(q, 0.01, measured, lead)
+        sags.append(np.abs(sim.state()[0][sim.target_index] - q[sim.target_index]).max())
+    assert sags[0] == pytest.approx(np.abs(torques[0]).max() / servos.kp, rel=0.1)  # sag: tau / kp
+    assert sags[1] < 0.2 * sags[0]

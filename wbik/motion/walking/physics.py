@@ -162,8 +162,8 @@ class Simulation:
                       pos=centre.tolist(), quat=[quaternion.w, quaternion.x, quaternion.y, quaternion.z],
                       friction=[friction, 0.005, 0.0001])
 
-    def _targets(self, q: np.ndarray) -> np.ndarray:
-        targets = np.asarray(q, dtype=float)[self.target_index]
+    def _targets(self, q: np.ndarray, lead: np.ndarray | None = None) -> np.ndarray:
+        targets = np.asarray(q, dtype=float)[self.target_index] + (0.0 if lead is None else lead)
         step = self.servos.resolution
         return np.round(targets / step) * step if step > 0 else targets
 
@@ -221,13 +221,15 @@ class Simulation:
             points.append(np.asarray(self.robot.soles[sole]) @ rotation.T + self.data.site_xpos[site])
         return SupportPolygon(np.vstack(points)[:, :2])
 
-    def run(self, q_target: np.ndarray, duration: float, measured: Measured) -> bool:
-        """Servo targets of ``q_target`` reached over ``duration`` s (one control tick); into ``measured`` the
-        margin of the tick's CoP inside the soles pressed during it and the worst margin of a physics step's
-        CoP inside the soles it pressed (the soles where they are at the tick's end); False once fallen."""
+    def run(self, q_target: np.ndarray, duration: float, measured: Measured,
+            lead: np.ndarray | None = None) -> bool:
+        """Servo targets of ``q_target`` (``lead`` added, rad, one per servo) reached over ``duration`` s (one
+        control tick); into ``measured`` the margin of the tick's CoP inside the soles pressed during it and
+        the worst margin of a physics step's CoP inside the soles it pressed (the soles where they are at the
+        tick's end); False once fallen."""
         if measured.fell_at_s is not None:
             return False
-        start, end = self.target, self._targets(q_target)
+        start, end = self.target, self._targets(q_target, lead)
         steps = max(1, int(round(duration / self.model.opt.timestep)))
         impulse, moment, pressed = 0.0, np.zeros(2), {}
         for step in range(1, steps + 1):

@@ -12,7 +12,12 @@ import numpy as np
 from wbik.errors import InvalidSettingError
 from wbik.motion.walking.physics import Measured, Push, Simulation
 from wbik.motion.walking.placo_pattern import PlacoWalk
-from wbik.motion.walking.stabiliser import PhysicsSettings, play_closed_loop, play_open_loop
+from wbik.motion.walking.stabiliser import (
+    PhysicsSettings,
+    play_closed_loop,
+    play_open_loop,
+    servo_lead,
+)
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 from wbik.viz.animation import PushArrow
 
@@ -127,17 +132,20 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
         sim.push = push
         return sim
 
+    lead = servo_lead(motion, scene(motion.q[0], None), settings)  # the plan's torques: ours only
+
     def closed(push: Push | None):
         sim = scene(motion.q[0], push)
-        return sim, play_closed_loop(sim, new_tracker(), pattern, q0, settings.gains, settings.settle_s)[0]
+        return sim, play_closed_loop(sim, new_tracker(), pattern, q0, settings.gains, settings.settle_s,
+                                     lead)[0]
 
-    def planned(q, dt: float) -> Play:
+    def planned(q, dt: float, lead: np.ndarray | None = None) -> Play:
         def play(push: Push | None):
             sim = scene(q[0], push)
-            return sim, play_open_loop(sim, dt, q, settings.settle_s)
+            return sim, play_open_loop(sim, dt, q, settings.settle_s, lead)
         return play
 
-    return {"closed_loop": closed, "open_loop": planned(motion.q, pattern.dt),
+    return {"closed_loop": closed, "open_loop": planned(motion.q, pattern.dt, lead),
             **{label: planned(walk.q, float(walk.times[1] - walk.times[0])) for label, walk in placo.items()}}
 
 

@@ -151,7 +151,8 @@ def simulated_animation(planned: Animation, simulated: Measured, name: str) -> A
 
 def _physics_settings(given: dict) -> PhysicsSettings:
     return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
-                           given["timestep"], given["friction"], given["settle_s"])
+                           given["timestep"], given["friction"], given["settle_s"],
+                           given["torque_feedforward"])
 
 
 def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict
@@ -254,7 +255,8 @@ def _physics_line(physics: dict) -> str:
     line = (f"physics: closed loop {run(physics)} (controller CPU per tick median "
             f"{ticks['median_s'] * 1e3:.2f} ms, p95 {ticks['p95_s'] * 1e3:.2f} ms); open loop "
             f"{run(physics['open_loop'])}; "
-            f"push {physics['push_impulse_n_s']:g} N s")
+            f"push {physics['push_impulse_n_s']:g} N s"
+            + ("; the planned joint torques fed forward" if physics.get("torque_feedforward") else ""))
     line += "".join(f"\n      physics, {label} open loop: {run(figures)}"
                     for label, figures in physics.get("compared", {}).items())
     if "push" in physics:
@@ -347,7 +349,9 @@ def walk_schema() -> Map:
                        "directions": ListOf(Text(tuple(DIRECTIONS))),
                        "search_up_to_n_s": Number(ge=0, unit="N s"),
                        "resolution_n_s": Number(ge=0, unit="N s")}), None,
-                               doc="pushes on the trunk, and the search for the largest recovered")},
+                               doc="pushes on the trunk, and the search for the largest recovered"),
+                   "torque_feedforward": Key(Boolean(), PhysicsSettings(Servos(1.0)).torque_feedforward,
+                                             doc="the planned joint torques over kp added to the targets")},
                   nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")

@@ -3,7 +3,9 @@ targets) or closed loop: every tick the controller reads the simulated present s
 whole-body QP toward the plan with two corrections of Kajita's stabiliser, CoM and body inclination:
 the CoM target moved by -K_dcm e (low-passed, at most ``com_offset_max``), e = (c - s) - (c_d - s_d) +
 (c' - c_d') / omega the error of the divergent component of motion relative to the stance soles (s measured,
-s_d planned); the trunk's target turned by -K_att times the trunk's measured roll and pitch error."""
+s_d planned); the trunk's target turned by -K_att times the trunk's measured roll and pitch error. With
+``torque_feedforward`` every servo's target is led by the plan's torque of its joint over its stiffness,
+tau / kp (:mod:`wbik.motion.walking.planned_torques`): a compliant servo loaded as planned holds the plan."""
 
 from __future__ import annotations
 
@@ -17,6 +19,7 @@ from wbik.errors import NoQPSolutionError
 from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.physics import Measured, Servos, Simulation
+from wbik.motion.walking.planned_torques import planned_torques
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 
 
@@ -34,13 +37,15 @@ class StabiliserGains:
 @dataclass(frozen=True)
 class PhysicsSettings:
     """The walk in physics: ``servos``, the stabiliser's ``gains``, the physics ``timestep`` (s), the floor's
-    ``friction``, ``settle_s`` (s) the last command held after the walk."""
+    ``friction``, ``settle_s`` (s) the last command held after the walk, ``torque_feedforward``: the servos'
+    targets led by the planned joint torques over kp."""
 
     servos: Servos
     gains: StabiliserGains = StabiliserGains()
     timestep: float = 0.001
     friction: float = 1.0
     settle_s: float = 1.0
+    torque_feedforward: bool = True
 
 
 class Stabiliser:
@@ -72,18 +77,23 @@ class Stabiliser:
         return self.offset.copy(), pin.exp3(-gains.attitude * tilt)
 
 
-def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: float) -> Measured:
-    """The planned configurations as the servos' targets, one per ``dt`` (s), the last held ``settle_s``."""
+def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: float,
+                   lead: np.ndarray | None = None) -> Measured:
+    """The planned configurations as the servos' targets, one per ``dt`` (s) (``lead``: (K, servos) rad
+    added), the last held ``settle_s``."""
     measured = Measured()
     for k in range(1, len(planned) + int(round(settle_s / dt))):
-        if not sim.run(planned[min(k, len(planned) - 1)], dt, measured):
+        tick = min(k, len(planned) - 1)
+        if not sim.run(planned[tick], dt, measured, None if lead is None else lead[tick]):
             break
     return measured
 
 
 def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0: np.ndarray,
-                     gains: StabiliserGains, settle_s: float) -> tuple[Measured, np.ndarray]:
-    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP)."""
+                     gains: StabiliserGains, settle_s: float,
+                     lead: np.ndarray | None = None) -> tuple[Measured, np.ndarray]:
+    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP);
+    ``lead``: (K, servos) rad added to the targets of the plan's tick."""
     stabiliser = Stabiliser(tracker, pattern, gains)
     measured, command, last = Measured(), np.asarray(q0, dtype=float).copy(), pattern.ticks - 1
     cpu = []
@@ -96,9 +106,17 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
             except NoQPSolutionError:
                 pass  # the servos keep the last command
             cpu.append(time.thread_time() - started)
-            if not sim.run(command, pattern.dt, measured):
+            if not sim.run(command, pattern.dt, measured, None if lead is None else lead[min(k, last)]):
                 break
     return measured, np.array(cpu)
+
+
+def servo_lead(motion: WalkMotion, sim: Simulation, settings: PhysicsSettings) -> np.ndarray | None:
+    """Each tick's planned joint torques over kp (rad, (K, servos)) with ``torque_feedforward``, else None."""
+    if not settings.torque_feedforward:
+        return None
+    torques = planned_torques(motion.pattern, motion.q, sim.joints, settings.servos.armature)
+    return torques / settings.servos.kp
 
 
 def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
@@ -117,12 +135,14 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
                 "planned_travel_m": float(np.linalg.norm(motion.q[-1][:2] - motion.q[0][:2]))}
 
     sim = scene()
-    closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s)
+    lead = servo_lead(motion, sim, settings)
+    closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s, lead)
     closed_figures = figures(sim, closed)
     sim = scene()
-    open_figures = figures(sim, play_open_loop(sim, pattern.dt, motion.q, settings.settle_s))
+    open_figures = figures(sim, play_open_loop(sim, pattern.dt, motion.q, settings.settle_s, lead))
     ticks = {"median_s": float(np.median(cpu)), "p95_s": float(np.percentile(cpu, 95)),
              "max_s": float(np.max(cpu))}
     return {**closed_figures, "push_impulse_n_s": 0.0, "tick_cpu": ticks, "open_loop": open_figures,
             "servos": asdict(settings.servos), "stabiliser": asdict(settings.gains),
-            "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass}, closed
+            "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass,
+            "torque_feedforward": settings.torque_feedforward}, closed
