@@ -118,15 +118,16 @@ class NearbyArmForm(ClosedForm):
     def refine(self, q: np.ndarray, positions: np.ndarray, rotations: np.ndarray, first: bool = False
                ) -> tuple[np.ndarray, np.ndarray]:
         """Newton on the chain from joints q (M, n) towards targets (M, ...): (q, converged (M,)). A step is
-        -J^+ e plus the pull into the limits (joints at their 2 pi shift nearest the limits' middle) projected
-        onto J's null space (the self-motion, which leaves the pose), J^+ = J^T (J J^T)^-1, scaled to at most
-        STEP_LIMIT each; until every row converged inside the limits or stalls (after :data:`FREE_STEPS`, |e|,
-        or once converged the limit excess, not below :data:`PROGRESS` x the last), or with ``first`` one row
-        converged inside, at most NEWTON_STEPS."""
+        -J^+ e, J^+ = J^T (J J^T)^-1, plus (more than 6 joints) the pull into the limits (joints at their
+        2 pi shift nearest the limits' middle) projected onto J's null space (the self-motion, which leaves
+        the pose), each scaled to at most STEP_LIMIT; until every row converged inside the limits or stalls
+        (after :data:`FREE_STEPS`, |e|, or once converged the limit excess, not below :data:`PROGRESS` x the
+        last), or with ``first`` one row converged inside, at most NEWTON_STEPS."""
         damping = 1e-14 * np.eye(6)
         lower, upper, revolute = self.chain.lower, self.chain.upper, self.revolute
         middle = 0.5 * (lower + upper)
         last_size = last_excess = np.full(len(q), np.inf)
+        square = q.shape[1] == 6
         for count in range(NEWTON_STEPS + 1):
             error, transposed = self.vectorised.evaluate(q, positions, rotations)
             near_middle = q + revolute * TWO_PI * np.round((middle - q) / TWO_PI)
@@ -140,6 +141,9 @@ class NearbyArmForm(ClosedForm):
                 return q, done
             last_size, last_excess = size, excess
             normal = np.swapaxes(transposed, 1, 2) @ transposed + damping
+            if square:  # no self-motion: the Newton step alone
+                q = q - _limited((transposed @ np.linalg.solve(normal, error[..., None]))[..., 0])
+                continue
             task = np.einsum("mki,mk->mi", transposed, pull)  # J pull
             solved = np.linalg.solve(normal, np.stack((error, task), axis=-1))  # (M, 6, 2)
             moves = transposed @ solved  # J^+ e and J^+ J pull (M, n, 2)
