@@ -1,9 +1,12 @@
-"""``analytic`` on 7-joint arms whose neighbouring axes pass close by without meeting (a general 6R remains
-whichever joint is held): the nearby arm's closed form refined by Newton (wbik.solvers.analytic.nearby_arm).
+"""``analytic`` on 6- and 7-joint arms whose neighbouring axes pass close by without meeting (Bravo 7's wrist;
+a general 6R whichever joint of Alex's or Tiago Pro's arm is held): the nearby arm's closed form refined by
+Newton (wbik.solvers.analytic.nearby_arm).
 Targets are Pinocchio FK poses of seeded random joints inside the limits; answers are judged by Pinocchio's
 FK again, never by the code under test."""
 
 from __future__ import annotations
+
+import re
 
 import numpy as np
 import pinocchio as pin
@@ -17,7 +20,8 @@ from wbik.solvers.analytic.solver import FAMILIES
 from wbik.solvers.analytic.structure import chain_lines
 
 ARMS = {"alex": ("example-robot-data:alex_nub_hands", "Torso", "RightGripperYawLink"),
-        "tiago_pro": ("example-robot-data:tiago_pro", "torso_lift_link", "arm_right_tool_link")}
+        "tiago_pro": ("example-robot-data:tiago_pro", "torso_lift_link", "arm_right_tool_link"),
+        "bravo": ("example-robot-data:bravo7_no_ee", "link1", "end_effector_ball")}
 POSES = 20
 
 
@@ -34,21 +38,31 @@ def arm(request):
 
 
 def test_no_neighbouring_axes_meet_or_are_parallel(arm):
+    """Of a 7-joint arm none; of Bravo 7 axes 3 to 6 (axes 2 and 3 are parallel)."""
     lines = chain_lines(arm.chain)
-    for k in range(1, 7):
+    for k in range(1, 7) if arm.chain.nq == 7 else range(3, 6):
         assert not lines.parallel(k - 1, k) and lines.meeting_point(k - 1, k) is None
 
 
 def test_the_family_names_the_nearby_arm_and_the_refinement(arm):
     assert isinstance(arm.closed_form("pose"), NearbyArmForm)
-    assert arm.family.startswith(f"nearby arm with {NEARBY_ARMS[0][0]}")
+    assert arm.family.startswith(f"nearby arm with {NEARBY_ARMS[arm.chain.nq][0][0]}")
     assert "Newton-refined on the chain" in arm.family
+
+
+def test_bravo_names_its_spherical_wrist_and_the_1d_search_after_it():
+    """Bravo 7's axes 4, 5, 6 are 40.8 mm apart pairwise: moved to meet, EAIK solves the arm."""
+    name, base, tip = ARMS["bravo"]
+    family = wbik.solver("analytic", wbik.load(name), base=base, tip=tip).family
+    assert family == ("nearby arm with axes 3, 4 meeting and axes 4, 5, 6 meeting (axes moved by up to "
+                      "40.8 mm): eaik:6R-SPHERICAL_SECOND_TWO_PARALLEL, Newton-refined on the chain, else "
+                      "search: joints 2 and 3 parallel (1-D)")
 
 
 def test_the_nearby_arm_has_the_moved_axes_meeting_and_every_axis_direction():
     lines = chain_lines(wbik.solver("dls", wbik.load(ARMS["alex"][0]), base=ARMS["alex"][1],
                                     tip=ARMS["alex"][2]).chain)
-    moved = NEARBY_ARMS[0][1]
+    moved = NEARBY_ARMS[7][0][1]
     near, largest = nearby_lines(lines, moved)
     np.testing.assert_array_equal(near.axes, lines.axes)
     for k in moved:
@@ -96,6 +110,7 @@ def test_positions_are_refused_saying_the_nearby_arm_needs_full_poses(arm):
 
 def test_a_nearby_arm_too_far_from_the_chain_is_refused_saying_how_far(arm, monkeypatch):
     monkeypatch.setattr(nearby_arm_module, "NEARBY_SHARE", 1e-3)
-    with pytest.raises(UnsupportedError, match=r"no nearby arm has a closed form \(axes 1, 2, 3 meeting.*"
+    first = re.escape(NEARBY_ARMS[arm.chain.nq][0][0])
+    with pytest.raises(UnsupportedError, match=rf"no nearby arm has a closed form \({first}.*"
                                                r"mm, more than 0.001 x the chain's length"):
         nearby_arm_module.nearby_arm(arm.chain, "pose", {}, {}, FAMILIES)

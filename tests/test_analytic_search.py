@@ -11,6 +11,7 @@ import pytest
 import wbik
 from wbik.errors import UnsupportedError
 from wbik.geometry import joint_gap
+from wbik.solvers.analytic import solver as solver_module
 from wbik.solvers.analytic.closed_form import BRANCH_MERGE
 from wbik.solvers.analytic.one_d_search import TwoParallelForm
 from wbik.solvers.analytic.structure import chain_lines
@@ -27,8 +28,15 @@ def fk_error(chain, q: np.ndarray, target: pin.SE3) -> float:
 
 @pytest.fixture(scope="module")
 def bravo():
+    """Bravo 7 recognised without the nearby arm (which solves it by default, its 1-D search after it)."""
     name, base, tip = BRAVO
-    return wbik.solver("analytic", wbik.load(name), base=base, tip=tip)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(solver_module, "nearby_arm", refuse)
+        return wbik.solver("analytic", wbik.load(name), base=base, tip=tip)
+
+
+def refuse(*args) -> None:
+    raise UnsupportedError("no nearby arm")
 
 
 def test_bravo_gets_the_two_parallel_search(bravo):
@@ -100,11 +108,16 @@ def test_the_search_form_is_only_for_axes_two_and_three_parallel():
 
 
 def test_baxter_without_its_first_joint_is_searched_in_1d():
-    """Baxter's right arm from the link after right_s0: a 6R whose axes 1, 2 and 5, 6 meet (the whole
-    7-joint arm takes a nearby arm first: a held joint, no search inside)."""
+    """Baxter's right arm from the link after right_s0: a 6R whose axes 1, 2 and 5, 6 meet, recognised
+    without the nearby arm (which solves it by default, the 1-D search after it; the whole 7-joint arm takes
+    a nearby arm with a held joint)."""
     robot = wbik.load("example-robot-data:baxter")
-    solver = wbik.solver("analytic", robot, base="right_upper_shoulder", tip="right_gripper_base_link")
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(solver_module, "nearby_arm", refuse)
+        solver = wbik.solver("analytic", robot, base="right_upper_shoulder", tip="right_gripper_base_link")
     assert solver.family == "search: axes 1, 2 and axes 5, 6 meet (1-D)"
+    assert wbik.solver("analytic", robot, base="right_upper_shoulder",
+                       tip="right_gripper_base_link").family.endswith(", else " + solver.family)
     assert wbik.solver("analytic", robot, base="torso", tip="right_gripper_base_link").family.startswith(
         "nearby arm")
     chain = solver.chain
@@ -142,6 +155,7 @@ def test_a_search_form_that_misses_fk_poses_is_refused(monkeypatch):
         return np.full((len(x), 4), np.nan), np.full((len(x), 4, 2), np.nan), np.full((len(x), 4, 6), np.nan)
 
     monkeypatch.setattr(TwoParallelForm, "evaluate", nothing)
+    monkeypatch.setattr(solver_module, "nearby_arm", refuse)
     name, base, tip = BRAVO
     with pytest.raises(UnsupportedError, match="reproduces 0 of 8 FK poses"):
         wbik.solver("analytic", wbik.load(name), base=base, tip=tip)

@@ -61,6 +61,8 @@ def refusal_reasons(chain, kind: str, options: dict | None = None,
     held = redundancy.get("joint") is not None
     recognisers = [] if held else [lambda: recognise_family(chain, kind, options, FAMILIES),
                                    lambda: recognise_eaik(chain, kind), lambda: recognise_search(chain, kind)]
+    if not held and chain.nq == 6:  # a 6R: a nearby arm's closed form before the 1-D search forms
+        recognisers.insert(2, lambda: nearby_arm(chain, kind, options, redundancy, FAMILIES))
     if held or chain.nq >= 7:  # a held joint's family or EAIK, a nearby arm's, then a held search form
         recognisers += [lambda: lock_redundant_joint(chain, kind, options, redundancy, FAMILIES, (0,)),
                         lambda: nearby_arm(chain, kind, options, redundancy, FAMILIES),
