@@ -28,7 +28,8 @@ if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
+# --no-compile: a module is byte-compiled when first imported (most of the ~180 packages never are here)
+.venv/bin/python -m pip install -q --no-compile -c requirements.lock -e ".[all,dev]"
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
 # /usr/lib/python3/dist-packages: a shim folder holding only PyKDL, added through a .pth file.
