@@ -27,6 +27,7 @@ on one core beside published GPU figures (informational), and on every core (``w
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import sys
 import time
@@ -93,10 +94,15 @@ def measure_interleaved(methods: list[str], robot, chain_name: str, poses: list,
         except (WbikError, ImportError) as exc:
             print(f"{method:<14}  unavailable: {exc}")
     results: dict[str, list] = {method: [] for method in solvers}
-    for begin in range(0, len(poses), max(1, block)):
-        for method, solver in solvers.items():
-            results[method].extend(solver.solve(pose, solver.chain.mid_range)
-                                   for pose in poses[begin:begin + max(1, block)])
+    gc.collect()
+    gc.disable()  # as timeit does: a collection of the results kept so far is the benchmark's, not a solver's
+    try:
+        for begin in range(0, len(poses), max(1, block)):
+            for method, solver in solvers.items():
+                results[method].extend(solver.solve(pose, solver.chain.mid_range)
+                                       for pose in poses[begin:begin + max(1, block)])
+    finally:
+        gc.enable()
     rows = {}
     for method, solver in solvers.items():
         outside = sum(result.q is not None and not solver.chain.in_limits(result.q)
