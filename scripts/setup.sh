@@ -28,9 +28,7 @@ if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-# --no-compile: a module is byte-compiled when first imported, not every module of every package at install
-# (the install took 23 s instead of 42 s in a fresh venv on the machine of docs/benchmarks.md)
-.venv/bin/python -m pip install -q --no-compile -c requirements.lock -e ".[all,dev]"
+.venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
 # /usr/lib/python3/dist-packages: a shim folder holding only PyKDL, added through a .pth file.

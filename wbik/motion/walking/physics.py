@@ -246,12 +246,14 @@ class Simulation:
                 measured.fell_at_s = self.time
                 return False
         self.target = end
+        polygons = {soles: self.support(list(soles)) for soles in pressed}  # qhull: each set of soles once
         for soles, cops in pressed.items():
-            polygon = self.support(list(soles))
-            measured.step_margin_min = min(measured.step_margin_min, *(polygon.margin_of(p) for p in cops))
-        every = sorted(set().union(*pressed))
+            margins = (polygons[soles].margin_of(point) for point in cops)
+            measured.step_margin_min = min(measured.step_margin_min, *margins)
+        every = tuple(sorted(set().union(*pressed)))
+        polygon = polygons.get(every) or (self.support(list(every)) if every else None)
         measured.times.append(self.time)
-        measured.margins.append(self.support(every).margin_of(moment / impulse) if impulse > 0 else math.nan)
+        measured.margins.append(polygon.margin_of(moment / impulse) if impulse > 0 else math.nan)
         measured.configurations.append(self.body.q(self.data.qpos))
         sole_z = np.mean([self.data.site_xpos[self.sole_sites[sole]][2] for sole in every]) if every else 0.0
         measured.cops.append(np.append(moment / impulse, sole_z) if impulse > 0 else np.full(3, math.nan))
