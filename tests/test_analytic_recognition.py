@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from closed_form_checks import fk_error
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -63,14 +64,6 @@ def robot(name: str) -> wbik.Robot:
             _ROBOTS[name] = wbik.load(name)
     return _ROBOTS[name]
 
-
-def fk_error(chain, q: np.ndarray, target: pin.SE3 | np.ndarray) -> float:
-    """max(|p - p*|, |log3(R*^T R)|) of joints q against a pose, or |p - p*| against a position."""
-    reached = chain.fk(q)
-    if isinstance(target, np.ndarray):
-        return float(np.linalg.norm(reached.translation - target))
-    return max(float(np.linalg.norm(reached.translation - target.translation)),
-               float(np.linalg.norm(pin.log3(target.rotation.T @ reached.rotation))))
 
 
 def angle_gap(a, b) -> float:
