@@ -5,12 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-LONGEST_FILES = ("test_study_run.py", "test_notebooks.py", "test_browser.py", "test_core_install.py",
-                 "test_view_every_task.py", "test_bioloid_stairs.py", "test_installed.py",
-                 "test_hostile_study_files.py", "test_robust_numerics.py", "test_study_target_sets.py",
-                 "test_study_budget_curves.py", "test_study_compare.py", "test_study_ownership.py",
-                 "test_study_protocols.py", "test_robot_zoo.py", "test_riveting_full.py", "test_docs.py",
-                 "test_hostile_input.py", "test_riveting_cycle.py", "test_scenario_kinds.py")
+LONGEST_FILES = ("test_view_every_task.py", "test_notebooks.py", "test_browser.py", "test_core_install.py",
+                 "test_installed.py", "test_study_run.py", "test_study_budget_curves.py",
+                 "test_hostile_study_files.py", "test_study_target_sets.py", "test_robust_numerics.py",
+                 "test_study_compare.py", "test_walk_physics.py", "test_bioloid_stairs.py",
+                 "test_riveting_full.py", "test_hostile_input.py", "test_docs.py",
+                 "test_study_ownership.py", "test_robot_zoo.py", "test_walking.py",
+                 "test_analytic_nearby_arm.py", "test_study_protocols.py", "test_riveting_cycle.py",
+                 "test_scenario_kinds.py")
 """The test files that take longest (10-50 s each on one core, measured with --durations=0), longest first."""
 
 
