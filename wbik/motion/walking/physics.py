@@ -93,6 +93,11 @@ class Measured:
                 "ticks_without_contact": int(np.isnan(margins).sum())}
 
 
+def servo_joints(robot: Robot) -> list[int]:
+    """The joints a servo drives: every joint of the model but the universe and a floating base."""
+    return list(range(2 if robot.has_floating_base else 1, robot.model.njoints))
+
+
 class Simulation:
     """``robot`` standing at ``q`` on the floor z = ``ground_z``, its servos holding q; ``boxes``: (lower,
     upper) corners (m) of solid boxes on the floor (the ground under a point: the highest top over it)."""
@@ -104,7 +109,7 @@ class Simulation:
         self.mujoco, self.robot, self.servos, self.ground_z = mujoco, robot, servos, float(ground_z)
         self.boxes = [(np.asarray(low, dtype=float), np.asarray(high, dtype=float)) for low, high in boxes]
         model = robot.model
-        self.joints = [j for j in range(2 if robot.has_floating_base else 1, model.njoints)]
+        self.joints = servo_joints(robot)
         warnings: list[str] = []
         with captured_warnings(mujoco, warnings):
             self.body = self._scene(timestep, friction)

@@ -16,7 +16,6 @@ from wbik.motion.walking.stabiliser import (
     PhysicsSettings,
     play_closed_loop,
     play_open_loop,
-    servo_lead,
 )
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 from wbik.viz.animation import PushArrow
@@ -121,7 +120,7 @@ def push_description(settings: PushSettings, body: str) -> dict:
 
 
 def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings: PhysicsSettings,
-            placo: dict[str, PlacoWalk]) -> dict[str, Play]:
+            placo: dict[str, PlacoWalk], lead: np.ndarray | None = None) -> dict[str, Play]:
     """The runs of a walk in physics: ``closed_loop`` (the stabiliser, a fresh ``new_tracker()``),
     ``open_loop`` (the planned joints) and each of ``placo``'s walks played open loop."""
     pattern = motion.pattern
@@ -131,8 +130,6 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
                          settings.friction)
         sim.push = push
         return sim
-
-    lead = servo_lead(motion, scene(motion.q[0], None), settings)  # the plan's torques: ours only
 
     def closed(push: Push | None):
         sim = scene(motion.q[0], push)

@@ -16,7 +16,7 @@ from wbik.motion.walking.pattern import PreviewSettings
 from wbik.motion.walking.physics import Measured, Servos
 from wbik.motion.walking.placo_pattern import placo_walk
 from wbik.motion.walking.pushes import DIRECTIONS, PushSettings, physics_compared, players, push_description
-from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures
+from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures, servo_lead
 from wbik.motion.walking.static_gait import retimed, static_gait
 from wbik.motion.walking.timeline import Timing
 from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
@@ -163,9 +163,11 @@ def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, 
     given = spec["physics"]["push"]
     push = None if given is None else PushSettings(**{**given, "directions": tuple(given["directions"])})
     tracker = Tracker(robot, feet, q0, settings, spec["backend"])
-    figures, simulated = physics_figures(motion, tracker, q0, physics)
+    lead = servo_lead(motion, physics)  # the plan's torques over kp: our runs only, not PlaCo's
+    figures, simulated = physics_figures(motion, tracker, q0, physics, lead)
     placo = {label: solved[label] for label in ("placo", "placo_ours") if label in solved}
-    plays = players(motion, lambda: Tracker(robot, feet, q0, settings, spec["backend"]), q0, physics, placo)
+    plays = players(motion, lambda: Tracker(robot, feet, q0, settings, spec["backend"]), q0, physics, placo,
+                    lead)
     walks = {"closed_loop": (pattern.support, pattern.dt, motion.q), "open_loop": (pattern.support,
              pattern.dt, motion.q), **{label: (walk.support, float(walk.times[1] - walk.times[0]), walk.q)
                                        for label, walk in placo.items()}}

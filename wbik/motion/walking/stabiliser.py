@@ -18,7 +18,7 @@ import pinocchio as pin
 from wbik.errors import NoQPSolutionError
 from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.pattern import WalkPattern
-from wbik.motion.walking.physics import Measured, Servos, Simulation
+from wbik.motion.walking.physics import Measured, Servos, Simulation, servo_joints
 from wbik.motion.walking.planned_torques import planned_torques
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 
@@ -111,16 +111,17 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
     return measured, np.array(cpu)
 
 
-def servo_lead(motion: WalkMotion, sim: Simulation, settings: PhysicsSettings) -> np.ndarray | None:
+def servo_lead(motion: WalkMotion, settings: PhysicsSettings) -> np.ndarray | None:
     """Each tick's planned joint torques over kp (rad, (K, servos)) with ``torque_feedforward``, else None."""
     if not settings.torque_feedforward:
         return None
-    torques = planned_torques(motion.pattern, motion.q, sim.joints, settings.servos.armature)
+    torques = planned_torques(motion.pattern, motion.q, servo_joints(motion.pattern.robot),
+                              settings.servos.armature)
     return torques / settings.servos.kp
 
 
 def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
-                    settings: PhysicsSettings) -> tuple[dict, Measured]:
+                    settings: PhysicsSettings, lead: np.ndarray | None = None) -> tuple[dict, Measured]:
     """The walk in physics, closed loop (its figures) and open loop (``open_loop``), no push; and what the
     closed loop measured (its simulated configurations, CoP points and pushes)."""
     pattern = motion.pattern
@@ -135,7 +136,7 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
                 "planned_travel_m": float(np.linalg.norm(motion.q[-1][:2] - motion.q[0][:2]))}
 
     sim = scene()
-    lead = servo_lead(motion, sim, settings)
+    lead = servo_lead(motion, settings) if lead is None else lead  # (given: computed once for every run)
     closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s, lead)
     closed_figures = figures(sim, closed)
     sim = scene()
