@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set up wbik in ./.venv: system packages (PyKDL, Chromium) where we can install them,
-# then the pinned Python dependencies and the package itself (editable).
+# then the pinned Python dependencies and the package itself (editable), with uv (pip as a fallback).
 # Idempotent: a second run only checks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,7 +28,17 @@ if [ ! -x .venv/bin/python ]; then
     "$PY" -m venv .venv
 fi
 .venv/bin/python -m pip install -q --upgrade pip >/dev/null
-.venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
+# uv installs the pinned set in about a third of pip's time (it links files from its cache instead of
+# unpacking every wheel; --system-certs: the system's CA store, as pip.conf's cert gives pip); pip does it
+# where uv cannot be installed or fails
+if .venv/bin/python -m pip install -q -c requirements.lock uv \
+        && .venv/bin/uv pip install -q --system-certs --python .venv/bin/python --compile-bytecode \
+            -c requirements.lock -e ".[all,dev]"; then
+    :
+else
+    echo "setup: uv could not install the pinned set; installing with pip" >&2
+    .venv/bin/python -m pip install -q -c requirements.lock -e ".[all,dev]"
+fi
 
 # Expose Debian's PyKDL (built for CPython 3.11) to the venv without pulling in the rest of
 # /usr/lib/python3/dist-packages: a shim folder holding only PyKDL, added through a .pth file.

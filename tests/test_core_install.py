@@ -14,6 +14,9 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+UV = Path(sys.executable).parent / "uv"
+"""The installer (the dev extra's uv, as the set-up uses): it resolves the wheel's metadata as pip does, and
+links the files from its cache instead of unpacking every wheel again."""
 PEER_DISTRIBUTIONS = ("placo", "mink", "mujoco", "pin-pink", "eaik", "ik-geo", "pytracik", "osqp",
                       "proxsuite", "quadprog", "dask")
 CORE_DISTRIBUTIONS = ("pin", "numpy", "scipy", "qpsolvers", "daqp", "example-robot-data", "meshcat",
@@ -31,14 +34,14 @@ def core(tmp_path_factory) -> Path:
     work = tmp_path_factory.mktemp("core_install")
     _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", work / "dist", ROOT], work)
     wheel = next((work / "dist").glob("wbik-*.whl"))
-    _run([sys.executable, "-m", "venv", work / "venv"], work)
-    _run([work / "venv/bin/python", "-m", "pip", "install", "-q", "--no-compile", "-c",
-          ROOT / "requirements.lock", wheel], work)
+    _run([sys.executable, "-m", "venv", "--without-pip", work / "venv"], work)
+    _run([UV, "pip", "install", "-q", "--system-certs", "--python", work / "venv/bin/python", "-c", ROOT / "requirements.lock",
+          wheel], work)
     return work
 
 
 def _distributions(core: Path) -> set[str]:
-    listed = _run([core / "venv/bin/python", "-m", "pip", "list", "--format=json"], core).stdout
+    listed = _run([UV, "pip", "list", "--python", core / "venv/bin/python", "--format=json"], core).stdout
     return {entry["name"].lower().replace("_", "-") for entry in json.loads(listed)}
 
 
