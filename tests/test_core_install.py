@@ -35,8 +35,8 @@ def core(tmp_path_factory) -> Path:
     _run([sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "-w", work / "dist", ROOT], work)
     wheel = next((work / "dist").glob("wbik-*.whl"))
     _run([sys.executable, "-m", "venv", "--without-pip", work / "venv"], work)
-    _run([UV, "pip", "install", "-q", "--system-certs", "--python", work / "venv/bin/python", "-c", ROOT / "requirements.lock",
-          wheel], work)
+    _run([UV, "pip", "install", "-q", "--system-certs", "--python", work / "venv/bin/python",
+          "-c", ROOT / "requirements.lock", wheel], work)
     return work
 
 

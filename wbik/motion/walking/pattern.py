@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,6 +40,20 @@ class PreviewSettings:
     horizon_s: float = 1.0
     q: float = 1.0
     r: float = 1e-6
+
+
+@dataclass(frozen=True)
+class Replan:
+    """What re-planning a walk from one of its ticks needs: its ``timing``, the soles' ZMP ``centre``, the
+    preview ``controller``, the feedforward's ``zmp_shift`` (reference tracked minus the footsteps')."""
+
+    timing: Timing
+    centre: Callable
+    controller: PreviewController
+    zmp_shift: np.ndarray
+    states: np.ndarray
+    """The preview's state x (K, 3, 2) and its integral of the ZMP error (K, 2) at each tick."""
+    error_sums: np.ndarray
 
 
 @dataclass
@@ -79,6 +94,25 @@ class WalkPattern:
         return {frame: self.feet_poses[self.feet.side(frame)][k] for frame in self.support[k]}
 
 
+def feet_at_ticks(phases: list[Phase], feet: Feet, dt: float, count: int, clearance: float):
+    """(each side's sole pose, the soles down, the swinging side, the feet's yaw) at ``count`` ticks."""
+    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
+    support, swing, yaw = [], [], np.zeros(count)
+    for k in range(count):
+        t = k * dt
+        phase = phase_at(phases, t)
+        poses = dict(phase.feet)
+        if phase.swing is not None:
+            poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
+                                                 phase.fraction(t), clearance)
+        for side in SIDES:
+            feet_poses[side].append(poses[side])
+        support.append(tuple(feet.frame(side) for side in phase.stance))
+        swing.append(phase.swing.side if phase.swing is not None else None)
+        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+    return feet_poses, support, swing, yaw
+
+
 def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footstep], timing: Timing,
                  dt: float = 0.01, clearance: float = 0.02, feet: Feet | None = None,
                  preview: PreviewSettings | None = None, com_height: float | None = None,
@@ -107,20 +141,7 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     horizon = controller.steps
     longest = planned + int(round(SETTLE_MAX_S / dt))
     targets = reference(dt * np.arange(longest + horizon + 1))
-    feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw = [], [], np.zeros(longest)
-    for k in range(longest):  # the feet of every tick, from the footsteps
-        t = k * dt
-        phase = phase_at(phases, t)
-        poses = dict(phase.feet)
-        if phase.swing is not None:
-            poses[phase.swing.side] = swing_pose(phase.feet[phase.swing.side], phase.swing.placement,
-                                                 phase.fraction(t), clearance)
-        for side in SIDES:
-            feet_poses[side].append(poses[side])
-        support.append(tuple(feet.frame(side) for side in phase.stance))
-        swing.append(phase.swing.side if phase.swing is not None else None)
-        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+    feet_poses, support, swing, yaw = feet_at_ticks(phases, feet, dt, longest, clearance)
     tracked = rest_start(targets, com0, int(round(phases[0].end / dt)), controller.omega, dt) if rest \
         else targets.copy()
     if momentum is not None:
@@ -129,11 +150,13 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
     planning = time.thread_time() - planning
     state = controller.start(com0[:2])
     com, acceleration = np.zeros((longest, 3)), np.zeros((longest, 2))
+    states, error_sums = np.zeros((longest, 3, 2)), np.zeros((longest, 2))
     ticks, cpu, count = np.zeros(longest), np.zeros(longest), longest
     with without_cyclic_gc():  # a control loop: no collector pause inside a tick
         for k in range(longest):
             tick, tick_cpu = time.perf_counter(), time.thread_time()
             com[k, :2], _, acceleration[k] = state.x
+            states[k], error_sums[k] = state.x, state.error_sum
             if k >= planned and np.linalg.norm(state.x[0] - targets[k]) <= SETTLED_M \
                     and np.linalg.norm(state.x[1]) <= SETTLED_M_S:
                 count = k + 1
@@ -143,7 +166,9 @@ def walk_pattern(robot: Robot, q0: np.ndarray, steps: StepCommand | list[Footste
                 break
     com = com[:count]
     com[:, 2] = ground_z + height
-    info = {"omega": controller.omega, "preview_steps": horizon, "plan_cpu_s": planning}
+    info = {"omega": controller.omega, "preview_steps": horizon, "plan_cpu_s": planning,
+            "replan": Replan(timing, reference.centre, controller, tracked - targets, states[:count],
+                             error_sums[:count])}
     feet_poses = {side: poses[:count] for side, poses in feet_poses.items()}
     return WalkPattern(robot, feet, float(dt), dt * np.arange(count), footsteps, phases, height, ground_z,
                        targets[:count], controller.zmp_of(com[:, :2], acceleration[:count]), com, feet_poses,

@@ -80,6 +80,8 @@ class Measured:
     """Each tick's end: the simulated configuration (wbik's q) and the tick's CoP (world, m; NaN: none)."""
     pushes: list = field(default_factory=list)
     """The pushes applied (:class:`wbik.viz.animation.PushArrow`: frame, start, end (s), force (N))."""
+    step_moves: list = field(default_factory=list)
+    """The controller's step moves: (time (s), x, y (m)) of each move of the steps it applied."""
 
     def figures(self) -> dict:
         margins = np.asarray(self.margins, dtype=float)
@@ -90,7 +92,8 @@ class Measured:
                 "cop_margin_p5_m": None if worst is None else float(np.nanpercentile(margins, 5)),
                 "cop_margin_min_per_step_m": (self.step_margin_min if math.isfinite(self.step_margin_min)
                                               else None),
-                "ticks_without_contact": int(np.isnan(margins).sum())}
+                "ticks_without_contact": int(np.isnan(margins).sum()),
+                "step_move_max_m": max((math.hypot(x, y) for _, x, y in self.step_moves), default=0.0)}
 
 
 def servo_joints(robot: Robot) -> list[int]:

@@ -134,7 +134,7 @@ def players(motion: WalkMotion, new_tracker: Callable[[], Tracker], q0, settings
     def closed(push: Push | None):
         sim = scene(motion.q[0], push)
         return sim, play_closed_loop(sim, new_tracker(), pattern, q0, settings.gains, settings.settle_s,
-                                     lead)[0]
+                                     lead, settings.step_adaptation)[0]
 
     def planned(q, dt: float, lead: np.ndarray | None = None) -> Play:
         def play(push: Push | None):

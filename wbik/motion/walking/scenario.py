@@ -18,6 +18,7 @@ from wbik.motion.walking.placo_pattern import placo_walk
 from wbik.motion.walking.pushes import DIRECTIONS, PushSettings, physics_compared, players, push_description
 from wbik.motion.walking.stabiliser import PhysicsSettings, StabiliserGains, physics_figures, servo_lead
 from wbik.motion.walking.static_gait import retimed, static_gait
+from wbik.motion.walking.step_adaptation import StepAdaptation
 from wbik.motion.walking.timeline import Timing
 from wbik.motion.walking.tracking import Tracker, TrackingSettings, leg_collision_model, trunk_frame, walk
 from wbik.mujoco_model import carrier
@@ -150,9 +151,11 @@ def simulated_animation(planned: Animation, simulated: Measured, name: str) -> A
 
 
 def _physics_settings(given: dict) -> PhysicsSettings:
+    steps = given["step_adaptation"]
     return PhysicsSettings(Servos(**given["servos"]), StabiliserGains(**given["stabiliser"]),
                            given["timestep"], given["friction"], given["settle_s"],
-                           given["torque_feedforward"])
+                           given["torque_feedforward"],
+                           None if steps is None else StepAdaptation(**steps))
 
 
 def _in_physics(spec: dict, motion, q0, feet: Feet, settings: TrackingSettings, solved: dict
@@ -251,7 +254,9 @@ def _physics_line(physics: dict) -> str:
         margin = figures["cop_margin_min_m"]
         travel = (f", {figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm"
                   if "base_travel_m" in figures else "")
-        return f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm{travel}"
+        moved = (f", steps moved up to {figures['step_move_max_m'] * 1e3:.0f} mm"
+                 if figures.get("step_move_max_m") else "")
+        return f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm{travel}{moved}"
 
     ticks = physics["tick_cpu"]
     line = (f"physics: closed loop {run(physics)} (controller CPU per tick median "
@@ -353,7 +358,12 @@ def walk_schema() -> Map:
                        "resolution_n_s": Number(ge=0, unit="N s")}), None,
                                doc="pushes on the trunk, and the search for the largest recovered"),
                    "torque_feedforward": Key(Boolean(), PhysicsSettings(Servos(1.0)).torque_feedforward,
-                                             doc="the planned joint torques over kp added to the targets")},
+                                             doc="the planned joint torques over kp added to the targets"),
+                   "step_adaptation": Key(from_dataclass(StepAdaptation, {
+                       "gain": Number(ge=0), "threshold_m": Number(ge=0, unit="m"),
+                       "offset_max_m": Number(ge=0, unit="m"), "min_remaining_s": Number(ge=0, unit="s"),
+                       "change_m": Number(ge=0, unit="m")}), None,
+                                          doc="the closed loop moves the steps by the predicted DCM error")},
                   nullable=True)
     walks = ListOf(one, min_items=1, what="walk mappings {name, steps, length, lateral, turn_deg, first, "
                                           "timing, compare, expect}")

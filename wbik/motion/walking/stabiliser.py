@@ -20,6 +20,7 @@ from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.physics import Measured, Servos, Simulation, servo_joints
 from wbik.motion.walking.planned_torques import planned_torques
+from wbik.motion.walking.step_adaptation import StepAdaptation, Stepper
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 
 
@@ -38,7 +39,8 @@ class StabiliserGains:
 class PhysicsSettings:
     """The walk in physics: ``servos``, the stabiliser's ``gains``, the physics ``timestep`` (s), the floor's
     ``friction``, ``settle_s`` (s) the last command held after the walk, ``torque_feedforward``: the servos'
-    targets led by the planned joint torques over kp."""
+    targets led by the planned joint torques over kp, ``step_adaptation``: the closed loop moves the steps
+    (:mod:`wbik.motion.walking.step_adaptation`; None: the steps as planned)."""
 
     servos: Servos
     gains: StabiliserGains = StabiliserGains()
@@ -46,6 +48,7 @@ class PhysicsSettings:
     friction: float = 1.0
     settle_s: float = 1.0
     torque_feedforward: bool = True
+    step_adaptation: StepAdaptation | None = None
 
 
 class Stabiliser:
@@ -90,17 +93,24 @@ def play_open_loop(sim: Simulation, dt: float, planned: np.ndarray, settle_s: fl
 
 
 def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0: np.ndarray,
-                     gains: StabiliserGains, settle_s: float,
-                     lead: np.ndarray | None = None) -> tuple[Measured, np.ndarray]:
-    """(what the physics measured, each tick's controller CPU time (s): state read, corrections, QP);
-    ``lead``: (K, servos) rad added to the targets of the plan's tick."""
+                     gains: StabiliserGains, settle_s: float, lead: np.ndarray | None = None,
+                     steps: StepAdaptation | None = None) -> tuple[Measured, np.ndarray]:
+    """(what the physics measured, its ``step_moves`` with ``steps``; each tick's controller CPU time (s):
+    state read, step adaptation, corrections, QP); ``lead``: (K, servos) rad added to the targets of the
+    plan's tick; ``steps``: the pattern re-planned with the steps moved (the ticks are the plan's)."""
     stabiliser = Stabiliser(tracker, pattern, gains)
+    stepper = None if steps is None else Stepper(steps)
     measured, command, last = Measured(), np.asarray(q0, dtype=float).copy(), pattern.ticks - 1
     cpu = []
     with without_cyclic_gc():
         for k in range(1, pattern.ticks + int(round(settle_s / pattern.dt))):
             started = time.thread_time()
-            offset, rotation = stabiliser.corrections(*sim.state(), min(k - 1, last))
+            state = sim.state()
+            if stepper is not None and k - 1 <= last:
+                moved = stepper(stabiliser.robot, stabiliser.data, pattern, *state, k - 1)
+                if moved is not None:
+                    pattern = stabiliser.pattern = moved
+            offset, rotation = stabiliser.corrections(*state, min(k - 1, last))
             try:
                 command = tracker.step(command, pattern, min(k, last), offset, rotation)
             except NoQPSolutionError:
@@ -108,6 +118,8 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
             cpu.append(time.thread_time() - started)
             if not sim.run(command, pattern.dt, measured, None if lead is None else lead[min(k, last)]):
                 break
+    if stepper is not None:
+        measured.step_moves = stepper.moves
     return measured, np.array(cpu)
 
 
@@ -137,7 +149,8 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
 
     sim = scene()
     lead = servo_lead(motion, settings) if lead is None else lead  # (given: computed once for every run)
-    closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s, lead)
+    closed, cpu = play_closed_loop(sim, tracker, pattern, q0, settings.gains, settings.settle_s, lead,
+                                   settings.step_adaptation)
     closed_figures = figures(sim, closed)
     sim = scene()
     open_figures = figures(sim, play_open_loop(sim, pattern.dt, motion.q, settings.settle_s, lead))
@@ -146,4 +159,6 @@ def physics_figures(motion: WalkMotion, tracker: Tracker, q0: np.ndarray,
     return {**closed_figures, "push_impulse_n_s": 0.0, "tick_cpu": ticks, "open_loop": open_figures,
             "servos": asdict(settings.servos), "stabiliser": asdict(settings.gains),
             "timestep_s": settings.timestep, "friction": settings.friction, "mass_kg": sim.mass,
-            "torque_feedforward": settings.torque_feedforward}, closed
+            "torque_feedforward": settings.torque_feedforward,
+            "step_adaptation": None if settings.step_adaptation is None else asdict(settings.step_adaptation),
+            "steps_moved": len(closed.step_moves)}, closed

@@ -25,6 +25,7 @@ class ZmpReference:
     """p_ref(t) (x, y) of the phases, from ``start``."""
 
     def __init__(self, phases: list[Phase], centre: Centre, start: np.ndarray):
+        self.centre = centre
         singles = [phase for phase in phases if phase.single]
         stance_centres = [centre(phase.stance[0], phase.feet[phase.stance[0]]) for phase in singles]
         final = 0.5 * (centre("left", phases[-1].feet["left"]) + centre("right", phases[-1].feet["right"]))

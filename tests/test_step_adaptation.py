@@ -1,0 +1,106 @@
+"""Step adaptation (wbik.motion.walking.step_adaptation): the re-planned pattern, the move wanted from a DCM
+error, and a pushed walk in physics that moves its steps.
+
+Expected values are independent of the code under test: a re-plan that moves nothing must give the pattern
+the preview planned (bit for bit), a move must shift every later footstep by itself, and the move wanted is
+the linear pendulum's e exp(omega T) times the gain, written out here."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import wbik
+from wbik.errors import InvalidSettingError
+from wbik.motion.walking.footsteps import StepCommand
+from wbik.motion.walking.pattern import walk_pattern
+from wbik.motion.walking.step_adaptation import StepAdaptation, adapted
+from wbik.motion.walking.timeline import Timing
+
+
+@pytest.fixture(scope="module")
+def pattern():
+    robot = wbik.load("bioloid")
+    return walk_pattern(robot, robot.nominal, StepCommand(3, 0.03), Timing(0.25, 0.1, 0.3, 0.3))
+
+
+def single_support_tick(pattern, which: int = 1) -> int:
+    """A tick early in the ``which``-th single support."""
+    starts = [k for k in range(1, pattern.ticks)
+              if pattern.swing[k] is not None and pattern.swing[k - 1] is None]
+    return starts[which] + 2
+
+
+def test_a_replan_that_moves_nothing_is_the_planned_pattern_bit_for_bit(pattern):
+    k = single_support_tick(pattern)
+    same = adapted(pattern, k, np.zeros(2))
+    assert np.array_equal(same.com, pattern.com) and np.array_equal(same.lipm_zmp, pattern.lipm_zmp)
+    assert np.array_equal(same.zmp_reference, pattern.zmp_reference)
+    for side, poses in pattern.feet_poses.items():
+        assert all(np.array_equal(a.homogeneous, b.homogeneous)
+                   for a, b in zip(same.feet_poses[side], poses, strict=True))
+
+
+def test_a_move_shifts_the_later_steps_and_lands_the_swing_foot_there(pattern):
+    k = single_support_tick(pattern)
+    move = np.array([0.01, 0.004])
+    moved = adapted(pattern, k, move)
+    side = pattern.swing[k]
+    lifted = pattern.feet_poses[side][k - 3].translation[0]
+    taken = next(i for i, step in enumerate(pattern.footsteps)
+                 if step.side == side and step.placement.translation[0] > lifted + 1e-3)
+    for before, after in zip(pattern.footsteps[taken:], moved.footsteps[taken:], strict=True):
+        shift = after.placement.translation - before.placement.translation
+        assert np.allclose(shift, [*move, 0.0], atol=1e-15)
+    for before, after in zip(pattern.footsteps[:taken], moved.footsteps[:taken], strict=True):
+        assert np.array_equal(after.placement.translation, before.placement.translation)
+    landing = next(t for t in range(k, pattern.ticks) if pattern.swing[t] is None)
+    shift = moved.feet_poses[side][landing].translation - pattern.feet_poses[side][landing].translation
+    assert np.allclose(shift, [*move, 0.0], atol=1e-12)
+    assert np.array_equal(moved.com[:k + 1], pattern.com[:k + 1])  # the plan before and at the tick kept
+    assert np.linalg.norm(moved.com[-1, :2] - pattern.com[-1, :2] - move) < 2e-3  # ends over the moved feet
+
+
+def test_the_move_is_the_predicted_error_times_the_gain_capped_and_never_across(pattern):
+    k = single_support_tick(pattern)
+    omega, remaining = pattern.info["omega"], 0.1
+    settings = StepAdaptation(gain=0.5, threshold_m=0.005, offset_max_m=0.03)  # on e exp(omega T)
+    error = np.array([0.004, 0.0])
+    expected = 0.5 * 0.004 * math.exp(omega * remaining)
+    assert np.allclose(settings.offset(pattern, k, error, remaining), [expected, 0.0], rtol=1e-12)
+    assert not np.any(settings.offset(pattern, k, np.array([0.001, 0.0]), remaining))  # under the threshold
+    capped = settings.offset(pattern, k, np.array([0.05, 0.0]), remaining)
+    assert np.linalg.norm(capped) == pytest.approx(0.03, rel=1e-12)
+    stance = "left" if pattern.swing[k] == "right" else "right"
+    feet = pattern.feet_poses
+    inward = feet[stance][k].translation[1] - feet[pattern.swing[k]][k].translation[1]
+    across = settings.offset(pattern, k, np.array([0.0, 0.01 * np.sign(inward)]), remaining)
+    assert abs(across[1]) < 1e-15  # the swing foot is not moved toward the stance foot
+
+
+@pytest.mark.parametrize("field", ["gain", "threshold_m", "offset_max_m", "min_remaining_s", "change_m"])
+def test_bad_settings_raise_a_typed_error(field):
+    with pytest.raises(InvalidSettingError, match=field):
+        StepAdaptation(**{field: -1.0})
+
+
+def test_a_pushed_walk_moves_its_steps_in_physics():
+    pytest.importorskip("mujoco")
+    from wbik.scenarios import run_scenario
+
+    arms = [f"{s}_{n}" for s in "rl" for n in ("shoulder_pitch", "shoulder_roll", "elbow")]
+    spec = {"kind": "walk", "name": "adapted", "robot": "bioloid", "trunk": "pelvis", "locked": arms,
+            "timing": {"single_support_s": 0.25, "double_support_s": 0.1, "start_s": 0.3, "end_s": 0.3},
+            "clearance": 0.015, "margin": 0.004, "preview": {"horizon_s": 1.0, "q": 1.0, "r": 1.0e-5},
+            "physics": {"servos": {"kp": 37.05, "damping": 0.243, "torque_limit": 1.5, "armature": 1e-3},
+                        "settle_s": 0.2,
+                        "step_adaptation": {"gain": 0.5, "threshold_m": 0.005, "offset_max_m": 0.012},
+                        "push": {"impulse_n_s": 0.3, "step": 1, "duration_s": 0.05,
+                                 "directions": ["forward"]}},
+            "walks": [{"steps": 2, "length": 0.02}]}
+    physics = run_scenario(spec, source="adapted")["walks"][0]["physics"]
+    assert physics["step_adaptation"]["gain"] == 0.5
+    pushed = physics["pushed"]["forward"]
+    assert 0 < pushed["step_move_max_m"] <= 0.012 + 1e-12
