@@ -94,11 +94,12 @@ class WalkPattern:
         return {frame: self.feet_poses[self.feet.side(frame)][k] for frame in self.support[k]}
 
 
-def feet_at_ticks(phases: list[Phase], feet: Feet, dt: float, count: int, clearance: float):
-    """(each side's sole pose, the soles down, the swinging side, the feet's yaw) at ``count`` ticks."""
+def feet_at_ticks(phases: list[Phase], feet: Feet, dt: float, count: int, clearance: float, first: int = 0):
+    """(each side's sole pose, the soles down, the swinging side, the feet's yaw) at the ticks ``first`` to
+    ``count`` - 1."""
     feet_poses: dict[str, list[pin.SE3]] = {side: [] for side in SIDES}
-    support, swing, yaw = [], [], np.zeros(count)
-    for k in range(count):
+    support, swing, yaw = [], [], np.zeros(count - first)
+    for k in range(first, count):
         t = k * dt
         phase = phase_at(phases, t)
         poses = dict(phase.feet)
@@ -109,7 +110,7 @@ def feet_at_ticks(phases: list[Phase], feet: Feet, dt: float, count: int, cleara
             feet_poses[side].append(poses[side])
         support.append(tuple(feet.frame(side) for side in phase.stance))
         swing.append(phase.swing.side if phase.swing is not None else None)
-        yaw[k] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
+        yaw[k - first] = yaw_of(centre_frame(poses["left"], poses["right"]).rotation)
     return feet_poses, support, swing, yaw
 
 

@@ -82,6 +82,8 @@ class Measured:
     """The pushes applied (:class:`wbik.viz.animation.PushArrow`: frame, start, end (s), force (N))."""
     step_moves: list = field(default_factory=list)
     """The controller's step moves: (time (s), x, y (m)) of each move of the steps it applied."""
+    tick_cpu_s: list = field(default_factory=list)
+    """The controller's CPU time (s) of each tick (a closed loop's; empty open loop)."""
 
     def figures(self) -> dict:
         margins = np.asarray(self.margins, dtype=float)
@@ -93,7 +95,8 @@ class Measured:
                 "cop_margin_min_per_step_m": (self.step_margin_min if math.isfinite(self.step_margin_min)
                                               else None),
                 "ticks_without_contact": int(np.isnan(margins).sum()),
-                "step_move_max_m": max((math.hypot(x, y) for _, x, y in self.step_moves), default=0.0)}
+                "step_move_max_m": max((math.hypot(x, y) for _, x, y in self.step_moves), default=0.0),
+                "tick_cpu_max_s": max(self.tick_cpu_s, default=None)}
 
 
 def servo_joints(robot: Robot) -> list[int]:

@@ -254,8 +254,8 @@ def _physics_line(physics: dict) -> str:
         margin = figures["cop_margin_min_m"]
         travel = (f", {figures['base_travel_m'] * 1e3:.0f} of {figures['planned_travel_m'] * 1e3:.0f} mm"
                   if "base_travel_m" in figures else "")
-        moved = (f", steps moved up to {figures['step_move_max_m'] * 1e3:.0f} mm"
-                 if figures.get("step_move_max_m") else "")
+        moved = (f", steps moved up to {figures['step_move_max_m'] * 1e3:.0f} mm (controller CPU per tick "
+                 f"max {figures['tick_cpu_max_s'] * 1e3:.2f} ms)" if figures.get("step_move_max_m") else "")
         return f"{fell}, CoP margin min {'-' if margin is None else f'{margin * 1e3:.1f}'} mm{travel}{moved}"
 
     ticks = physics["tick_cpu"]

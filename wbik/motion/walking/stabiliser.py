@@ -20,7 +20,7 @@ from wbik.motion.walking.control_loop import without_cyclic_gc
 from wbik.motion.walking.pattern import WalkPattern
 from wbik.motion.walking.physics import Measured, Servos, Simulation, servo_joints
 from wbik.motion.walking.planned_torques import planned_torques
-from wbik.motion.walking.step_adaptation import StepAdaptation, Stepper
+from wbik.motion.walking.step_adaptation import StepAdaptation, Stepper, step_responses
 from wbik.motion.walking.tracking import Tracker, WalkMotion
 
 
@@ -99,7 +99,7 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
     state read, step adaptation, corrections, QP); ``lead``: (K, servos) rad added to the targets of the
     plan's tick; ``steps``: the pattern re-planned with the steps moved (the ticks are the plan's)."""
     stabiliser = Stabiliser(tracker, pattern, gains)
-    stepper = None if steps is None else Stepper(steps)
+    stepper = None if steps is None else Stepper(steps, step_responses(pattern))  # before the first tick
     measured, command, last = Measured(), np.asarray(q0, dtype=float).copy(), pattern.ticks - 1
     cpu = []
     with without_cyclic_gc():
@@ -120,6 +120,7 @@ def play_closed_loop(sim: Simulation, tracker: Tracker, pattern: WalkPattern, q0
                 break
     if stepper is not None:
         measured.step_moves = stepper.moves
+    measured.tick_cpu_s = cpu
     return measured, np.array(cpu)
 
 

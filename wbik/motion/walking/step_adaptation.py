@@ -21,7 +21,6 @@ from wbik.motion.walking.pattern import WalkPattern, feet_at_ticks
 from wbik.motion.walking.preview import PreviewState
 from wbik.motion.walking.swing import quintic
 from wbik.motion.walking.timeline import phase_at, timeline
-from wbik.motion.walking.zmp_reference import ZmpReference
 from wbik.robot import Robot
 
 
@@ -81,43 +80,91 @@ def stance_dcm_error(robot: Robot, data: pin.Data, pattern: WalkPattern, q: np.n
             + (data.vcom[0][:2] - planned[1]) / pattern.info["omega"])
 
 
-def adapted(pattern: WalkPattern, k: int, offset: np.ndarray) -> WalkPattern:
+@dataclass(frozen=True)
+class StepResponses:
+    """The preview's answer, from rest, to a unit move of the ZMP reference that it first sees m ticks before
+    the move starts (m = 0 to a single support's ticks): per m and tick after the first sight, (c, c', c'',
+    the integral of the ZMP error). ``double``: a quintic over a double support; ``end``: over the walk's
+    end (a last step moves the final reference, between the soles, by half)."""
+
+    double: np.ndarray
+    end: np.ndarray
+    double_ticks: int
+    end_ticks: int
+
+
+def ramp(ticks: np.ndarray, length: int) -> np.ndarray:
+    """The ZMP reference's move (0 to 1) ``ticks`` after its start, a quintic over ``length`` ticks."""
+    return quintic(np.clip(ticks / length, 0.0, 1.0)) if length > 0 else (ticks >= 0).astype(float)
+
+
+def step_responses(pattern: WalkPattern) -> StepResponses:
+    """The responses of ``pattern``'s preview control (a linear system: a re-plan is the planned state plus
+    the move times a response), every m at once: one pass over the walk's ticks, before its first."""
+    plan, dt, count = pattern.info["replan"], pattern.dt, pattern.ticks
+    controller, timing = plan.controller, plan.timing
+    ahead = np.arange(int(round(timing.single_support_s / dt)) + 1)
+
+    def run(length: int) -> np.ndarray:
+        reference = ramp(np.arange(count + controller.steps + 1)[:, None] - ahead[None, :], length)
+        state = PreviewState(controller, np.zeros((3, len(ahead))))
+        state.error_sum = np.zeros(len(ahead))
+        found = np.zeros((len(ahead), count, 4))
+        for tick in range(count):
+            found[:, tick, :3], found[:, tick, 3] = state.x.T, state.error_sum
+            state.step(reference[tick + 1:tick + 1 + controller.steps], reference[tick])
+        return found
+
+    double, end = int(round(timing.double_support_s / dt)), int(round(timing.end_s / dt))
+    return StepResponses(run(double), run(end), double, end)
+
+
+def _shifted(pose: pin.SE3, move: np.ndarray) -> pin.SE3:
+    return pin.SE3(pose.rotation, pose.translation + move)
+
+
+def adapted(pattern: WalkPattern, k: int, offset: np.ndarray, responses: StepResponses) -> WalkPattern:
     """The pattern from tick ``k`` (in a single support) with the footstep taken and the later ones moved by
-    ``offset`` (x, y; m), the swing foot blended onto it by a quintic from tick k to touch-down, the CoM
-    re-planned from the preview's planned state at k (a zero offset gives the same pattern, bit for bit);
-    the ticks before k kept."""
-    plan, dt = pattern.info["replan"], pattern.dt
+    ``offset`` (x, y; m): the swing foot blended onto it by a quintic from tick k to touch-down, the feet of
+    the next single support from the new footsteps and later ones shifted; the CoM, its pendulum's ZMP and
+    the preview's state re-planned from the planned state at k, as the planned state plus the move times
+    the preview's response (``step_responses``: the same as running the preview again, to rounding); the
+    ticks before k kept."""
+    plan, dt, count = pattern.info["replan"], pattern.dt, pattern.ticks
     phase = phase_at(pattern.phases, k * dt)
     taken = next(i for i, step in enumerate(pattern.footsteps) if step is phase.swing)
     move = np.append(np.asarray(offset, dtype=float)[:2], 0.0)
-    footsteps = [*pattern.footsteps[:taken],
-                 *(Footstep(step.side, step.frame, pin.SE3(step.placement.rotation,
-                                                           step.placement.translation + move))
-                   for step in pattern.footsteps[taken:])]
+    footsteps = [*pattern.footsteps[:taken], *(Footstep(step.side, step.frame, _shifted(step.placement, move))
+                                               for step in pattern.footsteps[taken:])]
     start = {side: poses[0] for side, poses in pattern.feet_poses.items()}
     phases = timeline(start, footsteps, plan.timing)
-    count, controller = pattern.ticks, plan.controller
-    feet_poses = feet_at_ticks(phases, pattern.feet, dt, count, pattern.clearance)[0]  # same phase times
-    feet_poses = {side: [*pattern.feet_poses[side][:k], *poses[k:]] for side, poses in feet_poses.items()}
     landing = min(int(round(phase.end / dt)), count)
-    swinging = pattern.feet_poses[phase.swing.side]
-    blend = quintic((np.arange(k, landing) - k) / max(landing - k, 1))
-    feet_poses[phase.swing.side][k:landing] = [
-        pin.SE3(swinging[tick].rotation, swinging[tick].translation + s * move)
-        for tick, s in zip(range(k, landing), blend, strict=True)]
-    reference = ZmpReference(phases, plan.centre, pattern.com[0, :2])
-    targets = reference(dt * np.arange(count + controller.steps + 1))
-    tracked = targets + plan.zmp_shift[:len(targets)]
-    state = PreviewState(controller, plan.states[k].copy())
-    state.error_sum = plan.error_sums[k].copy()
-    com, zmp = pattern.com.copy(), pattern.lipm_zmp.copy()
+    last = taken == len(footsteps) - 1
+    scale, length = (0.5, responses.end_ticks) if last else (1.0, responses.double_ticks)
+    response = (responses.end if last else responses.double)[landing - k, :count - k]
+    change = scale * response[:, :, None] * move[None, None, :2]  # (ticks, c c' c'' integral, x y)
     states, error_sums = plan.states.copy(), plan.error_sums.copy()
-    for tick in range(k, count):
-        com[tick, :2], states[tick], error_sums[tick] = state.x[0], state.x, state.error_sum
-        zmp[tick] = controller.zmp_of(state.x[0], state.x[2])
-        state.step(tracked[tick + 1:tick + 1 + controller.steps], tracked[tick])
+    states[k:] += change[:, :3]
+    error_sums[k:] += change[:, 3]
+    com, zmp = pattern.com.copy(), pattern.lipm_zmp.copy()
+    com[k:, :2] = states[k:, 0]
+    zmp[k:] = plan.controller.zmp_of(states[k:, 0], states[k:, 2])
+    reference = pattern.zmp_reference.copy()
+    reference[k:] += scale * ramp(np.arange(k, count) - landing, length)[:, None] * move[:2]
+    later = next((p for p in phases if p.swing is not None and p.start >= phase.end - 1e-9), None)
+    window = count if later is None else min(int(round(later.end / dt)), count)
+    fresh = feet_at_ticks(phases, pattern.feet, dt, window, pattern.clearance, first=landing)[0]
+    blend = quintic((np.arange(k, landing) - k) / max(landing - k, 1))
+    feet_poses = {}
+    for side, poses in pattern.feet_poses.items():
+        now = poses[k:landing] if side != phase.swing.side else [
+            _shifted(pose, s * move) for pose, s in zip(poses[k:landing], blend, strict=True)]
+        shifted: dict[int, pin.SE3] = {}  # a planted foot's ticks share one pose: shifted once
+        feet_poses[side] = [*poses[:k], *now, *fresh[side],
+                            *(shifted.get(id(pose)) or shifted.setdefault(id(pose), _shifted(pose, move))
+                              for pose in poses[window:])]
     info = {**pattern.info, "replan": replace(plan, states=states, error_sums=error_sums)}
-    return replace(pattern, footsteps=footsteps, phases=phases, zmp_reference=targets[:count], lipm_zmp=zmp,
+    return replace(pattern, footsteps=footsteps, phases=phases, zmp_reference=reference, lipm_zmp=zmp,
                    com=com, feet_poses=feet_poses, info=info)
 
 
@@ -125,9 +172,11 @@ def adapted(pattern: WalkPattern, k: int, offset: np.ndarray) -> WalkPattern:
 class Stepper:
     """One run's step adaptation: each tick of a single support the move wanted against the pattern the
     single support started with; the pattern re-planned when it differs from the move applied by over
-    ``change_m``. ``moves``: (time (s), x, y (m)) of each move applied."""
+    ``change_m``. ``responses``: :func:`step_responses` of the walk's pattern; ``moves``: (time (s), x, y
+    (m)) of each move applied."""
 
     settings: StepAdaptation
+    responses: StepResponses
     moves: list = field(default_factory=list)
     _started: float | None = None
     _base: WalkPattern | None = None
@@ -149,4 +198,4 @@ class Stepper:
             return None
         self._applied = wanted
         self.moves.append((k * pattern.dt, *wanted.tolist()))
-        return adapted(pattern, k, change)
+        return adapted(pattern, k, change, self.responses)
