@@ -12,6 +12,8 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import wbik
 from wbik.errors import InvalidSettingError
@@ -151,3 +153,21 @@ def test_a_pushed_walk_moves_its_steps_in_physics():
     assert physics["step_adaptation"]["gain"] == 0.5
     pushed = physics["pushed"]["forward"]
     assert 0 < pushed["step_move_max_m"] <= 0.012 + 1e-12
+
+
+@settings(max_examples=60, deadline=None)
+@given(error=st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), remaining=st.floats(0.0, 0.25),
+       gain=st.floats(0.0, 2.0), cap=st.floats(0.0, 0.05))
+def test_any_move_stays_under_its_cap_and_never_crosses_toward_the_stance_foot(pattern, error, remaining,
+                                                                              gain, cap):
+    k = single_support_tick(pattern)
+    move = StepAdaptation(gain=gain, threshold_m=0.005, offset_max_m=cap).offset(
+        pattern, k, np.array(error), remaining)
+    assert np.linalg.norm(move) <= cap * (1 + 1e-12) + 1e-15
+    stance = "left" if pattern.swing[k] == "right" else "right"
+    feet = pattern.feet_poses
+    inward = np.sign(feet[stance][k].translation[1] - feet[pattern.swing[k]][k].translation[1])
+    assert inward * move[1] <= 1e-15  # the feet here point along x: across is the y axis
+    predicted = np.linalg.norm(error) * math.exp(pattern.info["omega"] * remaining)
+    if predicted <= 0.005 * (1 - 1e-9):
+        assert not np.any(move)
